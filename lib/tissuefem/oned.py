@@ -1,0 +1,332 @@
+"""One-dimensional bars with scikit-fem: the notes' "1D elasticity" section (chapters 1-2).
+
+The bar occupies ``[a, b]`` in the reference configuration; the unknown is the
+displacement ``u(X)``, so ``F = 1 + du/dX``. With Lagrange shape functions
+``N_i`` the notes' discrete equations are
+
+* linear:      ``A u = F_ext + g``, ``A_ij = E1 int N_i' N_j' dX``;
+* nonlinear:   ``q_i(u) = int N_i' P(F(u)) dX - F_ext_i - g_i = 0``;
+
+with ``F_ext_i = int f N_i dX`` and the boundary term
+``g_i = N_i(b) P(b) - N_i(a) P(a)``. Here ``E1 = lam + 2 mu`` is the 1D
+modulus (the notes print ``2 mu - lam``) and the residual subtracts ``g``
+(the notes print ``+ g_i`` in ``q``, which contradicts their own linear
+system).
+
+End conditions are given per end as :class:`Displacement` (Dirichlet) or
+:class:`Traction`. A traction is the force per unit reference area along the
+*outward* normal, ``t = P n``: at ``b`` (n = +1) ``t = P(b)``, at ``a``
+(n = -1) ``t = -P(a)``. Positive traction pulls the bar outward at that end.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+import scipy.sparse as sp
+from skfem import Basis, BilinearForm, ElementLineP1, ElementLineP2, Functional, LinearForm, MeshLine, asm
+
+from .materials1d import Material1D, NeoHookean1D
+from .newton import NewtonResult, newton_solve
+
+
+@dataclass(frozen=True)
+class Displacement:
+    """Prescribed end displacement ``u(end) = value`` (a Dirichlet condition)."""
+
+    value: float = 0.0
+
+
+@dataclass(frozen=True)
+class Traction:
+    """Prescribed end traction ``t = P n`` (outward normal); positive pulls outward."""
+
+    value: float = 0.0
+
+
+def _as_end(condition, name):
+    if not isinstance(condition, (Displacement, Traction)):
+        raise ValueError(f"{name} must be Displacement(value) or Traction(value), got {condition!r}")
+    if not np.isfinite(condition.value):
+        raise ValueError(f"{name} has a non-finite value {condition.value!r}")
+    return condition
+
+
+def _as_field(f, name) -> Callable:
+    """A body force given as a number or a callable of X, as a callable of X."""
+    if callable(f):
+        return f
+    try:
+        value = float(f)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a number or a callable of X, got {f!r}") from None
+    if not np.isfinite(value):
+        raise ValueError(f"{name} must be finite, got {f!r}")
+    return lambda X: np.full_like(X, value)
+
+
+# --- the scikit-fem forms (read them next to the equations above) --------------
+
+@BilinearForm
+def _stiffness(u, v, w):
+    # A_ij = E1 * int N_i' N_j' dX
+    return w["modulus"] * u.grad[0] * v.grad[0]
+
+
+@LinearForm
+def _body_force(v, w):
+    # F_ext_i = int f N_i dX
+    return w["f"] * v
+
+
+def nonlinear_forms(material: Material1D):
+    """The notes' residual and tangent as scikit-fem forms for one material.
+
+    Returns ``(internal_force, tangent, strain_energy)``: a ``LinearForm``
+    ``int N_i' P(F) dX``, a ``BilinearForm`` ``int N_i' dP/dF N_j' dX`` and a
+    ``Functional`` ``int Psi(F) dX``, each evaluated at the field ``w["u"]``
+    (``F = 1 + du/dX``). The material is bound by closure because scikit-fem
+    passes only arrays through ``w``.
+    """
+
+    @LinearForm
+    def internal_force(v, w):
+        F = 1.0 + w["u"].grad[0]
+        return material.stress(F) * v.grad[0]
+
+    @BilinearForm
+    def tangent(du, v, w):
+        F = 1.0 + w["u"].grad[0]
+        return material.tangent(F) * du.grad[0] * v.grad[0]
+
+    @Functional
+    def strain_energy(w):
+        F = 1.0 + w["u"].grad[0]
+        return material.energy(F)
+
+    return internal_force, tangent, strain_energy
+
+
+class Bar1D:
+    """A 1D bar ``[a, b]`` meshed uniformly with ``n`` elements of Lagrange order 1 or 2."""
+
+    def __init__(self, a: float = 0.0, b: float = 1.0, n: int = 10, order: int = 1, nodes=None):
+        if nodes is not None:
+            nodes = np.asarray(nodes, dtype=float)
+            if nodes.ndim != 1 or nodes.size < 2:
+                raise ValueError(f"nodes must be a 1D array of at least 2 coordinates, got shape {nodes.shape}")
+            if not np.all(np.isfinite(nodes)):
+                raise ValueError("nodes contains non-finite coordinates")
+            if np.any(np.diff(nodes) <= 0):
+                raise ValueError("nodes must be strictly increasing (an element of zero or negative length)")
+            mesh = MeshLine(nodes)
+        else:
+            if not (np.isfinite(a) and np.isfinite(b)) or not a < b:
+                raise ValueError(f"the bar needs finite ends with a < b, got a={a!r}, b={b!r}")
+            if int(n) != n or n < 1:
+                raise ValueError(f"n (number of elements) must be a positive integer, got {n!r}")
+            mesh = MeshLine(np.linspace(a, b, int(n) + 1))
+        if order not in (1, 2):
+            raise ValueError(f"order must be 1 or 2, got {order!r}")
+        self.mesh = mesh
+        self.order = order
+        self.a = float(mesh.p[0].min())
+        self.b = float(mesh.p[0].max())
+        element = ElementLineP1() if order == 1 else ElementLineP2()
+        # P1: one quadrature point would do; P2 stresses vary, so integrate generously.
+        self.basis = Basis(mesh, element, intorder=2 * order + 2)
+        self.dof_a = int(self.basis.get_dofs(lambda x: np.isclose(x[0], self.a)).all()[0])
+        self.dof_b = int(self.basis.get_dofs(lambda x: np.isclose(x[0], self.b)).all()[0])
+
+    @property
+    def ndofs(self) -> int:
+        return self.basis.N
+
+    @property
+    def nodes(self) -> np.ndarray:
+        """Reference coordinate ``X`` of every degree of freedom."""
+        return self.basis.doflocs[0]
+
+    # --- linear problem -----------------------------------------------------
+    def stiffness(self, modulus: float) -> sp.csr_matrix:
+        """``A_ij = modulus * int N_i' N_j' dX``."""
+        return asm(_stiffness, self.basis, modulus=float(modulus)).tocsr()
+
+    def body_force(self, f=0.0) -> np.ndarray:
+        """``F_ext_i = int f(X) N_i dX`` for a number or a callable ``f(X)``."""
+        f = _as_field(f, "f (body force)")
+        return asm(_body_force, self.basis, f=f(self.basis.global_coordinates().value[0]))
+
+    def boundary_term(self, left=Traction(0.0), right=Traction(0.0)) -> np.ndarray:
+        """``g_i = N_i(b) P(b) - N_i(a) P(a) = N_i(b) t_b + N_i(a) t_a``; Dirichlet ends contribute 0.
+
+        Lagrange shape functions are 1 at their own node and 0 at the others,
+        so ``g`` is zero except at the end dofs.
+        """
+        left, right = _as_end(left, "left"), _as_end(right, "right")
+        g = np.zeros(self.ndofs)
+        if isinstance(left, Traction):
+            g[self.dof_a] += left.value
+        if isinstance(right, Traction):
+            g[self.dof_b] += right.value
+        return g
+
+    def _dirichlet(self, left, right):
+        fixed, values = [], []
+        for dof, cond in ((self.dof_a, left), (self.dof_b, right)):
+            if isinstance(cond, Displacement):
+                fixed.append(dof)
+                values.append(cond.value)
+        if not fixed:
+            raise ValueError(
+                "at least one end needs a Displacement condition: with tractions at both ends the "
+                "bar can translate freely and the stiffness matrix is singular"
+            )
+        return np.array(fixed, dtype=int), np.array(values, dtype=float)
+
+    def solve_linear(self, modulus: float, f=0.0, left=Displacement(0.0), right=Traction(0.0)) -> np.ndarray:
+        """Solve ``A u = F_ext + g`` with the given end conditions; returns the dof vector ``u``."""
+        if not np.isfinite(modulus) or modulus <= 0:
+            raise ValueError(f"modulus must be finite and > 0, got {modulus!r}")
+        left, right = _as_end(left, "left"), _as_end(right, "right")
+        fixed, values = self._dirichlet(left, right)
+        A = self.stiffness(modulus)
+        rhs = self.body_force(f) + self.boundary_term(left, right)
+        u = np.zeros(self.ndofs)
+        u[fixed] = values
+        free = np.setdiff1d(np.arange(self.ndofs), fixed)
+        rhs_free = rhs[free] - A[free][:, fixed] @ values
+        u[free] = sp.linalg.spsolve(A[free][:, free].tocsc(), rhs_free)
+        return u
+
+    # --- nonlinear problem --------------------------------------------------
+    def internal_force(self, u, material: Material1D) -> np.ndarray:
+        """``int N_i' P(F(u)) dX``."""
+        form = nonlinear_forms(material)[0]
+        return asm(form, self.basis, u=self.basis.interpolate(u))
+
+    def tangent(self, u, material: Material1D) -> sp.csr_matrix:
+        """``dq_i/du_j = int N_i' dP/dF N_j' dX``."""
+        form = nonlinear_forms(material)[1]
+        return asm(form, self.basis, u=self.basis.interpolate(u)).tocsr()
+
+    def strain_energy(self, u, material: Material1D) -> float:
+        """``int Psi(F(u)) dX``."""
+        form = nonlinear_forms(material)[2]
+        return float(asm(form, self.basis, u=self.basis.interpolate(u)))
+
+    def residual(self, u, material, f=0.0, left=Displacement(0.0), right=Traction(0.0), load=1.0):
+        """The notes' ``q(u) = int N' P dX - F_ext - g`` with loads scaled by ``load``."""
+        external = self.body_force(f) + self.boundary_term(left, right)
+        return self.internal_force(u, material) - load * external
+
+    def solve_nonlinear(
+        self,
+        material: Material1D,
+        f=0.0,
+        left=Displacement(0.0),
+        right=Traction(0.0),
+        load_steps: int = 1,
+        u0=None,
+        **newton_options,
+    ) -> tuple[np.ndarray, list[NewtonResult]]:
+        """Load stepping + Newton: ramp the loads (and prescribed displacements) over ``load_steps``.
+
+        Returns the final displacement and the Newton result of every load step.
+        Stops early (returning the last converged state) if a step fails.
+        """
+        left, right = _as_end(left, "left"), _as_end(right, "right")
+        if int(load_steps) != load_steps or load_steps < 1:
+            raise ValueError(f"load_steps must be a positive integer, got {load_steps!r}")
+        fixed, values = self._dirichlet(left, right)
+        external = self.body_force(f) + self.boundary_term(left, right)
+        u = np.zeros(self.ndofs) if u0 is None else np.array(u0, dtype=float, copy=True)
+        if u.shape != (self.ndofs,):
+            raise ValueError(f"u0 must have shape ({self.ndofs},), got {u.shape}")
+        results = []
+        for s in np.arange(1, load_steps + 1) / load_steps:
+            x0 = u.copy()
+            x0[fixed] = s * values
+            result = newton_solve(
+                x0,
+                lambda x: self.internal_force(x, material) - s * external,
+                lambda x: self.tangent(x, material),
+                fixed=fixed,
+                energy=lambda x: self.strain_energy(x, material) - s * external @ x,
+                **newton_options,
+            )
+            results.append(result)
+            if not result.converged:
+                break
+            u = result.x
+        return u, results
+
+    # --- errors against a closed form ----------------------------------------
+    def errors(self, u, exact: Callable, exact_derivative: Callable) -> tuple[float, float]:
+        """``(||u - u_exact||_L2, |u - u_exact|_H1)`` by quadrature."""
+
+        @Functional
+        def l2(w):
+            return (w["uh"] - exact(w.x[0])) ** 2
+
+        @Functional
+        def h1(w):
+            return (w["uh"].grad[0] - exact_derivative(w.x[0])) ** 2
+
+        uh = self.basis.interpolate(u)
+        return float(np.sqrt(asm(l2, self.basis, uh=uh))), float(np.sqrt(asm(h1, self.basis, uh=uh)))
+
+
+def uniform_bar_stretch(material: Material1D, traction: float, F0: float = 1.0, tol: float = 1e-14) -> float:
+    """Closed form for a bar with one end fixed and an end traction ``T``, no body force.
+
+    Equilibrium makes ``P`` constant and equal to ``T`` everywhere, so ``F`` is
+    the uniform root of ``P(F) = T`` (unique where ``dP/dF > 0``); the
+    displacement is ``u(X) = (F - 1)(X - a)``. Solved by scalar Newton with
+    bisection safeguard on ``F > 0``.
+    """
+    lo, hi = 1e-12, 2.0
+    while material.stress(hi) < traction:
+        hi *= 2.0
+        if hi > 1e12:
+            raise ValueError(f"no stretch balances traction {traction!r}")
+    F = min(max(F0, lo), hi)
+    for _ in range(200):
+        g = float(material.stress(F)) - traction
+        if abs(g) <= tol * max(1.0, abs(traction), material.modulus):
+            return F
+        if g > 0:
+            hi = F
+        else:
+            lo = F
+        step = F - g / float(material.tangent(F))
+        F = step if lo < step < hi else 0.5 * (lo + hi)
+    return F
+
+
+# --- plain functions (the reference answers of the chapter 1-2 exercises) --------
+
+def assemble_stiffness(nodes, modulus) -> np.ndarray:
+    """Dense P1 stiffness ``A_ij = modulus * int N_i' N_j' dX`` on the given node coordinates."""
+    return Bar1D(nodes=nodes).stiffness(modulus).toarray()
+
+
+def newton_step(nodes, u, lam, mu, traction) -> np.ndarray:
+    """One Newton step for the 1D Neo-Hookean bar: left end fixed (u = 0), traction at the right end.
+
+    Returns ``u + du`` where ``dq/du du = -q(u)`` on the free dofs.
+    """
+    bar = Bar1D(nodes=nodes)
+    material = NeoHookean1D(lam, mu)
+    u = np.asarray(u, dtype=float)
+    if u.shape != (bar.ndofs,):
+        raise ValueError(f"u must have shape ({bar.ndofs},), got {u.shape}")
+    q = bar.residual(u, material, right=Traction(traction))
+    K = bar.tangent(u, material)
+    free = np.arange(1, bar.ndofs)
+    u_new = u.copy()
+    u_new[0] = 0.0
+    u_new[free] = u[free] + sp.linalg.spsolve(K[free][:, free].tocsc(), -q[free])
+    return u_new
