@@ -14,9 +14,12 @@ modulus (the notes print ``2 mu - lam``) and the residual subtracts ``g``
 system).
 
 End conditions are given per end as :class:`Displacement` (Dirichlet) or
-:class:`Traction`. A traction is the force per unit reference area along the
-*outward* normal, ``t = P n``: at ``b`` (n = +1) ``t = P(b)``, at ``a``
-(n = -1) ``t = -P(a)``. Positive traction pulls the bar outward at that end.
+:class:`Traction`. A traction is the applied force per unit reference area,
+as its X component, ``t = P n`` with ``n`` the outward normal: at ``b``
+(n = +1) ``t = P(b)``, at ``a`` (n = -1) ``t = -P(a)``. So a positive value
+points in the +X direction: at the right end it pulls (tension), at the left
+end it pushes (compression); this is the same sign rule as a 2D traction
+vector.
 """
 
 from __future__ import annotations
@@ -41,7 +44,7 @@ class Displacement:
 
 @dataclass(frozen=True)
 class Traction:
-    """Prescribed end traction ``t = P n`` (outward normal); positive pulls outward."""
+    """Prescribed end traction ``t = P n`` (X component of the applied force per reference area)."""
 
     value: float = 0.0
 
@@ -157,7 +160,7 @@ class Bar1D:
     def body_force(self, f=0.0) -> np.ndarray:
         """``F_ext_i = int f(X) N_i dX`` for a number or a callable ``f(X)``."""
         f = _as_field(f, "f (body force)")
-        return asm(_body_force, self.basis, f=f(self.basis.global_coordinates().value[0]))
+        return asm(_body_force, self.basis, f=f(np.asarray(self.basis.global_coordinates())[0]))
 
     def boundary_term(self, left=Traction(0.0), right=Traction(0.0)) -> np.ndarray:
         """``g_i = N_i(b) P(b) - N_i(a) P(a) = N_i(b) t_b + N_i(a) t_a``; Dirichlet ends contribute 0.
@@ -330,3 +333,54 @@ def newton_step(nodes, u, lam, mu, traction) -> np.ndarray:
     u_new[0] = 0.0
     u_new[free] = u[free] + sp.linalg.spsolve(K[free][:, free].tocsc(), -q[free])
     return u_new
+
+
+# --- a convergence study with a manufactured solution (chapter 1) -------------------
+
+def manufactured_solution(modulus: float = 1.0, traction: float = 1.0):
+    """A bar on [0, 1], ``u(0) = 0``, end traction ``T`` at 1, body force ``f = E1 pi^2 sin(pi X)``.
+
+    Then ``-E1 u'' = f`` gives ``u = sin(pi X) + c X`` with ``E1 u'(1) = T``,
+    i.e. ``c = T / E1 + pi``. Returns ``(f, u, du)`` as callables of X.
+    """
+    c = traction / modulus + np.pi
+
+    def f(X):
+        return modulus * np.pi**2 * np.sin(np.pi * X)
+
+    def u(X):
+        return np.sin(np.pi * X) + c * X
+
+    def du(X):
+        return np.pi * np.cos(np.pi * X) + c
+
+    return f, u, du
+
+
+def convergence_study(orders=(1, 2), ns=(4, 8, 16, 32, 64, 128), modulus: float = 1.0, traction: float = 1.0):
+    """Errors of the linear bar against :func:`manufactured_solution` as the mesh is refined.
+
+    Returns a list of dicts with ``order, n, h, L2, H1, nodal`` (the largest
+    error at the element end points) and the observed rates
+    ``rate_L2, rate_H1`` = log(e_coarse / e_fine) / log(h_coarse / h_fine)
+    (NaN on the coarsest mesh).
+    """
+    f, u_exact, du_exact = manufactured_solution(modulus, traction)
+    rows = []
+    for order in orders:
+        previous = None
+        for n in ns:
+            bar = Bar1D(0.0, 1.0, n, order=order)
+            u = bar.solve_linear(modulus, f, left=Displacement(0.0), right=Traction(traction))
+            l2, h1 = bar.errors(u, u_exact, du_exact)
+            vertex_dofs = bar.basis.nodal_dofs[0]
+            nodal = float(np.max(np.abs(u[vertex_dofs] - u_exact(bar.mesh.p[0]))))
+            row = {"order": order, "n": n, "h": 1.0 / n, "L2": l2, "H1": h1, "nodal": nodal,
+                   "rate_L2": np.nan, "rate_H1": np.nan}
+            if previous is not None:
+                ratio = np.log(previous["h"] / row["h"])
+                row["rate_L2"] = float(np.log(previous["L2"] / l2) / ratio)
+                row["rate_H1"] = float(np.log(previous["H1"] / h1) / ratio)
+            rows.append(row)
+            previous = row
+    return rows

@@ -1,0 +1,126 @@
+"""Command line: ``python -m tissuefem {figures,build,bench,grade,list}``.
+
+* ``figures``  regenerate every lecture figure into ``figures/``;
+* ``build``    regenerate the figures and execute every chapter headless
+  (executed copies in ``build/chapters/``, the sources stay clean);
+* ``bench``    benchmarks (``bench assembly``; more come with later chapters);
+* ``grade``    grade your own exercise answers (chapters/exercises) with pytest;
+* ``list``     list the figures and chapters.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+
+def project_root() -> Path:
+    """The workbook folder: the current directory if it holds ``chapters/``, else the checkout
+    this package was installed from (``lib/`` is the source root)."""
+    cwd = Path.cwd()
+    if (cwd / "chapters").is_dir():
+        return cwd
+    here = Path(__file__).resolve().parents[2]
+    if (here / "chapters").is_dir():
+        return here
+    raise SystemExit("cannot find the workbook's chapters/ folder: run this from the workbook's root folder")
+
+
+def _use_agg():
+    import matplotlib
+
+    matplotlib.use("Agg")
+
+
+def cmd_figures(args) -> int:
+    _use_agg()
+    from . import figures
+
+    root = project_root()
+    out = Path(args.out) if args.out else root / "figures"
+    figures.generate(args.only or None, out)
+    return 0
+
+
+def cmd_build(args) -> int:
+    _use_agg()
+    from . import figures
+    from .notebooks import build_chapters
+
+    start = time.perf_counter()
+    root = project_root()
+    if not args.skip_figures:
+        figures.generate(None, root / "figures")
+    build_chapters(root / "chapters", Path(args.out) if args.out else root / "build" / "chapters", args.chapters)
+    print(f"build finished in {time.perf_counter() - start:.1f} s")
+    return 0
+
+
+def cmd_bench(args) -> int:
+    _use_agg()
+    if args.which == "assembly":
+        from .bench import assembly_benchmark
+
+        sizes = tuple(args.sizes) if args.sizes else (2000, 8000, 32000)
+        assembly_benchmark(sizes=sizes, repeats=args.repeats, out=args.out)
+        return 0
+    raise SystemExit(f"unknown benchmark {args.which!r}")
+
+
+def cmd_grade(args) -> int:
+    root = project_root()
+    env = dict(os.environ, TISSUEFEM_GRADE="student")
+    cmd = [sys.executable, "-m", "pytest", str(root / "tests" / "test_exercises.py"), "-v", "-rs"]
+    if args.chapter:
+        cmd += ["-k", args.chapter]
+    return subprocess.call(cmd, env=env, cwd=root)
+
+
+def cmd_list(args) -> int:
+    from . import figures
+    from .notebooks import chapter_paths
+
+    print("figures:")
+    for name, func in figures.FIGURES.items():
+        print(f"  {name:32s} {(func.__doc__ or '').strip().splitlines()[0]}")
+    print("chapters:")
+    for p in chapter_paths(project_root() / "chapters"):
+        print(f"  {p.name}")
+    return 0
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m tissuefem", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    p = sub.add_parser("figures", help="regenerate every lecture figure into figures/")
+    p.add_argument("--only", nargs="+", metavar="NAME", help="only these figures (see `list`)")
+    p.add_argument("--out", help="output folder (default: figures/)")
+    p.set_defaults(func=cmd_figures)
+
+    p = sub.add_parser("build", help="regenerate figures and execute every chapter headless")
+    p.add_argument("--chapters", nargs="+", metavar="NAME", help="only chapters whose file name contains NAME")
+    p.add_argument("--skip-figures", action="store_true", help="do not regenerate figures/")
+    p.add_argument("--out", help="folder for executed notebooks (default: build/chapters/)")
+    p.set_defaults(func=cmd_build)
+
+    p = sub.add_parser("bench", help="run a benchmark and print its table")
+    p.add_argument("which", choices=["assembly"])
+    p.add_argument("--sizes", type=int, nargs="+", help="approximate triangle counts")
+    p.add_argument("--repeats", type=int, default=5)
+    p.add_argument("--out", help="write the results as JSON to this file")
+    p.set_defaults(func=cmd_bench)
+
+    p = sub.add_parser("grade", help="grade your answers in chapters/exercises with pytest")
+    p.add_argument("chapter", nargs="?", help="only this chapter, e.g. ch02")
+    p.set_defaults(func=cmd_grade)
+
+    p = sub.add_parser("list", help="list figures and chapters")
+    p.set_defaults(func=cmd_list)
+
+    args = parser.parse_args(argv)
+    return int(args.func(args) or 0)

@@ -1,0 +1,561 @@
+"""Two-dimensional hyperelastic materials (plane strain).
+
+Every material maps the deformation gradient ``F[i, j] = d phi_i / d X_j`` to
+
+* ``energy(F)``: the strain energy density ``Psi(F)``, shape ``F.shape[2:]``;
+* ``stress(F)``: the first Piola-Kirchhoff stress ``P = dPsi/dF``, shape ``F.shape``;
+* ``tangent(F)``: the fourth-order tangent ``A[i, j, k, l] = dP_ij / dF_kl``,
+  shape ``(2, 2, 2, 2) + F.shape[2:]``.
+
+``F`` is a 2x2 matrix or a field of them shaped ``[2, 2, *rest]`` (scikit-fem
+hands us ``[2, 2, elements, quadrature points]``); everything is vectorised.
+
+Derivations (re-done here; every formula is checked by finite differences in
+``tests/test_materials.py``)
+---------------------------------------------------------------------------
+
+Two identities carry most of the work. In 2D ``J = det F = F00 F11 - F01 F10``,
+so entry by entry
+
+    dJ/dF = cof F = J F^-T = [[F11, -F10], [-F01, F00]],
+
+and ``cof F`` is *linear* in ``F``: ``d(cof F)_ij / dF_kl = e_ik e_jl =: H_ijkl``
+with the 2D permutation symbol ``e_01 = 1, e_10 = -1``. Hence any volumetric
+energy ``h(J)`` has
+
+    P = h'(J) cof F,    A = h''(J) cof F (x) cof F + h'(J) H.
+
+The term ``mu/2 (F:F - 2)`` has ``P = mu F`` and ``A = mu I4`` with
+``I4_ijkl = d_ik d_jl``. The Neo-Hookean family below is exactly
+``mu/2 (F:F - 2) + h(J)`` for three choices of ``h``.
+
+At ``F = I``, ``H_ijkl = d_ij d_kl - d_il d_jk`` (a 2D identity), so a model
+with ``h'(1) = -mu`` and ``h''(1) = lam + mu`` linearises to the linear-elastic
+tangent ``lam d_ij d_kl + mu (d_ik d_jl + d_il d_jk)``: that is how each model
+below is checked to reduce to linear elasticity with the same ``(lam, mu)``.
+
+Slips in the notes confirmed here
+---------------------------------
+* The Neo-Hookean energy is printed with ``F_ij F_ji`` (``tr(F F)``), which is
+  not frame indifferent (``tr(R R) = 2 cos 2 theta`` for a rotation ``R``);
+  the stress printed next to it, ``mu F + ...``, is the derivative of
+  ``F_ij F_ij = F:F``, which is what we use.
+* The robust (Taylor) variant prints the matrix ``[[F22, -F12], [-F21, F11]]``
+  (the adjugate, ``J F^-1``); the derivative ``dJ/dF`` is its transpose, the
+  cofactor ``[[F22, -F21], [-F12, F11]]`` (1-based indices).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .materials1d import taylor_log, taylor_log_prime, taylor_log_second
+from .parameters import check_lame, lame_parameters
+
+__all__ = [
+    "det2",
+    "cofactor2",
+    "inv2",
+    "Material",
+    "LinearElastic",
+    "NeoHookean",
+    "TaylorNeoHookean",
+    "StableNeoHookean",
+    "Corotated",
+    "FiberReinforced",
+    "MATERIALS",
+    "material",
+]
+
+
+# --- 2x2 tensor helpers ---------------------------------------------------------
+
+def _as_F(F) -> np.ndarray:
+    F = np.asarray(F, dtype=float)
+    if F.ndim < 2 or F.shape[:2] != (2, 2):
+        raise ValueError(f"F must be shaped [2, 2, ...], got shape {F.shape}")
+    return F
+
+
+def det2(F):
+    """``J = det F = F00 F11 - F01 F10`` for ``F`` shaped ``[2, 2, ...]``; shape ``F.shape[2:]``."""
+    F = _as_F(F)
+    return F[0, 0] * F[1, 1] - F[0, 1] * F[1, 0]
+
+
+def cofactor2(F):
+    """The cofactor ``cof F = dJ/dF = J F^-T = [[F11, -F10], [-F01, F00]]``; shape ``F.shape``.
+
+    Defined for every ``F`` (also singular ones), which is why the
+    inversion-safe models are written with ``cof F`` rather than ``F^-T``.
+    """
+    F = _as_F(F)
+    return np.array([[F[1, 1], -F[1, 0]], [-F[0, 1], F[0, 0]]])
+
+
+def inv2(F):
+    """``F^-1 = (cof F)^T / J`` for ``F`` shaped ``[2, 2, ...]``.
+
+    Singular ``F`` give ``inf``/``NaN`` entries (with numpy's usual warning).
+    """
+    F = _as_F(F)
+    return cofactor2(F).swapaxes(0, 1) / det2(F)
+
+
+def _identity(rest) -> np.ndarray:
+    """The 2x2 identity broadcast to ``[2, 2, *rest]``."""
+    return np.broadcast_to(np.eye(2).reshape((2, 2) + (1,) * len(rest)), (2, 2) + tuple(rest))
+
+
+def _outer(a, b) -> np.ndarray:
+    """``(a (x) b)_ijkl = a_ij b_kl`` for fields of 2x2 matrices."""
+    return np.einsum("ij...,kl...->ijkl...", a, b)
+
+
+def _constant4(T, rest) -> np.ndarray:
+    """A constant (2, 2, 2, 2) tensor broadcast to ``(2, 2, 2, 2, *rest)``."""
+    return np.broadcast_to(T.reshape(T.shape + (1,) * len(rest)), T.shape + tuple(rest))
+
+
+_DELTA = np.eye(2)
+_PERM = np.array([[0.0, 1.0], [-1.0, 0.0]])  # 2D permutation symbol e_ij
+#: ``d_ik d_jl``: the derivative of ``F`` with respect to itself.
+_I4 = np.einsum("ik,jl->ijkl", _DELTA, _DELTA)
+#: ``d_il d_jk``: the derivative of ``F^T`` with respect to ``F``.
+_I4T = np.einsum("il,jk->ijkl", _DELTA, _DELTA)
+#: ``d_ij d_kl``.
+_IXI = np.einsum("ij,kl->ijkl", _DELTA, _DELTA)
+#: ``H_ijkl = e_ik e_jl = d(cof F)_ij / dF_kl`` (constant: cof F is linear in F).
+_HCOF = np.einsum("ik,jl->ijkl", _PERM, _PERM)
+
+
+# --- base class ---------------------------------------------------------------
+
+class Material:
+    """Base class: a 2D hyperelastic material with Lamé parameters ``lam`` and ``mu``.
+
+    Subclasses implement ``energy``, ``stress`` and ``tangent`` (see the module
+    docstring for shapes). The constructor validates ``(lam, mu)`` with
+    :func:`tissuefem.parameters.check_lame`.
+    """
+
+    name = "material"
+    #: True when energy, stress and tangent are finite for every F, including J <= 0.
+    inversion_safe = True
+    #: Only linear elasticity has a meaningful plane-stress reduction by a modified lam.
+    _plane_stress_ok = False
+
+    def __init__(self, lam, mu):
+        self.lam, self.mu = check_lame(lam, mu)
+
+    @classmethod
+    def from_young(cls, E, nu, plane: str = "strain"):
+        """Build from Young's modulus ``E > 0`` and Poisson's ratio ``-1 < nu < 0.5``.
+
+        ``plane="stress"`` (``lam -> 2 lam mu / (lam + 2 mu)``) is exact only for
+        linear elasticity; the nonlinear models refuse it.
+        """
+        lam, mu = lame_parameters(E, nu, plane)
+        if plane == "stress" and not cls._plane_stress_ok:
+            raise ValueError(
+                f"plane='stress' is only supported by LinearElastic; {cls.__name__} is plane strain "
+                "(the plane-stress reduction of a nonlinear model is not a change of lam)"
+            )
+        return cls(lam, mu)
+
+    def energy(self, F):
+        raise NotImplementedError
+
+    def stress(self, F):
+        raise NotImplementedError
+
+    def tangent(self, F):
+        raise NotImplementedError
+
+    def __repr__(self):
+        return f"{type(self).__name__}(lam={self.lam:g}, mu={self.mu:g})"
+
+
+# --- linear elasticity ------------------------------------------------------------
+
+class LinearElastic(Material):
+    """Small-strain linear elasticity (the notes' first model).
+
+    ``eps = (F + F^T)/2 - I``, ``Psi = mu eps:eps + lam/2 tr(eps)^2``.
+    Since ``d eps_ab / dF_ij = (d_ai d_bj + d_aj d_bi)/2`` and ``eps`` is
+    symmetric, ``P = 2 mu eps + lam tr(eps) I`` and the (constant) tangent is
+    ``A = lam d_ij d_kl + mu (d_ik d_jl + d_il d_jk)``.
+
+    Not frame indifferent: a pure rotation ``F = R`` has ``eps != 0`` and
+    hence stress; valid only for small deformations. Finite for every F.
+    """
+
+    name = "linear"
+    _plane_stress_ok = True
+
+    def _strain(self, F):
+        return 0.5 * (F + F.swapaxes(0, 1)) - _identity(F.shape[2:])
+
+    def energy(self, F):
+        eps = self._strain(_as_F(F))
+        tr = eps[0, 0] + eps[1, 1]
+        return self.mu * np.einsum("ij...,ij...->...", eps, eps) + 0.5 * self.lam * tr**2
+
+    def stress(self, F):
+        F = _as_F(F)
+        eps = self._strain(F)
+        tr = eps[0, 0] + eps[1, 1]
+        return 2.0 * self.mu * eps + self.lam * tr * _identity(F.shape[2:])
+
+    def tangent(self, F):
+        F = _as_F(F)
+        A = self.lam * _IXI + self.mu * (_I4 + _I4T)
+        return np.array(_constant4(A, F.shape[2:]))
+
+
+# --- the Neo-Hookean family: mu/2 (F:F - 2) + h(J) --------------------------------
+
+class _NeoHookeanFamily(Material):
+    """``Psi = mu/2 (F:F - 2) + h(J)`` with a volumetric function ``h``, ``h(1) = 0``.
+
+    ``P = mu F + h'(J) cof F`` and ``A = mu I4 + h''(J) cof F (x) cof F + h'(J) H``
+    (module docstring). Subclasses give ``_h(J)`` returning ``(h, h', h'')``.
+    """
+
+    def _h(self, J):
+        raise NotImplementedError
+
+    def energy(self, F):
+        F = _as_F(F)
+        h, _, _ = self._h(det2(F))
+        return 0.5 * self.mu * (np.einsum("ij...,ij...->...", F, F) - 2.0) + h
+
+    def stress(self, F):
+        F = _as_F(F)
+        _, h1, _ = self._h(det2(F))
+        return self.mu * F + h1 * cofactor2(F)
+
+    def tangent(self, F):
+        F = _as_F(F)
+        _, h1, h2 = self._h(det2(F))
+        C = cofactor2(F)
+        rest = F.shape[2:]
+        return self.mu * _constant4(_I4, rest) + h2 * _outer(C, C) + h1 * _constant4(_HCOF, rest)
+
+
+class NeoHookean(_NeoHookeanFamily):
+    """The notes' Neo-Hookean model with ``ln J``.
+
+    ``Psi = mu/2 (F:F - 2) - mu ln J + lam/2 (ln J)^2``, i.e.
+    ``h(J) = -mu ln J + lam/2 (ln J)^2``, ``h' = (lam ln J - mu)/J`` and
+    ``h'' = (lam + mu - lam ln J)/J^2``. With ``cof F / J = F^-T`` this is the
+    notes' ``P = mu F + (lam ln J - mu) F^-T``. At ``J = 1``: ``h' = -mu``,
+    ``h'' = lam + mu``, so the small-strain limit is linear elasticity.
+
+    (The notes print ``F_ij F_ji`` in the energy: a slip, see the module
+    docstring.) Undefined for ``J <= 0``: energy, stress and tangent are NaN
+    there (no warning is raised), so a solver can detect inversion.
+    """
+
+    name = "neo-Hookean"
+    inversion_safe = False
+
+    def _h(self, J):
+        J = np.asarray(J, dtype=float)
+        ok = J > 0
+        lnJ = np.full(J.shape, np.nan)
+        np.log(J, out=lnJ, where=ok)
+        invJ = np.full(J.shape, np.nan)
+        np.divide(1.0, J, out=invJ, where=ok)
+        lam, mu = self.lam, self.mu
+        h = -mu * lnJ + 0.5 * lam * lnJ**2
+        h1 = (lam * lnJ - mu) * invJ
+        h2 = (lam + mu - lam * lnJ) * invJ**2
+        return h, h1, h2
+
+
+class TaylorNeoHookean(_NeoHookeanFamily):
+    """Neo-Hookean with ``ln J`` replaced by its cubic Taylor polynomial (the notes' robust variant).
+
+    ``r(J) = (J-1) - (J-1)^2/2 + (J-1)^3/3`` (:func:`tissuefem.materials1d.taylor_log`),
+    ``Psi = mu/2 (F:F - 2) - mu r(J) + lam/2 r(J)^2``. So ``h = -mu r + lam/2 r^2``,
+    ``h' = (lam r - mu) r'`` and ``h'' = lam r'^2 + (lam r - mu) r''``, giving
+
+        P = mu F + (lam r(J) - mu) r'(J) cof F,   cof F = [[F22, -F21], [-F12, F11]]
+
+    (1-based; the notes print the adjugate instead of the cofactor). ``r(1) = 0``,
+    ``r'(1) = 1``, ``r''(1) = -1`` reproduce the Neo-Hookean values at ``J = 1``,
+    hence linear elasticity in the small-strain limit. Polynomial: finite for every F.
+    """
+
+    name = "neo-Hookean (cubic r(J))"
+
+    def _h(self, J):
+        r, r1, r2 = taylor_log(J), taylor_log_prime(J), taylor_log_second(J)
+        lam, mu = self.lam, self.mu
+        return -mu * r + 0.5 * lam * r**2, (lam * r - mu) * r1, lam * r1**2 + (lam * r - mu) * r2
+
+
+class StableNeoHookean(_NeoHookeanFamily):
+    """Stable Neo-Hookean (Smith, de Goes, Kim, ACM TOG 37(2), 2018), 2D form without the log term.
+
+    ``Psi = mu/2 (F:F - 2) + lam_s/2 (J - alpha)^2 - mu^2 / (2 lam_s)`` with
+    ``lam_s = lam + mu`` and ``alpha = 1 + mu / lam_s``. The paper's energy has
+    ``Psi(I) = lam_s/2 (1 - alpha)^2 = mu^2 / (2 lam_s) != 0``; we subtract that
+    constant so that ``Psi(I) = 0`` (it changes neither stress nor tangent).
+
+    ``h' = lam_s (J - alpha)``, ``h'' = lam_s``: ``P = mu F + lam_s (J - alpha) cof F``.
+    At ``J = 1``: ``h'(1) = -mu`` (rest is stress free, which fixes alpha) and
+    ``h''(1) = lam_s = lam + mu``, which is exactly what linearises to linear
+    elasticity with Lamé ``(lam, mu)`` (module docstring): hence ``lam_s = lam + mu``.
+    ``lam_s > 0`` always since ``lam > -2 mu / 3``. Finite for every F, no log.
+    """
+
+    name = "stable neo-Hookean"
+
+    def __init__(self, lam, mu):
+        super().__init__(lam, mu)
+        self.lam_s = self.lam + self.mu
+        self.alpha = 1.0 + self.mu / self.lam_s
+
+    def _h(self, J):
+        J = np.asarray(J, dtype=float)
+        d = J - self.alpha
+        h = 0.5 * self.lam_s * d**2 - 0.5 * self.mu**2 / self.lam_s
+        return h, self.lam_s * d, np.full(J.shape, self.lam_s)
+
+
+# --- corotated --------------------------------------------------------------------
+
+def _polar_rotation(F):
+    """The 2D polar rotation of ``F = R S`` as ``(c, s, rho)``: ``R = [[c, -s], [s, c]]``.
+
+    ``R`` maximises ``tr(R^T F) = c (F00 + F11) + s (F10 - F01)`` over
+    rotations, so ``theta = atan2(F10 - F01, F00 + F11)`` and the maximum is
+    ``rho = tr S = hypot(F00 + F11, F10 - F01)``. Stationarity in theta is
+    exactly ``S = R^T F`` symmetric, for every F (also J <= 0, where S is
+    indefinite). At ``rho = 0`` the angle is undefined; ``atan2(0, 0) = 0``
+    gives ``R = I`` there.
+    """
+    x = F[0, 0] + F[1, 1]
+    y = F[1, 0] - F[0, 1]
+    theta = np.arctan2(y, x)
+    return np.cos(theta), np.sin(theta), np.hypot(x, y)
+
+
+class Corotated(Material):
+    """Fixed corotated elasticity (Stomakhin, Howes, Schroeder, Teran, SCA 2012).
+
+    ``Psi = mu ||F - R||_F^2 + lam/2 (J - 1)^2`` with ``R`` the rotation of the
+    polar decomposition ``F = R S`` (closed form in 2D, :func:`_polar_rotation`).
+
+    Stress: ``d||F - R||^2 = 2 (F - R):dF - 2 (F - R):dR`` and
+    ``(F - R):dR = (S - I):(R^T dR) = 0`` (symmetric against skew), so
+
+        P = 2 mu (F - R) + lam (J - 1) cof F.
+
+    Tangent: ``R`` depends on F only through ``theta``, ``dR = R' dtheta`` with
+    ``R' = dR/dtheta = [[-s, -c], [c, -s]]``. From ``theta = atan2(y, x)``,
+    ``dtheta = (x dy - y dx)/rho^2`` with ``dx/dF = I``,
+    ``dy/dF = [[0, -1], [1, 0]]``, which simplifies to ``dtheta/dF = R'/rho``.
+    Hence ``dR_ij/dF_kl = R'_ij R'_kl / rho`` and
+
+        A = 2 mu (I4 - R' (x) R' / rho) + lam cof F (x) cof F + lam (J - 1) H.
+
+    At ``F = I``: ``rho = 2``, ``R' = [[0, -1], [1, 0]]`` and
+    ``I4 - R'(x)R'/2 = (I4 + I4^T)/2``, so ``A`` is the linear-elastic tangent.
+
+    Finite for every F. The single exception is the measure-zero set
+    ``F00 + F11 = F10 - F01 = 0`` (``rho = 0``) where ``R`` is undefined and
+    the exact tangent blows up like ``-1/rho``: there we take ``R = I`` and
+    drop the ``1/rho`` term, so nothing is NaN.
+    """
+
+    name = "corotated"
+
+    def _parts(self, F):
+        c, s, rho = _polar_rotation(F)
+        R = np.array([[c, -s], [s, c]])
+        return R, c, s, rho
+
+    def energy(self, F):
+        F = _as_F(F)
+        R, _, _, _ = self._parts(F)
+        D = F - R
+        return self.mu * np.einsum("ij...,ij...->...", D, D) + 0.5 * self.lam * (det2(F) - 1.0) ** 2
+
+    def stress(self, F):
+        F = _as_F(F)
+        R, _, _, _ = self._parts(F)
+        return 2.0 * self.mu * (F - R) + self.lam * (det2(F) - 1.0) * cofactor2(F)
+
+    def tangent(self, F):
+        F = _as_F(F)
+        _, c, s, rho = self._parts(F)
+        Rp = np.array([[-s, -c], [c, -s]])
+        inv_rho = np.zeros(rho.shape)
+        np.divide(1.0, rho, out=inv_rho, where=rho > 0)
+        C = cofactor2(F)
+        J = det2(F)
+        rest = F.shape[2:]
+        return (
+            2.0 * self.mu * (_constant4(_I4, rest) - inv_rho * _outer(Rp, Rp))
+            + self.lam * _outer(C, C)
+            + self.lam * (J - 1.0) * _constant4(_HCOF, rest)
+        )
+
+
+# --- anisotropy: a fibre term -------------------------------------------------------
+
+class FiberReinforced(Material):
+    """An isotropic base material plus a fibre term (the notes' ``Psi_iso + Psi_fiber(g^T F^T F g)``).
+
+    ``I4 = g^T F^T F g = |F g|^2`` is the squared stretch of the unit fibre
+    ``g`` (a material direction). We use
+
+        Psi = Psi_base(F) + k/8 (I4 - 1)^2,
+
+    scaled so that ``k`` *is* the extra small-strain modulus along the fibre:
+    with ``F = I + grad u``, ``I4 - 1 ~ 2 eps_ff`` (``eps_ff = g.eps.g``), so the
+    fibre energy is ``~ k/2 eps_ff^2``, the 1D form ``E/2 eps^2`` with modulus k.
+    See :meth:`fiber_modulus`. Derivatives, with ``a = F g``
+    (``dI4/dF = 2 a (x) g``):
+
+        P_fiber = k/2 (I4 - 1) a (x) g,
+        A_fiber_ijkl = k a_i g_j a_k g_l + k/2 (I4 - 1) d_ik g_j g_l.
+
+    At ``F = I``, ``A_fiber = k g (x) g (x) g (x) g``, so ``A_ffff`` gains exactly k.
+    The fibre term resists compression as well as stretch (no tension-only switch).
+
+    Parameters
+    ----------
+    base
+        Any :class:`Material` (usually an isotropic one; another
+        ``FiberReinforced`` gives a second fibre family).
+    stiffness
+        ``k >= 0``, finite.
+    fibers
+        Fibre directions, normalised here: shape ``(2,)`` (uniform),
+        ``(2, n_elements)`` (per element, used as ``(2, n_elements, 1)``) or
+        ``(2, n_elements, n_points)`` (per quadrature point). More generally
+        ``(2, *g_shape)`` is aligned with the *leading* axes of ``F.shape[2:]``
+        and must broadcast to it.
+    """
+
+    def __init__(self, base: Material, stiffness, fibers):
+        if not isinstance(base, Material):
+            raise ValueError(f"base must be a Material instance, got {base!r}")
+        try:
+            k = float(stiffness)
+        except (TypeError, ValueError):
+            raise ValueError(f"stiffness (fibre modulus k) must be a real number, got {stiffness!r}") from None
+        if not math.isfinite(k) or k < 0.0:
+            raise ValueError(f"stiffness (fibre modulus k) must be finite and >= 0, got {stiffness!r}")
+        self.base = base
+        self.stiffness = k
+        self.fibers = self._check_fibers(fibers)
+        self.lam, self.mu = base.lam, base.mu
+        self.inversion_safe = base.inversion_safe
+        self.name = f"{base.name} + fibers"
+
+    @staticmethod
+    def _check_fibers(fibers) -> np.ndarray:
+        try:
+            g = np.array(fibers, dtype=float)
+        except (TypeError, ValueError):
+            raise ValueError(f"fibers must be an array of 2D vectors, got {fibers!r}") from None
+        if g.ndim not in (1, 2, 3) or g.shape[0] != 2:
+            raise ValueError(
+                "fibers must be shaped (2,), (2, n_elements) or (2, n_elements, n_points), "
+                f"got shape {g.shape}"
+            )
+        if not np.all(np.isfinite(g)):
+            raise ValueError("fibers contains non-finite entries")
+        norm = np.hypot(g[0], g[1])
+        if not np.all(norm > 0.0):
+            raise ValueError("fibers contains zero-length vectors (a fibre needs a direction)")
+        return g / norm
+
+    @classmethod
+    def from_young(cls, E, nu, plane: str = "strain", *, stiffness, fibers, base="neo-hookean"):
+        """Build ``base`` (a class or a :data:`MATERIALS` name) from ``(E, nu)`` and add fibres."""
+        base_cls = _lookup(base) if isinstance(base, str) else base
+        return cls(base_cls.from_young(E, nu, plane), stiffness, fibers)
+
+    def fiber_modulus(self) -> float:
+        """The small-strain stiffness added along the fibre: ``A_ffff(I) - A_base_ffff(I) = k``.
+
+        ``A_ffff = g_i g_j g_k g_l A_ijkl`` at ``F = I``, i.e. the extra
+        ``d sigma_ff / d eps_ff`` for a uniaxial strain along the fibre.
+        """
+        return self.stiffness
+
+    def _g(self, rest) -> np.ndarray:
+        """Fibres shaped to broadcast against ``F.shape[2:] = rest`` (aligned on the leading axes)."""
+        g = self.fibers
+        gshape = g.shape[1:]
+        if len(gshape) > len(rest):
+            raise ValueError(f"fibers of shape {g.shape} do not match F with trailing shape {tuple(rest)}")
+        g = g.reshape((2,) + gshape + (1,) * (len(rest) - len(gshape)))
+        try:
+            ok = np.broadcast_shapes(g.shape[1:], tuple(rest)) == tuple(rest)
+        except ValueError:
+            ok = False
+        if not ok:
+            raise ValueError(f"fibers of shape {self.fibers.shape} do not match F with trailing shape {tuple(rest)}")
+        return g
+
+    def _fiber_parts(self, F):
+        g = self._g(F.shape[2:])
+        a = np.einsum("ij...,j...->i...", F, g)  # a = F g
+        I4 = np.einsum("i...,i...->...", a, a)
+        return g, a, I4
+
+    def energy(self, F):
+        F = _as_F(F)
+        _, _, I4 = self._fiber_parts(F)
+        return self.base.energy(F) + self.stiffness / 8.0 * (I4 - 1.0) ** 2
+
+    def stress(self, F):
+        F = _as_F(F)
+        g, a, I4 = self._fiber_parts(F)
+        ag = np.einsum("i...,j...->ij...", a, g)
+        return self.base.stress(F) + 0.5 * self.stiffness * (I4 - 1.0) * ag
+
+    def tangent(self, F):
+        F = _as_F(F)
+        g, a, I4 = self._fiber_parts(F)
+        k = self.stiffness
+        ag = np.einsum("i...,j...->ij...", a, g)
+        gg = np.einsum("j...,l...->jl...", g, g)
+        dgg = np.einsum("ik,jl...->ijkl...", _DELTA, gg)
+        return self.base.tangent(F) + k * _outer(ag, ag) + 0.5 * k * (I4 - 1.0) * dgg
+
+    def __repr__(self):
+        return f"FiberReinforced({self.base!r}, stiffness={self.stiffness:g}, fibers shape {self.fibers.shape})"
+
+
+# --- registry -----------------------------------------------------------------------
+
+#: The isotropic models by name (the keys accepted by :func:`material`).
+MATERIALS = {
+    "linear": LinearElastic,
+    "neo-hookean": NeoHookean,
+    "taylor-neo-hookean": TaylorNeoHookean,
+    "stable-neo-hookean": StableNeoHookean,
+    "corotated": Corotated,
+}
+
+
+def _lookup(name):
+    try:
+        return MATERIALS[name.lower()]
+    except (KeyError, AttributeError):
+        raise ValueError(f"name must be one of {', '.join(sorted(MATERIALS))}; got {name!r}") from None
+
+
+def material(name: str, E, nu, plane: str = "strain") -> Material:
+    """Build the material ``name`` (a key of :data:`MATERIALS`) from Young's modulus and Poisson's ratio."""
+    return _lookup(name).from_young(E, nu, plane)

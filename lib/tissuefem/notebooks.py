@@ -1,0 +1,64 @@
+"""Execute the chapter notebooks headless (the ``build`` command and the test suite).
+
+Executed copies go to a build folder; the committed chapters are never
+overwritten, so they stay free of outputs.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+
+def chapter_paths(chapters_dir) -> list[Path]:
+    """All chapter notebooks ``chNN_*.ipynb`` in order."""
+    return sorted(Path(chapters_dir).glob("ch[0-9][0-9]_*.ipynb"))
+
+
+def execute_notebook(src, dst=None, timeout: int = 900, kernel_name: str = "python3"):
+    """Run every cell of ``src`` in a fresh kernel (working directory: the notebook's folder).
+
+    Returns the executed notebook; writes it to ``dst`` when given. A failing cell
+    raises ``nbclient.exceptions.CellExecutionError`` naming the cell.
+    """
+    import nbformat
+    from nbclient import NotebookClient
+
+    src = Path(src)
+    nb = nbformat.read(src, as_version=4)
+    client = NotebookClient(
+        nb,
+        timeout=timeout,
+        kernel_name=kernel_name,
+        resources={"metadata": {"path": str(src.parent)}},
+    )
+    client.execute()
+    if dst is not None:
+        dst = Path(dst)
+        dst.parent.mkdir(parents=True, exist_ok=True)
+        nbformat.write(nb, dst)
+    return nb
+
+
+def build_chapters(chapters_dir, outdir, names=None, progress=print) -> list[Path]:
+    """Execute the chapters (all, or those whose file name contains one of ``names``)."""
+    paths = chapter_paths(chapters_dir)
+    if names:
+        paths = [p for p in paths if any(n in p.name for n in names)]
+        if not paths:
+            raise ValueError(f"no chapter matches {names}")
+    done = []
+    start = time.perf_counter()
+    for i, path in enumerate(paths, 1):
+        t0 = time.perf_counter()
+        if progress:
+            progress(f"[chapter {i}/{len(paths)}] executing {path.name} ...")
+        dst = Path(outdir) / path.name
+        execute_notebook(path, dst)
+        done.append(dst)
+        if progress:
+            progress(
+                f"[chapter {i}/{len(paths)}] {path.name} -> {dst}  ({time.perf_counter() - t0:.1f} s, "
+                f"total {time.perf_counter() - start:.1f} s)"
+            )
+    return done
