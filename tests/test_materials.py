@@ -29,6 +29,7 @@ from tissuefem.materials import (
     inv2,
     material,
 )
+from tissuefem.materials1d import taylor_log, taylor_log_prime
 from tissuefem.parameters import lame_parameters
 
 LAM, MU = 1.7, 0.6
@@ -56,7 +57,9 @@ ISOTROPIC = {
 ALL = {
     **ISOTROPIC,
     "neo-hookean+fibers(uniform)": lambda: FiberReinforced(NeoHookean(LAM, MU), K_FIBER, [1.0, 2.0]),
-    "stable+fibers(per element)": lambda: FiberReinforced(StableNeoHookean(LAM, MU), K_FIBER, _fibers((NEL,))),
+    "stable+fibers(per element)": lambda: FiberReinforced(
+        StableNeoHookean(LAM, MU), K_FIBER, _fibers((NEL,))
+    ),
     "corotated+fibers(per point)": lambda: FiberReinforced(Corotated(LAM, MU), K_FIBER, _fibers((NEL, NQP))),
     "taylor+fibers(uniform)": lambda: FiberReinforced(TaylorNeoHookean(LAM, MU), K_FIBER, [0.3, -1.0]),
 }
@@ -301,8 +304,6 @@ def test_notes_taylor_matrix_slip_adjugate_is_not_dJdF():
     fd = fd_stress(m, F)
     np.testing.assert_allclose(m.stress(F), fd, rtol=1e-8)
     J = det2(F)
-    from tissuefem.materials1d import taylor_log, taylor_log_prime
-
     printed = MU * F + (LAM * taylor_log(J) - MU) * taylor_log_prime(J) * adjugate
     assert np.abs(printed - fd).max() > 0.1
 
@@ -316,7 +317,9 @@ def linear_tangent(lam, mu):
 
 
 @pytest.mark.parametrize("cls", list(MATERIALS.values()), ids=list(MATERIALS))
-@pytest.mark.parametrize("lam_mu", [(LAM, MU), lame_parameters(1000.0, 0.45), (-0.3, 1.0)], ids=["generic", "E1000-nu0.45", "auxetic"])
+@pytest.mark.parametrize(
+    "lam_mu", [(LAM, MU), lame_parameters(1000.0, 0.45), (-0.3, 1.0)], ids=["generic", "E1000-nu0.45", "auxetic"]
+)
 def test_small_strain_limit_is_linear_elasticity(cls, lam_mu):
     lam, mu = lam_mu
     m = cls(lam, mu)
@@ -339,8 +342,11 @@ def test_stable_neo_hookean_parameters():
 
 def test_neo_hookean_is_nan_without_warnings_when_inverted():
     m = NeoHookean(LAM, MU)
-    singular = np.array([[[1.0, 2.0], [2.0, 4.0]], [[0.0, 0.0], [0.0, 0.0]], [[1.0, 0.0], [0.0, 0.0]], [[0.0, 3.0], [0.0, 1.0]]])
-    F = np.concatenate([random_F("positive", 11, (4,)), random_F("inverted", 12, (4,)), np.moveaxis(singular, 0, -1)], axis=2)
+    singular = [[[1.0, 2.0], [2.0, 4.0]], [[0.0, 0.0], [0.0, 0.0]], [[1.0, 0.0], [0.0, 0.0]], [[0.0, 3.0], [0.0, 1.0]]]
+    F = np.concatenate(
+        [random_F("positive", 11, (4,)), random_F("inverted", 12, (4,)), np.moveaxis(np.array(singular), 0, -1)],
+        axis=2,
+    )
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         psi, P, A = m.energy(F), m.stress(F), m.tangent(F)
@@ -443,13 +449,23 @@ def test_fiber_broadcasting_per_element_and_per_point():
         np.testing.assert_allclose(per_el.stress(F)[:, :, e], uniform.stress(F[:, :, e]), rtol=1e-13)
         for q in range(NQP):
             uniform = FiberReinforced(base, K_FIBER, g_pt[:, e, q])
-            np.testing.assert_allclose(per_pt.tangent(F)[..., e, q], uniform.tangent(F[:, :, e, q]), rtol=1e-13)
-            assert per_pt.energy(F)[e, q] == pytest.approx(uniform.energy(F[:, :, e, q]), rel=1e-13)
+            Fq = F[:, :, e, q]
+            np.testing.assert_allclose(per_pt.tangent(F)[..., e, q], uniform.tangent(Fq), rtol=1e-13)
+            assert per_pt.energy(F)[e, q] == pytest.approx(uniform.energy(Fq), rel=1e-13)
 
 
 @pytest.mark.parametrize(
     "fibers",
-    [[np.nan, 1.0], [np.inf, 0.0], [0.0, 0.0], np.zeros((2, 4)), [1.0, 0.0, 0.0], np.ones((3, 4)), np.ones((2, 2, 2, 2)), "x"],
+    [
+        [np.nan, 1.0],
+        [np.inf, 0.0],
+        [0.0, 0.0],
+        np.zeros((2, 4)),
+        [1.0, 0.0, 0.0],
+        np.ones((3, 4)),
+        np.ones((2, 2, 2, 2)),
+        "x",
+    ],
 )
 def test_fiber_validation(fibers):
     with pytest.raises(ValueError, match="fibers"):
@@ -476,6 +492,10 @@ def test_fiber_shape_mismatch_at_evaluation(rest):
 
 # --- construction and validation ------------------------------------------------------
 
+YOUNG, POISSON = r"E \(Young's modulus\)", r"nu \(Poisson's ratio\)"
+SHEAR, FIRST_LAME = r"mu \(shear modulus\)", r"lam \(first Lamé parameter\)"
+
+
 @pytest.mark.parametrize("cls", list(MATERIALS.values()), ids=list(MATERIALS))
 def test_from_young_matches_lame(cls):
     m = cls.from_young(1000.0, 0.3)
@@ -486,7 +506,14 @@ def test_from_young_matches_lame(cls):
 @pytest.mark.parametrize("cls", list(MATERIALS.values()), ids=list(MATERIALS))
 @pytest.mark.parametrize(
     "E, nu, match",
-    [(0.0, 0.3, "E"), (-5.0, 0.3, "E"), (np.nan, 0.3, "E"), (1000.0, 0.5, "nu"), (1000.0, -1.0, "nu"), (1000.0, np.nan, "nu")],
+    [
+        (0.0, 0.3, YOUNG),
+        (-5.0, 0.3, YOUNG),
+        (np.nan, 0.3, YOUNG),
+        (1000.0, 0.5, POISSON),
+        (1000.0, -1.0, POISSON),
+        (1000.0, np.nan, POISSON),
+    ],
 )
 def test_from_young_validation(cls, E, nu, match):
     with pytest.raises(ValueError, match=match):
@@ -506,7 +533,10 @@ def test_linear_plane_stress():
         LinearElastic.from_young(1000.0, 0.3, plane="membrane")
 
 
-@pytest.mark.parametrize("lam, mu, match", [(1.0, 0.0, "mu"), (1.0, -1.0, "mu"), (-1.0, 1.0, "lam"), (np.nan, 1.0, "lam")])
+@pytest.mark.parametrize(
+    "lam, mu, match",
+    [(1.0, 0.0, SHEAR), (1.0, -1.0, SHEAR), (-1.0, 1.0, FIRST_LAME), (np.nan, 1.0, FIRST_LAME)],
+)
 def test_lame_validation(lam, mu, match):
     for cls in MATERIALS.values():
         with pytest.raises(ValueError, match=match):
@@ -525,5 +555,5 @@ def test_registry():
     assert isinstance(m, StableNeoHookean) and (m.lam, m.mu) == lame_parameters(1000.0, 0.45)
     with pytest.raises(ValueError, match="name must be one of .*corotated.*neo-hookean"):
         material("mooney-rivlin", 1000.0, 0.3)
-    with pytest.raises(ValueError, match="nu"):
+    with pytest.raises(ValueError, match=POISSON):
         material("corotated", 1000.0, 0.5)

@@ -34,6 +34,12 @@ with ``h'(1) = -mu`` and ``h''(1) = lam + mu`` linearises to the linear-elastic
 tangent ``lam d_ij d_kl + mu (d_ik d_jl + d_il d_jk)``: that is how each model
 below is checked to reduce to linear elasticity with the same ``(lam, mu)``.
 
+Models: :class:`LinearElastic`, :class:`NeoHookean`, :class:`TaylorNeoHookean`,
+:class:`StableNeoHookean`, :class:`Corotated` (registry :data:`MATERIALS`,
+factory :func:`material`) and the anisotropic wrapper :class:`FiberReinforced`,
+whose fibre energy ``k/8 (I4 - 1)^2`` is scaled so that ``k`` is the extra
+small-strain modulus along the fibre (:meth:`FiberReinforced.fiber_modulus`).
+
 Slips in the notes confirmed here
 ---------------------------------
 * The Neo-Hookean energy is printed with ``F_ij F_ji`` (``tr(F F)``), which is
@@ -450,7 +456,7 @@ class FiberReinforced(Material):
         try:
             k = float(stiffness)
         except (TypeError, ValueError):
-            raise ValueError(f"stiffness (fibre modulus k) must be a real number, got {stiffness!r}") from None
+            raise ValueError(f"stiffness (fibre modulus k) must be a number, got {stiffness!r}") from None
         if not math.isfinite(k) or k < 0.0:
             raise ValueError(f"stiffness (fibre modulus k) must be finite and >= 0, got {stiffness!r}")
         self.base = base
@@ -496,15 +502,17 @@ class FiberReinforced(Material):
         """Fibres shaped to broadcast against ``F.shape[2:] = rest`` (aligned on the leading axes)."""
         g = self.fibers
         gshape = g.shape[1:]
+        rest = tuple(rest)
+        mismatch = ValueError(f"fibers of shape {g.shape} do not match F with trailing shape {rest}")
         if len(gshape) > len(rest):
-            raise ValueError(f"fibers of shape {g.shape} do not match F with trailing shape {tuple(rest)}")
+            raise mismatch
         g = g.reshape((2,) + gshape + (1,) * (len(rest) - len(gshape)))
         try:
-            ok = np.broadcast_shapes(g.shape[1:], tuple(rest)) == tuple(rest)
+            ok = np.broadcast_shapes(g.shape[1:], rest) == rest
         except ValueError:
             ok = False
         if not ok:
-            raise ValueError(f"fibers of shape {self.fibers.shape} do not match F with trailing shape {tuple(rest)}")
+            raise mismatch
         return g
 
     def _fiber_parts(self, F):
@@ -534,7 +542,8 @@ class FiberReinforced(Material):
         return self.base.tangent(F) + k * _outer(ag, ag) + 0.5 * k * (I4 - 1.0) * dgg
 
     def __repr__(self):
-        return f"FiberReinforced({self.base!r}, stiffness={self.stiffness:g}, fibers shape {self.fibers.shape})"
+        shape = self.fibers.shape
+        return f"FiberReinforced({self.base!r}, stiffness={self.stiffness:g}, fibers of shape {shape})"
 
 
 # --- registry -----------------------------------------------------------------------

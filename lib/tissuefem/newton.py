@@ -87,6 +87,7 @@ def newton_solve(
     line_search: str | None = None,
     linear_solve: Callable | None = None,
     max_halvings: int = 30,
+    reference_norm: float = 0.0,
 ) -> NewtonResult:
     """Solve ``residual(x) = 0`` on the free dofs by Newton's method.
 
@@ -102,7 +103,11 @@ def newton_solve(
     energy : callable, optional
         Total energy whose gradient is ``residual``; needed for ``line_search="energy"``.
     rtol, atol : float
-        Converged when ``||q_free|| <= atol + rtol * ||q_free(x0)||``.
+        Converged when ``||q_free|| <= atol + rtol * max(||q_free(x0)||, reference_norm)``.
+    reference_norm : float
+        The size of the load this solve balances, when ``x0`` is already a good
+        guess (a predictor or a warm start): without it a tiny initial residual
+        would make the relative tolerance demand more than round-off allows.
     """
     x = np.array(x0, dtype=float, copy=True)
     n = x.size
@@ -124,7 +129,7 @@ def newton_solve(
     rnorm = float(np.linalg.norm(r[free]))
     if not np.isfinite(rnorm):
         return NewtonResult(x, False, "non-finite", 0, rnorm, history)
-    target = atol + rtol * rnorm
+    target = atol + rtol * max(rnorm, float(reference_norm))
     e_cur = float(energy(x)) if energy is not None else None
 
     for k in range(max_iter):

@@ -1,0 +1,126 @@
+"""The quasistatic solver: patch tests, equilibrium of reactions, handles, validation."""
+
+import numpy as np
+import pytest
+
+from tissuefem.materials import Corotated, LinearElastic, NeoHookean, StableNeoHookean, TaylorNeoHookean
+from tissuefem.meshes import rectangle
+from tissuefem.quasistatic import Handle, QuasistaticProblem
+
+MATERIALS = [cls.from_young(1000.0, 0.3) for cls in (LinearElastic, NeoHookean, TaylorNeoHookean,
+                                                      StableNeoHookean, Corotated)]
+A = np.array([[1.2, 0.3], [-0.1, 0.9]])
+c = np.array([0.05, -0.02])
+
+
+def _boundary_mask(X):
+    return np.isclose(X[0], 0) | np.isclose(X[0], 1) | np.isclose(X[1], 0) | np.isclose(X[1], 1)
+
+
+def _perturbed_mesh():
+    """An irregular mesh: interior nodes jittered so the patch test is not trivially satisfied."""
+    mesh = rectangle(1.0, 1.0, 5, 5)
+    rng = np.random.default_rng(1)
+    p = mesh.p.copy()
+    interior = ~_boundary_mask(p)
+    p[:, interior] += 0.05 * rng.uniform(-1, 1, (2, interior.sum()))
+    return type(mesh)(p, mesh.t, _boundaries=mesh.boundaries) if hasattr(mesh, "boundaries") else mesh
+
+
+@pytest.mark.parametrize("material", MATERIALS, ids=lambda m: m.name)
+@pytest.mark.parametrize("order, assembly", [(1, "fast"), (1, "forms"), (2, "forms")])
+def test_patch_test_homogeneous_deformation_is_reproduced(material, order, assembly):
+    mesh = _perturbed_mesh()
+    handle = Handle(_boundary_mask, target=lambda X: A @ X + c[:, None])
+    problem = QuasistaticProblem(mesh, material, order=order, assembly=assembly, handles=[handle])
+    result = problem.solve(rtol=1e-13, atol=1e-11)
+    assert result.converged
+    X = problem.basis.doflocs
+    exact = (A @ X + c[:, None]) - X
+    got = result.u
+    expected = exact[problem.component, np.arange(X.shape[1])]
+    np.testing.assert_allclose(got, expected, atol=1e-10)
+
+
+def test_fast_and_forms_paths_give_the_same_solution():
+    mesh = rectangle(2.0, 1.0, 10, 5)
+    mat = NeoHookean.from_young(1000.0, 0.3)
+    handles = [Handle("left"), Handle("right", (0.4, 0.3))]
+    a = QuasistaticProblem(mesh, mat, handles=handles, assembly="fast").solve(load_steps=2, rtol=1e-12)
+    b = QuasistaticProblem(mesh, mat, handles=handles, assembly="forms").solve(load_steps=2, rtol=1e-12)
+    assert a.converged and b.converged
+    np.testing.assert_allclose(a.u, b.u, atol=1e-10)
+
+
+@pytest.mark.parametrize("order", [1, 2])
+def test_reactions_balance_tractions_and_body_force(order):
+    mesh = rectangle(2.0, 1.0, 8, 4)
+    mat = NeoHookean.from_young(1000.0, 0.3)
+    t, b = np.array([60.0, -20.0]), np.array([0.0, -9.81])
+    problem = QuasistaticProblem(mesh, mat, order=order, handles=[Handle("left")],
+                                 tractions={"right": t}, body_force=b)
+    result = problem.solve(load_steps=2, rtol=1e-12)
+    assert result.converged
+    # the external load vector carries the resultant: t * (edge length 1) + b * (area 2)
+    for i in range(2):
+        assert problem.external[problem.component == i].sum() == pytest.approx(t[i] * 1.0 + b[i] * 2.0)
+    # at equilibrium the internal forces at the fixed dofs (the reactions) balance the loads
+    fixed, _ = problem.prescribed()
+    reaction = problem.internal_force(result.u) - problem.external
+    for i in range(2):
+        at_fixed = fixed[problem.component[fixed] == i]
+        assert reaction[at_fixed].sum() == pytest.approx(-(t[i] + 2.0 * b[i]), rel=1e-8)
+
+
+def test_rigid_rotation_is_stress_free_for_neo_hookean_only():
+    mesh = rectangle(1.0, 1.0, 4, 4)
+    theta = np.pi / 3
+    R = np.array([[np.cos(theta), -np.sin(theta)], [np.sin(theta), np.cos(theta)]])
+    for material, stress_free in [(NeoHookean.from_young(1000.0, 0.3), True),
+                                  (LinearElastic.from_young(1000.0, 0.3), False)]:
+        problem = QuasistaticProblem(mesh, material, handles=[Handle(_boundary_mask, lambda X: R @ X)])
+        result = problem.solve(rtol=1e-12)
+        assert result.converged
+        energy = problem.strain_energy(result.u)
+        assert (energy < 1e-9) == stress_free, (material.name, energy)
+
+
+def test_handles_move_and_the_last_one_wins():
+    mesh = rectangle(1.0, 1.0, 3, 3)
+    h = Handle("right", (0.1, 0.0))
+    problem = QuasistaticProblem(mesh, NeoHookean.from_young(1000.0, 0.3), handles=[Handle("left"), h])
+    h.move((0.2, 0.1))
+    fixed, values = problem.prescribed()
+    right = problem.basis.get_dofs("right").all()
+    comp = problem.component[right]
+    got = dict(zip(fixed, values))
+    assert all(np.isclose(got[d], 0.2 if k == 0 else 0.1) for d, k in zip(right, comp))
+    # overlapping handles resolve to the later one
+    problem2 = QuasistaticProblem(mesh, problem.material, handles=[Handle("left"), Handle("left", (0.3, 0.0))])
+    _, v2 = problem2.prescribed()
+    assert np.allclose(v2[problem2.component[problem2.prescribed()[0]] == 0], 0.3)
+
+
+@pytest.mark.parametrize("make, match", [
+    (lambda m, mat: QuasistaticProblem(m, mat, handles=[Handle("nowhere")]), "nowhere"),
+    (lambda m, mat: QuasistaticProblem(m, mat, handles=[]), "handles"),
+    (lambda m, mat: QuasistaticProblem(m, mat, handles=[Handle("left")], tractions={"right": (1.0,)}), "tractions"),
+    (lambda m, mat: QuasistaticProblem(m, mat, handles=[Handle("left")], body_force=(np.nan, 0)), "body_force"),
+    (lambda m, mat: QuasistaticProblem(m, mat, order=3, handles=[Handle("left")]), "order"),
+    (lambda m, mat: Handle("left", (np.inf, 0.0)), "finite"),
+    (lambda m, mat: Handle("left", (1.0, 2.0, 3.0)), "shape"),
+    (lambda m, mat: QuasistaticProblem(m, mat, handles=[Handle(np.array([0, 10_000]))]), "node indices"),
+    (lambda m, mat: QuasistaticProblem(m, mat, handles=[Handle("left")]).solve(load_steps=0), "load_steps"),
+])
+def test_bad_input_is_rejected_by_name(make, match):
+    mesh = rectangle(1.0, 1.0, 3, 3)
+    with pytest.raises(ValueError, match=match):
+        make(mesh, NeoHookean.from_young(1000.0, 0.3))
+
+
+def test_failed_solve_keeps_the_last_good_state():
+    mesh = rectangle(1.0, 1.0, 4, 4)
+    problem = QuasistaticProblem(mesh, NeoHookean.from_young(1000.0, 0.3),
+                                 handles=[Handle("left"), Handle("right", (-1.5, 0.0))])
+    result = problem.solve(load_steps=1, max_iter=3)
+    assert np.all(np.isfinite(result.u))
