@@ -74,7 +74,8 @@ def cmd_bench(args) -> int:
 def cmd_grade(args) -> int:
     root = project_root()
     env = dict(os.environ, TISSUEFEM_GRADE="student")
-    cmd = [sys.executable, "-m", "pytest", str(root / "tests" / "test_exercises.py"), "-v", "-rs"]
+    tests = sorted(str(p) for p in (root / "tests").glob("test_exercises*.py"))
+    cmd = [sys.executable, "-m", "pytest", *tests, "-v", "-rs"]
     if args.chapter:
         cmd += ["-k", args.chapter]
     return subprocess.call(cmd, env=env, cwd=root)

@@ -186,3 +186,7 @@ def fig_ch02_newton(path=None) -> Figure:
     ax.legend(fontsize=8)
     save(fig, path)
     return fig
+
+
+# Figures of the 2D chapters live in their own modules; importing them registers them.
+from . import figures2d, figures_fibers  # noqa: E402,F401
