@@ -21,7 +21,8 @@ Domains
 * :func:`mesh_with_about`: a rectangle with about a given number of triangles
   (what benchmarks use to sweep sizes).
 * :func:`fusiform_muscle` and :func:`fusiform_fiber_field`: a spindle-shaped
-  muscle belly between two tendons, and its fiber directions.
+  muscle belly between two tendons, and its fiber directions per element
+  (:func:`fusiform_fiber_direction` at any point).
 * :func:`flap`: the rectangle of the tissue-flap scene (left edge fixed, a
   handle pulls the right edge).
 """
@@ -39,6 +40,7 @@ __all__ = [
     "mesh_with_about",
     "fusiform_muscle",
     "fusiform_width",
+    "fusiform_fiber_direction",
     "fusiform_fiber_field",
     "flap",
     "signed_areas",
@@ -269,16 +271,36 @@ def fusiform_muscle(length=4.0, max_width=1.0, tendon_width=0.25, nx=40, ny=8, d
     )
 
 
+def fusiform_fiber_direction(points, length=4.0, max_width=1.0, tendon_width=0.25) -> np.ndarray:
+    """Unit fiber direction of the fusiform muscle at ``points`` (shape ``(2, ...)``).
+
+    The fibers are the curves ``y = eta w(x)`` (``eta`` constant, ``w`` from
+    :func:`fusiform_width`) of the muscle's parametrisation: the curve through
+    ``(x, y)`` has ``eta = y / w(x)`` and tangent ``(1, eta w'(x))``, returned
+    normalised. Horizontal on the mid-line ``y = 0``, at the tendons and at the
+    widest section (where ``w' = 0``); elsewhere the fibers spread out of the
+    left tendon and converge into the right one. ``x`` is measured from the
+    left tendon (as in :func:`fusiform_muscle`).
+    """
+    length, max_width, tendon_width = _check_fusiform(length, max_width, tendon_width)
+    pts = np.asarray(points, dtype=float)
+    if pts.ndim < 1 or pts.shape[0] != 2:
+        raise ValueError(f"points must be shaped (2, ...), got shape {pts.shape}")
+    w, dw = fusiform_width(pts[0], length, max_width, tendon_width)
+    eta = pts[1] / w
+    a = np.stack([np.ones_like(eta), eta * dw])
+    return a / np.hypot(a[0], a[1])
+
+
 def fusiform_fiber_field(mesh, length=None, max_width=None, tendon_width=None) -> np.ndarray:
     """Unit fiber directions (2, n_elements) of a :func:`fusiform_muscle` mesh.
 
     The fibers follow the curves ``y = eta w(x)`` (``eta`` constant) of the
     muscle's parametrisation: they run from tendon to tendon, bulge with the
-    belly and converge towards the narrow ends. At a point ``(x, y)`` the
-    curve through it has ``eta = y / w(x)`` and tangent ``(1, eta w'(x))``;
-    each triangle gets that unit tangent evaluated at its centroid. On the
-    mid-line ``y = 0`` (and at the tendons and the widest section, where
-    ``w' = 0``) the fibers are horizontal.
+    belly and converge towards the narrow ends. Each triangle gets the
+    direction :func:`fusiform_fiber_direction` at its centroid. On the
+    mid-line ``y = 0`` the fibers are horizontal, and the field is the mirror
+    image of itself about the x-axis.
 
     ``length``, ``max_width`` and ``tendon_width`` are the values the mesh was
     made with; left as ``None`` they are read off the mesh (its x-extent, its
@@ -299,10 +321,6 @@ def fusiform_fiber_field(mesh, length=None, max_width=None, tendon_width=None) -
     if tendon_width is None:
         at_left = np.abs(p[0] - x0) <= 1e-9 * max(abs(float(length)), 1e-300)
         tendon_width = 2.0 * np.abs(p[1, at_left]).max()
-    length, max_width, tendon_width = _check_fusiform(length, max_width, tendon_width)
     centroid = p[:, t].mean(axis=1)
-    xc = centroid[0] - x0
-    w, dw = fusiform_width(xc, length, max_width, tendon_width)
-    eta = centroid[1] / w
-    a = np.vstack([np.ones_like(xc), eta * dw])
-    return a / np.linalg.norm(a, axis=0)
+    centroid[0] -= x0
+    return fusiform_fiber_direction(centroid, length, max_width, tendon_width)
