@@ -1,0 +1,371 @@
+"""Anisotropic fibers (chapter 5): the fiber term on its own, and pulling along versus across.
+
+The notes make a fibrous tissue anisotropic with a field of unit fiber
+directions ``g : B0 -> R^2`` in the *reference* configuration and an energy
+that adds a term in the squared fiber stretch (notes, "Continuum mechanics and
+elasticity", the paragraph after the Neo-Hookean model):
+
+    Psi(F) = Psi_iso(F) + Psi_fiber(I4),    I4 = g^T F^T F g = |F g|^2.
+
+With ``F[i, j] = d phi_i / d X_j`` a material line element ``dX = g dS``
+becomes ``dx = F g dS``, so ``sqrt(I4)`` is the stretch of the fiber.
+
+Derivations (with ``a = F g``)
+-------------------------------
+``dI4 = 2 a . (dF g) = 2 (a (x) g) : dF``, hence
+
+    P_fiber = 2 Psi_fiber'(I4) a (x) g                      (= 2 Psi' F g g^T)
+    A_fiber_ijkl = 4 Psi'' a_i g_j a_k g_l + 2 Psi' d_ik g_j g_l.
+
+We use ``Psi_fiber = k/8 (I4 - 1)^2`` (as :class:`tissuefem.materials.FiberReinforced`
+does): ``Psi'(1) = 0`` keeps the rest state stress free, and with
+``Psi' = k/4 (I4 - 1)``, ``Psi'' = k/4``
+
+    P_fiber = k/2 (I4 - 1) a (x) g,
+    A_fiber = k (a (x) g) (x) (a (x) g) + k/2 (I4 - 1) d_ik g_j g_l.
+
+Small strain: at ``F = I`` the tangent is ``k g (x) g (x) g (x) g``: in the
+fiber's own frame it adds ``k`` to ``C_ffff`` and nothing else. Along a unit
+direction ``e`` at angle ``theta`` to the fiber it adds
+``e_i e_j e_k e_l k g_i g_j g_k g_l = k cos^4 theta`` (:func:`fiber_modulus_gain`).
+
+The experiments
+---------------
+* :func:`confined_pull` imposes the homogeneous uniaxial strain
+  ``F = diag(1 + eps, 1)`` on the whole boundary of a square (a :class:`Handle`
+  with a map). P1 elements reproduce a homogeneous deformation exactly, so
+  the stress is uniform and the reaction on the right edge per unit height is
+  ``P_xx``; divided by ``eps`` it is the confined modulus
+  ``lam + 2 mu + k cos^4 theta`` to leading order (:func:`predicted_confined_modulus`).
+  :func:`along_vs_across` compares fibers at 0 and 90 degrees: their moduli
+  differ by ``k``, and exactly by ``k (1 + eps)(1 + eps/2)`` at finite strain.
+* :func:`block_pull`: a strip clamped at both ends and pulled (free sides), the
+  force-stretch curve of a tensile test.
+* :func:`muscle_pull`: the fusiform muscle of :mod:`tissuefem.meshes`, held
+  at its left tendon and pulled by its right one, with or without fibers.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .materials import FiberReinforced, Material, NeoHookean
+from .meshes import fusiform_fiber_field, fusiform_muscle, rectangle
+from .quasistatic import Handle, QuasistaticProblem
+
+__all__ = [
+    "E_TISSUE",
+    "NU_TISSUE",
+    "K_FIBER",
+    "fiber_direction",
+    "fiber_invariant",
+    "fiber_energy",
+    "fiber_stress",
+    "fiber_tangent",
+    "fiber_modulus_gain",
+    "predicted_confined_modulus",
+    "PullResult",
+    "confined_pull",
+    "AlongAcross",
+    "along_vs_across",
+    "block_pull",
+    "muscle_pull",
+]
+
+#: Young's modulus and Poisson's ratio of the isotropic matrix (the notes' typical values).
+E_TISSUE, NU_TISSUE = 1000.0, 0.3
+#: Default fiber modulus ``k``: four times the matrix's Young's modulus.
+K_FIBER = 4000.0
+
+_UNIT_TOL = 1e-6
+
+
+# --- the fiber term on its own ----------------------------------------------------------
+
+def _check_stiffness(k) -> float:
+    try:
+        k = float(k)
+    except (TypeError, ValueError):
+        raise ValueError(f"k (fiber modulus) must be a number, got {k!r}") from None
+    if not math.isfinite(k) or k < 0.0:
+        raise ValueError(f"k (fiber modulus) must be finite and >= 0, got {k!r}")
+    return k
+
+
+def _check_Fg(F, g):
+    F = np.asarray(F, dtype=float)
+    g = np.asarray(g, dtype=float)
+    if F.ndim < 2 or F.shape[:2] != (2, 2):
+        raise ValueError(f"F must be shaped [2, 2, ...], got shape {F.shape}")
+    if g.ndim < 1 or g.shape[0] != 2:
+        raise ValueError(f"g must be shaped (2, ...), got shape {g.shape}")
+    if not (np.all(np.isfinite(F)) and np.all(np.isfinite(g))):
+        raise ValueError("F and g must be finite")
+    norm = np.hypot(g[0], g[1])
+    if np.any(np.abs(norm - 1.0) > _UNIT_TOL):
+        raise ValueError(
+            f"g must be unit fiber directions (|g| = 1 within {_UNIT_TOL:g}); got lengths between "
+            f"{norm.min():.6g} and {norm.max():.6g}: normalise g first"
+        )
+    try:
+        np.broadcast_shapes(F.shape[2:], g.shape[1:])
+    except ValueError:
+        raise ValueError(f"g of shape {g.shape} does not broadcast against F of shape {F.shape}") from None
+    return F, g
+
+
+def fiber_direction(angle_deg) -> np.ndarray:
+    """The unit fiber direction ``(cos theta, sin theta)`` at ``angle_deg`` degrees from the X axis."""
+    try:
+        theta = math.radians(float(angle_deg))
+    except (TypeError, ValueError):
+        raise ValueError(f"angle_deg must be a number (degrees), got {angle_deg!r}") from None
+    if not math.isfinite(theta):
+        raise ValueError(f"angle_deg must be finite, got {angle_deg!r}")
+    return np.array([math.cos(theta), math.sin(theta)])
+
+
+def fiber_invariant(F, g):
+    """``I4 = g^T F^T F g = |F g|^2``, the squared stretch of the unit fiber ``g``.
+
+    ``F`` is a 2x2 matrix or a field ``[2, 2, ...]``; ``g`` a unit vector
+    ``(2,)`` or a field ``(2, ...)`` broadcasting against ``F.shape[2:]``.
+    Returns a float for a single ``F``, else an array of the broadcast shape.
+    """
+    F, g = _check_Fg(F, g)
+    a = np.einsum("ij...,j...->i...", F, g)  # a = F g, the deformed fiber
+    I4 = np.einsum("i...,i...->...", a, a)
+    return float(I4) if I4.ndim == 0 else I4
+
+
+def fiber_energy(F, g, k):
+    """``Psi_fiber = k/8 (I4 - 1)^2``: about ``k/2 eps_ff^2`` for small strains."""
+    k = _check_stiffness(k)
+    return k / 8.0 * (fiber_invariant(F, g) - 1.0) ** 2
+
+
+def fiber_stress(F, g, k):
+    """The fiber part of the first Piola-Kirchhoff stress, ``P_fiber = k/2 (I4 - 1) (F g) g^T``.
+
+    ``2 Psi_fiber'(I4) F g g^T`` for ``Psi_fiber = k/8 (I4 - 1)^2``; shape ``F.shape``
+    broadcast with ``g`` (a 2x2 array for a single ``F``).
+    """
+    k = _check_stiffness(k)
+    F, g = _check_Fg(F, g)
+    a = np.einsum("ij...,j...->i...", F, g)
+    I4 = np.einsum("i...,i...->...", a, a)
+    return 0.5 * k * (I4 - 1.0) * np.einsum("i...,j...->ij...", a, g)
+
+
+def fiber_tangent(F, g, k):
+    """``A_fiber[i, j, k, l] = dP_fiber_ij / dF_kl = k a_i g_j a_k g_l + k/2 (I4 - 1) d_ik g_j g_l``.
+
+    With ``a = F g``; shape ``(2, 2, 2, 2, ...)``. At ``F = I`` it is ``k g g g g``.
+    """
+    k = _check_stiffness(k)
+    F, g = _check_Fg(F, g)
+    a = np.einsum("ij...,j...->i...", F, g)
+    I4 = np.einsum("i...,i...->...", a, a)
+    ag = np.einsum("i...,j...->ij...", a, g)
+    gg = np.einsum("j...,l...->jl...", g, g)
+    return k * np.einsum("ij...,kl...->ijkl...", ag, ag) + 0.5 * k * (I4 - 1.0) * np.einsum(
+        "ik,jl...->ijkl...", np.eye(2), gg
+    )
+
+
+def fiber_modulus_gain(k, angle_deg):
+    """The small-strain modulus the fiber adds along a direction ``angle_deg`` degrees away from it.
+
+    ``e_i e_j e_k e_l (k g_i g_j g_k g_l) = k (e . g)^4 = k cos^4 theta``: ``k``
+    along the fiber, ``k/4`` at 45 degrees and nothing across it.
+    """
+    k = _check_stiffness(k)
+    c = fiber_direction(angle_deg)[0]
+    return float(k * c**4)
+
+
+def _default_base(base):
+    if base is None:
+        return NeoHookean.from_young(E_TISSUE, NU_TISSUE)
+    if not isinstance(base, Material):
+        raise ValueError(f"base must be a Material instance, got {base!r}")
+    return base
+
+
+def predicted_confined_modulus(angle_deg, *, stiffness=K_FIBER, base=None) -> float:
+    """Small-strain confined modulus ``lam + 2 mu + k cos^4 theta`` for a pull along X.
+
+    ``theta = angle_deg`` is the fiber angle from X. ``lam + 2 mu`` is ``C_xxxx``
+    of the isotropic matrix (any of our models linearises to linear elasticity).
+    """
+    base = _default_base(base)
+    return base.lam + 2.0 * base.mu + fiber_modulus_gain(stiffness, angle_deg)
+
+
+# --- pulling experiments ---------------------------------------------------------------
+
+@dataclass
+class PullResult:
+    """A pull test: stretches, the reaction force on the pulled edge, and the final state.
+
+    ``forces[s]`` is the X component of the total force (per unit thickness)
+    that holds the pulled edge at ``stretches[s]``: the sum of the internal
+    forces on its X degrees of freedom. ``edge_length`` is that edge's
+    reference length, so ``nominal_stress = forces / edge_length`` is the
+    average ``P_xx`` on it.
+    """
+
+    stretches: np.ndarray
+    forces: np.ndarray
+    edge_length: float
+    problem: QuasistaticProblem
+    u: np.ndarray
+    newton_iterations: int
+
+    @property
+    def nominal_stress(self) -> np.ndarray:
+        return self.forces / self.edge_length
+
+    @property
+    def material(self) -> Material:
+        return self.problem.material
+
+
+def _material(angle_deg, stiffness, base, fibers=None) -> Material:
+    if angle_deg is None and fibers is None:
+        return base
+    g = fiber_direction(angle_deg) if fibers is None else fibers
+    return FiberReinforced(base, _check_stiffness(stiffness), g)
+
+
+def _check_stretches(stretches) -> np.ndarray:
+    s = np.atleast_1d(np.asarray(stretches, dtype=float))
+    if s.ndim != 1 or s.size == 0 or not np.all(np.isfinite(s)) or np.any(s <= 0.0):
+        raise ValueError(f"stretches must be a non-empty 1D sequence of finite numbers > 0, got {stretches!r}")
+    return s
+
+
+def _ramp(problem, handle, to_target, stretches, pulled_edge, edge_length, rtol) -> PullResult:
+    """Move ``handle`` through ``to_target(s)`` for each stretch, warm-starting each solve."""
+    xdofs = problem.basis.get_dofs(pulled_edge).nodal["u^1"]
+    u, forces, iterations = None, [], 0
+    for s in stretches:
+        handle.move(to_target(s))
+        result = problem.solve(u0=u, rtol=rtol)
+        if not result.converged:
+            raise RuntimeError(f"the pull did not converge at stretch {s:g} (Newton status {result.status!r})")
+        u = result.u
+        iterations += result.newton_iterations
+        forces.append(float(problem.internal_force(u)[xdofs].sum()))
+    return PullResult(stretches, np.array(forces), edge_length, problem, u, iterations)
+
+
+def confined_pull(angle_deg, strain, *, stiffness=K_FIBER, base=None, n=4, rtol=1e-12) -> PullResult:
+    """The unit square stretched by ``F = diag(1 + strain, 1)``, imposed on its whole boundary.
+
+    ``angle_deg``: fiber angle from X (``None``: no fibers, the matrix alone).
+    The deformation is homogeneous, so the reaction per unit height of the
+    right edge is the uniform ``P_xx`` and ``nominal_stress / strain`` is the
+    confined (uniaxial-strain) modulus, compared with
+    :func:`predicted_confined_modulus`. ``strain`` may be a number or a
+    sequence (solved in order, each warm-started from the previous one).
+    """
+    base = _default_base(base)
+    strains = _check_stretches(1.0 + np.atleast_1d(np.asarray(strain, dtype=float))) - 1.0
+    mesh = rectangle(1.0, 1.0, n, n)
+
+    def on_boundary(X):
+        return np.isclose(X[0], 0.0) | np.isclose(X[0], 1.0) | np.isclose(X[1], 0.0) | np.isclose(X[1], 1.0)
+
+    handle = Handle(on_boundary)
+    problem = QuasistaticProblem(mesh, _material(angle_deg, stiffness, base), handles=[handle])
+
+    def uniaxial_strain(s):
+        return lambda X: np.vstack([s * X[0], X[1]])
+
+    return _ramp(problem, handle, uniaxial_strain, 1.0 + strains, "right", 1.0, rtol)
+
+
+@dataclass
+class AlongAcross:
+    """Confined moduli with fibers along (0 degrees) and across (90 degrees) the pull, at one strain."""
+
+    strain: float
+    modulus_along: float
+    modulus_across: float
+    predicted_difference: float  # k: the fiber's C_ffff, the small-strain prediction
+    exact_difference: float  # k (1 + eps)(1 + eps/2): the same at finite strain
+
+    @property
+    def difference(self) -> float:
+        return self.modulus_along - self.modulus_across
+
+    @property
+    def relative_error(self) -> float:
+        """``|difference / predicted_difference - 1|``: of order ``strain`` (the prediction is linear)."""
+        return abs(self.difference / self.predicted_difference - 1.0)
+
+
+def along_vs_across(strain=1e-4, *, stiffness=K_FIBER, base=None, n=4) -> AlongAcross:
+    """Pull the confined square (:func:`confined_pull`) with fibers along and across; compare moduli.
+
+    Same matrix and same ``F`` in both runs, so the matrix's response cancels
+    in the difference and only the fiber term is left: at 90 degrees
+    ``F g = g`` (``I4 = 1``, no fiber stress), at 0 degrees
+    ``P_fiber_xx = k/2 ((1 + eps)^2 - 1)(1 + eps)``. Divided by ``eps`` the
+    difference is ``k (1 + eps)(1 + eps/2)``, which tends to ``k``.
+    """
+    eps = float(strain)
+    if not math.isfinite(eps) or eps == 0.0 or eps <= -1.0:
+        raise ValueError(f"strain must be finite, nonzero and > -1, got {strain!r}")
+    k = _check_stiffness(stiffness)
+    moduli = [float(confined_pull(a, eps, stiffness=k, base=base, n=n).nominal_stress[0]) / eps
+              for a in (0.0, 90.0)]
+    predicted = float(fiber_modulus_gain(k, 0.0) - fiber_modulus_gain(k, 90.0))
+    return AlongAcross(eps, moduli[0], moduli[1], predicted, k * (1.0 + eps) * (1.0 + 0.5 * eps))
+
+
+def block_pull(angle_deg, stretches, *, stiffness=K_FIBER, base=None, width=2.0, height=1.0, nx=16, ny=8,
+               rtol=1e-10) -> PullResult:
+    """A tensile test: a ``width x height`` strip clamped at both ends, the right end pulled along X.
+
+    ``angle_deg``: the uniform fiber angle from the pull (``None``: no fibers).
+    The sides are free, so the strip narrows; the clamps keep the ends from
+    narrowing, so the state is not homogeneous (no closed form). The right
+    end moves to ``X = stretch * width`` for each of ``stretches`` in turn.
+    """
+    base = _default_base(base)
+    stretches = _check_stretches(stretches)
+    mesh = rectangle(width, height, nx, ny)
+    pulled = Handle("right")
+    problem = QuasistaticProblem(mesh, _material(angle_deg, stiffness, base), handles=[Handle("left"), pulled])
+    return _ramp(problem, pulled, lambda s: ((s - 1.0) * width, 0.0), stretches, "right", height, rtol)
+
+
+def muscle_pull(stretches, *, stiffness=K_FIBER, base=None, with_fibers=True, fibers=None, mesh=None,
+                rtol=1e-10) -> PullResult:
+    """The fusiform muscle held at its left tendon and pulled along X by its right tendon.
+
+    ``mesh`` defaults to :func:`tissuefem.meshes.fusiform_muscle` (length 4);
+    its fibers are ``fibers`` (shape ``(2,)`` or ``(2, n_elements)``) if given,
+    else :func:`tissuefem.meshes.fusiform_fiber_field`; ``with_fibers=False``
+    leaves the matrix alone. The right tendon moves to ``X = stretch * length``.
+    ``edge_length`` of the result is the tendon's width.
+    """
+    base = _default_base(base)
+    stretches = _check_stretches(stretches)
+    mesh = fusiform_muscle() if mesh is None else mesh
+    x0, length = mesh.p[0].min(), np.ptp(mesh.p[0])
+    tendon = mesh.p[1, np.isclose(mesh.p[0], x0 + length)]
+    if not with_fibers:
+        fibers = None
+    elif fibers is None:
+        fibers = fusiform_fiber_field(mesh)
+    pulled = Handle("right_tendon")
+    material = _material(None, stiffness, base, fibers)
+    problem = QuasistaticProblem(mesh, material, handles=[Handle("left_tendon"), pulled])
+    return _ramp(problem, pulled, lambda s: ((s - 1.0) * length, 0.0), stretches, "right_tendon",
+                 float(np.ptp(tendon)), rtol)
