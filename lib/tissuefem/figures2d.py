@@ -1,3 +1,291 @@
-"""Figures of chapters 3 and 4 (2D kinematics, linear elasticity, Neo-Hookean quasistatics)."""
+"""Figures of chapters 3 and 4 (2D kinematics, linear elasticity, Neo-Hookean quasistatics).
 
-from .figures import register, save  # noqa: F401
+* ``fig02_kinematics``: the notes' Figure 2, a reference mesh and its image
+  under a deformation, a material point carried from X to x = phi(X), and the
+  deformation gradient acting on small material vectors.
+* ``fig_ch03_rotation_stress``: a rigid rotation costs energy and stress in
+  linear elasticity but not in the Neo-Hookean model; a block turned at one
+  edge grows under linear elasticity.
+* ``fig_ch04_block``: the tissue block stretched and sheared by its handles,
+  coloured by J and by the energy density.
+* ``fig_ch04_cost_accuracy``: error against solve time, P1 against P2, with
+  the 33 ms frame budget.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from matplotlib.collections import LineCollection
+from matplotlib.colors import TwoSlopeNorm
+from matplotlib.figure import Figure
+from matplotlib.patches import FancyArrowPatch
+from matplotlib.tri import Triangulation
+
+from .figures import E_DEFAULT, NU_DEFAULT, register, save
+
+#: one frame at 30 frames per second, in milliseconds
+FRAME_BUDGET_MS = 1000.0 / 30.0
+_LABEL_BOX = dict(boxstyle="round,pad=0.12", fc="white", ec="none", alpha=0.8)
+
+
+def _mapped_edges(mesh, phi, samples: int = 12) -> np.ndarray:
+    """Every mesh edge sampled at ``samples`` points and mapped by ``phi``: segments (n_edges, samples, 2)."""
+    s = np.linspace(0.0, 1.0, samples)
+    a, b = mesh.p[:, mesh.facets[0]], mesh.p[:, mesh.facets[1]]  # (2, n_edges)
+    pts = a[:, :, None] + (b - a)[:, :, None] * s  # (2, n_edges, samples)
+    x = phi(pts.reshape(2, -1)).reshape(pts.shape)
+    return np.moveaxis(x, 0, -1)
+
+
+def _boundary_loop(nx: int, ny: int) -> np.ndarray:
+    """Node indices around the boundary of a structured :func:`~tissuefem.meshes.rectangle`, closed."""
+    row = nx + 1
+    bottom = np.arange(nx + 1)
+    right = nx + row * np.arange(1, ny + 1)
+    top = ny * row + np.arange(nx - 1, -1, -1)
+    left = row * np.arange(ny - 1, -1, -1)
+    return np.concatenate([bottom, right, top, left])
+
+
+def _outline(width, height, samples: int = 60) -> np.ndarray:
+    """The boundary of ``[0, width] x [0, height]`` as a closed polyline (2, m), counter-clockwise."""
+    s = np.linspace(0.0, 1.0, samples, endpoint=False)
+    return np.hstack([
+        np.stack([s * width, 0 * s]), np.stack([width + 0 * s, s * height]),
+        np.stack([width * (1 - s), height + 0 * s]), np.stack([0 * s, height * (1 - s)]), [[0.0], [0.0]],
+    ])
+
+
+# --- chapter 3 / notes Figure 2 -------------------------------------------------
+
+@register
+def fig02_kinematics(path=None) -> Figure:
+    """Notes' Figure 2: reference and deformed mesh, a point X carried to x = phi(X), and F acting on dX.
+
+    The block B0 = [0, 2] x [0, 1] is bent into an arch by
+    :func:`tissuefem.studies.bending_map`. Every edge of the reference mesh is
+    drawn, and so is its exact image (curved). The grey arrow is the
+    displacement u(X) = phi(X) - X of one material point; the coloured arrows
+    are two short material vectors dX at X and their images dx = F dX at x:
+    the columns of F = d phi / d X are the images of the unit vectors.
+    """
+    from .meshes import rectangle
+    from .studies import bending_gradient, bending_map
+
+    mesh = rectangle(2.0, 1.0, 8, 4)
+    fig = Figure(figsize=(9.0, 3.9), layout="constrained")
+    ax = fig.subplots()
+    identity = lambda X: X  # noqa: E731
+    for phi, color, fill in ((identity, "C0", "#dbe8f5"), (bending_map, "C1", "#fbe3cc")):
+        edges = _mapped_edges(mesh, phi)
+        boundary = phi(_outline(2.0, 1.0))
+        ax.fill(boundary[0], boundary[1], color=fill, zorder=0)
+        ax.add_collection(LineCollection(edges, colors=color, linewidths=0.8, zorder=1))
+        ax.plot(boundary[0], boundary[1], color=color, lw=1.6, zorder=1)
+
+    X0 = np.array([1.25, 0.3])
+    x0 = bending_map(X0)
+    F0 = bending_gradient(X0)
+    ax.annotate("", xy=x0, xytext=X0, zorder=4,
+                arrowprops=dict(arrowstyle="-|>", color="0.35", lw=1.3, ls="--", shrinkA=4, shrinkB=4))
+    mid = 0.5 * (X0 + x0)
+    ax.text(mid[0] + 0.1, mid[1] - 0.1, "$\\mathbf{u}(\\mathbf{X}) = \\phi(\\mathbf{X}) - \\mathbf{X}$",
+            ha="center", va="top", fontsize=10, color="0.25", bbox=_LABEL_BOX)
+    # the map itself, from body to body
+    ax.add_patch(FancyArrowPatch((1.5, 1.2), (3.3, 1.55), connectionstyle="arc3,rad=-0.3",
+                                 arrowstyle="-|>", mutation_scale=18, lw=1.6, color="k", zorder=4))
+    ax.text(2.35, 1.72, "$\\phi(\\cdot, t)$", ha="center", fontsize=13)
+
+    scale = 0.45
+    offsets = {0: (np.array([0.08, -0.1]), np.array([0.12, -0.1])), 1: (np.array([-0.2, 0.02]), np.array([-0.25, 0.02]))}
+    for j, (color, name) in enumerate((("C3", "1"), ("C2", "2"))):
+        e = np.eye(2)[:, j]
+        dx = scale * F0 @ e
+        for start, vec, text, offset in ((X0, scale * e, f"$d\\mathbf{{X}}_{name}$", offsets[j][0]),
+                                         (x0, dx, f"$\\mathbf{{F}}\\,d\\mathbf{{X}}_{name}$", offsets[j][1])):
+            ax.annotate("", xy=start + vec, xytext=start, zorder=5,
+                        arrowprops=dict(arrowstyle="-|>", color=color, lw=2.0, shrinkA=0, shrinkB=0))
+            ax.text(*(start + vec + offset), text, color=color, fontsize=10, ha="center", va="center",
+                    bbox=_LABEL_BOX, zorder=6)
+    ax.plot(*X0, "ko", ms=5, zorder=6)
+    ax.plot(*x0, "ko", ms=5, zorder=6)
+    ax.text(X0[0] - 0.06, X0[1] - 0.05, "$\\mathbf{X}$", ha="right", va="top", fontsize=12, zorder=6,
+            bbox=_LABEL_BOX)
+    ax.text(x0[0] - 0.06, x0[1] - 0.06, "$\\mathbf{x} = \\phi(\\mathbf{X})$", ha="right", va="top",
+            fontsize=12, zorder=6, bbox=_LABEL_BOX)
+    ax.text(1.0, -0.1, "reference (material) configuration $B_0 = \\{\\mathbf{X}\\}$", ha="center", va="top",
+            fontsize=10, color="C0")
+    low = bending_map(np.array([[0.0, 1.0], [0.0, 0.0]]))  # a bottom corner and the bottom middle
+    ax.text(low[0, 1], low[1, 0] - 0.08, "deformed (current) configuration $B_t = \\{\\mathbf{x}\\}$", ha="center",
+            va="top", fontsize=10, color="C1")
+    ax.set_aspect("equal")
+    ax.set(xlim=(-0.25, 6.0), ylim=(-0.3, 1.9), xlabel="$X_1$, $x_1$", ylabel="$X_2$, $x_2$")
+    ax.set_title("Notes' Figure 2: $\\phi$ carries $\\mathbf{X}$ to $\\mathbf{x}$; "
+                 "$F_{ij} = \\partial\\phi_i/\\partial X_j$ carries $d\\mathbf{X}$ to $d\\mathbf{x} = \\mathbf{F}\\,d\\mathbf{X}$")
+    save(fig, path)
+    return fig
+
+
+# --- chapter 3: rigid rotations ---------------------------------------------------
+
+def _deformed_area(problem, u) -> float:
+    x = problem.deformed_positions(u)
+    t = problem.mesh.t
+    a, b, c = x[:, t[0]], x[:, t[1]], x[:, t[2]]
+    return float(0.5 * np.sum((b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1])))
+
+
+@register
+def fig_ch03_rotation_stress(path=None) -> Figure:
+    """Chapter 3: a rigid rotation stresses linear elasticity, not Neo-Hookean; a turned block grows.
+
+    Left and middle: energy density and stress norm |P| at F = R(theta) for
+    0 <= theta <= 180 degrees (E = 1000, nu = 0.3). Right: a unit block whose
+    left edge is clamped to a wall turned by 60 degrees (other edges free), at
+    equilibrium: the Neo-Hookean block turns rigidly, the linear-elastic one is
+    strained and its area grows.
+    """
+    from .materials import LinearElastic, NeoHookean
+    from .studies import rigid_rotation_response, rotated_block, rotation
+
+    linear = LinearElastic.from_young(E_DEFAULT, NU_DEFAULT)
+    neo = NeoHookean.from_young(E_DEFAULT, NU_DEFAULT)
+    deg = np.linspace(0.0, 180.0, 181)
+    fig = Figure(figsize=(12.0, 4.3), layout="constrained")
+    ax_e, ax_p, ax_b = fig.subplots(1, 3, width_ratios=[1, 1, 1.15])
+    for material, color, label in ((linear, "C3", "linear elasticity"), (neo, "C0", "Neo-Hookean")):
+        resp = rigid_rotation_response(material, np.radians(deg))
+        ax_e.plot(deg, resp["energy"], color=color, lw=2, label=label)
+        ax_p.plot(deg, resp["stress_norm"], color=color, lw=2, label=label)
+    lam, mu = linear.lam, linear.mu
+    ax_e.plot(deg[::15], 2 * (lam + mu) * (1 - np.cos(np.radians(deg[::15]))) ** 2, "k.", ms=5,
+              label="$2(\\lambda+\\mu)(1-\\cos\\theta)^2$")
+    ax_e.set(xlabel="rotation angle $\\theta$ [degrees]", ylabel="energy density $\\Psi(\\mathbf{R}_\\theta)$",
+             title="energy of a rigid rotation")
+    ax_p.set(xlabel="rotation angle $\\theta$ [degrees]", ylabel="$|\\mathbf{P}(\\mathbf{R}_\\theta)|$",
+             title="stress of a rigid rotation")
+    for ax in (ax_e, ax_p):
+        ax.set_xticks(np.arange(0, 181, 30))
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8, loc="upper left")
+
+    theta = np.radians(60.0)
+    outline = _outline(1.0, 1.0)
+    ax_b.plot(outline[0], outline[1], color="0.5", ls="--", lw=1, label="reference block")
+    for material, color, name in ((linear, "C3", "linear"), (neo, "C0", "Neo-Hookean")):
+        problem, result = rotated_block(material, theta, n=8)
+        x = problem.deformed_positions(result.u)
+        loop = x[:, _boundary_loop(8, 8)]
+        tri = Triangulation(x[0], x[1], problem.mesh.t.T)
+        ratio = _deformed_area(problem, result.u)  # the reference area is 1
+        energy = abs(problem.strain_energy(result.u))
+        ax_b.fill(loop[0], loop[1], color=color, alpha=0.15, lw=0)
+        ax_b.triplot(tri, color=color, lw=0.3, alpha=0.6)
+        ax_b.plot(loop[0], loop[1], color=color, lw=1.8,
+                  label=f"{name}: area $\\times${ratio:.2f}, energy {energy:.2g}")
+    wall = np.array([[0.0, 0.0], [-0.6, 0.6]])
+    w = rotation(theta) @ wall + [[0.0], [0.5]]
+    ax_b.plot(w[0], w[1], color="k", lw=3.5, solid_capstyle="butt", label="clamped edge, turned by 60°")
+    ax_b.set_aspect("equal")
+    ax_b.set(xlim=(-0.7, 1.6), ylim=(-0.1, 2.6), xlabel="$x_1$", ylabel="$x_2$",
+             title="equilibrium of a block turned at its left edge")
+    ax_b.legend(fontsize=7.5, loc="upper left")
+    fig.suptitle(f"Linear elasticity is not frame indifferent (E = {E_DEFAULT:g}, $\\nu$ = {NU_DEFAULT:g})")
+    save(fig, path)
+    return fig
+
+
+# --- chapter 4: the block ------------------------------------------------------------
+
+@register
+def fig_ch04_block(path=None) -> Figure:
+    """Chapter 4: the Neo-Hookean block stretched and sheared by its handles, coloured by J and by Psi.
+
+    Block [0, 2] x [0, 1], 24 x 12 cells (P1), E = 1000, nu = 0.3; left edge
+    fixed, right edge moved by (0.6, 0.4) (one load step). Colours are per
+    triangle: the area ratio J = det F (white = no change of area) and the
+    energy density Psi. The dashed outline is the reference block.
+    """
+    from .assembly import P1Assembler
+    from .materials import NeoHookean
+    from .studies import BLOCK_HANDLE, block_problem
+
+    material = NeoHookean.from_young(E_DEFAULT, NU_DEFAULT)
+    problem = block_problem(n=12, order=1, material=material)
+    result = problem.solve()
+    F = P1Assembler(problem.mesh).deformation_gradient(result.u)
+    J = F[0, 0] * F[1, 1] - F[0, 1] * F[1, 0]
+    psi = material.energy(F)
+    x = problem.deformed_positions(result.u)
+    tri = Triangulation(x[0], x[1], problem.mesh.t.T)
+    outline = _outline(2.0, 1.0)
+
+    fig = Figure(figsize=(11.0, 3.9), layout="constrained")
+    axes = fig.subplots(1, 2)
+    spread = max(abs(J.max() - 1.0), abs(1.0 - J.min()))
+    panels = [
+        (J, "RdBu_r", TwoSlopeNorm(1.0, 1.0 - spread, 1.0 + spread), "$J = \\det \\mathbf{F}$ (area ratio)"),
+        (psi, "viridis", None, "energy density $\\Psi$"),
+    ]
+    for ax, (values, cmap, norm, label) in zip(axes, panels):
+        art = ax.tripcolor(tri, facecolors=values, cmap=cmap, norm=norm, edgecolors="face", lw=0.1)
+        ax.triplot(tri, color="k", lw=0.15, alpha=0.5)
+        ax.plot(outline[0], outline[1], color="0.4", ls="--", lw=1)
+        ax.plot([0.0, 0.0], [0.0, 1.0], color="k", lw=4, solid_capstyle="butt")
+        ax.plot([2.0 + BLOCK_HANDLE[0]] * 2, [BLOCK_HANDLE[1], 1.0 + BLOCK_HANDLE[1]], color="C1", lw=4,
+                solid_capstyle="butt")
+        ax.text(-0.06, 0.5, "fixed", rotation=90, ha="right", va="center", fontsize=9)
+        ax.annotate("", xy=(2.0 + BLOCK_HANDLE[0], 0.5 + BLOCK_HANDLE[1]), xytext=(2.0, 0.5),
+                    arrowprops=dict(arrowstyle="-|>", color="k", lw=1.5))
+        ax.text(2.0 + 0.5 * BLOCK_HANDLE[0] + 0.05, 0.5 + 0.5 * BLOCK_HANDLE[1] - 0.05,
+                f"handle\n{tuple(BLOCK_HANDLE)}", fontsize=8, va="top", bbox=_LABEL_BOX)
+        ax.set_aspect("equal")
+        ax.set(xlim=(-0.25, 2.9), ylim=(-0.15, 1.55), xlabel="$x_1$", ylabel="$x_2$", title=label)
+        fig.colorbar(art, ax=ax, shrink=0.8)
+    fig.suptitle(f"Neo-Hookean block (E = {E_DEFAULT:g}, $\\nu$ = {NU_DEFAULT:g}), {problem.mesh.t.shape[1]} P1 "
+                 f"triangles, left edge fixed, right edge moved by {tuple(BLOCK_HANDLE)}")
+    save(fig, path)
+    return fig
+
+
+# --- chapter 4: what accuracy costs -----------------------------------------------------
+
+@register
+def fig_ch04_cost_accuracy(path=None, rows=None) -> Figure:
+    """Chapter 4: L2 displacement error against solve time, P1 against P2, with the 33 ms frame budget.
+
+    ``rows`` from :func:`tissuefem.studies.cost_accuracy_study`; by default the
+    recorded run :data:`tissuefem.studies.RECORDED_COST_ACCURACY` (so that the
+    lecture figure is deterministic). Left: the whole quasistatic solve from
+    rest; right: one Newton iteration at the solution, the
+    least a warm-started real-time frame needs. Labels give the dof counts.
+    """
+    from .studies import RECORDED_COST_ACCURACY
+
+    source = "recorded run" if rows is None else "this run"
+    rows = RECORDED_COST_ACCURACY if rows is None else list(rows)
+    fig = Figure(figsize=(11.0, 4.4), layout="constrained")
+    axes = fig.subplots(1, 2, sharey=True)
+    for ax, key, title in ((axes[0], "solve_ms", "whole solve from rest"),
+                           (axes[1], "iteration_ms", "one Newton iteration")):
+        for order, color, marker in ((1, "C0", "o"), (2, "C1", "s")):
+            sel = [r for r in rows if r["order"] == order]
+            if not sel:
+                continue
+            t = np.array([r[key] for r in sel])
+            e = np.array([r["L2"] for r in sel])
+            ax.loglog(t, e, marker=marker, color=color, lw=1.5, label=f"P{order}")
+            for r, ti, ei in zip(sel, t, e):
+                ax.annotate(f"{r['dofs']}", (ti, ei), textcoords="offset points", xytext=(5, 4 if order == 1 else -10),
+                            fontsize=7, color=color)
+        times = [r[key] for r in rows] + [FRAME_BUDGET_MS]
+        lo, hi = 0.5 * min(times), 3.0 * max(times)
+        ax.axvline(FRAME_BUDGET_MS, color="C3", lw=1.5, ls="--", label="33 ms: one frame at 30 Hz")
+        ax.axvspan(FRAME_BUDGET_MS, hi, color="C3", alpha=0.06)
+        ax.set(xlabel="wall time [ms]", title=title, xlim=(lo, hi))
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=8, loc="lower left")
+    axes[0].set_ylabel("relative $L^2$ error of the displacement")
+    fig.suptitle(f"What accuracy costs: Neo-Hookean block, error against time ({source}; labels: dofs)")
+    save(fig, path)
+    return fig

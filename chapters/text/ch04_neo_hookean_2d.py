@@ -1,0 +1,271 @@
+# ---
+# jupyter:
+#   jupytext:
+#     formats: ipynb,text//py:percent
+#     text_representation:
+#       extension: .py
+#       format_name: percent
+#   kernelspec:
+#     display_name: Python 3
+#     language: python
+#     name: python3
+# ---
+
+# %% [markdown]
+# # Chapter 4 — 2D Neo-Hookean quasistatics
+#
+# **Goals.**
+# 1. Write the 2D Neo-Hookean energy (with the correct $\mathbf F:\mathbf F$ term), its stress
+#    $\mathbf P$ and its tangent, and check them by finite differences.
+# 2. Read the residual and the tangent of the notes' weak form as scikit-fem forms.
+# 3. Stretch and shear a block of tissue with two handles; read Newton's convergence table; use
+#    load stepping; compute the force on a handle.
+# 4. Measure how the error falls as the mesh is refined, P1 against P2 — and what each costs in
+#    time against the 33 ms of a frame. This is the workbook's first data on *what accuracy costs*.
+#
+# *Reading:* the notes' "Elasticity and constitutive modeling" (Neo-Hookean part) and
+# "Equilibrium and weak form".
+
+# %%
+# %matplotlib inline
+import numpy as np
+from skfem import asm
+
+from tissuefem.assembly import P1Assembler
+from tissuefem.figures2d import fig_ch04_block, fig_ch04_cost_accuracy
+from tissuefem.forms import residual_form, tangent_form
+from tissuefem.materials import LinearElastic, NeoHookean
+from tissuefem.meshes import rectangle
+from tissuefem.quasistatic import Handle, QuasistaticProblem
+from tissuefem.studies import cost_accuracy_study, format_cost_accuracy, handle_force
+
+material = NeoHookean.from_young(1000.0, 0.3)        # E = 1000, nu = 0.3: the notes' typical values
+lam, mu = material.lam, material.mu
+
+# %% [markdown]
+# ## 1. The model
+#
+# The notes' Neo-Hookean energy density, with $J = \det\mathbf F$, is
+#
+# $$ \Psi(\mathbf F) = \frac{\mu}{2}\left(\mathbf F:\mathbf F - 2\right) - \mu \ln J + \frac{\lambda}{2} (\ln J)^2 ,
+#    \qquad \mathbf F:\mathbf F = F_{ij}F_{ij} . $$
+#
+# (The notes print $F_{ij}F_{ji}$, which is not frame indifferent — erratum 3, shown in
+# chapter 3. The $-2$ is the dimension: it makes $\Psi(\mathbf I) = 0$.) Two derivatives do all
+# the work: $\partial(\mathbf F:\mathbf F)/\partial\mathbf F = 2\mathbf F$, and
+# $\partial J/\partial\mathbf F = \operatorname{cof}\mathbf F = J\mathbf F^{-T}$, in 2D
+# $\operatorname{cof}\mathbf F = \begin{bmatrix} F_{22} & -F_{21}\\ -F_{12} & F_{11}\end{bmatrix}$. Hence
+#
+# $$ \mathbf P = \frac{\partial\Psi}{\partial\mathbf F} = \mu\mathbf F + (\lambda\ln J - \mu)\,\mathbf F^{-T}, $$
+#
+# the notes' formula (it reads the same in both index conventions). Newton also needs the tangent
+# $\mathbb A_{ijkl} = \partial P_{ij}/\partial F_{kl}$. Writing the volumetric part as
+# $h(J) = -\mu\ln J + \frac\lambda2(\ln J)^2$, so that $\mathbf P = \mu\mathbf F + h'(J)\operatorname{cof}\mathbf F$,
+#
+# $$ \mathbb A = \mu\,\delta_{ik}\delta_{jl} + h''(J)\,(\operatorname{cof}\mathbf F)_{ij}(\operatorname{cof}\mathbf F)_{kl}
+#    + h'(J)\,\frac{\partial(\operatorname{cof}\mathbf F)_{ij}}{\partial F_{kl}},
+#    \qquad h' = \frac{\lambda\ln J - \mu}{J},\quad h'' = \frac{\lambda + \mu - \lambda\ln J}{J^2}, $$
+#
+# and the last derivative is a constant (cof F is linear in F in 2D). `tissuefem.materials.NeoHookean`
+# implements all three; the module's docstring has the derivation. We never trust a derivative we
+# have not checked:
+
+# %%
+rng = np.random.default_rng(4)
+F = np.eye(2) + 0.3 * rng.standard_normal((2, 2))
+print("J =", np.linalg.det(F).round(4))
+h = 1e-6
+P_fd, A_fd = np.zeros((2, 2)), np.zeros((2, 2, 2, 2))
+for k in range(2):
+    for l in range(2):
+        dF = np.zeros((2, 2))
+        dF[k, l] = h
+        P_fd[k, l] = (material.energy(F + dF) - material.energy(F - dF)) / (2 * h)
+        A_fd[:, :, k, l] = (material.stress(F + dF) - material.stress(F - dF)) / (2 * h)
+print("largest |P - dPsi/dF| / |P| =", (np.abs(material.stress(F) - P_fd).max() / np.abs(P_fd).max()).round(10))
+print("largest |A - dP/dF|   / |A| =", (np.abs(material.tangent(F) - A_fd).max() / np.abs(A_fd).max()).round(10))
+I = np.eye(2)
+print("tangent at F = I equals the linear-elastic one:",
+      np.allclose(material.tangent(I), LinearElastic(lam, mu).tangent(I)))
+
+# %% [markdown]
+# The last line is why $\lambda$ and $\mu$ "can be set as in linear elasticity", as the notes say:
+# for small strains the Neo-Hookean model *is* linear elasticity.
+#
+# ## 2. The weak form as scikit-fem forms
+#
+# The notes' weak form of $-\nabla_{\mathbf X}\cdot\mathbf P = \mathbf f^{\text{ext}}$ is
+# $\int_{B_0} w_{i,j} P_{ij}\, d\mathbf X = \int_{\partial B_0} w_i P_{ij} n_j \, dS + \int_{B_0} w_i f^{\text{ext}}_i \, d\mathbf X$.
+# With vector shape functions $\mathbf v_a$ for both $\mathbf u$ and $\mathbf w$, the discrete
+# equations are $\mathbf q(\mathbf u) = \mathbf f^{\text{ext}}$ with the internal force and its
+# derivative
+#
+# $$ q_a(\mathbf u) = \int_{B_0} \nabla\mathbf v_a : \mathbf P(\mathbf F)\, d\mathbf X, \qquad
+#    K_{ab} = \frac{\partial q_a}{\partial u_b} = \int_{B_0} \nabla\mathbf v_a : \mathbb A(\mathbf F) : \nabla\mathbf v_b \, d\mathbf X,
+#    \qquad \mathbf F = \mathbf I + \nabla\mathbf u . $$
+#
+# `tissuefem.forms` writes them the way they read:
+#
+# ```python
+# @LinearForm
+# def residual(v, w):
+#     F = deformation_gradient(w["u"])                       # I + grad u at the quadrature points
+#     return ddot(material.stress(F), grad(v))              # P : grad v
+#
+# @BilinearForm
+# def tangent(du, v, w):
+#     F = deformation_gradient(w["u"])
+#     dP = np.einsum("ijkl...,kl...->ij...", material.tangent(F), grad(du))   # A : grad du
+#     return ddot(dP, grad(v))
+# ```
+#
+# These forms are the readable reference. On P1 triangles $\mathbf F$ is constant per element and
+# `P1Assembler` computes the same sums without calling a form per pair of basis functions
+# (chapter 3 used its `deformation_gradient`); both must agree to round-off:
+
+# %%
+mesh = rectangle(2.0, 1.0, 16, 8)
+problem = QuasistaticProblem(mesh, material, handles=[Handle("left")], assembly="forms")
+u = 0.005 * rng.standard_normal(problem.basis.N)            # small enough to keep J > 0
+uh = problem.basis.interpolate(u)
+q_forms, K_forms = asm(residual_form(material), problem.basis, u=uh), asm(tangent_form(material), problem.basis, u=uh)
+fast = P1Assembler(mesh, material)
+print("largest |q_fast - q_forms| =", np.abs(fast.residual(u) - q_forms).max())
+print("largest |K_fast - K_forms| =", np.abs(fast.tangent(u) - K_forms).max())
+
+# %% [markdown]
+# ## 3. A block of tissue, stretched and sheared by handles
+#
+# A $2 \times 1$ block (think of a strip of skin, in plane strain) is held at its left edge; a
+# handle grabs the right edge and moves it by $(0.6, 0.4)$: a 30 % stretch and a shear. A
+# `Handle` is a set of material points with a target; `QuasistaticProblem` eliminates the
+# prescribed dofs and runs Newton on the rest. (`tissuefem.studies.block_problem` builds the
+# same problem for the study in section 5.)
+
+# %%
+mesh = rectangle(2.0, 1.0, 24, 12)
+problem = QuasistaticProblem(mesh, material, handles=[Handle("left"), Handle("right", (0.6, 0.4))])
+result = problem.solve()
+print(f"converged: {result.converged} in {result.newton_iterations} Newton iterations, "
+      f"{mesh.t.shape[1]} triangles, {problem.basis.N} dofs")
+print(result.steps[-1].table())
+
+# %% [markdown]
+# The residual falls $22 \to 1 \to 2\cdot 10^{-3} \to 2\cdot 10^{-8}$: the number of correct
+# digits doubles every iteration, and the last column $\|q_{k+1}\|/\|q_k\|^2$ stays roughly
+# constant — quadratic convergence, as in chapter 2, now with $\approx 600$ unknowns. (The solver
+# starts from a *predictor*: one linearised step that moves the free nodes along with the handle,
+# which is why three iterations suffice.)
+#
+# The force the handles exert on the block follows from the internal forces at their dofs (at
+# equilibrium, nothing else balances them there). The two forces are equal and opposite:
+
+# %%
+for edge in ("right", "left"):
+    print(f"force of the {edge:5s} handle on the block: {handle_force(problem, result.u, edge).round(2)}")
+
+# %%
+fig_ch04_block()
+
+# %% [markdown]
+# The area grows everywhere ($J > 1$: with $\nu = 0.3$ the block thins less than it stretches),
+# most near the corners of the handle. The energy density peaks at the four corners where a held
+# edge meets a free one; there the exact solution is *singular* (its gradient blows up like a
+# power of the distance to the corner). Keep that in mind for section 5.
+#
+# ## 4. Load stepping
+#
+# Ramping the handle in $n$ steps (each solved by Newton, warm-started from the previous one) costs
+# iterations:
+
+# %%
+for steps in (1, 2, 4, 8):
+    r = problem.solve(load_steps=steps)
+    print(f"{steps} load step(s): converged {r.converged}, Newton iterations per step {[s.iterations for s in r.steps]}")
+
+# %% [markdown]
+# With the predictor, this block needs no ramp at all: one step takes 3 iterations, eight take 16.
+# Load stepping buys robustness for harder loads (chapter 2's compressed bar) and gives the
+# intermediate states, but every step costs at least one factorization. A real-time simulator does
+# something similar for free: each frame starts from the previous frame's solution and the
+# handle has moved only a little, so a frame is "one load step" of 1–3 iterations.
+#
+# ## 5. What accuracy costs: P1 against P2
+#
+# How fine must the mesh be, and is it better to refine or to raise the polynomial order? We
+# solve the block on a sequence of meshes with P1 and with P2 elements and compare each solution
+# with a **reference**: P2 on a mesh several times finer than any in the sweep. The error
+# measure is the relative $L^2$ norm of the displacement error,
+#
+# $$ e = \frac{\|\mathbf u_h - \mathbf u_{\text{ref}}\|_{L^2(B_0)}}{\|\mathbf u_{\text{ref}}\|_{L^2(B_0)}} , $$
+#
+# integrated by quadrature on the coarse mesh, with $\mathbf u_{\text{ref}}$ evaluated at the
+# coarse mesh's quadrature points (scikit-fem locates the points in the fine mesh). It is
+# well defined for any pair of meshes, needs no node to coincide, and measures the whole field.
+# As a cross-check the study also reports the relative error in the stored energy $\int\Psi\,dX$.
+#
+# The time is the wall time of the whole solve from rest (`time.perf_counter`, median of a few
+# repeats), and, separately, of one Newton iteration at the solution (residual, tangent, sparse
+# factorization and solve) — the least a frame can do. P1 uses the fast `P1Assembler`; P2 uses
+# `tissuefem.studies.QuadratureAssembler`, the same vectorised idea over all quadrature points,
+# so that both orders are timed with the same kind of assembly.
+#
+# The sizes below are modest to keep the notebook quick; the study takes any sizes. (Timings
+# depend on the machine and on what else it is doing: read them, compare within one run.)
+
+# %%
+rows = cost_accuracy_study(p1_sizes=(2, 4, 8, 16), p2_sizes=(1, 2, 4, 8), reference_size=32, repeats=5)
+print(format_cost_accuracy(rows))
+
+# %%
+fig_ch04_cost_accuracy(rows=rows)
+
+# %% [markdown]
+# How to read this (the numbers quoted are from the recorded run of the lecture figure, below;
+# yours will differ in the timings, not in the errors):
+#
+# - **Rates.** P1 converges at about $h^{1.65}$ and P2 at about $h^{1.7}$–$h^{2}$ in $L^2$, not the
+#   $h^2$ and $h^3$ of chapter 1's smooth bar: the corner singularities seen in the block figure
+#   limit both orders alike, and P2's advantage is a better constant, not a better rate. (In this
+#   notebook the reference is P2 on $n = 32$; its own error, about a tenth of the finest P2 error
+#   in the sweep, pulls the last P2 rate down a little.)
+# - **At equal dofs** P2 is 2 to 2.6 times more accurate (a P2 mesh with cell size $h$ has the
+#   dofs of P1 at $h/2$), but each P2 Newton iteration costs more — up to about twice as much in
+#   the recorded run: a P2 row couples to more unknowns, so the matrix has more nonzeros and its
+#   factorization fills in more.
+# - **At equal time** the two orders are close on the smallest meshes, where fixed costs dominate;
+#   from about 10 ms on, P2 is ahead, by a factor of about 2 in error at 70 ms.
+# - **Against the frame budget.** Solved from rest (predictor plus three Newton iterations), about
+#   a thousand dofs fit in 33 ms, with an error near $10^{-3}$ (P1) or $4\cdot 10^{-4}$ (P2). One
+#   Newton iteration stays under 33 ms for all the meshes here (17 ms at 4290 dofs for P2), but its
+#   cost grows faster than the dofs: beyond a few thousand dofs the sparse factorization dominates.
+#   Real time therefore hinges on warm starts (a frame is one small load step) and on the linear
+#   solver — the subject of the later chapters on time stepping and real time.
+#
+# The lecture figure plots that recorded run, with larger meshes (up to 4290 dofs for both
+# orders, against a P2 reference with 66306 dofs), from `tissuefem.studies.RECORDED_COST_ACCURACY`;
+# `python -m tissuefem figures --only fig_ch04_cost_accuracy` redraws it:
+
+# %%
+fig_ch04_cost_accuracy()
+
+# %% [markdown]
+# ## What to try
+# - Move the handle by $(1.2, 0.8)$, or push it left by $0.8$: how many iterations, with and
+#   without load stepping?
+# - Repeat the study with $\nu = 0.45$ (`material=NeoHookean.from_young(1000, 0.45)`): nearly
+#   incompressible material makes P1 triangles *lock* (too stiff). Which order suffers more?
+# - Time P1 with the readable forms (`block_problem(n, assembly="forms")`) against the fast path:
+#   what does vectorised assembly buy, and from which mesh size on does the linear solve dominate?
+# - Use the handle force instead of the $L^2$ error as the measure of accuracy: does it converge
+#   faster or slower?
+#
+# ## Exercises (graded by pytest)
+# In `exercises/ch04.py`:
+# - **4.1** `neo_hookean_energy_2d(F, lam, mu)` — $\Psi$ of one 2×2 $\mathbf F$;
+# - **4.2** `neo_hookean_stress_2d(F, lam, mu)` — $\mathbf P$ of one 2×2 $\mathbf F$;
+# - **4.3** `element_forces_p1(X_nodes, x_nodes, lam, mu)` — the internal forces on the three
+#   vertices of one linear triangle, $f_{ia} = A\, P_{ij}\, \partial N_a/\partial X_j$ (area $A$):
+#   the triangle's share of $q$, and the gradient of its energy $A\,\Psi(\mathbf F)$.
+#
+# Grade: `python -m tissuefem grade ch04`.
