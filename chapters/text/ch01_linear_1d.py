@@ -24,6 +24,7 @@
 # *Reading:* Teran's notes, sections "Equilibrium and weak form" and "1D elasticity".
 
 # %%
+# %matplotlib inline
 import numpy as np
 import matplotlib.pyplot as plt
 

@@ -24,6 +24,7 @@
 # *Reading:* the notes' "1D elasticity" (second half) and "Inversion".
 
 # %%
+# %matplotlib inline
 import numpy as np
 import matplotlib.pyplot as plt
 

@@ -131,6 +131,7 @@ def newton_solve(
         return NewtonResult(x, False, "non-finite", 0, rnorm, history)
     target = atol + rtol * max(rnorm, float(reference_norm))
     e_cur = float(energy(x)) if energy is not None else None
+    e_scale = abs(e_cur) if e_cur is not None else 0.0  # grows with the largest |E| and |slope| seen
 
     for k in range(max_iter):
         if rnorm <= target:
@@ -147,6 +148,8 @@ def newton_solve(
 
         alpha = 1.0
         slope = float(r[free] @ dx_free)  # directional derivative of the energy
+        if e_cur is not None:
+            e_scale = max(e_scale, abs(e_cur), abs(slope))
         for _ in range(max_halvings + 1):
             x_new = x + alpha * dx
             r_new = np.asarray(residual(x_new), dtype=float)
@@ -158,11 +161,14 @@ def newton_solve(
                     break
             else:
                 e_new = float(energy(x_new))
-                # Armijo sufficient decrease; the tiny slack absorbs round-off at convergence.
-                if np.isfinite(e_new) and np.isfinite(rn_new) and (
-                    e_new <= e_cur + 1e-4 * alpha * min(slope, 0.0) + 1e-12 * abs(e_cur)
-                ):
-                    break
+                if np.isfinite(e_new) and np.isfinite(rn_new):
+                    # Armijo sufficient decrease ...
+                    if e_new <= e_cur + 1e-4 * alpha * min(slope, 0.0):
+                        break
+                    # ... or, once energy differences are down at round-off (relative to the
+                    # energy scale of this solve), a step that still lowers the residual.
+                    if e_new - e_cur <= 1e-11 * e_scale and rn_new < rnorm:
+                        break
             alpha *= 0.5
         else:
             return NewtonResult(x, False, "line-search-failed", k, rnorm, history)

@@ -196,9 +196,7 @@ def rotated_block(material: Material, theta, n: int = 8, width: float = 1.0, hei
     for k in range(1, steps + 1):
         Rk = rotation(theta * k / steps)
         handle.move(lambda X, Rk=Rk: pivot + Rk @ (X - pivot))
-        # (the energy line search cannot work here: the energy at the solution is 0 up to
-        # round-off, so near convergence no step can show a decrease it could trust)
-        result = problem.solve(u0=u, line_search="finite")
+        result = problem.solve(u0=u)
         history += result.steps
         if not result.converged:
             break
