@@ -26,7 +26,6 @@ Loads and handle displacements are ramped together over ``load_steps``
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable
 
 import numpy as np
 import scipy.sparse as sp

@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import math
 import numbers
-import time
 
 import numpy as np
 import scipy.sparse as sp
@@ -36,6 +35,7 @@ from skfem import Basis, ElementVector
 
 from .materials import LinearElastic, Material, NeoHookean
 from .meshes import rectangle
+from .bench import median_time
 from .parameters import lame_parameters
 from .quasistatic import Handle, QuasistaticProblem, QuasistaticResult
 
@@ -357,17 +357,6 @@ def relative_l2_error(problem: QuasistaticProblem, u, reference: QuasistaticProb
     return float(np.sqrt(err / norm))
 
 
-def _median_ms(fn, repeats: int) -> float:
-    """Median wall time of ``fn()`` in ms over ``repeats`` calls, after one untimed warm-up."""
-    fn()
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return 1e3 * float(np.median(times))
-
-
 def newton_iteration_time(problem: QuasistaticProblem, u, repeats: int = 3) -> float:
     """Median time (ms) of one Newton iteration at ``u``: residual, tangent, factorization, solve.
 
@@ -383,7 +372,7 @@ def newton_iteration_time(problem: QuasistaticProblem, u, repeats: int = 3) -> f
         K = problem.tangent(u)
         spla.splu(sp.csc_matrix(K[free][:, free]), permc_spec="MMD_AT_PLUS_A").solve(-r[free])
 
-    return _median_ms(iteration, repeats)
+    return median_time(iteration, repeats)
 
 
 def cost_accuracy_study(p1_sizes=(2, 4, 8, 16), p2_sizes=(1, 2, 4, 8), reference_size: int = 32,
@@ -448,7 +437,7 @@ def cost_accuracy_study(p1_sizes=(2, 4, 8, 16), p2_sizes=(1, 2, 4, 8), reference
                 "energy": abs(problem.strain_energy(result.u) - ref_energy) / abs(ref_energy),
                 "rate_L2": float("nan"),
                 "newton_iterations": result.newton_iterations,
-                "solve_ms": _median_ms(lambda: problem.solve(load_steps=load_steps), repeats),
+                "solve_ms": median_time(lambda: problem.solve(load_steps=load_steps), repeats),
                 "iteration_ms": newton_iteration_time(problem, result.u, repeats),
             }
             if previous is not None:
