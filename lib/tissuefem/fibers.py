@@ -52,7 +52,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .materials import FiberReinforced, Material, NeoHookean
+from .materials import (
+    FiberReinforced,
+    Material,
+    NeoHookean,
+    check_fiber_stiffness,
+    fiber_energy_term,
+    fiber_stress_term,
+    fiber_tangent_term,
+)
 from .meshes import fusiform_fiber_field, fusiform_muscle, rectangle
 from .quasistatic import Handle, QuasistaticProblem
 
@@ -86,13 +94,7 @@ _UNIT_TOL = 1e-6
 # --- the fiber term on its own ----------------------------------------------------------
 
 def _check_stiffness(k) -> float:
-    try:
-        k = float(k)
-    except (TypeError, ValueError):
-        raise ValueError(f"k (fiber modulus) must be a number, got {k!r}") from None
-    if not math.isfinite(k) or k < 0.0:
-        raise ValueError(f"k (fiber modulus) must be finite and >= 0, got {k!r}")
-    return k
+    return check_fiber_stiffness(k, "k")
 
 
 def _check_Fg(F, g):
@@ -144,7 +146,8 @@ def fiber_invariant(F, g):
 def fiber_energy(F, g, k):
     """``Psi_fiber = k/8 (I4 - 1)^2``: about ``k/2 eps_ff^2`` for small strains."""
     k = _check_stiffness(k)
-    return k / 8.0 * (fiber_invariant(F, g) - 1.0) ** 2
+    F, g = _check_Fg(F, g)
+    return fiber_energy_term(F, g, k)
 
 
 def fiber_stress(F, g, k):
@@ -155,9 +158,7 @@ def fiber_stress(F, g, k):
     """
     k = _check_stiffness(k)
     F, g = _check_Fg(F, g)
-    a = np.einsum("ij...,j...->i...", F, g)
-    I4 = np.einsum("i...,i...->...", a, a)
-    return 0.5 * k * (I4 - 1.0) * np.einsum("i...,j...->ij...", a, g)
+    return fiber_stress_term(F, g, k)
 
 
 def fiber_tangent(F, g, k):
@@ -167,13 +168,7 @@ def fiber_tangent(F, g, k):
     """
     k = _check_stiffness(k)
     F, g = _check_Fg(F, g)
-    a = np.einsum("ij...,j...->i...", F, g)
-    I4 = np.einsum("i...,i...->...", a, a)
-    ag = np.einsum("i...,j...->ij...", a, g)
-    gg = np.einsum("j...,l...->jl...", g, g)
-    return k * np.einsum("ij...,kl...->ijkl...", ag, ag) + 0.5 * k * (I4 - 1.0) * np.einsum(
-        "ik,jl...->ijkl...", np.eye(2), gg
-    )
+    return fiber_tangent_term(F, g, k)
 
 
 def fiber_modulus_gain(k, angle_deg):

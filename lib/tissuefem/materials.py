@@ -415,6 +415,46 @@ class Corotated(Material):
 
 # --- anisotropy: a fibre term -------------------------------------------------------
 
+def check_fiber_stiffness(k, name: str = "k") -> float:
+    """Validate a fiber modulus: finite and ``>= 0``; the error names the argument ``name``."""
+    try:
+        value = float(k)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} (fiber modulus) must be a number, got {k!r}") from None
+    if not math.isfinite(value) or value < 0.0:
+        raise ValueError(f"{name} (fiber modulus) must be finite and >= 0, got {k!r}")
+    return value
+
+
+def _fiber_kinematics(F, g):
+    a = np.einsum("ij...,j...->i...", F, g)  # a = F g, the deformed fiber
+    return a, np.einsum("i...,i...->...", a, a)  # I4 = |F g|^2
+
+
+def fiber_energy_term(F, g, k):
+    """``Psi_fiber = k/8 (I4 - 1)^2`` with ``I4 = |F g|^2`` (``g`` unit, broadcasting against ``F.shape[2:]``).
+
+    The factor 1/8 makes ``k`` the extra small-strain stiffness along the fiber:
+    ``I4 - 1 ~ 2 eps_ff`` gives ``Psi_fiber ~ k/2 eps_ff^2``.
+    """
+    _, I4 = _fiber_kinematics(F, g)
+    return k / 8.0 * (I4 - 1.0) ** 2
+
+
+def fiber_stress_term(F, g, k):
+    """``P_fiber = 2 Psi_fiber'(I4) F g g^T = k/2 (I4 - 1) (F g) g^T``."""
+    a, I4 = _fiber_kinematics(F, g)
+    return 0.5 * k * (I4 - 1.0) * np.einsum("i...,j...->ij...", a, g)
+
+
+def fiber_tangent_term(F, g, k):
+    """``dP_fiber_ij/dF_kl = k a_i g_j a_k g_l + k/2 (I4 - 1) d_ik g_j g_l`` with ``a = F g``."""
+    a, I4 = _fiber_kinematics(F, g)
+    ag = np.einsum("i...,j...->ij...", a, g)
+    gg = np.einsum("j...,l...->jl...", g, g)
+    return k * _outer(ag, ag) + 0.5 * k * (I4 - 1.0) * np.einsum("ik,jl...->ijkl...", _DELTA, gg)
+
+
 class FiberReinforced(Material):
     """An isotropic base material plus a fibre term (the notes' ``Psi_iso + Psi_fiber(g^T F^T F g)``).
 
@@ -453,14 +493,8 @@ class FiberReinforced(Material):
     def __init__(self, base: Material, stiffness, fibers):
         if not isinstance(base, Material):
             raise ValueError(f"base must be a Material instance, got {base!r}")
-        try:
-            k = float(stiffness)
-        except (TypeError, ValueError):
-            raise ValueError(f"stiffness (fibre modulus k) must be a number, got {stiffness!r}") from None
-        if not math.isfinite(k) or k < 0.0:
-            raise ValueError(f"stiffness (fibre modulus k) must be finite and >= 0, got {stiffness!r}")
         self.base = base
-        self.stiffness = k
+        self.stiffness = check_fiber_stiffness(stiffness, "stiffness")
         self.fibers = self._check_fibers(fibers)
         self.lam, self.mu = base.lam, base.mu
         self.inversion_safe = base.inversion_safe
@@ -515,31 +549,17 @@ class FiberReinforced(Material):
             raise mismatch
         return g
 
-    def _fiber_parts(self, F):
-        g = self._g(F.shape[2:])
-        a = np.einsum("ij...,j...->i...", F, g)  # a = F g
-        I4 = np.einsum("i...,i...->...", a, a)
-        return g, a, I4
-
     def energy(self, F):
         F = _as_F(F)
-        _, _, I4 = self._fiber_parts(F)
-        return self.base.energy(F) + self.stiffness / 8.0 * (I4 - 1.0) ** 2
+        return self.base.energy(F) + fiber_energy_term(F, self._g(F.shape[2:]), self.stiffness)
 
     def stress(self, F):
         F = _as_F(F)
-        g, a, I4 = self._fiber_parts(F)
-        ag = np.einsum("i...,j...->ij...", a, g)
-        return self.base.stress(F) + 0.5 * self.stiffness * (I4 - 1.0) * ag
+        return self.base.stress(F) + fiber_stress_term(F, self._g(F.shape[2:]), self.stiffness)
 
     def tangent(self, F):
         F = _as_F(F)
-        g, a, I4 = self._fiber_parts(F)
-        k = self.stiffness
-        ag = np.einsum("i...,j...->ij...", a, g)
-        gg = np.einsum("j...,l...->jl...", g, g)
-        dgg = np.einsum("ik,jl...->ijkl...", _DELTA, gg)
-        return self.base.tangent(F) + k * _outer(ag, ag) + 0.5 * k * (I4 - 1.0) * dgg
+        return self.base.tangent(F) + fiber_tangent_term(F, self._g(F.shape[2:]), self.stiffness)
 
     def __repr__(self):
         shape = self.fibers.shape
