@@ -228,17 +228,16 @@ class QuasistaticProblem:
 
         Where handles overlap, the later handle wins.
         """
-        values = {}
         X = self.basis.doflocs
+        all_dofs, all_values = [], []
         for h, dofs in zip(self.handles, self._handle_dofs):
-            x = h.positions(X[:, dofs])
-            u = x - X[:, dofs]
-            comp = self.component[dofs]
-            for d, val in zip(dofs, u[comp, np.arange(dofs.size)]):
-                values[int(d)] = float(val)
-        dofs = np.fromiter(values.keys(), dtype=int)
-        order = np.argsort(dofs)
-        return dofs[order], np.fromiter(values.values(), dtype=float)[order]
+            u = h.positions(X[:, dofs]) - X[:, dofs]
+            all_dofs.append(dofs)
+            all_values.append(u[self.component[dofs], np.arange(dofs.size)])
+        dofs, values = np.concatenate(all_dofs), np.concatenate(all_values)
+        # keep the last occurrence of each dof: unique over the reversed list
+        unique, first_in_reversed = np.unique(dofs[::-1], return_index=True)
+        return unique, values[::-1][first_in_reversed]
 
     # --- solving ----------------------------------------------------------------
     def solve(self, load_steps: int = 1, u0=None, **newton_options) -> QuasistaticResult:
