@@ -122,8 +122,14 @@ def test_failed_solve_keeps_the_last_good_state():
     mesh = rectangle(1.0, 1.0, 4, 4)
     problem = QuasistaticProblem(mesh, NeoHookean.from_young(1000.0, 0.3),
                                  handles=[Handle("left"), Handle("right", (-1.5, 0.0))])
+    # crushing the square flat in one step inverts it: the step fails, the start state is kept
     result = problem.solve(load_steps=1, max_iter=3)
-    assert np.all(np.isfinite(result.u))
+    assert not result.converged and result.status == "non-finite"
+    np.testing.assert_array_equal(result.u, np.zeros(problem.basis.N))
+    # in three steps the first converges and the second fails: the first step's state is kept
+    result = problem.solve(load_steps=3, max_iter=3)
+    assert not result.converged and len(result.steps) == 2 and result.steps[0].converged
+    np.testing.assert_array_equal(result.u, result.steps[0].x)
 
 
 def test_energy_line_search_converges_when_equilibrium_energy_is_zero():
