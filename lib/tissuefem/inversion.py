@@ -106,7 +106,8 @@ def eigen_projection(A, floor: float = 0.0):
 def _rotation_invariant(material) -> bool:
     from .materials import Corotated, NeoHookean, StableNeoHookean, TaylorNeoHookean
 
-    return type(material) in (NeoHookean, TaylorNeoHookean, StableNeoHookean, Corotated)
+    return (type(material) in (NeoHookean, TaylorNeoHookean, StableNeoHookean, Corotated)
+            or bool(getattr(material, "rotation_invariant", False)))
 
 
 def projected_tangent(material, F, floor: float = 0.0):
@@ -122,7 +123,13 @@ def projected_tangent(material, F, floor: float = 0.0):
     if not _rotation_invariant(material):
         return eigen_projection(material.tangent(F), floor)
     U, s, V = rotation_preserving_svd(F)
-    A = np.asarray(material.tangent(diagonal(s)), dtype=float)
+    out = _project_diagonal_blocks(np.asarray(material.tangent(diagonal(s)), dtype=float), floor)
+    # rotate back: A_ijkl = U_ia V_jb U_kc V_ld A_hat_abcd
+    return np.einsum("ia...,jb...,kc...,ld...,abcd...->ijkl...", U, V, U, V, out, optimize=True)
+
+
+def _project_diagonal_blocks(A, floor):
+    """Clamp the eigenvalues of a diagonal-space tangent's two 2x2 blocks at ``floor``."""
     out = np.zeros_like(A)
     # stretch block over (dF00, dF11)
     a, b, d = A[0, 0, 0, 0], 0.5 * (A[0, 0, 1, 1] + A[1, 1, 0, 0]), A[1, 1, 1, 1]
@@ -132,8 +139,7 @@ def projected_tangent(material, F, floor: float = 0.0):
     a, b, d = A[0, 1, 0, 1], 0.5 * (A[0, 1, 1, 0] + A[1, 0, 0, 1]), A[1, 0, 1, 0]
     a, b, d = _project_sym2(a, b, d, floor)
     out[0, 1, 0, 1], out[0, 1, 1, 0], out[1, 0, 0, 1], out[1, 0, 1, 0] = a, b, b, d
-    # rotate back: A_ijkl = U_ia V_jb U_kc V_ld A_hat_abcd
-    return np.einsum("ia...,jb...,kc...,ld...,abcd...->ijkl...", U, V, U, V, out, optimize=True)
+    return out
 
 
 class ProjectedTangent:
@@ -165,3 +171,207 @@ class ProjectedTangent:
 
     def __repr__(self):
         return f"ProjectedTangent({self.material!r}, floor={self.floor:g})"
+
+
+# --- the ITF compression threshold: clamping and extrapolation ------------------------------------
+
+class ITFClamped:
+    """An isotropic material made invertible after Irving, Teran and Fedkiw (2004/2006).
+
+    The energy is evaluated in diagonal space, ``Psi(F) = Psi_hat(s)`` with the
+    rotation-preserving SVD ``F = U diag(s) V^T`` (``s0 >= |s1|``; ``s1 < 0``
+    for an inverted element), and the stress is ``P = U diag(psi) V^T`` with
+    ``psi_i = dPsi_hat/ds_i``. Below the compression threshold ``c`` the base
+    model is not used; it is *extrapolated* from the threshold:
+
+    * ``s1 >= c`` (the usual case): the base model itself.
+    * ``s1 < c <= s0`` (one direction crushed, flat or inverted): first-order
+      in ``d1 = s1 - c`` from ``(s0, c)`` plus a spring,
+      ``Psi(s0, c) + psi_1(s0, c) d1 + k/2 d1^2``.
+    * ``s0 < c`` (both crushed, down to ``F = 0``): the bilinear expansion from
+      ``(c, c)``, ``Psi + psi_0 d0 + psi_1 d1 + Psi_01 d0 d1 + k/2 (d0^2 + d1^2)``.
+
+    Each piece is the previous one extended in one more variable, so value and
+    gradient are continuous across the thresholds (the energy is C1) and the
+    stress is the exact gradient of the energy: the energy line search stays
+    valid. ITF's original clamps ``P_hat`` directly; extrapolating the energy
+    instead gives the same finite push-back and keeps stress and energy
+    consistent. The restoring force grows only linearly with the depth of
+    inversion (spring ``k``, by default the base model's ``d2Psi/ds1^2`` at
+    ``(c, c)``), so an element crushed to a point or turned inside out still
+    gets a finite force that pushes it back, and ``F = 0`` is not an equilibrium
+    (there ``P = psi_0(c, c) (1 - ...) I`` pushes outward).
+
+    The tangent is assembled in diagonal space (stretch block and twist/flip
+    block, see the module docstring) and, by default (``project=True``),
+    projected to be positive semi-definite (Teran et al. 2005): where
+    ``s0 + s1 = 0`` the energy has a kink whose curvature is unbounded, and the
+    projection is what makes Newton's direction a descent direction there.
+    ``project=False`` gives the exact Hessian (away from the kink); region
+    ``s1 < c <= s0`` needs a third derivative of the base model there, taken by
+    a central difference of its tangent.
+
+    Why only the ``ln J`` model: a highly stretched element (``s0`` large)
+    with ``s1`` below the threshold feels ``psi_1(s0, c)``, which becomes
+    positive (the material wants ``s1 ~ 1/s0`` to keep its volume), and the
+    spring bounds the energy below only while ``psi_1^2 / (2k)`` grows slower
+    than ``Psi(s0, c)``. With ``ln J``, ``psi_1`` grows like ``ln s0``; with a
+    polynomial volumetric term (Taylor, stable Neo-Hookean, corotated) like
+    ``s0^2`` or faster, and the extended energy would be unbounded below. Those
+    models are finite through inversion already. The same fact is the
+    accuracy limit of a singular-value threshold: where the physical answer
+    has ``s1 < c`` (a nearly incompressible body stretched beyond ``1/c``), the
+    clamped model no longer reproduces the base model.
+
+    Parameters
+    ----------
+    material
+        The :class:`~tissuefem.materials.NeoHookean` (``ln J``) model.
+    threshold
+        The compression threshold ``c``, ``0 < c < 1`` (default 0.3).
+    stiffness
+        The spring ``k > 0`` below the threshold (default: ``d2Psi/ds1^2(c, c)``).
+    project
+        Return the positive semi-definite projection of the tangent (default).
+    """
+
+    rotation_invariant = True
+    inversion_safe = True
+
+    def __init__(self, material, threshold: float = 0.3, stiffness: float | None = None, project: bool = True):
+        from .materials import NeoHookean
+
+        if type(material) is not NeoHookean:
+            raise ValueError(
+                f"material must be the ln J NeoHookean model, got {material!r}: the first-order extension is "
+                "bounded below only while the threshold stress psi_1(s0, c) grows slower than sqrt(Psi) as s0 "
+                "grows (ln J does; the polynomial volumetric terms of the Taylor and stable models and of "
+                "corotated do not, and those models need no clamping: they are finite through inversion)")
+        c = float(threshold)
+        if not (np.isfinite(c) and 0.0 < c < 1.0):
+            raise ValueError(f"threshold must satisfy 0 < threshold < 1, got {threshold!r}")
+        self.base, self.threshold, self.project = material, c, bool(project)
+        self.lam, self.mu = material.lam, material.mu
+        D = diagonal(np.full((2, 1), c))
+        A = np.asarray(material.tangent(D), dtype=float)
+        self._psi_cc = float(np.asarray(material.energy(D)).ravel()[0])
+        self._g_cc = float(np.asarray(material.stress(D))[0, 0, 0])
+        self._h01_cc = float(A[0, 0, 1, 1, 0])
+        k = float(A[1, 1, 1, 1, 0]) if stiffness is None else float(stiffness)
+        if not (np.isfinite(k) and k > 0):
+            raise ValueError(f"stiffness must be finite and > 0, got {stiffness!r}")
+        self.stiffness = k
+        self.name = f"ITF-clamped {material.name}"
+
+    def __repr__(self):
+        return (f"ITFClamped({self.base!r}, threshold={self.threshold:g}, stiffness={self.stiffness:g}, "
+                f"project={self.project})")
+
+    # --- diagonal space ------------------------------------------------------------------
+    def _regions(self, s):
+        c = self.threshold
+        both = s[0] < c
+        one = (s[1] < c) & ~both
+        return one, both
+
+    def _base_at(self, s0, s1, what):
+        D = diagonal(np.stack([s0, s1]))
+        return np.asarray(getattr(self.base, what)(D), dtype=float)
+
+    def diagonal_energy(self, s) -> np.ndarray:
+        """``Psi_hat(s)`` for signed singular values ``s [2, *rest]`` (``s0 >= |s1|``)."""
+        s = np.asarray(s, dtype=float)
+        c, k = self.threshold, self.stiffness
+        one, both = self._regions(s)
+        normal = ~(one | both)
+        out = np.empty(s.shape[1:])
+        if normal.any():
+            out[normal] = self._base_at(s[0][normal], s[1][normal], "energy")
+        if one.any():
+            s0, d1 = s[0][one], s[1][one] - c
+            cc = np.full(s0.shape, c)
+            P = self._base_at(s0, cc, "stress")
+            out[one] = self._base_at(s0, cc, "energy") + P[1, 1] * d1 + 0.5 * k * d1**2
+        if both.any():
+            d0, d1 = s[0][both] - c, s[1][both] - c
+            out[both] = (self._psi_cc + self._g_cc * (d0 + d1) + self._h01_cc * d0 * d1
+                         + 0.5 * k * (d0**2 + d1**2))
+        return out
+
+    def diagonal_gradient(self, s) -> np.ndarray:
+        """``psi_i = dPsi_hat/ds_i``, shape ``[2, *rest]``."""
+        s = np.asarray(s, dtype=float)
+        c, k = self.threshold, self.stiffness
+        one, both = self._regions(s)
+        normal = ~(one | both)
+        out = np.empty(s.shape)
+        if normal.any():
+            P = self._base_at(s[0][normal], s[1][normal], "stress")
+            out[0][normal], out[1][normal] = P[0, 0], P[1, 1]
+        if one.any():
+            s0, d1 = s[0][one], s[1][one] - c
+            cc = np.full(s0.shape, c)
+            P = self._base_at(s0, cc, "stress")
+            A = self._base_at(s0, cc, "tangent")
+            out[0][one] = P[0, 0] + A[0, 0, 1, 1] * d1
+            out[1][one] = P[1, 1] + k * d1
+        if both.any():
+            d0, d1 = s[0][both] - c, s[1][both] - c
+            out[0][both] = self._g_cc + self._h01_cc * d1 + k * d0
+            out[1][both] = self._g_cc + self._h01_cc * d0 + k * d1
+        return out
+
+    def diagonal_tangent(self, s) -> np.ndarray:
+        """The exact tangent ``A_hat = A(diag(s))`` in diagonal space, ``[2, 2, 2, 2, *rest]``."""
+        s = np.asarray(s, dtype=float)
+        c, k = self.threshold, self.stiffness
+        one, both = self._regions(s)
+        normal = ~(one | both)
+        rest = s.shape[1:]
+        A = np.zeros((2, 2, 2, 2) + rest)
+        if normal.any():
+            A[..., normal] = self._base_at(s[0][normal], s[1][normal], "tangent")
+        extrapolated = one | both
+        if not extrapolated.any():
+            return A
+        h00, h01, h11 = (np.empty(rest) for _ in range(3))
+        if one.any():
+            s0, d1 = s[0][one], s[1][one] - c
+            cc = np.full(s0.shape, c)
+            At = self._base_at(s0, cc, "tangent")
+            step = 1e-6 * np.maximum(1.0, s0)
+            third = (self._base_at(s0 + step, cc, "tangent")[0, 0, 1, 1]
+                     - self._base_at(s0 - step, cc, "tangent")[0, 0, 1, 1]) / (2 * step)
+            h00[one], h01[one], h11[one] = At[0, 0, 0, 0] + third * d1, At[0, 0, 1, 1], k
+        h00[both], h01[both], h11[both] = k, self._h01_cc, k
+        psi = self.diagonal_gradient(s)
+        sub = extrapolated
+        s0, s1, p0, p1 = s[0][sub], s[1][sub], psi[0][sub], psi[1][sub]
+        # twist (psi0 - psi1)/(s0 - s1): in the doubly clamped region it is exactly k - Psi_01(c, c)
+        gap = s0 - s1
+        twist = np.where(gap > 1e-9, (p0 - p1) / np.where(gap > 1e-9, gap, 1.0), k - self._h01_cc)
+        # flip (psi0 + psi1)/(s0 + s1): s0 + s1 = 2|similarity part| >= 0; the energy has a kink at 0
+        total = s0 + s1
+        flip = (p0 + p1) / np.maximum(total, 1e-9)
+        A[0, 0, 0, 0][sub], A[1, 1, 1, 1][sub] = h00[sub], h11[sub]
+        A[0, 0, 1, 1][sub] = A[1, 1, 0, 0][sub] = h01[sub]
+        A[0, 1, 0, 1][sub] = A[1, 0, 1, 0][sub] = 0.5 * (twist + flip)
+        A[0, 1, 1, 0][sub] = A[1, 0, 0, 1][sub] = 0.5 * (twist - flip)
+        return A
+
+    # --- the material interface -----------------------------------------------------------------
+    def energy(self, F):
+        _, s, _ = rotation_preserving_svd(F)
+        return self.diagonal_energy(s)
+
+    def stress(self, F):
+        U, s, V = rotation_preserving_svd(F)
+        psi = self.diagonal_gradient(s)
+        return np.einsum("ia...,a...,ja...->ij...", U, psi, V)
+
+    def tangent(self, F):
+        U, s, V = rotation_preserving_svd(F)
+        A = self.diagonal_tangent(s)
+        if self.project:
+            A = _project_diagonal_blocks(A, 0.0)
+        return np.einsum("ia...,jb...,kc...,ld...,abcd...->ijkl...", U, V, U, V, A, optimize=True)

@@ -35,6 +35,12 @@ class NewtonIteration:
     step_norm: float  # ||du|| actually taken (after any line-search scaling)
     step_length: float  # line-search factor alpha (1 = full Newton step)
     energy: float | None = None  # total energy after the step, when known
+    shift: float = 0.0  # diagonal shift tau added to the tangent to get a descent direction (0: plain Newton)
+
+    @property
+    def cuts(self) -> int:
+        """How many times the line search halved the step (``alpha = 2**-cuts``)."""
+        return int(round(-np.log2(self.step_length))) if self.step_length > 0 else 0
 
 
 @dataclass
@@ -47,6 +53,16 @@ class NewtonResult:
     iterations: int
     residual_norm: float
     history: list[NewtonIteration] = field(default_factory=list)
+
+    @property
+    def line_search_cuts(self) -> int:
+        """Total number of step halvings over the solve."""
+        return sum(h.cuts for h in self.history)
+
+    @property
+    def energies(self) -> np.ndarray:
+        """Total energy after each accepted step (NaN where unknown)."""
+        return np.array([np.nan if h.energy is None else h.energy for h in self.history])
 
     def residual_norms(self) -> np.ndarray:
         """Residual norms ``||q(u^k)||`` for k = 0, 1, ..., including the final one."""
@@ -74,6 +90,35 @@ def _default_linear_solve(A, b):
     return lu.solve(b)
 
 
+def _direction(K, rhs, solve, descent: bool):
+    """Solve ``K dx = rhs``; with ``descent``, shift ``K`` until ``rhs . dx > 0``. Returns ``(dx, shift)``."""
+    def attempt(A):
+        try:
+            dx = np.asarray(solve(A, rhs), dtype=float)
+        except (RuntimeError, ValueError, np.linalg.LinAlgError, ZeroDivisionError):
+            return None
+        if not np.all(np.isfinite(dx)) or (descent and not rhs @ dx > 0):
+            return None
+        return dx
+
+    if K is not None and K.shape[0] and np.all(np.isfinite(K.data)):
+        dx = attempt(K)
+        if dx is not None or not descent:
+            return dx, 0.0
+        scale = float(np.max(np.abs(K.diagonal()), initial=0.0)) or 1.0
+        eye = sp.identity(K.shape[0], format="csr")
+        for tau in scale * 10.0 ** np.arange(-6.0, 3.0):
+            dx = attempt((K + tau * eye).tocsr())
+            if dx is not None:
+                return dx, float(tau)
+    elif not descent:
+        return None, 0.0
+    else:
+        scale = 1.0
+    # steepest descent, scaled like a very strongly shifted Newton step
+    return rhs / (1e3 * scale), float("inf")
+
+
 def newton_solve(
     x0,
     residual: Callable[[np.ndarray], np.ndarray],
@@ -88,6 +133,7 @@ def newton_solve(
     linear_solve: Callable | None = None,
     max_halvings: int = 30,
     reference_norm: float = 0.0,
+    max_step: float | None = None,
 ) -> NewtonResult:
     """Solve ``residual(x) = 0`` on the free dofs by Newton's method.
 
@@ -117,6 +163,8 @@ def newton_solve(
         raise ValueError("x0 contains non-finite values")
     if line_search not in (None, "finite", "energy"):
         raise ValueError(f"line_search must be None, 'finite' or 'energy', got {line_search!r}")
+    if max_step is not None and not (np.isfinite(max_step) and max_step > 0):
+        raise ValueError(f"max_step must be finite and > 0, got {max_step!r}")
     if line_search == "energy" and energy is None:
         raise ValueError("line_search='energy' needs the energy callable")
     free = np.ones(n, dtype=bool)
@@ -138,11 +186,15 @@ def newton_solve(
             return NewtonResult(x, True, "converged", k, rnorm, history)
         try:
             K = sp.csr_matrix(tangent(x))[free][:, free]
-            dx_free = np.asarray(solve(K, -r[free]), dtype=float)
         except (RuntimeError, ValueError, np.linalg.LinAlgError):
+            K = None
+        dx_free, shift = _direction(K, -r[free], solve, descent=line_search == "energy")
+        if dx_free is None:
             return NewtonResult(x, False, "singular", k, rnorm, history)
-        if not np.all(np.isfinite(dx_free)):
-            return NewtonResult(x, False, "singular", k, rnorm, history)
+        if max_step is not None:
+            biggest = float(np.max(np.abs(dx_free), initial=0.0))
+            if biggest > max_step:
+                dx_free = dx_free * (max_step / biggest)
         dx = np.zeros(n)
         dx[free] = dx_free
 
@@ -174,13 +226,13 @@ def newton_solve(
             return NewtonResult(x, False, "line-search-failed", k, rnorm, history)
 
         if not np.isfinite(rn_new):
-            history.append(NewtonIteration(k, rnorm, float(np.linalg.norm(alpha * dx)), alpha, None))
+            history.append(NewtonIteration(k, rnorm, float(np.linalg.norm(alpha * dx)), alpha, None, shift))
             return NewtonResult(x, False, "non-finite", k + 1, rnorm, history)
         if line_search == "energy":
             e_cur = e_new
         elif energy is not None:
             e_cur = float(energy(x_new))
-        history.append(NewtonIteration(k, rnorm, float(np.linalg.norm(alpha * dx)), alpha, e_cur))
+        history.append(NewtonIteration(k, rnorm, float(np.linalg.norm(alpha * dx)), alpha, e_cur, shift))
         x, r, rnorm = x_new, r_new, rn_new
 
     status = "converged" if rnorm <= target else "max_iter"

@@ -302,7 +302,11 @@ class QuasistaticProblem:
         load_norm = float(np.linalg.norm(rhs))
         guess = x0.copy()
         guess[free] = u[free] + du_f
-        if np.all(np.isfinite(guess)) and np.isfinite(self.strain_energy(guess)):
+        # keep the prediction only if it is a valid state that does not raise the energy
+        # (far from equilibrium, e.g. releasing a crushed body, the linearisation means little)
+        e_guess = self.strain_energy(guess) - f_ext @ guess if np.all(np.isfinite(guess)) else np.nan
+        e_plain = self.strain_energy(x0) - f_ext @ x0
+        if np.isfinite(e_guess) and not e_guess > e_plain:
             return guess, load_norm
         return x0, load_norm
 

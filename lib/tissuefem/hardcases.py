@@ -1,0 +1,203 @@
+"""The hard cases: crushed, collapsed, mirrored, stretched and dragged bodies, and their release.
+
+Promise 2 of the workbook is that hard cases stay numerically stable. This
+module builds those cases on a small block and runs the experiment that
+chapter 6 shows and ``tests/test_hard_cases.py`` asserts:
+
+1. put the body in a violent state (every element mirrored, all nodes on one
+   point or on one line, a 10x stretch, a crush past flat, a handle dragged
+   through the body);
+2. *release* it: hold a few nodes at their rest positions, free every other
+   node, and solve for equilibrium from that state;
+3. measure how far the result is from the rest shape, and what it cost
+   (Newton iterations, line-search cuts, shifted tangents).
+
+The quasistatic release has a unique answer only if the energy has one well:
+a solve started far away can in principle settle in another local minimum
+(a folded configuration). Steps are capped (``max_step``, a crude trust
+region) so the iterates creep downhill instead of jumping across wells.
+
+Models compared (:func:`inversion_models`): the ``ln J`` Neo-Hookean model
+(fails on any inverted element: its energy is NaN there), the notes' cubic
+Taylor variant, stable Neo-Hookean, and the ITF-clamped ``ln J`` model; the
+two polynomial models are solved with the projected (positive semi-definite)
+tangent of Teran et al. 2005, the ITF model projects its own.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .inversion import ITFClamped, ProjectedTangent
+from .materials import NeoHookean, StableNeoHookean, TaylorNeoHookean
+from .meshes import rectangle
+from .parameters import lame_parameters
+from .quasistatic import Handle, QuasistaticProblem
+
+__all__ = ["inversion_models", "block", "start_states", "ReleaseResult", "release", "crush_and_release",
+           "drag_through", "RELEASE_OPTIONS"]
+
+#: Newton options of a release solve: absolute residual tolerance (the start residual is huge,
+#: so a relative one would stop early), a step cap and room for the creeping iterations.
+RELEASE_OPTIONS = {"atol": 1e-7, "rtol": 1e-12, "max_step": 0.5, "max_iter": 400}
+
+
+def inversion_models(E: float = 1000.0, nu: float = 0.3) -> dict:
+    """The four models of chapter 6, from Young's modulus and Poisson's ratio (plane strain)."""
+    lam, mu = lame_parameters(E, nu, "strain")
+    return {
+        "neo-Hookean (ln J)": NeoHookean(lam, mu),
+        "Taylor neo-Hookean": ProjectedTangent(TaylorNeoHookean(lam, mu)),
+        "stable neo-Hookean": ProjectedTangent(StableNeoHookean(lam, mu)),
+        "ITF-clamped neo-Hookean": ITFClamped(NeoHookean(lam, mu)),
+    }
+
+
+def block(n: int = 6):
+    """The unit block ``[0, 1]^2`` with ``n x n`` cells (``2 n^2`` triangles)."""
+    return rectangle(1.0, 1.0, n, n)
+
+
+def start_states(mesh) -> dict:
+    """Deformed node positions ``(2, n_nodes)`` of the violent start states, by name."""
+    X = np.asarray(mesh.p, dtype=float)
+    centre = X.mean(axis=1, keepdims=True)
+    return {
+        "mirrored": np.stack([X[0], -X[1]]),  # every element inverted (reflected about y = 0)
+        "collapsed to a point": np.broadcast_to(centre, X.shape).copy(),
+        "collapsed to a line": np.stack([X[0], np.zeros_like(X[1])]),
+        "stretched 10x": np.stack([10.0 * X[0], X[1]]),
+        "crushed past flat": np.stack([X[0], -0.3 * X[1]]),
+    }
+
+
+@dataclass
+class ReleaseResult:
+    """Outcome of a release: the final displacement and what the solve did."""
+
+    u: np.ndarray
+    converged: bool
+    status: str
+    iterations: int
+    cuts: int  # line-search halvings
+    shifted: int  # iterations whose tangent had to be shifted to give a descent direction
+    energies: np.ndarray  # total energy after each accepted step
+    start_energy: float
+    rest_error: float  # ||x - X|| / ||X|| over all nodes
+    finite: bool = True
+    history: list = field(default_factory=list)
+
+    @property
+    def final_energy(self) -> float:
+        return float(self.energies[-1]) if self.energies.size else self.start_energy
+
+
+def _bottom(mesh):
+    return np.flatnonzero(np.abs(mesh.p[1] - mesh.p[1].min()) < 1e-9)
+
+
+def release(mesh, material, x_start, held=None, **newton_options) -> ReleaseResult:
+    """Release a body from node positions ``x_start``: hold ``held`` nodes at rest, free the rest.
+
+    ``held`` defaults to the bottom edge. Returns a :class:`ReleaseResult`;
+    never raises for a numerical failure (the status tells).
+    """
+    X = np.asarray(mesh.p, dtype=float)
+    x_start = np.asarray(x_start, dtype=float)
+    if x_start.shape != X.shape:
+        raise ValueError(f"x_start must have shape {X.shape}, got {x_start.shape}")
+    if not np.all(np.isfinite(x_start)):
+        raise ValueError("x_start contains non-finite positions")
+    held = _bottom(mesh) if held is None else np.asarray(held)
+    problem = QuasistaticProblem(mesh, material, handles=[Handle(held)])
+    u0 = problem.basis.zeros()
+    u0[problem.basis.nodal_dofs] = x_start - X
+    u0[problem.basis.nodal_dofs[:, held]] = 0.0
+    options = {**RELEASE_OPTIONS, **newton_options}
+    start_energy = problem.strain_energy(u0)
+    result = problem.solve(u0=u0, **options)
+    newton = result.steps[-1]
+    u = result.u
+    x = problem.deformed_positions(u)
+    return ReleaseResult(
+        u=u, converged=result.converged, status=result.status, iterations=result.newton_iterations,
+        cuts=newton.line_search_cuts, shifted=sum(1 for h in newton.history if h.shift > 0),
+        energies=newton.energies, start_energy=float(start_energy),
+        rest_error=float(np.linalg.norm(x - X) / np.linalg.norm(X)), finite=bool(np.all(np.isfinite(u))),
+        history=newton.history,
+    )
+
+
+def crush_and_release(material, mesh=None, depth: float = 1.3, steps: int = 13, **newton_options) -> dict:
+    """Push the top edge of a block down by ``depth`` (1 = flat, more = past flat) and release it.
+
+    The bottom edge is fixed; the top edge is a handle moved down in
+    ``steps`` equal increments, each solved from the previous state. Then
+    the handle is let go (bottom still held) and the body is released.
+
+    Returns a dict with ``frames`` (node positions after each crush step, then
+    the released shape), ``crush`` (the per-step results), ``released`` (a
+    :class:`ReleaseResult`), ``crushed`` (how deep the top got before a step
+    failed: ``depth`` when all succeeded), ``iterations``, ``cuts`` and
+    ``final_energy``.
+    """
+    mesh = block() if mesh is None else mesh
+    X = np.asarray(mesh.p, dtype=float)
+    top = Handle("top")
+    problem = QuasistaticProblem(mesh, material, handles=[Handle("bottom"), top])
+    options = {**RELEASE_OPTIONS, "rtol": 1e-8, "max_iter": 100, **newton_options}
+    u = problem.basis.zeros()
+    frames, crush, reached = [X.copy()], [], 0.0
+    for d in np.linspace(0.0, depth, steps + 1)[1:]:
+        top.move((0.0, -d))
+        result = problem.solve(u0=u, **options)
+        crush.append(result)
+        if not result.converged:
+            break
+        u, reached = result.u, float(d)
+        frames.append(problem.deformed_positions(u))
+    released = release(mesh, material, problem.deformed_positions(u), held=_bottom(mesh), **newton_options)
+    frames.append(problem.deformed_positions(u) if not released.finite else X + released.u[problem.basis.nodal_dofs])
+    return {
+        "frames": frames,
+        "crush": crush,
+        "released": released,
+        "crushed": reached,
+        "iterations": sum(r.newton_iterations for r in crush) + released.iterations,
+        "cuts": sum(s.line_search_cuts for r in crush for s in r.steps) + released.cuts,
+        "final_energy": released.final_energy,
+    }
+
+
+def drag_through(material, mesh=None, depth: float = 1.6, steps: int = 16, **newton_options) -> dict:
+    """Grab the middle of the top edge and drag it down through the body and out below the bottom.
+
+    The left and right edges are held (a clamped sheet); the handle holds the
+    top-edge nodes within 0.2 of the middle and moves down by ``depth`` in
+    ``steps`` increments, each solved from the previous state; then it lets go
+    and the sheet is released (sides still held). Returns ``positions`` (after
+    each drag step), ``drag`` (per-step results), ``released`` and
+    ``failed_steps`` (steps that did not converge; the state then stays at the
+    last converged one and the drag goes on).
+    """
+    mesh = block() if mesh is None else mesh
+    X = np.asarray(mesh.p, dtype=float)
+    sides = np.flatnonzero((np.abs(X[0] - X[0].min()) < 1e-9) | (np.abs(X[0] - X[0].max()) < 1e-9))
+    grab = np.flatnonzero((np.abs(X[1] - X[1].max()) < 1e-9) & (np.abs(X[0] - X[0].mean()) < 0.2))
+    handle = Handle(grab)
+    problem = QuasistaticProblem(mesh, material, handles=[Handle(sides), handle])
+    options = {**RELEASE_OPTIONS, "rtol": 1e-8, "max_iter": 60, **newton_options}
+    u = problem.basis.zeros()
+    positions, drag, failed = [], [], 0
+    for d in np.linspace(0.0, depth, steps + 1)[1:]:
+        handle.move((0.0, -d))
+        result = problem.solve(u0=u, **options)
+        drag.append(result)
+        failed += not result.converged
+        u = result.u
+        positions.append(problem.deformed_positions(u))
+    released = release(mesh, material, problem.deformed_positions(u), held=sides, **newton_options)
+    return {"positions": positions, "drag": drag, "released": released, "failed_steps": failed,
+            "grab": grab, "sides": sides}
