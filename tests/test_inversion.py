@@ -98,3 +98,127 @@ def test_projected_newton_reaches_the_same_equilibrium():
     np.testing.assert_allclose(projected.u, plain.u, atol=1e-8)
     with pytest.raises(ValueError, match="floor"):
         ProjectedTangent(material, floor=-1.0)
+
+
+# --- ITF threshold extrapolation ----------------------------------------------------------------
+
+from tissuefem.inversion import ITFClamped, diagonal  # noqa: E402
+
+LAM, MU = 577.0, 385.0
+
+
+def _itf(**kw):
+    return ITFClamped(NeoHookean(LAM, MU), **kw)
+
+
+def _fd_stress(m, F, h=1e-6):
+    out = np.zeros_like(F)
+    for i in range(2):
+        for j in range(2):
+            dF = np.zeros_like(F)
+            dF[i, j] = h
+            out[i, j] = (m.energy(F + dF) - m.energy(F - dF)) / (2 * h)
+    return out
+
+
+def _fd_tangent(m, F, h=1e-6):
+    out = np.zeros((2, 2) + F.shape)
+    for k in range(2):
+        for m_ in range(2):
+            dF = np.zeros_like(F)
+            dF[k, m_] = h
+            out[:, :, k, m_] = (m.stress(F + dF) - m.stress(F - dF)) / (2 * h)
+    return out
+
+
+# every region: normal (s1 >= c), one crushed (s1 < c <= s0, also inverted), both crushed; away from s0 + s1 = 0
+_RNG = np.random.default_rng(11)
+_S = np.concatenate([
+    np.stack([_RNG.uniform(0.4, 3, 50), _RNG.uniform(0.31, 0.39, 50)]),
+    np.stack([_RNG.uniform(0.5, 3, 50), _RNG.uniform(-0.4, 0.29, 50)]),
+    np.stack([_RNG.uniform(0.15, 0.29, 50), _RNG.uniform(-0.1, 0.14, 50)]),
+], axis=1)
+_A1, _A2 = _RNG.uniform(-np.pi, np.pi, (2, _S.shape[1]))
+F_ITF = np.einsum("ia...,a...,ja...->ij...", np.stack([np.stack([np.cos(_A1), -np.sin(_A1)]),
+                                                       np.stack([np.sin(_A1), np.cos(_A1)])]),
+                  _S, np.stack([np.stack([np.cos(_A2), -np.sin(_A2)]), np.stack([np.sin(_A2), np.cos(_A2)])]))
+
+
+def test_itf_stress_is_the_gradient_of_its_energy_in_every_region():
+    m = _itf()
+    P = m.stress(F_ITF)
+    scale = 1 + np.abs(P).max()
+    np.testing.assert_allclose(_fd_stress(m, F_ITF), P, atol=1e-6 * scale)
+
+
+def test_itf_exact_tangent_matches_finite_differences_of_stress():
+    m = _itf(project=False)
+    A = m.tangent(F_ITF)
+    np.testing.assert_allclose(_fd_tangent(m, F_ITF), A, atol=2e-5 * (1 + np.abs(A).max()))
+
+
+def test_itf_is_the_base_model_above_the_threshold_and_stress_free_at_rest():
+    m, base = _itf(), NeoHookean(LAM, MU)
+    F = F_ITF[..., :50]  # region s1 >= c
+    np.testing.assert_allclose(m.energy(F), base.energy(F), rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(m.stress(F), base.stress(F), rtol=1e-10, atol=1e-8)
+    I = np.eye(2)[..., None]
+    assert abs(m.energy(I)[0]) < 1e-12 and np.abs(m.stress(I)).max() < 1e-10
+
+
+@pytest.mark.parametrize("s0", [0.2, 0.3, 1.0, 4.0])
+def test_itf_energy_and_stress_are_continuous_across_the_threshold(s0):
+    m = _itf()
+    c, eps = m.threshold, 1e-7
+    for s in ([s0, c - eps], [s0, c + eps]), ([c - eps, c - 0.05], [c + eps, c - 0.05]):
+        if s[0][0] < abs(s[0][1]) or s[1][0] < abs(s[1][1]):
+            continue
+        lo, hi = np.array(s[0])[:, None], np.array(s[1])[:, None]
+        np.testing.assert_allclose(m.diagonal_energy(lo), m.diagonal_energy(hi), rtol=1e-5, atol=1e-3)
+        np.testing.assert_allclose(m.diagonal_gradient(lo), m.diagonal_gradient(hi), rtol=1e-4, atol=1e-2)
+
+
+def test_itf_pushes_a_collapsed_element_outward_with_finite_force():
+    m = _itf()
+    P = m.stress(np.zeros((2, 2, 1)))[..., 0]
+    assert np.all(np.isfinite(P))
+    assert P[0, 0] < 0 and np.isclose(P[0, 0], P[1, 1]) and abs(P[0, 1]) < 1e-12  # -p I: energy falls as F grows
+    mirror = m.stress(np.diag([1.0, -1.0])[..., None])
+    assert np.all(np.isfinite(mirror)) and np.all(np.isfinite(m.tangent(np.diag([1.0, -1.0])[..., None])))
+
+
+def test_itf_projected_tangent_is_positive_semidefinite_everywhere():
+    m = _itf()
+    F = np.concatenate([F_ITF, F_ALL], axis=-1)
+    A = m.tangent(F)
+    assert np.all(np.isfinite(A))
+    M = np.moveaxis(A.reshape(4, 4, -1), -1, 0)
+    w = np.linalg.eigvalsh(0.5 * (M + np.swapaxes(M, 1, 2)))
+    assert w.min() >= -1e-9 * np.abs(w).max()
+
+
+def test_itf_extended_energy_is_bounded_below():
+    m = _itf()
+    s0 = np.geomspace(1e-3, 100.0, 200)
+    S0, T = np.meshgrid(s0, np.linspace(-1.0, 1.0, 201))
+    e = m.diagonal_energy(np.stack([S0.ravel(), (S0 * T).ravel()]))
+    assert np.all(np.isfinite(e)) and e.min() >= -1e-9
+
+
+def test_itf_rejects_bad_arguments():
+    with pytest.raises(ValueError, match="material"):
+        ITFClamped(StableNeoHookean(LAM, MU))
+    with pytest.raises(ValueError, match="material"):
+        ITFClamped(LinearElastic(LAM, MU))
+    for bad in (0.0, 1.0, -0.2, np.nan):
+        with pytest.raises(ValueError, match="threshold"):
+            _itf(threshold=bad)
+    for bad in (0.0, -1.0, np.inf):
+        with pytest.raises(ValueError, match="stiffness"):
+            _itf(stiffness=bad)
+
+
+def test_projected_tangent_accepts_the_itf_model():
+    m = _itf(project=False)
+    np.testing.assert_allclose(projected_tangent(m, F_ITF), _itf().tangent(F_ITF), atol=1e-8 * np.abs(m.tangent(F_ITF)).max())
+    assert np.all(np.isfinite(diagonal(np.zeros((2, 3)))))

@@ -39,8 +39,10 @@ Choices made here
   the order of a triangle's vertices, so clockwise triangles are *reoriented*
   (their second and third vertices swapped in the assembler's own copy
   ``self.t``; the mesh itself is untouched and element indices keep their
-  meaning). ``self.flipped`` lists them. Only triangles with zero area (or
-  area below ``1e-12`` times their longest edge squared) are rejected.
+  meaning). ``self.flipped`` lists them. Triangles with zero area (or
+  area below ``1e-12`` times their longest edge squared) are rejected, and so
+  are inverted ones: a triangle folded over a neighbour (both lie on the same
+  side of their shared edge), which no reorientation can repair.
 * **Scatter.** Measured on the 2-core reference machine at 8k triangles
   (288k local entries into 114k nonzeros): ``np.bincount`` with weights
   ~0.45 ms, ``np.add.at`` ~0.57 ms, a sparse 0/1 scatter-matrix product
@@ -231,6 +233,15 @@ class P1Assembler:
         if degenerate.size:
             raise ValueError(
                 f"mesh has zero-area (degenerate) triangles: elements {_list(degenerate)}"
+            )
+        from .meshes import folded_triangles
+
+        folded = folded_triangles(p, t)
+        if folded.size:
+            raise ValueError(
+                f"mesh has inverted triangles (folded over a neighbour across a shared edge): element pairs "
+                f"{', '.join(f'({i}, {j})' for i, j in folded.T[:10])}{' ...' if folded.shape[1] > 10 else ''}; "
+                "a rest mesh must not overlap itself"
             )
         return p, t
 

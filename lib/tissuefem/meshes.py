@@ -78,6 +78,39 @@ def signed_areas(mesh) -> np.ndarray:
     return 0.5 * ((b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1]))
 
 
+def folded_triangles(p, t) -> np.ndarray:
+    """Pairs of triangles that overlap across their shared edge, shape ``(2, n_pairs)``.
+
+    In a valid (non-inverted) triangulation the two triangles on an interior
+    edge lie on opposite sides of it. If one of them is inverted (folded over
+    its neighbour), both third vertices lie on the same side. This test does
+    not depend on the order in which a triangle lists its vertices (scikit-fem
+    sorts them, so a good mesh has triangles of both orientations).
+    """
+    p = np.asarray(p, dtype=float)
+    t = np.asarray(t, dtype=np.int64)
+    nel = t.shape[1]
+    # every edge of every triangle, with the vertex opposite to it
+    edges = np.concatenate([t[[0, 1]], t[[1, 2]], t[[2, 0]]], axis=1)
+    opposite = np.concatenate([t[2], t[0], t[1]])
+    owner = np.tile(np.arange(nel), 3)
+    key = np.sort(edges, axis=0)
+    order = np.lexsort((key[1], key[0]))
+    key, edges, opposite, owner = key[:, order], edges[:, order], opposite[order], owner[order]
+    same = np.flatnonzero((key[0, 1:] == key[0, :-1]) & (key[1, 1:] == key[1, :-1]))
+    if same.size == 0:
+        return np.zeros((2, 0), dtype=np.int64)
+    a, b = p[:, key[0, same]], p[:, key[1, same]]
+
+    def side(o):
+        c = p[:, o]
+        return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+
+    s1, s2 = side(opposite[same]), side(opposite[same + 1])
+    bad = same[s1 * s2 > 0]
+    return np.stack([owner[bad], owner[bad + 1]])
+
+
 # --------------------------------------------------------------------------
 # structured rectangle
 # --------------------------------------------------------------------------

@@ -129,13 +129,17 @@ class QuasistaticProblem:
             raise ValueError(f"order must be 1 or 2, got {order!r}")
         if assembly not in ("fast", "forms"):
             raise ValueError(f"assembly must be 'fast' or 'forms', got {assembly!r}")
+        from .assembly import P1Assembler
+
+        P1Assembler._validate_mesh(mesh)  # finite coordinates, no zero-area or inverted (folded) triangles
+        for what in ("energy", "stress", "tangent"):
+            if not callable(getattr(material, what, None)):
+                raise ValueError(f"material must have energy, stress and tangent methods, got {material!r}")
         self.mesh, self.material, self.order = mesh, material, order
         element = ElementVector(ElementTriP1() if order == 1 else ElementTriP2())
         self.basis = Basis(mesh, element, intorder=2 * order)
         self.assembler = None
         if order == 1 and assembly == "fast":
-            from .assembly import P1Assembler
-
             self.assembler = P1Assembler(mesh, material)
         self._forms = (residual_form(material), tangent_form(material), energy_form(material))
         # which displacement component each dof carries
