@@ -222,3 +222,10 @@ def test_projected_tangent_accepts_the_itf_model():
     m = _itf(project=False)
     np.testing.assert_allclose(projected_tangent(m, F_ITF), _itf().tangent(F_ITF), atol=1e-8 * np.abs(m.tangent(F_ITF)).max())
     assert np.all(np.isfinite(diagonal(np.zeros((2, 3)))))
+
+
+def test_itf_accepts_a_single_matrix_like_the_other_materials():
+    m = _itf()
+    F = np.array([[0.5, 0.2], [0.1, -0.3]])
+    assert np.shape(m.energy(F)) == () and m.stress(F).shape == (2, 2) and m.tangent(F).shape == (2, 2, 2, 2)
+    np.testing.assert_allclose(m.stress(F), m.stress(F[..., None])[..., 0])

@@ -359,19 +359,30 @@ class ITFClamped:
         A[0, 1, 1, 0][sub] = A[1, 0, 0, 1][sub] = 0.5 * (twist - flip)
         return A
 
-    # --- the material interface -----------------------------------------------------------------
+    # --- the material interface (F shaped [2, 2, *rest], also a single 2x2) -------------------------
+    @staticmethod
+    def _field(F):
+        F = np.asarray(F, dtype=float)
+        if F.shape[:2] != (2, 2):
+            raise ValueError(f"F must be shaped [2, 2, ...], got {F.shape}")
+        return F.reshape((2, 2, -1)), F.shape[2:]
+
     def energy(self, F):
+        F, rest = self._field(F)
         _, s, _ = rotation_preserving_svd(F)
-        return self.diagonal_energy(s)
+        return self.diagonal_energy(s).reshape(rest)
 
     def stress(self, F):
+        F, rest = self._field(F)
         U, s, V = rotation_preserving_svd(F)
         psi = self.diagonal_gradient(s)
-        return np.einsum("ia...,a...,ja...->ij...", U, psi, V)
+        return np.einsum("ia...,a...,ja...->ij...", U, psi, V).reshape((2, 2) + rest)
 
     def tangent(self, F):
+        F, rest = self._field(F)
         U, s, V = rotation_preserving_svd(F)
         A = self.diagonal_tangent(s)
         if self.project:
             A = _project_diagonal_blocks(A, 0.0)
-        return np.einsum("ia...,jb...,kc...,ld...,abcd...->ijkl...", U, V, U, V, A, optimize=True)
+        A = np.einsum("ia...,jb...,kc...,ld...,abcd...->ijkl...", U, V, U, V, A, optimize=True)
+        return A.reshape((2, 2, 2, 2) + rest)

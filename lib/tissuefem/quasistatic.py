@@ -298,6 +298,8 @@ class QuasistaticProblem:
         try:
             K = self.tangent(u)
             r = self.internal_force(u) - f_ext
+            if not (np.all(np.isfinite(K.data)) and np.all(np.isfinite(r))):
+                return x0, 0.0  # e.g. ln J on an inverted start: no linearisation to take
             du_c = target - u[fixed]
             rhs = -r[free] - K[free][:, fixed] @ du_c
             du_f = sp.linalg.spsolve(K[free][:, free].tocsc(), rhs)

@@ -1,0 +1,214 @@
+"""Figures of chapter 6 (inversion), and the small drawing helpers the chapter shares with them.
+
+* ``fig06_crush_release``: the notes' Figure 6 redone as an experiment. A
+  block is crushed by its top edge down to flat and past it, then let go; one
+  row per model of :func:`tissuefem.hardcases.inversion_models`, triangles
+  with ``J <= 0`` in red.
+* ``fig_ch06_itf_energy``: the energy of the four models along one singular
+  value (the other held at 1) and along a uniform shrink ``F = t I`` down to
+  ``F = 0``: where ``ln J`` stops, and what the Taylor, stable and
+  ITF-clamped models do instead.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from matplotlib.collections import PolyCollection
+from matplotlib.colors import to_rgba
+from matplotlib.figure import Figure
+from matplotlib.patches import Patch
+
+from .figures import E_DEFAULT, NU_DEFAULT, register, save
+
+#: fill colours of a triangle that keeps its orientation (J > 0) and of an inverted or flat one (J <= 0)
+UPRIGHT_COLOR, INVERTED_COLOR = "#6baed6", "#d6604d"
+#: the crush depths shown as columns of the crush-and-release figure (1 = flat); the released shape follows
+CRUSH_COLUMNS = (0.0, 0.5, 0.9, 1.0, 1.3)
+#: line colour of each model (same order as :func:`tissuefem.hardcases.inversion_models`)
+MODEL_COLORS = ("C0", "C2", "C1", "C3")
+
+
+def element_jacobians(mesh, x) -> np.ndarray:
+    """``J = det F`` of every P1 triangle of ``mesh`` when its nodes sit at ``x`` (shape ``(2, n_nodes)``).
+
+    On a linear triangle ``F`` is constant and ``J`` is the ratio of the signed
+    areas, deformed over reference: negative when the triangle is turned inside
+    out, zero when it is flat or collapsed to a point.
+    """
+    x = np.asarray(x, dtype=float)
+
+    def twice_signed_area(p):
+        a, b, c = (p[:, mesh.t[k]] for k in range(3))
+        return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+
+    return twice_signed_area(x) / twice_signed_area(np.asarray(mesh.p, dtype=float))
+
+
+def cover_counts(mesh, x, tol: float = 1e-9) -> np.ndarray:
+    """How many deformed triangles contain the centroid of each deformed triangle (nodes at ``x``).
+
+    A one-to-one deformation gives 1 everywhere; a count above 1 is a point of
+    space reached from two places of the body: the mesh lies over itself
+    there. This is a global test: it sees a fold even when every triangle has
+    ``J > 0``. Flat triangles (zero area) contain nothing and count 0 for
+    their own centroid. ``tol`` is the margin on the barycentric coordinates,
+    so points on a shared edge are not counted twice. Cost: ``n_elements^2``.
+    """
+    x = np.asarray(x, dtype=float)
+    a, b, c = (x[:, mesh.t[k]] for k in range(3))  # corners, each (2, n_elements)
+    point = ((a + b + c) / 3.0)[:, :, None]  # the centroids, against every triangle: [.., point, triangle]
+
+    def side(p, q, r):
+        return (q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])
+
+    area = side(a, b, c)[None, :]
+    ok = np.abs(area) > 0.0
+    area = np.where(ok, area, 1.0)
+    a, b, c = a[:, None, :], b[:, None, :], c[:, None, :]
+    inside = ok & (side(b, c, point) / area > tol) & (side(c, a, point) / area > tol) & (side(a, b, point) / area > tol)
+    return inside.sum(axis=1)
+
+
+def draw_state(ax, mesh, x, *, J=None, alpha: float = 1.0, tol: float = 1e-12) -> int:
+    """Draw the mesh with its nodes at ``x``: upright triangles blue, ``J <= 0`` red. Returns the red count.
+
+    The fill is translucent, so where the deformed mesh lies on top of
+    itself (the map is not one-to-one) the overlap shows darker. Upright
+    triangles are drawn first, so an inverted one stays visible on top.
+    ``J`` (one value per element) colours by another state's Jacobians, e.g.
+    the reference mesh by where the deformation will invert it; ``alpha``
+    fades the whole drawing.
+    """
+    J = element_jacobians(mesh, x) if J is None else np.asarray(J, dtype=float)
+    bad = J <= tol
+    verts = np.asarray(x, dtype=float)[:, mesh.t].transpose(2, 1, 0)  # (n_elements, 3, 2)
+    for mask, color in ((~bad, UPRIGHT_COLOR), (bad, INVERTED_COLOR)):
+        if mask.any():
+            ax.add_collection(PolyCollection(verts[mask], facecolors=to_rgba(color, 0.6 * alpha),
+                                             edgecolors=to_rgba("0.25", alpha), linewidths=0.45))
+    return int(bad.sum())
+
+
+def crush_and_release_runs(E: float = E_DEFAULT, nu: float = NU_DEFAULT, mesh=None) -> dict:
+    """Run :func:`tissuefem.hardcases.crush_and_release` (default depth 1.3) for the four models, by name."""
+    from .hardcases import block, crush_and_release, inversion_models
+
+    mesh = block() if mesh is None else mesh
+    return {name: crush_and_release(material, mesh) for name, material in inversion_models(E, nu).items()}
+
+
+def frame_depths(mesh, frames) -> np.ndarray:
+    """How far the top edge was pushed down in each crush frame (the last frame, the released shape, excluded)."""
+    top = np.flatnonzero(np.abs(mesh.p[1] - mesh.p[1].max()) < 1e-9)
+    rest = mesh.p[1].max()
+    return np.array([rest - np.mean(f[1, top]) for f in frames[:-1]])
+
+
+def _handle_line(ax, y, xlim):
+    ax.plot(xlim, [y, y], color="0.35", lw=0.8, ls="--")
+
+
+@register
+def fig06_crush_release(path=None, runs=None) -> Figure:
+    """Notes' Figure 6 as an experiment: a block crushed to flat and past it, then let go, for four models.
+
+    Rows: the ``ln J`` neo-Hookean model, the notes' cubic-Taylor variant and
+    stable neo-Hookean (both with the projected tangent), and the ITF-clamped
+    ``ln J`` model. Columns: the top edge pushed down by 0, 0.5, 0.9, 1 (flat)
+    and 1.3 (past flat) with the bottom edge held, then the released shape
+    (bottom still held). Red triangles have ``J <= 0``; a panel the crush did
+    not reach shows the last state it did reach, faded. ``runs`` (from
+    :func:`crush_and_release_runs`) skips recomputing them.
+    """
+    from .hardcases import block
+
+    mesh = block()
+    runs = crush_and_release_runs(mesh=mesh) if runs is None else runs
+    xlim, ylim = (-0.38, 1.38), (-0.68, 1.12)
+    ncol = len(CRUSH_COLUMNS) + 1
+    fig = Figure(figsize=(1.75 * ncol + 0.9, 1.75 * len(runs) + 0.9), layout="constrained")
+    axes = fig.subplots(len(runs), ncol, squeeze=False)
+    bottom = mesh.p[1].min()
+    for row, (name, run) in zip(axes, runs.items()):
+        frames = run["frames"]
+        depths = frame_depths(mesh, frames)
+        for ax, target in zip(row, CRUSH_COLUMNS):
+            hit = np.flatnonzero(np.abs(depths - target) < 1e-6)
+            if hit.size:
+                draw_state(ax, mesh, frames[hit[0]])
+                _handle_line(ax, mesh.p[1].max() - target, xlim)
+            else:  # not reached: the last state the crush did reach, faded
+                draw_state(ax, mesh, frames[-2], alpha=0.3)
+                failed = run["crush"][-1].status if run["crush"] else "not run"
+                ax.text(0.5, 0.5, f"crush stopped\nat {run['crushed']:.1f}\n(next step:\n{failed})",
+                        transform=ax.transAxes, ha="center", va="center", fontsize=7.5,
+                        bbox=dict(boxstyle="round,pad=0.25", fc="white", ec="0.6", alpha=0.9))
+        released = run["released"]
+        ax = row[-1]
+        draw_state(ax, mesh, frames[-1])
+        ax.text(0.5, 0.02, f"{released.status}, rest error {released.rest_error:.2g}",
+                transform=ax.transAxes, ha="center", va="bottom", fontsize=7)
+        for ax in row:
+            ax.plot(xlim, [bottom, bottom], color="k", lw=1.6)  # the held bottom edge
+            ax.set(aspect="equal", xlim=xlim, ylim=ylim, xticks=[], yticks=[])
+        row[0].set_ylabel(name, fontsize=8.5)
+    for ax, target in zip(axes[0], CRUSH_COLUMNS):
+        label = "rest" if target == 0 else ("flat" if target == 1 else f"pushed {target:g}")
+        ax.set_title(label, fontsize=9)
+    axes[0, -1].set_title("released", fontsize=9)
+    fig.legend(handles=[Patch(fc=to_rgba(UPRIGHT_COLOR, 0.6), ec="0.25",
+                              label="$J > 0$ (darker where the mesh lies over itself)"),
+                        Patch(fc=to_rgba(INVERTED_COLOR, 0.6), ec="0.25", label="$J \\leq 0$ (inverted or flat)")],
+               loc="outside lower center", ncol=2, fontsize=8, frameon=False)
+    fig.suptitle("Notes' Figure 6 as an experiment: crush a block to flat and past it, then let go\n"
+                 f"(E = {E_DEFAULT:g}, ν = {NU_DEFAULT:g}; bottom edge held; dashed: the top handle)",
+                 fontsize=10)
+    save(fig, path)
+    return fig
+
+
+@register
+def fig_ch06_itf_energy(path=None) -> Figure:
+    """Chapter 6: the four models' energy along one signed singular value, and along a shrink to F = 0.
+
+    Left: ``Psi(diag(1, s1))`` for ``s1`` from -1 (turned inside out) to 1.6;
+    middle: its slope ``dPsi/ds1``, the stress that pushes the element back.
+    The ``ln J`` model ends at ``s1 = 0``; the ITF-clamped model leaves it at
+    the threshold ``c`` with a finite slope plus a spring. Right: a uniform
+    shrink ``F = t I`` to a point: the Taylor and stable models arrive at
+    ``F = 0`` with zero slope (a stationary point), the ITF-clamped model with
+    a finite one (it pushes outward).
+    """
+    from .hardcases import inversion_models
+    from .inversion import diagonal
+
+    models = inversion_models(E_DEFAULT, NU_DEFAULT)
+    c = models["ITF-clamped neo-Hookean"].threshold
+    s1 = np.linspace(-1.0, 1.6, 521)
+    F_line = diagonal(np.stack([np.ones_like(s1), s1]))
+    t = np.linspace(0.0, 1.4, 281)
+    F_shrink = diagonal(np.stack([t, t]))
+    fig = Figure(figsize=(12.0, 4.0), layout="constrained")
+    ax_e, ax_p, ax_t = fig.subplots(1, 3)
+    for (name, material), color in zip(models.items(), MODEL_COLORS):
+        ax_e.plot(s1, material.energy(F_line), color=color, lw=2, label=name)
+        ax_p.plot(s1, material.stress(F_line)[1, 1], color=color, lw=2, label=name)
+        ax_t.plot(t, material.energy(F_shrink), color=color, lw=2, label=name)
+    for ax in (ax_e, ax_p):
+        ax.axvspan(s1[0], 0.0, color="C3", alpha=0.08, label="inverted ($s_1 < 0$)")
+        ax.axvspan(0.0, c, color="C1", alpha=0.08, label=f"below the threshold $c = {c:g}$")
+        ax.axvline(1.0, color="k", lw=0.6, ls="--")
+        ax.axhline(0.0, color="k", lw=0.6)
+        ax.set(xlim=(s1[0], s1[-1]), xlabel="signed singular value $s_1$ (with $s_0 = 1$)")
+        ax.grid(alpha=0.3)
+    ax_e.set(ylim=(-500, 12000), ylabel="$\\hat\\Psi(1, s_1)$", title="energy along $s_1$")
+    ax_p.set(ylim=(-20000, 6000), ylabel="$\\partial\\hat\\Psi/\\partial s_1$", title="its slope: the push back")
+    ax_e.legend(fontsize=7.5, loc="upper right")
+    ax_t.axvspan(0.0, c, color="C1", alpha=0.08)
+    ax_t.axvline(1.0, color="k", lw=0.6, ls="--")
+    ax_t.set(xlim=(t[0], t[-1]), ylim=(-200, 10000), xlabel="$t$ in $\\mathbf{F} = t\\,\\mathbf{I}$",
+             ylabel="$\\Psi(t\\,\\mathbf{I})$", title="uniform shrink to a point ($t = 0$: $\\mathbf{F} = 0$)")
+    ax_t.grid(alpha=0.3)
+    fig.suptitle(f"Inversion in diagonal space: E = {E_DEFAULT:g}, ν = {NU_DEFAULT:g} (plane strain)", fontsize=11)
+    save(fig, path)
+    return fig
