@@ -102,6 +102,7 @@ def test_projected_newton_reaches_the_same_equilibrium():
 
 # --- ITF threshold extrapolation ----------------------------------------------------------------
 
+from test_materials import fd_stress, fd_tangent  # noqa: E402
 from tissuefem.inversion import ITFClamped, diagonal  # noqa: E402
 
 LAM, MU = 577.0, 385.0
@@ -109,26 +110,6 @@ LAM, MU = 577.0, 385.0
 
 def _itf(**kw):
     return ITFClamped(NeoHookean(LAM, MU), **kw)
-
-
-def _fd_stress(m, F, h=1e-6):
-    out = np.zeros_like(F)
-    for i in range(2):
-        for j in range(2):
-            dF = np.zeros_like(F)
-            dF[i, j] = h
-            out[i, j] = (m.energy(F + dF) - m.energy(F - dF)) / (2 * h)
-    return out
-
-
-def _fd_tangent(m, F, h=1e-6):
-    out = np.zeros((2, 2) + F.shape)
-    for k in range(2):
-        for m_ in range(2):
-            dF = np.zeros_like(F)
-            dF[k, m_] = h
-            out[:, :, k, m_] = (m.stress(F + dF) - m.stress(F - dF)) / (2 * h)
-    return out
 
 
 # every region: normal (s1 >= c), one crushed (s1 < c <= s0, also inverted), both crushed; away from s0 + s1 = 0
@@ -148,13 +129,13 @@ def test_itf_stress_is_the_gradient_of_its_energy_in_every_region():
     m = _itf()
     P = m.stress(F_ITF)
     scale = 1 + np.abs(P).max()
-    np.testing.assert_allclose(_fd_stress(m, F_ITF), P, atol=1e-6 * scale)
+    np.testing.assert_allclose(fd_stress(m, F_ITF), P, atol=1e-6 * scale)
 
 
 def test_itf_exact_tangent_matches_finite_differences_of_stress():
     m = _itf(project=False)
     A = m.tangent(F_ITF)
-    np.testing.assert_allclose(_fd_tangent(m, F_ITF), A, atol=2e-5 * (1 + np.abs(A).max()))
+    np.testing.assert_allclose(fd_tangent(m, F_ITF), A, atol=2e-5 * (1 + np.abs(A).max()))
 
 
 def test_itf_is_the_base_model_above_the_threshold_and_stress_free_at_rest():
