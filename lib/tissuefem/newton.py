@@ -23,7 +23,6 @@ from typing import Callable
 
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 
 @dataclass
@@ -85,9 +84,10 @@ class NewtonResult:
 
 
 def _default_linear_solve(A, b):
-    A = sp.csc_matrix(A)
-    lu = spla.splu(A, permc_spec="MMD_AT_PLUS_A")
-    return lu.solve(b)
+    # SuperLU with the symmetric minimum-degree ordering in symmetric mode (see tissuefem.linsolve)
+    from .linsolve import SuperLU
+
+    return SuperLU().factorize(A).solve(b)
 
 
 def _direction(K, rhs, solve, descent: bool):

@@ -1,0 +1,370 @@
+"""Linear solver backends behind one small interface.
+
+Every Newton step solves ``A dx = b`` with ``A`` the (condensed) tangent: for
+backward Euler ``M + dt^2 K``, symmetric and, away from buckling, positive
+definite. Beyond a couple of thousand triangles this solve, not assembly,
+decides the frame rate, so it is a choice the user makes and a benchmark
+measures. One interface:
+
+``backend.factorize(A) -> Factorization``
+    an object with ``solve(b)`` (any number of times, for one ``A``);
+``backend(A, b) -> x``
+    factorize and solve once (the form :func:`tissuefem.newton.newton_solve`
+    takes as ``linear_solve``).
+
+Backends
+--------
+:class:`SuperLU`
+    SciPy's sparse LU. The column ordering matters: a symmetric minimum-degree
+    ordering of ``A + A^T`` (``"MMD_AT_PLUS_A"``) with SuperLU's *symmetric
+    mode* (diagonal pivots preferred) keeps the fill of these matrices at
+    about half of the default ``"COLAMD"``'s and factorizes 1.5-2.5x faster
+    (measured: 23 ms against 43 ms at 8k triangles). Without symmetric mode
+    the same ordering can be *slower* than COLAMD, because off-diagonal
+    pivoting destroys it (173 ms in the same run). If the diagonal pivots fail
+    (a zero pivot, or a first solve whose residual is poor: an indefinite
+    matrix) it refactorizes with partial pivoting.
+:class:`Pardiso`
+    Intel MKL's PARDISO through the optional ``pypardiso`` package
+    (``pip install tissuefem[pardiso]``; large, never required).
+    :func:`available` tells whether it is installed.
+:class:`ReusedFactorization`
+    *Not* a new factorization per solve: it keeps the factorization of an
+    earlier matrix and uses it as the preconditioner of conjugate gradients
+    (:func:`pcg`) for the current one. Along a Newton solve, and from one
+    frame to the next, the tangent changes slowly, so a handful of CG
+    iterations (each one back-substitution, ~1 ms at 8k triangles) replaces a
+    factorization (~20 ms). When CG slows down (more than ``refresh_after``
+    iterations) the next solve refactorizes; when it fails (no convergence in
+    ``max_iterations``, or negative curvature) the current solve does.
+
+:func:`make` builds a backend by name (``"superlu"``, ``"superlu-colamd"``,
+``"pardiso"``, ``"auto"``: PARDISO when installed, else SuperLU).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+__all__ = [
+    "SuperLU",
+    "Pardiso",
+    "ReusedFactorization",
+    "SolveInfo",
+    "PCGResult",
+    "pcg",
+    "available",
+    "make",
+    "BACKENDS",
+]
+
+_ORDERINGS = ("MMD_AT_PLUS_A", "COLAMD", "MMD_ATA", "NATURAL")
+
+
+def _square(A, what="A") -> sp.csr_matrix:
+    if not sp.issparse(A):
+        raise ValueError(f"{what} must be a scipy sparse matrix, got {type(A).__name__}")
+    if A.ndim != 2 or A.shape[0] != A.shape[1]:
+        raise ValueError(f"{what} must be square, got shape {A.shape}")
+    return A
+
+
+def _rhs(b, n) -> np.ndarray:
+    b = np.asarray(b, dtype=float)
+    if b.shape != (n,):
+        raise ValueError(f"b must have shape ({n},) to match the matrix, got {b.shape}")
+    if not np.all(np.isfinite(b)):
+        raise ValueError("b contains non-finite values")
+    return b
+
+
+class _Direct:
+    """Shared behaviour of the direct backends: ``backend(A, b)`` factorizes and solves once."""
+
+    name = "direct"
+
+    def factorize(self, A):  # pragma: no cover - overridden
+        raise NotImplementedError
+
+    def __call__(self, A, b) -> np.ndarray:
+        factor = self.factorize(A)
+        return factor.solve(_rhs(b, A.shape[0]))
+
+    def __repr__(self):
+        return f"{type(self).__name__}()"
+
+
+class _LUFactor:
+    def __init__(self, lu, n, A=None, ordering=None):
+        self._lu, self.n = lu, n
+        self._A, self._ordering = A, ordering  # kept only for a symmetric-mode factorization (see solve)
+
+    def solve(self, b) -> np.ndarray:
+        b = np.asarray(b, dtype=float)
+        x = self._lu.solve(b)
+        if self._A is not None:
+            # diagonal pivots without a threshold can lose accuracy on an indefinite matrix: check the
+            # residual once and, if it is poor, refactorize with partial pivoting for good
+            bad = not np.all(np.isfinite(x)) or np.linalg.norm(self._A @ x - b) > 1e-8 * np.linalg.norm(b)
+            if bad:
+                self._lu = spla.splu(self._A, permc_spec=self._ordering)
+                x = self._lu.solve(b)
+            self._A = None
+        return x
+
+
+class SuperLU(_Direct):
+    """SciPy's SuperLU with a chosen column ordering (default: symmetric minimum degree, symmetric mode).
+
+    Parameters
+    ----------
+    ordering
+        ``"MMD_AT_PLUS_A"`` (default), ``"COLAMD"`` (SciPy's default),
+        ``"MMD_ATA"`` or ``"NATURAL"``.
+    symmetric
+        Use SuperLU's symmetric mode (prefer diagonal pivots). Default: on for
+        ``"MMD_AT_PLUS_A"``, off otherwise.
+    """
+
+    def __init__(self, ordering: str = "MMD_AT_PLUS_A", symmetric: bool | None = None):
+        if ordering not in _ORDERINGS:
+            raise ValueError(f"ordering must be one of {_ORDERINGS}, got {ordering!r}")
+        self.ordering = ordering
+        self.symmetric = (ordering == "MMD_AT_PLUS_A") if symmetric is None else bool(symmetric)
+        self.name = "superlu" if ordering == "MMD_AT_PLUS_A" else f"superlu-{ordering.lower()}"
+
+    def factorize(self, A) -> _LUFactor:
+        A = sp.csc_matrix(_square(A))
+        if self.symmetric:
+            try:
+                return _LUFactor(
+                    spla.splu(A, permc_spec=self.ordering, diag_pivot_thresh=0.0, options={"SymmetricMode": True}),
+                    A.shape[0],
+                    A,
+                    self.ordering,
+                )
+            except RuntimeError:
+                pass  # a zero diagonal pivot: fall back to partial pivoting below
+        return _LUFactor(spla.splu(A, permc_spec=self.ordering), A.shape[0])
+
+    def __repr__(self):
+        return f"SuperLU(ordering={self.ordering!r}, symmetric={self.symmetric})"
+
+
+def available(name: str) -> bool:
+    """Whether the backend ``name`` can be used here (PARDISO needs the optional ``pypardiso``)."""
+    if name == "pardiso":
+        return importlib.util.find_spec("pypardiso") is not None
+    return name in BACKENDS
+
+
+class _PardisoFactor:
+    def __init__(self, solver, A):
+        self._solver, self._A, self.n = solver, A, A.shape[0]
+
+    def solve(self, b) -> np.ndarray:
+        # pypardiso re-checks that A is the matrix it factorized and only then back-substitutes
+        return np.asarray(self._solver.solve(self._A, np.asarray(b, dtype=float)), dtype=float)
+
+
+class Pardiso(_Direct):
+    """MKL PARDISO via the optional ``pypardiso`` package (real nonsymmetric mode, as pypardiso sets it).
+
+    Each :meth:`factorize` uses a fresh pypardiso solver, so a kept
+    factorization is never silently replaced (pypardiso otherwise reuses the
+    factorization of the last matrix it saw when called with the same one).
+    """
+
+    name = "pardiso"
+
+    def __init__(self):
+        if not available("pardiso"):
+            raise ValueError(
+                "linear solver 'pardiso' needs the optional package pypardiso "
+                "(pip install 'tissuefem[pardiso]'); use 'superlu' instead"
+            )
+        import pypardiso
+
+        self._module = pypardiso
+
+    def factorize(self, A) -> _PardisoFactor:
+        A = sp.csr_matrix(_square(A))
+        solver = self._module.PyPardisoSolver()
+        solver.set_statistical_info_off()
+        solver.factorize(A)
+        return _PardisoFactor(solver, A)
+
+
+# --- conjugate gradients ------------------------------------------------------------------------
+
+@dataclass
+class PCGResult:
+    """What :func:`pcg` did."""
+
+    x: np.ndarray
+    iterations: int
+    converged: bool
+    residual_norm: float
+    negative_curvature: bool = False
+
+
+def pcg(A, b, precondition=None, *, x0=None, atol: float = 0.0, rtol: float = 1e-8, max_iterations: int = 200,
+        should_stop=None) -> PCGResult:
+    """Preconditioned conjugate gradients for a symmetric ``A``.
+
+    Stops when ``||b - A x|| <= max(atol, rtol ||b||)``, after
+    ``max_iterations``, on *negative curvature* (a search direction ``p`` with
+    ``p^T A p <= 0``: ``A`` is not positive definite; ``x`` is then the last
+    iterate, which for ``x0 = 0`` is still a descent direction of the
+    quadratic model), or when ``should_stop()`` says so (a time budget).
+    ``precondition(r)`` applies the inverse of an approximation of ``A``.
+    """
+    b = np.asarray(b, dtype=float)
+    x = np.zeros_like(b) if x0 is None else np.array(x0, dtype=float, copy=True)
+    r = b - A @ x if x0 is not None else b.copy()
+    target = max(float(atol), float(rtol) * float(np.linalg.norm(b)))
+    rnorm = float(np.linalg.norm(r))
+    if rnorm <= target:
+        return PCGResult(x, 0, True, rnorm)
+    z = precondition(r) if precondition is not None else r.copy()
+    p = z.copy()
+    rz = float(r @ z)
+    for k in range(1, int(max_iterations) + 1):
+        Ap = A @ p
+        curvature = float(p @ Ap)
+        if not (curvature > 0.0) or not (rz > 0.0):
+            if k == 1 and x0 is None:
+                # no step taken yet: the preconditioned residual is the best safe guess
+                x = z if rz > 0.0 else r.copy()
+            return PCGResult(x, k - 1, False, rnorm, negative_curvature=True)
+        alpha = rz / curvature
+        x += alpha * p
+        r -= alpha * Ap
+        rnorm = float(np.linalg.norm(r))
+        if not np.isfinite(rnorm):
+            return PCGResult(x, k, False, rnorm)
+        if rnorm <= target:
+            return PCGResult(x, k, True, rnorm)
+        if should_stop is not None and should_stop():
+            return PCGResult(x, k, False, rnorm)
+        z = precondition(r) if precondition is not None else r
+        rz_new = float(r @ z)
+        p = z + (rz_new / rz) * p
+        rz = rz_new
+    return PCGResult(x, int(max_iterations), False, rnorm)
+
+
+@dataclass
+class SolveInfo:
+    """What one solve of :class:`ReusedFactorization` did."""
+
+    iterations: int  # CG iterations (0: a direct solve with a fresh factorization)
+    factorized: bool  # a new factorization was computed for this solve
+    converged: bool
+    residual_norm: float  # ||b - A x||
+    reason: str = ""  # why it refactorized ("first", "shape", "stale", "cg-failed", "negative-curvature", "forced")
+
+
+class ReusedFactorization:
+    """Conjugate gradients preconditioned by a kept factorization, refreshed when it stops paying.
+
+    Parameters
+    ----------
+    direct
+        The direct backend that factorizes (default :class:`SuperLU`).
+    refresh_after
+        A solve that needs more CG iterations than this marks the
+        factorization stale: the *next* solve refactorizes.
+    max_iterations
+        CG iterations after which the current solve gives up on the old
+        factorization, refactorizes and solves directly.
+
+    ``solve(A, b, atol=..., rtol=...)`` returns ``(x, SolveInfo)``;
+    ``backend(A, b)`` returns ``x`` alone (for ``newton_solve``).
+    :meth:`invalidate` forgets the factorization (use it when the set of
+    unknowns changes). Counters ``factorizations`` and ``cg_iterations``
+    accumulate over the object's life.
+    """
+
+    def __init__(self, direct=None, refresh_after: int = 15, max_iterations: int = 40):
+        if isinstance(refresh_after, bool) or not isinstance(refresh_after, (int, np.integer)) or refresh_after < 1:
+            raise ValueError(f"refresh_after must be a positive integer, got {refresh_after!r}")
+        if isinstance(max_iterations, bool) or not isinstance(max_iterations, (int, np.integer)) or max_iterations < 1:
+            raise ValueError(f"max_iterations must be a positive integer, got {max_iterations!r}")
+        self.direct = direct if direct is not None else SuperLU()
+        if not callable(getattr(self.direct, "factorize", None)):
+            raise ValueError(f"direct must be a backend with a factorize method, got {direct!r}")
+        self.refresh_after, self.max_iterations = int(refresh_after), int(max_iterations)
+        self.name = f"cg+reused-{self.direct.name}"
+        self._factor = None
+        self._shape = None
+        self._stale = False
+        self.factorizations = 0
+        self.cg_iterations = 0
+
+    def invalidate(self) -> None:
+        self._factor, self._shape, self._stale = None, None, False
+
+    @property
+    def has_factorization(self) -> bool:
+        return self._factor is not None
+
+    def _refactorize(self, A, b, reason) -> tuple[np.ndarray, SolveInfo]:
+        self._factor = self.direct.factorize(A)
+        self._shape = A.shape
+        self._stale = False
+        self.factorizations += 1
+        x = self._factor.solve(b)
+        res = float(np.linalg.norm(b - A @ x))
+        return x, SolveInfo(0, True, bool(np.all(np.isfinite(x))), res, reason)
+
+    def solve(self, A, b, *, atol: float = 0.0, rtol: float = 1e-10, refactorize: bool = False,
+              should_stop=None) -> tuple[np.ndarray, SolveInfo]:
+        A = _square(A)
+        b = _rhs(b, A.shape[0])
+        if refactorize:
+            return self._refactorize(A, b, "forced")
+        if self._factor is None:
+            return self._refactorize(A, b, "first")
+        if self._shape != A.shape:
+            return self._refactorize(A, b, "shape")
+        if self._stale:
+            return self._refactorize(A, b, "stale")
+        result = pcg(A, b, self._factor.solve, atol=atol, rtol=rtol, max_iterations=self.max_iterations,
+                     should_stop=should_stop)
+        self.cg_iterations += result.iterations
+        if result.negative_curvature:
+            return self._refactorize(A, b, "negative-curvature")
+        if not result.converged and result.iterations >= self.max_iterations:
+            return self._refactorize(A, b, "cg-failed")
+        if result.iterations > self.refresh_after:
+            self._stale = True
+        return result.x, SolveInfo(result.iterations, False, result.converged, result.residual_norm)
+
+    def __call__(self, A, b) -> np.ndarray:
+        return self.solve(A, b)[0]
+
+    def __repr__(self):
+        return (f"ReusedFactorization(direct={self.direct!r}, refresh_after={self.refresh_after}, "
+                f"max_iterations={self.max_iterations})")
+
+
+BACKENDS = {
+    "superlu": lambda: SuperLU("MMD_AT_PLUS_A"),
+    "superlu-colamd": lambda: SuperLU("COLAMD"),
+    "pardiso": Pardiso,
+}
+
+
+def make(name: str = "superlu"):
+    """A direct backend by name: ``"superlu"``, ``"superlu-colamd"``, ``"pardiso"`` or ``"auto"``."""
+    if name == "auto":
+        name = "pardiso" if available("pardiso") else "superlu"
+    if name not in BACKENDS:
+        raise ValueError(f"unknown linear solver {name!r}; choose from {sorted(BACKENDS) + ['auto']}")
+    return BACKENDS[name]()

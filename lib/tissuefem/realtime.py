@@ -1,0 +1,502 @@
+"""The real-time-budget solver: the notes' frame loop as a library object.
+
+The notes' loop for an interactive simulator is: read the user's boundary
+input, advance ``t``, solve, render, and do it every 1/30 s. A
+:class:`RealtimeSolver` does one pass of it per call of :meth:`~RealtimeSolver.frame`:
+
+1. **input**: the handles' new targets (validated *before* anything changes:
+   a non-finite target raises ``ValueError`` and the state is untouched);
+2. **warm start**: the lower-energy of two guesses, the inertial prediction
+   ``x~ = u^n + dt v^n`` and the previous state ``u^n``, with the handles
+   moved to their targets. If that start is not a valid state (a handle
+   jerked so far that an element would invert under a model that cannot
+   take it), the handles go only part of the way (halving the increment);
+   the report's ``handle_fraction`` says how far, and the rest carries into
+   the next frame, which aims at the full target again;
+3. **solve**: Newton on the incremental potential of backward Euler,
+
+       E(x) = 1/2 (x - x~)^T M (x - x~) + dt^2 [W(x) - f^T x],
+
+   (or on ``W(x) - f^T x`` when ``dt`` is ``None``: a quasistatic frame),
+   with an energy line search, until the residual is below
+   ``atol + rtol ||grad E(x_0)||`` (free dofs; never below ``1e-12`` times the
+   gradient over all dofs, reactions included: round-off) or the frame's **wall-clock budget** is
+   spent. The clock is read before each tangent assembly and before each
+   linear solve; once the budget is spent no new one starts, so a frame
+   overruns by at most the one linear solve (or assembly) that was running
+   when the budget ran out. Every frame takes at least one Newton step, so
+   even a budget too small for anything makes progress;
+4. **commit**: the accepted iterate becomes ``u^{n+1}`` (and
+   ``v^{n+1} = (u^{n+1} - u^n)/dt``), converged or not. Every accepted
+   iterate passed the line search, so the state is finite and its energy is
+   not above the frame's start (*anytime*); the residual left over is in the
+   report, and the next frame's warm start begins from there.
+
+Speed comes from the fast P1 path (:class:`~tissuefem.assembly.P1Assembler`:
+the matrix ``M + dt^2 K`` is assembled into a fixed pattern and condensed by
+a precomputed gather, no sparse slicing per iteration), warm starts, and the
+reuse of one factorization across Newton iterations *and frames* as the
+preconditioner of conjugate gradients
+(:class:`~tissuefem.linsolve.ReusedFactorization`), refreshed when CG slows.
+
+The clock is a parameter (any callable returning seconds), so tests drive the
+solver with a fake clock and are deterministic.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+from . import linsolve
+from .dynamics import mass_matrix
+
+__all__ = ["RealtimeSolver", "FrameReport", "FRAME_BUDGET"]
+
+#: the notes' frame time: 1/30 s
+FRAME_BUDGET = 1.0 / 30.0
+
+
+@dataclass
+class FrameReport:
+    """What one frame did."""
+
+    frame: int  # frame number, from 1
+    time: float  # simulated time after the frame
+    converged: bool
+    status: str  # "converged", "budget", "max-iterations", "line-search-failed"
+    newton_iterations: int
+    linear_iterations: int  # conjugate-gradient iterations (0 for direct solves)
+    factorizations: int
+    residual_norm: float  # ||grad E|| over the free dofs at the returned state
+    initial_residual: float  # ... at the frame's warm start
+    energy: float  # E at the returned state (the incremental potential, or W - f.u when quasistatic)
+    start_energy: float  # E at the warm start: energy <= start_energy always
+    elapsed: float  # clock seconds the frame used
+    budget: float
+    handle_fraction: float = 1.0  # how far the handles got towards their targets this frame
+    line_search_cuts: int = 0
+    warm_start: str = "inertial"  # "inertial" (u + dt v) or "previous" (u)
+    residual_history: list[float] = field(default_factory=list)
+
+    @property
+    def relative_residual(self) -> float:
+        return self.residual_norm / self.initial_residual if self.initial_residual > 0 else 0.0
+
+    @property
+    def over_budget(self) -> float:
+        """Seconds past the budget (0 if within)."""
+        return max(0.0, self.elapsed - self.budget)
+
+
+def _check_positive(name, value, allow_inf=False) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a positive number, got {value!r}") from None
+    if math.isnan(v) or v <= 0 or (math.isinf(v) and not allow_inf):
+        raise ValueError(f"{name} must be {'> 0' if allow_inf else 'finite and > 0'}, got {value!r}")
+    return v
+
+
+class _Condensed:
+    """Gather map from the assembler's CSR data to the free-free block, for one set of prescribed dofs."""
+
+    def __init__(self, assembler, free):
+        n = assembler.n_dofs
+        numbered = sp.csr_matrix(
+            (np.arange(1, assembler.nnz + 1, dtype=float), assembler.indices, assembler.indptr), shape=(n, n)
+        )
+        block = numbered[free][:, free]
+        self.gather = block.data.astype(np.intp) - 1
+        self.indices, self.indptr, self.shape = block.indices, block.indptr, block.shape
+
+    def __call__(self, data) -> sp.csr_matrix:
+        A = sp.csr_matrix((data[self.gather], self.indices, self.indptr), shape=self.shape, copy=False)
+        A.has_sorted_indices = True
+        return A
+
+
+class RealtimeSolver:
+    """A frame loop with a wall-clock budget per frame, around a :class:`~tissuefem.quasistatic.QuasistaticProblem`.
+
+    Parameters
+    ----------
+    problem
+        The body: mesh, material, handles (their targets are the user input),
+        tractions and body force.
+    dt
+        Time step of backward Euler (default 1/30 s), or ``None`` for
+        quasistatic frames (no inertia, no mass matrix built).
+    density, mass, gravity
+        As for :class:`~tissuefem.dynamics.BackwardEuler` (``mass`` is
+        ``"lumped"`` or ``"consistent"``).
+    budget
+        Wall-clock seconds per frame (default 1/30); ``math.inf`` for no budget.
+    rtol, atol
+        A frame has converged when ``||grad E|| <= atol + rtol ||grad E(x_0)||``
+        on the free dofs (``E`` is scaled by ``dt^2`` as above).
+    linear_solver
+        ``"reuse"`` (default: CG preconditioned by a kept SuperLU
+        factorization), ``"direct"`` (a fresh SuperLU factorization every
+        Newton iteration), a backend name of :func:`tissuefem.linsolve.make`
+        (a fresh factorization of that backend every iteration), or a backend
+        object (a :class:`~tissuefem.linsolve.ReusedFactorization`, or one with
+        ``factorize``).
+    clock
+        A callable returning seconds (default :func:`time.perf_counter`).
+    max_iterations
+        Newton iterations per frame at most (even with budget to spare).
+    """
+
+    def __init__(self, problem, *, dt=1.0 / 30.0, density: float = 1.0, mass: str = "lumped", gravity=None,
+                 budget: float = FRAME_BUDGET, rtol: float = 1e-6, atol: float = 1e-12,
+                 linear_solver="reuse", clock=time.perf_counter, max_iterations: int = 50):
+        self.problem = problem
+        self.dt = None if dt is None else _check_positive("dt", dt)
+        self.budget = _check_positive("budget", budget, allow_inf=True)
+        self.rtol = _check_positive("rtol", rtol)
+        if not (np.isfinite(atol) and atol >= 0):
+            raise ValueError(f"atol must be finite and >= 0, got {atol!r}")
+        self.atol = float(atol)
+        if isinstance(max_iterations, bool) or not isinstance(max_iterations, (int, np.integer)) or max_iterations < 1:
+            raise ValueError(f"max_iterations must be a positive integer, got {max_iterations!r}")
+        self.max_iterations = int(max_iterations)
+        if not callable(clock):
+            raise ValueError(f"clock must be a callable returning seconds, got {clock!r}")
+        self.clock = clock
+        if mass not in ("lumped", "consistent"):
+            raise ValueError(f"mass must be 'lumped' or 'consistent', got {mass!r}")
+        self.linear = self._make_linear(linear_solver)
+
+        self.external = problem.external.copy()
+        self.M = None
+        if self.dt is not None:
+            self.density = _check_positive("density", density)
+            self.M = mass_matrix(problem.basis, self.density, lumped=(mass == "lumped"))
+            if gravity is not None:
+                g = np.asarray(gravity, dtype=float)
+                if g.shape != (2,) or not np.all(np.isfinite(g)):
+                    raise ValueError(f"gravity must be a finite vector (gx, gy), got {gravity!r}")
+                self.external = self.external + problem._body_force_vector(self.density * g)
+        elif gravity is not None:
+            raise ValueError("gravity needs a density and dt; for a quasistatic frame give the problem a body_force")
+
+        self.assembler = problem.assembler  # None for P2 or the forms path: then the generic (slower) path
+        if self.assembler is not None and self.M is not None:
+            # the mass matrix's entries at the assembler's pattern positions (P1: same pattern)
+            M = self.M.tocsr()
+            rows = np.repeat(np.arange(self.assembler.n_dofs), np.diff(self.assembler.indptr))
+            self._M_data = np.asarray(M[rows, self.assembler.indices]).ravel()
+        self._condensed = {}
+
+        n = problem.basis.N
+        self.u = np.zeros(n)
+        self.v = np.zeros(n)
+        self.time = 0.0
+        self.frames = 0
+        self.last_report: FrameReport | None = None
+
+    # ------------------------------------------------------------------ set-up helpers
+    @staticmethod
+    def _make_linear(linear_solver):
+        if isinstance(linear_solver, str):
+            if linear_solver == "reuse":
+                return linsolve.ReusedFactorization(linsolve.SuperLU())
+            if linear_solver == "direct":
+                return linsolve.SuperLU()
+            return linsolve.make(linear_solver)
+        if isinstance(linear_solver, linsolve.ReusedFactorization) or callable(getattr(linear_solver, "factorize", None)):
+            return linear_solver
+        raise ValueError(
+            f"linear_solver must be 'reuse', 'direct', a backend name or a backend object, got {linear_solver!r}"
+        )
+
+    @property
+    def linear_solver_name(self) -> str:
+        return getattr(self.linear, "name", type(self.linear).__name__)
+
+    # ------------------------------------------------------------------ the objective
+    def energy(self, x, x_tilde) -> float:
+        W = self.problem.strain_energy(x) - float(self.external @ x)
+        if self.dt is None:
+            return W
+        d = x - x_tilde
+        return 0.5 * float(d @ (self.M @ d)) + self.dt**2 * W
+
+    def gradient(self, x, x_tilde) -> np.ndarray:
+        g = self.problem.internal_force(x) - self.external
+        if self.dt is None:
+            return g
+        return self.M @ (x - x_tilde) + self.dt**2 * g
+
+    def _hessian_free(self, x, free, fixed_key):
+        if self.assembler is not None:
+            data = self.assembler.tangent(x).data
+            if self.dt is not None:
+                data = self.dt**2 * data + self._M_data
+            cond = self._condensed.get(fixed_key)
+            if cond is None:
+                cond = self._condensed[fixed_key] = _Condensed(self.assembler, free)
+            return cond(data)
+        K = self.problem.tangent(x)
+        if self.dt is not None:
+            K = self.M + self.dt**2 * K
+        return sp.csr_matrix(K)[free][:, free]
+
+    # ------------------------------------------------------------------ input
+    def _validated_targets(self, targets):
+        """``[(handle, target), ...]`` after checking every target (nothing is moved yet)."""
+        handles = self.problem.handles
+        if targets is None:
+            return []
+        if isinstance(targets, dict):
+            items = list(targets.items())
+        else:
+            try:
+                seq = list(targets)
+            except TypeError:
+                raise ValueError(f"targets must be a dict, a sequence (one per handle) or None, got {targets!r}") from None
+            if len(seq) != len(handles):
+                raise ValueError(f"targets has {len(seq)} entries but the problem has {len(handles)} handles")
+            items = list(enumerate(seq))
+        out = []
+        for key, target in items:
+            if isinstance(key, bool) or not isinstance(key, (int, np.integer)) or not 0 <= key < len(handles):
+                raise ValueError(f"targets: {key!r} is not a handle index (0..{len(handles) - 1})")
+            if target is None:
+                continue
+            if not callable(target):
+                t = np.asarray(target, dtype=float)
+                if t.shape != (2,):
+                    raise ValueError(f"targets[{key}] must be a translation (dx, dy) or a callable, got shape {t.shape}")
+                if not np.all(np.isfinite(t)):
+                    raise ValueError(f"targets[{key}] must be finite, got {t}")
+                target = t
+            out.append((handles[key], target))
+        return out
+
+    # ------------------------------------------------------------------ the frame
+    def frame(self, targets=None) -> FrameReport:
+        """Run one frame: apply ``targets``, solve within the budget, commit, report.
+
+        ``targets``: ``None`` (handles stay where they are aiming), a sequence
+        with one entry per handle (``None`` to leave one alone, a translation
+        ``(dx, dy)``, or a map ``X -> x``), or a dict ``{handle index: target}``.
+        """
+        moves = self._validated_targets(targets)
+        old_targets = [h.target for h in self.problem.handles]
+        try:
+            for handle, target in moves:
+                handle.move(target)
+            fixed, values = self.problem.prescribed()
+        except ValueError:
+            for h, t in zip(self.problem.handles, old_targets):
+                h.target = t
+            raise
+        return self._solve_frame(fixed, values)
+
+    def _solve_frame(self, fixed, values) -> FrameReport:
+        start = self.clock()
+        n = self.u.size
+        free_mask = np.ones(n, dtype=bool)
+        free_mask[fixed] = False
+        free = np.flatnonzero(free_mask)
+        fixed_key = fixed.tobytes()
+        if getattr(self, "_fixed_key", None) != fixed_key:
+            self._fixed_key = fixed_key
+            if isinstance(self.linear, linsolve.ReusedFactorization):
+                self.linear.invalidate()
+
+        x_tilde = self.u + self.dt * self.v if self.dt is not None else self.u.copy()
+        # warm start: the lower-energy of the inertial prediction and the previous state, handles moved;
+        # if neither is valid, move the handles only part of the way
+        previous = self.u[fixed]
+        x0, E0, fraction, which = None, math.inf, 1.0, "inertial"
+        for halvings in range(12):
+            fraction = 0.5**halvings
+            prescribed = previous + fraction * (values - previous)
+            candidates = [("inertial", x_tilde), ("previous", self.u)] if self.dt is not None else [("previous", self.u)]
+            for name, base in candidates:
+                x = base.copy()
+                x[fixed] = prescribed
+                with np.errstate(all="ignore"):
+                    E = self.energy(x, x_tilde)
+                if np.isfinite(E) and E < E0:
+                    x0, E0, which = x, E, name
+            if x0 is not None:
+                break
+        if x0 is None:  # the handles cannot move at all this frame without leaving the valid states
+            fraction = 0.0
+            x0 = self.u.copy()
+            E0 = self.energy(x0, x_tilde)
+            which = "previous"
+
+        x, E = x0, E0
+        with np.errstate(all="ignore"):
+            g = self.gradient(x, x_tilde)
+        rnorm = float(np.linalg.norm(g[free]))
+        r0 = rnorm
+        # converged at rtol relative to the frame's first residual, but never below round-off: the
+        # forces of the whole body (reactions at the handles included) set that scale
+        target = self.atol + max(self.rtol * r0, 1e-12 * float(np.linalg.norm(g)))
+        history = [rnorm]
+        e_scale = abs(E)
+        status, k, cg_its, factorizations, cuts = "max-iterations", 0, 0, 0, 0
+
+        def spent():
+            return self.clock() - start >= self.budget
+
+        while True:
+            if rnorm <= target:
+                status = "converged"
+                break
+            if k >= self.max_iterations:
+                status = "max-iterations"
+                break
+            if k >= 1 and spent():
+                status = "budget"
+                break
+            A = self._hessian_free(x, free, fixed_key)
+            if k >= 1 and spent():
+                status = "budget"
+                break
+            rhs = -g[free]
+            dx_free, its, fac = self._direction(A, rhs, rnorm, r0, target)
+            cg_its += its
+            factorizations += fac
+            if dx_free is None:
+                status = "line-search-failed"
+                break
+            dx = np.zeros(n)
+            dx[free] = dx_free
+            slope = float(rhs @ dx_free) * -1.0  # directional derivative of E (negative: descent)
+            e_scale = max(e_scale, abs(E), abs(slope))
+            alpha, accepted = 1.0, False
+            for _ in range(31):
+                x_new = x + alpha * dx
+                with np.errstate(all="ignore"):
+                    E_new = self.energy(x_new, x_tilde)
+                if np.isfinite(E_new):
+                    if E_new <= E + 1e-4 * alpha * slope:
+                        accepted = True
+                    elif E_new - E <= 1e-11 * e_scale:
+                        # energy differences at round-off: accept if the residual still drops
+                        with np.errstate(all="ignore"):
+                            g_try = self.gradient(x_new, x_tilde)
+                        accepted = bool(np.linalg.norm(g_try[free]) < rnorm)
+                    if accepted:
+                        break
+                alpha *= 0.5
+                cuts += 1
+            if not accepted:
+                status = "line-search-failed"
+                break
+            with np.errstate(all="ignore"):
+                g_new = self.gradient(x_new, x_tilde)
+            rn_new = float(np.linalg.norm(g_new[free]))
+            if not np.isfinite(rn_new):
+                status = "line-search-failed"
+                break
+            x, E, g, rnorm = x_new, min(E_new, E), g_new, rn_new
+            k += 1
+            history.append(rnorm)
+
+        elapsed = self.clock() - start
+        # commit: the accepted iterate is the new state, converged or not (it is finite and E <= E0)
+        if self.dt is not None:
+            self.v = (x - self.u) / self.dt
+            self.time += self.dt
+        self.u = x
+        self.frames += 1
+        report = FrameReport(
+            frame=self.frames,
+            time=self.time,
+            converged=status == "converged",
+            status=status,
+            newton_iterations=k,
+            linear_iterations=cg_its,
+            factorizations=factorizations,
+            residual_norm=rnorm,
+            initial_residual=r0,
+            energy=float(self.energy(x, x_tilde)),
+            start_energy=float(E0),
+            elapsed=elapsed,
+            budget=self.budget,
+            handle_fraction=fraction,
+            line_search_cuts=cuts,
+            warm_start=which,
+            residual_history=history,
+        )
+        self.last_report = report
+        return report
+
+    def _direction(self, A, rhs, rnorm, r0, target):
+        """A descent direction for ``E`` from the linear system ``A dx = rhs``: ``(dx, cg_its, factorizations)``."""
+        # inexact Newton: solve only as accurately as this iteration needs (forcing term shrinking with the
+        # residual), never looser than 10% and never tighter than a third of the frame's target
+        eta = min(0.1, rnorm / r0) if r0 > 0 else 0.1
+        atol = max(eta * rnorm, 0.3 * target)
+        its, fac = 0, 0
+        dx = None
+        if np.all(np.isfinite(A.data)):
+            try:
+                if isinstance(self.linear, linsolve.ReusedFactorization):
+                    dx, info = self.linear.solve(A, rhs, atol=atol, rtol=0.0)
+                    its, fac = info.iterations, int(info.factorized)
+                    if not (np.all(np.isfinite(dx)) and rhs @ dx > 0) and not info.factorized:
+                        dx, info = self.linear.solve(A, rhs, refactorize=True)
+                        fac += 1
+                else:
+                    dx = np.asarray(self.linear.factorize(A).solve(rhs), dtype=float)
+                    fac = 1
+            except (RuntimeError, ValueError, np.linalg.LinAlgError, ZeroDivisionError):
+                dx = None
+        if dx is not None and np.all(np.isfinite(dx)) and rhs @ dx > 0:
+            return dx, its, fac
+        # not a descent direction (an indefinite tangent) or a failed solve: shift the diagonal
+        diag = A.diagonal() if np.all(np.isfinite(A.data)) else np.ones(A.shape[0])
+        scale = float(np.max(np.abs(diag), initial=0.0)) or 1.0
+        eye = sp.identity(A.shape[0], format="csr")
+        direct = linsolve.SuperLU()
+        if np.all(np.isfinite(A.data)):
+            for tau in scale * 10.0 ** np.arange(-6.0, 3.0):
+                try:
+                    dx = direct.factorize((A + tau * eye).tocsr()).solve(rhs)
+                except RuntimeError:
+                    continue
+                fac += 1
+                if np.all(np.isfinite(dx)) and rhs @ dx > 0:
+                    return dx, its, fac
+        return rhs / (1e3 * scale), its, fac  # steepest descent, as a last resort
+
+    # ------------------------------------------------------------------ conveniences
+    def run(self, targets_per_frame) -> list[FrameReport]:
+        """Run one frame per entry of ``targets_per_frame`` (an iterable of ``targets``); return the reports."""
+        return [self.frame(t) for t in targets_per_frame]
+
+    def kinetic_energy(self) -> float:
+        return 0.0 if self.M is None else 0.5 * float(self.v @ (self.M @ self.v))
+
+    def total_energy(self) -> float:
+        """Kinetic plus stored minus the work potential of the constant loads (gravity included)."""
+        return self.kinetic_energy() + self.problem.strain_energy(self.u) - float(self.external @ self.u)
+
+    def reset(self, u=None, v=None) -> None:
+        """Set the state (default: rest), checking shapes and finiteness."""
+        n = self.problem.basis.N
+        for name, arr in (("u", u), ("v", v)):
+            if arr is not None:
+                a = np.asarray(arr, dtype=float)
+                if a.shape != (n,):
+                    raise ValueError(f"{name} must have shape ({n},), got {a.shape}")
+                if not np.all(np.isfinite(a)):
+                    raise ValueError(f"{name} contains non-finite values")
+        if self.dt is None and v is not None and np.any(np.asarray(v, dtype=float)):
+            raise ValueError("a quasistatic solver has no velocity: v must be zero or None")
+        self.u = np.zeros(n) if u is None else np.array(u, dtype=float)
+        self.v = np.zeros(n) if v is None else np.array(v, dtype=float)

@@ -1,0 +1,299 @@
+"""The real-time-budget solver, driven by a fake clock (deterministic: no test here measures speed)."""
+
+import math
+
+import numpy as np
+import pytest
+
+from tissuefem import linsolve
+from tissuefem.dynamics import BackwardEuler
+from tissuefem.inversion import ITFClamped
+from tissuefem.materials import NeoHookean, StableNeoHookean
+from tissuefem.meshes import flap
+from tissuefem.quasistatic import Handle, QuasistaticProblem
+from tissuefem.realtime import RealtimeSolver
+
+E_MOD, NU = 1000.0, 0.3
+
+
+class FakeClock:
+    """Time moves only when the simulated work says so."""
+
+    def __init__(self):
+        self.now = 0.0
+
+    def __call__(self):
+        return self.now
+
+
+class ClockedSuperLU(linsolve.SuperLU):
+    """SuperLU whose factorizations and back-substitutions cost fake time."""
+
+    def __init__(self, clock, factor_cost=0.010, solve_cost=0.001):
+        super().__init__()
+        self.clock, self.factor_cost, self.solve_cost = clock, factor_cost, solve_cost
+
+    def factorize(self, A):
+        self.clock.now += self.factor_cost
+        factor = super().factorize(A)
+        clock, cost = self.clock, self.solve_cost
+
+        class Timed:
+            def solve(self, b):
+                clock.now += cost
+                return factor.solve(b)
+
+        return Timed()
+
+
+class TimedReuse(linsolve.ReusedFactorization):
+    """Records the fake-clock cost of every linear solve."""
+
+    def __init__(self, clock, **kw):
+        super().__init__(ClockedSuperLU(clock), **kw)
+        self.clock, self.costs = clock, []
+
+    def solve(self, A, b, **kw):
+        t0 = self.clock.now
+        out = super().solve(A, b, **kw)
+        self.costs.append(self.clock.now - t0)
+        return out
+
+
+def scene(material=None, n_triangles=200, **kw):
+    mesh = flap(n_triangles=n_triangles)
+    grab = Handle("handle")
+    problem = QuasistaticProblem(mesh, material or NeoHookean.from_young(E_MOD, NU), handles=[Handle("fixed"), grab])
+    return problem
+
+
+def path(t):
+    """The scripted drag of the standard scene: a slow loop of the right edge."""
+    return np.array([0.3 * np.sin(np.pi * t / 2), 0.4 * np.sin(np.pi * t / 4)])
+
+
+def budgeted(problem, budget, assembly_cost=0.002, **kw):
+    clock = FakeClock()
+    linear = TimedReuse(clock)
+    rt = RealtimeSolver(problem, budget=budget, clock=clock, linear_solver=linear, **kw)
+    inner = rt._hessian_free
+
+    def costly_assembly(*args):
+        clock.now += assembly_cost
+        return inner(*args)
+
+    rt._hessian_free = costly_assembly
+    return rt, clock, linear
+
+
+def assert_valid(rt, report):
+    assert np.all(np.isfinite(rt.u)) and np.all(np.isfinite(rt.v))
+    assert np.isfinite(report.energy) and report.energy <= report.start_energy + 1e-12 * abs(report.start_energy)
+
+
+# --- budget ------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("budget", [0.004, 0.012, 0.033])
+def test_never_overruns_by_more_than_one_linear_solve(budget):
+    rt, clock, linear = budgeted(scene(), budget, rtol=1e-12, atol=0.0)
+    n_costs = 0
+    for f in range(40):
+        report = rt.frame({1: path(2 * (f + 1) / 30)})
+        assert_valid(rt, report)
+        frame_costs = linear.costs[n_costs:]
+        n_costs = len(linear.costs)
+        # the largest single piece of work this frame: one linear solve, or one (fake) assembly
+        allowed = max(frame_costs + [0.002])
+        assert report.elapsed <= budget + allowed + 1e-12
+        if report.status == "budget":
+            assert report.elapsed >= budget
+    assert any(r == "budget" for r in [rt.last_report.status]) or linear.factorizations >= 1
+
+
+def test_a_frame_that_runs_out_of_budget_stops_at_once_and_says_so():
+    rt, clock, linear = budgeted(scene(), budget=0.0105, rtol=1e-12, atol=0.0)
+    report = rt.frame({1: (0.2, 0.1)})
+    # first step: assembly (2 ms) + factorization (10 ms) -> over budget -> stop
+    assert report.status == "budget" and not report.converged
+    assert report.newton_iterations == 1 and report.factorizations == 1
+    assert report.elapsed == pytest.approx(0.013)
+    assert report.residual_norm < report.initial_residual
+
+
+def test_converged_frames_equal_the_unbudgeted_solution():
+    """With the budget to spare, each frame is the backward-Euler step, to the tolerance."""
+    rt, _, _ = budgeted(scene(), budget=1.0, rtol=1e-11, atol=0.0)
+    reference_problem = scene()
+    be = BackwardEuler(reference_problem, dt=1 / 30)
+    for f in range(8):
+        target = path(3 * (f + 1) / 30)
+        report = rt.frame({1: target})
+        reference_problem.handles[1].move(target)
+        step = be.step(rtol=1e-11, atol=0.0)
+        assert report.converged and step.converged
+        scale = np.max(np.abs(be.u))
+        np.testing.assert_allclose(rt.u, be.u, atol=1e-8 * scale)
+        np.testing.assert_allclose(rt.v, be.v, atol=1e-7 * scale * 30)
+
+
+def test_unlimited_budget_with_the_real_clock_converges_every_frame():
+    rt = RealtimeSolver(scene(), budget=math.inf)
+    reports = rt.run([{1: path((f + 1) / 30)} for f in range(15)])
+    assert all(r.converged for r in reports)
+    assert all(r.relative_residual <= 1e-6 or r.residual_norm <= 1e-12 for r in reports)
+    # the kept factorization is reused across frames: far fewer factorizations than Newton steps
+    assert sum(r.factorizations for r in reports) < sum(r.newton_iterations for r in reports) / 3
+
+
+def test_tiny_budget_stays_valid_and_converges_over_later_frames():
+    rt, clock, _ = budgeted(scene(), budget=1e-9, rtol=1e-8)
+    target = np.array([0.4, 0.3])
+    reports = []
+    for _ in range(200):
+        report = rt.frame({1: target})
+        assert_valid(rt, report)
+        # one step per frame while there is work: always progress, never more
+        assert report.newton_iterations == 1 or (report.converged and report.newton_iterations == 0)
+        reports.append(report)
+    assert not reports[0].converged
+    assert reports[-1].converged
+    # it has come to rest at the quasistatic equilibrium under the same handle
+    static = scene()
+    static.handles[1].move(target)
+    u_static = static.solve(load_steps=4, rtol=1e-10).u
+    np.testing.assert_allclose(rt.u, u_static, atol=1e-5 * np.max(np.abs(u_static)))
+
+
+def test_unfinished_work_carries_into_the_next_frame():
+    rt, clock, _ = budgeted(scene(), budget=1e-9, rtol=1e-10, atol=0.0, dt=None)
+    first = rt.frame({1: (0.5, 0.2)})
+    second = rt.frame()
+    assert second.initial_residual == pytest.approx(first.residual_norm, rel=1e-9)
+    assert second.residual_norm < first.residual_norm
+
+
+# --- hard cases --------------------------------------------------------------------------------
+
+def drag_through(n_frames=300):
+    """Right edge dragged left through the whole body and out past the fixed edge, then back and released."""
+    targets = []
+    for f in range(n_frames):
+        s = f / (n_frames - 1)
+        if s < 0.5:
+            dx = -3.0 * (s / 0.5)  # from x = 2 to x = -1: through the body and out the other side
+            dy = 0.3 * np.sin(2 * np.pi * s)
+        elif s < 0.8:
+            dx = -3.0 * (1 - (s - 0.5) / 0.3)
+            dy = 0.0
+        else:
+            dx = dy = 0.0
+        targets.append({1: (dx, dy)})
+    return targets
+
+
+@pytest.mark.parametrize(
+    "material",
+    [StableNeoHookean.from_young(E_MOD, NU), ITFClamped(NeoHookean.from_young(E_MOD, NU)), NeoHookean.from_young(E_MOD, NU)],
+    ids=["stable", "itf", "lnJ"],
+)
+def test_300_frame_drag_through_the_body_stays_finite_and_bounded(material):
+    rt, clock, _ = budgeted(scene(material, n_triangles=120), budget=0.02)
+    energies, fractions, min_J = [], [], math.inf
+    for targets in drag_through():
+        report = rt.frame(targets)
+        assert_valid(rt, report)
+        energies.append(rt.total_energy())
+        fractions.append(report.handle_fraction)
+        if isinstance(material, NeoHookean) and not isinstance(material, ITFClamped):
+            F = rt.assembler.deformation_gradient(rt.u)
+            min_J = min(min_J, float(np.min(F[0, 0] * F[1, 1] - F[0, 1] * F[1, 0])))
+    energies = np.array(energies)
+    assert np.all(np.isfinite(energies))
+    # no blow-up: once released, the energy does not grow past what the drag put in
+    released = energies[int(0.8 * len(energies)):]
+    assert np.max(released) <= np.max(energies[: int(0.8 * len(energies))]) + 1e-9
+    assert released[-1] <= released[0]
+    if isinstance(material, NeoHookean) and not isinstance(material, ITFClamped):
+        # ln J cannot invert: every accepted state keeps J > 0 (the body folds over itself instead)
+        assert min_J > 0
+    assert fractions[-1] == 1.0
+
+
+def test_quasistatic_frames_match_the_quasistatic_solver():
+    rt = RealtimeSolver(scene(), dt=None, budget=math.inf, rtol=1e-10)
+    assert rt.M is None  # a quasistatic frame builds no mass matrix
+    report = rt.frame({1: (0.3, 0.2)})
+    static = scene()
+    static.handles[1].move((0.3, 0.2))
+    u = static.solve(load_steps=2, rtol=1e-10).u
+    assert report.converged
+    np.testing.assert_allclose(rt.u, u, atol=1e-7 * np.max(np.abs(u)))
+
+
+# --- bad input -----------------------------------------------------------------------------------
+
+@pytest.mark.parametrize(
+    "kwargs, field",
+    [({"dt": 0.0}, "dt"), ({"dt": -1.0}, "dt"), ({"dt": math.nan}, "dt"), ({"budget": 0.0}, "budget"),
+     ({"budget": -0.01}, "budget"), ({"rtol": 0.0}, "rtol"), ({"density": 0.0}, "density"),
+     ({"mass": "heavy"}, "mass"), ({"linear_solver": "magic"}, "magic"), ({"gravity": (0, math.inf)}, "gravity"),
+     ({"max_iterations": 0}, "max_iterations"), ({"clock": 3.0}, "clock")],
+)
+def test_bad_settings_are_rejected(kwargs, field):
+    with pytest.raises(ValueError, match=field):
+        RealtimeSolver(scene(), **kwargs)
+
+
+@pytest.mark.parametrize(
+    "targets, field",
+    [({1: (math.nan, 0.0)}, "finite"), ({1: (0.0, math.inf)}, "finite"), ({1: (1.0, 2.0, 3.0)}, "shape"),
+     ({5: (0.0, 0.0)}, "handle index"), ([(0.0, 0.0)], "2 handles"), (3.0, "sequence")],
+)
+def test_bad_targets_are_rejected_and_the_state_is_kept(targets, field):
+    rt = RealtimeSolver(scene(), budget=math.inf)
+    rt.frame({1: (0.1, 0.05)})
+    u, v, t, frames = rt.u.copy(), rt.v.copy(), rt.time, rt.frames
+    target_before = np.array(rt.problem.handles[1].target)
+    with pytest.raises(ValueError, match=field):
+        rt.frame(targets)
+    np.testing.assert_array_equal(rt.u, u)
+    np.testing.assert_array_equal(rt.v, v)
+    assert (rt.time, rt.frames) == (t, frames)
+    np.testing.assert_array_equal(rt.problem.handles[1].target, target_before)
+    assert rt.frame({1: (0.1, 0.05)}).converged  # and it carries on
+
+
+def test_a_map_target_that_returns_nan_is_rejected_and_the_state_is_kept():
+    rt = RealtimeSolver(scene(), budget=math.inf)
+    rt.frame({1: (0.1, 0.0)})
+    u = rt.u.copy()
+    with pytest.raises(ValueError, match="non-finite"):
+        rt.frame({1: lambda X: X * np.nan})
+    np.testing.assert_array_equal(rt.u, u)
+    assert rt.frame().converged
+
+
+def test_reset_checks_its_input():
+    rt = RealtimeSolver(scene())
+    n = rt.u.size
+    with pytest.raises(ValueError, match="shape"):
+        rt.reset(u=np.zeros(n + 1))
+    with pytest.raises(ValueError, match="non-finite"):
+        rt.reset(v=np.full(n, np.nan))
+    rt.reset(u=np.zeros(n), v=np.ones(n))
+    assert rt.kinetic_energy() > 0
+
+
+def test_a_jerked_handle_goes_part_of_the_way_rather_than_invert_ln_J():
+    rt = RealtimeSolver(scene(n_triangles=120), budget=math.inf)
+    report = rt.frame({1: (-2.5, 0.0)})  # the right edge thrown past the fixed one in a single frame
+    assert 0.0 <= report.handle_fraction < 1.0
+    assert_valid(rt, report)
+    F = rt.assembler.deformation_gradient(rt.u)
+    assert np.min(F[0, 0] * F[1, 1] - F[0, 1] * F[1, 0]) > 0
+    # the rest of the way carries into the following frames, which keep aiming at the full target
+    later = [rt.frame() for _ in range(30)]
+    assert all(np.isfinite(r.energy) for r in later)
+    fixed, values = rt.problem.prescribed()
+    moved = np.linalg.norm(rt.u[fixed] - values)
+    assert moved < np.linalg.norm(values)
