@@ -68,6 +68,13 @@ def cmd_bench(args) -> int:
         sizes = tuple(args.sizes) if args.sizes else (2000, 8000, 32000)
         assembly_benchmark(sizes=sizes, repeats=args.repeats, out=args.out)
         return 0
+    if args.which == "realtime":
+        from .bench_realtime import realtime_benchmark
+
+        sizes = tuple(args.sizes) if args.sizes else (2000, 8000, 16000, 32000)
+        realtime_benchmark(sizes=sizes, frames=args.frames, baseline_frames=args.baseline_frames,
+                           linear_solver=args.linear, out=args.out or "bench-results")
+        return 0
     raise SystemExit(f"unknown benchmark {args.which!r}")
 
 
@@ -110,10 +117,13 @@ def main(argv=None) -> int:
     p.set_defaults(func=cmd_build)
 
     p = sub.add_parser("bench", help="run a benchmark and print its table")
-    p.add_argument("which", choices=["assembly"])
+    p.add_argument("which", choices=["assembly", "realtime"])
     p.add_argument("--sizes", type=int, nargs="+", help="approximate triangle counts")
-    p.add_argument("--repeats", type=int, default=5)
-    p.add_argument("--out", help="write the results as JSON to this file")
+    p.add_argument("--repeats", type=int, default=5, help="assembly: timed repetitions")
+    p.add_argument("--frames", type=int, default=90, help="realtime: frames of the scripted drag")
+    p.add_argument("--baseline-frames", type=int, default=10, help="realtime: frames of the ex43-way baseline")
+    p.add_argument("--linear", default="reuse", help="realtime: linear solver (reuse, direct, superlu, pardiso)")
+    p.add_argument("--out", help="assembly: a JSON file; realtime: a folder (default bench-results/)")
     p.set_defaults(func=cmd_bench)
 
     p = sub.add_parser("grade", help="grade your answers in chapters/exercises with pytest")

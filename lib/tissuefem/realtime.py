@@ -438,8 +438,9 @@ class RealtimeSolver:
     def _direction(self, A, rhs, rnorm, r0, target):
         """A descent direction for ``E`` from the linear system ``A dx = rhs``: ``(dx, cg_its, factorizations)``."""
         # inexact Newton: solve only as accurately as this iteration needs (forcing term shrinking with the
-        # residual), never looser than 10% and never tighter than a third of the frame's target
-        eta = min(0.1, rnorm / r0) if r0 > 0 else 0.1
+        # residual), never looser than 1% (measured: 3.0 Newton steps per frame at 8k triangles against 3.6 with
+        # 10%, for about the same CG work) and never tighter than a third of the frame's target
+        eta = min(0.01, rnorm / r0) if r0 > 0 else 0.01
         atol = max(eta * rnorm, 0.3 * target)
         its, fac = 0, 0
         dx = None

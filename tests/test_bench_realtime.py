@@ -1,0 +1,58 @@
+"""The frame-rate benchmark's code paths on a tiny run (no timing is asserted)."""
+
+import csv
+import json
+
+import numpy as np
+import pytest
+
+from tissuefem.bench_realtime import ex43_frames, flap_path, flap_scene, format_realtime_table, realtime_benchmark
+from tissuefem.cli import main
+from tissuefem.realtime import RealtimeSolver
+
+
+def test_tiny_benchmark_writes_json_csv_and_figure(tmp_path):
+    rows = realtime_benchmark(sizes=(150, 300), frames=4, baseline_frames=3, budget_frames=2, out=tmp_path,
+                              progress=None)
+    assert [r["triangles"] for r in rows] == sorted(r["triangles"] for r in rows)
+    record = json.loads((tmp_path / "realtime.json").read_text())
+    assert record["benchmark"] == "realtime" and record["scene"]["dt"] == pytest.approx(1 / 30)
+    assert "scikit-fem" in record["machine"]
+    for row in record["rows"]:
+        assert row["fast_all_converged"] and row["linear_solver"].startswith("cg+reused-superlu")
+        assert len(row["fast_ms"]) == 4 and len(row["ex43_ms"]) == 3
+        assert row["speedup"] > 0 and 0 <= row["budget_converged"] <= 1
+        # both ways solve the same scene: the states agree to the Newton tolerance
+        assert row["max_state_difference"] < 1e-4
+    with open(tmp_path / "realtime.csv", newline="") as fh:
+        table = list(csv.DictReader(fh))
+    assert len(table) == 2 and "fast_median_ms" in table[0] and "fast_ms" not in table[0]
+    assert (tmp_path / "realtime.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    text = format_realtime_table(rows)
+    assert text.count("\n") == 3 and "speedup" in text
+
+
+def test_the_ex43_way_and_the_realtime_solver_take_the_same_steps():
+    problem, grab = flap_scene(200)
+    _, iterations, u_ex43 = ex43_frames(problem, grab, 3, rtol=1e-10)
+    problem2, _ = flap_scene(200)
+    rt = RealtimeSolver(problem2, budget=float("inf"), rtol=1e-10)
+    for f in range(3):
+        rt.frame({1: flap_path((f + 1) / 30)})
+    np.testing.assert_allclose(rt.u, u_ex43, atol=1e-8 * np.max(np.abs(u_ex43)))
+    assert np.all(iterations >= 2)
+
+
+def test_bad_benchmark_settings_are_rejected():
+    with pytest.raises(ValueError, match="frames"):
+        realtime_benchmark(sizes=(100,), frames=0, progress=None)
+    with pytest.raises(ValueError, match="sizes"):
+        realtime_benchmark(sizes=(), progress=None)
+
+
+def test_cli_runs_the_realtime_benchmark(tmp_path, capsys):
+    code = main(["bench", "realtime", "--sizes", "120", "--frames", "2", "--baseline-frames", "1",
+                 "--out", str(tmp_path)])
+    assert code == 0
+    assert (tmp_path / "realtime.json").exists()
+    assert "median [ms]" in capsys.readouterr().out
