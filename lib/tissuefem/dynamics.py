@@ -32,7 +32,7 @@ from skfem import BilinearForm, asm
 
 from .newton import NewtonResult, newton_solve
 
-__all__ = ["mass_matrix", "BackwardEuler", "StepReport"]
+__all__ = ["mass_matrix", "backward_euler_residual", "BackwardEuler", "StepReport"]
 
 
 def mass_matrix(basis, density: float, lumped: bool = False) -> sp.csr_matrix:
@@ -49,6 +49,17 @@ def mass_matrix(basis, density: float, lumped: bool = False) -> sp.csr_matrix:
     if lumped:
         return sp.diags(np.asarray(M.sum(axis=1)).ravel()).tocsr()
     return M
+
+
+def backward_euler_residual(M, u, u_n, v_n, dt, f_int, f_ext) -> np.ndarray:
+    """The backward-Euler residual multiplied by ``dt^2``: ``M (u - u_n - dt v_n) + dt^2 (f_int - f_ext)``.
+
+    ``f_int`` is the internal force at ``u`` (``int grad N : P(F(u))``) and
+    ``f_ext`` the external one (tractions and body force), both dof vectors.
+    It is the gradient of the incremental potential, and zero at the step's
+    solution ``u = u^{n+1}``.
+    """
+    return M @ (u - u_n - dt * v_n) + dt**2 * (f_int - f_ext)
 
 
 @dataclass
@@ -108,7 +119,8 @@ class BackwardEuler:
 
     def residual(self, u, u_tilde) -> np.ndarray:
         """Gradient of the incremental potential: ``M (u - u_tilde) + dt^2 (f_int(u) - f_ext)``."""
-        return self.M @ (u - u_tilde) + self.dt**2 * (self.problem.internal_force(u) - self.external)
+        return backward_euler_residual(self.M, u, self.u, (u_tilde - self.u) / self.dt, self.dt,
+                                       self.problem.internal_force(u), self.external)
 
     def tangent(self, u) -> sp.csr_matrix:
         return (self.M + self.dt**2 * self.problem.tangent(u)).tocsr()

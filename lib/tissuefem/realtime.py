@@ -55,7 +55,7 @@ import scipy.sparse as sp
 from . import linsolve
 from .dynamics import mass_matrix
 
-__all__ = ["RealtimeSolver", "FrameReport", "FRAME_BUDGET"]
+__all__ = ["RealtimeSolver", "FrameReport", "FRAME_BUDGET", "budgeted_newton", "BudgetedNewtonResult"]
 
 #: the notes' frame time: 1/30 s
 FRAME_BUDGET = 1.0 / 30.0
@@ -119,6 +119,93 @@ class _Condensed:
         A = sp.csr_matrix((data[self.gather], self.indices, self.indptr), shape=self.shape, copy=False)
         A.has_sorted_indices = True
         return A
+
+
+@dataclass
+class BudgetedNewtonResult:
+    """What :func:`budgeted_newton` did."""
+
+    x: np.ndarray
+    energy: float
+    converged: bool
+    status: str  # "converged", "budget", "max-iterations", "line-search-failed"
+    iterations: int
+    residual_norm: float
+    initial_residual: float
+    cuts: int = 0
+    history: list[float] = field(default_factory=list)
+
+
+def budgeted_newton(x0, energy, gradient, direction, *, clock, budget, rtol=1e-6, atol=0.0, free=None,
+                    max_iterations=50, start=None, tolerance=None, energy0=None) -> BudgetedNewtonResult:
+    """Newton with an energy line search that stops when a wall-clock budget is spent (one frame's solve).
+
+    ``direction(x, g)`` returns the Newton step (a descent direction, zero on
+    fixed dofs), or ``None`` to stop at once (the budget ran out while it
+    assembled). The clock is read before each step; the first step is always
+    taken, later ones only while ``clock() - start < budget``. Every accepted
+    iterate passed an Armijo test on ``energy``, so whenever the loop stops,
+    ``x`` is finite and ``energy(x) <= energy(x0)``.
+
+    Converged when ``||g|| <= atol + rtol ||g(x0)||`` over the ``free`` dofs
+    (or ``tolerance(||g(x0)||, g(x0))`` when given).
+    """
+    start = clock() if start is None else start
+    free = slice(None) if free is None else free
+    x = np.array(x0, dtype=float, copy=True)
+    E = float(energy(x)) if energy0 is None else float(energy0)
+    g = gradient(x)
+    rnorm = float(np.linalg.norm(g[free]))
+    r0 = rnorm
+    target = tolerance(r0, g) if tolerance is not None else atol + rtol * r0
+    history, cuts, k = [rnorm], 0, 0
+    e_scale = abs(E)
+    while True:
+        if rnorm <= target:
+            status = "converged"
+            break
+        if k >= max_iterations:
+            status = "max-iterations"
+            break
+        if k >= 1 and clock() - start >= budget:
+            status = "budget"
+            break
+        dx = direction(x, g)
+        if dx is None:
+            status = "budget"
+            break
+        dx = np.asarray(dx, dtype=float)
+        slope = float(g @ dx)  # directional derivative of the energy (negative: descent)
+        if not (np.all(np.isfinite(dx)) and slope < 0):
+            status = "line-search-failed"
+            break
+        e_scale = max(e_scale, abs(E), abs(slope))
+        alpha, accepted = 1.0, False
+        for _ in range(31):
+            x_new = x + alpha * dx
+            E_new = float(energy(x_new))
+            if np.isfinite(E_new):
+                if E_new <= E + 1e-4 * alpha * slope:
+                    accepted = True
+                elif E_new - E <= 1e-11 * e_scale:
+                    # energy differences at round-off: accept if the residual still drops
+                    accepted = bool(np.linalg.norm(gradient(x_new)[free]) < rnorm)
+                if accepted:
+                    break
+            alpha *= 0.5
+            cuts += 1
+        if not accepted:
+            status = "line-search-failed"
+            break
+        g_new = gradient(x_new)
+        rn_new = float(np.linalg.norm(g_new[free]))
+        if not np.isfinite(rn_new):
+            status = "line-search-failed"
+            break
+        x, E, g, rnorm = x_new, min(E_new, E), g_new, rn_new
+        k += 1
+        history.append(rnorm)
+    return BudgetedNewtonResult(x, E, status == "converged", status, k, rnorm, r0, cuts, history)
 
 
 class RealtimeSolver:
@@ -336,75 +423,48 @@ class RealtimeSolver:
             E0 = self.energy(x0, x_tilde)
             which = "previous"
 
-        x, E = x0, E0
-        with np.errstate(all="ignore"):
-            g = self.gradient(x, x_tilde)
-        rnorm = float(np.linalg.norm(g[free]))
-        r0 = rnorm
-        # converged at rtol relative to the frame's first residual, but never below round-off: the
-        # forces of the whole body (reactions at the handles included) set that scale
-        target = self.atol + max(self.rtol * r0, 1e-12 * float(np.linalg.norm(g)))
-        history = [rnorm]
-        e_scale = abs(E)
-        status, k, cg_its, factorizations, cuts = "max-iterations", 0, 0, 0, 0
+        stats = {"cg": 0, "factorizations": 0, "r0": None}
 
-        def spent():
-            return self.clock() - start >= self.budget
-
-        while True:
-            if rnorm <= target:
-                status = "converged"
-                break
-            if k >= self.max_iterations:
-                status = "max-iterations"
-                break
-            if k >= 1 and spent():
-                status = "budget"
-                break
+        def direction(x, g):
+            # the second budget check: after assembling the tangent, before the linear solve
             A = self._hessian_free(x, free, fixed_key)
-            if k >= 1 and spent():
-                status = "budget"
-                break
-            rhs = -g[free]
-            dx_free, its, fac = self._direction(A, rhs, rnorm, r0, target)
-            cg_its += its
-            factorizations += fac
-            if dx_free is None:
-                status = "line-search-failed"
-                break
+            if stats["r0"] is not None and self.clock() - start >= self.budget:
+                return None
+            rnorm = float(np.linalg.norm(g[free]))
+            if stats["r0"] is None:
+                stats["r0"] = rnorm
+            dx_free, its, fac = self._direction(A, -g[free], rnorm, stats["r0"], target[0])
+            stats["cg"] += its
+            stats["factorizations"] += fac
             dx = np.zeros(n)
             dx[free] = dx_free
-            slope = float(rhs @ dx_free) * -1.0  # directional derivative of E (negative: descent)
-            e_scale = max(e_scale, abs(E), abs(slope))
-            alpha, accepted = 1.0, False
-            for _ in range(31):
-                x_new = x + alpha * dx
-                with np.errstate(all="ignore"):
-                    E_new = self.energy(x_new, x_tilde)
-                if np.isfinite(E_new):
-                    if E_new <= E + 1e-4 * alpha * slope:
-                        accepted = True
-                    elif E_new - E <= 1e-11 * e_scale:
-                        # energy differences at round-off: accept if the residual still drops
-                        with np.errstate(all="ignore"):
-                            g_try = self.gradient(x_new, x_tilde)
-                        accepted = bool(np.linalg.norm(g_try[free]) < rnorm)
-                    if accepted:
-                        break
-                alpha *= 0.5
-                cuts += 1
-            if not accepted:
-                status = "line-search-failed"
-                break
-            with np.errstate(all="ignore"):
-                g_new = self.gradient(x_new, x_tilde)
-            rn_new = float(np.linalg.norm(g_new[free]))
-            if not np.isfinite(rn_new):
-                status = "line-search-failed"
-                break
-            x, E, g, rnorm = x_new, min(E_new, E), g_new, rn_new
-            k += 1
-            history.append(rnorm)
+            return dx
+
+        target = [0.0]
+
+        def tolerance(r0, g):
+            # rtol relative to the frame's first residual, but never below round-off: the forces of the
+            # whole body (reactions at the handles included) set that scale
+            target[0] = self.atol + max(self.rtol * r0, 1e-12 * float(np.linalg.norm(g)))
+            return target[0]
+
+        with np.errstate(all="ignore"):
+            result = budgeted_newton(
+                x0,
+                lambda x: self.energy(x, x_tilde),
+                lambda x: self.gradient(x, x_tilde),
+                direction,
+                clock=self.clock,
+                budget=self.budget,
+                start=start,
+                tolerance=tolerance,
+                free=free,
+                max_iterations=self.max_iterations,
+                energy0=E0,
+            )
+        x = result.x
+        status, k, cuts, rnorm, r0 = result.status, result.iterations, result.cuts, result.residual_norm, result.initial_residual
+        cg_its, factorizations, history = stats["cg"], stats["factorizations"], result.history
 
         elapsed = self.clock() - start
         # commit: the accepted iterate is the new state, converged or not (it is finite and E <= E0)
