@@ -1,0 +1,478 @@
+"""Explicit time stepping: symplectic Euler with a lumped mass, and its stability limit (CFL).
+
+Scheme
+------
+The semi-discrete equations of motion (:mod:`tissuefem.dynamics`) are
+``M a = f_ext - f_int(u)``. With the *lumped* mass ``M = diag(m)`` (each row
+sum of the consistent mass moved onto the diagonal) the inverse is free, and
+symplectic (semi-implicit) Euler advances the state without any solve:
+
+    v^{n+1} = v^n + dt M^{-1} (f_ext - f_int(u^n))      (kick: forces at the *old* position)
+    u^{n+1} = u^n + dt v^{n+1}                          (drift: with the *new* velocity)
+
+on the free degrees of freedom. Prescribed ones (the handles) are set to the
+handles' current targets, with the velocity that got them there,
+``(u_prescribed^{n+1} - u^n) / dt``. One step costs one internal-force
+evaluation, a few vector operations and no linear algebra: far cheaper than
+a backward-Euler step (a Newton solve).
+
+Using the new velocity in the drift is what makes the scheme symplectic: it
+is the map of a Hamiltonian flow close to the real one, so on a stable step
+it does not slowly pump energy in or drain it out (as forward and backward
+Euler do). For one mode of angular frequency ``omega`` (below) the step
+keeps the *modified* energy
+
+    I = 1/2 (v^2 + omega^2 x^2 - dt omega^2 x v)
+
+exactly, so the true energy ``1/2 (v^2 + omega^2 x^2)`` stays between
+``I / (1 + dt omega / 2)`` and ``I / (1 - dt omega / 2)``: it oscillates
+about its initial value, in a band that is narrow for the slow modes and
+widens for the fast ones as ``dt`` nears the limit, for as long as one cares
+to run.
+
+Why it is only conditionally stable
+-----------------------------------
+Linearise about the rest state: ``f_int(u) ~ K u``. In a mode ``K x = omega^2 M x``
+the scheme is ``v' = v - dt omega^2 x``, ``x' = x + dt v'``, a linear map of
+``(x, v)`` with determinant 1 and trace ``2 - (dt omega)^2``. Its eigenvalues
+stay on the unit circle (bounded oscillation) while ``|trace| <= 2``, i.e.
+
+    dt <= 2 / omega,
+
+and for larger ``dt`` one of them exceeds 1 in modulus and the mode grows
+geometrically, however small it started (round-off suffices). The step must
+therefore resolve the *fastest* mode of the mesh:
+
+    dt <= dt_crit = 2 / omega_max,   omega_max^2 = largest eigenvalue of M^{-1} K   (free dofs),
+
+which :func:`critical_time_step` computes. (Backward Euler has no such limit:
+each of its steps minimises an incremental potential, see
+:mod:`tissuefem.dynamics`; it pays with numerical damping instead.)
+
+CFL condition
+-------------
+The fastest mode of an elastic mesh is a wave that crosses one element:
+its wavelength is ~ the element size ``h`` and it travels at the dilatational
+(P-) wave speed ``c = sqrt((lambda + 2 mu) / rho0)``, so ``omega_max ~ c / h``
+and
+
+    dt <= C h / c
+
+with a Courant number ``C`` of order one that depends on the element shape
+and the mass lumping (the Courant-Friedrichs-Lewy condition). Halving ``h``
+halves the allowed step, so the cost of simulating one second grows like
+``h^-3`` in 2D (``h^-2`` elements times ``h^-1`` steps). For the notes'
+tissue (``E = 1000``, ``nu = 0.3``, ``rho0 = 1``: ``c ~ 37``) a frame of
+1/30 s needs ``h`` of the order of a metre: an explicit real-time simulator
+must take many sub-steps per frame. :func:`largest_stable_dt` measures the
+limit by experiment and :func:`cfl_study` checks the ``dt ~ h`` scaling.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.linalg import eigsh
+
+from .dynamics import mass_matrix
+
+__all__ = [
+    "SymplecticEuler",
+    "ExplicitStepReport",
+    "critical_time_step",
+    "largest_stable_dt",
+    "is_stable",
+    "fit_power_law",
+    "wave_speed",
+    "mesh_size",
+    "cfl_study",
+    "CFLStudy",
+]
+
+
+@dataclass
+class ExplicitStepReport:
+    """What one explicit step did: ``status`` is ``"ok"`` or ``"non-finite"`` (then nothing changed)."""
+
+    finite: bool
+    status: str
+    time: float  # the simulation time after the step (unchanged if it failed)
+    max_speed: float  # largest velocity component after the step (NaN if it failed)
+
+    @property
+    def converged(self) -> bool:
+        """Same meaning as :attr:`tissuefem.dynamics.StepReport.converged`: the step was taken."""
+        return self.finite
+
+
+def _check_dt(dt) -> float:
+    try:
+        value = float(dt)
+    except (TypeError, ValueError):
+        raise ValueError(f"dt must be a finite number > 0, got {dt!r}") from None
+    if not (np.isfinite(value) and value > 0):
+        raise ValueError(f"dt must be finite and > 0, got {dt!r}")
+    return value
+
+
+def _check_density(density) -> float:
+    try:
+        value = float(density)
+    except (TypeError, ValueError):
+        raise ValueError(f"density must be a finite number > 0, got {density!r}") from None
+    if not (np.isfinite(value) and value > 0):
+        raise ValueError(f"density must be finite and > 0, got {density!r}")
+    return value
+
+
+def _check_lumped(mass) -> None:
+    if not np.all(mass > 1e-8 * np.abs(mass).mean()):  # round-off counts as zero
+        raise ValueError(
+            "the lumped (row-sum) mass has zero or negative entries: row-sum lumping only works for "
+            "P1 elements (on P2 it gives the vertices no mass); use order=1"
+        )
+
+
+def _free_dofs(n: int, fixed) -> np.ndarray:
+    free = np.ones(n, dtype=bool)
+    free[fixed] = False
+    return np.flatnonzero(free)
+
+
+class SymplecticEuler:
+    """Explicit symplectic Euler on a :class:`~tissuefem.quasistatic.QuasistaticProblem`'s body.
+
+    The counterpart of :class:`tissuefem.dynamics.BackwardEuler` (same
+    state, same energy), with the lumped mass and the explicit update of the
+    module docstring. Stable only for ``dt`` below about
+    :func:`critical_time_step`; above it the energy grows without bound. A
+    step whose result is not finite (it blew up, or an ``ln J`` material
+    inverted) leaves the state untouched and reports ``"non-finite"``; it
+    never raises.
+
+    Parameters
+    ----------
+    problem
+        The body: mesh, material, handles (applied every step), tractions and
+        body force.
+    dt
+        Time step ``> 0``.
+    density
+        ``rho0 > 0`` (mass per reference area).
+    gravity
+        Optional ``(gx, gy)``: adds the body force ``rho0 g``.
+
+    Attributes
+    ----------
+    u, v
+        Displacement and velocity (dof vectors, scikit-fem order); assign
+        them to set an initial state.
+    time
+        Simulated time.
+    mass
+        The lumped masses, one per dof (the diagonal of ``M``).
+    """
+
+    def __init__(self, problem, dt: float, density: float = 1.0, gravity=None):
+        self.dt = _check_dt(dt)
+        self.density = _check_density(density)
+        self.problem = problem
+        self.M = mass_matrix(problem.basis, self.density, lumped=True)
+        self.mass = self.M.diagonal().copy()
+        _check_lumped(self.mass)
+        self.external = problem.external.copy()
+        if gravity is not None:
+            try:
+                g = np.asarray(gravity, dtype=float)
+            except (TypeError, ValueError):
+                raise ValueError(f"gravity must be a finite vector (gx, gy), got {gravity!r}") from None
+            if g.shape != (2,) or not np.all(np.isfinite(g)):
+                raise ValueError(f"gravity must be a finite vector (gx, gy), got {gravity!r}")
+            self.external = self.external + problem._body_force_vector(self.density * g)
+        self.u = problem.basis.zeros()
+        self.v = problem.basis.zeros()
+        self.time = 0.0
+        self.last_report = None
+
+    def step(self) -> ExplicitStepReport:
+        """Advance one step (kick, then drift, then the handles); on a non-finite result keep the old state."""
+        fixed, values = self.problem.prescribed()
+        free = _free_dofs(self.u.size, fixed)
+        with np.errstate(all="ignore"):
+            force = self.external - self.problem.internal_force(self.u)
+            v_new = self.v.copy()
+            v_new[free] += self.dt * force[free] / self.mass[free]
+            v_new[fixed] = (values - self.u[fixed]) / self.dt
+            u_new = self.u + self.dt * v_new
+            u_new[fixed] = values  # exactly the targets, not up to round-off
+        if not (np.all(np.isfinite(u_new)) and np.all(np.isfinite(v_new))):
+            return ExplicitStepReport(False, "non-finite", self.time, float("nan"))
+        self.u, self.v = u_new, v_new
+        self.time += self.dt
+        return ExplicitStepReport(True, "ok", self.time, float(np.abs(v_new).max(initial=0.0)))
+
+    def run(self, n_steps: int, energy_limit: float | None = None) -> np.ndarray:
+        """Take up to ``n_steps`` steps; returns the total energy before the first and after each step.
+
+        Stops early (the history is then shorter than ``n_steps + 1``) when a
+        step is non-finite (the state is the last finite one) or, if
+        ``energy_limit`` is given, once the total energy is above it or not
+        finite (that state is kept and its energy is the last entry).
+        :attr:`last_report` holds the last step's report.
+        """
+        if int(n_steps) != n_steps or n_steps < 0:
+            raise ValueError(f"n_steps must be an integer >= 0, got {n_steps!r}")
+        history = [self.total_energy()]
+        self.last_report = None
+        for _ in range(int(n_steps)):
+            self.last_report = self.step()
+            if not self.last_report.finite:
+                break
+            history.append(self.total_energy())
+            if energy_limit is not None and not history[-1] <= energy_limit:
+                break
+        return np.array(history)
+
+    def kinetic_energy(self) -> float:
+        return 0.5 * float(self.v @ (self.mass * self.v))
+
+    def total_energy(self) -> float:
+        """Kinetic plus stored minus the work potential of the (constant) loads (as in BackwardEuler)."""
+        with np.errstate(all="ignore"):
+            return self.kinetic_energy() + self.problem.strain_energy(self.u) - float(self.external @ self.u)
+
+
+# --- the stability limit ------------------------------------------------------------------------
+
+def critical_time_step(problem, density: float = 1.0, u=None) -> float:
+    """The linearised stability limit of :class:`SymplecticEuler`, ``dt_crit = 2 / omega_max``.
+
+    ``omega_max^2`` is the largest eigenvalue of the generalised problem
+    ``K_ff x = omega^2 M_ff x`` on the free dofs (those no handle
+    prescribes), with ``K = problem.tangent(u)`` (the rest state ``u = 0``
+    by default) and ``M`` the lumped mass of density ``rho0``. Because ``M``
+    is diagonal it is solved as the ordinary symmetric problem
+    ``M^-1/2 K M^-1/2 y = omega^2 y`` (largest eigenvalue by Lanczos,
+    :func:`scipy.sparse.linalg.eigsh`, from a fixed start vector so that the
+    result does not vary between runs; small problems use a dense solver).
+
+    A small oscillation about ``u`` stays bounded under symplectic Euler iff
+    ``dt <= dt_crit`` (module docstring). Far from ``u`` the stiffness, and
+    so the limit, changes: a compressed ``ln J`` material stiffens a lot.
+    """
+    density = _check_density(density)
+    u = problem.basis.zeros() if u is None else np.asarray(u, dtype=float)
+    m = mass_matrix(problem.basis, density, lumped=True).diagonal()
+    _check_lumped(m)
+    fixed, _ = problem.prescribed()
+    free = _free_dofs(m.size, fixed)
+    if free.size == 0:
+        raise ValueError("the problem has no free degrees of freedom: nothing moves, no stability limit")
+    K = problem.tangent(u).tocsr()[free][:, free]
+    scale = sp.diags(1.0 / np.sqrt(m[free]))
+    A = (scale @ K @ scale).tocsr()
+    A = 0.5 * (A + A.T)
+    if free.size <= 400:
+        omega2 = float(np.linalg.eigvalsh(A.toarray())[-1])
+    else:
+        omega2 = float(eigsh(A, k=1, which="LA", v0=np.ones(free.size), tol=1e-10,
+                             return_eigenvectors=False)[0])
+    if not (np.isfinite(omega2) and omega2 > 0):
+        raise ValueError(f"the stiffness at u has no positive eigenvalue (omega_max^2 = {omega2!r})")
+    return float(2.0 / np.sqrt(omega2))
+
+
+def mesh_size(mesh) -> float:
+    """The element size ``h`` used here: the shortest edge of the mesh (the side of a square cell of a
+    :func:`~tissuefem.meshes.rectangle`)."""
+    p = np.asarray(mesh.p, dtype=float)
+    edges = p[:, mesh.facets[1]] - p[:, mesh.facets[0]]
+    return float(np.sqrt((edges**2).sum(axis=0)).min())
+
+
+def wave_speed(material, density: float = 1.0) -> float:
+    """Dilatational (P-) wave speed ``c = sqrt((lambda + 2 mu) / rho0)`` of a material with Lamé ``lam, mu``."""
+    density = _check_density(density)
+    try:
+        lam, mu = float(material.lam), float(material.mu)
+    except AttributeError:
+        raise ValueError(f"material must have Lamé parameters lam and mu, got {material!r}") from None
+    return float(np.sqrt((lam + 2.0 * mu) / density))
+
+
+def _initial_perturbation(problem, amplitude: float, seed: int) -> np.ndarray:
+    """A seeded random displacement of the free dofs (``amplitude h`` at most), handles at their targets."""
+    fixed, values = problem.prescribed()
+    u0 = problem.basis.zeros()
+    free = _free_dofs(u0.size, fixed)
+    rng = np.random.default_rng(seed)
+    u0[free] = amplitude * mesh_size(problem.mesh) * rng.uniform(-1.0, 1.0, size=free.size)
+    u0[fixed] = values
+    return u0
+
+
+def is_stable(problem, dt: float, density: float = 1.0, *, steps: int = 400, growth: float = 10.0,
+              amplitude: float = 1e-4, seed: int = 0, u0=None) -> bool:
+    """Run :class:`SymplecticEuler` ``steps`` steps from rest at ``u0`` and say whether it stayed bounded.
+
+    ``u0`` defaults to a small seeded random perturbation of the free dofs
+    (``amplitude`` times the mesh size), which puts energy into every mode,
+    the fastest included. Unstable means: a non-finite step, or a total
+    energy above ``growth`` times the initial one at some step.
+    """
+    scheme = SymplecticEuler(problem, dt, density)
+    scheme.u = _initial_perturbation(problem, amplitude, seed) if u0 is None else np.array(u0, dtype=float)
+    e0 = scheme.total_energy()
+    if not (np.isfinite(e0) and e0 > 0):
+        raise ValueError(f"the initial state must have a finite positive energy, got {e0!r}")
+    history = scheme.run(steps, energy_limit=growth * e0)
+    return history.size == steps + 1 and bool(np.all(history <= growth * e0))
+
+
+def largest_stable_dt(problem, density: float = 1.0, *, steps: int = 400, growth: float = 10.0,
+                      amplitude: float = 1e-4, seed: int = 0, rtol: float = 0.005, dt_guess=None) -> float:
+    """The largest time step with which :class:`SymplecticEuler` stays bounded, measured by bisection.
+
+    Each trial is :func:`is_stable`: ``steps`` steps from the same seeded
+    random perturbation (``amplitude`` times the mesh size, so the motion is
+    linear), unstable if the total energy ever exceeds ``growth`` times its
+    initial value or a step is non-finite. The search first doubles or halves
+    ``dt_guess`` (default ``mesh_size / wave_speed`` if the material has Lamé
+    parameters, else ``1e-3``) until one trial is stable and the next
+    unstable, then bisects (geometrically) until the bracket is narrower
+    than ``rtol`` (relative). Returns the stable end of the bracket.
+
+    It measures the same thing :func:`critical_time_step` predicts, without
+    the linearisation or the eigenvalue problem. Just above ``dt_crit`` the
+    growth per step is slow (a factor ``~ 1 + 2 sqrt(2 eps)`` per step at
+    ``dt = (1 + eps) dt_crit``), so a finite run of ``steps`` steps places the
+    limit slightly high; just below it the energy of the fastest modes
+    swings widely (a factor up to ``1 / (1 - dt omega / 2)``, module
+    docstring), so a ``growth`` threshold near 1 places it low. On the flap
+    of :func:`cfl_study` (left edge held, 4 x 2 and 8 x 4 cells) the ratio to
+    :func:`critical_time_step` was about 0.65-0.72 with ``growth = 2``,
+    0.985-0.99 with the default 10 and 0.999 with 100, for 100 to 2000 steps.
+    """
+    density = _check_density(density)
+    if int(steps) != steps or steps < 1:
+        raise ValueError(f"steps must be a positive integer, got {steps!r}")
+    if not (np.isfinite(growth) and growth > 1):
+        raise ValueError(f"growth must be finite and > 1, got {growth!r}")
+    if not (np.isfinite(rtol) and 0 < rtol < 1):
+        raise ValueError(f"rtol must be in (0, 1), got {rtol!r}")
+    if dt_guess is None:
+        try:
+            dt_guess = mesh_size(problem.mesh) / wave_speed(problem.material, density)
+        except ValueError:
+            dt_guess = 1e-3
+    dt_guess = _check_dt(dt_guess)
+    u0 = _initial_perturbation(problem, amplitude, seed)
+
+    def stable(dt):
+        return is_stable(problem, dt, density, steps=steps, growth=growth, u0=u0)
+
+    lo = hi = dt_guess
+    for _ in range(60):
+        if stable(lo):
+            break
+        hi, lo = lo, lo / 2.0
+    else:
+        raise RuntimeError("largest_stable_dt: no stable time step found (is the problem at rest?)")
+    if hi == lo:
+        for _ in range(60):
+            hi = 2.0 * hi
+            if not stable(hi):
+                break
+            lo = hi
+        else:
+            raise RuntimeError("largest_stable_dt: no unstable time step found")
+    while hi / lo > 1.0 + rtol:
+        mid = np.sqrt(lo * hi)
+        if stable(mid):
+            lo = mid
+        else:
+            hi = mid
+    return float(lo)
+
+
+# --- the CFL study ------------------------------------------------------------------------------
+
+@dataclass
+class CFLStudy:
+    """Rows of :func:`cfl_study` and the fitted exponents.
+
+    ``rows`` (also reachable by iterating the study) are dicts with ``nx``,
+    ``h``, ``dofs``, ``dt_measured``, ``dt_estimate`` (``2 / omega_max``),
+    ``ratio`` (measured / estimate), ``courant`` (``dt_measured c / h``) and
+    ``seconds`` (time the measurement took). ``exponent`` is the
+    least-squares slope of ``log dt_measured`` against ``log h`` (1 for the
+    CFL condition), ``exponent_estimate`` the same for the estimate, and
+    ``constant`` the ``C`` of the fit ``dt = C h^exponent``.
+    """
+
+    rows: list = field(default_factory=list)
+    exponent: float = float("nan")
+    exponent_estimate: float = float("nan")
+    constant: float = float("nan")
+    wave_speed: float = float("nan")
+
+    def __iter__(self):
+        return iter(self.rows)
+
+    def __len__(self):
+        return len(self.rows)
+
+    def __getitem__(self, i):
+        return self.rows[i]
+
+
+def fit_power_law(x, y) -> tuple[float, float]:
+    """Least-squares ``y = C x^p`` on a log-log scale; returns ``(p, C)``."""
+    p, logC = np.polyfit(np.log(np.asarray(x, float)), np.log(np.asarray(y, float)), 1)
+    return float(p), float(np.exp(logC))
+
+
+def cfl_study(sizes=(4, 8, 16, 32), *, E: float = 1000.0, nu: float = 0.3, density: float = 1.0,
+              material=None, width: float = 2.0, height: float = 1.0, **measure) -> CFLStudy:
+    """Measured largest stable ``dt`` of :class:`SymplecticEuler` on a flap refined ``nx = sizes``.
+
+    The flap is :func:`~tissuefem.meshes.rectangle` ``(width, height, nx,
+    nx height/width)`` (square cells of side ``h = width / nx``) with its left
+    edge fixed; the material defaults to stable neo-Hookean with plane-strain
+    Lamé parameters from ``E, nu`` (linear elasticity near rest). For each
+    mesh: :func:`largest_stable_dt` (``measure`` goes to it), the estimate
+    :func:`critical_time_step` and their ratio. The CFL condition predicts
+    ``dt ~ h`` (exponent 1).
+    """
+    import time
+
+    from .materials import StableNeoHookean
+    from .meshes import rectangle
+    from .parameters import lame_parameters
+    from .quasistatic import Handle, QuasistaticProblem
+
+    if material is None:
+        material = StableNeoHookean(*lame_parameters(E, nu, "strain"))
+    c = wave_speed(material, density)
+    study = CFLStudy(wave_speed=c)
+    for nx in sizes:
+        ny = max(1, int(round(nx * height / width)))
+        mesh = rectangle(width, height, nx, ny)
+        problem = QuasistaticProblem(mesh, material, handles=[Handle("left")])
+        h = mesh_size(mesh)
+        t0 = time.perf_counter()
+        measured = largest_stable_dt(problem, density, **measure)
+        seconds = time.perf_counter() - t0
+        estimate = critical_time_step(problem, density)
+        study.rows.append({
+            "nx": int(nx), "h": h, "dofs": int(problem.basis.N), "dt_measured": measured,
+            "dt_estimate": estimate, "ratio": measured / estimate, "courant": measured * c / h,
+            "seconds": seconds,
+        })
+    if len(study.rows) >= 2:
+        h = [r["h"] for r in study.rows]
+        study.exponent, study.constant = fit_power_law(h, [r["dt_measured"] for r in study.rows])
+        study.exponent_estimate, _ = fit_power_law(h, [r["dt_estimate"] for r in study.rows])
+    return study

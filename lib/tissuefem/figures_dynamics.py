@@ -1,0 +1,303 @@
+"""Figures of chapter 7 (time stepping): explicit against implicit.
+
+* ``fig_ch07_cfl``: the measured largest stable step of symplectic Euler
+  against the element size (log-log), with the eigenvalue estimate
+  ``2 / omega_max``, a fitted slope and the 1/30 s frame.
+* ``fig_ch07_energy``: the total energy of a released flap under backward
+  Euler at three steps (numerical damping, the larger the step the faster)
+  and under symplectic Euler at a stable step (bounded oscillation) and just
+  above its limit (blow-up).
+* ``fig_ch07_released_flap``: the released flap under backward Euler at one
+  step per frame (1/30 s), as a filmstrip (PNG) and an animation (a GIF
+  written next to the PNG).
+
+The flap of the last two is the one of the chapter's tests: a 2 x 1
+rectangle (8 x 4 cells), stable neo-Hookean with E = 1000, nu = 0.3,
+rho0 = 1, left edge held, its right edge first lifted by 0.5 with a handle
+(a quasistatic solve) and then let go.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from matplotlib.animation import FuncAnimation, PillowWriter
+from matplotlib.collections import PolyCollection
+from matplotlib.colors import to_rgba
+from matplotlib.figure import Figure
+from matplotlib.ticker import NullFormatter
+
+from .figures import E_DEFAULT, NU_DEFAULT, register, save
+
+# (the drawing helpers of figures_inversion are imported inside the functions: importing that module
+# here would be circular when it is the first one imported, since figures imports this module)
+
+#: one frame of an interactive simulation, in seconds
+FRAME_DT = 1.0 / 30.0
+#: mesh sizes (cells along the flap's length) of the CFL figure
+CFL_SIZES = (4, 8, 16, 32, 64)
+#: backward-Euler steps of the energy figure
+BE_STEPS = (1.0 / 30.0, 1.0 / 120.0, 1.0 / 480.0)
+#: simulated time of the energy figure, in seconds (about 2.4 periods of the flap's slowest mode)
+ENERGY_T_END = 2.0
+#: frames of the animation (at 1/30 s each, frame 0 is the pulled flap)
+ANIMATION_FRAMES = 50
+#: frames shown in the filmstrip PNG
+FILMSTRIP_FRAMES = (0, 3, 6, 10, 16, 25, 49)
+#: how far the flap's right edge is lifted before it is let go
+LIFT = 0.5
+
+
+def released_flap(material=None, nx: int = 8, ny: int = 4, lift: float = LIFT):
+    """The chapter's flap, lifted and about to be released: returns ``(problem, u0)``.
+
+    A ``2 x 1`` :func:`~tissuefem.meshes.rectangle` of ``nx x ny`` cells
+    (stable neo-Hookean, plane strain, ``E_DEFAULT, NU_DEFAULT`` unless
+    ``material`` is given) is held on its left edge and its right edge is
+    moved up by ``lift`` (a quasistatic solve); ``u0`` is that state.
+    ``problem`` holds only the left edge: stepping it from ``u0`` at rest is
+    the release.
+    """
+    from .materials import StableNeoHookean
+    from .meshes import rectangle
+    from .parameters import lame_parameters
+    from .quasistatic import Handle, QuasistaticProblem
+
+    material = StableNeoHookean(*lame_parameters(E_DEFAULT, NU_DEFAULT, "strain")) if material is None else material
+    mesh = rectangle(2.0, 1.0, nx, ny)
+    pulled = QuasistaticProblem(mesh, material, handles=[Handle("left"), Handle("right", (0.0, lift))])
+    result = pulled.solve(load_steps=2)
+    if not result.converged:
+        raise RuntimeError(f"the flap could not be lifted by {lift}: {result.status}")
+    return QuasistaticProblem(mesh, material, handles=[Handle("left")]), result.u
+
+
+def backward_euler_run(problem, u0, dt: float, n_steps: int, frames: bool = False):
+    """Backward Euler from ``u0`` at rest: ``(times, total energies[, displacements])``, one entry per step."""
+    from .dynamics import BackwardEuler
+
+    scheme = BackwardEuler(problem, dt)
+    scheme.u = np.array(u0, dtype=float)
+    times, energies, states = [0.0], [scheme.total_energy()], [scheme.u.copy()]
+    for _ in range(n_steps):
+        report = scheme.step()
+        if not report.converged:
+            raise RuntimeError(f"backward Euler failed at t = {scheme.time:.3f}: {report.status}")
+        times.append(scheme.time)
+        energies.append(scheme.total_energy())
+        states.append(scheme.u.copy())
+    out = (np.array(times), np.array(energies))
+    return out + (states,) if frames else out
+
+
+# --- the CFL condition ------------------------------------------------------------------------
+
+@register
+def fig_ch07_cfl(path=None, study=None) -> Figure:
+    """Chapter 7: symplectic Euler's largest stable time step against the element size h (log-log).
+
+    For the flap (left edge held) refined ``nx = 4 ... 64``: the step found
+    by bisection (runs from a small random perturbation, unstable when the
+    energy grows tenfold) beside the eigenvalue estimate ``2 / omega_max``,
+    a least-squares fit ``dt = C h^p`` (the CFL condition says ``p = 1``),
+    and the 1/30 s frame, which the fit reaches only at an element as large
+    as the flap. Right: the Courant number ``c dt / h`` (``c`` the P-wave
+    speed) and the ratio measured / estimate. ``study`` (from
+    :func:`tissuefem.explicit.cfl_study`) skips recomputing it.
+    """
+    from .explicit import cfl_study
+
+    study = cfl_study(CFL_SIZES, E=E_DEFAULT, nu=NU_DEFAULT) if study is None else study
+    h = np.array([r["h"] for r in study])
+    measured = np.array([r["dt_measured"] for r in study])
+    estimate = np.array([r["dt_estimate"] for r in study])
+    fig = Figure(figsize=(10.5, 4.4), layout="constrained")
+    ax, ax_c = fig.subplots(1, 2, width_ratios=[1.6, 1])
+    h_line = np.geomspace(h.min() / 1.5, 3.0, 50)
+    fit = study.constant * h_line**study.exponent
+    ax.loglog(h_line, fit, color="0.5", ls="--", lw=1,
+              label=f"fit $\\Delta t = {study.constant:.4f}\\, h^{{{study.exponent:.3f}}}$")
+    ax.loglog(h, estimate, "x", color="C1", ms=9, mew=2, label="estimate $2/\\omega_{max}$ (lumped $M^{-1}K$)")
+    ax.loglog(h, measured, "o", color="C0", ms=6, label="measured (bisection, energy growth > 10x)")
+    ax.axhline(FRAME_DT, color="C3", lw=1.2, label="one frame, 1/30 s")
+    h_frame = (FRAME_DT / study.constant) ** (1.0 / study.exponent)
+    ax.plot([h_frame], [FRAME_DT], "s", color="C3", ms=6)
+    ax.annotate(f"explicit at 1/30 s needs h ≈ {h_frame:.2f}\n(the flap is 2 x 1)", (h_frame, FRAME_DT),
+                xytext=(0.55, 0.93), textcoords="axes fraction", ha="left", va="top", fontsize=8,
+                arrowprops=dict(arrowstyle="->", color="0.3", lw=0.8))
+    for hi, mi, r in zip(h, measured, study):
+        ax.annotate(f"{r['nx']}x{r['nx'] // 2}", (hi, mi), xytext=(4, -11), textcoords="offset points", fontsize=7)
+    ax.set(xlabel="element size $h$ (shortest edge)", ylabel="largest stable $\\Delta t$ (s)",
+           title="symplectic Euler: the step must shrink with the mesh")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8, loc="lower right")
+    ax_c.semilogx(h, [r["courant"] for r in study], "o-", color="C0", label="Courant number $c\\,\\Delta t / h$")
+    ax_c.semilogx(h, [r["ratio"] for r in study], "s-", color="C2", label="measured / estimate")
+    ax_c.set_xticks(h, [f"{hi:g}" for hi in h])
+    ax_c.xaxis.set_minor_formatter(NullFormatter())
+    ax_c.set(xlabel="element size $h$", ylim=(0.0, 1.2),
+             title=f"$c = \\sqrt{{(\\lambda + 2\\mu)/\\rho_0}} = {study.wave_speed:.1f}$")
+    ax_c.grid(True, which="both", alpha=0.3)
+    ax_c.legend(fontsize=8, loc="lower center")
+    fig.suptitle(f"Chapter 7, the CFL condition: $\\Delta t \\leq C h / c$ (stable neo-Hookean flap, "
+                 f"E = {E_DEFAULT:g}, ν = {NU_DEFAULT:g}, $\\rho_0$ = 1; fitted exponent {study.exponent:.3f})",
+                 fontsize=10)
+    save(fig, path)
+    return fig
+
+
+# --- energy: numerical damping against bounded oscillation -------------------------------------
+
+@register
+def fig_ch07_energy(path=None) -> Figure:
+    """Chapter 7: total energy of the released flap, backward Euler at three steps and symplectic Euler.
+
+    Left: backward Euler (an incremental potential, stable at any step)
+    loses energy at every step, the faster the larger the step: at 1/30 s
+    the flap is almost at rest after two seconds, at 1/480 s it still
+    swings; the first steps remove the fast modes the release excites.
+    Symplectic Euler at half its (rest-state) critical step keeps the energy
+    within a few percent for the whole run (middle: zoom, no drift). Right:
+    at 1.1 times the critical step it blows up within a few steps (log
+    scale; the run stops once the energy passes a million times its start).
+    Energies are relative to the stored energy of the lifted flap.
+    """
+    from .explicit import SymplecticEuler, critical_time_step
+
+    problem, u0 = released_flap()
+    dt_crit = critical_time_step(problem)
+    fig = Figure(figsize=(13.0, 4.4), layout="constrained")
+    ax, ax_z, ax_u = fig.subplots(1, 3, width_ratios=[1.5, 1, 0.9])
+    e0 = None
+    for dt, color in zip(BE_STEPS, ("C0", "C1", "C2")):
+        t, e = backward_euler_run(problem, u0, dt, int(round(ENERGY_T_END / dt)))
+        e0 = e[0]
+        ax.plot(t, e / e0, color=color, lw=1.6, label=f"backward Euler, $\\Delta t$ = 1/{1 / dt:.0f} s")
+    stable_dt = 0.5 * dt_crit
+    scheme = SymplecticEuler(problem, stable_dt)
+    scheme.u = u0.copy()
+    e = scheme.run(int(np.ceil(ENERGY_T_END / stable_dt)))
+    t = stable_dt * np.arange(e.size)
+    label = f"symplectic Euler, $\\Delta t$ = 0.5 $\\Delta t_{{crit}}$ = {1000 * stable_dt:.2f} ms"
+    ax.plot(t, e / e0, color="C4", lw=0.8, label=label)
+    ax.set(xlim=(0, ENERGY_T_END), ylim=(0.0, 1.15), xlabel="time $t$ (s)", ylabel="total energy $E(t) / E(0)$",
+           title="backward Euler damps, symplectic Euler does not")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7.5, loc="center right")
+    ax_z.plot(t, e / e0, color="C4", lw=0.7)
+    ax_z.axhline(1.0, color="k", lw=0.6, ls="--")
+    ax_z.text(0.03, 0.04, f"min {e.min() / e0:.3f}, max {e.max() / e0:.3f}", transform=ax_z.transAxes, fontsize=8)
+    ax_z.set(xlim=(0, ENERGY_T_END), ylim=(0.9, 1.1), xlabel="time $t$ (s)", ylabel="$E(t) / E(0)$",
+             title=f"symplectic Euler at {1000 * stable_dt:.2f} ms: bounded")
+    ax_z.grid(alpha=0.3)
+    # just above the limit
+    unstable_dt = 1.1 * dt_crit
+    scheme = SymplecticEuler(problem, unstable_dt)
+    scheme.u = u0.copy()
+    e = scheme.run(int(np.ceil(ENERGY_T_END / unstable_dt)), energy_limit=1e6 * e0)
+    steps = np.arange(e.size)
+    ax_u.semilogy(steps, e / e0, "o-", color="C3", ms=4, lw=1.2)
+    ax_u.axhline(1.0, color="k", lw=0.6, ls="--")
+    ax_u.set(xlabel="step", ylabel="$E / E(0)$ (log scale)",
+             title="... at 1.1 $\\Delta t_{crit}$: blow-up")
+    ax_u.text(0.04, 0.96, f"symplectic Euler, $\\Delta t$ = {1000 * unstable_dt:.2f} ms:\n"
+              f"energy x{e[-1] / e0:.0e} after {e.size - 1} steps ({1000 * unstable_dt * (e.size - 1):.0f} ms)",
+              transform=ax_u.transAxes, va="top", fontsize=8, color="C3")
+    ax_u.grid(True, which="both", alpha=0.3)
+    fig.suptitle(f"Chapter 7: energy of the released flap ($\\Delta t_{{crit}} = 2/\\omega_{{max}}$ = "
+                 f"{1000 * dt_crit:.2f} ms at rest; 8 x 4 cells, stable neo-Hookean, E = {E_DEFAULT:g}, "
+                 f"ν = {NU_DEFAULT:g}, $\\rho_0$ = 1)", fontsize=10)
+    save(fig, path)
+    return fig
+
+
+# --- the released flap, as a filmstrip and an animation ---------------------------------------
+
+def _flap_axes_limits(states, problem, margin: float = 0.08):
+    xs = np.concatenate([problem.deformed_positions(u)[0] for u in states])
+    ys = np.concatenate([problem.deformed_positions(u)[1] for u in states])
+    return (xs.min() - margin, xs.max() + margin), (ys.min() - margin, ys.max() + margin)
+
+
+def write_flap_animation(gif_path, problem, states, dt: float, dpi: int = 60) -> Path:
+    """Write the states as a GIF at one frame per step of ``dt`` (``matplotlib.animation``, Pillow)."""
+    from .figures_inversion import UPRIGHT_COLOR
+
+    gif_path = Path(gif_path)
+    gif_path.parent.mkdir(parents=True, exist_ok=True)
+    mesh = problem.mesh
+    xlim, ylim = _flap_axes_limits(states, problem)
+    fig = Figure(figsize=(3.4, 2.4))
+    ax = fig.add_axes([0.02, 0.02, 0.96, 0.82])  # fixed axes: every frame has the same layout
+    ax.set(aspect="equal", xlim=xlim, ylim=ylim, xticks=[], yticks=[])
+    ax.plot([0.0, 0.0], [0.0, 1.0], color="k", lw=2.5)  # the held edge
+    verts = lambda u: problem.deformed_positions(u)[:, mesh.t].transpose(2, 1, 0)  # noqa: E731
+    # no anti-aliasing: few colours per frame keep the GIF small (its palette has at most 256)
+    body = PolyCollection(verts(states[0]), facecolors=to_rgba(UPRIGHT_COLOR, 0.6), edgecolors="0.35",
+                          linewidths=0.5, antialiaseds=False)
+    ax.add_collection(body)
+    title = fig.text(0.5, 0.92, "", ha="center", va="center", fontsize=8)
+
+    def update(k):
+        body.set_verts(verts(states[k]))
+        title.set_text(f"backward Euler, Δt = 1/{1 / dt:.0f} s:  t = {k * dt:.2f} s")
+        return body, title
+
+    animation = FuncAnimation(fig, update, frames=len(states), interval=1000 * dt, blit=False, repeat=False)
+    animation.save(gif_path, writer=PillowWriter(fps=round(1 / dt)), dpi=dpi)
+    return gif_path
+
+
+@register
+def fig_ch07_released_flap(path=None) -> Figure:
+    """Chapter 7: the flap let go, backward Euler at one step per frame (1/30 s), as a filmstrip.
+
+    Top: the flap at a few frames (its lifted start first); bottom: the
+    vertical displacement of the tip (right edge, middle) against time,
+    frames of the strip marked. The swing dies out within about a second:
+    that is backward Euler's numerical damping, not a property of the
+    material (which has no viscosity). With a ``path``, also writes the
+    whole run as an animation ``<path stem>.gif`` beside the PNG
+    (50 frames at 30 frames per second).
+    """
+    from .figures_inversion import draw_state
+
+    problem, u0 = released_flap()
+    times, energies, states = backward_euler_run(problem, u0, FRAME_DT, ANIMATION_FRAMES - 1, frames=True)
+    mesh = problem.mesh
+    tip = np.flatnonzero((np.abs(mesh.p[0] - 2.0) < 1e-9) & (np.abs(mesh.p[1] - 0.5) < 1e-9))[0]
+    tip_dof = problem.basis.nodal_dofs[1, tip]
+    xlim, ylim = _flap_axes_limits([states[k] for k in FILMSTRIP_FRAMES], problem)
+    n = len(FILMSTRIP_FRAMES)
+    fig = Figure(figsize=(1.6 * n + 0.6, 4.6), layout="constrained")
+    grid = fig.add_gridspec(2, n, height_ratios=[1.0, 1.15])
+    for col, k in enumerate(FILMSTRIP_FRAMES):
+        ax = fig.add_subplot(grid[0, col])
+        ax.plot(*mesh.p[:, mesh.t[[0, 1, 2, 0]]], color="0.8", lw=0.3)  # the rest shape, faint
+        draw_state(ax, mesh, problem.deformed_positions(states[k]))
+        ax.plot([0.0, 0.0], [0.0, 1.0], color="k", lw=2.0)
+        ax.set(aspect="equal", xlim=xlim, ylim=ylim, xticks=[], yticks=[])
+        ax.set_title(f"t = {times[k]:.2f} s" + (" (let go)" if k == 0 else ""), fontsize=8.5)
+    ax = fig.add_subplot(grid[1, :])
+    tip_y = np.array([u[tip_dof] for u in states])
+    ax.plot(times, tip_y, "o-", color="C0", ms=3, lw=1.2, label="tip displacement $u_y$ (right edge, middle)")
+    ax.plot(times[list(FILMSTRIP_FRAMES)], tip_y[list(FILMSTRIP_FRAMES)], "s", color="C3", ms=6,
+            label="frames shown above")
+    ax.axhline(0.0, color="k", lw=0.6)
+    ax2 = ax.twinx()
+    ax2.plot(times, energies / energies[0], color="C2", lw=1.0, ls="--", label="total energy / initial")
+    ax2.set(ylim=(0.0, 1.05), ylabel="$E(t)/E(0)$")
+    ax.set(xlabel="time $t$ (s), one backward-Euler step per frame", ylabel="tip $u_y$",
+           xlim=(0.0, times[-1]))
+    ax.grid(alpha=0.3)
+    lines = ax.get_legend_handles_labels()
+    lines2 = ax2.get_legend_handles_labels()
+    ax.legend(lines[0] + lines2[0], lines[1] + lines2[1], fontsize=8, loc="upper right")
+    fig.suptitle(f"Chapter 7: the flap let go, backward Euler at $\\Delta t$ = 1/30 s "
+                 f"(stable neo-Hookean, E = {E_DEFAULT:g}, ν = {NU_DEFAULT:g}, $\\rho_0$ = 1, left edge held)",
+                 fontsize=10)
+    save(fig, path)
+    if path is not None:
+        write_flap_animation(Path(path).with_suffix(".gif"), problem, states, FRAME_DT)
+    return fig

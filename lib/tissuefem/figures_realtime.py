@@ -1,0 +1,73 @@
+"""Chapter 7 figure of what the real-time budget trades: the residual and the error an unfinished frame leaves.
+
+A frame's budget buys a number of Newton steps, and how many fit in 33 ms
+depends on the mesh size (the ``bench realtime`` table says how many). To
+keep the figure reproducible it caps the *number of steps* per frame instead
+of reading a clock: the standard flap scene (:mod:`tissuefem.bench_realtime`)
+run with at most 1, 2 or 3 Newton steps per frame, against the same scene
+with every frame converged.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from .figures import register, save
+
+SIZES = (500, 2000, 8000)
+CAPS = (1, 2, 3)
+FRAMES = 40
+
+
+def capped_runs(sizes=SIZES, caps=CAPS, frames=FRAMES) -> list[dict]:
+    """For each size and cap: median relative residual per frame and the final state error against converged frames."""
+    from .bench_realtime import DT_FLAP, flap_path, flap_scene
+    from .realtime import RealtimeSolver
+
+    rows = []
+    for n in sizes:
+        reference = RealtimeSolver(flap_scene(n)[0], dt=DT_FLAP, budget=math.inf, rtol=1e-10)
+        for f in range(frames):
+            reference.frame({1: flap_path((f + 1) * DT_FLAP)})
+        scale = float(np.max(np.abs(reference.u)))
+        for cap in caps:
+            solver = RealtimeSolver(flap_scene(n)[0], dt=DT_FLAP, budget=math.inf, rtol=1e-12, max_iterations=cap)
+            relative = []
+            for f in range(frames):
+                report = solver.frame({1: flap_path((f + 1) * DT_FLAP)})
+                relative.append(report.relative_residual)
+            rows.append({
+                "triangles": int(solver.problem.mesh.t.shape[1]),
+                "cap": cap,
+                "median_relative_residual": float(np.median(relative)),
+                "state_error": float(np.max(np.abs(solver.u - reference.u)) / scale),
+            })
+    return rows
+
+
+@register
+def fig_ch07_budget_residual(path=None, rows=None) -> Figure:
+    """Chapter 7: residual and state error left when a frame stops after 1, 2 or 3 Newton steps, by mesh size."""
+    rows = capped_runs() if rows is None else rows
+    fig = Figure(figsize=(9.0, 3.8), layout="constrained")
+    ax_r, ax_e = fig.subplots(1, 2)
+    for cap, marker in zip(CAPS, "os^"):
+        sel = [r for r in rows if r["cap"] == cap]
+        tri = [r["triangles"] for r in sel]
+        label = f"{cap} Newton step{'s' if cap > 1 else ''} per frame"
+        ax_r.loglog(tri, [r["median_relative_residual"] for r in sel], marker + "-", label=label)
+        ax_e.loglog(tri, [max(r["state_error"], 1e-16) for r in sel], marker + "-", label=label)
+    ax_r.axhline(1e-6, color="k", ls="--", lw=1)
+    ax_r.text(rows[0]["triangles"], 1.5e-6, "converged: rtol = 1e-6", fontsize=8)
+    ax_r.set(xlabel="triangles", ylabel="median of |residual| / |first residual| per frame",
+             title="Residual left at the end of a frame")
+    ax_e.set(xlabel="triangles", ylabel="max |u - u_converged| / max |u_converged|",
+             title=f"State error after {FRAMES} frames of the drag")
+    for ax in (ax_r, ax_e):
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=8)
+    save(fig, path)
+    return fig
