@@ -66,8 +66,11 @@ def fig_ch07_budget_residual(path=None, rows=None) -> Figure:
              title="Residual left at the end of a frame")
     ax_e.set(xlabel="triangles", ylabel="max |u - u_converged| / max |u_converged|",
              title=f"State error after {FRAMES} frames of the drag")
+    from matplotlib.ticker import NullFormatter
+
     for ax in (ax_r, ax_e):
         ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=8)
+        ax.xaxis.set_minor_formatter(NullFormatter())
+        ax.legend(fontsize=8, loc="center right")
     save(fig, path)
     return fig
