@@ -299,3 +299,18 @@ def test_a_jerked_handle_goes_part_of_the_way_rather_than_invert_ln_J():
     fixed, values = rt.problem.prescribed()
     moved = np.linalg.norm(rt.u[fixed] - values)
     assert moved < np.linalg.norm(values)
+
+
+@pytest.mark.parametrize("field, value", [("dt", 0.0), ("dt", -0.1), ("dt", math.inf), ("dt", None),
+                                          ("budget", 0.0), ("budget", -1.0), ("budget", math.nan)])
+def test_changing_dt_or_budget_between_frames_checks_the_value_and_keeps_the_state(field, value):
+    rt = RealtimeSolver(scene(), budget=math.inf)
+    rt.frame({1: (0.1, 0.05)})
+    before = (rt.u.copy(), rt.v.copy(), rt.time, rt.dt, rt.budget)
+    with pytest.raises(ValueError, match=field):
+        setattr(rt, field, value)
+    np.testing.assert_array_equal(rt.u, before[0])
+    np.testing.assert_array_equal(rt.v, before[1])
+    assert (rt.time, rt.dt, rt.budget) == before[2:]
+    rt.dt, rt.budget = 1 / 60, 0.5  # valid changes are taken
+    assert rt.frame({1: (0.12, 0.05)}).converged and rt.time == pytest.approx(1 / 30 + 1 / 60)

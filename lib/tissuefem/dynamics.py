@@ -32,7 +32,7 @@ from skfem import BilinearForm, asm
 
 from .newton import NewtonResult, newton_solve
 
-__all__ = ["mass_matrix", "backward_euler_residual", "BackwardEuler", "StepReport"]
+__all__ = ["mass_matrix", "external_with_gravity", "backward_euler_residual", "BackwardEuler", "StepReport"]
 
 
 def mass_matrix(basis, density: float, lumped: bool = False) -> sp.csr_matrix:
@@ -56,6 +56,20 @@ def mass_matrix(basis, density: float, lumped: bool = False) -> sp.csr_matrix:
             )
         return sp.diags(diagonal).tocsr()
     return M
+
+
+def external_with_gravity(problem, density: float, gravity=None) -> np.ndarray:
+    """The problem's external force vector plus the body force ``rho0 g`` of an optional gravity ``(gx, gy)``."""
+    external = problem.external.copy()
+    if gravity is None:
+        return external
+    try:
+        g = np.asarray(gravity, dtype=float)
+    except (TypeError, ValueError):
+        g = None
+    if g is None or g.shape != (2,) or not np.all(np.isfinite(g)):
+        raise ValueError(f"gravity must be a finite vector (gx, gy), got {gravity!r}")
+    return external + problem._body_force_vector(float(density) * g)
 
 
 def backward_euler_residual(M, u, u_n, v_n, dt, f_int, f_ext) -> np.ndarray:
@@ -110,12 +124,7 @@ class BackwardEuler:
             raise ValueError(f"mass must be 'lumped' or 'consistent', got {mass!r}")
         self.problem, self.dt, self.density = problem, dt, float(density)
         self.M = mass_matrix(problem.basis, density, lumped=(mass == "lumped"))
-        self.external = problem.external.copy()
-        if gravity is not None:
-            g = np.asarray(gravity, dtype=float)
-            if g.shape != (2,) or not np.all(np.isfinite(g)):
-                raise ValueError(f"gravity must be a finite vector (gx, gy), got {gravity!r}")
-            self.external = self.external + problem._body_force_vector(self.density * g)
+        self.external = external_with_gravity(problem, self.density, gravity)
         self.u = problem.basis.zeros()
         self.v = problem.basis.zeros()
         self.time = 0.0

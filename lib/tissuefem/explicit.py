@@ -76,7 +76,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import eigsh
 
-from .dynamics import mass_matrix
+from .dynamics import external_with_gravity, mass_matrix
 
 __all__ = [
     "SymplecticEuler",
@@ -182,15 +182,7 @@ class SymplecticEuler:
         self.M = mass_matrix(problem.basis, self.density, lumped=True)
         self.mass = self.M.diagonal().copy()
         _check_lumped(self.mass)
-        self.external = problem.external.copy()
-        if gravity is not None:
-            try:
-                g = np.asarray(gravity, dtype=float)
-            except (TypeError, ValueError):
-                raise ValueError(f"gravity must be a finite vector (gx, gy), got {gravity!r}") from None
-            if g.shape != (2,) or not np.all(np.isfinite(g)):
-                raise ValueError(f"gravity must be a finite vector (gx, gy), got {gravity!r}")
-            self.external = self.external + problem._body_force_vector(self.density * g)
+        self.external = external_with_gravity(problem, self.density, gravity)
         self.u = problem.basis.zeros()
         self.v = problem.basis.zeros()
         self.time = 0.0

@@ -54,7 +54,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from . import linsolve
-from .dynamics import mass_matrix
+from .dynamics import external_with_gravity, mass_matrix
 
 __all__ = ["RealtimeSolver", "FrameReport", "FRAME_BUDGET", "budgeted_newton", "BudgetedNewtonResult"]
 
@@ -245,8 +245,8 @@ class RealtimeSolver:
                  budget: float = FRAME_BUDGET, rtol: float = 1e-6, atol: float = 1e-12,
                  linear_solver="reuse", clock=time.perf_counter, max_iterations: int = 50):
         self.problem = problem
-        self.dt = None if dt is None else _check_positive("dt", dt)
-        self.budget = _check_positive("budget", budget, allow_inf=True)
+        self._dt = None if dt is None else _check_positive("dt", dt)
+        self._budget = _check_positive("budget", budget, allow_inf=True)
         self.rtol = _check_positive("rtol", rtol)
         if not (np.isfinite(atol) and atol >= 0):
             raise ValueError(f"atol must be finite and >= 0, got {atol!r}")
@@ -270,11 +270,7 @@ class RealtimeSolver:
         if self.dt is not None:
             self.density = _check_positive("density", density)
             self.M = mass_matrix(problem.basis, self.density, lumped=(mass == "lumped"))
-            if gravity is not None:
-                g = np.asarray(gravity, dtype=float)
-                if g.shape != (2,) or not np.all(np.isfinite(g)):
-                    raise ValueError(f"gravity must be a finite vector (gx, gy), got {gravity!r}")
-                self.external = self.external + problem._body_force_vector(self.density * g)
+            self.external = external_with_gravity(problem, self.density, gravity)
         elif gravity is not None:
             raise ValueError("gravity needs a density and dt; for a quasistatic frame give the problem a body_force")
 
@@ -293,6 +289,28 @@ class RealtimeSolver:
         self._v_previous = None
         self.frames = 0
         self.last_report: FrameReport | None = None
+
+    # ------------------------------------------------------------------ settings that may change between frames
+    @property
+    def dt(self):
+        """The time step (``None`` for quasistatic frames). May be changed between frames: a value that is
+        not finite and > 0 raises ``ValueError`` and the old one is kept."""
+        return self._dt
+
+    @dt.setter
+    def dt(self, value):
+        if self._dt is None or value is None:
+            raise ValueError("dt cannot switch between quasistatic (None) and dynamic frames; make a new solver")
+        self._dt = _check_positive("dt", value)
+
+    @property
+    def budget(self):
+        """Wall-clock seconds per frame; may be changed between frames (``> 0``, ``math.inf`` for none)."""
+        return self._budget
+
+    @budget.setter
+    def budget(self, value):
+        self._budget = _check_positive("budget", value, allow_inf=True)
 
     # ------------------------------------------------------------------ set-up helpers
     @staticmethod
