@@ -314,3 +314,14 @@ def test_changing_dt_or_budget_between_frames_checks_the_value_and_keeps_the_sta
     assert (rt.time, rt.dt, rt.budget) == before[2:]
     rt.dt, rt.budget = 1 / 60, 0.5  # valid changes are taken
     assert rt.frame({1: (0.12, 0.05)}).converged and rt.time == pytest.approx(1 / 30 + 1 / 60)
+
+
+@pytest.mark.parametrize("name", ["reuse", "direct", "superlu-colamd", "reuse-superlu-colamd"]
+                         + (["pardiso", "reuse-pardiso"] if linsolve.available("pardiso") else []))
+def test_every_linear_solver_gives_the_same_frames(name):
+    rt = RealtimeSolver(scene(), budget=math.inf, rtol=1e-10, linear_solver=name)
+    ref = RealtimeSolver(scene(), budget=math.inf, rtol=1e-10)
+    for f in range(3):
+        assert rt.frame({1: path((f + 1) / 10)}).converged
+        ref.frame({1: path((f + 1) / 10)})
+    np.testing.assert_allclose(rt.u, ref.u, atol=1e-8 * np.max(np.abs(ref.u)))

@@ -122,7 +122,7 @@ def main(argv=None) -> int:
     p.add_argument("--repeats", type=int, default=5, help="assembly: timed repetitions")
     p.add_argument("--frames", type=int, default=90, help="realtime: frames of the scripted drag")
     p.add_argument("--baseline-frames", type=int, default=10, help="realtime: frames of the ex43-way baseline")
-    p.add_argument("--linear", default="reuse", help="realtime: linear solver (reuse, direct, superlu, pardiso)")
+    p.add_argument("--linear", default="reuse", help="realtime: linear solver (reuse, reuse-pardiso, direct, superlu, superlu-colamd, pardiso)")
     p.add_argument("--out", help="assembly: a JSON file; realtime: a folder (default bench-results/)")
     p.set_defaults(func=cmd_bench)
 

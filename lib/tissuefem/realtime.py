@@ -230,7 +230,8 @@ class RealtimeSolver:
         on the free dofs (``E`` is scaled by ``dt^2`` as above).
     linear_solver
         ``"reuse"`` (default: CG preconditioned by a kept SuperLU
-        factorization), ``"direct"`` (a fresh SuperLU factorization every
+        factorization), ``"reuse-<name>"`` (the same with another backend,
+        e.g. ``"reuse-pardiso"``), ``"direct"`` (a fresh SuperLU factorization every
         Newton iteration), a backend name of :func:`tissuefem.linsolve.make`
         (a fresh factorization of that backend every iteration), or a backend
         object (a :class:`~tissuefem.linsolve.ReusedFactorization`, or one with
@@ -320,6 +321,8 @@ class RealtimeSolver:
                 return linsolve.ReusedFactorization(linsolve.SuperLU())
             if linear_solver == "direct":
                 return linsolve.SuperLU()
+            if linear_solver.startswith("reuse-"):  # e.g. "reuse-pardiso": CG with a kept PARDISO factorization
+                return linsolve.ReusedFactorization(linsolve.make(linear_solver[len("reuse-"):]))
             return linsolve.make(linear_solver)
         if isinstance(linear_solver, linsolve.ReusedFactorization) or callable(getattr(linear_solver, "factorize", None)):
             return linear_solver
