@@ -4,7 +4,6 @@ No timing is asserted anywhere: times are measurements to read (they depend on
 the machine and its load); the tests only check that they are recorded.
 """
 
-import hashlib
 import math
 
 import matplotlib
@@ -13,6 +12,7 @@ matplotlib.use("Agg")
 
 import numpy as np
 import pytest
+from figure_checks import assert_figure_deterministic
 from skfem import Basis, ElementTriP1, ElementTriP2, ElementVector, asm
 
 from tissuefem import figures
@@ -249,13 +249,7 @@ FIGURES_3_4 = ["fig02_kinematics", "fig_ch03_rotation_stress", "fig_ch04_block",
 
 @pytest.mark.parametrize("name", FIGURES_3_4)
 def test_figure_renders_deterministically(tmp_path, name):
-    assert name in figures.FIGURES and figures.FIGURES[name].__doc__
-    first = figures.generate([name], tmp_path / "a", progress=None)[0]
-    second = figures.generate([name], tmp_path / "b", progress=None)[0]
-    data = first.read_bytes()
-    assert data[:8] == b"\x89PNG\r\n\x1a\n"
-    assert hashlib.sha256(data).digest() == hashlib.sha256(second.read_bytes()).digest()
-    assert b"Software" not in data[:400]
+    assert_figure_deterministic(name, tmp_path)
 
 
 def test_cost_accuracy_figure_takes_fresh_rows():
