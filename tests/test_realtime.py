@@ -98,9 +98,10 @@ def assert_valid(rt, report):
 @pytest.mark.parametrize("budget", [0.004, 0.012, 0.033])
 def test_never_overruns_by_more_than_one_linear_solve(budget):
     rt, clock, linear = budgeted(scene(), budget, rtol=1e-12, atol=0.0)
-    n_costs = 0
+    n_costs, statuses = 0, set()
     for f in range(40):
         report = rt.frame({1: path(2 * (f + 1) / 30)})
+        statuses.add(report.status)
         assert_valid(rt, report)
         frame_costs = linear.costs[n_costs:]
         n_costs = len(linear.costs)
@@ -109,7 +110,8 @@ def test_never_overruns_by_more_than_one_linear_solve(budget):
         assert report.elapsed <= budget + allowed + 1e-12
         if report.status == "budget":
             assert report.elapsed >= budget
-    assert any(r == "budget" for r in [rt.last_report.status]) or linear.factorizations >= 1
+    if budget <= 0.012:  # less than a factorization plus a few solves: some frames must stop on the budget
+        assert "budget" in statuses
 
 
 def test_a_frame_that_runs_out_of_budget_stops_at_once_and_says_so():
