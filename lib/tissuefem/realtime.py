@@ -56,7 +56,7 @@ import scipy.sparse as sp
 from . import linsolve
 from .dynamics import external_with_gravity, mass_matrix
 
-__all__ = ["RealtimeSolver", "FrameReport", "FRAME_BUDGET", "budgeted_newton", "BudgetedNewtonResult"]
+__all__ = ["RealtimeSolver", "ConstantTangentSolver", "FrameReport", "FRAME_BUDGET", "budgeted_newton", "BudgetedNewtonResult"]
 
 #: the notes' frame time: 1/30 s
 FRAME_BUDGET = 1.0 / 30.0
@@ -499,6 +499,14 @@ class RealtimeSolver:
         status, k, cuts, rnorm, r0 = result.status, result.iterations, result.cuts, result.residual_norm, result.initial_residual
         cg_its, factorizations, history = stats["cg"], stats["factorizations"], result.history
 
+        return self._commit(
+            x, x_tilde, start, status=status, newton_iterations=k, linear_iterations=cg_its,
+            factorizations=factorizations, residual_norm=rnorm, initial_residual=r0, start_energy=E0,
+            handle_fraction=fraction, line_search_cuts=cuts, warm_start=which, residual_history=history,
+        )
+
+    def _commit(self, x, x_tilde, start, **report) -> FrameReport:
+        """Make ``x`` the new state (velocity, time, frame count) and return the frame's report."""
         elapsed = self.clock() - start
         # commit: the accepted iterate is the new state, converged or not (it is finite and E <= E0)
         if self.dt is not None:
@@ -510,21 +518,11 @@ class RealtimeSolver:
         report = FrameReport(
             frame=self.frames,
             time=self.time,
-            converged=status == "converged",
-            status=status,
-            newton_iterations=k,
-            linear_iterations=cg_its,
-            factorizations=factorizations,
-            residual_norm=rnorm,
-            initial_residual=r0,
+            converged=report["status"] == "converged",
             energy=float(self.energy(x, x_tilde)),
-            start_energy=float(E0),
             elapsed=elapsed,
             budget=self.budget,
-            handle_fraction=fraction,
-            line_search_cuts=cuts,
-            warm_start=which,
-            residual_history=history,
+            **report,
         )
         self.last_report = report
         return report
@@ -594,3 +592,61 @@ class RealtimeSolver:
             raise ValueError("a quasistatic solver has no velocity: v must be zero or None")
         self.u = np.zeros(n) if u is None else np.array(u, dtype=float)
         self.v = np.zeros(n) if v is None else np.array(v, dtype=float)
+
+
+class ConstantTangentSolver(RealtimeSolver):
+    """The frame loop for a model whose Hessian is constant (small-strain linear elasticity, springs).
+
+    Then ``E`` is quadratic and one Newton step from any start is exact:
+    ``x = x0 - A_ff^{-1} grad E(x0)`` on the free dofs, with
+    ``A = M + dt^2 K`` (or ``K`` when quasistatic). ``A_ff`` is factorised once
+    per set of held dofs and kept, so a frame costs one gradient evaluation and
+    one back-substitution. ``factorizations`` counts how often it factorised.
+
+    Takes the same arguments as :class:`RealtimeSolver`; ``linear_solver`` must
+    be a direct backend name (default ``"superlu"``) since the factorisation is
+    the point.
+    """
+
+    def __init__(self, problem, *, linear_solver="superlu", **options):
+        if not getattr(problem, "quadratic", False):
+            raise ValueError("ConstantTangentSolver needs a problem whose energy is quadratic (problem.quadratic)")
+        if linear_solver in ("reuse", "direct"):
+            linear_solver = "superlu"
+        super().__init__(problem, linear_solver=linear_solver, **options)
+        if not callable(getattr(self.linear, "factorize", None)):
+            raise ValueError(f"linear_solver must be a direct backend for a constant tangent, got {linear_solver!r}")
+        self._factor, self._factor_key = None, None
+        self.factorizations = 0
+
+    def _solve_frame(self, fixed, values) -> FrameReport:
+        start = self.clock()
+        n = self.u.size
+        free_mask = np.ones(n, dtype=bool)
+        free_mask[fixed] = False
+        free = np.flatnonzero(free_mask)
+        key = fixed.tobytes()
+        fac = 0
+        if self._factor_key != key:
+            A = self._hessian_free(np.zeros(n), free, key)
+            self._factor = self.linear.factorize(A.tocsr())
+            self._factor_key = key
+            self.factorizations += 1
+            fac = 1
+        x_tilde = self.u + self.dt * self.v if self.dt is not None else self.u.copy()
+        x = (x_tilde if self.dt is not None else self.u).copy()
+        x[fixed] = values
+        E0 = self.energy(x, x_tilde)
+        g = self.gradient(x, x_tilde)
+        r0 = float(np.linalg.norm(g[free]))
+        if free.size:
+            x[free] -= self._factor.solve(g[free])
+        g = self.gradient(x, x_tilde)
+        rnorm = float(np.linalg.norm(g[free]))
+        converged = rnorm <= self.atol + max(self.rtol * r0, 1e-12 * float(np.linalg.norm(g)))
+        return self._commit(
+            x, x_tilde, start, status="converged" if converged else "max-iterations", newton_iterations=1,
+            linear_iterations=0, factorizations=fac, residual_norm=rnorm, initial_residual=r0, start_energy=E0,
+            handle_fraction=1.0, line_search_cuts=0, warm_start="inertial" if self.dt is not None else "previous",
+            residual_history=[r0, rnorm],
+        )

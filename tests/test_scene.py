@@ -1,0 +1,302 @@
+"""Scenes: files that round-trip, fields that are checked, and a model of exactly the named effects."""
+
+import json
+
+import numpy as np
+import pytest
+
+from tissuefem import model as model_module
+from tissuefem.meshes import rectangle
+from tissuefem.model import Model, NodeHandle
+from tissuefem.realtime import ConstantTangentSolver, RealtimeSolver
+from tissuefem.scene import EFFECTS, EXAMPLE_TOML, Scene, Simulation, demo_scene
+
+
+class FakeClock:
+    def __init__(self):
+        self.now = 0.0
+
+    def __call__(self):
+        return self.now
+
+
+def sheet(**effects):
+    """A small 2 x 1 sheet held on the left, with the given effects."""
+    effects.setdefault("handles", [{"name": "fixed", "region": "left"},
+                                   {"name": "pull", "region": {"box": [1.99, 0.0, 2.0, 1.0]}, "target": [0.2, 0.0]}])
+    return {
+        "name": "sheet",
+        "domain": {"shape": "rectangle", "width": 2.0, "height": 1.0, "triangles": 160},
+        "material": {"model": "stable-neo-hookean", "youngs_modulus": 1000.0, "poisson_ratio": 0.3},
+        "effects": effects,
+        "solver": {"budget": 1e9},
+    }
+
+
+def run(data, frames=4, **kwargs):
+    sim = Simulation(Scene.from_dict(data), clock=FakeClock(), **kwargs)
+    for _ in range(frames):
+        sim.frame()
+    return sim
+
+
+# --- files ----------------------------------------------------------------------------------------------------
+
+def test_example_scene_loads_and_round_trips_through_toml_and_json(tmp_path):
+    scene = Scene.from_toml(EXAMPLE_TOML)
+    assert scene.dynamic and set(scene.effects) == {"inertia", "gravity", "handles"}
+    assert Scene.from_toml(scene.to_toml()) == scene
+    assert Scene.from_json(scene.to_json()) == scene
+    for name in ("s.toml", "s.json"):
+        scene.save(tmp_path / name)
+        assert Scene.load(tmp_path / name) == scene
+    # the written TOML is the complete, normalised scene (defaults filled in)
+    assert Scene.load(tmp_path / "s.toml").to_dict() == json.loads(scene.to_json())
+
+
+def test_every_effect_round_trips():
+    data = sheet(
+        inertia={"time_step": 0.02, "mass": "consistent"},
+        gravity={"acceleration": [0.0, -9.81]},
+        fibers={"stiffness": 300.0, "direction": [1.0, 1.0]},
+        inversion={"method": "projected"},
+        tractions=[{"boundary": "top", "traction": [0.0, 5.0]}],
+        probes=[{"center": [1.0, 1.2], "radius": 0.1, "stiffness": 1e5}],
+        excisions=[{"polygon": [[0.8, 0.4], [1.0, 0.4], [1.0, 0.6], [0.8, 0.6]]}],
+        incisions=[{"path": [[1.4, 0.0], [1.4, 0.5]]}],
+        sutures=[{"pairs": [[[0.5, 1.0], [0.6, 1.0]]], "stiffness": 1e4, "tightness": 0.5}],
+    )
+    scene = Scene.from_dict(data)
+    assert set(scene.effects) == set(EFFECTS)
+    assert Scene.from_toml(scene.to_toml()) == scene
+    assert Scene.from_json(scene.to_json()) == scene
+
+
+def test_a_users_mesh_file_is_read_through_meshio(tmp_path):
+    mesh = rectangle(2.0, 1.0, 12, 6)
+    mesh.save(str(tmp_path / "tissue.msh"))  # gmsh format, through meshio; named boundaries kept
+    text = EXAMPLE_TOML.replace('shape = "rectangle"\nwidth = 2.0\nheight = 1.0\ntriangles = 800',
+                                'shape = "file"\npath = "tissue.msh"')
+    (tmp_path / "scene.toml").write_text(text)
+    scene = Scene.load(tmp_path / "scene.toml")  # the path is relative to the scene file
+    sim = Simulation(scene, clock=FakeClock())
+    assert sim.mesh.nelements == mesh.nelements and sim.mesh.nvertices == mesh.nvertices
+    assert np.allclose(sim.mesh.p, mesh.p)
+    assert sim.frame().converged
+    bad = Scene.from_toml(text.replace("tissue.msh", "missing.msh"), base_dir=tmp_path)
+    with pytest.raises(ValueError, match="domain.path"):
+        Simulation(bad)
+
+
+# --- invalid scenes name the field ------------------------------------------------------------------------------
+
+def _modified(change):
+    data = sheet()
+    change(data)
+    return data
+
+
+@pytest.mark.parametrize("change, field", [
+    (lambda d: d["effects"].update(magnetism={}), "effects: unknown effect"),
+    (lambda d: d.pop("material"), "material: missing"),
+    (lambda d: d["material"].pop("youngs_modulus"), "material.youngs_modulus: missing"),
+    (lambda d: d["material"].update(youngs_modulus=-5.0), "material.youngs_modulus must be > 0"),
+    (lambda d: d["material"].update(youngs_modulus=float("nan")), "material.youngs_modulus must be finite"),
+    (lambda d: d["material"].update(poisson_ratio=0.5), "material.poisson_ratio must be < 0.5"),
+    (lambda d: d["material"].update(model="jelly"), "material.model must be one of"),
+    (lambda d: d["material"].update(youngs_modulus="stiff"), "material.youngs_modulus must be a number"),
+    (lambda d: d["domain"].update(shape="sphere"), "domain.shape must be one of"),
+    (lambda d: d["domain"].update(triangles=10.5), "domain.triangles must be an integer"),
+    (lambda d: d["domain"].update(colour="red"), "domain: unknown key"),
+    (lambda d: d["effects"].update(inertia={"time_step": 0.0}), "effects.inertia.time_step must be > 0"),
+    (lambda d: d["effects"].update(gravity={"acceleration": [0.0]}), "effects.gravity.acceleration must be a vector"),
+    (lambda d: d["effects"].update(fibers={"direction": [1, 0]}), "effects.fibers.stiffness: missing"),
+    (lambda d: d["effects"].update(inversion={"method": "magic"}), "effects.inversion.method must be one of"),
+    (lambda d: d["effects"]["handles"][1].update(target=[0.0, float("inf")]), r"effects.handles\[1\].target\[1\]"),
+    (lambda d: d["effects"]["handles"][0].pop("region"), r"effects.handles\[0\].region: missing"),
+    (lambda d: d["effects"]["handles"][1].update(name="fixed"), "effects.handles: names must be unique"),
+    (lambda d: d["effects"].update(probes=[{"center": [0, 0]}]), r"effects.probes\[0\].radius: missing"),
+    (lambda d: d["effects"].update(incisions=[{"path": [[0, 0]]}]), r"effects.incisions\[0\].path"),
+    (lambda d: d["effects"].update(sutures=[{"pairs": [[[0, 0]]]}]), r"effects.sutures\[0\].pairs\[0\]"),
+    (lambda d: d["solver"].update(budget=-1), "solver.budget must be > 0"),
+])
+def test_invalid_scenes_are_rejected_naming_the_field(change, field):
+    with pytest.raises(ValueError, match=field):
+        Scene.from_dict(_modified(change))
+
+
+@pytest.mark.parametrize("change, field", [
+    (lambda d: d["effects"]["handles"][1].update(region={"box": [5.0, 5.0, 6.0, 6.0]}),
+     r"effects.handles\[1\].region: selects no node of the mesh \(it lies outside the domain"),
+    (lambda d: d["effects"]["handles"][1].update(region={"near": [-3.0, 0.5], "radius": 0.1}),
+     r"effects.handles\[1\].region: selects no node"),
+    (lambda d: d["effects"]["handles"][0].update(region="west"), r"effects.handles\[0\].region: 'west' is not a boundary"),
+    (lambda d: d["effects"].update(tractions=[{"boundary": "north", "traction": [1, 0]}]), "effects.tractions"),
+    (lambda d: d["effects"].update(inversion={"method": "itf"}), "effects.inversion.method: 'itf' clamps the ln J"),
+    (lambda d: d["effects"].update(handles=[]), "effects.handles: a quasistatic scene needs"),
+    (lambda d: d["effects"].update(fibers={"stiffness": 1.0, "direction": "fusiform"}), "effects.fibers.direction"),
+])
+def test_scenes_that_do_not_fit_their_mesh_are_rejected_when_built(change, field):
+    scene = Scene.from_dict(_modified(change))  # well-formed ...
+    with pytest.raises(ValueError, match=field):  # ... but not buildable
+        Simulation(scene)
+
+
+def test_bad_files_are_rejected(tmp_path):
+    with pytest.raises(ValueError, match="not valid TOML"):
+        Scene.from_toml("[domain\nshape = 1")
+    with pytest.raises(ValueError, match="not valid JSON"):
+        Scene.from_json("{")
+    with pytest.raises(ValueError, match=r"\.toml or \.json"):
+        Scene.load(tmp_path / "scene.yaml")
+
+
+# --- only what is called for --------------------------------------------------------------------------------------
+
+def test_the_model_lists_exactly_the_named_terms():
+    plain = run(sheet(), frames=1)
+    assert plain.terms == ["elastic"]
+    assert plain.solver.M is None  # quasistatic: no mass matrix is built
+    full = run(sheet(inertia={}, gravity={}, fibers={"stiffness": 100.0},
+                     tractions=[{"boundary": "top", "traction": [0.0, 1.0]}],
+                     probes=[{"center": [1.0, 1.5], "radius": 0.2}]), frames=1)
+    assert full.terms == ["inertia", "elastic", "fibers", "probe", "gravity", "tractions"]
+    assert full.solver.M is not None
+    assert [type(t).__name__ for t in full.model.terms] == ["Elastic", "Fibers", "Probe"]
+
+
+def test_an_absent_effect_is_never_evaluated(monkeypatch):
+    def forbidden(*args, **kwargs):
+        raise AssertionError("an absent effect was evaluated")
+
+    for name in ("fiber_energy_term", "fiber_stress_term", "fiber_tangent_term"):
+        monkeypatch.setattr(model_module, name, forbidden)
+    monkeypatch.setattr(model_module.Probe, "_contact", forbidden)
+    monkeypatch.setattr(model_module.Sutures, "_gap", forbidden)
+    monkeypatch.setattr("tissuefem.scene.load_vector", forbidden)  # no gravity, no traction
+    import tissuefem.dynamics
+
+    monkeypatch.setattr(tissuefem.dynamics, "mass_matrix", forbidden)
+    monkeypatch.setattr("tissuefem.realtime.mass_matrix", forbidden)
+    sim = run(sheet(), frames=3)
+    assert sim.frame().converged
+
+
+def _frames_of(data, frames=4):
+    sim = run(data, frames=frames)
+    return sim.u.copy()
+
+
+@pytest.mark.parametrize("effect", [
+    {"fibers": {"stiffness": 0.0}},
+    {"gravity": {"acceleration": [0.0, 0.0]}},
+    {"tractions": [{"boundary": "top", "traction": [0.0, 0.0]}]},
+    {"probes": [{"center": [1.0, 0.5], "radius": 0.2, "stiffness": 0.0}]},
+    {"sutures": [{"pairs": [[[0.5, 1.0], [1.5, 1.0]]], "stiffness": 1e-300, "tightness": 1.0}]},
+])
+@pytest.mark.parametrize("dynamic", [False, True], ids=["quasistatic", "dynamic"])
+def test_an_effect_at_zero_magnitude_changes_nothing(effect, dynamic):
+    base = sheet(**({"inertia": {}} if dynamic else {}))
+    with_effect = sheet(**({"inertia": {}} if dynamic else {}), **effect)
+    assert np.allclose(_frames_of(with_effect), _frames_of(base), rtol=0, atol=1e-10)
+
+
+def test_a_linear_scene_factorises_once_and_each_frame_is_a_back_substitution():
+    data = sheet()
+    data["material"]["model"] = "linear"
+    sim = Simulation(Scene.from_dict(data), clock=FakeClock())
+    assert isinstance(sim.solver, ConstantTangentSolver) and sim.model.quadratic
+    reports = [sim.frame({"pull": [0.01 * k, 0.005 * k]}) for k in range(8)]
+    assert sim.solver.factorizations == 1
+    assert [r.factorizations for r in reports] == [1] + [0] * 7
+    assert all(r.converged and r.newton_iterations == 1 for r in reports)
+    # the same frames through the general Newton path
+    general = RealtimeSolver(sim.model.__class__(sim.mesh, sim.material, handles=[
+        NodeHandle(sim.handles["fixed"].nodes), NodeHandle(sim.handles["pull"].nodes, [0.07, 0.035])]), dt=None,
+        budget=1e9, clock=FakeClock())
+    general.frame()
+    assert np.allclose(general.u, sim.u, rtol=0, atol=1e-8 * np.abs(sim.u).max())
+
+
+def test_a_dynamic_linear_scene_also_uses_the_constant_factorisation():
+    data = sheet(inertia={}, gravity={})
+    data["material"]["model"] = "linear"
+    sim = run(data, frames=10)
+    assert isinstance(sim.solver, ConstantTangentSolver) and sim.solver.factorizations == 1
+    assert np.all(np.isfinite(sim.u)) and sim.u[1::2].min() < 0  # it sags under gravity
+
+
+def test_a_nonlinear_or_probed_scene_uses_newton():
+    assert isinstance(run(sheet(), frames=1).solver, RealtimeSolver)
+    data = sheet(probes=[{"center": [1.0, 1.5], "radius": 0.2}])
+    data["material"]["model"] = "linear"
+    assert not isinstance(run(data, frames=1).solver, ConstantTangentSolver)  # contact is not quadratic
+
+
+# --- the terms: derivatives checked ------------------------------------------------------------------------------
+
+def _model_with_everything():
+    mesh = rectangle(1.0, 1.0, 4, 4)
+    from tissuefem.materials import StableNeoHookean
+
+    rng = np.random.default_rng(8)
+    g = rng.normal(size=(2, mesh.nelements))
+    pairs = np.array([[0, 3], [24, 20]])
+    X = mesh.p
+    m = Model(mesh, StableNeoHookean.from_young(100.0, 0.3), fibers=(50.0, g),
+              handles=[NodeHandle(np.array([0]))],
+              probes=[dict(center=[0.5, 0.5], radius=0.3, stiffness=1e3)],
+              sutures={"pairs": pairs, "stiffness": 40.0, "gaps": X[:, pairs[0]] - X[:, pairs[1]], "tightness": 0.3})
+    u = 0.05 * rng.normal(size=m.basis.N)
+    return m, u, rng
+
+
+def test_the_composed_gradient_is_the_derivative_of_the_composed_energy():
+    m, u, rng = _model_with_everything()
+    assert m.probes[0]._contact(u)[0].size > 0  # the probe touches something
+    for _ in range(3):
+        d = rng.normal(size=u.size)
+        h = 1e-6
+        fd = (m.strain_energy(u + h * d) - m.strain_energy(u - h * d)) / (2 * h)
+        assert fd == pytest.approx(m.internal_force(u) @ d, rel=1e-6)
+
+
+def test_the_composed_tangent_is_the_derivative_of_the_gradient_apart_from_the_probes_dropped_part():
+    m, u, rng = _model_with_everything()
+    probe = m.probes.pop(0)
+    m.terms.remove(probe)
+    K = m.tangent(u)
+    for _ in range(3):
+        d = rng.normal(size=u.size)
+        h = 1e-6
+        fd = (m.internal_force(u + h * d) - m.internal_force(u - h * d)) / (2 * h)
+        assert np.allclose(K @ d, fd, rtol=1e-5, atol=1e-7 * np.abs(fd).max())
+    # the probe's Newton matrix is its positive (normal) part: positive semi-definite
+    m.probes.append(probe)
+    m.terms.append(probe)
+    data = np.zeros(m.nnz)
+    probe.add_hessian(u, data, m)
+    eig = np.linalg.eigvalsh(m.csr(data).toarray())
+    assert eig.min() > -1e-9 * eig.max() and eig.max() > 0
+
+
+def test_sutures_widen_the_pattern_and_keep_the_elastic_part():
+    m, u, _ = _model_with_everything()
+    elastic = m.terms[0].hessian_data(u) + m.terms[1].hessian_data(u)
+    K = m.tangent(u).toarray()
+    assert m.nnz > m.assembler_p1.nnz
+    a, b = m.sutures.pairs[:, 0]
+    assert K[2 * a, 2 * b] != 0  # the stitch couples two nodes of no common element
+    Kel = m.assembler_p1.csr(elastic).toarray()
+    S = np.zeros_like(K)
+    r, c, v = m.sutures.triplets()
+    np.add.at(S, (r, c), v)
+    data = np.zeros(m.nnz)
+    m.probes[0].add_hessian(u, data, m)
+    assert np.allclose(K, Kel + S + m.csr(data).toarray())
+
+
+def test_demo_scene_runs():
+    sim = Simulation(demo_scene(200), clock=FakeClock())
+    report = sim.frame()
+    assert report.converged and sim.terms == ["inertia", "elastic"]
