@@ -1,0 +1,228 @@
+"""Virtual-surgery operations on a running simulation: the state stays valid and nothing is lost."""
+
+import numpy as np
+import pytest
+
+from tissuefem.flaps import advancement_flap, pair_by_motion
+from tissuefem.scene import Scene, Simulation
+
+
+class FakeClock:
+    def __init__(self):
+        self.now = 0.0
+
+    def __call__(self):
+        return self.now
+
+
+def make(dynamic=True, gravity=False, triangles=240, handles=None, model="stable-neo-hookean", **effects):
+    if handles is None:
+        handles = [{"name": "fixed", "region": "left"}]
+    effects["handles"] = handles
+    if dynamic:
+        effects["inertia"] = {}
+    if gravity:
+        effects["gravity"] = {"acceleration": [0.0, -9.81]}
+    scene = Scene(domain={"shape": "rectangle", "width": 2.0, "height": 1.0, "triangles": triangles},
+                  material={"model": model, "youngs_modulus": 1000.0, "poisson_ratio": 0.3},
+                  effects=effects, solver={"budget": 1e9})
+    return Simulation(scene, clock=FakeClock())
+
+
+def assert_valid(sim):
+    assert np.all(np.isfinite(sim.u)) and np.all(np.isfinite(sim.v))
+    assert sim.u.shape == (2 * sim.mesh.nvertices,)
+    used = np.zeros(sim.mesh.nvertices, dtype=bool)
+    used[sim.mesh.t.ravel()] = True
+    assert used.all()  # no orphan node
+    x = sim.positions()
+    d1 = x[:, sim.mesh.t[1]] - x[:, sim.mesh.t[0]]
+    d2 = x[:, sim.mesh.t[2]] - x[:, sim.mesh.t[0]]
+    assert np.all(np.isfinite(d1[0] * d2[1] - d1[1] * d2[0]))
+
+
+# --- pull / drag -------------------------------------------------------------------------------------------------
+
+def test_grab_drag_release():
+    sim = make(dynamic=False)
+    name = sim.grab([2.0, 0.5], radius=0.15)
+    nodes = sim.handles[name].nodes
+    sim.drag(name, [2.3, 0.7])
+    assert np.allclose(sim.handle_offset(name), [0.3, 0.2])
+    sim.frame()
+    assert np.allclose(sim.positions()[:, nodes], sim.model.X[:, nodes] + [[0.3], [0.2]])
+    sim.release(name)
+    assert name not in sim.handles
+    sim.frame()  # released: it springs back to rest (quasistatic)
+    assert np.abs(sim.u).max() < 1e-6
+    with pytest.raises(ValueError, match="no tissue within"):
+        sim.grab([5.0, 5.0], radius=0.1)
+    with pytest.raises(ValueError, match="no handle named"):
+        sim.drag("nobody", [0, 0])
+
+
+def test_a_grab_starts_where_the_tissue_is_and_follows_a_scripted_path():
+    sim = make(dynamic=True, gravity=True)
+    sim.run(10)
+    sagged = sim.positions().copy()
+    name = sim.grab(sagged[:, np.argmax(sagged[0])], radius=0.2)  # the sagging tip, where it is now
+    u_before = sim.u.copy()
+    sim.frame()
+    nodes = sim.handles[name].nodes
+    assert np.allclose(sim.u.reshape(-1, 2)[nodes], u_before.reshape(-1, 2)[nodes])  # no jump on grabbing
+    for k in range(1, 11):
+        sim.drag(name, sagged[:, np.argmax(sagged[0])] + [0.0, 0.03 * k])
+        sim.frame()
+        assert_valid(sim)
+    assert np.allclose(sim.positions()[:, nodes], sagged[:, nodes] + [[0.0], [0.3]])
+
+
+# --- probe --------------------------------------------------------------------------------------------------------
+
+def test_a_probe_keeps_the_tissue_out_and_can_move():
+    sim = make(dynamic=False)
+    label = sim.add_probe([1.0, 1.05], radius=0.2)  # pressing into the top edge
+    sim.frame()
+    probe = sim.model.probes[0]
+    assert probe.penetration(sim.u) < 0.05 * 0.2  # penalty: at most a few percent of the radius
+    top = np.isclose(sim.model.X[1], 1.0)
+    assert sim.positions()[1, top].min() < 0.9  # the tissue was pushed down
+    sim.move_probe(label, [1.0, 0.95])
+    sim.frame()
+    assert probe.penetration(sim.u) < 0.05 * 0.2 and sim.positions()[1, top].min() < 0.8
+    sim.remove_probe(label)
+    sim.frame()
+    assert "probe" not in sim.terms and np.abs(sim.u).max() < 1e-6
+
+
+# --- incision ------------------------------------------------------------------------------------------------------
+
+def test_a_cut_through_the_body_makes_two_pieces_that_move_independently():
+    sim = make(dynamic=True, gravity=True)
+    sim.run(3)
+    mass, momentum = sim.total_mass(), sim.momentum()
+    n_before = sim.mesh.nvertices
+    edit = sim.cut([[1.0, 1.2], [1.0, -0.2]])
+    assert sim.pieces() == 2 and sim.mesh.nvertices > n_before
+    assert sim.total_mass() == pytest.approx(mass, rel=1e-12)  # no element lost
+    assert np.allclose(sim.momentum(), momentum, rtol=1e-12, atol=1e-14)  # copies carry their node's velocity
+    assert np.array_equal(edit.parent[:n_before], np.arange(n_before))
+    sim.run(15)
+    assert_valid(sim)
+    x = sim.positions()
+    free_piece = sim.model.X[0] > 1.0 + 1e-9
+    held_piece = sim.model.X[0] < 1.0 - 1e-9
+    # the free piece falls; the held one hangs from its edge
+    assert x[1, free_piece].mean() - sim.model.X[1, free_piece].mean() < -0.3
+    assert x[1, held_piece].mean() - sim.model.X[1, held_piece].mean() > -0.1
+
+
+def test_a_wound_opens_under_tension_and_state_carries_over():
+    sim = make(dynamic=False, handles=[{"name": "fixed", "region": "left"},
+                                       {"name": "pull", "region": "right", "target": [0.3, 0.0]}])
+    sim.frame()
+    u, frames = sim.u.copy(), sim.frames
+    edit = sim.cut([[1.0, 1.2], [1.0, 0.5]])  # from the top edge, halfway down
+    assert sim.pieces() == 1
+    assert np.allclose(sim.u, edit.transfer_dofs(u)) and sim.frames == frames  # nothing lost
+    assert set(sim.handles) == {"fixed", "pull"}
+    sim.frame()
+    assert_valid(sim)
+    # the two lips of the cut separate along x
+    x = sim.positions()
+    copies = np.flatnonzero(edit.parent != np.arange(edit.parent.size))
+    originals = edit.parent[copies]
+    opening = np.abs(x[0, copies] - x[0, originals])
+    assert opening.max() > 0.05
+
+
+def test_a_bad_cut_leaves_the_state_alone():
+    sim = make(dynamic=True)
+    sim.run(2)
+    u, mesh = sim.u.copy(), sim.mesh
+    with pytest.raises(ValueError, match="polyline"):
+        sim.cut([[0.0, float("nan")], [1.0, 1.0]])
+    with pytest.raises(ValueError, match="polyline"):
+        sim.cut([[0.5, 0.5]])
+    assert sim.mesh is mesh and np.array_equal(sim.u, u)
+    sim.frame()
+
+
+def test_fibers_and_handles_follow_the_cut():
+    sim = make(dynamic=False, fibers={"stiffness": 200.0, "direction": [0.0, 1.0]},
+               handles=[{"name": "fixed", "region": "left"}, {"name": "pull", "region": "right", "target": [0.1, 0]}])
+    sim.frame()
+    sim.cut([[1.5, 1.2], [1.5, -0.2]])
+    assert sim.model.terms[1].directions.shape == (2, sim.mesh.nelements)
+    assert sim.pieces() == 2
+    held = sim.handles["pull"].nodes
+    assert np.all(sim.model.X[0, held] > 1.99)
+    sim.frame()
+    assert_valid(sim)
+
+
+def test_excision_removes_a_defect():
+    sim = make(dynamic=False)
+    mass = sim.total_mass()
+    sim.excise([[0.8, 0.3], [1.2, 0.3], [1.2, 0.7], [0.8, 0.7]])
+    assert sim.total_mass() < mass and "defect" in sim.mesh.boundaries
+    sim.frame()
+    assert_valid(sim)
+
+
+# --- sutures -------------------------------------------------------------------------------------------------------
+
+def test_sutured_points_stay_together():
+    sim = make(dynamic=True, gravity=True)
+    edit = sim.cut([[1.0, 1.2], [1.0, -0.2]])  # two pieces: the right one is free and would fall ...
+    assert sim.pieces() == 2
+    copies = np.flatnonzero(edit.parent != np.arange(edit.parent.size))
+    sim.suture(np.vstack([copies, edit.parent[copies]]), tightness=1.0)  # ... but each copy is stitched to its original
+    assert "sutures" in sim.terms
+    sim.run(20)
+    assert_valid(sim)
+    assert sim.suture_gaps().max() < 2e-3  # stiff springs: the stitched points stay together
+    right = sim.model.X[0] > 1.2
+    assert sim.positions()[1, right].mean() - sim.model.X[1, right].mean() > -0.3  # hanging, not fallen
+
+
+def test_sutures_pull_a_gap_closed_gradually():
+    sim = make(dynamic=False)
+    nodes = sim.suture([[[2.0, 1.0], [2.0, 0.0]]], tightness=0.0)
+    assert sim.suture_gaps()[0] == pytest.approx(1.0)
+    sim.frame()
+    assert np.abs(sim.u).max() < 1e-9  # slack: no force yet
+    for s in (0.25, 0.5):
+        sim.tighten(s)
+        sim.frame()
+        assert sim.suture_gaps()[0] == pytest.approx(1.0 - s, abs=0.02)
+    assert nodes.shape == (2, 1)
+    with pytest.raises(ValueError, match="tightness"):
+        sim.tighten(1.5)
+
+
+# --- the local flap ------------------------------------------------------------------------------------------------
+
+def test_advancement_flap_closes_the_defect_and_reports_the_tension():
+    result = advancement_flap(n_triangles=900, tighten_frames=6, clock=FakeClock())
+    sim = result.simulation
+    assert result.converged and result.stitches >= 10
+    assert result.initial_gap == pytest.approx(0.6, rel=0.2)  # the defect, within the mesh size
+    assert result.max_gap < 0.01 * result.initial_gap
+    assert sim.pieces() == 1
+    assert np.all(np.isfinite(result.tension)) and result.mean_tension > 0
+    assert result.max_tension >= result.p95_tension > 0
+    assert {"defect", "cut"} <= set(sim.mesh.boundaries)
+    assert "sutures" in sim.terms and "stitches" in result.summary()
+
+
+def test_a_longer_flap_leaves_less_tension_in_the_flap():
+    short = advancement_flap(n_triangles=900, flap_length=0.8, tighten_frames=4, clock=FakeClock())
+    long = advancement_flap(n_triangles=900, flap_length=1.8, tighten_frames=4, clock=FakeClock())
+    assert long.flap_tension < 0.8 * short.flap_tension  # the stretch w / L is spread over a longer flap
+
+
+def test_pair_by_motion_needs_a_wound():
+    sim = make(dynamic=False)
+    with pytest.raises(ValueError, match="no wound nodes"):
+        pair_by_motion(sim.mesh, sim.positions(), np.ones(sim.mesh.nelements, bool), lambda X: X, 0.1)
