@@ -75,6 +75,13 @@ def cmd_bench(args) -> int:
         realtime_benchmark(sizes=sizes, frames=args.frames, baseline_frames=args.baseline_frames,
                            linear_solver=args.linear, out=args.out or "bench-results")
         return 0
+    if args.which == "scenes":
+        from .bench_scenes import effects_benchmark
+
+        size = args.sizes[0] if args.sizes else 8000
+        effects_benchmark(n_triangles=size, frames=min(args.frames, 90), repeats=args.repeats,
+                          out=args.out or "bench-results")
+        return 0
     raise SystemExit(f"unknown benchmark {args.which!r}")
 
 
@@ -117,7 +124,7 @@ def main(argv=None) -> int:
     p.set_defaults(func=cmd_build)
 
     p = sub.add_parser("bench", help="run a benchmark and print its table")
-    p.add_argument("which", choices=["assembly", "realtime"])
+    p.add_argument("which", choices=["assembly", "realtime", "scenes"])
     p.add_argument("--sizes", type=int, nargs="+", help="approximate triangle counts")
     p.add_argument("--repeats", type=int, default=5, help="assembly: timed repetitions")
     p.add_argument("--frames", type=int, default=90, help="realtime: frames of the scripted drag")

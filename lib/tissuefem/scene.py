@@ -535,14 +535,19 @@ class Simulation:
         Seconds (default :func:`time.perf_counter`); tests pass a fake clock.
     linear_solver
         Overrides the scene's ``solver.linear_solver``.
+    constant_tangent
+        Use :class:`~tissuefem.realtime.ConstantTangentSolver` when the model is
+        quadratic (default). ``False`` forces the general Newton loop (to
+        measure what the shortcut saves).
     """
 
-    def __init__(self, scene: Scene, *, clock=time.perf_counter, linear_solver=None):
+    def __init__(self, scene: Scene, *, clock=time.perf_counter, linear_solver=None, constant_tangent=True):
         if not isinstance(scene, Scene):
             raise ValueError(f"scene must be a Scene, got {scene!r}")
         self.scene = scene
         self.clock = clock
         self._linear_choice = linear_solver or scene.solver["linear_solver"]
+        self._constant_tangent = bool(constant_tangent)
         self.density = scene.material["density"]
         self.material = scene.build_material()
         mesh = scene.build_mesh()
@@ -649,7 +654,7 @@ class Simulation:
             solver_options.update(dt=inertia["time_step"], density=self.density, mass=inertia["mass"])
         else:
             solver_options.update(dt=None)
-        if model.quadratic:
+        if model.quadratic and self._constant_tangent:
             choice = self._linear_choice if self._linear_choice not in ("reuse", "direct") else "superlu"
             solver = ConstantTangentSolver(model, linear_solver=choice, **solver_options)
         else:
@@ -671,8 +676,12 @@ class Simulation:
     # ------------------------------------------------------------------ frames
     @property
     def terms(self) -> list[str]:
-        """The energy terms and loads the model evaluates, plus "inertia" for a dynamic scene."""
-        return (["inertia"] if self.dynamic else []) + self.model.term_names
+        """The energy terms and loads the model evaluates, plus "inertia" for a dynamic scene and the
+        inversion handling wrapped around the elastic term."""
+        names = self.model.term_names
+        if "inversion" in self.scene.effects:  # the elastic term's material is wrapped, not a term of its own
+            names = names[:1] + [f"inversion ({self.scene.effects['inversion']['method']})"] + names[1:]
+        return (["inertia"] if self.dynamic else []) + names
 
     @property
     def u(self):

@@ -1,0 +1,174 @@
+"""What each effect costs: the same scripted drag with one effect added at a time.
+
+``python -m tissuefem bench scenes`` runs the standard flap (the
+:mod:`tissuefem.bench_realtime` scene: a 2 x 1 sheet, left edge fixed, the
+right edge on :func:`~tissuefem.bench_realtime.flap_path`) as a
+:class:`~tissuefem.scene.Scene`, once per variant:
+
+* a small-strain linear scene with its constant factorisation, and the same
+  scene forced through the general Newton loop (what the shortcut saves);
+* stable neo-Hookean, quasistatic: the base the effects are added to;
+* the base plus one effect: inertia, inertia and gravity, fibres, a probe
+  pressed into the top edge, sutures, inversion handling (projected tangent);
+* everything together.
+
+Every variant runs the same frames with no budget (each frame converges to
+``rtol``) and the real clock. The table gives the median and 95th percentile
+ms per frame, Newton iterations per frame, and the median's difference from
+the base: the time the effect costs. A second table times each *term* of the
+all-effects model on its own (energy + force + Hessian), which separates the
+cost of evaluating a term from the extra Newton iterations it causes.
+
+Timings are from a shared machine: compare rows of one run, not runs.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+
+from .bench import machine_info, median_time
+from .bench_realtime import flap_path
+from .scene import Scene, Simulation
+
+__all__ = ["effects_benchmark", "variants", "format_effects_table"]
+
+E, NU = 1000.0, 0.3
+
+
+def _base(n_triangles):
+    return {
+        "name": "flap",
+        "domain": {"shape": "flap", "width": 2.0, "height": 1.0, "triangles": int(n_triangles)},
+        "material": {"model": "stable-neo-hookean", "youngs_modulus": E, "poisson_ratio": NU},
+        "effects": {"handles": [{"name": "fixed", "region": "left"}, {"name": "pull", "region": "right"}]},
+        "solver": {"budget": 1e9, "rtol": 1e-6},
+    }
+
+
+PROBE = {"center": [1.0, 1.08], "radius": 0.15}
+SUTURES = {"pairs": [[[0.6 + 0.1 * k, 1.0], [0.6 + 0.1 * k, 0.0]] for k in range(5)], "stiffness": 1e4,
+           "tightness": 0.05}
+
+
+def variants(n_triangles):
+    """``[(name, scene dict, Simulation options)]``: the runs of the benchmark, base first."""
+    out = []
+
+    def add(name, effects=None, material=None, **options):
+        data = _base(n_triangles)
+        data["effects"].update(effects or {})
+        if material:
+            data["material"]["model"] = material
+        out.append((name, data, options))
+
+    add("base: stable neo-Hookean, quasistatic")
+    add("linear, constant factorisation", material="linear")
+    add("linear, general Newton loop", material="linear", constant_tangent=False)
+    add("+ inertia", {"inertia": {}})
+    add("+ inertia + gravity", {"inertia": {}, "gravity": {}})
+    add("+ fibers", {"fibers": {"stiffness": 500.0, "direction": [1.0, 0.3]}})
+    add("+ probe", {"probes": [PROBE]})
+    add("+ sutures", {"sutures": [SUTURES]})
+    add("+ inversion (projected tangent)", {"inversion": {"method": "projected"}})
+    add("everything", {"inertia": {}, "gravity": {}, "fibers": {"stiffness": 500.0, "direction": [1.0, 0.3]},
+                       "probes": [PROBE], "sutures": [SUTURES], "inversion": {"method": "projected"}})
+    return out
+
+
+def _run(data, options, frames):
+    sim = Simulation(Scene.from_dict(data), **options)
+    ms, newton = [], []
+    for k in range(frames):
+        report = sim.frame({"pull": flap_path((k + 1) / 30.0)})
+        ms.append(1e3 * report.elapsed)
+        newton.append(report.newton_iterations)
+    return sim, np.array(ms), np.array(newton)
+
+
+def term_costs(sim, repeats=5) -> dict:
+    """Median ms to evaluate each term's energy, force and Hessian once, at the simulation's state."""
+    u = sim.u
+    model = sim.model
+    costs = {}
+    for term in model.terms:
+        def evaluate(term=term):
+            term.energy(u)
+            term.gradient(u)
+            if hasattr(term, "hessian_data"):
+                term.hessian_data(u)
+            elif hasattr(term, "add_hessian"):
+                term.add_hessian(u, np.zeros(model.nnz), model)
+        costs[term.name] = median_time(evaluate, repeats)  # already ms
+    costs["whole tangent"] = median_time(lambda: model.tangent(u), repeats)
+    if sim.solver.M is not None:
+        M = sim.solver.M
+        costs["inertia (M @ x)"] = median_time(lambda: M @ u, repeats)
+    return costs
+
+
+def format_effects_table(rows) -> str:
+    head = "| variant | terms | median ms/frame | p95 ms | Newton/frame | cost vs base (ms) |"
+    lines = [head, "|---|---|---:|---:|---:|---:|"]
+    for r in rows:
+        lines.append(f"| {r['variant']} | {', '.join(r['terms'])} | {r['median_ms']:.1f} | {r['p95_ms']:.1f} | "
+                     f"{r['newton']:.2f} | {r['cost_ms']:+.1f} |")
+    return "\n".join(lines)
+
+
+def effects_benchmark(n_triangles=8000, frames=30, repeats=5, out=None, progress=print) -> dict:
+    """Run every variant; return ``{"rows": [...], "terms": {...}}`` and write JSON/CSV under ``out``."""
+    if int(n_triangles) < 50 or int(frames) < 1:
+        raise ValueError("n_triangles must be >= 50 and frames >= 1")
+    say = progress or (lambda *a, **k: None)
+    rows, base = [], None
+    everything = None
+    for name, data, options in variants(n_triangles):
+        sim, ms, newton = _run(data, options, int(frames))
+        median = float(np.median(ms))
+        if base is None:
+            base = median
+        rows.append({
+            "variant": name,
+            "terms": sim.terms,
+            "solver": type(sim.solver).__name__,
+            "median_ms": median,
+            "p95_ms": float(np.percentile(ms, 95)),
+            "newton": float(np.mean(newton)),
+            "cost_ms": median - base,
+            "within_budget": float(np.mean(ms <= 1e3 / 30.0)),
+            "ms": ms.tolist(),
+        })
+        say(f"{name:40s} {median:7.1f} ms/frame  {np.mean(newton):.2f} Newton/frame  terms {sim.terms}")
+        everything = sim
+    terms = term_costs(everything, repeats)
+    say(format_effects_table(rows))
+    say("term evaluation (energy + force + Hessian), ms: " + ", ".join(f"{k} {v:.2f}" for k, v in terms.items()))
+    record = {
+        "benchmark": "scenes",
+        "description": __doc__.strip().splitlines()[0],
+        "settings": {"n_triangles": int(n_triangles), "frames": int(frames), "repeats": int(repeats),
+                     "E": E, "nu": NU, "path": "bench_realtime.flap_path"},
+        "machine": machine_info(),
+        "rows": rows,
+        "term_ms": terms,
+    }
+    if out is not None:
+        out = Path(out)
+        out.mkdir(parents=True, exist_ok=True)
+        with open(out / "scenes.json", "w", encoding="utf-8") as fh:
+            json.dump(record, fh, indent=2)
+            fh.write("\n")
+        keys = [k for k in rows[0] if k not in ("ms", "terms")]
+        with open(out / "scenes.csv", "w", encoding="utf-8", newline="") as fh:
+            writer = csv.DictWriter(fh, fieldnames=keys + ["terms"], extrasaction="ignore")
+            writer.writeheader()
+            for r in rows:
+                writer.writerow({**r, "terms": " + ".join(r["terms"])})
+        say(f"wrote {out / 'scenes.json'}, {out / 'scenes.csv'}")
+    return record

@@ -1,0 +1,849 @@
+"""Mesh topology operations for virtual surgery: cutting and removing tissue.
+
+A cut in a P1 triangle mesh is a path of mesh edges that is *opened*: the
+triangles on its two sides stop sharing the path's nodes. We never split a
+triangle; the cut follows existing edges, and every node on it is duplicated
+as often as the cut separates its neighbourhood. Removing tissue (a defect)
+deletes whole triangles. Both are *pure*: they take a mesh and return a new
+one, with maps back to the old mesh so that a simulation can carry its state
+(displacements, velocities, per-element data) across the change.
+
+Functions
+---------
+* :func:`duplicate_along_edges`: the core of a cut, on bare connectivity
+  arrays: duplicate the nodes of a set of edges so that the edges open.
+* :func:`cut_path`: the node path along mesh edges that follows a drawn
+  polyline (what a scalpel stroke becomes).
+* :func:`incise`: ``cut_path`` + ``duplicate_along_edges`` on a
+  :class:`skfem.MeshTri`, with the named boundaries carried over and the
+  wound's faces named ``"cut"``.
+* :func:`excise`: remove the triangles inside a region; the rim of the hole
+  is named ``"defect"``.
+* :func:`connected_components`: the separate pieces of a mesh.
+* :func:`nodes_near`: the nodes within a radius of a point (to pick a node
+  to grab, or to test where a cut went).
+
+Conventions
+-----------
+* A :class:`MeshEdit` describes the result: the new mesh, ``parent`` (for
+  every new node, the old node it comes from) and ``elements`` (for every new
+  element, the old element it comes from). A per-node field ``u`` of the old
+  mesh becomes ``u[..., parent]`` on the new one (:meth:`MeshEdit.transfer`);
+  copies made by a cut start where their original was, so a deformed state
+  carries over without any jump.
+* The new meshes are built with ``sort_t=False``: every element keeps its
+  vertex order (hence its orientation) and its index (:func:`incise`) or its
+  relative order (:func:`excise`). scikit-fem's default ``sort_t=True`` would
+  re-sort each column of ``t``; since the copies made by a cut get the
+  highest indices, that would reorder the vertices of exactly the triangles
+  along the wound.
+* Named boundaries are carried by *parent pairs*: a facet of the new mesh
+  belongs to the old name ``X`` if the parents of its two nodes formed a facet
+  of ``X``. Names are never dropped (a name may end up with no facet), and the
+  new facets accumulate: a second cut adds to ``"cut"``, a second excision to
+  ``"defect"``.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse import csgraph
+from skfem import MeshTri
+
+__all__ = [
+    "MeshEdit",
+    "duplicate_along_edges",
+    "cut_path",
+    "incise",
+    "excise",
+    "connected_components",
+    "nodes_near",
+]
+
+#: The cost of a mesh edge in :func:`cut_path` is ``length * (1 + _HUG * d / h)``
+#: with ``d`` the mean distance of its two nodes from the drawn segment and ``h``
+#: the median edge length. Large enough that a detour of one edge length away
+#: from the line costs more than several edges along it.
+_HUG = 10.0
+
+#: An endpoint of the polyline this close to the boundary (in units of the
+#: nearest boundary facet's length) counts as "on the boundary".
+_NEAR_BOUNDARY = 0.5
+
+
+# --------------------------------------------------------------------------
+# the result
+# --------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class MeshEdit:
+    """The result of a topology change: the new mesh and the maps to the old one.
+
+    Attributes
+    ----------
+    mesh : skfem.MeshTri
+        The new mesh.
+    parent : ndarray of int, shape (n_new_nodes,)
+        The old node each new node comes from. A copy made by a cut points to
+        the node it was copied from; after :func:`excise`, ``parent`` lists the
+        surviving old nodes in increasing order.
+    elements : ndarray of int, shape (n_new_elements,)
+        The old element each new element comes from (``arange`` for a cut).
+    cut_edges : ndarray of int, shape (2, k)
+        Old-node pairs of the edges that were opened, in the order the cut
+        passed them (empty ``(2, 0)`` for :func:`excise`).
+    n_old_nodes, n_old_elements : int
+        Sizes of the old mesh (to check what is transferred).
+    """
+
+    mesh: MeshTri
+    parent: np.ndarray
+    elements: np.ndarray
+    cut_edges: np.ndarray
+    n_old_nodes: int
+    n_old_elements: int
+
+    def transfer(self, values) -> np.ndarray:
+        """Per-node values of the old mesh, shape ``(..., n_old_nodes)``, on the new mesh.
+
+        Every new node takes the value of its parent, so a copy starts with
+        the position, displacement or velocity of the node it was copied from.
+        Returns a new array of shape ``(..., n_new_nodes)``.
+        """
+        v = np.asarray(values)
+        if v.ndim < 1 or v.shape[-1] != self.n_old_nodes:
+            raise ValueError(
+                f"values must have one entry per old node on the last axis "
+                f"(length {self.n_old_nodes}), got shape {v.shape}"
+            )
+        return v[..., self.parent]
+
+    def transfer_elements(self, values) -> np.ndarray:
+        """Per-element values of the old mesh, shape ``(..., n_old_elements)``, on the new mesh."""
+        v = np.asarray(values)
+        if v.ndim < 1 or v.shape[-1] != self.n_old_elements:
+            raise ValueError(
+                f"values must have one entry per old element on the last axis "
+                f"(length {self.n_old_elements}), got shape {v.shape}"
+            )
+        return v[..., self.elements]
+
+    def transfer_dofs(self, values) -> np.ndarray:
+        """A vector P1 field in scikit-fem's dof order, ``(..., 2 n_old_nodes)``, on the new mesh.
+
+        The dofs of node ``n`` are ``(2 n, 2 n + 1)`` (x then y), the order of
+        ``Basis(mesh, ElementVector(ElementTriP1()))`` and of
+        :class:`~tissuefem.assembly.P1Assembler`; displacement and velocity
+        vectors transfer with this.
+        """
+        v = np.asarray(values)
+        if v.ndim < 1 or v.shape[-1] != 2 * self.n_old_nodes:
+            raise ValueError(
+                f"values must have two dofs per old node on the last axis "
+                f"(length {2 * self.n_old_nodes}), got shape {v.shape}"
+            )
+        pairs = v.reshape(v.shape[:-1] + (self.n_old_nodes, 2))
+        return pairs[..., self.parent, :].reshape(v.shape[:-1] + (2 * self.parent.size,))
+
+
+# --------------------------------------------------------------------------
+# validation helpers
+# --------------------------------------------------------------------------
+def _index_array(name: str, value, rows: int) -> np.ndarray:
+    """``value`` as an int64 array shaped ``(rows, k)``; integral floats are accepted."""
+    try:
+        a = np.asarray(value)
+    except Exception as exc:  # ragged lists and the like
+        raise ValueError(f"{name} must be an integer array shaped ({rows}, k): {exc}") from None
+    if a.ndim != 2 or a.shape[0] != rows:
+        raise ValueError(f"{name} must be an integer array shaped ({rows}, k), got shape {a.shape}")
+    if a.size == 0:
+        return np.zeros((rows, a.shape[1]), dtype=np.int64)
+    if a.dtype == bool or not (np.issubdtype(a.dtype, np.integer) or np.issubdtype(a.dtype, np.floating)):
+        raise ValueError(f"{name} must hold integer node indices, got dtype {a.dtype}")
+    if np.issubdtype(a.dtype, np.floating):
+        # node indices written as floats (e.g. from a text file) are fine when they are whole numbers
+        if not np.all(np.isfinite(a)) or np.any(a != np.round(a)):
+            raise ValueError(f"{name} must hold integer node indices, got non-integral values")
+    return a.astype(np.int64)
+
+
+def _count(name: str, value) -> int:
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or int(value) < 0:
+        raise ValueError(f"{name} must be a non-negative integer, got {value!r}")
+    return int(value)
+
+
+def _mesh_arrays(mesh):
+    """(p, t) of a 2D triangle mesh, validated."""
+    try:
+        p = np.asarray(mesh.p, dtype=float)
+        t = np.asarray(mesh.t, dtype=np.int64)
+    except AttributeError:
+        raise ValueError(f"mesh must be a skfem.MeshTri, got {type(mesh).__name__}") from None
+    if p.ndim != 2 or p.shape[0] != 2 or t.ndim != 2 or t.shape[0] != 3:
+        raise ValueError(
+            f"mesh must be a 2D triangle mesh (p shaped (2, n), t shaped (3, m)), "
+            f"got p {p.shape} and t {t.shape}"
+        )
+    return p, t
+
+
+def _positions(mesh, positions) -> np.ndarray:
+    p, _ = _mesh_arrays(mesh)
+    if positions is None:
+        return p
+    try:
+        x = np.asarray(positions, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError("positions must be a float array shaped (2, n_nodes)") from None
+    if x.shape != p.shape:
+        raise ValueError(f"positions must be shaped (2, n_nodes) = {p.shape}, got {x.shape}")
+    if not np.all(np.isfinite(x)):
+        raise ValueError("positions must be finite (got NaN or inf)")
+    return x
+
+
+def _points(name: str, value, min_points: int) -> np.ndarray:
+    """A finite float array shaped (k, 2) with k >= min_points."""
+    try:
+        a = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be an array of points shaped (k, 2), got {value!r}") from None
+    if a.ndim != 2 or a.shape[1] != 2:
+        raise ValueError(f"{name} must be an array of points shaped (k, 2), got shape {a.shape}")
+    if a.shape[0] < min_points:
+        raise ValueError(f"{name} needs at least {min_points} points, got {a.shape[0]}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} must be finite, got NaN or inf in {a.tolist()}")
+    return a
+
+
+# --------------------------------------------------------------------------
+# edges as keys
+# --------------------------------------------------------------------------
+def _keys(pairs: np.ndarray, n: int) -> np.ndarray:
+    """One int64 per undirected node pair: ``min * n + max``."""
+    pairs = np.asarray(pairs, dtype=np.int64)
+    return np.minimum(pairs[0], pairs[1]) * n + np.maximum(pairs[0], pairs[1])
+
+
+def _element_edges(t: np.ndarray):
+    """The three edges of every triangle, as corner indices into ``t.ravel()``.
+
+    Corner ``i m + e`` is vertex ``i`` of triangle ``e`` (``m`` triangles), the
+    order of ``t.ravel()``. Returns ``(ci, cj)``: the corners at the two ends
+    of edges ``(0, 1)``, ``(1, 2)``, ``(2, 0)`` of every triangle, shape ``(3 m,)``.
+    """
+    m = t.shape[1]
+    e = np.arange(m, dtype=np.int64)
+    ci = np.concatenate([0 * m + e, 1 * m + e, 2 * m + e])
+    cj = np.concatenate([1 * m + e, 2 * m + e, 0 * m + e])
+    return ci, cj
+
+
+# --------------------------------------------------------------------------
+# 1. node duplication
+# --------------------------------------------------------------------------
+def duplicate_along_edges(t, n_nodes, edges):
+    """Duplicate nodes so that the given edges open: the core of a cut.
+
+    Parameters
+    ----------
+    t : array_like of int, shape (3, m)
+        Triangles (node indices). Not modified.
+    n_nodes : int
+        Number of nodes (every index in ``t`` is below it).
+    edges : array_like of int, shape (2, k)
+        Node pairs to open, in either order; each must be an edge of some
+        triangle of ``t``. Repeats are fine; ``k = 0`` changes nothing.
+
+    Returns
+    -------
+    new_t : ndarray of int64, shape (3, m)
+        The triangles, in the same order and with the same vertex order; only
+        indices of duplicated nodes change.
+    parent : ndarray of int64, shape (n_nodes + n_copies,)
+        ``parent[i] = i`` for the old nodes; the copies are appended (indices
+        ``n_nodes, n_nodes + 1, ...``) and point to the node they copy.
+
+    Notes
+    -----
+    For every node ``v`` on a cut edge, its triangles are grouped into *fans*:
+    two triangles around ``v`` are in the same fan if they share an edge
+    ``(v, x)`` that is not cut (and fans are closed under that). Each fan
+    will be one side of the wound at ``v``:
+
+    * a node in the middle of a cut from boundary to boundary has two cut
+      edges, which split its ring (or, on the boundary, its half-ring) in two:
+      it gets one copy;
+    * the tip of an interior crack has one cut edge; its ring stays connected
+      the other way round, so it keeps a single node (a crack is open along
+      its length and closed at its tips);
+    * where ``j`` cut edges meet at an interior node, its ring breaks into
+      ``j`` fans (``j - 1`` copies); at a boundary node, ``j + 1`` fans.
+
+    The fan holding the lowest-numbered triangle keeps the node; the other
+    fans get new nodes in the order (node, lowest triangle of the fan), so the
+    output depends only on the input. A cut edge on the boundary opens
+    nothing and does no harm; a single interior edge with both ends interior
+    does not open either (both ends are tips).
+
+    The fans of all cut nodes are found at once: the *corners* (triangle,
+    vertex) of the cut nodes are linked whenever two triangles share an uncut
+    edge at that vertex, and the connected components of that graph are the
+    fans.
+    """
+    n_nodes = _count("n_nodes", n_nodes)
+    t = _index_array("t", t, 3)
+    m = t.shape[1]
+    if m and (t.min() < 0 or t.max() >= n_nodes):
+        raise ValueError(f"t must hold node indices in [0, n_nodes) = [0, {n_nodes}), got range [{t.min()}, {t.max()}]")
+    edges = _index_array("edges", edges, 2)
+    parent = np.arange(n_nodes, dtype=np.int64)
+    if edges.shape[1] == 0:
+        return t.copy(), parent
+    if edges.min() < 0 or edges.max() >= n_nodes:
+        bad = int(np.flatnonzero((edges < 0).any(axis=0) | (edges >= n_nodes).any(axis=0))[0])
+        raise ValueError(
+            f"edges: column {bad} = ({edges[0, bad]}, {edges[1, bad]}) is out of the node range [0, {n_nodes})"
+        )
+
+    flat = t.ravel()  # corner -> node
+    ci, cj = _element_edges(t)
+    a, b = flat[ci], flat[cj]
+    key = _keys(np.stack([a, b]), n_nodes)
+    cut_key = _keys(edges, n_nodes)
+    known = np.isin(cut_key, key)
+    if not np.all(known):
+        bad = int(np.flatnonzero(~known)[0])
+        raise ValueError(
+            f"edges: ({edges[0, bad]}, {edges[1, bad]}) (column {bad}) is not an edge of the mesh "
+            f"(no triangle has both nodes)"
+        )
+
+    cut_nodes = np.unique(edges)
+    is_cut_node = np.zeros(n_nodes, dtype=bool)
+    is_cut_node[cut_nodes] = True
+
+    # Pair up the occurrences of each edge in different triangles (sorted by
+    # key, each occurrence with the next one of the same key; on a manifold
+    # mesh that is the two triangles of an interior edge). Uncut pairs glue
+    # the corners of their two shared nodes.
+    order = np.argsort(key, kind="stable")
+    ks = key[order]
+    same = np.flatnonzero(ks[1:] == ks[:-1])
+    o1, o2 = order[same], order[same + 1]
+    keep = ~np.isin(ks[same], cut_key)
+    o1, o2 = o1[keep], o2[keep]
+    links = []
+    for end in (a, b):
+        node = end[o1]
+        # the corner of `node` in each of the two triangles
+        c1 = np.where(a[o1] == node, ci[o1], cj[o1])
+        c2 = np.where(a[o2] == node, ci[o2], cj[o2])
+        on_cut = is_cut_node[node]
+        links.append(np.stack([c1[on_cut], c2[on_cut]]))
+    links = np.concatenate(links, axis=1)
+
+    # the graph of the corners of cut nodes only (a few per cut node)
+    corners = np.flatnonzero(is_cut_node[flat])
+    local = np.full(flat.size, -1, dtype=np.int64)
+    local[corners] = np.arange(corners.size)
+    graph = sp.coo_matrix(
+        (np.ones(links.shape[1]), (local[links[0]], local[links[1]])), shape=(corners.size, corners.size)
+    )
+    n_fans, fan = csgraph.connected_components(graph, directed=False)
+
+    # each fan holds corners of a single node (links only join corners of the same node)
+    fan_node = np.empty(n_fans, dtype=np.int64)
+    fan_node[fan] = flat[corners]
+    fan_first = np.full(n_fans, m, dtype=np.int64)
+    np.minimum.at(fan_first, fan, corners % m)  # lowest triangle of each fan
+    by_node = np.lexsort((fan_first, fan_node))
+    sorted_node = fan_node[by_node]
+    keeps = np.ones(n_fans, dtype=bool)
+    keeps[1:] = sorted_node[1:] != sorted_node[:-1]  # the first fan of each node keeps it
+    extra = ~keeps
+    new_index = np.empty(n_fans, dtype=np.int64)
+    new_index[by_node] = np.where(keeps, sorted_node, n_nodes + np.cumsum(extra) - 1)
+
+    new_flat = flat.copy()
+    new_flat[corners] = new_index[fan]
+    parent = np.concatenate([parent, sorted_node[extra]])
+    return new_flat.reshape(3, m), parent
+
+
+# --------------------------------------------------------------------------
+# 5. pieces, 6. picking nodes
+# --------------------------------------------------------------------------
+def connected_components(t, n_nodes):
+    """The pieces of a mesh: nodes connected through its triangles.
+
+    Parameters
+    ----------
+    t : array_like of int, shape (3, m)
+    n_nodes : int
+
+    Returns
+    -------
+    n_pieces : int
+        Number of pieces. A node used by no triangle is a piece of its own.
+    labels : ndarray of int, shape (n_nodes,)
+        The piece of every node, numbered in the order of each piece's lowest
+        node (so node 0 is in piece 0).
+    """
+    n_nodes = _count("n_nodes", n_nodes)
+    t = _index_array("t", t, 3)
+    if t.size and (t.min() < 0 or t.max() >= n_nodes):
+        raise ValueError(f"t must hold node indices in [0, n_nodes) = [0, {n_nodes}), got range [{t.min()}, {t.max()}]")
+    rows = np.concatenate([t[0], t[1]])
+    cols = np.concatenate([t[1], t[2]])
+    graph = sp.coo_matrix((np.ones(rows.size), (rows, cols)), shape=(n_nodes, n_nodes))
+    n, labels = csgraph.connected_components(graph, directed=False)
+    return int(n), labels.astype(np.int64)
+
+
+def nodes_near(positions, point, radius):
+    """Indices (increasing) of the nodes within ``radius`` of ``point``.
+
+    Parameters
+    ----------
+    positions : array_like, shape (2, n_nodes)
+        Node positions (``mesh.p``, or the deformed positions).
+    point : array_like, shape (2,)
+    radius : float
+        Finite and >= 0; a node at exactly ``radius`` counts.
+
+    Raises
+    ------
+    ValueError
+        If no node is that close (the message names the point and radius),
+        or for bad arguments.
+    """
+    try:
+        x = np.asarray(positions, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError("positions must be a float array shaped (2, n_nodes)") from None
+    if x.ndim != 2 or x.shape[0] != 2:
+        raise ValueError(f"positions must be shaped (2, n_nodes), got {x.shape}")
+    try:
+        c = np.asarray(point, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"point must be two coordinates (x, y), got {point!r}") from None
+    if c.shape != (2,) or not np.all(np.isfinite(c)):
+        raise ValueError(f"point must be two finite coordinates (x, y), got {point!r}")
+    if isinstance(radius, bool) or not isinstance(radius, numbers.Real) or not math.isfinite(radius) or radius < 0:
+        raise ValueError(f"radius must be a finite number >= 0, got {radius!r}")
+    d = np.hypot(x[0] - c[0], x[1] - c[1])
+    found = np.flatnonzero(d <= radius)
+    if found.size == 0:
+        nearest = float(np.nanmin(d)) if d.size else math.inf
+        raise ValueError(
+            f"no node within radius={radius!r} of point=({c[0]:g}, {c[1]:g}); the nearest is {nearest:.3g} away"
+        )
+    return found
+
+
+# --------------------------------------------------------------------------
+# 2. the path of a cut
+# --------------------------------------------------------------------------
+def _segment_distance(px, py, ax, ay, bx, by):
+    """Distance from points (px, py) to segments (a, b); broadcasts."""
+    dx, dy = bx - ax, by - ay
+    L2 = dx * dx + dy * dy
+    s = ((px - ax) * dx + (py - ay) * dy) / np.where(L2 > 0.0, L2, 1.0)
+    s = np.clip(s, 0.0, 1.0)
+    return np.hypot(px - ax - s * dx, py - ay - s * dy)
+
+
+def _inside(x, t, q) -> bool:
+    """Is point q inside (or on) some triangle of (x, t)?"""
+    a, b, c = x[:, t[0]], x[:, t[1]], x[:, t[2]]
+
+    def cross(u, v, w):  # (v - u) x (w - u)
+        return (v[0] - u[0]) * (w[1] - u[1]) - (v[1] - u[1]) * (w[0] - u[0])
+
+    qq = q[:, None]
+    area = cross(a, b, c)
+    s1, s2, s3 = cross(qq, b, c), cross(a, qq, c), cross(a, b, qq)
+    # q is inside when the three sub-areas have the sign of the whole (either orientation)
+    tol = 1e-12 * np.abs(area)
+    sign = np.sign(area)
+    ok = (sign * s1 >= -tol) & (sign * s2 >= -tol) & (sign * s3 >= -tol) & (area != 0.0)
+    return bool(np.any(ok))
+
+
+def _boundary_snap(x, t, bfacets, end, towards):
+    """The boundary node where a polyline that starts at ``end`` enters (or leaves) the body.
+
+    ``bfacets`` (2, nb) are the boundary facets. If ``end`` lies outside the
+    body or within half a facet of its boundary, returns the boundary node
+    where the segment ``end -> towards`` first crosses the boundary (the
+    nearer end of the crossed facet), or the boundary node nearest to ``end``
+    if the segment crosses none. Otherwise returns ``None``.
+    """
+    A, B = x[:, bfacets[0]], x[:, bfacets[1]]
+    dist = _segment_distance(end[0], end[1], A[0], A[1], B[0], B[1])
+    nearest = int(np.argmin(dist))
+    length = np.hypot(*(B[:, nearest] - A[:, nearest]))
+    outside = not _inside(x, t, end)
+    if not outside and dist[nearest] >= _NEAR_BOUNDARY * length:
+        return None
+    bnodes = np.unique(bfacets)
+    if outside:
+        # where does end -> towards cross the boundary first?
+        d = towards - end
+        e = B - A
+        denom = d[0] * e[1] - d[1] * e[0]
+        w = A - end[:, None]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s = (w[0] * e[1] - w[1] * e[0]) / denom  # along the polyline
+            r = (w[0] * d[1] - w[1] * d[0]) / denom  # along the facet
+        hit = (denom != 0.0) & (s >= 0.0) & (s <= 1.0) & (r >= 0.0) & (r <= 1.0)
+        if np.any(hit):
+            f = np.flatnonzero(hit)[np.argmin(s[hit])]
+            q = end + s[f] * d
+            na, nb = bfacets[0, f], bfacets[1, f]
+            return int(na if np.hypot(*(x[:, na] - q)) <= np.hypot(*(x[:, nb] - q)) else nb)
+    dn = np.hypot(x[0, bnodes] - end[0], x[1, bnodes] - end[1])
+    return int(bnodes[np.argmin(dn)])
+
+
+def cut_path(mesh, polyline, positions=None) -> np.ndarray:
+    """The path of mesh nodes that follows a drawn polyline.
+
+    Parameters
+    ----------
+    mesh : skfem.MeshTri
+    polyline : array_like, shape (k, 2), k >= 2
+        The stroke, in the coordinates of ``positions``.
+    positions : array_like, shape (2, n_nodes), optional
+        Where the nodes are now (the deformed configuration), so that a cut
+        drawn on the deformed tissue goes where it was drawn. Default
+        ``mesh.p``.
+
+    Returns
+    -------
+    ndarray of int64
+        Node indices; consecutive entries are the two ends of a mesh edge.
+        The one exception is a step between two copies of the same material
+        point (nodes with the same ``mesh.p``, left by an earlier cut): that
+        is how a new stroke crosses an old wound.
+
+    Notes
+    -----
+    Each polyline vertex snaps to the nearest node. An *endpoint* outside
+    the body (or within about half an edge of its boundary) snaps instead to a
+    boundary node: the one where its first (or last) segment crosses the
+    boundary, so a stroke drawn across the whole body cuts it through (and
+    the path ends where it first meets the boundary: no steps along it). Between
+    consecutive snapped nodes the path is a shortest path (Dijkstra) over the
+    mesh edges, each costing ``length * (1 + 10 d / h)`` with ``d`` the mean
+    distance of its nodes from the drawn segment and ``h`` the median edge
+    length: the path hugs the line, within about one element.
+
+    Raises
+    ------
+    ValueError
+        For a polyline that is not finite, not shaped (k, 2), has fewer than
+        two points, collapses to a single node, or joins two pieces that the
+        mesh does not connect.
+    """
+    pts = _points("polyline", polyline, 2)
+    p, t = _mesh_arrays(mesh)
+    x = _positions(mesh, positions)
+    n = p.shape[1]
+    facets = np.asarray(mesh.facets, dtype=np.int64)
+    bfacets = facets[:, np.asarray(mesh.boundary_facets(), dtype=np.int64)]
+    used = np.unique(t)
+
+    # the graph: mesh edges, plus links between copies of the same material point
+    ends = [facets]
+    if used.size:
+        _, group = np.unique(p[:, used].T, axis=0, return_inverse=True)
+        group = group.ravel()
+        order = np.lexsort((used, group))
+        g, u = group[order], used[order]
+        first = np.r_[0, np.flatnonzero(g[1:] != g[:-1]) + 1]
+        head = np.repeat(u[first], np.diff(np.r_[first, g.size]))
+        twin = head != u
+        ends.append(np.stack([head[twin], u[twin]]))
+    ends = np.concatenate(ends, axis=1)
+    length = np.hypot(*(x[:, ends[0]] - x[:, ends[1]]))
+    h = float(np.median(length[: facets.shape[1]])) if facets.shape[1] else 1.0
+    if not h > 0.0:
+        h = 1.0
+
+    # snap the vertices
+    snapped = []
+    boundary_start = boundary_end = False
+    for k, q in enumerate(pts):
+        node = None
+        if k == 0 or k == len(pts) - 1:
+            towards = pts[1] if k == 0 else pts[-2]
+            node = _boundary_snap(x, t, bfacets, q, towards) if bfacets.size else None
+            if k == 0:
+                boundary_start = node is not None
+            else:
+                boundary_end = node is not None
+        if node is None:
+            node = int(used[np.argmin(np.hypot(x[0, used] - q[0], x[1, used] - q[1]))])
+        snapped.append(node)
+
+    path = [snapped[0]]
+    for k in range(len(pts) - 1):
+        src, dst = path[-1], snapped[k + 1]
+        if src == dst:
+            continue
+        (ax, ay), (bx, by) = pts[k], pts[k + 1]
+        d = _segment_distance(x[0], x[1], ax, ay, bx, by)
+        cost = length * (1.0 + _HUG * 0.5 * (d[ends[0]] + d[ends[1]]) / h)
+        # a floor keeps zero-length links (copies at the same place) in the graph
+        cost = np.maximum(cost, 1e-12 * h)
+        graph = sp.csr_matrix(
+            (np.concatenate([cost, cost]), (np.r_[ends[0], ends[1]], np.r_[ends[1], ends[0]])), shape=(n, n)
+        )
+        dist, pred = csgraph.dijkstra(graph, directed=True, indices=src, return_predecessors=True)
+        if not np.isfinite(dist[dst]):
+            raise ValueError(
+                f"polyline segment {k} ({ax:g}, {ay:g}) -> ({bx:g}, {by:g}) joins nodes {src} and {dst}, "
+                f"which lie on pieces of the mesh that are not connected"
+            )
+        leg = [dst]
+        while leg[-1] != src:
+            leg.append(int(pred[leg[-1]]))
+        path.extend(leg[-2::-1])
+
+    # An end snapped to the boundary may reach it at a neighbouring boundary
+    # node and then walk along the boundary to the snapped one. Such steps
+    # open nothing: the cut ends where it first meets the boundary.
+    if bfacets.size:
+        on_boundary = set(_keys(bfacets, n).tolist())
+        if boundary_start:
+            while len(path) > 2 and int(_keys(np.array([[path[0]], [path[1]]]), n)[0]) in on_boundary:
+                path.pop(0)
+        if boundary_end:
+            while len(path) > 2 and int(_keys(np.array([[path[-2]], [path[-1]]]), n)[0]) in on_boundary:
+                path.pop()
+    if len(path) < 2:
+        raise ValueError(
+            f"polyline collapses to the single node {path[0]}: draw a longer stroke "
+            f"(the mesh edges are about {h:.3g} long)"
+        )
+    return np.asarray(path, dtype=np.int64)
+
+
+# --------------------------------------------------------------------------
+# named boundaries across an edit
+# --------------------------------------------------------------------------
+def _carry_boundaries(old, new, parent, name, opened):
+    """Named facet sets of ``new`` from those of ``old`` (by parent pairs), plus ``name``.
+
+    ``opened`` (bool per facet of ``new``) marks the facets the edit created
+    on the boundary; they join the set ``name`` (merged with what the old
+    ``name`` carries over).
+    """
+    n_old = old.p.shape[1]
+    new_keys = _keys(parent[np.asarray(new.facets, dtype=np.int64)], n_old)
+    old_facets = np.asarray(old.facets, dtype=np.int64)
+    sets = {}
+    for label, facets in (old.boundaries or {}).items():
+        old_keys = _keys(old_facets[:, np.asarray(facets, dtype=np.int64)], n_old)
+        sets[label] = np.flatnonzero(np.isin(new_keys, old_keys)).astype(np.int32)
+    extra = np.flatnonzero(opened).astype(np.int32)
+    sets[name] = np.union1d(sets.get(name, np.zeros(0, dtype=np.int32)), extra).astype(np.int32)
+    return sets
+
+
+def _carry_subdomains(old, elements):
+    if not old.subdomains:
+        return None
+    new_index = np.full(old.t.shape[1], -1, dtype=np.int64)
+    new_index[elements] = np.arange(elements.size)
+    out = {}
+    for label, els in old.subdomains.items():
+        mapped = new_index[np.asarray(els, dtype=np.int64)]
+        out[label] = np.sort(mapped[mapped >= 0]).astype(np.int32)
+    return out
+
+
+def _new_mesh(p, t) -> MeshTri:
+    """A MeshTri that keeps the vertex order of every triangle.
+
+    Fancy indexing along the node axis leaves Fortran-ordered arrays, which
+    scikit-fem would copy with a warning on large meshes: hand it C order.
+    """
+    return MeshTri(np.ascontiguousarray(p), np.ascontiguousarray(t), sort_t=False)
+
+
+def _build(old, plain, parent, elements, name, opened, cut_edges) -> MeshEdit:
+    """The MeshEdit of ``plain`` (the new mesh without names) with names and subdomains carried over."""
+    mesh = plain.with_boundaries(_carry_boundaries(old, plain, parent, name, opened))
+    subdomains = _carry_subdomains(old, elements)
+    if subdomains:
+        mesh = mesh.with_subdomains(subdomains)
+    return MeshEdit(
+        mesh=mesh,
+        parent=parent,
+        elements=elements,
+        cut_edges=cut_edges,
+        n_old_nodes=int(old.p.shape[1]),
+        n_old_elements=int(old.t.shape[1]),
+    )
+
+
+def _opened(new_mesh, parent, interior_keys, n_old) -> np.ndarray:
+    """Boundary facets of ``new_mesh`` whose parent pair was an interior edge of the old mesh."""
+    new_keys = _keys(parent[np.asarray(new_mesh.facets, dtype=np.int64)], n_old)
+    return (np.asarray(new_mesh.f2t)[1] < 0) & np.isin(new_keys, interior_keys)
+
+
+# --------------------------------------------------------------------------
+# 3. incise
+# --------------------------------------------------------------------------
+def incise(mesh, polyline, positions=None) -> MeshEdit:
+    """Cut ``mesh`` along a drawn polyline.
+
+    The polyline becomes a path of mesh edges (:func:`cut_path`), whose edges
+    are opened by duplicating nodes (:func:`duplicate_along_edges`). A stroke
+    whose ends lie outside the body cuts it through; one that ends inside
+    leaves a crack whose tip stays closed.
+
+    Parameters
+    ----------
+    mesh : skfem.MeshTri
+        Not modified.
+    polyline : array_like, shape (k, 2)
+        The stroke (see :func:`cut_path`).
+    positions : array_like, shape (2, n_nodes), optional
+        Current node positions to draw on (default ``mesh.p``). The new mesh
+        is always in the reference configuration: its ``p`` is
+        ``mesh.p[:, parent]``; transfer the deformed state with
+        :meth:`MeshEdit.transfer`.
+
+    Returns
+    -------
+    MeshEdit
+        ``elements`` is ``arange(m)`` (the triangles keep their indices and
+        vertex order); ``cut_edges`` are the old edges that opened. The new
+        mesh keeps every named boundary of ``mesh`` and names the two faces
+        of the wound ``"cut"`` (added to an existing ``"cut"``).
+
+    Raises
+    ------
+    ValueError
+        For a bad polyline (see :func:`cut_path`), or one that opens no edge
+        (it runs along the boundary, or is a single edge inside the body,
+        which a cut along edges cannot open).
+    """
+    p, t = _mesh_arrays(mesh)
+    n = p.shape[1]
+    path = cut_path(mesh, polyline, positions)
+    pairs = np.stack([path[:-1], path[1:]])
+    facets = np.asarray(mesh.facets, dtype=np.int64)
+    facet_keys = _keys(facets, n)
+    interior_keys = facet_keys[np.asarray(mesh.f2t)[1] >= 0]
+    # steps between copies of one point (crossing an old wound) are not edges;
+    # edges on the boundary are already open
+    pair_keys = _keys(pairs, n)
+    pairs = pairs[:, np.isin(pair_keys, interior_keys)]
+    new_t, parent = duplicate_along_edges(t, n, pairs)
+    plain = _new_mesh(p[:, parent], new_t)
+    wound = _opened(plain, parent, interior_keys, n)
+
+    # the path's edges that actually opened, once each, in the order of the path
+    opened_keys = _keys(parent[np.asarray(plain.facets, dtype=np.int64)[:, wound]], n)
+    pair_keys = _keys(pairs, n)
+    _, first = np.unique(pair_keys, return_index=True)
+    first = np.sort(first)
+    cut_edges = pairs[:, first[np.isin(pair_keys[first], opened_keys)]]
+    if cut_edges.shape[1] == 0:
+        raise ValueError(
+            f"polyline opens no edge: its path {path.tolist()} runs along the boundary or is a single "
+            f"interior edge (a crack needs at least one node strictly inside it)"
+        )
+    elements = np.arange(t.shape[1], dtype=np.int64)
+    return _build(mesh, plain, parent, elements, "cut", wound, cut_edges)
+
+
+# --------------------------------------------------------------------------
+# 4. excise
+# --------------------------------------------------------------------------
+def _region_mask(region, centroids) -> np.ndarray:
+    m = centroids.shape[1]
+    if callable(region):
+        mask = np.asarray(region(centroids))
+        if mask.shape != (m,) or mask.dtype != bool:
+            raise ValueError(
+                f"region, as a function of the centroids (2, m), must return a bool array shaped ({m},), "
+                f"got dtype {mask.dtype} shape {mask.shape}"
+            )
+        return mask
+    from matplotlib.path import Path
+
+    poly = _points("region", region, 3)
+    x, y = poly[:, 0], poly[:, 1]
+    area = 0.5 * (x @ np.roll(y, -1) - y @ np.roll(x, -1))
+    scale = np.ptp(poly, axis=0).max()
+    if not abs(area) > 1e-12 * scale * scale:
+        raise ValueError(f"region must be a polygon with non-zero area, got {poly.tolist()}")
+    return Path(poly).contains_points(centroids.T)
+
+
+def excise(mesh, region, positions=None) -> MeshEdit:
+    """Remove the triangles whose centroid lies in ``region`` (a defect).
+
+    Parameters
+    ----------
+    mesh : skfem.MeshTri
+        Not modified.
+    region : array_like shaped (k, 2) with k >= 3, or callable
+        A polygon (its vertices in order; tested with
+        :meth:`matplotlib.path.Path.contains_points`), or a function
+        ``centroids (2, m) -> bool (m,)`` that is True for the triangles to
+        remove.
+    positions : array_like, shape (2, n_nodes), optional
+        Current node positions, for the centroids (default ``mesh.p``).
+
+    Returns
+    -------
+    MeshEdit
+        Nodes no longer used by any triangle are dropped and the rest
+        renumbered in their old order (``parent`` is increasing). The
+        surviving triangles keep their relative order (``elements``) and
+        their vertex order. The rim of the hole is named ``"defect"`` (added
+        to an existing ``"defect"``); old names keep their surviving facets.
+        ``cut_edges`` is empty.
+
+    Raises
+    ------
+    ValueError
+        If ``region`` is not a valid polygon or mask, selects no element, or
+        selects every element.
+    """
+    p, t = _mesh_arrays(mesh)
+    x = _positions(mesh, positions)
+    m = t.shape[1]
+    centroids = x[:, t].mean(axis=1)
+    remove = _region_mask(region, centroids)
+    if not remove.any():
+        raise ValueError("region selects no element (no triangle centroid lies inside it)")
+    if remove.all():
+        raise ValueError(f"region selects every element (all {m}): nothing would be left")
+    elements = np.flatnonzero(~remove).astype(np.int64)
+    kept = t[:, elements]
+    parent = np.unique(kept)  # increasing: a compact renumbering in the old order
+    new_index = np.full(p.shape[1], -1, dtype=np.int64)
+    new_index[parent] = np.arange(parent.size)
+    new_t = new_index[kept]
+
+    n = p.shape[1]
+    interior_keys = _keys(np.asarray(mesh.facets, dtype=np.int64)[:, np.asarray(mesh.f2t)[1] >= 0], n)
+    plain = _new_mesh(p[:, parent], new_t)
+    rim = _opened(plain, parent, interior_keys, n)
+    return _build(mesh, plain, parent, elements, "defect", rim, np.zeros((2, 0), dtype=np.int64))
