@@ -155,3 +155,59 @@ def test_ex8_1_on_a_scikit_fem_mesh(answer):
     for piece in np.unique(labels):
         side = y[labels == piece]
         assert np.all(side <= 0.5) or np.all(side >= 0.5)
+
+
+# --- 8.2 a scene file --------------------------------------------------------------------------------------------
+
+def _reference_scene_text():
+    """The library's answer: the scene built in Python and written by Scene.to_toml."""
+    from tissuefem.scene import Scene
+
+    return Scene(
+        name="tug",
+        domain={"shape": "rectangle", "width": 3.0, "height": 1.0, "triangles": 600},
+        material={"model": "corotated", "youngs_modulus": 5000.0, "poisson_ratio": 0.4, "density": 1.1},
+        effects={
+            "inertia": {"time_step": 0.02},
+            "gravity": {"acceleration": [0.0, -9.81]},
+            "fibers": {"stiffness": 2000.0, "direction": [1.0, 0.0]},
+            "handles": [{"name": "fixed", "region": "left"},
+                        {"name": "tip", "region": {"near": [3.0, 0.5], "radius": 0.1}, "target": [0.5, 0.0]}],
+        },
+    ).to_toml()
+
+
+@pytest.mark.parametrize("answer", implementations("ch08", "scene_file_text", _reference_scene_text))
+def test_ex8_2_scene_file(answer):
+    import tomllib
+
+    from tissuefem.scene import Scene, Simulation
+
+    text = answer()
+    assert isinstance(text, str), f"return the TOML text as a string, got {type(text).__name__}"
+    tomllib.loads(text)  # valid TOML
+    scene = Scene.from_toml(text)  # a valid scene (a ValueError names the wrong field)
+    got = scene.to_dict()
+    assert got["name"] == "tug"
+    assert got["domain"] == {"shape": "rectangle", "width": 3.0, "height": 1.0, "triangles": 600}
+    assert got["material"] == {"model": "corotated", "youngs_modulus": 5000.0, "poisson_ratio": 0.4,
+                               "density": 1.1}
+    effects = got["effects"]
+    assert sorted(effects) == ["fibers", "gravity", "handles", "inertia"], f"effects: {sorted(effects)}"
+    assert effects["inertia"]["time_step"] == 0.02
+    assert effects["gravity"]["acceleration"] == [0.0, -9.81]
+    assert effects["fibers"]["stiffness"] == 2000.0
+    direction = np.asarray(effects["fibers"]["direction"], dtype=float)
+    assert abs(direction[1]) < 1e-12 < direction[0], f"fibers along x, got {direction}"
+    handles = {h["name"]: h for h in effects["handles"]}
+    assert set(handles) == {"fixed", "tip"}
+    assert handles["fixed"]["region"] == "left" and handles["fixed"]["target"] == [0.0, 0.0]
+    assert handles["tip"]["target"] == [0.5, 0.0]
+    # the simulation it describes: the tip handle holds the nodes within 0.1 of (3, 0.5)
+    sim = Simulation(scene)
+    X = sim.model.X
+    near = np.flatnonzero(np.hypot(X[0] - 3.0, X[1] - 0.5) <= 0.1 + 1e-9)
+    assert np.array_equal(np.sort(sim.handles["tip"].nodes), near)
+    assert sim.terms == ["inertia", "elastic", "fibers", "gravity"]
+    report = sim.frame()
+    assert report.converged and np.all(np.isfinite(sim.u))

@@ -65,6 +65,28 @@ def duplicate_cut_nodes(t, n_nodes, cut_edges):
     raise NotImplementedError("Exercise 8.1: duplicate the nodes along a cut")
 
 
-# ---------------------------------------------------------------------------
-# Exercise 8.2 (scene_file_text) goes here.
-# ---------------------------------------------------------------------------
+def scene_file_text():
+    """Exercise 8.2. Write a scene file (TOML) for this simulation, and return its text.
+
+    An instructor wants a muscle-like strip that students can tug. Describe it
+    with the keys of ``tissuefem.scene.EXAMPLE_TOML`` (print it for a model):
+
+    * name: ``"tug"``;
+    * domain: a rectangle 3 wide and 1 high, with about 600 triangles;
+    * material: the ``"corotated"`` model, Young's modulus 5000, Poisson's
+      ratio 0.4, density 1.1;
+    * effects:
+      - inertia with time step 0.02;
+      - gravity (0, -9.81);
+      - fibers of stiffness 2000 along the x axis;
+      - a handle named ``"fixed"`` on the boundary ``"left"`` (not moving);
+      - a handle named ``"tip"`` on the nodes within 0.1 of the point
+        (3, 0.5), pulled by (0.5, 0).
+
+    Nothing else (no probes, cuts or sutures). Return the TOML text as a
+    string: ``tomllib.loads`` must read it, and ``Scene.from_toml`` must accept
+    it (it names the field of any mistake). You may write the text by hand or
+    build a ``Scene`` in Python and call ``to_toml()`` -- the first is the
+    point of the exercise.
+    """
+    raise NotImplementedError("Exercise 8.2: write a scene file")

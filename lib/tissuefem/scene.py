@@ -604,7 +604,7 @@ class Simulation:
             nodes = np.flatnonzero((p[0] >= x0 - tol) & (p[0] <= x1 + tol) & (p[1] >= y0 - tol) & (p[1] <= y1 + tol))
         elif "near" in region:
             d = np.hypot(p[0] - region["near"][0], p[1] - region["near"][1])
-            nodes = np.flatnonzero(d <= region["radius"])
+            nodes = np.flatnonzero(d <= region["radius"] * (1 + 1e-9))  # a node exactly on the circle counts
         else:
             nodes = np.asarray(region["nodes"], dtype=np.intp)
             if nodes.max() >= mesh.nvertices:
