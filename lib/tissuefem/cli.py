@@ -1,9 +1,10 @@
-"""Command line: ``python -m tissuefem {figures,build,bench,grade,list}``.
+"""Command line: ``python -m tissuefem {figures,build,bench,scene,grade,list}``.
 
 * ``figures``  regenerate every lecture figure into ``figures/``;
 * ``build``    regenerate the figures and execute every chapter headless
   (executed copies in ``build/chapters/``, the sources stay clean);
-* ``bench``    benchmarks (``bench assembly``; more come with later chapters);
+* ``bench``    benchmarks (``bench assembly``, ``bench realtime``, ``bench scenes``);
+* ``scene``    check a scene file and run it (``scene scenes/incision.toml``);
 * ``grade``    grade your own exercise answers (chapters/exercises) with pytest;
 * ``list``     list the figures and chapters.
 """
@@ -95,6 +96,33 @@ def cmd_grade(args) -> int:
     return subprocess.call(cmd, env=env, cwd=root)
 
 
+def cmd_scene(args) -> int:
+    """Check a scene file and run it: one line per frame (time, status, Newton steps), then a summary."""
+    import numpy as np
+
+    from .scene import Scene, Simulation
+
+    try:
+        scene = Scene.load(args.path)
+        sim = Simulation(scene)
+    except (ValueError, OSError) as err:
+        print(f"{args.path}: {err}", file=sys.stderr)
+        return 2
+    print(f"{scene.name}: {sim.mesh.nelements} triangles, terms {sim.terms}, handles {list(sim.handles)}")
+    if args.check:
+        return 0
+    ms = []
+    for _ in range(args.frames):
+        r = sim.frame()
+        ms.append(1e3 * r.elapsed)
+        if args.verbose:
+            print(f"  frame {r.frame:4d}  {ms[-1]:7.1f} ms  {r.status:18s} Newton {r.newton_iterations}")
+    finite = bool(np.all(np.isfinite(sim.u)))
+    print(f"{args.frames} frames: median {np.median(ms):.1f} ms/frame (budget {1e3 * sim.solver.budget:.0f} ms), "
+          f"max {max(ms):.1f} ms; {sim.pieces()} piece(s); state finite: {finite}")
+    return 0 if finite else 1
+
+
 def cmd_list(args) -> int:
     from . import figures
     from .notebooks import chapter_paths
@@ -132,6 +160,13 @@ def main(argv=None) -> int:
     p.add_argument("--linear", default="reuse", help="realtime: linear solver (reuse, reuse-pardiso, direct, superlu, superlu-colamd, pardiso)")
     p.add_argument("--out", help="assembly: a JSON file; realtime: a folder (default bench-results/)")
     p.set_defaults(func=cmd_bench)
+
+    p = sub.add_parser("scene", help="check a scene file (TOML or JSON) and run it for some frames")
+    p.add_argument("path", help="the scene file, e.g. scenes/incision.toml")
+    p.add_argument("--frames", type=int, default=30, help="frames to run (default 30)")
+    p.add_argument("--check", action="store_true", help="only check and build the scene")
+    p.add_argument("--verbose", "-v", action="store_true", help="one line per frame")
+    p.set_defaults(func=cmd_scene)
 
     p = sub.add_parser("grade", help="grade your answers in chapters/exercises with pytest")
     p.add_argument("chapter", nargs="?", help="only this chapter, e.g. ch02")
