@@ -226,3 +226,111 @@ def test_pair_by_motion_needs_a_wound():
     sim = make(dynamic=False)
     with pytest.raises(ValueError, match="no wound nodes"):
         pair_by_motion(sim.mesh, sim.positions(), np.ones(sim.mesh.nelements, bool), lambda X: X, 0.1)
+
+
+# --- failures leave everything as it was; regressions from the review ------------------------------------------------
+
+def _fingerprint(sim):
+    return (sim.mesh, sim.model, sim.solver, sim.u.copy(), dict(sim.handles), sim.frames)
+
+
+def _unchanged(sim, before):
+    mesh, model, solver, u, handles, frames = before
+    assert sim.mesh is mesh and sim.model is model and sim.solver is solver
+    assert np.array_equal(sim.u, u) and sim.handles == handles and sim.frames == frames
+
+
+def test_a_probe_that_cannot_be_built_changes_nothing():
+    sim = make(dynamic=True)
+    sim.run(2)
+    before = _fingerprint(sim)
+    with pytest.raises(ValueError, match="stiffness"):
+        sim.add_probe([0.5, 0.5], 1e-160)  # the default stiffness 1e3 E / r^2 overflows
+    _unchanged(sim, before)
+    sim.cut([[1.0, 1.2], [1.0, -0.2]])  # later operations still work
+    sim.frame()
+    assert_valid(sim)
+
+
+def test_probe_labels_are_never_reused():
+    sim = make(dynamic=False)
+    a = sim.add_probe([0.5, 1.5], 0.1)
+    b = sim.add_probe([1.5, 1.5], 0.1)
+    sim.remove_probe(a)
+    c = sim.add_probe([1.0, 1.5], 0.1)
+    assert len({a, b, c}) == 3
+    sim.move_probe(b, [1.5, 1.6])
+    assert [p.label for p in sim.model.probes] == [b, c]
+    assert np.allclose(sim.model.probes[1].center, [1.0, 1.5])
+
+
+def test_a_grab_never_replaces_a_scene_handle():
+    sim = make(dynamic=False, handles=[{"name": "grab1", "region": "left"}])
+    name = sim.grab([2.0, 0.5], radius=0.2)
+    assert name != "grab1" and set(sim.handles) == {"grab1", name}
+
+
+def test_a_scene_handle_can_be_dragged_after_a_cut():
+    sim = make(dynamic=False, handles=[{"name": "fixed", "region": "left"}, {"name": "pull", "region": "right"}])
+    sim.cut([[1.0, 1.2], [1.0, 0.5]])
+    sim.drag("pull", [0.2, 0.0])
+    assert np.allclose(sim.handle_offset("pull"), [0.2, 0.0])
+    sim.frame()
+    assert_valid(sim)
+
+
+def test_the_constant_factorisation_follows_a_new_time_step():
+    data = dict(dynamic=True, gravity=True, model="linear")
+    fast, newton = make(**data), make(**data)
+    newton._constant_tangent = False
+    newton._save_state()
+    newton._rebuild()
+    for sim in (fast, newton):
+        sim.run(3)
+        sim.solver.dt = 0.2
+        sim.run(3)
+    assert fast.solver.factorizations == 2
+    assert np.allclose(fast.u, newton.u, rtol=0, atol=1e-7 * np.abs(newton.u).max())
+
+
+def test_a_quasistatic_scene_keeps_at_least_one_handle():
+    sim = make(dynamic=False)
+    before = _fingerprint(sim)
+    with pytest.raises(ValueError, match="at least one handle"):
+        sim.release("fixed")
+    with pytest.raises(ValueError, match="at least one handle"):
+        sim.excise([[-0.1, -0.1], [0.3, -0.1], [0.3, 1.1], [-0.1, 1.1]])  # cuts away every held node
+    _unchanged(sim, before)
+
+
+def test_a_bad_handle_map_is_refused_when_set():
+    sim = make(dynamic=False, handles=[{"name": "fixed", "region": "left"}, {"name": "pull", "region": "right"}])
+    with pytest.raises(ValueError, match="non-finite"):
+        sim.move_handle("pull", lambda X: X * np.nan)
+    assert np.allclose(sim.handle_offset("pull"), [0.0, 0.0])
+    sim.frame()
+
+
+def test_a_linear_scene_accepts_a_reuse_backend_name():
+    sim = make(dynamic=False, model="linear")
+    sim2 = Simulation(Scene.from_dict({**sim.scene.to_dict(), "solver": {"linear_solver": "reuse-superlu"}}))
+    assert sim2.frame().converged
+
+
+def test_a_piece_cut_free_in_a_quasistatic_scene_is_lifted_out():
+    sim = make(dynamic=False, gravity=True)
+    sim.frame()
+    area = sim.total_mass()
+    sim.cut([[1.3, 1.2], [2.2, 0.3]])  # the top-right corner comes off: nothing holds it
+    assert sim.removed_pieces == 1 and sim.pieces() == 1 and sim.total_mass() < area
+    sim.run(2)
+    assert_valid(sim) and np.abs(sim.u).max() < 1.0
+
+
+def test_new_stitches_do_not_tighten_the_old_ones():
+    sim = make(dynamic=False)
+    sim.suture(np.array([[0], [1]]), tightness=0.5)
+    sim.suture(np.array([[2], [3]]), tightness=0.25)
+    assert np.allclose(sim.model.sutures.tightness, [0.5, 0.25])
+    sim.tighten(1.0)
+    assert np.allclose(sim.model.sutures.tightness, [1.0, 1.0])

@@ -135,11 +135,14 @@ def advancement_flap(*, width=4.0, height=2.0, n_triangles=3000, defect=(1.2, 0.
         tolerance, so extra frames change nothing; they only report).
     """
     x0, y0, w, h = (float(v) for v in defect)
+    if not (np.isfinite(flap_length) and flap_length > 0):
+        raise ValueError(f"flap_length must be finite and > 0, got {flap_length!r}")
+    for name, value, low in (("tighten_frames", tighten_frames, 1), ("settle_frames", settle_frames, 0)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
+            raise ValueError(f"{name} must be an integer >= {low}, got {value!r}")
     if not (w > 0 and h > 0 and 0 < x0 and x0 + w + flap_length < width and 0 < y0 and y0 + h < height):
         raise ValueError(f"defect {defect!r} and flap_length {flap_length!r} must fit inside the {width} x {height} "
                          "patch, with skin on every side")
-    if int(tighten_frames) < 1 or int(settle_frames) < 0:
-        raise ValueError("tighten_frames must be >= 1 and settle_frames >= 0")
     x1, y1 = x0 + w, y0 + h
     tip = x1 + flap_length
     scene = Scene(
@@ -161,6 +164,8 @@ def advancement_flap(*, width=4.0, height=2.0, n_triangles=3000, defect=(1.2, 0.
     centroids = mesh.p[:, mesh.t].mean(axis=1)
     flap = (centroids[0] > x1) & (centroids[0] < tip) & (centroids[1] > y0) & (centroids[1] < y1)
     edge = float(np.mean(np.hypot(*(mesh.p[:, mesh.facets[0]] - mesh.p[:, mesh.facets[1]]))))
+    if not np.any(flap):
+        raise ValueError("the flap holds no triangle: make the mesh finer or the flap larger")
     pairs = pair_by_motion(mesh, sim.positions(), flap, lambda X: X - np.array([[w], [0.0]]), 0.5 * edge)
     sim.suture(pairs, stiffness=suture_stiffness, tightness=0.0)
     initial_gap = float(sim.suture_gaps().max())

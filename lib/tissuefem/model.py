@@ -80,7 +80,7 @@ class NodeHandle:
 
     def __init__(self, nodes, target=(0.0, 0.0), base=None, name=None):
         nodes = np.asarray(nodes)
-        if nodes.ndim != 1 or nodes.size == 0 or not np.issubdtype(nodes.dtype, np.integer):
+        if nodes.ndim != 1 or nodes.size == 0 or not np.issubdtype(nodes.dtype, np.integer) or nodes.min() < 0:
             raise ValueError(f"handle nodes must be a non-empty 1D array of node indices, got {nodes!r}")
         self.nodes = np.unique(nodes).astype(np.intp)
         if base is None:
@@ -328,19 +328,26 @@ class Sutures(Term):
         if not np.all(np.isfinite(k) & (k > 0)):
             raise ValueError(f"sutures.stiffness must be finite and > 0, got {stiffness!r}")
         self.k = k
-        self.gap0 = np.asarray(gaps, dtype=float).reshape(2, -1)
-        self.tightness = 0.0
+        gaps = np.asarray(gaps, dtype=float)
+        if gaps.shape != self.pairs.shape or not np.all(np.isfinite(gaps)):
+            raise ValueError(f"sutures.gaps must be finite and shaped {self.pairs.shape}, got {gaps.shape}")
+        self.gap0 = gaps
+        self.tightness = np.zeros(self.pairs.shape[1])
         self.slack = self.gap0.copy()
 
-    def tighten(self, fraction) -> None:
-        s = _nonnegative("suture tightness", fraction)
-        if s > 1:
+    def tighten(self, fraction, stitches=None) -> None:
+        """Set the tightness (0 slack ... 1 closed) of all stitches, or of those indexed by ``stitches``."""
+        s = np.asarray(fraction, dtype=float)
+        if not (np.all(np.isfinite(s)) and np.all(s >= 0) and np.all(s <= 1)):
             raise ValueError(f"suture tightness must be in [0, 1], got {fraction!r}")
-        self.tightness = s
-        self.slack = (1.0 - s) * self.gap0
+        index = slice(None) if stitches is None else np.asarray(stitches, dtype=np.intp)
+        tightness = self.tightness.copy()
+        tightness[index] = s
+        self.tightness = tightness
+        self.slack = (1.0 - self.tightness) * self.gap0
 
     def describe(self):
-        return f"sutures: {self.pairs.shape[1]} stitches, tightness {self.tightness:g}"
+        return f"sutures: {self.pairs.shape[1]} stitches, mean tightness {self.tightness.mean():g}"
 
     def _gap(self, u):
         x = self.X + u.reshape(-1, 2).T

@@ -355,6 +355,8 @@ class RealtimeSolver:
                 data = self.dt**2 * data + self._M_data
             cond = self._condensed.get(fixed_key)
             if cond is None:
+                if len(self._condensed) >= 8:  # each grab makes a new held set: keep the cache small
+                    self._condensed.clear()
                 cond = self._condensed[fixed_key] = _Condensed(self.assembler, free)
             return cond(data)
         K = self.problem.tangent(x)
@@ -625,11 +627,14 @@ class ConstantTangentSolver(RealtimeSolver):
         free_mask = np.ones(n, dtype=bool)
         free_mask[fixed] = False
         free = np.flatnonzero(free_mask)
-        key = fixed.tobytes()
+        key = (fixed.tobytes(), self.dt)  # A = M + dt^2 K changes with dt
         fac = 0
         if self._factor_key != key:
-            A = self._hessian_free(np.zeros(n), free, key)
-            self._factor = self.linear.factorize(A.tocsr())
+            A = self._hessian_free(np.zeros(n), free, key[0])
+            try:
+                self._factor = self.linear.factorize(A.tocsr())
+            except RuntimeError as err:  # nothing committed: the state is unchanged
+                raise ValueError(f"the constant tangent is singular ({err}): is a piece held by nothing?") from None
             self._factor_key = key
             self.factorizations += 1
             fac = 1
@@ -641,6 +646,8 @@ class ConstantTangentSolver(RealtimeSolver):
         r0 = float(np.linalg.norm(g[free]))
         if free.size:
             x[free] -= self._factor.solve(g[free])
+        if not np.all(np.isfinite(x)):  # keep the state: commit nothing
+            raise ValueError("the linear solve returned non-finite values; the state is unchanged")
         g = self.gradient(x, x_tilde)
         rnorm = float(np.linalg.norm(g[free]))
         converged = rnorm <= self.atol + max(self.rtol * r0, 1e-12 * float(np.linalg.norm(g)))

@@ -37,7 +37,9 @@ real-time solver) and offers the virtual-surgery operations between frames:
 
 from __future__ import annotations
 
+import contextlib
 import copy
+import dataclasses
 import json
 import math
 import time
@@ -188,12 +190,15 @@ def _check_material(m):
     for key in ("model", "youngs_modulus", "poisson_ratio"):
         if key not in m:
             raise ValueError(f"material.{key}: missing")
-    return {
+    out = {
         "model": _string("material.model", m["model"], sorted(MATERIALS)),
         "youngs_modulus": _number("material.youngs_modulus", m["youngs_modulus"], positive=True),
         "poisson_ratio": _number("material.poisson_ratio", m["poisson_ratio"], below=0.5),
         "density": _number("material.density", m.get("density", 1.0), positive=True),
     }
+    if out["poisson_ratio"] <= -1:
+        raise ValueError(f"material.poisson_ratio must be > -1, got {m['poisson_ratio']!r}")
+    return out
 
 
 def _check_region(field, r):
@@ -321,7 +326,8 @@ def _check_effects(effects):
                 entries = [entries]
             if not isinstance(entries, (list, tuple)):
                 raise ValueError(f"effects.{kind} must be a list of tables, got {entries!r}")
-            out[kind] = [_check_entry(kind, i, e) for i, e in enumerate(entries)]
+            if entries:  # an empty list is the same as leaving the effect out
+                out[kind] = [_check_entry(kind, i, e) for i, e in enumerate(entries)]
     names = [h["name"] for h in out.get("handles", [])]
     if len(set(names)) != len(names):
         raise ValueError(f"effects.handles: names must be unique, got {names}")
@@ -574,6 +580,9 @@ class Simulation:
             raise ValueError("effects.handles: a quasistatic scene needs at least one handle (e.g. a fixed edge), "
                              "or the body floats freely")
         self._probe_specs = []
+        self._probe_count = 0
+        #: pieces lifted out because nothing held them (quasistatic scenes only; see _drop_loose_pieces)
+        self.removed_pieces = 0
         self._sutures = None
         self._state = None
         for i, e in enumerate(scene.effects.get("excisions", [])):
@@ -655,7 +664,11 @@ class Simulation:
         else:
             solver_options.update(dt=None)
         if model.quadratic and self._constant_tangent:
-            choice = self._linear_choice if self._linear_choice not in ("reuse", "direct") else "superlu"
+            choice = self._linear_choice
+            if choice in ("reuse", "direct"):
+                choice = "superlu"
+            elif isinstance(choice, str) and choice.startswith("reuse-"):  # the factorisation is kept anyway
+                choice = choice[len("reuse-"):]
             solver = ConstantTangentSolver(model, linear_solver=choice, **solver_options)
         else:
             solver = RealtimeSolver(model, linear_solver=self._linear_choice, **solver_options)
@@ -667,6 +680,29 @@ class Simulation:
                 solver.dt = dt
             solver.last_report = self.solver.last_report if hasattr(self, "solver") else None
         self.model, self.solver = model, solver
+        self._state = None
+
+    @contextlib.contextmanager
+    def _transaction(self):
+        """Apply a change completely or not at all: on any error, everything is put back as it was."""
+        saved = (self.mesh, dict(self.handles), self._fibers, copy.deepcopy(self._sutures),
+                 copy.deepcopy(self._probe_specs), list(self._edits), getattr(self, "model", None),
+                 getattr(self, "solver", None), self._grab_count, self._probe_count)
+        try:
+            yield
+        except BaseException:
+            (self.mesh, self.handles, self._fibers, self._sutures, self._probe_specs, self._edits, model, solver,
+             self._grab_count, self._probe_count) = saved
+            self._state = None
+            if model is not None:
+                self.model, self.solver = model, solver
+                model.handles = list(self.handles.values())
+            raise
+
+    def _check_held(self):
+        """A quasistatic scene must keep at least one handle (or the body floats and K is singular)."""
+        if not self.dynamic and not self.handles:
+            raise ValueError("handles: a quasistatic scene needs at least one handle; this change would leave none")
 
     def _save_state(self):
         s = self.solver
@@ -759,6 +795,9 @@ class Simulation:
             raise ValueError(f"point {point.tolist()}: no tissue within radius {radius:g}")
         self._grab_count += 1
         name = f"grab{self._grab_count}"
+        while name in self.handles:  # never replace a scene's handle of the same name
+            self._grab_count += 1
+            name = f"grab{self._grab_count}"
         u = self.solver.u.reshape(-1, 2).T
         handle = NodeHandle(nodes, base=u[:, nodes].copy(), name=name)
         handle.anchor = point
@@ -770,7 +809,8 @@ class Simulation:
         """Move a grabbed handle so that its grab point follows ``point``."""
         h = self._handle(name)
         point = np.asarray(_vector("point", list(np.asarray(point, dtype=float).ravel())))
-        h.move(point - getattr(h, "anchor", np.zeros(2)))
+        anchor = getattr(h, "anchor", None)
+        self._set_target(h, point - (np.zeros(2) if anchor is None else anchor))
 
     def handle_offset(self, name) -> np.ndarray:
         t = self._handle(name).target
@@ -778,12 +818,26 @@ class Simulation:
 
     def move_handle(self, name, target) -> None:
         """Set a handle's target (a translation or a map), checked; takes effect at the next frame."""
-        self._handle(name).move(target)
+        self._set_target(self._handle(name), target)
+
+    def _set_target(self, handle, target):
+        old = handle.target
+        handle.move(target)
+        try:  # a map is evaluated once now, so a bad one is refused here and not at every later frame
+            handle.displacement(self.model.X[:, handle.nodes])
+        except ValueError:
+            handle.target = old
+            raise
 
     def release(self, name) -> None:
         """Let go of a handle: its nodes are free from the next frame on."""
-        self._handle(name)
+        handle = self._handle(name)
         del self.handles[name]
+        try:
+            self._check_held()
+        except ValueError:
+            self.handles[name] = handle
+            raise
         self.model.handles = list(self.handles.values())
 
     def _handle(self, name):
@@ -797,12 +851,17 @@ class Simulation:
         center = _vector(f"{_field}.center", list(np.asarray(center, dtype=float).ravel()))
         radius = _number(f"{_field}.radius", radius, positive=True)
         E = self.scene.material["youngs_modulus"]
-        stiffness = 1e3 * E / radius**2 if stiffness is None else _number(f"{_field}.stiffness", stiffness,
-                                                                          nonnegative=True)
-        label = f"probe{len(self._probe_specs) + 1}"
-        self._probe_specs.append(dict(center=center, radius=radius, stiffness=stiffness, label=label))
-        self._save_state()
-        self._rebuild()
+        if stiffness is None:  # stiff enough to keep penetration to a few percent of the radius
+            with np.errstate(over="ignore"):
+                stiffness = _number(f"{_field}.stiffness (default 1e3 E / radius^2)", 1e3 * E / radius**2)
+        else:
+            stiffness = _number(f"{_field}.stiffness", stiffness, nonnegative=True)
+        with self._transaction():
+            self._probe_count += 1
+            label = f"probe{self._probe_count}"
+            self._probe_specs.append(dict(center=center, radius=radius, stiffness=stiffness, label=label))
+            self._save_state()
+            self._rebuild()
         return label
 
     def _probe(self, label):
@@ -820,9 +879,10 @@ class Simulation:
 
     def remove_probe(self, label) -> None:
         self._probe(label)
-        self._probe_specs = [p for p in self._probe_specs if p["label"] != label]
-        self._save_state()
-        self._rebuild()
+        with self._transaction():
+            self._probe_specs = [p for p in self._probe_specs if p["label"] != label]
+            self._save_state()
+            self._rebuild()
 
     # ------------------------------------------------------------------ topology changes
     def _apply_edit(self, operation, argument, field, rebuild=True):
@@ -834,51 +894,94 @@ class Simulation:
                 edit = operation(self.mesh, argument)
         except ValueError as err:
             raise ValueError(f"{field}: {err}") from None
-        if running:
-            self._save_state()
-        parent = edit.parent
-        # carry everything node- and element-based over
-        new_handles = {}
-        for name, h in self.handles.items():
-            moved = h.remap(parent)
-            if moved is not None:
-                moved.anchor = getattr(h, "anchor", None)
-                new_handles[name] = moved
-        self.handles = new_handles
-        if self._fibers is not None:
-            self._fibers = (self._fibers[0], self._fibers[1][:, edit.elements])
-        if self._sutures is not None:
-            self._sutures = self._remap_sutures(self._sutures, parent)
-        if self._state is not None:
-            u, v, v_prev, t, frames, budget, dt = self._state
+        with self._transaction():
+            if running:
+                self._save_state()
+            if not self.dynamic:
+                edit = self._drop_loose_pieces(edit)
+            parent = edit.parent
+            # carry everything node- and element-based over
+            new_handles = {}
+            for name, h in self.handles.items():
+                moved = h.remap(parent)
+                if moved is not None:
+                    anchor = getattr(h, "anchor", None)
+                    if anchor is not None:
+                        moved.anchor = anchor
+                    new_handles[name] = moved
+            self.handles = new_handles
+            self._check_held()
+            if self._fibers is not None:
+                self._fibers = (self._fibers[0], self._fibers[1][:, edit.elements])
+            if self._sutures is not None:
+                self._sutures = self._remap_sutures(self._sutures, parent)
+            if self._state is not None:
+                u, v, v_prev, t, frames, budget, dt = self._state
 
-            def carry(w):
-                return None if w is None else w.reshape(-1, 2)[parent].ravel()
+                def carry(w):
+                    return None if w is None else w.reshape(-1, 2)[parent].ravel()
 
-            self._state = (carry(u), carry(v), carry(v_prev), t, frames, budget, dt)
-        self.mesh = edit.mesh
-        self._edits.append(edit)
-        if rebuild:
-            self._rebuild()
+                self._state = (carry(u), carry(v), carry(v_prev), t, frames, budget, dt)
+            self.mesh = edit.mesh
+            self._edits.append(edit)
+            if rebuild:
+                self._rebuild()
         return edit
+
+    def _drop_loose_pieces(self, edit):
+        """Quasistatic scenes: remove pieces that nothing holds (no handle, no suture to a held piece).
+
+        Such a piece has no equilibrium (its stiffness matrix is singular, and
+        under a load it would run away), so it is lifted out of the simulation,
+        as a surgeon lifts out what was cut free. Dynamic scenes keep every piece.
+        """
+        import scipy.sparse as sp
+        from scipy.sparse.csgraph import connected_components
+
+        mesh = edit.mesh
+        n = mesh.nvertices
+        t = mesh.t
+        rows = [t[0], t[1], t[2]]
+        cols = [t[1], t[2], t[0]]
+        if self._sutures is not None:
+            sutures = self._remap_sutures(self._sutures, edit.parent)
+            if sutures is not None:
+                rows.append(sutures["pairs"][0])
+                cols.append(sutures["pairs"][1])
+        r, c = np.concatenate(rows), np.concatenate(cols)
+        graph = sp.coo_matrix((np.ones(r.size), (r, c)), shape=(n, n))
+        _, labels = connected_components(graph, directed=False)
+        held = np.zeros(labels.max() + 1, dtype=bool)
+        for h in self.handles.values():
+            moved = h.remap(edit.parent)
+            if moved is not None:
+                held[labels[moved.nodes]] = True
+        loose = ~held[labels[t[0]]]
+        if not np.any(loose) or np.all(loose):
+            return edit  # nothing to drop (or nothing held at all: _check_held reports it)
+        second = _surgery().excise(mesh, lambda centroids: loose)
+        self.removed_pieces += 1
+        return dataclasses.replace(second, parent=edit.parent[second.parent], elements=edit.elements[second.elements],
+                                   cut_edges=edit.cut_edges, n_old_nodes=edit.n_old_nodes,
+                                   n_old_elements=edit.n_old_elements)
 
     @staticmethod
     def _remap_sutures(sutures, parent):
         # a sutured node keeps its number if it survives (cuts keep old numbers); else its first copy
-        first = np.full(int(parent.max(initial=0)) + 1, -1, dtype=np.intp)
-        for i in range(parent.size - 1, -1, -1):
-            first[parent[i]] = i
+        first = np.full(int(max(parent.max(initial=0), np.max(sutures["pairs"]))) + 1, -1, dtype=np.intp)
+        first[parent[::-1]] = np.arange(parent.size)[::-1]
         pairs = np.asarray(sutures["pairs"])
-        a = first[np.minimum(pairs[0], first.size - 1)]
-        b = first[np.minimum(pairs[1], first.size - 1)]
-        keep = (a >= 0) & (b >= 0) & (pairs[0] < first.size) & (pairs[1] < first.size)
+        a, b = first[pairs[0]], first[pairs[1]]
+        keep = (a >= 0) & (b >= 0)
         if not np.any(keep):
             return None
-        out = dict(sutures)
-        out["pairs"] = np.vstack([a[keep], b[keep]])
-        out["gaps"] = np.asarray(sutures["gaps"])[:, keep]
-        out["stiffness"] = np.broadcast_to(np.asarray(sutures["stiffness"], float), (pairs.shape[1],))[keep]
-        return out
+        k = pairs.shape[1]
+        return {
+            "pairs": np.vstack([a[keep], b[keep]]),
+            "gaps": np.asarray(sutures["gaps"])[:, keep],
+            "stiffness": np.broadcast_to(np.asarray(sutures["stiffness"], float), (k,))[keep],
+            "tightness": np.broadcast_to(np.asarray(sutures.get("tightness", 0.0), float), (k,))[keep],
+        }
 
     def cut(self, polyline):
         """Incise along ``polyline`` (points in deformed coordinates), duplicating nodes along the cut.
@@ -942,26 +1045,28 @@ class Simulation:
             raise ValueError(f"{_field}.tightness must be in [0, 1], got {tightness!r}")
         x = self.positions()
         gaps = x[:, nodes[0]] - x[:, nodes[1]]
-        new = {"pairs": nodes, "stiffness": np.full(nodes.shape[1], k), "gaps": gaps}
-        if self._sutures is not None:  # keep the old stitches (with their current slack as their start)
+        k_new = nodes.shape[1]
+        new = {"pairs": nodes, "stiffness": np.full(k_new, k), "gaps": gaps, "tightness": np.zeros(k_new)}
+        if self._sutures is not None:  # the old stitches keep their gap when placed and their tightness
             old = self._sutures
-            slack = (1.0 - self.model.sutures.tightness) * np.asarray(old["gaps"])
-            new = {"pairs": np.hstack([old["pairs"], nodes]), "stiffness": np.concatenate([old["stiffness"], new["stiffness"]]),
-                   "gaps": np.hstack([slack, gaps])}
-        new["tightness"] = 0.0
-        self._sutures = new
-        self._save_state()
-        self._rebuild()
-        if tightness > 0:
-            self.tighten(tightness)
+            new = {key: np.concatenate([np.asarray(old[key]), new[key]], axis=-1) for key in new}
+        with self._transaction():
+            self._sutures = new
+            self._save_state()
+            self._rebuild()
+            if tightness > 0:
+                self.tighten(tightness, stitches=np.arange(new["pairs"].shape[1] - k_new, new["pairs"].shape[1]))
         return nodes
 
-    def tighten(self, fraction) -> None:
-        """Tighten all sutures: slack ``(1 - fraction)`` of their gap when placed (1: closed)."""
+    def tighten(self, fraction, stitches=None) -> None:
+        """Tighten sutures: each keeps ``(1 - fraction)`` of its gap when placed as slack (1: closed).
+
+        ``stitches``: indices of the stitches to tighten (default: all).
+        """
         if self.model.sutures is None:
             raise ValueError("tighten: there are no sutures")
-        self.model.sutures.tighten(fraction)
-        self._sutures["tightness"] = self.model.sutures.tightness
+        self.model.sutures.tighten(fraction, stitches)
+        self._sutures["tightness"] = self.model.sutures.tightness.copy()
 
     def suture_gaps(self) -> np.ndarray:
         """Distances between the sutured points (0 when closed)."""
