@@ -1,0 +1,540 @@
+"""Figures of chapter 8 (virtual surgery): pulling, probing, cutting and stitching a running simulation.
+
+* ``fig_ch08_incision``: a sheet held on its left edge and pulled on its
+  right (quasistatic), before and after a cut from the top edge to
+  mid-height; the wound gapes and the tension gathers at its tip.
+* ``fig_ch08_two_pieces``: a sheet under gravity, held on its left edge, cut
+  through from top to bottom while it swings; the free piece falls away. A
+  filmstrip (PNG) and an animation (a GIF written next to the PNG), with the
+  free piece's centre of mass against backward Euler's discrete free fall.
+* ``fig_ch08_probe``: a rigid disc pressed into the top edge of a block held
+  on its bottom edge, at two depths, with the contact forces of the penalty
+  and the force the tool feels against the depth.
+* ``fig_ch08_flap``: the advancement flap of :func:`tissuefem.flaps.advancement_flap`
+  (after Sifakis et al. 2009): the defect and the two incisions with the
+  planned stitches, the flap sutured into the defect, and the tension left
+  in the flap for three flap lengths.
+
+Every simulation here runs with an unlimited budget and a clock that never
+advances, so each frame is solved to the solver's tolerance and nothing
+depends on the machine's speed: the files are byte-identical from run to run.
+Elements are coloured by their largest principal Cauchy stress
+(:meth:`tissuefem.scene.Simulation.tension`) on one diverging scale per
+figure: red is pulled apart, blue is pressed together, white is at rest.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from matplotlib.animation import FuncAnimation, PillowWriter
+from matplotlib.cm import ScalarMappable
+from matplotlib.collections import LineCollection, PolyCollection
+from matplotlib.colors import Normalize, to_rgba
+from matplotlib.figure import Figure
+from matplotlib.patches import Circle
+
+from .figures import E_DEFAULT, NU_DEFAULT, register, save
+
+#: one frame of the interactive loop, in seconds
+FRAME_DT = 1.0 / 30.0
+#: the colour map of the tension (largest principal Cauchy stress); centred at zero
+TENSION_CMAP = "RdBu_r"
+#: the held piece and the free piece of the two-pieces figure
+HELD_COLOR, FREE_COLOR = "#6baed6", "#fd8d3c"
+WOUND_COLOR = "#67000d"
+
+#: incision figure: how far the right edge is pulled, and the cut (from above the top edge to mid-height)
+INCISION_PULL = 0.4
+INCISION_PATH = ((1.0, 1.2), (1.0, 0.5))
+#: two-pieces figure: frames of sagging before the cut, frames after it, and the columns of the filmstrip
+SAG_FRAMES = 12
+FALL_FRAMES = 14
+FILMSTRIP = (0, 6, 12, 15, 18, 22, 26)
+#: probe figure: disc radius, the depths swept (below the top edge) and the two shown
+PROBE_RADIUS = 0.25
+PROBE_DEPTHS = (0.0, 0.05, 0.1, 0.15, 0.2, 0.25, 0.3)
+PROBE_SHOWN = (0.1, 0.25)
+#: flap figure: the flap lengths compared, and the one drawn
+FLAP_LENGTHS = (0.8, 1.2, 1.8)
+FLAP_SHOWN = 1.2
+FLAP_TRIANGLES = 2000
+FLAP_TIGHTEN_FRAMES = 6
+
+
+def _still_clock():
+    """A clock that never advances: no frame ever runs out of budget, whatever the machine."""
+    return 0.0
+
+
+def sheet_scene(n_triangles=1200, *, handles, dynamic=False, gravity=False, width=2.0, height=1.0):
+    """A ``width x height`` sheet of stable neo-Hookean tissue (E = 1000, nu = 0.3) with the given handles."""
+    from .scene import Scene
+
+    effects = {"handles": handles}
+    if dynamic:
+        effects["inertia"] = {"time_step": FRAME_DT}
+    if gravity:
+        effects["gravity"] = {"acceleration": [0.0, -9.81]}
+    return Scene(
+        name="sheet",
+        domain={"shape": "rectangle", "width": width, "height": height, "triangles": int(n_triangles)},
+        material={"model": "stable-neo-hookean", "youngs_modulus": E_DEFAULT, "poisson_ratio": NU_DEFAULT},
+        effects=effects,
+        solver={"budget": 1e9, "rtol": 1e-8, "max_iterations": 100},
+    )
+
+
+def _simulation(scene):
+    from .scene import Simulation
+
+    return Simulation(scene, clock=_still_clock)
+
+
+def _check(report, what):
+    if not report.converged:
+        raise RuntimeError(f"{what}: the frame did not converge ({report.status})")
+    return report
+
+
+# --- drawing helpers ----------------------------------------------------------------------------------
+
+def tension_norm(*values, percentile=98.0) -> Normalize:
+    """A symmetric colour scale ``[-s, s]`` with ``s`` the given percentile of ``|tension|`` (tips excluded)."""
+    s = float(np.percentile(np.abs(np.concatenate([np.ravel(v) for v in values])), percentile))
+    return Normalize(-s, s)
+
+
+def draw_mesh(ax, x, t, values=None, norm=None, *, color="0.88", lw=0.25, alpha=1.0):
+    """The triangles ``t`` with their nodes at ``x``; coloured by ``values`` (one per element) if given."""
+    verts = np.asarray(x, dtype=float)[:, t].transpose(2, 1, 0)
+    if values is None:
+        coll = PolyCollection(verts, facecolors=to_rgba(color, alpha), edgecolors=to_rgba("0.35", alpha),
+                              linewidths=lw)
+    else:
+        coll = PolyCollection(verts, array=np.asarray(values, dtype=float), cmap=TENSION_CMAP, norm=norm,
+                              edgecolors=(0.0, 0.0, 0.0, 0.22), linewidths=lw)
+    ax.add_collection(coll)
+    return coll
+
+
+def draw_wound(ax, mesh, x, names=("cut", "defect"), **kwargs):
+    """The wound's edges (the boundary facets a cut or an excision made) as dark lines."""
+    if mesh.boundaries is None:
+        return None
+    facets = [mesh.boundaries[n] for n in names if n in mesh.boundaries and len(mesh.boundaries[n])]
+    if not facets:
+        return None
+    f = mesh.facets[:, np.concatenate(facets)]
+    segments = np.asarray(x, dtype=float)[:, f].transpose(2, 1, 0)
+    options = dict(colors=WOUND_COLOR, linewidths=1.4, zorder=3)
+    options.update(kwargs)
+    coll = LineCollection(segments, **options)
+    ax.add_collection(coll)
+    return coll
+
+
+def _frame_axes(ax, xlim, ylim):
+    ax.set(aspect="equal", xlim=xlim, ylim=ylim, xticks=[], yticks=[])
+
+
+def _tension_colorbar(fig, norm, axes, label="tension: largest principal Cauchy stress", **kwargs):
+    bar = fig.colorbar(ScalarMappable(norm=norm, cmap=TENSION_CMAP), ax=axes, extend="both", **kwargs)
+    bar.set_label(label, fontsize=8)
+    bar.ax.tick_params(labelsize=7)
+    return bar
+
+
+# --- the incision -----------------------------------------------------------------------------------
+
+def incision_run(n_triangles=1200, pull=INCISION_PULL, path=INCISION_PATH) -> dict:
+    """The pulled sheet before and after the incision: positions, triangles, tension, the edit and counts."""
+    sim = _simulation(sheet_scene(n_triangles, handles=[
+        {"name": "fixed", "region": "left"}, {"name": "pull", "region": "right", "target": [pull, 0.0]}]))
+    _check(sim.frame(), "the pulled sheet")
+    before = dict(x=sim.positions().copy(), t=sim.mesh.t.copy(), tension=sim.tension(), mesh=sim.mesh,
+                  nodes=sim.mesh.nvertices)
+    edit = sim.cut(np.asarray(path, dtype=float))
+    _check(sim.frame(), "the cut sheet")
+    x = sim.positions()
+    n_old = before["nodes"]
+    copies = np.arange(n_old, sim.mesh.nvertices)
+    opening = np.hypot(*(x[:, copies] - x[:, edit.parent[copies]]))
+    after = dict(x=x.copy(), t=sim.mesh.t.copy(), tension=sim.tension(), mesh=sim.mesh, nodes=sim.mesh.nvertices,
+                 opening=float(opening.max(initial=0.0)), pieces=sim.pieces())
+    return {"before": before, "after": after, "edit": edit, "simulation": sim}
+
+
+@register
+def fig_ch08_incision(path=None) -> Figure:
+    """Chapter 8: an incision in a pulled sheet: before and after the cut, coloured by tension.
+
+    A 2 x 1 sheet (stable neo-Hookean, E = 1000, nu = 0.3, quasistatic) is
+    held on its left edge and its right edge is pulled 0.4 to the right.
+    Then a scalpel stroke from above the top edge down to mid-height cuts
+    it: the nodes along the stroke are duplicated (the tip is not), the
+    state carries over, and the next frame lets the wound gape. The
+    tension the cut released around its lips moves to its tip. Dark lines:
+    the wound's edges; dashed outline: the sheet at rest.
+    """
+    run = incision_run()
+    before, after = run["before"], run["after"]
+    norm = tension_norm(before["tension"], after["tension"])
+    fig = Figure(figsize=(11.0, 3.7), layout="constrained")
+    axes = fig.subplots(1, 2)
+    X = before["mesh"].p
+    outline = np.array([[0, 0], [2, 0], [2, 1], [0, 1], [0, 0]], dtype=float).T
+    xlim, ylim = (-0.12, 2.0 + INCISION_PULL + 0.12), (-0.15, 1.22)
+    titles = (f"(a) pulled by {INCISION_PULL:g}: {before['nodes']} nodes",
+              f"(b) cut from the top edge to mid-height: {after['nodes']} nodes "
+              f"(+{after['nodes'] - before['nodes']} copies)")
+    for ax, state, title in zip(axes, (before, after), titles):
+        ax.plot(*outline, color="0.6", lw=0.8, ls="--")
+        draw_mesh(ax, state["x"], state["t"], state["tension"], norm)
+        left = np.flatnonzero(np.isclose(X[0], 0.0))
+        ax.plot([0.0, 0.0], [X[1, left].min(), X[1, left].max()], color="k", lw=3)
+        ax.annotate("", xy=(2.0 + INCISION_PULL + 0.1, 0.5), xytext=(2.0 + INCISION_PULL - 0.02, 0.5),
+                    arrowprops=dict(arrowstyle="-|>", color="k", lw=1.2))
+        _frame_axes(ax, xlim, ylim)
+        ax.set_title(title, fontsize=9)
+    draw_wound(axes[1], after["mesh"], after["x"])
+    cut_nodes = np.unique(after["mesh"].facets[:, after["mesh"].boundaries["cut"]])
+    tip = cut_nodes[np.argmin(after["mesh"].p[1, cut_nodes])]
+    xt = after["x"][:, tip]
+    axes[1].annotate(f"tip: max tension {after['tension'].max():.0f}\n(it grows as the mesh is refined)",
+                     xy=xt, xytext=(xt[0] + 0.35, xt[1] - 0.45), fontsize=7.5,
+                     bbox=dict(boxstyle="round,pad=0.2", fc="white", ec="none", alpha=0.85),
+                     arrowprops=dict(arrowstyle="->", color="0.2", lw=0.8))
+    axes[1].text(0.02, 0.02, f"the lips open by {after['opening']:.3f} at the top edge; "
+                 f"{'still one piece' if after['pieces'] == 1 else str(after['pieces']) + ' pieces'}",
+                 transform=axes[1].transAxes, fontsize=7.5)
+    axes[0].text(0.02, 0.02, f"max tension {before['tension'].max():.0f} (at the corners of the pulled edge)",
+                 transform=axes[0].transAxes, fontsize=7.5)
+    _tension_colorbar(fig, norm, axes, shrink=0.85)
+    fig.suptitle(f"Chapter 8: an incision in a pulled sheet (quasistatic, stable neo-Hookean, E = {E_DEFAULT:g}, "
+                 f"ν = {NU_DEFAULT:g}; left edge held, right edge pulled)", fontsize=10)
+    save(fig, path)
+    return fig
+
+
+# --- a cut through: two pieces ------------------------------------------------------------------------
+
+def two_pieces_run(n_triangles=800, sag_frames=SAG_FRAMES, fall_frames=FALL_FRAMES, cut_x=1.0) -> dict:
+    """The hanging sheet cut through at ``x = cut_x`` after ``sag_frames`` frames; ``fall_frames`` more frames.
+
+    Returns the frames (positions, triangles, whether each element is on the
+    free piece), their times, the centres of mass (y) of the parts left and
+    right of the cut, and backward Euler's discrete free fall of the free
+    piece from the moment of the cut.
+    """
+    from .surgery import connected_components
+
+    sim = _simulation(sheet_scene(n_triangles, handles=[{"name": "fixed", "region": "left"}], dynamic=True,
+                                  gravity=True))
+    X0 = sim.mesh.p
+    frames, com = [], []
+    side = {"right": X0[0] > cut_x}  # before the cut: the nodes right of it; after: the free piece's nodes
+
+    def record(free_elements):
+        x = sim.positions()
+        m = sim.solver.M.diagonal()[0::2]  # lumped nodal masses
+        frames.append((x.copy(), sim.mesh.t.copy(), free_elements))
+        com.append(_side_com(x, m, side["right"]))
+
+    record(np.zeros(sim.mesh.nelements, dtype=bool))
+    for _ in range(sag_frames):
+        _check(sim.frame(), "the hanging sheet")
+        record(np.zeros(sim.mesh.nelements, dtype=bool))
+    edit = sim.cut([[cut_x, 1.3], [cut_x, -0.3]])
+    n_pieces, labels = connected_components(sim.mesh.t, sim.mesh.nvertices)
+    if n_pieces != 2:
+        raise RuntimeError(f"the cut should leave two pieces, left {n_pieces}")
+    free_nodes = labels != labels[sim.handles["fixed"].nodes[0]]
+    free_elements = free_nodes[sim.mesh.t[0]]
+    side["right"] = free_nodes
+    # the free piece's centre of mass and velocity at the moment of the cut (the cut moves nothing)
+    m = sim.solver.M.diagonal()[0::2]
+    mass = m[free_nodes].sum()
+    y_cut = float(np.dot(m[free_nodes], sim.positions()[1, free_nodes]) / mass)
+    vy_cut = float(np.dot(m[free_nodes], sim.v.reshape(-1, 2)[free_nodes, 1]) / mass)
+    frames[-1] = (sim.positions().copy(), sim.mesh.t.copy(), free_elements)  # the last frame, drawn cut
+    com[-1] = _side_com(sim.positions(), m, free_nodes)
+    for _ in range(fall_frames):
+        _check(sim.frame(), "the falling piece")
+        record(free_elements)
+    g = 9.81
+    k = np.arange(fall_frames + 1)
+    free_fall = y_cut + k * FRAME_DT * vy_cut - 0.5 * g * FRAME_DT**2 * k * (k + 1)
+    times = FRAME_DT * np.arange(len(frames))
+    return {"frames": frames, "times": times, "com": np.array(com), "cut_frame": sag_frames, "edit": edit,
+            "free_fall": free_fall, "simulation": sim, "X0": X0}
+
+
+def _side_com(x, m, right):
+    """Centre-of-mass heights of the nodes left of the cut (held side) and right of it (free side)."""
+    return (float(np.dot(m[~right], x[1, ~right]) / m[~right].sum()),
+            float(np.dot(m[right], x[1, right]) / m[right].sum()))
+
+
+def _two_pieces_limits(frames, margin=0.08):
+    xs = np.concatenate([f[0][0] for f in frames])
+    ys = np.concatenate([f[0][1] for f in frames])
+    return (min(xs.min(), 0.0) - margin, xs.max() + margin), (ys.min() - margin, max(ys.max(), 1.0) + margin)
+
+
+def _piece_colors(free_elements, alpha=0.75):
+    colors = np.empty((free_elements.size, 4))
+    colors[:] = to_rgba(HELD_COLOR, alpha)
+    colors[free_elements] = to_rgba(FREE_COLOR, alpha)
+    return colors
+
+
+def write_two_pieces_animation(gif_path, run, dpi=80) -> Path:
+    """Every frame of the run as a GIF at 30 frames per second (``matplotlib.animation`` with Pillow)."""
+    gif_path = Path(gif_path)
+    gif_path.parent.mkdir(parents=True, exist_ok=True)
+    frames, times, cut = run["frames"], run["times"], run["cut_frame"]
+    xlim, ylim = _two_pieces_limits(frames)
+    fig = Figure(figsize=(3.0, 4.0))
+    ax = fig.add_axes([0.02, 0.02, 0.96, 0.86])  # fixed axes: every frame has the same layout
+    _frame_axes(ax, xlim, ylim)
+    ax.plot([0.0, 0.0], [0.0, 1.0], color="k", lw=2.5)
+    verts = lambda k: frames[k][0][:, frames[k][1]].transpose(2, 1, 0)  # noqa: E731
+    # no anti-aliasing: few colours per frame keep the GIF small (its palette has at most 256)
+    # (and no mesh edges: at this size they would cover the colours)
+    body = PolyCollection(verts(0), facecolors=_piece_colors(frames[0][2], 1.0), edgecolors="face", linewidths=0.5,
+                          antialiaseds=False)
+    ax.add_collection(body)
+    title = fig.text(0.5, 0.94, "", ha="center", va="center", fontsize=7.5)
+
+    def update(k):
+        body.set_verts(verts(k))
+        colors = _piece_colors(frames[k][2], 1.0)
+        body.set_facecolors(colors)
+        body.set_edgecolors(colors)
+        stage = "hanging" if k < cut else ("cut!" if k == cut else "falling")
+        title.set_text(f"t = {times[k]:.2f} s  ({stage})")
+        return body, title
+
+    animation = FuncAnimation(fig, update, frames=len(frames), interval=1000 * FRAME_DT, blit=False, repeat=False)
+    animation.save(gif_path, writer=PillowWriter(fps=round(1 / FRAME_DT)), dpi=dpi)
+    return gif_path
+
+
+@register
+def fig_ch08_two_pieces(path=None) -> Figure:
+    """Chapter 8: a sheet under gravity cut through from top to bottom; the free piece falls away (filmstrip).
+
+    A 2 x 1 sheet (stable neo-Hookean, E = 1000, nu = 0.3, rho0 = 1,
+    g = 9.81, backward Euler at one step per frame, 1/30 s) hangs from its
+    left edge and swings down for 12 frames; then a stroke at x = 1 from
+    above to below cuts it through, and it is two pieces: the held one
+    (blue) keeps swinging, the free one (orange) falls. Bottom: the heights
+    of the two parts' centres of mass; from the cut on, the free piece's
+    follows backward Euler's discrete free fall ``y_k = y_c + k dt v_c -
+    g dt^2 k (k + 1) / 2`` (its internal forces cancel). With a ``path``,
+    also writes the whole run as an animation ``<path stem>.gif``.
+    """
+    run = two_pieces_run()
+    frames, times, cut = run["frames"], run["times"], run["cut_frame"]
+    shown = [frames[k] for k in FILMSTRIP]
+    xlim, ylim = _two_pieces_limits(shown)
+    n = len(FILMSTRIP)
+    fig = Figure(figsize=(1.45 * n + 0.6, 5.3), layout="constrained")
+    grid = fig.add_gridspec(2, n, height_ratios=[1.55, 1.0])
+    for col, k in enumerate(FILMSTRIP):
+        ax = fig.add_subplot(grid[0, col])
+        x, t, free = frames[k]
+        ax.plot([0, 2, 2, 0, 0], [0, 0, 1, 1, 0], color="0.7", lw=0.6, ls="--")  # the sheet at rest
+        ax.add_collection(PolyCollection(x[:, t].transpose(2, 1, 0), facecolors=_piece_colors(free),
+                                         edgecolors="0.35", linewidths=0.3))
+        ax.plot([0.0, 0.0], [0.0, 1.0], color="k", lw=2.0)
+        if k == cut:
+            ax.plot([1.0, 1.0], [1.25, -0.25], color="k", lw=0.9, ls=":")
+        _frame_axes(ax, xlim, ylim)
+        stage = " (cut)" if k == cut else ""
+        ax.set_title(f"t = {times[k]:.2f} s{stage}", fontsize=8.5)
+    ax = fig.add_subplot(grid[1, :])
+    com = run["com"]
+    ax.plot(times, com[:, 0], "o-", color=HELD_COLOR, ms=3, lw=1.2, label="left part (held piece after the cut)")
+    ax.plot(times, com[:, 1], "o-", color=FREE_COLOR, ms=3, lw=1.2, label="right part (free piece after the cut)")
+    t_fall = times[cut:]
+    ax.plot(t_fall, run["free_fall"], color="k", lw=0.9, ls="--",
+            label="discrete free fall from the state at the cut")
+    ax.axvline(times[cut], color="0.4", lw=0.8, ls=":")
+    ax.text(times[cut], 0.98, " cut", transform=ax.get_xaxis_transform(), va="top", fontsize=8)
+    ax.plot(times[list(FILMSTRIP)], com[list(FILMSTRIP), 1], "s", color="C3", ms=5, label="frames shown above")
+    err = float(np.max(np.abs(com[cut:, 1] - run["free_fall"])))
+    ax.set(xlabel="time (s), one backward-Euler step per frame", ylabel="centre of mass height $y$",
+           xlim=(0.0, times[-1]), title=f"free piece against free fall: largest difference {err:.1e}")
+    ax.title.set_fontsize(9)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7.5, loc="lower left")
+    fig.suptitle(f"Chapter 8: a cut through the body makes two pieces (stable neo-Hookean, E = {E_DEFAULT:g}, "
+                 f"ν = {NU_DEFAULT:g}, $\\rho_0$ = 1, g = 9.81, $\\Delta t$ = 1/30 s)", fontsize=10)
+    save(fig, path)
+    if path is not None:
+        write_two_pieces_animation(Path(path).with_suffix(".gif"), run)
+    return fig
+
+
+# --- the probe ---------------------------------------------------------------------------------------
+
+def probe_run(n_triangles=1200, radius=PROBE_RADIUS, depths=PROBE_DEPTHS, x_probe=1.0) -> dict:
+    """A block held on its bottom edge, a disc pressed into its top edge ever deeper (one frame per depth).
+
+    For each depth: positions, tension, the nodal contact forces (the
+    penalty's ``k m_a (R - d_a) n_a``), the total force on the tissue and
+    the deepest penetration left.
+    """
+    sim = _simulation(sheet_scene(n_triangles, handles=[{"name": "base", "region": "bottom"}]))
+    label = sim.add_probe([x_probe, 1.0 + radius - depths[0]], radius)
+    states = []
+    for depth in depths:
+        sim.move_probe(label, [x_probe, 1.0 + radius - depth])
+        _check(sim.frame(), f"the probe at depth {depth}")
+        probe = sim.model.probes[0]
+        contact = -probe.gradient(sim.u).reshape(-1, 2).T  # force on each node
+        states.append(dict(depth=depth, center=probe.center.copy(), x=sim.positions().copy(), t=sim.mesh.t.copy(),
+                           tension=sim.tension(), contact=contact, force=contact.sum(axis=1),
+                           penetration=probe.penetration(sim.u), stiffness=probe.stiffness))
+    return {"states": states, "radius": radius, "simulation": sim}
+
+
+@register
+def fig_ch08_probe(path=None) -> Figure:
+    """Chapter 8: a rigid disc (a tool tip) pressed into the top edge of a block, at two depths.
+
+    A 2 x 1 block (stable neo-Hookean, E = 1000, nu = 0.3, quasistatic) is
+    held on its bottom edge; a disc of radius 0.25 is moved down into its
+    top edge, one frame per step of 0.05. The contact is a penalty: every
+    node inside the disc is pushed out along the normal with the force
+    ``k m_a (R - d_a) n_a`` (arrows, scaled), so the tissue stays out to a
+    small penetration. Right: the force the tissue exerts on the tool
+    against the depth, and the penetration left.
+    """
+    run = probe_run()
+    states, R = run["states"], run["radius"]
+    shown = [s for s in states if any(np.isclose(s["depth"], d) for d in PROBE_SHOWN)]
+    norm = tension_norm(*[s["tension"] for s in shown])
+    fig = Figure(figsize=(12.5, 3.6), layout="constrained")
+    axes = fig.subplots(1, 3, width_ratios=[1, 1, 0.75])
+    scale = max(float(np.abs(s["contact"]).max()) for s in shown)
+    for ax, s, letter in zip(axes[:2], shown, "ab"):
+        draw_mesh(ax, s["x"], s["t"], s["tension"], norm)
+        ax.plot([0, 2], [0, 0], color="k", lw=3)
+        ax.add_patch(Circle(s["center"], R, facecolor="0.55", edgecolor="k", lw=0.8, alpha=0.85, zorder=4))
+        active = np.flatnonzero(np.hypot(*s["contact"]) > 0)
+        ax.quiver(s["x"][0, active], s["x"][1, active], s["contact"][0, active] / scale,
+                  s["contact"][1, active] / scale, angles="xy", scale_units="xy", scale=4.0, color="k",
+                  width=0.004, zorder=5)
+        _frame_axes(ax, (-0.08, 2.08), (-0.1, 1.0 + R + 0.1))
+        ax.set_title(f"({letter}) depth {s['depth']:g}: {active.size} nodes in contact, "
+                     f"penetration {s['penetration']:.1e}", fontsize=9)
+    _tension_colorbar(fig, norm, list(axes[:2]), shrink=0.85)
+    ax = axes[2]
+    depth = np.array([s["depth"] for s in states])
+    force = np.array([-s["force"][1] for s in states])
+    ax.plot(depth, force, "o-", color="C0", ms=4, label="force on the tool (vertical)")
+    sel = [i for i, s in enumerate(states) if any(np.isclose(s["depth"], d) for d in PROBE_SHOWN)]
+    ax.plot(depth[sel], force[sel], "s", color="C3", ms=6, label="(a), (b)")
+    ax.set(xlabel="depth of the disc below the top edge", ylabel="force (per unit thickness)",
+           title="the tissue pushes back")
+    ax.title.set_fontsize(9)
+    ax.grid(alpha=0.3)
+    ax2 = ax.twinx()
+    ax2.plot(depth, [s["penetration"] for s in states], "^--", color="C2", ms=4, lw=0.9, label="penetration left")
+    ax2.set_ylabel("deepest node inside the disc", fontsize=8)
+    ax2.tick_params(labelsize=7)
+    lines = ax.get_legend_handles_labels()
+    lines2 = ax2.get_legend_handles_labels()
+    ax.legend(lines[0] + lines2[0], lines[1] + lines2[1], fontsize=7.5, loc="upper left")
+    fig.suptitle(f"Chapter 8: a probe pressed into the tissue, penalty $E = \\sum_a k\\, m_a (R - d_a)^2 / 2$ "
+                 f"(R = {R:g}, k = {states[0]['stiffness']:.2g}; block held on its bottom edge)", fontsize=10)
+    save(fig, path)
+    return fig
+
+
+# --- the advancement flap ----------------------------------------------------------------------------
+
+def stitch_arcs(a, b, bulge=0.18, n=12) -> np.ndarray:
+    """Curved segments from the points ``a`` to ``b`` (each ``(2, k)``), bent to the right of ``a -> b``.
+
+    A stitch planned along an incision would lie on the incision's line; bent, it stays visible.
+    """
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    s = np.linspace(0.0, 1.0, n)[:, None, None]
+    d = b - a
+    normal = np.array([d[1], -d[0]])
+    curve = a[None] + s * d[None] + bulge * 4.0 * s * (1.0 - s) * normal[None]  # (n, 2, k)
+    return curve.transpose(2, 0, 1)  # (k, n, 2)
+
+
+def flap_runs(lengths=FLAP_LENGTHS, n_triangles=FLAP_TRIANGLES, tighten_frames=FLAP_TIGHTEN_FRAMES) -> dict:
+    """:func:`tissuefem.flaps.advancement_flap` for each flap length, ``{length: FlapResult}``."""
+    from .flaps import advancement_flap
+
+    return {float(L): advancement_flap(flap_length=float(L), n_triangles=n_triangles, tighten_frames=tighten_frames,
+                                       clock=_still_clock) for L in lengths}
+
+
+@register
+def fig_ch08_flap(path=None, runs=None) -> Figure:
+    """Chapter 8: a local advancement flap closes a defect (after Sifakis et al. 2009); the tension it leaves.
+
+    A 4 x 2 patch of skin (stable neo-Hookean, E = 1000, nu = 0.3), held on
+    its outer edges: (a) a 0.6 x 0.6 defect is excised and two incisions
+    continue its top and bottom edges for the flap's length; thin lines: the
+    planned stitches, from each wound node of the flap to where the
+    advance (0.6 to the left) takes it. (b) The stitches tightened over six
+    quasistatic frames: the flap is pulled into the defect, coloured by
+    tension, stitches as dots. (c) The mean tension in the flap and over the
+    patch for three flap lengths: a longer flap spreads the same advance
+    over more skin.
+    """
+    runs = flap_runs() if runs is None else runs
+    result = runs[FLAP_SHOWN]
+    sim = result.simulation
+    mesh = sim.mesh
+    pairs = sim.model.sutures.pairs
+    x_cut, t_cut = result.snapshots["cut"]
+    x_sut, t_sut = result.snapshots["sutured"]
+    norm = tension_norm(result.tension)
+    fig = Figure(figsize=(13.5, 3.6), layout="constrained")
+    axes = fig.subplots(1, 3, width_ratios=[1, 1, 0.62])
+    xlim, ylim = (-0.05, 4.05), (-0.05, 2.05)
+    ax = axes[0]
+    draw_mesh(ax, x_cut, t_cut, color="0.9", lw=0.2)
+    draw_wound(ax, mesh, x_cut)
+    ax.add_collection(LineCollection(stitch_arcs(x_cut[:, pairs[0]], x_cut[:, pairs[1]]), colors="C0",
+                                     linewidths=0.7, zorder=4))
+    ax.plot(*x_cut[:, pairs[0]], "o", ms=2.0, color="C0", zorder=5)
+    _frame_axes(ax, xlim, ylim)
+    ax.set_title(f"(a) defect excised, flap cut ({FLAP_SHOWN:g} long); {result.stitches} stitches planned",
+                 fontsize=9)
+    ax = axes[1]
+    draw_mesh(ax, x_sut, t_sut, result.tension, norm, lw=0.15)
+    draw_wound(ax, mesh, x_sut, linewidths=0.8)
+    ax.plot(*x_sut[:, pairs[0]], "o", ms=2.2, color="C0", zorder=5)
+    _frame_axes(ax, xlim, ylim)
+    ax.set_title(f"(b) sutured: gap {result.initial_gap:.2f} → {result.max_gap:.0e}, "
+                 f"mean tension in the flap {result.flap_tension:.0f}", fontsize=9)
+    _tension_colorbar(fig, norm, list(axes[:2]), shrink=0.85)
+    ax = axes[2]
+    lengths = np.array(sorted(runs))
+    ax.plot(lengths, [runs[L].flap_tension for L in lengths], "o-", color="C3", label="mean tension in the flap")
+    ax.plot(lengths, [runs[L].mean_tension for L in lengths], "s--", color="C0", label="mean tension, whole patch")
+    for L in lengths:
+        ax.annotate(f"{runs[L].stitches} stitches", (L, runs[L].flap_tension), xytext=(0, 8),
+                    textcoords="offset points", ha="center", fontsize=7)
+    ax.set(xlabel="flap length", ylabel="tension", xticks=lengths, title="(c) longer flap, less tension",
+           xlim=(lengths[0] - 0.25, lengths[-1] + 0.25),
+           ylim=(0.0, 1.25 * max(runs[L].flap_tension for L in lengths)))
+    ax.title.set_fontsize(9)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7.5, loc="lower left")
+    fig.suptitle(f"Chapter 8: an advancement flap closes a 0.6 x 0.6 defect (stable neo-Hookean, E = {E_DEFAULT:g}, "
+                 f"ν = {NU_DEFAULT:g}, patch held on its outer edges; after Sifakis et al. 2009)", fontsize=10)
+    save(fig, path)
+    return fig
