@@ -40,6 +40,7 @@ import scipy.sparse as sp
 from skfem import Basis, ElementTriP1, ElementVector, LinearForm, asm
 
 from .assembly import P1Assembler
+from .quasistatic import Handle
 from .materials import FiberReinforced, Material, fiber_energy_term, fiber_stress_term, fiber_tangent_term
 
 
@@ -92,23 +93,13 @@ class NodeHandle:
         self.name = name
         self.move(target)
 
-    def move(self, target) -> None:
-        """Set the target: a translation ``(dx, dy)`` or a callable ``phi(X) -> x``."""
-        if callable(target):
-            self.target = target
-            return
-        self.target = _vector2("handle target", target)
+    # the target's checks and its map are those of the quasistatic Handle
+    move = Handle.move
+    positions = Handle.positions
 
     def displacement(self, X) -> np.ndarray:
         """Prescribed displacement ``(2, n)`` of the handle's nodes, whose reference positions are ``X``."""
-        if callable(self.target):
-            x = np.asarray(self.target(X), dtype=float)
-            if x.shape != X.shape:
-                raise ValueError(f"the handle's map returned shape {x.shape}, expected {X.shape}")
-            if not np.all(np.isfinite(x)):
-                raise ValueError("the handle's map returned non-finite positions")
-            return self.base + (x - X)
-        return self.base + self.target[:, None]
+        return self.base + (self.positions(X) - X)
 
     def remap(self, parent) -> "NodeHandle | None":
         """The same handle on a mesh whose node ``i`` comes from old node ``parent[i]`` (after a cut or an
@@ -151,7 +142,20 @@ class Term:
         return f"<{self.describe()}>"
 
 
-class Elastic(Term):
+class _Assembled(Term):
+    """A term that is a material's energy summed over the elements by the fast P1 assembler."""
+
+    def energy(self, u):
+        return self.assembler.energy(u, self.material)
+
+    def gradient(self, u):
+        return self.assembler.residual(u, self.material)
+
+    def hessian_data(self, u):
+        return self.assembler.tangent(u, self.material).data
+
+
+class Elastic(_Assembled):
     """The stored energy of the (isotropic) material, through the fast P1 assembler."""
 
     name = "elastic"
@@ -164,14 +168,6 @@ class Elastic(Term):
     def describe(self):
         return f"elastic: {getattr(self.material, 'name', type(self.material).__name__)}"
 
-    def energy(self, u):
-        return self.assembler.energy(u, self.material)
-
-    def gradient(self, u):
-        return self.assembler.residual(u, self.material)
-
-    def hessian_data(self, u):
-        return self.assembler.tangent(u, self.material).data
 
 
 class _FiberOnly(Material):
@@ -199,7 +195,7 @@ class _FiberOnly(Material):
         return fiber_tangent_term(F, self._g(F), self.stiffness)
 
 
-class Fibers(Term):
+class Fibers(_Assembled):
     """The fibre energy ``k/8 (I4 - 1)^2`` per element (chapter 5), added to any material."""
 
     name = "fibers"
@@ -220,14 +216,6 @@ class Fibers(Term):
     def describe(self):
         return f"fibers: k = {self.stiffness:g}"
 
-    def energy(self, u):
-        return self.assembler.energy(u, self.material)
-
-    def gradient(self, u):
-        return self.assembler.residual(u, self.material)
-
-    def hessian_data(self, u):
-        return self.assembler.tangent(u, self.material).data
 
 
 class Probe(Term):

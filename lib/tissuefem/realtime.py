@@ -419,9 +419,7 @@ class RealtimeSolver:
     def _solve_frame(self, fixed, values) -> FrameReport:
         start = self.clock()
         n = self.u.size
-        free_mask = np.ones(n, dtype=bool)
-        free_mask[fixed] = False
-        free = np.flatnonzero(free_mask)
+        free = np.setdiff1d(np.arange(n), fixed, assume_unique=True)
         fixed_key = fixed.tobytes()
         if getattr(self, "_fixed_key", None) != fixed_key:
             self._fixed_key = fixed_key
@@ -624,9 +622,7 @@ class ConstantTangentSolver(RealtimeSolver):
     def _solve_frame(self, fixed, values) -> FrameReport:
         start = self.clock()
         n = self.u.size
-        free_mask = np.ones(n, dtype=bool)
-        free_mask[fixed] = False
-        free = np.flatnonzero(free_mask)
+        free = np.setdiff1d(np.arange(n), fixed, assume_unique=True)
         key = (fixed.tobytes(), self.dt)  # A = M + dt^2 K changes with dt
         fac = 0
         if self._factor_key != key:

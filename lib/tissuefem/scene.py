@@ -422,18 +422,18 @@ class Scene:
 
     @classmethod
     def from_toml(cls, text, base_dir=None) -> "Scene":
-        try:
-            data = tomllib.loads(text)
-        except tomllib.TOMLDecodeError as err:
-            raise ValueError(f"scene: not valid TOML: {err}") from None
-        return cls.from_dict(data, base_dir)
+        return cls._parse(tomllib.loads, tomllib.TOMLDecodeError, "TOML", text, base_dir)
 
     @classmethod
     def from_json(cls, text, base_dir=None) -> "Scene":
+        return cls._parse(json.loads, json.JSONDecodeError, "JSON", text, base_dir)
+
+    @classmethod
+    def _parse(cls, loads, error, kind, text, base_dir):
         try:
-            data = json.loads(text)
-        except json.JSONDecodeError as err:
-            raise ValueError(f"scene: not valid JSON: {err}") from None
+            data = loads(text)
+        except error as err:
+            raise ValueError(f"scene: not valid {kind}: {err}") from None
         return cls.from_dict(data, base_dir)
 
     def to_toml(self) -> str:
