@@ -1,0 +1,131 @@
+"""What accuracy costs in time: the tools of the study (chapter 9), and the verification of its reference.
+
+A study measures, for each setting of a speed/accuracy knob, an *error*
+(against a reference solution) and a *cost* (wall time per frame or per
+solve). This module holds the parts that do not depend on the knob:
+
+* :func:`pareto_front` -- the settings no other setting beats on both error
+  and cost (the only ones worth choosing);
+* :func:`fitted_exponent` -- the slope of a log-log fit, for convergence
+  rates (error against h) and for how cost grows with work (time against the
+  number of triangles);
+* :func:`beam_problem_tip` -- verification of the linear chain against a
+  standard published benchmark with a closed-form answer: the end-loaded
+  cantilever of Timoshenko and Goodier (*Theory of Elasticity*, the bending of
+  a cantilever loaded at the end), :func:`beam_exact`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from skfem import MeshTri
+
+from .materials import LinearElastic
+from .meshes import rectangle
+
+__all__ = ["pareto_front", "fitted_exponent", "beam_exact", "beam_problem_tip"]
+
+
+def pareto_front(costs, errors) -> np.ndarray:
+    """Indices of the non-dominated points, in order of increasing cost.
+
+    Point ``i`` is dominated when some ``j`` has ``cost_j <= cost_i`` and
+    ``error_j <= error_i`` with at least one strict. Ties (equal cost and
+    error) keep the first. Non-finite entries are never on the front.
+    """
+    c = np.asarray(costs, dtype=float)
+    e = np.asarray(errors, dtype=float)
+    if c.shape != e.shape or c.ndim != 1:
+        raise ValueError(f"costs and errors must be 1D arrays of the same length, got {c.shape} and {e.shape}")
+    ok = np.flatnonzero(np.isfinite(c) & np.isfinite(e))
+    # sort by cost, then error: walking in that order, a point is on the front when its error is below
+    # every error seen so far
+    order = ok[np.lexsort((e[ok], c[ok]))]
+    front, best = [], np.inf
+    for i in order:
+        if e[i] < best:
+            front.append(i)
+            best = e[i]
+    return np.asarray(front, dtype=np.intp)
+
+
+def fitted_exponent(x, y) -> float:
+    """Least-squares slope of ``log y`` against ``log x`` (``y ~ C x^p``: returns ``p``)."""
+    x = np.asarray(x, dtype=float)
+    y = np.asarray(y, dtype=float)
+    if x.shape != y.shape or x.size < 2:
+        raise ValueError(f"x and y must have the same shape and at least 2 points, got {x.shape} and {y.shape}")
+    if not (np.all(x > 0) and np.all(y > 0) and np.all(np.isfinite(x)) and np.all(np.isfinite(y))):
+        raise ValueError("x and y must be finite and > 0 for a log-log fit")
+    return float(np.polyfit(np.log(x), np.log(y), 1)[0])
+
+
+def beam_exact(X, *, length=48.0, depth=12.0, load=1000.0, E=3.0e7, nu=0.3) -> np.ndarray:
+    """Timoshenko and Goodier's exact plane-stress displacement of an end-loaded cantilever, ``(2, n)``.
+
+    The beam is ``0 <= x <= L``, ``|y| <= D/2``; ``I = D^3 / 12``. With ``P`` the
+    total shear load at ``x = L``:
+
+        u_x = -P y / (6 E I) [6 L x - 3 x^2 + (2 + nu) (y^2 - D^2/4)],
+        u_y =  P / (6 E I) [3 nu y^2 (L - x) + (4 + 5 nu) D^2 x / 4 + 3 L x^2 - x^3].
+
+    Its stresses are ``sigma_xx = -P (L - x) y / I``, ``sigma_yy = 0``,
+    ``sigma_xy = P / (2 I) (D^2/4 - y^2)``: in equilibrium without body force,
+    free on ``y = +-D/2``, and at ``x = L`` the parabolic shear whose resultant
+    is ``P`` (re-derived in ``tests/test_accuracy.py``, which checks all of
+    this by finite differences).
+    """
+    x, y = np.asarray(X, dtype=float)
+    I = depth**3 / 12.0
+    c = load / (6.0 * E * I)
+    ux = -c * y * (6.0 * length * x - 3.0 * x**2 + (2.0 + nu) * (y**2 - depth**2 / 4.0))
+    uy = c * (3.0 * nu * y**2 * (length - x) + (4.0 + 5.0 * nu) * depth**2 * x / 4.0 + 3.0 * length * x**2 - x**3)
+    return np.array([ux, uy])
+
+
+def beam_problem_tip(nx: int, ny: int, order: int = 2, *, length=48.0, depth=12.0, load=1000.0, E=3.0e7,
+                     nu=0.3) -> tuple[float, float]:
+    """``(computed, exact)`` tip deflection ``u_y(L, 0)`` of the cantilever of :func:`beam_exact`.
+
+    Verification of the linear chain (material, forms, traction assembly,
+    condensation, solve): the exact displacement is prescribed on ``x = 0`` and
+    the exact parabolic shear traction applied on ``x = L``; top and bottom are
+    free. The classic parameters (L = 48, D = 12, P = 1000, E = 3e7, nu = 0.3)
+    give a tip deflection of 8.9e-3.
+    """
+    from skfem import Basis, ElementTriP1, ElementTriP2, ElementVector, FacetBasis, LinearForm, asm, condense, solve
+
+    from .forms import tangent_form
+
+    if order not in (1, 2):
+        raise ValueError(f"order must be 1 or 2, got {order!r}")
+    mesh = rectangle(length, depth, int(nx), int(ny))
+    mesh = MeshTri(mesh.p - np.array([[0.0], [depth / 2.0]]), mesh.t)
+    mesh = mesh.with_boundaries({"left": lambda p: np.isclose(p[0], 0.0),
+                                 "right": lambda p: np.isclose(p[0], length)})
+    material = LinearElastic.from_young(E, nu, plane="stress")
+    element = ElementVector(ElementTriP1() if order == 1 else ElementTriP2())
+    basis = Basis(mesh, element, intorder=2 * order)
+    zero = basis.zeros()
+    K = asm(tangent_form(material), basis, u=basis.interpolate(zero))
+    I = depth**3 / 12.0
+    right = FacetBasis(mesh, element, facets=mesh.boundaries["right"], intorder=2 * order + 2)
+
+    @LinearForm
+    def shear(v, w):
+        y = w.x[1]
+        return load / (2.0 * I) * (depth**2 / 4.0 - y**2) * v[1]
+
+    f = asm(shear, right)
+    left = basis.get_dofs("left").all()
+    u = basis.zeros()
+    exact_left = beam_exact(basis.doflocs[:, left], length=length, depth=depth, load=load, E=E, nu=nu)
+    component = np.zeros(basis.N, dtype=int)  # which displacement component each dof carries
+    for dofs in (basis.nodal_dofs, getattr(basis, "facet_dofs", np.zeros((0, 0), dtype=int))):
+        if dofs.size:
+            component[dofs[1]] = 1
+    u[left] = exact_left[component[left], np.arange(left.size)]
+    u = solve(*condense(K, f, x=u, D=left))
+    tip = int(np.argmin(np.hypot(mesh.p[0] - length, mesh.p[1])))
+    exact_tip = float(beam_exact(np.array([[length], [0.0]]), length=length, depth=depth, load=load, E=E, nu=nu)[1, 0])
+    return float(u[basis.nodal_dofs[1, tip]]), exact_tip

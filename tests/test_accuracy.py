@@ -1,0 +1,83 @@
+"""The study's tools: the Pareto front, fitted exponents, and the verified linear reference (chapter 9)."""
+
+import numpy as np
+import pytest
+
+from tissuefem.accuracy import beam_exact, beam_problem_tip, fitted_exponent, pareto_front
+
+
+def test_pareto_front_on_a_hand_made_example():
+    #            0     1     2     3    4     5          6
+    costs = [10.0, 5.0, 20.0, 5.0, 1.0, 30.0, float("nan")]
+    errors = [1e-3, 1e-2, 1e-4, 2e-2, 1e-1, 1e-4, 1e-9]
+    # 3 is beaten by 1 (same cost, less error); 5 by 2 (same error, more cost); 6 is not finite
+    assert pareto_front(costs, errors).tolist() == [4, 1, 0, 2]
+
+
+def test_pareto_front_edge_cases():
+    assert pareto_front([1.0], [1.0]).tolist() == [0]
+    assert pareto_front([1.0, 1.0], [2.0, 2.0]).tolist() == [0]  # a tie keeps the first
+    assert pareto_front([], []).tolist() == []
+    with pytest.raises(ValueError, match="same length"):
+        pareto_front([1.0, 2.0], [1.0])
+
+
+def test_fitted_exponent():
+    h = np.array([0.1, 0.05, 0.025])
+    assert fitted_exponent(h, 3.0 * h**2) == pytest.approx(2.0)
+    assert fitted_exponent([1000, 2000, 4000], [1.0, 2.2, 4.9]) == pytest.approx(1.15, abs=0.02)
+    with pytest.raises(ValueError, match="> 0"):
+        fitted_exponent([1.0, 2.0], [0.0, 1.0])
+
+
+# --- the cantilever: the closed form is an exact elasticity solution ------------------------------------------------
+
+E, NU, P, L, D = 3.0e7, 0.3, 1000.0, 48.0, 12.0
+
+
+def _stress(x, y, h=1e-5):
+    """Plane-stress stress of beam_exact, from central differences of the displacement."""
+    def grad(x, y):
+        ux_x = (beam_exact([[x + h], [y]]) - beam_exact([[x - h], [y]]))[:, 0] / (2 * h)
+        ux_y = (beam_exact([[x], [y + h]]) - beam_exact([[x], [y - h]]))[:, 0] / (2 * h)
+        return np.array([ux_x, ux_y]).T  # [i, j] = du_i / dx_j
+
+    G = grad(x, y)
+    eps = 0.5 * (G + G.T)
+    lam = E * NU / (1 - NU**2)  # plane stress
+    mu = E / (2 * (1 + NU))
+    return lam * np.trace(eps) * np.eye(2) + 2 * mu * eps
+
+
+@pytest.mark.parametrize("x, y", [(5.0, 2.0), (20.0, -4.5), (40.0, 0.3)])
+def test_the_beam_solution_is_in_equilibrium_with_the_stated_stresses(x, y):
+    I = D**3 / 12
+    s = _stress(x, y)
+    assert s[0, 0] == pytest.approx(-P * (L - x) * y / I, rel=1e-5, abs=1e-3)
+    assert s[1, 1] == pytest.approx(0.0, abs=1e-3 * abs(s[0, 0]) + 1e-6)
+    assert s[0, 1] == pytest.approx(P / (2 * I) * (D**2 / 4 - y**2), rel=1e-5)
+    h = 1e-3  # div sigma = 0
+    div = [(_stress(x + h, y)[i, 0] - _stress(x - h, y)[i, 0] + _stress(x, y + h)[i, 1] - _stress(x, y - h)[i, 1])
+           / (2 * h) for i in range(2)]
+    assert np.allclose(div, 0.0, atol=1e-3 * P / I * D)
+
+
+def test_the_beam_is_free_on_top_and_bottom_and_carries_the_load_at_its_end():
+    for y in (D / 2, -D / 2):
+        s = _stress(25.0, y)
+        assert abs(s[0, 1]) < 1e-2 and abs(s[1, 1]) < 1e-2
+    ys = np.linspace(-D / 2, D / 2, 401)
+    shear = np.array([_stress(L, y)[0, 1] for y in ys])
+    assert np.sum(0.5 * (shear[1:] + shear[:-1]) * np.diff(ys)) == pytest.approx(P, rel=1e-4)  # trapezoid rule
+
+
+def test_the_published_tip_deflection():
+    computed, exact = beam_problem_tip(8, 2, order=2)
+    assert exact == pytest.approx(0.0089, rel=1e-12)  # P L^3/(3EI) + (4 + 5 nu) P D^2 L/(24 E I)
+
+
+def test_the_linear_chain_converges_to_the_reference():
+    p2 = [abs(beam_problem_tip(4 * n, n, order=2)[0] / 0.0089 - 1) for n in (1, 2, 4)]
+    assert p2[-1] < 2e-5 and p2[0] > p2[1] > p2[2]
+    p1 = [abs(beam_problem_tip(4 * n, n, order=1)[0] / 0.0089 - 1) for n in (2, 4, 8)]
+    assert fitted_exponent([1 / 2, 1 / 4, 1 / 8], p1) == pytest.approx(2.0, abs=0.35)  # P1: O(h^2) in displacement
