@@ -59,6 +59,10 @@ def test_grab_drag_release():
         sim.grab([5.0, 5.0], radius=0.1)
     with pytest.raises(ValueError, match="no handle named"):
         sim.drag("nobody", [0, 0])
+    with pytest.raises(ValueError, match="point must be a finite vector"):
+        sim.grab([float("nan"), 0.5])
+    with pytest.raises(ValueError, match="point must be a finite vector"):
+        sim.grab("here")
 
 
 def test_a_grab_starts_where_the_tissue_is_and_follows_a_scripted_path():
@@ -324,7 +328,8 @@ def test_a_piece_cut_free_in_a_quasistatic_scene_is_lifted_out():
     sim.cut([[1.3, 1.2], [2.2, 0.3]])  # the top-right corner comes off: nothing holds it
     assert sim.removed_pieces == 1 and sim.pieces() == 1 and sim.total_mass() < area
     sim.run(2)
-    assert_valid(sim) and np.abs(sim.u).max() < 1.0
+    assert_valid(sim)
+    assert np.abs(sim.u).max() < 1.0  # nothing runs away under gravity
 
 
 def test_new_stitches_do_not_tighten_the_old_ones():

@@ -423,10 +423,9 @@ class Model:
         self.terms: list[Term] = [Elastic(self.assembler_p1, material)]
         if fibers is not None:
             self.terms.append(Fibers(self.assembler_p1, *fibers))
-        self.node_areas = np.bincount(
-            self.assembler_p1.t.ravel(), weights=np.repeat(self.assembler_p1.areas[None] / 3.0, 3, axis=0).ravel(),
-            minlength=mesh.nvertices,
-        )
+        # lumped area per node: a third of each incident triangle (t.ravel() lists vertex 0 of every element, ...)
+        self.node_areas = np.bincount(self.assembler_p1.t.ravel(), weights=np.tile(self.assembler_p1.areas / 3.0, 3),
+                                      minlength=mesh.nvertices)
         self.probes = [Probe(self.X, self.node_areas, **p) for p in probes]
         self.terms.extend(self.probes)
         self.sutures = None

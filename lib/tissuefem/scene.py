@@ -52,7 +52,7 @@ import skfem
 from . import meshes
 from .materials import MATERIALS
 from .materials import material as make_material
-from .model import Model, NodeHandle, load_vector
+from .model import Model, NodeHandle, _vector2, load_vector
 from .realtime import FRAME_BUDGET, ConstantTangentSolver, RealtimeSolver
 
 __all__ = ["Scene", "Simulation", "EFFECTS", "SHAPES", "EXAMPLE_TOML", "demo_scene"]
@@ -569,7 +569,6 @@ class Simulation:
             fibers = (fx["stiffness"], g)
         self._fibers = fibers
         self.mesh = mesh
-        self._edits = []
         self._grab_count = 0
         # handles: resolved to nodes on the original mesh, then carried through the edits
         self.handles = {}
@@ -686,12 +685,12 @@ class Simulation:
     def _transaction(self):
         """Apply a change completely or not at all: on any error, everything is put back as it was."""
         saved = (self.mesh, dict(self.handles), self._fibers, copy.deepcopy(self._sutures),
-                 copy.deepcopy(self._probe_specs), list(self._edits), getattr(self, "model", None),
+                 copy.deepcopy(self._probe_specs), getattr(self, "model", None),
                  getattr(self, "solver", None), self._grab_count, self._probe_count)
         try:
             yield
         except BaseException:
-            (self.mesh, self.handles, self._fibers, self._sutures, self._probe_specs, self._edits, model, solver,
+            (self.mesh, self.handles, self._fibers, self._sutures, self._probe_specs, model, solver,
              self._grab_count, self._probe_count) = saved
             self._state = None
             if model is not None:
@@ -786,8 +785,7 @@ class Simulation:
         the mouse's offset from the grab point). Default radius: 1.5 mean edge lengths.
         """
         radius = 1.5 * self._mean_edge() if radius is None else _number("radius", radius, positive=True)
-        point = np.asarray(_vector("point", list(np.asarray(point, dtype=float).ravel())
-                                   if np.size(point) == 2 else point))
+        point = _vector2("point", point)
         x = self.positions()
         d = np.hypot(x[0] - point[0], x[1] - point[1])
         nodes = np.flatnonzero(d <= radius)
@@ -808,7 +806,7 @@ class Simulation:
     def drag(self, name, point) -> None:
         """Move a grabbed handle so that its grab point follows ``point``."""
         h = self._handle(name)
-        point = np.asarray(_vector("point", list(np.asarray(point, dtype=float).ravel())))
+        point = _vector2("point", point)
         anchor = getattr(h, "anchor", None)
         self._set_target(h, point - (np.zeros(2) if anchor is None else anchor))
 
@@ -848,7 +846,7 @@ class Simulation:
     # ------------------------------------------------------------------ probe
     def add_probe(self, center, radius, stiffness=None, _field="probe"):
         """Press a rigid disc (a tool tip) into the tissue; returns its label for :meth:`move_probe`."""
-        center = _vector(f"{_field}.center", list(np.asarray(center, dtype=float).ravel()))
+        center = _vector2(f"{_field}.center", center).tolist()
         radius = _number(f"{_field}.radius", radius, positive=True)
         E = self.scene.material["youngs_modulus"]
         if stiffness is None:  # stiff enough to keep penetration to a few percent of the radius
@@ -923,7 +921,6 @@ class Simulation:
 
                 self._state = (carry(u), carry(v), carry(v_prev), t, frames, budget, dt)
             self.mesh = edit.mesh
-            self._edits.append(edit)
             if rebuild:
                 self._rebuild()
         return edit
