@@ -3,7 +3,8 @@
 * ``figures``  regenerate every lecture figure into ``figures/``;
 * ``build``    regenerate the figures and execute every chapter headless
   (executed copies in ``build/chapters/``, the sources stay clean);
-* ``bench``    benchmarks (``bench assembly``, ``bench realtime``, ``bench scenes``);
+* ``bench``    benchmarks (``bench assembly``, ``bench realtime``, ``bench scenes``,
+  ``bench accuracy``: the accuracy/time study of chapter 9);
 * ``scene``    check a scene file and run it (``scene scenes/incision.toml``);
 * ``grade``    grade your own exercise answers (chapters/exercises) with pytest;
 * ``list``     list the figures and chapters.
@@ -83,6 +84,11 @@ def cmd_bench(args) -> int:
         effects_benchmark(n_triangles=size, frames=min(args.frames, 90), repeats=args.repeats,
                           out=args.out or "bench-results")
         return 0
+    if args.which == "accuracy":
+        from .bench_accuracy import accuracy_study
+
+        accuracy_study(plan=args.plan, out=args.out or "bench-results")
+        return 0
     raise SystemExit(f"unknown benchmark {args.which!r}")
 
 
@@ -152,13 +158,15 @@ def main(argv=None) -> int:
     p.set_defaults(func=cmd_build)
 
     p = sub.add_parser("bench", help="run a benchmark and print its table")
-    p.add_argument("which", choices=["assembly", "realtime", "scenes"])
+    p.add_argument("which", choices=["assembly", "realtime", "scenes", "accuracy"])
     p.add_argument("--sizes", type=int, nargs="+", help="approximate triangle counts")
     p.add_argument("--repeats", type=int, default=5, help="assembly: timed repetitions")
     p.add_argument("--frames", type=int, default=90, help="realtime: frames of the scripted drag")
     p.add_argument("--baseline-frames", type=int, default=10, help="realtime: frames of the ex43-way baseline")
     p.add_argument("--linear", default="reuse", help="realtime: linear solver (reuse, reuse-pardiso, direct, superlu, superlu-colamd, pardiso)")
-    p.add_argument("--out", help="assembly: a JSON file; realtime: a folder (default bench-results/)")
+    p.add_argument("--plan", default="full", choices=["full", "reduced", "tiny"],
+                   help="accuracy: the sweep (full: several minutes; reduced: chapter 9's; tiny: seconds)")
+    p.add_argument("--out", help="assembly: a JSON file; realtime, scenes, accuracy: a folder (default bench-results/)")
     p.set_defaults(func=cmd_bench)
 
     p = sub.add_parser("scene", help="check a scene file (TOML or JSON) and run it for some frames")

@@ -189,4 +189,4 @@ def fig_ch02_newton(path=None) -> Figure:
 
 
 # Figures of the 2D chapters live in their own modules; importing them registers them.
-from . import figures2d, figures_fibers, figures_inversion, figures_dynamics, figures_realtime, figures_surgery  # noqa: E402,F401
+from . import figures2d, figures_fibers, figures_inversion, figures_dynamics, figures_realtime, figures_surgery, figures_accuracy  # noqa: E402,F401

@@ -39,7 +39,10 @@ Backends
     ``max_iterations``, or negative curvature) the current solve does.
 
 :func:`make` builds a backend by name (``"superlu"``, ``"superlu-colamd"``,
-``"pardiso"``, ``"auto"``: PARDISO when installed, else SuperLU).
+``"pardiso"``, ``"auto"``: PARDISO when installed, else SuperLU) and the
+iterative :class:`PreconditionedCG` (``"cg-jacobi"``, ``"cg-ilu"``, ``"cg"``):
+conjugate gradients with a cheap preconditioner built afresh for each matrix,
+no factorization at all. Chapter 9 measures them against the direct backends.
 """
 
 from __future__ import annotations
@@ -55,6 +58,7 @@ __all__ = [
     "SuperLU",
     "Pardiso",
     "ReusedFactorization",
+    "PreconditionedCG",
     "SolveInfo",
     "PCGResult",
     "pcg",
@@ -354,15 +358,100 @@ class ReusedFactorization:
                 f"max_iterations={self.max_iterations})")
 
 
+# --- conjugate gradients as a backend ---------------------------------------------------------
+
+class _CGFactor:
+    def __init__(self, A, precondition, rtol, max_iterations):
+        self._A, self._precondition = A, precondition
+        self.rtol, self.max_iterations = rtol, max_iterations
+        self.iterations = 0  # CG iterations of all solves with this matrix
+        self.converged = True
+
+    def solve(self, b) -> np.ndarray:
+        result = pcg(self._A, _rhs(b, self._A.shape[0]), self._precondition, rtol=self.rtol,
+                     max_iterations=self.max_iterations)
+        self.iterations += result.iterations
+        self.converged = self.converged and result.converged
+        return result.x
+
+
+class PreconditionedCG:
+    """Conjugate gradients with a preconditioner built for each matrix: no factorization.
+
+    The backend interface of the direct solvers (``factorize(A).solve(b)``),
+    so a Newton loop can use it in their place. ``factorize`` only builds the
+    preconditioner:
+
+    ``"jacobi"``
+        the inverse of the diagonal (free, and weak: the iteration count grows
+        like ``1/h`` on these elasticity matrices);
+    ``"ilu"``
+        SciPy's incomplete LU (``spilu``, drop tolerance ``drop_tol``): an
+        approximate factorization, cheaper than the full one, and much
+        stronger than Jacobi;
+    ``"none"``
+        plain CG.
+
+    A solve stops at ``rtol`` times the right-hand side's norm or after
+    ``max_iterations`` (default ``max(200, 2 n)``); the factor's
+    ``iterations`` counts CG iterations and ``converged`` says whether every
+    solve reached ``rtol``. An unconverged solve still returns its iterate:
+    a Newton loop that needs a descent direction checks it.
+    """
+
+    _KINDS = ("jacobi", "ilu", "none")
+
+    def __init__(self, preconditioner: str = "jacobi", rtol: float = 1e-8, max_iterations: int | None = None,
+                 drop_tol: float = 1e-4):
+        if preconditioner not in self._KINDS:
+            raise ValueError(f"preconditioner must be one of {self._KINDS}, got {preconditioner!r}")
+        if not (np.isfinite(rtol) and 0 < rtol < 1):
+            raise ValueError(f"rtol must be in (0, 1), got {rtol!r}")
+        if max_iterations is not None and (isinstance(max_iterations, bool) or not isinstance(max_iterations, (int, np.integer))
+                                           or max_iterations < 1):
+            raise ValueError(f"max_iterations must be a positive integer or None, got {max_iterations!r}")
+        if not (np.isfinite(drop_tol) and drop_tol > 0):
+            raise ValueError(f"drop_tol must be finite and > 0, got {drop_tol!r}")
+        self.preconditioner, self.rtol, self.max_iterations = preconditioner, float(rtol), max_iterations
+        self.drop_tol = float(drop_tol)
+        self.name = "cg" if preconditioner == "none" else f"cg-{preconditioner}"
+
+    def factorize(self, A) -> _CGFactor:
+        A = sp.csr_matrix(_square(A))
+        if self.preconditioner == "jacobi":
+            d = A.diagonal()
+            if not np.all(d > 0):
+                raise RuntimeError("Jacobi preconditioner: the matrix has a diagonal entry <= 0")
+            inv = 1.0 / d
+            precondition = lambda r: inv * r  # noqa: E731
+        elif self.preconditioner == "ilu":
+            ilu = spla.spilu(sp.csc_matrix(A), drop_tol=self.drop_tol, fill_factor=10.0)
+            precondition = ilu.solve
+        else:
+            precondition = None
+        limit = self.max_iterations or max(200, 2 * A.shape[0])
+        return _CGFactor(A, precondition, self.rtol, limit)
+
+    def __call__(self, A, b) -> np.ndarray:
+        return self.factorize(A).solve(b)
+
+    def __repr__(self):
+        return f"PreconditionedCG(preconditioner={self.preconditioner!r}, rtol={self.rtol})"
+
+
 BACKENDS = {
     "superlu": lambda: SuperLU("MMD_AT_PLUS_A"),
     "superlu-colamd": lambda: SuperLU("COLAMD"),
     "pardiso": Pardiso,
+    "cg-jacobi": lambda: PreconditionedCG("jacobi"),
+    "cg-ilu": lambda: PreconditionedCG("ilu"),
+    "cg": lambda: PreconditionedCG("none"),
 }
 
 
 def make(name: str = "superlu"):
-    """A direct backend by name: ``"superlu"``, ``"superlu-colamd"``, ``"pardiso"`` or ``"auto"``."""
+    """A backend by name: ``"superlu"``, ``"superlu-colamd"``, ``"pardiso"``, ``"auto"`` (direct), or
+    ``"cg-jacobi"``, ``"cg-ilu"``, ``"cg"`` (iterative, :class:`PreconditionedCG`)."""
     if name == "auto":
         name = "pardiso" if available("pardiso") else "superlu"
     if name not in BACKENDS:

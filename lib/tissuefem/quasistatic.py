@@ -121,12 +121,21 @@ class QuasistaticProblem:
     assembly : "fast" or "forms"
         P1 only: the vectorised :class:`~tissuefem.assembly.P1Assembler`
         (default) or the scikit-fem reference forms. P2 always uses the forms.
+    intorder : int, optional
+        Degree of the quadrature rule of the basis (default ``2 order``:
+        exact for the linear model's stiffness and the consistent mass).
+        The P1 fast path needs no quadrature (one point is exact for its
+        constant gradients) and ignores it.
     """
 
     def __init__(self, mesh, material, *, order: int = 1, handles=(), tractions=None, body_force=None,
-                 assembly: str = "fast"):
+                 assembly: str = "fast", intorder: int | None = None):
         if order not in (1, 2):
             raise ValueError(f"order must be 1 or 2, got {order!r}")
+        if intorder is None:
+            intorder = 2 * order
+        if isinstance(intorder, bool) or not isinstance(intorder, (int, np.integer)) or not 1 <= intorder <= 19:
+            raise ValueError(f"intorder must be an integer from 1 to 19, got {intorder!r}")
         if assembly not in ("fast", "forms"):
             raise ValueError(f"assembly must be 'fast' or 'forms', got {assembly!r}")
         from .assembly import P1Assembler
@@ -137,7 +146,7 @@ class QuasistaticProblem:
                 raise ValueError(f"material must have energy, stress and tangent methods, got {material!r}")
         self.mesh, self.material, self.order = mesh, material, order
         element = ElementVector(ElementTriP1() if order == 1 else ElementTriP2())
-        self.basis = Basis(mesh, element, intorder=2 * order)
+        self.basis = Basis(mesh, element, intorder=int(intorder))
         self.assembler = None
         if order == 1 and assembly == "fast":
             self.assembler = P1Assembler(mesh, material)

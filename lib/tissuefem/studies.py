@@ -299,6 +299,16 @@ class QuadratureAssembler:
         self._indptr = np.concatenate([[0], np.cumsum(np.bincount(keys // n, minlength=n))]).astype(np.int32)
         self._scatter = inverse.reshape(-1)
 
+    @property
+    def indptr(self) -> np.ndarray:
+        """The fixed CSR row pointer of the tangent (as :class:`~tissuefem.assembly.P1Assembler`'s)."""
+        return self._indptr
+
+    @property
+    def indices(self) -> np.ndarray:
+        """The fixed CSR column indices of the tangent; with :attr:`indptr`, what the real-time solver condenses."""
+        return self._indices
+
     def deformation_gradient(self, u) -> np.ndarray:
         """``F = I + grad u`` at every element and quadrature point, shaped ``[2, 2, nel, nq]``."""
         u = np.asarray(u, dtype=float)

@@ -1,0 +1,271 @@
+"""The accuracy/time study (chapter 9): its code paths on a tiny sweep, its results files, and what it relies on.
+
+No timing is asserted anywhere: the study's clock readings are only checked to be positive and finite.
+"""
+
+import csv
+import json
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from tissuefem import linsolve
+from tissuefem.accuracy import manufactured_body_force, manufactured_convergence, pareto_front
+from tissuefem.bench_accuracy import (
+    KNOBS,
+    PLANS,
+    Setting,
+    accuracy_study,
+    budget_residual,
+    format_knob_table,
+    load_results,
+    make_problem,
+    recorded_results,
+    run_setting,
+)
+from tissuefem.cli import main
+from tissuefem.materials import material as make_material
+from tissuefem.realtime import RealtimeSolver
+from tissuefem.studies import bending_gradient
+
+
+@pytest.fixture(scope="module")
+def tiny(tmp_path_factory):
+    out = tmp_path_factory.mktemp("accuracy")
+    return accuracy_study("tiny", out=out, progress=None), out
+
+
+def test_the_tiny_sweep_runs_every_knob_on_both_benchmarks(tiny):
+    results, _ = tiny
+    rows = results["knobs"]
+    for benchmark in ("flap", "block"):
+        knobs = {r["knob"] for r in rows if r["benchmark"] == benchmark}
+        expected = set(KNOBS) - ({"time_step"} if benchmark == "block" else set())
+        assert knobs == expected
+    for r in rows:
+        assert r["failed"] == "", r
+        assert math.isfinite(r["error"]) and r["error"] > 0
+        assert math.isfinite(r["ms_median"]) and r["ms_median"] > 0
+        assert r["converged_share"] == 1.0 or r["knob"] == "newton_cap"
+        assert r["handle_fraction_min"] == 1.0
+    # exactly one baseline per benchmark, and its setting is the default one at the plan's base size
+    for benchmark in ("flap", "block"):
+        base = [r for r in rows if r["benchmark"] == benchmark and r["baseline"]]
+        assert len({(r["triangles"], r["material"], r["order"]) for r in base}) == 1
+
+
+def test_the_tiny_sweep_measures_what_each_knob_should_change(tiny):
+    results, _ = tiny
+    rows = results["knobs"]
+
+    def pick(benchmark, knob, value):
+        (row,) = [r for r in rows if r["benchmark"] == benchmark and r["knob"] == knob and r["value"] == value]
+        return row
+
+    for b in ("flap", "block"):
+        # every linear solver solves the same equations: the errors agree to the Newton tolerance
+        errors = [r["error"] for r in rows if r["benchmark"] == b and r["knob"] == "linear_solver"]
+        assert max(errors) - min(errors) < 1e-3 * max(errors)
+        # P2 on the coarse mesh beats P1 on it; the linear model is the fastest per frame
+        assert pick(b, "P2", 100)["error"] < pick(b, "mesh", 100)["error"]
+        assert pick(b, "material", "linear")["newton"] == 1.0
+    # quasistatic: the finer mesh is more accurate; one Newton step per frame leaves a residual behind
+    assert pick("block", "mesh", 200)["error"] < pick("block", "mesh", 100)["error"]
+    capped, converged = pick("block", "newton_cap", 1), pick("block", "newton_tolerance", 1e-6)
+    assert capped["newton"] == 1.0 and capped["converged_share"] < 1.0
+    assert capped["error"] >= converged["error"] * (1 - 1e-9)
+    # dynamics: halving the time step reduces the (time-dominated) error
+    assert pick("flap", "time_step", 2)["error"] < pick("flap", "time_step", 1)["error"]
+    # CG reports its iterations; a direct solve none
+    assert pick("flap", "linear_solver", "cg-jacobi")["linear_iterations"] > 0
+    assert pick("flap", "linear_solver", "direct")["linear_iterations"] == 0
+
+
+def test_the_pareto_indices_point_at_non_dominated_rows(tiny):
+    results, _ = tiny
+    rows = results["knobs"]
+    for benchmark, front in results["pareto"].items():
+        assert front, benchmark
+        sel = [i for i, r in enumerate(rows) if r["benchmark"] == benchmark]
+        assert set(front) <= set(sel)
+        for i in front:
+            for j in sel:
+                dominated = (rows[j]["ms_median"] <= rows[i]["ms_median"] and rows[j]["error"] <= rows[i]["error"]
+                             and (rows[j]["ms_median"], rows[j]["error"]) != (rows[i]["ms_median"], rows[i]["error"]))
+                assert not dominated, (rows[i], rows[j])
+        costs = [rows[i]["ms_median"] for i in front]
+        assert costs == sorted(costs)
+
+
+def test_the_reference_is_finer_than_the_sweep_and_checked(tiny):
+    results, _ = tiny
+    for benchmark, ref in results["references"].items():
+        assert ref["order"] == 2 and ref["triangles"] >= max(PLANS["tiny"]["knobs"]["mesh"])
+        assert 0 < ref["coarser_sibling_error"] < 0.05
+    assert results["references"]["flap"]["substeps"] == [2, 4]
+    v = results["verification"]
+    assert v["cantilever_P2_32x8"]["relative_error"] < 1e-5
+    for row in v["manufactured"]:
+        assert abs(row["fitted_rate"] - row["expected_rate"]) < 0.1, row
+
+
+def test_results_files_are_well_formed(tiny):
+    results, out = tiny
+    record = json.loads((out / "accuracy.json").read_text())
+    assert record["study"] == "accuracy" and record["plan_name"] == "tiny"
+    for key in ("python", "numpy", "scipy", "scikit-fem", "platform"):
+        assert record["machine"][key]
+    assert len(record["knobs"]) == len(results["knobs"])
+    for name in ("knobs", "scaling", "budget"):
+        with open(out / f"accuracy_{name}.csv", newline="") as fh:
+            table = list(csv.DictReader(fh))
+        assert table, name
+        assert {"scikit-fem", "numpy", "python"} <= set(table[0])
+        assert all(row["scikit-fem"] == record["machine"]["scikit-fem"] for row in table)
+        assert "ms_median" in table[0]
+    for name in ("pareto", "scaling", "budget"):
+        assert (out / f"accuracy_{name}.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    again = load_results(out / "accuracy.json")
+    assert [r["error"] for r in again["knobs"]] == pytest.approx([r["error"] for r in results["knobs"]])
+    table = format_knob_table(results["knobs"])
+    assert table.count("\n") == len(results["knobs"]) + 1
+
+
+def test_scaling_fits_an_exponent_per_solver(tiny):
+    results, _ = tiny
+    sc = results["scaling"]
+    solvers = {r["solver"] for r in sc["rows"]}
+    assert solvers == set(PLANS["tiny"]["scaling"]["solvers"]) and set(sc["exponents"]) == solvers
+    assert all(np.isfinite(p) for p in sc["exponents"].values())
+
+
+def test_budget_residual_with_a_fake_clock():
+    """A clock that jumps 20 ms per reading: the 33 ms budget ends frames early, deterministically."""
+    ticks = iter(np.arange(0.0, 1e6, 0.02))
+    rows = budget_residual((150,), frames=3, clock=lambda: float(next(ticks)))
+    (row,) = rows
+    assert row["converged_share"] < 1.0
+    assert row["residual_median"] > 1e-6 and row["state_error"] > 0
+    generous = budget_residual((150,), frames=3, budget=1e9)[0]
+    assert generous["converged_share"] == 1.0 and generous["state_error"] < 1e-6
+
+
+def test_recorded_full_study_is_shipped_and_complete():
+    results = recorded_results()
+    assert results["plan_name"] == "full"
+    assert {r["knob"] for r in results["knobs"]} == set(KNOBS)
+    assert results["scaling"]["exponents"] and results["budget"]
+    assert results["machine"]["scikit-fem"]
+    for b in ("flap", "block"):
+        assert results["pareto"][b]
+
+
+def test_bad_settings_and_plans_are_rejected():
+    with pytest.raises(ValueError, match="material"):
+        Setting(material="rubber").check()
+    with pytest.raises(ValueError, match="linear_solver"):
+        Setting(linear_solver="magic").check()
+    with pytest.raises(ValueError, match="triangles"):
+        Setting(triangles=0).check()
+    with pytest.raises(ValueError, match="rtol"):
+        Setting(rtol=2.0).check()
+    with pytest.raises(ValueError, match="plan"):
+        accuracy_study("huge", progress=None)
+    with pytest.raises(ValueError, match="missing"):
+        accuracy_study({"frames": 3}, progress=None)
+    with pytest.raises(ValueError, match="benchmarks"):
+        accuracy_study("tiny", benchmarks=("cube",), progress=None)
+    with pytest.raises(ValueError, match="substeps"):
+        run_setting("block", Setting(triangles=100, substeps=2), 1)
+    with pytest.raises(ValueError, match="benchmark"):
+        run_setting("sphere", Setting(triangles=100), 1)
+
+
+def test_cli_runs_the_accuracy_study(tmp_path, capsys, monkeypatch):
+    import tissuefem.bench_accuracy as ba
+
+    small = dict(PLANS["tiny"], knobs={"mesh": (100,), "linear_solver": ("reuse",)}, scaling={}, budget={})
+    small.pop("scaling")
+    small.pop("budget")
+    monkeypatch.setitem(ba.PLANS, "tiny", small)
+    code = main(["bench", "accuracy", "--plan", "tiny", "--out", str(tmp_path)])
+    assert code == 0
+    assert (tmp_path / "accuracy.json").exists() and (tmp_path / "accuracy_knobs.csv").exists()
+    assert "rel. L2 error" in capsys.readouterr().out
+
+
+# --- what the study relies on ---------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("name", ["cg-jacobi", "cg-ilu", "cg"])
+def test_cg_backends_solve_an_spd_system(name):
+    problem = make_problem(Setting(triangles=200))
+    K = problem.tangent(problem.basis.zeros())
+    fixed, _ = problem.prescribed()
+    free = np.setdiff1d(np.arange(problem.basis.N), fixed)
+    A = sp.csr_matrix(K)[free][:, free] + sp.identity(free.size) * 1e-3
+    b = np.random.default_rng(0).standard_normal(free.size)
+    factor = linsolve.make(name).factorize(A)
+    x = factor.solve(b)
+    assert np.linalg.norm(A @ x - b) <= 1e-7 * np.linalg.norm(b)
+    assert factor.iterations > 0 and factor.converged
+
+
+def test_cg_backend_rejects_bad_options():
+    with pytest.raises(ValueError, match="preconditioner"):
+        linsolve.PreconditionedCG("multigrid")
+    with pytest.raises(ValueError, match="rtol"):
+        linsolve.PreconditionedCG(rtol=0.0)
+    with pytest.raises(RuntimeError, match="diagonal"):
+        linsolve.PreconditionedCG("jacobi").factorize(sp.diags([1.0, -1.0]).tocsr())
+
+
+def test_p2_frames_take_the_fast_path_and_match_the_forms_path():
+    """The QuadratureAssembler's fixed pattern lets the real-time solver condense P2 like P1; same frames."""
+    setting = Setting(triangles=100, order=2)
+    fast = make_problem(setting)
+    slow = make_problem(setting)
+    slow.assembler = None
+    runs = []
+    for problem in (fast, slow):
+        solver = RealtimeSolver(problem, dt=1 / 30, mass="consistent", budget=math.inf, rtol=1e-10)
+        assert (solver.assembler is not None) == (problem is fast)
+        for f in range(3):
+            solver.frame({1: (0.05 * (f + 1), 0.02 * (f + 1))})
+        runs.append(solver.u)
+    np.testing.assert_allclose(runs[0], runs[1], atol=1e-9)
+
+
+def test_quadrature_order_is_a_problem_option():
+    low = make_problem(Setting(triangles=100, order=2, intorder=2))
+    high = make_problem(Setting(triangles=100, order=2, intorder=6))
+    assert low.basis.quadrature[0].shape[1] < high.basis.quadrature[0].shape[1]
+    with pytest.raises(ValueError, match="intorder"):
+        make_problem(replace(Setting(triangles=100), intorder=0))
+
+
+def test_manufactured_body_force_holds_the_map_in_equilibrium():
+    """Integrated against a test field, -Div P equals int P : grad w over a patch (w zero on its edge)."""
+    mat = make_material("neo-hookean", 1000.0, 0.3)
+    # w = sin(pi x) sin(pi y) on the unit square: int b . w e_0 = int P_0J dw/dX_J (integration by parts)
+    g = (np.arange(200) + 0.5) / 200
+    X = np.array(np.meshgrid(g, g, indexing="ij")).reshape(2, -1)
+    b = manufactured_body_force(mat, X)
+    P = mat.stress(bending_gradient(X))
+    w = np.sin(np.pi * X[0]) * np.sin(np.pi * X[1])
+    dw = np.array([np.pi * np.cos(np.pi * X[0]) * np.sin(np.pi * X[1]),
+                   np.pi * np.sin(np.pi * X[0]) * np.cos(np.pi * X[1])])
+    for i in range(2):
+        lhs = np.mean(b[i] * w)
+        rhs = np.mean(P[i, 0] * dw[0] + P[i, 1] * dw[1])
+        assert lhs == pytest.approx(rhs, rel=1e-3)
+
+
+def test_nonlinear_models_converge_at_the_expected_rates():
+    rows = manufactured_convergence(sizes={1: (4, 8, 16), 2: (2, 4, 8)})
+    assert {r["model"] for r in rows} == {"neo-hookean", "stable-neo-hookean", "corotated"}
+    for r in rows:
+        assert r["fitted_rate"] == pytest.approx(r["order"] + 1, abs=0.05), r
+        assert np.all(np.diff(r["errors"]) < 0)
