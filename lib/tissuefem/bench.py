@@ -34,7 +34,7 @@ from importlib import metadata
 import numpy as np
 import scipy.sparse.linalg as spla
 
-__all__ = ["assembly_benchmark", "format_table", "machine_info", "median_time"]
+__all__ = ["assembly_benchmark", "format_table", "machine_info", "markdown_table", "median_time"]
 
 
 def median_time(fn, repeats: int) -> float:
@@ -86,14 +86,18 @@ _COLUMNS = [
 ]
 
 
-def format_table(rows) -> str:
-    """The benchmark rows as a Markdown table (one line per mesh size)."""
-    header = "| " + " | ".join(title for _, title, _ in _COLUMNS) + " |"
-    rule = "|" + "|".join("---:" for _ in _COLUMNS) + "|"
+def markdown_table(rows, columns, text_columns: int = 0) -> str:
+    """Rows (dicts) as a Markdown table; ``columns`` is ``[(key, title, format), ...]``.
+
+    The first ``text_columns`` columns are left-aligned, the rest right-aligned
+    (numbers); a missing or non-finite value prints as ``-``.
+    """
+    header = "| " + " | ".join(title for _, title, _ in columns) + " |"
+    rule = "|" + "---|" * text_columns + "---:|" * (len(columns) - text_columns)
     lines = [header, rule]
     for row in rows:
         cells = []
-        for key, _, fmt in _COLUMNS:
+        for key, _, fmt in columns:
             value = row.get(key)
             if value is None or (isinstance(value, float) and not math.isfinite(value)):
                 cells.append("-")
@@ -101,6 +105,11 @@ def format_table(rows) -> str:
                 cells.append(fmt.format(value))
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
+
+
+def format_table(rows) -> str:
+    """The benchmark rows as a Markdown table (one line per mesh size)."""
+    return markdown_table(rows, _COLUMNS)
 
 
 def _check_sizes(sizes):

@@ -63,7 +63,7 @@ from pathlib import Path
 import numpy as np
 
 from .accuracy import fitted_exponent, pareto_front
-from .bench import machine_info
+from .bench import machine_info, markdown_table
 from .bench_realtime import DT_FLAP, E_FLAP, NU_FLAP, RHO_FLAP, flap_path
 from .realtime import FRAME_BUDGET, ConstantTangentSolver, RealtimeSolver
 
@@ -211,6 +211,13 @@ PLANS = {
 # one run
 # --------------------------------------------------------------------------------------------------
 
+def _runnable(linear_solver: str) -> bool:
+    """Whether this machine has the solver (PARDISO needs the optional pypardiso)."""
+    from .linsolve import available
+
+    return "pardiso" not in linear_solver or available("pardiso")
+
+
 def make_problem(setting: Setting):
     """The body of both benchmarks for ``setting``: the flap rectangle, left edge fixed, a handle on the right.
 
@@ -241,8 +248,8 @@ def _solver(problem, setting: Setting, benchmark: str, budget=math.inf, clock=ti
         options.update(density=RHO_FLAP, mass="consistent" if setting.order == 2 else "lumped")
     if setting.material == "linear":
         # the linear model's Hessian is constant: one factorization, then one back-substitution per frame
-        direct = setting.linear_solver.removeprefix("reuse-") if setting.linear_solver.startswith("reuse-") else "superlu"
-        return ConstantTangentSolver(problem, linear_solver=direct, **options)
+        # (with the direct backend the setting names; "reuse" and "direct" mean SuperLU)
+        return ConstantTangentSolver(problem, linear_solver=setting.linear_solver.removeprefix("reuse-"), **options)
     return RealtimeSolver(problem, linear_solver=setting.linear_solver, **options)
 
 
@@ -407,8 +414,6 @@ def knob_sweep(benchmark: str, plan: dict, reference, knobs=None, progress=None)
     a setting that fails (a ``ValueError`` or ``RuntimeError`` from the
     solver) gives a row with ``error = nan`` and the reason in ``failed``.
     """
-    from .linsolve import available
-
     knobs = list(KNOBS) if knobs is None else list(knobs)
     frames = plan["frames"] if benchmark == "flap" else plan["block_frames"]
     checkpoints = _checkpoints(benchmark, frames, plan["checkpoints"])
@@ -418,7 +423,7 @@ def knob_sweep(benchmark: str, plan: dict, reference, knobs=None, progress=None)
         if knob == "time_step" and benchmark == "block":
             continue
         for value, setting in _knob_settings(knob, plan, base):
-            if "pardiso" in setting.linear_solver and not available("pardiso"):
+            if not _runnable(setting.linear_solver):
                 continue
             row = {"benchmark": benchmark, "knob": knob, "value": value, **asdict(setting),
                    "baseline": setting == base}
@@ -445,12 +450,10 @@ def solver_scaling(sizes, solvers, frames: int, largest=None, progress=None) -> 
     Returns ``{"rows": [...], "exponents": {solver: p}}`` where ``ms ~ C triangles^p``
     is fitted over the sizes (sizes where a solver failed are left out).
     """
-    from .linsolve import available
-
     largest = largest or {}
     rows = []
     for solver in solvers:
-        if "pardiso" in solver and not available("pardiso"):
+        if not _runnable(solver):
             continue
         for n in sizes:
             if n > largest.get(solver, math.inf):
@@ -487,11 +490,8 @@ def budget_residual(sizes, frames: int, solvers=("reuse",), budget: float = FRAM
     """
     rows = []
     for solver in solvers:
-        if "pardiso" in solver:
-            from .linsolve import available
-
-            if not available("pardiso"):
-                continue
+        if not _runnable(solver):
+            continue
         for n in sizes:
             setting = Setting(triangles=int(n), linear_solver=solver)
             problem, states, stats = run_setting("flap", setting, frames, (frames,), budget=budget, clock=clock)
@@ -678,12 +678,4 @@ _TABLE = [
 
 def format_knob_table(rows) -> str:
     """The knob rows as a Markdown table."""
-    lines = ["| " + " | ".join(h for _, h, _ in _TABLE) + " |", "|" + "---|" * 3 + "---:|" * (len(_TABLE) - 3)]
-    for r in rows:
-        cells = []
-        for key, _, fmt in _TABLE:
-            v = r.get(key)
-            ok = v is not None and not (isinstance(v, float) and not math.isfinite(v))
-            cells.append(fmt.format(v) if ok else "-")
-        lines.append("| " + " | ".join(cells) + " |")
-    return "\n".join(lines)
+    return markdown_table(rows, _TABLE, text_columns=3)

@@ -40,7 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .bench import _check_sizes, machine_info
+from .bench import _check_sizes, machine_info, markdown_table
 from .realtime import FRAME_BUDGET, RealtimeSolver
 
 __all__ = ["flap_scene", "flap_path", "realtime_benchmark", "ex43_frames", "format_realtime_table", "plot_realtime"]
@@ -153,14 +153,7 @@ _TABLE = [
 
 def format_realtime_table(rows) -> str:
     """The benchmark rows as a Markdown table."""
-    lines = ["| " + " | ".join(h for _, h, _ in _TABLE) + " |", "|" + "---:|" * len(_TABLE)]
-    for row in rows:
-        cells = []
-        for key, _, fmt in _TABLE:
-            value = row.get(key)
-            cells.append("-" if value is None or (isinstance(value, float) and math.isnan(value)) else fmt.format(value))
-        lines.append("| " + " | ".join(cells) + " |")
-    return "\n".join(lines)
+    return markdown_table(rows, _TABLE)
 
 
 def realtime_benchmark(sizes=(2000, 8000, 16000, 32000), frames: int = 90, baseline_frames: int = 10,

@@ -44,8 +44,7 @@ def _short(value) -> str:
     if isinstance(value, float):
         return f"{value:.0e}"
     return {"neo-hookean": "NH", "stable-neo-hookean": "stable NH", "taylor-neo-hookean": "Taylor NH",
-            "corotated": "corot.", "linear": "linear", "reuse": "reuse", "direct": "direct",
-            "superlu-colamd": "COLAMD", "cg-ilu": "CG-ILU", "cg-jacobi": "CG-Jacobi", "pardiso": "PARDISO",
+            "corotated": "corot.", "superlu-colamd": "COLAMD", "cg-ilu": "CG-ILU", "cg-jacobi": "CG-Jacobi", "pardiso": "PARDISO",
             "reuse-pardiso": "reuse-PARDISO"}.get(value, str(value))
 
 

@@ -355,9 +355,10 @@ class RealtimeSolver:
             return g
         return self.M @ (x - x_tilde) + self.dt**2 * g
 
-    def _hessian_free(self, x, free, fixed_key):
+    def _hessian_free(self, x, free, fixed_key, K=None):
+        """The free-free block of the Newton matrix at ``x`` (``K``: the stiffness at ``x`` if already assembled)."""
         if self.assembler is not None:
-            data = self.assembler.tangent(x).data
+            data = (self.assembler.tangent(x) if K is None else K).data
             if self.dt is not None:
                 data = self.dt**2 * data + self._M_data
             cond = self._condensed.get(fixed_key)
@@ -366,7 +367,7 @@ class RealtimeSolver:
                     self._condensed.clear()
                 cond = self._condensed[fixed_key] = _Condensed(self.assembler, free)
             return cond(data)
-        K = self.problem.tangent(x)
+        K = self.problem.tangent(x) if K is None else K
         if self.dt is not None:
             K = self.M + self.dt**2 * K
         return sp.csr_matrix(K)[free][:, free]
@@ -437,9 +438,10 @@ class RealtimeSolver:
         # warm start: the lower-energy of the inertial prediction and the previous state, handles moved;
         # if neither is valid, move the handles only part of the way
         previous = self.u[fixed]
-        linearised = None
+        linearised, prediction_factorizations = None, 0
         if self.dt is None and np.any(values != previous):
-            linearised = self._linearised_increment(fixed, free, fixed_key, values - previous)
+            linearised, prediction_factorizations = self._linearised_increment(fixed, free, fixed_key,
+                                                                               values - previous)
         x0, E0, fraction, which = None, math.inf, 1.0, "inertial"
         for halvings in range(12):
             fraction = 0.5**halvings
@@ -469,7 +471,7 @@ class RealtimeSolver:
             E0 = self.energy(x0, x_tilde)
             which = "previous"
 
-        stats = {"cg": 0, "factorizations": 0, "r0": None}
+        stats = {"cg": 0, "factorizations": prediction_factorizations, "r0": None}
 
         def direction(x, g):
             # the second budget check: after assembling the tangent, before the linear solve
@@ -519,33 +521,37 @@ class RealtimeSolver:
         )
 
     def _linearised_increment(self, fixed, free, fixed_key, du_fixed):
-        """The increment of every dof that moves the held ones by ``du_fixed`` to first order (quasistatic).
+        """``(dx, factorizations)``: the increment of every dof that moves the held ones by ``du_fixed`` to
+        first order (quasistatic frames), and how many factorizations it took.
 
         From the previous state ``u`` (an equilibrium, or close to one):
-        ``A_ff dx_f = -g_f(u) - A_fc dx_c``. ``None`` when it cannot be had
-        (a singular or non-finite tangent): the plain guesses remain.
+        ``K_ff dx_f = -g_f(u) - K_fc dx_c``, with ``K`` assembled once. ``dx`` is
+        ``None`` when it cannot be had (a singular or non-finite tangent): the
+        plain guesses remain.
         """
-        n = self.u.size
+        dx = np.zeros(self.u.size)
+        dx[fixed] = du_fixed
+        fac = 0
         try:
             with np.errstate(all="ignore"):
-                dx = np.zeros(n)
-                dx[fixed] = du_fixed
                 K = self.problem.tangent(self.u)
-                g = self.gradient(self.u, self.u)
-                rhs = -g[free] - (K @ dx)[free]
-                A = self._hessian_free(self.u, free, fixed_key)
+                rhs = -self.gradient(self.u, self.u)[free] - (K @ dx)[free]
+                A = self._hessian_free(self.u, free, fixed_key, K)
                 if not (np.all(np.isfinite(A.data)) and np.all(np.isfinite(rhs))):
-                    return None
+                    return None, 0
                 if isinstance(self.linear, linsolve.ReusedFactorization):
-                    dx_free, _ = self.linear.solve(A, rhs, atol=0.0, rtol=1e-3)
+                    dx_free, info = self.linear.solve(A, rhs, atol=0.0, rtol=1e-3)
+                    fac = int(info.factorized)
                 else:
-                    dx_free = self.linear.factorize(A).solve(rhs)
+                    factor = self.linear.factorize(A)
+                    dx_free = factor.solve(rhs)
+                    fac = 0 if hasattr(factor, "iterations") else 1
         except (RuntimeError, ValueError, np.linalg.LinAlgError, ZeroDivisionError):
-            return None
+            return None, fac
         if not np.all(np.isfinite(dx_free)):
-            return None
+            return None, fac
         dx[free] = dx_free
-        return dx
+        return dx, fac
 
     def _commit(self, x, x_tilde, start, **report) -> FrameReport:
         """Make ``x`` the new state (velocity, time, frame count) and return the frame's report."""
@@ -588,8 +594,9 @@ class RealtimeSolver:
                 else:
                     factor = self.linear.factorize(A)
                     dx = np.asarray(factor.solve(rhs), dtype=float)
-                    its = int(getattr(factor, "iterations", 0))  # an iterative backend counts its CG iterations
-                    fac = 0 if its else 1
+                    # an iterative backend (PreconditionedCG) counts CG iterations and factorizes nothing
+                    its = int(getattr(factor, "iterations", 0))
+                    fac = 0 if hasattr(factor, "iterations") else 1
             except (RuntimeError, ValueError, np.linalg.LinAlgError, ZeroDivisionError):
                 dx = None
         if dx is not None and np.all(np.isfinite(dx)) and rhs @ dx > 0:
