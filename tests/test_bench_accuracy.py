@@ -107,7 +107,7 @@ def test_the_reference_is_finer_than_the_sweep_and_checked(tiny):
         assert 0 < ref["coarser_sibling_error"] < 0.05
     assert results["references"]["flap"]["substeps"] == [2, 4]
     v = results["verification"]
-    assert v["cantilever_P2_32x8"]["relative_error"] < 1e-5
+    assert v["cantilever_P2_32x8"]["relative_error"] < 5e-7  # the README and chapter 9 quote 2e-7
     for row in v["manufactured"]:
         assert abs(row["fitted_rate"] - row["expected_rate"]) < 0.1, row
 
