@@ -2,7 +2,7 @@
 
 import hashlib
 
-from tissuefem import figures
+from tissuefem.workbook.figures import registry as figures
 
 
 def assert_figure_deterministic(name, tmp_path):

@@ -1,4 +1,4 @@
-"""Tests of tissuefem.assembly.P1Assembler against the scikit-fem forms, finite differences and invariances."""
+"""Tests of tissuefem.engine.assembly.P1Assembler against the scikit-fem forms, finite differences and invariances."""
 
 import numpy as np
 import pytest
@@ -6,9 +6,9 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from skfem import Basis, ElementTriP1, ElementVector, MeshTri, asm
 
-from tissuefem import forms
-from tissuefem.assembly import P1Assembler
-from tissuefem.materials import (
+from tissuefem.engine import forms
+from tissuefem.engine.assembly import P1Assembler
+from tissuefem.engine.materials import (
     Corotated,
     FiberReinforced,
     LinearElastic,
@@ -16,7 +16,7 @@ from tissuefem.materials import (
     StableNeoHookean,
     TaylorNeoHookean,
 )
-from tissuefem.meshes import fusiform_fiber_field, fusiform_muscle, rectangle
+from tissuefem.engine.meshes import fusiform_fiber_field, fusiform_muscle, rectangle
 
 LAM, MU = 3.0, 1.5
 
@@ -322,7 +322,7 @@ def test_benchmark_smoke(tmp_path):
     # not a timing test: the benchmark runs, agrees with the forms and writes its record
     import json
 
-    from tissuefem.bench import assembly_benchmark, format_table
+    from tissuefem.workbook.bench.common import assembly_benchmark, format_table
 
     lines = []
     rows = assembly_benchmark(sizes=(60,), repeats=1, out=tmp_path / "bench.json", progress=lines.append)

@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from tissuefem import linsolve
-from tissuefem.accuracy import manufactured_body_force, manufactured_convergence, pareto_front
-from tissuefem.bench_accuracy import (
+from tissuefem.engine import linsolve
+from tissuefem.workbook.accuracy import manufactured_body_force, manufactured_convergence, pareto_front
+from tissuefem.workbook.bench.accuracy import (
     KNOBS,
     PLANS,
     Setting,
@@ -26,10 +26,10 @@ from tissuefem.bench_accuracy import (
     recorded_results,
     run_setting,
 )
-from tissuefem.cli import main
-from tissuefem.materials import material as make_material
-from tissuefem.realtime import RealtimeSolver
-from tissuefem.studies import bending_gradient
+from tissuefem.workbook.cli import main
+from tissuefem.engine.materials import material as make_material
+from tissuefem.engine.realtime import RealtimeSolver
+from tissuefem.workbook.studies import bending_gradient
 
 
 @pytest.fixture(scope="module")
@@ -185,7 +185,7 @@ def test_bad_settings_and_plans_are_rejected():
 
 
 def test_cli_runs_the_accuracy_study(tmp_path, capsys, monkeypatch):
-    import tissuefem.bench_accuracy as ba
+    import tissuefem.workbook.bench.accuracy as ba
 
     small = dict(PLANS["tiny"], knobs={"mesh": (100,), "linear_solver": ("reuse",)}, scaling={}, budget={})
     small.pop("scaling")

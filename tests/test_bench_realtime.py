@@ -6,9 +6,9 @@ import json
 import numpy as np
 import pytest
 
-from tissuefem.bench_realtime import ex43_frames, flap_path, flap_scene, format_realtime_table, realtime_benchmark
-from tissuefem.cli import main
-from tissuefem.realtime import RealtimeSolver
+from tissuefem.workbook.bench.realtime import ex43_frames, flap_path, flap_scene, format_realtime_table, realtime_benchmark
+from tissuefem.workbook.cli import main
+from tissuefem.engine.realtime import RealtimeSolver
 
 
 def test_tiny_benchmark_writes_json_csv_and_figure(tmp_path):

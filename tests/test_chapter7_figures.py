@@ -5,9 +5,9 @@ import pytest
 from skfem import Basis, ElementTriP2, ElementVector
 
 from figure_checks import assert_figure_deterministic
-from tissuefem.dynamics import mass_matrix
-from tissuefem.figures_realtime import capped_runs
-from tissuefem.meshes import flap
+from tissuefem.engine.dynamics import mass_matrix
+from tissuefem.workbook.figures.realtime import capped_runs
+from tissuefem.engine.meshes import flap
 
 
 def test_more_newton_steps_per_frame_leave_less_residual_and_error():

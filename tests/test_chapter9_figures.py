@@ -3,9 +3,9 @@
 import pytest
 
 from figure_checks import assert_figure_deterministic
-from tissuefem import figures
-from tissuefem.bench_accuracy import recorded_results
-from tissuefem.figures_accuracy import KNOB_STYLE, plot_pareto
+from tissuefem.workbook.figures import registry as figures
+from tissuefem.workbook.bench.accuracy import recorded_results
+from tissuefem.workbook.figures.accuracy import KNOB_STYLE, plot_pareto
 
 CHAPTER_9 = ["fig_ch09_pareto", "fig_ch09_scaling", "fig_ch09_budget", "fig_ch09_verification"]
 

@@ -15,12 +15,12 @@ import pytest
 from figure_checks import assert_figure_deterministic
 from skfem import Basis, ElementTriP1, ElementTriP2, ElementVector, asm
 
-from tissuefem import figures
-from tissuefem.assembly import P1Assembler
-from tissuefem.forms import energy_form, residual_form, tangent_form
-from tissuefem.materials import LinearElastic, NeoHookean, det2
-from tissuefem.meshes import rectangle
-from tissuefem.studies import (
+from tissuefem.workbook.figures import registry as figures
+from tissuefem.engine.assembly import P1Assembler
+from tissuefem.engine.forms import energy_form, residual_form, tangent_form
+from tissuefem.engine.materials import LinearElastic, NeoHookean, det2
+from tissuefem.engine.meshes import rectangle
+from tissuefem.workbook.studies import (
     RECORDED_COST_ACCURACY,
     QuadratureAssembler,
     bending_gradient,

@@ -3,11 +3,11 @@
 import numpy as np
 import pytest
 
-from tissuefem.dynamics import BackwardEuler, mass_matrix
-from tissuefem.materials import NeoHookean, StableNeoHookean
-from tissuefem.meshes import rectangle
-from tissuefem.parameters import lame_parameters
-from tissuefem.quasistatic import Handle, QuasistaticProblem
+from tissuefem.engine.dynamics import BackwardEuler, mass_matrix
+from tissuefem.engine.materials import NeoHookean, StableNeoHookean
+from tissuefem.engine.meshes import rectangle
+from tissuefem.engine.parameters import lame_parameters
+from tissuefem.engine.quasistatic import Handle, QuasistaticProblem
 
 LAM, MU = lame_parameters(1000.0, 0.3, "strain")
 

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from grading import assert_close, implementations
-from tissuefem import materials1d, oned
+from tissuefem.engine import materials1d
+from tissuefem.engine import bar1d as oned
 
 LAME = [(1.0, 1.0), (576.9230769, 384.6153846), (0.0, 2.5), (10.0, 0.3)]
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from grading import assert_close, implementations
-from tissuefem import studies
+from tissuefem.workbook import studies
 
 LAME = [(1.0, 1.0), (576.9230769, 384.6153846), (0.0, 2.5), (10.0, 0.3)]
 YOUNG = [(1000.0, 0.3), (1.0, 0.0), (250.0, 0.45), (10.0, -0.5)]

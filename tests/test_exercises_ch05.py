@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from grading import assert_close, implementations
-from tissuefem import fibers
+from tissuefem.workbook import fibers
 
 K_VALUES = [1.0, 4000.0]
 

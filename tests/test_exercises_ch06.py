@@ -12,8 +12,9 @@ import numpy as np
 import pytest
 
 from grading import assert_close, implementations
-from tissuefem import inversion, materials1d
-from tissuefem.materials import TaylorNeoHookean
+from tissuefem.engine import inversion
+from tissuefem.engine import materials1d
+from tissuefem.engine.materials import TaylorNeoHookean
 
 
 def _rot(angle):

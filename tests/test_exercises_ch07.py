@@ -5,7 +5,8 @@ import pytest
 import scipy.sparse as sp
 
 from grading import assert_close, implementations
-from tissuefem import dynamics, realtime
+from tissuefem.engine import dynamics
+from tissuefem.engine import realtime
 
 
 def _library_budgeted_newton(x0, energy, gradient, newton_step, clock, budget, rtol):

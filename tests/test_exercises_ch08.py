@@ -5,7 +5,7 @@ fan keep the original node, so it is graded by invariants, not by comparing
 arrays: the number of copies, ``parent[new_t] == t``, which edges are still
 shared by two triangles, and how many pieces the mesh falls into.
 
-The hand-made mesh is the 4 x 2 grid of :func:`tissuefem.meshes.rectangle`
+The hand-made mesh is the 4 x 2 grid of :func:`tissuefem.engine.meshes.rectangle`
 (``rectangle(4.0, 2.0, 4, 2)``), 15 nodes and 16 triangles, numbered::
 
     10--11--12--13--14
@@ -22,8 +22,8 @@ import pytest
 from skfem import MeshTri
 
 from grading import implementations
-from tissuefem import surgery
-from tissuefem.meshes import rectangle
+from tissuefem.surgery import topology as surgery
+from tissuefem.engine.meshes import rectangle
 
 GRID = rectangle(4.0, 2.0, 4, 2)
 ROW = [(5, 6), (6, 7), (7, 8), (8, 9)]  # the middle row, left to right
@@ -161,7 +161,7 @@ def test_ex8_1_on_a_scikit_fem_mesh(answer):
 
 def _reference_scene_text():
     """The library's answer: the scene built in Python and written by Scene.to_toml."""
-    from tissuefem.scene import Scene
+    from tissuefem.surgery.scene import Scene
 
     return Scene(
         name="tug",
@@ -181,7 +181,7 @@ def _reference_scene_text():
 def test_ex8_2_scene_file(answer):
     import tomllib
 
-    from tissuefem.scene import Scene, Simulation
+    from tissuefem.surgery.scene import Scene, Simulation
 
     text = answer()
     assert isinstance(text, str), f"return the TOML text as a string, got {type(text).__name__}"

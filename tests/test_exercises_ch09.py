@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from grading import implementations
-from tissuefem import accuracy
+from tissuefem.workbook import accuracy
 
 NAN = float("nan")
 

@@ -9,9 +9,9 @@ import pytest
 import scipy.linalg
 from figure_checks import assert_figure_deterministic
 
-from tissuefem import figures
-from tissuefem.dynamics import mass_matrix
-from tissuefem.explicit import (
+from tissuefem.workbook.figures import registry as figures
+from tissuefem.engine.dynamics import mass_matrix
+from tissuefem.engine.explicit import (
     SymplecticEuler,
     cfl_study,
     critical_time_step,
@@ -20,10 +20,10 @@ from tissuefem.explicit import (
     mesh_size,
     wave_speed,
 )
-from tissuefem.materials import NeoHookean, StableNeoHookean
-from tissuefem.meshes import rectangle
-from tissuefem.parameters import lame_parameters
-from tissuefem.quasistatic import Handle, QuasistaticProblem
+from tissuefem.engine.materials import NeoHookean, StableNeoHookean
+from tissuefem.engine.meshes import rectangle
+from tissuefem.engine.parameters import lame_parameters
+from tissuefem.engine.quasistatic import Handle, QuasistaticProblem
 
 LAM, MU = lame_parameters(1000.0, 0.3, "strain")
 
@@ -212,7 +212,7 @@ def test_chapter_7_figures_are_deterministic(name, tmp_path):
     if name == "fig_ch07_released_flap":
         from PIL import Image
 
-        from tissuefem.figures_dynamics import ANIMATION_FRAMES
+        from tissuefem.workbook.figures.dynamics import ANIMATION_FRAMES
 
         gifs = [tmp_path / d / f"{name}.gif" for d in "ab"]
         data = gifs[0].read_bytes()
@@ -225,8 +225,8 @@ def test_chapter_7_figures_are_deterministic(name, tmp_path):
         assert figures.FIGURES[name]() is not None
 
 
-@pytest.mark.parametrize("module", ["figures_inversion", "figures_dynamics", "explicit"])
+@pytest.mark.parametrize("module", ["workbook.figures.inversion", "workbook.figures.dynamics", "engine.explicit"])
 def test_each_module_imports_first_without_a_circular_import(module):
     # figures imports the chapter figure modules at its end; whichever is imported first must still work
-    code = f"import tissuefem.{module}; from tissuefem.figures import FIGURES; assert 'fig_ch07_cfl' in FIGURES"
+    code = f"import tissuefem.{module}; from tissuefem.workbook.figures.registry import FIGURES; assert 'fig_ch07_cfl' in FIGURES"
     subprocess.run([sys.executable, "-c", code], check=True)

@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 from figure_checks import assert_figure_deterministic
 
-from tissuefem import fibers
-from tissuefem.materials import FiberReinforced, LinearElastic, NeoHookean, StableNeoHookean
-from tissuefem.meshes import fusiform_fiber_direction, fusiform_fiber_field, fusiform_muscle
+from tissuefem.workbook import fibers
+from tissuefem.engine.materials import FiberReinforced, LinearElastic, NeoHookean, StableNeoHookean
+from tissuefem.engine.meshes import fusiform_fiber_direction, fusiform_fiber_field, fusiform_muscle
 
 CHAPTER_FIGURES = ["fig03_fiber_field", "fig_ch05_along_vs_across", "fig_ch05_muscle_pull"]
 

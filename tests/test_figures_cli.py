@@ -8,7 +8,9 @@ matplotlib.use("Agg")
 
 import pytest
 
-from tissuefem import cli, figures
+from tissuefem.workbook import cli
+
+from tissuefem.workbook.figures import registry as figures
 
 FAST_FIGURES = ["fig05_admissible_maps", "fig07_neo_hookean_1d", "fig_ch01_convergence", "fig_ch02_newton"]
 

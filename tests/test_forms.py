@@ -11,8 +11,8 @@ import pytest
 from skfem import Basis, ElementTriP1, ElementTriP2, ElementVector, MeshTri, asm
 from skfem.models.elasticity import linear_elasticity
 
-from tissuefem.forms import deformation_gradient, energy_form, residual_form, tangent_form
-from tissuefem.materials import (
+from tissuefem.engine.forms import deformation_gradient, energy_form, residual_form, tangent_form
+from tissuefem.engine.materials import (
     MATERIALS,
     Corotated,
     FiberReinforced,

@@ -16,11 +16,11 @@ from hypothesis import HealthCheck, given, seed, settings
 from hypothesis import strategies as st
 from skfem import MeshTri
 
-from tissuefem.assembly import P1Assembler
-from tissuefem.hardcases import block, crush_and_release, drag_through, inversion_models, release, start_states
-from tissuefem.materials import det2
-from tissuefem.meshes import rectangle
-from tissuefem.quasistatic import Handle, QuasistaticProblem
+from tissuefem.engine.assembly import P1Assembler
+from tissuefem.workbook.hardcases import block, crush_and_release, drag_through, inversion_models, release, start_states
+from tissuefem.engine.materials import det2
+from tissuefem.engine.meshes import rectangle
+from tissuefem.engine.quasistatic import Handle, QuasistaticProblem
 
 SAFE = ["Taylor neo-Hookean", "stable neo-Hookean", "ITF-clamped neo-Hookean"]
 STARTS = ["mirrored", "collapsed to a point", "collapsed to a line", "stretched 10x", "crushed past flat"]

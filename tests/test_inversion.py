@@ -3,11 +3,11 @@
 import numpy as np
 import pytest
 
-from tissuefem.inversion import ProjectedTangent, eigen_projection, projected_tangent, rotation_preserving_svd
-from tissuefem.materials import (Corotated, FiberReinforced, LinearElastic, NeoHookean, StableNeoHookean,
+from tissuefem.engine.inversion import ProjectedTangent, eigen_projection, projected_tangent, rotation_preserving_svd
+from tissuefem.engine.materials import (Corotated, FiberReinforced, LinearElastic, NeoHookean, StableNeoHookean,
                                  TaylorNeoHookean)
-from tissuefem.meshes import rectangle
-from tissuefem.quasistatic import Handle, QuasistaticProblem
+from tissuefem.engine.meshes import rectangle
+from tissuefem.engine.quasistatic import Handle, QuasistaticProblem
 
 RNG = np.random.default_rng(7)
 F_RANDOM = RNG.normal(size=(2, 2, 500))
@@ -103,7 +103,7 @@ def test_projected_newton_reaches_the_same_equilibrium():
 # --- ITF threshold extrapolation ----------------------------------------------------------------
 
 from test_materials import fd_stress, fd_tangent  # noqa: E402
-from tissuefem.inversion import ITFClamped, diagonal  # noqa: E402
+from tissuefem.engine.inversion import ITFClamped, diagonal  # noqa: E402
 
 LAM, MU = 577.0, 385.0
 

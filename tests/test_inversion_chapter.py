@@ -16,11 +16,11 @@ import pytest
 from figure_checks import assert_figure_deterministic
 from matplotlib.figure import Figure
 
-from tissuefem.figures_inversion import CRUSH_COLUMNS, cover_counts, draw_state, element_jacobians, frame_depths
-from tissuefem.hardcases import block, start_states
-from tissuefem.materials import StableNeoHookean
-from tissuefem.meshes import rectangle
-from tissuefem.quasistatic import Handle, QuasistaticProblem
+from tissuefem.workbook.figures.inversion import CRUSH_COLUMNS, cover_counts, draw_state, element_jacobians, frame_depths
+from tissuefem.workbook.hardcases import block, start_states
+from tissuefem.engine.materials import StableNeoHookean
+from tissuefem.engine.meshes import rectangle
+from tissuefem.engine.quasistatic import Handle, QuasistaticProblem
 
 CHAPTER_FIGURES = ["fig06_crush_release", "fig_ch06_itf_energy"]
 

@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from tissuefem import linsolve
-from tissuefem.assembly import P1Assembler
-from tissuefem.materials import NeoHookean
-from tissuefem.meshes import flap
+from tissuefem.engine import linsolve
+from tissuefem.engine.assembly import P1Assembler
+from tissuefem.engine.materials import NeoHookean
+from tissuefem.engine.meshes import flap
 
 
 def system(n_triangles=300, stretch=0.0, seed=0):

@@ -15,7 +15,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tissuefem.materials import (
+from tissuefem.engine.materials import (
     MATERIALS,
     Corotated,
     FiberReinforced,
@@ -29,8 +29,8 @@ from tissuefem.materials import (
     inv2,
     material,
 )
-from tissuefem.materials1d import taylor_log, taylor_log_prime
-from tissuefem.parameters import lame_parameters
+from tissuefem.engine.materials1d import taylor_log, taylor_log_prime
+from tissuefem.engine.parameters import lame_parameters
 
 LAM, MU = 1.7, 0.6
 K_FIBER = 2.5

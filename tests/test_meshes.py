@@ -1,11 +1,11 @@
-"""Tests of tissuefem.meshes: counts, orientation, named boundaries, the fusiform muscle and its fibers."""
+"""Tests of tissuefem.engine.meshes: counts, orientation, named boundaries, the fusiform muscle and its fibers."""
 
 import numpy as np
 import pytest
 from skfem import Basis, ElementTriP1, ElementVector
 
-from tissuefem import meshes
-from tissuefem.meshes import (
+from tissuefem.engine import meshes
+from tissuefem.engine.meshes import (
     flap,
     fusiform_fiber_direction,
     fusiform_fiber_field,

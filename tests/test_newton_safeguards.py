@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from tissuefem.newton import newton_solve
+from tissuefem.engine.newton import newton_solve
 
 
 def _double_well():

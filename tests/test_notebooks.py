@@ -5,7 +5,7 @@ from pathlib import Path
 
 import pytest
 
-from tissuefem.notebooks import chapter_paths, execute_notebook
+from tissuefem.workbook.notebooks import chapter_paths, execute_notebook
 
 CHAPTERS = Path(__file__).resolve().parents[1] / "chapters"
 NOTEBOOKS = chapter_paths(CHAPTERS)

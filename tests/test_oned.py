@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from tissuefem import lame_parameters
-from tissuefem.materials1d import Linear1D, NeoHookean1D, TaylorNeoHookean1D, taylor_log, taylor_log_prime
-from tissuefem.newton import newton_solve
-from tissuefem.oned import Bar1D, Displacement, Traction, convergence_study, uniform_bar_stretch
+from tissuefem.engine.materials1d import Linear1D, NeoHookean1D, TaylorNeoHookean1D, taylor_log, taylor_log_prime
+from tissuefem.engine.newton import newton_solve
+from tissuefem.engine.bar1d import Bar1D, Displacement, Traction, convergence_study, uniform_bar_stretch
 
 LAM, MU = lame_parameters(1000.0, 0.3)
 MODELS = [Linear1D(LAM, MU), NeoHookean1D(LAM, MU), TaylorNeoHookean1D(LAM, MU)]

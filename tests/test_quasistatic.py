@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from tissuefem.materials import Corotated, LinearElastic, NeoHookean, StableNeoHookean, TaylorNeoHookean
-from tissuefem.meshes import rectangle
-from tissuefem.quasistatic import Handle, QuasistaticProblem
+from tissuefem.engine.materials import Corotated, LinearElastic, NeoHookean, StableNeoHookean, TaylorNeoHookean
+from tissuefem.engine.meshes import rectangle
+from tissuefem.engine.quasistatic import Handle, QuasistaticProblem
 
 MATERIALS = [cls.from_young(1000.0, 0.3) for cls in (LinearElastic, NeoHookean, TaylorNeoHookean,
                                                       StableNeoHookean, Corotated)]
@@ -135,7 +135,7 @@ def test_failed_solve_keeps_the_last_good_state():
 def test_energy_line_search_converges_when_equilibrium_energy_is_zero():
     """A block turned rigidly by its clamped edge: the energy at the solution is 0 up to round-off,
     so the Armijo test alone cannot certify the last steps; the solve must still converge."""
-    from tissuefem.studies import rotated_block
+    from tissuefem.workbook.studies import rotated_block
 
     problem, result = rotated_block(NeoHookean.from_young(1000.0, 0.3), np.pi / 3)
     assert result.converged

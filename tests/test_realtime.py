@@ -5,13 +5,13 @@ import math
 import numpy as np
 import pytest
 
-from tissuefem import linsolve
-from tissuefem.dynamics import BackwardEuler
-from tissuefem.inversion import ITFClamped
-from tissuefem.materials import NeoHookean, StableNeoHookean
-from tissuefem.meshes import flap
-from tissuefem.quasistatic import Handle, QuasistaticProblem
-from tissuefem.realtime import RealtimeSolver
+from tissuefem.engine import linsolve
+from tissuefem.engine.dynamics import BackwardEuler
+from tissuefem.engine.inversion import ITFClamped
+from tissuefem.engine.materials import NeoHookean, StableNeoHookean
+from tissuefem.engine.meshes import flap
+from tissuefem.engine.quasistatic import Handle, QuasistaticProblem
+from tissuefem.engine.realtime import RealtimeSolver
 
 E_MOD, NU = 1000.0, 0.3
 

@@ -5,11 +5,11 @@ import json
 import numpy as np
 import pytest
 
-from tissuefem import model as model_module
-from tissuefem.meshes import rectangle
-from tissuefem.model import Model, NodeHandle
-from tissuefem.realtime import ConstantTangentSolver, RealtimeSolver
-from tissuefem.scene import EFFECTS, EXAMPLE_TOML, Scene, Simulation, demo_scene
+from tissuefem.engine import model as model_module
+from tissuefem.engine.meshes import rectangle
+from tissuefem.engine.model import Model, NodeHandle
+from tissuefem.engine.realtime import ConstantTangentSolver, RealtimeSolver
+from tissuefem.surgery.scene import EFFECTS, EXAMPLE_TOML, Scene, Simulation, demo_scene
 
 
 class FakeClock:
@@ -173,11 +173,11 @@ def test_an_absent_effect_is_never_evaluated(monkeypatch):
         monkeypatch.setattr(model_module, name, forbidden)
     monkeypatch.setattr(model_module.Probe, "_contact", forbidden)
     monkeypatch.setattr(model_module.Sutures, "_gap", forbidden)
-    monkeypatch.setattr("tissuefem.scene.load_vector", forbidden)  # no gravity, no traction
-    import tissuefem.dynamics
+    monkeypatch.setattr("tissuefem.surgery.scene.load_vector", forbidden)  # no gravity, no traction
+    import tissuefem.engine.dynamics
 
-    monkeypatch.setattr(tissuefem.dynamics, "mass_matrix", forbidden)
-    monkeypatch.setattr("tissuefem.realtime.mass_matrix", forbidden)
+    monkeypatch.setattr(tissuefem.engine.dynamics, "mass_matrix", forbidden)
+    monkeypatch.setattr("tissuefem.engine.realtime.mass_matrix", forbidden)
     sim = run(sheet(), frames=3)
     assert sim.frame().converged
 
@@ -237,7 +237,7 @@ def test_a_nonlinear_or_probed_scene_uses_newton():
 
 def _model_with_everything():
     mesh = rectangle(1.0, 1.0, 4, 4)
-    from tissuefem.materials import StableNeoHookean
+    from tissuefem.engine.materials import StableNeoHookean
 
     rng = np.random.default_rng(8)
     g = rng.normal(size=(2, mesh.nelements))
@@ -317,7 +317,7 @@ def test_shipped_scene_files_load_round_trip_and_run(path):
 
 
 def test_the_scene_command_checks_and_runs(tmp_path, capsys):
-    from tissuefem.cli import main
+    from tissuefem.workbook.cli import main
 
     assert main(["scene", str(SCENES_DIR / "incision.toml"), "--frames", "2"]) == 0
     out = capsys.readouterr().out

@@ -1,4 +1,4 @@
-"""Tests of tissuefem.surgery: cutting (node duplication along a path) and excising tissue.
+"""Tests of tissuefem.surgery.topology: cutting (node duplication along a path) and excising tissue.
 
 What a cut must do: open exactly the drawn edges (a through-cut makes two
 pieces, a crack stays closed at its tips), keep every triangle with its area
@@ -12,8 +12,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from skfem import Basis, ElementTriP1, ElementVector, MeshTri
 
-from tissuefem.meshes import mesh_with_about, rectangle, signed_areas
-from tissuefem.surgery import (
+from tissuefem.engine.meshes import mesh_with_about, rectangle, signed_areas
+from tissuefem.surgery.topology import (
     connected_components,
     cut_path,
     duplicate_along_edges,

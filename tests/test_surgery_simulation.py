@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from tissuefem.flaps import advancement_flap, pair_by_motion
-from tissuefem.scene import Scene, Simulation
+from tissuefem.surgery.flaps import advancement_flap, pair_by_motion
+from tissuefem.surgery.scene import Scene, Simulation
 
 
 class FakeClock:

@@ -69,7 +69,7 @@ def scene_file_text():
     """Exercise 8.2. Write a scene file (TOML) for this simulation, and return its text.
 
     An instructor wants a muscle-like strip that students can tug. Describe it
-    with the keys of ``tissuefem.scene.EXAMPLE_TOML`` (print it for a model):
+    with the keys of ``tissuefem.surgery.scene.EXAMPLE_TOML`` (print it for a model):
 
     * name: ``"tug"``;
     * domain: a rectangle 3 wide and 1 high, with about 600 triangles;

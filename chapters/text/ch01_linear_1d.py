@@ -5,6 +5,8 @@
 #     text_representation:
 #       extension: .py
 #       format_name: percent
+#       format_version: '1.3'
+#       jupytext_version: 1.19.6
 #   kernelspec:
 #     display_name: Python 3
 #     language: python
@@ -29,9 +31,9 @@ import numpy as np
 import matplotlib.pyplot as plt
 
 from tissuefem import lame_parameters
-from tissuefem.materials1d import Linear1D, NeoHookean1D
-from tissuefem.oned import Bar1D, Displacement, Traction, convergence_study
-from tissuefem import figures
+from tissuefem.engine.materials1d import Linear1D, NeoHookean1D
+from tissuefem.engine.bar1d import Bar1D, Displacement, Traction, convergence_study
+from tissuefem.workbook.figures import registry as figures
 
 # %% [markdown]
 # ## 1. The problem
@@ -84,7 +86,7 @@ print(f"2 mu - lam = {2*mu - lam:.4f}   (the notes' value)")
 #    g_i = N_i(b) P(b) - N_i(a) P(a). $$
 #
 # In scikit-fem the two integrals are forms that read like the formulas
-# (this is exactly what `tissuefem.oned` uses):
+# (this is exactly what `tissuefem.engine.bar1d` uses):
 #
 # ```python
 # @BilinearForm

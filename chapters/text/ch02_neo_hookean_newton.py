@@ -5,6 +5,8 @@
 #     text_representation:
 #       extension: .py
 #       format_name: percent
+#       format_version: '1.3'
+#       jupytext_version: 1.19.6
 #   kernelspec:
 #     display_name: Python 3
 #     language: python
@@ -28,9 +30,11 @@
 import numpy as np
 import matplotlib.pyplot as plt
 
-from tissuefem import lame_parameters, figures
-from tissuefem.materials1d import NeoHookean1D, TaylorNeoHookean1D
-from tissuefem.oned import Bar1D, Traction, nonlinear_forms, uniform_bar_stretch
+from tissuefem import lame_parameters
+
+from tissuefem.workbook.figures import registry as figures
+from tissuefem.engine.materials1d import NeoHookean1D, TaylorNeoHookean1D
+from tissuefem.engine.bar1d import Bar1D, Traction, nonlinear_forms, uniform_bar_stretch
 
 lam, mu = lame_parameters(E=1000.0, nu=0.3)
 neo = NeoHookean1D(lam, mu)
@@ -73,7 +77,7 @@ print("FD      :", (neo.stress(F + h) - neo.stress(F - h)) / (2 * h))
 # > material $q = Au - F^{\text{ext}} \mp g$ must vanish exactly when $Au = F^{\text{ext}} + g$
 # > (their own linear system), so the sign of $g$ must be minus.
 #
-# The forms, as `tissuefem.oned.nonlinear_forms` writes them:
+# The forms, as `tissuefem.engine.bar1d.nonlinear_forms` writes them:
 #
 # ```python
 # @LinearForm

@@ -5,6 +5,8 @@
 #     text_representation:
 #       extension: .py
 #       format_name: percent
+#       format_version: '1.3'
+#       jupytext_version: 1.19.6
 #   kernelspec:
 #     display_name: Python 3
 #     language: python
@@ -31,12 +33,12 @@
 import numpy as np
 
 from tissuefem import lame_parameters
-from tissuefem.assembly import P1Assembler
-from tissuefem.figures2d import fig02_kinematics, fig_ch03_rotation_stress
-from tissuefem.materials import LinearElastic, NeoHookean, det2
-from tissuefem.meshes import rectangle
-from tissuefem.quasistatic import Handle, QuasistaticProblem
-from tissuefem.studies import (bending_gradient, bending_map, displacement_from_map,
+from tissuefem.engine.assembly import P1Assembler
+from tissuefem.workbook.figures.kinematics import fig02_kinematics, fig_ch03_rotation_stress
+from tissuefem.engine.materials import LinearElastic, NeoHookean, det2
+from tissuefem.engine.meshes import rectangle
+from tissuefem.engine.quasistatic import Handle, QuasistaticProblem
+from tissuefem.workbook.studies import (bending_gradient, bending_map, displacement_from_map,
                                handle_force, rigid_rotation_response, rotated_block, rotation)
 
 # %% [markdown]
@@ -68,7 +70,7 @@ from tissuefem.studies import (bending_gradient, bending_map, displacement_from_
 # > convention (`grad(u)[i, j]` is $\partial u_i/\partial X_j$) and Bonet & Wood's.
 #
 # The notes' Figure 2, redrawn: a block bent into an arch by a map $\phi$ that we know in closed
-# form (`tissuefem.studies.bending_map`), one material point, and $\mathbf F$ acting on two
+# form (`tissuefem.workbook.studies.bending_map`), one material point, and $\mathbf F$ acting on two
 # short material vectors.
 
 # %%
@@ -242,7 +244,7 @@ for th in (30.0, 90.0):
 # %% [markdown]
 # What does this mean for a whole body? Clamp the left edge of a unit block to a wall, turn the
 # wall by 60° about the edge's midpoint and let the rest of the block find its equilibrium
-# (`tissuefem.studies.rotated_block` sets up the `QuasistaticProblem`; the Neo-Hookean solve turns the wall in
+# (`tissuefem.workbook.studies.rotated_block` sets up the `QuasistaticProblem`; the Neo-Hookean solve turns the wall in
 # 15° steps). The Neo-Hookean block simply turns with the wall. The linear-elastic block cannot:
 # its zero-energy motions are the *infinitesimal* rotations $\mathbf u = \mathbf W\mathbf X$ with
 # $\mathbf W$ skew, and at finite size $\mathbf I + \mathbf W$ is a rotation combined with a

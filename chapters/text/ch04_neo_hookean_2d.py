@@ -5,6 +5,8 @@
 #     text_representation:
 #       extension: .py
 #       format_name: percent
+#       format_version: '1.3'
+#       jupytext_version: 1.19.6
 #   kernelspec:
 #     display_name: Python 3
 #     language: python
@@ -31,13 +33,13 @@
 import numpy as np
 from skfem import asm
 
-from tissuefem.assembly import P1Assembler
-from tissuefem.figures2d import fig_ch04_block, fig_ch04_cost_accuracy
-from tissuefem.forms import residual_form, tangent_form
-from tissuefem.materials import LinearElastic, NeoHookean
-from tissuefem.meshes import rectangle
-from tissuefem.quasistatic import Handle, QuasistaticProblem
-from tissuefem.studies import cost_accuracy_study, format_cost_accuracy, handle_force
+from tissuefem.engine.assembly import P1Assembler
+from tissuefem.workbook.figures.kinematics import fig_ch04_block, fig_ch04_cost_accuracy
+from tissuefem.engine.forms import residual_form, tangent_form
+from tissuefem.engine.materials import LinearElastic, NeoHookean
+from tissuefem.engine.meshes import rectangle
+from tissuefem.engine.quasistatic import Handle, QuasistaticProblem
+from tissuefem.workbook.studies import cost_accuracy_study, format_cost_accuracy, handle_force
 
 material = NeoHookean.from_young(1000.0, 0.3)        # E = 1000, nu = 0.3: the notes' typical values
 lam, mu = material.lam, material.mu
@@ -66,7 +68,7 @@ lam, mu = material.lam, material.mu
 #    + h'(J)\,\frac{\partial(\operatorname{cof}\mathbf F)_{ij}}{\partial F_{kl}},
 #    \qquad h' = \frac{\lambda\ln J - \mu}{J},\quad h'' = \frac{\lambda + \mu - \lambda\ln J}{J^2}, $$
 #
-# and the last derivative is a constant (cof F is linear in F in 2D). `tissuefem.materials.NeoHookean`
+# and the last derivative is a constant (cof F is linear in F in 2D). `tissuefem.engine.materials.NeoHookean`
 # implements all three; the module's docstring has the derivation. We never trust a derivative we
 # have not checked:
 
@@ -104,7 +106,7 @@ print("tangent at F = I equals the linear-elastic one:",
 #    K_{ab} = \frac{\partial q_a}{\partial u_b} = \int_{B_0} \nabla\mathbf v_a : \mathbb A(\mathbf F) : \nabla\mathbf v_b \, d\mathbf X,
 #    \qquad \mathbf F = \mathbf I + \nabla\mathbf u . $$
 #
-# `tissuefem.forms` writes them the way they read:
+# `tissuefem.engine.forms` writes them the way they read:
 #
 # ```python
 # @LinearForm
@@ -139,7 +141,7 @@ print("largest |K_fast - K_forms| =", np.abs(fast.tangent(u) - K_forms).max())
 # A $2 \times 1$ block (think of a strip of skin, in plane strain) is held at its left edge; a
 # handle grabs the right edge and moves it by $(0.6, 0.4)$: a 30 % stretch and a shear. A
 # `Handle` is a set of material points with a target; `QuasistaticProblem` eliminates the
-# prescribed dofs and runs Newton on the rest. (`tissuefem.studies.block_problem` builds the
+# prescribed dofs and runs Newton on the rest. (`tissuefem.workbook.studies.block_problem` builds the
 # same problem for the study in section 5.)
 
 # %%
@@ -207,7 +209,7 @@ for steps in (1, 2, 4, 8):
 # The time is the wall time of the whole solve from rest (`time.perf_counter`, median of a few
 # repeats), and, separately, of one Newton iteration at the solution (residual, tangent, sparse
 # factorization and solve) — the least a frame can do. P1 uses the fast `P1Assembler`; P2 uses
-# `tissuefem.studies.QuadratureAssembler`, the same vectorised idea over all quadrature points,
+# `tissuefem.workbook.studies.QuadratureAssembler`, the same vectorised idea over all quadrature points,
 # so that both orders are timed with the same kind of assembly.
 #
 # The sizes below are modest to keep the notebook quick; the study takes any sizes. (Timings
@@ -243,7 +245,7 @@ fig_ch04_cost_accuracy(rows=rows)
 #   solver — the subject of the later chapters on time stepping and real time.
 #
 # The lecture figure plots that recorded run, with larger meshes (up to 4290 dofs for both
-# orders, against a P2 reference with 66306 dofs), from `tissuefem.studies.RECORDED_COST_ACCURACY`;
+# orders, against a P2 reference with 66306 dofs), from `tissuefem.workbook.studies.RECORDED_COST_ACCURACY`;
 # `python -m tissuefem figures --only fig_ch04_cost_accuracy` redraws it:
 
 # %%

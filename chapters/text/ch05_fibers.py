@@ -5,6 +5,8 @@
 #     text_representation:
 #       extension: .py
 #       format_name: percent
+#       format_version: '1.3'
+#       jupytext_version: 1.19.6
 #   kernelspec:
 #     display_name: Python 3
 #     language: python
@@ -36,12 +38,12 @@
 import numpy as np
 import matplotlib.pyplot as plt
 
-from tissuefem.fibers import (K_FIBER, along_vs_across, block_pull, confined_pull, fiber_direction,
+from tissuefem.workbook.fibers import (K_FIBER, along_vs_across, block_pull, confined_pull, fiber_direction,
                               fiber_energy, fiber_invariant, fiber_modulus_gain, fiber_stress, fiber_tangent,
                               muscle_pull, predicted_confined_modulus)
-from tissuefem.figures_fibers import fig03_fiber_field, fig_ch05_along_vs_across, fig_ch05_muscle_pull
-from tissuefem.materials import FiberReinforced, NeoHookean
-from tissuefem.meshes import fusiform_fiber_field, fusiform_muscle
+from tissuefem.workbook.figures.fibers import fig03_fiber_field, fig_ch05_along_vs_across, fig_ch05_muscle_pull
+from tissuefem.engine.materials import FiberReinforced, NeoHookean
+from tissuefem.engine.meshes import fusiform_fiber_field, fusiform_muscle
 
 matrix = NeoHookean.from_young(E=1000.0, nu=0.3)  # the isotropic "ground substance"
 print(f"lam = {matrix.lam:.2f}, mu = {matrix.mu:.2f}, fiber modulus k = {K_FIBER:g}")
@@ -230,7 +232,7 @@ print("extra modulus at 0, 45, 90 degrees:", [round(fiber_modulus_gain(K_FIBER, 
 #
 # $$ C_{1111} = \lambda + 2\mu + k\cos^4\theta . $$
 #
-# The core of `tissuefem.fibers.confined_pull`, in four lines:
+# The core of `tissuefem.workbook.fibers.confined_pull`, in four lines:
 #
 # ```python
 # handle = Handle(on_boundary, target=lambda X: np.vstack([(1 + eps) * X[0], X[1]]))

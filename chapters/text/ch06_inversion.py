@@ -5,6 +5,8 @@
 #     text_representation:
 #       extension: .py
 #       format_name: percent
+#       format_version: '1.3'
+#       jupytext_version: 1.19.6
 #   kernelspec:
 #     display_name: Python 3
 #     language: python
@@ -41,14 +43,14 @@ import numpy as np
 import matplotlib.pyplot as plt
 from scipy.sparse.linalg import MatrixRankWarning
 
-from tissuefem.assembly import P1Assembler
-from tissuefem.figures_inversion import (cover_counts, crush_and_release_runs, draw_state, element_jacobians,
+from tissuefem.engine.assembly import P1Assembler
+from tissuefem.workbook.figures.inversion import (cover_counts, crush_and_release_runs, draw_state, element_jacobians,
                                          fig06_crush_release, fig_ch06_itf_energy)
-from tissuefem.hardcases import block, inversion_models, release, start_states
-from tissuefem.inversion import ITFClamped, projected_tangent, rotation_preserving_svd
-from tissuefem.materials import NeoHookean, StableNeoHookean, TaylorNeoHookean
-from tissuefem.materials1d import taylor_log, taylor_log_prime
-from tissuefem.quasistatic import Handle, QuasistaticProblem
+from tissuefem.workbook.hardcases import block, inversion_models, release, start_states
+from tissuefem.engine.inversion import ITFClamped, projected_tangent, rotation_preserving_svd
+from tissuefem.engine.materials import NeoHookean, StableNeoHookean, TaylorNeoHookean
+from tissuefem.engine.materials1d import taylor_log, taylor_log_prime
+from tissuefem.engine.quasistatic import Handle, QuasistaticProblem
 
 E, nu = 1000.0, 0.3
 models = inversion_models(E, nu)          # the four models of this chapter, by name
@@ -113,7 +115,7 @@ for ax in axes:
 #
 # A simulator does not get to choose. A surgeon's tool pushes tissue flat, a collision solver leaves a
 # few elements turned over, a large time step overshoots. Here are five such states of our block, used
-# in section 7 as *start states* (`tissuefem.hardcases.start_states`), drawn as the release there sees
+# in section 7 as *start states* (`tissuefem.workbook.hardcases.start_states`), drawn as the release there sees
 # them: the bottom edge is held at its rest position. Triangles with $J \le 0$ are red, nodes are dots:
 
 # %%
@@ -243,7 +245,7 @@ print("library TaylorNeoHookean.stress is the cofactor form:", np.allclose(taylo
 # With $Q = \sqrt{E^2 + H^2}$ and $R = \sqrt{A^2 + G^2}$ the singular values are $s_0 = Q + R$ and
 # $s_1 = Q - R$ (so $J = Q^2 - R^2$: an element is inverted when its reflecting part outweighs its
 # similarity part), and the two angles $\arctan(G/A)$ and $\arctan(H/E)$ give the rotations
-# (`tissuefem.inversion.rotation_preserving_svd`; exercise 6.1 asks you to derive them). A reflected
+# (`tissuefem.engine.inversion.rotation_preserving_svd`; exercise 6.1 asks you to derive them). A reflected
 # $\mathbf F$, both ways:
 
 # %%
@@ -266,7 +268,7 @@ for name, F in {"F = 0": np.zeros((2, 2)), "mirror diag(1, -1)": np.diag([1.0, -
 #
 # The Taylor and stable models change the energy everywhere. Irving, Teran and Fedkiw keep the $\ln J$
 # model wherever it is well behaved and **extrapolate** it below a compression threshold $c$
-# (here $c = 0.3$) on the signed singular values. `tissuefem.inversion.ITFClamped` has three regions:
+# (here $c = 0.3$) on the signed singular values. `tissuefem.engine.inversion.ITFClamped` has three regions:
 #
 # | region | energy $\hat\Psi(s_0, s_1)$ |
 # |---|---|
@@ -383,7 +385,7 @@ for base in (TaylorNeoHookean(lam, mu), StableNeoHookean(lam, mu)):
 # ## 6. Crush and release: the notes' Figure 6 as an experiment
 #
 # The notes' Figure 6 shows the ITF algorithm recovering from violent deformations. Our version is a
-# test anyone can rerun (`tissuefem.hardcases.crush_and_release`):
+# test anyone can rerun (`tissuefem.workbook.hardcases.crush_and_release`):
 # 1. hold the bottom edge of the block; move the top edge down in 13 steps of 0.1, to flat (1.0) and past
 #    it (1.3), solving for equilibrium after each step from the previous state (Newton with the energy
 #    line search, steps capped at 0.5);
@@ -498,7 +500,7 @@ print(f"exact Hessian: {int((w_exact < 0).sum())} negative eigenvalues (smallest
 # ## 7. Hard cases: release from violent states
 #
 # Now release the block from each start state of section 1 (bottom edge held), with each model
-# (`tissuefem.hardcases.release`; absolute tolerance $10^{-7}$, steps capped at 0.5, at most 400
+# (`tissuefem.workbook.hardcases.release`; absolute tolerance $10^{-7}$, steps capped at 0.5, at most 400
 # iterations):
 
 # %%
@@ -549,7 +551,7 @@ hard_stiff = release_table(stiff, {"collapsed to a point": states["collapsed to 
 #   Does it still fold?
 # - Solve the crush with the *unprojected* Taylor tangent, `TaylorNeoHookean(lam, mu)` (no wrapper).
 #   Count line-search cuts and shifted tangents (`result.steps[-1].history[k].shift`).
-# - Drag a handle through a clamped sheet: `tissuefem.hardcases.drag_through(material)`. Draw the
+# - Drag a handle through a clamped sheet: `tissuefem.workbook.hardcases.drag_through(material)`. Draw the
 #   positions with `draw_state` for each model.
 # - Predict, then check: what are $\mu + h'(0)$ and $\mu - h'(0)$ for the stable model in terms of
 #   $\lambda$ and $\mu$? Compare with the eigenvalues printed in section 4.

@@ -5,6 +5,8 @@
 #     text_representation:
 #       extension: .py
 #       format_name: percent
+#       format_version: '1.3'
+#       jupytext_version: 1.19.6
 #   kernelspec:
 #     display_name: Python 3
 #     language: python
@@ -39,16 +41,16 @@ import math
 import numpy as np
 import matplotlib.pyplot as plt
 
-from tissuefem import linsolve
-from tissuefem.bench_realtime import flap_path, flap_scene
-from tissuefem.dynamics import BackwardEuler, backward_euler_residual
-from tissuefem.explicit import SymplecticEuler, critical_time_step, largest_stable_dt, mesh_size, wave_speed
-from tissuefem.figures_dynamics import fig_ch07_cfl, fig_ch07_energy, fig_ch07_released_flap
-from tissuefem.figures_realtime import fig_ch07_budget_residual
-from tissuefem.materials import NeoHookean, StableNeoHookean
-from tissuefem.meshes import flap, rectangle
-from tissuefem.quasistatic import Handle, QuasistaticProblem
-from tissuefem.realtime import RealtimeSolver, budgeted_newton
+from tissuefem.engine import linsolve
+from tissuefem.workbook.bench.realtime import flap_path, flap_scene
+from tissuefem.engine.dynamics import BackwardEuler, backward_euler_residual
+from tissuefem.engine.explicit import SymplecticEuler, critical_time_step, largest_stable_dt, mesh_size, wave_speed
+from tissuefem.workbook.figures.dynamics import fig_ch07_cfl, fig_ch07_energy, fig_ch07_released_flap
+from tissuefem.workbook.figures.realtime import fig_ch07_budget_residual
+from tissuefem.engine.materials import NeoHookean, StableNeoHookean
+from tissuefem.engine.meshes import flap, rectangle
+from tissuefem.engine.quasistatic import Handle, QuasistaticProblem
+from tissuefem.engine.realtime import RealtimeSolver, budgeted_newton
 
 E, nu, rho0 = 1000.0, 0.3, 1.0
 material = NeoHookean.from_young(E, nu)
@@ -267,7 +269,7 @@ for name in ("reuse", "direct"):
 
 # %% [markdown]
 # ### Linear solver backends
-# `tissuefem.linsolve` puts the choices behind one interface (`factorize(A).solve(b)`):
+# `tissuefem.engine.linsolve` puts the choices behind one interface (`factorize(A).solve(b)`):
 # - `SuperLU()` — SciPy's SuperLU with the symmetric minimum-degree ordering of $A + A^T$ in *symmetric
 #   mode*. On these matrices it roughly halves the fill of SciPy's default `COLAMD` ordering. Symmetric
 #   mode matters: without it SuperLU's off-diagonal pivoting can make the same ordering slower than the default.

@@ -5,6 +5,8 @@
 #     text_representation:
 #       extension: .py
 #       format_name: percent
+#       format_version: '1.3'
+#       jupytext_version: 1.19.6
 #   kernelspec:
 #     display_name: Python 3
 #     language: python
@@ -43,14 +45,14 @@ import numpy as np
 import matplotlib.pyplot as plt
 from IPython.display import Markdown, display
 
-from tissuefem import surgery
-from tissuefem.bench_scenes import effects_benchmark, format_effects_table
-from tissuefem.figures_surgery import (draw_mesh, fig_ch08_flap, fig_ch08_incision, fig_ch08_probe, fig_ch08_two_pieces,
+from tissuefem.surgery import topology as surgery
+from tissuefem.workbook.bench.scenes import effects_benchmark, format_effects_table
+from tissuefem.workbook.figures.surgery import (draw_mesh, fig_ch08_flap, fig_ch08_incision, fig_ch08_probe, fig_ch08_two_pieces,
                                        sheet_scene)
-from tissuefem.flaps import advancement_flap
-from tissuefem.meshes import rectangle
-from tissuefem.realtime import FRAME_BUDGET
-from tissuefem.scene import EFFECTS, EXAMPLE_TOML, Scene, Simulation, demo_scene
+from tissuefem.surgery.flaps import advancement_flap
+from tissuefem.engine.meshes import rectangle
+from tissuefem.engine.realtime import FRAME_BUDGET
+from tissuefem.surgery.scene import EFFECTS, EXAMPLE_TOML, Scene, Simulation, demo_scene
 
 print(f"frame budget {1e3 * FRAME_BUDGET:.1f} ms; effects a scene may name: {', '.join(EFFECTS)}")
 
@@ -75,7 +77,7 @@ print(f"frame budget {1e3 * FRAME_BUDGET:.1f} ms; effects a scene may name: {', 
 # | removes a lesion | the mesh: elements are deleted | 7 |
 # | stitches a wound | a new term of the energy (springs between pairs of nodes) | 7 |
 #
-# `tissuefem.scene.Simulation` offers each of these as a method to call between frames, and each one
+# `tissuefem.surgery.scene.Simulation` offers each of these as a method to call between frames, and each one
 # leaves a valid state: either the operation succeeds and the state (displacement, velocity, time, frame
 # count) carries over to the new problem, or it raises a `ValueError` that names the bad argument and
 # changes nothing.
@@ -470,7 +472,7 @@ print("one evaluation of each term of 'everything' (energy + force + Hessian), m
 # %% [markdown]
 # ## 9. With the mouse
 #
-# `tissuefem.interactive.SurgeryView` draws a running simulation in a matplotlib figure and turns mouse events
+# `tissuefem.surgery.interactive.SurgeryView` draws a running simulation in a matplotlib figure and turns mouse events
 # into the operations above: in **drag** mode a press grabs the tissue under the pointer, moving drags it,
 # releasing lets go; the key **c** switches to **cut** mode, where a stroke becomes an incision when the
 # button is released. A timer runs one frame every 33 ms, but only on an interactive canvas: in Jupyter that
@@ -487,7 +489,7 @@ try:
 except ImportError:
     get_ipython().run_line_magic("matplotlib", "inline")
     INTERACTIVE = False
-from tissuefem.interactive import SurgeryView, synthetic_key, synthetic_mouse
+from tissuefem.surgery.interactive import SurgeryView, synthetic_key, synthetic_mouse
 
 sim = Simulation(demo_scene(n_triangles=2000))
 view = SurgeryView(sim, autostart=False)

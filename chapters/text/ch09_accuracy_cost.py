@@ -5,6 +5,8 @@
 #     text_representation:
 #       extension: .py
 #       format_name: percent
+#       format_version: '1.3'
+#       jupytext_version: 1.19.6
 #   kernelspec:
 #     display_name: Python 3
 #     language: python
@@ -41,10 +43,10 @@ import time
 import numpy as np
 import matplotlib.pyplot as plt
 
-from tissuefem.accuracy import (beam_problem_tip, best_within_budget, fitted_exponent, manufactured_convergence,
+from tissuefem.workbook.accuracy import (beam_problem_tip, best_within_budget, fitted_exponent, manufactured_convergence,
                                 pareto_front)
-from tissuefem.bench_accuracy import PLANS, accuracy_study, format_knob_table, recorded_results
-from tissuefem.figures_accuracy import fig_ch09_verification, plot_budget, plot_pareto, plot_scaling
+from tissuefem.workbook.bench.accuracy import PLANS, accuracy_study, format_knob_table, recorded_results
+from tissuefem.workbook.figures.accuracy import fig_ch09_verification, plot_budget, plot_pareto, plot_scaling
 
 recorded = recorded_results()
 machine = recorded["machine"]

@@ -19,7 +19,7 @@ shaped ``[2, 2, elements, quadrature points]`` (any trailing shape works),
 so our forms mix with scikit-fem's.
 """
 
-from .parameters import lame_parameters
+from .engine.parameters import lame_parameters
 
 __version__ = "0.1.0"
 

@@ -26,7 +26,7 @@ def project_root() -> Path:
     cwd = Path.cwd()
     if (cwd / "chapters").is_dir():
         return cwd
-    here = Path(__file__).resolve().parents[2]
+    here = Path(__file__).resolve().parents[3]
     if (here / "chapters").is_dir():
         return here
     raise SystemExit("cannot find the workbook's chapters/ folder: run this from the workbook's root folder")
@@ -40,7 +40,7 @@ def _use_agg():
 
 def cmd_figures(args) -> int:
     _use_agg()
-    from . import figures
+    from .figures import registry as figures
 
     root = project_root()
     out = Path(args.out) if args.out else root / "figures"
@@ -50,7 +50,7 @@ def cmd_figures(args) -> int:
 
 def cmd_build(args) -> int:
     _use_agg()
-    from . import figures
+    from .figures import registry as figures
     from .notebooks import build_chapters
 
     start = time.perf_counter()
@@ -65,27 +65,27 @@ def cmd_build(args) -> int:
 def cmd_bench(args) -> int:
     _use_agg()
     if args.which == "assembly":
-        from .bench import assembly_benchmark
+        from .bench.common import assembly_benchmark
 
         sizes = tuple(args.sizes) if args.sizes else (2000, 8000, 32000)
         assembly_benchmark(sizes=sizes, repeats=args.repeats, out=args.out)
         return 0
     if args.which == "realtime":
-        from .bench_realtime import realtime_benchmark
+        from .bench.realtime import realtime_benchmark
 
         sizes = tuple(args.sizes) if args.sizes else (2000, 8000, 16000, 32000)
         realtime_benchmark(sizes=sizes, frames=args.frames, baseline_frames=args.baseline_frames,
                            linear_solver=args.linear, out=args.out or "bench-results")
         return 0
     if args.which == "scenes":
-        from .bench_scenes import effects_benchmark
+        from .bench.scenes import effects_benchmark
 
         size = args.sizes[0] if args.sizes else 8000
         effects_benchmark(n_triangles=size, frames=min(args.frames, 90), repeats=args.repeats,
                           out=args.out or "bench-results")
         return 0
     if args.which == "accuracy":
-        from .bench_accuracy import accuracy_study
+        from .bench.accuracy import accuracy_study
 
         accuracy_study(plan=args.plan, out=args.out or "bench-results")
         return 0
@@ -106,7 +106,7 @@ def cmd_scene(args) -> int:
     """Check a scene file and run it: one line per frame (time, status, Newton steps), then a summary."""
     import numpy as np
 
-    from .scene import Scene, Simulation
+    from ..surgery.scene import Scene, Simulation
 
     try:
         scene = Scene.load(args.path)
@@ -130,7 +130,7 @@ def cmd_scene(args) -> int:
 
 
 def cmd_list(args) -> int:
-    from . import figures
+    from .figures import registry as figures
     from .notebooks import chapter_paths
 
     print("figures:")

@@ -35,7 +35,7 @@ from matplotlib.colors import Normalize, to_rgba
 from matplotlib.figure import Figure
 from matplotlib.patches import Circle
 
-from .figures import E_DEFAULT, NU_DEFAULT, register, save
+from .registry import E_DEFAULT, NU_DEFAULT, register, save
 
 #: one frame of the interactive loop, in seconds
 FRAME_DT = 1.0 / 30.0
@@ -70,7 +70,7 @@ def _still_clock():
 
 def sheet_scene(n_triangles=1200, *, handles, dynamic=False, gravity=False, width=2.0, height=1.0):
     """A ``width x height`` sheet of stable neo-Hookean tissue (E = 1000, nu = 0.3) with the given handles."""
-    from .scene import Scene
+    from ...surgery.scene import Scene
 
     effects = {"handles": handles}
     if dynamic:
@@ -87,7 +87,7 @@ def sheet_scene(n_triangles=1200, *, handles, dynamic=False, gravity=False, widt
 
 
 def _simulation(scene):
-    from .scene import Simulation
+    from ...surgery.scene import Simulation
 
     return Simulation(scene, clock=_still_clock)
 
@@ -228,7 +228,7 @@ def two_pieces_run(n_triangles=800, sag_frames=SAG_FRAMES, fall_frames=FALL_FRAM
     right of the cut, and backward Euler's discrete free fall of the free
     piece from the moment of the cut.
     """
-    from .surgery import connected_components
+    from ...surgery.topology import connected_components
 
     sim = _simulation(sheet_scene(n_triangles, handles=[{"name": "fixed", "region": "left"}], dynamic=True,
                                   gravity=True))
@@ -473,7 +473,7 @@ def stitch_arcs(a, b, bulge=0.18, n=12) -> np.ndarray:
 
 def flap_runs(lengths=FLAP_LENGTHS, n_triangles=FLAP_TRIANGLES, tighten_frames=FLAP_TIGHTEN_FRAMES) -> dict:
     """:func:`tissuefem.flaps.advancement_flap` for each flap length, ``{length: FlapResult}``."""
-    from .flaps import advancement_flap
+    from ...surgery.flaps import advancement_flap
 
     return {float(L): advancement_flap(flap_length=float(L), n_triangles=n_triangles, tighten_frames=tighten_frames,
                                        clock=_still_clock) for L in lengths}

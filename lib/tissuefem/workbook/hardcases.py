@@ -30,11 +30,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .inversion import ITFClamped, ProjectedTangent
-from .materials import NeoHookean, StableNeoHookean, TaylorNeoHookean
-from .meshes import rectangle
-from .parameters import lame_parameters
-from .quasistatic import Handle, QuasistaticProblem
+from ..engine.inversion import ITFClamped, ProjectedTangent
+from ..engine.materials import NeoHookean, StableNeoHookean, TaylorNeoHookean
+from ..engine.meshes import rectangle
+from ..engine.parameters import lame_parameters
+from ..engine.quasistatic import Handle, QuasistaticProblem
 
 __all__ = ["inversion_models", "block", "start_states", "ReleaseResult", "release", "crush_and_release",
            "drag_through", "RELEASE_OPTIONS"]

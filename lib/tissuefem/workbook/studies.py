@@ -33,11 +33,11 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from skfem import Basis, ElementVector
 
-from .materials import LinearElastic, Material, NeoHookean
-from .meshes import rectangle
-from .bench import median_time
-from .parameters import lame_parameters
-from .quasistatic import Handle, QuasistaticProblem, QuasistaticResult
+from ..engine.materials import LinearElastic, Material, NeoHookean
+from ..engine.meshes import rectangle
+from .bench.common import median_time
+from ..engine.parameters import lame_parameters
+from ..engine.quasistatic import Handle, QuasistaticProblem, QuasistaticResult
 
 __all__ = [
     "rotation",

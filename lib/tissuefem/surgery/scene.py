@@ -49,11 +49,11 @@ from pathlib import Path
 import numpy as np
 import skfem
 
-from . import meshes
-from .materials import MATERIALS
-from .materials import material as make_material
-from .model import Model, NodeHandle, _vector2, load_vector
-from .realtime import FRAME_BUDGET, ConstantTangentSolver, RealtimeSolver
+from ..engine import meshes
+from ..engine.materials import MATERIALS
+from ..engine.materials import material as make_material
+from ..engine.model import Model, NodeHandle, _vector2, load_vector
+from ..engine.realtime import FRAME_BUDGET, ConstantTangentSolver, RealtimeSolver
 
 __all__ = ["Scene", "Simulation", "EFFECTS", "SHAPES", "EXAMPLE_TOML", "demo_scene"]
 
@@ -484,7 +484,7 @@ class Scene:
         mat = make_material(m["model"], m["youngs_modulus"], m["poisson_ratio"])
         inv = self.effects.get("inversion")
         if inv is not None:
-            from .inversion import ITFClamped, ProjectedTangent
+            from ..engine.inversion import ITFClamped, ProjectedTangent
 
             if inv["method"] == "itf":
                 if m["model"] != "neo-hookean":
@@ -1085,6 +1085,6 @@ def _polyline(points, minimum=2, field="polyline"):
 
 
 def _surgery():
-    from . import surgery
+    from . import topology as surgery
 
     return surgery

@@ -18,7 +18,7 @@ from matplotlib.colors import to_rgba
 from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 
-from .figures import E_DEFAULT, NU_DEFAULT, register, save
+from .registry import E_DEFAULT, NU_DEFAULT, register, save
 
 #: fill colours of a triangle that keeps its orientation (J > 0) and of an inverted or flat one (J <= 0)
 UPRIGHT_COLOR, INVERTED_COLOR = "#6baed6", "#d6604d"
@@ -91,7 +91,7 @@ def draw_state(ax, mesh, x, *, J=None, alpha: float = 1.0, tol: float = 1e-12) -
 
 def crush_and_release_runs(E: float = E_DEFAULT, nu: float = NU_DEFAULT, mesh=None) -> dict:
     """Run :func:`tissuefem.hardcases.crush_and_release` (default depth 1.3) for the four models, by name."""
-    from .hardcases import block, crush_and_release, inversion_models
+    from ..hardcases import block, crush_and_release, inversion_models
 
     mesh = block() if mesh is None else mesh
     return {name: crush_and_release(material, mesh) for name, material in inversion_models(E, nu).items()}
@@ -120,7 +120,7 @@ def fig06_crush_release(path=None, runs=None) -> Figure:
     not reach shows the last state it did reach, faded. ``runs`` (from
     :func:`crush_and_release_runs`) skips recomputing them.
     """
-    from .hardcases import block
+    from ..hardcases import block
 
     mesh = block()
     runs = crush_and_release_runs(mesh=mesh) if runs is None else runs
@@ -179,8 +179,8 @@ def fig_ch06_itf_energy(path=None) -> Figure:
     ``F = 0`` with zero slope (a stationary point), the ITF-clamped model with
     a finite one (it pushes outward).
     """
-    from .hardcases import inversion_models
-    from .inversion import diagonal
+    from ..hardcases import inversion_models
+    from ...engine.inversion import diagonal
 
     models = inversion_models(E_DEFAULT, NU_DEFAULT)
     c = models["ITF-clamped neo-Hookean"].threshold

@@ -32,9 +32,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .bench import machine_info, median_time
-from .bench_realtime import flap_path
-from .scene import Scene, Simulation
+from .common import machine_info, median_time
+from .realtime import flap_path
+from ...surgery.scene import Scene, Simulation
 
 __all__ = ["effects_benchmark", "variants", "format_effects_table"]
 

@@ -38,7 +38,7 @@ from matplotlib.backend_bases import KeyEvent, MouseButton, MouseEvent, TimerBas
 from matplotlib.collections import PathCollection
 from matplotlib.path import Path
 
-from .realtime import FRAME_BUDGET
+from ..engine.realtime import FRAME_BUDGET
 
 __all__ = ["SurgeryView", "MODES", "synthetic_mouse", "synthetic_key", "mean_edge_length"]
 

@@ -29,8 +29,8 @@ import math
 import numpy as np
 from skfem import MeshTri
 
-from .materials import LinearElastic
-from .meshes import rectangle
+from ..engine.materials import LinearElastic
+from ..engine.meshes import rectangle
 
 __all__ = ["pareto_front", "fitted_exponent", "observed_rates", "best_within_budget", "beam_exact", "beam_problem_tip", "manufactured_body_force",
            "manufactured_error", "manufactured_convergence"]
@@ -137,7 +137,7 @@ def beam_problem_tip(nx: int, ny: int, order: int = 2, *, length=48.0, depth=12.
     """
     from skfem import Basis, ElementTriP1, ElementTriP2, ElementVector, FacetBasis, LinearForm, asm, condense, solve
 
-    from .forms import tangent_form
+    from ..engine.forms import tangent_form
 
     if order not in (1, 2):
         raise ValueError(f"order must be 1 or 2, got {order!r}")
@@ -211,7 +211,7 @@ def manufactured_error(material, n: int, order: int, load_steps: int = 4) -> flo
     """
     from skfem import Basis, LinearForm, asm
 
-    from .quasistatic import Handle, QuasistaticProblem
+    from ..engine.quasistatic import Handle, QuasistaticProblem
     from .studies import QuadratureAssembler, bending_map
 
     mesh = rectangle(2.0, 1.0, 2 * int(n), int(n))
@@ -250,7 +250,7 @@ def manufactured_convergence(models=("neo-hookean", "stable-neo-hookean", "corot
     exact solution, so the expected ``L2`` rates are ``order + 1``: 2 for P1,
     3 for P2 (measured: 2.00 and 2.99 for all three models).
     """
-    from .materials import material as make_material
+    from ..engine.materials import material as make_material
 
     sizes = {1: (4, 8, 16, 32), 2: (2, 4, 8, 16)} if sizes is None else sizes
     rows = []

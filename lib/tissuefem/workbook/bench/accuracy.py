@@ -62,10 +62,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .accuracy import fitted_exponent, pareto_front
-from .bench import machine_info, markdown_table
-from .bench_realtime import DT_FLAP, E_FLAP, NU_FLAP, RHO_FLAP, flap_path
-from .realtime import FRAME_BUDGET, ConstantTangentSolver, RealtimeSolver
+from ..accuracy import fitted_exponent, pareto_front
+from .common import machine_info, markdown_table
+from .realtime import DT_FLAP, E_FLAP, NU_FLAP, RHO_FLAP, flap_path
+from ...engine.realtime import FRAME_BUDGET, ConstantTangentSolver, RealtimeSolver
 
 __all__ = [
     "Setting",
@@ -105,8 +105,8 @@ class Setting:
     linear_solver: str = "reuse"
 
     def check(self) -> "Setting":
-        from .linsolve import BACKENDS
-        from .materials import MATERIALS
+        from ...engine.linsolve import BACKENDS
+        from ...engine.materials import MATERIALS
 
         for name in ("triangles", "max_iterations", "substeps"):
             value = getattr(self, name)
@@ -213,7 +213,7 @@ PLANS = {
 
 def _runnable(linear_solver: str) -> bool:
     """Whether this machine has the solver (PARDISO needs the optional pypardiso)."""
-    from .linsolve import available
+    from ...engine.linsolve import available
 
     return "pardiso" not in linear_solver or available("pardiso")
 
@@ -225,10 +225,10 @@ def make_problem(setting: Setting):
     (with the setting's quadrature), so both orders run the real-time
     solver's fast path. ``problem.quadratic`` is set for the linear model.
     """
-    from .materials import material as make_material
-    from .meshes import flap
-    from .quasistatic import Handle, QuasistaticProblem
-    from .studies import QuadratureAssembler
+    from ...engine.materials import material as make_material
+    from ...engine.meshes import flap
+    from ...engine.quasistatic import Handle, QuasistaticProblem
+    from ..studies import QuadratureAssembler
 
     setting.check()
     mat = make_material(setting.material, E_FLAP, NU_FLAP)
@@ -356,7 +356,7 @@ def reference_run(benchmark: str, plan: dict, progress=None):
 
 def _l2_gram(problem):
     """The consistent ``L2`` mass matrix of the problem's basis (for norms of differences on one mesh)."""
-    from .dynamics import mass_matrix
+    from ...engine.dynamics import mass_matrix
 
     return mass_matrix(problem.basis, 1.0)
 
@@ -368,7 +368,7 @@ def _relative_same_mesh(M, u, u_ref) -> float:
 
 def _errors(problem, states, reference) -> list[float]:
     """Relative ``L2`` errors at the checkpoints against the reference (same checkpoints, in order)."""
-    from .studies import relative_l2_error
+    from ..studies import relative_l2_error
 
     ref_problem, ref_states = reference[0], reference[1]
     return [relative_l2_error(problem, states[f], ref_problem, ref_states[f]) for f in sorted(ref_states)]
@@ -577,7 +577,7 @@ def accuracy_study(plan="full", benchmarks=BENCHMARKS, knobs=None, scaling: bool
         bp = plan["budget"]
         results["budget"] = budget_residual(bp["sizes"], bp["frames"], bp.get("solvers", ("reuse",)), progress=say)
     if verification:
-        from .accuracy import beam_problem_tip, manufactured_convergence
+        from ..accuracy import beam_problem_tip, manufactured_convergence
 
         computed, exact = beam_problem_tip(32, 8, 2)
         results["verification"] = {
@@ -626,7 +626,7 @@ def _write_csv(path, rows, machine):
 def write_results(results: dict, out) -> list[Path]:
     """Write ``accuracy.json``, one CSV per table (knobs, scaling, budget; library versions in every row)
     and the three figures of the study into the folder ``out``; return the paths."""
-    from .figures_accuracy import plot_budget, plot_pareto, plot_scaling
+    from ..figures.accuracy import plot_budget, plot_pareto, plot_scaling
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -661,7 +661,7 @@ def load_results(path) -> dict:
 
 def recorded_results() -> dict:
     """The full study as recorded on the reference machine (shipped with the package; chapter 9 reads it)."""
-    return load_results(Path(__file__).with_name("data") / "accuracy_study.json")
+    return load_results(Path(__file__).parents[1] / "data" / "accuracy_study.json")
 
 
 _TABLE = [

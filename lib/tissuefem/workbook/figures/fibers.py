@@ -6,7 +6,7 @@ import numpy as np
 from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 
-from .figures import register, save
+from .registry import register, save
 
 _FIBER_COLOR = "#b2182b"
 
@@ -48,7 +48,7 @@ def fig03_fiber_field(path=None) -> Figure:
     configuration) and ``g`` is :func:`tissuefem.meshes.fusiform_fiber_field`:
     fibers run from tendon to tendon, fan out into the belly and converge again.
     """
-    from .meshes import fusiform_fiber_field, fusiform_muscle, fusiform_width
+    from ...engine.meshes import fusiform_fiber_field, fusiform_muscle, fusiform_width
 
     mesh = fusiform_muscle(nx=32, ny=8)
     g = fusiform_fiber_field(mesh)
@@ -85,7 +85,7 @@ def fig_ch05_along_vs_across(path=None) -> Figure:
     small-strain confined modulus against the fiber angle, finite elements
     (dots) on the prediction ``lam + 2 mu + k cos^4 theta``.
     """
-    from .fibers import K_FIBER, block_pull, confined_pull, fiber_direction, predicted_confined_modulus
+    from ..fibers import K_FIBER, block_pull, confined_pull, fiber_direction, predicted_confined_modulus
 
     cases = [(0.0, "fibers along the pull (0°)", "C3"), (45.0, "fibers at 45°", "C2"),
              (90.0, "fibers across the pull (90°)", "C0"), (None, "no fibers", "0.35")]
@@ -145,8 +145,8 @@ def fig_ch05_muscle_pull(path=None) -> Figure:
     shape), coloured by the stretch ``sqrt(I4) = |F g|`` along the anatomical
     fiber direction. Right: the tendon force against the stretch.
     """
-    from .fibers import K_FIBER, muscle_pull
-    from .meshes import fusiform_fiber_field
+    from ..fibers import K_FIBER, muscle_pull
+    from ...engine.meshes import fusiform_fiber_field
 
     stretches = np.linspace(1.0, 1.2, 9)
     runs = [(False, "isotropic (no fibers)", "0.35"), (True, f"with fibers, k = {K_FIBER:g}", "C3")]

@@ -15,7 +15,7 @@ import math
 import numpy as np
 from matplotlib.figure import Figure
 
-from .figures import register, save
+from .registry import register, save
 
 SIZES = (500, 2000, 8000)
 CAPS = (1, 2, 3)
@@ -24,8 +24,8 @@ FRAMES = 40
 
 def capped_runs(sizes=SIZES, caps=CAPS, frames=FRAMES) -> list[dict]:
     """For each size and cap: median relative residual per frame and the final state error against converged frames."""
-    from .bench_realtime import DT_FLAP, flap_path, flap_scene
-    from .realtime import RealtimeSolver
+    from ..bench.realtime import DT_FLAP, flap_path, flap_scene
+    from ...engine.realtime import RealtimeSolver
 
     rows = []
     for n in sizes:

@@ -157,10 +157,10 @@ def assembly_benchmark(sizes=(2000, 8000, 32000), repeats=5, material=None, out=
     # imported here so that importing tissuefem.bench stays cheap
     from skfem import Basis, ElementTriP1, ElementVector, asm
 
-    from .assembly import P1Assembler
-    from .forms import residual_form, tangent_form
-    from .materials import NeoHookean
-    from .meshes import mesh_with_about
+    from ...engine.assembly import P1Assembler
+    from ...engine.forms import residual_form, tangent_form
+    from ...engine.materials import NeoHookean
+    from ...engine.meshes import mesh_with_about
 
     sizes = _check_sizes(sizes)
     if isinstance(repeats, bool) or not isinstance(repeats, numbers.Integral) or repeats < 1:

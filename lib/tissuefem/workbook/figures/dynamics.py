@@ -28,7 +28,7 @@ from matplotlib.colors import to_rgba
 from matplotlib.figure import Figure
 from matplotlib.ticker import NullFormatter
 
-from .figures import E_DEFAULT, NU_DEFAULT, register, save
+from .registry import E_DEFAULT, NU_DEFAULT, register, save
 
 # (the drawing helpers of figures_inversion are imported inside the functions: importing that module
 # here would be circular when it is the first one imported, since figures imports this module)
@@ -59,10 +59,10 @@ def released_flap(material=None, nx: int = 8, ny: int = 4, lift: float = LIFT):
     ``problem`` holds only the left edge: stepping it from ``u0`` at rest is
     the release.
     """
-    from .materials import StableNeoHookean
-    from .meshes import rectangle
-    from .parameters import lame_parameters
-    from .quasistatic import Handle, QuasistaticProblem
+    from ...engine.materials import StableNeoHookean
+    from ...engine.meshes import rectangle
+    from ...engine.parameters import lame_parameters
+    from ...engine.quasistatic import Handle, QuasistaticProblem
 
     material = StableNeoHookean(*lame_parameters(E_DEFAULT, NU_DEFAULT, "strain")) if material is None else material
     mesh = rectangle(2.0, 1.0, nx, ny)
@@ -75,7 +75,7 @@ def released_flap(material=None, nx: int = 8, ny: int = 4, lift: float = LIFT):
 
 def backward_euler_run(problem, u0, dt: float, n_steps: int, frames: bool = False):
     """Backward Euler from ``u0`` at rest: ``(times, total energies[, displacements])``, one entry per step."""
-    from .dynamics import BackwardEuler
+    from ...engine.dynamics import BackwardEuler
 
     scheme = BackwardEuler(problem, dt)
     scheme.u = np.array(u0, dtype=float)
@@ -106,7 +106,7 @@ def fig_ch07_cfl(path=None, study=None) -> Figure:
     speed) and the ratio measured / estimate. ``study`` (from
     :func:`tissuefem.explicit.cfl_study`) skips recomputing it.
     """
-    from .explicit import cfl_study
+    from ...engine.explicit import cfl_study
 
     study = cfl_study(CFL_SIZES, E=E_DEFAULT, nu=NU_DEFAULT) if study is None else study
     h = np.array([r["h"] for r in study])
@@ -163,7 +163,7 @@ def fig_ch07_energy(path=None) -> Figure:
     scale; the run stops once the energy passes a million times its start).
     Energies are relative to the stored energy of the lifted flap.
     """
-    from .explicit import SymplecticEuler, critical_time_step
+    from ...engine.explicit import SymplecticEuler, critical_time_step
 
     problem, u0 = released_flap()
     dt_crit = critical_time_step(problem)
@@ -222,7 +222,7 @@ def _flap_axes_limits(states, problem, margin: float = 0.08):
 
 def write_flap_animation(gif_path, problem, states, dt: float, dpi: int = 60) -> Path:
     """Write the states as a GIF at one frame per step of ``dt`` (``matplotlib.animation``, Pillow)."""
-    from .figures_inversion import UPRIGHT_COLOR
+    from .inversion import UPRIGHT_COLOR
 
     gif_path = Path(gif_path)
     gif_path.parent.mkdir(parents=True, exist_ok=True)
@@ -261,7 +261,7 @@ def fig_ch07_released_flap(path=None) -> Figure:
     whole run as an animation ``<path stem>.gif`` beside the PNG
     (50 frames at 30 frames per second).
     """
-    from .figures_inversion import draw_state
+    from .inversion import draw_state
 
     problem, u0 = released_flap()
     times, energies, states = backward_euler_run(problem, u0, FRAME_DT, ANIMATION_FRAMES - 1, frames=True)

@@ -21,7 +21,7 @@ from matplotlib.figure import Figure
 from matplotlib.patches import FancyArrowPatch
 from matplotlib.tri import Triangulation
 
-from .figures import E_DEFAULT, NU_DEFAULT, register, save
+from .registry import E_DEFAULT, NU_DEFAULT, register, save
 
 #: one frame at 30 frames per second, in milliseconds
 FRAME_BUDGET_MS = 1000.0 / 30.0
@@ -69,8 +69,8 @@ def fig02_kinematics(path=None) -> Figure:
     are two short material vectors dX at X and their images dx = F dX at x:
     the columns of F = d phi / d X are the images of the unit vectors.
     """
-    from .meshes import rectangle
-    from .studies import bending_gradient, bending_map
+    from ...engine.meshes import rectangle
+    from ..studies import bending_gradient, bending_map
 
     mesh = rectangle(2.0, 1.0, 8, 4)
     fig = Figure(figsize=(9.0, 3.9), layout="constrained")
@@ -145,8 +145,8 @@ def fig_ch03_rotation_stress(path=None) -> Figure:
     equilibrium: the Neo-Hookean block turns rigidly, the linear-elastic one is
     strained and its area grows.
     """
-    from .materials import LinearElastic, NeoHookean
-    from .studies import rigid_rotation_response, rotated_block, rotation
+    from ...engine.materials import LinearElastic, NeoHookean
+    from ..studies import rigid_rotation_response, rotated_block, rotation
 
     linear = LinearElastic.from_young(E_DEFAULT, NU_DEFAULT)
     neo = NeoHookean.from_young(E_DEFAULT, NU_DEFAULT)
@@ -206,9 +206,9 @@ def fig_ch04_block(path=None) -> Figure:
     triangle: the area ratio J = det F (white = no change of area) and the
     energy density Psi. The dashed outline is the reference block.
     """
-    from .assembly import P1Assembler
-    from .materials import NeoHookean
-    from .studies import BLOCK_HANDLE, block_problem
+    from ...engine.assembly import P1Assembler
+    from ...engine.materials import NeoHookean
+    from ..studies import BLOCK_HANDLE, block_problem
 
     material = NeoHookean.from_young(E_DEFAULT, NU_DEFAULT)
     problem = block_problem(n=12, order=1, material=material)
@@ -260,7 +260,7 @@ def fig_ch04_cost_accuracy(path=None, rows=None) -> Figure:
     rest; right: one Newton iteration at the solution, the
     least a warm-started real-time frame needs. Labels give the dof counts.
     """
-    from .studies import RECORDED_COST_ACCURACY
+    from ..studies import RECORDED_COST_ACCURACY
 
     source = "recorded run" if rows is None else "this run"
     rows = RECORDED_COST_ACCURACY if rows is None else list(rows)

@@ -40,8 +40,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .bench import _check_sizes, machine_info, markdown_table
-from .realtime import FRAME_BUDGET, RealtimeSolver
+from .common import _check_sizes, machine_info, markdown_table
+from ...engine.realtime import FRAME_BUDGET, RealtimeSolver
 
 __all__ = ["flap_scene", "flap_path", "realtime_benchmark", "ex43_frames", "format_realtime_table", "plot_realtime"]
 
@@ -56,9 +56,9 @@ def flap_path(t) -> np.ndarray:
 
 def flap_scene(n_triangles: int = 8000, material=None):
     """``(problem, grab)``: the standard flap with the left edge fixed and a handle on the right edge."""
-    from .materials import NeoHookean
-    from .meshes import flap
-    from .quasistatic import Handle, QuasistaticProblem
+    from ...engine.materials import NeoHookean
+    from ...engine.meshes import flap
+    from ...engine.quasistatic import Handle, QuasistaticProblem
 
     mesh = flap(n_triangles=n_triangles)
     grab = Handle("handle")
@@ -75,7 +75,7 @@ def ex43_frames(problem, grab, n_frames: int, dt: float = DT_FLAP, rtol: float =
     """
     from skfem import BilinearForm, asm, condense, solve
 
-    from .forms import residual_form, tangent_form
+    from ...engine.forms import residual_form, tangent_form
 
     basis = problem.basis
     K_form, r_form = tangent_form(problem.material), residual_form(problem.material)
@@ -254,7 +254,7 @@ def plot_realtime(rows, path=None):
     """ms per frame against mesh size (median and 95th percentile, ex43 way), with the 33 ms line."""
     from matplotlib.figure import Figure
 
-    from .figures import save
+    from ..figures.registry import save
 
     tri = np.array([r["triangles"] for r in rows])
     fig = Figure(figsize=(6.4, 4.4), layout="constrained")

@@ -14,7 +14,7 @@ import math
 import numpy as np
 from matplotlib.figure import Figure
 
-from .figures import register, save
+from .registry import register, save
 
 #: One colour and marker per knob, and the words a reader sees.
 KNOB_STYLE = {
@@ -60,7 +60,7 @@ def plot_pareto(results, path=None, annotate=True) -> Figure:
     baseline is the black star; the grey staircase is the Pareto front of
     all settings of the panel (nothing is both faster and more accurate).
     """
-    from .accuracy import pareto_front
+    from ..accuracy import pareto_front
 
     rows = results["knobs"]
     benchmarks = list(dict.fromkeys(r["benchmark"] for r in rows))
@@ -156,7 +156,7 @@ def plot_budget(results, path=None) -> Figure:
 
 
 def _recorded():
-    from .bench_accuracy import recorded_results
+    from ..bench.accuracy import recorded_results
 
     return recorded_results()
 
@@ -182,7 +182,7 @@ def fig_ch09_budget(path=None, results=None) -> Figure:
 @register
 def fig_ch09_verification(path=None, rows=None) -> Figure:
     """Chapter 9: the reference verified -- nonlinear mesh convergence at rates 2 (P1) and 3 (P2)."""
-    from .accuracy import manufactured_convergence
+    from ..accuracy import manufactured_convergence
 
     rows = manufactured_convergence() if rows is None else rows
     fig = Figure(figsize=(6.4, 4.6), layout="constrained")

@@ -52,7 +52,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .materials import (
+from ..engine.materials import (
     FiberReinforced,
     Material,
     NeoHookean,
@@ -61,8 +61,8 @@ from .materials import (
     fiber_stress_term,
     fiber_tangent_term,
 )
-from .meshes import fusiform_fiber_field, fusiform_muscle, rectangle
-from .quasistatic import Handle, QuasistaticProblem
+from ..engine.meshes import fusiform_fiber_field, fusiform_muscle, rectangle
+from ..engine.quasistatic import Handle, QuasistaticProblem
 
 __all__ = [
     "E_TISSUE",

@@ -18,7 +18,7 @@ from typing import Callable
 import numpy as np
 from matplotlib.figure import Figure
 
-from .materials1d import Linear1D, NeoHookean1D, TaylorNeoHookean1D
+from ...engine.materials1d import Linear1D, NeoHookean1D, TaylorNeoHookean1D
 
 FIGURES: dict[str, Callable] = {}
 
@@ -146,7 +146,7 @@ def fig07_neo_hookean_1d(path=None) -> Figure:
 @register
 def fig_ch01_convergence(path=None) -> Figure:
     """Chapter 1: L2 and H1 errors of the 1D linear bar against h, P1 and P2, with observed rates."""
-    from .oned import convergence_study
+    from ...engine.bar1d import convergence_study
 
     rows = convergence_study()
     fig = Figure(figsize=(6.4, 4.6), layout="constrained")
@@ -170,7 +170,7 @@ def fig_ch01_convergence(path=None) -> Figure:
 @register
 def fig_ch02_newton(path=None) -> Figure:
     """Chapter 2: Newton residual histories for the 1D Neo-Hookean bar under several end tractions."""
-    from .oned import Bar1D, Traction
+    from ...engine.bar1d import Bar1D, Traction
 
     material = NeoHookean1D.from_young(E_DEFAULT, NU_DEFAULT)
     bar = Bar1D(0.0, 1.0, 16)
@@ -189,4 +189,4 @@ def fig_ch02_newton(path=None) -> Figure:
 
 
 # Figures of the 2D chapters live in their own modules; importing them registers them.
-from . import figures2d, figures_fibers, figures_inversion, figures_dynamics, figures_realtime, figures_surgery, figures_accuracy  # noqa: E402,F401
+from . import kinematics, fibers, inversion, dynamics, realtime, surgery, accuracy  # noqa: E402,F401
