@@ -181,7 +181,8 @@ def _reference_scene_text():
 def test_ex8_2_scene_file(answer):
     import tomllib
 
-    from tissuefem.surgery.scene import Scene, Simulation
+    from tissuefem.surgery.scene import Scene
+    from tissuefem.surgery.simulation import Simulation
 
     text = answer()
     assert isinstance(text, str), f"return the TOML text as a string, got {type(text).__name__}"

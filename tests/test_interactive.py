@@ -11,7 +11,8 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from tissuefem.surgery.interactive import MODES, SurgeryView, mean_edge_length, synthetic_key, synthetic_mouse
-from tissuefem.surgery.scene import Scene, Simulation
+from tissuefem.surgery.scene import Scene
+from tissuefem.surgery.simulation import Simulation
 
 WIDTH, HEIGHT = 2.0, 1.0
 #: a small dynamic sheet held on its left edge (a few hundred triangles: every frame takes milliseconds)

@@ -9,7 +9,8 @@ from tissuefem.engine import model as model_module
 from tissuefem.engine.meshes import rectangle
 from tissuefem.engine.model import Model, NodeHandle
 from tissuefem.engine.realtime import ConstantTangentSolver, RealtimeSolver
-from tissuefem.surgery.scene import EFFECTS, EXAMPLE_TOML, Scene, Simulation, demo_scene
+from tissuefem.surgery.scene import EFFECTS, EXAMPLE_TOML, Scene, demo_scene
+from tissuefem.surgery.simulation import Simulation
 
 
 class FakeClock:
@@ -173,7 +174,7 @@ def test_an_absent_effect_is_never_evaluated(monkeypatch):
         monkeypatch.setattr(model_module, name, forbidden)
     monkeypatch.setattr(model_module.Probe, "_contact", forbidden)
     monkeypatch.setattr(model_module.Sutures, "_gap", forbidden)
-    monkeypatch.setattr("tissuefem.surgery.scene.load_vector", forbidden)  # no gravity, no traction
+    monkeypatch.setattr("tissuefem.surgery.simulation.load_vector", forbidden)  # no gravity, no traction
     import tissuefem.engine.dynamics
 
     monkeypatch.setattr(tissuefem.engine.dynamics, "mass_matrix", forbidden)

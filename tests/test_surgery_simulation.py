@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from tissuefem.surgery.flaps import advancement_flap, pair_by_motion
-from tissuefem.surgery.scene import Scene, Simulation
+from tissuefem.surgery.scene import Scene
+from tissuefem.surgery.simulation import Simulation
 
 
 class FakeClock:

@@ -52,7 +52,8 @@ from tissuefem.workbook.figures.surgery import (draw_mesh, fig_ch08_flap, fig_ch
 from tissuefem.surgery.flaps import advancement_flap
 from tissuefem.engine.meshes import rectangle
 from tissuefem.engine.realtime import FRAME_BUDGET
-from tissuefem.surgery.scene import EFFECTS, EXAMPLE_TOML, Scene, Simulation, demo_scene
+from tissuefem.surgery.scene import EFFECTS, EXAMPLE_TOML, Scene, demo_scene
+from tissuefem.surgery.simulation import Simulation
 
 print(f"frame budget {1e3 * FRAME_BUDGET:.1f} ms; effects a scene may name: {', '.join(EFFECTS)}")
 
@@ -77,7 +78,7 @@ print(f"frame budget {1e3 * FRAME_BUDGET:.1f} ms; effects a scene may name: {', 
 # | removes a lesion | the mesh: elements are deleted | 7 |
 # | stitches a wound | a new term of the energy (springs between pairs of nodes) | 7 |
 #
-# `tissuefem.surgery.scene.Simulation` offers each of these as a method to call between frames, and each one
+# `tissuefem.surgery.simulation.Simulation` offers each of these as a method to call between frames, and each one
 # leaves a valid state: either the operation succeeds and the state (displacement, velocity, time, frame
 # count) carries over to the new problem, or it raises a `ValueError` that names the bad argument and
 # changes nothing.

@@ -34,7 +34,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .scene import Scene, Simulation
+from .scene import Scene
+from .simulation import Simulation
 
 __all__ = ["advancement_flap", "pair_by_motion", "FlapResult", "wound_nodes"]
 

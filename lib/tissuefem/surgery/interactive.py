@@ -1,6 +1,6 @@
 """Operate on a running simulation with the mouse: drag the tissue and cut it, in any matplotlib figure.
 
-A :class:`SurgeryView` puts a :class:`tissuefem.scene.Simulation` in a
+A :class:`SurgeryView` puts a :class:`tissuefem.surgery.simulation.Simulation` in a
 matplotlib ``Axes`` and turns mouse events into the simulation's input, which
 is the *input* step of the notes' frame loop (read the user, solve, render,
 every 1/30 s):
@@ -76,7 +76,7 @@ class SurgeryView:
 
     Parameters
     ----------
-    sim : tissuefem.scene.Simulation
+    sim : tissuefem.surgery.simulation.Simulation
         The running simulation (anything with its ``mesh``, ``positions``,
         ``frame``, ``grab``, ``drag``, ``release`` and ``cut``).
     ax : matplotlib.axes.Axes, optional
@@ -134,7 +134,7 @@ class SurgeryView:
     def __init__(self, sim, ax=None, radius=None, interval_ms=33, autostart=True):
         missing = [m for m in ("mesh", *_SIM_METHODS) if not hasattr(sim, m)]
         if missing:
-            raise ValueError(f"sim must be a tissuefem.scene.Simulation; {type(sim).__name__} has no {missing}")
+            raise ValueError(f"sim must be a tissuefem.surgery.simulation.Simulation; {type(sim).__name__} has no {missing}")
         self.sim = sim
         if radius is None:
             radius = 2.0 * mean_edge_length(sim.mesh)

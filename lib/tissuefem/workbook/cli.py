@@ -106,7 +106,8 @@ def cmd_scene(args) -> int:
     """Check a scene file and run it: one line per frame (time, status, Newton steps), then a summary."""
     import numpy as np
 
-    from ..surgery.scene import Scene, Simulation
+    from ..surgery.scene import Scene
+    from ..surgery.simulation import Simulation
 
     try:
         scene = Scene.load(args.path)

@@ -34,7 +34,8 @@ import numpy as np
 
 from .common import machine_info, median_time
 from .realtime import flap_path
-from ...surgery.scene import Scene, Simulation
+from ...surgery.scene import Scene
+from ...surgery.simulation import Simulation
 
 __all__ = ["effects_benchmark", "variants", "format_effects_table"]
 

@@ -19,7 +19,7 @@ Every simulation here runs with an unlimited budget and a clock that never
 advances, so each frame is solved to the solver's tolerance and nothing
 depends on the machine's speed: the files are byte-identical from run to run.
 Elements are coloured by their largest principal Cauchy stress
-(:meth:`tissuefem.scene.Simulation.tension`) on one diverging scale per
+(:meth:`tissuefem.surgery.simulation.Simulation.tension`) on one diverging scale per
 figure: red is pulled apart, blue is pressed together, white is at rest.
 """
 
@@ -87,7 +87,7 @@ def sheet_scene(n_triangles=1200, *, handles, dynamic=False, gravity=False, widt
 
 
 def _simulation(scene):
-    from ...surgery.scene import Simulation
+    from ...surgery.simulation import Simulation
 
     return Simulation(scene, clock=_still_clock)
 
