@@ -88,6 +88,12 @@ class P1Assembler:
         The default material (any object with ``energy``, ``stress`` and
         ``tangent`` following :mod:`tissuefem.materials`); every method also
         takes a ``material`` argument that overrides it for that call.
+    weights
+        Optional ``(n_elements,)`` fractions in ``(0, 1]``: the share of its
+        triangle's area that each element's material fills (1 everywhere by
+        default). Elements made by cutting through a triangle keep the
+        triangle's shape functions but carry only the material on their side
+        of the cut.
 
     Attributes
     ----------
@@ -99,7 +105,8 @@ class P1Assembler:
         Indices of the elements whose vertex order was reversed to make ``t``
         counter-clockwise.
     areas
-        ``(n_elements,)`` reference areas ``A_e > 0``.
+        ``(n_elements,)`` reference areas ``A_e > 0`` of the material (the
+        triangle's area times its weight).
     grads
         ``(n_elements, 3, 2)`` constant shape-function gradients
         ``grads[e, a, j] = dN_a/dX_j`` (vertex ``a`` of ``t[:, e]``).
@@ -114,7 +121,7 @@ class P1Assembler:
         entry (row ``2 a + i``, column ``2 b + k``) of element ``e``.
     """
 
-    def __init__(self, mesh, material=None):
+    def __init__(self, mesh, material=None, weights=None):
         p, t = self._validate_mesh(mesh)
         self.mesh = mesh
         self.material = material
@@ -137,6 +144,13 @@ class P1Assembler:
         self.t.setflags(write=False)
         self.flipped = flipped
         self.areas = 0.5 * det
+        if weights is not None:
+            w = np.asarray(weights, dtype=float)
+            if w.shape != (t.shape[1],) or not np.all(np.isfinite(w)) or np.any(w <= 0) or np.any(w > 1):
+                raise ValueError(f"weights must be one number in (0, 1] per element, shape ({t.shape[1]},)")
+            # an element that carries only part of its triangle's material (a copy made by cutting
+            # through the triangle) integrates over that part: its area shrinks, its gradients do not
+            self.areas = self.areas * w
         # G[a, j, e] = dN_a/dX_j: rows of the inverse of the Jacobian [d1 d2]
         G = np.empty((3, 2, self.n_elements))
         G[1, 0] = d2[1] / det
