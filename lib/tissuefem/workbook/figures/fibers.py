@@ -6,7 +6,9 @@ import numpy as np
 from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 
-from .registry import register, save
+from .base import lecture_figure, save
+from ...engine.meshes import fusiform_fiber_field, fusiform_muscle, fusiform_width
+from ..fibers import (K_FIBER, block_pull, confined_pull, fiber_direction, muscle_pull, predicted_confined_modulus)
 
 _FIBER_COLOR = "#b2182b"
 
@@ -40,7 +42,7 @@ def _deformed_fibers(result, fibers, scale):
 
 # --- the notes' Figure 3: a fiber field ------------------------------------------------
 
-@register
+@lecture_figure
 def fig03_fiber_field(path=None) -> Figure:
     """Notes' Figure 3 in 2D: the fiber field g of a fusiform muscle, one short segment per element.
 
@@ -48,7 +50,6 @@ def fig03_fiber_field(path=None) -> Figure:
     configuration) and ``g`` is :func:`tissuefem.meshes.fusiform_fiber_field`:
     fibers run from tendon to tendon, fan out into the belly and converge again.
     """
-    from ...engine.meshes import fusiform_fiber_field, fusiform_muscle, fusiform_width
 
     mesh = fusiform_muscle(nx=32, ny=8)
     g = fusiform_fiber_field(mesh)
@@ -76,7 +77,7 @@ def fig03_fiber_field(path=None) -> Figure:
 
 # --- chapter 5: along versus across ------------------------------------------------------
 
-@register
+@lecture_figure
 def fig_ch05_along_vs_across(path=None) -> Figure:
     """Chapter 5: a strip pulled along, at 45 degrees to and across its fibers, and the confined modulus.
 
@@ -85,7 +86,6 @@ def fig_ch05_along_vs_across(path=None) -> Figure:
     small-strain confined modulus against the fiber angle, finite elements
     (dots) on the prediction ``lam + 2 mu + k cos^4 theta``.
     """
-    from ..fibers import K_FIBER, block_pull, confined_pull, fiber_direction, predicted_confined_modulus
 
     cases = [(0.0, "fibers along the pull (0°)", "C3"), (45.0, "fibers at 45°", "C2"),
              (90.0, "fibers across the pull (90°)", "C0"), (None, "no fibers", "0.35")]
@@ -137,7 +137,7 @@ def fig_ch05_along_vs_across(path=None) -> Figure:
     return fig
 
 
-@register
+@lecture_figure
 def fig_ch05_muscle_pull(path=None) -> Figure:
     """Chapter 5: the fusiform muscle pulled by its right tendon, with and without fibers.
 
@@ -145,8 +145,6 @@ def fig_ch05_muscle_pull(path=None) -> Figure:
     shape), coloured by the stretch ``sqrt(I4) = |F g|`` along the anatomical
     fiber direction. Right: the tendon force against the stretch.
     """
-    from ..fibers import K_FIBER, muscle_pull
-    from ...engine.meshes import fusiform_fiber_field
 
     stretches = np.linspace(1.0, 1.2, 9)
     runs = [(False, "isotropic (no fibers)", "0.35"), (True, f"with fibers, k = {K_FIBER:g}", "C3")]

@@ -1,71 +1,20 @@
-"""Every lecture figure as a function: the CLI and the chapters call the same code.
-
-Each figure function takes an optional output ``path``, builds a
-``matplotlib.figure.Figure`` without touching pyplot's global state, saves it
-when a path is given (PNG, no timestamp or version in the metadata, so a
-figure file changes only when the figure does) and returns it.
-
-``FIGURES`` maps each figure's name to its function; ``generate`` writes all
-of them (the ``python -m tissuefem figures`` command).
-"""
+"""Figures of the 1D chapters (1 and 2) and of the notes' Figures 5 and 7."""
 
 from __future__ import annotations
-
-import time
-from pathlib import Path
-from typing import Callable
 
 import numpy as np
 from matplotlib.figure import Figure
 
+from ...engine.bar1d import Bar1D, Traction
+from ...engine.constants import TISSUE_E, TISSUE_NU
 from ...engine.materials1d import Linear1D, NeoHookean1D, TaylorNeoHookean1D
-
-FIGURES: dict[str, Callable] = {}
-
-#: the notes' typical parameters: Young's modulus 1000, Poisson's ratio 0.3
-E_DEFAULT, NU_DEFAULT = 1000.0, 0.3
-
-
-def register(func: Callable) -> Callable:
-    """Add a figure function to :data:`FIGURES` under its own name."""
-    FIGURES[func.__name__] = func
-    return func
-
-
-def save(fig: Figure, path) -> None:
-    """Save deterministically: fixed DPI, no 'Software' entry or timestamps in the PNG."""
-    if path is None:
-        return
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110, metadata={"Software": None})
-
-
-def generate(names=None, outdir="figures", progress=print) -> list[Path]:
-    """Regenerate the named figures (all by default) into ``outdir``; returns the paths."""
-    names = list(FIGURES) if names is None else list(names)
-    unknown = [n for n in names if n not in FIGURES]
-    if unknown:
-        raise ValueError(f"unknown figure(s) {unknown}; choose from {sorted(FIGURES)}")
-    outdir = Path(outdir)
-    paths = []
-    start = time.perf_counter()
-    for i, name in enumerate(names, 1):
-        t0 = time.perf_counter()
-        path = outdir / f"{name}.png"
-        FIGURES[name](path)
-        paths.append(path)
-        if progress:
-            progress(
-                f"[figure {i}/{len(names)}] {path}  ({time.perf_counter() - t0:.1f} s, "
-                f"total {time.perf_counter() - start:.1f} s)"
-            )
-    return paths
+from ..oned import convergence_study
+from .base import lecture_figure, save
 
 
 # --- chapter 2 / notes Figure 5 -------------------------------------------------
 
-@register
+@lecture_figure
 def fig05_admissible_maps(path=None) -> Figure:
     """Notes' Figure 5: phi(X) = X^2 (admissible) beside phi(X) = sin(2 pi X) (inverting).
 
@@ -108,7 +57,7 @@ def fig05_admissible_maps(path=None) -> Figure:
 
 # --- chapter 2 / notes Figure 7 -------------------------------------------------
 
-@register
+@lecture_figure
 def fig07_neo_hookean_1d(path=None) -> Figure:
     """Notes' Figure 7: 1D Neo-Hookean energy and stress against J = F.
 
@@ -117,9 +66,9 @@ def fig07_neo_hookean_1d(path=None) -> Figure:
     through inversion. Linear elasticity (grey) is the common tangent at J = 1.
     """
     models = [
-        (NeoHookean1D.from_young(E_DEFAULT, NU_DEFAULT), "C0", "-", "ln J (notes' model)"),
-        (TaylorNeoHookean1D.from_young(E_DEFAULT, NU_DEFAULT), "C2", "-", "cubic Taylor r(J)"),
-        (Linear1D.from_young(E_DEFAULT, NU_DEFAULT), "0.5", ":", "linear"),
+        (NeoHookean1D.from_young(TISSUE_E, TISSUE_NU), "C0", "-", "ln J (notes' model)"),
+        (TaylorNeoHookean1D.from_young(TISSUE_E, TISSUE_NU), "C2", "-", "cubic Taylor r(J)"),
+        (Linear1D.from_young(TISSUE_E, TISSUE_NU), "0.5", ":", "linear"),
     ]
     J = np.linspace(-0.4, 2.2, 1301)
     fig = Figure(figsize=(10.0, 4.2), layout="constrained")
@@ -136,18 +85,16 @@ def fig07_neo_hookean_1d(path=None) -> Figure:
     ax_e.set(ylim=(-200, 4500), ylabel="energy density $\\Psi$", title="energy")
     ax_s.set(ylim=(-11000, 3000), ylabel="stress $P = d\\Psi/dF$", title="first Piola-Kirchhoff stress")
     ax_e.legend(fontsize=8, loc="upper right")
-    fig.suptitle(f"Notes' Figure 7: 1D Neo-Hookean, E = {E_DEFAULT:g}, nu = {NU_DEFAULT:g}")
+    fig.suptitle(f"Notes' Figure 7: 1D Neo-Hookean, E = {TISSUE_E:g}, nu = {TISSUE_NU:g}")
     save(fig, path)
     return fig
 
 
 # --- chapter 1: convergence of the linear bar ----------------------------------------
 
-@register
+@lecture_figure
 def fig_ch01_convergence(path=None) -> Figure:
     """Chapter 1: L2 and H1 errors of the 1D linear bar against h, P1 and P2, with observed rates."""
-    from ...engine.bar1d import convergence_study
-
     rows = convergence_study()
     fig = Figure(figsize=(6.4, 4.6), layout="constrained")
     ax = fig.subplots()
@@ -167,12 +114,10 @@ def fig_ch01_convergence(path=None) -> Figure:
 
 # --- chapter 2: Newton's convergence ---------------------------------------------------
 
-@register
+@lecture_figure
 def fig_ch02_newton(path=None) -> Figure:
     """Chapter 2: Newton residual histories for the 1D Neo-Hookean bar under several end tractions."""
-    from ...engine.bar1d import Bar1D, Traction
-
-    material = NeoHookean1D.from_young(E_DEFAULT, NU_DEFAULT)
+    material = NeoHookean1D.from_young(TISSUE_E, TISSUE_NU)
     bar = Bar1D(0.0, 1.0, 16)
     fig = Figure(figsize=(6.4, 4.6), layout="constrained")
     ax = fig.subplots()
@@ -186,7 +131,3 @@ def fig_ch02_newton(path=None) -> Figure:
     ax.legend(fontsize=8)
     save(fig, path)
     return fig
-
-
-# Figures of the 2D chapters live in their own modules; importing them registers them.
-from . import kinematics, fibers, inversion, dynamics, realtime, surgery, accuracy  # noqa: E402,F401
