@@ -188,6 +188,7 @@ class Handle:
         base = None if self.base is None else self.base[:, index[new_nodes]]
         h = Handle(new_nodes, base=base, name=self.name, anchor=self.anchor)
         h.target = self.target
+        h.nodes = new_nodes  # its region is these nodes: known before any model takes it
         return h
 
     def __repr__(self):

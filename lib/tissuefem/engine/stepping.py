@@ -84,7 +84,9 @@ class StepReport:
 
     @property
     def newton_iterations(self) -> int:
-        return self.newton.iterations
+        """Newton steps of the step: the minimiser's, plus the linearised start of a quasistatic step (one
+        Newton step from the previous state towards the new handle positions)."""
+        return self.newton.iterations + (self.warm_start == "linearised")
 
     iterations = newton_iterations
 
@@ -354,7 +356,7 @@ class Stepper:
             result = newton(
                 x0, model.gradient, model.hessian, energy=model.energy, free=free,
                 line_search=self.line_search, rtol=self.rtol, atol=self.atol, reference_norm=load_norm,
-                floor=self.floor, max_iterations=self.max_iterations, max_step=self.max_step,
+                floor=self.floor, max_iterations=self.max_iterations - (which == "linearised"), max_step=self.max_step,
                 linear=self.linear, clock=self.clock, budget=self._budget, start=start, energy0=E0,
             )
         finally:
@@ -474,6 +476,12 @@ def solve(model: Model, load_steps: int = 1, u0=None, *, stepper: Stepper | None
     if isinstance(load_steps, bool) or not isinstance(load_steps, (int, np.integer)) or not 1 <= load_steps <= 10**6:
         raise ValueError(f"load_steps must be an integer from 1 to 1000000, got {load_steps!r}")
     options.setdefault("rtol", 1e-10)
+    if u0 is not None:
+        u0 = np.asarray(u0, dtype=float)
+        if u0.shape != (model.n_dofs,):
+            raise ValueError(f"u0 must have shape ({model.n_dofs},), got {u0.shape}")
+        if not np.all(np.isfinite(u0)):
+            raise ValueError("u0 contains non-finite values")
     if stepper is None:
         stepper = Stepper(model, **options)
     elif options:

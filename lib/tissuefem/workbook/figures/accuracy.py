@@ -15,7 +15,8 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from .base import lecture_figure, save
-from ..accuracy import manufactured_convergence, pareto_front
+from ..accuracy import manufactured_convergence
+from ..measure import pareto_front
 from ..bench.accuracy import recorded_results
 
 #: One colour and marker per knob, and the words a reader sees.

@@ -32,9 +32,9 @@ def _outline(ax, mesh, **style):
 
 def _deformed_fibers(result, fibers, scale):
     """Deformed positions, element centroids and fiber segments ``F g`` of a pull result."""
-    problem = result.problem
-    x = problem.deformed_positions(result.u)
-    F = problem.assembler.deformation_gradient(result.u)
+    problem = result.model
+    x = problem.positions(result.u)
+    F = problem.deformation_gradient(result.u)
     a = np.einsum("ije,je->ie", F, fibers)  # F g: the deformed fiber, length = stretch
     stretch = np.hypot(a[0], a[1])
     return x, _segments(_centroids(x, problem.mesh.t), a / stretch, scale * stretch), stretch
@@ -96,7 +96,7 @@ def fig_ch05_along_vs_across(path=None) -> Figure:
     ax_curve, ax_mod = bottom.subplots(1, 2)
     for ax, (angle, label, color) in zip(shapes, cases):
         result = block_pull(angle, stretches)
-        mesh = result.problem.mesh
+        mesh = result.model.mesh
         _outline(ax, mesh, colors="0.55", linewidths=0.9, linestyles="dashed")
         x, segs, _ = _deformed_fibers(result, fiber_direction(0.0 if angle is None else angle)[:, None], 0.16)
         ax.triplot(x[0], x[1], mesh.t.T, color="0.7", lw=0.35)
@@ -151,10 +151,10 @@ def fig_ch05_muscle_pull(path=None) -> Figure:
     fig = Figure(figsize=(10.0, 5.0), layout="constrained")
     axes = fig.subplot_mosaic([["m0", "curve"], ["m1", "curve"]], width_ratios=[1.7, 1.0])
     results = [muscle_pull(stretches, with_fibers=with_fibers) for with_fibers, _, _ in runs]
-    drawn = [_deformed_fibers(r, fusiform_fiber_field(r.problem.mesh), 0.09) for r in results]
+    drawn = [_deformed_fibers(r, fusiform_fiber_field(r.model.mesh), 0.09) for r in results]
     top = float(np.ceil(10.0 * max(d[2].max() for d in drawn)) / 10.0)
     for i, ((_, label, color), result, (x, segs, stretch)) in enumerate(zip(runs, results, drawn)):
-        mesh = result.problem.mesh
+        mesh = result.model.mesh
         ax = axes[f"m{i}"]
         _outline(ax, mesh, colors="0.55", linewidths=0.8, linestyles="dashed")
         image = ax.tripcolor(x[0], x[1], mesh.t.T, facecolors=stretch, cmap="viridis", vmin=1.0, vmax=top)

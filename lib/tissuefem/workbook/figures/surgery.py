@@ -240,7 +240,7 @@ def two_pieces_run(n_triangles=800, sag_frames=SAG_FRAMES, fall_frames=FALL_FRAM
 
     def record(free_elements):
         x = sim.positions()
-        m = sim.solver.M.diagonal()[0::2]  # lumped nodal masses
+        m = sim.model.inertia.M.diagonal()[0::2]  # lumped nodal masses
         frames.append((x.copy(), sim.mesh.t.copy(), free_elements))
         com.append(_side_com(x, m, side["right"]))
 
@@ -256,7 +256,7 @@ def two_pieces_run(n_triangles=800, sag_frames=SAG_FRAMES, fall_frames=FALL_FRAM
     free_elements = free_nodes[sim.mesh.t[0]]
     side["right"] = free_nodes
     # the free piece's centre of mass and velocity at the moment of the cut (the cut moves nothing)
-    m = sim.solver.M.diagonal()[0::2]
+    m = sim.model.inertia.M.diagonal()[0::2]
     mass = m[free_nodes].sum()
     y_cut = float(np.dot(m[free_nodes], sim.positions()[1, free_nodes]) / mass)
     vy_cut = float(np.dot(m[free_nodes], sim.v.reshape(-1, 2)[free_nodes, 1]) / mass)
