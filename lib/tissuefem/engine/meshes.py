@@ -157,7 +157,7 @@ def _edge_table(t: np.ndarray):
     return key[:, order], owner[order]
 
 
-def check_mesh(p, t, name: str = "mesh"):
+def check_mesh(p, t, name: str = "mesh", *, unused_nodes: str = "refuse"):
     """Check that ``(p, t)`` is a valid 2D triangle mesh; return ``(p, t)`` as float64 ``(2, n)`` and int64 ``(3, m)``.
 
     Refused, with a ``ValueError`` that starts with ``name`` and lists the
@@ -176,7 +176,8 @@ def check_mesh(p, t, name: str = "mesh"):
       caller's back would silently change what node indices given elsewhere
       (handles, sutures) refer to. (:func:`tissuefem.surgery.scene.read_mesh`
       drops them from a file, with a note, because it can still refuse the
-      node indices of that scene.)
+      node indices of that scene; it checks the file with
+      ``unused_nodes="ignore"`` first, so that messages use the file's numbers.)
     * **an edge shared by three or more triangles** (a non-manifold "fin":
       not a 2D domain), and duplicated triangles (the same three nodes twice);
     * degenerate triangles (``|2 area| <= DEGENERATE_TOL * (longest edge)^2``);
@@ -211,12 +212,14 @@ def check_mesh(p, t, name: str = "mesh"):
     bad = np.flatnonzero((np.abs(p_arr) > COORDINATE_MAX).any(axis=0))
     if bad.size:
         raise ValueError(f"{name}: nodes {_list(bad)} lie beyond the coordinate limit +-{COORDINATE_MAX:g}")
+    if unused_nodes not in ("refuse", "ignore"):
+        raise ValueError(f"unused_nodes must be 'refuse' or 'ignore', got {unused_nodes!r}")
     used = np.zeros(n, dtype=bool)
     used[t_arr.ravel()] = True
-    if not used.all():
+    if unused_nodes == "refuse" and not used.all():
         raise ValueError(f"{name}: nodes {_list(np.flatnonzero(~used))} belong to no triangle (an unused node has no "
                          "stiffness and no mass); remove them and renumber")
-    extent = float(np.ptp(p_arr, axis=1).max())
+    extent = float(np.ptp(p_arr[:, used], axis=1).max())
     if extent < SIZE_RANGE[0]:
         raise ValueError(f"{name}: spans only {extent:g} (the largest side of its bounding box must be at least "
                          f"{SIZE_RANGE[0]:g})")
