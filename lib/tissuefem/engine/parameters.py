@@ -8,9 +8,11 @@ quantity                    range                            why
 ==========================  ===============================  ==============================================
 Young's modulus ``E``       ``[1e-6, 1e12]``                 soft gels (~1 Pa) to steel (2e11 Pa), with
                                                              room; products such as ``E^2`` stay finite
-Poisson's ratio ``nu``      ``(-1, 0.5)`` (open)             the admissible range; at its ends ``lam``,
-                                                             ``mu`` stay below ``1e28`` (for ``E <= 1e12``)
-Lamé ``mu`` (given)         ``[1e-7, 1e30]``                 what ``E`` and ``nu`` above map to, with room
+Poisson's ratio ``nu``      ``[-0.999999, 0.499999]``        the admissible ``(-1, 0.5)`` less ``1e-6`` at
+                                                             each end, where ``lam + 2 mu / 3`` would be
+                                                             lost to round-off; ``lam/mu <= 5e5``
+Lamé ``mu`` (given)         ``[1e-7, 1e30]``                 what ``E`` and ``nu`` above map to (at most
+                                                             ``5e17``), with room
 Lamé ``lam`` (given)        ``(-2 mu / 3, 1e30]``            a positive bulk modulus
 time step ``dt``            ``[1e-6, 10]`` s                 :func:`check_time_step`
 counts                      true integers (never ``bool``)   :func:`check_count`
@@ -30,11 +32,13 @@ import numpy as np
 __all__ = [
     "lame_parameters",
     "check_young_poisson",
+    "check_poisson_ratio",
     "check_lame",
     "check_real",
     "check_count",
     "check_time_step",
     "YOUNGS_MODULUS_RANGE",
+    "POISSON_RATIO_RANGE",
     "LAME_MAX",
     "SHEAR_MODULUS_MIN",
     "TIME_STEP_RANGE",
@@ -42,6 +46,8 @@ __all__ = [
 
 #: Young's modulus accepted by :func:`check_young_poisson` (closed interval).
 YOUNGS_MODULUS_RANGE = (1e-6, 1e12)
+#: Poisson's ratio accepted by :func:`check_young_poisson` (closed interval inside the admissible (-1, 0.5)).
+POISSON_RATIO_RANGE = (-1.0 + 1e-6, 0.5 - 1e-6)
 #: Largest Lamé parameter (and fibre modulus) accepted when given directly.
 LAME_MAX = 1e30
 #: Smallest shear modulus accepted when given directly (``E >= 1e-6`` maps to ``mu > 1e-6 / 3``).
@@ -114,11 +120,26 @@ def check_time_step(dt, name: str = "dt") -> float:
     return check_real(f"{name} (time step)", dt, *TIME_STEP_RANGE)
 
 
+def check_poisson_ratio(nu, name: str = "nu (Poisson's ratio)") -> float:
+    """Poisson's ratio in :data:`POISSON_RATIO_RANGE`; the error names ``name``.
+
+    Outside ``(-1, 0.5)`` the message says so; inside it but within ``1e-6`` of
+    an end, that the value is too close: there ``lam`` and ``mu`` are huge and
+    of opposite sign (``nu -> -1``) or ``lam/mu`` exceeds ``5e5`` (``nu -> 0.5``),
+    and the bulk modulus ``lam + 2 mu / 3`` is lost to round-off.
+    """
+    nu = check_real(name, nu, -1.0, 0.5, lo_open=True, hi_open=True)
+    lo, hi = POISSON_RATIO_RANGE
+    if not lo <= nu <= hi:
+        raise ValueError(f"{name} = {nu!r} is too close to {'0.5' if nu > 0 else '-1'}; the allowed range is "
+                         f"[{lo:.6f}, {hi:.6f}]")
+    return nu
+
+
 def check_young_poisson(E, nu) -> tuple[float, float]:
-    """Validate Young's modulus ``E`` in :data:`YOUNGS_MODULUS_RANGE` and Poisson's ratio ``-1 < nu < 0.5``."""
+    """Validate Young's modulus ``E`` in :data:`YOUNGS_MODULUS_RANGE` and Poisson's ratio in :data:`POISSON_RATIO_RANGE`."""
     E = check_real("E (Young's modulus)", E, *YOUNGS_MODULUS_RANGE)
-    nu = check_real("nu (Poisson's ratio)", nu, -1.0, 0.5, lo_open=True, hi_open=True)
-    return E, nu
+    return E, check_poisson_ratio(nu)
 
 
 def lame_parameters(E, nu, plane: str = "strain") -> tuple[float, float]:
@@ -131,7 +152,8 @@ def lame_parameters(E, nu, plane: str = "strain") -> tuple[float, float]:
     sheets.
 
     The admissible range is ``-1 < nu < 0.5`` (the notes say "between 0 and
-    1/2"; auxetic materials with ``nu < 0`` are admissible too) and ``E`` in
+    1/2"; auxetic materials with ``nu < 0`` are admissible too), of which
+    :data:`POISSON_RATIO_RANGE` keeps ``1e-6`` away from each end, and ``E`` in
     :data:`YOUNGS_MODULUS_RANGE`. ``nu -> 0.5`` makes ``lam`` blow up: nearly
     incompressible.
     """

@@ -46,7 +46,7 @@ a mesh file (``domain.path``)                          at most 64 MiB and 200 00
                                                        (a third coordinate only if zero everywhere),
                                                        coordinates within ``+-1e6`` after scaling
 ``material.youngs_modulus``                            ``[1e-6, 1e12]``
-``material.poisson_ratio``                             ``(-1, 0.5)``
+``material.poisson_ratio``                             ``[-0.999999, 0.499999]`` (inside ``(-1, 0.5)``)
 ``material.density``                                   ``[1e-6, 1e6]``
 ``effects.inertia.time_step``                          ``[1e-6, 10]`` s
 ``effects.gravity.acceleration`` (each component)      ``[-1e6, 1e6]``
@@ -97,7 +97,7 @@ import skfem
 from ..engine import meshes
 from ..engine.materials import MATERIALS
 from ..engine.materials import material as make_material
-from ..engine.parameters import TIME_STEP_RANGE, YOUNGS_MODULUS_RANGE, check_count, check_real
+from ..engine.parameters import TIME_STEP_RANGE, YOUNGS_MODULUS_RANGE, check_count, check_poisson_ratio, check_real
 from ..engine.realtime import FRAME_BUDGET
 
 __all__ = ["Scene", "EFFECTS", "SHAPES", "EXAMPLE_TOML", "demo_scene", "read_mesh"]
@@ -351,7 +351,8 @@ def _check_material(m):
         "model": _string("material.model", m["model"], sorted(MATERIALS)),
         "youngs_modulus": _number("material.youngs_modulus", m["youngs_modulus"], positive=True,
                                   lo=YOUNGS_MODULUS_RANGE[0], hi=YOUNGS_MODULUS_RANGE[1]),
-        "poisson_ratio": _number("material.poisson_ratio", m["poisson_ratio"], lo=-1.0, lo_open=True, below=0.5),
+        "poisson_ratio": check_poisson_ratio(_number("material.poisson_ratio", m["poisson_ratio"]),
+                                             "material.poisson_ratio"),
         "density": _number("material.density", m.get("density", 1.0), positive=True, lo=DENSITY_RANGE[0],
                            hi=DENSITY_RANGE[1]),
     }
