@@ -751,6 +751,8 @@ class Scene:
     def load(cls, path) -> "Scene":
         """Read a scene from a ``.toml`` or ``.json`` file (UTF-8, at most :data:`MAX_SCENE_BYTES`)."""
         path = _scene_path(path)
+        if path.exists() and not path.is_file():  # a folder, a pipe or a device (a pipe would block the read)
+            raise ValueError(f"scene file {str(path)!r} is not a regular file")
         try:
             with open(path, "rb") as f:
                 data = f.read(MAX_SCENE_BYTES + 1)
@@ -885,11 +887,14 @@ def _read_mesh(path, scale):
     """``(mesh, dropped)``: the mesh of a file and the file's node indices that no triangle used (dropped)."""
     path = Path(path)
     name = path.name
-    if not path.exists():
-        raise ValueError(f"domain.path: no mesh file {name!r} (looked in the scene's folder)")
-    if not path.is_file():
-        raise ValueError(f"domain.path: {name!r} is not a regular file")
-    size = path.stat().st_size
+    try:
+        if not path.exists():
+            raise ValueError(f"domain.path: no mesh file {name!r} (looked in the scene's folder)")
+        if not path.is_file():
+            raise ValueError(f"domain.path: {name!r} is not a regular file")
+        size = path.stat().st_size
+    except OSError as err:
+        raise ValueError(f"domain.path: {name!r} cannot be read: {err.strerror or err}") from None
     if size > MAX_MESH_FILE_BYTES:
         raise ValueError(f"domain.path: {name!r} has {size} bytes, more than the {MAX_MESH_FILE_BYTES} a mesh file "
                          "may have")
