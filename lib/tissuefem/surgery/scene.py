@@ -91,8 +91,10 @@ import reprlib
 import tomllib
 from pathlib import Path
 
+import meshio
 import numpy as np
 import skfem
+from skfem.io.meshio import from_meshio
 
 from ..engine import meshes
 from ..engine.materials import MATERIALS
@@ -872,8 +874,6 @@ def _reader_failure(path, err, sink) -> ValueError:
 
 
 def _meshio_read(path):
-    import meshio
-
     with _quiet() as sink:
         try:
             return meshio.read(str(path))
@@ -930,8 +930,6 @@ def _read_mesh(path, scale):
     p = np.array(points[:, :2].T, dtype=np.float64) * scale
     p, t = meshes.check_mesh(p, t, name=f"domain.path: {name!r} (0-based node numbers, after scaling)",
                              unused_nodes="ignore")
-    from skfem.io.meshio import from_meshio
-
     try:
         with _quiet() as sink:
             named = from_meshio(m)  # boundaries from physical line groups or cell sets

@@ -17,6 +17,7 @@ import os
 import subprocess
 import sys
 import time
+import warnings
 from pathlib import Path
 
 
@@ -115,8 +116,6 @@ def cmd_scene(args) -> int:
     nested too deeply, an invalid field, a bad mesh file) is answered with one
     line on stderr and exit status 2, never a traceback.
     """
-    import warnings
-
     import numpy as np
 
     from ..surgery.scene import Scene
