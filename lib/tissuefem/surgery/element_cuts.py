@@ -710,7 +710,8 @@ def _simplify(pts):
     i = 0
     while len(out) > 3 and i < len(out):
         (ax, ay), (bx, by), (cx, cy) = out[i - 1], out[i], out[(i + 1) % len(out)]
-        if abs(_cross(bx - ax, by - ay, cx - bx, cy - by)) <= _EPS * _EPS and (bx - ax) * (cx - bx) + (by - ay) * (cy - by) > 0:
+        straight = abs(_cross(bx - ax, by - ay, cx - bx, cy - by)) <= _EPS * _EPS
+        if straight and (bx - ax) * (cx - bx) + (by - ay) * (cy - by) > 0:
             del out[i]
         else:
             i += 1
@@ -970,7 +971,7 @@ def _check_regions(regions, weights, m):
     bad = np.flatnonzero(np.abs(w - implied) > 1e-9)
     if bad.size:
         e = int(bad[0])
-        hint = " (an element cut through before needs its region: pass regions=previous.regions)" if e not in out else ""
+        hint = "" if e in out else " (an element cut through before needs its region: pass regions=previous.regions)"
         raise ValueError(
             f"weights[{e}] = {w[e]!r} does not match the material of its region ({implied[e]!r}){hint}"
         )
@@ -1052,9 +1053,10 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
     #    does to each element's material
     snapped, drawn = _through_nearby_nodes(x, t, pts)
     pieces, orientation = _stroke_pieces(x, t, snapped)
+    vertex = np.arange(drawn.size)
     for e, lst in pieces.items():
-        pieces[e] = [(float(np.interp(s0, np.arange(drawn.size), drawn)), float(np.interp(s1, np.arange(drawn.size), drawn)),
-                      a, b) for s0, s1, a, b in lst]
+        pieces[e] = [(float(np.interp(s0, vertex, drawn)), float(np.interp(s1, vertex, drawn)), a, b)
+                     for s0, s1, a, b in lst]
     key, side = _edge_table(p, t)
     flat_key, flat_side = key.ravel(), side.ravel()
     # an element edge has an element across when some element has the same node pair on the other side
@@ -1072,130 +1074,43 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
     affected = np.array(sorted(arrangements), dtype=np.int64)
 
     # 2. provisional pieces: face 0 of a cut element keeps its index, the others are numbered from m
-    piece_faces = {}  # element -> list of provisional ids
-    touched = {}  # provisional id -> touched intervals per local edge
-    regions_of = {}  # provisional id -> (Region, whole)
-    owner = list(range(m))
-    next_id = m
     faces_of = {e: arrangements[e].face_regions() for e in arrangements}
-    for e in affected:
-        e = int(e)
-        ids = []
-        for i, (region, touch, whole) in enumerate(faces_of[e]):
-            pid = e if i == 0 else next_id
-            if i:
-                next_id += 1
-                owner.append(e)
-            ids.append(pid)
-            touched[pid] = touch
-            regions_of[pid] = (region, whole)
-        piece_faces[e] = ids
+    piece_ids = {}  # element -> provisional ids of its faces
+    touched = {}  # provisional id -> touched intervals per local edge
+    next_id = m
+    for e in affected.tolist():
+        piece_ids[e] = [e] + list(range(next_id, next_id + len(faces_of[e]) - 1))
+        next_id += len(faces_of[e]) - 1
+        touched.update({pid: face[1] for pid, face in zip(piece_ids[e], faces_of[e])})
+    for e in regions:  # elements cut before (their material touches only parts of their edges)
+        touched.setdefault(e, _region_touch(regions[e]))
 
-    def pieces_of(e):
-        return piece_faces.get(e, (e,))
-
-    def touch_of(pid, e):
-        if pid in touched:
-            return touched[pid]
-        if e in regions:
-            touched[pid] = _region_touch(regions[e])
-            return touched[pid]
-        return _FULL_TOUCH
-
-    # 3. joins across edges, among the corners at the nodes of the cut elements
-    hub = np.unique(t[:, affected])
-    at_hub = np.zeros(n, dtype=bool)
-    at_hub[hub] = True
-    fan = np.flatnonzero(at_hub[t].any(axis=0))
-    sel_k, sel_e = np.nonzero(at_hub[t[:, fan]] | at_hub[np.roll(t, -1, axis=0)[:, fan]])
-    sel_e = fan[sel_e]
-    groups = {}
-    for k, e, kk, s in zip(sel_k.tolist(), sel_e.tolist(), key[sel_k, sel_e].tolist(), side[sel_k, sel_e].tolist()):
-        groups.setdefault(kk, ([], []))[0 if s > 0 else 1].append((e, k))
-    uf = {}
-
-    def find(c):
-        root = c
-        while uf.get(root, root) != root:
-            root = uf[root]
-        while uf.get(c, c) != root:
-            uf[c], c = root, uf[c]
-        return root
-
-    def join(c1, c2):
-        r1, r2 = find(c1), find(c2)
-        if r1 != r2:
-            uf[max(r1, r2)] = min(r1, r2)
-
-    corners = {}  # node -> list of (provisional id, local vertex)
-    for e in fan.tolist():
-        for local_v in range(3):
-            v = int(t[local_v, e])
-            if at_hub[v]:
-                for pid in pieces_of(e):
-                    corners.setdefault(v, []).append((pid, local_v))
-    for kk, (plus, minus) in groups.items():
-        a_node, b_node = divmod(kk, n)
-        for e, k in plus:
-            e_fwd = t[k, e] == a_node  # edge k of e runs from the lower node to the higher
-            e_a, e_b = (k, (k + 1) % 3) if e_fwd else ((k + 1) % 3, k)
-            for f, l in minus:
-                f_fwd = t[l, f] == a_node
-                f_a, f_b = (l, (l + 1) % 3) if f_fwd else ((l + 1) % 3, l)
-                for pe in pieces_of(e):
-                    te = touch_of(pe, e)[k]
-                    if not e_fwd:  # compare along the edge from its lower node to its higher
-                        te = [(1.0 - hi, 1.0 - lo) for lo, hi in te]
-                    for pf in pieces_of(f):
-                        tf = touch_of(pf, f)[l]
-                        if not f_fwd:
-                            tf = [(1.0 - hi, 1.0 - lo) for lo, hi in tf]
-                        if not _overlaps(te, tf):
-                            continue
-                        if at_hub[a_node]:
-                            join((pe, e_a), (pf, f_a))
-                        if at_hub[b_node]:
-                            join((pe, e_b), (pf, f_b))
-
-    # 4. nodes: one per class of corners; the class with the lowest element keeps the old index
-    node_of = {}
-    new_parent = []
-    for v in hub.tolist():
-        classes = {}
-        for c in corners[v]:
-            classes.setdefault(find(c), []).append(c)
-        ordered = sorted(classes.values(), key=lambda cs: min(cs))
-        for i, cs in enumerate(ordered):
-            if i == 0:
-                index = v
-            else:
-                index = n + len(new_parent)
-                new_parent.append(v)
-            for c in cs:
-                node_of[c] = index
+    # 3. nodes: classes of corners joined across edges
+    node_of, new_parent, fan = _number_nodes(t, n, key, side, affected, piece_ids, touched)
 
     def triple(pid, e):
         return tuple(node_of.get((pid, lv), int(t[lv, e])) for lv in range(3))
 
-    # 5. copies of one triangle with the same three nodes are one piece of material: one element
+    # 4. copies of one triangle with the same three nodes are one piece of material: one element
     final_faces = {}  # element -> list of (provisional id, Region, touched, whole, area)
     pid_of_face = {}  # element -> {face of its arrangement: provisional id of its element}
     for e in affected.tolist():
         arr = arrangements[e]
-        ids = piece_faces[e]
+        ids = piece_ids[e]
         by_triple = {}
         for i, pid in enumerate(ids):
             by_triple.setdefault(triple(pid, e), []).append(i)
-        groups_e = list(by_triple.values())
+        groups = list(by_triple.values())
         faces = faces_of[e]
         new_of = list(range(len(ids)))
-        if len(groups_e) < len(ids):
+        if len(groups) < len(ids):
             # faces that share a cut become one face (the cut between them a slit); faces joined
             # only outside the triangle stay apart, as polygons of one region
-            new_of = arr.merge([g for g in groups_e if len(g) > 1])
+            new_of = arr.merge([g for g in groups if len(g) > 1])
             faces = arr.face_regions()
         final_faces[e] = []
-        for g in groups_e:
+        pid_of_face[e] = {}
+        for g in groups:
             members = sorted({new_of[i] for i in g})
             area = sum(arr.faces[f]["area"] for f in members)
             if len(members) == 1:
@@ -1210,27 +1125,23 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
                 touch = [_merge_intervals([iv for f in members for iv in faces[f][1][k]]) for k in range(3)]
                 whole = False
             final_faces[e].append((ids[min(g)], region, touch, whole, area))
-            pid_of_face.setdefault(e, {}).update({f: ids[min(g)] for f in members})
+            pid_of_face[e].update({f: ids[min(g)] for f in members})
 
-    # 6. the new elements: old indices for the first piece, the others appended
+    # 5. the new elements: old indices for the first piece, the others appended
     final_id = {}
-    n_new_el = m
     elements = list(range(m))
     for e in affected.tolist():
         for i, (pid, *_) in enumerate(sorted(final_faces[e], key=lambda r: r[0])):
-            if i == 0:
-                final_id[pid] = e
-            else:
-                final_id[pid] = n_new_el
-                n_new_el += 1
+            final_id[pid] = e if i == 0 else len(elements)
+            if i:
                 elements.append(e)
     elements = np.asarray(elements, dtype=np.int64)
-    new_t = np.empty((3, n_new_el), dtype=np.int64)
+    new_t = np.empty((3, elements.size), dtype=np.int64)
     new_t[:, :m] = t
-    new_w = np.empty(n_new_el)
+    new_w = np.empty(elements.size)
     new_w[:m] = w
     new_regions = {e: r for e, r in regions.items() if e not in arrangements}
-    new_touch = {e: touched[e] for e in new_regions if e in touched}  # those already worked out
+    new_touch = {e: touched[e] for e in new_regions}
     for e in fan.tolist():
         if e not in arrangements:
             new_t[:, e] = triple(e, e)
@@ -1245,46 +1156,11 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
                 new_touch[E] = touch
     parent = np.concatenate([np.arange(n, dtype=np.int64), np.asarray(new_parent, dtype=np.int64)])
 
-    # 7. the wound, and the mesh edges the stroke ran along
-    rec_el, rec_side, rec_bary, rec_ref, rec_stroke, rec_open = [], [], [], [], [], []
-    along = []
-    for e in affected.tolist():
-        arr = arrangements[e]
-        corners_ref = p[:, t[:, e]]
-        for f, s, t0, t1, a, b, opened in arr.wound_faces():
-            if f < 0:
-                continue
-            bary = np.array([[1.0 - a[0] - a[1], a[0], a[1]], [1.0 - b[0] - b[1], b[0], b[1]]])
-            rec_el.append(final_id[pid_of_face[e][f]])
-            rec_side.append(s * int(orientation[e]))
-            rec_bary.append(bary)
-            rec_ref.append(bary @ corners_ref.T)
-            rec_stroke.append((t0, t1))
-            rec_open.append(opened)
-        for rec in arr.wound:
-            if rec[0] == "edge":
-                k = rec[5]
-                along.append((rec[3], int(t[k, e]), int(t[(k + 1) % 3, e])))
-    rec_el = np.asarray(rec_el, dtype=np.int64)
-    wound = Wound(
-        element=rec_el,
-        side=np.asarray(rec_side, dtype=np.int64),
-        barycentric=np.asarray(rec_bary, dtype=float).reshape(-1, 2, 3),
-        nodes=new_t[:, rec_el].T.copy(),
-        reference=np.asarray(rec_ref, dtype=float).reshape(-1, 2, 2),
-        stroke=np.asarray(rec_stroke, dtype=float).reshape(-1, 2),
-        opened=np.asarray(rec_open, dtype=bool),
-    )
-    seen = set()
-    cut_edges = []
-    for _, a, b in sorted(along):
-        k2 = (min(a, b), max(a, b))
-        if k2 not in seen:
-            seen.add(k2)
-            cut_edges.append(k2)
-    cut_edges = np.asarray(cut_edges, dtype=np.int64).reshape(-1, 2).T
+    # 6. the wound, and the mesh edges the stroke ran along
+    element_of_face = {e: {f: final_id[pid] for f, pid in faces.items()} for e, faces in pid_of_face.items()}
+    wound, cut_edges = _wound(p, t, arrangements, element_of_face, orientation, new_t)
 
-    # 8. the mesh, with names and subdomains carried over
+    # 7. the mesh, with names and subdomains carried over
     plain = _new_mesh(p[:, parent], new_t)
     new_mesh = _carry_names(mesh, plain, parent, elements, new_regions, new_touch)
     return ElementCut(
@@ -1298,6 +1174,115 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
         regions=new_regions,
         wound=wound,
     )
+
+
+def _number_nodes(t, n, key, side, affected, piece_ids, touched):
+    """The node of every corner at the nodes of the cut elements.
+
+    Two elements on the two sides of a mesh edge (sharing its two nodes now)
+    are joined where the parts of the edge their materials touch overlap; a
+    join makes their corners at the edge's ends one node. Every class of
+    corners at an old node becomes a node: the class holding the lowest
+    element keeps the old index, the others are appended in order.
+
+    Returns ``(node_of, new_parent, fan)``: the node of each corner
+    ``(provisional id, local vertex)`` at those nodes, the old node of each
+    appended node, and the elements with a corner there.
+    """
+    hub = np.unique(t[:, affected])
+    at_hub = np.zeros(n, dtype=bool)
+    at_hub[hub] = True
+    fan = np.flatnonzero(at_hub[t].any(axis=0))
+    sel_k, sel_e = np.nonzero(at_hub[t[:, fan]] | at_hub[np.roll(t, -1, axis=0)[:, fan]])
+    sel_e = fan[sel_e]
+    sides = {}  # edge key -> (elements on its + side, on its - side), as (element, local edge)
+    for k, e, kk, s in zip(sel_k.tolist(), sel_e.tolist(), key[sel_k, sel_e].tolist(), side[sel_k, sel_e].tolist()):
+        sides.setdefault(kk, ([], []))[0 if s > 0 else 1].append((e, k))
+
+    uf = {}
+
+    def find(c):
+        root = c
+        while uf.get(root, root) != root:
+            root = uf[root]
+        while uf.get(c, c) != root:
+            uf[c], c = root, uf[c]
+        return root
+
+    def along(pid, e, k, forward):  # touched intervals, run from the edge's lower node to its higher
+        iv = touched.get(pid, _FULL_TOUCH)[k]
+        return iv if forward else [(1.0 - hi, 1.0 - lo) for lo, hi in iv]
+
+    for kk, (plus, minus) in sides.items():
+        a_node, b_node = divmod(kk, n)
+        for e, k in plus:
+            e_fwd = t[k, e] == a_node
+            e_a, e_b = (k, (k + 1) % 3) if e_fwd else ((k + 1) % 3, k)
+            for f, l in minus:
+                f_fwd = t[l, f] == a_node
+                f_a, f_b = (l, (l + 1) % 3) if f_fwd else ((l + 1) % 3, l)
+                for pe in piece_ids.get(e, (e,)):
+                    te = along(pe, e, k, e_fwd)
+                    for pf in piece_ids.get(f, (f,)):
+                        if not _overlaps(te, along(pf, f, l, f_fwd)):
+                            continue
+                        for node, ce, cf in ((a_node, (pe, e_a), (pf, f_a)), (b_node, (pe, e_b), (pf, f_b))):
+                            if at_hub[node]:
+                                r1, r2 = find(ce), find(cf)
+                                if r1 != r2:
+                                    uf[max(r1, r2)] = min(r1, r2)
+
+    classes = {}  # node -> {root: corners}
+    for e in fan.tolist():
+        for lv in range(3):
+            v = int(t[lv, e])
+            if at_hub[v]:
+                for pid in piece_ids.get(e, (e,)):
+                    classes.setdefault(v, {}).setdefault(find((pid, lv)), []).append((pid, lv))
+    node_of, new_parent = {}, []
+    for v in hub.tolist():
+        for i, cs in enumerate(sorted(classes[v].values(), key=min)):
+            index = v if i == 0 else n + len(new_parent)
+            if i:
+                new_parent.append(v)
+            node_of.update({c: index for c in cs})
+    return node_of, new_parent, fan
+
+
+def _wound(p, t, arrangements, element_of_face, orientation, new_t):
+    """The wound's records (one per side of each piece) and the mesh edges the stroke ran along."""
+    rec_el, rec_old, rec_side, rec_bary, rec_stroke, rec_open = [], [], [], [], [], []
+    along = []
+    for e, arr in arrangements.items():
+        for f, s, t0, t1, a, b, opened in arr.wound_faces():
+            if f < 0:
+                continue
+            rec_el.append(element_of_face[e][f])
+            rec_old.append(e)
+            rec_side.append(s * int(orientation[e]))  # the local map may mirror the drawing
+            rec_bary.append([[1.0 - a[0] - a[1], a[0], a[1]], [1.0 - b[0] - b[1], b[0], b[1]]])
+            rec_stroke.append((t0, t1))
+            rec_open.append(opened)
+        for rec in arr.wound:
+            if rec[0] == "edge":
+                k = rec[5]
+                along.append((rec[3], *sorted((int(t[k, e]), int(t[(k + 1) % 3, e])))))
+    rec_el = np.asarray(rec_el, dtype=np.int64)
+    bary = np.asarray(rec_bary, dtype=float).reshape(-1, 2, 3)
+    wound = Wound(
+        element=rec_el,
+        side=np.asarray(rec_side, dtype=np.int64),
+        barycentric=bary,
+        nodes=new_t[:, rec_el].T.copy(),
+        reference=np.einsum("kea,iak->kei", bary, p[:, t[:, np.asarray(rec_old, dtype=np.int64)]]),
+        stroke=np.asarray(rec_stroke, dtype=float).reshape(-1, 2),
+        opened=np.asarray(rec_open, dtype=bool),
+    )
+    first = {}
+    for order, a, b in sorted(along):
+        first.setdefault((a, b), order)
+    cut_edges = np.asarray(sorted(first, key=first.get), dtype=np.int64).reshape(-1, 2).T
+    return wound, cut_edges
 
 
 def _carry_names(old, new, parent, elements, regions, touched):
