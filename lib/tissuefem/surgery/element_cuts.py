@@ -21,7 +21,9 @@ The construction in 2D, as done here
    barycentric coordinates. The pieces are kept in the triangle's local
    coordinates ``(xi, eta) = (lambda_1, lambda_2)`` (vertex 0 at (0, 0),
    vertex 1 at (1, 0), vertex 2 at (0, 1)), which do not depend on the
-   configuration.
+   configuration. Before that, a stroke passing within 1e-6 of an edge
+   length of a node is moved onto the node, once for the whole mesh, so that
+   neighbouring triangles never disagree on whether it went through it.
 2. **The material of an element.** Every element carries a :class:`Region`:
    the part of its triangle its material fills (a polygon; the whole triangle
    for an element that was never cut), the cracks inside it that do not
@@ -66,10 +68,13 @@ The construction in 2D, as done here
    wound's geometry (:class:`Wound`) stays where the stroke was drawn; only the
    topology moves, by less than the sliver's width. A side of the cut that is
    itself that thin (a strip along the boundary or along another cut) may be
-   pinched where the cut is snapped to a vertex. Two
-   copies of one triangle that end up with the same three nodes (a cut that
-   separates nothing, for instance a short crack whose both ends lie in the
-   two neighbours) are merged back into one element, with the cut as a slit.
+   pinched where the cut is snapped to a vertex.
+7. **One element per set of nodes.** Copies of one triangle that end up with
+   the same three nodes hold material that is connected after all: a short
+   crack whose both ends lie in the two neighbours (merged back into one
+   element, the cut a slit), or the two corners outside a V-shaped crack,
+   joined round its apex in the next triangle (one element whose region has
+   two polygons).
 
 Cuts through vertices and along edges need no special case: the clipping
 keeps pieces that lie on a triangle's edge (a cut along it) and drops pieces
