@@ -143,6 +143,12 @@ def folded_triangles(p, t) -> np.ndarray:
     its neighbour), both third vertices lie on the same side. This test does
     not depend on the order in which a triangle lists its vertices (scikit-fem
     sorts them, so a good mesh has triangles of both orientations).
+
+    Two triangles on the same side whose third vertices sit at the same point
+    are not a fold but two copies of one triangle, each carrying part of its
+    material: cutting through elements
+    (:func:`tissuefem.surgery.element_cuts.cut_through`) makes such copies
+    next to a crack tip. They are not reported.
     """
     p = np.asarray(p, dtype=float)
     t = np.asarray(t, dtype=np.int64)
@@ -164,7 +170,8 @@ def folded_triangles(p, t) -> np.ndarray:
         return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
 
     s1, s2 = side(opposite[same]), side(opposite[same + 1])
-    bad = same[s1 * s2 > 0]
+    copies = (p[:, opposite[same]] == p[:, opposite[same + 1]]).all(axis=0)
+    bad = same[(s1 * s2 > 0) & ~copies]
     return np.stack([owner[bad], owner[bad + 1]])
 
 
