@@ -149,9 +149,9 @@ class Simulation:
         solver_settings = self.scene.solver
         choice = self._linear_choice
         if model.quadratic and self._constant_tangent and isinstance(choice, str):
-            # a constant Hessian: one factorization per held set is exact
-            base = choice[len("reuse-"):] if choice.startswith("reuse-") else None
-            choice = "constant" if base is None or choice in ("reuse", "direct") else f"constant-{base}"
+            # a constant Hessian: one factorization per held set is exact (with the named direct backend)
+            base = choice[len("reuse-"):] if choice.startswith("reuse-") else choice
+            choice = "constant" if base in ("reuse", "direct", "background", "superlu") else f"constant-{base}"
         solver = RealtimeSolver(model, linear_solver=choice, budget=solver_settings["budget"],
                                 rtol=solver_settings["rtol"], clock=self.clock,
                                 max_iterations=solver_settings["max_iterations"])
