@@ -93,10 +93,16 @@ def cmd_bench(args) -> int:
 
 
 def cmd_grade(args) -> int:
+    """Grade only the student's answers; ends with one line per failed check (tests/conftest.py)."""
     root = project_root()
-    env = dict(os.environ, TISSUEFEM_GRADE="student")
+    env = dict(os.environ, TISSUEFEM_GRADE="instructor" if args.instructor else "student")
+    if args.exercises:
+        folder = Path(args.exercises).resolve()
+        if not folder.is_dir():
+            raise SystemExit(f"--exercises: {args.exercises} is not a folder (it should hold ch01.py ... ch09.py)")
+        env["TISSUEFEM_EXERCISES"] = str(folder)
     tests = sorted(str(p) for p in (root / "tests").glob("test_exercises*.py"))
-    cmd = [sys.executable, "-m", "pytest", *tests, "-v", "-rs"]
+    cmd = [sys.executable, "-m", "pytest", *tests, "-q", "--disable-warnings"]
     if args.chapter:
         cmd += ["-k", args.chapter]
     return subprocess.call(cmd, env=env, cwd=root)
@@ -179,6 +185,10 @@ def main(argv=None) -> int:
 
     p = sub.add_parser("grade", help="grade your answers in chapters/exercises with pytest")
     p.add_argument("chapter", nargs="?", help="only this chapter, e.g. ch02")
+    p.add_argument("--instructor", action="store_true",
+                   help="refuse any answer that imports or runs tissuefem (the reference implementation)")
+    p.add_argument("--exercises", metavar="DIR",
+                   help="grade the chNN.py files in DIR (e.g. a student's submission) instead of chapters/exercises")
     p.set_defaults(func=cmd_grade)
 
     p = sub.add_parser("list", help="list figures and chapters")
