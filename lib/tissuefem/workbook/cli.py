@@ -1,8 +1,10 @@
-"""Command line: ``python -m tissuefem {figures,build,bench,scene,grade,list}``.
+"""Command line: ``python -m tissuefem {figures,build,book,bench,scene,grade,list}``.
 
 * ``figures``  regenerate every lecture figure into ``figures/``;
-* ``build``    regenerate the figures and execute every chapter headless
-  (executed copies in ``build/chapters/``, the sources stay clean);
+* ``build``    regenerate the figures, execute every chapter headless
+  (executed copies in ``build/chapters/``, the sources stay clean) and write the
+  workbook's website into ``build/book/``;
+* ``book``     write the website from the executed copies already in ``build/chapters/``;
 * ``bench``    benchmarks (``bench assembly``, ``bench realtime``, ``bench scenes``,
   ``bench accuracy``: the accuracy/time study of chapter 9);
 * ``scene``    check a scene file and run it (``scene scenes/incision.toml``);
@@ -57,8 +59,24 @@ def cmd_build(args) -> int:
     root = project_root()
     if not args.skip_figures:
         figures.generate(None, root / "figures")
-    build_chapters(root / "chapters", Path(args.out) if args.out else root / "build" / "chapters", args.chapters)
+    executed = Path(args.out) if args.out else root / "build" / "chapters"
+    build_chapters(root / "chapters", executed, args.chapters)
+    if not args.no_book:
+        from .book import build_book
+
+        build_book(root / "chapters", executed, root / "build" / "book")
+        print(f"the workbook's website: {root / 'build' / 'book' / 'index.html'}")
     print(f"build finished in {time.perf_counter() - start:.1f} s")
+    return 0
+
+
+def cmd_book(args) -> int:
+    from .book import build_book
+
+    root = project_root()
+    out = Path(args.out) if args.out else root / "build" / "book"
+    build_book(root / "chapters", Path(args.executed) if args.executed else root / "build" / "chapters", out)
+    print(f"the workbook's website: {out / 'index.html'} (copy the folder to any web server)")
     return 0
 
 
@@ -162,7 +180,13 @@ def main(argv=None) -> int:
     p.add_argument("--chapters", nargs="+", metavar="NAME", help="only chapters whose file name contains NAME")
     p.add_argument("--skip-figures", action="store_true", help="do not regenerate figures/")
     p.add_argument("--out", help="folder for executed notebooks (default: build/chapters/)")
+    p.add_argument("--no-book", action="store_true", help="do not write the website build/book/")
     p.set_defaults(func=cmd_build)
+
+    p = sub.add_parser("book", help="write the workbook's website from the executed chapters")
+    p.add_argument("--executed", help="folder of executed notebooks (default: build/chapters/)")
+    p.add_argument("--out", help="folder for the website (default: build/book/)")
+    p.set_defaults(func=cmd_book)
 
     p = sub.add_parser("bench", help="run a benchmark and print its table")
     p.add_argument("which", choices=["assembly", "realtime", "scenes", "accuracy"])
