@@ -47,6 +47,8 @@ def cmd_figures(args) -> int:
     root = project_root()
     out = Path(args.out) if args.out else root / "figures"
     figures.generate(args.only or None, out)
+    if not args.out and figures.matplotlib_note():
+        print(figures.matplotlib_note())
     return 0
 
 
@@ -59,6 +61,8 @@ def cmd_build(args) -> int:
     root = project_root()
     if not args.skip_figures:
         figures.generate(None, root / "figures")
+        if figures.matplotlib_note():
+            print(figures.matplotlib_note())
     executed = Path(args.out) if args.out else root / "build" / "chapters"
     build_chapters(root / "chapters", executed, args.chapters)
     if not args.no_book:

@@ -18,7 +18,7 @@ from matplotlib.colors import to_rgba
 from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 
-from .registry import E_DEFAULT, NU_DEFAULT, register, save
+from .registry import E_DEFAULT, NU_DEFAULT, at_least, register, save
 
 #: fill colours of a triangle that keeps its orientation (J > 0) and of an inverted or flat one (J <= 0)
 UPRIGHT_COLOR, INVERTED_COLOR = "#6baed6", "#d6604d"
@@ -146,7 +146,7 @@ def fig06_crush_release(path=None, runs=None) -> Figure:
         released = run["released"]
         ax = row[-1]
         draw_state(ax, mesh, frames[-1])
-        ax.text(0.5, 0.02, f"{released.status}, rest error {released.rest_error:.2g}",
+        ax.text(0.5, 0.02, f"{released.status}, rest error {at_least(released.rest_error, 1e-12)}",
                 transform=ax.transAxes, ha="center", va="bottom", fontsize=7)
         for ax in row:
             ax.plot(xlim, [bottom, bottom], color="k", lw=1.6)  # the held bottom edge

@@ -11,6 +11,7 @@ of them (the ``python -m tissuefem figures`` command).
 
 from __future__ import annotations
 
+import math
 import time
 from pathlib import Path
 from typing import Callable
@@ -32,13 +33,78 @@ def register(func: Callable) -> Callable:
     return func
 
 
+#: the resolution of every saved figure
+DPI = 110
+
+#: the matplotlib minor version that drew the committed PNGs. Versions up to 3.10 bundle
+#: FreeType 2.6.1 and 3.11 FreeType 2.14: every text is rasterised differently, so every
+#: PNG changes between them. Within 3.11 the files are the same byte for byte.
+FIGURES_MATPLOTLIB = "3.11"
+
+
+def matplotlib_note() -> str | None:
+    """A warning when this matplotlib would redraw the committed figures' text differently."""
+    import matplotlib
+
+    installed = ".".join(matplotlib.__version__.split(".")[:2])
+    if installed == FIGURES_MATPLOTLIB:
+        return None
+    return (f"note: the committed figures were drawn with matplotlib {FIGURES_MATPLOTLIB}; this is "
+            f"{matplotlib.__version__}, which renders text differently, so every PNG in figures/ will "
+            f"change. Commit them only if you mean to move the workbook to matplotlib {installed}.")
+
+
+def whole_pixels(inches: float, dpi: float = DPI) -> float:
+    """``inches``, nudged by an ulp or two when it is a whole number of pixels at ``dpi`` but
+    its product with ``dpi`` falls just short of it in floating point.
+
+    4.6 in at 110 dpi is 505.99999999999994 px: matplotlib up to 3.11.0 truncates that
+    to 505 px, 3.11.1 and later add 1e-8 px first and make it 506, so the same figure gave
+    PNGs of two sizes. Nudged, the product is 506.00000000000006 and every version agrees.
+    Any other size is returned unchanged.
+    """
+    pixels = round(inches * dpi)
+    if abs(inches * dpi - pixels) > 1e-6:
+        return inches  # a fraction of a pixel: truncated alike by every version
+    size = inches
+    while math.floor(size * dpi) < pixels:
+        size = math.nextafter(size, math.inf)
+    return size
+
+
+#: significant digits of the data a figure draws. Round-off (another numpy, BLAS or processor)
+#: changes the tenth digit or a later one; drawn unrounded, it can move a line or a marker by
+#: a fraction of a pixel and change the PNG's bytes, rounded it cannot (but at a tie).
+SHOWN_DIGITS = 3
+
+
+def shown(values, floor=None, digits=SHOWN_DIGITS) -> np.ndarray:
+    """Data as a figure draws it: rounded to ``digits`` significant digits (fewer for data whose
+    own noise is larger than round-off), and with ``floor`` (a round-off level, for positive data
+    on a log axis) raised to at least it."""
+    a = np.array(values, dtype=float)
+    if floor is not None:
+        a = np.maximum(a, floor)
+    flat = [float(f"{v:.{digits}g}") if math.isfinite(v) else v for v in a.ravel()]
+    return np.array(flat).reshape(a.shape)
+
+
+def at_least(value: float, level: float, spec: str = ".2g") -> str:
+    """``value`` formatted for a label, or ``< level`` when it is below ``level``: the digits of
+    a round-off-sized number differ from one machine to the next."""
+    return f"< {level:.0e}" if abs(value) < level else format(value, spec)
+
+
 def save(fig: Figure, path) -> None:
-    """Save deterministically: fixed DPI, no 'Software' entry or timestamps in the PNG."""
+    """Save deterministically: fixed DPI, a whole number of pixels, no 'Software' entry or
+    timestamps in the PNG."""
     if path is None:
         return
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110, metadata={"Software": None})
+    width, height = fig.get_size_inches()
+    fig.set_size_inches(whole_pixels(width), whole_pixels(height))
+    fig.savefig(path, dpi=DPI, metadata={"Software": None})
 
 
 def generate(names=None, outdir="figures", progress=print) -> list[Path]:
@@ -176,10 +242,15 @@ def fig_ch02_newton(path=None) -> Figure:
     bar = Bar1D(0.0, 1.0, 16)
     fig = Figure(figsize=(6.4, 4.6), layout="constrained")
     ax = fig.subplots()
+    round_off = 1e-11  # the residual of this bar cannot fall below about 1e-12 (chapter 2, section 3)
     for T in (100.0, 300.0, 600.0, -300.0, -600.0):
         _, results = bar.solve_nonlinear(material, right=Traction(T), rtol=1e-13)
         norms = results[-1].residual_norms()
-        ax.semilogy(np.arange(norms.size), np.maximum(norms, 1e-16), "o-", label=f"T = {T:g} ({results[-1].status})")
+        ax.semilogy(np.arange(norms.size), shown(norms, floor=round_off), "o-",
+                    label=f"T = {T:g} ({results[-1].status})")
+    ax.axhspan(round_off / 20, round_off, color="0.9", lw=0, zorder=0)
+    ax.text(0.02, round_off / 5, f"round-off (drawn at {round_off:.0e})", transform=ax.get_yaxis_transform(),
+            fontsize=7.5, color="0.35", va="center")
     ax.set(xlabel="Newton iteration $k$", ylabel="$\\|q(u^k)\\|$",
            title="Newton on the 1D Neo-Hookean bar: quadratic convergence")
     ax.grid(True, which="both", alpha=0.3)
