@@ -67,21 +67,19 @@ def linear_elastic_stress_2d(F, lam, mu):
     raise NotImplementedError
 '''
 
-# An honest chapter 2 (must pass in instructor mode: the watch must not see the library).
-CH02_HONEST = CH02_SLIPS.replace("(lam * np.log(F) + mu) / F", "(lam * np.log(F) - mu) / F") \
-    .replace("return 2 * (mu +", "return (mu +").replace("q[1:])", "-q[1:])")
-
-# The two-line answer that used to pass every check of chapter 2.
-CH02_IMPORTS_LIBRARY = '''
-from tissuefem.engine.materials1d import neo_hookean_stress as neo_hookean_stress_1d, neo_hookean_tangent as neo_hookean_tangent_1d
-from tissuefem.engine.bar1d import newton_step as newton_step_1d
+# Chapter 1 answered by the library: the two-line kind of answer that used to pass every check.
+CH01_IMPORTS_LIBRARY = '''
+from tissuefem.engine.materials1d import linear_modulus as linear_modulus_1d
+from tissuefem.engine.bar1d import assemble_stiffness as assemble_stiffness_1d
 '''
 
-# No import statement and no string naming the package: only the watch during the call sees it.
-CH02_REACHES_LIBRARY = '''
-import numpy as np
-
-
+# Chapter 2: the stress borrowed from the library without an import statement or a string naming
+# the package (only the watch during the call sees it); the tangent and the Newton step honest.
+CH02_BORROWS_THE_STRESS = CH02_SLIPS.replace('''
+def neo_hookean_stress_1d(F, lam, mu):
+    F = np.asarray(F, dtype=float)
+    return mu * F + (lam * np.log(F) + mu) / F
+''', '''
 def _borrow(name):
     loaded = vars(__import__("sys"))["mod" + "ules"]
     return getattr(loaded["tissue" + "fem.engine.materials1d"], name)
@@ -89,16 +87,7 @@ def _borrow(name):
 
 def neo_hookean_stress_1d(F, lam, mu):
     return _borrow("neo_hookean_stress")(F, lam, mu)
-
-
-def neo_hookean_tangent_1d(F, lam, mu):
-    F = np.asarray(F, dtype=float)
-    return mu + (mu + lam * (1.0 - np.log(F))) / F**2
-
-
-def newton_step_1d(nodes, u, lam, mu, traction):
-    raise NotImplementedError
-'''
+''').replace("return 2 * (mu +", "return (mu +").replace("q[1:])", "-q[1:])")
 
 
 def _grade(tmp_path, files, *args):
@@ -190,29 +179,23 @@ def test_library_use_is_found_in_the_syntax_tree():
     assert "caller's frames" in use("import sys\ng = sys._getframe(1).f_globals\n")[0]
 
 
-def test_instructor_mode_refuses_an_answer_that_imports_the_library(tmp_path):
-    code, out = _grade(tmp_path, {"ch02.py": CH02_IMPORTS_LIBRARY}, "ch02", "--instructor")
+def test_instructor_mode_refuses_answers_that_import_or_run_the_library_and_accepts_honest_work(tmp_path):
+    files = {"ch01.py": CH01_IMPORTS_LIBRARY, "ch02.py": CH02_BORROWS_THE_STRESS}
+    code, out = _grade(tmp_path / "instructor", files, "--instructor")
     assert code == 1, out
-    for label, n in (("2.1 neo_hookean_stress_1d", 4), ("2.2 neo_hookean_tangent_1d", 4), ("2.3 newton_step_1d", 3)):
-        rows = _lines_with(out, label, "REFUSED: ch02.py line 2: imports from tissuefem")
+    # read from the syntax tree: one line per exercise, for all of its checks
+    for label, n in (("1.1 linear_modulus_1d", 4), ("1.2 assemble_stiffness_1d", 4)):
+        rows = _lines_with(out, label, "REFUSED: ch01.py line 2: imports from tissuefem")
         assert len(rows) == 1 and f"{n} checks" in rows[0], out
-    assert "checks passed  all passed" not in out
-
-
-def test_instructor_mode_refuses_an_answer_that_runs_the_library(tmp_path):
-    code, out = _grade(tmp_path, {"ch02.py": CH02_REACHES_LIBRARY}, "ch02", "--instructor")
-    assert code == 1, out
+    # seen while it runs
     rows = _lines_with(out, "2.1 neo_hookean_stress_1d", "REFUSED", "runs the library's code when called",
                        "tissuefem/engine/materials1d.py:neo_hookean_stress")
     assert len(rows) == 1, out
-    assert _lines_with(out, "2.2 neo_hookean_tangent_1d", "4/4 checks passed"), out  # its own work is accepted
-    assert "not attempted yet: 2.3" in out
-    # the student mode does not look: the borrowed answer passes there
-    code, out = _grade(tmp_path / "again", {"ch02.py": CH02_REACHES_LIBRARY}, "ch02")
-    assert code == 0 and _lines_with(out, "2.1 neo_hookean_stress_1d", "4/4 checks passed"), out
-
-
-def test_instructor_mode_accepts_honest_work(tmp_path):
-    code, out = _grade(tmp_path, {"ch02.py": CH02_HONEST}, "ch02", "--instructor")
-    assert code == 0, out
-    assert "11 passed" in out and "REFUSED" not in out
+    # the student's own work passes: the watch sees numpy, not the library
+    assert _lines_with(out, "2.2 neo_hookean_tangent_1d", "4/4 checks passed"), out
+    assert _lines_with(out, "2.3 newton_step_1d", "3/3 checks passed"), out
+    assert "failed checks (12)" in out
+    # the student mode does not look: there the borrowed answers pass
+    code, out = _grade(tmp_path / "student", files)
+    assert code == 0 and "REFUSED" not in out, out
+    assert _lines_with(out, "1.1 linear_modulus_1d", "4/4 checks passed"), out
