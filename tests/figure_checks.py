@@ -2,7 +2,7 @@
 
 import hashlib
 
-from tissuefem.workbook.figures import registry as figures
+from tissuefem.workbook import figures
 
 
 def assert_figure_deterministic(name, tmp_path):

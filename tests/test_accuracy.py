@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from tissuefem.workbook.accuracy import beam_exact, beam_problem_tip, fitted_exponent, pareto_front
+from tissuefem.workbook.accuracy import beam_exact, beam_problem_tip
+from tissuefem.workbook.measure import fitted_exponent, pareto_front
 
 
 def test_pareto_front_on_a_hand_made_example():

@@ -322,7 +322,7 @@ def test_benchmark_smoke(tmp_path):
     # not a timing test: the benchmark runs, agrees with the forms and writes its record
     import json
 
-    from tissuefem.workbook.bench.common import assembly_benchmark, format_table
+    from tissuefem.workbook.bench.assembly import assembly_benchmark, format_table
 
     lines = []
     rows = assembly_benchmark(sizes=(60,), repeats=1, out=tmp_path / "bench.json", progress=lines.append)

@@ -13,7 +13,8 @@ import pytest
 import scipy.sparse as sp
 
 from tissuefem.engine import linsolve
-from tissuefem.workbook.accuracy import manufactured_body_force, manufactured_convergence, pareto_front
+from tissuefem.workbook.accuracy import manufactured_body_force, manufactured_convergence
+from tissuefem.workbook.measure import pareto_front
 from tissuefem.workbook.bench.accuracy import (
     KNOBS,
     PLANS,
@@ -21,14 +22,14 @@ from tissuefem.workbook.bench.accuracy import (
     accuracy_study,
     budget_residual,
     format_knob_table,
-    load_results,
-    make_problem,
+    make_simulation,
+    read_results,
     recorded_results,
     run_setting,
 )
+from tissuefem import Handle, Model, RealtimeSolver, flap
+from tissuefem import material as make_material
 from tissuefem.workbook.cli import main
-from tissuefem.engine.materials import material as make_material
-from tissuefem.engine.realtime import RealtimeSolver
 from tissuefem.workbook.studies import bending_gradient
 
 
@@ -126,9 +127,7 @@ def test_results_files_are_well_formed(tiny):
         assert {"scikit-fem", "numpy", "python"} <= set(table[0])
         assert all(row["scikit-fem"] == record["machine"]["scikit-fem"] for row in table)
         assert "ms_median" in table[0]
-    for name in ("pareto", "scaling", "budget"):
-        assert (out / f"accuracy_{name}.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    again = load_results(out / "accuracy.json")
+    again = read_results(out / "accuracy.json")
     assert [r["error"] for r in again["knobs"]] == pytest.approx([r["error"] for r in results["knobs"]])
     table = format_knob_table(results["knobs"])
     assert table.count("\n") == len(results["knobs"]) + 1
@@ -194,6 +193,8 @@ def test_cli_runs_the_accuracy_study(tmp_path, capsys, monkeypatch):
     code = main(["bench", "accuracy", "--plan", "tiny", "--out", str(tmp_path)])
     assert code == 0
     assert (tmp_path / "accuracy.json").exists() and (tmp_path / "accuracy_knobs.csv").exists()
+    # the command line draws the study's figures from its results (the study itself never draws)
+    assert (tmp_path / "accuracy_pareto.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert "rel. L2 error" in capsys.readouterr().out
 
 
@@ -201,10 +202,10 @@ def test_cli_runs_the_accuracy_study(tmp_path, capsys, monkeypatch):
 
 @pytest.mark.parametrize("name", ["cg-jacobi", "cg-ilu", "cg"])
 def test_cg_backends_solve_an_spd_system(name):
-    problem = make_problem(Setting(triangles=200))
-    K = problem.tangent(problem.basis.zeros())
+    problem = make_simulation(Setting(triangles=200)).model
+    K = problem.hessian(problem.zeros())
     fixed, _ = problem.prescribed()
-    free = np.setdiff1d(np.arange(problem.basis.N), fixed)
+    free = np.setdiff1d(np.arange(problem.n_dofs), fixed)
     A = sp.csr_matrix(K)[free][:, free] + sp.identity(free.size) * 1e-3
     b = np.random.default_rng(0).standard_normal(free.size)
     factor = linsolve.make(name).factorize(A)
@@ -222,28 +223,26 @@ def test_cg_backend_rejects_bad_options():
         linsolve.PreconditionedCG("jacobi").factorize(sp.diags([1.0, -1.0]).tocsr())
 
 
-def test_p2_frames_take_the_fast_path_and_match_the_forms_path():
-    """The QuadratureAssembler's fixed pattern lets the real-time solver condense P2 like P1; same frames."""
-    setting = Setting(triangles=100, order=2)
-    fast = make_problem(setting)
-    slow = make_problem(setting)
-    slow.assembler = None
+def test_p2_frames_on_the_quadrature_assembler_match_the_forms_path():
+    """P2 assembled by the vectorised quadrature path and by the scikit-fem forms: the same frames."""
+    mesh, mat = flap(n_triangles=100), make_material("neo-hookean", 1000.0, 0.3)
     runs = []
-    for problem in (fast, slow):
-        solver = RealtimeSolver(problem, dt=1 / 30, mass="consistent", budget=math.inf, rtol=1e-10)
-        assert (solver.assembler is not None) == (problem is fast)
+    for assembly in ("fast", "forms"):
+        model = Model(mesh, mat, order=2, assembly=assembly, dt=1 / 30, mass="consistent",
+                      handles=[Handle("fixed"), Handle("handle")])
+        solver = RealtimeSolver(model, budget=math.inf, rtol=1e-10)
         for f in range(3):
-            solver.frame({1: (0.05 * (f + 1), 0.02 * (f + 1))})
+            assert solver.frame({1: (0.05 * (f + 1), 0.02 * (f + 1))}).converged
         runs.append(solver.u)
     np.testing.assert_allclose(runs[0], runs[1], atol=1e-9)
 
 
-def test_quadrature_order_is_a_problem_option():
-    low = make_problem(Setting(triangles=100, order=2, intorder=2))
-    high = make_problem(Setting(triangles=100, order=2, intorder=6))
+def test_quadrature_order_is_a_setting():
+    low = make_simulation(Setting(triangles=100, order=2, intorder=2)).model
+    high = make_simulation(Setting(triangles=100, order=2, intorder=6)).model
     assert low.basis.quadrature[0].shape[1] < high.basis.quadrature[0].shape[1]
     with pytest.raises(ValueError, match="intorder"):
-        make_problem(replace(Setting(triangles=100), intorder=0))
+        make_simulation(replace(Setting(triangles=100), intorder=0))
 
 
 def test_manufactured_body_force_holds_the_map_in_equilibrium():
@@ -273,14 +272,15 @@ def test_nonlinear_models_converge_at_the_expected_rates():
 
 def test_a_quasistatic_frame_starts_from_the_linearised_step():
     """Moving only a P2 edge would invert the elements beside it; the linearised start carries them along."""
-    problem = make_problem(Setting(triangles=400, order=2))
-    solver = RealtimeSolver(problem, dt=None, budget=math.inf, rtol=1e-10)
+    problem = make_simulation(Setting(triangles=400, order=2), "block").model
+    solver = RealtimeSolver(problem, budget=math.inf, rtol=1e-10)
     report = solver.frame({1: (0.3, 0.2)})  # half of the block's motion in one frame
     assert report.warm_start == "linearised" and report.handle_fraction == 1.0 and report.converged
     assert report.factorizations >= 1  # the prediction's factorization is counted too
     # without it (the plain start only) the same frame could move the handle only part of the way
-    plain = RealtimeSolver(make_problem(Setting(triangles=400, order=2)), dt=None, budget=math.inf, rtol=1e-10)
-    plain._linearised_increment = lambda *args: (None, 0)
+    plain = RealtimeSolver(make_simulation(Setting(triangles=400, order=2), "block").model, budget=math.inf,
+                           rtol=1e-10)
+    plain._linearised_increment = lambda *args: (None, 0.0, 0)
     assert plain.frame({1: (0.3, 0.2)}).handle_fraction < 1.0
     # a frame whose handles do not move needs no prediction
     assert solver.frame({1: (0.3, 0.2)}).warm_start == "previous"

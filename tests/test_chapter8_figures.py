@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from figure_checks import assert_figure_deterministic
-from tissuefem.workbook.figures import registry as figures
+from tissuefem.workbook import figures
 from tissuefem.workbook.figures.surgery import FALL_FRAMES, SAG_FRAMES, two_pieces_run
 
 CHAPTER_8 = ["fig_ch08_incision", "fig_ch08_two_pieces", "fig_ch08_probe", "fig_ch08_flap"]

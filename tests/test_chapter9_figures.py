@@ -3,7 +3,7 @@
 import pytest
 
 from figure_checks import assert_figure_deterministic
-from tissuefem.workbook.figures import registry as figures
+from tissuefem.workbook import figures
 from tissuefem.workbook.bench.accuracy import recorded_results
 from tissuefem.workbook.figures.accuracy import KNOB_STYLE, plot_pareto
 

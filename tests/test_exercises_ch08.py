@@ -22,8 +22,9 @@ import pytest
 from skfem import MeshTri
 
 from grading import implementations
-from tissuefem.surgery import topology as surgery
-from tissuefem.engine.meshes import rectangle
+from tissuefem import rectangle
+from tissuefem.surgery import topology
+from tissuefem.workbook import answers
 
 GRID = rectangle(4.0, 2.0, 4, 2)
 ROW = [(5, 6), (6, 7), (7, 8), (8, 9)]  # the middle row, left to right
@@ -45,7 +46,7 @@ def _edge_triangles(t):
 
 
 def _pieces(t, n_nodes):
-    return surgery.connected_components(t, n_nodes)[0]
+    return topology.connected_components(t, n_nodes)[0]
 
 
 def check_cut(answer, t, n_nodes, cut_pairs, copies, pieces):
@@ -104,7 +105,7 @@ def check_cut(answer, t, n_nodes, cut_pairs, copies, pieces):
 
 # --- 8.1 duplicate the nodes along a cut ---------------------------------------------------------
 
-ANSWERS = implementations("ch08", "duplicate_cut_nodes", surgery.duplicate_along_edges)
+ANSWERS = implementations("ch08", "duplicate_cut_nodes", answers.duplicate_cut_nodes)
 
 
 @pytest.mark.parametrize("answer", ANSWERS)
@@ -150,7 +151,7 @@ def test_ex8_1_on_a_scikit_fem_mesh(answer):
     pairs = list(zip(row[:-1].tolist(), row[1:].tolist()))
     new_t, parent = check_cut(answer, mesh.t, mesh.p.shape[1], pairs, copies=5, pieces=2)
     # every piece lies on one side of the cut
-    _, labels = surgery.connected_components(new_t, parent.size)
+    _, labels = topology.connected_components(new_t, parent.size)
     y = mesh.p[1, parent]
     for piece in np.unique(labels):
         side = y[labels == piece]
@@ -159,30 +160,11 @@ def test_ex8_1_on_a_scikit_fem_mesh(answer):
 
 # --- 8.2 a scene file --------------------------------------------------------------------------------------------
 
-def _reference_scene_text():
-    """The library's answer: the scene built in Python and written by Scene.to_toml."""
-    from tissuefem.surgery.scene import Scene
-
-    return Scene(
-        name="tug",
-        domain={"shape": "rectangle", "width": 3.0, "height": 1.0, "triangles": 600},
-        material={"model": "corotated", "youngs_modulus": 5000.0, "poisson_ratio": 0.4, "density": 1.1},
-        effects={
-            "inertia": {"time_step": 0.02},
-            "gravity": {"acceleration": [0.0, -9.81]},
-            "fibers": {"stiffness": 2000.0, "direction": [1.0, 0.0]},
-            "handles": [{"name": "fixed", "region": "left"},
-                        {"name": "tip", "region": {"near": [3.0, 0.5], "radius": 0.1}, "target": [0.5, 0.0]}],
-        },
-    ).to_toml()
-
-
-@pytest.mark.parametrize("answer", implementations("ch08", "scene_file_text", _reference_scene_text))
+@pytest.mark.parametrize("answer", implementations("ch08", "scene_file_text", answers.scene_file_text))
 def test_ex8_2_scene_file(answer):
     import tomllib
 
-    from tissuefem.surgery.scene import Scene
-    from tissuefem.surgery.simulation import Simulation
+    from tissuefem import Scene, Simulation
 
     text = answer()
     assert isinstance(text, str), f"return the TOML text as a string, got {type(text).__name__}"

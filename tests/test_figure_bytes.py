@@ -6,7 +6,7 @@ import math
 import matplotlib
 import numpy as np
 
-from tissuefem.workbook.figures import registry
+from tissuefem.workbook.figures import base as registry
 
 
 def test_a_size_of_whole_pixels_is_whole_however_it_is_truncated():

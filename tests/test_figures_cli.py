@@ -10,7 +10,7 @@ import pytest
 
 from tissuefem.workbook import cli
 
-from tissuefem.workbook.figures import registry as figures
+from tissuefem.workbook import figures
 
 FAST_FIGURES = ["fig05_admissible_maps", "fig07_neo_hookean_1d", "fig_ch01_convergence", "fig_ch02_newton"]
 

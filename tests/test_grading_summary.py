@@ -69,8 +69,8 @@ def linear_elastic_stress_2d(F, lam, mu):
 
 # Chapter 1 answered by the library: the two-line kind of answer that used to pass every check.
 CH01_IMPORTS_LIBRARY = '''
-from tissuefem.engine.materials1d import linear_modulus as linear_modulus_1d
-from tissuefem.engine.bar1d import assemble_stiffness as assemble_stiffness_1d
+from tissuefem.workbook.answers import linear_modulus_1d
+from tissuefem.workbook.answers import assemble_stiffness_1d
 '''
 
 # Chapter 2: the stress borrowed from the library without an import statement or a string naming
@@ -82,11 +82,11 @@ def neo_hookean_stress_1d(F, lam, mu):
 ''', '''
 def _borrow(name):
     loaded = vars(__import__("sys"))["mod" + "ules"]
-    return getattr(loaded["tissue" + "fem.engine.materials1d"], name)
+    return getattr(loaded["tissue" + "fem.workbook.answers"], name)
 
 
 def neo_hookean_stress_1d(F, lam, mu):
-    return _borrow("neo_hookean_stress")(F, lam, mu)
+    return _borrow("neo_hookean_stress_1d")(F, lam, mu)
 ''').replace("return 2 * (mu +", "return (mu +").replace("q[1:])", "-q[1:])")
 
 
@@ -189,7 +189,7 @@ def test_instructor_mode_refuses_answers_that_import_or_run_the_library_and_acce
         assert len(rows) == 1 and f"{n} checks" in rows[0], out
     # seen while it runs
     rows = _lines_with(out, "2.1 neo_hookean_stress_1d", "REFUSED", "runs the library's code when called",
-                       "tissuefem/engine/materials1d.py:neo_hookean_stress")
+                       "tissuefem/workbook/answers.py:neo_hookean_stress_1d")
     assert len(rows) == 1, out
     # the student's own work passes: the watch sees numpy, not the library
     assert _lines_with(out, "2.2 neo_hookean_tangent_1d", "4/4 checks passed"), out

@@ -1,11 +1,10 @@
-"""The quasistatic solver: patch tests, equilibrium of reactions, handles, validation."""
+"""Quasistatic solves of a Model: patch tests, equilibrium of reactions, handles, validation."""
 
 import numpy as np
 import pytest
 
-from tissuefem.engine.materials import Corotated, LinearElastic, NeoHookean, StableNeoHookean, TaylorNeoHookean
-from tissuefem.engine.meshes import rectangle
-from tissuefem.engine.quasistatic import Handle, QuasistaticProblem
+from tissuefem import (Corotated, Handle, LinearElastic, Model, NeoHookean, StableNeoHookean, TaylorNeoHookean,
+                       rectangle, solve)
 
 MATERIALS = [cls.from_young(1000.0, 0.3) for cls in (LinearElastic, NeoHookean, TaylorNeoHookean,
                                                       StableNeoHookean, Corotated)]
@@ -32,8 +31,8 @@ def _perturbed_mesh():
 def test_patch_test_homogeneous_deformation_is_reproduced(material, order, assembly):
     mesh = _perturbed_mesh()
     handle = Handle(_boundary_mask, target=lambda X: A @ X + c[:, None])
-    problem = QuasistaticProblem(mesh, material, order=order, assembly=assembly, handles=[handle])
-    result = problem.solve(rtol=1e-13, atol=1e-11)
+    problem = Model(mesh, material, order=order, assembly=assembly, handles=[handle])
+    result = solve(problem, rtol=1e-13, atol=1e-11)
     assert result.converged
     X = problem.basis.doflocs
     exact = (A @ X + c[:, None]) - X
@@ -46,8 +45,8 @@ def test_fast_and_forms_paths_give_the_same_solution():
     mesh = rectangle(2.0, 1.0, 10, 5)
     mat = NeoHookean.from_young(1000.0, 0.3)
     handles = [Handle("left"), Handle("right", (0.4, 0.3))]
-    a = QuasistaticProblem(mesh, mat, handles=handles, assembly="fast").solve(load_steps=2, rtol=1e-12)
-    b = QuasistaticProblem(mesh, mat, handles=handles, assembly="forms").solve(load_steps=2, rtol=1e-12)
+    a = solve(Model(mesh, mat, handles=handles, assembly="fast"), load_steps=2, rtol=1e-12)
+    b = solve(Model(mesh, mat, handles=handles, assembly="forms"), load_steps=2, rtol=1e-12)
     assert a.converged and b.converged
     np.testing.assert_allclose(a.u, b.u, atol=1e-10)
 
@@ -57,9 +56,9 @@ def test_reactions_balance_tractions_and_body_force(order):
     mesh = rectangle(2.0, 1.0, 8, 4)
     mat = NeoHookean.from_young(1000.0, 0.3)
     t, b = np.array([60.0, -20.0]), np.array([0.0, -9.81])
-    problem = QuasistaticProblem(mesh, mat, order=order, handles=[Handle("left")],
+    problem = Model(mesh, mat, order=order, handles=[Handle("left")],
                                  tractions={"right": t}, body_force=b)
-    result = problem.solve(load_steps=2, rtol=1e-12)
+    result = solve(problem, load_steps=2, rtol=1e-12)
     assert result.converged
     # the external load vector carries the resultant: t * (edge length 1) + b * (area 2)
     for i in range(2):
@@ -78,17 +77,17 @@ def test_rigid_rotation_is_stress_free_for_neo_hookean_only():
     R = np.array([[np.cos(theta), -np.sin(theta)], [np.sin(theta), np.cos(theta)]])
     for material, stress_free in [(NeoHookean.from_young(1000.0, 0.3), True),
                                   (LinearElastic.from_young(1000.0, 0.3), False)]:
-        problem = QuasistaticProblem(mesh, material, handles=[Handle(_boundary_mask, lambda X: R @ X)])
-        result = problem.solve(rtol=1e-12)
+        problem = Model(mesh, material, handles=[Handle(_boundary_mask, lambda X: R @ X)])
+        result = solve(problem, rtol=1e-12)
         assert result.converged
-        energy = problem.strain_energy(result.u)
+        energy = problem.stored_energy(result.u)
         assert (energy < 1e-9) == stress_free, (material.name, energy)
 
 
 def test_handles_move_and_the_last_one_wins():
     mesh = rectangle(1.0, 1.0, 3, 3)
     h = Handle("right", (0.1, 0.0))
-    problem = QuasistaticProblem(mesh, NeoHookean.from_young(1000.0, 0.3), handles=[Handle("left"), h])
+    problem = Model(mesh, NeoHookean.from_young(1000.0, 0.3), handles=[Handle("left"), h])
     h.move((0.2, 0.1))
     fixed, values = problem.prescribed()
     right = problem.basis.get_dofs("right").all()
@@ -96,21 +95,21 @@ def test_handles_move_and_the_last_one_wins():
     got = dict(zip(fixed, values))
     assert all(np.isclose(got[d], 0.2 if k == 0 else 0.1) for d, k in zip(right, comp))
     # overlapping handles resolve to the later one
-    problem2 = QuasistaticProblem(mesh, problem.material, handles=[Handle("left"), Handle("left", (0.3, 0.0))])
+    problem2 = Model(mesh, problem.material, handles=[Handle("left"), Handle("left", (0.3, 0.0))])
     _, v2 = problem2.prescribed()
     assert np.allclose(v2[problem2.component[problem2.prescribed()[0]] == 0], 0.3)
 
 
 @pytest.mark.parametrize("make, match", [
-    (lambda m, mat: QuasistaticProblem(m, mat, handles=[Handle("nowhere")]), "nowhere"),
-    (lambda m, mat: QuasistaticProblem(m, mat, handles=[]), "handles"),
-    (lambda m, mat: QuasistaticProblem(m, mat, handles=[Handle("left")], tractions={"right": (1.0,)}), "tractions"),
-    (lambda m, mat: QuasistaticProblem(m, mat, handles=[Handle("left")], body_force=(np.nan, 0)), "body_force"),
-    (lambda m, mat: QuasistaticProblem(m, mat, order=3, handles=[Handle("left")]), "order"),
+    (lambda m, mat: Model(m, mat, handles=[Handle("nowhere")]), "nowhere"),
+    (lambda m, mat: Model(m, mat, handles=[Handle("left")], tractions={"right": (1.0,)}), "tractions"),
+    (lambda m, mat: Model(m, mat, handles=[Handle("left")], body_force=(np.nan, 0)), "body_force"),
+    (lambda m, mat: Model(m, mat, order=3, handles=[Handle("left")]), "order"),
     (lambda m, mat: Handle("left", (np.inf, 0.0)), "finite"),
     (lambda m, mat: Handle("left", (1.0, 2.0, 3.0)), "shape"),
-    (lambda m, mat: QuasistaticProblem(m, mat, handles=[Handle(np.array([0, 10_000]))]), "node indices"),
-    (lambda m, mat: QuasistaticProblem(m, mat, handles=[Handle("left")]).solve(load_steps=0), "load_steps"),
+    (lambda m, mat: Model(m, mat, handles=[Handle(np.array([0, 10_000]))]), "node indices"),
+    (lambda m, mat: solve(Model(m, mat, handles=[Handle("left")]), load_steps=0), "load_steps"),
+    (lambda m, mat: solve(Model(m, mat, handles=[Handle("left")], dt=0.1)), "dt"),
 ])
 def test_bad_input_is_rejected_by_name(make, match):
     mesh = rectangle(1.0, 1.0, 3, 3)
@@ -120,14 +119,14 @@ def test_bad_input_is_rejected_by_name(make, match):
 
 def test_failed_solve_keeps_the_last_good_state():
     mesh = rectangle(1.0, 1.0, 4, 4)
-    problem = QuasistaticProblem(mesh, NeoHookean.from_young(1000.0, 0.3),
+    problem = Model(mesh, NeoHookean.from_young(1000.0, 0.3),
                                  handles=[Handle("left"), Handle("right", (-1.5, 0.0))])
     # crushing the square flat in one step inverts it: the step fails, the start state is kept
-    result = problem.solve(load_steps=1, max_iter=3)
+    result = solve(problem, load_steps=1, max_iterations=3)
     assert not result.converged and result.status == "non-finite"
     np.testing.assert_array_equal(result.u, np.zeros(problem.basis.N))
     # in three steps the first converges and the second fails: the first step's state is kept
-    result = problem.solve(load_steps=3, max_iter=3)
+    result = solve(problem, load_steps=3, max_iterations=8)
     assert not result.converged and len(result.steps) == 2 and result.steps[0].converged
     np.testing.assert_array_equal(result.u, result.steps[0].x)
 
@@ -139,4 +138,4 @@ def test_energy_line_search_converges_when_equilibrium_energy_is_zero():
 
     problem, result = rotated_block(NeoHookean.from_young(1000.0, 0.3), np.pi / 3)
     assert result.converged
-    assert problem.strain_energy(result.u) < 1e-9
+    assert problem.stored_energy(result.u) < 1e-9

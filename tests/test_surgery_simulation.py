@@ -294,7 +294,7 @@ def test_the_constant_factorisation_follows_a_new_time_step():
         sim.run(3)
         sim.solver.dt = 0.2
         sim.run(3)
-    assert fast.solver.factorizations == 2
+    assert fast.solver.linear.factorizations == 2 and fast.solver.linear_solver_name == "constant-superlu"
     assert np.allclose(fast.u, newton.u, rtol=0, atol=1e-7 * np.abs(newton.u).max())
 
 

@@ -1,7 +1,17 @@
 """tissuefem: real-time soft-tissue simulation with the finite element method.
 
 A teaching library that follows J. Teran's lecture notes *Simulation of
-elasticity, biomechanics and virtual surgery*, built on scikit-fem.
+elasticity, biomechanics and virtual surgery*, built on scikit-fem. It has
+three layers, and each imports only the ones below it:
+
+* :mod:`tissuefem.engine` -- materials, meshes, assembly, the model and its
+  terms, the one minimiser, stepping, linear solvers and the real-time loop;
+* :mod:`tissuefem.surgery` -- cutting and excising, scenes, the running
+  simulation with its surgical operations, local flaps and the mouse view;
+* :mod:`tissuefem.workbook` -- the chapters' studies, the benchmarks, the
+  lecture figures, the exercises' reference answers and the command line.
+
+What a chapter or a user needs is importable from here (``from tissuefem import Model, solve``).
 
 Index convention (used everywhere in this package)
 --------------------------------------------------
@@ -19,8 +29,47 @@ shaped ``[2, 2, elements, quadrature points]`` (any trailing shape works),
 so our forms mix with scikit-fem's.
 """
 
+from .engine.assembly import FormsAssembler, P1Assembler, QuadratureAssembler
+from .engine.bar1d import Bar1D, Displacement, Traction
+from .engine.constants import FRAME_BUDGET, TISSUE_DENSITY, TISSUE_E, TISSUE_NU
+from .engine.explicit import SymplecticEuler, critical_time_step, largest_stable_dt, wave_speed
+from .engine.forms import energy_form, residual_form, tangent_form
+from .engine.inversion import ITFClamped, ProjectedTangent, projected_tangent, rotation_preserving_svd
+from .engine.linsolve import LinearSolver
+from .engine.materials import (MATERIALS, Corotated, FiberReinforced, LinearElastic, NeoHookean, StableNeoHookean,
+                               TaylorNeoHookean, material)
+from .engine.materials1d import Linear1D, NeoHookean1D, TaylorNeoHookean1D
+from .engine.meshes import fusiform_fiber_field, fusiform_muscle, flap, mesh_size, mesh_with_about, rectangle
+from .engine.minimize import NewtonResult, newton
+from .engine.model import Handle, Model, region_nodes
 from .engine.parameters import lame_parameters
+from .engine.realtime import RealtimeSolver
+from .engine.stepping import StaticResult, Stepper, StepReport, solve
+from .engine.terms import Elastic, Fibers, Inertia, Load, Probe, Sutures, Term
+from .surgery.flaps import advancement_flap
+from .surgery.interactive import SurgeryView
+from .surgery.scene import Scene, demo_scene, flap_path, flap_scene
+from .surgery.simulation import Simulation
 
 __version__ = "0.1.0"
 
-__all__ = ["lame_parameters", "__version__"]
+__all__ = [
+    # constants and parameters
+    "FRAME_BUDGET", "TISSUE_E", "TISSUE_NU", "TISSUE_DENSITY", "lame_parameters",
+    # 1D (chapters 1-2)
+    "Linear1D", "NeoHookean1D", "TaylorNeoHookean1D", "Bar1D", "Displacement", "Traction",
+    # materials and inversion
+    "LinearElastic", "NeoHookean", "TaylorNeoHookean", "StableNeoHookean", "Corotated", "FiberReinforced",
+    "MATERIALS", "material", "ITFClamped", "ProjectedTangent", "projected_tangent", "rotation_preserving_svd",
+    # meshes, forms and assembly
+    "rectangle", "mesh_with_about", "flap", "fusiform_muscle", "fusiform_fiber_field", "mesh_size",
+    "residual_form", "tangent_form", "energy_form", "P1Assembler", "QuadratureAssembler", "FormsAssembler",
+    # the model and its terms
+    "Model", "Handle", "region_nodes", "Term", "Elastic", "Fibers", "Inertia", "Load", "Probe", "Sutures",
+    # solving and stepping
+    "newton", "NewtonResult", "LinearSolver", "Stepper", "StepReport", "solve", "StaticResult", "RealtimeSolver",
+    "SymplecticEuler", "critical_time_step", "largest_stable_dt", "wave_speed",
+    # surgery
+    "Scene", "Simulation", "demo_scene", "flap_scene", "flap_path", "advancement_flap", "SurgeryView",
+    "__version__",
+]

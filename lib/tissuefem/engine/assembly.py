@@ -62,8 +62,12 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
+from skfem import Basis, ElementTriP1, ElementTriP2, ElementVector, asm
 
-__all__ = ["P1Assembler"]
+from .forms import energy_form, residual_form, tangent_form
+from .meshes import folded_triangles
+
+__all__ = ["P1Assembler", "QuadratureAssembler", "FormsAssembler", "make_assembler", "vector_basis"]
 
 #: Triangles with ``|2 area| <= _DEGENERATE_TOL * (longest edge)^2`` count as degenerate.
 _DEGENERATE_TOL = 1e-12
@@ -248,8 +252,6 @@ class P1Assembler:
             raise ValueError(
                 f"mesh has zero-area (degenerate) triangles: elements {_list(degenerate)}"
             )
-        from .meshes import folded_triangles
-
         folded = folded_triangles(p, t)
         if folded.size:
             raise ValueError(
@@ -372,8 +374,254 @@ class P1Assembler:
         F = self._F(self._check_u(u))
         return self._residual_from_F(m, F), self._tangent_from_F(m, F)
 
+    def mass(self, density, lumped: bool = True) -> np.ndarray:
+        """The mass matrix ``M_(a,i)(b,k) = int rho0 N_a N_b d_ik dX`` as data on this pattern.
+
+        Per element the consistent P1 mass is ``rho0 A_e (1 + d_ab) / 12``; lumped, each
+        vertex gets ``rho0 A_e / 3`` (the row sum). ``A_e`` is the element's material area,
+        so copies made by cutting a triangle carry the mass of their part only.
+        """
+        rho = _positive("density", density)
+        data = np.zeros(self.nnz)
+        if lumped:
+            node_mass = np.bincount(self.t.ravel(), weights=np.tile(rho * self.areas / 3.0, 3), minlength=self.n_nodes)
+            data[self.diagonal] = np.repeat(node_mass, 2)
+            return data
+        local = (np.ones((3, 3)) + np.eye(3)) / 12.0  # int N_a N_b / A on a triangle
+        M_loc = np.einsum("ab,ik,e->aibke", local, np.eye(2), rho * self.areas)
+        return np.bincount(self._scatter, weights=M_loc.reshape(-1), minlength=self.nnz)
+
+    def body_force(self, b) -> np.ndarray:
+        """``f_(a,i) = int N_a b_i dX`` for a constant body force ``b`` (force per unit reference area)."""
+        b = np.asarray(b, dtype=float)
+        share = np.bincount(self.t.ravel(), weights=np.tile(self.areas / 3.0, 3), minlength=self.n_nodes)
+        return (share[:, None] * b[None, :]).ravel()
+
+    @property
+    def diagonal(self) -> np.ndarray:
+        """Positions of the diagonal entries in the CSR data array, row by row."""
+        return _diagonal_positions(self.indptr, self.indices)
+
     def __repr__(self):
         return (
             f"P1Assembler({self.n_elements} triangles, {self.n_nodes} nodes, {self.n_dofs} dofs, "
             f"nnz={self.nnz}, material={self.material!r})"
         )
+
+
+def _positive(name, value) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a finite number > 0, got {value!r}") from None
+    if not (np.isfinite(v) and v > 0):
+        raise ValueError(f"{name} must be finite and > 0, got {value!r}")
+    return v
+
+
+def _diagonal_positions(indptr, indices) -> np.ndarray:
+    n = indptr.size - 1
+    rows = np.repeat(np.arange(n), np.diff(indptr))
+    pos = np.flatnonzero(rows == indices)
+    if pos.size != n:
+        raise ValueError("the sparsity pattern lacks diagonal entries")
+    return pos
+
+
+def vector_basis(mesh, order: int = 1, intorder: int | None = None) -> Basis:
+    """scikit-fem's ``Basis(mesh, ElementVector(ElementTriP<order>()), intorder)`` (default degree ``2 order``).
+
+    Its dof numbering interleaves the components at the vertices (node ``a`` has dofs
+    ``2a, 2a + 1``), then the edge midpoints for P2: the layout every assembler here uses.
+    """
+    if order not in (1, 2):
+        raise ValueError(f"order must be 1 or 2, got {order!r}")
+    if intorder is None:
+        intorder = 2 * order
+    if isinstance(intorder, bool) or not isinstance(intorder, (int, np.integer)) or not 1 <= intorder <= 19:
+        raise ValueError(f"intorder must be an integer from 1 to 19, got {intorder!r}")
+    element = ElementVector(ElementTriP1() if order == 1 else ElementTriP2())
+    return Basis(mesh, element, intorder=int(intorder))
+
+
+class QuadratureAssembler:
+    """Vectorised energy, residual and tangent for a vector Lagrange basis on triangles (P1, P2).
+
+    The same sums as the scikit-fem forms of :mod:`tissuefem.engine.forms`, done at
+    once for every element and quadrature point instead of once per pair of
+    local basis functions: with the scalar shape functions ``N_a`` of the
+    element and the quadrature weights ``dx`` (weight times Jacobian),
+
+        F_ij      = d_ij + sum_a u_ai dN_a/dX_j                     (per element and point)
+        E         = sum_e,q Psi(F) dx
+        r_ai      = sum_e,q P_ij dN_a/dX_j dx
+        K_ai,bk   = sum_e,q A_ijkl dN_a/dX_j dN_b/dX_l dx
+
+    scattered into a sparsity pattern computed once (like :class:`P1Assembler`).
+    For P1, :class:`P1Assembler` is faster still (one point per element); this
+    class is what makes P2 affordable.
+
+    Parameters
+    ----------
+    basis
+        ``Basis(mesh, ElementVector(ElementTriPk()))`` (:func:`vector_basis`); its quadrature is used.
+        Local vector function ``2 a + i`` is ``N_a e_i`` (scikit-fem's layout).
+    material
+        The default material (each method also takes one).
+    weights
+        Optional per-element material fractions in ``(0, 1]`` (as :class:`P1Assembler`'s).
+    """
+
+    def __init__(self, basis, material=None, weights=None):
+        if not isinstance(getattr(basis, "elem", None), ElementVector):
+            raise ValueError(f"basis must be a scikit-fem Basis with an ElementVector element, got {basis!r}")
+        P1Assembler._validate_mesh(basis.mesh)
+        self.basis, self.material = basis, material
+        nloc = len(basis.basis) // 2
+        self.n_local = nloc
+        self.n_elements = basis.mesh.nelements
+        # grad N_a and N_a: component 0 of the vector function N_a e_0
+        self._G = np.array([basis.basis[2 * a][0].grad[0] for a in range(nloc)])  # (nloc, 2, nel, nq)
+        self._N = np.array([np.asarray(basis.basis[2 * a][0])[0] for a in range(nloc)])  # (nloc, nel, nq)
+        dx = basis.dx  # (nel, nq)
+        if weights is not None:
+            w = np.asarray(weights, dtype=float)
+            if w.shape != (self.n_elements,) or not np.all(np.isfinite(w)) or np.any(w <= 0) or np.any(w > 1):
+                raise ValueError(f"weights must be one number in (0, 1] per element, shape ({self.n_elements},)")
+            dx = dx * w[:, None]
+        self._dx = dx
+        self._GW = self._G * self._dx
+        dofs = np.asarray(basis.element_dofs, dtype=np.int64)  # (2 nloc, nel), row 2 a + i
+        nel, n = dofs.shape[1], basis.N
+        self.n_dofs = n
+        self._dofs = dofs
+        self._dofs_flat = dofs.reshape(-1)
+        rows = np.broadcast_to(dofs[:, None, :], (2 * nloc, 2 * nloc, nel)).reshape(-1)
+        cols = np.broadcast_to(dofs[None, :, :], (2 * nloc, 2 * nloc, nel)).reshape(-1)
+        keys, inverse = np.unique(rows * n + cols, return_inverse=True)
+        self.nnz = keys.size
+        index_dtype = np.int32 if max(self.nnz, n) < np.iinfo(np.int32).max else np.int64
+        self.indices = (keys % n).astype(index_dtype)
+        self.indptr = np.concatenate([[0], np.cumsum(np.bincount(keys // n, minlength=n))]).astype(index_dtype)
+        self.indices.setflags(write=False)
+        self.indptr.setflags(write=False)
+        self._scatter = inverse.reshape(-1)
+
+    def csr(self, data) -> sp.csr_matrix:
+        """A CSR matrix on this assembler's fixed pattern (shared, read-only index arrays)."""
+        K = sp.csr_matrix((np.asarray(data, dtype=float), self.indices, self.indptr),
+                          shape=(self.n_dofs, self.n_dofs), copy=False)
+        K.has_sorted_indices = True
+        K.has_canonical_format = True
+        return K
+
+    @property
+    def diagonal(self) -> np.ndarray:
+        return _diagonal_positions(self.indptr, self.indices)
+
+    def _material(self, material):
+        m = self.material if material is None else material
+        if m is None:
+            raise ValueError("material must be given (to the constructor or to this call), got None")
+        return m
+
+    def deformation_gradient(self, u) -> np.ndarray:
+        """``F = I + grad u`` at every element and quadrature point, shaped ``[2, 2, nel, nq]``."""
+        u = np.asarray(u, dtype=float)
+        if u.shape != (self.n_dofs,):
+            raise ValueError(f"u must have shape ({self.n_dofs},), got {u.shape}")
+        ue = u[self._dofs].reshape(self.n_local, 2, -1)
+        F = np.einsum("aie,ajeq->ijeq", ue, self._G)
+        F[0, 0] += 1.0
+        F[1, 1] += 1.0
+        return F
+
+    def energy(self, u, material=None) -> float:
+        """``sum Psi(F) dx`` (NaN where the material is, e.g. the log model at ``J <= 0``)."""
+        m = self._material(material)
+        return float(np.sum(m.energy(self.deformation_gradient(u)) * self._dx))
+
+    def residual(self, u, material=None) -> np.ndarray:
+        """The internal force vector, the gradient of :meth:`energy`."""
+        m = self._material(material)
+        P = m.stress(self.deformation_gradient(u))
+        r = np.einsum("ijeq,ajeq->aie", P, self._GW)
+        return np.bincount(self._dofs_flat, weights=r.reshape(-1), minlength=self.n_dofs)
+
+    def tangent(self, u, material=None) -> sp.csr_matrix:
+        """The tangent stiffness (Hessian of :meth:`energy`) on the fixed pattern."""
+        m = self._material(material)
+        A = m.tangent(self.deformation_gradient(u))
+        AG = np.einsum("ijkleq,ajeq->aikleq", A, self._GW)
+        K = np.einsum("aikleq,bleq->aibke", AG, self._G)
+        return self.csr(np.bincount(self._scatter, weights=K.reshape(-1), minlength=self.nnz))
+
+    def mass(self, density, lumped: bool = False) -> np.ndarray:
+        """The mass matrix ``int rho0 N_a N_b d_ik dX`` as data on this pattern (``lumped``: row sums,
+        refused where some dof would get no mass, as the vertices of P2 triangles do)."""
+        rho = _positive("density", density)
+        NN = np.einsum("aeq,beq,eq->abe", self._N, self._N, rho * self._dx)
+        M_loc = np.einsum("abe,ik->aibke", NN, np.eye(2))
+        data = np.bincount(self._scatter, weights=M_loc.reshape(-1), minlength=self.nnz)
+        if not lumped:
+            return data
+        rows = self.csr(data).sum(axis=1).A.ravel()
+        if not np.all(rows > 1e-8 * np.mean(np.abs(rows))):
+            raise ValueError("mass='lumped': row-sum lumping gives some dofs zero or negative mass with this "
+                             "element (P2 triangles' vertices get none); use mass='consistent'")
+        lumped_data = np.zeros(self.nnz)
+        lumped_data[self.diagonal] = rows
+        return lumped_data
+
+    def body_force(self, b) -> np.ndarray:
+        """``f_(a,i) = int N_a b_i dX`` for a constant body force ``b``."""
+        b = np.asarray(b, dtype=float)
+        share = np.einsum("aeq,eq->ae", self._N, self._dx)  # (nloc, nel)
+        f = np.einsum("ae,i->aie", share, b)
+        return np.bincount(self._dofs_flat, weights=f.reshape(-1), minlength=self.n_dofs)
+
+    def __repr__(self):
+        return f"{type(self).__name__}({self.n_elements} triangles, {self.n_dofs} dofs, nnz={self.nnz})"
+
+
+class FormsAssembler(QuadratureAssembler):
+    """Energy, residual and tangent by the readable scikit-fem forms of :mod:`tissuefem.engine.forms`.
+
+    The reference path the fast assemblers are tested against: scikit-fem calls the
+    form once per pair of local basis functions. Its matrices are put on the same
+    fixed pattern as :class:`QuadratureAssembler`'s, so everything downstream is shared.
+    """
+
+    def energy(self, u, material=None) -> float:
+        m = self._material(material)
+        return float(asm(energy_form(m), self.basis, u=self.basis.interpolate(u)))
+
+    def residual(self, u, material=None) -> np.ndarray:
+        m = self._material(material)
+        return asm(residual_form(m), self.basis, u=self.basis.interpolate(u))
+
+    def tangent(self, u, material=None) -> sp.csr_matrix:
+        m = self._material(material)
+        K = asm(tangent_form(m), self.basis, u=self.basis.interpolate(u)).tocsr()
+        K.sum_duplicates()
+        if K.nnz == self.nnz and np.array_equal(K.indptr, self.indptr) and np.array_equal(K.indices, self.indices):
+            return self.csr(K.data)
+        rows = np.repeat(np.arange(self.n_dofs), np.diff(self.indptr))
+        return self.csr(np.asarray(K[rows, self.indices]).ravel())
+
+
+def make_assembler(mesh, *, order: int = 1, intorder: int | None = None, assembly: str = "fast", weights=None):
+    """``(basis, assembler)`` for a mesh: the fast P1 path, the quadrature path (P2) or the scikit-fem forms.
+
+    ``assembly="fast"`` takes :class:`P1Assembler` for P1 and :class:`QuadratureAssembler` for P2;
+    ``"forms"`` takes :class:`FormsAssembler` (the readable reference, slow).
+    """
+    if assembly not in ("fast", "forms"):
+        raise ValueError(f"assembly must be 'fast' or 'forms', got {assembly!r}")
+    P1Assembler._validate_mesh(mesh)
+    basis = vector_basis(mesh, order, intorder)
+    if assembly == "forms":
+        return basis, FormsAssembler(basis, weights=weights)
+    if order == 1:
+        return basis, P1Assembler(mesh, weights=weights)
+    return basis, QuadratureAssembler(basis, weights=weights)

@@ -31,8 +31,8 @@ import numpy as np
 import scipy.sparse as sp
 from skfem import Basis, BilinearForm, ElementLineP1, ElementLineP2, Functional, LinearForm, MeshLine, asm
 
-from .materials1d import Material1D, NeoHookean1D
-from .newton import NewtonResult, newton_solve
+from .materials1d import Material1D
+from .minimize import NewtonResult, newton
 
 
 @dataclass(frozen=True)
@@ -248,15 +248,19 @@ class Bar1D:
         u = np.zeros(self.ndofs) if u0 is None else np.array(u0, dtype=float, copy=True)
         if u.shape != (self.ndofs,):
             raise ValueError(f"u0 must have shape ({self.ndofs},), got {u.shape}")
+        newton_options.setdefault("line_search", None)  # the notes' plain iteration (chapter 2 adds safeguards)
+        newton_options.setdefault("atol", 1e-12)
+        free = np.ones(self.ndofs, dtype=bool)
+        free[fixed] = False
         results = []
         for s in np.arange(1, load_steps + 1) / load_steps:
             x0 = u.copy()
             x0[fixed] = s * values
-            result = newton_solve(
+            result = newton(
                 x0,
                 lambda x: self.internal_force(x, material) - s * external,
                 lambda x: self.tangent(x, material),
-                fixed=fixed,
+                free=free,
                 energy=lambda x: self.strain_energy(x, material) - s * external @ x,
                 **newton_options,
             )
@@ -307,80 +311,3 @@ def uniform_bar_stretch(material: Material1D, traction: float, F0: float = 1.0, 
         step = F - g / float(material.tangent(F))
         F = step if lo < step < hi else 0.5 * (lo + hi)
     return F
-
-
-# --- plain functions (the reference answers of the chapter 1-2 exercises) --------
-
-def assemble_stiffness(nodes, modulus) -> np.ndarray:
-    """Dense P1 stiffness ``A_ij = modulus * int N_i' N_j' dX`` on the given node coordinates."""
-    return Bar1D(nodes=nodes).stiffness(modulus).toarray()
-
-
-def newton_step(nodes, u, lam, mu, traction) -> np.ndarray:
-    """One Newton step for the 1D Neo-Hookean bar: left end fixed (u = 0), traction at the right end.
-
-    Returns ``u + du`` where ``dq/du du = -q(u)`` on the free dofs.
-    """
-    bar = Bar1D(nodes=nodes)
-    material = NeoHookean1D(lam, mu)
-    u = np.asarray(u, dtype=float)
-    if u.shape != (bar.ndofs,):
-        raise ValueError(f"u must have shape ({bar.ndofs},), got {u.shape}")
-    q = bar.residual(u, material, right=Traction(traction))
-    K = bar.tangent(u, material)
-    free = np.arange(1, bar.ndofs)
-    u_new = u.copy()
-    u_new[0] = 0.0
-    u_new[free] = u[free] + sp.linalg.spsolve(K[free][:, free].tocsc(), -q[free])
-    return u_new
-
-
-# --- a convergence study with a manufactured solution (chapter 1) -------------------
-
-def manufactured_solution(modulus: float = 1.0, traction: float = 1.0):
-    """A bar on [0, 1], ``u(0) = 0``, end traction ``T`` at 1, body force ``f = E1 pi^2 sin(pi X)``.
-
-    Then ``-E1 u'' = f`` gives ``u = sin(pi X) + c X`` with ``E1 u'(1) = T``,
-    i.e. ``c = T / E1 + pi``. Returns ``(f, u, du)`` as callables of X.
-    """
-    c = traction / modulus + np.pi
-
-    def f(X):
-        return modulus * np.pi**2 * np.sin(np.pi * X)
-
-    def u(X):
-        return np.sin(np.pi * X) + c * X
-
-    def du(X):
-        return np.pi * np.cos(np.pi * X) + c
-
-    return f, u, du
-
-
-def convergence_study(orders=(1, 2), ns=(4, 8, 16, 32, 64, 128), modulus: float = 1.0, traction: float = 1.0):
-    """Errors of the linear bar against :func:`manufactured_solution` as the mesh is refined.
-
-    Returns a list of dicts with ``order, n, h, L2, H1, nodal`` (the largest
-    error at the element end points) and the observed rates
-    ``rate_L2, rate_H1`` = log(e_coarse / e_fine) / log(h_coarse / h_fine)
-    (NaN on the coarsest mesh).
-    """
-    f, u_exact, du_exact = manufactured_solution(modulus, traction)
-    rows = []
-    for order in orders:
-        previous = None
-        for n in ns:
-            bar = Bar1D(0.0, 1.0, n, order=order)
-            u = bar.solve_linear(modulus, f, left=Displacement(0.0), right=Traction(traction))
-            l2, h1 = bar.errors(u, u_exact, du_exact)
-            vertex_dofs = bar.basis.nodal_dofs[0]
-            nodal = float(np.max(np.abs(u[vertex_dofs] - u_exact(bar.mesh.p[0]))))
-            row = {"order": order, "n": n, "h": 1.0 / n, "L2": l2, "H1": h1, "nodal": nodal,
-                   "rate_L2": np.nan, "rate_H1": np.nan}
-            if previous is not None:
-                ratio = np.log(previous["h"] / row["h"])
-                row["rate_L2"] = float(np.log(previous["L2"] / l2) / ratio)
-                row["rate_H1"] = float(np.log(previous["H1"] / h1) / ratio)
-            rows.append(row)
-            previous = row
-    return rows

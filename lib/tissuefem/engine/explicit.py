@@ -2,7 +2,7 @@
 
 Scheme
 ------
-The semi-discrete equations of motion (:mod:`tissuefem.dynamics`) are
+The semi-discrete equations of motion (:mod:`tissuefem.engine.stepping`) are
 ``M a = f_ext - f_int(u)``. With the *lumped* mass ``M = diag(m)`` (each row
 sum of the consistent mass moved onto the diagonal) the inverse is free, and
 symplectic (semi-implicit) Euler advances the state without any solve:
@@ -47,7 +47,7 @@ therefore resolve the *fastest* mode of the mesh:
 
 which :func:`critical_time_step` computes. (Backward Euler has no such limit:
 each of its steps minimises an incremental potential, see
-:mod:`tissuefem.dynamics`; it pays with numerical damping instead.)
+:mod:`tissuefem.engine.stepping`; it pays with numerical damping instead.)
 
 CFL condition
 -------------
@@ -65,18 +65,18 @@ halves the allowed step, so the cost of simulating one second grows like
 tissue (``E = 1000``, ``nu = 0.3``, ``rho0 = 1``: ``c ~ 37``) a frame of
 1/30 s needs ``h`` of the order of a metre: an explicit real-time simulator
 must take many sub-steps per frame. :func:`largest_stable_dt` measures the
-limit by experiment and :func:`cfl_study` checks the ``dt ~ h`` scaling.
+limit by experiment (chapter 7's CFL study checks the ``dt ~ h`` scaling).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import eigsh
 
-from .dynamics import external_with_gravity, mass_matrix
+from .meshes import mesh_size
 
 __all__ = [
     "SymplecticEuler",
@@ -84,11 +84,7 @@ __all__ = [
     "critical_time_step",
     "largest_stable_dt",
     "is_stable",
-    "fit_power_law",
     "wave_speed",
-    "mesh_size",
-    "cfl_study",
-    "CFLStudy",
 ]
 
 
@@ -103,7 +99,7 @@ class ExplicitStepReport:
 
     @property
     def converged(self) -> bool:
-        """Same meaning as :attr:`tissuefem.dynamics.StepReport.converged`: the step was taken."""
+        """Same meaning as :attr:`tissuefem.engine.stepping.StepReport.converged`: the step was taken."""
         return self.finite
 
 
@@ -117,22 +113,15 @@ def _check_dt(dt) -> float:
     return value
 
 
-def _check_density(density) -> float:
-    try:
-        value = float(density)
-    except (TypeError, ValueError):
-        raise ValueError(f"density must be a finite number > 0, got {density!r}") from None
-    if not (np.isfinite(value) and value > 0):
-        raise ValueError(f"density must be finite and > 0, got {density!r}")
-    return value
+def _lumped_mass(model) -> np.ndarray:
+    """The lumped (row-sum) mass of the model's density, one entry per dof (refused for P2, whose
+    vertices would get none: row-sum lumping works for P1 only)."""
+    return model.assembler.csr(model.assembler.mass(model.density, lumped=True)).diagonal()
 
 
-def _check_lumped(mass) -> None:
-    if not np.all(mass > 1e-8 * np.abs(mass).mean()):  # round-off counts as zero
-        raise ValueError(
-            "the lumped (row-sum) mass has zero or negative entries: row-sum lumping only works for "
-            "P1 elements (on P2 it gives the vertices no mass); use order=1"
-        )
+def _check_model(model):
+    if model.inertia is not None:
+        raise ValueError("the explicit scheme brings its own dynamics: give it a model without dt")
 
 
 def _free_dofs(n: int, fixed) -> np.ndarray:
@@ -142,27 +131,23 @@ def _free_dofs(n: int, fixed) -> np.ndarray:
 
 
 class SymplecticEuler:
-    """Explicit symplectic Euler on a :class:`~tissuefem.quasistatic.QuasistaticProblem`'s body.
+    """Explicit symplectic Euler on a :class:`~tissuefem.engine.model.Model`'s body.
 
-    The counterpart of :class:`tissuefem.dynamics.BackwardEuler` (same
-    state, same energy), with the lumped mass and the explicit update of the
-    module docstring. Stable only for ``dt`` below about
-    :func:`critical_time_step`; above it the energy grows without bound. A
-    step whose result is not finite (it blew up, or an ``ln J`` material
-    inverted) leaves the state untouched and reports ``"non-finite"``; it
-    never raises.
+    The counterpart of backward Euler (:class:`~tissuefem.engine.stepping.Stepper`
+    on a model with ``dt``; same state, same energy), with the lumped mass of the
+    model's density and the explicit update of the module docstring. Stable
+    only for ``dt`` below about :func:`critical_time_step`; above it the energy
+    grows without bound. A step whose result is not finite (it blew up, or an
+    ``ln J`` material inverted) leaves the state untouched and reports
+    ``"non-finite"``; it never raises.
 
     Parameters
     ----------
-    problem
-        The body: mesh, material, handles (applied every step), tractions and
-        body force.
+    model
+        The body (without ``dt``: the time step is this scheme's): mesh,
+        material, handles (applied every step), loads (gravity included).
     dt
         Time step ``> 0``.
-    density
-        ``rho0 > 0`` (mass per reference area).
-    gravity
-        Optional ``(gx, gy)``: adds the body force ``rho0 g``.
 
     Attributes
     ----------
@@ -175,25 +160,23 @@ class SymplecticEuler:
         The lumped masses, one per dof (the diagonal of ``M``).
     """
 
-    def __init__(self, problem, dt: float, density: float = 1.0, gravity=None):
+    def __init__(self, model, dt: float):
+        _check_model(model)
         self.dt = _check_dt(dt)
-        self.density = _check_density(density)
-        self.problem = problem
-        self.M = mass_matrix(problem.basis, self.density, lumped=True)
-        self.mass = self.M.diagonal().copy()
-        _check_lumped(self.mass)
-        self.external = external_with_gravity(problem, self.density, gravity)
-        self.u = problem.basis.zeros()
-        self.v = problem.basis.zeros()
+        self.model = model
+        self.mass = _lumped_mass(model)
+        self.external = model.external
+        self.u = model.zeros()
+        self.v = model.zeros()
         self.time = 0.0
         self.last_report = None
 
     def step(self) -> ExplicitStepReport:
         """Advance one step (kick, then drift, then the handles); on a non-finite result keep the old state."""
-        fixed, values = self.problem.prescribed()
+        fixed, values = self.model.prescribed()
         free = _free_dofs(self.u.size, fixed)
         with np.errstate(all="ignore"):
-            force = self.external - self.problem.internal_force(self.u)
+            force = self.external - self.model.internal_force(self.u)
             v_new = self.v.copy()
             v_new[free] += self.dt * force[free] / self.mass[free]
             v_new[fixed] = (values - self.u[fixed]) / self.dt
@@ -233,18 +216,18 @@ class SymplecticEuler:
     def total_energy(self) -> float:
         """Kinetic plus stored minus the work potential of the (constant) loads (as in BackwardEuler)."""
         with np.errstate(all="ignore"):
-            return self.kinetic_energy() + self.problem.strain_energy(self.u) - float(self.external @ self.u)
+            return self.kinetic_energy() + self.model.stored_energy(self.u) - float(self.external @ self.u)
 
 
 # --- the stability limit ------------------------------------------------------------------------
 
-def critical_time_step(problem, density: float = 1.0, u=None) -> float:
+def critical_time_step(model, u=None) -> float:
     """The linearised stability limit of :class:`SymplecticEuler`, ``dt_crit = 2 / omega_max``.
 
     ``omega_max^2`` is the largest eigenvalue of the generalised problem
     ``K_ff x = omega^2 M_ff x`` on the free dofs (those no handle
-    prescribes), with ``K = problem.tangent(u)`` (the rest state ``u = 0``
-    by default) and ``M`` the lumped mass of density ``rho0``. Because ``M``
+    prescribes), with ``K = model.hessian(u)`` (the rest state ``u = 0``
+    by default) and ``M`` the lumped mass of the model's density. Because ``M``
     is diagonal it is solved as the ordinary symmetric problem
     ``M^-1/2 K M^-1/2 y = omega^2 y`` (largest eigenvalue by Lanczos,
     :func:`scipy.sparse.linalg.eigsh`, from a fixed start vector so that the
@@ -254,15 +237,14 @@ def critical_time_step(problem, density: float = 1.0, u=None) -> float:
     ``dt <= dt_crit`` (module docstring). Far from ``u`` the stiffness, and
     so the limit, changes: a compressed ``ln J`` material stiffens a lot.
     """
-    density = _check_density(density)
-    u = problem.basis.zeros() if u is None else np.asarray(u, dtype=float)
-    m = mass_matrix(problem.basis, density, lumped=True).diagonal()
-    _check_lumped(m)
-    fixed, _ = problem.prescribed()
+    _check_model(model)
+    u = model.zeros() if u is None else np.asarray(u, dtype=float)
+    m = _lumped_mass(model)
+    fixed, _ = model.prescribed()
     free = _free_dofs(m.size, fixed)
     if free.size == 0:
         raise ValueError("the problem has no free degrees of freedom: nothing moves, no stability limit")
-    K = problem.tangent(u).tocsr()[free][:, free]
+    K = model.hessian(u).tocsr()[free][:, free]
     scale = sp.diags(1.0 / np.sqrt(m[free]))
     A = (scale @ K @ scale).tocsr()
     A = 0.5 * (A + A.T)
@@ -276,17 +258,11 @@ def critical_time_step(problem, density: float = 1.0, u=None) -> float:
     return float(2.0 / np.sqrt(omega2))
 
 
-def mesh_size(mesh) -> float:
-    """The element size ``h`` used here: the shortest edge of the mesh (the side of a square cell of a
-    :func:`~tissuefem.meshes.rectangle`)."""
-    p = np.asarray(mesh.p, dtype=float)
-    edges = p[:, mesh.facets[1]] - p[:, mesh.facets[0]]
-    return float(np.sqrt((edges**2).sum(axis=0)).min())
-
-
 def wave_speed(material, density: float = 1.0) -> float:
     """Dilatational (P-) wave speed ``c = sqrt((lambda + 2 mu) / rho0)`` of a material with Lamé ``lam, mu``."""
-    density = _check_density(density)
+    density = float(density)
+    if not (np.isfinite(density) and density > 0):
+        raise ValueError(f"density must be finite and > 0, got {density!r}")
     try:
         lam, mu = float(material.lam), float(material.mu)
     except AttributeError:
@@ -294,18 +270,18 @@ def wave_speed(material, density: float = 1.0) -> float:
     return float(np.sqrt((lam + 2.0 * mu) / density))
 
 
-def _initial_perturbation(problem, amplitude: float, seed: int) -> np.ndarray:
+def _initial_perturbation(model, amplitude: float, seed: int) -> np.ndarray:
     """A seeded random displacement of the free dofs (``amplitude h`` at most), handles at their targets."""
-    fixed, values = problem.prescribed()
-    u0 = problem.basis.zeros()
+    fixed, values = model.prescribed()
+    u0 = model.zeros()
     free = _free_dofs(u0.size, fixed)
     rng = np.random.default_rng(seed)
-    u0[free] = amplitude * mesh_size(problem.mesh) * rng.uniform(-1.0, 1.0, size=free.size)
+    u0[free] = amplitude * mesh_size(model.mesh) * rng.uniform(-1.0, 1.0, size=free.size)
     u0[fixed] = values
     return u0
 
 
-def is_stable(problem, dt: float, density: float = 1.0, *, steps: int = 400, growth: float = 10.0,
+def is_stable(model, dt: float, *, steps: int = 400, growth: float = 10.0,
               amplitude: float = 1e-4, seed: int = 0, u0=None) -> bool:
     """Run :class:`SymplecticEuler` ``steps`` steps from rest at ``u0`` and say whether it stayed bounded.
 
@@ -314,8 +290,8 @@ def is_stable(problem, dt: float, density: float = 1.0, *, steps: int = 400, gro
     the fastest included. Unstable means: a non-finite step, or a total
     energy above ``growth`` times the initial one at some step.
     """
-    scheme = SymplecticEuler(problem, dt, density)
-    scheme.u = _initial_perturbation(problem, amplitude, seed) if u0 is None else np.array(u0, dtype=float)
+    scheme = SymplecticEuler(model, dt)
+    scheme.u = _initial_perturbation(model, amplitude, seed) if u0 is None else np.array(u0, dtype=float)
     e0 = scheme.total_energy()
     if not (np.isfinite(e0) and e0 > 0):
         raise ValueError(f"the initial state must have a finite positive energy, got {e0!r}")
@@ -323,7 +299,7 @@ def is_stable(problem, dt: float, density: float = 1.0, *, steps: int = 400, gro
     return history.size == steps + 1 and bool(np.all(history <= growth * e0))
 
 
-def largest_stable_dt(problem, density: float = 1.0, *, steps: int = 400, growth: float = 10.0,
+def largest_stable_dt(model, *, steps: int = 400, growth: float = 10.0,
                       amplitude: float = 1e-4, seed: int = 0, rtol: float = 0.005, dt_guess=None) -> float:
     """The largest time step with which :class:`SymplecticEuler` stays bounded, measured by bisection.
 
@@ -343,11 +319,10 @@ def largest_stable_dt(problem, density: float = 1.0, *, steps: int = 400, growth
     limit slightly high; just below it the energy of the fastest modes
     swings widely (a factor up to ``1 / (1 - dt omega / 2)``, module
     docstring), so a ``growth`` threshold near 1 places it low. On the flap
-    of :func:`cfl_study` (left edge held, 4 x 2 and 8 x 4 cells) the ratio to
+    of chapter 7's CFL study (left edge held, 4 x 2 and 8 x 4 cells) the ratio to
     :func:`critical_time_step` was about 0.65-0.72 with ``growth = 2``,
     0.985-0.99 with the default 10 and 0.999 with 100, for 100 to 2000 steps.
     """
-    density = _check_density(density)
     if int(steps) != steps or steps < 1:
         raise ValueError(f"steps must be a positive integer, got {steps!r}")
     if not (np.isfinite(growth) and growth > 1):
@@ -356,14 +331,14 @@ def largest_stable_dt(problem, density: float = 1.0, *, steps: int = 400, growth
         raise ValueError(f"rtol must be in (0, 1), got {rtol!r}")
     if dt_guess is None:
         try:
-            dt_guess = mesh_size(problem.mesh) / wave_speed(problem.material, density)
+            dt_guess = mesh_size(model.mesh) / wave_speed(model.material, model.density)
         except ValueError:
             dt_guess = 1e-3
     dt_guess = _check_dt(dt_guess)
-    u0 = _initial_perturbation(problem, amplitude, seed)
+    u0 = _initial_perturbation(model, amplitude, seed)
 
     def stable(dt):
-        return is_stable(problem, dt, density, steps=steps, growth=growth, u0=u0)
+        return is_stable(model, dt, steps=steps, growth=growth, u0=u0)
 
     lo = hi = dt_guess
     for _ in range(60):
@@ -387,84 +362,3 @@ def largest_stable_dt(problem, density: float = 1.0, *, steps: int = 400, growth
         else:
             hi = mid
     return float(lo)
-
-
-# --- the CFL study ------------------------------------------------------------------------------
-
-@dataclass
-class CFLStudy:
-    """Rows of :func:`cfl_study` and the fitted exponents.
-
-    ``rows`` (also reachable by iterating the study) are dicts with ``nx``,
-    ``h``, ``dofs``, ``dt_measured``, ``dt_estimate`` (``2 / omega_max``),
-    ``ratio`` (measured / estimate), ``courant`` (``dt_measured c / h``) and
-    ``seconds`` (time the measurement took). ``exponent`` is the
-    least-squares slope of ``log dt_measured`` against ``log h`` (1 for the
-    CFL condition), ``exponent_estimate`` the same for the estimate, and
-    ``constant`` the ``C`` of the fit ``dt = C h^exponent``.
-    """
-
-    rows: list = field(default_factory=list)
-    exponent: float = float("nan")
-    exponent_estimate: float = float("nan")
-    constant: float = float("nan")
-    wave_speed: float = float("nan")
-
-    def __iter__(self):
-        return iter(self.rows)
-
-    def __len__(self):
-        return len(self.rows)
-
-    def __getitem__(self, i):
-        return self.rows[i]
-
-
-def fit_power_law(x, y) -> tuple[float, float]:
-    """Least-squares ``y = C x^p`` on a log-log scale; returns ``(p, C)``."""
-    p, logC = np.polyfit(np.log(np.asarray(x, float)), np.log(np.asarray(y, float)), 1)
-    return float(p), float(np.exp(logC))
-
-
-def cfl_study(sizes=(4, 8, 16, 32), *, E: float = 1000.0, nu: float = 0.3, density: float = 1.0,
-              material=None, width: float = 2.0, height: float = 1.0, **measure) -> CFLStudy:
-    """Measured largest stable ``dt`` of :class:`SymplecticEuler` on a flap refined ``nx = sizes``.
-
-    The flap is :func:`~tissuefem.meshes.rectangle` ``(width, height, nx,
-    nx height/width)`` (square cells of side ``h = width / nx``) with its left
-    edge fixed; the material defaults to stable neo-Hookean with plane-strain
-    Lamé parameters from ``E, nu`` (linear elasticity near rest). For each
-    mesh: :func:`largest_stable_dt` (``measure`` goes to it), the estimate
-    :func:`critical_time_step` and their ratio. The CFL condition predicts
-    ``dt ~ h`` (exponent 1).
-    """
-    import time
-
-    from .materials import StableNeoHookean
-    from .meshes import rectangle
-    from .parameters import lame_parameters
-    from .quasistatic import Handle, QuasistaticProblem
-
-    if material is None:
-        material = StableNeoHookean(*lame_parameters(E, nu, "strain"))
-    c = wave_speed(material, density)
-    study = CFLStudy(wave_speed=c)
-    for nx in sizes:
-        ny = max(1, int(round(nx * height / width)))
-        mesh = rectangle(width, height, nx, ny)
-        problem = QuasistaticProblem(mesh, material, handles=[Handle("left")])
-        h = mesh_size(mesh)
-        t0 = time.perf_counter()
-        measured = largest_stable_dt(problem, density, **measure)
-        seconds = time.perf_counter() - t0
-        estimate = critical_time_step(problem, density)
-        study.rows.append({
-            "nx": int(nx), "h": h, "dofs": int(problem.basis.N), "dt_measured": measured,
-            "dt_estimate": estimate, "ratio": measured / estimate, "courant": measured * c / h,
-            "seconds": seconds,
-        })
-    if len(study.rows) >= 2:
-        h = [r["h"] for r in study.rows]
-        study.exponent, study.constant = fit_power_law(h, [r["dt_measured"] for r in study.rows])
-        study.exponent_estimate, _ = fit_power_law(h, [r["dt_estimate"] for r in study.rows])
-    return study

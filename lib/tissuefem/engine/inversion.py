@@ -39,6 +39,7 @@ and rotating back gives the closest positive semi-definite tangent. Because
 from __future__ import annotations
 
 import numpy as np
+from .materials import Corotated, NeoHookean, StableNeoHookean, TaylorNeoHookean
 
 
 def _rotation(angle) -> np.ndarray:
@@ -104,7 +105,6 @@ def eigen_projection(A, floor: float = 0.0):
 
 
 def _rotation_invariant(material) -> bool:
-    from .materials import Corotated, NeoHookean, StableNeoHookean, TaylorNeoHookean
 
     return (type(material) in (NeoHookean, TaylorNeoHookean, StableNeoHookean, Corotated)
             or bool(getattr(material, "rotation_invariant", False)))
@@ -239,7 +239,6 @@ class ITFClamped:
     inversion_safe = True
 
     def __init__(self, material, threshold: float = 0.3, stiffness: float | None = None, project: bool = True):
-        from .materials import NeoHookean
 
         if type(material) is not NeoHookean:
             raise ValueError(

@@ -38,6 +38,14 @@ Backends
     iterations) the next solve refactorizes; when it fails (no convergence in
     ``max_iterations``, or negative curvature) the current solve does.
 
+Newton does not call a backend directly but a :class:`LinearSolver`, the one
+policy that decides when to factorize: afresh every solve (``"direct"`` or a
+backend's name), a kept factorization as CG's preconditioner (``"reuse"``, the
+real-time default), or a kept factorization used as it is (``"constant"``:
+exact when the tangent never changes, as for linear elasticity and springs).
+It also condenses the tangent to its free rows and columns
+(:class:`Condenser`), by a gather map computed once per set of free dofs.
+
 :func:`make` builds a backend by name (``"superlu"``, ``"superlu-colamd"``,
 ``"pardiso"``, ``"auto"``: PARDISO when installed, else SuperLU) and the
 iterative :class:`PreconditionedCG` (``"cg-jacobi"``, ``"cg-ilu"``, ``"cg"``):
@@ -55,6 +63,9 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 __all__ = [
+    "LinearSolver",
+    "LinearInfo",
+    "Condenser",
     "SuperLU",
     "Pardiso",
     "ReusedFactorization",
@@ -457,3 +468,180 @@ def make(name: str = "superlu"):
     if name not in BACKENDS:
         raise ValueError(f"unknown linear solver {name!r}; choose from {sorted(BACKENDS) + ['auto']}")
     return BACKENDS[name]()
+
+
+# --- condensation and the policy Newton uses ------------------------------------------------------
+
+class Condenser:
+    """The free-free block of a sparse matrix: ``K[free][:, free]``, fast for a fixed pattern.
+
+    Matrices assembled into one fixed pattern (the assemblers' ``csr``) share
+    their ``indptr``/``indices`` arrays; for those the block is a gather of
+    the data array through a map computed once per pattern and set of free
+    dofs (a few are kept: each grab makes a new set). Any other matrix is
+    sliced.
+    """
+
+    def __init__(self, keep: int = 8):
+        self.keep = int(keep)
+        self._maps = {}
+
+    @staticmethod
+    def key(K, mask) -> tuple:
+        # the pattern by the memory of its index arrays (scipy may hand back views of them)
+        return (K.indptr.ctypes.data, K.indices.ctypes.data, K.shape, np.packbits(mask).tobytes())
+
+    def __call__(self, K, mask) -> sp.csr_matrix:
+        K = sp.csr_matrix(K) if not sp.isspmatrix_csr(K) else K
+        if mask.all():
+            return K
+        if K.indptr.flags.writeable or K.indices.flags.writeable:
+            return K[mask][:, mask]  # not a fixed (read-only) pattern: slice
+        key = self.key(K, mask)
+        entry = self._maps.get(key)
+        if entry is None:
+            if len(self._maps) >= self.keep:
+                self._maps.clear()
+            numbered = sp.csr_matrix((np.arange(1, K.nnz + 1, dtype=float), K.indices, K.indptr), shape=K.shape)
+            block = numbered[mask][:, mask]
+            entry = (block.data.astype(np.intp) - 1, block.indices, block.indptr, block.shape, K.indptr, K.indices)
+            self._maps[key] = entry  # the pattern arrays are kept alive so their ids stay theirs
+        gather, indices, indptr, shape = entry[:4]
+        A = sp.csr_matrix((K.data[gather], indices, indptr), shape=shape, copy=False)
+        A.has_sorted_indices = True
+        return A
+
+
+@dataclass
+class LinearInfo:
+    """What one linear solve of a :class:`LinearSolver` did."""
+
+    iterations: int = 0  # conjugate-gradient iterations
+    factorizations: int = 0  # new factorizations computed
+
+
+class LinearSolver:
+    """How Newton solves ``A dx = b``: which backend, and when to factorize.
+
+    Parameters
+    ----------
+    method
+        * ``"direct"``: a fresh factorization of the default direct backend
+          (:class:`SuperLU`) for every solve: exact Newton;
+        * a backend name of :func:`make` (``"superlu"``, ``"superlu-colamd"``,
+          ``"pardiso"``, ``"cg-jacobi"``, ``"cg-ilu"``, ``"cg"``): that backend,
+          afresh for every solve;
+        * ``"reuse"`` or ``"reuse-<backend>"``: conjugate gradients
+          preconditioned by a kept factorization (:class:`ReusedFactorization`),
+          refreshed when CG slows down: the real-time default;
+        * ``"constant"`` or ``"constant-<backend>"``: a kept factorization used
+          as it is, without even assembling the tangent again -- exact when the
+          tangent is constant (a quadratic energy: linear elasticity, springs),
+          so each solve is one back-substitution;
+        * a backend object (with ``factorize``) or a :class:`ReusedFactorization`.
+
+    A kept factorization belongs to one set of free dofs and one matrix
+    pattern; when either changes it is dropped. :meth:`invalidate` drops it
+    too (the stepper calls it when the time step changes the matrix).
+    """
+
+    def __init__(self, method="reuse"):
+        self.method = method
+        self.constant = False
+        if isinstance(method, str):
+            if method == "direct":
+                self.backend = SuperLU()
+            elif method in ("reuse", "constant"):
+                self.backend = ReusedFactorization(SuperLU()) if method == "reuse" else SuperLU()
+                self.constant = method == "constant"
+            elif method.startswith("reuse-"):
+                self.backend = ReusedFactorization(make(method[len("reuse-"):]))
+            elif method.startswith("constant-"):
+                self.backend = make(method[len("constant-"):])
+                self.constant = True
+            elif method in BACKENDS or method == "auto":
+                self.backend = make(method)
+            else:
+                raise ValueError(
+                    f"linear_solver must be 'direct', 'reuse', 'constant', 'reuse-<backend>', 'constant-<backend>' or "
+                    f"a backend ({', '.join(sorted(BACKENDS))}), got {method!r}")
+        elif isinstance(method, ReusedFactorization) or callable(getattr(method, "factorize", None)):
+            self.backend = method
+        else:
+            raise ValueError(f"linear_solver must be a name or a backend object, got {method!r}")
+        if self.constant and not callable(getattr(self.backend, "factorize", None)):
+            raise ValueError(f"linear_solver {method!r}: a constant tangent needs a direct backend")
+        self.condense = Condenser()
+        self.last_matrix = None
+        self._factor, self._key = None, None
+        self.factorizations = 0
+
+    @property
+    def name(self) -> str:
+        if self.constant:
+            return f"constant-{getattr(self.backend, 'name', type(self.backend).__name__)}"
+        return getattr(self.backend, "name", type(self.backend).__name__)
+
+    @property
+    def reuses(self) -> bool:
+        """True when a factorization is kept between solves (``reuse`` or ``constant``)."""
+        return self.constant or isinstance(self.backend, ReusedFactorization)
+
+    def invalidate(self) -> None:
+        """Forget any kept factorization (the matrix is about to change in a way the keys do not see)."""
+        self._factor, self._key = None, None
+        if isinstance(self.backend, ReusedFactorization):
+            self.backend.invalidate()
+
+    def matrix(self, assemble, mask, force=False):
+        """The free-free block of ``assemble()`` -- or ``None`` when a kept constant factorization makes the
+        tangent unnecessary (``force`` assembles it anyway)."""
+        key = (mask.size, np.packbits(mask).tobytes())
+        if key != self._key:  # another set of unknowns: a kept factorization does not fit
+            if self._key is not None:
+                self.invalidate()
+            self._key = key
+        if self.constant and self._factor is not None and not force:
+            self.last_matrix = None
+            return None
+        A = self.condense(assemble(), mask)
+        self.last_matrix = A
+        return A
+
+    def solve(self, A, b, *, atol: float = 0.0):
+        """``(dx, LinearInfo)`` for ``A dx = b``; ``A`` is ``None`` only for a kept constant factorization.
+
+        ``atol`` is the absolute residual an iterative solve may stop at (inexact Newton); direct
+        solves ignore it. A failed solve returns ``dx = None``.
+        """
+        info = LinearInfo()
+        try:
+            if self.constant:
+                if self._factor is None:
+                    self._factor = self.backend.factorize(A)
+                    info.factorizations = 1
+                    self.factorizations += 1
+                return np.asarray(self._factor.solve(b), dtype=float), info
+            if isinstance(self.backend, ReusedFactorization):
+                dx, done = self.backend.solve(A, b, atol=atol, rtol=0.0)
+                info.iterations, info.factorizations = done.iterations, int(done.factorized)
+                self.factorizations += info.factorizations
+                if not (np.all(np.isfinite(dx)) and b @ dx > 0) and not done.factorized:
+                    # CG with an old factorization found no descent direction: try a fresh one
+                    dx, done = self.backend.solve(A, b, refactorize=True)
+                    info.factorizations += 1
+                    self.factorizations += 1
+                return dx, info
+            factor = self.backend.factorize(A)
+            dx = np.asarray(factor.solve(b), dtype=float)
+            if hasattr(factor, "iterations"):  # an iterative backend factorizes nothing
+                info.iterations = int(factor.iterations)
+            else:
+                info.factorizations = 1
+                self.factorizations += 1
+            return dx, info
+        except (RuntimeError, ValueError, np.linalg.LinAlgError, ZeroDivisionError):
+            return None, info
+
+    def __repr__(self):
+        return f"LinearSolver({self.method!r})"

@@ -71,6 +71,11 @@ __all__ = [
     "StableNeoHookean",
     "Corotated",
     "FiberReinforced",
+    "fiber_invariant",
+    "fiber_energy",
+    "fiber_stress",
+    "fiber_tangent",
+    "check_fiber_stiffness",
     "MATERIALS",
     "material",
 ]
@@ -426,13 +431,70 @@ def check_fiber_stiffness(k, name: str = "k") -> float:
     return value
 
 
+_UNIT_TOL = 1e-6
+
+
+def _check_Fg(F, g):
+    """``F`` shaped ``[2, 2, ...]`` and unit fibres ``g`` ``(2, ...)`` broadcasting against it, both finite."""
+    F = _as_F(F)
+    try:
+        g = np.asarray(g, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"g must be an array of 2D unit vectors, got {g!r}") from None
+    if g.ndim < 1 or g.shape[0] != 2:
+        raise ValueError(f"g must be shaped (2, ...), got shape {g.shape}")
+    if not (np.all(np.isfinite(F)) and np.all(np.isfinite(g))):
+        raise ValueError("F and g must be finite")
+    norm = np.hypot(g[0], g[1])
+    if np.any(np.abs(norm - 1.0) > _UNIT_TOL):
+        raise ValueError(
+            f"g must be unit fiber directions (|g| = 1 within {_UNIT_TOL:g}); got lengths between "
+            f"{norm.min():.6g} and {norm.max():.6g}: normalise g first"
+        )
+    try:
+        np.broadcast_shapes(F.shape[2:], g.shape[1:])
+    except ValueError:
+        raise ValueError(f"g of shape {g.shape} does not broadcast against F of shape {F.shape}") from None
+    return F, g
+
+
+def fiber_invariant(F, g):
+    """``I4 = g^T F^T F g = |F g|^2``, the squared stretch of the unit fibre ``g`` (the notes' fibre argument).
+
+    ``F`` is a 2x2 matrix or a field ``[2, 2, ...]``; ``g`` a unit vector ``(2,)`` or a field
+    ``(2, ...)`` broadcasting against ``F.shape[2:]``. A float for a single ``F``.
+    """
+    F, g = _check_Fg(F, g)
+    I4 = _fiber_kinematics(F, g)[1]
+    return float(I4) if I4.ndim == 0 else I4
+
+
+def fiber_energy(F, g, k):
+    """``Psi_fiber = k/8 (I4 - 1)^2``, about ``k/2 eps_ff^2`` for small strains (checked arguments)."""
+    F, g = _check_Fg(F, g)
+    return fiber_energy_term(F, g, check_fiber_stiffness(k, "k"))
+
+
+def fiber_stress(F, g, k):
+    """``P_fiber = k/2 (I4 - 1) (F g) g^T`` (checked arguments; see :func:`fiber_stress_term`)."""
+    F, g = _check_Fg(F, g)
+    return fiber_stress_term(F, g, check_fiber_stiffness(k, "k"))
+
+
+def fiber_tangent(F, g, k):
+    """``dP_fiber_ij / dF_kl = k a_i g_j a_k g_l + k/2 (I4 - 1) d_ik g_j g_l``, ``a = F g`` (checked arguments)."""
+    F, g = _check_Fg(F, g)
+    return fiber_tangent_term(F, g, check_fiber_stiffness(k, "k"))
+
+
 def _fiber_kinematics(F, g):
     a = np.einsum("ij...,j...->i...", F, g)  # a = F g, the deformed fiber
     return a, np.einsum("i...,i...->...", a, a)  # I4 = |F g|^2
 
 
 def fiber_energy_term(F, g, k):
-    """``Psi_fiber = k/8 (I4 - 1)^2`` with ``I4 = |F g|^2`` (``g`` unit, broadcasting against ``F.shape[2:]``).
+    """The unchecked kernel of :func:`fiber_energy` (assembly calls it on every element):
+    ``Psi_fiber = k/8 (I4 - 1)^2`` with ``I4 = |F g|^2`` (``g`` unit, broadcasting against ``F.shape[2:]``).
 
     The factor 1/8 makes ``k`` the extra small-strain stiffness along the fiber:
     ``I4 - 1 ~ 2 eps_ff`` gives ``Psi_fiber ~ k/2 eps_ff^2``.

@@ -36,6 +36,9 @@ import numpy as np
 from skfem import MeshTri
 
 __all__ = [
+    "edge_lengths",
+    "mesh_size",
+    "mean_edge_length",
     "rectangle",
     "mesh_with_about",
     "fusiform_muscle",
@@ -68,6 +71,24 @@ def _positive_count(name: str, value) -> int:
     if v <= 0:
         raise ValueError(f"{name} must be a positive integer, got {value!r}")
     return v
+
+
+def edge_lengths(mesh) -> np.ndarray:
+    """The length of every edge (facet) of the mesh, in reference coordinates."""
+    p = np.asarray(mesh.p, dtype=float)
+    d = p[:, mesh.facets[1]] - p[:, mesh.facets[0]]
+    return np.hypot(d[0], d[1])
+
+
+def mesh_size(mesh) -> float:
+    """The element size ``h`` of stability limits and convergence rates: the shortest edge (the side of
+    a square cell of :func:`rectangle`)."""
+    return float(edge_lengths(mesh).min())
+
+
+def mean_edge_length(mesh) -> float:
+    """The mean edge length: the scale of a grab radius or a snapping tolerance."""
+    return float(edge_lengths(mesh).mean())
 
 
 def signed_areas(mesh) -> np.ndarray:

@@ -1,110 +1,183 @@
-"""A model composed of exactly the energy terms a scene calls for.
+"""The model: a body and exactly the terms acting on it, with the handles that hold it.
 
-The total potential of a (quasistatic) tissue is a sum of terms,
+A :class:`Model` is a mesh with a displacement basis (P1 or P2), a material,
+and a list of terms (:mod:`tissuefem.engine.terms`). Its potential is their sum,
 
-    E(u) = sum_terms E_term(u) - f_ext . u,
+    E(u) = W(u) [+ fibres] [+ probe] [+ sutures] [- f . u] [+ 1/(2 dt^2) |u - u~|_M^2],
 
-and backward Euler adds the inertia term ``1/2 |u - u_tilde|_M^2`` on top
-(see :mod:`tissuefem.realtime`). Each term here knows its energy, its
-gradient (a force vector) and its Hessian; the :class:`Model` adds up only the
-terms it was built with. A scene without fibres has no fibre term, so no fibre
-code runs; a scene without a probe has no contact term; a quasistatic scene
-never builds a mass matrix (the solver builds it only for a time step).
+with nothing evaluated -- or even built -- for an effect it was not given: a
+model without ``dt`` has no inertia term and no mass matrix; without fibres no
+fibre code runs. Chapters 3 to 9, the scenes and the surgery layer all use this
+one class; :mod:`tissuefem.engine.stepping` minimises its potential.
 
-Terms (all on P1 triangles, displacement dofs interleaved ``(2a, 2a+1)``):
+Handles are not terms but constraints: a :class:`Handle` holds a region of the
+body (a boundary, a box, the nodes near a point, a mask, or node indices) at
+prescribed positions; its target (a translation or a map ``X -> x``) is the
+user input that a frame reads. The model owns its handles (:meth:`Model.add_handle`,
+:meth:`Model.remove_handle`, :meth:`Model.set_targets`); a handle's target is
+checked where it enters (:meth:`Handle.move`), and a refused target changes
+nothing. Regions become mesh nodes through one function, :func:`region_nodes`.
 
-* :class:`Elastic` -- ``sum_e A_e Psi(F_e)`` of the isotropic material;
-* :class:`Fibers` -- ``sum_e A_e k/8 (|F_e g_e|^2 - 1)^2``, the fibre energy of
-  chapter 5 as a term of its own (so its cost can be measured);
-* :class:`Probe` -- a rigid disc pressed into the tissue, a penalty on the
-  nodes that enter it;
-* :class:`Sutures` -- stiff zero-length springs tying pairs of nodes together;
-* constant loads (gravity, tractions) go into ``external``: their energy is
-  ``-f_ext . u``.
-
-Handles (prescribed displacements) are not terms: the solver eliminates their
-dofs. :class:`NodeHandle` is a handle on a set of mesh nodes that a frame may
-move (a scene's fixed edge, a user's grab).
-
-The model has the interface :class:`tissuefem.realtime.RealtimeSolver`
-expects of a problem (``basis``, ``handles``, ``external``, ``prescribed``,
-``strain_energy``, ``internal_force``, ``tangent``) and acts as its own fast
-assembler: ``tangent`` returns CSR matrices on one fixed pattern (the mesh's,
-widened by the suture springs' couplings).
+The Hessian of every term goes into one fixed sparsity pattern
+(:class:`Pattern`): the assembler's, widened where a term couples dofs that the
+mesh does not (sutures). Newton's matrices then share their index arrays,
+which lets the linear solver condense them by a precomputed gather.
 """
 
 from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
-from skfem import Basis, ElementTriP1, ElementVector, LinearForm, asm
 
-from .assembly import P1Assembler
-from .quasistatic import Handle
-from .materials import FiberReinforced, Material, fiber_energy_term, fiber_stress_term, fiber_tangent_term
+from .assembly import make_assembler
+from .constants import TISSUE_DENSITY
+from .terms import (Elastic, ElementTerm, Fibers, Inertia, Load, Probe, Sutures, Term, _SummedDensity,
+                    check_positive, check_vector, traction_vector)
+
+__all__ = ["Model", "Handle", "Pattern", "region_nodes"]
 
 
-def _vector2(name, value) -> np.ndarray:
+# ------------------------------------------------------------------------------------------------ regions
+
+def region_nodes(mesh, region, field: str = "region") -> np.ndarray:
+    """The mesh nodes (sorted indices) that a region selects; ``ValueError`` naming ``field`` if none.
+
+    ``region`` is one of: a boundary name of the mesh (``"left"``); a callable
+    ``mask(X) -> bool`` on the reference node coordinates ``X`` shaped
+    ``(2, n_nodes)``; a dict ``{"box": [x0, y0, x1, y1]}``,
+    ``{"near": [x, y], "radius": r}`` (a node exactly on the circle counts) or
+    ``{"nodes": [...]}``; or an integer array of node indices.
+    """
+    p = np.asarray(mesh.p, dtype=float)
+    n = p.shape[1]
+    if isinstance(region, str):
+        if mesh.boundaries is None or region not in mesh.boundaries:
+            names = sorted(mesh.boundaries) if mesh.boundaries else []
+            raise ValueError(f"{field}: {region!r} is not a boundary of the mesh; boundaries: {names}")
+        nodes = np.unique(mesh.facets[:, mesh.boundaries[region]])
+    elif callable(region):
+        try:
+            mask = np.asarray(region(p), dtype=bool)
+        except Exception as err:  # a user's callable may raise anything: refuse it by name
+            raise ValueError(f"{field}: the mask raised {type(err).__name__}: {err}") from None
+        if mask.shape != (n,):
+            raise ValueError(f"{field}: the mask must return one bool per node, shape ({n},), got {mask.shape}")
+        nodes = np.flatnonzero(mask)
+    elif isinstance(region, dict) and "box" in region:
+        x0, y0, x1, y1 = region["box"]
+        tol = 1e-9 * max(1.0, float(np.ptp(p)))
+        nodes = np.flatnonzero((p[0] >= x0 - tol) & (p[0] <= x1 + tol) & (p[1] >= y0 - tol) & (p[1] <= y1 + tol))
+    elif isinstance(region, dict) and "near" in region:
+        d = np.hypot(p[0] - region["near"][0], p[1] - region["near"][1])
+        nodes = np.flatnonzero(d <= region["radius"] * (1 + 1e-9))
+    else:
+        raw = region["nodes"] if isinstance(region, dict) and "nodes" in region else region
+        nodes = np.asarray(raw)
+        if nodes.ndim != 1 or not (nodes.size == 0 or np.issubdtype(nodes.dtype, np.integer)):
+            raise ValueError(f"{field}: a region is a boundary name, a mask, a box, a disc or node indices; "
+                             f"got {region!r}")
+        if nodes.size and (nodes.min() < 0 or nodes.max() >= n):
+            raise ValueError(f"{field}: node indices must be in 0..{n - 1}")
+        nodes = np.unique(nodes.astype(np.intp))
+    if nodes.size == 0:
+        lo, hi = p.min(axis=1), p.max(axis=1)
+        raise ValueError(f"{field}: selects no node of the mesh (it lies outside the domain, which spans "
+                         f"x {lo[0]:g}..{hi[0]:g}, y {lo[1]:g}..{hi[1]:g})")
+    return nodes.astype(np.intp)
+
+
+# ------------------------------------------------------------------------------------------------ handles
+
+def _check_target(target, points=None, field="target"):
+    """A checked target: a finite translation ``(2,)`` or a map whose values at ``points`` are finite."""
+    if callable(target):
+        if points is not None:
+            try:
+                x = np.asarray(target(points), dtype=float)
+            except Exception as err:  # anything a user's map raises is a refusal, not a crash
+                raise ValueError(f"{field}: the map raised {type(err).__name__}: {err}") from None
+            if x.shape != points.shape:
+                raise ValueError(f"{field}: the map returned shape {x.shape}, expected {points.shape}")
+            if not np.all(np.isfinite(x)):
+                raise ValueError(f"{field}: the map returned non-finite positions")
+        return target
     try:
-        v = np.asarray(value, dtype=float)
+        t = np.asarray(target, dtype=float)
     except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a finite vector (x, y), got {value!r}") from None
-    if v.shape != (2,) or not np.all(np.isfinite(v)):
-        raise ValueError(f"{name} must be a finite vector (x, y), got {value!r}")
-    return v
+        raise ValueError(f"{field} must be a translation (dx, dy) or a callable, got {target!r}") from None
+    if t.shape != (2,):
+        raise ValueError(f"{field} must be a translation of shape (2,) or a callable, got shape {t.shape}")
+    if not np.all(np.isfinite(t)):
+        raise ValueError(f"{field} must be finite, got {t}")
+    return t
 
 
-def _nonnegative(name, value) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a finite number >= 0, got {value!r}") from None
-    if not (np.isfinite(v) and v >= 0):
-        raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
-    return v
+class Handle:
+    """Material points held at prescribed positions (a fixed edge, a pulled edge, a user's grab).
 
-
-# ---------------------------------------------------------------------------------------------------------------
-# handles
-# ---------------------------------------------------------------------------------------------------------------
-
-class NodeHandle:
-    """Mesh nodes held at prescribed positions.
-
-    The prescribed displacement of node ``a`` is ``base_a + (phi(X_a) - X_a)``
-    where ``phi`` is the target: a translation ``(dx, dy)`` (``phi(X) = X + d``)
-    or a callable map ``(2, n) -> (2, n)``. ``base`` is zero for a scene's
-    handle (a fixed edge, a pulled edge); for a grab it is the nodes'
-    displacement at the moment they were grabbed, so the grabbed piece of
-    tissue first stays where it is and then follows the mouse by the offset.
+    Parameters
+    ----------
+    region
+        Which points: anything :func:`region_nodes` takes (a boundary name, a
+        mask, a box, a disc, node indices).
+    target
+        Where they go: a translation ``(dx, dy)`` (default: none, a fixed
+        region) or a callable map ``phi(X) -> x`` on reference coordinates
+        ``(2, n) -> (2, n)``.
+    base
+        For a grab: the held nodes' displacement ``(2, n_nodes)`` when grabbed
+        (``region`` must then be node indices). The prescribed displacement is
+        ``base + (phi(X) - X)``, so the grabbed tissue stays where it is and
+        then follows the target's offset.
+    name
+        A name to find the handle by (the model names unnamed handles).
+    anchor
+        Optional point the user grabbed (a drag moves the handle by the mouse's offset from it).
     """
 
-    def __init__(self, nodes, target=(0.0, 0.0), base=None, name=None):
-        nodes = np.asarray(nodes)
-        if nodes.ndim != 1 or nodes.size == 0 or not np.issubdtype(nodes.dtype, np.integer) or nodes.min() < 0:
-            raise ValueError(f"handle nodes must be a non-empty 1D array of node indices, got {nodes!r}")
-        self.nodes = np.unique(nodes).astype(np.intp)
-        if base is None:
-            base = np.zeros((2, self.nodes.size))
-        base = np.asarray(base, dtype=float)
-        if base.shape != (2, self.nodes.size) or not np.all(np.isfinite(base)):
-            raise ValueError(f"handle base displacement must be finite and shaped (2, {self.nodes.size})")
-        self.base = base
+    def __init__(self, region, target=(0.0, 0.0), *, base=None, name=None, anchor=None):
+        if not (isinstance(region, (str, dict)) or callable(region)):
+            arr = np.asarray(region)
+            if arr.ndim != 1 or arr.size == 0 or not np.issubdtype(arr.dtype, np.integer) or arr.min() < 0:
+                raise ValueError(f"region must be a boundary name, a mask, a box, a disc or node indices, "
+                                 f"got {region!r}")
+            region = np.unique(arr).astype(np.intp)
+        self.region = region
         self.name = name
-        self.move(target)
+        self.anchor = None if anchor is None else check_vector("anchor", anchor)
+        self.base = None
+        if base is not None:
+            if isinstance(region, (str, dict)) or callable(region):
+                raise ValueError("base: a handle with a base displacement must be given node indices as its region")
+            base = np.asarray(base, dtype=float)
+            if base.shape != (2, region.size) or not np.all(np.isfinite(base)):
+                raise ValueError(f"base must be finite and shaped (2, {region.size}), got shape {base.shape}")
+            self.base = base
+        self.nodes = None  # set when a model takes the handle
+        self._points = None  # reference positions of its dofs' points (2, n), set by the model
+        self.target = _check_target(target)
 
-    # the target's checks and its map are those of the quasistatic Handle
-    move = Handle.move
-    positions = Handle.positions
+    def move(self, target) -> None:
+        """Set a new target (a translation or a map): user input enters here, checked; a refusal keeps the old."""
+        self.target = _check_target(target, self._points, f"handle {self.name!r} target")
 
-    def displacement(self, X) -> np.ndarray:
-        """Prescribed displacement ``(2, n)`` of the handle's nodes, whose reference positions are ``X``."""
-        return self.base + (self.positions(X) - X)
+    def positions(self, X) -> np.ndarray:
+        """Deformed positions ``x`` of the reference points ``X`` ``(2, n)`` under the target."""
+        if callable(self.target):
+            return np.asarray(self.target(X), dtype=float)
+        return X + self.target[:, None]
 
-    def remap(self, parent) -> "NodeHandle | None":
+    def displacement(self, X, base=None) -> np.ndarray:
+        """Prescribed displacement ``(2, n)`` of the points ``X``: ``base + phi(X) - X``."""
+        u = self.positions(X) - X
+        return u if base is None else base + u
+
+    def remap(self, parent) -> "Handle | None":
         """The same handle on a mesh whose node ``i`` comes from old node ``parent[i]`` (after a cut or an
         excision): every copy of a held node is held, with its parent's base displacement. ``None`` if none
         of its nodes survives."""
+        if self.nodes is None:
+            raise ValueError("remap: the handle is not part of a model yet")
         parent = np.asarray(parent, dtype=np.intp)
         where = np.full(max(int(parent.max(initial=0)), int(self.nodes.max())) + 1, -1, dtype=np.intp)
         where[self.nodes] = np.arange(self.nodes.size)
@@ -112,441 +185,467 @@ class NodeHandle:
         new_nodes = np.flatnonzero(index >= 0)
         if new_nodes.size == 0:
             return None
-        h = NodeHandle(new_nodes, base=self.base[:, index[new_nodes]], name=self.name)
+        base = None if self.base is None else self.base[:, index[new_nodes]]
+        h = Handle(new_nodes, base=base, name=self.name, anchor=self.anchor)
         h.target = self.target
+        h.nodes = new_nodes  # its region is these nodes: known before any model takes it
         return h
 
     def __repr__(self):
-        return f"NodeHandle({self.nodes.size} nodes, target={self.target!r}, name={self.name!r})"
+        where = f"{self.nodes.size} nodes" if self.nodes is not None else repr(self.region)
+        return f"Handle({where}, target={self.target!r}, name={self.name!r})"
 
 
-# ---------------------------------------------------------------------------------------------------------------
-# terms
-# ---------------------------------------------------------------------------------------------------------------
+# ------------------------------------------------------------------------------------------------ the pattern
 
-class Term:
-    """One additive piece of the potential: ``energy(u)``, ``gradient(u)``, and its Hessian.
+class Pattern:
+    """The model's fixed CSR sparsity pattern: the assembler's, widened by the terms' couplings.
 
-    ``add_hessian(u, data, model)`` adds the term's Hessian into ``data``, the
-    CSR data array of the model's fixed pattern. ``quadratic`` is True when the
-    energy is a quadratic function of ``u`` (a constant Hessian).
+    ``base_positions`` maps the assembler's entries into this pattern (``None``
+    when they are the same); ``node_block[i, j, a]`` is the position of the
+    entry (``2a + i``, ``2a + j``) of vertex ``a``'s diagonal block.
     """
 
-    name = "term"
-    quadratic = False
-
-    def describe(self) -> str:
-        return self.name
-
-    def __repr__(self):
-        return f"<{self.describe()}>"
-
-
-class _Assembled(Term):
-    """A term that is a material's energy summed over the elements by the fast P1 assembler."""
-
-    def energy(self, u):
-        return self.assembler.energy(u, self.material)
-
-    def gradient(self, u):
-        return self.assembler.residual(u, self.material)
-
-    def hessian_data(self, u):
-        return self.assembler.tangent(u, self.material).data
-
-
-class Elastic(_Assembled):
-    """The stored energy of the (isotropic) material, through the fast P1 assembler."""
-
-    name = "elastic"
-
-    def __init__(self, assembler: P1Assembler, material):
-        self.assembler = assembler
-        self.material = material
-        self.quadratic = getattr(material, "name", "") == "linear"
-
-    def describe(self):
-        return f"elastic: {getattr(self.material, 'name', type(self.material).__name__)}"
-
-
-
-class _FiberOnly(Material):
-    """Only the fibre part ``k/8 (I4 - 1)^2`` (no matrix material), for the P1 assembler."""
-
-    name = "fibers"
-
-    def __init__(self, stiffness, fibers):
-        self.lam = self.mu = 0.0
-        # reuse the checks (normalisation, shapes) of FiberReinforced
-        self.fibers = FiberReinforced._check_fibers(fibers)
-        self.stiffness = float(stiffness)
-
-    def _g(self, F):
-        g = self.fibers
-        return g if g.ndim == 2 or F.ndim == 2 else g.reshape((2,) + (1,) * (F.ndim - 2))
-
-    def energy(self, F):
-        return fiber_energy_term(F, self._g(F), self.stiffness)
-
-    def stress(self, F):
-        return fiber_stress_term(F, self._g(F), self.stiffness)
-
-    def tangent(self, F):
-        return fiber_tangent_term(F, self._g(F), self.stiffness)
-
-
-class Fibers(_Assembled):
-    """The fibre energy ``k/8 (I4 - 1)^2`` per element (chapter 5), added to any material."""
-
-    name = "fibers"
-
-    def __init__(self, assembler: P1Assembler, stiffness, directions):
-        self.assembler = assembler
-        self.stiffness = _nonnegative("fibers.stiffness", stiffness)
-        g = np.asarray(directions, dtype=float)
-        if g.ndim == 1:
-            g = np.repeat(g.reshape(2, 1), assembler.n_elements, axis=1)
-        if g.shape != (2, assembler.n_elements):
-            raise ValueError(
-                f"fibers.direction must be shaped (2,) or (2, n_elements={assembler.n_elements}), got {g.shape}"
-            )
-        self.material = _FiberOnly(self.stiffness, g)
-        self.directions = self.material.fibers
-
-    def describe(self):
-        return f"fibers: k = {self.stiffness:g}"
-
-
-
-class Probe(Term):
-    """A rigid disc (a tool tip) of centre ``c`` and radius ``R`` that the tissue's nodes must stay out of.
-
-    A penalty on each node ``a`` that enters the disc, weighted by its lumped
-    area ``m_a`` so that the stiffness ``k`` is per unit area:
-
-        E = sum_a k m_a / 2 (R - d_a)^2  for d_a = |x_a - c| < R,
-
-    with ``x_a = X_a + u_a``. With ``n_a = (x_a - c) / d_a`` the force on the
-    node is ``-dE/dx_a = k m_a (R - d_a) n_a`` (outward), and the Hessian is
-    ``k m_a [n n^T - (R - d)/d (I - n n^T)]``. Its tangential part is negative
-    (the disc's curved surface), so the Newton matrix keeps only the positive
-    ``k m_a n n^T`` (a Gauss-Newton approximation; the energy line search makes
-    the step safe). The tool moves between frames through :meth:`move`.
-    """
-
-    name = "probe"
-
-    def __init__(self, X, node_areas, center, radius, stiffness, label=None):
-        self.X = X
-        self.m = node_areas
-        self.move(center)
-        self.radius = _nonnegative("probe.radius", radius)
-        if self.radius == 0:
-            raise ValueError("probe.radius must be > 0")
-        self.stiffness = _nonnegative("probe.stiffness", stiffness)
-        self.label = label
-
-    def move(self, center) -> None:
-        self.center = _vector2("probe center", center)
-
-    def describe(self):
-        return f"probe: disc r = {self.radius:g} at ({self.center[0]:g}, {self.center[1]:g}), k = {self.stiffness:g}"
-
-    def _contact(self, u):
-        x = self.X + u.reshape(-1, 2).T
-        d_vec = x - self.center[:, None]
-        d = np.hypot(d_vec[0], d_vec[1])
-        inside = np.flatnonzero(d < self.radius)
-        dd = d[inside]
-        safe = np.maximum(dd, 1e-12 * self.radius)
-        n = d_vec[:, inside] / safe
-        n[:, dd < 1e-12 * self.radius] = np.array([[0.0], [1.0]])  # at the very centre: push up
-        return inside, self.radius - dd, n
-
-    def energy(self, u):
-        inside, depth, _ = self._contact(u)
-        return 0.5 * self.stiffness * float(np.sum(self.m[inside] * depth**2))
-
-    def gradient(self, u):
-        inside, depth, n = self._contact(u)
-        g = np.zeros(u.size)
-        f = -self.stiffness * self.m[inside] * depth * n  # dE/dx
-        g[2 * inside] = f[0]
-        g[2 * inside + 1] = f[1]
-        return g
-
-    def penetration(self, u) -> float:
-        """The deepest any node is inside the disc (0 when none is)."""
-        _, depth, _ = self._contact(u)
-        return float(depth.max(initial=0.0))
-
-    def add_hessian(self, u, data, model):
-        inside, _, n = self._contact(u)
-        if inside.size == 0:
-            return
-        w = self.stiffness * self.m[inside]
+    def __init__(self, assembler, n_vertices, couplings=()):
+        n = assembler.n_dofs
+        self.n = n
+        extra = [(np.asarray(r, dtype=np.int64), np.asarray(c, dtype=np.int64)) for r, c in couplings]
+        base_rows = np.repeat(np.arange(n, dtype=np.int64), np.diff(assembler.indptr))
+        base_keys = base_rows * n + assembler.indices
+        if not extra:
+            self.indptr, self.indices = assembler.indptr, assembler.indices
+            self._keys = base_keys
+            self.base_positions = None
+        else:
+            keys = np.union1d(base_keys, np.concatenate([r * n + c for r, c in extra]))
+            counts = np.bincount(keys // n, minlength=n)
+            self.indptr = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+            self.indices = (keys % n).astype(np.int64)
+            self.indptr.setflags(write=False)
+            self.indices.setflags(write=False)
+            self._keys = keys
+            self.base_positions = np.searchsorted(keys, base_keys)
+        self.nnz = self._keys.size
+        nodes = np.arange(n_vertices, dtype=np.int64)
+        self.node_block = np.empty((2, 2, n_vertices), dtype=np.intp)
         for i in range(2):
             for j in range(2):
-                np.add.at(data, model.node_block[i, j, inside], w * n[i] * n[j])
+                self.node_block[i, j] = self.positions((2 * nodes + i), (2 * nodes + j))
+
+    def positions(self, rows, cols) -> np.ndarray:
+        """Positions in the data array of the entries ``(rows, cols)`` (which must be in the pattern)."""
+        keys = np.asarray(rows, dtype=np.int64) * self.n + np.asarray(cols, dtype=np.int64)
+        pos = np.searchsorted(self._keys, keys)
+        if np.any(pos >= self.nnz) or np.any(self._keys[np.minimum(pos, self.nnz - 1)] != keys):
+            raise ValueError("entries outside the model's sparsity pattern")
+        return pos.astype(np.intp)
+
+    def add_base(self, data, base_data) -> None:
+        """``data += base_data`` for data on the assembler's own pattern."""
+        if self.base_positions is None:
+            data += base_data
+        else:
+            data[self.base_positions] += base_data
+
+    def zeros(self) -> np.ndarray:
+        return np.zeros(self.nnz)
+
+    def csr(self, data) -> sp.csr_matrix:
+        K = sp.csr_matrix((data, self.indices, self.indptr), shape=(self.n, self.n), copy=False)
+        K.has_sorted_indices = True
+        K.has_canonical_format = True
+        return K
 
 
-class Sutures(Term):
-    """Stiff springs that tie pairs of nodes together: ``E = sum_s k/2 |x_a - x_b - g_s|^2``.
+# ------------------------------------------------------------------------------------------------ the model
 
-    ``g_s`` is the slack: the gap the suture still allows. A suture is placed
-    with its current gap as slack (no force at first) and then *tightened*:
-    ``tighten(s)`` sets ``g = (1 - s) g_0``, so ``s = 1`` closes the wound.
-    Every term is quadratic (a zero-length spring), so the Hessian is constant;
-    it couples the two nodes of each pair, which widens the model's pattern.
-    ``k`` is a force per unit length (per unit thickness, in 2D).
-    """
+def _named_tractions(tractions):
+    if tractions is None:
+        return []
+    items = tractions.items() if isinstance(tractions, dict) else tractions
+    out = []
+    for item in items:
+        try:
+            name, t = item
+        except (TypeError, ValueError):
+            raise ValueError(f"tractions must be {{boundary: (tx, ty)}} or [(boundary, (tx, ty)), ...], "
+                             f"got {tractions!r}") from None
+        out.append((name, t))
+    return out
 
-    name = "sutures"
-    quadratic = True
-
-    def __init__(self, X, pairs, stiffness, gaps):
-        self.X = X
-        pairs = np.asarray(pairs)
-        if pairs.ndim != 2 or pairs.shape[0] != 2 or pairs.shape[1] == 0 or not np.issubdtype(pairs.dtype, np.integer):
-            raise ValueError(f"sutures.pairs must be node index pairs shaped (2, k), got {pairs!r}")
-        if np.any(pairs[0] == pairs[1]):
-            raise ValueError("sutures.pairs ties a node to itself")
-        self.pairs = pairs.astype(np.intp)
-        k = np.broadcast_to(np.asarray(stiffness, dtype=float), (self.pairs.shape[1],)).copy()
-        if not np.all(np.isfinite(k) & (k > 0)):
-            raise ValueError(f"sutures.stiffness must be finite and > 0, got {stiffness!r}")
-        self.k = k
-        gaps = np.asarray(gaps, dtype=float)
-        if gaps.shape != self.pairs.shape or not np.all(np.isfinite(gaps)):
-            raise ValueError(f"sutures.gaps must be finite and shaped {self.pairs.shape}, got {gaps.shape}")
-        self.gap0 = gaps
-        self.tightness = np.zeros(self.pairs.shape[1])
-        self.slack = self.gap0.copy()
-
-    def tighten(self, fraction, stitches=None) -> None:
-        """Set the tightness (0 slack ... 1 closed) of all stitches, or of those indexed by ``stitches``."""
-        s = np.asarray(fraction, dtype=float)
-        if not (np.all(np.isfinite(s)) and np.all(s >= 0) and np.all(s <= 1)):
-            raise ValueError(f"suture tightness must be in [0, 1], got {fraction!r}")
-        index = slice(None) if stitches is None else np.asarray(stitches, dtype=np.intp)
-        tightness = self.tightness.copy()
-        tightness[index] = s
-        self.tightness = tightness
-        self.slack = (1.0 - self.tightness) * self.gap0
-
-    def describe(self):
-        return f"sutures: {self.pairs.shape[1]} stitches, mean tightness {self.tightness.mean():g}"
-
-    def _gap(self, u):
-        x = self.X + u.reshape(-1, 2).T
-        return x[:, self.pairs[0]] - x[:, self.pairs[1]] - self.slack
-
-    def energy(self, u):
-        e = self._gap(u)
-        return 0.5 * float(np.sum(self.k * (e[0] ** 2 + e[1] ** 2)))
-
-    def gradient(self, u):
-        e = self.k * self._gap(u)
-        g = np.zeros(u.size)
-        for i in range(2):
-            np.add.at(g, 2 * self.pairs[0] + i, e[i])
-            np.add.at(g, 2 * self.pairs[1] + i, -e[i])
-        return g
-
-    def distances(self, u) -> np.ndarray:
-        """How far apart each sutured pair is (0 when closed)."""
-        x = self.X + u.reshape(-1, 2).T
-        d = x[:, self.pairs[0]] - x[:, self.pairs[1]]
-        return np.hypot(d[0], d[1])
-
-    def forces(self, u) -> np.ndarray:
-        """The tension ``k |x_a - x_b - g|`` in each stitch."""
-        e = self._gap(u)
-        return self.k * np.hypot(e[0], e[1])
-
-    def triplets(self):
-        """Rows, columns and values of the constant Hessian (4 blocks ``k I`` per stitch)."""
-        a, b = self.pairs
-        rows, cols, vals = [], [], []
-        for p, q, sign in ((a, a, 1.0), (b, b, 1.0), (a, b, -1.0), (b, a, -1.0)):
-            for i in range(2):
-                rows.append(2 * p + i)
-                cols.append(2 * q + i)
-                vals.append(sign * self.k)
-        return np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
-
-
-# ---------------------------------------------------------------------------------------------------------------
-# the model
-# ---------------------------------------------------------------------------------------------------------------
 
 class Model:
-    """The potential of one scene: the terms it names and nothing else.
+    """A hyperelastic body (mesh, displacement basis, material) and exactly the terms acting on it.
 
     Parameters
     ----------
     mesh : skfem.MeshTri
+        Straight-sided triangles, either orientation; degenerate or folded
+        meshes are refused.
     material
-        The isotropic material (possibly wrapped for inversion handling).
-    fibers : (stiffness, directions), optional
-        Adds a :class:`Fibers` term.
-    handles : list of NodeHandle
-    external : array, optional
-        Constant loads (gravity, tractions) as a dof vector; see :func:`load_vector`.
-    probes : list of dict(center, radius, stiffness), optional
-    sutures : dict(pairs, stiffness, gaps[, tightness]), optional
+        A material of :mod:`tissuefem.engine.materials` (or a wrapper of
+        :mod:`tissuefem.engine.inversion`): the :class:`~tissuefem.engine.terms.Elastic` term.
+    order, intorder, assembly
+        P1 or P2 displacements; the quadrature degree (default ``2 order``);
+        ``"fast"`` (vectorised assembly) or ``"forms"`` (the readable
+        scikit-fem forms, for reference).
+    handles
+        :class:`Handle` objects (prescribed positions).
+    dt, density, mass
+        With ``dt`` (seconds): the inertia term of backward Euler with the
+        ``"lumped"`` or ``"consistent"`` mass of density ``density``. Without:
+        quasistatic (no mass matrix is built).
+    gravity, body_force, tractions
+        Constant loads (each a :class:`~tissuefem.engine.terms.Load` term):
+        gravity ``(gx, gy)`` (the body force ``density * g``), a body force per
+        unit reference area ``(bx, by)``, and tractions
+        ``{boundary: (tx, ty)}`` (force per unit reference length).
+    fibers
+        ``(stiffness, directions)``: a :class:`~tissuefem.engine.terms.Fibers`
+        term (directions ``(2,)`` or ``(2, n_elements)``).
+    probes
+        Dicts ``center, radius, stiffness[, label]``: :class:`~tissuefem.engine.terms.Probe` terms.
+    sutures
+        A dict ``pairs, stiffness, gaps[, tightness]``: a :class:`~tissuefem.engine.terms.Sutures` term.
+    weights
+        Optional per-element material fractions (elements cut through carry part of their triangle).
     """
 
-    def __init__(self, mesh, material, *, fibers=None, handles=(), external=None, probes=(), sutures=None,
-                 loads=()):
+    def __init__(self, mesh, material, *, order: int = 1, intorder: int | None = None, assembly: str = "fast",
+                 handles=(), dt=None, density=TISSUE_DENSITY, mass: str = "lumped", gravity=None,
+                 body_force=None, tractions=None, fibers=None, probes=(), sutures=None, weights=None):
         self.mesh = mesh
-        self.material = material
-        self.basis = Basis(mesh, ElementVector(ElementTriP1()), intorder=2)
-        self.assembler_p1 = P1Assembler(mesh, material)
+        self.order = order
+        self.basis, self.assembler = make_assembler(mesh, order=order, intorder=intorder, assembly=assembly,
+                                                    weights=weights)
         n = self.basis.N
-        # the interleaved dof layout of the fast assembler is scikit-fem's for vector P1
-        if not np.array_equal(self.basis.nodal_dofs, np.arange(n).reshape(-1, 2).T):
-            raise RuntimeError("unexpected dof numbering of the vector P1 basis")
-        self.X = mesh.p
-        self.handles = list(handles)
-        for h in self.handles:
-            if not isinstance(h, NodeHandle):
-                raise ValueError(f"handles must be NodeHandle objects, got {h!r}")
-            if h.nodes.max() >= mesh.nvertices:
-                raise ValueError(f"handle {h.name!r} has node indices outside the mesh (0..{mesh.nvertices - 1})")
-        self.external = np.zeros(n) if external is None else np.asarray(external, dtype=float).copy()
-        if self.external.shape != (n,) or not np.all(np.isfinite(self.external)):
-            raise ValueError(f"external must be a finite vector of shape ({n},)")
-        #: names of the constant loads included in ``external`` (for the term list)
-        self.loads = list(loads)
+        if not np.array_equal(self.basis.nodal_dofs, np.arange(2 * mesh.nvertices).reshape(-1, 2).T):
+            raise RuntimeError("unexpected dof numbering of the vector basis")
+        self.n_dofs = n
+        self.X = np.asarray(mesh.p, dtype=float)
+        self.density = check_positive("density", density)
+        self.material = material
+        # which component each dof carries, and where it sits
+        self.component = np.empty(n, dtype=np.intp)
+        self.component[self.basis.nodal_dofs[0]] = 0
+        self.component[self.basis.nodal_dofs[1]] = 1
+        if order == 2:
+            self.component[self.basis.facet_dofs[0]] = 0
+            self.component[self.basis.facet_dofs[1]] = 1
+        self.dof_points = np.asarray(self.basis.doflocs, dtype=float)
+        # lumped area per vertex: a third of each incident triangle's material area (probe weights)
+        areas = self.element_areas()
+        self.node_areas = np.bincount(mesh.t.ravel(), weights=np.tile(areas / 3.0, 3), minlength=mesh.nvertices)
 
-        self.terms: list[Term] = [Elastic(self.assembler_p1, material)]
+        terms: list[Term] = [Elastic(self.assembler, material)]
         if fibers is not None:
-            self.terms.append(Fibers(self.assembler_p1, *fibers))
-        # lumped area per node: a third of each incident triangle (t.ravel() lists vertex 0 of every element, ...)
-        self.node_areas = np.bincount(self.assembler_p1.t.ravel(), weights=np.tile(self.assembler_p1.areas / 3.0, 3),
-                                      minlength=mesh.nvertices)
-        self.probes = [Probe(self.X, self.node_areas, **p) for p in probes]
-        self.terms.extend(self.probes)
-        self.sutures = None
+            try:
+                stiffness, directions = fibers
+            except (TypeError, ValueError):
+                raise ValueError(f"fibers must be (stiffness, directions), got {fibers!r}") from None
+            terms.append(Fibers(self.assembler, stiffness, directions))
+        if dt is not None:
+            terms.insert(0, Inertia(self.assembler, dt, self.density, mass))
+        for i, spec in enumerate(probes):
+            if not isinstance(spec, dict):
+                raise ValueError(f"probes[{i}] must be a dict (center, radius, stiffness[, label]), got {spec!r}")
+            terms.append(Probe(self.X, self.node_areas, **spec))
         if sutures is not None:
-            tightness = sutures.get("tightness", 0.0)
-            self.sutures = Sutures(self.X, sutures["pairs"], sutures["stiffness"], sutures["gaps"])
-            if self.sutures.pairs.max() >= mesh.nvertices:
-                raise ValueError("sutures.pairs has node indices outside the mesh")
-            self.sutures.tighten(tightness)
-            self.terms.append(self.sutures)
-        self._build_pattern()
+            spec = dict(sutures)
+            terms.append(Sutures(self.X, spec["pairs"], spec["stiffness"], spec["gaps"], spec.get("tightness", 0.0)))
+        if gravity is not None:
+            g = check_vector("gravity", gravity)
+            terms.append(Load("gravity", self.assembler.body_force(self.density * g)))
+        if body_force is not None:
+            terms.append(Load("body force", self.assembler.body_force(check_vector("body_force", body_force))))
+        named = _named_tractions(tractions)
+        if named:
+            f = np.zeros(n)
+            for boundary, t in named:
+                f += traction_vector(self.basis, boundary, t)
+            terms.append(Load("tractions", f))
+        self.terms = terms
+        self._build()
+        self.handles: list[Handle] = []
+        for h in handles:
+            self.add_handle(h)
 
-    # ------------------------------------------------------------------ what is in it
+    # ------------------------------------------------------------------ terms and pattern
+    def _build(self):
+        couplings = [c for c in (t.couplings() for t in self.terms) if c is not None]
+        self.pattern = Pattern(self.assembler, self.mesh.nvertices, couplings)
+        for t in self.terms:
+            t.bind(self.pattern)
+        self._element_terms = [t for t in self.terms if isinstance(t, ElementTerm)]
+        self._other_terms = [t for t in self.terms if not isinstance(t, ElementTerm)]
+        densities = [t.density for t in self._element_terms]
+        self._density = densities[0] if len(densities) == 1 else _SummedDensity(densities)
+
+    def add_term(self, term: Term) -> None:
+        """Add a term (a probe, sutures ...); the pattern is widened if the term needs it."""
+        if not isinstance(term, Term):
+            raise ValueError(f"term must be a Term, got {term!r}")
+        self.terms.append(term)
+        try:
+            self._build()
+        except ValueError:
+            self.terms.pop()
+            self._build()
+            raise
+
+    def remove_term(self, term: Term) -> None:
+        self.terms.remove(term)
+        self._build()
+
+    def terms_of(self, kind) -> list:
+        return [t for t in self.terms if isinstance(t, kind)]
+
+    @property
+    def inertia(self) -> Inertia | None:
+        """The backward-Euler inertia term, or ``None`` for a quasistatic model."""
+        found = self.terms_of(Inertia)
+        return found[0] if found else None
+
+    @property
+    def dynamic(self) -> bool:
+        return self.inertia is not None
+
+    @property
+    def loads(self) -> list[Load]:
+        return self.terms_of(Load)
+
+    @property
+    def probes(self) -> list[Probe]:
+        return self.terms_of(Probe)
+
+    @property
+    def sutures(self) -> Sutures | None:
+        found = self.terms_of(Sutures)
+        return found[0] if found else None
+
     @property
     def term_names(self) -> list[str]:
-        """The energy terms and loads this model evaluates (handles are constraints, not terms)."""
-        return [t.name for t in self.terms] + self.loads
+        """The names of the terms this model evaluates, in order."""
+        return [t.name for t in self.terms]
 
     def describe(self) -> list[str]:
-        return [t.describe() for t in self.terms] + self.loads
+        return [t.describe() for t in self.terms]
 
     @property
     def quadratic(self) -> bool:
-        """True when every term is quadratic: the Hessian is constant (a linear, small-strain scene)."""
+        """True when every term is quadratic: the Hessian is constant (linear material, springs, loads)."""
         return all(t.quadratic for t in self.terms)
 
-    # ------------------------------------------------------------------ the pattern
-    def _build_pattern(self):
-        base = self.assembler_p1
-        n = base.n_dofs
-        rows = np.repeat(np.arange(n), np.diff(base.indptr))
-        base_keys = rows.astype(np.int64) * n + base.indices
-        if self.sutures is None:
-            keys = base_keys
-            self.indptr, self.indices = base.indptr, base.indices
-            self._base_pos = None
-        else:
-            r, c, v = self.sutures.triplets()
-            keys = np.union1d(base_keys, r.astype(np.int64) * n + c)
-            counts = np.bincount(keys // n, minlength=n)
-            self.indptr = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
-            self.indices = (keys % n).astype(np.int64)
-            self._base_pos = np.searchsorted(keys, base_keys)
-            self._suture_pos = np.searchsorted(keys, r.astype(np.int64) * n + c)
-            self._suture_vals = v
-        self.nnz = keys.size
-        self.n_dofs = n
-        # positions of each node's 2x2 diagonal block (for the probe's Hessian)
-        nodes = np.arange(self.mesh.nvertices, dtype=np.int64)
-        self.node_block = np.empty((2, 2, nodes.size), dtype=np.intp)
-        for i in range(2):
-            for j in range(2):
-                self.node_block[i, j] = np.searchsorted(keys, (2 * nodes + i) * n + 2 * nodes + j)
-
     @property
-    def assembler(self):
-        """The model is its own fast assembler (``tangent``, ``indptr``, ``indices``, ``nnz``, ``n_dofs``)."""
-        return self
+    def external(self) -> np.ndarray:
+        """The sum of the constant loads (a dof vector)."""
+        f = np.zeros(self.n_dofs)
+        for load in self.loads:
+            f += load.scale * load.vector
+        return f
 
-    def csr(self, data) -> sp.csr_matrix:
-        K = sp.csr_matrix((data, self.indices, self.indptr), shape=(self.n_dofs, self.n_dofs), copy=False)
-        K.has_sorted_indices = True
-        return K
+    # ------------------------------------------------------------------ the potential
+    def energy(self, u) -> float:
+        """The potential ``E(u)``: the sum of every term's energy."""
+        u = self._check_u(u)
+        e = self.assembler.energy(u, self._density)
+        for t in self._other_terms:
+            e += t.energy(u)
+        return e
 
-    # ------------------------------------------------------------------ energy, force, Hessian
-    def strain_energy(self, u) -> float:
-        """The sum of the terms' energies (without the constant loads' ``-f_ext . u``)."""
-        return sum(t.energy(u) for t in self.terms)
-
-    def internal_force(self, u) -> np.ndarray:
-        g = self.terms[0].gradient(u)
-        for t in self.terms[1:]:
-            g = g + t.gradient(u)
+    def gradient(self, u) -> np.ndarray:
+        """``dE/du``: the residual (internal forces minus loads, plus inertia)."""
+        u = self._check_u(u)
+        g = self.assembler.residual(u, self._density)
+        for t in self._other_terms:
+            g += t.gradient(u)
         return g
 
-    def tangent(self, u) -> sp.csr_matrix:
-        elastic = self.terms[0].hessian_data(u)
-        for t in self.terms[1:]:
-            if isinstance(t, Fibers):
-                elastic = elastic + t.hessian_data(u)
-        if self._base_pos is None:
-            data = elastic
+    def hessian(self, u) -> sp.csr_matrix:
+        """``d^2E/du^2`` on the model's fixed pattern (the Newton matrix)."""
+        u = self._check_u(u)
+        data = self.pattern.zeros()
+        self.pattern.add_base(data, self.assembler.tangent(u, self._density).data)
+        for t in self._other_terms:
+            t.add_hessian(u, data)
+        return self.pattern.csr(data)
+
+    def _stored_terms(self):
+        return [t for t in self.terms if not isinstance(t, (Inertia, Load))]
+
+    def stored_energy(self, u) -> float:
+        """The stored energy of the body and its tools: every term but inertia and the loads."""
+        return sum(t.energy(u) for t in self._stored_terms())
+
+    def internal_force(self, u) -> np.ndarray:
+        """The gradient of :meth:`stored_energy`: the forces the body (and its tools) exert on the nodes."""
+        g = np.zeros(self.n_dofs)
+        for t in self._stored_terms():
+            g += t.gradient(u)
+        return g
+
+    def _check_u(self, u) -> np.ndarray:
+        u = np.asarray(u, dtype=float)
+        if u.shape != (self.n_dofs,):
+            raise ValueError(f"u must be a displacement vector of shape ({self.n_dofs},), got shape {u.shape}")
+        return u
+
+    # ------------------------------------------------------------------ handles
+    def _handle_dofs(self, h: Handle) -> tuple[np.ndarray, np.ndarray]:
+        """The dofs a handle holds and the index of each dof's node in ``h.nodes`` (-1 for P2 edge dofs)."""
+        nodes = h.nodes
+        dofs = [self.basis.nodal_dofs[:, nodes].ravel()]
+        owner = [np.tile(np.arange(nodes.size), 2)]
+        if self.order == 2:
+            mesh = self.mesh
+            if isinstance(h.region, str):
+                edges = np.asarray(mesh.boundaries[h.region])
+            elif callable(h.region):
+                mid = 0.5 * (self.X[:, mesh.facets[0]] + self.X[:, mesh.facets[1]])
+                edges = np.flatnonzero(np.asarray(h.region(mid), dtype=bool))
+            else:
+                held = np.zeros(mesh.nvertices, dtype=bool)
+                held[nodes] = True
+                edges = np.flatnonzero(held[mesh.facets[0]] & held[mesh.facets[1]])
+            dofs.append(self.basis.facet_dofs[:, edges].ravel())
+            owner.append(np.full(2 * edges.size, -1))
+        return np.concatenate(dofs), np.concatenate(owner)
+
+    def add_handle(self, handle: Handle) -> Handle:
+        """Take a handle: resolve its region to nodes and dofs (a name is given if it has none)."""
+        if not isinstance(handle, Handle):
+            raise ValueError(f"handles must be Handle objects, got {handle!r}")
+        field = f"handle {handle.name!r} region" if handle.name else "handle region"
+        nodes = region_nodes(self.mesh, handle.region, field)
+        if handle.base is not None and handle.base.shape[1] != nodes.size:
+            raise ValueError(f"handle {handle.name!r}: base has {handle.base.shape[1]} columns for {nodes.size} nodes")
+        if handle.base is not None and self.order != 1:
+            raise ValueError("handles with a base displacement (grabs) need order=1")
+        names = {h.name for h in self.handles}
+        if handle.name is None:
+            k = len(self.handles)
+            while f"handle{k}" in names:
+                k += 1
+            handle.name = f"handle{k}"
+        elif handle.name in names:
+            raise ValueError(f"a handle named {handle.name!r} exists already")
+        handle.nodes = nodes
+        dofs, owner = self._handle_dofs(handle)
+        points = self.dof_points[:, dofs]
+        _check_target(handle.target, points, f"handle {handle.name!r} target")
+        handle._points, handle._dofs, handle._owner = points, dofs, owner
+        self.handles.append(handle)
+        return handle
+
+    def remove_handle(self, name) -> Handle:
+        """Let go of the handle ``name`` (its nodes are free from the next step on)."""
+        h = self.handle(name)
+        self.handles.remove(h)
+        return h
+
+    def handle(self, name) -> Handle:
+        """The handle called ``name`` (or at index ``name``)."""
+        if isinstance(name, (int, np.integer)) and not isinstance(name, bool):
+            if 0 <= name < len(self.handles):
+                return self.handles[name]
+            raise ValueError(f"no handle at index {name}; there are {len(self.handles)}")
+        for h in self.handles:
+            if h.name == name:
+                return h
+        raise ValueError(f"no handle named {name!r}; handles: {[h.name for h in self.handles]}")
+
+    def set_targets(self, targets) -> None:
+        """Move several handles at once, all or nothing.
+
+        ``targets``: ``None``; a sequence with one entry per handle (``None`` leaves one where
+        it is); or a dict ``{name or index: target}``. Every target is checked before any
+        handle moves, so a refusal leaves all of them as they were.
+        """
+        if targets is None:
+            return
+        if isinstance(targets, dict):
+            items = list(targets.items())
         else:
-            data = np.zeros(self.nnz)
-            data[self._base_pos] = elastic
-            np.add.at(data, self._suture_pos, self._suture_vals)
-        for p in self.probes:
-            p.add_hessian(u, data, self)
-        return self.csr(data)
+            try:
+                seq = list(targets)
+            except TypeError:
+                raise ValueError(f"targets must be a dict, a sequence (one per handle) or None, got {targets!r}") from None
+            if len(seq) != len(self.handles):
+                raise ValueError(f"targets has {len(seq)} entries but the model has {len(self.handles)} handles")
+            items = list(enumerate(seq))
+        checked = []
+        for key, target in items:
+            if isinstance(key, bool):
+                raise ValueError(f"targets: {key!r} is not a handle name or index")
+            h = self.handle(key)
+            if target is None:
+                continue
+            checked.append((h, _check_target(target, h._points, f"targets[{key!r}]")))
+        for h, target in checked:
+            h.target = target
 
     def prescribed(self) -> tuple[np.ndarray, np.ndarray]:
-        """The held dofs and their displacements (where handles overlap, the later one wins)."""
+        """The held dofs (sorted) and their displacements; where handles overlap, the later one wins."""
         if not self.handles:
             return np.zeros(0, dtype=np.intp), np.zeros(0)
-        dofs, values = [], []
+        all_dofs, all_values = [], []
         for h in self.handles:
-            u = h.displacement(self.X[:, h.nodes])
-            dofs.append((2 * h.nodes[None, :] + np.arange(2)[:, None]).ravel())
-            values.append(u.ravel())
-        dofs, values = np.concatenate(dofs), np.concatenate(values)
+            base = None
+            if h.base is not None:
+                base = np.where(h._owner >= 0, h.base[self.component[h._dofs], np.maximum(h._owner, 0)], 0.0)
+            u = h.positions(h._points) - h._points
+            values = u[self.component[h._dofs], np.arange(h._dofs.size)]
+            all_dofs.append(h._dofs)
+            all_values.append(values if base is None else values + base)
+        dofs, values = np.concatenate(all_dofs), np.concatenate(all_values)
         unique, first_in_reversed = np.unique(dofs[::-1], return_index=True)
-        return unique, values[::-1][first_in_reversed]
+        return unique.astype(np.intp), values[::-1][first_in_reversed]
+
+    def reaction(self, u, handle) -> np.ndarray:
+        """The resultant force ``(f1, f2)`` the handle exerts on the body at ``u`` (at equilibrium, what a
+        haptic device would render): the sum of ``f_int - f_ext`` over the handle's dofs, per component."""
+        h = handle if isinstance(handle, Handle) else self.handle(handle)
+        q = self.internal_force(u) - self.external
+        dofs = np.unique(h._dofs)
+        return np.array([q[dofs[self.component[dofs] == i]].sum() for i in range(2)])
 
     # ------------------------------------------------------------------ post-processing
+    def zeros(self) -> np.ndarray:
+        return np.zeros(self.n_dofs)
+
+    def nodal_displacement(self, u) -> np.ndarray:
+        """Displacement at the mesh vertices ``(2, n_vertices)``."""
+        return np.asarray(u)[self.basis.nodal_dofs]
+
     def positions(self, u) -> np.ndarray:
-        """Deformed node positions ``(2, n_nodes)``."""
-        return self.X + np.asarray(u).reshape(-1, 2).T
+        """Deformed vertex positions ``x = X + u`` ``(2, n_vertices)``."""
+        return self.X + self.nodal_displacement(u)
+
+    deformed_positions = positions
+
+    def element_areas(self) -> np.ndarray:
+        """Material area of every element (the triangle's area times its weight)."""
+        a = getattr(self.assembler, "areas", None)
+        if a is not None:
+            return a
+        return np.asarray(self.assembler._dx.sum(axis=1))
 
     def deformation_gradient(self, u) -> np.ndarray:
-        return self.assembler_p1.deformation_gradient(u)
+        """``F = I + grad u``: ``[2, 2, n_elements]`` for P1, ``[2, 2, n_elements, n_points]`` otherwise."""
+        return self.assembler.deformation_gradient(self._check_u(u))
+
+    def stress(self, u) -> np.ndarray:
+        """First Piola-Kirchhoff stress of every element (or quadrature point): the element terms' P summed."""
+        F = self.deformation_gradient(u)
+        return np.broadcast_to(self._density.stress(F), F.shape)
 
     def cauchy_stress(self, u) -> np.ndarray:
-        """Cauchy stress ``sigma = P F^T / J`` of every element ``(2, 2, n_elements)`` (all terms' P)."""
+        """Cauchy stress ``sigma = P F^T / J``: the force per unit *deformed* area (see chapter 3)."""
         F = self.deformation_gradient(u)
-        P = np.broadcast_to(self.material.stress(F), F.shape).copy()
-        for t in self.terms:
-            if isinstance(t, Fibers):
-                P += t.material.stress(F)
+        P = np.broadcast_to(self._density.stress(F), F.shape)
         J = F[0, 0] * F[1, 1] - F[0, 1] * F[1, 0]
         with np.errstate(divide="ignore", invalid="ignore"):
-            return np.einsum("ike,jke->ije", P, F) / J
+            return np.einsum("ik...,jk...->ij...", P, F) / J
 
     def tension(self, u) -> np.ndarray:
         """The largest principal Cauchy stress of every element (positive = pulled apart)."""
@@ -555,41 +654,10 @@ class Model:
         radius = np.hypot(0.5 * (s[0, 0] - s[1, 1]), 0.5 * (s[0, 1] + s[1, 0]))
         return mean + radius
 
-    def mass(self, density) -> float:
-        """Total mass ``rho0 * area``."""
-        return float(density) * float(self.assembler_p1.areas.sum())
+    def total_mass(self) -> float:
+        """``rho0`` times the material area."""
+        return self.density * float(self.element_areas().sum())
 
-
-def load_vector(basis, body_force=None, tractions=()):
-    """Constant external forces: a body force ``b`` per unit area and tractions on named boundaries.
-
-    ``tractions`` is a list of ``(boundary name, (tx, ty))`` (force per unit reference length).
-    """
-    from skfem import FacetBasis
-
-    f = np.zeros(basis.N)
-    if body_force is not None:
-        b = _vector2("body force", body_force)
-
-        @LinearForm
-        def body(v, w):
-            return b[0] * v[0] + b[1] * v[1]
-
-        f += asm(body, basis)
-    mesh = basis.mesh
-    for name, t in tractions:
-        t = _vector2(f"traction on {name!r}", t)
-        if mesh.boundaries is None or name not in mesh.boundaries:
-            names = sorted(mesh.boundaries) if mesh.boundaries else []
-            raise ValueError(f"tractions: {name!r} is not a boundary of the mesh; boundaries: {names}")
-        facets = mesh.boundaries[name]
-        if len(facets) == 0:
-            continue
-        fb = FacetBasis(mesh, basis.elem, facets=facets, intorder=2)
-
-        @LinearForm
-        def traction(v, w, t=t):
-            return t[0] * v[0] + t[1] * v[1]
-
-        f += asm(traction, fb)
-    return f
+    def __repr__(self):
+        return (f"Model({self.mesh.nelements} triangles, P{self.order}, {self.n_dofs} dofs, "
+                f"terms {self.term_names}, {len(self.handles)} handles)")

@@ -177,7 +177,7 @@ def advancement_flap(*, width=4.0, height=2.0, n_triangles=3000, defect=(1.2, 0.
     reports += sim.run(int(settle_frames))
     snapshots["sutured"] = _snapshot(sim)
     tension = sim.tension()
-    areas = sim.model.assembler_p1.areas
+    areas = sim.model.element_areas()
     return FlapResult(
         simulation=sim,
         stitches=pairs.shape[1],

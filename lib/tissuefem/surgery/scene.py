@@ -42,9 +42,11 @@ import skfem
 from ..engine import meshes
 from ..engine.materials import MATERIALS
 from ..engine.materials import material as make_material
-from ..engine.realtime import FRAME_BUDGET
+from ..engine.inversion import ITFClamped, ProjectedTangent
+from ..engine.constants import FRAME_BUDGET, TISSUE_DENSITY, TISSUE_E, TISSUE_NU
+from ..engine.linsolve import LinearSolver
 
-__all__ = ["Scene", "EFFECTS", "SHAPES", "EXAMPLE_TOML", "demo_scene"]
+__all__ = ["Scene", "EFFECTS", "SHAPES", "EXAMPLE_TOML", "demo_scene", "flap_scene", "flap_path"]
 
 #: the effects a scene may name
 EFFECTS = ("inertia", "gravity", "fibers", "inversion", "handles", "tractions", "probes", "excisions",
@@ -323,13 +325,22 @@ def _check_effects(effects):
     return out
 
 
+def _linear_solver(value):
+    name = _string("solver.linear_solver", value)
+    try:
+        LinearSolver(name)
+    except ValueError as err:
+        raise ValueError(f"solver.linear_solver: {err}") from None
+    return name
+
+
 def _check_solver(s):
     s = _table("solver", s or {})
     _only("solver", s, ("budget", "rtol", "linear_solver", "max_iterations"))
     return {
         "budget": _number("solver.budget", s.get("budget", FRAME_BUDGET), positive=True),
         "rtol": _number("solver.rtol", s.get("rtol", 1e-6), positive=True),
-        "linear_solver": _string("solver.linear_solver", s.get("linear_solver", "reuse")),
+        "linear_solver": _linear_solver(s.get("linear_solver", "reuse")),
         "max_iterations": _number("solver.max_iterations", s.get("max_iterations", 50), positive=True, integer=True),
     }
 
@@ -473,8 +484,6 @@ class Scene:
         mat = make_material(m["model"], m["youngs_modulus"], m["poisson_ratio"])
         inv = self.effects.get("inversion")
         if inv is not None:
-            from ..engine.inversion import ITFClamped, ProjectedTangent
-
             if inv["method"] == "itf":
                 if m["model"] != "neo-hookean":
                     raise ValueError("effects.inversion.method: 'itf' clamps the ln J model only "
@@ -511,6 +520,36 @@ def demo_scene(n_triangles=400, dynamic=True) -> Scene:
     return Scene(
         name="sheet",
         domain={"shape": "rectangle", "width": 2.0, "height": 1.0, "triangles": n_triangles},
-        material={"model": "stable-neo-hookean", "youngs_modulus": 1000.0, "poisson_ratio": 0.3},
+        material={"model": "stable-neo-hookean", "youngs_modulus": TISSUE_E, "poisson_ratio": TISSUE_NU},
         effects=effects,
+    )
+
+
+def flap_path(t) -> np.ndarray:
+    """The standard flap's scripted drag: the right edge's displacement at time ``t`` (a slow loop, period 4-8 s)."""
+    t = float(t)
+    return np.array([0.3 * math.sin(math.pi * t / 2.0), 0.4 * math.sin(math.pi * t / 4.0)])
+
+
+def flap_scene(n_triangles: int = 8000, model: str = "neo-hookean", dynamic: bool = True, rtol: float = 1e-6,
+               linear_solver: str = "reuse") -> Scene:
+    """The standard scene of the benchmarks and chapters 7-9: a tissue flap pulled by its right edge.
+
+    The flap ``[0, 2] x [0, 1]`` (E = 1000, nu = 0.3, rho0 = 1, plane strain) of
+    about ``n_triangles``, its left edge ``fixed``, its right edge a ``handle``
+    that :func:`flap_path` carries along a slow loop; backward Euler with
+    ``dt = 1/30`` (``dynamic=False``: quasistatic frames); every frame solved to
+    ``rtol`` with no wall-clock budget (a benchmark measures the frame, the
+    real-time loop sets a budget).
+    """
+    effects = {"handles": [{"name": "fixed", "region": "fixed"}, {"name": "handle", "region": "handle"}]}
+    if dynamic:
+        effects["inertia"] = {"time_step": FRAME_BUDGET}
+    return Scene(
+        name="standard flap",
+        domain={"shape": "flap", "width": 2.0, "height": 1.0, "triangles": int(n_triangles)},
+        material={"model": model, "youngs_modulus": TISSUE_E, "poisson_ratio": TISSUE_NU,
+                  "density": TISSUE_DENSITY},
+        effects=effects,
+        solver={"budget": 1e9, "rtol": rtol, "linear_solver": linear_solver},
     )

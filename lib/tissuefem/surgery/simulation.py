@@ -17,10 +17,13 @@ import dataclasses
 import time
 
 import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
 
 from ..engine import meshes
-from ..engine.model import Model, NodeHandle, _vector2, load_vector
-from ..engine.realtime import ConstantTangentSolver, RealtimeSolver
+from ..engine.model import Handle, Model, region_nodes
+from ..engine.realtime import RealtimeSolver
+from ..engine.terms import check_vector
 from . import topology
 from .scene import Scene, _number
 
@@ -47,13 +50,15 @@ class Simulation:
         measure what the shortcut saves).
     """
 
-    def __init__(self, scene: Scene, *, clock=time.perf_counter, linear_solver=None, constant_tangent=True):
+    def __init__(self, scene: Scene, *, clock=time.perf_counter, linear_solver=None, constant_tangent=True,
+                 order: int = 1, intorder: int | None = None):
         if not isinstance(scene, Scene):
             raise ValueError(f"scene must be a Scene, got {scene!r}")
         self.scene = scene
         self.clock = clock
         self._linear_choice = linear_solver or scene.solver["linear_solver"]
         self._constant_tangent = bool(constant_tangent)
+        self.order, self.intorder = order, intorder
         self.density = scene.material["density"]
         self.material = scene.build_material()
         mesh = scene.build_mesh()
@@ -71,19 +76,24 @@ class Simulation:
         self.mesh = mesh
         self._grab_count = 0
         # handles: resolved to nodes on the original mesh, then carried through the edits
-        self.handles = {}
+        handles = []
         for i, h in enumerate(scene.effects.get("handles", [])):
-            nodes = self._region_nodes(mesh, h["region"], f"effects.handles[{i}].region")
-            self.handles[h["name"]] = NodeHandle(nodes, h["target"], name=h["name"])
-        if not self.handles and not scene.dynamic:
+            nodes = region_nodes(mesh, h["region"], f"effects.handles[{i}].region")
+            handle = Handle(nodes, h["target"], name=h["name"])
+            handle.nodes = nodes
+            handles.append(handle)
+        if not handles and not scene.dynamic:
             raise ValueError("effects.handles: a quasistatic scene needs at least one handle (e.g. a fixed edge), "
                              "or the body floats freely")
+        self._pending_handles = handles  # until the first model takes them
         self._probe_specs = []
         self._probe_count = 0
         #: pieces lifted out because nothing held them (quasistatic scenes only; see _drop_loose_pieces)
         self.removed_pieces = 0
         self._sutures = None
         self._state = None
+        if (scene.effects.get("excisions") or scene.effects.get("incisions")) and order != 1:
+            raise ValueError("solver: excisions and incisions need P1 elements (order=1)")
         for i, e in enumerate(scene.effects.get("excisions", [])):
             self._apply_edit(topology.excise, np.asarray(e["polygon"], dtype=float), f"effects.excisions[{i}]",
                              rebuild=False)
@@ -98,125 +108,105 @@ class Simulation:
                         _field=f"effects.sutures[{i}]")
 
     # ------------------------------------------------------------------ building
-    @staticmethod
-    def _region_nodes(mesh, region, field):
-        p = mesh.p
-        if isinstance(region, str):
-            if mesh.boundaries is None or region not in mesh.boundaries:
-                names = sorted(mesh.boundaries) if mesh.boundaries else []
-                raise ValueError(f"{field}: {region!r} is not a boundary of the mesh; boundaries: {names}")
-            nodes = np.unique(mesh.facets[:, mesh.boundaries[region]])
-        elif "box" in region:
-            x0, y0, x1, y1 = region["box"]
-            tol = 1e-9 * max(1.0, float(np.ptp(p)))
-            nodes = np.flatnonzero((p[0] >= x0 - tol) & (p[0] <= x1 + tol) & (p[1] >= y0 - tol) & (p[1] <= y1 + tol))
-        elif "near" in region:
-            d = np.hypot(p[0] - region["near"][0], p[1] - region["near"][1])
-            nodes = np.flatnonzero(d <= region["radius"] * (1 + 1e-9))  # a node exactly on the circle counts
-        else:
-            nodes = np.asarray(region["nodes"], dtype=np.intp)
-            if nodes.max() >= mesh.nvertices:
-                raise ValueError(f"{field}.nodes: indices must be below the mesh's {mesh.nvertices} nodes")
-        if nodes.size == 0:
-            lo, hi = p.min(axis=1), p.max(axis=1)
-            raise ValueError(f"{field}: selects no node of the mesh (it lies outside the domain, which spans "
-                             f"x {lo[0]:g}..{hi[0]:g}, y {lo[1]:g}..{hi[1]:g})")
-        return nodes
-
     @property
     def dynamic(self) -> bool:
         return self.scene.dynamic
 
-    def _external(self, basis):
-        loads, names = None, []
-        g = self.scene.effects.get("gravity")
-        body = None
-        if g is not None:
-            body = self.density * np.asarray(g["acceleration"], dtype=float)
-            names.append("gravity")
-        tractions = [(t["boundary"], t["traction"]) for t in self.scene.effects.get("tractions", [])]
-        if tractions:
-            names.append("tractions")
-        if body is not None or tractions:
-            try:
-                loads = load_vector(basis, body, tractions)
-            except ValueError as err:
-                raise ValueError(f"effects.tractions: {err}") from None
-        return loads, names
+    @property
+    def handles(self) -> dict:
+        """The handles holding the tissue, by name (the model owns them)."""
+        source = self.model.handles if hasattr(self, "model") else self._pending_handles
+        return {h.name: h for h in source}
 
-    def _rebuild(self):
-        """Build the model and the solver for the current mesh, keeping the state (if any)."""
+    def _current_handles(self) -> list:
+        return list(self.model.handles) if hasattr(self, "model") else list(self._pending_handles)
+
+    def _build_model(self, handles) -> Model:
+        """The model of exactly the scene's effects on the current mesh, holding ``handles``."""
+        effects = self.scene.effects
+        inertia = effects.get("inertia")
+        gravity = effects.get("gravity")
+        tractions = [(t["boundary"], t["traction"]) for t in effects.get("tractions", [])]
         probes = [dict(center=p["center"], radius=p["radius"], stiffness=p["stiffness"], label=p["label"])
                   for p in self._probe_specs]
-        model = Model(self.mesh, self.material, fibers=self._fibers, handles=list(self.handles.values()),
-                      probes=probes, sutures=self._sutures)
-        # the constant loads need the model's basis
-        external, names = self._external(model.basis)
-        if external is not None:
-            model.external = external
-        model.loads = names
-        solver_options = dict(budget=self.scene.solver["budget"], rtol=self.scene.solver["rtol"], clock=self.clock,
-                              max_iterations=self.scene.solver["max_iterations"])
-        inertia = self.scene.effects.get("inertia")
-        if inertia is not None:
-            solver_options.update(dt=inertia["time_step"], density=self.density, mass=inertia["mass"])
-        else:
-            solver_options.update(dt=None)
-        if model.quadratic and self._constant_tangent:
-            choice = self._linear_choice
-            if choice in ("reuse", "direct"):
-                choice = "superlu"
-            elif isinstance(choice, str) and choice.startswith("reuse-"):  # the factorisation is kept anyway
-                choice = choice[len("reuse-"):]
-            solver = ConstantTangentSolver(model, linear_solver=choice, **solver_options)
-        else:
-            solver = RealtimeSolver(model, linear_solver=self._linear_choice, **solver_options)
+        try:
+            return Model(
+                self.mesh, self.material, order=self.order, intorder=self.intorder, handles=handles,
+                dt=None if inertia is None else inertia["time_step"], density=self.density,
+                mass="lumped" if inertia is None else inertia["mass"],
+                gravity=None if gravity is None else gravity["acceleration"],
+                tractions=tractions or None, fibers=self._fibers, probes=probes, sutures=self._sutures,
+            )
+        except ValueError as err:
+            if "tractions" in str(err) and "effects." not in str(err):
+                raise ValueError(f"effects.tractions: {err}") from None
+            raise
+
+    def _rebuild(self, handles=None):
+        """Build the model and the solver for the current mesh, keeping the state (if any)."""
+        handles = self._current_handles() if handles is None else handles
+        model = self._build_model(handles)
+        solver_settings = self.scene.solver
+        choice = self._linear_choice
+        if model.quadratic and self._constant_tangent and isinstance(choice, str):
+            # a constant Hessian: one factorization per held set is exact
+            base = choice[len("reuse-"):] if choice.startswith("reuse-") else None
+            choice = "constant" if base is None or choice in ("reuse", "direct") else f"constant-{base}"
+        solver = RealtimeSolver(model, linear_solver=choice, budget=solver_settings["budget"],
+                                rtol=solver_settings["rtol"], clock=self.clock,
+                                max_iterations=solver_settings["max_iterations"])
+        previous = getattr(self, "solver", None)
         if self._state is not None:
             u, v, v_prev, t, frames, budget, dt = self._state
-            solver.u, solver.v, solver._v_previous = u, v, v_prev
-            solver.time, solver.frames, solver.budget = t, frames, budget
+            solver.set_state(u, v if model.dynamic else None, v_previous=v_prev if model.dynamic else None,
+                             time_=t, steps=frames)
+            solver.budget = budget
             if dt is not None:
                 solver.dt = dt
-            solver.last_report = self.solver.last_report if hasattr(self, "solver") else None
+            solver.last_report = previous.last_report if previous is not None else None
         self.model, self.solver = model, solver
         self._state = None
 
     @contextlib.contextmanager
     def _transaction(self):
         """Apply a change completely or not at all: on any error, everything is put back as it was."""
-        saved = (self.mesh, dict(self.handles), self._fibers, copy.deepcopy(self._sutures),
-                 copy.deepcopy(self._probe_specs), getattr(self, "model", None),
-                 getattr(self, "solver", None), self._grab_count, self._probe_count)
+        saved = (self.mesh, self._fibers, copy.deepcopy(self._sutures), copy.deepcopy(self._probe_specs),
+                 getattr(self, "model", None), getattr(self, "solver", None), self._grab_count, self._probe_count,
+                 self.removed_pieces)
+        handles = [(h, h.target) for h in self._current_handles()]
         try:
             yield
         except BaseException:
-            (self.mesh, self.handles, self._fibers, self._sutures, self._probe_specs, model, solver,
-             self._grab_count, self._probe_count) = saved
+            (self.mesh, self._fibers, self._sutures, self._probe_specs, model, solver, self._grab_count,
+             self._probe_count, self.removed_pieces) = saved
             self._state = None
             if model is not None:
                 self.model, self.solver = model, solver
-                model.handles = list(self.handles.values())
+                model.handles[:] = [h for h, _ in handles]
+                for h, target in handles:
+                    h.target = target
             raise
 
-    def _check_held(self):
+    def _check_held(self, handles):
         """A quasistatic scene must keep at least one handle (or the body floats and K is singular)."""
-        if not self.dynamic and not self.handles:
+        if not self.dynamic and not handles:
             raise ValueError("handles: a quasistatic scene needs at least one handle; this change would leave none")
 
     def _save_state(self):
         s = self.solver
-        self._state = (s.u.copy(), s.v.copy(), None if s._v_previous is None else s._v_previous.copy(),
-                       s.time, s.frames, s.budget, s.dt)
+        self._state = (s.u.copy(), s.v.copy(), None if s.v_previous is None else s.v_previous.copy(),
+                       s.time, s.steps, s.budget, s.dt)
 
     # ------------------------------------------------------------------ frames
     @property
     def terms(self) -> list[str]:
-        """The energy terms and loads the model evaluates, plus "inertia" for a dynamic scene and the
-        inversion handling wrapped around the elastic term."""
+        """The terms the model evaluates (inertia, elastic, fibres, probes, sutures, loads), with the
+        inversion handling wrapped around the elastic term named after it."""
         names = self.model.term_names
         if "inversion" in self.scene.effects:  # the elastic term's material is wrapped, not a term of its own
-            names = names[:1] + [f"inversion ({self.scene.effects['inversion']['method']})"] + names[1:]
-        return (["inertia"] if self.dynamic else []) + names
+            i = names.index("elastic") + 1
+            names = names[:i] + [f"inversion ({self.scene.effects['inversion']['method']})"] + names[i:]
+        return names
 
     @property
     def u(self):
@@ -228,7 +218,7 @@ class Simulation:
 
     @property
     def frames(self) -> int:
-        return self.solver.frames
+        return self.solver.steps
 
     @property
     def time(self) -> float:
@@ -236,17 +226,9 @@ class Simulation:
 
     def frame(self, targets=None):
         """One frame. ``targets``: ``{handle name: translation (dx, dy) or map}`` (others keep theirs)."""
-        index = None
-        if targets:
-            if not isinstance(targets, dict):
-                raise ValueError(f"targets must be a dict {{handle name: target}}, got {targets!r}")
-            names = list(self.handles)
-            index = {}
-            for name, t in targets.items():
-                if name not in self.handles:
-                    raise ValueError(f"targets: no handle named {name!r}; handles: {names}")
-                index[names.index(name)] = t
-        return self.solver.frame(index)
+        if targets and not isinstance(targets, dict):
+            raise ValueError(f"targets must be a dict {{handle name: target}}, got {targets!r}")
+        return self.solver.frame(targets or None)
 
     def run(self, frames: int, targets=None):
         """Run ``frames`` frames (with the same ``targets`` for each); return the reports."""
@@ -257,96 +239,68 @@ class Simulation:
         return self.model.positions(self.solver.u)
 
     def total_mass(self) -> float:
-        return self.model.mass(self.density)
+        return self.model.total_mass()
 
     def momentum(self) -> np.ndarray:
-        if self.solver.M is None:
-            return np.zeros(2)
-        p = self.solver.M @ self.solver.v
-        return np.array([p[0::2].sum(), p[1::2].sum()])
+        return self.solver.momentum()
 
     def pieces(self) -> int:
         """How many separate pieces the tissue is in."""
         return topology.connected_components(self.mesh.t, self.mesh.nvertices)[0]
 
     def tension(self) -> np.ndarray:
-        """Largest principal Cauchy stress per element (see :meth:`tissuefem.model.Model.tension`)."""
+        """Largest principal Cauchy stress per element (see :meth:`tissuefem.engine.model.Model.tension`)."""
         return self.model.tension(self.solver.u)
 
     # ------------------------------------------------------------------ handles: pull and drag
-    def _mean_edge(self):
-        p, f = self.mesh.p, self.mesh.facets
-        return float(np.mean(np.hypot(*(p[:, f[0]] - p[:, f[1]]))))
-
     def grab(self, point, radius=None) -> str:
         """Grab the nodes within ``radius`` of ``point`` (deformed coordinates); returns the handle's name.
 
         The grabbed nodes stay where they are until :meth:`drag` moves them (by
         the mouse's offset from the grab point). Default radius: 1.5 mean edge lengths.
         """
-        radius = 1.5 * self._mean_edge() if radius is None else _number("radius", radius, positive=True)
-        point = _vector2("point", point)
+        radius = 1.5 * meshes.mean_edge_length(self.mesh) if radius is None else _number("radius", radius, positive=True)
+        point = check_vector("point", point)
+        if self.order != 1:
+            raise ValueError("grab: grabbing needs P1 elements (order=1)")
         x = self.positions()
         d = np.hypot(x[0] - point[0], x[1] - point[1])
         nodes = np.flatnonzero(d <= radius)
         if nodes.size == 0:
             raise ValueError(f"point {point.tolist()}: no tissue within radius {radius:g}")
-        self._grab_count += 1
-        name = f"grab{self._grab_count}"
-        while name in self.handles:  # never replace a scene's handle of the same name
-            self._grab_count += 1
-            name = f"grab{self._grab_count}"
+        names = set(self.handles)
+        count = self._grab_count + 1
+        while f"grab{count}" in names:  # never replace a scene's handle of the same name
+            count += 1
         u = self.solver.u.reshape(-1, 2).T
-        handle = NodeHandle(nodes, base=u[:, nodes].copy(), name=name)
-        handle.anchor = point
-        self.handles[name] = handle
-        self.model.handles = list(self.handles.values())
-        return name
+        self.model.add_handle(Handle(nodes, base=u[:, nodes].copy(), name=f"grab{count}", anchor=point))
+        self._grab_count = count
+        return f"grab{count}"
 
     def drag(self, name, point) -> None:
         """Move a grabbed handle so that its grab point follows ``point``."""
-        h = self._handle(name)
-        point = _vector2("point", point)
-        anchor = getattr(h, "anchor", None)
-        self._set_target(h, point - (np.zeros(2) if anchor is None else anchor))
+        h = self.model.handle(name)
+        point = check_vector("point", point)
+        self.model.handle(name).move(point - (np.zeros(2) if h.anchor is None else h.anchor))
 
     def handle_offset(self, name) -> np.ndarray:
-        t = self._handle(name).target
+        t = self.model.handle(name).target
         return None if callable(t) else t.copy()
 
     def move_handle(self, name, target) -> None:
         """Set a handle's target (a translation or a map), checked; takes effect at the next frame."""
-        self._set_target(self._handle(name), target)
-
-    def _set_target(self, handle, target):
-        old = handle.target
-        handle.move(target)
-        try:  # a map is evaluated once now, so a bad one is refused here and not at every later frame
-            handle.displacement(self.model.X[:, handle.nodes])
-        except ValueError:
-            handle.target = old
-            raise
+        self.model.handle(name).move(target)
 
     def release(self, name) -> None:
         """Let go of a handle: its nodes are free from the next frame on."""
-        handle = self._handle(name)
-        del self.handles[name]
-        try:
-            self._check_held()
-        except ValueError:
-            self.handles[name] = handle
-            raise
-        self.model.handles = list(self.handles.values())
-
-    def _handle(self, name):
-        if name not in self.handles:
-            raise ValueError(f"no handle named {name!r}; handles: {list(self.handles)}")
-        return self.handles[name]
+        handle = self.model.handle(name)
+        self._check_held([h for h in self.model.handles if h is not handle])
+        self.model.remove_handle(name)
 
     # ------------------------------------------------------------------ probe
     def add_probe(self, center, radius, stiffness=None, _field="probe"):
         """Press a rigid disc (a tool tip) into the tissue; returns its label for :meth:`move_probe`."""
-        center = _vector2(f"{_field}.center", center).tolist()
+        center = check_vector(f"{_field}.center", center).tolist()
         radius = _number(f"{_field}.radius", radius, positive=True)
         E = self.scene.material["youngs_modulus"]
         if stiffness is None:  # stiff enough to keep penetration to a few percent of the radius
@@ -399,16 +353,8 @@ class Simulation:
                 edit = self._drop_loose_pieces(edit)
             parent = edit.parent
             # carry everything node- and element-based over
-            new_handles = {}
-            for name, h in self.handles.items():
-                moved = h.remap(parent)
-                if moved is not None:
-                    anchor = getattr(h, "anchor", None)
-                    if anchor is not None:
-                        moved.anchor = anchor
-                    new_handles[name] = moved
-            self.handles = new_handles
-            self._check_held()
+            new_handles = [m for m in (h.remap(parent) for h in self._current_handles()) if m is not None]
+            self._check_held(new_handles)
             if self._fibers is not None:
                 self._fibers = (self._fibers[0], self._fibers[1][:, edit.elements])
             if self._sutures is not None:
@@ -422,7 +368,9 @@ class Simulation:
                 self._state = (carry(u), carry(v), carry(v_prev), t, frames, budget, dt)
             self.mesh = edit.mesh
             if rebuild:
-                self._rebuild()
+                self._rebuild(new_handles)
+            else:
+                self._pending_handles = new_handles
         return edit
 
     def _drop_loose_pieces(self, edit):
@@ -432,9 +380,6 @@ class Simulation:
         under a load it would run away), so it is lifted out of the simulation,
         as a surgeon lifts out what was cut free. Dynamic scenes keep every piece.
         """
-        import scipy.sparse as sp
-        from scipy.sparse.csgraph import connected_components
-
         mesh = edit.mesh
         n = mesh.nvertices
         t = mesh.t
@@ -449,7 +394,7 @@ class Simulation:
         graph = sp.coo_matrix((np.ones(r.size), (r, c)), shape=(n, n))
         _, labels = connected_components(graph, directed=False)
         held = np.zeros(labels.max() + 1, dtype=bool)
-        for h in self.handles.values():
+        for h in self._current_handles():
             moved = h.remap(edit.parent)
             if moved is not None:
                 held[labels[moved.nodes]] = True
@@ -484,7 +429,7 @@ class Simulation:
         """Incise along ``polyline`` (points in deformed coordinates), duplicating nodes along the cut.
 
         The state carries over: each copy of a node gets its displacement and
-        velocity. Returns the :class:`tissuefem.surgery.MeshEdit`.
+        velocity. Returns the :class:`tissuefem.surgery.topology.MeshEdit`.
         """
         return self._apply_edit(topology.incise, _polyline(polyline), "polyline")
 

@@ -51,6 +51,7 @@ import numbers
 from dataclasses import dataclass
 
 import numpy as np
+from matplotlib.path import Path
 import scipy.sparse as sp
 from scipy.sparse import csgraph
 from skfem import MeshTri
@@ -784,7 +785,6 @@ def _region_mask(region, centroids) -> np.ndarray:
                 f"got dtype {mask.dtype} shape {mask.shape}"
             )
         return mask
-    from matplotlib.path import Path
 
     poly = _points("region", region, 3)
     x, y = poly[:, 0], poly[:, 1]

@@ -4,11 +4,9 @@ A study measures, for each setting of a speed/accuracy knob, an *error*
 (against a reference solution) and a *cost* (wall time per frame or per
 solve). This module holds the parts that do not depend on the knob:
 
-* :func:`pareto_front` -- the settings no other setting beats on both error
-  and cost (the only ones worth choosing);
-* :func:`fitted_exponent` -- the slope of a log-log fit, for convergence
-  rates (error against h) and for how cost grows with work (time against the
-  number of triangles);
+(The measuring tools -- Pareto front, log-log fits, rates -- are in
+:mod:`tissuefem.workbook.measure`.)
+
 * :func:`beam_problem_tip` -- verification of the linear chain against a
   standard published benchmark with a closed-form answer: the end-loaded
   cantilever of Timoshenko and Goodier (*Theory of Elasticity*, the bending of
@@ -19,7 +17,7 @@ solve). This module holds the parts that do not depend on the knob:
   with the body force that holds it in equilibrium, :func:`manufactured_body_force`).
 
 The sweeps themselves (the knobs, the flap and block benchmarks, the CLI's
-``bench accuracy``) are in :mod:`tissuefem.bench_accuracy`.
+``bench accuracy``) are in :mod:`tissuefem.workbook.bench.accuracy`.
 """
 
 from __future__ import annotations
@@ -27,79 +25,20 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from skfem import MeshTri
+from skfem import Basis, FacetBasis, LinearForm, MeshTri, asm
 
+from ..engine.constants import TISSUE_E, TISSUE_NU
 from ..engine.materials import LinearElastic
+from ..engine.materials import material as make_material
 from ..engine.meshes import rectangle
+from ..engine.model import Handle, Model
+from ..engine.stepping import solve
+from ..engine.terms import Load
+from .measure import fitted_exponent
+from .studies import bending_gradient, bending_map
 
-__all__ = ["pareto_front", "fitted_exponent", "observed_rates", "best_within_budget", "beam_exact", "beam_problem_tip", "manufactured_body_force",
-           "manufactured_error", "manufactured_convergence"]
-
-
-def pareto_front(costs, errors) -> np.ndarray:
-    """Indices of the non-dominated points, in order of increasing cost.
-
-    Point ``i`` is dominated when some ``j`` has ``cost_j <= cost_i`` and
-    ``error_j <= error_i`` with at least one strict. Ties (equal cost and
-    error) keep the first. Non-finite entries are never on the front.
-    """
-    c = np.asarray(costs, dtype=float)
-    e = np.asarray(errors, dtype=float)
-    if c.shape != e.shape or c.ndim != 1:
-        raise ValueError(f"costs and errors must be 1D arrays of the same length, got {c.shape} and {e.shape}")
-    ok = np.flatnonzero(np.isfinite(c) & np.isfinite(e))
-    # sort by cost, then error: walking in that order, a point is on the front when its error is below
-    # every error seen so far
-    order = ok[np.lexsort((e[ok], c[ok]))]
-    front, best = [], np.inf
-    for i in order:
-        if e[i] < best:
-            front.append(i)
-            best = e[i]
-    return np.asarray(front, dtype=np.intp)
-
-
-def fitted_exponent(x, y) -> float:
-    """Least-squares slope of ``log y`` against ``log x`` (``y ~ C x^p``: returns ``p``)."""
-    x = np.asarray(x, dtype=float)
-    y = np.asarray(y, dtype=float)
-    if x.shape != y.shape or x.size < 2:
-        raise ValueError(f"x and y must have the same shape and at least 2 points, got {x.shape} and {y.shape}")
-    if not (np.all(x > 0) and np.all(y > 0) and np.all(np.isfinite(x)) and np.all(np.isfinite(y))):
-        raise ValueError("x and y must be finite and > 0 for a log-log fit")
-    return float(np.polyfit(np.log(x), np.log(y), 1)[0])
-
-
-def observed_rates(h, errors) -> np.ndarray:
-    """Observed convergence rates between successive meshes: ``log(e_i / e_(i+1)) / log(h_i / h_(i+1))``."""
-    h = np.asarray(h, dtype=float)
-    e = np.asarray(errors, dtype=float)
-    if h.shape != e.shape or h.ndim != 1 or h.size < 2:
-        raise ValueError(f"h and errors must be 1D arrays of the same length >= 2, got {h.shape} and {e.shape}")
-    if not (np.all(h > 0) and np.all(e > 0) and np.all(np.isfinite(h)) and np.all(np.isfinite(e))):
-        raise ValueError("h and errors must be finite and > 0")
-    if np.any(h[1:] == h[:-1]):
-        raise ValueError("successive mesh sizes h must differ")
-    return np.log(e[:-1] / e[1:]) / np.log(h[:-1] / h[1:])
-
-
-def best_within_budget(costs, errors, budget):
-    """Index of the most accurate setting whose cost is at most ``budget`` (the cheaper on a tie), or ``None``.
-
-    What an engineer reads off a Pareto plot: draw the budget line, take the
-    lowest point to its left. Non-finite entries never qualify.
-    """
-    c = np.asarray(costs, dtype=float)
-    e = np.asarray(errors, dtype=float)
-    if c.shape != e.shape or c.ndim != 1:
-        raise ValueError(f"costs and errors must be 1D arrays of the same length, got {c.shape} and {e.shape}")
-    budget = float(budget)
-    if not budget > 0:
-        raise ValueError(f"budget must be > 0, got {budget!r}")
-    ok = np.flatnonzero(np.isfinite(c) & np.isfinite(e) & (c <= budget))
-    if ok.size == 0:
-        return None
-    return int(ok[np.lexsort((c[ok], e[ok]))[0]])
+__all__ = ["beam_exact", "beam_problem_tip", "manufactured_body_force", "manufactured_error",
+           "manufactured_convergence"]
 
 
 def beam_exact(X, *, length=48.0, depth=12.0, load=1000.0, E=3.0e7, nu=0.3) -> np.ndarray:
@@ -135,10 +74,6 @@ def beam_problem_tip(nx: int, ny: int, order: int = 2, *, length=48.0, depth=12.
     free. The classic parameters (L = 48, D = 12, P = 1000, E = 3e7, nu = 0.3)
     give a tip deflection of 8.9e-3.
     """
-    from skfem import Basis, ElementTriP1, ElementTriP2, ElementVector, FacetBasis, LinearForm, asm, condense, solve
-
-    from ..engine.forms import tangent_form
-
     if order not in (1, 2):
         raise ValueError(f"order must be 1 or 2, got {order!r}")
     mesh = rectangle(length, depth, int(nx), int(ny))
@@ -146,31 +81,23 @@ def beam_problem_tip(nx: int, ny: int, order: int = 2, *, length=48.0, depth=12.
     mesh = mesh.with_boundaries({"left": lambda p: np.isclose(p[0], 0.0),
                                  "right": lambda p: np.isclose(p[0], length)})
     material = LinearElastic.from_young(E, nu, plane="stress")
-    element = ElementVector(ElementTriP1() if order == 1 else ElementTriP2())
-    basis = Basis(mesh, element, intorder=2 * order)
-    zero = basis.zeros()
-    K = asm(tangent_form(material), basis, u=basis.interpolate(zero))
+    exact = dict(length=length, depth=depth, load=load, E=E, nu=nu)
+    model = Model(mesh, material, order=order, handles=[Handle("left", lambda X: X + beam_exact(X, **exact))])
     I = depth**3 / 12.0
-    right = FacetBasis(mesh, element, facets=mesh.boundaries["right"], intorder=2 * order + 2)
+    right = FacetBasis(mesh, model.basis.elem, facets=mesh.boundaries["right"], intorder=2 * order + 2)
 
     @LinearForm
     def shear(v, w):
         y = w.x[1]
         return load / (2.0 * I) * (depth**2 / 4.0 - y**2) * v[1]
 
-    f = asm(shear, right)
-    left = basis.get_dofs("left").all()
-    u = basis.zeros()
-    exact_left = beam_exact(basis.doflocs[:, left], length=length, depth=depth, load=load, E=E, nu=nu)
-    component = np.zeros(basis.N, dtype=int)  # which displacement component each dof carries
-    for dofs in (basis.nodal_dofs, getattr(basis, "facet_dofs", np.zeros((0, 0), dtype=int))):
-        if dofs.size:
-            component[dofs[1]] = 1
-    u[left] = exact_left[component[left], np.arange(left.size)]
-    u = solve(*condense(K, f, x=u, D=left))
+    model.add_term(Load("end shear", asm(shear, right)))
+    result = solve(model, linear_solver="direct")
+    if not result.converged:
+        raise RuntimeError(f"the cantilever did not converge ({result.status})")
     tip = int(np.argmin(np.hypot(mesh.p[0] - length, mesh.p[1])))
-    exact_tip = float(beam_exact(np.array([[length], [0.0]]), length=length, depth=depth, load=load, E=E, nu=nu)[1, 0])
-    return float(u[basis.nodal_dofs[1, tip]]), exact_tip
+    exact_tip = float(beam_exact(np.array([[length], [0.0]]), **exact)[1, 0])
+    return float(result.u[model.basis.nodal_dofs[1, tip]]), exact_tip
 
 
 # --------------------------------------------------------------------------------------------------
@@ -181,16 +108,14 @@ def manufactured_body_force(material, X, step: float = 1e-4) -> np.ndarray:
     """The body force ``b = -Div P(F(X))`` that holds chapter 3's bending map in equilibrium, shaped like ``X``.
 
     Equilibrium without inertia is ``Div P + b = 0`` (``(Div P)_i = dP_iJ/dX_J``),
-    so the exact deformation ``phi`` = :func:`tissuefem.studies.bending_map`,
-    with its exact gradient ``F`` = :func:`tissuefem.studies.bending_gradient`,
+    so the exact deformation ``phi`` = :func:`tissuefem.workbook.studies.bending_map`,
+    with its exact gradient ``F`` = :func:`tissuefem.workbook.studies.bending_gradient`,
     solves the boundary-value problem whose body force is ``-Div P(F)`` and
     whose whole boundary is held at ``phi``. The divergence is taken by
     central differences of the material's own stress with ``step`` (error
     ``~ step^2``, about 1e-8 relative: far below every discretisation error
     measured here).
     """
-    from .studies import bending_gradient
-
     X = np.asarray(X, dtype=float)
     b = np.zeros_like(X)
     for J in range(2):
@@ -204,35 +129,28 @@ def manufactured_body_force(material, X, step: float = 1e-4) -> np.ndarray:
 def manufactured_error(material, n: int, order: int, load_steps: int = 4) -> float:
     """Relative ``L2`` error of the computed displacement against the exact bending map.
 
-    The block ``[0, 2] x [0, 1]`` on :func:`tissuefem.meshes.rectangle` with
+    The block ``[0, 2] x [0, 1]`` on :func:`tissuefem.engine.meshes.rectangle` with
     ``2n x n`` cells, P``order`` elements, every edge held at the exact map, the
     body force of :func:`manufactured_body_force`; Newton (energy line search)
     to ``rtol = 1e-11`` in ``load_steps`` load steps from rest.
     """
-    from skfem import Basis, LinearForm, asm
-
-    from ..engine.quasistatic import Handle, QuasistaticProblem
-    from .studies import QuadratureAssembler, bending_map
-
     mesh = rectangle(2.0, 1.0, 2 * int(n), int(n))
 
     def boundary(X):
         return np.isclose(X[0], 0.0) | np.isclose(X[0], 2.0) | np.isclose(X[1], 0.0) | np.isclose(X[1], 1.0)
 
-    problem = QuasistaticProblem(mesh, material, order=order, handles=[Handle(boundary, bending_map)])
-    if order == 2:
-        problem.assembler = QuadratureAssembler(problem.basis, material)
+    model = Model(mesh, material, order=order, handles=[Handle(boundary, bending_map)])
 
     @LinearForm
     def body(v, w):
         b = manufactured_body_force(material, w.x)
         return b[0] * v[0] + b[1] * v[1]
 
-    problem.external = asm(body, Basis(mesh, problem.basis.elem, intorder=2 * order + 2))
-    result = problem.solve(load_steps=load_steps, rtol=1e-11)
+    model.add_term(Load("manufactured body force", asm(body, Basis(mesh, model.basis.elem, intorder=2 * order + 2))))
+    result = solve(model, load_steps=load_steps, rtol=1e-11)
     if not result.converged:
         raise RuntimeError(f"manufactured solution: P{order}, n = {n} did not converge ({result.status})")
-    quad = Basis(mesh, problem.basis.elem, intorder=2 * order + 3)
+    quad = Basis(mesh, model.basis.elem, intorder=2 * order + 3)
     uh = np.asarray(quad.interpolate(result.u))
     x = quad.mapping.F(quad.quadrature[0])
     ue = bending_map(x) - x
@@ -240,18 +158,16 @@ def manufactured_error(material, n: int, order: int, load_steps: int = 4) -> flo
 
 
 def manufactured_convergence(models=("neo-hookean", "stable-neo-hookean", "corotated"), sizes=None,
-                             E: float = 1000.0, nu: float = 0.3) -> list[dict]:
+                             E: float = TISSUE_E, nu: float = TISSUE_NU) -> list[dict]:
     """Mesh convergence of each nonlinear model against the manufactured solution.
 
     ``sizes`` maps the order to the values of ``n`` (``h = 1/n``); default
     ``{1: (4, 8, 16, 32), 2: (2, 4, 8, 16)}``. Returns one dict per model and
     order with the errors, the observed rates between successive meshes and
-    the fitted rate (:func:`fitted_exponent` of error against ``h``). Smooth
+    the fitted rate (:func:`~tissuefem.workbook.measure.fitted_exponent` of error against ``h``). Smooth
     exact solution, so the expected ``L2`` rates are ``order + 1``: 2 for P1,
     3 for P2 (measured: 2.00 and 2.99 for all three models).
     """
-    from ..engine.materials import material as make_material
-
     sizes = {1: (4, 8, 16, 32), 2: (2, 4, 8, 16)} if sizes is None else sizes
     rows = []
     for name in models:

@@ -21,6 +21,21 @@ import sys
 import time
 from pathlib import Path
 
+import matplotlib
+import numpy as np
+
+from ..surgery.scene import Scene
+from ..surgery.simulation import Simulation
+from . import figures
+from .bench.accuracy import accuracy_study
+from .bench.assembly import assembly_benchmark
+from .bench.realtime import realtime_benchmark
+from .bench.scenes import effects_benchmark
+from .book import build_book
+from .figures.accuracy import plot_budget, plot_pareto, plot_scaling
+from .figures.realtime import plot_realtime
+from .notebooks import build_chapters, chapter_paths
+
 
 def project_root() -> Path:
     """The workbook folder: the current directory if it holds ``chapters/``, else the checkout
@@ -35,15 +50,11 @@ def project_root() -> Path:
 
 
 def _use_agg():
-    import matplotlib
-
     matplotlib.use("Agg")
 
 
 def cmd_figures(args) -> int:
     _use_agg()
-    from .figures import registry as figures
-
     root = project_root()
     out = Path(args.out) if args.out else root / "figures"
     figures.generate(args.only or None, out)
@@ -54,9 +65,6 @@ def cmd_figures(args) -> int:
 
 def cmd_build(args) -> int:
     _use_agg()
-    from .figures import registry as figures
-    from .notebooks import build_chapters
-
     start = time.perf_counter()
     root = project_root()
     if not args.skip_figures:
@@ -66,8 +74,6 @@ def cmd_build(args) -> int:
     executed = Path(args.out) if args.out else root / "build" / "chapters"
     build_chapters(root / "chapters", executed, args.chapters)
     if not args.no_book:
-        from .book import build_book
-
         build_book(root / "chapters", executed, root / "build" / "book")
         print(f"the workbook's website: {root / 'build' / 'book' / 'index.html'}")
     print(f"build finished in {time.perf_counter() - start:.1f} s")
@@ -75,8 +81,6 @@ def cmd_build(args) -> int:
 
 
 def cmd_book(args) -> int:
-    from .book import build_book
-
     root = project_root()
     out = Path(args.out) if args.out else root / "build" / "book"
     build_book(root / "chapters", Path(args.executed) if args.executed else root / "build" / "chapters", out)
@@ -87,29 +91,30 @@ def cmd_book(args) -> int:
 def cmd_bench(args) -> int:
     _use_agg()
     if args.which == "assembly":
-        from .bench.common import assembly_benchmark
-
         sizes = tuple(args.sizes) if args.sizes else (2000, 8000, 32000)
         assembly_benchmark(sizes=sizes, repeats=args.repeats, out=args.out)
         return 0
     if args.which == "realtime":
-        from .bench.realtime import realtime_benchmark
-
         sizes = tuple(args.sizes) if args.sizes else (2000, 8000, 16000, 32000)
-        realtime_benchmark(sizes=sizes, frames=args.frames, baseline_frames=args.baseline_frames,
-                           linear_solver=args.linear, out=args.out or "bench-results")
+        out = Path(args.out or "bench-results")
+        rows = realtime_benchmark(sizes=sizes, frames=args.frames, baseline_frames=args.baseline_frames,
+                                  linear_solver=args.linear, out=out)
+        plot_realtime(rows, out / "realtime.png")
+        print(f"wrote {out / 'realtime.png'}")
         return 0
     if args.which == "scenes":
-        from .bench.scenes import effects_benchmark
-
         size = args.sizes[0] if args.sizes else 8000
         effects_benchmark(n_triangles=size, frames=min(args.frames, 90), repeats=args.repeats,
                           out=args.out or "bench-results")
         return 0
     if args.which == "accuracy":
-        from .bench.accuracy import accuracy_study
-
-        accuracy_study(plan=args.plan, out=args.out or "bench-results")
+        out = Path(args.out or "bench-results")
+        results = accuracy_study(plan=args.plan, out=out)
+        for plot, stem, key in ((plot_pareto, "pareto", "knobs"), (plot_scaling, "scaling", "scaling"),
+                                (plot_budget, "budget", "budget")):
+            if results.get(key):
+                plot(results, out / f"accuracy_{stem}.png")
+                print(f"wrote {out / f'accuracy_{stem}.png'}")
         return 0
     raise SystemExit(f"unknown benchmark {args.which!r}")
 
@@ -135,11 +140,6 @@ def cmd_grade(args) -> int:
 
 def cmd_scene(args) -> int:
     """Check a scene file and run it: one line per frame (time, status, Newton steps), then a summary."""
-    import numpy as np
-
-    from ..surgery.scene import Scene
-    from ..surgery.simulation import Simulation
-
     try:
         scene = Scene.load(args.path)
         sim = Simulation(scene)
@@ -162,9 +162,6 @@ def cmd_scene(args) -> int:
 
 
 def cmd_list(args) -> int:
-    from .figures import registry as figures
-    from .notebooks import chapter_paths
-
     print("figures:")
     for name, func in figures.FIGURES.items():
         print(f"  {name:32s} {(func.__doc__ or '').strip().splitlines()[0]}")

@@ -17,8 +17,8 @@ Derivations (with ``a = F g``)
     P_fiber = 2 Psi_fiber'(I4) a (x) g                      (= 2 Psi' F g g^T)
     A_fiber_ijkl = 4 Psi'' a_i g_j a_k g_l + 2 Psi' d_ik g_j g_l.
 
-We use ``Psi_fiber = k/8 (I4 - 1)^2`` (as :class:`tissuefem.materials.FiberReinforced`
-does): ``Psi'(1) = 0`` keeps the rest state stress free, and with
+We use ``Psi_fiber = k/8 (I4 - 1)^2`` (the :class:`~tissuefem.engine.terms.Fibers` term of the
+model; :class:`~tissuefem.engine.materials.FiberReinforced` is the same energy density added to a material): ``Psi'(1) = 0`` keeps the rest state stress free, and with
 ``Psi' = k/4 (I4 - 1)``, ``Psi'' = k/4``
 
     P_fiber = k/2 (I4 - 1) a (x) g,
@@ -29,10 +29,13 @@ fiber's own frame it adds ``k`` to ``C_ffff`` and nothing else. Along a unit
 direction ``e`` at angle ``theta`` to the fiber it adds
 ``e_i e_j e_k e_l k g_i g_j g_k g_l = k cos^4 theta`` (:func:`fiber_modulus_gain`).
 
+The fibre term's formulas live in :mod:`tissuefem.engine.materials` (``fiber_invariant``,
+``fiber_energy``, ``fiber_stress``, ``fiber_tangent``); this module holds the chapter's experiments.
+
 The experiments
 ---------------
 * :func:`confined_pull` imposes the homogeneous uniaxial strain
-  ``F = diag(1 + eps, 1)`` on the whole boundary of a square (a :class:`Handle`
+  ``F = diag(1 + eps, 1)`` on the whole boundary of a square (a handle
   with a map). P1 elements reproduce a homogeneous deformation exactly, so
   the stress is uniform and the reaction on the right edge per unit height is
   ``P_xx``; divided by ``eps`` it is the confined modulus
@@ -41,7 +44,7 @@ The experiments
   differ by ``k``, and exactly by ``k (1 + eps)(1 + eps/2)`` at finite strain.
 * :func:`block_pull`: a strip clamped at both ends and pulled (free sides), the
   force-stretch curve of a tensile test.
-* :func:`muscle_pull`: the fusiform muscle of :mod:`tissuefem.meshes`, held
+* :func:`muscle_pull`: the fusiform muscle of :mod:`tissuefem.engine.meshes`, held
   at its left tendon and pulled by its right one, with or without fibers.
 """
 
@@ -52,27 +55,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..engine.materials import (
-    FiberReinforced,
-    Material,
-    NeoHookean,
-    check_fiber_stiffness,
-    fiber_energy_term,
-    fiber_stress_term,
-    fiber_tangent_term,
-)
+from ..engine.constants import TISSUE_E, TISSUE_NU
+from ..engine.materials import Material, NeoHookean, check_fiber_stiffness
 from ..engine.meshes import fusiform_fiber_field, fusiform_muscle, rectangle
-from ..engine.quasistatic import Handle, QuasistaticProblem
+from ..engine.model import Handle, Model
+from ..engine.stepping import solve
+
 
 __all__ = [
-    "E_TISSUE",
-    "NU_TISSUE",
     "K_FIBER",
     "fiber_direction",
-    "fiber_invariant",
-    "fiber_energy",
-    "fiber_stress",
-    "fiber_tangent",
     "fiber_modulus_gain",
     "predicted_confined_modulus",
     "PullResult",
@@ -83,40 +75,12 @@ __all__ = [
     "muscle_pull",
 ]
 
-#: Young's modulus and Poisson's ratio of the isotropic matrix (the notes' typical values).
-E_TISSUE, NU_TISSUE = 1000.0, 0.3
 #: Default fiber modulus ``k``: four times the matrix's Young's modulus.
-K_FIBER = 4000.0
+K_FIBER = 4.0 * TISSUE_E
 
-_UNIT_TOL = 1e-6
-
-
-# --- the fiber term on its own ----------------------------------------------------------
 
 def _check_stiffness(k) -> float:
     return check_fiber_stiffness(k, "k")
-
-
-def _check_Fg(F, g):
-    F = np.asarray(F, dtype=float)
-    g = np.asarray(g, dtype=float)
-    if F.ndim < 2 or F.shape[:2] != (2, 2):
-        raise ValueError(f"F must be shaped [2, 2, ...], got shape {F.shape}")
-    if g.ndim < 1 or g.shape[0] != 2:
-        raise ValueError(f"g must be shaped (2, ...), got shape {g.shape}")
-    if not (np.all(np.isfinite(F)) and np.all(np.isfinite(g))):
-        raise ValueError("F and g must be finite")
-    norm = np.hypot(g[0], g[1])
-    if np.any(np.abs(norm - 1.0) > _UNIT_TOL):
-        raise ValueError(
-            f"g must be unit fiber directions (|g| = 1 within {_UNIT_TOL:g}); got lengths between "
-            f"{norm.min():.6g} and {norm.max():.6g}: normalise g first"
-        )
-    try:
-        np.broadcast_shapes(F.shape[2:], g.shape[1:])
-    except ValueError:
-        raise ValueError(f"g of shape {g.shape} does not broadcast against F of shape {F.shape}") from None
-    return F, g
 
 
 def fiber_direction(angle_deg) -> np.ndarray:
@@ -128,47 +92,6 @@ def fiber_direction(angle_deg) -> np.ndarray:
     if not math.isfinite(theta):
         raise ValueError(f"angle_deg must be finite, got {angle_deg!r}")
     return np.array([math.cos(theta), math.sin(theta)])
-
-
-def fiber_invariant(F, g):
-    """``I4 = g^T F^T F g = |F g|^2``, the squared stretch of the unit fiber ``g``.
-
-    ``F`` is a 2x2 matrix or a field ``[2, 2, ...]``; ``g`` a unit vector
-    ``(2,)`` or a field ``(2, ...)`` broadcasting against ``F.shape[2:]``.
-    Returns a float for a single ``F``, else an array of the broadcast shape.
-    """
-    F, g = _check_Fg(F, g)
-    a = np.einsum("ij...,j...->i...", F, g)  # a = F g, the deformed fiber
-    I4 = np.einsum("i...,i...->...", a, a)
-    return float(I4) if I4.ndim == 0 else I4
-
-
-def fiber_energy(F, g, k):
-    """``Psi_fiber = k/8 (I4 - 1)^2``: about ``k/2 eps_ff^2`` for small strains."""
-    k = _check_stiffness(k)
-    F, g = _check_Fg(F, g)
-    return fiber_energy_term(F, g, k)
-
-
-def fiber_stress(F, g, k):
-    """The fiber part of the first Piola-Kirchhoff stress, ``P_fiber = k/2 (I4 - 1) (F g) g^T``.
-
-    ``2 Psi_fiber'(I4) F g g^T`` for ``Psi_fiber = k/8 (I4 - 1)^2``; shape ``F.shape``
-    broadcast with ``g`` (a 2x2 array for a single ``F``).
-    """
-    k = _check_stiffness(k)
-    F, g = _check_Fg(F, g)
-    return fiber_stress_term(F, g, k)
-
-
-def fiber_tangent(F, g, k):
-    """``A_fiber[i, j, k, l] = dP_fiber_ij / dF_kl = k a_i g_j a_k g_l + k/2 (I4 - 1) d_ik g_j g_l``.
-
-    With ``a = F g``; shape ``(2, 2, 2, 2, ...)``. At ``F = I`` it is ``k g g g g``.
-    """
-    k = _check_stiffness(k)
-    F, g = _check_Fg(F, g)
-    return fiber_tangent_term(F, g, k)
 
 
 def fiber_modulus_gain(k, angle_deg):
@@ -184,7 +107,7 @@ def fiber_modulus_gain(k, angle_deg):
 
 def _default_base(base):
     if base is None:
-        return NeoHookean.from_young(E_TISSUE, NU_TISSUE)
+        return NeoHookean.from_young(TISSUE_E, TISSUE_NU)
     if not isinstance(base, Material):
         raise ValueError(f"base must be a Material instance, got {base!r}")
     return base
@@ -216,7 +139,7 @@ class PullResult:
     stretches: np.ndarray
     forces: np.ndarray
     edge_length: float
-    problem: QuasistaticProblem
+    model: Model
     u: np.ndarray
     newton_iterations: int
 
@@ -226,14 +149,15 @@ class PullResult:
 
     @property
     def material(self) -> Material:
-        return self.problem.material
+        return self.model.material
 
 
-def _material(angle_deg, stiffness, base, fibers=None) -> Material:
+def _model(mesh, base, handles, angle_deg, stiffness, fibers=None) -> Model:
+    """The pulled body: the matrix material plus, with a fibre angle or field, the fibre term."""
     if angle_deg is None and fibers is None:
-        return base
+        return Model(mesh, base, handles=handles)
     g = fiber_direction(angle_deg) if fibers is None else fibers
-    return FiberReinforced(base, _check_stiffness(stiffness), g)
+    return Model(mesh, base, handles=handles, fibers=(_check_stiffness(stiffness), g))
 
 
 def _check_stretches(stretches) -> np.ndarray:
@@ -243,19 +167,19 @@ def _check_stretches(stretches) -> np.ndarray:
     return s
 
 
-def _ramp(problem, handle, to_target, stretches, pulled_edge, edge_length, rtol) -> PullResult:
+def _ramp(model, handle, to_target, stretches, pulled_edge, edge_length, rtol) -> PullResult:
     """Move ``handle`` through ``to_target(s)`` for each stretch, warm-starting each solve."""
-    xdofs = problem.basis.get_dofs(pulled_edge).nodal["u^1"]
+    xdofs = model.basis.get_dofs(pulled_edge).nodal["u^1"]
     u, forces, iterations = None, [], 0
     for s in stretches:
         handle.move(to_target(s))
-        result = problem.solve(u0=u, rtol=rtol)
+        result = solve(model, u0=u, rtol=rtol)
         if not result.converged:
             raise RuntimeError(f"the pull did not converge at stretch {s:g} (Newton status {result.status!r})")
         u = result.u
         iterations += result.newton_iterations
-        forces.append(float(problem.internal_force(u)[xdofs].sum()))
-    return PullResult(stretches, np.array(forces), edge_length, problem, u, iterations)
+        forces.append(float(model.internal_force(u)[xdofs].sum()))
+    return PullResult(stretches, np.array(forces), edge_length, model, u, iterations)
 
 
 def confined_pull(angle_deg, strain, *, stiffness=K_FIBER, base=None, n=4, rtol=1e-12) -> PullResult:
@@ -276,12 +200,12 @@ def confined_pull(angle_deg, strain, *, stiffness=K_FIBER, base=None, n=4, rtol=
         return np.isclose(X[0], 0.0) | np.isclose(X[0], 1.0) | np.isclose(X[1], 0.0) | np.isclose(X[1], 1.0)
 
     handle = Handle(on_boundary)
-    problem = QuasistaticProblem(mesh, _material(angle_deg, stiffness, base), handles=[handle])
+    model = _model(mesh, base, [handle], angle_deg, stiffness)
 
     def uniaxial_strain(s):
         return lambda X: np.vstack([s * X[0], X[1]])
 
-    return _ramp(problem, handle, uniaxial_strain, 1.0 + strains, "right", 1.0, rtol)
+    return _ramp(model, handle, uniaxial_strain, 1.0 + strains, "right", 1.0, rtol)
 
 
 @dataclass
@@ -336,17 +260,17 @@ def block_pull(angle_deg, stretches, *, stiffness=K_FIBER, base=None, width=2.0,
     stretches = _check_stretches(stretches)
     mesh = rectangle(width, height, nx, ny)
     pulled = Handle("right")
-    problem = QuasistaticProblem(mesh, _material(angle_deg, stiffness, base), handles=[Handle("left"), pulled])
-    return _ramp(problem, pulled, lambda s: ((s - 1.0) * width, 0.0), stretches, "right", height, rtol)
+    model = _model(mesh, base, [Handle("left"), pulled], angle_deg, stiffness)
+    return _ramp(model, pulled, lambda s: ((s - 1.0) * width, 0.0), stretches, "right", height, rtol)
 
 
 def muscle_pull(stretches, *, stiffness=K_FIBER, base=None, with_fibers=True, fibers=None, mesh=None,
                 rtol=1e-10) -> PullResult:
     """The fusiform muscle held at its left tendon and pulled along X by its right tendon.
 
-    ``mesh`` defaults to :func:`tissuefem.meshes.fusiform_muscle` (length 4);
+    ``mesh`` defaults to :func:`tissuefem.engine.meshes.fusiform_muscle` (length 4);
     its fibers are ``fibers`` (shape ``(2,)`` or ``(2, n_elements)``) if given,
-    else :func:`tissuefem.meshes.fusiform_fiber_field`; ``with_fibers=False``
+    else :func:`tissuefem.engine.meshes.fusiform_fiber_field`; ``with_fibers=False``
     leaves the matrix alone. The right tendon moves to ``X = stretch * length``.
     ``edge_length`` of the result is the tendon's width.
     """
@@ -360,7 +284,6 @@ def muscle_pull(stretches, *, stiffness=K_FIBER, base=None, with_fibers=True, fi
     elif fibers is None:
         fibers = fusiform_fiber_field(mesh)
     pulled = Handle("right_tendon")
-    material = _material(None, stiffness, base, fibers)
-    problem = QuasistaticProblem(mesh, material, handles=[Handle("left_tendon"), pulled])
-    return _ramp(problem, pulled, lambda s: ((s - 1.0) * length, 0.0), stretches, "right_tendon",
+    model = _model(mesh, base, [Handle("left_tendon"), pulled], None, stiffness, fibers)
+    return _ramp(model, pulled, lambda s: ((s - 1.0) * length, 0.0), stretches, "right_tendon",
                  float(np.ptp(tendon)), rtol)

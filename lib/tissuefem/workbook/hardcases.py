@@ -33,18 +33,20 @@ import numpy as np
 from ..engine.inversion import ITFClamped, ProjectedTangent
 from ..engine.materials import NeoHookean, StableNeoHookean, TaylorNeoHookean
 from ..engine.meshes import rectangle
+from ..engine.constants import TISSUE_E, TISSUE_NU
 from ..engine.parameters import lame_parameters
-from ..engine.quasistatic import Handle, QuasistaticProblem
+from ..engine.model import Handle, Model
+from ..engine.stepping import solve
 
 __all__ = ["inversion_models", "block", "start_states", "ReleaseResult", "release", "crush_and_release",
            "drag_through", "RELEASE_OPTIONS"]
 
 #: Newton options of a release solve: absolute residual tolerance (the start residual is huge,
 #: so a relative one would stop early), a step cap and room for the creeping iterations.
-RELEASE_OPTIONS = {"atol": 1e-7, "rtol": 1e-12, "max_step": 0.5, "max_iter": 400}
+RELEASE_OPTIONS = {"atol": 1e-7, "rtol": 1e-12, "max_step": 0.5, "max_iterations": 400}
 
 
-def inversion_models(E: float = 1000.0, nu: float = 0.3) -> dict:
+def inversion_models(E: float = TISSUE_E, nu: float = TISSUE_NU) -> dict:
     """The four models of chapter 6, from Young's modulus and Poisson's ratio (plane strain)."""
     lam, mu = lame_parameters(E, nu, "strain")
     return {
@@ -111,16 +113,17 @@ def release(mesh, material, x_start, held=None, **newton_options) -> ReleaseResu
     if not np.all(np.isfinite(x_start)):
         raise ValueError("x_start contains non-finite positions")
     held = _bottom(mesh) if held is None else np.asarray(held)
-    problem = QuasistaticProblem(mesh, material, handles=[Handle(held)])
-    u0 = problem.basis.zeros()
-    u0[problem.basis.nodal_dofs] = x_start - X
-    u0[problem.basis.nodal_dofs[:, held]] = 0.0
+    model = Model(mesh, material, handles=[Handle(held)])
+    u0 = model.zeros()
+    u0[model.basis.nodal_dofs] = x_start - X
+    u0[model.basis.nodal_dofs[:, held]] = 0.0
     options = {**RELEASE_OPTIONS, **newton_options}
-    start_energy = problem.strain_energy(u0)
-    result = problem.solve(u0=u0, **options)
+    with np.errstate(all="ignore"):
+        start_energy = model.stored_energy(u0)
+    result = solve(model, u0=u0, **options)
     newton = result.steps[-1]
     u = result.u
-    x = problem.deformed_positions(u)
+    x = model.positions(u)
     return ReleaseResult(
         u=u, converged=result.converged, status=result.status, iterations=result.newton_iterations,
         cuts=newton.line_search_cuts, shifted=sum(1 for h in newton.history if h.shift > 0),
@@ -146,20 +149,20 @@ def crush_and_release(material, mesh=None, depth: float = 1.3, steps: int = 13, 
     mesh = block() if mesh is None else mesh
     X = np.asarray(mesh.p, dtype=float)
     top = Handle("top")
-    problem = QuasistaticProblem(mesh, material, handles=[Handle("bottom"), top])
-    options = {**RELEASE_OPTIONS, "rtol": 1e-8, "max_iter": 100, **newton_options}
-    u = problem.basis.zeros()
+    model = Model(mesh, material, handles=[Handle("bottom"), top])
+    options = {**RELEASE_OPTIONS, "rtol": 1e-8, "max_iterations": 100, **newton_options}
+    u = model.zeros()
     frames, crush, reached = [X.copy()], [], 0.0
     for d in np.linspace(0.0, depth, steps + 1)[1:]:
         top.move((0.0, -d))
-        result = problem.solve(u0=u, **options)
+        result = solve(model, u0=u, **options)
         crush.append(result)
         if not result.converged:
             break
         u, reached = result.u, float(d)
-        frames.append(problem.deformed_positions(u))
-    released = release(mesh, material, problem.deformed_positions(u), held=_bottom(mesh), **newton_options)
-    frames.append(problem.deformed_positions(u) if not released.finite else X + released.u[problem.basis.nodal_dofs])
+        frames.append(model.positions(u))
+    released = release(mesh, material, model.positions(u), held=_bottom(mesh), **newton_options)
+    frames.append(model.positions(u) if not released.finite else model.positions(released.u))
     return {
         "frames": frames,
         "crush": crush,
@@ -187,17 +190,17 @@ def drag_through(material, mesh=None, depth: float = 1.6, steps: int = 16, **new
     sides = np.flatnonzero((np.abs(X[0] - X[0].min()) < 1e-9) | (np.abs(X[0] - X[0].max()) < 1e-9))
     grab = np.flatnonzero((np.abs(X[1] - X[1].max()) < 1e-9) & (np.abs(X[0] - X[0].mean()) < 0.2))
     handle = Handle(grab)
-    problem = QuasistaticProblem(mesh, material, handles=[Handle(sides), handle])
-    options = {**RELEASE_OPTIONS, "rtol": 1e-8, "max_iter": 60, **newton_options}
-    u = problem.basis.zeros()
+    model = Model(mesh, material, handles=[Handle(sides), handle])
+    options = {**RELEASE_OPTIONS, "rtol": 1e-8, "max_iterations": 60, **newton_options}
+    u = model.zeros()
     positions, drag, failed = [], [], 0
     for d in np.linspace(0.0, depth, steps + 1)[1:]:
         handle.move((0.0, -d))
-        result = problem.solve(u0=u, **options)
+        result = solve(model, u0=u, **options)
         drag.append(result)
         failed += not result.converged
         u = result.u
-        positions.append(problem.deformed_positions(u))
-    released = release(mesh, material, problem.deformed_positions(u), held=sides, **newton_options)
+        positions.append(model.positions(u))
+    released = release(mesh, material, model.positions(u), held=sides, **newton_options)
     return {"positions": positions, "drag": drag, "released": released, "failed_steps": failed,
             "grab": grab, "sides": sides}

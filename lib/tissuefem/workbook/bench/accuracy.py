@@ -53,8 +53,6 @@ run and quote ratios, never assert them. The errors are deterministic.
 
 from __future__ import annotations
 
-import csv
-import json
 import math
 import time
 from dataclasses import asdict, dataclass, replace
@@ -62,17 +60,22 @@ from pathlib import Path
 
 import numpy as np
 
-from ..accuracy import fitted_exponent, pareto_front
-from .common import machine_info, markdown_table
-from .realtime import DT_FLAP, E_FLAP, NU_FLAP, RHO_FLAP, flap_path
-from ...engine.realtime import FRAME_BUDGET, ConstantTangentSolver, RealtimeSolver
+from ...engine.constants import FRAME_BUDGET
+from ...engine.linsolve import LinearSolver, available
+from ...engine.materials import MATERIALS
+from ...engine.stepping import solve
+from ...surgery.scene import Scene, flap_path, flap_scene
+from ...surgery.simulation import Simulation
+from ..accuracy import beam_problem_tip, manufactured_convergence
+from ..measure import fitted_exponent, pareto_front, relative_l2_error
+from .common import load_results, machine_info, markdown_table, write_csv, write_json
 
 __all__ = [
     "Setting",
     "KNOBS",
     "PLANS",
     "BLOCK_TARGET",
-    "make_problem",
+    "make_simulation",
     "run_setting",
     "reference_run",
     "knob_sweep",
@@ -80,7 +83,7 @@ __all__ = [
     "budget_residual",
     "accuracy_study",
     "write_results",
-    "load_results",
+    "read_results",
     "recorded_results",
     "format_knob_table",
 ]
@@ -105,9 +108,6 @@ class Setting:
     linear_solver: str = "reuse"
 
     def check(self) -> "Setting":
-        from ...engine.linsolve import BACKENDS
-        from ...engine.materials import MATERIALS
-
         for name in ("triangles", "max_iterations", "substeps"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
@@ -118,9 +118,12 @@ class Setting:
             raise ValueError(f"setting material must be one of {sorted(MATERIALS)}, got {self.material!r}")
         if not (isinstance(self.rtol, (int, float)) and 0 < self.rtol < 1):
             raise ValueError(f"setting rtol must be in (0, 1), got {self.rtol!r}")
-        solvers = {"reuse", "direct", *BACKENDS, *(f"reuse-{b}" for b in BACKENDS)}
-        if self.linear_solver not in solvers:
-            raise ValueError(f"setting linear_solver must be one of {sorted(solvers)}, got {self.linear_solver!r}")
+        if not isinstance(self.linear_solver, str):
+            raise ValueError(f"setting linear_solver must be a name, got {self.linear_solver!r}")
+        try:
+            LinearSolver(self.linear_solver) if _runnable(self.linear_solver) else None
+        except ValueError as err:
+            raise ValueError(f"setting linear_solver: {err}") from None
         return self
 
 
@@ -213,51 +216,33 @@ PLANS = {
 
 def _runnable(linear_solver: str) -> bool:
     """Whether this machine has the solver (PARDISO needs the optional pypardiso)."""
-    from ...engine.linsolve import available
-
     return "pardiso" not in linear_solver or available("pardiso")
 
 
-def make_problem(setting: Setting):
-    """The body of both benchmarks for ``setting``: the flap rectangle, left edge fixed, a handle on the right.
+def make_simulation(setting: Setting, benchmark: str = "flap", budget=math.inf, clock=time.perf_counter) -> Simulation:
+    """The standard flap scene with ``setting`` (mesh, order, quadrature, material, Newton, time step, solver).
 
-    P2 gets the vectorised :class:`~tissuefem.studies.QuadratureAssembler`
-    (with the setting's quadrature), so both orders run the real-time
-    solver's fast path. ``problem.quadratic`` is set for the linear model.
+    ``benchmark="flap"``: backward Euler with ``dt = 1/30 / substeps`` (P2 takes the consistent mass:
+    row-sum lumping gives its vertices none); ``"block"``: the same body quasistatic. A linear material
+    runs on its constant factorization (the Simulation chooses it for a quadratic model).
     """
-    from ...engine.materials import material as make_material
-    from ...engine.meshes import flap
-    from ...engine.quasistatic import Handle, QuasistaticProblem
-    from ..studies import QuadratureAssembler
-
     setting.check()
-    mat = make_material(setting.material, E_FLAP, NU_FLAP)
-    problem = QuasistaticProblem(flap(n_triangles=setting.triangles), mat, order=setting.order,
-                                 intorder=setting.intorder, handles=[Handle("fixed"), Handle("handle")])
-    if setting.order == 2:
-        problem.assembler = QuadratureAssembler(problem.basis, mat)
-    problem.quadratic = setting.material == "linear"
-    return problem
-
-
-def _solver(problem, setting: Setting, benchmark: str, budget=math.inf, clock=time.perf_counter):
-    dt = None if benchmark == "block" else DT_FLAP / setting.substeps
-    options = dict(dt=dt, budget=budget, rtol=setting.rtol, max_iterations=setting.max_iterations, clock=clock)
-    if dt is not None:
-        # row-sum lumping gives P2 vertices no mass: P2 runs (and the reference) take the consistent mass
-        options.update(density=RHO_FLAP, mass="consistent" if setting.order == 2 else "lumped")
-    if setting.material == "linear":
-        # the linear model's Hessian is constant: one factorization, then one back-substitution per frame
-        # (with the direct backend the setting names; "reuse" and "direct" mean SuperLU)
-        return ConstantTangentSolver(problem, linear_solver=setting.linear_solver.removeprefix("reuse-"), **options)
-    return RealtimeSolver(problem, linear_solver=setting.linear_solver, **options)
+    scene = flap_scene(setting.triangles, model=setting.material, dynamic=benchmark == "flap",
+                       rtol=setting.rtol, linear_solver=setting.linear_solver).to_dict()
+    scene["solver"]["max_iterations"] = setting.max_iterations
+    if benchmark == "flap":
+        scene["effects"]["inertia"] = {"time_step": FRAME_BUDGET / setting.substeps,
+                                       "mass": "consistent" if setting.order == 2 else "lumped"}
+    sim = Simulation(Scene.from_dict(scene), order=setting.order, intorder=setting.intorder, clock=clock)
+    sim.solver.budget = budget
+    return sim
 
 
 def _targets(benchmark: str, frame: int, substep: int, substeps: int, frames: int):
     """The handle's target for ``substep`` (1-based) of displayed ``frame`` (1-based)."""
     if benchmark == "flap":
-        return {1: flap_path((frame - 1 + substep / substeps) * DT_FLAP)}
-    return {1: np.array(BLOCK_TARGET) * frame / frames}
+        return {"handle": flap_path((frame - 1 + substep / substeps) * FRAME_BUDGET)}
+    return {"handle": np.array(BLOCK_TARGET) * frame / frames}
 
 
 def _checkpoints(benchmark: str, frames: int, every: int) -> tuple[int, ...]:
@@ -270,7 +255,7 @@ def run_setting(benchmark: str, setting: Setting, frames: int, checkpoints=(), b
                 clock=time.perf_counter):
     """Run ``frames`` displayed frames of ``benchmark`` with ``setting``.
 
-    Returns ``(problem, states, stats)``: ``states`` maps each checkpoint frame
+    Returns ``(model, states, stats)``: ``states`` maps each checkpoint frame
     to a copy of ``u``; ``stats`` holds the per-frame milliseconds (summed over
     substeps), Newton and linear iterations, factorizations, whether every
     frame converged, and the relative residuals left at the end of frames.
@@ -279,8 +264,8 @@ def run_setting(benchmark: str, setting: Setting, frames: int, checkpoints=(), b
         raise ValueError(f"benchmark must be one of {BENCHMARKS}, got {benchmark!r}")
     if benchmark == "block" and setting.substeps != 1:
         raise ValueError("the quasistatic block has no time step: substeps must be 1")
-    problem = make_problem(setting)
-    solver = _solver(problem, setting, benchmark, budget=budget, clock=clock)
+    sim = make_simulation(setting, benchmark, budget=budget, clock=clock)
+    solver = sim.solver
     states, ms, newton, linear, fac, converged, residual, fraction = {}, [], [], [], [], [], [], []
     for f in range(1, frames + 1):
         spent = 0.0
@@ -310,7 +295,7 @@ def run_setting(benchmark: str, setting: Setting, frames: int, checkpoints=(), b
         "handle_fraction_min": float(np.min(fraction)),
         "finite": bool(np.all(np.isfinite(solver.u))),
     }
-    return problem, states, stats
+    return sim.model, states, stats
 
 
 def reference_run(benchmark: str, plan: dict, progress=None):
@@ -331,9 +316,9 @@ def reference_run(benchmark: str, plan: dict, progress=None):
     if benchmark == "block":
         # the final equilibrium does not depend on the path: solve it directly, with the load-stepping
         # solver's linearised predictor (moving a P2 edge alone would invert the elements beside it)
-        problem = make_problem(base)
-        problem.handles[1].move(np.array(BLOCK_TARGET))
-        result = problem.solve(load_steps=max(4, frames), rtol=1e-10)
+        problem = make_simulation(base, "block").model
+        problem.handle("handle").move(np.array(BLOCK_TARGET))
+        result = solve(problem, load_steps=max(4, frames), rtol=1e-10)
         if not result.converged:
             raise RuntimeError(f"the block reference did not converge ({result.status})")
         states = {frames: result.u}
@@ -354,11 +339,9 @@ def reference_run(benchmark: str, plan: dict, progress=None):
     return problem, states, info
 
 
-def _l2_gram(problem):
-    """The consistent ``L2`` mass matrix of the problem's basis (for norms of differences on one mesh)."""
-    from ...engine.dynamics import mass_matrix
-
-    return mass_matrix(problem.basis, 1.0)
+def _l2_gram(model):
+    """The consistent ``L2`` mass matrix of the model's basis (for norms of differences on one mesh)."""
+    return model.assembler.csr(model.assembler.mass(1.0, lumped=False))
 
 
 def _relative_same_mesh(M, u, u_ref) -> float:
@@ -368,8 +351,6 @@ def _relative_same_mesh(M, u, u_ref) -> float:
 
 def _errors(problem, states, reference) -> list[float]:
     """Relative ``L2`` errors at the checkpoints against the reference (same checkpoints, in order)."""
-    from ..studies import relative_l2_error
-
     ref_problem, ref_states = reference[0], reference[1]
     return [relative_l2_error(problem, states[f], ref_problem, ref_states[f]) for f in sorted(ref_states)]
 
@@ -460,11 +441,11 @@ def solver_scaling(sizes, solvers, frames: int, largest=None, progress=None) -> 
                 continue
             setting = Setting(triangles=int(n), linear_solver=solver)
             try:
-                problem, _, stats = run_setting("flap", setting, frames)
+                model, _, stats = run_setting("flap", setting, frames)
             except (ValueError, RuntimeError) as err:
                 rows.append({"solver": solver, "triangles": int(n), "ms_median": float("nan"), "failed": str(err)})
                 continue
-            rows.append({"solver": solver, "triangles": int(problem.mesh.t.shape[1]), "dofs": int(problem.basis.N),
+            rows.append({"solver": solver, "triangles": int(model.mesh.t.shape[1]), "dofs": int(model.n_dofs),
                          "ms_median": stats["ms_median"], "ms_p95": stats["ms_p95"], "newton": stats["newton"],
                          "linear_iterations": stats["linear_iterations"], "factorizations": stats["factorizations"],
                          "failed": ""})
@@ -494,13 +475,13 @@ def budget_residual(sizes, frames: int, solvers=("reuse",), budget: float = FRAM
             continue
         for n in sizes:
             setting = Setting(triangles=int(n), linear_solver=solver)
-            problem, states, stats = run_setting("flap", setting, frames, (frames,), budget=budget, clock=clock)
+            model, states, stats = run_setting("flap", setting, frames, (frames,), budget=budget, clock=clock)
             _, converged_states, _ = run_setting("flap", setting, frames, (frames,))
-            M = _l2_gram(problem)
+            M = _l2_gram(model)
             rows.append({
                 "solver": solver,
-                "triangles": int(problem.mesh.t.shape[1]),
-                "dofs": int(problem.basis.N),
+                "triangles": int(model.mesh.t.shape[1]),
+                "dofs": int(model.n_dofs),
                 "budget_ms": 1e3 * budget,
                 "converged_share": stats["converged_share"],
                 "residual_median": stats["residual_median"],
@@ -534,7 +515,7 @@ def _plan(plan) -> tuple[str, dict]:
 
 def accuracy_study(plan="full", benchmarks=BENCHMARKS, knobs=None, scaling: bool = True, budget: bool = True,
                    verification: bool = True, out=None, progress=print) -> dict:
-    """Run the study; return its results (and write them, with figures, to the folder ``out``).
+    """Run the study; return its results (and write them to the folder ``out``).
 
     ``plan`` is ``"full"`` (the CLI's, several minutes), ``"reduced"``
     (chapter 9's, under a minute), ``"tiny"`` (the tests'), or a dict shaped
@@ -577,8 +558,6 @@ def accuracy_study(plan="full", benchmarks=BENCHMARKS, knobs=None, scaling: bool
         bp = plan["budget"]
         results["budget"] = budget_residual(bp["sizes"], bp["frames"], bp.get("solvers", ("reuse",)), progress=say)
     if verification:
-        from ..accuracy import beam_problem_tip, manufactured_convergence
-
         computed, exact = beam_problem_tip(32, 8, 2)
         results["verification"] = {
             "cantilever_P2_32x8": {"tip": computed, "exact": exact, "relative_error": abs(computed - exact) / abs(exact)},
@@ -596,62 +575,27 @@ def accuracy_study(plan="full", benchmarks=BENCHMARKS, knobs=None, scaling: bool
 # results files
 # --------------------------------------------------------------------------------------------------
 
-def _json_ready(x):
-    if isinstance(x, dict):
-        return {str(k): _json_ready(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_json_ready(v) for v in x]
-    if isinstance(x, (np.floating, float)):
-        return None if not math.isfinite(float(x)) else float(x)
-    if isinstance(x, np.integer):
-        return int(x)
-    if isinstance(x, np.bool_):
-        return bool(x)
-    return x
-
-
 _VERSION_COLUMNS = ("python", "numpy", "scipy", "scikit-fem", "platform")
 
 
-def _write_csv(path, rows, machine):
-    keys = list(dict.fromkeys(k for r in rows for k in r if not isinstance(r[k], (list, dict))))
-    with open(path, "w", encoding="utf-8", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=keys + list(_VERSION_COLUMNS), extrasaction="ignore")
-        writer.writeheader()
-        for r in rows:
-            writer.writerow({**{k: ("" if r.get(k) is None else r.get(k)) for k in keys},
-                             **{c: machine.get(c, "") for c in _VERSION_COLUMNS}})
-
-
 def write_results(results: dict, out) -> list[Path]:
-    """Write ``accuracy.json``, one CSV per table (knobs, scaling, budget; library versions in every row)
-    and the three figures of the study into the folder ``out``; return the paths."""
-    from ..figures.accuracy import plot_budget, plot_pareto, plot_scaling
-
+    """Write ``accuracy.json`` and one CSV per table (knobs, scaling, budget; library versions in every row)
+    into the folder ``out``; return the paths. (The figures of the study draw from these results.)"""
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    paths = [out / "accuracy.json"]
-    with open(paths[0], "w", encoding="utf-8") as fh:
-        json.dump(_json_ready(results), fh, indent=1)
-        fh.write("\n")
+    paths = [write_json(out / "accuracy.json", results)]
+    machine = results.get("machine", {})
+    versions = {c: machine.get(c, "") for c in _VERSION_COLUMNS}
     tables = {"knobs": results.get("knobs", []), "scaling": results.get("scaling", {}).get("rows", []),
               "budget": results.get("budget", [])}
     for table, rows in tables.items():
         if rows:
-            paths.append(out / f"accuracy_{table}.csv")
-            _write_csv(paths[-1], rows, results.get("machine", {}))
-    for plot, stem, key in ((plot_pareto, "pareto", "knobs"), (plot_scaling, "scaling", "scaling"),
-                            (plot_budget, "budget", "budget")):
-        if results.get(key):
-            paths.append(out / f"accuracy_{stem}.png")
-            plot(results, paths[-1])
+            paths.append(write_csv(out / f"accuracy_{table}.csv", rows, versions))
     return paths
 
 
-def load_results(path) -> dict:
+def read_results(path) -> dict:
     """Read an ``accuracy.json`` written by :func:`write_results` (JSON nulls become NaN in number fields)."""
-    with open(path, encoding="utf-8") as fh:
-        results = json.load(fh)
+    results = load_results(path)
     for row in results.get("knobs", []) + results.get("scaling", {}).get("rows", []) + results.get("budget", []):
         for k, v in row.items():
             if v is None and k not in ("intorder",):
@@ -661,7 +605,7 @@ def load_results(path) -> dict:
 
 def recorded_results() -> dict:
     """The full study as recorded on the reference machine (shipped with the package; chapter 9 reads it)."""
-    return load_results(Path(__file__).parents[1] / "data" / "accuracy_study.json")
+    return read_results(Path(__file__).parents[1] / "data" / "accuracy_study.json")
 
 
 _TABLE = [

@@ -1,0 +1,48 @@
+"""Every lecture figure as a function: the command line and the chapters call the same code.
+
+:data:`FIGURES` maps each figure's name to its function, in the chapters' order;
+:func:`generate` writes them (``python -m tissuefem figures``). Figure modules
+draw; they never run a benchmark (recorded results are read through
+:mod:`tissuefem.workbook.bench.common`).
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Callable
+
+from . import accuracy, dynamics, fibers, inversion, kinematics, oned, realtime, surgery
+from .base import lecture_figure, matplotlib_note, save
+
+__all__ = ["FIGURES", "generate", "lecture_figure", "matplotlib_note", "save"]
+
+#: every lecture figure by name, chapter by chapter
+FIGURES: dict[str, Callable] = {
+    name: func
+    for module in (oned, kinematics, fibers, inversion, dynamics, realtime, surgery, accuracy)
+    for name, func in vars(module).items()
+    if getattr(func, "lecture_figure", False) and getattr(func, "__module__", None) == module.__name__
+}
+
+
+def generate(names=None, outdir="figures", progress=print) -> list[Path]:
+    """Regenerate the named figures (all by default) into ``outdir``; returns the paths."""
+    names = list(FIGURES) if names is None else list(names)
+    unknown = [n for n in names if n not in FIGURES]
+    if unknown:
+        raise ValueError(f"unknown figure(s) {unknown}; choose from {sorted(FIGURES)}")
+    outdir = Path(outdir)
+    paths = []
+    start = time.perf_counter()
+    for i, name in enumerate(names, 1):
+        t0 = time.perf_counter()
+        path = outdir / f"{name}.png"
+        FIGURES[name](path)
+        paths.append(path)
+        if progress:
+            progress(
+                f"[figure {i}/{len(names)}] {path}  ({time.perf_counter() - t0:.1f} s, "
+                f"total {time.perf_counter() - start:.1f} s)"
+            )
+    return paths

@@ -14,7 +14,10 @@ import math
 import numpy as np
 from matplotlib.figure import Figure
 
-from .registry import register, save
+from .base import lecture_figure, save
+from ..accuracy import manufactured_convergence
+from ..measure import pareto_front
+from ..bench.accuracy import recorded_results
 
 #: One colour and marker per knob, and the words a reader sees.
 KNOB_STYLE = {
@@ -60,7 +63,6 @@ def plot_pareto(results, path=None, annotate=True) -> Figure:
     baseline is the black star; the grey staircase is the Pareto front of
     all settings of the panel (nothing is both faster and more accurate).
     """
-    from ..accuracy import pareto_front
 
     rows = results["knobs"]
     benchmarks = list(dict.fromkeys(r["benchmark"] for r in rows))
@@ -156,33 +158,31 @@ def plot_budget(results, path=None) -> Figure:
 
 
 def _recorded():
-    from ..bench.accuracy import recorded_results
 
     return recorded_results()
 
 
-@register
+@lecture_figure
 def fig_ch09_pareto(path=None, results=None) -> Figure:
     """Chapter 9: error against ms per frame for every knob, flap and quasistatic block (recorded full study)."""
     return plot_pareto(_recorded() if results is None else results, path)
 
 
-@register
+@lecture_figure
 def fig_ch09_scaling(path=None, results=None) -> Figure:
     """Chapter 9: ms per frame against mesh size per linear solver, with fitted growth exponents (recorded)."""
     return plot_scaling(_recorded() if results is None else results, path)
 
 
-@register
+@lecture_figure
 def fig_ch09_budget(path=None, results=None) -> Figure:
     """Chapter 9: residual and converged share left by the 33 ms budget, by mesh size (recorded)."""
     return plot_budget(_recorded() if results is None else results, path)
 
 
-@register
+@lecture_figure
 def fig_ch09_verification(path=None, rows=None) -> Figure:
     """Chapter 9: the reference verified -- nonlinear mesh convergence at rates 2 (P1) and 3 (P2)."""
-    from ..accuracy import manufactured_convergence
 
     rows = manufactured_convergence() if rows is None else rows
     fig = Figure(figsize=(6.4, 4.6), layout="constrained")

@@ -28,7 +28,16 @@ from matplotlib.colors import to_rgba
 from matplotlib.figure import Figure
 from matplotlib.ticker import NullFormatter
 
-from .registry import E_DEFAULT, NU_DEFAULT, register, save, shown
+from ...engine.constants import TISSUE_E, TISSUE_NU
+from .base import lecture_figure, save, shown
+from ...engine.materials import StableNeoHookean
+from ...engine.meshes import rectangle
+from ...engine.parameters import lame_parameters
+from ...engine.model import Handle, Model
+from ...engine.stepping import Stepper, solve
+from ...engine.explicit import SymplecticEuler, critical_time_step
+from ..timestepping import cfl_study
+from .inversion import UPRIGHT_COLOR, draw_state
 
 # (the drawing helpers of figures_inversion are imported inside the functions: importing that module
 # here would be circular when it is the first one imported, since figures imports this module)
@@ -50,35 +59,33 @@ LIFT = 0.5
 
 
 def released_flap(material=None, nx: int = 8, ny: int = 4, lift: float = LIFT):
-    """The chapter's flap, lifted and about to be released: returns ``(problem, u0)``.
+    """The chapter's flap, lifted and about to be released: returns ``(model, u0)``.
 
-    A ``2 x 1`` :func:`~tissuefem.meshes.rectangle` of ``nx x ny`` cells
-    (stable neo-Hookean, plane strain, ``E_DEFAULT, NU_DEFAULT`` unless
+    A ``2 x 1`` :func:`~tissuefem.engine.meshes.rectangle` of ``nx x ny`` cells
+    (stable neo-Hookean, plane strain, ``TISSUE_E, TISSUE_NU`` unless
     ``material`` is given) is held on its left edge and its right edge is
     moved up by ``lift`` (a quasistatic solve); ``u0`` is that state.
-    ``problem`` holds only the left edge: stepping it from ``u0`` at rest is
-    the release.
+    ``model`` (quasistatic) holds only the left edge: stepping it from ``u0`` at
+    rest is the release (:func:`backward_euler_run` gives it a time step).
     """
-    from ...engine.materials import StableNeoHookean
-    from ...engine.meshes import rectangle
-    from ...engine.parameters import lame_parameters
-    from ...engine.quasistatic import Handle, QuasistaticProblem
 
-    material = StableNeoHookean(*lame_parameters(E_DEFAULT, NU_DEFAULT, "strain")) if material is None else material
+    material = StableNeoHookean(*lame_parameters(TISSUE_E, TISSUE_NU, "strain")) if material is None else material
     mesh = rectangle(2.0, 1.0, nx, ny)
-    pulled = QuasistaticProblem(mesh, material, handles=[Handle("left"), Handle("right", (0.0, lift))])
-    result = pulled.solve(load_steps=2)
+    pulled = Model(mesh, material, handles=[Handle("left"), Handle("right", (0.0, lift))])
+    result = solve(pulled, load_steps=2)
     if not result.converged:
         raise RuntimeError(f"the flap could not be lifted by {lift}: {result.status}")
-    return QuasistaticProblem(mesh, material, handles=[Handle("left")]), result.u
+    return Model(mesh, material, handles=[Handle("left")]), result.u
 
 
-def backward_euler_run(problem, u0, dt: float, n_steps: int, frames: bool = False):
-    """Backward Euler from ``u0`` at rest: ``(times, total energies[, displacements])``, one entry per step."""
-    from ...engine.dynamics import BackwardEuler
+def backward_euler_run(model, u0, dt: float, n_steps: int, frames: bool = False):
+    """Backward Euler from ``u0`` at rest: ``(times, total energies[, displacements])``, one entry per step.
 
-    scheme = BackwardEuler(problem, dt)
-    scheme.u = np.array(u0, dtype=float)
+    The body of ``model`` (its mesh, material and fixed left edge) with the inertia term of time step ``dt``.
+    """
+    dynamic = Model(model.mesh, model.material, handles=[Handle("left")], dt=dt, density=model.density)
+    scheme = Stepper(dynamic, rtol=1e-10)
+    scheme.reset(u0)
     times, energies, states = [0.0], [scheme.total_energy()], [scheme.u.copy()]
     for _ in range(n_steps):
         report = scheme.step()
@@ -93,7 +100,7 @@ def backward_euler_run(problem, u0, dt: float, n_steps: int, frames: bool = Fals
 
 # --- the CFL condition ------------------------------------------------------------------------
 
-@register
+@lecture_figure
 def fig_ch07_cfl(path=None, study=None) -> Figure:
     """Chapter 7: symplectic Euler's largest stable time step against the element size h (log-log).
 
@@ -104,11 +111,10 @@ def fig_ch07_cfl(path=None, study=None) -> Figure:
     and the 1/30 s frame, which the fit reaches only at an element as large
     as the flap. Right: the Courant number ``c dt / h`` (``c`` the P-wave
     speed) and the ratio measured / estimate. ``study`` (from
-    :func:`tissuefem.explicit.cfl_study`) skips recomputing it.
+    :func:`tissuefem.workbook.timestepping.cfl_study`) skips recomputing it.
     """
-    from ...engine.explicit import cfl_study
 
-    study = cfl_study(CFL_SIZES, E=E_DEFAULT, nu=NU_DEFAULT) if study is None else study
+    study = cfl_study(CFL_SIZES, E=TISSUE_E, nu=TISSUE_NU) if study is None else study
     h = np.array([r["h"] for r in study])
     measured = shown([r["dt_measured"] for r in study])  # bisection and ARPACK: the last digits vary
     estimate = shown([r["dt_estimate"] for r in study])
@@ -144,7 +150,7 @@ def fig_ch07_cfl(path=None, study=None) -> Figure:
     ax_c.grid(True, which="both", alpha=0.3)
     ax_c.legend(fontsize=8, loc="lower center")
     fig.suptitle(f"Chapter 7, the CFL condition: $\\Delta t \\leq C h / c$ (stable neo-Hookean flap, "
-                 f"E = {E_DEFAULT:g}, ν = {NU_DEFAULT:g}, $\\rho_0$ = 1; fitted exponent {study.exponent:.3f})",
+                 f"E = {TISSUE_E:g}, ν = {TISSUE_NU:g}, $\\rho_0$ = 1; fitted exponent {study.exponent:.3f})",
                  fontsize=10)
     save(fig, path)
     return fig
@@ -152,7 +158,7 @@ def fig_ch07_cfl(path=None, study=None) -> Figure:
 
 # --- energy: numerical damping against bounded oscillation -------------------------------------
 
-@register
+@lecture_figure
 def fig_ch07_energy(path=None) -> Figure:
     """Chapter 7: total energy of the released flap, backward Euler at three steps and symplectic Euler.
 
@@ -166,7 +172,6 @@ def fig_ch07_energy(path=None) -> Figure:
     scale; the run stops once the energy passes a million times its start).
     Energies are relative to the stored energy of the lifted flap.
     """
-    from ...engine.explicit import SymplecticEuler, critical_time_step
 
     problem, u0 = released_flap()
     dt_crit = critical_time_step(problem)
@@ -209,8 +214,8 @@ def fig_ch07_energy(path=None) -> Figure:
               transform=ax_u.transAxes, va="top", fontsize=8, color="C3")
     ax_u.grid(True, which="both", alpha=0.3)
     fig.suptitle(f"Chapter 7: energy of the released flap ($\\Delta t_{{crit}} = 2/\\omega_{{max}}$ = "
-                 f"{1000 * dt_crit:.2f} ms at rest; 8 x 4 cells, stable neo-Hookean, E = {E_DEFAULT:g}, "
-                 f"ν = {NU_DEFAULT:g}, $\\rho_0$ = 1)", fontsize=10)
+                 f"{1000 * dt_crit:.2f} ms at rest; 8 x 4 cells, stable neo-Hookean, E = {TISSUE_E:g}, "
+                 f"ν = {TISSUE_NU:g}, $\\rho_0$ = 1)", fontsize=10)
     save(fig, path)
     return fig
 
@@ -225,7 +230,6 @@ def _flap_axes_limits(states, problem, margin: float = 0.08):
 
 def write_flap_animation(gif_path, problem, states, dt: float, dpi: int = 60) -> Path:
     """Write the states as a GIF at one frame per step of ``dt`` (``matplotlib.animation``, Pillow)."""
-    from .inversion import UPRIGHT_COLOR
 
     gif_path = Path(gif_path)
     gif_path.parent.mkdir(parents=True, exist_ok=True)
@@ -252,7 +256,7 @@ def write_flap_animation(gif_path, problem, states, dt: float, dpi: int = 60) ->
     return gif_path
 
 
-@register
+@lecture_figure
 def fig_ch07_released_flap(path=None) -> Figure:
     """Chapter 7: the flap let go, backward Euler at one step per frame (1/30 s), as a filmstrip.
 
@@ -264,7 +268,6 @@ def fig_ch07_released_flap(path=None) -> Figure:
     whole run as an animation ``<path stem>.gif`` beside the PNG
     (50 frames at 30 frames per second).
     """
-    from .inversion import draw_state
 
     problem, u0 = released_flap()
     times, energies, states = backward_euler_run(problem, u0, FRAME_DT, ANIMATION_FRAMES - 1, frames=True)
@@ -298,7 +301,7 @@ def fig_ch07_released_flap(path=None) -> Figure:
     lines2 = ax2.get_legend_handles_labels()
     ax.legend(lines[0] + lines2[0], lines[1] + lines2[1], fontsize=8, loc="upper right")
     fig.suptitle(f"Chapter 7: the flap let go, backward Euler at $\\Delta t$ = 1/30 s "
-                 f"(stable neo-Hookean, E = {E_DEFAULT:g}, ν = {NU_DEFAULT:g}, $\\rho_0$ = 1, left edge held)",
+                 f"(stable neo-Hookean, E = {TISSUE_E:g}, ν = {TISSUE_NU:g}, $\\rho_0$ = 1, left edge held)",
                  fontsize=10)
     save(fig, path)
     if path is not None:

@@ -6,7 +6,9 @@ import numpy as np
 from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 
-from .registry import register, save
+from .base import lecture_figure, save
+from ...engine.meshes import fusiform_fiber_field, fusiform_muscle, fusiform_width
+from ..fibers import (K_FIBER, block_pull, confined_pull, fiber_direction, muscle_pull, predicted_confined_modulus)
 
 _FIBER_COLOR = "#b2182b"
 
@@ -30,9 +32,9 @@ def _outline(ax, mesh, **style):
 
 def _deformed_fibers(result, fibers, scale):
     """Deformed positions, element centroids and fiber segments ``F g`` of a pull result."""
-    problem = result.problem
-    x = problem.deformed_positions(result.u)
-    F = problem.assembler.deformation_gradient(result.u)
+    problem = result.model
+    x = problem.positions(result.u)
+    F = problem.deformation_gradient(result.u)
     a = np.einsum("ije,je->ie", F, fibers)  # F g: the deformed fiber, length = stretch
     stretch = np.hypot(a[0], a[1])
     return x, _segments(_centroids(x, problem.mesh.t), a / stretch, scale * stretch), stretch
@@ -40,7 +42,7 @@ def _deformed_fibers(result, fibers, scale):
 
 # --- the notes' Figure 3: a fiber field ------------------------------------------------
 
-@register
+@lecture_figure
 def fig03_fiber_field(path=None) -> Figure:
     """Notes' Figure 3 in 2D: the fiber field g of a fusiform muscle, one short segment per element.
 
@@ -48,7 +50,6 @@ def fig03_fiber_field(path=None) -> Figure:
     configuration) and ``g`` is :func:`tissuefem.meshes.fusiform_fiber_field`:
     fibers run from tendon to tendon, fan out into the belly and converge again.
     """
-    from ...engine.meshes import fusiform_fiber_field, fusiform_muscle, fusiform_width
 
     mesh = fusiform_muscle(nx=32, ny=8)
     g = fusiform_fiber_field(mesh)
@@ -76,7 +77,7 @@ def fig03_fiber_field(path=None) -> Figure:
 
 # --- chapter 5: along versus across ------------------------------------------------------
 
-@register
+@lecture_figure
 def fig_ch05_along_vs_across(path=None) -> Figure:
     """Chapter 5: a strip pulled along, at 45 degrees to and across its fibers, and the confined modulus.
 
@@ -85,7 +86,6 @@ def fig_ch05_along_vs_across(path=None) -> Figure:
     small-strain confined modulus against the fiber angle, finite elements
     (dots) on the prediction ``lam + 2 mu + k cos^4 theta``.
     """
-    from ..fibers import K_FIBER, block_pull, confined_pull, fiber_direction, predicted_confined_modulus
 
     cases = [(0.0, "fibers along the pull (0°)", "C3"), (45.0, "fibers at 45°", "C2"),
              (90.0, "fibers across the pull (90°)", "C0"), (None, "no fibers", "0.35")]
@@ -96,7 +96,7 @@ def fig_ch05_along_vs_across(path=None) -> Figure:
     ax_curve, ax_mod = bottom.subplots(1, 2)
     for ax, (angle, label, color) in zip(shapes, cases):
         result = block_pull(angle, stretches)
-        mesh = result.problem.mesh
+        mesh = result.model.mesh
         _outline(ax, mesh, colors="0.55", linewidths=0.9, linestyles="dashed")
         x, segs, _ = _deformed_fibers(result, fiber_direction(0.0 if angle is None else angle)[:, None], 0.16)
         ax.triplot(x[0], x[1], mesh.t.T, color="0.7", lw=0.35)
@@ -137,7 +137,7 @@ def fig_ch05_along_vs_across(path=None) -> Figure:
     return fig
 
 
-@register
+@lecture_figure
 def fig_ch05_muscle_pull(path=None) -> Figure:
     """Chapter 5: the fusiform muscle pulled by its right tendon, with and without fibers.
 
@@ -145,18 +145,16 @@ def fig_ch05_muscle_pull(path=None) -> Figure:
     shape), coloured by the stretch ``sqrt(I4) = |F g|`` along the anatomical
     fiber direction. Right: the tendon force against the stretch.
     """
-    from ..fibers import K_FIBER, muscle_pull
-    from ...engine.meshes import fusiform_fiber_field
 
     stretches = np.linspace(1.0, 1.2, 9)
     runs = [(False, "isotropic (no fibers)", "0.35"), (True, f"with fibers, k = {K_FIBER:g}", "C3")]
     fig = Figure(figsize=(10.0, 5.0), layout="constrained")
     axes = fig.subplot_mosaic([["m0", "curve"], ["m1", "curve"]], width_ratios=[1.7, 1.0])
     results = [muscle_pull(stretches, with_fibers=with_fibers) for with_fibers, _, _ in runs]
-    drawn = [_deformed_fibers(r, fusiform_fiber_field(r.problem.mesh), 0.09) for r in results]
+    drawn = [_deformed_fibers(r, fusiform_fiber_field(r.model.mesh), 0.09) for r in results]
     top = float(np.ceil(10.0 * max(d[2].max() for d in drawn)) / 10.0)
     for i, ((_, label, color), result, (x, segs, stretch)) in enumerate(zip(runs, results, drawn)):
-        mesh = result.problem.mesh
+        mesh = result.model.mesh
         ax = axes[f"m{i}"]
         _outline(ax, mesh, colors="0.55", linewidths=0.8, linestyles="dashed")
         image = ax.tripcolor(x[0], x[1], mesh.t.T, facecolors=stretch, cmap="viridis", vmin=1.0, vmax=top)

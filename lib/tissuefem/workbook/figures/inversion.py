@@ -18,7 +18,10 @@ from matplotlib.colors import to_rgba
 from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 
-from .registry import E_DEFAULT, NU_DEFAULT, at_least, register, save
+from ...engine.constants import TISSUE_E, TISSUE_NU
+from .base import at_least, lecture_figure, save
+from ..hardcases import block, crush_and_release, inversion_models
+from ...engine.inversion import diagonal
 
 #: fill colours of a triangle that keeps its orientation (J > 0) and of an inverted or flat one (J <= 0)
 UPRIGHT_COLOR, INVERTED_COLOR = "#6baed6", "#d6604d"
@@ -89,9 +92,8 @@ def draw_state(ax, mesh, x, *, J=None, alpha: float = 1.0, tol: float = 1e-12) -
     return int(bad.sum())
 
 
-def crush_and_release_runs(E: float = E_DEFAULT, nu: float = NU_DEFAULT, mesh=None) -> dict:
+def crush_and_release_runs(E: float = TISSUE_E, nu: float = TISSUE_NU, mesh=None) -> dict:
     """Run :func:`tissuefem.hardcases.crush_and_release` (default depth 1.3) for the four models, by name."""
-    from ..hardcases import block, crush_and_release, inversion_models
 
     mesh = block() if mesh is None else mesh
     return {name: crush_and_release(material, mesh) for name, material in inversion_models(E, nu).items()}
@@ -108,7 +110,7 @@ def _handle_line(ax, y, xlim):
     ax.plot(xlim, [y, y], color="0.35", lw=0.8, ls="--")
 
 
-@register
+@lecture_figure
 def fig06_crush_release(path=None, runs=None) -> Figure:
     """Notes' Figure 6 as an experiment: a block crushed to flat and past it, then let go, for four models.
 
@@ -120,7 +122,6 @@ def fig06_crush_release(path=None, runs=None) -> Figure:
     not reach shows the last state it did reach, faded. ``runs`` (from
     :func:`crush_and_release_runs`) skips recomputing them.
     """
-    from ..hardcases import block
 
     mesh = block()
     runs = crush_and_release_runs(mesh=mesh) if runs is None else runs
@@ -161,13 +162,13 @@ def fig06_crush_release(path=None, runs=None) -> Figure:
                         Patch(fc=to_rgba(INVERTED_COLOR, 0.6), ec="0.25", label="$J \\leq 0$ (inverted or flat)")],
                loc="outside lower center", ncol=2, fontsize=8, frameon=False)
     fig.suptitle("Notes' Figure 6 as an experiment: crush a block to flat and past it, then let go\n"
-                 f"(E = {E_DEFAULT:g}, ν = {NU_DEFAULT:g}; bottom edge held; dashed: the top handle)",
+                 f"(E = {TISSUE_E:g}, ν = {TISSUE_NU:g}; bottom edge held; dashed: the top handle)",
                  fontsize=10)
     save(fig, path)
     return fig
 
 
-@register
+@lecture_figure
 def fig_ch06_itf_energy(path=None) -> Figure:
     """Chapter 6: the four models' energy along one signed singular value, and along a shrink to F = 0.
 
@@ -179,10 +180,8 @@ def fig_ch06_itf_energy(path=None) -> Figure:
     ``F = 0`` with zero slope (a stationary point), the ITF-clamped model with
     a finite one (it pushes outward).
     """
-    from ..hardcases import inversion_models
-    from ...engine.inversion import diagonal
 
-    models = inversion_models(E_DEFAULT, NU_DEFAULT)
+    models = inversion_models(TISSUE_E, TISSUE_NU)
     c = models["ITF-clamped neo-Hookean"].threshold
     s1 = np.linspace(-1.0, 1.6, 521)
     F_line = diagonal(np.stack([np.ones_like(s1), s1]))
@@ -209,6 +208,6 @@ def fig_ch06_itf_energy(path=None) -> Figure:
     ax_t.set(xlim=(t[0], t[-1]), ylim=(-200, 10000), xlabel="$t$ in $\\mathbf{F} = t\\,\\mathbf{I}$",
              ylabel="$\\Psi(t\\,\\mathbf{I})$", title="uniform shrink to a point ($t = 0$: $\\mathbf{F} = 0$)")
     ax_t.grid(alpha=0.3)
-    fig.suptitle(f"Inversion in diagonal space: E = {E_DEFAULT:g}, ν = {NU_DEFAULT:g} (plane strain)", fontsize=11)
+    fig.suptitle(f"Inversion in diagonal space: E = {TISSUE_E:g}, ν = {TISSUE_NU:g} (plane strain)", fontsize=11)
     save(fig, path)
     return fig

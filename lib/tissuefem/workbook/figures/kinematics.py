@@ -21,7 +21,12 @@ from matplotlib.figure import Figure
 from matplotlib.patches import FancyArrowPatch
 from matplotlib.tri import Triangulation
 
-from .registry import E_DEFAULT, NU_DEFAULT, at_least, register, save
+from ...engine.constants import TISSUE_E, TISSUE_NU
+from .base import at_least, lecture_figure, save
+from ...engine.meshes import rectangle
+from ..studies import (BLOCK_HANDLE, RECORDED_COST_ACCURACY, bending_gradient, bending_map, block_model, rigid_rotation_response, rotated_block, rotation)
+from ...engine.materials import LinearElastic, NeoHookean
+from ...engine.stepping import solve
 
 #: one frame at 30 frames per second, in milliseconds
 FRAME_BUDGET_MS = 1000.0 / 30.0
@@ -58,7 +63,7 @@ def _outline(width, height, samples: int = 60) -> np.ndarray:
 
 # --- chapter 3 / notes Figure 2 -------------------------------------------------
 
-@register
+@lecture_figure
 def fig02_kinematics(path=None) -> Figure:
     """Notes' Figure 2: reference and deformed mesh, a point X carried to x = phi(X), and F acting on dX.
 
@@ -69,8 +74,6 @@ def fig02_kinematics(path=None) -> Figure:
     are two short material vectors dX at X and their images dx = F dX at x:
     the columns of F = d phi / d X are the images of the unit vectors.
     """
-    from ...engine.meshes import rectangle
-    from ..studies import bending_gradient, bending_map
 
     mesh = rectangle(2.0, 1.0, 8, 4)
     fig = Figure(figsize=(9.0, 3.9), layout="constrained")
@@ -135,7 +138,7 @@ def _deformed_area(problem, u) -> float:
     return float(0.5 * np.sum((b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1])))
 
 
-@register
+@lecture_figure
 def fig_ch03_rotation_stress(path=None) -> Figure:
     """Chapter 3: a rigid rotation stresses linear elasticity, not Neo-Hookean; a turned block grows.
 
@@ -145,11 +148,9 @@ def fig_ch03_rotation_stress(path=None) -> Figure:
     equilibrium: the Neo-Hookean block turns rigidly, the linear-elastic one is
     strained and its area grows.
     """
-    from ...engine.materials import LinearElastic, NeoHookean
-    from ..studies import rigid_rotation_response, rotated_block, rotation
 
-    linear = LinearElastic.from_young(E_DEFAULT, NU_DEFAULT)
-    neo = NeoHookean.from_young(E_DEFAULT, NU_DEFAULT)
+    linear = LinearElastic.from_young(TISSUE_E, TISSUE_NU)
+    neo = NeoHookean.from_young(TISSUE_E, TISSUE_NU)
     deg = np.linspace(0.0, 180.0, 181)
     fig = Figure(figsize=(12.0, 4.3), layout="constrained")
     ax_e, ax_p, ax_b = fig.subplots(1, 3, width_ratios=[1, 1, 1.15])
@@ -178,7 +179,7 @@ def fig_ch03_rotation_stress(path=None) -> Figure:
         loop = x[:, _boundary_loop(8, 8)]
         tri = Triangulation(x[0], x[1], problem.mesh.t.T)
         ratio = _deformed_area(problem, result.u)  # the reference area is 1
-        energy = abs(problem.strain_energy(result.u))
+        energy = abs(problem.stored_energy(result.u))
         ax_b.fill(loop[0], loop[1], color=color, alpha=0.15, lw=0)
         ax_b.triplot(tri, color=color, lw=0.3, alpha=0.6)
         ax_b.plot(loop[0], loop[1], color=color, lw=1.8,
@@ -190,14 +191,14 @@ def fig_ch03_rotation_stress(path=None) -> Figure:
     ax_b.set(xlim=(-0.7, 1.6), ylim=(-0.1, 2.6), xlabel="$x_1$", ylabel="$x_2$",
              title="equilibrium of a block turned at its left edge")
     ax_b.legend(fontsize=7.5, loc="upper left")
-    fig.suptitle(f"Linear elasticity is not frame indifferent (E = {E_DEFAULT:g}, $\\nu$ = {NU_DEFAULT:g})")
+    fig.suptitle(f"Linear elasticity is not frame indifferent (E = {TISSUE_E:g}, $\\nu$ = {TISSUE_NU:g})")
     save(fig, path)
     return fig
 
 
 # --- chapter 4: the block ------------------------------------------------------------
 
-@register
+@lecture_figure
 def fig_ch04_block(path=None) -> Figure:
     """Chapter 4: the Neo-Hookean block stretched and sheared by its handles, coloured by J and by Psi.
 
@@ -206,14 +207,11 @@ def fig_ch04_block(path=None) -> Figure:
     triangle: the area ratio J = det F (white = no change of area) and the
     energy density Psi. The dashed outline is the reference block.
     """
-    from ...engine.assembly import P1Assembler
-    from ...engine.materials import NeoHookean
-    from ..studies import BLOCK_HANDLE, block_problem
 
-    material = NeoHookean.from_young(E_DEFAULT, NU_DEFAULT)
-    problem = block_problem(n=12, order=1, material=material)
-    result = problem.solve()
-    F = P1Assembler(problem.mesh).deformation_gradient(result.u)
+    material = NeoHookean.from_young(TISSUE_E, TISSUE_NU)
+    problem = block_model(n=12, order=1, material=material)
+    result = solve(problem)
+    F = problem.deformation_gradient(result.u)
     J = F[0, 0] * F[1, 1] - F[0, 1] * F[1, 0]
     psi = material.energy(F)
     x = problem.deformed_positions(result.u)
@@ -242,7 +240,7 @@ def fig_ch04_block(path=None) -> Figure:
         ax.set_aspect("equal")
         ax.set(xlim=(-0.25, 2.9), ylim=(-0.15, 1.55), xlabel="$x_1$", ylabel="$x_2$", title=label)
         fig.colorbar(art, ax=ax, shrink=0.8)
-    fig.suptitle(f"Neo-Hookean block (E = {E_DEFAULT:g}, $\\nu$ = {NU_DEFAULT:g}), {problem.mesh.t.shape[1]} P1 "
+    fig.suptitle(f"Neo-Hookean block (E = {TISSUE_E:g}, $\\nu$ = {TISSUE_NU:g}), {problem.mesh.t.shape[1]} P1 "
                  f"triangles, left edge fixed, right edge moved by {tuple(BLOCK_HANDLE)}")
     save(fig, path)
     return fig
@@ -250,7 +248,7 @@ def fig_ch04_block(path=None) -> Figure:
 
 # --- chapter 4: what accuracy costs -----------------------------------------------------
 
-@register
+@lecture_figure
 def fig_ch04_cost_accuracy(path=None, rows=None) -> Figure:
     """Chapter 4: L2 displacement error against solve time, P1 against P2, with the 33 ms frame budget.
 
@@ -260,7 +258,6 @@ def fig_ch04_cost_accuracy(path=None, rows=None) -> Figure:
     rest; right: one Newton iteration at the solution, the
     least a warm-started real-time frame needs. Labels give the dof counts.
     """
-    from ..studies import RECORDED_COST_ACCURACY
 
     source = "recorded run" if rows is None else "this run"
     rows = RECORDED_COST_ACCURACY if rows is None else list(rows)

@@ -10,12 +10,15 @@ with every frame converged.
 
 from __future__ import annotations
 
-import math
 
 import numpy as np
+from matplotlib.ticker import NullFormatter
 from matplotlib.figure import Figure
 
-from .registry import register, save, shown
+from .base import lecture_figure, save, shown
+from ...engine.constants import FRAME_BUDGET
+from ...surgery.scene import Scene, flap_path, flap_scene
+from ...surgery.simulation import Simulation
 
 SIZES = (500, 2000, 8000)
 CAPS = (1, 2, 3)
@@ -24,23 +27,23 @@ FRAMES = 40
 
 def capped_runs(sizes=SIZES, caps=CAPS, frames=FRAMES) -> list[dict]:
     """For each size and cap: median relative residual per frame and the final state error against converged frames."""
-    from ..bench.realtime import DT_FLAP, flap_path, flap_scene
-    from ...engine.realtime import RealtimeSolver
 
     rows = []
     for n in sizes:
-        reference = RealtimeSolver(flap_scene(n)[0], dt=DT_FLAP, budget=math.inf, rtol=1e-10)
+        reference = Simulation(flap_scene(n, rtol=1e-10))
         for f in range(frames):
-            reference.frame({1: flap_path((f + 1) * DT_FLAP)})
+            reference.frame({"handle": flap_path((f + 1) * FRAME_BUDGET)})
         scale = float(np.max(np.abs(reference.u)))
         for cap in caps:
-            solver = RealtimeSolver(flap_scene(n)[0], dt=DT_FLAP, budget=math.inf, rtol=1e-12, max_iterations=cap)
+            scene = flap_scene(n, rtol=1e-12).to_dict()
+            scene["solver"]["max_iterations"] = cap
+            solver = Simulation(Scene.from_dict(scene))
             relative = []
             for f in range(frames):
-                report = solver.frame({1: flap_path((f + 1) * DT_FLAP)})
+                report = solver.frame({"handle": flap_path((f + 1) * FRAME_BUDGET)})
                 relative.append(report.relative_residual)
             rows.append({
-                "triangles": int(solver.problem.mesh.t.shape[1]),
+                "triangles": int(solver.mesh.t.shape[1]),
                 "cap": cap,
                 "median_relative_residual": float(np.median(relative)),
                 "state_error": float(np.max(np.abs(solver.u - reference.u)) / scale),
@@ -52,7 +55,7 @@ def capped_runs(sizes=SIZES, caps=CAPS, frames=FRAMES) -> list[dict]:
 STATE_ROUND_OFF = 1e-12
 
 
-@register
+@lecture_figure
 def fig_ch07_budget_residual(path=None, rows=None) -> Figure:
     """Chapter 7: residual and state error left when a frame stops after 1, 2 or 3 Newton steps, by mesh size."""
     rows = capped_runs() if rows is None else rows
@@ -74,11 +77,30 @@ def fig_ch07_budget_residual(path=None, rows=None) -> Figure:
              title="Residual left at the end of a frame")
     ax_e.set(xlabel="triangles", ylabel="max |u - u_converged| / max |u_converged|",
              title=f"State error after {FRAMES} frames of the drag")
-    from matplotlib.ticker import NullFormatter
 
     for ax in (ax_r, ax_e):
         ax.grid(True, which="both", alpha=0.3)
         ax.xaxis.set_minor_formatter(NullFormatter())
         ax.legend(fontsize=8, loc="center right")
+    save(fig, path)
+    return fig
+
+
+def plot_realtime(rows, path=None):
+    """The realtime benchmark's results (``python -m tissuefem bench realtime``): ms per frame against mesh size (median and 95th percentile, ex43 way), with the 33 ms line."""
+    tri = np.array([r["triangles"] for r in rows])
+    fig = Figure(figsize=(6.4, 4.4), layout="constrained")
+    ax = fig.subplots()
+    ax.loglog(tri, [r["fast_median_ms"] for r in rows], "o-", color="tab:blue",
+              label=f"real-time solver, median ({rows[0].get('linear_solver', '')})")
+    ax.loglog(tri, [r["fast_p95_ms"] for r in rows], "v:", color="tab:blue", alpha=0.7, label="real-time solver, p95")
+    if "ex43_median_ms" in rows[0]:
+        ax.loglog(tri, [r["ex43_median_ms"] for r in rows], "s-", color="tab:red", label="scikit-fem ex43 way, median")
+    ax.axhline(1e3 * FRAME_BUDGET, color="k", ls="--", lw=1)
+    ax.text(tri[0], 1e3 * FRAME_BUDGET * 1.08, "33 ms: 30 frames per second", fontsize=8)
+    ax.set(xlabel="triangles", ylabel="ms per converged frame",
+           title="Standard flap scene, backward Euler, dt = 1/30, rtol 1e-6")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
     save(fig, path)
     return fig

@@ -35,7 +35,12 @@ from matplotlib.colors import Normalize, to_rgba
 from matplotlib.figure import Figure
 from matplotlib.patches import Circle
 
-from .registry import E_DEFAULT, NU_DEFAULT, register, save
+from ...engine.constants import TISSUE_E, TISSUE_NU
+from .base import lecture_figure, save
+from ...surgery.scene import Scene
+from ...surgery.simulation import Simulation
+from ...surgery.topology import connected_components
+from ...surgery.flaps import advancement_flap
 
 #: one frame of the interactive loop, in seconds
 FRAME_DT = 1.0 / 30.0
@@ -70,7 +75,6 @@ def _still_clock():
 
 def sheet_scene(n_triangles=1200, *, handles, dynamic=False, gravity=False, width=2.0, height=1.0):
     """A ``width x height`` sheet of stable neo-Hookean tissue (E = 1000, nu = 0.3) with the given handles."""
-    from ...surgery.scene import Scene
 
     effects = {"handles": handles}
     if dynamic:
@@ -80,14 +84,13 @@ def sheet_scene(n_triangles=1200, *, handles, dynamic=False, gravity=False, widt
     return Scene(
         name="sheet",
         domain={"shape": "rectangle", "width": width, "height": height, "triangles": int(n_triangles)},
-        material={"model": "stable-neo-hookean", "youngs_modulus": E_DEFAULT, "poisson_ratio": NU_DEFAULT},
+        material={"model": "stable-neo-hookean", "youngs_modulus": TISSUE_E, "poisson_ratio": TISSUE_NU},
         effects=effects,
         solver={"budget": 1e9, "rtol": 1e-8, "max_iterations": 100},
     )
 
 
 def _simulation(scene):
-    from ...surgery.simulation import Simulation
 
     return Simulation(scene, clock=_still_clock)
 
@@ -166,7 +169,7 @@ def incision_run(n_triangles=1200, pull=INCISION_PULL, path=INCISION_PATH) -> di
     return {"before": before, "after": after, "edit": edit, "simulation": sim}
 
 
-@register
+@lecture_figure
 def fig_ch08_incision(path=None) -> Figure:
     """Chapter 8: an incision in a pulled sheet: before and after the cut, coloured by tension.
 
@@ -212,8 +215,8 @@ def fig_ch08_incision(path=None) -> Figure:
     axes[0].text(0.02, 0.02, f"max tension {before['tension'].max():.0f} (at the corners of the pulled edge)",
                  transform=axes[0].transAxes, fontsize=7.5)
     _tension_colorbar(fig, norm, axes, shrink=0.85)
-    fig.suptitle(f"Chapter 8: an incision in a pulled sheet (quasistatic, stable neo-Hookean, E = {E_DEFAULT:g}, "
-                 f"ν = {NU_DEFAULT:g}; left edge held, right edge pulled)", fontsize=10)
+    fig.suptitle(f"Chapter 8: an incision in a pulled sheet (quasistatic, stable neo-Hookean, E = {TISSUE_E:g}, "
+                 f"ν = {TISSUE_NU:g}; left edge held, right edge pulled)", fontsize=10)
     save(fig, path)
     return fig
 
@@ -228,7 +231,6 @@ def two_pieces_run(n_triangles=800, sag_frames=SAG_FRAMES, fall_frames=FALL_FRAM
     right of the cut, and backward Euler's discrete free fall of the free
     piece from the moment of the cut.
     """
-    from ...surgery.topology import connected_components
 
     sim = _simulation(sheet_scene(n_triangles, handles=[{"name": "fixed", "region": "left"}], dynamic=True,
                                   gravity=True))
@@ -238,7 +240,7 @@ def two_pieces_run(n_triangles=800, sag_frames=SAG_FRAMES, fall_frames=FALL_FRAM
 
     def record(free_elements):
         x = sim.positions()
-        m = sim.solver.M.diagonal()[0::2]  # lumped nodal masses
+        m = sim.model.inertia.M.diagonal()[0::2]  # lumped nodal masses
         frames.append((x.copy(), sim.mesh.t.copy(), free_elements))
         com.append(_side_com(x, m, side["right"]))
 
@@ -254,7 +256,7 @@ def two_pieces_run(n_triangles=800, sag_frames=SAG_FRAMES, fall_frames=FALL_FRAM
     free_elements = free_nodes[sim.mesh.t[0]]
     side["right"] = free_nodes
     # the free piece's centre of mass and velocity at the moment of the cut (the cut moves nothing)
-    m = sim.solver.M.diagonal()[0::2]
+    m = sim.model.inertia.M.diagonal()[0::2]
     mass = m[free_nodes].sum()
     y_cut = float(np.dot(m[free_nodes], sim.positions()[1, free_nodes]) / mass)
     vy_cut = float(np.dot(m[free_nodes], sim.v.reshape(-1, 2)[free_nodes, 1]) / mass)
@@ -322,7 +324,7 @@ def write_two_pieces_animation(gif_path, run, dpi=80) -> Path:
     return gif_path
 
 
-@register
+@lecture_figure
 def fig_ch08_two_pieces(path=None) -> Figure:
     """Chapter 8: a sheet under gravity cut through from top to bottom; the free piece falls away (filmstrip).
 
@@ -371,8 +373,8 @@ def fig_ch08_two_pieces(path=None) -> Figure:
     ax.title.set_fontsize(9)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7.5, loc="lower left")
-    fig.suptitle(f"Chapter 8: a cut through the body makes two pieces (stable neo-Hookean, E = {E_DEFAULT:g}, "
-                 f"ν = {NU_DEFAULT:g}, $\\rho_0$ = 1, g = 9.81, $\\Delta t$ = 1/30 s)", fontsize=10)
+    fig.suptitle(f"Chapter 8: a cut through the body makes two pieces (stable neo-Hookean, E = {TISSUE_E:g}, "
+                 f"ν = {TISSUE_NU:g}, $\\rho_0$ = 1, g = 9.81, $\\Delta t$ = 1/30 s)", fontsize=10)
     save(fig, path)
     if path is not None:
         write_two_pieces_animation(Path(path).with_suffix(".gif"), run)
@@ -402,7 +404,7 @@ def probe_run(n_triangles=1200, radius=PROBE_RADIUS, depths=PROBE_DEPTHS, x_prob
     return {"states": states, "radius": radius, "simulation": sim}
 
 
-@register
+@lecture_figure
 def fig_ch08_probe(path=None) -> Figure:
     """Chapter 8: a rigid disc (a tool tip) pressed into the top edge of a block, at two depths.
 
@@ -473,13 +475,12 @@ def stitch_arcs(a, b, bulge=0.18, n=12) -> np.ndarray:
 
 def flap_runs(lengths=FLAP_LENGTHS, n_triangles=FLAP_TRIANGLES, tighten_frames=FLAP_TIGHTEN_FRAMES) -> dict:
     """:func:`tissuefem.flaps.advancement_flap` for each flap length, ``{length: FlapResult}``."""
-    from ...surgery.flaps import advancement_flap
 
     return {float(L): advancement_flap(flap_length=float(L), n_triangles=n_triangles, tighten_frames=tighten_frames,
                                        clock=_still_clock) for L in lengths}
 
 
-@register
+@lecture_figure
 def fig_ch08_flap(path=None, runs=None) -> Figure:
     """Chapter 8: a local advancement flap closes a defect (after Sifakis et al. 2009); the tension it leaves.
 
@@ -534,7 +535,7 @@ def fig_ch08_flap(path=None, runs=None) -> Figure:
     ax.title.set_fontsize(9)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7.5, loc="lower left")
-    fig.suptitle(f"Chapter 8: an advancement flap closes a 0.6 x 0.6 defect (stable neo-Hookean, E = {E_DEFAULT:g}, "
-                 f"ν = {NU_DEFAULT:g}, patch held on its outer edges; after Sifakis et al. 2009)", fontsize=10)
+    fig.suptitle(f"Chapter 8: an advancement flap closes a 0.6 x 0.6 defect (stable neo-Hookean, E = {TISSUE_E:g}, "
+                 f"ν = {TISSUE_NU:g}, patch held on its outer edges; after Sifakis et al. 2009)", fontsize=10)
     save(fig, path)
     return fig

@@ -1,0 +1,24 @@
+"""The numbers the whole workbook shares, defined once.
+
+* :data:`FRAME_BUDGET` -- the notes' real-time constraint: the state is updated
+  every thirtieth of a second (notes, "Real-time computing"); it is also the
+  default time step of an interactive scene, one step per drawn frame.
+* :data:`TISSUE_E`, :data:`TISSUE_NU` -- the soft-tissue material of the
+  exercises: the notes suggest a Young's modulus "around 1000", and a
+  Poisson's ratio of 0.3 keeps it clearly compressible (plane strain).
+* :data:`TISSUE_DENSITY` -- mass per unit reference area of the 2D tissue.
+"""
+
+#: the notes' frame time, 1/30 s: the budget of one real-time frame and the default time step
+FRAME_BUDGET = 1.0 / 30.0
+
+#: Young's modulus of the exercises' tissue (the notes: "typically around 1000")
+TISSUE_E = 1000.0
+
+#: Poisson's ratio of the exercises' tissue
+TISSUE_NU = 0.3
+
+#: density rho0 of the exercises' tissue (mass per unit reference area)
+TISSUE_DENSITY = 1.0
+
+__all__ = ["FRAME_BUDGET", "TISSUE_E", "TISSUE_NU", "TISSUE_DENSITY"]

@@ -1,0 +1,339 @@
+"""The one minimiser: Newton's method with an energy line search, safeguards, and an optional time budget.
+
+Every solve in tissuefem -- a 1D bar, a quasistatic load step, a backward-Euler
+step, a real-time frame -- is a call of :func:`newton`. The notes' iteration
+(notes, "1D elasticity") is
+
+    dq/du (u^k) du = -q(u^k),    u^{k+1} = u^k + du,
+
+for the residual ``q``; when ``q`` is the gradient of an energy ``E`` (it
+always is here: the incremental potential of :mod:`tissuefem.engine.stepping`)
+the safeguards below make every step safe:
+
+* **line search** ``"energy"``: backtracking (Armijo) on ``E``: a step is
+  accepted only when it lowers the energy enough, so an accepted iterate is
+  finite and never worse than the last. When energy differences are down at
+  round-off, a step that still lowers the residual is accepted instead.
+  ``"finite"`` only halves until the residual is finite (no energy needed);
+  ``None`` is the notes' plain iteration.
+* **descent**: with the energy line search the direction must point downhill
+  (``q . du < 0``). An indefinite tangent can give an uphill direction; then
+  the linear solver refactorizes, then the tangent is shifted by ``tau I``
+  with growing ``tau``, and as a last resort the step is steepest descent.
+* **step cap** ``max_step``: no dof moves by more than this per iteration.
+* **time budget**: with a ``clock`` and a ``budget`` (seconds), no new
+  tangent assembly or linear solve starts once the budget is spent; the first
+  iteration always runs. The clock is any callable returning seconds, so
+  tests pass a fake one.
+
+Prescribed (Dirichlet) dofs are held at their ``x0`` values: only the free
+rows and columns of the tangent are solved (condensation, by the linear
+solver's :class:`~tissuefem.engine.linsolve.Condenser`). The linear solves go
+through a :class:`~tissuefem.engine.linsolve.LinearSolver` policy, which may
+keep a factorization across iterations and across calls.
+
+A numerical failure never escapes as an exception or a NaN state: it is a
+``status`` of the result, whose ``x`` is the last accepted iterate.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+import scipy.sparse as sp
+
+from .linsolve import LinearSolver, SuperLU
+
+__all__ = ["newton", "NewtonResult", "NewtonIteration", "STATUSES"]
+
+#: Why a solve stopped.
+STATUSES = ("converged", "budget", "max-iterations", "line-search-failed", "non-finite", "singular")
+
+#: Armijo's sufficient-decrease constant.
+_ARMIJO = 1e-4
+#: Energy differences below this fraction of the solve's energy scale are round-off.
+_ENERGY_ROUNDOFF = 1e-11
+
+
+@dataclass
+class NewtonIteration:
+    """One row of the convergence history."""
+
+    iteration: int
+    residual_norm: float  # ||q(u^k)|| over the free dofs, before the step
+    step_norm: float  # ||du|| actually taken (after the line search and the cap)
+    step_length: float  # line-search factor alpha (1 = the full Newton step)
+    energy: float | None = None  # energy after the step, when known
+    shift: float = 0.0  # tau added to the tangent's diagonal to get a descent direction (0: none)
+    linear_iterations: int = 0  # conjugate-gradient iterations of this step's linear solve
+
+    @property
+    def cuts(self) -> int:
+        """How many times the line search halved the step (``alpha = 2**-cuts``)."""
+        return int(round(-math.log2(self.step_length))) if self.step_length > 0 else 0
+
+
+@dataclass
+class NewtonResult:
+    """What :func:`newton` did: the last accepted iterate, why it stopped, and the history."""
+
+    x: np.ndarray
+    converged: bool
+    status: str  # one of STATUSES
+    iterations: int
+    residual_norm: float  # ||q|| over the free dofs at x
+    initial_residual: float  # ... at x0
+    target: float  # the residual it had to reach
+    energy: float | None = None  # E(x), when an energy was given
+    start_energy: float | None = None  # E(x0)
+    linear_iterations: int = 0
+    factorizations: int = 0
+    history: list[NewtonIteration] = field(default_factory=list)
+
+    @property
+    def line_search_cuts(self) -> int:
+        """Total number of step halvings over the solve."""
+        return sum(h.cuts for h in self.history)
+
+    @property
+    def energies(self) -> np.ndarray:
+        """Energy after each accepted step (NaN where unknown)."""
+        return np.array([np.nan if h.energy is None else h.energy for h in self.history])
+
+    def residual_norms(self) -> np.ndarray:
+        """Residual norms ``||q(u^k)||`` for k = 0, 1, ..., the final one included."""
+        return np.array([h.residual_norm for h in self.history] + [self.residual_norm])
+
+    @property
+    def relative_residual(self) -> float:
+        return self.residual_norm / self.initial_residual if self.initial_residual > 0 else 0.0
+
+    def table(self) -> str:
+        """The history as a plain-text table: iteration, residual, step, alpha, and the quadratic ratio."""
+        norms = self.residual_norms()
+        lines = [f"{'k':>3} {'|q(u^k)|':>12} {'|du|':>11} {'alpha':>6} {'|q_k+1|/|q_k|^2':>16}"]
+        for h in self.history:
+            k = h.iteration
+            ratio = f"{norms[k + 1] / norms[k] ** 2:16.3e}" if k + 1 < len(norms) and norms[k] > 0 else ""
+            lines.append(f"{k:>3} {h.residual_norm:12.4e} {h.step_norm:11.3e} {h.step_length:6.3f} {ratio}")
+        lines.append(f"{len(self.history):>3} {self.residual_norm:12.4e}   ({self.status})")
+        return "\n".join(lines)
+
+
+def _free_mask(n, free) -> np.ndarray:
+    if free is None:
+        return np.ones(n, dtype=bool)
+    free = np.asarray(free)
+    if free.dtype == bool:
+        if free.shape != (n,):
+            raise ValueError(f"free must be a boolean mask of shape ({n},) or dof indices, got shape {free.shape}")
+        return free.copy()
+    mask = np.zeros(n, dtype=bool)
+    mask[free.astype(np.intp)] = True
+    return mask
+
+
+def _shifted_direction(A, rhs):
+    """A descent direction from ``(A + tau I) dx = rhs`` with growing ``tau``; steepest descent at last."""
+    finite = A is not None and np.all(np.isfinite(A.data))
+    diag = A.diagonal() if finite else np.ones(rhs.size)
+    scale = float(np.max(np.abs(diag), initial=0.0)) or 1.0
+    factorizations = 0
+    if finite:
+        eye = sp.identity(A.shape[0], format="csr")
+        direct = SuperLU()
+        for tau in scale * 10.0 ** np.arange(-6.0, 3.0):
+            try:
+                dx = direct.factorize((A + tau * eye).tocsr()).solve(rhs)
+            except (RuntimeError, ValueError):
+                continue
+            factorizations += 1
+            if np.all(np.isfinite(dx)) and rhs @ dx > 0:
+                return dx, float(tau), factorizations
+    return rhs / (1e3 * scale), math.inf, factorizations
+
+
+def newton(
+    x0,
+    gradient: Callable[[np.ndarray], np.ndarray],
+    hessian: Callable[[np.ndarray], sp.spmatrix],
+    *,
+    energy: Callable[[np.ndarray], float] | None = None,
+    free=None,
+    line_search: str | None = "energy",
+    rtol: float = 1e-10,
+    atol: float = 0.0,
+    reference_norm: float = 0.0,
+    floor: float = 0.0,
+    max_iterations: int = 30,
+    max_step: float | None = None,
+    linear: LinearSolver | None = None,
+    clock: Callable[[], float] | None = None,
+    budget: float = math.inf,
+    start: float | None = None,
+    energy0: float | None = None,
+    max_halvings: int = 30,
+) -> NewtonResult:
+    """Minimise ``energy`` (or find a zero of ``gradient``) over the ``free`` dofs by Newton's method.
+
+    Parameters
+    ----------
+    x0 : array (n,)
+        The start; entries that are not free are prescribed values and never change.
+    gradient, hessian : callables
+        ``gradient(x) -> (n,)`` (the residual ``q``) and ``hessian(x) -> (n, n)`` sparse, its Jacobian.
+    energy : callable, optional
+        ``E(x)`` with ``gradient = dE/dx``; needed by ``line_search="energy"``.
+    free : boolean mask or index array, optional
+        The unknowns (default: every dof).
+    line_search : ``"energy"``, ``"finite"`` or ``None``
+        See the module docstring.
+    rtol, atol, reference_norm, floor
+        Converged when ``||q_free|| <= max(atol + rtol max(||q_free(x0)||, reference_norm), floor)``.
+        ``reference_norm`` is the size of the load the solve balances when ``x0`` is already a good
+        guess (a tiny start residual would otherwise ask for more than round-off allows);
+        ``floor`` is the round-off level of the residual, below which nothing is asked.
+    max_iterations, max_step, max_halvings
+        Iteration cap, step cap (largest change of one dof per iteration), line-search halvings.
+    linear : LinearSolver, optional
+        The linear-solve policy (default: a fresh direct factorization each iteration).
+    clock, budget, start
+        Wall-clock budget in seconds measured by ``clock`` from ``start`` (default: when called).
+    energy0
+        ``E(x0)`` if already known.
+    """
+    x = np.array(x0, dtype=float, copy=True)
+    if x.ndim != 1:
+        raise ValueError(f"x0 must be a 1D array, got shape {np.shape(x0)}")
+    if not np.all(np.isfinite(x)):
+        raise ValueError("x0 contains non-finite values")
+    if line_search not in (None, "finite", "energy"):
+        raise ValueError(f"line_search must be None, 'finite' or 'energy', got {line_search!r}")
+    if line_search == "energy" and energy is None:
+        raise ValueError("line_search='energy' needs the energy callable")
+    if max_step is not None and not (np.isfinite(max_step) and max_step > 0):
+        raise ValueError(f"max_step must be finite and > 0, got {max_step!r}")
+    for name, value in (("rtol", rtol), ("atol", atol), ("floor", floor), ("reference_norm", reference_norm)):
+        if not (np.isfinite(value) and value >= 0):
+            raise ValueError(f"{name} must be finite and >= 0, got {value!r}")
+    if isinstance(max_iterations, bool) or not isinstance(max_iterations, (int, np.integer)) or max_iterations < 0:
+        raise ValueError(f"max_iterations must be an integer >= 0, got {max_iterations!r}")
+    n = x.size
+    mask = _free_mask(n, free)
+    linear = LinearSolver("direct") if linear is None else linear
+    timed = clock is not None and budget < math.inf
+    if timed and start is None:
+        start = clock()
+
+    def out_of_time():
+        return timed and clock() - start >= budget
+
+    history: list[NewtonIteration] = []
+    g = np.asarray(gradient(x), dtype=float)
+    rnorm = float(np.linalg.norm(g[mask]))
+    E = None
+    if energy is not None:
+        E = float(energy(x)) if energy0 is None else float(energy0)
+    E_start = E
+    r0 = rnorm
+    target = max(atol + rtol * max(r0, float(reference_norm)), float(floor))
+    stats = {"linear": 0, "factorizations": 0}
+
+    def result(status, k):
+        return NewtonResult(x, status == "converged", status, k, rnorm, r0, target, E, E_start,
+                            stats["linear"], stats["factorizations"], history)
+
+    if not np.isfinite(rnorm):
+        return result("non-finite", 0)
+    e_scale = abs(E) if E is not None else 0.0
+
+    for k in range(max_iterations + 1):
+        if rnorm <= target:
+            return result("converged", k)
+        if k == max_iterations:
+            return result("max-iterations", k)
+        if k >= 1 and out_of_time():
+            return result("budget", k)
+        rhs = -g[mask]
+
+        # the Newton direction: the tangent's free block (unless the policy keeps an exact factorization),
+        # then -- budget permitting -- the linear solve
+        A = linear.matrix(lambda: hessian(x), mask)
+        if k >= 1 and out_of_time():
+            return result("budget", k)
+        dx_free, info = linear.solve(A, rhs, atol=_forcing(rnorm, r0, target))
+        stats["linear"] += info.iterations
+        stats["factorizations"] += info.factorizations
+        shift = 0.0
+        descent = dx_free is not None and np.all(np.isfinite(dx_free)) and (
+            line_search != "energy" or rhs @ dx_free > 0)
+        if not descent and line_search == "energy":
+            if A is None:  # a kept factorization that no longer fits: look at the tangent itself
+                A = linear.matrix(lambda: hessian(x), mask, force=True)
+            dx_free, shift, fac = _shifted_direction(A, rhs)
+            stats["factorizations"] += fac
+        elif not descent:
+            return result("singular", k)
+        if max_step is not None:
+            biggest = float(np.max(np.abs(dx_free), initial=0.0))
+            if biggest > max_step:
+                dx_free = dx_free * (max_step / biggest)
+        dx = np.zeros(n)
+        dx[mask] = dx_free
+
+        # the line search
+        slope = -float(rhs @ dx_free)  # dE/dalpha at alpha = 0
+        if E is not None:
+            e_scale = max(e_scale, abs(E), abs(slope))
+        alpha, accepted = 1.0, False
+        for _ in range(max_halvings + 1):
+            x_new, g_new = x + alpha * dx, None
+            if line_search is None:
+                accepted = True
+                break
+            if line_search == "finite":
+                g_new = np.asarray(gradient(x_new), dtype=float)
+                if np.all(np.isfinite(g_new[mask])):
+                    accepted = True
+                    break
+            else:
+                E_new = float(energy(x_new))
+                if np.isfinite(E_new):
+                    if E_new <= E + _ARMIJO * alpha * min(slope, 0.0):
+                        accepted = True
+                    elif E_new - E <= _ENERGY_ROUNDOFF * e_scale:
+                        g_new = np.asarray(gradient(x_new), dtype=float)
+                        accepted = bool(np.linalg.norm(g_new[mask]) < rnorm)
+                    if accepted:
+                        break
+            alpha *= 0.5
+        if not accepted:
+            return result("line-search-failed", k)
+        if g_new is None:
+            g_new = np.asarray(gradient(x_new), dtype=float)
+        rn_new = float(np.linalg.norm(g_new[mask]))
+        if not np.isfinite(rn_new):
+            history.append(NewtonIteration(k, rnorm, float(np.linalg.norm(alpha * dx)), alpha, None, shift,
+                                           info.iterations))
+            return result("non-finite", k + 1)
+        if line_search == "energy":
+            E = min(E_new, E)
+        elif energy is not None:
+            E = float(energy(x_new))
+        history.append(NewtonIteration(k, rnorm, float(np.linalg.norm(alpha * dx)), alpha, E, shift,
+                                       info.iterations))
+        x, g, rnorm = x_new, g_new, rn_new
+    return result("max-iterations", max_iterations)  # pragma: no cover - the loop returns
+
+
+def _forcing(rnorm, r0, target):
+    """Inexact Newton: how accurately an iterative linear solve must be (absolute residual).
+
+    The forcing term shrinks with the residual (``rnorm / r0``, capped at 1e-3), so the
+    convergence stays quadratic; a solve never needs to be tighter than a third of the target.
+    """
+    eta = min(1e-3, rnorm / r0) if r0 > 0 else 1e-3
+    return max(eta * rnorm, 0.3 * target)

@@ -1,0 +1,498 @@
+"""Stepping: every step -- quasistatic, backward Euler, a real-time frame -- minimises one potential.
+
+The *incremental potential* of a step is the model's energy,
+
+    E(x) = W(x) [+ other terms] - f . x  [+ 1/(2 dt^2) (x - x~)^T M (x - x~)],   x~ = u^n + dt v^n,
+
+where the inertia term is there only when the model has a time step (see
+:mod:`tissuefem.engine.terms`). Its gradient is the backward-Euler residual
+(the notes' ``q`` of "Time stepping", with the slips of the README's errata
+corrected), and without inertia it is the quasistatic residual. A
+:class:`Stepper` holds the state ``u, v`` and takes one step at a time:
+
+1. **input**: the handles' new targets, checked before anything moves
+   (:meth:`~tissuefem.engine.model.Model.set_targets`); a refusal changes nothing;
+2. **warm start** (the one predictor): the lowest-energy valid guess. A dynamic
+   step tries the constant-acceleration guess ``x~ + dt (v^n - v^{n-1})``,
+   the inertial guess ``x~`` and the previous state; a quasistatic step
+   takes one linearised step from the previous state, which carries the free
+   dofs along with the handles (``K_ff dx_f = -g_f - K_fc dx_c``), or the
+   previous state. If no guess is valid (a handle jerked so far that an
+   element would invert under a model that cannot take it), the handles go
+   part of the way; the report's ``handle_fraction`` says how far;
+3. **solve**: :func:`tissuefem.engine.minimize.newton` with the energy line
+   search, until the residual is below ``atol + rtol ||g(x0)||`` (never below
+   the residual's round-off level) or the step's wall-clock ``budget`` is
+   spent; the linear solves go through one
+   :class:`~tissuefem.engine.linsolve.LinearSolver` kept across steps, so a
+   factorization is reused across Newton iterations *and* steps;
+4. **commit**: a converged iterate becomes ``u^{n+1}`` (and
+   ``v^{n+1} = (u^{n+1} - u^n)/dt``). An unconverged step either leaves the
+   state as it was (the default) or, with ``anytime=True`` (the real-time
+   loop), commits the last accepted iterate, which is finite and no higher
+   in energy than the start: unfinished work carries into the next step.
+
+:func:`solve` is the quasistatic solve of chapters 3 to 6: load steps that
+ramp the loads and the handles' displacements, each one a quasistatic step.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .linsolve import LinearSolver
+from .minimize import NewtonIteration, NewtonResult, newton
+from .model import Model
+from .terms import check_time_step
+
+__all__ = ["Stepper", "StepReport", "StaticResult", "solve"]
+
+#: The residual's round-off level, relative to the body's force scale (see :func:`_residual_floor`).
+_ROUNDOFF = 1e-13
+
+
+@dataclass
+class StepReport:
+    """What one step (or real-time frame) did: the one report type of every solve of a model."""
+
+    newton: NewtonResult
+    step: int  # step (frame) number after this one, from 1; unchanged when nothing was committed
+    time: float  # simulated time after the step
+    elapsed: float  # clock seconds the step used
+    budget: float
+    handle_fraction: float = 1.0  # how far the handles got towards their targets
+    warm_start: str = "previous"  # "accelerating", "inertial", "linearised" or "previous"
+    committed: bool = True  # whether the state moved to the result
+
+    # -- the Newton solve, forwarded
+    @property
+    def x(self) -> np.ndarray:
+        """The solve's last accepted iterate (the new state when committed)."""
+        return self.newton.x
+
+    @property
+    def converged(self) -> bool:
+        return self.newton.converged
+
+    @property
+    def status(self) -> str:
+        return self.newton.status
+
+    @property
+    def newton_iterations(self) -> int:
+        """Newton steps of the step: the minimiser's, plus the linearised start of a quasistatic step (one
+        Newton step from the previous state towards the new handle positions)."""
+        return self.newton.iterations + (self.warm_start == "linearised")
+
+    iterations = newton_iterations
+
+    @property
+    def linear_iterations(self) -> int:
+        return self.newton.linear_iterations
+
+    @property
+    def factorizations(self) -> int:
+        return self.newton.factorizations
+
+    @property
+    def residual_norm(self) -> float:
+        return self.newton.residual_norm
+
+    @property
+    def initial_residual(self) -> float:
+        return self.newton.initial_residual
+
+    @property
+    def relative_residual(self) -> float:
+        return self.newton.relative_residual
+
+    @property
+    def energy(self) -> float:
+        return self.newton.energy
+
+    @property
+    def start_energy(self) -> float:
+        return self.newton.start_energy
+
+    @property
+    def line_search_cuts(self) -> int:
+        return self.newton.line_search_cuts
+
+    @property
+    def history(self) -> list[NewtonIteration]:
+        return self.newton.history
+
+    @property
+    def residual_history(self) -> list[float]:
+        return list(self.newton.residual_norms())
+
+    @property
+    def energies(self) -> np.ndarray:
+        return self.newton.energies
+
+    def residual_norms(self) -> np.ndarray:
+        return self.newton.residual_norms()
+
+    def table(self) -> str:
+        return self.newton.table()
+
+    @property
+    def frame(self) -> int:
+        return self.step
+
+    @property
+    def over_budget(self) -> float:
+        """Seconds past the budget (0 if within)."""
+        return max(0.0, self.elapsed - self.budget)
+
+    def __repr__(self):
+        return (f"StepReport(step {self.step}, {self.status}, {self.newton_iterations} Newton, "
+                f"residual {self.residual_norm:.3g} (from {self.initial_residual:.3g}), {1e3 * self.elapsed:.1f} ms)")
+
+
+def _positive(name, value, allow_inf=False) -> float:
+    if isinstance(value, (bool, str)):
+        raise ValueError(f"{name} must be a positive number, got {value!r}")
+    try:
+        v = float(value)
+    except (TypeError, ValueError, OverflowError):
+        raise ValueError(f"{name} must be a positive number, got {value!r}") from None
+    if math.isnan(v) or v <= 0 or (math.isinf(v) and not allow_inf):
+        raise ValueError(f"{name} must be {'> 0' if allow_inf else 'finite and > 0'}, got {value!r}")
+    return v
+
+
+def _residual_floor(model: Model) -> float:
+    """The residual norm below which Newton cannot go: round-off of the elastic forces.
+
+    At rest the stress is a difference of terms of the size of the material's
+    modulus (``mu F - mu F^-T`` for neo-Hookean), so each element's force is
+    computed with an error of a few ``eps`` times ``A_e |A(I)| |grad N|``. This
+    sums ``|A(I)| sqrt(A_e)`` (``|grad N| ~ 1/h``, ``A_e ~ h^2``) at the nodes;
+    ``_ROUNDOFF`` times its norm is a few thousand times that error and far
+    below any tolerance a user asks for.
+    """
+    F = np.eye(2).reshape(2, 2, 1)
+    with np.errstate(all="ignore"):
+        A = np.asarray(model._density.tangent(F))
+    modulus = float(np.nanmax(np.abs(A))) if np.any(np.isfinite(A)) else 1.0
+    per_element = modulus * np.sqrt(model.element_areas())
+    t = model.mesh.t
+    nodal = np.bincount(t.ravel(), weights=np.tile(per_element, 3), minlength=model.mesh.nvertices)
+    return _ROUNDOFF * math.sqrt(2.0) * float(np.linalg.norm(nodal))
+
+
+class Stepper:
+    """Steps a :class:`~tissuefem.engine.model.Model` forward: quasistatic if it has no inertia, else backward Euler.
+
+    Parameters
+    ----------
+    model
+        The body and its terms (with ``dt``: dynamic).
+    linear_solver
+        A :class:`~tissuefem.engine.linsolve.LinearSolver` method name (``"reuse"``, the default: CG
+        preconditioned by a kept factorization; ``"direct"``; ``"constant"`` for a quadratic model;
+        a backend name) or a ``LinearSolver``.
+    rtol, atol, max_iterations, line_search, max_step
+        Newton's settings (see :func:`~tissuefem.engine.minimize.newton`).
+    budget, clock
+        Wall-clock seconds per step (default: none) measured by ``clock`` (any callable returning
+        seconds; tests pass a fake one).
+    anytime
+        Commit the last accepted iterate of an unconverged step (the real-time loop) instead of
+        keeping the old state.
+    """
+
+    def __init__(self, model: Model, *, linear_solver="reuse", rtol: float = 1e-6, atol: float = 0.0,
+                 max_iterations: int = 50, line_search: str = "energy", max_step: float | None = None,
+                 budget: float = math.inf, clock=time.perf_counter, anytime: bool = False):
+        if not isinstance(model, Model):
+            raise ValueError(f"model must be a tissuefem Model, got {type(model).__name__}")
+        self.model = model
+        self.rtol = _positive("rtol", rtol)
+        if isinstance(atol, bool) or not (np.isfinite(atol) and atol >= 0):
+            raise ValueError(f"atol must be finite and >= 0, got {atol!r}")
+        self.atol = float(atol)
+        if isinstance(max_iterations, bool) or not isinstance(max_iterations, (int, np.integer)) or max_iterations < 1:
+            raise ValueError(f"max_iterations must be a positive integer, got {max_iterations!r}")
+        self.max_iterations = int(max_iterations)
+        if line_search not in ("energy", "finite", None):
+            raise ValueError(f"line_search must be 'energy', 'finite' or None, got {line_search!r}")
+        self.line_search = line_search
+        if max_step is not None:
+            max_step = _positive("max_step", max_step)
+        self.max_step = max_step
+        self._budget = _positive("budget", budget, allow_inf=True)
+        if not callable(clock):
+            raise ValueError(f"clock must be a callable returning seconds, got {clock!r}")
+        self.clock = clock
+        self.anytime = bool(anytime)
+        self.linear = linear_solver if isinstance(linear_solver, LinearSolver) else LinearSolver(linear_solver)
+        self.floor = _residual_floor(model)
+        n = model.n_dofs
+        self.u = np.zeros(n)
+        self.v = np.zeros(n)
+        self.v_previous = None
+        self.time = 0.0
+        self.steps = 0
+        self.last_report: StepReport | None = None
+
+    # ------------------------------------------------------------------ settings
+    @property
+    def dt(self):
+        """The time step (``None`` when quasistatic). May be changed between steps (checked; a refusal keeps it)."""
+        inertia = self.model.inertia
+        return None if inertia is None else inertia.dt
+
+    @dt.setter
+    def dt(self, value):
+        inertia = self.model.inertia
+        if inertia is None or value is None:
+            raise ValueError("dt cannot switch between quasistatic (None) and dynamic steps; build another model")
+        dt = check_time_step(value)
+        if dt != inertia.dt:
+            inertia.dt = dt
+            self.linear.invalidate()  # M / dt^2 changed the Newton matrix
+
+    @property
+    def budget(self):
+        """Wall-clock seconds per step; may be changed between steps (``> 0``, ``math.inf`` for none)."""
+        return self._budget
+
+    @budget.setter
+    def budget(self, value):
+        self._budget = _positive("budget", value, allow_inf=True)
+
+    @property
+    def frames(self) -> int:
+        return self.steps
+
+    @property
+    def linear_solver_name(self) -> str:
+        return self.linear.name
+
+    # ------------------------------------------------------------------ state
+    def reset(self, u=None, v=None) -> None:
+        """Set the state (default: rest), checking shapes and finiteness; nothing changes on a refusal."""
+        n = self.model.n_dofs
+        arrays = {}
+        for name, arr in (("u", u), ("v", v)):
+            if arr is None:
+                arrays[name] = np.zeros(n)
+                continue
+            a = np.asarray(arr, dtype=float)
+            if a.shape != (n,):
+                raise ValueError(f"{name} must have shape ({n},), got {a.shape}")
+            if not np.all(np.isfinite(a)):
+                raise ValueError(f"{name} contains non-finite values")
+            arrays[name] = a.copy()
+        if self.dt is None and np.any(arrays["v"]):
+            raise ValueError("a quasistatic stepper has no velocity: v must be zero or None")
+        self.u, self.v, self.v_previous = arrays["u"], arrays["v"], None
+
+    def set_state(self, u, v=None, *, v_previous=None, time_=0.0, steps=0) -> None:
+        """Carry a state over (after the model was rebuilt): displacement, velocities, time and step count."""
+        self.reset(u, v)
+        if v_previous is not None:
+            self.v_previous = np.asarray(v_previous, dtype=float).copy()
+        self.time, self.steps = float(time_), int(steps)
+
+    def kinetic_energy(self) -> float:
+        inertia = self.model.inertia
+        return 0.0 if inertia is None else inertia.kinetic_energy(self.v)
+
+    def momentum(self) -> np.ndarray:
+        inertia = self.model.inertia
+        return np.zeros(2) if inertia is None else inertia.momentum(self.v)
+
+    def total_energy(self) -> float:
+        """Kinetic plus stored energy minus the work potential of the constant loads."""
+        model = self.model
+        return self.kinetic_energy() + model.stored_energy(self.u) - float(model.external @ self.u)
+
+    # ------------------------------------------------------------------ one step
+    def step(self, targets=None, *, prescribed=None, load: float = 1.0) -> StepReport:
+        """Take one step: apply ``targets`` (see :meth:`Model.set_targets`), solve, commit, report.
+
+        ``prescribed``: ``(dofs, values)`` to hold instead of the handles' (load stepping);
+        ``load``: the factor on the constant loads (1 but during load stepping).
+        """
+        model = self.model
+        start = self.clock()
+        model.set_targets(targets)
+        fixed, values = model.prescribed() if prescribed is None else prescribed
+        fixed = np.asarray(fixed, dtype=np.intp)
+        values = np.asarray(values, dtype=float)
+        if not np.all(np.isfinite(values)):
+            raise ValueError("the prescribed displacements are not finite")
+        n = model.n_dofs
+        free = np.ones(n, dtype=bool)
+        free[fixed] = False
+
+        inertia = model.inertia
+        dt = None if inertia is None else inertia.dt
+        loads = model.loads
+        for term in loads:
+            term.scale = float(load)
+        try:
+            if inertia is not None:
+                inertia.x_tilde = self.u + dt * self.v
+            x0, E0, fraction, which, load_norm, pre = self._warm_start(fixed, values, free)
+            if fraction < 1.0 and not self.anytime:
+                # the handles' targets cannot be reached from here without leaving the valid (finite-energy)
+                # states: an offline step fails at once and keeps the state (the real-time loop instead goes
+                # part of the way and carries the rest into the next frame)
+                g = model.gradient(self.u)
+                r = float(np.linalg.norm(g[free])) if np.all(np.isfinite(g)) else math.inf
+                result = NewtonResult(self.u.copy(), False, "non-finite", 0, r, r, 0.0, E0, E0)
+                report = StepReport(result, self.steps, self.time, self.clock() - start, self._budget, fraction,
+                                    which, False)
+                self.last_report = report
+                return report
+            result = newton(
+                x0, model.gradient, model.hessian, energy=model.energy, free=free,
+                line_search=self.line_search, rtol=self.rtol, atol=self.atol, reference_norm=load_norm,
+                floor=self.floor, max_iterations=self.max_iterations - (which == "linearised"), max_step=self.max_step,
+                linear=self.linear, clock=self.clock, budget=self._budget, start=start, energy0=E0,
+            )
+        finally:
+            for term in loads:
+                term.scale = 1.0
+        result.factorizations += pre
+        commit = result.converged or (self.anytime and np.all(np.isfinite(result.x)))
+        if commit:
+            if dt is not None:
+                self.v_previous = self.v
+                self.v = (result.x - self.u) / dt
+                self.time += dt
+            self.u = result.x
+            self.steps += 1
+        report = StepReport(result, self.steps, self.time, self.clock() - start, self._budget, fraction, which,
+                            bool(commit))
+        self.last_report = report
+        return report
+
+    frame = step
+
+    def run(self, targets_per_step) -> list[StepReport]:
+        """One step per entry of ``targets_per_step``; the reports."""
+        return [self.step(t) for t in targets_per_step]
+
+    def _warm_start(self, fixed, values, free):
+        """``(x0, E0, handle_fraction, name, load_norm, factorizations)``: the lowest-energy valid start."""
+        model, u = self.model, self.u
+        previous = u[fixed]
+        dynamic = model.inertia is not None
+        linearised, load_norm, factorizations = None, 0.0, 0
+        if not dynamic and np.any(values != previous):
+            linearised, load_norm, factorizations = self._linearised_increment(fixed, free, values - previous)
+        x_tilde = model.inertia.x_tilde if dynamic else None
+        for halvings in range(12):
+            fraction = 0.5**halvings
+            held = previous + fraction * (values - previous)
+            if dynamic:
+                candidates = [("inertial", x_tilde), ("previous", u)]
+                if self.v_previous is not None:
+                    # constant acceleration: the best guess along a smooth drag
+                    candidates.insert(0, ("accelerating", x_tilde + model.inertia.dt * (self.v - self.v_previous)))
+            else:
+                candidates = [("previous", u)]
+                if linearised is not None:  # the linear prediction scales with the handles' increment
+                    candidates.insert(0, ("linearised", u + fraction * linearised))
+            best = None
+            for name, base in candidates:
+                x = base.copy()
+                x[fixed] = held
+                with np.errstate(all="ignore"):
+                    E = model.energy(x)
+                if np.isfinite(E) and (best is None or E < best[1]):
+                    best = (x, E, name)
+            if best is not None:
+                return best[0], best[1], fraction, best[2], load_norm, factorizations
+        # the handles cannot move at all without leaving the valid states: stay
+        x = u.copy()
+        with np.errstate(all="ignore"):
+            E = model.energy(x)
+        return x, E, 0.0, "previous", load_norm, factorizations
+
+    def _linearised_increment(self, fixed, free, du_fixed):
+        """``(dx, load_norm, factorizations)``: the first-order response of every dof to moving the held ones
+        by ``du_fixed``, from the previous state: ``K_ff dx_f = -g_f(u) - K_fc dx_c``. ``dx`` is ``None`` when
+        it cannot be had (a singular or non-finite tangent)."""
+        model = self.model
+        dx = np.zeros(model.n_dofs)
+        dx[fixed] = du_fixed
+        try:
+            with np.errstate(all="ignore"):
+                K = model.hessian(self.u)
+                rhs = -model.gradient(self.u)[free] - (K @ dx)[free]
+            if not (np.all(np.isfinite(K.data)) and np.all(np.isfinite(rhs))):
+                return None, 0.0, 0
+            A = self.linear.matrix(lambda: K, free)
+            load_norm = float(np.linalg.norm(rhs))
+            dx_free, info = self.linear.solve(A, rhs, atol=1e-3 * load_norm)
+        except (RuntimeError, ValueError, np.linalg.LinAlgError, ZeroDivisionError):
+            return None, 0.0, 0
+        if dx_free is None or not np.all(np.isfinite(dx_free)):
+            return None, load_norm, info.factorizations
+        dx[free] = dx_free
+        return dx, load_norm, info.factorizations
+
+
+# ------------------------------------------------------------------------------------------------ quasistatics
+
+@dataclass
+class StaticResult:
+    """A quasistatic solve: the displacement, whether every load step converged, and each step's report."""
+
+    u: np.ndarray
+    converged: bool
+    steps: list[StepReport] = field(default_factory=list)
+
+    @property
+    def newton_iterations(self) -> int:
+        return sum(r.newton_iterations for r in self.steps)
+
+    @property
+    def status(self) -> str:
+        return self.steps[-1].status if self.steps else "not run"
+
+
+def solve(model: Model, load_steps: int = 1, u0=None, *, stepper: Stepper | None = None, **options) -> StaticResult:
+    """Equilibrium of a quasistatic model: ramp the loads and the handles' displacements over ``load_steps``.
+
+    Each load step is a quasistatic :meth:`Stepper.step` from the previous one's
+    state. ``options`` go to :class:`Stepper` (``rtol``, ``atol``,
+    ``max_iterations``, ``line_search``, ``max_step``, ``linear_solver``;
+    the defaults here ask for ``rtol = 1e-10``). If a step fails, the result
+    holds the last converged state and ``converged`` is False.
+    """
+    if model.inertia is not None:
+        raise ValueError("solve() finds an equilibrium: give it a model without dt (use a Stepper for dynamics)")
+    if isinstance(load_steps, bool) or not isinstance(load_steps, (int, np.integer)) or not 1 <= load_steps <= 10**6:
+        raise ValueError(f"load_steps must be an integer from 1 to 1000000, got {load_steps!r}")
+    options.setdefault("rtol", 1e-10)
+    if u0 is not None:
+        u0 = np.asarray(u0, dtype=float)
+        if u0.shape != (model.n_dofs,):
+            raise ValueError(f"u0 must have shape ({model.n_dofs},), got {u0.shape}")
+        if not np.all(np.isfinite(u0)):
+            raise ValueError("u0 contains non-finite values")
+    if stepper is None:
+        stepper = Stepper(model, **options)
+    elif options:
+        raise ValueError("give either a stepper or its options, not both")
+    stepper.reset(u0)
+    fixed, values = model.prescribed()
+    start = stepper.u[fixed].copy()
+    steps = []
+    for s in np.arange(1, load_steps + 1) / load_steps:
+        report = stepper.step(prescribed=(fixed, start + s * (values - start)), load=s)
+        steps.append(report)
+        if not report.converged:
+            return StaticResult(stepper.u.copy(), False, steps)
+    return StaticResult(stepper.u.copy(), True, steps)

@@ -1,0 +1,503 @@
+"""The terms of the potential: each effect a scene can name is one term with one interface.
+
+The whole engine minimises one energy (the *incremental potential*; see
+:mod:`tissuefem.engine.stepping`). A :class:`~tissuefem.engine.model.Model` is
+the sum of exactly the terms it was built with:
+
+================  ===========================================================  ==========
+term              energy                                                       Hessian
+================  ===========================================================  ==========
+:class:`Elastic`  ``sum_e A_e Psi(F_e)``, the material's stored energy         assembled
+:class:`Fibers`   ``sum_e A_e k/8 (|F_e g_e|^2 - 1)^2`` (chapter 5)             assembled
+:class:`Inertia`  ``1/(2 dt^2) (x - x~)^T M (x - x~)``, backward Euler          constant
+:class:`Load`     ``-f . u``: gravity, a body force, tractions                  zero
+:class:`Probe`    a rigid disc pressed into the tissue (a contact penalty)      per node
+:class:`Sutures`  zero-length springs tying pairs of nodes                      constant
+================  ===========================================================  ==========
+
+Every term has ``energy(u)``, ``gradient(u)`` (a dof vector) and
+``add_hessian(u, data)``, which adds its Hessian into ``data``, the CSR data
+array of the model's one fixed sparsity pattern. ``quadratic`` says whether
+the Hessian is constant (then a kept factorization is exact). A term that
+couples dofs the mesh does not (a suture between two far nodes) lists those
+couplings in ``couplings()``, and the model widens its pattern for them.
+Terms are bound to the model's pattern by ``bind(pattern)`` before use.
+
+Why backward Euler's inertia is written with ``1/dt^2``: the notes' residual
+``q = M (u - u~)/dt^2 + f_int(u) - f_ext`` (up to the slips listed in the
+README's errata) is then exactly the gradient of ``W(u) - f.u + Inertia(u)``,
+so the residual of a dynamic step is measured in the same units (force) as a
+quasistatic one, and a scene without inertia simply has no such term. The
+chapters' ``E = 1/2 |u - u~|_M^2 + dt^2 [W - f.u]`` is this potential times
+``dt^2``: the same minimiser.
+
+Elastic and fibre terms share the element loop: :class:`ElementTerm` exposes
+the energy density (``density``), and the model evaluates all of them in one
+assembly pass (one ``F`` per element, summed stresses and tangents).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from skfem import FacetBasis, LinearForm, asm
+
+from .materials import FiberReinforced, Material, fiber_energy_term, fiber_stress_term, fiber_tangent_term
+
+__all__ = ["Term", "ElementTerm", "Elastic", "Fibers", "Inertia", "Load", "Probe", "Sutures", "traction_vector",
+           "check_vector", "check_nonnegative"]
+
+
+def check_vector(name, value) -> np.ndarray:
+    """A finite vector ``(x, y)``, or a ``ValueError`` naming ``name``."""
+    try:
+        v = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a finite vector (x, y), got {value!r}") from None
+    if v.shape != (2,) or not np.all(np.isfinite(v)):
+        raise ValueError(f"{name} must be a finite vector (x, y), got {value!r}")
+    return v
+
+
+def check_nonnegative(name, value) -> float:
+    """A finite number ``>= 0``, or a ``ValueError`` naming ``name``."""
+    if isinstance(value, (bool, str)):
+        raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+    try:
+        v = float(value)
+    except (TypeError, ValueError, OverflowError):
+        raise ValueError(f"{name} must be a finite number >= 0, got {value!r}") from None
+    if not (np.isfinite(v) and v >= 0):
+        raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+    return v
+
+
+class Term:
+    """One additive piece of the potential (see the module docstring for the interface)."""
+
+    name = "term"
+    #: True when the energy is quadratic in ``u`` (a constant Hessian)
+    quadratic = False
+
+    def bind(self, pattern) -> None:
+        """Remember the model's sparsity pattern (called by the model; the default keeps nothing)."""
+        self.pattern = pattern
+
+    def couplings(self):
+        """``(rows, cols)`` of Hessian entries outside the mesh's pattern (none by default)."""
+        return None
+
+    def energy(self, u) -> float:
+        raise NotImplementedError
+
+    def gradient(self, u) -> np.ndarray:
+        raise NotImplementedError
+
+    def add_hessian(self, u, data) -> None:
+        raise NotImplementedError
+
+    def describe(self) -> str:
+        return self.name
+
+    def __repr__(self):
+        return f"<{self.describe()}>"
+
+
+# --------------------------------------------------------------------------------------- element terms
+
+class ElementTerm(Term):
+    """A term ``sum_e int Psi(F) dX`` of an energy density ``density`` (energy/stress/tangent of ``F``)."""
+
+    density = None
+
+    def __init__(self, assembler):
+        self.assembler = assembler
+
+    def energy(self, u):
+        return self.assembler.energy(u, self.density)
+
+    def gradient(self, u):
+        return self.assembler.residual(u, self.density)
+
+    def add_hessian(self, u, data):
+        self.pattern.add_base(data, self.assembler.tangent(u, self.density).data)
+
+
+class Elastic(ElementTerm):
+    """The material's stored energy ``W(u) = sum_e A_e Psi(F_e)``."""
+
+    name = "elastic"
+
+    def __init__(self, assembler, material):
+        super().__init__(assembler)
+        for what in ("energy", "stress", "tangent"):
+            if not callable(getattr(material, what, None)):
+                raise ValueError(f"material must have energy, stress and tangent methods, got {material!r}")
+        self.material = self.density = material
+        self.quadratic = getattr(material, "name", "") == "linear"
+
+    def describe(self):
+        return f"elastic: {getattr(self.material, 'name', type(self.material).__name__)}"
+
+
+class _FiberDensity(Material):
+    """Only the fibre part ``k/8 (I4 - 1)^2`` of :class:`~tissuefem.engine.materials.FiberReinforced`."""
+
+    name = "fibers"
+
+    def __init__(self, stiffness, fibers):
+        self.lam = self.mu = 0.0
+        self.fibers = FiberReinforced._check_fibers(fibers)  # normalised, shape-checked
+        self.stiffness = float(stiffness)
+
+    def _g(self, F):
+        g = self.fibers  # (2, n_elements): aligned with F's element axis, broadcast over points
+        return g.reshape(g.shape + (1,) * (F.ndim - 2 - (g.ndim - 1)))
+
+    def energy(self, F):
+        return fiber_energy_term(F, self._g(F), self.stiffness)
+
+    def stress(self, F):
+        return fiber_stress_term(F, self._g(F), self.stiffness)
+
+    def tangent(self, F):
+        return fiber_tangent_term(F, self._g(F), self.stiffness)
+
+
+class Fibers(ElementTerm):
+    """The fibre energy ``k/8 (I4 - 1)^2``, ``I4 = |F g|^2``, per element (chapter 5), on any material.
+
+    ``directions``: one unit vector ``(2,)`` for all elements or one per element ``(2, n_elements)``
+    (normalised here); ``k >= 0`` is the extra small-strain modulus along the fibre.
+    """
+
+    name = "fibers"
+
+    def __init__(self, assembler, stiffness, directions):
+        super().__init__(assembler)
+        self.stiffness = check_nonnegative("fibers.stiffness", stiffness)
+        nel = assembler.n_elements
+        try:
+            g = np.asarray(directions, dtype=float)
+        except (TypeError, ValueError):
+            raise ValueError(f"fibers.direction must be an array of 2D vectors, got {directions!r}") from None
+        if g.ndim == 1 and g.shape == (2,):
+            g = np.repeat(g.reshape(2, 1), nel, axis=1)
+        if g.shape != (2, nel):
+            raise ValueError(f"fibers.direction must be shaped (2,) or (2, n_elements={nel}), got {g.shape}")
+        self.density = _FiberDensity(self.stiffness, g)
+        self.directions = self.density.fibers
+
+    def describe(self):
+        return f"fibers: k = {self.stiffness:g}"
+
+
+class _SummedDensity:
+    """The sum of several energy densities, evaluated on one ``F`` (one assembly pass for all element terms)."""
+
+    def __init__(self, densities):
+        self.densities = list(densities)
+        self.name = " + ".join(getattr(d, "name", "?") for d in self.densities)
+
+    def _sum(self, method, F):
+        out = getattr(self.densities[0], method)(F)
+        for d in self.densities[1:]:
+            out = out + getattr(d, method)(F)
+        return out
+
+    def energy(self, F):
+        return self._sum("energy", F)
+
+    def stress(self, F):
+        return self._sum("stress", F)
+
+    def tangent(self, F):
+        return self._sum("tangent", F)
+
+
+# --------------------------------------------------------------------------------------- inertia and loads
+
+class Inertia(Term):
+    """Backward Euler's inertia: ``1/(2 dt^2) (x - x~)^T M (x - x~)`` with ``x~ = u^n + dt v^n``.
+
+    ``M`` is the lumped or consistent mass of density ``rho0`` (assembled on the
+    model's pattern by its assembler). The stepper sets ``x_tilde`` before each
+    step; ``dt`` may change between steps. Quadratic: its Hessian ``M / dt^2``
+    is constant for a given ``dt``.
+    """
+
+    name = "inertia"
+    quadratic = True
+
+    def __init__(self, assembler, dt, density, mass="lumped"):
+        if mass not in ("lumped", "consistent"):
+            raise ValueError(f"mass must be 'lumped' or 'consistent', got {mass!r}")
+        self.dt = check_time_step(dt)
+        self.density = check_positive("density", density)
+        self.lumped = mass == "lumped"
+        self.mass_kind = mass
+        self.assembler = assembler
+        self.mass_data = assembler.mass(self.density, lumped=self.lumped)
+        self.M = assembler.csr(self.mass_data)
+        self._diagonal = self.M.diagonal() if self.lumped else None
+        self.x_tilde = np.zeros(assembler.n_dofs)
+
+    def matvec(self, w) -> np.ndarray:
+        """``M w``."""
+        return self._diagonal * w if self.lumped else self.M @ w
+
+    def energy(self, u):
+        d = u - self.x_tilde
+        return 0.5 * float(d @ self.matvec(d)) / self.dt**2
+
+    def gradient(self, u):
+        return self.matvec(u - self.x_tilde) / self.dt**2
+
+    def add_hessian(self, u, data):
+        self.pattern.add_base(data, self.mass_data / self.dt**2)
+
+    def kinetic_energy(self, v) -> float:
+        return 0.5 * float(v @ self.matvec(v))
+
+    def momentum(self, v) -> np.ndarray:
+        p = self.matvec(v)
+        return np.array([p[0::2].sum(), p[1::2].sum()])
+
+    def describe(self):
+        return f"inertia: dt = {self.dt:g}, {self.mass_kind} mass, rho0 = {self.density:g}"
+
+
+def check_positive(name, value) -> float:
+    v = check_nonnegative(name, value)
+    if v <= 0:
+        raise ValueError(f"{name} must be finite and > 0, got {value!r}")
+    return v
+
+
+def check_time_step(dt) -> float:
+    """A time step: finite and > 0."""
+    return check_positive("dt", dt)
+
+
+class Load(Term):
+    """A constant external force ``f`` (a dof vector): energy ``-scale f . u``.
+
+    ``scale`` ramps the load during load stepping (it is 1 otherwise).
+    """
+
+    quadratic = True
+
+    def __init__(self, name, vector):
+        self.name = name
+        self.vector = np.asarray(vector, dtype=float)
+        if not np.all(np.isfinite(self.vector)):
+            raise ValueError(f"{name}: the load vector must be finite")
+        self.scale = 1.0
+
+    def energy(self, u):
+        return -self.scale * float(self.vector @ u)
+
+    def gradient(self, u):
+        return -self.scale * self.vector
+
+    def add_hessian(self, u, data):
+        pass
+
+    def describe(self):
+        return f"load: {self.name}"
+
+
+def traction_vector(basis, boundary, traction) -> np.ndarray:
+    """``f_(a,i) = int_boundary N_a t_i dS`` for a constant traction ``t`` (force per unit reference length)."""
+    t = check_vector(f"tractions[{boundary!r}]", traction)
+    mesh = basis.mesh
+    if mesh.boundaries is None or boundary not in mesh.boundaries:
+        names = sorted(mesh.boundaries) if mesh.boundaries else []
+        raise ValueError(f"tractions: {boundary!r} is not a boundary of the mesh; boundaries: {names}")
+    facets = mesh.boundaries[boundary]
+    if len(facets) == 0:
+        return np.zeros(basis.N)
+    order = 2 if basis.elem.elem.maxdeg > 1 else 1
+    fb = FacetBasis(mesh, basis.elem, facets=facets, intorder=2 * order)
+
+    @LinearForm
+    def traction_form(v, w):
+        return t[0] * v[0] + t[1] * v[1]
+
+    return asm(traction_form, fb)
+
+
+# --------------------------------------------------------------------------------------- tools and sutures
+
+class Probe(Term):
+    """A rigid disc (a tool tip) of centre ``c`` and radius ``R`` that the tissue's nodes must stay out of.
+
+    A penalty on each node ``a`` that enters the disc, weighted by its lumped
+    area ``m_a`` so that the stiffness ``k`` is per unit area:
+
+        E = sum_a k m_a / 2 (R - d_a)^2  for d_a = |x_a - c| < R,
+
+    with ``x_a = X_a + u_a``. With ``n_a = (x_a - c) / d_a`` the force on the
+    node is ``-dE/dx_a = k m_a (R - d_a) n_a`` (outward), and the Hessian is
+    ``k m_a [n n^T - (R - d)/d (I - n n^T)]``. Its tangential part is negative
+    (the disc's curved surface), so the Newton matrix keeps only the positive
+    ``k m_a n n^T`` (a Gauss-Newton approximation; the energy line search makes
+    the step safe). The tool moves between frames through :meth:`move`.
+    """
+
+    name = "probe"
+
+    def __init__(self, X, node_areas, center, radius, stiffness, label=None):
+        self.X = X
+        self.n_nodes = X.shape[1]
+        self.m = node_areas
+        self.move(center)
+        self.radius = check_positive("probe.radius", radius)
+        self.stiffness = check_nonnegative("probe.stiffness", stiffness)
+        self.label = label
+
+    def move(self, center) -> None:
+        self.center = check_vector("probe center", center)
+
+    def describe(self):
+        return f"probe: disc r = {self.radius:g} at ({self.center[0]:g}, {self.center[1]:g}), k = {self.stiffness:g}"
+
+    def _contact(self, u):
+        x = self.X + u[: 2 * self.n_nodes].reshape(-1, 2).T
+        d_vec = x - self.center[:, None]
+        d = np.hypot(d_vec[0], d_vec[1])
+        inside = np.flatnonzero(d < self.radius)
+        dd = d[inside]
+        safe = np.maximum(dd, 1e-12 * self.radius)
+        n = d_vec[:, inside] / safe
+        n[:, dd < 1e-12 * self.radius] = np.array([[0.0], [1.0]])  # at the very centre: push up
+        return inside, self.radius - dd, n
+
+    def energy(self, u):
+        inside, depth, _ = self._contact(u)
+        return 0.5 * self.stiffness * float(np.sum(self.m[inside] * depth**2))
+
+    def gradient(self, u):
+        inside, depth, n = self._contact(u)
+        g = np.zeros(u.size)
+        f = -self.stiffness * self.m[inside] * depth * n  # dE/dx
+        g[2 * inside] = f[0]
+        g[2 * inside + 1] = f[1]
+        return g
+
+    def penetration(self, u) -> float:
+        """The deepest any node is inside the disc (0 when none is)."""
+        _, depth, _ = self._contact(u)
+        return float(depth.max(initial=0.0))
+
+    def add_hessian(self, u, data):
+        inside, _, n = self._contact(u)
+        if inside.size == 0:
+            return
+        w = self.stiffness * self.m[inside]
+        for i in range(2):
+            for j in range(2):
+                np.add.at(data, self.pattern.node_block[i, j, inside], w * n[i] * n[j])
+
+
+class Sutures(Term):
+    """Stiff springs that tie pairs of nodes together: ``E = sum_s k/2 |x_a - x_b - g_s|^2``.
+
+    ``g_s`` is the slack: the gap the suture still allows. A suture is placed
+    with its current gap as slack (no force at first) and then *tightened*:
+    ``tighten(s)`` sets ``g = (1 - s) g_0``, so ``s = 1`` closes the wound.
+    Every term is quadratic (a zero-length spring), so the Hessian is constant;
+    it couples the two nodes of each pair, which widens the model's pattern.
+    ``k`` is a force per unit length (per unit thickness, in 2D).
+    """
+
+    name = "sutures"
+    quadratic = True
+
+    def __init__(self, X, pairs, stiffness, gaps, tightness=0.0):
+        self.X = X
+        self.n_nodes = X.shape[1]
+        pairs = np.asarray(pairs)
+        if pairs.ndim != 2 or pairs.shape[0] != 2 or pairs.shape[1] == 0 or not np.issubdtype(pairs.dtype, np.integer):
+            raise ValueError(f"sutures.pairs must be node index pairs shaped (2, k), got {pairs!r}")
+        if pairs.min() < 0 or pairs.max() >= self.n_nodes:
+            raise ValueError(f"sutures.pairs has node indices outside the mesh (0..{self.n_nodes - 1})")
+        if np.any(pairs[0] == pairs[1]):
+            raise ValueError("sutures.pairs ties a node to itself")
+        self.pairs = pairs.astype(np.intp)
+        k = np.broadcast_to(np.asarray(stiffness, dtype=float), (self.pairs.shape[1],)).copy()
+        if not np.all(np.isfinite(k) & (k > 0)):
+            raise ValueError(f"sutures.stiffness must be finite and > 0, got {stiffness!r}")
+        self.k = k
+        gaps = np.asarray(gaps, dtype=float)
+        if gaps.shape != self.pairs.shape or not np.all(np.isfinite(gaps)):
+            raise ValueError(f"sutures.gaps must be finite and shaped {self.pairs.shape}, got {gaps.shape}")
+        self.gap0 = gaps
+        self.tightness = np.zeros(self.pairs.shape[1])
+        self.slack = self.gap0.copy()
+        self.tighten(tightness)
+
+    def tighten(self, fraction, stitches=None) -> None:
+        """Set the tightness (0 slack ... 1 closed) of all stitches, or of those indexed by ``stitches``."""
+        s = np.asarray(fraction, dtype=float)
+        if not (np.all(np.isfinite(s)) and np.all(s >= 0) and np.all(s <= 1)):
+            raise ValueError(f"suture tightness must be in [0, 1], got {fraction!r}")
+        index = slice(None) if stitches is None else np.asarray(stitches, dtype=np.intp)
+        tightness = self.tightness.copy()
+        tightness[index] = s
+        self.tightness = tightness
+        self.slack = (1.0 - self.tightness) * self.gap0
+
+    def describe(self):
+        return f"sutures: {self.pairs.shape[1]} stitches, mean tightness {self.tightness.mean():g}"
+
+    def _x(self, u):
+        return self.X + u[: 2 * self.n_nodes].reshape(-1, 2).T
+
+    def _gap(self, u):
+        x = self._x(u)
+        return x[:, self.pairs[0]] - x[:, self.pairs[1]] - self.slack
+
+    def energy(self, u):
+        e = self._gap(u)
+        return 0.5 * float(np.sum(self.k * (e[0] ** 2 + e[1] ** 2)))
+
+    def gradient(self, u):
+        e = self.k * self._gap(u)
+        g = np.zeros(u.size)
+        for i in range(2):
+            np.add.at(g, 2 * self.pairs[0] + i, e[i])
+            np.add.at(g, 2 * self.pairs[1] + i, -e[i])
+        return g
+
+    def distances(self, u) -> np.ndarray:
+        """How far apart each sutured pair is (0 when closed)."""
+        x = self._x(u)
+        d = x[:, self.pairs[0]] - x[:, self.pairs[1]]
+        return np.hypot(d[0], d[1])
+
+    def forces(self, u) -> np.ndarray:
+        """The tension ``k |x_a - x_b - g|`` in each stitch."""
+        e = self._gap(u)
+        return self.k * np.hypot(e[0], e[1])
+
+    def _triplets(self):
+        a, b = self.pairs
+        rows, cols, vals = [], [], []
+        for p, q, sign in ((a, a, 1.0), (b, b, 1.0), (a, b, -1.0), (b, a, -1.0)):
+            for i in range(2):
+                rows.append(2 * p + i)
+                cols.append(2 * q + i)
+                vals.append(sign * self.k)
+        return np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
+
+    def couplings(self):
+        rows, cols, _ = self._triplets()
+        return rows, cols
+
+    def bind(self, pattern):
+        super().bind(pattern)
+        rows, cols, self._values = self._triplets()
+        self._positions = pattern.positions(rows, cols)
+
+    def add_hessian(self, u, data):
+        np.add.at(data, self._positions, self._values)

@@ -1,0 +1,216 @@
+"""The library's own answers to the exercises: what ``python -m pytest`` grades beside the student's files.
+
+Each function has the name and signature of its stub in ``chapters/exercises/chNN.py``
+and is a thin call of the engine wherever the engine already computes it, so there is
+no second copy of a solution to drift: the tests that grade a student grade the
+library with the same checks (``tests/grading.py``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..engine.bar1d import Bar1D, Traction
+from ..engine.inversion import rotation_preserving_svd
+from ..engine.linsolve import LinearInfo
+from ..engine.materials import LinearElastic, NeoHookean, TaylorNeoHookean, fiber_invariant, fiber_stress, fiber_tangent
+from ..engine.materials1d import NeoHookean1D, taylor_log as _r, taylor_log_prime as _r_prime
+from ..engine.minimize import newton
+from ..engine.parameters import lame_parameters
+from ..surgery.scene import Scene
+from ..surgery.topology import duplicate_along_edges
+from .fibers import fiber_modulus_gain
+from .measure import best_within_budget, observed_rates
+from .measure import pareto_front as _pareto_front
+
+__all__ = [
+    "linear_modulus_1d", "assemble_stiffness_1d",
+    "neo_hookean_stress_1d", "neo_hookean_tangent_1d", "newton_step_1d",
+    "lame_from_young", "deformation_gradient_p1", "linear_elastic_stress_2d",
+    "neo_hookean_energy_2d", "neo_hookean_stress_2d", "element_forces_p1",
+    "fiber_invariant", "fiber_stress", "fiber_tangent", "fiber_modulus_gain",
+    "rotation_preserving_svd", "taylor_log", "taylor_neo_hookean_stress",
+    "backward_euler_residual", "budgeted_newton",
+    "duplicate_cut_nodes", "scene_file_text",
+    "pareto_front", "observed_rates", "best_within_budget",
+]
+
+
+# --- chapter 1 -----------------------------------------------------------------------------------
+
+def linear_modulus_1d(lam, mu):
+    """Exercise 1.1: the 1D small-strain modulus ``dP/dF`` at rest, ``lam + 2 mu`` (the notes print ``2 mu - lam``)."""
+    return NeoHookean1D(lam, mu).modulus
+
+
+def assemble_stiffness_1d(nodes, modulus) -> np.ndarray:
+    """Exercise 1.2: the dense P1 stiffness ``A_ij = modulus int N_i' N_j' dX`` on the given nodes."""
+    return Bar1D(nodes=nodes).stiffness(modulus).toarray()
+
+
+# --- chapter 2 -----------------------------------------------------------------------------------
+
+def neo_hookean_stress_1d(F, lam, mu):
+    """Exercise 2.1: ``P(F) = mu F + (lam ln F - mu) / F``."""
+    return NeoHookean1D(lam, mu).stress(F)
+
+
+def neo_hookean_tangent_1d(F, lam, mu):
+    """Exercise 2.2: ``dP/dF = mu + (mu + lam (1 - ln F)) / F^2``."""
+    return NeoHookean1D(lam, mu).tangent(F)
+
+
+def newton_step_1d(nodes, u, lam, mu, traction) -> np.ndarray:
+    """Exercise 2.3: one Newton step for the 1D Neo-Hookean bar, left end fixed, traction at the right.
+
+    The library's minimiser limited to one plain iteration: ``u + du`` with ``dq/du du = -q(u)``.
+    """
+    bar = Bar1D(nodes=nodes)
+    material = NeoHookean1D(lam, mu)
+    u = np.asarray(u, dtype=float)
+    if u.shape != (bar.ndofs,):
+        raise ValueError(f"u must have shape ({bar.ndofs},), got {u.shape}")
+    u0 = u.copy()
+    u0[0] = 0.0
+    free = np.arange(1, bar.ndofs)
+    result = newton(u0, lambda x: bar.residual(x, material, right=Traction(traction)),
+                    lambda x: bar.tangent(x, material), free=free, line_search=None, max_iterations=1,
+                    rtol=0.0)
+    return result.x
+
+
+# --- chapter 3 -----------------------------------------------------------------------------------
+
+def _single_F(F) -> np.ndarray:
+    F = np.asarray(F, dtype=float)
+    if F.shape != (2, 2):
+        raise ValueError(f"F must be a single 2x2 matrix, got shape {F.shape}")
+    return F
+
+
+def _vertices(name, V) -> np.ndarray:
+    V = np.asarray(V, dtype=float)
+    if V.shape != (2, 3):
+        raise ValueError(f"{name} must be shaped (2, 3) (column a = vertex a), got shape {V.shape}")
+    return V
+
+
+def lame_from_young(E, nu, plane: str = "strain") -> tuple[float, float]:
+    """Exercise 3.1: ``(lam, mu)`` from Young's modulus and Poisson's ratio (plane strain or stress)."""
+    return lame_parameters(E, nu, plane)
+
+
+def _p1_gradients(X):
+    """Area and shape-function gradients ``(3, 2)`` of one linear triangle with vertices ``X`` ``(2, 3)``."""
+    Dm = X[:, 1:] - X[:, :1]
+    if abs(np.linalg.det(Dm)) <= 1e-14 * max(1.0, float(np.abs(Dm).max()) ** 2):
+        raise ValueError("X_nodes is a degenerate (zero-area) triangle")
+    grad12 = np.linalg.inv(Dm)  # row a-1 is grad N_a for a = 1, 2 (since N_a(X_b) = d_ab)
+    return 0.5 * abs(np.linalg.det(Dm)), np.vstack([-grad12.sum(axis=0), grad12])
+
+
+def deformation_gradient_p1(X_nodes, x_nodes) -> np.ndarray:
+    """Exercise 3.2: ``F[i, j] = dx_i/dX_j`` of one linear triangle: ``F = sum_a x_a (grad N_a)^T``."""
+    X, x = _vertices("X_nodes", X_nodes), _vertices("x_nodes", x_nodes)
+    _, grads = _p1_gradients(X)
+    return x @ grads
+
+
+def linear_elastic_stress_2d(F, lam, mu) -> np.ndarray:
+    """Exercise 3.3: ``P = 2 mu eps + lam tr(eps) I``, ``eps = (F + F^T)/2 - I``, for one 2x2 ``F``."""
+    return LinearElastic(lam, mu).stress(_single_F(F))
+
+
+# --- chapter 4 -----------------------------------------------------------------------------------
+
+def neo_hookean_energy_2d(F, lam, mu) -> float:
+    """Exercise 4.1: ``Psi = mu/2 (F:F - 2) - mu ln J + lam/2 (ln J)^2`` for one 2x2 ``F``."""
+    return float(NeoHookean(lam, mu).energy(_single_F(F)))
+
+
+def neo_hookean_stress_2d(F, lam, mu) -> np.ndarray:
+    """Exercise 4.2: ``P = mu F + (lam ln J - mu) F^-T`` for one 2x2 ``F``."""
+    return NeoHookean(lam, mu).stress(_single_F(F))
+
+
+def element_forces_p1(X_nodes, x_nodes, lam, mu) -> np.ndarray:
+    """Exercise 4.3: the Neo-Hookean forces on the vertices of one linear triangle, ``f_ia = A P_ij dN_a/dX_j``."""
+    X = _vertices("X_nodes", X_nodes)
+    area, grads = _p1_gradients(X)
+    return area * NeoHookean(lam, mu).stress(deformation_gradient_p1(X, x_nodes)) @ grads.T
+
+
+# --- chapter 5 -----------------------------------------------------------------------------------
+
+# --- chapter 6 -----------------------------------------------------------------------------------
+
+def taylor_log(J):
+    """Exercise 6.2: ``(r(J), r'(J))``, the notes' cubic Taylor polynomial of ``ln J`` at 1 and its derivative."""
+    return _r(J), _r_prime(J)
+
+
+def taylor_neo_hookean_stress(F, lam, mu):
+    """Exercise 6.3: ``P = mu F + (lam r - mu) r' cof F`` (the cofactor, not the notes' adjugate)."""
+    return TaylorNeoHookean(lam, mu).stress(F)
+
+
+# --- chapter 7 -----------------------------------------------------------------------------------
+
+def backward_euler_residual(M, u, u_n, v_n, dt, f_int, f_ext):
+    """Exercise 7.1: ``M (u - u_n - dt v_n) + dt^2 (f_int - f_ext)``: ``dt^2`` times the gradient of the
+    model's potential with its inertia term (:class:`~tissuefem.engine.terms.Inertia`)."""
+    u = np.asarray(u, dtype=float)
+    return M @ (u - (u_n + dt * v_n)) + dt**2 * (np.asarray(f_int) - np.asarray(f_ext))
+
+
+class _StepFunction:
+    """The minimiser's linear-solver role played by a user's ``newton_step(x, g)``."""
+
+    last_matrix = None
+
+    def __init__(self, step):
+        self.step = step
+
+    def matrix(self, assemble, mask, force=False):
+        return assemble()  # here: the iterate itself (see budgeted_newton)
+
+    def solve(self, x, rhs, *, atol=0.0):
+        return np.asarray(self.step(x, -rhs), dtype=float), LinearInfo()
+
+
+def budgeted_newton(x0, energy, gradient, newton_step, clock, budget, rtol):
+    """Exercise 7.2: one budgeted frame, by the library's minimiser with the frame's own Newton step."""
+    result = newton(np.asarray(x0, dtype=float), gradient, lambda x: x, energy=energy,
+                    linear=_StepFunction(newton_step), clock=clock, budget=budget, rtol=rtol, max_iterations=50)
+    return result.x, result.iterations, result.converged
+
+
+# --- chapter 8 -----------------------------------------------------------------------------------
+
+def duplicate_cut_nodes(t, n_nodes, cut_edges):
+    """Exercise 8.1: node duplication along a cut (the library's cutting core)."""
+    return duplicate_along_edges(t, n_nodes, cut_edges)
+
+
+def scene_file_text():
+    """Exercise 8.2: the scene of the exercise, built in Python and written by :meth:`Scene.to_toml`."""
+    return Scene(
+        name="tug",
+        domain={"shape": "rectangle", "width": 3.0, "height": 1.0, "triangles": 600},
+        material={"model": "corotated", "youngs_modulus": 5000.0, "poisson_ratio": 0.4, "density": 1.1},
+        effects={
+            "inertia": {"time_step": 0.02},
+            "gravity": {"acceleration": [0.0, -9.81]},
+            "fibers": {"stiffness": 2000.0, "direction": [1.0, 0.0]},
+            "handles": [{"name": "fixed", "region": "left"},
+                        {"name": "tip", "region": {"near": [3.0, 0.5], "radius": 0.1}, "target": [0.5, 0.0]}],
+        },
+    ).to_toml()
+
+
+# --- chapter 9 -----------------------------------------------------------------------------------
+
+def pareto_front(costs, errors):
+    """Exercise 9.1: indices of the non-dominated settings, by increasing cost (a list)."""
+    return _pareto_front(costs, errors).tolist()
+

@@ -1,0 +1,288 @@
+"""One finite-difference table for every material and every term: energy -> gradient -> Hessian.
+
+Each material's stress must be the derivative of its energy and its tangent the
+derivative of its stress, checked by central differences at rest, stretched,
+sheared, at random states, and through inversion where the model allows it.
+Each term of a model (elastic with every material, P1 and P2, fibres, inertia,
+loads, probe, sutures) and the whole model must have the gradient of its energy
+and the Hessian of its gradient, checked along random directions. A new material
+or term is added to the table, not given its own copy of these checks.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tissuefem import (Corotated, FiberReinforced, Handle, ITFClamped, LinearElastic, Model, NeoHookean, ProjectedTangent,
+                       StableNeoHookean, TaylorNeoHookean, rectangle)
+from tissuefem.engine.materials import det2
+from tissuefem.engine.terms import Elastic, Fibers, Inertia, Load, Probe, Sutures
+
+LAM, MU = 1.7, 0.6
+NEL, NQP = 30, 3  # random F fields are shaped [2, 2, NEL, NQP], like scikit-fem's
+H = 1e-6
+RTOL = 1e-6
+
+
+def _rng(seed=0):
+    return np.random.default_rng(seed)
+
+
+def _rotation(theta):
+    c, s = np.cos(theta), np.sin(theta)
+    return np.array([[c, -s], [s, c]])
+
+
+def _matmul(A, B):
+    return np.einsum("ij...,jk...->ik...", A, B)
+
+
+def random_F(kind, seed=0, shape=(NEL, NQP)):
+    """Fields of F: ``"positive"`` (J > 0), ``"inverted"`` (J < 0, down to about -4), ``"singular"`` (J = 0),
+    built as ``U diag(s1, s2) V^T`` with rotations U, V; or the named states ``"rest"``, ``"stretched"``,
+    ``"sheared"`` (the same F everywhere). Inverted samples keep ``s1 - |s2| >= 0.2``: the corotated
+    rotation is singular where the signed singular values sum to 0 (a measure-zero set, tested apart)."""
+    named = {"rest": np.eye(2), "stretched": np.diag([1.3, 0.85]), "sheared": np.array([[1.0, 0.4], [0.0, 1.0]])}
+    if kind in named:
+        return np.broadcast_to(named[kind].reshape(2, 2, 1, 1), (2, 2) + shape).copy()
+    rng = _rng(seed)
+    U = _rotation(rng.uniform(-np.pi, np.pi, shape))
+    V = _rotation(rng.uniform(-np.pi, np.pi, shape))
+    if kind == "positive":
+        s1, s2 = np.exp(rng.normal(0.0, 0.35, shape)), np.exp(rng.normal(0.0, 0.35, shape))
+    elif kind == "inverted":
+        s1, s2 = rng.uniform(1.2, 2.0, shape), -rng.uniform(0.1, 1.0, shape)
+    elif kind == "singular":
+        s1, s2 = rng.uniform(0.5, 2.0, shape), np.zeros(shape)
+    else:
+        raise ValueError(kind)
+    z = np.zeros(shape)
+    return _matmul(_matmul(U, np.array([[s1, z], [z, s2]])), V.swapaxes(0, 1))
+
+
+def fd_stress(m, F, h=H):
+    """Central differences of the energy density, one component of F at a time (all samples at once)."""
+    P = np.empty_like(F)
+    for k in range(2):
+        for l in range(2):
+            dF = np.zeros_like(F)
+            dF[k, l] = h
+            P[k, l] = (m.energy(F + dF) - m.energy(F - dF)) / (2.0 * h)
+    return P
+
+
+def fd_tangent(m, F, h=H):
+    """Central differences of the stress, one component of F at a time."""
+    A = np.empty((2, 2) + F.shape)
+    for k in range(2):
+        for l in range(2):
+            dF = np.zeros_like(F)
+            dF[k, l] = h
+            A[:, :, k, l] = (m.stress(F + dF) - m.stress(F - dF)) / (2.0 * h)
+    return A
+
+
+def assert_close_per_sample(exact, approx, ncomp_axes, rtol=RTOL):
+    """Per sample (trailing axes), ``max |exact - approx| <= rtol * (1 + max |exact|)``."""
+    axes = tuple(range(ncomp_axes))
+    err = np.max(np.abs(exact - approx), axis=axes)
+    scale = 1.0 + np.max(np.abs(exact), axis=axes)
+    assert np.all(np.isfinite(exact))
+    worst = np.max(err / scale)
+    assert worst <= rtol, f"worst relative error {worst:.3e}"
+
+
+# --- the material table --------------------------------------------------------------------------------------------
+
+def _fibers(shape, seed=7):
+    return _rng(seed).normal(size=(2,) + shape)
+
+
+MATERIALS = {
+    "linear": lambda: LinearElastic(LAM, MU),
+    "neo-hookean": lambda: NeoHookean(LAM, MU),
+    "taylor-neo-hookean": lambda: TaylorNeoHookean(LAM, MU),
+    "stable-neo-hookean": lambda: StableNeoHookean(LAM, MU),
+    "corotated": lambda: Corotated(LAM, MU),
+    "itf-clamped (exact tangent)": lambda: ITFClamped(NeoHookean(LAM, MU), project=False),
+    "neo-hookean+fibers(uniform)": lambda: FiberReinforced(NeoHookean(LAM, MU), 2.5, [1.0, 2.0]),
+    "stable+fibers(per element)": lambda: FiberReinforced(StableNeoHookean(LAM, MU), 2.5, _fibers((NEL,))),
+    "corotated+fibers(per point)": lambda: FiberReinforced(Corotated(LAM, MU), 2.5, _fibers((NEL, NQP))),
+    "taylor+fibers(uniform)": lambda: FiberReinforced(TaylorNeoHookean(LAM, MU), 2.5, [0.3, -1.0]),
+}
+#: wrappers whose tangent is deliberately not the stress's derivative (a PSD projection): stress only
+STRESS_ONLY = {"projected stable": lambda: ProjectedTangent(StableNeoHookean(LAM, MU)),
+               "itf-clamped (projected tangent)": lambda: ITFClamped(NeoHookean(LAM, MU))}
+STATES = ["rest", "stretched", "sheared", "positive"]
+
+
+@pytest.mark.parametrize("state", STATES + ["inverted", "singular"])
+@pytest.mark.parametrize("name", list(MATERIALS) + list(STRESS_ONLY))
+def test_material_stress_and_tangent_are_derivatives(name, state):
+    m = {**MATERIALS, **STRESS_ONLY}[name]()
+    if state in ("inverted", "singular"):
+        if not m.inversion_safe:
+            pytest.skip(f"{name} is undefined at J <= 0 (by design: NaN, so a solver can tell)")
+    F = random_F(state, seed=hash(state) % 97)
+    if state == "inverted":
+        assert np.all(det2(F) < -0.01)
+    assert np.all(np.isfinite(m.energy(F)))
+    assert_close_per_sample(m.stress(F), fd_stress(m, F), 2)
+    if name not in STRESS_ONLY:
+        A, A_fd = m.tangent(F), fd_tangent(m, F)
+        itf = name.startswith("itf")
+        if itf:
+            # the clamped energy is C1: its tangent jumps where a singular value crosses the threshold, so the
+            # difference quotient is compared only at samples away from it
+            s = np.linalg.svd(np.moveaxis(F.reshape(2, 2, -1), -1, 0), compute_uv=False)
+            away = np.all(np.abs(s - m.threshold) > 1e-3, axis=1)
+            A, A_fd = A.reshape(2, 2, 2, 2, -1)[..., away], A_fd.reshape(2, 2, 2, 2, -1)[..., away]
+        assert_close_per_sample(A, A_fd, 4, rtol=2e-5 if itf else RTOL)
+
+
+@pytest.mark.parametrize("name", list(MATERIALS) + list(STRESS_ONLY))
+def test_material_rest_is_energy_and_stress_free(name):
+    m = {**MATERIALS, **STRESS_ONLY}[name]()
+    F = random_F("rest")
+    np.testing.assert_allclose(m.energy(F), 0.0, atol=1e-12)
+    np.testing.assert_allclose(m.stress(F), 0.0, atol=1e-12)
+
+
+# --- the term table ------------------------------------------------------------------------------------------------
+
+def _mesh():
+    return rectangle(1.0, 1.0, 4, 4)
+
+
+def _model(terms="elastic", material=None, order=1):
+    """A small model with the named effect(s) on top of the elastic term; ``u`` a displacement in the
+    given state."""
+    mesh = _mesh()
+    X = mesh.p
+    pairs = np.array([[0, 3], [24, 20]])
+    options = {
+        "fibers": dict(fibers=(50.0, _fibers((mesh.nelements,), seed=3))),
+        "inertia": dict(dt=0.05, density=1.3, mass="consistent"),
+        "inertia-lumped": dict(dt=0.05, density=1.3, mass="lumped"),
+        "loads": dict(gravity=(0.2, -9.81), tractions={"right": (3.0, -1.0)}, body_force=(0.5, 0.1)),
+        "sutures": dict(sutures={"pairs": pairs, "stiffness": 40.0, "gaps": X[:, pairs[0]] - X[:, pairs[1]],
+                                 "tightness": 0.3}),
+        "probe": dict(probes=[dict(center=[0.52, 0.47], radius=0.3, stiffness=1e3)]),
+    }
+    kw = {}
+    for t in terms.split("+"):
+        kw.update(options.get(t, {}))
+    m = Model(mesh, material or StableNeoHookean(100.0 * LAM, 100.0 * MU), order=order,
+              handles=[Handle(np.array([0]))], **kw)
+    if m.inertia is not None:
+        m.inertia.x_tilde = 0.01 * _rng(11).normal(size=m.n_dofs)
+    return m
+
+
+def _state(model, state, seed=5):
+    X = model.dof_points
+    maps = {"rest": np.eye(2), "stretched": np.diag([1.3, 0.85]), "sheared": np.array([[1.0, 0.4], [0.0, 1.0]])}
+    if state in maps:
+        x = maps[state] @ X
+    else:  # a smooth random deformation (J > 0 at every quadrature point, P2 included)
+        a, b = _rng(seed).uniform(-1.0, 1.0, (2, 2))
+        x = X + 0.08 * np.stack([np.sin(a[0] * 3 * X[0] + a[1] * 3 * X[1]), np.cos(b[0] * 3 * X[0] + b[1] * 3 * X[1])])
+    d = x - X
+    return d[model.component, np.arange(model.n_dofs)]
+
+
+def _check_term(term, u, exact_hessian=True, seed=1):
+    rng = _rng(seed)
+    data = term.pattern.zeros()
+    term.add_hessian(u, data)
+    K = term.pattern.csr(data)
+    g = term.gradient(u)
+    for _ in range(3):
+        d = 0.01 * rng.normal(size=u.size)
+        h = 1e-4  # the energy's own round-off (its terms cancel at rest) over 2h stays far below the tolerance
+        fd_g = (term.energy(u + h * d) - term.energy(u - h * d)) / (2 * h)
+        # tolerance: relative, plus the size of the second-order term the difference quotient neglects
+        assert fd_g == pytest.approx(g @ d, rel=1e-6, abs=1e-6 * (1e-6 + abs(d @ (K @ d)))), term.describe()
+        if exact_hessian:
+            fd_K = (term.gradient(u + H * d) - term.gradient(u - H * d)) / (2 * H)
+            np.testing.assert_allclose(K @ d, fd_K, rtol=1e-5, atol=1e-6 * (1 + np.abs(fd_K).max()),
+                                       err_msg=term.describe())
+
+
+TERMS = {
+    "elastic (stable)": ("elastic", Elastic, None),
+    "elastic (linear)": ("elastic", Elastic, LinearElastic(LAM, MU)),
+    "elastic (ln J)": ("elastic", Elastic, NeoHookean(LAM, MU)),
+    "elastic (Taylor)": ("elastic", Elastic, TaylorNeoHookean(LAM, MU)),
+    "elastic (corotated)": ("elastic", Elastic, Corotated(LAM, MU)),
+    "elastic (ITF)": ("elastic", Elastic, ITFClamped(NeoHookean(LAM, MU), project=False)),
+    "fibers": ("fibers", Fibers, None),
+    "inertia (consistent)": ("inertia", Inertia, None),
+    "inertia (lumped)": ("inertia-lumped", Inertia, None),
+    "loads": ("loads", Load, None),
+    "sutures": ("sutures", Sutures, None),
+}
+
+
+@pytest.mark.parametrize("state", STATES)
+@pytest.mark.parametrize("order", [1, 2])
+@pytest.mark.parametrize("name", list(TERMS))
+def test_term_gradient_and_hessian_are_derivatives(name, order, state):
+    effect, kind, material = TERMS[name]
+    if order == 2 and effect in ("inertia-lumped",):
+        pytest.skip("row-sum lumping gives P2 vertices no mass (refused)")
+    model = _model(effect, material, order)
+    u = _state(model, state)
+    terms = [t for t in model.terms if isinstance(t, kind)]
+    assert terms, name
+    for term in terms:
+        _check_term(term, u)
+
+
+@pytest.mark.parametrize("state", STATES)
+def test_the_probe_gradient_is_exact_and_its_newton_matrix_is_the_positive_part(state):
+    model = _model("probe")
+    u = _state(model, state)
+    probe = model.probes[0]
+    if probe._contact(u)[0].size == 0:
+        u = u + _state(model, "random", seed=2)
+    assert probe._contact(u)[0].size > 0  # the probe touches something
+    _check_term(probe, u, exact_hessian=False)
+    data = model.pattern.zeros()
+    probe.add_hessian(u, data)
+    eig = np.linalg.eigvalsh(model.pattern.csr(data).toarray())
+    assert eig.min() > -1e-9 * eig.max() and eig.max() > 0  # Gauss-Newton: positive semi-definite
+
+
+@pytest.mark.parametrize("state", STATES)
+def test_the_whole_model_energy_gradient_hessian(state):
+    model = _model("fibers+inertia+loads+sutures")
+    assert model.term_names == ["inertia", "elastic", "fibers", "sutures", "gravity", "body force", "tractions"]
+    u = _state(model, state)
+    rng = _rng(4)
+    K, g = model.hessian(u), model.gradient(u)
+    for _ in range(3):
+        d = rng.normal(size=u.size)
+        fd = (model.energy(u + H * d) - model.energy(u - H * d)) / (2 * H)
+        assert fd == pytest.approx(g @ d, rel=1e-6)
+        fd_K = (model.gradient(u + H * d) - model.gradient(u - H * d)) / (2 * H)
+        np.testing.assert_allclose(K @ d, fd_K, rtol=1e-5, atol=1e-6 * (1 + np.abs(fd_K).max()))
+    # the model's sum is the sum of its terms
+    assert model.energy(u) == pytest.approx(sum(t.energy(u) for t in model.terms))
+
+
+def test_sutures_widen_the_pattern_and_the_elastic_part_lands_where_it_belongs():
+    model = _model("fibers+sutures")
+    u = _state(model, "random")
+    assert model.pattern.nnz > model.assembler.nnz
+    a, b = model.sutures.pairs[:, 0]
+    K = model.hessian(u).toarray()
+    assert K[2 * a, 2 * b] != 0  # the stitch couples two nodes of no common element
+    elastic = model.assembler.csr(
+        model.assembler.tangent(u, model.terms[0].density).data + model.assembler.tangent(u, model.terms[1].density).data
+    ).toarray()
+    S = np.zeros_like(K)
+    rows, cols, vals = model.sutures._triplets()
+    np.add.at(S, (rows, cols), vals)
+    np.testing.assert_allclose(K, elastic + S, atol=1e-12 * np.abs(K).max())
