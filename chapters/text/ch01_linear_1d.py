@@ -30,10 +30,9 @@
 import numpy as np
 import matplotlib.pyplot as plt
 
-from tissuefem import lame_parameters
-from tissuefem.engine.materials1d import Linear1D, NeoHookean1D
-from tissuefem.engine.bar1d import Bar1D, Displacement, Traction, convergence_study
-from tissuefem.workbook.figures import registry as figures
+from tissuefem import Bar1D, Displacement, Linear1D, NeoHookean1D, Traction, lame_parameters
+from tissuefem.workbook.figures.oned import fig_ch01_convergence
+from tissuefem.workbook.oned import convergence_study
 
 # %% [markdown]
 # ## 1. The problem
@@ -151,7 +150,7 @@ for r in rows:
     print(f"{r['order']:>5} {r['n']:>4} {r['L2']:11.3e} {r['rate_L2']:5.2f} {r['H1']:11.3e} {r['rate_H1']:5.2f}")
 
 # %%
-figures.fig_ch01_convergence()
+fig_ch01_convergence()
 
 # %% [markdown]
 # The observed rates are 2 and 1 for P1, and 3 and 2 for P2, as theory says. Accuracy costs

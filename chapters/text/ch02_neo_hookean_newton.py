@@ -30,11 +30,10 @@
 import numpy as np
 import matplotlib.pyplot as plt
 
-from tissuefem import lame_parameters
+from tissuefem import Bar1D, NeoHookean1D, TaylorNeoHookean1D, Traction, lame_parameters
 
-from tissuefem.workbook.figures import registry as figures
-from tissuefem.engine.materials1d import NeoHookean1D, TaylorNeoHookean1D
-from tissuefem.engine.bar1d import Bar1D, Traction, nonlinear_forms, uniform_bar_stretch
+from tissuefem.engine.bar1d import nonlinear_forms, uniform_bar_stretch
+from tissuefem.workbook.figures.oned import fig05_admissible_maps, fig07_neo_hookean_1d, fig_ch02_newton
 
 lam, mu = lame_parameters(E=1000.0, nu=0.3)
 neo = NeoHookean1D(lam, mu)
@@ -127,7 +126,7 @@ F_exact = uniform_bar_stretch(neo, T)
 print(f"\nclosed form: F = {F_exact:.12f};  largest nodal error {np.abs(u - (F_exact - 1) * bar.nodes).max():.2e}")
 
 # %%
-figures.fig_ch02_newton()
+fig_ch02_newton()
 
 # %% [markdown]
 # ## 4. Load stepping
@@ -198,7 +197,7 @@ for label, kwargs, material in [("load stepping (10 steps)", dict(load_steps=10)
     print(f"{label:34s} converged={results[-1].converged}  F = {F_end:.4f}")
 
 # %%
-figures.fig07_neo_hookean_1d()
+fig07_neo_hookean_1d()
 
 # %% [markdown]
 # The Taylor model agrees with $\ln J$ near $J = 1$ but stays finite for $J \le 0$, so an
@@ -208,7 +207,7 @@ figures.fig07_neo_hookean_1d()
 # $F \le 0$ is not physical in the first place — the map folds material onto itself:
 
 # %%
-figures.fig05_admissible_maps()
+fig05_admissible_maps()
 
 # %% [markdown]
 # ## What to try

@@ -32,12 +32,9 @@
 # %matplotlib inline
 import numpy as np
 
-from tissuefem import lame_parameters
-from tissuefem.engine.assembly import P1Assembler
+from tissuefem import Handle, LinearElastic, Model, NeoHookean, P1Assembler, lame_parameters, rectangle, solve
+from tissuefem.engine.materials import det2
 from tissuefem.workbook.figures.kinematics import fig02_kinematics, fig_ch03_rotation_stress
-from tissuefem.engine.materials import LinearElastic, NeoHookean, det2
-from tissuefem.engine.meshes import rectangle
-from tissuefem.engine.quasistatic import Handle, QuasistaticProblem
 from tissuefem.workbook.studies import (bending_gradient, bending_map, displacement_from_map,
                                handle_force, rigid_rotation_response, rotated_block, rotation)
 
@@ -244,7 +241,7 @@ for th in (30.0, 90.0):
 # %% [markdown]
 # What does this mean for a whole body? Clamp the left edge of a unit block to a wall, turn the
 # wall by 60° about the edge's midpoint and let the rest of the block find its equilibrium
-# (`tissuefem.workbook.studies.rotated_block` sets up the `QuasistaticProblem`; the Neo-Hookean solve turns the wall in
+# (`tissuefem.workbook.studies.rotated_block` sets up the `Model`; the Neo-Hookean solve turns the wall in
 # 15° steps). The Neo-Hookean block simply turns with the wall. The linear-elastic block cannot:
 # its zero-energy motions are the *infinitesimal* rotations $\mathbf u = \mathbf W\mathbf X$ with
 # $\mathbf W$ skew, and at finite size $\mathbf I + \mathbf W$ is a rotation combined with a
@@ -253,11 +250,10 @@ for th in (30.0, 90.0):
 
 # %%
 for material in (neo, linear):
-    problem, result = rotated_block(material, np.radians(60.0))
-    fast = P1Assembler(problem.mesh)
-    J = det2(fast.deformation_gradient(result.u))           # area ratio of every triangle
-    print(f"{material.name:12s}: converged {result.converged}, stored energy {problem.strain_energy(result.u):9.2g}, "
-          f"deformed area {fast.areas @ J:.3f} (reference 1)")
+    model, result = rotated_block(material, np.radians(60.0))
+    J = det2(model.deformation_gradient(result.u))           # area ratio of every triangle
+    print(f"{material.name:12s}: converged {result.converged}, stored energy {model.stored_energy(result.u):9.2g}, "
+          f"deformed area {model.element_areas() @ J:.3f} (reference 1)")
 
 # %%
 fig_ch03_rotation_stress()
@@ -279,9 +275,9 @@ for delta in (0.01, 0.1, 0.5, 1.0):
     handles = [Handle("left"), Handle("right", (delta, 0.0))]
     solved = []
     for material in (linear, neo):
-        problem = QuasistaticProblem(mesh, material, handles=handles)
-        u = problem.solve().u
-        solved.append((u, handle_force(problem, u, "right")[0]))
+        model = Model(mesh, material, handles=handles)
+        u = solve(model).u
+        solved.append((u, handle_force(model, u, "right")[0]))
     (u_lin, f_lin), (u_neo, f_neo) = solved
     print(f"{delta:6.2f} {delta / 2:8.1%} {np.linalg.norm(u_lin - u_neo) / np.linalg.norm(u_neo):24.1e} "
           f"{f_lin:13.2f} {f_neo:10.2f} {(f_lin - f_neo) / f_neo:10.1%}")

@@ -33,12 +33,9 @@
 import numpy as np
 from skfem import asm
 
-from tissuefem.engine.assembly import P1Assembler
+from tissuefem import (Handle, LinearElastic, Model, NeoHookean, P1Assembler, rectangle, residual_form, solve,
+                       tangent_form)
 from tissuefem.workbook.figures.kinematics import fig_ch04_block, fig_ch04_cost_accuracy
-from tissuefem.engine.forms import residual_form, tangent_form
-from tissuefem.engine.materials import LinearElastic, NeoHookean
-from tissuefem.engine.meshes import rectangle
-from tissuefem.engine.quasistatic import Handle, QuasistaticProblem
 from tissuefem.workbook.studies import cost_accuracy_study, format_cost_accuracy, handle_force
 
 material = NeoHookean.from_young(1000.0, 0.3)        # E = 1000, nu = 0.3: the notes' typical values
@@ -127,10 +124,10 @@ print("tangent at F = I equals the linear-elastic one:",
 
 # %%
 mesh = rectangle(2.0, 1.0, 16, 8)
-problem = QuasistaticProblem(mesh, material, handles=[Handle("left")], assembly="forms")
-u = 0.005 * rng.standard_normal(problem.basis.N)            # small enough to keep J > 0
-uh = problem.basis.interpolate(u)
-q_forms, K_forms = asm(residual_form(material), problem.basis, u=uh), asm(tangent_form(material), problem.basis, u=uh)
+model = Model(mesh, material, handles=[Handle("left")], assembly="forms")
+u = 0.005 * rng.standard_normal(model.n_dofs)               # small enough to keep J > 0
+uh = model.basis.interpolate(u)
+q_forms, K_forms = asm(residual_form(material), model.basis, u=uh), asm(tangent_form(material), model.basis, u=uh)
 fast = P1Assembler(mesh, material)
 print("largest |q_fast - q_forms| =", np.abs(fast.residual(u) - q_forms).max())
 print("largest |K_fast - K_forms| =", np.abs(fast.tangent(u) - K_forms).max())
@@ -140,31 +137,34 @@ print("largest |K_fast - K_forms| =", np.abs(fast.tangent(u) - K_forms).max())
 #
 # A $2 \times 1$ block (think of a strip of skin, in plane strain) is held at its left edge; a
 # handle grabs the right edge and moves it by $(0.6, 0.4)$: a 30 % stretch and a shear. A
-# `Handle` is a set of material points with a target; `QuasistaticProblem` eliminates the
-# prescribed dofs and runs Newton on the rest. (`tissuefem.workbook.studies.block_problem` builds the
-# same problem for the study in section 5.)
+# `Handle` is a set of material points with a target; a `Model` is the body with its terms and
+# handles, and `solve` finds its equilibrium: it eliminates the prescribed dofs and runs Newton on
+# the rest. (`tissuefem.workbook.studies.block_model` builds the same model for the study in section 5.)
+# Here each Newton step solves its linear system exactly (a fresh factorization, `linear_solver="direct"`);
+# the default reuses one factorization across steps and solves only as accurately as each step needs,
+# which costs an iteration more but far fewer factorizations.
 
 # %%
 mesh = rectangle(2.0, 1.0, 24, 12)
-problem = QuasistaticProblem(mesh, material, handles=[Handle("left"), Handle("right", (0.6, 0.4))])
-result = problem.solve()
+model = Model(mesh, material, handles=[Handle("left"), Handle("right", (0.6, 0.4))])
+result = solve(model, linear_solver="direct")
 print(f"converged: {result.converged} in {result.newton_iterations} Newton iterations, "
-      f"{mesh.t.shape[1]} triangles, {problem.basis.N} dofs")
+      f"{mesh.t.shape[1]} triangles, {model.n_dofs} dofs")
 print(result.steps[-1].table())
 
 # %% [markdown]
 # The residual falls $22 \to 1 \to 2\cdot 10^{-3} \to 2\cdot 10^{-8}$: the number of correct
 # digits doubles every iteration, and the last column $\|q_{k+1}\|/\|q_k\|^2$ stays roughly
 # constant — quadratic convergence, as in chapter 2, now with $\approx 600$ unknowns. (The solver
-# starts from a *predictor*: one linearised step that moves the free nodes along with the handle,
-# which is why three iterations suffice.)
+# starts from a *predictor*: one linearised Newton step from the rest state that moves the free
+# nodes along with the handle. It is counted among the 4 iterations; the table shows the 3 after it.)
 #
 # The force the handles exert on the block follows from the internal forces at their dofs (at
 # equilibrium, nothing else balances them there). The two forces are equal and opposite:
 
 # %%
 for edge in ("right", "left"):
-    print(f"force of the {edge:5s} handle on the block: {handle_force(problem, result.u, edge).round(2)}")
+    print(f"force of the {edge:5s} handle on the block: {handle_force(model, result.u, edge).round(2)}")
 
 # %%
 fig_ch04_block()
@@ -182,11 +182,11 @@ fig_ch04_block()
 
 # %%
 for steps in (1, 2, 4, 8):
-    r = problem.solve(load_steps=steps)
+    r = solve(model, load_steps=steps, linear_solver="direct")
     print(f"{steps} load step(s): converged {r.converged}, Newton iterations per step {[s.iterations for s in r.steps]}")
 
 # %% [markdown]
-# With the predictor, this block needs no ramp at all: one step takes 3 iterations, eight take 16.
+# With the predictor, this block needs no ramp at all: one step takes 4 iterations, eight take 24.
 # Load stepping buys robustness for harder loads (chapter 2's compressed bar) and gives the
 # intermediate states, but every step costs at least one factorization. A real-time simulator does
 # something similar for free: each frame starts from the previous frame's solution and the
@@ -209,7 +209,7 @@ for steps in (1, 2, 4, 8):
 # The time is the wall time of the whole solve from rest (`time.perf_counter`, median of a few
 # repeats), and, separately, of one Newton iteration at the solution (residual, tangent, sparse
 # factorization and solve) — the least a frame can do. P1 uses the fast `P1Assembler`; P2 uses
-# `tissuefem.workbook.studies.QuadratureAssembler`, the same vectorised idea over all quadrature points,
+# `QuadratureAssembler`, the same vectorised idea over all quadrature points,
 # so that both orders are timed with the same kind of assembly.
 #
 # The sizes below are modest to keep the notebook quick; the study takes any sizes. (Timings
@@ -257,7 +257,7 @@ fig_ch04_cost_accuracy()
 #   without load stepping?
 # - Repeat the study with $\nu = 0.45$ (`material=NeoHookean.from_young(1000, 0.45)`): nearly
 #   incompressible material makes P1 triangles *lock* (too stiff). Which order suffers more?
-# - Time P1 with the readable forms (`block_problem(n, assembly="forms")`) against the fast path:
+# - Time P1 with the readable forms (`block_model(n, assembly="forms")`) against the fast path:
 #   what does vectorised assembly buy, and from which mesh size on does the linear solve dominate?
 # - Use the handle force instead of the $L^2$ error as the measure of accuracy: does it converge
 #   faster or slower?

@@ -38,12 +38,11 @@
 import numpy as np
 import matplotlib.pyplot as plt
 
+from tissuefem import FiberReinforced, NeoHookean, fusiform_fiber_field, fusiform_muscle
+from tissuefem.engine.materials import fiber_energy, fiber_invariant, fiber_stress, fiber_tangent
 from tissuefem.workbook.fibers import (K_FIBER, along_vs_across, block_pull, confined_pull, fiber_direction,
-                              fiber_energy, fiber_invariant, fiber_modulus_gain, fiber_stress, fiber_tangent,
-                              muscle_pull, predicted_confined_modulus)
+                                       fiber_modulus_gain, muscle_pull, predicted_confined_modulus)
 from tissuefem.workbook.figures.fibers import fig03_fiber_field, fig_ch05_along_vs_across, fig_ch05_muscle_pull
-from tissuefem.engine.materials import FiberReinforced, NeoHookean
-from tissuefem.engine.meshes import fusiform_fiber_field, fusiform_muscle
 
 matrix = NeoHookean.from_young(E=1000.0, nu=0.3)  # the isotropic "ground substance"
 print(f"lam = {matrix.lam:.2f}, mu = {matrix.mu:.2f}, fiber modulus k = {K_FIBER:g}")
@@ -148,8 +147,9 @@ print(f"I4 under a rotation        : {fiber_invariant(R, fiber_direction(30.0)):
 # $$ \Psi_{\text{fiber}}(I_4) = \frac{k}{8}(I_4 - 1)^2, \qquad
 #    \mathbf P_{\text{fiber}} = \frac{k}{2}(I_4 - 1)\,\mathbf F\mathbf g\,\mathbf g^T , $$
 #
-# where the factor $1/8$ makes $k$ the fiber's own small-strain modulus (section 4). This is what
-# `FiberReinforced(base, k, fibers)` adds to any base material. It resists shortening as much as
+# where the factor $1/8$ makes $k$ the fiber's own small-strain modulus (section 4). This is the
+# energy of a model's fibre term (`Model(..., fibers=(k, directions))`, one direction per element),
+# and what `FiberReinforced(base, k, fibers)` adds to any base material at a point. It resists shortening as much as
 # stretching; real fibers buckle instead (see *What to try*). Both formulas, checked against
 # central differences of the energy:
 
@@ -236,10 +236,9 @@ print("extra modulus at 0, 45, 90 degrees:", [round(fiber_modulus_gain(K_FIBER, 
 #
 # ```python
 # handle = Handle(on_boundary, target=lambda X: np.vstack([(1 + eps) * X[0], X[1]]))
-# problem = QuasistaticProblem(rectangle(1, 1, 4, 4), FiberReinforced(matrix, k, fiber_direction(theta)),
-#                              handles=[handle])
-# u = problem.solve().u
-# force = problem.internal_force(u)[problem.basis.get_dofs("right").nodal["u^1"]].sum()
+# model = Model(rectangle(1, 1, 4, 4), matrix, fibers=(k, fiber_direction(theta)), handles=[handle])
+# u = solve(model).u
+# force = model.internal_force(u)[model.basis.get_dofs("right").nodal["u^1"]].sum()
 # ```
 #
 # **The prediction.** Along ($\theta = 0$) minus across ($\theta = 90°$) is $k\cos^4 0 - k\cos^4 90° = k$.

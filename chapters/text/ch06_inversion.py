@@ -43,14 +43,12 @@ import numpy as np
 import matplotlib.pyplot as plt
 from scipy.sparse.linalg import MatrixRankWarning
 
-from tissuefem.engine.assembly import P1Assembler
 from tissuefem.workbook.figures.inversion import (cover_counts, crush_and_release_runs, draw_state, element_jacobians,
                                          fig06_crush_release, fig_ch06_itf_energy)
 from tissuefem.workbook.hardcases import block, inversion_models, release, start_states
-from tissuefem.engine.inversion import ITFClamped, projected_tangent, rotation_preserving_svd
-from tissuefem.engine.materials import NeoHookean, StableNeoHookean, TaylorNeoHookean
+from tissuefem import (Handle, ITFClamped, Model, NeoHookean, P1Assembler, StableNeoHookean, TaylorNeoHookean,
+                       projected_tangent, rotation_preserving_svd)
 from tissuefem.engine.materials1d import taylor_log, taylor_log_prime
-from tissuefem.engine.quasistatic import Handle, QuasistaticProblem
 
 E, nu = 1000.0, 0.3
 models = inversion_models(E, nu)          # the four models of this chapter, by name
@@ -143,10 +141,10 @@ for ax, (name, x) in zip(axes, states.items()):
 
 # %%
 x = states["crushed past flat"]
-problem = QuasistaticProblem(mesh, models["stable neo-Hookean"], handles=[Handle("bottom")])
-u = problem.basis.zeros()
-u[problem.basis.nodal_dofs] = x - mesh.p                        # displacement dofs of the state
-F_elements = problem.assembler.deformation_gradient(u)          # shape (2, 2, n_elements)
+model = Model(mesh, models["stable neo-Hookean"], handles=[Handle("bottom")])
+u = model.zeros()
+u[model.basis.nodal_dofs] = x - mesh.p                          # displacement dofs of the state
+F_elements = model.deformation_gradient(u)                      # shape (2, 2, n_elements)
 J_from_F = F_elements[0, 0] * F_elements[1, 1] - F_elements[0, 1] * F_elements[1, 0]
 print("largest |det F - area ratio| =", np.abs(J_from_F.ravel() - element_jacobians(mesh, x)).max())
 
@@ -426,7 +424,7 @@ fig06_crush_release(runs=runs)
 #   bottom edge (see the check below).
 # - **Stable Neo-Hookean** (projected tangent). Flat, past flat, and back to rest to round-off.
 # - **ITF-clamped Neo-Hookean.** It reaches flat exactly (with inverted triangles, in red), but the next
-#   step does not converge within its iteration cap (status `max_iter`). Released from flat it returns
+#   step does not converge within its iteration cap (status `max-iterations`). Released from flat it returns
 #   to rest.
 #
 # Notice also what the crushed blocks look like past flat: the Taylor and stable meshes at 1.3 contain no
@@ -442,9 +440,9 @@ fig06_crush_release(runs=runs)
 for name in ("Taylor neo-Hookean", "stable neo-Hookean"):
     released = runs[name]["released"]
     x = runs[name]["frames"][-1]
-    problem = QuasistaticProblem(mesh, models[name].material, handles=[Handle("bottom")])
-    free = np.setdiff1d(np.arange(problem.basis.N), problem.prescribed()[0])
-    K = problem.tangent(released.u).toarray()[np.ix_(free, free)]
+    model = Model(mesh, models[name].material, handles=[Handle("bottom")])
+    free = np.setdiff1d(np.arange(model.n_dofs), model.prescribed()[0])
+    K = model.hessian(released.u).toarray()[np.ix_(free, free)]
     J = element_jacobians(mesh, x)
     top = np.abs(mesh.p[1] - 1.0) < 1e-9
     print(f"{name}: J from {J.min():.3f} to {J.max():.3f};  centroids covered twice: "
@@ -479,10 +477,9 @@ flip = (psi[0] + psi[1]) / (s[0] + s[1])
 print(f"elements below the threshold: {int(crushed.sum())} (inverted: {int((s[1] < 0).sum())}); "
       f"smallest s0 + s1 there: {(s[0] + s[1])[crushed].min():.2f}; flip values from "
       f"{flip[crushed].min():.0f} to {flip[crushed].max():.0f}")
-exact = QuasistaticProblem(mesh, ITFClamped(itf.base, itf.threshold, project=False),
-                           handles=[Handle("bottom"), Handle("top")])
-free = np.setdiff1d(np.arange(exact.basis.N), exact.prescribed()[0])
-w_exact = np.linalg.eigvalsh(exact.tangent(failed.x).toarray()[np.ix_(free, free)])
+exact = Model(mesh, ITFClamped(itf.base, itf.threshold, project=False), handles=[Handle("bottom"), Handle("top")])
+free = np.setdiff1d(np.arange(exact.n_dofs), exact.prescribed()[0])
+w_exact = np.linalg.eigvalsh(exact.hessian(failed.x).toarray()[np.ix_(free, free)])
 w_proj = np.linalg.eigvalsh(P1Assembler(mesh, itf).tangent(failed.x).toarray()[np.ix_(free, free)])
 print(f"exact Hessian: {int((w_exact < 0).sum())} negative eigenvalues (smallest {w_exact[0]:.0f}); "
       f"projected tangent: smallest eigenvalue {w_proj[0]:.0f}")
@@ -545,7 +542,7 @@ hard_stiff = release_table(stiff, {"collapsed to a point": states["collapsed to 
 # ## What to try
 # - Change the ITF threshold, `ITFClamped(NeoHookean(lam, mu), threshold=0.1)` or `0.6`. How deep does the
 #   crush get? How far is the model from $\ln J$ in a strong (but uninverted) compression?
-# - Give the crush more Newton iterations (`crush_and_release(material, max_iter=400)`). Does the ITF model
+# - Give the crush more Newton iterations (`crush_and_release(material, max_iterations=400)`). Does the ITF model
 #   get past flat? How many iterations does each step take?
 # - Release the Taylor block from depth 1.0 instead of 1.3 (`crush_and_release(material, depth=1.0, steps=10)`).
 #   Does it still fold?

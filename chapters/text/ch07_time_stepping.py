@@ -41,16 +41,12 @@ import math
 import numpy as np
 import matplotlib.pyplot as plt
 
+from tissuefem import (FRAME_BUDGET, Handle, Model, NeoHookean, RealtimeSolver, Simulation, StableNeoHookean,
+                       SymplecticEuler, critical_time_step, flap, flap_path, flap_scene, largest_stable_dt, mesh_size,
+                       rectangle, wave_speed)
 from tissuefem.engine import linsolve
-from tissuefem.workbook.bench.realtime import flap_path, flap_scene
-from tissuefem.engine.dynamics import BackwardEuler, backward_euler_residual
-from tissuefem.engine.explicit import SymplecticEuler, critical_time_step, largest_stable_dt, mesh_size, wave_speed
 from tissuefem.workbook.figures.dynamics import fig_ch07_cfl, fig_ch07_energy, fig_ch07_released_flap
 from tissuefem.workbook.figures.realtime import fig_ch07_budget_residual
-from tissuefem.engine.materials import NeoHookean, StableNeoHookean
-from tissuefem.engine.meshes import flap, rectangle
-from tissuefem.engine.quasistatic import Handle, QuasistaticProblem
-from tissuefem.engine.realtime import RealtimeSolver, budgeted_newton
 
 E, nu, rho0 = 1000.0, 0.3, 1.0
 material = NeoHookean.from_young(E, nu)
@@ -85,23 +81,29 @@ print(f"lam = {material.lam:.1f}, mu = {material.mu:.1f}")
 # $M u^{m+1} - M[u^{m+1} + \Delta t\,v^m]$: with $u^{m+1}$ inside the bracket the two cancel and no
 # trace of the previous position is left; the bracket must hold $u^m$. And the boundary-traction and
 # body-force integrals appear without the factor $\Delta t^2$ that the stress integral carries: after
-# multiplying through by $\Delta t^2$ every force term has it. The cell below checks our residual
-# against the semi-discrete equations written out directly, for random data.
+# multiplying through by $\Delta t^2$ every force term has it.
+#
+# In the library a time step is one more **term** of the model: give a `Model` a time step and it gains
+# the inertia term (its mass matrix is `model.inertia.M`); the stepper sets
+# $\tilde{\mathbf u} = \mathbf u^m + \Delta t\,\mathbf v^m$ before each step. The model's gradient is then
+# $\mathbf q / \Delta t^2$ (the same equations divided through). The cell below checks it against the
+# semi-discrete equations written out directly, for random data.
 
 # %%
 rng = np.random.default_rng(7)
 mesh = flap(n_triangles=200)
-problem = QuasistaticProblem(mesh, material, handles=[Handle("fixed")], body_force=(0.0, -2.0))
-be = BackwardEuler(problem, dt=1 / 30, density=rho0, mass="consistent")
-n = problem.basis.N
+model = Model(mesh, material, handles=[Handle("fixed")], body_force=(0.0, -2.0),
+              dt=1 / 30, density=rho0, mass="consistent")
+M, dt, n = model.inertia.M, model.inertia.dt, model.n_dofs
 u_m, v_m, u = 0.01 * rng.normal(size=n), rng.normal(size=n), 0.01 * rng.normal(size=n)
-f_int, f_ext = problem.internal_force(u), problem.external
-q = backward_euler_residual(be.M, u, u_m, v_m, be.dt, f_int, f_ext)
-direct = be.dt**2 * (be.M @ (((u - u_m) / be.dt - v_m) / be.dt) + f_int - f_ext)
+model.inertia.x_tilde = u_m + dt * v_m            # what the stepper sets at the start of a step
+q = dt**2 * model.gradient(u)
+f_int, f_ext = model.internal_force(u), model.external
+direct = dt**2 * (M @ (((u - u_m) / dt - v_m) / dt) + f_int - f_ext)
 print("max |q - dt^2 (M a + f_int - f_ext)| =", np.abs(q - direct).max())
 
 # the notes' printed bracket: u^{m+1} instead of u^m, and no dt^2 on the loads
-printed = be.M @ u + be.dt**2 * f_int - be.M @ (u + be.dt * v_m) - f_ext
+printed = M @ u + dt**2 * f_int - M @ (u + dt * v_m) - f_ext
 print("the printed form differs by", np.abs(printed - q).max(), "(relative",
       f"{np.abs(printed - q).max() / np.abs(q).max():.2f})")
 
@@ -121,14 +123,16 @@ print("the printed form differs by", np.abs(printed - q).max(), "(relative",
 # - $\mathbf M$ is positive definite, so $E$ is bounded below whenever $W$ is, *whatever* $\Delta t$:
 #   there is always a step to take. This is where backward Euler's unconditional stability comes from.
 #
-# A finite-difference check of "gradient of $E$ = $\mathbf q$":
+# The model's energy is $E / \Delta t^2$: the inertia term $\frac{1}{2\Delta t^2}(\mathbf u - \tilde{\mathbf u})^T\mathbf M(\mathbf u - \tilde{\mathbf u})$
+# plus the stored energy minus the loads' work. Dividing by a constant changes neither the minimiser nor
+# the safeguards, and it puts the residual of a dynamic step in the same units (forces) as a quasistatic
+# one: a model *without* a time step simply has no inertia term. A finite-difference check of
+# "gradient of $E$ = $\mathbf q$":
 
 # %%
-u_tilde = u_m + be.dt * v_m
-be.u, be.v = u_m, v_m
 d = rng.normal(size=n)
 h = 1e-6
-fd = (be.incremental_potential(u + h * d, u_tilde) - be.incremental_potential(u - h * d, u_tilde)) / (2 * h)
+fd = dt**2 * (model.energy(u + h * d) - model.energy(u - h * d)) / (2 * h)
 print(f"directional derivative: finite difference {fd:.10e}, q . d = {q @ d:.10e}")
 
 # %% [markdown]
@@ -155,10 +159,10 @@ print(f"directional derivative: finite difference {fd:.10e}, q . d = {q @ d:.10e
 
 # %%
 for nx in (4, 8, 16):
-    p = QuasistaticProblem(rectangle(2.0, 1.0, nx, nx // 2), StableNeoHookean.from_young(E, nu),
-                           handles=[Handle("left")])
-    dt_eig = critical_time_step(p, rho0)
-    dt_meas = largest_stable_dt(p, rho0)
+    p = Model(rectangle(2.0, 1.0, nx, nx // 2), StableNeoHookean.from_young(E, nu), handles=[Handle("left")],
+              density=rho0)  # no dt: the explicit scheme brings its own
+    dt_eig = critical_time_step(p)
+    dt_meas = largest_stable_dt(p)
     print(f"h = {mesh_size(p.mesh):.4f} (c dt/h at the limit {wave_speed(p.material, rho0) * dt_meas / mesh_size(p.mesh):.2f}):"
           f" 2/omega_max = {dt_eig:.2e} s, measured {dt_meas:.2e} s, ratio {dt_meas / dt_eig:.2f}")
 print(f"the frame time 1/30 s = {1 / 30:.2e} s")
@@ -194,7 +198,8 @@ fig_ch07_released_flap()
 #
 # The notes' simulator repeats: *get the user's boundary input, $t \leftarrow t + \Delta t$, solve,
 # render*, and the solve must fit in 1/30 s. `RealtimeSolver` is that loop, one call of `frame()` per
-# pass:
+# pass. It is the library's one stepper (the same object takes quasistatic and backward-Euler steps for
+# the other chapters) with a wall-clock budget and *anytime* commits:
 #
 # 1. **input**: the handles' new targets (checked before anything changes: a non-finite target is a
 #    `ValueError` and the state is untouched);
@@ -208,15 +213,19 @@ fig_ch07_released_flap()
 #    line search, so it is finite and $E(\mathbf u^{m+1}) \le E(\text{start})$ — the solver is *anytime*.
 #    What is left of the residual carries into the next frame's warm start.
 #
-# The standard scene of this workbook: the flap $[0, 2]\times[0, 1]$, left edge fixed, the right edge
-# carried along a slow loop by a handle.
+# The standard scene of this workbook (`flap_scene`, also the benchmarks'): the flap $[0, 2]\times[0, 1]$,
+# left edge fixed, the right edge carried along a slow loop (`flap_path`) by a handle named `"handle"`.
 
 # %%
-problem, grab = flap_scene(2000)
-solver = RealtimeSolver(problem, dt=1 / 30, density=rho0)   # budget: 1/30 s of the real clock
+sim = Simulation(flap_scene(2000))
+solver = sim.solver                 # the scene's RealtimeSolver
+solver.budget = FRAME_BUDGET        # 1/30 s of the real clock (the benchmark scene sets none)
 for f in range(30):
-    report = solver.frame({1: flap_path((f + 1) / 30)})
+    report = solver.frame({"handle": flap_path((f + 1) / 30)})
 print(report)
+print(f"status {report.status}, Newton steps {report.newton_iterations}, CG iterations {report.linear_iterations}, "
+      f"new factorizations {report.factorizations}, relative residual {report.relative_residual:.1e}, "
+      f"energy {report.energy:.4g} (start {report.start_energy:.4g}), {1e3 * report.elapsed:.1f} ms")
 
 # %% [markdown]
 # The report says how the frame went: Newton steps, conjugate-gradient iterations, new factorizations,
@@ -224,9 +233,9 @@ print(report)
 # clock time used. Time for a whole drag:
 
 # %%
-reports = solver.run([{1: flap_path((f + 31) / 30)} for f in range(60)])
+reports = solver.run([{"handle": flap_path((f + 31) / 30)} for f in range(60)])
 ms = np.array([1e3 * r.elapsed for r in reports])
-print(f"{problem.mesh.t.shape[1]} triangles: median {np.median(ms):.1f} ms per frame, 95th percentile "
+print(f"{sim.mesh.t.shape[1]} triangles: median {np.median(ms):.1f} ms per frame, 95th percentile "
       f"{np.percentile(ms, 95):.1f} ms; Newton steps per frame {np.mean([r.newton_iterations for r in reports]):.2f}, "
       f"CG iterations {np.mean([r.linear_iterations for r in reports]):.1f}, "
       f"factorizations in all {sum(r.factorizations for r in reports)}; converged: "
@@ -249,8 +258,8 @@ print(f"{problem.mesh.t.shape[1]} triangles: median {np.median(ms):.1f} ms per f
 #   15 iterations) the next solve refactorizes; when it fails, the current one does.
 # - **Inexact Newton**: a Newton direction does not need to be exact, so CG stops at 0.1% of the current
 #   residual (less later in the frame), never tighter than the frame needs. At 8k triangles a 10% cap
-#   costs 3.3 Newton steps per frame, 1% costs 3.0, 0.1% costs 2.2, for about the same number of CG
-#   iterations (`solver.forcing` is the knob).
+#   cost 3.3 Newton steps per frame, 1% cost 3.0, 0.1% cost 2.2, for about the same number of CG
+#   iterations.
 # - **A predictor that follows the drag**: besides $\tilde{\mathbf u}$ the warm start tries
 #   $\tilde{\mathbf u} + \Delta t(\mathbf v^m - \mathbf v^{m-1})$ (constant acceleration) and keeps the
 #   lowest energy.
@@ -260,9 +269,8 @@ print(f"{problem.mesh.t.shape[1]} triangles: median {np.median(ms):.1f} ms per f
 
 # %%
 for name in ("reuse", "direct"):
-    p, g = flap_scene(2000)
-    s = RealtimeSolver(p, dt=1 / 30, budget=math.inf, linear_solver=name)
-    rs = s.run([{1: flap_path((f + 1) / 30)} for f in range(40)])
+    s = RealtimeSolver(Simulation(flap_scene(2000)).model, budget=math.inf, linear_solver=name)
+    rs = s.run([{"handle": flap_path((f + 1) / 30)} for f in range(40)])
     print(f"{s.linear_solver_name:28s} median {1e3 * np.median([r.elapsed for r in rs]):6.1f} ms/frame, "
           f"Newton/frame {np.mean([r.newton_iterations for r in rs]):.2f}, "
           f"factorizations {sum(r.factorizations for r in rs):4d}, max |u| {np.abs(s.u).max():.6f}")
@@ -277,13 +285,17 @@ for name in ("reuse", "direct"):
 # - `Pardiso()` — Intel MKL's PARDISO, when the optional `pypardiso` is installed
 #   (`pip install "tissuefem[pardiso]"`, several hundred MB); never required;
 # - `ReusedFactorization(direct)` — CG preconditioned by a kept factorization of any of the above.
+#
+# Newton reaches them through one policy object, `LinearSolver` (`"reuse"`, `"direct"`, a backend's name,
+# or `"constant"` for a model whose tangent never changes), which also condenses the tangent to its free
+# rows and columns. Below, the backends on the free block of $\mathbf M/\Delta t^2 + \mathbf K$ (the model's
+# Hessian) at rest:
 
 # %%
-p, _ = flap_scene(2000)
-A = (solver.M + (1 / 30) ** 2 * p.tangent(p.basis.zeros()))
+p = Simulation(flap_scene(2000)).model
 fixed, _ = p.prescribed()
-free = np.setdiff1d(np.arange(p.basis.N), fixed)
-A = A.tocsr()[free][:, free]
+free = np.setdiff1d(np.arange(p.n_dofs), fixed)
+A = p.hessian(p.zeros())[free][:, free]
 b = np.ones(A.shape[0])
 for backend in [linsolve.SuperLU(), linsolve.SuperLU("COLAMD")] + ([linsolve.Pardiso()] if linsolve.available("pardiso") else []):
     x = backend(A, b)
@@ -307,11 +319,10 @@ class FakeClock:
 
 
 clock = FakeClock()
-p, _ = flap_scene(500)
-tiny = RealtimeSolver(p, budget=1e-9, clock=clock, rtol=1e-8)
+tiny = RealtimeSolver(Simulation(flap_scene(500)).model, budget=1e-9, clock=clock, rtol=1e-8)
 history = []
 for f in range(120):
-    r = tiny.frame({1: (0.4, 0.3)})
+    r = tiny.frame({"handle": (0.4, 0.3)})
     history.append((r.newton_iterations, r.residual_norm, r.converged,
                     r.energy <= r.start_energy + 1e-12 * abs(r.start_energy)))
 steps, res, conv, descent = map(np.array, zip(*history))
@@ -369,8 +380,9 @@ fig_ch07_budget_residual()
 #   every Newton step), then `"direct"`, then the default. Which one is fastest at 2k triangles? At 8k?
 # - Drag the handle through the body: targets from `(0, 0)` to `(-3, 0)` over 100 frames, with
 #   `StableNeoHookean.from_young(E, nu)`. Watch `report.handle_fraction` with the plain `NeoHookean`.
-# - Set `dt=None`: quasistatic frames (no mass matrix is built). How does the handle feel now?
-# - Jerk the handle instead of dragging it: `RealtimeSolver(problem, max_iterations=1)` and targets that
+# - Quasistatic frames: `Simulation(flap_scene(2000, dynamic=False))` has no inertia term (no mass matrix
+#   is built). How does the handle feel now?
+# - Jerk the handle instead of dragging it: `RealtimeSolver(model, max_iterations=1)` and targets that
 #   jump from `(0, 0)` to `(0.5, 0.3)` in one frame. How many frames until `report.converged`? What does
 #   `report.relative_residual` say in the first frames?
 # - Find the largest stable step of symplectic Euler for `flap(n_triangles=800)` with `largest_stable_dt`,

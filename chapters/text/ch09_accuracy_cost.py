@@ -43,8 +43,8 @@ import time
 import numpy as np
 import matplotlib.pyplot as plt
 
-from tissuefem.workbook.accuracy import (beam_problem_tip, best_within_budget, fitted_exponent, manufactured_convergence,
-                                pareto_front)
+from tissuefem.workbook.accuracy import beam_problem_tip, manufactured_convergence
+from tissuefem.workbook.measure import best_within_budget, fitted_exponent, pareto_front
 from tissuefem.workbook.bench.accuracy import PLANS, accuracy_study, format_knob_table, recorded_results
 from tissuefem.workbook.figures.accuracy import fig_ch09_verification, plot_budget, plot_pareto, plot_scaling
 

@@ -58,7 +58,7 @@ import math
 import numpy as np
 
 from .materials1d import taylor_log, taylor_log_prime, taylor_log_second
-from .parameters import check_lame, lame_parameters
+from .parameters import LAME_MAX, check_lame, check_real, lame_parameters
 
 __all__ = [
     "det2",
@@ -83,8 +83,27 @@ __all__ = [
 
 # --- 2x2 tensor helpers ---------------------------------------------------------
 
+def _real_array(name: str, value) -> np.ndarray:
+    """``value`` as a float array; anything that is not an array of real numbers is a ``ValueError`` naming ``name``.
+
+    Refused: strings, ragged nested lists, objects, booleans, and complex
+    numbers (``np.asarray(..., dtype=float)`` would silently drop the
+    imaginary part, with only a warning).
+    """
+    try:
+        a = np.asarray(value)
+    except (TypeError, ValueError):  # ragged nested lists
+        raise ValueError(f"{name} must be an array of real numbers, got a {type(value).__name__} that is not "
+                         "rectangular (ragged)") from None
+    if a.dtype.kind not in "iuf":
+        what = {"c": "complex numbers", "b": "booleans", "U": "strings", "S": "bytes", "O": "Python objects"}
+        raise ValueError(f"{name} must be an array of real numbers, got {what.get(a.dtype.kind, a.dtype)} "
+                         f"(dtype {a.dtype})")
+    return a if a.dtype == np.float64 else a.astype(np.float64)
+
+
 def _as_F(F) -> np.ndarray:
-    F = np.asarray(F, dtype=float)
+    F = _real_array("F", F)
     if F.ndim < 2 or F.shape[:2] != (2, 2):
         raise ValueError(f"F must be shaped [2, 2, ...], got shape {F.shape}")
     return F
@@ -340,6 +359,12 @@ class StableNeoHookean(_NeoHookeanFamily):
 
 # --- corotated --------------------------------------------------------------------
 
+#: Below this ``rho = tr S`` the polar rotation is taken as ``R = I`` (see :func:`_polar_rotation`).
+#: ``sqrt`` of the smallest normal double (~1.5e-154): above it ``1/rho`` and ``mu/rho`` are finite
+#: and computed in full precision; below it ``F`` is a collapse to (nearly) a point.
+_RHO_MIN = math.sqrt(np.finfo(float).tiny)
+
+
 def _polar_rotation(F):
     """The 2D polar rotation of ``F = R S`` as ``(c, s, rho)``: ``R = [[c, -s], [s, c]]``.
 
@@ -347,13 +372,27 @@ def _polar_rotation(F):
     rotations, so ``theta = atan2(F10 - F01, F00 + F11)`` and the maximum is
     ``rho = tr S = hypot(F00 + F11, F10 - F01)``. Stationarity in theta is
     exactly ``S = R^T F`` symmetric, for every F (also J <= 0, where S is
-    indefinite). At ``rho = 0`` the angle is undefined; ``atan2(0, 0) = 0``
-    gives ``R = I`` there.
+    indefinite).
+
+    At ``rho = 0`` the angle is undefined, and near it the rotation turns at a
+    rate ``1/rho`` (the tangent's ``R' (x) R' / rho`` term). For ``rho`` below
+    :data:`_RHO_MIN` (about 1.5e-154, e.g. subnormal entries of F) ``1/rho``
+    overflows (``inf * 0 = NaN`` in the tangent) and even ``atan2`` loses
+    precision; there ``R = I`` (``c, s = 1, 0``) is used *consistently* by the
+    energy, the stress and the tangent, which in that tiny ball are then the
+    exact derivatives of ``mu ||F - I||^2 + lam/2 (J - 1)^2``. The energy
+    changes by at most ``4 mu _RHO_MIN`` across the ball's edge.
     """
     x = F[0, 0] + F[1, 1]
     y = F[1, 0] - F[0, 1]
+    rho = np.hypot(x, y)
     theta = np.arctan2(y, x)
-    return np.cos(theta), np.sin(theta), np.hypot(x, y)
+    c, s = np.cos(theta), np.sin(theta)
+    collapsed = rho < _RHO_MIN
+    if np.any(collapsed):
+        c = np.where(collapsed, 1.0, c)
+        s = np.where(collapsed, 0.0, s)
+    return c, s, rho
 
 
 class Corotated(Material):
@@ -378,10 +417,13 @@ class Corotated(Material):
     At ``F = I``: ``rho = 2``, ``R' = [[0, -1], [1, 0]]`` and
     ``I4 - R'(x)R'/2 = (I4 + I4^T)/2``, so ``A`` is the linear-elastic tangent.
 
-    Finite for every F. The single exception is the measure-zero set
+    Finite for every finite F. The exception is the set
     ``F00 + F11 = F10 - F01 = 0`` (``rho = 0``) where ``R`` is undefined and
-    the exact tangent blows up like ``-1/rho``: there we take ``R = I`` and
-    drop the ``1/rho`` term, so nothing is NaN.
+    the exact tangent blows up like ``-1/rho``: within ``rho < _RHO_MIN``
+    (about 1.5e-154, which includes every F with subnormal entries) we take
+    ``R = I`` in energy, stress and tangent alike, so the three stay finite and
+    consistent (the ``1/rho`` term is the derivative of a rotation that is then
+    constant).
     """
 
     name = "corotated"
@@ -407,7 +449,7 @@ class Corotated(Material):
         _, c, s, rho = self._parts(F)
         Rp = np.array([[-s, -c], [c, -s]])
         inv_rho = np.zeros(rho.shape)
-        np.divide(1.0, rho, out=inv_rho, where=rho > 0)
+        np.divide(1.0, rho, out=inv_rho, where=rho >= _RHO_MIN)  # R = I (constant) below it
         C = cofactor2(F)
         J = det2(F)
         rest = F.shape[2:]
@@ -421,14 +463,8 @@ class Corotated(Material):
 # --- anisotropy: a fibre term -------------------------------------------------------
 
 def check_fiber_stiffness(k, name: str = "k") -> float:
-    """Validate a fiber modulus: finite and ``>= 0``; the error names the argument ``name``."""
-    try:
-        value = float(k)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} (fiber modulus) must be a number, got {k!r}") from None
-    if not math.isfinite(value) or value < 0.0:
-        raise ValueError(f"{name} (fiber modulus) must be finite and >= 0, got {k!r}")
-    return value
+    """Validate a fiber modulus: a real number in ``[0, LAME_MAX]`` (1e30); the error names the argument ``name``."""
+    return check_real(f"{name} (fiber modulus)", k, 0.0, LAME_MAX)
 
 
 _UNIT_TOL = 1e-6
@@ -564,10 +600,7 @@ class FiberReinforced(Material):
 
     @staticmethod
     def _check_fibers(fibers) -> np.ndarray:
-        try:
-            g = np.array(fibers, dtype=float)
-        except (TypeError, ValueError):
-            raise ValueError(f"fibers must be an array of 2D vectors, got {fibers!r}") from None
+        g = np.array(_real_array("fibers (an array of 2D vectors)", fibers))
         if g.ndim not in (1, 2, 3) or g.shape[0] != 2:
             raise ValueError(
                 "fibers must be shaped (2,), (2, n_elements) or (2, n_elements, n_points), "

@@ -25,6 +25,21 @@ Domains
   (:func:`fusiform_fiber_direction` at any point).
 * :func:`flap`: the rectangle of the tissue-flap scene (left edge fixed, a
   handle pulls the right edge).
+* :func:`check_mesh`: what every mesh must satisfy before a model is built on it.
+
+Limits
+------
+Checked before anything is allocated, refused with a ``ValueError`` naming the
+argument:
+
+* at most :data:`MAX_TRIANGLES` (200 000) triangles in a generated domain
+  (``2 nx ny`` for the structured grids, ``n_triangles`` for
+  :func:`mesh_with_about`) and in a mesh given to :func:`check_mesh`;
+* lengths (``width``, ``height``, ``length``, ``max_width``, ``tendon_width``)
+  in :data:`SIZE_RANGE` ``[1e-6, 1e6]``;
+* aspect ratios (``width / height``, ``length / max_width``,
+  ``max_width / tendon_width``) at most :data:`MAX_ASPECT` (1e4);
+* node coordinates within ``+-COORDINATE_MAX`` (1e6).
 """
 
 from __future__ import annotations
@@ -34,6 +49,8 @@ import numbers
 
 import numpy as np
 from skfem import MeshTri
+
+from .parameters import check_count, check_real
 
 __all__ = [
     "edge_lengths",
@@ -47,7 +64,19 @@ __all__ = [
     "fusiform_fiber_field",
     "flap",
     "signed_areas",
+    "check_mesh",
 ]
+
+#: The most triangles a generated domain (and a mesh passed to :func:`check_mesh`) may have.
+MAX_TRIANGLES = 200_000
+#: Lengths accepted by the domain generators (closed interval, in the scene's length unit).
+SIZE_RANGE = (1e-6, 1e6)
+#: The largest aspect ratio of a domain (either way round).
+MAX_ASPECT = 1e4
+#: Node coordinates must lie within [-COORDINATE_MAX, COORDINATE_MAX].
+COORDINATE_MAX = 1e6
+#: Triangles with ``|2 area| <= DEGENERATE_TOL * (longest edge)^2`` count as degenerate (as in the assembler).
+DEGENERATE_TOL = 1e-12
 
 _DIAGONALS = ("alternate", "right", "left")
 
@@ -56,21 +85,28 @@ _DIAGONALS = ("alternate", "right", "left")
 # validation helpers
 # --------------------------------------------------------------------------
 def _positive_size(name: str, value) -> float:
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise ValueError(f"{name} must be a positive real number, got {value!r}")
-    v = float(value)
-    if not math.isfinite(v) or v <= 0.0:
-        raise ValueError(f"{name} must be finite and > 0, got {value!r}")
-    return v
+    return check_real(name, value, *SIZE_RANGE)
 
 
-def _positive_count(name: str, value) -> int:
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
-        raise ValueError(f"{name} must be a positive integer, got {value!r}")
-    v = int(value)
-    if v <= 0:
-        raise ValueError(f"{name} must be a positive integer, got {value!r}")
-    return v
+def _positive_count(name: str, value, hi: int = MAX_TRIANGLES) -> int:
+    return check_count(name, value, 1, hi)
+
+
+def _check_aspect(name: str, ratio: float) -> None:
+    if not (1.0 / MAX_ASPECT <= ratio <= MAX_ASPECT):
+        raise ValueError(f"{name} = {ratio:g}: the aspect ratio must lie within [1/{MAX_ASPECT:g}, {MAX_ASPECT:g}]")
+
+
+def _check_grid(nx: int, ny: int) -> None:
+    if 2 * nx * ny > MAX_TRIANGLES:
+        raise ValueError(f"nx, ny: nx = {nx} and ny = {ny} give 2 nx ny = {2 * nx * ny} triangles, more than the "
+                         f"{MAX_TRIANGLES} a generated domain may have")
+
+
+def _list(idx, limit=10) -> str:
+    idx = np.asarray(idx).ravel()
+    shown = ", ".join(str(int(i)) for i in idx[:limit])
+    return f"[{shown}{', ...' if idx.size > limit else ''}] ({idx.size} in all)"
 
 
 def edge_lengths(mesh) -> np.ndarray:
@@ -107,6 +143,12 @@ def folded_triangles(p, t) -> np.ndarray:
     its neighbour), both third vertices lie on the same side. This test does
     not depend on the order in which a triangle lists its vertices (scikit-fem
     sorts them, so a good mesh has triangles of both orientations).
+
+    Two triangles on the same side whose third vertices sit at the same point
+    are not a fold but two copies of one triangle, each carrying part of its
+    material: cutting through elements
+    (:func:`tissuefem.surgery.element_cuts.cut_through`) makes such copies
+    next to a crack tip. They are not reported.
     """
     p = np.asarray(p, dtype=float)
     t = np.asarray(t, dtype=np.int64)
@@ -128,8 +170,123 @@ def folded_triangles(p, t) -> np.ndarray:
         return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
 
     s1, s2 = side(opposite[same]), side(opposite[same + 1])
-    bad = same[s1 * s2 > 0]
+    copies = (p[:, opposite[same]] == p[:, opposite[same + 1]]).all(axis=0)
+    bad = same[(s1 * s2 > 0) & ~copies]
     return np.stack([owner[bad], owner[bad + 1]])
+
+
+def _edge_table(t: np.ndarray):
+    """Every edge of every triangle, sorted: keys ``(2, 3m)`` (smaller node first) and the owning triangles."""
+    m = t.shape[1]
+    edges = np.concatenate([t[[0, 1]], t[[1, 2]], t[[2, 0]]], axis=1)
+    key = np.sort(edges, axis=0)
+    owner = np.tile(np.arange(m), 3)
+    order = np.lexsort((key[1], key[0]))
+    return key[:, order], owner[order]
+
+
+def check_mesh(p, t, name: str = "mesh", *, unused_nodes: str = "refuse"):
+    """Check that ``(p, t)`` is a valid 2D triangle mesh; return ``(p, t)`` as float64 ``(2, n)`` and int64 ``(3, m)``.
+
+    Refused, with a ``ValueError`` that starts with ``name`` and lists the
+    offending nodes, edges or triangles:
+
+    * ``p`` not a real array shaped ``(2, n)``; ``t`` not an integer array
+      shaped ``(3, m)`` (floats and booleans are refused, never rounded);
+    * no triangle, or more than :data:`MAX_TRIANGLES`;
+    * node indices outside ``0..n-1``;
+    * non-finite coordinates, or coordinates beyond ``+-COORDINATE_MAX``, or a
+      mesh smaller than ``SIZE_RANGE[0]`` (the largest side of its bounding box);
+    * **unused nodes** (in no triangle). Such a node has neither stiffness nor
+      mass, so every linear system of the model would be singular and the
+      failure would surface late, far from its cause. Refused here with the
+      node indices rather than dropped: renumbering the nodes behind the
+      caller's back would silently change what node indices given elsewhere
+      (handles, sutures) refer to. (:func:`tissuefem.surgery.scene.read_mesh`
+      drops them from a file, with a note, because it can still refuse the
+      node indices of that scene; it checks the file with
+      ``unused_nodes="ignore"`` first, so that messages use the file's numbers.)
+    * **an edge shared by three or more triangles** (a non-manifold "fin":
+      not a 2D domain), and duplicated triangles (the same three nodes twice);
+    * degenerate triangles (``|2 area| <= DEGENERATE_TOL * (longest edge)^2``);
+    * inverted triangles folded over a neighbour (:func:`folded_triangles`).
+
+    The orientation of the triangles is free (scikit-fem sorts their nodes).
+    """
+    try:
+        p_arr = np.asarray(p)
+        t_arr = np.asarray(t)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: p and t must be rectangular arrays (p shaped (2, n), t shaped (3, m))") from None
+    if p_arr.dtype.kind not in "iuf" or p_arr.ndim != 2 or p_arr.shape[0] != 2:
+        raise ValueError(f"{name}: p must be a real array shaped (2, n_nodes), got dtype {p_arr.dtype} and shape "
+                         f"{p_arr.shape}")
+    if t_arr.dtype.kind not in "iu" or t_arr.ndim != 2 or t_arr.shape[0] != 3:
+        raise ValueError(f"{name}: t must be an integer array shaped (3, n_triangles), got dtype {t_arr.dtype} and "
+                         f"shape {t_arr.shape}")
+    n, m = p_arr.shape[1], t_arr.shape[1]
+    if m == 0:
+        raise ValueError(f"{name}: has no triangles")
+    if m > MAX_TRIANGLES:
+        raise ValueError(f"{name}: has {m} triangles, more than the {MAX_TRIANGLES} allowed")
+    if t_arr.min() < 0 or t_arr.max() >= n:
+        bad = np.flatnonzero(((t_arr < 0) | (t_arr >= n)).any(axis=0))
+        raise ValueError(f"{name}: triangles {_list(bad)} refer to nodes outside 0..{n - 1}")
+    p_arr = np.array(p_arr, dtype=np.float64)
+    t_arr = np.array(t_arr, dtype=np.int64)
+    bad = np.flatnonzero(~np.isfinite(p_arr).all(axis=0))
+    if bad.size:
+        raise ValueError(f"{name}: nodes {_list(bad)} have non-finite coordinates")
+    bad = np.flatnonzero((np.abs(p_arr) > COORDINATE_MAX).any(axis=0))
+    if bad.size:
+        raise ValueError(f"{name}: nodes {_list(bad)} lie beyond the coordinate limit +-{COORDINATE_MAX:g}")
+    if unused_nodes not in ("refuse", "ignore"):
+        raise ValueError(f"unused_nodes must be 'refuse' or 'ignore', got {unused_nodes!r}")
+    used = np.zeros(n, dtype=bool)
+    used[t_arr.ravel()] = True
+    if unused_nodes == "refuse" and not used.all():
+        raise ValueError(f"{name}: nodes {_list(np.flatnonzero(~used))} belong to no triangle (an unused node has no "
+                         "stiffness and no mass); remove them and renumber")
+    extent = float(np.ptp(p_arr[:, used], axis=1).max())
+    if extent < SIZE_RANGE[0]:
+        raise ValueError(f"{name}: spans only {extent:g} (the largest side of its bounding box must be at least "
+                         f"{SIZE_RANGE[0]:g})")
+    tri = np.sort(t_arr, axis=0)
+    repeated = np.flatnonzero((tri[0] == tri[1]) | (tri[1] == tri[2]))
+    if repeated.size:
+        raise ValueError(f"{name}: triangles {_list(repeated)} use the same node twice")
+    key, owner = _edge_table(t_arr)
+    same = (key[0, 1:] == key[0, :-1]) & (key[1, 1:] == key[1, :-1])
+    fins = np.flatnonzero(same[1:] & same[:-1])  # three equal keys in a row: start index fins + 0
+    if fins.size:
+        i = int(fins[0])
+        a, b = int(key[0, i]), int(key[1, i])
+        sharing = owner[(key[0] == a) & (key[1] == b)]
+        count = np.unique(key[0, fins] * np.int64(n) + key[1, fins]).size
+        raise ValueError(f"{name}: edge ({a}, {b}) is shared by {sharing.size} triangles {sorted(sharing.tolist())} "
+                         f"(a 2D mesh allows at most 2; a duplicated triangle?); {count} such edge(s) in all")
+    order = np.lexsort(tri[::-1])
+    tri_sorted = tri[:, order]
+    dup = np.flatnonzero((tri_sorted[:, 1:] == tri_sorted[:, :-1]).all(axis=0))
+    if dup.size:
+        i = int(dup[0])
+        raise ValueError(f"{name}: triangles {int(order[i])} and {int(order[i + 1])} are the same triangle "
+                         f"{tuple(int(v) for v in tri_sorted[:, i])}; {dup.size} duplicate(s) in all")
+    x = p_arr[:, t_arr]
+    d1 = x[:, 1] - x[:, 0]
+    d2 = x[:, 2] - x[:, 0]
+    d3 = x[:, 2] - x[:, 1]
+    det = d1[0] * d2[1] - d1[1] * d2[0]
+    h2 = np.maximum(np.maximum((d1**2).sum(0), (d2**2).sum(0)), (d3**2).sum(0))
+    degenerate = np.flatnonzero(~(np.abs(det) > DEGENERATE_TOL * h2))
+    if degenerate.size:
+        raise ValueError(f"{name}: triangles {_list(degenerate)} are degenerate (zero or round-off area)")
+    folded = folded_triangles(p_arr, t_arr)
+    if folded.size:
+        pairs = ", ".join(f"({i}, {j})" for i, j in folded.T[:10])
+        raise ValueError(f"{name}: triangles fold over their neighbours across a shared edge: pairs {pairs}"
+                         f"{' ...' if folded.shape[1] > 10 else ''}; a rest mesh must not overlap itself")
+    return p_arr, t_arr
 
 
 # --------------------------------------------------------------------------
@@ -187,8 +344,10 @@ def rectangle(width=1.0, height=1.0, nx=10, ny=10, diagonal="alternate") -> Mesh
     """
     width = _positive_size("width", width)
     height = _positive_size("height", height)
-    nx = _positive_count("nx", nx)
-    ny = _positive_count("ny", ny)
+    _check_aspect("width / height", width / height)
+    nx = _positive_count("nx", nx, MAX_TRIANGLES // 2)
+    ny = _positive_count("ny", ny, MAX_TRIANGLES // 2)
+    _check_grid(nx, ny)
     if diagonal not in _DIAGONALS:
         raise ValueError(f"diagonal must be one of {_DIAGONALS}, got {diagonal!r}")
     xs = np.linspace(0.0, width, nx + 1)
@@ -208,28 +367,44 @@ def rectangle(width=1.0, height=1.0, nx=10, ny=10, diagonal="alternate") -> Mesh
 
 
 def _grid_for(n_triangles: int, width: float, height: float) -> tuple[int, int]:
-    """(nx, ny) with 2 nx ny closest to n_triangles and cells as square as possible."""
+    """(nx, ny) with 2 nx ny closest to n_triangles and cells as square as possible.
+
+    Square cells want ``nx ~ sqrt(n/2 * aspect)``; for a strip wider than
+    ``n/2`` (aspect ``> n/2``) that alone would exceed the request by orders of
+    magnitude (``ny`` cannot drop below 1), so ``nx`` is capped at ``n/2``: the
+    cells get elongated instead. The result has ``2 nx ny`` within a factor 1.5
+    of ``n_triangles`` for any aspect ratio (2 triangles for a request of 1)
+    and never more than :data:`MAX_TRIANGLES`.
+    """
     aspect = width / height
-    nx0 = max(1, round(math.sqrt(n_triangles / 2.0 * aspect)))
+    half = max(1, n_triangles // 2)
+    nx0 = min(half, max(1, round(math.sqrt(n_triangles / 2.0 * aspect))))
     best = None
-    for nx in range(max(1, nx0 - 2), nx0 + 3):
+    for nx in range(max(1, nx0 - 2), min(half, nx0 + 2) + 1):
         ny = max(1, round(n_triangles / (2.0 * nx)))
-        # closeness of the count first, then how square the cells are
-        key = (abs(2 * nx * ny - n_triangles), abs(math.log((width / nx) / (height / ny))))
+        # within the cap first, then closeness of the count, then how square the cells are
+        key = (2 * nx * ny > MAX_TRIANGLES, abs(2 * nx * ny - n_triangles),
+               abs(math.log((width / nx) / (height / ny))))
         if best is None or key < best[0]:
             best = (key, nx, ny)
-    return best[1], best[2]
+    nx, ny = best[1], best[2]
+    if 2 * nx * ny > MAX_TRIANGLES:  # rounding up overshot the cap: round down instead
+        ny = max(1, n_triangles // (2 * nx))
+    return nx, ny
 
 
 def mesh_with_about(n_triangles, width=1.0, height=1.0, diagonal="alternate") -> MeshTri:
     """A :func:`rectangle` of ``width x height`` with about ``n_triangles`` triangles.
 
     Picks ``nx, ny`` with ``nx / ny`` close to ``width / height`` (cells close
-    to square) and ``2 nx ny`` as close to ``n_triangles`` as such grids allow.
+    to square) and ``2 nx ny`` as close to ``n_triangles`` as such grids allow:
+    always within a factor 1.5, also for thin strips (whose cells then get
+    elongated). ``n_triangles`` is at most :data:`MAX_TRIANGLES`.
     """
     n_triangles = _positive_count("n_triangles", n_triangles)
     width = _positive_size("width", width)
     height = _positive_size("height", height)
+    _check_aspect("width / height", width / height)
     nx, ny = _grid_for(n_triangles, width, height)
     return rectangle(width, height, nx, ny, diagonal=diagonal)
 
@@ -277,6 +452,8 @@ def _check_fusiform(length, max_width, tendon_width):
             f"tendon_width must not exceed max_width (a fusiform belly is widest in the middle), "
             f"got tendon_width={tendon_width!r} > max_width={max_width!r}"
         )
+    _check_aspect("length / max_width", length / max_width)
+    _check_aspect("max_width / tendon_width", max_width / tendon_width)
     return length, max_width, tendon_width
 
 
@@ -301,8 +478,9 @@ def fusiform_muscle(length=4.0, max_width=1.0, tendon_width=0.25, nx=40, ny=8, d
     (x = length), ``"top"`` and ``"bottom"`` (the curved sides).
     """
     length, max_width, tendon_width = _check_fusiform(length, max_width, tendon_width)
-    nx = _positive_count("nx", nx)
-    ny = _positive_count("ny", ny)
+    nx = _positive_count("nx", nx, MAX_TRIANGLES // 2)
+    ny = _positive_count("ny", ny, MAX_TRIANGLES // 2)
+    _check_grid(nx, ny)
     if diagonal not in _DIAGONALS:
         raise ValueError(f"diagonal must be one of {_DIAGONALS}, got {diagonal!r}")
     xi = np.linspace(0.0, length, nx + 1)

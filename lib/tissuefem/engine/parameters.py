@@ -1,30 +1,145 @@
-"""Material parameters: Lamé constants from Young's modulus and Poisson's ratio."""
+"""Material parameters: Lamé constants from Young's modulus and Poisson's ratio, and the checks of numbers.
+
+Every number the library accepts has a documented range, chosen so that what is
+accepted can also be computed (no overflow, no division by zero later on):
+
+==========================  ===============================  ==============================================
+quantity                    range                            why
+==========================  ===============================  ==============================================
+Young's modulus ``E``       ``[1e-6, 1e12]``                 soft gels (~1 Pa) to steel (2e11 Pa), with
+                                                             room; products such as ``E^2`` stay finite
+Poisson's ratio ``nu``      ``[-0.999999, 0.499999]``        the admissible ``(-1, 0.5)`` less ``1e-6`` at
+                                                             each end, where ``lam + 2 mu / 3`` would be
+                                                             lost to round-off; ``lam/mu <= 5e5``
+Lamé ``mu`` (given)         ``[1e-7, 1e30]``                 what ``E`` and ``nu`` above map to (at most
+                                                             ``5e17``), with room
+Lamé ``lam`` (given)        ``(-2 mu / 3, 1e30]``            a positive bulk modulus
+time step ``dt``            ``[1e-6, 10]`` s                 :func:`check_time_step`
+counts                      true integers (never ``bool``)   :func:`check_count`
+==========================  ===============================  ==============================================
+
+:func:`check_real` and :func:`check_count` are the two checks every other module
+uses; their errors name the argument and the allowed range.
+"""
 
 from __future__ import annotations
 
 import math
+import numbers
+
+import numpy as np
+
+__all__ = [
+    "lame_parameters",
+    "check_young_poisson",
+    "check_poisson_ratio",
+    "check_lame",
+    "check_real",
+    "check_count",
+    "check_time_step",
+    "YOUNGS_MODULUS_RANGE",
+    "POISSON_RATIO_RANGE",
+    "LAME_MAX",
+    "SHEAR_MODULUS_MIN",
+    "TIME_STEP_RANGE",
+]
+
+#: Young's modulus accepted by :func:`check_young_poisson` (closed interval).
+YOUNGS_MODULUS_RANGE = (1e-6, 1e12)
+#: Poisson's ratio accepted by :func:`check_young_poisson` (closed interval inside the admissible (-1, 0.5)).
+POISSON_RATIO_RANGE = (-1.0 + 1e-6, 0.5 - 1e-6)
+#: Largest Lamé parameter (and fibre modulus) accepted when given directly.
+LAME_MAX = 1e30
+#: Smallest shear modulus accepted when given directly (``E >= 1e-6`` maps to ``mu > 1e-6 / 3``).
+SHEAR_MODULUS_MIN = 1e-7
+#: Time steps accepted by :func:`check_time_step`, in seconds (closed interval).
+TIME_STEP_RANGE = (1e-6, 10.0)
 
 
-def _check_positive_finite(name: str, value) -> float:
+def _real_value(name: str, value) -> float:
+    """``value`` as a float if it is a real number (not a bool, a string or a complex number)."""
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        value = value[()]
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        raise ValueError(f"{name} must be a real number, got {value!r}")
     try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a real number, got {value!r}") from None
-    if not math.isfinite(v) or v <= 0.0:
-        raise ValueError(f"{name} must be finite and > 0, got {value!r}")
+        return float(value)
+    except OverflowError:  # an integer with hundreds of digits
+        raise ValueError(f"{name} is out of range (too large for a float), got {_short(value)}") from None
+
+
+def _short(value, limit: int = 60) -> str:
+    text = repr(value)
+    return text if len(text) <= limit else f"{text[:limit // 2]}...{text[-10:]} ({len(text)} characters)"
+
+
+def _interval(lo, hi, lo_open, hi_open) -> str:
+    left = "(" if lo_open else "["
+    right = ")" if hi_open else "]"
+    lo_text = "-inf" if lo is None else f"{lo:g}"
+    hi_text = "inf" if hi is None else f"{hi:g}"
+    return f"{left}{lo_text}, {hi_text}{right}"
+
+
+def check_real(name: str, value, lo=None, hi=None, *, lo_open: bool = False, hi_open: bool = False) -> float:
+    """``value`` as a finite float within ``[lo, hi]`` (ends open on request), else ``ValueError`` naming ``name``.
+
+    Refused: ``bool``, strings, complex numbers, ``NaN``, infinities, integers
+    too large for a float, and values outside the range. ``None`` for ``lo`` or
+    ``hi`` leaves that side unbounded (but the value must still be finite).
+    """
+    v = _real_value(name, value)
+    if not math.isfinite(v):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    violated = None
+    if lo is not None and (v <= lo if lo_open else v < lo):
+        violated = "> 0" if (lo == 0 and lo_open) or (v <= 0 < lo) else f"{'>' if lo_open else '>='} {lo:g}"
+    elif hi is not None and (v >= hi if hi_open else v > hi):
+        violated = f"{'<' if hi_open else '<='} {hi:g}"
+    if violated is not None:
+        raise ValueError(f"{name} must be {violated} (allowed range {_interval(lo, hi, lo_open, hi_open)}), "
+                         f"got {_short(value)}")
     return v
 
 
+def check_count(name: str, value, lo: int = 1, hi: int | None = None) -> int:
+    """``value`` as an int within ``[lo, hi]``: a true integer (``int`` or numpy integer), never a ``bool`` or a float."""
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        value = value[()]
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral):
+        raise ValueError(f"{name} must be an integer, got {_short(value)}")
+    v = int(value)
+    if v < lo or (hi is not None and v > hi):
+        bounds = f"[{lo}, {hi}]" if hi is not None else f">= {lo}"
+        raise ValueError(f"{name} must be an integer in {bounds}, got {_short(value)}")
+    return v
+
+
+def check_time_step(dt, name: str = "dt") -> float:
+    """A time step in seconds within :data:`TIME_STEP_RANGE`."""
+    return check_real(f"{name} (time step)", dt, *TIME_STEP_RANGE)
+
+
+def check_poisson_ratio(nu, name: str = "nu (Poisson's ratio)") -> float:
+    """Poisson's ratio in :data:`POISSON_RATIO_RANGE`; the error names ``name``.
+
+    Outside ``(-1, 0.5)`` the message says so; inside it but within ``1e-6`` of
+    an end, that the value is too close: there ``lam`` and ``mu`` are huge and
+    of opposite sign (``nu -> -1``) or ``lam/mu`` exceeds ``5e5`` (``nu -> 0.5``),
+    and the bulk modulus ``lam + 2 mu / 3`` is lost to round-off.
+    """
+    nu = check_real(name, nu, -1.0, 0.5, lo_open=True, hi_open=True)
+    lo, hi = POISSON_RATIO_RANGE
+    if not lo <= nu <= hi:
+        raise ValueError(f"{name} = {nu!r} is too close to {'0.5' if nu > 0 else '-1'}; the allowed range is "
+                         f"[{lo:.6f}, {hi:.6f}]")
+    return nu
+
+
 def check_young_poisson(E, nu) -> tuple[float, float]:
-    """Validate Young's modulus ``E > 0`` and Poisson's ratio ``-1 < nu < 0.5``."""
-    E = _check_positive_finite("E (Young's modulus)", E)
-    try:
-        nu = float(nu)
-    except (TypeError, ValueError):
-        raise ValueError(f"nu (Poisson's ratio) must be a real number, got {nu!r}") from None
-    if not math.isfinite(nu) or not (-1.0 < nu < 0.5):
-        raise ValueError(f"nu (Poisson's ratio) must lie in (-1, 0.5), got {nu!r}")
-    return E, nu
+    """Validate Young's modulus ``E`` in :data:`YOUNGS_MODULUS_RANGE` and Poisson's ratio in :data:`POISSON_RATIO_RANGE`."""
+    E = check_real("E (Young's modulus)", E, *YOUNGS_MODULUS_RANGE)
+    return E, check_poisson_ratio(nu)
 
 
 def lame_parameters(E, nu, plane: str = "strain") -> tuple[float, float]:
@@ -36,9 +151,11 @@ def lame_parameters(E, nu, plane: str = "strain") -> tuple[float, float]:
     ``lam* = 2 lam mu / (lam + 2 mu)`` used by linear elasticity for thin
     sheets.
 
-    The admissible range is ``E > 0`` and ``-1 < nu < 0.5`` (the notes say
-    "between 0 and 1/2"; auxetic materials with ``nu < 0`` are admissible
-    too). ``nu -> 0.5`` makes ``lam`` blow up: nearly incompressible.
+    The admissible range is ``-1 < nu < 0.5`` (the notes say "between 0 and
+    1/2"; auxetic materials with ``nu < 0`` are admissible too), of which
+    :data:`POISSON_RATIO_RANGE` keeps ``1e-6`` away from each end, and ``E`` in
+    :data:`YOUNGS_MODULUS_RANGE`. ``nu -> 0.5`` makes ``lam`` blow up: nearly
+    incompressible.
     """
     E, nu = check_young_poisson(E, nu)
     lam = E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu))
@@ -51,18 +168,11 @@ def lame_parameters(E, nu, plane: str = "strain") -> tuple[float, float]:
 
 
 def check_lame(lam, mu) -> tuple[float, float]:
-    """Validate Lamé parameters given directly: ``mu > 0`` and ``lam > -2 mu / 3``.
+    """Validate Lamé parameters given directly: ``mu`` in ``[1e-7, 1e30]`` and ``-2 mu / 3 < lam <= 1e30``.
 
     ``lam > -2 mu / 3`` (a positive bulk modulus ``lam + 2 mu / 3``) is exactly
     what ``-1 < nu < 0.5`` maps to through :func:`lame_parameters`.
     """
-    mu = _check_positive_finite("mu (shear modulus)", mu)
-    try:
-        lam = float(lam)
-    except (TypeError, ValueError):
-        raise ValueError(f"lam (first Lamé parameter) must be a real number, got {lam!r}") from None
-    if not math.isfinite(lam) or lam <= -2.0 * mu / 3.0:
-        raise ValueError(
-            f"lam (first Lamé parameter) must be finite and > -2 mu / 3 = {-2.0 * mu / 3.0}, got {lam!r}"
-        )
+    mu = check_real("mu (shear modulus)", mu, SHEAR_MODULUS_MIN, LAME_MAX)
+    lam = check_real("lam (first Lamé parameter)", lam, -2.0 * mu / 3.0, LAME_MAX, lo_open=True)
     return lam, mu

@@ -25,28 +25,86 @@ A scene is a plain nested dictionary with these keys (see
 TOML or JSON file (:meth:`Scene.load`). Every field is checked, and an invalid
 scene raises ``ValueError`` naming the field (``effects.handles[1].region``).
 
+Limits
+------
+Every numeric field has a range, chosen so that whatever is accepted can also be
+computed (no overflow or division by zero later on); sizes are capped before
+anything is allocated. ``L`` is the domain's size (the larger side of its
+bounding box).
+
+=====================================================  ==========================================================
+field                                                  allowed
+=====================================================  ==========================================================
+``domain.triangles``; ``2 nx ny`` (fusiform)           an integer in ``[1, 200 000]`` (:data:`MAX_TRIANGLES`)
+``domain.nx``, ``domain.ny``                           integers in ``[1, 100 000]``, with ``2 nx ny <= 200 000``
+lengths (``width``, ``height``, ``length``, ...),      ``[1e-6, 1e6]``
+``domain.scale``
+aspect ratios (``width/height``, ``length/max_width``,  at most ``1e4`` either way
+``max_width/tendon_width``)
+a mesh file (``domain.path``)                          at most 64 MiB and 200 000 triangles; 3-node triangles
+                                                       only (plus lines and vertices naming groups), planar
+                                                       (a third coordinate only if zero everywhere),
+                                                       coordinates within ``+-1e6`` after scaling
+``material.youngs_modulus``                            ``[1e-6, 1e12]``
+``material.poisson_ratio``                             ``[-0.999999, 0.499999]`` (inside ``(-1, 0.5)``)
+``material.density``                                   ``[1e-6, 1e6]``
+``effects.inertia.time_step``                          ``[1e-6, 10]`` s
+``effects.gravity.acceleration`` (each component)      ``[-1e6, 1e6]``
+``effects.tractions[i].traction`` (each component)     ``[-1e12, 1e12]``
+``effects.fibers.stiffness``                           ``[0, 1e12]``
+``effects.inversion.threshold``                        ``[0.01, 0.99]``
+probe and suture ``stiffness``                         ``[0, 1e40]`` (sutures: ``> 0``)
+``effects.sutures[i].tightness``                       ``[0, 1]``
+points (centres, boxes, polygons, paths, sutures)      within ``1000 L`` of the domain's centre
+and handle ``target`` displacements
+radii (``near`` regions, probes)                       ``[1e-6 L, 1000 L]``
+node indices (``region.nodes``)                        integers in ``[0, 600 000)``
+``solver.budget``                                      ``[1e-6, 1e9]`` s
+``solver.rtol``                                        ``[1e-14, 0.5]``
+``solver.max_iterations``                              an integer in ``[1, 1000]``
+entries of one list-valued effect                      at most 1000
+points of a polygon or path; pairs of a suture         at most 10 000
+strings                                                at most 10 000 characters, no lone surrogates
+                                                       (``domain.path``: no NUL either)
+a scene file                                           at most 16 MiB of UTF-8, nested at most 16 levels
+=====================================================  ==========================================================
+
+Counts and node indices are true integers: ``800.0`` and ``True`` are refused,
+as are strings such as ``"1000"`` where a number belongs. For a ``file`` domain
+the limits that need ``L`` are checked when the mesh is read
+(:meth:`Scene.build_mesh`).
+
 A :class:`~tissuefem.surgery.simulation.Simulation` builds and runs it.
 """
 
 from __future__ import annotations
 
+import contextlib
 import copy
+import io
 import json
+import logging
 import math
+import os
+import re
+import reprlib
 import tomllib
 from pathlib import Path
 
+import meshio
 import numpy as np
 import skfem
+from skfem.io.meshio import from_meshio
 
 from ..engine import meshes
 from ..engine.materials import MATERIALS
 from ..engine.materials import material as make_material
-from ..engine.inversion import ITFClamped, ProjectedTangent
 from ..engine.constants import FRAME_BUDGET, TISSUE_DENSITY, TISSUE_E, TISSUE_NU
+from ..engine.inversion import ITFClamped, ProjectedTangent
 from ..engine.linsolve import LinearSolver
+from ..engine.parameters import TIME_STEP_RANGE, YOUNGS_MODULUS_RANGE, check_count, check_poisson_ratio, check_real
 
-__all__ = ["Scene", "EFFECTS", "SHAPES", "EXAMPLE_TOML", "demo_scene", "flap_scene", "flap_path"]
+__all__ = ["Scene", "EFFECTS", "SHAPES", "EXAMPLE_TOML", "demo_scene", "flap_scene", "flap_path", "read_mesh"]
 
 #: the effects a scene may name
 EFFECTS = ("inertia", "gravity", "fibers", "inversion", "handles", "tractions", "probes", "excisions",
@@ -55,6 +113,44 @@ EFFECTS = ("inertia", "gravity", "fibers", "inversion", "handles", "tractions", 
 SHAPES = ("rectangle", "flap", "fusiform", "file")
 #: the list-valued effects (each entry is a table)
 _LISTS = ("handles", "tractions", "probes", "excisions", "incisions", "sutures")
+
+# --- limits (the table in the module docstring and in the README) ----------------------------------------------
+#: triangles of a generated domain (and of a mesh file)
+MAX_TRIANGLES = meshes.MAX_TRIANGLES
+#: lengths of a generated domain, and ``domain.scale``
+SIZE_RANGE = meshes.SIZE_RANGE
+#: the largest aspect ratio of a domain, either way round
+MAX_ASPECT = meshes.MAX_ASPECT
+DENSITY_RANGE = (1e-6, 1e6)
+#: bound on each component of ``effects.gravity.acceleration``
+MAX_ACCELERATION = 1e6
+#: bound on each component of a traction (a stress, like Young's modulus)
+MAX_TRACTION = 1e12
+FIBER_STIFFNESS_RANGE = (0.0, 1e12)
+#: the largest penalty stiffness of a probe or a suture
+MAX_PENALTY_STIFFNESS = 1e40
+THRESHOLD_RANGE = (0.01, 0.99)
+BUDGET_RANGE = (1e-6, 1e9)
+RTOL_RANGE = (1e-14, 0.5)
+MAX_ITERATIONS = 1000
+#: points and displacements lie within REACH domain sizes of the domain's centre; radii at most REACH sizes
+REACH = 1e3
+#: radii are at least MIN_RADIUS domain sizes
+MIN_RADIUS = 1e-6
+#: entries of one list-valued effect
+MAX_ENTRIES = 1000
+#: points of a polygon or path, pairs of a suture
+MAX_POINTS = 10_000
+#: node indices lie below this (a mesh of MAX_TRIANGLES triangles has fewer nodes)
+MAX_NODES = 3 * MAX_TRIANGLES
+MAX_STRING = 10_000
+#: nesting of a scene's tables and arrays (a valid scene needs 7)
+MAX_NESTING = 16
+MAX_SCENE_BYTES = 16 * 2**20
+MAX_MESH_FILE_BYTES = 64 * 2**20
+# points and lengths before the domain's size is known (a file domain): beyond REACH times the largest domain
+_FAR = 1e10
+assert _FAR >= (2 * REACH + 1) * meshes.COORDINATE_MAX
 
 EXAMPLE_TOML = """\
 name = "pulled sheet"
@@ -96,54 +192,107 @@ budget = 0.0333333
 # checking fields
 # ---------------------------------------------------------------------------------------------------------------
 
-def _number(field, value, *, positive=False, nonnegative=False, integer=False, below=None):
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise ValueError(f"{field} must be a number, got {value!r}")
-    v = float(value)
-    if not math.isfinite(v):
-        raise ValueError(f"{field} must be finite, got {value!r}")
-    if positive and v <= 0:
-        raise ValueError(f"{field} must be > 0, got {value!r}")
-    if nonnegative and v < 0:
-        raise ValueError(f"{field} must be >= 0, got {value!r}")
-    if below is not None and v >= below:
-        raise ValueError(f"{field} must be < {below}, got {value!r}")
+_REPR = reprlib.Repr()
+_REPR.maxstring = _REPR.maxother = 60
+_REPR.maxlist = _REPR.maxtuple = _REPR.maxdict = 6
+_REPR.maxlevel = 3
+
+
+def _show(value) -> str:
+    """A short, one-line rendering of any value for an error message (bounded however large or deep it is)."""
+    if isinstance(value, int) and not isinstance(value, bool) and value.bit_length() > 200:
+        return f"an integer of {len(str(value)) if value.bit_length() < 10_000 else 'thousands of'} digits"
+    try:
+        return _REPR.repr(value)
+    except Exception:  # a foreign object whose repr fails
+        return f"a {type(value).__name__}"
+
+
+def _number(field, value, *, positive=False, nonnegative=False, integer=False, below=None,
+            lo=None, hi=None, lo_open=False, hi_open=False):
+    """``value`` as a number for ``field``, checked against a range; ``ValueError`` naming ``field`` otherwise.
+
+    ``positive`` (> 0), ``nonnegative`` (>= 0) and ``below`` (< below) are
+    shorthands for ``lo``/``hi`` with open or closed ends. With ``integer`` the
+    value must be a true integer (a float such as ``800.0`` is refused).
+    """
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise ValueError(f"{field} must be a number, got {_show(value)}")
     if integer:
-        if v != int(v):
-            raise ValueError(f"{field} must be an integer, got {value!r}")
-        return int(v)
-    return v
+        low = lo if lo is not None else 1 if positive else 0 if nonnegative else -(2**63)
+        return check_count(field, value, int(low), None if hi is None else int(hi))
+    if lo is None:
+        if positive:
+            lo, lo_open = 0.0, True
+        elif nonnegative:
+            lo = 0.0
+    if hi is None and below is not None:
+        hi, hi_open = below, True
+    return check_real(field, value, lo, hi, lo_open=lo_open, hi_open=hi_open)
 
 
-def _vector(field, value):
-    if not isinstance(value, (list, tuple, np.ndarray)) or len(value) != 2:
-        raise ValueError(f"{field} must be a vector [x, y], got {value!r}")
-    return [_number(f"{field}[{i}]", c) for i, c in enumerate(value)]
+def _is_sequence(value) -> bool:
+    return isinstance(value, (list, tuple)) or (isinstance(value, np.ndarray) and value.ndim == 1)
 
 
-def _points(field, value, minimum):
-    if not isinstance(value, (list, tuple, np.ndarray)) or len(value) < minimum:
-        raise ValueError(f"{field} must be a list of at least {minimum} points [x, y], got {value!r}")
+def _vector(field, value, bound=_FAR):
+    if not _is_sequence(value) or len(value) != 2:
+        raise ValueError(f"{field} must be a vector [x, y], got {_show(value)}")
+    return [_number(f"{field}[{i}]", c, lo=-bound, hi=bound) for i, c in enumerate(value)]
+
+
+def _points(field, value, minimum, maximum=MAX_POINTS):
+    if not _is_sequence(value) or not minimum <= len(value) <= maximum:
+        raise ValueError(f"{field} must be a list of {minimum} to {maximum} points [x, y], got {_show(value)}")
     return [_vector(f"{field}[{i}]", p) for i, p in enumerate(value)]
 
 
 def _table(field, value):
     if not isinstance(value, dict):
-        raise ValueError(f"{field} must be a table (a dict), got {value!r}")
+        raise ValueError(f"{field} must be a table (a dict), got {_show(value)}")
     return value
 
 
 def _only(field, table, allowed):
-    unknown = sorted(set(table) - set(allowed))
+    unknown = [k for k in table if k not in allowed]  # keys may be of any type when given from Python
     if unknown:
-        raise ValueError(f"{field}: unknown key(s) {unknown}; allowed: {sorted(allowed)}")
+        shown = sorted(_show(k) for k in unknown)
+        raise ValueError(f"{field}: unknown key(s) [{', '.join(shown)}]; allowed: {sorted(allowed)}")
 
 
-def _string(field, value, choices=None):
+def _string(field, value, choices=None, *, nonempty=False):
     if not isinstance(value, str):
-        raise ValueError(f"{field} must be a string, got {value!r}")
-    if choices is not None and value not in choices:
-        raise ValueError(f"{field} must be one of {list(choices)}, got {value!r}")
+        raise ValueError(f"{field} must be a string, got {_show(value)}")
+    if choices is not None:
+        if value not in choices:
+            raise ValueError(f"{field} must be one of {list(choices)}, got {_show(value)}")
+        return value
+    if len(value) > MAX_STRING:
+        raise ValueError(f"{field} must be at most {MAX_STRING} characters long, got {len(value)}")
+    if nonempty and not value:
+        raise ValueError(f"{field} must not be empty")
+    try:
+        value.encode("utf-8")
+    except UnicodeEncodeError as err:  # a lone surrogate: no UTF-8 file (TOML or JSON) can hold it
+        raise ValueError(f"{field} contains a lone surrogate code point at character {err.start} (not text that "
+                         "a scene file can hold)") from None
+    return value
+
+
+def _length(field, value):
+    return _number(field, value, positive=True, lo=SIZE_RANGE[0], hi=SIZE_RANGE[1])
+
+
+def _aspect(field, ratio):
+    if not 1.0 / MAX_ASPECT <= ratio <= MAX_ASPECT:
+        raise ValueError(f"{field} = {ratio:g}: the aspect ratio must lie within [1/{MAX_ASPECT:g}, {MAX_ASPECT:g}]")
+
+
+def _count_list(field, value, what, maximum):
+    if not _is_sequence(value) or not value:
+        raise ValueError(f"{field} must be a non-empty list of {what}, got {_show(value)}")
+    if len(value) > maximum:
+        raise ValueError(f"{field}: at most {maximum} {what}, got {len(value)}")
     return value
 
 
@@ -153,23 +302,44 @@ def _check_domain(d):
     out = {"shape": shape}
     if shape in ("rectangle", "flap"):
         _only("domain", d, ("shape", "width", "height", "triangles"))
-        out["width"] = _number("domain.width", d.get("width", 2.0 if shape == "flap" else 1.0), positive=True)
-        out["height"] = _number("domain.height", d.get("height", 1.0), positive=True)
-        out["triangles"] = _number("domain.triangles", d.get("triangles", 800), positive=True, integer=True)
+        out["width"] = _length("domain.width", d.get("width", 2.0 if shape == "flap" else 1.0))
+        out["height"] = _length("domain.height", d.get("height", 1.0))
+        _aspect("domain.width / domain.height", out["width"] / out["height"])
+        out["triangles"] = _number("domain.triangles", d.get("triangles", 800), integer=True, lo=1, hi=MAX_TRIANGLES)
     elif shape == "fusiform":
         _only("domain", d, ("shape", "length", "max_width", "tendon_width", "nx", "ny"))
-        out["length"] = _number("domain.length", d.get("length", 4.0), positive=True)
-        out["max_width"] = _number("domain.max_width", d.get("max_width", 1.0), positive=True)
-        out["tendon_width"] = _number("domain.tendon_width", d.get("tendon_width", 0.25), positive=True)
-        out["nx"] = _number("domain.nx", d.get("nx", 40), positive=True, integer=True)
-        out["ny"] = _number("domain.ny", d.get("ny", 8), positive=True, integer=True)
+        out["length"] = _length("domain.length", d.get("length", 4.0))
+        out["max_width"] = _length("domain.max_width", d.get("max_width", 1.0))
+        out["tendon_width"] = _length("domain.tendon_width", d.get("tendon_width", 0.25))
+        if out["tendon_width"] > out["max_width"]:
+            raise ValueError(f"domain.tendon_width must not exceed domain.max_width (the belly is widest in the "
+                             f"middle), got {out['tendon_width']!r} > {out['max_width']!r}")
+        _aspect("domain.length / domain.max_width", out["length"] / out["max_width"])
+        _aspect("domain.max_width / domain.tendon_width", out["max_width"] / out["tendon_width"])
+        out["nx"] = _number("domain.nx", d.get("nx", 40), integer=True, lo=1, hi=MAX_TRIANGLES // 2)
+        out["ny"] = _number("domain.ny", d.get("ny", 8), integer=True, lo=1, hi=MAX_TRIANGLES // 2)
+        if 2 * out["nx"] * out["ny"] > MAX_TRIANGLES:
+            raise ValueError(f"domain.nx, domain.ny: {out['nx']} x {out['ny']} cells make "
+                             f"{2 * out['nx'] * out['ny']} triangles, more than {MAX_TRIANGLES}")
     else:
         _only("domain", d, ("shape", "path", "scale"))
         if "path" not in d:
             raise ValueError("domain.path: a 'file' domain needs the path of a mesh file (gmsh .msh, .vtk, ...)")
-        out["path"] = _string("domain.path", d["path"])
-        out["scale"] = _number("domain.scale", d.get("scale", 1.0), positive=True)
+        out["path"] = _string("domain.path", d["path"], nonempty=True)
+        if "\0" in out["path"]:
+            raise ValueError("domain.path must not contain a NUL character")
+        out["scale"] = _number("domain.scale", d.get("scale", 1.0), positive=True, lo=SIZE_RANGE[0],
+                               hi=SIZE_RANGE[1])
     return out
+
+
+def _domain_box(domain):
+    """The bounding box ``(x0, y0, x1, y1)`` of a generated domain (``None`` for a file: known once read)."""
+    if domain["shape"] in ("rectangle", "flap"):
+        return 0.0, 0.0, domain["width"], domain["height"]
+    if domain["shape"] == "fusiform":
+        return 0.0, -0.5 * domain["max_width"], domain["length"], 0.5 * domain["max_width"]
+    return None
 
 
 def _check_material(m):
@@ -181,43 +351,48 @@ def _check_material(m):
     for key in ("model", "youngs_modulus", "poisson_ratio"):
         if key not in m:
             raise ValueError(f"material.{key}: missing")
-    out = {
+    return {
         "model": _string("material.model", m["model"], sorted(MATERIALS)),
-        "youngs_modulus": _number("material.youngs_modulus", m["youngs_modulus"], positive=True),
-        "poisson_ratio": _number("material.poisson_ratio", m["poisson_ratio"], below=0.5),
-        "density": _number("material.density", m.get("density", 1.0), positive=True),
+        "youngs_modulus": _number("material.youngs_modulus", m["youngs_modulus"], positive=True,
+                                  lo=YOUNGS_MODULUS_RANGE[0], hi=YOUNGS_MODULUS_RANGE[1]),
+        "poisson_ratio": check_poisson_ratio(_number("material.poisson_ratio", m["poisson_ratio"]),
+                                             "material.poisson_ratio"),
+        "density": _number("material.density", m.get("density", 1.0), positive=True, lo=DENSITY_RANGE[0],
+                           hi=DENSITY_RANGE[1]),
     }
-    if out["poisson_ratio"] <= -1:
-        raise ValueError(f"material.poisson_ratio must be > -1, got {m['poisson_ratio']!r}")
-    return out
+
+
+def _radius(field, value):
+    return _number(field, value, positive=True, lo=MIN_RADIUS * SIZE_RANGE[0], hi=_FAR)
 
 
 def _check_region(field, r):
     if isinstance(r, str):
-        return r
+        return _string(field, r, nonempty=True)
     r = _table(field, r)
     if "box" in r:
         _only(field, r, ("box",))
         box = r["box"]
-        if not isinstance(box, (list, tuple)) or len(box) != 4:
-            raise ValueError(f"{field}.box must be [xmin, ymin, xmax, ymax], got {box!r}")
-        box = [_number(f"{field}.box[{i}]", b) for i, b in enumerate(box)]
+        if not _is_sequence(box) or len(box) != 4:
+            raise ValueError(f"{field}.box must be [xmin, ymin, xmax, ymax], got {_show(box)}")
+        box = [_number(f"{field}.box[{i}]", b, lo=-_FAR, hi=_FAR) for i, b in enumerate(box)]
         if box[0] > box[2] or box[1] > box[3]:
             raise ValueError(f"{field}.box must have xmin <= xmax and ymin <= ymax, got {box}")
         return {"box": box}
     if "near" in r:
         _only(field, r, ("near", "radius"))
-        return {"near": _vector(f"{field}.near", r["near"]),
-                "radius": _number(f"{field}.radius", r.get("radius", 0.05), positive=True)}
+        return {"near": _vector(f"{field}.near", r["near"]), "radius": _radius(f"{field}.radius", r.get("radius", 0.05))}
     if "nodes" in r:
         _only(field, r, ("nodes",))
-        nodes = r["nodes"]
-        if not isinstance(nodes, (list, tuple)) or not nodes:
-            raise ValueError(f"{field}.nodes must be a non-empty list of node indices")
-        return {"nodes": [_number(f"{field}.nodes[{i}]", n, nonnegative=True, integer=True)
+        nodes = _count_list(f"{field}.nodes", r["nodes"], "node indices", MAX_NODES)
+        return {"nodes": [_number(f"{field}.nodes[{i}]", n, integer=True, lo=0, hi=MAX_NODES - 1)
                           for i, n in enumerate(nodes)]}
     raise ValueError(f"{field} must be a boundary name or a table with 'box', 'near' (+ 'radius') or 'nodes', "
-                     f"got {r!r}")
+                     f"got {_show(r)}")
+
+
+def _penalty(field, value, positive=False):
+    return _number(field, value, positive=positive, nonnegative=not positive, hi=MAX_PENALTY_STIFFNESS)
 
 
 def _check_entry(kind, i, e):
@@ -235,17 +410,16 @@ def _check_entry(kind, i, e):
         for key in ("boundary", "traction"):
             if key not in e:
                 raise ValueError(f"{field}.{key}: missing")
-        return {"boundary": _string(f"{field}.boundary", e["boundary"]),
-                "traction": _vector(f"{field}.traction", e["traction"])}
+        return {"boundary": _string(f"{field}.boundary", e["boundary"], nonempty=True),
+                "traction": _vector(f"{field}.traction", e["traction"], MAX_TRACTION)}
     if kind == "probes":
         _only(field, e, ("center", "radius", "stiffness"))
         for key in ("center", "radius"):
             if key not in e:
                 raise ValueError(f"{field}.{key}: missing")
-        out = {"center": _vector(f"{field}.center", e["center"]),
-               "radius": _number(f"{field}.radius", e["radius"], positive=True)}
+        out = {"center": _vector(f"{field}.center", e["center"]), "radius": _radius(f"{field}.radius", e["radius"])}
         if "stiffness" in e:
-            out["stiffness"] = _number(f"{field}.stiffness", e["stiffness"], nonnegative=True)
+            out["stiffness"] = _penalty(f"{field}.stiffness", e["stiffness"])
         return out
     if kind == "excisions":
         _only(field, e, ("polygon",))
@@ -255,39 +429,37 @@ def _check_entry(kind, i, e):
         return {"path": _points(f"{field}.path", e.get("path"), 2)}
     # sutures
     _only(field, e, ("pairs", "stiffness", "tightness"))
-    pairs = e.get("pairs")
-    if not isinstance(pairs, (list, tuple)) or not pairs:
-        raise ValueError(f"{field}.pairs must be a non-empty list of point pairs [[x1, y1], [x2, y2]]")
+    pairs = _count_list(f"{field}.pairs", e.get("pairs"), "point pairs [[x1, y1], [x2, y2]]", MAX_POINTS)
     checked = []
     for j, pair in enumerate(pairs):
-        if not isinstance(pair, (list, tuple)) or len(pair) != 2:
-            raise ValueError(f"{field}.pairs[{j}] must be two points [[x1, y1], [x2, y2]], got {pair!r}")
-        checked.append(_points(f"{field}.pairs[{j}]", pair, 2))
+        if not _is_sequence(pair) or len(pair) != 2:
+            raise ValueError(f"{field}.pairs[{j}] must be two points [[x1, y1], [x2, y2]], got {_show(pair)}")
+        checked.append(_points(f"{field}.pairs[{j}]", pair, 2, 2))
     out = {"pairs": checked,
-           "tightness": _number(f"{field}.tightness", e.get("tightness", 1.0), nonnegative=True)}
-    if out["tightness"] > 1:
-        raise ValueError(f"{field}.tightness must be in [0, 1], got {e['tightness']!r}")
+           "tightness": _number(f"{field}.tightness", e.get("tightness", 1.0), nonnegative=True, hi=1.0)}
     if "stiffness" in e:
-        out["stiffness"] = _number(f"{field}.stiffness", e["stiffness"], positive=True)
+        out["stiffness"] = _penalty(f"{field}.stiffness", e["stiffness"], positive=True)
     return out
 
 
 def _check_effects(effects):
-    effects = _table("effects", effects or {})
-    unknown = sorted(set(effects) - set(EFFECTS))
+    effects = _table("effects", effects)
+    unknown = [k for k in effects if k not in EFFECTS]
     if unknown:
-        raise ValueError(f"effects: unknown effect(s) {unknown}; known effects: {list(EFFECTS)}")
+        raise ValueError(f"effects: unknown effect(s) [{', '.join(sorted(_show(k) for k in unknown))}]; "
+                         f"known effects: {list(EFFECTS)}")
     out = {}
     if "inertia" in effects:
         e = _table("effects.inertia", effects["inertia"])
         _only("effects.inertia", e, ("time_step", "mass"))
         out["inertia"] = {"time_step": _number("effects.inertia.time_step", e.get("time_step", FRAME_BUDGET),
-                                               positive=True),
+                                               positive=True, lo=TIME_STEP_RANGE[0], hi=TIME_STEP_RANGE[1]),
                           "mass": _string("effects.inertia.mass", e.get("mass", "lumped"), ("lumped", "consistent"))}
     if "gravity" in effects:
         e = _table("effects.gravity", effects["gravity"])
         _only("effects.gravity", e, ("acceleration",))
-        out["gravity"] = {"acceleration": _vector("effects.gravity.acceleration", e.get("acceleration", [0.0, -9.81]))}
+        out["gravity"] = {"acceleration": _vector("effects.gravity.acceleration", e.get("acceleration", [0.0, -9.81]),
+                                                  MAX_ACCELERATION)}
     if "fibers" in effects:
         e = _table("effects.fibers", effects["fibers"])
         _only("effects.fibers", e, ("stiffness", "direction"))
@@ -300,7 +472,8 @@ def _check_effects(effects):
             direction = _vector("effects.fibers.direction", direction)
             if direction == [0.0, 0.0]:
                 raise ValueError("effects.fibers.direction must not be zero")
-        out["fibers"] = {"stiffness": _number("effects.fibers.stiffness", e["stiffness"], nonnegative=True),
+        out["fibers"] = {"stiffness": _number("effects.fibers.stiffness", e["stiffness"], nonnegative=True,
+                                              hi=FIBER_STIFFNESS_RANGE[1]),
                          "direction": direction}
     if "inversion" in effects:
         e = _table("effects.inversion", effects["inversion"])
@@ -309,19 +482,23 @@ def _check_effects(effects):
         out["inversion"] = {"method": method}
         if method == "itf":
             out["inversion"]["threshold"] = _number("effects.inversion.threshold", e.get("threshold", 0.3),
-                                                    positive=True, below=1.0)
+                                                    positive=True, lo=THRESHOLD_RANGE[0], hi=THRESHOLD_RANGE[1])
+        elif "threshold" in e:
+            raise ValueError("effects.inversion.threshold: only the 'itf' method has a threshold")
     for kind in _LISTS:
         if kind in effects:
             entries = effects[kind]
             if isinstance(entries, dict):
                 entries = [entries]
-            if not isinstance(entries, (list, tuple)):
-                raise ValueError(f"effects.{kind} must be a list of tables, got {entries!r}")
-            if entries:  # an empty list is the same as leaving the effect out
+            if not _is_sequence(entries):
+                raise ValueError(f"effects.{kind} must be a list of tables, got {_show(entries)}")
+            if len(entries) > MAX_ENTRIES:
+                raise ValueError(f"effects.{kind}: at most {MAX_ENTRIES} entries, got {len(entries)}")
+            if len(entries):  # an empty list is the same as leaving the effect out
                 out[kind] = [_check_entry(kind, i, e) for i, e in enumerate(entries)]
     names = [h["name"] for h in out.get("handles", [])]
     if len(set(names)) != len(names):
-        raise ValueError(f"effects.handles: names must be unique, got {names}")
+        raise ValueError(f"effects.handles: names must be unique, got {_show(names)}")
     return out
 
 
@@ -335,19 +512,120 @@ def _linear_solver(value):
 
 
 def _check_solver(s):
-    s = _table("solver", s or {})
+    s = _table("solver", s)
     _only("solver", s, ("budget", "rtol", "linear_solver", "max_iterations"))
     return {
-        "budget": _number("solver.budget", s.get("budget", FRAME_BUDGET), positive=True),
-        "rtol": _number("solver.rtol", s.get("rtol", 1e-6), positive=True),
+        "budget": _number("solver.budget", s.get("budget", FRAME_BUDGET), positive=True, lo=BUDGET_RANGE[0],
+                          hi=BUDGET_RANGE[1]),
+        "rtol": _number("solver.rtol", s.get("rtol", 1e-6), positive=True, lo=RTOL_RANGE[0], hi=RTOL_RANGE[1]),
         "linear_solver": _linear_solver(s.get("linear_solver", "reuse")),
-        "max_iterations": _number("solver.max_iterations", s.get("max_iterations", 50), positive=True, integer=True),
+        "max_iterations": _number("solver.max_iterations", s.get("max_iterations", 50), integer=True, lo=1,
+                                  hi=MAX_ITERATIONS),
     }
+
+
+def _check_reach(effects, box, where=""):
+    """Points, displacements and radii against the domain's size ``L``: within ``REACH L``, radii ``>= MIN_RADIUS L``."""
+    x0, y0, x1, y1 = box
+    size = max(x1 - x0, y1 - y0)
+    cx, cy = 0.5 * (x0 + x1), 0.5 * (y0 + y1)
+    far = REACH * size
+
+    def point(field, p):
+        if abs(p[0] - cx) > far or abs(p[1] - cy) > far:
+            raise ValueError(f"{field} = {p} lies farther than {REACH:g} domain sizes ({far:g}) from the domain's "
+                             f"centre ({cx:g}, {cy:g}){where}")
+
+    def radius(field, r):
+        if not MIN_RADIUS * size <= r <= far:
+            raise ValueError(f"{field} = {r:g} must lie within [{MIN_RADIUS:g}, {REACH:g}] domain sizes, i.e. "
+                             f"[{MIN_RADIUS * size:g}, {far:g}]{where}")
+
+    for i, h in enumerate(effects.get("handles", [])):
+        field = f"effects.handles[{i}]"
+        region = h["region"]
+        if isinstance(region, dict) and "box" in region:
+            b = region["box"]
+            point(f"{field}.region.box[0:2]", b[:2])
+            point(f"{field}.region.box[2:4]", b[2:])
+        elif isinstance(region, dict) and "near" in region:
+            point(f"{field}.region.near", region["near"])
+            radius(f"{field}.region.radius", region["radius"])
+        if max(abs(h["target"][0]), abs(h["target"][1])) > far:
+            raise ValueError(f"{field}.target = {h['target']}: a displacement larger than {REACH:g} domain sizes "
+                             f"({far:g}){where}")
+    for i, p in enumerate(effects.get("probes", [])):
+        point(f"effects.probes[{i}].center", p["center"])
+        radius(f"effects.probes[{i}].radius", p["radius"])
+    for i, e in enumerate(effects.get("excisions", [])):
+        for j, q in enumerate(e["polygon"]):
+            point(f"effects.excisions[{i}].polygon[{j}]", q)
+    for i, e in enumerate(effects.get("incisions", [])):
+        for j, q in enumerate(e["path"]):
+            point(f"effects.incisions[{i}].path[{j}]", q)
+    for i, e in enumerate(effects.get("sutures", [])):
+        for j, pair in enumerate(e["pairs"]):
+            for k, q in enumerate(pair):
+                point(f"effects.sutures[{i}].pairs[{j}][{k}]", q)
+
+
+def _check_nesting(data, limit=MAX_NESTING):
+    """Refuse containers nested deeper than ``limit`` (iteratively: a deep structure cannot exhaust the stack)."""
+    stack, seen = [(data, 1)], set()
+    while stack:
+        obj, depth = stack.pop()
+        if depth > limit:
+            raise ValueError(f"scene: nested deeper than {limit} levels (a scene needs at most 7)")
+        if id(obj) in seen:  # shared or cyclic structures from Python are walked once
+            continue
+        seen.add(id(obj))
+        children = obj.values() if isinstance(obj, dict) else obj
+        stack.extend((c, depth + 1) for c in children if isinstance(c, (dict, list, tuple)))
+
+
+# brackets in the text of a scene, outside strings and comments: their depth is checked before parsing, so a
+# deeply nested file never reaches the parsers' recursion
+_SKIP_TOML = re.compile(r'"""(?:[^"\\]|\\.|"(?!""))*"""|\'\'\'.*?\'\'\'|"(?:[^"\\\n]|\\.)*"|\'[^\'\n]*\'|#[^\n]*',
+                        re.S)
+_SKIP_JSON = re.compile(r'"(?:[^"\\]|\\.)*"', re.S)
+
+
+def _check_text_nesting(text, kind):
+    """Refuse a text whose brackets nest deeper than :data:`MAX_NESTING`, naming the line (before any parsing)."""
+    codes = np.frombuffer(text.encode("utf-32-le", "surrogatepass"), dtype="<u4")
+    step = np.zeros(codes.size, dtype=np.int8)
+    step[(codes == ord("[")) | (codes == ord("{"))] = 1
+    step[(codes == ord("]")) | (codes == ord("}"))] = -1
+    if not step.any():
+        return
+    for m in (_SKIP_TOML if kind == "TOML" else _SKIP_JSON).finditer(text):
+        step[m.start():m.end()] = 0
+    depth = np.cumsum(step, dtype=np.int64)
+    too_deep = np.flatnonzero(depth > MAX_NESTING)
+    if too_deep.size:
+        line = text.count("\n", 0, int(too_deep[0])) + 1
+        raise ValueError(f"scene: its {kind} nests deeper than {MAX_NESTING} levels "
+                         f"(line {line}); a scene needs at most 7")
 
 
 # ---------------------------------------------------------------------------------------------------------------
 # TOML output (the subset scenes use: tables, arrays of tables, numbers, strings, arrays)
 # ---------------------------------------------------------------------------------------------------------------
+
+# A TOML basic string may hold any Unicode scalar value except '"', '\' and the control characters, which
+# are escaped (\b \t \n \f \r, else \uXXXX); everything else, also outside the Basic Multilingual Plane, is
+# written as itself in the UTF-8 file. (JSON's \ud83d\ude00 surrogate-pair escapes are not valid TOML.)
+_TOML_ESCAPE = re.compile(r'["\\\x00-\x1f\x7f]')
+_TOML_SHORT = {'"': '\\"', "\\": "\\\\", "\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f", "\r": "\\r"}
+
+
+def _toml_string(s: str) -> str:
+    return '"' + _TOML_ESCAPE.sub(lambda m: _TOML_SHORT.get(m.group(), f"\\u{ord(m.group()):04X}"), s) + '"'
+
+
+def _toml_key(k) -> str:
+    return k if re.fullmatch(r"[A-Za-z0-9_-]+", k) else _toml_string(k)
+
 
 def _toml_value(v):
     if isinstance(v, bool):
@@ -355,14 +633,16 @@ def _toml_value(v):
     if isinstance(v, (int, np.integer)):
         return str(int(v))
     if isinstance(v, (float, np.floating)):
+        if not math.isfinite(v):
+            raise ValueError(f"cannot write the non-finite number {v!r} to a scene file")
         return repr(float(v))  # shortest round-tripping form
     if isinstance(v, str):
-        return json.dumps(v)  # a basic TOML string has JSON's escapes
+        return _toml_string(v)
     if isinstance(v, (list, tuple)):
         return "[" + ", ".join(_toml_value(x) for x in v) + "]"
     if isinstance(v, dict):
-        return "{ " + ", ".join(f"{k} = {_toml_value(x)}" for k, x in v.items()) + " }"
-    raise ValueError(f"cannot write {v!r} to TOML")
+        return "{ " + ", ".join(f"{_toml_key(k)} = {_toml_value(x)}" for k, x in v.items()) + " }"
+    raise ValueError(f"cannot write {_show(v)} to TOML")
 
 
 def _toml(data) -> str:
@@ -371,14 +651,25 @@ def _toml(data) -> str:
         if key in data:
             lines.append(f"{key} = {_toml_value(data[key])}")
     for section in ("domain", "material", "solver"):
-        lines += ["", f"[{section}]"] + [f"{k} = {_toml_value(v)}" for k, v in data[section].items()]
+        lines += ["", f"[{section}]"] + [f"{_toml_key(k)} = {_toml_value(v)}" for k, v in data[section].items()]
     for kind, value in data["effects"].items():
         if kind in _LISTS:
             for entry in value:
-                lines += ["", f"[[effects.{kind}]]"] + [f"{k} = {_toml_value(v)}" for k, v in entry.items()]
+                lines += ["", f"[[effects.{kind}]]"] + [f"{_toml_key(k)} = {_toml_value(v)}" for k, v in entry.items()]
         else:
-            lines += ["", f"[effects.{kind}]"] + [f"{k} = {_toml_value(v)}" for k, v in value.items()]
+            lines += ["", f"[effects.{kind}]"] + [f"{_toml_key(k)} = {_toml_value(v)}" for k, v in value.items()]
     return "\n".join(lines) + "\n"
+
+
+def _scene_path(path, argument="path") -> Path:
+    if isinstance(path, bytes) or not isinstance(path, (str, os.PathLike)):
+        raise ValueError(f"{argument} must be a file path (str or pathlib.Path), got {_show(path)}")
+    if "\0" in os.fspath(path):
+        raise ValueError(f"{argument} must not contain a NUL character")
+    path = Path(path)
+    if path.suffix not in (".toml", ".json"):
+        raise ValueError(f"scene file must end in .toml or .json, got {path.name!r}")
+    return path
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -390,9 +681,12 @@ class Scene:
 
     ``Scene(domain=..., material=..., effects=..., solver=..., name=..., description=...)``
     with dictionaries as in a scene file; missing optional fields get their
-    defaults, so :meth:`to_dict` is the complete, normalised scene.
-    ``base_dir`` is where a ``file`` domain's relative path starts (the scene
-    file's folder when loaded from a file).
+    defaults, so :meth:`to_dict` is the complete, normalised scene. ``None``
+    means "the default" only for the keyword arguments; inside a scene every
+    value must have its type. ``base_dir`` is where a ``file`` domain's
+    relative path starts (the scene file's folder when loaded from a file).
+    ``notes`` lists what :meth:`build_mesh` had to say about a mesh file (nodes
+    it dropped).
     """
 
     def __init__(self, *, domain=None, material=None, effects=None, solver=None, name="scene", description="",
@@ -401,16 +695,27 @@ class Scene:
         self.description = _string("description", description)
         self.domain = _check_domain(domain if domain is not None else {"shape": "rectangle"})
         self.material = _check_material(material)
-        self.effects = _check_effects(effects)
-        self.solver = _check_solver(solver)
+        self.effects = _check_effects(effects if effects is not None else {})
+        self.solver = _check_solver(solver if solver is not None else {})
+        box = _domain_box(self.domain)
+        if box is not None:
+            _check_reach(self.effects, box)
+        if base_dir is not None and (isinstance(base_dir, bytes) or not isinstance(base_dir, (str, os.PathLike))):
+            raise ValueError(f"base_dir must be a folder path (str or pathlib.Path), got {_show(base_dir)}")
         self.base_dir = None if base_dir is None else Path(base_dir)
+        self.notes = []
 
     # ------------------------------------------------------------------ constructors and output
     @classmethod
     def from_dict(cls, data, base_dir=None) -> "Scene":
         data = _table("scene", data)
+        _check_nesting(data)
         _only("scene", data, ("name", "description", "domain", "material", "effects", "solver"))
-        return cls(**copy.deepcopy(data), base_dir=base_dir)
+        for key in ("domain", "material", "effects", "solver"):
+            if key in data and data[key] is None:
+                raise ValueError(f"{key} must be a table (a dict), got None (leave {key} out for the defaults)")
+        # the checks build new containers throughout, so the scene shares nothing with ``data``
+        return cls(**data, base_dir=base_dir)
 
     def to_dict(self) -> dict:
         out = {"name": self.name}
@@ -422,18 +727,31 @@ class Scene:
 
     @classmethod
     def from_toml(cls, text, base_dir=None) -> "Scene":
-        return cls._parse(tomllib.loads, tomllib.TOMLDecodeError, "TOML", text, base_dir)
+        return cls._parse(tomllib.loads, "TOML", text, base_dir)
 
     @classmethod
     def from_json(cls, text, base_dir=None) -> "Scene":
-        return cls._parse(json.loads, json.JSONDecodeError, "JSON", text, base_dir)
+        return cls._parse(json.loads, "JSON", text, base_dir)
 
     @classmethod
-    def _parse(cls, loads, error, kind, text, base_dir):
+    def _parse(cls, loads, kind, text, base_dir):
+        if isinstance(text, (bytes, bytearray)):
+            try:
+                text = bytes(text).decode("utf-8")
+            except UnicodeDecodeError as err:
+                raise ValueError(f"scene: not UTF-8 text (byte {err.start})") from None
+        if not isinstance(text, str):
+            raise ValueError(f"scene: the {kind} text must be a string, got {_show(text)}")
+        if len(text) > MAX_SCENE_BYTES:
+            raise ValueError(f"scene: {len(text)} characters, more than the {MAX_SCENE_BYTES} a scene may have")
+        _check_text_nesting(text, kind)
         try:
             data = loads(text)
-        except error as err:
-            raise ValueError(f"scene: not valid {kind}: {err}") from None
+        except RecursionError:  # not reached after the bracket check; kept as the last line of defence
+            raise ValueError(f"scene: its {kind} nests too deeply to parse") from None
+        except ValueError as err:  # TOMLDecodeError, JSONDecodeError, an integer of too many digits
+            message = " ".join(str(err).split())
+            raise ValueError(f"scene: not valid {kind}: {message}") from None
         return cls.from_dict(data, base_dir)
 
     def to_toml(self) -> str:
@@ -444,19 +762,44 @@ class Scene:
 
     @classmethod
     def load(cls, path) -> "Scene":
-        """Read a scene from a ``.toml`` or ``.json`` file."""
-        path = Path(path)
-        if path.suffix not in (".toml", ".json"):
-            raise ValueError(f"scene file must end in .toml or .json, got {path.name!r}")
-        text = path.read_text(encoding="utf-8")
+        """Read a scene from a ``.toml`` or ``.json`` file (UTF-8, at most :data:`MAX_SCENE_BYTES`)."""
+        path = _scene_path(path)
+        if path.exists() and not path.is_file():  # a folder, a pipe or a device (a pipe would block the read)
+            raise ValueError(f"scene file {str(path)!r} is not a regular file")
+        try:
+            with open(path, "rb") as f:
+                data = f.read(MAX_SCENE_BYTES + 1)
+        except OSError as err:
+            raise ValueError(f"scene file {str(path)!r} cannot be read: {err.strerror or err}") from None
+        if len(data) > MAX_SCENE_BYTES:
+            raise ValueError(f"scene file {str(path)!r} is larger than {MAX_SCENE_BYTES} bytes")
+        try:
+            text = data.decode("utf-8-sig")  # an editor's byte-order mark is harmless
+        except UnicodeDecodeError as err:
+            raise ValueError(f"scene file {str(path)!r} is not UTF-8 text (byte {err.start})") from None
         reader = cls.from_toml if path.suffix == ".toml" else cls.from_json
         return reader(text, base_dir=path.parent)
 
     def save(self, path) -> None:
-        path = Path(path)
-        if path.suffix not in (".toml", ".json"):
-            raise ValueError(f"scene file must end in .toml or .json, got {path.name!r}")
-        path.write_text(self.to_toml() if path.suffix == ".toml" else self.to_json(), encoding="utf-8")
+        """Write the scene to a ``.toml`` or ``.json`` file that :meth:`load` reads back as this very scene.
+
+        The text is read back and compared before the file is touched, and the
+        file is replaced in one step: a failure leaves an existing file as it was.
+        """
+        path = _scene_path(path)
+        toml = path.suffix == ".toml"
+        text = self.to_toml() if toml else self.to_json()
+        again = (Scene.from_toml if toml else Scene.from_json)(text)
+        if again != self:
+            raise ValueError("scene: the written text would not read back as the same scene (please report this)")
+        temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+        try:
+            temporary.write_text(text, encoding="utf-8")
+            os.replace(temporary, path)
+        except OSError as err:
+            with contextlib.suppress(OSError):
+                temporary.unlink()
+            raise ValueError(f"scene file {str(path)!r} cannot be written: {err.strerror or err}") from None
 
     def __eq__(self, other):
         return isinstance(other, Scene) and self.to_dict() == other.to_dict()
@@ -470,14 +813,27 @@ class Scene:
         return "inertia" in self.effects
 
     def build_mesh(self):
+        """The domain's mesh. For a ``file`` domain, the scene's points and radii are checked against its size here."""
         d = self.domain
+        self.notes = []
         if d["shape"] == "rectangle":
             return meshes.mesh_with_about(d["triangles"], d["width"], d["height"])
         if d["shape"] == "flap":
             return meshes.flap(d["width"], d["height"], d["triangles"])
         if d["shape"] == "fusiform":
             return meshes.fusiform_muscle(d["length"], d["max_width"], d["tendon_width"], d["nx"], d["ny"])
-        return read_mesh(Path(d["path"]) if self.base_dir is None else self.base_dir / d["path"], d["scale"])
+        path = Path(d["path"]) if self.base_dir is None else self.base_dir / d["path"]
+        mesh, dropped = _read_mesh(path, d["scale"])
+        lo, hi = mesh.p.min(axis=1), mesh.p.max(axis=1)
+        _check_reach(self.effects, (lo[0], lo[1], hi[0], hi[1]), f" (the mesh read from {d['path']!r})")
+        if dropped.size:
+            for i, h in enumerate(self.effects.get("handles", [])):
+                if isinstance(h["region"], dict) and "nodes" in h["region"]:
+                    raise ValueError(f"effects.handles[{i}].region.nodes: the mesh file has nodes in no triangle, "
+                                     "which are dropped and the rest renumbered, so node indices would point at "
+                                     "other nodes; select the nodes with a box or near a point instead")
+            self.notes.append(_dropped_note(d["path"], dropped))
+        return mesh
 
     def build_material(self):
         m = self.material
@@ -494,21 +850,191 @@ class Scene:
         return mat
 
 
-def read_mesh(path, scale=1.0):
+# ---------------------------------------------------------------------------------------------------------------
+# mesh files
+# ---------------------------------------------------------------------------------------------------------------
+
+#: the cells a mesh file may hold: 3-node triangles, and lines and vertices (boundary and point groups)
+_CELLS_ALLOWED = ("triangle", "line", "vertex")
+
+
+@contextlib.contextmanager
+def _quiet():
+    """Keep a mesh reader's own printing and logging off the terminal (its failures become our ValueError)."""
+    sink = io.StringIO()
+    previous = logging.root.manager.disable
+    logging.disable(logging.CRITICAL)
+    try:
+        with contextlib.redirect_stdout(sink), contextlib.redirect_stderr(sink):
+            yield sink
+    finally:
+        logging.disable(previous)
+
+
+def _reader_failure(path, err, sink) -> ValueError:
+    name = path.name
+    said = " ".join((str(err) if not isinstance(err, SystemExit) else "").split())
+    if not said:  # meshio reports on the console and calls sys.exit(1)
+        said = " ".join(sink.getvalue().split()) or type(err).__name__
+    said = said.replace(str(path), name)
+    if len(said) > 300:
+        said = said[:300] + " ..."
+    return ValueError(f"domain.path: could not read {name!r} as a mesh: {said}")
+
+
+def _meshio_read(path):
+    with _quiet() as sink:
+        try:
+            return meshio.read(str(path))
+        # meshio ends the process with sys.exit(1) on a file it cannot read: SystemExit is caught here (and
+        # any other failure of the reader); KeyboardInterrupt and GeneratorExit are left alone.
+        except (Exception, SystemExit) as err:
+            raise _reader_failure(path, err, sink) from None
+
+
+def _read_mesh(path, scale):
+    """``(mesh, dropped)``: the mesh of a file and the file's node indices that no triangle used (dropped)."""
+    path = Path(path)
+    name = path.name
+    try:
+        if not path.exists():
+            raise ValueError(f"domain.path: no mesh file {name!r} (looked in the scene's folder)")
+        if not path.is_file():
+            raise ValueError(f"domain.path: {name!r} is not a regular file")
+        size = path.stat().st_size
+    except OSError as err:
+        raise ValueError(f"domain.path: {name!r} cannot be read: {err.strerror or err}") from None
+    if size > MAX_MESH_FILE_BYTES:
+        raise ValueError(f"domain.path: {name!r} has {size} bytes, more than the {MAX_MESH_FILE_BYTES} a mesh file "
+                         "may have")
+    m = _meshio_read(path)
+    counts = {}
+    for block in m.cells:
+        counts[block.type] = counts.get(block.type, 0) + len(block.data)
+    holds = ", ".join(f"{n} {kind}" for kind, n in sorted(counts.items())) or "no cells at all"
+    foreign = sorted(set(counts) - set(_CELLS_ALLOWED))
+    if foreign or counts.get("triangle", 0) == 0:
+        why = (f"cells of type {foreign} are not 3-node triangles" if foreign
+               else "it has no triangles")
+        raise ValueError(f"domain.path: {name!r} holds {holds} cells: {why}; only 2D meshes of 3-node triangles "
+                         "are read (lines and vertices may come with them, naming boundaries)")
+    if counts["triangle"] > MAX_TRIANGLES:
+        raise ValueError(f"domain.path: {name!r} holds {counts['triangle']} triangles, more than {MAX_TRIANGLES}")
+    points = np.asarray(m.points)
+    if points.dtype.kind not in "iuf" or points.ndim != 2 or points.shape[1] not in (2, 3) or points.shape[0] == 0:
+        raise ValueError(f"domain.path: {name!r} holds points of shape {points.shape} and dtype {points.dtype}; "
+                         "expected 2D (or planar 3D) coordinates")
+    bad = np.flatnonzero(~np.isfinite(points).all(axis=1))
+    if bad.size:
+        raise ValueError(f"domain.path: {name!r}: nodes {meshes._list(bad)} have non-finite coordinates")
+    if points.shape[1] == 3:
+        off = np.flatnonzero(points[:, 2] != 0)
+        if off.size:
+            raise ValueError(f"domain.path: {name!r} is not planar: nodes {meshes._list(off)} (0-based) have a "
+                             f"third coordinate other than 0 (up to |z| = {np.abs(points[off, 2]).max():g}); only 2D "
+                             "meshes are read, never flattened")
+    t = np.concatenate([np.asarray(b.data).T for b in m.cells if b.type == "triangle"], axis=1)
+    if t.dtype.kind not in "iu":
+        raise ValueError(f"domain.path: {name!r} holds triangles with non-integer node numbers ({t.dtype})")
+    p = np.array(points[:, :2].T, dtype=np.float64) * scale
+    p, t = meshes.check_mesh(p, t, name=f"domain.path: {name!r} (0-based node numbers, after scaling)",
+                             unused_nodes="ignore")
+    try:
+        with _quiet() as sink:
+            named = from_meshio(m)  # boundaries from physical line groups or cell sets
+    except (Exception, SystemExit) as err:
+        raise _reader_failure(path, err, sink) from None
+    mesh = skfem.MeshTri(p, t)  # the mesh as checked above (scaled, z dropped), triangles sorted as scikit-fem does
+    boundaries = {label: _facet_index(mesh, np.asarray(named.facets)[:, np.asarray(facets)])
+                  for label, facets in (named.boundaries or {}).items()}
+    boundaries.update(_skfem_boundaries(m, t, mesh))
+    mesh = skfem.MeshTri(mesh.p, mesh.t, _boundaries=boundaries or None, _subdomains=named.subdomains)
+    used = np.zeros(p.shape[1], dtype=bool)
+    used[t.ravel()] = True
+    dropped = np.flatnonzero(~used)
+    if dropped.size:
+        mesh = _drop_nodes(mesh, used)
+    meshes.check_mesh(mesh.p, mesh.t, name=f"domain.path: {name!r}")
+    return mesh, dropped
+
+
+def _facet_index(mesh, pairs) -> np.ndarray:
+    """Indices of the facets of ``mesh`` with the node pairs ``pairs`` (2, k), in that order."""
+    n = np.int64(mesh.nvertices)
+    facets = np.sort(np.asarray(mesh.facets, dtype=np.int64), axis=0)
+    keys = facets[0] * n + facets[1]
+    order = np.argsort(keys)
+    pairs = np.sort(np.asarray(pairs, dtype=np.int64).reshape(2, -1), axis=0)
+    wanted = pairs[0] * n + pairs[1]
+    at = np.minimum(np.searchsorted(keys, wanted, sorter=order), keys.size - 1)
+    found = order[at]
+    if not np.array_equal(keys[found], wanted):
+        raise ValueError("domain.path: a named boundary of the file lies on no edge of its triangles")
+    return found
+
+
+def _skfem_boundaries(m, t, mesh):
+    """Boundaries scikit-fem wrote into the file (``skfem:b:NAME`` cell data), as facet indices of ``mesh``.
+
+    scikit-fem encodes a boundary as bit flags of each triangle's local edges,
+    counted in the triangle's node order *as written*. Its reader decodes them
+    after sorting every triangle's nodes, which picks other edges whenever the
+    written order was not sorted (as in the counter-clockwise meshes of
+    :mod:`~tissuefem.engine.meshes`); here they are decoded in the written order.
+    """
+    local = np.asarray(skfem.refdom.RefTri.facets)  # local edge k joins nodes local[k] of the triangle
+    triangle_blocks = [i for i, b in enumerate(m.cells) if b.type == "triangle"]
+    out = {}
+    for key, data in (m.cell_data or {}).items():
+        parts = key.split(":")
+        if len(parts) != 3 or parts[:2] != ["skfem", "b"]:
+            continue
+        flags = np.concatenate([np.asarray(data[i]).ravel() for i in triangle_blocks]).astype(np.int64)
+        if flags.size != t.shape[1]:
+            raise ValueError(f"domain.path: the boundary {parts[2]!r} of the file does not match its triangles")
+        pairs = [t[local[k]][:, (flags >> k) & 1 == 1] for k in range(local.shape[0])]
+        out[parts[2]] = np.sort(_facet_index(mesh, np.concatenate(pairs, axis=1)))
+    return out
+
+
+def _drop_nodes(mesh, used):
+    """The mesh without the unused nodes (the rest renumbered in their order); boundaries mapped by their nodes."""
+    new_index = np.full(used.size, -1, dtype=np.int64)
+    new_index[used] = np.arange(int(used.sum()))
+    plain = skfem.MeshTri(np.ascontiguousarray(mesh.p[:, used]), new_index[np.asarray(mesh.t)])
+    boundaries = {label: _facet_index(plain, new_index[np.asarray(mesh.facets)[:, np.asarray(facets)]])
+                  for label, facets in (mesh.boundaries or {}).items()}
+    return skfem.MeshTri(plain.p, plain.t, _boundaries=boundaries or None, _subdomains=mesh.subdomains)
+
+
+def _dropped_note(path, dropped) -> str:
+    return (f"domain.path: {path!r}: dropped {dropped.size} node(s) that belong to no triangle "
+            f"(0-based {meshes._list(dropped)}); the other nodes were renumbered in their order")
+
+
+def read_mesh(path, scale=1.0, notes=None):
     """A 2D triangle mesh from a file meshio reads (gmsh ``.msh``, ``.vtk``, ``.xdmf`` ...).
 
-    Physical line groups become named boundaries. Points must lie in the
-    plane (a zero third coordinate is dropped).
+    Physical line groups become named boundaries. Only meshes of 3-node
+    triangles are read (lines and vertices may come with them); anything else
+    (tetrahedra, quads, quadratic triangles, lines only, points off the plane
+    ``z = 0``, more than :data:`MAX_TRIANGLES` triangles, a file over
+    :data:`MAX_MESH_FILE_BYTES`) is refused with a ``ValueError`` naming
+    ``domain.path`` and what the file holds, as is a mesh that fails
+    :func:`tissuefem.engine.meshes.check_mesh` (its node numbers are the
+    file's, 0-based). A reader that fails, even by ending the process (meshio
+    calls ``sys.exit``), gives the same ``ValueError``.
+
+    Nodes that belong to no triangle are dropped and the rest renumbered in
+    their order (gmsh writes the points of the geometry, such as the centre of
+    a circular arc, as nodes that no element uses); a note saying so is
+    appended to ``notes`` (a list) if given. ``scale`` multiplies the
+    coordinates.
     """
-    path = Path(path)
-    if not path.exists():
-        raise ValueError(f"domain.path: no mesh file {str(path.name)!r} (looked in the scene's folder)")
-    try:
-        mesh = skfem.MeshTri.load(str(path))
-    except Exception as err:  # meshio raises many kinds
-        raise ValueError(f"domain.path: could not read {path.name!r} as a triangle mesh: {err}") from None
-    if scale != 1.0:
-        mesh = skfem.MeshTri(mesh.p * scale, mesh.t, _boundaries=mesh.boundaries)
+    scale = _number("domain.scale", scale, positive=True, lo=SIZE_RANGE[0], hi=SIZE_RANGE[1])
+    mesh, dropped = _read_mesh(path, scale)
+    if dropped.size and notes is not None:
+        notes.append(_dropped_note(Path(path).name, dropped))
     return mesh
 
 

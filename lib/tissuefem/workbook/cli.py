@@ -19,6 +19,7 @@ import os
 import subprocess
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import matplotlib
@@ -138,15 +139,36 @@ def cmd_grade(args) -> int:
     return subprocess.call(cmd, env=env, cwd=root)
 
 
+def _one_line(path, err) -> str:
+    """An error as the single line the ``scene`` command prints: ``PATH: message`` (the path once)."""
+    message = " ".join(str(err).split()) or type(err).__name__
+    return message if str(path) in message else f"{path}: {message}"
+
+
 def cmd_scene(args) -> int:
-    """Check a scene file and run it: one line per frame (time, status, Newton steps), then a summary."""
-    try:
-        scene = Scene.load(args.path)
-        sim = Simulation(scene)
-    except (ValueError, OSError) as err:
-        print(f"{args.path}: {err}", file=sys.stderr)
-        return 2
+    """Check a scene file and run it: one line per frame (time, status, Newton steps), then a summary.
+
+    A scene that cannot be read or built (not a file, not UTF-8, not TOML/JSON,
+    nested too deeply, an invalid field, a bad mesh file) is answered with one
+    line on stderr and exit status 2, never a traceback.
+    """
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            scene = Scene.load(args.path)
+            sim = Simulation(scene)
+        except (ValueError, OSError) as err:
+            print(_one_line(args.path, err), file=sys.stderr)
+            return 2
+        except Exception as err:  # a failure the checks did not foresee: still one line, and worth reporting
+            print(_one_line(args.path, f"unexpected {type(err).__name__} while building the scene: {err} "
+                                       "(please report this scene file)"), file=sys.stderr)
+            return 2
+    for w in caught:
+        print(f"{args.path}: warning: {' '.join(str(w.message).split())}", file=sys.stderr)
     print(f"{scene.name}: {sim.mesh.nelements} triangles, terms {sim.terms}, handles {list(sim.handles)}")
+    for note in scene.notes:
+        print(f"note: {note}")
     if args.check:
         return 0
     ms = []
@@ -159,6 +181,16 @@ def cmd_scene(args) -> int:
     print(f"{args.frames} frames: median {np.median(ms):.1f} ms/frame (budget {1e3 * sim.solver.budget:.0f} ms), "
           f"max {max(ms):.1f} ms; {sim.pieces()} piece(s); state finite: {finite}")
     return 0 if finite else 1
+
+
+def _frame_count(text) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"frames must be an integer, got {text!r}") from None
+    if not 1 <= n <= 1_000_000:
+        raise argparse.ArgumentTypeError(f"frames must lie in [1, 1000000], got {n}")
+    return n
 
 
 def cmd_list(args) -> int:
@@ -206,7 +238,7 @@ def main(argv=None) -> int:
 
     p = sub.add_parser("scene", help="check a scene file (TOML or JSON) and run it for some frames")
     p.add_argument("path", help="the scene file, e.g. scenes/incision.toml")
-    p.add_argument("--frames", type=int, default=30, help="frames to run (default 30)")
+    p.add_argument("--frames", type=_frame_count, default=30, help="frames to run (default 30, at most 1000000)")
     p.add_argument("--check", action="store_true", help="only check and build the scene")
     p.add_argument("--verbose", "-v", action="store_true", help="one line per frame")
     p.set_defaults(func=cmd_scene)

@@ -1,0 +1,1320 @@
+"""Cutting through elements: the virtual node algorithm in 2D.
+
+:func:`~tissuefem.surgery.topology.incise` snaps a drawn stroke to a path of
+mesh edges, so the wound is jagged and its length and direction depend on the
+mesh. Here the stroke is followed exactly, without remeshing, by the *virtual
+node algorithm* of Molino, Bao and Fedkiw [1]_: every triangle the cut
+separates is duplicated, one copy per piece of its material; every copy keeps
+the triangle's reference geometry (hence its P1 shape functions) and carries
+only the material of its piece; vertices whose material a copy does not hold
+become extra ("virtual") nodes.
+
+The construction in 2D, as done here
+------------------------------------
+1. **Where the stroke lies.** The stroke is drawn on the tissue as it is now
+   (the deformed node positions). Inside one triangle the P1 map from the
+   reference triangle to the deformed one is affine, so a straight piece of the
+   stroke in a deformed triangle is straight in the reference triangle, with the
+   same barycentric coordinates. Each stroke segment ``a -> b`` is clipped
+   against each triangle it crosses by keeping the parameters ``s`` with
+   ``lambda_i(a) + s (lambda_i(b) - lambda_i(a)) >= 0`` for the three
+   barycentric coordinates. The pieces are kept in the triangle's local
+   coordinates ``(xi, eta) = (lambda_1, lambda_2)`` (vertex 0 at (0, 0),
+   vertex 1 at (1, 0), vertex 2 at (0, 1)), which do not depend on the
+   configuration. Before that, a stroke passing within 1e-6 of an edge
+   length of a node is moved onto the node, once for the whole mesh, so that
+   neighbouring triangles never disagree on whether it went through it.
+2. **The material of an element.** Every element carries a :class:`Region`:
+   the part of its triangle its material fills (a polygon; the whole triangle
+   for an element that was never cut), the cracks inside it that do not
+   separate it (*slits*), and the parts of its edges where it is cut off from
+   the element across (*severed*, left by a cut along an edge). Its weight is
+   the polygon's share of the triangle's area; :class:`~tissuefem.engine.
+   assembly.P1Assembler` integrates over that share.
+3. **Splitting an element.** The region's boundary, its slits and the new
+   pieces of the stroke form a planar graph. Edges that dangle (a crack that
+   ends inside the material) are pruned and kept as slits; the faces of what
+   remains are the pieces of material. One face: the element stays one element
+   (perhaps with a new slit). ``k`` faces: ``k`` copies of the element, each
+   with one face as its region and the weight of that face.
+4. **Nodes.** Every copy needs all three vertices. Two elements on the two
+   sides of a mesh edge are *joined* where their materials touch along it: the
+   parts of the edge each one's region touches (less what is severed) overlap
+   over a positive length. Joined elements share the edge's two nodes. The
+   nodes of the new mesh are the classes of corners (element, vertex) under
+   these joins: a vertex whose surrounding material is in one piece keeps one
+   node; a copy whose material lies away from a vertex gets, there, a virtual
+   node that it shares with every copy on its side of the cut that it is joined
+   to through edges. A cut along a mesh edge needs no split at all: severing
+   the edge stops the join, and the vertices on it duplicate like in
+   :func:`~tissuefem.surgery.topology.duplicate_along_edges`.
+5. **The crack tip.** A triangle that contains the end of a crack holds one
+   connected piece of material, so (as in [1]_) it is not duplicated; the crack
+   inside it is kept as a slit. The two copies of the triangle through which
+   the crack enters the tip triangle are both joined to it along that edge, so
+   they share its two nodes and differ only at their third vertex: the jump of
+   the displacement across the crack is that vertex's shape function times the
+   difference of its two nodes, zero on the edge of the tip triangle and
+   growing linearly away from it. The crack opens smoothly and closes at the
+   tip triangle: within one element of the drawn tip, the resolution of P1
+   with virtual nodes (phantom-node methods [3]_ make the same choice). A
+   triangle cannot instead be split with its material "still connected around
+   the tip": two P1 copies agree along a line only if they share all three
+   nodes, that is, if they are one element.
+6. **No slivers.** A piece whose weight would fall below ``min_weight`` is
+   merged into the neighbouring piece across the cut, and the parts of the
+   triangle's edges that bounded it are severed instead: there the cut is
+   snapped onto the element's edges (through a vertex, or along an edge). The
+   wound's geometry (:class:`Wound`) stays where the stroke was drawn; only the
+   topology moves, by less than the sliver's width. A side of the cut that is
+   itself that thin (a strip along the boundary or along another cut) may be
+   pinched where the cut is snapped to a vertex.
+7. **One element per set of nodes.** Copies of one triangle that end up with
+   the same three nodes hold material that is connected after all: a short
+   crack whose both ends lie in the two neighbours (merged back into one
+   element, the cut a slit), or the two corners outside a V-shaped crack,
+   joined round its apex in the next triangle (one element whose region has
+   two polygons).
+
+Cuts through vertices and along edges need no special case: the clipping
+keeps pieces that lie on a triangle's edge (a cut along it) and drops pieces
+of zero length (a stroke touching a triangle at a vertex); the generalisation
+of [1]_ to these cases is that of Wang et al. [2]_.
+
+References
+----------
+.. [1] N. Molino, Z. Bao, R. Fedkiw, *A virtual node algorithm for changing
+   mesh topology during simulation*, ACM Transactions on Graphics 23(3)
+   (SIGGRAPH 2004), 385-392.
+.. [2] Y. Wang, C. Jiang, C. Schroeder, J. Teran, *An adaptive virtual node
+   algorithm with robust mesh cutting*, Symposium on Computer Animation 2014.
+.. [3] J.-H. Song, P. M. A. Areias, T. Belytschko, *A method for dynamic crack
+   and shear band propagation with phantom nodes*, International Journal for
+   Numerical Methods in Engineering 67 (2006), 868-893.
+
+Conventions
+-----------
+The result is an :class:`ElementCut`, a :class:`~tissuefem.surgery.topology.
+MeshEdit` with the material weights, the regions and the wound. Elements that
+are not cut keep their index and their vertex order; the first piece of a cut
+element keeps its index and the other pieces are appended; every copy keeps
+the vertex order of its triangle (``sort_t=False``). Old nodes keep their
+index; the new (virtual) nodes are appended. Mass and momentum carry over
+exactly when nodal masses are computed from the material areas
+(:func:`lumped_mass`): the copies of a node together hold what it held.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .topology import MeshEdit, _keys, _mesh_arrays, _new_mesh, _points, _positions
+
+__all__ = ["Region", "Wound", "ElementCut", "cut_through", "lumped_mass", "material_areas"]
+
+#: Geometric tolerance in a triangle's local coordinates (the unit triangle):
+#: points closer than this are one point, and a point this close to an edge is on it.
+_EPS = 1e-9
+
+#: A stroke that passes closer than this (times the median edge length) to a node is moved onto
+#: it, once for the whole mesh: every triangle then sees the stroke either exactly through the
+#: node or clearly beside it, never one in one triangle and the other in the next.
+_NODE_SNAP = 1e-6
+
+#: Default smallest share of its triangle a piece may carry (see ``min_weight``). A corner
+#: piece's share is the product of the fractions of the two edges it cuts off, so this snaps a
+#: cut that passes within about 3 % of an element of a vertex; copies this light still give a
+#: well-conditioned tangent (their stiffness and mass both scale with the weight).
+MIN_WEIGHT = 1e-3
+
+# kinds of the edges of an element's planar graph
+_P, _S, _C = 0, 1, 2  # region boundary, old slit, new cut
+_CORNERS = ((0.0, 0.0), (1.0, 0.0), (0.0, 1.0))
+
+
+# --------------------------------------------------------------------------
+# the material of an element
+# --------------------------------------------------------------------------
+def _segments(name, value) -> np.ndarray:
+    a = np.zeros((0, 2, 2)) if value is None else np.asarray(value, dtype=float)
+    if a.size == 0:
+        return np.zeros((0, 2, 2))
+    if a.ndim != 3 or a.shape[1:] != (2, 2) or not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} must be finite segments shaped (k, 2, 2), got shape {a.shape}")
+    return a
+
+
+@dataclass(frozen=True, eq=False)
+class Region:
+    """The part of its triangle an element's material fills.
+
+    Everything is in the triangle's local coordinates ``(xi, eta)``: vertex 0
+    of the element at (0, 0), vertex 1 at (1, 0), vertex 2 at (0, 1)
+    (``xi, eta`` are the barycentric coordinates of vertices 1 and 2).
+
+    Attributes
+    ----------
+    polygons : tuple of ndarray, each shaped (k, 2)
+        The material, as counter-clockwise polygons in ``(xi, eta)`` that do
+        not overlap. Usually one; several when pieces that a cut separates
+        inside the triangle are joined outside it (around the end of the
+        cut), so that they share all three nodes and are one element.
+    slits : ndarray, shape (s, 2, 2)
+        Cracks inside the material that do not separate it (a crack tip); a
+        later cut that meets them may complete the separation.
+    severed : ndarray, shape (r, 2, 2)
+        Parts of the triangle's edges where the material is cut off from the
+        element across (a cut along an edge).
+    """
+
+    polygons: tuple
+    slits: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 2)))
+    severed: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 2)))
+
+    def __post_init__(self):
+        polys = self.polygons
+        if isinstance(polys, np.ndarray) and polys.ndim == 2:
+            polys = (polys,)
+        out, weight = [], 0.0
+        for i, poly in enumerate(polys):
+            poly = np.asarray(poly, dtype=float)
+            name = f"Region.polygons[{i}]"
+            if poly.ndim != 2 or poly.shape[1] != 2 or poly.shape[0] < 3 or not np.all(np.isfinite(poly)):
+                raise ValueError(f"{name} must be at least 3 finite points shaped (k, 2), got shape {poly.shape}")
+            if not ((poly >= -_EPS).all() and (poly.sum(axis=1) <= 1.0 + _EPS).all()):
+                raise ValueError(f"{name} must lie in the unit triangle (xi, eta >= 0, xi + eta <= 1)")
+            area = 2.0 * _area(poly.tolist())
+            if not area > 0.0:
+                raise ValueError(f"{name} must be counter-clockwise with a positive area")
+            out.append(poly)
+            weight += area
+        if not out:
+            raise ValueError("Region.polygons must hold at least one polygon")
+        if weight > 1.0 + 1e-9:
+            raise ValueError(f"Region.polygons cover {weight:.6g} times the triangle: they must not overlap")
+        object.__setattr__(self, "polygons", tuple(out))
+        object.__setattr__(self, "slits", _segments("Region.slits", self.slits))
+        object.__setattr__(self, "severed", _segments("Region.severed", self.severed))
+        object.__setattr__(self, "_weight", weight)
+
+    @classmethod
+    def _trusted(cls, polygons, slits, severed, weight):
+        """A region built by this module (already valid): no checks, no copies."""
+        region = object.__new__(cls)
+        for name, value in (("polygons", polygons), ("slits", slits), ("severed", severed), ("_weight", weight)):
+            object.__setattr__(region, name, value)
+        return region
+
+    @property
+    def weight(self) -> float:
+        """The share of the triangle's area the material fills (twice the polygons' area)."""
+        return self._weight
+
+
+
+
+# --------------------------------------------------------------------------
+# small geometry in a triangle's local coordinates (plain floats: the
+# graphs are a handful of edges, where numpy's per-call cost dominates)
+# --------------------------------------------------------------------------
+def _cross(ax, ay, bx, by):
+    return ax * by - ay * bx
+
+
+def _snap(x, y):
+    """A local point pulled onto the triangle's edges and vertices it is within ``_EPS`` of."""
+    x = 0.0 if abs(x) <= _EPS else x
+    y = 0.0 if abs(y) <= _EPS else y
+    r = 1.0 - x - y
+    if abs(r) <= _EPS:
+        if x == 0.0:
+            y = 1.0
+        elif y == 0.0:
+            x = 1.0
+        else:
+            x += 0.5 * r
+            y = 1.0 - x
+    # a point a round-off outside: back onto the triangle
+    x, y = max(x, 0.0), max(y, 0.0)
+    if x + y > 1.0:
+        s = x + y
+        x, y = x / s, 1.0 - x / s
+    return x, y
+
+
+def _edges_of(pt):
+    """The local edges (0: eta = 0, 1: xi + eta = 1, 2: xi = 0) a point lies on."""
+    x, y = pt
+    out = []
+    if abs(y) <= _EPS:
+        out.append(0)
+    if abs(1.0 - x - y) <= _EPS:
+        out.append(1)
+    if abs(x) <= _EPS:
+        out.append(2)
+    return out
+
+
+def _edge_param(k, pt) -> float:
+    """Position along local edge ``k``, 0 at its vertex ``k`` and 1 at vertex ``k + 1``."""
+    if k == 0:
+        return pt[0]
+    if k == 1:
+        return pt[1]
+    return 1.0 - pt[1]
+
+
+def _edge_point(k, s):
+    if k == 0:
+        return (s, 0.0)
+    if k == 1:
+        return (1.0 - s, s)
+    return (0.0, 1.0 - s)
+
+
+def _winding(pt, poly) -> int:
+    """Winding number of a closed polygon (list of points) around ``pt``."""
+    px, py = pt
+    w = 0
+    n = len(poly)
+    for i in range(n):
+        ax, ay = poly[i]
+        bx, by = poly[(i + 1) % n]
+        side = _cross(bx - ax, by - ay, px - ax, py - ay)
+        if ay <= py:
+            if by > py and side > 0.0:
+                w += 1
+        elif by <= py and side < 0.0:
+            w -= 1
+    return w
+
+
+def _area(poly) -> float:
+    s = 0.0
+    n = len(poly)
+    for i in range(n):
+        ax, ay = poly[i]
+        bx, by = poly[(i + 1) % n]
+        s += ax * by - ay * bx
+    return 0.5 * s
+
+
+def _crossings(p, q, a, b):
+    """Where segments ``p -> q`` and ``a -> b`` meet: a list of (s, u) parameters (0, 1 or 2 pairs).
+
+    Two pairs for collinear overlapping segments (the ends of the overlap).
+    Ends within ``_EPS`` of the other segment count as meeting it.
+    """
+    rx, ry = q[0] - p[0], q[1] - p[1]
+    vx, vy = b[0] - a[0], b[1] - a[1]
+    lr, lv = math.hypot(rx, ry), math.hypot(vx, vy)
+    if lr <= _EPS or lv <= _EPS:
+        return []
+    wx, wy = a[0] - p[0], a[1] - p[1]
+    den = _cross(rx, ry, vx, vy)
+    tr, tv = _EPS / lr, _EPS / lv
+    if abs(den) > 1e-12 * lr * lv:
+        s = _cross(wx, wy, vx, vy) / den
+        u = _cross(wx, wy, rx, ry) / den
+        if -tr <= s <= 1.0 + tr and -tv <= u <= 1.0 + tv:
+            return [(min(max(s, 0.0), 1.0), min(max(u, 0.0), 1.0))]
+        return []
+    if abs(_cross(rx, ry, wx, wy)) / lr > _EPS:  # parallel, apart
+        return []
+    sa = (wx * rx + wy * ry) / (lr * lr)
+    sb = ((b[0] - p[0]) * rx + (b[1] - p[1]) * ry) / (lr * lr)
+    lo, hi = max(0.0, min(sa, sb)), min(1.0, max(sa, sb))
+    if hi < lo - tr:
+        return []
+    out = []
+    for s in (lo, hi) if hi > lo else (lo,):
+        u = ((p[0] + s * rx - a[0]) * vx + (p[1] + s * ry - a[1]) * vy) / (lv * lv)
+        out.append((s, min(max(u, 0.0), 1.0)))
+    return out
+
+
+def _merge_intervals(iv):
+    out = []
+    for a, b in sorted(iv):
+        if out and a <= out[-1][1] + _EPS:
+            out[-1] = (out[-1][0], max(out[-1][1], b))
+        else:
+            out.append((a, b))
+    return out
+
+
+def _subtract(iv, cut):
+    """Intervals ``iv`` less the intervals ``cut`` (both merged lists)."""
+    out = []
+    for a, b in iv:
+        pieces = [(a, b)]
+        for c, d in cut:
+            nxt = []
+            for x, y in pieces:
+                if d <= x or c >= y:
+                    nxt.append((x, y))
+                    continue
+                if c > x:
+                    nxt.append((x, c))
+                if d < y:
+                    nxt.append((d, y))
+            pieces = nxt
+        out.extend((x, y) for x, y in pieces if y - x > _EPS)
+    return out
+
+
+def _overlaps(iv, jv) -> bool:
+    """Do two interval lists overlap over more than ``_EPS``?"""
+    for a, b in iv:
+        for c, d in jv:
+            if min(b, d) - max(a, c) > _EPS:
+                return True
+    return False
+
+
+def _edge_intervals(segments):
+    """Severed or touched segments (k, 2, 2) on the triangle's edges -> three merged interval lists."""
+    out = [[], [], []]
+    for a, b in segments:
+        for k in set(_edges_of(a)) & set(_edges_of(b)):
+            s, u = _edge_param(k, a), _edge_param(k, b)
+            if abs(u - s) > _EPS:
+                out[k].append((min(s, u), max(s, u)))
+    return [_merge_intervals(iv) for iv in out]
+
+
+def _region_touch(region: Region):
+    """The parts of each local edge the region's material touches, less what is severed."""
+    sides = np.concatenate([np.stack([poly, np.roll(poly, -1, axis=0)], axis=1) for poly in region.polygons])
+    touched = _edge_intervals(sides)
+    severed = _edge_intervals(region.severed)
+    return [_subtract(touched[k], severed[k]) for k in range(3)]
+
+
+_FULL_TOUCH = [[(0.0, 1.0)], [(0.0, 1.0)], [(0.0, 1.0)]]
+_WHOLE = Region((np.array(_CORNERS),))
+
+
+# --------------------------------------------------------------------------
+# one element: its material, cut by the new pieces of the stroke
+# --------------------------------------------------------------------------
+class _Arrangement:
+    """The planar graph of one element's region, old slits and new cut pieces (local coordinates).
+
+    Parameters
+    ----------
+    region : Region
+    cuts : list of (stroke0, stroke1, a, b)
+        New pieces of the stroke inside the triangle: stroke parameters of the
+        two ends (segment index + fraction) and the ends in local coordinates.
+    open_edge : three bools
+        Whether each local edge has an element across it (a cut along an edge
+        of the body's boundary separates nothing and is not recorded).
+    min_weight : float
+    """
+
+    def __init__(self, region: Region, cuts, open_edge, min_weight):
+        self.verts = []
+        self.min_weight = min_weight
+        polys = [[tuple(v) for v in poly] for poly in region.polygons]
+        self.old_severed = _edge_intervals(region.severed)
+        self.new_severed = [[], [], []]
+
+        segs = [(poly[i], poly[(i + 1) % len(poly)], _P, None) for poly in polys for i in range(len(poly))]
+        segs += [(tuple(a), tuple(b), _S, None) for a, b in region.slits]
+        segs += [(a, b, _C, (s0, s1)) for s0, s1, a, b in cuts]
+        splits = [[(0.0, self._vertex(a)), (1.0, self._vertex(b))] for a, b, _, _ in segs]
+        for i in range(len(segs)):
+            pi, qi, ki, _ = segs[i]
+            for j in range(i + 1, len(segs)):
+                pj, qj, kj, _ = segs[j]
+                if ki == _P and kj == _P:
+                    continue  # the polygons are simple and apart: their edges meet at vertices only
+                for s, u in _crossings(pi, qi, pj, qj):
+                    # the point from the older segment, so region boundaries stay where they were
+                    if kj < ki:
+                        pt = (pj[0] + u * (qj[0] - pj[0]), pj[1] + u * (qj[1] - pj[1]))
+                    else:
+                        pt = (pi[0] + s * (qi[0] - pi[0]), pi[1] + s * (qi[1] - pi[1]))
+                    v = self._vertex(_snap(*pt))
+                    splits[i].append((s, v))
+                    splits[j].append((u, v))
+
+        self.graph = {}  # (u, v) with u < v -> kind
+        cut_edges = []  # (u, v, stroke_u, stroke_v) in the direction of the stroke
+        for (a, b, kind, strokes), sp in zip(segs, splits):
+            sp.sort()
+            chain = [sp[0]]
+            for s, v in sp[1:]:
+                if v != chain[-1][1]:
+                    chain.append((s, v))
+            for (s0, u), (s1, v) in zip(chain[:-1], chain[1:]):
+                if kind == _C:
+                    t0, t1 = strokes
+                    cut_edges.append((u, v, t0 + s0 * (t1 - t0), t0 + s1 * (t1 - t0)))
+                else:
+                    key = (min(u, v), max(u, v))
+                    if self.graph.get(key, _C) > kind:
+                        self.graph[key] = kind
+        self.slits = []  # (u, v) edges of cracks that do not separate
+        self.wound = []  # ("inner", u, v, t0, t1) or ("edge", u, v, t0, t1, k)
+        self.changed = False
+        for u, v, t0, t1 in cut_edges:
+            key = (min(u, v), max(u, v))
+            kind = self.graph.get(key)
+            if kind == _P:
+                k = self._edge_of(u, v)
+                if k is not None and open_edge[k]:
+                    s, e = _edge_param(k, self.verts[u]), _edge_param(k, self.verts[v])
+                    self.new_severed[k].append((min(s, e), max(s, e)))
+                    self.wound.append(("edge", u, v, t0, t1, k))
+                    self.changed = True
+                continue  # along an old wound, or along the body's boundary: nothing to do
+            if kind == _S:
+                self.wound.append(("inner", u, v, t0, t1))
+                continue
+            if self._edge_of(u, v) is not None:
+                continue  # on the triangle's edge where this copy has no material
+            mid = (0.5 * (self.verts[u][0] + self.verts[v][0]), 0.5 * (self.verts[u][1] + self.verts[v][1]))
+            if sum(_winding(mid, poly) for poly in polys) == 0:
+                continue  # outside this copy's material
+            self.graph[key] = _C
+            self.wound.append(("inner", u, v, t0, t1))
+            self.changed = True
+        self._settle()
+
+    # -- construction helpers
+    def _vertex(self, pt) -> int:
+        x, y = pt
+        for i, (vx, vy) in enumerate(self.verts):
+            if abs(vx - x) <= _EPS and abs(vy - y) <= _EPS:
+                return i
+        self.verts.append((float(x), float(y)))
+        return len(self.verts) - 1
+
+    def _edge_of(self, u, v):
+        both = set(_edges_of(self.verts[u])) & set(_edges_of(self.verts[v]))
+        return min(both) if both else None
+
+    # -- the faces
+    def _prune(self):
+        """Move dangling cut edges (and cut loops that touch no boundary) to the slits."""
+        adj = {}
+        for u, v in self.graph:
+            adj.setdefault(u, set()).add(v)
+            adj.setdefault(v, set()).add(u)
+        stack = [u for u, nb in adj.items() if len(nb) == 1]
+        while stack:
+            u = stack.pop()
+            if len(adj.get(u, ())) != 1:
+                continue
+            (v,) = adj[u]
+            key = (min(u, v), max(u, v))
+            self.slits.append(key)
+            del self.graph[key]
+            adj[u].discard(v)
+            adj[v].discard(u)
+            if len(adj[v]) == 1:
+                stack.append(v)
+        # components without a boundary edge: closed loops of cuts inside the material
+        label = {}
+        for start in adj:
+            if start in label or not adj[start]:
+                continue
+            label[start] = start
+            todo = [start]
+            while todo:
+                u = todo.pop()
+                for v in adj[u]:
+                    if v not in label:
+                        label[v] = start
+                        todo.append(v)
+        keep = {label[u] for (u, v), kind in self.graph.items() if kind == _P}
+        for key in [k for k in self.graph if label[k[0]] not in keep]:
+            self.slits.append(key)
+            del self.graph[key]
+
+    def _extract(self):
+        """Faces of the graph: counter-clockwise cycles of half-edges, the outer face dropped."""
+        nbrs = {}
+        for u, v in self.graph:
+            nbrs.setdefault(u, []).append(v)
+            nbrs.setdefault(v, []).append(u)
+        for u, lst in nbrs.items():
+            ux, uy = self.verts[u]
+            lst.sort(key=lambda w: math.atan2(self.verts[w][1] - uy, self.verts[w][0] - ux))
+        self.face_of = {}
+        faces = []
+        for u0, v0 in sorted(self.graph):
+            for start in ((u0, v0), (v0, u0)):
+                if start in self.face_of:
+                    continue
+                cycle = []
+                he = start
+                while he not in self.face_of:
+                    self.face_of[he] = len(faces)
+                    cycle.append(he)
+                    u, v = he
+                    lst = nbrs[v]
+                    he = (v, lst[lst.index(u) - 1])  # the next edge clockwise from v -> u
+                pts = [self.verts[a] for a, _ in cycle]
+                faces.append({"edges": cycle, "area": _area(pts), "points": pts})
+        outer = [i for i, f in enumerate(faces) if f["area"] <= 0.0]
+        keep = [i for i, f in enumerate(faces) if f["area"] > 0.0]
+        renum = {old: new for new, old in enumerate(keep)}
+        for i in outer:
+            renum[i] = -1
+        self.face_of = {he: renum[f] for he, f in self.face_of.items()}
+        self.faces = [faces[i] for i in keep]
+
+    def _shared(self, f):
+        """Length of the non-boundary edges face ``f`` shares with each other face: {face: length}."""
+        out = {}
+        for u, v in self.faces[f]["edges"]:
+            if self.graph[(min(u, v), max(u, v))] == _P:
+                continue
+            g = self.face_of[(v, u)]
+            if g >= 0 and g != f:
+                (ax, ay), (bx, by) = self.verts[u], self.verts[v]
+                out[g] = out.get(g, 0.0) + math.hypot(bx - ax, by - ay)
+        return out
+
+    def _settle(self):
+        while True:
+            self._prune()
+            self._extract()
+            # a face bounded by cuts alone (a loop inside the material, attached at one point): not cut out
+            island = next((f for f in self.faces if all(self.graph[(min(u, v), max(u, v))] != _P
+                                                         for u, v in f["edges"])), None)
+            if island is not None:
+                for u, v in island["edges"]:
+                    key = (min(u, v), max(u, v))
+                    if key in self.graph:
+                        self.slits.append(key)
+                        del self.graph[key]
+                continue
+            weights = [2.0 * f["area"] for f in self.faces]
+            if len(self.faces) < 2 or min(weights) >= self.min_weight:
+                return
+            # a sliver: merge it into the neighbour it shares the most cut with, and sever its
+            # part of the triangle's edges, so that the cut runs along them instead
+            f = int(np.argmin(weights))
+            shared = self._shared(f)
+            if not shared:
+                return
+            g = max(shared, key=lambda h: (shared[h], -h))
+            for u, v in self.faces[f]["edges"]:
+                key = (min(u, v), max(u, v))
+                if self.graph[key] == _P:
+                    k = self._edge_of(u, v)
+                    if k is not None:
+                        s, e = _edge_param(k, self.verts[u]), _edge_param(k, self.verts[v])
+                        self.new_severed[k].append((min(s, e), max(s, e)))
+                elif self.face_of[(v, u)] == g:
+                    del self.graph[key]  # dropped, not kept as a slit: the cut moved to the edges
+
+    def merge(self, groups):
+        """Merge faces (lists of face indices) into one each; the cuts between them become slits.
+
+        Returns, for every old face, its new face index.
+        """
+        group_of = {}
+        for gi, members in enumerate(groups):
+            for f in members:
+                group_of[f] = gi
+        for key in list(self.graph):
+            if self.graph[key] == _P:
+                continue
+            a, b = self.face_of[key], self.face_of[(key[1], key[0])]
+            if a in group_of and b in group_of and group_of[a] == group_of[b]:
+                self.slits.append(key)
+                del self.graph[key]
+        old_faces = self.faces
+        self._extract()
+        new_of = []
+        for f in old_faces:  # every face has a boundary edge, and those stay
+            he = next(he for he in f["edges"] if self.graph.get((min(he), max(he))) == _P)
+            new_of.append(self.face_of[he])
+        return new_of
+
+    # -- results
+    def locate(self, pt) -> int:
+        for i, f in enumerate(self.faces):
+            if _winding(pt, f["points"]) != 0:
+                return i
+        return -1
+
+    def face_regions(self):
+        """For every face: (Region, its touched intervals per local edge, whole?)."""
+        severed = [_merge_intervals(self.old_severed[k] + self.new_severed[k]) for k in range(3)]
+        slit_pts = [(self.verts[u], self.verts[v]) for u, v in self.slits]
+        slit_face = [self.locate((0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]))) for a, b in slit_pts]
+        out = []
+        for i, f in enumerate(self.faces):
+            pts = _simplify(f["points"])
+            touched = [[], [], []]
+            for (u, v) in f["edges"]:
+                if self.graph[(min(u, v), max(u, v))] != _P:
+                    continue
+                k = self._edge_of(u, v)
+                if k is not None:
+                    s, e = _edge_param(k, self.verts[u]), _edge_param(k, self.verts[v])
+                    touched[k].append((min(s, e), max(s, e)))
+            touched = [_merge_intervals(iv) for iv in touched]
+            cut_off = []
+            for k in range(3):
+                for a, b in _subtract(touched[k], _subtract(touched[k], severed[k])):
+                    cut_off.append((_edge_point(k, a), _edge_point(k, b)))
+            touched = [_subtract(touched[k], severed[k]) for k in range(3)]
+            slits = [s for s, g in zip(slit_pts, slit_face) if g == i]
+            region = Region._trusted(
+                (np.array(pts),),
+                np.array(slits, dtype=float).reshape(-1, 2, 2),
+                np.array(cut_off, dtype=float).reshape(-1, 2, 2),
+                2.0 * f["area"],
+            )
+            whole = len(pts) == 3 and not slits and not cut_off and abs(2.0 * f["area"] - 1.0) <= _EPS
+            out.append((region, touched, whole))
+        return out
+
+    def wound_faces(self):
+        """One record per side of each new wound piece: (face, side, stroke0, stroke1, a, b, opened).
+
+        ``side`` is +1 when the face lies to the left of the stroke (in local
+        coordinates), -1 to the right. A piece along an edge of the triangle has
+        one side here (the other side is in the element across).
+        """
+        out = []
+        for rec in self.wound:
+            kind, u, v, t0, t1 = rec[:5]
+            a, b = self.verts[u], self.verts[v]
+            if kind == "edge":
+                left = self.face_of.get((u, v), -1)
+                if left >= 0:
+                    out.append((left, 1, t0, t1, a, b, True))
+                else:
+                    out.append((self.face_of[(v, u)], -1, t0, t1, a, b, True))
+                continue
+            if (min(u, v), max(u, v)) in self.graph:
+                left, right = self.face_of[(u, v)], self.face_of[(v, u)]
+            else:  # a slit, or a cut snapped away from a sliver: material on both sides
+                left = right = self.locate((0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])))
+            opened = left != right
+            out.append((left, 1, t0, t1, a, b, opened))
+            out.append((right, -1, t0, t1, a, b, opened))
+        return out
+
+
+def _simplify(pts):
+    """Drop polygon vertices where the boundary goes straight on."""
+    out = list(pts)
+    i = 0
+    while len(out) > 3 and i < len(out):
+        (ax, ay), (bx, by), (cx, cy) = out[i - 1], out[i], out[(i + 1) % len(out)]
+        straight = abs(_cross(bx - ax, by - ay, cx - bx, cy - by)) <= _EPS * _EPS
+        if straight and (bx - ax) * (cx - bx) + (by - ay) * (cy - by) > 0:
+            del out[i]
+        else:
+            i += 1
+    return out
+
+
+# --------------------------------------------------------------------------
+# the stroke in every triangle
+# --------------------------------------------------------------------------
+def _through_nearby_nodes(x, t, pts):
+    """The stroke moved onto the nodes it nearly meets (within ``_NODE_SNAP`` edge lengths).
+
+    A vertex of the stroke near a node becomes the node; a node near a segment
+    becomes a new vertex of the stroke. Returns the new points (k', 2) and,
+    for each, its parameter on the drawn stroke (segment index + fraction).
+    """
+    used = np.unique(t)
+    xs = x[:, used]
+    edges = x[:, np.roll(t, -1, axis=0)] - x[:, t]
+    delta = _NODE_SNAP * float(np.median(np.hypot(edges[0], edges[1])))
+    pts = pts.copy()
+    for i, q in enumerate(pts):  # vertices of the stroke onto nearby nodes
+        d = np.hypot(xs[0] - q[0], xs[1] - q[1])
+        k = int(np.argmin(d))
+        if d[k] <= delta:
+            pts[i] = xs[:, k]
+    out, param = [pts[0]], [0.0]
+    for j in range(len(pts) - 1):
+        a, b = pts[j], pts[j + 1]
+        d = b - a
+        L2 = float(d @ d)
+        if L2 > 0.0:
+            s = np.clip(((xs[0] - a[0]) * d[0] + (xs[1] - a[1]) * d[1]) / L2, 0.0, 1.0)
+            off = np.hypot(a[0] + s * d[0] - xs[0], a[1] + s * d[1] - xs[1])
+            near = np.flatnonzero((off <= delta) & (s * math.sqrt(L2) > delta) & ((1.0 - s) * math.sqrt(L2) > delta))
+            for k in near[np.argsort(s[near])]:
+                out.append(xs[:, k])
+                param.append(j + float(s[k]))
+        out.append(b)
+        param.append(float(j + 1))
+    return np.array(out), np.array(param)
+
+
+def _stroke_pieces(x, t, pts):
+    """Pieces of the stroke inside each triangle of the drawing configuration.
+
+    Returns ``(pieces, orientation)``: ``pieces`` maps an element to a list of
+    ``(stroke0, stroke1, a, b)`` (stroke parameters, ends in local
+    coordinates, snapped onto edges and vertices within ``_EPS``), and
+    ``orientation`` is the sign of every triangle's drawn area.
+    Triangles collapsed in the drawing configuration are skipped.
+    """
+    X = x[:, t]  # (2, 3, m)
+    x0 = X[:, 0]
+    d1 = X[:, 1] - x0
+    d2 = X[:, 2] - x0
+    det = d1[0] * d2[1] - d1[1] * d2[0]
+    h2 = np.maximum.reduce([(d1**2).sum(0), (d2**2).sum(0), ((X[:, 2] - X[:, 1]) ** 2).sum(0)])
+    usable = np.abs(det) > 1e-12 * h2
+    lo, hi = X.min(axis=1), X.max(axis=1)
+    pad = 1e-9 * max(float(np.ptp(x, axis=1).max()), 1e-300)
+    pieces = {}
+    for j in range(len(pts) - 1):
+        a, b = pts[j], pts[j + 1]
+        if np.hypot(*(b - a)) == 0.0:
+            continue
+        cand = np.flatnonzero(
+            usable
+            & (lo[0] <= max(a[0], b[0]) + pad) & (hi[0] >= min(a[0], b[0]) - pad)
+            & (lo[1] <= max(a[1], b[1]) + pad) & (hi[1] >= min(a[1], b[1]) - pad)
+        )
+        if cand.size == 0:
+            continue
+        o, e1, e2, dt = x0[:, cand], d1[:, cand], d2[:, cand], det[cand]
+
+        def local(q):
+            wx, wy = q[0] - o[0], q[1] - o[1]
+            xi = (wx * e2[1] - wy * e2[0]) / dt
+            eta = (e1[0] * wy - e1[1] * wx) / dt
+            return np.stack([1.0 - xi - eta, xi, eta])
+
+        la, lb = local(a), local(b)
+        dl = lb - la
+        s_lo = np.zeros(cand.size)
+        s_hi = np.ones(cand.size)
+        # A stroke segment along the line of an edge (lambda_i within _EPS of 0 at both ends,
+        # scaled by how far the segment reaches) lies on the edge: that constraint is dropped.
+        # Every other one is cut exactly at lambda_i = 0, so that the ends stay on the stroke.
+        along = (np.abs(la) <= _EPS * np.maximum(1.0, np.abs(lb))) & (np.abs(lb) <= _EPS * np.maximum(1.0, np.abs(la)))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            bound = -la / dl
+        for i in range(3):
+            active = ~along[i]
+            s_lo = np.where(active & (dl[i] > 0), np.maximum(s_lo, bound[i]), s_lo)
+            s_hi = np.where(active & (dl[i] < 0), np.minimum(s_hi, bound[i]), s_hi)
+            s_hi = np.where(active & (dl[i] == 0) & (la[i] < 0), -1.0, s_hi)
+        pa = la[1:] + s_lo * dl[1:]
+        pb = la[1:] + s_hi * dl[1:]
+        keep = (s_hi > s_lo) & (np.hypot(*(pb - pa)) > _EPS)
+        for c in np.flatnonzero(keep):
+            pa_c = _snap(float(pa[0, c]), float(pa[1, c]))
+            pb_c = _snap(float(pb[0, c]), float(pb[1, c]))
+            if math.hypot(pb_c[0] - pa_c[0], pb_c[1] - pa_c[1]) <= _EPS:
+                continue
+            pieces.setdefault(int(cand[c]), []).append((j + float(s_lo[c]), j + float(s_hi[c]), pa_c, pb_c))
+    return pieces, np.sign(det)
+
+
+# --------------------------------------------------------------------------
+# the result
+# --------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class Wound:
+    """The faces of a cut, one record per side of each piece: what to draw.
+
+    Every piece of the stroke that lies in material has material on both of
+    its sides; each side is carried by one element of the new mesh, and the
+    wound's edge on that side moves with that element. Where the stroke runs
+    along a mesh edge, the two sides are in two different triangles (two
+    records, one from each).
+
+    Attributes
+    ----------
+    element : ndarray of int, shape (k,)
+        The new element that carries the material on this side.
+    side : ndarray of int, shape (k,)
+        +1 if the material lies to the left of the stroke (as drawn), -1 to its right.
+    barycentric : ndarray, shape (k, 2, 3)
+        The two ends of the piece in the element's barycentric coordinates.
+    nodes : ndarray of int, shape (k, 3)
+        The element's nodes (in the new mesh), so that :meth:`positions` needs no mesh.
+    reference : ndarray, shape (k, 2, 2)
+        The two ends (k, end, xy) in the reference configuration.
+    stroke : ndarray, shape (k, 2)
+        Where the ends lie on the drawn polyline: segment index plus the
+        fraction along it (to order the pieces).
+    opened : ndarray of bool, shape (k,)
+        False where the material on the two sides is still one piece: a crack
+        inside the triangle that holds its tip, or a piece of the stroke that
+        was snapped onto element edges to avoid a sliver.
+    """
+
+    element: np.ndarray
+    side: np.ndarray
+    barycentric: np.ndarray
+    nodes: np.ndarray
+    reference: np.ndarray
+    stroke: np.ndarray
+    opened: np.ndarray
+
+    def positions(self, x) -> np.ndarray:
+        """The ends of every record at node positions ``x`` (2, n_new_nodes): shape (k, 2, 2)."""
+        x = np.asarray(x, dtype=float)
+        if x.ndim != 2 or x.shape[0] != 2 or (self.nodes.size and x.shape[1] <= self.nodes.max()):
+            raise ValueError(f"x must be node positions of the new mesh shaped (2, n_nodes), got {x.shape}")
+        corners = x[:, self.nodes]  # (2, k, 3)
+        return np.einsum("kea,ika->kei", self.barycentric, corners)
+
+    def length(self) -> float:
+        """Length of the wound in the reference configuration (each piece counted once, not per side)."""
+        d = self.reference[:, 1] - self.reference[:, 0]
+        return 0.5 * float(np.hypot(d[:, 0], d[:, 1]).sum())
+
+
+@dataclass(frozen=True, eq=False)
+class ElementCut(MeshEdit):
+    """A :class:`~tissuefem.surgery.topology.MeshEdit` that cut through elements.
+
+    Besides ``mesh``, ``parent`` (new node -> old node) and ``elements`` (new
+    element -> old element; the copies of a cut triangle all point to it):
+
+    Attributes
+    ----------
+    weights : ndarray, shape (n_new_elements,)
+        Share of its triangle's area each element's material fills, in
+        ``(0, 1]``; the copies of one old element add up to its old weight.
+        Pass them to :class:`~tissuefem.engine.assembly.P1Assembler`.
+    regions : dict int -> Region
+        Where the material of each element lies, for the elements that are not
+        whole (absent: the whole triangle, nothing severed). Pass them, with
+        the weights, to the next cut: :meth:`cut`.
+    wound : Wound
+        The new wound's faces, to draw its two edges smoothly.
+    cut_edges : ndarray of int, shape (2, k)
+        Old-node pairs of the mesh edges the stroke ran along (empty when it
+        only crosses elements).
+    """
+
+    weights: np.ndarray
+    regions: dict
+    wound: Wound
+
+    def cut(self, polyline, positions=None, min_weight=MIN_WEIGHT) -> "ElementCut":
+        """Cut this result's mesh again (its weights and regions carried): :func:`cut_through`."""
+        return cut_through(self.mesh, polyline, positions, weights=self.weights, regions=self.regions,
+                           min_weight=min_weight)
+
+
+# --------------------------------------------------------------------------
+# masses
+# --------------------------------------------------------------------------
+def material_areas(mesh, weights=None) -> np.ndarray:
+    """Reference area of every element's material: triangle area times weight, shape (n_elements,)."""
+    p, t = _mesh_arrays(mesh)
+    w = _weights(weights, t.shape[1])
+    a, b, c = p[:, t[0]], p[:, t[1]], p[:, t[2]]
+    return 0.5 * np.abs((b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1])) * w
+
+
+def lumped_mass(mesh, weights=None, density=1.0) -> np.ndarray:
+    """Lumped P1 mass of every node: ``density`` times a third of the material area of each of its elements.
+
+    With the weights of a cut, the copies of a node together hold exactly the
+    mass the node held, so carrying displacement and velocity by ``parent``
+    keeps the total mass and momentum. Shape (n_nodes,).
+    """
+    if isinstance(density, bool) or not isinstance(density, numbers.Real) or not math.isfinite(density) or density <= 0:
+        raise ValueError(f"density must be a finite number > 0, got {density!r}")
+    p, t = _mesh_arrays(mesh)
+    share = np.repeat(material_areas(mesh, weights)[None, :] * (float(density) / 3.0), 3, axis=0)
+    return np.bincount(t.ravel(), weights=share.ravel(), minlength=p.shape[1])
+
+
+# --------------------------------------------------------------------------
+# validation
+# --------------------------------------------------------------------------
+def _weights(weights, m) -> np.ndarray:
+    if weights is None:
+        return np.ones(m)
+    try:
+        w = np.asarray(weights, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"weights must be one number in (0, 1] per element, shape ({m},)") from None
+    if w.shape != (m,) or not np.all(np.isfinite(w)) or np.any(w <= 0) or np.any(w > 1):
+        raise ValueError(f"weights must be one number in (0, 1] per element, shape ({m},), got shape {w.shape}")
+    return w
+
+
+def _check_regions(regions, weights, m):
+    if regions is None:
+        regions = {}
+    if not isinstance(regions, dict):
+        raise ValueError(f"regions must be a dict element -> Region, got {type(regions).__name__}")
+    out = {}
+    for e, r in regions.items():
+        if isinstance(e, bool) or not isinstance(e, numbers.Integral) or not 0 <= int(e) < m:
+            raise ValueError(f"regions: key {e!r} is not an element index in [0, {m})")
+        if not isinstance(r, Region):
+            raise ValueError(f"regions[{e}] must be a Region, got {type(r).__name__}")
+        out[int(e)] = r
+    implied = np.ones(m)
+    for e, r in out.items():
+        implied[e] = r.weight
+    if weights is None:
+        return out, implied
+    w = _weights(weights, m)
+    bad = np.flatnonzero(np.abs(w - implied) > 1e-9)
+    if bad.size:
+        e = int(bad[0])
+        hint = "" if e in out else " (an element cut through before needs its region: pass regions=previous.regions)"
+        raise ValueError(
+            f"weights[{e}] = {w[e]!r} does not match the material of its region ({implied[e]!r}){hint}"
+        )
+    return out, w
+
+
+# --------------------------------------------------------------------------
+# the cut
+# --------------------------------------------------------------------------
+def _edge_table(p, t):
+    """Every element edge: node keys and the side of the edge its element lies on.
+
+    Returns ``(key, side)``, both shaped (3, m): edge ``k`` of element ``e``
+    joins ``t[k, e]`` and ``t[(k+1) % 3, e]``; ``side`` is +1 if the element's
+    third vertex is to the left of the edge run from its lower to its higher
+    node, -1 otherwise (in the reference configuration).
+    """
+    n = p.shape[1]
+    a = t
+    b = np.roll(t, -1, axis=0)
+    c = np.roll(t, -2, axis=0)
+    lo, hi = np.minimum(a, b), np.maximum(a, b)
+    key = lo * n + hi
+    s = (p[0, hi] - p[0, lo]) * (p[1, c] - p[1, lo]) - (p[1, hi] - p[1, lo]) * (p[0, c] - p[0, lo])
+    return key, np.where(s > 0, 1, -1)
+
+
+def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_weight=MIN_WEIGHT) -> ElementCut:
+    """Cut ``mesh`` along a drawn polyline through its elements (the virtual node algorithm).
+
+    Parameters
+    ----------
+    mesh : skfem.MeshTri
+        Not modified. It may have been cut before (by this function, with its
+        ``weights`` and ``regions``, or by :func:`~tissuefem.surgery.topology.incise`).
+    polyline : array_like, shape (k, 2), k >= 2
+        The stroke, straight or curved, in the coordinates of ``positions``. It
+        may start and end inside the body (a crack), on its boundary or outside
+        it (a cut from the boundary, or through the body).
+    positions : array_like, shape (2, n_nodes), optional
+        Where the nodes are now (default ``mesh.p``): the stroke is drawn on
+        the deformed tissue and carried back to the reference triangle by
+        triangle (P1 map). Triangles collapsed to a segment there are not cut.
+    weights : array_like, shape (n_elements,), optional
+        The material share of every element (default 1). Elements with a weight
+        below 1 need their ``regions``; with ``regions`` alone the weights follow.
+    regions : dict int -> Region, optional
+        Where the material of the elements already cut through lies
+        (``ElementCut.regions`` of the previous cut; :meth:`ElementCut.cut` does this).
+    min_weight : float in [0, 0.5)
+        No piece may carry less than this share of its triangle: such a sliver
+        is merged into its neighbour across the cut and the cut is snapped onto
+        the triangle's edges there (default 0.001).
+
+    Returns
+    -------
+    ElementCut
+        The new mesh (copies of the cut triangles, virtual nodes appended;
+        named boundaries carried to the facets whose material they touched,
+        subdomains to every copy), ``parent``, ``elements``, ``weights``,
+        ``regions``, ``wound`` and ``cut_edges``.
+
+    Raises
+    ------
+    ValueError
+        For bad arguments, or a stroke that changes nothing (it meets no
+        material, or only runs along the body's boundary or an existing wound).
+    """
+    p, t = _mesh_arrays(mesh)
+    n, m = p.shape[1], t.shape[1]
+    x = _positions(mesh, positions)
+    pts = _points("polyline", polyline, 2)
+    if (isinstance(min_weight, bool) or not isinstance(min_weight, numbers.Real)
+            or not 0.0 <= float(min_weight) < 0.5):
+        raise ValueError(f"min_weight must be a number in [0, 0.5), got {min_weight!r}")
+    regions, w = _check_regions(regions, weights, m)
+
+    # 1. the stroke in each triangle (stroke parameters back on the drawn polyline), and what it
+    #    does to each element's material
+    snapped, drawn = _through_nearby_nodes(x, t, pts)
+    pieces, orientation = _stroke_pieces(x, t, snapped)
+    vertex = np.arange(drawn.size)
+    for e, lst in pieces.items():
+        pieces[e] = [(float(np.interp(s0, vertex, drawn)), float(np.interp(s1, vertex, drawn)), a, b)
+                     for s0, s1, a, b in lst]
+    key, side = _edge_table(p, t)
+    flat_key, flat_side = key.ravel(), side.ravel()
+    # an element edge has an element across when some element has the same node pair on the other side
+    has_across = np.isin(flat_key * 2 + (flat_side > 0), flat_key * 2 + (flat_side < 0)).reshape(3, m)
+    arrangements = {}
+    for e in sorted(pieces):
+        arr = _Arrangement(regions.get(e, _WHOLE), pieces[e], has_across[:, e], float(min_weight))
+        if arr.changed:
+            arrangements[e] = arr
+    if not arrangements:
+        raise ValueError(
+            "polyline changes nothing: it meets no material, or runs only along the body's boundary "
+            "or along an existing wound"
+        )
+    affected = np.array(sorted(arrangements), dtype=np.int64)
+
+    # 2. provisional pieces: face 0 of a cut element keeps its index, the others are numbered from m
+    faces_of = {e: arrangements[e].face_regions() for e in arrangements}
+    piece_ids = {}  # element -> provisional ids of its faces
+    touched = {}  # provisional id -> touched intervals per local edge
+    next_id = m
+    for e in affected.tolist():
+        piece_ids[e] = [e] + list(range(next_id, next_id + len(faces_of[e]) - 1))
+        next_id += len(faces_of[e]) - 1
+        touched.update({pid: face[1] for pid, face in zip(piece_ids[e], faces_of[e])})
+    for e in regions:  # elements cut before (their material touches only parts of their edges)
+        touched.setdefault(e, _region_touch(regions[e]))
+
+    # 3. nodes: classes of corners joined across edges
+    node_of, new_parent, fan = _number_nodes(t, n, key, side, affected, piece_ids, touched)
+
+    def triple(pid, e):
+        return tuple(node_of.get((pid, lv), int(t[lv, e])) for lv in range(3))
+
+    # 4. copies of one triangle with the same three nodes are one piece of material: one element
+    final_faces = {}  # element -> list of (provisional id, Region, touched, whole, area)
+    pid_of_face = {}  # element -> {face of its arrangement: provisional id of its element}
+    for e in affected.tolist():
+        arr = arrangements[e]
+        ids = piece_ids[e]
+        by_triple = {}
+        for i, pid in enumerate(ids):
+            by_triple.setdefault(triple(pid, e), []).append(i)
+        groups = list(by_triple.values())
+        faces = faces_of[e]
+        new_of = list(range(len(ids)))
+        if len(groups) < len(ids):
+            # faces that share a cut become one face (the cut between them a slit); faces joined
+            # only outside the triangle stay apart, as polygons of one region
+            new_of = arr.merge([g for g in groups if len(g) > 1])
+            faces = arr.face_regions()
+        final_faces[e] = []
+        pid_of_face[e] = {}
+        for g in groups:
+            members = sorted({new_of[i] for i in g})
+            area = sum(arr.faces[f]["area"] for f in members)
+            if len(members) == 1:
+                region, touch, whole = faces[members[0]]
+            else:
+                region = Region._trusted(
+                    tuple(faces[f][0].polygons[0] for f in members),
+                    np.concatenate([faces[f][0].slits for f in members]),
+                    np.concatenate([faces[f][0].severed for f in members]),
+                    2.0 * area,
+                )
+                touch = [_merge_intervals([iv for f in members for iv in faces[f][1][k]]) for k in range(3)]
+                whole = False
+            final_faces[e].append((ids[min(g)], region, touch, whole, area))
+            pid_of_face[e].update({f: ids[min(g)] for f in members})
+
+    # 5. the new elements: old indices for the first piece, the others appended
+    final_id = {}
+    elements = list(range(m))
+    for e in affected.tolist():
+        for i, (pid, *_) in enumerate(sorted(final_faces[e], key=lambda r: r[0])):
+            final_id[pid] = e if i == 0 else len(elements)
+            if i:
+                elements.append(e)
+    elements = np.asarray(elements, dtype=np.int64)
+    new_t = np.empty((3, elements.size), dtype=np.int64)
+    new_t[:, :m] = t
+    new_w = np.empty(elements.size)
+    new_w[:m] = w
+    new_regions = {e: r for e, r in regions.items() if e not in arrangements}
+    new_touch = {e: touched[e] for e in new_regions}
+    for e in fan.tolist():
+        if e not in arrangements:
+            new_t[:, e] = triple(e, e)
+    for e in affected.tolist():
+        total = sum(r[4] for r in final_faces[e])
+        for pid, region, touch, whole, area in final_faces[e]:
+            E = final_id[pid]
+            new_t[:, E] = triple(pid, e)
+            new_w[E] = w[e] * area / total
+            if not whole:
+                new_regions[E] = region
+                new_touch[E] = touch
+    parent = np.concatenate([np.arange(n, dtype=np.int64), np.asarray(new_parent, dtype=np.int64)])
+
+    # 6. the wound, and the mesh edges the stroke ran along
+    element_of_face = {e: {f: final_id[pid] for f, pid in faces.items()} for e, faces in pid_of_face.items()}
+    wound, cut_edges = _wound(p, t, arrangements, element_of_face, orientation, new_t)
+
+    # 7. the mesh, with names and subdomains carried over
+    plain = _new_mesh(p[:, parent], new_t)
+    new_mesh = _carry_names(mesh, plain, parent, elements, new_regions, new_touch)
+    return ElementCut(
+        mesh=new_mesh,
+        parent=parent,
+        elements=elements,
+        cut_edges=cut_edges,
+        n_old_nodes=n,
+        n_old_elements=m,
+        weights=new_w,
+        regions=new_regions,
+        wound=wound,
+    )
+
+
+def _number_nodes(t, n, key, side, affected, piece_ids, touched):
+    """The node of every corner at the nodes of the cut elements.
+
+    Two elements on the two sides of a mesh edge (sharing its two nodes now)
+    are joined where the parts of the edge their materials touch overlap; a
+    join makes their corners at the edge's ends one node. Every class of
+    corners at an old node becomes a node: the class holding the lowest
+    element keeps the old index, the others are appended in order.
+
+    Returns ``(node_of, new_parent, fan)``: the node of each corner
+    ``(provisional id, local vertex)`` at those nodes, the old node of each
+    appended node, and the elements with a corner there.
+    """
+    hub = np.unique(t[:, affected])
+    at_hub = np.zeros(n, dtype=bool)
+    at_hub[hub] = True
+    fan = np.flatnonzero(at_hub[t].any(axis=0))
+    sel_k, sel_e = np.nonzero(at_hub[t[:, fan]] | at_hub[np.roll(t, -1, axis=0)[:, fan]])
+    sel_e = fan[sel_e]
+    sides = {}  # edge key -> (elements on its + side, on its - side), as (element, local edge)
+    for k, e, kk, s in zip(sel_k.tolist(), sel_e.tolist(), key[sel_k, sel_e].tolist(), side[sel_k, sel_e].tolist()):
+        sides.setdefault(kk, ([], []))[0 if s > 0 else 1].append((e, k))
+
+    uf = {}
+
+    def find(c):
+        root = c
+        while uf.get(root, root) != root:
+            root = uf[root]
+        while uf.get(c, c) != root:
+            uf[c], c = root, uf[c]
+        return root
+
+    def along(pid, e, k, forward):  # touched intervals, run from the edge's lower node to its higher
+        iv = touched.get(pid, _FULL_TOUCH)[k]
+        return iv if forward else [(1.0 - hi, 1.0 - lo) for lo, hi in iv]
+
+    for kk, (plus, minus) in sides.items():
+        a_node, b_node = divmod(kk, n)
+        for e, k in plus:
+            e_fwd = t[k, e] == a_node
+            e_a, e_b = (k, (k + 1) % 3) if e_fwd else ((k + 1) % 3, k)
+            for f, l in minus:
+                f_fwd = t[l, f] == a_node
+                f_a, f_b = (l, (l + 1) % 3) if f_fwd else ((l + 1) % 3, l)
+                for pe in piece_ids.get(e, (e,)):
+                    te = along(pe, e, k, e_fwd)
+                    for pf in piece_ids.get(f, (f,)):
+                        if not _overlaps(te, along(pf, f, l, f_fwd)):
+                            continue
+                        for node, ce, cf in ((a_node, (pe, e_a), (pf, f_a)), (b_node, (pe, e_b), (pf, f_b))):
+                            if at_hub[node]:
+                                r1, r2 = find(ce), find(cf)
+                                if r1 != r2:
+                                    uf[max(r1, r2)] = min(r1, r2)
+
+    classes = {}  # node -> {root: corners}
+    for e in fan.tolist():
+        for lv in range(3):
+            v = int(t[lv, e])
+            if at_hub[v]:
+                for pid in piece_ids.get(e, (e,)):
+                    classes.setdefault(v, {}).setdefault(find((pid, lv)), []).append((pid, lv))
+    node_of, new_parent = {}, []
+    for v in hub.tolist():
+        for i, cs in enumerate(sorted(classes[v].values(), key=min)):
+            index = v if i == 0 else n + len(new_parent)
+            if i:
+                new_parent.append(v)
+            node_of.update({c: index for c in cs})
+    return node_of, new_parent, fan
+
+
+def _wound(p, t, arrangements, element_of_face, orientation, new_t):
+    """The wound's records (one per side of each piece) and the mesh edges the stroke ran along."""
+    rec_el, rec_old, rec_side, rec_bary, rec_stroke, rec_open = [], [], [], [], [], []
+    along = []
+    for e, arr in arrangements.items():
+        for f, s, t0, t1, a, b, opened in arr.wound_faces():
+            if f < 0:
+                continue
+            rec_el.append(element_of_face[e][f])
+            rec_old.append(e)
+            rec_side.append(s * int(orientation[e]))  # the local map may mirror the drawing
+            rec_bary.append([[1.0 - a[0] - a[1], a[0], a[1]], [1.0 - b[0] - b[1], b[0], b[1]]])
+            rec_stroke.append((t0, t1))
+            rec_open.append(opened)
+        for rec in arr.wound:
+            if rec[0] == "edge":
+                k = rec[5]
+                along.append((rec[3], *sorted((int(t[k, e]), int(t[(k + 1) % 3, e])))))
+    rec_el = np.asarray(rec_el, dtype=np.int64)
+    bary = np.asarray(rec_bary, dtype=float).reshape(-1, 2, 3)
+    wound = Wound(
+        element=rec_el,
+        side=np.asarray(rec_side, dtype=np.int64),
+        barycentric=bary,
+        nodes=new_t[:, rec_el].T.copy(),
+        reference=np.einsum("kea,iak->kei", bary, p[:, t[:, np.asarray(rec_old, dtype=np.int64)]]),
+        stroke=np.asarray(rec_stroke, dtype=float).reshape(-1, 2),
+        opened=np.asarray(rec_open, dtype=bool),
+    )
+    first = {}
+    for order, a, b in sorted(along):
+        first.setdefault((a, b), order)
+    cut_edges = np.asarray(sorted(first, key=first.get), dtype=np.int64).reshape(-1, 2).T
+    return wound, cut_edges
+
+
+def _carry_names(old, new, parent, elements, regions, touched):
+    """Named boundaries (to the facets whose material touches the old facet) and subdomains (to every copy).
+
+    ``touched`` holds the touched intervals of some of the ``regions`` (the others are worked out).
+    """
+    out = new
+    n_old = old.p.shape[1]
+    if old.boundaries:
+        touches = np.ones((3, new.t.shape[1]), dtype=bool)
+        for e, region in regions.items():
+            touch = touched[e] if e in touched else _region_touch(region)
+            for k in range(3):
+                touches[k, e] = bool(touch[k])
+        t2f = np.asarray(new.t2f)  # row k: the facet of local edge k (scikit-fem's edge order)
+        parent_keys = _keys(parent[np.asarray(new.facets, dtype=np.int64)], n_old)
+        old_facets = np.asarray(old.facets, dtype=np.int64)
+        names = {}
+        for label, facets in old.boundaries.items():
+            old_keys = _keys(old_facets[:, np.asarray(facets, dtype=np.int64)], n_old)
+            hit = t2f[touches]
+            hit = np.unique(hit[np.isin(parent_keys[hit], old_keys)])
+            names[label] = hit.astype(np.int32)
+        out = out.with_boundaries(names)
+    if old.subdomains:
+        subs = {label: np.flatnonzero(np.isin(elements, np.asarray(els))).astype(np.int32)
+                for label, els in old.subdomains.items()}
+        out = out.with_subdomains(subs)
+    return out
