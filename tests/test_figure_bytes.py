@@ -28,8 +28,9 @@ def test_shown_rounds_away_round_off_and_floors_it():
 
 
 def test_labels_do_not_print_round_off():
-    assert registry.at_least(2.1e-17, 1e-12) == "< 1e-12"
-    assert registry.at_least(0.034, 1e-12) == "0.034"
+    assert registry.at_least(2.1e-17) == "< 1e-10" and registry.at_least(3.3e-12) == "< 1e-10"
+    assert registry.at_least(2.1e-17, 1e-9) == "< 1e-9"
+    assert registry.at_least(0.034) == "0.034" and registry.at_least(1.7e-3, spec=".1e") == "1.7e-03"
 
 
 def test_a_note_when_matplotlib_would_redraw_the_text(monkeypatch):

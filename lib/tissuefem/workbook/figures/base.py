@@ -77,10 +77,17 @@ def shown(values, floor=None, digits=SHOWN_DIGITS) -> np.ndarray:
     return np.array(flat).reshape(a.shape)
 
 
-def at_least(value: float, level: float, spec: str = ".2g") -> str:
+#: a label's number below this is zero to round-off or to a solver's tolerance
+NEGLIGIBLE = 1e-10
+
+
+def at_least(value: float, level: float = NEGLIGIBLE, spec: str = ".2g") -> str:
     """``value`` formatted for a label, or ``< level`` when it is below ``level``: the digits of
-    a round-off-sized number differ from one machine to the next."""
-    return f"< {level:.0e}" if abs(value) < level else format(value, spec)
+    a round-off-sized number differ from one machine (or one solver version) to the next."""
+    if abs(value) >= level:
+        return format(value, spec)
+    power = math.log10(level)
+    return f"< 1e{round(power)}" if power == round(power) else f"< {level:.1g}"
 
 
 def save(fig: Figure, path) -> None:

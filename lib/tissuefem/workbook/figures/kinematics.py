@@ -183,7 +183,7 @@ def fig_ch03_rotation_stress(path=None) -> Figure:
         ax_b.fill(loop[0], loop[1], color=color, alpha=0.15, lw=0)
         ax_b.triplot(tri, color=color, lw=0.3, alpha=0.6)
         ax_b.plot(loop[0], loop[1], color=color, lw=1.8,
-                  label=f"{name}: area $\\times${ratio:.2f}, energy {at_least(energy, 1e-12)}")
+                  label=f"{name}: area $\\times${ratio:.2f}, energy {at_least(energy)}")
     wall = np.array([[0.0, 0.0], [-0.6, 0.6]])
     w = rotation(theta) @ wall + [[0.0], [0.5]]
     ax_b.plot(w[0], w[1], color="k", lw=3.5, solid_capstyle="butt", label="clamped edge, turned by 60°")
