@@ -136,7 +136,7 @@ def _free_mask(n, free) -> np.ndarray:
     return mask
 
 
-def _shifted_direction(A, rhs):
+def _shifted_direction(A, rhs, shifts=None):
     """A descent direction from ``(A + tau I) dx = rhs`` with growing ``tau``; steepest descent at last."""
     finite = A is not None and np.all(np.isfinite(A.data))
     diag = A.diagonal() if finite else np.ones(rhs.size)
@@ -145,7 +145,7 @@ def _shifted_direction(A, rhs):
     if finite:
         eye = sp.identity(A.shape[0], format="csr")
         direct = SuperLU()
-        for tau in scale * 10.0 ** np.arange(-6.0, 3.0):
+        for tau in (scale * 10.0 ** np.arange(-6.0, 3.0) if shifts is None else shifts):
             try:
                 dx = direct.factorize((A + tau * eye).tocsr()).solve(rhs)
             except (RuntimeError, ValueError):
@@ -153,6 +153,8 @@ def _shifted_direction(A, rhs):
             factorizations += 1
             if np.all(np.isfinite(dx)) and rhs @ dx > 0:
                 return dx, float(tau), factorizations
+    if shifts is not None:
+        return None, math.inf, factorizations
     return rhs / (1e3 * scale), math.inf, factorizations
 
 
@@ -171,6 +173,7 @@ def newton(
     max_iterations: int = 30,
     max_step: float | None = None,
     linear: LinearSolver | None = None,
+    safe_hessian: Callable[[np.ndarray], sp.spmatrix] | None = None,
     clock: Callable[[], float] | None = None,
     budget: float = math.inf,
     start: float | None = None,
@@ -200,6 +203,9 @@ def newton(
         Iteration cap, step cap (largest change of one dof per iteration), line-search halvings.
     linear : LinearSolver, optional
         The linear-solve policy (default: a fresh direct factorization each iteration).
+    safe_hessian : callable, optional
+        A positive semi-definite approximation of the Hessian, tried before the diagonal shift
+        when the exact one gives no descent direction (a projected tangent).
     clock, budget, start
         Wall-clock budget in seconds measured by ``clock`` from ``start`` (default: when called).
     energy0
@@ -270,6 +276,11 @@ def newton(
         shift = 0.0
         descent = dx_free is not None and np.all(np.isfinite(dx_free)) and (
             line_search != "energy" or rhs @ dx_free > 0)
+        if not descent and line_search == "energy" and safe_hessian is not None:
+            A = linear.condense(safe_hessian(x), mask)
+            dx_free, shift, fac = _shifted_direction(A, rhs, shifts=(0.0,))
+            stats["factorizations"] += fac
+            descent = shift == 0.0
         if not descent and line_search == "energy":
             if A is None:  # a kept factorization that no longer fits: look at the tangent itself
                 A = linear.matrix(lambda: hessian(x), mask, force=True)

@@ -32,7 +32,7 @@ import scipy.sparse as sp
 from .assembly import make_assembler
 from .constants import TISSUE_DENSITY
 from .terms import (Elastic, ElementTerm, Fibers, Inertia, Load, Probe, Sutures, Term, _SummedDensity,
-                    check_positive, check_vector, traction_vector)
+                    _SafeView, check_positive, check_vector, traction_vector)
 
 __all__ = ["Model", "Handle", "Pattern", "region_nodes"]
 
@@ -259,6 +259,14 @@ class Pattern:
 
 # ------------------------------------------------------------------------------------------------ the model
 
+def _boundary_lengths(mesh) -> np.ndarray:
+    """Each vertex's share of the boundary's length: half of every boundary edge it ends (0 inside)."""
+    facets = mesh.facets[:, mesh.boundary_facets()]
+    d = mesh.p[:, facets[1]] - mesh.p[:, facets[0]]
+    half = 0.5 * np.hypot(d[0], d[1])
+    return np.bincount(facets.ravel(), weights=np.concatenate([half, half]), minlength=mesh.nvertices)
+
+
 def _named_tractions(tractions):
     if tractions is None:
         return []
@@ -333,9 +341,8 @@ class Model:
             self.component[self.basis.facet_dofs[0]] = 0
             self.component[self.basis.facet_dofs[1]] = 1
         self.dof_points = np.asarray(self.basis.doflocs, dtype=float)
-        # lumped area per vertex: a third of each incident triangle's material area (probe weights)
-        areas = self.element_areas()
-        self.node_areas = np.bincount(mesh.t.ravel(), weights=np.tile(areas / 3.0, 3), minlength=mesh.nvertices)
+        # lumped boundary length per vertex: half of each boundary edge it ends (a probe's surface weights)
+        self.boundary_lengths = _boundary_lengths(mesh)
 
         terms: list[Term] = [Elastic(self.assembler, material)]
         if fibers is not None:
@@ -349,7 +356,7 @@ class Model:
         for i, spec in enumerate(probes):
             if not isinstance(spec, dict):
                 raise ValueError(f"probes[{i}] must be a dict (center, radius, stiffness[, label]), got {spec!r}")
-            terms.append(Probe(self.X, self.node_areas, **spec))
+            terms.append(Probe(self.X, self.boundary_lengths, **spec))
         if sutures is not None:
             spec = dict(sutures)
             terms.append(Sutures(self.X, spec["pairs"], spec["stiffness"], spec["gaps"], spec.get("tightness", 0.0)))
@@ -432,6 +439,12 @@ class Model:
         return [t.describe() for t in self.terms]
 
     @property
+    def has_safe_hessian(self) -> bool:
+        """Whether a term offers a positive semi-definite Hessian besides its exact one."""
+        return (any(hasattr(t.density, "safe_tangent") for t in self._element_terms)
+                or any(t.has_safe_hessian for t in self._other_terms))
+
+    @property
     def quadratic(self) -> bool:
         """True when every term is quadratic: the Hessian is constant (linear material, springs, loads)."""
         return all(t.quadratic for t in self.terms)
@@ -461,13 +474,20 @@ class Model:
             g += t.gradient(u)
         return g
 
-    def hessian(self, u) -> sp.csr_matrix:
-        """``d^2E/du^2`` on the model's fixed pattern (the Newton matrix)."""
+    def hessian(self, u, safe: bool = False) -> sp.csr_matrix:
+        """``d^2E/du^2`` on the model's fixed pattern (the Newton matrix).
+
+        ``safe=True`` takes the positive semi-definite variants where the terms offer one (a
+        :class:`~tissuefem.engine.inversion.ProjectedTangent` with ``adaptive=True``, the probe's
+        normal part): what the minimiser falls back on when the exact Hessian gives no descent
+        direction.
+        """
         u = self._check_u(u)
         data = self.pattern.zeros()
-        self.pattern.add_base(data, self.assembler.tangent(u, self._density).data)
+        density = _SafeView(self._density) if safe else self._density
+        self.pattern.add_base(data, self.assembler.tangent(u, density).data)
         for t in self._other_terms:
-            t.add_hessian(u, data)
+            t.add_hessian(u, data, safe=safe)
         return self.pattern.csr(data)
 
     def _stored_terms(self):

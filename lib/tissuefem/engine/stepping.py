@@ -358,6 +358,7 @@ class Stepper:
                 line_search=self.line_search, rtol=self.rtol, atol=self.atol, reference_norm=load_norm,
                 floor=self.floor, max_iterations=self.max_iterations - (which == "linearised"), max_step=self.max_step,
                 linear=self.linear, clock=self.clock, budget=self._budget, start=start, energy0=E0,
+                safe_hessian=(lambda x: model.hessian(x, safe=True)) if model.has_safe_hessian else None,
             )
         finally:
             for term in loads:

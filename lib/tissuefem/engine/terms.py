@@ -92,8 +92,13 @@ class Term:
     def gradient(self, u) -> np.ndarray:
         raise NotImplementedError
 
-    def add_hessian(self, u, data) -> None:
+    def add_hessian(self, u, data, safe=False) -> None:
+        """Add the Hessian into ``data``; ``safe=True`` asks for a positive semi-definite version (terms
+        whose Hessian can be indefinite offer one and set ``has_safe_hessian``)."""
         raise NotImplementedError
+
+    #: whether ``add_hessian(..., safe=True)`` differs from the exact Hessian
+    has_safe_hessian = False
 
     def describe(self) -> str:
         return self.name
@@ -118,8 +123,9 @@ class ElementTerm(Term):
     def gradient(self, u):
         return self.assembler.residual(u, self.density)
 
-    def add_hessian(self, u, data):
-        self.pattern.add_base(data, self.assembler.tangent(u, self.density).data)
+    def add_hessian(self, u, data, safe=False):
+        density = _SafeView(self.density) if safe else self.density
+        self.pattern.add_base(data, self.assembler.tangent(u, density).data)
 
 
 class Elastic(ElementTerm):
@@ -213,6 +219,34 @@ class _SummedDensity:
     def tangent(self, F):
         return self._sum("tangent", F)
 
+    def safe_tangent(self, F):
+        out = _safe_tangent(self.densities[0], F)
+        for d in self.densities[1:]:
+            out = out + _safe_tangent(d, F)
+        return out
+
+
+def _safe_tangent(density, F):
+    """A density's positive semi-definite tangent where it offers one (else its tangent)."""
+    safe = getattr(density, "safe_tangent", None)
+    return safe(F) if safe is not None else density.tangent(F)
+
+
+class _SafeView:
+    """An energy density seen through its positive semi-definite tangent (the safe Hessian)."""
+
+    def __init__(self, density):
+        self.density = density
+
+    def energy(self, F):
+        return self.density.energy(F)
+
+    def stress(self, F):
+        return self.density.stress(F)
+
+    def tangent(self, F):
+        return _safe_tangent(self.density, F)
+
 
 # --------------------------------------------------------------------------------------- inertia and loads
 
@@ -252,7 +286,7 @@ class Inertia(Term):
     def gradient(self, u):
         return self.matvec(u - self.x_tilde) / self.dt**2
 
-    def add_hessian(self, u, data):
+    def add_hessian(self, u, data, safe=False):
         self.pattern.add_base(data, self.mass_data / self.dt**2)
 
     def kinetic_energy(self, v) -> float:
@@ -299,7 +333,7 @@ class Load(Term):
     def gradient(self, u):
         return -self.scale * self.vector
 
-    def add_hessian(self, u, data):
+    def add_hessian(self, u, data, safe=False):
         pass
 
     def describe(self):
@@ -329,30 +363,44 @@ def traction_vector(basis, boundary, traction) -> np.ndarray:
 # --------------------------------------------------------------------------------------- tools and sutures
 
 class Probe(Term):
-    """A rigid disc (a tool tip) of centre ``c`` and radius ``R`` that the tissue's nodes must stay out of.
+    """A rigid disc (a tool tip) of centre ``c`` and radius ``R`` pressed into the tissue's surface.
 
-    A penalty on each node ``a`` that enters the disc, weighted by its lumped
-    area ``m_a`` so that the stiffness ``k`` is per unit area:
+    Contact acts on the surface, so each *boundary* node ``a`` carries its share
+    ``l_a`` of the boundary's length (half of each boundary edge it ends), and
+    the penalty is a pressure: with the penetration ``g_a = R - d_a``,
+    ``d_a = |x_a - c|``,
 
-        E = sum_a k m_a / 2 (R - d_a)^2  for d_a = |x_a - c| < R,
+        E = sum_a k l_a h(g_a),   h(g) = g^3 / (6 delta)             (0 < g < delta),
+                                  h(g) = g^2/2 - delta g/2 + delta^2/6  (g >= delta),
 
-    with ``x_a = X_a + u_a``. With ``n_a = (x_a - c) / d_a`` the force on the
-    node is ``-dE/dx_a = k m_a (R - d_a) n_a`` (outward), and the Hessian is
-    ``k m_a [n n^T - (R - d)/d (I - n n^T)]``. Its tangential part is negative
-    (the disc's curved surface), so the Newton matrix keeps only the positive
-    ``k m_a n n^T`` (a Gauss-Newton approximation; the energy line search makes
-    the step safe). The tool moves between frames through :meth:`move`.
+    and ``h = 0`` outside the disc. ``k`` is a stiffness per unit area (a
+    pressure per unit penetration): the force per unit surface length is
+    ``k h'(g)``, the same on any mesh, so the penetration a given push leaves
+    does not depend on the element size. ``h`` is twice continuously
+    differentiable (the pressure starts smoothly over ``delta``, a small
+    fraction of ``R``), so a node entering or leaving the disc does not make
+    the Newton matrix jump, and Newton converges as it does without contact.
+    With ``n_a = (x_a - c) / d_a`` the force on the node is ``k l_a h'(g) n_a``
+    (outward); the Hessian is ``k l_a [h''(g) n n^T - h'(g)/d (I - n n^T)]``,
+    whose tangential part (the disc's curvature) is negative and small (order
+    ``g / R``) but not negligible where the tissue slides along the tool: the
+    Newton matrix takes the exact Hessian (quadratic convergence), and its
+    *safe* version (``safe=True``, what the minimiser falls back on when a
+    direction does not point downhill) keeps only the positive normal part.
+    The tool moves between frames through :meth:`move`.
     """
 
     name = "probe"
 
-    def __init__(self, X, node_areas, center, radius, stiffness, label=None):
+    def __init__(self, X, boundary_lengths, center, radius, stiffness, label=None, smoothing=0.02):
         self.X = X
         self.n_nodes = X.shape[1]
-        self.m = node_areas
+        self.length = np.asarray(boundary_lengths, dtype=float)
+        self.surface = np.flatnonzero(self.length > 0)
         self.move(center)
         self.radius = check_positive("probe.radius", radius)
         self.stiffness = check_nonnegative("probe.stiffness", stiffness)
+        self.delta = check_positive("probe.smoothing", smoothing) * self.radius
         self.label = label
 
     def move(self, center) -> None:
@@ -362,41 +410,63 @@ class Probe(Term):
         return f"probe: disc r = {self.radius:g} at ({self.center[0]:g}, {self.center[1]:g}), k = {self.stiffness:g}"
 
     def _contact(self, u):
-        x = self.X + u[: 2 * self.n_nodes].reshape(-1, 2).T
+        """The surface nodes inside the disc: ``(nodes, penetration g, outward normals n, distances d)``."""
+        nodes = self.surface
+        x = self.X[:, nodes] + u[: 2 * self.n_nodes].reshape(-1, 2).T[:, nodes]
         d_vec = x - self.center[:, None]
         d = np.hypot(d_vec[0], d_vec[1])
-        inside = np.flatnonzero(d < self.radius)
+        inside = d < self.radius
         dd = d[inside]
         safe = np.maximum(dd, 1e-12 * self.radius)
         n = d_vec[:, inside] / safe
         n[:, dd < 1e-12 * self.radius] = np.array([[0.0], [1.0]])  # at the very centre: push up
-        return inside, self.radius - dd, n
+        return nodes[inside], self.radius - dd, n, safe
+
+    def _h(self, g):
+        """``h, h', h''`` of the smoothed penalty at penetrations ``g > 0``."""
+        delta = self.delta
+        cubic = g < delta
+        h = np.where(cubic, g**3 / (6 * delta), 0.5 * g**2 - 0.5 * delta * g + delta**2 / 6)
+        h1 = np.where(cubic, g**2 / (2 * delta), g - 0.5 * delta)
+        h2 = np.where(cubic, g / delta, 1.0)
+        return h, h1, h2
 
     def energy(self, u):
-        inside, depth, _ = self._contact(u)
-        return 0.5 * self.stiffness * float(np.sum(self.m[inside] * depth**2))
+        nodes, g, _, _ = self._contact(u)
+        return self.stiffness * float(np.sum(self.length[nodes] * self._h(g)[0]))
 
     def gradient(self, u):
-        inside, depth, n = self._contact(u)
-        g = np.zeros(u.size)
-        f = -self.stiffness * self.m[inside] * depth * n  # dE/dx
-        g[2 * inside] = f[0]
-        g[2 * inside + 1] = f[1]
-        return g
+        nodes, g, n, _ = self._contact(u)
+        out = np.zeros(u.size)
+        f = -self.stiffness * self.length[nodes] * self._h(g)[1] * n  # dE/dx
+        out[2 * nodes] = f[0]
+        out[2 * nodes + 1] = f[1]
+        return out
+
+    def forces(self, u) -> np.ndarray:
+        """The contact force on every node ``(2, n_nodes)`` (zero off the disc)."""
+        return -self.gradient(u)[: 2 * self.n_nodes].reshape(-1, 2).T
 
     def penetration(self, u) -> float:
-        """The deepest any node is inside the disc (0 when none is)."""
-        _, depth, _ = self._contact(u)
-        return float(depth.max(initial=0.0))
+        """The deepest any surface node is inside the disc (0 when none is)."""
+        _, g, _, _ = self._contact(u)
+        return float(g.max(initial=0.0))
 
-    def add_hessian(self, u, data):
-        inside, _, n = self._contact(u)
-        if inside.size == 0:
+    #: the Hessian has a positive semi-definite variant (its normal part)
+    has_safe_hessian = True
+
+    def add_hessian(self, u, data, safe=False):
+        nodes, g, n, d = self._contact(u)
+        if nodes.size == 0:
             return
-        w = self.stiffness * self.m[inside]
+        _, h1, h2 = self._h(g)
+        w = self.stiffness * self.length[nodes]
+        normal, tangential = w * h2, (0.0 if safe else -w * h1 / d)
         for i in range(2):
             for j in range(2):
-                np.add.at(data, self.pattern.node_block[i, j, inside], w * n[i] * n[j])
+                nn = n[i] * n[j]
+                block = normal * nn + tangential * ((i == j) - nn)
+                np.add.at(data, self.pattern.node_block[i, j, nodes], block)
 
 
 class Sutures(Term):
@@ -499,5 +569,5 @@ class Sutures(Term):
         rows, cols, self._values = self._triplets()
         self._positions = pattern.positions(rows, cols)
 
-    def add_hessian(self, u, data):
+    def add_hessian(self, u, data, safe=False):
         np.add.at(data, self._positions, self._values)

@@ -303,9 +303,9 @@ class Simulation:
         center = check_vector(f"{_field}.center", center).tolist()
         radius = _number(f"{_field}.radius", radius, positive=True)
         E = self.scene.material["youngs_modulus"]
-        if stiffness is None:  # stiff enough to keep penetration to a few percent of the radius
+        if stiffness is None:  # stiff enough to keep the penetration near 1 % of the radius under moderate pressure
             with np.errstate(over="ignore"):
-                stiffness = _number(f"{_field}.stiffness (default 1e3 E / radius^2)", 1e3 * E / radius**2)
+                stiffness = _number(f"{_field}.stiffness (default 100 E / radius)", 100.0 * E / radius)
         else:
             stiffness = _number(f"{_field}.stiffness", stiffness, nonnegative=True)
         with self._transaction():
