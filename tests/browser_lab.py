@@ -230,6 +230,16 @@ FRAME_HOOK = r"""
     tf.moves.push([performance.now(), e.clientX, e.clientY]);
     if (tf.moves.length > 5000) tf.moves.splice(0, 2500);
   }, true);
+  // what the page spends per picture it receives: ipympl re-encodes its whole picture (toDataURL) for each
+  const encode = HTMLCanvasElement.prototype.toDataURL;
+  tf.encode_ms = [];
+  HTMLCanvasElement.prototype.toDataURL = function (...args) {
+    const t0 = performance.now();
+    const out = encode.apply(this, args);
+    tf.encode_ms.push(performance.now() - t0);
+    if (tf.encode_ms.length > 5000) tf.encode_ms.splice(0, 2500);
+    return out;
+  };
   const draw = CanvasRenderingContext2D.prototype.drawImage;
   CanvasRenderingContext2D.prototype.drawImage = function (...args) {
     const out = draw.apply(this, args);

@@ -29,6 +29,7 @@ How the numbers are measured (in the page, with ``performance.now()``):
 from __future__ import annotations
 
 import json
+import os
 import platform
 import random
 import sys
@@ -245,7 +246,9 @@ def drag_session(driver, seed=8):
         "dict(frames=int(sim.frames), nodes=int(sim.mesh.nvertices), message=view.message, mode=view.mode, "
         "running=bool(view.running), steps_ms=[float(t) for t in view.frame_times][-300:], "
         "draws_ms=[float(t) for t in getattr(view, 'draw_times', [])][-300:], "
-        "status=view.status_text.get_text())")
+        "status=view.status_text.get_text(), "
+        "full_draws=getattr(view.fig, 'full_draws', None), slow_draws=getattr(view.fig, 'slow_draws', None), "
+        "layer_draws=getattr(view.fig, 'layer_draws', None))")
     return dict(
         figure_px=[fig["w"], fig["h"]],
         rest_fps=rest_fps,
@@ -256,6 +259,7 @@ def drag_session(driver, seed=8):
         changed_by_drag=changed_by_drag,
         changed_total=driver.execute_script(CHANGED),
         paints=len(paint_times(driver)),
+        page_encode_ms=driver.execute_script("return window.__tf.encode_ms.slice(-300);"),
         mode_buttons=mode_button is not None,
         before=before,
         after=after,
@@ -281,6 +285,8 @@ def summary(result):
         "latency probes shown / missed": [len(lat), result["latency_missed"]],
         "kernel step median ms": None if not steps else round(median(steps), 1),
         "kernel draw median ms": None if not draws else round(median(draws), 1),
+        "page re-encoding per picture (ipympl's toDataURL), median ms":
+            None if not result["page_encode_ms"] else round(median(result["page_encode_ms"]), 1),
     }
 
 
@@ -316,6 +322,9 @@ def run_session(workdir, chapter=CHAPTER):
             run_all_cells(driver)
             assert kernel_json(driver, "bool(INTERACTIVE and view.interactive and view.running)"), \
                 "the chapter's last cell should leave the view running on the ipympl canvas"
+            if os.environ.get("TF_DEBUG_SHOT"):
+                time.sleep(3)
+                driver.save_screenshot(str(workdir / "ran.png"))
             result = drag_session(driver)
             driver.save_screenshot(str(workdir / "after.png"))
             return result
