@@ -42,8 +42,8 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from browser_lab import (JupyterLab, browser_missing, kernel_execute, kernel_json,  # noqa: E402
-                         open_notebook, run_all_cells, start_chromium, wait_for)
+from browser_lab import (JupyterLab, browser_missing, cpu_seconds, descendants, kernel_execute,  # noqa: E402
+                         kernel_json, open_notebook, run_all_cells, start_chromium, wait_for)
 
 pytestmark = pytest.mark.browser
 
@@ -113,6 +113,21 @@ def rate(times, t0, t1):
     return 1e3 * len(inside) / (t1 - t0) if t1 > t0 else 0.0
 
 
+def page_metrics(driver):
+    """Seconds the page's main thread spent so far: in tasks, scripts, layout, style (Chromium's own counters)."""
+    driver.execute_cdp_cmd("Performance.enable", {})
+    metrics = {m["name"]: m["value"] for m in driver.execute_cdp_cmd("Performance.getMetrics", {})["metrics"]}
+    return {k: metrics.get(k, 0.0) for k in ("TaskDuration", "ScriptDuration", "LayoutDuration",
+                                              "RecalcStyleDuration")}
+
+
+def per_frame(before, after, frames):
+    """Milliseconds per frame of each counter (seconds) between two readings."""
+    if before is None or after is None or not frames:
+        return None
+    return {name: round(1e3 * (after[name] - before[name]) / frames, 1) for name in before}
+
+
 def page_now(driver):
     return driver.execute_script("return performance.now();")
 
@@ -159,7 +174,20 @@ def release(driver):
     actions(driver).release().perform()
 
 
-def drag_session(driver, seed=8):
+class CpuMeter:
+    """CPU seconds of the kernel, the Jupyter server and Chromium (every process of each) over a stretch."""
+
+    def __init__(self, driver, lab):
+        kernel_pid = kernel_json(driver, "__import__('os').getpid()")
+        server = [p for p in descendants(lab.process.pid) if p != kernel_pid and p not in descendants(kernel_pid)]
+        self.groups = {"kernel": descendants(kernel_pid), "server": server,
+                       "chromium": descendants(driver.service.process.pid)}
+
+    def read(self):
+        return {name: cpu_seconds(pids) for name, pids in self.groups.items()}
+
+
+def drag_session(driver, lab=None, seed=8):
     """Everything a student does with the mouse; returns the measurements and what the kernel saw."""
     rng = random.Random(seed)
     fig = kernel_json(driver, "dict(w=int(round(view.fig.bbox.width)), h=int(round(view.fig.bbox.height)))")
@@ -168,10 +196,16 @@ def drag_session(driver, seed=8):
     canvas = Canvas(driver, element)
     # the timer runs: frames arrive without any input
     wait_for(lambda: len(paint_times(driver)) >= 5, 30, "the running view to paint frames")
+    meter = CpuMeter(driver, lab) if lab is not None else None
+    cpu0, page0 = (meter.read() if meter else None), page_metrics(driver)
     t_rest0 = page_now(driver)
     time.sleep(2.0)
     t_rest1 = page_now(driver)
+    cpu1, page1 = (meter.read() if meter else None), page_metrics(driver)
     rest_fps = rate(paint_times(driver), t_rest0, t_rest1)
+    rest_paints = len([t for t in paint_times(driver) if t_rest0 <= t <= t_rest1])
+    rest_cpu = per_frame(cpu0, cpu1, rest_paints)
+    rest_page = per_frame(page0, page1, rest_paints)
     before = kernel_json(driver, "dict(frames=int(sim.frames), nodes=int(sim.mesh.nvertices))")
     driver.execute_script(SNAPSHOT)
 
@@ -191,10 +225,15 @@ def drag_session(driver, seed=8):
     chain = actions(driver)
     for off in offsets:
         chain.move_to_element_with_offset(canvas.element, *off).pause(0.02)
+    cpu0, page0 = (meter.read() if meter else None), page_metrics(driver)
     t_drag0 = page_now(driver)
     chain.perform()
     t_drag1 = page_now(driver)
+    cpu1, page1 = (meter.read() if meter else None), page_metrics(driver)
+    drag_paints = len([t for t in paint_times(driver) if t_drag0 <= t <= t_drag1])
     drag_fps = rate(paint_times(driver), t_drag0, t_drag1)
+    cpu_per_frame = per_frame(cpu0, cpu1, drag_paints)
+    page_per_frame = per_frame(page0, page1, drag_paints)
 
     # latency probes: jump, wait until the marker shows the jump, rest a random while
     probe_points = [(centre[0] + (0.18 if k % 2 else -0.18), centre[1] + 0.05 * ((k % 3) - 1)) for k in range(16)]
@@ -231,15 +270,23 @@ def drag_session(driver, seed=8):
         move_to(driver, canvas, canvas.offsets([(-0.45, -0.45)])[0])
         actions(driver).click().send_keys("c").perform()
     wait_for(lambda: kernel_json(driver, "view.mode") == "cut", 20, "cut mode")
-    top = kernel_json(driver, "float(sim.positions()[1].max())")
-    stroke = [(1.5, top + 0.3 - 0.1 * k) for k in range(9)]
+    # a stroke from above the sheet down to below its middle, near the held edge (where the sheet moves least)
+    x_cut = 0.5
+    top = kernel_json(driver, f"float(sim.positions()[1][abs(sim.positions()[0] - {x_cut}) < 0.1].max())")
+    stroke = [(x_cut, top + 0.3 - 0.1 * k) for k in range(int((top + 0.3 - 0.45) / 0.1) + 1)]
     stroke_offsets = canvas.offsets(stroke)
     chain = actions(driver).move_to_element_with_offset(canvas.element, *stroke_offsets[0]).click_and_hold()
     for off in stroke_offsets[1:]:
         chain.move_to_element_with_offset(canvas.element, *off).pause(0.05)
     chain.release().perform()
-    wait_for(lambda: kernel_json(driver, "int(sim.mesh.nvertices)") > before["nodes"], 30,
-             "the stroke to cut the tissue")
+
+    def cut_or_message():
+        state = kernel_json(driver, "dict(nodes=int(sim.mesh.nvertices), message=view.message)")
+        if state["message"]:
+            raise AssertionError(f"the stroke did not cut: {state['message']}")
+        return state["nodes"] > before["nodes"]
+
+    wait_for(cut_or_message, 30, "the stroke to cut the tissue")
     time.sleep(0.5)  # a few frames after the cut
     after = kernel_json(
         driver,
@@ -254,6 +301,10 @@ def drag_session(driver, seed=8):
         rest_fps=rest_fps,
         drag_fps=drag_fps,
         drag_seconds=(t_drag1 - t_drag0) / 1e3,
+        cpu_ms_per_frame_while_dragging=cpu_per_frame,
+        page_main_thread_ms_per_frame_while_dragging=page_per_frame,
+        cpu_ms_per_frame_at_rest=rest_cpu,
+        page_main_thread_ms_per_frame_at_rest=rest_page,
         latency_ms=latencies,
         latency_missed=missed,
         changed_by_drag=changed_by_drag,
@@ -285,6 +336,10 @@ def summary(result):
         "latency probes shown / missed": [len(lat), result["latency_missed"]],
         "kernel step median ms": None if not steps else round(median(steps), 1),
         "kernel draw median ms": None if not draws else round(median(draws), 1),
+        "CPU ms per frame drawn while dragging (kernel, server, chromium)": result["cpu_ms_per_frame_while_dragging"],
+        "page main thread ms per frame while dragging": result["page_main_thread_ms_per_frame_while_dragging"],
+        "CPU ms per frame drawn at rest": result["cpu_ms_per_frame_at_rest"],
+        "page main thread ms per frame at rest": result["page_main_thread_ms_per_frame_at_rest"],
         "page re-encoding per picture (ipympl's toDataURL), median ms":
             None if not result["page_encode_ms"] else round(median(result["page_encode_ms"]), 1),
     }
@@ -325,7 +380,7 @@ def run_session(workdir, chapter=CHAPTER):
             if os.environ.get("TF_DEBUG_SHOT"):
                 time.sleep(3)
                 driver.save_screenshot(str(workdir / "ran.png"))
-            result = drag_session(driver)
+            result = drag_session(driver, lab)
             driver.save_screenshot(str(workdir / "after.png"))
             return result
         except BaseException:
@@ -365,9 +420,10 @@ if __name__ == "__main__":
     parser = argparse.ArgumentParser(description="measure chapter 8's interactive view in JupyterLab + Chromium")
     parser.add_argument("--chapter", type=Path, default=CHAPTER, help="the chapter notebook (default: chapter 8)")
     parser.add_argument("--keep", type=Path, help="a folder to keep the session's files in (logs, screenshot)")
+    parser.add_argument("--out", type=Path, default=BENCH_OUT, help=f"the JSON to write (default {BENCH_OUT.name})")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as folder:
         workdir = args.keep or Path(folder)
         out = run_session(workdir, args.chapter)
-    rec = write_benchmark(out)
+    rec = write_benchmark(out, args.out)
     print(json.dumps(rec["summary"], indent=2))

@@ -592,17 +592,23 @@ def test_a_picture_sent_to_the_page_is_timed_with_its_encoding(browser_view):
         not isinstance(s, interactive._SentImages) for s in v.canvas.manager.web_sockets)
 
 
-def test_the_timer_only_asks_the_canvas_for_a_picture(browser_view, monkeypatch):
+def test_the_timer_sends_each_frame_to_the_page_and_events_only_change_the_state(browser_view, monkeypatch):
     v = browser_view
     asked = []
     monkeypatch.setattr(v.canvas, "draw_idle", lambda: asked.append(1))
-    v._running = True  # as if the timer ran: mouse events change the state, the next frame asks once
+    v._running = True  # as if the timer ran: mouse events change the state, the next frame draws it
     synthetic_mouse(v, "press", (1.9, 0.5))
     for k in range(5):
         synthetic_mouse(v, "move", (1.9 + 0.02 * k, 0.5))
-    assert asked == []
+    assert asked == [] and v.draw_times == []
     v._on_timer()
-    assert asked == [1] and v.draw_times == []  # asked, not drawn: the page asks back when it is ready
+    # the frame's picture went to the page at once (no request from the page): a whole one first
+    assert len(v.draw_times) == 1 and asked == [] and v.canvas._current_image_mode == "full"
+    v._on_timer()
+    assert len(v.draw_times) == 2 and v.canvas._current_image_mode == "diff"  # then differences ...
+    v._keyframe_at -= interactive.KEYFRAME_S
+    v._on_timer()
+    assert v.canvas._current_image_mode == "full"  # ... and a whole picture every KEYFRAME_S
     v._running = False
-    synthetic_mouse(v, "move", (2.1, 0.5))  # stopped: an event asks at once
-    assert asked == [1, 1]
+    synthetic_mouse(v, "move", (2.1, 0.5))  # stopped: an event asks the page for a picture
+    assert asked == [1]

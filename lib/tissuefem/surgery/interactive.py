@@ -24,18 +24,20 @@ drawing too, :meth:`~SurgeryView.draw`. So the same cells run in a browser
 with the mouse and headless in the test suite.
 
 **Drawing within the frame budget.** The readout above the axes shows the
-step (the simulation's frame) *and* the draw against the 33 ms budget. The
-view keeps a redraw cheap: the axes have a fixed place in the figure (no
-layout engine solves anything per frame), and the view's own figure draws
-everything that does not move (axes, ticks, labels) once, keeps that picture,
-and per frame restores it and draws only the moving layer over it: the
-triangles (one compound path for the faces and one for the edges, whose vertex
-arrays are rewritten in place), the drag target, the cut stroke and the two
-lines of text. The layer has no layout: messages go to a fixed place under
-the axes, wrapped and cut to two lines, so they never move the axes. Redraws
-are requested, not forced: while the timer runs, mouse events only change
-the state and the next frame draws it; on a browser canvas (ipympl) the page
-asks for each picture when it has shown the last one, so frames never queue up.
+step (the simulation's frame) *and* the draw against the 33 ms budget, and the
+frames drawn per second. The view keeps a redraw cheap: the axes have a fixed
+place in the figure (no layout engine solves anything per frame), and the
+view's own figure draws everything that does not move (axes, ticks, labels)
+once and keeps that picture; per frame it restores it and draws only the
+moving layer over it: the triangles (one compound path for the faces and one
+for the edges, whose vertex arrays are rewritten in place), the drag target
+and the cut stroke. The two lines of text change only at a readable pace (a
+new message at once) and are kept with the background in between. Messages
+go to a fixed place under the axes, wrapped and cut to two lines, so they
+never move the axes. Mouse events only change the state: while the timer
+runs, its next frame draws it. On a browser canvas (ipympl) the timer sends
+each frame's picture itself, with no request from the page per frame; other
+interactive canvases (Qt, Tk) are asked to redraw and coalesce the requests.
 
 **One live view per simulation and per notebook cell.** A new view of the same
 simulation stops the old one; re-running the cell that made a view closes the
@@ -89,6 +91,8 @@ TEXT_SIZE = 8
 MESSAGE_LINES = 2
 #: drawn frames kept for the frame rate and the draw times
 _KEEP = 600
+#: seconds between whole pictures pushed to a browser canvas (the others are differences)
+KEYFRAME_S = 0.5
 
 _MOUSE_EVENTS = {
     "press": "button_press_event",
@@ -343,6 +347,7 @@ class SurgeryView:
         self._drawn_at = collections.deque(maxlen=_KEEP)
         self._draw_started = None
         self._offscreen = False
+        self._keyframe_at = -math.inf
         self.last_report = None
         self.message = ""
         self._mode = "drag"
@@ -573,7 +578,26 @@ class SurgeryView:
         except Exception:
             self.stop()  # one traceback, not thirty a second
             raise
-        self._ask_canvas()
+        if self._sent_images is not None:
+            self._push_picture()
+        else:
+            self._ask_canvas()
+
+    def _push_picture(self) -> None:
+        """Render and send the frame's picture to the page now (a browser canvas: ipympl, WebAgg).
+
+        The page's own protocol asks for each picture with a message to the kernel, which costs a
+        request (and two kernel status changes the notebook page redraws) per frame; pushing the
+        picture from the timer costs neither and saves the round trip. The pictures are differences
+        to the last one; the page keeps only the newest of pictures that arrive faster than it
+        decodes them, so every ``KEYFRAME_S`` seconds a whole picture repairs anything a dropped
+        difference left behind.
+        """
+        now = time.perf_counter()
+        if now - self._keyframe_at >= KEYFRAME_S and hasattr(self.canvas, "_force_full"):
+            self.canvas._force_full = True  # WebAgg's flag for a whole picture (as after a page refresh)
+            self._keyframe_at = now
+        self.canvas.draw()
 
     def timings(self, last=None) -> dict:
         """Medians of the step and the draw (ms), their sum, and the frames drawn per second.
