@@ -296,7 +296,9 @@ def drag_session(driver, lab=None, seed=8):
         "status=view.status_text.get_text(), "
         "full_draws=getattr(view.fig, 'full_draws', None), slow_draws=getattr(view.fig, 'slow_draws', None), "
         "layer_draws=getattr(view.fig, 'layer_draws', None))")
+    checks = defect_checks(driver, canvas, fig)
     return dict(
+        checks=checks,
         figure_px=[fig["w"], fig["h"]],
         rest_fps=rest_fps,
         drag_fps=drag_fps,
@@ -315,6 +317,73 @@ def drag_session(driver, lab=None, seed=8):
         before=before,
         after=after,
     )
+
+
+VIEW_IN_PAGE = r"""
+const [w, h] = [arguments[0], arguments[1]];
+let canvases = 0, images = 0;
+for (const div of document.querySelectorAll('.jupyter-matplotlib-canvas-div')) {
+  const c = div.querySelector('canvas');
+  if (c && c.width === w && c.height === h) canvases++;
+}
+for (const img of document.querySelectorAll('.jp-OutputArea img')) {
+  if (img.naturalWidth === w && img.naturalHeight === h) images++;
+}
+return {canvases: canvases, images: images};
+"""
+
+RUN_CELL = r"""
+const [needle, done] = [arguments[0], arguments[arguments.length - 1]];
+const panel = window.jupyterapp.shell.currentWidget;
+const cells = panel.content.widgets;
+const i = cells.findIndex((c) => c.model.type === 'code' && c.model.sharedModel.getSource().includes(needle));
+const before = cells[i].model.executionCount;
+panel.content.activeCellIndex = i;
+window.jupyterapp.commands.execute('notebook:run-cell').then(() => done([i, before]), (e) => done([i, String(e)]));
+"""
+
+
+def run_cell(driver, needle, timeout=60):
+    """Run the notebook's code cell whose source contains ``needle`` (as Shift+Enter would) and wait for it."""
+    index, before = driver.execute_async_script(RUN_CELL, needle)
+    count = "return window.jupyterapp.shell.currentWidget.content.widgets[arguments[0]].model.executionCount;"
+    wait_for(lambda: driver.execute_script(count, index) not in (None, before), timeout,
+             f"the cell with {needle!r} to run")
+
+
+def defect_checks(driver, canvas, fig):
+    """The defects, checked in the page: one live view and no frozen copy of it; a failed cut's message in a
+    fixed place that leaves the axes where they are; re-running the cell that made the view stops the old one."""
+    checks = {"view_in_page": driver.execute_script(VIEW_IN_PAGE, fig["w"], fig["h"])}
+    # a stroke beside the tissue, not across it: the cut fails and says why
+    box = kernel_json(driver, "list(view.ax.get_position().bounds)")
+    beside = [(-0.5, 1.45), (-0.45, 1.4), (-0.4, 1.35), (-0.35, 1.3)]
+    offsets = canvas.offsets(beside)
+    chain = actions(driver).move_to_element_with_offset(canvas.element, *offsets[0]).click_and_hold()
+    for off in offsets[1:]:
+        chain.move_to_element_with_offset(canvas.element, *off).pause(0.05)
+    chain.release().perform()
+    try:
+        wait_for(lambda: kernel_json(driver, "view.message"), 20, "the failed cut's message")
+    except TimeoutError:
+        pass
+    checks["failed_cut"] = kernel_json(
+        driver,
+        "(lambda r: dict(message=view.message, box=list(view.ax.get_position().bounds), "
+        "shown=getattr(view, 'message_text', view.status_text).get_text(), "
+        "extent=list(getattr(view, 'message_text', view.status_text).get_window_extent(r).extents), "
+        "axes=list(view.ax.get_window_extent(r).extents), figure=list(view.fig.bbox.extents)))"
+        "(view.canvas.get_renderer())")
+    checks["failed_cut"]["box_before"] = box
+    # the student runs the view's cell again: the old view must stop
+    kernel_execute(driver, "_old_view = view")
+    run_cell(driver, "view = SurgeryView(sim")
+    rerun = kernel_json(driver, "dict(closed=getattr(_old_view, 'closed', None), running=bool(_old_view.running), "
+                                "frames=int(_old_view.sim.frames), replaced=view is not _old_view)")
+    time.sleep(0.5)
+    rerun["frames_later"] = kernel_json(driver, "int(_old_view.sim.frames)")
+    checks["rerun"] = rerun
+    return checks
 
 
 def median(values):
@@ -412,6 +481,17 @@ def test_chapter_8_view_in_jupyterlab_with_chromium(tmp_path):
     assert result["after"]["frames"] > result["before"]["frames"]
     assert result["after"]["mode"] == "cut" and result["after"]["running"]
     assert len(result["latency_ms"]) > 0, "the marker followed the mouse"
+    checks = result["checks"]
+    assert checks["view_in_page"] == {"canvases": 1, "images": 0}, "one live view, no frozen copy beside it"
+    failed = checks["failed_cut"]
+    assert failed["message"].startswith("cut failed") and failed["shown"].startswith("cut failed")
+    assert failed["box"] == failed["box_before"], "the message did not move the axes"
+    x0, y0, x1, y1 = failed["extent"]
+    assert failed["figure"][0] <= x0 and x1 <= failed["figure"][2] and y0 >= 0, "the message is not clipped"
+    assert y1 < failed["axes"][1], "the message sits under the axes"
+    rerun = checks["rerun"]
+    assert rerun["replaced"] and rerun["closed"] and not rerun["running"], "re-running the cell stopped the old view"
+    assert rerun["frames_later"] == rerun["frames"], "the old view's simulation no longer steps"
 
 
 if __name__ == "__main__":
