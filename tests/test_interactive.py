@@ -612,3 +612,43 @@ def test_the_timer_sends_each_frame_to_the_page_and_events_only_change_the_state
     v._running = False
     synthetic_mouse(v, "move", (2.1, 0.5))  # stopped: an event asks the page for a picture
     assert asked == [1]
+
+
+# ------------------------------------------------------------------ events from another thread
+def test_an_event_from_another_thread_waits_for_the_frame_in_progress(view):
+    import threading
+
+    done = threading.Event()
+
+    def press():
+        synthetic_mouse(view, "press", (1.9, 0.5))
+        done.set()
+
+    with view._lock:  # a frame (or a draw) in progress
+        worker = threading.Thread(target=press)
+        worker.start()
+        assert not done.wait(0.2) and view.grabbed is None
+    worker.join(5)
+    assert done.is_set() and view.grabbed is not None
+
+
+def test_start_and_stop_from_another_thread_go_to_the_timers_loop():
+    import asyncio
+    import threading
+
+    async def main():
+        v = SurgeryView(make_sim(), ax=Figure().add_subplot())
+        worker = threading.Thread(target=v.start)
+        worker.start()
+        worker.join(5)
+        assert not v.running  # handed to the loop, not started on the wrong thread
+        await asyncio.sleep(0.01)
+        assert v.running
+        worker = threading.Thread(target=v.stop)
+        worker.start()
+        worker.join(5)
+        await asyncio.sleep(0.01)
+        assert not v.running
+        v.disconnect()
+
+    asyncio.run(main())

@@ -53,11 +53,14 @@ is displayed with buttons for the mode and the timer (:meth:`SurgeryView.widget`
 
 from __future__ import annotations
 
+import asyncio
 import base64
 import collections
+import functools
 import io
 import math
 import textwrap
+import threading
 import time
 import weakref
 
@@ -176,12 +179,18 @@ class _LayeredFigure(Figure):
         self._kept = None  # region: the background with the slow layer over it
         self._slow_at = -math.inf
         self._slow_now = False
+        #: drawing and the views' changes to what is drawn happen one at a time (see SurgeryView)
+        self.lock = threading.RLock()
 
     def refresh_slow(self) -> None:
         """Draw the slow layer (its changed text) at the next draw, not after ``slow_interval``."""
         self._slow_now = True
 
     def draw(self, renderer):
+        with self.lock:
+            self._draw(renderer)
+
+    def _draw(self, renderer):
         if self.canvas.is_saving():
             super().draw(renderer)  # axes draw their animated children when saving
             return
@@ -247,6 +256,22 @@ class _SentImages:
         view = self._view()
         if view is not None:
             view._picture_sent(time.perf_counter(), len(blob))
+
+
+def _one_at_a_time(method):
+    """Run ``method`` holding the view's lock: a frame, an event and a draw never interleave.
+
+    A notebook kernel may handle a widget's messages (mouse events, buttons) on another thread than
+    the one whose loop runs the frame timer (ipykernel 7 routes a comm's messages to the subshell
+    that last used it), so a cut could otherwise rebuild the mesh in the middle of a frame.
+    """
+
+    @functools.wraps(method)
+    def locked(self, *args, **kwargs):
+        with self._lock:
+            return method(self, *args, **kwargs)
+
+    return locked
 
 
 class SurgeryView:
@@ -341,6 +366,13 @@ class SurgeryView:
         self.canvas = self.fig.canvas
         self.interactive = _is_interactive(self.canvas)
         self._layered = isinstance(self.fig, _LayeredFigure)
+        self._lock = self.fig.lock if self._layered else threading.RLock()
+        # the loop (and its thread) that runs the timer: a start or stop asked from elsewhere goes there
+        try:
+            self._loop = asyncio.get_running_loop()
+        except RuntimeError:
+            self._loop = None
+        self._loop_thread = threading.get_ident()
 
         self.frame_times: list[float] = []
         self.draw_times: list[float] = []
@@ -455,6 +487,7 @@ class SurgeryView:
         return self._mode
 
     @mode.setter
+    @_one_at_a_time
     def mode(self, value):
         if value not in MODES:
             raise ValueError(f"mode must be one of {MODES}, got {value!r}")
@@ -489,6 +522,7 @@ class SurgeryView:
         return self.mesh_faces.get_path().vertices.reshape(-1, 4, 2)[:, :3, :]
 
     # ------------------------------------------------------------------ frames and the timer
+    @_one_at_a_time
     def step(self):
         """Run one frame of the simulation (``sim.frame()``), record its time, update the picture; returns its report.
 
@@ -500,6 +534,7 @@ class SurgeryView:
         self._refresh()
         return report
 
+    @_one_at_a_time
     def draw(self) -> float | None:
         """Render the picture now, off-screen, and return how long it took (ms; ``None`` if not timed).
 
@@ -519,8 +554,17 @@ class SurgeryView:
             self.canvas.draw()
         return self.draw_times[-1] if len(self.draw_times) > n else None
 
+    def _elsewhere(self, method) -> bool:
+        """Hand ``method`` to the timer's loop if called from another thread (a button's message, say)."""
+        if self._loop is not None and threading.get_ident() != self._loop_thread and not self._loop.is_closed():
+            self._loop.call_soon_threadsafe(method)
+            return True
+        return False
+
     def start(self) -> None:
         """Start the timer that calls :meth:`step` every ``interval_ms`` (on any canvas, when called)."""
+        if self._elsewhere(self.start):
+            return
         if self.closed:
             raise ValueError("this view is disconnected (replaced or closed): make a new SurgeryView")
         if self._timer is None:
@@ -533,6 +577,8 @@ class SurgeryView:
 
     def stop(self) -> None:
         """Stop the timer (a frame in progress finishes)."""
+        if self._elsewhere(self.stop):
+            return
         if self._timer is not None and self._running:
             self._timer.stop()
         self._running = False
@@ -543,6 +589,7 @@ class SurgeryView:
         """Whether the timer is running."""
         return self._running
 
+    @_one_at_a_time
     def disconnect(self) -> None:
         """Stop the timer and detach every event handler (the figure stays as it is)."""
         self.stop()
@@ -570,7 +617,10 @@ class SurgeryView:
     def _on_close(self, event):
         self.disconnect()
 
+    @_one_at_a_time
     def _on_timer(self):
+        if self.closed:  # a stop handed to the loop has not arrived yet
+            return
         try:
             self.step()
         except ValueError as exc:
@@ -764,6 +814,7 @@ class SurgeryView:
     def _navigating(self) -> bool:
         return self.ax.get_navigate_mode() is not None
 
+    @_one_at_a_time
     def _on_press(self, event):
         point = self._point(event)
         if point is None or event.button != MouseButton.LEFT or self._navigating():
@@ -783,6 +834,7 @@ class SurgeryView:
         self._update_text()
         self._request_draw()
 
+    @_one_at_a_time
     def _on_motion(self, event):
         if self._handle is None and self._stroke is None:
             return
@@ -804,6 +856,7 @@ class SurgeryView:
             self.stroke_artist.set_data(xy[:, 0], xy[:, 1])
         self._request_draw()
 
+    @_one_at_a_time
     def _on_release(self, event):
         if event.button not in (None, MouseButton.LEFT):
             return
@@ -820,6 +873,7 @@ class SurgeryView:
             self.stroke_artist.set_data([], [])
             self._cut(np.array(stroke))
 
+    @_one_at_a_time
     def _on_key(self, event):
         if event.inaxes not in (None, self.ax):
             return
