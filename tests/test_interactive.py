@@ -9,6 +9,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 import pytest
+from matplotlib.backend_bases import MouseButton
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
@@ -652,3 +653,23 @@ def test_start_and_stop_from_another_thread_go_to_the_timers_loop():
         v.disconnect()
 
     asyncio.run(main())
+
+
+def test_the_real_mouse_moving_does_not_carry_on_a_grab_made_in_code(view):
+    from matplotlib.backend_bases import MouseEvent
+
+    sim = view.sim
+    synthetic_mouse(view, "press", (1.9, 0.5))  # as chapter 8 leaves its view: the edge held by code
+    name = view.grabbed
+    x, y = view.ax.transData.transform((0.5, -0.4))
+    hover = MouseEvent("motion_notify_event", view.canvas, x, y, guiEvent="a real move, no button held")
+    view.canvas.callbacks.process("motion_notify_event", hover)
+    np.testing.assert_allclose(sim.handle_offset(name), 0.0, atol=1e-12)  # the tissue did not follow
+    x, y = view.ax.transData.transform((1.95, 0.5))
+    press = MouseEvent("button_press_event", view.canvas, x, y, MouseButton.LEFT, guiEvent="a real press")
+    view.canvas.callbacks.process("button_press_event", press)
+    assert view.grabbed is not None and view.grabbed != name and name not in sim.handles  # replaced
+    x, y = view.ax.transData.transform((2.1, 0.6))
+    drag = MouseEvent("motion_notify_event", view.canvas, x, y, guiEvent="a real move, button held")
+    view.canvas.callbacks.process("motion_notify_event", drag)
+    np.testing.assert_allclose(sim.handle_offset(view.grabbed), (0.15, 0.1), atol=1e-9)

@@ -326,7 +326,10 @@ class SurgeryView:
     -----
     Press and motion events outside the axes are ignored; a release anywhere
     ends the current grab or stroke, so a handle never stays stuck to a mouse
-    that left the axes with the button held. Clicks are also ignored while the
+    that left the axes with the button held. A grab made in code (a
+    :func:`synthetic_mouse` press) is not carried on by the real mouse moving
+    over the figure, nor a real grab by made-up moves; a real press replaces
+    it. Clicks are also ignored while the
     toolbar's pan or zoom tool is active. A ``ValueError`` raised by the
     simulation inside an event handler or a timer frame is shown as the
     message instead of propagating. The key ``c`` is also matplotlib's
@@ -384,6 +387,7 @@ class SurgeryView:
         self.message = ""
         self._mode = "drag"
         self._handle = None  # name of the grabbed handle
+        self._real_press = False  # whether the grab or stroke began with a real press (a GUI event) or in code
         self._stroke: list[np.ndarray] | None = None  # the cut polyline being drawn
         self.stroke_spacing = 0.25 * mean_edge_length(sim.mesh)
         self._timer = None
@@ -820,6 +824,7 @@ class SurgeryView:
         if point is None or event.button != MouseButton.LEFT or self._navigating():
             return
         self.message = ""
+        self._real_press = event.guiEvent is not None
         if self._mode == "drag":
             self._end_grab()
             try:
@@ -837,6 +842,9 @@ class SurgeryView:
     @_one_at_a_time
     def _on_motion(self, event):
         if self._handle is None and self._stroke is None:
+            return
+        if (event.guiEvent is not None) != self._real_press:
+            # a real mouse moving (no button held) does not carry on a grab that code made, nor code a real one
             return
         point = self._point(event)
         if point is None:
@@ -913,7 +921,7 @@ class SurgeryView:
                 "without it, press 'c' or set view.mode"
             ) from None
         if self._widgets is None:
-            mode = widgets.ToggleButtons(options=list(MODES), value=self._mode, description="mode",
+            mode = widgets.ToggleButtons(options=list(MODES), value=self._mode,
                                          tooltips=["drag the tissue", "draw a stroke to cut along"],
                                          style={"button_width": "5em"})
             run = widgets.ToggleButton(value=self._running, description="run", icon="play",
