@@ -283,7 +283,10 @@ FRAME_HOOK = r"""
         for (let i = 0; i < d.length; i += 4) {
           if (Math.abs(d[i] - p.rgb[0]) < 40 && Math.abs(d[i + 1] - p.rgb[1]) < 40 && Math.abs(d[i + 2] - p.rgb[2]) < 40) hits++;
         }
-        if (hits >= p.min) p.shown = now;
+        if (hits >= p.min) {
+          p.shown = now;
+          if (p.resolve) { const resolve = p.resolve; p.resolve = null; resolve(now); }
+        }
       }
     }
     return out;
@@ -325,6 +328,16 @@ for (const c of cells) {
 return {kernel: kernel ? kernel.status : null, ready: panel.sessionContext.isReady,
         cells: cells.length, executed: cells.filter((c) => c.model.executionCount !== null).length,
         errors: errors};
+"""
+
+
+#: Resolves when the armed probe has shown (its paint time) or after arguments[0] ms (null): no polling.
+PROBE_SHOWN = r"""
+const [timeout, done] = [arguments[0], arguments[arguments.length - 1]];
+const p = window.__tf.probe;
+if (p.shown !== null) { done(p.shown); return; }
+p.resolve = done;
+setTimeout(() => { if (p.resolve) { p.resolve = null; done(null); } }, timeout);
 """
 
 

@@ -224,7 +224,7 @@ class _LayeredFigure(Figure):
         self.layer_draws += 1
         self.stale = False
         if not announced:
-            DrawEvent("draw_event", self.canvas, renderer)._process()
+            self.canvas.callbacks.process("draw_event", DrawEvent("draw_event", self.canvas, renderer))
         rendered = time.perf_counter()
         for view in self.views:
             view._drawing_rendered(started, rendered)
