@@ -68,7 +68,7 @@ def free_port() -> int:
 
 
 def wait_for(condition, timeout, what, interval=0.1):
-    """Call ``condition()`` until it returns something truthy (returned) or ``timeout`` seconds pass (``TimeoutError``)."""
+    """Call ``condition()`` until it returns something truthy (returned); ``TimeoutError`` after ``timeout`` s."""
     deadline = time.monotonic() + timeout
     while True:
         value = condition()
@@ -280,8 +280,9 @@ FRAME_HOOK = r"""
       if (p !== null && p.shown === null) {
         const d = this.getImageData(p.x - p.r, p.y - p.r, 2 * p.r + 1, 2 * p.r + 1).data;
         let hits = 0;
+        const near = (i, k) => Math.abs(d[i + k] - p.rgb[k]) < 40;
         for (let i = 0; i < d.length; i += 4) {
-          if (Math.abs(d[i] - p.rgb[0]) < 40 && Math.abs(d[i + 1] - p.rgb[1]) < 40 && Math.abs(d[i + 2] - p.rgb[2]) < 40) hits++;
+          if (near(i, 0) && near(i, 1) && near(i, 2)) hits++;
         }
         if (hits >= p.min) {
           p.shown = now;

@@ -394,7 +394,6 @@ class SurgeryView:
         self._running = False
         self._widgets = None
         self._box = None
-        self._displayed = False
         self._text_key = None
         self.closed = False
 
@@ -442,7 +441,10 @@ class SurgeryView:
         sockets = getattr(getattr(self.canvas, "manager", None), "web_sockets", None)
         if self._layered and isinstance(sockets, (list, set)):
             self._sent_images = _SentImages(self)
-            sockets.append(self._sent_images) if isinstance(sockets, list) else sockets.add(self._sent_images)
+            if isinstance(sockets, list):  # ipympl keeps a list, WebAgg a set
+                sockets.append(self._sent_images)
+            else:
+                sockets.add(self._sent_images)
 
         self._cids = [
             self.canvas.mpl_connect("button_press_event", self._on_press),
@@ -700,7 +702,8 @@ class SurgeryView:
         faces, lines = Path(self._faces, face_codes), Path(self._edges, edge_codes)
         lines.should_simplify = False  # every edge drawn, however short
         # the in-place update needs paths that hold the arrays themselves; if a matplotlib ever copies, copy too
-        self._views = bool(np.shares_memory(faces.vertices, self._faces) and np.shares_memory(lines.vertices, self._edges))
+        self._views = bool(np.shares_memory(faces.vertices, self._faces)
+                           and np.shares_memory(lines.vertices, self._edges))
         self.mesh_faces.set_path(faces)
         self.mesh_edges.set_path(lines)
         self._fill(np.asarray(self.sim.positions(), dtype=float))
@@ -934,7 +937,10 @@ class SurgeryView:
         return self._widgets[2]
 
     def widget(self):
-        """The view as one widget, its buttons above the live figure; ``None`` unless the canvas is an ipywidget (ipympl)."""
+        """The view as one widget, its buttons above the live figure.
+
+        ``None`` unless the canvas is an ipywidget (ipympl's, under ``%matplotlib widget``).
+        """
         try:
             import ipywidgets as widgets
         except ImportError:
@@ -948,7 +954,6 @@ class SurgeryView:
     def _repr_mimebundle_(self, include=None, exclude=None):
         """Jupyter shows the live widget (buttons and figure) once, or on a static backend the picture."""
         box = self.widget()
-        self._displayed = True
         if box is not None:
             if self.autostart and not self.closed and self.interactive:
                 self.start()
