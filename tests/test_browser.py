@@ -40,9 +40,7 @@ from pathlib import Path
 import nbformat
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from browser_lab import (PROBE_SHOWN, JupyterLab, browser_missing, cpu_seconds, descendants, kernel_execute,  # noqa: E402
+from browser_lab import (PROBE_SHOWN, JupyterLab, browser_missing, cpu_seconds, descendants, kernel_execute,
                          kernel_json, open_notebook, run_all_cells, start_chromium, wait_for)
 
 pytestmark = pytest.mark.browser
@@ -427,7 +425,9 @@ def write_benchmark(result, path=BENCH_OUT):
         "measured": {k: v for k, v in result.items() if k not in ("after",)},
         "kernel": result["after"],
         "machine": {"python": platform.python_version(), "platform": platform.platform(),
-                    "processor": platform.machine()},
+                    "processor": platform.machine(), "cpus": os.cpu_count(),
+                    # other work on the machine takes CPU from the kernel, the server and the browser alike
+                    "load_average_1_5_15_min": list(os.getloadavg()) if hasattr(os, "getloadavg") else None},
         "versions": {"matplotlib": matplotlib.__version__, "ipympl": ipympl_version},
     }
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -445,9 +445,6 @@ def run_session(workdir, chapter=CHAPTER):
             run_all_cells(driver)
             assert kernel_json(driver, "bool(INTERACTIVE and view.interactive and view.running)"), \
                 "the chapter's last cell should leave the view running on the ipympl canvas"
-            if os.environ.get("TF_DEBUG_SHOT"):
-                time.sleep(3)
-                driver.save_screenshot(str(workdir / "ran.png"))
             result = drag_session(driver, lab)
             driver.save_screenshot(str(workdir / "after.png"))
             return result
