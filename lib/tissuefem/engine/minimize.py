@@ -178,6 +178,7 @@ def newton(
     budget: float = math.inf,
     start: float | None = None,
     energy0: float | None = None,
+    energy_floor: float = 0.0,
     max_halvings: int = 30,
 ) -> NewtonResult:
     """Minimise ``energy`` (or find a zero of ``gradient``) over the ``free`` dofs by Newton's method.
@@ -210,6 +211,9 @@ def newton(
         Wall-clock budget in seconds measured by ``clock`` from ``start`` (default: when called).
     energy0
         ``E(x0)`` if already known.
+    energy_floor
+        The energy's round-off level (absolute): energy changes below it are not trusted, and a step
+        that changes the energy by less but lowers the residual is accepted.
     """
     x = np.array(x0, dtype=float, copy=True)
     if x.ndim != 1:
@@ -315,7 +319,7 @@ def newton(
                 if np.isfinite(E_new):
                     if E_new <= E + _ARMIJO * alpha * min(slope, 0.0):
                         accepted = True
-                    elif E_new - E <= _ENERGY_ROUNDOFF * e_scale:
+                    elif E_new - E <= max(_ENERGY_ROUNDOFF * e_scale, energy_floor):
                         g_new = np.asarray(gradient(x_new), dtype=float)
                         accepted = bool(np.linalg.norm(g_new[mask]) < rnorm)
                     if accepted:
