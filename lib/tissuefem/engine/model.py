@@ -359,7 +359,8 @@ class Model:
             terms.append(Probe(self.X, self.boundary_lengths, **spec))
         if sutures is not None:
             spec = dict(sutures)
-            terms.append(Sutures(self.X, spec["pairs"], spec["stiffness"], spec["gaps"], spec.get("tightness", 0.0)))
+            terms.append(Sutures(self.X, spec["pairs"], spec["stiffness"], spec["gaps"], spec.get("tightness", 0.0),
+                                  coefficients=spec.get("coefficients")))
         if gravity is not None:
             g = check_vector("gravity", gravity)
             terms.append(Load("gravity", self.assembler.body_force(self.density * g)))

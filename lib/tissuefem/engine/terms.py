@@ -470,39 +470,66 @@ class Probe(Term):
 
 
 class Sutures(Term):
-    """Stiff springs that tie pairs of nodes together: ``E = sum_s k/2 |x_a - x_b - g_s|^2``.
+    """Stiff springs that tie pairs of points together: ``E = sum_s k/2 |x_a - x_b - g_s|^2``.
 
-    ``g_s`` is the slack: the gap the suture still allows. A suture is placed
-    with its current gap as slack (no force at first) and then *tightened*:
-    ``tighten(s)`` sets ``g = (1 - s) g_0``, so ``s = 1`` closes the wound.
-    Every term is quadratic (a zero-length spring), so the Hessian is constant;
-    it couples the two nodes of each pair, which widens the model's pattern.
-    ``k`` is a force per unit length (per unit thickness, in 2D).
+    A stitch's two ends are points of the tissue: a node, or a point inside
+    an element (on a wound cut through elements), which moves with the
+    element's three nodes, ``x_a = sum_c w_c x_{n_c}`` with its barycentric
+    weights ``w``. ``g_s`` is the slack: the gap the suture still allows. A
+    suture is placed with its current gap as slack (no force at first) and then
+    *tightened*: ``tighten(s)`` sets ``g = (1 - s) g_0``, so ``s = 1`` closes the
+    wound. Every term is quadratic (a zero-length spring), so the Hessian is
+    constant: ``k D^T D`` with ``D`` the map from nodes to the gap; it couples
+    the nodes of the two ends, which widens the model's pattern. ``k`` is a
+    force per unit length (per unit thickness, in 2D).
+
+    Parameters
+    ----------
+    X : ndarray, shape (2, n_nodes)
+    pairs : int array, shape (2, k) or (2, c, k)
+        Node pairs; or, with ``coefficients``, the ``c`` nodes of each end.
+    stiffness : float or (k,), gaps : (2, k), tightness
+    coefficients : array, shape (2, c, k), optional
+        Weights of the nodes of each end (each end's weights add up to 1).
     """
 
     name = "sutures"
     quadratic = True
 
-    def __init__(self, X, pairs, stiffness, gaps, tightness=0.0):
+    def __init__(self, X, pairs, stiffness, gaps, tightness=0.0, coefficients=None):
         self.X = X
         self.n_nodes = X.shape[1]
         pairs = np.asarray(pairs)
-        if pairs.ndim != 2 or pairs.shape[0] != 2 or pairs.shape[1] == 0 or not np.issubdtype(pairs.dtype, np.integer):
-            raise ValueError(f"sutures.pairs must be node index pairs shaped (2, k), got {pairs!r}")
+        if not np.issubdtype(pairs.dtype, np.integer) or pairs.ndim not in (2, 3) or pairs.shape[0] != 2 \
+                or pairs.shape[-1] == 0 or (pairs.ndim == 3 and coefficients is None):
+            raise ValueError(f"sutures.pairs must be node index pairs shaped (2, k), got {pairs!r:.200}")
         if pairs.min() < 0 or pairs.max() >= self.n_nodes:
             raise ValueError(f"sutures.pairs has node indices outside the mesh (0..{self.n_nodes - 1})")
-        if np.any(pairs[0] == pairs[1]):
-            raise ValueError("sutures.pairs ties a node to itself")
-        self.pairs = pairs.astype(np.intp)
-        k = np.broadcast_to(np.asarray(stiffness, dtype=float), (self.pairs.shape[1],)).copy()
+        if pairs.ndim == 2:
+            nodes, coef = pairs[:, None, :], np.ones((2, 1, pairs.shape[1]))
+            if np.any(pairs[0] == pairs[1]):
+                raise ValueError("sutures.pairs ties a node to itself")
+        else:
+            nodes = pairs
+            coef = np.asarray(coefficients, dtype=float)
+            if coef.shape != nodes.shape or not np.all(np.isfinite(coef)) or np.any(coef < -1e-12) \
+                    or not np.allclose(coef.sum(axis=1), 1.0, atol=1e-9):
+                raise ValueError(f"sutures.coefficients must be barycentric weights shaped {nodes.shape} "
+                                 "(each end's weights >= 0 adding up to 1)")
+        self.nodes = nodes.astype(np.intp)
+        self.coefficients = coef
+        k_count = nodes.shape[-1]
+        #: node pairs (2, k): each end's node of largest weight (the node itself for node-to-node stitches)
+        self.pairs = np.take_along_axis(self.nodes, np.argmax(coef, axis=1)[:, None, :], axis=1)[:, 0, :]
+        k = np.broadcast_to(np.asarray(stiffness, dtype=float), (k_count,)).copy()
         if not np.all(np.isfinite(k) & (k > 0)):
             raise ValueError(f"sutures.stiffness must be finite and > 0, got {stiffness!r}")
         self.k = k
         gaps = np.asarray(gaps, dtype=float)
-        if gaps.shape != self.pairs.shape or not np.all(np.isfinite(gaps)):
-            raise ValueError(f"sutures.gaps must be finite and shaped {self.pairs.shape}, got {gaps.shape}")
+        if gaps.shape != (2, k_count) or not np.all(np.isfinite(gaps)):
+            raise ValueError(f"sutures.gaps must be finite and shaped {(2, k_count)}, got {gaps.shape}")
         self.gap0 = gaps
-        self.tightness = np.zeros(self.pairs.shape[1])
+        self.tightness = np.zeros(k_count)
         self.slack = self.gap0.copy()
         self.tighten(tightness)
 
@@ -518,32 +545,33 @@ class Sutures(Term):
         self.slack = (1.0 - self.tightness) * self.gap0
 
     def describe(self):
-        return f"sutures: {self.pairs.shape[1]} stitches, mean tightness {self.tightness.mean():g}"
+        return f"sutures: {self.k.size} stitches, mean tightness {self.tightness.mean():g}"
 
-    def _x(self, u):
-        return self.X + u[: 2 * self.n_nodes].reshape(-1, 2).T
+    def ends(self, u) -> np.ndarray:
+        """Where the two ends of every stitch are: shape (2 ends, 2 coordinates, k)."""
+        x = self.X + u[: 2 * self.n_nodes].reshape(-1, 2).T
+        return np.einsum("sck,iksc->sik", self.coefficients, x[:, self.nodes.transpose(2, 0, 1)])
 
     def _gap(self, u):
-        x = self._x(u)
-        return x[:, self.pairs[0]] - x[:, self.pairs[1]] - self.slack
+        a, b = self.ends(u)
+        return a - b - self.slack
 
     def energy(self, u):
         e = self._gap(u)
         return 0.5 * float(np.sum(self.k * (e[0] ** 2 + e[1] ** 2)))
 
     def gradient(self, u):
-        e = self.k * self._gap(u)
+        e = self.k * self._gap(u)  # (2, k): the spring force on end a (minus on end b)
+        signed = self.coefficients * np.array([1.0, -1.0])[:, None, None]  # (2, c, k)
         g = np.zeros(u.size)
         for i in range(2):
-            np.add.at(g, 2 * self.pairs[0] + i, e[i])
-            np.add.at(g, 2 * self.pairs[1] + i, -e[i])
+            np.add.at(g, 2 * self.nodes.ravel() + i, (signed * e[i]).ravel())
         return g
 
     def distances(self, u) -> np.ndarray:
-        """How far apart each sutured pair is (0 when closed)."""
-        x = self._x(u)
-        d = x[:, self.pairs[0]] - x[:, self.pairs[1]]
-        return np.hypot(d[0], d[1])
+        """How far apart the two ends of each stitch are (0 when closed)."""
+        a, b = self.ends(u)
+        return np.hypot(*(a - b))
 
     def forces(self, u) -> np.ndarray:
         """The tension ``k |x_a - x_b - g|`` in each stitch."""
@@ -551,14 +579,15 @@ class Sutures(Term):
         return self.k * np.hypot(e[0], e[1])
 
     def _triplets(self):
-        a, b = self.pairs
-        rows, cols, vals = [], [], []
-        for p, q, sign in ((a, a, 1.0), (b, b, 1.0), (a, b, -1.0), (b, a, -1.0)):
-            for i in range(2):
-                rows.append(2 * p + i)
-                cols.append(2 * q + i)
-                vals.append(sign * self.k)
-        return np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
+        # D maps node displacements to the gap: +w on end a's nodes, -w on end b's; the Hessian is k D^T D
+        nodes = self.nodes.reshape(-1, self.k.size)  # (2c, k)
+        signed = (self.coefficients * np.array([1.0, -1.0])[:, None, None]).reshape(-1, self.k.size)
+        p = np.repeat(nodes[:, None, :], nodes.shape[0], axis=1)  # rows (2c, 2c, k)
+        q = np.repeat(nodes[None, :, :], nodes.shape[0], axis=0)
+        w = signed[:, None, :] * signed[None, :, :] * self.k
+        rows = np.concatenate([2 * p.ravel() + i for i in range(2)])
+        cols = np.concatenate([2 * q.ravel() + i for i in range(2)])
+        return rows, cols, np.concatenate([w.ravel(), w.ravel()])
 
     def couplings(self):
         rows, cols, _ = self._triplets()

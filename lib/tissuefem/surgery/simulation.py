@@ -24,7 +24,7 @@ from ..engine import meshes
 from ..engine.model import Handle, Model, region_nodes
 from ..engine.realtime import RealtimeSolver
 from ..engine.terms import check_vector
-from . import topology
+from . import element_cuts, topology
 from .scene import Scene, _number
 
 __all__ = ["Simulation"]
@@ -233,6 +233,16 @@ class Simulation:
     def run(self, frames: int, targets=None):
         """Run ``frames`` frames (with the same ``targets`` for each); return the reports."""
         return [self.frame(targets) for _ in range(int(frames))]
+
+    @property
+    def picture(self):
+        """What to draw (:class:`~tissuefem.surgery.element_cuts.Picture`): the triangles, and for elements cut
+        through, the material they carry (built once per mesh)."""
+        cached = getattr(self, "_picture", None)
+        if cached is None or cached[0] is not self.mesh:
+            cached = (self.mesh, element_cuts.picture(self.mesh, getattr(self, "_regions", None)))
+            self._picture = cached
+        return cached[1]
 
     def positions(self) -> np.ndarray:
         """Deformed node positions ``x = X + u`` ``(2, n_nodes)``."""
