@@ -490,7 +490,9 @@ class Sutures(Term):
         Node pairs; or, with ``coefficients``, the ``c`` nodes of each end.
     stiffness : float or (k,), gaps : (2, k), tightness
     coefficients : array, shape (2, c, k), optional
-        Weights of the nodes of each end (each end's weights add up to 1).
+        Weights of the nodes of each end (each end's weights add up to 1; a
+        point just outside its element, carried by the element's P1 map
+        extended to it, has a slightly negative one).
     """
 
     name = "sutures"
@@ -512,10 +514,10 @@ class Sutures(Term):
         else:
             nodes = pairs
             coef = np.asarray(coefficients, dtype=float)
-            if coef.shape != nodes.shape or not np.all(np.isfinite(coef)) or np.any(coef < -1e-12) \
+            if coef.shape != nodes.shape or not np.all(np.isfinite(coef)) or np.any(np.abs(coef) > 10.0) \
                     or not np.allclose(coef.sum(axis=1), 1.0, atol=1e-9):
                 raise ValueError(f"sutures.coefficients must be barycentric weights shaped {nodes.shape} "
-                                 "(each end's weights >= 0 adding up to 1)")
+                                 "(each end's weights in [-10, 10], adding up to 1)")
         self.nodes = nodes.astype(np.intp)
         self.coefficients = coef
         k_count = nodes.shape[-1]

@@ -114,8 +114,8 @@ import numpy as np
 
 from .topology import MeshEdit, _keys, _mesh_arrays, _new_mesh, _points, _positions, excise
 
-__all__ = ["Region", "Wound", "ElementCut", "cut_through", "excise_through", "Picture", "picture", "lumped_mass",
-           "material_areas"]
+__all__ = ["Region", "Wound", "ElementCut", "cut_through", "excise_through", "Picture", "picture", "locate",
+           "firm_anchor", "carry_points", "lumped_mass", "material_areas"]
 
 #: Geometric tolerance in a triangle's local coordinates (the unit triangle):
 #: points closer than this are one point, and a point this close to an edge is on it.
@@ -1532,3 +1532,126 @@ def _in_triangle(q, a, b, c) -> bool:
     d2 = _cross(c[0] - b[0], c[1] - b[1], q[0] - b[0], q[1] - b[1])
     d3 = _cross(a[0] - c[0], a[1] - c[1], q[0] - c[0], q[1] - c[1])
     return d1 >= 0.0 and d2 >= 0.0 and d3 >= 0.0
+
+
+# --------------------------------------------------------------------------
+# points of the material: where a stitch or a probe attaches
+# --------------------------------------------------------------------------
+def _region_distance(region, xi) -> float:
+    """How far the local point ``xi`` lies outside the material of ``region`` (0 inside or on its boundary)."""
+    best = math.inf
+    for poly in region.polygons:
+        if _winding(xi, poly.tolist()) != 0:
+            return 0.0
+        for a, b in zip(poly, np.roll(poly, -1, axis=0)):
+            d = b - a
+            s = min(1.0, max(0.0, float(np.dot(xi - a, d) / max(np.dot(d, d), 1e-300))))
+            best = min(best, float(np.hypot(*(a + s * d - xi))))
+    return best
+
+
+def locate(mesh, point, positions=None, regions=None, candidates=None):
+    """The element whose material holds ``point`` (deformed coordinates) and the point's barycentric coordinates.
+
+    Returns ``(element, barycentric (3,))`` or ``None`` when no material is
+    within a thousandth of an element of the point. Of the copies of a cut
+    triangle, the one whose material holds the point (or lies nearest to it,
+    in the triangle's local coordinates) is chosen; ``candidates`` restricts the
+    search to some elements.
+    """
+    p, t = _mesh_arrays(mesh)
+    x = _positions(mesh, positions)
+    q = np.asarray(point, dtype=float)
+    elements = np.arange(t.shape[1]) if candidates is None else np.asarray(candidates, dtype=np.int64)
+    a, b, c = (x[:, t[k, elements]] for k in range(3))
+    d1, d2 = b - a, c - a
+    det = d1[0] * d2[1] - d1[1] * d2[0]
+    ok = np.abs(det) > 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = q[:, None] - a
+        xi = np.where(ok, (r[0] * d2[1] - r[1] * d2[0]) / det, np.inf)
+        eta = np.where(ok, (d1[0] * r[1] - d1[1] * r[0]) / det, np.inf)
+    outside = np.maximum.reduce([-xi, -eta, xi + eta - 1.0, np.zeros_like(xi)])
+    regions = {} if regions is None else regions
+    order = np.argsort(outside, kind="stable")
+    best, best_d = None, math.inf
+    for i in order[:16].tolist():
+        if outside[i] > 1e-3 or outside[i] >= best_d:
+            break
+        e = int(elements[i])
+        local = np.array([xi[i], eta[i]])
+        d = outside[i] + (_region_distance(regions[e], local) if e in regions else 0.0)
+        if d < best_d:
+            best, best_d = (e, np.array([1.0 - local.sum(), local[0], local[1]])), d
+    if best is None or best_d > 1e-3:
+        return None
+    return best
+
+
+#: A point attached to the material (a stitch's end) in a copy lighter than this share of its triangle is
+#: carried by a firmer neighbour instead (see :func:`firm_anchor`)
+FIRM_WEIGHT = 0.25
+
+
+def firm_anchor(mesh, element, barycentric, positions=None, weights=None, regions=None, firm=FIRM_WEIGHT):
+    """Attach a point of the material to an element that carries at least ``firm`` of its triangle.
+
+    A copy that holds a thin sliver of its triangle has as little stiffness
+    as material: a force applied at a point of it (a stitch pulling on a wound
+    edge) would stretch the sliver, whose far ("virtual") nodes hold almost
+    nothing, instead of the tissue. The point is then carried by the firmest
+    neighbour on the same side of the cut (an element sharing a node with it,
+    hence joined to its material): the point's position is that element's P1
+    map extended to it (barycentric coordinates that may be slightly negative:
+    an affine, not a convex, combination of the three nodes), so the sliver
+    moves with the tissue next to it. Returns ``(element, barycentric)``.
+    """
+    p, t = _mesh_arrays(mesh)
+    m = t.shape[1]
+    w = _weights(weights, m)
+    if w[element] >= firm:
+        return element, np.asarray(barycentric, dtype=float)
+    x = _positions(mesh, positions)
+    point = x[:, t[:, element]] @ np.asarray(barycentric, dtype=float)
+    near = np.flatnonzero(np.isin(t, t[:, element]).any(axis=0) & (w >= firm))
+    if near.size == 0:
+        return element, np.asarray(barycentric, dtype=float)
+    regions = {} if regions is None else regions
+    best, best_d = None, math.inf
+    for e in near.tolist():
+        a, b, c = x[:, t[0, e]], x[:, t[1, e]], x[:, t[2, e]]
+        J = np.column_stack([b - a, c - a])
+        if abs(np.linalg.det(J)) <= 0:
+            continue
+        xi = np.linalg.solve(J, point - a)
+        local = np.array([xi[0], xi[1]])
+        d = _region_distance(regions[e], local) if e in regions else max(0.0, -xi[0], -xi[1], xi.sum() - 1.0)
+        if d < best_d:
+            best, best_d = (e, np.array([1.0 - xi.sum(), xi[0], xi[1]])), d
+    return best if best is not None else (element, np.asarray(barycentric, dtype=float))
+
+
+def carry_points(edit, elements, barycentric, regions=None):
+    """Points of the material (``elements (k,)`` with ``barycentric (k, 3)``) after ``edit``: the new element of
+    each, or -1 where its element was removed.
+
+    A cut keeps each element's local coordinates, so a point keeps its
+    barycentric coordinates; of the copies of its element, it goes to the
+    one whose material (``regions`` of the new mesh) holds it.
+    """
+    elements = np.asarray(elements, dtype=np.int64)
+    bary = np.asarray(barycentric, dtype=float)
+    copies = {}
+    for new, old in enumerate(np.asarray(edit.elements).tolist()):
+        copies.setdefault(old, []).append(new)
+    regions = {} if regions is None else regions
+    out = np.full(elements.shape, -1, dtype=np.int64)
+    for j, (e, w) in enumerate(zip(elements.tolist(), bary)):
+        options = copies.get(e, [])
+        if len(options) == 1:
+            out[j] = options[0]
+        elif options:
+            local = w[1:]
+            dist = [(_region_distance(regions[c], local) if c in regions else 0.0) for c in options]
+            out[j] = options[int(np.argmin(dist))]
+    return out

@@ -92,13 +92,18 @@ class Simulation:
         self.removed_pieces = 0
         self._sutures = None
         self._state = None
+        # the material of elements cut through (weights: share of the triangle; regions: where it lies)
+        self._weights = None
+        self._regions = {}
         if (scene.effects.get("excisions") or scene.effects.get("incisions")) and order != 1:
             raise ValueError("solver: excisions and incisions need P1 elements (order=1)")
         for i, e in enumerate(scene.effects.get("excisions", [])):
-            self._apply_edit(topology.excise, np.asarray(e["polygon"], dtype=float), f"effects.excisions[{i}]",
+            operation = element_cuts.excise_through if e.get("method", "elements") == "elements" else topology.excise
+            self._apply_edit(operation, np.asarray(e["polygon"], dtype=float), f"effects.excisions[{i}]",
                              rebuild=False)
         for i, e in enumerate(scene.effects.get("incisions", [])):
-            self._apply_edit(topology.incise, np.asarray(e["path"], dtype=float), f"effects.incisions[{i}]",
+            operation = element_cuts.cut_through if e.get("method", "elements") == "elements" else topology.incise
+            self._apply_edit(operation, np.asarray(e["path"], dtype=float), f"effects.incisions[{i}]",
                              rebuild=False)
         self._rebuild()
         for i, p in enumerate(scene.effects.get("probes", [])):
@@ -135,7 +140,8 @@ class Simulation:
                 dt=None if inertia is None else inertia["time_step"], density=self.density,
                 mass="lumped" if inertia is None else inertia["mass"],
                 gravity=None if gravity is None else gravity["acceleration"],
-                tractions=tractions or None, fibers=self._fibers, probes=probes, sutures=self._sutures,
+                tractions=tractions or None, fibers=self._fibers, probes=probes,
+                sutures=self._suture_spec(self._sutures), weights=self._weights,
             )
         except ValueError as err:
             if "tractions" in str(err) and "effects." not in str(err):
@@ -172,13 +178,13 @@ class Simulation:
         """Apply a change completely or not at all: on any error, everything is put back as it was."""
         saved = (self.mesh, self._fibers, copy.deepcopy(self._sutures), copy.deepcopy(self._probe_specs),
                  getattr(self, "model", None), getattr(self, "solver", None), self._grab_count, self._probe_count,
-                 self.removed_pieces)
+                 self.removed_pieces, self._weights, self._regions)
         handles = [(h, h.target) for h in self._current_handles()]
         try:
             yield
         except BaseException:
             (self.mesh, self._fibers, self._sutures, self._probe_specs, model, solver, self._grab_count,
-             self._probe_count, self.removed_pieces) = saved
+             self._probe_count, self.removed_pieces, self._weights, self._regions) = saved
             self._state = None
             if model is not None:
                 self.model, self.solver = model, solver
@@ -349,9 +355,13 @@ class Simulation:
     # ------------------------------------------------------------------ topology changes
     def _apply_edit(self, operation, argument, field, rebuild=True):
         running = hasattr(self, "solver")
+        material = dict(weights=self._weights, regions=self._regions)
         try:
-            if operation is topology.incise:  # cut where the user drew, on the deformed tissue
-                edit = operation(self.mesh, argument, self.positions() if running else None)
+            if operation in (topology.incise, element_cuts.cut_through):  # where the user drew, on the deformed tissue
+                options = material if operation is element_cuts.cut_through else {}
+                edit = operation(self.mesh, argument, self.positions() if running else None, **options)
+            elif operation is element_cuts.excise_through:  # an outline in reference coordinates
+                edit = operation(self.mesh, argument, None, **material)
             else:
                 edit = operation(self.mesh, argument)
         except ValueError as err:
@@ -359,16 +369,23 @@ class Simulation:
         with self._transaction():
             if running:
                 self._save_state()
+            weights, regions = self._material_after(edit)
+            sutures = self._carry_sutures(self._sutures, edit, regions)
             if not self.dynamic:
-                edit = self._drop_loose_pieces(edit)
+                edit, kept = self._drop_loose_pieces(edit, sutures)
+                if kept is not None:  # the elements that stay, of those the edit made
+                    weights = None if weights is None else weights[kept]
+                    regions = {int(new): regions[int(old)] for new, old in enumerate(kept.tolist())
+                               if int(old) in regions}
+                    sutures = self._carry_sutures(sutures, _Kept(kept), regions)
             parent = edit.parent
             # carry everything node- and element-based over
             new_handles = [m for m in (h.remap(parent) for h in self._current_handles()) if m is not None]
             self._check_held(new_handles)
             if self._fibers is not None:
                 self._fibers = (self._fibers[0], self._fibers[1][:, edit.elements])
-            if self._sutures is not None:
-                self._sutures = self._remap_sutures(self._sutures, parent)
+            self._sutures = sutures
+            self._weights, self._regions = weights, regions
             if self._state is not None:
                 u, v, v_prev, t, frames, budget, dt = self._state
 
@@ -383,23 +400,24 @@ class Simulation:
                 self._pending_handles = new_handles
         return edit
 
-    def _drop_loose_pieces(self, edit):
+    def _drop_loose_pieces(self, edit, sutures):
         """Quasistatic scenes: remove pieces that nothing holds (no handle, no suture to a held piece).
 
         Such a piece has no equilibrium (its stiffness matrix is singular, and
         under a load it would run away), so it is lifted out of the simulation,
         as a surgeon lifts out what was cut free. Dynamic scenes keep every piece.
+        ``sutures`` are the stitches on ``edit``'s mesh. Returns ``(edit, kept)``:
+        the edit with the pieces removed, and which of its elements stay (``None``
+        when nothing was removed).
         """
         mesh = edit.mesh
         n = mesh.nvertices
         t = mesh.t
         rows = [t[0], t[1], t[2]]
         cols = [t[1], t[2], t[0]]
-        if self._sutures is not None:
-            sutures = self._remap_sutures(self._sutures, edit.parent)
-            if sutures is not None:
-                rows.append(sutures["pairs"][0])
-                cols.append(sutures["pairs"][1])
+        if sutures is not None:  # a stitch joins the pieces of its two ends
+            rows.append(t[0, sutures["elements"][0]])
+            cols.append(t[0, sutures["elements"][1]])
         r, c = np.concatenate(rows), np.concatenate(cols)
         graph = sp.coo_matrix((np.ones(r.size), (r, c)), shape=(n, n))
         _, labels = connected_components(graph, directed=False)
@@ -410,44 +428,82 @@ class Simulation:
                 held[labels[moved.nodes]] = True
         loose = ~held[labels[t[0]]]
         if not np.any(loose) or np.all(loose):
-            return edit  # nothing to drop (or nothing held at all: _check_held reports it)
+            return edit, None  # nothing to drop (or nothing held at all: _check_held reports it)
         second = topology.excise(mesh, lambda centroids: loose)
         self.removed_pieces += 1
-        return dataclasses.replace(second, parent=edit.parent[second.parent], elements=edit.elements[second.elements],
-                                   cut_edges=edit.cut_edges, n_old_nodes=edit.n_old_nodes,
-                                   n_old_elements=edit.n_old_elements)
+        merged = dataclasses.replace(second, parent=edit.parent[second.parent], elements=edit.elements[second.elements],
+                                     cut_edges=edit.cut_edges, n_old_nodes=edit.n_old_nodes,
+                                     n_old_elements=edit.n_old_elements)
+        return merged, second.elements
+
+    def _material_after(self, edit):
+        """The weights and regions of the elements of ``edit``'s mesh (a cut through elements brings its own)."""
+        if isinstance(edit, element_cuts.ElementCut):
+            weights, regions = edit.weights, edit.regions
+        elif self._weights is None:
+            return None, {}
+        else:
+            weights = self._weights[edit.elements]
+            regions = {new: self._regions[old] for new, old in enumerate(edit.elements.tolist()) if old in self._regions}
+        return (None if np.all(weights == 1.0) else weights), regions
 
     @staticmethod
-    def _remap_sutures(sutures, parent):
-        # a sutured node keeps its number if it survives (cuts keep old numbers); else its first copy
-        first = np.full(int(max(parent.max(initial=0), np.max(sutures["pairs"]))) + 1, -1, dtype=np.intp)
-        first[parent[::-1]] = np.arange(parent.size)[::-1]
-        pairs = np.asarray(sutures["pairs"])
-        a, b = first[pairs[0]], first[pairs[1]]
-        keep = (a >= 0) & (b >= 0)
+    def _carry_sutures(sutures, edit, regions):
+        """The stitches after ``edit``: each end stays at its point of the material (dropped with its element)."""
+        if sutures is None:
+            return None
+        ends = [element_cuts.carry_points(edit, sutures["elements"][s], sutures["barycentric"][s], regions)
+                for s in range(2)]
+        keep = (ends[0] >= 0) & (ends[1] >= 0)
         if not np.any(keep):
             return None
-        k = pairs.shape[1]
         return {
-            "pairs": np.vstack([a[keep], b[keep]]),
-            "gaps": np.asarray(sutures["gaps"])[:, keep],
-            "stiffness": np.broadcast_to(np.asarray(sutures["stiffness"], float), (k,))[keep],
-            "tightness": np.broadcast_to(np.asarray(sutures.get("tightness", 0.0), float), (k,))[keep],
+            "elements": np.vstack([ends[0][keep], ends[1][keep]]),
+            "barycentric": sutures["barycentric"][:, keep],
+            "gaps": sutures["gaps"][:, keep],
+            "stiffness": sutures["stiffness"][keep],
+            "tightness": sutures["tightness"][keep],
         }
 
-    def cut(self, polyline):
-        """Incise along ``polyline`` (points in deformed coordinates), duplicating nodes along the cut.
+    def _suture_spec(self, sutures):
+        """The model's sutures: each end as its element's three nodes with the barycentric weights."""
+        if sutures is None:
+            return None
+        t = np.asarray(self.mesh.t)
+        return {"pairs": np.stack([t[:, sutures["elements"][0]], t[:, sutures["elements"][1]]]),
+                "coefficients": sutures["barycentric"].transpose(0, 2, 1), "stiffness": sutures["stiffness"],
+                "gaps": sutures["gaps"], "tightness": sutures["tightness"]}
 
-        The state carries over: each copy of a node gets its displacement and
-        velocity. Returns the :class:`tissuefem.surgery.topology.MeshEdit`.
+    def cut(self, polyline, method="elements"):
+        """Incise along ``polyline`` (points in deformed coordinates, as drawn on the tissue now).
+
+        ``method="elements"`` (default) cuts through the elements, along the
+        stroke (the virtual node algorithm: :func:`~tissuefem.surgery.element_cuts.
+        cut_through`); ``"edges"`` snaps the stroke to a path of mesh edges and
+        duplicates their nodes (:func:`~tissuefem.surgery.topology.incise`:
+        jagged and mesh-dependent; kept to compare). The state carries over:
+        each copy of a node gets its displacement and velocity. Returns the edit
+        (:class:`~tissuefem.surgery.element_cuts.ElementCut` or
+        :class:`~tissuefem.surgery.topology.MeshEdit`).
         """
-        return self._apply_edit(topology.incise, _polyline(polyline), "polyline")
+        operation = {"elements": element_cuts.cut_through, "edges": topology.incise}.get(method)
+        if operation is None or not isinstance(method, str):
+            raise ValueError(f"method must be 'elements' or 'edges', got {method!r}")
+        return self._apply_edit(operation, _polyline(polyline), "polyline")
 
-    def excise(self, region):
-        """Remove the elements inside ``region`` (a polygon in *reference* coordinates, or a mask on centroids)."""
-        if not callable(region):
-            region = _polyline(region, minimum=3, field="region")
-        return self._apply_edit(topology.excise, region, "region")
+    def excise(self, region, method="elements"):
+        """Remove the tissue inside ``region``: a polygon in *reference* coordinates, or a mask on centroids.
+
+        A polygon is cut out along its outline through the elements
+        (``method="elements"``, default) or by removing the triangles whose
+        centroid lies inside (``"edges"``, as does a mask).
+        """
+        if callable(region):
+            return self._apply_edit(topology.excise, region, "region")
+        operation = {"elements": element_cuts.excise_through, "edges": topology.excise}.get(method)
+        if operation is None or not isinstance(method, str):
+            raise ValueError(f"method must be 'elements' or 'edges', got {method!r}")
+        return self._apply_edit(operation, _polyline(region, minimum=3, field="region"), "region")
 
     # ------------------------------------------------------------------ sutures
     def _snap(self, point, field):
@@ -471,44 +527,75 @@ class Simulation:
         """Tie pairs of points together with stiff springs.
 
         ``pairs``: point pairs ``[[[x1, y1], [x2, y2]], ...]`` in deformed
-        coordinates (snapped to the nearest nodes), or node index pairs as an
-        integer array ``(2, k)``. The springs start slack (no force) and are
-        tightened to ``tightness`` (1: the points are pulled together). Default
-        stiffness: 100 x Young's modulus (per unit thickness).
+        coordinates, or node index pairs as an integer array ``(2, k)``. A point
+        is attached to the material where it lies (inside an element: it moves
+        with the element's three nodes, so a stitch can sit on a wound cut
+        through elements); a point off the tissue is attached to the nearest
+        node. The springs start slack (no force) and are tightened to
+        ``tightness`` (1: the points are pulled together). Default stiffness:
+        100 x Young's modulus (per unit thickness). Returns the node of each end
+        that carries most of it, ``(2, k)``.
         """
         E = self.scene.material["youngs_modulus"]
         k = 100.0 * E if stiffness is None else _number(f"{_field}.stiffness", stiffness, positive=True)
         arr = np.asarray(pairs)
+        t = np.asarray(self.mesh.t)
         if np.issubdtype(arr.dtype, np.integer) and arr.ndim == 2 and arr.shape[0] == 2:
             nodes = arr.astype(np.intp)
             if nodes.size == 0 or nodes.min() < 0 or nodes.max() >= self.mesh.nvertices:
                 raise ValueError(f"{_field}.pairs: node indices must be in 0..{self.mesh.nvertices - 1}")
+            ends = [[self._node_end(int(q)) for q in nodes[s]] for s in range(2)]
         else:
             arr = np.asarray(arr, dtype=float)
             if arr.ndim != 3 or arr.shape[1:] != (2, 2) or arr.shape[0] == 0 or not np.all(np.isfinite(arr)):
                 raise ValueError(f"{_field}.pairs must be point pairs shaped (k, 2, 2), got shape {arr.shape}")
-            nodes = np.array([[self._snap(p[0], _field), self._snap(p[1], _field)] for p in arr]).T
-        same = nodes[0] == nodes[1]
+            ends = [[self._point_end(q[s], _field) for q in arr] for s in range(2)]
+        elements = np.array([[e for e, _ in side] for side in ends], dtype=np.int64).reshape(2, -1)
+        bary = np.array([[w for _, w in side] for side in ends], dtype=float).reshape(2, -1, 3)
+        x = self.positions()
+        at = np.einsum("skc,iskc->sik", bary, x[:, t[:, elements].transpose(1, 2, 0)])  # (2 ends, 2, k)
+        gaps = at[0] - at[1]
+        same = np.array([_end_key(t[:, elements[0, j]], bary[0, j]) == _end_key(t[:, elements[1, j]], bary[1, j])
+                         for j in range(elements.shape[1])], dtype=bool)
         if np.all(same):
-            raise ValueError(f"{_field}.pairs: every pair snaps to a single node; nothing to tie")
-        nodes = nodes[:, ~same]
+            raise ValueError(f"{_field}.pairs: every pair ties a point to itself; nothing to tie")
+        keep = ~same
+        k_new = int(keep.sum())
+        new = {"elements": elements[:, keep], "barycentric": bary[:, keep], "stiffness": np.full(k_new, k),
+               "gaps": gaps[:, keep], "tightness": np.zeros(k_new)}
         tightness = _number(f"{_field}.tightness", tightness, nonnegative=True)
         if tightness > 1:
             raise ValueError(f"{_field}.tightness must be in [0, 1], got {tightness!r}")
-        x = self.positions()
-        gaps = x[:, nodes[0]] - x[:, nodes[1]]
-        k_new = nodes.shape[1]
-        new = {"pairs": nodes, "stiffness": np.full(k_new, k), "gaps": gaps, "tightness": np.zeros(k_new)}
         if self._sutures is not None:  # the old stitches keep their gap when placed and their tightness
             old = self._sutures
-            new = {key: np.concatenate([np.asarray(old[key]), new[key]], axis=-1) for key in new}
+            new = {key: np.concatenate([old[key], new[key]], axis=-1 if key != "barycentric" else 1) for key in new}
         with self._transaction():
             self._sutures = new
             self._save_state()
             self._rebuild()
+            total = new["stiffness"].size
             if tightness > 0:
-                self.tighten(tightness, stitches=np.arange(new["pairs"].shape[1] - k_new, new["pairs"].shape[1]))
-        return nodes
+                self.tighten(tightness, stitches=np.arange(total - k_new, total))
+        return self.model.sutures.pairs[:, -k_new:]
+
+    def _node_end(self, node):
+        """A stitch end at ``node``: an element with that corner, and the corner's barycentric weights."""
+        t = np.asarray(self.mesh.t)
+        corner, element = np.nonzero(t == node)
+        if element.size == 0:
+            raise ValueError(f"node {node} belongs to no element")
+        w = np.zeros(3)
+        w[corner[0]] = 1.0
+        return int(element[0]), w
+
+    def _point_end(self, point, field):
+        """A stitch end at ``point`` (deformed coordinates): inside the material there, or else the nearest node."""
+        x = self.positions()
+        found = element_cuts.locate(self.mesh, point, x, self._regions)
+        if found is not None:  # on a sliver of a cut element: carried by the firm tissue beside it
+            return element_cuts.firm_anchor(self.mesh, *found, positions=x, weights=self._weights,
+                                            regions=self._regions)
+        return self._node_end(self._snap(point, field))
 
     def tighten(self, fraction, stitches=None) -> None:
         """Tighten sutures: each keeps ``(1 - fraction)`` of its gap when placed as slack (1: closed).
@@ -525,6 +612,22 @@ class Simulation:
         if self.model.sutures is None:
             return np.zeros(0)
         return self.model.sutures.distances(self.solver.u)
+
+
+@dataclasses.dataclass(frozen=True)
+class _Kept:
+    """The elements that stay after lifting out loose pieces (``elements[new] = old``), as an edit shows them."""
+
+    elements: np.ndarray
+
+
+def _end_key(nodes, weights):
+    """A stitch end as ``{node: weight}`` (weights rounded), to tell two ends at the same point of the same nodes."""
+    out = {}
+    for q, w in zip(nodes.tolist(), weights.tolist()):
+        if w > 1e-12:
+            out[q] = out.get(q, 0.0) + round(w, 9)
+    return out
 
 
 def _polyline(points, minimum=2, field="polyline"):
