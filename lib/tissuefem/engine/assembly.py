@@ -65,7 +65,7 @@ import scipy.sparse as sp
 from skfem import Basis, ElementTriP1, ElementTriP2, ElementVector, asm
 
 from .forms import energy_form, residual_form, tangent_form
-from .meshes import folded_triangles
+from .meshes import COORDINATE_MAX, SIZE_RANGE, folded_triangles
 
 __all__ = ["P1Assembler", "QuadratureAssembler", "FormsAssembler", "make_assembler", "vector_basis"]
 
@@ -241,6 +241,21 @@ class P1Assembler:
                 f"mesh has non-finite coordinates at nodes {_list(bad_nodes)}, "
                 f"used by elements {_list(bad_elems)}"
             )
+        # A node in no triangle has neither stiffness nor mass: every Newton matrix would be singular.
+        # (Edges in three triangles and overlapping copies of a triangle are allowed here: cutting through
+        # elements makes them next to a crack tip; only a user's mesh file is refused for them.)
+        used = np.zeros(p.shape[1], dtype=bool)
+        used[t.ravel()] = True
+        if not used.all():
+            raise ValueError(f"mesh: nodes {_list(np.flatnonzero(~used))} belong to no triangle (an unused node has "
+                             "no stiffness and no mass); remove them and renumber")
+        far = np.flatnonzero((np.abs(p) > COORDINATE_MAX).any(axis=0))
+        if far.size:
+            raise ValueError(f"mesh: nodes {_list(far)} lie beyond the coordinate limit +-{COORDINATE_MAX:g}")
+        extent = float(np.ptp(p, axis=1).max())
+        if extent < SIZE_RANGE[0]:
+            raise ValueError(f"mesh: spans only {extent:g} (the largest side of its bounding box must be at least "
+                             f"{SIZE_RANGE[0]:g})")
         x = p[:, t]
         d1 = x[:, 1] - x[:, 0]
         d2 = x[:, 2] - x[:, 0]
