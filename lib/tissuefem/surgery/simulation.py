@@ -22,8 +22,9 @@ from scipy.sparse.csgraph import connected_components
 
 from ..engine import meshes
 from ..engine.model import Handle, Model, region_nodes
+from ..engine.parameters import PENALTY_MAX, RADIUS_RANGE, check_count
 from ..engine.realtime import RealtimeSolver
-from ..engine.terms import check_vector
+from ..engine.terms import check_reach, check_vector
 from . import topology
 from .scene import Scene, _number
 
@@ -100,6 +101,11 @@ class Simulation:
         for i, e in enumerate(scene.effects.get("incisions", [])):
             self._apply_edit(topology.incise, np.asarray(e["path"], dtype=float), f"effects.incisions[{i}]",
                              rebuild=False)
+        if not self.dynamic:
+            _, pieces = self._loose_elements(self.mesh, np.arange(self.mesh.nvertices))
+            if pieces:
+                raise ValueError(f"effects.handles: {pieces} piece(s) of the domain are held by nothing; a quasistatic "
+                                 "scene must hold every piece (or it floats and has no equilibrium)")
         self._rebuild()
         for i, p in enumerate(scene.effects.get("probes", [])):
             self.add_probe(p["center"], p["radius"], p.get("stiffness"), _field=f"effects.probes[{i}]")
@@ -225,14 +231,32 @@ class Simulation:
         return self.solver.time
 
     def frame(self, targets=None):
-        """One frame. ``targets``: ``{handle name: translation (dx, dy) or map}`` (others keep theirs)."""
-        if targets and not isinstance(targets, dict):
+        """One frame. ``targets``: ``{handle name: translation (dx, dy) or map}`` (others keep theirs).
+
+        All or nothing: a refused target (or anything raised before the commit) changes nothing.
+        """
+        if targets is not None and not isinstance(targets, dict):
             raise ValueError(f"targets must be a dict {{handle name: target}}, got {targets!r}")
         return self.solver.frame(targets or None)
 
     def run(self, frames: int, targets=None):
-        """Run ``frames`` frames (with the same ``targets`` for each); return the reports."""
-        return [self.frame(targets) for _ in range(int(frames))]
+        """Run ``frames`` frames (an integer >= 0, with the same ``targets`` for each); return the reports."""
+        frames = check_count("frames", frames, 0)
+        return [self.frame(targets) for _ in range(frames)]
+
+    # ------------------------------------------------------------------ checks of points and radii
+    def _point(self, field, point) -> np.ndarray:
+        """A finite point within ``REACH`` domain sizes of the domain's centre (the model's reference box)."""
+        return check_reach(field, check_vector(field, point), self.model.middle, self.model.size)
+
+    def _radius(self, field, radius) -> float:
+        """A radius within ``RADIUS_RANGE`` domain sizes: what a penalty ``~ 1 / r^2`` can be computed for."""
+        r = _number(field, radius, positive=True)
+        lo, hi = RADIUS_RANGE[0] * self.model.size, RADIUS_RANGE[1] * self.model.size
+        if not lo <= r <= hi:
+            raise ValueError(f"{field} = {r:g} must lie within [{RADIUS_RANGE[0]:g}, {RADIUS_RANGE[1]:g}] domain "
+                             f"sizes, i.e. [{lo:g}, {hi:g}]")
+        return r
 
     def positions(self) -> np.ndarray:
         """Deformed node positions ``x = X + u`` ``(2, n_nodes)``."""
@@ -259,8 +283,8 @@ class Simulation:
         The grabbed nodes stay where they are until :meth:`drag` moves them (by
         the mouse's offset from the grab point). Default radius: 1.5 mean edge lengths.
         """
-        radius = 1.5 * meshes.mean_edge_length(self.mesh) if radius is None else _number("radius", radius, positive=True)
-        point = check_vector("point", point)
+        radius = 1.5 * meshes.mean_edge_length(self.mesh) if radius is None else self._radius("radius", radius)
+        point = self._point("point", point)
         if self.order != 1:
             raise ValueError("grab: grabbing needs P1 elements (order=1)")
         x = self.positions()
@@ -280,8 +304,8 @@ class Simulation:
     def drag(self, name, point) -> None:
         """Move a grabbed handle so that its grab point follows ``point``."""
         h = self.model.handle(name)
-        point = check_vector("point", point)
-        self.model.handle(name).move(point - (np.zeros(2) if h.anchor is None else h.anchor))
+        point = self._point("point", point)
+        h.move(point - (np.zeros(2) if h.anchor is None else h.anchor))
 
     def handle_offset(self, name) -> np.ndarray:
         t = self.model.handle(name).target
@@ -292,22 +316,35 @@ class Simulation:
         self.model.handle(name).move(target)
 
     def release(self, name) -> None:
-        """Let go of a handle: its nodes are free from the next frame on."""
+        """Let go of a handle: its nodes are free from the next frame on.
+
+        In a quasistatic scene a piece that nothing holds any more (the handle was the last hold on a
+        piece cut free) has no equilibrium: it is lifted out, as after a cut (see
+        :meth:`_drop_loose_pieces`). A dynamic scene keeps it: it falls.
+        """
         handle = self.model.handle(name)
         self._check_held([h for h in self.model.handles if h is not handle])
-        self.model.remove_handle(name)
+        if self.dynamic:
+            self.model.remove_handle(name)
+            return
+        with self._transaction():
+            self.model.remove_handle(name)
+            loose, pieces = self._loose_elements(self.mesh, np.arange(self.mesh.nvertices))
+            if pieces:
+                self._apply_edit(topology.excise, lambda centroids: loose.copy(), f"release({name!r})")
+                self.removed_pieces += pieces
 
     # ------------------------------------------------------------------ probe
     def add_probe(self, center, radius, stiffness=None, _field="probe"):
         """Press a rigid disc (a tool tip) into the tissue; returns its label for :meth:`move_probe`."""
-        center = check_vector(f"{_field}.center", center).tolist()
-        radius = _number(f"{_field}.radius", radius, positive=True)
+        center = self._point(f"{_field}.center", center).tolist()
+        radius = self._radius(f"{_field}.radius", radius)  # in domain sizes: the default stiffness stays finite
         E = self.scene.material["youngs_modulus"]
         if stiffness is None:  # stiff enough to keep penetration to a few percent of the radius
-            with np.errstate(over="ignore"):
-                stiffness = _number(f"{_field}.stiffness (default 1e3 E / radius^2)", 1e3 * E / radius**2)
+            stiffness = _number(f"{_field}.stiffness (default 1e3 E / radius^2)", 1e3 * E / radius**2,
+                                hi=PENALTY_MAX)
         else:
-            stiffness = _number(f"{_field}.stiffness", stiffness, nonnegative=True)
+            stiffness = _number(f"{_field}.stiffness", stiffness, nonnegative=True, hi=PENALTY_MAX)
         with self._transaction():
             self._probe_count += 1
             label = f"probe{self._probe_count}"
@@ -323,8 +360,9 @@ class Simulation:
         raise ValueError(f"no probe named {label!r}; probes: {[p.label for p in self.model.probes]}")
 
     def move_probe(self, label, center) -> None:
+        """Move the probe ``label`` to ``center`` (checked; a refusal keeps it where it was)."""
         probe = self._probe(label)
-        probe.move(center)
+        probe.move(self._point("center", center))
         for spec in self._probe_specs:
             if spec["label"] == label:
                 spec["center"] = list(probe.center)
@@ -381,12 +419,26 @@ class Simulation:
         as a surgeon lifts out what was cut free. Dynamic scenes keep every piece.
         """
         mesh = edit.mesh
+        loose, pieces = self._loose_elements(mesh, edit.parent)
+        if not pieces:
+            return edit  # nothing to drop (or nothing held at all: _check_held reports it)
+        second = topology.excise(mesh, lambda centroids: loose.copy())
+        self.removed_pieces += pieces
+        return dataclasses.replace(second, parent=edit.parent[second.parent], elements=edit.elements[second.elements],
+                                   cut_edges=edit.cut_edges, n_old_nodes=edit.n_old_nodes,
+                                   n_old_elements=edit.n_old_elements)
+
+    def _loose_elements(self, mesh, parent):
+        """``(loose, pieces)``: which elements of ``mesh`` lie in pieces that nothing holds (no handle, no suture
+        to a held piece), and how many such pieces there are. ``parent`` maps its nodes to the current
+        mesh's (through which the handles and sutures are carried). ``pieces`` is 0 when every piece is
+        held -- or when none is (then :meth:`_check_held` has the say)."""
         n = mesh.nvertices
         t = mesh.t
         rows = [t[0], t[1], t[2]]
         cols = [t[1], t[2], t[0]]
         if self._sutures is not None:
-            sutures = self._remap_sutures(self._sutures, edit.parent)
+            sutures = self._remap_sutures(self._sutures, parent)
             if sutures is not None:
                 rows.append(sutures["pairs"][0])
                 cols.append(sutures["pairs"][1])
@@ -395,17 +447,13 @@ class Simulation:
         _, labels = connected_components(graph, directed=False)
         held = np.zeros(labels.max() + 1, dtype=bool)
         for h in self._current_handles():
-            moved = h.remap(edit.parent)
+            moved = h.remap(parent)
             if moved is not None:
                 held[labels[moved.nodes]] = True
         loose = ~held[labels[t[0]]]
         if not np.any(loose) or np.all(loose):
-            return edit  # nothing to drop (or nothing held at all: _check_held reports it)
-        second = topology.excise(mesh, lambda centroids: loose)
-        self.removed_pieces += 1
-        return dataclasses.replace(second, parent=edit.parent[second.parent], elements=edit.elements[second.elements],
-                                   cut_edges=edit.cut_edges, n_old_nodes=edit.n_old_nodes,
-                                   n_old_elements=edit.n_old_elements)
+            return np.zeros(t.shape[1], dtype=bool), 0
+        return loose, int(np.unique(labels[t[0]][loose]).size)
 
     @staticmethod
     def _remap_sutures(sutures, parent):
@@ -431,12 +479,17 @@ class Simulation:
         The state carries over: each copy of a node gets its displacement and
         velocity. Returns the :class:`tissuefem.surgery.topology.MeshEdit`.
         """
-        return self._apply_edit(topology.incise, _polyline(polyline), "polyline")
+        points = _polyline(polyline)
+        for i, q in enumerate(points):
+            self._point(f"polyline[{i}]", q)
+        return self._apply_edit(topology.incise, points, "polyline")
 
     def excise(self, region):
         """Remove the elements inside ``region`` (a polygon in *reference* coordinates, or a mask on centroids)."""
         if not callable(region):
             region = _polyline(region, minimum=3, field="region")
+            for i, q in enumerate(region):
+                self._point(f"region[{i}]", q)
         return self._apply_edit(topology.excise, region, "region")
 
     # ------------------------------------------------------------------ sutures
@@ -467,16 +520,26 @@ class Simulation:
         stiffness: 100 x Young's modulus (per unit thickness).
         """
         E = self.scene.material["youngs_modulus"]
-        k = 100.0 * E if stiffness is None else _number(f"{_field}.stiffness", stiffness, positive=True)
-        arr = np.asarray(pairs)
-        if np.issubdtype(arr.dtype, np.integer) and arr.ndim == 2 and arr.shape[0] == 2:
+        k = 100.0 * E if stiffness is None else _number(f"{_field}.stiffness", stiffness, positive=True,
+                                                         hi=PENALTY_MAX)
+        try:
+            arr = np.asarray(pairs)
+        except (TypeError, ValueError):
+            raise ValueError(f"{_field}.pairs must be point pairs shaped (k, 2, 2) or node index pairs shaped "
+                             f"(2, k), got {pairs!r}") from None
+        if arr.dtype.kind in "iu" and arr.ndim == 2 and arr.shape[0] == 2:
             nodes = arr.astype(np.intp)
             if nodes.size == 0 or nodes.min() < 0 or nodes.max() >= self.mesh.nvertices:
                 raise ValueError(f"{_field}.pairs: node indices must be in 0..{self.mesh.nvertices - 1}")
         else:
-            arr = np.asarray(arr, dtype=float)
+            if arr.dtype.kind not in "iuf":  # booleans, strings, complex numbers: not points
+                raise ValueError(f"{_field}.pairs must be real point pairs shaped (k, 2, 2), got dtype {arr.dtype}")
+            arr = arr.astype(float)
             if arr.ndim != 3 or arr.shape[1:] != (2, 2) or arr.shape[0] == 0 or not np.all(np.isfinite(arr)):
                 raise ValueError(f"{_field}.pairs must be point pairs shaped (k, 2, 2), got shape {arr.shape}")
+            for j, pair in enumerate(arr):
+                for i, q in enumerate(pair):
+                    self._point(f"{_field}.pairs[{j}][{i}]", q)
             nodes = np.array([[self._snap(p[0], _field), self._snap(p[1], _field)] for p in arr]).T
         same = nodes[0] == nodes[1]
         if np.all(same):
@@ -519,9 +582,12 @@ class Simulation:
 
 def _polyline(points, minimum=2, field="polyline"):
     try:
-        arr = np.asarray(points, dtype=float)
+        arr = np.asarray(points)
     except (TypeError, ValueError):
         raise ValueError(f"{field} must be a list of points [x, y], got {points!r}") from None
+    if arr.dtype.kind not in "iuf":  # strings, booleans, objects; complex points would lose their imaginary part
+        raise ValueError(f"{field} must be a list of real points [x, y], got {points!r}")
+    arr = arr.astype(float)
     if arr.ndim != 2 or arr.shape[1] != 2 or arr.shape[0] < minimum:
         raise ValueError(f"{field} must be at least {minimum} points shaped (k, 2), got shape {arr.shape}")
     if not np.all(np.isfinite(arr)):
