@@ -149,9 +149,7 @@ class P1Assembler:
         self.flipped = flipped
         self.areas = 0.5 * det
         if weights is not None:
-            w = np.asarray(weights, dtype=float)
-            if w.shape != (t.shape[1],) or not np.all(np.isfinite(w)) or np.any(w <= 0) or np.any(w > 1):
-                raise ValueError(f"weights must be one number in (0, 1] per element, shape ({t.shape[1]},)")
+            w = _check_weights(weights, t.shape[1])
             # an element that carries only part of its triangle's material (a copy made by cutting
             # through the triangle) integrates over that part: its area shrinks, its gradients do not
             self.areas = self.areas * w
@@ -424,6 +422,20 @@ class P1Assembler:
         )
 
 
+def _check_weights(weights, m) -> np.ndarray:
+    """Per-element material fractions: ``m`` real numbers in ``(0, 1]`` (complex or boolean ones are refused)."""
+    try:
+        w = np.asarray(weights)
+    except (TypeError, ValueError):
+        w = np.asarray(None)
+    if w.dtype.kind not in "iuf" or w.shape != (m,):
+        raise ValueError(f"weights must be one real number in (0, 1] per element, shape ({m},), got {weights!r:.80}")
+    w = w.astype(float)
+    if not (np.all(np.isfinite(w)) and np.all(w > 0) and np.all(w <= 1)):
+        raise ValueError(f"weights must be one number in (0, 1] per element, shape ({m},)")
+    return w
+
+
 def _positive(name, value) -> float:
     try:
         v = float(value)
@@ -500,9 +512,7 @@ class QuadratureAssembler:
         self._N = np.array([np.asarray(basis.basis[2 * a][0])[0] for a in range(nloc)])  # (nloc, nel, nq)
         dx = basis.dx  # (nel, nq)
         if weights is not None:
-            w = np.asarray(weights, dtype=float)
-            if w.shape != (self.n_elements,) or not np.all(np.isfinite(w)) or np.any(w <= 0) or np.any(w > 1):
-                raise ValueError(f"weights must be one number in (0, 1] per element, shape ({self.n_elements},)")
+            w = _check_weights(weights, self.n_elements)
             dx = dx * w[:, None]
         self._dx = dx
         self._GW = self._G * self._dx
