@@ -641,7 +641,7 @@ def make_assembler(mesh, *, order: int = 1, intorder: int | None = None, assembl
     ``assembly="fast"`` takes :class:`P1Assembler` for P1 and :class:`QuadratureAssembler` for P2;
     ``"forms"`` takes :class:`FormsAssembler` (the readable reference, slow).
     """
-    if assembly not in ("fast", "forms"):
+    if not isinstance(assembly, str) or assembly not in ("fast", "forms"):
         raise ValueError(f"assembly must be 'fast' or 'forms', got {assembly!r}")
     P1Assembler._validate_mesh(mesh)
     basis = vector_basis(mesh, order, intorder)

@@ -336,14 +336,19 @@ def _check_material_at_rest(assembler, material) -> None:
 def _named_tractions(tractions):
     if tractions is None:
         return []
-    items = tractions.items() if isinstance(tractions, dict) else tractions
+    bad = ValueError(f"tractions must be {{boundary: (tx, ty)}} or [(boundary, (tx, ty)), ...], got {tractions!r:.200}")
+    try:
+        items = list(tractions.items() if isinstance(tractions, dict) else tractions)
+    except TypeError:
+        raise bad from None
     out = []
     for item in items:
         try:
             name, t = item
         except (TypeError, ValueError):
-            raise ValueError(f"tractions must be {{boundary: (tx, ty)}} or [(boundary, (tx, ty)), ...], "
-                             f"got {tractions!r}") from None
+            raise bad from None
+        if not isinstance(name, str):
+            raise ValueError(f"tractions: a boundary is named by a string, got {name!r}")
         out.append((name, t))
     return out
 
@@ -641,14 +646,15 @@ class Model:
 
     def handle(self, name) -> Handle:
         """The handle called ``name`` (or at index ``name``)."""
-        if isinstance(name, (int, np.integer)) and not isinstance(name, bool):
+        if isinstance(name, (int, np.integer)) and not isinstance(name, (bool, np.bool_)):
             if 0 <= name < len(self.handles):
                 return self.handles[name]
             raise ValueError(f"no handle at index {name}; there are {len(self.handles)}")
-        for h in self.handles:
-            if h.name == name:
-                return h
-        raise ValueError(f"no handle named {name!r}; handles: {[h.name for h in self.handles]}")
+        if isinstance(name, str):  # names are strings: anything else (an array, a list) names no handle
+            for h in self.handles:
+                if h.name == name:
+                    return h
+        raise ValueError(f"no handle named {name!r:.100}; handles: {[h.name for h in self.handles]}")
 
     def set_targets(self, targets) -> None:
         """Move several handles at once, all or nothing.

@@ -232,7 +232,7 @@ class Inertia(Term):
     quadratic = True
 
     def __init__(self, assembler, dt, density, mass="lumped"):
-        if mass not in ("lumped", "consistent"):
+        if not isinstance(mass, str) or mass not in ("lumped", "consistent"):
             raise ValueError(f"mass must be 'lumped' or 'consistent', got {mass!r}")
         self.dt = check_time_step(dt)
         self.density = check_density(density)
@@ -459,7 +459,10 @@ class Sutures(Term):
     def __init__(self, X, pairs, stiffness, gaps, tightness=0.0):
         self.X = X
         self.n_nodes = X.shape[1]
-        pairs = np.asarray(pairs)
+        try:
+            pairs = np.asarray(pairs)
+        except (TypeError, ValueError):  # ragged lists
+            raise ValueError(f"sutures.pairs must be node index pairs shaped (2, k), got {pairs!r}") from None
         if pairs.ndim != 2 or pairs.shape[0] != 2 or pairs.shape[1] == 0 or not np.issubdtype(pairs.dtype, np.integer):
             raise ValueError(f"sutures.pairs must be node index pairs shaped (2, k), got {pairs!r}")
         if pairs.min() < 0 or pairs.max() >= self.n_nodes:

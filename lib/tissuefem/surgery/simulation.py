@@ -354,10 +354,11 @@ class Simulation:
         return label
 
     def _probe(self, label):
-        for p in self.model.probes:
-            if p.label == label:
-                return p
-        raise ValueError(f"no probe named {label!r}; probes: {[p.label for p in self.model.probes]}")
+        if isinstance(label, str):  # labels are strings: anything else (an array, a list) names no probe
+            for p in self.model.probes:
+                if p.label == label:
+                    return p
+        raise ValueError(f"no probe named {label!r:.100}; probes: {[p.label for p in self.model.probes]}")
 
     def move_probe(self, label, center) -> None:
         """Move the probe ``label`` to ``center`` (checked; a refusal keeps it where it was)."""
