@@ -70,7 +70,9 @@ def _fd_tangent(F, g, k, h=1e-4):
 @pytest.mark.parametrize("answer", implementations("ch05", "fiber_invariant", answers.fiber_invariant))
 @pytest.mark.parametrize("F, g", CASES, ids=IDS)
 def test_ex5_1_fiber_invariant(answer, F, g):
-    assert_close(answer(F, g), _I4(F, g), "I4 = g^T F^T F g")
+    slips = {"g^T F F^T g: the notes' transposed F (erratum 13); the fiber's stretch is |F g|^2 = g^T F^T F g":
+             g @ F @ F.T @ g}
+    assert_close(answer(F, g), _I4(F, g), "I4 = g^T F^T F g", slips=slips)
 
 
 @pytest.mark.parametrize("answer", implementations("ch05", "fiber_invariant", answers.fiber_invariant))

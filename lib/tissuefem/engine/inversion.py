@@ -123,9 +123,25 @@ def projected_tangent(material, F, floor: float = 0.0):
     if not _rotation_invariant(material):
         return eigen_projection(material.tangent(F), floor)
     U, s, V = rotation_preserving_svd(F)
-    out = _project_diagonal_blocks(np.asarray(material.tangent(diagonal(s)), dtype=float), floor)
-    # rotate back: A_ijkl = U_ia V_jb U_kc V_ld A_hat_abcd
-    return np.einsum("ia...,jb...,kc...,ld...,abcd...->ijkl...", U, V, U, V, out, optimize=True)
+    return _rotate_back(U, V, _project_diagonal_blocks(np.asarray(material.tangent(diagonal(s)), dtype=float), floor))
+
+
+def _rotate_back(U, V, A_hat):
+    """``A_ijkl = U_ia V_jb U_kc V_ld A_hat_abcd`` for a diagonal-space tangent of the block form above.
+
+    With ``E_ab = u_a v_b^T`` (``u_a``, ``v_b`` the columns of ``U``, ``V``) this is
+    ``sum A_hat[ab, cd] E_ab (x) E_cd``, and ``A_hat`` couples only ``{00, 11}`` (stretch) and
+    ``{01, 10}`` (twist/flip). Grouping each block's row into one 2x2 field leaves four outer
+    products of 2x2 fields: a few dozen multiplications per element instead of a five-operand
+    contraction (measured about 25x faster at 8k elements).
+    """
+    E = {(a, b): U[:, a][:, None] * V[:, b][None, :] for a in range(2) for b in range(2)}
+    out = 0.0
+    for (p, q) in (((0, 0), (1, 1)), ((0, 1), (1, 0))):
+        Wp = A_hat[p + p] * E[p] + A_hat[p + q] * E[q]
+        Wq = A_hat[q + p] * E[p] + A_hat[q + q] * E[q]
+        out = out + E[p][:, :, None, None] * Wp[None, None] + E[q][:, :, None, None] * Wq[None, None]
+    return out
 
 
 def _project_diagonal_blocks(A, floor):
@@ -149,16 +165,25 @@ class ProjectedTangent:
     converges to the same equilibrium; only the search direction changes (it
     is always a descent direction for the energy). Works with the fast
     assembler and with the scikit-fem forms alike.
+
+    ``adaptive=True`` projects only when Newton needs it: ``tangent`` is then
+    the exact one (quadratic convergence where the Hessian is positive
+    definite, as it usually is away from inversion) and ``safe_tangent`` the
+    projection, which the minimiser assembles when the exact direction does
+    not point downhill. Clamping every element's negative curvature in every
+    step costs Newton its quadratic convergence: on chapter 8's drag with the
+    stable neo-Hookean model, about 7 Newton steps a frame instead of 2.
     """
 
-    def __init__(self, material, floor: float = 0.0):
+    def __init__(self, material, floor: float = 0.0, adaptive: bool = False):
         if not np.isfinite(floor) or floor < 0:
             raise ValueError(f"floor must be finite and >= 0, got {floor!r}")
         self.material = material
         self.floor = float(floor)
+        self.adaptive = bool(adaptive)
         self.lam, self.mu = material.lam, material.mu
         self.inversion_safe = material.inversion_safe
-        self.name = f"{material.name} (projected tangent)"
+        self.name = f"{material.name} (projected tangent{', when needed' if self.adaptive else ''})"
 
     def energy(self, F):
         return self.material.energy(F)
@@ -167,10 +192,16 @@ class ProjectedTangent:
         return self.material.stress(F)
 
     def tangent(self, F):
+        if self.adaptive:
+            return self.material.tangent(F)
+        return projected_tangent(self.material, F, self.floor)
+
+    def safe_tangent(self, F):
+        """The projected (positive semi-definite) tangent."""
         return projected_tangent(self.material, F, self.floor)
 
     def __repr__(self):
-        return f"ProjectedTangent({self.material!r}, floor={self.floor:g})"
+        return f"ProjectedTangent({self.material!r}, floor={self.floor:g}, adaptive={self.adaptive})"
 
 
 # --- the ITF compression threshold: clamping and extrapolation ------------------------------------

@@ -56,6 +56,7 @@ no factorization at all. Chapter 9 measures them against the direct backends.
 from __future__ import annotations
 
 import importlib.util
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -298,15 +299,26 @@ class ReusedFactorization:
     max_iterations
         CG iterations after which the current solve gives up on the old
         factorization, refactorizes and solves directly.
+    background
+        Refresh the factorization on the second core while the solves go on:
+        a CG solve that needs more than ``background_after`` iterations starts
+        a factorization of its matrix in a background thread (SuperLU releases
+        the interpreter while it factorizes), and the first solve after it has
+        finished adopts it. No frame waits for a factorization once the first
+        one exists, and the preconditioner stays close to the current matrix.
+        The iteration counts then depend on the machine's timing (the results
+        only to the solve's tolerance), so it is off by default.
 
     ``solve(A, b, atol=..., rtol=...)`` returns ``(x, SolveInfo)``;
     ``backend(A, b)`` returns ``x`` alone (for ``newton_solve``).
     :meth:`invalidate` forgets the factorization (use it when the set of
-    unknowns changes). Counters ``factorizations`` and ``cg_iterations``
-    accumulate over the object's life.
+    unknowns changes). Counters ``factorizations`` (in the foreground),
+    ``background_factorizations`` and ``cg_iterations`` accumulate over the
+    object's life.
     """
 
-    def __init__(self, direct=None, refresh_after: int = 15, max_iterations: int = 40):
+    def __init__(self, direct=None, refresh_after: int = 15, max_iterations: int = 40, background: bool = False,
+                 background_after: int = 3):
         if isinstance(refresh_after, bool) or not isinstance(refresh_after, (int, np.integer)) or refresh_after < 1:
             raise ValueError(f"refresh_after must be a positive integer, got {refresh_after!r}")
         if isinstance(max_iterations, bool) or not isinstance(max_iterations, (int, np.integer)) or max_iterations < 1:
@@ -315,15 +327,45 @@ class ReusedFactorization:
         if not callable(getattr(self.direct, "factorize", None)):
             raise ValueError(f"direct must be a backend with a factorize method, got {direct!r}")
         self.refresh_after, self.max_iterations = int(refresh_after), int(max_iterations)
-        self.name = f"cg+reused-{self.direct.name}"
+        self.background = bool(background)
+        self.background_after = int(background_after)
+        self.name = f"cg+reused-{self.direct.name}" + ("+background" if self.background else "")
         self._factor = None
         self._shape = None
         self._stale = False
+        self._pending = None  # (thread, result box) of a background factorization
         self.factorizations = 0
+        self.background_factorizations = 0
         self.cg_iterations = 0
 
     def invalidate(self) -> None:
-        self._factor, self._shape, self._stale = None, None, False
+        self._factor, self._shape, self._stale, self._pending = None, None, False, None
+
+    def _adopt(self) -> None:
+        """Take a finished background factorization (one of the current shape) as the preconditioner."""
+        if self._pending is None or self._pending[0].is_alive():
+            return
+        _, box = self._pending
+        self._pending = None
+        if box.get("factor") is not None and box["shape"] == self._shape:
+            self._factor, self._stale = box["factor"], False
+            self.background_factorizations += 1
+
+    def _refresh_in_background(self, A) -> None:
+        if self._pending is not None:
+            return
+        A = A.copy()
+        box = {"shape": A.shape}
+
+        def work():
+            try:
+                box["factor"] = self.direct.factorize(A)
+            except Exception:  # a failed refresh only means the old factorization stays
+                box["factor"] = None
+
+        thread = threading.Thread(target=work, name="tissuefem-refactorize", daemon=True)
+        self._pending = (thread, box)
+        thread.start()
 
     @property
     def has_factorization(self) -> bool:
@@ -348,7 +390,9 @@ class ReusedFactorization:
             return self._refactorize(A, b, "first")
         if self._shape != A.shape:
             return self._refactorize(A, b, "shape")
-        if self._stale:
+        if self.background:
+            self._adopt()
+        if self._stale and not self.background:
             return self._refactorize(A, b, "stale")
         result = pcg(A, b, self._factor.solve, atol=atol, rtol=rtol, max_iterations=self.max_iterations,
                      should_stop=should_stop)
@@ -357,7 +401,9 @@ class ReusedFactorization:
             return self._refactorize(A, b, "negative-curvature")
         if not result.converged and result.iterations >= self.max_iterations:
             return self._refactorize(A, b, "cg-failed")
-        if result.iterations > self.refresh_after:
+        if self.background and result.iterations > self.background_after:
+            self._refresh_in_background(A)
+        elif result.iterations > self.refresh_after:
             self._stale = True
         return result.x, SolveInfo(result.iterations, False, result.converged, result.residual_norm)
 
@@ -533,7 +579,10 @@ class LinearSolver:
           afresh for every solve;
         * ``"reuse"`` or ``"reuse-<backend>"``: conjugate gradients
           preconditioned by a kept factorization (:class:`ReusedFactorization`),
-          refreshed when CG slows down: the real-time default;
+          refreshed when CG slows down;
+        * ``"reuse-background"``: the same with SuperLU, the factorization
+          refreshed on the second core while the frames go on (the real-time
+          default: no frame waits for a factorization once there is one);
         * ``"constant"`` or ``"constant-<backend>"``: a kept factorization used
           as it is, without even assembling the tangent again -- exact when the
           tangent is constant (a quadratic energy: linear elasticity, springs),
@@ -554,6 +603,8 @@ class LinearSolver:
             elif method in ("reuse", "constant"):
                 self.backend = ReusedFactorization(SuperLU()) if method == "reuse" else SuperLU()
                 self.constant = method == "constant"
+            elif method == "reuse-background":
+                self.backend = ReusedFactorization(SuperLU(), background=True)
             elif method.startswith("reuse-"):
                 self.backend = ReusedFactorization(make(method[len("reuse-"):]))
             elif method.startswith("constant-"):

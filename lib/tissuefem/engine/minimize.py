@@ -129,7 +129,10 @@ class NewtonResult:
 def _free_mask(n, free) -> np.ndarray:
     if free is None:
         return np.ones(n, dtype=bool)
-    free = np.asarray(free)
+    try:
+        free = np.asarray(free)
+    except (TypeError, ValueError):  # ragged lists
+        raise ValueError(f"free must be a boolean mask of shape ({n},) or dof indices, got {free!r:.100}") from None
     if free.dtype == bool:
         if free.shape != (n,):
             raise ValueError(f"free must be a boolean mask of shape ({n},) or dof indices, got shape {free.shape}")
@@ -144,7 +147,7 @@ def _free_mask(n, free) -> np.ndarray:
     return mask
 
 
-def _shifted_direction(A, rhs):
+def _shifted_direction(A, rhs, shifts=None):
     """A descent direction from ``(A + tau I) dx = rhs`` with growing ``tau``; steepest descent at last."""
     finite = A is not None and np.all(np.isfinite(A.data))
     diag = A.diagonal() if finite else np.ones(rhs.size)
@@ -153,7 +156,7 @@ def _shifted_direction(A, rhs):
     if finite:
         eye = sp.identity(A.shape[0], format="csr")
         direct = SuperLU()
-        for tau in scale * 10.0 ** np.arange(-6.0, 3.0):
+        for tau in (scale * 10.0 ** np.arange(-6.0, 3.0) if shifts is None else shifts):
             try:
                 dx = direct.factorize((A + tau * eye).tocsr()).solve(rhs)
             except (RuntimeError, ValueError):
@@ -161,6 +164,8 @@ def _shifted_direction(A, rhs):
             factorizations += 1
             if np.all(np.isfinite(dx)) and rhs @ dx > 0:
                 return dx, float(tau), factorizations
+    if shifts is not None:
+        return None, math.inf, factorizations
     return rhs / (1e3 * scale), math.inf, factorizations
 
 
@@ -179,10 +184,12 @@ def newton(
     max_iterations: int = 30,
     max_step: float | None = None,
     linear: LinearSolver | None = None,
+    safe_hessian: Callable[[np.ndarray], sp.spmatrix] | None = None,
     clock: Callable[[], float] | None = None,
     budget: float = math.inf,
     start: float | None = None,
     energy0: float | None = None,
+    energy_floor: float = 0.0,
     max_halvings: int = 30,
 ) -> NewtonResult:
     """Minimise ``energy`` (or find a zero of ``gradient``) over the ``free`` dofs by Newton's method.
@@ -208,18 +215,25 @@ def newton(
         Iteration cap, step cap (largest change of one dof per iteration), line-search halvings.
     linear : LinearSolver, optional
         The linear-solve policy (default: a fresh direct factorization each iteration).
+    safe_hessian : callable, optional
+        A positive semi-definite approximation of the Hessian, tried before the diagonal shift
+        when the exact one gives no descent direction (a projected tangent).
     clock, budget, start
         Wall-clock budget in seconds measured by ``clock`` from ``start`` (default: when called).
     energy0
         ``E(x0)`` if already known.
+    energy_floor
+        The energy's round-off level (absolute): energy changes below it are not trusted, and a step
+        that changes the energy by less but lowers the residual is accepted.
     """
     x = np.array(_real_array("x0", x0), dtype=float, copy=True)  # complex, strings, objects: refused by name
     if x.ndim != 1:
         raise ValueError(f"x0 must be a 1D array, got shape {np.shape(x0)}")
     if not np.all(np.isfinite(x)):
         raise ValueError("x0 contains non-finite values")
-    for name, f in (("gradient", gradient), ("hessian", hessian), ("energy", energy), ("clock", clock)):
-        if not (callable(f) or (f is None and name in ("energy", "clock"))):
+    for name, f in (("gradient", gradient), ("hessian", hessian), ("energy", energy), ("clock", clock),
+                    ("safe_hessian", safe_hessian)):
+        if not (callable(f) or (f is None and name in ("energy", "clock", "safe_hessian"))):
             raise ValueError(f"{name} must be a callable, got {f!r}")
     if line_search is not None and (not isinstance(line_search, str) or line_search not in ("finite", "energy")):
         raise ValueError(f"line_search must be None, 'finite' or 'energy', got {line_search!r}")
@@ -227,15 +241,21 @@ def newton(
         raise ValueError("line_search='energy' needs the energy callable")
     if max_step is not None:
         max_step = check_real("max_step", max_step, 0.0, None, lo_open=True)
-    for name, value in (("rtol", rtol), ("atol", atol), ("floor", floor), ("reference_norm", reference_norm)):
+    for name, value in (("rtol", rtol), ("atol", atol), ("floor", floor), ("reference_norm", reference_norm),
+                        ("energy_floor", energy_floor)):
         check_real(name, value, 0.0, None)
     max_iterations = check_count("max_iterations", max_iterations, 0)
     max_halvings = check_count("max_halvings", max_halvings, 0, 1074)  # 2^-1074: the smallest double
     if not (isinstance(budget, (float, np.floating)) and budget == math.inf):
         budget = check_real("budget", budget, 0.0, None, lo_open=True)
     for name, value in (("start", start), ("energy0", energy0)):
-        if value is not None and (isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real)):
-            raise ValueError(f"{name} must be a real number or None, got {value!r}")
+        if value is not None:
+            if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+                raise ValueError(f"{name} must be a real number or None, got {value!r:.100}")
+            try:
+                float(value)
+            except OverflowError:  # an integer with hundreds of digits
+                raise ValueError(f"{name} is out of range (too large for a float)") from None
     if linear is not None and not all(callable(getattr(linear, m, None)) for m in ("matrix", "solve")):
         raise ValueError(f"linear must be a LinearSolver (with matrix and solve methods) or None, got {linear!r}")
     n = x.size
@@ -287,6 +307,11 @@ def newton(
         shift = 0.0
         descent = dx_free is not None and np.all(np.isfinite(dx_free)) and (
             line_search != "energy" or rhs @ dx_free > 0)
+        if not descent and line_search == "energy" and safe_hessian is not None:
+            A = linear.condense(safe_hessian(x), mask)
+            dx_free, shift, fac = _shifted_direction(A, rhs, shifts=(0.0,))
+            stats["factorizations"] += fac
+            descent = shift == 0.0
         if not descent and line_search == "energy":
             if A is None:  # a kept factorization that no longer fits: look at the tangent itself
                 A = linear.matrix(lambda: hessian(x), mask, force=True)
@@ -321,7 +346,7 @@ def newton(
                 if np.isfinite(E_new):
                     if E_new <= E + _ARMIJO * alpha * min(slope, 0.0):
                         accepted = True
-                    elif E_new - E <= _ENERGY_ROUNDOFF * e_scale:
+                    elif E_new - E <= max(_ENERGY_ROUNDOFF * e_scale, energy_floor):
                         g_new = np.asarray(gradient(x_new), dtype=float)
                         accepted = bool(np.linalg.norm(g_new[mask]) < rnorm)
                     if accepted:

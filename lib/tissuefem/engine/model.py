@@ -34,8 +34,8 @@ from .constants import TISSUE_DENSITY
 from .materials import _real_array
 from .parameters import (ACCELERATION_MAX, FORCE_MAX, REACH, check_bounded_vector, check_count, check_density,
                          check_real)
-from .terms import (Elastic, ElementTerm, Fibers, Inertia, Load, Probe, Sutures, Term, _extent, _SummedDensity,
-                    check_vector, traction_vector)
+from .terms import (Elastic, ElementTerm, Fibers, Inertia, Load, Probe, Sutures, Term, _extent, _SafeView,
+                    _SummedDensity, check_vector, traction_vector)
 
 __all__ = ["Model", "Handle", "Pattern", "region_nodes"]
 
@@ -333,6 +333,15 @@ def _check_material_at_rest(assembler, material) -> None:
             raise ValueError(f"material: {method}(F) at rest must be finite real values shaped {shape}, got "
                              f"dtype {value.dtype} shape {value.shape}")
 
+
+def _boundary_lengths(mesh) -> np.ndarray:
+    """Each vertex's share of the boundary's length: half of every boundary edge it ends (0 inside)."""
+    facets = mesh.facets[:, mesh.boundary_facets()]
+    d = mesh.p[:, facets[1]] - mesh.p[:, facets[0]]
+    half = 0.5 * np.hypot(d[0], d[1])
+    return np.bincount(facets.ravel(), weights=np.concatenate([half, half]), minlength=mesh.nvertices)
+
+
 def _named_tractions(tractions):
     if tractions is None:
         return []
@@ -423,9 +432,8 @@ class Model:
             self.component[self.basis.facet_dofs[0]] = 0
             self.component[self.basis.facet_dofs[1]] = 1
         self.dof_points = np.asarray(self.basis.doflocs, dtype=float)
-        # lumped area per vertex: a third of each incident triangle's material area (probe weights)
-        areas = self.element_areas()
-        self.node_areas = np.bincount(mesh.t.ravel(), weights=np.tile(areas / 3.0, 3), minlength=mesh.nvertices)
+        # lumped boundary length per vertex: half of each boundary edge it ends (a probe's surface weights)
+        self.boundary_lengths = _boundary_lengths(mesh)
 
         terms: list[Term] = [Elastic(self.assembler, material)]
         _check_material_at_rest(self.assembler, material)
@@ -438,12 +446,12 @@ class Model:
         if dt is not None:
             terms.insert(0, Inertia(self.assembler, dt, self.density, mass))
         for i, spec in enumerate(probes):
-            _check_keys(f"probes[{i}]", spec, ("center", "radius", "stiffness"), ("label",))
-            terms.append(Probe(self.X, self.node_areas, **spec))
+            _check_keys(f"probes[{i}]", spec, ("center", "radius", "stiffness"), ("label", "smoothing"))
+            terms.append(Probe(self.X, self.boundary_lengths, **spec))
         if sutures is not None:
-            _check_keys("sutures", sutures, ("pairs", "stiffness", "gaps"), ("tightness",))
+            _check_keys("sutures", sutures, ("pairs", "stiffness", "gaps"), ("tightness", "coefficients"))
             terms.append(Sutures(self.X, sutures["pairs"], sutures["stiffness"], sutures["gaps"],
-                                 sutures.get("tightness", 0.0)))
+                                 sutures.get("tightness", 0.0), coefficients=sutures.get("coefficients")))
         if gravity is not None:
             g = check_bounded_vector("gravity", gravity, ACCELERATION_MAX)
             terms.append(Load("gravity", self.assembler.body_force(self.density * g)))
@@ -524,6 +532,12 @@ class Model:
         return [t.describe() for t in self.terms]
 
     @property
+    def has_safe_hessian(self) -> bool:
+        """Whether a term offers a positive semi-definite Hessian besides its exact one."""
+        return (any(hasattr(t.density, "safe_tangent") for t in self._element_terms)
+                or any(t.has_safe_hessian for t in self._other_terms))
+
+    @property
     def quadratic(self) -> bool:
         """True when every term is quadratic: the Hessian is constant (linear material, springs, loads)."""
         return all(t.quadratic for t in self.terms)
@@ -553,13 +567,20 @@ class Model:
             g += t.gradient(u)
         return g
 
-    def hessian(self, u) -> sp.csr_matrix:
-        """``d^2E/du^2`` on the model's fixed pattern (the Newton matrix)."""
+    def hessian(self, u, safe: bool = False) -> sp.csr_matrix:
+        """``d^2E/du^2`` on the model's fixed pattern (the Newton matrix).
+
+        ``safe=True`` takes the positive semi-definite variants where the terms offer one (a
+        :class:`~tissuefem.engine.inversion.ProjectedTangent` with ``adaptive=True``, the probe's
+        normal part): what the minimiser falls back on when the exact Hessian gives no descent
+        direction.
+        """
         u = self._check_u(u)
         data = self.pattern.zeros()
-        self.pattern.add_base(data, self.assembler.tangent(u, self._density).data)
+        density = _SafeView(self._density) if safe else self._density
+        self.pattern.add_base(data, self.assembler.tangent(u, density).data)
         for t in self._other_terms:
-            t.add_hessian(u, data)
+            t.add_hessian(u, data, safe=safe)
         return self.pattern.csr(data)
 
     def _stored_terms(self):

@@ -53,7 +53,7 @@ from .terms import check_time_step
 
 __all__ = ["Stepper", "StepReport", "StaticResult", "solve"]
 
-#: The residual's round-off level, relative to the body's force scale (see :func:`_residual_floor`).
+#: The residual's round-off level, relative to the body's force scale (see :func:`_roundoff_floors`).
 _ROUNDOFF = 1e-13
 #: The most Newton iterations a step may take, and the most load steps of :func:`solve`.
 MAX_ITERATIONS = 100_000
@@ -191,24 +191,27 @@ class _CheckedClock:
         return check_real("clock (its reading in seconds)", now)
 
 
-def _residual_floor(model: Model) -> float:
-    """The residual norm below which Newton cannot go: round-off of the elastic forces.
+def _roundoff_floors(model: Model) -> tuple[float, float]:
+    """``(residual floor, energy floor)``: the levels below which round-off hides the residual and the energy.
 
     At rest the stress is a difference of terms of the size of the material's
     modulus (``mu F - mu F^-T`` for neo-Hookean), so each element's force is
     computed with an error of a few ``eps`` times ``A_e |A(I)| |grad N|``. This
     sums ``|A(I)| sqrt(A_e)`` (``|grad N| ~ 1/h``, ``A_e ~ h^2``) at the nodes;
     ``_ROUNDOFF`` times its norm is a few thousand times that error and far
-    below any tolerance a user asks for.
+    below any tolerance a user asks for. The energy is a sum of element terms
+    of the size ``|A(I)| A_e``, whatever its value (which cancels to nearly 0 at
+    rest): ``_ROUNDOFF`` times their sum bounds what an energy difference can tell.
     """
     F = np.eye(2).reshape(2, 2, 1)
     with np.errstate(all="ignore"):
         A = np.asarray(model._density.tangent(F))
     modulus = float(np.nanmax(np.abs(A))) if np.any(np.isfinite(A)) else 1.0
-    per_element = modulus * np.sqrt(model.element_areas())
+    areas = model.element_areas()
+    per_element = modulus * np.sqrt(areas)
     t = model.mesh.t
     nodal = np.bincount(t.ravel(), weights=np.tile(per_element, 3), minlength=model.mesh.nvertices)
-    return _ROUNDOFF * math.sqrt(2.0) * float(np.linalg.norm(nodal))
+    return _ROUNDOFF * math.sqrt(2.0) * float(np.linalg.norm(nodal)), _ROUNDOFF * modulus * float(areas.sum())
 
 
 class Stepper:
@@ -256,7 +259,7 @@ class Stepper:
             raise ValueError(f"anytime must be True or False, got {anytime!r}")
         self.anytime = bool(anytime)
         self.linear = linear_solver if isinstance(linear_solver, LinearSolver) else LinearSolver(linear_solver)
-        self.floor = _residual_floor(model)
+        self.floor, self.energy_floor = _roundoff_floors(model)
         n = model.n_dofs
         self.u = np.zeros(n)
         self.v = np.zeros(n)
@@ -429,6 +432,8 @@ class Stepper:
                 line_search=self.line_search, rtol=self.rtol, atol=self.atol, reference_norm=load_norm,
                 floor=self.floor, max_iterations=self.max_iterations - (which == "linearised"), max_step=self.max_step,
                 linear=self.linear, clock=self._clock, budget=self._budget, start=start, energy0=E0,
+                energy_floor=self.energy_floor,
+                safe_hessian=(lambda x: model.hessian(x, safe=True)) if model.has_safe_hessian else None,
             )
         finally:
             for term in loads:

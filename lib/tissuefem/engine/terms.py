@@ -98,8 +98,13 @@ class Term:
     def gradient(self, u) -> np.ndarray:
         raise NotImplementedError
 
-    def add_hessian(self, u, data) -> None:
+    def add_hessian(self, u, data, safe=False) -> None:
+        """Add the Hessian into ``data``; ``safe=True`` asks for a positive semi-definite version (terms
+        whose Hessian can be indefinite offer one and set ``has_safe_hessian``)."""
         raise NotImplementedError
+
+    #: whether ``add_hessian(..., safe=True)`` differs from the exact Hessian
+    has_safe_hessian = False
 
     def describe(self) -> str:
         return self.name
@@ -124,8 +129,9 @@ class ElementTerm(Term):
     def gradient(self, u):
         return self.assembler.residual(u, self.density)
 
-    def add_hessian(self, u, data):
-        self.pattern.add_base(data, self.assembler.tangent(u, self.density).data)
+    def add_hessian(self, u, data, safe=False):
+        density = _SafeView(self.density) if safe else self.density
+        self.pattern.add_base(data, self.assembler.tangent(u, density).data)
 
 
 class Elastic(ElementTerm):
@@ -216,6 +222,34 @@ class _SummedDensity:
     def tangent(self, F):
         return self._sum("tangent", F)
 
+    def safe_tangent(self, F):
+        out = _safe_tangent(self.densities[0], F)
+        for d in self.densities[1:]:
+            out = out + _safe_tangent(d, F)
+        return out
+
+
+def _safe_tangent(density, F):
+    """A density's positive semi-definite tangent where it offers one (else its tangent)."""
+    safe = getattr(density, "safe_tangent", None)
+    return safe(F) if safe is not None else density.tangent(F)
+
+
+class _SafeView:
+    """An energy density seen through its positive semi-definite tangent (the safe Hessian)."""
+
+    def __init__(self, density):
+        self.density = density
+
+    def energy(self, F):
+        return self.density.energy(F)
+
+    def stress(self, F):
+        return self.density.stress(F)
+
+    def tangent(self, F):
+        return _safe_tangent(self.density, F)
+
 
 # --------------------------------------------------------------------------------------- inertia and loads
 
@@ -255,7 +289,7 @@ class Inertia(Term):
     def gradient(self, u):
         return self.matvec(u - self.x_tilde) / self.dt**2
 
-    def add_hessian(self, u, data):
+    def add_hessian(self, u, data, safe=False):
         self.pattern.add_base(data, self.mass_data / self.dt**2)
 
     def kinetic_energy(self, v) -> float:
@@ -303,7 +337,7 @@ class Load(Term):
     def gradient(self, u):
         return -self.scale * self.vector
 
-    def add_hessian(self, u, data):
+    def add_hessian(self, u, data, safe=False):
         pass
 
     def describe(self):
@@ -364,30 +398,43 @@ def traction_vector(basis, boundary, traction) -> np.ndarray:
 # --------------------------------------------------------------------------------------- tools and sutures
 
 class Probe(Term):
-    """A rigid disc (a tool tip) of centre ``c`` and radius ``R`` that the tissue's nodes must stay out of.
+    """A rigid disc (a tool tip) of centre ``c`` and radius ``R`` pressed into the tissue's surface.
 
-    A penalty on each node ``a`` that enters the disc, weighted by its lumped
-    area ``m_a`` so that the stiffness ``k`` is per unit area:
+    Contact acts on the surface, so each *boundary* node ``a`` carries its share
+    ``l_a`` of the boundary's length (half of each boundary edge it ends), and
+    the penalty is a pressure: with the penetration ``g_a = R - d_a``,
+    ``d_a = |x_a - c|``,
 
-        E = sum_a k m_a / 2 (R - d_a)^2  for d_a = |x_a - c| < R,
+        E = sum_a k l_a h(g_a),   h(g) = g^3 / (6 delta)             (0 < g < delta),
+                                  h(g) = g^2/2 - delta g/2 + delta^2/6  (g >= delta),
 
-    with ``x_a = X_a + u_a``. With ``n_a = (x_a - c) / d_a`` the force on the
-    node is ``-dE/dx_a = k m_a (R - d_a) n_a`` (outward), and the Hessian is
-    ``k m_a [n n^T - (R - d)/d (I - n n^T)]``. Its tangential part is negative
-    (the disc's curved surface), so the Newton matrix keeps only the positive
-    ``k m_a n n^T`` (a Gauss-Newton approximation; the energy line search makes
-    the step safe). The tool moves between frames through :meth:`move`.
+    and ``h = 0`` outside the disc. ``k`` is a stiffness per unit area (a
+    pressure per unit penetration): the force per unit surface length is
+    ``k h'(g)``, the same on any mesh, so the penetration a given push leaves
+    does not depend on the element size. ``h`` is twice continuously
+    differentiable (the pressure starts smoothly over ``delta``, a small
+    fraction of ``R``), so a node entering or leaving the disc does not make
+    the Newton matrix jump, and Newton converges as it does without contact.
+    With ``n_a = (x_a - c) / d_a`` the force on the node is ``k l_a h'(g) n_a``
+    (outward); the Hessian is ``k l_a [h''(g) n n^T - h'(g)/d (I - n n^T)]``,
+    whose tangential part (the disc's curvature) is negative and small (order
+    ``g / R``) but not negligible where the tissue slides along the tool: the
+    Newton matrix takes the exact Hessian (quadratic convergence), and its
+    *safe* version (``safe=True``, what the minimiser falls back on when a
+    direction does not point downhill) keeps only the positive normal part.
+    The tool moves between frames through :meth:`move`.
     """
 
     name = "probe"
 
-    def __init__(self, X, node_areas, center, radius, stiffness, label=None):
+    def __init__(self, X, boundary_lengths, center, radius, stiffness, label=None, smoothing=0.02):
         self.X = X
         self.n_nodes = X.shape[1]
-        self.m = node_areas
+        self.length = np.asarray(boundary_lengths, dtype=float)
+        self.surface = np.flatnonzero(self.length > 0)
         self._middle, self._size = _extent(X)
         self.move(center)
-        # a radius in domain sizes: the default stiffness of a tool (~ E / r^2) and its depths stay finite
+        # a radius in domain sizes: the default stiffness of a tool (~ E / r) and its depths stay finite
         r = check_real("probe.radius", radius, 0.0, None, lo_open=True)
         lo, hi = RADIUS_RANGE[0] * self._size, RADIUS_RANGE[1] * self._size
         if not lo <= r <= hi:
@@ -395,6 +442,8 @@ class Probe(Term):
                              f"domain sizes, i.e. [{lo:g}, {hi:g}]")
         self.radius = r
         self.stiffness = check_real("probe.stiffness", stiffness, 0.0, PENALTY_MAX)
+        # g^3 / (6 delta): a smoothing length far below the radius would overflow the energy
+        self.delta = check_real("probe.smoothing", smoothing, 1e-6, 1.0) * self.radius
         self.label = label
 
     def move(self, center) -> None:
@@ -405,87 +454,136 @@ class Probe(Term):
         return f"probe: disc r = {self.radius:g} at ({self.center[0]:g}, {self.center[1]:g}), k = {self.stiffness:g}"
 
     def _contact(self, u):
-        x = self.X + u[: 2 * self.n_nodes].reshape(-1, 2).T
+        """The surface nodes inside the disc: ``(nodes, penetration g, outward normals n, distances d)``."""
+        nodes = self.surface
+        x = self.X[:, nodes] + u[: 2 * self.n_nodes].reshape(-1, 2).T[:, nodes]
         d_vec = x - self.center[:, None]
         d = np.hypot(d_vec[0], d_vec[1])
-        inside = np.flatnonzero(d < self.radius)
+        inside = d < self.radius
         dd = d[inside]
         safe = np.maximum(dd, 1e-12 * self.radius)
         n = d_vec[:, inside] / safe
         n[:, dd < 1e-12 * self.radius] = np.array([[0.0], [1.0]])  # at the very centre: push up
-        return inside, self.radius - dd, n
+        return nodes[inside], self.radius - dd, n, safe
+
+    def _h(self, g):
+        """``h, h', h''`` of the smoothed penalty at penetrations ``g > 0``."""
+        delta = self.delta
+        cubic = g < delta
+        h = np.where(cubic, g**3 / (6 * delta), 0.5 * g**2 - 0.5 * delta * g + delta**2 / 6)
+        h1 = np.where(cubic, g**2 / (2 * delta), g - 0.5 * delta)
+        h2 = np.where(cubic, g / delta, 1.0)
+        return h, h1, h2
 
     def energy(self, u):
-        inside, depth, _ = self._contact(u)
-        return 0.5 * self.stiffness * float(np.sum(self.m[inside] * depth**2))
+        nodes, g, _, _ = self._contact(u)
+        return self.stiffness * float(np.sum(self.length[nodes] * self._h(g)[0]))
 
     def gradient(self, u):
-        inside, depth, n = self._contact(u)
-        g = np.zeros(u.size)
-        f = -self.stiffness * self.m[inside] * depth * n  # dE/dx
-        g[2 * inside] = f[0]
-        g[2 * inside + 1] = f[1]
-        return g
+        nodes, g, n, _ = self._contact(u)
+        out = np.zeros(u.size)
+        f = -self.stiffness * self.length[nodes] * self._h(g)[1] * n  # dE/dx
+        out[2 * nodes] = f[0]
+        out[2 * nodes + 1] = f[1]
+        return out
+
+    def forces(self, u) -> np.ndarray:
+        """The contact force on every node ``(2, n_nodes)`` (zero off the disc)."""
+        return -self.gradient(u)[: 2 * self.n_nodes].reshape(-1, 2).T
 
     def penetration(self, u) -> float:
-        """The deepest any node is inside the disc (0 when none is)."""
-        _, depth, _ = self._contact(u)
-        return float(depth.max(initial=0.0))
+        """The deepest any surface node is inside the disc (0 when none is)."""
+        _, g, _, _ = self._contact(u)
+        return float(g.max(initial=0.0))
 
-    def add_hessian(self, u, data):
-        inside, _, n = self._contact(u)
-        if inside.size == 0:
+    #: the Hessian has a positive semi-definite variant (its normal part)
+    has_safe_hessian = True
+
+    def add_hessian(self, u, data, safe=False):
+        nodes, g, n, d = self._contact(u)
+        if nodes.size == 0:
             return
-        w = self.stiffness * self.m[inside]
+        _, h1, h2 = self._h(g)
+        w = self.stiffness * self.length[nodes]
+        normal, tangential = w * h2, (0.0 if safe else -w * h1 / d)
         for i in range(2):
             for j in range(2):
-                np.add.at(data, self.pattern.node_block[i, j, inside], w * n[i] * n[j])
+                nn = n[i] * n[j]
+                block = normal * nn + tangential * ((i == j) - nn)
+                np.add.at(data, self.pattern.node_block[i, j, nodes], block)
 
 
 class Sutures(Term):
-    """Stiff springs that tie pairs of nodes together: ``E = sum_s k/2 |x_a - x_b - g_s|^2``.
+    """Stiff springs that tie pairs of points together: ``E = sum_s k/2 |x_a - x_b - g_s|^2``.
 
-    ``g_s`` is the slack: the gap the suture still allows. A suture is placed
-    with its current gap as slack (no force at first) and then *tightened*:
-    ``tighten(s)`` sets ``g = (1 - s) g_0``, so ``s = 1`` closes the wound.
-    Every term is quadratic (a zero-length spring), so the Hessian is constant;
-    it couples the two nodes of each pair, which widens the model's pattern.
-    ``k`` is a force per unit length (per unit thickness, in 2D).
+    A stitch's two ends are points of the tissue: a node, or a point inside
+    an element (on a wound cut through elements), which moves with the
+    element's three nodes, ``x_a = sum_c w_c x_{n_c}`` with its barycentric
+    weights ``w``. ``g_s`` is the slack: the gap the suture still allows. A
+    suture is placed with its current gap as slack (no force at first) and then
+    *tightened*: ``tighten(s)`` sets ``g = (1 - s) g_0``, so ``s = 1`` closes the
+    wound. Every term is quadratic (a zero-length spring), so the Hessian is
+    constant: ``k D^T D`` with ``D`` the map from nodes to the gap; it couples
+    the nodes of the two ends, which widens the model's pattern. ``k`` is a
+    force per unit length (per unit thickness, in 2D).
+
+    Parameters
+    ----------
+    X : ndarray, shape (2, n_nodes)
+    pairs : int array, shape (2, k) or (2, c, k)
+        Node pairs; or, with ``coefficients``, the ``c`` nodes of each end.
+    stiffness : float or (k,), gaps : (2, k), tightness
+    coefficients : array, shape (2, c, k), optional
+        Weights of the nodes of each end (each end's weights add up to 1).
     """
 
     name = "sutures"
     quadratic = True
 
-    def __init__(self, X, pairs, stiffness, gaps, tightness=0.0):
+    def __init__(self, X, pairs, stiffness, gaps, tightness=0.0, coefficients=None):
         self.X = X
         self.n_nodes = X.shape[1]
         try:
             pairs = np.asarray(pairs)
         except (TypeError, ValueError):  # ragged lists
-            raise ValueError(f"sutures.pairs must be node index pairs shaped (2, k), got {pairs!r}") from None
-        if pairs.ndim != 2 or pairs.shape[0] != 2 or pairs.shape[1] == 0 or not np.issubdtype(pairs.dtype, np.integer):
-            raise ValueError(f"sutures.pairs must be node index pairs shaped (2, k), got {pairs!r}")
+            raise ValueError(f"sutures.pairs must be node index pairs shaped (2, k), got {pairs!r:.200}") from None
+        if not np.issubdtype(pairs.dtype, np.integer) or pairs.ndim not in (2, 3) or pairs.shape[0] != 2 \
+                or pairs.shape[-1] == 0 or (pairs.ndim == 3 and coefficients is None):
+            raise ValueError(f"sutures.pairs must be node index pairs shaped (2, k), got {pairs!r:.200}")
         if pairs.min() < 0 or pairs.max() >= self.n_nodes:
             raise ValueError(f"sutures.pairs has node indices outside the mesh (0..{self.n_nodes - 1})")
-        if np.any(pairs[0] == pairs[1]):
-            raise ValueError("sutures.pairs ties a node to itself")
-        self.pairs = pairs.astype(np.intp)
+        if pairs.ndim == 2:
+            nodes, coef = pairs[:, None, :], np.ones((2, 1, pairs.shape[1]))
+            if np.any(pairs[0] == pairs[1]):
+                raise ValueError("sutures.pairs ties a node to itself")
+        else:
+            nodes = pairs
+            coef = _real_array("sutures.coefficients", coefficients)
+            if coef.shape != nodes.shape or not np.all(np.isfinite(coef)) or np.any(coef < -1e-12) \
+                    or not np.allclose(coef.sum(axis=1), 1.0, atol=1e-9):
+                raise ValueError(f"sutures.coefficients must be barycentric weights shaped {nodes.shape} "
+                                 "(each end's weights >= 0 adding up to 1)")
+        self.nodes = nodes.astype(np.intp)
+        self.coefficients = coef
+        k_count = nodes.shape[-1]
+        #: node pairs (2, k): each end's node of largest weight (the node itself for node-to-node stitches)
+        self.pairs = np.take_along_axis(self.nodes, np.argmax(coef, axis=1)[:, None, :], axis=1)[:, 0, :]
         k = _real_array("sutures.stiffness", stiffness)
         try:
-            k = np.broadcast_to(k, (self.pairs.shape[1],)).copy()
+            k = np.broadcast_to(k, (k_count,)).copy()
         except ValueError:
-            raise ValueError(f"sutures.stiffness must be one number or one per stitch ({self.pairs.shape[1]}), "
+            raise ValueError(f"sutures.stiffness must be one number or one per stitch ({k_count}), "
                              f"got shape {k.shape}") from None
         if not np.all(np.isfinite(k) & (k > 0) & (k <= PENALTY_MAX)):
-            raise ValueError(f"sutures.stiffness must be finite, > 0 and <= {PENALTY_MAX:g}, got {stiffness!r}")
+            raise ValueError(f"sutures.stiffness must be finite, > 0 and <= {PENALTY_MAX:g}, got {stiffness!r:.200}")
         self.k = k
         gaps = _real_array("sutures.gaps", gaps)
         reach = REACH * _extent(X)[1]
-        if gaps.shape != self.pairs.shape or not np.all(np.abs(gaps) <= reach):
+        if gaps.shape != (2, k_count) or not np.all(np.abs(gaps) <= reach):
             raise ValueError(f"sutures.gaps must be finite, within {REACH:g} domain sizes ({reach:g}) and shaped "
-                             f"{self.pairs.shape}, got shape {gaps.shape}")
+                             f"{(2, k_count)}, got shape {gaps.shape}")
         self.gap0 = gaps
-        self.tightness = np.zeros(self.pairs.shape[1])
+        self.tightness = np.zeros(k_count)
         self.slack = self.gap0.copy()
         self.tighten(tightness)
 
@@ -510,32 +608,33 @@ class Sutures(Term):
         self.slack = (1.0 - self.tightness) * self.gap0
 
     def describe(self):
-        return f"sutures: {self.pairs.shape[1]} stitches, mean tightness {self.tightness.mean():g}"
+        return f"sutures: {self.k.size} stitches, mean tightness {self.tightness.mean():g}"
 
-    def _x(self, u):
-        return self.X + u[: 2 * self.n_nodes].reshape(-1, 2).T
+    def ends(self, u) -> np.ndarray:
+        """Where the two ends of every stitch are: shape (2 ends, 2 coordinates, k)."""
+        x = self.X + u[: 2 * self.n_nodes].reshape(-1, 2).T
+        return np.einsum("sck,iksc->sik", self.coefficients, x[:, self.nodes.transpose(2, 0, 1)])
 
     def _gap(self, u):
-        x = self._x(u)
-        return x[:, self.pairs[0]] - x[:, self.pairs[1]] - self.slack
+        a, b = self.ends(u)
+        return a - b - self.slack
 
     def energy(self, u):
         e = self._gap(u)
         return 0.5 * float(np.sum(self.k * (e[0] ** 2 + e[1] ** 2)))
 
     def gradient(self, u):
-        e = self.k * self._gap(u)
+        e = self.k * self._gap(u)  # (2, k): the spring force on end a (minus on end b)
+        signed = self.coefficients * np.array([1.0, -1.0])[:, None, None]  # (2, c, k)
         g = np.zeros(u.size)
         for i in range(2):
-            np.add.at(g, 2 * self.pairs[0] + i, e[i])
-            np.add.at(g, 2 * self.pairs[1] + i, -e[i])
+            np.add.at(g, 2 * self.nodes.ravel() + i, (signed * e[i]).ravel())
         return g
 
     def distances(self, u) -> np.ndarray:
-        """How far apart each sutured pair is (0 when closed)."""
-        x = self._x(u)
-        d = x[:, self.pairs[0]] - x[:, self.pairs[1]]
-        return np.hypot(d[0], d[1])
+        """How far apart the two ends of each stitch are (0 when closed)."""
+        a, b = self.ends(u)
+        return np.hypot(*(a - b))
 
     def forces(self, u) -> np.ndarray:
         """The tension ``k |x_a - x_b - g|`` in each stitch."""
@@ -543,14 +642,15 @@ class Sutures(Term):
         return self.k * np.hypot(e[0], e[1])
 
     def _triplets(self):
-        a, b = self.pairs
-        rows, cols, vals = [], [], []
-        for p, q, sign in ((a, a, 1.0), (b, b, 1.0), (a, b, -1.0), (b, a, -1.0)):
-            for i in range(2):
-                rows.append(2 * p + i)
-                cols.append(2 * q + i)
-                vals.append(sign * self.k)
-        return np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
+        # D maps node displacements to the gap: +w on end a's nodes, -w on end b's; the Hessian is k D^T D
+        nodes = self.nodes.reshape(-1, self.k.size)  # (2c, k)
+        signed = (self.coefficients * np.array([1.0, -1.0])[:, None, None]).reshape(-1, self.k.size)
+        p = np.repeat(nodes[:, None, :], nodes.shape[0], axis=1)  # rows (2c, 2c, k)
+        q = np.repeat(nodes[None, :, :], nodes.shape[0], axis=0)
+        w = signed[:, None, :] * signed[None, :, :] * self.k
+        rows = np.concatenate([2 * p.ravel() + i for i in range(2)])
+        cols = np.concatenate([2 * q.ravel() + i for i in range(2)])
+        return rows, cols, np.concatenate([w.ravel(), w.ravel()])
 
     def couplings(self):
         rows, cols, _ = self._triplets()
@@ -561,5 +661,5 @@ class Sutures(Term):
         rows, cols, self._values = self._triplets()
         self._positions = pattern.positions(rows, cols)
 
-    def add_hessian(self, u, data):
+    def add_hessian(self, u, data, safe=False):
         np.add.at(data, self._positions, self._values)

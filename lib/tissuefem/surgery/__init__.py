@@ -1,0 +1,12 @@
+"""The surgery layer: topology operations, scenes, the running simulation and the mouse.
+
+* :mod:`.topology` -- cuts along mesh edges (node duplication), excisions, connected pieces;
+* :mod:`.element_cuts` -- cuts through elements by the virtual node algorithm;
+* :mod:`.scene` -- the declarative description of a simulation, read from and written to TOML/JSON;
+* :mod:`.simulation` -- a scene built into a model and a real-time stepper, with the surgical operations
+  between frames (grab, drag, release, probe, cut, excise, suture);
+* :mod:`.flaps` -- local flap procedures and their tension reports;
+* :mod:`.interactive` -- the view that turns mouse events into those operations.
+
+It imports the engine, never the workbook.
+"""

@@ -112,9 +112,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .topology import MeshEdit, _keys, _mesh_arrays, _new_mesh, _points, _positions
+from .topology import MeshEdit, _keys, _mesh_arrays, _new_mesh, _points, _positions, excise
 
-__all__ = ["Region", "Wound", "ElementCut", "cut_through", "lumped_mass", "material_areas"]
+__all__ = ["Region", "Wound", "ElementCut", "cut_through", "excise_through", "Picture", "picture", "lumped_mass",
+           "material_areas"]
 
 #: Geometric tolerance in a triangle's local coordinates (the unit triangle):
 #: points closer than this are one point, and a point this close to an edge is on it.
@@ -1318,3 +1319,216 @@ def _carry_names(old, new, parent, elements, regions, touched):
                 for label, els in old.subdomains.items()}
         out = out.with_subdomains(subs)
     return out
+
+
+# --------------------------------------------------------------------------
+# removing what a closed cut encloses
+# --------------------------------------------------------------------------
+def excise_through(mesh, polygon, positions=None, weights=None, regions=None, min_weight=MIN_WEIGHT) -> ElementCut:
+    """Cut along a closed ``polygon`` through the elements and remove the material inside it.
+
+    This is the excision a surgeon makes: the rim of the defect follows the
+    drawn outline, not the triangles whose centroids happen to fall inside
+    (:func:`~tissuefem.surgery.topology.excise`). The outline is cut with
+    :func:`cut_through` (closed: its last point joined to its first), then every
+    element whose material lies inside the outline is removed, with the nodes no
+    other element uses.
+
+    Returns an :class:`ElementCut` whose ``parent`` and ``elements`` map to
+    ``mesh`` as it was, with the surviving elements' ``weights`` and
+    ``regions``; its ``wound`` holds the records of the rim that stays.
+    """
+    pts = _points("polygon", polygon, 3)
+    closed = np.vstack([pts, pts[:1]]) if np.any(pts[0] != pts[-1]) else pts
+    if closed.shape[0] < 4:
+        raise ValueError("polygon must have at least 3 distinct points")
+    first = cut_through(mesh, closed, positions, weights=weights, regions=regions, min_weight=min_weight)
+    m = first.mesh.t.shape[1]
+    # where each element's material is now (the stroke was drawn there): a point inside its
+    # material, carried by the P1 map of its triangle
+    x = _positions(first.mesh, None if positions is None else first.transfer(np.asarray(positions, float)))
+    t = first.mesh.t
+    centre = np.full((m, 3), 1.0 / 3.0)
+    for e, region in first.regions.items():
+        centre[e] = _interior_barycentric(region)
+    inside_point = np.einsum("ea,iae->ie", centre, x[:, t])
+    remove = _inside(closed, inside_point)
+    if not remove.any():
+        raise ValueError("polygon encloses no material")
+    if remove.all():
+        raise ValueError("polygon encloses all the material: nothing would be left")
+    second = excise(first.mesh, lambda _centroids: remove)
+    keep = second.elements
+    return ElementCut(
+        mesh=second.mesh,
+        parent=first.parent[second.parent],
+        elements=first.elements[keep],
+        cut_edges=first.cut_edges,
+        n_old_nodes=first.n_old_nodes,
+        n_old_elements=first.n_old_elements,
+        weights=first.weights[keep],
+        regions={int(new): first.regions[int(old)] for new, old in enumerate(keep.tolist())
+                 if int(old) in first.regions},
+        wound=_renumber_wound(first.wound, keep, second.parent, second.mesh.t),
+    )
+
+
+def _interior_barycentric(region) -> np.ndarray:
+    """Barycentric coordinates of a point inside the material of ``region`` (its largest piece's centroid of
+    a triangle of its triangulation, which lies inside even when the polygon is not convex)."""
+    best, best_area = None, -1.0
+    for poly in region.polygons:
+        for tri in _triangulate(poly):
+            a, b, c = poly[tri[0]], poly[tri[1]], poly[tri[2]]
+            area = abs(_cross(b[0] - a[0], b[1] - a[1], c[0] - a[0], c[1] - a[1]))
+            if area > best_area:
+                best, best_area = (a + b + c) / 3.0, area
+    return np.array([1.0 - best[0] - best[1], best[0], best[1]])
+
+
+def _inside(polygon, points) -> np.ndarray:
+    """Even-odd test of ``points`` (2, k) against the closed ``polygon`` (k, 2)."""
+    px, py = points
+    inside = np.zeros(px.shape, dtype=bool)
+    for (ax, ay), (bx, by) in zip(polygon[:-1], polygon[1:]):
+        crosses = (ay > py) != (by > py)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            xs = ax + (py - ay) * (bx - ax) / (by - ay)
+        inside ^= crosses & (px < xs)
+    return inside
+
+
+def _renumber_wound(wound, keep, parent, t) -> Wound:
+    """The wound records of the elements that survive an excision, in the new numbering."""
+    new_of = np.full(max(int(wound.element.max(initial=-1)), int(keep.max(initial=-1))) + 1, -1, dtype=np.int64)
+    new_of[keep] = np.arange(keep.size)
+    stay = new_of[wound.element] >= 0 if wound.element.size else np.zeros(0, dtype=bool)
+    element = new_of[wound.element[stay]]
+    return Wound(
+        element=element,
+        side=wound.side[stay],
+        barycentric=wound.barycentric[stay],
+        nodes=np.asarray(t)[:, element].T.copy(),
+        reference=wound.reference[stay],
+        stroke=wound.stroke[stay],
+        opened=wound.opened[stay],
+    )
+
+
+# --------------------------------------------------------------------------
+# what to draw
+# --------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class Picture:
+    """What to draw of a mesh whose elements may fill only part of their triangle.
+
+    Two copies of a cut triangle share its reference triangle; drawing both
+    whole would paint material across the cut. Instead every element that is
+    not whole is drawn as its material polygons, split into triangles. A drawn
+    point is a combination of (at most) three nodes, the barycentric
+    coordinates of the point in its element, so the picture follows the
+    deformation exactly as the P1 field does.
+
+    Attributes
+    ----------
+    nodes, coefficients : ndarray, shape (3, k)
+        Drawn point ``j`` sits at ``sum_a coefficients[a, j] * x[:, nodes[a, j]]``.
+    triangles : ndarray of int, shape (3, q)
+        The filled triangles, by drawn point.
+    element : ndarray of int, shape (q,)
+        The element each drawn triangle belongs to (to colour it by a per-element value).
+    edges : ndarray of int, shape (2, r)
+        Lines to draw (element edges, material outlines, cracks), by drawn point.
+    plain : bool
+        No element is cut: the drawn points are the nodes themselves (``points(x) is x``).
+    """
+
+    nodes: np.ndarray
+    coefficients: np.ndarray
+    triangles: np.ndarray
+    element: np.ndarray
+    edges: np.ndarray
+    plain: bool
+
+    def points(self, x) -> np.ndarray:
+        """The drawn points ``(2, k)`` at node positions ``x`` ``(2, n_nodes)``."""
+        x = np.asarray(x, dtype=float)
+        if self.plain:
+            return x
+        return np.einsum("ak,iak->ik", self.coefficients, x[:, self.nodes])
+
+
+def picture(mesh, regions=None) -> Picture:
+    """The :class:`Picture` of ``mesh`` with the material ``regions`` of a cut through elements."""
+    p, t = _mesh_arrays(mesh)
+    n, m = p.shape[1], t.shape[1]
+    regions = {} if regions is None else regions
+    whole = np.ones(m, dtype=bool)
+    whole[[e for e in regions if 0 <= e < m]] = False
+    # the edges of every whole element (each once)
+    tw = t[:, whole]
+    a, b = tw.ravel(), np.roll(tw, -1, axis=0).ravel()
+    pairs = np.unique(np.vstack([np.minimum(a, b), np.maximum(a, b)]), axis=1)
+    if not regions:
+        nodes = np.zeros((3, n), dtype=np.int64)
+        nodes[0] = np.arange(n)
+        coefficients = np.zeros((3, n))
+        coefficients[0] = 1.0
+        return Picture(nodes, coefficients, t.copy(), np.arange(m), pairs, True)
+    pt_nodes = [np.vstack([np.arange(n), np.zeros(n, np.int64), np.zeros(n, np.int64)])]
+    pt_coef = [np.vstack([np.ones(n), np.zeros(n), np.zeros(n)])]
+    tris, tri_el, edges = [tw], [np.flatnonzero(whole)], [pairs]
+    count = n
+    for e in sorted(regions):
+        region = regions[e]
+        corners = t[:, e]
+        local = [region.polygons[i] for i in range(len(region.polygons))]
+        for poly in local:
+            k = poly.shape[0]
+            bary = np.vstack([1.0 - poly[:, 0] - poly[:, 1], poly[:, 0], poly[:, 1]])
+            pt_nodes.append(np.repeat(corners[:, None], k, axis=1))
+            pt_coef.append(bary)
+            tri = np.asarray(_triangulate(poly), dtype=np.int64).reshape(-1, 3).T + count
+            tris.append(tri)
+            tri_el.append(np.full(tri.shape[1], e, dtype=np.int64))
+            ring = np.arange(k) + count
+            edges.append(np.vstack([ring, np.roll(ring, -1)]))
+            count += k
+        for seg in region.slits:  # a crack that ends inside the element: drawn as a line
+            bary = np.vstack([1.0 - seg[:, 0] - seg[:, 1], seg[:, 0], seg[:, 1]])
+            pt_nodes.append(np.repeat(corners[:, None], 2, axis=1))
+            pt_coef.append(bary)
+            edges.append(np.array([[count], [count + 1]]))
+            count += 2
+    return Picture(np.hstack(pt_nodes), np.hstack(pt_coef), np.hstack(tris), np.concatenate(tri_el),
+                   np.hstack(edges), False)
+
+
+def _triangulate(poly) -> list:
+    """Triangles ``(i, j, k)`` of a simple counter-clockwise polygon ``(k, 2)``, by clipping ears."""
+    pts = [tuple(map(float, q)) for q in poly]
+    idx = list(range(len(pts)))
+    tris = []
+    while len(idx) > 3:
+        for j in range(len(idx)):
+            ia, ib, ic = idx[j - 1], idx[j], idx[(j + 1) % len(idx)]
+            (ax, ay), (bx, by), (cx, cy) = pts[ia], pts[ib], pts[ic]
+            if _cross(bx - ax, by - ay, cx - ax, cy - ay) <= 0.0:
+                continue  # a reflex or flat corner is no ear
+            if any(_in_triangle(pts[q], pts[ia], pts[ib], pts[ic]) for q in idx if q not in (ia, ib, ic)):
+                continue
+            tris.append((ia, ib, ic))
+            idx.pop(j)
+            break
+        else:  # only flat corners left (points on a line): fan what remains
+            tris.extend((idx[0], idx[i], idx[i + 1]) for i in range(1, len(idx) - 1))
+            return tris
+    tris.append(tuple(idx))
+    return tris
+
+
+def _in_triangle(q, a, b, c) -> bool:
+    d1 = _cross(b[0] - a[0], b[1] - a[1], q[0] - a[0], q[1] - a[1])
+    d2 = _cross(c[0] - b[0], c[1] - b[1], q[0] - b[0], q[1] - b[1])
+    d3 = _cross(a[0] - c[0], a[1] - c[1], q[0] - c[0], q[1] - c[1])
+    return d1 >= 0.0 and d2 >= 0.0 and d3 >= 0.0

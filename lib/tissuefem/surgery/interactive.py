@@ -13,30 +13,68 @@ every 1/30 s):
   incision (:meth:`Simulation.cut`) when the button is released; the drawing
   is rebuilt for the new topology.
 
-The key ``c`` toggles the two modes (``view.mode = "cut"`` does the same from
-code). A timer of the figure's canvas runs one frame every ``interval_ms``
-(:meth:`SurgeryView.step`: ``sim.frame()`` and a redraw). The timer starts
-only on an interactive canvas (``%matplotlib widget`` in Jupyter, a Qt or Tk
-window); on a non-interactive one (Agg, the inline backend) nothing runs by
-itself and code calls :meth:`~SurgeryView.step`. So the same cells run in a
-browser with the mouse and headless in the test suite.
+The mode buttons shown with the view switch the two modes; so do the key ``c``
+(once the figure has the keyboard: click into it first) and ``view.mode = "cut"``.
+A timer of the figure's canvas runs one frame every ``interval_ms``
+(:meth:`SurgeryView.step`: ``sim.frame()``, then a redraw is requested). The
+timer runs only on an interactive canvas (``%matplotlib widget`` in Jupyter, a
+Qt or Tk window); on a non-interactive one (Agg, the inline backend) nothing
+runs by itself and code calls :meth:`~SurgeryView.step` and, to time the
+drawing too, :meth:`~SurgeryView.draw`. So the same cells run in a browser
+with the mouse and headless in the test suite.
+
+**Drawing within the frame budget.** The readout above the axes shows the
+step (the simulation's frame) *and* the draw against the 33 ms budget, and the
+frames drawn per second. The view keeps a redraw cheap: the axes have a fixed
+place in the figure (no layout engine solves anything per frame), and the
+view's own figure draws everything that does not move (axes, ticks, labels)
+once and keeps that picture; per frame it restores it and draws only the
+moving layer over it: the triangles (one compound path for the faces and one
+for the edges, whose vertex arrays are rewritten in place), the drag target
+and the cut stroke. The two lines of text change only at a readable pace (a
+new message at once) and are kept with the background in between. Messages
+go to a fixed place under the axes, wrapped and cut to two lines, so they
+never move the axes. Mouse events only change the state: while the timer
+runs, its next frame draws it. On a browser canvas (ipympl) the timer sends
+each frame's picture itself, with no request from the page per frame; other
+interactive canvases (Qt, Tk) are asked to redraw and coalesce the requests.
+
+**One live view per simulation and per notebook cell.** A new view of the same
+simulation stops the old one; re-running the cell that made a view closes the
+old view (its timer would otherwise keep stepping a simulation nobody sees).
 
 :func:`synthetic_mouse` and :func:`synthetic_key` send a made-up event through
 the canvas's callbacks, exactly as a backend would, so a notebook can show what
 a drag or a cut does without a mouse (and the tests can check it).
 
-Nothing here needs ipympl or ipywidgets; with ipywidgets installed,
-:meth:`SurgeryView.controls` adds buttons for the mode and the timer.
+Nothing here needs ipympl or ipywidgets; with ipywidgets installed, the view
+is displayed with buttons for the mode and the timer (:meth:`SurgeryView.widget`).
 """
 
 from __future__ import annotations
 
+import asyncio
+import base64
+import collections
+import functools
+import io
 import math
+import textwrap
+import threading
+import time
+import weakref
 
+import matplotlib
+import matplotlib.pyplot as plt
 import numpy as np
-from matplotlib.backend_bases import KeyEvent, MouseButton, MouseEvent, TimerBase
-from matplotlib.collections import PathCollection
+from IPython import get_ipython
+from IPython.display import display
+from matplotlib.backend_bases import DrawEvent, KeyEvent, MouseButton, MouseEvent, TimerBase
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from matplotlib.patches import PathPatch
 from matplotlib.path import Path
+from matplotlib.textpath import TextToPath
 
 from ..engine.realtime import FRAME_BUDGET
 
@@ -45,6 +83,20 @@ __all__ = ["SurgeryView", "MODES", "synthetic_mouse", "synthetic_key", "mean_edg
 #: the interaction modes of a :class:`SurgeryView`
 MODES = ("drag", "cut")
 
+#: the size of a view's own figure, inches
+FIGSIZE = (7.0, 4.5)
+#: where the axes sit in a view's own figure (left, bottom, width, height; figure fractions): room
+#: above for the readout, below for the tick labels and two lines of message
+AXES_RECT = (0.08, 0.15, 0.9, 0.77)
+#: font size (points) of the readout and the message
+TEXT_SIZE = 8
+#: lines of a message at most (a longer one is cut, its full text stays in ``view.message``)
+MESSAGE_LINES = 2
+#: drawn frames kept for the frame rate and the draw times
+_KEEP = 600
+#: seconds between whole pictures pushed to a browser canvas (the others are differences)
+KEYFRAME_S = 0.5
+
 _MOUSE_EVENTS = {
     "press": "button_press_event",
     "move": "motion_notify_event",
@@ -52,6 +104,9 @@ _MOUSE_EVENTS = {
 }
 
 _SIM_METHODS = ("positions", "frame", "grab", "drag", "release", "cut")
+
+#: every view not yet disconnected, to stop the one a new view replaces
+_VIEWS: weakref.WeakSet = weakref.WeakSet()
 
 
 def mean_edge_length(mesh) -> float:
@@ -71,6 +126,154 @@ def _is_interactive(canvas) -> bool:
     return type(canvas.new_timer()) is not TimerBase
 
 
+def _cell_origin():
+    """Which notebook cell is running, and which run of it: ``(cell, execution count)``, or ``None``.
+
+    The cell is the id the notebook front-end sends with each execution (JupyterLab and nbclient
+    do), else the cell's source. A view made by a re-run of the same cell replaces the old one.
+    """
+    shell = get_ipython()
+    if shell is None:
+        return None
+    cell = None
+    get_parent = getattr(getattr(shell, "kernel", None), "get_parent", None)
+    if callable(get_parent):
+        try:
+            parent = get_parent("shell")
+        except TypeError:
+            parent = get_parent()
+        metadata = (parent or {}).get("metadata") or {}
+        if metadata.get("cellId"):
+            cell = "id:" + str(metadata["cellId"])
+    if cell is None:
+        history = getattr(getattr(shell, "history_manager", None), "input_hist_raw", None)
+        if history:
+            cell = "source:" + history[-1]
+    return None if cell is None else (cell, getattr(shell, "execution_count", None))
+
+
+class _LayeredFigure(Figure):
+    """A figure that draws what does not move once and, per frame, only its moving layer over it.
+
+    Three levels: the *background* (everything not animated: axes, ticks, labels), drawn in full
+    only when matplotlib marks the figure stale (limits, labels, size, a new artist ...) or the
+    renderer is a new one (size, resolution); the *slow* layer (animated text: the readout, the
+    message), drawn over the background and kept with it, again only when one of its artists
+    changed, and then at most every ``slow_interval`` seconds unless :meth:`refresh_slow` asked
+    for it at once (rendering text glyph by glyph costs more than a whole frame of triangles);
+    and the *layer* (animated: the triangles, the target, the stroke), drawn over the kept picture
+    at every draw. Saving a figure (``savefig``) always draws everything.
+    """
+
+    slow_interval = 0.25
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.layer = []
+        self.slow = []
+        self.views = []
+        self.full_draws = 0
+        self.slow_draws = 0
+        self.layer_draws = 0
+        self._background = None  # (renderer key, region): the figure without its animated artists
+        self._kept = None  # region: the background with the slow layer over it
+        self._slow_at = -math.inf
+        self._slow_now = False
+        #: drawing and the views' changes to what is drawn happen one at a time (see SurgeryView)
+        self.lock = threading.RLock()
+
+    def refresh_slow(self) -> None:
+        """Draw the slow layer (its changed text) at the next draw, not after ``slow_interval``."""
+        self._slow_now = True
+
+    def draw(self, renderer):
+        with self.lock:
+            self._draw(renderer)
+
+    def _draw(self, renderer):
+        if self.canvas.is_saving():
+            super().draw(renderer)  # axes draw their animated children when saving
+            return
+        started = time.perf_counter()
+        for view in self.views:
+            view._drawing_started(started)
+        announced = False
+        if hasattr(renderer, "copy_from_bbox") and hasattr(renderer, "restore_region"):
+            key = (id(renderer), renderer.width, renderer.height, self.dpi)
+            if self.stale or self._background is None or self._background[0] != key:
+                super().draw(renderer)  # announces itself (draw_event)
+                announced = True
+                self._background = (key, renderer.copy_from_bbox(self.bbox))
+                self.full_draws += 1
+                self._draw_slow(renderer, started)
+            elif (self._slow_now or started - self._slow_at >= self.slow_interval) and any(
+                    a.stale for a in self.slow):
+                renderer.restore_region(self._background[1])
+                self._draw_slow(renderer, started)
+            else:
+                renderer.restore_region(self._kept)
+        else:  # a renderer that cannot keep a picture: everything, every time
+            super().draw(renderer)
+            announced = True
+            self.full_draws += 1
+            for artist in self.slow:
+                artist.draw(renderer)
+        for artist in self.layer:
+            if artist.get_visible():
+                artist.draw(renderer)
+        self.layer_draws += 1
+        self.stale = False
+        if not announced:
+            self.canvas.callbacks.process("draw_event", DrawEvent("draw_event", self.canvas, renderer))
+        rendered = time.perf_counter()
+        for view in self.views:
+            view._drawing_rendered(started, rendered)
+
+    def _draw_slow(self, renderer, now) -> None:
+        for artist in self.slow:
+            if artist.get_visible():
+                artist.draw(renderer)
+            artist.stale = False
+        self._kept = renderer.copy_from_bbox(self.bbox)
+        self._slow_at, self._slow_now = now, False
+        self.slow_draws += 1
+
+
+class _SentImages:
+    """Listens, next to the page, to what a browser canvas (ipympl, WebAgg) sends: each picture's end time.
+
+    The WebAgg family renders a picture, encodes it as PNG and sends it to every listener in
+    ``manager.web_sockets``; this one only notes the time, so a draw's time includes the encoding.
+    """
+
+    def __init__(self, view):
+        self._view = weakref.ref(view)
+
+    def send_json(self, content):
+        pass
+
+    def send_binary(self, blob):
+        view = self._view()
+        if view is not None:
+            view._picture_sent(time.perf_counter(), len(blob))
+
+
+def _one_at_a_time(method):
+    """Run ``method`` holding the view's lock: a frame, an event and a draw never interleave.
+
+    A notebook kernel may handle a widget's messages (mouse events, buttons) on another thread than
+    the one whose loop runs the frame timer (ipykernel 7 routes a comm's messages to the subshell
+    that last used it), so a cut could otherwise rebuild the mesh in the middle of a frame.
+    """
+
+    @functools.wraps(method)
+    def locked(self, *args, **kwargs):
+        with self._lock:
+            return method(self, *args, **kwargs)
+
+    return locked
+
+
 class SurgeryView:
     """A simulation drawn in a matplotlib ``Axes``, operated on with the mouse.
 
@@ -80,50 +283,63 @@ class SurgeryView:
         The running simulation (anything with its ``mesh``, ``positions``,
         ``frame``, ``grab``, ``drag``, ``release`` and ``cut``).
     ax : matplotlib.axes.Axes, optional
-        Where to draw; default a new pyplot figure (under ``%matplotlib widget``
-        that is the interactive widget).
+        Where to draw; default the view's own figure (7 x 4.5 inches, made
+        with pyplot: under ``%matplotlib widget`` the interactive widget),
+        which redraws only the moving layer per frame. In an ``ax`` of your
+        own figure every redraw draws the whole figure.
     radius : float, optional
         A press grabs the nodes within this distance of the pointer; default
         twice the mean edge length of the mesh.
     interval_ms : int, default 33
         Milliseconds between timer frames (33 ms: the notes' 30 frames per second).
     autostart : bool, default True
-        Start the timer at once, but only on an interactive canvas; on a
-        non-interactive one (Agg, inline) the timer never starts by itself.
+        Start the timer as soon as the view is on screen: at once in a GUI
+        window (Qt, Tk ...), when the view is displayed in Jupyter. On a
+        non-interactive canvas (Agg, inline) the timer never starts by itself.
 
     Attributes
     ----------
     frame_times : list of float
-        Wall-clock milliseconds of every frame run through :meth:`step`.
+        Milliseconds of every simulation frame run through :meth:`step` (the
+        step: ``report.elapsed``).
+    draw_times : list of float
+        Milliseconds of each drawn picture of the view's own figure (the last
+        few hundred), from the start of the draw until the picture is done: on
+        a browser canvas, encoded and sent to the page.
     last_report : FrameReport or None
         The last frame's report.
     message : str
-        The last message shown under the status (a failed cut, a rejected drag), or ``""``.
-    mesh_artist : matplotlib.collections.PathCollection
-        The triangles; rebuilt (new paths) when the topology changes.
-    stroke_artist : matplotlib.lines.Line2D
-        The cut stroke being drawn.
+        The last message (a failed cut, a rejected drag), or ``""``; shown,
+        wrapped and cut to two lines, under the axes.
+    mesh_faces, mesh_edges : matplotlib.patches.PathPatch
+        The triangles (one compound path each) whose vertices follow the
+        simulation; rebuilt when the topology changes.
+    stroke_artist, target_artist : matplotlib.lines.Line2D
+        The cut stroke being drawn; the drag target (at the mouse).
     status_text : matplotlib.text.Text
-        The title line: mode, frame, frame time against the budget, status.
+        The readout above the axes: mode, frame, step + draw against the
+        budget, frames drawn per second, the solver's status.
+    message_text : matplotlib.text.Text
+        The message, in a fixed place under the axes.
 
     Notes
     -----
     Press and motion events outside the axes are ignored; a release anywhere
     ends the current grab or stroke, so a handle never stays stuck to a mouse
-    that left the axes with the button held. Clicks are also ignored while the
+    that left the axes with the button held. A grab made in code (a
+    :func:`synthetic_mouse` press) is not carried on by the real mouse moving
+    over the figure, nor a real grab by made-up moves; a real press replaces
+    it. Clicks are also ignored while the
     toolbar's pan or zoom tool is active. A ``ValueError`` raised by the
-    simulation inside an event handler or a timer frame is shown in the
-    status text instead of propagating. The key ``c`` is also matplotlib's
+    simulation inside an event handler or a timer frame is shown as the
+    message instead of propagating. The key ``c`` is also matplotlib's
     default "back" key of the navigation toolbar, which only matters after
     zooming.
 
-    The triangles are drawn as one collection whose paths are views of one
-    vertex buffer: a frame writes the new positions into that buffer, so a
-    redraw costs no Python loop over the elements.
-
     Examples
     --------
-    >>> from tissuefem.scene import Simulation, demo_scene
+    >>> from tissuefem.surgery.scene import demo_scene
+    >>> from tissuefem.surgery.simulation import Simulation
     >>> view = SurgeryView(Simulation(demo_scene(n_triangles=400)), autostart=False)
     >>> _ = synthetic_mouse(view, "press", (1.95, 0.5))   # grab the right edge
     >>> _ = synthetic_mouse(view, "move", (2.2, 0.7))     # drag it
@@ -135,34 +351,51 @@ class SurgeryView:
         missing = [m for m in ("mesh", *_SIM_METHODS) if not hasattr(sim, m)]
         if missing:
             raise ValueError(f"sim must be a tissuefem.surgery.simulation.Simulation; {type(sim).__name__} has no {missing}")
-        self.sim = sim
         if radius is None:
             radius = 2.0 * mean_edge_length(sim.mesh)
-        self.radius = _positive("radius", radius)
+        radius = _positive("radius", radius)
         if isinstance(interval_ms, bool) or not isinstance(interval_ms, (int, np.integer)) or interval_ms < 1:
             raise ValueError(f"interval_ms must be a positive integer (milliseconds), got {interval_ms!r}")
+        self.sim = sim
+        self.radius = radius
         self.interval_ms = int(interval_ms)
+        self.autostart = bool(autostart)
 
+        self.owns_figure = ax is None
         if ax is None:
-            import matplotlib.pyplot as plt
-
-            _, ax = plt.subplots(figsize=(7.0, 4.5), layout="constrained")
+            ax = self._new_figure()
         self.ax = ax
         self.fig = ax.figure
         self.canvas = self.fig.canvas
         self.interactive = _is_interactive(self.canvas)
+        self._layered = isinstance(self.fig, _LayeredFigure)
+        self._lock = self.fig.lock if self._layered else threading.RLock()
+        # the loop (and its thread) that runs the timer: a start or stop asked from elsewhere goes there
+        try:
+            self._loop = asyncio.get_running_loop()
+        except RuntimeError:
+            self._loop = None
+        self._loop_thread = threading.get_ident()
 
         self.frame_times: list[float] = []
+        self.draw_times: list[float] = []
+        self._drawn_at = collections.deque(maxlen=_KEEP)
+        self._draw_started = None
+        self._offscreen = False
+        self._keyframe_at = -math.inf
         self.last_report = None
         self.message = ""
         self._mode = "drag"
         self._handle = None  # name of the grabbed handle
-        self._grab_point = None
+        self._real_press = False  # whether the grab or stroke began with a real press (a GUI event) or in code
         self._stroke: list[np.ndarray] | None = None  # the cut polyline being drawn
         self.stroke_spacing = 0.25 * mean_edge_length(sim.mesh)
         self._timer = None
         self._running = False
         self._widgets = None
+        self._box = None
+        self._text_key = None
+        self.closed = False
 
         # fixed axis limits: the reference bounding box with a margin (dragged tissue stays in view)
         X = np.asarray(sim.mesh.p, dtype=float)
@@ -173,24 +406,85 @@ class SurgeryView:
         ax.set_aspect("equal", adjustable="box")
         ax.set_autoscale_on(False)
 
-        self.mesh_artist = PathCollection([], facecolors="mistyrose", edgecolors="firebrick", linewidths=0.3,
-                                          zorder=1)
-        ax.add_collection(self.mesh_artist, autolim=False)
+        self.mesh_faces = PathPatch(Path(np.zeros((1, 2))), facecolor="mistyrose", edgecolor="none", zorder=1)
+        self.mesh_edges = PathPatch(Path(np.zeros((1, 2))), fill=False, edgecolor="firebrick", linewidth=0.3,
+                                    zorder=1.1)
+        ax.add_patch(self.mesh_faces)
+        ax.add_patch(self.mesh_edges)
         (self.stroke_artist,) = ax.plot([], [], "-", color="k", lw=1.2, zorder=3)
         (self.target_artist,) = ax.plot([], [], "o", ms=7, mfc="none", mec="tab:blue", mew=1.5, zorder=3)
-        self.status_text = ax.set_title("", fontsize=9, loc="left", family="monospace")
+        # the readout and the message in fixed places, left out of any layout: they never move the axes.
+        # In the view's own figure: above the axes and at the foot of the figure (under the tick labels);
+        # in axes of your own: above the axes and inside them, at the bottom
+        text = dict(ha="left", fontsize=TEXT_SIZE, family="monospace", clip_on=False, in_layout=False)
+        if self.owns_figure:
+            self.status_text = ax.text(0.05, 0.985, "", transform=self.fig.transFigure, va="top", **text)
+            self.message_text = ax.text(0.05, 0.012, "", transform=self.fig.transFigure, va="bottom",
+                                        color="firebrick", **text)
+        else:
+            self.status_text = ax.text(0.0, 1.02, "", transform=ax.transAxes, va="bottom", **text)
+            self.message_text = ax.text(0.01, 0.01, "", transform=ax.transAxes, va="bottom", color="firebrick",
+                                        **text)
+        self._moving = [self.mesh_faces, self.mesh_edges, self.stroke_artist, self.target_artist,
+                        self.status_text, self.message_text]
+        if self._layered:
+            for artist in self._moving:
+                artist.set_animated(True)
+            self.fig.layer.extend(self._moving[:4])
+            self.fig.slow.extend(self._moving[4:])
+            self.fig.views.append(self)
         self._mesh = None
         self._rebuild()
-        self._update_status()
+        self._update_text()
+
+        self._sent_images = None
+        sockets = getattr(getattr(self.canvas, "manager", None), "web_sockets", None)
+        if self._layered and isinstance(sockets, (list, set)):
+            self._sent_images = _SentImages(self)
+            if isinstance(sockets, list):  # ipympl keeps a list, WebAgg a set
+                sockets.append(self._sent_images)
+            else:
+                sockets.add(self._sent_images)
 
         self._cids = [
             self.canvas.mpl_connect("button_press_event", self._on_press),
             self.canvas.mpl_connect("motion_notify_event", self._on_motion),
             self.canvas.mpl_connect("button_release_event", self._on_release),
             self.canvas.mpl_connect("key_press_event", self._on_key),
+            self.canvas.mpl_connect("close_event", self._on_close),
         ]
-        if autostart and self.interactive:
-            self.start()
+        self._origin = _cell_origin()
+        self._replace_older_views()
+        _VIEWS.add(self)
+        if self.autostart and self.interactive and getattr(type(self.canvas), "required_interactive_framework", None):
+            self.start()  # a GUI window is on screen as soon as it is shown; a notebook view starts when displayed
+
+    def _new_figure(self):
+        # under plt.ioff() pyplot does not show the figure by itself at the end of the cell: the view is
+        # shown once, with its buttons, by display(view); a non-interactive figure leaves pyplot's list
+        # at once, so the inline backend never shows a frozen copy of it later
+        was_interactive = matplotlib.is_interactive()
+        with plt.ioff():
+            fig = plt.figure(figsize=FIGSIZE, FigureClass=_LayeredFigure)
+        if not _is_interactive(fig.canvas):
+            plt.close(fig)  # which leaves it a bare canvas: draw it with Agg, off-screen, as inline does
+            FigureCanvasAgg(fig)
+        elif was_interactive and getattr(type(fig.canvas), "required_interactive_framework", None):
+            fig.show()  # a GUI window, as pyplot would have shown it
+        if hasattr(fig.canvas, "header_visible"):  # ipympl: no "Figure 1" title over the view
+            fig.canvas.header_visible = False
+        return fig.add_axes(AXES_RECT)
+
+    def _replace_older_views(self) -> None:
+        for old in list(_VIEWS):
+            if old is self or old.closed:
+                continue
+            if old.sim is self.sim:
+                old.disconnect()
+                old._show("stopped: a newer view drives this simulation")
+            elif (self._origin is not None and old._origin is not None and old._origin[0] == self._origin[0]
+                  and old._origin[1] != self._origin[1]):
+                old.close()  # its cell was run again: its output is gone
 
     # ------------------------------------------------------------------ mode
     @property
@@ -199,6 +493,7 @@ class SurgeryView:
         return self._mode
 
     @mode.setter
+    @_one_at_a_time
     def mode(self, value):
         if value not in MODES:
             raise ValueError(f"mode must be one of {MODES}, got {value!r}")
@@ -210,8 +505,8 @@ class SurgeryView:
         self._mode = value
         if self._widgets is not None and self._widgets[0].value != value:
             self._widgets[0].value = value
-        self._update_status()
-        self._redraw()
+        self._update_text()
+        self._request_draw()
 
     @property
     def grabbed(self):
@@ -225,20 +520,59 @@ class SurgeryView:
 
     @property
     def drawn_positions(self) -> np.ndarray:
-        """The node positions ``(2, n_nodes)`` of the last redraw."""
+        """The node positions ``(2, n_nodes)`` the triangles are drawn at (set by the last frame)."""
         return self._x
 
+    def triangles(self) -> np.ndarray:
+        """The drawn triangles' corners ``(n_triangles, 3, 2)``, as the faces' path holds them."""
+        return self.mesh_faces.get_path().vertices.reshape(-1, 4, 2)[:, :3, :]
+
     # ------------------------------------------------------------------ frames and the timer
+    @_one_at_a_time
     def step(self):
-        """Run one frame of the simulation (``sim.frame()``), record its time, redraw; returns its report."""
+        """Run one frame of the simulation (``sim.frame()``), record its time, update the picture; returns its report.
+
+        The picture is redrawn by the canvas when it can (requested, not forced); :meth:`draw` draws at once.
+        """
         report = self.sim.frame()
         self.last_report = report
         self.frame_times.append(1e3 * float(report.elapsed))
         self._refresh()
         return report
 
+    @_one_at_a_time
+    def draw(self) -> float | None:
+        """Render the picture now, off-screen, and return how long it took (ms; ``None`` if not timed).
+
+        This is how to time the drawing of frames that code steps: the timer would have drawn each
+        one. It renders into the canvas's own buffer and sends or paints nothing (the screen shows
+        the picture at its next update); a browser canvas also encodes each picture it sends, which
+        the live readout includes and this does not. Timed in the view's own figure only.
+        """
+        n = len(self.draw_times)
+        if isinstance(self.canvas, FigureCanvasAgg):
+            self._offscreen = True
+            try:
+                FigureCanvasAgg.draw(self.canvas)
+            finally:
+                self._offscreen = False
+        else:
+            self.canvas.draw()
+        return self.draw_times[-1] if len(self.draw_times) > n else None
+
+    def _elsewhere(self, method) -> bool:
+        """Hand ``method`` to the timer's loop if called from another thread (a button's message, say)."""
+        if self._loop is not None and threading.get_ident() != self._loop_thread and not self._loop.is_closed():
+            self._loop.call_soon_threadsafe(method)
+            return True
+        return False
+
     def start(self) -> None:
         """Start the timer that calls :meth:`step` every ``interval_ms`` (on any canvas, when called)."""
+        if self._elsewhere(self.start):
+            return
+        if self.closed:
+            raise ValueError("this view is disconnected (replaced or closed): make a new SurgeryView")
         if self._timer is None:
             self._timer = self.canvas.new_timer(interval=self.interval_ms)
             self._timer.add_callback(self._on_timer)
@@ -249,6 +583,8 @@ class SurgeryView:
 
     def stop(self) -> None:
         """Stop the timer (a frame in progress finishes)."""
+        if self._elsewhere(self.stop):
+            return
         if self._timer is not None and self._running:
             self._timer.stop()
         self._running = False
@@ -259,6 +595,7 @@ class SurgeryView:
         """Whether the timer is running."""
         return self._running
 
+    @_one_at_a_time
     def disconnect(self) -> None:
         """Stop the timer and detach every event handler (the figure stays as it is)."""
         self.stop()
@@ -266,8 +603,30 @@ class SurgeryView:
         for cid in self._cids:
             self.canvas.mpl_disconnect(cid)
         self._cids = []
+        if self._sent_images is not None:
+            sockets = getattr(getattr(self.canvas, "manager", None), "web_sockets", None)
+            if sockets is not None and self._sent_images in sockets:
+                sockets.remove(self._sent_images)
+            self._sent_images = None
+        if self._widgets is not None:
+            for w in self._widgets[:2]:
+                w.disabled = True
+        self.closed = True
+        _VIEWS.discard(self)
 
+    def close(self) -> None:
+        """Disconnect, and close the view's own figure (its widget and its place in pyplot's list)."""
+        self.disconnect()
+        if self.owns_figure:
+            plt.close(self.fig)
+
+    def _on_close(self, event):
+        self.disconnect()
+
+    @_one_at_a_time
     def _on_timer(self):
+        if self.closed:  # a stop handed to the loop has not arrived yet
+            return
         try:
             self.step()
         except ValueError as exc:
@@ -275,67 +634,185 @@ class SurgeryView:
         except Exception:
             self.stop()  # one traceback, not thirty a second
             raise
+        if self._sent_images is not None:
+            self._push_picture()
+        else:
+            self._ask_canvas()
+
+    def _push_picture(self) -> None:
+        """Render and send the frame's picture to the page now (a browser canvas: ipympl, WebAgg).
+
+        The page's own protocol asks for each picture with a message to the kernel, which costs a
+        request (and two kernel status changes the notebook page redraws) per frame; pushing the
+        picture from the timer costs neither and saves the round trip. The pictures are differences
+        to the last one; the page keeps only the newest of pictures that arrive faster than it
+        decodes them, so every ``KEYFRAME_S`` seconds a whole picture repairs anything a dropped
+        difference left behind.
+        """
+        now = time.perf_counter()
+        if now - self._keyframe_at >= KEYFRAME_S and hasattr(self.canvas, "_force_full"):
+            self.canvas._force_full = True  # WebAgg's flag for a whole picture (as after a page refresh)
+            self._keyframe_at = now
+        self.canvas.draw()
+
+    def timings(self, last=None) -> dict:
+        """Medians of the step and the draw (ms), their sum, and the frames drawn per second.
+
+        ``last``: only the last so many frames and draws (default all that are kept).
+        """
+        steps = self.frame_times[-last:] if last else self.frame_times
+        draws = self.draw_times[-last:] if last else self.draw_times
+        step = float(np.median(steps)) if steps else None
+        draw = float(np.median(draws)) if draws else None
+        return {
+            "frames": len(self.frame_times),
+            "draws": len(self.draw_times),
+            "step_ms": step,
+            "draw_ms": draw,
+            "total_ms": None if step is None or draw is None else step + draw,
+            "budget_ms": 1e3 * self._budget(),
+            "fps": self.frames_per_second(),
+        }
+
+    def frames_per_second(self, window=1.0) -> float | None:
+        """Pictures drawn per second over the last ``window`` seconds (``None`` before two draws)."""
+        if len(self._drawn_at) < 2:
+            return None
+        now = time.perf_counter()
+        recent = [t for t in self._drawn_at if t >= now - window]
+        if len(recent) < 2:
+            return 0.0 if now - self._drawn_at[-1] > window else None
+        return (len(recent) - 1) / max(recent[-1] - recent[0], 1e-9)
 
     # ------------------------------------------------------------------ drawing
     def _rebuild(self) -> None:
-        """New paths for a new mesh: one vertex buffer (n_triangles, 4, 2) the paths are views of."""
+        """New paths for a new mesh: the faces' and the edges' vertex arrays, rewritten in place per frame."""
         mesh = self.sim.mesh
         self._mesh = mesh
-        self._t = np.asarray(mesh.t, dtype=np.intp)
-        nt = self._t.shape[1]
-        self._buffer = np.zeros((nt, 4, 2))
-        self._fill_buffer(np.asarray(self.sim.positions(), dtype=float))
-        codes = np.array([Path.MOVETO, Path.LINETO, Path.LINETO, Path.CLOSEPOLY], dtype=Path.code_type)
-        paths = [Path(self._buffer[k], codes) for k in range(nt)]
-        # the in-place update needs paths that are views of the buffer; if a matplotlib ever copies, copy too
-        self._views = bool(nt == 0 or np.shares_memory(paths[0].vertices, self._buffer))
-        self.mesh_artist.set_paths(paths)
+        # what to draw: the triangles, or, for elements cut through, their material (Simulation.picture)
+        self._picture = self.sim.picture
+        t = np.asarray(self._picture.triangles, dtype=np.intp)
+        edges = np.asarray(self._picture.edges, dtype=np.intp)
+        # each triangle as MOVETO a, LINETO b, LINETO c, CLOSEPOLY (its vertex is ignored); each edge as MOVETO, LINETO
+        self._face_nodes = t[[0, 1, 2, 0]].T.ravel()
+        self._edge_nodes = edges.T.ravel()
+        face_codes = np.tile(np.array([Path.MOVETO, Path.LINETO, Path.LINETO, Path.CLOSEPOLY], Path.code_type),
+                             t.shape[1])
+        edge_codes = np.tile(np.array([Path.MOVETO, Path.LINETO], Path.code_type), edges.shape[1])
+        self._faces = np.zeros((self._face_nodes.size, 2))
+        self._edges = np.zeros((self._edge_nodes.size, 2))
+        faces, lines = Path(self._faces, face_codes), Path(self._edges, edge_codes)
+        lines.should_simplify = False  # every edge drawn, however short
+        # the in-place update needs paths that hold the arrays themselves; if a matplotlib ever copies, copy too
+        self._views = bool(np.shares_memory(faces.vertices, self._faces)
+                           and np.shares_memory(lines.vertices, self._edges))
+        self.mesh_faces.set_path(faces)
+        self.mesh_edges.set_path(lines)
+        self._fill(np.asarray(self.sim.positions(), dtype=float))
 
-    def _fill_buffer(self, x) -> None:
+    def _fill(self, x) -> None:
         self._x = x
-        self._buffer[:, :3, :] = x[:, self._t].T
-        self._buffer[:, 3, :] = self._buffer[:, 0, :]
+        xt = self._picture.points(x).T
+        np.take(xt, self._face_nodes, axis=0, out=self._faces)
+        np.take(xt, self._edge_nodes, axis=0, out=self._edges)
+        if not self._views:
+            self.mesh_faces.set_path(Path(self._faces.copy(), self.mesh_faces.get_path().codes))
+            self.mesh_edges.set_path(Path(self._edges.copy(), self.mesh_edges.get_path().codes))
+        self.mesh_faces.stale = True
+        self.mesh_edges.stale = True
 
     def _refresh(self) -> None:
-        """Redraw after a frame or a topology change: new vertex data (new paths only after a cut)."""
-        if self.sim.mesh is not self._mesh:
+        """After a frame or a topology change: new vertex data (new paths only after a cut), then a redraw."""
+        x = np.asarray(self.sim.positions(), dtype=float)
+        if self.sim.mesh is not self._mesh or x.shape != self._x.shape:
             self._rebuild()
         else:
-            x = np.asarray(self.sim.positions(), dtype=float)
-            if x.shape != self._x.shape:
-                self._rebuild()
-            else:
-                self._fill_buffer(x)
-                if self._views:
-                    self.mesh_artist.stale = True
-                else:
-                    self._rebuild()
-        self._update_status()
-        self._redraw()
+            self._fill(x)
+        self._update_text()
+        self._request_draw()
 
-    def _update_status(self) -> None:
+    def _budget(self) -> float:
         r = self.last_report
-        budget_ms = 1e3 * float(getattr(r, "budget", FRAME_BUDGET) if r is not None else FRAME_BUDGET)
-        if not math.isfinite(budget_ms):
-            budget_ms = 1e3 * FRAME_BUDGET
+        budget = float(getattr(r, "budget", FRAME_BUDGET)) if r is not None else FRAME_BUDGET
+        return budget if math.isfinite(budget) and budget > 0 else FRAME_BUDGET
+
+    def _update_text(self) -> None:
+        r = self.last_report
+        budget_ms = 1e3 * self._budget()
         if r is None:
-            frame, timing, status = int(getattr(self.sim, "frames", 0)), "   -- ms", "ready"
+            frame, step, status = int(getattr(self.sim, "frames", 0)), None, "ready"
         else:
-            frame, timing, status = int(r.frame), f"{1e3 * float(r.elapsed):5.1f} ms", str(r.status)
-        text = f"{self._mode:4s} | frame {frame:5d} | {timing} / {budget_ms:.0f} ms | {status}"
-        if self.message:
-            text += f"\n{self.message}"
+            frame, step, status = int(r.frame), 1e3 * float(r.elapsed), str(r.status)
+        draw = self.draw_times[-1] if self.draw_times else None
+        fps = self.frames_per_second()
+        total = None if step is None or draw is None else step + draw
+        text = (f"{self._mode:4s} | frame {frame:5d} | step {_ms(step)} + draw {_ms(draw)} = {_ms(total)} "
+                f"/ {budget_ms:.0f} ms | {'--' if fps is None else f'{fps:.0f}':>2s} fps | {status}")
         self.status_text.set_text(text)
+        self.message_text.set_text(self._wrapped(self.message))
+        if self._layered and (self._mode, self.message) != self._text_key:
+            self.fig.refresh_slow()  # a new mode or message shows at once; the numbers at a readable pace
+        self._text_key = (self._mode, self.message)
+
+    def _wrapped(self, message: str) -> str:
+        """The message wrapped to the width it has, at most two lines (a longer one ends in ' ...')."""
+        if not message:
+            return ""
+        return textwrap.fill(" ".join(message.split()), width=self._line_length(), max_lines=MESSAGE_LINES,
+                             placeholder=" ...")
+
+    def _line_length(self) -> int:
+        """How many characters of the message's monospace font fit on one line of the space it has."""
+        # the message starts 5 % into the view's own figure (and may run to 1 % before its edge), or
+        # 1 % into axes of your own (to 2 % before their edge)
+        fraction = 0.94 if self.owns_figure else 0.97 * self.ax.get_position().width
+        sample = "0" * 40
+        prop = self.message_text.get_fontproperties()
+        get_renderer = getattr(self.canvas, "get_renderer", None)
+        if callable(get_renderer):  # pixels, as this renderer rounds the advance of each glyph
+            char = get_renderer().get_text_width_height_descent(sample, prop, ismath=False)[0] / len(sample)
+            space = fraction * self.fig.bbox.width
+        else:  # points of the font's outline, with room for rounding
+            char = 1.1 * TextToPath().get_text_width_height_descent(sample, prop, ismath=False)[0] / len(sample)
+            space = fraction * self.fig.get_figwidth() * 72.0
+        return max(20, int(space / char))
 
     def _show(self, message: str) -> None:
         self.message = message
-        self._update_status()
-        self._redraw()
+        self._update_text()
+        self._request_draw()
 
-    def _redraw(self) -> None:
-        # a non-interactive canvas draws when it is saved or shown; drawing it here would only cost time
+    def _request_draw(self) -> None:
+        # while the timer runs, its next frame asks for the picture; otherwise ask the canvas now
+        if not self._running:
+            self._ask_canvas()
+
+    def _ask_canvas(self) -> None:
+        # a non-interactive canvas draws when it is saved or shown: drawing it here would only cost time.
+        # An interactive one coalesces: Qt and Tk draw once per pass of their loop; a browser canvas
+        # (ipympl) asks for a picture only when it has shown the last one.
         if self.interactive:
             self.canvas.draw_idle()
+
+    def _drawing_started(self, started) -> None:
+        self._draw_started = started
+        self._update_text()  # the readout shows the last finished draw
+
+    def _drawing_rendered(self, started, rendered) -> None:
+        if self._sent_images is None or self._offscreen:  # nothing to send: the draw ends with the rendering
+            self._record_draw(started, rendered)
+            self._draw_started = None
+
+    def _picture_sent(self, sent, nbytes) -> None:
+        if self._draw_started is not None:
+            self._record_draw(self._draw_started, sent)
+            self._draw_started = None
+
+    def _record_draw(self, started, ended) -> None:
+        self.draw_times.append(1e3 * (ended - started))
+        if len(self.draw_times) > 2 * _KEEP:
+            del self.draw_times[:_KEEP]
+        self._drawn_at.append(ended)
 
     # ------------------------------------------------------------------ events
     def _point(self, event):
@@ -346,11 +823,13 @@ class SurgeryView:
     def _navigating(self) -> bool:
         return self.ax.get_navigate_mode() is not None
 
+    @_one_at_a_time
     def _on_press(self, event):
         point = self._point(event)
         if point is None or event.button != MouseButton.LEFT or self._navigating():
             return
         self.message = ""
+        self._real_press = event.guiEvent is not None
         if self._mode == "drag":
             self._end_grab()
             try:
@@ -358,16 +837,19 @@ class SurgeryView:
             except ValueError:
                 self._handle = None  # no tissue under the pointer: nothing to grab
                 return
-            self._grab_point = point
             self.target_artist.set_data([point[0]], [point[1]])
         else:
             self._stroke = [point]
             self.stroke_artist.set_data([point[0]], [point[1]])
-        self._update_status()
-        self._redraw()
+        self._update_text()
+        self._request_draw()
 
+    @_one_at_a_time
     def _on_motion(self, event):
         if self._handle is None and self._stroke is None:
+            return
+        if (event.guiEvent is not None) != self._real_press:
+            # a real mouse moving (no button held) does not carry on a grab that code made, nor code a real one
             return
         point = self._point(event)
         if point is None:
@@ -385,14 +867,16 @@ class SurgeryView:
             self._stroke.append(point)
             xy = np.array(self._stroke)
             self.stroke_artist.set_data(xy[:, 0], xy[:, 1])
-        self._redraw()
+        self._request_draw()
 
+    @_one_at_a_time
     def _on_release(self, event):
         if event.button not in (None, MouseButton.LEFT):
             return
         if self._handle is not None:
             self._end_grab()
-            self._redraw()
+            self._update_text()
+            self._request_draw()
         elif self._stroke is not None:
             point = self._point(event)
             stroke = self._stroke
@@ -402,6 +886,7 @@ class SurgeryView:
             self.stroke_artist.set_data([], [])
             self._cut(np.array(stroke))
 
+    @_one_at_a_time
     def _on_key(self, event):
         if event.inaxes not in (None, self.ax):
             return
@@ -411,7 +896,6 @@ class SurgeryView:
     def _end_grab(self) -> None:
         if self._handle is not None:
             handle, self._handle = self._handle, None
-            self._grab_point = None
             self.target_artist.set_data([], [])
             try:
                 self.sim.release(handle)
@@ -431,9 +915,9 @@ class SurgeryView:
         self.message = ""
         self._refresh()
 
-    # ------------------------------------------------------------------ optional ipywidgets controls
+    # ------------------------------------------------------------------ showing it (Jupyter)
     def controls(self):
-        """Buttons for the mode and the timer (needs ipywidgets); show them with ``display(view.controls())``."""
+        """Buttons for the mode and the timer (needs ipywidgets), as one ``HBox``."""
         try:
             import ipywidgets as widgets
         except ImportError:
@@ -442,16 +926,60 @@ class SurgeryView:
                 "without it, press 'c' or set view.mode"
             ) from None
         if self._widgets is None:
-            mode = widgets.ToggleButtons(options=list(MODES), value=self._mode, description="mode")
-            run = widgets.ToggleButton(value=self._running, description="run", icon="play")
+            mode = widgets.ToggleButtons(options=list(MODES), value=self._mode,
+                                         tooltips=["drag the tissue", "draw a stroke to cut along"],
+                                         style={"button_width": "5em"})
+            run = widgets.ToggleButton(value=self._running, description="run", icon="play",
+                                       tooltip="run a frame every interval_ms", layout={"width": "6em"})
             mode.observe(lambda change: setattr(self, "mode", change["new"]), names="value")
             run.observe(lambda change: self.start() if change["new"] else self.stop(), names="value")
+            if self.closed:
+                mode.disabled = run.disabled = True
             self._widgets = (mode, run, widgets.HBox([mode, run]))
         return self._widgets[2]
+
+    def widget(self):
+        """The view as one widget, its buttons above the live figure.
+
+        ``None`` unless the canvas is an ipywidget (ipympl's, under ``%matplotlib widget``).
+        """
+        try:
+            import ipywidgets as widgets
+        except ImportError:
+            return None
+        if not isinstance(self.canvas, widgets.DOMWidget):
+            return None
+        if self._box is None:
+            self._box = widgets.VBox([self.controls(), self.canvas])
+        return self._box
+
+    def _repr_mimebundle_(self, include=None, exclude=None):
+        """Jupyter shows the live widget (buttons and figure) once, or on a static backend the picture."""
+        box = self.widget()
+        if box is not None:
+            if self.autostart and not self.closed and self.interactive:
+                self.start()
+            return box._repr_mimebundle_(include=include, exclude=exclude)
+        with io.BytesIO() as png:
+            self.fig.savefig(png, format="png")
+            data = base64.b64encode(png.getvalue()).decode("ascii")
+        return {"image/png": data, "text/plain": repr(self)}
+
+    def show(self) -> None:
+        """Display the view (the same as ending a notebook cell with ``view``)."""
+        display(self)
+
+    def __repr__(self):
+        state = "closed" if self.closed else ("running" if self._running else "stopped")
+        return f"<SurgeryView {self._mode}, {state}, frame {int(getattr(self.sim, 'frames', 0))}>"
 
     def _sync_widgets(self) -> None:
         if self._widgets is not None and self._widgets[1].value != self._running:
             self._widgets[1].value = self._running
+
+
+def _ms(value) -> str:
+    return "  --" if value is None else f"{value:4.1f}"
 
 
 def _positive(name, value) -> float:
@@ -467,6 +995,16 @@ def _positive(name, value) -> float:
 def _check_view(view):
     if not isinstance(view, SurgeryView):
         raise ValueError(f"view must be a SurgeryView, got {type(view).__name__}")
+
+
+def _data_to_pixels(ax, point, transform=None):
+    """Pixels of ``point`` as the next draw places it: the axes box after its equal aspect is applied."""
+    fig = ax.figure
+    was_stale, box = fig.stale, ax.get_position().bounds
+    ax.apply_aspect()
+    if not was_stale and ax.get_position().bounds == box:
+        fig.stale = False  # nothing moved: the figure's kept picture is still right
+    return (ax.transData if transform is None else transform).transform(point)
 
 
 def synthetic_mouse(view, kind, point, button=1):
@@ -495,8 +1033,7 @@ def synthetic_mouse(view, kind, point, button=1):
     if p.shape != (2,) or not np.all(np.isfinite(p)):
         raise ValueError(f"point must be a finite (x, y) pair in data coordinates, got {point!r}")
     ax = view.ax
-    ax.apply_aspect()  # the pixel transform the next draw would use (equal aspect moves the axes box)
-    x, y = ax.transData.transform(p)
+    x, y = _data_to_pixels(ax, p)
     name = _MOUSE_EVENTS[kind]
     event = MouseEvent(name, view.canvas, x, y, button=None if kind == "move" else MouseButton(button))
     view.canvas.callbacks.process(name, event)
@@ -512,11 +1049,10 @@ def synthetic_key(view, key, point=None):
     if not isinstance(key, str) or not key:
         raise ValueError(f"key must be a non-empty string such as 'c', got {key!r}")
     ax = view.ax
-    ax.apply_aspect()
     if point is None:
-        x, y = ax.transAxes.transform((0.5, 0.5))
+        x, y = _data_to_pixels(ax, (0.5, 0.5), ax.transAxes)
     else:
-        x, y = ax.transData.transform(np.asarray(point, dtype=float))
+        x, y = _data_to_pixels(ax, np.asarray(point, dtype=float))
     event = KeyEvent("key_press_event", view.canvas, key, x, y)
     view.canvas.callbacks.process("key_press_event", event)
     return event

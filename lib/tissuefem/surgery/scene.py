@@ -846,7 +846,7 @@ class Scene:
                                      f"(material.model = 'neo-hookean'), got {m['model']!r}; use 'projected'")
                 mat = ITFClamped(mat, threshold=inv["threshold"])
             else:
-                mat = ProjectedTangent(mat)
+                mat = ProjectedTangent(mat, adaptive=True)
         return mat
 
 

@@ -25,7 +25,7 @@ from ..engine.model import Handle, Model, region_nodes
 from ..engine.parameters import PENALTY_MAX, RADIUS_RANGE, check_count
 from ..engine.realtime import RealtimeSolver
 from ..engine.terms import check_reach, check_vector
-from . import topology
+from . import element_cuts, topology
 from .scene import Scene, _number
 
 __all__ = ["Simulation"]
@@ -155,9 +155,9 @@ class Simulation:
         solver_settings = self.scene.solver
         choice = self._linear_choice
         if model.quadratic and self._constant_tangent and isinstance(choice, str):
-            # a constant Hessian: one factorization per held set is exact
-            base = choice[len("reuse-"):] if choice.startswith("reuse-") else None
-            choice = "constant" if base is None or choice in ("reuse", "direct") else f"constant-{base}"
+            # a constant Hessian: one factorization per held set is exact (with the named direct backend)
+            base = choice[len("reuse-"):] if choice.startswith("reuse-") else choice
+            choice = "constant" if base in ("reuse", "direct", "background", "superlu") else f"constant-{base}"
         solver = RealtimeSolver(model, linear_solver=choice, budget=solver_settings["budget"],
                                 rtol=solver_settings["rtol"], clock=self.clock,
                                 max_iterations=solver_settings["max_iterations"])
@@ -258,6 +258,16 @@ class Simulation:
                              f"sizes, i.e. [{lo:g}, {hi:g}]")
         return r
 
+    @property
+    def picture(self):
+        """What to draw (:class:`~tissuefem.surgery.element_cuts.Picture`): the triangles, and for elements cut
+        through, the material they carry (built once per mesh)."""
+        cached = getattr(self, "_picture", None)
+        if cached is None or cached[0] is not self.mesh:
+            cached = (self.mesh, element_cuts.picture(self.mesh, getattr(self, "_regions", None)))
+            self._picture = cached
+        return cached[1]
+
     def positions(self) -> np.ndarray:
         """Deformed node positions ``x = X + u`` ``(2, n_nodes)``."""
         return self.model.positions(self.solver.u)
@@ -340,9 +350,8 @@ class Simulation:
         center = self._point(f"{_field}.center", center).tolist()
         radius = self._radius(f"{_field}.radius", radius)  # in domain sizes: the default stiffness stays finite
         E = self.scene.material["youngs_modulus"]
-        if stiffness is None:  # stiff enough to keep penetration to a few percent of the radius
-            stiffness = _number(f"{_field}.stiffness (default 1e3 E / radius^2)", 1e3 * E / radius**2,
-                                hi=PENALTY_MAX)
+        if stiffness is None:  # stiff enough to keep the penetration near 1 % of the radius under moderate pressure
+            stiffness = _number(f"{_field}.stiffness (default 100 E / radius)", 100.0 * E / radius, hi=PENALTY_MAX)
         else:
             stiffness = _number(f"{_field}.stiffness", stiffness, nonnegative=True, hi=PENALTY_MAX)
         with self._transaction():

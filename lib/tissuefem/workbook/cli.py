@@ -1,8 +1,10 @@
-"""Command line: ``python -m tissuefem {figures,build,bench,scene,grade,list}``.
+"""Command line: ``python -m tissuefem {figures,build,book,bench,scene,grade,list}``.
 
 * ``figures``  regenerate every lecture figure into ``figures/``;
-* ``build``    regenerate the figures and execute every chapter headless
-  (executed copies in ``build/chapters/``, the sources stay clean);
+* ``build``    regenerate the figures, execute every chapter headless
+  (executed copies in ``build/chapters/``, the sources stay clean) and write the
+  workbook's website into ``build/book/``;
+* ``book``     write the website from the executed copies already in ``build/chapters/``;
 * ``bench``    benchmarks (``bench assembly``, ``bench realtime``, ``bench scenes``,
   ``bench accuracy``: the accuracy/time study of chapter 9);
 * ``scene``    check a scene file and run it (``scene scenes/incision.toml``);
@@ -30,6 +32,7 @@ from .bench.accuracy import accuracy_study
 from .bench.assembly import assembly_benchmark
 from .bench.realtime import realtime_benchmark
 from .bench.scenes import effects_benchmark
+from .book import build_book
 from .figures.accuracy import plot_budget, plot_pareto, plot_scaling
 from .figures.realtime import plot_realtime
 from .notebooks import build_chapters, chapter_paths
@@ -56,6 +59,8 @@ def cmd_figures(args) -> int:
     root = project_root()
     out = Path(args.out) if args.out else root / "figures"
     figures.generate(args.only or None, out)
+    if not args.out and figures.matplotlib_note():
+        print(figures.matplotlib_note())
     return 0
 
 
@@ -65,8 +70,22 @@ def cmd_build(args) -> int:
     root = project_root()
     if not args.skip_figures:
         figures.generate(None, root / "figures")
-    build_chapters(root / "chapters", Path(args.out) if args.out else root / "build" / "chapters", args.chapters)
+        if figures.matplotlib_note():
+            print(figures.matplotlib_note())
+    executed = Path(args.out) if args.out else root / "build" / "chapters"
+    build_chapters(root / "chapters", executed, args.chapters)
+    if not args.no_book:
+        build_book(root / "chapters", executed, root / "build" / "book")
+        print(f"the workbook's website: {root / 'build' / 'book' / 'index.html'}")
     print(f"build finished in {time.perf_counter() - start:.1f} s")
+    return 0
+
+
+def cmd_book(args) -> int:
+    root = project_root()
+    out = Path(args.out) if args.out else root / "build" / "book"
+    build_book(root / "chapters", Path(args.executed) if args.executed else root / "build" / "chapters", out)
+    print(f"the workbook's website: {out / 'index.html'} (copy the folder to any web server)")
     return 0
 
 
@@ -102,10 +121,19 @@ def cmd_bench(args) -> int:
 
 
 def cmd_grade(args) -> int:
+    """Grade only the student's answers; ends with one line per failed check (tests/conftest.py)."""
     root = project_root()
-    env = dict(os.environ, TISSUEFEM_GRADE="student")
-    tests = sorted(str(p) for p in (root / "tests").glob("test_exercises*.py"))
-    cmd = [sys.executable, "-m", "pytest", *tests, "-v", "-rs"]
+    env = dict(os.environ, TISSUEFEM_GRADE="instructor" if args.instructor else "student")
+    if args.exercises:
+        folder = Path(args.exercises).resolve()
+        if not folder.is_dir():
+            raise SystemExit(f"--exercises: {args.exercises} is not a folder (it should hold ch01.py ... ch09.py)")
+        env["TISSUEFEM_EXERCISES"] = str(folder)
+    tests = sorted((root / "tests").glob("test_exercises*.py"))
+    if args.chapter:
+        # only the files that grade this chapter: quicker to collect
+        tests = [t for t in tests if f'"{args.chapter}"' in t.read_text(encoding="utf-8")] or tests
+    cmd = [sys.executable, "-m", "pytest", *map(str, tests), "-q", "--disable-warnings"]
     if args.chapter:
         cmd += ["-k", args.chapter]
     return subprocess.call(cmd, env=env, cwd=root)
@@ -188,7 +216,13 @@ def main(argv=None) -> int:
     p.add_argument("--chapters", nargs="+", metavar="NAME", help="only chapters whose file name contains NAME")
     p.add_argument("--skip-figures", action="store_true", help="do not regenerate figures/")
     p.add_argument("--out", help="folder for executed notebooks (default: build/chapters/)")
+    p.add_argument("--no-book", action="store_true", help="do not write the website build/book/")
     p.set_defaults(func=cmd_build)
+
+    p = sub.add_parser("book", help="write the workbook's website from the executed chapters")
+    p.add_argument("--executed", help="folder of executed notebooks (default: build/chapters/)")
+    p.add_argument("--out", help="folder for the website (default: build/book/)")
+    p.set_defaults(func=cmd_book)
 
     p = sub.add_parser("bench", help="run a benchmark and print its table")
     p.add_argument("which", choices=["assembly", "realtime", "scenes", "accuracy"])
@@ -196,7 +230,7 @@ def main(argv=None) -> int:
     p.add_argument("--repeats", type=int, default=5, help="assembly: timed repetitions")
     p.add_argument("--frames", type=int, default=90, help="realtime: frames of the scripted drag")
     p.add_argument("--baseline-frames", type=int, default=10, help="realtime: frames of the ex43-way baseline")
-    p.add_argument("--linear", default="reuse", help="realtime: linear solver (reuse, reuse-pardiso, direct, superlu, superlu-colamd, pardiso)")
+    p.add_argument("--linear", default="reuse-background", help="realtime: linear solver (reuse-background, reuse, reuse-pardiso, direct, superlu, superlu-colamd, pardiso)")
     p.add_argument("--plan", default="full", choices=["full", "reduced", "tiny"],
                    help="accuracy: the sweep (full: several minutes; reduced: chapter 9's; tiny: seconds)")
     p.add_argument("--out", help="assembly: a JSON file; realtime, scenes, accuracy: a folder (default bench-results/)")
@@ -211,6 +245,10 @@ def main(argv=None) -> int:
 
     p = sub.add_parser("grade", help="grade your answers in chapters/exercises with pytest")
     p.add_argument("chapter", nargs="?", help="only this chapter, e.g. ch02")
+    p.add_argument("--instructor", action="store_true",
+                   help="refuse any answer that imports or runs tissuefem (the reference implementation)")
+    p.add_argument("--exercises", metavar="DIR",
+                   help="grade the chNN.py files in DIR (e.g. a student's submission) instead of chapters/exercises")
     p.set_defaults(func=cmd_grade)
 
     p = sub.add_parser("list", help="list figures and chapters")

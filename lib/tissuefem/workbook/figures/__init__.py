@@ -13,9 +13,9 @@ from pathlib import Path
 from typing import Callable
 
 from . import accuracy, dynamics, fibers, inversion, kinematics, oned, realtime, surgery
-from .base import lecture_figure, save
+from .base import lecture_figure, matplotlib_note, save
 
-__all__ = ["FIGURES", "generate", "lecture_figure", "save"]
+__all__ = ["FIGURES", "generate", "lecture_figure", "matplotlib_note", "save"]
 
 #: every lecture figure by name, chapter by chapter
 FIGURES: dict[str, Callable] = {

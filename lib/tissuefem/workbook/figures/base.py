@@ -8,12 +8,28 @@ figure file changes only when the figure does) and returns it.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Callable
 
+import matplotlib
+import numpy as np
 from matplotlib.figure import Figure
 
-__all__ = ["lecture_figure", "save"]
+__all__ = ["lecture_figure", "save", "shown", "at_least", "whole_pixels", "matplotlib_note"]
+
+#: the resolution of every saved figure
+DPI = 110
+
+#: the matplotlib minor version that drew the committed PNGs. Versions up to 3.10 bundle
+#: FreeType 2.6.1 and 3.11 FreeType 2.14: every text is rasterised differently, so every
+#: PNG changes between them. Within 3.11 the files are the same byte for byte.
+FIGURES_MATPLOTLIB = "3.11"
+
+#: significant digits of the data a figure draws. Round-off (another numpy, BLAS or processor)
+#: changes the tenth digit or a later one; drawn unrounded, it can move a line or a marker by
+#: a fraction of a pixel and change the PNG's bytes, rounded it cannot (but at a tie).
+SHOWN_DIGITS = 3
 
 
 def lecture_figure(func: Callable) -> Callable:
@@ -22,10 +38,65 @@ def lecture_figure(func: Callable) -> Callable:
     return func
 
 
+def matplotlib_note() -> str | None:
+    """A warning when this matplotlib would redraw the committed figures' text differently."""
+    installed = ".".join(matplotlib.__version__.split(".")[:2])
+    if installed == FIGURES_MATPLOTLIB:
+        return None
+    return (f"note: the committed figures were drawn with matplotlib {FIGURES_MATPLOTLIB}; this is "
+            f"{matplotlib.__version__}, which renders text differently, so every PNG in figures/ will "
+            f"change. Commit them only if you mean to move the workbook to matplotlib {installed}.")
+
+
+def whole_pixels(inches: float, dpi: float = DPI) -> float:
+    """``inches``, nudged by an ulp or two when it is a whole number of pixels at ``dpi`` but
+    its product with ``dpi`` falls just short of it in floating point.
+
+    4.6 in at 110 dpi is 505.99999999999994 px: matplotlib up to 3.11.0 truncates that
+    to 505 px, 3.11.1 and later add 1e-8 px first and make it 506, so the same figure gave
+    PNGs of two sizes. Nudged, the product is 506.00000000000006 and every version agrees.
+    Any other size is returned unchanged.
+    """
+    pixels = round(inches * dpi)
+    if abs(inches * dpi - pixels) > 1e-6:
+        return inches  # a fraction of a pixel: truncated alike by every version
+    size = inches
+    while math.floor(size * dpi) < pixels:
+        size = math.nextafter(size, math.inf)
+    return size
+
+
+def shown(values, floor=None, digits=SHOWN_DIGITS) -> np.ndarray:
+    """Data as a figure draws it: rounded to ``digits`` significant digits (fewer for data whose
+    own noise is larger than round-off), and with ``floor`` (a round-off level, for positive data
+    on a log axis) raised to at least it."""
+    a = np.array(values, dtype=float)
+    if floor is not None:
+        a = np.maximum(a, floor)
+    flat = [float(f"{v:.{digits}g}") if math.isfinite(v) else v for v in a.ravel()]
+    return np.array(flat).reshape(a.shape)
+
+
+#: a label's number below this is zero to round-off or to a solver's tolerance
+NEGLIGIBLE = 1e-10
+
+
+def at_least(value: float, level: float = NEGLIGIBLE, spec: str = ".2g") -> str:
+    """``value`` formatted for a label, or ``< level`` when it is below ``level``: the digits of
+    a round-off-sized number differ from one machine (or one solver version) to the next."""
+    if abs(value) >= level:
+        return format(value, spec)
+    power = math.log10(level)
+    return f"< 1e{round(power)}" if power == round(power) else f"< {level:.1g}"
+
+
 def save(fig: Figure, path) -> None:
-    """Save deterministically: fixed DPI, no 'Software' entry or timestamps in the PNG."""
+    """Save deterministically: fixed DPI, a whole number of pixels, no 'Software' entry or
+    timestamps in the PNG."""
     if path is None:
         return
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110, metadata={"Software": None})
+    width, height = fig.get_size_inches()
+    fig.set_size_inches(whole_pixels(width), whole_pixels(height))
+    fig.savefig(path, dpi=DPI, metadata={"Software": None})

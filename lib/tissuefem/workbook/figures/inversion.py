@@ -19,7 +19,7 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 
 from ...engine.constants import TISSUE_E, TISSUE_NU
-from .base import lecture_figure, save
+from .base import at_least, lecture_figure, save
 from ..hardcases import block, crush_and_release, inversion_models
 from ...engine.inversion import diagonal
 
@@ -147,7 +147,7 @@ def fig06_crush_release(path=None, runs=None) -> Figure:
         released = run["released"]
         ax = row[-1]
         draw_state(ax, mesh, frames[-1])
-        ax.text(0.5, 0.02, f"{released.status}, rest error {released.rest_error:.2g}",
+        ax.text(0.5, 0.02, f"{released.status}, rest error {at_least(released.rest_error)}",
                 transform=ax.transAxes, ha="center", va="bottom", fontsize=7)
         for ax in row:
             ax.plot(xlim, [bottom, bottom], color="k", lw=1.6)  # the held bottom edge

@@ -9,7 +9,7 @@ from ...engine.bar1d import Bar1D, Traction
 from ...engine.constants import TISSUE_E, TISSUE_NU
 from ...engine.materials1d import Linear1D, NeoHookean1D, TaylorNeoHookean1D
 from ..oned import convergence_study
-from .base import lecture_figure, save
+from .base import lecture_figure, save, shown
 
 
 # --- chapter 2 / notes Figure 5 -------------------------------------------------
@@ -121,10 +121,15 @@ def fig_ch02_newton(path=None) -> Figure:
     bar = Bar1D(0.0, 1.0, 16)
     fig = Figure(figsize=(6.4, 4.6), layout="constrained")
     ax = fig.subplots()
+    round_off = 1e-11  # the residual of this bar cannot fall below about 1e-12 (chapter 2, section 3)
     for T in (100.0, 300.0, 600.0, -300.0, -600.0):
         _, results = bar.solve_nonlinear(material, right=Traction(T), rtol=1e-13)
         norms = results[-1].residual_norms()
-        ax.semilogy(np.arange(norms.size), np.maximum(norms, 1e-16), "o-", label=f"T = {T:g} ({results[-1].status})")
+        ax.semilogy(np.arange(norms.size), shown(norms, floor=round_off), "o-",
+                    label=f"T = {T:g} ({results[-1].status})")
+    ax.axhspan(round_off / 20, round_off, color="0.9", lw=0, zorder=0)
+    ax.text(0.02, round_off / 5, f"round-off (drawn at {round_off:.0e})", transform=ax.get_yaxis_transform(),
+            fontsize=7.5, color="0.35", va="center")
     ax.set(xlabel="Newton iteration $k$", ylabel="$\\|q(u^k)\\|$",
            title="Newton on the 1D Neo-Hookean bar: quadratic convergence")
     ax.grid(True, which="both", alpha=0.3)

@@ -15,7 +15,7 @@ import numpy as np
 from matplotlib.ticker import NullFormatter
 from matplotlib.figure import Figure
 
-from .base import lecture_figure, save
+from .base import lecture_figure, save, shown
 from ...engine.constants import FRAME_BUDGET
 from ...surgery.scene import Scene, flap_path, flap_scene
 from ...surgery.simulation import Simulation
@@ -51,6 +51,10 @@ def capped_runs(sizes=SIZES, caps=CAPS, frames=FRAMES) -> list[dict]:
     return rows
 
 
+#: a relative state error below this is round-off (its digits differ between machines)
+STATE_ROUND_OFF = 1e-12
+
+
 @lecture_figure
 def fig_ch07_budget_residual(path=None, rows=None) -> Figure:
     """Chapter 7: residual and state error left when a frame stops after 1, 2 or 3 Newton steps, by mesh size."""
@@ -61,8 +65,12 @@ def fig_ch07_budget_residual(path=None, rows=None) -> Figure:
         sel = [r for r in rows if r["cap"] == cap]
         tri = [r["triangles"] for r in sel]
         label = f"{cap} Newton step{'s' if cap > 1 else ''} per frame"
-        ax_r.loglog(tri, [r["median_relative_residual"] for r in sel], marker + "-", label=label)
-        ax_e.loglog(tri, [max(r["state_error"], 1e-16) for r in sel], marker + "-", label=label)
+        # a residual of 1e-9 of the first one carries round-off at 1e-4 of itself: two digits
+        ax_r.loglog(tri, shown([r["median_relative_residual"] for r in sel], digits=2), marker + "-", label=label)
+        ax_e.loglog(tri, shown([r["state_error"] for r in sel], floor=STATE_ROUND_OFF), marker + "-", label=label)
+    ax_e.axhspan(STATE_ROUND_OFF / 20, STATE_ROUND_OFF, color="0.9", lw=0, zorder=0)
+    ax_e.text(0.02, STATE_ROUND_OFF / 5, f"round-off (drawn at {STATE_ROUND_OFF:.0e})",
+              transform=ax_e.get_yaxis_transform(), fontsize=7.5, color="0.35", va="center")
     ax_r.axhline(1e-6, color="k", ls="--", lw=1)
     ax_r.text(rows[0]["triangles"], 1.5e-6, "converged: rtol = 1e-6", fontsize=8)
     ax_r.set(xlabel="triangles", ylabel="median of |residual| / |first residual| per frame",

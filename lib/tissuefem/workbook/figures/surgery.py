@@ -36,7 +36,7 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Circle
 
 from ...engine.constants import TISSUE_E, TISSUE_NU
-from .base import lecture_figure, save
+from .base import at_least, lecture_figure, save
 from ...surgery.scene import Scene
 from ...surgery.simulation import Simulation
 from ...surgery.topology import connected_components
@@ -369,7 +369,7 @@ def fig_ch08_two_pieces(path=None) -> Figure:
     ax.plot(times[list(FILMSTRIP)], com[list(FILMSTRIP), 1], "s", color="C3", ms=5, label="frames shown above")
     err = float(np.max(np.abs(com[cut:, 1] - run["free_fall"])))
     ax.set(xlabel="time (s), one backward-Euler step per frame", ylabel="centre of mass height $y$",
-           xlim=(0.0, times[-1]), title=f"free piece against free fall: largest difference {err:.1e}")
+           xlim=(0.0, times[-1]), title=f"free piece against free fall: largest difference {at_least(err, spec='.1e')}")
     ax.title.set_fontsize(9)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7.5, loc="lower left")

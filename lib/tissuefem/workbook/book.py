@@ -1,0 +1,382 @@
+"""The workbook as a static website: ``python -m tissuefem book`` (and the last step of ``build``).
+
+Every chapter becomes one HTML page made by nbconvert's HTML exporter from its executed
+copy (``build/chapters/``): the text, the code, every output and figure (embedded), and
+the mathematics, typeset by MathJax when the reader is online and left as readable TeX
+source when not. Each page links to the previous and the next chapter, the contents and
+the errata. The index page carries the syllabus: each chapter's goals, read from its
+first cell, and an estimated time from its length (see :func:`estimate_minutes`). The
+errata page renders the README's errata section.
+
+Every link is relative, so the folder can be copied to any web server or opened from
+disk. Layout of the site::
+
+    index.html                the syllabus
+    errata.html               errata to the lecture notes
+    chapters/chNN_*.html      one page per chapter
+    <other files>             files a chapter links to, at their place in the workbook
+"""
+
+from __future__ import annotations
+
+import html
+import os
+import re
+import shutil
+from dataclasses import dataclass
+from datetime import datetime
+from pathlib import Path
+from urllib.parse import unquote, urlsplit
+
+import nbformat
+from jinja2 import DictLoader
+from nbconvert import HTMLExporter
+
+from .notebooks import chapter_paths
+
+#: reading speed for the chapters' prose: technical text with equations, about half the
+#: speed of plain prose
+WORDS_PER_MINUTE = 100
+#: reading, running and looking at the result of code, per line
+MINUTES_PER_CODE_LINE = 0.2
+#: one exercise of chapters/exercises, derived and written and graded
+MINUTES_PER_EXERCISE = 20
+
+ERRATA_HEADING = "Errata to the lecture notes"
+
+_TEMPLATE = r"""
+{%- extends 'lab/index.html.j2' -%}
+{%- block html_head_js_requirejs -%}{%- endblock html_head_js_requirejs -%}
+{%- block html_head_js_mermaidjs -%}{%- endblock html_head_js_mermaidjs -%}
+{%- block html_head_js_mathjax -%}
+<script type="text/x-mathjax-config">
+MathJax.Hub.Config({
+  tex2jax: {inlineMath: [['$', '$'], ['\\(', '\\)']], displayMath: [['$$', '$$'], ['\\[', '\\]']],
+            processEscapes: true, processEnvironments: true},
+  TeX: {equationNumbers: {autoNumber: "AMS", useLabelIds: true}},
+  messageStyle: "none", CommonHTML: {linebreaks: {automatic: true}}
+});
+</script>
+<script async src="{{ resources.mathjax_url }}"></script>
+{%- endblock html_head_js_mathjax -%}
+{% block extra_css %}
+<style type="text/css">
+nav.book { font-family: var(--jp-ui-font-family, sans-serif); font-size: 14px; display: flex;
+           gap: 1em; justify-content: space-between; flex-wrap: wrap; padding: 8px 16px;
+           background: #f3f5f7; border-bottom: 1px solid #d0d7de; }
+nav.book.bottom { border-top: 1px solid #d0d7de; border-bottom: none; margin-top: 2em; }
+nav.book a { text-decoration: none; }
+nav.book .middle { flex: 1; text-align: center; }
+div.book-note { margin: 1em 16px; padding: 8px 12px; background: #fff8c5; border: 1px solid #d4a72c; }
+</style>
+{% endblock extra_css %}
+{%- block body_header -%}
+{{ super() }}
+{{ resources.book_nav_top }}
+{{ resources.book_note }}
+{%- endblock body_header -%}
+{% block body_footer %}
+{{ resources.book_nav_bottom }}
+{{ super() }}
+{% endblock body_footer %}
+"""
+
+
+@dataclass
+class Chapter:
+    """One chapter of the site: its source, the notebook shown, and what the syllabus says."""
+
+    source: Path
+    notebook: nbformat.NotebookNode
+    executed: bool
+    title: str
+    goals: str
+    minutes: int
+    exercises: int
+
+    @property
+    def page(self) -> str:
+        return f"chapters/{self.source.stem}.html"
+
+
+# --- reading the chapters -------------------------------------------------------------------------
+
+def _first_cell_text(nb) -> str:
+    for cell in nb.cells:
+        if cell.cell_type == "markdown":
+            return cell.source
+    return ""
+
+
+def chapter_title(nb, fallback: str) -> str:
+    """The first heading of the first Markdown cell (``# Chapter 1 — ...``)."""
+    for line in _first_cell_text(nb).splitlines():
+        if line.startswith("#"):
+            return line.lstrip("#").strip()
+    return fallback
+
+
+def chapter_goals(nb) -> str:
+    """The goals of a chapter as Markdown: the paragraph of its first cell that names them
+    (``**Goals.** ...`` and its list), without the label; else the first paragraph after the title."""
+    text = _first_cell_text(nb)
+    paragraphs = [p.strip() for p in re.split(r"\n\s*\n", text) if p.strip()]
+    paragraphs = [p for p in paragraphs if not p.startswith("#")]
+    for p in paragraphs:
+        if re.match(r"\**\s*Goals?\b", p):
+            return re.sub(r"^\**\s*Goals?\.?\s*\**\.?\s*", "", p).strip()
+    return paragraphs[0] if paragraphs else ""
+
+
+def _execution_seconds(nb) -> float:
+    """Seconds the executed cells took (nbclient's timing metadata), 0 when unknown."""
+    total = 0.0
+    for cell in nb.cells:
+        timing = cell.get("metadata", {}).get("execution", {})
+        start, end = timing.get("iopub.execute_input"), timing.get("shell.execute_reply")
+        if start and end:
+            try:
+                total += (datetime.fromisoformat(end.replace("Z", "+00:00"))
+                          - datetime.fromisoformat(start.replace("Z", "+00:00"))).total_seconds()
+            except ValueError:
+                pass
+    return total
+
+
+def estimate_minutes(nb) -> int:
+    """Time to work through a chapter, exercises apart: its prose at :data:`WORDS_PER_MINUTE`,
+    its code at :data:`MINUTES_PER_CODE_LINE` and the time its cells take to run, rounded up
+    to 5 minutes."""
+    words = sum(len(c.source.split()) for c in nb.cells if c.cell_type == "markdown")
+    code_lines = sum(len([ln for ln in c.source.splitlines() if ln.strip()])
+                     for c in nb.cells if c.cell_type == "code")
+    minutes = words / WORDS_PER_MINUTE + code_lines * MINUTES_PER_CODE_LINE + _execution_seconds(nb) / 60
+    return max(5, 5 * -(-int(round(minutes)) // 5))
+
+
+def count_exercises(exercise_file: Path) -> int:
+    """The stub functions of a chapter's exercise file (``def name(...)`` at top level, not private)."""
+    if not exercise_file.exists():
+        return 0
+    return len(re.findall(r"^def (?!_)\w+\(", exercise_file.read_text(), flags=re.M))
+
+
+def readme_section(readme_text: str, heading: str) -> str:
+    """The body of the ``## heading`` section of a Markdown file, up to the next ``## ``."""
+    lines = readme_text.splitlines()
+    for i, line in enumerate(lines):
+        if line.startswith("## ") and line[3:].strip() == heading:
+            body = []
+            for rest in lines[i + 1:]:
+                if rest.startswith("## "):
+                    break
+                body.append(rest)
+            return "\n".join(body).strip()
+    raise ValueError(f"the README has no section '## {heading}'")
+
+
+def readme_intro(readme_text: str) -> str:
+    """The README's opening: everything between its title and its first ``## `` section."""
+    body = []
+    for line in readme_text.splitlines():
+        if line.startswith("## "):
+            break
+        if not line.startswith("# "):
+            body.append(line)
+    return "\n".join(body).strip()
+
+
+# --- writing pages ------------------------------------------------------------------------------
+
+def _exporter() -> HTMLExporter:
+    exporter = HTMLExporter(template_name="lab", extra_loaders=[DictLoader({"book.html.j2": _TEMPLATE})],
+                            template_file="book.html.j2")
+    exporter.exclude_input_prompt = True
+    exporter.exclude_output_prompt = True
+    return exporter
+
+
+def _link(page: str, target: str, text: str) -> str:
+    href = os.path.relpath(target, os.path.dirname(page) or ".").replace(os.sep, "/")
+    return f'<a href="{html.escape(href)}">{text}</a>'
+
+
+def _nav(page: str, chapters: list[Chapter], where: str) -> str:
+    index = next((i for i, c in enumerate(chapters) if c.page == page), None)
+    left = right = "<span></span>"
+    if index is not None and index > 0:
+        prev = chapters[index - 1]
+        left = _link(page, prev.page, f"← {html.escape(prev.title)}")
+    if index is not None and index + 1 < len(chapters):
+        nxt = chapters[index + 1]
+        right = _link(page, nxt.page, f"{html.escape(nxt.title)} →")
+    middle = f'{_link(page, "index.html", "Contents")} · {_link(page, "errata.html", "Errata")}'
+    return f'<nav class="book {where}">{left}<span class="middle">{middle}</span>{right}</nav>'
+
+
+_ATTR = re.compile(r'(\s(?:href|src)=)(?:(")([^"]*)"|(\')([^\']*)\')')
+
+
+class _Links:
+    """Rewrites the relative links of a page for the site and copies the files they name."""
+
+    def __init__(self, root: Path, outdir: Path, chapter_pages: dict[str, str], readme: Path):
+        self.root, self.outdir, self.chapter_pages, self.readme = root, outdir, chapter_pages, readme
+        self.site_pages = {"index.html", "errata.html", *chapter_pages.values()}
+        self.warnings: list[str] = []
+
+    def __call__(self, page_html: str, page: str, source_dir: Path) -> str:
+        def fix(match):
+            prefix = match.group(1)
+            quote, value = (match.group(2), match.group(3)) if match.group(2) else (match.group(4), match.group(5))
+            new = self._target(value, page, source_dir)
+            if new is None:
+                return ""  # an attribute that would lead nowhere is dropped; the link text stays
+            return f"{prefix}{quote}{new}{quote}"
+
+        return _ATTR.sub(fix, page_html)
+
+    def _target(self, value: str, page: str, source_dir: Path):
+        parts = urlsplit(html.unescape(value))
+        if parts.scheme or parts.netloc or value.startswith(("#", "/")) or not parts.path:
+            return value  # absolute, data:, mailto:, in-page anchors
+        fragment = f"#{parts.fragment}" if parts.fragment else ""
+        here = os.path.dirname(page) or "."
+        if os.path.normpath(os.path.join(here, unquote(parts.path))).replace(os.sep, "/") in self.site_pages:
+            return value  # already a page of the site (the syllabus, the navigation)
+        target = (source_dir / unquote(parts.path)).resolve()
+
+        def rel(site_path):
+            return html.escape(os.path.relpath(site_path, here).replace(os.sep, "/") + fragment)
+
+        if target.suffix == ".ipynb" and target.name in self.chapter_pages:
+            return rel(self.chapter_pages[target.name])
+        if target == self.readme.resolve():
+            errata = "errata" in parts.fragment.lower()
+            return html.escape(os.path.relpath("errata.html" if errata else "index.html", here)
+                               .replace(os.sep, "/") + ("" if errata else fragment))
+        try:
+            inside = target.relative_to(self.root.resolve())
+        except ValueError:
+            inside = None
+        if inside is None or not target.is_file():
+            self.warnings.append(f"{page}: link to {value} leads to no file of the workbook; link removed")
+            return None
+        copy = self.outdir / inside
+        copy.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(target, copy)
+        return rel(inside.as_posix())
+
+
+def _markdown_notebook(title: str, cells: list[str]) -> nbformat.NotebookNode:
+    nb = nbformat.v4.new_notebook()
+    nb.metadata["title"] = title
+    nb.cells = [nbformat.v4.new_markdown_cell(text) for text in cells]
+    return nb
+
+
+def _render(exporter, nb, page, chapters, links, source_dir, note="") -> str:
+    resources = {
+        "metadata": {"name": Path(page).stem, "path": str(source_dir)},
+        "book_nav_top": _nav(page, chapters, "top"),
+        "book_nav_bottom": _nav(page, chapters, "bottom"),
+        "book_note": note,
+    }
+    body, _ = exporter.from_notebook_node(nb, resources=resources)
+    return links(body, page, source_dir)
+
+
+def syllabus_cells(chapters: list[Chapter], intro: str) -> list[str]:
+    """The index page's Markdown cells: the README's opening, a table of times, each chapter's goals."""
+    rows = ["| | chapter | reading and running | exercises | in all |", "|---:|---|---:|---:|---:|"]
+    total = 0
+    for i, c in enumerate(chapters, 1):
+        practice = c.exercises * MINUTES_PER_EXERCISE
+        total += c.minutes + practice
+        ex = f"{c.exercises} × {MINUTES_PER_EXERCISE} min" if c.exercises else "—"
+        rows.append(f"| {i} | [{c.title}]({c.page}) | {c.minutes} min | {ex} | {c.minutes + practice} min |")
+    hours = total / 60
+    parts = [
+        intro,
+        "## Syllabus",
+        "Estimated times: the prose at about "
+        f"{WORDS_PER_MINUTE} words a minute, the code at {MINUTES_PER_CODE_LINE * 60:.0f} seconds a line "
+        f"plus the time its cells take to run, and {MINUTES_PER_EXERCISE} minutes for each exercise "
+        f"(about {hours:.0f} hours in all). The [errata](errata.html) list the slips found in the "
+        "lecture notes.",
+        "\n".join(rows),
+    ]
+    for i, c in enumerate(chapters, 1):
+        status = "" if c.executed else "\n\n*(This chapter's outputs are missing from the site: it was not executed.)*"
+        parts.append(f"### {i}. [{c.title}]({c.page})\n\n*About {c.minutes} min"
+                     + (f", and {c.exercises} exercise{'s' if c.exercises != 1 else ''}*" if c.exercises else "*")
+                     + f"\n\nBy the end of this chapter you can\n\n{_goals_list(c.goals)}{status}")
+    return parts
+
+
+def _goals_list(goals: str) -> str:
+    # drop a lead-in such as "By the end of this chapter you can" (said once above)
+    return re.sub(r"^By the end of this chapter you can\s*\n", "", goals).strip()
+
+
+# --- the site -----------------------------------------------------------------------------------
+
+def build_book(chapters_dir, executed_dir, outdir, readme=None, exercises_dir=None, progress=print) -> list[Path]:
+    """Write the static site into ``outdir``; returns the pages written.
+
+    ``chapters_dir`` holds the chapter sources, ``executed_dir`` their executed copies of
+    the same name (a chapter without one is shown without outputs, with a note saying so);
+    ``readme`` (default: the README next to ``chapters_dir``) gives the index page's opening
+    and the errata page; ``exercises_dir`` (default ``chapters_dir/exercises``) the number of
+    exercises per chapter. Relative links in a chapter to another chapter become links to its
+    page, to the README's errata to the errata page, and to any other file of the workbook
+    a link to a copy of it at the same relative place.
+    """
+    chapters_dir, executed_dir, outdir = Path(chapters_dir), Path(executed_dir), Path(outdir)
+    root = chapters_dir.resolve().parent
+    readme = Path(readme) if readme else root / "README.md"
+    exercises_dir = Path(exercises_dir) if exercises_dir else chapters_dir / "exercises"
+    readme_text = readme.read_text(encoding="utf-8")
+    sources = chapter_paths(chapters_dir)
+    if not sources:
+        raise ValueError(f"no chapter notebooks chNN_*.ipynb in {chapters_dir}")
+
+    chapters = []
+    for source in sources:
+        executed = executed_dir / source.name
+        nb = nbformat.read(executed if executed.exists() else source, as_version=4)
+        number = source.stem[2:4]
+        chapters.append(Chapter(source=source, notebook=nb, executed=executed.exists(),
+                                title=chapter_title(nb, source.stem), goals=chapter_goals(nb),
+                                minutes=estimate_minutes(nb),
+                                exercises=count_exercises(exercises_dir / f"ch{number}.py")))
+
+    if outdir.exists():
+        shutil.rmtree(outdir)
+    (outdir / "chapters").mkdir(parents=True)
+    exporter = _exporter()
+    links = _Links(root, outdir, {c.source.name: c.page for c in chapters}, readme)
+    written = []
+
+    def write(page, text):
+        path = outdir / page
+        path.write_text(text, encoding="utf-8")
+        written.append(path)
+        if progress:
+            progress(f"[book] {path}")
+
+    for c in chapters:
+        note = "" if c.executed else (
+            '<div class="book-note">This chapter has not been executed, so its outputs are missing: '
+            "run <code>python -m tissuefem build</code>.</div>")
+        write(c.page, _render(exporter, c.notebook, c.page, chapters, links, chapters_dir.resolve(), note))
+    index = _markdown_notebook("tissuefem: the workbook", ["# tissuefem: the workbook"]
+                               + syllabus_cells(chapters, readme_intro(readme_text)))
+    write("index.html", _render(exporter, index, "index.html", chapters, links, root))
+    errata = _markdown_notebook(ERRATA_HEADING, [f"# {ERRATA_HEADING}\n\n"
+                                                 + readme_section(readme_text, ERRATA_HEADING)])
+    write("errata.html", _render(exporter, errata, "errata.html", chapters, links, root))
+    for warning in links.warnings:
+        if progress:
+            progress(f"[book] warning: {warning}")
+    return written
