@@ -31,7 +31,6 @@ import scipy.sparse as sp
 
 from .assembly import make_assembler
 from .constants import TISSUE_DENSITY
-from .materials import _real_array
 from .parameters import (ACCELERATION_MAX, FORCE_MAX, REACH, check_bounded_vector, check_count, check_density,
                          check_real)
 from .terms import (Elastic, ElementTerm, Fibers, Inertia, Load, Probe, Sutures, Term, _extent, _SafeView,
