@@ -1550,14 +1550,16 @@ def _region_distance(region, xi) -> float:
     return best
 
 
-def locate(mesh, point, positions=None, regions=None, candidates=None):
+def locate(mesh, point, positions=None, regions=None, candidates=None, reach=1e-3):
     """The element whose material holds ``point`` (deformed coordinates) and the point's barycentric coordinates.
 
     Returns ``(element, barycentric (3,))`` or ``None`` when no material is
-    within a thousandth of an element of the point. Of the copies of a cut
-    triangle, the one whose material holds the point (or lies nearest to it,
-    in the triangle's local coordinates) is chosen; ``candidates`` restricts the
-    search to some elements.
+    within ``reach`` of the point (in the local coordinates of a triangle: a
+    fraction of its size). Of the copies of a cut triangle, the one whose
+    material holds the point (or lies nearest to it, in the triangle's local
+    coordinates) is chosen; a point just off the material (in an open wound)
+    gets coordinates that extend the element's P1 map to it. ``candidates``
+    restricts the search to some elements.
     """
     p, t = _mesh_arrays(mesh)
     x = _positions(mesh, positions)
@@ -1575,15 +1577,15 @@ def locate(mesh, point, positions=None, regions=None, candidates=None):
     regions = {} if regions is None else regions
     order = np.argsort(outside, kind="stable")
     best, best_d = None, math.inf
-    for i in order[:16].tolist():
-        if outside[i] > 1e-3 or outside[i] >= best_d:
+    for i in order.tolist():
+        if outside[i] > reach or outside[i] >= best_d:
             break
         e = int(elements[i])
         local = np.array([xi[i], eta[i]])
         d = outside[i] + (_region_distance(regions[e], local) if e in regions else 0.0)
         if d < best_d:
             best, best_d = (e, np.array([1.0 - local.sum(), local[0], local[1]])), d
-    if best is None or best_d > 1e-3:
+    if best is None or best_d > reach:
         return None
     return best
 

@@ -22,8 +22,9 @@ from scipy.sparse.csgraph import connected_components
 
 from ..engine import meshes
 from ..engine.model import Handle, Model, region_nodes
+from ..engine.parameters import PENALTY_MAX, RADIUS_RANGE, check_count
 from ..engine.realtime import RealtimeSolver
-from ..engine.terms import check_vector
+from ..engine.terms import check_reach, check_vector
 from . import element_cuts, topology
 from .scene import Scene, _number
 
@@ -105,6 +106,11 @@ class Simulation:
             operation = element_cuts.cut_through if e.get("method", "elements") == "elements" else topology.incise
             self._apply_edit(operation, np.asarray(e["path"], dtype=float), f"effects.incisions[{i}]",
                              rebuild=False)
+        if not self.dynamic:
+            _, pieces = self._loose_elements(self.mesh, np.arange(self.mesh.nvertices), self._sutures)
+            if pieces:
+                raise ValueError(f"effects.handles: {pieces} piece(s) of the domain are held by nothing; a quasistatic "
+                                 "scene must hold every piece (or it floats and has no equilibrium)")
         self._rebuild()
         for i, p in enumerate(scene.effects.get("probes", [])):
             self.add_probe(p["center"], p["radius"], p.get("stiffness"), _field=f"effects.probes[{i}]")
@@ -231,14 +237,32 @@ class Simulation:
         return self.solver.time
 
     def frame(self, targets=None):
-        """One frame. ``targets``: ``{handle name: translation (dx, dy) or map}`` (others keep theirs)."""
-        if targets and not isinstance(targets, dict):
+        """One frame. ``targets``: ``{handle name: translation (dx, dy) or map}`` (others keep theirs).
+
+        All or nothing: a refused target (or anything raised before the commit) changes nothing.
+        """
+        if targets is not None and not isinstance(targets, dict):
             raise ValueError(f"targets must be a dict {{handle name: target}}, got {targets!r}")
         return self.solver.frame(targets or None)
 
     def run(self, frames: int, targets=None):
-        """Run ``frames`` frames (with the same ``targets`` for each); return the reports."""
-        return [self.frame(targets) for _ in range(int(frames))]
+        """Run ``frames`` frames (an integer >= 0, with the same ``targets`` for each); return the reports."""
+        frames = check_count("frames", frames, 0)
+        return [self.frame(targets) for _ in range(frames)]
+
+    # ------------------------------------------------------------------ checks of points and radii
+    def _point(self, field, point) -> np.ndarray:
+        """A finite point within ``REACH`` domain sizes of the domain's centre (the model's reference box)."""
+        return check_reach(field, check_vector(field, point), self.model.middle, self.model.size)
+
+    def _radius(self, field, radius) -> float:
+        """A radius within ``RADIUS_RANGE`` domain sizes: what a penalty ``~ 1 / r^2`` can be computed for."""
+        r = _number(field, radius, positive=True)
+        lo, hi = RADIUS_RANGE[0] * self.model.size, RADIUS_RANGE[1] * self.model.size
+        if not lo <= r <= hi:
+            raise ValueError(f"{field} = {r:g} must lie within [{RADIUS_RANGE[0]:g}, {RADIUS_RANGE[1]:g}] domain "
+                             f"sizes, i.e. [{lo:g}, {hi:g}]")
+        return r
 
     @property
     def picture(self):
@@ -275,8 +299,8 @@ class Simulation:
         The grabbed nodes stay where they are until :meth:`drag` moves them (by
         the mouse's offset from the grab point). Default radius: 1.5 mean edge lengths.
         """
-        radius = 1.5 * meshes.mean_edge_length(self.mesh) if radius is None else _number("radius", radius, positive=True)
-        point = check_vector("point", point)
+        radius = 1.5 * meshes.mean_edge_length(self.mesh) if radius is None else self._radius("radius", radius)
+        point = self._point("point", point)
         if self.order != 1:
             raise ValueError("grab: grabbing needs P1 elements (order=1)")
         x = self.positions()
@@ -296,8 +320,8 @@ class Simulation:
     def drag(self, name, point) -> None:
         """Move a grabbed handle so that its grab point follows ``point``."""
         h = self.model.handle(name)
-        point = check_vector("point", point)
-        self.model.handle(name).move(point - (np.zeros(2) if h.anchor is None else h.anchor))
+        point = self._point("point", point)
+        h.move(point - (np.zeros(2) if h.anchor is None else h.anchor))
 
     def handle_offset(self, name) -> np.ndarray:
         t = self.model.handle(name).target
@@ -308,22 +332,34 @@ class Simulation:
         self.model.handle(name).move(target)
 
     def release(self, name) -> None:
-        """Let go of a handle: its nodes are free from the next frame on."""
+        """Let go of a handle: its nodes are free from the next frame on.
+
+        In a quasistatic scene a piece that nothing holds any more (the handle was the last hold on a
+        piece cut free) has no equilibrium: it is lifted out, as after a cut (see
+        :meth:`_drop_loose_pieces`). A dynamic scene keeps it: it falls.
+        """
         handle = self.model.handle(name)
         self._check_held([h for h in self.model.handles if h is not handle])
-        self.model.remove_handle(name)
+        if self.dynamic:
+            self.model.remove_handle(name)
+            return
+        with self._transaction():
+            self.model.remove_handle(name)
+            loose, pieces = self._loose_elements(self.mesh, np.arange(self.mesh.nvertices), self._sutures)
+            if pieces:
+                self._apply_edit(topology.excise, lambda centroids: loose.copy(), f"release({name!r})")
+                self.removed_pieces += pieces
 
     # ------------------------------------------------------------------ probe
     def add_probe(self, center, radius, stiffness=None, _field="probe"):
         """Press a rigid disc (a tool tip) into the tissue; returns its label for :meth:`move_probe`."""
-        center = check_vector(f"{_field}.center", center).tolist()
-        radius = _number(f"{_field}.radius", radius, positive=True)
+        center = self._point(f"{_field}.center", center).tolist()
+        radius = self._radius(f"{_field}.radius", radius)  # in domain sizes: the default stiffness stays finite
         E = self.scene.material["youngs_modulus"]
         if stiffness is None:  # stiff enough to keep the penetration near 1 % of the radius under moderate pressure
-            with np.errstate(over="ignore"):
-                stiffness = _number(f"{_field}.stiffness (default 100 E / radius)", 100.0 * E / radius)
+            stiffness = _number(f"{_field}.stiffness (default 100 E / radius)", 100.0 * E / radius, hi=PENALTY_MAX)
         else:
-            stiffness = _number(f"{_field}.stiffness", stiffness, nonnegative=True)
+            stiffness = _number(f"{_field}.stiffness", stiffness, nonnegative=True, hi=PENALTY_MAX)
         with self._transaction():
             self._probe_count += 1
             label = f"probe{self._probe_count}"
@@ -333,14 +369,16 @@ class Simulation:
         return label
 
     def _probe(self, label):
-        for p in self.model.probes:
-            if p.label == label:
-                return p
-        raise ValueError(f"no probe named {label!r}; probes: {[p.label for p in self.model.probes]}")
+        if isinstance(label, str):  # labels are strings: anything else (an array, a list) names no probe
+            for p in self.model.probes:
+                if p.label == label:
+                    return p
+        raise ValueError(f"no probe named {label!r:.100}; probes: {[p.label for p in self.model.probes]}")
 
     def move_probe(self, label, center) -> None:
+        """Move the probe ``label`` to ``center`` (checked; a refusal keeps it where it was)."""
         probe = self._probe(label)
-        probe.move(center)
+        probe.move(self._point("center", center))
         for spec in self._probe_specs:
             if spec["label"] == label:
                 spec["center"] = list(probe.center)
@@ -411,6 +449,21 @@ class Simulation:
         when nothing was removed).
         """
         mesh = edit.mesh
+        loose, pieces = self._loose_elements(mesh, edit.parent, sutures)
+        if not pieces:
+            return edit, None  # nothing to drop (or nothing held at all: _check_held reports it)
+        second = topology.excise(mesh, lambda centroids: loose.copy())
+        self.removed_pieces += pieces
+        merged = dataclasses.replace(second, parent=edit.parent[second.parent], elements=edit.elements[second.elements],
+                                     cut_edges=edit.cut_edges, n_old_nodes=edit.n_old_nodes,
+                                     n_old_elements=edit.n_old_elements)
+        return merged, second.elements
+
+    def _loose_elements(self, mesh, parent, sutures):
+        """``(loose, pieces)``: which elements of ``mesh`` lie in pieces that nothing holds (no handle, no suture
+        to a held piece), and how many such pieces there are. ``parent`` maps its nodes to the current
+        mesh's (through which the handles are carried); ``sutures`` are the stitches on ``mesh``. ``pieces``
+        is 0 when every piece is held -- or when none is (then :meth:`_check_held` has the say)."""
         n = mesh.nvertices
         t = mesh.t
         rows = [t[0], t[1], t[2]]
@@ -423,18 +476,13 @@ class Simulation:
         _, labels = connected_components(graph, directed=False)
         held = np.zeros(labels.max() + 1, dtype=bool)
         for h in self._current_handles():
-            moved = h.remap(edit.parent)
+            moved = h.remap(parent)
             if moved is not None:
                 held[labels[moved.nodes]] = True
         loose = ~held[labels[t[0]]]
         if not np.any(loose) or np.all(loose):
-            return edit, None  # nothing to drop (or nothing held at all: _check_held reports it)
-        second = topology.excise(mesh, lambda centroids: loose)
-        self.removed_pieces += 1
-        merged = dataclasses.replace(second, parent=edit.parent[second.parent], elements=edit.elements[second.elements],
-                                     cut_edges=edit.cut_edges, n_old_nodes=edit.n_old_nodes,
-                                     n_old_elements=edit.n_old_elements)
-        return merged, second.elements
+            return np.zeros(t.shape[1], dtype=bool), 0
+        return loose, int(np.unique(labels[t[0]][loose]).size)
 
     def _material_after(self, edit):
         """The weights and regions of the elements of ``edit``'s mesh (a cut through elements brings its own)."""
@@ -486,10 +534,14 @@ class Simulation:
         (:class:`~tissuefem.surgery.element_cuts.ElementCut` or
         :class:`~tissuefem.surgery.topology.MeshEdit`).
         """
-        operation = {"elements": element_cuts.cut_through, "edges": topology.incise}.get(method)
-        if operation is None or not isinstance(method, str):
-            raise ValueError(f"method must be 'elements' or 'edges', got {method!r}")
-        return self._apply_edit(operation, _polyline(polyline), "polyline")
+        operation = {"elements": element_cuts.cut_through, "edges": topology.incise}.get(method) \
+            if isinstance(method, str) else None
+        if operation is None:
+            raise ValueError(f"method must be 'elements' or 'edges', got {method!r:.100}")
+        points = _polyline(polyline)
+        for i, q in enumerate(points):
+            self._point(f"polyline[{i}]", q)
+        return self._apply_edit(operation, points, "polyline")
 
     def excise(self, region, method="elements"):
         """Remove the tissue inside ``region``: a polygon in *reference* coordinates, or a mask on centroids.
@@ -500,10 +552,14 @@ class Simulation:
         """
         if callable(region):
             return self._apply_edit(topology.excise, region, "region")
-        operation = {"elements": element_cuts.excise_through, "edges": topology.excise}.get(method)
-        if operation is None or not isinstance(method, str):
-            raise ValueError(f"method must be 'elements' or 'edges', got {method!r}")
-        return self._apply_edit(operation, _polyline(region, minimum=3, field="region"), "region")
+        operation = {"elements": element_cuts.excise_through, "edges": topology.excise}.get(method) \
+            if isinstance(method, str) else None
+        if operation is None:
+            raise ValueError(f"method must be 'elements' or 'edges', got {method!r:.100}")
+        region = _polyline(region, minimum=3, field="region")
+        for i, q in enumerate(region):
+            self._point(f"region[{i}]", q)
+        return self._apply_edit(operation, region, "region")
 
     # ------------------------------------------------------------------ sutures
     def _snap(self, point, field):
@@ -537,18 +593,28 @@ class Simulation:
         that carries most of it, ``(2, k)``.
         """
         E = self.scene.material["youngs_modulus"]
-        k = 100.0 * E if stiffness is None else _number(f"{_field}.stiffness", stiffness, positive=True)
-        arr = np.asarray(pairs)
+        k = 100.0 * E if stiffness is None else _number(f"{_field}.stiffness", stiffness, positive=True,
+                                                         hi=PENALTY_MAX)
+        try:
+            arr = np.asarray(pairs)
+        except (TypeError, ValueError):
+            raise ValueError(f"{_field}.pairs must be point pairs shaped (k, 2, 2) or node index pairs shaped "
+                             f"(2, k), got {pairs!r:.200}") from None
         t = np.asarray(self.mesh.t)
-        if np.issubdtype(arr.dtype, np.integer) and arr.ndim == 2 and arr.shape[0] == 2:
+        if arr.dtype.kind in "iu" and arr.ndim == 2 and arr.shape[0] == 2:
             nodes = arr.astype(np.intp)
             if nodes.size == 0 or nodes.min() < 0 or nodes.max() >= self.mesh.nvertices:
                 raise ValueError(f"{_field}.pairs: node indices must be in 0..{self.mesh.nvertices - 1}")
             ends = [[self._node_end(int(q)) for q in nodes[s]] for s in range(2)]
         else:
-            arr = np.asarray(arr, dtype=float)
+            if arr.dtype.kind not in "iuf":  # booleans, strings, complex numbers: not points
+                raise ValueError(f"{_field}.pairs must be real point pairs shaped (k, 2, 2), got dtype {arr.dtype}")
+            arr = arr.astype(float)
             if arr.ndim != 3 or arr.shape[1:] != (2, 2) or arr.shape[0] == 0 or not np.all(np.isfinite(arr)):
                 raise ValueError(f"{_field}.pairs must be point pairs shaped (k, 2, 2), got shape {arr.shape}")
+            for j, pair in enumerate(arr):
+                for i, q in enumerate(pair):
+                    self._point(f"{_field}.pairs[{j}][{i}]", q)
             ends = [[self._point_end(q[s], _field) for q in arr] for s in range(2)]
         elements = np.array([[e for e, _ in side] for side in ends], dtype=np.int64).reshape(2, -1)
         bary = np.array([[w for _, w in side] for side in ends], dtype=float).reshape(2, -1, 3)
@@ -589,9 +655,11 @@ class Simulation:
         return int(element[0]), w
 
     def _point_end(self, point, field):
-        """A stitch end at ``point`` (deformed coordinates): inside the material there, or else the nearest node."""
+        """A stitch end at ``point`` (deformed coordinates): on the material there or within half an element of
+        it, or else at the nearest node."""
         x = self.positions()
-        found = element_cuts.locate(self.mesh, point, x, self._regions)
+        # within half an element of some material (in an open wound, just off its lip): attached to it
+        found = element_cuts.locate(self.mesh, point, x, self._regions, reach=0.5)
         if found is not None:  # on a sliver of a cut element: carried by the firm tissue beside it
             return element_cuts.firm_anchor(self.mesh, *found, positions=x, weights=self._weights,
                                             regions=self._regions)
@@ -632,9 +700,12 @@ def _end_key(nodes, weights):
 
 def _polyline(points, minimum=2, field="polyline"):
     try:
-        arr = np.asarray(points, dtype=float)
+        arr = np.asarray(points)
     except (TypeError, ValueError):
         raise ValueError(f"{field} must be a list of points [x, y], got {points!r}") from None
+    if arr.dtype.kind not in "iuf":  # strings, booleans, objects; complex points would lose their imaginary part
+        raise ValueError(f"{field} must be a list of real points [x, y], got {points!r}")
+    arr = arr.astype(float)
     if arr.ndim != 2 or arr.shape[1] != 2 or arr.shape[0] < minimum:
         raise ValueError(f"{field} must be at least {minimum} points shaped (k, 2), got shape {arr.shape}")
     if not np.all(np.isfinite(arr)):
