@@ -41,11 +41,11 @@ import numpy as np
 import matplotlib.pyplot as plt
 from IPython.display import Markdown, display
 
-from tissuefem import Handle, Model, Scene, Simulation, rectangle, solve
-from tissuefem.engine.materials import LinearElastic
+from tissuefem import Scene, Simulation, rectangle
 from tissuefem.surgery.element_cuts import cut_through, lumped_mass
 from tissuefem.surgery.flaps import advancement_flap, rotation_flap
 from tissuefem.workbook.bench.common import markdown_table
+from tissuefem.workbook.cracks import griffith_closed_form, griffith_opening
 from tissuefem.workbook.figures.cutting import (crack_opening, crack_runs, fig_ch10_cut_through, fig_ch10_flaps,
                                                 fig_ch10_virtual_nodes)
 
@@ -141,39 +141,18 @@ print("momentum before / after:", (velocity * before).sum(axis=1), (velocity[:, 
 # strain and small strains, by
 # $$\delta = \frac{4\sigma a\,(1-\nu^2)}{E}$$
 # at its centre (Griffith 1921; Tada, Paris and Irwin's handbook gives the factor
-# $\sqrt{\sec(\pi a/W)}$ for a plate of width $W$). Below, the crack is cut through the elements of three
-# meshes of a $10\times 10$ plate; the test suite runs the same check
+# $\sqrt{\sec(\pi a/W)}$ for a plate of width $W$). Below, `griffith_opening` cuts the crack through the
+# elements of three meshes of a $10\times 10$ plate (`cut_through`, then `Model(..., weights=cut.weights)`
+# and `solve`) and reads the jump between the two lips of the wound; the test suite runs the same check
 # (`tests/test_cutting.py::test_a_crack_cut_through_elements_opens_as_griffiths_crack`).
 
 # %%
 E, nu = 1000.0, 0.3
-lam, mu = E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
-W, a, sigma = 10.0, 1.0, 1.0
-exact = 4 * sigma * a * (1 - nu**2) / E * np.sqrt(1 / np.cos(np.pi * a / W))
-
-
-def griffith(n):
-    mesh = rectangle(W, W, n, n)
-    y0 = W / 2 + 0.37 * W / n  # off the grid lines: the crack crosses elements
-    cut = cut_through(mesh, [[W / 2 - a, y0], [W / 2 + a, y0]])
-    p = cut.mesh.p
-    nearest = [np.array([np.argmin(np.hypot(p[0] - x, p[1] - W / 2))]) for x in (0.0, W)]
-    model = Model(cut.mesh, LinearElastic(lam, mu), weights=cut.weights,
-                  handles=[Handle(nodes) for nodes in nearest],
-                  tractions={"top": (0.0, sigma), "bottom": (0.0, -sigma)})
-    x = p + solve(model).u.reshape(-1, 2).T
-    ends, ref = cut.wound.positions(x), cut.wound.reference
-    lo, hi = np.minimum(ref[:, 0, 0], ref[:, 1, 0]), np.maximum(ref[:, 0, 0], ref[:, 1, 0])
-    lips = {1: [], -1: []}
-    for i in np.flatnonzero((lo <= W / 2) & (hi >= W / 2)):
-        s = (W / 2 - ref[i, 0, 0]) / (ref[i, 1, 0] - ref[i, 0, 0])
-        lips[int(cut.wound.side[i])].append(ends[i, 0, 1] + s * (ends[i, 1, 1] - ends[i, 0, 1]))
-    return cut.mesh.nelements, abs(np.mean(lips[1]) - np.mean(lips[-1]))
-
-
+exact = griffith_closed_form(a=1.0, width=10.0, stress=1.0, E=E, nu=nu)
+print(f"closed form: delta = {exact:.5f}")
 rows = []
 for n in (40, 80, 160):
-    elements, delta = griffith(n)
+    elements, delta = griffith_opening(n, a=1.0, width=10.0, stress=1.0, E=E, nu=nu)
     rows.append({"elements": elements, "delta": delta, "ratio": delta / exact})
 display(Markdown(markdown_table(rows, [("elements", "elements", "{}"), ("delta", "opening δ", "{:.5f}"),
                                        ("ratio", "δ / closed form", "{:.3f}")])))

@@ -202,6 +202,24 @@ def _close_flap(scene, *, in_flap, motion, samples, normals, method, tighten_fra
     )
 
 
+def _patch_scene(name, description, patch, material, method, excisions, incisions) -> Scene:
+    """A ``width x height`` patch of skin held on its four outer edges, with the flap's excisions and incisions."""
+    width, height, n_triangles = patch
+    model, youngs_modulus, poisson_ratio = material
+    return Scene(
+        name=name,
+        description=description,
+        domain={"shape": "rectangle", "width": width, "height": height, "triangles": int(n_triangles)},
+        material={"model": model, "youngs_modulus": youngs_modulus, "poisson_ratio": poisson_ratio},
+        effects={
+            "handles": [{"name": side, "region": side} for side in ("left", "right", "bottom", "top")],
+            "excisions": [{"polygon": polygon, "method": method} for polygon in excisions],
+            "incisions": [{"path": path, "method": method} for path in incisions],
+        },
+        solver={"budget": 1e9, "rtol": 1e-6, "max_iterations": 100},
+    )
+
+
 def _method(method) -> str:
     if method not in ("elements", "edges"):
         raise ValueError(f"method must be 'elements' or 'edges', got {method!r}")
@@ -244,19 +262,10 @@ def advancement_flap(*, width=4.0, height=2.0, n_triangles=3000, defect=(1.2, 0.
                          "patch, with skin on every side")
     x1, y1 = x0 + w, y0 + h
     tip = x1 + flap_length
-    scene = Scene(
-        name="advancement flap",
-        description="A rectangular defect closed by advancing a flap cut beside it (after Sifakis et al. 2009).",
-        domain={"shape": "rectangle", "width": width, "height": height, "triangles": int(n_triangles)},
-        material={"model": model, "youngs_modulus": youngs_modulus, "poisson_ratio": poisson_ratio},
-        effects={
-            "handles": [{"name": side, "region": side} for side in ("left", "right", "bottom", "top")],
-            "excisions": [{"polygon": [[x0, y0], [x1, y0], [x1, y1], [x0, y1]], "method": method}],
-            "incisions": [{"path": [[x1, y0], [tip, y0]], "method": method},
-                          {"path": [[x1, y1], [tip, y1]], "method": method}],
-        },
-        solver={"budget": 1e9, "rtol": 1e-6, "max_iterations": 100},
-    )
+    scene = _patch_scene("advancement flap",
+                         "A rectangular defect closed by advancing a flap cut beside it (after Sifakis et al. 2009).",
+                         (width, height, n_triangles), (model, youngs_modulus, poisson_ratio), method,
+                         [[[x0, y0], [x1, y0], [x1, y1], [x0, y1]]], [[[x1, y0], [tip, y0]], [[x1, y1], [tip, y1]]])
 
     def in_flap(c):
         return (c[0] > x1) & (c[0] < tip) & (c[1] > y0) & (c[1] < y1)
@@ -319,18 +328,9 @@ def rotation_flap(*, width=4.0, height=3.0, n_triangles=3000, pivot=(1.5, 1.5), 
     # (h/4)^2 / (8 r), far less than the offset by which a stitch's ends are put on their own side
     n_arc = max(8, int(np.ceil(4.0 * r * (a1 - a0) / edge_guess)))
     defect = np.vstack([[[px, py]], arc(a1, a1 + alpha, max(4, int(np.ceil(4.0 * r * alpha / edge_guess))))])
-    scene = Scene(
-        name="rotation flap",
-        description="A wedge-shaped defect closed by rotating the flap beside it about its pivot.",
-        domain={"shape": "rectangle", "width": width, "height": height, "triangles": int(n_triangles)},
-        material={"model": model, "youngs_modulus": youngs_modulus, "poisson_ratio": poisson_ratio},
-        effects={
-            "handles": [{"name": side, "region": side} for side in ("left", "right", "bottom", "top")],
-            "excisions": [{"polygon": defect.tolist(), "method": method}],
-            "incisions": [{"path": arc(a1, a0, n_arc).tolist(), "method": method}],
-        },
-        solver={"budget": 1e9, "rtol": 1e-6, "max_iterations": 100},
-    )
+    scene = _patch_scene("rotation flap", "A wedge-shaped defect closed by rotating the flap beside it about its pivot.",
+                         (width, height, n_triangles), (model, youngs_modulus, poisson_ratio), method,
+                         [defect.tolist()], [arc(a1, a0, n_arc).tolist()])
     def motion(X):  # the flap fans out: each radius turns in proportion to its angle from the base
         d = np.asarray(X, float) - np.array([[px], [py]])
         ang = np.arctan2(d[1], d[0])
