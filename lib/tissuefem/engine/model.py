@@ -212,19 +212,31 @@ class Pattern:
         extra = [(np.asarray(r, dtype=np.int64), np.asarray(c, dtype=np.int64)) for r, c in couplings]
         base_rows = np.repeat(np.arange(n, dtype=np.int64), np.diff(assembler.indptr))
         base_keys = base_rows * n + assembler.indices
-        if not extra:
+        new = np.zeros(0, dtype=np.int64)
+        if extra:
+            new = np.unique(np.concatenate([r * n + c for r, c in extra]))
+            if np.any(np.diff(base_keys) <= 0):  # pragma: no cover - the assemblers' patterns are sorted
+                base_keys = np.sort(base_keys)
+            at = np.minimum(np.searchsorted(base_keys, new), base_keys.size - 1)
+            new = new[base_keys[at] != new]  # only the couplings the mesh does not have already
+        if new.size == 0:
             self.indptr, self.indices = assembler.indptr, assembler.indices
             self._keys = base_keys
             self.base_positions = None
         else:
-            keys = np.union1d(base_keys, np.concatenate([r * n + c for r, c in extra]))
+            # merge the few new keys into the sorted base keys (a widening is rebuilt whenever a term's couplings
+            # change, e.g. contact pairs: it must cost a merge, not a sort of everything)
+            inserted = np.searchsorted(base_keys, new)
+            keys = np.insert(base_keys, inserted, new)
             counts = np.bincount(keys // n, minlength=n)
             self.indptr = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
             self.indices = (keys % n).astype(np.int64)
             self.indptr.setflags(write=False)
             self.indices.setflags(write=False)
             self._keys = keys
-            self.base_positions = np.searchsorted(keys, base_keys)
+            # a base entry moves up by the number of new keys inserted at or before it
+            shift = np.cumsum(np.bincount(inserted, minlength=base_keys.size + 1))[: base_keys.size]
+            self.base_positions = np.arange(base_keys.size) + shift
         self.nnz = self._keys.size
         nodes = np.arange(n_vertices, dtype=np.int64)
         self.node_block = np.empty((2, 2, n_vertices), dtype=np.intp)
