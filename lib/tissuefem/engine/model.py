@@ -3,7 +3,7 @@
 A :class:`Model` is a mesh with a displacement basis (P1 or P2), a material,
 and a list of terms (:mod:`tissuefem.engine.terms`). Its potential is their sum,
 
-    E(u) = W(u) [+ fibres] [+ probe] [+ sutures] [- f . u] [+ 1/(2 dt^2) |u - u~|_M^2],
+    E(u) = W(u) [+ fibres] [+ probe] [+ sutures] [+ contact] [- f . u] [+ 1/(2 dt^2) |u - u~|_M^2],
 
 with nothing evaluated -- or even built -- for an effect it was not given: a
 model without ``dt`` has no inertia term and no mass matrix; without fibres no
@@ -21,7 +21,14 @@ nothing. Regions become mesh nodes through one function, :func:`region_nodes`.
 The Hessian of every term goes into one fixed sparsity pattern
 (:class:`Pattern`): the assembler's, widened where a term couples dofs that the
 mesh does not (sutures). Newton's matrices then share their index arrays,
-which lets the linear solver condense them by a precomputed gather.
+which lets the linear solver condense them by a precomputed gather. A term whose
+couplings change with the state (self-contact, :mod:`tissuefem.engine.contact`)
+says when the pattern no longer holds them (``covers``); :meth:`Model.hessian`
+then rebuilds the pattern before it assembles (the linear solver sees new index
+arrays and condenses afresh; a kept factorization stays a valid preconditioner).
+Such a term may also limit how far a step may go (``max_step``: no surface passes
+through another) and note where a step starts (``begin_step``); the model offers
+these hooks to the stepper and the minimiser only when a term has them.
 """
 
 from __future__ import annotations
@@ -31,6 +38,7 @@ import scipy.sparse as sp
 
 from .assembly import make_assembler
 from .constants import TISSUE_DENSITY
+from .contact import Contact, ContactSurface
 from .terms import (Elastic, ElementTerm, Fibers, Inertia, Load, Probe, Sutures, Term, _SummedDensity,
                     _SafeView, check_positive, check_vector, traction_vector)
 
@@ -294,6 +302,22 @@ def _named_tractions(tractions):
     return out
 
 
+def _contact_term(X, mesh, spec) -> Contact:
+    """The :class:`~tissuefem.engine.contact.Contact` term of a ``contact`` dict."""
+    if not isinstance(spec, dict):
+        raise ValueError(f"contact must be a dict (distance, stiffness[, surface, skin]), got {spec!r}")
+    unknown = sorted(set(spec) - {"distance", "stiffness", "surface", "skin"})
+    if unknown:
+        raise ValueError(f"contact: unknown key(s) {unknown}; allowed: distance, stiffness, surface, skin")
+    for key in ("distance", "stiffness"):
+        if key not in spec:
+            raise ValueError(f"contact.{key}: missing")
+    surface = spec.get("surface")
+    if surface is None:
+        surface = ContactSurface.from_mesh(mesh)
+    return Contact(X, surface, spec["distance"], spec["stiffness"], spec.get("skin"))
+
+
 class Model:
     """A hyperelastic body (mesh, displacement basis, material) and exactly the terms acting on it.
 
@@ -327,13 +351,17 @@ class Model:
         Dicts ``center, radius, stiffness[, label]``: :class:`~tissuefem.engine.terms.Probe` terms.
     sutures
         A dict ``pairs, stiffness, gaps[, tightness]``: a :class:`~tissuefem.engine.terms.Sutures` term.
+    contact
+        A dict ``distance, stiffness[, surface, skin]``: a :class:`~tissuefem.engine.contact.Contact` term
+        (self-contact of ``surface``, a :class:`~tissuefem.engine.contact.ContactSurface`; default: the
+        mesh's boundary).
     weights
         Optional per-element material fractions (elements cut through carry part of their triangle).
     """
 
     def __init__(self, mesh, material, *, order: int = 1, intorder: int | None = None, assembly: str = "fast",
                  handles=(), dt=None, density=TISSUE_DENSITY, mass: str = "lumped", gravity=None,
-                 body_force=None, tractions=None, fibers=None, probes=(), sutures=None, weights=None):
+                 body_force=None, tractions=None, fibers=None, probes=(), sutures=None, contact=None, weights=None):
         self.mesh = mesh
         self.order = order
         self.basis, self.assembler = make_assembler(mesh, order=order, intorder=intorder, assembly=assembly,
@@ -372,6 +400,8 @@ class Model:
         if sutures is not None:
             spec = dict(sutures)
             terms.append(Sutures(self.X, spec["pairs"], spec["stiffness"], spec["gaps"], spec.get("tightness", 0.0)))
+        if contact is not None:
+            terms.append(_contact_term(self.X, mesh, contact))
         if gravity is not None:
             g = check_vector("gravity", gravity)
             terms.append(Load("gravity", self.assembler.body_force(self.density * g)))
@@ -399,6 +429,10 @@ class Model:
         self._other_terms = [t for t in self.terms if not isinstance(t, ElementTerm)]
         densities = [t.density for t in self._element_terms]
         self._density = densities[0] if len(densities) == 1 else _SummedDensity(densities)
+        # the hooks of terms that change the pattern, limit steps or note a step's start (contact): none, no cost
+        self._pattern_terms = [t for t in self._other_terms if callable(getattr(t, "covers", None))]
+        self._limit_terms = [t for t in self._other_terms if callable(getattr(t, "max_step", None))]
+        self._step_terms = [t for t in self._other_terms if callable(getattr(t, "begin_step", None))]
 
     def add_term(self, term: Term) -> None:
         """Add a term (a probe, sutures ...); the pattern is widened if the term needs it."""
@@ -441,6 +475,41 @@ class Model:
     def sutures(self) -> Sutures | None:
         found = self.terms_of(Sutures)
         return found[0] if found else None
+
+    @property
+    def contact(self) -> Contact | None:
+        """The self-contact term, or ``None``."""
+        found = self.terms_of(Contact)
+        return found[0] if found else None
+
+    # ------------------------------------------------------------------ step hooks (terms that have them only)
+    @property
+    def step_limit(self):
+        """``None`` when no term limits steps; else ``limit(u, du)``: the largest fraction of the step ``du``
+        from ``u`` that every term allows (contact: no surface passes through another)."""
+        if not self._limit_terms:
+            return None
+        terms = list(self._limit_terms)
+
+        def limit(u, du):
+            return min(t.max_step(u, du) for t in terms)
+
+        return limit
+
+    @property
+    def notes_steps(self) -> bool:
+        """Whether a term wants to know where each step starts (:meth:`begin_step`; self-contact)."""
+        return bool(self._step_terms)
+
+    def begin_step(self, u, previous=None) -> int:
+        """Tell the terms a step starts at ``u`` (reached from the state ``previous`` by the handles' motion);
+        returns the crossings they found (surface points the handles dragged through the surface, which
+        contact ignores until they are back out)."""
+        return sum(int(t.begin_step(u, previous) or 0) for t in self._step_terms)
+
+    def end_step(self) -> None:
+        for t in self._step_terms:
+            t.end_step()
 
     @property
     def term_names(self) -> list[str]:
@@ -495,6 +564,8 @@ class Model:
         direction.
         """
         u = self._check_u(u)
+        if self._pattern_terms and not all(t.covers(u) for t in self._pattern_terms):
+            self._build()  # a term's couplings changed (contact pairs): a new pattern, the same terms
         data = self.pattern.zeros()
         density = _SafeView(self._density) if safe else self._density
         self.pattern.add_base(data, self.assembler.tangent(u, density).data)
