@@ -166,6 +166,13 @@ def _dot(u, v):
     return u[0] * v[0] + u[1] * v[1]
 
 
+def _segment_distance(y, ya, yb):
+    """Distance from points ``y`` to the closed segments ``ya -> yb`` (all (2, m))."""
+    e, w = yb - ya, y - ya
+    t = np.clip(_dot(w, e) / np.maximum(_dot(e, e), 1e-300), 0.0, 1.0)
+    return np.hypot(*(w - t * e))
+
+
 def barrier(zeta):
     """``beta(zeta) = -(zeta - 1)^2 ln(zeta)`` on ``0 < zeta < 1`` (0 from 1 on) and its first two derivatives.
 
@@ -404,7 +411,24 @@ class Contact(Term):
         self._slot_local = (2 * j + c).ravel()
         n_local = (6 * width) ** 2
         n_seg = surface.n_segments
-        self._hinge_keys = surface.hinge_points.astype(np.int64) * max(n_seg, 1) + surface.hinge_segments
+        # a corner folded right back on itself (a crack tip at rest) has no mean normal: it opens backwards along
+        # the incoming segment if it turned into the material when built (a crack tip), forwards if it turned
+        # out of it (a needle). _fold[s] is that sign for the corner at the end of segment s.
+        self._fold = np.ones(max(n_seg, 1))
+        has = surface.next >= 0
+        e_s = Y[:, b] - Y[:, a]
+        e_n = e_s[:, np.maximum(surface.next, 0)]
+        turns_in = _cross(e_s, e_n) <= 1e-9 * np.hypot(*e_s) * np.hypot(*e_n)
+        self._fold[:n_seg] = np.where(has & turns_in, -1.0, 1.0)
+        # hinges count only at corners that turn back into the material in the reference configuration (a crack
+        # tip, a notch): closing such a corner is contact; closing a convex corner crushes the material between
+        into = surface.hinge_corner
+        e_in = Y[:, b[into]] - Y[:, a[into]]
+        e_out = Y[:, b[surface.next[into]]] - Y[:, a[surface.next[into]]]
+        armed = _cross(e_in, e_out) <= 1e-9 * np.hypot(*e_in) * np.hypot(*e_out)
+        self._hinge = np.flatnonzero(armed)
+        self._hinge_keys = surface.hinge_points[self._hinge].astype(np.int64) * max(n_seg, 1) \
+            + surface.hinge_segments[self._hinge]
         self._hinge_positions = np.full((self._hinge_keys.size, n_local), -1, dtype=np.intp)
         self._hinge_ignored = np.zeros(self._hinge_keys.size, dtype=bool)
         self._step_start = None  # the surface at the start of the current step (pairs deep there are ignored)
@@ -412,6 +436,19 @@ class Contact(Term):
         self._cache = None
         self.refreshes = 0  # how many times the Verlet list was rebuilt
         self.pattern = None
+        # the reference configuration touches nothing: a pair already behind its segment within the skin there is
+        # a feature smaller than d^ (the sliver a cut leaves next to a node), not two surfaces that meet
+        self._excluded = np.zeros(0, dtype=np.int64)
+        p, s = self._query(Y, self.distance)
+        p = np.concatenate([p, surface.hinge_points[self._hinge]])
+        s = np.concatenate([s, surface.hinge_segments[self._hinge]])
+        _, distance, sigma = self._classify(Y, p, s)
+        inside = (distance < self.distance) & (sigma < 0)
+        self._excluded = np.unique(p[inside].astype(np.int64) * max(n_seg, 1) + s[inside])
+        keep = ~np.isin(self._hinge_keys, self._excluded)
+        self._hinge, self._hinge_keys = self._hinge[keep], self._hinge_keys[keep]
+        self._hinge_positions = self._hinge_positions[keep]
+        self._hinge_ignored = self._hinge_ignored[keep]
         self._refresh(Y)
         self._coupled = self._covered = np.zeros(0, dtype=np.int64)
 
@@ -441,15 +478,19 @@ class Contact(Term):
         p = np.fromiter((i for h in hits for i in h), dtype=np.intp, count=int(counts.sum()))
         keep = np.all(self.surface.neighbourhood[s] != p[:, None], axis=1)
         p, s = p[keep], s[keep]
-        order = np.argsort(p.astype(np.int64) * n_seg + s)
+        keys = p.astype(np.int64) * n_seg + s
+        if self._excluded.size:
+            keep = ~np.isin(keys, self._excluded)
+            p, s, keys = p[keep], s[keep], keys[keep]
+        order = np.argsort(keys)
         return p[order], s[order]
 
     def _deep_at_start(self, p, s) -> np.ndarray:
         """Which pairs had their point deeper than ``d^`` behind the segment when the step started."""
         if self._step_start is None or p.size == 0:
             return np.zeros(p.size, dtype=bool)
-        kind, sigma = self._classify(self._step_start, p, s)
-        return (kind > 0) & (sigma <= -self.distance)
+        _, _, sigma = self._classify(self._step_start, p, s)
+        return sigma <= -self.distance
 
     def _refresh(self, Y) -> None:
         """Rebuild the Verlet list at the points ``Y``: every pair closer than ``d^ + skin`` (not neighbours)."""
@@ -475,12 +516,12 @@ class Contact(Term):
             self._refresh(Y)
 
     def _sharp_hinges(self, Y) -> np.ndarray:
-        """Indices of the hinge pairs at corners that turn by more than 90 degrees at ``Y`` (the others cannot
-        touch: the point projects before the segment)."""
+        """Indices (into the armed hinges) of the hinge pairs at corners that turn by more than 90 degrees at
+        ``Y`` (the others cannot touch: the point projects before the segment)."""
         if self._hinge_keys.size == 0:
             return np.zeros(0, dtype=np.intp)
         seg = self.surface.segments
-        into = self.surface.hinge_corner
+        into = self.surface.hinge_corner[self._hinge]
         out = self.surface.next[into]
         e_in = Y[:, seg[1, into]] - Y[:, seg[0, into]]
         e_out = Y[:, seg[1, out]] - Y[:, seg[0, out]]
@@ -492,51 +533,88 @@ class Contact(Term):
         hinges = self._sharp_hinges(Y)
         if hinges.size == 0:
             return self._p, self._s, self._keys, self._ignored, np.arange(self._keys.size)
-        return (np.concatenate([self._p, self.surface.hinge_points[hinges]]),
-                np.concatenate([self._s, self.surface.hinge_segments[hinges]]),
+        return (np.concatenate([self._p, self.surface.hinge_points[self._hinge[hinges]]]),
+                np.concatenate([self._s, self.surface.hinge_segments[self._hinge[hinges]]]),
                 np.concatenate([self._keys, self._hinge_keys[hinges]]),
                 np.concatenate([self._ignored, self._hinge_ignored[hinges]]),
                 np.concatenate([np.arange(self._keys.size), self._keys.size + hinges]))
 
     # -------------------------------------------------------------- narrow phase
     def _classify(self, Y, p, s):
-        """``(kind, sigma)`` of the pairs ``(p, s)`` at points ``Y``: 0 no primitive (the point belongs to
-        another segment or lies in front of a corner), 1 point-segment, 2 point-point at ``s``'s end."""
+        """``(kind, distance, sigma)`` of the pairs ``(p, s)`` at points ``Y``: which feature of the segment is
+        nearest the point (1 its interior, 2 its start ``a``, 3 its end ``b``), how far, and the signed gap."""
         seg = self.surface.segments
         prev, nxt = self.surface.previous[s], self.surface.next[s]
-        before, after = seg[0, np.maximum(prev, 0)], seg[1, np.maximum(nxt, 0)]
-        # a neighbour that is one of the point's own segments does not compete for it (it lies on it)
-        return self._classify_at(Y[:, p], Y[:, seg[0, s]], Y[:, seg[1, s]], Y[:, before], Y[:, after],
-                                 (prev >= 0) & (before != p), (nxt >= 0) & (after != p))
+        return self._classify_at(Y[:, p], Y[:, seg[0, s]], Y[:, seg[1, s]],
+                                 Y[:, seg[0, np.maximum(prev, 0)]], Y[:, seg[1, np.maximum(nxt, 0)]],
+                                 prev >= 0, nxt >= 0, self._fold[np.maximum(prev, 0)], self._fold[s])
 
     @staticmethod
-    def _classify_at(yp, ya, yb, y_before, y_after, has_previous, has_next):
-        """The classification of :meth:`_classify` from the coordinates (2, m) of the point, the segment's ends,
-        the previous segment's start and the next segment's end (``has_*``: whether that neighbour counts)."""
+    def _classify_at(yp, ya, yb, y_before, y_after, has_previous, has_next, fold_start, fold_end):
+        """The classification of :meth:`_classify` from coordinates (2, m): the point, the segment's ends, the
+        previous segment's start and the next segment's end (``has_*``: whether there is one; ``fold_*``: the
+        side a corner folded right back on itself opens to, see ``_fold``)."""
         e, w = yb - ya, yp - ya
-        L2 = _dot(e, e)
-        t = _dot(w, e) / L2
-        g = _cross(w, e) / np.sqrt(L2)
-        # the next segment (b -> after) and the previous one (before -> a)
-        en, wn = y_after - yb, yp - yb
-        Ln2 = np.where(has_next, _dot(en, en), 1.0)
-        t_next = _dot(wn, en) / Ln2
-        g_next = _cross(wn, en) / np.sqrt(Ln2)
-        convex_end = has_next & (_cross(e, en) > 0)
-        ep, wp = ya - y_before, yp - y_before
-        Lp2 = np.where(has_previous, _dot(ep, ep), 1.0)
-        t_prev = _dot(wp, ep) / Lp2
-        g_prev = _cross(wp, ep) / np.sqrt(Lp2)
-        convex_start = has_previous & (_cross(ep, e) > 0)
-        # point-segment: in the segment's strip, and not nearer the line of a neighbour across a convex corner
-        segment = (t >= 0) & (t < 1)
-        segment &= ~(convex_end & (t_next >= 0) & (g_next > g))
-        segment &= ~(convex_start & (t_prev < 1) & (g_prev >= g))
-        # point-point: behind a reflex corner, beyond this segment and before the next
-        corner = has_next & ~convex_end & (t >= 1) & (t_next < 0)
-        kind = np.where(segment, 1, np.where(corner, 2, 0))
-        sigma = np.where(segment, g, np.where(corner, -np.hypot(*wn), np.inf))
-        return kind, sigma
+        L = np.sqrt(_dot(e, e))
+        t = _dot(w, e) / (L * L)
+        g = _cross(w, e) / L
+        n = np.stack([e[1], -e[0]]) / L  # the outward normal
+
+        def corner_normal(e_in, e_out, fold):
+            """The pseudonormal of a corner: the mean of its segments' normals (of a corner folded right back,
+            the direction it opens to)."""
+            m = np.stack([e_in[1], -e_in[0]]) / np.sqrt(_dot(e_in, e_in)) + \
+                np.stack([e_out[1], -e_out[0]]) / np.sqrt(_dot(e_out, e_out))
+            size = np.sqrt(_dot(m, m))
+            folded = size < 1e-9
+            m = np.where(folded, fold * e_in / np.sqrt(_dot(e_in, e_in)), m / np.where(folded, 1.0, size))
+            return m
+
+        e_before = np.where(has_previous, ya - y_before, e)
+        e_after = np.where(has_next, y_after - yb, e)
+        wb = yp - yb
+        r_a, r_b = np.sqrt(_dot(w, w)), np.sqrt(_dot(wb, wb))
+        side_a = _dot(w, corner_normal(e_before, e, fold_start))
+        side_b = _dot(wb, corner_normal(e, e_after, fold_end))
+        kind = np.where(t <= 0, 2, np.where(t >= 1, 3, 1))
+        distance = np.where(kind == 1, np.abs(g), np.where(kind == 2, r_a, r_b))
+        sigma = np.where(kind == 1, g, np.where(kind == 2, np.where(side_a < 0, -r_a, r_a),
+                                                np.where(side_b < 0, -r_b, r_b)))
+        return kind, distance, sigma
+
+    def _owners(self, p, s, keys, distance):
+        """Which of the pairs own their point: the nearest segment of each run of consecutive segments that
+        are all within ``d^`` of the point (ties to the lower key). ``keys`` must be unique."""
+        n_seg = max(self.surface.n_segments, 1)
+        order = np.argsort(keys)
+        k = keys[order]
+
+        def find(target):  # the position (in sorted order) of the pair with key ``target``, or -1
+            at = np.minimum(np.searchsorted(k, target), k.size - 1)
+            return np.where(k[at] == target, at, -1)
+
+        pp, ss = p[order], s[order]
+        prev, nxt = self.surface.previous[ss], self.surface.next[ss]
+        links = [np.where(prev >= 0, find(pp.astype(np.int64) * n_seg + prev), -1),
+                 np.where(nxt >= 0, find(pp.astype(np.int64) * n_seg + nxt), -1)]
+        best_d, best_k = distance[order].copy(), k.copy()
+        for _ in range(k.size):  # spread the run's nearest along it, one segment per sweep
+            changed = False
+            for link in links:
+                has = link >= 0
+                if not np.any(has):
+                    continue
+                d_n = np.where(has, best_d[np.maximum(link, 0)], np.inf)
+                k_n = np.where(has, best_k[np.maximum(link, 0)], -1)
+                better = has & ((d_n < best_d) | ((d_n == best_d) & (k_n < best_k)))
+                if np.any(better):
+                    best_d[better], best_k[better] = d_n[better], k_n[better]
+                    changed = True
+            if not changed:
+                break
+        owner = np.empty(k.size, dtype=bool)
+        owner[order] = best_k == k
+        return owner
 
     def _evaluate(self, u):
         """The active primitives at ``u``: their pair (point, segment), kind, gap and cache row (cached by the
@@ -546,12 +624,15 @@ class Contact(Term):
             return self._cache
         self._ensure_list(Y)
         p, s, keys, ignored, rows = self._pairs(Y)
+        active = np.zeros(0, dtype=np.intp)
+        kind = sigma = np.zeros(0)
         if p.size:
-            kind, sigma = self._classify(Y, p, s)
-            active = np.flatnonzero((kind > 0) & (sigma > -self.distance) & (sigma < 0.0) & ~ignored)
-        else:
-            kind = sigma = np.zeros(0)
-            active = np.zeros(0, dtype=np.intp)
+            kind, distance, sigma = self._classify(Y, p, s)
+            near = np.flatnonzero(distance < self.distance)
+            if near.size:
+                owner = self._owners(p[near], s[near], keys[near], distance[near])
+                near = near[owner]
+                active = near[(sigma[near] < 0.0) & ~ignored[near]]
         self._cache = {"Y": Y, "p": p[active], "s": s[active], "keys": keys[active], "rows": rows[active],
                        "kind": kind[active].astype(int), "sigma": sigma[active].astype(float)}
         self._seen = Y
@@ -559,8 +640,8 @@ class Contact(Term):
 
     def _local(self, c, derivatives=2):
         """Local derivatives of the active primitives: ``sigma``'s gradient (m, 6) and Hessian (m, 6, 6) with
-        respect to the three points ``(p, a, b)`` of each pair (a point-point primitive at ``b`` does not
-        depend on ``a``)."""
+        respect to the three points ``(p, a, b)`` of each pair (a point-point primitive depends on the point
+        and one end only)."""
         Y = c["Y"]
         seg = self.surface.segments
         p, a, b = c["p"], seg[0, c["s"]], seg[1, c["s"]]
@@ -595,19 +676,21 @@ class Contact(Term):
                 T[0:2, 0:2], T[0:2, 2:4] = np.eye(2), -np.eye(2)
                 T[2:4, 2:4], T[2:4, 4:6] = -np.eye(2), np.eye(2)
                 hess[pe] = np.einsum("ai,kab,bj->kij", T, H4, T)
-        pv = c["kind"] == 2
-        if np.any(pv):
-            # sigma = -|d| with d = y_p - y_b
-            d = (Y[:, p] - Y[:, b])[:, pv].T
+        for kind, end, slot in ((2, a, 2), (3, b, 4)):
+            pp = c["kind"] == kind
+            if not np.any(pp):
+                continue
+            # sigma = -|d| with d = y_p - y_v (active point-point primitives lie behind the corner)
+            d = (Y[:, p] - Y[:, end])[:, pp].T
             r = np.hypot(d[:, 0], d[:, 1])
             unit = d / r[:, None]
-            grad[pv, 0:2] = -unit
-            grad[pv, 4:6] = unit
+            grad[pp, 0:2] = -unit
+            grad[pp, slot:slot + 2] = unit
             if hess is not None:
                 H2 = -(np.eye(2)[None] - unit[:, :, None] * unit[:, None, :]) / r[:, None, None]
-                for r0, s0 in ((0, 1.0), (4, -1.0)):
-                    for r1, s1 in ((0, 1.0), (4, -1.0)):
-                        hess[pv, r0:r0 + 2, r1:r1 + 2] = s0 * s1 * H2
+                for r0, s0 in ((0, 1.0), (slot, -1.0)):
+                    for r1, s1 in ((0, 1.0), (slot, -1.0)):
+                        hess[pp, r0:r0 + 2, r1:r1 + 2] = s0 * s1 * H2
         return np.stack([p, a, b], axis=1), grad, hess
 
     def _barrier(self, c):
@@ -719,12 +802,14 @@ class Contact(Term):
         ``previous`` is the state the step starts from, before the handles moved to ``u``: pairs that the
         handles' own motion carries through a wall (the same collision detection as a Newton step's) are
         *crossings*; they are remembered, step after step, for as long as their point stays deeper than
-        ``d^`` behind the segment. Returns how many surface points are through the surface now.
+        ``d^`` behind the segment (and less than the segment's length: farther, the sign of a gap says
+        nothing). Returns how many surface points are through the surface now.
         """
         Y = self._points(u)
         self._step_start = Y.copy()
         self._refresh(Y)
-        self._hinge_ignored = self._deep_at_start(self.surface.hinge_points, self.surface.hinge_segments)
+        self._hinge_ignored = self._deep_at_start(self.surface.hinge_points[self._hinge],
+                                                  self.surface.hinge_segments[self._hinge])
         through_p, through_s = self._through
         if previous is not None:
             Y0 = self._points(previous)
@@ -735,9 +820,9 @@ class Contact(Term):
                 hit = np.isfinite(self._times_of_impact(Y0, dY, p, s))
                 through_p = np.concatenate([through_p, p[hit]])
                 through_s = np.concatenate([through_s, s[hit]])
-        if through_p.size:
-            kind, sigma = self._classify(Y, through_p, through_s)
-            deep = (kind > 0) & (sigma <= -self.distance)
+        if through_p.size:  # still through: deeper than d^ behind the segment, but not beyond its length
+            _, _, sigma = self._classify(Y, through_p, through_s)
+            deep = (sigma <= -self.distance) & (sigma > -self.rest_length[through_s])
             keys = np.unique(through_p[deep].astype(np.int64) * max(self.surface.n_segments, 1) + through_s[deep])
             through_p, through_s = np.divmod(keys, max(self.surface.n_segments, 1))
         self._through = (through_p.astype(np.intp), through_s.astype(np.intp))
@@ -767,8 +852,8 @@ class Contact(Term):
             ignored = self._deep_at_start(p, s)
         hinges = np.union1d(self._sharp_hinges(Y0), self._sharp_hinges(Y0 + dY))
         if hinges.size:
-            p = np.concatenate([p, self.surface.hinge_points[hinges]])
-            s = np.concatenate([s, self.surface.hinge_segments[hinges]])
+            p = np.concatenate([p, self.surface.hinge_points[self._hinge[hinges]]])
+            s = np.concatenate([s, self.surface.hinge_segments[self._hinge[hinges]]])
             ignored = np.concatenate([ignored, self._hinge_ignored[hinges]])
         if p.size == 0:
             return 1.0
@@ -776,7 +861,12 @@ class Contact(Term):
         return 1.0 if toi > 1.0 else SAFETY * toi
 
     def _times_of_impact(self, Y0, dY, p, s) -> np.ndarray:
-        """For every pair, the earliest ``tau`` in ``[0, 1]`` at which it reaches its wall (``inf`` if it does not)."""
+        """For every pair, the earliest ``tau`` in ``[0, 1]`` at which it reaches its wall (``inf`` if it does not).
+
+        The walls: the segment's line moved inward by ``d^`` (where the point projects onto the segment), and
+        circles of radius ``d^`` round its ends (behind a corner). A wall counts where the segment owns the
+        point: no neighbouring segment is nearer than ``d^`` then.
+        """
         out = np.full(p.size, np.inf)
         if p.size == 0:
             return out
@@ -785,15 +875,14 @@ class Contact(Term):
         a, b = seg[0, s], seg[1, s]
         prev, nxt = self.surface.previous[s], self.surface.next[s]
         before, after = seg[0, np.maximum(prev, 0)], seg[1, np.maximum(nxt, 0)]
-        has_previous, has_next = (prev >= 0) & (before != p), (nxt >= 0) & (after != p)
         w0, dw = Y0[:, p] - Y0[:, a], dY[:, p] - dY[:, a]
         e0, de = Y0[:, b] - Y0[:, a], dY[:, b] - dY[:, a]
         # c(tau) = cross(w, e) = c0 + c1 tau + c2 tau^2;  q(tau) = |e|^2 = q0 + q1 tau + q2 tau^2
         c0, c1, c2 = _cross(w0, e0), _cross(w0, de) + _cross(dw, e0), _cross(dw, de)
         q0, q1, q2 = _dot(e0, e0), 2.0 * _dot(e0, de), _dot(de, de)
-        found = []  # (pair, tau, kind of the wall): 1 point-segment, 2 point-point
-        # point-segment walls: only pairs in front of the wall, which a conservative bound says may reach it
-        # (the wall needs c(tau) <= -d |e(tau)| <= -d min|e|, so c's minimum over [0, 1] must get there)
+        found = []  # (pair, tau, wall): 1 the line, 2 the circle round a, 3 the circle round b
+        # the line: only pairs in front of it, which a conservative bound says may reach it (the wall needs
+        # c(tau) <= -d |e(tau)| <= -d min|e|, so c's minimum over [0, 1] must get there)
         in_front = c0 + d * np.sqrt(q0) > 0
         vertex = -c1 / np.where(c2 != 0, 2.0 * c2, 1.0)
         c_min = np.minimum(c0, c0 + c1 + c2)
@@ -815,12 +904,13 @@ class Contact(Term):
             real = real[(real >= 0.0) & (real <= 1.0)]
             real = real[c0[k] + c1[k] * real + c2[k] * real**2 < 0]
             found += [(k, tau, 1) for tau in real.tolist()]
-        # point-point walls behind reflex corners: |y_p - y_b|^2 = d^2 on the way out of the disc of radius d
-        r0, dr = Y0[:, p] - Y0[:, b], dY[:, p] - dY[:, b]
-        A, B, C = _dot(dr, dr), 2.0 * _dot(r0, dr), _dot(r0, r0) - d * d
-        tau_out = (-B + np.sqrt(np.maximum(B * B - 4 * A * C, 0.0))) / np.where(A > 0, 2 * A, 1.0)
-        leaving = has_next & (C < 0) & (A > 0) & (tau_out <= 1.0)
-        found += [(k, max(float(tau_out[k]), 0.0), 2) for k in np.flatnonzero(leaving).tolist()]
+        # the circles: |y_p - y_v|^2 = d^2 on the way out of the disc of radius d round the end v
+        for wall, end in ((2, a), (3, b)):
+            r0, dr = Y0[:, p] - Y0[:, end], dY[:, p] - dY[:, end]
+            A, B, C = _dot(dr, dr), 2.0 * _dot(r0, dr), _dot(r0, r0) - d * d
+            tau_out = (-B + np.sqrt(np.maximum(B * B - 4 * A * C, 0.0))) / np.where(A > 0, 2 * A, 1.0)
+            leaving = (C < 0) & (A > 0) & (tau_out <= 1.0)
+            found += [(k, max(float(tau_out[k]), 0.0), wall) for k in np.flatnonzero(leaving).tolist()]
         if not found:
             return out
         k = np.array([f[0] for f in found], dtype=np.intp)
@@ -830,9 +920,19 @@ class Contact(Term):
         def at(i):  # the points i of each candidate at its time
             return Y0[:, i[k]] + tau * dY[:, i[k]]
 
-        # a wall counts only where the segment owns the point (the same rule as the energy's)
-        kind, _ = self._classify_at(at(p), at(a), at(b), at(before), at(after), has_previous[k], has_next[k])
-        hit = kind == wall
+        yp = at(p)
+        kind, _, sigma = self._classify_at(yp, at(a), at(b), at(before), at(after), prev[k] >= 0, nxt[k] >= 0,
+                                           self._fold[np.maximum(prev[k], 0)], self._fold[s[k]])
+        hit = (kind == wall) & (sigma < 0)
+        # the segment owns the point there unless a neighbour (one the point may meet) is nearer than d; a
+        # neighbour through the wall's own corner lies at distance d exactly, and does not count
+        for neighbour in (prev[k], nxt[k]):
+            nb = np.maximum(neighbour, 0)
+            counts = hit & (neighbour >= 0) & np.all(self.surface.neighbourhood[nb] != p[k][:, None], axis=1)
+            if np.any(counts):
+                ya_n = Y0[:, seg[0, nb]] + tau * dY[:, seg[0, nb]]
+                yb_n = Y0[:, seg[1, nb]] + tau * dY[:, seg[1, nb]]
+                hit &= ~(counts & (_segment_distance(yp, ya_n, yb_n) < (1.0 - 1e-9) * d))
         np.minimum.at(out, k[hit], tau[hit])
         return out
 
