@@ -258,6 +258,7 @@ class ContactSurface:
             raise ValueError("contact.surface.segments: a segment joins a point to itself")
         self.nodes = nodes.astype(np.intp)
         self.weights = weights
+        self._plain = nodes.shape[1] == 1 and bool(np.all(weights == 1.0))  # every point a node
         self.segments = segments.astype(np.intp)
         n_seg = self.segments.shape[1]
         self.wound = np.zeros(n_seg, dtype=bool) if wound is None else np.asarray(wound, dtype=bool)
@@ -323,7 +324,13 @@ class ContactSurface:
 
     def positions(self, x) -> np.ndarray:
         """The points at node positions ``x`` (2, n_nodes): shape (2, n_points)."""
-        return np.einsum("ik,dik->di", self.weights, np.asarray(x)[:, self.nodes])
+        x = np.asarray(x)
+        if self._plain:
+            return x[:, self.nodes[:, 0]]
+        y = self.weights[:, 0] * x[:, self.nodes[:, 0]]
+        for k in range(1, self.nodes.shape[1]):
+            y = y + self.weights[:, k] * x[:, self.nodes[:, k]]
+        return y
 
     def matrix(self) -> sp.csr_matrix:
         """The map from node coordinates to point coordinates as a sparse matrix (n_points, n_nodes)."""
@@ -425,7 +432,9 @@ class Contact(Term):
         into = surface.hinge_corner
         e_in = Y[:, b[into]] - Y[:, a[into]]
         e_out = Y[:, b[surface.next[into]]] - Y[:, a[surface.next[into]]]
-        armed = _cross(e_in, e_out) <= 1e-9 * np.hypot(*e_in) * np.hypot(*e_out)
+        size = np.hypot(*e_in) * np.hypot(*e_out)
+        armed = (_cross(e_in, e_out) < -1e-9 * size) | ((np.abs(_cross(e_in, e_out)) <= 1e-9 * size)
+                                                          & (_dot(e_in, e_out) < 0))
         self._hinge = np.flatnonzero(armed)
         self._hinge_keys = surface.hinge_points[self._hinge].astype(np.int64) * max(n_seg, 1) \
             + surface.hinge_segments[self._hinge]
@@ -472,10 +481,21 @@ class Contact(Term):
             return empty, empty
         ya, yb = Y[:, seg[0]], Y[:, seg[1]]
         radius = 0.5 * np.hypot(*(yb - ya)) + reach
-        hits = cKDTree(Y.T).query_ball_point((0.5 * (ya + yb)).T, radius)
-        counts = np.fromiter((len(h) for h in hits), dtype=np.intp, count=n_seg)
-        s = np.repeat(np.arange(n_seg, dtype=np.intp), counts)
-        p = np.fromiter((i for h in hits for i in h), dtype=np.intp, count=int(counts.sum()))
+        tree = cKDTree(Y.T)
+        mid = (0.5 * (ya + yb)).T
+        rows, k = np.arange(n_seg), min(8, Y.shape[1])
+        found_s, found_p = [], []
+        while rows.size:  # the k nearest points of each midpoint; again with more where all k are within reach
+            dist, idx = tree.query(mid[rows], k=k, distance_upper_bound=float(radius[rows].max()))
+            dist, idx = dist.reshape(rows.size, k), idx.reshape(rows.size, k)
+            within = dist <= radius[rows, None]
+            more = within[:, -1] & (k < Y.shape[1])
+            done = ~more
+            found_s.append(np.broadcast_to(rows[done, None], within[done].shape)[within[done]])
+            found_p.append(idx[done][within[done]])
+            rows, k = rows[more], min(2 * k, Y.shape[1])
+        s = np.concatenate(found_s).astype(np.intp)
+        p = np.concatenate(found_p).astype(np.intp)
         keep = np.all(self.surface.neighbourhood[s] != p[:, None], axis=1)
         p, s = p[keep], s[keep]
         keys = p.astype(np.int64) * n_seg + s
@@ -509,10 +529,20 @@ class Contact(Term):
             self._positions[same] = old_positions[at[same]]
         self._cache = None
 
+    @staticmethod
+    def _spread(dY) -> float:
+        """How far the points moved relative to each other: ``max_i |dY_i - c|`` with ``c`` the centre of the
+        moves' bounding box. Two points' distance changes by at most twice this (a rigid shift moves nothing)."""
+        if dY.shape[1] == 0:
+            return 0.0
+        c = 0.5 * (dY.max(axis=1) + dY.min(axis=1))
+        return float(np.max(np.hypot(*(dY - c[:, None]))))
+
     def _ensure_list(self, Y) -> None:
-        """Refresh the list when a point has moved more than ``skin / 2`` since it was built (a pair not in it
-        was farther than ``d^ + skin`` apart, and each of its ends has moved less than ``skin / 2``)."""
-        if float(np.max(np.hypot(*(Y - self._list_points)), initial=0.0)) > 0.5 * self.skin:
+        """Refresh the list when the points have moved more than ``skin / 2`` relative to each other since it
+        was built (a pair not in it was farther than ``d^ + skin`` apart, and has come closer by less than
+        ``skin``)."""
+        if self._spread(Y - self._list_points) > 0.5 * self.skin:
             self._refresh(Y)
 
     def _sharp_hinges(self, Y) -> np.ndarray:
@@ -693,6 +723,12 @@ class Contact(Term):
                         hess[pp, r0:r0 + 2, r1:r1 + 2] = s0 * s1 * H2
         return np.stack([p, a, b], axis=1), grad, hess
 
+    def _derivatives(self, c):
+        """:meth:`_local` of the cached state, computed once for its gradient and its Hessian."""
+        if "local" not in c:
+            c["local"] = self._local(c)
+        return c["local"]
+
     def _barrier(self, c):
         """``(l kappa d^ beta, l kappa beta', l kappa beta'' / d^)`` of the active primitives: the energy and its
         first two derivatives with respect to ``sigma``."""
@@ -720,7 +756,7 @@ class Contact(Term):
         c = self._evaluate(u)
         if c["p"].size == 0:
             return out
-        points, grad, _ = self._local(c, derivatives=1)
+        points, grad, _ = self._derivatives(c)
         _, e1, _ = self._barrier(c)
         dofs, coef = self._dofs(points)
         values = coef * (e1[:, None] * grad)[:, self._slot_local]
@@ -731,7 +767,7 @@ class Contact(Term):
         c = self._evaluate(u)
         if c["p"].size == 0:
             return
-        points, grad, hess = self._local(c)
+        points, grad, hess = self._derivatives(c)
         _, e1, e2 = self._barrier(c)
         H = e2[:, None, None] * grad[:, :, None] * grad[:, None, :]
         if not safe:
@@ -814,9 +850,12 @@ class Contact(Term):
         if previous is not None:
             Y0 = self._points(previous)
             dY = Y - Y0
-            moved = float(np.max(np.hypot(*dY), initial=0.0))
+            moved = self._spread(dY)
             if moved > 0.0:
-                p, s = self._query(Y0, self.distance + 2.0 * moved)
+                if moved < 0.5 * self.skin:  # the list at Y holds every pair that came within d^ on the way
+                    p, s = self._p, self._s
+                else:
+                    p, s = self._query(Y0, self.distance + 2.0 * moved)
                 hit = np.isfinite(self._times_of_impact(Y0, dY, p, s))
                 through_p = np.concatenate([through_p, p[hit]])
                 through_s = np.concatenate([through_s, s[hit]])
@@ -840,11 +879,11 @@ class Contact(Term):
         times the earliest time of impact, or 1 when nothing is hit (continuous collision detection)."""
         Y0 = self._points(u)
         dY = self._points(np.asarray(u) + np.asarray(du)) - Y0
-        moved = float(np.max(np.hypot(*dY), initial=0.0))
+        moved = self._spread(dY)
         if moved == 0.0:
             return 1.0
         self._ensure_list(Y0)
-        drift = float(np.max(np.hypot(*(Y0 - self._list_points)), initial=0.0))
+        drift = self._spread(Y0 - self._list_points)
         if drift + moved < 0.5 * self.skin:
             p, s, ignored = self._p, self._s, self._ignored
         else:  # a long step: the pairs that could meet on the way, found afresh

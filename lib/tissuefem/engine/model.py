@@ -237,8 +237,11 @@ class Pattern:
             inserted = np.searchsorted(base_keys, new)
             keys = np.insert(base_keys, inserted, new)
             counts = np.bincount(keys // n, minlength=n)
-            self.indptr = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
-            self.indices = (keys % n).astype(np.int64)
+            # the assembler's index type (scipy would copy wider indices into a writable array, and the linear
+            # solver condenses only a read-only pattern by its precomputed gather)
+            index_dtype = np.int32 if max(keys.size, n) < np.iinfo(np.int32).max else np.int64
+            self.indptr = np.concatenate([[0], np.cumsum(counts)]).astype(index_dtype)
+            self.indices = (keys % n).astype(index_dtype)
             self.indptr.setflags(write=False)
             self.indices.setflags(write=False)
             self._keys = keys

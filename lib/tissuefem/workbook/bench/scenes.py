@@ -9,7 +9,10 @@ per variant:
   scene forced through the general Newton loop (what the shortcut saves);
 * stable neo-Hookean, quasistatic: the base the effects are added to;
 * the base plus one effect: inertia, inertia and gravity, fibres, a probe
-  pressed into the top edge, sutures, inversion handling (projected tangent);
+  pressed into the top edge, sutures, inversion handling (projected tangent),
+  self-contact (nothing near: the surface is nowhere near itself);
+* an incision across the middle, without and with contact: the drag presses its
+  lips together and slides them along each other (contact acts in every frame);
 * everything together.
 
 Every variant runs the same frames with no budget (each frame converges to
@@ -46,6 +49,8 @@ def _base(n_triangles):
 PROBE = {"center": [1.0, 1.08], "radius": 0.15}
 SUTURES = {"pairs": [[[0.6 + 0.1 * k, 1.0], [0.6 + 0.1 * k, 0.0]] for k in range(5)], "stiffness": 1e4,
            "tightness": 0.05}
+#: a cut across the middle of the flap: the drag (the flap stretched, so narrowed) presses its lips together
+PRESSED_CUT = {"path": [[0.5, 0.5], [1.5, 0.5]]}
 
 
 def variants(n_triangles):
@@ -68,8 +73,12 @@ def variants(n_triangles):
     add("+ probe", {"probes": [PROBE]})
     add("+ sutures", {"sutures": [SUTURES]})
     add("+ inversion (projected tangent)", {"inversion": {"method": "projected"}})
+    add("+ contact (nothing near)", {"contact": {}})
+    add("+ incision across the middle", {"incisions": [PRESSED_CUT]})
+    add("+ incision + contact (lips pressed)", {"incisions": [PRESSED_CUT], "contact": {}})
     add("everything", {"inertia": {}, "gravity": {}, "fibers": {"stiffness": 500.0, "direction": [1.0, 0.3]},
-                       "probes": [PROBE], "sutures": [SUTURES], "inversion": {"method": "projected"}})
+                       "probes": [PROBE], "sutures": [SUTURES], "inversion": {"method": "projected"},
+                       "contact": {}})
     return out
 
 
