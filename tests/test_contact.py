@@ -378,3 +378,49 @@ def test_bad_contact_input_is_refused_by_name():
         Model(mesh, MATERIAL, contact=dict(distance=0.01, stiffness=1.0, stiffnes=2.0))
     with pytest.raises(ValueError, match="contact must be a dict"):
         Model(mesh, MATERIAL, contact=0.01)
+
+
+# ------------------------------------------------------------------------------------------------ scenes
+
+def _scene(**effects):
+    from tissuefem.surgery.scene import Scene
+    data = {"domain": {"shape": "rectangle", "width": 2.0, "height": 1.0, "triangles": 400},
+            "material": {"model": "stable-neo-hookean", "youngs_modulus": 1000.0, "poisson_ratio": 0.3},
+            "effects": {"handles": [{"name": "fixed", "region": "left"}, {"name": "push", "region": "right"}],
+                        **effects}}
+    return Scene.from_dict(data)
+
+
+def test_a_scene_names_contact_or_pays_nothing():
+    from tissuefem.surgery.scene import Scene
+    from tissuefem.surgery.simulation import Simulation
+    assert Simulation(_scene()).model.contact is None  # not named: no term, no hook
+    scene = _scene(contact={})
+    assert Scene.from_toml(scene.to_toml()) == scene and Scene.from_json(scene.to_json()) == scene
+    sim = Simulation(scene)
+    contact = sim.model.contact
+    assert "contact" in sim.terms and contact.stiffness == 1000.0  # default: Young's modulus
+    edges = ContactSurface.from_mesh(sim.mesh).segment_positions(sim.mesh.p)
+    assert contact.distance == pytest.approx(0.25 * np.median(np.hypot(*(edges[:, 1] - edges[:, 0]).T)))
+    assert sim.frame({"push": (0.05, 0.0)}).converged
+    with pytest.raises(ValueError, match=r"effects\.contact\.distance"):
+        Simulation(_scene(contact={"distance": 0.5}))  # deeper than half a boundary edge
+    for bad, field in [({"distance": -1.0}, "distance"), ({"stiffness": float("nan")}, "stiffness"),
+                       ({"stiffness": -2.0}, "stiffness"), ({"distance": "0.1"}, "distance")]:
+        with pytest.raises(ValueError, match=rf"effects\.contact\.{field}"):
+            _scene(contact=bad)
+
+
+def test_a_wound_cut_in_a_running_simulation_is_part_of_the_contact_surface():
+    from tissuefem.surgery.simulation import Simulation
+    sim = Simulation(_scene(contact={}))
+    assert sim.model.contact.surface.wound.sum() == 0
+    sim.frame({"push": (0.02, 0.0)})
+    sim.cut([[1.0, 1.2], [1.0, 0.3]])  # a crack from the top edge, made on the stretched sheet
+    surface = sim.model.contact.surface
+    assert surface.wound.sum() > 0 and sim.model.contact.energy(sim.u) == 0.0
+    for k in range(1, 6):  # pushed back and on: the crack is pressed shut
+        report = sim.frame({"push": (0.02 - 0.03 * k, 0.0)})
+        assert report.converged and report.crossed == 0
+        assert_no_interpenetration(sim.model, sim.u)
+    assert sim.model.contact.active_pairs(sim.u).shape[1] > 0

@@ -259,7 +259,7 @@ def test_the_probe_gradient_and_hessian_are_exact_and_its_safe_hessian_is_the_po
     assert eig.min() > -1e-9 * eig.max() and eig.max() > 0  # the safe Hessian: positive semi-definite
 
 
-def _pressed_wound(kind):
+def _pressed_wound(kind, order=1):
     """A unit square cut through from its top (along mesh edges, or through elements), with contact, and three
     states of its lips pressed together and sheared (each with lips in contact, the last with a point pressed
     into a reflex corner of the other lip for the edge cut)."""
@@ -270,7 +270,7 @@ def _pressed_wound(kind):
     else:
         cut = cut_through(mesh, [[0.33, 1.1], [0.61, 0.25]])
         mesh, weights, surface = cut.mesh, cut.weights, contact_surface(cut.mesh, cut.weights, cut.regions)
-    model = Model(mesh, StableNeoHookean(100.0, 60.0), weights=weights,
+    model = Model(mesh, StableNeoHookean(100.0, 60.0), weights=weights, order=order,
                   handles=[Handle("left"), Handle("right", name="push")],
                   contact=dict(surface=surface, distance=0.1 * h, stiffness=100.0))
     stepper = Stepper(model, linear_solver="direct")
@@ -281,9 +281,9 @@ def _pressed_wound(kind):
     return model, states
 
 
-@pytest.mark.parametrize("kind", ["edges", "elements"])
-def test_the_contact_gradient_and_hessian_are_exact_and_its_safe_hessian_is_positive(kind):
-    model, states = _pressed_wound(kind)
+@pytest.mark.parametrize("kind, order", [("edges", 1), ("elements", 1), ("edges", 2)])
+def test_the_contact_gradient_and_hessian_are_exact_and_its_safe_hessian_is_positive(kind, order):
+    model, states = _pressed_wound(kind, order)
     contact = model.contact
     kinds = set()
     for u in states:
@@ -299,7 +299,7 @@ def test_the_contact_gradient_and_hessian_are_exact_and_its_safe_hessian_is_posi
         eig = np.linalg.eigvalsh(model.pattern.csr(data).toarray())
         assert eig.min() > -1e-9 * eig.max() and eig.max() > 0
     # point-segment contacts, and (edges) a point pressed into a corner of the other lip: point-point
-    assert 1 in kinds and (kind == "elements" or kinds & {2, 3})
+    assert 1 in kinds and (kind == "elements" or order == 2 or kinds & {2, 3})
 
 
 @pytest.mark.parametrize("state", STATES)

@@ -51,8 +51,11 @@ negative behind it) the energy of a point is zero for ``sigma >= 0`` (two lips
 that touch feel nothing) and grows as the point is pressed behind the surface,
 to infinity when the overlap reaches ``d^``:
 
-    E = kappa * sum_(point p, its owner) l_p d^ beta(1 + sigma / d^),
-    beta(zeta) = -(zeta - 1)^2 ln(zeta)   for 0 < zeta < 1,   beta = 0 for zeta >= 1.
+    E = kappa * sum_(points p) sum_(stretches of surface near p) l_p d^ beta(1 + sigma / d^),
+    beta(zeta) = -(zeta - 1)^2 ln(zeta)   for 0 < zeta < 1,   beta = 0 for zeta >= 1,
+
+with ``sigma`` the signed gap of ``p`` to the nearest feature of that stretch
+(below).
 
 This is IPC's barrier measured from the surface moved *inward* by ``d^`` (the
 "thickness" offset of codimensional IPC [2]_, with the opposite sign): ``d^``
@@ -65,6 +68,13 @@ each segment it ends), so ``kappa`` is a *pressure*: the contact pressure at an
 overlap ``delta`` is ``kappa |beta'(1 - delta / d^)|``, which equals ``kappa``
 at about ``delta = 0.46 d^`` (a scene's default ``kappa`` is Young's modulus:
 tissue pressed at a tenth of its modulus overlaps by a fifth of ``d^``).
+
+Why a barrier and not a penalty with a no-crossing check: a finite penalty
+lets Newton push a point against the collision detection's limit step after
+step (each step cut to 0.8 of the way, the solve never converging); a
+barrier's energy itself grows without bound before the wall, so the
+minimiser turns back on its own and the collision detection only has to
+catch the steps that would jump over the skin in one go.
 
 The gradient is ``dE/dy = kappa l_p beta'(zeta) dsigma/dy`` (the force
 ``-kappa l_p beta' n`` pushes the point out along the normal and the segment
@@ -80,33 +90,49 @@ carried to the nodes by the weights ``W``.
 
 The signed gap: which feature of the surface a point is measured against
 ------------------------------------------------------------------------
-For a point ``p`` and a segment ``s = (a, b)`` with ``e = y_b - y_a``, ``w = y_p - y_a``:
+For a point ``p`` and a segment ``s = (a, b)`` with ``e = y_b - y_a``, ``w = y_p - y_a``,
+``t = w . e / |e|^2`` says where ``p`` projects along the segment, and the
+feature of ``s`` nearest to ``p`` gives two cases:
 
-* ``t = w . e / |e|^2`` is where ``p`` projects along the segment;
-* **point-segment (interior)**: ``sigma = cross(w, e) / |e| = (y_p - y_a) . n``,
-  the signed distance to the segment's line, used where ``0 <= t < 1``;
-* **point-point (a corner)**: ``sigma = -|y_p - y_b|``, the distance to the
-  segment's end ``b``, used where ``p`` projects beyond ``s`` (``t >= 1``) and
-  before the next segment (``t_next < 0``) at a *reflex* corner (one that turns
-  into the material): there ``p`` is behind the corner and its nearest surface
-  feature is the corner point itself.
+* **point-segment (interior)**, ``0 < t < 1``: the distance to the segment's
+  line, signed by the outward normal, ``sigma = cross(w, e) / |e| = (y_p - y_a) . n``;
+* **point-point (an end)**, ``t <= 0`` or ``t >= 1``: the distance to that end
+  ``v``, ``|y_p - y_v|``, signed by the corner's *pseudonormal* ``n_v`` (the
+  mean of the normals of the two segments meeting at ``v``): negative when
+  ``(y_p - y_v) . n_v < 0``. Behind a corner that turns into the material (a
+  reflex corner) a point is inside; behind a convex corner no point projects
+  outside both segments, so the case only arises in front of it.
 
-Near a *convex* corner the two segments' strips overlap inside the material;
-there a point belongs to the segment whose line is nearer (the larger
-``sigma``). In front of a convex corner, and in front of the overlap of a
-reflex corner, nothing acts (the point is outside). This is the signed
-distance to the nearest feature of the polygon [3]_: continuous everywhere, a
-smooth function of the positions inside each region, with a kink only on the
-bisector inside a convex corner. Each (point, segment) pair contributes at
-most one primitive, so no point is counted twice near a corner.
+This is the signed distance to a polygon of [3]_, and it is continuous: where
+the nearest feature changes from a segment's interior to its end, the two
+distances and their signs agree. A point does not belong to every segment
+near it, though, only to the nearest *feature of each run*: the segments
+within ``d^`` of the point form runs of consecutive segments (one run where
+the point touches one stretch of surface, two where it is pinched between
+two), and in each run only the nearest segment counts. So a point pressed
+into a convex corner belongs to the nearer side (the gap's gradient turns by
+the corner's angle across its bisector: the only kink), is never counted
+twice near a corner, and segments shorter than the skin (the sliver a cut
+through elements leaves next to a node) are handled like any other.
 
-A point is never paired with the two segments it ends nor with their
-neighbours along the surface (at a crack tip the two lips meet by
-construction; a point and its own neighbourhood are not "in contact"). A point
-found deeper than ``d^`` behind a segment when a step *starts* (a handle
-dragged it through the body, or the surface was built that way) is ignored for
-that pair until the step is over; the step's report counts such crossings
-(``StepReport.crossed``), and once the point is back out, contact acts again.
+A point is not paired with the two segments it ends, nor (in the broad
+phase) with their neighbours along the surface: a point and its own
+neighbourhood are not "in contact". The one exception is a corner that turned
+back into the material when the surface was built, the tip of a crack: there
+the two lips meet, and the first point of each lip is checked against the
+first segment of the other (a *hinge*) whenever the corner turns by more than
+90 degrees, so that a crack pressed shut right up to its tip does not
+overlap there. Pairs already inside the skin in the reference configuration
+(which by definition touches nothing) are features smaller than ``d^`` and
+never pairs. Two coinciding lips are at ``sigma = 0``: in contact, with no
+force.
+
+A point found deeper than ``d^`` behind a segment when a step *starts* is
+ignored for that pair until the step is over: the far side of a thin body is
+such a pair, and so is tissue a handle dragged through tissue (the handles'
+motion is obeyed, and their crossings are counted in ``StepReport.crossed``
+for as long as the point stays through). Once the point is back out, contact
+acts again.
 
 Continuous collision detection
 ------------------------------
@@ -114,19 +140,23 @@ The barrier is infinite only in the skin; a large step could carry a point
 from in front of a segment to deeper than ``d^`` behind it without ever being
 seen in the skin, and there the energy is zero again. So every step is first
 limited: with all points moving linearly, ``y(tau) = y0 + tau dy``, the first
-``tau`` in ``[0, 1]`` at which a point reaches the wall ``sigma = -d^`` *in
-the region where that segment owns it* is its time of impact. For the
-point-segment case ``cross(w(tau), e(tau)) = -d^ |e(tau)|``: squared, a
-quartic in ``tau`` (solved only for pairs a conservative quadratic bound
-flags); for the point-point case ``|y_p(tau) - y_b(tau)|^2 = d^2``, a
-quadratic. The step is cut to ``0.8`` of the earliest time of impact, IPC's
-safety factor [1]_, and the line search goes on from there.
+``tau`` in ``[0, 1]`` at which a point reaches a *wall* of a segment that owns
+it then (no neighbouring segment nearer than ``d^``) is its time of impact.
+The walls are the segment's line moved inward by ``d^``,
+``cross(w(tau), e(tau)) = -d^ |e(tau)|`` (squared, a quartic in ``tau``,
+solved only for the pairs a conservative quadratic bound flags), and the
+circles of radius ``d^`` round its ends, ``|y_p(tau) - y_v(tau)|^2 = d^2`` (a
+quadratic), where ``p`` lies behind the corner. The step is cut to ``0.8`` of
+the earliest time of impact, IPC's safety factor [1]_, and the line search
+goes on from there.
 
 The broad phase keeps all this cheap: a Verlet list [4]_ of the (point,
-segment) pairs closer than ``d^ + skin`` (a k-d tree on the points), valid as
-long as no point has moved more than ``skin / 2`` since it was built; a
-surface that is nowhere near itself has an empty list, and then contact costs
-a few vector operations per evaluation.
+segment) pairs closer than ``d^ + skin`` (the nearest points of each
+segment's midpoint, from a k-d tree), valid as long as the points have moved
+less than ``skin / 2`` *relative to each other* since it was built (a rigid
+drag refreshes nothing); a surface that is nowhere near itself has an empty
+list, no couplings in the pattern, and costs a few vector operations per
+evaluation.
 
 References
 ----------
@@ -366,17 +396,10 @@ class Contact(Term):
     skin : float, optional
         The Verlet list's margin (default: the surface's median segment length).
 
-    The pairs it looks at
-    ---------------------
-    The broad phase (a Verlet list) pairs every point with the segments near it
-    except its *neighbourhood*: the two segments it ends and their neighbours.
-    The pairs left out are either on the point's own segments (the point lies
-    on their line, nothing to measure) or *hinges*: a point against the segment
-    just past its own, round one corner. A hinge can only touch where the
-    surface turns by more than 90 degrees at that corner (a crack tip, where the
-    two lips meet, turns by 180); those few are checked on every evaluation.
-    A point's own segments never take part in deciding which segment a point
-    belongs to (it lies on them).
+    See the module docstring for the energy, the signed gap and its cases, the pairs that are looked at
+    and the collision detection. The hooks the model offers the minimiser and the stepper are
+    :meth:`covers` (the pattern), :meth:`max_step` (collision detection) and :meth:`begin_step` /
+    :meth:`end_step` (where a step starts).
     """
 
     name = "contact"
@@ -583,7 +606,14 @@ class Contact(Term):
     def _classify_at(yp, ya, yb, y_before, y_after, has_previous, has_next, fold_start, fold_end):
         """The classification of :meth:`_classify` from coordinates (2, m): the point, the segment's ends, the
         previous segment's start and the next segment's end (``has_*``: whether there is one; ``fold_*``: the
-        side a corner folded right back on itself opens to, see ``_fold``)."""
+        side a corner folded right back on itself opens to, see ``_fold``). A segment collapsed to a point (an
+        element crushed flat) gives NaN gaps, which count as no contact."""
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return Contact._classify_raw(yp, ya, yb, y_before, y_after, has_previous, has_next, fold_start,
+                                         fold_end)
+
+    @staticmethod
+    def _classify_raw(yp, ya, yb, y_before, y_after, has_previous, has_next, fold_start, fold_end):
         e, w = yb - ya, yp - ya
         L = np.sqrt(_dot(e, e))
         t = _dot(w, e) / (L * L)
