@@ -288,6 +288,23 @@ def test_a_handle_dragging_tissue_through_tissue_is_reported_and_undone():
 
 # ------------------------------------------------------------------------------------------------ frames
 
+def test_a_body_thrown_at_another_bounces_off_it():
+    mesh = _two_bodies()
+    model = Model(mesh, MATERIAL, dt=0.01, density=1.0, handles=[Handle(np.arange(9), name="square")],
+                  contact=dict(distance=0.01, stiffness=100.0))
+    stepper = Stepper(model, linear_solver="direct")
+    v = np.zeros(model.n_dofs)
+    v.reshape(-1, 2)[[9, 10, 11]] = (-10.0, 0.0)  # the triangle flies left at the square
+    stepper.reset(None, v)
+    touched = False
+    for _ in range(30):
+        report = stepper.step()
+        assert report.converged and report.crossed == 0
+        assert_no_interpenetration(model, stepper.u)
+        touched |= model.contact.active_pairs(stepper.u).size > 0
+    assert touched and stepper.v.reshape(-1, 2)[[9, 10, 11], 0].mean() > 0  # it hit, and it is flying back
+
+
 def test_a_sheet_folded_onto_itself_never_interpenetrates():
     mesh = rectangle(3.0, 0.1, 40, 2)
     h = mean_edge_length(mesh)

@@ -687,9 +687,13 @@ class Contact(Term):
         active = np.zeros(0, dtype=np.intp)
         kind = sigma = np.zeros(0)
         if p.size:
-            kind, distance, sigma = self._classify(Y, p, s)
-            near = np.flatnonzero(distance < self.distance)
-            if near.size:
+            seg = self.surface.segments
+            # only the pairs within d^ take part (the runs, the owners): find them first, cheaply
+            near = np.flatnonzero(_segment_distance(Y[:, p], Y[:, seg[0, s]], Y[:, seg[1, s]]) < self.distance)
+            p, s, keys, ignored, rows = p[near], s[near], keys[near], ignored[near], rows[near]
+            if p.size:
+                kind, distance, sigma = self._classify(Y, p, s)
+                near = np.flatnonzero(distance < self.distance)
                 owner = self._owners(p[near], s[near], keys[near], distance[near])
                 near = near[owner]
                 active = near[(sigma[near] < 0.0) & ~ignored[near]]
