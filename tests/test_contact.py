@@ -60,10 +60,13 @@ def _winding(q, poly):
 
 def assert_no_interpenetration(model, u, regions=None):
     """Geometrically, at the displacement ``u``: (1) no surface point lies inside the material of an element it
-    does not belong to deeper than ``d^`` from the rest of the surface; (2) no two segments cross each other
-    by more than ``d^`` (each poking through the other by more)."""
+    does not belong to deeper than its skin (``d^``, plus its rest offset where parts of the surface lie closer
+    than that at rest) from the rest of the surface; (2) no two segments cross each other by more than the
+    deepest skin (each poking through the other by more)."""
     contact = model.contact
-    surface, tol = contact.surface, contact.distance * (1 + 1e-6)
+    surface = contact.surface
+    skins = (contact.distance + contact.offset) * (1 + 1e-6)
+    tol = skins.max()
     x = model.positions(u)
     y = surface.positions(x)
     a, b = surface.segments
@@ -74,9 +77,9 @@ def assert_no_interpenetration(model, u, regions=None):
     dist[a, np.arange(a.size)] = np.inf
     dist[b, np.arange(b.size)] = np.inf
     depth = dist.min(axis=1)
-    for i in np.flatnonzero(inside.any(axis=1) & (depth > tol)):
+    for i in np.flatnonzero(inside.any(axis=1) & (depth > skins)):
         holders = [e for e in np.flatnonzero(inside[i]) if not own_nodes[i] <= set(t[:, e].tolist())]
-        assert not holders, f"surface point {i} is {depth[i]:.3g} deep inside element(s) {holders} (d^ = {tol:.3g})"
+        assert not holders, f"surface point {i} is {depth[i]:.3g} deep inside element(s) {holders} (skin {skins[i]:.3g})"
     # deep crossings of segments that share no point
     ya, yb = y[:, a], y[:, b]
     e = yb - ya
@@ -435,7 +438,9 @@ def test_a_wound_cut_in_a_running_simulation_is_part_of_the_contact_surface():
     sim.frame({"push": (0.02, 0.0)})
     sim.cut([[1.0, 1.2], [1.0, 0.3]])  # a crack from the top edge, made on the stretched sheet
     surface = sim.model.contact.surface
-    assert surface.wound.sum() > 0 and sim.model.contact.energy(sim.u) == 0.0
+    # the new lips coincide: (next to) no contact energy (where a cut leaves features smaller than the skin, their
+    # rest offsets are measured in the reference state, and the stretched sheet has moved them a little)
+    assert surface.wound.sum() > 0 and sim.model.contact.energy(sim.u) < 1e-6
     for k in range(1, 6):  # pushed back and on: the crack is pressed shut
         report = sim.frame({"push": (0.02 - 0.03 * k, 0.0)})
         assert report.converged and report.crossed == 0

@@ -173,6 +173,12 @@ def _model(terms="elastic", material=None, order=1):
         "sutures": dict(sutures={"pairs": pairs, "stiffness": 40.0, "gaps": X[:, pairs[0]] - X[:, pairs[1]],
                                  "tightness": 0.3}),
         "probe": dict(probes=[dict(center=[0.52, 1.22], radius=0.3, stiffness=1e3)]),  # pressed into the top
+        # stitches whose ends lie inside elements (on a wound cut through them): barycentric weights
+        "sutures-embedded": dict(sutures={"pairs": np.stack([mesh.t[:, [2, 30]], mesh.t[:, [9, 17]]]),
+                                          "coefficients": np.array([[[0.2, 0.5], [0.3, 0.25], [0.5, 0.25]],
+                                                                    [[0.6, 0.1], [0.1, 0.1], [0.3, 0.8]]]),
+                                          "stiffness": [40.0, 70.0], "gaps": [[0.1, -0.2], [0.05, 0.3]],
+                                          "tightness": 0.4}),
     }
     kw = {}
     for t in terms.split("+"):
@@ -226,6 +232,7 @@ TERMS = {
     "inertia (lumped)": ("inertia-lumped", Inertia, None),
     "loads": ("loads", Load, None),
     "sutures": ("sutures", Sutures, None),
+    "sutures (ends inside elements)": ("sutures-embedded", Sutures, None),
 }
 
 

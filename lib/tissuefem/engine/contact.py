@@ -51,11 +51,12 @@ negative behind it) the energy of a point is zero for ``sigma >= 0`` (two lips
 that touch feel nothing) and grows as the point is pressed behind the surface,
 to infinity when the overlap reaches ``d^``:
 
-    E = kappa * sum_(points p) sum_(stretches of surface near p) l_p d^ beta(1 + sigma / d^),
+    E = kappa * sum_(points p) sum_(stretches of surface near p) l_p d^ beta(1 + (sigma + o_p) / d^),
     beta(zeta) = -(zeta - 1)^2 ln(zeta)   for 0 < zeta < 1,   beta = 0 for zeta >= 1,
 
 with ``sigma`` the signed gap of ``p`` to the nearest feature of that stretch
-(below).
+(below) and ``o_p`` a rest offset, zero but where the surface has features
+smaller than the skin (below).
 
 This is IPC's barrier measured from the surface moved *inward* by ``d^`` (the
 "thickness" offset of codimensional IPC [2]_, with the opposite sign): ``d^``
@@ -122,10 +123,16 @@ back into the material when the surface was built, the tip of a crack: there
 the two lips meet, and the first point of each lip is checked against the
 first segment of the other (a *hinge*) whenever the corner turns by more than
 90 degrees, so that a crack pressed shut right up to its tip does not
-overlap there. Pairs already inside the skin in the reference configuration
-(which by definition touches nothing) are features smaller than ``d^`` and
-never pairs. Two coinciding lips are at ``sigma = 0``: in contact, with no
+overlap there. Two coinciding lips are at ``sigma = 0``: in contact, with no
 force.
+
+The reference configuration touches nothing. Where parts of the surface lie
+closer than the skin there (the sliver a cut through elements leaves next to
+a node: a zigzag of segments shorter than ``d^``), a point sits behind
+another part already at rest; its skin is then measured from where it sits,
+an *offset* ``o_p`` (its depth at rest): its energy uses ``sigma + o_p`` and its
+wall lies at ``sigma = -(d^ + o_p)``. Being one number per point, the offset
+keeps the energy continuous where the nearest feature changes.
 
 A point found deeper than ``d^`` behind a segment when a step *starts* is
 ignored for that pair until the step is over: the far side of a thin body is
@@ -468,19 +475,25 @@ class Contact(Term):
         self._cache = None
         self.refreshes = 0  # how many times the Verlet list was rebuilt
         self.pattern = None
-        # the reference configuration touches nothing: a pair already behind its segment within the skin there is
-        # a feature smaller than d^ (the sliver a cut leaves next to a node), not two surfaces that meet
-        self._excluded = np.zeros(0, dtype=np.int64)
-        p, s = self._query(Y, self.distance)
-        p = np.concatenate([p, surface.hinge_points[self._hinge]])
-        s = np.concatenate([s, surface.hinge_segments[self._hinge]])
-        _, distance, sigma = self._classify(Y, p, s)
-        inside = (distance < self.distance) & (sigma < 0)
-        self._excluded = np.unique(p[inside].astype(np.int64) * max(n_seg, 1) + s[inside])
-        keep = ~np.isin(self._hinge_keys, self._excluded)
-        self._hinge, self._hinge_keys = self._hinge[keep], self._hinge_keys[keep]
-        self._hinge_positions = self._hinge_positions[keep]
-        self._hinge_ignored = self._hinge_ignored[keep]
+        # the reference configuration touches nothing. Where parts of the surface lie closer than the skin there
+        # (the sliver a cut leaves next to a node, a zigzag of segments shorter than d^), a point sits behind
+        # another part already at rest: its skin is then measured from where it sits, an offset o_p (the depth it
+        # has at rest), so the reference state is free of contact energy and the point's walls lie d^ beyond.
+        self.offset = np.zeros(surface.n_points)
+        for _ in range(8):
+            reach = self.distance + float(self.offset.max(initial=0.0))
+            p, s = self._query(Y, reach)
+            p = np.concatenate([p, surface.hinge_points[self._hinge]])
+            s = np.concatenate([s, surface.hinge_segments[self._hinge]])
+            _, distance, sigma = self._classify(Y, p, s)
+            # (two lips that coincide are at sigma = 0 up to round-off: they touch, they are not inside)
+            inside = ((distance < self.distance + self.offset[p])
+                      & (sigma < -self.offset[p] - 1e-9 * self.rest_length[s]))
+            if not np.any(inside):
+                break
+            np.maximum.at(self.offset, p[inside], -sigma[inside])
+        self._skins = self.distance + self.offset  # each point's wall: sigma = -(d^ + o_p)
+        self._reach = float(self._skins.max(initial=self.distance))  # no pair is in contact farther apart
         self._refresh(Y)
         self._coupled = self._covered = np.zeros(0, dtype=np.int64)
 
@@ -522,9 +535,6 @@ class Contact(Term):
         keep = np.all(self.surface.neighbourhood[s] != p[:, None], axis=1)
         p, s = p[keep], s[keep]
         keys = p.astype(np.int64) * n_seg + s
-        if self._excluded.size:
-            keep = ~np.isin(keys, self._excluded)
-            p, s, keys = p[keep], s[keep], keys[keep]
         order = np.argsort(keys)
         return p[order], s[order]
 
@@ -533,13 +543,13 @@ class Contact(Term):
         if self._step_start is None or p.size == 0:
             return np.zeros(p.size, dtype=bool)
         _, _, sigma = self._classify(self._step_start, p, s)
-        return sigma <= -self.distance
+        return sigma <= -self._skins[p]
 
     def _refresh(self, Y) -> None:
         """Rebuild the Verlet list at the points ``Y``: every pair closer than ``d^ + skin`` (not neighbours)."""
         old_keys = getattr(self, "_keys", None)
         old_positions = getattr(self, "_positions", None)
-        self._p, self._s = self._query(Y, self.distance + self.skin)
+        self._p, self._s = self._query(Y, self._reach + self.skin)
         self._keys = self._p.astype(np.int64) * max(self.surface.n_segments, 1) + self._s
         self._list_points = Y.copy()
         self.refreshes += 1
@@ -689,14 +699,14 @@ class Contact(Term):
         if p.size:
             seg = self.surface.segments
             # only the pairs within d^ take part (the runs, the owners): find them first, cheaply
-            near = np.flatnonzero(_segment_distance(Y[:, p], Y[:, seg[0, s]], Y[:, seg[1, s]]) < self.distance)
+            near = np.flatnonzero(_segment_distance(Y[:, p], Y[:, seg[0, s]], Y[:, seg[1, s]]) < self._skins[p])
             p, s, keys, ignored, rows = p[near], s[near], keys[near], ignored[near], rows[near]
             if p.size:
                 kind, distance, sigma = self._classify(Y, p, s)
-                near = np.flatnonzero(distance < self.distance)
+                near = np.flatnonzero(distance < self._skins[p])
                 owner = self._owners(p[near], s[near], keys[near], distance[near])
                 near = near[owner]
-                active = near[(sigma[near] < 0.0) & ~ignored[near]]
+                active = near[(sigma[near] < -self.offset[p[near]]) & ~ignored[near]]
         self._cache = {"Y": Y, "p": p[active], "s": s[active], "keys": keys[active], "rows": rows[active],
                        "kind": kind[active].astype(int), "sigma": sigma[active].astype(float)}
         self._seen = Y
@@ -767,7 +777,7 @@ class Contact(Term):
         """``(l kappa d^ beta, l kappa beta', l kappa beta'' / d^)`` of the active primitives: the energy and its
         first two derivatives with respect to ``sigma``."""
         d = self.distance
-        b0, b1, b2 = barrier(1.0 + c["sigma"] / d)
+        b0, b1, b2 = barrier(1.0 + (c["sigma"] + self.offset[c["p"]]) / d)
         scale = self.stiffness * self.point_length[c["p"]]
         return scale * d * b0, scale * b1, scale * b2 / d
 
@@ -889,13 +899,13 @@ class Contact(Term):
                 if moved < 0.5 * self.skin:  # the list at Y holds every pair that came within d^ on the way
                     p, s = self._p, self._s
                 else:
-                    p, s = self._query(Y0, self.distance + 2.0 * moved)
+                    p, s = self._query(Y0, self._reach + 2.0 * moved)
                 hit = np.isfinite(self._times_of_impact(Y0, dY, p, s))
                 through_p = np.concatenate([through_p, p[hit]])
                 through_s = np.concatenate([through_s, s[hit]])
         if through_p.size:  # still through: deeper than d^ behind the segment, but not beyond its length
             _, _, sigma = self._classify(Y, through_p, through_s)
-            deep = (sigma <= -self.distance) & (sigma > -self.rest_length[through_s])
+            deep = (sigma <= -self._skins[through_p]) & (sigma > -self.rest_length[through_s])
             keys = np.unique(through_p[deep].astype(np.int64) * max(self.surface.n_segments, 1) + through_s[deep])
             through_p, through_s = np.divmod(keys, max(self.surface.n_segments, 1))
         self._through = (through_p.astype(np.intp), through_s.astype(np.intp))
@@ -921,7 +931,7 @@ class Contact(Term):
         if drift + moved < 0.5 * self.skin:
             p, s, ignored = self._p, self._s, self._ignored
         else:  # a long step: the pairs that could meet on the way, found afresh
-            p, s = self._query(Y0, self.distance + 2.0 * moved)
+            p, s = self._query(Y0, self._reach + 2.0 * moved)
             ignored = self._deep_at_start(p, s)
         hinges = np.union1d(self._sharp_hinges(Y0), self._sharp_hinges(Y0 + dY))
         if hinges.size:
@@ -943,7 +953,7 @@ class Contact(Term):
         out = np.full(p.size, np.inf)
         if p.size == 0:
             return out
-        d = self.distance
+        d = self._skins[p]  # each point's wall depth
         seg = self.surface.segments
         a, b = seg[0, s], seg[1, s]
         prev, nxt = self.surface.previous[s], self.surface.next[s]
@@ -965,8 +975,9 @@ class Contact(Term):
         L_low = np.sqrt(np.maximum(q0 + q1 * q_vertex + q2 * q_vertex**2, 0.0))
         for k in np.flatnonzero(in_front & (c_min + d * L_low <= 0)).tolist():
             # cross(w, e) = -d |e|  =>  c^2 - d^2 q = 0 with c < 0: a quartic in tau
-            coeffs = np.array([c2[k] * c2[k], 2 * c1[k] * c2[k], c1[k] ** 2 + 2 * c0[k] * c2[k] - d * d * q2[k],
-                               2 * c0[k] * c1[k] - d * d * q1[k], c0[k] ** 2 - d * d * q0[k]])
+            dk = d[k]
+            coeffs = np.array([c2[k] * c2[k], 2 * c1[k] * c2[k], c1[k] ** 2 + 2 * c0[k] * c2[k] - dk * dk * q2[k],
+                               2 * c0[k] * c1[k] - dk * dk * q1[k], c0[k] ** 2 - dk * dk * q0[k]])
             coeffs = coeffs / np.max(np.abs(coeffs))
             lead = np.flatnonzero(np.abs(coeffs) > 1e-14)
             if lead.size == 0 or lead[0] == 4:
@@ -1005,7 +1016,7 @@ class Contact(Term):
             if np.any(counts):
                 ya_n = Y0[:, seg[0, nb]] + tau * dY[:, seg[0, nb]]
                 yb_n = Y0[:, seg[1, nb]] + tau * dY[:, seg[1, nb]]
-                hit &= ~(counts & (_segment_distance(yp, ya_n, yb_n) < (1.0 - 1e-9) * d))
+                hit &= ~(counts & (_segment_distance(yp, ya_n, yb_n) < (1.0 - 1e-9) * d[k]))
         np.minimum.at(out, k[hit], tau[hit])
         return out
 
@@ -1016,9 +1027,10 @@ class Contact(Term):
         return np.stack([c["p"], c["s"]])
 
     def overlap(self, u) -> float:
-        """The deepest any point is pressed behind the surface at ``u`` (0 when nothing touches)."""
+        """The deepest any point is pressed into the skin at ``u`` (0 when nothing touches; beyond its rest
+        offset, for a point that sits behind another part of the surface at rest)."""
         c = self._evaluate(u)
-        return float(-c["sigma"].min()) if c["p"].size else 0.0
+        return float(-(c["sigma"] + self.offset[c["p"]]).min()) if c["p"].size else 0.0
 
     def forces(self, u) -> np.ndarray:
         """The contact forces on the nodes ``(2, n_nodes)``."""

@@ -49,14 +49,19 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .linsolve import LinearSolver
+from .materials import _real_array
 from .minimize import NewtonIteration, NewtonResult, newton
 from .model import Model
+from .parameters import check_count, check_real
 from .terms import check_time_step
 
 __all__ = ["Stepper", "StepReport", "StaticResult", "solve"]
 
 #: The residual's round-off level, relative to the body's force scale (see :func:`_roundoff_floors`).
 _ROUNDOFF = 1e-13
+#: The most Newton iterations a step may take, and the most load steps of :func:`solve`.
+MAX_ITERATIONS = 100_000
+MAX_LOAD_STEPS = 100_000
 
 
 @dataclass
@@ -168,15 +173,35 @@ class StepReport:
 
 
 def _positive(name, value, allow_inf=False) -> float:
-    if isinstance(value, (bool, str)):
-        raise ValueError(f"{name} must be a positive number, got {value!r}")
-    try:
-        v = float(value)
-    except (TypeError, ValueError, OverflowError):
-        raise ValueError(f"{name} must be a positive number, got {value!r}") from None
-    if math.isnan(v) or v <= 0 or (math.isinf(v) and not allow_inf):
-        raise ValueError(f"{name} must be {'> 0' if allow_inf else 'finite and > 0'}, got {value!r}")
-    return v
+    """A real number ``> 0`` (``math.inf`` too with ``allow_inf``): never a bool, a string or a complex number."""
+    if allow_inf and isinstance(value, (float, np.floating)) and value == math.inf:
+        return math.inf
+    return check_real(name, value, 0.0, None, lo_open=True)
+
+
+def _state_vector(name, value, n) -> np.ndarray:
+    """A finite real dof vector of shape ``(n,)`` (a private copy), or a ``ValueError`` naming ``name``."""
+    a = _real_array(name, value)
+    if a.shape != (n,):
+        raise ValueError(f"{name} must have shape ({n},), got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} contains non-finite values")
+    return a.copy()
+
+
+class _CheckedClock:
+    """The user's clock, read through a check: what it raises or returns that is not a finite real number of
+    seconds is a ``ValueError`` naming ``clock``."""
+
+    def __init__(self, clock):
+        self.clock = clock
+
+    def __call__(self) -> float:
+        try:
+            now = self.clock()
+        except Exception as err:
+            raise ValueError(f"clock: the clock raised {type(err).__name__}: {err}") from None
+        return check_real("clock (its reading in seconds)", now)
 
 
 def _roundoff_floors(model: Model) -> tuple[float, float]:
@@ -229,14 +254,10 @@ class Stepper:
         if not isinstance(model, Model):
             raise ValueError(f"model must be a tissuefem Model, got {type(model).__name__}")
         self.model = model
-        self.rtol = _positive("rtol", rtol)
-        if isinstance(atol, bool) or not (np.isfinite(atol) and atol >= 0):
-            raise ValueError(f"atol must be finite and >= 0, got {atol!r}")
-        self.atol = float(atol)
-        if isinstance(max_iterations, bool) or not isinstance(max_iterations, (int, np.integer)) or max_iterations < 1:
-            raise ValueError(f"max_iterations must be a positive integer, got {max_iterations!r}")
-        self.max_iterations = int(max_iterations)
-        if line_search not in ("energy", "finite", None):
+        self.rtol = check_real("rtol", rtol, 0.0, 1.0, lo_open=True)
+        self.atol = check_real("atol", atol, 0.0, None)
+        self.max_iterations = check_count("max_iterations", max_iterations, 1, MAX_ITERATIONS)
+        if line_search is not None and (not isinstance(line_search, str) or line_search not in ("energy", "finite")):
             raise ValueError(f"line_search must be 'energy', 'finite' or None, got {line_search!r}")
         self.line_search = line_search
         if max_step is not None:
@@ -246,6 +267,9 @@ class Stepper:
         if not callable(clock):
             raise ValueError(f"clock must be a callable returning seconds, got {clock!r}")
         self.clock = clock
+        self._clock = _CheckedClock(clock)
+        if not isinstance(anytime, (bool, np.bool_)):
+            raise ValueError(f"anytime must be True or False, got {anytime!r}")
         self.anytime = bool(anytime)
         self.linear = linear_solver if isinstance(linear_solver, LinearSolver) else LinearSolver(linear_solver)
         self.floor, self.energy_floor = _roundoff_floors(model)
@@ -292,30 +316,34 @@ class Stepper:
         return self.linear.name
 
     # ------------------------------------------------------------------ state
+    def _checked_state(self, u, v) -> tuple[np.ndarray, np.ndarray]:
+        n = self.model.n_dofs
+        u = np.zeros(n) if u is None else _state_vector("u", u, n)
+        v = np.zeros(n) if v is None else _state_vector("v", v, n)
+        if self.dt is None and np.any(v):
+            raise ValueError("a quasistatic stepper has no velocity: v must be zero or None")
+        return u, v
+
     def reset(self, u=None, v=None) -> None:
         """Set the state (default: rest), checking shapes and finiteness; nothing changes on a refusal."""
-        n = self.model.n_dofs
-        arrays = {}
-        for name, arr in (("u", u), ("v", v)):
-            if arr is None:
-                arrays[name] = np.zeros(n)
-                continue
-            a = np.asarray(arr, dtype=float)
-            if a.shape != (n,):
-                raise ValueError(f"{name} must have shape ({n},), got {a.shape}")
-            if not np.all(np.isfinite(a)):
-                raise ValueError(f"{name} contains non-finite values")
-            arrays[name] = a.copy()
-        if self.dt is None and np.any(arrays["v"]):
-            raise ValueError("a quasistatic stepper has no velocity: v must be zero or None")
-        self.u, self.v, self.v_previous = arrays["u"], arrays["v"], None
+        self.u, self.v = self._checked_state(u, v)
+        self.v_previous = None
 
     def set_state(self, u, v=None, *, v_previous=None, time_=0.0, steps=0) -> None:
-        """Carry a state over (after the model was rebuilt): displacement, velocities, time and step count."""
-        self.reset(u, v)
+        """Carry a state over (after the model was rebuilt): displacement, velocities, time and step count.
+
+        Everything is checked before anything changes: ``u``, ``v``, ``v_previous`` finite dof vectors,
+        ``time_`` a finite real number, ``steps`` an integer ``>= 0``.
+        """
+        u, v = self._checked_state(u, v)
         if v_previous is not None:
-            self.v_previous = np.asarray(v_previous, dtype=float).copy()
-        self.time, self.steps = float(time_), int(steps)
+            v_previous = _state_vector("v_previous", v_previous, self.model.n_dofs)
+            if self.dt is None:
+                raise ValueError("a quasistatic stepper has no velocity: v_previous must be None")
+        t = check_real("time_", time_)
+        steps = check_count("steps", steps, 0)
+        self.u, self.v, self.v_previous = u, v, v_previous
+        self.time, self.steps = t, steps
 
     def kinetic_energy(self) -> float:
         inertia = self.model.inertia
@@ -335,10 +363,53 @@ class Stepper:
         """Take one step: apply ``targets`` (see :meth:`Model.set_targets`), solve, commit, report.
 
         ``prescribed``: ``(dofs, values)`` to hold instead of the handles' (load stepping);
-        ``load``: the factor on the constant loads (1 but during load stepping).
+        ``load``: the factor on the constant loads, in ``[0, 1]`` (1 but during load stepping).
+
+        All or nothing: whatever is refused or raised before the commit (a bad target, a map that
+        raises, a clock that cannot be read, a failing linear solver) leaves the state, the handles'
+        targets and the model exactly as they were.
         """
         model = self.model
-        start = self.clock()
+        load = check_real("load", load, 0.0, 1.0)
+        if prescribed is not None:
+            prescribed = self._check_prescribed(prescribed)
+        start = self._clock()
+        inertia = model.inertia
+        saved_targets = [(h, h.target) for h in model.handles]
+        saved_x_tilde = None if inertia is None else inertia.x_tilde
+        try:
+            return self._step(targets, prescribed, load, start)
+        except BaseException:
+            for h, target in saved_targets:
+                h.target = target
+            if inertia is not None:
+                inertia.x_tilde = saved_x_tilde
+            raise
+
+    def _check_prescribed(self, prescribed):
+        try:
+            fixed, values = prescribed
+        except (TypeError, ValueError):
+            raise ValueError(f"prescribed must be (dofs, values), got {prescribed!r}") from None
+        n = self.model.n_dofs
+        try:
+            fixed = np.asarray(fixed)
+        except (TypeError, ValueError):
+            raise ValueError("prescribed: dofs must be an array of dof indices") from None
+        if fixed.ndim != 1 or not (fixed.size == 0 or fixed.dtype.kind in "iu"):
+            raise ValueError(f"prescribed: dofs must be a 1D array of integer dof indices, got dtype {fixed.dtype} "
+                             f"and shape {fixed.shape}")
+        if fixed.size and (fixed.min() < 0 or fixed.max() >= n):
+            raise ValueError(f"prescribed: dofs must be in 0..{n - 1}")
+        values = _real_array("prescribed values", values)
+        if values.shape != fixed.shape:
+            raise ValueError(f"prescribed: values must have the shape of dofs {fixed.shape}, got {values.shape}")
+        if not np.all(np.isfinite(values)):
+            raise ValueError("prescribed: the prescribed displacements are not finite")
+        return fixed.astype(np.intp), values
+
+    def _step(self, targets, prescribed, load, start) -> StepReport:
+        model = self.model
         model.set_targets(targets)
         fixed, values = model.prescribed() if prescribed is None else prescribed
         fixed = np.asarray(fixed, dtype=np.intp)
@@ -365,7 +436,7 @@ class Stepper:
                 g = model.gradient(self.u)
                 r = float(np.linalg.norm(g[free])) if np.all(np.isfinite(g)) else math.inf
                 result = NewtonResult(self.u.copy(), False, "non-finite", 0, r, r, 0.0, E0, E0)
-                report = StepReport(result, self.steps, self.time, self.clock() - start, self._budget, fraction,
+                report = StepReport(result, self.steps, self.time, self._clock() - start, self._budget, fraction,
                                     which, False, crossed)
                 self.last_report = report
                 return report
@@ -373,7 +444,7 @@ class Stepper:
                 x0, model.gradient, model.hessian, energy=model.energy, free=free,
                 line_search=self.line_search, rtol=self.rtol, atol=self.atol, reference_norm=load_norm,
                 floor=self.floor, max_iterations=self.max_iterations - (which == "linearised"), max_step=self.max_step,
-                linear=self.linear, clock=self.clock, budget=self._budget, start=start, energy0=E0,
+                linear=self.linear, clock=self._clock, budget=self._budget, start=start, energy0=E0,
                 energy_floor=self.energy_floor,
                 safe_hessian=(lambda x: model.hessian(x, safe=True)) if model.has_safe_hessian else None,
                 step_limit=model.step_limit,
@@ -384,6 +455,7 @@ class Stepper:
             model.end_step()
         result.factorizations += pre
         commit = result.converged or (self.anytime and np.all(np.isfinite(result.x)))
+        elapsed = self._clock() - start  # read before the commit: nothing after it can raise
         if commit:
             if dt is not None:
                 self.v_previous = self.v
@@ -391,7 +463,7 @@ class Stepper:
                 self.time += dt
             self.u = result.x
             self.steps += 1
-        report = StepReport(result, self.steps, self.time, self.clock() - start, self._budget, fraction, which,
+        report = StepReport(result, self.steps, self.time, elapsed, self._budget, fraction, which,
                             bool(commit), crossed)
         self.last_report = report
         return report
@@ -472,6 +544,8 @@ class Stepper:
                 return None, 0.0, 0
             A = self.linear.matrix(lambda: K, free)
             load_norm = float(np.linalg.norm(rhs))
+            if not math.isfinite(load_norm):  # finite entries whose norm overflows: no prediction from here
+                return None, 0.0, 0
             dx_free, info = self.linear.solve(A, rhs, atol=1e-3 * load_norm)
         except (RuntimeError, ValueError, np.linalg.LinAlgError, ZeroDivisionError):
             return None, 0.0, 0
@@ -509,23 +583,22 @@ def solve(model: Model, load_steps: int = 1, u0=None, *, stepper: Stepper | None
     the defaults here ask for ``rtol = 1e-10``). If a step fails, the result
     holds the last converged state and ``converged`` is False.
     """
+    if not isinstance(model, Model):
+        raise ValueError(f"model must be a tissuefem Model, got {type(model).__name__}")
     if model.inertia is not None:
         raise ValueError("solve() finds an equilibrium: give it a model without dt (use a Stepper for dynamics)")
-    if isinstance(load_steps, bool) or not isinstance(load_steps, (int, np.integer)) or not 1 <= load_steps <= 10**6:
-        raise ValueError(f"load_steps must be an integer from 1 to 1000000, got {load_steps!r}")
-    options.setdefault("rtol", 1e-10)
+    load_steps = check_count("load_steps", load_steps, 1, MAX_LOAD_STEPS)
     if u0 is not None:
-        u0 = np.asarray(u0, dtype=float)
-        if u0.shape != (model.n_dofs,):
-            raise ValueError(f"u0 must have shape ({model.n_dofs},), got {u0.shape}")
-        if not np.all(np.isfinite(u0)):
-            raise ValueError("u0 contains non-finite values")
+        u0 = _state_vector("u0", u0, model.n_dofs)
     if stepper is None:
+        options.setdefault("rtol", 1e-10)
         stepper = Stepper(model, **options)
+    elif not isinstance(stepper, Stepper) or stepper.model is not model:
+        raise ValueError("stepper must be a Stepper of this model")
     elif options:
-        raise ValueError("give either a stepper or its options, not both")
+        raise ValueError(f"give either a stepper or its options, not both (options: {sorted(options)})")
+    fixed, values = model.prescribed()  # a target that cannot be evaluated is refused before the stepper changes
     stepper.reset(u0)
-    fixed, values = model.prescribed()
     start = stepper.u[fixed].copy()
     steps = []
     for s in np.arange(1, load_steps + 1) / load_steps:

@@ -15,8 +15,10 @@ effect            what it adds
 ``handles``       nodes held or pulled (a boundary name, a box, or the nodes near a point)
 ``tractions``     a constant traction on a named boundary
 ``probes``        rigid disc tool tips pressed into the tissue (a penalty term)
-``excisions``     defects removed (elements inside a polygon) before the first frame
-``incisions``     cuts along polylines (duplicated nodes) before the first frame
+``excisions``     defects cut out along polygons before the first frame (``method``: ``"elements"``,
+                  through the elements along the outline, or ``"edges"``, the triangles inside)
+``incisions``     cuts along polylines before the first frame (``method``: ``"elements"``, through the
+                  elements, or ``"edges"``, snapped to mesh edges with duplicated nodes)
 ``sutures``       pairs of points tied together by stiff springs
 ``contact``       self-contact of the surface: wound lips and folds touch but never pass
                   through (``distance``: the skin's depth, default a quarter of the median
@@ -113,6 +115,11 @@ from ..engine.parameters import TIME_STEP_RANGE, YOUNGS_MODULUS_RANGE, check_cou
 __all__ = ["Scene", "EFFECTS", "SHAPES", "EXAMPLE_TOML", "demo_scene", "flap_scene", "flap_path", "read_mesh"]
 
 #: the effects a scene may name
+#: How a cut or an excision meets the mesh: through the elements, along the drawn line (the virtual node
+#: algorithm, :mod:`~tissuefem.surgery.element_cuts`), or snapped to the mesh's edges (:mod:`~tissuefem.surgery.
+#: topology`: jagged, mesh-dependent; kept to compare)
+CUT_METHODS = ("elements", "edges")
+
 EFFECTS = ("inertia", "gravity", "fibers", "inversion", "handles", "tractions", "probes", "excisions",
            "incisions", "sutures", "contact")
 #: the domains a scene may use ("file": a 2D triangle mesh read through meshio)
@@ -428,11 +435,13 @@ def _check_entry(kind, i, e):
             out["stiffness"] = _penalty(f"{field}.stiffness", e["stiffness"])
         return out
     if kind == "excisions":
-        _only(field, e, ("polygon",))
-        return {"polygon": _points(f"{field}.polygon", e.get("polygon"), 3)}
+        _only(field, e, ("polygon", "method"))
+        return {"polygon": _points(f"{field}.polygon", e.get("polygon"), 3),
+                "method": _string(f"{field}.method", e.get("method", "elements"), CUT_METHODS)}
     if kind == "incisions":
-        _only(field, e, ("path",))
-        return {"path": _points(f"{field}.path", e.get("path"), 2)}
+        _only(field, e, ("path", "method"))
+        return {"path": _points(f"{field}.path", e.get("path"), 2),
+                "method": _string(f"{field}.method", e.get("method", "elements"), CUT_METHODS)}
     # sutures
     _only(field, e, ("pairs", "stiffness", "tightness"))
     pairs = _count_list(f"{field}.pairs", e.get("pairs"), "point pairs [[x1, y1], [x2, y2]]", MAX_POINTS)
