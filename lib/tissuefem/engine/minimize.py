@@ -21,6 +21,12 @@ the safeguards below make every step safe:
   the linear solver refactorizes, then the tangent is shifted by ``tau I``
   with growing ``tau``, and as a last resort the step is steepest descent.
 * **step cap** ``max_step``: no dof moves by more than this per iteration.
+* **admissible steps** ``step_limit``: a callable ``(x, dx) -> fraction`` that
+  says how much of a step may be taken at all (self-contact: the fraction
+  before any surface would pass through another, see
+  :mod:`tissuefem.engine.contact`). The direction is shortened to it before the
+  line search, so no trial point, and no accepted iterate, lies beyond it. A
+  model without such a term passes ``None`` and nothing is called.
 * **time budget**: with a ``clock`` and a ``budget`` (seconds), no new
   tangent assembly or linear solve starts once the budget is spent; the first
   iteration always runs. The clock is any callable returning seconds, so
@@ -53,7 +59,7 @@ from .parameters import check_count, check_real
 __all__ = ["newton", "NewtonResult", "NewtonIteration", "STATUSES"]
 
 #: Why a solve stopped.
-STATUSES = ("converged", "budget", "max-iterations", "line-search-failed", "non-finite", "singular")
+STATUSES = ("converged", "budget", "max-iterations", "line-search-failed", "non-finite", "singular", "blocked")
 
 #: Armijo's sufficient-decrease constant.
 _ARMIJO = 1e-4
@@ -191,6 +197,7 @@ def newton(
     energy0: float | None = None,
     energy_floor: float = 0.0,
     max_halvings: int = 30,
+    step_limit: Callable[[np.ndarray, np.ndarray], float] | None = None,
 ) -> NewtonResult:
     """Minimise ``energy`` (or find a zero of ``gradient``) over the ``free`` dofs by Newton's method.
 
@@ -225,6 +232,10 @@ def newton(
     energy_floor
         The energy's round-off level (absolute): energy changes below it are not trusted, and a step
         that changes the energy by less but lowers the residual is accepted.
+    step_limit : callable, optional
+        ``step_limit(x, dx)``: the largest fraction in ``[0, 1]`` of the step ``dx`` from ``x`` that may be
+        taken (contact's collision detection). A step it allows none of ends the solve with the status
+        ``"blocked"`` (the last iterate is kept).
     """
     x = np.array(_real_array("x0", x0), dtype=float, copy=True)  # complex, strings, objects: refused by name
     if x.ndim != 1:
@@ -325,6 +336,13 @@ def newton(
                 dx_free = dx_free * (max_step / biggest)
         dx = np.zeros(n)
         dx[mask] = dx_free
+        if step_limit is not None:
+            fraction = float(step_limit(x, dx))
+            if not fraction > 0.0:
+                return result("blocked", k)
+            if fraction < 1.0:
+                dx *= fraction
+                dx_free = dx[mask]
 
         # the line search
         slope = -float(rhs @ dx_free)  # dE/dalpha at alpha = 0

@@ -3,7 +3,7 @@
 A :class:`Model` is a mesh with a displacement basis (P1 or P2), a material,
 and a list of terms (:mod:`tissuefem.engine.terms`). Its potential is their sum,
 
-    E(u) = W(u) [+ fibres] [+ probe] [+ sutures] [- f . u] [+ 1/(2 dt^2) |u - u~|_M^2],
+    E(u) = W(u) [+ fibres] [+ probe] [+ sutures] [+ contact] [- f . u] [+ 1/(2 dt^2) |u - u~|_M^2],
 
 with nothing evaluated -- or even built -- for an effect it was not given: a
 model without ``dt`` has no inertia term and no mass matrix; without fibres no
@@ -21,7 +21,14 @@ nothing. Regions become mesh nodes through one function, :func:`region_nodes`.
 The Hessian of every term goes into one fixed sparsity pattern
 (:class:`Pattern`): the assembler's, widened where a term couples dofs that the
 mesh does not (sutures). Newton's matrices then share their index arrays,
-which lets the linear solver condense them by a precomputed gather.
+which lets the linear solver condense them by a precomputed gather. A term whose
+couplings change with the state (self-contact, :mod:`tissuefem.engine.contact`)
+says when the pattern no longer holds them (``covers``); :meth:`Model.hessian`
+then rebuilds the pattern before it assembles (the linear solver sees new index
+arrays and condenses afresh; a kept factorization stays a valid preconditioner).
+Such a term may also limit how far a step may go (``max_step``: no surface passes
+through another) and note where a step starts (``begin_step``); the model offers
+these hooks to the stepper and the minimiser only when a term has them.
 """
 
 from __future__ import annotations
@@ -31,6 +38,7 @@ import scipy.sparse as sp
 
 from .assembly import make_assembler
 from .constants import TISSUE_DENSITY
+from .contact import Contact, ContactSurface
 from .parameters import (ACCELERATION_MAX, FORCE_MAX, REACH, check_bounded_vector, check_count, check_density,
                          check_real)
 from .terms import (Elastic, ElementTerm, Fibers, Inertia, Load, Probe, Sutures, Term, _extent, _SafeView,
@@ -253,19 +261,34 @@ class Pattern:
         extra = [(np.asarray(r, dtype=np.int64), np.asarray(c, dtype=np.int64)) for r, c in couplings]
         base_rows = np.repeat(np.arange(n, dtype=np.int64), np.diff(assembler.indptr))
         base_keys = base_rows * n + assembler.indices
-        if not extra:
+        new = np.zeros(0, dtype=np.int64)
+        if extra:
+            new = np.unique(np.concatenate([r * n + c for r, c in extra]))
+            if np.any(np.diff(base_keys) <= 0):  # pragma: no cover - the assemblers' patterns are sorted
+                base_keys = np.sort(base_keys)
+            at = np.minimum(np.searchsorted(base_keys, new), base_keys.size - 1)
+            new = new[base_keys[at] != new]  # only the couplings the mesh does not have already
+        if new.size == 0:
             self.indptr, self.indices = assembler.indptr, assembler.indices
             self._keys = base_keys
             self.base_positions = None
         else:
-            keys = np.union1d(base_keys, np.concatenate([r * n + c for r, c in extra]))
+            # merge the few new keys into the sorted base keys (a widening is rebuilt whenever a term's couplings
+            # change, e.g. contact pairs: it must cost a merge, not a sort of everything)
+            inserted = np.searchsorted(base_keys, new)
+            keys = np.insert(base_keys, inserted, new)
             counts = np.bincount(keys // n, minlength=n)
-            self.indptr = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
-            self.indices = (keys % n).astype(np.int64)
+            # the assembler's index type (scipy would copy wider indices into a writable array, and the linear
+            # solver condenses only a read-only pattern by its precomputed gather)
+            index_dtype = np.int32 if max(keys.size, n) < np.iinfo(np.int32).max else np.int64
+            self.indptr = np.concatenate([[0], np.cumsum(counts)]).astype(index_dtype)
+            self.indices = (keys % n).astype(index_dtype)
             self.indptr.setflags(write=False)
             self.indices.setflags(write=False)
             self._keys = keys
-            self.base_positions = np.searchsorted(keys, base_keys)
+            # a base entry moves up by the number of new keys inserted at or before it
+            shift = np.cumsum(np.bincount(inserted, minlength=base_keys.size + 1))[: base_keys.size]
+            self.base_positions = np.arange(base_keys.size) + shift
         self.nnz = self._keys.size
         nodes = np.arange(n_vertices, dtype=np.int64)
         self.node_block = np.empty((2, 2, n_vertices), dtype=np.intp)
@@ -361,6 +384,22 @@ def _named_tractions(tractions):
     return out
 
 
+def _contact_term(X, mesh, spec) -> Contact:
+    """The :class:`~tissuefem.engine.contact.Contact` term of a ``contact`` dict."""
+    if not isinstance(spec, dict):
+        raise ValueError(f"contact must be a dict (distance, stiffness[, surface, skin]), got {spec!r}")
+    unknown = sorted(set(spec) - {"distance", "stiffness", "surface", "skin"})
+    if unknown:
+        raise ValueError(f"contact: unknown key(s) {unknown}; allowed: distance, stiffness, surface, skin")
+    for key in ("distance", "stiffness"):
+        if key not in spec:
+            raise ValueError(f"contact.{key}: missing")
+    surface = spec.get("surface")
+    if surface is None:
+        surface = ContactSurface.from_mesh(mesh)
+    return Contact(X, surface, spec["distance"], spec["stiffness"], spec.get("skin"))
+
+
 class Model:
     """A hyperelastic body (mesh, displacement basis, material) and exactly the terms acting on it.
 
@@ -394,13 +433,17 @@ class Model:
         Dicts ``center, radius, stiffness[, label]``: :class:`~tissuefem.engine.terms.Probe` terms.
     sutures
         A dict ``pairs, stiffness, gaps[, tightness]``: a :class:`~tissuefem.engine.terms.Sutures` term.
+    contact
+        A dict ``distance, stiffness[, surface, skin]``: a :class:`~tissuefem.engine.contact.Contact` term
+        (self-contact of ``surface``, a :class:`~tissuefem.engine.contact.ContactSurface`; default: the
+        mesh's boundary).
     weights
         Optional per-element material fractions (elements cut through carry part of their triangle).
     """
 
     def __init__(self, mesh, material, *, order: int = 1, intorder: int | None = None, assembly: str = "fast",
                  handles=(), dt=None, density=TISSUE_DENSITY, mass: str = "lumped", gravity=None,
-                 body_force=None, tractions=None, fibers=None, probes=(), sutures=None, weights=None):
+                 body_force=None, tractions=None, fibers=None, probes=(), sutures=None, contact=None, weights=None):
         order = check_count("order", order, 1, 2)
         try:
             handles = list(handles)
@@ -451,6 +494,8 @@ class Model:
             _check_keys("sutures", sutures, ("pairs", "stiffness", "gaps"), ("tightness", "coefficients"))
             terms.append(Sutures(self.X, sutures["pairs"], sutures["stiffness"], sutures["gaps"],
                                  sutures.get("tightness", 0.0), coefficients=sutures.get("coefficients")))
+        if contact is not None:
+            terms.append(_contact_term(self.X, mesh, contact))
         if gravity is not None:
             g = check_bounded_vector("gravity", gravity, ACCELERATION_MAX)
             terms.append(Load("gravity", self.assembler.body_force(self.density * g)))
@@ -479,6 +524,10 @@ class Model:
         self._other_terms = [t for t in self.terms if not isinstance(t, ElementTerm)]
         densities = [t.density for t in self._element_terms]
         self._density = densities[0] if len(densities) == 1 else _SummedDensity(densities)
+        # the hooks of terms that change the pattern, limit steps or note a step's start (contact): none, no cost
+        self._pattern_terms = [t for t in self._other_terms if callable(getattr(t, "covers", None))]
+        self._limit_terms = [t for t in self._other_terms if callable(getattr(t, "max_step", None))]
+        self._step_terms = [t for t in self._other_terms if callable(getattr(t, "begin_step", None))]
 
     def add_term(self, term: Term) -> None:
         """Add a term (a probe, sutures ...); the pattern is widened if the term needs it. All or nothing."""
@@ -521,6 +570,41 @@ class Model:
     def sutures(self) -> Sutures | None:
         found = self.terms_of(Sutures)
         return found[0] if found else None
+
+    @property
+    def contact(self) -> Contact | None:
+        """The self-contact term, or ``None``."""
+        found = self.terms_of(Contact)
+        return found[0] if found else None
+
+    # ------------------------------------------------------------------ step hooks (terms that have them only)
+    @property
+    def step_limit(self):
+        """``None`` when no term limits steps; else ``limit(u, du)``: the largest fraction of the step ``du``
+        from ``u`` that every term allows (contact: no surface passes through another)."""
+        if not self._limit_terms:
+            return None
+        terms = list(self._limit_terms)
+
+        def limit(u, du):
+            return min(t.max_step(u, du) for t in terms)
+
+        return limit
+
+    @property
+    def notes_steps(self) -> bool:
+        """Whether a term wants to know where each step starts (:meth:`begin_step`; self-contact)."""
+        return bool(self._step_terms)
+
+    def begin_step(self, u, previous=None) -> int:
+        """Tell the terms a step starts at ``u`` (reached from the state ``previous`` by the handles' motion);
+        returns the crossings they found (surface points the handles dragged through the surface, which
+        contact ignores until they are back out)."""
+        return sum(int(t.begin_step(u, previous) or 0) for t in self._step_terms)
+
+    def end_step(self) -> None:
+        for t in self._step_terms:
+            t.end_step()
 
     @property
     def term_names(self) -> list[str]:
@@ -575,6 +659,8 @@ class Model:
         direction.
         """
         u = self._check_u(u)
+        if self._pattern_terms and not all(t.covers(u) for t in self._pattern_terms):
+            self._build()  # a term's couplings changed (contact pairs): a new pattern, the same terms
         data = self.pattern.zeros()
         density = _SafeView(self._density) if safe else self._density
         self.pattern.add_base(data, self.assembler.tangent(u, density).data)

@@ -19,7 +19,11 @@ corrected), and without inertia it is the quasistatic residual. A
    dofs along with the handles (``K_ff dx_f = -g_f - K_fc dx_c``), or the
    previous state. If no guess is valid (a handle jerked so far that an
    element would invert under a model that cannot take it), the handles go
-   part of the way; the report's ``handle_fraction`` says how far;
+   part of the way; the report's ``handle_fraction`` says how far. With
+   self-contact, the handles' own motion is taken as given (a handle may drag
+   tissue through tissue: the report's ``crossed`` counts such points, which
+   contact ignores until they are back out), and each guess is cut back to
+   what the collision detection allows from there;
 3. **solve**: :func:`tissuefem.engine.minimize.newton` with the energy line
    search, until the residual is below ``atol + rtol ||g(x0)||`` (never below
    the residual's round-off level) or the step's wall-clock ``budget`` is
@@ -72,6 +76,13 @@ class StepReport:
     handle_fraction: float = 1.0  # how far the handles got towards their targets
     warm_start: str = "previous"  # "accelerating", "inertial", "linearised" or "previous"
     committed: bool = True  # whether the state moved to the result
+    crossed: int = 0  # surface points found through the surface when the step started (self-contact)
+
+    @property
+    def contact_status(self) -> str:
+        """``"crossed"`` when the step started with surface points through the surface (a handle dragged
+        tissue through tissue; contact ignores them until they are back out), else ``"clear"``."""
+        return "crossed" if self.crossed else "clear"
 
     # -- the Newton solve, forwarded
     @property
@@ -155,8 +166,10 @@ class StepReport:
         return max(0.0, self.elapsed - self.budget)
 
     def __repr__(self):
+        crossed = f", {self.crossed} points through the surface" if self.crossed else ""
         return (f"StepReport(step {self.step}, {self.status}, {self.newton_iterations} Newton, "
-                f"residual {self.residual_norm:.3g} (from {self.initial_residual:.3g}), {1e3 * self.elapsed:.1f} ms)")
+                f"residual {self.residual_norm:.3g} (from {self.initial_residual:.3g}), {1e3 * self.elapsed:.1f} ms"
+                f"{crossed})")
 
 
 def _positive(name, value, allow_inf=False) -> float:
@@ -415,7 +428,7 @@ class Stepper:
         try:
             if inertia is not None:
                 inertia.x_tilde = self.u + dt * self.v
-            x0, E0, fraction, which, load_norm, pre = self._warm_start(fixed, values, free)
+            x0, E0, fraction, which, load_norm, pre, crossed = self._warm_start(fixed, values, free)
             if fraction < 1.0 and not self.anytime:
                 # the handles' targets cannot be reached from here without leaving the valid (finite-energy)
                 # states: an offline step fails at once and keeps the state (the real-time loop instead goes
@@ -424,7 +437,7 @@ class Stepper:
                 r = float(np.linalg.norm(g[free])) if np.all(np.isfinite(g)) else math.inf
                 result = NewtonResult(self.u.copy(), False, "non-finite", 0, r, r, 0.0, E0, E0)
                 report = StepReport(result, self.steps, self.time, self._clock() - start, self._budget, fraction,
-                                    which, False)
+                                    which, False, crossed)
                 self.last_report = report
                 return report
             result = newton(
@@ -434,10 +447,12 @@ class Stepper:
                 linear=self.linear, clock=self._clock, budget=self._budget, start=start, energy0=E0,
                 energy_floor=self.energy_floor,
                 safe_hessian=(lambda x: model.hessian(x, safe=True)) if model.has_safe_hessian else None,
+                step_limit=model.step_limit,
             )
         finally:
             for term in loads:
                 term.scale = 1.0
+            model.end_step()
         result.factorizations += pre
         commit = result.converged or (self.anytime and np.all(np.isfinite(result.x)))
         elapsed = self._clock() - start  # read before the commit: nothing after it can raise
@@ -449,7 +464,7 @@ class Stepper:
             self.u = result.x
             self.steps += 1
         report = StepReport(result, self.steps, self.time, elapsed, self._budget, fraction, which,
-                            bool(commit))
+                            bool(commit), crossed)
         self.last_report = report
         return report
 
@@ -460,8 +475,15 @@ class Stepper:
         return [self.step(t) for t in targets_per_step]
 
     def _warm_start(self, fixed, values, free):
-        """``(x0, E0, handle_fraction, name, load_norm, factorizations)``: the lowest-energy valid start."""
+        """``(x0, E0, handle_fraction, name, load_norm, factorizations, crossed)``: the lowest-energy valid start.
+
+        With a term that limits steps (self-contact), the state with the handles moved and everything else
+        where it was is where the step starts (``Model.begin_step``: its crossings are counted and left
+        alone), and every other guess is cut back to the fraction the collision detection allows from it.
+        """
         model, u = self.model, self.u
+        limit = model.step_limit
+        crossed = 0
         previous = u[fixed]
         dynamic = model.inertia is not None
         linearised, load_norm, factorizations = None, 0.0, 0
@@ -481,20 +503,31 @@ class Stepper:
                 if linearised is not None:  # the linear prediction scales with the handles' increment
                     candidates.insert(0, ("linearised", u + fraction * linearised))
             best = None
+            reference = None
+            if model.notes_steps:
+                reference = u.copy()
+                reference[fixed] = held
+                crossed = model.begin_step(reference, u)
             for name, base in candidates:
                 x = base.copy()
                 x[fixed] = held
+                if limit is not None and name != "previous":
+                    allowed = limit(reference, x - reference)
+                    if allowed < 1.0:
+                        x = reference + allowed * (x - reference)
                 with np.errstate(all="ignore"):
                     E = model.energy(x)
                 if np.isfinite(E) and (best is None or E < best[1]):
                     best = (x, E, name)
             if best is not None:
-                return best[0], best[1], fraction, best[2], load_norm, factorizations
+                return best[0], best[1], fraction, best[2], load_norm, factorizations, crossed
         # the handles cannot move at all without leaving the valid states: stay
         x = u.copy()
+        if model.notes_steps:
+            crossed = model.begin_step(x, u)
         with np.errstate(all="ignore"):
             E = model.energy(x)
-        return x, E, 0.0, "previous", load_norm, factorizations
+        return x, E, 0.0, "previous", load_norm, factorizations, crossed
 
     def _linearised_increment(self, fixed, free, du_fixed):
         """``(dx, load_norm, factorizations)``: the first-order response of every dof to moving the held ones

@@ -13,6 +13,7 @@ term              energy                                                       H
 :class:`Load`     ``-f . u``: gravity, a body force, tractions                  zero
 :class:`Probe`    a rigid disc pressed into the tissue (a contact penalty)      per node
 :class:`Sutures`  zero-length springs tying pairs of nodes                      constant
+``Contact``       self-contact of the surface, see :mod:`.contact`             per pair
 ================  ===========================================================  ==========
 
 Every term has ``energy(u)``, ``gradient(u)`` (a dof vector) and

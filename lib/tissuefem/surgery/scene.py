@@ -20,6 +20,9 @@ effect            what it adds
 ``incisions``     cuts along polylines before the first frame (``method``: ``"elements"``, through the
                   elements, or ``"edges"``, snapped to mesh edges with duplicated nodes)
 ``sutures``       pairs of points tied together by stiff springs
+``contact``       self-contact of the surface: wound lips and folds touch but never pass
+                  through (``distance``: the skin's depth, default a quarter of the median
+                  boundary edge; ``stiffness``: a pressure, default Young's modulus)
 ================  =============================================================================
 
 A scene is a plain nested dictionary with these keys (see
@@ -56,6 +59,9 @@ a mesh file (``domain.path``)                          at most 64 MiB and 200 00
 ``effects.fibers.stiffness``                           ``[0, 1e12]``
 ``effects.inversion.threshold``                        ``[0.01, 0.99]``
 probe and suture ``stiffness``                         ``[0, 1e40]`` (sutures: ``> 0``)
+``effects.contact.stiffness``                          ``(0, 1e40]``
+``effects.contact.distance``                           ``> 0``, at most half the median length of a surface segment
+                                                       (checked when the model is built)
 ``effects.sutures[i].tightness``                       ``[0, 1]``
 points (centres, boxes, polygons, paths, sutures)      within ``1000 L`` of the domain's centre
 and handle ``target`` displacements
@@ -115,7 +121,7 @@ __all__ = ["Scene", "EFFECTS", "SHAPES", "EXAMPLE_TOML", "demo_scene", "flap_sce
 CUT_METHODS = ("elements", "edges")
 
 EFFECTS = ("inertia", "gravity", "fibers", "inversion", "handles", "tractions", "probes", "excisions",
-           "incisions", "sutures")
+           "incisions", "sutures", "contact")
 #: the domains a scene may use ("file": a 2D triangle mesh read through meshio)
 SHAPES = ("rectangle", "flap", "fusiform", "file")
 #: the list-valued effects (each entry is a table)
@@ -494,6 +500,14 @@ def _check_effects(effects):
                                                     positive=True, lo=THRESHOLD_RANGE[0], hi=THRESHOLD_RANGE[1])
         elif "threshold" in e:
             raise ValueError("effects.inversion.threshold: only the 'itf' method has a threshold")
+    if "contact" in effects:
+        e = _table("effects.contact", effects["contact"])
+        _only("effects.contact", e, ("distance", "stiffness"))
+        out["contact"] = {}
+        if "distance" in e:
+            out["contact"]["distance"] = _number("effects.contact.distance", e["distance"], positive=True, hi=_FAR)
+        if "stiffness" in e:
+            out["contact"]["stiffness"] = _penalty("effects.contact.stiffness", e["stiffness"], positive=True)
     for kind in _LISTS:
         if kind in effects:
             entries = effects[kind]

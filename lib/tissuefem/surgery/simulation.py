@@ -21,12 +21,14 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
 from ..engine import meshes
+from ..engine.contact import ContactSurface
 from ..engine.model import Handle, Model, region_nodes
 from ..engine.parameters import PENALTY_MAX, RADIUS_RANGE, check_count
 from ..engine.realtime import RealtimeSolver
 from ..engine.terms import check_reach, check_vector
 from . import element_cuts, topology
 from .scene import Scene, _number
+from .surfaces import contact_surface
 
 __all__ = ["Simulation"]
 
@@ -75,6 +77,7 @@ class Simulation:
             fibers = (fx["stiffness"], g)
         self._fibers = fibers
         self.mesh = mesh
+        self._contact = self._contact_settings(scene, mesh)
         self._grab_count = 0
         # handles: resolved to nodes on the original mesh, then carried through the edits
         handles = []
@@ -147,12 +150,41 @@ class Simulation:
                 mass="lumped" if inertia is None else inertia["mass"],
                 gravity=None if gravity is None else gravity["acceleration"],
                 tractions=tractions or None, fibers=self._fibers, probes=probes,
-                sutures=self._suture_spec(self._sutures), weights=self._weights,
+                sutures=self._suture_spec(self._sutures), weights=self._weights, contact=self._contact_spec(),
             )
         except ValueError as err:
             if "tractions" in str(err) and "effects." not in str(err):
                 raise ValueError(f"effects.tractions: {err}") from None
+            if str(err).startswith("contact."):
+                raise ValueError(f"effects.{err}") from None
             raise
+
+    #: the default depth of the contact skin, in the median length of the surface's segments (its boundary
+    #: edges), and its stiffness (a pressure), in Young's moduli
+    CONTACT_DISTANCE, CONTACT_STIFFNESS = 0.25, 1.0
+
+    @classmethod
+    def _contact_settings(cls, scene, mesh):
+        """The scene's contact effect with its defaults filled in (fixed for the whole run, so the skin does not
+        change when a cut rebuilds the model), or ``None``."""
+        spec = scene.effects.get("contact")
+        if spec is None:
+            return None
+        if "distance" in spec:
+            distance = spec["distance"]
+        else:
+            surface = ContactSurface.from_mesh(mesh)
+            ends = surface.segment_positions(mesh.p)
+            distance = cls.CONTACT_DISTANCE * float(np.median(np.hypot(*(ends[:, 1] - ends[:, 0]).T)))
+        return {"distance": distance,
+                "stiffness": spec.get("stiffness", cls.CONTACT_STIFFNESS * scene.material["youngs_modulus"])}
+
+    def _contact_spec(self):
+        """The model's ``contact`` argument: the surface of the current material (its weights and regions
+        where it was cut through elements) and the run's settings."""
+        if self._contact is None:
+            return None
+        return dict(self._contact, surface=contact_surface(self.mesh, self._weights, self._regions))
 
     def _rebuild(self, handles=None):
         """Build the model and the solver for the current mesh, keeping the state (if any)."""

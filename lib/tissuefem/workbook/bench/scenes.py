@@ -10,7 +10,10 @@ per variant:
 * stable neo-Hookean, quasistatic: the base the effects are added to;
 * the base plus one effect: inertia, inertia and gravity, fibres, a probe
   pressed into the top edge, sutures, inversion handling (projected tangent),
-  a crack cut through the elements (and the same crack snapped to mesh edges);
+  a crack cut through the elements (and the same crack snapped to mesh edges),
+  self-contact (nothing near: the surface is nowhere near itself);
+* an incision across the middle, without and with contact: the drag presses its
+  lips together and slides them along each other (contact acts in every frame);
 * everything together.
 
 Every variant runs the same frames with no budget (each frame converges to
@@ -51,6 +54,8 @@ PROBE = {"center": [1.0, 1.08], "radius": 0.15}
 CUT = {"path": [[0.73, 1.1], [0.96, 0.5]], "method": "elements"}
 SUTURES = {"pairs": [[[0.6 + 0.1 * k, 1.0], [0.6 + 0.1 * k, 0.0]] for k in range(5)], "stiffness": 1e4,
            "tightness": 0.05}
+#: a cut across the middle of the flap: the drag (the flap stretched, so narrowed) presses its lips together
+PRESSED_CUT = {"path": [[0.5, 0.5], [1.5, 0.5]]}
 
 
 def variants(n_triangles):
@@ -75,8 +80,12 @@ def variants(n_triangles):
     add("+ inversion (projected tangent)", {"inversion": {"method": "projected"}})
     add("+ cut through elements", {"incisions": [CUT]})
     add("+ cut along edges (to compare)", {"incisions": [{**CUT, "method": "edges"}]})
+    add("+ contact (nothing near)", {"contact": {}})
+    add("+ incision across the middle", {"incisions": [PRESSED_CUT]})
+    add("+ incision + contact (lips pressed)", {"incisions": [PRESSED_CUT], "contact": {}})
     add("everything", {"inertia": {}, "gravity": {}, "fibers": {"stiffness": 500.0, "direction": [1.0, 0.3]},
-                       "probes": [PROBE], "sutures": [SUTURES], "inversion": {"method": "projected"}})
+                       "probes": [PROBE], "sutures": [SUTURES], "inversion": {"method": "projected"},
+                       "contact": {}})
     return out
 
 
