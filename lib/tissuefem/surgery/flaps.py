@@ -202,20 +202,24 @@ def _close_flap(scene, *, in_flap, motion, samples, normals, method, tighten_fra
     )
 
 
-def _patch_scene(name, description, patch, material, method, excisions, incisions) -> Scene:
-    """A ``width x height`` patch of skin held on its four outer edges, with the flap's excisions and incisions."""
+def _patch_scene(name, description, patch, material, method, excisions, incisions, contact=False) -> Scene:
+    """A ``width x height`` patch of skin held on its four outer edges, with the flap's excisions and incisions
+    (and self-contact of its surface when ``contact``)."""
     width, height, n_triangles = patch
     model, youngs_modulus, poisson_ratio = material
+    effects = {
+        "handles": [{"name": side, "region": side} for side in ("left", "right", "bottom", "top")],
+        "excisions": [{"polygon": polygon, "method": method} for polygon in excisions],
+        "incisions": [{"path": path, "method": method} for path in incisions],
+    }
+    if contact:
+        effects["contact"] = {}
     return Scene(
         name=name,
         description=description,
         domain={"shape": "rectangle", "width": width, "height": height, "triangles": int(n_triangles)},
         material={"model": model, "youngs_modulus": youngs_modulus, "poisson_ratio": poisson_ratio},
-        effects={
-            "handles": [{"name": side, "region": side} for side in ("left", "right", "bottom", "top")],
-            "excisions": [{"polygon": polygon, "method": method} for polygon in excisions],
-            "incisions": [{"path": path, "method": method} for path in incisions],
-        },
+        effects=effects,
         solver={"budget": 1e9, "rtol": 1e-6, "max_iterations": 100},
     )
 
@@ -228,7 +232,8 @@ def _method(method) -> str:
 
 def advancement_flap(*, width=4.0, height=2.0, n_triangles=3000, defect=(1.2, 0.7, 0.6, 0.6), flap_length=1.5,
                      model="stable-neo-hookean", youngs_modulus=1000.0, poisson_ratio=0.3, tighten_frames=10,
-                     settle_frames=0, suture_stiffness=None, clock=None, method="elements") -> FlapResult:
+                     settle_frames=0, suture_stiffness=None, clock=None, method="elements",
+                     contact=False) -> FlapResult:
     """Excise a rectangular defect, cut an advancement flap beside it, pull it in, and report the tension.
 
     Parameters
@@ -265,7 +270,8 @@ def advancement_flap(*, width=4.0, height=2.0, n_triangles=3000, defect=(1.2, 0.
     scene = _patch_scene("advancement flap",
                          "A rectangular defect closed by advancing a flap cut beside it (after Sifakis et al. 2009).",
                          (width, height, n_triangles), (model, youngs_modulus, poisson_ratio), method,
-                         [[[x0, y0], [x1, y0], [x1, y1], [x0, y1]]], [[[x1, y0], [tip, y0]], [[x1, y1], [tip, y1]]])
+                         [[[x0, y0], [x1, y0], [x1, y1], [x0, y1]]], [[[x1, y0], [tip, y0]], [[x1, y1], [tip, y1]]],
+                         contact)
 
     def in_flap(c):
         return (c[0] > x1) & (c[0] < tip) & (c[1] > y0) & (c[1] < y1)
@@ -287,7 +293,7 @@ def advancement_flap(*, width=4.0, height=2.0, n_triangles=3000, defect=(1.2, 0.
 def rotation_flap(*, width=4.0, height=3.0, n_triangles=3000, pivot=(1.5, 1.5), radius=1.0, defect_angle=30.0,
                   flap_angle=120.0, model="stable-neo-hookean", youngs_modulus=1000.0, poisson_ratio=0.3,
                   tighten_frames=10, settle_frames=0, suture_stiffness=None, clock=None,
-                  method="elements") -> FlapResult:
+                  method="elements", contact=False) -> FlapResult:
     """Close a wedge-shaped defect by rotating a flap about its pivot, and report the tension.
 
     The defect is the sector of the circle of ``radius`` about ``pivot``
@@ -302,7 +308,7 @@ def rotation_flap(*, width=4.0, height=3.0, n_triangles=3000, pivot=(1.5, 1.5), 
     lip. A wider flap (larger ``flap_angle``) fans out less and leaves less
     tension: the rotation flap's rule of thumb (an arc several times the
     defect's width).
-    ``method`` as in :func:`advancement_flap`.
+    ``method`` and ``contact`` as in :func:`advancement_flap`.
     """
     method = _method(method)
     px, py = (float(v) for v in pivot)
@@ -330,7 +336,7 @@ def rotation_flap(*, width=4.0, height=3.0, n_triangles=3000, pivot=(1.5, 1.5), 
     defect = np.vstack([[[px, py]], arc(a1, a1 + alpha, max(4, int(np.ceil(4.0 * r * alpha / edge_guess))))])
     scene = _patch_scene("rotation flap", "A wedge-shaped defect closed by rotating the flap beside it about its pivot.",
                          (width, height, n_triangles), (model, youngs_modulus, poisson_ratio), method,
-                         [defect.tolist()], [arc(a1, a0, n_arc).tolist()])
+                         [defect.tolist()], [arc(a1, a0, n_arc).tolist()], contact)
     def motion(X):  # the flap fans out: each radius turns in proportion to its angle from the base
         d = np.asarray(X, float) - np.array([[px], [py]])
         ang = np.arctan2(d[1], d[0])

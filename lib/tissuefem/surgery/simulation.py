@@ -176,7 +176,7 @@ class Simulation:
             surface = ContactSurface.from_mesh(mesh)
             ends = surface.segment_positions(mesh.p)
             distance = cls.CONTACT_DISTANCE * float(np.median(np.hypot(*(ends[:, 1] - ends[:, 0]).T)))
-        return {"distance": distance,
+        return {"distance": distance, "default_distance": "distance" not in spec,
                 "stiffness": spec.get("stiffness", cls.CONTACT_STIFFNESS * scene.material["youngs_modulus"])}
 
     def _contact_spec(self):
@@ -184,7 +184,16 @@ class Simulation:
         where it was cut through elements) and the run's settings."""
         if self._contact is None:
             return None
-        return dict(self._contact, surface=contact_surface(self.mesh, self._weights, self._regions))
+        surface = contact_surface(self.mesh, self._weights, self._regions)
+        spec = dict(self._contact, surface=surface)
+        if self._contact.get("default_distance"):
+            # the skin must stay thin against the surface's segments: a cut through elements (or a curved
+            # excision) leaves short pieces, so the default depth shrinks to half their median length
+            ends = surface.segment_positions(self.mesh.p)
+            lengths = np.hypot(*(ends[:, 1] - ends[:, 0]).T)
+            spec["distance"] = min(spec["distance"], 0.5 * float(np.median(lengths)))
+        spec.pop("default_distance", None)
+        return spec
 
     def _rebuild(self, handles=None):
         """Build the model and the solver for the current mesh, keeping the state (if any)."""
