@@ -103,3 +103,53 @@ def test_ex10_2_a_line_that_misses_keeps_the_whole_triangle_on_one_side(answer):
     left, right = answer(TRIANGLE.copy(), np.array([0.0, 3.0]), np.array([1.0, 0.0]))  # above, looking +x
     assert math.isclose(left + right, 1.0, abs_tol=1e-12) and math.isclose(right, 1.0, abs_tol=1e-12), \
         "the triangle lies wholly to the right of a line above it (looking along +x): (0, 1)"
+
+
+# --- 10.3 the signed gap -------------------------------------------------------------------------
+
+GAP = implementations("ch10", "signed_gap", answers.signed_gap)
+
+
+@pytest.mark.parametrize("answer", GAP)
+@pytest.mark.parametrize("p, a, b, expected", [
+    ([0.5, -0.2], [0.0, 0.0], [1.0, 0.0], 0.2),   # material above the segment (its left): below is outside
+    ([0.5, 0.3], [0.0, 0.0], [1.0, 0.0], -0.3),   # inside the material: behind the surface
+    ([0.2, 0.4], [1.0, 1.0], [0.0, 1.0], -0.6),   # walking left: the material is below, and so is the point
+    ([1.0, 1.0], [0.0, 0.0], [2.0, 2.0], 0.0),
+], ids=["below-horizontal", "above-horizontal", "reversed", "on-it"])
+def test_ex10_3_signed_gap(answer, p, a, b, expected):
+    sigma, grad = answer(np.array(p), np.array(a), np.array(b))
+    # the outward normal is the tangent turned clockwise: for a -> b along +x, n = (0, -1)
+    e = np.array(b, float) - np.array(a, float)
+    n = np.array([e[1], -e[0]]) / np.hypot(*e)
+    exact = float(n @ (np.array(p, float) - np.array(a, float)))
+    assert exact == pytest.approx(expected, abs=1e-12)  # the case as commented
+    assert_close(np.array(sigma, dtype=float), np.array(exact), "sigma, the signed gap", rtol=1e-12, atol=1e-12,
+                 slips={"the normal turned the wrong way (counter-clockwise): material on the right": -exact,
+                        "the unsigned distance": abs(exact)})
+    assert_close(np.asarray(grad, dtype=float), n, "d sigma / d p (the outward normal)", rtol=1e-12, atol=1e-12)
+
+
+# --- 10.4 the skin's barrier ---------------------------------------------------------------------
+
+SKIN = implementations("ch10", "skin_energy", answers.skin_energy)
+
+
+@pytest.mark.parametrize("answer", SKIN)
+@pytest.mark.parametrize("sigma", [0.0, 0.01, -0.001, -0.01, -0.019])
+def test_ex10_4_skin_energy_and_its_derivative(answer, sigma):
+    d, k, length = 0.02, 1000.0, 0.05
+    E, dE = answer(sigma, d, k, length)
+    z = 1.0 + sigma / d
+    exact = -k * length * d * (z - 1) ** 2 * math.log(z) if z < 1 else 0.0
+    assert_close(np.array(E, dtype=float), np.array(exact), "E", rtol=1e-10, atol=1e-14,
+                 slips={"the overlap measured with the wrong sign (use 1 + sigma / d)": (
+                     -k * length * d * (sigma / d) ** 2 * math.log(1 - sigma / d) if 0 < 1 - sigma / d < 1 else 0.0)})
+    h = 1e-7
+    if sigma < -h:
+        fd = (answer(sigma + h, d, k, length)[0] - answer(sigma - h, d, k, length)[0]) / (2 * h)
+        assert_close(np.array(dE, dtype=float), np.array(fd), "dE/dsigma (against a finite difference of your E)",
+                     rtol=1e-5, atol=1e-9, slips={"the chain rule's 1/d is missing": fd * d})
+        assert dE < 0, "behind the surface the force pushes the point out: dE/dsigma must be negative"
+    else:
+        assert abs(dE) < 1e-12, "in front of the surface (and at sigma = 0) nothing pushes: dE/dsigma = 0"

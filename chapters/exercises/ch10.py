@@ -52,3 +52,38 @@ def piece_shares(triangle, point, direction):
     what is kept.
     """
     raise NotImplementedError("Exercise 10.2: the shares of the two pieces of a cut triangle")
+
+
+def signed_gap(p, a, b):
+    """Exercise 10.3. The signed gap of the point ``p`` to the segment ``a -> b``, and its gradient in ``p``.
+
+    The material lies on the *left* of the segment (walking from ``a`` to
+    ``b``), so its outward normal is the tangent ``e = b - a`` turned
+    clockwise: ``n = (e_y, -e_x) / |e|``. The signed gap is ``sigma = n .
+    (p - a)``: positive in front of the surface (outside the material),
+    negative behind it. Assume the foot of the perpendicular from ``p`` falls
+    inside the segment.
+
+    Return ``(sigma, grad)`` with ``grad = d sigma / d p`` (an array of 2).
+    Why *signed*: right after a cut the two lips of the wound coincide, so
+    the unsigned distance is 0 there; only the sign tells touching (fine) from
+    passing through (never allowed).
+    """
+    raise NotImplementedError("Exercise 10.3: the signed gap of a point to a segment")
+
+
+def skin_energy(sigma, distance, stiffness, length):
+    """Exercise 10.4. The contact energy of one surface point and its derivative in the gap.
+
+    A point pressed ``-sigma`` behind the surface (``sigma < 0``) stores
+    ``E = stiffness * length * distance * beta(1 + sigma / distance)`` with
+    ``beta(z) = -(z - 1)^2 ln(z)`` for ``0 < z < 1`` and ``beta = 0`` for
+    ``z >= 1`` (no energy in front of the surface); ``distance`` is the depth
+    of the skin ``d^`` (``E`` grows without bound as the overlap reaches it)
+    and ``length`` the share of the surface the point stands for.
+
+    Return ``(E, dE_dsigma)``. Check yourself: both are 0 at ``sigma = 0``
+    (touching costs nothing and pushes nothing), and ``dE/dsigma < 0`` behind
+    the surface (the force pushes the point back out).
+    """
+    raise NotImplementedError("Exercise 10.4: the skin's barrier energy")

@@ -115,7 +115,7 @@ import numpy as np
 from .topology import MeshEdit, _keys, _mesh_arrays, _new_mesh, _points, _positions, excise
 
 __all__ = ["Region", "Wound", "ElementCut", "cut_through", "excise_through", "Picture", "picture", "locate",
-           "firm_anchor", "carry_points", "lumped_mass", "material_areas"]
+           "firm_anchor", "carry_points", "region_holds", "lumped_mass", "material_areas"]
 
 #: Geometric tolerance in a triangle's local coordinates (the unit triangle):
 #: points closer than this are one point, and a point this close to an edge is on it.
@@ -1537,6 +1537,11 @@ def _in_triangle(q, a, b, c) -> bool:
 # --------------------------------------------------------------------------
 # points of the material: where a stitch or a probe attaches
 # --------------------------------------------------------------------------
+def region_holds(region, xi) -> bool:
+    """Whether the local point ``xi = (xi, eta)`` lies in the material of ``region`` (or on its outline)."""
+    return _region_distance(region, np.asarray(xi, dtype=float)) == 0.0
+
+
 def _region_distance(region, xi) -> float:
     """How far the local point ``xi`` lies outside the material of ``region`` (0 inside or on its boundary)."""
     best = math.inf

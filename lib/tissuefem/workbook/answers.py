@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..engine.bar1d import Bar1D, Traction
+from ..engine.contact import barrier
 from ..engine.inversion import rotation_preserving_svd
 from ..engine.linsolve import LinearInfo
 from ..engine.materials import LinearElastic, NeoHookean, TaylorNeoHookean, fiber_invariant, fiber_stress, fiber_tangent
@@ -267,3 +268,19 @@ def piece_shares(triangle, point, direction):
     whole = 0.5 * abs(e1[0] * e2[1] - e1[1] * e2[0])
     left = float(min(1.0, area / whole))
     return left, 1.0 - left
+
+
+def signed_gap(p, a, b):
+    """Exercise 10.3: ``(sigma, d sigma / d p)``, the gap along the outward normal (material on the left)."""
+    p, a, b = (np.asarray(v, dtype=float) for v in (p, a, b))
+    e = b - a
+    n = np.array([e[1], -e[0]]) / np.hypot(*e)
+    return float(n @ (p - a)), n
+
+
+def skin_energy(sigma, distance, stiffness, length):
+    """Exercise 10.4: the point's barrier energy and its derivative in the gap (the contact term's ``beta``)."""
+    zeta = 1.0 + float(sigma) / float(distance)
+    b0, b1, _ = barrier(zeta)
+    scale = float(stiffness) * float(length)
+    return scale * float(distance) * float(b0), scale * float(b1)

@@ -10,6 +10,8 @@
 * ``fig_ch10_flaps``: the advancement flap and a rotation flap, cut through
   elements beside the edge-snapped versions, coloured by tension, with their
   tension reports on two meshes.
+* ``fig_ch10_contact``: a strip folded onto itself and a crack pressed shut,
+  without and with self-contact.
 """
 
 from __future__ import annotations
@@ -19,13 +21,21 @@ from matplotlib.collections import LineCollection, PolyCollection
 from matplotlib.figure import Figure
 
 from ...engine.constants import TISSUE_E, TISSUE_NU
+from ...engine.contact import ContactSurface
+from ...engine.materials import StableNeoHookean
+from ...engine.meshes import mean_edge_length, rectangle
+from ...engine.model import Handle, Model
+from ...engine.stepping import Stepper
+from ...surgery.element_cuts import cut_through
+from ...surgery.element_cuts import picture as element_picture
 from ...surgery.flaps import advancement_flap, rotation_flap
+from ...surgery.surfaces import contact_surface
 from .base import lecture_figure, save, shown
 from .surgery import _check, _frame_axes, _simulation, _still_clock, _tension_colorbar, sheet_scene, tension_norm
 from .surgery import TENSION_CMAP
 
-__all__ = ["fig_ch10_virtual_nodes", "fig_ch10_cut_through", "fig_ch10_flaps", "crack_runs", "flap_comparison",
-           "draw_picture", "CRACK", "CRACK_MESHES"]
+__all__ = ["fig_ch10_virtual_nodes", "fig_ch10_cut_through", "fig_ch10_flaps", "fig_ch10_contact", "crack_runs",
+           "flap_comparison", "draw_picture", "overlap_area", "CRACK", "CRACK_MESHES"]
 
 #: the slanted crack of chapter 10: from above the top edge to mid-height (reference coordinates of a 2 x 1 sheet)
 CRACK = [[0.93, 1.05], [1.17, 0.45]]
@@ -82,7 +92,6 @@ def fig_ch10_virtual_nodes(path=None) -> Figure:
     sim, edit, n_old = _virtual_nodes_run()
     fig = Figure(figsize=(10.0, 3.9), layout="constrained")
     axes = fig.subplots(1, 2)
-    X = sim.model.X
     ax = axes[0]
     P = edit.mesh.p[:, :n_old]
     t_old = np.unique(np.sort(edit.parent[edit.mesh.t], axis=0), axis=1)
@@ -246,5 +255,120 @@ def fig_ch10_flaps(path=None, runs=None) -> Figure:
     fig.suptitle(f"Chapter 10: two local flaps cut through the elements beside the edge-snapped versions "
                  f"(stable neo-Hookean, E = {TISSUE_E:g}, ν = {TISSUE_NU:g}; after Sifakis et al. 2009)",
                  fontsize=10)
+    save(fig, path)
+    return fig
+
+
+# --- self-contact ------------------------------------------------------------------------------------------------
+
+def overlap_area(picture, x, cells=400) -> float:
+    """The area covered twice or more by the drawn material at node positions ``x``: where the body overlaps
+    itself (counted on a ``cells x cells`` grid over its bounding box)."""
+    y = picture.points(x)
+    lo, hi = y.min(axis=1), y.max(axis=1)
+    step = float((hi - lo).max()) / cells
+    nx, ny = (np.ceil((hi - lo) / step).astype(int) + 1).tolist()
+    count = np.zeros((ny, nx), dtype=np.int32)
+    gx, gy = lo[0] + (np.arange(nx) + 0.5) * step, lo[1] + (np.arange(ny) + 0.5) * step
+    for tri in picture.triangles.T:
+        a, b, c = y[:, tri[0]], y[:, tri[1]], y[:, tri[2]]
+        i0, i1 = np.searchsorted(gx, min(a[0], b[0], c[0])), np.searchsorted(gx, max(a[0], b[0], c[0]))
+        j0, j1 = np.searchsorted(gy, min(a[1], b[1], c[1])), np.searchsorted(gy, max(a[1], b[1], c[1]))
+        if i1 <= i0 or j1 <= j0:
+            continue
+        X, Y = np.meshgrid(gx[i0:i1], gy[j0:j1])
+        det = (b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1])
+        if det == 0:
+            continue
+        xi = ((c[1] - a[1]) * (X - a[0]) - (c[0] - a[0]) * (Y - a[1])) / det
+        eta = (-(b[1] - a[1]) * (X - a[0]) + (b[0] - a[0]) * (Y - a[1])) / det
+        count[j0:j1, i0:i1] += ((xi >= 0) & (eta >= 0) & (xi + eta < 1)).astype(np.int32)
+    return float(np.count_nonzero(count >= 2)) * step * step
+
+
+def _fold_run(contact: bool):
+    """A thin strip: its left part lies on a table, its right end is turned over onto it and pressed down."""
+    mesh = rectangle(3.0, 0.1, 40, 2)
+    h = mean_edge_length(mesh)
+    options = dict(contact=dict(distance=0.1 * h, stiffness=5770.0)) if contact else {}
+    model = Model(mesh, StableNeoHookean(577.0, 385.0), handles=[Handle({"box": [-1.0, -0.01, 1.2, 0.01]},
+                  name="table"), Handle("right", name="end")], **options)
+    stepper = Stepper(model, linear_solver="reuse")
+    centre = np.array([[1.8], [0.25]])
+
+    def fold(theta, drop):
+        R = np.array([[np.cos(theta), -np.sin(theta)], [np.sin(theta), np.cos(theta)]])
+        return lambda P: centre + R @ (P - centre) - np.array([[0.0], [drop]])
+
+    path = ([(th, 0.0) for th in np.linspace(0, np.pi, 13)[1:]] + [(np.pi, d) for d in np.linspace(0, 0.29, 5)[1:]]
+            + [(np.pi, d) for d in np.linspace(0.29, 0.33, 9)[1:]])
+    for theta, drop in path:
+        report = stepper.step({"end": fold(theta, drop)})
+        if not report.converged:
+            raise RuntimeError(f"the fold did not converge ({report.status})")
+    return mesh, None, model, stepper.u
+
+
+def _pressed_cut_run(contact: bool):
+    """A sheet with a crack cut through its elements, its right edge pushed left and up: the lips press and slide."""
+    mesh = rectangle(2.0, 1.0, 16, 8)
+    h = mean_edge_length(mesh)
+    cut = cut_through(mesh, [[0.93, 1.2], [1.07, 0.25]])
+    options = {}
+    if contact:
+        options["contact"] = dict(surface=contact_surface(cut.mesh, cut.weights, cut.regions), distance=0.1 * h,
+                                  stiffness=100.0)
+    model = Model(cut.mesh, StableNeoHookean(577.0, 385.0), weights=cut.weights,
+                  handles=[Handle("left"), Handle("right", name="push")], **options)
+    stepper = Stepper(model, linear_solver="reuse")
+    for k in range(1, 9):
+        report = stepper.step({"push": (-0.03 * k, 0.012 * k)})
+        if not report.converged:
+            raise RuntimeError(f"the pressed cut did not converge ({report.status})")
+    return cut.mesh, cut.regions, model, stepper.u
+
+
+@lecture_figure
+def fig_ch10_contact(path=None) -> Figure:
+    """Chapter 10: self-contact keeps a fold and a wound's lips from passing through each other.
+
+    Top: a thin strip (stable neo-Hookean) whose left part lies on a table;
+    its right end is turned over and pressed down onto it. Bottom: a sheet
+    with a crack cut through its elements, its right edge pushed left and up,
+    so the lips press on each other and slide. Left: without contact the body
+    passes through itself (material drawn half-transparent: overlaps show
+    darker; the title gives the area covered twice, counted on a fine grid).
+    Right: with the contact term (a one-sided barrier in a thin skin behind
+    the surface, and collision detection that shortens every Newton step) the
+    surfaces touch and press, and nothing crosses: what overlap is left lies
+    within the skin (a tenth of an edge here), where the contact pressure
+    builds up.
+    """
+    fig = Figure(figsize=(12.0, 6.2), layout="constrained")
+    axes = fig.subplots(2, 2, height_ratios=[0.8, 1.0])
+    windows = [((0.5, 2.2), (-0.15, 0.45)), ((0.45, 1.65), (0.1, 1.15))]
+    for i, run in enumerate((_fold_run, _pressed_cut_run)):
+        for j, contact in enumerate((False, True)):
+            mesh, regions, model, u = run(contact)
+            x = model.positions(u)
+            picture = element_picture(mesh, regions)
+            points = shown(picture.points(x))
+            ax = axes[i, j]
+            ax.add_collection(PolyCollection(points[:, picture.triangles].transpose(2, 1, 0),
+                                             facecolors=(0.27, 0.51, 0.71, 0.45), edgecolors="none"))
+            surface = model.contact.surface if contact else (contact_surface(mesh, None, regions) if regions
+                                                             else ContactSurface.from_mesh(mesh))
+            y = shown(surface.positions(x))
+            a, b = surface.segments
+            ax.add_collection(LineCollection(np.stack([y[:, a].T, y[:, b].T], axis=1), colors="k", linewidths=0.6))
+            _frame_axes(ax, *windows[i])
+            overlap = overlap_area(picture, x)
+            what = ("a strip folded onto itself", "a crack pressed shut, sheared")[i]
+            state = "with contact" if contact else "no contact"
+            extra = (f"; deepest press {model.contact.overlap(u) / model.contact.distance:.2f} skin"
+                     if contact else "")
+            ax.set_title(f"({'abcd'[2 * i + j]}) {what}, {state}:\narea overlapping itself {overlap:.2g}{extra}",
+                         fontsize=8.5)
+    fig.suptitle("Chapter 10: self-contact of the surface (outer boundary and wound lips)", fontsize=10)
     save(fig, path)
     return fig
