@@ -46,8 +46,8 @@ from tissuefem.surgery.element_cuts import cut_through, lumped_mass
 from tissuefem.surgery.flaps import advancement_flap, rotation_flap
 from tissuefem.workbook.bench.common import markdown_table
 from tissuefem.workbook.cracks import griffith_closed_form, griffith_opening
-from tissuefem.workbook.figures.cutting import (crack_opening, crack_runs, fig_ch10_cut_through, fig_ch10_flaps,
-                                                fig_ch10_virtual_nodes)
+from tissuefem.workbook.figures.cutting import (crack_opening, crack_runs, fig_ch10_contact, fig_ch10_cut_through,
+                                                fig_ch10_flaps, fig_ch10_virtual_nodes)
 
 # %% [markdown]
 # ## 1. A cut that follows the mesh is a property of the mesh
@@ -230,6 +230,53 @@ display(Markdown(markdown_table(rows, [("flap", "flap", "{}"), ("cut", "cut", "{
 # change with the mesh (the rotation flap's arc is the worst case: a curve made of edges).
 
 # %% [markdown]
+# ## 5. Wound edges that touch but never pass through
+#
+# Nothing so far keeps two parts of the boundary apart: a closed incision's lips, a flap folded onto its
+# bed or a sheet pressed onto itself pass through each other as if the other were not there. Self-contact
+# is one more term of the incremental potential (`effects.contact` in a scene; `Model(..., contact=...)`).
+#
+# **The surface.** Its points are fixed combinations of node positions, $\mathbf y_i = \sum_k W_{ik}
+# \mathbf x_{a_k}$: a boundary node, or a point on a lip cut through an element (the barycentric
+# combination of the copy's three nodes). Its segments have the material on their left, so the outward
+# normal of a segment $\mathbf y_a \to \mathbf y_b$ is its tangent turned clockwise.
+#
+# **The energy.** IPC (Li et al. 2020) puts a barrier $b(d) = -(d-\hat d)^2 \ln(d/\hat d)$ on the distance
+# $d$ between a point and a segment: infinite at $d = 0$, so surfaces never touch. A freshly cut wound has
+# its lips *at* $d = 0$ everywhere, and a closed wound must be allowed to stay closed. So the gap here is
+# *signed*, $\sigma = \mathbf n \cdot (\mathbf y_p - \mathbf y_a)$ (Exercise 10.3), and the barrier acts
+# *behind* the surface, in a skin of depth $\hat d$:
+# $$E_p = \kappa\, l_p\, \hat d\, \beta\!\left(1 + \frac{\sigma}{\hat d}\right), \qquad
+#   \beta(\zeta) = -(\zeta - 1)^2 \ln \zeta \;\;(0<\zeta<1), \quad \beta = 0 \;\;(\zeta \ge 1),$$
+# with $\kappa$ a pressure and $l_p$ the length of surface the point stands for (Exercise 10.4). Lips that
+# touch feel nothing; pressed together they push back, twice differentiably from the first touch, and
+# infinitely hard before a point is $\hat d$ deep.
+#
+# **Never through.** An energy alone cannot stop a large Newton step from jumping a point across a
+# segment (both ends of the step outside). The minimiser therefore asks the term for the largest
+# fraction of every step that is free of crossings (continuous collision detection: the time a moving
+# point meets a moving segment solves a polynomial in $t$) and takes at most 0.8 of it, as IPC does; the
+# stepper cuts its warm start the same way.
+#
+# **Pay for nothing else.** Only pairs closer than a few skins are examined (a neighbour list refreshed
+# when points move relative to each other), and the Hessian's sparsity pattern is widened only when a new
+# pair needs it. A scene without `contact` builds no such term.
+
+# %%
+fig_ch10_contact()
+
+# %% [markdown]
+# The flaps with contact on: the flap's edges slide along the wound's lips as the stitches pull it in.
+
+# %%
+for name, procedure in (("advancement", advancement_flap), ("rotation", rotation_flap)):
+    r = procedure(n_triangles=1500, tighten_frames=20, contact=True)
+    contact = r.simulation.model.contact
+    print(f"{name} flap with contact: {r.summary()}")
+    print(f"   frames converged {sum(x.converged for x in r.reports)} of {len(r.reports)}; "
+          f"deepest press {contact.overlap(r.simulation.u) / contact.distance:.2f} of the skin")
+
+# %% [markdown]
 # ## What to try
 #
 # - Cut the Griffith plate's crack at an angle (`cut_through(mesh, [[4.2, 4.6], [5.8, 5.4]])`) and compare
@@ -237,6 +284,8 @@ display(Markdown(markdown_table(rows, [("flap", "flap", "{}"), ("cut", "cut", "{
 # - Make the rotation flap wider (`rotation_flap(flap_angle=150.0)`): does its tension fall, as the rule
 #   of thumb says?
 # - Cut the running sheet with `method="edges"` instead and compare the pictures after the same frames.
+# - Switch contact on in a scene of your own (`effects={"contact": {}, ...}`), fold it with a handle,
+#   and watch `report.crossed` (a handle that drags tissue through tissue is obeyed and reported).
 #
 # ## Exercises
 #
@@ -244,3 +293,5 @@ display(Markdown(markdown_table(rows, [("flap", "flap", "{}"), ("cut", "cut", "{
 #
 # - **10.1** Clip a straight stroke to a triangle with barycentric coordinates (step 1 of the algorithm).
 # - **10.2** The area shares of the two pieces of a triangle cut by a line: the copies' weights.
+# - **10.3** The signed gap of a point to a segment, and why a cut's lips need a sign.
+# - **10.4** The skin's barrier energy and its derivative in the gap.
