@@ -446,3 +446,22 @@ def test_a_wound_cut_in_a_running_simulation_is_part_of_the_contact_surface():
         assert report.converged and report.crossed == 0
         assert_no_interpenetration(sim.model, sim.u)
     assert sim.model.contact.active_pairs(sim.u).shape[1] > 0
+
+
+# ------------------------------------------------------------------------------------------------ sliding lips
+
+@pytest.mark.xfail(strict=True, reason="open: a corner's pseudonormal sign flips (a point outside the cone of a "
+                                       "corner whose other segment is in its own neighbourhood; a lip folded "
+                                       "through 180 degrees): the energy jumps and the line search stops there")
+def test_an_advancement_flap_cut_through_elements_slides_its_lips_and_converges_in_every_frame():
+    from tissuefem.surgery.flaps import advancement_flap
+    result = advancement_flap(method="elements", contact=True, tighten_frames=20, n_triangles=1500,
+                              clock=lambda: 0.0)
+    model = result.simulation.model
+    contact = model.contact
+    assert contact is not None and contact.surface.wound.sum() > 0
+    statuses = [report.status for report in result.reports]
+    # the lips never pass through each other: no point is deeper than its skin behind the surface it is near
+    assert contact.overlap(result.simulation.u) < contact.distance
+    assert all(report.crossed == 0 for report in result.reports)
+    assert statuses == ["converged"] * len(statuses), statuses

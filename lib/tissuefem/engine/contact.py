@@ -104,9 +104,11 @@ feature of ``s`` nearest to ``p`` gives two cases:
   reflex corner) a point is inside; behind a convex corner no point projects
   outside both segments, so the case only arises in front of it.
 
-This is the signed distance to a polygon of [3]_, and it is continuous: where
-the nearest feature changes from a segment's interior to its end, the two
-distances and their signs agree. A point does not belong to every segment
+This is the signed distance to a polygon of [3]_, and it is continuous where
+the nearest feature changes from a segment's interior to its end *inside the
+run the point sees* (below): the two distances and their signs agree. It is
+not continuous everywhere, and the exceptions are known (see "Where the energy
+jumps" below). A point does not belong to every segment
 near it, though, only to the nearest *feature of each run*: the segments
 within ``d^`` of the point form runs of consecutive segments (one run where
 the point touches one stretch of surface, two where it is pinched between
@@ -117,8 +119,13 @@ twice near a corner, and segments shorter than the skin (the sliver a cut
 through elements leaves next to a node) are handled like any other.
 
 A point is not paired with the two segments it ends, nor (in the broad
-phase) with their neighbours along the surface: a point and its own
-neighbourhood are not "in contact". The one exception is a corner that turned
+phase) with their neighbours along the surface, nor with any segment less
+than ``2 d^`` away from it along the surface at rest (walking along the loop,
+but not round a corner that turned back into the material when the surface
+was built): a point and its own neighbourhood are not "in contact". Without
+the last rule a cut through elements, whose lips are chains of pieces shorter
+than ``d^``, puts a lip's own points within the skin of its corners as soon
+as it bends, where the corner's pseudonormal says little. The one exception is a corner that turned
 back into the material when the surface was built, the tip of a crack: there
 the two lips meet, and the first point of each lip is checked against the
 first segment of the other (a *hinge*) whenever the corner turns by more than
@@ -134,12 +141,35 @@ an *offset* ``o_p`` (its depth at rest): its energy uses ``sigma + o_p`` and its
 wall lies at ``sigma = -(d^ + o_p)``. Being one number per point, the offset
 keeps the energy continuous where the nearest feature changes.
 
-A point found deeper than ``d^`` behind a segment when a step *starts* is
-ignored for that pair until the step is over: the far side of a thin body is
+A point found deeper than ``d^`` behind a segment when a step *starts* (and
+not within ``d^`` of the segment's neighbours: a point shallow behind the next
+segment slides along this stretch of surface, and this segment may own it
+later in the step) is ignored for that pair until the step is over: the far side of a thin body is
 such a pair, and so is tissue a handle dragged through tissue (the handles'
 motion is obeyed, and their crossings are counted in ``StepReport.crossed``
 for as long as the point stays through). Once the point is back out, contact
 acts again.
+
+Where the energy jumps
+----------------------
+The energy is a sum of the barriers of the owners, and an owner's gap is
+continuous as long as the point stays in the cone of the corner it is
+measured from. Two cases are not:
+
+* a corner primitive whose point is *outside* the corner's cone, because the
+  segment on the corner's other side is not paired with the point (it is in
+  the point's own neighbourhood): the pseudonormal's sign flips on the line
+  through the corner perpendicular to it, at a distance that may be less
+  than ``d^``;
+* a corner whose segments fold right over (a turn through 180 degrees, the
+  surface passing through itself there, as a crumpled lip of a cut through
+  elements can): the pseudonormal turns over, and so does the sign of every
+  point in the corner's cone.
+
+The energy then jumps by a finite amount (or from zero to the wall, for a
+point that ended up behind a corner by more than ``d^`` on the wrong side of
+such a flip), and Newton's line search stops at the jump. Both are rare
+(crumpled lips with pieces shorter than ``d^``) and both are open.
 
 Continuous collision detection
 ------------------------------
@@ -466,6 +496,8 @@ class Contact(Term):
         armed = (_cross(e_in, e_out) < -1e-9 * size) | ((np.abs(_cross(e_in, e_out)) <= 1e-9 * size)
                                                           & (_dot(e_in, e_out) < 0))
         self._hinge = np.flatnonzero(armed)
+        self._excluded = self._arc_neighbourhood(self.rest_length, 2.0 * self.distance,
+                                                 surface.hinge_corner[self._hinge])
         self._hinge_keys = surface.hinge_points[self._hinge].astype(np.int64) * max(n_seg, 1) \
             + surface.hinge_segments[self._hinge]
         self._hinge_positions = np.full((self._hinge_keys.size, n_local), -1, dtype=np.intp)
@@ -496,6 +528,44 @@ class Contact(Term):
         self._reach = float(self._skins.max(initial=self.distance))  # no pair is in contact farther apart
         self._refresh(Y)
         self._coupled = self._covered = np.zeros(0, dtype=np.int64)
+
+    def _arc_neighbourhood(self, length, reach, stops) -> np.ndarray:
+        """The points each segment is not paired with, (n_segments, k) padded with -1: its ends, the far ends of
+        its neighbours, and every point less than ``reach`` away from it along the surface at rest (walking
+        from its ends along the loop, but not round a corner in ``stops``, given by the segment ending there).
+
+        A point that near along the surface is always within the skin of the segment, or can be brought there
+        only by folding the surface right over in less than a few skins, where the sign of a gap says nothing.
+        """
+        surface = self.surface
+        seg = surface.segments
+        n_seg = seg.shape[1]
+        base = surface.neighbourhood
+        if n_seg == 0:
+            return base
+        stop_after = np.zeros(n_seg, dtype=bool)  # no walking from this segment to its next
+        stop_after[np.asarray(stops, dtype=np.intp)] = True
+        columns = [base]
+        for step, end in ((surface.next, 1), (surface.previous, 0)):
+            blocked = (stop_after if end == 1 else stop_after[np.maximum(surface.previous, 0)] & (surface.previous >= 0))
+            at = step.copy()  # the neighbour (its far end is in base already)
+            arc = np.where(at >= 0, length[np.maximum(at, 0)], np.inf)
+            alive = (at >= 0) & ~blocked
+            for _ in range(n_seg):
+                if end == 1:
+                    alive &= ~stop_after[np.maximum(at, 0)]
+                else:
+                    prev_at = surface.previous[np.maximum(at, 0)]
+                    alive &= ~(stop_after[np.maximum(prev_at, 0)] & (prev_at >= 0))
+                nxt = np.where(alive, step[np.maximum(at, 0)], -1)
+                alive &= nxt >= 0
+                arc = np.where(alive, arc + length[np.maximum(nxt, 0)], np.inf)
+                alive &= arc < reach
+                if not np.any(alive):
+                    break
+                columns.append(np.where(alive, seg[end, np.maximum(nxt, 0)], -1)[:, None])
+                at = nxt
+        return np.concatenate(columns, axis=1)
 
     def describe(self):
         return (f"contact: {self.surface.n_segments} segments, d^ = {self.distance:g}, "
@@ -532,7 +602,7 @@ class Contact(Term):
             rows, k = rows[more], min(2 * k, Y.shape[1])
         s = np.concatenate(found_s).astype(np.intp)
         p = np.concatenate(found_p).astype(np.intp)
-        keep = np.all(self.surface.neighbourhood[s] != p[:, None], axis=1)
+        keep = np.all(self._excluded[s] != p[:, None], axis=1)
         p, s = p[keep], s[keep]
         keys = p.astype(np.int64) * n_seg + s
         order = np.argsort(keys)
@@ -542,8 +612,19 @@ class Contact(Term):
         """Which pairs had their point deeper than ``d^`` behind the segment when the step started."""
         if self._step_start is None or p.size == 0:
             return np.zeros(p.size, dtype=bool)
-        _, _, sigma = self._classify(self._step_start, p, s)
-        return sigma <= -self._skins[p]
+        Y = self._step_start
+        _, _, sigma = self._classify(Y, p, s)
+        deep = sigma <= -self._skins[p]
+        # a point within its skin of a neighbouring segment is not through the surface there: it lies on (or
+        # slides along) the stretch the segment belongs to, and the segment may own it later in the step
+        seg = self.surface.segments
+        for neighbour in (self.surface.previous[s], self.surface.next[s]):
+            nb = np.maximum(neighbour, 0)
+            check = deep & (neighbour >= 0) & np.all(self._excluded[nb] != p[:, None], axis=1)
+            if np.any(check):
+                near = _segment_distance(Y[:, p[check]], Y[:, seg[0, nb[check]]], Y[:, seg[1, nb[check]]])
+                deep[np.flatnonzero(check)[near < self._skins[p[check]]]] = False
+        return deep
 
     def _refresh(self, Y) -> None:
         """Rebuild the Verlet list at the points ``Y``: every pair closer than ``d^ + skin`` (not neighbours)."""
@@ -1012,7 +1093,7 @@ class Contact(Term):
         # neighbour through the wall's own corner lies at distance d exactly, and does not count
         for neighbour in (prev[k], nxt[k]):
             nb = np.maximum(neighbour, 0)
-            counts = hit & (neighbour >= 0) & np.all(self.surface.neighbourhood[nb] != p[k][:, None], axis=1)
+            counts = hit & (neighbour >= 0) & np.all(self._excluded[nb] != p[k][:, None], axis=1)
             if np.any(counts):
                 ya_n = Y0[:, seg[0, nb]] + tau * dY[:, seg[0, nb]]
                 yb_n = Y0[:, seg[1, nb]] + tau * dY[:, seg[1, nb]]
