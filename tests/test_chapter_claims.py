@@ -1,0 +1,27 @@
+"""The numbers the chapters quote, recomputed from the same runs the chapters make.
+
+A sentence of a chapter that quotes or compares numbers is pinned here, so that a
+change of the engine which changes the number also fails a test (chapter 9's claims
+about its recorded study are pinned in ``test_bench_accuracy.py``).
+"""
+
+import numpy as np
+import pytest
+
+from tissuefem import Bar1D, NeoHookean1D, TaylorNeoHookean1D, Traction, lame_parameters
+
+
+# --- chapter 2 -------------------------------------------------------------------------------------
+
+def test_ch02_the_taylor_model_is_softer_in_compression():
+    """"Under the same push T = -1500 the Taylor bar is squeezed to F ~ 0.41, the ln J bar only to F ~ 0.48"."""
+    lam, mu = lame_parameters(E=1000.0, nu=0.3)
+    bar = Bar1D(0.0, 1.0, n=8)
+    stretch = {}
+    for name, kwargs, material in [("log", dict(load_steps=10), NeoHookean1D(lam, mu)),
+                                   ("taylor", dict(), TaylorNeoHookean1D(lam, mu))]:
+        u, results = bar.solve_nonlinear(material, right=Traction(-1500.0), **kwargs)
+        assert results[-1].converged
+        stretch[name] = 1 + (u[bar.dof_b] - u[bar.dof_a])
+    assert stretch["taylor"] < stretch["log"]  # softer: squeezed further by the same load
+    assert round(stretch["taylor"], 2) == 0.41 and round(stretch["log"], 2) == 0.48
