@@ -25,3 +25,23 @@ def test_ch02_the_taylor_model_is_softer_in_compression():
         stretch[name] = 1 + (u[bar.dof_b] - u[bar.dof_a])
     assert stretch["taylor"] < stretch["log"]  # softer: squeezed further by the same load
     assert round(stretch["taylor"], 2) == 0.41 and round(stretch["log"], 2) == 0.48
+
+
+# --- chapter 6b ------------------------------------------------------------------------------------
+
+def test_ch06b_the_crush_in_frames_folds_instead_of_inverting():
+    """"Given a few frames more, the ITF block goes past flat to 1.3 ... no inverted element at all, and a mesh
+    folded over itself (most centroids covered twice). Released, it does not come back ...; the Taylor block
+    stays folded too; only the stable model finds the rest shape again."""
+    from tissuefem.workbook.hardcases import block, crush_in_frames, inversion_models
+
+    mesh, models = block(), inversion_models()
+    runs = {name: crush_in_frames(models[name], mesh)
+            for name in ("ITF-clamped neo-Hookean", "Taylor neo-Hookean", "stable neo-Hookean")}
+    for name, run in runs.items():
+        assert run["reached"] == pytest.approx(1.3) and run["converged"], name
+        assert run["inverted"] == 0 and run["folded"] > mesh.t.shape[1] / 2, name
+    assert runs["ITF-clamped neo-Hookean"]["frames"] > 13  # it needed frames beyond the 13 of the crush
+    assert runs["ITF-clamped neo-Hookean"]["released"].rest_error > 0.5
+    assert runs["Taylor neo-Hookean"]["released"].rest_error > 0.5
+    assert runs["stable neo-Hookean"]["released"].rest_error < 1e-8
