@@ -45,3 +45,29 @@ def test_ch06b_the_crush_in_frames_folds_instead_of_inverting():
     assert runs["ITF-clamped neo-Hookean"]["released"].rest_error > 0.5
     assert runs["Taylor neo-Hookean"]["released"].rest_error > 0.5
     assert runs["stable neo-Hookean"]["released"].rest_error < 1e-8
+
+
+# --- chapter 7 -------------------------------------------------------------------------------------
+
+def test_ch07_explicit_steps_per_frame():
+    """"About 3 steps per frame on the coarsest mesh and about 48 on the finest: the step count doubles with
+    each halving of h" and "from about 12 steps per frame at nu = 0.3 to about 130 at nu = 0.499, on the same
+    mesh: at 64 x 32 cells that would be some five hundred steps per frame"."""
+    from tissuefem import FRAME_BUDGET, Handle, Model, StableNeoHookean, critical_time_step, rectangle
+    from tissuefem.workbook.figures.dynamics import CFL_SIZES
+    from tissuefem.workbook.timestepping import cfl_study
+
+    assert CFL_SIZES[0] == 4 and CFL_SIZES[-1] == 64
+    study = cfl_study((CFL_SIZES[0], CFL_SIZES[-1]))
+    coarse, fine = (FRAME_BUDGET / r["dt_measured"] for r in study.rows)
+    assert round(coarse) == 3 and 45 <= fine <= 50
+    assert fine / coarse == pytest.approx(16, rel=0.05)  # four halvings of h, twice the steps each
+
+    def steps(nu):
+        model = Model(rectangle(2.0, 1.0, 16, 8), StableNeoHookean.from_young(1000.0, nu), handles=[Handle("left")],
+                      density=1.0)
+        return FRAME_BUDGET / critical_time_step(model)
+
+    soft, incompressible = steps(0.3), steps(0.499)
+    assert round(soft) == 12 and 120 <= incompressible <= 140
+    assert 450 <= fine * incompressible / soft <= 550
