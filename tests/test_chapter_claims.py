@@ -71,3 +71,40 @@ def test_ch07_explicit_steps_per_frame():
     soft, incompressible = steps(0.3), steps(0.499)
     assert round(soft) == 12 and 120 <= incompressible <= 140
     assert 450 <= fine * incompressible / soft <= 550
+
+
+# --- chapter 8 -------------------------------------------------------------------------------------
+
+def test_ch08_the_probe_leaves_the_same_penetration_on_every_mesh():
+    """"The same push leaves the same penetration on every mesh: ... agree to within a few per cent (the test
+    suite checks 600 to 12 000 triangles)" -- the surface-weighted penalty of ``terms.Probe``."""
+    from tissuefem.workbook.figures.surgery import probe_indentation
+
+    left = [probe_indentation(n)["penetration"] for n in (600, 1200, 4800, 12000)]
+    assert max(left) / min(left) < 1.05, left
+    assert 1e-3 < min(left) < 1e-2  # about 1.4 % of the radius 0.25 at the default stiffness 100 E / R
+
+
+def test_ch08_stiffer_probes_leave_less_penetration_and_cost_newton_steps():
+    """"Ten times the stiffness leaves about a third of the penetration (for k >= 1e6) and costs Newton steps:
+    from 4 or 5 per frame at k = 1e4 to 11 to 17 at 1e8"."""
+    from tissuefem.workbook.figures.surgery import probe_indentation
+
+    runs = {k: probe_indentation(1200, stiffness=k) for k in (1e4, 1e6, 1e7, 1e8)}
+    for k in (1e6, 1e7):
+        assert 2.5 < runs[k]["penetration"] / runs[10 * k]["penetration"] < 4.0
+    assert all(4 <= n <= 5 for n in runs[1e4]["newton"])
+    assert all(11 <= n <= 17 for n in runs[1e8]["newton"])
+
+
+def test_ch08_effects_table_newton_counts():
+    """Chapter 8b's reading of the effects table: linear rows 1.00 Newton step per frame (the linearised start),
+    the quasistatic base 2.00, with inertia 2.38, the projected tangent as many as the base."""
+    from tissuefem.workbook.bench.scenes import effects_benchmark
+
+    rows = {r["variant"]: r for r in effects_benchmark(n_triangles=1000, frames=8, out=None, progress=None)["rows"]}
+    newton = {name.split(":")[0].split(" (")[0]: r["newton"] for name, r in rows.items()}
+    assert newton["linear, constant factorisation"] == 1.0 and newton["linear, general Newton loop"] == 1.0
+    assert newton["base"] == 2.0
+    assert newton["+ inertia"] == pytest.approx(2.375)
+    assert newton["+ inversion"] == newton["base"]

@@ -404,16 +404,36 @@ def probe_run(n_triangles=1200, radius=PROBE_RADIUS, depths=PROBE_DEPTHS, x_prob
     return {"states": states, "radius": radius, "simulation": sim}
 
 
+def probe_indentation(n_triangles=1200, stiffness=None, depths=(0.05, 0.1, 0.15, 0.2), radius=0.25) -> dict:
+    """Chapter 8's indentation: a disc pressed into the top edge of a sheet held on its bottom edge.
+
+    A :func:`sheet_scene` of about ``n_triangles`` (quasistatic), a probe of ``radius`` starting just
+    above the top edge and moved down to each of ``depths`` in turn, one frame each, with the given
+    penalty ``stiffness`` (default: the simulation's, ``100 E / radius``). Returns the penetration left
+    at the last depth, the Newton steps of each frame, the triangles and the stiffness used.
+    """
+    sim = _simulation(sheet_scene(n_triangles, handles=[{"name": "base", "region": "bottom"}]))
+    tool = sim.add_probe([1.0, 1.0 + radius], radius=radius, stiffness=stiffness)
+    newton = []
+    for depth in depths:
+        sim.move_probe(tool, [1.0, 1.0 + radius - depth])
+        newton.append(_check(sim.frame(), f"the indentation to {depth}").newton_iterations)
+    probe = sim.model.probes[0]
+    return {"penetration": probe.penetration(sim.u), "newton": newton, "triangles": int(sim.mesh.nelements),
+            "stiffness": float(probe.stiffness)}
+
+
 @lecture_figure
 def fig_ch08_probe(path=None) -> Figure:
     """Chapter 8: a rigid disc (a tool tip) pressed into the top edge of a block, at two depths.
 
     A 2 x 1 block (stable neo-Hookean, E = 1000, nu = 0.3, quasistatic) is
     held on its bottom edge; a disc of radius 0.25 is moved down into its
-    top edge, one frame per step of 0.05. The contact is a penalty: every
-    node inside the disc is pushed out along the normal with the force
-    ``k m_a (R - d_a) n_a`` (arrows, scaled), so the tissue stays out to a
-    small penetration. Right: the force the tissue exerts on the tool
+    top edge, one frame per step of 0.05. The contact is a penalty on the
+    surface: every boundary node inside the disc is pushed out along the
+    normal with the force ``k l_a h'(R - d_a) n_a`` (arrows, scaled; ``l_a`` its
+    share of the boundary's length, see :class:`~tissuefem.engine.terms.Probe`),
+    so the tissue stays out to a small penetration. Right: the force the tissue exerts on the tool
     against the depth, and the penetration left.
     """
     run = probe_run()
