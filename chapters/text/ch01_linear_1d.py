@@ -23,6 +23,8 @@
 # 4. impose displacement (Dirichlet) and traction ends, and check the result against closed forms;
 # 5. measure how the error falls as the mesh is refined, and read off the convergence rates.
 #
+# *Time: about 15 min to read and run, and two exercises.*
+#
 # *Reading:* Teran's notes, sections "Equilibrium and weak form" and "1D elasticity".
 
 # %%

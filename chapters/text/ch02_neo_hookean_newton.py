@@ -23,6 +23,8 @@
 # 4. Use load stepping for large loads.
 # 5. Understand what happens under strong compression: the logarithm of a non-positive $J$.
 #
+# *Time: about 25 min to read and run, and three exercises.*
+#
 # *Reading:* the notes' "1D elasticity" (second half) and "Inversion".
 
 # %%

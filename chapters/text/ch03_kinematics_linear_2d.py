@@ -26,6 +26,8 @@
 # 5. show numerically why linear elasticity only holds for small deformations: a rigid rotation
 #    costs it energy and stress, and a block turned at one edge grows.
 #
+# *Time: about 40 min to read and run, and three exercises.*
+#
 # *Reading:* the notes' "Kinematics" and the first half of "Elasticity and constitutive modeling".
 
 # %%

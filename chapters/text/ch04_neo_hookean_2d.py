@@ -25,18 +25,21 @@
 # 4. Measure how the error falls as the mesh is refined, P1 against P2 — and what each costs in
 #    time against the 33 ms of a frame. This is the workbook's first data on *what accuracy costs*.
 #
+# *Time: about 40 min to read and run, and five exercises.*
+#
 # *Reading:* the notes' "Elasticity and constitutive modeling" (Neo-Hookean part) and
 # "Equilibrium and weak form".
 
 # %%
 # %matplotlib inline
 import numpy as np
+from IPython.display import Markdown, display
 from skfem import asm
 
 from tissuefem import (Handle, LinearElastic, Model, NeoHookean, P1Assembler, rectangle, residual_form, solve,
                        tangent_form)
 from tissuefem.workbook.figures.kinematics import fig_ch04_block, fig_ch04_cost_accuracy
-from tissuefem.workbook.studies import cost_accuracy_study, format_cost_accuracy, handle_force
+from tissuefem.workbook.studies import cost_accuracy_markdown, cost_accuracy_study, handle_force
 
 material = NeoHookean.from_young(1000.0, 0.3)        # E = 1000, nu = 0.3: the notes' typical values
 lam, mu = material.lam, material.mu
@@ -234,7 +237,7 @@ for steps in (1, 2, 4, 8):
 
 # %%
 rows = cost_accuracy_study(p1_sizes=(2, 4, 8, 16), p2_sizes=(1, 2, 4, 8), reference_size=32, repeats=5)
-print(format_cost_accuracy(rows))
+display(Markdown(cost_accuracy_markdown(rows)))
 
 # %%
 fig_ch04_cost_accuracy(rows=rows)

@@ -26,6 +26,8 @@
 # 4. show that for small strains the fiber adds its modulus $k$ to one elastic constant only, $C_{ffff}$;
 # 5. measure it: pull a block along and across its fibers, and pull a muscle by its tendons.
 #
+# *Time: about 40 min to read and run, and four exercises.*
+#
 # *Reading:* the notes' "Continuum mechanics and elasticity", the paragraph after the Neo-Hookean
 # model, and the notes' Figure 3.
 #

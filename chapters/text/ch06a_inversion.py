@@ -25,7 +25,7 @@
 # 4. extend an energy below a compression threshold (the ITF construction) and say why $\mathbf F = 0$ is a
 #    resting point for some models and not for others.
 #
-# *Time: about 40 min to read and run, and three exercises.* Chapter 6 comes in two sittings: this one
+# *Time: about 45 min to read and run, and three exercises.* Chapter 6 comes in two sittings: this one
 # builds the models, chapter 6b solves with them (a descent direction near inversion, the notes' Figure 6
 # as an experiment, and the hard cases).
 #

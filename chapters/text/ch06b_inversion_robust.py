@@ -24,7 +24,7 @@
 #    the models do promise;
 # 4. release a body from violent states and read which models recover.
 #
-# *Time: about 40 min to read and run.* The second sitting of chapter 6: it uses the four models, the
+# *Time: about 45 min to read and run.* The second sitting of chapter 6: it uses the four models, the
 # rotation-preserving SVD and the cover counts of chapter 6a.
 #
 # *Reading:* the notes' "Inversion" section (Figure 6). Behind it: Irving, Teran and Fedkiw, *Invertible

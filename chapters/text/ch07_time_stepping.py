@@ -31,7 +31,7 @@
 # it: Sifakis and Barbič, *FEM simulation of 3D deformable solids* (SIGGRAPH 2012 course); Kim and Eberle,
 # *Dynamic deformables* (SIGGRAPH 2020 course), for the incremental potential and the energy line search.
 #
-# *Time: about 45 min to read and run, and two exercises.*
+# *Time: about 50 min to read and run, and two exercises.*
 #
 # **Index convention.** As everywhere (chapter 3): $F_{ij} = \partial\phi_i/\partial X_j$, formulas count from
 # 1 and code from 0; dof vectors in scikit-fem's order (node $a$ has dofs $2a$, $2a+1$).

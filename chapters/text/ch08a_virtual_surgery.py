@@ -23,7 +23,7 @@
 #    drag the tissue, press a tool into it, cut it (node duplication along mesh edges) and cut a piece off;
 # 3. say why a contact penalty must act on the surface, and what its stiffness buys and costs.
 #
-# *Time: about 45 min to read and run, and two exercises.* Chapter 8 comes in two sittings; chapter 8b
+# *Time: about 50 min to read and run, and two exercises.* Chapter 8 comes in two sittings; chapter 8b
 # stitches, runs a whole procedure (a local flap), measures what each effect costs and hands the tissue to
 # the mouse.
 #

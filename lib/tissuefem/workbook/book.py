@@ -191,11 +191,12 @@ def stated_minutes(nb) -> int | None:
     return int(m.group(1)) if m else None
 
 
-def chapter_exercises(nb) -> list[str]:
-    """The exercises a chapter lists in its "Exercises" section (``**6.1**``, ...), in order."""
+def chapter_exercises(nb) -> list[str] | None:
+    """The exercises a chapter lists in its "Exercises" section (``**6.1**``, ...), in order; ``None`` when it
+    has no such section (the syllabus then counts the stubs of its exercise file)."""
     text = "\n\n".join(c.source for c in nb.cells if c.cell_type == "markdown")
     m = re.search(r"^## Exercises.*?(?=^## |\Z)", text, re.S | re.M)
-    return re.findall(r"\*\*(\d+\.\d+)\*\*", m.group(0)) if m else []
+    return re.findall(r"\*\*(\d+\.\d+)\*\*", m.group(0)) if m else None
 
 
 def count_exercises(exercise_file: Path) -> int:
@@ -395,7 +396,8 @@ def build_book(chapters_dir, executed_dir, outdir, readme=None, exercises_dir=No
                                 title=chapter_title(nb, source.stem), goals=chapter_goals(nb),
                                 minutes=stated_minutes(nb) or estimate_minutes(nb),
                                 # a chapter split into parts shares one exercise file: count what each part lists
-                                exercises=len(listed) if listed else count_exercises(exercises_dir / f"ch{number}.py"),
+                                exercises=len(listed) if listed is not None else
+                                count_exercises(exercises_dir / f"ch{number}.py"),
                                 label=chapter_label(source)))
 
     if outdir.exists():

@@ -98,6 +98,7 @@ __all__ = [
     "solver_scaling",
     "budget_residual",
     "capped_newton_experiment",
+    "time_convergence",
     "accuracy_study",
     "write_results",
     "read_results",
@@ -650,6 +651,28 @@ def budget_residual(sizes, frames: int, solvers=("reuse",), budget: float = FRAM
                 progress(f"  budget {solver:8s} {r['triangles']:6d} triangles  converged {r['converged_share']:.0%}  "
                          f"median residual {r['residual_median']:.1e}  state error {r['state_error']:.1e}")
     return rows
+
+
+def time_convergence(drag: str = "jump", triangles: int = 500, substeps=(1, 2, 4, 8, 16), frames: int = 5) -> dict:
+    """How fast backward Euler converges in time on the flap, with the standard drag or the eased one.
+
+    The flap (P1, ``triangles``, Newton to ``1e-10``) is run with each number of ``substeps`` per
+    displayed frame; ``distances[k]`` is the largest relative ``L2`` distance, over every fifth frame,
+    between the runs with ``substeps[k]`` and ``substeps[k + 1]``, and ``ratios`` the factor by which
+    each distance is smaller than the one before: 0.5 for first-order convergence. ``drag`` is
+    ``"jump"`` (:func:`~tissuefem.surgery.scene.flap_path`, which starts with the edge already moving)
+    or ``"eased"`` (:func:`eased_flap_path`).
+    """
+    if drag not in ("jump", "eased"):
+        raise ValueError(f"drag must be 'jump' or 'eased', got {drag!r}")
+    path = flap_path if drag == "jump" else eased_flap_path
+    checkpoints = _checkpoints("flap", frames, 5)
+    runs = [run_setting("flap", Setting(triangles=triangles, rtol=1e-10, substeps=int(s)), frames, checkpoints,
+                        drag=path) for s in substeps]
+    M = _l2_gram(runs[0][0])
+    distances = [max(_relative_same_mesh(M, a[1][f], b[1][f]) for f in checkpoints) for a, b in zip(runs, runs[1:])]
+    return {"drag": drag, "substeps": [int(s) for s in substeps], "distances": distances,
+            "ratios": [b / a for a, b in zip(distances, distances[1:])]}
 
 
 def capped_newton_experiment(triangles: int = 500, frames: int = 5, drag: str = "jump",

@@ -292,23 +292,24 @@ def _piece_colors(free_elements, alpha=0.75):
     return colors
 
 
-def write_two_pieces_animation(gif_path, run, dpi=80) -> Path:
-    """Every frame of the run as a GIF at 30 frames per second (``matplotlib.animation`` with Pillow)."""
+def write_two_pieces_animation(gif_path, run, dpi=120) -> Path:
+    """Every frame of the run as a GIF at 30 frames per second (``matplotlib.animation`` with Pillow):
+    648 x 864 pixels, large enough to project (:data:`~tissuefem.workbook.figures.base.ANIMATION_MIN_WIDTH`)."""
     gif_path = Path(gif_path)
     gif_path.parent.mkdir(parents=True, exist_ok=True)
     frames, times, cut = run["frames"], run["times"], run["cut_frame"]
     xlim, ylim = _two_pieces_limits(frames)
-    fig = Figure(figsize=(3.0, 4.0))
+    fig = Figure(figsize=(5.4, 7.2))
     ax = fig.add_axes([0.02, 0.02, 0.96, 0.86])  # fixed axes: every frame has the same layout
     _frame_axes(ax, xlim, ylim)
-    ax.plot([0.0, 0.0], [0.0, 1.0], color="k", lw=2.5)
+    ax.plot([0.0, 0.0], [0.0, 1.0], color="k", lw=4)
     verts = lambda k: frames[k][0][:, frames[k][1]].transpose(2, 1, 0)  # noqa: E731
     # no anti-aliasing: few colours per frame keep the GIF small (its palette has at most 256)
     # (and no mesh edges: at this size they would cover the colours)
     body = PolyCollection(verts(0), facecolors=_piece_colors(frames[0][2], 1.0), edgecolors="face", linewidths=0.5,
                           antialiaseds=False)
     ax.add_collection(body)
-    title = fig.text(0.5, 0.94, "", ha="center", va="center", fontsize=7.5)
+    title = fig.text(0.5, 0.94, "", ha="center", va="center", fontsize=13)
 
     def update(k):
         body.set_verts(verts(k))
