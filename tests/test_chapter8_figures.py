@@ -29,7 +29,7 @@ def test_chapter_8_figure_is_deterministic(name, tmp_path):
         with Image.open(gifs[0]) as im:
             assert im.n_frames == SAG_FRAMES + FALL_FRAMES + 1
             assert im.size[0] >= ANIMATION_MIN_WIDTH  # large enough to project
-        assert len(data) < 300_000
+        assert len(data) < 500_000  # projectable size, still small for the repository
 
 
 def test_without_a_path_nothing_is_written(tmp_path, monkeypatch):

@@ -210,6 +210,6 @@ def test_chapter_7_figures_are_deterministic(name, tmp_path):
         with Image.open(gifs[0]) as im:
             assert im.n_frames == ANIMATION_FRAMES
             assert im.size[0] >= ANIMATION_MIN_WIDTH  # large enough to project
-        assert len(data) < 300_000
+        assert len(data) < 500_000  # projectable size, still small for the repository
         # without a path nothing is written
         assert figures.FIGURES[name]() is not None

@@ -74,7 +74,7 @@ def plot_pareto(results, path=None, annotate=True) -> Figure:
     fig = Figure(figsize=(6.2 * len(benchmarks) + 2.6, 5.0), layout="constrained")
     axes = np.atleast_1d(fig.subplots(1, len(benchmarks)))
     budget = results.get("frame_budget_ms", 1e3 / 30)
-    titles = {"flap": "Flap scene: backward Euler, dt = 1/30, dragged handle",
+    titles = {"flap": "Flap scene: backward Euler, dt = 1/30, the drag eased in",
               "block": "Quasistatic block: stretched and sheared in frames"}
     for ax, b in zip(axes, benchmarks):
         sel = [r for r in rows if r["benchmark"] == b and _finite(r)]

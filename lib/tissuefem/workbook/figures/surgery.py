@@ -388,7 +388,7 @@ def probe_run(n_triangles=1200, radius=PROBE_RADIUS, depths=PROBE_DEPTHS, x_prob
     """A block held on its bottom edge, a disc pressed into its top edge ever deeper (one frame per depth).
 
     For each depth: positions, tension, the nodal contact forces (the
-    penalty's ``k m_a (R - d_a) n_a``), the total force on the tissue and
+    penalty's ``k l_a h'(R - d_a) n_a`` on the surface nodes), the total force on the tissue and
     the deepest penetration left.
     """
     sim = _simulation(sheet_scene(n_triangles, handles=[{"name": "base", "region": "bottom"}]))
@@ -473,8 +473,9 @@ def fig_ch08_probe(path=None) -> Figure:
     lines = ax.get_legend_handles_labels()
     lines2 = ax2.get_legend_handles_labels()
     ax.legend(lines[0] + lines2[0], lines[1] + lines2[1], fontsize=7.5, loc="upper left")
-    fig.suptitle(f"Chapter 8: a probe pressed into the tissue, penalty $E = \\sum_a k\\, m_a (R - d_a)^2 / 2$ "
-                 f"(R = {R:g}, k = {states[0]['stiffness']:.2g}; block held on its bottom edge)", fontsize=10)
+    fig.suptitle(f"Chapter 8: a probe pressed into the tissue, a surface penalty $E = \\sum_a k\\, l_a\\, h(R - d_a)$, "
+                 f"$h(g) \\approx g^2/2$ (R = {R:g}, k = {states[0]['stiffness']:.2g}; block held on its bottom edge)",
+                 fontsize=10)
     save(fig, path)
     return fig
 
