@@ -4,7 +4,7 @@ Each material's stress must be the derivative of its energy and its tangent the
 derivative of its stress, checked by central differences at rest, stretched,
 sheared, at random states, and through inversion where the model allows it.
 Each term of a model (elastic with every material, P1 and P2, fibres, inertia,
-loads, probe, sutures) and the whole model must have the gradient of its energy
+loads, probe, sutures, contact) and the whole model must have the gradient of its energy
 and the Hessian of its gradient, checked along random directions. A new material
 or term is added to the table, not given its own copy of these checks.
 """
@@ -15,9 +15,13 @@ import numpy as np
 import pytest
 
 from tissuefem import (Corotated, FiberReinforced, Handle, ITFClamped, LinearElastic, Model, NeoHookean, ProjectedTangent,
-                       StableNeoHookean, TaylorNeoHookean, rectangle)
+                       StableNeoHookean, Stepper, TaylorNeoHookean, rectangle)
 from tissuefem.engine.materials import det2
+from tissuefem.engine.meshes import mean_edge_length
 from tissuefem.engine.terms import Elastic, Fibers, Inertia, Load, Probe, Sutures
+from tissuefem.surgery.element_cuts import cut_through
+from tissuefem.surgery.surfaces import contact_surface
+from tissuefem.surgery.topology import incise
 
 LAM, MU = 1.7, 0.6
 NEL, NQP = 30, 3  # random F fields are shaped [2, 2, NEL, NQP], like scikit-fem's
@@ -169,6 +173,12 @@ def _model(terms="elastic", material=None, order=1):
         "sutures": dict(sutures={"pairs": pairs, "stiffness": 40.0, "gaps": X[:, pairs[0]] - X[:, pairs[1]],
                                  "tightness": 0.3}),
         "probe": dict(probes=[dict(center=[0.52, 1.22], radius=0.3, stiffness=1e3)]),  # pressed into the top
+        # stitches whose ends lie inside elements (on a wound cut through them): barycentric weights
+        "sutures-embedded": dict(sutures={"pairs": np.stack([mesh.t[:, [2, 30]], mesh.t[:, [9, 17]]]),
+                                          "coefficients": np.array([[[0.2, 0.5], [0.3, 0.25], [0.5, 0.25]],
+                                                                    [[0.6, 0.1], [0.1, 0.1], [0.3, 0.8]]]),
+                                          "stiffness": [40.0, 70.0], "gaps": [[0.1, -0.2], [0.05, 0.3]],
+                                          "tightness": 0.4}),
     }
     kw = {}
     for t in terms.split("+"):
@@ -192,7 +202,7 @@ def _state(model, state, seed=5):
     return d[model.component, np.arange(model.n_dofs)]
 
 
-def _check_term(term, u, exact_hessian=True, seed=1):
+def _check_term(term, u, exact_hessian=True, seed=1, h=1e-4):
     rng = _rng(seed)
     data = term.pattern.zeros()
     term.add_hessian(u, data)
@@ -200,7 +210,7 @@ def _check_term(term, u, exact_hessian=True, seed=1):
     g = term.gradient(u)
     for _ in range(3):
         d = 0.01 * rng.normal(size=u.size)
-        h = 1e-4  # the energy's own round-off (its terms cancel at rest) over 2h stays far below the tolerance
+        # h = 1e-4: the energy's own round-off (its terms cancel at rest) over 2h stays far below the tolerance
         fd_g = (term.energy(u + h * d) - term.energy(u - h * d)) / (2 * h)
         # tolerance: relative, plus the size of the second-order term the difference quotient neglects
         assert fd_g == pytest.approx(g @ d, rel=1e-6, abs=1e-6 * (1e-6 + abs(d @ (K @ d)))), term.describe()
@@ -222,6 +232,7 @@ TERMS = {
     "inertia (lumped)": ("inertia-lumped", Inertia, None),
     "loads": ("loads", Load, None),
     "sutures": ("sutures", Sutures, None),
+    "sutures (ends inside elements)": ("sutures-embedded", Sutures, None),
 }
 
 
@@ -253,6 +264,49 @@ def test_the_probe_gradient_and_hessian_are_exact_and_its_safe_hessian_is_the_po
     probe.add_hessian(u, data, safe=True)
     eig = np.linalg.eigvalsh(model.pattern.csr(data).toarray())
     assert eig.min() > -1e-9 * eig.max() and eig.max() > 0  # the safe Hessian: positive semi-definite
+
+
+def _pressed_wound(kind, order=1):
+    """A unit square cut through from its top (along mesh edges, or through elements), with contact, and three
+    states of its lips pressed together and sheared (each with lips in contact, the last with a point pressed
+    into a reflex corner of the other lip for the edge cut)."""
+    mesh = rectangle(1.0, 1.0, 6, 6)
+    h = mean_edge_length(mesh)
+    if kind == "edges":
+        mesh, weights, surface = incise(mesh, [[0.2, 1.1], [0.75, 0.3]]).mesh, None, None
+    else:
+        cut = cut_through(mesh, [[0.33, 1.1], [0.61, 0.25]])
+        mesh, weights, surface = cut.mesh, cut.weights, contact_surface(cut.mesh, cut.weights, cut.regions)
+    model = Model(mesh, StableNeoHookean(100.0, 60.0), weights=weights, order=order,
+                  handles=[Handle("left"), Handle("right", name="push")],
+                  contact=dict(surface=surface, distance=0.1 * h, stiffness=100.0))
+    stepper = Stepper(model, linear_solver="direct")
+    states = []
+    for target in [(-0.03, 0.0), (-0.06, 0.02), (-0.08, -0.03)]:
+        assert stepper.step({"push": target}).converged
+        states.append(stepper.u.copy())
+    return model, states
+
+
+@pytest.mark.parametrize("kind, order", [("edges", 1), ("elements", 1), ("edges", 2)])
+def test_the_contact_gradient_and_hessian_are_exact_and_its_safe_hessian_is_positive(kind, order):
+    model, states = _pressed_wound(kind, order)
+    contact = model.contact
+    kinds = set()
+    for u in states:
+        model.hessian(u)  # the pattern holds the pairs in contact here
+        c = contact._evaluate(u)
+        assert c["p"].size > 0  # lips in contact
+        kinds |= set(c["kind"].tolist())
+        # the barrier changes over d^ (a tenth of an element here): a smaller step keeps the difference
+        # quotient's own error (h^2 times the third derivative) below the tolerance
+        _check_term(contact, u, h=1e-5)
+        data = model.pattern.zeros()
+        contact.add_hessian(u, data, safe=True)
+        eig = np.linalg.eigvalsh(model.pattern.csr(data).toarray())
+        assert eig.min() > -1e-9 * eig.max() and eig.max() > 0
+    # point-segment contacts, and (edges) a point pressed into a corner of the other lip: point-point
+    assert 1 in kinds and (kind == "elements" or order == 2 or kinds & {2, 3})
 
 
 @pytest.mark.parametrize("state", STATES)

@@ -238,8 +238,11 @@ def test_cut_stroke_changes_the_topology_and_the_drawing(view):
     synthetic_mouse(view, "release", stroke[-1])
     assert sim.mesh.p.shape[1] > n_nodes
     assert view.drawn_positions.shape == (2, sim.mesh.p.shape[1])
-    assert view.triangles().shape[0] == sim.mesh.t.shape[1]
-    assert drawn_edges(view).shape[0] == sim.mesh.facets.shape[1]
+    # the cut crosses elements: each copy is drawn as the material it carries (Simulation.picture)
+    picture = sim.picture
+    assert not picture.plain and picture.element.max() == sim.mesh.t.shape[1] - 1
+    assert view.triangles().shape[0] == picture.triangles.shape[1]
+    assert drawn_edges(view).shape[0] == picture.edges.shape[1]
     assert view.stroke is None and len(view.stroke_artist.get_xdata()) == 0
     view.step()  # frames go on with the new topology
     np.testing.assert_allclose(view.drawn_positions, sim.positions())
@@ -253,8 +256,13 @@ def test_a_cut_made_in_code_is_drawn_at_the_next_frame(view):
     assert sim.mesh.p.shape[1] > n_nodes
     view.step()
     assert view.drawn_positions.shape == (2, sim.mesh.p.shape[1])
-    assert view.triangles().shape[0] == sim.mesh.t.shape[1]
-    np.testing.assert_allclose(view.triangles(), sim.positions()[:, sim.mesh.t].transpose(2, 1, 0))
+    picture = sim.picture
+    np.testing.assert_allclose(view.triangles(), picture.points(sim.positions())[:, picture.triangles].transpose(2, 1, 0))
+    # the drawn material covers the tissue once: the drawn area is the material's area (no copy drawn whole)
+    x = picture.points(sim.model.X)
+    a, b, c = (x[:, picture.triangles[k]] for k in range(3))
+    drawn = 0.5 * np.abs((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])).sum()
+    assert drawn == pytest.approx(sim.model.element_areas().sum(), rel=1e-12)
 
 
 def test_stroke_skips_points_closer_than_the_spacing(view):

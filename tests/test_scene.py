@@ -64,6 +64,7 @@ def test_every_effect_round_trips():
         excisions=[{"polygon": [[0.8, 0.4], [1.0, 0.4], [1.0, 0.6], [0.8, 0.6]]}],
         incisions=[{"path": [[1.4, 0.0], [1.4, 0.5]]}],
         sutures=[{"pairs": [[[0.5, 1.0], [0.6, 1.0]]], "stiffness": 1e4, "tightness": 0.5}],
+        contact={"distance": 0.01, "stiffness": 2e3},
     )
     scene = Scene.from_dict(data)
     assert set(scene.effects) == set(EFFECTS)

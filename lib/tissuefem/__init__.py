@@ -32,6 +32,7 @@ so our forms mix with scikit-fem's.
 from .engine.assembly import FormsAssembler, P1Assembler, QuadratureAssembler
 from .engine.bar1d import Bar1D, Displacement, Traction
 from .engine.constants import FRAME_BUDGET, TISSUE_DENSITY, TISSUE_E, TISSUE_NU
+from .engine.contact import Contact, ContactSurface
 from .engine.explicit import SymplecticEuler, critical_time_step, largest_stable_dt, wave_speed
 from .engine.forms import energy_form, residual_form, tangent_form
 from .engine.inversion import ITFClamped, ProjectedTangent, projected_tangent, rotation_preserving_svd
@@ -50,6 +51,7 @@ from .surgery.flaps import advancement_flap
 from .surgery.interactive import SurgeryView
 from .surgery.scene import Scene, demo_scene, flap_path, flap_scene
 from .surgery.simulation import Simulation
+from .surgery.surfaces import contact_surface
 
 __version__ = "0.1.0"
 
@@ -66,10 +68,12 @@ __all__ = [
     "residual_form", "tangent_form", "energy_form", "P1Assembler", "QuadratureAssembler", "FormsAssembler",
     # the model and its terms
     "Model", "Handle", "region_nodes", "Term", "Elastic", "Fibers", "Inertia", "Load", "Probe", "Sutures",
+    "Contact", "ContactSurface",
     # solving and stepping
     "newton", "NewtonResult", "LinearSolver", "Stepper", "StepReport", "solve", "StaticResult", "RealtimeSolver",
     "SymplecticEuler", "critical_time_step", "largest_stable_dt", "wave_speed",
     # surgery
     "Scene", "Simulation", "demo_scene", "flap_scene", "flap_path", "advancement_flap", "SurgeryView",
+    "contact_surface",
     "__version__",
 ]

@@ -3,7 +3,8 @@
 * materials: :mod:`.materials1d`, :mod:`.materials`, :mod:`.inversion`, :mod:`.parameters`, :mod:`.constants`;
 * geometry and discretisation: :mod:`.meshes`, :mod:`.forms` (the readable scikit-fem forms),
   :mod:`.assembly` (the fast P1 path, the vectorised quadrature path for P2, the forms as a reference);
-* the model: :mod:`.terms` (elastic, fibres, inertia, loads, probe, sutures: one interface) and
+* the model: :mod:`.terms` (elastic, fibres, inertia, loads, probe, sutures: one interface),
+  :mod:`.contact` (self-contact of the surface: a term with collision detection) and
   :mod:`.model` (a body and exactly its terms, its handles, one sparsity pattern);
 * solving: :mod:`.minimize` (the one Newton minimiser), :mod:`.linsolve` (backends and the one
   factorization-reuse policy), :mod:`.stepping` (quasistatic and backward-Euler steps, load stepping),

@@ -65,7 +65,7 @@ import scipy.sparse as sp
 from skfem import Basis, ElementTriP1, ElementTriP2, ElementVector, asm
 
 from .forms import energy_form, residual_form, tangent_form
-from .meshes import folded_triangles
+from .meshes import COORDINATE_MAX, SIZE_RANGE, folded_triangles
 
 __all__ = ["P1Assembler", "QuadratureAssembler", "FormsAssembler", "make_assembler", "vector_basis"]
 
@@ -149,9 +149,7 @@ class P1Assembler:
         self.flipped = flipped
         self.areas = 0.5 * det
         if weights is not None:
-            w = np.asarray(weights, dtype=float)
-            if w.shape != (t.shape[1],) or not np.all(np.isfinite(w)) or np.any(w <= 0) or np.any(w > 1):
-                raise ValueError(f"weights must be one number in (0, 1] per element, shape ({t.shape[1]},)")
+            w = _check_weights(weights, t.shape[1])
             # an element that carries only part of its triangle's material (a copy made by cutting
             # through the triangle) integrates over that part: its area shrinks, its gradients do not
             self.areas = self.areas * w
@@ -241,6 +239,21 @@ class P1Assembler:
                 f"mesh has non-finite coordinates at nodes {_list(bad_nodes)}, "
                 f"used by elements {_list(bad_elems)}"
             )
+        # A node in no triangle has neither stiffness nor mass: every Newton matrix would be singular.
+        # (Edges in three triangles and overlapping copies of a triangle are allowed here: cutting through
+        # elements makes them next to a crack tip; only a user's mesh file is refused for them.)
+        used = np.zeros(p.shape[1], dtype=bool)
+        used[t.ravel()] = True
+        if not used.all():
+            raise ValueError(f"mesh: nodes {_list(np.flatnonzero(~used))} belong to no triangle (an unused node has "
+                             "no stiffness and no mass); remove them and renumber")
+        far = np.flatnonzero((np.abs(p) > COORDINATE_MAX).any(axis=0))
+        if far.size:
+            raise ValueError(f"mesh: nodes {_list(far)} lie beyond the coordinate limit +-{COORDINATE_MAX:g}")
+        extent = float(np.ptp(p, axis=1).max())
+        if extent < SIZE_RANGE[0]:
+            raise ValueError(f"mesh: spans only {extent:g} (the largest side of its bounding box must be at least "
+                             f"{SIZE_RANGE[0]:g})")
         x = p[:, t]
         d1 = x[:, 1] - x[:, 0]
         d2 = x[:, 2] - x[:, 0]
@@ -409,6 +422,20 @@ class P1Assembler:
         )
 
 
+def _check_weights(weights, m) -> np.ndarray:
+    """Per-element material fractions: ``m`` real numbers in ``(0, 1]`` (complex or boolean ones are refused)."""
+    try:
+        w = np.asarray(weights)
+    except (TypeError, ValueError):
+        w = np.asarray(None)
+    if w.dtype.kind not in "iuf" or w.shape != (m,):
+        raise ValueError(f"weights must be one real number in (0, 1] per element, shape ({m},), got {weights!r:.80}")
+    w = w.astype(float)
+    if not (np.all(np.isfinite(w)) and np.all(w > 0) and np.all(w <= 1)):
+        raise ValueError(f"weights must be one number in (0, 1] per element, shape ({m},)")
+    return w
+
+
 def _positive(name, value) -> float:
     try:
         v = float(value)
@@ -485,9 +512,7 @@ class QuadratureAssembler:
         self._N = np.array([np.asarray(basis.basis[2 * a][0])[0] for a in range(nloc)])  # (nloc, nel, nq)
         dx = basis.dx  # (nel, nq)
         if weights is not None:
-            w = np.asarray(weights, dtype=float)
-            if w.shape != (self.n_elements,) or not np.all(np.isfinite(w)) or np.any(w <= 0) or np.any(w > 1):
-                raise ValueError(f"weights must be one number in (0, 1] per element, shape ({self.n_elements},)")
+            w = _check_weights(weights, self.n_elements)
             dx = dx * w[:, None]
         self._dx = dx
         self._GW = self._G * self._dx
@@ -616,7 +641,7 @@ def make_assembler(mesh, *, order: int = 1, intorder: int | None = None, assembl
     ``assembly="fast"`` takes :class:`P1Assembler` for P1 and :class:`QuadratureAssembler` for P2;
     ``"forms"`` takes :class:`FormsAssembler` (the readable reference, slow).
     """
-    if assembly not in ("fast", "forms"):
+    if not isinstance(assembly, str) or assembly not in ("fast", "forms"):
         raise ValueError(f"assembly must be 'fast' or 'forms', got {assembly!r}")
     P1Assembler._validate_mesh(mesh)
     basis = vector_basis(mesh, order, intorder)

@@ -473,10 +473,7 @@ _UNIT_TOL = 1e-6
 def _check_Fg(F, g):
     """``F`` shaped ``[2, 2, ...]`` and unit fibres ``g`` ``(2, ...)`` broadcasting against it, both finite."""
     F = _as_F(F)
-    try:
-        g = np.asarray(g, dtype=float)
-    except (TypeError, ValueError):
-        raise ValueError(f"g must be an array of 2D unit vectors, got {g!r}") from None
+    g = _real_array("g (an array of 2D unit vectors)", g)  # complex g is refused, never truncated
     if g.ndim < 1 or g.shape[0] != 2:
         raise ValueError(f"g must be shaped (2, ...), got shape {g.shape}")
     if not (np.all(np.isfinite(F)) and np.all(np.isfinite(g))):

@@ -302,7 +302,7 @@ def _structured_triangles(nx: int, ny: int, diagonal: str) -> np.ndarray:
     cell are listed counter-clockwise; cell (i, j) gives triangles
     ``2 (j nx + i)`` and ``2 (j nx + i) + 1``.
     """
-    if diagonal not in _DIAGONALS:
+    if not isinstance(diagonal, str) or diagonal not in _DIAGONALS:
         raise ValueError(f"diagonal must be one of {_DIAGONALS}, got {diagonal!r}")
     i, j = np.meshgrid(np.arange(nx), np.arange(ny), indexing="xy")
     i, j = i.ravel(), j.ravel()  # cell order: row by row
@@ -348,7 +348,7 @@ def rectangle(width=1.0, height=1.0, nx=10, ny=10, diagonal="alternate") -> Mesh
     nx = _positive_count("nx", nx, MAX_TRIANGLES // 2)
     ny = _positive_count("ny", ny, MAX_TRIANGLES // 2)
     _check_grid(nx, ny)
-    if diagonal not in _DIAGONALS:
+    if not isinstance(diagonal, str) or diagonal not in _DIAGONALS:
         raise ValueError(f"diagonal must be one of {_DIAGONALS}, got {diagonal!r}")
     xs = np.linspace(0.0, width, nx + 1)
     ys = np.linspace(0.0, height, ny + 1)
@@ -481,7 +481,7 @@ def fusiform_muscle(length=4.0, max_width=1.0, tendon_width=0.25, nx=40, ny=8, d
     nx = _positive_count("nx", nx, MAX_TRIANGLES // 2)
     ny = _positive_count("ny", ny, MAX_TRIANGLES // 2)
     _check_grid(nx, ny)
-    if diagonal not in _DIAGONALS:
+    if not isinstance(diagonal, str) or diagonal not in _DIAGONALS:
         raise ValueError(f"diagonal must be one of {_DIAGONALS}, got {diagonal!r}")
     xi = np.linspace(0.0, length, nx + 1)
     eta = np.linspace(-0.5, 0.5, ny + 1)
@@ -515,9 +515,17 @@ def fusiform_fiber_direction(points, length=4.0, max_width=1.0, tendon_width=0.2
     left tendon (as in :func:`fusiform_muscle`).
     """
     length, max_width, tendon_width = _check_fusiform(length, max_width, tendon_width)
-    pts = np.asarray(points, dtype=float)
+    try:
+        pts = np.asarray(points)
+    except (TypeError, ValueError):  # ragged lists
+        raise ValueError(f"points must be real coordinates shaped (2, ...), got {points!r}") from None
+    if pts.dtype.kind not in "iuf":  # complex points would lose their imaginary part
+        raise ValueError(f"points must be real coordinates shaped (2, ...), got dtype {pts.dtype}")
+    pts = pts.astype(float)
     if pts.ndim < 1 or pts.shape[0] != 2:
         raise ValueError(f"points must be shaped (2, ...), got shape {pts.shape}")
+    if not np.all(np.abs(pts) <= COORDINATE_MAX):
+        raise ValueError(f"points must be finite and within the coordinate limit +-{COORDINATE_MAX:g}")
     w, dw = fusiform_width(pts[0], length, max_width, tendon_width)
     eta = pts[1] / w
     a = np.stack([np.ones_like(eta), eta * dw])

@@ -21,6 +21,12 @@ the safeguards below make every step safe:
   the linear solver refactorizes, then the tangent is shifted by ``tau I``
   with growing ``tau``, and as a last resort the step is steepest descent.
 * **step cap** ``max_step``: no dof moves by more than this per iteration.
+* **admissible steps** ``step_limit``: a callable ``(x, dx) -> fraction`` that
+  says how much of a step may be taken at all (self-contact: the fraction
+  before any surface would pass through another, see
+  :mod:`tissuefem.engine.contact`). The direction is shortened to it before the
+  line search, so no trial point, and no accepted iterate, lies beyond it. A
+  model without such a term passes ``None`` and nothing is called.
 * **time budget**: with a ``clock`` and a ``budget`` (seconds), no new
   tangent assembly or linear solve starts once the budget is spent; the first
   iteration always runs. The clock is any callable returning seconds, so
@@ -39,6 +45,7 @@ A numerical failure never escapes as an exception or a NaN state: it is a
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass, field
 from typing import Callable
 
@@ -46,11 +53,13 @@ import numpy as np
 import scipy.sparse as sp
 
 from .linsolve import LinearSolver, SuperLU
+from .materials import _real_array
+from .parameters import check_count, check_real
 
 __all__ = ["newton", "NewtonResult", "NewtonIteration", "STATUSES"]
 
 #: Why a solve stopped.
-STATUSES = ("converged", "budget", "max-iterations", "line-search-failed", "non-finite", "singular")
+STATUSES = ("converged", "budget", "max-iterations", "line-search-failed", "non-finite", "singular", "blocked")
 
 #: Armijo's sufficient-decrease constant.
 _ARMIJO = 1e-4
@@ -126,11 +135,19 @@ class NewtonResult:
 def _free_mask(n, free) -> np.ndarray:
     if free is None:
         return np.ones(n, dtype=bool)
-    free = np.asarray(free)
+    try:
+        free = np.asarray(free)
+    except (TypeError, ValueError):  # ragged lists
+        raise ValueError(f"free must be a boolean mask of shape ({n},) or dof indices, got {free!r:.100}") from None
     if free.dtype == bool:
         if free.shape != (n,):
             raise ValueError(f"free must be a boolean mask of shape ({n},) or dof indices, got shape {free.shape}")
         return free.copy()
+    if free.ndim != 1 or not (free.size == 0 or free.dtype.kind in "iu"):
+        raise ValueError(f"free must be a boolean mask of shape ({n},) or integer dof indices, got dtype {free.dtype} "
+                         f"and shape {free.shape}")
+    if free.size and (free.min() < 0 or free.max() >= n):
+        raise ValueError(f"free: dof indices must be in 0..{n - 1}")
     mask = np.zeros(n, dtype=bool)
     mask[free.astype(np.intp)] = True
     return mask
@@ -180,6 +197,7 @@ def newton(
     energy0: float | None = None,
     energy_floor: float = 0.0,
     max_halvings: int = 30,
+    step_limit: Callable[[np.ndarray, np.ndarray], float] | None = None,
 ) -> NewtonResult:
     """Minimise ``energy`` (or find a zero of ``gradient``) over the ``free`` dofs by Newton's method.
 
@@ -214,23 +232,43 @@ def newton(
     energy_floor
         The energy's round-off level (absolute): energy changes below it are not trusted, and a step
         that changes the energy by less but lowers the residual is accepted.
+    step_limit : callable, optional
+        ``step_limit(x, dx)``: the largest fraction in ``[0, 1]`` of the step ``dx`` from ``x`` that may be
+        taken (contact's collision detection). A step it allows none of ends the solve with the status
+        ``"blocked"`` (the last iterate is kept).
     """
-    x = np.array(x0, dtype=float, copy=True)
+    x = np.array(_real_array("x0", x0), dtype=float, copy=True)  # complex, strings, objects: refused by name
     if x.ndim != 1:
         raise ValueError(f"x0 must be a 1D array, got shape {np.shape(x0)}")
     if not np.all(np.isfinite(x)):
         raise ValueError("x0 contains non-finite values")
-    if line_search not in (None, "finite", "energy"):
+    for name, f in (("gradient", gradient), ("hessian", hessian), ("energy", energy), ("clock", clock),
+                    ("safe_hessian", safe_hessian)):
+        if not (callable(f) or (f is None and name in ("energy", "clock", "safe_hessian"))):
+            raise ValueError(f"{name} must be a callable, got {f!r}")
+    if line_search is not None and (not isinstance(line_search, str) or line_search not in ("finite", "energy")):
         raise ValueError(f"line_search must be None, 'finite' or 'energy', got {line_search!r}")
     if line_search == "energy" and energy is None:
         raise ValueError("line_search='energy' needs the energy callable")
-    if max_step is not None and not (np.isfinite(max_step) and max_step > 0):
-        raise ValueError(f"max_step must be finite and > 0, got {max_step!r}")
-    for name, value in (("rtol", rtol), ("atol", atol), ("floor", floor), ("reference_norm", reference_norm)):
-        if not (np.isfinite(value) and value >= 0):
-            raise ValueError(f"{name} must be finite and >= 0, got {value!r}")
-    if isinstance(max_iterations, bool) or not isinstance(max_iterations, (int, np.integer)) or max_iterations < 0:
-        raise ValueError(f"max_iterations must be an integer >= 0, got {max_iterations!r}")
+    if max_step is not None:
+        max_step = check_real("max_step", max_step, 0.0, None, lo_open=True)
+    for name, value in (("rtol", rtol), ("atol", atol), ("floor", floor), ("reference_norm", reference_norm),
+                        ("energy_floor", energy_floor)):
+        check_real(name, value, 0.0, None)
+    max_iterations = check_count("max_iterations", max_iterations, 0)
+    max_halvings = check_count("max_halvings", max_halvings, 0, 1074)  # 2^-1074: the smallest double
+    if not (isinstance(budget, (float, np.floating)) and budget == math.inf):
+        budget = check_real("budget", budget, 0.0, None, lo_open=True)
+    for name, value in (("start", start), ("energy0", energy0)):
+        if value is not None:
+            if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+                raise ValueError(f"{name} must be a real number or None, got {value!r:.100}")
+            try:
+                float(value)
+            except OverflowError:  # an integer with hundreds of digits
+                raise ValueError(f"{name} is out of range (too large for a float)") from None
+    if linear is not None and not all(callable(getattr(linear, m, None)) for m in ("matrix", "solve")):
+        raise ValueError(f"linear must be a LinearSolver (with matrix and solve methods) or None, got {linear!r}")
     n = x.size
     mask = _free_mask(n, free)
     linear = LinearSolver("direct") if linear is None else linear
@@ -298,6 +336,13 @@ def newton(
                 dx_free = dx_free * (max_step / biggest)
         dx = np.zeros(n)
         dx[mask] = dx_free
+        if step_limit is not None:
+            fraction = float(step_limit(x, dx))
+            if not fraction > 0.0:
+                return result("blocked", k)
+            if fraction < 1.0:
+                dx *= fraction
+                dx_free = dx[mask]
 
         # the line search
         slope = -float(rhs @ dx_free)  # dE/dalpha at alpha = 0

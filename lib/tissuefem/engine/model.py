@@ -3,7 +3,7 @@
 A :class:`Model` is a mesh with a displacement basis (P1 or P2), a material,
 and a list of terms (:mod:`tissuefem.engine.terms`). Its potential is their sum,
 
-    E(u) = W(u) [+ fibres] [+ probe] [+ sutures] [- f . u] [+ 1/(2 dt^2) |u - u~|_M^2],
+    E(u) = W(u) [+ fibres] [+ probe] [+ sutures] [+ contact] [- f . u] [+ 1/(2 dt^2) |u - u~|_M^2],
 
 with nothing evaluated -- or even built -- for an effect it was not given: a
 model without ``dt`` has no inertia term and no mass matrix; without fibres no
@@ -21,7 +21,14 @@ nothing. Regions become mesh nodes through one function, :func:`region_nodes`.
 The Hessian of every term goes into one fixed sparsity pattern
 (:class:`Pattern`): the assembler's, widened where a term couples dofs that the
 mesh does not (sutures). Newton's matrices then share their index arrays,
-which lets the linear solver condense them by a precomputed gather.
+which lets the linear solver condense them by a precomputed gather. A term whose
+couplings change with the state (self-contact, :mod:`tissuefem.engine.contact`)
+says when the pattern no longer holds them (``covers``); :meth:`Model.hessian`
+then rebuilds the pattern before it assembles (the linear solver sees new index
+arrays and condenses afresh; a kept factorization stays a valid preconditioner).
+Such a term may also limit how far a step may go (``max_step``: no surface passes
+through another) and note where a step starts (``begin_step``); the model offers
+these hooks to the stepper and the minimiser only when a term has them.
 """
 
 from __future__ import annotations
@@ -31,8 +38,11 @@ import scipy.sparse as sp
 
 from .assembly import make_assembler
 from .constants import TISSUE_DENSITY
-from .terms import (Elastic, ElementTerm, Fibers, Inertia, Load, Probe, Sutures, Term, _SummedDensity,
-                    _SafeView, check_positive, check_vector, traction_vector)
+from .contact import Contact, ContactSurface
+from .parameters import (ACCELERATION_MAX, FORCE_MAX, REACH, check_bounded_vector, check_count, check_density,
+                         check_real)
+from .terms import (Elastic, ElementTerm, Fibers, Inertia, Load, Probe, Sutures, Term, _extent, _SafeView,
+                    _SummedDensity, check_vector, traction_vector)
 
 __all__ = ["Model", "Handle", "Pattern", "region_nodes"]
 
@@ -57,19 +67,32 @@ def region_nodes(mesh, region, field: str = "region") -> np.ndarray:
         nodes = np.unique(mesh.facets[:, mesh.boundaries[region]])
     elif callable(region):
         try:
-            mask = np.asarray(region(p), dtype=bool)
+            mask = np.asarray(region(p.copy()))  # a copy: a mask that writes into its argument changes nothing
         except Exception as err:  # a user's callable may raise anything: refuse it by name
             raise ValueError(f"{field}: the mask raised {type(err).__name__}: {err}") from None
+        if mask.dtype.kind not in "biu":  # bools (or 0/1 integers), never floats, strings or objects cast to bool
+            raise ValueError(f"{field}: the mask must return bools, got dtype {mask.dtype}")
         if mask.shape != (n,):
             raise ValueError(f"{field}: the mask must return one bool per node, shape ({n},), got {mask.shape}")
         nodes = np.flatnonzero(mask)
     elif isinstance(region, dict) and "box" in region:
-        x0, y0, x1, y1 = region["box"]
+        box = region["box"]
+        try:
+            ok = not isinstance(box, (str, bytes, dict)) and len(box) == 4
+        except TypeError:
+            ok = False
+        if not ok:
+            raise ValueError(f"{field}.box must be [x0, y0, x1, y1], got {box!r}")
+        x0, y0, x1, y1 = (check_real(f"{field}.box[{i}]", b) for i, b in enumerate(box))
         tol = 1e-9 * max(1.0, float(np.ptp(p)))
         nodes = np.flatnonzero((p[0] >= x0 - tol) & (p[0] <= x1 + tol) & (p[1] >= y0 - tol) & (p[1] <= y1 + tol))
     elif isinstance(region, dict) and "near" in region:
-        d = np.hypot(p[0] - region["near"][0], p[1] - region["near"][1])
-        nodes = np.flatnonzero(d <= region["radius"] * (1 + 1e-9))
+        if "radius" not in region:
+            raise ValueError(f"{field}: a disc {{'near': [x, y], 'radius': r}} needs its radius")
+        centre = check_bounded_vector(f"{field}.near", region["near"], np.inf)
+        radius = check_real(f"{field}.radius", region["radius"], 0.0, None)
+        d = np.hypot(p[0] - centre[0], p[1] - centre[1])
+        nodes = np.flatnonzero(d <= radius * (1 + 1e-9))
     else:
         raw = region["nodes"] if isinstance(region, dict) and "nodes" in region else region
         nodes = np.asarray(raw)
@@ -88,27 +111,49 @@ def region_nodes(mesh, region, field: str = "region") -> np.ndarray:
 
 # ------------------------------------------------------------------------------------------------ handles
 
-def _check_target(target, points=None, field="target"):
-    """A checked target: a finite translation ``(2,)`` or a map whose values at ``points`` are finite."""
+def _map_positions(target, points, field) -> np.ndarray:
+    """``target(points)``, the positions a map sends ``points`` to, checked: whatever the user's callable raises or
+    returns that is not a finite real array shaped like ``points`` is a ``ValueError`` naming ``field``."""
+    try:
+        # a copy: a map that writes into its argument cannot change the handle's reference points
+        x = np.asarray(target(points.copy()))
+    except Exception as err:  # anything a user's map raises is a refusal, not a crash
+        raise ValueError(f"{field}: the map raised {type(err).__name__}: {err}") from None
+    if x.dtype.kind not in "iuf":  # complex positions would lose their imaginary part
+        raise ValueError(f"{field}: the map must return real positions, got dtype {x.dtype}")
+    if x.shape != points.shape:
+        raise ValueError(f"{field}: the map returned shape {x.shape}, expected {points.shape}")
+    x = x.astype(float)
+    if not np.all(np.isfinite(x)):
+        raise ValueError(f"{field}: the map returned non-finite positions")
+    return x
+
+
+def _check_target(target, points=None, field="target", reach=None):
+    """A checked target: a finite translation ``(2,)`` or a map whose values at ``points`` are finite.
+
+    With ``reach`` (``REACH`` domain sizes, set when a model takes the handle) the displacement a
+    target prescribes may not exceed it in either component.
+    """
     if callable(target):
         if points is not None:
-            try:
-                x = np.asarray(target(points), dtype=float)
-            except Exception as err:  # anything a user's map raises is a refusal, not a crash
-                raise ValueError(f"{field}: the map raised {type(err).__name__}: {err}") from None
-            if x.shape != points.shape:
-                raise ValueError(f"{field}: the map returned shape {x.shape}, expected {points.shape}")
-            if not np.all(np.isfinite(x)):
-                raise ValueError(f"{field}: the map returned non-finite positions")
+            x = _map_positions(target, points, field)
+            if reach is not None and np.any(np.abs(x - points) > reach):
+                raise ValueError(f"{field}: the map moves points by more than {REACH:g} domain sizes ({reach:g})")
         return target
     try:
-        t = np.asarray(target, dtype=float)
+        t = np.asarray(target)
     except (TypeError, ValueError):
         raise ValueError(f"{field} must be a translation (dx, dy) or a callable, got {target!r}") from None
+    if t.dtype.kind not in "iuf":
+        raise ValueError(f"{field} must be a translation (dx, dy) of real numbers or a callable, got {target!r}")
     if t.shape != (2,):
         raise ValueError(f"{field} must be a translation of shape (2,) or a callable, got shape {t.shape}")
+    t = t.astype(float)
     if not np.all(np.isfinite(t)):
         raise ValueError(f"{field} must be finite, got {t}")
+    if reach is not None and np.any(np.abs(t) > reach):
+        raise ValueError(f"{field} = {t.tolist()}: a displacement larger than {REACH:g} domain sizes ({reach:g})")
     return t
 
 
@@ -142,6 +187,8 @@ class Handle:
                 raise ValueError(f"region must be a boundary name, a mask, a box, a disc or node indices, "
                                  f"got {region!r}")
             region = np.unique(arr).astype(np.intp)
+        if name is not None and not isinstance(name, str):
+            raise ValueError(f"name must be a string (or None: the model names the handle), got {name!r}")
         self.region = region
         self.name = name
         self.anchor = None if anchor is None else check_vector("anchor", anchor)
@@ -155,11 +202,12 @@ class Handle:
             self.base = base
         self.nodes = None  # set when a model takes the handle
         self._points = None  # reference positions of its dofs' points (2, n), set by the model
+        self._reach = None  # the largest displacement a target may prescribe, set by the model
         self.target = _check_target(target)
 
     def move(self, target) -> None:
         """Set a new target (a translation or a map): user input enters here, checked; a refusal keeps the old."""
-        self.target = _check_target(target, self._points, f"handle {self.name!r} target")
+        self.target = _check_target(target, self._points, f"handle {self.name!r} target", self._reach)
 
     def positions(self, X) -> np.ndarray:
         """Deformed positions ``x`` of the reference points ``X`` ``(2, n)`` under the target."""
@@ -189,6 +237,7 @@ class Handle:
         h = Handle(new_nodes, base=base, name=self.name, anchor=self.anchor)
         h.target = self.target
         h.nodes = new_nodes  # its region is these nodes: known before any model takes it
+        h._reach = self._reach
         return h
 
     def __repr__(self):
@@ -212,19 +261,34 @@ class Pattern:
         extra = [(np.asarray(r, dtype=np.int64), np.asarray(c, dtype=np.int64)) for r, c in couplings]
         base_rows = np.repeat(np.arange(n, dtype=np.int64), np.diff(assembler.indptr))
         base_keys = base_rows * n + assembler.indices
-        if not extra:
+        new = np.zeros(0, dtype=np.int64)
+        if extra:
+            new = np.unique(np.concatenate([r * n + c for r, c in extra]))
+            if np.any(np.diff(base_keys) <= 0):  # pragma: no cover - the assemblers' patterns are sorted
+                base_keys = np.sort(base_keys)
+            at = np.minimum(np.searchsorted(base_keys, new), base_keys.size - 1)
+            new = new[base_keys[at] != new]  # only the couplings the mesh does not have already
+        if new.size == 0:
             self.indptr, self.indices = assembler.indptr, assembler.indices
             self._keys = base_keys
             self.base_positions = None
         else:
-            keys = np.union1d(base_keys, np.concatenate([r * n + c for r, c in extra]))
+            # merge the few new keys into the sorted base keys (a widening is rebuilt whenever a term's couplings
+            # change, e.g. contact pairs: it must cost a merge, not a sort of everything)
+            inserted = np.searchsorted(base_keys, new)
+            keys = np.insert(base_keys, inserted, new)
             counts = np.bincount(keys // n, minlength=n)
-            self.indptr = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
-            self.indices = (keys % n).astype(np.int64)
+            # the assembler's index type (scipy would copy wider indices into a writable array, and the linear
+            # solver condenses only a read-only pattern by its precomputed gather)
+            index_dtype = np.int32 if max(keys.size, n) < np.iinfo(np.int32).max else np.int64
+            self.indptr = np.concatenate([[0], np.cumsum(counts)]).astype(index_dtype)
+            self.indices = (keys % n).astype(index_dtype)
             self.indptr.setflags(write=False)
             self.indices.setflags(write=False)
             self._keys = keys
-            self.base_positions = np.searchsorted(keys, base_keys)
+            # a base entry moves up by the number of new keys inserted at or before it
+            shift = np.cumsum(np.bincount(inserted, minlength=base_keys.size + 1))[: base_keys.size]
+            self.base_positions = np.arange(base_keys.size) + shift
         self.nnz = self._keys.size
         nodes = np.arange(n_vertices, dtype=np.int64)
         self.node_block = np.empty((2, 2, n_vertices), dtype=np.intp)
@@ -259,6 +323,39 @@ class Pattern:
 
 # ------------------------------------------------------------------------------------------------ the model
 
+def _check_keys(field, spec, required, optional=()) -> None:
+    """``spec`` is a dict with the ``required`` keys and no others than those and ``optional``."""
+    if not isinstance(spec, dict):
+        raise ValueError(f"{field} must be a dict with keys {', '.join(required + optional)}, got {spec!r}")
+    missing = [k for k in required if k not in spec]
+    unknown = [k for k in spec if k not in required + optional]
+    if missing or unknown:
+        raise ValueError(f"{field}: " + "; ".join(
+            ([f"missing {', '.join(map(str, missing))}"] if missing else [])
+            + ([f"unknown keys {unknown!r} (allowed: {', '.join(required + optional)})"] if unknown else [])))
+
+
+def _check_material_at_rest(assembler, material) -> None:
+    """The material answers for the model's own ``F`` at rest with finite arrays of the right shapes, so that a
+    wrong object is refused where it enters rather than in the middle of a step."""
+    F = assembler.deformation_gradient(np.zeros(assembler.n_dofs))
+    rest = F.shape[2:]
+    expected = {"energy": rest, "stress": F.shape, "tangent": (2, 2) + F.shape}
+    for method, shape in expected.items():
+        try:
+            with np.errstate(all="ignore"):
+                value = np.asarray(getattr(material, method)(F))
+        except Exception as err:  # a user's object may raise anything: refuse it by name
+            raise ValueError(f"material: {method}(F) at rest raised {type(err).__name__}: {err}") from None
+        try:
+            fits = np.broadcast_shapes(value.shape, shape) == shape
+        except ValueError:
+            fits = False
+        if value.dtype.kind not in "iuf" or not fits or not np.all(np.isfinite(value)):
+            raise ValueError(f"material: {method}(F) at rest must be finite real values shaped {shape}, got "
+                             f"dtype {value.dtype} shape {value.shape}")
+
+
 def _boundary_lengths(mesh) -> np.ndarray:
     """Each vertex's share of the boundary's length: half of every boundary edge it ends (0 inside)."""
     facets = mesh.facets[:, mesh.boundary_facets()]
@@ -270,16 +367,37 @@ def _boundary_lengths(mesh) -> np.ndarray:
 def _named_tractions(tractions):
     if tractions is None:
         return []
-    items = tractions.items() if isinstance(tractions, dict) else tractions
+    bad = ValueError(f"tractions must be {{boundary: (tx, ty)}} or [(boundary, (tx, ty)), ...], got {tractions!r:.200}")
+    try:
+        items = list(tractions.items() if isinstance(tractions, dict) else tractions)
+    except TypeError:
+        raise bad from None
     out = []
     for item in items:
         try:
             name, t = item
         except (TypeError, ValueError):
-            raise ValueError(f"tractions must be {{boundary: (tx, ty)}} or [(boundary, (tx, ty)), ...], "
-                             f"got {tractions!r}") from None
+            raise bad from None
+        if not isinstance(name, str):
+            raise ValueError(f"tractions: a boundary is named by a string, got {name!r}")
         out.append((name, t))
     return out
+
+
+def _contact_term(X, mesh, spec) -> Contact:
+    """The :class:`~tissuefem.engine.contact.Contact` term of a ``contact`` dict."""
+    if not isinstance(spec, dict):
+        raise ValueError(f"contact must be a dict (distance, stiffness[, surface, skin]), got {spec!r}")
+    unknown = sorted(set(spec) - {"distance", "stiffness", "surface", "skin"})
+    if unknown:
+        raise ValueError(f"contact: unknown key(s) {unknown}; allowed: distance, stiffness, surface, skin")
+    for key in ("distance", "stiffness"):
+        if key not in spec:
+            raise ValueError(f"contact.{key}: missing")
+    surface = spec.get("surface")
+    if surface is None:
+        surface = ContactSurface.from_mesh(mesh)
+    return Contact(X, surface, spec["distance"], spec["stiffness"], spec.get("skin"))
 
 
 class Model:
@@ -315,13 +433,27 @@ class Model:
         Dicts ``center, radius, stiffness[, label]``: :class:`~tissuefem.engine.terms.Probe` terms.
     sutures
         A dict ``pairs, stiffness, gaps[, tightness]``: a :class:`~tissuefem.engine.terms.Sutures` term.
+    contact
+        A dict ``distance, stiffness[, surface, skin]``: a :class:`~tissuefem.engine.contact.Contact` term
+        (self-contact of ``surface``, a :class:`~tissuefem.engine.contact.ContactSurface`; default: the
+        mesh's boundary).
     weights
         Optional per-element material fractions (elements cut through carry part of their triangle).
     """
 
     def __init__(self, mesh, material, *, order: int = 1, intorder: int | None = None, assembly: str = "fast",
                  handles=(), dt=None, density=TISSUE_DENSITY, mass: str = "lumped", gravity=None,
-                 body_force=None, tractions=None, fibers=None, probes=(), sutures=None, weights=None):
+                 body_force=None, tractions=None, fibers=None, probes=(), sutures=None, contact=None, weights=None):
+        order = check_count("order", order, 1, 2)
+        try:
+            handles = list(handles)
+        except TypeError:
+            raise ValueError(f"handles must be a sequence of Handle objects, got {handles!r}") from None
+        try:
+            probes = list(probes)
+        except TypeError:
+            raise ValueError(f"probes must be a sequence of dicts (center, radius, stiffness[, label]), "
+                             f"got {probes!r}") from None
         self.mesh = mesh
         self.order = order
         self.basis, self.assembler = make_assembler(mesh, order=order, intorder=intorder, assembly=assembly,
@@ -331,7 +463,8 @@ class Model:
             raise RuntimeError("unexpected dof numbering of the vector basis")
         self.n_dofs = n
         self.X = np.asarray(mesh.p, dtype=float)
-        self.density = check_positive("density", density)
+        self.middle, self.size = _extent(self.X)  # the domain's centre and size L (what "reach" is measured in)
+        self.density = check_density(density)
         self.material = material
         # which component each dof carries, and where it sits
         self.component = np.empty(n, dtype=np.intp)
@@ -345,6 +478,7 @@ class Model:
         self.boundary_lengths = _boundary_lengths(mesh)
 
         terms: list[Term] = [Elastic(self.assembler, material)]
+        _check_material_at_rest(self.assembler, material)
         if fibers is not None:
             try:
                 stiffness, directions = fibers
@@ -354,17 +488,20 @@ class Model:
         if dt is not None:
             terms.insert(0, Inertia(self.assembler, dt, self.density, mass))
         for i, spec in enumerate(probes):
-            if not isinstance(spec, dict):
-                raise ValueError(f"probes[{i}] must be a dict (center, radius, stiffness[, label]), got {spec!r}")
+            _check_keys(f"probes[{i}]", spec, ("center", "radius", "stiffness"), ("label", "smoothing"))
             terms.append(Probe(self.X, self.boundary_lengths, **spec))
         if sutures is not None:
-            spec = dict(sutures)
-            terms.append(Sutures(self.X, spec["pairs"], spec["stiffness"], spec["gaps"], spec.get("tightness", 0.0)))
+            _check_keys("sutures", sutures, ("pairs", "stiffness", "gaps"), ("tightness", "coefficients"))
+            terms.append(Sutures(self.X, sutures["pairs"], sutures["stiffness"], sutures["gaps"],
+                                 sutures.get("tightness", 0.0), coefficients=sutures.get("coefficients")))
+        if contact is not None:
+            terms.append(_contact_term(self.X, mesh, contact))
         if gravity is not None:
-            g = check_vector("gravity", gravity)
+            g = check_bounded_vector("gravity", gravity, ACCELERATION_MAX)
             terms.append(Load("gravity", self.assembler.body_force(self.density * g)))
         if body_force is not None:
-            terms.append(Load("body force", self.assembler.body_force(check_vector("body_force", body_force))))
+            b = check_bounded_vector("body_force", body_force, FORCE_MAX)
+            terms.append(Load("body force", self.assembler.body_force(b)))
         named = _named_tractions(tractions)
         if named:
             f = np.zeros(n)
@@ -387,15 +524,19 @@ class Model:
         self._other_terms = [t for t in self.terms if not isinstance(t, ElementTerm)]
         densities = [t.density for t in self._element_terms]
         self._density = densities[0] if len(densities) == 1 else _SummedDensity(densities)
+        # the hooks of terms that change the pattern, limit steps or note a step's start (contact): none, no cost
+        self._pattern_terms = [t for t in self._other_terms if callable(getattr(t, "covers", None))]
+        self._limit_terms = [t for t in self._other_terms if callable(getattr(t, "max_step", None))]
+        self._step_terms = [t for t in self._other_terms if callable(getattr(t, "begin_step", None))]
 
     def add_term(self, term: Term) -> None:
-        """Add a term (a probe, sutures ...); the pattern is widened if the term needs it."""
+        """Add a term (a probe, sutures ...); the pattern is widened if the term needs it. All or nothing."""
         if not isinstance(term, Term):
             raise ValueError(f"term must be a Term, got {term!r}")
         self.terms.append(term)
         try:
             self._build()
-        except ValueError:
+        except BaseException:  # whatever went wrong, the model is left as it was
             self.terms.pop()
             self._build()
             raise
@@ -429,6 +570,41 @@ class Model:
     def sutures(self) -> Sutures | None:
         found = self.terms_of(Sutures)
         return found[0] if found else None
+
+    @property
+    def contact(self) -> Contact | None:
+        """The self-contact term, or ``None``."""
+        found = self.terms_of(Contact)
+        return found[0] if found else None
+
+    # ------------------------------------------------------------------ step hooks (terms that have them only)
+    @property
+    def step_limit(self):
+        """``None`` when no term limits steps; else ``limit(u, du)``: the largest fraction of the step ``du``
+        from ``u`` that every term allows (contact: no surface passes through another)."""
+        if not self._limit_terms:
+            return None
+        terms = list(self._limit_terms)
+
+        def limit(u, du):
+            return min(t.max_step(u, du) for t in terms)
+
+        return limit
+
+    @property
+    def notes_steps(self) -> bool:
+        """Whether a term wants to know where each step starts (:meth:`begin_step`; self-contact)."""
+        return bool(self._step_terms)
+
+    def begin_step(self, u, previous=None) -> int:
+        """Tell the terms a step starts at ``u`` (reached from the state ``previous`` by the handles' motion);
+        returns the crossings they found (surface points the handles dragged through the surface, which
+        contact ignores until they are back out)."""
+        return sum(int(t.begin_step(u, previous) or 0) for t in self._step_terms)
+
+    def end_step(self) -> None:
+        for t in self._step_terms:
+            t.end_step()
 
     @property
     def term_names(self) -> list[str]:
@@ -483,6 +659,8 @@ class Model:
         direction.
         """
         u = self._check_u(u)
+        if self._pattern_terms and not all(t.covers(u) for t in self._pattern_terms):
+            self._build()  # a term's couplings changed (contact pairs): a new pattern, the same terms
         data = self.pattern.zeros()
         density = _SafeView(self._density) if safe else self._density
         self.pattern.add_base(data, self.assembler.tangent(u, density).data)
@@ -511,9 +689,9 @@ class Model:
         return u
 
     # ------------------------------------------------------------------ handles
-    def _handle_dofs(self, h: Handle) -> tuple[np.ndarray, np.ndarray]:
-        """The dofs a handle holds and the index of each dof's node in ``h.nodes`` (-1 for P2 edge dofs)."""
-        nodes = h.nodes
+    def _handle_dofs(self, h: Handle, nodes) -> tuple[np.ndarray, np.ndarray]:
+        """The dofs a handle holding ``nodes`` holds and the index of each dof's node in ``nodes`` (-1 for P2 edge
+        dofs)."""
         dofs = [self.basis.nodal_dofs[:, nodes].ravel()]
         owner = [np.tile(np.arange(nodes.size), 2)]
         if self.order == 2:
@@ -522,7 +700,13 @@ class Model:
                 edges = np.asarray(mesh.boundaries[h.region])
             elif callable(h.region):
                 mid = 0.5 * (self.X[:, mesh.facets[0]] + self.X[:, mesh.facets[1]])
-                edges = np.flatnonzero(np.asarray(h.region(mid), dtype=bool))
+                try:
+                    on = np.asarray(h.region(mid))
+                except Exception as err:  # the user's mask, at the edges' midpoints
+                    raise ValueError(f"handle {h.name!r} region: the mask raised {type(err).__name__}: {err}") from None
+                if on.shape != (mid.shape[1],) or on.dtype.kind not in "biu":
+                    raise ValueError(f"handle {h.name!r} region: the mask must return one bool per point")
+                edges = np.flatnonzero(on.astype(bool))
             else:
                 held = np.zeros(mesh.nvertices, dtype=bool)
                 held[nodes] = True
@@ -542,17 +726,20 @@ class Model:
         if handle.base is not None and self.order != 1:
             raise ValueError("handles with a base displacement (grabs) need order=1")
         names = {h.name for h in self.handles}
-        if handle.name is None:
+        name = handle.name
+        if name is None:
             k = len(self.handles)
             while f"handle{k}" in names:
                 k += 1
-            handle.name = f"handle{k}"
-        elif handle.name in names:
-            raise ValueError(f"a handle named {handle.name!r} exists already")
-        handle.nodes = nodes
-        dofs, owner = self._handle_dofs(handle)
+            name = f"handle{k}"
+        elif name in names:
+            raise ValueError(f"a handle named {name!r} exists already")
+        # everything is checked before the handle is touched: a refused handle is left as it was given
+        dofs, owner = self._handle_dofs(handle, nodes)
         points = self.dof_points[:, dofs]
-        _check_target(handle.target, points, f"handle {handle.name!r} target")
+        reach = REACH * self.size
+        _check_target(handle.target, points, f"handle {name!r} target", reach)
+        handle.name, handle.nodes, handle._reach = name, nodes, reach
         handle._points, handle._dofs, handle._owner = points, dofs, owner
         self.handles.append(handle)
         return handle
@@ -565,14 +752,15 @@ class Model:
 
     def handle(self, name) -> Handle:
         """The handle called ``name`` (or at index ``name``)."""
-        if isinstance(name, (int, np.integer)) and not isinstance(name, bool):
+        if isinstance(name, (int, np.integer)) and not isinstance(name, (bool, np.bool_)):
             if 0 <= name < len(self.handles):
                 return self.handles[name]
             raise ValueError(f"no handle at index {name}; there are {len(self.handles)}")
-        for h in self.handles:
-            if h.name == name:
-                return h
-        raise ValueError(f"no handle named {name!r}; handles: {[h.name for h in self.handles]}")
+        if isinstance(name, str):  # names are strings: anything else (an array, a list) names no handle
+            for h in self.handles:
+                if h.name == name:
+                    return h
+        raise ValueError(f"no handle named {name!r:.100}; handles: {[h.name for h in self.handles]}")
 
     def set_targets(self, targets) -> None:
         """Move several handles at once, all or nothing.
@@ -597,10 +785,13 @@ class Model:
         for key, target in items:
             if isinstance(key, bool):
                 raise ValueError(f"targets: {key!r} is not a handle name or index")
-            h = self.handle(key)
+            try:
+                h = self.handle(key)
+            except ValueError as err:
+                raise ValueError(f"targets: {err}") from None
             if target is None:
                 continue
-            checked.append((h, _check_target(target, h._points, f"targets[{key!r}]")))
+            checked.append((h, _check_target(target, h._points, f"targets[{key!r}]", h._reach)))
         for h, target in checked:
             h.target = target
 
@@ -613,7 +804,9 @@ class Model:
             base = None
             if h.base is not None:
                 base = np.where(h._owner >= 0, h.base[self.component[h._dofs], np.maximum(h._owner, 0)], 0.0)
-            u = h.positions(h._points) - h._points
+            x = _map_positions(h.target, h._points, f"handle {h.name!r} target") if callable(h.target) else \
+                h._points + h.target[:, None]
+            u = x - h._points
             values = u[self.component[h._dofs], np.arange(h._dofs.size)]
             all_dofs.append(h._dofs)
             all_values.append(values if base is None else values + base)

@@ -15,6 +15,14 @@ Lamé ``mu`` (given)         ``[1e-7, 1e30]``                 what ``E`` and ``n
                                                              ``5e17``), with room
 Lamé ``lam`` (given)        ``(-2 mu / 3, 1e30]``            a positive bulk modulus
 time step ``dt``            ``[1e-6, 10]`` s                 :func:`check_time_step`
+density ``rho0``            ``[1e-6, 1e6]``                  the mass ``rho0 A`` over ``dt^2`` stays finite
+gravity (each component)    within ``+-1e6``                 ``rho0 g`` and its work stay finite
+body force, traction        within ``+-1e12`` per component  as Young's modulus: forces of the stresses' size
+penalty stiffness           ``[0, 1e40]``                    a probe's or a suture's ``k``: ``k d^2`` stays
+                                                             finite for any depth or gap within reach
+points and displacements    within ``REACH L`` (1000 L)      ``L`` is the domain's size (the larger side of
+                                                             its bounding box): targets, probe centres, cuts
+radii                       ``[1e-6 L, 1000 L]``             a probe's ``k ~ E / r^2`` stays finite
 counts                      true integers (never ``bool``)   :func:`check_count`
 ==========================  ===============================  ==============================================
 
@@ -42,6 +50,14 @@ __all__ = [
     "LAME_MAX",
     "SHEAR_MODULUS_MIN",
     "TIME_STEP_RANGE",
+    "DENSITY_RANGE",
+    "ACCELERATION_MAX",
+    "FORCE_MAX",
+    "PENALTY_MAX",
+    "REACH",
+    "RADIUS_RANGE",
+    "check_density",
+    "check_bounded_vector",
 ]
 
 #: Young's modulus accepted by :func:`check_young_poisson` (closed interval).
@@ -54,6 +70,18 @@ LAME_MAX = 1e30
 SHEAR_MODULUS_MIN = 1e-7
 #: Time steps accepted by :func:`check_time_step`, in seconds (closed interval).
 TIME_STEP_RANGE = (1e-6, 10.0)
+#: Densities (mass per unit reference area) accepted by :func:`check_density` (closed interval).
+DENSITY_RANGE = (1e-6, 1e6)
+#: Largest component of a gravitational acceleration.
+ACCELERATION_MAX = 1e6
+#: Largest component of a body force (per unit area) or a traction (per unit length).
+FORCE_MAX = 1e12
+#: Largest penalty stiffness of a probe or a suture.
+PENALTY_MAX = 1e40
+#: Points and displacements must lie within ``REACH`` domain sizes (of the domain's centre, for points).
+REACH = 1e3
+#: Radii (probes, grabs), in domain sizes (closed interval).
+RADIUS_RANGE = (1e-6, 1e3)
 
 
 def _real_value(name: str, value) -> float:
@@ -118,6 +146,26 @@ def check_count(name: str, value, lo: int = 1, hi: int | None = None) -> int:
 def check_time_step(dt, name: str = "dt") -> float:
     """A time step in seconds within :data:`TIME_STEP_RANGE`."""
     return check_real(f"{name} (time step)", dt, *TIME_STEP_RANGE)
+
+
+def check_density(rho, name: str = "density") -> float:
+    """A density (mass per unit reference area) within :data:`DENSITY_RANGE`."""
+    return check_real(name, rho, *DENSITY_RANGE)
+
+
+def check_bounded_vector(name: str, value, bound: float) -> np.ndarray:
+    """A vector ``(x, y)`` of real numbers each within ``+-bound``; ``ValueError`` naming ``name`` otherwise.
+
+    Refused like :func:`check_real`: bools, strings, complex numbers, NaN, infinities, and
+    vectors of another shape.
+    """
+    try:
+        items = None if isinstance(value, (str, bytes, dict)) or len(value) != 2 else list(value)
+    except Exception:  # no length, or one that cannot be taken: not a vector
+        items = None
+    if items is None or len(items) != 2:
+        raise ValueError(f"{name} must be a vector (x, y) of two real numbers, got {_short(value)}")
+    return np.array([check_real(f"{name}[{i}]", v, -bound, bound) for i, v in enumerate(items)])
 
 
 def check_poisson_ratio(nu, name: str = "nu (Poisson's ratio)") -> float:

@@ -19,7 +19,11 @@ corrected), and without inertia it is the quasistatic residual. A
    dofs along with the handles (``K_ff dx_f = -g_f - K_fc dx_c``), or the
    previous state. If no guess is valid (a handle jerked so far that an
    element would invert under a model that cannot take it), the handles go
-   part of the way; the report's ``handle_fraction`` says how far;
+   part of the way; the report's ``handle_fraction`` says how far. With
+   self-contact, the handles' own motion is taken as given (a handle may drag
+   tissue through tissue: the report's ``crossed`` counts such points, which
+   contact ignores until they are back out), and each guess is cut back to
+   what the collision detection allows from there;
 3. **solve**: :func:`tissuefem.engine.minimize.newton` with the energy line
    search, until the residual is below ``atol + rtol ||g(x0)||`` (never below
    the residual's round-off level) or the step's wall-clock ``budget`` is
@@ -45,14 +49,19 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .linsolve import LinearSolver
+from .materials import _real_array
 from .minimize import NewtonIteration, NewtonResult, newton
 from .model import Model
+from .parameters import check_count, check_real
 from .terms import check_time_step
 
 __all__ = ["Stepper", "StepReport", "StaticResult", "solve"]
 
 #: The residual's round-off level, relative to the body's force scale (see :func:`_roundoff_floors`).
 _ROUNDOFF = 1e-13
+#: The most Newton iterations a step may take, and the most load steps of :func:`solve`.
+MAX_ITERATIONS = 100_000
+MAX_LOAD_STEPS = 100_000
 
 
 @dataclass
@@ -67,6 +76,13 @@ class StepReport:
     handle_fraction: float = 1.0  # how far the handles got towards their targets
     warm_start: str = "previous"  # "accelerating", "inertial", "linearised" or "previous"
     committed: bool = True  # whether the state moved to the result
+    crossed: int = 0  # surface points found through the surface when the step started (self-contact)
+
+    @property
+    def contact_status(self) -> str:
+        """``"crossed"`` when the step started with surface points through the surface (a handle dragged
+        tissue through tissue; contact ignores them until they are back out), else ``"clear"``."""
+        return "crossed" if self.crossed else "clear"
 
     # -- the Newton solve, forwarded
     @property
@@ -150,20 +166,42 @@ class StepReport:
         return max(0.0, self.elapsed - self.budget)
 
     def __repr__(self):
+        crossed = f", {self.crossed} points through the surface" if self.crossed else ""
         return (f"StepReport(step {self.step}, {self.status}, {self.newton_iterations} Newton, "
-                f"residual {self.residual_norm:.3g} (from {self.initial_residual:.3g}), {1e3 * self.elapsed:.1f} ms)")
+                f"residual {self.residual_norm:.3g} (from {self.initial_residual:.3g}), {1e3 * self.elapsed:.1f} ms"
+                f"{crossed})")
 
 
 def _positive(name, value, allow_inf=False) -> float:
-    if isinstance(value, (bool, str)):
-        raise ValueError(f"{name} must be a positive number, got {value!r}")
-    try:
-        v = float(value)
-    except (TypeError, ValueError, OverflowError):
-        raise ValueError(f"{name} must be a positive number, got {value!r}") from None
-    if math.isnan(v) or v <= 0 or (math.isinf(v) and not allow_inf):
-        raise ValueError(f"{name} must be {'> 0' if allow_inf else 'finite and > 0'}, got {value!r}")
-    return v
+    """A real number ``> 0`` (``math.inf`` too with ``allow_inf``): never a bool, a string or a complex number."""
+    if allow_inf and isinstance(value, (float, np.floating)) and value == math.inf:
+        return math.inf
+    return check_real(name, value, 0.0, None, lo_open=True)
+
+
+def _state_vector(name, value, n) -> np.ndarray:
+    """A finite real dof vector of shape ``(n,)`` (a private copy), or a ``ValueError`` naming ``name``."""
+    a = _real_array(name, value)
+    if a.shape != (n,):
+        raise ValueError(f"{name} must have shape ({n},), got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} contains non-finite values")
+    return a.copy()
+
+
+class _CheckedClock:
+    """The user's clock, read through a check: what it raises or returns that is not a finite real number of
+    seconds is a ``ValueError`` naming ``clock``."""
+
+    def __init__(self, clock):
+        self.clock = clock
+
+    def __call__(self) -> float:
+        try:
+            now = self.clock()
+        except Exception as err:
+            raise ValueError(f"clock: the clock raised {type(err).__name__}: {err}") from None
+        return check_real("clock (its reading in seconds)", now)
 
 
 def _roundoff_floors(model: Model) -> tuple[float, float]:
@@ -216,14 +254,10 @@ class Stepper:
         if not isinstance(model, Model):
             raise ValueError(f"model must be a tissuefem Model, got {type(model).__name__}")
         self.model = model
-        self.rtol = _positive("rtol", rtol)
-        if isinstance(atol, bool) or not (np.isfinite(atol) and atol >= 0):
-            raise ValueError(f"atol must be finite and >= 0, got {atol!r}")
-        self.atol = float(atol)
-        if isinstance(max_iterations, bool) or not isinstance(max_iterations, (int, np.integer)) or max_iterations < 1:
-            raise ValueError(f"max_iterations must be a positive integer, got {max_iterations!r}")
-        self.max_iterations = int(max_iterations)
-        if line_search not in ("energy", "finite", None):
+        self.rtol = check_real("rtol", rtol, 0.0, 1.0, lo_open=True)
+        self.atol = check_real("atol", atol, 0.0, None)
+        self.max_iterations = check_count("max_iterations", max_iterations, 1, MAX_ITERATIONS)
+        if line_search is not None and (not isinstance(line_search, str) or line_search not in ("energy", "finite")):
             raise ValueError(f"line_search must be 'energy', 'finite' or None, got {line_search!r}")
         self.line_search = line_search
         if max_step is not None:
@@ -233,6 +267,9 @@ class Stepper:
         if not callable(clock):
             raise ValueError(f"clock must be a callable returning seconds, got {clock!r}")
         self.clock = clock
+        self._clock = _CheckedClock(clock)
+        if not isinstance(anytime, (bool, np.bool_)):
+            raise ValueError(f"anytime must be True or False, got {anytime!r}")
         self.anytime = bool(anytime)
         self.linear = linear_solver if isinstance(linear_solver, LinearSolver) else LinearSolver(linear_solver)
         self.floor, self.energy_floor = _roundoff_floors(model)
@@ -279,30 +316,34 @@ class Stepper:
         return self.linear.name
 
     # ------------------------------------------------------------------ state
+    def _checked_state(self, u, v) -> tuple[np.ndarray, np.ndarray]:
+        n = self.model.n_dofs
+        u = np.zeros(n) if u is None else _state_vector("u", u, n)
+        v = np.zeros(n) if v is None else _state_vector("v", v, n)
+        if self.dt is None and np.any(v):
+            raise ValueError("a quasistatic stepper has no velocity: v must be zero or None")
+        return u, v
+
     def reset(self, u=None, v=None) -> None:
         """Set the state (default: rest), checking shapes and finiteness; nothing changes on a refusal."""
-        n = self.model.n_dofs
-        arrays = {}
-        for name, arr in (("u", u), ("v", v)):
-            if arr is None:
-                arrays[name] = np.zeros(n)
-                continue
-            a = np.asarray(arr, dtype=float)
-            if a.shape != (n,):
-                raise ValueError(f"{name} must have shape ({n},), got {a.shape}")
-            if not np.all(np.isfinite(a)):
-                raise ValueError(f"{name} contains non-finite values")
-            arrays[name] = a.copy()
-        if self.dt is None and np.any(arrays["v"]):
-            raise ValueError("a quasistatic stepper has no velocity: v must be zero or None")
-        self.u, self.v, self.v_previous = arrays["u"], arrays["v"], None
+        self.u, self.v = self._checked_state(u, v)
+        self.v_previous = None
 
     def set_state(self, u, v=None, *, v_previous=None, time_=0.0, steps=0) -> None:
-        """Carry a state over (after the model was rebuilt): displacement, velocities, time and step count."""
-        self.reset(u, v)
+        """Carry a state over (after the model was rebuilt): displacement, velocities, time and step count.
+
+        Everything is checked before anything changes: ``u``, ``v``, ``v_previous`` finite dof vectors,
+        ``time_`` a finite real number, ``steps`` an integer ``>= 0``.
+        """
+        u, v = self._checked_state(u, v)
         if v_previous is not None:
-            self.v_previous = np.asarray(v_previous, dtype=float).copy()
-        self.time, self.steps = float(time_), int(steps)
+            v_previous = _state_vector("v_previous", v_previous, self.model.n_dofs)
+            if self.dt is None:
+                raise ValueError("a quasistatic stepper has no velocity: v_previous must be None")
+        t = check_real("time_", time_)
+        steps = check_count("steps", steps, 0)
+        self.u, self.v, self.v_previous = u, v, v_previous
+        self.time, self.steps = t, steps
 
     def kinetic_energy(self) -> float:
         inertia = self.model.inertia
@@ -322,10 +363,53 @@ class Stepper:
         """Take one step: apply ``targets`` (see :meth:`Model.set_targets`), solve, commit, report.
 
         ``prescribed``: ``(dofs, values)`` to hold instead of the handles' (load stepping);
-        ``load``: the factor on the constant loads (1 but during load stepping).
+        ``load``: the factor on the constant loads, in ``[0, 1]`` (1 but during load stepping).
+
+        All or nothing: whatever is refused or raised before the commit (a bad target, a map that
+        raises, a clock that cannot be read, a failing linear solver) leaves the state, the handles'
+        targets and the model exactly as they were.
         """
         model = self.model
-        start = self.clock()
+        load = check_real("load", load, 0.0, 1.0)
+        if prescribed is not None:
+            prescribed = self._check_prescribed(prescribed)
+        start = self._clock()
+        inertia = model.inertia
+        saved_targets = [(h, h.target) for h in model.handles]
+        saved_x_tilde = None if inertia is None else inertia.x_tilde
+        try:
+            return self._step(targets, prescribed, load, start)
+        except BaseException:
+            for h, target in saved_targets:
+                h.target = target
+            if inertia is not None:
+                inertia.x_tilde = saved_x_tilde
+            raise
+
+    def _check_prescribed(self, prescribed):
+        try:
+            fixed, values = prescribed
+        except (TypeError, ValueError):
+            raise ValueError(f"prescribed must be (dofs, values), got {prescribed!r}") from None
+        n = self.model.n_dofs
+        try:
+            fixed = np.asarray(fixed)
+        except (TypeError, ValueError):
+            raise ValueError("prescribed: dofs must be an array of dof indices") from None
+        if fixed.ndim != 1 or not (fixed.size == 0 or fixed.dtype.kind in "iu"):
+            raise ValueError(f"prescribed: dofs must be a 1D array of integer dof indices, got dtype {fixed.dtype} "
+                             f"and shape {fixed.shape}")
+        if fixed.size and (fixed.min() < 0 or fixed.max() >= n):
+            raise ValueError(f"prescribed: dofs must be in 0..{n - 1}")
+        values = _real_array("prescribed values", values)
+        if values.shape != fixed.shape:
+            raise ValueError(f"prescribed: values must have the shape of dofs {fixed.shape}, got {values.shape}")
+        if not np.all(np.isfinite(values)):
+            raise ValueError("prescribed: the prescribed displacements are not finite")
+        return fixed.astype(np.intp), values
+
+    def _step(self, targets, prescribed, load, start) -> StepReport:
+        model = self.model
         model.set_targets(targets)
         fixed, values = model.prescribed() if prescribed is None else prescribed
         fixed = np.asarray(fixed, dtype=np.intp)
@@ -344,7 +428,7 @@ class Stepper:
         try:
             if inertia is not None:
                 inertia.x_tilde = self.u + dt * self.v
-            x0, E0, fraction, which, load_norm, pre = self._warm_start(fixed, values, free)
+            x0, E0, fraction, which, load_norm, pre, crossed = self._warm_start(fixed, values, free)
             if fraction < 1.0 and not self.anytime:
                 # the handles' targets cannot be reached from here without leaving the valid (finite-energy)
                 # states: an offline step fails at once and keeps the state (the real-time loop instead goes
@@ -352,23 +436,26 @@ class Stepper:
                 g = model.gradient(self.u)
                 r = float(np.linalg.norm(g[free])) if np.all(np.isfinite(g)) else math.inf
                 result = NewtonResult(self.u.copy(), False, "non-finite", 0, r, r, 0.0, E0, E0)
-                report = StepReport(result, self.steps, self.time, self.clock() - start, self._budget, fraction,
-                                    which, False)
+                report = StepReport(result, self.steps, self.time, self._clock() - start, self._budget, fraction,
+                                    which, False, crossed)
                 self.last_report = report
                 return report
             result = newton(
                 x0, model.gradient, model.hessian, energy=model.energy, free=free,
                 line_search=self.line_search, rtol=self.rtol, atol=self.atol, reference_norm=load_norm,
                 floor=self.floor, max_iterations=self.max_iterations - (which == "linearised"), max_step=self.max_step,
-                linear=self.linear, clock=self.clock, budget=self._budget, start=start, energy0=E0,
+                linear=self.linear, clock=self._clock, budget=self._budget, start=start, energy0=E0,
                 energy_floor=self.energy_floor,
                 safe_hessian=(lambda x: model.hessian(x, safe=True)) if model.has_safe_hessian else None,
+                step_limit=model.step_limit,
             )
         finally:
             for term in loads:
                 term.scale = 1.0
+            model.end_step()
         result.factorizations += pre
         commit = result.converged or (self.anytime and np.all(np.isfinite(result.x)))
+        elapsed = self._clock() - start  # read before the commit: nothing after it can raise
         if commit:
             if dt is not None:
                 self.v_previous = self.v
@@ -376,8 +463,8 @@ class Stepper:
                 self.time += dt
             self.u = result.x
             self.steps += 1
-        report = StepReport(result, self.steps, self.time, self.clock() - start, self._budget, fraction, which,
-                            bool(commit))
+        report = StepReport(result, self.steps, self.time, elapsed, self._budget, fraction, which,
+                            bool(commit), crossed)
         self.last_report = report
         return report
 
@@ -388,8 +475,15 @@ class Stepper:
         return [self.step(t) for t in targets_per_step]
 
     def _warm_start(self, fixed, values, free):
-        """``(x0, E0, handle_fraction, name, load_norm, factorizations)``: the lowest-energy valid start."""
+        """``(x0, E0, handle_fraction, name, load_norm, factorizations, crossed)``: the lowest-energy valid start.
+
+        With a term that limits steps (self-contact), the state with the handles moved and everything else
+        where it was is where the step starts (``Model.begin_step``: its crossings are counted and left
+        alone), and every other guess is cut back to the fraction the collision detection allows from it.
+        """
         model, u = self.model, self.u
+        limit = model.step_limit
+        crossed = 0
         previous = u[fixed]
         dynamic = model.inertia is not None
         linearised, load_norm, factorizations = None, 0.0, 0
@@ -409,20 +503,31 @@ class Stepper:
                 if linearised is not None:  # the linear prediction scales with the handles' increment
                     candidates.insert(0, ("linearised", u + fraction * linearised))
             best = None
+            reference = None
+            if model.notes_steps:
+                reference = u.copy()
+                reference[fixed] = held
+                crossed = model.begin_step(reference, u)
             for name, base in candidates:
                 x = base.copy()
                 x[fixed] = held
+                if limit is not None and name != "previous":
+                    allowed = limit(reference, x - reference)
+                    if allowed < 1.0:
+                        x = reference + allowed * (x - reference)
                 with np.errstate(all="ignore"):
                     E = model.energy(x)
                 if np.isfinite(E) and (best is None or E < best[1]):
                     best = (x, E, name)
             if best is not None:
-                return best[0], best[1], fraction, best[2], load_norm, factorizations
+                return best[0], best[1], fraction, best[2], load_norm, factorizations, crossed
         # the handles cannot move at all without leaving the valid states: stay
         x = u.copy()
+        if model.notes_steps:
+            crossed = model.begin_step(x, u)
         with np.errstate(all="ignore"):
             E = model.energy(x)
-        return x, E, 0.0, "previous", load_norm, factorizations
+        return x, E, 0.0, "previous", load_norm, factorizations, crossed
 
     def _linearised_increment(self, fixed, free, du_fixed):
         """``(dx, load_norm, factorizations)``: the first-order response of every dof to moving the held ones
@@ -439,6 +544,8 @@ class Stepper:
                 return None, 0.0, 0
             A = self.linear.matrix(lambda: K, free)
             load_norm = float(np.linalg.norm(rhs))
+            if not math.isfinite(load_norm):  # finite entries whose norm overflows: no prediction from here
+                return None, 0.0, 0
             dx_free, info = self.linear.solve(A, rhs, atol=1e-3 * load_norm)
         except (RuntimeError, ValueError, np.linalg.LinAlgError, ZeroDivisionError):
             return None, 0.0, 0
@@ -476,23 +583,22 @@ def solve(model: Model, load_steps: int = 1, u0=None, *, stepper: Stepper | None
     the defaults here ask for ``rtol = 1e-10``). If a step fails, the result
     holds the last converged state and ``converged`` is False.
     """
+    if not isinstance(model, Model):
+        raise ValueError(f"model must be a tissuefem Model, got {type(model).__name__}")
     if model.inertia is not None:
         raise ValueError("solve() finds an equilibrium: give it a model without dt (use a Stepper for dynamics)")
-    if isinstance(load_steps, bool) or not isinstance(load_steps, (int, np.integer)) or not 1 <= load_steps <= 10**6:
-        raise ValueError(f"load_steps must be an integer from 1 to 1000000, got {load_steps!r}")
-    options.setdefault("rtol", 1e-10)
+    load_steps = check_count("load_steps", load_steps, 1, MAX_LOAD_STEPS)
     if u0 is not None:
-        u0 = np.asarray(u0, dtype=float)
-        if u0.shape != (model.n_dofs,):
-            raise ValueError(f"u0 must have shape ({model.n_dofs},), got {u0.shape}")
-        if not np.all(np.isfinite(u0)):
-            raise ValueError("u0 contains non-finite values")
+        u0 = _state_vector("u0", u0, model.n_dofs)
     if stepper is None:
+        options.setdefault("rtol", 1e-10)
         stepper = Stepper(model, **options)
+    elif not isinstance(stepper, Stepper) or stepper.model is not model:
+        raise ValueError("stepper must be a Stepper of this model")
     elif options:
-        raise ValueError("give either a stepper or its options, not both")
+        raise ValueError(f"give either a stepper or its options, not both (options: {sorted(options)})")
+    fixed, values = model.prescribed()  # a target that cannot be evaluated is refused before the stepper changes
     stepper.reset(u0)
-    fixed, values = model.prescribed()
     start = stepper.u[fixed].copy()
     steps = []
     for s in np.arange(1, load_steps + 1) / load_steps:

@@ -13,6 +13,7 @@ term              energy                                                       H
 :class:`Load`     ``-f . u``: gravity, a body force, tractions                  zero
 :class:`Probe`    a rigid disc pressed into the tissue (a contact penalty)      per node
 :class:`Sutures`  zero-length springs tying pairs of nodes                      constant
+``Contact``       self-contact of the surface, see :mod:`.contact`             per pair
 ================  ===========================================================  ==========
 
 Every term has ``energy(u)``, ``gradient(u)`` (a dof vector) and
@@ -41,18 +42,24 @@ from __future__ import annotations
 import numpy as np
 from skfem import FacetBasis, LinearForm, asm
 
-from .materials import FiberReinforced, Material, fiber_energy_term, fiber_stress_term, fiber_tangent_term
+from .materials import (FiberReinforced, Material, _real_array, check_fiber_stiffness, fiber_energy_term,
+                        fiber_stress_term, fiber_tangent_term)
+from .parameters import FORCE_MAX, PENALTY_MAX, RADIUS_RANGE, REACH, check_bounded_vector, check_density, check_real
+from .parameters import check_time_step as _check_time_step
 
 __all__ = ["Term", "ElementTerm", "Elastic", "Fibers", "Inertia", "Load", "Probe", "Sutures", "traction_vector",
-           "check_vector", "check_nonnegative"]
+           "check_vector", "check_nonnegative", "check_reach"]
 
 
 def check_vector(name, value) -> np.ndarray:
-    """A finite vector ``(x, y)``, or a ``ValueError`` naming ``name``."""
+    """A finite vector ``(x, y)`` of real numbers, or a ``ValueError`` naming ``name``."""
     try:
-        v = np.asarray(value, dtype=float)
+        v = np.asarray(value)
     except (TypeError, ValueError):
         raise ValueError(f"{name} must be a finite vector (x, y), got {value!r}") from None
+    if v.dtype.kind not in "iuf":  # strings, booleans, objects; complex would lose its imaginary part
+        raise ValueError(f"{name} must be a finite vector (x, y) of real numbers, got {value!r}")
+    v = v.astype(float)
     if v.shape != (2,) or not np.all(np.isfinite(v)):
         raise ValueError(f"{name} must be a finite vector (x, y), got {value!r}")
     return v
@@ -180,12 +187,9 @@ class Fibers(ElementTerm):
 
     def __init__(self, assembler, stiffness, directions):
         super().__init__(assembler)
-        self.stiffness = check_nonnegative("fibers.stiffness", stiffness)
+        self.stiffness = check_fiber_stiffness(stiffness, "fibers.stiffness")
         nel = assembler.n_elements
-        try:
-            g = np.asarray(directions, dtype=float)
-        except (TypeError, ValueError):
-            raise ValueError(f"fibers.direction must be an array of 2D vectors, got {directions!r}") from None
+        g = _real_array("fibers.direction (an array of 2D vectors)", directions)  # complex is refused, not cut
         if g.ndim == 1 and g.shape == (2,):
             g = np.repeat(g.reshape(2, 1), nel, axis=1)
         if g.shape != (2, nel):
@@ -263,10 +267,10 @@ class Inertia(Term):
     quadratic = True
 
     def __init__(self, assembler, dt, density, mass="lumped"):
-        if mass not in ("lumped", "consistent"):
+        if not isinstance(mass, str) or mass not in ("lumped", "consistent"):
             raise ValueError(f"mass must be 'lumped' or 'consistent', got {mass!r}")
         self.dt = check_time_step(dt)
-        self.density = check_positive("density", density)
+        self.density = check_density(density)
         self.lumped = mass == "lumped"
         self.mass_kind = mass
         self.assembler = assembler
@@ -308,8 +312,9 @@ def check_positive(name, value) -> float:
 
 
 def check_time_step(dt) -> float:
-    """A time step: finite and > 0."""
-    return check_positive("dt", dt)
+    """A time step in :data:`~tissuefem.engine.parameters.TIME_STEP_RANGE` (``[1e-6, 10]`` s): ``dt^2``
+    divides the mass, so neither end may be left open."""
+    return _check_time_step(dt)
 
 
 class Load(Term):
@@ -340,9 +345,40 @@ class Load(Term):
         return f"load: {self.name}"
 
 
+def _extent(X) -> tuple[np.ndarray, float]:
+    """The centre of the bounding box of the points ``X`` ``(2, n)`` and its larger side (the domain's size)."""
+    lo, hi = X.min(axis=1), X.max(axis=1)
+    return 0.5 * (lo + hi), float(np.max(hi - lo))
+
+
+def check_reach(name, point, middle, size) -> np.ndarray:
+    """``point`` if it lies within ``REACH`` domain sizes of the domain's centre ``middle``, else ``ValueError``."""
+    far = REACH * size
+    if np.any(np.abs(np.asarray(point) - middle) > far):
+        raise ValueError(f"{name} = {np.asarray(point).tolist()} lies farther than {REACH:g} domain sizes ({far:g}) "
+                         f"from the domain's centre ({middle[0]:g}, {middle[1]:g})")
+    return point
+
+
+def _stitch_indices(stitches, count) -> np.ndarray:
+    """Checked stitch indices: true integers in ``0 .. count-1`` (one index or a list of them)."""
+    try:
+        idx = np.asarray(stitches)
+    except (TypeError, ValueError):
+        raise ValueError(f"stitches must be stitch indices (integers), got {stitches!r}") from None
+    if idx.size == 0 and idx.ndim == 1:
+        return np.zeros(0, dtype=np.intp)
+    if idx.dtype.kind not in "iu" or idx.ndim > 1:
+        raise ValueError(f"stitches must be stitch indices (integers in 0..{count - 1}), got {stitches!r}")
+    idx = idx.reshape(-1)
+    if idx.min() < 0 or idx.max() >= count:
+        raise ValueError(f"stitches must be indices in 0..{count - 1} (there are {count} stitches), got {stitches!r}")
+    return idx.astype(np.intp)
+
+
 def traction_vector(basis, boundary, traction) -> np.ndarray:
     """``f_(a,i) = int_boundary N_a t_i dS`` for a constant traction ``t`` (force per unit reference length)."""
-    t = check_vector(f"tractions[{boundary!r}]", traction)
+    t = check_bounded_vector(f"tractions[{boundary!r}]", traction, FORCE_MAX)
     mesh = basis.mesh
     if mesh.boundaries is None or boundary not in mesh.boundaries:
         names = sorted(mesh.boundaries) if mesh.boundaries else []
@@ -397,14 +433,23 @@ class Probe(Term):
         self.n_nodes = X.shape[1]
         self.length = np.asarray(boundary_lengths, dtype=float)
         self.surface = np.flatnonzero(self.length > 0)
+        self._middle, self._size = _extent(X)
         self.move(center)
-        self.radius = check_positive("probe.radius", radius)
-        self.stiffness = check_nonnegative("probe.stiffness", stiffness)
-        self.delta = check_positive("probe.smoothing", smoothing) * self.radius
+        # a radius in domain sizes: the default stiffness of a tool (~ E / r) and its depths stay finite
+        r = check_real("probe.radius", radius, 0.0, None, lo_open=True)
+        lo, hi = RADIUS_RANGE[0] * self._size, RADIUS_RANGE[1] * self._size
+        if not lo <= r <= hi:
+            raise ValueError(f"probe.radius = {r:g} must lie within [{RADIUS_RANGE[0]:g}, {RADIUS_RANGE[1]:g}] "
+                             f"domain sizes, i.e. [{lo:g}, {hi:g}]")
+        self.radius = r
+        self.stiffness = check_real("probe.stiffness", stiffness, 0.0, PENALTY_MAX)
+        # g^3 / (6 delta): a smoothing length far below the radius would overflow the energy
+        self.delta = check_real("probe.smoothing", smoothing, 1e-6, 1.0) * self.radius
         self.label = label
 
     def move(self, center) -> None:
-        self.center = check_vector("probe center", center)
+        """Move the tool to ``center`` (within ``REACH`` domain sizes of the domain's centre); a refusal keeps it."""
+        self.center = check_reach("probe center", check_vector("probe center", center), self._middle, self._size)
 
     def describe(self):
         return f"probe: disc r = {self.radius:g} at ({self.center[0]:g}, {self.center[1]:g}), k = {self.stiffness:g}"
@@ -470,80 +515,129 @@ class Probe(Term):
 
 
 class Sutures(Term):
-    """Stiff springs that tie pairs of nodes together: ``E = sum_s k/2 |x_a - x_b - g_s|^2``.
+    """Stiff springs that tie pairs of points together: ``E = sum_s k/2 |x_a - x_b - g_s|^2``.
 
-    ``g_s`` is the slack: the gap the suture still allows. A suture is placed
-    with its current gap as slack (no force at first) and then *tightened*:
-    ``tighten(s)`` sets ``g = (1 - s) g_0``, so ``s = 1`` closes the wound.
-    Every term is quadratic (a zero-length spring), so the Hessian is constant;
-    it couples the two nodes of each pair, which widens the model's pattern.
-    ``k`` is a force per unit length (per unit thickness, in 2D).
+    A stitch's two ends are points of the tissue: a node, or a point inside
+    an element (on a wound cut through elements), which moves with the
+    element's three nodes, ``x_a = sum_c w_c x_{n_c}`` with its barycentric
+    weights ``w``. ``g_s`` is the slack: the gap the suture still allows. A
+    suture is placed with its current gap as slack (no force at first) and then
+    *tightened*: ``tighten(s)`` sets ``g = (1 - s) g_0``, so ``s = 1`` closes the
+    wound. Every term is quadratic (a zero-length spring), so the Hessian is
+    constant: ``k D^T D`` with ``D`` the map from nodes to the gap; it couples
+    the nodes of the two ends, which widens the model's pattern. ``k`` is a
+    force per unit length (per unit thickness, in 2D).
+
+    Parameters
+    ----------
+    X : ndarray, shape (2, n_nodes)
+    pairs : int array, shape (2, k) or (2, c, k)
+        Node pairs; or, with ``coefficients``, the ``c`` nodes of each end.
+    stiffness : float or (k,), gaps : (2, k), tightness
+    coefficients : array, shape (2, c, k), optional
+        Weights of the nodes of each end (each end's weights add up to 1; a
+        point just outside its element, carried by the element's P1 map
+        extended to it, has a slightly negative one).
     """
 
     name = "sutures"
     quadratic = True
 
-    def __init__(self, X, pairs, stiffness, gaps, tightness=0.0):
+    def __init__(self, X, pairs, stiffness, gaps, tightness=0.0, coefficients=None):
         self.X = X
         self.n_nodes = X.shape[1]
-        pairs = np.asarray(pairs)
-        if pairs.ndim != 2 or pairs.shape[0] != 2 or pairs.shape[1] == 0 or not np.issubdtype(pairs.dtype, np.integer):
-            raise ValueError(f"sutures.pairs must be node index pairs shaped (2, k), got {pairs!r}")
+        try:
+            pairs = np.asarray(pairs)
+        except (TypeError, ValueError):  # ragged lists
+            raise ValueError(f"sutures.pairs must be node index pairs shaped (2, k), got {pairs!r:.200}") from None
+        if not np.issubdtype(pairs.dtype, np.integer) or pairs.ndim not in (2, 3) or pairs.shape[0] != 2 \
+                or pairs.shape[-1] == 0 or (pairs.ndim == 3 and coefficients is None):
+            raise ValueError(f"sutures.pairs must be node index pairs shaped (2, k), got {pairs!r:.200}")
         if pairs.min() < 0 or pairs.max() >= self.n_nodes:
             raise ValueError(f"sutures.pairs has node indices outside the mesh (0..{self.n_nodes - 1})")
-        if np.any(pairs[0] == pairs[1]):
-            raise ValueError("sutures.pairs ties a node to itself")
-        self.pairs = pairs.astype(np.intp)
-        k = np.broadcast_to(np.asarray(stiffness, dtype=float), (self.pairs.shape[1],)).copy()
-        if not np.all(np.isfinite(k) & (k > 0)):
-            raise ValueError(f"sutures.stiffness must be finite and > 0, got {stiffness!r}")
+        if pairs.ndim == 2:
+            nodes, coef = pairs[:, None, :], np.ones((2, 1, pairs.shape[1]))
+            if np.any(pairs[0] == pairs[1]):
+                raise ValueError("sutures.pairs ties a node to itself")
+        else:
+            nodes = pairs
+            coef = _real_array("sutures.coefficients", coefficients)
+            if coef.shape != nodes.shape or not np.all(np.isfinite(coef)) or np.any(np.abs(coef) > 10.0) \
+                    or not np.allclose(coef.sum(axis=1), 1.0, atol=1e-9):
+                raise ValueError(f"sutures.coefficients must be barycentric weights shaped {nodes.shape} "
+                                 "(each end's weights in [-10, 10], adding up to 1)")
+        self.nodes = nodes.astype(np.intp)
+        self.coefficients = coef
+        k_count = nodes.shape[-1]
+        #: node pairs (2, k): each end's node of largest weight (the node itself for node-to-node stitches)
+        self.pairs = np.take_along_axis(self.nodes, np.argmax(coef, axis=1)[:, None, :], axis=1)[:, 0, :]
+        k = _real_array("sutures.stiffness", stiffness)
+        try:
+            k = np.broadcast_to(k, (k_count,)).copy()
+        except ValueError:
+            raise ValueError(f"sutures.stiffness must be one number or one per stitch ({k_count}), "
+                             f"got shape {k.shape}") from None
+        if not np.all(np.isfinite(k) & (k > 0) & (k <= PENALTY_MAX)):
+            raise ValueError(f"sutures.stiffness must be finite, > 0 and <= {PENALTY_MAX:g}, got {stiffness!r:.200}")
         self.k = k
-        gaps = np.asarray(gaps, dtype=float)
-        if gaps.shape != self.pairs.shape or not np.all(np.isfinite(gaps)):
-            raise ValueError(f"sutures.gaps must be finite and shaped {self.pairs.shape}, got {gaps.shape}")
+        gaps = _real_array("sutures.gaps", gaps)
+        reach = REACH * _extent(X)[1]
+        if gaps.shape != (2, k_count) or not np.all(np.abs(gaps) <= reach):
+            raise ValueError(f"sutures.gaps must be finite, within {REACH:g} domain sizes ({reach:g}) and shaped "
+                             f"{(2, k_count)}, got shape {gaps.shape}")
         self.gap0 = gaps
-        self.tightness = np.zeros(self.pairs.shape[1])
+        self.tightness = np.zeros(k_count)
         self.slack = self.gap0.copy()
         self.tighten(tightness)
 
     def tighten(self, fraction, stitches=None) -> None:
-        """Set the tightness (0 slack ... 1 closed) of all stitches, or of those indexed by ``stitches``."""
-        s = np.asarray(fraction, dtype=float)
+        """Set the tightness (0 slack ... 1 closed) of all stitches, or of those indexed by ``stitches``.
+
+        ``fraction``: one number in ``[0, 1]``, or one per selected stitch; ``stitches``: stitch
+        indices (integers in ``0 .. k-1``; floats, booleans and negative indices are refused).
+        Checked before anything changes.
+        """
+        count = self.pairs.shape[1]
+        index = np.arange(count) if stitches is None else _stitch_indices(stitches, count)
+        s = _real_array("fraction (suture tightness)", fraction)
+        if s.ndim > 1 or (s.ndim == 1 and s.shape != index.shape):
+            raise ValueError(f"fraction (suture tightness) must be one number or one per stitch tightened "
+                             f"({index.size}), got shape {s.shape}")
         if not (np.all(np.isfinite(s)) and np.all(s >= 0) and np.all(s <= 1)):
-            raise ValueError(f"suture tightness must be in [0, 1], got {fraction!r}")
-        index = slice(None) if stitches is None else np.asarray(stitches, dtype=np.intp)
+            raise ValueError(f"fraction (suture tightness) must be in [0, 1], got {fraction!r}")
         tightness = self.tightness.copy()
         tightness[index] = s
         self.tightness = tightness
         self.slack = (1.0 - self.tightness) * self.gap0
 
     def describe(self):
-        return f"sutures: {self.pairs.shape[1]} stitches, mean tightness {self.tightness.mean():g}"
+        return f"sutures: {self.k.size} stitches, mean tightness {self.tightness.mean():g}"
 
-    def _x(self, u):
-        return self.X + u[: 2 * self.n_nodes].reshape(-1, 2).T
+    def ends(self, u) -> np.ndarray:
+        """Where the two ends of every stitch are: shape (2 ends, 2 coordinates, k)."""
+        x = self.X + u[: 2 * self.n_nodes].reshape(-1, 2).T
+        return np.einsum("sck,iksc->sik", self.coefficients, x[:, self.nodes.transpose(2, 0, 1)])
 
     def _gap(self, u):
-        x = self._x(u)
-        return x[:, self.pairs[0]] - x[:, self.pairs[1]] - self.slack
+        a, b = self.ends(u)
+        return a - b - self.slack
 
     def energy(self, u):
         e = self._gap(u)
         return 0.5 * float(np.sum(self.k * (e[0] ** 2 + e[1] ** 2)))
 
     def gradient(self, u):
-        e = self.k * self._gap(u)
+        e = self.k * self._gap(u)  # (2, k): the spring force on end a (minus on end b)
+        signed = self.coefficients * np.array([1.0, -1.0])[:, None, None]  # (2, c, k)
         g = np.zeros(u.size)
         for i in range(2):
-            np.add.at(g, 2 * self.pairs[0] + i, e[i])
-            np.add.at(g, 2 * self.pairs[1] + i, -e[i])
+            np.add.at(g, 2 * self.nodes.ravel() + i, (signed * e[i]).ravel())
         return g
 
     def distances(self, u) -> np.ndarray:
-        """How far apart each sutured pair is (0 when closed)."""
-        x = self._x(u)
-        d = x[:, self.pairs[0]] - x[:, self.pairs[1]]
-        return np.hypot(d[0], d[1])
+        """How far apart the two ends of each stitch are (0 when closed)."""
+        a, b = self.ends(u)
+        return np.hypot(*(a - b))
 
     def forces(self, u) -> np.ndarray:
         """The tension ``k |x_a - x_b - g|`` in each stitch."""
@@ -551,14 +645,15 @@ class Sutures(Term):
         return self.k * np.hypot(e[0], e[1])
 
     def _triplets(self):
-        a, b = self.pairs
-        rows, cols, vals = [], [], []
-        for p, q, sign in ((a, a, 1.0), (b, b, 1.0), (a, b, -1.0), (b, a, -1.0)):
-            for i in range(2):
-                rows.append(2 * p + i)
-                cols.append(2 * q + i)
-                vals.append(sign * self.k)
-        return np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
+        # D maps node displacements to the gap: +w on end a's nodes, -w on end b's; the Hessian is k D^T D
+        nodes = self.nodes.reshape(-1, self.k.size)  # (2c, k)
+        signed = (self.coefficients * np.array([1.0, -1.0])[:, None, None]).reshape(-1, self.k.size)
+        p = np.repeat(nodes[:, None, :], nodes.shape[0], axis=1)  # rows (2c, 2c, k)
+        q = np.repeat(nodes[None, :, :], nodes.shape[0], axis=0)
+        w = signed[:, None, :] * signed[None, :, :] * self.k
+        rows = np.concatenate([2 * p.ravel() + i for i in range(2)])
+        cols = np.concatenate([2 * q.ravel() + i for i in range(2)])
+        return rows, cols, np.concatenate([w.ravel(), w.ravel()])
 
     def couplings(self):
         rows, cols, _ = self._triplets()

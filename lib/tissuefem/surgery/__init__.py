@@ -2,6 +2,7 @@
 
 * :mod:`.topology` -- cuts along mesh edges (node duplication), excisions, connected pieces;
 * :mod:`.element_cuts` -- cuts through elements by the virtual node algorithm;
+* :mod:`.surfaces` -- the contact surface of a body cut through elements (where its material ends);
 * :mod:`.scene` -- the declarative description of a simulation, read from and written to TOML/JSON;
 * :mod:`.simulation` -- a scene built into a model and a real-time stepper, with the surgical operations
   between frames (grab, drag, release, probe, cut, excise, suture);

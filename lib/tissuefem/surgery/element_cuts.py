@@ -112,9 +112,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .topology import MeshEdit, _keys, _mesh_arrays, _new_mesh, _points, _positions
+from .topology import MeshEdit, _keys, _mesh_arrays, _new_mesh, _points, _positions, excise
 
-__all__ = ["Region", "Wound", "ElementCut", "cut_through", "lumped_mass", "material_areas"]
+__all__ = ["Region", "Wound", "ElementCut", "cut_through", "excise_through", "Picture", "picture", "locate",
+           "firm_anchor", "carry_points", "region_holds", "lumped_mass", "material_areas"]
 
 #: Geometric tolerance in a triangle's local coordinates (the unit triangle):
 #: points closer than this are one point, and a point this close to an edge is on it.
@@ -1317,4 +1318,347 @@ def _carry_names(old, new, parent, elements, regions, touched):
         subs = {label: np.flatnonzero(np.isin(elements, np.asarray(els))).astype(np.int32)
                 for label, els in old.subdomains.items()}
         out = out.with_subdomains(subs)
+    return out
+
+
+# --------------------------------------------------------------------------
+# removing what a closed cut encloses
+# --------------------------------------------------------------------------
+def excise_through(mesh, polygon, positions=None, weights=None, regions=None, min_weight=MIN_WEIGHT) -> ElementCut:
+    """Cut along a closed ``polygon`` through the elements and remove the material inside it.
+
+    This is the excision a surgeon makes: the rim of the defect follows the
+    drawn outline, not the triangles whose centroids happen to fall inside
+    (:func:`~tissuefem.surgery.topology.excise`). The outline is cut with
+    :func:`cut_through` (closed: its last point joined to its first), then every
+    element whose material lies inside the outline is removed, with the nodes no
+    other element uses.
+
+    Returns an :class:`ElementCut` whose ``parent`` and ``elements`` map to
+    ``mesh`` as it was, with the surviving elements' ``weights`` and
+    ``regions``; its ``wound`` holds the records of the rim that stays.
+    """
+    pts = _points("polygon", polygon, 3)
+    closed = np.vstack([pts, pts[:1]]) if np.any(pts[0] != pts[-1]) else pts
+    if closed.shape[0] < 4:
+        raise ValueError("polygon must have at least 3 distinct points")
+    first = cut_through(mesh, closed, positions, weights=weights, regions=regions, min_weight=min_weight)
+    m = first.mesh.t.shape[1]
+    # where each element's material is now (the stroke was drawn there): a point inside its
+    # material, carried by the P1 map of its triangle
+    x = _positions(first.mesh, None if positions is None else first.transfer(np.asarray(positions, float)))
+    t = first.mesh.t
+    centre = np.full((m, 3), 1.0 / 3.0)
+    for e, region in first.regions.items():
+        centre[e] = _interior_barycentric(region)
+    inside_point = np.einsum("ea,iae->ie", centre, x[:, t])
+    remove = _inside(closed, inside_point)
+    if not remove.any():
+        raise ValueError("polygon encloses no material")
+    if remove.all():
+        raise ValueError("polygon encloses all the material: nothing would be left")
+    second = excise(first.mesh, lambda _centroids: remove)
+    keep = second.elements
+    return ElementCut(
+        mesh=second.mesh,
+        parent=first.parent[second.parent],
+        elements=first.elements[keep],
+        cut_edges=first.cut_edges,
+        n_old_nodes=first.n_old_nodes,
+        n_old_elements=first.n_old_elements,
+        weights=first.weights[keep],
+        regions={int(new): first.regions[int(old)] for new, old in enumerate(keep.tolist())
+                 if int(old) in first.regions},
+        wound=_renumber_wound(first.wound, keep, second.parent, second.mesh.t),
+    )
+
+
+def _interior_barycentric(region) -> np.ndarray:
+    """Barycentric coordinates of a point inside the material of ``region`` (its largest piece's centroid of
+    a triangle of its triangulation, which lies inside even when the polygon is not convex)."""
+    best, best_area = None, -1.0
+    for poly in region.polygons:
+        for tri in _triangulate(poly):
+            a, b, c = poly[tri[0]], poly[tri[1]], poly[tri[2]]
+            area = abs(_cross(b[0] - a[0], b[1] - a[1], c[0] - a[0], c[1] - a[1]))
+            if area > best_area:
+                best, best_area = (a + b + c) / 3.0, area
+    return np.array([1.0 - best[0] - best[1], best[0], best[1]])
+
+
+def _inside(polygon, points) -> np.ndarray:
+    """Even-odd test of ``points`` (2, k) against the closed ``polygon`` (k, 2)."""
+    px, py = points
+    inside = np.zeros(px.shape, dtype=bool)
+    for (ax, ay), (bx, by) in zip(polygon[:-1], polygon[1:]):
+        crosses = (ay > py) != (by > py)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            xs = ax + (py - ay) * (bx - ax) / (by - ay)
+        inside ^= crosses & (px < xs)
+    return inside
+
+
+def _renumber_wound(wound, keep, parent, t) -> Wound:
+    """The wound records of the elements that survive an excision, in the new numbering."""
+    new_of = np.full(max(int(wound.element.max(initial=-1)), int(keep.max(initial=-1))) + 1, -1, dtype=np.int64)
+    new_of[keep] = np.arange(keep.size)
+    stay = new_of[wound.element] >= 0 if wound.element.size else np.zeros(0, dtype=bool)
+    element = new_of[wound.element[stay]]
+    return Wound(
+        element=element,
+        side=wound.side[stay],
+        barycentric=wound.barycentric[stay],
+        nodes=np.asarray(t)[:, element].T.copy(),
+        reference=wound.reference[stay],
+        stroke=wound.stroke[stay],
+        opened=wound.opened[stay],
+    )
+
+
+# --------------------------------------------------------------------------
+# what to draw
+# --------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class Picture:
+    """What to draw of a mesh whose elements may fill only part of their triangle.
+
+    Two copies of a cut triangle share its reference triangle; drawing both
+    whole would paint material across the cut. Instead every element that is
+    not whole is drawn as its material polygons, split into triangles. A drawn
+    point is a combination of (at most) three nodes, the barycentric
+    coordinates of the point in its element, so the picture follows the
+    deformation exactly as the P1 field does.
+
+    Attributes
+    ----------
+    nodes, coefficients : ndarray, shape (3, k)
+        Drawn point ``j`` sits at ``sum_a coefficients[a, j] * x[:, nodes[a, j]]``.
+    triangles : ndarray of int, shape (3, q)
+        The filled triangles, by drawn point.
+    element : ndarray of int, shape (q,)
+        The element each drawn triangle belongs to (to colour it by a per-element value).
+    edges : ndarray of int, shape (2, r)
+        Lines to draw (element edges, material outlines, cracks), by drawn point.
+    plain : bool
+        No element is cut: the drawn points are the nodes themselves (``points(x) is x``).
+    """
+
+    nodes: np.ndarray
+    coefficients: np.ndarray
+    triangles: np.ndarray
+    element: np.ndarray
+    edges: np.ndarray
+    plain: bool
+
+    def points(self, x) -> np.ndarray:
+        """The drawn points ``(2, k)`` at node positions ``x`` ``(2, n_nodes)``."""
+        x = np.asarray(x, dtype=float)
+        if self.plain:
+            return x
+        return np.einsum("ak,iak->ik", self.coefficients, x[:, self.nodes])
+
+
+def picture(mesh, regions=None) -> Picture:
+    """The :class:`Picture` of ``mesh`` with the material ``regions`` of a cut through elements."""
+    p, t = _mesh_arrays(mesh)
+    n, m = p.shape[1], t.shape[1]
+    regions = {} if regions is None else regions
+    whole = np.ones(m, dtype=bool)
+    whole[[e for e in regions if 0 <= e < m]] = False
+    # the edges of every whole element (each once)
+    tw = t[:, whole]
+    a, b = tw.ravel(), np.roll(tw, -1, axis=0).ravel()
+    pairs = np.unique(np.vstack([np.minimum(a, b), np.maximum(a, b)]), axis=1)
+    if not regions:
+        nodes = np.zeros((3, n), dtype=np.int64)
+        nodes[0] = np.arange(n)
+        coefficients = np.zeros((3, n))
+        coefficients[0] = 1.0
+        return Picture(nodes, coefficients, t.copy(), np.arange(m), pairs, True)
+    pt_nodes = [np.vstack([np.arange(n), np.zeros(n, np.int64), np.zeros(n, np.int64)])]
+    pt_coef = [np.vstack([np.ones(n), np.zeros(n), np.zeros(n)])]
+    tris, tri_el, edges = [tw], [np.flatnonzero(whole)], [pairs]
+    count = n
+    for e in sorted(regions):
+        region = regions[e]
+        corners = t[:, e]
+        local = [region.polygons[i] for i in range(len(region.polygons))]
+        for poly in local:
+            k = poly.shape[0]
+            bary = np.vstack([1.0 - poly[:, 0] - poly[:, 1], poly[:, 0], poly[:, 1]])
+            pt_nodes.append(np.repeat(corners[:, None], k, axis=1))
+            pt_coef.append(bary)
+            tri = np.asarray(_triangulate(poly), dtype=np.int64).reshape(-1, 3).T + count
+            tris.append(tri)
+            tri_el.append(np.full(tri.shape[1], e, dtype=np.int64))
+            ring = np.arange(k) + count
+            edges.append(np.vstack([ring, np.roll(ring, -1)]))
+            count += k
+        for seg in region.slits:  # a crack that ends inside the element: drawn as a line
+            bary = np.vstack([1.0 - seg[:, 0] - seg[:, 1], seg[:, 0], seg[:, 1]])
+            pt_nodes.append(np.repeat(corners[:, None], 2, axis=1))
+            pt_coef.append(bary)
+            edges.append(np.array([[count], [count + 1]]))
+            count += 2
+    return Picture(np.hstack(pt_nodes), np.hstack(pt_coef), np.hstack(tris), np.concatenate(tri_el),
+                   np.hstack(edges), False)
+
+
+def _triangulate(poly) -> list:
+    """Triangles ``(i, j, k)`` of a simple counter-clockwise polygon ``(k, 2)``, by clipping ears."""
+    pts = [tuple(map(float, q)) for q in poly]
+    idx = list(range(len(pts)))
+    tris = []
+    while len(idx) > 3:
+        for j in range(len(idx)):
+            ia, ib, ic = idx[j - 1], idx[j], idx[(j + 1) % len(idx)]
+            (ax, ay), (bx, by), (cx, cy) = pts[ia], pts[ib], pts[ic]
+            if _cross(bx - ax, by - ay, cx - ax, cy - ay) <= 0.0:
+                continue  # a reflex or flat corner is no ear
+            if any(_in_triangle(pts[q], pts[ia], pts[ib], pts[ic]) for q in idx if q not in (ia, ib, ic)):
+                continue
+            tris.append((ia, ib, ic))
+            idx.pop(j)
+            break
+        else:  # only flat corners left (points on a line): fan what remains
+            tris.extend((idx[0], idx[i], idx[i + 1]) for i in range(1, len(idx) - 1))
+            return tris
+    tris.append(tuple(idx))
+    return tris
+
+
+def _in_triangle(q, a, b, c) -> bool:
+    d1 = _cross(b[0] - a[0], b[1] - a[1], q[0] - a[0], q[1] - a[1])
+    d2 = _cross(c[0] - b[0], c[1] - b[1], q[0] - b[0], q[1] - b[1])
+    d3 = _cross(a[0] - c[0], a[1] - c[1], q[0] - c[0], q[1] - c[1])
+    return d1 >= 0.0 and d2 >= 0.0 and d3 >= 0.0
+
+
+# --------------------------------------------------------------------------
+# points of the material: where a stitch or a probe attaches
+# --------------------------------------------------------------------------
+def region_holds(region, xi) -> bool:
+    """Whether the local point ``xi = (xi, eta)`` lies in the material of ``region`` (or on its outline)."""
+    return _region_distance(region, np.asarray(xi, dtype=float)) == 0.0
+
+
+def _region_distance(region, xi) -> float:
+    """How far the local point ``xi`` lies outside the material of ``region`` (0 inside or on its boundary)."""
+    best = math.inf
+    for poly in region.polygons:
+        if _winding(xi, poly.tolist()) != 0:
+            return 0.0
+        for a, b in zip(poly, np.roll(poly, -1, axis=0)):
+            d = b - a
+            s = min(1.0, max(0.0, float(np.dot(xi - a, d) / max(np.dot(d, d), 1e-300))))
+            best = min(best, float(np.hypot(*(a + s * d - xi))))
+    return best
+
+
+def locate(mesh, point, positions=None, regions=None, candidates=None, reach=1e-3):
+    """The element whose material holds ``point`` (deformed coordinates) and the point's barycentric coordinates.
+
+    Returns ``(element, barycentric (3,))`` or ``None`` when no material is
+    within ``reach`` of the point (in the local coordinates of a triangle: a
+    fraction of its size). Of the copies of a cut triangle, the one whose
+    material holds the point (or lies nearest to it, in the triangle's local
+    coordinates) is chosen; a point just off the material (in an open wound)
+    gets coordinates that extend the element's P1 map to it. ``candidates``
+    restricts the search to some elements.
+    """
+    p, t = _mesh_arrays(mesh)
+    x = _positions(mesh, positions)
+    q = np.asarray(point, dtype=float)
+    elements = np.arange(t.shape[1]) if candidates is None else np.asarray(candidates, dtype=np.int64)
+    a, b, c = (x[:, t[k, elements]] for k in range(3))
+    d1, d2 = b - a, c - a
+    det = d1[0] * d2[1] - d1[1] * d2[0]
+    ok = np.abs(det) > 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = q[:, None] - a
+        xi = np.where(ok, (r[0] * d2[1] - r[1] * d2[0]) / det, np.inf)
+        eta = np.where(ok, (d1[0] * r[1] - d1[1] * r[0]) / det, np.inf)
+    outside = np.maximum.reduce([-xi, -eta, xi + eta - 1.0, np.zeros_like(xi)])
+    regions = {} if regions is None else regions
+    order = np.argsort(outside, kind="stable")
+    best, best_d = None, math.inf
+    for i in order.tolist():
+        if outside[i] > reach or outside[i] >= best_d:
+            break
+        e = int(elements[i])
+        local = np.array([xi[i], eta[i]])
+        d = outside[i] + (_region_distance(regions[e], local) if e in regions else 0.0)
+        if d < best_d:
+            best, best_d = (e, np.array([1.0 - local.sum(), local[0], local[1]])), d
+    if best is None or best_d > reach:
+        return None
+    return best
+
+
+#: A point attached to the material (a stitch's end) in a copy lighter than this share of its triangle is
+#: carried by a firmer neighbour instead (see :func:`firm_anchor`)
+FIRM_WEIGHT = 0.25
+
+
+def firm_anchor(mesh, element, barycentric, positions=None, weights=None, regions=None, firm=FIRM_WEIGHT):
+    """Attach a point of the material to an element that carries at least ``firm`` of its triangle.
+
+    A copy that holds a thin sliver of its triangle has as little stiffness
+    as material: a force applied at a point of it (a stitch pulling on a wound
+    edge) would stretch the sliver, whose far ("virtual") nodes hold almost
+    nothing, instead of the tissue. The point is then carried by the firmest
+    neighbour on the same side of the cut (an element sharing a node with it,
+    hence joined to its material): the point's position is that element's P1
+    map extended to it (barycentric coordinates that may be slightly negative:
+    an affine, not a convex, combination of the three nodes), so the sliver
+    moves with the tissue next to it. Returns ``(element, barycentric)``.
+    """
+    p, t = _mesh_arrays(mesh)
+    m = t.shape[1]
+    w = _weights(weights, m)
+    if w[element] >= firm:
+        return element, np.asarray(barycentric, dtype=float)
+    x = _positions(mesh, positions)
+    point = x[:, t[:, element]] @ np.asarray(barycentric, dtype=float)
+    near = np.flatnonzero(np.isin(t, t[:, element]).any(axis=0) & (w >= firm))
+    if near.size == 0:
+        return element, np.asarray(barycentric, dtype=float)
+    regions = {} if regions is None else regions
+    best, best_d = None, math.inf
+    for e in near.tolist():
+        a, b, c = x[:, t[0, e]], x[:, t[1, e]], x[:, t[2, e]]
+        J = np.column_stack([b - a, c - a])
+        if abs(np.linalg.det(J)) <= 0:
+            continue
+        xi = np.linalg.solve(J, point - a)
+        local = np.array([xi[0], xi[1]])
+        d = _region_distance(regions[e], local) if e in regions else max(0.0, -xi[0], -xi[1], xi.sum() - 1.0)
+        if d < best_d:
+            best, best_d = (e, np.array([1.0 - xi.sum(), xi[0], xi[1]])), d
+    return best if best is not None else (element, np.asarray(barycentric, dtype=float))
+
+
+def carry_points(edit, elements, barycentric, regions=None):
+    """Points of the material (``elements (k,)`` with ``barycentric (k, 3)``) after ``edit``: the new element of
+    each, or -1 where its element was removed.
+
+    A cut keeps each element's local coordinates, so a point keeps its
+    barycentric coordinates; of the copies of its element, it goes to the
+    one whose material (``regions`` of the new mesh) holds it.
+    """
+    elements = np.asarray(elements, dtype=np.int64)
+    bary = np.asarray(barycentric, dtype=float)
+    copies = {}
+    for new, old in enumerate(np.asarray(edit.elements).tolist()):
+        copies.setdefault(old, []).append(new)
+    regions = {} if regions is None else regions
+    out = np.full(elements.shape, -1, dtype=np.int64)
+    for j, (e, w) in enumerate(zip(elements.tolist(), bary)):
+        options = copies.get(e, [])
+        if len(options) == 1:
+            out[j] = options[0]
+        elif options:
+            local = w[1:]
+            dist = [(_region_distance(regions[c], local) if c in regions else 0.0) for c in options]
+            out[j] = options[int(np.argmin(dist))]
     return out

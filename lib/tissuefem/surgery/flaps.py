@@ -37,7 +37,7 @@ import numpy as np
 from .scene import Scene
 from .simulation import Simulation
 
-__all__ = ["advancement_flap", "pair_by_motion", "FlapResult", "wound_nodes"]
+__all__ = ["advancement_flap", "rotation_flap", "pair_by_motion", "stitch_points", "FlapResult", "wound_nodes"]
 
 
 @dataclass
@@ -55,7 +55,7 @@ class FlapResult:
     initial_gap: float  # the widest before tightening
     suture_forces: np.ndarray
     reports: list = field(default_factory=list)
-    snapshots: dict = field(default_factory=dict)  # stage -> (positions (2, n), triangles (3, m))
+    snapshots: dict = field(default_factory=dict)  # stage -> (drawn points (2, k), triangles (3, q), element (q,))
 
     @property
     def converged(self) -> bool:
@@ -112,12 +112,128 @@ def _weighted_percentile(values, weights, q) -> float:
 
 
 def _snapshot(sim):
-    return sim.positions().copy(), sim.mesh.t.copy()
+    """The tissue as drawn: the drawn points and triangles of its material (see ``Simulation.picture``), and
+    the element of each drawn triangle (to colour it by a per-element value)."""
+    picture = sim.picture
+    return picture.points(sim.positions()).copy(), picture.triangles.copy(), picture.element.copy()
+
+
+def _material_points(sim) -> np.ndarray:
+    """A point inside the material of every element (reference coordinates), shape (2, n_elements)."""
+    picture = sim.picture
+    x = picture.points(sim.model.X)
+    centres = x[:, picture.triangles].mean(axis=1)
+    out = np.empty((2, sim.mesh.nelements))
+    out[:, picture.element] = centres  # an element drawn as several triangles keeps the last one's centre
+    return out
+
+
+def stitch_points(samples, normals, motion, offset) -> np.ndarray:
+    """Stitches for a flap cut through elements: point pairs ``(k, 2, 2)``, flap point first.
+
+    ``samples`` ``(k, 2)`` are points on the flap's wound edges and ``normals``
+    ``(k, 2)`` unit vectors into the flap there. Each is paired with the point
+    ``motion`` takes it to (on the bed's wound edge). Both ends are moved by
+    ``offset`` into their own side's material (into the flap; into the bed,
+    away from where the flap arrives), so that each is attached to the right
+    lip where two lips touch.
+    """
+    samples = np.asarray(samples, dtype=float)
+    normals = np.asarray(normals, dtype=float)
+    target = np.asarray(motion(samples.T), dtype=float).T
+    step = 1e-6 * max(1.0, float(np.abs(samples).max()))
+    turned = (np.asarray(motion((samples + step * normals).T), dtype=float).T - target) / step  # its gradient on n
+    turned /= np.hypot(turned[:, 0], turned[:, 1])[:, None]
+    return np.stack([samples + offset * normals, target - offset * turned], axis=1)
+
+
+def _along(a, b, spacing) -> np.ndarray:
+    """Points along the segment ``a -> b`` at about ``spacing``, ends excluded (the corners are left open)."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    n = max(1, int(round(np.hypot(*(b - a)) / spacing)))
+    s = (np.arange(n) + 0.5) / n
+    return a + s[:, None] * (b - a)
+
+
+def _close_flap(scene, *, in_flap, motion, samples, normals, method, tighten_frames, settle_frames,
+                suture_stiffness, clock) -> FlapResult:
+    """Build the cut scene, stitch the flap to the bed by ``motion``, tighten, and report the tension."""
+    for name, value, low in (("tighten_frames", tighten_frames, 1), ("settle_frames", settle_frames, 0)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
+            raise ValueError(f"{name} must be an integer >= {low}, got {value!r}")
+    options = {} if clock is None else {"clock": clock}
+    sim = Simulation(scene, **options)
+    snapshots = {"cut": _snapshot(sim)}
+    mesh = sim.mesh
+    flap = in_flap(_material_points(sim))
+    edge = float(np.mean(np.hypot(*(mesh.p[:, mesh.facets[0]] - mesh.p[:, mesh.facets[1]]))))
+    if not np.any(flap):
+        raise ValueError("the flap holds no triangle: make the mesh finer or the flap larger")
+    if method == "edges":
+        pairs = pair_by_motion(mesh, sim.positions(), flap, motion, 0.5 * edge)
+        stitches = pairs.shape[1]
+    else:
+        pairs = stitch_points(samples(edge), normals(edge), motion, 1e-2 * edge)
+        stitches = pairs.shape[0]
+    sim.suture(pairs, stiffness=suture_stiffness, tightness=0.0)
+    initial_gap = float(sim.suture_gaps().max())
+    reports = []
+    for k in range(1, int(tighten_frames) + 1):
+        sim.tighten(k / int(tighten_frames))
+        reports.append(sim.frame())
+    reports += sim.run(int(settle_frames))
+    snapshots["sutured"] = _snapshot(sim)
+    tension = sim.tension()
+    areas = sim.model.element_areas()
+    flap = in_flap(_material_points(sim))
+    return FlapResult(
+        simulation=sim,
+        stitches=stitches,
+        tension=tension,
+        max_tension=float(tension.max()),
+        p95_tension=_weighted_percentile(tension, areas, 0.95),
+        mean_tension=float(np.dot(areas, np.maximum(tension, 0.0)) / areas.sum()),
+        flap_tension=float(np.dot(areas[flap], tension[flap]) / areas[flap].sum()),
+        max_gap=float(sim.suture_gaps().max()),
+        initial_gap=initial_gap,
+        suture_forces=sim.model.sutures.forces(sim.u),
+        reports=reports,
+        snapshots=snapshots,
+    )
+
+
+def _patch_scene(name, description, patch, material, method, excisions, incisions, contact=False) -> Scene:
+    """A ``width x height`` patch of skin held on its four outer edges, with the flap's excisions and incisions
+    (and self-contact of its surface when ``contact``)."""
+    width, height, n_triangles = patch
+    model, youngs_modulus, poisson_ratio = material
+    effects = {
+        "handles": [{"name": side, "region": side} for side in ("left", "right", "bottom", "top")],
+        "excisions": [{"polygon": polygon, "method": method} for polygon in excisions],
+        "incisions": [{"path": path, "method": method} for path in incisions],
+    }
+    if contact:
+        effects["contact"] = {}
+    return Scene(
+        name=name,
+        description=description,
+        domain={"shape": "rectangle", "width": width, "height": height, "triangles": int(n_triangles)},
+        material={"model": model, "youngs_modulus": youngs_modulus, "poisson_ratio": poisson_ratio},
+        effects=effects,
+        solver={"budget": 1e9, "rtol": 1e-6, "max_iterations": 100},
+    )
+
+
+def _method(method) -> str:
+    if method not in ("elements", "edges"):
+        raise ValueError(f"method must be 'elements' or 'edges', got {method!r}")
+    return method
 
 
 def advancement_flap(*, width=4.0, height=2.0, n_triangles=3000, defect=(1.2, 0.7, 0.6, 0.6), flap_length=1.5,
                      model="stable-neo-hookean", youngs_modulus=1000.0, poisson_ratio=0.3, tighten_frames=10,
-                     settle_frames=0, suture_stiffness=None, clock=None) -> FlapResult:
+                     settle_frames=0, suture_stiffness=None, clock=None, method="elements",
+                     contact=False) -> FlapResult:
     """Excise a rectangular defect, cut an advancement flap beside it, pull it in, and report the tension.
 
     Parameters
@@ -134,61 +250,123 @@ def advancement_flap(*, width=4.0, height=2.0, n_triangles=3000, defect=(1.2, 0.
         Frames over which the stitches are tightened from slack to closed, and
         frames run after that (each tightening frame is solved to the solver's
         tolerance, so extra frames change nothing; they only report).
+    method
+        ``"elements"`` (default): the defect and the incisions are cut through
+        the elements along the drawn lines, and the stitches sit on the wound's
+        edges, about one per mesh edge length. ``"edges"``: the defect is the
+        triangles whose centroids fall inside it, the incisions are snapped to
+        mesh edges, and the stitches tie wound nodes (the jagged, mesh-dependent
+        version, to compare).
     """
+    method = _method(method)
     x0, y0, w, h = (float(v) for v in defect)
     if not (np.isfinite(flap_length) and flap_length > 0):
         raise ValueError(f"flap_length must be finite and > 0, got {flap_length!r}")
-    for name, value, low in (("tighten_frames", tighten_frames, 1), ("settle_frames", settle_frames, 0)):
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
-            raise ValueError(f"{name} must be an integer >= {low}, got {value!r}")
     if not (w > 0 and h > 0 and 0 < x0 and x0 + w + flap_length < width and 0 < y0 and y0 + h < height):
         raise ValueError(f"defect {defect!r} and flap_length {flap_length!r} must fit inside the {width} x {height} "
                          "patch, with skin on every side")
     x1, y1 = x0 + w, y0 + h
     tip = x1 + flap_length
-    scene = Scene(
-        name="advancement flap",
-        description="A rectangular defect closed by advancing a flap cut beside it (after Sifakis et al. 2009).",
-        domain={"shape": "rectangle", "width": width, "height": height, "triangles": int(n_triangles)},
-        material={"model": model, "youngs_modulus": youngs_modulus, "poisson_ratio": poisson_ratio},
-        effects={
-            "handles": [{"name": side, "region": side} for side in ("left", "right", "bottom", "top")],
-            "excisions": [{"polygon": [[x0, y0], [x1, y0], [x1, y1], [x0, y1]]}],
-            "incisions": [{"path": [[x1, y0], [tip, y0]]}, {"path": [[x1, y1], [tip, y1]]}],
-        },
-        solver={"budget": 1e9, "rtol": 1e-6, "max_iterations": 100},
-    )
-    options = {} if clock is None else {"clock": clock}
-    sim = Simulation(scene, **options)
-    snapshots = {"cut": _snapshot(sim)}
-    mesh = sim.mesh
-    centroids = mesh.p[:, mesh.t].mean(axis=1)
-    flap = (centroids[0] > x1) & (centroids[0] < tip) & (centroids[1] > y0) & (centroids[1] < y1)
-    edge = float(np.mean(np.hypot(*(mesh.p[:, mesh.facets[0]] - mesh.p[:, mesh.facets[1]]))))
-    if not np.any(flap):
-        raise ValueError("the flap holds no triangle: make the mesh finer or the flap larger")
-    pairs = pair_by_motion(mesh, sim.positions(), flap, lambda X: X - np.array([[w], [0.0]]), 0.5 * edge)
-    sim.suture(pairs, stiffness=suture_stiffness, tightness=0.0)
-    initial_gap = float(sim.suture_gaps().max())
-    reports = []
-    for k in range(1, int(tighten_frames) + 1):
-        sim.tighten(k / int(tighten_frames))
-        reports.append(sim.frame())
-    reports += sim.run(int(settle_frames))
-    snapshots["sutured"] = _snapshot(sim)
-    tension = sim.tension()
-    areas = sim.model.element_areas()
-    return FlapResult(
-        simulation=sim,
-        stitches=pairs.shape[1],
-        tension=tension,
-        max_tension=float(tension.max()),
-        p95_tension=_weighted_percentile(tension, areas, 0.95),
-        mean_tension=float(np.dot(areas, np.maximum(tension, 0.0)) / areas.sum()),
-        flap_tension=float(np.dot(areas[flap], tension[flap]) / areas[flap].sum()),
-        max_gap=float(sim.suture_gaps().max()),
-        initial_gap=initial_gap,
-        suture_forces=sim.model.sutures.forces(sim.u),
-        reports=reports,
-        snapshots=snapshots,
-    )
+    scene = _patch_scene("advancement flap",
+                         "A rectangular defect closed by advancing a flap cut beside it (after Sifakis et al. 2009).",
+                         (width, height, n_triangles), (model, youngs_modulus, poisson_ratio), method,
+                         [[[x0, y0], [x1, y0], [x1, y1], [x0, y1]]], [[[x1, y0], [tip, y0]], [[x1, y1], [tip, y1]]],
+                         contact)
+
+    def in_flap(c):
+        return (c[0] > x1) & (c[0] < tip) & (c[1] > y0) & (c[1] < y1)
+
+    def samples(spacing):  # the flap's leading edge, then its top and bottom edges
+        return np.vstack([_along((x1, y0), (x1, y1), spacing), _along((x1, y1), (tip, y1), spacing),
+                          _along((x1, y0), (tip, y0), spacing)])
+
+    def normals(spacing):
+        counts = [len(_along(a, b, spacing)) for a, b in (((x1, y0), (x1, y1)), ((x1, y1), (tip, y1)),
+                                                          ((x1, y0), (tip, y0)))]
+        return np.repeat([[1.0, 0.0], [0.0, -1.0], [0.0, 1.0]], counts, axis=0)
+
+    return _close_flap(scene, in_flap=in_flap, motion=lambda X: X - np.array([[w], [0.0]]), samples=samples,
+                       normals=normals, method=method, tighten_frames=tighten_frames, settle_frames=settle_frames,
+                       suture_stiffness=suture_stiffness, clock=clock)
+
+
+def rotation_flap(*, width=4.0, height=3.0, n_triangles=3000, pivot=(1.5, 1.5), radius=1.0, defect_angle=30.0,
+                  flap_angle=120.0, model="stable-neo-hookean", youngs_modulus=1000.0, poisson_ratio=0.3,
+                  tighten_frames=10, settle_frames=0, suture_stiffness=None, clock=None,
+                  method="elements", contact=False) -> FlapResult:
+    """Close a wedge-shaped defect by rotating a flap about its pivot, and report the tension.
+
+    The defect is the sector of the circle of ``radius`` about ``pivot``
+    between the angles 60 and ``60 + defect_angle`` degrees. The flap is the
+    sector beside it, between ``60 - flap_angle`` and 60 degrees: an arc-shaped
+    incision along the circle frees its curved edge, and it stays attached
+    along its straight base (the radius at ``60 - flap_angle`` degrees). Its
+    leading edge turns by ``defect_angle`` about the pivot onto the defect's
+    far edge; its base cannot turn, so the flap fans out: the radius at angle
+    ``theta`` turns by ``defect_angle (theta - theta_0) / flap_angle``, and the
+    arc slides along the circle, where each of its stitches meets the outer
+    lip. A wider flap (larger ``flap_angle``) fans out less and leaves less
+    tension: the rotation flap's rule of thumb (an arc several times the
+    defect's width).
+    ``method`` and ``contact`` as in :func:`advancement_flap`.
+    """
+    method = _method(method)
+    px, py = (float(v) for v in pivot)
+    r = float(radius)
+    a1 = np.deg2rad(60.0)
+    alpha = np.deg2rad(float(defect_angle))
+    a0 = a1 - np.deg2rad(float(flap_angle))
+    if not (0 < alpha < np.pi / 2 and 0 < a1 - a0 < 1.5 * np.pi and r > 0):
+        raise ValueError(f"defect_angle must be in (0, 90) and flap_angle in (0, 270) degrees, radius > 0; got "
+                         f"{defect_angle!r}, {flap_angle!r}, {radius!r}")
+    ring = np.linspace(a0, a1 + alpha, 400)
+    if not (np.all(px + r * np.cos(ring) > 0) and np.all(px + r * np.cos(ring) < width) and 0 < px < width
+            and np.all(py + r * np.sin(ring) > 0) and np.all(py + r * np.sin(ring) < height) and 0 < py < height):
+        raise ValueError(f"the flap and the defect (radius {radius!r} about {pivot!r}) must fit inside the "
+                         f"{width} x {height} patch, with skin on every side")
+
+    def arc(start, stop, n):
+        a = np.linspace(start, stop, n)
+        return np.stack([px + r * np.cos(a), py + r * np.sin(a)], axis=1)
+
+    edge_guess = np.sqrt(2.0 * width * height / max(int(n_triangles), 1))
+    # the arcs as polylines with chords a quarter of an edge long: they stray from the circle by
+    # (h/4)^2 / (8 r), far less than the offset by which a stitch's ends are put on their own side
+    n_arc = max(8, int(np.ceil(4.0 * r * (a1 - a0) / edge_guess)))
+    defect = np.vstack([[[px, py]], arc(a1, a1 + alpha, max(4, int(np.ceil(4.0 * r * alpha / edge_guess))))])
+    scene = _patch_scene("rotation flap", "A wedge-shaped defect closed by rotating the flap beside it about its pivot.",
+                         (width, height, n_triangles), (model, youngs_modulus, poisson_ratio), method,
+                         [defect.tolist()], [arc(a1, a0, n_arc).tolist()], contact)
+    def motion(X):  # the flap fans out: each radius turns in proportion to its angle from the base
+        d = np.asarray(X, float) - np.array([[px], [py]])
+        ang = np.arctan2(d[1], d[0])
+        ang = np.where(ang < a0 - 1e-9, ang + 2 * np.pi, ang)
+        turned = ang + alpha * np.clip((ang - a0) / (a1 - a0), 0.0, 1.0)
+        rho = np.hypot(d[0], d[1])
+        return np.array([[px], [py]]) + rho * np.stack([np.cos(turned), np.sin(turned)])
+
+    def in_flap(X):
+        d = np.asarray(X, float) - np.array([[px], [py]])
+        ang = np.arctan2(d[1], d[0])
+        ang = np.where(ang < a0 - 1e-12, ang + 2 * np.pi, ang)
+        return (np.hypot(d[0], d[1]) < r) & (ang > a0) & (ang < a1)
+
+    def parts(spacing):
+        lead = _along((px, py), (px + r * np.cos(a1), py + r * np.sin(a1)), spacing)
+        n = max(1, int(round(r * (a1 - a0) / spacing)))
+        ang = a1 - (np.arange(n) + 0.5) / n * (a1 - a0)
+        rim = np.stack([px + r * np.cos(ang), py + r * np.sin(ang)], axis=1)
+        return (lead, np.repeat([[np.sin(a1), -np.cos(a1)]], len(lead), axis=0),
+                rim, -np.stack([np.cos(ang), np.sin(ang)], axis=1))
+
+    def samples(spacing):
+        lead, _, rim, _ = parts(spacing)
+        return np.vstack([lead, rim])
+
+    def normals(spacing):
+        _, n_lead, _, n_rim = parts(spacing)
+        return np.vstack([n_lead, n_rim])
+
+    return _close_flap(scene, in_flap=in_flap, motion=motion, samples=samples, normals=normals, method=method,
+                       tighten_frames=tighten_frames, settle_frames=settle_frames,
+                       suture_stiffness=suture_stiffness, clock=clock)

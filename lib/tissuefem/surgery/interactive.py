@@ -689,8 +689,10 @@ class SurgeryView:
         """New paths for a new mesh: the faces' and the edges' vertex arrays, rewritten in place per frame."""
         mesh = self.sim.mesh
         self._mesh = mesh
-        t = np.asarray(mesh.t, dtype=np.intp)
-        edges = np.asarray(mesh.facets, dtype=np.intp)
+        # what to draw: the triangles, or, for elements cut through, their material (Simulation.picture)
+        self._picture = self.sim.picture
+        t = np.asarray(self._picture.triangles, dtype=np.intp)
+        edges = np.asarray(self._picture.edges, dtype=np.intp)
         # each triangle as MOVETO a, LINETO b, LINETO c, CLOSEPOLY (its vertex is ignored); each edge as MOVETO, LINETO
         self._face_nodes = t[[0, 1, 2, 0]].T.ravel()
         self._edge_nodes = edges.T.ravel()
@@ -710,7 +712,7 @@ class SurgeryView:
 
     def _fill(self, x) -> None:
         self._x = x
-        xt = x.T
+        xt = self._picture.points(x).T
         np.take(xt, self._face_nodes, axis=0, out=self._faces)
         np.take(xt, self._edge_nodes, axis=0, out=self._edges)
         if not self._views:

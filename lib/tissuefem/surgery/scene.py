@@ -15,9 +15,14 @@ effect            what it adds
 ``handles``       nodes held or pulled (a boundary name, a box, or the nodes near a point)
 ``tractions``     a constant traction on a named boundary
 ``probes``        rigid disc tool tips pressed into the tissue (a penalty term)
-``excisions``     defects removed (elements inside a polygon) before the first frame
-``incisions``     cuts along polylines (duplicated nodes) before the first frame
+``excisions``     defects cut out along polygons before the first frame (``method``: ``"elements"``,
+                  through the elements along the outline, or ``"edges"``, the triangles inside)
+``incisions``     cuts along polylines before the first frame (``method``: ``"elements"``, through the
+                  elements, or ``"edges"``, snapped to mesh edges with duplicated nodes)
 ``sutures``       pairs of points tied together by stiff springs
+``contact``       self-contact of the surface: wound lips and folds touch but never pass
+                  through (``distance``: the skin's depth, default a quarter of the median
+                  boundary edge; ``stiffness``: a pressure, default Young's modulus)
 ================  =============================================================================
 
 A scene is a plain nested dictionary with these keys (see
@@ -54,6 +59,9 @@ a mesh file (``domain.path``)                          at most 64 MiB and 200 00
 ``effects.fibers.stiffness``                           ``[0, 1e12]``
 ``effects.inversion.threshold``                        ``[0.01, 0.99]``
 probe and suture ``stiffness``                         ``[0, 1e40]`` (sutures: ``> 0``)
+``effects.contact.stiffness``                          ``(0, 1e40]``
+``effects.contact.distance``                           ``> 0``, at most half the median length of a surface segment
+                                                       (checked when the model is built)
 ``effects.sutures[i].tightness``                       ``[0, 1]``
 points (centres, boxes, polygons, paths, sutures)      within ``1000 L`` of the domain's centre
 and handle ``target`` displacements
@@ -107,8 +115,13 @@ from ..engine.parameters import TIME_STEP_RANGE, YOUNGS_MODULUS_RANGE, check_cou
 __all__ = ["Scene", "EFFECTS", "SHAPES", "EXAMPLE_TOML", "demo_scene", "flap_scene", "flap_path", "read_mesh"]
 
 #: the effects a scene may name
+#: How a cut or an excision meets the mesh: through the elements, along the drawn line (the virtual node
+#: algorithm, :mod:`~tissuefem.surgery.element_cuts`), or snapped to the mesh's edges (:mod:`~tissuefem.surgery.
+#: topology`: jagged, mesh-dependent; kept to compare)
+CUT_METHODS = ("elements", "edges")
+
 EFFECTS = ("inertia", "gravity", "fibers", "inversion", "handles", "tractions", "probes", "excisions",
-           "incisions", "sutures")
+           "incisions", "sutures", "contact")
 #: the domains a scene may use ("file": a 2D triangle mesh read through meshio)
 SHAPES = ("rectangle", "flap", "fusiform", "file")
 #: the list-valued effects (each entry is a table)
@@ -422,11 +435,13 @@ def _check_entry(kind, i, e):
             out["stiffness"] = _penalty(f"{field}.stiffness", e["stiffness"])
         return out
     if kind == "excisions":
-        _only(field, e, ("polygon",))
-        return {"polygon": _points(f"{field}.polygon", e.get("polygon"), 3)}
+        _only(field, e, ("polygon", "method"))
+        return {"polygon": _points(f"{field}.polygon", e.get("polygon"), 3),
+                "method": _string(f"{field}.method", e.get("method", "elements"), CUT_METHODS)}
     if kind == "incisions":
-        _only(field, e, ("path",))
-        return {"path": _points(f"{field}.path", e.get("path"), 2)}
+        _only(field, e, ("path", "method"))
+        return {"path": _points(f"{field}.path", e.get("path"), 2),
+                "method": _string(f"{field}.method", e.get("method", "elements"), CUT_METHODS)}
     # sutures
     _only(field, e, ("pairs", "stiffness", "tightness"))
     pairs = _count_list(f"{field}.pairs", e.get("pairs"), "point pairs [[x1, y1], [x2, y2]]", MAX_POINTS)
@@ -485,6 +500,14 @@ def _check_effects(effects):
                                                     positive=True, lo=THRESHOLD_RANGE[0], hi=THRESHOLD_RANGE[1])
         elif "threshold" in e:
             raise ValueError("effects.inversion.threshold: only the 'itf' method has a threshold")
+    if "contact" in effects:
+        e = _table("effects.contact", effects["contact"])
+        _only("effects.contact", e, ("distance", "stiffness"))
+        out["contact"] = {}
+        if "distance" in e:
+            out["contact"]["distance"] = _number("effects.contact.distance", e["distance"], positive=True, hi=_FAR)
+        if "stiffness" in e:
+            out["contact"]["stiffness"] = _penalty("effects.contact.stiffness", e["stiffness"], positive=True)
     for kind in _LISTS:
         if kind in effects:
             entries = effects[kind]

@@ -21,11 +21,14 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
 from ..engine import meshes
+from ..engine.contact import ContactSurface
 from ..engine.model import Handle, Model, region_nodes
+from ..engine.parameters import PENALTY_MAX, RADIUS_RANGE, check_count
 from ..engine.realtime import RealtimeSolver
-from ..engine.terms import check_vector
-from . import topology
+from ..engine.terms import check_reach, check_vector
+from . import element_cuts, topology
 from .scene import Scene, _number
+from .surfaces import contact_surface
 
 __all__ = ["Simulation"]
 
@@ -74,6 +77,7 @@ class Simulation:
             fibers = (fx["stiffness"], g)
         self._fibers = fibers
         self.mesh = mesh
+        self._contact = self._contact_settings(scene, mesh)
         self._grab_count = 0
         # handles: resolved to nodes on the original mesh, then carried through the edits
         handles = []
@@ -92,14 +96,24 @@ class Simulation:
         self.removed_pieces = 0
         self._sutures = None
         self._state = None
+        # the material of elements cut through (weights: share of the triangle; regions: where it lies)
+        self._weights = None
+        self._regions = {}
         if (scene.effects.get("excisions") or scene.effects.get("incisions")) and order != 1:
             raise ValueError("solver: excisions and incisions need P1 elements (order=1)")
         for i, e in enumerate(scene.effects.get("excisions", [])):
-            self._apply_edit(topology.excise, np.asarray(e["polygon"], dtype=float), f"effects.excisions[{i}]",
+            operation = element_cuts.excise_through if e.get("method", "elements") == "elements" else topology.excise
+            self._apply_edit(operation, np.asarray(e["polygon"], dtype=float), f"effects.excisions[{i}]",
                              rebuild=False)
         for i, e in enumerate(scene.effects.get("incisions", [])):
-            self._apply_edit(topology.incise, np.asarray(e["path"], dtype=float), f"effects.incisions[{i}]",
+            operation = element_cuts.cut_through if e.get("method", "elements") == "elements" else topology.incise
+            self._apply_edit(operation, np.asarray(e["path"], dtype=float), f"effects.incisions[{i}]",
                              rebuild=False)
+        if not self.dynamic:
+            _, pieces = self._loose_elements(self.mesh, np.arange(self.mesh.nvertices), self._sutures)
+            if pieces:
+                raise ValueError(f"effects.handles: {pieces} piece(s) of the domain are held by nothing; a quasistatic "
+                                 "scene must hold every piece (or it floats and has no equilibrium)")
         self._rebuild()
         for i, p in enumerate(scene.effects.get("probes", [])):
             self.add_probe(p["center"], p["radius"], p.get("stiffness"), _field=f"effects.probes[{i}]")
@@ -135,12 +149,51 @@ class Simulation:
                 dt=None if inertia is None else inertia["time_step"], density=self.density,
                 mass="lumped" if inertia is None else inertia["mass"],
                 gravity=None if gravity is None else gravity["acceleration"],
-                tractions=tractions or None, fibers=self._fibers, probes=probes, sutures=self._sutures,
+                tractions=tractions or None, fibers=self._fibers, probes=probes,
+                sutures=self._suture_spec(self._sutures), weights=self._weights, contact=self._contact_spec(),
             )
         except ValueError as err:
             if "tractions" in str(err) and "effects." not in str(err):
                 raise ValueError(f"effects.tractions: {err}") from None
+            if str(err).startswith("contact."):
+                raise ValueError(f"effects.{err}") from None
             raise
+
+    #: the default depth of the contact skin, in the median length of the surface's segments (its boundary
+    #: edges), and its stiffness (a pressure), in Young's moduli
+    CONTACT_DISTANCE, CONTACT_STIFFNESS = 0.25, 1.0
+
+    @classmethod
+    def _contact_settings(cls, scene, mesh):
+        """The scene's contact effect with its defaults filled in (fixed for the whole run, so the skin does not
+        change when a cut rebuilds the model), or ``None``."""
+        spec = scene.effects.get("contact")
+        if spec is None:
+            return None
+        if "distance" in spec:
+            distance = spec["distance"]
+        else:
+            surface = ContactSurface.from_mesh(mesh)
+            ends = surface.segment_positions(mesh.p)
+            distance = cls.CONTACT_DISTANCE * float(np.median(np.hypot(*(ends[:, 1] - ends[:, 0]).T)))
+        return {"distance": distance, "default_distance": "distance" not in spec,
+                "stiffness": spec.get("stiffness", cls.CONTACT_STIFFNESS * scene.material["youngs_modulus"])}
+
+    def _contact_spec(self):
+        """The model's ``contact`` argument: the surface of the current material (its weights and regions
+        where it was cut through elements) and the run's settings."""
+        if self._contact is None:
+            return None
+        surface = contact_surface(self.mesh, self._weights, self._regions)
+        spec = dict(self._contact, surface=surface)
+        if self._contact.get("default_distance"):
+            # the skin must stay thin against the surface's segments: a cut through elements (or a curved
+            # excision) leaves short pieces, so the default depth shrinks to half their median length
+            ends = surface.segment_positions(self.mesh.p)
+            lengths = np.hypot(*(ends[:, 1] - ends[:, 0]).T)
+            spec["distance"] = min(spec["distance"], 0.5 * float(np.median(lengths)))
+        spec.pop("default_distance", None)
+        return spec
 
     def _rebuild(self, handles=None):
         """Build the model and the solver for the current mesh, keeping the state (if any)."""
@@ -172,13 +225,13 @@ class Simulation:
         """Apply a change completely or not at all: on any error, everything is put back as it was."""
         saved = (self.mesh, self._fibers, copy.deepcopy(self._sutures), copy.deepcopy(self._probe_specs),
                  getattr(self, "model", None), getattr(self, "solver", None), self._grab_count, self._probe_count,
-                 self.removed_pieces)
+                 self.removed_pieces, self._weights, self._regions)
         handles = [(h, h.target) for h in self._current_handles()]
         try:
             yield
         except BaseException:
             (self.mesh, self._fibers, self._sutures, self._probe_specs, model, solver, self._grab_count,
-             self._probe_count, self.removed_pieces) = saved
+             self._probe_count, self.removed_pieces, self._weights, self._regions) = saved
             self._state = None
             if model is not None:
                 self.model, self.solver = model, solver
@@ -225,14 +278,42 @@ class Simulation:
         return self.solver.time
 
     def frame(self, targets=None):
-        """One frame. ``targets``: ``{handle name: translation (dx, dy) or map}`` (others keep theirs)."""
-        if targets and not isinstance(targets, dict):
+        """One frame. ``targets``: ``{handle name: translation (dx, dy) or map}`` (others keep theirs).
+
+        All or nothing: a refused target (or anything raised before the commit) changes nothing.
+        """
+        if targets is not None and not isinstance(targets, dict):
             raise ValueError(f"targets must be a dict {{handle name: target}}, got {targets!r}")
         return self.solver.frame(targets or None)
 
     def run(self, frames: int, targets=None):
-        """Run ``frames`` frames (with the same ``targets`` for each); return the reports."""
-        return [self.frame(targets) for _ in range(int(frames))]
+        """Run ``frames`` frames (an integer >= 0, with the same ``targets`` for each); return the reports."""
+        frames = check_count("frames", frames, 0)
+        return [self.frame(targets) for _ in range(frames)]
+
+    # ------------------------------------------------------------------ checks of points and radii
+    def _point(self, field, point) -> np.ndarray:
+        """A finite point within ``REACH`` domain sizes of the domain's centre (the model's reference box)."""
+        return check_reach(field, check_vector(field, point), self.model.middle, self.model.size)
+
+    def _radius(self, field, radius) -> float:
+        """A radius within ``RADIUS_RANGE`` domain sizes: what a penalty ``~ 1 / r^2`` can be computed for."""
+        r = _number(field, radius, positive=True)
+        lo, hi = RADIUS_RANGE[0] * self.model.size, RADIUS_RANGE[1] * self.model.size
+        if not lo <= r <= hi:
+            raise ValueError(f"{field} = {r:g} must lie within [{RADIUS_RANGE[0]:g}, {RADIUS_RANGE[1]:g}] domain "
+                             f"sizes, i.e. [{lo:g}, {hi:g}]")
+        return r
+
+    @property
+    def picture(self):
+        """What to draw (:class:`~tissuefem.surgery.element_cuts.Picture`): the triangles, and for elements cut
+        through, the material they carry (built once per mesh)."""
+        cached = getattr(self, "_picture", None)
+        if cached is None or cached[0] is not self.mesh:
+            cached = (self.mesh, element_cuts.picture(self.mesh, getattr(self, "_regions", None)))
+            self._picture = cached
+        return cached[1]
 
     def positions(self) -> np.ndarray:
         """Deformed node positions ``x = X + u`` ``(2, n_nodes)``."""
@@ -259,8 +340,8 @@ class Simulation:
         The grabbed nodes stay where they are until :meth:`drag` moves them (by
         the mouse's offset from the grab point). Default radius: 1.5 mean edge lengths.
         """
-        radius = 1.5 * meshes.mean_edge_length(self.mesh) if radius is None else _number("radius", radius, positive=True)
-        point = check_vector("point", point)
+        radius = 1.5 * meshes.mean_edge_length(self.mesh) if radius is None else self._radius("radius", radius)
+        point = self._point("point", point)
         if self.order != 1:
             raise ValueError("grab: grabbing needs P1 elements (order=1)")
         x = self.positions()
@@ -280,8 +361,8 @@ class Simulation:
     def drag(self, name, point) -> None:
         """Move a grabbed handle so that its grab point follows ``point``."""
         h = self.model.handle(name)
-        point = check_vector("point", point)
-        self.model.handle(name).move(point - (np.zeros(2) if h.anchor is None else h.anchor))
+        point = self._point("point", point)
+        h.move(point - (np.zeros(2) if h.anchor is None else h.anchor))
 
     def handle_offset(self, name) -> np.ndarray:
         t = self.model.handle(name).target
@@ -292,22 +373,34 @@ class Simulation:
         self.model.handle(name).move(target)
 
     def release(self, name) -> None:
-        """Let go of a handle: its nodes are free from the next frame on."""
+        """Let go of a handle: its nodes are free from the next frame on.
+
+        In a quasistatic scene a piece that nothing holds any more (the handle was the last hold on a
+        piece cut free) has no equilibrium: it is lifted out, as after a cut (see
+        :meth:`_drop_loose_pieces`). A dynamic scene keeps it: it falls.
+        """
         handle = self.model.handle(name)
         self._check_held([h for h in self.model.handles if h is not handle])
-        self.model.remove_handle(name)
+        if self.dynamic:
+            self.model.remove_handle(name)
+            return
+        with self._transaction():
+            self.model.remove_handle(name)
+            loose, pieces = self._loose_elements(self.mesh, np.arange(self.mesh.nvertices), self._sutures)
+            if pieces:
+                self._apply_edit(topology.excise, lambda centroids: loose.copy(), f"release({name!r})")
+                self.removed_pieces += pieces
 
     # ------------------------------------------------------------------ probe
     def add_probe(self, center, radius, stiffness=None, _field="probe"):
         """Press a rigid disc (a tool tip) into the tissue; returns its label for :meth:`move_probe`."""
-        center = check_vector(f"{_field}.center", center).tolist()
-        radius = _number(f"{_field}.radius", radius, positive=True)
+        center = self._point(f"{_field}.center", center).tolist()
+        radius = self._radius(f"{_field}.radius", radius)  # in domain sizes: the default stiffness stays finite
         E = self.scene.material["youngs_modulus"]
         if stiffness is None:  # stiff enough to keep the penetration near 1 % of the radius under moderate pressure
-            with np.errstate(over="ignore"):
-                stiffness = _number(f"{_field}.stiffness (default 100 E / radius)", 100.0 * E / radius)
+            stiffness = _number(f"{_field}.stiffness (default 100 E / radius)", 100.0 * E / radius, hi=PENALTY_MAX)
         else:
-            stiffness = _number(f"{_field}.stiffness", stiffness, nonnegative=True)
+            stiffness = _number(f"{_field}.stiffness", stiffness, nonnegative=True, hi=PENALTY_MAX)
         with self._transaction():
             self._probe_count += 1
             label = f"probe{self._probe_count}"
@@ -317,14 +410,16 @@ class Simulation:
         return label
 
     def _probe(self, label):
-        for p in self.model.probes:
-            if p.label == label:
-                return p
-        raise ValueError(f"no probe named {label!r}; probes: {[p.label for p in self.model.probes]}")
+        if isinstance(label, str):  # labels are strings: anything else (an array, a list) names no probe
+            for p in self.model.probes:
+                if p.label == label:
+                    return p
+        raise ValueError(f"no probe named {label!r:.100}; probes: {[p.label for p in self.model.probes]}")
 
     def move_probe(self, label, center) -> None:
+        """Move the probe ``label`` to ``center`` (checked; a refusal keeps it where it was)."""
         probe = self._probe(label)
-        probe.move(center)
+        probe.move(self._point("center", center))
         for spec in self._probe_specs:
             if spec["label"] == label:
                 spec["center"] = list(probe.center)
@@ -339,9 +434,13 @@ class Simulation:
     # ------------------------------------------------------------------ topology changes
     def _apply_edit(self, operation, argument, field, rebuild=True):
         running = hasattr(self, "solver")
+        material = dict(weights=self._weights, regions=self._regions)
         try:
-            if operation is topology.incise:  # cut where the user drew, on the deformed tissue
-                edit = operation(self.mesh, argument, self.positions() if running else None)
+            if operation in (topology.incise, element_cuts.cut_through):  # where the user drew, on the deformed tissue
+                options = material if operation is element_cuts.cut_through else {}
+                edit = operation(self.mesh, argument, self.positions() if running else None, **options)
+            elif operation is element_cuts.excise_through:  # an outline in reference coordinates
+                edit = operation(self.mesh, argument, None, **material)
             else:
                 edit = operation(self.mesh, argument)
         except ValueError as err:
@@ -349,16 +448,23 @@ class Simulation:
         with self._transaction():
             if running:
                 self._save_state()
+            weights, regions = self._material_after(edit)
+            sutures = self._carry_sutures(self._sutures, edit, regions)
             if not self.dynamic:
-                edit = self._drop_loose_pieces(edit)
+                edit, kept = self._drop_loose_pieces(edit, sutures)
+                if kept is not None:  # the elements that stay, of those the edit made
+                    weights = None if weights is None else weights[kept]
+                    regions = {int(new): regions[int(old)] for new, old in enumerate(kept.tolist())
+                               if int(old) in regions}
+                    sutures = self._carry_sutures(sutures, _Kept(kept), regions)
             parent = edit.parent
             # carry everything node- and element-based over
             new_handles = [m for m in (h.remap(parent) for h in self._current_handles()) if m is not None]
             self._check_held(new_handles)
             if self._fibers is not None:
                 self._fibers = (self._fibers[0], self._fibers[1][:, edit.elements])
-            if self._sutures is not None:
-                self._sutures = self._remap_sutures(self._sutures, parent)
+            self._sutures = sutures
+            self._weights, self._regions = weights, regions
             if self._state is not None:
                 u, v, v_prev, t, frames, budget, dt = self._state
 
@@ -373,71 +479,128 @@ class Simulation:
                 self._pending_handles = new_handles
         return edit
 
-    def _drop_loose_pieces(self, edit):
+    def _drop_loose_pieces(self, edit, sutures):
         """Quasistatic scenes: remove pieces that nothing holds (no handle, no suture to a held piece).
 
         Such a piece has no equilibrium (its stiffness matrix is singular, and
         under a load it would run away), so it is lifted out of the simulation,
         as a surgeon lifts out what was cut free. Dynamic scenes keep every piece.
+        ``sutures`` are the stitches on ``edit``'s mesh. Returns ``(edit, kept)``:
+        the edit with the pieces removed, and which of its elements stay (``None``
+        when nothing was removed).
         """
         mesh = edit.mesh
+        loose, pieces = self._loose_elements(mesh, edit.parent, sutures)
+        if not pieces:
+            return edit, None  # nothing to drop (or nothing held at all: _check_held reports it)
+        second = topology.excise(mesh, lambda centroids: loose.copy())
+        self.removed_pieces += pieces
+        merged = dataclasses.replace(second, parent=edit.parent[second.parent], elements=edit.elements[second.elements],
+                                     cut_edges=edit.cut_edges, n_old_nodes=edit.n_old_nodes,
+                                     n_old_elements=edit.n_old_elements)
+        return merged, second.elements
+
+    def _loose_elements(self, mesh, parent, sutures):
+        """``(loose, pieces)``: which elements of ``mesh`` lie in pieces that nothing holds (no handle, no suture
+        to a held piece), and how many such pieces there are. ``parent`` maps its nodes to the current
+        mesh's (through which the handles are carried); ``sutures`` are the stitches on ``mesh``. ``pieces``
+        is 0 when every piece is held -- or when none is (then :meth:`_check_held` has the say)."""
         n = mesh.nvertices
         t = mesh.t
         rows = [t[0], t[1], t[2]]
         cols = [t[1], t[2], t[0]]
-        if self._sutures is not None:
-            sutures = self._remap_sutures(self._sutures, edit.parent)
-            if sutures is not None:
-                rows.append(sutures["pairs"][0])
-                cols.append(sutures["pairs"][1])
+        if sutures is not None:  # a stitch joins the pieces of its two ends
+            rows.append(t[0, sutures["elements"][0]])
+            cols.append(t[0, sutures["elements"][1]])
         r, c = np.concatenate(rows), np.concatenate(cols)
         graph = sp.coo_matrix((np.ones(r.size), (r, c)), shape=(n, n))
         _, labels = connected_components(graph, directed=False)
         held = np.zeros(labels.max() + 1, dtype=bool)
         for h in self._current_handles():
-            moved = h.remap(edit.parent)
+            moved = h.remap(parent)
             if moved is not None:
                 held[labels[moved.nodes]] = True
         loose = ~held[labels[t[0]]]
         if not np.any(loose) or np.all(loose):
-            return edit  # nothing to drop (or nothing held at all: _check_held reports it)
-        second = topology.excise(mesh, lambda centroids: loose)
-        self.removed_pieces += 1
-        return dataclasses.replace(second, parent=edit.parent[second.parent], elements=edit.elements[second.elements],
-                                   cut_edges=edit.cut_edges, n_old_nodes=edit.n_old_nodes,
-                                   n_old_elements=edit.n_old_elements)
+            return np.zeros(t.shape[1], dtype=bool), 0
+        return loose, int(np.unique(labels[t[0]][loose]).size)
+
+    def _material_after(self, edit):
+        """The weights and regions of the elements of ``edit``'s mesh (a cut through elements brings its own)."""
+        if isinstance(edit, element_cuts.ElementCut):
+            weights, regions = edit.weights, edit.regions
+        elif self._weights is None:
+            return None, {}
+        else:
+            weights = self._weights[edit.elements]
+            regions = {new: self._regions[old] for new, old in enumerate(edit.elements.tolist()) if old in self._regions}
+        return (None if np.all(weights == 1.0) else weights), regions
 
     @staticmethod
-    def _remap_sutures(sutures, parent):
-        # a sutured node keeps its number if it survives (cuts keep old numbers); else its first copy
-        first = np.full(int(max(parent.max(initial=0), np.max(sutures["pairs"]))) + 1, -1, dtype=np.intp)
-        first[parent[::-1]] = np.arange(parent.size)[::-1]
-        pairs = np.asarray(sutures["pairs"])
-        a, b = first[pairs[0]], first[pairs[1]]
-        keep = (a >= 0) & (b >= 0)
+    def _carry_sutures(sutures, edit, regions):
+        """The stitches after ``edit``: each end stays at its point of the material (dropped with its element)."""
+        if sutures is None:
+            return None
+        ends = [element_cuts.carry_points(edit, sutures["elements"][s], sutures["barycentric"][s], regions)
+                for s in range(2)]
+        keep = (ends[0] >= 0) & (ends[1] >= 0)
         if not np.any(keep):
             return None
-        k = pairs.shape[1]
         return {
-            "pairs": np.vstack([a[keep], b[keep]]),
-            "gaps": np.asarray(sutures["gaps"])[:, keep],
-            "stiffness": np.broadcast_to(np.asarray(sutures["stiffness"], float), (k,))[keep],
-            "tightness": np.broadcast_to(np.asarray(sutures.get("tightness", 0.0), float), (k,))[keep],
+            "elements": np.vstack([ends[0][keep], ends[1][keep]]),
+            "barycentric": sutures["barycentric"][:, keep],
+            "gaps": sutures["gaps"][:, keep],
+            "stiffness": sutures["stiffness"][keep],
+            "tightness": sutures["tightness"][keep],
         }
 
-    def cut(self, polyline):
-        """Incise along ``polyline`` (points in deformed coordinates), duplicating nodes along the cut.
+    def _suture_spec(self, sutures):
+        """The model's sutures: each end as its element's three nodes with the barycentric weights."""
+        if sutures is None:
+            return None
+        t = np.asarray(self.mesh.t)
+        return {"pairs": np.stack([t[:, sutures["elements"][0]], t[:, sutures["elements"][1]]]),
+                "coefficients": sutures["barycentric"].transpose(0, 2, 1), "stiffness": sutures["stiffness"],
+                "gaps": sutures["gaps"], "tightness": sutures["tightness"]}
 
-        The state carries over: each copy of a node gets its displacement and
-        velocity. Returns the :class:`tissuefem.surgery.topology.MeshEdit`.
+    def cut(self, polyline, method="elements"):
+        """Incise along ``polyline`` (points in deformed coordinates, as drawn on the tissue now).
+
+        ``method="elements"`` (default) cuts through the elements, along the
+        stroke (the virtual node algorithm: :func:`~tissuefem.surgery.element_cuts.
+        cut_through`); ``"edges"`` snaps the stroke to a path of mesh edges and
+        duplicates their nodes (:func:`~tissuefem.surgery.topology.incise`:
+        jagged and mesh-dependent; kept to compare). The state carries over:
+        each copy of a node gets its displacement and velocity. Returns the edit
+        (:class:`~tissuefem.surgery.element_cuts.ElementCut` or
+        :class:`~tissuefem.surgery.topology.MeshEdit`).
         """
-        return self._apply_edit(topology.incise, _polyline(polyline), "polyline")
+        operation = {"elements": element_cuts.cut_through, "edges": topology.incise}.get(method) \
+            if isinstance(method, str) else None
+        if operation is None:
+            raise ValueError(f"method must be 'elements' or 'edges', got {method!r:.100}")
+        points = _polyline(polyline)
+        for i, q in enumerate(points):
+            self._point(f"polyline[{i}]", q)
+        return self._apply_edit(operation, points, "polyline")
 
-    def excise(self, region):
-        """Remove the elements inside ``region`` (a polygon in *reference* coordinates, or a mask on centroids)."""
-        if not callable(region):
-            region = _polyline(region, minimum=3, field="region")
-        return self._apply_edit(topology.excise, region, "region")
+    def excise(self, region, method="elements"):
+        """Remove the tissue inside ``region``: a polygon in *reference* coordinates, or a mask on centroids.
+
+        A polygon is cut out along its outline through the elements
+        (``method="elements"``, default) or by removing the triangles whose
+        centroid lies inside (``"edges"``, as does a mask).
+        """
+        if callable(region):
+            return self._apply_edit(topology.excise, region, "region")
+        operation = {"elements": element_cuts.excise_through, "edges": topology.excise}.get(method) \
+            if isinstance(method, str) else None
+        if operation is None:
+            raise ValueError(f"method must be 'elements' or 'edges', got {method!r:.100}")
+        region = _polyline(region, minimum=3, field="region")
+        for i, q in enumerate(region):
+            self._point(f"region[{i}]", q)
+        return self._apply_edit(operation, region, "region")
 
     # ------------------------------------------------------------------ sutures
     def _snap(self, point, field):
@@ -461,44 +624,87 @@ class Simulation:
         """Tie pairs of points together with stiff springs.
 
         ``pairs``: point pairs ``[[[x1, y1], [x2, y2]], ...]`` in deformed
-        coordinates (snapped to the nearest nodes), or node index pairs as an
-        integer array ``(2, k)``. The springs start slack (no force) and are
-        tightened to ``tightness`` (1: the points are pulled together). Default
-        stiffness: 100 x Young's modulus (per unit thickness).
+        coordinates, or node index pairs as an integer array ``(2, k)``. A point
+        is attached to the material where it lies (inside an element: it moves
+        with the element's three nodes, so a stitch can sit on a wound cut
+        through elements); a point off the tissue is attached to the nearest
+        node. The springs start slack (no force) and are tightened to
+        ``tightness`` (1: the points are pulled together). Default stiffness:
+        100 x Young's modulus (per unit thickness). Returns the node of each end
+        that carries most of it, ``(2, k)``.
         """
         E = self.scene.material["youngs_modulus"]
-        k = 100.0 * E if stiffness is None else _number(f"{_field}.stiffness", stiffness, positive=True)
-        arr = np.asarray(pairs)
-        if np.issubdtype(arr.dtype, np.integer) and arr.ndim == 2 and arr.shape[0] == 2:
+        k = 100.0 * E if stiffness is None else _number(f"{_field}.stiffness", stiffness, positive=True,
+                                                         hi=PENALTY_MAX)
+        try:
+            arr = np.asarray(pairs)
+        except (TypeError, ValueError):
+            raise ValueError(f"{_field}.pairs must be point pairs shaped (k, 2, 2) or node index pairs shaped "
+                             f"(2, k), got {pairs!r:.200}") from None
+        t = np.asarray(self.mesh.t)
+        if arr.dtype.kind in "iu" and arr.ndim == 2 and arr.shape[0] == 2:
             nodes = arr.astype(np.intp)
             if nodes.size == 0 or nodes.min() < 0 or nodes.max() >= self.mesh.nvertices:
                 raise ValueError(f"{_field}.pairs: node indices must be in 0..{self.mesh.nvertices - 1}")
+            ends = [[self._node_end(int(q)) for q in nodes[s]] for s in range(2)]
         else:
-            arr = np.asarray(arr, dtype=float)
+            if arr.dtype.kind not in "iuf":  # booleans, strings, complex numbers: not points
+                raise ValueError(f"{_field}.pairs must be real point pairs shaped (k, 2, 2), got dtype {arr.dtype}")
+            arr = arr.astype(float)
             if arr.ndim != 3 or arr.shape[1:] != (2, 2) or arr.shape[0] == 0 or not np.all(np.isfinite(arr)):
                 raise ValueError(f"{_field}.pairs must be point pairs shaped (k, 2, 2), got shape {arr.shape}")
-            nodes = np.array([[self._snap(p[0], _field), self._snap(p[1], _field)] for p in arr]).T
-        same = nodes[0] == nodes[1]
+            for j, pair in enumerate(arr):
+                for i, q in enumerate(pair):
+                    self._point(f"{_field}.pairs[{j}][{i}]", q)
+            ends = [[self._point_end(q[s], _field) for q in arr] for s in range(2)]
+        elements = np.array([[e for e, _ in side] for side in ends], dtype=np.int64).reshape(2, -1)
+        bary = np.array([[w for _, w in side] for side in ends], dtype=float).reshape(2, -1, 3)
+        x = self.positions()
+        at = np.einsum("skc,iskc->sik", bary, x[:, t[:, elements].transpose(1, 2, 0)])  # (2 ends, 2, k)
+        gaps = at[0] - at[1]
+        same = np.array([_end_key(t[:, elements[0, j]], bary[0, j]) == _end_key(t[:, elements[1, j]], bary[1, j])
+                         for j in range(elements.shape[1])], dtype=bool)
         if np.all(same):
-            raise ValueError(f"{_field}.pairs: every pair snaps to a single node; nothing to tie")
-        nodes = nodes[:, ~same]
+            raise ValueError(f"{_field}.pairs: every pair ties a point to itself; nothing to tie")
+        keep = ~same
+        k_new = int(keep.sum())
+        new = {"elements": elements[:, keep], "barycentric": bary[:, keep], "stiffness": np.full(k_new, k),
+               "gaps": gaps[:, keep], "tightness": np.zeros(k_new)}
         tightness = _number(f"{_field}.tightness", tightness, nonnegative=True)
         if tightness > 1:
             raise ValueError(f"{_field}.tightness must be in [0, 1], got {tightness!r}")
-        x = self.positions()
-        gaps = x[:, nodes[0]] - x[:, nodes[1]]
-        k_new = nodes.shape[1]
-        new = {"pairs": nodes, "stiffness": np.full(k_new, k), "gaps": gaps, "tightness": np.zeros(k_new)}
         if self._sutures is not None:  # the old stitches keep their gap when placed and their tightness
             old = self._sutures
-            new = {key: np.concatenate([np.asarray(old[key]), new[key]], axis=-1) for key in new}
+            new = {key: np.concatenate([old[key], new[key]], axis=-1 if key != "barycentric" else 1) for key in new}
         with self._transaction():
             self._sutures = new
             self._save_state()
             self._rebuild()
+            total = new["stiffness"].size
             if tightness > 0:
-                self.tighten(tightness, stitches=np.arange(new["pairs"].shape[1] - k_new, new["pairs"].shape[1]))
-        return nodes
+                self.tighten(tightness, stitches=np.arange(total - k_new, total))
+        return self.model.sutures.pairs[:, -k_new:]
+
+    def _node_end(self, node):
+        """A stitch end at ``node``: an element with that corner, and the corner's barycentric weights."""
+        t = np.asarray(self.mesh.t)
+        corner, element = np.nonzero(t == node)
+        if element.size == 0:
+            raise ValueError(f"node {node} belongs to no element")
+        w = np.zeros(3)
+        w[corner[0]] = 1.0
+        return int(element[0]), w
+
+    def _point_end(self, point, field):
+        """A stitch end at ``point`` (deformed coordinates): on the material there or within half an element of
+        it, or else at the nearest node."""
+        x = self.positions()
+        # within half an element of some material (in an open wound, just off its lip): attached to it
+        found = element_cuts.locate(self.mesh, point, x, self._regions, reach=0.5)
+        if found is not None:  # on a sliver of a cut element: carried by the firm tissue beside it
+            return element_cuts.firm_anchor(self.mesh, *found, positions=x, weights=self._weights,
+                                            regions=self._regions)
+        return self._node_end(self._snap(point, field))
 
     def tighten(self, fraction, stitches=None) -> None:
         """Tighten sutures: each keeps ``(1 - fraction)`` of its gap when placed as slack (1: closed).
@@ -517,11 +723,30 @@ class Simulation:
         return self.model.sutures.distances(self.solver.u)
 
 
+@dataclasses.dataclass(frozen=True)
+class _Kept:
+    """The elements that stay after lifting out loose pieces (``elements[new] = old``), as an edit shows them."""
+
+    elements: np.ndarray
+
+
+def _end_key(nodes, weights):
+    """A stitch end as ``{node: weight}`` (weights rounded), to tell two ends at the same point of the same nodes."""
+    out = {}
+    for q, w in zip(nodes.tolist(), weights.tolist()):
+        if w > 1e-12:
+            out[q] = out.get(q, 0.0) + round(w, 9)
+    return out
+
+
 def _polyline(points, minimum=2, field="polyline"):
     try:
-        arr = np.asarray(points, dtype=float)
+        arr = np.asarray(points)
     except (TypeError, ValueError):
         raise ValueError(f"{field} must be a list of points [x, y], got {points!r}") from None
+    if arr.dtype.kind not in "iuf":  # strings, booleans, objects; complex points would lose their imaginary part
+        raise ValueError(f"{field} must be a list of real points [x, y], got {points!r}")
+    arr = arr.astype(float)
     if arr.ndim != 2 or arr.shape[1] != 2 or arr.shape[0] < minimum:
         raise ValueError(f"{field} must be at least {minimum} points shaped (k, 2), got shape {arr.shape}")
     if not np.all(np.isfinite(arr)):

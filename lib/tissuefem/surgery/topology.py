@@ -210,11 +210,14 @@ def _positions(mesh, positions) -> np.ndarray:
 
 
 def _points(name: str, value, min_points: int) -> np.ndarray:
-    """A finite float array shaped (k, 2) with k >= min_points."""
+    """A finite float array shaped (k, 2) with k >= min_points (real numbers: complex points are refused, not cut)."""
     try:
-        a = np.asarray(value, dtype=float)
+        a = np.asarray(value)
     except (TypeError, ValueError):
         raise ValueError(f"{name} must be an array of points shaped (k, 2), got {value!r}") from None
+    if a.dtype.kind not in "iuf":
+        raise ValueError(f"{name} must be an array of real points shaped (k, 2), got dtype {a.dtype}")
+    a = a.astype(float)
     if a.ndim != 2 or a.shape[1] != 2:
         raise ValueError(f"{name} must be an array of points shaped (k, 2), got shape {a.shape}")
     if a.shape[0] < min_points:
@@ -778,7 +781,10 @@ def incise(mesh, polyline, positions=None) -> MeshEdit:
 def _region_mask(region, centroids) -> np.ndarray:
     m = centroids.shape[1]
     if callable(region):
-        mask = np.asarray(region(centroids))
+        try:
+            mask = np.asarray(region(centroids.copy()))
+        except Exception as err:  # the user's function may raise anything: a refusal by name, not a crash
+            raise ValueError(f"region (a function of the centroids) raised {type(err).__name__}: {err}") from None
         if mask.shape != (m,) or mask.dtype != bool:
             raise ValueError(
                 f"region, as a function of the centroids (2, m), must return a bool array shaped ({m},), "

@@ -15,6 +15,7 @@ import scipy.sparse as sp
 
 from ..engine.assembly import P1Assembler
 from ..engine.bar1d import Bar1D, Traction
+from ..engine.contact import barrier
 from ..engine.inversion import rotation_preserving_svd
 from ..engine.linsolve import LinearInfo
 from ..engine.materials import LinearElastic, NeoHookean, TaylorNeoHookean, fiber_invariant, fiber_stress, fiber_tangent
@@ -252,3 +253,72 @@ def pareto_front(costs, errors):
     """Exercise 9.1: indices of the non-dominated settings, by increasing cost (a list)."""
     return _pareto_front(costs, errors).tolist()
 
+
+
+# --- chapter 10 ----------------------------------------------------------------------------------
+
+def _barycentric(triangle, p):
+    T = np.asarray(triangle, dtype=float)
+    J = np.column_stack([T[1] - T[0], T[2] - T[0]])
+    xi = np.linalg.solve(J, np.asarray(p, dtype=float) - T[0])
+    return np.array([1.0 - xi.sum(), xi[0], xi[1]])
+
+
+def clip_stroke(triangle, a, b):
+    """Exercise 10.1: the parameters ``(s0, s1)`` of the part of ``a -> b`` inside the triangle, or ``None``."""
+    la, lb = _barycentric(triangle, a), _barycentric(triangle, b)
+    lo, hi = 0.0, 1.0
+    for k in range(3):
+        slope = lb[k] - la[k]
+        if abs(slope) < 1e-15:
+            if la[k] < 0.0:
+                return None
+            continue
+        s = -la[k] / slope  # where lambda_k crosses zero
+        if slope > 0:
+            lo = max(lo, s)
+        else:
+            hi = min(hi, s)
+    return (lo, hi) if hi - lo > 1e-12 else None
+
+
+def piece_shares(triangle, point, direction):
+    """Exercise 10.2: the area fractions ``(left, right)`` of the triangle on the two sides of a line."""
+    T = np.asarray(triangle, dtype=float)
+    p, d = np.asarray(point, dtype=float), np.asarray(direction, dtype=float)
+
+    def side(q):
+        return d[0] * (q[1] - p[1]) - d[1] * (q[0] - p[0])  # > 0: left of the line
+
+    kept = []
+    for i in range(3):
+        q, r = T[i], T[(i + 1) % 3]
+        sq, sr = side(q), side(r)
+        if sq >= 0:
+            kept.append(q)
+        if (sq > 0 > sr) or (sq < 0 < sr):
+            kept.append(q + sq / (sq - sr) * (r - q))
+    if len(kept) < 3:
+        return 0.0, 1.0
+    K = np.array(kept)
+    area = 0.5 * abs(np.dot(K[:, 0], np.roll(K[:, 1], -1)) - np.dot(K[:, 1], np.roll(K[:, 0], -1)))
+    e1, e2 = T[1] - T[0], T[2] - T[0]
+    whole = 0.5 * abs(e1[0] * e2[1] - e1[1] * e2[0])
+    left = float(min(1.0, area / whole))
+    return left, 1.0 - left
+
+
+def signed_gap(p, a, b):
+    """Exercise 10.3: ``(sigma, d sigma / d p)``, the gap along the outward normal (material on the left)."""
+    p, a, b = (np.asarray(v, dtype=float) for v in (p, a, b))
+    e = b - a
+    n = np.array([e[1], -e[0]]) / np.hypot(*e)
+    return float(n @ (p - a)), n
+
+
+def skin_energy(sigma, distance, stiffness, length):
+    """Exercise 10.4: the point's barrier energy and its derivative in the gap (the contact term's ``beta``)."""
+    zeta = 1.0 + float(sigma) / float(distance)
+    b0, b1, _ = barrier(zeta)
+    scale = float(stiffness) * float(length)
+    return scale * float(distance) * float(b0), scale * float(b1)

@@ -9,7 +9,11 @@ per variant:
   scene forced through the general Newton loop (what the shortcut saves);
 * stable neo-Hookean, quasistatic: the base the effects are added to;
 * the base plus one effect: inertia, inertia and gravity, fibres, a probe
-  pressed into the top edge, sutures, inversion handling (projected tangent);
+  pressed into the top edge, sutures, inversion handling (projected tangent),
+  a crack cut through the elements (and the same crack snapped to mesh edges),
+  self-contact (nothing near: the surface is nowhere near itself);
+* an incision across the middle, without and with contact: the drag presses its
+  lips together and slides them along each other (contact acts in every frame);
 * everything together.
 
 Every variant runs the same frames with no budget (each frame converges to
@@ -24,6 +28,7 @@ Timings are from a shared machine: compare rows of one run, not runs.
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 
 import numpy as np
@@ -34,7 +39,7 @@ from ...surgery.simulation import Simulation
 from ..measure import median_time
 from .common import check_sizes, machine_info, write_csv, write_json
 
-__all__ = ["effects_benchmark", "variants", "format_effects_table", "term_costs"]
+__all__ = ["effects_benchmark", "variants", "format_effects_table", "term_costs", "cut_costs"]
 
 
 def _base(n_triangles):
@@ -44,8 +49,13 @@ def _base(n_triangles):
 
 
 PROBE = {"center": [1.0, 1.08], "radius": 0.15}
+#: a slanted crack from the top edge to mid-height, cut before the first frame (its lips open as the sheet
+#: is dragged)
+CUT = {"path": [[0.73, 1.1], [0.96, 0.5]], "method": "elements"}
 SUTURES = {"pairs": [[[0.6 + 0.1 * k, 1.0], [0.6 + 0.1 * k, 0.0]] for k in range(5)], "stiffness": 1e4,
            "tightness": 0.05}
+#: a cut across the middle of the flap: the drag (the flap stretched, so narrowed) presses its lips together
+PRESSED_CUT = {"path": [[0.5, 0.5], [1.5, 0.5]]}
 
 
 def variants(n_triangles):
@@ -68,8 +78,14 @@ def variants(n_triangles):
     add("+ probe", {"probes": [PROBE]})
     add("+ sutures", {"sutures": [SUTURES]})
     add("+ inversion (projected tangent)", {"inversion": {"method": "projected"}})
+    add("+ cut through elements", {"incisions": [CUT]})
+    add("+ cut along edges (to compare)", {"incisions": [{**CUT, "method": "edges"}]})
+    add("+ contact (nothing near)", {"contact": {}})
+    add("+ incision across the middle", {"incisions": [PRESSED_CUT]})
+    add("+ incision + contact (lips pressed)", {"incisions": [PRESSED_CUT], "contact": {}})
     add("everything", {"inertia": {}, "gravity": {}, "fibers": {"stiffness": 500.0, "direction": [1.0, 0.3]},
-                       "probes": [PROBE], "sutures": [SUTURES], "inversion": {"method": "projected"}})
+                       "probes": [PROBE], "sutures": [SUTURES], "inversion": {"method": "projected"},
+                       "contact": {}})
     return out
 
 
@@ -81,6 +97,23 @@ def _run(data, options, frames):
         ms.append(1e3 * report.elapsed)
         newton.append(report.newton_iterations)
     return sim, np.array(ms), np.array(newton)
+
+
+def cut_costs(n_triangles, repeats=3) -> dict:
+    """Median ms of one cut made during the drag (the edit of the mesh, the new model and solver, the state
+    carried over), through the elements and along edges, on the base scene after a few frames."""
+    out = {}
+    for method in ("elements", "edges"):
+        times = []
+        for _ in range(int(repeats)):
+            sim = Simulation(Scene.from_dict(_base(n_triangles)))
+            for k in range(3):
+                sim.frame({"handle": flap_path((k + 1) * FRAME_BUDGET)})
+            start = time.perf_counter()
+            sim.cut(CUT["path"], method=method)
+            times.append(1e3 * (time.perf_counter() - start))
+        out[f"through {method}"] = float(np.median(times))
+    return out
 
 
 def term_costs(sim, repeats=5) -> dict:
@@ -134,6 +167,9 @@ def effects_benchmark(n_triangles=8000, frames=30, repeats=5, out=None, progress
         say(f"{name:40s} {median:7.1f} ms/frame  {np.mean(newton):.2f} Newton/frame  terms {sim.terms}")
         everything = sim
     terms = term_costs(everything, repeats)
+    cuts = cut_costs(n_triangles, repeats)
+    say("one cut while dragging (the edit, a new model and solver), ms: "
+        + ", ".join(f"{k} {v:.1f}" for k, v in cuts.items()))
     say(format_effects_table(rows))
     say("term evaluation (energy + force + Hessian), ms: " + ", ".join(f"{k} {v:.2f}" for k, v in terms.items()))
     record = {
@@ -144,6 +180,7 @@ def effects_benchmark(n_triangles=8000, frames=30, repeats=5, out=None, progress
         "machine": machine_info(),
         "rows": rows,
         "term_ms": terms,
+        "cut_ms": cuts,
     }
     if out is not None:
         written = [write_json(Path(out) / "scenes.json", record),

@@ -12,7 +12,7 @@ import time
 from pathlib import Path
 from typing import Callable
 
-from . import accuracy, dynamics, fibers, inversion, kinematics, oned, realtime, surgery
+from . import accuracy, cutting, dynamics, fibers, inversion, kinematics, oned, realtime, surgery
 from .base import lecture_figure, matplotlib_note, save
 
 __all__ = ["FIGURES", "generate", "lecture_figure", "matplotlib_note", "save"]
@@ -20,7 +20,7 @@ __all__ = ["FIGURES", "generate", "lecture_figure", "matplotlib_note", "save"]
 #: every lecture figure by name, chapter by chapter
 FIGURES: dict[str, Callable] = {
     name: func
-    for module in (oned, kinematics, fibers, inversion, dynamics, realtime, surgery, accuracy)
+    for module in (oned, kinematics, fibers, inversion, dynamics, realtime, surgery, accuracy, cutting)
     for name, func in vars(module).items()
     if getattr(func, "lecture_figure", False) and getattr(func, "__module__", None) == module.__name__
 }

@@ -151,14 +151,17 @@ def _tension_colorbar(fig, norm, axes, label="tension: largest principal Cauchy 
 
 # --- the incision -----------------------------------------------------------------------------------
 
-def incision_run(n_triangles=1200, pull=INCISION_PULL, path=INCISION_PATH) -> dict:
-    """The pulled sheet before and after the incision: positions, triangles, tension, the edit and counts."""
+def incision_run(n_triangles=1200, pull=INCISION_PULL, path=INCISION_PATH, method="edges") -> dict:
+    """The pulled sheet before and after the incision: positions, triangles, tension, the edit and counts.
+
+    ``method``: how the cut meets the mesh (chapter 8 shows the edge-snapping cut, whose copies of nodes
+    are the whole story; chapter 10 cuts through the elements)."""
     sim = _simulation(sheet_scene(n_triangles, handles=[
         {"name": "fixed", "region": "left"}, {"name": "pull", "region": "right", "target": [pull, 0.0]}]))
     _check(sim.frame(), "the pulled sheet")
     before = dict(x=sim.positions().copy(), t=sim.mesh.t.copy(), tension=sim.tension(), mesh=sim.mesh,
                   nodes=sim.mesh.nvertices)
-    edit = sim.cut(np.asarray(path, dtype=float))
+    edit = sim.cut(np.asarray(path, dtype=float), method=method)
     _check(sim.frame(), "the cut sheet")
     x = sim.positions()
     n_old = before["nodes"]
@@ -495,11 +498,14 @@ def stitch_arcs(a, b, bulge=0.18, n=12) -> np.ndarray:
     return curve.transpose(2, 0, 1)  # (k, n, 2)
 
 
-def flap_runs(lengths=FLAP_LENGTHS, n_triangles=FLAP_TRIANGLES, tighten_frames=FLAP_TIGHTEN_FRAMES) -> dict:
-    """:func:`tissuefem.flaps.advancement_flap` for each flap length, ``{length: FlapResult}``."""
+def flap_runs(lengths=FLAP_LENGTHS, n_triangles=FLAP_TRIANGLES, tighten_frames=FLAP_TIGHTEN_FRAMES,
+              method="edges") -> dict:
+    """:func:`tissuefem.flaps.advancement_flap` for each flap length, ``{length: FlapResult}``.
+
+    Chapter 8 cuts along mesh edges (``method="edges"``); chapter 10 redoes the flap through the elements."""
 
     return {float(L): advancement_flap(flap_length=float(L), n_triangles=n_triangles, tighten_frames=tighten_frames,
-                                       clock=_still_clock) for L in lengths}
+                                       clock=_still_clock, method=method) for L in lengths}
 
 
 @lecture_figure
@@ -520,9 +526,10 @@ def fig_ch08_flap(path=None, runs=None) -> Figure:
     result = runs[FLAP_SHOWN]
     sim = result.simulation
     mesh = sim.mesh
-    pairs = sim.model.sutures.pairs
-    x_cut, t_cut = result.snapshots["cut"]
-    x_sut, t_sut = result.snapshots["sutured"]
+    ends_cut = sim.model.sutures.ends(np.zeros_like(sim.u))  # (flap end / wound end, xy, stitch)
+    ends_sut = sim.model.sutures.ends(sim.u)
+    x_cut, t_cut, _ = result.snapshots["cut"]
+    x_sut, t_sut, e_sut = result.snapshots["sutured"]
     norm = tension_norm(result.tension)
     fig = Figure(figsize=(13.5, 3.6), layout="constrained")
     axes = fig.subplots(1, 3, width_ratios=[1, 1, 0.62])
@@ -530,16 +537,15 @@ def fig_ch08_flap(path=None, runs=None) -> Figure:
     ax = axes[0]
     draw_mesh(ax, x_cut, t_cut, color="0.9", lw=0.2)
     draw_wound(ax, mesh, x_cut)
-    ax.add_collection(LineCollection(stitch_arcs(x_cut[:, pairs[0]], x_cut[:, pairs[1]]), colors="C0",
-                                     linewidths=0.7, zorder=4))
-    ax.plot(*x_cut[:, pairs[0]], "o", ms=2.0, color="C0", zorder=5)
+    ax.add_collection(LineCollection(stitch_arcs(ends_cut[0], ends_cut[1]), colors="C0", linewidths=0.7, zorder=4))
+    ax.plot(*ends_cut[0], "o", ms=2.0, color="C0", zorder=5)
     _frame_axes(ax, xlim, ylim)
     ax.set_title(f"(a) defect excised, flap cut ({FLAP_SHOWN:g} long); {result.stitches} stitches planned",
                  fontsize=9)
     ax = axes[1]
-    draw_mesh(ax, x_sut, t_sut, result.tension, norm, lw=0.15)
+    draw_mesh(ax, x_sut, t_sut, result.tension[e_sut], norm, lw=0.15)
     draw_wound(ax, mesh, x_sut, linewidths=0.8)
-    ax.plot(*x_sut[:, pairs[0]], "o", ms=2.2, color="C0", zorder=5)
+    ax.plot(*ends_sut[0], "o", ms=2.2, color="C0", zorder=5)
     _frame_axes(ax, xlim, ylim)
     ax.set_title(f"(b) sutured: gap {result.initial_gap:.2f} → {result.max_gap:.0e}, "
                  f"mean tension in the flap {result.flap_tension:.0f}", fontsize=9)

@@ -1,0 +1,191 @@
+"""The contact surface of a cut body: where its material ends, outer boundary and wound lips alike.
+
+:class:`~tissuefem.engine.contact.Contact` keeps a :class:`~tissuefem.engine.contact.ContactSurface`
+from passing through itself. For a plain mesh, and after the edge-snapping
+:func:`~tissuefem.surgery.topology.incise` (whose lips are boundary facets
+between duplicated nodes), that surface is the mesh's boundary:
+:meth:`ContactSurface.from_mesh <tissuefem.engine.contact.ContactSurface.from_mesh>`.
+
+After :func:`~tissuefem.surgery.element_cuts.cut_through` it is not: the
+copies of a cut triangle share the triangle's full edges, but each copy's
+material fills only part of its triangle (its :class:`~tissuefem.surgery.
+element_cuts.Region`). Taking the copies' edges as they are would put two
+"surfaces" on top of each other along every phantom part of an edge, in
+contact at distance zero. :func:`contact_surface` instead follows the
+material:
+
+* every element's material is a set of counter-clockwise polygons in its
+  local coordinates; every side of them is a candidate piece of surface, with
+  the material on its left;
+* a side *inside* the triangle is a lip of a wound (a cut through the
+  element): always surface;
+* a side *on* one of the triangle's edges is surface except where material
+  of an element across that edge is joined to it there (the two share the
+  edge's nodes and their materials touch the same part of it, outside what a
+  cut along the edge severed): the parts of the edge where the material
+  faces no material, faces a phantom part, or was severed.
+
+Each end of a piece becomes a point: the barycentric combination of the
+element's nodes (two of them on an edge, three inside). Ends that are the
+same combination of the same nodes, seen from two elements, are one point,
+so the pieces join into closed loops round the material. The lips of a cut
+come from the regions, so every wound the body carries is there, not only
+the latest cut's (whose ``Wound`` records hold the drawn stroke, for drawing).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..engine.contact import ContactSurface
+from .element_cuts import (_check_regions, _edge_intervals, _edge_param, _edge_table, _edges_of, _merge_intervals,
+                           _region_touch, _subtract)
+from .topology import _mesh_arrays
+
+__all__ = ["contact_surface"]
+
+_FULL = [[(0.0, 1.0)], [(0.0, 1.0)], [(0.0, 1.0)]]
+#: weights closer than this are one point (the same crossing of an edge seen from two elements)
+_SAME = 1e-9
+
+
+def _sides(region):
+    """The region's polygon sides (k, 2, 2), in local coordinates, counter-clockwise (material on the left)."""
+    return np.concatenate([np.stack([poly, np.roll(poly, -1, axis=0)], axis=1) for poly in region.polygons])
+
+
+def _intersect(iv, jv):
+    out = []
+    for a, b in iv:
+        for c, d in jv:
+            lo, hi = max(a, c), min(b, d)
+            if hi > lo:
+                out.append((lo, hi))
+    return _merge_intervals(out)
+
+
+def contact_surface(mesh, weights=None, regions=None) -> ContactSurface:
+    """The surface of the material of ``mesh`` (cut through elements or not), as a contact surface.
+
+    Parameters
+    ----------
+    mesh : skfem.MeshTri
+    weights, regions
+        The material of the elements cut through (:attr:`~tissuefem.surgery.element_cuts.ElementCut.weights`
+        and ``.regions``); absent: every element is whole, and the surface is the mesh's boundary.
+
+    Returns
+    -------
+    ContactSurface
+        Points that are single nodes or combinations of an element's nodes, segments with the material on
+        their left, the wound's lips flagged (sides inside a triangle, severed parts of edges, and facets
+        named ``"cut"`` by :func:`~tissuefem.surgery.topology.incise`).
+    """
+    p, t = _mesh_arrays(mesh)
+    n, m = p.shape[1], t.shape[1]
+    regions, _ = _check_regions(regions, weights, m)
+    if not regions:
+        return ContactSurface.from_mesh(mesh)
+    key, side = _edge_table(p, t)  # edge k of element e: nodes t[k], t[k+1]; side of the edge e lies on
+    # which elements lie across each element edge: the same node pair, the other side
+    flat_key, flat_side = key.ravel(), side.ravel()
+    order = np.lexsort((flat_side, flat_key))
+    by_key = {}
+    for i in order.tolist():
+        by_key.setdefault(int(flat_key[i]), []).append(i)
+    cut_facets = set()
+    if mesh.boundaries and "cut" in mesh.boundaries:
+        facets = np.asarray(mesh.facets)[:, np.asarray(mesh.boundaries["cut"], dtype=np.intp)]
+        cut_facets = set((np.minimum(facets[0], facets[1]) * n + np.maximum(facets[0], facets[1])).tolist())
+
+    def touch(e):  # (touched by the material, touched and joinable: not severed) per local edge
+        r = regions.get(e)
+        if r is None:
+            return _FULL, _FULL
+        return _edge_intervals(_sides(r)), _region_touch(r)
+
+    det = ((p[0, t[1]] - p[0, t[0]]) * (p[1, t[2]] - p[1, t[0]])
+           - (p[0, t[2]] - p[0, t[0]]) * (p[1, t[1]] - p[1, t[0]]))
+    pieces = []  # (element, local point a, local point b, wound?) with the material on the left in local coordinates
+    involved = set(regions)
+    for e in range(m):
+        for k in range(3):
+            kk = int(key[k, e])
+            across = [i for i in by_key[kk] if flat_side[i] != side[k, e]]
+            if e not in involved and all(i % m not in involved for i in across):
+                if across:
+                    continue  # two whole elements share this edge: inside the material
+                touched, joined = [(0.0, 1.0)], []
+            else:
+                touched, joinable = touch(e)
+                touched, joinable = touched[k], joinable[k]
+                reach = []
+                for i in across:
+                    l, f = divmod(i, m)
+                    f_iv = touch(f)[1][l]
+                    if int(t[l, f]) != int(t[k, e]):  # the edge runs the other way in f
+                        f_iv = [(1.0 - hi, 1.0 - lo) for lo, hi in f_iv]
+                    reach += f_iv
+                joined = _intersect(joinable, _merge_intervals(reach))
+            wound = kk in cut_facets
+            for lo, hi in _subtract(touched, joined):
+                severed = bool(_subtract([(lo, hi)], touch(e)[1][k])) if e in involved else False
+                pieces.append((e, _point_on_edge(k, lo), _point_on_edge(k, hi), wound or severed))
+    for e, r in regions.items():
+        for a, b in _sides(r):
+            if set(_edges_of(a)) & set(_edges_of(b)):
+                continue  # on an edge of the triangle: done above
+            pieces.append((e, (float(a[0]), float(a[1])), (float(b[0]), float(b[1])), True))
+    return _assemble(pieces, t, det, n)
+
+
+def _point_on_edge(k, s):
+    """The local coordinates ``(xi, eta)`` of the point at parameter ``s`` along local edge ``k``."""
+    corners = ((0.0, 0.0), (1.0, 0.0), (0.0, 1.0))
+    a, b = corners[k], corners[(k + 1) % 3]
+    return (a[0] + s * (b[0] - a[0]), a[1] + s * (b[1] - a[1]))
+
+
+def _assemble(pieces, t, det, n) -> ContactSurface:
+    """Points (merged where two elements see the same combination of nodes) and oriented segments."""
+    rows = []  # per piece end: (nodes (3,), weights (3,))
+    for e, a, b, _ in pieces:
+        for xi, eta in (a, b):
+            lam = np.array([1.0 - xi - eta, xi, eta])
+            lam[np.abs(lam) < 1e-12] = 0.0
+            rows.append((t[:, e], lam / lam.sum()))
+    nodes = np.array([r[0] for r in rows], dtype=np.int64)
+    weights = np.array([r[1] for r in rows])
+    # canonical form: nodes with weight, sorted by node; unused slots point at the first node with weight 0
+    weights = np.where(weights > 0, weights, 0.0)
+    sort_key = np.where(weights > 0, nodes, n + np.arange(3))
+    order = np.argsort(sort_key, axis=1)
+    nodes = np.take_along_axis(nodes, order, axis=1)
+    weights = np.take_along_axis(weights, order, axis=1)
+    nodes = np.where(weights > 0, nodes, nodes[:, :1])
+    used = weights > 0
+    # merge the same combination seen from several elements (the weights agree to round-off)
+    count = used.sum(axis=1)
+    tag = np.where(used, nodes, -1)
+    order = np.lexsort((weights[:, 2], weights[:, 1], weights[:, 0], tag[:, 2], tag[:, 1], tag[:, 0], count))
+    point = np.empty(len(rows), dtype=np.intp)
+    current = -1
+    previous = None
+    for i in order.tolist():
+        if (previous is None or not np.array_equal(tag[i], tag[previous])
+                or np.max(np.abs(weights[i] - weights[previous])) > _SAME):
+            current += 1
+        point[i] = current
+        previous = i
+    n_points = current + 1
+    first = np.full(n_points, -1, dtype=np.intp)
+    first[point[::-1]] = np.arange(len(rows))[::-1]
+    width = int(count.max(initial=1))
+    point_nodes = nodes[first, :width]
+    point_weights = weights[first, :width]
+    ends = point.reshape(-1, 2).T  # (2, pieces)
+    flip = det[[e for e, _, _, _ in pieces]] < 0  # a clockwise triangle mirrors "left"
+    segments = np.where(flip, ends[::-1], ends)
+    keep = segments[0] != segments[1]
+    wound = np.array([w for _, _, _, w in pieces], dtype=bool)
+    return ContactSurface(point_nodes, point_weights, segments[:, keep], n, wound=wound[keep])
