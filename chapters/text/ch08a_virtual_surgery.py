@@ -259,7 +259,7 @@ fig_ch08_probe()
 # %% [markdown]
 # ## 5. An incision: duplicating nodes
 #
-# A P1 mesh cannot have a crack *inside* a triangle, so our scalpel follows mesh edges: the stroke the user
+# A P1 triangle cannot hold a crack inside it, so the simplest scalpel follows mesh edges: the stroke the user
 # draws becomes the path of mesh edges that hugs it best (`surgery.cut_path`, a shortest path in which an
 # edge costs more the farther it is from the stroke). To **open** those edges, the triangles on their two
 # sides must stop sharing nodes. For every node $v$ on the path:
@@ -304,7 +304,9 @@ for ax, (name, pairs) in zip(axes, cases.items()):
     ax.set(aspect="equal", xticks=[], yticks=[], title=f"{name}: {copies} cop{'y' if copies == 1 else 'ies'} (red)")
 
 # %% [markdown]
-# On a running simulation, `sim.cut(polyline)` does all of this on the *deformed* tissue (the stroke is drawn
+# (Chapter 10 cuts through the triangles instead, with the virtual node algorithm, and that is what
+# `Simulation.cut` does by default; this chapter asks for the edge-snapping cut with `method="edges"`.)
+# On a running simulation, `sim.cut(polyline, method="edges")` does all of this on the *deformed* tissue (the stroke is drawn
 # where the user sees the tissue), builds the new mesh and model, and carries the state over: each copy
 # starts with the displacement and the velocity of the node it was copied from (`MeshEdit.transfer`). No
 # element is lost, so the **mass** is unchanged; no velocity changes, and the lumped masses of a node's
@@ -314,7 +316,7 @@ for ax, (name, pairs) in zip(axes, cases.items()):
 sim = Simulation(sheet_scene(800, handles=[{"name": "fixed", "region": "left"}], dynamic=True, gravity=True))
 sim.run(5)
 mass, momentum, nodes, elements = sim.total_mass(), sim.momentum(), sim.mesh.nvertices, sim.mesh.nelements
-edit = sim.cut([[1.2, 1.3], [1.2, 0.4]])          # from above the top edge to inside the sheet
+edit = sim.cut([[1.2, 1.3], [1.2, 0.4]], method="edges")   # from above the top edge to inside the sheet
 print(f"nodes {nodes} -> {sim.mesh.nvertices} ({edit.cut_edges.shape[1]} edges opened), "
       f"elements {elements} -> {sim.mesh.nelements}, pieces {sim.pieces()}")
 print(f"mass {mass:.12f} -> {sim.total_mass():.12f}")
@@ -348,7 +350,7 @@ fig_ch08_incision()
 # %%
 sim = Simulation(sheet_scene(800, handles=[{"name": "fixed", "region": "left"}], dynamic=True, gravity=True))
 sim.run(5)
-sim.cut([[1.0, 1.3], [1.0, -0.3]])
+sim.cut([[1.0, 1.3], [1.0, -0.3]], method="edges")
 count, labels = surgery.connected_components(sim.mesh.t, sim.mesh.nvertices)
 held = labels[sim.handles["fixed"].nodes[0]]
 print(f"{sim.pieces()} pieces: {np.sum(labels == held)} nodes held, {np.sum(labels != held)} nodes free")
@@ -405,7 +407,7 @@ fig_ch08_two_pieces()
 #                                              {"name": "pull", "region": "right", "target": [0.4, 0.0]}]))
 #     sim.frame()
 #     n_before = sim.mesh.nvertices
-#     edit = sim.cut([[1.0, 1.2], [1.0, end]])
+#     edit = sim.cut([[1.0, 1.2], [1.0, end]], method="edges")
 #     sim.frame()
 #     copies = np.arange(n_before, sim.mesh.nvertices)
 #     top = copies[np.argmax(sim.mesh.p[1, copies])]              # the copy on the top edge ...
@@ -427,7 +429,7 @@ fig_ch08_two_pieces()
 #                                             {"name": "pull", "region": "top", "target": [0.0, 0.3]}]))
 # sim.frame()
 # n_before = sim.mesh.nvertices
-# edit = sim.cut([[0.6, 0.5], [1.4, 0.5]])
+# edit = sim.cut([[0.6, 0.5], [1.4, 0.5]], method="edges")
 # sim.frame()
 # copies = np.arange(n_before, sim.mesh.nvertices)
 # x = sim.positions()

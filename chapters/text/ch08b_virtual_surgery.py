@@ -67,7 +67,7 @@ sim = Simulation(sheet_scene(1200, handles=[{"name": "fixed", "region": "left"},
                                             {"name": "pull", "region": "right", "target": [0.4, 0.0]}]))
 sim.frame()
 n_before = sim.mesh.nvertices
-edit = sim.cut([[1.0, 1.2], [1.0, 0.5]])
+edit = sim.cut([[1.0, 1.2], [1.0, 0.5]], method="edges")
 sim.frame()
 copies = np.arange(n_before, sim.mesh.nvertices)
 nnz = sim.model.pattern.nnz
@@ -111,7 +111,7 @@ print(f"stitch forces k|x_a - x_b - g|: {np.array2string(forces, precision=1)}")
 #    and the gaps still open.
 
 # %%
-result = advancement_flap(n_triangles=2000, flap_length=1.2, tighten_frames=6)
+result = advancement_flap(n_triangles=2000, flap_length=1.2, tighten_frames=6, method="edges")
 print(result.summary())
 print("Newton steps per tightening frame:", [r.newton_iterations for r in result.reports])
 print("boundaries of the final mesh:", sorted(result.simulation.mesh.boundaries), "| terms:", result.simulation.terms)
@@ -290,7 +290,7 @@ if INTERACTIVE:
 #                                                               {"name": "pull", "region": "right", "target": [0.4, 0.0]}]))
 #     sim.run(10)
 #     n_before = sim.mesh.nvertices
-#     edit = sim.cut([[1.0, 1.2], [1.0, 0.5]])
+#     edit = sim.cut([[1.0, 1.2], [1.0, 0.5]], method="edges")
 #     sim.run(5)
 #     copies = np.arange(n_before, sim.mesh.nvertices)
 #     sim.suture(np.vstack([copies, edit.parent[copies]]), tightness=0.0)
@@ -309,7 +309,7 @@ if INTERACTIVE:
 # from tissuefem import advancement_flap
 #
 # for n, length in ((1000, 0.8), (1000, 1.6), (2000, 1.6)):
-#     r = advancement_flap(n_triangles=n, flap_length=length, tighten_frames=4)
+#     r = advancement_flap(n_triangles=n, flap_length=length, tighten_frames=4, method="edges")
 #     print(f"{n} triangles, flap length {length}: max {r.max_tension:.0f}, 95th percentile {r.p95_tension:.0f}, "
 #           f"flap mean {r.flap_tension:.0f}")
 # ```
