@@ -67,6 +67,7 @@ def test_code_named_in_a_suggestion_is_in_a_snippet(path):
 @pytest.mark.parametrize("path, index, code", CASES, ids=[f"{p.stem}-{i + 1}" for p, i, _ in CASES])
 def test_snippet_runs(path, index, code, monkeypatch):
     monkeypatch.chdir(path.parent)
+    plt.switch_backend("Agg")  # another test may have left an interactive backend in this process
     namespace = {"__name__": f"what_to_try_{path.stem}_{index + 1}"}
     try:
         exec(compile(code, f"{path.name}: what to try, snippet {index + 1}", "exec"), namespace)
