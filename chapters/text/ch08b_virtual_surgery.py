@@ -158,7 +158,9 @@ print("one evaluation of each term of 'everything' (energy + force + Hessian), m
 #   showed;
 # - the **projected tangent** (inversion handling, chapter 6b) costs nothing on this gentle drag: it is
 #   projected only when Newton needs a descent direction (an element near inversion), so here every frame
-#   takes the exact tangent, as the base does.
+#   takes the exact tangent, as the base does;
+# - the rows of chapter 10 (cuts through elements, self-contact) show that a cut costs little per frame, and
+#   that contact costs Newton steps only where a wound's lips are pressed together.
 
 # %% [markdown]
 # ## 3. With the mouse
