@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from tissuefem.workbook.accuracy import beam_exact, beam_problem_tip
-from tissuefem.workbook.measure import fitted_exponent, pareto_front
+from tissuefem.workbook.measure import best_within_budget, cost_at_error, fitted_exponent, pareto_front
 
 
 def test_pareto_front_on_a_hand_made_example():
@@ -21,6 +21,25 @@ def test_pareto_front_edge_cases():
     assert pareto_front([], []).tolist() == []
     with pytest.raises(ValueError, match="same length"):
         pareto_front([1.0, 2.0], [1.0])
+
+
+def test_errors_within_the_resolution_are_ties():
+    """No winner by the last digits: with rtol, a slower setting must be better by more than the factor 1 + rtol."""
+    costs = [1.0, 2.0, 3.0, 4.0]
+    errors = [1.000e-1, 0.995e-1, 0.5e-1, 0.499e-1]
+    assert pareto_front(costs, errors).tolist() == [0, 1, 2, 3]
+    assert pareto_front(costs, errors, rtol=0.01).tolist() == [0, 2]
+    assert best_within_budget(costs, errors, 10.0) == 3
+    assert best_within_budget(costs, errors, 10.0, rtol=0.01) == 2  # ties with 3, and cheaper
+    with pytest.raises(ValueError, match="rtol"):
+        pareto_front(costs, errors, rtol=-1.0)
+
+
+def test_cost_at_error_interpolates_on_log_axes():
+    costs, errors = [1.0, 4.0, 16.0], [1e-2, 1e-3, 1e-4]  # error ~ cost^(-5/3)
+    assert cost_at_error(costs, errors, 1e-3) == pytest.approx(4.0)
+    assert cost_at_error(costs, errors, 10 ** -3.5) == pytest.approx(8.0)
+    assert cost_at_error(costs, errors, 1e-5) is None
 
 
 def test_fitted_exponent():

@@ -105,12 +105,35 @@ def test_the_reference_is_finer_than_the_sweep_and_checked(tiny):
     results, _ = tiny
     for benchmark, ref in results["references"].items():
         assert ref["order"] == 2 and ref["triangles"] >= max(PLANS["tiny"]["knobs"]["mesh"])
-        assert 0 < ref["coarser_sibling_error"] < 0.05
-    assert results["references"]["flap"]["substeps"] == [2, 4]
+        assert 0 < ref["space_distance"] < 0.05 and ref["error_estimate"] >= ref["space_error_estimate"] > 0
+        assert ref["coarser_sibling_triangles"] and ref["grading"] > 1
+    flap = results["references"]["flap"]
+    assert flap["substeps"] == [2, 4] and flap["time_error_estimate"] > 0
     v = results["verification"]
     assert v["cantilever_P2_32x8"]["relative_error"] < 5e-7  # the README and chapter 9 quote 2e-7
     for row in v["manufactured"]:
         assert abs(row["fitted_rate"] - row["expected_rate"]) < 0.1, row
+
+
+def test_the_estimate_of_a_reference_uses_the_observed_rate():
+    from tissuefem.workbook.bench.accuracy import _estimate
+
+    rate, estimate = _estimate(4e-4, 1e-4)  # the distance falls by 4 per level: rate 2, error d / 3
+    assert rate == pytest.approx(2.0) and estimate == pytest.approx(1e-4 / 3)
+    assert _estimate(None, 1e-4) == (None, 1e-4)  # two levels only: the distance itself bounds the error
+    assert _estimate(1.5e-4, 1e-4)[1] == 1e-4  # slower than first order: no credit taken
+
+
+def test_graded_meshes_keep_the_flap_topology():
+    from tissuefem.workbook.bench.accuracy import graded_flap
+    from tissuefem import flap as flap_mesh
+
+    uniform, graded = flap_mesh(n_triangles=200), graded_flap(200)
+    np.testing.assert_array_equal(uniform.t, graded.t)
+    assert set(graded.boundaries) == set(uniform.boundaries)
+    assert graded.p[0].min() == 0.0 and graded.p[0].max() == pytest.approx(2.0) and graded.p[1].max() == pytest.approx(1.0)
+    widths = np.diff(np.unique(np.round(graded.p[1], 12)))
+    assert widths[0] < widths[len(widths) // 2]  # cells shrink towards the edge
 
 
 def test_results_files_are_well_formed(tiny):
@@ -287,30 +310,100 @@ def test_a_quasistatic_frame_starts_from_the_linearised_step():
 
 
 def test_the_recorded_study_supports_what_chapter_9_says():
-    """The errors are deterministic, so the chapter's and README's claims about them are pinned here."""
-    rows = recorded_results()["knobs"]
+    """The errors are deterministic, so the chapter's and README's claims about them are pinned here (the
+    milliseconds are one machine's record: the claims about them are pinned against that record)."""
+    from tissuefem.workbook.measure import best_within_budget, cost_at_error
+    from tissuefem.workbook.figures.accuracy import ERROR_RESOLUTION
+
+    results = recorded_results()
+    rows = results["knobs"]
+
+    def sel(benchmark, knob=None):
+        return [r for r in rows if r["benchmark"] == benchmark and (knob is None or r["knob"] == knob)]
 
     def errors(benchmark, knob):
-        return [r["error"] for r in rows if r["benchmark"] == benchmark and r["knob"] == knob]
+        return [r["error"] for r in sel(benchmark, knob)]
 
+    def one(benchmark, knob, value):
+        (row,) = [r for r in sel(benchmark, knob) if r["value"] == value]
+        return row
+
+    # section 2: each reference's own error estimate is at least ten times below every error it judges
+    for b, ref in results["references"].items():
+        assert 10 * ref["error_estimate"] <= min(r["error"] for r in sel(b)), b
+    assert results["references"]["block"]["dofs"] >= 3.9 * max(r["dofs"] for r in sel("block"))
+    assert 2.4 < results["references"]["block"]["space_rate"] < 3.0  # "graded, it converges at about 2.7"
     # block: refining the mesh (P1 and P2) always helps; P2 beats P1 on the same mesh
     for knob in ("mesh", "P2"):
         assert np.all(np.diff(errors("block", knob)) < 0)
-    p1 = {r["value"]: r["error"] for r in rows if r["benchmark"] == "block" and r["knob"] == "mesh"}
-    p2 = {r["value"]: r["error"] for r in rows if r["benchmark"] == "block" and r["knob"] == "P2"}
+    p1 = {r["value"]: r["error"] for r in sel("block", "mesh")}
+    p2 = {r["value"]: r["error"] for r in sel("block", "P2")}
     assert all(p2[n] < p1[n] for n in p2 if n in p1)
-    # block: Newton tolerance, iteration cap and linear solver change the error by < 0.5 % (the same to three digits), quadrature by ~1 %
-    for knob, spread in (("newton_tolerance", 1.005), ("newton_cap", 1.005), ("linear_solver", 1.005),
-                         ("quadrature", 1.02)):
-        e = errors("block", knob)
-        assert max(e) / min(e) < spread, knob
-    # block: the models' modelling error ranks Taylor < corotated < stable NH < linear, all above the mesh error
-    model = {r["value"]: r["error"] for r in rows if r["benchmark"] == "block" and r["knob"] == "material"}
+    # "P2 is cheaper ... about 1.7 times at 2e-4, 2.3 times at 1e-4, 2.6 times at 6e-5"
+    ratios = []
+    for target in (2e-4, 1e-4, 6e-5):
+        t1, t2 = (cost_at_error([r["ms_median"] for r in sel("block", k)], errors("block", k), target)
+                  for k in ("mesh", "P2"))
+        ratios.append(t1 / t2)
+    assert [round(r, 1) for r in ratios] == [1.7, 2.3, 2.6], ratios
+    # the busy-machine outliers the chapter points out: 16 000 P1 triangles slower than 32 000 on the flap
+    flap_mesh = {r["value"]: r["ms_median"] for r in sel("flap", "mesh")}
+    assert flap_mesh[16000] > flap_mesh[32000]
+    # flap: the mesh and the element order move the error by a few per cent only
+    e = errors("flap", "mesh") + errors("flap", "P2")
+    assert max(e) / min(e) < 1.06
+    # flap: "each halving of dt by a factor of about 1.7 at twice the cost"
+    dt = sel("flap", "time_step")
+    for a, b in zip(dt, dt[1:]):
+        assert 1.6 < a["error"] / b["error"] < 1.9
+        assert 1.5 < b["ms_median"] / a["ms_median"] < 2.5
+    # quadrature agrees to 1 %, linear solvers to the Newton tolerance
+    for b in ("flap", "block"):
+        assert max(errors(b, "quadrature")) / min(errors(b, "quadrature")) < 1.01, b
+        assert max(errors(b, "linear_solver")) / min(errors(b, "linear_solver")) < 1.001, b
+    # the models' modelling error: Taylor < 1e-3; corotated and stable NH over 1 %; linear about 3 %
+    model = {r["value"]: r["error"] for r in sel("block", "material")}
     assert model["neo-hookean"] < model["taylor-neo-hookean"] < 1e-3
-    assert 1e-2 < model["corotated"] < model["stable-neo-hookean"] < model["linear"]
-    # flap: the mesh and the element order leave the error flat to 1 %; only substeps reduce it
-    for knob in ("mesh", "P2"):
-        e = errors("flap", knob)
-        assert max(e) / min(e) < 1.01, knob
-    dt = errors("flap", "time_step")
-    assert np.all(np.diff(dt) < 0) and dt[-1] < 0.5 * dt[0]
+    assert 1e-2 < model["corotated"] < 2e-2 and 1e-2 < model["stable-neo-hookean"] < 2e-2
+    assert 0.025 < model["linear"] < 0.035
+    # block: tolerances of 1e-3 and looser, and a cap of one step, stop after the linearised start: 20 % more error
+    converged = one("block", "newton_tolerance", 1e-6)["error"]
+    for value in (0.1, 0.01, 0.001):
+        assert 1.15 < one("block", "newton_tolerance", value)["error"] / converged < 1.25
+    assert one("block", "newton_cap", 1)["error"] == pytest.approx(one("block", "newton_tolerance", 0.1)["error"])
+    for row in [one("block", "newton_tolerance", v) for v in (1e-4, 1e-8)] + sel("block", "newton_cap")[1:]:
+        assert abs(row["error"] / converged - 1) < 0.005, row
+    # flap: the cap of one step differs from converging only in the fourth digit
+    flap_converged = one("flap", "newton_tolerance", 1e-6)["error"]
+    assert abs(one("flap", "newton_cap", 1)["error"] / flap_converged - 1) < 1e-3
+    # section 7: the choices under the 33 ms budget, errors within 1 % counted as ties
+    budget = results["frame_budget_ms"]
+    flap_best = sel("flap")[best_within_budget([r["ms_median"] for r in sel("flap")], [r["error"] for r in sel("flap")],
+                                                budget, rtol=ERROR_RESOLUTION)]
+    assert flap_best["knob"] == "time_step"
+    block_best = sel("block")[best_within_budget([r["ms_median"] for r in sel("block")],
+                                                  [r["error"] for r in sel("block")], budget, rtol=ERROR_RESOLUTION)]
+    assert block_best["order"] == 2 and abs(block_best["triangles"] - 2000) < 100
+
+
+def test_why_a_capped_newton_seemed_more_accurate():
+    """Chapter 9, section 4: with the abrupt drag the cap moves the state towards the reference (cosine about
+    0.8) by about 1e-3; with the eased drag nearly at right angles (cosine about 0.1)."""
+    from tissuefem.workbook.bench.accuracy import capped_newton_experiment
+
+    jump, eased = capped_newton_experiment(drag="jump"), capped_newton_experiment(drag="eased")
+    assert jump["error_capped"] < jump["error_converged"] and 0.65 < jump["cosine"] < 0.9
+    assert 3e-4 < jump["capped_moved"] < 3e-3
+    assert abs(eased["cosine"]) < 0.2
+    assert abs(eased["error_capped"] / eased["error_converged"] - 1) < 2e-3
+
+
+def test_backward_euler_converges_slowly_after_an_abrupt_start():
+    """Chapter 9, section 2: distances between successive halvings of dt shrink by about 0.8 with the abrupt
+    drag, and approach 0.5 (first order) with the eased one."""
+    from tissuefem.workbook.bench.accuracy import time_convergence
+
+    jump = time_convergence("jump", substeps=(2, 4, 8, 16))
+    eased = time_convergence("eased", substeps=(2, 4, 8, 16))
+    assert all(r > 0.7 for r in jump["ratios"])
+    assert all(r < 0.62 for r in eased["ratios"])

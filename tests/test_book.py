@@ -153,3 +153,47 @@ def test_book_command_writes_the_site(site, tmp_path, monkeypatch, capsys):
     assert cli.main(["book", "--out", str(tmp_path / "site")]) == 0
     assert (tmp_path / "site" / "chapters" / "ch02_beta.html").is_file()
     assert "index.html" in capsys.readouterr().out
+
+
+def test_every_chapter_states_a_time_that_fits_a_sitting():
+    """Each chapter says at its top how long it takes; the syllabus shows that time. It must cover the estimate
+    from its prose and code (the run time comes on top, hence the margin) and fit a sitting of an hour."""
+    from tissuefem.workbook.book import stated_minutes
+    from tissuefem.workbook.notebooks import chapter_paths
+
+    for path in chapter_paths(ROOT / "chapters"):
+        nb = nbformat.read(path, as_version=4)
+        stated, estimate = stated_minutes(nb), estimate_minutes(nb)
+        assert stated is not None, f"{path.name} states no time (*Time: about N min ...*)"
+        assert estimate <= stated <= estimate + 15, (path.name, stated, estimate)
+        assert stated <= 60, f"{path.name}: {stated} min is more than a sitting; split the chapter"
+
+
+def test_parts_of_a_chapter_are_named_and_counted():
+    from tissuefem.workbook.book import chapter_exercises, stated_minutes
+    from tissuefem.workbook.notebooks import chapter_label, chapter_paths
+
+    names = [p.name for p in chapter_paths(ROOT / "chapters")]
+    assert "ch06a_inversion.ipynb" in names and "ch06b_inversion_robust.ipynb" in names
+    assert names.index("ch06a_inversion.ipynb") < names.index("ch06b_inversion_robust.ipynb") < \
+        names.index("ch07_time_stepping.ipynb")
+    assert chapter_label(ROOT / "chapters" / "ch06a_inversion.ipynb") == "6a"
+    assert chapter_label("ch10_cutting.ipynb") == "10"
+    with pytest.raises(ValueError, match="chapter file name"):
+        chapter_label("notes.ipynb")
+    a = nbformat.read(ROOT / "chapters" / "ch06a_inversion.ipynb", as_version=4)
+    b = nbformat.read(ROOT / "chapters" / "ch06b_inversion_robust.ipynb", as_version=4)
+    assert chapter_exercises(a) == ["6.1", "6.2", "6.3"] and chapter_exercises(b) == []
+    nb = _notebook(["md:# Chapter 1 — x\n\n*Time: about 35 min to read and run.*"])
+    assert stated_minutes(nb) == 35
+
+
+def test_the_readme_lists_every_chapter_with_its_stated_time():
+    from tissuefem.workbook.book import stated_minutes
+    from tissuefem.workbook.notebooks import chapter_label, chapter_paths
+
+    text = (ROOT / "README.md").read_text()
+    for path in chapter_paths(ROOT / "chapters"):
+        minutes = stated_minutes(nbformat.read(path, as_version=4))
+        row = f"| {chapter_label(path)} | `chapters/{path.name}` | {minutes} min |"
+        assert row in text, f"the README's chapter table should have the row {row}"

@@ -46,7 +46,7 @@ from browser_lab import (PROBE_SHOWN, JupyterLab, browser_missing, cpu_seconds, 
 pytestmark = pytest.mark.browser
 
 ROOT = Path(__file__).resolve().parents[1]
-CHAPTER = ROOT / "chapters" / "ch08_virtual_surgery.ipynb"
+CHAPTER = ROOT / "chapters" / "ch08b_virtual_surgery.ipynb"
 SECTION = "With the mouse"
 BENCH_OUT = ROOT / "bench-results" / "interactive_browser.json"
 #: matplotlib's "tab:blue", the colour of the drag target's marker

@@ -20,13 +20,16 @@ def test_chapter_8_figure_is_deterministic(name, tmp_path):
     if name == "fig_ch08_two_pieces":
         from PIL import Image
 
+        from tissuefem.workbook.figures.base import ANIMATION_MIN_WIDTH
+
         gifs = [tmp_path / d / f"{name}.gif" for d in "ab"]
         data = gifs[0].read_bytes()
         assert data[:6] == b"GIF89a"
         assert data == gifs[1].read_bytes()  # the same frames give the same bytes
         with Image.open(gifs[0]) as im:
             assert im.n_frames == SAG_FRAMES + FALL_FRAMES + 1
-        assert len(data) < 300_000
+            assert im.size[0] >= ANIMATION_MIN_WIDTH  # large enough to project
+        assert len(data) < 500_000  # projectable size, still small for the repository
 
 
 def test_without_a_path_nothing_is_written(tmp_path, monkeypatch):

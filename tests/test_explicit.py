@@ -199,6 +199,8 @@ def test_chapter_7_figures_are_deterministic(name, tmp_path):
     if name == "fig_ch07_released_flap":
         from PIL import Image
 
+        from tissuefem.workbook.figures.base import ANIMATION_MIN_WIDTH
+
         from tissuefem.workbook.figures.dynamics import ANIMATION_FRAMES
 
         gifs = [tmp_path / d / f"{name}.gif" for d in "ab"]
@@ -207,6 +209,7 @@ def test_chapter_7_figures_are_deterministic(name, tmp_path):
         assert data == gifs[1].read_bytes()  # Pillow writes the same bytes for the same frames
         with Image.open(gifs[0]) as im:
             assert im.n_frames == ANIMATION_FRAMES
-        assert len(data) < 300_000
+            assert im.size[0] >= ANIMATION_MIN_WIDTH  # large enough to project
+        assert len(data) < 500_000  # projectable size, still small for the repository
         # without a path nothing is written
         assert figures.FIGURES[name]() is not None

@@ -23,6 +23,8 @@
 # 4. impose displacement (Dirichlet) and traction ends, and check the result against closed forms;
 # 5. measure how the error falls as the mesh is refined, and read off the convergence rates.
 #
+# *Time: about 15 min to read and run, and two exercises.*
+#
 # *Reading:* Teran's notes, sections "Equilibrium and weak form" and "1D elasticity".
 
 # %%
@@ -158,9 +160,45 @@ fig_ch01_convergence()
 # there with far fewer. Later chapters measure what that costs in *time*.
 #
 # ## What to try
-# - Change `nu` towards 0.5: what happens to $\lambda$ and to $E_1$?
-# - Put the traction on the left end and fix the right end; predict the sign of $u$ first.
-# - Use a non-uniform mesh (`Bar1D(nodes=...)`): is the nodal exactness lost?
+# Each suggestion comes with a few lines to paste into a new cell (they run on their own); change
+# the numbers and run them again.
+#
+# - Push `nu` towards 0.5: what happens to $\lambda$ and to $E_1$?
+#
+# ```python
+# from tissuefem import Linear1D, lame_parameters
+#
+# for nu in (0.3, 0.45, 0.49, 0.499):
+#     lam, mu = lame_parameters(E=1000.0, nu=nu)
+#     print(f"nu = {nu}: lam = {lam:9.1f}, mu = {mu:6.1f}, E1 = {Linear1D(lam, mu).modulus:9.1f}")
+# ```
+#
+# - Put the traction on the left end and fix the right end. Predict the sign of $u$ first
+#   (at $X = 0$ the outward normal is $n = -1$).
+#
+# ```python
+# from tissuefem import Bar1D, Displacement, Linear1D, Traction, lame_parameters
+#
+# E1 = Linear1D(*lame_parameters(E=1000.0, nu=0.3)).modulus
+# bar = Bar1D(0.0, 1.0, n=6)
+# u = bar.solve_linear(E1, 0.0, left=Traction(200.0), right=Displacement(0.0))
+# print(u.round(4))
+# ```
+#
+# - Use a non-uniform mesh: is the nodal exactness of section 4 lost?
+#
+# ```python
+# import numpy as np
+# from tissuefem import Bar1D, Displacement, Linear1D, Traction, lame_parameters
+#
+# E1 = Linear1D(*lame_parameters(E=1000.0, nu=0.3)).modulus
+# T, f = 200.0, 500.0
+# nodes = np.sort(np.r_[0.0, 1.0, np.random.default_rng(1).uniform(0.0, 1.0, 5)])
+# bar = Bar1D(nodes=nodes)
+# u = bar.solve_linear(E1, f, left=Displacement(0.0), right=Traction(T))
+# exact = ((T + f) * nodes - f * nodes**2 / 2) / E1
+# print("largest nodal error on a random mesh:", np.abs(u - exact).max())
+# ```
 #
 # ## Exercises (graded by pytest)
 # Open `exercises/ch01.py` and implement:

@@ -23,6 +23,8 @@
 # 4. Use load stepping for large loads.
 # 5. Understand what happens under strong compression: the logarithm of a non-positive $J$.
 #
+# *Time: about 25 min to read and run, and three exercises.*
+#
 # *Reading:* the notes' "1D elasticity" (second half) and "Inversion".
 
 # %%
@@ -201,9 +203,11 @@ fig07_neo_hookean_1d()
 
 # %% [markdown]
 # The Taylor model agrees with $\ln J$ near $J = 1$ but stays finite for $J \le 0$, so an
-# inverted element pushes back with a finite force instead of breaking the solver. It is stiffer
-# in compression in a *different* way, so its solution under $T = -1500$ differs from the log
-# model's: robustness has a price in accuracy far from rest. The notes' Figure 5 shows why
+# inverted element pushes back with a finite force instead of breaking the solver. The price is
+# that it is **softer in compression**: where $\ln J \to -\infty$ as $J \to 0$, the cubic $r(J)$ stays
+# finite, so its stress does not blow up. Under the same push $T = -1500$ the Taylor bar is squeezed
+# to $F \approx 0.41$, the $\ln J$ bar only to $F \approx 0.48$ (the last two lines printed above):
+# robustness has a price in accuracy far from rest. The notes' Figure 5 shows why
 # $F \le 0$ is not physical in the first place — the map folds material onto itself:
 
 # %%
@@ -211,9 +215,47 @@ fig05_admissible_maps()
 
 # %% [markdown]
 # ## What to try
-# - Make the traction larger in tension (say $T = 5000$): how many load steps does plain Newton need?
-# - Refine the mesh: does the number of Newton iterations change? (Why not?)
-# - Compare the Taylor model's solution under $T = -600$ with the log model's.
+# Each suggestion comes with a few lines that run on their own in a new cell; change the numbers
+# and run them again.
+#
+# - Make the traction larger in tension: does plain Newton (one load step) still converge, and in
+#   how many iterations?
+#
+# ```python
+# from tissuefem import Bar1D, NeoHookean1D, Traction, lame_parameters
+#
+# neo = NeoHookean1D(*lame_parameters(E=1000.0, nu=0.3))
+# bar = Bar1D(0.0, 1.0, n=16)
+# for T in (300.0, 5000.0, 50000.0):
+#     u, results = bar.solve_nonlinear(neo, right=Traction(T))
+#     print(f"T = {T:7.0f}: {results[-1].status}, {results[-1].iterations} Newton iterations")
+# ```
+#
+# - Refine the mesh: does the number of Newton iterations change? (Why not? Think of what the
+#   solution looks like.)
+#
+# ```python
+# from tissuefem import Bar1D, NeoHookean1D, Traction, lame_parameters
+#
+# neo = NeoHookean1D(*lame_parameters(E=1000.0, nu=0.3))
+# for n in (4, 16, 64, 256):
+#     u, results = Bar1D(0.0, 1.0, n=n).solve_nonlinear(neo, right=Traction(300.0), rtol=1e-13)
+#     print(f"{n:4d} elements: {results[0].iterations} Newton iterations")
+# ```
+#
+# - Compare the Taylor model with the log model under a milder push, $T = -600$, and under
+#   $T = -1500$: how far apart are they?
+#
+# ```python
+# from tissuefem import NeoHookean1D, TaylorNeoHookean1D, lame_parameters
+# from tissuefem.engine.bar1d import uniform_bar_stretch
+#
+# lam, mu = lame_parameters(E=1000.0, nu=0.3)
+# for T in (-600.0, -1500.0):
+#     F_log = uniform_bar_stretch(NeoHookean1D(lam, mu), T)
+#     F_taylor = uniform_bar_stretch(TaylorNeoHookean1D(lam, mu), T)
+#     print(f"T = {T:6.0f}: ln J model F = {F_log:.4f}, Taylor model F = {F_taylor:.4f}")
+# ```
 #
 # ## Exercises (graded by pytest)
 # In `exercises/ch02.py`:

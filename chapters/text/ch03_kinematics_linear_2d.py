@@ -26,6 +26,8 @@
 # 5. show numerically why linear elasticity only holds for small deformations: a rigid rotation
 #    costs it energy and stress, and a block turned at one edge grows.
 #
+# *Time: about 40 min to read and run, and three exercises.*
+#
 # *Reading:* the notes' "Kinematics" and the first half of "Elasticity and constitutive modeling".
 
 # %%
@@ -66,9 +68,29 @@ from tissuefem.workbook.studies import (bending_gradient, bending_map, displacem
 # > So we use $F_{ij} = \partial\phi_i/\partial X_j$ everywhere — also scikit-fem's
 # > convention (`grad(u)[i, j]` is $\partial u_i/\partial X_j$) and Bonet & Wood's.
 #
+# **Counting indices (the one convention of this workbook).** In formulas, indices count from 1, as in
+# the notes: the entries of $\mathbf F$ are $F_{11}, F_{12}, F_{21}, F_{22}$, the coordinates $X_1, X_2$,
+# the singular values (chapter 6) $s_1, s_2$, the vertices of a triangle 1, 2, 3. In code, arrays count
+# from 0, so $F_{12}$ is `F[0, 1]` and $X_2$ is `X[1]`. Node and dof numbers printed by code (node $a$
+# owns the dofs $2a$ and $2a+1$) are the code's own numbers, starting at 0. Every chapter keeps to this.
+#
 # The notes' Figure 2, redrawn: a block bent into an arch by a map $\phi$ that we know in closed
 # form (`tissuefem.workbook.studies.bending_map`), one material point, and $\mathbf F$ acting on two
-# short material vectors.
+# short material vectors. The notes' figure has a second half, redrawn in the right panel: the
+# stress. Cut the material at $\mathbf X$ along a short line with unit normal $\mathbf N$ (in the
+# reference configuration). The material on one side pulls on the other, and the first Piola–Kirchhoff
+# stress $\mathbf P$ turns the normal into that force: $\mathbf P\mathbf N\,dA$ is the force across a
+# piece of the cut whose *reference* area (a length, in 2D) is $dA$. The same force, counted per unit
+# of *deformed* area $da$ and against the deformed normal $\mathbf n$, defines the **Cauchy stress**
+# $\boldsymbol\sigma$: $\boldsymbol\sigma\mathbf n\,da = \mathbf P\mathbf N\,dA$. With Nanson's formula
+# $\mathbf n\,da = J\mathbf F^{-T}\mathbf N\,dA$ this gives
+#
+# $$ \boldsymbol\sigma = \frac{1}{J}\,\mathbf P\,\mathbf F^{T}, \qquad J = \det\mathbf F . $$
+#
+# $\mathbf P$ is the stress to compute with (it is $\partial\Psi/\partial\mathbf F$, on the fixed
+# reference body); $\boldsymbol\sigma$ is the one to look at (a true force per true area, symmetric), so
+# the figures of the later chapters colour elements by it: by its largest eigenvalue, the largest
+# principal stress, positive where the tissue is pulled.
 
 # %%
 fig02_kinematics()
@@ -78,8 +100,9 @@ fig02_kinematics()
 #
 # On linear (P1) triangles the displacement is linear inside each triangle, so $\mathbf F$ is one
 # constant matrix per triangle. The affine map of a triangle sends each edge vector to its image:
-# with the edge matrices $D_m = [\mathbf X_1 - \mathbf X_0,\ \mathbf X_2 - \mathbf X_0]$ (reference)
-# and $D_s = [\mathbf x_1 - \mathbf x_0,\ \mathbf x_2 - \mathbf x_0]$ (deformed),
+# with the edge matrices $D_m = [\mathbf X_2 - \mathbf X_1,\ \mathbf X_3 - \mathbf X_1]$ (reference)
+# and $D_s = [\mathbf x_2 - \mathbf x_1,\ \mathbf x_3 - \mathbf x_1]$ (deformed) of a triangle with
+# vertices 1, 2, 3,
 #
 # $$ \mathbf F\, D_m = D_s \quad\Longrightarrow\quad \mathbf F = D_s D_m^{-1} . $$
 #
@@ -131,6 +154,22 @@ print("affine map: largest |F_e - A| =", np.abs(F - A[:, :, None]).max())
 # As $\nu \to \frac12$ (incompressible) $\lambda \to \infty$ in plane strain, while a thin sheet can
 # always thin out, so $\lambda^* \to 2\mu$ stays finite. The admissible range is $-1 < \nu < \frac12$
 # (the notes say $0 < \nu < \frac12$; auxetic materials have $\nu < 0$).
+#
+# **Which one the library uses, and why.** Every tissue model of the later chapters is **plane
+# strain**: `NeoHookean.from_young(E, nu)` and its relatives use $\lambda$, and they refuse
+# `plane="stress"`. The reason is not anatomy: a skin flap is thin, and for it plane stress is the
+# better assumption. It is that the notes' energies are written for a $2\times 2$ $\mathbf F$, and taking
+# them as they are *is* plane strain: the body keeps its thickness ($F_{33} = 1$). Plane stress for a
+# nonlinear material is not a change of $\lambda$; it needs the thickness stretch $F_{33}$ at every
+# quadrature point, found from $\sigma_{33} = 0$ by a small nonlinear solve of its own, which these notes
+# (and this workbook) leave out. Only the linear model, where the condensation above is exact, offers
+# both (`LinearElastic.from_young(E, nu, plane="stress")`).
+#
+# What changes between the two: plane stress is softer, since the sheet can thin where it is pulled
+# ($\lambda^* < \lambda$, so a pulled sheet needs less force for the same stretch; section 6 lets you
+# measure how much), and it cannot lock as $\nu \to \frac12$. So read the simulated "skin" of later
+# chapters as a slice of a thick body: somewhat stiffer than a thin flap of the same material, and, with
+# $\nu$ near $\frac12$, prone to the locking that chapter 4's "What to try" shows.
 
 # %%
 print(f"{'nu':>6} {'lam (strain)':>13} {'mu':>8} {'lam* (stress)':>14}")
@@ -290,13 +329,79 @@ for delta in (0.01, 0.1, 0.5, 1.0):
 # by tens of percent and turns freely — hence the Neo-Hookean model of the next chapter.
 #
 # ## What to try
-# - Turn the wall by 10° instead of 60°: how much does the linear block's area change? Compare
-#   with $2(\lambda+\mu)(1-\cos\theta)^2$ times the area.
-# - Replace `bending_map` by your own map (a shear $x_1 = X_1 + \gamma X_2$, say) and check
-#   $J$ per triangle against your hand computation.
-# - Solve the pulled block of section 6 in plane stress (`LinearElastic.from_young(E, nu, plane="stress")`):
-#   is it softer or stiffer than in plane strain? Why?
-# - Push $\nu$ to 0.499 and look at $\lambda$: what do you expect to happen to the solver?
+# Each suggestion comes with a few lines that run on their own in a new cell; change the numbers
+# and run them again.
+#
+# - Turn the wall by 10° instead of 60°: how much does the linear block's area grow, and how much
+#   energy does it store? Compare with $2(\lambda+\mu)(1-\cos\theta)^2$, the energy per unit area of a
+#   *free* rigid turn (section 5): is the held block's energy above or below it, and why?
+#
+# ```python
+# import numpy as np
+# from tissuefem import LinearElastic
+# from tissuefem.engine.materials import det2
+# from tissuefem.workbook.studies import rotated_block
+#
+# linear = LinearElastic.from_young(1000.0, 0.3)
+# for degrees in (10.0, 60.0):
+#     theta = np.radians(degrees)
+#     model, result = rotated_block(linear, theta)
+#     area = model.element_areas() @ det2(model.deformation_gradient(result.u))
+#     free_turn = 2 * (linear.lam + linear.mu) * (1 - np.cos(theta)) ** 2
+#     print(f"{degrees:4.0f} degrees: area {area:.4f}, stored energy {model.stored_energy(result.u):.4g}, "
+#           f"free rigid turn {free_turn:.4g}")
+# ```
+#
+# - Replace the bending map by your own, a shear $x_1 = X_1 + \gamma X_2$, $x_2 = X_2$, and check $\mathbf F$
+#   and $J$ per triangle against your hand computation.
+#
+# ```python
+# import numpy as np
+# from tissuefem import P1Assembler, rectangle
+# from tissuefem.engine.materials import det2
+# from tissuefem.workbook.studies import displacement_from_map
+#
+# gamma = 0.4
+# shear = lambda X: np.stack([X[0] + gamma * X[1], X[1]])
+# mesh = rectangle(2.0, 1.0, 4, 2)
+# F = P1Assembler(mesh).deformation_gradient(displacement_from_map(mesh, shear))
+# print("F of the first triangle:", F[:, :, 0].round(12).tolist())
+# print("J of every triangle:", det2(F).round(12))
+# ```
+#
+# - Solve the pulled block of section 6 in plane stress: is it softer or stiffer than in plane strain,
+#   and by how much? (Compare the ratio of the forces with $(\lambda^* + 2\mu)/(\lambda + 2\mu)$ and with
+#   $E$ over the plane-strain modulus $E/(1 - \nu^2)$.)
+#
+# ```python
+# from tissuefem import Handle, LinearElastic, Model, rectangle, solve
+# from tissuefem.workbook.studies import handle_force
+#
+# mesh = rectangle(2.0, 1.0, 16, 8)
+# force = {}
+# for plane in ("strain", "stress"):
+#     material = LinearElastic.from_young(1000.0, 0.3, plane=plane)
+#     model = Model(mesh, material, handles=[Handle("left"), Handle("right", (0.1, 0.0))])
+#     force[plane] = handle_force(model, solve(model).u, "right")[0]
+#     print(f"plane {plane}: lam = {material.lam:6.1f}, handle force {force[plane]:.3f}")
+# print(f"stress / strain = {force['stress'] / force['strain']:.3f}")
+# ```
+#
+# - Push $\nu$ to 0.499 and look at $\lambda$. What do you expect of the Neo-Hookean solver, and of the
+#   stretched block's area?
+#
+# ```python
+# from tissuefem import Handle, Model, NeoHookean, rectangle, solve
+# from tissuefem.engine.materials import det2
+#
+# for nu in (0.3, 0.49, 0.499):
+#     model = Model(rectangle(2.0, 1.0, 16, 8), NeoHookean.from_young(1000.0, nu),
+#                   handles=[Handle("left"), Handle("right", (0.5, 0.0))])
+#     result = solve(model)
+#     area = model.element_areas() @ det2(model.deformation_gradient(result.u))
+#     print(f"nu = {nu}: lam = {model.material.lam:8.0f}, converged {result.converged} in "
+#           f"{result.newton_iterations} Newton iterations, area {area:.4f} (reference 2)")
+# ```
 #
 # ## Exercises (graded by pytest)
 # In `exercises/ch03.py`:

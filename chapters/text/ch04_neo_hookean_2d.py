@@ -25,18 +25,21 @@
 # 4. Measure how the error falls as the mesh is refined, P1 against P2 — and what each costs in
 #    time against the 33 ms of a frame. This is the workbook's first data on *what accuracy costs*.
 #
+# *Time: about 40 min to read and run, and five exercises.*
+#
 # *Reading:* the notes' "Elasticity and constitutive modeling" (Neo-Hookean part) and
 # "Equilibrium and weak form".
 
 # %%
 # %matplotlib inline
 import numpy as np
+from IPython.display import Markdown, display
 from skfem import asm
 
 from tissuefem import (Handle, LinearElastic, Model, NeoHookean, P1Assembler, rectangle, residual_form, solve,
                        tangent_form)
 from tissuefem.workbook.figures.kinematics import fig_ch04_block, fig_ch04_cost_accuracy
-from tissuefem.workbook.studies import cost_accuracy_study, format_cost_accuracy, handle_force
+from tissuefem.workbook.studies import cost_accuracy_markdown, cost_accuracy_study, handle_force
 
 material = NeoHookean.from_young(1000.0, 0.3)        # E = 1000, nu = 0.3: the notes' typical values
 lam, mu = material.lam, material.mu
@@ -118,9 +121,18 @@ print("tangent at F = I equals the linear-elastic one:",
 #     return ddot(dP, grad(v))
 # ```
 #
-# These forms are the readable reference. On P1 triangles $\mathbf F$ is constant per element and
-# `P1Assembler` computes the same sums without calling a form per pair of basis functions
-# (chapter 3 used its `deformation_gradient`); both must agree to round-off:
+# These forms are the readable reference. On P1 triangles $\mathbf F$ is constant per element, the
+# integrals are the element's area $A_e$ times the integrand, and the sums become a loop over the
+# triangles: on triangle $e$, with the constant shape-function gradients $\partial N_a/\partial X_j$ of its
+# vertices $a = 1, 2, 3$,
+#
+# $$ q_{ai} \mathrel{+}= A_e\, P_{ij}\,\frac{\partial N_a}{\partial X_j}, \qquad
+#    K_{(ai)(bk)} \mathrel{+}= A_e\,\frac{\partial N_a}{\partial X_j}\,\mathbb A_{ijkl}\,\frac{\partial N_b}{\partial X_l} , $$
+#
+# each entry added into the rows and columns of the dofs the vertices own (**exercise 4.4** asks you to
+# write this loop, for any material given by its $\mathbf P$ and $\mathbb A$). `P1Assembler` computes the same
+# sums for all triangles at once, without a Python loop (chapter 3 used its `deformation_gradient`); the
+# forms and the fast path must agree to round-off:
 
 # %%
 mesh = rectangle(2.0, 1.0, 16, 8)
@@ -158,6 +170,14 @@ print(result.steps[-1].table())
 # constant — quadratic convergence, as in chapter 2, now with $\approx 600$ unknowns. (The solver
 # starts from a *predictor*: one linearised Newton step from the rest state that moves the free
 # nodes along with the handle. It is counted among the 4 iterations; the table shows the 3 after it.)
+#
+# Each of those iterations is guarded by a **line search on the energy**. The Newton step $\Delta\mathbf u$
+# solves $\mathbf K\,\Delta\mathbf u = -\mathbf q$ on the free dofs; the solver tries $\mathbf u + \alpha\,\Delta\mathbf u$
+# with $\alpha = 1, \frac12, \frac14, \dots$ and accepts the first point whose energy is finite and lower by a
+# little more than nothing (the Armijo test $E(\mathbf u + \alpha\Delta\mathbf u) \le E(\mathbf u) + 10^{-4}\alpha\,\mathbf q\cdot\Delta\mathbf u$).
+# Near the solution $\alpha = 1$ passes at once and the quadratic convergence is kept; far from it, a full
+# step that would overshoot, or invert an element and make $\ln J$ undefined, is cut back. The column
+# `alpha` of the table shows the accepted step. **Exercise 4.5** asks you to write this loop.
 #
 # The force the handles exert on the block follows from the internal forces at their dofs (at
 # equilibrium, nothing else balances them there). The two forces are equal and opposite:
@@ -217,7 +237,7 @@ for steps in (1, 2, 4, 8):
 
 # %%
 rows = cost_accuracy_study(p1_sizes=(2, 4, 8, 16), p2_sizes=(1, 2, 4, 8), reference_size=32, repeats=5)
-print(format_cost_accuracy(rows))
+display(Markdown(cost_accuracy_markdown(rows)))
 
 # %%
 fig_ch04_cost_accuracy(rows=rows)
@@ -253,14 +273,63 @@ fig_ch04_cost_accuracy()
 
 # %% [markdown]
 # ## What to try
-# - Move the handle by $(1.2, 0.8)$, or push it left by $0.8$: how many iterations, with and
-#   without load stepping?
-# - Repeat the study with $\nu = 0.45$ (`material=NeoHookean.from_young(1000, 0.45)`): nearly
-#   incompressible material makes P1 triangles *lock* (too stiff). Which order suffers more?
-# - Time P1 with the readable forms (`block_model(n, assembly="forms")`) against the fast path:
-#   what does vectorised assembly buy, and from which mesh size on does the linear solve dominate?
-# - Use the handle force instead of the $L^2$ error as the measure of accuracy: does it converge
-#   faster or slower?
+# Each suggestion comes with a few lines that run on their own in a new cell; change the numbers
+# and run them again.
+#
+# - Move the handle further, by $(1.2, 0.8)$, or push it left by $0.8$: how many Newton iterations,
+#   with and without load stepping? Which load fails without a ramp, and why (print `r.status`)?
+#
+# ```python
+# from tissuefem import Handle, Model, NeoHookean, rectangle, solve
+#
+# mesh = rectangle(2.0, 1.0, 24, 12)
+# for target in ((0.6, 0.4), (1.2, 0.8), (-0.8, 0.0)):
+#     model = Model(mesh, NeoHookean.from_young(1000.0, 0.3), handles=[Handle("left"), Handle("right", target)])
+#     for steps in (1, 4):
+#         r = solve(model, load_steps=steps)
+#         print(f"target {target}, {steps} load step(s): {r.status}, {r.newton_iterations} Newton iterations")
+# ```
+#
+# - Nearly incompressible material makes P1 triangles *lock* (too stiff). Repeat the study with
+#   $\nu = 0.45$ and then 0.49: which order suffers more?
+#
+# ```python
+# from tissuefem import NeoHookean
+# from tissuefem.workbook.studies import cost_accuracy_study
+#
+# for nu in (0.3, 0.45):
+#     rows = cost_accuracy_study(p1_sizes=(2, 4, 8), p2_sizes=(1, 2, 4), reference_size=16, repeats=1,
+#                                material=NeoHookean.from_young(1000.0, nu))
+#     print(f"nu = {nu}: " + ", ".join(f"P{r['order']} n={r['n']}: {r['L2']:.1e}" for r in rows))
+# ```
+#
+# - Time P1 with the readable forms against the fast path: what does vectorised assembly buy, and
+#   from which mesh size on does the linear solve dominate a Newton iteration?
+#
+# ```python
+# import time
+# from tissuefem.workbook.studies import block_model
+#
+# for n in (4, 8, 16):
+#     for assembly in ("fast", "forms"):
+#         model = block_model(n, assembly=assembly)
+#         u = model.zeros()
+#         t0 = time.perf_counter()
+#         model.gradient(u), model.hessian(u)
+#         print(f"n = {n:2d}, {assembly:5s}: residual + tangent {1e3 * (time.perf_counter() - t0):7.1f} ms")
+# ```
+#
+# - Use the force on the handle instead of the $L^2$ error as the measure of accuracy: does it
+#   converge faster or slower as the mesh is refined?
+#
+# ```python
+# from tissuefem import solve
+# from tissuefem.workbook.studies import block_model, handle_force
+#
+# for n in (2, 4, 8, 16):
+#     model = block_model(n)
+#     print(f"n = {n:2d}: force on the right handle {handle_force(model, solve(model).u, 'right').round(4)}")
+# ```
 #
 # ## Exercises (graded by pytest)
 # In `exercises/ch04.py`:
@@ -268,6 +337,14 @@ fig_ch04_cost_accuracy()
 # - **4.2** `neo_hookean_stress_2d(F, lam, mu)` — $\mathbf P$ of one 2×2 $\mathbf F$;
 # - **4.3** `element_forces_p1(X_nodes, x_nodes, lam, mu)` — the internal forces on the three
 #   vertices of one linear triangle, $f_{ia} = A\, P_{ij}\, \partial N_a/\partial X_j$ (area $A$):
-#   the triangle's share of $q$, and the gradient of its energy $A\,\Psi(\mathbf F)$.
+#   the triangle's share of $q$, and the gradient of its energy $A\,\Psi(\mathbf F)$;
+# - **4.4** `assemble_p1(X_nodes, triangles, u, stress, tangent)` — the whole vector $\mathbf q$ and matrix
+#   $\mathbf K$ of section 2, by a loop over the triangles, for a material given by two functions of one
+#   $\mathbf F$ (its $\mathbf P$ and its $\mathbb A$); graded against the library's assembler with two
+#   materials and two meshes;
+# - **4.5** `newton_line_search(u0, energy, gradient, hessian, free)` — Newton's method with the
+#   backtracking energy line search of section 3, handles held; graded on a function where plain Newton
+#   diverges, one where a full step lands where the energy is NaN, and the stretched block of section 3,
+#   against the library's solver.
 #
 # Grade: `python -m tissuefem grade ch04`.

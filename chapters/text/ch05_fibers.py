@@ -26,6 +26,8 @@
 # 4. show that for small strains the fiber adds its modulus $k$ to one elastic constant only, $C_{ffff}$;
 # 5. measure it: pull a block along and across its fibers, and pull a muscle by its tendons.
 #
+# *Time: about 40 min to read and run, and four exercises.*
+#
 # *Reading:* the notes' "Continuum mechanics and elasticity", the paragraph after the Neo-Hookean
 # model, and the notes' Figure 3.
 #
@@ -315,15 +317,132 @@ fig_ch05_muscle_pull()
 # material is one of the things to try.
 #
 # ## What to try
-# - Change the fiber modulus: `along_vs_across(1e-4, stiffness=...)`. Is the difference still $k$?
-#   Does it depend on the matrix (try `base=LinearElastic(...)`)?
-# - Make the fibers *tension-only*: $\Psi_{\text{fiber}} = \frac k8 \max(I_4 - 1, 0)^2$ (write it as a small
-#   material class). Predict first: which curve of the tensile test changes?
-# - Pull the 45° strip further. Which way does it shear, and why that way?
-# - Turn the muscle's fibers by $90°$, `muscle_pull(..., fibers=np.stack([-g[1], g[0]]))`, and pull
-#   again: how much of the stiffening is left?
-# - Tendons are much stiffer than muscle. Write a small material whose $k$ is an array over the
-#   elements, make it ten times larger for $X_1 < 0.4$ and $X_1 > 3.6$, and see where the stretch goes.
+# Each suggestion comes with a few lines that run on their own in a new cell; change the numbers
+# and run them again.
+#
+# - Change the fiber modulus. Is the difference of the moduli still $k$? Does it depend on the matrix?
+#
+# ```python
+# from tissuefem import LinearElastic
+# from tissuefem.workbook.fibers import along_vs_across
+#
+# for k in (500.0, 4000.0, 20000.0):
+#     print(f"k = {k:7.0f}: along - across = {along_vs_across(1e-4, stiffness=k).difference:9.2f}")
+# linear = LinearElastic.from_young(1000.0, 0.3)
+# print(f"linear matrix, k = 4000: {along_vs_across(1e-4, stiffness=4000.0, base=linear).difference:9.2f}")
+# ```
+#
+# - Make the fibers *tension-only*, $\Psi_{\text{fiber}} = \frac k8 \max(I_4 - 1, 0)^2$: a small material class
+#   that adds the fiber term of section 3 only where the fiber is stretched. Predict first: which curve of
+#   the tensile test changes, along or across?
+#
+# ```python
+# import numpy as np
+# from tissuefem import NeoHookean
+# from tissuefem.engine.materials import fiber_energy_term, fiber_invariant, fiber_stress_term, fiber_tangent_term
+# from tissuefem.workbook.fibers import K_FIBER, block_pull, fiber_direction
+#
+#
+# class TensionOnlyFibers(NeoHookean):
+#     """Neo-Hookean plus fibers that resist stretching only: k/8 max(I4 - 1, 0)^2 along the unit vector g."""
+#
+#     def __init__(self, lam, mu, k, g):
+#         super().__init__(lam, mu)
+#         self.k, self.g = k, np.asarray(g, dtype=float).reshape(2, 1)  # (2, 1): one fiber for every element
+#
+#     def _stretched(self, F):
+#         return fiber_invariant(F, self.g) > 1.0
+#
+#     def energy(self, F):
+#         return super().energy(F) + self._stretched(F) * fiber_energy_term(F, self.g, self.k)
+#
+#     def stress(self, F):
+#         return super().stress(F) + self._stretched(F) * fiber_stress_term(F, self.g, self.k)
+#
+#     def tangent(self, F):
+#         return super().tangent(F) + self._stretched(F) * fiber_tangent_term(F, self.g, self.k)
+#
+#
+# matrix = NeoHookean.from_young(1000.0, 0.3)
+# stretches = np.linspace(1.0, 1.3, 4)
+# for angle in (0.0, 90.0):
+#     both = block_pull(angle, stretches)
+#     tension_only = block_pull(None, stretches,
+#                               base=TensionOnlyFibers(matrix.lam, matrix.mu, K_FIBER, fiber_direction(angle)))
+#     print(f"fibers at {angle:2.0f} deg: force/height {both.nominal_stress.round(1)} (both ways), "
+#           f"{tension_only.nominal_stress.round(1)} (tension only)")
+# ```
+#
+# - Pull the 45° strip further, and the $-45°$ one. Which way does the material line $X_1 = 1$ (across
+#   the middle) tilt, and why that way? (Where does a stretched tilted fiber want to turn?)
+#
+# ```python
+# import numpy as np
+# from tissuefem.workbook.fibers import block_pull
+#
+# for angle in (45.0, -45.0):
+#     r = block_pull(angle, np.linspace(1.0, 1.4, 5))
+#     X, u1 = r.model.mesh.p, r.u[r.model.basis.nodal_dofs[0]]
+#     top = np.isclose(X[0], 1.0) & np.isclose(X[1], 1.0)
+#     bottom = np.isclose(X[0], 1.0) & np.isclose(X[1], 0.0)
+#     print(f"fibers at {angle:+.0f} deg: the middle line's top moves {float(u1[top][0] - u1[bottom][0]):+.3f} "
+#           "in X1 relative to its bottom")
+# ```
+#
+# - Turn the muscle's fibers by $90°$ and pull again: how much of the stiffening is left?
+#
+# ```python
+# import numpy as np
+# from tissuefem import fusiform_fiber_field, fusiform_muscle
+# from tissuefem.workbook.fibers import muscle_pull
+#
+# mesh = fusiform_muscle()
+# g = fusiform_fiber_field(mesh)
+# stretches = np.linspace(1.0, 1.1, 3)
+# for label, fibers in (("along", g), ("turned by 90 degrees", np.stack([-g[1], g[0]]))):
+#     print(f"fibers {label:22s}: tendon force {muscle_pull(stretches, fibers=fibers, mesh=mesh).forces.round(1)}")
+# print(f"no fibers{'':15s}: tendon force {muscle_pull(stretches, with_fibers=False, mesh=mesh).forces.round(1)}")
+# ```
+#
+# - Tendons are much stiffer than muscle. Give the fibers a stiffness per element, ten times larger for
+#   $X_1 < 0.4$ and $X_1 > 3.6$, and see where the stretch goes (compare the largest $J$ or the stretch of the
+#   belly with and without).
+#
+# ```python
+# import numpy as np
+# from tissuefem import NeoHookean, fusiform_fiber_field, fusiform_muscle
+# from tissuefem.engine.materials import fiber_energy_term, fiber_stress_term, fiber_tangent_term
+# from tissuefem.workbook.fibers import K_FIBER, muscle_pull
+#
+#
+# class FibersPerElement(NeoHookean):
+#     """Neo-Hookean plus k/8 (I4 - 1)^2 with a fiber g and a stiffness k for every element."""
+#
+#     def __init__(self, lam, mu, k, g):
+#         super().__init__(lam, mu)
+#         self.k, self.g = np.asarray(k, dtype=float), np.asarray(g, dtype=float)
+#
+#     def energy(self, F):
+#         return super().energy(F) + fiber_energy_term(F, self.g, self.k)
+#
+#     def stress(self, F):
+#         return super().stress(F) + fiber_stress_term(F, self.g, self.k)
+#
+#     def tangent(self, F):
+#         return super().tangent(F) + fiber_tangent_term(F, self.g, self.k)
+#
+#
+# mesh = fusiform_muscle()
+# centre = mesh.p[:, mesh.t].mean(axis=1)                          # (2, n_elements)
+# tendon = (centre[0] < 0.4) | (centre[0] > 3.6)
+# matrix = NeoHookean.from_young(1000.0, 0.3)
+# for label, k in (("uniform k", np.full(mesh.nelements, K_FIBER)), ("stiff tendons", np.where(tendon, 10 * K_FIBER, K_FIBER))):
+#     r = muscle_pull([1.0, 1.1], with_fibers=False, mesh=mesh,
+#                     base=FibersPerElement(matrix.lam, matrix.mu, k, fusiform_fiber_field(mesh)))
+#     J = np.linalg.det(np.moveaxis(r.model.deformation_gradient(r.u), -1, 0))
+#     print(f"{label:13s}: tendon force {r.forces[-1]:6.1f}, mean J in the tendons {J[tendon].mean():.3f}, "
+#           f"in the belly {J[~tendon].mean():.3f}")
+# ```
 #
 # ## Exercises (graded by pytest)
 # In `exercises/ch05.py` (single $2\times2$ $\mathbf F$, unit $\mathbf g$ of shape (2,)):

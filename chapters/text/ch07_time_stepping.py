@@ -31,8 +31,10 @@
 # it: Sifakis and Barbič, *FEM simulation of 3D deformable solids* (SIGGRAPH 2012 course); Kim and Eberle,
 # *Dynamic deformables* (SIGGRAPH 2020 course), for the incremental potential and the energy line search.
 #
-# **Index convention.** $F_{ij} = \partial\phi_i/\partial X_j$, indices 0 and 1; dof vectors in
-# scikit-fem's order (node $a$ has dofs $2a$, $2a+1$).
+# *Time: about 50 min to read and run, and two exercises.*
+#
+# **Index convention.** As everywhere (chapter 3): $F_{ij} = \partial\phi_i/\partial X_j$, formulas count from
+# 1 and code from 0; dof vectors in scikit-fem's order (node $a$ has dofs $2a$, $2a+1$).
 
 # %%
 # %matplotlib inline
@@ -45,8 +47,9 @@ from tissuefem import (FRAME_BUDGET, Handle, Model, NeoHookean, RealtimeSolver, 
                        SymplecticEuler, critical_time_step, flap, flap_path, flap_scene, largest_stable_dt, mesh_size,
                        rectangle, wave_speed)
 from tissuefem.engine import linsolve
-from tissuefem.workbook.figures.dynamics import fig_ch07_cfl, fig_ch07_energy, fig_ch07_released_flap
+from tissuefem.workbook.figures.dynamics import CFL_SIZES, fig_ch07_cfl, fig_ch07_energy, fig_ch07_released_flap
 from tissuefem.workbook.figures.realtime import fig_ch07_budget_residual
+from tissuefem.workbook.timestepping import cfl_study
 
 E, nu, rho0 = 1000.0, 0.3, 1.0
 material = NeoHookean.from_young(E, nu)
@@ -168,12 +171,46 @@ for nx in (4, 8, 16):
 print(f"the frame time 1/30 s = {1 / 30:.2e} s")
 
 # %% [markdown]
-# The figure sweeps further: the measured limit follows $h^1$, and even the coarsest mesh needs a time
-# step hundreds of times below the frame time. An explicit simulator of this tissue would take hundreds to
-# thousands of steps per frame, each cheap but together far from free, and more as the mesh is refined.
+# The figure sweeps further, from 4 × 2 to 64 × 32 cells. Read it as the number of explicit steps one
+# displayed frame needs, the frame time over the stable step:
 
 # %%
-fig_ch07_cfl()
+study = cfl_study(CFL_SIZES)
+for r in study.rows:
+    print(f"{r['nx']:2d} x {r['nx'] // 2:2d} cells, h = {r['h']:.4f}: stable step {r['dt_measured']:.2e} s, "
+          f"{FRAME_BUDGET / r['dt_measured']:5.1f} explicit steps per frame")
+print(f"fitted: dt ~ h^{study.exponent:.2f}")
+fig_ch07_cfl(study=study)
+
+# %% [markdown]
+# About 3 steps per frame on the coarsest mesh and about 48 on the finest: the step count doubles with each
+# halving of $h$. By itself that is not an argument against explicit integration: an explicit step is one
+# force evaluation and no linear solve, much cheaper than a Newton step, so a few dozen of them per frame
+# can cost less than the two or three Newton steps of an implicit frame. The argument is in what makes the
+# count grow:
+#
+# - **refinement costs twice**: halving $h$ quadruples the elements (in 2D; eightfold in 3D) *and* doubles
+#   the steps, so an explicit frame's cost grows like $h^{-3}$ ($h^{-4}$ in 3D), where an implicit frame's
+#   grows with the cost of a few linear solves;
+# - **the stiffest thing in the scene sets the step, not the softest**: the wave speed $c$ grows with
+#   $\lambda$, and soft tissue is nearly incompressible ($\nu$ close to $\frac12$), as the cell below shows;
+#   the stiff penalty springs of a probe or a suture (chapter 8) raise $\omega_{\max}$ further;
+# - **a step beyond the limit is not a little wrong, it blows up**, and a surgical simulator may not crash
+#   (the notes' second demand). Backward Euler has no limit at all; its price is damping (below).
+#
+# The same 16 × 8 mesh, the tissue made more nearly incompressible (the eigenvalue estimate $2/\omega_{\max}$):
+
+# %%
+for nu_q in (0.3, 0.45, 0.49, 0.499):
+    p = Model(rectangle(2.0, 1.0, 16, 8), StableNeoHookean.from_young(E, nu_q), handles=[Handle("left")], density=rho0)
+    dt_q = critical_time_step(p)
+    print(f"nu = {nu_q:5}: stable step {dt_q:.2e} s, {FRAME_BUDGET / dt_q:6.1f} explicit steps per frame")
+
+# %% [markdown]
+# From about 12 steps per frame at $\nu = 0.3$ to about 130 at $\nu = 0.499$, on the same mesh: at 64 × 32 cells
+# that would be some five hundred steps per frame. Implicit integration buys independence from both the mesh
+# and the material's stiffness, which is what an interactive simulator with refinable meshes, nearly
+# incompressible tissue and stiff contact needs.
 
 # %% [markdown]
 # **Backward Euler has no such limit** — and pays for it in *numerical damping*. Below, a flap is lifted,
@@ -222,10 +259,10 @@ solver = sim.solver                 # the scene's RealtimeSolver
 solver.budget = FRAME_BUDGET        # 1/30 s of the real clock (the benchmark scene sets none)
 for f in range(30):
     report = solver.frame({"handle": flap_path((f + 1) / 30)})
-print(report)
 print(f"status {report.status}, Newton steps {report.newton_iterations}, CG iterations {report.linear_iterations}, "
       f"new factorizations {report.factorizations}, relative residual {report.relative_residual:.1e}, "
-      f"energy {report.energy:.4g} (start {report.start_energy:.4g}), {1e3 * report.elapsed:.1f} ms")
+      f"energy {report.energy:.4g} (start {report.start_energy:.4g}), {1e3 * report.elapsed:.1f} ms, "
+      f"warm start {report.warm_start!r}")
 
 # %% [markdown]
 # The report says how the frame went: Newton steps, conjugate-gradient iterations, new factorizations,
@@ -374,19 +411,103 @@ fig_ch07_budget_residual()
 
 # %% [markdown]
 # ## What to try
-# - Run the drag of section 3 at `flap_scene(8000)` and `flap_scene(16000)`. What share of frames converge
-#   in budget? What is the median `relative_residual` of the others?
-# - Give the solver `linear_solver="superlu-colamd"` (a fresh factorization with SciPy's default ordering
-#   every Newton step), then `"direct"`, then the default. Which one is fastest at 2k triangles? At 8k?
-# - Drag the handle through the body: targets from `(0, 0)` to `(-3, 0)` over 100 frames, with
-#   `StableNeoHookean.from_young(E, nu)`. Watch `report.handle_fraction` with the plain `NeoHookean`.
-# - Quasistatic frames: `Simulation(flap_scene(2000, dynamic=False))` has no inertia term (no mass matrix
-#   is built). How does the handle feel now?
-# - Jerk the handle instead of dragging it: `RealtimeSolver(model, max_iterations=1)` and targets that
-#   jump from `(0, 0)` to `(0.5, 0.3)` in one frame. How many frames until `report.converged`? What does
-#   `report.relative_residual` say in the first frames?
-# - Find the largest stable step of symplectic Euler for `flap(n_triangles=800)` with `largest_stable_dt`,
-#   then run `SymplecticEuler` at 0.9 and 1.1 times it and plot `total_energy()` against time.
+# Each suggestion comes with a few lines that run on their own in a new cell; change the numbers
+# and run them again.
+#
+# - Run the drag of section 3 with the real 33 ms budget on finer meshes (4000 here; then 8000 and 16000).
+#   What share of frames converge in budget? How much residual do the others leave?
+#
+# ```python
+# import numpy as np
+# from tissuefem import FRAME_BUDGET, Simulation, flap_path, flap_scene
+#
+# sim = Simulation(flap_scene(4000))
+# sim.solver.budget = FRAME_BUDGET
+# reports = sim.solver.run([{"handle": flap_path((f + 1) / 30)} for f in range(30)])
+# left = [r.relative_residual for r in reports if not r.converged]
+# print(f"{sim.mesh.nelements} triangles: {sum(r.converged for r in reports)}/{len(reports)} frames converged "
+#       f"within 33 ms; median residual left by the others: {np.median(left) if left else 0.0:.1e}")
+# ```
+#
+# - Compare linear solvers: a fresh factorization with SciPy's default ordering every Newton step, one
+#   with the minimum-degree ordering, and the default (a kept factorization preconditioning CG). Which one
+#   is fastest at 2000 triangles? At 8000?
+#
+# ```python
+# import math
+# import numpy as np
+# from tissuefem import RealtimeSolver, Simulation, flap_path, flap_scene
+#
+# for name in ("superlu-colamd", "direct", "reuse"):
+#     solver = RealtimeSolver(Simulation(flap_scene(2000)).model, budget=math.inf, linear_solver=name)
+#     reports = solver.run([{"handle": flap_path((f + 1) / 30)} for f in range(20)])
+#     print(f"{name:15s} median {1e3 * np.median([r.elapsed for r in reports]):6.1f} ms per frame")
+# ```
+#
+# - Drag the handle through the body, from $(0, 0)$ to $(-3, 0)$: past the fixed edge. Watch the share of
+#   its motion the handle makes (`handle_fraction`) with the plain Neo-Hookean model and the stable one.
+#
+# ```python
+# import math
+# from tissuefem import Handle, Model, NeoHookean, RealtimeSolver, StableNeoHookean, flap
+#
+# for material in (NeoHookean.from_young(1000.0, 0.3), StableNeoHookean.from_young(1000.0, 0.3)):
+#     model = Model(flap(n_triangles=300), material, dt=1 / 30,
+#                   handles=[Handle("fixed", name="fixed"), Handle("handle", name="handle")])
+#     solver = RealtimeSolver(model, budget=math.inf)
+#     reports = [solver.frame({"handle": (-3.0 * k / 60, 0.0)}) for k in range(1, 61)]
+#     print(f"{type(material).__name__:17s}: smallest handle_fraction {min(r.handle_fraction for r in reports):.2f}, "
+#           f"last frame {reports[-1].status}")
+# ```
+#
+# - Quasistatic frames have no inertia term (no mass matrix is built). How does the drag differ: Newton
+#   steps per frame, and where the flap is when the handle stops?
+#
+# ```python
+# import numpy as np
+# from tissuefem import Simulation, flap_path, flap_scene
+#
+# for dynamic in (True, False):
+#     sim = Simulation(flap_scene(2000, dynamic=dynamic))
+#     reports = sim.solver.run([{"handle": flap_path((f + 1) / 30)} for f in range(30)])
+#     print(f"dynamic={dynamic!s:5}: mass matrix built {sim.model.inertia is not None}, Newton steps per frame "
+#           f"{np.mean([r.newton_iterations for r in reports]):.2f}, largest |u| {np.abs(sim.u).max():.3f}")
+# ```
+#
+# - Jerk the handle instead of dragging it, with one Newton step per frame: targets that jump to $(0.5, 0.3)$
+#   at once. How many frames until a frame converges? What is left of the residual in the first frames?
+#
+# ```python
+# import math
+# from tissuefem import RealtimeSolver, Simulation, flap_scene
+#
+# solver = RealtimeSolver(Simulation(flap_scene(2000)).model, budget=math.inf, max_iterations=1)
+# for f in range(1, 13):
+#     report = solver.frame({"handle": (0.5, 0.3)})
+#     print(f"frame {f:2d}: converged {report.converged!s:5}, relative residual {report.relative_residual:.1e}")
+# ```
+#
+# - Find the largest stable step of symplectic Euler for a small flap, run it at 0.9 and 1.1 times that
+#   step from the same small perturbation, and plot the total energy against time.
+#
+# ```python
+# import matplotlib.pyplot as plt
+# import numpy as np
+# from tissuefem import Handle, Model, StableNeoHookean, SymplecticEuler, flap, largest_stable_dt
+#
+# model = Model(flap(n_triangles=200), StableNeoHookean.from_young(1000.0, 0.3), handles=[Handle("fixed")],
+#               density=1.0)
+# dt = largest_stable_dt(model)
+# fig, ax = plt.subplots(figsize=(6, 3))
+# for factor in (0.9, 1.1):
+#     integrator = SymplecticEuler(model, factor * dt)
+#     integrator.u = 1e-3 * np.random.default_rng(0).standard_normal(model.n_dofs)
+#     integrator.u[model.prescribed()[0]] = 0.0
+#     energy = integrator.run(300, energy_limit=1e6)
+#     ax.semilogy(integrator.dt * np.arange(energy.size), energy, label=f"{factor} x the stable step")
+# ax.set(xlabel="time (s)", ylabel="total energy")
+# ax.legend()
+# ```
 #
 # ## Exercises (graded by pytest)
 # In `exercises/ch07.py`:

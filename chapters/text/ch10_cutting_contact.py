@@ -23,7 +23,7 @@
 # 2. describe the *virtual node algorithm*: how a triangle the scalpel crosses becomes copies that each
 #    carry part of its material, which nodes they share and where the crack ends;
 # 3. check a cut against a closed form (Griffith's crack) and against conservation of mass and momentum;
-# 4. stitch points of a wound that lies inside elements, and redo chapter 8's flap and a rotation flap;
+# 4. stitch points of a wound that lies inside elements, and redo chapter 8b's flap and a rotation flap;
 # 5. keep the lips of a wound from passing through each other with a contact energy.
 #
 # *Reading:* the notes' introduction (reconstructive surgery, their Figure 1 and reference [3]); N. Molino,
@@ -52,7 +52,7 @@ from tissuefem.workbook.figures.cutting import (crack_opening, crack_runs, fig_c
 # %% [markdown]
 # ## 1. A cut that follows the mesh is a property of the mesh
 #
-# Chapter 8 cut the tissue the simplest way: the stroke is replaced by the nearest path of mesh edges and
+# Chapter 8a cut the tissue the simplest way: the stroke is replaced by the nearest path of mesh edges and
 # the nodes on that path are duplicated. No triangle is ever split, so nothing new has to be integrated.
 # The price shows when the mesh changes. Below, the same slanted crack is drawn on a pulled sheet meshed
 # with 1 200 and with 2 600 triangles. Snapped to edges (top row), the wound is a staircase whose steps,
@@ -163,11 +163,11 @@ display(Markdown(markdown_table(rows, [("elements", "elements", "{}"), ("delta",
 #
 # ## 3. Cutting a running simulation
 #
-# `Simulation.cut(stroke)` now cuts through the elements (`method="elements"`, the default); chapter 8's
+# `Simulation.cut(stroke)` now cuts through the elements (`method="elements"`, the default); chapter 8a's
 # cut is `method="edges"`. The stroke is drawn on the tissue as it is now, the state (displacement,
 # velocity, time) carries over, and the weights and regions are kept for the next cut, so cuts can cross.
 # In a scene file an incision or an excision names its method the same way. The interactive view of
-# chapter 8 cuts through the elements along the mouse stroke, and draws each copy as the material it
+# chapter 8b cuts through the elements along the mouse stroke, and draws each copy as the material it
 # carries (`Simulation.picture`).
 
 # %%
@@ -194,7 +194,7 @@ plt.show()
 # %% [markdown]
 # ## 4. Stitches on a wound inside elements, and the flaps redone
 #
-# Chapter 8 tied wound *nodes* together. A wound cut through elements has no nodes on it: its lips are
+# Chapter 8b tied wound *nodes* together. A wound cut through elements has no nodes on it: its lips are
 # edges of the copies' material. A stitch end is therefore a *point of the material*: an element and the
 # barycentric coordinates $\lambda$ of the point in it, so that $\mathbf x_{\text{end}} = \sum_k \lambda_k
 # \mathbf x_{a_k}$ and the spring's force is spread over the three nodes with the weights $\lambda_k$. The
@@ -205,7 +205,7 @@ plt.show()
 # stitch pulling on it would stretch the sliver instead of the skin. Such an end is carried by the firm
 # element next to it on the same side (its P1 map extended to the point).
 #
-# The flaps of chapter 8 and a *rotation flap* (a wedge-shaped defect closed by turning the flap beside
+# The flaps of chapter 8b and a *rotation flap* (a wedge-shaped defect closed by turning the flap beside
 # it about its pivot) are redone below, each beside the edge-snapped version, on two meshes.
 
 # %%
@@ -285,14 +285,80 @@ for name, procedure in (("advancement", advancement_flap), ("rotation", rotation
 # jumps"). The state stays valid (nothing crosses); the frame reports that it did not converge.
 #
 # ## What to try
+# Each suggestion comes with a few lines that run on their own in a new cell; change the numbers
+# and run them again.
 #
-# - Cut the Griffith plate's crack at an angle (`cut_through(mesh, [[4.2, 4.6], [5.8, 5.4]])`) and compare
-#   the opening across the crack with $\delta\cos\theta$ for the stress component normal to it.
-# - Make the rotation flap wider (`rotation_flap(flap_angle=150.0)`): does its tension fall, as the rule
-#   of thumb says?
-# - Cut the running sheet with `method="edges"` instead and compare the pictures after the same frames.
-# - Switch contact on in a scene of your own (`effects={"contact": {}, ...}`), fold it with a handle,
-#   and watch `report.crossed` (a handle that drags tissue through tissue is obeyed and reported).
+# - Cut the Griffith plate's crack at an angle and compare the opening across the crack with
+#   $\delta\cos\theta$ for the stress component normal to it.
+#
+# ```python
+# import math
+# import numpy as np
+# from tissuefem import Handle, LinearElastic, Model, lame_parameters, rectangle, solve
+# from tissuefem.surgery.element_cuts import cut_through
+# from tissuefem.workbook.cracks import griffith_closed_form, lip_opening
+#
+# E, nu, width, n = 1000.0, 0.3, 10.0, 40
+# mesh = rectangle(width, width, n, n)
+# cut = cut_through(mesh, [[4.2, 4.6], [5.8, 5.4]])       # a crack at about 27 degrees through the middle
+# p = cut.mesh.p
+# held = [np.array([int(np.argmin(np.hypot(p[0] - x, p[1] - 5.0)))]) for x in (0.0, width)]
+# model = Model(cut.mesh, LinearElastic(*lame_parameters(E, nu)), weights=cut.weights,
+#               handles=[Handle(q) for q in held], tractions={"top": (0.0, 1.0), "bottom": (0.0, -1.0)})
+# u = solve(model).u
+# theta, a = math.atan2(0.8, 1.6), 0.5 * math.hypot(1.6, 0.8)
+# print(f"opening at the centre {lip_opening(cut.wound, p + u.reshape(-1, 2).T, 5.0):.5f}; "
+#       f"delta cos(theta) = {griffith_closed_form(a=a, width=width, E=E, nu=nu) * math.cos(theta):.5f}")
+# ```
+#
+# - Make the rotation flap wider: does its tension fall, as the rule of thumb says?
+#
+# ```python
+# from tissuefem.surgery.flaps import rotation_flap
+#
+# for angle in (120.0, 150.0):
+#     r = rotation_flap(n_triangles=1500, flap_angle=angle, tighten_frames=8)
+#     print(f"flap angle {angle:.0f}: mean tension in the flap {r.flap_tension:.0f}, 95th percentile {r.p95_tension:.0f}")
+# ```
+#
+# - Cut the running sheet of section 3 with `method="edges"` instead, and compare the pictures after the
+#   same frames.
+#
+# ```python
+# import matplotlib.pyplot as plt
+# from tissuefem import Scene, Simulation
+#
+# fig, axes = plt.subplots(1, 2, figsize=(11, 3))
+# for ax, method in zip(axes, ("elements", "edges")):
+#     sim = Simulation(Scene(domain={"shape": "rectangle", "width": 2.0, "height": 1.0, "triangles": 900},
+#                            material={"model": "stable-neo-hookean", "youngs_modulus": 1000.0, "poisson_ratio": 0.3},
+#                            effects={"handles": [{"name": "fixed", "region": "left"}], "inertia": {},
+#                                     "gravity": {"acceleration": [0.0, -9.81]}},
+#                            solver={"budget": 1e9}))
+#     sim.run(5)
+#     sim.cut([[0.8, 1.2], [1.3, -0.2]], method=method)
+#     sim.cut([[0.5, 0.2], [1.7, 0.7]], method=method)
+#     sim.run(15)
+#     picture = sim.picture
+#     ax.triplot(*picture.points(sim.positions()), picture.triangles.T, lw=0.3, color="0.3")
+#     ax.set(aspect="equal", title=f'method="{method}"')
+# ```
+#
+# - Switch contact on in a scene of your own, fold it with a handle, and watch `report.crossed` (a handle
+#   that drags tissue through tissue is obeyed and reported).
+#
+# ```python
+# from tissuefem import Scene, Simulation
+#
+# sim = Simulation(Scene(domain={"shape": "rectangle", "width": 2.0, "height": 0.4, "triangles": 400},
+#                        material={"model": "stable-neo-hookean", "youngs_modulus": 1000.0, "poisson_ratio": 0.3},
+#                        effects={"contact": {}, "handles": [{"name": "fixed", "region": "left"},
+#                                                            {"name": "tip", "region": "right"}]},
+#                        solver={"budget": 1e9}))
+# for k in range(1, 21):
+#     report = sim.frame({"tip": (-1.6 * k / 20, 0.7 * k / 20)})     # fold the strip back over itself
+# print(f"terms {sim.terms}; last frame {report.status}; crossed: {report.crossed}")
+# ```
 #
 # ## Exercises
 #

@@ -8,8 +8,12 @@ library with the same checks (``tests/grading.py``).
 
 from __future__ import annotations
 
-import numpy as np
+from types import SimpleNamespace
 
+import numpy as np
+import scipy.sparse as sp
+
+from ..engine.assembly import P1Assembler
 from ..engine.bar1d import Bar1D, Traction
 from ..engine.contact import barrier
 from ..engine.inversion import rotation_preserving_svd
@@ -28,7 +32,7 @@ __all__ = [
     "linear_modulus_1d", "assemble_stiffness_1d",
     "neo_hookean_stress_1d", "neo_hookean_tangent_1d", "newton_step_1d",
     "lame_from_young", "deformation_gradient_p1", "linear_elastic_stress_2d",
-    "neo_hookean_energy_2d", "neo_hookean_stress_2d", "element_forces_p1",
+    "neo_hookean_energy_2d", "neo_hookean_stress_2d", "element_forces_p1", "assemble_p1", "newton_line_search",
     "fiber_invariant", "fiber_stress", "fiber_tangent", "fiber_modulus_gain",
     "rotation_preserving_svd", "taylor_log", "taylor_neo_hookean_stress",
     "backward_euler_residual", "budgeted_newton",
@@ -139,6 +143,40 @@ def element_forces_p1(X_nodes, x_nodes, lam, mu) -> np.ndarray:
     X = _vertices("X_nodes", X_nodes)
     area, grads = _p1_gradients(X)
     return area * NeoHookean(lam, mu).stress(deformation_gradient_p1(X, x_nodes)) @ grads.T
+
+
+class _PointwiseMaterial:
+    """A material given as two functions of one 2x2 ``F`` (exercise 4.4), evaluated element by element
+    in the array layout the engine's assemblers use (``F[i, j, element]``)."""
+
+    def __init__(self, stress, tangent):
+        self._stress, self._tangent = stress, tangent
+
+    def energy(self, F):
+        raise NotImplementedError("exercise 4.4 gives the stress and the tangent only")
+
+    def stress(self, F):
+        return np.stack([np.asarray(self._stress(F[:, :, e]), dtype=float) for e in range(F.shape[-1])], axis=-1)
+
+    def tangent(self, F):
+        return np.stack([np.asarray(self._tangent(F[:, :, e]), dtype=float) for e in range(F.shape[-1])], axis=-1)
+
+
+def assemble_p1(X_nodes, triangles, u, stress, tangent):
+    """Exercise 4.4: ``(q, K)`` of a P1 mesh, by the engine's fast assembler with the given ``P(F)`` and ``dP/dF``."""
+    X = np.asarray(X_nodes, dtype=float)
+    t = np.asarray(triangles)
+    if X.ndim != 2 or X.shape[0] != 2 or t.ndim != 2 or t.shape[0] != 3:
+        raise ValueError(f"X_nodes must be (2, n_nodes) and triangles (3, n_triangles), got {X.shape} and {t.shape}")
+    assembler = P1Assembler(SimpleNamespace(p=X, t=t), _PointwiseMaterial(stress, tangent))
+    return assembler.residual(u), assembler.tangent(u)
+
+
+def newton_line_search(u0, energy, gradient, hessian, free, rtol=1e-8, max_iterations=50):
+    """Exercise 4.5: Newton with the energy line search, by the engine's one minimiser."""
+    result = newton(np.asarray(u0, dtype=float), gradient, lambda x: sp.csr_matrix(hessian(x)), energy=energy,
+                    free=np.asarray(free), rtol=rtol, max_iterations=max_iterations)
+    return result.x, result.iterations
 
 
 # --- chapter 5 -----------------------------------------------------------------------------------

@@ -8,6 +8,11 @@ the errata. The index page carries the syllabus: each chapter's goals, read from
 first cell, and an estimated time from its length (see :func:`estimate_minutes`). The
 errata page renders the README's errata section.
 
+A chapter may state its own time in its first cell (``*Time: about 40 min ...*``, see
+:func:`stated_minutes`); the syllabus then shows that figure, and the test suite checks it
+against the estimate. A chapter split into sittings is several notebooks, ``chNNa_*`` and
+``chNNb_*``, shown as chapters "6a" and "6b".
+
 Every link is relative, so the folder can be copied to any web server or opened from
 disk. Layout of the site::
 
@@ -32,7 +37,7 @@ import nbformat
 from jinja2 import DictLoader
 from nbconvert import HTMLExporter
 
-from .notebooks import chapter_paths
+from .notebooks import chapter_label, chapter_paths
 
 #: reading speed for the chapters' prose: technical text with equations, about half the
 #: speed of plain prose
@@ -93,6 +98,7 @@ class Chapter:
     goals: str
     minutes: int
     exercises: int
+    label: str = ""
 
     @property
     def page(self) -> str:
@@ -143,15 +149,54 @@ def _execution_seconds(nb) -> float:
     return total
 
 
+_FENCED = re.compile(r"^```.*?^```[ \t]*$", re.S | re.M)
+
+
+def _lines(text: str) -> int:
+    return len([ln for ln in text.splitlines() if ln.strip()])
+
+
+_TRY = re.compile(r"^## What to try\b.*?(?=^## |\Z)", re.S | re.M)
+
+
+def reading_load(nb) -> tuple[int, int]:
+    """``(words, code_lines)``: the words of a chapter's prose and the non-empty lines of its code.
+
+    Code in fenced blocks of the Markdown cells counts as code. The "What to try" section is left
+    out: its suggestions (and their snippets) are for after the sitting, like the exercises."""
+    words = code_lines = 0
+    for c in nb.cells:
+        if c.cell_type == "markdown":
+            text = _TRY.sub("", c.source)
+            fenced = _FENCED.findall(text)
+            words += len(_FENCED.sub("", text).split())
+            code_lines += sum(max(_lines(block) - 2, 0) for block in fenced)
+        elif c.cell_type == "code":
+            code_lines += _lines(c.source)
+    return words, code_lines
+
+
 def estimate_minutes(nb) -> int:
     """Time to work through a chapter, exercises apart: its prose at :data:`WORDS_PER_MINUTE`,
     its code at :data:`MINUTES_PER_CODE_LINE` and the time its cells take to run, rounded up
     to 5 minutes."""
-    words = sum(len(c.source.split()) for c in nb.cells if c.cell_type == "markdown")
-    code_lines = sum(len([ln for ln in c.source.splitlines() if ln.strip()])
-                     for c in nb.cells if c.cell_type == "code")
+    words, code_lines = reading_load(nb)
     minutes = words / WORDS_PER_MINUTE + code_lines * MINUTES_PER_CODE_LINE + _execution_seconds(nb) / 60
     return max(5, 5 * -(-int(round(minutes)) // 5))
+
+
+def stated_minutes(nb) -> int | None:
+    """The time a chapter states in its first cell (``*Time: about 40 min ...*``), or None."""
+    m = re.search(r"Time:?\**\s*about\s+(\d+)\s*min", _first_cell_text(nb))
+    return int(m.group(1)) if m else None
+
+
+def chapter_exercises(nb) -> list[str] | None:
+    """The exercises a chapter lists in its "Exercises" section (``**6.1**``, ...), in order; ``None`` when it
+    has no such section (the syllabus then counts the stubs of its exercise file)."""
+    text = "\n\n".join(c.source for c in nb.cells if c.cell_type == "markdown")
+    m = re.search(r"^## Exercises.*?(?=^## |\Z)", text, re.S | re.M)
+    return re.findall(r"\*\*(\d+\.\d+)\*\*", m.group(0)) if m else None
 
 
 def count_exercises(exercise_file: Path) -> int:
@@ -294,21 +339,21 @@ def syllabus_cells(chapters: list[Chapter], intro: str) -> list[str]:
         practice = c.exercises * MINUTES_PER_EXERCISE
         total += c.minutes + practice
         ex = f"{c.exercises} × {MINUTES_PER_EXERCISE} min" if c.exercises else "—"
-        rows.append(f"| {i} | [{c.title}]({c.page}) | {c.minutes} min | {ex} | {c.minutes + practice} min |")
+        rows.append(f"| {c.label or i} | [{c.title}]({c.page}) | {c.minutes} min | {ex} | {c.minutes + practice} min |")
     hours = total / 60
     parts = [
         intro,
         "## Syllabus",
-        "Estimated times: the prose at about "
+        "Estimated times, each a sitting of at most an hour: the prose at about "
         f"{WORDS_PER_MINUTE} words a minute, the code at {MINUTES_PER_CODE_LINE * 60:.0f} seconds a line "
-        f"plus the time its cells take to run, and {MINUTES_PER_EXERCISE} minutes for each exercise "
-        f"(about {hours:.0f} hours in all). The [errata](errata.html) list the slips found in the "
-        "lecture notes.",
+        f"plus the time its cells take to run (the time each chapter states at its top), and "
+        f"{MINUTES_PER_EXERCISE} minutes for each exercise (about {hours:.0f} hours in all). "
+        "The [errata](errata.html) list the slips found in the lecture notes.",
         "\n".join(rows),
     ]
     for i, c in enumerate(chapters, 1):
         status = "" if c.executed else "\n\n*(This chapter's outputs are missing from the site: it was not executed.)*"
-        parts.append(f"### {i}. [{c.title}]({c.page})\n\n*About {c.minutes} min"
+        parts.append(f"### {c.label or i}. [{c.title}]({c.page})\n\n*About {c.minutes} min"
                      + (f", and {c.exercises} exercise{'s' if c.exercises != 1 else ''}*" if c.exercises else "*")
                      + f"\n\nBy the end of this chapter you can\n\n{_goals_list(c.goals)}{status}")
     return parts
@@ -346,10 +391,14 @@ def build_book(chapters_dir, executed_dir, outdir, readme=None, exercises_dir=No
         executed = executed_dir / source.name
         nb = nbformat.read(executed if executed.exists() else source, as_version=4)
         number = source.stem[2:4]
+        listed = chapter_exercises(nb)
         chapters.append(Chapter(source=source, notebook=nb, executed=executed.exists(),
                                 title=chapter_title(nb, source.stem), goals=chapter_goals(nb),
-                                minutes=estimate_minutes(nb),
-                                exercises=count_exercises(exercises_dir / f"ch{number}.py")))
+                                minutes=stated_minutes(nb) or estimate_minutes(nb),
+                                # a chapter split into parts shares one exercise file: count what each part lists
+                                exercises=len(listed) if listed is not None else
+                                count_exercises(exercises_dir / f"ch{number}.py"),
+                                label=chapter_label(source)))
 
     if outdir.exists():
         shutil.rmtree(outdir)

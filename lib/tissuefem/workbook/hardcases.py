@@ -26,6 +26,7 @@ tangent of Teran et al. 2005, the ITF model projects its own.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -36,9 +37,11 @@ from ..engine.meshes import rectangle
 from ..engine.constants import TISSUE_E, TISSUE_NU
 from ..engine.parameters import lame_parameters
 from ..engine.model import Handle, Model
+from ..engine.realtime import RealtimeSolver
 from ..engine.stepping import solve
 
 __all__ = ["inversion_models", "block", "start_states", "ReleaseResult", "release", "crush_and_release",
+           "crush_in_frames", "element_jacobians", "cover_counts",
            "drag_through", "RELEASE_OPTIONS"]
 
 #: Newton options of a release solve: absolute residual tolerance (the start residual is huge,
@@ -204,3 +207,87 @@ def drag_through(material, mesh=None, depth: float = 1.6, steps: int = 16, **new
     released = release(mesh, material, model.positions(u), held=sides, **newton_options)
     return {"positions": positions, "drag": drag, "released": released, "failed_steps": failed,
             "grab": grab, "sides": sides}
+
+
+def crush_in_frames(material, mesh=None, depth: float = 1.3, steps: int = 13, extra_frames: int = 50,
+                    rtol: float = 1e-8, max_iterations: int = 100) -> dict:
+    """The crush of :func:`crush_and_release` as the real-time solver runs it: quasistatic *frames*.
+
+    The top edge is moved down in ``steps`` frames to ``depth``; each frame runs Newton up to
+    ``max_iterations`` steps and, unlike the offline load stepping of :func:`crush_and_release`
+    (where a step that does not converge ends the crush), commits what it has and carries the rest
+    into the next frame (the anytime rule of chapter 7). At the final depth, up to ``extra_frames``
+    more frames finish the work. Then the top is let go and the body released as in
+    :func:`release`.
+
+    Returns a dict with ``x`` (positions at the final depth), ``reached`` (the depth the top got to),
+    ``converged`` (the last crush frame), ``frames`` (crush frames used), ``inverted`` (elements with
+    ``J <= 0`` there), ``folded`` (element centroids covered more than once there: the mesh lies
+    over itself although no element is inverted) and ``released`` (a :class:`ReleaseResult`).
+    """
+    mesh = block() if mesh is None else mesh
+    X = np.asarray(mesh.p, dtype=float)
+    model = Model(mesh, material, handles=[Handle("bottom", name="bottom"), Handle("top", name="top")])
+    solver = RealtimeSolver(model, budget=math.inf, rtol=rtol, max_iterations=max_iterations)
+    frames = 0
+    for d in np.linspace(0.0, depth, steps + 1)[1:]:
+        report = solver.frame({"top": (0.0, -float(d))})
+        frames += 1
+    for _ in range(extra_frames):
+        if report.converged:
+            break
+        report = solver.frame({"top": (0.0, -float(depth))})
+        frames += 1
+    x = model.positions(solver.u)
+    top = np.flatnonzero(np.isclose(X[1], X[1].max()))
+    J = element_jacobians(mesh, x)
+    return {
+        "x": x,
+        "reached": float(X[1, top].mean() - x[1, top].mean()),
+        "converged": bool(report.converged),
+        "frames": frames,
+        "inverted": int(np.sum(J <= 1e-12)),
+        "folded": int(np.sum(cover_counts(mesh, x) > 1)),
+        "released": release(mesh, material, x, held=_bottom(mesh)),
+    }
+
+
+def element_jacobians(mesh, x) -> np.ndarray:
+    """``J = det F`` of every P1 triangle of ``mesh`` when its nodes sit at ``x`` (shape ``(2, n_nodes)``).
+
+    On a linear triangle ``F`` is constant and ``J`` is the ratio of the signed
+    areas, deformed over reference: negative when the triangle is turned inside
+    out, zero when it is flat or collapsed to a point.
+    """
+    x = np.asarray(x, dtype=float)
+
+    def twice_signed_area(p):
+        a, b, c = (p[:, mesh.t[k]] for k in range(3))
+        return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+
+    return twice_signed_area(x) / twice_signed_area(np.asarray(mesh.p, dtype=float))
+
+
+def cover_counts(mesh, x, tol: float = 1e-9) -> np.ndarray:
+    """How many deformed triangles contain the centroid of each deformed triangle (nodes at ``x``).
+
+    A one-to-one deformation gives 1 everywhere; a count above 1 is a point of
+    space reached from two places of the body: the mesh lies over itself
+    there. This is a global test: it sees a fold even when every triangle has
+    ``J > 0``. Flat triangles (zero area) contain nothing and count 0 for
+    their own centroid. ``tol`` is the margin on the barycentric coordinates,
+    so points on a shared edge are not counted twice. Cost: ``n_elements^2``.
+    """
+    x = np.asarray(x, dtype=float)
+    a, b, c = (x[:, mesh.t[k]] for k in range(3))  # corners, each (2, n_elements)
+    point = ((a + b + c) / 3.0)[:, :, None]  # the centroids, against every triangle: [.., point, triangle]
+
+    def side(p, q, r):
+        return (q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])
+
+    area = side(a, b, c)[None, :]
+    ok = np.abs(area) > 0.0
+    area = np.where(ok, area, 1.0)
+    a, b, c = a[:, None, :], b[:, None, :], c[:, None, :]
+    inside = ok & (side(b, c, point) / area > tol) & (side(c, a, point) / area > tol) & (side(a, b, point) / area > tol)
+    return inside.sum(axis=1)

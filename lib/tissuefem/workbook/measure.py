@@ -17,7 +17,7 @@ import numpy as np
 from skfem import Basis
 
 __all__ = ["relative_l2_error", "fitted_exponent", "power_law_fit", "observed_rates", "pareto_front",
-           "best_within_budget", "median_time", "evaluate"]
+           "best_within_budget", "cost_at_error", "median_time", "evaluate"]
 
 
 def median_time(fn, repeats: int) -> float:
@@ -77,24 +77,37 @@ def fitted_exponent(x, y) -> float:
     return power_law_fit(x, y)[0]
 
 
-def pareto_front(costs, errors) -> np.ndarray:
+def _check_rtol(rtol) -> float:
+    rtol = float(rtol)
+    if not (np.isfinite(rtol) and rtol >= 0):
+        raise ValueError(f"rtol must be finite and >= 0, got {rtol!r}")
+    return rtol
+
+
+def pareto_front(costs, errors, rtol: float = 0.0) -> np.ndarray:
     """Indices of the non-dominated points, in order of increasing cost.
 
     Point ``i`` is dominated when some ``j`` has ``cost_j <= cost_i`` and
     ``error_j <= error_i`` with at least one strict. Ties (equal cost and
     error) keep the first. Non-finite entries are never on the front.
+
+    ``rtol`` is the resolution of the errors: an error counts as smaller only
+    if it is smaller by more than the factor ``1 + rtol``. With ``rtol = 0.01``
+    a setting that is slower and only 0.5 % more accurate (a difference in the
+    third or fourth digit, below what the reference can tell) is not on the front.
     """
     c = np.asarray(costs, dtype=float)
     e = np.asarray(errors, dtype=float)
     if c.shape != e.shape or c.ndim != 1:
         raise ValueError(f"costs and errors must be 1D arrays of the same length, got {c.shape} and {e.shape}")
+    factor = 1.0 + _check_rtol(rtol)
     ok = np.flatnonzero(np.isfinite(c) & np.isfinite(e))
     # sort by cost, then error: walking in that order, a point is on the front when its error is below
-    # every error seen so far
+    # every error seen so far (by more than the resolution)
     order = ok[np.lexsort((e[ok], c[ok]))]
     front, best = [], np.inf
     for i in order:
-        if e[i] < best:
+        if e[i] * factor < best:
             front.append(i)
             best = e[i]
     return np.asarray(front, dtype=np.intp)
@@ -113,11 +126,15 @@ def observed_rates(h, errors) -> np.ndarray:
     return np.log(e[:-1] / e[1:]) / np.log(h[:-1] / h[1:])
 
 
-def best_within_budget(costs, errors, budget):
+def best_within_budget(costs, errors, budget, rtol: float = 0.0):
     """Index of the most accurate setting whose cost is at most ``budget`` (the cheaper on a tie), or ``None``.
 
     What an engineer reads off a Pareto plot: draw the budget line, take the
-    lowest point to its left. Non-finite entries never qualify.
+    lowest point to its left. Non-finite entries never qualify. ``rtol`` is
+    the resolution of the errors: every setting within the factor ``1 + rtol``
+    of the smallest error under the budget ties with it, and the cheapest of
+    them is chosen (so a winner is never crowned by a difference in the last
+    digits).
     """
     c = np.asarray(costs, dtype=float)
     e = np.asarray(errors, dtype=float)
@@ -126,7 +143,27 @@ def best_within_budget(costs, errors, budget):
     budget = float(budget)
     if not budget > 0:
         raise ValueError(f"budget must be > 0, got {budget!r}")
+    factor = 1.0 + _check_rtol(rtol)
     ok = np.flatnonzero(np.isfinite(c) & np.isfinite(e) & (c <= budget))
     if ok.size == 0:
         return None
-    return int(ok[np.lexsort((c[ok], e[ok]))[0]])
+    tied = ok[e[ok] <= e[ok].min() * factor]
+    return int(tied[np.lexsort((e[tied], c[tied]))[0]])
+
+
+def cost_at_error(costs, errors, target):
+    """The cost at which a curve (one knob's settings, by increasing cost) reaches the error ``target``.
+
+    Interpolated linearly on log-log axes between the two settings around ``target`` (the curves of a
+    convergence study are nearly straight there); ``None`` when the curve does not reach it.
+    """
+    c = np.asarray(costs, dtype=float)
+    e = np.asarray(errors, dtype=float)
+    order = np.argsort(c)
+    c, e = c[order], e[order]
+    for k in range(c.size - 1):
+        (c0, c1), (e0, e1) = c[k:k + 2], e[k:k + 2]
+        if e0 >= target >= e1 and e0 > e1:
+            s = np.log(target / e0) / np.log(e1 / e0)
+            return float(np.exp(np.log(c0) + s * np.log(c1 / c0)))
+    return None

@@ -6,13 +6,27 @@ overwritten, so they stay free of outputs.
 
 from __future__ import annotations
 
+import re
 import time
 from pathlib import Path
 
 
+#: A chapter's file name: ``chNN_name.ipynb``, or ``chNNa_name.ipynb``, ``chNNb_...`` for the parts of a
+#: chapter split into sittings.
+CHAPTER_NAME = re.compile(r"ch(\d\d)([a-z]?)_\w+\.ipynb")
+
+
 def chapter_paths(chapters_dir) -> list[Path]:
-    """All chapter notebooks ``chNN_*.ipynb`` in order."""
-    return sorted(Path(chapters_dir).glob("ch[0-9][0-9]_*.ipynb"))
+    """All chapter notebooks ``chNN_*.ipynb`` and ``chNNa_*.ipynb`` (parts of a chapter) in order."""
+    return sorted(p for p in Path(chapters_dir).glob("ch*.ipynb") if CHAPTER_NAME.fullmatch(p.name))
+
+
+def chapter_label(path) -> str:
+    """``"6"`` for ``ch06_inversion.ipynb``, ``"6a"`` for ``ch06a_...``: the chapter's number as the book shows it."""
+    m = CHAPTER_NAME.fullmatch(Path(path).name)
+    if m is None:
+        raise ValueError(f"{Path(path).name} is not a chapter file name (chNN_name.ipynb or chNNa_name.ipynb)")
+    return f"{int(m.group(1))}{m.group(2)}"
 
 
 def execute_notebook(src, dst=None, timeout: int = 900, kernel_name: str = "python3"):

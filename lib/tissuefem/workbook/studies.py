@@ -29,6 +29,7 @@ from ..engine.materials import LinearElastic, Material, NeoHookean
 from ..engine.meshes import rectangle
 from ..engine.model import Handle, Model
 from ..engine.stepping import StaticResult, solve
+from .bench.common import markdown_table
 from .measure import median_time, relative_l2_error
 
 __all__ = [
@@ -44,6 +45,7 @@ __all__ = [
     "newton_iteration_time",
     "cost_accuracy_study",
     "format_cost_accuracy",
+    "cost_accuracy_markdown",
     "RECORDED_COST_ACCURACY",
 ]
 
@@ -333,6 +335,11 @@ _TABLE = [
     ("solve_ms", "solve [ms]", "{:.1f}"),
     ("iteration_ms", "1 iteration [ms]", "{:.2f}"),
 ]
+
+
+def cost_accuracy_markdown(rows) -> str:
+    """The rows of :func:`cost_accuracy_study` as a Markdown table (for a notebook to render)."""
+    return markdown_table(rows, _TABLE)
 
 
 def format_cost_accuracy(rows) -> str:

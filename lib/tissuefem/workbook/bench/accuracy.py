@@ -4,10 +4,15 @@ Every speed/accuracy knob of the simulator is turned, one at a time, away
 from a *baseline* setting, and each setting is run on two benchmarks:
 
 ``flap``
-    the standard flap scene of :mod:`tissuefem.bench_realtime` (Neo-Hookean,
-    E = 1000, nu = 0.3, rho0 = 1, left edge fixed, right edge on the scripted
-    loop :func:`~tissuefem.bench_realtime.flap_path`), backward Euler, one
-    displayed frame every 1/30 s;
+    the standard flap scene of :mod:`tissuefem.workbook.bench.realtime` (Neo-Hookean,
+    E = 1000, nu = 0.3, rho0 = 1, left edge fixed), backward Euler, one
+    displayed frame every 1/30 s; its right edge follows the scripted loop
+    :func:`~tissuefem.surgery.scene.flap_path` *eased in* over the first
+    :data:`EASE_IN` seconds (:func:`eased_flap_path`). The standard loop starts
+    with a jump in velocity, which sends a wave through the body; backward
+    Euler resolves that wave so slowly (its error falls like ``dt^0.4``) that no
+    affordable reference could be checked. Eased in, the motion is smooth in
+    time, backward Euler converges at first order and its extrapolation at second;
 ``block``
     a quasistatic benchmark: the same rectangle ``[0, 2] x [0, 1]`` with its
     right edge carried to ``(0.6, 0.4)`` (chapter 4's stretched and sheared
@@ -16,31 +21,35 @@ from a *baseline* setting, and each setting is run on two benchmarks:
 For each run it records the *cost*, the median wall time per displayed frame
 (the solver's own clock, every Newton iteration, assembly and linear solve
 included), and the *error*, the relative ``L2`` norm of the displacement error
-against a reference solution (:func:`tissuefem.studies.relative_l2_error`,
+against a reference solution (:func:`tissuefem.workbook.measure.relative_l2_error`,
 the reference evaluated by point location): for the flap the largest of the
 errors at a few checkpoint frames (``error``; ``errors`` lists them all and
 ``error_final`` is the last), for the block the error of the final
 equilibrium.
 
-The reference is the discretisation pushed as far as the plan allows in every
-knob at once: P2 elements on the finest mesh, consistent mass, Newton
-converged to ``rtol = 1e-10`` (the linear solver does not matter at that
-tolerance), and for the flap a time step
-``dt / s`` extrapolated in time (backward Euler is first order, so
-``2 u(dt/2s) - u(dt/s)`` removes the leading time error; Richardson). The
-module's ``verification`` answers how good the reference is:
-mesh convergence of the nonlinear models at their expected rates
-(:func:`tissuefem.accuracy.manufactured_convergence`), the published linear
-benchmark (:func:`tissuefem.accuracy.beam_problem_tip`), and the reference's
-own distance to its next-coarser sibling.
+The reference (:func:`reference_run`) is the discretisation pushed further than
+any setting in every knob at once: P2 elements on a mesh graded towards the
+rectangle's edges (:func:`graded_flap`; the corners where a held edge meets a
+free one make the solution singular, and uniform refinement converges there
+at a rate of only about 1.6), Newton converged to ``rtol = 1e-10``, and for
+the flap a small time step extrapolated in time (backward Euler is first
+order, so ``2 u(dt/2s) - u(dt/s)`` removes the leading time error;
+Richardson). Its own error is *estimated*, not assumed: from the distances to
+the same reference on two coarser meshes (and, for the flap, to the
+extrapolations from two larger time steps) and the rate they show,
+``estimate = d / (2^p - 1)``. The study's figures and chapter 9 rely on that
+estimate lying at least ten times below the smallest error of any setting.
+The ``verification`` entry adds mesh convergence of the nonlinear models at
+their expected rates (:func:`tissuefem.workbook.accuracy.manufactured_convergence`)
+and the published linear benchmark (:func:`tissuefem.workbook.accuracy.beam_problem_tip`).
 
 The knobs (``KNOBS``): mesh resolution (P1), element order (P2 over the
 same meshes), quadrature order (P2), material model, Newton tolerance, a cap
-on Newton iterations, time step (substeps per displayed frame, flap only) and
-linear solver (a fresh SuperLU factorization with the minimum-degree ordering
-and with SciPy's default COLAMD, CG with a Jacobi or an incomplete-LU
-preconditioner, CG preconditioned by a reused factorization, and PARDISO when
-it is installed).
+on Newton iterations (a quasistatic frame's linearised start counts as one),
+time step (substeps per displayed frame, flap only) and linear solver (a fresh
+SuperLU factorization with the minimum-degree ordering and with SciPy's default
+COLAMD, CG with a Jacobi or an incomplete-LU preconditioner, CG preconditioned
+by a reused factorization, and PARDISO when it is installed).
 
 Two further measurements use the flap scene alone: how the time per frame
 grows with the mesh for each linear solver (:func:`solver_scaling`, with a
@@ -60,9 +69,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ...engine.constants import FRAME_BUDGET
+from ...engine.constants import FRAME_BUDGET, TISSUE_DENSITY, TISSUE_E, TISSUE_NU
 from ...engine.linsolve import LinearSolver, available
-from ...engine.materials import MATERIALS
+from ...engine.materials import MATERIALS, material as make_material
+from ...engine.meshes import flap
+from ...engine.model import Handle, Model
+from ...engine.realtime import RealtimeSolver
 from ...engine.stepping import solve
 from ...surgery.scene import Scene, flap_path, flap_scene
 from ...surgery.simulation import Simulation
@@ -75,12 +87,18 @@ __all__ = [
     "KNOBS",
     "PLANS",
     "BLOCK_TARGET",
+    "EASE_IN",
+    "REFERENCE_GRADING",
+    "eased_flap_path",
+    "graded_flap",
     "make_simulation",
     "run_setting",
     "reference_run",
     "knob_sweep",
     "solver_scaling",
     "budget_residual",
+    "capped_newton_experiment",
+    "time_convergence",
     "accuracy_study",
     "write_results",
     "read_results",
@@ -91,6 +109,47 @@ __all__ = [
 #: Where the quasistatic benchmark's handle ends: the right edge moved by (0.6, 0.4), as in chapter 4.
 BLOCK_TARGET = (0.6, 0.4)
 BENCHMARKS = ("flap", "block")
+#: Seconds over which the flap benchmark eases its drag in (:func:`eased_flap_path`).
+EASE_IN = 0.5
+#: How strongly the reference meshes are graded towards the rectangle's edges (:func:`graded_flap`).
+REFERENCE_GRADING = 1.5
+
+
+def eased_flap_path(t) -> np.ndarray:
+    """The flap benchmark's drag: :func:`~tissuefem.surgery.scene.flap_path` eased in over :data:`EASE_IN` s.
+
+    ``flap_path`` starts with the edge already moving (a jump in velocity at
+    ``t = 0``). Multiplied by the smooth step ``s(tau) = 10 tau^3 - 15 tau^4 +
+    6 tau^5`` (``tau = t / EASE_IN``), the edge starts at rest with zero
+    acceleration and follows ``flap_path`` exactly from ``EASE_IN`` on.
+    """
+    tau = min(max(float(t) / EASE_IN, 0.0), 1.0)
+    return tau**3 * (10.0 - 15.0 * tau + 6.0 * tau**2) * flap_path(t)
+
+
+def _graded(xi, grading: float) -> np.ndarray:
+    """``[0, 1] -> [0, 1]``, symmetric, with slope ``~ (distance to the nearer end)^(grading - 1)`` at the ends."""
+    xi = np.asarray(xi, dtype=float)
+    low = 0.5 * (2.0 * np.minimum(xi, 0.5)) ** grading
+    high = 1.0 - 0.5 * (2.0 * (1.0 - np.maximum(xi, 0.5))) ** grading
+    return np.where(xi <= 0.5, low, high)
+
+
+def graded_flap(n_triangles: int, grading: float = REFERENCE_GRADING):
+    """The flap mesh of about ``n_triangles`` with its nodes pulled towards the four edges.
+
+    Each coordinate is mapped by ``x -> 0.5 (2 x)^grading`` on its lower half
+    (and symmetrically on the upper half), so cells shrink towards the edges and
+    most of all towards the corners, where a held edge meets a free one and the
+    solution is singular. ``grading = 1`` is the uniform mesh. The topology, the
+    node numbering and the named boundaries are those of :func:`~tissuefem.engine.meshes.flap`.
+    """
+    mesh = flap(n_triangles=int(n_triangles))
+    if grading == 1:
+        return mesh
+    width, height = mesh.p[0].max(), mesh.p[1].max()
+    p = np.vstack([width * _graded(mesh.p[0] / width, grading), height * _graded(mesh.p[1] / height, grading)])
+    return replace(mesh, doflocs=p)
 
 
 @dataclass(frozen=True)
@@ -149,7 +208,8 @@ PLANS = {
         "frames": 30,
         "checkpoints": 5,  # the flap's error is the largest over every 5th frame
         "block_frames": 10,
-        "reference": {"triangles": 8000, "substeps": 4},
+        # the flap's reference: P2 on 8000 graded triangles, 16 and 32 substeps; the block's on 32000
+        "reference": {"triangles": 8000, "substeps": 16, "block_triangles": 32000, "grading": REFERENCE_GRADING},
         "knobs": {
             "mesh": (500, 1000, 2000, 4000, 8000, 16000, 32000),
             "P2": (250, 500, 1000, 2000, 4000),
@@ -238,10 +298,11 @@ def make_simulation(setting: Setting, benchmark: str = "flap", budget=math.inf, 
     return sim
 
 
-def _targets(benchmark: str, frame: int, substep: int, substeps: int, frames: int):
-    """The handle's target for ``substep`` (1-based) of displayed ``frame`` (1-based)."""
+def _targets(benchmark: str, frame: int, substep: int, substeps: int, frames: int, drag=None):
+    """The handle's target for ``substep`` (1-based) of displayed ``frame`` (1-based); ``drag(t)`` is the
+    flap's path (default :func:`eased_flap_path`)."""
     if benchmark == "flap":
-        return {"handle": flap_path((frame - 1 + substep / substeps) * FRAME_BUDGET)}
+        return {"handle": (drag or eased_flap_path)((frame - 1 + substep / substeps) * FRAME_BUDGET)}
     return {"handle": np.array(BLOCK_TARGET) * frame / frames}
 
 
@@ -252,9 +313,10 @@ def _checkpoints(benchmark: str, frames: int, every: int) -> tuple[int, ...]:
 
 
 def run_setting(benchmark: str, setting: Setting, frames: int, checkpoints=(), budget=math.inf,
-                clock=time.perf_counter):
+                clock=time.perf_counter, drag=None):
     """Run ``frames`` displayed frames of ``benchmark`` with ``setting``.
 
+    ``drag(t)`` replaces the flap's path (default :func:`eased_flap_path`).
     Returns ``(model, states, stats)``: ``states`` maps each checkpoint frame
     to a copy of ``u``; ``stats`` holds the per-frame milliseconds (summed over
     substeps), Newton and linear iterations, factorizations, whether every
@@ -265,12 +327,17 @@ def run_setting(benchmark: str, setting: Setting, frames: int, checkpoints=(), b
     if benchmark == "block" and setting.substeps != 1:
         raise ValueError("the quasistatic block has no time step: substeps must be 1")
     sim = make_simulation(setting, benchmark, budget=budget, clock=clock)
-    solver = sim.solver
+    states, stats = _drive(sim.solver, benchmark, frames, setting.substeps, checkpoints, drag)
+    return sim.model, states, stats
+
+
+def _drive(solver, benchmark: str, frames: int, substeps: int, checkpoints=(), drag=None):
+    """Run ``frames`` displayed frames of ``substeps`` solver frames each; ``(states, stats)`` as in :func:`run_setting`."""
     states, ms, newton, linear, fac, converged, residual, fraction = {}, [], [], [], [], [], [], []
     for f in range(1, frames + 1):
         spent = 0.0
-        for s in range(1, setting.substeps + 1):
-            report = solver.frame(_targets(benchmark, f, s, setting.substeps, frames))
+        for s in range(1, substeps + 1):
+            report = solver.frame(_targets(benchmark, f, s, substeps, frames, drag))
             spent += report.elapsed
             newton.append(report.newton_iterations)
             linear.append(report.linear_iterations)
@@ -295,47 +362,130 @@ def run_setting(benchmark: str, setting: Setting, frames: int, checkpoints=(), b
         "handle_fraction_min": float(np.min(fraction)),
         "finite": bool(np.all(np.isfinite(solver.u))),
     }
-    return sim.model, states, stats
+    return states, stats
 
 
-def reference_run(benchmark: str, plan: dict, progress=None):
+def _reference_model(benchmark: str, triangles: int, grading: float, substeps: int = 1) -> Model:
+    """The reference's model: P2 on :func:`graded_flap`, the benchmark's material, handles and (flap) inertia."""
+    mesh = graded_flap(triangles, grading)
+    dt = FRAME_BUDGET / substeps if benchmark == "flap" else None
+    return Model(mesh, make_material("neo-hookean", TISSUE_E, TISSUE_NU), order=2, density=TISSUE_DENSITY,
+                 dt=dt, mass="consistent", handles=[Handle("fixed", name="fixed"), Handle("handle", name="handle")])
+
+
+def _reference_states(benchmark: str, triangles: int, grading: float, frames: int, checkpoints, substeps=None):
+    """One reference solution at the checkpoints: ``(model, {frame: u})``.
+
+    The block: its final equilibrium (it does not depend on the path), solved directly with load
+    stepping and the linearised predictor (moving a P2 edge alone would invert the elements beside
+    it). The flap: backward Euler with ``substeps`` steps per displayed frame, Newton to ``1e-10``.
+    """
+    if benchmark == "block":
+        # load steps small enough for the graded mesh's thinnest cells at the handle's corners: a step that
+        # cannot move the handle without inverting one is refused, and the ramp is made finer
+        for load_steps in (20, 60, 180):
+            model = _reference_model("block", triangles, grading)
+            model.handle("handle").move(np.array(BLOCK_TARGET))
+            result = solve(model, load_steps=max(load_steps, 2 * frames), rtol=1e-10)
+            if result.converged:
+                break
+        if not result.converged:
+            raise RuntimeError(f"the block reference on {triangles} triangles did not converge ({result.status})")
+        return model, {frames: result.u}
+    model = _reference_model("flap", triangles, grading, substeps)
+    solver = RealtimeSolver(model, budget=math.inf, rtol=1e-10)
+    states, stats = _drive(solver, "flap", frames, substeps, checkpoints)
+    if stats["converged_share"] < 1.0:
+        raise RuntimeError(f"a flap reference run ({triangles} triangles, {substeps} substeps) did not converge")
+    return model, states
+
+
+def _extrapolated(benchmark, triangles, grading, frames, checkpoints, substeps, cache):
+    """Richardson in time: ``2 u(dt / 2s) - u(dt / s)`` at the checkpoints (the block: its one solution)."""
+    def run(s):
+        if (triangles, s) not in cache:
+            cache[triangles, s] = _reference_states(benchmark, triangles, grading, frames, checkpoints, s)
+        return cache[triangles, s]
+
+    if benchmark == "block":
+        return run(None)
+    model, coarse = run(substeps)
+    _, fine = run(2 * substeps)
+    return model, {f: 2.0 * fine[f] - coarse[f] for f in checkpoints}
+
+
+def _distance(a, b) -> float:
+    """Largest relative ``L2`` distance over the checkpoints between two ``(model, states)`` (``a`` on its own mesh)."""
+    return max(relative_l2_error(a[0], a[1][f], b[0], b[1][f]) for f in sorted(b[1]))
+
+
+def _estimate(d_coarse, d_fine, ratio: float = 2.0):
+    """The error of the finest of three solutions from the distances between them: ``(rate, estimate)``.
+
+    ``d_fine`` is the distance between the two finer ones, ``d_coarse`` between the two coarser
+    ones, each level ``ratio`` times finer. If the error falls like ``ratio^-p`` per level, the finest
+    one's error is ``d_fine / (ratio^p - 1)``; without a clear rate (fewer than three levels, or
+    ``p < 1``) the estimate is ``d_fine`` itself, which bounds it for any rate of at least 1.
+    """
+    if d_coarse is None or not (d_fine > 0 and d_coarse > d_fine):
+        return None, float(d_fine)
+    p = math.log(d_coarse / d_fine) / math.log(ratio)
+    if p < 1.0:
+        return float(p), float(d_fine)
+    return float(p), float(d_fine / (ratio**p - 1.0))
+
+
+def reference_run(benchmark: str, plan: dict, progress=None, check: bool = True):
     """The reference of ``benchmark`` for ``plan``: ``(problem, states, info)``.
 
-    P2 on ``plan["reference"]["triangles"]``, Newton to ``rtol = 1e-10``. For the flap, two runs with ``s`` and
-    ``2 s`` substeps (``s = plan["reference"]["substeps"]``) are combined as
-    ``2 u(dt/2s) - u(dt/s)`` (Richardson extrapolation of backward Euler's
-    first-order time error); ``info["time_error_estimate"]`` is the relative
-    ``L2`` distance between the two runs, an estimate of the finer one's own
-    time error, which the extrapolation removes to leading order.
+    ``plan["reference"]``: ``triangles`` (the flap's mesh), ``block_triangles``
+    (the block's; default ``triangles``), ``substeps`` ``s`` (the flap: runs with
+    ``s`` and ``2 s`` substeps combined as ``2 u(dt/2s) - u(dt/s)``, Richardson
+    extrapolation of backward Euler's first-order time error) and ``grading``
+    (:func:`graded_flap`; default :data:`REFERENCE_GRADING`). P2, Newton to ``1e-10``.
+
+    With ``check``, ``info`` holds the reference's own error estimate: in space from the same
+    reference on meshes with 1/4 and 1/16 of the triangles (``space_distance``, the distance of
+    the next-coarser one; ``space_rate``, the observed rate per halving of ``h``;
+    ``space_error_estimate``), for the flap in time from the extrapolations with 2 and 4 times
+    larger steps (``time_distance``, ``time_rate``, ``time_error_estimate``), and their sum
+    ``error_estimate`` (see :func:`_estimate`).
     """
     ref = plan["reference"]
     frames = plan["frames"] if benchmark == "flap" else plan["block_frames"]
     checkpoints = _checkpoints(benchmark, frames, plan["checkpoints"])
-    base = Setting(triangles=ref["triangles"], order=2, rtol=1e-10)
+    grading = float(ref.get("grading", REFERENCE_GRADING))
+    n = int(ref.get("block_triangles", ref["triangles"])) if benchmark == "block" else int(ref["triangles"])
+    s = int(ref["substeps"]) if benchmark == "flap" else None
     t0 = time.perf_counter()
-    if benchmark == "block":
-        # the final equilibrium does not depend on the path: solve it directly, with the load-stepping
-        # solver's linearised predictor (moving a P2 edge alone would invert the elements beside it)
-        problem = make_simulation(base, "block").model
-        problem.handle("handle").move(np.array(BLOCK_TARGET))
-        result = solve(problem, load_steps=max(4, frames), rtol=1e-10)
-        if not result.converged:
-            raise RuntimeError(f"the block reference did not converge ({result.status})")
-        states = {frames: result.u}
-        info = {"time_error_estimate": 0.0}
-    else:
-        s = int(ref["substeps"])
-        problem, coarse, _ = run_setting("flap", replace(base, substeps=s), frames, checkpoints)
-        _, fine, _ = run_setting("flap", replace(base, substeps=2 * s), frames, checkpoints)
-        states = {f: 2.0 * fine[f] - coarse[f] for f in checkpoints}
-        M = _l2_gram(problem)
-        info = {"time_error_estimate": max(_relative_same_mesh(M, fine[f], coarse[f]) for f in checkpoints)}
-    info.update({"triangles": int(problem.mesh.t.shape[1]), "dofs": int(problem.basis.N), "order": 2,
-                 "substeps": None if benchmark == "block" else [int(ref["substeps"]), 2 * int(ref["substeps"])],
-                 "seconds": time.perf_counter() - t0})
+    cache = {}
+    problem, states = _extrapolated(benchmark, n, grading, frames, checkpoints, s, cache)
+    info = {"triangles": int(problem.mesh.t.shape[1]), "dofs": int(problem.basis.N), "order": 2,
+            "grading": grading, "substeps": None if s is None else [s, 2 * s]}
+    if check:
+        # space: the same reference on coarser meshes (each a quarter of the triangles: h doubles)
+        siblings = [(m, _extrapolated(benchmark, m, grading, frames, checkpoints, s, cache))
+                    for m in (n // 4, n // 16) if m >= 50]
+        d_fine = _distance(siblings[0][1], (problem, states)) if siblings else float("nan")
+        d_coarse = _distance(siblings[1][1], siblings[0][1]) if len(siblings) > 1 else None
+        rate, space = _estimate(d_coarse, d_fine)
+        info.update({"space_distance": d_fine, "space_rate": rate, "space_error_estimate": space,
+                     "coarser_sibling_triangles": [int(sib[0].mesh.t.shape[1]) for _, sib in siblings]})
+        time_estimate = 0.0
+        if benchmark == "flap":
+            # time: the extrapolations from steps 2 and 4 times larger, on the reference's mesh
+            larger = [_extrapolated(benchmark, n, grading, frames, checkpoints, s // k, cache)
+                      for k in (2, 4) if s // k >= 1 and s % k == 0]
+            t_fine = _distance(larger[0], (problem, states)) if larger else float("nan")
+            t_coarse = _distance(larger[1], larger[0]) if len(larger) > 1 else None
+            t_rate, time_estimate = _estimate(t_coarse, t_fine)
+            info.update({"time_distance": t_fine, "time_rate": t_rate, "time_error_estimate": time_estimate})
+        info["error_estimate"] = space + time_estimate
+    info["seconds"] = time.perf_counter() - t0
     if progress:
-        progress(f"{benchmark}: reference P2, {info['triangles']} triangles, {info['dofs']} dofs "
-                 f"({info['seconds']:.0f} s)")
+        extra = f", error estimate {info['error_estimate']:.1e}" if check else ""
+        progress(f"{benchmark}: reference P2, {info['triangles']} triangles (graded), {info['dofs']} dofs"
+                 f"{extra} ({info['seconds']:.0f} s)")
     return problem, states, info
 
 
@@ -391,6 +541,10 @@ def _knob_settings(knob: str, plan: dict, base: Setting):
 def knob_sweep(benchmark: str, plan: dict, reference, knobs=None, progress=None) -> list[dict]:
     """One row per (knob, value) of ``plan`` on ``benchmark``: the setting, its cost and its error.
 
+    Besides the error against ``reference``, each row has ``from_baseline``: how far the setting's
+    answer lies from the baseline setting's (the same measure, the baseline as the reference). A knob
+    whose ``from_baseline`` is far below the error cannot change the error beyond its last digits.
+
     Settings that cannot run here (PARDISO without pypardiso) are skipped;
     a setting that fails (a ``ValueError`` or ``RuntimeError`` from the
     solver) gives a row with ``error = nan`` and the reason in ``failed``.
@@ -399,6 +553,8 @@ def knob_sweep(benchmark: str, plan: dict, reference, knobs=None, progress=None)
     frames = plan["frames"] if benchmark == "flap" else plan["block_frames"]
     checkpoints = _checkpoints(benchmark, frames, plan["checkpoints"])
     base = Setting(triangles=int(plan["base_triangles"]))
+    # the baseline once more, to measure how far each setting moves the answer from it
+    baseline = run_setting(benchmark, base, frames, checkpoints)
     rows = []
     for knob in knobs:
         if knob == "time_step" and benchmark == "block":
@@ -411,9 +567,10 @@ def knob_sweep(benchmark: str, plan: dict, reference, knobs=None, progress=None)
             try:
                 problem, states, stats = run_setting(benchmark, setting, frames, checkpoints)
                 errors = _errors(problem, states, reference) if stats["finite"] else [float("nan")]
+                moved = (_errors(problem, states, baseline) if stats["finite"] else [float("nan")])
                 row.update({"triangles": int(problem.mesh.t.shape[1]), "dofs": int(problem.basis.N),
                             "error": max(errors), "error_final": errors[-1], "errors": errors,
-                            "checkpoints": sorted(states), "failed": ""})
+                            "from_baseline": max(moved), "checkpoints": sorted(states), "failed": ""})
                 row.update({k: v for k, v in stats.items() if k not in ("ms", "finite")})
             except (ValueError, RuntimeError) as err:
                 row.update({"error": float("nan"), "ms_median": float("nan"), "failed": str(err)})
@@ -496,6 +653,66 @@ def budget_residual(sizes, frames: int, solvers=("reuse",), budget: float = FRAM
     return rows
 
 
+def time_convergence(drag: str = "jump", triangles: int = 500, substeps=(1, 2, 4, 8, 16), frames: int = 5) -> dict:
+    """How fast backward Euler converges in time on the flap, with the standard drag or the eased one.
+
+    The flap (P1, ``triangles``, Newton to ``1e-10``) is run with each number of ``substeps`` per
+    displayed frame; ``distances[k]`` is the largest relative ``L2`` distance, over every fifth frame,
+    between the runs with ``substeps[k]`` and ``substeps[k + 1]``, and ``ratios`` the factor by which
+    each distance is smaller than the one before: 0.5 for first-order convergence. ``drag`` is
+    ``"jump"`` (:func:`~tissuefem.surgery.scene.flap_path`, which starts with the edge already moving)
+    or ``"eased"`` (:func:`eased_flap_path`).
+    """
+    if drag not in ("jump", "eased"):
+        raise ValueError(f"drag must be 'jump' or 'eased', got {drag!r}")
+    path = flap_path if drag == "jump" else eased_flap_path
+    checkpoints = _checkpoints("flap", frames, 5)
+    runs = [run_setting("flap", Setting(triangles=triangles, rtol=1e-10, substeps=int(s)), frames, checkpoints,
+                        drag=path) for s in substeps]
+    M = _l2_gram(runs[0][0])
+    distances = [max(_relative_same_mesh(M, a[1][f], b[1][f]) for f in checkpoints) for a, b in zip(runs, runs[1:])]
+    return {"drag": drag, "substeps": [int(s) for s in substeps], "distances": distances,
+            "ratios": [b / a for a, b in zip(distances, distances[1:])]}
+
+
+def capped_newton_experiment(triangles: int = 500, frames: int = 5, drag: str = "jump",
+                              reference_substeps: int = 8) -> dict:
+    """Why a cap of one Newton step per frame can *lower* the flap's measured error: the experiment.
+
+    Three runs of the flap (P1, ``triangles``, ``frames`` frames, ``drag`` ``"jump"``: the standard
+    :func:`~tissuefem.surgery.scene.flap_path`, which starts with a jump in velocity, or ``"eased"``):
+    Newton converged, Newton capped at one step per frame, and a reference in time on the same mesh
+    (``2 u(dt/2s) - u(dt/s)`` with ``s = reference_substeps``; the flap's error is backward Euler's
+    time error, so the mesh can stay). Returns, at the last frame: both errors against the reference,
+    the capped run's distance from the converged run (``capped_moved``) and ``cosine``, the cosine
+    (in the ``L2`` inner product) between what the cap changed (capped - converged) and the
+    converged run's error (reference - converged). A positive cosine means the cap moved the state
+    towards the reference.
+    """
+    if drag not in ("jump", "eased"):
+        raise ValueError(f"drag must be 'jump' or 'eased', got {drag!r}")
+    path = flap_path if drag == "jump" else eased_flap_path
+    cps = (frames,)
+    runs = {}
+    for name, setting in (("converged", Setting(triangles=triangles, rtol=1e-10)),
+                          ("capped", Setting(triangles=triangles, max_iterations=1, rtol=1e-12)),
+                          ("coarse", Setting(triangles=triangles, rtol=1e-10, substeps=reference_substeps)),
+                          ("fine", Setting(triangles=triangles, rtol=1e-10, substeps=2 * reference_substeps))):
+        model, states, _ = run_setting("flap", setting, frames, cps, drag=path)
+        runs[name] = states[frames]
+    M = _l2_gram(model)
+    reference = 2.0 * runs["fine"] - runs["coarse"]
+    moved, error = runs["capped"] - runs["converged"], reference - runs["converged"]
+    norm = math.sqrt(reference @ (M @ reference))
+    return {
+        "drag": drag, "triangles": int(model.mesh.t.shape[1]), "frames": frames,
+        "error_converged": _relative_same_mesh(M, runs["converged"], reference),
+        "error_capped": _relative_same_mesh(M, runs["capped"], reference),
+        "capped_moved": float(math.sqrt(moved @ (M @ moved)) / norm),
+        "cosine": float(moved @ (M @ error) / math.sqrt((moved @ (M @ moved)) * (error @ (M @ error)))),
+    }
+
+
 # --------------------------------------------------------------------------------------------------
 # the whole study
 # --------------------------------------------------------------------------------------------------
@@ -535,7 +752,7 @@ def accuracy_study(plan="full", benchmarks=BENCHMARKS, knobs=None, scaling: bool
     results = {"study": "accuracy", "plan_name": name, "plan": plan, "machine": machine_info(),
                "frame_budget_ms": 1e3 * FRAME_BUDGET, "references": {}, "knobs": [], "pareto": {}}
     for b in benchmarks:
-        reference = reference_run(b, plan, progress=say)
+        reference = reference_run(b, plan, progress=say, check=verification)
         results["references"][b] = reference[2]
         say(f"{b}: sweeping the knobs")
         rows = knob_sweep(b, plan, reference, knobs=knobs, progress=say)
@@ -543,12 +760,6 @@ def accuracy_study(plan="full", benchmarks=BENCHMARKS, knobs=None, scaling: bool
         results["knobs"] += rows
         front = pareto_front([r.get("ms_median", float("nan")) for r in rows], [r["error"] for r in rows])
         results["pareto"][b] = [int(offset + i) for i in front]
-        if verification:
-            # the reference against its next-coarser sibling: how much of the smallest errors is the reference's own
-            half = dict(plan, reference=dict(plan["reference"], triangles=max(1, plan["reference"]["triangles"] // 4)))
-            coarse = reference_run(b, half)
-            results["references"][b]["coarser_sibling_error"] = _error(coarse[0], coarse[1], reference)
-            results["references"][b]["coarser_sibling_triangles"] = coarse[2]["triangles"]
     if scaling and "scaling" in plan:
         say("flap: time per frame against mesh size, per linear solver")
         sc = plan["scaling"]

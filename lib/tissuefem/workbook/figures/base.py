@@ -16,10 +16,12 @@ import matplotlib
 import numpy as np
 from matplotlib.figure import Figure
 
-__all__ = ["lecture_figure", "save", "shown", "at_least", "whole_pixels", "matplotlib_note"]
+__all__ = ["lecture_figure", "save", "shown", "at_least", "whole_pixels", "matplotlib_note", "ANIMATION_MIN_WIDTH"]
 
 #: the resolution of every saved figure
 DPI = 110
+#: the least width of an animation in pixels: large enough to project in a lecture room
+ANIMATION_MIN_WIDTH = 640
 
 #: the matplotlib minor version that drew the committed PNGs. Versions up to 3.10 bundle
 #: FreeType 2.6.1 and 3.11 FreeType 2.14: every text is rasterised differently, so every

@@ -228,23 +228,24 @@ def _flap_axes_limits(states, problem, margin: float = 0.08):
     return (xs.min() - margin, xs.max() + margin), (ys.min() - margin, ys.max() + margin)
 
 
-def write_flap_animation(gif_path, problem, states, dt: float, dpi: int = 60) -> Path:
-    """Write the states as a GIF at one frame per step of ``dt`` (``matplotlib.animation``, Pillow)."""
+def write_flap_animation(gif_path, problem, states, dt: float, dpi: int = 100) -> Path:
+    """Write the states as a GIF at one frame per step of ``dt`` (``matplotlib.animation``, Pillow):
+    680 x 480 pixels, large enough to project (:data:`~tissuefem.workbook.figures.base.ANIMATION_MIN_WIDTH`)."""
 
     gif_path = Path(gif_path)
     gif_path.parent.mkdir(parents=True, exist_ok=True)
     mesh = problem.mesh
     xlim, ylim = _flap_axes_limits(states, problem)
-    fig = Figure(figsize=(3.4, 2.4))
+    fig = Figure(figsize=(6.8, 4.8))
     ax = fig.add_axes([0.02, 0.02, 0.96, 0.82])  # fixed axes: every frame has the same layout
     ax.set(aspect="equal", xlim=xlim, ylim=ylim, xticks=[], yticks=[])
-    ax.plot([0.0, 0.0], [0.0, 1.0], color="k", lw=2.5)  # the held edge
+    ax.plot([0.0, 0.0], [0.0, 1.0], color="k", lw=4)  # the held edge
     verts = lambda u: problem.deformed_positions(u)[:, mesh.t].transpose(2, 1, 0)  # noqa: E731
     # no anti-aliasing: few colours per frame keep the GIF small (its palette has at most 256)
     body = PolyCollection(verts(states[0]), facecolors=to_rgba(UPRIGHT_COLOR, 0.6), edgecolors="0.35",
                           linewidths=0.5, antialiaseds=False)
     ax.add_collection(body)
-    title = fig.text(0.5, 0.92, "", ha="center", va="center", fontsize=8)
+    title = fig.text(0.5, 0.92, "", ha="center", va="center", fontsize=14)
 
     def update(k):
         body.set_verts(verts(states[k]))

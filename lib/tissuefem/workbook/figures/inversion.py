@@ -20,7 +20,7 @@ from matplotlib.patches import Patch
 
 from ...engine.constants import TISSUE_E, TISSUE_NU
 from .base import at_least, lecture_figure, save
-from ..hardcases import block, crush_and_release, inversion_models
+from ..hardcases import block, cover_counts, crush_and_release, element_jacobians, inversion_models  # noqa: F401 (the chapter imports them from here)
 from ...engine.inversion import diagonal
 
 #: fill colours of a triangle that keeps its orientation (J > 0) and of an inverted or flat one (J <= 0)
@@ -29,47 +29,6 @@ UPRIGHT_COLOR, INVERTED_COLOR = "#6baed6", "#d6604d"
 CRUSH_COLUMNS = (0.0, 0.5, 0.9, 1.0, 1.3)
 #: line colour of each model (same order as :func:`tissuefem.hardcases.inversion_models`)
 MODEL_COLORS = ("C0", "C2", "C1", "C3")
-
-
-def element_jacobians(mesh, x) -> np.ndarray:
-    """``J = det F`` of every P1 triangle of ``mesh`` when its nodes sit at ``x`` (shape ``(2, n_nodes)``).
-
-    On a linear triangle ``F`` is constant and ``J`` is the ratio of the signed
-    areas, deformed over reference: negative when the triangle is turned inside
-    out, zero when it is flat or collapsed to a point.
-    """
-    x = np.asarray(x, dtype=float)
-
-    def twice_signed_area(p):
-        a, b, c = (p[:, mesh.t[k]] for k in range(3))
-        return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
-
-    return twice_signed_area(x) / twice_signed_area(np.asarray(mesh.p, dtype=float))
-
-
-def cover_counts(mesh, x, tol: float = 1e-9) -> np.ndarray:
-    """How many deformed triangles contain the centroid of each deformed triangle (nodes at ``x``).
-
-    A one-to-one deformation gives 1 everywhere; a count above 1 is a point of
-    space reached from two places of the body: the mesh lies over itself
-    there. This is a global test: it sees a fold even when every triangle has
-    ``J > 0``. Flat triangles (zero area) contain nothing and count 0 for
-    their own centroid. ``tol`` is the margin on the barycentric coordinates,
-    so points on a shared edge are not counted twice. Cost: ``n_elements^2``.
-    """
-    x = np.asarray(x, dtype=float)
-    a, b, c = (x[:, mesh.t[k]] for k in range(3))  # corners, each (2, n_elements)
-    point = ((a + b + c) / 3.0)[:, :, None]  # the centroids, against every triangle: [.., point, triangle]
-
-    def side(p, q, r):
-        return (q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])
-
-    area = side(a, b, c)[None, :]
-    ok = np.abs(area) > 0.0
-    area = np.where(ok, area, 1.0)
-    a, b, c = a[:, None, :], b[:, None, :], c[:, None, :]
-    inside = ok & (side(b, c, point) / area > tol) & (side(c, a, point) / area > tol) & (side(a, b, point) / area > tol)
-    return inside.sum(axis=1)
 
 
 def draw_state(ax, mesh, x, *, J=None, alpha: float = 1.0, tol: float = 1e-12) -> int:
@@ -194,14 +153,14 @@ def fig_ch06_itf_energy(path=None) -> Figure:
         ax_p.plot(s1, material.stress(F_line)[1, 1], color=color, lw=2, label=name)
         ax_t.plot(t, material.energy(F_shrink), color=color, lw=2, label=name)
     for ax in (ax_e, ax_p):
-        ax.axvspan(s1[0], 0.0, color="C3", alpha=0.08, label="inverted ($s_1 < 0$)")
+        ax.axvspan(s1[0], 0.0, color="C3", alpha=0.08, label="inverted ($s_2 < 0$)")
         ax.axvspan(0.0, c, color="C1", alpha=0.08, label=f"below the threshold $c = {c:g}$")
         ax.axvline(1.0, color="k", lw=0.6, ls="--")
         ax.axhline(0.0, color="k", lw=0.6)
-        ax.set(xlim=(s1[0], s1[-1]), xlabel="signed singular value $s_1$ (with $s_0 = 1$)")
+        ax.set(xlim=(s1[0], s1[-1]), xlabel="signed singular value $s_2$ (with $s_1 = 1$)")
         ax.grid(alpha=0.3)
-    ax_e.set(ylim=(-500, 12000), ylabel="$\\hat\\Psi(1, s_1)$", title="energy along $s_1$")
-    ax_p.set(ylim=(-20000, 6000), ylabel="$\\partial\\hat\\Psi/\\partial s_1$", title="its slope: the push back")
+    ax_e.set(ylim=(-500, 12000), ylabel="$\\hat\\Psi(1, s_2)$", title="energy along $s_2$")
+    ax_p.set(ylim=(-20000, 6000), ylabel="$\\partial\\hat\\Psi/\\partial s_2$", title="its slope: the push back")
     ax_e.legend(fontsize=7.5, loc="upper right")
     ax_t.axvspan(0.0, c, color="C1", alpha=0.08)
     ax_t.axvline(1.0, color="k", lw=0.6, ls="--")

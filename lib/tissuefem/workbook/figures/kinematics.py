@@ -2,7 +2,10 @@
 
 * ``fig02_kinematics``: the notes' Figure 2, a reference mesh and its image
   under a deformation, a material point carried from X to x = phi(X), and the
-  deformation gradient acting on small material vectors.
+  deformation gradient acting on small material vectors; beside it the stress
+  half of the figure: P maps the normal N of a material cut to the force
+  across it per unit reference area, the same force as sigma n per unit
+  deformed area.
 * ``fig_ch03_rotation_stress``: a rigid rotation costs energy and stress in
   linear elasticity but not in the Neo-Hookean model; a block turned at one
   edge grows under linear elasticity.
@@ -22,7 +25,7 @@ from matplotlib.patches import FancyArrowPatch
 from matplotlib.tri import Triangulation
 
 from ...engine.constants import TISSUE_E, TISSUE_NU
-from .base import at_least, lecture_figure, save
+from .base import at_least, lecture_figure, save, shown
 from ...engine.meshes import rectangle
 from ..studies import (BLOCK_HANDLE, RECORDED_COST_ACCURACY, bending_gradient, bending_map, block_model, rigid_rotation_response, rotated_block, rotation)
 from ...engine.materials import LinearElastic, NeoHookean
@@ -65,19 +68,28 @@ def _outline(width, height, samples: int = 60) -> np.ndarray:
 
 @lecture_figure
 def fig02_kinematics(path=None) -> Figure:
-    """Notes' Figure 2: reference and deformed mesh, a point X carried to x = phi(X), and F acting on dX.
+    """Notes' Figure 2: reference and deformed mesh, a point X carried to x = phi(X), F acting on dX, and P.
 
     The block B0 = [0, 2] x [0, 1] is bent into an arch by
-    :func:`tissuefem.studies.bending_map`. Every edge of the reference mesh is
+    :func:`tissuefem.workbook.studies.bending_map`. Every edge of the reference mesh is
     drawn, and so is its exact image (curved). The grey arrow is the
     displacement u(X) = phi(X) - X of one material point; the coloured arrows
     are two short material vectors dX at X and their images dx = F dX at x:
     the columns of F = d phi / d X are the images of the unit vectors.
+
+    The right panel is the figure's stress half, at the same point: a small
+    square of material around X with a diagonal cut through it (unit normal
+    N) and its image under F. The first
+    Piola-Kirchhoff stress P (Neo-Hookean, E = 1000, nu = 0.3) maps N to the
+    force that the material on the far side of the cut exerts across it, per
+    unit *reference* length (area in 3D): t dA = P N dA. The same force is
+    sigma n da per unit *deformed* length, with the deformed normal n and the
+    Cauchy stress sigma = P F^T / J (Nanson: n da = J F^-T N dA).
     """
 
     mesh = rectangle(2.0, 1.0, 8, 4)
-    fig = Figure(figsize=(9.0, 3.9), layout="constrained")
-    ax = fig.subplots()
+    fig = Figure(figsize=(13.2, 3.9), layout="constrained")
+    ax, ax_s = fig.subplots(1, 2, width_ratios=[9.0, 3.9])
     identity = lambda X: X  # noqa: E731
     for phi, color, fill in ((identity, "C0", "#dbe8f5"), (bending_map, "C1", "#fbe3cc")):
         edges = _mapped_edges(mesh, phi)
@@ -125,8 +137,53 @@ def fig02_kinematics(path=None) -> Figure:
     ax.set(xlim=(-0.25, 6.0), ylim=(-0.3, 1.9), xlabel="$X_1$, $x_1$", ylabel="$X_2$, $x_2$")
     ax.set_title("Notes' Figure 2: $\\phi$ carries $\\mathbf{X}$ to $\\mathbf{x}$; "
                  "$F_{ij} = \\partial\\phi_i/\\partial X_j$ carries $d\\mathbf{X}$ to $d\\mathbf{x} = \\mathbf{F}\\,d\\mathbf{X}$")
+    _stress_half(ax_s, F0)
     save(fig, path)
     return fig
+
+
+def _stress_half(ax, F0) -> None:
+    """The stress half of Figure 2 at one material point (see :func:`fig02_kinematics`)."""
+    P0 = NeoHookean.from_young(TISSUE_E, TISSUE_NU).stress(F0)
+    J0 = float(np.linalg.det(F0))
+    N = np.array([1.0, 1.0]) / np.sqrt(2.0)     # the normal of a diagonal material cut
+    force = P0 @ N                               # per unit reference length of the cut
+    n_da = J0 * np.linalg.inv(F0).T @ N          # Nanson: n da = J F^-T N dA
+    sigma = P0 @ F0.T / J0
+    assert np.allclose(sigma @ n_da, force)      # the same force, per deformed length
+    # directions rounded as drawn (the last bits of a stress vary between processors)
+    n_dir = shown(n_da / np.linalg.norm(n_da))
+    f_dir = shown(force / np.linalg.norm(force))
+    F_shown = shown(F0)
+    a, shift = 0.32, np.array([1.45, 0.0])
+    square = np.array([[-a, a, a, -a, -a], [-a, -a, a, a, -a]])
+    cut = np.array([[a, -a], [-a, a]])
+    for offset, M, color, fill in ((np.zeros(2), np.eye(2), "C0", "#dbe8f5"), (shift, F_shown, "C1", "#fbe3cc")):
+        patch = offset[:, None] + M @ square
+        ax.fill(patch[0], patch[1], color=fill, ec=color, lw=1.2, zorder=1)
+        line = offset[:, None] + M @ cut
+        ax.plot(line[0], line[1], color="k", lw=1.6, ls="--", zorder=2)
+
+    def arrow(start, vec, color, text, offset):
+        ax.annotate("", xy=start + vec, xytext=start, zorder=5,
+                    arrowprops=dict(arrowstyle="-|>", color=color, lw=2.0, shrinkA=0, shrinkB=0))
+        ax.text(*(start + vec + offset), text, color=color, fontsize=10, ha="center", va="center",
+                bbox=_LABEL_BOX, zorder=6)
+
+    arrow(np.zeros(2), 0.32 * N, "k", "$\\mathbf{N}$", np.array([0.08, 0.04]))
+    arrow(shift, 0.32 * n_dir, "k", "$\\mathbf{n}$", np.array([0.09, 0.0]))
+    arrow(shift, 0.5 * f_dir, "C3", "$\\mathbf{P}\\mathbf{N}\\,dA = \\boldsymbol{\\sigma}\\mathbf{n}\\,da$",
+          np.array([0.05, 0.1]))
+    ax.add_patch(FancyArrowPatch((0.25, 0.48), (1.2, 0.48), connectionstyle="arc3,rad=-0.25",
+                                 arrowstyle="-|>", mutation_scale=14, lw=1.2, color="k", zorder=4))
+    ax.text(0.72, 0.66, "$\\mathbf{F}$", ha="center", fontsize=12)
+    ax.text(0.0, -a - 0.1, "a cut at $\\mathbf{X}$\nwith normal $\\mathbf{N}$", ha="center", va="top",
+            fontsize=9, color="C0")
+    ax.text(shift[0], -a - 0.1, "its image at $\\mathbf{x}$", ha="center", va="top", fontsize=9, color="C1")
+    ax.set_aspect("equal")
+    ax.set(xlim=(-0.55, 2.2), ylim=(-0.75, 0.85), xticks=[], yticks=[])
+    ax.set_title("the stress half: $\\mathbf{P}$ maps the normal $\\mathbf{N}$ of a cut\n"
+                 "to the force across it per unit reference area", fontsize=10)
 
 
 # --- chapter 3: rigid rotations ---------------------------------------------------

@@ -295,23 +295,24 @@ def _piece_colors(free_elements, alpha=0.75):
     return colors
 
 
-def write_two_pieces_animation(gif_path, run, dpi=80) -> Path:
-    """Every frame of the run as a GIF at 30 frames per second (``matplotlib.animation`` with Pillow)."""
+def write_two_pieces_animation(gif_path, run, dpi=120) -> Path:
+    """Every frame of the run as a GIF at 30 frames per second (``matplotlib.animation`` with Pillow):
+    648 x 864 pixels, large enough to project (:data:`~tissuefem.workbook.figures.base.ANIMATION_MIN_WIDTH`)."""
     gif_path = Path(gif_path)
     gif_path.parent.mkdir(parents=True, exist_ok=True)
     frames, times, cut = run["frames"], run["times"], run["cut_frame"]
     xlim, ylim = _two_pieces_limits(frames)
-    fig = Figure(figsize=(3.0, 4.0))
+    fig = Figure(figsize=(5.4, 7.2))
     ax = fig.add_axes([0.02, 0.02, 0.96, 0.86])  # fixed axes: every frame has the same layout
     _frame_axes(ax, xlim, ylim)
-    ax.plot([0.0, 0.0], [0.0, 1.0], color="k", lw=2.5)
+    ax.plot([0.0, 0.0], [0.0, 1.0], color="k", lw=4)
     verts = lambda k: frames[k][0][:, frames[k][1]].transpose(2, 1, 0)  # noqa: E731
     # no anti-aliasing: few colours per frame keep the GIF small (its palette has at most 256)
     # (and no mesh edges: at this size they would cover the colours)
     body = PolyCollection(verts(0), facecolors=_piece_colors(frames[0][2], 1.0), edgecolors="face", linewidths=0.5,
                           antialiaseds=False)
     ax.add_collection(body)
-    title = fig.text(0.5, 0.94, "", ha="center", va="center", fontsize=7.5)
+    title = fig.text(0.5, 0.94, "", ha="center", va="center", fontsize=13)
 
     def update(k):
         body.set_verts(verts(k))
@@ -390,7 +391,7 @@ def probe_run(n_triangles=1200, radius=PROBE_RADIUS, depths=PROBE_DEPTHS, x_prob
     """A block held on its bottom edge, a disc pressed into its top edge ever deeper (one frame per depth).
 
     For each depth: positions, tension, the nodal contact forces (the
-    penalty's ``k m_a (R - d_a) n_a``), the total force on the tissue and
+    penalty's ``k l_a h'(R - d_a) n_a`` on the surface nodes), the total force on the tissue and
     the deepest penetration left.
     """
     sim = _simulation(sheet_scene(n_triangles, handles=[{"name": "base", "region": "bottom"}]))
@@ -407,16 +408,36 @@ def probe_run(n_triangles=1200, radius=PROBE_RADIUS, depths=PROBE_DEPTHS, x_prob
     return {"states": states, "radius": radius, "simulation": sim}
 
 
+def probe_indentation(n_triangles=1200, stiffness=None, depths=(0.05, 0.1, 0.15, 0.2), radius=0.25) -> dict:
+    """Chapter 8's indentation: a disc pressed into the top edge of a sheet held on its bottom edge.
+
+    A :func:`sheet_scene` of about ``n_triangles`` (quasistatic), a probe of ``radius`` starting just
+    above the top edge and moved down to each of ``depths`` in turn, one frame each, with the given
+    penalty ``stiffness`` (default: the simulation's, ``100 E / radius``). Returns the penetration left
+    at the last depth, the Newton steps of each frame, the triangles and the stiffness used.
+    """
+    sim = _simulation(sheet_scene(n_triangles, handles=[{"name": "base", "region": "bottom"}]))
+    tool = sim.add_probe([1.0, 1.0 + radius], radius=radius, stiffness=stiffness)
+    newton = []
+    for depth in depths:
+        sim.move_probe(tool, [1.0, 1.0 + radius - depth])
+        newton.append(_check(sim.frame(), f"the indentation to {depth}").newton_iterations)
+    probe = sim.model.probes[0]
+    return {"penetration": probe.penetration(sim.u), "newton": newton, "triangles": int(sim.mesh.nelements),
+            "stiffness": float(probe.stiffness)}
+
+
 @lecture_figure
 def fig_ch08_probe(path=None) -> Figure:
     """Chapter 8: a rigid disc (a tool tip) pressed into the top edge of a block, at two depths.
 
     A 2 x 1 block (stable neo-Hookean, E = 1000, nu = 0.3, quasistatic) is
     held on its bottom edge; a disc of radius 0.25 is moved down into its
-    top edge, one frame per step of 0.05. The contact is a penalty: every
-    node inside the disc is pushed out along the normal with the force
-    ``k m_a (R - d_a) n_a`` (arrows, scaled), so the tissue stays out to a
-    small penetration. Right: the force the tissue exerts on the tool
+    top edge, one frame per step of 0.05. The contact is a penalty on the
+    surface: every boundary node inside the disc is pushed out along the
+    normal with the force ``k l_a h'(R - d_a) n_a`` (arrows, scaled; ``l_a`` its
+    share of the boundary's length, see :class:`~tissuefem.engine.terms.Probe`),
+    so the tissue stays out to a small penetration. Right: the force the tissue exerts on the tool
     against the depth, and the penetration left.
     """
     run = probe_run()
@@ -455,8 +476,9 @@ def fig_ch08_probe(path=None) -> Figure:
     lines = ax.get_legend_handles_labels()
     lines2 = ax2.get_legend_handles_labels()
     ax.legend(lines[0] + lines2[0], lines[1] + lines2[1], fontsize=7.5, loc="upper left")
-    fig.suptitle(f"Chapter 8: a probe pressed into the tissue, penalty $E = \\sum_a k\\, m_a (R - d_a)^2 / 2$ "
-                 f"(R = {R:g}, k = {states[0]['stiffness']:.2g}; block held on its bottom edge)", fontsize=10)
+    fig.suptitle(f"Chapter 8: a probe pressed into the tissue, a surface penalty $E = \\sum_a k\\, l_a\\, h(R - d_a)$, "
+                 f"$h(g) \\approx g^2/2$ (R = {R:g}, k = {states[0]['stiffness']:.2g}; block held on its bottom edge)",
+                 fontsize=10)
     save(fig, path)
     return fig
 

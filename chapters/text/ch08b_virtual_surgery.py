@@ -1,0 +1,336 @@
+# ---
+# jupyter:
+#   jupytext:
+#     formats: ipynb,text//py:percent
+#     text_representation:
+#       extension: .py
+#       format_name: percent
+#       format_version: '1.3'
+#       jupytext_version: 1.19.6
+#   kernelspec:
+#     display_name: Python 3
+#     language: python
+#     name: python3
+# ---
+
+# %% [markdown]
+# # Chapter 8b — Virtual surgery: stitches, a local flap, the cost of each effect, and the mouse
+#
+# **Goals.** By the end of this chapter you can
+# 1. stitch a wound closed with zero-length springs, tightened gradually;
+# 2. run a whole procedure, a local advancement flap, and read its tension report;
+# 3. say what each effect costs per frame, and why a linear scene costs almost nothing;
+# 4. operate on the tissue with the mouse.
+#
+# *Time: about 40 min to read and run.* The second sitting of chapter 8: it uses the scenes, the sheet and
+# the cuts of chapter 8a.
+#
+# *Reading:* the loop of the notes' "Time stepping" section. The procedure of section 1 follows Sifakis,
+# Hellrung, Teran, Oliker and Cutting, *Local flaps: a real-time finite element based solution to the plastic
+# surgery defect puzzle* (2009), the notes' reference [3].
+#
+# **Index convention.** As everywhere (chapter 3), $F_{ij} = \partial\phi_i/\partial X_j$, formulas count from 1
+# and code from 0.
+
+# %%
+# %matplotlib inline
+import numpy as np
+import matplotlib.pyplot as plt
+from IPython.display import Markdown, display
+
+from tissuefem.workbook.bench.scenes import effects_benchmark, format_effects_table
+from tissuefem.workbook.figures.surgery import fig_ch08_flap, sheet_scene
+from tissuefem import FRAME_BUDGET, Simulation, advancement_flap, demo_scene
+
+print(f"frame budget {1e3 * FRAME_BUDGET:.1f} ms")
+
+# %% [markdown]
+# ## 1. Sutures, and a local flap
+#
+# ### Sutures: zero-length springs, tightened gradually
+#
+# A stitch ties node $a$ to node $b$. Each stitch $s$ is a stiff spring of stiffness $k$ and rest length zero,
+# with a **slack** vector $\mathbf g_s$, the gap it still allows:
+#
+# $$E_{\text{sutures}}(\mathbf u) = \sum_s \frac{k}{2}\,\big|\mathbf x_a - \mathbf x_b - \mathbf g_s\big|^2,
+#   \qquad \mathbf f_a = -k\,(\mathbf x_a - \mathbf x_b - \mathbf g_s) = -\mathbf f_b .$$
+#
+# A stitch is placed with its current gap $\mathbf g^0_s = \mathbf x_a - \mathbf x_b$ as slack (no force at
+# first), then **tightened**: $\mathbf g_s = (1 - s)\,\mathbf g^0_s$ for a tightness $s$ from 0 to 1. The
+# energy is quadratic, so its Hessian is constant: blocks $k\mathbf I$ and $-k\mathbf I$ that couple $a$ and
+# $b$, two nodes that share no triangle. That widens the sparsity pattern of the tangent (the model
+# rebuilds it when stitches are added). Below: the gaping incision of chapter 8a's figure, each copy stitched to its
+# original, tightened over five frames:
+
+# %%
+sim = Simulation(sheet_scene(1200, handles=[{"name": "fixed", "region": "left"},
+                                            {"name": "pull", "region": "right", "target": [0.4, 0.0]}]))
+sim.frame()
+n_before = sim.mesh.nvertices
+edit = sim.cut([[1.0, 1.2], [1.0, 0.5]], method="edges")
+sim.frame()
+copies = np.arange(n_before, sim.mesh.nvertices)
+nnz = sim.model.pattern.nnz
+stitches = sim.suture(np.vstack([copies, edit.parent[copies]]), tightness=0.0)
+print(f"{stitches.shape[1]} stitches; terms {sim.terms}; nonzeros of the tangent {nnz} -> {sim.model.pattern.nnz}")
+print(f"gaps when placed: {np.array2string(sim.suture_gaps(), precision=3)}")
+for k in range(1, 6):
+    sim.tighten(k / 5)
+    report = sim.frame()
+    print(f"tightness {k / 5:.1f}: widest gap {sim.suture_gaps().max():.4f}, Newton steps {report.newton_iterations}, "
+          f"{report.status}")
+forces = sim.model.sutures.forces(sim.u)
+print(f"stitch forces k|x_a - x_b - g|: {np.array2string(forces, precision=1)}")
+
+# %% [markdown]
+# Once tight ($\mathbf g = \mathbf 0$) a stitch's force is $k$ times the gap it leaves: like the probe, a
+# stiff spring is a penalty, and the wound stays open by force$/k$ (here $k = 100\,E$, the default).
+#
+# Why gradually? Here a single frame that closes the wound at once converges too (try `sim.tighten(1.0)`
+# straight away): the safeguarded Newton of chapters 4 and 6 copes. But a frame has a budget, and a large
+# change per frame means more Newton work in that one frame; in a dynamic scene it also means a snap. A
+# surgeon pulls a stitch tight over a moment, and so does the simulator: a little per frame, each frame
+# starting from the last one's answer.
+#
+# ### The local flap procedure
+#
+# A surgeon who removes a lesion leaves a **defect**, often too wide to pull shut directly. A **local flap**
+# closes it with neighbouring skin: the flap is cut free on three sides, moved into the defect (advanced,
+# rotated, transposed) and sutured there. Which design leaves the least tension in the skin is the
+# question a simulator can answer before the operation, which is the point of Sifakis et al. (2009).
+# `advancement_flap` runs the simplest design end to end, on a 4 × 2 patch of skin held on its outer edges:
+#
+# 1. **excise** a square defect (`sim.excise`: whole triangles inside the polygon are removed);
+# 2. **incise** the flap: two parallel cuts continuing the defect's top and bottom edges;
+# 3. **plan the stitches**: each wound node of the flap is moved by the planned motion (a translation by the
+#    defect's width) and paired with the wound node nearest to where it lands (`flaps.pair_by_motion`;
+#    a rotation flap would pass a rotation);
+# 4. **suture** and tighten over a few quasistatic frames;
+# 5. **report** the tension left: the largest principal Cauchy stress of every element
+#    (`sim.tension()`), its maximum, 95th percentile and mean, the mean inside the flap, the stitch forces
+#    and the gaps still open.
+
+# %%
+result = advancement_flap(n_triangles=2000, flap_length=1.2, tighten_frames=6, method="edges")
+print(result.summary())
+print("Newton steps per tightening frame:", [r.newton_iterations for r in result.reports])
+print("boundaries of the final mesh:", sorted(result.simulation.mesh.boundaries), "| terms:", result.simulation.terms)
+
+# %% [markdown]
+# The maximum sits at the corners of the defect and the ends of the incisions, which are singular like a
+# crack tip; the percentile and the means are the numbers to compare between designs. The figure draws the
+# procedure and compares three flap lengths: a longer flap spreads the same advance over more skin, so the
+# flap is stretched less (at the price of longer incisions).
+
+# %%
+fig_ch08_flap()
+
+# %% [markdown]
+# ## 2. The cost of each effect
+#
+# `bench_scenes.effects_benchmark` runs the standard drag of chapter 7 once per variant of one scene: a base
+# (stable neo-Hookean, quasistatic), the linear model with and without its constant factorisation, and the
+# base with one effect added at a time, then everything together. Every frame is solved to the tolerance (no
+# budget), so the columns compare the same work. A small run here (1000 triangles, 8 frames each); the full
+# one, at 8000 triangles and 30 frames with JSON and CSV output, is `python -m tissuefem bench scenes`.
+# **Timings are noisy** (this is a shared machine, and 8 frames are few): compare the rows of one run,
+# rerun the cell, and expect the numbers to move.
+
+# %%
+record = effects_benchmark(n_triangles=1000, frames=8, out=None, progress=None)
+display(Markdown(format_effects_table(record["rows"])))
+print("one evaluation of each term of 'everything' (energy + force + Hessian), ms:",
+      ", ".join(f"{name} {ms:.2f}" for name, ms in record["term_ms"].items()))
+
+# %% [markdown]
+# What to read in it (the Newton counts are the same on every machine; the milliseconds are not):
+# - an effect that is **not** in the scene costs nothing: the rows differ only by the terms listed;
+# - the two **linear** rows take exactly 1.00 Newton step per frame. That step is the quasistatic frame's
+#   *linearised start* (chapter 4): for a quadratic energy it lands on the answer, and Newton then finds the
+#   residual already converged and does nothing more. (The start counts as a Newton step; before it was
+#   counted, these rows read 0.00.) With the constant factorisation that one step is a single
+#   back-substitution; through the general Newton loop it costs a tangent assembly and more;
+# - **inertia** adds the mass matrix and, here, slightly *more* Newton steps per frame (2.00 for the
+#   quasistatic base, 2.38 with inertia): a quasistatic frame starts from the linearised step, which already
+#   follows the handle, and one Newton step finishes it; a dynamic frame starts from a prediction of the
+#   motion (chapter 7), which now and then needs a second step;
+# - the **probe** costs little to evaluate (the last line) but adds Newton steps, as section 4 of chapter 8a
+#   showed;
+# - the **projected tangent** (inversion handling, chapter 6b) costs nothing on this gentle drag: it is
+#   projected only when Newton needs a descent direction (an element near inversion), so here every frame
+#   takes the exact tangent, as the base does;
+# - the rows of chapter 10 (cuts through elements, self-contact) show that a cut costs little per frame, and
+#   that contact costs Newton steps only where a wound's lips are pressed together.
+
+# %% [markdown]
+# ## 3. With the mouse
+#
+# `tissuefem.surgery.interactive.SurgeryView` draws a running simulation in a matplotlib figure and turns mouse events
+# into the operations above: in **drag** mode a press grabs the tissue under the pointer, moving drags it,
+# releasing lets go; in **cut** mode a stroke becomes an incision when the button is released. The **mode**
+# buttons above the figure switch the two (so does the key **c**, once a click into the figure has given it
+# the keyboard). A timer runs one frame every 33 ms, but only on an interactive canvas: in Jupyter that needs
+# ipympl (`pip install "tissuefem[interactive]"`, then this cell switches to `%matplotlib widget`). On any
+# other backend (the inline one, or a headless run) nothing runs by itself and code calls `view.step()`.
+#
+# The 33 ms of a frame must pay for the picture too, so the readout above the axes shows both: the **step**
+# (the simulation's frame) **+ the draw** against the budget, and the frames drawn per second. A redraw costs
+# a few milliseconds because the view draws what does not move (axes, ticks, labels) once and per frame only
+# the moving layer over it: the triangles as two paths whose vertex arrays are overwritten in place, the drag
+# target, the stroke. Messages (a failed cut) appear in a fixed place under the axes and never move them.
+#
+# This section comes last because it may switch the notebook's plotting backend. Running the next cell again
+# replaces the view (the old one stops: no hidden timer keeps stepping a simulation you no longer see).
+
+# %%
+try:
+    import ipympl  # noqa: F401  (pip install "tissuefem[interactive]")
+    get_ipython().run_line_magic("matplotlib", "widget")
+    INTERACTIVE = True
+except ImportError:
+    get_ipython().run_line_magic("matplotlib", "inline")
+    INTERACTIVE = False
+from tissuefem.surgery.interactive import SurgeryView, synthetic_key, synthetic_mouse
+
+sim = Simulation(demo_scene(n_triangles=2000))
+view = SurgeryView(sim, autostart=False)
+print("interactive canvas:", view.interactive, "| mode:", view.mode)
+
+# %% [markdown]
+# What the mouse would do, sent as made-up events through the same canvas callbacks (so this runs headless
+# too): grab the right edge, drag it down and out over 15 frames and let go; press **c** and, while the sheet
+# swings back, draw a stroke from above it down to below its middle; press **c** again, grab the right edge
+# and pull the wound open. Each frame is also drawn (`view.draw()`), as the timer would, to time the picture.
+# The cell ends with `view`, which shows the view: on ipympl the live figure with its buttons, once; elsewhere
+# a picture.
+
+# %%
+def stroke(view, points):
+    synthetic_mouse(view, "press", points[0])
+    for point in points[1:-1]:
+        synthetic_mouse(view, "move", point)
+    synthetic_mouse(view, "release", points[-1])
+
+
+def frame(view):
+    view.step()
+    view.draw()
+
+
+events = {}
+synthetic_mouse(view, "press", (1.97, 0.5))                       # drag mode: grab ...
+for k in range(1, 16):
+    synthetic_mouse(view, "move", (1.97 + 0.02 * k, 0.5 - 0.02 * k))   # ... drag ...
+    frame(view)
+synthetic_mouse(view, "release", (2.27, 0.2))                     # ... let go
+synthetic_key(view, "c")                                          # cut mode
+stroke(view, [(1.0, 1.35), (1.0, 1.1), (1.0, 0.85), (1.0, 0.6), (1.0, 0.4)])
+events["cut"] = len(view.frame_times)
+print(f"after the stroke: {view.sim.mesh.nvertices} nodes, {sim.pieces()} piece(s), message {view.message!r}")
+for _ in range(5):
+    frame(view)
+synthetic_key(view, "c")                                          # back to drag mode
+synthetic_mouse(view, "press", (1.97, 0.5))
+events["grab"] = len(view.frame_times)
+for k in range(1, 21):
+    synthetic_mouse(view, "move", (1.97 + 0.015 * k, 0.5 - 0.01 * k))
+    frame(view)
+print(f"mode {view.mode}; handles {list(sim.handles)}; frames {sim.frames}")
+view
+
+# %% [markdown]
+# The wound gapes where the sheet is pulled. (Run your own drags and you may see the two lips of a wound slide
+# *over* each other: nothing in this simulator stops the tissue from passing through itself. Self-collision
+# is a chapter of its own.) The time of each frame, the step and the draw stacked, against the 33 ms of a frame:
+
+# %%
+steps = np.array(view.frame_times)
+draws = np.array(view.draw_times[:len(steps)])  # one draw per frame above (the page may have asked for more since)
+fig, ax = plt.subplots(figsize=(6.5, 2.8), layout="constrained")
+frames = np.arange(len(steps))
+ax.bar(frames, steps, width=0.8, color="C0", label="step (sim.frame)")
+if len(draws) == len(steps):
+    ax.bar(frames, draws, width=0.8, bottom=steps, color="C1", label="draw")
+ax.axhline(1e3 * FRAME_BUDGET, color="C3", lw=1, label="33 ms (1/30 s)")
+for name, at in events.items():
+    ax.axvline(at - 0.5, color="0.5", ls=":", lw=1)
+    ax.text(at - 0.5, 0.95, f" {name}", transform=ax.get_xaxis_transform(), va="top", fontsize=8)
+ax.set(xlabel="frame", ylabel="ms", title=f"{sim.mesh.nelements} triangles, dynamic, stable neo-Hookean",
+       ylim=(0, None))
+ax.legend(fontsize=8, loc="upper right")
+ax.grid(alpha=0.3, axis="y")
+timing = view.timings()
+print(f"medians: step {timing['step_ms']:.1f} ms + draw {timing['draw_ms']:.1f} ms "
+      f"= {timing['total_ms']:.1f} ms of {timing['budget_ms']:.0f} ms")
+
+# %% [markdown]
+# The first draw costs more: it draws the axes and ticks once, for all the frames after it. In the browser a
+# draw also encodes the picture as PNG for the page, which costs a few milliseconds more than here.
+#
+# With ipympl, the next cell starts the timer: the view above comes alive. Drag the tissue with the mouse,
+# click **cut** and cut it, and watch the readout. (`view.stop()` or the **run** button stops it.)
+
+# %%
+if INTERACTIVE:
+    view.start()
+
+# %% [markdown]
+# ## What to try
+# Each suggestion comes with a few lines that run on their own in a new cell; change the numbers
+# and run them again.
+#
+# - Close the incision of section 1 in a *dynamic* scene: in one frame, and tightened over ten frames.
+#   Watch the widest gap after each frame: does the wound snap shut and bounce?
+#
+# ```python
+# import numpy as np
+# from tissuefem import Simulation
+# from tissuefem.workbook.figures.surgery import sheet_scene
+#
+# for frames in (1, 10):
+#     sim = Simulation(sheet_scene(800, dynamic=True, handles=[{"name": "fixed", "region": "left"},
+#                                                               {"name": "pull", "region": "right", "target": [0.4, 0.0]}]))
+#     sim.run(10)
+#     n_before = sim.mesh.nvertices
+#     edit = sim.cut([[1.0, 1.2], [1.0, 0.5]], method="edges")
+#     sim.run(5)
+#     copies = np.arange(n_before, sim.mesh.nvertices)
+#     sim.suture(np.vstack([copies, edit.parent[copies]]), tightness=0.0)
+#     gaps = []
+#     for k in range(1, 16):
+#         sim.tighten(min(k / frames, 1.0))
+#         sim.frame()
+#         gaps.append(sim.suture_gaps().max())
+#     print(f"tightened over {frames:2d} frame(s): widest gap per frame {np.round(gaps, 3)}")
+# ```
+#
+# - Compare flap lengths, and the same flap on two meshes: which of the reported tensions (the maximum,
+#   the 95th percentile, the mean inside the flap) depend on the mesh?
+#
+# ```python
+# from tissuefem import advancement_flap
+#
+# for n, length in ((1000, 0.8), (1000, 1.6), (2000, 1.6)):
+#     r = advancement_flap(n_triangles=n, flap_length=length, tighten_frames=4, method="edges")
+#     print(f"{n} triangles, flap length {length}: max {r.max_tension:.0f}, 95th percentile {r.p95_tension:.0f}, "
+#           f"flap mean {r.flap_tension:.0f}")
+# ```
+#
+# - Measure the cost of each effect yourself, on a mesh of your choice (the full benchmark, at 8000
+#   triangles and 30 frames, is `python -m tissuefem bench scenes`). Which effect costs most, in milliseconds
+#   and in Newton steps?
+#
+# ```python
+# from IPython.display import Markdown, display
+# from tissuefem.workbook.bench.scenes import effects_benchmark, format_effects_table
+#
+# record = effects_benchmark(n_triangles=2000, frames=6, out=None, progress=None)
+# display(Markdown(format_effects_table(record["rows"])))
+# ```
+#
+# - A bigger project: a rotation flap, which turns about a pivot instead of sliding. The flaps module pairs
+#   the stitches by any motion you give it; plan them for a flap cut along an arc.
+#
+# ## Exercises
+# The exercises of chapter 8 (8.1 and 8.2: node duplication along a cut, a scene file) are listed in chapter
+# 8a; `python -m tissuefem grade ch08` grades them.
