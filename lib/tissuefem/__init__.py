@@ -47,7 +47,8 @@ from .engine.parameters import lame_parameters
 from .engine.realtime import RealtimeSolver
 from .engine.stepping import StaticResult, Stepper, StepReport, solve
 from .engine.terms import Elastic, Fibers, Inertia, Load, Probe, Sutures, Term
-from .surgery.flaps import advancement_flap
+from .surgery.element_cuts import cut_through, excise_through
+from .surgery.flaps import advancement_flap, rotation_flap
 from .surgery.interactive import SurgeryView
 from .surgery.scene import Scene, demo_scene, flap_path, flap_scene
 from .surgery.simulation import Simulation
@@ -73,7 +74,7 @@ __all__ = [
     "newton", "NewtonResult", "LinearSolver", "Stepper", "StepReport", "solve", "StaticResult", "RealtimeSolver",
     "SymplecticEuler", "critical_time_step", "largest_stable_dt", "wave_speed",
     # surgery
-    "Scene", "Simulation", "demo_scene", "flap_scene", "flap_path", "advancement_flap", "SurgeryView",
-    "contact_surface",
+    "Scene", "Simulation", "demo_scene", "flap_scene", "flap_path", "advancement_flap", "rotation_flap", "SurgeryView",
+    "cut_through", "excise_through", "contact_surface",
     "__version__",
 ]
