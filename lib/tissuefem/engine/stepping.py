@@ -538,7 +538,16 @@ class Stepper:
         dx[fixed] = du_fixed
         try:
             with np.errstate(all="ignore"):
-                K = model.hessian(self.u)
+                if model.quadratic and self.linear.constant:
+                    # a constant Hessian with a kept factorization: assembled once for these terms and this dt
+                    key = (id(model.pattern), tuple(id(t) for t in model.terms),
+                           None if model.inertia is None else model.inertia.dt)
+                    cached = getattr(self, "_constant_hessian", None)
+                    if cached is None or cached[0] != key:
+                        cached = self._constant_hessian = (key, model.hessian(self.u))
+                    K = cached[1]
+                else:
+                    K = model.hessian(self.u)
                 rhs = -model.gradient(self.u)[free] - (K @ dx)[free]
             if not (np.all(np.isfinite(K.data)) and np.all(np.isfinite(rhs))):
                 return None, 0.0, 0
