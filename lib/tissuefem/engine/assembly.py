@@ -66,6 +66,7 @@ from skfem import Basis, ElementTriP1, ElementTriP2, ElementVector, asm
 
 from .forms import energy_form, residual_form, tangent_form
 from .meshes import COORDINATE_MAX, SIZE_RANGE, folded_triangles
+from .parameters import check_density
 
 __all__ = ["P1Assembler", "QuadratureAssembler", "FormsAssembler", "make_assembler", "vector_basis"]
 
@@ -149,7 +150,7 @@ class P1Assembler:
         self.flipped = flipped
         self.areas = 0.5 * det
         if weights is not None:
-            w = _check_weights(weights, t.shape[1])
+            w = check_weights(weights, t.shape[1])
             # an element that carries only part of its triangle's material (a copy made by cutting
             # through the triangle) integrates over that part: its area shrinks, its gradients do not
             self.areas = self.areas * w
@@ -394,7 +395,7 @@ class P1Assembler:
         vertex gets ``rho0 A_e / 3`` (the row sum). ``A_e`` is the element's material area,
         so copies made by cutting a triangle carry the mass of their part only.
         """
-        rho = _positive("density", density)
+        rho = check_density(density)
         data = np.zeros(self.nnz)
         if lumped:
             node_mass = np.bincount(self.t.ravel(), weights=np.tile(rho * self.areas / 3.0, 3), minlength=self.n_nodes)
@@ -422,7 +423,7 @@ class P1Assembler:
         )
 
 
-def _check_weights(weights, m) -> np.ndarray:
+def check_weights(weights, m) -> np.ndarray:
     """Per-element material fractions: ``m`` real numbers in ``(0, 1]`` (complex or boolean ones are refused)."""
     try:
         w = np.asarray(weights)
@@ -434,16 +435,6 @@ def _check_weights(weights, m) -> np.ndarray:
     if not (np.all(np.isfinite(w)) and np.all(w > 0) and np.all(w <= 1)):
         raise ValueError(f"weights must be one number in (0, 1] per element, shape ({m},)")
     return w
-
-
-def _positive(name, value) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a finite number > 0, got {value!r}") from None
-    if not (np.isfinite(v) and v > 0):
-        raise ValueError(f"{name} must be finite and > 0, got {value!r}")
-    return v
 
 
 def _diagonal_positions(indptr, indices) -> np.ndarray:
@@ -512,7 +503,7 @@ class QuadratureAssembler:
         self._N = np.array([np.asarray(basis.basis[2 * a][0])[0] for a in range(nloc)])  # (nloc, nel, nq)
         dx = basis.dx  # (nel, nq)
         if weights is not None:
-            w = _check_weights(weights, self.n_elements)
+            w = check_weights(weights, self.n_elements)
             dx = dx * w[:, None]
         self._dx = dx
         self._GW = self._G * self._dx
@@ -584,7 +575,7 @@ class QuadratureAssembler:
     def mass(self, density, lumped: bool = False) -> np.ndarray:
         """The mass matrix ``int rho0 N_a N_b d_ik dX`` as data on this pattern (``lumped``: row sums,
         refused where some dof would get no mass, as the vertices of P2 triangles do)."""
-        rho = _positive("density", density)
+        rho = check_density(density)
         NN = np.einsum("aeq,beq,eq->abe", self._N, self._N, rho * self._dx)
         M_loc = np.einsum("abe,ik->aibke", NN, np.eye(2))
         data = np.bincount(self._scatter, weights=M_loc.reshape(-1), minlength=self.nnz)

@@ -709,8 +709,6 @@ class Contact(Term):
         L = np.sqrt(_dot(e, e))
         t = _dot(w, e) / (L * L)
         g = _cross(w, e) / L
-        n = np.stack([e[1], -e[0]]) / L  # the outward normal
-
         def corner_normal(e_in, e_out, fold):
             """The pseudonormal of a corner: the mean of its segments' normals (of a corner folded right back,
             the direction it opens to)."""

@@ -77,6 +77,7 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import eigsh
 
 from .meshes import mesh_size
+from .parameters import check_real, check_time_step
 
 __all__ = [
     "SymplecticEuler",
@@ -102,15 +103,6 @@ class ExplicitStepReport:
         """Same meaning as :attr:`tissuefem.engine.stepping.StepReport.converged`: the step was taken."""
         return self.finite
 
-
-def _check_dt(dt) -> float:
-    try:
-        value = float(dt)
-    except (TypeError, ValueError):
-        raise ValueError(f"dt must be a finite number > 0, got {dt!r}") from None
-    if not (np.isfinite(value) and value > 0):
-        raise ValueError(f"dt must be finite and > 0, got {dt!r}")
-    return value
 
 
 def _lumped_mass(model) -> np.ndarray:
@@ -162,7 +154,7 @@ class SymplecticEuler:
 
     def __init__(self, model, dt: float):
         _check_model(model)
-        self.dt = _check_dt(dt)
+        self.dt = check_time_step(dt)
         self.model = model
         self.mass = _lumped_mass(model)
         self.external = model.external
@@ -334,7 +326,7 @@ def largest_stable_dt(model, *, steps: int = 400, growth: float = 10.0,
             dt_guess = mesh_size(model.mesh) / wave_speed(model.material, model.density)
         except ValueError:
             dt_guess = 1e-3
-    dt_guess = _check_dt(dt_guess)
+    dt_guess = check_real("dt_guess", dt_guess, 0.0, lo_open=True)
     u0 = _initial_perturbation(model, amplitude, seed)
 
     def stable(dt):

@@ -45,7 +45,6 @@ argument:
 from __future__ import annotations
 
 import math
-import numbers
 
 import numpy as np
 from skfem import MeshTri

@@ -66,16 +66,8 @@ def check_vector(name, value) -> np.ndarray:
 
 
 def check_nonnegative(name, value) -> float:
-    """A finite number ``>= 0``, or a ``ValueError`` naming ``name``."""
-    if isinstance(value, (bool, str)):
-        raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
-    try:
-        v = float(value)
-    except (TypeError, ValueError, OverflowError):
-        raise ValueError(f"{name} must be a finite number >= 0, got {value!r}") from None
-    if not (np.isfinite(v) and v >= 0):
-        raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
-    return v
+    """A finite real number ``>= 0``, or a ``ValueError`` naming ``name``."""
+    return check_real(name, value, 0.0)
 
 
 class Term:
@@ -305,10 +297,8 @@ class Inertia(Term):
 
 
 def check_positive(name, value) -> float:
-    v = check_nonnegative(name, value)
-    if v <= 0:
-        raise ValueError(f"{name} must be finite and > 0, got {value!r}")
-    return v
+    """A finite real number ``> 0``, or a ``ValueError`` naming ``name``."""
+    return check_real(name, value, 0.0, lo_open=True)
 
 
 def check_time_step(dt) -> float:

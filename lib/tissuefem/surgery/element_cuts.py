@@ -112,6 +112,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..engine.assembly import check_weights
 from .topology import MeshEdit, _keys, _mesh_arrays, _new_mesh, _points, _positions, excise
 
 __all__ = ["Region", "Wound", "ElementCut", "cut_through", "excise_through", "Picture", "picture", "locate",
@@ -945,15 +946,8 @@ def lumped_mass(mesh, weights=None, density=1.0) -> np.ndarray:
 # validation
 # --------------------------------------------------------------------------
 def _weights(weights, m) -> np.ndarray:
-    if weights is None:
-        return np.ones(m)
-    try:
-        w = np.asarray(weights, dtype=float)
-    except (TypeError, ValueError):
-        raise ValueError(f"weights must be one number in (0, 1] per element, shape ({m},)") from None
-    if w.shape != (m,) or not np.all(np.isfinite(w)) or np.any(w <= 0) or np.any(w > 1):
-        raise ValueError(f"weights must be one number in (0, 1] per element, shape ({m},), got shape {w.shape}")
-    return w
+    """The weights (each element's share of its triangle), all 1 when ``None``; checked as the assembler checks them."""
+    return np.ones(m) if weights is None else check_weights(weights, m)
 
 
 def _check_regions(regions, weights, m):

@@ -77,6 +77,7 @@ from matplotlib.path import Path
 from matplotlib.textpath import TextToPath
 
 from ..engine.realtime import FRAME_BUDGET
+from ..engine.terms import check_positive
 
 __all__ = ["SurgeryView", "MODES", "synthetic_mouse", "synthetic_key", "mean_edge_length"]
 
@@ -353,7 +354,7 @@ class SurgeryView:
             raise ValueError(f"sim must be a tissuefem.surgery.simulation.Simulation; {type(sim).__name__} has no {missing}")
         if radius is None:
             radius = 2.0 * mean_edge_length(sim.mesh)
-        radius = _positive("radius", radius)
+        radius = check_positive("radius", radius)
         if isinstance(interval_ms, bool) or not isinstance(interval_ms, (int, np.integer)) or interval_ms < 1:
             raise ValueError(f"interval_ms must be a positive integer (milliseconds), got {interval_ms!r}")
         self.sim = sim
@@ -981,15 +982,6 @@ class SurgeryView:
 def _ms(value) -> str:
     return "  --" if value is None else f"{value:4.1f}"
 
-
-def _positive(name, value) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a positive number, got {value!r}") from None
-    if not (math.isfinite(v) and v > 0):
-        raise ValueError(f"{name} must be finite and > 0, got {value!r}")
-    return v
 
 
 def _check_view(view):

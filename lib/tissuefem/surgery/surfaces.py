@@ -38,7 +38,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..engine.contact import ContactSurface
-from .element_cuts import (_check_regions, _edge_intervals, _edge_param, _edge_table, _edges_of, _merge_intervals,
+from .element_cuts import (_check_regions, _edge_intervals, _edge_table, _edges_of, _merge_intervals,
                            _region_touch, _subtract)
 from .topology import _mesh_arrays
 
