@@ -43,3 +43,20 @@ def test_cli_figures_and_list(tmp_path, capsys):
     assert cli.main(["list"]) == 0
     out = capsys.readouterr().out
     assert "fig07_neo_hookean_1d" in out and "ch01_" in out
+
+
+def test_the_installed_tissuefem_command_runs(tmp_path):
+    """``pip install`` puts a ``tissuefem`` command on the PATH beside the interpreter; it must start."""
+    import shutil
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    exe = Path(sys.executable).parent / "tissuefem"
+    if not exe.exists():
+        exe = shutil.which("tissuefem")
+    if exe is None:
+        pytest.skip("the package is not installed with its console script (pip install -e .)")
+    done = subprocess.run([str(exe), "list"], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert "fig07_neo_hookean_1d" in done.stdout
