@@ -1,63 +1,37 @@
 """What accuracy costs in time: the measured study of chapter 9 (``python -m tissuefem bench accuracy``).
 
-Every speed/accuracy knob of the simulator is turned, one at a time, away
-from a *baseline* setting, and each setting is run on two benchmarks:
+Every speed/accuracy knob (``KNOBS``: mesh, P2, quadrature, material, Newton tolerance, a cap on Newton
+iterations, time step, linear solver) is turned, one at a time, away from a *baseline* setting, on two benchmarks:
 
 ``flap``
-    the standard flap scene of :mod:`tissuefem.workbook.bench.realtime` (Neo-Hookean,
-    E = 1000, nu = 0.3, rho0 = 1, left edge fixed), backward Euler, one
-    displayed frame every 1/30 s; its right edge follows the scripted loop
-    :func:`~tissuefem.surgery.scene.flap_path` *eased in* over the first
-    :data:`EASE_IN` seconds (:func:`eased_flap_path`). The standard loop starts
-    with a jump in velocity, which sends a wave through the body; backward
-    Euler resolves that wave so slowly (its error falls like ``dt^0.4``) that no
-    affordable reference could be checked. Eased in, the motion is smooth in
-    time, backward Euler converges at first order and its extrapolation at second;
+    the standard flap scene of :mod:`tissuefem.workbook.bench.realtime`, backward Euler, one displayed frame
+    every 1/30 s, its right edge on :func:`~tissuefem.surgery.scene.flap_path` *eased in* over :data:`EASE_IN`
+    seconds (:func:`eased_flap_path`). The standard loop starts with a jump in velocity whose wave backward
+    Euler resolves so slowly (error ``~ dt^0.4``) that no affordable reference could be checked; eased in,
+    backward Euler converges at first order and its extrapolation at second;
 ``block``
-    a quasistatic benchmark: the same rectangle ``[0, 2] x [0, 1]`` with its
-    right edge carried to ``(0.6, 0.4)`` (chapter 4's stretched and sheared
-    block) in equal increments, one quasistatic solve per frame.
+    quasistatic: the same rectangle ``[0, 2] x [0, 1]`` with its right edge carried to ``(0.6, 0.4)``
+    (chapter 4's block) in equal increments, one solve per frame.
 
-For each run it records the *cost*, the median wall time per displayed frame
-(the solver's own clock, every Newton iteration, assembly and linear solve
-included), and the *error*, the relative ``L2`` norm of the displacement error
-against a reference solution (:func:`tissuefem.workbook.measure.relative_l2_error`,
-the reference evaluated by point location): for the flap the largest of the
-errors at a few checkpoint frames (``error``; ``errors`` lists them all and
-``error_final`` is the last), for the block the error of the final
-equilibrium.
+Each run records its *cost*, the median wall time per displayed frame (the solver's own clock), and its
+*error*, the relative ``L2`` displacement error against a reference
+(:func:`tissuefem.workbook.measure.relative_l2_error`): for the flap the largest over a few checkpoint frames
+(``errors`` lists them, ``error_final`` is the last), for the block that of the final equilibrium.
 
-The reference (:func:`reference_run`) is the discretisation pushed further than
-any setting in every knob at once: P2 elements on a mesh graded towards the
-rectangle's edges (:func:`graded_flap`; the corners where a held edge meets a
-free one make the solution singular, and uniform refinement converges there
-at a rate of only about 1.6), Newton converged to ``rtol = 1e-10``, and for
-the flap a small time step extrapolated in time (backward Euler is first
-order, so ``2 u(dt/2s) - u(dt/s)`` removes the leading time error;
-Richardson). Its own error is *estimated*, not assumed: from the distances to
-the same reference on two coarser meshes (and, for the flap, to the
-extrapolations from two larger time steps) and the rate they show,
-``estimate = d / (2^p - 1)``. The study's figures and chapter 9 rely on that
-estimate lying at least ten times below the smallest error of any setting.
-The ``verification`` entry adds mesh convergence of the nonlinear models at
-their expected rates (:func:`tissuefem.workbook.accuracy.manufactured_convergence`)
-and the published linear benchmark (:func:`tissuefem.workbook.accuracy.beam_problem_tip`).
+The reference (:func:`reference_run`) pushes every knob further than any setting: P2 on a mesh graded
+towards the edges (:func:`graded_flap`; where a held edge meets a free one the solution is singular, and
+uniform refinement converges there at only about 1.6), Newton to ``rtol = 1e-10`` and, for the flap, a
+small time step extrapolated (Richardson: ``2 u(dt/2s) - u(dt/s)``). Its own error is *estimated* from the
+distances to the same reference on two coarser meshes (and two larger time steps) and the rate they show,
+``estimate = d / (2^p - 1)``; chapter 9 relies on it lying ten times below the smallest error of any setting.
+``verification`` adds the nonlinear models' mesh convergence
+(:func:`tissuefem.workbook.accuracy.manufactured_convergence`) and the published linear benchmark
+(:func:`tissuefem.workbook.accuracy.beam_problem_tip`). On the flap alone, :func:`solver_scaling` fits
+``ms ~ triangles^p`` per linear solver and :func:`budget_residual` shows what the budgeted solver leaves
+unfinished when its 33 ms are spent.
 
-The knobs (``KNOBS``): mesh resolution (P1), element order (P2 over the
-same meshes), quadrature order (P2), material model, Newton tolerance, a cap
-on Newton iterations (a quasistatic frame's linearised start counts as one),
-time step (substeps per displayed frame, flap only) and linear solver (a fresh
-SuperLU factorization with the minimum-degree ordering and with SciPy's default
-COLAMD, CG with a Jacobi or an incomplete-LU preconditioner, CG preconditioned
-by a reused factorization, and PARDISO when it is installed).
-
-Two further measurements use the flap scene alone: how the time per frame
-grows with the mesh for each linear solver (:func:`solver_scaling`, with a
-fitted exponent ``ms ~ triangles^p``), and what the budgeted solver leaves
-unfinished when its 33 ms are spent (:func:`budget_residual`).
-
-Timings are medians of one run on one machine: compare settings within one
-run and quote ratios, never assert them. The errors are deterministic.
+Timings are medians of one run on one machine: compare settings within one run and quote ratios, never
+assert them. The errors are deterministic.
 """
 
 from __future__ import annotations
@@ -83,27 +57,10 @@ from ..measure import fitted_exponent, pareto_front, relative_l2_error
 from .common import load_results, machine_info, markdown_table, write_csv, write_json
 
 __all__ = [
-    "Setting",
-    "KNOBS",
-    "PLANS",
-    "BLOCK_TARGET",
-    "EASE_IN",
-    "REFERENCE_GRADING",
-    "eased_flap_path",
-    "graded_flap",
-    "make_simulation",
-    "run_setting",
-    "reference_run",
-    "knob_sweep",
-    "solver_scaling",
-    "budget_residual",
-    "capped_newton_experiment",
-    "time_convergence",
-    "accuracy_study",
-    "write_results",
-    "read_results",
-    "recorded_results",
-    "format_knob_table",
+    "Setting", "KNOBS", "PLANS", "BLOCK_TARGET", "EASE_IN", "REFERENCE_GRADING", "eased_flap_path", "graded_flap",
+    "make_simulation", "run_setting", "reference_run", "knob_sweep", "solver_scaling", "budget_residual",
+    "capped_newton_experiment", "time_convergence", "accuracy_study", "write_results", "read_results",
+    "recorded_results", "format_knob_table",
 ]
 
 #: Where the quasistatic benchmark's handle ends: the right edge moved by (0.6, 0.4), as in chapter 4.
@@ -118,10 +75,8 @@ REFERENCE_GRADING = 1.5
 def eased_flap_path(t) -> np.ndarray:
     """The flap benchmark's drag: :func:`~tissuefem.surgery.scene.flap_path` eased in over :data:`EASE_IN` s.
 
-    ``flap_path`` starts with the edge already moving (a jump in velocity at
-    ``t = 0``). Multiplied by the smooth step ``s(tau) = 10 tau^3 - 15 tau^4 +
-    6 tau^5`` (``tau = t / EASE_IN``), the edge starts at rest with zero
-    acceleration and follows ``flap_path`` exactly from ``EASE_IN`` on.
+    Multiplied by the smooth step ``s(tau) = 10 tau^3 - 15 tau^4 + 6 tau^5`` (``tau = t / EASE_IN``), the
+    edge starts at rest with zero acceleration and follows ``flap_path`` exactly from ``EASE_IN`` on.
     """
     tau = min(max(float(t) / EASE_IN, 0.0), 1.0)
     return tau**3 * (10.0 - 15.0 * tau + 6.0 * tau**2) * flap_path(t)
@@ -138,11 +93,9 @@ def _graded(xi, grading: float) -> np.ndarray:
 def graded_flap(n_triangles: int, grading: float = REFERENCE_GRADING):
     """The flap mesh of about ``n_triangles`` with its nodes pulled towards the four edges.
 
-    Each coordinate is mapped by ``x -> 0.5 (2 x)^grading`` on its lower half
-    (and symmetrically on the upper half), so cells shrink towards the edges and
-    most of all towards the corners, where a held edge meets a free one and the
-    solution is singular. ``grading = 1`` is the uniform mesh. The topology, the
-    node numbering and the named boundaries are those of :func:`~tissuefem.engine.meshes.flap`.
+    Each coordinate is mapped by ``x -> 0.5 (2 x)^grading`` on its lower half (symmetrically on the upper),
+    so cells shrink most towards the corners, where the solution is singular. ``grading = 1`` is the uniform
+    mesh; topology, node numbering and named boundaries are those of :func:`~tissuefem.engine.meshes.flap`.
     """
     mesh = flap(n_triangles=int(n_triangles))
     if grading == 1:
@@ -154,8 +107,7 @@ def graded_flap(n_triangles: int, grading: float = REFERENCE_GRADING):
 
 @dataclass(frozen=True)
 class Setting:
-    """One setting of every knob. The defaults are the baseline of the study (except the mesh size,
-    which each plan sets)."""
+    """One setting of every knob. The defaults are the study's baseline (each plan sets the mesh size)."""
 
     triangles: int = 8000
     order: int = 1
@@ -187,16 +139,9 @@ class Setting:
 
 
 #: The knobs and, for each, the label of the setting it changes. Values come from the plan.
-KNOBS = {
-    "mesh": "triangles",
-    "P2": "triangles",
-    "quadrature": "intorder",
-    "material": "material",
-    "newton_tolerance": "rtol",
-    "newton_cap": "max_iterations",
-    "time_step": "substeps",
-    "linear_solver": "linear_solver",
-}
+KNOBS = {"mesh": "triangles", "P2": "triangles", "quadrature": "intorder", "material": "material",
+         "newton_tolerance": "rtol", "newton_cap": "max_iterations", "time_step": "substeps",
+         "linear_solver": "linear_solver"}
 
 _MATERIALS = ("linear", "corotated", "neo-hookean", "stable-neo-hookean", "taylor-neo-hookean")
 _SOLVERS = ("reuse", "direct", "superlu-colamd", "cg-ilu", "cg-jacobi", "pardiso", "reuse-pardiso")
@@ -204,8 +149,7 @@ _SOLVERS = ("reuse", "direct", "superlu-colamd", "cg-ilu", "cg-jacobi", "pardiso
 #: Sweep plans: ``full`` for the CLI, ``reduced`` for chapter 9's notebook, ``tiny`` for the tests.
 PLANS = {
     "full": {
-        "base_triangles": 8000,
-        "frames": 30,
+        "base_triangles": 8000, "frames": 30,
         "checkpoints": 5,  # the flap's error is the largest over every 5th frame
         "block_frames": 10,
         # the flap's reference: P2 on 8000 graded triangles, 16 and 32 substeps; the block's on 32000
@@ -228,10 +172,7 @@ PLANS = {
         "budget": {"sizes": (1000, 2000, 4000, 8000, 16000, 32000), "frames": 30, "solvers": ("reuse",)},
     },
     "reduced": {
-        "base_triangles": 1000,
-        "frames": 15,
-        "checkpoints": 5,
-        "block_frames": 5,
+        "base_triangles": 1000, "frames": 15, "checkpoints": 5, "block_frames": 5,
         "reference": {"triangles": 2000, "substeps": 4},
         "knobs": {
             "mesh": (250, 500, 1000, 2000),
@@ -248,10 +189,7 @@ PLANS = {
         "budget": {"sizes": (1000, 4000), "frames": 10, "solvers": ("reuse",)},
     },
     "tiny": {
-        "base_triangles": 200,
-        "frames": 4,
-        "checkpoints": 2,
-        "block_frames": 2,
+        "base_triangles": 200, "frames": 4, "checkpoints": 2, "block_frames": 2,
         "reference": {"triangles": 400, "substeps": 2},
         "knobs": {
             "mesh": (100, 200),
@@ -270,9 +208,7 @@ PLANS = {
 }
 
 
-# --------------------------------------------------------------------------------------------------
-# one run
-# --------------------------------------------------------------------------------------------------
+# --- one run ---------------------------------------------------------------------------------------
 
 def _runnable(linear_solver: str) -> bool:
     """Whether this machine has the solver (PARDISO needs the optional pypardiso)."""
@@ -283,8 +219,7 @@ def make_simulation(setting: Setting, benchmark: str = "flap", budget=math.inf, 
     """The standard flap scene with ``setting`` (mesh, order, quadrature, material, Newton, time step, solver).
 
     ``benchmark="flap"``: backward Euler with ``dt = 1/30 / substeps`` (P2 takes the consistent mass:
-    row-sum lumping gives its vertices none); ``"block"``: the same body quasistatic. A linear material
-    runs on its constant factorization (the Simulation chooses it for a quadratic model).
+    row-sum lumping gives its vertices none); ``"block"``: the same body quasistatic.
     """
     setting.check()
     scene = flap_scene(setting.triangles, model=setting.material, dynamic=benchmark == "flap",
@@ -317,10 +252,8 @@ def run_setting(benchmark: str, setting: Setting, frames: int, checkpoints=(), b
     """Run ``frames`` displayed frames of ``benchmark`` with ``setting``.
 
     ``drag(t)`` replaces the flap's path (default :func:`eased_flap_path`).
-    Returns ``(model, states, stats)``: ``states`` maps each checkpoint frame
-    to a copy of ``u``; ``stats`` holds the per-frame milliseconds (summed over
-    substeps), Newton and linear iterations, factorizations, whether every
-    frame converged, and the relative residuals left at the end of frames.
+    Returns ``(model, states, stats)``: ``states`` maps each checkpoint frame to a copy of ``u``; ``stats``
+    holds the per-frame milliseconds (summed over substeps), iteration counts, convergence and residuals.
     """
     if benchmark not in BENCHMARKS:
         raise ValueError(f"benchmark must be one of {BENCHMARKS}, got {benchmark!r}")
@@ -332,34 +265,33 @@ def run_setting(benchmark: str, setting: Setting, frames: int, checkpoints=(), b
 
 
 def _drive(solver, benchmark: str, frames: int, substeps: int, checkpoints=(), drag=None):
-    """Run ``frames`` displayed frames of ``substeps`` solver frames each; ``(states, stats)`` as in :func:`run_setting`."""
-    states, ms, newton, linear, fac, converged, residual, fraction = {}, [], [], [], [], [], [], []
+    """Run ``frames`` displayed frames of ``substeps`` solver frames each; ``(states, stats)`` as in
+    :func:`run_setting`."""
+    fields = ("newton_iterations", "linear_iterations", "factorizations", "converged", "relative_residual",
+              "handle_fraction")
+    states, ms, records = {}, [], []
     for f in range(1, frames + 1):
         spent = 0.0
         for s in range(1, substeps + 1):
             report = solver.frame(_targets(benchmark, f, s, substeps, frames, drag))
             spent += report.elapsed
-            newton.append(report.newton_iterations)
-            linear.append(report.linear_iterations)
-            fac.append(report.factorizations)
-            converged.append(report.converged)
-            residual.append(report.relative_residual)
-            fraction.append(report.handle_fraction)
+            records.append([getattr(report, k) for k in fields])  # not the report: it holds the state
         ms.append(1e3 * spent)
         if f in checkpoints:
             states[f] = solver.u.copy()
+    each = dict(zip(fields, zip(*records)))
     stats = {
         "ms": ms,
         "ms_median": float(np.median(ms)),
         "ms_p95": float(np.percentile(ms, 95)),
-        "newton": float(np.sum(newton) / frames),  # per displayed frame (all substeps)
-        "linear_iterations": float(np.sum(linear) / frames),
-        "factorizations": int(np.sum(fac)),
-        "converged_share": float(np.mean(converged)),
-        "residual_median": float(np.median(residual)),
+        "newton": float(np.sum(each["newton_iterations"]) / frames),  # per displayed frame (all substeps)
+        "linear_iterations": float(np.sum(each["linear_iterations"]) / frames),
+        "factorizations": int(np.sum(each["factorizations"])),
+        "converged_share": float(np.mean(each["converged"])),
+        "residual_median": float(np.median(each["relative_residual"])),
         # the smallest share of its motion a handle made in one frame (< 1: a frame could not move it all the
         # way without inverting elements, and the real-time solver kept the state valid instead)
-        "handle_fraction_min": float(np.min(fraction)),
+        "handle_fraction_min": float(np.min(each["handle_fraction"])),
         "finite": bool(np.all(np.isfinite(solver.u))),
     }
     return states, stats
@@ -376,9 +308,9 @@ def _reference_model(benchmark: str, triangles: int, grading: float, substeps: i
 def _reference_states(benchmark: str, triangles: int, grading: float, frames: int, checkpoints, substeps=None):
     """One reference solution at the checkpoints: ``(model, {frame: u})``.
 
-    The block: its final equilibrium (it does not depend on the path), solved directly with load
-    stepping and the linearised predictor (moving a P2 edge alone would invert the elements beside
-    it). The flap: backward Euler with ``substeps`` steps per displayed frame, Newton to ``1e-10``.
+    The block: its final equilibrium (path-independent), by load stepping with the linearised predictor
+    (moving a P2 edge alone would invert the elements beside it). The flap: backward Euler with ``substeps``
+    steps per displayed frame, Newton to ``1e-10``.
     """
     if benchmark == "block":
         # load steps small enough for the graded mesh's thinnest cells at the handle's corners: a step that
@@ -422,10 +354,9 @@ def _distance(a, b) -> float:
 def _estimate(d_coarse, d_fine, ratio: float = 2.0):
     """The error of the finest of three solutions from the distances between them: ``(rate, estimate)``.
 
-    ``d_fine`` is the distance between the two finer ones, ``d_coarse`` between the two coarser
-    ones, each level ``ratio`` times finer. If the error falls like ``ratio^-p`` per level, the finest
-    one's error is ``d_fine / (ratio^p - 1)``; without a clear rate (fewer than three levels, or
-    ``p < 1``) the estimate is ``d_fine`` itself, which bounds it for any rate of at least 1.
+    ``d_fine`` / ``d_coarse``: distance between the two finer / coarser ones, each level ``ratio`` times
+    finer. An error falling like ``ratio^-p`` per level leaves the finest ``d_fine / (ratio^p - 1)``; without
+    a clear rate (two levels, or ``p < 1``) the estimate is ``d_fine``, which bounds it for any rate >= 1.
     """
     if d_coarse is None or not (d_fine > 0 and d_coarse > d_fine):
         return None, float(d_fine)
@@ -438,18 +369,14 @@ def _estimate(d_coarse, d_fine, ratio: float = 2.0):
 def reference_run(benchmark: str, plan: dict, progress=None, check: bool = True):
     """The reference of ``benchmark`` for ``plan``: ``(problem, states, info)``.
 
-    ``plan["reference"]``: ``triangles`` (the flap's mesh), ``block_triangles``
-    (the block's; default ``triangles``), ``substeps`` ``s`` (the flap: runs with
-    ``s`` and ``2 s`` substeps combined as ``2 u(dt/2s) - u(dt/s)``, Richardson
-    extrapolation of backward Euler's first-order time error) and ``grading``
-    (:func:`graded_flap`; default :data:`REFERENCE_GRADING`). P2, Newton to ``1e-10``.
+    ``plan["reference"]``: ``triangles`` (the flap's mesh), ``block_triangles`` (the block's; default
+    ``triangles``), ``substeps`` ``s`` (the flap: ``2 u(dt/2s) - u(dt/s)``) and ``grading`` (:func:`graded_flap`;
+    default :data:`REFERENCE_GRADING`). P2, Newton to ``1e-10``.
 
-    With ``check``, ``info`` holds the reference's own error estimate: in space from the same
-    reference on meshes with 1/4 and 1/16 of the triangles (``space_distance``, the distance of
-    the next-coarser one; ``space_rate``, the observed rate per halving of ``h``;
-    ``space_error_estimate``), for the flap in time from the extrapolations with 2 and 4 times
-    larger steps (``time_distance``, ``time_rate``, ``time_error_estimate``), and their sum
-    ``error_estimate`` (see :func:`_estimate`).
+    With ``check``, ``info`` holds the reference's own error estimate (:func:`_estimate`): in space from
+    meshes with 1/4 and 1/16 of the triangles (``space_distance`` to the next-coarser one, ``space_rate`` per
+    halving of ``h``, ``space_error_estimate``), for the flap in time from the extrapolations with 2 and 4
+    times larger steps (``time_distance``, ``time_rate``, ``time_error_estimate``), and their sum ``error_estimate``.
     """
     ref = plan["reference"]
     frames = plan["frames"] if benchmark == "flap" else plan["block_frames"]
@@ -463,22 +390,23 @@ def reference_run(benchmark: str, plan: dict, progress=None, check: bool = True)
     info = {"triangles": int(problem.mesh.t.shape[1]), "dofs": int(problem.basis.N), "order": 2,
             "grading": grading, "substeps": None if s is None else [s, 2 * s]}
     if check:
+        def from_coarser(coarser):
+            """``(distance, rate, estimate)`` from coarser versions of the reference, finest first."""
+            d_fine = _distance(coarser[0], (problem, states)) if coarser else float("nan")
+            return (d_fine, *_estimate(_distance(coarser[1], coarser[0]) if len(coarser) > 1 else None, d_fine))
+
         # space: the same reference on coarser meshes (each a quarter of the triangles: h doubles)
-        siblings = [(m, _extrapolated(benchmark, m, grading, frames, checkpoints, s, cache))
+        siblings = [_extrapolated(benchmark, m, grading, frames, checkpoints, s, cache)
                     for m in (n // 4, n // 16) if m >= 50]
-        d_fine = _distance(siblings[0][1], (problem, states)) if siblings else float("nan")
-        d_coarse = _distance(siblings[1][1], siblings[0][1]) if len(siblings) > 1 else None
-        rate, space = _estimate(d_coarse, d_fine)
+        d_fine, rate, space = from_coarser(siblings)
         info.update({"space_distance": d_fine, "space_rate": rate, "space_error_estimate": space,
-                     "coarser_sibling_triangles": [int(sib[0].mesh.t.shape[1]) for _, sib in siblings]})
+                     "coarser_sibling_triangles": [int(sib[0].mesh.t.shape[1]) for sib in siblings]})
         time_estimate = 0.0
         if benchmark == "flap":
             # time: the extrapolations from steps 2 and 4 times larger, on the reference's mesh
-            larger = [_extrapolated(benchmark, n, grading, frames, checkpoints, s // k, cache)
-                      for k in (2, 4) if s // k >= 1 and s % k == 0]
-            t_fine = _distance(larger[0], (problem, states)) if larger else float("nan")
-            t_coarse = _distance(larger[1], larger[0]) if len(larger) > 1 else None
-            t_rate, time_estimate = _estimate(t_coarse, t_fine)
+            t_fine, t_rate, time_estimate = from_coarser([
+                _extrapolated(benchmark, n, grading, frames, checkpoints, s // k, cache)
+                for k in (2, 4) if s // k >= 1 and s % k == 0])
             info.update({"time_distance": t_fine, "time_rate": t_rate, "time_error_estimate": time_estimate})
         info["error_estimate"] = space + time_estimate
     info["seconds"] = time.perf_counter() - t0
@@ -505,49 +433,36 @@ def _errors(problem, states, reference) -> list[float]:
     return [relative_l2_error(problem, states[f], ref_problem, ref_states[f]) for f in sorted(ref_states)]
 
 
-def _error(problem, states, reference) -> float:
-    """Largest relative ``L2`` error over the checkpoints against the reference."""
-    return max(_errors(problem, states, reference))
+# --- the sweeps ------------------------------------------------------------------------------------
 
+#: What each knob's ``value`` changes in the baseline (``plan`` gives the quadrature knob's mesh).
+_CHANGES = {
+    "mesh": lambda value, plan: {"triangles": int(value)},
+    "P2": lambda value, plan: {"triangles": int(value), "order": 2},
+    "quadrature": lambda value, plan: {"triangles": int(plan["knobs"]["quadrature_triangles"]), "order": 2,
+                                       "intorder": int(value)},
+    "material": lambda value, plan: {"material": value},
+    "newton_tolerance": lambda value, plan: {"rtol": float(value)},
+    "newton_cap": lambda value, plan: {"max_iterations": int(value), "rtol": 1e-12},
+    "time_step": lambda value, plan: {"substeps": int(value)},
+    "linear_solver": lambda value, plan: {"linear_solver": value},
+}
 
-# --------------------------------------------------------------------------------------------------
-# the sweeps
-# --------------------------------------------------------------------------------------------------
 
 def _knob_settings(knob: str, plan: dict, base: Setting):
-    values = plan["knobs"].get(knob, ())
-    for value in values:
-        if knob == "mesh":
-            yield value, replace(base, triangles=int(value))
-        elif knob == "P2":
-            yield value, replace(base, triangles=int(value), order=2)
-        elif knob == "quadrature":
-            yield value, replace(base, triangles=int(plan["knobs"]["quadrature_triangles"]), order=2,
-                                 intorder=int(value))
-        elif knob == "material":
-            yield value, replace(base, material=value)
-        elif knob == "newton_tolerance":
-            yield value, replace(base, rtol=float(value))
-        elif knob == "newton_cap":
-            yield value, replace(base, max_iterations=int(value), rtol=1e-12)
-        elif knob == "time_step":
-            yield value, replace(base, substeps=int(value))
-        elif knob == "linear_solver":
-            yield value, replace(base, linear_solver=value)
-        else:
+    for value in plan["knobs"].get(knob, ()):
+        if knob not in _CHANGES:
             raise ValueError(f"unknown knob {knob!r}; knobs: {sorted(KNOBS)}")
+        yield value, replace(base, **_CHANGES[knob](value, plan))
 
 
 def knob_sweep(benchmark: str, plan: dict, reference, knobs=None, progress=None) -> list[dict]:
     """One row per (knob, value) of ``plan`` on ``benchmark``: the setting, its cost and its error.
 
-    Besides the error against ``reference``, each row has ``from_baseline``: how far the setting's
-    answer lies from the baseline setting's (the same measure, the baseline as the reference). A knob
-    whose ``from_baseline`` is far below the error cannot change the error beyond its last digits.
-
-    Settings that cannot run here (PARDISO without pypardiso) are skipped;
-    a setting that fails (a ``ValueError`` or ``RuntimeError`` from the
-    solver) gives a row with ``error = nan`` and the reason in ``failed``.
+    Each row also has ``from_baseline``, the same measure against the baseline's answer: a knob whose
+    ``from_baseline`` is far below the error cannot change the error beyond its last digits. Settings that
+    cannot run here (PARDISO without pypardiso) are skipped; one that fails (``ValueError``, ``RuntimeError``)
+    gives a row with ``error = nan`` and the reason in ``failed``.
     """
     knobs = list(KNOBS) if knobs is None else list(knobs)
     frames = plan["frames"] if benchmark == "flap" else plan["block_frames"]
@@ -567,7 +482,7 @@ def knob_sweep(benchmark: str, plan: dict, reference, knobs=None, progress=None)
             try:
                 problem, states, stats = run_setting(benchmark, setting, frames, checkpoints)
                 errors = _errors(problem, states, reference) if stats["finite"] else [float("nan")]
-                moved = (_errors(problem, states, baseline) if stats["finite"] else [float("nan")])
+                moved = _errors(problem, states, baseline) if stats["finite"] else [float("nan")]
                 row.update({"triangles": int(problem.mesh.t.shape[1]), "dofs": int(problem.basis.N),
                             "error": max(errors), "error_final": errors[-1], "errors": errors,
                             "from_baseline": max(moved), "checkpoints": sorted(states), "failed": ""})
@@ -584,9 +499,8 @@ def knob_sweep(benchmark: str, plan: dict, reference, knobs=None, progress=None)
 def solver_scaling(sizes, solvers, frames: int, largest=None, progress=None) -> dict:
     """Time per frame of the flap scene against mesh size, per linear solver, with fitted exponents.
 
-    ``largest`` maps a solver to the largest size it is run at (the slow ones).
-    Returns ``{"rows": [...], "exponents": {solver: p}}`` where ``ms ~ C triangles^p``
-    is fitted over the sizes (sizes where a solver failed are left out).
+    ``largest`` maps a (slow) solver to the largest size it is run at. Returns ``{"rows": [...],
+    "exponents": {solver: p}}`` with ``ms ~ C triangles^p`` fitted over the sizes where the solver ran.
     """
     largest = largest or {}
     rows = []
@@ -620,11 +534,9 @@ def budget_residual(sizes, frames: int, solvers=("reuse",), budget: float = FRAM
                     progress=None) -> list[dict]:
     """What the budgeted real-time solver leaves when its budget is spent, on the flap scene, by mesh size.
 
-    For each size and solver: the share of frames that converged within
-    ``budget`` seconds, the median relative residual at the end of a frame
-    (``|grad E| / |grad E(x0)|``, 1e-6 or less for a converged frame) and the
-    relative ``L2`` distance of the final state from the same scene run with
-    every frame converged. ``clock`` is injectable (tests use a fake one).
+    For each size and solver: the share of frames converged within ``budget`` seconds, the median relative
+    residual ``|grad E| / |grad E(x0)|`` at the end of a frame and the relative ``L2`` distance of the final
+    state from the same run with every frame converged. ``clock`` is injectable (tests use a fake one).
     """
     rows = []
     for solver in solvers:
@@ -635,17 +547,11 @@ def budget_residual(sizes, frames: int, solvers=("reuse",), budget: float = FRAM
             model, states, stats = run_setting("flap", setting, frames, (frames,), budget=budget, clock=clock)
             _, converged_states, _ = run_setting("flap", setting, frames, (frames,))
             M = _l2_gram(model)
-            rows.append({
-                "solver": solver,
-                "triangles": int(model.mesh.t.shape[1]),
-                "dofs": int(model.n_dofs),
-                "budget_ms": 1e3 * budget,
-                "converged_share": stats["converged_share"],
-                "residual_median": stats["residual_median"],
-                "ms_median": stats["ms_median"],
-                "ms_p95": stats["ms_p95"],
-                "state_error": _relative_same_mesh(M, states[frames], converged_states[frames]),
-            })
+            rows.append({"solver": solver, "triangles": int(model.mesh.t.shape[1]), "dofs": int(model.n_dofs),
+                         "budget_ms": 1e3 * budget, "converged_share": stats["converged_share"],
+                         "residual_median": stats["residual_median"], "ms_median": stats["ms_median"],
+                         "ms_p95": stats["ms_p95"],
+                         "state_error": _relative_same_mesh(M, states[frames], converged_states[frames])})
             if progress:
                 r = rows[-1]
                 progress(f"  budget {solver:8s} {r['triangles']:6d} triangles  converged {r['converged_share']:.0%}  "
@@ -653,19 +559,21 @@ def budget_residual(sizes, frames: int, solvers=("reuse",), budget: float = FRAM
     return rows
 
 
+def _drag_path(drag: str):
+    if drag not in ("jump", "eased"):
+        raise ValueError(f"drag must be 'jump' or 'eased', got {drag!r}")
+    return flap_path if drag == "jump" else eased_flap_path
+
+
 def time_convergence(drag: str = "jump", triangles: int = 500, substeps=(1, 2, 4, 8, 16), frames: int = 5) -> dict:
     """How fast backward Euler converges in time on the flap, with the standard drag or the eased one.
 
-    The flap (P1, ``triangles``, Newton to ``1e-10``) is run with each number of ``substeps`` per
-    displayed frame; ``distances[k]`` is the largest relative ``L2`` distance, over every fifth frame,
-    between the runs with ``substeps[k]`` and ``substeps[k + 1]``, and ``ratios`` the factor by which
-    each distance is smaller than the one before: 0.5 for first-order convergence. ``drag`` is
-    ``"jump"`` (:func:`~tissuefem.surgery.scene.flap_path`, which starts with the edge already moving)
-    or ``"eased"`` (:func:`eased_flap_path`).
+    The flap (P1, ``triangles``, Newton to ``1e-10``) is run with each number of ``substeps`` per frame;
+    ``distances[k]`` is the largest relative ``L2`` distance, over every fifth frame, between the runs with
+    ``substeps[k]`` and ``substeps[k + 1]``, and ``ratios`` the factor from each distance to the next (0.5 for
+    first order). ``drag``: ``"jump"`` (:func:`~tissuefem.surgery.scene.flap_path`) or ``"eased"``.
     """
-    if drag not in ("jump", "eased"):
-        raise ValueError(f"drag must be 'jump' or 'eased', got {drag!r}")
-    path = flap_path if drag == "jump" else eased_flap_path
+    path = _drag_path(drag)
     checkpoints = _checkpoints("flap", frames, 5)
     runs = [run_setting("flap", Setting(triangles=triangles, rtol=1e-10, substeps=int(s)), frames, checkpoints,
                         drag=path) for s in substeps]
@@ -679,19 +587,14 @@ def capped_newton_experiment(triangles: int = 500, frames: int = 5, drag: str = 
                               reference_substeps: int = 8) -> dict:
     """Why a cap of one Newton step per frame can *lower* the flap's measured error: the experiment.
 
-    Three runs of the flap (P1, ``triangles``, ``frames`` frames, ``drag`` ``"jump"``: the standard
-    :func:`~tissuefem.surgery.scene.flap_path`, which starts with a jump in velocity, or ``"eased"``):
-    Newton converged, Newton capped at one step per frame, and a reference in time on the same mesh
-    (``2 u(dt/2s) - u(dt/s)`` with ``s = reference_substeps``; the flap's error is backward Euler's
-    time error, so the mesh can stay). Returns, at the last frame: both errors against the reference,
-    the capped run's distance from the converged run (``capped_moved``) and ``cosine``, the cosine
-    (in the ``L2`` inner product) between what the cap changed (capped - converged) and the
-    converged run's error (reference - converged). A positive cosine means the cap moved the state
-    towards the reference.
+    Runs of the flap (P1, ``triangles``, ``frames`` frames, ``drag`` as in :func:`time_convergence`): Newton
+    converged, Newton capped at one step per frame, and a reference in time on the same mesh (``2 u(dt/2s) -
+    u(dt/s)``, ``s = reference_substeps``; the flap's error is backward Euler's time error). Returns, at the
+    last frame, both errors, the capped run's distance from the converged one (``capped_moved``) and
+    ``cosine`` (``L2`` inner product) between what the cap changed (capped - converged) and the converged
+    run's error (reference - converged): positive when the cap moved the state towards the reference.
     """
-    if drag not in ("jump", "eased"):
-        raise ValueError(f"drag must be 'jump' or 'eased', got {drag!r}")
-    path = flap_path if drag == "jump" else eased_flap_path
+    path = _drag_path(drag)
     cps = (frames,)
     runs = {}
     for name, setting in (("converged", Setting(triangles=triangles, rtol=1e-10)),
@@ -713,9 +616,7 @@ def capped_newton_experiment(triangles: int = 500, frames: int = 5, drag: str = 
     }
 
 
-# --------------------------------------------------------------------------------------------------
-# the whole study
-# --------------------------------------------------------------------------------------------------
+# --- the whole study -------------------------------------------------------------------------------
 
 def _plan(plan) -> tuple[str, dict]:
     if isinstance(plan, str):
@@ -734,12 +635,10 @@ def accuracy_study(plan="full", benchmarks=BENCHMARKS, knobs=None, scaling: bool
                    verification: bool = True, out=None, progress=print) -> dict:
     """Run the study; return its results (and write them to the folder ``out``).
 
-    ``plan`` is ``"full"`` (the CLI's, several minutes), ``"reduced"``
-    (chapter 9's, under a minute), ``"tiny"`` (the tests'), or a dict shaped
-    like them. The results dict holds ``machine`` (platform and library
-    versions), ``plan``, ``references``, ``knobs`` (the rows of
-    :func:`knob_sweep`), ``pareto`` (per benchmark, the indices of the
-    Pareto-optimal rows), ``scaling``, ``budget`` and ``verification``.
+    ``plan`` is ``"full"`` (the CLI's, several minutes), ``"reduced"`` (chapter 9's, under a minute),
+    ``"tiny"`` (the tests'), or a dict shaped like them. The results hold ``machine``, ``plan``,
+    ``references``, ``knobs`` (the rows of :func:`knob_sweep`), ``pareto`` (per benchmark, the indices of
+    the Pareto-optimal rows), ``scaling``, ``budget`` and ``verification``.
     """
     name, plan = _plan(plan)
     for b in benchmarks:
@@ -782,9 +681,7 @@ def accuracy_study(plan="full", benchmarks=BENCHMARKS, knobs=None, scaling: bool
     return results
 
 
-# --------------------------------------------------------------------------------------------------
-# results files
-# --------------------------------------------------------------------------------------------------
+# --- results files ---------------------------------------------------------------------------------
 
 _VERSION_COLUMNS = ("python", "numpy", "scipy", "scikit-fem", "platform")
 
@@ -819,16 +716,9 @@ def recorded_results() -> dict:
     return read_results(Path(__file__).parents[1] / "data" / "accuracy_study.json")
 
 
-_TABLE = [
-    ("benchmark", "benchmark", "{}"),
-    ("knob", "knob", "{}"),
-    ("value", "value", "{}"),
-    ("triangles", "triangles", "{:d}"),
-    ("dofs", "dofs", "{:d}"),
-    ("ms_median", "ms/frame", "{:.1f}"),
-    ("newton", "Newton/frame", "{:.2f}"),
-    ("error", "rel. L2 error", "{:.2e}"),
-]
+_TABLE = [("benchmark", "benchmark", "{}"), ("knob", "knob", "{}"), ("value", "value", "{}"),
+          ("triangles", "triangles", "{:d}"), ("dofs", "dofs", "{:d}"), ("ms_median", "ms/frame", "{:.1f}"),
+          ("newton", "Newton/frame", "{:.2f}"), ("error", "rel. L2 error", "{:.2e}")]
 
 
 def format_knob_table(rows) -> str:
