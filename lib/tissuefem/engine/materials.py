@@ -10,9 +10,8 @@ Every material maps the deformation gradient ``F[i, j] = d phi_i / d X_j`` to
 ``F`` is a 2x2 matrix or a field of them shaped ``[2, 2, *rest]`` (scikit-fem
 hands us ``[2, 2, elements, quadrature points]``); everything is vectorised.
 
-Derivations (re-done here; every formula is checked by finite differences in
-``tests/test_materials.py``)
----------------------------------------------------------------------------
+Derivations (re-done here; checked by finite differences in ``tests/test_materials.py``)
+---------------------------------------------------------------------------------------
 
 Two identities carry most of the work. In 2D ``J = det F = F00 F11 - F01 F10``,
 so entry by entry
@@ -35,10 +34,8 @@ tangent ``lam d_ij d_kl + mu (d_ik d_jl + d_il d_jk)``: that is how each model
 below is checked to reduce to linear elasticity with the same ``(lam, mu)``.
 
 Models: :class:`LinearElastic`, :class:`NeoHookean`, :class:`TaylorNeoHookean`,
-:class:`StableNeoHookean`, :class:`Corotated` (registry :data:`MATERIALS`,
-factory :func:`material`) and the anisotropic wrapper :class:`FiberReinforced`,
-whose fibre energy ``k/8 (I4 - 1)^2`` is scaled so that ``k`` is the extra
-small-strain modulus along the fibre (:meth:`FiberReinforced.fiber_modulus`).
+:class:`StableNeoHookean`, :class:`Corotated` (registry :data:`MATERIALS`, factory
+:func:`material`) and the anisotropic wrapper :class:`FiberReinforced`.
 
 Slips in the notes confirmed here
 ---------------------------------
@@ -57,8 +54,8 @@ import math
 
 import numpy as np
 
-from .materials1d import taylor_log, taylor_log_prime, taylor_log_second
-from .parameters import LAME_MAX, check_lame, check_real, lame_parameters
+from .materials1d import _LameMaterial, _safe_log, taylor_log, taylor_log_prime, taylor_log_second
+from .parameters import LAME_MAX, check_real, lame_parameters
 
 __all__ = [
     "det2",
@@ -84,12 +81,8 @@ __all__ = [
 # --- 2x2 tensor helpers ---------------------------------------------------------
 
 def _real_array(name: str, value) -> np.ndarray:
-    """``value`` as a float array; anything that is not an array of real numbers is a ``ValueError`` naming ``name``.
-
-    Refused: strings, ragged nested lists, objects, booleans, and complex
-    numbers (``np.asarray(..., dtype=float)`` would silently drop the
-    imaginary part, with only a warning).
-    """
+    """``value`` as a float array, else a ``ValueError`` naming ``name``: strings, ragged lists, objects, booleans
+    and complex numbers are refused (``np.asarray(..., dtype=float)`` would drop an imaginary part with a warning)."""
     try:
         a = np.asarray(value)
     except (TypeError, ValueError):  # ragged nested lists
@@ -118,25 +111,16 @@ def det2(F):
 def cofactor2(F):
     """The cofactor ``cof F = dJ/dF = J F^-T = [[F11, -F10], [-F01, F00]]``; shape ``F.shape``.
 
-    Defined for every ``F`` (also singular ones), which is why the
-    inversion-safe models are written with ``cof F`` rather than ``F^-T``.
+    Defined for every ``F`` (also singular ones): the inversion-safe models use it rather than ``F^-T``.
     """
     F = _as_F(F)
     return np.array([[F[1, 1], -F[1, 0]], [-F[0, 1], F[0, 0]]])
 
 
 def inv2(F):
-    """``F^-1 = (cof F)^T / J`` for ``F`` shaped ``[2, 2, ...]``.
-
-    Singular ``F`` give ``inf``/``NaN`` entries (with numpy's usual warning).
-    """
+    """``F^-1 = (cof F)^T / J`` for ``F`` shaped ``[2, 2, ...]`` (singular ``F``: ``inf``/``NaN``, numpy's warning)."""
     F = _as_F(F)
     return cofactor2(F).swapaxes(0, 1) / det2(F)
-
-
-def _identity(rest) -> np.ndarray:
-    """The 2x2 identity broadcast to ``[2, 2, *rest]``."""
-    return np.broadcast_to(np.eye(2).reshape((2, 2) + (1,) * len(rest)), (2, 2) + tuple(rest))
 
 
 def _outer(a, b) -> np.ndarray:
@@ -145,7 +129,7 @@ def _outer(a, b) -> np.ndarray:
 
 
 def _constant4(T, rest) -> np.ndarray:
-    """A constant (2, 2, 2, 2) tensor broadcast to ``(2, 2, 2, 2, *rest)``."""
+    """A constant tensor (the (2, 2) identity, a (2, 2, 2, 2) tangent) broadcast to ``T.shape + rest``."""
     return np.broadcast_to(T.reshape(T.shape + (1,) * len(rest)), T.shape + tuple(rest))
 
 
@@ -163,22 +147,12 @@ _HCOF = np.einsum("ik,jl->ijkl", _PERM, _PERM)
 
 # --- base class ---------------------------------------------------------------
 
-class Material:
-    """Base class: a 2D hyperelastic material with Lamé parameters ``lam`` and ``mu``.
+class Material(_LameMaterial):
+    """Base class: a 2D hyperelastic material with Lamé parameters ``lam`` and ``mu`` (checked by
+    :func:`tissuefem.parameters.check_lame`); subclasses implement ``energy``, ``stress`` and ``tangent``."""
 
-    Subclasses implement ``energy``, ``stress`` and ``tangent`` (see the module
-    docstring for shapes). The constructor validates ``(lam, mu)`` with
-    :func:`tissuefem.parameters.check_lame`.
-    """
-
-    name = "material"
-    #: True when energy, stress and tangent are finite for every F, including J <= 0.
-    inversion_safe = True
     #: Only linear elasticity has a meaningful plane-stress reduction by a modified lam.
     _plane_stress_ok = False
-
-    def __init__(self, lam, mu):
-        self.lam, self.mu = check_lame(lam, mu)
 
     @classmethod
     def from_young(cls, E, nu, plane: str = "strain"):
@@ -189,23 +163,9 @@ class Material:
         """
         lam, mu = lame_parameters(E, nu, plane)
         if plane == "stress" and not cls._plane_stress_ok:
-            raise ValueError(
-                f"plane='stress' is only supported by LinearElastic; {cls.__name__} is plane strain "
-                "(the plane-stress reduction of a nonlinear model is not a change of lam)"
-            )
+            raise ValueError(f"plane='stress' is only supported by LinearElastic; {cls.__name__} is plane strain "
+                             "(the plane-stress reduction of a nonlinear model is not a change of lam)")
         return cls(lam, mu)
-
-    def energy(self, F):
-        raise NotImplementedError
-
-    def stress(self, F):
-        raise NotImplementedError
-
-    def tangent(self, F):
-        raise NotImplementedError
-
-    def __repr__(self):
-        return f"{type(self).__name__}(lam={self.lam:g}, mu={self.mu:g})"
 
 
 # --- linear elasticity ------------------------------------------------------------
@@ -213,20 +173,17 @@ class Material:
 class LinearElastic(Material):
     """Small-strain linear elasticity (the notes' first model).
 
-    ``eps = (F + F^T)/2 - I``, ``Psi = mu eps:eps + lam/2 tr(eps)^2``.
-    Since ``d eps_ab / dF_ij = (d_ai d_bj + d_aj d_bi)/2`` and ``eps`` is
-    symmetric, ``P = 2 mu eps + lam tr(eps) I`` and the (constant) tangent is
-    ``A = lam d_ij d_kl + mu (d_ik d_jl + d_il d_jk)``.
-
-    Not frame indifferent: a pure rotation ``F = R`` has ``eps != 0`` and
-    hence stress; valid only for small deformations. Finite for every F.
+    ``eps = (F + F^T)/2 - I``, ``Psi = mu eps:eps + lam/2 tr(eps)^2``. Since
+    ``d eps_ab / dF_ij = (d_ai d_bj + d_aj d_bi)/2`` and ``eps`` is symmetric,
+    ``P = 2 mu eps + lam tr(eps) I`` and ``A = lam d_ij d_kl + mu (d_ik d_jl + d_il d_jk)`` (constant).
+    Not frame indifferent (a pure rotation has ``eps != 0``): small deformations only. Finite for every F.
     """
 
     name = "linear"
     _plane_stress_ok = True
 
     def _strain(self, F):
-        return 0.5 * (F + F.swapaxes(0, 1)) - _identity(F.shape[2:])
+        return 0.5 * (F + F.swapaxes(0, 1)) - _constant4(_DELTA, F.shape[2:])
 
     def energy(self, F):
         eps = self._strain(_as_F(F))
@@ -237,7 +194,7 @@ class LinearElastic(Material):
         F = _as_F(F)
         eps = self._strain(F)
         tr = eps[0, 0] + eps[1, 1]
-        return 2.0 * self.mu * eps + self.lam * tr * _identity(F.shape[2:])
+        return 2.0 * self.mu * eps + self.lam * tr * _constant4(_DELTA, F.shape[2:])
 
     def tangent(self, F):
         F = _as_F(F)
@@ -248,10 +205,8 @@ class LinearElastic(Material):
 # --- the Neo-Hookean family: mu/2 (F:F - 2) + h(J) --------------------------------
 
 class _NeoHookeanFamily(Material):
-    """``Psi = mu/2 (F:F - 2) + h(J)`` with a volumetric function ``h``, ``h(1) = 0``.
-
-    ``P = mu F + h'(J) cof F`` and ``A = mu I4 + h''(J) cof F (x) cof F + h'(J) H``
-    (module docstring). Subclasses give ``_h(J)`` returning ``(h, h', h'')``.
+    """``Psi = mu/2 (F:F - 2) + h(J)``, ``h(1) = 0``: ``P = mu F + h'(J) cof F`` and
+    ``A = mu I4 + h''(J) cof F (x) cof F + h'(J) H`` (module docstring). Subclasses give ``_h(J) = (h, h', h'')``.
     """
 
     def _h(self, J):
@@ -278,15 +233,11 @@ class _NeoHookeanFamily(Material):
 class NeoHookean(_NeoHookeanFamily):
     """The notes' Neo-Hookean model with ``ln J``.
 
-    ``Psi = mu/2 (F:F - 2) - mu ln J + lam/2 (ln J)^2``, i.e.
-    ``h(J) = -mu ln J + lam/2 (ln J)^2``, ``h' = (lam ln J - mu)/J`` and
-    ``h'' = (lam + mu - lam ln J)/J^2``. With ``cof F / J = F^-T`` this is the
-    notes' ``P = mu F + (lam ln J - mu) F^-T``. At ``J = 1``: ``h' = -mu``,
-    ``h'' = lam + mu``, so the small-strain limit is linear elasticity.
-
-    (The notes print ``F_ij F_ji`` in the energy: a slip, see the module
-    docstring.) Undefined for ``J <= 0``: energy, stress and tangent are NaN
-    there (no warning is raised), so a solver can detect inversion.
+    ``Psi = mu/2 (F:F - 2) - mu ln J + lam/2 (ln J)^2``, i.e. ``h(J) = -mu ln J + lam/2 (ln J)^2``,
+    ``h' = (lam ln J - mu)/J`` and ``h'' = (lam + mu - lam ln J)/J^2``. With ``cof F / J = F^-T`` this is
+    the notes' ``P = mu F + (lam ln J - mu) F^-T``. At ``J = 1``: ``h' = -mu``, ``h'' = lam + mu``, so the
+    small-strain limit is linear elasticity. (The notes print ``F_ij F_ji`` in the energy: a slip, see the
+    module docstring.) Undefined for ``J <= 0``: NaN there, without a warning, so a solver can detect inversion.
     """
 
     name = "neo-Hookean"
@@ -294,11 +245,9 @@ class NeoHookean(_NeoHookeanFamily):
 
     def _h(self, J):
         J = np.asarray(J, dtype=float)
-        ok = J > 0
-        lnJ = np.full(J.shape, np.nan)
-        np.log(J, out=lnJ, where=ok)
+        lnJ = _safe_log(J)
         invJ = np.full(J.shape, np.nan)
-        np.divide(1.0, J, out=invJ, where=ok)
+        np.divide(1.0, J, out=invJ, where=J > 0)
         lam, mu = self.lam, self.mu
         h = -mu * lnJ + 0.5 * lam * lnJ**2
         h1 = (lam * lnJ - mu) * invJ
@@ -315,9 +264,8 @@ class TaylorNeoHookean(_NeoHookeanFamily):
 
         P = mu F + (lam r(J) - mu) r'(J) cof F,   cof F = [[F22, -F21], [-F12, F11]]
 
-    (1-based; the notes print the adjugate instead of the cofactor). ``r(1) = 0``,
-    ``r'(1) = 1``, ``r''(1) = -1`` reproduce the Neo-Hookean values at ``J = 1``,
-    hence linear elasticity in the small-strain limit. Polynomial: finite for every F.
+    (1-based; the notes print the adjugate). ``r(1) = 0``, ``r'(1) = 1``, ``r''(1) = -1`` reproduce the
+    Neo-Hookean values at ``J = 1``: linear elasticity in the small-strain limit. Finite for every F.
     """
 
     name = "neo-Hookean (cubic r(J))"
@@ -331,16 +279,14 @@ class TaylorNeoHookean(_NeoHookeanFamily):
 class StableNeoHookean(_NeoHookeanFamily):
     """Stable Neo-Hookean (Smith, de Goes, Kim, ACM TOG 37(2), 2018), 2D form without the log term.
 
-    ``Psi = mu/2 (F:F - 2) + lam_s/2 (J - alpha)^2 - mu^2 / (2 lam_s)`` with
-    ``lam_s = lam + mu`` and ``alpha = 1 + mu / lam_s``. The paper's energy has
-    ``Psi(I) = lam_s/2 (1 - alpha)^2 = mu^2 / (2 lam_s) != 0``; we subtract that
-    constant so that ``Psi(I) = 0`` (it changes neither stress nor tangent).
+    ``Psi = mu/2 (F:F - 2) + lam_s/2 (J - alpha)^2 - mu^2 / (2 lam_s)`` with ``lam_s = lam + mu`` and
+    ``alpha = 1 + mu / lam_s``; the constant makes ``Psi(I) = 0`` (the paper's energy has
+    ``Psi(I) = mu^2 / (2 lam_s)``; a constant changes neither stress nor tangent).
 
-    ``h' = lam_s (J - alpha)``, ``h'' = lam_s``: ``P = mu F + lam_s (J - alpha) cof F``.
-    At ``J = 1``: ``h'(1) = -mu`` (rest is stress free, which fixes alpha) and
-    ``h''(1) = lam_s = lam + mu``, which is exactly what linearises to linear
-    elasticity with Lamé ``(lam, mu)`` (module docstring): hence ``lam_s = lam + mu``.
-    ``lam_s > 0`` always since ``lam > -2 mu / 3``. Finite for every F, no log.
+    ``h' = lam_s (J - alpha)``, ``h'' = lam_s``: ``P = mu F + lam_s (J - alpha) cof F``. At ``J = 1``,
+    ``h'(1) = -mu`` (rest is stress free: that fixes alpha) and ``h''(1) = lam_s = lam + mu`` (what
+    linearises to linear elasticity with ``(lam, mu)``, module docstring: that fixes lam_s).
+    ``lam_s > 0`` since ``lam > -2 mu / 3``. Finite for every F, no log.
     """
 
     name = "stable neo-Hookean"
@@ -359,9 +305,8 @@ class StableNeoHookean(_NeoHookeanFamily):
 
 # --- corotated --------------------------------------------------------------------
 
-#: Below this ``rho = tr S`` the polar rotation is taken as ``R = I`` (see :func:`_polar_rotation`).
-#: ``sqrt`` of the smallest normal double (~1.5e-154): above it ``1/rho`` and ``mu/rho`` are finite
-#: and computed in full precision; below it ``F`` is a collapse to (nearly) a point.
+#: Below this ``rho = tr S`` the polar rotation is taken as ``R = I`` (see :func:`_polar_rotation`): the
+#: ``sqrt`` of the smallest normal double (~1.5e-154), above which ``1/rho`` is finite and full precision.
 _RHO_MIN = math.sqrt(np.finfo(float).tiny)
 
 
@@ -375,13 +320,12 @@ def _polar_rotation(F):
     indefinite).
 
     At ``rho = 0`` the angle is undefined, and near it the rotation turns at a
-    rate ``1/rho`` (the tangent's ``R' (x) R' / rho`` term). For ``rho`` below
-    :data:`_RHO_MIN` (about 1.5e-154, e.g. subnormal entries of F) ``1/rho``
-    overflows (``inf * 0 = NaN`` in the tangent) and even ``atan2`` loses
-    precision; there ``R = I`` (``c, s = 1, 0``) is used *consistently* by the
-    energy, the stress and the tangent, which in that tiny ball are then the
-    exact derivatives of ``mu ||F - I||^2 + lam/2 (J - 1)^2``. The energy
-    changes by at most ``4 mu _RHO_MIN`` across the ball's edge.
+    rate ``1/rho`` (the tangent's ``R' (x) R' / rho`` term). Below :data:`_RHO_MIN`
+    (e.g. subnormal entries of F) ``1/rho`` overflows (``inf * 0 = NaN`` in the
+    tangent) and ``atan2`` loses precision; there ``R = I`` is used *consistently*
+    by energy, stress and tangent, the exact derivatives of
+    ``mu ||F - I||^2 + lam/2 (J - 1)^2`` in that tiny ball. The energy changes by
+    at most ``4 mu _RHO_MIN`` across the ball's edge.
     """
     x = F[0, 0] + F[1, 1]
     y = F[1, 0] - F[0, 1]
@@ -417,13 +361,9 @@ class Corotated(Material):
     At ``F = I``: ``rho = 2``, ``R' = [[0, -1], [1, 0]]`` and
     ``I4 - R'(x)R'/2 = (I4 + I4^T)/2``, so ``A`` is the linear-elastic tangent.
 
-    Finite for every finite F. The exception is the set
-    ``F00 + F11 = F10 - F01 = 0`` (``rho = 0``) where ``R`` is undefined and
-    the exact tangent blows up like ``-1/rho``: within ``rho < _RHO_MIN``
-    (about 1.5e-154, which includes every F with subnormal entries) we take
-    ``R = I`` in energy, stress and tangent alike, so the three stay finite and
-    consistent (the ``1/rho`` term is the derivative of a rotation that is then
-    constant).
+    Finite for every finite F: where ``rho = 0`` (``F00 + F11 = F10 - F01 = 0``) ``R`` is undefined and
+    the exact tangent blows up like ``-1/rho``; within ``rho < _RHO_MIN`` energy, stress and tangent alike
+    take ``R = I`` (:func:`_polar_rotation`), so they stay finite and consistent.
     """
 
     name = "corotated"
@@ -453,11 +393,8 @@ class Corotated(Material):
         C = cofactor2(F)
         J = det2(F)
         rest = F.shape[2:]
-        return (
-            2.0 * self.mu * (_constant4(_I4, rest) - inv_rho * _outer(Rp, Rp))
-            + self.lam * _outer(C, C)
-            + self.lam * (J - 1.0) * _constant4(_HCOF, rest)
-        )
+        return (2.0 * self.mu * (_constant4(_I4, rest) - inv_rho * _outer(Rp, Rp)) + self.lam * _outer(C, C)
+                + self.lam * (J - 1.0) * _constant4(_HCOF, rest))
 
 
 # --- anisotropy: a fibre term -------------------------------------------------------
@@ -480,10 +417,8 @@ def _check_Fg(F, g):
         raise ValueError("F and g must be finite")
     norm = np.hypot(g[0], g[1])
     if np.any(np.abs(norm - 1.0) > _UNIT_TOL):
-        raise ValueError(
-            f"g must be unit fiber directions (|g| = 1 within {_UNIT_TOL:g}); got lengths between "
-            f"{norm.min():.6g} and {norm.max():.6g}: normalise g first"
-        )
+        raise ValueError(f"g must be unit fiber directions (|g| = 1 within {_UNIT_TOL:g}); got lengths between "
+                         f"{norm.min():.6g} and {norm.max():.6g}: normalise g first")
     try:
         np.broadcast_shapes(F.shape[2:], g.shape[1:])
     except ValueError:
@@ -494,8 +429,7 @@ def _check_Fg(F, g):
 def fiber_invariant(F, g):
     """``I4 = g^T F^T F g = |F g|^2``, the squared stretch of the unit fibre ``g`` (the notes' fibre argument).
 
-    ``F`` is a 2x2 matrix or a field ``[2, 2, ...]``; ``g`` a unit vector ``(2,)`` or a field
-    ``(2, ...)`` broadcasting against ``F.shape[2:]``. A float for a single ``F``.
+    ``F`` is shaped ``[2, 2, ...]``, ``g`` ``(2, ...)`` broadcasting against ``F.shape[2:]``; a float for one ``F``.
     """
     F, g = _check_Fg(F, g)
     I4 = _fiber_kinematics(F, g)[1]
@@ -527,11 +461,7 @@ def _fiber_kinematics(F, g):
 
 def fiber_energy_term(F, g, k):
     """The unchecked kernel of :func:`fiber_energy` (assembly calls it on every element):
-    ``Psi_fiber = k/8 (I4 - 1)^2`` with ``I4 = |F g|^2`` (``g`` unit, broadcasting against ``F.shape[2:]``).
-
-    The factor 1/8 makes ``k`` the extra small-strain stiffness along the fiber:
-    ``I4 - 1 ~ 2 eps_ff`` gives ``Psi_fiber ~ k/2 eps_ff^2``.
-    """
+    ``Psi_fiber = k/8 (I4 - 1)^2`` with ``I4 = |F g|^2`` (the 1/8: see :class:`FiberReinforced`)."""
     _, I4 = _fiber_kinematics(F, g)
     return k / 8.0 * (I4 - 1.0) ** 2
 
@@ -553,16 +483,13 @@ def fiber_tangent_term(F, g, k):
 class FiberReinforced(Material):
     """An isotropic base material plus a fibre term (the notes' ``Psi_iso + Psi_fiber(g^T F^T F g)``).
 
-    ``I4 = g^T F^T F g = |F g|^2`` is the squared stretch of the unit fibre
-    ``g`` (a material direction). We use
+    With ``I4 = g^T F^T F g = |F g|^2``, the squared stretch of the unit fibre ``g`` (a material direction),
 
         Psi = Psi_base(F) + k/8 (I4 - 1)^2,
 
-    scaled so that ``k`` *is* the extra small-strain modulus along the fibre:
-    with ``F = I + grad u``, ``I4 - 1 ~ 2 eps_ff`` (``eps_ff = g.eps.g``), so the
-    fibre energy is ``~ k/2 eps_ff^2``, the 1D form ``E/2 eps^2`` with modulus k.
-    See :meth:`fiber_modulus`. Derivatives, with ``a = F g``
-    (``dI4/dF = 2 a (x) g``):
+    scaled so that ``k`` *is* the extra small-strain modulus along the fibre: with ``F = I + grad u``,
+    ``I4 - 1 ~ 2 eps_ff`` (``eps_ff = g.eps.g``), so the fibre energy is ``~ k/2 eps_ff^2``, the 1D form
+    ``E/2 eps^2`` with modulus k (:meth:`fiber_modulus`). Derivatives, with ``a = F g`` (``dI4/dF = 2 a (x) g``):
 
         P_fiber = k/2 (I4 - 1) a (x) g,
         A_fiber_ijkl = k a_i g_j a_k g_l + k/2 (I4 - 1) d_ik g_j g_l.
@@ -570,19 +497,10 @@ class FiberReinforced(Material):
     At ``F = I``, ``A_fiber = k g (x) g (x) g (x) g``, so ``A_ffff`` gains exactly k.
     The fibre term resists compression as well as stretch (no tension-only switch).
 
-    Parameters
-    ----------
-    base
-        Any :class:`Material` (usually an isotropic one; another
-        ``FiberReinforced`` gives a second fibre family).
-    stiffness
-        ``k >= 0``, finite.
-    fibers
-        Fibre directions, normalised here: shape ``(2,)`` (uniform),
-        ``(2, n_elements)`` (per element, used as ``(2, n_elements, 1)``) or
-        ``(2, n_elements, n_points)`` (per quadrature point). More generally
-        ``(2, *g_shape)`` is aligned with the *leading* axes of ``F.shape[2:]``
-        and must broadcast to it.
+    ``base`` is any :class:`Material` (another ``FiberReinforced`` gives a second fibre family),
+    ``stiffness`` is ``k >= 0``, finite, and ``fibers`` the directions, normalised here: shape ``(2,)``
+    (uniform), ``(2, n_elements)`` (per element) or ``(2, n_elements, n_points)`` (per quadrature point);
+    ``(2, *g_shape)`` is aligned with the *leading* axes of ``F.shape[2:]`` and must broadcast to it.
     """
 
     def __init__(self, base: Material, stiffness, fibers):
@@ -599,10 +517,8 @@ class FiberReinforced(Material):
     def _check_fibers(fibers) -> np.ndarray:
         g = np.array(_real_array("fibers (an array of 2D vectors)", fibers))
         if g.ndim not in (1, 2, 3) or g.shape[0] != 2:
-            raise ValueError(
-                "fibers must be shaped (2,), (2, n_elements) or (2, n_elements, n_points), "
-                f"got shape {g.shape}"
-            )
+            raise ValueError(f"fibers must be shaped (2,), (2, n_elements) or (2, n_elements, n_points), "
+                             f"got shape {g.shape}")
         if not np.all(np.isfinite(g)):
             raise ValueError("fibers contains non-finite entries")
         norm = np.hypot(g[0], g[1])
@@ -617,11 +533,8 @@ class FiberReinforced(Material):
         return cls(base_cls.from_young(E, nu, plane), stiffness, fibers)
 
     def fiber_modulus(self) -> float:
-        """The small-strain stiffness added along the fibre: ``A_ffff(I) - A_base_ffff(I) = k``.
-
-        ``A_ffff = g_i g_j g_k g_l A_ijkl`` at ``F = I``, i.e. the extra
-        ``d sigma_ff / d eps_ff`` for a uniaxial strain along the fibre.
-        """
+        """The small-strain stiffness added along the fibre: ``A_ffff(I) - A_base_ffff(I) = k``, with
+        ``A_ffff = g_i g_j g_k g_l A_ijkl`` at ``F = I`` (the extra ``d sigma_ff / d eps_ff`` along the fibre)."""
         return self.stiffness
 
     def _g(self, rest) -> np.ndarray:

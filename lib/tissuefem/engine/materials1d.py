@@ -1,27 +1,20 @@
 """One-dimensional hyperelastic materials (chapters 1 and 2).
 
-In 1D the deformation gradient is the scalar ``F = dphi/dX = 1 + du/dX`` and
-``J = det F = F``. Each material gives the energy density ``Psi(F)``, the
-first Piola-Kirchhoff stress ``P(F) = dPsi/dF`` and the tangent modulus
-``dP/dF``, vectorised over arrays of any shape (scikit-fem hands us ``F`` as
-``[elements, quadrature points]``).
+In 1D ``F = dphi/dX = 1 + du/dX`` and ``J = det F = F``. Each material gives the energy density
+``Psi(F)``, the first Piola-Kirchhoff stress ``P = dPsi/dF`` and the tangent ``dP/dF``, vectorised
+over arrays of any shape (scikit-fem hands us ``F`` as ``[elements, quadrature points]``).
 
 Derivations (re-done here, checked by finite differences in the tests):
 
-* Linear elasticity. With ``eps = F - 1`` the notes' energy
-  ``mu eps_ij eps_ij + lam/2 eps_kk^2`` becomes ``(mu + lam/2) eps^2``, so
-  ``P = (2 mu + lam) eps``. The notes print the modulus as ``(2 mu - lam)``:
-  a sign slip (it would make the bar *softer* as lam grows, and negative for
-  lam > 2 mu, i.e. nu > 1/3 in 3D terms).
-* Neo-Hookean (log J). The notes' 2D energy with ``F:F - 2`` has the
-  dimension in the constant; in 1D ``Psi = mu/2 (F^2 - 1) - mu ln F
-  + lam/2 (ln F)^2`` so that ``Psi(1) = 0``. Then
+* Linear elasticity. With ``eps = F - 1`` the notes' energy ``mu eps_ij eps_ij + lam/2 eps_kk^2``
+  becomes ``(mu + lam/2) eps^2``, so ``P = (2 mu + lam) eps``. The notes print the modulus as
+  ``(2 mu - lam)``: a sign slip (the bar would get *softer* as lam grows, and negative for lam > 2 mu).
+* Neo-Hookean (log J). The notes' 2D energy has the dimension in the constant (``F:F - 2``); in 1D
+  ``Psi = mu/2 (F^2 - 1) - mu ln F + lam/2 (ln F)^2`` so that ``Psi(1) = 0``. Then
   ``P = mu F + (lam ln F - mu) / F`` (the notes' 1D formula) and
-  ``dP/dF = mu + (mu + lam (1 - ln F)) / F^2``, which equals ``2 mu + lam``
-  at ``F = 1``: the linear modulus above.
-* Neo-Hookean with ``ln`` replaced by its cubic Taylor polynomial ``r(J)``
-  about ``J = 1`` (the notes' inversion-robust variant, Figure 7):
-  ``P = mu F + (lam r - mu) r'`` and ``dP/dF = mu + lam r'^2 + (lam r - mu) r''``.
+  ``dP/dF = mu + (mu + lam (1 - ln F)) / F^2``, which is ``2 mu + lam`` at ``F = 1``.
+* Neo-Hookean with ``ln`` replaced by its cubic Taylor polynomial ``r(J)`` about ``J = 1`` (the notes'
+  inversion-robust variant, Figure 7): ``P = mu F + (lam r - mu) r'``, ``dP/dF = mu + lam r'^2 + (lam r - mu) r''``.
 """
 
 from __future__ import annotations
@@ -30,8 +23,6 @@ import numpy as np
 
 from .parameters import check_lame, lame_parameters
 
-
-# --- the cubic Taylor polynomial of ln J about J = 1 -------------------------
 
 def taylor_log(J):
     """``r(J) = (J-1) - (J-1)^2/2 + (J-1)^3/3``: the cubic Taylor polynomial of ``ln J`` at 1."""
@@ -52,11 +43,8 @@ def taylor_log_second(J):
 
 
 def _safe_log(F):
-    """``ln F`` where ``F > 0`` and NaN elsewhere, without a RuntimeWarning.
-
-    The log model is genuinely undefined for ``F <= 0``; returning NaN (rather
-    than raising) lets a solver see the failure and report it.
-    """
+    """``ln F`` where ``F > 0``, NaN elsewhere (no warning): the log model is undefined there, and NaN
+    (rather than an exception) lets a solver see the failure and report it."""
     F = np.asarray(F, dtype=float)
     out = np.full(F.shape, np.nan)
     np.log(F, out=out, where=F > 0)
@@ -65,26 +53,15 @@ def _safe_log(F):
 
 # --- material objects ---------------------------------------------------------
 
-class Material1D:
-    """Base class: a 1D hyperelastic material with Lamé parameters ``lam`` and ``mu``."""
+class _LameMaterial:
+    """The base of the 1D and the 2D materials: Lamé parameters ``lam``, ``mu`` (checked) and the three maps."""
 
     name = "material"
-    #: True when the energy is finite for every F, including F <= 0.
+    #: True when energy, stress and tangent are finite for every F, including J <= 0.
     inversion_safe = True
 
     def __init__(self, lam, mu):
         self.lam, self.mu = check_lame(lam, mu)
-
-    @classmethod
-    def from_young(cls, E, nu):
-        """Build from Young's modulus ``E > 0`` and Poisson's ratio ``-1 < nu < 0.5``."""
-        lam, mu = lame_parameters(E, nu)
-        return cls(lam, mu)
-
-    @property
-    def modulus(self) -> float:
-        """Small-strain modulus ``dP/dF`` at ``F = 1``: ``lam + 2 mu`` for every model here."""
-        return self.lam + 2.0 * self.mu
 
     def energy(self, F):
         raise NotImplementedError
@@ -97,6 +74,20 @@ class Material1D:
 
     def __repr__(self):
         return f"{type(self).__name__}(lam={self.lam:g}, mu={self.mu:g})"
+
+
+class Material1D(_LameMaterial):
+    """Base class: a 1D hyperelastic material with Lamé parameters ``lam`` and ``mu``."""
+
+    @classmethod
+    def from_young(cls, E, nu):
+        """Build from Young's modulus ``E > 0`` and Poisson's ratio ``-1 < nu < 0.5``."""
+        return cls(*lame_parameters(E, nu))
+
+    @property
+    def modulus(self) -> float:
+        """Small-strain modulus ``dP/dF`` at ``F = 1``: ``lam + 2 mu`` for every model here."""
+        return self.lam + 2.0 * self.mu
 
 
 class Linear1D(Material1D):
@@ -156,20 +147,3 @@ class TaylorNeoHookean1D(Material1D):
         F = np.asarray(F, dtype=float)
         r, r1, r2 = taylor_log(F), taylor_log_prime(F), taylor_log_second(F)
         return self.mu + self.lam * r1**2 + (self.lam * r - self.mu) * r2
-
-
-# --- plain functions (the reference answers of the chapter 1-2 exercises) -----
-
-def linear_modulus(lam, mu):
-    """The 1D small-strain modulus ``dP/dF`` at rest: ``lam + 2 mu`` (the notes misprint ``2 mu - lam``)."""
-    return NeoHookean1D(lam, mu).modulus
-
-
-def neo_hookean_stress(F, lam, mu):
-    """1D Neo-Hookean first Piola-Kirchhoff stress ``P(F) = mu F + (lam ln F - mu)/F``."""
-    return NeoHookean1D(lam, mu).stress(F)
-
-
-def neo_hookean_tangent(F, lam, mu):
-    """1D Neo-Hookean tangent ``dP/dF = mu + (mu + lam (1 - ln F)) / F^2``."""
-    return NeoHookean1D(lam, mu).tangent(F)
