@@ -1,17 +1,14 @@
 """Scenes: a declarative description of a simulation (run one with :class:`~tissuefem.surgery.simulation.Simulation`).
 
-A scene names a domain, a material and the *effects* it calls for, and
-nothing else gets built:
+A scene names a domain, a material and the *effects* it calls for, and nothing else gets built:
 
 ================  =============================================================================
 effect            what it adds
 ================  =============================================================================
-``inertia``       dynamics: backward Euler with time step ``time_step`` (absent: quasistatic,
-                  and no mass matrix is built)
+``inertia``       dynamics: backward Euler with time step ``time_step`` (absent: quasistatic, no mass matrix)
 ``gravity``       the body force ``rho0 g`` (a constant load)
 ``fibers``        the fibre energy ``k/8 (I4 - 1)^2`` along ``direction``
-``inversion``     inversion handling of the material: ``"itf"`` (ITF-clamped ln J) or
-                  ``"projected"`` (PSD-projected tangent)
+``inversion``     ``"itf"`` (ITF-clamped ln J) or ``"projected"`` (PSD-projected tangent)
 ``handles``       nodes held or pulled (a boundary name, a box, or the nodes near a point)
 ``tractions``     a constant traction on a named boundary
 ``probes``        rigid disc tool tips pressed into the tissue (a penalty term)
@@ -20,73 +17,62 @@ effect            what it adds
 ``incisions``     cuts along polylines before the first frame (``method``: ``"elements"``, through the
                   elements, or ``"edges"``, snapped to mesh edges with duplicated nodes)
 ``sutures``       pairs of points tied together by stiff springs
-``contact``       self-contact of the surface: wound lips and folds touch but never pass
-                  through (``distance``: the skin's depth, default a quarter of the median
-                  boundary edge; ``stiffness``: a pressure, default Young's modulus)
+``contact``       self-contact: wound lips and folds touch but never pass through (``distance``: the
+                  skin's depth, default a quarter of the median boundary edge; ``stiffness``: a pressure,
+                  default Young's modulus)
 ================  =============================================================================
 
-A scene is a plain nested dictionary with these keys (see
-:data:`EXAMPLE_TOML`), written in Python (:class:`Scene`), or loaded from a
-TOML or JSON file (:meth:`Scene.load`). Every field is checked, and an invalid
-scene raises ``ValueError`` naming the field (``effects.handles[1].region``).
+A scene is a plain nested dictionary with these keys (see :data:`EXAMPLE_TOML`), written in Python
+(:class:`Scene`) or loaded from a TOML or JSON file (:meth:`Scene.load`). Every field is checked, and an
+invalid scene raises ``ValueError`` naming the field (``effects.handles[1].region``).
 
 Limits
 ------
-Every numeric field has a range, chosen so that whatever is accepted can also be
-computed (no overflow or division by zero later on); sizes are capped before
-anything is allocated. ``L`` is the domain's size (the larger side of its
-bounding box).
+Every numeric field has a range, so that whatever is accepted can also be computed (no overflow or
+division by zero later on); sizes are capped before anything is allocated. ``L`` is the domain's size
+(the larger side of its bounding box).
 
 =====================================================  ==========================================================
 field                                                  allowed
 =====================================================  ==========================================================
 ``domain.triangles``; ``2 nx ny`` (fusiform)           an integer in ``[1, 200 000]`` (:data:`MAX_TRIANGLES`)
 ``domain.nx``, ``domain.ny``                           integers in ``[1, 100 000]``, with ``2 nx ny <= 200 000``
-lengths (``width``, ``height``, ``length``, ...),      ``[1e-6, 1e6]``
-``domain.scale``
+lengths (``width``, ...), ``domain.scale``             ``[1e-6, 1e6]``
 aspect ratios (``width/height``, ``length/max_width``,  at most ``1e4`` either way
 ``max_width/tendon_width``)
-a mesh file (``domain.path``)                          at most 64 MiB and 200 000 triangles; 3-node triangles
-                                                       only (plus lines and vertices naming groups), planar
-                                                       (a third coordinate only if zero everywhere),
+a mesh file (``domain.path``)                          at most 64 MiB and 200 000 3-node triangles (plus lines and
+                                                       vertices naming groups), planar (``z = 0`` if given),
                                                        coordinates within ``+-1e6`` after scaling
-``material.youngs_modulus``                            ``[1e-6, 1e12]``
-``material.poisson_ratio``                             ``[-0.999999, 0.499999]`` (inside ``(-1, 0.5)``)
-``material.density``                                   ``[1e-6, 1e6]``
+``material.youngs_modulus`` / ``poisson_ratio`` /      ``[1e-6, 1e12]`` / ``[-0.999999, 0.499999]`` /
+``density``                                            ``[1e-6, 1e6]``
 ``effects.inertia.time_step``                          ``[1e-6, 10]`` s
-``effects.gravity.acceleration`` (each component)      ``[-1e6, 1e6]``
-``effects.tractions[i].traction`` (each component)     ``[-1e12, 1e12]``
+gravity ``acceleration`` / ``traction`` (components)   ``[-1e6, 1e6]`` / ``[-1e12, 1e12]``
 ``effects.fibers.stiffness``                           ``[0, 1e12]``
 ``effects.inversion.threshold``                        ``[0.01, 0.99]``
-probe and suture ``stiffness``                         ``[0, 1e40]`` (sutures: ``> 0``)
-``effects.contact.stiffness``                          ``(0, 1e40]``
-``effects.contact.distance``                           ``> 0``, at most half the median length of a surface segment
-                                                       (checked when the model is built)
+probe / suture / contact ``stiffness``                 ``[0, 1e40]`` / ``(0, 1e40]`` / ``(0, 1e40]``
+``effects.contact.distance``                           ``> 0``, at most half the median length of a surface
+                                                       segment (checked when the model is built)
 ``effects.sutures[i].tightness``                       ``[0, 1]``
 points (centres, boxes, polygons, paths, sutures)      within ``1000 L`` of the domain's centre
 and handle ``target`` displacements
 radii (``near`` regions, probes)                       ``[1e-6 L, 1000 L]``
 node indices (``region.nodes``)                        integers in ``[0, 600 000)``
-``solver.budget``                                      ``[1e-6, 1e9]`` s
-``solver.rtol``                                        ``[1e-14, 0.5]``
-``solver.max_iterations``                              an integer in ``[1, 1000]``
-entries of one list-valued effect                      at most 1000
-points of a polygon or path; pairs of a suture         at most 10 000
-strings                                                at most 10 000 characters, no lone surrogates
-                                                       (``domain.path``: no NUL either)
+``solver.budget`` / ``rtol`` / ``max_iterations``      ``[1e-6, 1e9]`` s / ``[1e-14, 0.5]`` / an integer in
+                                                       ``[1, 1000]``
+entries of one list-valued effect                      at most 1000; points of a polygon or path, pairs of a
+                                                       suture: at most 10 000
+strings                                                at most 10 000 characters, no lone surrogates (``domain.path``:
+                                                       no NUL either)
 a scene file                                           at most 16 MiB of UTF-8, nested at most 16 levels
 =====================================================  ==========================================================
 
-Counts and node indices are true integers: ``800.0`` and ``True`` are refused,
-as are strings such as ``"1000"`` where a number belongs. For a ``file`` domain
-the limits that need ``L`` are checked when the mesh is read
-(:meth:`Scene.build_mesh`).
-
-A :class:`~tissuefem.surgery.simulation.Simulation` builds and runs it.
+Counts and node indices are true integers: ``800.0``, ``True`` and ``"1000"`` are refused. For a ``file``
+domain the limits that need ``L`` are checked when the mesh is read (:meth:`Scene.build_mesh`).
 """
 
 from __future__ import annotations
 
+import collections
 import contextlib
 import copy
 import io
@@ -114,12 +100,10 @@ from ..engine.parameters import TIME_STEP_RANGE, YOUNGS_MODULUS_RANGE, check_cou
 
 __all__ = ["Scene", "EFFECTS", "SHAPES", "EXAMPLE_TOML", "demo_scene", "flap_scene", "flap_path", "read_mesh"]
 
-#: the effects a scene may name
-#: How a cut or an excision meets the mesh: through the elements, along the drawn line (the virtual node
-#: algorithm, :mod:`~tissuefem.surgery.element_cuts`), or snapped to the mesh's edges (:mod:`~tissuefem.surgery.
-#: topology`: jagged, mesh-dependent; kept to compare)
+#: How a cut or an excision meets the mesh: through the elements (:mod:`~tissuefem.surgery.element_cuts`), or
+#: snapped to the mesh's edges (:mod:`~tissuefem.surgery.topology`: jagged, mesh-dependent; kept to compare)
 CUT_METHODS = ("elements", "edges")
-
+#: the effects a scene may name
 EFFECTS = ("inertia", "gravity", "fibers", "inversion", "handles", "tractions", "probes", "excisions",
            "incisions", "sutures", "contact")
 #: the domains a scene may use ("file": a 2D triangle mesh read through meshio)
@@ -127,20 +111,15 @@ SHAPES = ("rectangle", "flap", "fusiform", "file")
 #: the list-valued effects (each entry is a table)
 _LISTS = ("handles", "tractions", "probes", "excisions", "incisions", "sutures")
 
-# --- limits (the table in the module docstring and in the README) ----------------------------------------------
-#: triangles of a generated domain (and of a mesh file)
-MAX_TRIANGLES = meshes.MAX_TRIANGLES
-#: lengths of a generated domain, and ``domain.scale``
-SIZE_RANGE = meshes.SIZE_RANGE
+# --- limits (the table in the module docstring and in docs/scenes.md) -------------------------------------------
+#: triangles of a generated domain (and of a mesh file); lengths of a generated domain, and ``domain.scale``;
 #: the largest aspect ratio of a domain, either way round
-MAX_ASPECT = meshes.MAX_ASPECT
+MAX_TRIANGLES, SIZE_RANGE, MAX_ASPECT = meshes.MAX_TRIANGLES, meshes.SIZE_RANGE, meshes.MAX_ASPECT
 DENSITY_RANGE = (1e-6, 1e6)
-#: bound on each component of ``effects.gravity.acceleration``
-MAX_ACCELERATION = 1e6
-#: bound on each component of a traction (a stress, like Young's modulus)
-MAX_TRACTION = 1e12
+#: bounds on each component of ``effects.gravity.acceleration`` and of a traction (a stress, like Young's modulus)
+MAX_ACCELERATION, MAX_TRACTION = 1e6, 1e12
 FIBER_STIFFNESS_RANGE = (0.0, 1e12)
-#: the largest penalty stiffness of a probe or a suture
+#: the largest penalty stiffness of a probe, a suture or the contact
 MAX_PENALTY_STIFFNESS = 1e40
 THRESHOLD_RANGE = (0.01, 0.99)
 BUDGET_RANGE = (1e-6, 1e9)
@@ -150,10 +129,8 @@ MAX_ITERATIONS = 1000
 REACH = 1e3
 #: radii are at least MIN_RADIUS domain sizes
 MIN_RADIUS = 1e-6
-#: entries of one list-valued effect
-MAX_ENTRIES = 1000
-#: points of a polygon or path, pairs of a suture
-MAX_POINTS = 10_000
+#: entries of one list-valued effect; points of a polygon or path, pairs of a suture
+MAX_ENTRIES, MAX_POINTS = 1000, 10_000
 #: node indices lie below this (a mesh of MAX_TRIANGLES triangles has fewer nodes)
 MAX_NODES = 3 * MAX_TRIANGLES
 MAX_STRING = 10_000
@@ -223,22 +200,18 @@ def _show(value) -> str:
 
 def _number(field, value, *, positive=False, nonnegative=False, integer=False, below=None,
             lo=None, hi=None, lo_open=False, hi_open=False):
-    """``value`` as a number for ``field``, checked against a range; ``ValueError`` naming ``field`` otherwise.
+    """``value`` as a number for ``field`` within a range; ``ValueError`` naming ``field`` otherwise.
 
-    ``positive`` (> 0), ``nonnegative`` (>= 0) and ``below`` (< below) are
-    shorthands for ``lo``/``hi`` with open or closed ends. With ``integer`` the
-    value must be a true integer (a float such as ``800.0`` is refused).
+    ``positive`` (> 0), ``nonnegative`` (>= 0) and ``below`` (< below) are shorthands for ``lo``/``hi``
+    with open or closed ends; with ``integer``, a float such as ``800.0`` is refused.
     """
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise ValueError(f"{field} must be a number, got {_show(value)}")
     if integer:
         low = lo if lo is not None else 1 if positive else 0 if nonnegative else -(2**63)
         return check_count(field, value, int(low), None if hi is None else int(hi))
-    if lo is None:
-        if positive:
-            lo, lo_open = 0.0, True
-        elif nonnegative:
-            lo = 0.0
+    if lo is None and (positive or nonnegative):
+        lo, lo_open = 0.0, positive
     if hi is None and below is not None:
         hi, hi_open = below, True
     return check_real(field, value, lo, hi, lo_open=lo_open, hi_open=hi_open)
@@ -271,6 +244,12 @@ def _only(field, table, allowed):
     if unknown:
         shown = sorted(_show(k) for k in unknown)
         raise ValueError(f"{field}: unknown key(s) [{', '.join(shown)}]; allowed: {sorted(allowed)}")
+
+
+def _require(field, table, keys):
+    for key in keys:
+        if key not in table:
+            raise ValueError(f"{field}.{key}: missing")
 
 
 def _string(field, value, choices=None, *, nonempty=False):
@@ -341,8 +320,7 @@ def _check_domain(d):
         out["path"] = _string("domain.path", d["path"], nonempty=True)
         if "\0" in out["path"]:
             raise ValueError("domain.path must not contain a NUL character")
-        out["scale"] = _number("domain.scale", d.get("scale", 1.0), positive=True, lo=SIZE_RANGE[0],
-                               hi=SIZE_RANGE[1])
+        out["scale"] = _length("domain.scale", d.get("scale", 1.0))
     return out
 
 
@@ -361,9 +339,7 @@ def _check_material(m):
                          "poisson_ratio")
     m = _table("material", m)
     _only("material", m, ("model", "youngs_modulus", "poisson_ratio", "density"))
-    for key in ("model", "youngs_modulus", "poisson_ratio"):
-        if key not in m:
-            raise ValueError(f"material.{key}: missing")
+    _require("material", m, ("model", "youngs_modulus", "poisson_ratio"))
     return {
         "model": _string("material.model", m["model"], sorted(MATERIALS)),
         "youngs_modulus": _number("material.youngs_modulus", m["youngs_modulus"], positive=True,
@@ -420,16 +396,12 @@ def _check_entry(kind, i, e):
                 "target": _vector(f"{field}.target", e.get("target", [0.0, 0.0]))}
     if kind == "tractions":
         _only(field, e, ("boundary", "traction"))
-        for key in ("boundary", "traction"):
-            if key not in e:
-                raise ValueError(f"{field}.{key}: missing")
+        _require(field, e, ("boundary", "traction"))
         return {"boundary": _string(f"{field}.boundary", e["boundary"], nonempty=True),
                 "traction": _vector(f"{field}.traction", e["traction"], MAX_TRACTION)}
     if kind == "probes":
         _only(field, e, ("center", "radius", "stiffness"))
-        for key in ("center", "radius"):
-            if key not in e:
-                raise ValueError(f"{field}.{key}: missing")
+        _require(field, e, ("center", "radius"))
         out = {"center": _vector(f"{field}.center", e["center"]), "radius": _radius(f"{field}.radius", e["radius"])}
         if "stiffness" in e:
             out["stiffness"] = _penalty(f"{field}.stiffness", e["stiffness"])
@@ -478,8 +450,7 @@ def _check_effects(effects):
     if "fibers" in effects:
         e = _table("effects.fibers", effects["fibers"])
         _only("effects.fibers", e, ("stiffness", "direction"))
-        if "stiffness" not in e:
-            raise ValueError("effects.fibers.stiffness: missing")
+        _require("effects.fibers", e, ("stiffness",))
         direction = e.get("direction", [1.0, 0.0])
         if isinstance(direction, str):
             _string("effects.fibers.direction", direction, ("fusiform",))
@@ -568,9 +539,8 @@ def _check_reach(effects, box, where=""):
         field = f"effects.handles[{i}]"
         region = h["region"]
         if isinstance(region, dict) and "box" in region:
-            b = region["box"]
-            point(f"{field}.region.box[0:2]", b[:2])
-            point(f"{field}.region.box[2:4]", b[2:])
+            point(f"{field}.region.box[0:2]", region["box"][:2])
+            point(f"{field}.region.box[2:4]", region["box"][2:])
         elif isinstance(region, dict) and "near" in region:
             point(f"{field}.region.near", region["near"])
             radius(f"{field}.region.radius", region["radius"])
@@ -580,12 +550,10 @@ def _check_reach(effects, box, where=""):
     for i, p in enumerate(effects.get("probes", [])):
         point(f"effects.probes[{i}].center", p["center"])
         radius(f"effects.probes[{i}].radius", p["radius"])
-    for i, e in enumerate(effects.get("excisions", [])):
-        for j, q in enumerate(e["polygon"]):
-            point(f"effects.excisions[{i}].polygon[{j}]", q)
-    for i, e in enumerate(effects.get("incisions", [])):
-        for j, q in enumerate(e["path"]):
-            point(f"effects.incisions[{i}].path[{j}]", q)
+    for kind, key in (("excisions", "polygon"), ("incisions", "path")):
+        for i, e in enumerate(effects.get(kind, [])):
+            for j, q in enumerate(e[key]):
+                point(f"effects.{kind}[{i}].{key}[{j}]", q)
     for i, e in enumerate(effects.get("sutures", [])):
         for j, pair in enumerate(e["pairs"]):
             for k, q in enumerate(pair):
@@ -669,18 +637,16 @@ def _toml_value(v):
 
 
 def _toml(data) -> str:
-    lines = []
-    for key in ("name", "description"):
-        if key in data:
-            lines.append(f"{key} = {_toml_value(data[key])}")
+    lines = [f"{key} = {_toml_value(data[key])}" for key in ("name", "description") if key in data]
+
+    def table(header, values):
+        lines.extend(["", header] + [f"{_toml_key(k)} = {_toml_value(v)}" for k, v in values.items()])
+
     for section in ("domain", "material", "solver"):
-        lines += ["", f"[{section}]"] + [f"{_toml_key(k)} = {_toml_value(v)}" for k, v in data[section].items()]
+        table(f"[{section}]", data[section])
     for kind, value in data["effects"].items():
-        if kind in _LISTS:
-            for entry in value:
-                lines += ["", f"[[effects.{kind}]]"] + [f"{_toml_key(k)} = {_toml_value(v)}" for k, v in entry.items()]
-        else:
-            lines += ["", f"[effects.{kind}]"] + [f"{_toml_key(k)} = {_toml_value(v)}" for k, v in value.items()]
+        for entry in value if kind in _LISTS else [value]:
+            table(f"[[effects.{kind}]]" if kind in _LISTS else f"[effects.{kind}]", entry)
     return "\n".join(lines) + "\n"
 
 
@@ -702,14 +668,11 @@ def _scene_path(path, argument="path") -> Path:
 class Scene:
     """A checked scene description.
 
-    ``Scene(domain=..., material=..., effects=..., solver=..., name=..., description=...)``
-    with dictionaries as in a scene file; missing optional fields get their
-    defaults, so :meth:`to_dict` is the complete, normalised scene. ``None``
-    means "the default" only for the keyword arguments; inside a scene every
-    value must have its type. ``base_dir`` is where a ``file`` domain's
-    relative path starts (the scene file's folder when loaded from a file).
-    ``notes`` lists what :meth:`build_mesh` had to say about a mesh file (nodes
-    it dropped).
+    ``Scene(domain=..., material=..., effects=..., solver=..., name=..., description=...)`` with
+    dictionaries as in a scene file; missing optional fields get their defaults, so :meth:`to_dict` is the
+    complete, normalised scene. ``None`` means "the default" only for the keyword arguments. ``base_dir``
+    is where a ``file`` domain's relative path starts (the scene file's folder when loaded from a file);
+    ``notes`` lists what :meth:`build_mesh` had to say about a mesh file (nodes it dropped).
     """
 
     def __init__(self, *, domain=None, material=None, effects=None, solver=None, name="scene", description="",
@@ -806,8 +769,7 @@ class Scene:
     def save(self, path) -> None:
         """Write the scene to a ``.toml`` or ``.json`` file that :meth:`load` reads back as this very scene.
 
-        The text is read back and compared before the file is touched, and the
-        file is replaced in one step: a failure leaves an existing file as it was.
+        The text is read back and compared first, and the file replaced in one step: a failure leaves it as it was.
         """
         path = _scene_path(path)
         toml = path.suffix == ".toml"
@@ -931,14 +893,13 @@ def _read_mesh(path, scale):
         raise ValueError(f"domain.path: {name!r} has {size} bytes, more than the {MAX_MESH_FILE_BYTES} a mesh file "
                          "may have")
     m = _meshio_read(path)
-    counts = {}
+    counts = collections.Counter()
     for block in m.cells:
-        counts[block.type] = counts.get(block.type, 0) + len(block.data)
+        counts[block.type] += len(block.data)
     holds = ", ".join(f"{n} {kind}" for kind, n in sorted(counts.items())) or "no cells at all"
     foreign = sorted(set(counts) - set(_CELLS_ALLOWED))
     if foreign or counts.get("triangle", 0) == 0:
-        why = (f"cells of type {foreign} are not 3-node triangles" if foreign
-               else "it has no triangles")
+        why = f"cells of type {foreign} are not 3-node triangles" if foreign else "it has no triangles"
         raise ValueError(f"domain.path: {name!r} holds {holds} cells: {why}; only 2D meshes of 3-node triangles "
                          "are read (lines and vertices may come with them, naming boundaries)")
     if counts["triangle"] > MAX_TRIANGLES:
@@ -999,11 +960,10 @@ def _facet_index(mesh, pairs) -> np.ndarray:
 def _skfem_boundaries(m, t, mesh):
     """Boundaries scikit-fem wrote into the file (``skfem:b:NAME`` cell data), as facet indices of ``mesh``.
 
-    scikit-fem encodes a boundary as bit flags of each triangle's local edges,
-    counted in the triangle's node order *as written*. Its reader decodes them
-    after sorting every triangle's nodes, which picks other edges whenever the
-    written order was not sorted (as in the counter-clockwise meshes of
-    :mod:`~tissuefem.engine.meshes`); here they are decoded in the written order.
+    scikit-fem encodes a boundary as bit flags of each triangle's local edges, in the node order *as
+    written*; its reader decodes them after sorting each triangle's nodes, which picks other edges when
+    that order was not sorted (the counter-clockwise meshes of :mod:`~tissuefem.engine.meshes`). Here they
+    are decoded in the written order.
     """
     local = np.asarray(skfem.refdom.RefTri.facets)  # local edge k joins nodes local[k] of the triangle
     triangle_blocks = [i for i, b in enumerate(m.cells) if b.type == "triangle"]
@@ -1036,25 +996,18 @@ def _dropped_note(path, dropped) -> str:
 
 
 def read_mesh(path, scale=1.0, notes=None):
-    """A 2D triangle mesh from a file meshio reads (gmsh ``.msh``, ``.vtk``, ``.xdmf`` ...).
+    """A 2D triangle mesh from a file meshio reads (gmsh ``.msh``, ``.vtk``, ...), coordinates times ``scale``.
 
-    Physical line groups become named boundaries. Only meshes of 3-node
-    triangles are read (lines and vertices may come with them); anything else
-    (tetrahedra, quads, quadratic triangles, lines only, points off the plane
-    ``z = 0``, more than :data:`MAX_TRIANGLES` triangles, a file over
-    :data:`MAX_MESH_FILE_BYTES`) is refused with a ``ValueError`` naming
-    ``domain.path`` and what the file holds, as is a mesh that fails
-    :func:`tissuefem.engine.meshes.check_mesh` (its node numbers are the
-    file's, 0-based). A reader that fails, even by ending the process (meshio
-    calls ``sys.exit``), gives the same ``ValueError``.
+    Physical line groups become named boundaries. Only 3-node triangles are read (lines and vertices may
+    come with them); anything else (tetrahedra, quads, quadratic triangles, points off ``z = 0``, more than
+    :data:`MAX_TRIANGLES` triangles, a file over :data:`MAX_MESH_FILE_BYTES`), a mesh that fails
+    :func:`tissuefem.engine.meshes.check_mesh` (with the file's 0-based node numbers) and a reader that fails,
+    even by calling ``sys.exit`` as meshio does, raise a ``ValueError`` naming ``domain.path``.
 
-    Nodes that belong to no triangle are dropped and the rest renumbered in
-    their order (gmsh writes the points of the geometry, such as the centre of
-    a circular arc, as nodes that no element uses); a note saying so is
-    appended to ``notes`` (a list) if given. ``scale`` multiplies the
-    coordinates.
+    Nodes in no triangle (gmsh writes geometry points, such as an arc's centre, as nodes) are dropped and
+    the rest renumbered in their order; a note saying so is appended to ``notes`` (a list) if given.
     """
-    scale = _number("domain.scale", scale, positive=True, lo=SIZE_RANGE[0], hi=SIZE_RANGE[1])
+    scale = _length("domain.scale", scale)
     mesh, dropped = _read_mesh(path, scale)
     if dropped.size and notes is not None:
         notes.append(_dropped_note(Path(path).name, dropped))
@@ -1084,12 +1037,10 @@ def flap_scene(n_triangles: int = 8000, model: str = "neo-hookean", dynamic: boo
                linear_solver: str = "reuse") -> Scene:
     """The standard scene of the benchmarks and chapters 7-9: a tissue flap pulled by its right edge.
 
-    The flap ``[0, 2] x [0, 1]`` (E = 1000, nu = 0.3, rho0 = 1, plane strain) of
-    about ``n_triangles``, its left edge ``fixed``, its right edge a ``handle``
-    that :func:`flap_path` carries along a slow loop; backward Euler with
-    ``dt = 1/30`` (``dynamic=False``: quasistatic frames); every frame solved to
-    ``rtol`` with no wall-clock budget (a benchmark measures the frame, the
-    real-time loop sets a budget).
+    The flap ``[0, 2] x [0, 1]`` (E = 1000, nu = 0.3, rho0 = 1, plane strain) of about ``n_triangles``, its
+    left edge ``fixed``, its right edge a ``handle`` that :func:`flap_path` carries along a slow loop;
+    backward Euler with ``dt = 1/30`` (``dynamic=False``: quasistatic); every frame solved to ``rtol`` with
+    no wall-clock budget (a benchmark measures the frame, the real-time loop sets a budget).
     """
     effects = {"handles": [{"name": "fixed", "region": "fixed"}, {"name": "handle", "region": "handle"}]}
     if dynamic:
