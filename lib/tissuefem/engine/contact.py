@@ -2,198 +2,131 @@
 
 Where contact lives
 -------------------
-A :class:`Contact` term is one more term of the incremental potential
-(:mod:`tissuefem.engine.terms`): ``energy``, ``gradient`` and ``add_hessian``
-like every other. Two things set it apart, and both are hooks that a model
-without contact never calls:
+A :class:`Contact` term is one more term of the incremental potential (:mod:`tissuefem.engine.terms`), with two
+hooks that a model without contact never calls:
 
-* its Hessian couples nodes that no element couples (two sides of a fold, two
-  lips of a wound), and *which* nodes changes as the body moves. The model's
-  sparsity pattern is widened with the couplings of the current candidate
-  pairs and rebuilt (a merge of a few keys, ~4 ms at 8k triangles) only when a
-  pair appears that the pattern does not hold (:meth:`Contact.covers`);
-* a state on the far side of a surface is not a state of higher energy but a
-  state that must never be reached. The minimiser asks :meth:`Contact.max_step`
-  for the largest fraction of a Newton step free of crossings (continuous
-  collision detection) before its line search, and the stepper asks the same
-  of its warm start (:func:`tissuefem.engine.minimize.newton`, ``step_limit``).
+* its Hessian couples nodes that no element couples (two sides of a fold, two lips of a wound), and *which* nodes
+  changes as the body moves. The model's sparsity pattern is widened with the couplings of the current candidate
+  pairs and rebuilt (a merge of a few keys, ~4 ms at 8k triangles) only when a pair appears that the pattern does
+  not hold (:meth:`Contact.covers`);
+* a state on the far side of a surface must never be reached. The minimiser asks :meth:`Contact.max_step` for the
+  largest fraction of a Newton step free of crossings (continuous collision detection) before its line search, and
+  the stepper asks the same of its warm start (:func:`tissuefem.engine.minimize.newton`, ``step_limit``).
 
 The surface
 -----------
-A :class:`ContactSurface` is a set of *points* and *segments* between them.
-A point is a fixed linear combination of node positions,
-
-    y_i = sum_k W_ik x_(N_ik),
-
-so a boundary node is one node with weight 1, and a point on the lip of a
-cut through an element (:mod:`tissuefem.surgery.element_cuts`) is the
-barycentric combination of the three nodes of the element copy that carries
-that lip. A segment ``(a, b)`` joins two points with the material on its
-*left* (counter-clockwise around the material), so its outward normal is the
-tangent turned clockwise, ``n = (e_y, -e_x) / |e|`` with ``e = y_b - y_a``.
-Segments follow each other round closed loops (:attr:`ContactSurface.next`).
+A :class:`ContactSurface` is a set of *points* and *segments* between them. A point is a fixed linear combination of
+node positions, ``y_i = sum_k W_ik x_(N_ik)``: a boundary node is one node with weight 1, a point on the lip of a
+cut through an element (:mod:`tissuefem.surgery.element_cuts`) the barycentric combination of the nodes of the
+element copy that carries that lip. A segment ``(a, b)`` has the material on its *left* (counter-clockwise around
+the material), so its outward normal is the tangent turned clockwise, ``n = (e_y, -e_x) / |e|`` with
+``e = y_b - y_a``. Segments follow each other round closed loops (:attr:`ContactSurface.next`).
 
 Why a one-sided band behind the surface (and not IPC's barrier as it is)
 -------------------------------------------------------------------------
-Incremental Potential Contact (IPC) [1]_ keeps surfaces apart by a barrier on
-the unsigned distance ``d`` between a point and a segment,
-``b(d) = -(d - d^)^2 ln(d / d^)`` for ``0 < d < d^``: zero and twice
-differentiable where the gap reaches the activation distance ``d^``, infinite
-at ``d = 0``, so a line search that only accepts finite energies never lets
-two surfaces touch. That is exactly what cannot work here: the moment a
-wound is cut, its two lips *coincide* (``d = 0`` everywhere along it), and a
-closed wound must be allowed to stay closed without force.
+Incremental Potential Contact (IPC) [1]_ keeps surfaces apart by a barrier on the unsigned distance ``d`` between a
+point and a segment, ``b(d) = -(d - d^)^2 ln(d / d^)`` for ``0 < d < d^``: zero and twice differentiable at the
+activation distance ``d^``, infinite at ``d = 0``, so two surfaces never touch. That cannot work here: the moment a
+wound is cut, its two lips *coincide* (``d = 0`` along it), and a closed wound must be allowed to stay closed
+without force.
 
-So the gap is *signed*, measured against the outward normal of the segment
-(the material side of every segment is known), and the barrier acts on the
-inside: with the signed gap ``sigma`` (positive in front of the surface,
-negative behind it) the energy of a point is zero for ``sigma >= 0`` (two lips
-that touch feel nothing) and grows as the point is pressed behind the surface,
-to infinity when the overlap reaches ``d^``:
+So the gap is *signed*, measured against the outward normal of the segment (positive in front, negative behind), and
+the barrier acts on the inside: a point's energy is zero for ``sigma >= 0`` (two lips that touch feel nothing) and
+grows to infinity as the overlap reaches ``d^``:
 
     E = kappa * sum_(points p) sum_(stretches of surface near p) l_p d^ beta(1 + (sigma + o_p) / d^),
     beta(zeta) = -(zeta - 1)^2 ln(zeta)   for 0 < zeta < 1,   beta = 0 for zeta >= 1,
 
-with ``sigma`` the signed gap of ``p`` to the nearest feature of that stretch
-(below) and ``o_p`` a rest offset, zero but where the surface has features
-smaller than the skin (below).
+with ``sigma`` the signed gap of ``p`` to the nearest feature of that stretch and ``o_p`` a rest offset (both
+below). This is IPC's barrier measured from the surface moved *inward* by ``d^`` (the "thickness" offset of
+codimensional IPC [2]_, with the opposite sign): ``d^`` is the thin skin in which contact pressure builds up.
+``beta`` and its first two derivatives vanish at ``zeta = 1`` (contact starts smoothly) and ``beta -> infinity`` as
+``zeta -> 0``: no accepted state has a point deeper than ``d^`` behind a surface it is near. ``l_p`` is the point's
+share of the surface length at rest (half of each segment it ends), so ``kappa`` is a *pressure*: at an overlap
+``delta`` the pressure is ``kappa |beta'(1 - delta / d^)|``, ``kappa`` itself at ``delta = 0.46 d^`` (a scene's
+default ``kappa`` is Young's modulus: tissue pressed at a tenth of its modulus overlaps by a fifth of ``d^``).
 
-This is IPC's barrier measured from the surface moved *inward* by ``d^`` (the
-"thickness" offset of codimensional IPC [2]_, with the opposite sign): ``d^``
-is the thin skin in which contact pressure builds up. ``beta`` and its first
-two derivatives vanish at ``zeta = 1`` (contact starts smoothly, like the
-probe's penalty), and ``beta -> infinity`` as ``zeta -> 0``: no accepted state
-has a point deeper than ``d^`` behind a surface it is near. ``l_p`` is the
-point's share of the surface length in the reference configuration (half of
-each segment it ends), so ``kappa`` is a *pressure*: the contact pressure at an
-overlap ``delta`` is ``kappa |beta'(1 - delta / d^)|``, which equals ``kappa``
-at about ``delta = 0.46 d^`` (a scene's default ``kappa`` is Young's modulus:
-tissue pressed at a tenth of its modulus overlaps by a fifth of ``d^``).
+Why a barrier and not a penalty with a no-crossing check: a finite penalty lets Newton push a point against the
+collision detection's limit step after step (each step cut to 0.8 of the way, never converging); a barrier's energy
+grows without bound before the wall, so the minimiser turns back on its own and the collision detection only catches
+steps that would jump over the skin.
 
-Why a barrier and not a penalty with a no-crossing check: a finite penalty
-lets Newton push a point against the collision detection's limit step after
-step (each step cut to 0.8 of the way, the solve never converging); a
-barrier's energy itself grows without bound before the wall, so the
-minimiser turns back on its own and the collision detection only has to
-catch the steps that would jump over the skin in one go.
-
-The gradient is ``dE/dy = kappa l_p beta'(zeta) dsigma/dy`` (the force
-``-kappa l_p beta' n`` pushes the point out along the normal and the segment
-back, equal and opposite), and the Hessian
+The gradient is ``dE/dy = kappa l_p beta'(zeta) dsigma/dy`` (the force ``-kappa l_p beta' n`` pushes the point out
+along the normal and the segment back, equal and opposite), and the Hessian
 
     d2E/dy2 = kappa l_p [ beta''(zeta) / d^ (dsigma/dy)(dsigma/dy)^T  +  beta'(zeta) d2sigma/dy2 ].
 
-``beta'' >= 0`` and ``beta' <= 0``, and ``d2sigma/dy2`` (the turning of the
-normal as the segment rotates) is indefinite: the *safe* Hessian
-(``safe=True``, the minimiser's fallback when a direction is not downhill)
-keeps only the first, positive semi-definite part. The points' Hessian is
-carried to the nodes by the weights ``W``.
+``beta'' >= 0``, ``beta' <= 0`` and ``d2sigma/dy2`` (the turning of the normal) is indefinite: the *safe* Hessian
+(``safe=True``, the minimiser's fallback when a direction is not downhill) keeps only the first, positive
+semi-definite part. The weights ``W`` carry the points' Hessian to the nodes.
 
 The signed gap: which feature of the surface a point is measured against
 ------------------------------------------------------------------------
-For a point ``p`` and a segment ``s = (a, b)`` with ``e = y_b - y_a``, ``w = y_p - y_a``,
-``t = w . e / |e|^2`` says where ``p`` projects along the segment, and the
-feature of ``s`` nearest to ``p`` gives two cases:
+For a point ``p`` and a segment ``s = (a, b)`` with ``e = y_b - y_a``, ``w = y_p - y_a``, ``t = w . e / |e|^2`` says
+where ``p`` projects along it:
 
-* **point-segment (interior)**, ``0 < t < 1``: the distance to the segment's
-  line, signed by the outward normal, ``sigma = cross(w, e) / |e| = (y_p - y_a) . n``;
-* **point-point (an end)**, ``t <= 0`` or ``t >= 1``: the distance to that end
-  ``v``, ``|y_p - y_v|``, signed by the corner's *pseudonormal* ``n_v`` (the
-  mean of the normals of the two segments meeting at ``v``): negative when
-  ``(y_p - y_v) . n_v < 0``. Behind a corner that turns into the material (a
-  reflex corner) a point is inside; behind a convex corner no point projects
-  outside both segments, so the case only arises in front of it.
+* **point-segment (interior)**, ``0 < t < 1``: the distance to the segment's line, signed by the outward normal,
+  ``sigma = cross(w, e) / |e| = (y_p - y_a) . n``;
+* **point-point (an end)**, ``t <= 0`` or ``t >= 1``: the distance ``|y_p - y_v|`` to that end ``v``, negative when
+  ``(y_p - y_v) . n_v < 0`` with the corner's *pseudonormal* ``n_v`` (the mean of the normals of the two segments
+  meeting at ``v``). Behind a reflex corner a point is inside; behind a convex corner no point projects outside both
+  segments.
 
-This is the signed distance to a polygon of [3]_, and it is continuous where
-the nearest feature changes from a segment's interior to its end *inside the
-run the point sees* (below): the two distances and their signs agree. It is
-not continuous everywhere, and the exceptions are known (see "Where the energy
-jumps" below). A point does not belong to every segment
-near it, though, only to the nearest *feature of each run*: the segments
-within ``d^`` of the point form runs of consecutive segments (one run where
-the point touches one stretch of surface, two where it is pinched between
-two), and in each run only the nearest segment counts. So a point pressed
-into a convex corner belongs to the nearer side (the gap's gradient turns by
-the corner's angle across its bisector: the only kink), is never counted
-twice near a corner, and segments shorter than the skin (the sliver a cut
-through elements leaves next to a node) are handled like any other.
+This is the signed distance to a polygon of [3]_, continuous where the nearest feature changes from a segment's
+interior to its end *inside the run the point sees*: the segments within ``d^`` of a point form runs of consecutive
+segments (one where it touches one stretch of surface, two where it is pinched between two), and in each run only
+the nearest segment counts. So a point pressed into a convex corner belongs to the nearer side (the only kink is
+across the corner's bisector), is never counted twice, and segments shorter than the skin (the sliver a cut through
+elements leaves next to a node) are handled like any other. Where it is not continuous: "Where the energy jumps".
 
-A point is not paired with the two segments it ends, nor (in the broad
-phase) with their neighbours along the surface, nor with any segment less
-than ``2 d^`` away from it along the surface at rest (walking along the loop,
-but not round a corner that turned back into the material when the surface
-was built): a point and its own neighbourhood are not "in contact". Without
-the last rule a cut through elements, whose lips are chains of pieces shorter
-than ``d^``, puts a lip's own points within the skin of its corners as soon
-as it bends, where the corner's pseudonormal says little. The one exception is a corner that turned
-back into the material when the surface was built, the tip of a crack: there
-the two lips meet, and the first point of each lip is checked against the
-first segment of the other (a *hinge*) whenever the corner turns by more than
-90 degrees, so that a crack pressed shut right up to its tip does not
-overlap there. Two coinciding lips are at ``sigma = 0``: in contact, with no
-force.
+A point is not paired with the two segments it ends, nor (in the broad phase) with their neighbours, nor with any
+segment less than ``2 d^`` away from it along the surface at rest: a point and its own neighbourhood are not "in
+contact" (without this a cut's lip, a chain of pieces shorter than ``d^``, puts its own points within the skin of
+its corners as soon as it bends). The walk along the loop stops at a corner that turned back into the material when
+the surface was built, the tip of a crack: there the first point of each lip is checked against the first segment of
+the other (a *hinge*) whenever the corner turns by more than 90 degrees, so that a crack pressed shut right up to
+its tip does not overlap there. Two coinciding lips are at ``sigma = 0``: in contact, with no force.
 
-The reference configuration touches nothing. Where parts of the surface lie
-closer than the skin there (the sliver a cut through elements leaves next to
-a node: a zigzag of segments shorter than ``d^``), a point sits behind
-another part already at rest; its skin is then measured from where it sits,
-an *offset* ``o_p`` (its depth at rest): its energy uses ``sigma + o_p`` and its
-wall lies at ``sigma = -(d^ + o_p)``. Being one number per point, the offset
-keeps the energy continuous where the nearest feature changes.
+The reference configuration touches nothing. Where parts of the surface lie closer than the skin there (a zigzag of
+segments shorter than ``d^``), a point sits behind another part already at rest; its skin is then measured from
+where it sits, an *offset* ``o_p`` (its depth at rest): its energy uses ``sigma + o_p`` and its wall lies at
+``sigma = -(d^ + o_p)``. Being one number per point, the offset keeps the energy continuous where the nearest
+feature changes.
 
-A point found deeper than ``d^`` behind a segment when a step *starts* (and
-not within ``d^`` of the segment's neighbours: a point shallow behind the next
-segment slides along this stretch of surface, and this segment may own it
-later in the step) is ignored for that pair until the step is over: the far side of a thin body is
-such a pair, and so is tissue a handle dragged through tissue (the handles'
-motion is obeyed, and their crossings are counted in ``StepReport.crossed``
-for as long as the point stays through). Once the point is back out, contact
-acts again.
+A point found deeper than ``d^`` behind a segment when a step *starts* (and not within ``d^`` of the segment's
+neighbours, along which it may slide into this segment's ownership later in the step) is ignored for that pair until
+the step is over: the far side of a thin body is such a pair, and so is tissue a handle dragged through tissue (the
+handles' motion is obeyed; their crossings are counted in ``StepReport.crossed`` while the point stays through).
+Once the point is back out, contact acts again.
 
 Where the energy jumps
 ----------------------
-The energy is a sum of the barriers of the owners, and an owner's gap is
-continuous as long as the point stays in the cone of the corner it is
-measured from. Two cases are not:
+An owner's gap is continuous while the point stays in the cone of the corner it is measured from. Two cases are not:
 
-* a corner primitive whose point is *outside* the corner's cone, because the
-  segment on the corner's other side is not paired with the point (it is in
-  the point's own neighbourhood): the pseudonormal's sign flips on the line
-  through the corner perpendicular to it, at a distance that may be less
-  than ``d^``;
-* a corner whose segments fold right over (a turn through 180 degrees, the
-  surface passing through itself there, as a crumpled lip of a cut through
-  elements can): the pseudonormal turns over, and so does the sign of every
-  point in the corner's cone.
+* a corner primitive whose point is *outside* the corner's cone, because the segment on the corner's other side is
+  in the point's own neighbourhood: the pseudonormal's sign flips on the line through the corner perpendicular to
+  it, possibly closer than ``d^``;
+* a corner whose segments fold right over (through 180 degrees, as a crumpled lip of a cut through elements can):
+  the pseudonormal turns over, and so does the sign of every point in the corner's cone.
 
-The energy then jumps by a finite amount (or from zero to the wall, for a
-point that ended up behind a corner by more than ``d^`` on the wrong side of
-such a flip), and Newton's line search stops at the jump. Both are rare
-(crumpled lips with pieces shorter than ``d^``) and both are open.
+The energy then jumps by a finite amount (or from zero to the wall), and Newton's line search stops at the jump.
+Both are rare and both are open.
 
 Continuous collision detection
 ------------------------------
-The barrier is infinite only in the skin; a large step could carry a point
-from in front of a segment to deeper than ``d^`` behind it without ever being
-seen in the skin, and there the energy is zero again. So every step is first
-limited: with all points moving linearly, ``y(tau) = y0 + tau dy``, the first
-``tau`` in ``[0, 1]`` at which a point reaches a *wall* of a segment that owns
-it then (no neighbouring segment nearer than ``d^``) is its time of impact.
-The walls are the segment's line moved inward by ``d^``,
-``cross(w(tau), e(tau)) = -d^ |e(tau)|`` (squared, a quartic in ``tau``,
-solved only for the pairs a conservative quadratic bound flags), and the
-circles of radius ``d^`` round its ends, ``|y_p(tau) - y_v(tau)|^2 = d^2`` (a
-quadratic), where ``p`` lies behind the corner. The step is cut to ``0.8`` of
-the earliest time of impact, IPC's safety factor [1]_, and the line search
-goes on from there.
+The barrier is infinite only in the skin; a large step could carry a point from in front of a segment to deeper than
+``d^`` behind it, where the energy is zero again. So every step is first limited: with all points moving linearly,
+``y(tau) = y0 + tau dy``, the first ``tau`` in ``[0, 1]`` at which a point reaches a *wall* of a segment that owns
+it then (no neighbouring segment nearer than ``d^``) is its time of impact. The walls are the segment's line moved
+inward by ``d^``, ``cross(w(tau), e(tau)) = -d^ |e(tau)|`` (squared, a quartic in ``tau``, solved only for the pairs
+a conservative quadratic bound flags), and the circles of radius ``d^`` round its ends,
+``|y_p(tau) - y_v(tau)|^2 = d^2`` (a quadratic), where ``p`` lies behind the corner. The step is cut to ``0.8`` of
+the earliest time of impact, IPC's safety factor [1]_.
 
-The broad phase keeps all this cheap: a Verlet list [4]_ of the (point,
-segment) pairs closer than ``d^ + skin`` (the nearest points of each
-segment's midpoint, from a k-d tree), valid as long as the points have moved
-less than ``skin / 2`` *relative to each other* since it was built (a rigid
-drag refreshes nothing); a surface that is nowhere near itself has an empty
-list, no couplings in the pattern, and costs a few vector operations per
-evaluation.
+The broad phase keeps this cheap: a Verlet list [4]_ of the (point, segment) pairs closer than ``d^ + skin`` (the
+nearest points of each segment's midpoint, from a k-d tree), valid while the points have moved less than
+``skin / 2`` *relative to each other* since it was built (a rigid drag refreshes nothing); a surface nowhere near
+itself has an empty list, no couplings in the pattern, and costs a few vector operations per evaluation.
 
 References
 ----------
@@ -243,10 +176,8 @@ def _segment_distance(y, ya, yb):
 def barrier(zeta):
     """``beta(zeta) = -(zeta - 1)^2 ln(zeta)`` on ``0 < zeta < 1`` (0 from 1 on) and its first two derivatives.
 
-    ``beta(1) = beta'(1) = beta''(1) = 0``: the barrier starts twice
-    differentiably; ``beta -> infinity`` as ``zeta -> 0``. Returns three arrays
-    ``(beta, beta', beta'')`` (zero where ``zeta >= 1``; the caller never passes
-    ``zeta <= 0``).
+    Returns ``(beta, beta', beta'')``, zero where ``zeta >= 1`` (``beta(1) = beta'(1) = beta''(1) = 0``: the barrier
+    starts twice differentiably; ``beta -> infinity`` as ``zeta -> 0``; the caller never passes ``zeta <= 0``).
     """
     z = np.asarray(zeta, dtype=float)
     inside = (z > 0.0) & (z < 1.0)
@@ -263,33 +194,17 @@ def barrier(zeta):
 class ContactSurface:
     """Points (linear combinations of nodes) and the segments between them, material on each segment's left.
 
-    Parameters
-    ----------
-    nodes, weights : array_like, shape (n_points, k)
-        Point ``i`` is ``sum_j weights[i, j] * x[:, nodes[i, j]]`` (pad unused
-        slots with weight 0). A plain boundary node: ``k = 1``, weight 1.
-    segments : array_like of int, shape (2, n_segments)
-        Point indices ``(a, b)`` of every segment, run so that the material lies
-        on its left (counter-clockwise round the material).
-    n_nodes : int
-        The number of mesh nodes the points combine.
-    wound : array_like of bool, shape (n_segments,), optional
-        Which segments lie on a wound's lips (for drawing and reports).
+    Point ``i`` is ``sum_j weights[i, j] * x[:, nodes[i, j]]`` (``nodes``, ``weights`` shaped (n_points, k), unused
+    slots padded with weight 0; a plain boundary node has ``k = 1``, weight 1) among ``n_nodes`` mesh nodes.
+    ``segments`` (2, n_segments) are the point indices ``(a, b)`` of every segment, run counter-clockwise round the
+    material; ``wound`` (one bool per segment, optional) flags those on a wound's lips (for drawing and reports).
 
-    Attributes
-    ----------
-    next, previous : ndarray of int, shape (n_segments,)
-        The segment that starts where this one ends (that ends where it
-        starts), or -1 where there is none or more than one.
-    neighbourhood : ndarray of int, shape (n_segments, 4)
-        The points a segment is not paired with by the broad phase: its two
-        ends and the far ends of its neighbours (-1 where missing).
-    hinge_points, hinge_segments, hinge_corner : ndarray of int
-        The pairs the broad phase leaves out but that can touch where the
-        surface folds back on itself: at the corner between a segment and the
-        next (``hinge_corner`` is the first of them), the far end of each
-        against the other (at a crack tip, the first point of one lip against
-        the first segment of the other).
+    Attributes: ``next`` / ``previous`` (n_segments,), the segment that starts where this one ends (ends where it
+    starts), -1 where there is none or more than one; ``neighbourhood`` (n_segments, 4), the points the broad phase
+    does not pair a segment with (its ends and its neighbours' far ends, -1 where missing); ``hinge_points``,
+    ``hinge_segments``, ``hinge_corner``, the pairs it leaves out but that can touch where the surface folds back on
+    itself: at the corner between a segment and the next (``hinge_corner`` is the first), the far end of each
+    against the other (at a crack tip, the first point of one lip against the first segment of the other).
     """
 
     def __init__(self, nodes, weights, segments, n_nodes, wound=None):
@@ -339,15 +254,12 @@ class ContactSurface:
         leaving[a] = np.arange(n_seg)
         arriving = np.full(n_points, -1, dtype=np.intp)
         arriving[b] = np.arange(n_seg)
-        self.next = np.where(starts[b] == 1, leaving[b], -1) if n_seg else np.zeros(0, dtype=np.intp)
-        self.previous = np.where(ends[a] == 1, arriving[a], -1) if n_seg else np.zeros(0, dtype=np.intp)
-        self.neighbourhood = np.stack([
-            a, b,
-            np.where(self.previous >= 0, a[np.maximum(self.previous, 0)], -1) if n_seg else a,
-            np.where(self.next >= 0, b[np.maximum(self.next, 0)], -1) if n_seg else b,
-        ], axis=1)
+        self.next = np.where(starts[b] == 1, leaving[b], -1)
+        self.previous = np.where(ends[a] == 1, arriving[a], -1)
+        self.neighbourhood = np.stack([a, b, np.where(self.previous >= 0, a[np.maximum(self.previous, 0)], -1),
+                                       np.where(self.next >= 0, b[np.maximum(self.next, 0)], -1)], axis=1)
         # hinges: at the corner between a segment and the next, each one's far end against the other segment
-        into = np.flatnonzero(self.next >= 0) if n_seg else np.zeros(0, dtype=np.intp)
+        into = np.flatnonzero(self.next >= 0)
         out = self.next[into]
         hinge_p = np.concatenate([a[into], b[out]])
         hinge_s = np.concatenate([out, into])
@@ -419,23 +331,11 @@ class ContactSurface:
 class Contact(Term):
     """Self-contact of a :class:`ContactSurface`: a one-sided barrier in the skin behind it (module docstring).
 
-    Parameters
-    ----------
-    X : ndarray, shape (2, n_nodes)
-        Reference node positions.
-    surface : ContactSurface
-    distance : float
-        ``d^``, the depth of the skin in which contact pressure builds up (the
-        largest overlap ever allowed), a length; at most half the surface's
-        median segment length.
-    stiffness : float
-        ``kappa``, a pressure: the contact pressure at an overlap of about ``0.46 d^``.
-    skin : float, optional
-        The Verlet list's margin (default: the surface's median segment length).
-
-    See the module docstring for the energy, the signed gap and its cases, the pairs that are looked at
-    and the collision detection. The hooks the model offers the minimiser and the stepper are
-    :meth:`covers` (the pattern), :meth:`max_step` (collision detection) and :meth:`begin_step` /
+    ``X`` (2, n_nodes) are the reference node positions; ``distance`` is ``d^``, the depth of the skin in which
+    contact pressure builds up (the largest overlap ever allowed), at most half the surface's median segment
+    length; ``stiffness`` is ``kappa``, a pressure (the contact pressure at an overlap of about ``0.46 d^``);
+    ``skin`` the Verlet list's margin (default: the median segment length). The hooks for the minimiser and the
+    stepper: :meth:`covers` (the pattern), :meth:`max_step` (collision detection), :meth:`begin_step` /
     :meth:`end_step` (where a step starts).
     """
 
@@ -470,8 +370,7 @@ class Contact(Term):
             self.skin = median if np.isfinite(median) else 1.0
         else:
             self.skin = check_positive("contact.skin", skin)
-        width = surface.nodes.shape[1]
-        self._width = width  # nodes per point
+        self._width = width = surface.nodes.shape[1]  # nodes per point
         # local dof layout of a (point, a, b) triple: (point j, node slot k, component c) -> 6-vector entry 2 j + c
         j, k, c = np.meshgrid(np.arange(3), np.arange(width), np.arange(2), indexing="ij")
         self._slot_point, self._slot_node, self._slot_comp = j.ravel(), k.ravel(), c.ravel()
@@ -482,11 +381,10 @@ class Contact(Term):
         # the incoming segment if it turned into the material when built (a crack tip), forwards if it turned
         # out of it (a needle). _fold[s] is that sign for the corner at the end of segment s.
         self._fold = np.ones(max(n_seg, 1))
-        has = surface.next >= 0
         e_s = Y[:, b] - Y[:, a]
         e_n = e_s[:, np.maximum(surface.next, 0)]
         turns_in = _cross(e_s, e_n) <= 1e-9 * np.hypot(*e_s) * np.hypot(*e_n)
-        self._fold[:n_seg] = np.where(has & turns_in, -1.0, 1.0)
+        self._fold[:n_seg] = np.where((surface.next >= 0) & turns_in, -1.0, 1.0)
         # hinges count only at corners that turn back into the material in the reference configuration (a crack
         # tip, a notch): closing such a corner is contact; closing a convex corner crushes the material between
         into = surface.hinge_corner
@@ -507,10 +405,7 @@ class Contact(Term):
         self._cache = None
         self.refreshes = 0  # how many times the Verlet list was rebuilt
         self.pattern = None
-        # the reference configuration touches nothing. Where parts of the surface lie closer than the skin there
-        # (the sliver a cut leaves next to a node, a zigzag of segments shorter than d^), a point sits behind
-        # another part already at rest: its skin is then measured from where it sits, an offset o_p (the depth it
-        # has at rest), so the reference state is free of contact energy and the point's walls lie d^ beyond.
+        # the rest offsets o_p (module docstring): the reference configuration touches nothing
         self.offset = np.zeros(surface.n_points)
         for _ in range(8):
             reach = self.distance + float(self.offset.max(initial=0.0))
@@ -534,8 +429,8 @@ class Contact(Term):
         its neighbours, and every point less than ``reach`` away from it along the surface at rest (walking
         from its ends along the loop, but not round a corner in ``stops``, given by the segment ending there).
 
-        A point that near along the surface is always within the skin of the segment, or can be brought there
-        only by folding the surface right over in less than a few skins, where the sign of a gap says nothing.
+        Such a point is within the skin of the segment, or gets there only by folding the surface right over in
+        less than a few skins, where the sign of a gap says nothing.
         """
         surface = self.surface
         seg = surface.segments
@@ -545,18 +440,14 @@ class Contact(Term):
             return base
         stop_after = np.zeros(n_seg, dtype=bool)  # no walking from this segment to its next
         stop_after[np.asarray(stops, dtype=np.intp)] = True
+        stop_before = stop_after[np.maximum(surface.previous, 0)] & (surface.previous >= 0)  # ... to its previous
         columns = [base]
-        for step, end in ((surface.next, 1), (surface.previous, 0)):
-            blocked = (stop_after if end == 1 else stop_after[np.maximum(surface.previous, 0)] & (surface.previous >= 0))
+        for step, end, stop in ((surface.next, 1, stop_after), (surface.previous, 0, stop_before)):
             at = step.copy()  # the neighbour (its far end is in base already)
             arc = np.where(at >= 0, length[np.maximum(at, 0)], np.inf)
-            alive = (at >= 0) & ~blocked
+            alive = (at >= 0) & ~stop
             for _ in range(n_seg):
-                if end == 1:
-                    alive &= ~stop_after[np.maximum(at, 0)]
-                else:
-                    prev_at = surface.previous[np.maximum(at, 0)]
-                    alive &= ~(stop_after[np.maximum(prev_at, 0)] & (prev_at >= 0))
+                alive &= ~stop[np.maximum(at, 0)]
                 nxt = np.where(alive, step[np.maximum(at, 0)], -1)
                 alive &= nxt >= 0
                 arc = np.where(alive, arc + length[np.maximum(nxt, 0)], np.inf)
@@ -699,16 +590,7 @@ class Contact(Term):
         previous segment's start and the next segment's end (``has_*``: whether there is one; ``fold_*``: the
         side a corner folded right back on itself opens to, see ``_fold``). A segment collapsed to a point (an
         element crushed flat) gives NaN gaps, which count as no contact."""
-        with np.errstate(invalid="ignore", divide="ignore"):
-            return Contact._classify_raw(yp, ya, yb, y_before, y_after, has_previous, has_next, fold_start,
-                                         fold_end)
 
-    @staticmethod
-    def _classify_raw(yp, ya, yb, y_before, y_after, has_previous, has_next, fold_start, fold_end):
-        e, w = yb - ya, yp - ya
-        L = np.sqrt(_dot(e, e))
-        t = _dot(w, e) / (L * L)
-        g = _cross(w, e) / L
         def corner_normal(e_in, e_out, fold):
             """The pseudonormal of a corner: the mean of its segments' normals (of a corner folded right back,
             the direction it opens to)."""
@@ -716,19 +598,20 @@ class Contact(Term):
                 np.stack([e_out[1], -e_out[0]]) / np.sqrt(_dot(e_out, e_out))
             size = np.sqrt(_dot(m, m))
             folded = size < 1e-9
-            m = np.where(folded, fold * e_in / np.sqrt(_dot(e_in, e_in)), m / np.where(folded, 1.0, size))
-            return m
+            return np.where(folded, fold * e_in / np.sqrt(_dot(e_in, e_in)), m / np.where(folded, 1.0, size))
 
-        e_before = np.where(has_previous, ya - y_before, e)
-        e_after = np.where(has_next, y_after - yb, e)
-        wb = yp - yb
-        r_a, r_b = np.sqrt(_dot(w, w)), np.sqrt(_dot(wb, wb))
-        side_a = _dot(w, corner_normal(e_before, e, fold_start))
-        side_b = _dot(wb, corner_normal(e, e_after, fold_end))
-        kind = np.where(t <= 0, 2, np.where(t >= 1, 3, 1))
-        distance = np.where(kind == 1, np.abs(g), np.where(kind == 2, r_a, r_b))
-        sigma = np.where(kind == 1, g, np.where(kind == 2, np.where(side_a < 0, -r_a, r_a),
-                                                np.where(side_b < 0, -r_b, r_b)))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            e, w, wb = yb - ya, yp - ya, yp - yb
+            L = np.sqrt(_dot(e, e))
+            t = _dot(w, e) / (L * L)
+            g = _cross(w, e) / L
+            r_a, r_b = np.sqrt(_dot(w, w)), np.sqrt(_dot(wb, wb))
+            side_a = _dot(w, corner_normal(np.where(has_previous, ya - y_before, e), e, fold_start))
+            side_b = _dot(wb, corner_normal(e, np.where(has_next, y_after - yb, e), fold_end))
+            kind = np.where(t <= 0, 2, np.where(t >= 1, 3, 1))
+            distance = np.where(kind == 1, np.abs(g), np.where(kind == 2, r_a, r_b))
+            sigma = np.where(kind == 1, g, np.where(kind == 2, np.where(side_a < 0, -r_a, r_a),
+                                                    np.where(side_b < 0, -r_b, r_b)))
         return kind, distance, sigma
 
     def _owners(self, p, s, keys, distance):
@@ -791,16 +674,18 @@ class Contact(Term):
         self._seen = Y
         return self._cache
 
-    def _local(self, c, derivatives=2):
-        """Local derivatives of the active primitives: ``sigma``'s gradient (m, 6) and Hessian (m, 6, 6) with
-        respect to the three points ``(p, a, b)`` of each pair (a point-point primitive depends on the point
-        and one end only)."""
+    def _derivatives(self, c):
+        """Local derivatives of the active primitives, computed once per cached state: ``sigma``'s gradient
+        (m, 6) and Hessian (m, 6, 6) with respect to the three points ``(p, a, b)`` of each pair (a point-point
+        primitive depends on the point and one end only)."""
+        if "local" in c:
+            return c["local"]
         Y = c["Y"]
         seg = self.surface.segments
         p, a, b = c["p"], seg[0, c["s"]], seg[1, c["s"]]
         m = p.size
         grad = np.zeros((m, 6))
-        hess = np.zeros((m, 6, 6)) if derivatives > 1 else None
+        hess = np.zeros((m, 6, 6))
         pe = c["kind"] == 1
         if np.any(pe):
             # sigma = g(w, e) = cross(w, e) / |e| with w = y_p - y_a, e = y_b - y_a
@@ -815,20 +700,19 @@ class Contact(Term):
             grad[pe, 0:2] = n  # (p, a, b) from (w, e) = (p - a, b - a)
             grad[pe, 2:4] = -n - dg_de
             grad[pe, 4:6] = dg_de
-            if hess is not None:
-                R = np.array([[0.0, 1.0], [-1.0, 0.0]])  # e -> (e_y, -e_x)
-                H_we = R[None] / L[:, None, None] - n[:, :, None] * e[:, None, :] / L2[:, None, None]
-                H_ee = (-(Jw[:, :, None] * e[:, None, :] + e[:, :, None] * Jw[:, None, :]) / (L2 * L)[:, None, None]
-                        - (g / L2)[:, None, None] * np.eye(2)[None]
-                        + 3.0 * (g / (L2 * L2))[:, None, None] * e[:, :, None] * e[:, None, :])
-                H4 = np.zeros((w.shape[0], 4, 4))  # (w, w) is zero: g is linear in w
-                H4[:, 0:2, 2:4] = H_we
-                H4[:, 2:4, 0:2] = H_we.transpose(0, 2, 1)
-                H4[:, 2:4, 2:4] = H_ee
-                T = np.zeros((4, 6))
-                T[0:2, 0:2], T[0:2, 2:4] = np.eye(2), -np.eye(2)
-                T[2:4, 2:4], T[2:4, 4:6] = -np.eye(2), np.eye(2)
-                hess[pe] = np.einsum("ai,kab,bj->kij", T, H4, T)
+            R = np.array([[0.0, 1.0], [-1.0, 0.0]])  # e -> (e_y, -e_x)
+            H_we = R[None] / L[:, None, None] - n[:, :, None] * e[:, None, :] / L2[:, None, None]
+            H_ee = (-(Jw[:, :, None] * e[:, None, :] + e[:, :, None] * Jw[:, None, :]) / (L2 * L)[:, None, None]
+                    - (g / L2)[:, None, None] * np.eye(2)[None]
+                    + 3.0 * (g / (L2 * L2))[:, None, None] * e[:, :, None] * e[:, None, :])
+            H4 = np.zeros((w.shape[0], 4, 4))  # (w, w) is zero: g is linear in w
+            H4[:, 0:2, 2:4] = H_we
+            H4[:, 2:4, 0:2] = H_we.transpose(0, 2, 1)
+            H4[:, 2:4, 2:4] = H_ee
+            T = np.zeros((4, 6))
+            T[0:2, 0:2], T[0:2, 2:4] = np.eye(2), -np.eye(2)
+            T[2:4, 2:4], T[2:4, 4:6] = -np.eye(2), np.eye(2)
+            hess[pe] = np.einsum("ai,kab,bj->kij", T, H4, T)
         for kind, end, slot in ((2, a, 2), (3, b, 4)):
             pp = c["kind"] == kind
             if not np.any(pp):
@@ -839,17 +723,11 @@ class Contact(Term):
             unit = d / r[:, None]
             grad[pp, 0:2] = -unit
             grad[pp, slot:slot + 2] = unit
-            if hess is not None:
-                H2 = -(np.eye(2)[None] - unit[:, :, None] * unit[:, None, :]) / r[:, None, None]
-                for r0, s0 in ((0, 1.0), (slot, -1.0)):
-                    for r1, s1 in ((0, 1.0), (slot, -1.0)):
-                        hess[pp, r0:r0 + 2, r1:r1 + 2] = s0 * s1 * H2
-        return np.stack([p, a, b], axis=1), grad, hess
-
-    def _derivatives(self, c):
-        """:meth:`_local` of the cached state, computed once for its gradient and its Hessian."""
-        if "local" not in c:
-            c["local"] = self._local(c)
+            H2 = -(np.eye(2)[None] - unit[:, :, None] * unit[:, None, :]) / r[:, None, None]
+            for r0, s0 in ((0, 1.0), (slot, -1.0)):
+                for r1, s1 in ((0, 1.0), (slot, -1.0)):
+                    hess[pp, r0:r0 + 2, r1:r1 + 2] = s0 * s1 * H2
+        c["local"] = np.stack([p, a, b], axis=1), grad, hess
         return c["local"]
 
     def _barrier(self, c):
@@ -956,13 +834,12 @@ class Contact(Term):
     # -------------------------------------------------------------- steps
     def begin_step(self, u, previous=None) -> int:
         """Start a step at ``u``: pairs whose point is deeper than ``d^`` behind the segment are ignored until the
-        step ends (the far side of a thin body is such a pair, and so is tissue a handle dragged through).
+        step ends (module docstring). Returns how many surface points are through the surface now.
 
-        ``previous`` is the state the step starts from, before the handles moved to ``u``: pairs that the
-        handles' own motion carries through a wall (the same collision detection as a Newton step's) are
-        *crossings*; they are remembered, step after step, for as long as their point stays deeper than
-        ``d^`` behind the segment (and less than the segment's length: farther, the sign of a gap says
-        nothing). Returns how many surface points are through the surface now.
+        ``previous`` is the state before the handles moved to ``u``: pairs that the handles' own motion carries
+        through a wall (the collision detection of a Newton step) are *crossings*, remembered step after step
+        while their point stays deeper than ``d^`` behind the segment (and less than the segment's length:
+        farther, the sign of a gap says nothing).
         """
         Y = self._points(u)
         self._step_start = Y.copy()
