@@ -1,54 +1,38 @@
 """Operate on a running simulation with the mouse: drag the tissue and cut it, in any matplotlib figure.
 
-A :class:`SurgeryView` puts a :class:`tissuefem.surgery.simulation.Simulation` in a
-matplotlib ``Axes`` and turns mouse events into the simulation's input, which
-is the *input* step of the notes' frame loop (read the user, solve, render,
-every 1/30 s):
+A :class:`SurgeryView` puts a :class:`tissuefem.surgery.simulation.Simulation` in a matplotlib ``Axes`` and
+turns mouse events into the simulation's input, the *input* step of the notes' frame loop (read the user,
+solve, render, every 1/30 s):
 
-* **drag** mode (the default): a left-button press on the tissue grabs the
-  nodes within ``radius`` of the pointer (:meth:`Simulation.grab`), moving the
-  mouse with the button held drags them (:meth:`Simulation.drag`), and letting
-  go releases them;
-* **cut** mode: a left-button stroke draws a polyline, which becomes an
-  incision (:meth:`Simulation.cut`) when the button is released; the drawing
-  is rebuilt for the new topology.
+* **drag** mode (the default): a left-button press on the tissue grabs the nodes within ``radius`` of the
+  pointer (:meth:`Simulation.grab`), moving the mouse with the button held drags them
+  (:meth:`Simulation.drag`), and letting go releases them;
+* **cut** mode: a left-button stroke draws a polyline, which becomes an incision (:meth:`Simulation.cut`)
+  when the button is released; the drawing is rebuilt for the new topology.
 
-The mode buttons shown with the view switch the two modes; so do the key ``c``
-(once the figure has the keyboard: click into it first) and ``view.mode = "cut"``.
-A timer of the figure's canvas runs one frame every ``interval_ms``
-(:meth:`SurgeryView.step`: ``sim.frame()``, then a redraw is requested). The
-timer runs only on an interactive canvas (``%matplotlib widget`` in Jupyter, a
-Qt or Tk window); on a non-interactive one (Agg, the inline backend) nothing
-runs by itself and code calls :meth:`~SurgeryView.step` and, to time the
-drawing too, :meth:`~SurgeryView.draw`. So the same cells run in a browser
-with the mouse and headless in the test suite.
+The mode buttons, the key ``c`` (once the figure has the keyboard) and ``view.mode = "cut"`` switch modes.
+A timer of the canvas runs one frame every ``interval_ms`` (:meth:`SurgeryView.step`: ``sim.frame()``, then
+a redraw is requested), but only on an interactive canvas (``%matplotlib widget``, a Qt or Tk window); on
+Agg or the inline backend code calls :meth:`~SurgeryView.step` and, to time the drawing too,
+:meth:`~SurgeryView.draw`. So the same cells run in a browser with the mouse and headless in the tests.
 
-**Drawing within the frame budget.** The readout above the axes shows the
-step (the simulation's frame) *and* the draw against the 33 ms budget, and the
-frames drawn per second. The view keeps a redraw cheap: the axes have a fixed
-place in the figure (no layout engine solves anything per frame), and the
-view's own figure draws everything that does not move (axes, ticks, labels)
-once and keeps that picture; per frame it restores it and draws only the
-moving layer over it: the triangles (one compound path for the faces and one
-for the edges, whose vertex arrays are rewritten in place), the drag target
-and the cut stroke. The two lines of text change only at a readable pace (a
-new message at once) and are kept with the background in between. Messages
-go to a fixed place under the axes, wrapped and cut to two lines, so they
-never move the axes. Mouse events only change the state: while the timer
-runs, its next frame draws it. On a browser canvas (ipympl) the timer sends
-each frame's picture itself, with no request from the page per frame; other
-interactive canvases (Qt, Tk) are asked to redraw and coalesce the requests.
+**Drawing within the frame budget.** The readout above the axes shows the step *and* the draw against the
+33 ms budget, and the frames drawn per second. The axes have a fixed place (no layout engine runs per
+frame), and the view's own figure draws what does not move (axes, ticks, labels) once and keeps that
+picture; per frame it restores it and draws only the moving layer: the triangles (one compound path for
+the faces and one for the edges, whose vertex arrays are rewritten in place), the drag target and the cut
+stroke. The two lines of text change at a readable pace (a new message at once); messages go to a fixed
+place under the axes, cut to two lines, so they never move the axes. Mouse events only change the state:
+while the timer runs, its next frame draws it. On a browser canvas (ipympl) the timer sends each frame's
+picture itself, with no request from the page; Qt and Tk are asked to redraw and coalesce the requests.
 
-**One live view per simulation and per notebook cell.** A new view of the same
-simulation stops the old one; re-running the cell that made a view closes the
-old view (its timer would otherwise keep stepping a simulation nobody sees).
+**One live view per simulation and per notebook cell.** A new view of the same simulation stops the old
+one; re-running the cell that made a view closes the old view (its timer would keep stepping otherwise).
 
-:func:`synthetic_mouse` and :func:`synthetic_key` send a made-up event through
-the canvas's callbacks, exactly as a backend would, so a notebook can show what
-a drag or a cut does without a mouse (and the tests can check it).
-
-Nothing here needs ipympl or ipywidgets; with ipywidgets installed, the view
-is displayed with buttons for the mode and the timer (:meth:`SurgeryView.widget`).
+:func:`synthetic_mouse` and :func:`synthetic_key` send a made-up event through the canvas's callbacks, as
+a backend would, so a notebook can show a drag or a cut without a mouse (and the tests can check it).
+Nothing here needs ipympl or ipywidgets; with ipywidgets the view shows buttons for the mode and the
+timer (:meth:`SurgeryView.widget`).
 """
 
 from __future__ import annotations
@@ -76,6 +60,7 @@ from matplotlib.patches import PathPatch
 from matplotlib.path import Path
 from matplotlib.textpath import TextToPath
 
+from ..engine.meshes import mean_edge_length
 from ..engine.realtime import FRAME_BUDGET
 from ..engine.terms import check_positive
 
@@ -110,17 +95,11 @@ _SIM_METHODS = ("positions", "frame", "grab", "drag", "release", "cut")
 _VIEWS: weakref.WeakSet = weakref.WeakSet()
 
 
-def mean_edge_length(mesh) -> float:
-    """Mean length of the edges of a triangle mesh (reference coordinates)."""
-    p, f = mesh.p, mesh.facets
-    return float(np.mean(np.linalg.norm(p[:, f[0]] - p[:, f[1]], axis=0)))
-
-
 def _is_interactive(canvas) -> bool:
     """Whether ``canvas`` belongs to an interactive backend: one whose timers fire and that redraws on screen.
 
-    A GUI toolkit (Qt, Tk, ...) names its framework; a browser backend (ipympl, WebAgg) names none but
-    has a working timer. Agg and the inline backend have only the base timer, which never fires.
+    A GUI toolkit (Qt, Tk) names its framework; a browser backend (ipympl, WebAgg) has a working timer;
+    Agg and the inline backend have only the base timer, which never fires.
     """
     if getattr(type(canvas), "required_interactive_framework", None) is not None:
         return True
@@ -130,8 +109,7 @@ def _is_interactive(canvas) -> bool:
 def _cell_origin():
     """Which notebook cell is running, and which run of it: ``(cell, execution count)``, or ``None``.
 
-    The cell is the id the notebook front-end sends with each execution (JupyterLab and nbclient
-    do), else the cell's source. A view made by a re-run of the same cell replaces the old one.
+    The cell is the id the front-end sends with each execution (JupyterLab and nbclient do), else its source.
     """
     shell = get_ipython()
     if shell is None:
@@ -156,14 +134,12 @@ def _cell_origin():
 class _LayeredFigure(Figure):
     """A figure that draws what does not move once and, per frame, only its moving layer over it.
 
-    Three levels: the *background* (everything not animated: axes, ticks, labels), drawn in full
-    only when matplotlib marks the figure stale (limits, labels, size, a new artist ...) or the
-    renderer is a new one (size, resolution); the *slow* layer (animated text: the readout, the
-    message), drawn over the background and kept with it, again only when one of its artists
-    changed, and then at most every ``slow_interval`` seconds unless :meth:`refresh_slow` asked
-    for it at once (rendering text glyph by glyph costs more than a whole frame of triangles);
-    and the *layer* (animated: the triangles, the target, the stroke), drawn over the kept picture
-    at every draw. Saving a figure (``savefig``) always draws everything.
+    Three levels: the *background* (axes, ticks, labels), drawn in full only when the figure is stale or
+    the renderer is new (size, resolution); the *slow* layer (the readout and the message), drawn over it
+    and kept with it, when one of its artists changed and at most every ``slow_interval`` seconds unless
+    :meth:`refresh_slow` asks for it at once (text glyph by glyph costs more than a frame of triangles);
+    and the *layer* (triangles, target, stroke), drawn over the kept picture at every draw. ``savefig``
+    always draws everything.
     """
 
     slow_interval = 0.25
@@ -243,8 +219,8 @@ class _LayeredFigure(Figure):
 class _SentImages:
     """Listens, next to the page, to what a browser canvas (ipympl, WebAgg) sends: each picture's end time.
 
-    The WebAgg family renders a picture, encodes it as PNG and sends it to every listener in
-    ``manager.web_sockets``; this one only notes the time, so a draw's time includes the encoding.
+    The canvas sends each encoded picture to every listener in ``manager.web_sockets``; this one notes the
+    time, so a draw's time includes the encoding.
     """
 
     def __init__(self, view):
@@ -262,9 +238,8 @@ class _SentImages:
 def _one_at_a_time(method):
     """Run ``method`` holding the view's lock: a frame, an event and a draw never interleave.
 
-    A notebook kernel may handle a widget's messages (mouse events, buttons) on another thread than
-    the one whose loop runs the frame timer (ipykernel 7 routes a comm's messages to the subshell
-    that last used it), so a cut could otherwise rebuild the mesh in the middle of a frame.
+    A kernel may handle a widget's messages on another thread than the timer's loop (ipykernel 7 routes a
+    comm's messages to the subshell that last used it): a cut could otherwise rebuild the mesh mid-frame.
     """
 
     @functools.wraps(method)
@@ -281,61 +256,46 @@ class SurgeryView:
     Parameters
     ----------
     sim : tissuefem.surgery.simulation.Simulation
-        The running simulation (anything with its ``mesh``, ``positions``,
-        ``frame``, ``grab``, ``drag``, ``release`` and ``cut``).
+        The running simulation (anything with ``mesh``, ``positions``, ``frame``, ``grab``, ``drag``,
+        ``release`` and ``cut``).
     ax : matplotlib.axes.Axes, optional
-        Where to draw; default the view's own figure (7 x 4.5 inches, made
-        with pyplot: under ``%matplotlib widget`` the interactive widget),
-        which redraws only the moving layer per frame. In an ``ax`` of your
-        own figure every redraw draws the whole figure.
+        Where to draw; default the view's own figure (7 x 4.5 inches, made with pyplot: under
+        ``%matplotlib widget`` the interactive widget), which redraws only the moving layer per frame.
+        In an ``ax`` of your own figure every redraw draws the whole figure.
     radius : float, optional
-        A press grabs the nodes within this distance of the pointer; default
-        twice the mean edge length of the mesh.
+        A press grabs the nodes within this distance of the pointer; default twice the mean edge length.
     interval_ms : int, default 33
         Milliseconds between timer frames (33 ms: the notes' 30 frames per second).
     autostart : bool, default True
-        Start the timer as soon as the view is on screen: at once in a GUI
-        window (Qt, Tk ...), when the view is displayed in Jupyter. On a
-        non-interactive canvas (Agg, inline) the timer never starts by itself.
+        Start the timer as soon as the view is on screen: at once in a GUI window (Qt, Tk), when displayed
+        in Jupyter; never by itself on a non-interactive canvas (Agg, inline).
 
     Attributes
     ----------
     frame_times : list of float
-        Milliseconds of every simulation frame run through :meth:`step` (the
-        step: ``report.elapsed``).
+        Milliseconds of every frame run through :meth:`step` (``report.elapsed``).
     draw_times : list of float
-        Milliseconds of each drawn picture of the view's own figure (the last
-        few hundred), from the start of the draw until the picture is done: on
-        a browser canvas, encoded and sent to the page.
+        Milliseconds of each drawn picture of the view's own figure (the last few hundred), until the
+        picture is done: on a browser canvas, encoded and sent to the page.
     last_report : FrameReport or None
-        The last frame's report.
     message : str
-        The last message (a failed cut, a rejected drag), or ``""``; shown,
-        wrapped and cut to two lines, under the axes.
+        The last message (a failed cut, a rejected drag), or ``""``; shown under the axes, at most two lines.
     mesh_faces, mesh_edges : matplotlib.patches.PathPatch
-        The triangles (one compound path each) whose vertices follow the
-        simulation; rebuilt when the topology changes.
+        The triangles (one compound path each); rebuilt when the topology changes.
     stroke_artist, target_artist : matplotlib.lines.Line2D
         The cut stroke being drawn; the drag target (at the mouse).
-    status_text : matplotlib.text.Text
-        The readout above the axes: mode, frame, step + draw against the
-        budget, frames drawn per second, the solver's status.
-    message_text : matplotlib.text.Text
-        The message, in a fixed place under the axes.
+    status_text, message_text : matplotlib.text.Text
+        The readout above the axes (mode, frame, step + draw against the budget, frames drawn per
+        second, the solver's status); the message, in a fixed place under the axes.
 
     Notes
     -----
-    Press and motion events outside the axes are ignored; a release anywhere
-    ends the current grab or stroke, so a handle never stays stuck to a mouse
-    that left the axes with the button held. A grab made in code (a
-    :func:`synthetic_mouse` press) is not carried on by the real mouse moving
-    over the figure, nor a real grab by made-up moves; a real press replaces
-    it. Clicks are also ignored while the
-    toolbar's pan or zoom tool is active. A ``ValueError`` raised by the
-    simulation inside an event handler or a timer frame is shown as the
-    message instead of propagating. The key ``c`` is also matplotlib's
-    default "back" key of the navigation toolbar, which only matters after
-    zooming.
+    Press and motion events outside the axes are ignored, and clicks while the toolbar's pan or zoom tool
+    is active; a release anywhere ends the current grab or stroke, so a handle never stays stuck to a mouse
+    that left the axes. A grab made in code (a :func:`synthetic_mouse` press) is not carried on by the real
+    mouse moving, nor a real grab by made-up moves; a real press replaces it. A ``ValueError`` raised by
+    the simulation in an event handler or a timer frame is shown as the message instead of propagating.
+    The key ``c`` is also the toolbar's default "back" key, which only matters after zooming.
 
     Examples
     --------
@@ -352,9 +312,7 @@ class SurgeryView:
         missing = [m for m in ("mesh", *_SIM_METHODS) if not hasattr(sim, m)]
         if missing:
             raise ValueError(f"sim must be a tissuefem.surgery.simulation.Simulation; {type(sim).__name__} has no {missing}")
-        if radius is None:
-            radius = 2.0 * mean_edge_length(sim.mesh)
-        radius = check_positive("radius", radius)
+        radius = check_positive("radius", 2.0 * mean_edge_length(sim.mesh) if radius is None else radius)
         if isinstance(interval_ms, bool) or not isinstance(interval_ms, (int, np.integer)) or interval_ms < 1:
             raise ValueError(f"interval_ms must be a positive integer (milliseconds), got {interval_ms!r}")
         self.sim = sim
@@ -434,7 +392,6 @@ class SurgeryView:
             self.fig.layer.extend(self._moving[:4])
             self.fig.slow.extend(self._moving[4:])
             self.fig.views.append(self)
-        self._mesh = None
         self._rebuild()
         self._update_text()
 
@@ -531,10 +488,7 @@ class SurgeryView:
     # ------------------------------------------------------------------ frames and the timer
     @_one_at_a_time
     def step(self):
-        """Run one frame of the simulation (``sim.frame()``), record its time, update the picture; returns its report.
-
-        The picture is redrawn by the canvas when it can (requested, not forced); :meth:`draw` draws at once.
-        """
+        """Run one frame (``sim.frame()``), record its time and request a redraw; returns the frame's report."""
         report = self.sim.frame()
         self.last_report = report
         self.frame_times.append(1e3 * float(report.elapsed))
@@ -545,10 +499,9 @@ class SurgeryView:
     def draw(self) -> float | None:
         """Render the picture now, off-screen, and return how long it took (ms; ``None`` if not timed).
 
-        This is how to time the drawing of frames that code steps: the timer would have drawn each
-        one. It renders into the canvas's own buffer and sends or paints nothing (the screen shows
-        the picture at its next update); a browser canvas also encodes each picture it sends, which
-        the live readout includes and this does not. Timed in the view's own figure only.
+        This times the drawing of frames that code steps (the timer would have drawn each one). It renders
+        into the canvas's buffer and sends or paints nothing, so unlike the live readout on a browser canvas
+        it leaves out the encoding. Timed in the view's own figure only.
         """
         n = len(self.draw_times)
         if isinstance(self.canvas, FigureCanvasAgg):
@@ -643,12 +596,10 @@ class SurgeryView:
     def _push_picture(self) -> None:
         """Render and send the frame's picture to the page now (a browser canvas: ipympl, WebAgg).
 
-        The page's own protocol asks for each picture with a message to the kernel, which costs a
-        request (and two kernel status changes the notebook page redraws) per frame; pushing the
-        picture from the timer costs neither and saves the round trip. The pictures are differences
-        to the last one; the page keeps only the newest of pictures that arrive faster than it
-        decodes them, so every ``KEYFRAME_S`` seconds a whole picture repairs anything a dropped
-        difference left behind.
+        The page's protocol asks for each picture with a message to the kernel (a request and two kernel
+        status changes the page redraws, per frame); pushing from the timer saves that round trip. Pictures
+        are differences to the last one and the page drops those that arrive faster than it decodes, so
+        every ``KEYFRAME_S`` seconds a whole picture repairs what a dropped difference left behind.
         """
         now = time.perf_counter()
         if now - self._keyframe_at >= KEYFRAME_S and hasattr(self.canvas, "_force_full"):
@@ -688,8 +639,7 @@ class SurgeryView:
     # ------------------------------------------------------------------ drawing
     def _rebuild(self) -> None:
         """New paths for a new mesh: the faces' and the edges' vertex arrays, rewritten in place per frame."""
-        mesh = self.sim.mesh
-        self._mesh = mesh
+        self._mesh = self.sim.mesh
         # what to draw: the triangles, or, for elements cut through, their material (Simulation.picture)
         self._picture = self.sim.picture
         t = np.asarray(self._picture.triangles, dtype=np.intp)
@@ -983,7 +933,6 @@ def _ms(value) -> str:
     return "  --" if value is None else f"{value:4.1f}"
 
 
-
 def _check_view(view):
     if not isinstance(view, SurgeryView):
         raise ValueError(f"view must be a SurgeryView, got {type(view).__name__}")
@@ -1002,21 +951,10 @@ def _data_to_pixels(ax, point, transform=None):
 def synthetic_mouse(view, kind, point, button=1):
     """Send a made-up mouse event at the data point ``point`` through the canvas, as a backend would.
 
-    Parameters
-    ----------
-    view : SurgeryView
-    kind : {"press", "move", "release"}
-        Button press, motion (with the button held, if it was pressed) or button release.
-    point : (2,) array_like
-        Where, in data coordinates of ``view.ax`` (converted to pixels with
-        ``ax.transData``; a point outside the axes gives an event outside them).
-    button : int, default 1
-        The mouse button of a press or release (1 = left).
-
-    Returns
-    -------
-    matplotlib.backend_bases.MouseEvent
-        The event, after every handler connected to the canvas has seen it.
+    ``kind``: ``"press"``, ``"move"`` (with the button held, if it was pressed) or ``"release"``;
+    ``point``: ``(x, y)`` in data coordinates of ``view.ax`` (a point outside the axes gives an event outside
+    them); ``button``: of a press or release (1 = left). Returns the
+    :class:`~matplotlib.backend_bases.MouseEvent` after every handler connected to the canvas has seen it.
     """
     _check_view(view)
     if kind not in _MOUSE_EVENTS:
@@ -1033,7 +971,7 @@ def synthetic_mouse(view, kind, point, button=1):
 
 
 def synthetic_key(view, key, point=None):
-    """Send a made-up key press (e.g. ``"c"``) through the canvas, with the pointer at ``point`` (default: the axes' centre).
+    """Send a made-up key press (e.g. ``"c"``) through the canvas, the pointer at ``point`` (default: the axes' centre).
 
     Returns the :class:`matplotlib.backend_bases.KeyEvent` after the handlers have seen it.
     """
