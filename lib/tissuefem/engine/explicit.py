@@ -2,70 +2,50 @@
 
 Scheme
 ------
-The semi-discrete equations of motion (:mod:`tissuefem.engine.stepping`) are
-``M a = f_ext - f_int(u)``. With the *lumped* mass ``M = diag(m)`` (each row
-sum of the consistent mass moved onto the diagonal) the inverse is free, and
-symplectic (semi-implicit) Euler advances the state without any solve:
+The equations of motion (:mod:`tissuefem.engine.stepping`) are ``M a = f_ext - f_int(u)``.
+With the *lumped* mass ``M = diag(m)`` (row sums of the consistent mass) the inverse is
+free, and symplectic (semi-implicit) Euler needs no solve:
 
     v^{n+1} = v^n + dt M^{-1} (f_ext - f_int(u^n))      (kick: forces at the *old* position)
     u^{n+1} = u^n + dt v^{n+1}                          (drift: with the *new* velocity)
 
-on the free degrees of freedom. Prescribed ones (the handles) are set to the
-handles' current targets, with the velocity that got them there,
-``(u_prescribed^{n+1} - u^n) / dt``. One step costs one internal-force
-evaluation, a few vector operations and no linear algebra: far cheaper than
-a backward-Euler step (a Newton solve).
+on the free dofs; the handles' dofs are set to their targets, with the velocity that got
+them there, ``(u_prescribed^{n+1} - u^n) / dt``. A step is one internal-force evaluation
+and no linear algebra: far cheaper than a backward-Euler (Newton) step.
 
-Using the new velocity in the drift is what makes the scheme symplectic: it
-is the map of a Hamiltonian flow close to the real one, so on a stable step
-it does not slowly pump energy in or drain it out (as forward and backward
-Euler do). For one mode of angular frequency ``omega`` (below) the step
-keeps the *modified* energy
+The new velocity in the drift makes the scheme symplectic: on a stable step it neither
+pumps energy in nor drains it (as forward and backward Euler do). For one mode of angular
+frequency ``omega`` it keeps the *modified* energy
 
     I = 1/2 (v^2 + omega^2 x^2 - dt omega^2 x v)
 
 exactly, so the true energy ``1/2 (v^2 + omega^2 x^2)`` stays between
-``I / (1 + dt omega / 2)`` and ``I / (1 - dt omega / 2)``: it oscillates
-about its initial value, in a band that is narrow for the slow modes and
-widens for the fast ones as ``dt`` nears the limit, for as long as one cares
-to run.
+``I / (1 + dt omega / 2)`` and ``I / (1 - dt omega / 2)``: it oscillates about its initial
+value, in a band that widens for the fast modes as ``dt`` nears the limit.
 
 Why it is only conditionally stable
 -----------------------------------
-Linearise about the rest state: ``f_int(u) ~ K u``. In a mode ``K x = omega^2 M x``
-the scheme is ``v' = v - dt omega^2 x``, ``x' = x + dt v'``, a linear map of
-``(x, v)`` with determinant 1 and trace ``2 - (dt omega)^2``. Its eigenvalues
-stay on the unit circle (bounded oscillation) while ``|trace| <= 2``, i.e.
-
-    dt <= 2 / omega,
-
-and for larger ``dt`` one of them exceeds 1 in modulus and the mode grows
-geometrically, however small it started (round-off suffices). The step must
-therefore resolve the *fastest* mode of the mesh:
+Linearise about rest, ``f_int(u) ~ K u``. In a mode ``K x = omega^2 M x`` the step
+``v' = v - dt omega^2 x``, ``x' = x + dt v'`` is a linear map of ``(x, v)`` with determinant
+1 and trace ``2 - (dt omega)^2``; its eigenvalues stay on the unit circle while
+``|trace| <= 2``, i.e. ``dt <= 2 / omega``, and beyond it the mode grows geometrically from
+round-off. The step must resolve the *fastest* mode of the mesh:
 
     dt <= dt_crit = 2 / omega_max,   omega_max^2 = largest eigenvalue of M^{-1} K   (free dofs),
 
-which :func:`critical_time_step` computes. (Backward Euler has no such limit:
-each of its steps minimises an incremental potential, see
-:mod:`tissuefem.engine.stepping`; it pays with numerical damping instead.)
+which :func:`critical_time_step` computes. (Backward Euler has no such limit; it pays
+with numerical damping instead.)
 
 CFL condition
 -------------
-The fastest mode of an elastic mesh is a wave that crosses one element:
-its wavelength is ~ the element size ``h`` and it travels at the dilatational
-(P-) wave speed ``c = sqrt((lambda + 2 mu) / rho0)``, so ``omega_max ~ c / h``
-and
-
-    dt <= C h / c
-
-with a Courant number ``C`` of order one that depends on the element shape
-and the mass lumping (the Courant-Friedrichs-Lewy condition). Halving ``h``
-halves the allowed step, so the cost of simulating one second grows like
-``h^-3`` in 2D (``h^-2`` elements times ``h^-1`` steps). For the notes'
-tissue (``E = 1000``, ``nu = 0.3``, ``rho0 = 1``: ``c ~ 37``) a frame of
-1/30 s needs ``h`` of the order of a metre: an explicit real-time simulator
-must take many sub-steps per frame. :func:`largest_stable_dt` measures the
-limit by experiment (chapter 7's CFL study checks the ``dt ~ h`` scaling).
+The fastest mode is a wave across one element: wavelength ~ the element size ``h``,
+speed the dilatational (P-) wave speed ``c = sqrt((lambda + 2 mu) / rho0)``, so
+``omega_max ~ c / h`` and ``dt <= C h / c`` with a Courant number ``C`` of order one
+(element shape, mass lumping). Halving ``h`` halves the step, so simulating one second
+costs ``h^-3`` in 2D. For the notes' tissue (``E = 1000``, ``nu = 0.3``, ``rho0 = 1``:
+``c ~ 37``) a 1/30 s frame needs ``h`` of the order of a metre: an explicit real-time
+simulator must sub-step. :func:`largest_stable_dt` measures the limit by experiment
+(chapter 7's CFL study checks the ``dt ~ h`` scaling).
 """
 
 from __future__ import annotations
@@ -79,14 +59,8 @@ from scipy.sparse.linalg import eigsh
 from .meshes import mesh_size
 from .parameters import check_real, check_time_step
 
-__all__ = [
-    "SymplecticEuler",
-    "ExplicitStepReport",
-    "critical_time_step",
-    "largest_stable_dt",
-    "is_stable",
-    "wave_speed",
-]
+__all__ = ["SymplecticEuler", "ExplicitStepReport", "critical_time_step", "largest_stable_dt", "is_stable",
+           "wave_speed"]
 
 
 @dataclass
@@ -102,7 +76,6 @@ class ExplicitStepReport:
     def converged(self) -> bool:
         """Same meaning as :attr:`tissuefem.engine.stepping.StepReport.converged`: the step was taken."""
         return self.finite
-
 
 
 def _lumped_mass(model) -> np.ndarray:
@@ -125,31 +98,15 @@ def _free_dofs(n: int, fixed) -> np.ndarray:
 class SymplecticEuler:
     """Explicit symplectic Euler on a :class:`~tissuefem.engine.model.Model`'s body.
 
-    The counterpart of backward Euler (:class:`~tissuefem.engine.stepping.Stepper`
-    on a model with ``dt``; same state, same energy), with the lumped mass of the
-    model's density and the explicit update of the module docstring. Stable
-    only for ``dt`` below about :func:`critical_time_step`; above it the energy
-    grows without bound. A step whose result is not finite (it blew up, or an
-    ``ln J`` material inverted) leaves the state untouched and reports
-    ``"non-finite"``; it never raises.
+    The counterpart of backward Euler (a :class:`~tissuefem.engine.stepping.Stepper` on a
+    model with ``dt``; same state, same energy), stable only for ``dt`` below about
+    :func:`critical_time_step`. A step whose result is not finite (it blew up, or an
+    ``ln J`` material inverted) leaves the state untouched and reports ``"non-finite"``;
+    it never raises. ``model`` must have no ``dt`` (the time step is this scheme's); its
+    handles apply every step, its loads (gravity included) are constant.
 
-    Parameters
-    ----------
-    model
-        The body (without ``dt``: the time step is this scheme's): mesh,
-        material, handles (applied every step), loads (gravity included).
-    dt
-        Time step ``> 0``.
-
-    Attributes
-    ----------
-    u, v
-        Displacement and velocity (dof vectors, scikit-fem order); assign
-        them to set an initial state.
-    time
-        Simulated time.
-    mass
-        The lumped masses, one per dof (the diagonal of ``M``).
+    Attributes: ``u, v`` (dof vectors; assign them to set an initial state), ``time``,
+    ``mass`` (the lumped masses, one per dof).
     """
 
     def __init__(self, model, dt: float):
@@ -158,8 +115,7 @@ class SymplecticEuler:
         self.model = model
         self.mass = _lumped_mass(model)
         self.external = model.external
-        self.u = model.zeros()
-        self.v = model.zeros()
+        self.u, self.v = model.zeros(), model.zeros()
         self.time = 0.0
         self.last_report = None
 
@@ -183,11 +139,9 @@ class SymplecticEuler:
     def run(self, n_steps: int, energy_limit: float | None = None) -> np.ndarray:
         """Take up to ``n_steps`` steps; returns the total energy before the first and after each step.
 
-        Stops early (the history is then shorter than ``n_steps + 1``) when a
-        step is non-finite (the state is the last finite one) or, if
-        ``energy_limit`` is given, once the total energy is above it or not
-        finite (that state is kept and its energy is the last entry).
-        :attr:`last_report` holds the last step's report.
+        Stops early when a step is non-finite (the state is the last finite one) or once the
+        total energy is above ``energy_limit`` or not finite (that state and its energy are
+        kept). :attr:`last_report` holds the last step's report.
         """
         if int(n_steps) != n_steps or n_steps < 0:
             raise ValueError(f"n_steps must be an integer >= 0, got {n_steps!r}")
@@ -216,18 +170,12 @@ class SymplecticEuler:
 def critical_time_step(model, u=None) -> float:
     """The linearised stability limit of :class:`SymplecticEuler`, ``dt_crit = 2 / omega_max``.
 
-    ``omega_max^2`` is the largest eigenvalue of the generalised problem
-    ``K_ff x = omega^2 M_ff x`` on the free dofs (those no handle
-    prescribes), with ``K = model.hessian(u)`` (the rest state ``u = 0``
-    by default) and ``M`` the lumped mass of the model's density. Because ``M``
-    is diagonal it is solved as the ordinary symmetric problem
-    ``M^-1/2 K M^-1/2 y = omega^2 y`` (largest eigenvalue by Lanczos,
-    :func:`scipy.sparse.linalg.eigsh`, from a fixed start vector so that the
-    result does not vary between runs; small problems use a dense solver).
-
-    A small oscillation about ``u`` stays bounded under symplectic Euler iff
-    ``dt <= dt_crit`` (module docstring). Far from ``u`` the stiffness, and
-    so the limit, changes: a compressed ``ln J`` material stiffens a lot.
+    ``omega_max^2`` is the largest eigenvalue of ``K_ff x = omega^2 M_ff x`` on the free
+    dofs, with ``K = model.hessian(u)`` (default: rest) and ``M`` the lumped mass. ``M`` is
+    diagonal, so it is solved as ``M^-1/2 K M^-1/2 y = omega^2 y`` (Lanczos,
+    :func:`scipy.sparse.linalg.eigsh`, from a fixed start vector so that runs agree; small
+    problems go dense). Far from ``u`` the limit changes: a compressed ``ln J`` material
+    stiffens a lot.
     """
     _check_model(model)
     u = model.zeros() if u is None else np.asarray(u, dtype=float)
@@ -277,10 +225,9 @@ def is_stable(model, dt: float, *, steps: int = 400, growth: float = 10.0,
               amplitude: float = 1e-4, seed: int = 0, u0=None) -> bool:
     """Run :class:`SymplecticEuler` ``steps`` steps from rest at ``u0`` and say whether it stayed bounded.
 
-    ``u0`` defaults to a small seeded random perturbation of the free dofs
-    (``amplitude`` times the mesh size), which puts energy into every mode,
-    the fastest included. Unstable means: a non-finite step, or a total
-    energy above ``growth`` times the initial one at some step.
+    ``u0`` defaults to a seeded random perturbation of the free dofs (``amplitude`` times the
+    mesh size), which excites every mode. Unstable: a non-finite step, or a total energy
+    above ``growth`` times the initial one.
     """
     scheme = SymplecticEuler(model, dt)
     scheme.u = _initial_perturbation(model, amplitude, seed) if u0 is None else np.array(u0, dtype=float)
@@ -295,25 +242,19 @@ def largest_stable_dt(model, *, steps: int = 400, growth: float = 10.0,
                       amplitude: float = 1e-4, seed: int = 0, rtol: float = 0.005, dt_guess=None) -> float:
     """The largest time step with which :class:`SymplecticEuler` stays bounded, measured by bisection.
 
-    Each trial is :func:`is_stable`: ``steps`` steps from the same seeded
-    random perturbation (``amplitude`` times the mesh size, so the motion is
-    linear), unstable if the total energy ever exceeds ``growth`` times its
-    initial value or a step is non-finite. The search first doubles or halves
-    ``dt_guess`` (default ``mesh_size / wave_speed`` if the material has Lamé
-    parameters, else ``1e-3``) until one trial is stable and the next
-    unstable, then bisects (geometrically) until the bracket is narrower
-    than ``rtol`` (relative). Returns the stable end of the bracket.
+    Each trial is :func:`is_stable` from the same seeded perturbation (small: the motion is
+    linear). The search doubles or halves ``dt_guess`` (default ``mesh_size / wave_speed``
+    if the material has Lamé parameters, else ``1e-3``) until one trial is stable and the
+    next not, then bisects geometrically to a bracket narrower than ``rtol`` (relative) and
+    returns its stable end.
 
-    It measures the same thing :func:`critical_time_step` predicts, without
-    the linearisation or the eigenvalue problem. Just above ``dt_crit`` the
-    growth per step is slow (a factor ``~ 1 + 2 sqrt(2 eps)`` per step at
-    ``dt = (1 + eps) dt_crit``), so a finite run of ``steps`` steps places the
-    limit slightly high; just below it the energy of the fastest modes
-    swings widely (a factor up to ``1 / (1 - dt omega / 2)``, module
-    docstring), so a ``growth`` threshold near 1 places it low. On the flap
-    of chapter 7's CFL study (left edge held, 4 x 2 and 8 x 4 cells) the ratio to
-    :func:`critical_time_step` was about 0.65-0.72 with ``growth = 2``,
-    0.985-0.99 with the default 10 and 0.999 with 100, for 100 to 2000 steps.
+    It measures what :func:`critical_time_step` predicts, without linearising. Just above
+    ``dt_crit`` the growth is slow (``~ 1 + 2 sqrt(2 eps)`` per step at
+    ``dt = (1 + eps) dt_crit``), so a finite run places the limit slightly high; just below
+    it the fastest modes' energy swings by up to ``1 / (1 - dt omega / 2)``, so a ``growth``
+    near 1 places it low. On chapter 7's flap (4 x 2 and 8 x 4 cells) the ratio to
+    :func:`critical_time_step` was 0.65-0.72 with ``growth = 2``, 0.985-0.99 with the
+    default 10 and 0.999 with 100, for 100 to 2000 steps.
     """
     if int(steps) != steps or steps < 1:
         raise ValueError(f"steps must be a positive integer, got {steps!r}")
@@ -349,8 +290,5 @@ def largest_stable_dt(model, *, steps: int = 400, growth: float = 10.0,
             raise RuntimeError("largest_stable_dt: no unstable time step found")
     while hi / lo > 1.0 + rtol:
         mid = np.sqrt(lo * hi)
-        if stable(mid):
-            lo = mid
-        else:
-            hi = mid
+        lo, hi = (mid, hi) if stable(mid) else (lo, mid)
     return float(lo)

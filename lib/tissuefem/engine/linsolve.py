@@ -1,56 +1,40 @@
-"""Linear solver backends behind one small interface.
+"""Linear solver backends behind one small interface, and the policy that decides when to factorize.
 
-Every Newton step solves ``A dx = b`` with ``A`` the (condensed) tangent: for
-backward Euler ``M + dt^2 K``, symmetric and, away from buckling, positive
-definite. Beyond a couple of thousand triangles this solve, not assembly,
-decides the frame rate, so it is a choice the user makes and a benchmark
-measures. One interface:
-
-``backend.factorize(A) -> Factorization``
-    an object with ``solve(b)`` (any number of times, for one ``A``);
-``backend(A, b) -> x``
-    factorize and solve once (the form :func:`tissuefem.newton.newton_solve`
-    takes as ``linear_solve``).
+Every Newton step solves ``A dx = b`` with ``A`` the condensed tangent (for backward Euler
+``M + dt^2 K``: symmetric, and positive definite away from buckling). Beyond a couple of
+thousand triangles this solve, not assembly, decides the frame rate. A backend has
+``factorize(A) -> Factorization`` (an object with ``solve(b)``, any number of times) and
+``backend(A, b) -> x`` (factorize and solve once).
 
 Backends
 --------
 :class:`SuperLU`
-    SciPy's sparse LU. The column ordering matters: a symmetric minimum-degree
-    ordering of ``A + A^T`` (``"MMD_AT_PLUS_A"``) with SuperLU's *symmetric
-    mode* (diagonal pivots preferred) keeps the fill of these matrices at
-    about half of the default ``"COLAMD"``'s and factorizes 1.5-2.5x faster
-    (measured: 23 ms against 43 ms at 8k triangles). Without symmetric mode
-    the same ordering can be *slower* than COLAMD, because off-diagonal
-    pivoting destroys it (173 ms in the same run). If the diagonal pivots fail
-    (a zero pivot, or a first solve whose residual is poor: an indefinite
-    matrix) it refactorizes with partial pivoting.
+    SciPy's sparse LU. With a symmetric minimum-degree ordering of ``A + A^T``
+    (``"MMD_AT_PLUS_A"``) and SuperLU's *symmetric mode* (diagonal pivots preferred) the
+    fill is about half of the default ``"COLAMD"``'s and it factorizes 1.5-2.5x faster
+    (23 ms against 43 ms at 8k triangles). Without symmetric mode the same ordering can be
+    *slower* than COLAMD, because off-diagonal pivoting destroys it (173 ms). If the
+    diagonal pivots fail (a zero pivot, or a poor first residual: an indefinite matrix)
+    it refactorizes with partial pivoting.
 :class:`Pardiso`
-    Intel MKL's PARDISO through the optional ``pypardiso`` package
-    (``pip install tissuefem[pardiso]``; large, never required).
-    :func:`available` tells whether it is installed.
+    Intel MKL's PARDISO through the optional ``pypardiso`` (``pip install
+    tissuefem[pardiso]``); :func:`available` tells whether it is installed.
 :class:`ReusedFactorization`
-    *Not* a new factorization per solve: it keeps the factorization of an
-    earlier matrix and uses it as the preconditioner of conjugate gradients
-    (:func:`pcg`) for the current one. Along a Newton solve, and from one
-    frame to the next, the tangent changes slowly, so a handful of CG
-    iterations (each one back-substitution, ~1 ms at 8k triangles) replaces a
-    factorization (~20 ms). When CG slows down (more than ``refresh_after``
-    iterations) the next solve refactorizes; when it fails (no convergence in
-    ``max_iterations``, or negative curvature) the current solve does.
+    Keeps the factorization of an earlier matrix as the preconditioner of conjugate
+    gradients (:func:`pcg`) for the current one. Along a Newton solve and from frame to
+    frame the tangent changes slowly, so a few CG iterations (one back-substitution each,
+    ~1 ms at 8k triangles) replace a factorization (~20 ms). When CG slows down (more than
+    ``refresh_after`` iterations) the next solve refactorizes; when it fails the current one does.
+:class:`PreconditionedCG`
+    ``"cg-jacobi"``, ``"cg-ilu"``, ``"cg"``: CG with a cheap preconditioner built for each
+    matrix, no factorization at all (chapter 9 measures them against the direct backends).
 
-Newton does not call a backend directly but a :class:`LinearSolver`, the one
-policy that decides when to factorize: afresh every solve (``"direct"`` or a
-backend's name), a kept factorization as CG's preconditioner (``"reuse"``, the
-real-time default), or a kept factorization used as it is (``"constant"``:
-exact when the tangent never changes, as for linear elasticity and springs).
-It also condenses the tangent to its free rows and columns
-(:class:`Condenser`), by a gather map computed once per set of free dofs.
-
-:func:`make` builds a backend by name (``"superlu"``, ``"superlu-colamd"``,
-``"pardiso"``, ``"auto"``: PARDISO when installed, else SuperLU) and the
-iterative :class:`PreconditionedCG` (``"cg-jacobi"``, ``"cg-ilu"``, ``"cg"``):
-conjugate gradients with a cheap preconditioner built afresh for each matrix,
-no factorization at all. Chapter 9 measures them against the direct backends.
+Newton calls a :class:`LinearSolver`, the one policy that decides when to factorize:
+afresh every solve (``"direct"`` or a backend's name), a kept factorization as CG's
+preconditioner (``"reuse"``, the real-time default), or a kept factorization used as it
+is (``"constant"``: exact when the tangent never changes, as for linear elasticity and
+springs). It condenses the tangent to its free rows and columns (:class:`Condenser`) by a
+gather map computed once per set of free dofs. :func:`make` builds a backend by name.
 """
 
 from __future__ import annotations
@@ -63,21 +47,8 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-__all__ = [
-    "LinearSolver",
-    "LinearInfo",
-    "Condenser",
-    "SuperLU",
-    "Pardiso",
-    "ReusedFactorization",
-    "PreconditionedCG",
-    "SolveInfo",
-    "PCGResult",
-    "pcg",
-    "available",
-    "make",
-    "BACKENDS",
-]
+__all__ = ["LinearSolver", "LinearInfo", "Condenser", "SuperLU", "Pardiso", "ReusedFactorization", "PreconditionedCG",
+           "SolveInfo", "PCGResult", "pcg", "available", "make", "BACKENDS"]
 
 _ORDERINGS = ("MMD_AT_PLUS_A", "COLAMD", "MMD_ATA", "NATURAL")
 
@@ -104,12 +75,8 @@ class _Direct:
 
     name = "direct"
 
-    def factorize(self, A):  # pragma: no cover - overridden
-        raise NotImplementedError
-
     def __call__(self, A, b) -> np.ndarray:
-        factor = self.factorize(A)
-        return factor.solve(_rhs(b, A.shape[0]))
+        return self.factorize(A).solve(_rhs(b, A.shape[0]))
 
     def __repr__(self):
         return f"{type(self).__name__}()"
@@ -126,8 +93,7 @@ class _LUFactor:
         if self._A is not None:
             # diagonal pivots without a threshold can lose accuracy on an indefinite matrix: check the
             # residual once and, if it is poor, refactorize with partial pivoting for good
-            bad = not np.all(np.isfinite(x)) or np.linalg.norm(self._A @ x - b) > 1e-8 * np.linalg.norm(b)
-            if bad:
+            if not np.all(np.isfinite(x)) or np.linalg.norm(self._A @ x - b) > 1e-8 * np.linalg.norm(b):
                 self._lu = spla.splu(self._A, permc_spec=self._ordering)
                 x = self._lu.solve(b)
             self._A = None
@@ -137,14 +103,9 @@ class _LUFactor:
 class SuperLU(_Direct):
     """SciPy's SuperLU with a chosen column ordering (default: symmetric minimum degree, symmetric mode).
 
-    Parameters
-    ----------
-    ordering
-        ``"MMD_AT_PLUS_A"`` (default), ``"COLAMD"`` (SciPy's default),
-        ``"MMD_ATA"`` or ``"NATURAL"``.
-    symmetric
-        Use SuperLU's symmetric mode (prefer diagonal pivots). Default: on for
-        ``"MMD_AT_PLUS_A"``, off otherwise.
+    ``ordering``: ``"MMD_AT_PLUS_A"`` (default), ``"COLAMD"`` (SciPy's default), ``"MMD_ATA"`` or
+    ``"NATURAL"``; ``symmetric``: SuperLU's symmetric mode (prefer diagonal pivots), by default
+    on for ``"MMD_AT_PLUS_A"`` only.
     """
 
     def __init__(self, ordering: str = "MMD_AT_PLUS_A", symmetric: bool | None = None):
@@ -158,12 +119,8 @@ class SuperLU(_Direct):
         A = sp.csc_matrix(_square(A))
         if self.symmetric:
             try:
-                return _LUFactor(
-                    spla.splu(A, permc_spec=self.ordering, diag_pivot_thresh=0.0, options={"SymmetricMode": True}),
-                    A.shape[0],
-                    A,
-                    self.ordering,
-                )
+                lu = spla.splu(A, permc_spec=self.ordering, diag_pivot_thresh=0.0, options={"SymmetricMode": True})
+                return _LUFactor(lu, A.shape[0], A, self.ordering)
             except RuntimeError:
                 pass  # a zero diagonal pivot: fall back to partial pivoting below
         return _LUFactor(spla.splu(A, permc_spec=self.ordering), A.shape[0])
@@ -200,10 +157,8 @@ class Pardiso(_Direct):
 
     def __init__(self):
         if not available("pardiso"):
-            raise ValueError(
-                "linear solver 'pardiso' needs the optional package pypardiso "
-                "(pip install 'tissuefem[pardiso]'); use 'superlu' instead"
-            )
+            raise ValueError("linear solver 'pardiso' needs the optional package pypardiso "
+                             "(pip install 'tissuefem[pardiso]'); use 'superlu' instead")
         import pypardiso
 
         self._module = pypardiso
@@ -231,14 +186,12 @@ class PCGResult:
 
 def pcg(A, b, precondition=None, *, x0=None, atol: float = 0.0, rtol: float = 1e-8, max_iterations: int = 200,
         should_stop=None) -> PCGResult:
-    """Preconditioned conjugate gradients for a symmetric ``A``.
+    """Preconditioned conjugate gradients for a symmetric ``A``; ``precondition(r)`` applies an approximate inverse.
 
-    Stops when ``||b - A x|| <= max(atol, rtol ||b||)``, after
-    ``max_iterations``, on *negative curvature* (a search direction ``p`` with
-    ``p^T A p <= 0``: ``A`` is not positive definite; ``x`` is then the last
-    iterate, which for ``x0 = 0`` is still a descent direction of the
-    quadratic model), or when ``should_stop()`` says so (a time budget).
-    ``precondition(r)`` applies the inverse of an approximation of ``A``.
+    Stops when ``||b - A x|| <= max(atol, rtol ||b||)``, after ``max_iterations``, when
+    ``should_stop()`` says so (a time budget), or on *negative curvature* (``p^T A p <= 0``
+    for a search direction ``p``: ``A`` is not positive definite; ``x`` is then the last
+    iterate, which for ``x0 = 0`` is still a descent direction of the quadratic model).
     """
     b = np.asarray(b, dtype=float)
     x = np.zeros_like(b) if x0 is None else np.array(x0, dtype=float, copy=True)
@@ -289,32 +242,19 @@ class SolveInfo:
 class ReusedFactorization:
     """Conjugate gradients preconditioned by a kept factorization, refreshed when it stops paying.
 
-    Parameters
-    ----------
-    direct
-        The direct backend that factorizes (default :class:`SuperLU`).
-    refresh_after
-        A solve that needs more CG iterations than this marks the
-        factorization stale: the *next* solve refactorizes.
-    max_iterations
-        CG iterations after which the current solve gives up on the old
-        factorization, refactorizes and solves directly.
-    background
-        Refresh the factorization on the second core while the solves go on:
-        a CG solve that needs more than ``background_after`` iterations starts
-        a factorization of its matrix in a background thread (SuperLU releases
-        the interpreter while it factorizes), and the first solve after it has
-        finished adopts it. No frame waits for a factorization once the first
-        one exists, and the preconditioner stays close to the current matrix.
-        The iteration counts then depend on the machine's timing (the results
-        only to the solve's tolerance), so it is off by default.
+    ``direct`` is the backend that factorizes (default :class:`SuperLU`). A solve that needs
+    more than ``refresh_after`` CG iterations marks the factorization stale (the *next* solve
+    refactorizes); one that reaches ``max_iterations`` refactorizes and solves directly.
 
-    ``solve(A, b, atol=..., rtol=...)`` returns ``(x, SolveInfo)``;
-    ``backend(A, b)`` returns ``x`` alone (for ``newton_solve``).
-    :meth:`invalidate` forgets the factorization (use it when the set of
-    unknowns changes). Counters ``factorizations`` (in the foreground),
-    ``background_factorizations`` and ``cg_iterations`` accumulate over the
-    object's life.
+    ``background``: a CG solve that needs more than ``background_after`` iterations starts a
+    factorization of its matrix in a thread on the second core (SuperLU releases the
+    interpreter meanwhile), and the first solve after it has finished adopts it: no frame
+    waits for a factorization once one exists. The iteration counts then depend on the
+    machine's timing (the results only to the solve's tolerance), so it is off by default.
+
+    ``solve(A, b, atol=..., rtol=...)`` returns ``(x, SolveInfo)``, ``backend(A, b)`` ``x`` alone;
+    :meth:`invalidate` forgets the factorization. Counters ``factorizations`` (in the
+    foreground), ``background_factorizations`` and ``cg_iterations`` accumulate.
     """
 
     def __init__(self, direct=None, refresh_after: int = 15, max_iterations: int = 40, background: bool = False,
@@ -330,13 +270,8 @@ class ReusedFactorization:
         self.background = bool(background)
         self.background_after = int(background_after)
         self.name = f"cg+reused-{self.direct.name}" + ("+background" if self.background else "")
-        self._factor = None
-        self._shape = None
-        self._stale = False
-        self._pending = None  # (thread, result box) of a background factorization
-        self.factorizations = 0
-        self.background_factorizations = 0
-        self.cg_iterations = 0
+        self.invalidate()  # no factorization yet; _pending: (thread, result box) of a background factorization
+        self.factorizations = self.background_factorizations = self.cg_iterations = 0
 
     def invalidate(self) -> None:
         self._factor, self._shape, self._stale, self._pending = None, None, False, None
@@ -366,10 +301,6 @@ class ReusedFactorization:
         thread = threading.Thread(target=work, name="tissuefem-refactorize", daemon=True)
         self._pending = (thread, box)
         thread.start()
-
-    @property
-    def has_factorization(self) -> bool:
-        return self._factor is not None
 
     def _refactorize(self, A, b, reason) -> tuple[np.ndarray, SolveInfo]:
         self._factor = self.direct.factorize(A)
@@ -435,25 +366,16 @@ class _CGFactor:
 class PreconditionedCG:
     """Conjugate gradients with a preconditioner built for each matrix: no factorization.
 
-    The backend interface of the direct solvers (``factorize(A).solve(b)``),
-    so a Newton loop can use it in their place. ``factorize`` only builds the
-    preconditioner:
+    The direct backends' interface (``factorize(A).solve(b)``), where ``factorize`` only builds
+    the preconditioner: ``"jacobi"``, the inverse of the diagonal (free, and weak: the
+    iteration count grows like ``1/h`` on these elasticity matrices); ``"ilu"``, SciPy's
+    incomplete LU (``spilu``, drop tolerance ``drop_tol``), cheaper than a full factorization
+    and much stronger than Jacobi; ``"none"``, plain CG.
 
-    ``"jacobi"``
-        the inverse of the diagonal (free, and weak: the iteration count grows
-        like ``1/h`` on these elasticity matrices);
-    ``"ilu"``
-        SciPy's incomplete LU (``spilu``, drop tolerance ``drop_tol``): an
-        approximate factorization, cheaper than the full one, and much
-        stronger than Jacobi;
-    ``"none"``
-        plain CG.
-
-    A solve stops at ``rtol`` times the right-hand side's norm or after
-    ``max_iterations`` (default ``max(200, 2 n)``); the factor's
-    ``iterations`` counts CG iterations and ``converged`` says whether every
-    solve reached ``rtol``. An unconverged solve still returns its iterate:
-    a Newton loop that needs a descent direction checks it.
+    A solve stops at ``rtol`` times the right-hand side's norm or after ``max_iterations``
+    (default ``max(200, 2 n)``); the factor's ``iterations`` counts CG iterations and
+    ``converged`` says whether every solve reached ``rtol``. An unconverged solve still returns
+    its iterate: a Newton loop that needs a descent direction checks it.
     """
 
     _KINDS = ("jacobi", "ilu", "none")
@@ -464,8 +386,8 @@ class PreconditionedCG:
             raise ValueError(f"preconditioner must be one of {self._KINDS}, got {preconditioner!r}")
         if not (np.isfinite(rtol) and 0 < rtol < 1):
             raise ValueError(f"rtol must be in (0, 1), got {rtol!r}")
-        if max_iterations is not None and (isinstance(max_iterations, bool) or not isinstance(max_iterations, (int, np.integer))
-                                           or max_iterations < 1):
+        if max_iterations is not None and (isinstance(max_iterations, bool)
+                                           or not isinstance(max_iterations, (int, np.integer)) or max_iterations < 1):
             raise ValueError(f"max_iterations must be a positive integer or None, got {max_iterations!r}")
         if not (np.isfinite(drop_tol) and drop_tol > 0):
             raise ValueError(f"drop_tol must be finite and > 0, got {drop_tol!r}")
@@ -482,8 +404,7 @@ class PreconditionedCG:
             inv = 1.0 / d
             precondition = lambda r: inv * r  # noqa: E731
         elif self.preconditioner == "ilu":
-            ilu = spla.spilu(sp.csc_matrix(A), drop_tol=self.drop_tol, fill_factor=10.0)
-            precondition = ilu.solve
+            precondition = spla.spilu(sp.csc_matrix(A), drop_tol=self.drop_tol, fill_factor=10.0).solve
         else:
             precondition = None
         limit = self.max_iterations or max(200, 2 * A.shape[0])
@@ -521,11 +442,9 @@ def make(name: str = "superlu"):
 class Condenser:
     """The free-free block of a sparse matrix: ``K[free][:, free]``, fast for a fixed pattern.
 
-    Matrices assembled into one fixed pattern (the assemblers' ``csr``) share
-    their ``indptr``/``indices`` arrays; for those the block is a gather of
-    the data array through a map computed once per pattern and set of free
-    dofs (a few are kept: each grab makes a new set). Any other matrix is
-    sliced.
+    Matrices assembled into one fixed pattern share their ``indptr``/``indices`` arrays; for
+    those the block is a gather of the data array through a map computed once per pattern
+    and set of free dofs (a few are kept: each grab makes a new set). Any other matrix is sliced.
     """
 
     def __init__(self, keep: int = 8):
@@ -569,29 +488,21 @@ class LinearInfo:
 class LinearSolver:
     """How Newton solves ``A dx = b``: which backend, and when to factorize.
 
-    Parameters
-    ----------
-    method
-        * ``"direct"``: a fresh factorization of the default direct backend
-          (:class:`SuperLU`) for every solve: exact Newton;
-        * a backend name of :func:`make` (``"superlu"``, ``"superlu-colamd"``,
-          ``"pardiso"``, ``"cg-jacobi"``, ``"cg-ilu"``, ``"cg"``): that backend,
-          afresh for every solve;
-        * ``"reuse"`` or ``"reuse-<backend>"``: conjugate gradients
-          preconditioned by a kept factorization (:class:`ReusedFactorization`),
-          refreshed when CG slows down;
-        * ``"reuse-background"``: the same with SuperLU, the factorization
-          refreshed on the second core while the frames go on (the real-time
-          default: no frame waits for a factorization once there is one);
-        * ``"constant"`` or ``"constant-<backend>"``: a kept factorization used
-          as it is, without even assembling the tangent again -- exact when the
-          tangent is constant (a quadratic energy: linear elasticity, springs),
-          so each solve is one back-substitution;
-        * a backend object (with ``factorize``) or a :class:`ReusedFactorization`.
+    ``method`` is one of:
 
-    A kept factorization belongs to one set of free dofs and one matrix
-    pattern; when either changes it is dropped. :meth:`invalidate` drops it
-    too (the stepper calls it when the time step changes the matrix).
+    * ``"direct"``: a fresh :class:`SuperLU` factorization for every solve: exact Newton;
+    * a backend name of :func:`make`: that backend, afresh for every solve;
+    * ``"reuse"`` or ``"reuse-<backend>"``: conjugate gradients preconditioned by a kept
+      factorization (:class:`ReusedFactorization`), refreshed when CG slows down;
+    * ``"reuse-background"``: the same with SuperLU, refreshed on the second core while the
+      frames go on (no frame waits for a factorization once there is one);
+    * ``"constant"`` or ``"constant-<backend>"``: a kept factorization used as it is, without
+      even assembling the tangent again -- exact when the tangent is constant (linear
+      elasticity, springs), so each solve is one back-substitution;
+    * a backend object (with ``factorize``) or a :class:`ReusedFactorization`.
+
+    A kept factorization belongs to one set of free dofs and one matrix pattern and is
+    dropped when either changes, or by :meth:`invalidate` (when the time step changes).
     """
 
     def __init__(self, method="reuse"):
@@ -623,20 +534,13 @@ class LinearSolver:
         if self.constant and not callable(getattr(self.backend, "factorize", None)):
             raise ValueError(f"linear_solver {method!r}: a constant tangent needs a direct backend")
         self.condense = Condenser()
-        self.last_matrix = None
         self._factor, self._key = None, None
         self.factorizations = 0
 
     @property
     def name(self) -> str:
-        if self.constant:
-            return f"constant-{getattr(self.backend, 'name', type(self.backend).__name__)}"
-        return getattr(self.backend, "name", type(self.backend).__name__)
-
-    @property
-    def reuses(self) -> bool:
-        """True when a factorization is kept between solves (``reuse`` or ``constant``)."""
-        return self.constant or isinstance(self.backend, ReusedFactorization)
+        name = getattr(self.backend, "name", type(self.backend).__name__)
+        return f"constant-{name}" if self.constant else name
 
     def invalidate(self) -> None:
         """Forget any kept factorization (the matrix is about to change in a way the keys do not see)."""
@@ -653,11 +557,8 @@ class LinearSolver:
                 self.invalidate()
             self._key = key
         if self.constant and self._factor is not None and not force:
-            self.last_matrix = None
             return None
-        A = self.condense(assemble(), mask)
-        self.last_matrix = A
-        return A
+        return self.condense(assemble(), mask)
 
     def solve(self, A, b, *, atol: float = 0.0):
         """``(dx, LinearInfo)`` for ``A dx = b``; ``A`` is ``None`` only for a kept constant factorization.

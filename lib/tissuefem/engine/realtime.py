@@ -1,27 +1,17 @@
 """The real-time loop: the notes' frame loop, one step per drawn frame within a wall-clock budget.
 
-The notes' loop for an interactive simulator reads the user's boundary input,
-advances ``t``, solves, renders, and must do it every 1/30 s. A
-:class:`RealtimeSolver` is a :class:`~tissuefem.engine.stepping.Stepper` set up
-for that loop: each :meth:`~RealtimeSolver.frame` is one step whose Newton solve
-stops when the frame's budget (:data:`~tissuefem.engine.constants.FRAME_BUDGET`
-by default) is spent -- the clock is read before each tangent assembly and
-before each linear solve, so a frame overruns by at most the one solve that
-was running -- and whose last accepted iterate is committed whether or not it
-converged (*anytime*: it is finite and no higher in energy than the frame's
-start, and the residual left over carries into the next frame). Every frame
-takes at least one Newton step, so even a budget too small for anything makes
-progress.
+A :class:`RealtimeSolver` is a :class:`~tissuefem.engine.stepping.Stepper` whose
+:meth:`~RealtimeSolver.frame` reads the user's input and stops its Newton solve when the
+frame's budget (:data:`~tissuefem.engine.constants.FRAME_BUDGET`) is spent -- the clock is
+read before each tangent assembly and each linear solve, so a frame overruns by at most
+the one solve that was running -- and commits the last accepted iterate whether or not it
+converged (*anytime*: it is finite and no higher in energy than the frame's start; the
+residual left carries into the next frame). Every frame takes at least one Newton step.
 
-Speed comes from the fast assembly into a fixed pattern, warm starts, and a
-factorization kept across Newton iterations *and* frames as the preconditioner
-of conjugate gradients (:class:`~tissuefem.engine.linsolve.LinearSolver`
-``"reuse"``), refreshed when CG slows down. A model whose Hessian is constant
-(linear elasticity, springs) is best run with ``linear_solver="constant"``: one
-factorization per set of held dofs, then one back-substitution a frame.
-
-The clock is a parameter (any callable returning seconds), so tests drive the
-loop with a fake clock and are deterministic.
+Speed comes from the fixed-pattern assembly, warm starts, and a factorization kept across
+Newton iterations *and* frames as CG's preconditioner (``"reuse"``); a quadratic model
+(linear elasticity, springs) runs ``"constant"``: one factorization per set of held dofs,
+then one back-substitution a frame. The clock is a parameter, so tests use a fake one.
 """
 
 from __future__ import annotations
