@@ -1,10 +1,8 @@
 """Chapter 9 figures: what accuracy costs in time.
 
-The three study figures are drawn from a results dict of
-:func:`tissuefem.bench_accuracy.accuracy_study`: the lecture figures from the
-recorded full study shipped with the package (so they are the same on every
-machine: timings are one machine's record), ``bench accuracy`` from its own
-fresh run. The verification figure is computed afresh (errors only, no clock).
+The three study figures are drawn from a results dict of :func:`tissuefem.bench_accuracy.accuracy_study`:
+the lecture figures from the recorded full study shipped with the package (the same on every machine),
+``bench accuracy`` from its own fresh run. The verification figure is computed afresh (errors only, no clock).
 """
 
 from __future__ import annotations
@@ -16,13 +14,12 @@ from matplotlib.figure import Figure
 
 from .base import lecture_figure, save
 from ..accuracy import manufactured_convergence
+from ..bench.accuracy import recorded_results
 from ..measure import pareto_front
 
 #: errors that agree to this relative tolerance are not told apart (no winner by the last digits)
 ERROR_RESOLUTION = 0.01
-from ..bench.accuracy import recorded_results
-
-#: One colour and marker per knob, and the words a reader sees.
+#: one colour and marker per knob, and the words a reader sees
 KNOB_STYLE = {
     "mesh": ("tab:blue", "o", "mesh size (P1)"),
     "P2": ("tab:orange", "s", "mesh size (P2)"),
@@ -50,8 +47,8 @@ def _short(value) -> str:
     if isinstance(value, float):
         return f"{value:.0e}"
     return {"neo-hookean": "NH", "stable-neo-hookean": "stable NH", "taylor-neo-hookean": "Taylor NH",
-            "corotated": "corot.", "superlu-colamd": "COLAMD", "cg-ilu": "CG-ILU", "cg-jacobi": "CG-Jacobi", "pardiso": "PARDISO",
-            "reuse-pardiso": "reuse-PARDISO"}.get(value, str(value))
+            "corotated": "corot.", "superlu-colamd": "COLAMD", "cg-ilu": "CG-ILU", "cg-jacobi": "CG-Jacobi",
+            "pardiso": "PARDISO", "reuse-pardiso": "reuse-PARDISO"}.get(value, str(value))
 
 
 def _finite(r) -> bool:
@@ -62,13 +59,10 @@ def _finite(r) -> bool:
 def plot_pareto(results, path=None, annotate=True) -> Figure:
     """Error against ms per frame for every setting of every knob, one panel per benchmark, with the budget line.
 
-    Each knob is one curve through its settings (in the order swept); the
-    baseline is the black star; the grey staircase is the Pareto front of
-    all settings of the panel (nothing is both faster and more accurate by
-    more than :data:`ERROR_RESOLUTION`). One legend for both panels, beside
-    them: every knob that appears in either.
+    Each knob is one curve through its settings (in the order swept); the baseline is the black star; the
+    grey staircase is the Pareto front of the panel's settings (nothing is both faster and more accurate
+    by more than :data:`ERROR_RESOLUTION`). One legend beside both panels: every knob in either.
     """
-
     rows = results["knobs"]
     benchmarks = list(dict.fromkeys(r["benchmark"] for r in rows))
     fig = Figure(figsize=(6.2 * len(benchmarks) + 2.6, 5.0), layout="constrained")
@@ -129,9 +123,9 @@ def plot_scaling(results, path=None) -> Figure:
         label = SOLVER_LABELS.get(solver, solver) + (f": p = {p:.2f}" if p is not None else "")
         ax.loglog([r["triangles"] for r in sel], [r["ms_median"] for r in sel], marker=markers[k % len(markers)],
                   ls="-", label=label)
-    ax.axhline(results.get("frame_budget_ms", 1e3 / 30), color="k", ls="--", lw=1)
-    tri = [r["triangles"] for r in rows]
-    ax.text(min(tri), results.get("frame_budget_ms", 1e3 / 30) * 1.1, "33 ms: 30 frames per second", fontsize=8)
+    budget = results.get("frame_budget_ms", 1e3 / 30)
+    ax.axhline(budget, color="k", ls="--", lw=1)
+    ax.text(min(r["triangles"] for r in rows), budget * 1.1, "33 ms: 30 frames per second", fontsize=8)
     ax.set(xlabel="triangles (P1)", ylabel="ms per converged frame (median)",
            title="Flap scene: cost growth per linear solver, ms ~ triangles^p")
     ax.grid(True, which="both", alpha=0.25)
@@ -156,7 +150,8 @@ def plot_budget(results, path=None) -> Figure:
     ax_r.axhline(1e-6, color="k", ls="--", lw=1)
     ax_r.text(rows[0]["triangles"], 1.6e-6, "converged: rtol = 1e-6", fontsize=8)
     ax_r.set(xlabel="triangles", ylabel="median |residual| / |first residual| at frame end;\n"
-             "state error vs converged run (rel. L2)", title=f"What is left when {rows[0]['budget_ms']:.0f} ms are spent")
+             "state error vs converged run (rel. L2)",
+             title=f"What is left when {rows[0]['budget_ms']:.0f} ms are spent")
     ax_c.set(xlabel="triangles", ylabel="frames converged within the budget [%]", ylim=(-5, 105),
              title="Frames that converge in budget")
     for ax in (ax_r, ax_c):
@@ -166,33 +161,27 @@ def plot_budget(results, path=None) -> Figure:
     return fig
 
 
-def _recorded():
-
-    return recorded_results()
-
-
 @lecture_figure
 def fig_ch09_pareto(path=None, results=None) -> Figure:
     """Chapter 9: error against ms per frame for every knob, flap and quasistatic block (recorded full study)."""
-    return plot_pareto(_recorded() if results is None else results, path)
+    return plot_pareto(recorded_results() if results is None else results, path)
 
 
 @lecture_figure
 def fig_ch09_scaling(path=None, results=None) -> Figure:
     """Chapter 9: ms per frame against mesh size per linear solver, with fitted growth exponents (recorded)."""
-    return plot_scaling(_recorded() if results is None else results, path)
+    return plot_scaling(recorded_results() if results is None else results, path)
 
 
 @lecture_figure
 def fig_ch09_budget(path=None, results=None) -> Figure:
     """Chapter 9: residual and converged share left by the 33 ms budget, by mesh size (recorded)."""
-    return plot_budget(_recorded() if results is None else results, path)
+    return plot_budget(recorded_results() if results is None else results, path)
 
 
 @lecture_figure
 def fig_ch09_verification(path=None, rows=None) -> Figure:
     """Chapter 9: the reference verified -- nonlinear mesh convergence at rates 2 (P1) and 3 (P2)."""
-
     rows = manufactured_convergence() if rows is None else rows
     fig = Figure(figsize=(6.4, 4.6), layout="constrained")
     ax = fig.subplots()
@@ -200,11 +189,11 @@ def fig_ch09_verification(path=None, rows=None) -> Figure:
     for r in rows:
         ax.loglog(r["h"], r["errors"], "o-" if r["order"] == 1 else "s--", color=colors.get(r["model"], "k"),
                   label=f"{r['model']}, P{r['order']}: rate {r['fitted_rate']:.2f}")
-    for order, shift in ((1, 1.6), (2, 1.6)):
+    for order in (1, 2):
         sel = [r for r in rows if r["order"] == order]
         if sel:
             h = np.array(sel[0]["h"])
-            e0 = sel[0]["errors"][0] * shift
+            e0 = sel[0]["errors"][0] * 1.6  # the slope line a little above the first curve
             ax.loglog(h, e0 * (h / h[0]) ** (order + 1), color="0.5", lw=1, ls=":")
             ax.text(h[-1], e0 * (h[-1] / h[0]) ** (order + 1), f" slope {order + 1}", fontsize=8, color="0.4")
     ax.set(xlabel="h (cell size)", ylabel="relative L2 error vs exact solution",

@@ -1,9 +1,7 @@
 """What every lecture figure shares: deterministic saving and the mark that lists a function as a figure.
 
-Each figure function takes an optional output ``path``, builds a
-``matplotlib.figure.Figure`` without touching pyplot's global state, saves it
-when a path is given (PNG, no timestamp or version in the metadata, so a
-figure file changes only when the figure does) and returns it.
+Each figure function takes an optional output ``path``, builds a ``matplotlib.figure.Figure`` without
+pyplot's global state, saves it when a path is given (so a file changes only when the figure does) and returns it.
 """
 
 from __future__ import annotations
@@ -14,9 +12,11 @@ from typing import Callable
 
 import matplotlib
 import numpy as np
+from matplotlib.animation import FuncAnimation, PillowWriter
 from matplotlib.figure import Figure
 
-__all__ = ["lecture_figure", "save", "shown", "at_least", "whole_pixels", "matplotlib_note", "ANIMATION_MIN_WIDTH"]
+__all__ = ["lecture_figure", "save", "shown", "at_least", "whole_pixels", "matplotlib_note", "ANIMATION_MIN_WIDTH",
+           "animation_figure", "save_animation"]
 
 #: the resolution of every saved figure
 DPI = 110
@@ -51,13 +51,11 @@ def matplotlib_note() -> str | None:
 
 
 def whole_pixels(inches: float, dpi: float = DPI) -> float:
-    """``inches``, nudged by an ulp or two when it is a whole number of pixels at ``dpi`` but
-    its product with ``dpi`` falls just short of it in floating point.
+    """``inches``, nudged up by an ulp or two when it is a whole number of pixels at ``dpi`` but
+    its product with ``dpi`` falls just short of it in floating point (any other size is unchanged).
 
-    4.6 in at 110 dpi is 505.99999999999994 px: matplotlib up to 3.11.0 truncates that
-    to 505 px, 3.11.1 and later add 1e-8 px first and make it 506, so the same figure gave
-    PNGs of two sizes. Nudged, the product is 506.00000000000006 and every version agrees.
-    Any other size is returned unchanged.
+    4.6 in at 110 dpi is 505.99999999999994 px: matplotlib up to 3.11.0 truncates that to 505 px,
+    3.11.1 and later add 1e-8 px first and make it 506. Nudged to 506.00000000000006, all agree.
     """
     pixels = round(inches * dpi)
     if abs(inches * dpi - pixels) > 1e-6:
@@ -93,8 +91,7 @@ def at_least(value: float, level: float = NEGLIGIBLE, spec: str = ".2g") -> str:
 
 
 def save(fig: Figure, path) -> None:
-    """Save deterministically: fixed DPI, a whole number of pixels, no 'Software' entry or
-    timestamps in the PNG."""
+    """Save deterministically: fixed DPI, a whole number of pixels, no 'Software' entry or timestamps in the PNG."""
     if path is None:
         return
     path = Path(path)
@@ -102,3 +99,22 @@ def save(fig: Figure, path) -> None:
     width, height = fig.get_size_inches()
     fig.set_size_inches(whole_pixels(width), whole_pixels(height))
     fig.savefig(path, dpi=DPI, metadata={"Software": None})
+
+
+def animation_figure(figsize, top: float, xlim, ylim, title_y: float, fontsize: float):
+    """An animation's figure, ``(fig, ax, title)``: fixed axes (every frame has the same layout) with the
+    held left edge drawn, and an empty title text for each frame to set."""
+    fig = Figure(figsize=figsize)
+    ax = fig.add_axes([0.02, 0.02, 0.96, top])
+    ax.set(aspect="equal", xlim=xlim, ylim=ylim, xticks=[], yticks=[])
+    ax.plot([0.0, 0.0], [0.0, 1.0], color="k", lw=4)
+    return fig, ax, fig.text(0.5, title_y, "", ha="center", va="center", fontsize=fontsize)
+
+
+def save_animation(fig: Figure, update: Callable, frames: int, gif_path, dt: float, dpi: float) -> Path:
+    """Write ``update(k)`` for ``k < frames`` as a GIF, one frame per ``dt`` seconds (Pillow); returns its path."""
+    gif_path = Path(gif_path)
+    gif_path.parent.mkdir(parents=True, exist_ok=True)
+    animation = FuncAnimation(fig, update, frames=frames, interval=1000 * dt, blit=False, repeat=False)
+    animation.save(gif_path, writer=PillowWriter(fps=round(1 / dt)), dpi=dpi)
+    return gif_path

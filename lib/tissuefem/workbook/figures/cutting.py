@@ -1,20 +1,9 @@
-"""Chapter 10's figures: cutting through elements (the virtual node algorithm) and the flaps redone with it.
-
-* ``fig_ch10_virtual_nodes``: a small sheet cut by a curved stroke and pulled
-  open: each cut triangle is drawn as the material its copy carries (filled)
-  inside its whole triangle (dashed), real nodes as dots, virtual nodes as
-  rings.
-* ``fig_ch10_cut_through``: the same slanted crack in a pulled sheet on two
-  meshes, snapped to mesh edges and cut through the elements: the opening
-  and the shape of the wound.
-* ``fig_ch10_flaps``: the advancement flap and a rotation flap, cut through
-  elements beside the edge-snapped versions, coloured by tension, with their
-  tension reports on two meshes.
-* ``fig_ch10_contact``: a strip folded onto itself and a crack pressed shut,
-  without and with self-contact.
-"""
+"""Chapter 10's figures: cutting through elements (the virtual node algorithm), a crack on two meshes, the
+flaps redone with it, and self-contact."""
 
 from __future__ import annotations
+
+from itertools import product
 
 import numpy as np
 from matplotlib.collections import LineCollection, PolyCollection
@@ -81,13 +70,11 @@ def _virtual_nodes_run():
 def fig_ch10_virtual_nodes(path=None) -> Figure:
     """Chapter 10: the virtual node algorithm on a 16-triangle sheet (after Molino, Bao and Fedkiw 2004).
 
-    (a) The stroke (red) drawn on the sheet before the cut. (b) After the
-    cut, pulled open: every triangle the stroke separates is duplicated; each
-    copy keeps the whole triangle (dashed) and its shape functions but
-    carries only the material on its side (filled). Dots: nodes of the
-    original mesh; rings: the virtual nodes, added where a copy's material
-    lies away from a vertex. The triangle holding the stroke's end is not
-    split: the crack closes inside it (its tip).
+    (a) The stroke (red) on the sheet before the cut. (b) After the cut, pulled open: every triangle the
+    stroke separates is duplicated; each copy keeps the whole triangle (dashed) and its shape functions
+    but carries only the material on its side (filled). Dots: nodes of the original mesh; rings: the
+    virtual nodes, added where a copy's material lies away from a vertex. The triangle holding the
+    stroke's end is not split: the crack closes inside it (its tip).
     """
     sim, edit, n_old = _virtual_nodes_run()
     fig = Figure(figsize=(10.0, 3.9), layout="constrained")
@@ -109,8 +96,6 @@ def fig_ch10_virtual_nodes(path=None) -> Figure:
     draw_picture(ax, sim, color="0.85", lw=0.5)
     ax.add_collection(PolyCollection(shown(x[:, t[:, cut]]).transpose(2, 1, 0), facecolors="none",
                                      edgecolors="C0", linewidths=0.8, linestyles="--"))
-    used = np.zeros(sim.mesh.nvertices, dtype=bool)
-    used[t.ravel()] = True
     real = np.arange(sim.mesh.nvertices) < n_old
     ax.plot(*shown(x[:, real]), "o", color="k", ms=3, label="nodes of the mesh")
     ax.plot(*shown(x[:, ~real]), "o", mfc="white", mec="C0", ms=6, mew=1.3,
@@ -129,14 +114,13 @@ def fig_ch10_virtual_nodes(path=None) -> Figure:
 def crack_runs(meshes=CRACK_MESHES, crack=CRACK, pull=CRACK_PULL) -> dict:
     """``{(method, triangles): (simulation, edit)}``: the pulled sheet, then the crack, then the new equilibrium."""
     out = {}
-    for method in ("edges", "elements"):
-        for n in meshes:
-            sim = _simulation(sheet_scene(n, handles=[{"name": "fixed", "region": "left"},
-                                                      {"name": "pull", "region": "right", "target": [pull, 0.0]}]))
-            _check(sim.frame(), "the pulled sheet")
-            edit = sim.cut(np.asarray(crack, dtype=float), method=method)
-            _check(sim.frame(), "the cracked sheet")
-            out[(method, n)] = (sim, edit)
+    for method, n in product(("edges", "elements"), meshes):
+        sim = _simulation(sheet_scene(n, handles=[{"name": "fixed", "region": "left"},
+                                                  {"name": "pull", "region": "right", "target": [pull, 0.0]}]))
+        _check(sim.frame(), "the pulled sheet")
+        edit = sim.cut(np.asarray(crack, dtype=float), method=method)
+        _check(sim.frame(), "the cracked sheet")
+        out[(method, n)] = (sim, edit)
     return out
 
 
@@ -147,8 +131,7 @@ def crack_opening(sim, edit) -> float:
         wound = edit.wound
         ends = wound.positions(x)
         first = np.flatnonzero(wound.stroke[:, 0] == wound.stroke[:, 0].min())
-        a = first[wound.side[first] > 0][0]
-        b = first[wound.side[first] < 0][0]
+        a, b = first[wound.side[first] > 0][0], first[wound.side[first] < 0][0]
         return float(np.hypot(*(ends[a, 0] - ends[b, 0])))
     top = np.flatnonzero(np.isclose(sim.model.X[1], 1.0))
     copies = top[top >= edit.n_old_nodes]
@@ -159,16 +142,13 @@ def crack_opening(sim, edit) -> float:
 def fig_ch10_cut_through(path=None, runs=None) -> Figure:
     """Chapter 10: the same slanted crack, snapped to mesh edges (top) or cut through the elements (bottom).
 
-    A 2 x 1 sheet (stable neo-Hookean, E = 1000, nu = 0.3), left edge held,
-    right edge pulled 0.1; the crack (thin red line: as drawn) runs from the
-    top edge to mid-height. Snapped to edges, its path is a staircase of
-    mesh edges that changes with the mesh, and so do its length, its slant
-    and how far it opens; cut through the elements, it is the drawn line on
+    A 2 x 1 sheet, left edge held, right edge pulled 0.1; the crack (thin red line: as drawn) runs from
+    the top edge to mid-height. Snapped to edges, its path is a staircase of mesh edges that changes with
+    the mesh, and so do its length, slant and opening; cut through the elements, it is the drawn line on
     both meshes, and the opening agrees. Colour: tension.
     """
     runs = crack_runs() if runs is None else runs
-    values = [r[0].tension() for r in runs.values()]
-    norm = tension_norm(*values)
+    norm = tension_norm(*[r[0].tension() for r in runs.values()])
     fig = Figure(figsize=(11.0, 6.4), layout="constrained")
     axes = fig.subplots(2, 2)
     crack = np.asarray(CRACK)
@@ -193,27 +173,21 @@ def fig_ch10_cut_through(path=None, runs=None) -> Figure:
 
 def flap_comparison(meshes=FLAP_MESHES, tighten_frames=8) -> dict:
     """``{(flap, method, triangles): FlapResult}`` for the advancement and the rotation flap."""
-    out = {}
-    for name, procedure in (("advancement", advancement_flap), ("rotation", rotation_flap)):
-        for method in ("edges", "elements"):
-            for n in meshes:
-                out[(name, method, n)] = procedure(n_triangles=n, tighten_frames=tighten_frames, method=method,
-                                                   clock=_still_clock)
-    return out
+    procedures = (("advancement", advancement_flap), ("rotation", rotation_flap))
+    return {(name, method, n): procedure(n_triangles=n, tighten_frames=tighten_frames, method=method,
+                                         clock=_still_clock)
+            for (name, procedure), method, n in product(procedures, ("edges", "elements"), meshes)}
 
 
 @lecture_figure
 def fig_ch10_flaps(path=None, runs=None) -> Figure:
     """Chapter 10: the advancement flap and a rotation flap, snapped to edges and cut through elements.
 
-    Each row is one procedure on a patch held on its outer edges (stable
-    neo-Hookean, E = 1000, nu = 0.3): (a, d) snapped to mesh edges and
-    sutured node to node; (b, e) cut through the elements along the planned
-    lines and sutured at points of the wound's edges; colour: tension, dots:
-    stitches. (c, f) The tension report on a coarse and a fine mesh: the
-    mean tension in the flap and the 95th percentile over the patch. Cut
-    through the elements, both stay put when the mesh is refined; snapped to
-    edges, the flap's outline, and with it the answer, move with the mesh.
+    Each row is one procedure on a patch held on its outer edges: (a, d) snapped to mesh edges and sutured
+    node to node; (b, e) cut through the elements along the planned lines and sutured at points of the
+    wound's edges; colour: tension, dots: stitches. (c, f) The tension report on a coarse and a fine mesh:
+    the mean tension in the flap and the 95th percentile over the patch. Cut through the elements, both
+    stay put when the mesh is refined; snapped to edges, the flap's outline, and the answer, move with it.
     """
     runs = flap_comparison() if runs is None else runs
     fine = FLAP_MESHES[-1]
@@ -332,17 +306,13 @@ def _pressed_cut_run(contact: bool):
 def fig_ch10_contact(path=None) -> Figure:
     """Chapter 10: self-contact keeps a fold and a wound's lips from passing through each other.
 
-    Top: a thin strip (stable neo-Hookean) whose left part lies on a table;
-    its right end is turned over and pressed down onto it. Bottom: a sheet
-    with a crack cut through its elements, its right edge pushed left and up,
-    so the lips press on each other and slide. Left: without contact the body
-    passes through itself (material drawn half-transparent: overlaps show
-    darker; the title gives the area covered twice, counted on a fine grid).
-    Right: with the contact term (a one-sided barrier in a thin skin behind
-    the surface, and collision detection that shortens every Newton step) the
-    surfaces touch and press, and nothing crosses: what overlap is left lies
-    within the skin (a tenth of an edge here), where the contact pressure
-    builds up.
+    Top: a thin strip whose left part lies on a table, its right end turned over and pressed down onto it
+    (:func:`_fold_run`). Bottom: a crack cut through the elements, pressed shut and sheared
+    (:func:`_pressed_cut_run`). Left: without contact the body passes through itself (material drawn
+    half-transparent: overlaps show darker; the title gives the area covered twice). Right: with the
+    contact term (a one-sided barrier in a thin skin behind the surface, and collision detection that
+    shortens every Newton step) the surfaces touch and press, and nothing crosses: what overlap is left
+    lies within the skin (a tenth of an edge here), where the contact pressure builds up.
     """
     fig = Figure(figsize=(12.0, 6.2), layout="constrained")
     axes = fig.subplots(2, 2, height_ratios=[0.8, 1.0])

@@ -1,20 +1,9 @@
 """Figures of chapter 7 (time stepping): explicit against implicit.
 
-* ``fig_ch07_cfl``: the measured largest stable step of symplectic Euler
-  against the element size (log-log), with the eigenvalue estimate
-  ``2 / omega_max``, a fitted slope and the 1/30 s frame.
-* ``fig_ch07_energy``: the total energy of a released flap under backward
-  Euler at three steps (numerical damping, the larger the step the faster)
-  and under symplectic Euler at a stable step (bounded oscillation) and just
-  above its limit (blow-up).
-* ``fig_ch07_released_flap``: the released flap under backward Euler at one
-  step per frame (1/30 s), as a filmstrip (PNG) and an animation (a GIF
-  written next to the PNG).
-
-The flap of the last two is the one of the chapter's tests: a 2 x 1
-rectangle (8 x 4 cells), stable neo-Hookean with E = 1000, nu = 0.3,
-rho0 = 1, left edge held, its right edge first lifted by 0.5 with a handle
-(a quasistatic solve) and then let go.
+``fig_ch07_cfl`` (symplectic Euler's largest stable step against the element size), ``fig_ch07_energy``
+(numerical damping against bounded oscillation and blow-up) and ``fig_ch07_released_flap`` (a filmstrip and
+a GIF). The flap of the last two is the one of the chapter's tests: a 2 x 1 rectangle (8 x 4 cells), stable
+neo-Hookean with E = 1000, nu = 0.3, rho0 = 1, left edge held, its right edge lifted by 0.5 and let go.
 """
 
 from __future__ import annotations
@@ -22,14 +11,13 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from matplotlib.animation import FuncAnimation, PillowWriter
 from matplotlib.collections import PolyCollection
 from matplotlib.colors import to_rgba
 from matplotlib.figure import Figure
 from matplotlib.ticker import NullFormatter
 
 from ...engine.constants import TISSUE_E, TISSUE_NU
-from .base import lecture_figure, save, shown
+from .base import animation_figure, lecture_figure, save, save_animation, shown
 from ...engine.materials import StableNeoHookean
 from ...engine.meshes import rectangle
 from ...engine.parameters import lame_parameters
@@ -38,9 +26,6 @@ from ...engine.stepping import Stepper, solve
 from ...engine.explicit import SymplecticEuler, critical_time_step
 from ..timestepping import cfl_study
 from .inversion import UPRIGHT_COLOR, draw_state
-
-# (the drawing helpers of figures_inversion are imported inside the functions: importing that module
-# here would be circular when it is the first one imported, since figures imports this module)
 
 #: one frame of an interactive simulation, in seconds
 FRAME_DT = 1.0 / 30.0
@@ -61,14 +46,10 @@ LIFT = 0.5
 def released_flap(material=None, nx: int = 8, ny: int = 4, lift: float = LIFT):
     """The chapter's flap, lifted and about to be released: returns ``(model, u0)``.
 
-    A ``2 x 1`` :func:`~tissuefem.engine.meshes.rectangle` of ``nx x ny`` cells
-    (stable neo-Hookean, plane strain, ``TISSUE_E, TISSUE_NU`` unless
-    ``material`` is given) is held on its left edge and its right edge is
-    moved up by ``lift`` (a quasistatic solve); ``u0`` is that state.
-    ``model`` (quasistatic) holds only the left edge: stepping it from ``u0`` at
-    rest is the release (:func:`backward_euler_run` gives it a time step).
+    A ``2 x 1`` rectangle of ``nx x ny`` cells (stable neo-Hookean, plane strain, unless ``material`` is
+    given), its left edge held and its right edge moved up by ``lift`` (quasistatic): ``u0``. ``model`` holds
+    only the left edge: stepping it from ``u0`` at rest is the release (:func:`backward_euler_run`).
     """
-
     material = StableNeoHookean(*lame_parameters(TISSUE_E, TISSUE_NU, "strain")) if material is None else material
     mesh = rectangle(2.0, 1.0, nx, ny)
     pulled = Model(mesh, material, handles=[Handle("left"), Handle("right", (0.0, lift))])
@@ -79,10 +60,8 @@ def released_flap(material=None, nx: int = 8, ny: int = 4, lift: float = LIFT):
 
 
 def backward_euler_run(model, u0, dt: float, n_steps: int, frames: bool = False):
-    """Backward Euler from ``u0`` at rest: ``(times, total energies[, displacements])``, one entry per step.
-
-    The body of ``model`` (its mesh, material and fixed left edge) with the inertia term of time step ``dt``.
-    """
+    """Backward Euler (time step ``dt``) on ``model``'s body from ``u0`` at rest:
+    ``(times, total energies[, displacements])``, one entry per step."""
     dynamic = Model(model.mesh, model.material, handles=[Handle("left")], dt=dt, density=model.density)
     scheme = Stepper(dynamic, rtol=1e-10)
     scheme.reset(u0)
@@ -98,22 +77,16 @@ def backward_euler_run(model, u0, dt: float, n_steps: int, frames: bool = False)
     return out + (states,) if frames else out
 
 
-# --- the CFL condition ------------------------------------------------------------------------
-
 @lecture_figure
 def fig_ch07_cfl(path=None, study=None) -> Figure:
     """Chapter 7: symplectic Euler's largest stable time step against the element size h (log-log).
 
-    For the flap (left edge held) refined ``nx = 4 ... 64``: the step found
-    by bisection (runs from a small random perturbation, unstable when the
-    energy grows tenfold) beside the eigenvalue estimate ``2 / omega_max``,
-    a least-squares fit ``dt = C h^p`` (the CFL condition says ``p = 1``),
-    and the 1/30 s frame, which the fit reaches only at an element as large
-    as the flap. Right: the Courant number ``c dt / h`` (``c`` the P-wave
-    speed) and the ratio measured / estimate. ``study`` (from
-    :func:`tissuefem.workbook.timestepping.cfl_study`) skips recomputing it.
+    For the flap refined ``nx = 4 ... 64``: the step found by bisection (unstable when the energy grows
+    tenfold) beside the estimate ``2 / omega_max``, a fit ``dt = C h^p`` (the CFL condition says ``p = 1``)
+    and the 1/30 s frame, which the fit reaches only at an element as large as the flap. Right: the Courant
+    number ``c dt / h`` (``c`` the P-wave speed) and measured / estimate. ``study``: from
+    :func:`tissuefem.workbook.timestepping.cfl_study`.
     """
-
     study = cfl_study(CFL_SIZES, E=TISSUE_E, nu=TISSUE_NU) if study is None else study
     h = np.array([r["h"] for r in study])
     measured = shown([r["dt_measured"] for r in study])  # bisection and ARPACK: the last digits vary
@@ -156,23 +129,15 @@ def fig_ch07_cfl(path=None, study=None) -> Figure:
     return fig
 
 
-# --- energy: numerical damping against bounded oscillation -------------------------------------
-
 @lecture_figure
 def fig_ch07_energy(path=None) -> Figure:
     """Chapter 7: total energy of the released flap, backward Euler at three steps and symplectic Euler.
 
-    Left: backward Euler (an incremental potential, stable at any step)
-    loses energy at every step, the faster the larger the step: at 1/30 s
-    the flap is almost at rest after two seconds, at 1/480 s it still
-    swings; the first steps remove the fast modes the release excites.
-    Symplectic Euler at half its (rest-state) critical step keeps the energy
-    within a few percent for the whole run (middle: zoom, no drift). Right:
-    at 1.1 times the critical step it blows up within a few steps (log
-    scale; the run stops once the energy passes a million times its start).
-    Energies are relative to the stored energy of the lifted flap.
+    Left: backward Euler (an incremental potential, stable at any step) loses energy, the faster the
+    larger the step; the first steps remove the fast modes the release excites. Symplectic Euler at half
+    its (rest-state) critical step keeps it within a few percent (middle: zoom, no drift); at 1.1 times
+    it blows up (right, stopped at a million times the start). Energies relative to the lifted flap's.
     """
-
     problem, u0 = released_flap()
     dt_crit = critical_time_step(problem)
     fig = Figure(figsize=(13.0, 4.4), layout="constrained")
@@ -220,8 +185,6 @@ def fig_ch07_energy(path=None) -> Figure:
     return fig
 
 
-# --- the released flap, as a filmstrip and an animation ---------------------------------------
-
 def _flap_axes_limits(states, problem, margin: float = 0.08):
     xs = np.concatenate([problem.deformed_positions(u)[0] for u in states])
     ys = np.concatenate([problem.deformed_positions(u)[1] for u in states])
@@ -229,47 +192,31 @@ def _flap_axes_limits(states, problem, margin: float = 0.08):
 
 
 def write_flap_animation(gif_path, problem, states, dt: float, dpi: int = 100) -> Path:
-    """Write the states as a GIF at one frame per step of ``dt`` (``matplotlib.animation``, Pillow):
-    680 x 480 pixels, large enough to project (:data:`~tissuefem.workbook.figures.base.ANIMATION_MIN_WIDTH`)."""
-
-    gif_path = Path(gif_path)
-    gif_path.parent.mkdir(parents=True, exist_ok=True)
-    mesh = problem.mesh
-    xlim, ylim = _flap_axes_limits(states, problem)
-    fig = Figure(figsize=(6.8, 4.8))
-    ax = fig.add_axes([0.02, 0.02, 0.96, 0.82])  # fixed axes: every frame has the same layout
-    ax.set(aspect="equal", xlim=xlim, ylim=ylim, xticks=[], yticks=[])
-    ax.plot([0.0, 0.0], [0.0, 1.0], color="k", lw=4)  # the held edge
-    verts = lambda u: problem.deformed_positions(u)[:, mesh.t].transpose(2, 1, 0)  # noqa: E731
+    """Write the states as a GIF at one frame per step of ``dt``: 680 x 480 pixels, large enough to
+    project (:data:`~tissuefem.workbook.figures.base.ANIMATION_MIN_WIDTH`)."""
+    fig, ax, title = animation_figure((6.8, 4.8), 0.82, *_flap_axes_limits(states, problem), 0.92, 14)
+    verts = lambda u: problem.deformed_positions(u)[:, problem.mesh.t].transpose(2, 1, 0)  # noqa: E731
     # no anti-aliasing: few colours per frame keep the GIF small (its palette has at most 256)
     body = PolyCollection(verts(states[0]), facecolors=to_rgba(UPRIGHT_COLOR, 0.6), edgecolors="0.35",
                           linewidths=0.5, antialiaseds=False)
     ax.add_collection(body)
-    title = fig.text(0.5, 0.92, "", ha="center", va="center", fontsize=14)
 
     def update(k):
         body.set_verts(verts(states[k]))
         title.set_text(f"backward Euler, Δt = 1/{1 / dt:.0f} s:  t = {k * dt:.2f} s")
         return body, title
 
-    animation = FuncAnimation(fig, update, frames=len(states), interval=1000 * dt, blit=False, repeat=False)
-    animation.save(gif_path, writer=PillowWriter(fps=round(1 / dt)), dpi=dpi)
-    return gif_path
+    return save_animation(fig, update, len(states), gif_path, dt, dpi)
 
 
 @lecture_figure
 def fig_ch07_released_flap(path=None) -> Figure:
     """Chapter 7: the flap let go, backward Euler at one step per frame (1/30 s), as a filmstrip.
 
-    Top: the flap at a few frames (its lifted start first); bottom: the
-    vertical displacement of the tip (right edge, middle) against time,
-    frames of the strip marked. The swing dies out within about a second:
-    that is backward Euler's numerical damping, not a property of the
-    material (which has no viscosity). With a ``path``, also writes the
-    whole run as an animation ``<path stem>.gif`` beside the PNG
-    (50 frames at 30 frames per second).
+    Top: the flap at a few frames; bottom: the tip's (right edge, middle) vertical displacement against
+    time. The swing dies out within about a second: backward Euler's numerical damping, not the material's
+    (it has no viscosity). With a ``path``, also writes the run as ``<path stem>.gif`` (50 frames, 30 fps).
     """
-
     problem, u0 = released_flap()
     times, energies, states = backward_euler_run(problem, u0, FRAME_DT, ANIMATION_FRAMES - 1, frames=True)
     mesh = problem.mesh

@@ -31,7 +31,7 @@ def _outline(ax, mesh, **style):
 
 
 def _deformed_fibers(result, fibers, scale):
-    """Deformed positions, element centroids and fiber segments ``F g`` of a pull result."""
+    """Deformed positions, fiber segments ``F g`` at the element centroids and fiber stretches of a pull result."""
     problem = result.model
     x = problem.positions(result.u)
     F = problem.deformation_gradient(result.u)
@@ -40,17 +40,13 @@ def _deformed_fibers(result, fibers, scale):
     return x, _segments(_centroids(x, problem.mesh.t), a / stretch, scale * stretch), stretch
 
 
-# --- the notes' Figure 3: a fiber field ------------------------------------------------
-
 @lecture_figure
 def fig03_fiber_field(path=None) -> Figure:
     """Notes' Figure 3 in 2D: the fiber field g of a fusiform muscle, one short segment per element.
 
-    The muscle is :func:`tissuefem.meshes.fusiform_muscle` (reference
-    configuration) and ``g`` is :func:`tissuefem.meshes.fusiform_fiber_field`:
+    The muscle is :func:`tissuefem.meshes.fusiform_muscle` and ``g`` :func:`tissuefem.meshes.fusiform_fiber_field`:
     fibers run from tendon to tendon, fan out into the belly and converge again.
     """
-
     mesh = fusiform_muscle(nx=32, ny=8)
     g = fusiform_fiber_field(mesh)
     c = _centroids(mesh.p, mesh.t)
@@ -75,18 +71,14 @@ def fig03_fiber_field(path=None) -> Figure:
     return fig
 
 
-# --- chapter 5: along versus across ------------------------------------------------------
-
 @lecture_figure
 def fig_ch05_along_vs_across(path=None) -> Figure:
     """Chapter 5: a strip pulled along, at 45 degrees to and across its fibers, and the confined modulus.
 
-    Top: the strip (clamped ends, free sides) at stretch 1.3, deformed fibers
-    drawn as ``F g``. Bottom left: force-stretch curves. Bottom right: the
-    small-strain confined modulus against the fiber angle, finite elements
-    (dots) on the prediction ``lam + 2 mu + k cos^4 theta``.
+    Top: the strip (clamped ends, free sides) at stretch 1.3, deformed fibers drawn as ``F g``. Bottom
+    left: force-stretch curves. Bottom right: the small-strain confined modulus against the fiber angle,
+    finite elements (dots) on the prediction ``lam + 2 mu + k cos^4 theta``.
     """
-
     cases = [(0.0, "fibers along the pull (0°)", "C3"), (45.0, "fibers at 45°", "C2"),
              (90.0, "fibers across the pull (90°)", "C0"), (None, "no fibers", "0.35")]
     stretches = np.linspace(1.0, 1.3, 13)
@@ -141,11 +133,9 @@ def fig_ch05_along_vs_across(path=None) -> Figure:
 def fig_ch05_muscle_pull(path=None) -> Figure:
     """Chapter 5: the fusiform muscle pulled by its right tendon, with and without fibers.
 
-    Left: the deformed muscle at stretch 1.2 (tendon to tendon; dashed: rest
-    shape), coloured by the stretch ``sqrt(I4) = |F g|`` along the anatomical
-    fiber direction. Right: the tendon force against the stretch.
+    Left: the deformed muscle at stretch 1.2 (tendon to tendon; dashed: rest shape), coloured by the
+    stretch ``sqrt(I4) = |F g|`` along the anatomical fiber direction. Right: the tendon force.
     """
-
     stretches = np.linspace(1.0, 1.2, 9)
     runs = [(False, "isotropic (no fibers)", "0.35"), (True, f"with fibers, k = {K_FIBER:g}", "C3")]
     fig = Figure(figsize=(10.0, 5.0), layout="constrained")

@@ -1,14 +1,5 @@
-"""Figures of chapter 6 (inversion), and the small drawing helpers the chapter shares with them.
-
-* ``fig06_crush_release``: the notes' Figure 6 redone as an experiment. A
-  block is crushed by its top edge down to flat and past it, then let go; one
-  row per model of :func:`tissuefem.hardcases.inversion_models`, triangles
-  with ``J <= 0`` in red.
-* ``fig_ch06_itf_energy``: the energy of the four models along one singular
-  value (the other held at 1) and along a uniform shrink ``F = t I`` down to
-  ``F = 0``: where ``ln J`` stops, and what the Taylor, stable and
-  ITF-clamped models do instead.
-"""
+"""Figures of chapter 6 (inversion): ``fig06_crush_release`` and ``fig_ch06_itf_energy``, and the small
+drawing helpers the chapter shares with them."""
 
 from __future__ import annotations
 
@@ -20,7 +11,8 @@ from matplotlib.patches import Patch
 
 from ...engine.constants import TISSUE_E, TISSUE_NU
 from .base import at_least, lecture_figure, save
-from ..hardcases import block, cover_counts, crush_and_release, element_jacobians, inversion_models  # noqa: F401 (the chapter imports them from here)
+# cover_counts: the chapter imports it from here
+from ..hardcases import block, cover_counts, crush_and_release, element_jacobians, inversion_models  # noqa: F401
 from ...engine.inversion import diagonal
 
 #: fill colours of a triangle that keeps its orientation (J > 0) and of an inverted or flat one (J <= 0)
@@ -34,12 +26,9 @@ MODEL_COLORS = ("C0", "C2", "C1", "C3")
 def draw_state(ax, mesh, x, *, J=None, alpha: float = 1.0, tol: float = 1e-12) -> int:
     """Draw the mesh with its nodes at ``x``: upright triangles blue, ``J <= 0`` red. Returns the red count.
 
-    The fill is translucent, so where the deformed mesh lies on top of
-    itself (the map is not one-to-one) the overlap shows darker. Upright
-    triangles are drawn first, so an inverted one stays visible on top.
-    ``J`` (one value per element) colours by another state's Jacobians, e.g.
-    the reference mesh by where the deformation will invert it; ``alpha``
-    fades the whole drawing.
+    The fill is translucent, so where the mesh lies on top of itself the overlap shows darker; inverted
+    triangles are drawn last, on top. ``J`` (one per element) colours by another state's Jacobians, e.g.
+    the reference mesh by where the deformation will invert it; ``alpha`` fades the whole drawing.
     """
     J = element_jacobians(mesh, x) if J is None else np.asarray(J, dtype=float)
     bad = J <= tol
@@ -53,35 +42,26 @@ def draw_state(ax, mesh, x, *, J=None, alpha: float = 1.0, tol: float = 1e-12) -
 
 def crush_and_release_runs(E: float = TISSUE_E, nu: float = TISSUE_NU, mesh=None) -> dict:
     """Run :func:`tissuefem.hardcases.crush_and_release` (default depth 1.3) for the four models, by name."""
-
     mesh = block() if mesh is None else mesh
     return {name: crush_and_release(material, mesh) for name, material in inversion_models(E, nu).items()}
 
 
 def frame_depths(mesh, frames) -> np.ndarray:
     """How far the top edge was pushed down in each crush frame (the last frame, the released shape, excluded)."""
-    top = np.flatnonzero(np.abs(mesh.p[1] - mesh.p[1].max()) < 1e-9)
     rest = mesh.p[1].max()
+    top = np.flatnonzero(np.abs(mesh.p[1] - rest) < 1e-9)
     return np.array([rest - np.mean(f[1, top]) for f in frames[:-1]])
-
-
-def _handle_line(ax, y, xlim):
-    ax.plot(xlim, [y, y], color="0.35", lw=0.8, ls="--")
 
 
 @lecture_figure
 def fig06_crush_release(path=None, runs=None) -> Figure:
     """Notes' Figure 6 as an experiment: a block crushed to flat and past it, then let go, for four models.
 
-    Rows: the ``ln J`` neo-Hookean model, the notes' cubic-Taylor variant and
-    stable neo-Hookean (both with the projected tangent), and the ITF-clamped
-    ``ln J`` model. Columns: the top edge pushed down by 0, 0.5, 0.9, 1 (flat)
-    and 1.3 (past flat) with the bottom edge held, then the released shape
-    (bottom still held). Red triangles have ``J <= 0``; a panel the crush did
-    not reach shows the last state it did reach, faded. ``runs`` (from
-    :func:`crush_and_release_runs`) skips recomputing them.
+    Rows: the ``ln J`` neo-Hookean model, the notes' cubic-Taylor variant and stable neo-Hookean (both
+    with the projected tangent), and the ITF-clamped ``ln J`` model. Columns: the top edge pushed down by
+    0, 0.5, 0.9, 1 (flat) and 1.3 (past flat), bottom edge held, then the released shape. Red: ``J <= 0``;
+    a panel the crush did not reach shows its last state, faded. ``runs``: from :func:`crush_and_release_runs`.
     """
-
     mesh = block()
     runs = crush_and_release_runs(mesh=mesh) if runs is None else runs
     xlim, ylim = (-0.38, 1.38), (-0.68, 1.12)
@@ -96,7 +76,8 @@ def fig06_crush_release(path=None, runs=None) -> Figure:
             hit = np.flatnonzero(np.abs(depths - target) < 1e-6)
             if hit.size:
                 draw_state(ax, mesh, frames[hit[0]])
-                _handle_line(ax, mesh.p[1].max() - target, xlim)
+                y = mesh.p[1].max() - target
+                ax.plot(xlim, [y, y], color="0.35", lw=0.8, ls="--")  # the top handle
             else:  # not reached: the last state the crush did reach, faded
                 draw_state(ax, mesh, frames[-2], alpha=0.3)
                 failed = run["crush"][-1].status if run["crush"] else "not run"
@@ -131,15 +112,12 @@ def fig06_crush_release(path=None, runs=None) -> Figure:
 def fig_ch06_itf_energy(path=None) -> Figure:
     """Chapter 6: the four models' energy along one signed singular value, and along a shrink to F = 0.
 
-    Left: ``Psi(diag(1, s1))`` for ``s1`` from -1 (turned inside out) to 1.6;
-    middle: its slope ``dPsi/ds1``, the stress that pushes the element back.
-    The ``ln J`` model ends at ``s1 = 0``; the ITF-clamped model leaves it at
-    the threshold ``c`` with a finite slope plus a spring. Right: a uniform
-    shrink ``F = t I`` to a point: the Taylor and stable models arrive at
-    ``F = 0`` with zero slope (a stationary point), the ITF-clamped model with
-    a finite one (it pushes outward).
+    Left: ``Psi(diag(1, s1))`` for ``s1`` from -1 (turned inside out) to 1.6; middle: its slope
+    ``dPsi/ds1``, the stress that pushes the element back. The ``ln J`` model ends at ``s1 = 0``; the
+    ITF-clamped model leaves it at the threshold ``c`` with a finite slope plus a spring. Right: a uniform
+    shrink ``F = t I``: the Taylor and stable models reach ``F = 0`` with zero slope (a stationary point),
+    the ITF-clamped model with a finite one (it pushes outward).
     """
-
     models = inversion_models(TISSUE_E, TISSUE_NU)
     c = models["ITF-clamped neo-Hookean"].threshold
     s1 = np.linspace(-1.0, 1.6, 521)

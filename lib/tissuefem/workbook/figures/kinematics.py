@@ -1,19 +1,5 @@
-"""Figures of chapters 3 and 4 (2D kinematics, linear elasticity, Neo-Hookean quasistatics).
-
-* ``fig02_kinematics``: the notes' Figure 2, a reference mesh and its image
-  under a deformation, a material point carried from X to x = phi(X), and the
-  deformation gradient acting on small material vectors; beside it the stress
-  half of the figure: P maps the normal N of a material cut to the force
-  across it per unit reference area, the same force as sigma n per unit
-  deformed area.
-* ``fig_ch03_rotation_stress``: a rigid rotation costs energy and stress in
-  linear elasticity but not in the Neo-Hookean model; a block turned at one
-  edge grows under linear elasticity.
-* ``fig_ch04_block``: the tissue block stretched and sheared by its handles,
-  coloured by J and by the energy density.
-* ``fig_ch04_cost_accuracy``: error against solve time, P1 against P2, with
-  the 33 ms frame budget.
-"""
+"""Figures of chapters 3 and 4 (2D kinematics, linear elasticity, Neo-Hookean quasistatics): the notes'
+Figure 2, a rigid rotation's stress, the stretched block and what accuracy costs."""
 
 from __future__ import annotations
 
@@ -27,7 +13,8 @@ from matplotlib.tri import Triangulation
 from ...engine.constants import TISSUE_E, TISSUE_NU
 from .base import at_least, lecture_figure, save, shown
 from ...engine.meshes import rectangle
-from ..studies import (BLOCK_HANDLE, RECORDED_COST_ACCURACY, bending_gradient, bending_map, block_model, rigid_rotation_response, rotated_block, rotation)
+from ..studies import (BLOCK_HANDLE, RECORDED_COST_ACCURACY, bending_gradient, bending_map, block_model,
+                       rigid_rotation_response, rotated_block, rotation)
 from ...engine.materials import LinearElastic, NeoHookean
 from ...engine.stepping import solve
 
@@ -48,11 +35,8 @@ def _mapped_edges(mesh, phi, samples: int = 12) -> np.ndarray:
 def _boundary_loop(nx: int, ny: int) -> np.ndarray:
     """Node indices around the boundary of a structured :func:`~tissuefem.meshes.rectangle`, closed."""
     row = nx + 1
-    bottom = np.arange(nx + 1)
-    right = nx + row * np.arange(1, ny + 1)
-    top = ny * row + np.arange(nx - 1, -1, -1)
-    left = row * np.arange(ny - 1, -1, -1)
-    return np.concatenate([bottom, right, top, left])
+    return np.concatenate([np.arange(row), nx + row * np.arange(1, ny + 1),  # bottom, right
+                           ny * row + np.arange(nx - 1, -1, -1), row * np.arange(ny - 1, -1, -1)])  # top, left
 
 
 def _outline(width, height, samples: int = 60) -> np.ndarray:
@@ -64,29 +48,22 @@ def _outline(width, height, samples: int = 60) -> np.ndarray:
     ])
 
 
-# --- chapter 3 / notes Figure 2 -------------------------------------------------
-
 @lecture_figure
 def fig02_kinematics(path=None) -> Figure:
     """Notes' Figure 2: reference and deformed mesh, a point X carried to x = phi(X), F acting on dX, and P.
 
-    The block B0 = [0, 2] x [0, 1] is bent into an arch by
-    :func:`tissuefem.workbook.studies.bending_map`. Every edge of the reference mesh is
-    drawn, and so is its exact image (curved). The grey arrow is the
-    displacement u(X) = phi(X) - X of one material point; the coloured arrows
-    are two short material vectors dX at X and their images dx = F dX at x:
-    the columns of F = d phi / d X are the images of the unit vectors.
+    The block B0 = [0, 2] x [0, 1] is bent into an arch by :func:`tissuefem.workbook.studies.bending_map`;
+    every edge of the reference mesh is drawn, and its exact (curved) image. The grey arrow is the
+    displacement u(X) = phi(X) - X of one material point; the coloured arrows are two short material
+    vectors dX at X and their images dx = F dX at x: the columns of F = d phi / d X are the images of the
+    unit vectors.
 
-    The right panel is the figure's stress half, at the same point: a small
-    square of material around X with a diagonal cut through it (unit normal
-    N) and its image under F. The first
-    Piola-Kirchhoff stress P (Neo-Hookean, E = 1000, nu = 0.3) maps N to the
-    force that the material on the far side of the cut exerts across it, per
-    unit *reference* length (area in 3D): t dA = P N dA. The same force is
-    sigma n da per unit *deformed* length, with the deformed normal n and the
-    Cauchy stress sigma = P F^T / J (Nanson: n da = J F^-T N dA).
+    Right, the figure's stress half at the same point: a small square around X with a diagonal cut (unit
+    normal N) and its image under F. The first Piola-Kirchhoff stress P (Neo-Hookean, E = 1000, nu = 0.3)
+    maps N to the force the material beyond the cut exerts across it per unit *reference* length (area in
+    3D): t dA = P N dA. The same force is sigma n da per unit *deformed* length, with the Cauchy stress
+    sigma = P F^T / J (Nanson: n da = J F^-T N dA).
     """
-
     mesh = rectangle(2.0, 1.0, 8, 4)
     fig = Figure(figsize=(13.2, 3.9), layout="constrained")
     ax, ax_s = fig.subplots(1, 2, width_ratios=[9.0, 3.9])
@@ -112,7 +89,8 @@ def fig02_kinematics(path=None) -> Figure:
     ax.text(2.35, 1.72, "$\\phi(\\cdot, t)$", ha="center", fontsize=13)
 
     scale = 0.45
-    offsets = {0: (np.array([0.08, -0.1]), np.array([0.12, -0.1])), 1: (np.array([-0.2, 0.02]), np.array([-0.25, 0.02]))}
+    offsets = {0: (np.array([0.08, -0.1]), np.array([0.12, -0.1])),
+               1: (np.array([-0.2, 0.02]), np.array([-0.25, 0.02]))}
     for j, (color, name) in enumerate((("C3", "1"), ("C2", "2"))):
         e = np.eye(2)[:, j]
         dx = scale * F0 @ e
@@ -186,8 +164,6 @@ def _stress_half(ax, F0) -> None:
                  "to the force across it per unit reference area", fontsize=10)
 
 
-# --- chapter 3: rigid rotations ---------------------------------------------------
-
 def _deformed_area(problem, u) -> float:
     x = problem.deformed_positions(u)
     t = problem.mesh.t
@@ -199,13 +175,10 @@ def _deformed_area(problem, u) -> float:
 def fig_ch03_rotation_stress(path=None) -> Figure:
     """Chapter 3: a rigid rotation stresses linear elasticity, not Neo-Hookean; a turned block grows.
 
-    Left and middle: energy density and stress norm |P| at F = R(theta) for
-    0 <= theta <= 180 degrees (E = 1000, nu = 0.3). Right: a unit block whose
-    left edge is clamped to a wall turned by 60 degrees (other edges free), at
-    equilibrium: the Neo-Hookean block turns rigidly, the linear-elastic one is
-    strained and its area grows.
+    Left and middle: energy density and stress norm |P| at F = R(theta), 0 <= theta <= 180 degrees. Right:
+    a unit block, its left edge clamped to a wall turned by 60 degrees (other edges free), at equilibrium:
+    the Neo-Hookean block turns rigidly, the linear-elastic one is strained and its area grows.
     """
-
     linear = LinearElastic.from_young(TISSUE_E, TISSUE_NU)
     neo = NeoHookean.from_young(TISSUE_E, TISSUE_NU)
     deg = np.linspace(0.0, 180.0, 181)
@@ -253,18 +226,13 @@ def fig_ch03_rotation_stress(path=None) -> Figure:
     return fig
 
 
-# --- chapter 4: the block ------------------------------------------------------------
-
 @lecture_figure
 def fig_ch04_block(path=None) -> Figure:
     """Chapter 4: the Neo-Hookean block stretched and sheared by its handles, coloured by J and by Psi.
 
-    Block [0, 2] x [0, 1], 24 x 12 cells (P1), E = 1000, nu = 0.3; left edge
-    fixed, right edge moved by (0.6, 0.4) (one load step). Colours are per
-    triangle: the area ratio J = det F (white = no change of area) and the
-    energy density Psi. The dashed outline is the reference block.
+    Block [0, 2] x [0, 1], 24 x 12 cells (P1); left edge fixed, right edge moved by (0.6, 0.4) (one load
+    step). Per triangle: the area ratio J = det F (white = no change) and the energy density Psi.
     """
-
     material = NeoHookean.from_young(TISSUE_E, TISSUE_NU)
     problem = block_model(n=12, order=1, material=material)
     result = solve(problem)
@@ -274,7 +242,6 @@ def fig_ch04_block(path=None) -> Figure:
     x = problem.deformed_positions(result.u)
     tri = Triangulation(x[0], x[1], problem.mesh.t.T)
     outline = _outline(2.0, 1.0)
-
     fig = Figure(figsize=(11.0, 3.9), layout="constrained")
     axes = fig.subplots(1, 2)
     spread = max(abs(J.max() - 1.0), abs(1.0 - J.min()))
@@ -303,19 +270,14 @@ def fig_ch04_block(path=None) -> Figure:
     return fig
 
 
-# --- chapter 4: what accuracy costs -----------------------------------------------------
-
 @lecture_figure
 def fig_ch04_cost_accuracy(path=None, rows=None) -> Figure:
     """Chapter 4: L2 displacement error against solve time, P1 against P2, with the 33 ms frame budget.
 
-    ``rows`` from :func:`tissuefem.studies.cost_accuracy_study`; by default the
-    recorded run :data:`tissuefem.studies.RECORDED_COST_ACCURACY` (so that the
-    lecture figure is deterministic). Left: the whole quasistatic solve from
-    rest; right: one Newton iteration at the solution, the
-    least a warm-started real-time frame needs. Labels give the dof counts.
+    ``rows`` from :func:`tissuefem.studies.cost_accuracy_study`; by default the recorded run
+    :data:`tissuefem.studies.RECORDED_COST_ACCURACY` (a deterministic figure). Left: the whole solve from
+    rest; right: one Newton iteration at the solution, the least a warm-started frame needs. Labels: dofs.
     """
-
     source = "recorded run" if rows is None else "this run"
     rows = RECORDED_COST_ACCURACY if rows is None else list(rows)
     fig = Figure(figsize=(11.0, 4.4), layout="constrained")
@@ -326,12 +288,11 @@ def fig_ch04_cost_accuracy(path=None, rows=None) -> Figure:
             sel = [r for r in rows if r["order"] == order]
             if not sel:
                 continue
-            t = np.array([r[key] for r in sel])
-            e = np.array([r["L2"] for r in sel])
+            t, e = [r[key] for r in sel], [r["L2"] for r in sel]
             ax.loglog(t, e, marker=marker, color=color, lw=1.5, label=f"P{order}")
             for r, ti, ei in zip(sel, t, e):
-                ax.annotate(f"{r['dofs']}", (ti, ei), textcoords="offset points", xytext=(5, 4 if order == 1 else -10),
-                            fontsize=7, color=color)
+                ax.annotate(f"{r['dofs']}", (ti, ei), textcoords="offset points",
+                            xytext=(5, 4 if order == 1 else -10), fontsize=7, color=color)
         times = [r[key] for r in rows] + [FRAME_BUDGET_MS]
         lo, hi = 0.5 * min(times), 3.0 * max(times)
         ax.axvline(FRAME_BUDGET_MS, color="C3", lw=1.5, ls="--", label="33 ms: one frame at 30 Hz")

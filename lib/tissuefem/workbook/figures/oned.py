@@ -12,15 +12,12 @@ from ..oned import convergence_study
 from .base import lecture_figure, save, shown
 
 
-# --- chapter 2 / notes Figure 5 -------------------------------------------------
-
 @lecture_figure
 def fig05_admissible_maps(path=None) -> Figure:
     """Notes' Figure 5: phi(X) = X^2 (admissible) beside phi(X) = sin(2 pi X) (inverting).
 
-    Top row: the maps, with the intervals where phi'(X) <= 0 shaded. Bottom row:
-    a row of material points X (bottom line) joined to where the map sends them
-    (top line); crossing lines are material folded onto itself.
+    Top: the maps, shaded where phi'(X) <= 0. Bottom: material points X (bottom line) joined to their
+    images (top line); crossing lines are material folded onto itself.
     """
     X = np.linspace(0.0, 1.0, 401)
     maps = [
@@ -44,8 +41,7 @@ def fig05_admissible_maps(path=None) -> Figure:
         # material points carried to their images
         ax = axes[1, col]
         phis = np.interp(Xs, X, phi)
-        dphis = np.interp(Xs, X, dphi)
-        for Xi, xi, di in zip(Xs, phis, dphis):
+        for Xi, xi, di in zip(Xs, phis, np.interp(Xs, X, dphi)):
             ax.plot([Xi, xi], [0, 1], color="C3" if di <= 1e-12 else "C0", lw=1)
         ax.plot(Xs, np.zeros_like(Xs), "k.", ms=4)
         ax.plot(phis, np.ones_like(Xs), "k.", ms=4)
@@ -55,15 +51,12 @@ def fig05_admissible_maps(path=None) -> Figure:
     return fig
 
 
-# --- chapter 2 / notes Figure 7 -------------------------------------------------
-
 @lecture_figure
 def fig07_neo_hookean_1d(path=None) -> Figure:
     """Notes' Figure 7: 1D Neo-Hookean energy and stress against J = F.
 
-    The ln J model (blue) is undefined for J <= 0 and blows up as J -> 0+; the
-    cubic-Taylor r(J) model (green) matches it near J = 1 and stays finite
-    through inversion. Linear elasticity (grey) is the common tangent at J = 1.
+    The ln J model (blue) is undefined for J <= 0 and blows up as J -> 0+; the cubic-Taylor r(J) model
+    (green) matches it near J = 1 and stays finite through inversion. Linear (grey): the tangent at J = 1.
     """
     models = [
         (NeoHookean1D.from_young(TISSUE_E, TISSUE_NU), "C0", "-", "ln J (notes' model)"),
@@ -80,8 +73,7 @@ def fig07_neo_hookean_1d(path=None) -> Figure:
         ax.axvspan(J[0], 0.0, color="C3", alpha=0.08, label="inverted ($J \\leq 0$)")
         ax.axvline(1.0, color="k", lw=0.6, ls="--")
         ax.axhline(0.0, color="k", lw=0.6)
-        ax.set_xlabel("$J = F$")
-        ax.set_xlim(J[0], J[-1])
+        ax.set(xlabel="$J = F$", xlim=(J[0], J[-1]))
     ax_e.set(ylim=(-200, 4500), ylabel="energy density $\\Psi$", title="energy")
     ax_s.set(ylim=(-11000, 3000), ylabel="stress $P = d\\Psi/dF$", title="first Piola-Kirchhoff stress")
     ax_e.legend(fontsize=8, loc="upper right")
@@ -89,8 +81,6 @@ def fig07_neo_hookean_1d(path=None) -> Figure:
     save(fig, path)
     return fig
 
-
-# --- chapter 1: convergence of the linear bar ----------------------------------------
 
 @lecture_figure
 def fig_ch01_convergence(path=None) -> Figure:
@@ -102,17 +92,14 @@ def fig_ch01_convergence(path=None) -> Figure:
         sel = [r for r in rows if r["order"] == order]
         h = np.array([r["h"] for r in sel])
         for key, ls in (("L2", "-"), ("H1", "--")):
-            err = np.array([r[key] for r in sel])
-            rate = sel[-1][f"rate_{key}"]
-            ax.loglog(h, err, marker=marker, ls=ls, label=f"P{order}, {key} error (rate {rate:.2f})")
+            ax.loglog(h, np.array([r[key] for r in sel]), marker=marker, ls=ls,
+                      label=f"P{order}, {key} error (rate {sel[-1][f'rate_{key}']:.2f})")
     ax.set(xlabel="element size $h$", ylabel="error", title="1D linear bar: error against mesh size")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
     save(fig, path)
     return fig
 
-
-# --- chapter 2: Newton's convergence ---------------------------------------------------
 
 @lecture_figure
 def fig_ch02_newton(path=None) -> Figure:

@@ -1,15 +1,11 @@
 """Chapter 7 figure of what the real-time budget trades: the residual and the error an unfinished frame leaves.
 
-A frame's budget buys a number of Newton steps, and how many fit in 33 ms
-depends on the mesh size (the ``bench realtime`` table says how many). To
-keep the figure reproducible it caps the *number of steps* per frame instead
-of reading a clock: the standard flap scene (:mod:`tissuefem.bench_realtime`)
-run with at most 1, 2 or 3 Newton steps per frame, against the same scene
-with every frame converged.
+A frame's budget buys a number of Newton steps, how many depends on the mesh size (``bench realtime``).
+To keep the figure reproducible it caps the *number of steps* per frame instead of reading a clock: the
+standard flap scene run with at most 1, 2 or 3 Newton steps per frame, against it with every frame converged.
 """
 
 from __future__ import annotations
-
 
 import numpy as np
 from matplotlib.ticker import NullFormatter
@@ -27,7 +23,6 @@ FRAMES = 40
 
 def capped_runs(sizes=SIZES, caps=CAPS, frames=FRAMES) -> list[dict]:
     """For each size and cap: median relative residual per frame and the final state error against converged frames."""
-
     rows = []
     for n in sizes:
         reference = Simulation(flap_scene(n, rtol=1e-10))
@@ -38,16 +33,11 @@ def capped_runs(sizes=SIZES, caps=CAPS, frames=FRAMES) -> list[dict]:
             scene = flap_scene(n, rtol=1e-12).to_dict()
             scene["solver"]["max_iterations"] = cap
             solver = Simulation(Scene.from_dict(scene))
-            relative = []
-            for f in range(frames):
-                report = solver.frame({"handle": flap_path((f + 1) * FRAME_BUDGET)})
-                relative.append(report.relative_residual)
-            rows.append({
-                "triangles": int(solver.mesh.t.shape[1]),
-                "cap": cap,
-                "median_relative_residual": float(np.median(relative)),
-                "state_error": float(np.max(np.abs(solver.u - reference.u)) / scale),
-            })
+            relative = [solver.frame({"handle": flap_path((f + 1) * FRAME_BUDGET)}).relative_residual
+                        for f in range(frames)]
+            rows.append({"triangles": int(solver.mesh.t.shape[1]), "cap": cap,
+                         "median_relative_residual": float(np.median(relative)),
+                         "state_error": float(np.max(np.abs(solver.u - reference.u)) / scale)})
     return rows
 
 
@@ -77,7 +67,6 @@ def fig_ch07_budget_residual(path=None, rows=None) -> Figure:
              title="Residual left at the end of a frame")
     ax_e.set(xlabel="triangles", ylabel="max |u - u_converged| / max |u_converged|",
              title=f"State error after {FRAMES} frames of the drag")
-
     for ax in (ax_r, ax_e):
         ax.grid(True, which="both", alpha=0.3)
         ax.xaxis.set_minor_formatter(NullFormatter())
@@ -87,7 +76,8 @@ def fig_ch07_budget_residual(path=None, rows=None) -> Figure:
 
 
 def plot_realtime(rows, path=None):
-    """The realtime benchmark's results (``python -m tissuefem bench realtime``): ms per frame against mesh size (median and 95th percentile, ex43 way), with the 33 ms line."""
+    """The realtime benchmark's results (``python -m tissuefem bench realtime``): ms per frame against mesh
+    size (median and 95th percentile, ex43 way), with the 33 ms line."""
     tri = np.array([r["triangles"] for r in rows])
     fig = Figure(figsize=(6.4, 4.4), layout="constrained")
     ax = fig.subplots()

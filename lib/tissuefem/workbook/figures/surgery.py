@@ -1,26 +1,10 @@
-"""Figures of chapter 8 (virtual surgery): pulling, probing, cutting and stitching a running simulation.
+"""Figures of chapter 8 (virtual surgery): an incision, a cut through two pieces, a probe and a flap.
 
-* ``fig_ch08_incision``: a sheet held on its left edge and pulled on its
-  right (quasistatic), before and after a cut from the top edge to
-  mid-height; the wound gapes and the tension gathers at its tip.
-* ``fig_ch08_two_pieces``: a sheet under gravity, held on its left edge, cut
-  through from top to bottom while it swings; the free piece falls away. A
-  filmstrip (PNG) and an animation (a GIF written next to the PNG), with the
-  free piece's centre of mass against backward Euler's discrete free fall.
-* ``fig_ch08_probe``: a rigid disc pressed into the top edge of a block held
-  on its bottom edge, at two depths, with the contact forces of the penalty
-  and the force the tool feels against the depth.
-* ``fig_ch08_flap``: the advancement flap of :func:`tissuefem.flaps.advancement_flap`
-  (after Sifakis et al. 2009): the defect and the two incisions with the
-  planned stitches, the flap sutured into the defect, and the tension left
-  in the flap for three flap lengths.
-
-Every simulation here runs with an unlimited budget and a clock that never
-advances, so each frame is solved to the solver's tolerance and nothing
-depends on the machine's speed: the files are byte-identical from run to run.
-Elements are coloured by their largest principal Cauchy stress
-(:meth:`tissuefem.surgery.simulation.Simulation.tension`) on one diverging scale per
-figure: red is pulled apart, blue is pressed together, white is at rest.
+Every simulation here runs with an unlimited budget and a clock that never advances, so each frame is
+solved to the solver's tolerance and nothing depends on the machine's speed: the files are byte-identical
+from run to run. Elements are coloured by their largest principal Cauchy stress
+(:meth:`tissuefem.surgery.simulation.Simulation.tension`) on one diverging scale per figure: red is pulled
+apart, blue is pressed together, white is at rest.
 """
 
 from __future__ import annotations
@@ -28,7 +12,6 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from matplotlib.animation import FuncAnimation, PillowWriter
 from matplotlib.cm import ScalarMappable
 from matplotlib.collections import LineCollection, PolyCollection
 from matplotlib.colors import Normalize, to_rgba
@@ -36,7 +19,7 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Circle
 
 from ...engine.constants import TISSUE_E, TISSUE_NU
-from .base import at_least, lecture_figure, save
+from .base import animation_figure, at_least, lecture_figure, save, save_animation
 from ...surgery.scene import Scene
 from ...surgery.simulation import Simulation
 from ...surgery.topology import connected_components
@@ -75,7 +58,6 @@ def _still_clock():
 
 def sheet_scene(n_triangles=1200, *, handles, dynamic=False, gravity=False, width=2.0, height=1.0):
     """A ``width x height`` sheet of stable neo-Hookean tissue (E = 1000, nu = 0.3) with the given handles."""
-
     effects = {"handles": handles}
     if dynamic:
         effects["inertia"] = {"time_step": FRAME_DT}
@@ -91,7 +73,6 @@ def sheet_scene(n_triangles=1200, *, handles, dynamic=False, gravity=False, widt
 
 
 def _simulation(scene):
-
     return Simulation(scene, clock=_still_clock)
 
 
@@ -118,8 +99,7 @@ def draw_mesh(ax, x, t, values=None, norm=None, *, color="0.88", lw=0.25, alpha=
     else:
         coll = PolyCollection(verts, array=np.asarray(values, dtype=float), cmap=TENSION_CMAP, norm=norm,
                               edgecolors=(0.0, 0.0, 0.0, 0.22), linewidths=lw)
-    ax.add_collection(coll)
-    return coll
+    return ax.add_collection(coll)
 
 
 def draw_wound(ax, mesh, x, names=("cut", "defect"), **kwargs):
@@ -129,13 +109,9 @@ def draw_wound(ax, mesh, x, names=("cut", "defect"), **kwargs):
     facets = [mesh.boundaries[n] for n in names if n in mesh.boundaries and len(mesh.boundaries[n])]
     if not facets:
         return None
-    f = mesh.facets[:, np.concatenate(facets)]
-    segments = np.asarray(x, dtype=float)[:, f].transpose(2, 1, 0)
-    options = dict(colors=WOUND_COLOR, linewidths=1.4, zorder=3)
-    options.update(kwargs)
-    coll = LineCollection(segments, **options)
-    ax.add_collection(coll)
-    return coll
+    segments = np.asarray(x, dtype=float)[:, mesh.facets[:, np.concatenate(facets)]].transpose(2, 1, 0)
+    options = dict(colors=WOUND_COLOR, linewidths=1.4, zorder=3) | kwargs
+    return ax.add_collection(LineCollection(segments, **options))
 
 
 def _frame_axes(ax, xlim, ylim):
@@ -154,8 +130,7 @@ def _tension_colorbar(fig, norm, axes, label="tension: largest principal Cauchy 
 def incision_run(n_triangles=1200, pull=INCISION_PULL, path=INCISION_PATH, method="edges") -> dict:
     """The pulled sheet before and after the incision: positions, triangles, tension, the edit and counts.
 
-    ``method``: how the cut meets the mesh (chapter 8 shows the edge-snapping cut, whose copies of nodes
-    are the whole story; chapter 10 cuts through the elements)."""
+    ``method``: how the cut meets the mesh (chapter 8 snaps to edges, chapter 10 cuts through the elements)."""
     sim = _simulation(sheet_scene(n_triangles, handles=[
         {"name": "fixed", "region": "left"}, {"name": "pull", "region": "right", "target": [pull, 0.0]}]))
     _check(sim.frame(), "the pulled sheet")
@@ -164,8 +139,7 @@ def incision_run(n_triangles=1200, pull=INCISION_PULL, path=INCISION_PATH, metho
     edit = sim.cut(np.asarray(path, dtype=float), method=method)
     _check(sim.frame(), "the cut sheet")
     x = sim.positions()
-    n_old = before["nodes"]
-    copies = np.arange(n_old, sim.mesh.nvertices)
+    copies = np.arange(before["nodes"], sim.mesh.nvertices)
     opening = np.hypot(*(x[:, copies] - x[:, edit.parent[copies]]))
     after = dict(x=x.copy(), t=sim.mesh.t.copy(), tension=sim.tension(), mesh=sim.mesh, nodes=sim.mesh.nvertices,
                  opening=float(opening.max(initial=0.0)), pieces=sim.pieces())
@@ -176,13 +150,10 @@ def incision_run(n_triangles=1200, pull=INCISION_PULL, path=INCISION_PATH, metho
 def fig_ch08_incision(path=None) -> Figure:
     """Chapter 8: an incision in a pulled sheet: before and after the cut, coloured by tension.
 
-    A 2 x 1 sheet (stable neo-Hookean, E = 1000, nu = 0.3, quasistatic) is
-    held on its left edge and its right edge is pulled 0.4 to the right.
-    Then a scalpel stroke from above the top edge down to mid-height cuts
-    it: the nodes along the stroke are duplicated (the tip is not), the
-    state carries over, and the next frame lets the wound gape. The
-    tension the cut released around its lips moves to its tip. Dark lines:
-    the wound's edges; dashed outline: the sheet at rest.
+    A 2 x 1 sheet (quasistatic), left edge held, right edge pulled 0.4, is cut from above the top edge to
+    mid-height: the nodes along the stroke are duplicated (the tip is not), the state carries over, and
+    the next frame lets the wound gape. The tension the cut released around its lips moves to its tip.
+    Dark lines: the wound's edges; dashed outline: the sheet at rest.
     """
     run = incision_run()
     before, after = run["before"], run["after"]
@@ -229,12 +200,9 @@ def fig_ch08_incision(path=None) -> Figure:
 def two_pieces_run(n_triangles=800, sag_frames=SAG_FRAMES, fall_frames=FALL_FRAMES, cut_x=1.0) -> dict:
     """The hanging sheet cut through at ``x = cut_x`` after ``sag_frames`` frames; ``fall_frames`` more frames.
 
-    Returns the frames (positions, triangles, whether each element is on the
-    free piece), their times, the centres of mass (y) of the parts left and
-    right of the cut, and backward Euler's discrete free fall of the free
-    piece from the moment of the cut.
+    Returns the frames (positions, triangles, whether each element is on the free piece), their times,
+    the centres of mass (y) left and right of the cut, and the free piece's discrete free fall from the cut.
     """
-
     sim = _simulation(sheet_scene(n_triangles, handles=[{"name": "fixed", "region": "left"}], dynamic=True,
                                   gravity=True))
     X0 = sim.mesh.p
@@ -268,12 +236,10 @@ def two_pieces_run(n_triangles=800, sag_frames=SAG_FRAMES, fall_frames=FALL_FRAM
     for _ in range(fall_frames):
         _check(sim.frame(), "the falling piece")
         record(free_elements)
-    g = 9.81
     k = np.arange(fall_frames + 1)
-    free_fall = y_cut + k * FRAME_DT * vy_cut - 0.5 * g * FRAME_DT**2 * k * (k + 1)
-    times = FRAME_DT * np.arange(len(frames))
-    return {"frames": frames, "times": times, "com": np.array(com), "cut_frame": sag_frames, "edit": edit,
-            "free_fall": free_fall, "simulation": sim, "X0": X0}
+    free_fall = y_cut + k * FRAME_DT * vy_cut - 0.5 * 9.81 * FRAME_DT**2 * k * (k + 1)
+    return {"frames": frames, "times": FRAME_DT * np.arange(len(frames)), "com": np.array(com),
+            "cut_frame": sag_frames, "edit": edit, "free_fall": free_fall, "simulation": sim, "X0": X0}
 
 
 def _side_com(x, m, right):
@@ -289,30 +255,20 @@ def _two_pieces_limits(frames, margin=0.08):
 
 
 def _piece_colors(free_elements, alpha=0.75):
-    colors = np.empty((free_elements.size, 4))
-    colors[:] = to_rgba(HELD_COLOR, alpha)
-    colors[free_elements] = to_rgba(FREE_COLOR, alpha)
-    return colors
+    return np.where(np.asarray(free_elements)[:, None], to_rgba(FREE_COLOR, alpha), to_rgba(HELD_COLOR, alpha))
 
 
 def write_two_pieces_animation(gif_path, run, dpi=120) -> Path:
-    """Every frame of the run as a GIF at 30 frames per second (``matplotlib.animation`` with Pillow):
-    648 x 864 pixels, large enough to project (:data:`~tissuefem.workbook.figures.base.ANIMATION_MIN_WIDTH`)."""
-    gif_path = Path(gif_path)
-    gif_path.parent.mkdir(parents=True, exist_ok=True)
+    """Every frame of the run as a GIF at 30 frames per second: 648 x 864 pixels, large enough to project
+    (:data:`~tissuefem.workbook.figures.base.ANIMATION_MIN_WIDTH`)."""
     frames, times, cut = run["frames"], run["times"], run["cut_frame"]
-    xlim, ylim = _two_pieces_limits(frames)
-    fig = Figure(figsize=(5.4, 7.2))
-    ax = fig.add_axes([0.02, 0.02, 0.96, 0.86])  # fixed axes: every frame has the same layout
-    _frame_axes(ax, xlim, ylim)
-    ax.plot([0.0, 0.0], [0.0, 1.0], color="k", lw=4)
+    fig, ax, title = animation_figure((5.4, 7.2), 0.86, *_two_pieces_limits(frames), 0.94, 13)
     verts = lambda k: frames[k][0][:, frames[k][1]].transpose(2, 1, 0)  # noqa: E731
     # no anti-aliasing: few colours per frame keep the GIF small (its palette has at most 256)
     # (and no mesh edges: at this size they would cover the colours)
     body = PolyCollection(verts(0), facecolors=_piece_colors(frames[0][2], 1.0), edgecolors="face", linewidths=0.5,
                           antialiaseds=False)
     ax.add_collection(body)
-    title = fig.text(0.5, 0.94, "", ha="center", va="center", fontsize=13)
 
     def update(k):
         body.set_verts(verts(k))
@@ -323,24 +279,18 @@ def write_two_pieces_animation(gif_path, run, dpi=120) -> Path:
         title.set_text(f"t = {times[k]:.2f} s  ({stage})")
         return body, title
 
-    animation = FuncAnimation(fig, update, frames=len(frames), interval=1000 * FRAME_DT, blit=False, repeat=False)
-    animation.save(gif_path, writer=PillowWriter(fps=round(1 / FRAME_DT)), dpi=dpi)
-    return gif_path
+    return save_animation(fig, update, len(frames), gif_path, FRAME_DT, dpi)
 
 
 @lecture_figure
 def fig_ch08_two_pieces(path=None) -> Figure:
     """Chapter 8: a sheet under gravity cut through from top to bottom; the free piece falls away (filmstrip).
 
-    A 2 x 1 sheet (stable neo-Hookean, E = 1000, nu = 0.3, rho0 = 1,
-    g = 9.81, backward Euler at one step per frame, 1/30 s) hangs from its
-    left edge and swings down for 12 frames; then a stroke at x = 1 from
-    above to below cuts it through, and it is two pieces: the held one
-    (blue) keeps swinging, the free one (orange) falls. Bottom: the heights
-    of the two parts' centres of mass; from the cut on, the free piece's
-    follows backward Euler's discrete free fall ``y_k = y_c + k dt v_c -
-    g dt^2 k (k + 1) / 2`` (its internal forces cancel). With a ``path``,
-    also writes the whole run as an animation ``<path stem>.gif``.
+    A 2 x 1 sheet (rho0 = 1, g = 9.81, backward Euler at 1/30 s a frame) hangs from its left edge for 12
+    frames; a stroke at x = 1 then cuts it in two: the held piece (blue) keeps swinging, the free one
+    (orange) falls. Bottom: the heights of the two parts' centres of mass; from the cut on, the free
+    piece's follows backward Euler's discrete free fall ``y_k = y_c + k dt v_c - g dt^2 k (k + 1) / 2``
+    (its internal forces cancel). With a ``path``, also writes the run as ``<path stem>.gif``.
     """
     run = two_pieces_run()
     frames, times, cut = run["frames"], run["times"], run["cut_frame"]
@@ -390,9 +340,8 @@ def fig_ch08_two_pieces(path=None) -> Figure:
 def probe_run(n_triangles=1200, radius=PROBE_RADIUS, depths=PROBE_DEPTHS, x_probe=1.0) -> dict:
     """A block held on its bottom edge, a disc pressed into its top edge ever deeper (one frame per depth).
 
-    For each depth: positions, tension, the nodal contact forces (the
-    penalty's ``k l_a h'(R - d_a) n_a`` on the surface nodes), the total force on the tissue and
-    the deepest penetration left.
+    For each depth: positions, tension, the nodal contact forces (the penalty's ``k l_a h'(R - d_a) n_a``
+    on the surface nodes), the total force on the tissue and the deepest penetration left.
     """
     sim = _simulation(sheet_scene(n_triangles, handles=[{"name": "base", "region": "bottom"}]))
     label = sim.add_probe([x_probe, 1.0 + radius - depths[0]], radius)
@@ -411,10 +360,9 @@ def probe_run(n_triangles=1200, radius=PROBE_RADIUS, depths=PROBE_DEPTHS, x_prob
 def probe_indentation(n_triangles=1200, stiffness=None, depths=(0.05, 0.1, 0.15, 0.2), radius=0.25) -> dict:
     """Chapter 8's indentation: a disc pressed into the top edge of a sheet held on its bottom edge.
 
-    A :func:`sheet_scene` of about ``n_triangles`` (quasistatic), a probe of ``radius`` starting just
-    above the top edge and moved down to each of ``depths`` in turn, one frame each, with the given
-    penalty ``stiffness`` (default: the simulation's, ``100 E / radius``). Returns the penetration left
-    at the last depth, the Newton steps of each frame, the triangles and the stiffness used.
+    A probe of ``radius`` moved down to each of ``depths`` in turn, one frame each, with the penalty
+    ``stiffness`` (default: the simulation's, ``100 E / radius``). Returns the penetration left at the
+    last depth, the Newton steps of each frame, the triangles and the stiffness used.
     """
     sim = _simulation(sheet_scene(n_triangles, handles=[{"name": "base", "region": "bottom"}]))
     tool = sim.add_probe([1.0, 1.0 + radius], radius=radius, stiffness=stiffness)
@@ -431,14 +379,11 @@ def probe_indentation(n_triangles=1200, stiffness=None, depths=(0.05, 0.1, 0.15,
 def fig_ch08_probe(path=None) -> Figure:
     """Chapter 8: a rigid disc (a tool tip) pressed into the top edge of a block, at two depths.
 
-    A 2 x 1 block (stable neo-Hookean, E = 1000, nu = 0.3, quasistatic) is
-    held on its bottom edge; a disc of radius 0.25 is moved down into its
-    top edge, one frame per step of 0.05. The contact is a penalty on the
-    surface: every boundary node inside the disc is pushed out along the
-    normal with the force ``k l_a h'(R - d_a) n_a`` (arrows, scaled; ``l_a`` its
-    share of the boundary's length, see :class:`~tissuefem.engine.terms.Probe`),
-    so the tissue stays out to a small penetration. Right: the force the tissue exerts on the tool
-    against the depth, and the penetration left.
+    A 2 x 1 block (quasistatic) held on its bottom edge; a disc of radius 0.25 moved down into its top
+    edge, one frame per step of 0.05. The contact is a surface penalty: every boundary node inside the
+    disc is pushed out along the normal with the force ``k l_a h'(R - d_a) n_a`` (arrows, scaled; ``l_a``
+    its share of the boundary's length, see :class:`~tissuefem.engine.terms.Probe`). Right: the force on
+    the tool against the depth, and the penetration left.
     """
     run = probe_run()
     states, R = run["states"], run["radius"]
@@ -473,9 +418,8 @@ def fig_ch08_probe(path=None) -> Figure:
     ax2.plot(depth, [s["penetration"] for s in states], "^--", color="C2", ms=4, lw=0.9, label="penetration left")
     ax2.set_ylabel("deepest node inside the disc", fontsize=8)
     ax2.tick_params(labelsize=7)
-    lines = ax.get_legend_handles_labels()
-    lines2 = ax2.get_legend_handles_labels()
-    ax.legend(lines[0] + lines2[0], lines[1] + lines2[1], fontsize=7.5, loc="upper left")
+    (h1, l1), (h2, l2) = ax.get_legend_handles_labels(), ax2.get_legend_handles_labels()
+    ax.legend(h1 + h2, l1 + l2, fontsize=7.5, loc="upper left")
     fig.suptitle(f"Chapter 8: a probe pressed into the tissue, a surface penalty $E = \\sum_a k\\, l_a\\, h(R - d_a)$, "
                  f"$h(g) \\approx g^2/2$ (R = {R:g}, k = {states[0]['stiffness']:.2g}; block held on its bottom edge)",
                  fontsize=10)
@@ -503,7 +447,6 @@ def flap_runs(lengths=FLAP_LENGTHS, n_triangles=FLAP_TRIANGLES, tighten_frames=F
     """:func:`tissuefem.flaps.advancement_flap` for each flap length, ``{length: FlapResult}``.
 
     Chapter 8 cuts along mesh edges (``method="edges"``); chapter 10 redoes the flap through the elements."""
-
     return {float(L): advancement_flap(flap_length=float(L), n_triangles=n_triangles, tighten_frames=tighten_frames,
                                        clock=_still_clock, method=method) for L in lengths}
 
@@ -512,15 +455,11 @@ def flap_runs(lengths=FLAP_LENGTHS, n_triangles=FLAP_TRIANGLES, tighten_frames=F
 def fig_ch08_flap(path=None, runs=None) -> Figure:
     """Chapter 8: a local advancement flap closes a defect (after Sifakis et al. 2009); the tension it leaves.
 
-    A 4 x 2 patch of skin (stable neo-Hookean, E = 1000, nu = 0.3), held on
-    its outer edges: (a) a 0.6 x 0.6 defect is excised and two incisions
-    continue its top and bottom edges for the flap's length; thin lines: the
-    planned stitches, from each wound node of the flap to where the
-    advance (0.6 to the left) takes it. (b) The stitches tightened over six
-    quasistatic frames: the flap is pulled into the defect, coloured by
-    tension, stitches as dots. (c) The mean tension in the flap and over the
-    patch for three flap lengths: a longer flap spreads the same advance
-    over more skin.
+    A 4 x 2 patch of skin held on its outer edges: (a) a 0.6 x 0.6 defect excised, two incisions continuing
+    its top and bottom edges for the flap's length; thin lines: the planned stitches, from each wound node
+    of the flap to where the advance (0.6 to the left) takes it. (b) The stitches tightened over six
+    quasistatic frames, coloured by tension, stitches as dots. (c) The mean tension in the flap and over
+    the patch for three flap lengths: a longer flap spreads the same advance over more skin.
     """
     runs = flap_runs() if runs is None else runs
     result = runs[FLAP_SHOWN]
