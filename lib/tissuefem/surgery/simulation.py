@@ -33,10 +33,6 @@ from .surfaces import contact_surface
 __all__ = ["Simulation"]
 
 
-# ---------------------------------------------------------------------------------------------------------------
-# the running simulation
-# ---------------------------------------------------------------------------------------------------------------
-
 class Simulation:
     """A scene, built and running: frames, and the surgical operations between them.
 
@@ -48,9 +44,8 @@ class Simulation:
     linear_solver
         Overrides the scene's ``solver.linear_solver``.
     constant_tangent
-        Use :class:`~tissuefem.realtime.ConstantTangentSolver` when the model is
-        quadratic (default). ``False`` forces the general Newton loop (to
-        measure what the shortcut saves).
+        Use :class:`~tissuefem.realtime.ConstantTangentSolver` when the model is quadratic (default);
+        ``False`` forces the general Newton loop (to measure what the shortcut saves).
     """
 
     def __init__(self, scene: Scene, *, clock=time.perf_counter, linear_solver=None, constant_tangent=True,
@@ -66,7 +61,7 @@ class Simulation:
         self.material = scene.build_material()
         mesh = scene.build_mesh()
         fx = scene.effects.get("fibers")
-        fibers = None
+        self._fibers = None
         if fx is not None:
             if fx["direction"] == "fusiform":
                 if scene.domain["shape"] != "fusiform":
@@ -74,8 +69,7 @@ class Simulation:
                 g = meshes.fusiform_fiber_field(mesh)
             else:
                 g = np.repeat(np.asarray(fx["direction"], dtype=float)[:, None], mesh.nelements, axis=1)
-            fibers = (fx["stiffness"], g)
-        self._fibers = fibers
+            self._fibers = (fx["stiffness"], g)
         self.mesh = mesh
         self._contact = self._contact_settings(scene, mesh)
         self._grab_count = 0
@@ -101,14 +95,10 @@ class Simulation:
         self._regions = {}
         if (scene.effects.get("excisions") or scene.effects.get("incisions")) and order != 1:
             raise ValueError("solver: excisions and incisions need P1 elements (order=1)")
-        for i, e in enumerate(scene.effects.get("excisions", [])):
-            operation = element_cuts.excise_through if e.get("method", "elements") == "elements" else topology.excise
-            self._apply_edit(operation, np.asarray(e["polygon"], dtype=float), f"effects.excisions[{i}]",
-                             rebuild=False)
-        for i, e in enumerate(scene.effects.get("incisions", [])):
-            operation = element_cuts.cut_through if e.get("method", "elements") == "elements" else topology.incise
-            self._apply_edit(operation, np.asarray(e["path"], dtype=float), f"effects.incisions[{i}]",
-                             rebuild=False)
+        for kind, key in (("excisions", "polygon"), ("incisions", "path")):
+            for i, e in enumerate(scene.effects.get(kind, [])):
+                operation = _OPERATIONS[kind][e.get("method", "elements")]
+                self._apply_edit(operation, np.asarray(e[key], dtype=float), f"effects.{kind}[{i}]", rebuild=False)
         if not self.dynamic:
             _, pieces = self._loose_elements(self.mesh, np.arange(self.mesh.nvertices), self._sutures)
             if pieces:
@@ -129,8 +119,7 @@ class Simulation:
     @property
     def handles(self) -> dict:
         """The handles holding the tissue, by name (the model owns them)."""
-        source = self.model.handles if hasattr(self, "model") else self._pending_handles
-        return {h.name: h for h in source}
+        return {h.name: h for h in self._current_handles()}
 
     def _current_handles(self) -> list:
         return list(self.model.handles) if hasattr(self, "model") else list(self._pending_handles)
@@ -141,8 +130,7 @@ class Simulation:
         inertia = effects.get("inertia")
         gravity = effects.get("gravity")
         tractions = [(t["boundary"], t["traction"]) for t in effects.get("tractions", [])]
-        probes = [dict(center=p["center"], radius=p["radius"], stiffness=p["stiffness"], label=p["label"])
-                  for p in self._probe_specs]
+        probes = [dict(p) for p in self._probe_specs]  # center, radius, stiffness, label (see add_probe)
         try:
             return Model(
                 self.mesh, self.material, order=self.order, intorder=self.intorder, handles=handles,
@@ -170,12 +158,8 @@ class Simulation:
         spec = scene.effects.get("contact")
         if spec is None:
             return None
-        if "distance" in spec:
-            distance = spec["distance"]
-        else:
-            surface = ContactSurface.from_mesh(mesh)
-            ends = surface.segment_positions(mesh.p)
-            distance = cls.CONTACT_DISTANCE * float(np.median(np.hypot(*(ends[:, 1] - ends[:, 0]).T)))
+        distance = spec["distance"] if "distance" in spec else \
+            cls.CONTACT_DISTANCE * _median_segment(ContactSurface.from_mesh(mesh), mesh.p)
         return {"distance": distance, "default_distance": "distance" not in spec,
                 "stiffness": spec.get("stiffness", cls.CONTACT_STIFFNESS * scene.material["youngs_modulus"])}
 
@@ -189,9 +173,7 @@ class Simulation:
         if self._contact.get("default_distance"):
             # the skin must stay thin against the surface's segments: a cut through elements (or a curved
             # excision) leaves short pieces, so the default depth shrinks to half their median length
-            ends = surface.segment_positions(self.mesh.p)
-            lengths = np.hypot(*(ends[:, 1] - ends[:, 0]).T)
-            spec["distance"] = min(spec["distance"], 0.5 * float(np.median(lengths)))
+            spec["distance"] = min(spec["distance"], 0.5 * _median_segment(surface, self.mesh.p))
         spec.pop("default_distance", None)
         return spec
 
@@ -337,8 +319,8 @@ class Simulation:
     def grab(self, point, radius=None) -> str:
         """Grab the nodes within ``radius`` of ``point`` (deformed coordinates); returns the handle's name.
 
-        The grabbed nodes stay where they are until :meth:`drag` moves them (by
-        the mouse's offset from the grab point). Default radius: 1.5 mean edge lengths.
+        The nodes stay where they are until :meth:`drag` moves them by the mouse's offset from the grab
+        point. Default radius: 1.5 mean edge lengths.
         """
         radius = 1.5 * meshes.mean_edge_length(self.mesh) if radius is None else self._radius("radius", radius)
         point = self._point("point", point)
@@ -375,9 +357,8 @@ class Simulation:
     def release(self, name) -> None:
         """Let go of a handle: its nodes are free from the next frame on.
 
-        In a quasistatic scene a piece that nothing holds any more (the handle was the last hold on a
-        piece cut free) has no equilibrium: it is lifted out, as after a cut (see
-        :meth:`_drop_loose_pieces`). A dynamic scene keeps it: it falls.
+        A quasistatic scene lifts out a piece that nothing holds any more (no equilibrium), as after a cut
+        (:meth:`_drop_loose_pieces`); a dynamic scene keeps it: it falls.
         """
         handle = self.model.handle(name)
         self._check_held([h for h in self.model.handles if h is not handle])
@@ -465,13 +446,9 @@ class Simulation:
                 self._fibers = (self._fibers[0], self._fibers[1][:, edit.elements])
             self._sutures = sutures
             self._weights, self._regions = weights, regions
-            if self._state is not None:
-                u, v, v_prev, t, frames, budget, dt = self._state
-
-                def carry(w):
-                    return None if w is None else w.reshape(-1, 2)[parent].ravel()
-
-                self._state = (carry(u), carry(v), carry(v_prev), t, frames, budget, dt)
+            if self._state is not None:  # u, v and the previous v node by node (time, frames, budget, dt stay)
+                vectors = (None if w is None else w.reshape(-1, 2)[parent].ravel() for w in self._state[:3])
+                self._state = (*vectors, *self._state[3:])
             self.mesh = edit.mesh
             if rebuild:
                 self._rebuild(new_handles)
@@ -482,12 +459,10 @@ class Simulation:
     def _drop_loose_pieces(self, edit, sutures):
         """Quasistatic scenes: remove pieces that nothing holds (no handle, no suture to a held piece).
 
-        Such a piece has no equilibrium (its stiffness matrix is singular, and
-        under a load it would run away), so it is lifted out of the simulation,
-        as a surgeon lifts out what was cut free. Dynamic scenes keep every piece.
-        ``sutures`` are the stitches on ``edit``'s mesh. Returns ``(edit, kept)``:
-        the edit with the pieces removed, and which of its elements stay (``None``
-        when nothing was removed).
+        Such a piece has no equilibrium (a singular stiffness matrix; under a load it would run away), so
+        it is lifted out, as a surgeon lifts out what was cut free. ``sutures`` are the stitches on
+        ``edit``'s mesh. Returns ``(edit, kept)``: the edit with the pieces removed, and which of its
+        elements stay (``None`` when nothing was removed).
         """
         mesh = edit.mesh
         loose, pieces = self._loose_elements(mesh, edit.parent, sutures)
@@ -566,19 +541,13 @@ class Simulation:
     def cut(self, polyline, method="elements"):
         """Incise along ``polyline`` (points in deformed coordinates, as drawn on the tissue now).
 
-        ``method="elements"`` (default) cuts through the elements, along the
-        stroke (the virtual node algorithm: :func:`~tissuefem.surgery.element_cuts.
-        cut_through`); ``"edges"`` snaps the stroke to a path of mesh edges and
-        duplicates their nodes (:func:`~tissuefem.surgery.topology.incise`:
-        jagged and mesh-dependent; kept to compare). The state carries over:
-        each copy of a node gets its displacement and velocity. Returns the edit
-        (:class:`~tissuefem.surgery.element_cuts.ElementCut` or
-        :class:`~tissuefem.surgery.topology.MeshEdit`).
+        ``method="elements"`` (default) cuts through the elements along the stroke (the virtual node
+        algorithm, :func:`~tissuefem.surgery.element_cuts.cut_through`); ``"edges"`` snaps it to mesh edges
+        and duplicates their nodes (:func:`~tissuefem.surgery.topology.incise`: jagged, kept to compare).
+        Each copy of a node keeps its displacement and velocity. Returns the edit
+        (:class:`~tissuefem.surgery.element_cuts.ElementCut` or :class:`~tissuefem.surgery.topology.MeshEdit`).
         """
-        operation = {"elements": element_cuts.cut_through, "edges": topology.incise}.get(method) \
-            if isinstance(method, str) else None
-        if operation is None:
-            raise ValueError(f"method must be 'elements' or 'edges', got {method!r:.100}")
+        operation = _operation("incisions", method)
         points = _polyline(polyline)
         for i, q in enumerate(points):
             self._point(f"polyline[{i}]", q)
@@ -587,16 +556,12 @@ class Simulation:
     def excise(self, region, method="elements"):
         """Remove the tissue inside ``region``: a polygon in *reference* coordinates, or a mask on centroids.
 
-        A polygon is cut out along its outline through the elements
-        (``method="elements"``, default) or by removing the triangles whose
-        centroid lies inside (``"edges"``, as does a mask).
+        A polygon is cut out along its outline through the elements (``method="elements"``, default) or
+        by removing the triangles whose centroid lies inside (``"edges"``, as does a mask).
         """
         if callable(region):
             return self._apply_edit(topology.excise, region, "region")
-        operation = {"elements": element_cuts.excise_through, "edges": topology.excise}.get(method) \
-            if isinstance(method, str) else None
-        if operation is None:
-            raise ValueError(f"method must be 'elements' or 'edges', got {method!r:.100}")
+        operation = _operation("excisions", method)
         region = _polyline(region, minimum=3, field="region")
         for i, q in enumerate(region):
             self._point(f"region[{i}]", q)
@@ -613,25 +578,18 @@ class Simulation:
             return int(best[0])
         t = self.mesh.t
         centroids = x[:, t].mean(axis=1)
-        scores = []
-        for node in best:
-            elems = np.flatnonzero(np.any(t == node, axis=0))
-            c = centroids[:, elems].mean(axis=1)
-            scores.append(np.hypot(*(c - point)))
+        scores = [np.hypot(*(centroids[:, np.any(t == node, axis=0)].mean(axis=1) - point)) for node in best]
         return int(best[int(np.argmin(scores))])
 
     def suture(self, pairs, stiffness=None, tightness=1.0, _field="sutures"):
         """Tie pairs of points together with stiff springs.
 
-        ``pairs``: point pairs ``[[[x1, y1], [x2, y2]], ...]`` in deformed
-        coordinates, or node index pairs as an integer array ``(2, k)``. A point
-        is attached to the material where it lies (inside an element: it moves
-        with the element's three nodes, so a stitch can sit on a wound cut
-        through elements); a point off the tissue is attached to the nearest
-        node. The springs start slack (no force) and are tightened to
-        ``tightness`` (1: the points are pulled together). Default stiffness:
-        100 x Young's modulus (per unit thickness). Returns the node of each end
-        that carries most of it, ``(2, k)``.
+        ``pairs``: point pairs ``[[[x1, y1], [x2, y2]], ...]`` in deformed coordinates, or node index pairs
+        as an integer array ``(2, k)``. A point moves with the element it lies in (so a stitch can sit on a
+        wound cut through elements); a point off the tissue is attached to the nearest node. The springs
+        start slack and are tightened to ``tightness`` (1: the points are pulled together). Default
+        stiffness: 100 x Young's modulus (per unit thickness). Returns the node of each end that carries
+        most of it, ``(2, k)``.
         """
         E = self.scene.material["youngs_modulus"]
         k = 100.0 * E if stiffness is None else _number(f"{_field}.stiffness", stiffness, positive=True,
@@ -721,6 +679,24 @@ class Simulation:
         if self.model.sutures is None:
             return np.zeros(0)
         return self.model.sutures.distances(self.solver.u)
+
+
+#: the operation of each method of an excision and an incision
+_OPERATIONS = {"excisions": {"elements": element_cuts.excise_through, "edges": topology.excise},
+               "incisions": {"elements": element_cuts.cut_through, "edges": topology.incise}}
+
+
+def _operation(kind, method):
+    operation = _OPERATIONS[kind].get(method) if isinstance(method, str) else None
+    if operation is None:
+        raise ValueError(f"method must be 'elements' or 'edges', got {method!r:.100}")
+    return operation
+
+
+def _median_segment(surface, p) -> float:
+    """The median length of the segments of a contact surface, at the node positions ``p``."""
+    ends = surface.segment_positions(p)
+    return float(np.median(np.hypot(*(ends[:, 1] - ends[:, 0]).T)))
 
 
 @dataclasses.dataclass(frozen=True)
