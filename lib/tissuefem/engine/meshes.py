@@ -2,44 +2,24 @@
 
 Every function here returns a :class:`skfem.MeshTri` that is
 
-* **deterministic**: the same arguments give the same nodes, in the same
-  order, and the same triangles;
-* **counter-clockwise**: every triangle ``t[:, e] = (a, b, c)`` has positive
-  signed area. scikit-fem sorts the vertex indices of each triangle by default
-  (``sort_t=True``), which makes the orientation arbitrary; these meshes are
-  built with ``sort_t=False`` so the orientation we chose survives;
-* **named on the boundary**: ``mesh.boundaries[name]`` gives facet indices,
-  ready for ``basis.get_dofs(name)``.
+* **deterministic**: the same arguments give the same nodes, in the same order, and the same triangles;
+* **counter-clockwise**: every triangle ``t[:, e] = (a, b, c)`` has positive signed area (built with
+  ``sort_t=False``: scikit-fem's default sorts the vertex indices, which makes the orientation arbitrary);
+* **named on the boundary**: ``mesh.boundaries[name]`` gives facet indices, ready for ``basis.get_dofs(name)``.
 
-Node numbering of the structured meshes is row by row: node ``j (nx + 1) + i``
-sits at column ``i`` (``0..nx``) and row ``j`` (``0..ny``).
+Structured meshes number their nodes row by row: node ``j (nx + 1) + i`` sits at column ``i`` and row ``j``.
 
-Domains
--------
-* :func:`rectangle`: ``[0, width] x [0, height]``, structured, ``2 nx ny``
-  triangles, boundaries ``"left"``, ``"right"``, ``"bottom"``, ``"top"``.
-* :func:`mesh_with_about`: a rectangle with about a given number of triangles
-  (what benchmarks use to sweep sizes).
-* :func:`fusiform_muscle` and :func:`fusiform_fiber_field`: a spindle-shaped
-  muscle belly between two tendons, and its fiber directions per element
-  (:func:`fusiform_fiber_direction` at any point).
-* :func:`flap`: the rectangle of the tissue-flap scene (left edge fixed, a
-  handle pulls the right edge).
-* :func:`check_mesh`: what every mesh must satisfy before a model is built on it.
+Domains: :func:`rectangle` (structured), :func:`mesh_with_about` (a rectangle with about a given number of
+triangles, what benchmarks use to sweep sizes), :func:`fusiform_muscle` (a spindle-shaped muscle belly between two
+tendons) with its fibres :func:`fusiform_fiber_field` (per element) and :func:`fusiform_fiber_direction` (at any
+point), :func:`flap` (the rectangle of the tissue-flap scene); :func:`check_mesh` is what every mesh must satisfy
+before a model is built on it.
 
-Limits
-------
-Checked before anything is allocated, refused with a ``ValueError`` naming the
-argument:
-
-* at most :data:`MAX_TRIANGLES` (200 000) triangles in a generated domain
-  (``2 nx ny`` for the structured grids, ``n_triangles`` for
-  :func:`mesh_with_about`) and in a mesh given to :func:`check_mesh`;
-* lengths (``width``, ``height``, ``length``, ``max_width``, ``tendon_width``)
-  in :data:`SIZE_RANGE` ``[1e-6, 1e6]``;
-* aspect ratios (``width / height``, ``length / max_width``,
-  ``max_width / tendon_width``) at most :data:`MAX_ASPECT` (1e4);
-* node coordinates within ``+-COORDINATE_MAX`` (1e6).
+Limits, checked before anything is allocated and refused with a ``ValueError`` naming the argument: at most
+:data:`MAX_TRIANGLES` (200 000) triangles in a generated domain (``2 nx ny``, or ``n_triangles``) and in a mesh
+given to :func:`check_mesh`; lengths (``width``, ``height``, ``length``, ``max_width``, ``tendon_width``) in
+:data:`SIZE_RANGE` ``[1e-6, 1e6]``; aspect ratios (``width / height``, ``length / max_width``,
+``max_width / tendon_width``) at most :data:`MAX_ASPECT` (1e4); node coordinates within ``+-COORDINATE_MAX`` (1e6).
 """
 
 from __future__ import annotations
@@ -80,9 +60,8 @@ DEGENERATE_TOL = 1e-12
 _DIAGONALS = ("alternate", "right", "left")
 
 
-# --------------------------------------------------------------------------
-# validation helpers
-# --------------------------------------------------------------------------
+# --- validation helpers ----------------------------------------------------
+
 def _positive_size(name: str, value) -> float:
     return check_real(name, value, *SIZE_RANGE)
 
@@ -96,10 +75,16 @@ def _check_aspect(name: str, ratio: float) -> None:
         raise ValueError(f"{name} = {ratio:g}: the aspect ratio must lie within [1/{MAX_ASPECT:g}, {MAX_ASPECT:g}]")
 
 
-def _check_grid(nx: int, ny: int) -> None:
+def _check_grid(nx, ny, diagonal) -> tuple[int, int]:
+    """``(nx, ny)`` checked as counts whose ``2 nx ny`` triangles are allowed, and a known ``diagonal``."""
+    nx = _positive_count("nx", nx, MAX_TRIANGLES // 2)
+    ny = _positive_count("ny", ny, MAX_TRIANGLES // 2)
     if 2 * nx * ny > MAX_TRIANGLES:
         raise ValueError(f"nx, ny: nx = {nx} and ny = {ny} give 2 nx ny = {2 * nx * ny} triangles, more than the "
                          f"{MAX_TRIANGLES} a generated domain may have")
+    if not isinstance(diagonal, str) or diagonal not in _DIAGONALS:
+        raise ValueError(f"diagonal must be one of {_DIAGONALS}, got {diagonal!r}")
+    return nx, ny
 
 
 def _list(idx, limit=10) -> str:
@@ -137,28 +122,14 @@ def signed_areas(mesh) -> np.ndarray:
 def folded_triangles(p, t) -> np.ndarray:
     """Pairs of triangles that overlap across their shared edge, shape ``(2, n_pairs)``.
 
-    In a valid (non-inverted) triangulation the two triangles on an interior
-    edge lie on opposite sides of it. If one of them is inverted (folded over
-    its neighbour), both third vertices lie on the same side. This test does
-    not depend on the order in which a triangle lists its vertices (scikit-fem
-    sorts them, so a good mesh has triangles of both orientations).
-
-    Two triangles on the same side whose third vertices sit at the same point
-    are not a fold but two copies of one triangle, each carrying part of its
-    material: cutting through elements
-    (:func:`tissuefem.surgery.element_cuts.cut_through`) makes such copies
-    next to a crack tip. They are not reported.
+    In a valid triangulation the two triangles on an interior edge lie on opposite sides of it; if one is folded
+    over its neighbour, both third vertices lie on the same side (whatever order the triangles list their vertices
+    in: scikit-fem sorts them). Two triangles whose third vertices sit at the same point are not a fold but two
+    copies of one triangle, each carrying part of its material (:func:`tissuefem.surgery.element_cuts.cut_through`
+    makes them next to a crack tip): they are not reported.
     """
     p = np.asarray(p, dtype=float)
-    t = np.asarray(t, dtype=np.int64)
-    nel = t.shape[1]
-    # every edge of every triangle, with the vertex opposite to it
-    edges = np.concatenate([t[[0, 1]], t[[1, 2]], t[[2, 0]]], axis=1)
-    opposite = np.concatenate([t[2], t[0], t[1]])
-    owner = np.tile(np.arange(nel), 3)
-    key = np.sort(edges, axis=0)
-    order = np.lexsort((key[1], key[0]))
-    key, edges, opposite, owner = key[:, order], edges[:, order], opposite[order], owner[order]
+    key, owner, opposite = _edge_table(np.asarray(t, dtype=np.int64))
     same = np.flatnonzero((key[0, 1:] == key[0, :-1]) & (key[1, 1:] == key[1, :-1]))
     if same.size == 0:
         return np.zeros((2, 0), dtype=np.int64)
@@ -175,38 +146,28 @@ def folded_triangles(p, t) -> np.ndarray:
 
 
 def _edge_table(t: np.ndarray):
-    """Every edge of every triangle, sorted: keys ``(2, 3m)`` (smaller node first) and the owning triangles."""
-    m = t.shape[1]
-    edges = np.concatenate([t[[0, 1]], t[[1, 2]], t[[2, 0]]], axis=1)
-    key = np.sort(edges, axis=0)
-    owner = np.tile(np.arange(m), 3)
+    """Every edge of every triangle, sorted: keys ``(2, 3m)`` (smaller node first), the owning triangles and the
+    vertex opposite each edge."""
+    key = np.sort(np.concatenate([t[[0, 1]], t[[1, 2]], t[[2, 0]]], axis=1), axis=0)
     order = np.lexsort((key[1], key[0]))
-    return key[:, order], owner[order]
+    return key[:, order], np.tile(np.arange(t.shape[1]), 3)[order], np.concatenate([t[2], t[0], t[1]])[order]
 
 
 def check_mesh(p, t, name: str = "mesh", *, unused_nodes: str = "refuse"):
     """Check that ``(p, t)`` is a valid 2D triangle mesh; return ``(p, t)`` as float64 ``(2, n)`` and int64 ``(3, m)``.
 
-    Refused, with a ``ValueError`` that starts with ``name`` and lists the
-    offending nodes, edges or triangles:
+    Refused, with a ``ValueError`` that starts with ``name`` and lists the offending nodes, edges or triangles:
 
-    * ``p`` not a real array shaped ``(2, n)``; ``t`` not an integer array
-      shaped ``(3, m)`` (floats and booleans are refused, never rounded);
-    * no triangle, or more than :data:`MAX_TRIANGLES`;
-    * node indices outside ``0..n-1``;
-    * non-finite coordinates, or coordinates beyond ``+-COORDINATE_MAX``, or a
-      mesh smaller than ``SIZE_RANGE[0]`` (the largest side of its bounding box);
-    * **unused nodes** (in no triangle). Such a node has neither stiffness nor
-      mass, so every linear system of the model would be singular and the
-      failure would surface late, far from its cause. Refused here with the
-      node indices rather than dropped: renumbering the nodes behind the
-      caller's back would silently change what node indices given elsewhere
-      (handles, sutures) refer to. (:func:`tissuefem.surgery.scene.read_mesh`
-      drops them from a file, with a note, because it can still refuse the
-      node indices of that scene; it checks the file with
-      ``unused_nodes="ignore"`` first, so that messages use the file's numbers.)
-    * **an edge shared by three or more triangles** (a non-manifold "fin":
-      not a 2D domain), and duplicated triangles (the same three nodes twice);
+    * ``p`` not a real array shaped ``(2, n)``; ``t`` not an integer array shaped ``(3, m)`` (floats and booleans
+      are refused, never rounded); no triangle, or more than :data:`MAX_TRIANGLES`; node indices outside ``0..n-1``;
+    * non-finite coordinates, or coordinates beyond ``+-COORDINATE_MAX``, or a mesh smaller than ``SIZE_RANGE[0]``
+      (the largest side of its bounding box);
+    * **unused nodes** (in no triangle): with neither stiffness nor mass, every linear system of the model would be
+      singular, far from the cause. Refused rather than dropped, because renumbering behind the caller's back would
+      change what node indices given elsewhere (handles, sutures) refer to. (:func:`tissuefem.surgery.scene.read_mesh`
+      checks a file with ``unused_nodes="ignore"``, so that messages use the file's numbers, then drops them with
+      a note: it can still refuse the node indices of that scene.)
+    * **an edge shared by three or more triangles** (a non-manifold "fin"), and duplicated triangles;
     * degenerate triangles (``|2 area| <= DEGENERATE_TOL * (longest edge)^2``);
     * inverted triangles folded over a neighbour (:func:`folded_triangles`).
 
@@ -254,7 +215,7 @@ def check_mesh(p, t, name: str = "mesh", *, unused_nodes: str = "refuse"):
     repeated = np.flatnonzero((tri[0] == tri[1]) | (tri[1] == tri[2]))
     if repeated.size:
         raise ValueError(f"{name}: triangles {_list(repeated)} use the same node twice")
-    key, owner = _edge_table(t_arr)
+    key, owner, _ = _edge_table(t_arr)
     same = (key[0, 1:] == key[0, :-1]) & (key[1, 1:] == key[1, :-1])
     fins = np.flatnonzero(same[1:] & same[:-1])  # three equal keys in a row: start index fins + 0
     if fins.size:
@@ -288,33 +249,23 @@ def check_mesh(p, t, name: str = "mesh", *, unused_nodes: str = "refuse"):
     return p_arr, t_arr
 
 
-# --------------------------------------------------------------------------
-# structured rectangle
-# --------------------------------------------------------------------------
+# --- structured rectangle --------------------------------------------------
+
 def _structured_triangles(nx: int, ny: int, diagonal: str) -> np.ndarray:
     """Connectivity (3, 2 nx ny) of a structured grid of (nx + 1) x (ny + 1) nodes.
 
-    Each cell (i, j) has corners sw, se, ne, nw and is cut along one diagonal:
-    ``"right"`` cuts sw-ne, ``"left"`` cuts se-nw, ``"alternate"`` uses sw-ne
-    on cells with ``i + j`` even and se-nw otherwise (a pattern without a
-    preferred direction, the usual choice for elasticity). Both triangles of a
-    cell are listed counter-clockwise; cell (i, j) gives triangles
-    ``2 (j nx + i)`` and ``2 (j nx + i) + 1``.
+    Each cell (i, j) has corners sw, se, ne, nw and is cut along one diagonal: ``"right"`` cuts sw-ne, ``"left"``
+    cuts se-nw, ``"alternate"`` uses sw-ne on cells with ``i + j`` even and se-nw otherwise (a pattern without a
+    preferred direction, the usual choice for elasticity). Both triangles of a cell are listed counter-clockwise;
+    cell (i, j) gives triangles ``2 (j nx + i)`` and ``2 (j nx + i) + 1``.
     """
-    if not isinstance(diagonal, str) or diagonal not in _DIAGONALS:
-        raise ValueError(f"diagonal must be one of {_DIAGONALS}, got {diagonal!r}")
     i, j = np.meshgrid(np.arange(nx), np.arange(ny), indexing="xy")
     i, j = i.ravel(), j.ravel()  # cell order: row by row
     sw = j * (nx + 1) + i
     se = sw + 1
     nw = sw + (nx + 1)
     ne = nw + 1
-    if diagonal == "right":
-        cut_sw_ne = np.ones(i.shape, dtype=bool)
-    elif diagonal == "left":
-        cut_sw_ne = np.zeros(i.shape, dtype=bool)
-    else:
-        cut_sw_ne = (i + j) % 2 == 0
+    cut_sw_ne = (i + j) % 2 == 0 if diagonal == "alternate" else np.full(i.shape, diagonal == "right")
     # sw-ne diagonal: (sw, se, ne) and (sw, ne, nw); se-nw: (sw, se, nw) and (se, ne, nw)
     first = np.where(cut_sw_ne, np.stack([sw, se, ne]), np.stack([sw, se, nw]))
     second = np.where(cut_sw_ne, np.stack([sw, ne, nw]), np.stack([se, ne, nw]))
@@ -333,47 +284,33 @@ def _structured_mesh(x: np.ndarray, y: np.ndarray, nx: int, ny: int, diagonal: s
 def rectangle(width=1.0, height=1.0, nx=10, ny=10, diagonal="alternate") -> MeshTri:
     """Structured triangulation of ``[0, width] x [0, height]``.
 
-    ``nx`` x ``ny`` cells, each cut into two counter-clockwise triangles
-    (``2 nx ny`` triangles, ``(nx + 1)(ny + 1)`` nodes). ``diagonal`` is
-    ``"alternate"`` (default; cells alternate like a checkerboard), ``"right"``
-    (every cell cut from lower left to upper right) or ``"left"``.
+    ``nx`` x ``ny`` cells, each cut into two counter-clockwise triangles (``2 nx ny`` triangles,
+    ``(nx + 1)(ny + 1)`` nodes). ``diagonal`` is ``"alternate"`` (default; cells alternate like a checkerboard),
+    ``"right"`` (every cell cut from lower left to upper right) or ``"left"``.
 
-    Named boundaries: ``"left"`` (x = 0), ``"right"`` (x = width),
-    ``"bottom"`` (y = 0), ``"top"`` (y = height).
+    Named boundaries: ``"left"`` (x = 0), ``"right"`` (x = width), ``"bottom"`` (y = 0), ``"top"`` (y = height).
     """
     width = _positive_size("width", width)
     height = _positive_size("height", height)
     _check_aspect("width / height", width / height)
-    nx = _positive_count("nx", nx, MAX_TRIANGLES // 2)
-    ny = _positive_count("ny", ny, MAX_TRIANGLES // 2)
-    _check_grid(nx, ny)
-    if not isinstance(diagonal, str) or diagonal not in _DIAGONALS:
-        raise ValueError(f"diagonal must be one of {_DIAGONALS}, got {diagonal!r}")
-    xs = np.linspace(0.0, width, nx + 1)
-    ys = np.linspace(0.0, height, ny + 1)
-    X, Y = np.meshgrid(xs, ys, indexing="xy")
-    mesh = _structured_mesh(X, Y, nx, ny, diagonal)
-    tx = 1e-9 * width
-    ty = 1e-9 * height
-    return mesh.with_boundaries(
-        {
-            "left": lambda m: np.abs(m[0]) < tx,
-            "right": lambda m: np.abs(m[0] - width) < tx,
-            "bottom": lambda m: np.abs(m[1]) < ty,
-            "top": lambda m: np.abs(m[1] - height) < ty,
-        }
-    )
+    nx, ny = _check_grid(nx, ny, diagonal)
+    X, Y = np.meshgrid(np.linspace(0.0, width, nx + 1), np.linspace(0.0, height, ny + 1), indexing="xy")
+    tx, ty = 1e-9 * width, 1e-9 * height
+    return _structured_mesh(X, Y, nx, ny, diagonal).with_boundaries({
+        "left": lambda m: np.abs(m[0]) < tx,
+        "right": lambda m: np.abs(m[0] - width) < tx,
+        "bottom": lambda m: np.abs(m[1]) < ty,
+        "top": lambda m: np.abs(m[1] - height) < ty,
+    })
 
 
 def _grid_for(n_triangles: int, width: float, height: float) -> tuple[int, int]:
     """(nx, ny) with 2 nx ny closest to n_triangles and cells as square as possible.
 
-    Square cells want ``nx ~ sqrt(n/2 * aspect)``; for a strip wider than
-    ``n/2`` (aspect ``> n/2``) that alone would exceed the request by orders of
-    magnitude (``ny`` cannot drop below 1), so ``nx`` is capped at ``n/2``: the
-    cells get elongated instead. The result has ``2 nx ny`` within a factor 1.5
-    of ``n_triangles`` for any aspect ratio (2 triangles for a request of 1)
-    and never more than :data:`MAX_TRIANGLES`.
+    Square cells want ``nx ~ sqrt(n/2 * aspect)``; for a strip wider than ``n/2`` (aspect ``> n/2``) that alone
+    would exceed the request by orders of magnitude (``ny`` cannot drop below 1), so ``nx`` is capped at ``n/2``:
+    the cells get elongated instead. The result has ``2 nx ny`` within a factor 1.5 of ``n_triangles`` for any
+    aspect ratio (2 triangles for a request of 1) and never more than :data:`MAX_TRIANGLES`.
     """
     aspect = width / height
     half = max(1, n_triangles // 2)
@@ -395,9 +332,8 @@ def _grid_for(n_triangles: int, width: float, height: float) -> tuple[int, int]:
 def mesh_with_about(n_triangles, width=1.0, height=1.0, diagonal="alternate") -> MeshTri:
     """A :func:`rectangle` of ``width x height`` with about ``n_triangles`` triangles.
 
-    Picks ``nx, ny`` with ``nx / ny`` close to ``width / height`` (cells close
-    to square) and ``2 nx ny`` as close to ``n_triangles`` as such grids allow:
-    always within a factor 1.5, also for thin strips (whose cells then get
+    Picks ``nx, ny`` with ``nx / ny`` close to ``width / height`` (cells close to square) and ``2 nx ny`` as close
+    to ``n_triangles`` as such grids allow: always within a factor 1.5, also for thin strips (whose cells then get
     elongated). ``n_triangles`` is at most :data:`MAX_TRIANGLES`.
     """
     n_triangles = _positive_count("n_triangles", n_triangles)
@@ -411,35 +347,28 @@ def mesh_with_about(n_triangles, width=1.0, height=1.0, diagonal="alternate") ->
 def flap(width=2.0, height=1.0, n_triangles=2000, diagonal="alternate") -> MeshTri:
     """The rectangle of the tissue-flap scene: ``[0, width] x [0, height]``.
 
-    A :func:`mesh_with_about` rectangle with the usual boundaries ``"left"``,
-    ``"right"``, ``"bottom"``, ``"top"`` plus two aliases naming the scene's
-    roles: ``"fixed"`` (= ``"left"``, where the flap stays attached) and
+    A :func:`mesh_with_about` rectangle with the usual boundaries ``"left"``, ``"right"``, ``"bottom"``, ``"top"``
+    plus two aliases naming the scene's roles: ``"fixed"`` (= ``"left"``, where the flap stays attached) and
     ``"handle"`` (= ``"right"``, the edge a handle pulls).
     """
     mesh = mesh_with_about(n_triangles, width, height, diagonal=diagonal)
     return mesh.with_boundaries({"fixed": mesh.boundaries["left"], "handle": mesh.boundaries["right"]})
 
 
-# --------------------------------------------------------------------------
-# fusiform (spindle-shaped) muscle
-# --------------------------------------------------------------------------
+# --- fusiform (spindle-shaped) muscle ---------------------------------------
+
 def fusiform_width(x, length=4.0, max_width=1.0, tendon_width=0.25):
     """Width profile ``w(x)`` of the fusiform muscle and its slope ``w'(x)``.
 
-    ``w(x) = tendon_width + (max_width - tendon_width) sin^2(pi x / length)``
-    for ``0 <= x <= length``: ``tendon_width`` at both tendons, ``max_width``
-    in the middle of the belly, smooth, with ``w' = 0`` at the tendons (the
-    belly meets each tendon without a kink) and in the middle.
+    ``w(x) = tendon_width + (max_width - tendon_width) sin^2(pi x / length)`` for ``0 <= x <= length``:
+    ``tendon_width`` at both tendons, ``max_width`` in the middle of the belly, smooth, with ``w' = 0`` at the
+    tendons (the belly meets each tendon without a kink) and in the middle.
 
     Returns ``(w, dw_dx)`` with the shape of ``x``.
     """
-    x = np.asarray(x, dtype=float)
-    k = math.pi / length
-    s = np.sin(k * x)
-    c = np.cos(k * x)
-    w = tendon_width + (max_width - tendon_width) * s * s
-    dw = (max_width - tendon_width) * 2.0 * s * c * k
-    return w, dw
+    x, k = np.asarray(x, dtype=float), math.pi / length
+    s, c = np.sin(k * x), np.cos(k * x)
+    return tendon_width + (max_width - tendon_width) * s * s, (max_width - tendon_width) * 2.0 * s * c * k
 
 
 def _check_fusiform(length, max_width, tendon_width):
@@ -459,58 +388,43 @@ def _check_fusiform(length, max_width, tendon_width):
 def fusiform_muscle(length=4.0, max_width=1.0, tendon_width=0.25, nx=40, ny=8, diagonal="alternate") -> MeshTri:
     """A spindle-shaped (fusiform) muscle belly between two tendons.
 
-    The domain is ``0 <= x <= length``, ``|y| <= w(x) / 2`` with the width
-    profile :func:`fusiform_width`: symmetric about the x-axis (and about
-    ``x = length / 2``), ``tendon_width`` wide at both ends and ``max_width``
-    in the middle.
+    The domain is ``0 <= x <= length``, ``|y| <= w(x) / 2`` with the width profile :func:`fusiform_width`: symmetric
+    about the x-axis (and about ``x = length / 2``), ``tendon_width`` wide at both ends and ``max_width`` in the
+    middle.
 
-    It is the image of the structured :func:`rectangle`-style grid on
-    ``(xi, eta) in [0, length] x [-1/2, 1/2]`` under the map
-    ``(xi, eta) -> (xi, eta w(xi))``, whose Jacobian determinant ``w(xi)`` is
-    positive, so the triangles stay counter-clockwise. The grid lines
-    ``eta = const`` become the curves ``y = eta w(x)`` running tendon to
-    tendon: the natural fiber directions (:func:`fusiform_fiber_field`).
-    With ``ny`` even, the mid-line ``y = 0`` is a grid line and the mesh is a
-    mirror image of itself about the x-axis.
+    It is the image of the structured :func:`rectangle`-style grid on ``(xi, eta) in [0, length] x [-1/2, 1/2]``
+    under the map ``(xi, eta) -> (xi, eta w(xi))``, whose Jacobian determinant ``w(xi)`` is positive, so the
+    triangles stay counter-clockwise. The grid lines ``eta = const`` become the curves ``y = eta w(x)`` running
+    tendon to tendon: the natural fiber directions (:func:`fusiform_fiber_field`). With ``ny`` even, the mid-line
+    ``y = 0`` is a grid line and the mesh is a mirror image of itself about the x-axis.
 
-    Named boundaries: ``"left_tendon"`` (x = 0), ``"right_tendon"``
-    (x = length), ``"top"`` and ``"bottom"`` (the curved sides).
+    Named boundaries: ``"left_tendon"`` (x = 0), ``"right_tendon"`` (x = length), ``"top"`` and ``"bottom"`` (the
+    curved sides).
     """
     length, max_width, tendon_width = _check_fusiform(length, max_width, tendon_width)
-    nx = _positive_count("nx", nx, MAX_TRIANGLES // 2)
-    ny = _positive_count("ny", ny, MAX_TRIANGLES // 2)
-    _check_grid(nx, ny)
-    if not isinstance(diagonal, str) or diagonal not in _DIAGONALS:
-        raise ValueError(f"diagonal must be one of {_DIAGONALS}, got {diagonal!r}")
-    xi = np.linspace(0.0, length, nx + 1)
-    eta = np.linspace(-0.5, 0.5, ny + 1)
-    XI, ETA = np.meshgrid(xi, eta, indexing="xy")
+    nx, ny = _check_grid(nx, ny, diagonal)
+    XI, ETA = np.meshgrid(np.linspace(0.0, length, nx + 1), np.linspace(-0.5, 0.5, ny + 1), indexing="xy")
     w, _ = fusiform_width(XI, length, max_width, tendon_width)
-    mesh = _structured_mesh(XI, ETA * w, nx, ny, diagonal)
     tx = 1e-9 * length
 
     def at_end(m):
         return (np.abs(m[0]) < tx) | (np.abs(m[0] - length) < tx)
 
-    return mesh.with_boundaries(
-        {
-            "left_tendon": lambda m: np.abs(m[0]) < tx,
-            "right_tendon": lambda m: np.abs(m[0] - length) < tx,
-            "top": lambda m: (m[1] > 0.0) & ~at_end(m),
-            "bottom": lambda m: (m[1] < 0.0) & ~at_end(m),
-        }
-    )
+    return _structured_mesh(XI, ETA * w, nx, ny, diagonal).with_boundaries({
+        "left_tendon": lambda m: np.abs(m[0]) < tx,
+        "right_tendon": lambda m: np.abs(m[0] - length) < tx,
+        "top": lambda m: (m[1] > 0.0) & ~at_end(m),
+        "bottom": lambda m: (m[1] < 0.0) & ~at_end(m),
+    })
 
 
 def fusiform_fiber_direction(points, length=4.0, max_width=1.0, tendon_width=0.25) -> np.ndarray:
     """Unit fiber direction of the fusiform muscle at ``points`` (shape ``(2, ...)``).
 
-    The fibers are the curves ``y = eta w(x)`` (``eta`` constant, ``w`` from
-    :func:`fusiform_width`) of the muscle's parametrisation: the curve through
-    ``(x, y)`` has ``eta = y / w(x)`` and tangent ``(1, eta w'(x))``, returned
-    normalised. Horizontal on the mid-line ``y = 0``, at the tendons and at the
-    widest section (where ``w' = 0``); elsewhere the fibers spread out of the
-    left tendon and converge into the right one. ``x`` is measured from the
+    The fibers are the curves ``y = eta w(x)`` (``eta`` constant, ``w`` from :func:`fusiform_width`) of the muscle's
+    parametrisation: the curve through ``(x, y)`` has ``eta = y / w(x)`` and tangent ``(1, eta w'(x))``, returned
+    normalised. Horizontal on the mid-line ``y = 0``, at the tendons and at the widest section (where ``w' = 0``);
+    elsewhere the fibers spread out of the left tendon and converge into the right one. ``x`` is measured from the
     left tendon (as in :func:`fusiform_muscle`).
     """
     length, max_width, tendon_width = _check_fusiform(length, max_width, tendon_width)
@@ -532,18 +446,11 @@ def fusiform_fiber_direction(points, length=4.0, max_width=1.0, tendon_width=0.2
 
 
 def fusiform_fiber_field(mesh, length=None, max_width=None, tendon_width=None) -> np.ndarray:
-    """Unit fiber directions (2, n_elements) of a :func:`fusiform_muscle` mesh.
+    """Unit fiber directions (2, n_elements) of a :func:`fusiform_muscle` mesh: each triangle gets
+    :func:`fusiform_fiber_direction` at its centroid (a field mirror-symmetric about the x-axis).
 
-    The fibers follow the curves ``y = eta w(x)`` (``eta`` constant) of the
-    muscle's parametrisation: they run from tendon to tendon, bulge with the
-    belly and converge towards the narrow ends. Each triangle gets the
-    direction :func:`fusiform_fiber_direction` at its centroid. On the
-    mid-line ``y = 0`` the fibers are horizontal, and the field is the mirror
-    image of itself about the x-axis.
-
-    ``length``, ``max_width`` and ``tendon_width`` are the values the mesh was
-    made with; left as ``None`` they are read off the mesh (its x-extent, its
-    y-extent, and the y-extent of the nodes on the left tendon), which is exact
+    ``length``, ``max_width`` and ``tendon_width`` are the values the mesh was made with; left as ``None`` they are
+    read off the mesh (its x-extent, its y-extent, and the y-extent of the nodes on the left tendon), which is exact
     for meshes from :func:`fusiform_muscle`.
     """
     p = np.asarray(mesh.p, dtype=float)
@@ -553,10 +460,8 @@ def fusiform_fiber_field(mesh, length=None, max_width=None, tendon_width=None) -
     if not np.all(np.isfinite(p)):
         raise ValueError("mesh has non-finite node coordinates")
     x0 = p[0].min()
-    if length is None:
-        length = p[0].max() - x0
-    if max_width is None:
-        max_width = 2.0 * np.abs(p[1]).max()
+    length = p[0].max() - x0 if length is None else length
+    max_width = 2.0 * np.abs(p[1]).max() if max_width is None else max_width
     if tendon_width is None:
         at_left = np.abs(p[0] - x0) <= 1e-9 * max(abs(float(length)), 1e-300)
         tendon_width = 2.0 * np.abs(p[1, at_left]).max()
