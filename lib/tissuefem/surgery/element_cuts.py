@@ -1,85 +1,64 @@
 """Cutting through elements: the virtual node algorithm in 2D.
 
-:func:`~tissuefem.surgery.topology.incise` snaps a drawn stroke to a path of
-mesh edges, so the wound is jagged and its length and direction depend on the
-mesh. Here the stroke is followed exactly, without remeshing, by the *virtual
-node algorithm* of Molino, Bao and Fedkiw [1]_: every triangle the cut
-separates is duplicated, one copy per piece of its material; every copy keeps
-the triangle's reference geometry (hence its P1 shape functions) and carries
-only the material of its piece; vertices whose material a copy does not hold
-become extra ("virtual") nodes.
+:func:`~tissuefem.surgery.topology.incise` snaps a stroke to mesh edges, so the
+wound is jagged and depends on the mesh. Here the stroke is followed exactly,
+without remeshing, by the *virtual node algorithm* of Molino, Bao and Fedkiw
+[1]_: every triangle the cut separates is duplicated, one copy per piece of its
+material; every copy keeps the triangle's reference geometry (hence its P1
+shape functions) and carries only the material of its piece; vertices whose
+material a copy does not hold become extra ("virtual") nodes.
 
-The construction in 2D, as done here
-------------------------------------
-1. **Where the stroke lies.** The stroke is drawn on the tissue as it is now
-   (the deformed node positions). Inside one triangle the P1 map from the
-   reference triangle to the deformed one is affine, so a straight piece of the
-   stroke in a deformed triangle is straight in the reference triangle, with the
-   same barycentric coordinates. Each stroke segment ``a -> b`` is clipped
-   against each triangle it crosses by keeping the parameters ``s`` with
-   ``lambda_i(a) + s (lambda_i(b) - lambda_i(a)) >= 0`` for the three
-   barycentric coordinates. The pieces are kept in the triangle's local
-   coordinates ``(xi, eta) = (lambda_1, lambda_2)`` (vertex 0 at (0, 0),
-   vertex 1 at (1, 0), vertex 2 at (0, 1)), which do not depend on the
-   configuration. Before that, a stroke passing within 1e-6 of an edge
-   length of a node is moved onto the node, once for the whole mesh, so that
-   neighbouring triangles never disagree on whether it went through it.
-2. **The material of an element.** Every element carries a :class:`Region`:
-   the part of its triangle its material fills (a polygon; the whole triangle
-   for an element that was never cut), the cracks inside it that do not
-   separate it (*slits*), and the parts of its edges where it is cut off from
-   the element across (*severed*, left by a cut along an edge). Its weight is
-   the polygon's share of the triangle's area; :class:`~tissuefem.engine.
-   assembly.P1Assembler` integrates over that share.
+The construction in 2D
+----------------------
+1. **Where the stroke lies.** The stroke is drawn on the deformed tissue. In
+   one triangle the P1 map is affine, so a straight piece of the stroke is
+   straight in the reference triangle, with the same barycentric coordinates.
+   Each segment ``a -> b`` is clipped against each triangle by keeping the
+   ``s`` with ``lambda_i(a) + s (lambda_i(b) - lambda_i(a)) >= 0``; the pieces
+   are kept in local coordinates ``(xi, eta) = (lambda_1, lambda_2)`` (vertex 0
+   at (0, 0), 1 at (1, 0), 2 at (0, 1)). First, a stroke passing within 1e-6
+   of an edge length of a node is moved onto it, once for the whole mesh, so
+   that neighbouring triangles never disagree on whether it went through it.
+2. **The material of an element** is a :class:`Region`: the polygon its
+   material fills (the whole triangle if never cut), the cracks inside it that
+   do not separate it (*slits*), and the parts of its edges cut off from the
+   element across (*severed*). Its weight, the polygon's share of the
+   triangle's area, is what :class:`~tissuefem.engine.assembly.P1Assembler`
+   integrates over.
 3. **Splitting an element.** The region's boundary, its slits and the new
-   pieces of the stroke form a planar graph. Edges that dangle (a crack that
-   ends inside the material) are pruned and kept as slits; the faces of what
-   remains are the pieces of material. One face: the element stays one element
-   (perhaps with a new slit). ``k`` faces: ``k`` copies of the element, each
-   with one face as its region and the weight of that face.
-4. **Nodes.** Every copy needs all three vertices. Two elements on the two
-   sides of a mesh edge are *joined* where their materials touch along it: the
-   parts of the edge each one's region touches (less what is severed) overlap
-   over a positive length. Joined elements share the edge's two nodes. The
+   pieces of the stroke form a planar graph. Dangling edges (a crack ending in
+   the material) are pruned and kept as slits; the faces of what remains are
+   the pieces of material: ``k`` faces give ``k`` copies of the element, each
+   with one face as its region.
+4. **Nodes.** Two elements on the two sides of a mesh edge are *joined* where
+   the parts of the edge their regions touch (less what is severed) overlap
+   over a positive length; joined elements share the edge's two nodes. The
    nodes of the new mesh are the classes of corners (element, vertex) under
-   these joins: a vertex whose surrounding material is in one piece keeps one
-   node; a copy whose material lies away from a vertex gets, there, a virtual
-   node that it shares with every copy on its side of the cut that it is joined
-   to through edges. A cut along a mesh edge needs no split at all: severing
-   the edge stops the join, and the vertices on it duplicate like in
-   :func:`~tissuefem.surgery.topology.duplicate_along_edges`.
-5. **The crack tip.** A triangle that contains the end of a crack holds one
-   connected piece of material, so (as in [1]_) it is not duplicated; the crack
-   inside it is kept as a slit. The two copies of the triangle through which
-   the crack enters the tip triangle are both joined to it along that edge, so
-   they share its two nodes and differ only at their third vertex: the jump of
-   the displacement across the crack is that vertex's shape function times the
-   difference of its two nodes, zero on the edge of the tip triangle and
-   growing linearly away from it. The crack opens smoothly and closes at the
-   tip triangle: within one element of the drawn tip, the resolution of P1
-   with virtual nodes (phantom-node methods [3]_ make the same choice). A
-   triangle cannot instead be split with its material "still connected around
-   the tip": two P1 copies agree along a line only if they share all three
-   nodes, that is, if they are one element.
-6. **No slivers.** A piece whose weight would fall below ``min_weight`` is
-   merged into the neighbouring piece across the cut, and the parts of the
-   triangle's edges that bounded it are severed instead: there the cut is
-   snapped onto the element's edges (through a vertex, or along an edge). The
-   wound's geometry (:class:`Wound`) stays where the stroke was drawn; only the
-   topology moves, by less than the sliver's width. A side of the cut that is
-   itself that thin (a strip along the boundary or along another cut) may be
-   pinched where the cut is snapped to a vertex.
+   these joins: a copy whose material lies away from a vertex gets a virtual
+   node there, shared with every copy on its side of the cut it is joined to.
+   A cut along a mesh edge needs no split: severing the edge stops the join.
+5. **The crack tip.** The triangle holding the end of a crack is one piece of
+   material, so (as in [1]_) it is not duplicated; the crack in it is a slit.
+   The two copies through which the crack enters it are both joined to it, so
+   they differ only at their third vertex: the displacement jump is that
+   vertex's shape function times the difference of its two nodes, zero on the
+   tip triangle's edge and growing linearly away from it. The crack closes
+   within one element of the drawn tip, the resolution of P1 with virtual
+   nodes (phantom-node methods [3]_ make the same choice): two P1 copies agree
+   along a line only if they share all three nodes, that is, are one element.
+6. **No slivers.** A piece lighter than ``min_weight`` is merged into its
+   neighbour across the cut and the parts of the triangle's edges that bounded
+   it are severed instead: the cut's topology is snapped onto the element's
+   edges (by less than the sliver's width), while the :class:`Wound` stays
+   where the stroke was drawn.
 7. **One element per set of nodes.** Copies of one triangle that end up with
-   the same three nodes hold material that is connected after all: a short
-   crack whose both ends lie in the two neighbours (merged back into one
-   element, the cut a slit), or the two corners outside a V-shaped crack,
-   joined round its apex in the next triangle (one element whose region has
-   two polygons).
+   the same three nodes hold connected material (a short crack with both ends
+   in the neighbours, or the corners outside a V-shaped crack): they are one
+   element, whose region may have several polygons.
 
-Cuts through vertices and along edges need no special case: the clipping
-keeps pieces that lie on a triangle's edge (a cut along it) and drops pieces
-of zero length (a stroke touching a triangle at a vertex); the generalisation
-of [1]_ to these cases is that of Wang et al. [2]_.
+Cuts through vertices and along edges need no special case: the clipping keeps
+pieces on a triangle's edge and drops pieces of zero length; this
+generalisation of [1]_ is that of Wang et al. [2]_.
 
 References
 ----------
@@ -94,14 +73,11 @@ References
 
 Conventions
 -----------
-The result is an :class:`ElementCut`, a :class:`~tissuefem.surgery.topology.
-MeshEdit` with the material weights, the regions and the wound. Elements that
-are not cut keep their index and their vertex order; the first piece of a cut
-element keeps its index and the other pieces are appended; every copy keeps
-the vertex order of its triangle (``sort_t=False``). Old nodes keep their
-index; the new (virtual) nodes are appended. Mass and momentum carry over
-exactly when nodal masses are computed from the material areas
-(:func:`lumped_mass`): the copies of a node together hold what it held.
+The result is an :class:`ElementCut`. Uncut elements keep their index and
+vertex order; the first piece of a cut element keeps its index, the others are
+appended; every copy keeps its triangle's vertex order (``sort_t=False``). Old
+nodes keep their index; virtual nodes are appended. Mass and momentum carry
+over exactly with nodal masses from the material areas (:func:`lumped_mass`).
 """
 
 from __future__ import annotations
@@ -118,19 +94,17 @@ from .topology import MeshEdit, _keys, _mesh_arrays, _new_mesh, _points, _positi
 __all__ = ["Region", "Wound", "ElementCut", "cut_through", "excise_through", "Picture", "picture", "locate",
            "firm_anchor", "carry_points", "region_holds", "lumped_mass", "material_areas"]
 
-#: Geometric tolerance in a triangle's local coordinates (the unit triangle):
-#: points closer than this are one point, and a point this close to an edge is on it.
+#: Tolerance in a triangle's local coordinates: points closer than this are one point, and a point
+#: this close to an edge is on it.
 _EPS = 1e-9
 
-#: A stroke that passes closer than this (times the median edge length) to a node is moved onto
-#: it, once for the whole mesh: every triangle then sees the stroke either exactly through the
-#: node or clearly beside it, never one in one triangle and the other in the next.
+#: A stroke closer than this (times the median edge length) to a node is moved onto it, once for the
+#: whole mesh, so that no two triangles disagree on whether it went through the node.
 _NODE_SNAP = 1e-6
 
-#: Default smallest share of its triangle a piece may carry (see ``min_weight``). A corner
-#: piece's share is the product of the fractions of the two edges it cuts off, so this snaps a
-#: cut that passes within about 3 % of an element of a vertex; copies this light still give a
-#: well-conditioned tangent (their stiffness and mass both scale with the weight).
+#: Default smallest share of its triangle a piece may carry (``min_weight``). A corner piece's share is
+#: the product of the fractions of the two edges it cuts off, so this snaps a cut passing within about
+#: 3 % of an element of a vertex; copies this light still give a well-conditioned tangent.
 MIN_WEIGHT = 1e-3
 
 # kinds of the edges of an element's planar graph
@@ -138,9 +112,7 @@ _P, _S, _C = 0, 1, 2  # region boundary, old slit, new cut
 _CORNERS = ((0.0, 0.0), (1.0, 0.0), (0.0, 1.0))
 
 
-# --------------------------------------------------------------------------
-# the material of an element
-# --------------------------------------------------------------------------
+# --- the material of an element ---
 def _segments(name, value) -> np.ndarray:
     a = np.zeros((0, 2, 2)) if value is None else np.asarray(value, dtype=float)
     if a.size == 0:
@@ -152,25 +124,18 @@ def _segments(name, value) -> np.ndarray:
 
 @dataclass(frozen=True, eq=False)
 class Region:
-    """The part of its triangle an element's material fills.
-
-    Everything is in the triangle's local coordinates ``(xi, eta)``: vertex 0
-    of the element at (0, 0), vertex 1 at (1, 0), vertex 2 at (0, 1)
-    (``xi, eta`` are the barycentric coordinates of vertices 1 and 2).
+    """The part of its triangle an element's material fills, in local coordinates ``(xi, eta)``.
 
     Attributes
     ----------
     polygons : tuple of ndarray, each shaped (k, 2)
-        The material, as counter-clockwise polygons in ``(xi, eta)`` that do
-        not overlap. Usually one; several when pieces that a cut separates
-        inside the triangle are joined outside it (around the end of the
-        cut), so that they share all three nodes and are one element.
+        The material, as counter-clockwise polygons that do not overlap. Several
+        when pieces a cut separates inside the triangle are joined outside it
+        (around the end of the cut): they share all three nodes, one element.
     slits : ndarray, shape (s, 2, 2)
-        Cracks inside the material that do not separate it (a crack tip); a
-        later cut that meets them may complete the separation.
+        Cracks inside the material that do not separate it (a crack tip).
     severed : ndarray, shape (r, 2, 2)
-        Parts of the triangle's edges where the material is cut off from the
-        element across (a cut along an edge).
+        Parts of the triangle's edges cut off from the element across.
     """
 
     polygons: tuple
@@ -217,12 +182,7 @@ class Region:
         return self._weight
 
 
-
-
-# --------------------------------------------------------------------------
-# small geometry in a triangle's local coordinates (plain floats: the
-# graphs are a handful of edges, where numpy's per-call cost dominates)
-# --------------------------------------------------------------------------
+# --- small geometry in local coordinates (plain floats: numpy's per-call cost dominates on tiny graphs) ---
 def _cross(ax, ay, bx, by):
     return ax * by - ay * bx
 
@@ -251,41 +211,24 @@ def _snap(x, y):
 def _edges_of(pt):
     """The local edges (0: eta = 0, 1: xi + eta = 1, 2: xi = 0) a point lies on."""
     x, y = pt
-    out = []
-    if abs(y) <= _EPS:
-        out.append(0)
-    if abs(1.0 - x - y) <= _EPS:
-        out.append(1)
-    if abs(x) <= _EPS:
-        out.append(2)
-    return out
+    return [k for k, d in enumerate((y, 1.0 - x - y, x)) if abs(d) <= _EPS]
 
 
 def _edge_param(k, pt) -> float:
     """Position along local edge ``k``, 0 at its vertex ``k`` and 1 at vertex ``k + 1``."""
-    if k == 0:
-        return pt[0]
-    if k == 1:
-        return pt[1]
-    return 1.0 - pt[1]
+    return pt[0] if k == 0 else pt[1] if k == 1 else 1.0 - pt[1]
 
 
 def _edge_point(k, s):
-    if k == 0:
-        return (s, 0.0)
-    if k == 1:
-        return (1.0 - s, s)
-    return (0.0, 1.0 - s)
+    """The local point at parameter ``s`` along local edge ``k`` (the inverse of :func:`_edge_param`)."""
+    return (s, 0.0) if k == 0 else (1.0 - s, s) if k == 1 else (0.0, 1.0 - s)
 
 
 def _winding(pt, poly) -> int:
     """Winding number of a closed polygon (list of points) around ``pt``."""
     px, py = pt
     w = 0
-    n = len(poly)
-    for i in range(n):
-        ax, ay = poly[i]
-        bx, by = poly[(i + 1) % n]
+    for (ax, ay), (bx, by) in zip(poly, poly[1:] + poly[:1]):
         side = _cross(bx - ax, by - ay, px - ax, py - ay)
         if ay <= py:
             if by > py and side > 0.0:
@@ -296,13 +239,8 @@ def _winding(pt, poly) -> int:
 
 
 def _area(poly) -> float:
-    s = 0.0
-    n = len(poly)
-    for i in range(n):
-        ax, ay = poly[i]
-        bx, by = poly[(i + 1) % n]
-        s += ax * by - ay * bx
-    return 0.5 * s
+    """Signed area of a polygon (a list of points, not an array)."""
+    return 0.5 * sum(ax * by - ay * bx for (ax, ay), (bx, by) in zip(poly, poly[1:] + poly[:1]))
 
 
 def _crossings(p, q, a, b):
@@ -371,11 +309,7 @@ def _subtract(iv, cut):
 
 def _overlaps(iv, jv) -> bool:
     """Do two interval lists overlap over more than ``_EPS``?"""
-    for a, b in iv:
-        for c, d in jv:
-            if min(b, d) - max(a, c) > _EPS:
-                return True
-    return False
+    return any(min(b, d) - max(a, c) > _EPS for a, b in iv for c, d in jv)
 
 
 def _edge_intervals(segments):
@@ -389,10 +323,14 @@ def _edge_intervals(segments):
     return [_merge_intervals(iv) for iv in out]
 
 
+def _sides(region):
+    """The region's polygon sides (k, 2, 2), in local coordinates, counter-clockwise (material on the left)."""
+    return np.concatenate([np.stack([poly, np.roll(poly, -1, axis=0)], axis=1) for poly in region.polygons])
+
+
 def _region_touch(region: Region):
     """The parts of each local edge the region's material touches, less what is severed."""
-    sides = np.concatenate([np.stack([poly, np.roll(poly, -1, axis=0)], axis=1) for poly in region.polygons])
-    touched = _edge_intervals(sides)
+    touched = _edge_intervals(_sides(region))
     severed = _edge_intervals(region.severed)
     return [_subtract(touched[k], severed[k]) for k in range(3)]
 
@@ -401,9 +339,7 @@ _FULL_TOUCH = [[(0.0, 1.0)], [(0.0, 1.0)], [(0.0, 1.0)]]
 _WHOLE = Region((np.array(_CORNERS),))
 
 
-# --------------------------------------------------------------------------
-# one element: its material, cut by the new pieces of the stroke
-# --------------------------------------------------------------------------
+# --- one element: its material, cut by the new pieces of the stroke ---
 class _Arrangement:
     """The planar graph of one element's region, old slits and new cut pieces (local coordinates).
 
@@ -565,12 +501,9 @@ class _Arrangement:
                     he = (v, lst[lst.index(u) - 1])  # the next edge clockwise from v -> u
                 pts = [self.verts[a] for a, _ in cycle]
                 faces.append({"edges": cycle, "area": _area(pts), "points": pts})
-        outer = [i for i, f in enumerate(faces) if f["area"] <= 0.0]
         keep = [i for i, f in enumerate(faces) if f["area"] > 0.0]
         renum = {old: new for new, old in enumerate(keep)}
-        for i in outer:
-            renum[i] = -1
-        self.face_of = {he: renum[f] for he, f in self.face_of.items()}
+        self.face_of = {he: renum.get(f, -1) for he, f in self.face_of.items()}  # -1: the outer face
         self.faces = [faces[i] for i in keep]
 
     def _shared(self, f):
@@ -620,14 +553,9 @@ class _Arrangement:
                     del self.graph[key]  # dropped, not kept as a slit: the cut moved to the edges
 
     def merge(self, groups):
-        """Merge faces (lists of face indices) into one each; the cuts between them become slits.
-
-        Returns, for every old face, its new face index.
-        """
-        group_of = {}
-        for gi, members in enumerate(groups):
-            for f in members:
-                group_of[f] = gi
+        """Merge faces (lists of face indices) into one each, the cuts between them becoming slits; returns, for
+        every old face, its new face index."""
+        group_of = {f: gi for gi, members in enumerate(groups) for f in members}
         for key in list(self.graph):
             if self.graph[key] == _P:
                 continue
@@ -637,18 +565,13 @@ class _Arrangement:
                 del self.graph[key]
         old_faces = self.faces
         self._extract()
-        new_of = []
-        for f in old_faces:  # every face has a boundary edge, and those stay
-            he = next(he for he in f["edges"] if self.graph.get((min(he), max(he))) == _P)
-            new_of.append(self.face_of[he])
-        return new_of
+        # every face has a boundary edge, and those stay
+        return [self.face_of[next(he for he in f["edges"] if self.graph.get((min(he), max(he))) == _P)]
+                for f in old_faces]
 
     # -- results
     def locate(self, pt) -> int:
-        for i, f in enumerate(self.faces):
-            if _winding(pt, f["points"]) != 0:
-                return i
-        return -1
+        return next((i for i, f in enumerate(self.faces) if _winding(pt, f["points"]) != 0), -1)
 
     def face_regions(self):
         """For every face: (Region, its touched intervals per local edge, whole?)."""
@@ -686,9 +609,8 @@ class _Arrangement:
     def wound_faces(self):
         """One record per side of each new wound piece: (face, side, stroke0, stroke1, a, b, opened).
 
-        ``side`` is +1 when the face lies to the left of the stroke (in local
-        coordinates), -1 to the right. A piece along an edge of the triangle has
-        one side here (the other side is in the element across).
+        ``side`` is +1 when the face lies to the left of the stroke (in local coordinates), -1 to the right. A
+        piece along an edge of the triangle has one side here (the other is in the element across).
         """
         out = []
         for rec in self.wound:
@@ -696,10 +618,8 @@ class _Arrangement:
             a, b = self.verts[u], self.verts[v]
             if kind == "edge":
                 left = self.face_of.get((u, v), -1)
-                if left >= 0:
-                    out.append((left, 1, t0, t1, a, b, True))
-                else:
-                    out.append((self.face_of[(v, u)], -1, t0, t1, a, b, True))
+                out.append((left, 1, t0, t1, a, b, True) if left >= 0
+                           else (self.face_of[(v, u)], -1, t0, t1, a, b, True))
                 continue
             if (min(u, v), max(u, v)) in self.graph:
                 left, right = self.face_of[(u, v)], self.face_of[(v, u)]
@@ -725,15 +645,12 @@ def _simplify(pts):
     return out
 
 
-# --------------------------------------------------------------------------
-# the stroke in every triangle
-# --------------------------------------------------------------------------
+# --- the stroke in every triangle ---
 def _through_nearby_nodes(x, t, pts):
     """The stroke moved onto the nodes it nearly meets (within ``_NODE_SNAP`` edge lengths).
 
-    A vertex of the stroke near a node becomes the node; a node near a segment
-    becomes a new vertex of the stroke. Returns the new points (k', 2) and,
-    for each, its parameter on the drawn stroke (segment index + fraction).
+    A vertex of the stroke near a node becomes the node; a node near a segment becomes a new vertex of the
+    stroke. Returns the new points (k', 2) and each one's parameter on the drawn stroke (segment + fraction).
     """
     used = np.unique(t)
     xs = x[:, used]
@@ -763,18 +680,14 @@ def _through_nearby_nodes(x, t, pts):
 
 
 def _stroke_pieces(x, t, pts):
-    """Pieces of the stroke inside each triangle of the drawing configuration.
+    """Pieces of the stroke inside each triangle of the drawing configuration (collapsed triangles skipped).
 
-    Returns ``(pieces, orientation)``: ``pieces`` maps an element to a list of
-    ``(stroke0, stroke1, a, b)`` (stroke parameters, ends in local
-    coordinates, snapped onto edges and vertices within ``_EPS``), and
-    ``orientation`` is the sign of every triangle's drawn area.
-    Triangles collapsed in the drawing configuration are skipped.
+    Returns ``(pieces, orientation)``: ``pieces`` maps an element to a list of ``(stroke0, stroke1, a, b)``
+    (stroke parameters, ends in local coordinates snapped within ``_EPS``), and ``orientation`` is the sign
+    of every triangle's drawn area.
     """
     X = x[:, t]  # (2, 3, m)
-    x0 = X[:, 0]
-    d1 = X[:, 1] - x0
-    d2 = X[:, 2] - x0
+    x0, d1, d2 = X[:, 0], X[:, 1] - X[:, 0], X[:, 2] - X[:, 0]
     det = d1[0] * d2[1] - d1[1] * d2[0]
     h2 = np.maximum.reduce([(d1**2).sum(0), (d2**2).sum(0), ((X[:, 2] - X[:, 1]) ** 2).sum(0)])
     usable = np.abs(det) > 1e-12 * h2
@@ -785,11 +698,8 @@ def _stroke_pieces(x, t, pts):
         a, b = pts[j], pts[j + 1]
         if np.hypot(*(b - a)) == 0.0:
             continue
-        cand = np.flatnonzero(
-            usable
-            & (lo[0] <= max(a[0], b[0]) + pad) & (hi[0] >= min(a[0], b[0]) - pad)
-            & (lo[1] <= max(a[1], b[1]) + pad) & (hi[1] >= min(a[1], b[1]) - pad)
-        )
+        cand = np.flatnonzero(usable & (lo[0] <= max(a[0], b[0]) + pad) & (hi[0] >= min(a[0], b[0]) - pad)
+                              & (lo[1] <= max(a[1], b[1]) + pad) & (hi[1] >= min(a[1], b[1]) - pad))
         if cand.size == 0:
             continue
         o, e1, e2, dt = x0[:, cand], d1[:, cand], d2[:, cand], det[cand]
@@ -802,8 +712,7 @@ def _stroke_pieces(x, t, pts):
 
         la, lb = local(a), local(b)
         dl = lb - la
-        s_lo = np.zeros(cand.size)
-        s_hi = np.ones(cand.size)
+        s_lo, s_hi = np.zeros(cand.size), np.ones(cand.size)
         # A stroke segment along the line of an edge (lambda_i within _EPS of 0 at both ends,
         # scaled by how far the segment reaches) lies on the edge: that constraint is dropped.
         # Every other one is cut exactly at lambda_i = 0, so that the ends stay on the stroke.
@@ -815,30 +724,24 @@ def _stroke_pieces(x, t, pts):
             s_lo = np.where(active & (dl[i] > 0), np.maximum(s_lo, bound[i]), s_lo)
             s_hi = np.where(active & (dl[i] < 0), np.minimum(s_hi, bound[i]), s_hi)
             s_hi = np.where(active & (dl[i] == 0) & (la[i] < 0), -1.0, s_hi)
-        pa = la[1:] + s_lo * dl[1:]
-        pb = la[1:] + s_hi * dl[1:]
+        pa, pb = la[1:] + s_lo * dl[1:], la[1:] + s_hi * dl[1:]
         keep = (s_hi > s_lo) & (np.hypot(*(pb - pa)) > _EPS)
         for c in np.flatnonzero(keep):
-            pa_c = _snap(float(pa[0, c]), float(pa[1, c]))
-            pb_c = _snap(float(pb[0, c]), float(pb[1, c]))
+            pa_c, pb_c = _snap(float(pa[0, c]), float(pa[1, c])), _snap(float(pb[0, c]), float(pb[1, c]))
             if math.hypot(pb_c[0] - pa_c[0], pb_c[1] - pa_c[1]) <= _EPS:
                 continue
             pieces.setdefault(int(cand[c]), []).append((j + float(s_lo[c]), j + float(s_hi[c]), pa_c, pb_c))
     return pieces, np.sign(det)
 
 
-# --------------------------------------------------------------------------
-# the result
-# --------------------------------------------------------------------------
+# --- the result ---
 @dataclass(frozen=True, eq=False)
 class Wound:
     """The faces of a cut, one record per side of each piece: what to draw.
 
-    Every piece of the stroke that lies in material has material on both of
-    its sides; each side is carried by one element of the new mesh, and the
-    wound's edge on that side moves with that element. Where the stroke runs
-    along a mesh edge, the two sides are in two different triangles (two
-    records, one from each).
+    Each side of a piece of the stroke is carried by one element of the new
+    mesh, and the wound's edge on that side moves with it. Where the stroke
+    runs along a mesh edge, the two records come from two triangles.
 
     Attributes
     ----------
@@ -853,12 +756,10 @@ class Wound:
     reference : ndarray, shape (k, 2, 2)
         The two ends (k, end, xy) in the reference configuration.
     stroke : ndarray, shape (k, 2)
-        Where the ends lie on the drawn polyline: segment index plus the
-        fraction along it (to order the pieces).
+        Where the ends lie on the drawn polyline: segment index plus fraction (to order the pieces).
     opened : ndarray of bool, shape (k,)
-        False where the material on the two sides is still one piece: a crack
-        inside the triangle that holds its tip, or a piece of the stroke that
-        was snapped onto element edges to avoid a sliver.
+        False where the two sides are still one piece: a crack in the triangle that holds its tip, or
+        a piece snapped onto element edges to avoid a sliver.
     """
 
     element: np.ndarray
@@ -874,8 +775,7 @@ class Wound:
         x = np.asarray(x, dtype=float)
         if x.ndim != 2 or x.shape[0] != 2 or (self.nodes.size and x.shape[1] <= self.nodes.max()):
             raise ValueError(f"x must be node positions of the new mesh shaped (2, n_nodes), got {x.shape}")
-        corners = x[:, self.nodes]  # (2, k, 3)
-        return np.einsum("kea,ika->kei", self.barycentric, corners)
+        return np.einsum("kea,ika->kei", self.barycentric, x[:, self.nodes])  # corners (2, k, 3)
 
     def length(self) -> float:
         """Length of the wound in the reference configuration (each piece counted once, not per side)."""
@@ -887,24 +787,20 @@ class Wound:
 class ElementCut(MeshEdit):
     """A :class:`~tissuefem.surgery.topology.MeshEdit` that cut through elements.
 
-    Besides ``mesh``, ``parent`` (new node -> old node) and ``elements`` (new
-    element -> old element; the copies of a cut triangle all point to it):
+    The copies of a cut triangle all point to it in ``elements``.
 
     Attributes
     ----------
     weights : ndarray, shape (n_new_elements,)
-        Share of its triangle's area each element's material fills, in
-        ``(0, 1]``; the copies of one old element add up to its old weight.
-        Pass them to :class:`~tissuefem.engine.assembly.P1Assembler`.
+        Share of its triangle's area each element's material fills, in ``(0, 1]``; the copies of one old
+        element add up to its old weight. Pass them to :class:`~tissuefem.engine.assembly.P1Assembler`.
     regions : dict int -> Region
-        Where the material of each element lies, for the elements that are not
-        whole (absent: the whole triangle, nothing severed). Pass them, with
-        the weights, to the next cut: :meth:`cut`.
+        Where the material of each element that is not whole lies (absent: the whole triangle). Pass them,
+        with the weights, to the next cut: :meth:`cut`.
     wound : Wound
         The new wound's faces, to draw its two edges smoothly.
     cut_edges : ndarray of int, shape (2, k)
-        Old-node pairs of the mesh edges the stroke ran along (empty when it
-        only crosses elements).
+        Old-node pairs of the mesh edges the stroke ran along (empty when it only crosses elements).
     """
 
     weights: np.ndarray
@@ -917,9 +813,7 @@ class ElementCut(MeshEdit):
                            min_weight=min_weight)
 
 
-# --------------------------------------------------------------------------
-# masses
-# --------------------------------------------------------------------------
+# --- masses ---
 def material_areas(mesh, weights=None) -> np.ndarray:
     """Reference area of every element's material: triangle area times weight, shape (n_elements,)."""
     p, t = _mesh_arrays(mesh)
@@ -929,12 +823,9 @@ def material_areas(mesh, weights=None) -> np.ndarray:
 
 
 def lumped_mass(mesh, weights=None, density=1.0) -> np.ndarray:
-    """Lumped P1 mass of every node: ``density`` times a third of the material area of each of its elements.
-
-    With the weights of a cut, the copies of a node together hold exactly the
-    mass the node held, so carrying displacement and velocity by ``parent``
-    keeps the total mass and momentum. Shape (n_nodes,).
-    """
+    """Lumped P1 mass of every node, shape (n_nodes,): ``density`` times a third of the material area of each
+    of its elements. With a cut's weights the copies of a node hold exactly the mass it held, so carrying
+    displacement and velocity by ``parent`` keeps the total mass and momentum."""
     if isinstance(density, bool) or not isinstance(density, numbers.Real) or not math.isfinite(density) or density <= 0:
         raise ValueError(f"density must be a finite number > 0, got {density!r}")
     p, t = _mesh_arrays(mesh)
@@ -942,9 +833,7 @@ def lumped_mass(mesh, weights=None, density=1.0) -> np.ndarray:
     return np.bincount(t.ravel(), weights=share.ravel(), minlength=p.shape[1])
 
 
-# --------------------------------------------------------------------------
-# validation
-# --------------------------------------------------------------------------
+# --- validation ---
 def _weights(weights, m) -> np.ndarray:
     """The weights (each element's share of its triangle), all 1 when ``None``; checked as the assembler checks them."""
     return np.ones(m) if weights is None else check_weights(weights, m)
@@ -972,28 +861,21 @@ def _check_regions(regions, weights, m):
     if bad.size:
         e = int(bad[0])
         hint = "" if e in out else " (an element cut through before needs its region: pass regions=previous.regions)"
-        raise ValueError(
-            f"weights[{e}] = {w[e]!r} does not match the material of its region ({implied[e]!r}){hint}"
-        )
+        raise ValueError(f"weights[{e}] = {w[e]!r} does not match the material of its region ({implied[e]!r}){hint}")
     return out, w
 
 
-# --------------------------------------------------------------------------
-# the cut
-# --------------------------------------------------------------------------
+# --- the cut ---
 def _edge_table(p, t):
     """Every element edge: node keys and the side of the edge its element lies on.
 
-    Returns ``(key, side)``, both shaped (3, m): edge ``k`` of element ``e``
-    joins ``t[k, e]`` and ``t[(k+1) % 3, e]``; ``side`` is +1 if the element's
-    third vertex is to the left of the edge run from its lower to its higher
-    node, -1 otherwise (in the reference configuration).
+    Returns ``(key, side)``, both shaped (3, m): edge ``k`` of element ``e`` joins ``t[k, e]`` and
+    ``t[(k+1) % 3, e]``; ``side`` is +1 if the element's third vertex is to the left of the edge run from
+    its lower to its higher node, -1 otherwise (in the reference configuration).
     """
     n = p.shape[1]
-    a = t
-    b = np.roll(t, -1, axis=0)
-    c = np.roll(t, -2, axis=0)
-    lo, hi = np.minimum(a, b), np.maximum(a, b)
+    b, c = np.roll(t, -1, axis=0), np.roll(t, -2, axis=0)
+    lo, hi = np.minimum(t, b), np.maximum(t, b)
     key = lo * n + hi
     s = (p[0, hi] - p[0, lo]) * (p[1, c] - p[1, lo]) - (p[1, hi] - p[1, lo]) * (p[0, c] - p[0, lo])
     return key, np.where(s > 0, 1, -1)
@@ -1005,40 +887,34 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
     Parameters
     ----------
     mesh : skfem.MeshTri
-        Not modified. It may have been cut before (by this function, with its
-        ``weights`` and ``regions``, or by :func:`~tissuefem.surgery.topology.incise`).
+        Not modified. It may have been cut before (by this function, with its ``weights`` and ``regions``,
+        or by :func:`~tissuefem.surgery.topology.incise`).
     polyline : array_like, shape (k, 2), k >= 2
-        The stroke, straight or curved, in the coordinates of ``positions``. It
-        may start and end inside the body (a crack), on its boundary or outside
-        it (a cut from the boundary, or through the body).
+        The stroke, in the coordinates of ``positions``. It may end inside the body (a crack), on its
+        boundary or outside it.
     positions : array_like, shape (2, n_nodes), optional
-        Where the nodes are now (default ``mesh.p``): the stroke is drawn on
-        the deformed tissue and carried back to the reference triangle by
-        triangle (P1 map). Triangles collapsed to a segment there are not cut.
+        Where the nodes are now (default ``mesh.p``): the stroke is carried back to the reference triangle
+        by triangle (P1 map). Triangles collapsed to a segment there are not cut.
     weights : array_like, shape (n_elements,), optional
-        The material share of every element (default 1). Elements with a weight
-        below 1 need their ``regions``; with ``regions`` alone the weights follow.
+        The material share of every element (default 1). Elements with a weight below 1 need their
+        ``regions``; with ``regions`` alone the weights follow.
     regions : dict int -> Region, optional
-        Where the material of the elements already cut through lies
-        (``ElementCut.regions`` of the previous cut; :meth:`ElementCut.cut` does this).
+        Where the material of the elements already cut through lies (``ElementCut.regions`` of the
+        previous cut; :meth:`ElementCut.cut` passes them).
     min_weight : float in [0, 0.5)
-        No piece may carry less than this share of its triangle: such a sliver
-        is merged into its neighbour across the cut and the cut is snapped onto
-        the triangle's edges there (default 0.001).
+        No piece may carry less than this share of its triangle: such a sliver is merged into its
+        neighbour and the cut snapped onto the triangle's edges there (default 0.001).
 
     Returns
     -------
     ElementCut
-        The new mesh (copies of the cut triangles, virtual nodes appended;
-        named boundaries carried to the facets whose material they touched,
-        subdomains to every copy), ``parent``, ``elements``, ``weights``,
-        ``regions``, ``wound`` and ``cut_edges``.
+        Named boundaries are carried to the facets whose material touched them, subdomains to every copy.
 
     Raises
     ------
     ValueError
-        For bad arguments, or a stroke that changes nothing (it meets no
-        material, or only runs along the body's boundary or an existing wound).
+        For bad arguments, or a stroke that changes nothing (it meets no material, or only runs along the
+        body's boundary or an existing wound).
     """
     p, t = _mesh_arrays(mesh)
     n, m = p.shape[1], t.shape[1]
@@ -1049,8 +925,8 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
         raise ValueError(f"min_weight must be a number in [0, 0.5), got {min_weight!r}")
     regions, w = _check_regions(regions, weights, m)
 
-    # 1. the stroke in each triangle (stroke parameters back on the drawn polyline), and what it
-    #    does to each element's material
+    # 1. the stroke in each triangle (stroke parameters back on the drawn polyline), and what it does to each
+    #    element's material
     snapped, drawn = _through_nearby_nodes(x, t, pts)
     pieces, orientation = _stroke_pieces(x, t, snapped)
     vertex = np.arange(drawn.size)
@@ -1067,10 +943,8 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
         if arr.changed:
             arrangements[e] = arr
     if not arrangements:
-        raise ValueError(
-            "polyline changes nothing: it meets no material, or runs only along the body's boundary "
-            "or along an existing wound"
-        )
+        raise ValueError("polyline changes nothing: it meets no material, or runs only along the body's boundary "
+                         "or along an existing wound")
     affected = np.array(sorted(arrangements), dtype=np.int64)
 
     # 2. provisional pieces: face 0 of a cut element keeps its index, the others are numbered from m
@@ -1116,12 +990,9 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
             if len(members) == 1:
                 region, touch, whole = faces[members[0]]
             else:
-                region = Region._trusted(
-                    tuple(faces[f][0].polygons[0] for f in members),
-                    np.concatenate([faces[f][0].slits for f in members]),
-                    np.concatenate([faces[f][0].severed for f in members]),
-                    2.0 * area,
-                )
+                region = Region._trusted(tuple(faces[f][0].polygons[0] for f in members),
+                                         np.concatenate([faces[f][0].slits for f in members]),
+                                         np.concatenate([faces[f][0].severed for f in members]), 2.0 * area)
                 touch = [_merge_intervals([iv for f in members for iv in faces[f][1][k]]) for k in range(3)]
                 whole = False
             final_faces[e].append((ids[min(g)], region, touch, whole, area))
@@ -1161,33 +1032,20 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
     wound, cut_edges = _wound(p, t, arrangements, element_of_face, orientation, new_t)
 
     # 7. the mesh, with names and subdomains carried over
-    plain = _new_mesh(p[:, parent], new_t)
-    new_mesh = _carry_names(mesh, plain, parent, elements, new_regions, new_touch)
-    return ElementCut(
-        mesh=new_mesh,
-        parent=parent,
-        elements=elements,
-        cut_edges=cut_edges,
-        n_old_nodes=n,
-        n_old_elements=m,
-        weights=new_w,
-        regions=new_regions,
-        wound=wound,
-    )
+    new_mesh = _carry_names(mesh, _new_mesh(p[:, parent], new_t), parent, elements, new_regions, new_touch)
+    return ElementCut(mesh=new_mesh, parent=parent, elements=elements, cut_edges=cut_edges, n_old_nodes=n,
+                      n_old_elements=m, weights=new_w, regions=new_regions, wound=wound)
 
 
 def _number_nodes(t, n, key, side, affected, piece_ids, touched):
     """The node of every corner at the nodes of the cut elements.
 
-    Two elements on the two sides of a mesh edge (sharing its two nodes now)
-    are joined where the parts of the edge their materials touch overlap; a
-    join makes their corners at the edge's ends one node. Every class of
-    corners at an old node becomes a node: the class holding the lowest
-    element keeps the old index, the others are appended in order.
+    Two elements on the two sides of a mesh edge are joined where the parts of the edge their materials
+    touch overlap; a join makes their corners at the edge's ends one node. Every class of corners at an old
+    node becomes a node: the class holding the lowest element keeps the old index, the others are appended.
 
-    Returns ``(node_of, new_parent, fan)``: the node of each corner
-    ``(provisional id, local vertex)`` at those nodes, the old node of each
-    appended node, and the elements with a corner there.
+    Returns ``(node_of, new_parent, fan)``: the node of each corner ``(provisional id, local vertex)`` at
+    those nodes, the old node of each appended node, and the elements with a corner there.
     """
     hub = np.unique(t[:, affected])
     at_hub = np.zeros(n, dtype=bool)
@@ -1269,15 +1127,10 @@ def _wound(p, t, arrangements, element_of_face, orientation, new_t):
                 along.append((rec[3], *sorted((int(t[k, e]), int(t[(k + 1) % 3, e])))))
     rec_el = np.asarray(rec_el, dtype=np.int64)
     bary = np.asarray(rec_bary, dtype=float).reshape(-1, 2, 3)
-    wound = Wound(
-        element=rec_el,
-        side=np.asarray(rec_side, dtype=np.int64),
-        barycentric=bary,
-        nodes=new_t[:, rec_el].T.copy(),
-        reference=np.einsum("kea,iak->kei", bary, p[:, t[:, np.asarray(rec_old, dtype=np.int64)]]),
-        stroke=np.asarray(rec_stroke, dtype=float).reshape(-1, 2),
-        opened=np.asarray(rec_open, dtype=bool),
-    )
+    wound = Wound(element=rec_el, side=np.asarray(rec_side, dtype=np.int64), barycentric=bary,
+                  nodes=new_t[:, rec_el].T.copy(),
+                  reference=np.einsum("kea,iak->kei", bary, p[:, t[:, np.asarray(rec_old, dtype=np.int64)]]),
+                  stroke=np.asarray(rec_stroke, dtype=float).reshape(-1, 2), opened=np.asarray(rec_open, dtype=bool))
     first = {}
     for order, a, b in sorted(along):
         first.setdefault((a, b), order)
@@ -1286,18 +1139,14 @@ def _wound(p, t, arrangements, element_of_face, orientation, new_t):
 
 
 def _carry_names(old, new, parent, elements, regions, touched):
-    """Named boundaries (to the facets whose material touches the old facet) and subdomains (to every copy).
-
-    ``touched`` holds the touched intervals of some of the ``regions`` (the others are worked out).
-    """
+    """Named boundaries (to the facets whose material touches the old facet) and subdomains (to every copy);
+    ``touched`` holds the touched intervals of some of the ``regions`` (the others are worked out)."""
     out = new
     n_old = old.p.shape[1]
     if old.boundaries:
         touches = np.ones((3, new.t.shape[1]), dtype=bool)
         for e, region in regions.items():
-            touch = touched[e] if e in touched else _region_touch(region)
-            for k in range(3):
-                touches[k, e] = bool(touch[k])
+            touches[:, e] = [bool(iv) for iv in (touched[e] if e in touched else _region_touch(region))]
         t2f = np.asarray(new.t2f)  # row k: the facet of local edge k (scikit-fem's edge order)
         parent_keys = _keys(parent[np.asarray(new.facets, dtype=np.int64)], n_old)
         old_facets = np.asarray(old.facets, dtype=np.int64)
@@ -1315,22 +1164,16 @@ def _carry_names(old, new, parent, elements, regions, touched):
     return out
 
 
-# --------------------------------------------------------------------------
-# removing what a closed cut encloses
-# --------------------------------------------------------------------------
+# --- removing what a closed cut encloses ---
 def excise_through(mesh, polygon, positions=None, weights=None, regions=None, min_weight=MIN_WEIGHT) -> ElementCut:
     """Cut along a closed ``polygon`` through the elements and remove the material inside it.
 
-    This is the excision a surgeon makes: the rim of the defect follows the
-    drawn outline, not the triangles whose centroids happen to fall inside
-    (:func:`~tissuefem.surgery.topology.excise`). The outline is cut with
-    :func:`cut_through` (closed: its last point joined to its first), then every
-    element whose material lies inside the outline is removed, with the nodes no
-    other element uses.
+    The rim of the defect follows the drawn outline, not the triangles whose centroids fall inside
+    (:func:`~tissuefem.surgery.topology.excise`). The outline is cut with :func:`cut_through` (closed), then
+    every element whose material lies inside it is removed, with the nodes no other element uses.
 
-    Returns an :class:`ElementCut` whose ``parent`` and ``elements`` map to
-    ``mesh`` as it was, with the surviving elements' ``weights`` and
-    ``regions``; its ``wound`` holds the records of the rim that stays.
+    Returns an :class:`ElementCut` whose ``parent`` and ``elements`` map to ``mesh`` as it was, with the
+    surviving elements' ``weights`` and ``regions``; its ``wound`` holds the records of the rim that stays.
     """
     pts = _points("polygon", polygon, 3)
     closed = np.vstack([pts, pts[:1]]) if np.any(pts[0] != pts[-1]) else pts
@@ -1338,8 +1181,8 @@ def excise_through(mesh, polygon, positions=None, weights=None, regions=None, mi
         raise ValueError("polygon must have at least 3 distinct points")
     first = cut_through(mesh, closed, positions, weights=weights, regions=regions, min_weight=min_weight)
     m = first.mesh.t.shape[1]
-    # where each element's material is now (the stroke was drawn there): a point inside its
-    # material, carried by the P1 map of its triangle
+    # where each element's material is now (the stroke was drawn there): a point inside its material, carried
+    # by the P1 map of its triangle
     x = _positions(first.mesh, None if positions is None else first.transfer(np.asarray(positions, float)))
     t = first.mesh.t
     centre = np.full((m, 3), 1.0 / 3.0)
@@ -1353,18 +1196,11 @@ def excise_through(mesh, polygon, positions=None, weights=None, regions=None, mi
         raise ValueError("polygon encloses all the material: nothing would be left")
     second = excise(first.mesh, lambda _centroids: remove)
     keep = second.elements
-    return ElementCut(
-        mesh=second.mesh,
-        parent=first.parent[second.parent],
-        elements=first.elements[keep],
-        cut_edges=first.cut_edges,
-        n_old_nodes=first.n_old_nodes,
-        n_old_elements=first.n_old_elements,
-        weights=first.weights[keep],
-        regions={int(new): first.regions[int(old)] for new, old in enumerate(keep.tolist())
-                 if int(old) in first.regions},
-        wound=_renumber_wound(first.wound, keep, second.parent, second.mesh.t),
-    )
+    regions = {new: first.regions[old] for new, old in enumerate(keep.tolist()) if old in first.regions}
+    return ElementCut(mesh=second.mesh, parent=first.parent[second.parent], elements=first.elements[keep],
+                      cut_edges=first.cut_edges, n_old_nodes=first.n_old_nodes, n_old_elements=first.n_old_elements,
+                      weights=first.weights[keep], regions=regions,
+                      wound=_renumber_wound(first.wound, keep, second.mesh.t))
 
 
 def _interior_barycentric(region) -> np.ndarray:
@@ -1392,36 +1228,26 @@ def _inside(polygon, points) -> np.ndarray:
     return inside
 
 
-def _renumber_wound(wound, keep, parent, t) -> Wound:
+def _renumber_wound(wound, keep, t) -> Wound:
     """The wound records of the elements that survive an excision, in the new numbering."""
     new_of = np.full(max(int(wound.element.max(initial=-1)), int(keep.max(initial=-1))) + 1, -1, dtype=np.int64)
     new_of[keep] = np.arange(keep.size)
     stay = new_of[wound.element] >= 0 if wound.element.size else np.zeros(0, dtype=bool)
     element = new_of[wound.element[stay]]
-    return Wound(
-        element=element,
-        side=wound.side[stay],
-        barycentric=wound.barycentric[stay],
-        nodes=np.asarray(t)[:, element].T.copy(),
-        reference=wound.reference[stay],
-        stroke=wound.stroke[stay],
-        opened=wound.opened[stay],
-    )
+    return Wound(element=element, side=wound.side[stay], barycentric=wound.barycentric[stay],
+                 nodes=np.asarray(t)[:, element].T.copy(), reference=wound.reference[stay],
+                 stroke=wound.stroke[stay], opened=wound.opened[stay])
 
 
-# --------------------------------------------------------------------------
-# what to draw
-# --------------------------------------------------------------------------
+# --- what to draw ---
 @dataclass(frozen=True, eq=False)
 class Picture:
     """What to draw of a mesh whose elements may fill only part of their triangle.
 
-    Two copies of a cut triangle share its reference triangle; drawing both
-    whole would paint material across the cut. Instead every element that is
-    not whole is drawn as its material polygons, split into triangles. A drawn
-    point is a combination of (at most) three nodes, the barycentric
-    coordinates of the point in its element, so the picture follows the
-    deformation exactly as the P1 field does.
+    Drawing both copies of a cut triangle whole would paint material across the
+    cut: every element that is not whole is drawn as its material polygons,
+    split into triangles. A drawn point is the barycentric combination of its
+    element's three nodes, so the picture follows the deformation as P1 does.
 
     Attributes
     ----------
@@ -1447,9 +1273,7 @@ class Picture:
     def points(self, x) -> np.ndarray:
         """The drawn points ``(2, k)`` at node positions ``x`` ``(2, n_nodes)``."""
         x = np.asarray(x, dtype=float)
-        if self.plain:
-            return x
-        return np.einsum("ak,iak->ik", self.coefficients, x[:, self.nodes])
+        return x if self.plain else np.einsum("ak,iak->ik", self.coefficients, x[:, self.nodes])
 
 
 def picture(mesh, regions=None) -> Picture:
@@ -1463,37 +1287,29 @@ def picture(mesh, regions=None) -> Picture:
     tw = t[:, whole]
     a, b = tw.ravel(), np.roll(tw, -1, axis=0).ravel()
     pairs = np.unique(np.vstack([np.minimum(a, b), np.maximum(a, b)]), axis=1)
+    nodes = np.vstack([np.arange(n), np.zeros(n, np.int64), np.zeros(n, np.int64)])  # every node, as itself
+    coefficients = np.vstack([np.ones(n), np.zeros(n), np.zeros(n)])
     if not regions:
-        nodes = np.zeros((3, n), dtype=np.int64)
-        nodes[0] = np.arange(n)
-        coefficients = np.zeros((3, n))
-        coefficients[0] = 1.0
         return Picture(nodes, coefficients, t.copy(), np.arange(m), pairs, True)
-    pt_nodes = [np.vstack([np.arange(n), np.zeros(n, np.int64), np.zeros(n, np.int64)])]
-    pt_coef = [np.vstack([np.ones(n), np.zeros(n), np.zeros(n)])]
+    pt_nodes, pt_coef = [nodes], [coefficients]
     tris, tri_el, edges = [tw], [np.flatnonzero(whole)], [pairs]
     count = n
     for e in sorted(regions):
         region = regions[e]
-        corners = t[:, e]
-        local = [region.polygons[i] for i in range(len(region.polygons))]
-        for poly in local:
+        for poly in region.polygons:
             k = poly.shape[0]
-            bary = np.vstack([1.0 - poly[:, 0] - poly[:, 1], poly[:, 0], poly[:, 1]])
-            pt_nodes.append(np.repeat(corners[:, None], k, axis=1))
-            pt_coef.append(bary)
             tri = np.asarray(_triangulate(poly), dtype=np.int64).reshape(-1, 3).T + count
             tris.append(tri)
             tri_el.append(np.full(tri.shape[1], e, dtype=np.int64))
             ring = np.arange(k) + count
             edges.append(np.vstack([ring, np.roll(ring, -1)]))
             count += k
-        for seg in region.slits:  # a crack that ends inside the element: drawn as a line
-            bary = np.vstack([1.0 - seg[:, 0] - seg[:, 1], seg[:, 0], seg[:, 1]])
-            pt_nodes.append(np.repeat(corners[:, None], 2, axis=1))
-            pt_coef.append(bary)
+        for _ in region.slits:  # a crack that ends inside the element: drawn as a line
             edges.append(np.array([[count], [count + 1]]))
             count += 2
+        local = np.concatenate(list(region.polygons) + list(region.slits))  # the element's drawn points, in order
+        pt_nodes.append(np.repeat(t[:, e][:, None], len(local), axis=1))
+        pt_coef.append(np.vstack([1.0 - local[:, 0] - local[:, 1], local[:, 0], local[:, 1]]))
     return Picture(np.hstack(pt_nodes), np.hstack(pt_coef), np.hstack(tris), np.concatenate(tri_el),
                    np.hstack(edges), False)
 
@@ -1528,9 +1344,7 @@ def _in_triangle(q, a, b, c) -> bool:
     return d1 >= 0.0 and d2 >= 0.0 and d3 >= 0.0
 
 
-# --------------------------------------------------------------------------
-# points of the material: where a stitch or a probe attaches
-# --------------------------------------------------------------------------
+# --- points of the material: where a stitch or a probe attaches ---
 def region_holds(region, xi) -> bool:
     """Whether the local point ``xi = (xi, eta)`` lies in the material of ``region`` (or on its outline)."""
     return _region_distance(region, np.asarray(xi, dtype=float)) == 0.0
@@ -1552,13 +1366,10 @@ def _region_distance(region, xi) -> float:
 def locate(mesh, point, positions=None, regions=None, candidates=None, reach=1e-3):
     """The element whose material holds ``point`` (deformed coordinates) and the point's barycentric coordinates.
 
-    Returns ``(element, barycentric (3,))`` or ``None`` when no material is
-    within ``reach`` of the point (in the local coordinates of a triangle: a
-    fraction of its size). Of the copies of a cut triangle, the one whose
-    material holds the point (or lies nearest to it, in the triangle's local
-    coordinates) is chosen; a point just off the material (in an open wound)
-    gets coordinates that extend the element's P1 map to it. ``candidates``
-    restricts the search to some elements.
+    Returns ``(element, barycentric (3,))``, or ``None`` when no material is within ``reach`` of the point
+    (in a triangle's local coordinates: a fraction of its size). Of the copies of a cut triangle, the one
+    whose material holds the point (or lies nearest to it) is chosen; a point just off the material (in an
+    open wound) gets coordinates that extend the element's P1 map to it. ``candidates`` restricts the search.
     """
     p, t = _mesh_arrays(mesh)
     x = _positions(mesh, positions)
@@ -1584,9 +1395,7 @@ def locate(mesh, point, positions=None, regions=None, candidates=None, reach=1e-
         d = outside[i] + (_region_distance(regions[e], local) if e in regions else 0.0)
         if d < best_d:
             best, best_d = (e, np.array([1.0 - local.sum(), local[0], local[1]])), d
-    if best is None or best_d > reach:
-        return None
-    return best
+    return None if best is None or best_d > reach else best
 
 
 #: A point attached to the material (a stitch's end) in a copy lighter than this share of its triangle is
@@ -1597,19 +1406,15 @@ FIRM_WEIGHT = 0.25
 def firm_anchor(mesh, element, barycentric, positions=None, weights=None, regions=None, firm=FIRM_WEIGHT):
     """Attach a point of the material to an element that carries at least ``firm`` of its triangle.
 
-    A copy that holds a thin sliver of its triangle has as little stiffness
-    as material: a force applied at a point of it (a stitch pulling on a wound
-    edge) would stretch the sliver, whose far ("virtual") nodes hold almost
-    nothing, instead of the tissue. The point is then carried by the firmest
-    neighbour on the same side of the cut (an element sharing a node with it,
-    hence joined to its material): the point's position is that element's P1
-    map extended to it (barycentric coordinates that may be slightly negative:
-    an affine, not a convex, combination of the three nodes), so the sliver
-    moves with the tissue next to it. Returns ``(element, barycentric)``.
+    A copy holding a thin sliver of its triangle has as little stiffness as material: a stitch pulling at a
+    point of it would stretch the sliver, whose far ("virtual") nodes hold almost nothing, instead of the
+    tissue. The point is then carried by the firm neighbour (an element sharing a node with it, hence joined
+    to its material) whose material lies nearest to it: its position is that element's P1 map extended to
+    it (barycentric coordinates that may be slightly negative), so the sliver moves with the tissue next to
+    it. Returns ``(element, barycentric)``.
     """
     p, t = _mesh_arrays(mesh)
-    m = t.shape[1]
-    w = _weights(weights, m)
+    w = _weights(weights, t.shape[1])
     if w[element] >= firm:
         return element, np.asarray(barycentric, dtype=float)
     x = _positions(mesh, positions)
@@ -1625,8 +1430,7 @@ def firm_anchor(mesh, element, barycentric, positions=None, weights=None, region
         if abs(np.linalg.det(J)) <= 0:
             continue
         xi = np.linalg.solve(J, point - a)
-        local = np.array([xi[0], xi[1]])
-        d = _region_distance(regions[e], local) if e in regions else max(0.0, -xi[0], -xi[1], xi.sum() - 1.0)
+        d = _region_distance(regions[e], xi) if e in regions else max(0.0, -xi[0], -xi[1], xi.sum() - 1.0)
         if d < best_d:
             best, best_d = (e, np.array([1.0 - xi.sum(), xi[0], xi[1]])), d
     return best if best is not None else (element, np.asarray(barycentric, dtype=float))
@@ -1636,9 +1440,8 @@ def carry_points(edit, elements, barycentric, regions=None):
     """Points of the material (``elements (k,)`` with ``barycentric (k, 3)``) after ``edit``: the new element of
     each, or -1 where its element was removed.
 
-    A cut keeps each element's local coordinates, so a point keeps its
-    barycentric coordinates; of the copies of its element, it goes to the
-    one whose material (``regions`` of the new mesh) holds it.
+    A cut keeps each element's local coordinates, so a point keeps its barycentric coordinates; of the
+    copies of its element, it goes to the one whose material (``regions`` of the new mesh) holds it.
     """
     elements = np.asarray(elements, dtype=np.int64)
     bary = np.asarray(barycentric, dtype=float)
@@ -1652,7 +1455,6 @@ def carry_points(edit, elements, barycentric, regions=None):
         if len(options) == 1:
             out[j] = options[0]
         elif options:
-            local = w[1:]
-            dist = [(_region_distance(regions[c], local) if c in regions else 0.0) for c in options]
+            dist = [(_region_distance(regions[c], w[1:]) if c in regions else 0.0) for c in options]
             out[j] = options[int(np.argmin(dist))]
     return out

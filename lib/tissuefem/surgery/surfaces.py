@@ -2,35 +2,27 @@
 
 :class:`~tissuefem.engine.contact.Contact` keeps a :class:`~tissuefem.engine.contact.ContactSurface`
 from passing through itself. For a plain mesh, and after the edge-snapping
-:func:`~tissuefem.surgery.topology.incise` (whose lips are boundary facets
-between duplicated nodes), that surface is the mesh's boundary:
-:meth:`ContactSurface.from_mesh <tissuefem.engine.contact.ContactSurface.from_mesh>`.
+:func:`~tissuefem.surgery.topology.incise`, that surface is the mesh's boundary
+(:meth:`ContactSurface.from_mesh <tissuefem.engine.contact.ContactSurface.from_mesh>`).
 
-After :func:`~tissuefem.surgery.element_cuts.cut_through` it is not: the
-copies of a cut triangle share the triangle's full edges, but each copy's
-material fills only part of its triangle (its :class:`~tissuefem.surgery.
-element_cuts.Region`). Taking the copies' edges as they are would put two
-"surfaces" on top of each other along every phantom part of an edge, in
-contact at distance zero. :func:`contact_surface` instead follows the
-material:
+After :func:`~tissuefem.surgery.element_cuts.cut_through` it is not: the copies
+of a cut triangle share its full edges, but each copy's material fills only
+part of it (its :class:`~tissuefem.surgery.element_cuts.Region`); the copies'
+edges would put two "surfaces" on top of each other along every phantom part
+of an edge, in contact at distance zero. :func:`contact_surface` instead
+follows the material, whose polygon sides (material on the left) are the
+candidate pieces:
 
-* every element's material is a set of counter-clockwise polygons in its
-  local coordinates; every side of them is a candidate piece of surface, with
-  the material on its left;
-* a side *inside* the triangle is a lip of a wound (a cut through the
-  element): always surface;
+* a side *inside* the triangle is a lip of a wound: always surface;
 * a side *on* one of the triangle's edges is surface except where material
-  of an element across that edge is joined to it there (the two share the
-  edge's nodes and their materials touch the same part of it, outside what a
-  cut along the edge severed): the parts of the edge where the material
-  faces no material, faces a phantom part, or was severed.
+  of an element across that edge is joined to it (they share the edge's nodes
+  and their materials touch the same part of it, outside what a cut along the
+  edge severed).
 
-Each end of a piece becomes a point: the barycentric combination of the
-element's nodes (two of them on an edge, three inside). Ends that are the
-same combination of the same nodes, seen from two elements, are one point,
-so the pieces join into closed loops round the material. The lips of a cut
-come from the regions, so every wound the body carries is there, not only
-the latest cut's (whose ``Wound`` records hold the drawn stroke, for drawing).
+Each end of a piece is the barycentric combination of the element's nodes;
+ends that are the same combination seen from two elements are one point, so
+the pieces join into closed loops round the material. The lips come from the
+regions, so every wound the body carries is there, not only the latest cut's.
 """
 
 from __future__ import annotations
@@ -38,30 +30,19 @@ from __future__ import annotations
 import numpy as np
 
 from ..engine.contact import ContactSurface
-from .element_cuts import (_check_regions, _edge_intervals, _edge_table, _edges_of, _merge_intervals,
-                           _region_touch, _subtract)
-from .topology import _mesh_arrays
+from .element_cuts import (_FULL_TOUCH, _check_regions, _edge_intervals, _edge_point, _edge_table, _edges_of,
+                           _merge_intervals, _region_touch, _sides, _subtract)
+from .topology import _keys, _mesh_arrays
 
 __all__ = ["contact_surface"]
 
-_FULL = [[(0.0, 1.0)], [(0.0, 1.0)], [(0.0, 1.0)]]
 #: weights closer than this are one point (the same crossing of an edge seen from two elements)
 _SAME = 1e-9
 
 
-def _sides(region):
-    """The region's polygon sides (k, 2, 2), in local coordinates, counter-clockwise (material on the left)."""
-    return np.concatenate([np.stack([poly, np.roll(poly, -1, axis=0)], axis=1) for poly in region.polygons])
-
-
 def _intersect(iv, jv):
-    out = []
-    for a, b in iv:
-        for c, d in jv:
-            lo, hi = max(a, c), min(b, d)
-            if hi > lo:
-                out.append((lo, hi))
-    return _merge_intervals(out)
+    """The intersection of two interval lists, merged."""
+    return _merge_intervals([(max(a, c), min(b, d)) for a, b in iv for c, d in jv if min(b, d) > max(a, c)])
 
 
 def contact_surface(mesh, weights=None, regions=None) -> ContactSurface:
@@ -72,7 +53,7 @@ def contact_surface(mesh, weights=None, regions=None) -> ContactSurface:
     mesh : skfem.MeshTri
     weights, regions
         The material of the elements cut through (:attr:`~tissuefem.surgery.element_cuts.ElementCut.weights`
-        and ``.regions``); absent: every element is whole, and the surface is the mesh's boundary.
+        and ``.regions``); absent: the surface is the mesh's boundary.
 
     Returns
     -------
@@ -96,13 +77,11 @@ def contact_surface(mesh, weights=None, regions=None) -> ContactSurface:
     cut_facets = set()
     if mesh.boundaries and "cut" in mesh.boundaries:
         facets = np.asarray(mesh.facets)[:, np.asarray(mesh.boundaries["cut"], dtype=np.intp)]
-        cut_facets = set((np.minimum(facets[0], facets[1]) * n + np.maximum(facets[0], facets[1])).tolist())
+        cut_facets = set(_keys(facets, n).tolist())
 
     def touch(e):  # (touched by the material, touched and joinable: not severed) per local edge
         r = regions.get(e)
-        if r is None:
-            return _FULL, _FULL
-        return _edge_intervals(_sides(r)), _region_touch(r)
+        return (_FULL_TOUCH, _FULL_TOUCH) if r is None else (_edge_intervals(_sides(r)), _region_touch(r))
 
     det = ((p[0, t[1]] - p[0, t[0]]) * (p[1, t[2]] - p[1, t[0]])
            - (p[0, t[2]] - p[0, t[0]]) * (p[1, t[1]] - p[1, t[0]]))
@@ -117,8 +96,7 @@ def contact_surface(mesh, weights=None, regions=None) -> ContactSurface:
                     continue  # two whole elements share this edge: inside the material
                 touched, joined = [(0.0, 1.0)], []
             else:
-                touched, joinable = touch(e)
-                touched, joinable = touched[k], joinable[k]
+                touched, joinable = (iv[k] for iv in touch(e))
                 reach = []
                 for i in across:
                     l, f = divmod(i, m)
@@ -130,20 +108,13 @@ def contact_surface(mesh, weights=None, regions=None) -> ContactSurface:
             wound = kk in cut_facets
             for lo, hi in _subtract(touched, joined):
                 severed = bool(_subtract([(lo, hi)], touch(e)[1][k])) if e in involved else False
-                pieces.append((e, _point_on_edge(k, lo), _point_on_edge(k, hi), wound or severed))
+                pieces.append((e, _edge_point(k, lo), _edge_point(k, hi), wound or severed))
     for e, r in regions.items():
         for a, b in _sides(r):
             if set(_edges_of(a)) & set(_edges_of(b)):
                 continue  # on an edge of the triangle: done above
             pieces.append((e, (float(a[0]), float(a[1])), (float(b[0]), float(b[1])), True))
     return _assemble(pieces, t, det, n)
-
-
-def _point_on_edge(k, s):
-    """The local coordinates ``(xi, eta)`` of the point at parameter ``s`` along local edge ``k``."""
-    corners = ((0.0, 0.0), (1.0, 0.0), (0.0, 1.0))
-    a, b = corners[k], corners[(k + 1) % 3]
-    return (a[0] + s * (b[0] - a[0]), a[1] + s * (b[1] - a[1]))
 
 
 def _assemble(pieces, t, det, n) -> ContactSurface:
@@ -169,23 +140,19 @@ def _assemble(pieces, t, det, n) -> ContactSurface:
     tag = np.where(used, nodes, -1)
     order = np.lexsort((weights[:, 2], weights[:, 1], weights[:, 0], tag[:, 2], tag[:, 1], tag[:, 0], count))
     point = np.empty(len(rows), dtype=np.intp)
-    current = -1
-    previous = None
+    current, previous = -1, None
     for i in order.tolist():
         if (previous is None or not np.array_equal(tag[i], tag[previous])
                 or np.max(np.abs(weights[i] - weights[previous])) > _SAME):
             current += 1
         point[i] = current
         previous = i
-    n_points = current + 1
-    first = np.full(n_points, -1, dtype=np.intp)
+    first = np.full(current + 1, -1, dtype=np.intp)  # the first row of every point
     first[point[::-1]] = np.arange(len(rows))[::-1]
     width = int(count.max(initial=1))
-    point_nodes = nodes[first, :width]
-    point_weights = weights[first, :width]
     ends = point.reshape(-1, 2).T  # (2, pieces)
     flip = det[[e for e, _, _, _ in pieces]] < 0  # a clockwise triangle mirrors "left"
     segments = np.where(flip, ends[::-1], ends)
     keep = segments[0] != segments[1]
     wound = np.array([w for _, _, _, w in pieces], dtype=bool)
-    return ContactSurface(point_nodes, point_weights, segments[:, keep], n, wound=wound[keep])
+    return ContactSurface(nodes[first, :width], weights[first, :width], segments[:, keep], n, wound=wound[keep])
