@@ -1,23 +1,16 @@
 """What accuracy costs in time: the tools of the study (chapter 9), and the verification of its reference.
 
-A study measures, for each setting of a speed/accuracy knob, an *error*
-(against a reference solution) and a *cost* (wall time per frame or per
-solve). This module holds the parts that do not depend on the knob:
+A study measures, for each setting of a speed/accuracy knob, an *error* against a reference and a *cost*
+in wall time. This module verifies the chain the reference is computed with:
 
-(The measuring tools -- Pareto front, log-log fits, rates -- are in
-:mod:`tissuefem.workbook.measure`.)
+* :func:`beam_problem_tip` -- the linear chain against a published closed-form benchmark, the end-loaded
+  cantilever of Timoshenko and Goodier (*Theory of Elasticity*), :func:`beam_exact`;
+* :func:`manufactured_convergence` -- the nonlinear chain: mesh convergence of every hyperelastic model at
+  the rate its elements promise, against chapter 3's bending map held in equilibrium by a manufactured
+  body force (:func:`manufactured_body_force`).
 
-* :func:`beam_problem_tip` -- verification of the linear chain against a
-  standard published benchmark with a closed-form answer: the end-loaded
-  cantilever of Timoshenko and Goodier (*Theory of Elasticity*, the bending of
-  a cantilever loaded at the end), :func:`beam_exact`;
-* :func:`manufactured_convergence` -- verification of the nonlinear chain:
-  mesh convergence of every hyperelastic model at the rate its elements
-  promise, against an exact solution made to order (chapter 3's bending map,
-  with the body force that holds it in equilibrium, :func:`manufactured_body_force`).
-
-The sweeps themselves (the knobs, the flap and block benchmarks, the CLI's
-``bench accuracy``) are in :mod:`tissuefem.workbook.bench.accuracy`.
+The measuring tools are in :mod:`tissuefem.workbook.measure`; the sweeps (the knobs, the flap and block
+benchmarks, the CLI's ``bench accuracy``) in :mod:`tissuefem.workbook.bench.accuracy`.
 """
 
 from __future__ import annotations
@@ -44,17 +37,14 @@ __all__ = ["beam_exact", "beam_problem_tip", "manufactured_body_force", "manufac
 def beam_exact(X, *, length=48.0, depth=12.0, load=1000.0, E=3.0e7, nu=0.3) -> np.ndarray:
     """Timoshenko and Goodier's exact plane-stress displacement of an end-loaded cantilever, ``(2, n)``.
 
-    The beam is ``0 <= x <= L``, ``|y| <= D/2``; ``I = D^3 / 12``. With ``P`` the
-    total shear load at ``x = L``:
+    The beam is ``0 <= x <= L``, ``|y| <= D/2``; ``I = D^3 / 12``; ``P`` is the total shear load at ``x = L``:
 
         u_x = -P y / (6 E I) [6 L x - 3 x^2 + (2 + nu) (y^2 - D^2/4)],
         u_y =  P / (6 E I) [3 nu y^2 (L - x) + (4 + 5 nu) D^2 x / 4 + 3 L x^2 - x^3].
 
-    Its stresses are ``sigma_xx = -P (L - x) y / I``, ``sigma_yy = 0``,
-    ``sigma_xy = P / (2 I) (D^2/4 - y^2)``: in equilibrium without body force,
-    free on ``y = +-D/2``, and at ``x = L`` the parabolic shear whose resultant
-    is ``P`` (re-derived in ``tests/test_accuracy.py``, which checks all of
-    this by finite differences).
+    Its stresses ``sigma_xx = -P (L - x) y / I``, ``sigma_yy = 0``, ``sigma_xy = P / (2 I) (D^2/4 - y^2)``
+    are in equilibrium without body force, free on ``y = +-D/2``, and at ``x = L`` the parabolic shear of
+    resultant ``P`` (``tests/test_accuracy.py`` checks all of this by finite differences).
     """
     x, y = np.asarray(X, dtype=float)
     I = depth**3 / 12.0
@@ -68,11 +58,10 @@ def beam_problem_tip(nx: int, ny: int, order: int = 2, *, length=48.0, depth=12.
                      nu=0.3) -> tuple[float, float]:
     """``(computed, exact)`` tip deflection ``u_y(L, 0)`` of the cantilever of :func:`beam_exact`.
 
-    Verification of the linear chain (material, forms, traction assembly,
-    condensation, solve): the exact displacement is prescribed on ``x = 0`` and
-    the exact parabolic shear traction applied on ``x = L``; top and bottom are
-    free. The classic parameters (L = 48, D = 12, P = 1000, E = 3e7, nu = 0.3)
-    give a tip deflection of 8.9e-3.
+    Verifies the linear chain (material, forms, traction assembly, condensation, solve): the exact
+    displacement is prescribed on ``x = 0``, the exact parabolic shear applied on ``x = L``; top and bottom
+    are free. The classic parameters (L = 48, D = 12, P = 1000, E = 3e7, nu = 0.3) give a tip deflection of
+    8.9e-3.
     """
     if order not in (1, 2):
         raise ValueError(f"order must be 1 or 2, got {order!r}")
@@ -88,8 +77,7 @@ def beam_problem_tip(nx: int, ny: int, order: int = 2, *, length=48.0, depth=12.
 
     @LinearForm
     def shear(v, w):
-        y = w.x[1]
-        return load / (2.0 * I) * (depth**2 / 4.0 - y**2) * v[1]
+        return load / (2.0 * I) * (depth**2 / 4.0 - w.x[1] ** 2) * v[1]
 
     model.add_term(Load("end shear", asm(shear, right)))
     result = solve(model, linear_solver="direct")
@@ -100,21 +88,17 @@ def beam_problem_tip(nx: int, ny: int, order: int = 2, *, length=48.0, depth=12.
     return float(result.u[model.basis.nodal_dofs[1, tip]]), exact_tip
 
 
-# --------------------------------------------------------------------------------------------------
-# nonlinear verification: a manufactured solution
-# --------------------------------------------------------------------------------------------------
+# --- nonlinear verification: a manufactured solution -----------------------------------------------
 
 def manufactured_body_force(material, X, step: float = 1e-4) -> np.ndarray:
     """The body force ``b = -Div P(F(X))`` that holds chapter 3's bending map in equilibrium, shaped like ``X``.
 
-    Equilibrium without inertia is ``Div P + b = 0`` (``(Div P)_i = dP_iJ/dX_J``),
-    so the exact deformation ``phi`` = :func:`tissuefem.workbook.studies.bending_map`,
-    with its exact gradient ``F`` = :func:`tissuefem.workbook.studies.bending_gradient`,
-    solves the boundary-value problem whose body force is ``-Div P(F)`` and
-    whose whole boundary is held at ``phi``. The divergence is taken by
-    central differences of the material's own stress with ``step`` (error
-    ``~ step^2``, about 1e-8 relative: far below every discretisation error
-    measured here).
+    Equilibrium without inertia is ``Div P + b = 0`` (``(Div P)_i = dP_iJ/dX_J``), so the exact
+    deformation ``phi`` (:func:`tissuefem.workbook.studies.bending_map`, its ``F`` from
+    :func:`~tissuefem.workbook.studies.bending_gradient`) solves the problem with body force ``-Div P(F)``
+    and the whole boundary held at ``phi``. The divergence is taken by central differences of the
+    material's own stress with ``step`` (error ``~ step^2``, about 1e-8 relative: far below every
+    discretisation error measured here).
     """
     X = np.asarray(X, dtype=float)
     b = np.zeros_like(X)
@@ -129,10 +113,9 @@ def manufactured_body_force(material, X, step: float = 1e-4) -> np.ndarray:
 def manufactured_error(material, n: int, order: int, load_steps: int = 4) -> float:
     """Relative ``L2`` error of the computed displacement against the exact bending map.
 
-    The block ``[0, 2] x [0, 1]`` on :func:`tissuefem.engine.meshes.rectangle` with
-    ``2n x n`` cells, P``order`` elements, every edge held at the exact map, the
-    body force of :func:`manufactured_body_force`; Newton (energy line search)
-    to ``rtol = 1e-11`` in ``load_steps`` load steps from rest.
+    The block ``[0, 2] x [0, 1]`` with ``2n x n`` cells, P``order`` elements, every edge held at the exact
+    map, the body force of :func:`manufactured_body_force`; Newton to ``rtol = 1e-11`` in ``load_steps``
+    load steps from rest.
     """
     mesh = rectangle(2.0, 1.0, 2 * int(n), int(n))
 
@@ -161,12 +144,10 @@ def manufactured_convergence(models=("neo-hookean", "stable-neo-hookean", "corot
                              E: float = TISSUE_E, nu: float = TISSUE_NU) -> list[dict]:
     """Mesh convergence of each nonlinear model against the manufactured solution.
 
-    ``sizes`` maps the order to the values of ``n`` (``h = 1/n``); default
-    ``{1: (4, 8, 16, 32), 2: (2, 4, 8, 16)}``. Returns one dict per model and
-    order with the errors, the observed rates between successive meshes and
-    the fitted rate (:func:`~tissuefem.workbook.measure.fitted_exponent` of error against ``h``). Smooth
-    exact solution, so the expected ``L2`` rates are ``order + 1``: 2 for P1,
-    3 for P2 (measured: 2.00 and 2.99 for all three models).
+    ``sizes`` maps the order to the values of ``n`` (``h = 1/n``); default ``{1: (4, 8, 16, 32), 2: (2, 4,
+    8, 16)}``. Returns one dict per model and order with the errors, the rates between successive meshes and
+    the fitted rate (:func:`~tissuefem.workbook.measure.fitted_exponent`). The exact solution is smooth, so
+    the expected ``L2`` rates are ``order + 1`` (measured: 2.00 and 2.99 for all three models).
     """
     sizes = {1: (4, 8, 16, 32), 2: (2, 4, 8, 16)} if sizes is None else sizes
     rows = []
@@ -176,7 +157,7 @@ def manufactured_convergence(models=("neo-hookean", "stable-neo-hookean", "corot
             ns = [int(n) for n in ns]
             errors = [manufactured_error(mat, n, int(order)) for n in ns]
             h = [1.0 / n for n in ns]
-            rates = [math.log(errors[i] / errors[i + 1]) / math.log(h[i] / h[i + 1]) for i in range(len(ns) - 1)]
+            rates = [math.log(e0 / e1) / math.log(h0 / h1) for e0, e1, h0, h1 in zip(errors, errors[1:], h, h[1:])]
             rows.append({"model": name, "order": int(order), "n": ns, "h": h, "errors": errors, "rates": rates,
                          "fitted_rate": fitted_exponent(h, errors) if len(ns) >= 2 else float("nan"),
                          "expected_rate": int(order) + 1})

@@ -1,9 +1,8 @@
 """The library's own answers to the exercises: what ``python -m pytest`` grades beside the student's files.
 
-Each function has the name and signature of its stub in ``chapters/exercises/chNN.py``
-and is a thin call of the engine wherever the engine already computes it, so there is
-no second copy of a solution to drift: the tests that grade a student grade the
-library with the same checks (``tests/grading.py``).
+Each function has the name and signature of its stub in ``chapters/exercises/chNN.py`` and calls the engine
+wherever the engine already computes it, so no second copy of a solution can drift: the tests grade the
+library with the same checks as a student (``tests/grading.py``).
 """
 
 from __future__ import annotations
@@ -66,10 +65,8 @@ def neo_hookean_tangent_1d(F, lam, mu):
 
 
 def newton_step_1d(nodes, u, lam, mu, traction) -> np.ndarray:
-    """Exercise 2.3: one Newton step for the 1D Neo-Hookean bar, left end fixed, traction at the right.
-
-    The library's minimiser limited to one plain iteration: ``u + du`` with ``dq/du du = -q(u)``.
-    """
+    """Exercise 2.3: one Newton step ``u + du``, ``dq/du du = -q(u)``, for the 1D Neo-Hookean bar (left end
+    fixed, traction at the right), by the library's minimiser limited to one plain iteration."""
     bar = Bar1D(nodes=nodes)
     material = NeoHookean1D(lam, mu)
     u = np.asarray(u, dtype=float)
@@ -179,8 +176,6 @@ def newton_line_search(u0, energy, gradient, hessian, free, rtol=1e-8, max_itera
     return result.x, result.iterations
 
 
-# --- chapter 5 -----------------------------------------------------------------------------------
-
 # --- chapter 6 -----------------------------------------------------------------------------------
 
 def taylor_log(J):
@@ -204,8 +199,6 @@ def backward_euler_residual(M, u, u_n, v_n, dt, f_int, f_ext):
 
 class _StepFunction:
     """The minimiser's linear-solver role played by a user's ``newton_step(x, g)``."""
-
-    last_matrix = None
 
     def __init__(self, step):
         self.step = step
@@ -252,7 +245,6 @@ def scene_file_text():
 def pareto_front(costs, errors):
     """Exercise 9.1: indices of the non-dominated settings, by increasing cost (a list)."""
     return _pareto_front(costs, errors).tolist()
-
 
 
 # --- chapter 10 ----------------------------------------------------------------------------------

@@ -1,20 +1,13 @@
 """The workbook as a static website: ``python -m tissuefem book`` (and the last step of ``build``).
 
-Every chapter becomes one HTML page made by nbconvert's HTML exporter from its executed
-copy (``build/chapters/``): the text, the code, every output and figure (embedded), and
-the mathematics, typeset by MathJax when the reader is online and left as readable TeX
-source when not. Each page links to the previous and the next chapter, the contents and
-the errata. The index page carries the syllabus: each chapter's goals, read from its
-first cell, and an estimated time from its length (see :func:`estimate_minutes`). The
-errata page renders the README's errata section.
+Every chapter becomes one HTML page, made by nbconvert's HTML exporter from its executed copy
+(``build/chapters/``), with every output and figure embedded and the mathematics typeset by MathJax when
+online (readable TeX when not); each page links to its neighbours, the contents and the errata. The index
+page carries the syllabus: each chapter's goals, read from its first cell, and its time, stated there
+(``*Time: about 40 min ...*``, :func:`stated_minutes`; the tests check it) or estimated from its length
+(:func:`estimate_minutes`). A chapter split into sittings (``chNNa_*``, ``chNNb_*``) shows as "6a" and "6b".
 
-A chapter may state its own time in its first cell (``*Time: about 40 min ...*``, see
-:func:`stated_minutes`); the syllabus then shows that figure, and the test suite checks it
-against the estimate. A chapter split into sittings is several notebooks, ``chNNa_*`` and
-``chNNb_*``, shown as chapters "6a" and "6b".
-
-Every link is relative, so the folder can be copied to any web server or opened from
-disk. Layout of the site::
+Every link is relative, so the folder can be copied to any web server or opened from disk::
 
     index.html                the syllabus
     errata.html               errata to the lecture notes
@@ -30,6 +23,7 @@ import re
 import shutil
 from dataclasses import dataclass
 from datetime import datetime
+from itertools import takewhile
 from pathlib import Path
 from urllib.parse import unquote, urlsplit
 
@@ -39,8 +33,7 @@ from nbconvert import HTMLExporter
 
 from .notebooks import chapter_label, chapter_paths
 
-#: reading speed for the chapters' prose: technical text with equations, about half the
-#: speed of plain prose
+#: reading speed for the chapters' prose: technical text with equations, about half that of plain prose
 WORDS_PER_MINUTE = 100
 #: reading, running and looking at the result of code, per line
 MINUTES_PER_CODE_LINE = 0.2
@@ -108,26 +101,19 @@ class Chapter:
 # --- reading the chapters -------------------------------------------------------------------------
 
 def _first_cell_text(nb) -> str:
-    for cell in nb.cells:
-        if cell.cell_type == "markdown":
-            return cell.source
-    return ""
+    return next((cell.source for cell in nb.cells if cell.cell_type == "markdown"), "")
 
 
 def chapter_title(nb, fallback: str) -> str:
     """The first heading of the first Markdown cell (``# Chapter 1 — ...``)."""
-    for line in _first_cell_text(nb).splitlines():
-        if line.startswith("#"):
-            return line.lstrip("#").strip()
-    return fallback
+    return next((line.lstrip("#").strip() for line in _first_cell_text(nb).splitlines() if line.startswith("#")),
+                fallback)
 
 
 def chapter_goals(nb) -> str:
-    """The goals of a chapter as Markdown: the paragraph of its first cell that names them
-    (``**Goals.** ...`` and its list), without the label; else the first paragraph after the title."""
-    text = _first_cell_text(nb)
-    paragraphs = [p.strip() for p in re.split(r"\n\s*\n", text) if p.strip()]
-    paragraphs = [p for p in paragraphs if not p.startswith("#")]
+    """The goals of a chapter as Markdown: the ``**Goals.** ...`` paragraph of its first cell without the label,
+    else the first paragraph after the title."""
+    paragraphs = [p for p in map(str.strip, re.split(r"\n\s*\n", _first_cell_text(nb))) if p and not p.startswith("#")]
     for p in paragraphs:
         if re.match(r"\**\s*Goals?\b", p):
             return re.sub(r"^\**\s*Goals?\.?\s*\**\.?\s*", "", p).strip()
@@ -162,8 +148,8 @@ _TRY = re.compile(r"^## What to try\b.*?(?=^## |\Z)", re.S | re.M)
 def reading_load(nb) -> tuple[int, int]:
     """``(words, code_lines)``: the words of a chapter's prose and the non-empty lines of its code.
 
-    Code in fenced blocks of the Markdown cells counts as code. The "What to try" section is left
-    out: its suggestions (and their snippets) are for after the sitting, like the exercises."""
+    Fenced code in Markdown counts as code. The "What to try" section is left out: like the exercises, it is
+    for after the sitting."""
     words = code_lines = 0
     for c in nb.cells:
         if c.cell_type == "markdown":
@@ -177,9 +163,8 @@ def reading_load(nb) -> tuple[int, int]:
 
 
 def estimate_minutes(nb) -> int:
-    """Time to work through a chapter, exercises apart: its prose at :data:`WORDS_PER_MINUTE`,
-    its code at :data:`MINUTES_PER_CODE_LINE` and the time its cells take to run, rounded up
-    to 5 minutes."""
+    """Time to work through a chapter, exercises apart: prose at :data:`WORDS_PER_MINUTE`, code at
+    :data:`MINUTES_PER_CODE_LINE` and the cells' run time, rounded up to 5 minutes."""
     words, code_lines = reading_load(nb)
     minutes = words / WORDS_PER_MINUTE + code_lines * MINUTES_PER_CODE_LINE + _execution_seconds(nb) / 60
     return max(5, 5 * -(-int(round(minutes)) // 5))
@@ -201,9 +186,7 @@ def chapter_exercises(nb) -> list[str] | None:
 
 def count_exercises(exercise_file: Path) -> int:
     """The stub functions of a chapter's exercise file (``def name(...)`` at top level, not private)."""
-    if not exercise_file.exists():
-        return 0
-    return len(re.findall(r"^def (?!_)\w+\(", exercise_file.read_text(), flags=re.M))
+    return len(re.findall(r"^def (?!_)\w+\(", exercise_file.read_text(), flags=re.M)) if exercise_file.exists() else 0
 
 
 def readme_section(readme_text: str, heading: str) -> str:
@@ -211,24 +194,14 @@ def readme_section(readme_text: str, heading: str) -> str:
     lines = readme_text.splitlines()
     for i, line in enumerate(lines):
         if line.startswith("## ") and line[3:].strip() == heading:
-            body = []
-            for rest in lines[i + 1:]:
-                if rest.startswith("## "):
-                    break
-                body.append(rest)
-            return "\n".join(body).strip()
+            return "\n".join(takewhile(lambda rest: not rest.startswith("## "), lines[i + 1:])).strip()
     raise ValueError(f"the README has no section '## {heading}'")
 
 
 def readme_intro(readme_text: str) -> str:
     """The README's opening: everything between its title and its first ``## `` section."""
-    body = []
-    for line in readme_text.splitlines():
-        if line.startswith("## "):
-            break
-        if not line.startswith("# "):
-            body.append(line)
-    return "\n".join(body).strip()
+    lines = takewhile(lambda line: not line.startswith("## "), readme_text.splitlines())
+    return "\n".join(line for line in lines if not line.startswith("# ")).strip()
 
 
 # --- writing pages ------------------------------------------------------------------------------
@@ -250,11 +223,9 @@ def _nav(page: str, chapters: list[Chapter], where: str) -> str:
     index = next((i for i, c in enumerate(chapters) if c.page == page), None)
     left = right = "<span></span>"
     if index is not None and index > 0:
-        prev = chapters[index - 1]
-        left = _link(page, prev.page, f"← {html.escape(prev.title)}")
+        left = _link(page, chapters[index - 1].page, f"← {html.escape(chapters[index - 1].title)}")
     if index is not None and index + 1 < len(chapters):
-        nxt = chapters[index + 1]
-        right = _link(page, nxt.page, f"{html.escape(nxt.title)} →")
+        right = _link(page, chapters[index + 1].page, f"{html.escape(chapters[index + 1].title)} →")
     middle = f'{_link(page, "index.html", "Contents")} · {_link(page, "errata.html", "Errata")}'
     return f'<nav class="book {where}">{left}<span class="middle">{middle}</span>{right}</nav>'
 
@@ -321,12 +292,8 @@ def _markdown_notebook(title: str, cells: list[str]) -> nbformat.NotebookNode:
 
 
 def _render(exporter, nb, page, chapters, links, source_dir, note="") -> str:
-    resources = {
-        "metadata": {"name": Path(page).stem, "path": str(source_dir)},
-        "book_nav_top": _nav(page, chapters, "top"),
-        "book_nav_bottom": _nav(page, chapters, "bottom"),
-        "book_note": note,
-    }
+    resources = {"metadata": {"name": Path(page).stem, "path": str(source_dir)}, "book_note": note,
+                 "book_nav_top": _nav(page, chapters, "top"), "book_nav_bottom": _nav(page, chapters, "bottom")}
     body, _ = exporter.from_notebook_node(nb, resources=resources)
     return links(body, page, source_dir)
 
@@ -340,28 +307,24 @@ def syllabus_cells(chapters: list[Chapter], intro: str) -> list[str]:
         total += c.minutes + practice
         ex = f"{c.exercises} × {MINUTES_PER_EXERCISE} min" if c.exercises else "—"
         rows.append(f"| {c.label or i} | [{c.title}]({c.page}) | {c.minutes} min | {ex} | {c.minutes + practice} min |")
-    hours = total / 60
     parts = [
         intro,
         "## Syllabus",
         "Estimated times, each a sitting of at most an hour: the prose at about "
         f"{WORDS_PER_MINUTE} words a minute, the code at {MINUTES_PER_CODE_LINE * 60:.0f} seconds a line "
         f"plus the time its cells take to run (the time each chapter states at its top), and "
-        f"{MINUTES_PER_EXERCISE} minutes for each exercise (about {hours:.0f} hours in all). "
+        f"{MINUTES_PER_EXERCISE} minutes for each exercise (about {total / 60:.0f} hours in all). "
         "The [errata](errata.html) list the slips found in the lecture notes.",
         "\n".join(rows),
     ]
     for i, c in enumerate(chapters, 1):
+        # drop the goals' own lead-in "By the end of this chapter you can" (said once here)
+        goals = re.sub(r"^By the end of this chapter you can\s*\n", "", c.goals).strip()
         status = "" if c.executed else "\n\n*(This chapter's outputs are missing from the site: it was not executed.)*"
         parts.append(f"### {c.label or i}. [{c.title}]({c.page})\n\n*About {c.minutes} min"
                      + (f", and {c.exercises} exercise{'s' if c.exercises != 1 else ''}*" if c.exercises else "*")
-                     + f"\n\nBy the end of this chapter you can\n\n{_goals_list(c.goals)}{status}")
+                     + f"\n\nBy the end of this chapter you can\n\n{goals}{status}")
     return parts
-
-
-def _goals_list(goals: str) -> str:
-    # drop a lead-in such as "By the end of this chapter you can" (said once above)
-    return re.sub(r"^By the end of this chapter you can\s*\n", "", goals).strip()
 
 
 # --- the site -----------------------------------------------------------------------------------
@@ -369,13 +332,10 @@ def _goals_list(goals: str) -> str:
 def build_book(chapters_dir, executed_dir, outdir, readme=None, exercises_dir=None, progress=print) -> list[Path]:
     """Write the static site into ``outdir``; returns the pages written.
 
-    ``chapters_dir`` holds the chapter sources, ``executed_dir`` their executed copies of
-    the same name (a chapter without one is shown without outputs, with a note saying so);
-    ``readme`` (default: the README next to ``chapters_dir``) gives the index page's opening
-    and the errata page; ``exercises_dir`` (default ``chapters_dir/exercises``) the number of
-    exercises per chapter. Relative links in a chapter to another chapter become links to its
-    page, to the README's errata to the errata page, and to any other file of the workbook
-    a link to a copy of it at the same relative place.
+    ``executed_dir`` holds executed copies of the chapters in ``chapters_dir`` (a chapter without one is
+    shown without outputs, with a note); ``readme`` (default: next to ``chapters_dir``) gives the index page's
+    opening and the errata; ``exercises_dir`` (default ``chapters_dir/exercises``) the exercise counts.
+    Relative links go to a chapter's page, the errata page, or a copy of the linked workbook file.
     """
     chapters_dir, executed_dir, outdir = Path(chapters_dir), Path(executed_dir), Path(outdir)
     root = chapters_dir.resolve().parent
@@ -425,7 +385,6 @@ def build_book(chapters_dir, executed_dir, outdir, readme=None, exercises_dir=No
     errata = _markdown_notebook(ERRATA_HEADING, [f"# {ERRATA_HEADING}\n\n"
                                                  + readme_section(readme_text, ERRATA_HEADING)])
     write("errata.html", _render(exporter, errata, "errata.html", chapters, links, root))
-    for warning in links.warnings:
-        if progress:
-            progress(f"[book] warning: {warning}")
+    for warning in links.warnings if progress else ():
+        progress(f"[book] warning: {warning}")
     return written

@@ -1,9 +1,8 @@
 """Command line: ``python -m tissuefem {figures,build,book,bench,scene,grade,list}``.
 
 * ``figures``  regenerate every lecture figure into ``figures/``;
-* ``build``    regenerate the figures, execute every chapter headless
-  (executed copies in ``build/chapters/``, the sources stay clean) and write the
-  workbook's website into ``build/book/``;
+* ``build``    regenerate the figures, execute every chapter headless (copies in ``build/chapters/``;
+  the sources stay clean) and write the workbook's website into ``build/book/``;
 * ``book``     write the website from the executed copies already in ``build/chapters/``;
 * ``bench``    benchmarks (``bench assembly``, ``bench realtime``, ``bench scenes``,
   ``bench accuracy``: the accuracy/time study of chapter 9);
@@ -50,12 +49,8 @@ def project_root() -> Path:
     raise SystemExit("cannot find the workbook's chapters/ folder: run this from the workbook's root folder")
 
 
-def _use_agg():
-    matplotlib.use("Agg")
-
-
 def cmd_figures(args) -> int:
-    _use_agg()
+    matplotlib.use("Agg")
     root = project_root()
     out = Path(args.out) if args.out else root / "figures"
     figures.generate(args.only or None, out)
@@ -65,7 +60,7 @@ def cmd_figures(args) -> int:
 
 
 def cmd_build(args) -> int:
-    _use_agg()
+    matplotlib.use("Agg")
     start = time.perf_counter()
     root = project_root()
     if not args.skip_figures:
@@ -90,25 +85,22 @@ def cmd_book(args) -> int:
 
 
 def cmd_bench(args) -> int:
-    _use_agg()
+    matplotlib.use("Agg")
     if args.which == "assembly":
         sizes = tuple(args.sizes) if args.sizes else (2000, 8000, 32000)
         assembly_benchmark(sizes=sizes, repeats=args.repeats, out=args.out)
-        return 0
-    if args.which == "realtime":
+    elif args.which == "realtime":
         sizes = tuple(args.sizes) if args.sizes else (2000, 8000, 16000, 32000)
         out = Path(args.out or "bench-results")
         rows = realtime_benchmark(sizes=sizes, frames=args.frames, baseline_frames=args.baseline_frames,
                                   linear_solver=args.linear, out=out)
         plot_realtime(rows, out / "realtime.png")
         print(f"wrote {out / 'realtime.png'}")
-        return 0
-    if args.which == "scenes":
+    elif args.which == "scenes":
         size = args.sizes[0] if args.sizes else 8000
         effects_benchmark(n_triangles=size, frames=min(args.frames, 90), repeats=args.repeats,
                           out=args.out or "bench-results")
-        return 0
-    if args.which == "accuracy":
+    elif args.which == "accuracy":
         out = Path(args.out or "bench-results")
         results = accuracy_study(plan=args.plan, out=out)
         for plot, stem, key in ((plot_pareto, "pareto", "knobs"), (plot_scaling, "scaling", "scaling"),
@@ -116,8 +108,9 @@ def cmd_bench(args) -> int:
             if results.get(key):
                 plot(results, out / f"accuracy_{stem}.png")
                 print(f"wrote {out / f'accuracy_{stem}.png'}")
-        return 0
-    raise SystemExit(f"unknown benchmark {args.which!r}")
+    else:
+        raise SystemExit(f"unknown benchmark {args.which!r}")
+    return 0
 
 
 def cmd_grade(args) -> int:
@@ -148,9 +141,8 @@ def _one_line(path, err) -> str:
 def cmd_scene(args) -> int:
     """Check a scene file and run it: one line per frame (time, status, Newton steps), then a summary.
 
-    A scene that cannot be read or built (not a file, not UTF-8, not TOML/JSON,
-    nested too deeply, an invalid field, a bad mesh file) is answered with one
-    line on stderr and exit status 2, never a traceback.
+    A scene that cannot be read or built (not a file, not UTF-8 TOML/JSON, nested too deeply, an invalid
+    field, a bad mesh file) is answered with one line on stderr and exit status 2, never a traceback.
     """
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")

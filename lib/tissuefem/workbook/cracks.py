@@ -1,12 +1,10 @@
 """Chapter 10's study: a crack cut through the elements against Griffith's closed form.
 
-A straight crack of length ``2a`` in a plate pulled by the stress ``sigma``
-across it opens, in plane strain and small strains, by ``delta = 4 sigma a
-(1 - nu^2) / E`` at its centre (Griffith 1921); a plate of width ``W``
-multiplies this by about ``sqrt(sec(pi a / W))`` (Feddersen's factor, in Tada,
-Paris and Irwin, *The Stress Analysis of Cracks Handbook*).
-:func:`griffith_opening` cuts the crack through the elements of an ``n x n``
-mesh (the virtual node algorithm) and measures the opening between the two lips.
+A straight crack of length ``2a`` in a plate pulled by the stress ``sigma`` across it opens, in plane strain
+and small strains, by ``delta = 4 sigma a (1 - nu^2) / E`` at its centre (Griffith 1921); a plate of width
+``W`` multiplies this by about ``sqrt(sec(pi a / W))`` (Feddersen's factor, in Tada, Paris and Irwin, *The
+Stress Analysis of Cracks Handbook*). :func:`griffith_opening` cuts the crack through the elements of an
+``n x n`` mesh (the virtual node algorithm) and measures the opening between the two lips.
 """
 
 from __future__ import annotations

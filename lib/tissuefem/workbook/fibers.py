@@ -1,14 +1,12 @@
 """Anisotropic fibers (chapter 5): the fiber term on its own, and pulling along versus across.
 
-The notes make a fibrous tissue anisotropic with a field of unit fiber
-directions ``g : B0 -> R^2`` in the *reference* configuration and an energy
-that adds a term in the squared fiber stretch (notes, "Continuum mechanics and
+The notes make a fibrous tissue anisotropic with a field of unit fiber directions ``g : B0 -> R^2`` in the
+*reference* configuration and a term in the squared fiber stretch (notes, "Continuum mechanics and
 elasticity", the paragraph after the Neo-Hookean model):
 
     Psi(F) = Psi_iso(F) + Psi_fiber(I4),    I4 = g^T F^T F g = |F g|^2.
 
-With ``F[i, j] = d phi_i / d X_j`` a material line element ``dX = g dS``
-becomes ``dx = F g dS``, so ``sqrt(I4)`` is the stretch of the fiber.
+A material line element ``dX = g dS`` becomes ``dx = F g dS``, so ``sqrt(I4)`` is the fiber's stretch.
 
 Derivations (with ``a = F g``)
 -------------------------------
@@ -17,35 +15,27 @@ Derivations (with ``a = F g``)
     P_fiber = 2 Psi_fiber'(I4) a (x) g                      (= 2 Psi' F g g^T)
     A_fiber_ijkl = 4 Psi'' a_i g_j a_k g_l + 2 Psi' d_ik g_j g_l.
 
-We use ``Psi_fiber = k/8 (I4 - 1)^2`` (the :class:`~tissuefem.engine.terms.Fibers` term of the
-model; :class:`~tissuefem.engine.materials.FiberReinforced` is the same energy density added to a material): ``Psi'(1) = 0`` keeps the rest state stress free, and with
-``Psi' = k/4 (I4 - 1)``, ``Psi'' = k/4``
+We use ``Psi_fiber = k/8 (I4 - 1)^2`` (the model's :class:`~tissuefem.engine.terms.Fibers` term, or
+:class:`~tissuefem.engine.materials.FiberReinforced` added to a material): ``Psi'(1) = 0`` keeps the rest
+state stress free, and with ``Psi' = k/4 (I4 - 1)``, ``Psi'' = k/4``
 
     P_fiber = k/2 (I4 - 1) a (x) g,
     A_fiber = k (a (x) g) (x) (a (x) g) + k/2 (I4 - 1) d_ik g_j g_l.
 
-Small strain: at ``F = I`` the tangent is ``k g (x) g (x) g (x) g``: in the
-fiber's own frame it adds ``k`` to ``C_ffff`` and nothing else. Along a unit
-direction ``e`` at angle ``theta`` to the fiber it adds
+Small strain: at ``F = I`` the tangent is ``k g (x) g (x) g (x) g``: it adds ``k`` to ``C_ffff`` in the
+fiber's frame and nothing else; along a unit direction ``e`` at angle ``theta`` to the fiber it adds
 ``e_i e_j e_k e_l k g_i g_j g_k g_l = k cos^4 theta`` (:func:`fiber_modulus_gain`).
 
-The fibre term's formulas live in :mod:`tissuefem.engine.materials` (``fiber_invariant``,
-``fiber_energy``, ``fiber_stress``, ``fiber_tangent``); this module holds the chapter's experiments.
+The formulas live in :mod:`tissuefem.engine.materials` (``fiber_invariant``, ``fiber_energy``,
+``fiber_stress``, ``fiber_tangent``); this module holds the chapter's experiments:
 
-The experiments
----------------
-* :func:`confined_pull` imposes the homogeneous uniaxial strain
-  ``F = diag(1 + eps, 1)`` on the whole boundary of a square (a handle
-  with a map). P1 elements reproduce a homogeneous deformation exactly, so
-  the stress is uniform and the reaction on the right edge per unit height is
-  ``P_xx``; divided by ``eps`` it is the confined modulus
-  ``lam + 2 mu + k cos^4 theta`` to leading order (:func:`predicted_confined_modulus`).
-  :func:`along_vs_across` compares fibers at 0 and 90 degrees: their moduli
-  differ by ``k``, and exactly by ``k (1 + eps)(1 + eps/2)`` at finite strain.
-* :func:`block_pull`: a strip clamped at both ends and pulled (free sides), the
-  force-stretch curve of a tensile test.
-* :func:`muscle_pull`: the fusiform muscle of :mod:`tissuefem.engine.meshes`, held
-  at its left tendon and pulled by its right one, with or without fibers.
+* :func:`confined_pull` imposes ``F = diag(1 + eps, 1)`` on the whole boundary of a square. P1 reproduces
+  a homogeneous deformation exactly, so the reaction per unit height is ``P_xx``; divided by ``eps`` it is
+  the confined modulus ``lam + 2 mu + k cos^4 theta`` to leading order (:func:`predicted_confined_modulus`).
+  :func:`along_vs_across` compares fibers at 0 and 90 degrees: their moduli differ by ``k``, exactly by
+  ``k (1 + eps)(1 + eps/2)`` at finite strain.
+* :func:`block_pull`: a strip clamped at both ends and pulled, the force-stretch curve of a tensile test.
+* :func:`muscle_pull`: the fusiform muscle of :mod:`tissuefem.engine.meshes`, pulled by its right tendon.
 """
 
 from __future__ import annotations
@@ -61,19 +51,8 @@ from ..engine.meshes import fusiform_fiber_field, fusiform_muscle, rectangle
 from ..engine.model import Handle, Model
 from ..engine.stepping import solve
 
-
-__all__ = [
-    "K_FIBER",
-    "fiber_direction",
-    "fiber_modulus_gain",
-    "predicted_confined_modulus",
-    "PullResult",
-    "confined_pull",
-    "AlongAcross",
-    "along_vs_across",
-    "block_pull",
-    "muscle_pull",
-]
+__all__ = ["K_FIBER", "fiber_direction", "fiber_modulus_gain", "predicted_confined_modulus", "PullResult",
+           "confined_pull", "AlongAcross", "along_vs_across", "block_pull", "muscle_pull"]
 
 #: Default fiber modulus ``k``: four times the matrix's Young's modulus.
 K_FIBER = 4.0 * TISSUE_E
@@ -97,12 +76,10 @@ def fiber_direction(angle_deg) -> np.ndarray:
 def fiber_modulus_gain(k, angle_deg):
     """The small-strain modulus the fiber adds along a direction ``angle_deg`` degrees away from it.
 
-    ``e_i e_j e_k e_l (k g_i g_j g_k g_l) = k (e . g)^4 = k cos^4 theta``: ``k``
-    along the fiber, ``k/4`` at 45 degrees and nothing across it.
+    ``e_i e_j e_k e_l (k g_i g_j g_k g_l) = k (e . g)^4 = k cos^4 theta``: ``k`` along the fiber, ``k/4`` at
+    45 degrees and nothing across it.
     """
-    k = _check_stiffness(k)
-    c = fiber_direction(angle_deg)[0]
-    return float(k * c**4)
+    return float(_check_stiffness(k) * fiber_direction(angle_deg)[0] ** 4)
 
 
 def _default_base(base):
@@ -116,8 +93,8 @@ def _default_base(base):
 def predicted_confined_modulus(angle_deg, *, stiffness=K_FIBER, base=None) -> float:
     """Small-strain confined modulus ``lam + 2 mu + k cos^4 theta`` for a pull along X.
 
-    ``theta = angle_deg`` is the fiber angle from X. ``lam + 2 mu`` is ``C_xxxx``
-    of the isotropic matrix (any of our models linearises to linear elasticity).
+    ``theta = angle_deg`` is the fiber angle from X; ``lam + 2 mu`` is the isotropic matrix's ``C_xxxx``
+    (any of our models linearises to linear elasticity).
     """
     base = _default_base(base)
     return base.lam + 2.0 * base.mu + fiber_modulus_gain(stiffness, angle_deg)
@@ -129,11 +106,9 @@ def predicted_confined_modulus(angle_deg, *, stiffness=K_FIBER, base=None) -> fl
 class PullResult:
     """A pull test: stretches, the reaction force on the pulled edge, and the final state.
 
-    ``forces[s]`` is the X component of the total force (per unit thickness)
-    that holds the pulled edge at ``stretches[s]``: the sum of the internal
-    forces on its X degrees of freedom. ``edge_length`` is that edge's
-    reference length, so ``nominal_stress = forces / edge_length`` is the
-    average ``P_xx`` on it.
+    ``forces[s]`` is the X component of the total force (per unit thickness) holding the pulled edge at
+    ``stretches[s]``, the sum of the internal forces on its X dofs; ``nominal_stress = forces / edge_length``
+    (its reference length) is the average ``P_xx`` on it.
     """
 
     stretches: np.ndarray
@@ -185,12 +160,9 @@ def _ramp(model, handle, to_target, stretches, pulled_edge, edge_length, rtol) -
 def confined_pull(angle_deg, strain, *, stiffness=K_FIBER, base=None, n=4, rtol=1e-12) -> PullResult:
     """The unit square stretched by ``F = diag(1 + strain, 1)``, imposed on its whole boundary.
 
-    ``angle_deg``: fiber angle from X (``None``: no fibers, the matrix alone).
-    The deformation is homogeneous, so the reaction per unit height of the
-    right edge is the uniform ``P_xx`` and ``nominal_stress / strain`` is the
-    confined (uniaxial-strain) modulus, compared with
-    :func:`predicted_confined_modulus`. ``strain`` may be a number or a
-    sequence (solved in order, each warm-started from the previous one).
+    ``angle_deg``: fiber angle from X (``None``: the matrix alone). The deformation is homogeneous, so
+    ``nominal_stress / strain`` is the confined (uniaxial-strain) modulus, compared with
+    :func:`predicted_confined_modulus`. ``strain``: a number or a sequence (solved in order, warm-started).
     """
     base = _default_base(base)
     strains = _check_stretches(1.0 + np.atleast_1d(np.asarray(strain, dtype=float))) - 1.0
@@ -231,11 +203,9 @@ class AlongAcross:
 def along_vs_across(strain=1e-4, *, stiffness=K_FIBER, base=None, n=4) -> AlongAcross:
     """Pull the confined square (:func:`confined_pull`) with fibers along and across; compare moduli.
 
-    Same matrix and same ``F`` in both runs, so the matrix's response cancels
-    in the difference and only the fiber term is left: at 90 degrees
-    ``F g = g`` (``I4 = 1``, no fiber stress), at 0 degrees
-    ``P_fiber_xx = k/2 ((1 + eps)^2 - 1)(1 + eps)``. Divided by ``eps`` the
-    difference is ``k (1 + eps)(1 + eps/2)``, which tends to ``k``.
+    Same matrix and ``F`` in both runs, so only the fiber term is left in the difference: at 90 degrees
+    ``F g = g`` (``I4 = 1``, no fiber stress), at 0 degrees ``P_fiber_xx = k/2 ((1 + eps)^2 - 1)(1 + eps)``.
+    Divided by ``eps`` the difference is ``k (1 + eps)(1 + eps/2)``, which tends to ``k``.
     """
     eps = float(strain)
     if not math.isfinite(eps) or eps == 0.0 or eps <= -1.0:
@@ -251,10 +221,9 @@ def block_pull(angle_deg, stretches, *, stiffness=K_FIBER, base=None, width=2.0,
                rtol=1e-10) -> PullResult:
     """A tensile test: a ``width x height`` strip clamped at both ends, the right end pulled along X.
 
-    ``angle_deg``: the uniform fiber angle from the pull (``None``: no fibers).
-    The sides are free, so the strip narrows; the clamps keep the ends from
-    narrowing, so the state is not homogeneous (no closed form). The right
-    end moves to ``X = stretch * width`` for each of ``stretches`` in turn.
+    ``angle_deg``: the uniform fiber angle from the pull (``None``: no fibers). The free sides narrow but
+    the clamped ends cannot, so the state is not homogeneous (no closed form). The right end moves to
+    ``X = stretch * width`` for each of ``stretches`` in turn.
     """
     base = _default_base(base)
     stretches = _check_stretches(stretches)
@@ -268,11 +237,10 @@ def muscle_pull(stretches, *, stiffness=K_FIBER, base=None, with_fibers=True, fi
                 rtol=1e-10) -> PullResult:
     """The fusiform muscle held at its left tendon and pulled along X by its right tendon.
 
-    ``mesh`` defaults to :func:`tissuefem.engine.meshes.fusiform_muscle` (length 4);
-    its fibers are ``fibers`` (shape ``(2,)`` or ``(2, n_elements)``) if given,
-    else :func:`tissuefem.engine.meshes.fusiform_fiber_field`; ``with_fibers=False``
-    leaves the matrix alone. The right tendon moves to ``X = stretch * length``.
-    ``edge_length`` of the result is the tendon's width.
+    ``mesh`` defaults to :func:`tissuefem.engine.meshes.fusiform_muscle` (length 4); its fibers are
+    ``fibers`` (shape ``(2,)`` or ``(2, n_elements)``) if given, else
+    :func:`tissuefem.engine.meshes.fusiform_fiber_field`; ``with_fibers=False`` leaves the matrix alone.
+    The right tendon moves to ``X = stretch * length``; ``edge_length`` is the tendon's width.
     """
     base = _default_base(base)
     stretches = _check_stretches(stretches)

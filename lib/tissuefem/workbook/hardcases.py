@@ -1,27 +1,18 @@
 """The hard cases: crushed, collapsed, mirrored, stretched and dragged bodies, and their release.
 
-Promise 2 of the workbook is that hard cases stay numerically stable. This
-module builds those cases on a small block and runs the experiment that
-chapter 6 shows and ``tests/test_hard_cases.py`` asserts:
+Promise 2 of the workbook is that hard cases stay numerically stable. Chapter 6 shows and
+``tests/test_hard_cases.py`` asserts the experiment: put a small block in a violent state (mirrored,
+collapsed to a point or a line, stretched 10x, crushed past flat, dragged through itself), *release* it
+(hold a few nodes at rest, free the others, solve for equilibrium), and measure how far the result is
+from the rest shape and what it cost (Newton iterations, line-search cuts, shifted tangents).
 
-1. put the body in a violent state (every element mirrored, all nodes on one
-   point or on one line, a 10x stretch, a crush past flat, a handle dragged
-   through the body);
-2. *release* it: hold a few nodes at their rest positions, free every other
-   node, and solve for equilibrium from that state;
-3. measure how far the result is from the rest shape, and what it cost
-   (Newton iterations, line-search cuts, shifted tangents).
+The release has a unique answer only if the energy has one well: a solve started far away could settle
+in another local minimum (a fold). Steps are capped (``max_step``, a crude trust region) so the iterates
+creep downhill instead of jumping across wells.
 
-The quasistatic release has a unique answer only if the energy has one well:
-a solve started far away can in principle settle in another local minimum
-(a folded configuration). Steps are capped (``max_step``, a crude trust
-region) so the iterates creep downhill instead of jumping across wells.
-
-Models compared (:func:`inversion_models`): the ``ln J`` Neo-Hookean model
-(fails on any inverted element: its energy is NaN there), the notes' cubic
-Taylor variant, stable Neo-Hookean, and the ITF-clamped ``ln J`` model; the
-two polynomial models are solved with the projected (positive semi-definite)
-tangent of Teran et al. 2005, the ITF model projects its own.
+Models (:func:`inversion_models`): the ``ln J`` Neo-Hookean model (its energy is NaN on any inverted
+element), the notes' cubic Taylor variant and stable Neo-Hookean, both with the projected (positive
+semi-definite) tangent of Teran et al. 2005, and the ITF-clamped ``ln J`` model, which projects its own.
 """
 
 from __future__ import annotations
@@ -41,8 +32,7 @@ from ..engine.realtime import RealtimeSolver
 from ..engine.stepping import solve
 
 __all__ = ["inversion_models", "block", "start_states", "ReleaseResult", "release", "crush_and_release",
-           "crush_in_frames", "element_jacobians", "cover_counts",
-           "drag_through", "RELEASE_OPTIONS"]
+           "crush_in_frames", "element_jacobians", "cover_counts", "drag_through", "RELEASE_OPTIONS"]
 
 #: Newton options of a release solve: absolute residual tolerance (the start residual is huge,
 #: so a relative one would stop early), a step cap and room for the creeping iterations.
@@ -106,8 +96,7 @@ def _bottom(mesh):
 def release(mesh, material, x_start, held=None, **newton_options) -> ReleaseResult:
     """Release a body from node positions ``x_start``: hold ``held`` nodes at rest, free the rest.
 
-    ``held`` defaults to the bottom edge. Returns a :class:`ReleaseResult`;
-    never raises for a numerical failure (the status tells).
+    ``held`` defaults to the bottom edge. Never raises for a numerical failure (the status tells).
     """
     X = np.asarray(mesh.p, dtype=float)
     x_start = np.asarray(x_start, dtype=float)
@@ -124,30 +113,23 @@ def release(mesh, material, x_start, held=None, **newton_options) -> ReleaseResu
     with np.errstate(all="ignore"):
         start_energy = model.stored_energy(u0)
     result = solve(model, u0=u0, **options)
-    newton = result.steps[-1]
-    u = result.u
-    x = model.positions(u)
+    newton, u = result.steps[-1], result.u
     return ReleaseResult(
         u=u, converged=result.converged, status=result.status, iterations=result.newton_iterations,
         cuts=newton.line_search_cuts, shifted=sum(1 for h in newton.history if h.shift > 0),
         energies=newton.energies, start_energy=float(start_energy),
-        rest_error=float(np.linalg.norm(x - X) / np.linalg.norm(X)), finite=bool(np.all(np.isfinite(u))),
-        history=newton.history,
-    )
+        rest_error=float(np.linalg.norm(model.positions(u) - X) / np.linalg.norm(X)),
+        finite=bool(np.all(np.isfinite(u))), history=newton.history)
 
 
 def crush_and_release(material, mesh=None, depth: float = 1.3, steps: int = 13, **newton_options) -> dict:
     """Push the top edge of a block down by ``depth`` (1 = flat, more = past flat) and release it.
 
-    The bottom edge is fixed; the top edge is a handle moved down in
-    ``steps`` equal increments, each solved from the previous state. Then
-    the handle is let go (bottom still held) and the body is released.
-
-    Returns a dict with ``frames`` (node positions after each crush step, then
-    the released shape), ``crush`` (the per-step results), ``released`` (a
-    :class:`ReleaseResult`), ``crushed`` (how deep the top got before a step
-    failed: ``depth`` when all succeeded), ``iterations``, ``cuts`` and
-    ``final_energy``.
+    The bottom edge is fixed; the top edge is a handle moved down in ``steps`` equal increments, each
+    solved from the previous state; then the handle lets go and the body is released. Returns ``frames``
+    (node positions after each crush step, then the released shape), ``crush`` (per-step results),
+    ``released`` (a :class:`ReleaseResult`), ``crushed`` (how deep the top got before a step failed),
+    ``iterations``, ``cuts`` and ``final_energy``.
     """
     mesh = block() if mesh is None else mesh
     X = np.asarray(mesh.p, dtype=float)
@@ -166,27 +148,19 @@ def crush_and_release(material, mesh=None, depth: float = 1.3, steps: int = 13, 
         frames.append(model.positions(u))
     released = release(mesh, material, model.positions(u), held=_bottom(mesh), **newton_options)
     frames.append(model.positions(u) if not released.finite else model.positions(released.u))
-    return {
-        "frames": frames,
-        "crush": crush,
-        "released": released,
-        "crushed": reached,
-        "iterations": sum(r.newton_iterations for r in crush) + released.iterations,
-        "cuts": sum(s.line_search_cuts for r in crush for s in r.steps) + released.cuts,
-        "final_energy": released.final_energy,
-    }
+    return {"frames": frames, "crush": crush, "released": released, "crushed": reached,
+            "iterations": sum(r.newton_iterations for r in crush) + released.iterations,
+            "cuts": sum(s.line_search_cuts for r in crush for s in r.steps) + released.cuts,
+            "final_energy": released.final_energy}
 
 
 def drag_through(material, mesh=None, depth: float = 1.6, steps: int = 16, **newton_options) -> dict:
     """Grab the middle of the top edge and drag it down through the body and out below the bottom.
 
-    The left and right edges are held (a clamped sheet); the handle holds the
-    top-edge nodes within 0.2 of the middle and moves down by ``depth`` in
-    ``steps`` increments, each solved from the previous state; then it lets go
-    and the sheet is released (sides still held). Returns ``positions`` (after
-    each drag step), ``drag`` (per-step results), ``released`` and
-    ``failed_steps`` (steps that did not converge; the state then stays at the
-    last converged one and the drag goes on).
+    The left and right edges are held (a clamped sheet); the handle holds the top-edge nodes within 0.2 of
+    the middle and moves down by ``depth`` in ``steps`` increments, each solved from the previous state;
+    then it lets go and the sheet is released. Returns ``positions`` (after each step), ``drag`` (per-step
+    results), ``released`` and ``failed_steps`` (steps that did not converge; the drag goes on).
     """
     mesh = block() if mesh is None else mesh
     X = np.asarray(mesh.p, dtype=float)
@@ -214,16 +188,14 @@ def crush_in_frames(material, mesh=None, depth: float = 1.3, steps: int = 13, ex
     """The crush of :func:`crush_and_release` as the real-time solver runs it: quasistatic *frames*.
 
     The top edge is moved down in ``steps`` frames to ``depth``; each frame runs Newton up to
-    ``max_iterations`` steps and, unlike the offline load stepping of :func:`crush_and_release`
-    (where a step that does not converge ends the crush), commits what it has and carries the rest
-    into the next frame (the anytime rule of chapter 7). At the final depth, up to ``extra_frames``
-    more frames finish the work. Then the top is let go and the body released as in
-    :func:`release`.
+    ``max_iterations`` steps and, unlike :func:`crush_and_release` (where a failed step ends the crush),
+    commits what it has and carries the rest into the next frame (chapter 7's anytime rule); up to
+    ``extra_frames`` more frames finish the work at the final depth. Then the body is released.
 
-    Returns a dict with ``x`` (positions at the final depth), ``reached`` (the depth the top got to),
-    ``converged`` (the last crush frame), ``frames`` (crush frames used), ``inverted`` (elements with
-    ``J <= 0`` there), ``folded`` (element centroids covered more than once there: the mesh lies
-    over itself although no element is inverted) and ``released`` (a :class:`ReleaseResult`).
+    Returns ``x`` (positions at the final depth), ``reached`` (the depth the top got to), ``converged``
+    (the last crush frame), ``frames`` (crush frames used), ``inverted`` (elements with ``J <= 0``),
+    ``folded`` (element centroids covered more than once: the mesh lies over itself although no element
+    is inverted) and ``released`` (a :class:`ReleaseResult`).
     """
     mesh = block() if mesh is None else mesh
     X = np.asarray(mesh.p, dtype=float)
@@ -241,23 +213,16 @@ def crush_in_frames(material, mesh=None, depth: float = 1.3, steps: int = 13, ex
     x = model.positions(solver.u)
     top = np.flatnonzero(np.isclose(X[1], X[1].max()))
     J = element_jacobians(mesh, x)
-    return {
-        "x": x,
-        "reached": float(X[1, top].mean() - x[1, top].mean()),
-        "converged": bool(report.converged),
-        "frames": frames,
-        "inverted": int(np.sum(J <= 1e-12)),
-        "folded": int(np.sum(cover_counts(mesh, x) > 1)),
-        "released": release(mesh, material, x, held=_bottom(mesh)),
-    }
+    return {"x": x, "reached": float(X[1, top].mean() - x[1, top].mean()), "converged": bool(report.converged),
+            "frames": frames, "inverted": int(np.sum(J <= 1e-12)), "folded": int(np.sum(cover_counts(mesh, x) > 1)),
+            "released": release(mesh, material, x, held=_bottom(mesh))}
 
 
 def element_jacobians(mesh, x) -> np.ndarray:
     """``J = det F`` of every P1 triangle of ``mesh`` when its nodes sit at ``x`` (shape ``(2, n_nodes)``).
 
-    On a linear triangle ``F`` is constant and ``J`` is the ratio of the signed
-    areas, deformed over reference: negative when the triangle is turned inside
-    out, zero when it is flat or collapsed to a point.
+    On a linear triangle ``J`` is the ratio of the signed areas, deformed over reference: negative when the
+    triangle is turned inside out, zero when it is flat or collapsed to a point.
     """
     x = np.asarray(x, dtype=float)
 
@@ -271,12 +236,10 @@ def element_jacobians(mesh, x) -> np.ndarray:
 def cover_counts(mesh, x, tol: float = 1e-9) -> np.ndarray:
     """How many deformed triangles contain the centroid of each deformed triangle (nodes at ``x``).
 
-    A one-to-one deformation gives 1 everywhere; a count above 1 is a point of
-    space reached from two places of the body: the mesh lies over itself
-    there. This is a global test: it sees a fold even when every triangle has
-    ``J > 0``. Flat triangles (zero area) contain nothing and count 0 for
-    their own centroid. ``tol`` is the margin on the barycentric coordinates,
-    so points on a shared edge are not counted twice. Cost: ``n_elements^2``.
+    A one-to-one deformation gives 1 everywhere; above 1 the mesh lies over itself there. A global test, it
+    sees a fold even when every triangle has ``J > 0``. Flat triangles contain nothing (their own centroid
+    counts 0). ``tol``, the margin on the barycentric coordinates, keeps points on a shared edge from
+    counting twice. Cost: ``n_elements^2``.
     """
     x = np.asarray(x, dtype=float)
     a, b, c = (x[:, mesh.t[k]] for k in range(3))  # corners, each (2, n_elements)

@@ -34,9 +34,8 @@ def median_time(fn, repeats: int) -> float:
 def evaluate(basis, u, points, chunk: int = 400) -> np.ndarray:
     """Values ``(2, n)`` of the finite element field ``u`` at arbitrary points ``(2, n)``.
 
-    scikit-fem's point location compares every point of a call with every
-    candidate element of the call (memory grows like points^2), so the points
-    are fed in chunks.
+    Fed in chunks: scikit-fem's point location compares every point of a call with every candidate element
+    of the call (memory grows like points^2).
     """
     f = basis.interpolator(u)
     return np.concatenate([f(points[:, i:i + chunk]) for i in range(0, points.shape[1], chunk)], axis=1)
@@ -45,9 +44,8 @@ def evaluate(basis, u, points, chunk: int = 400) -> np.ndarray:
 def relative_l2_error(basis, u, reference_basis, u_reference, intorder: int = 4) -> float:
     """``||u - u_ref||_L2 / ||u_ref||_L2`` over the body, by quadrature on ``basis``'s mesh.
 
-    ``u_ref`` (on another, finer mesh) is evaluated at the quadrature points by point location;
-    ``intorder`` is the quadrature degree (4 is ample for P1 and P2 differences). The bases may be
-    given as models (anything with a ``basis``).
+    ``u_ref`` (on another, finer mesh) is evaluated at the quadrature points by point location; ``intorder``
+    is the quadrature degree (4 is ample for P1 and P2). The bases may be models (anything with a ``basis``).
     """
     basis = getattr(basis, "basis", basis)
     reference_basis = getattr(reference_basis, "basis", reference_basis)
@@ -55,15 +53,12 @@ def relative_l2_error(basis, u, reference_basis, u_reference, intorder: int = 4)
     uh = np.asarray(quad.interpolate(u))  # (2, nel, nq)
     x = quad.mapping.F(quad.quadrature[0])  # quadrature points (2, nel, nq)
     ur = evaluate(reference_basis, u_reference, x.reshape(2, -1)).reshape(uh.shape)
-    err = np.sum(np.sum((uh - ur) ** 2, axis=0) * quad.dx)
-    norm = np.sum(np.sum(ur**2, axis=0) * quad.dx)
-    return float(np.sqrt(err / norm))
+    return float(np.sqrt(np.sum(np.sum((uh - ur) ** 2, axis=0) * quad.dx) / np.sum(np.sum(ur**2, axis=0) * quad.dx)))
 
 
 def power_law_fit(x, y) -> tuple[float, float]:
     """Least-squares ``y = C x^p`` on a log-log scale; returns ``(p, C)``."""
-    x = np.asarray(x, dtype=float)
-    y = np.asarray(y, dtype=float)
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
     if x.shape != y.shape or x.size < 2:
         raise ValueError(f"x and y must have the same shape and at least 2 points, got {x.shape} and {y.shape}")
     if not (np.all(x > 0) and np.all(y > 0) and np.all(np.isfinite(x)) and np.all(np.isfinite(y))):
@@ -84,23 +79,23 @@ def _check_rtol(rtol) -> float:
     return rtol
 
 
+def _costs_errors(costs, errors, rtol=0.0):
+    """``(costs, errors, 1 + rtol)`` checked: two 1D float arrays of one length and a resolution factor."""
+    c, e = np.asarray(costs, dtype=float), np.asarray(errors, dtype=float)
+    if c.shape != e.shape or c.ndim != 1:
+        raise ValueError(f"costs and errors must be 1D arrays of the same length, got {c.shape} and {e.shape}")
+    return c, e, 1.0 + _check_rtol(rtol)
+
+
 def pareto_front(costs, errors, rtol: float = 0.0) -> np.ndarray:
     """Indices of the non-dominated points, in order of increasing cost.
 
-    Point ``i`` is dominated when some ``j`` has ``cost_j <= cost_i`` and
-    ``error_j <= error_i`` with at least one strict. Ties (equal cost and
-    error) keep the first. Non-finite entries are never on the front.
-
-    ``rtol`` is the resolution of the errors: an error counts as smaller only
-    if it is smaller by more than the factor ``1 + rtol``. With ``rtol = 0.01``
-    a setting that is slower and only 0.5 % more accurate (a difference in the
-    third or fourth digit, below what the reference can tell) is not on the front.
+    Point ``i`` is dominated when some ``j`` has ``cost_j <= cost_i`` and ``error_j <= error_i`` with at
+    least one strict. Ties keep the first; non-finite entries are never on the front. ``rtol`` is the
+    errors' resolution: an error counts as smaller only by more than the factor ``1 + rtol`` (with ``0.01``,
+    a slower setting only 0.5 % more accurate, below what the reference can tell, is not on the front).
     """
-    c = np.asarray(costs, dtype=float)
-    e = np.asarray(errors, dtype=float)
-    if c.shape != e.shape or c.ndim != 1:
-        raise ValueError(f"costs and errors must be 1D arrays of the same length, got {c.shape} and {e.shape}")
-    factor = 1.0 + _check_rtol(rtol)
+    c, e, factor = _costs_errors(costs, errors, rtol)
     ok = np.flatnonzero(np.isfinite(c) & np.isfinite(e))
     # sort by cost, then error: walking in that order, a point is on the front when its error is below
     # every error seen so far (by more than the resolution)
@@ -115,8 +110,7 @@ def pareto_front(costs, errors, rtol: float = 0.0) -> np.ndarray:
 
 def observed_rates(h, errors) -> np.ndarray:
     """Observed convergence rates between successive meshes: ``log(e_i / e_(i+1)) / log(h_i / h_(i+1))``."""
-    h = np.asarray(h, dtype=float)
-    e = np.asarray(errors, dtype=float)
+    h, e = np.asarray(h, dtype=float), np.asarray(errors, dtype=float)
     if h.shape != e.shape or h.ndim != 1 or h.size < 2:
         raise ValueError(f"h and errors must be 1D arrays of the same length >= 2, got {h.shape} and {e.shape}")
     if not (np.all(h > 0) and np.all(e > 0) and np.all(np.isfinite(h)) and np.all(np.isfinite(e))):
@@ -129,17 +123,11 @@ def observed_rates(h, errors) -> np.ndarray:
 def best_within_budget(costs, errors, budget, rtol: float = 0.0):
     """Index of the most accurate setting whose cost is at most ``budget`` (the cheaper on a tie), or ``None``.
 
-    What an engineer reads off a Pareto plot: draw the budget line, take the
-    lowest point to its left. Non-finite entries never qualify. ``rtol`` is
-    the resolution of the errors: every setting within the factor ``1 + rtol``
-    of the smallest error under the budget ties with it, and the cheapest of
-    them is chosen (so a winner is never crowned by a difference in the last
-    digits).
+    What an engineer reads off a Pareto plot: draw the budget line, take the lowest point to its left.
+    Non-finite entries never qualify. Every setting within the factor ``1 + rtol`` of the smallest error
+    under the budget ties with it, and the cheapest wins (never a difference in the last digits).
     """
-    c = np.asarray(costs, dtype=float)
-    e = np.asarray(errors, dtype=float)
-    if c.shape != e.shape or c.ndim != 1:
-        raise ValueError(f"costs and errors must be 1D arrays of the same length, got {c.shape} and {e.shape}")
+    c, e = _costs_errors(costs, errors)[:2]
     budget = float(budget)
     if not budget > 0:
         raise ValueError(f"budget must be > 0, got {budget!r}")
@@ -157,8 +145,7 @@ def cost_at_error(costs, errors, target):
     Interpolated linearly on log-log axes between the two settings around ``target`` (the curves of a
     convergence study are nearly straight there); ``None`` when the curve does not reach it.
     """
-    c = np.asarray(costs, dtype=float)
-    e = np.asarray(errors, dtype=float)
+    c, e = np.asarray(costs, dtype=float), np.asarray(errors, dtype=float)
     order = np.argsort(c)
     c, e = c[order], e[order]
     for k in range(c.size - 1):

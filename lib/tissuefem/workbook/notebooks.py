@@ -1,7 +1,6 @@
 """Execute the chapter notebooks headless (the ``build`` command and the test suite).
 
-Executed copies go to a build folder; the committed chapters are never
-overwritten, so they stay free of outputs.
+Executed copies go to a build folder, so the committed chapters stay free of outputs.
 """
 
 from __future__ import annotations
@@ -9,7 +8,6 @@ from __future__ import annotations
 import re
 import time
 from pathlib import Path
-
 
 #: A chapter's file name: ``chNN_name.ipynb``, or ``chNNa_name.ipynb``, ``chNNb_...`` for the parts of a
 #: chapter split into sittings.
@@ -32,21 +30,16 @@ def chapter_label(path) -> str:
 def execute_notebook(src, dst=None, timeout: int = 900, kernel_name: str = "python3"):
     """Run every cell of ``src`` in a fresh kernel (working directory: the notebook's folder).
 
-    Returns the executed notebook; writes it to ``dst`` when given. A failing cell
-    raises ``nbclient.exceptions.CellExecutionError`` naming the cell.
+    Returns the executed notebook; writes it to ``dst`` when given. A failing cell raises
+    ``nbclient.exceptions.CellExecutionError`` naming the cell.
     """
     import nbformat
     from nbclient import NotebookClient
 
     src = Path(src)
     nb = nbformat.read(src, as_version=4)
-    client = NotebookClient(
-        nb,
-        timeout=timeout,
-        kernel_name=kernel_name,
-        resources={"metadata": {"path": str(src.parent)}},
-    )
-    client.execute()
+    NotebookClient(nb, timeout=timeout, kernel_name=kernel_name,
+                   resources={"metadata": {"path": str(src.parent)}}).execute()
     if dst is not None:
         dst = Path(dst)
         dst.parent.mkdir(parents=True, exist_ok=True)
@@ -61,8 +54,7 @@ def build_chapters(chapters_dir, outdir, names=None, progress=print) -> list[Pat
         paths = [p for p in paths if any(n in p.name for n in names)]
         if not paths:
             raise ValueError(f"no chapter matches {names}")
-    done = []
-    start = time.perf_counter()
+    done, start = [], time.perf_counter()
     for i, path in enumerate(paths, 1):
         t0 = time.perf_counter()
         if progress:
@@ -71,8 +63,6 @@ def build_chapters(chapters_dir, outdir, names=None, progress=print) -> list[Pat
         execute_notebook(path, dst)
         done.append(dst)
         if progress:
-            progress(
-                f"[chapter {i}/{len(paths)}] {path.name} -> {dst}  ({time.perf_counter() - t0:.1f} s, "
-                f"total {time.perf_counter() - start:.1f} s)"
-            )
+            progress(f"[chapter {i}/{len(paths)}] {path.name} -> {dst}  ({time.perf_counter() - t0:.1f} s, "
+                     f"total {time.perf_counter() - start:.1f} s)")
     return done

@@ -14,8 +14,8 @@ __all__ = ["manufactured_solution", "convergence_study"]
 def manufactured_solution(modulus: float = 1.0, traction: float = 1.0):
     """A bar on [0, 1], ``u(0) = 0``, end traction ``T`` at 1, body force ``f = E1 pi^2 sin(pi X)``.
 
-    Then ``-E1 u'' = f`` gives ``u = sin(pi X) + c X`` with ``E1 u'(1) = T``,
-    i.e. ``c = T / E1 + pi``. Returns ``(f, u, du)`` as callables of X.
+    Then ``-E1 u'' = f`` gives ``u = sin(pi X) + c X`` with ``E1 u'(1) = T``, i.e. ``c = T / E1 + pi``.
+    Returns ``(f, u, du)`` as callables of X.
     """
     c = traction / modulus + np.pi
 
@@ -34,10 +34,8 @@ def manufactured_solution(modulus: float = 1.0, traction: float = 1.0):
 def convergence_study(orders=(1, 2), ns=(4, 8, 16, 32, 64, 128), modulus: float = 1.0, traction: float = 1.0):
     """Errors of the linear bar against :func:`manufactured_solution` as the mesh is refined.
 
-    Returns a list of dicts with ``order, n, h, L2, H1, nodal`` (the largest
-    error at the element end points) and the observed rates
-    ``rate_L2, rate_H1`` = log(e_coarse / e_fine) / log(h_coarse / h_fine)
-    (NaN on the coarsest mesh).
+    Returns dicts with ``order, n, h, L2, H1, nodal`` (the largest error at the element end points) and the
+    rates ``rate_L2, rate_H1`` = log(e_coarse / e_fine) / log(h_coarse / h_fine) (NaN on the coarsest mesh).
     """
     f, u_exact, du_exact = manufactured_solution(modulus, traction)
     rows = []
@@ -47,8 +45,7 @@ def convergence_study(orders=(1, 2), ns=(4, 8, 16, 32, 64, 128), modulus: float 
             bar = Bar1D(0.0, 1.0, n, order=order)
             u = bar.solve_linear(modulus, f, left=Displacement(0.0), right=Traction(traction))
             l2, h1 = bar.errors(u, u_exact, du_exact)
-            vertex_dofs = bar.basis.nodal_dofs[0]
-            nodal = float(np.max(np.abs(u[vertex_dofs] - u_exact(bar.mesh.p[0]))))
+            nodal = float(np.max(np.abs(u[bar.basis.nodal_dofs[0]] - u_exact(bar.mesh.p[0]))))
             row = {"order": order, "n": n, "h": 1.0 / n, "L2": l2, "H1": h1, "nodal": nodal,
                    "rate_L2": np.nan, "rate_H1": np.nan}
             if previous is not None:

@@ -1,17 +1,12 @@
 """Reusable studies of chapters 3 and 4, and the reference answers of their exercises.
 
-Chapter 3 (kinematics, 2D linear elasticity)
-    :func:`rotation`, :func:`bending_map` / :func:`bending_gradient` (a smooth
-    example deformation with its exact ``F``), :func:`displacement_from_map`
-    (the nodal displacement vector of a map on a mesh),
-    :func:`rigid_rotation_response` (energy and stress of ``F = R(theta)``) and
-    :func:`rotated_block` (a block whose left edge is turned rigidly).
+Chapter 3 (kinematics, 2D linear elasticity): :func:`rotation`, :func:`bending_map` / :func:`bending_gradient`
+(a smooth example deformation with its exact ``F``), :func:`displacement_from_map`,
+:func:`rigid_rotation_response` and :func:`rotated_block`.
 
-Chapter 4 (2D Neo-Hookean quasistatics)
-    :func:`block_model` (the tissue block stretched and sheared by two
-    handles), :func:`handle_force` and :func:`cost_accuracy_study`, the first
-    measurement of what accuracy costs in time, with :data:`RECORDED_COST_ACCURACY`
-    (one recorded run, for the deterministic lecture figure).
+Chapter 4 (2D Neo-Hookean quasistatics): :func:`block_model` (the block stretched and sheared by two handles),
+:func:`handle_force` and :func:`cost_accuracy_study`, the first measurement of what accuracy costs in time,
+with :data:`RECORDED_COST_ACCURACY` (one recorded run, for the deterministic lecture figure).
 
 Index convention as everywhere in the package: ``F[i, j] = d phi_i / d X_j``.
 """
@@ -29,24 +24,13 @@ from ..engine.materials import LinearElastic, Material, NeoHookean
 from ..engine.meshes import rectangle
 from ..engine.model import Handle, Model
 from ..engine.stepping import StaticResult, solve
-from .bench.common import markdown_table
+from .bench.common import cell_text, markdown_table
 from .measure import median_time, relative_l2_error
 
 __all__ = [
-    "rotation",
-    "bending_map",
-    "bending_gradient",
-    "displacement_from_map",
-    "rigid_rotation_response",
-    "rotated_block",
-    "BLOCK_HANDLE",
-    "block_model",
-    "handle_force",
-    "newton_iteration_time",
-    "cost_accuracy_study",
-    "format_cost_accuracy",
-    "cost_accuracy_markdown",
-    "RECORDED_COST_ACCURACY",
+    "rotation", "bending_map", "bending_gradient", "displacement_from_map", "rigid_rotation_response",
+    "rotated_block", "BLOCK_HANDLE", "block_model", "handle_force", "newton_iteration_time", "cost_accuracy_study",
+    "format_cost_accuracy", "cost_accuracy_markdown", "RECORDED_COST_ACCURACY",
 ]
 
 
@@ -64,15 +48,11 @@ def _sizes(name, values) -> tuple[int, ...]:
     return tuple(_count(name, v) for v in values)
 
 
-# =============================================================================
-# chapter 3: kinematics
-# =============================================================================
+# --- chapter 3: kinematics ----------------------------------------------------------------------------
 
 def rotation(theta) -> np.ndarray:
-    """The rotation ``R(theta) = [[cos, -sin], [sin, cos]]``; shape ``[2, 2, *theta.shape]``.
-
-    ``theta`` in radians, counter-clockwise.
-    """
+    """The rotation ``R(theta) = [[cos, -sin], [sin, cos]]`` (radians, counter-clockwise); shape
+    ``[2, 2, *theta.shape]``."""
     theta = np.asarray(theta, dtype=float)
     c, s = np.cos(theta), np.sin(theta)
     return np.array([[c, -s], [s, c]])
@@ -90,10 +70,9 @@ _BEND_THICKNESS = 1.15  # b: radial length of a unit of Y (a 15 % stretch across
 def bending_map(X) -> np.ndarray:
     """The example deformation ``x = phi(X)`` of chapter 3: a block bent into an arch.
 
-    With ``theta = a (X - 1)`` and ``r = r0 + b Y``,
-    ``phi(X, Y) = C + r (sin theta, cos theta)``. ``X`` is shaped ``(2, ...)``;
-    returns the same shape. The bottom edge (``Y = 0``, radius ``r0``) is
-    shortened, the top edge stretched; ``J = a b r > 0`` everywhere.
+    With ``theta = a (X - 1)`` and ``r = r0 + b Y``, ``phi(X, Y) = C + r (sin theta, cos theta)``; ``X`` is
+    shaped ``(2, ...)``, as is the result. The bottom edge (``Y = 0``) is shortened, the top edge stretched;
+    ``J = a b r > 0`` everywhere.
     """
     X = np.asarray(X, dtype=float)
     theta = _BEND_ANGLE * (X[0] - 1.0)
@@ -104,23 +83,20 @@ def bending_map(X) -> np.ndarray:
 def bending_gradient(X) -> np.ndarray:
     """The exact deformation gradient of :func:`bending_map`, ``F[i, j] = d phi_i / d X_j``.
 
-    ``d theta/dX = a`` and ``dr/dY = b`` give
-    ``F = [[a r cos theta, b sin theta], [-a r sin theta, b cos theta]]`` and
-    ``J = det F = a b r``. Shape ``[2, 2, *X.shape[1:]]``.
+    ``d theta/dX = a`` and ``dr/dY = b`` give ``F = [[a r cos theta, b sin theta], [-a r sin theta,
+    b cos theta]]`` and ``J = det F = a b r``. Shape ``[2, 2, *X.shape[1:]]``.
     """
     X = np.asarray(X, dtype=float)
-    theta = _BEND_ANGLE * (X[0] - 1.0)
-    r = _BEND_RADIUS + _BEND_THICKNESS * X[1]
     a, b = _BEND_ANGLE, _BEND_THICKNESS
-    c, s = np.cos(theta), np.sin(theta)
+    r = _BEND_RADIUS + b * X[1]
+    c, s = np.cos(a * (X[0] - 1.0)), np.sin(a * (X[0] - 1.0))
     return np.array([[a * r * c, b * s], [-a * r * s, b * c]])
 
 
 def displacement_from_map(mesh, phi) -> np.ndarray:
     """The P1 nodal displacement vector ``u = phi(X) - X`` of a map, in scikit-fem's dof order.
 
-    Node ``n`` carries the dofs ``2 n`` (x) and ``2 n + 1`` (y), the ordering of
-    ``ElementVector(ElementTriP1())`` and of :class:`~tissuefem.assembly.P1Assembler`.
+    Node ``n`` carries the dofs ``2 n`` (x) and ``2 n + 1`` (y), as in ``ElementVector(ElementTriP1())``.
     ``phi`` maps ``(2, n)`` reference points to ``(2, n)`` deformed points.
     """
     X = np.asarray(mesh.p, dtype=float)
@@ -133,11 +109,9 @@ def displacement_from_map(mesh, phi) -> np.ndarray:
 def rigid_rotation_response(material: Material, angles) -> dict:
     """Energy density and stress of a rigid rotation ``F = R(theta)`` for each angle (radians).
 
-    Returns ``{"angle", "energy", "stress_norm"}`` (arrays shaped like
-    ``angles``); ``stress_norm`` is the Frobenius norm ``|P|``. A frame
-    indifferent model gives zero for both; linear elasticity gives
-    ``eps = (cos theta - 1) I``, hence ``Psi = 2 (lam + mu)(1 - cos theta)^2``
-    and ``P = 2 (lam + mu)(cos theta - 1) I``.
+    Returns ``{"angle", "energy", "stress_norm"}`` (arrays shaped like ``angles``; ``|P|`` Frobenius). A
+    frame-indifferent model gives zero for both; linear elasticity gives ``eps = (cos theta - 1) I``, hence
+    ``Psi = 2 (lam + mu)(1 - cos theta)^2`` and ``P = 2 (lam + mu)(cos theta - 1) I``.
     """
     angles = np.asarray(angles, dtype=float)
     R = rotation(angles.reshape(-1))
@@ -150,12 +124,10 @@ def rigid_rotation_response(material: Material, angles) -> dict:
 def rotated_block(material: Material, theta, n: int = 8, width: float = 1.0, height: float = 1.0):
     """Quasistatic equilibrium of a block whose left edge is turned rigidly by ``theta``.
 
-    The left edge is clamped to a wall that rotates by ``theta`` (radians)
-    about the edge's midpoint; the other edges are free. A frame-indifferent
-    model answers with a rigid rotation of the whole block (zero energy);
-    linear elasticity, which only knows infinitesimal rotations, strains the
-    block and changes its area. The nonlinear solve turns the wall in steps of
-    at most 15 degrees. Returns ``(model, result)``.
+    The left edge is clamped to a wall rotating by ``theta`` (radians) about the edge's midpoint; the other
+    edges are free. A frame-indifferent model answers with a rigid rotation (zero energy); linear elasticity,
+    which only knows infinitesimal rotations, strains the block and changes its area. The nonlinear solve
+    turns the wall in steps of at most 15 degrees. Returns ``(model, result)``.
     """
     n = _count("n", n)
     try:
@@ -191,9 +163,7 @@ def rotated_block(material: Material, theta, n: int = 8, width: float = 1.0, hei
     return model, StaticResult(result.u, result.converged, history)
 
 
-# =============================================================================
-# chapter 4: the stretched and sheared tissue block
-# =============================================================================
+# --- chapter 4: the stretched and sheared tissue block -------------------------------------------------
 
 #: The default handle motion of chapter 4's block [0, 2] x [0, 1]: the right edge moves by (0.6, 0.4).
 BLOCK_HANDLE = (0.6, 0.4)
@@ -203,10 +173,8 @@ def block_model(n: int = 8, order: int = 1, material: Material | None = None, ha
                 width: float = 2.0, height: float = 1.0, assembly: str = "fast") -> Model:
     """Chapter 4's tissue block: ``[0, width] x [0, height]``, left edge fixed, right edge moved by ``handle``.
 
-    The mesh is :func:`tissuefem.engine.meshes.rectangle` with ``n`` cells across
-    the height (cell size ``h = height / n``) and square cells. ``material``
-    defaults to ``NeoHookean.from_young(1000, 0.3)``. ``assembly="forms"``
-    assembles with the readable scikit-fem forms (slow; the reference).
+    Square cells, ``n`` across the height (``h = height / n``). ``material`` defaults to
+    ``NeoHookean.from_young(1000, 0.3)``; ``assembly="forms"`` uses the readable scikit-fem forms (slow).
     """
     n = _count("n", n)
     if material is None:
@@ -219,10 +187,9 @@ def block_model(n: int = 8, order: int = 1, material: Material | None = None, ha
 def handle_force(model: Model, u, boundary: str) -> np.ndarray:
     """The resultant force ``(f1, f2)`` the handle on ``boundary`` exerts on the body at equilibrium.
 
-    At a prescribed dof the internal force ``q_a(u) = int grad(v_a) : P dX`` is
-    not balanced by a load but by the handle, so the handle's force is the sum
-    of ``q - f_ext`` over its dofs, per component (:meth:`Model.reaction`;
-    force per unit thickness in plane strain). This is what a haptic device would render.
+    At a prescribed dof the internal force ``q_a(u) = int grad(v_a) : P dX`` is balanced by the handle, so
+    its force is the sum of ``q - f_ext`` over its dofs, per component (:meth:`Model.reaction`; per unit
+    thickness). This is what a haptic device would render.
     """
     for h in model.handles:
         if isinstance(h.region, str) and h.region == boundary:
@@ -233,8 +200,8 @@ def handle_force(model: Model, u, boundary: str) -> np.ndarray:
 def newton_iteration_time(model: Model, u, repeats: int = 3) -> float:
     """Median time (ms) of one Newton iteration at ``u``: gradient, tangent, a fresh factorization, solve.
 
-    The linear solve is a fresh SuperLU factorization (``"direct"``, symmetric minimum-degree
-    ordering). One iteration is the least a real-time frame can do.
+    The linear solve is a fresh SuperLU factorization (``"direct"``). One iteration is the least a
+    real-time frame can do.
     """
     fixed, _ = model.prescribed()
     free = np.ones(model.n_dofs, dtype=bool)
@@ -254,27 +221,17 @@ def cost_accuracy_study(p1_sizes=(2, 4, 8, 16), p2_sizes=(1, 2, 4, 8), reference
                         handle=BLOCK_HANDLE, progress=None) -> list[dict]:
     """Error and solve time of chapter 4's block, P1 against P2, over several meshes.
 
-    Every mesh size ``n`` (cells across the height, ``h = 1/n``) is solved by
-    :func:`block_model` with ``load_steps`` load steps from rest and compared
-    with a reference: P2 on ``n = reference_size`` (which should be several
-    times finer than every mesh of the sweep). The error measures are
+    Every mesh size ``n`` (cells across the height, ``h = 1/n``) is solved by :func:`block_model` with
+    ``load_steps`` load steps from rest and compared with P2 on ``n = reference_size`` (several times finer):
+    ``L2`` is the relative displacement error (:func:`~tissuefem.workbook.measure.relative_l2_error`),
+    ``energy`` the relative error of ``int Psi dX`` (with prescribed edges it falls like the square of the
+    energy-norm error). Times are medians over ``repeats`` runs after one warm-up: ``solve_ms`` for the
+    whole solve, ``iteration_ms`` for one Newton iteration at the solution (:func:`newton_iteration_time`);
+    read them, compare within one run, never assert them.
 
-    * ``L2``: the relative ``L2`` norm of the displacement error,
-      :func:`~tissuefem.workbook.measure.relative_l2_error`, the main measure;
-    * ``energy``: the relative error of the stored energy ``int Psi dX``; with
-      prescribed edges it falls like the square of the energy-norm error.
-
-    Times are medians over ``repeats`` runs after one warm-up
-    (``time.perf_counter``): ``solve_ms`` for the whole quasistatic solve
-    from rest, ``iteration_ms`` for one Newton iteration at the solution
-    (:func:`newton_iteration_time`). Timings depend on the machine and its
-    load: read them, compare within one run, never assert them.
-
-    Returns one dict per mesh with ``order, n, h, triangles, dofs, L2,
-    energy, rate_L2`` (observed against the previous, coarser mesh of the
-    same order; NaN on the first), ``newton_iterations, solve_ms,
-    iteration_ms`` (print them with :func:`format_cost_accuracy`). The
-    reference itself is not a row.
+    Returns one dict per mesh (the reference is not a row) with ``order, n, h, triangles, dofs, L2, energy,
+    rate_L2`` (against the previous mesh of the same order; NaN on the first), ``newton_iterations,
+    solve_ms, iteration_ms`` (print them with :func:`format_cost_accuracy`).
     """
     p1_sizes, p2_sizes = _sizes("p1_sizes", p1_sizes), _sizes("p2_sizes", p2_sizes)
     reference_size, repeats = _count("reference_size", reference_size), _count("repeats", repeats)
@@ -301,19 +258,12 @@ def cost_accuracy_study(p1_sizes=(2, 4, 8, 16), p2_sizes=(1, 2, 4, 8), reference
             result = solve(problem, load_steps=load_steps)
             if not result.converged:
                 raise RuntimeError(f"P{order} on n = {n} did not converge ({result.status})")
-            row = {
-                "order": order,
-                "n": n,
-                "h": 1.0 / n,
-                "triangles": int(problem.mesh.t.shape[1]),
-                "dofs": int(problem.basis.N),
-                "L2": relative_l2_error(problem, result.u, reference, ref.u),
-                "energy": abs(problem.stored_energy(result.u) - ref_energy) / abs(ref_energy),
-                "rate_L2": float("nan"),
-                "newton_iterations": result.newton_iterations,
-                "solve_ms": median_time(lambda: solve(problem, load_steps=load_steps), repeats),
-                "iteration_ms": newton_iteration_time(problem, result.u, repeats),
-            }
+            row = {"order": order, "n": n, "h": 1.0 / n, "triangles": int(problem.mesh.t.shape[1]),
+                   "dofs": int(problem.basis.N), "L2": relative_l2_error(problem, result.u, reference, ref.u),
+                   "energy": abs(problem.stored_energy(result.u) - ref_energy) / abs(ref_energy),
+                   "rate_L2": float("nan"), "newton_iterations": result.newton_iterations,
+                   "solve_ms": median_time(lambda: solve(problem, load_steps=load_steps), repeats),
+                   "iteration_ms": newton_iteration_time(problem, result.u, repeats)}
             if previous is not None:
                 row["rate_L2"] = math.log(previous["L2"] / row["L2"]) / math.log(previous["h"] / row["h"])
             rows.append(row)
@@ -347,18 +297,11 @@ def format_cost_accuracy(rows) -> str:
     widths = [max(len(title), 9) for _, title, _ in _TABLE]
     lines = ["  ".join(f"{title:>{w}}" for (_, title, _), w in zip(_TABLE, widths))]
     for row in rows:
-        cells = []
-        for (key, _, fmt), w in zip(_TABLE, widths):
-            value = row.get(key)
-            text = "-" if value is None or (isinstance(value, float) and not math.isfinite(value)) else fmt.format(value)
-            cells.append(f"{text:>{w}}")
-        lines.append("  ".join(cells))
+        lines.append("  ".join(f"{cell_text(row.get(key), fmt):>{w}}" for (key, _, fmt), w in zip(_TABLE, widths)))
     return "\n".join(lines)
 
 
-# =============================================================================
-# recorded measurements (for the deterministic lecture figure)
-# =============================================================================
+# --- recorded measurements (for the deterministic lecture figure) -------------------------------------
 
 _RECORDED_COLUMNS = ("order", "n", "triangles", "dofs", "L2", "energy", "rate_L2", "newton_iterations",
                      "solve_ms", "iteration_ms")

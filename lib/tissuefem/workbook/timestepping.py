@@ -25,13 +25,10 @@ __all__ = ["CFLStudy", "cfl_study"]
 class CFLStudy:
     """Rows of :func:`cfl_study` and the fitted exponents.
 
-    ``rows`` (also reachable by iterating the study) are dicts with ``nx``,
-    ``h``, ``dofs``, ``dt_measured``, ``dt_estimate`` (``2 / omega_max``),
-    ``ratio`` (measured / estimate), ``courant`` (``dt_measured c / h``) and
-    ``seconds`` (time the measurement took). ``exponent`` is the
-    least-squares slope of ``log dt_measured`` against ``log h`` (1 for the
-    CFL condition), ``exponent_estimate`` the same for the estimate, and
-    ``constant`` the ``C`` of the fit ``dt = C h^exponent``.
+    ``rows`` (also the study's items) are dicts with ``nx``, ``h``, ``dofs``, ``dt_measured``,
+    ``dt_estimate`` (``2 / omega_max``), ``ratio`` (measured / estimate), ``courant`` (``dt_measured c / h``)
+    and ``seconds``. The fit ``dt_measured = constant h^exponent`` has ``exponent`` 1 under the CFL
+    condition; ``exponent_estimate`` is the same slope for the estimate.
     """
 
     rows: list = field(default_factory=list)
@@ -54,32 +51,26 @@ def cfl_study(sizes=(4, 8, 16, 32), *, E: float = TISSUE_E, nu: float = TISSUE_N
               material=None, width: float = 2.0, height: float = 1.0, **measure) -> CFLStudy:
     """Measured largest stable ``dt`` of :class:`SymplecticEuler` on a flap refined ``nx = sizes``.
 
-    The flap is :func:`~tissuefem.engine.meshes.rectangle` ``(width, height, nx,
-    nx height/width)`` (square cells of side ``h = width / nx``) with its left
-    edge fixed; the material defaults to stable neo-Hookean with plane-strain
-    Lamé parameters from ``E, nu`` (linear elasticity near rest). For each
-    mesh: :func:`largest_stable_dt` (``measure`` goes to it), the estimate
-    :func:`critical_time_step` and their ratio. The CFL condition predicts
-    ``dt ~ h`` (exponent 1).
+    The flap ``width x height`` has square cells of side ``h = width / nx`` and its left edge fixed; the
+    material defaults to stable neo-Hookean with plane-strain Lamé parameters from ``E, nu``. For each mesh:
+    :func:`largest_stable_dt` (``measure`` goes to it), the estimate :func:`critical_time_step` and their
+    ratio. The CFL condition predicts ``dt ~ h`` (exponent 1).
     """
     if material is None:
         material = StableNeoHookean(*lame_parameters(E, nu, "strain"))
     c = wave_speed(material, density)
     study = CFLStudy(wave_speed=c)
     for nx in sizes:
-        ny = max(1, int(round(nx * height / width)))
-        mesh = rectangle(width, height, nx, ny)
+        mesh = rectangle(width, height, nx, max(1, int(round(nx * height / width))))
         model = Model(mesh, material, handles=[Handle("left")], density=density)
         h = mesh_size(mesh)
         t0 = time.perf_counter()
         measured = largest_stable_dt(model, **measure)
         seconds = time.perf_counter() - t0
         estimate = critical_time_step(model)
-        study.rows.append({
-            "nx": int(nx), "h": h, "dofs": int(model.n_dofs), "dt_measured": measured,
-            "dt_estimate": estimate, "ratio": measured / estimate, "courant": measured * c / h,
-            "seconds": seconds,
-        })
+        study.rows.append({"nx": int(nx), "h": h, "dofs": int(model.n_dofs), "dt_measured": measured,
+                           "dt_estimate": estimate, "ratio": measured / estimate, "courant": measured * c / h,
+                           "seconds": seconds})
     if len(study.rows) >= 2:
         h = [r["h"] for r in study.rows]
         study.exponent, study.constant = power_law_fit(h, [r["dt_measured"] for r in study.rows])

@@ -154,17 +154,10 @@ PLANS = {
         "block_frames": 10,
         # the flap's reference: P2 on 8000 graded triangles, 16 and 32 substeps; the block's on 32000
         "reference": {"triangles": 8000, "substeps": 16, "block_triangles": 32000, "grading": REFERENCE_GRADING},
-        "knobs": {
-            "mesh": (500, 1000, 2000, 4000, 8000, 16000, 32000),
-            "P2": (250, 500, 1000, 2000, 4000),
-            "quadrature": (2, 3, 4, 6),
-            "quadrature_triangles": 2000,
-            "material": _MATERIALS,
-            "newton_tolerance": (1e-1, 1e-2, 1e-3, 1e-4, 1e-6, 1e-8),
-            "newton_cap": (1, 2, 3),
-            "time_step": (1, 2, 4),
-            "linear_solver": _SOLVERS,
-        },
+        "knobs": {"mesh": (500, 1000, 2000, 4000, 8000, 16000, 32000), "P2": (250, 500, 1000, 2000, 4000),
+                  "quadrature": (2, 3, 4, 6), "quadrature_triangles": 2000, "material": _MATERIALS,
+                  "newton_tolerance": (1e-1, 1e-2, 1e-3, 1e-4, 1e-6, 1e-8), "newton_cap": (1, 2, 3),
+                  "time_step": (1, 2, 4), "linear_solver": _SOLVERS},
         # the slow solvers stop at 8k triangles (at 32k one CG-ILU frame takes minutes)
         "scaling": {"sizes": (500, 1000, 2000, 4000, 8000, 16000, 32000), "frames": 8,
                     "solvers": ("reuse", "direct", "superlu-colamd", "cg-ilu", "cg-jacobi", "pardiso"),
@@ -174,34 +167,19 @@ PLANS = {
     "reduced": {
         "base_triangles": 1000, "frames": 15, "checkpoints": 5, "block_frames": 5,
         "reference": {"triangles": 2000, "substeps": 4},
-        "knobs": {
-            "mesh": (250, 500, 1000, 2000),
-            "P2": (250, 500),
-            "quadrature": (2, 4),
-            "quadrature_triangles": 250,
-            "material": ("linear", "corotated", "neo-hookean", "stable-neo-hookean"),
-            "newton_tolerance": (1e-1, 1e-3, 1e-6),
-            "newton_cap": (1, 2),
-            "time_step": (1, 2, 4),
-            "linear_solver": ("reuse", "direct", "cg-ilu", "cg-jacobi"),
-        },
+        "knobs": {"mesh": (250, 500, 1000, 2000), "P2": (250, 500), "quadrature": (2, 4), "quadrature_triangles": 250,
+                  "material": ("linear", "corotated", "neo-hookean", "stable-neo-hookean"),
+                  "newton_tolerance": (1e-1, 1e-3, 1e-6), "newton_cap": (1, 2), "time_step": (1, 2, 4),
+                  "linear_solver": ("reuse", "direct", "cg-ilu", "cg-jacobi")},
         "scaling": {"sizes": (500, 1000, 2000, 4000), "frames": 5, "solvers": ("reuse", "direct", "cg-jacobi")},
         "budget": {"sizes": (1000, 4000), "frames": 10, "solvers": ("reuse",)},
     },
     "tiny": {
         "base_triangles": 200, "frames": 4, "checkpoints": 2, "block_frames": 2,
         "reference": {"triangles": 400, "substeps": 2},
-        "knobs": {
-            "mesh": (100, 200),
-            "P2": (100,),
-            "quadrature": (2, 4),
-            "quadrature_triangles": 100,
-            "material": ("linear", "neo-hookean"),
-            "newton_tolerance": (1e-2, 1e-6),
-            "newton_cap": (1,),
-            "time_step": (1, 2),
-            "linear_solver": ("reuse", "direct", "cg-jacobi", "cg-ilu", "superlu-colamd"),
-        },
+        "knobs": {"mesh": (100, 200), "P2": (100,), "quadrature": (2, 4), "quadrature_triangles": 100,
+                  "material": ("linear", "neo-hookean"), "newton_tolerance": (1e-2, 1e-6), "newton_cap": (1,),
+                  "time_step": (1, 2), "linear_solver": ("reuse", "direct", "cg-jacobi", "cg-ilu", "superlu-colamd")},
         "scaling": {"sizes": (100, 200), "frames": 2, "solvers": ("reuse", "cg-jacobi")},
         "budget": {"sizes": (100, 200), "frames": 2, "solvers": ("reuse",)},
     },
@@ -491,8 +469,9 @@ def knob_sweep(benchmark: str, plan: dict, reference, knobs=None, progress=None)
                 row.update({"error": float("nan"), "ms_median": float("nan"), "failed": str(err)})
             rows.append(row)
             if progress:
-                progress(f"  {benchmark:5s} {knob:16s} {str(value):18s} {row.get('ms_median', float('nan')):8.1f} ms/frame"
-                         f"  error {row['error']:.2e}" + (f"  FAILED: {row['failed']}" if row["failed"] else ""))
+                progress(f"  {benchmark:5s} {knob:16s} {str(value):18s} "
+                         f"{row.get('ms_median', float('nan')):8.1f} ms/frame  error {row['error']:.2e}"
+                         + (f"  FAILED: {row['failed']}" if row["failed"] else ""))
     return rows
 
 
@@ -521,7 +500,8 @@ def solver_scaling(sizes, solvers, frames: int, largest=None, progress=None) -> 
                          "linear_iterations": stats["linear_iterations"], "factorizations": stats["factorizations"],
                          "failed": ""})
             if progress:
-                progress(f"  scaling {solver:15s} {rows[-1]['triangles']:6d} triangles  {stats['ms_median']:8.1f} ms/frame")
+                progress(f"  scaling {solver:15s} {rows[-1]['triangles']:6d} triangles  "
+                         f"{stats['ms_median']:8.1f} ms/frame")
     exponents = {}
     for solver in dict.fromkeys(r["solver"] for r in rows):
         sel = [r for r in rows if r["solver"] == solver and np.isfinite(r["ms_median"]) and r["ms_median"] > 0]
@@ -670,7 +650,8 @@ def accuracy_study(plan="full", benchmarks=BENCHMARKS, knobs=None, scaling: bool
     if verification:
         computed, exact = beam_problem_tip(32, 8, 2)
         results["verification"] = {
-            "cantilever_P2_32x8": {"tip": computed, "exact": exact, "relative_error": abs(computed - exact) / abs(exact)},
+            "cantilever_P2_32x8": {"tip": computed, "exact": exact,
+                                   "relative_error": abs(computed - exact) / abs(exact)},
             "manufactured": manufactured_convergence(sizes={1: (4, 8, 16), 2: (2, 4, 8)} if name != "full" else None),
         }
     results["seconds"] = time.perf_counter() - started

@@ -1,23 +1,18 @@
 """Assembly benchmark: scikit-fem forms versus the fast P1 path (and SuperLU for context).
 
-:func:`assembly_benchmark` times, in one run and on the same meshes, what one
-Newton iteration of a 2D Neo-Hookean problem costs to assemble:
+:func:`assembly_benchmark` times, in one run and on the same meshes, what one Newton iteration of a 2D
+Neo-Hookean problem costs to assemble:
 
 * the reference path, :mod:`tissuefem.engine.forms` assembled by scikit-fem
-  (``asm(tangent_form(material), basis, u=basis.interpolate(u))``: the
-  ``BilinearForm`` way of scikit-fem's hyperelasticity example, where the form
-  is evaluated once per pair of local basis functions) and its residual;
+  (``asm(tangent_form(material), basis, u=basis.interpolate(u))``, the ``BilinearForm`` way of scikit-fem's
+  hyperelasticity example: the form is evaluated once per pair of local basis functions) and its residual;
 * the fast path, :class:`tissuefem.engine.assembly.P1Assembler`;
-* for context, a SuperLU factorization of the tangent with the left edge
-  fixed (Dirichlet rows and columns removed), with the ``COLAMD`` and the
-  ``MMD_AT_PLUS_A`` column orderings.
+* for context, a SuperLU factorization of the tangent with the left edge fixed, with the ``COLAMD`` and
+  the ``MMD_AT_PLUS_A`` column orderings.
 
-Every number is a median over ``repeats`` timings (``time.perf_counter``)
-after one untimed warm-up, and the whole run starts with one untimed pass at
-the largest size (the memory allocator's state otherwise makes the first
-sizes several times slower; see the comment in :func:`assembly_benchmark`). This is a benchmark to *read*, not a timed test:
-timings depend on the machine and on what else runs on it, so compare
-columns of one run rather than numbers across runs.
+Every number is a median over ``repeats`` timings after one untimed warm-up, after one untimed pass at the
+largest size (see the comment in :func:`assembly_benchmark`). A benchmark to *read*, not a timed test:
+compare columns of one run rather than numbers across runs.
 """
 
 from __future__ import annotations
@@ -39,7 +34,6 @@ from ..measure import median_time
 from .common import check_sizes, machine_info, markdown_table, write_json
 
 __all__ = ["assembly_benchmark", "format_table"]
-
 
 _COLUMNS = [
     ("triangles", "triangles", "{:d}"),
@@ -66,31 +60,17 @@ def format_table(rows) -> str:
 def assembly_benchmark(sizes=(2000, 8000, 32000), repeats=5, material=None, out=None, progress=print) -> list[dict]:
     """Time reference (scikit-fem forms) versus fast (P1Assembler) assembly; return one dict per size.
 
-    Parameters
-    ----------
-    sizes
-        Approximate triangle counts; each gives a unit square from
-        :func:`tissuefem.engine.meshes.mesh_with_about`.
-    repeats
-        Timed repetitions per measurement (the median is reported), after one
-        untimed warm-up.
-    material
-        Defaults to ``NeoHookean.from_young(1000, 0.3)``.
-    out
-        Optional path: write ``{"rows": ..., "machine": ..., "settings": ...}``
-        there as JSON.
-    progress
-        Called with progress lines and finally the Markdown table
-        (:func:`format_table`); ``None`` for silence.
+    ``sizes``: approximate triangle counts, each a unit square from
+    :func:`tissuefem.engine.meshes.mesh_with_about`; ``repeats``: timed repetitions per measurement (the
+    median is reported); ``material`` defaults to ``NeoHookean.from_young(1000, 0.3)``; ``out``: an optional
+    JSON path for ``{"rows", "machine", "settings"}``; ``progress`` gets progress lines and finally the
+    Markdown table (:func:`format_table`), ``None`` for silence.
 
-    Each row has ``triangles``, ``dofs``, ``nnz``, the reference times
-    ``ref_tangent_ms``/``ref_residual_ms``, the fast times
-    ``fast_tangent_ms``/``fast_residual_ms``/``fast_both_ms`` (one call of
-    ``residual_and_tangent``), ``speedup_tangent`` (reference K / fast K),
-    ``speedup`` (reference K + r over fast r + K), the one-off ``setup_ms`` of
-    the fast path, SuperLU factorization times ``splu_colamd_ms`` and
-    ``splu_mmd_ms`` and ``rel_diff_tangent``/``rel_diff_residual`` (relative
-    Frobenius difference of the two paths, a sanity check).
+    Each row has ``triangles``, ``dofs``, ``nnz``, the reference times ``ref_tangent_ms``/``ref_residual_ms``,
+    the fast times ``fast_tangent_ms``/``fast_residual_ms``/``fast_both_ms`` (one ``residual_and_tangent``),
+    ``speedup_tangent`` (reference K / fast K), ``speedup`` (reference K + r over fast r + K), the fast path's
+    one-off ``setup_ms``, SuperLU times ``splu_colamd_ms`` and ``splu_mmd_ms``, and
+    ``rel_diff_tangent``/``rel_diff_residual`` (relative Frobenius difference of the two paths, a sanity check).
     """
     sizes = check_sizes(sizes)
     if isinstance(repeats, bool) or not isinstance(repeats, numbers.Integral) or repeats < 1:
@@ -100,8 +80,7 @@ def assembly_benchmark(sizes=(2000, 8000, 32000), repeats=5, material=None, out=
         material = NeoHookean.from_young(TISSUE_E, TISSUE_NU)
     say = progress if progress is not None else (lambda *_: None)
 
-    K_form = tangent_form(material)
-    r_form = residual_form(material)
+    K_form, r_form = tangent_form(material), residual_form(material)
 
     def make_case(n_target):
         mesh = mesh_with_about(n_target)
@@ -114,13 +93,11 @@ def assembly_benchmark(sizes=(2000, 8000, 32000), repeats=5, material=None, out=
         u = 0.02 * h * rng.standard_normal(basis.N)
         return mesh, fast, setup_ms, basis, u
 
-    # Warm the allocator up on the largest case first. glibc's malloc raises its
-    # mmap/trim thresholds only after large blocks have been freed, so whichever
-    # size runs first pays page faults for its temporaries (the reference path
-    # was measured 3-5x slower at 8k triangles when it ran right after 2k than
-    # after 32k). One pass at the largest size puts every row on the same
-    # footing. (MALLOC_MMAP_THRESHOLD_ / MALLOC_TRIM_THRESHOLD_ set in the
-    # environment before Python starts have the same effect.)
+    # Warm the allocator up on the largest case first. glibc's malloc raises its mmap/trim thresholds only
+    # after large blocks have been freed, so whichever size runs first pays page faults for its temporaries
+    # (the reference path was 3-5x slower at 8k triangles right after 2k than after 32k). One pass at the
+    # largest size puts every row on the same footing (as would MALLOC_MMAP_THRESHOLD_ /
+    # MALLOC_TRIM_THRESHOLD_ set before Python starts).
     cases = {max(sizes): make_case(max(sizes))}
     _, fast, _, basis, u = cases[max(sizes)]
     say(f"assembly benchmark: warm-up at {fast.n_elements} triangles ...")
@@ -158,43 +135,26 @@ def assembly_benchmark(sizes=(2000, 8000, 32000), repeats=5, material=None, out=
         splu_colamd_ms = median_time(lambda: spla.splu(Kc, permc_spec="COLAMD"), repeats)
         splu_mmd_ms = median_time(lambda: spla.splu(Kc, permc_spec="MMD_AT_PLUS_A"), repeats)
 
-        row = {
-            "triangles": int(nel),
-            "nodes": int(mesh.p.shape[1]),
-            "dofs": int(basis.N),
-            "nnz": int(fast.nnz),
-            "ref_tangent_ms": ref_tangent_ms,
-            "ref_residual_ms": ref_residual_ms,
-            "fast_tangent_ms": fast_tangent_ms,
-            "fast_residual_ms": fast_residual_ms,
-            "fast_both_ms": fast_both_ms,
-            "speedup_tangent": ref_tangent_ms / fast_tangent_ms,
-            "speedup": (ref_tangent_ms + ref_residual_ms) / fast_both_ms,
-            "setup_ms": setup_ms,
-            "splu_colamd_ms": splu_colamd_ms,
-            "splu_mmd_ms": splu_mmd_ms,
-            "rel_diff_tangent": rel_K,
-            "rel_diff_residual": rel_r,
-        }
+        row = {"triangles": int(nel), "nodes": int(mesh.p.shape[1]), "dofs": int(basis.N), "nnz": int(fast.nnz),
+               "ref_tangent_ms": ref_tangent_ms, "ref_residual_ms": ref_residual_ms,
+               "fast_tangent_ms": fast_tangent_ms, "fast_residual_ms": fast_residual_ms, "fast_both_ms": fast_both_ms,
+               "speedup_tangent": ref_tangent_ms / fast_tangent_ms,
+               "speedup": (ref_tangent_ms + ref_residual_ms) / fast_both_ms, "setup_ms": setup_ms,
+               "splu_colamd_ms": splu_colamd_ms, "splu_mmd_ms": splu_mmd_ms,
+               "rel_diff_tangent": rel_K, "rel_diff_residual": rel_r}
         rows.append(row)
-        say(
-            f"  reference K {ref_tangent_ms:.1f} ms, fast K {fast_tangent_ms:.2f} ms "
+        say(f"  reference K {ref_tangent_ms:.1f} ms, fast K {fast_tangent_ms:.2f} ms "
             f"({row['speedup_tangent']:.0f}x); SuperLU COLAMD {splu_colamd_ms:.1f} ms, "
-            f"MMD_AT_PLUS_A {splu_mmd_ms:.1f} ms"
-        )
+            f"MMD_AT_PLUS_A {splu_mmd_ms:.1f} ms")
 
     say(format_table(rows))
     if out is not None:
-        record = {
+        write_json(out, {
             "benchmark": "assembly",
-            "description": (
-                "Per Newton iteration, 2D P1 plane-strain hyperelasticity on the unit square: scikit-fem "
-                "forms (tissuefem.engine.forms) versus tissuefem.engine.assembly.P1Assembler; SuperLU factorization "
-                "of the tangent with the left edge fixed. Times in ms, medians after one warm-up."
-            ),
+            "description": "Per Newton iteration, 2D P1 plane-strain hyperelasticity on the unit square: scikit-fem "
+                           "forms (tissuefem.engine.forms) versus tissuefem.engine.assembly.P1Assembler; SuperLU "
+                           "factorization of the tangent with the left edge fixed. Times in ms, medians after one "
+                           "warm-up.",
             "settings": {"sizes": sizes, "repeats": repeats, "material": repr(material)},
-            "machine": machine_info(),
-            "rows": rows,
-        }
-        write_json(out, record)
+            "machine": machine_info(), "rows": rows})
     return rows

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["machine_info", "markdown_table", "check_sizes", "write_json", "write_csv", "load_results"]
+__all__ = ["machine_info", "markdown_table", "cell_text", "check_sizes", "write_json", "write_csv", "load_results"]
 
 
 def _version(dist: str) -> str:
@@ -48,22 +48,20 @@ def markdown_table(rows, columns, text_columns: int = 0) -> str:
     The first ``text_columns`` columns are left-aligned, the rest right-aligned
     (numbers); a missing or non-finite value prints as ``-``.
     """
-    header = "| " + " | ".join(title for _, title, _ in columns) + " |"
-    rule = "|" + "---|" * text_columns + "---:|" * (len(columns) - text_columns)
-    lines = [header, rule]
+    lines = ["| " + " | ".join(title for _, title, _ in columns) + " |",
+             "|" + "---|" * text_columns + "---:|" * (len(columns) - text_columns)]
     for row in rows:
-        cells = []
-        for key, _, fmt in columns:
-            value = row.get(key)
-            if value is None or (isinstance(value, float) and not math.isfinite(value)):
-                cells.append("-")
-            else:
-                cells.append(fmt.format(value))
-        lines.append("| " + " | ".join(cells) + " |")
+        lines.append("| " + " | ".join(cell_text(row.get(key), fmt) for key, _, fmt in columns) + " |")
     return "\n".join(lines)
 
 
+def cell_text(value, fmt: str) -> str:
+    """``fmt.format(value)``, or ``-`` for a missing or non-finite value."""
+    return "-" if value is None or (isinstance(value, float) and not math.isfinite(value)) else fmt.format(value)
+
+
 def check_sizes(sizes):
+    """The mesh sizes as a list of positive ints, or a ``ValueError``."""
     try:
         sizes = list(sizes)
     except TypeError:
@@ -108,11 +106,7 @@ def write_csv(path, rows, extra=None) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     extra = extra or {}
-    keys = []
-    for row in rows:
-        for k, v in row.items():
-            if not isinstance(v, (list, dict, np.ndarray)) and k not in keys:
-                keys.append(k)
+    keys = list(dict.fromkeys(k for row in rows for k, v in row.items() if not isinstance(v, (list, dict, np.ndarray))))
     keys += [k for k in extra if k not in keys]
     with open(path, "w", encoding="utf-8", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=keys, extrasaction="ignore")

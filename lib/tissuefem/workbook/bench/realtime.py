@@ -1,39 +1,28 @@
 """Frame-rate benchmark of the standard scene: the real-time solver against the scikit-fem ex43 way.
 
-The standard scene (:func:`tissuefem.surgery.scene.flap_scene`): a Neo-Hookean
-tissue flap ``[0, 2] x [0, 1]`` (E = 1000, nu = 0.3, plane strain, rho0 = 1),
-its left edge fixed, its right edge carried along a scripted loop
-(:func:`~tissuefem.surgery.scene.flap_path`) by a handle; backward Euler with
-``dt = 1/30``; every frame's Newton solve converged to a relative residual of
-``1e-6``. It runs as a user runs it: a :class:`~tissuefem.surgery.simulation.Simulation`
-of the scene.
+The standard scene (:func:`tissuefem.surgery.scene.flap_scene`): a Neo-Hookean flap ``[0, 2] x [0, 1]``
+(E = 1000, nu = 0.3, plane strain, rho0 = 1), its left edge fixed, its right edge carried along
+:func:`~tissuefem.surgery.scene.flap_path` by a handle; backward Euler with ``dt = 1/30``, every frame
+converged to a relative residual of ``1e-6``; run as a user runs it, a
+:class:`~tissuefem.surgery.simulation.Simulation` of the scene. For each mesh size, on the same frames:
 
-For each mesh size the benchmark runs, in one process and on the same frames:
+* **fast**: the scene's :class:`~tissuefem.engine.realtime.RealtimeSolver` with no budget, so a frame's
+  time is what a converged frame costs: the P1 assembler, warm starts, and the reused factorization as
+  the CG preconditioner, refreshed on the second core (``"reuse-background"``; ``--linear reuse``
+  refreshes it in the frame instead);
+* **ex43 way**: the same Newton iteration as scikit-fem's hyperelasticity example writes it: the forms
+  of :mod:`tissuefem.engine.forms` and the mass matrix assembled with ``asm`` every iteration,
+  ``condense`` on the fixed dofs and ``skfem.solve``, with one safeguard added (a step whose residual is
+  not finite is halved: plain Newton ends in NaN in the first frame at 32k triangles). Slow, so only the
+  first ``baseline_frames`` frames; the ratio compares medians over those same frames;
+* **budgeted**: the real-time solver with its 1/30 s budget and the real clock: the share of frames
+  converged in budget and the residual left when it runs out;
+* **floor**: one tangent assembly plus one back-substitution with a kept factorization at the final
+  state; no frame can be cheaper than one Newton step, and a converged frame over this floor says how
+  much of a frame is spent beyond that.
 
-* **fast**: the scene's :class:`~tissuefem.engine.realtime.RealtimeSolver` with no budget (every
-  frame converges), so a frame's time is what a converged frame costs: the
-  P1 assembler, warm starts, and the reused factorization as the CG
-  preconditioner, refreshed on the second core (``"reuse-background"``, the
-  real-time configuration; ``--linear reuse`` refreshes it in the frame instead);
-* **ex43 way**: the same backward-Euler Newton iteration written as
-  scikit-fem's hyperelasticity example writes a Newton step: ``BilinearForm``
-  and ``LinearForm`` assembled with ``asm`` every iteration (here the forms
-  of :mod:`tissuefem.engine.forms` plus the mass matrix), ``condense`` on the fixed
-  degrees of freedom, and ``skfem.solve`` (SciPy's ``spsolve``), with one
-  safeguard added: a step whose residual is not finite is halved (plain
-  Newton ends in NaN in the first frame at 32k triangles). Slow, so
-  only the first ``baseline_frames`` frames; the ratio compares medians over
-  those same frames;
-* **budgeted**: the real-time solver with its default 1/30 s budget and the
-  real clock: the share of frames that converge in budget and the residual
-  left when the budget runs out;
-* **floor**: in the same run, what one tangent assembly plus one
-  back-substitution with a kept factorization costs at the final state: no
-  frame can be cheaper than one Newton step, and the ratio of a converged
-  frame to this floor says how much of a frame is spent beyond that.
-
-Timings are medians and 95th percentiles of ``time.perf_counter`` per frame.
-This is a benchmark to read, not a test: compare columns of one run.
+Timings are medians and 95th percentiles of ``time.perf_counter`` per frame. This is a benchmark to read,
+not a test: compare columns of one run.
 """
 
 from __future__ import annotations
@@ -66,10 +55,9 @@ def ex43_frames(model, n_frames: int, dt: float = FRAME_BUDGET, rtol: float = RT
                 lumped: bool = True):
     """Run ``n_frames`` of the scene the ex43 way; return ``(ms per frame, Newton iterations per frame, u)``.
 
-    ``model`` supplies the basis, the material and the handles (the second handle follows
-    :func:`flap_path`). The mass matrix is built once (lumped by default, as the real-time
-    solver's default, so both solve the same equations); the stiffness and the residual are
-    assembled every Newton iteration.
+    ``model`` supplies the basis, the material and the handles (the second follows :func:`flap_path`). The
+    mass matrix is built once (lumped by default, as the real-time solver's, so both solve the same
+    equations); the stiffness and the residual are assembled every Newton iteration.
     """
     basis = model.basis
     grab = model.handles[1]
@@ -129,8 +117,8 @@ def _fast_frames(n_triangles, n_frames, budget=None, linear_solver="reuse"):
 def frame_floor(sim, repeats: int = 9) -> dict:
     """What one Newton step costs at the simulation's state: a tangent assembly and one back-substitution.
 
-    Medians in ms of: the model's Hessian; the free block and one solve with a factorization
-    kept from before (``back_substitution``); their sum is the floor of a frame.
+    Medians in ms of the model's Hessian and of one solve with a kept factorization
+    (``back_substitution``); their sum is the floor of a frame.
     """
     model, u = sim.model, sim.u
     fixed, _ = model.prescribed()
@@ -153,20 +141,12 @@ def frame_floor(sim, repeats: int = 9) -> dict:
 
 
 _TABLE = [
-    ("triangles", "triangles", "{:d}"),
-    ("dofs", "dofs", "{:d}"),
-    ("fast_median_ms", "median [ms]", "{:.1f}"),
-    ("fast_p95_ms", "p95 [ms]", "{:.1f}"),
-    ("fast_fps", "fps", "{:.0f}"),
-    ("fast_newton", "Newton/frame", "{:.2f}"),
-    ("fast_cg", "CG/frame", "{:.1f}"),
-    ("fast_factorizations", "factorizations", "{:d}"),
-    ("floor_ms", "floor [ms]", "{:.1f}"),
-    ("frame_over_floor", "frame / floor", "{:.1f}x"),
-    ("ex43_median_ms", "ex43 way [ms]", "{:.0f}"),
-    ("ex43_newton", "ex43 Newton/frame", "{:.2f}"),
-    ("speedup", "speedup", "{:.1f}x"),
-    ("budget_converged", "in budget: converged", "{:.0%}"),
+    ("triangles", "triangles", "{:d}"), ("dofs", "dofs", "{:d}"), ("fast_median_ms", "median [ms]", "{:.1f}"),
+    ("fast_p95_ms", "p95 [ms]", "{:.1f}"), ("fast_fps", "fps", "{:.0f}"), ("fast_newton", "Newton/frame", "{:.2f}"),
+    ("fast_cg", "CG/frame", "{:.1f}"), ("fast_factorizations", "factorizations", "{:d}"),
+    ("floor_ms", "floor [ms]", "{:.1f}"), ("frame_over_floor", "frame / floor", "{:.1f}x"),
+    ("ex43_median_ms", "ex43 way [ms]", "{:.0f}"), ("ex43_newton", "ex43 Newton/frame", "{:.2f}"),
+    ("speedup", "speedup", "{:.1f}x"), ("budget_converged", "in budget: converged", "{:.0%}"),
     ("budget_residual", "in budget: median rel. residual", "{:.1e}"),
 ]
 
@@ -177,10 +157,10 @@ def format_realtime_table(rows) -> str:
 
 
 def realtime_benchmark(sizes=(2000, 8000, 16000, 32000), frames: int = 90, baseline_frames: int = 10,
-                       budget_frames: int = 60, linear_solver: str = "reuse-background", out=None, progress=print) -> list[dict]:
-    """Run the frame-rate benchmark; return one dict per size (and write JSON, CSV and a figure to ``out``).
+                       budget_frames: int = 60, linear_solver: str = "reuse-background", out=None,
+                       progress=print) -> list[dict]:
+    """Run the frame-rate benchmark; return one dict per size (and write JSON and CSV into the folder ``out``).
 
-    ``out`` is a folder: ``realtime.json``, ``realtime.csv`` and ``realtime.png`` go there.
     ``baseline_frames = 0`` skips the ex43-way run.
     """
     sizes = check_sizes(sizes)
@@ -201,43 +181,28 @@ def realtime_benchmark(sizes=(2000, 8000, 16000, 32000), frames: int = 90, basel
         say(f"realtime benchmark: {nel} triangles, {sim.model.n_dofs} dofs ...")
         ms = np.array([1e3 * r.elapsed for r in reports])
         floor = frame_floor(sim)
-        row = {
-            "triangles": int(nel),
-            "dofs": int(sim.model.n_dofs),
-            "frames": frames,
-            "linear_solver": sim.solver.linear_solver_name,
-            "fast_median_ms": float(np.median(ms)),
-            "fast_p95_ms": float(np.percentile(ms, 95)),
-            "fast_fps": float(1e3 / np.median(ms)),
-            "fast_newton": float(np.mean([r.newton_iterations for r in reports])),
-            "fast_cg": float(np.mean([r.linear_iterations for r in reports])),
-            "fast_factorizations": int(sum(r.factorizations for r in reports)),
-            "fast_all_converged": bool(all(r.converged for r in reports)),
-            "fast_ms": ms.tolist(),
-            **floor,
-            "frame_over_floor": float(np.median(ms)) / floor["floor_ms"],
-        }
+        row = {"triangles": int(nel), "dofs": int(sim.model.n_dofs), "frames": frames,
+               "linear_solver": sim.solver.linear_solver_name, "fast_median_ms": float(np.median(ms)),
+               "fast_p95_ms": float(np.percentile(ms, 95)), "fast_fps": float(1e3 / np.median(ms)),
+               "fast_newton": float(np.mean([r.newton_iterations for r in reports])),
+               "fast_cg": float(np.mean([r.linear_iterations for r in reports])),
+               "fast_factorizations": int(sum(r.factorizations for r in reports)),
+               "fast_all_converged": bool(all(r.converged for r in reports)), "fast_ms": ms.tolist(),
+               **floor, "frame_over_floor": float(np.median(ms)) / floor["floor_ms"]}
         if baseline_frames:
             base_ms, base_its, u_base = ex43_frames(flap_simulation(n).model, min(baseline_frames, frames))
             same = ms[: base_ms.size]
             fast_u = _fast_frames(n, base_ms.size, linear_solver=linear_solver)[0].u
-            row.update({
-                "ex43_frames": int(base_ms.size),
-                "ex43_median_ms": float(np.median(base_ms)),
-                "ex43_newton": float(np.mean(base_its)),
-                "fast_median_same_frames_ms": float(np.median(same)),
-                "speedup": float(np.median(base_ms) / np.median(same)),
-                "max_state_difference": float(np.max(np.abs(fast_u - u_base))),
-                "ex43_ms": base_ms.tolist(),
-            })
+            row.update({"ex43_frames": int(base_ms.size), "ex43_median_ms": float(np.median(base_ms)),
+                        "ex43_newton": float(np.mean(base_its)), "fast_median_same_frames_ms": float(np.median(same)),
+                        "speedup": float(np.median(base_ms) / np.median(same)),
+                        "max_state_difference": float(np.max(np.abs(fast_u - u_base))), "ex43_ms": base_ms.tolist()})
         if budget_frames:
             _, budgeted = _fast_frames(n, budget_frames, budget=FRAME_BUDGET, linear_solver=linear_solver)
-            row.update({
-                "budget_ms": FRAME_BUDGET * 1e3,
-                "budget_converged": float(np.mean([r.converged for r in budgeted])),
-                "budget_residual": float(np.median([r.relative_residual for r in budgeted])),
-                "budget_p95_ms": float(np.percentile([1e3 * r.elapsed for r in budgeted], 95)),
-            })
+            row.update({"budget_ms": FRAME_BUDGET * 1e3,
+                        "budget_converged": float(np.mean([r.converged for r in budgeted])),
+                        "budget_residual": float(np.median([r.relative_residual for r in budgeted])),
+                        "budget_p95_ms": float(np.percentile([1e3 * r.elapsed for r in budgeted], 95))})
         rows.append(row)
         say(f"  median {row['fast_median_ms']:.1f} ms/frame ({row['fast_fps']:.0f} fps), "
             f"{row['fast_newton']:.2f} Newton/frame, {row['frame_over_floor']:.1f}x the floor"
@@ -245,16 +210,12 @@ def realtime_benchmark(sizes=(2000, 8000, 16000, 32000), frames: int = 90, basel
 
     say(format_realtime_table(rows))
     if out is not None:
-        record = {
-            "benchmark": "realtime",
-            "description": __doc__.strip().splitlines()[0],
-            "scene": {"E": TISSUE_E, "nu": TISSUE_NU, "rho0": TISSUE_DENSITY, "dt": FRAME_BUDGET, "rtol": RTOL_FLAP,
-                      "domain": "[0, 2] x [0, 1], left edge fixed, right edge on flap_path"},
-            "settings": {"sizes": sizes, "frames": frames, "baseline_frames": baseline_frames,
-                         "budget_frames": budget_frames, "linear_solver": linear_solver},
-            "machine": machine_info(),
-            "rows": rows,
-        }
+        record = {"benchmark": "realtime", "description": __doc__.strip().splitlines()[0],
+                  "scene": {"E": TISSUE_E, "nu": TISSUE_NU, "rho0": TISSUE_DENSITY, "dt": FRAME_BUDGET,
+                            "rtol": RTOL_FLAP, "domain": "[0, 2] x [0, 1], left edge fixed, right edge on flap_path"},
+                  "settings": {"sizes": sizes, "frames": frames, "baseline_frames": baseline_frames,
+                               "budget_frames": budget_frames, "linear_solver": linear_solver},
+                  "machine": machine_info(), "rows": rows}
         written = [write_json(Path(out) / "realtime.json", record), write_csv(Path(out) / "realtime.csv", rows)]
         say("wrote " + ", ".join(str(w) for w in written))
     return rows

@@ -1,27 +1,16 @@
 """What each effect costs: the same scripted drag with one effect added at a time.
 
-``python -m tissuefem bench scenes`` runs the standard flap
-(:func:`tissuefem.surgery.scene.flap_scene`: a 2 x 1 sheet, left edge fixed,
-the right edge on :func:`~tissuefem.surgery.scene.flap_path`) as a scene, once
-per variant:
+``python -m tissuefem bench scenes`` runs the standard flap (:func:`tissuefem.surgery.scene.flap_scene`,
+the right edge on :func:`~tissuefem.surgery.scene.flap_path`) as a scene, once per variant (:func:`variants`):
+a linear scene with its constant factorisation and the same forced through the general Newton loop; the
+quasistatic stable neo-Hookean base; the base plus one effect (inertia, gravity, fibres, a probe, sutures,
+inversion handling, a crack through the elements or along edges, self-contact with nothing near); an
+incision across the middle whose lips the drag presses together, without and with contact; everything.
 
-* a small-strain linear scene with its constant factorisation, and the same
-  scene forced through the general Newton loop (what the shortcut saves);
-* stable neo-Hookean, quasistatic: the base the effects are added to;
-* the base plus one effect: inertia, inertia and gravity, fibres, a probe
-  pressed into the top edge, sutures, inversion handling (projected tangent),
-  a crack cut through the elements (and the same crack snapped to mesh edges),
-  self-contact (nothing near: the surface is nowhere near itself);
-* an incision across the middle, without and with contact: the drag presses its
-  lips together and slides them along each other (contact acts in every frame);
-* everything together.
-
-Every variant runs the same frames with no budget (each frame converges to
-``rtol``) and the real clock. The table gives the median and 95th percentile
-ms per frame, Newton iterations per frame, and the median's difference from
-the base: the time the effect costs. A second table times each *term* of the
-all-effects model on its own (energy + force + Hessian), which separates the
-cost of evaluating a term from the extra Newton iterations it causes.
+Every variant runs the same frames with no budget and the real clock. The table gives the median and 95th
+percentile ms per frame, Newton iterations per frame, and the median's difference from the base: the time
+the effect costs. A second table times each *term* of the all-effects model alone (energy + force +
+Hessian), separating the cost of evaluating a term from the extra Newton iterations it causes.
 
 Timings are from a shared machine: compare rows of one run, not runs.
 """
@@ -45,7 +34,8 @@ __all__ = ["effects_benchmark", "variants", "format_effects_table", "term_costs"
 def _base(n_triangles):
     """The quasistatic base: the standard flap in stable neo-Hookean, no budget, in the real-time configuration
     (the kept factorization refreshed in the background)."""
-    return flap_scene(n_triangles, model="stable-neo-hookean", dynamic=False, linear_solver="reuse-background").to_dict()
+    return flap_scene(n_triangles, model="stable-neo-hookean", dynamic=False,
+                      linear_solver="reuse-background").to_dict()
 
 
 PROBE = {"center": [1.0, 1.08], "radius": 0.15}
@@ -91,12 +81,8 @@ def variants(n_triangles):
 
 def _run(data, options, frames):
     sim = Simulation(Scene.from_dict(data), **options)
-    ms, newton = [], []
-    for k in range(frames):
-        report = sim.frame({"handle": flap_path((k + 1) * FRAME_BUDGET)})
-        ms.append(1e3 * report.elapsed)
-        newton.append(report.newton_iterations)
-    return sim, np.array(ms), np.array(newton)
+    reports = [sim.frame({"handle": flap_path((k + 1) * FRAME_BUDGET)}) for k in range(frames)]
+    return sim, np.array([1e3 * r.elapsed for r in reports]), np.array([r.newton_iterations for r in reports])
 
 
 def cut_costs(n_triangles, repeats=3) -> dict:
@@ -118,9 +104,7 @@ def cut_costs(n_triangles, repeats=3) -> dict:
 
 def term_costs(sim, repeats=5) -> dict:
     """Median ms to evaluate each term's energy, force and Hessian once, at the simulation's state."""
-    u = sim.u
-    model = sim.model
-    costs = {}
+    u, model, costs = sim.u, sim.model, {}
     for term in model.terms:
         def evaluate(term=term):
             term.energy(u)
@@ -146,24 +130,16 @@ def effects_benchmark(n_triangles=8000, frames=30, repeats=5, out=None, progress
     if n_triangles < 50 or isinstance(frames, bool) or int(frames) < 1:
         raise ValueError("n_triangles must be >= 50 and frames >= 1")
     say = progress or (lambda *a, **k: None)
-    rows, base = [], None
-    everything = None
+    rows, base, everything = [], None, None
     for name, data, options in variants(n_triangles):
         sim, ms, newton = _run(data, options, int(frames))
         median = float(np.median(ms))
         if base is None:
             base = median
-        rows.append({
-            "variant": name,
-            "terms": sim.terms,
-            "solver": sim.solver.linear_solver_name,
-            "median_ms": median,
-            "p95_ms": float(np.percentile(ms, 95)),
-            "newton": float(np.mean(newton)),
-            "cost_ms": median - base,
-            "within_budget": float(np.mean(ms <= 1e3 * FRAME_BUDGET)),
-            "ms": ms.tolist(),
-        })
+        rows.append({"variant": name, "terms": sim.terms, "solver": sim.solver.linear_solver_name,
+                     "median_ms": median, "p95_ms": float(np.percentile(ms, 95)), "newton": float(np.mean(newton)),
+                     "cost_ms": median - base, "within_budget": float(np.mean(ms <= 1e3 * FRAME_BUDGET)),
+                     "ms": ms.tolist()})
         say(f"{name:40s} {median:7.1f} ms/frame  {np.mean(newton):.2f} Newton/frame  terms {sim.terms}")
         everything = sim
     terms = term_costs(everything, repeats)
@@ -172,16 +148,10 @@ def effects_benchmark(n_triangles=8000, frames=30, repeats=5, out=None, progress
         + ", ".join(f"{k} {v:.1f}" for k, v in cuts.items()))
     say(format_effects_table(rows))
     say("term evaluation (energy + force + Hessian), ms: " + ", ".join(f"{k} {v:.2f}" for k, v in terms.items()))
-    record = {
-        "benchmark": "scenes",
-        "description": __doc__.strip().splitlines()[0],
-        "settings": {"n_triangles": int(n_triangles), "frames": int(frames), "repeats": int(repeats),
-                     "scene": "flap_scene (stable neo-Hookean), handle on flap_path"},
-        "machine": machine_info(),
-        "rows": rows,
-        "term_ms": terms,
-        "cut_ms": cuts,
-    }
+    record = {"benchmark": "scenes", "description": __doc__.strip().splitlines()[0],
+              "settings": {"n_triangles": int(n_triangles), "frames": int(frames), "repeats": int(repeats),
+                           "scene": "flap_scene (stable neo-Hookean), handle on flap_path"},
+              "machine": machine_info(), "rows": rows, "term_ms": terms, "cut_ms": cuts}
     if out is not None:
         written = [write_json(Path(out) / "scenes.json", record),
                    write_csv(Path(out) / "scenes.csv", [{**r, "terms": " + ".join(r["terms"])} for r in rows])]
