@@ -2,38 +2,32 @@
 
 Rotation-preserving SVD (Irving, Teran, Fedkiw 2004/2006)
 ---------------------------------------------------------
-An ordinary SVD ``F = U S V^T`` has ``S >= 0`` and may return reflections for
-``U`` or ``V``. For an inverted element (``J < 0``) ITF instead keep ``U`` and
-``V`` proper rotations and move the reflection onto the smallest singular
-value, which then carries the sign of ``J``: ``F = U diag(s0, s1) V^T`` with
-``det U = det V = 1`` and ``s0 >= |s1|``.
+An ordinary SVD ``F = U S V^T`` has ``S >= 0`` and may return reflections for ``U`` or ``V``. For an inverted
+element (``J < 0``) ITF instead keep ``U`` and ``V`` proper rotations and move the reflection onto the smallest
+singular value, which then carries the sign of ``J``: ``F = U diag(s0, s1) V^T`` with ``det U = det V = 1`` and
+``s0 >= |s1|``.
 
-In 2D this has a closed form. Split ``F`` into a similarity part and an
-anti-similarity part,
+In 2D this has a closed form. Split ``F`` into a similarity part and an anti-similarity part,
 
     F = [[E + Fa, Ga - H], [Ga + H, E - Fa]],  E = (F00 + F11)/2,  H = (F10 - F01)/2,
                                                  Fa = (F00 - F11)/2, Ga = (F10 + F01)/2,
 
-with ``Q = hypot(E, H)`` and ``R = hypot(Fa, Ga)``. Then ``s0 = Q + R``,
-``s1 = Q - R`` (so ``s0 s1 = Q^2 - R^2 = J``), and with
-``a1 = atan2(Ga, Fa)``, ``a2 = atan2(H, E)`` the rotations are ``U = rot((a1 + a2)/2)``
-and ``V = rot((a1 - a2)/2)``: indeed ``rot(u) diag(s0, s1) rot(v)^T`` is ``Q rot(u - v)``
-plus ``R`` times the reflection ``[[cos(u + v), sin(u + v)], [sin(u + v), -cos(u + v)]]``. No branch, no iteration, finite for every F
-(including F = 0, where every rotation is a valid answer).
+with ``Q = hypot(E, H)`` and ``R = hypot(Fa, Ga)``. Then ``s0 = Q + R``, ``s1 = Q - R`` (so
+``s0 s1 = Q^2 - R^2 = J``), and with ``a1 = atan2(Ga, Fa)``, ``a2 = atan2(H, E)`` the rotations are
+``U = rot((a1 + a2)/2)`` and ``V = rot((a1 - a2)/2)``: indeed ``rot(u) diag(s0, s1) rot(v)^T`` is ``Q rot(u - v)``
+plus ``R`` times the reflection ``[[cos(u + v), sin(u + v)], [sin(u + v), -cos(u + v)]]``. No branch, no iteration,
+finite for every F (including F = 0, where every rotation is a valid answer).
 
 The definiteness fix (Teran, Sifakis, Irving, Fedkiw 2005)
 -----------------------------------------------------------
-For an isotropic material the tangent rotates with the SVD:
-``A(F) = (U x V) A_hat(S) (U x V)^T`` with ``A_hat = A(diag(s))``. In the
-basis ``(dF_00, dF_11 | dF_01, dF_10)`` of diagonal space ``A_hat`` is block
-diagonal: a 2x2 *stretch* block (the Hessian of ``Psi`` in the singular
-values) and a 2x2 *twist/flip* block ``[[b, c], [c, b]]`` with eigenvalues
-``b + c = (psi0 - psi1)/(s0 - s1)`` (twist) and ``b - c = (psi0 + psi1)/(s0 + s1)``
-(flip), ``psi_i = dPsi/ds_i``. Clamping each block's negative eigenvalues
-and rotating back gives the closest positive semi-definite tangent. Because
-``A_hat`` is taken from the material's own tangent at the diagonal ``F``
-(not from the divided differences), nothing divides 0 by 0 when
-``s0 = s1``. Newton with this tangent always computes a descent direction.
+For an isotropic material the tangent rotates with the SVD: ``A(F) = (U x V) A_hat(S) (U x V)^T`` with
+``A_hat = A(diag(s))``. In the basis ``(dF_00, dF_11 | dF_01, dF_10)`` of diagonal space ``A_hat`` is block
+diagonal: a 2x2 *stretch* block (the Hessian of ``Psi`` in the singular values) and a 2x2 *twist/flip* block
+``[[b, c], [c, b]]`` with eigenvalues ``b + c = (psi0 - psi1)/(s0 - s1)`` (twist) and
+``b - c = (psi0 + psi1)/(s0 + s1)`` (flip), ``psi_i = dPsi/ds_i``. Clamping each block's negative eigenvalues and
+rotating back gives the closest positive semi-definite tangent. Because ``A_hat`` is taken from the material's own
+tangent at the diagonal ``F`` (not from the divided differences), nothing divides 0 by 0 when ``s0 = s1``. Newton
+with this tangent always computes a descent direction.
 """
 
 from __future__ import annotations
@@ -50,8 +44,7 @@ def _rotation(angle) -> np.ndarray:
 def rotation_preserving_svd(F):
     """``F = U diag(s) V^T`` with ``U``, ``V`` rotations and ``s[0] >= |s[1]|``; ``s[1] < 0`` iff ``J < 0``.
 
-    ``F`` is shaped ``[2, 2, *rest]``; returns ``U [2, 2, *rest]``,
-    ``s [2, *rest]``, ``V [2, 2, *rest]``.
+    ``F`` is shaped ``[2, 2, *rest]``; returns ``U [2, 2, *rest]``, ``s [2, *rest]``, ``V [2, 2, *rest]``.
     """
     F = np.asarray(F, dtype=float)
     if F.shape[:2] != (2, 2):
@@ -92,8 +85,8 @@ def _project_sym2(a, b, d, floor):
 def eigen_projection(A, floor: float = 0.0):
     """Numerical projection: clamp the eigenvalues of each 4x4 tangent ``A [2,2,2,2,*rest]`` at ``floor``.
 
-    The reference the closed form is tested against, and the fallback for
-    materials that are not isotropic (fibers) or not frame indifferent (linear).
+    The reference the closed form is tested against, and the fallback for materials that are not isotropic (fibers)
+    or not frame indifferent (linear).
     """
     A = np.asarray(A, dtype=float)
     rest = A.shape[4:]
@@ -105,7 +98,6 @@ def eigen_projection(A, floor: float = 0.0):
 
 
 def _rotation_invariant(material) -> bool:
-
     return (type(material) in (NeoHookean, TaylorNeoHookean, StableNeoHookean, Corotated)
             or bool(getattr(material, "rotation_invariant", False)))
 
@@ -113,12 +105,11 @@ def _rotation_invariant(material) -> bool:
 def projected_tangent(material, F, floor: float = 0.0):
     """The positive semi-definite projection of ``material.tangent(F)`` (Teran et al. 2005).
 
-    Closed form in diagonal space for the isotropic, frame-indifferent models
-    (Neo-Hookean family, corotated); other materials (linear elasticity, fiber
-    terms) fall back to :func:`eigen_projection`. Eigenvalues below ``floor`` (default 0)
-    are raised to ``floor``; positive ones are kept, so where the tangent is
-    already positive semi-definite it is returned unchanged (up to round-off).
-    Returns ``[2, 2, 2, 2, *rest]`` like ``material.tangent``.
+    Closed form in diagonal space for the isotropic, frame-indifferent models (Neo-Hookean family, corotated); other
+    materials (linear elasticity, fiber terms) fall back to :func:`eigen_projection`. Eigenvalues below ``floor``
+    (default 0) are raised to ``floor``; positive ones are kept, so where the tangent is already positive
+    semi-definite it is returned unchanged (up to round-off). Returns ``[2, 2, 2, 2, *rest]`` like
+    ``material.tangent``.
     """
     if not _rotation_invariant(material):
         return eigen_projection(material.tangent(F), floor)
@@ -130,10 +121,9 @@ def _rotate_back(U, V, A_hat):
     """``A_ijkl = U_ia V_jb U_kc V_ld A_hat_abcd`` for a diagonal-space tangent of the block form above.
 
     With ``E_ab = u_a v_b^T`` (``u_a``, ``v_b`` the columns of ``U``, ``V``) this is
-    ``sum A_hat[ab, cd] E_ab (x) E_cd``, and ``A_hat`` couples only ``{00, 11}`` (stretch) and
-    ``{01, 10}`` (twist/flip). Grouping each block's row into one 2x2 field leaves four outer
-    products of 2x2 fields: a few dozen multiplications per element instead of a five-operand
-    contraction (measured about 25x faster at 8k elements).
+    ``sum A_hat[ab, cd] E_ab (x) E_cd``, and ``A_hat`` couples only ``{00, 11}`` (stretch) and ``{01, 10}``
+    (twist/flip). Grouping each block's row into one 2x2 field leaves four outer products of 2x2 fields: a few dozen
+    multiplications per element instead of a five-operand contraction (measured about 25x faster at 8k elements).
     """
     E = {(a, b): U[:, a][:, None] * V[:, b][None, :] for a in range(2) for b in range(2)}
     out = 0.0
@@ -161,17 +151,14 @@ def _project_diagonal_blocks(A, floor):
 class ProjectedTangent:
     """A material whose tangent is the positive semi-definite projection of another's.
 
-    Energy and stress are the wrapped material's, so a Newton solve still
-    converges to the same equilibrium; only the search direction changes (it
-    is always a descent direction for the energy). Works with the fast
-    assembler and with the scikit-fem forms alike.
+    Energy and stress are the wrapped material's, so a Newton solve still converges to the same equilibrium; only
+    the search direction changes (it is always a descent direction for the energy). Works with the fast assembler
+    and with the scikit-fem forms alike.
 
-    ``adaptive=True`` projects only when Newton needs it: ``tangent`` is then
-    the exact one (quadratic convergence where the Hessian is positive
-    definite, as it usually is away from inversion) and ``safe_tangent`` the
-    projection, which the minimiser assembles when the exact direction does
-    not point downhill. Clamping every element's negative curvature in every
-    step costs Newton its quadratic convergence: on chapter 8's drag with the
+    ``adaptive=True`` projects only when Newton needs it: ``tangent`` is then the exact one (quadratic convergence
+    where the Hessian is positive definite, as it usually is away from inversion) and ``safe_tangent`` the
+    projection, which the minimiser assembles when the exact direction does not point downhill. Clamping every
+    element's negative curvature in every step costs Newton its quadratic convergence: on chapter 8's drag with the
     stable neo-Hookean model, about 7 Newton steps a frame instead of 2.
     """
 
@@ -209,68 +196,46 @@ class ProjectedTangent:
 class ITFClamped:
     """An isotropic material made invertible after Irving, Teran and Fedkiw (2004/2006).
 
-    The energy is evaluated in diagonal space, ``Psi(F) = Psi_hat(s)`` with the
-    rotation-preserving SVD ``F = U diag(s) V^T`` (``s0 >= |s1|``; ``s1 < 0``
-    for an inverted element), and the stress is ``P = U diag(psi) V^T`` with
-    ``psi_i = dPsi_hat/ds_i``. Below the compression threshold ``c`` the base
-    model is not used; it is *extrapolated* from the threshold:
+    The energy is evaluated in diagonal space, ``Psi(F) = Psi_hat(s)`` with the rotation-preserving SVD
+    ``F = U diag(s) V^T`` (``s0 >= |s1|``; ``s1 < 0`` for an inverted element), and the stress is
+    ``P = U diag(psi) V^T`` with ``psi_i = dPsi_hat/ds_i``. Below the compression threshold ``c`` the base model is
+    *extrapolated* from the threshold:
 
     * ``s1 >= c`` (the usual case): the base model itself.
-    * ``s1 < c <= s0`` (one direction crushed, flat or inverted): first-order
-      in ``d1 = s1 - c`` from ``(s0, c)`` plus a spring,
-      ``Psi(s0, c) + psi_1(s0, c) d1 + k/2 d1^2``.
-    * ``s0 < c`` (both crushed, down to ``F = 0``): the bilinear expansion from
-      ``(c, c)``, ``Psi + psi_0 d0 + psi_1 d1 + Psi_01 d0 d1 + k/2 (d0^2 + d1^2)``.
+    * ``s1 < c <= s0`` (one direction crushed, flat or inverted): first-order in ``d1 = s1 - c`` from ``(s0, c)``
+      plus a spring, ``Psi(s0, c) + psi_1(s0, c) d1 + k/2 d1^2``.
+    * ``s0 < c`` (both crushed, down to ``F = 0``): the bilinear expansion from ``(c, c)``,
+      ``Psi + psi_0 d0 + psi_1 d1 + Psi_01 d0 d1 + k/2 (d0^2 + d1^2)``.
 
-    Each piece is the previous one extended in one more variable, so value and
-    gradient are continuous across the thresholds (the energy is C1) and the
-    stress is the exact gradient of the energy: the energy line search stays
-    valid. ITF's original clamps ``P_hat`` directly; extrapolating the energy
-    instead gives the same finite push-back and keeps stress and energy
-    consistent. The restoring force grows only linearly with the depth of
-    inversion (spring ``k``, by default the base model's ``d2Psi/ds1^2`` at
-    ``(c, c)``), so an element crushed to a point or turned inside out still
-    gets a finite force that pushes it back, and ``F = 0`` is not an equilibrium
+    Each piece is the previous one extended in one more variable, so the energy is C1 across the thresholds and the
+    stress is its exact gradient: the energy line search stays valid (ITF's original clamps ``P_hat`` directly,
+    with the same finite push-back but no consistent energy). The restoring force grows only linearly with the depth
+    of inversion (spring ``k``, by default the base model's ``d2Psi/ds1^2`` at ``(c, c)``), so an element crushed to
+    a point or turned inside out still gets a finite force that pushes it back, and ``F = 0`` is not an equilibrium
     (there ``P = psi_0(c, c) (1 - ...) I`` pushes outward).
 
-    The tangent is assembled in diagonal space (stretch block and twist/flip
-    block, see the module docstring) and, by default (``project=True``),
-    projected to be positive semi-definite (Teran et al. 2005): where
-    ``s0 + s1 = 0`` the energy has a kink whose curvature is unbounded, and the
-    projection is what makes Newton's direction a descent direction there.
-    ``project=False`` gives the exact Hessian (away from the kink); region
-    ``s1 < c <= s0`` needs a third derivative of the base model there, taken by
-    a central difference of its tangent.
+    The tangent is assembled in diagonal space (module docstring) and, with ``project=True`` (the default), projected
+    to be positive semi-definite (Teran et al. 2005): where ``s0 + s1 = 0`` the energy has a kink of unbounded
+    curvature, and the projection keeps Newton's direction downhill there. ``project=False`` gives the exact Hessian
+    (away from the kink); region ``s1 < c <= s0`` needs a third derivative of the base model, a central difference
+    of its tangent.
 
-    Why only the ``ln J`` model: a highly stretched element (``s0`` large)
-    with ``s1`` below the threshold feels ``psi_1(s0, c)``, which becomes
-    positive (the material wants ``s1 ~ 1/s0`` to keep its volume), and the
-    spring bounds the energy below only while ``psi_1^2 / (2k)`` grows slower
-    than ``Psi(s0, c)``. With ``ln J``, ``psi_1`` grows like ``ln s0``; with a
-    polynomial volumetric term (Taylor, stable Neo-Hookean, corotated) like
-    ``s0^2`` or faster, and the extended energy would be unbounded below. Those
-    models are finite through inversion already. The same fact is the
-    accuracy limit of a singular-value threshold: where the physical answer
-    has ``s1 < c`` (a nearly incompressible body stretched beyond ``1/c``), the
-    clamped model no longer reproduces the base model.
+    Why only the ``ln J`` model (``material``, a :class:`~tissuefem.materials.NeoHookean`): a highly stretched
+    element (``s0`` large) with ``s1`` below the threshold feels ``psi_1(s0, c)``, which becomes positive (the
+    material wants ``s1 ~ 1/s0`` to keep its volume), and the spring bounds the energy below only while
+    ``psi_1^2 / (2k)`` grows slower than ``Psi(s0, c)``. With ``ln J``, ``psi_1`` grows like ``ln s0``; with a
+    polynomial volumetric term (Taylor, stable Neo-Hookean, corotated) like ``s0^2`` or faster, and the extended
+    energy would be unbounded below; those models are finite through inversion already. The same fact limits the
+    accuracy of a singular-value threshold: where the physical answer has ``s1 < c`` (a nearly incompressible body
+    stretched beyond ``1/c``), the clamped model no longer reproduces the base model.
 
-    Parameters
-    ----------
-    material
-        The :class:`~tissuefem.materials.NeoHookean` (``ln J``) model.
-    threshold
-        The compression threshold ``c``, ``0 < c < 1`` (default 0.3).
-    stiffness
-        The spring ``k > 0`` below the threshold (default: ``d2Psi/ds1^2(c, c)``).
-    project
-        Return the positive semi-definite projection of the tangent (default).
+    ``threshold`` is ``c``, ``0 < c < 1``; ``stiffness`` the spring ``k > 0`` (default ``d2Psi/ds1^2(c, c)``).
     """
 
     rotation_invariant = True
     inversion_safe = True
 
     def __init__(self, material, threshold: float = 0.3, stiffness: float | None = None, project: bool = True):
-
         if type(material) is not NeoHookean:
             raise ValueError(
                 f"material must be the ln J NeoHookean model, got {material!r}: the first-order extension is "
@@ -299,29 +264,27 @@ class ITFClamped:
 
     # --- diagonal space ------------------------------------------------------------------
     def _regions(self, s):
-        c = self.threshold
-        both = s[0] < c
-        one = (s[1] < c) & ~both
-        return one, both
+        """``s`` as floats and where it is ``(normal, one, both)``: no, one or both singular values below ``c``."""
+        s = np.asarray(s, dtype=float)
+        both = s[0] < self.threshold
+        one = (s[1] < self.threshold) & ~both
+        return s, ~(one | both), one, both
 
     def _base_at(self, s0, s1, what):
-        D = diagonal(np.stack([s0, s1]))
+        D = diagonal(np.stack(np.broadcast_arrays(s0, s1)))  # s1 may be the threshold c
         return np.asarray(getattr(self.base, what)(D), dtype=float)
 
     def diagonal_energy(self, s) -> np.ndarray:
         """``Psi_hat(s)`` for signed singular values ``s [2, *rest]`` (``s0 >= |s1|``)."""
-        s = np.asarray(s, dtype=float)
+        s, normal, one, both = self._regions(s)
         c, k = self.threshold, self.stiffness
-        one, both = self._regions(s)
-        normal = ~(one | both)
         out = np.empty(s.shape[1:])
         if normal.any():
             out[normal] = self._base_at(s[0][normal], s[1][normal], "energy")
         if one.any():
             s0, d1 = s[0][one], s[1][one] - c
-            cc = np.full(s0.shape, c)
-            P = self._base_at(s0, cc, "stress")
-            out[one] = self._base_at(s0, cc, "energy") + P[1, 1] * d1 + 0.5 * k * d1**2
+            P = self._base_at(s0, c, "stress")
+            out[one] = self._base_at(s0, c, "energy") + P[1, 1] * d1 + 0.5 * k * d1**2
         if both.any():
             d0, d1 = s[0][both] - c, s[1][both] - c
             out[both] = (self._psi_cc + self._g_cc * (d0 + d1) + self._h01_cc * d0 * d1
@@ -330,19 +293,16 @@ class ITFClamped:
 
     def diagonal_gradient(self, s) -> np.ndarray:
         """``psi_i = dPsi_hat/ds_i``, shape ``[2, *rest]``."""
-        s = np.asarray(s, dtype=float)
+        s, normal, one, both = self._regions(s)
         c, k = self.threshold, self.stiffness
-        one, both = self._regions(s)
-        normal = ~(one | both)
         out = np.empty(s.shape)
         if normal.any():
             P = self._base_at(s[0][normal], s[1][normal], "stress")
             out[0][normal], out[1][normal] = P[0, 0], P[1, 1]
         if one.any():
             s0, d1 = s[0][one], s[1][one] - c
-            cc = np.full(s0.shape, c)
-            P = self._base_at(s0, cc, "stress")
-            A = self._base_at(s0, cc, "tangent")
+            P = self._base_at(s0, c, "stress")
+            A = self._base_at(s0, c, "tangent")
             out[0][one] = P[0, 0] + A[0, 0, 1, 1] * d1
             out[1][one] = P[1, 1] + k * d1
         if both.any():
@@ -353,29 +313,25 @@ class ITFClamped:
 
     def diagonal_tangent(self, s) -> np.ndarray:
         """The exact tangent ``A_hat = A(diag(s))`` in diagonal space, ``[2, 2, 2, 2, *rest]``."""
-        s = np.asarray(s, dtype=float)
+        s, normal, one, both = self._regions(s)
         c, k = self.threshold, self.stiffness
-        one, both = self._regions(s)
-        normal = ~(one | both)
         rest = s.shape[1:]
         A = np.zeros((2, 2, 2, 2) + rest)
         if normal.any():
             A[..., normal] = self._base_at(s[0][normal], s[1][normal], "tangent")
-        extrapolated = one | both
-        if not extrapolated.any():
+        sub = ~normal  # extrapolated
+        if not sub.any():
             return A
         h00, h01, h11 = (np.empty(rest) for _ in range(3))
         if one.any():
             s0, d1 = s[0][one], s[1][one] - c
-            cc = np.full(s0.shape, c)
-            At = self._base_at(s0, cc, "tangent")
+            At = self._base_at(s0, c, "tangent")
             step = 1e-6 * np.maximum(1.0, s0)
-            third = (self._base_at(s0 + step, cc, "tangent")[0, 0, 1, 1]
-                     - self._base_at(s0 - step, cc, "tangent")[0, 0, 1, 1]) / (2 * step)
+            third = (self._base_at(s0 + step, c, "tangent")[0, 0, 1, 1]
+                     - self._base_at(s0 - step, c, "tangent")[0, 0, 1, 1]) / (2 * step)
             h00[one], h01[one], h11[one] = At[0, 0, 0, 0] + third * d1, At[0, 0, 1, 1], k
         h00[both], h01[both], h11[both] = k, self._h01_cc, k
         psi = self.diagonal_gradient(s)
-        sub = extrapolated
         s0, s1, p0, p1 = s[0][sub], s[1][sub], psi[0][sub], psi[1][sub]
         # twist (psi0 - psi1)/(s0 - s1): in the doubly clamped region it is exactly k - Psi_01(c, c)
         gap = s0 - s1
