@@ -233,9 +233,12 @@ def _points(field, value, minimum, maximum=MAX_POINTS):
     return [_vector(f"{field}[{i}]", p) for i, p in enumerate(value)]
 
 
-def _table(field, value):
+def _table(field, value, allowed=None):
+    """``value`` if it is a table (a dict) with no keys but ``allowed`` (if given)."""
     if not isinstance(value, dict):
         raise ValueError(f"{field} must be a table (a dict), got {_show(value)}")
+    if allowed is not None:
+        _only(field, value, allowed)
     return value
 
 
@@ -271,8 +274,12 @@ def _string(field, value, choices=None, *, nonempty=False):
     return value
 
 
+def _within(field, value, bounds):
+    return _number(field, value, lo=bounds[0], hi=bounds[1])
+
+
 def _length(field, value):
-    return _number(field, value, positive=True, lo=SIZE_RANGE[0], hi=SIZE_RANGE[1])
+    return _within(field, value, SIZE_RANGE)
 
 
 def _aspect(field, ratio):
@@ -337,22 +344,19 @@ def _check_material(m):
     if m is None:
         raise ValueError("material: missing; a scene needs a [material] table with model, youngs_modulus, "
                          "poisson_ratio")
-    m = _table("material", m)
-    _only("material", m, ("model", "youngs_modulus", "poisson_ratio", "density"))
+    m = _table("material", m, ("model", "youngs_modulus", "poisson_ratio", "density"))
     _require("material", m, ("model", "youngs_modulus", "poisson_ratio"))
     return {
         "model": _string("material.model", m["model"], sorted(MATERIALS)),
-        "youngs_modulus": _number("material.youngs_modulus", m["youngs_modulus"], positive=True,
-                                  lo=YOUNGS_MODULUS_RANGE[0], hi=YOUNGS_MODULUS_RANGE[1]),
+        "youngs_modulus": _within("material.youngs_modulus", m["youngs_modulus"], YOUNGS_MODULUS_RANGE),
         "poisson_ratio": check_poisson_ratio(_number("material.poisson_ratio", m["poisson_ratio"]),
                                              "material.poisson_ratio"),
-        "density": _number("material.density", m.get("density", 1.0), positive=True, lo=DENSITY_RANGE[0],
-                           hi=DENSITY_RANGE[1]),
+        "density": _within("material.density", m.get("density", 1.0), DENSITY_RANGE),
     }
 
 
 def _radius(field, value):
-    return _number(field, value, positive=True, lo=MIN_RADIUS * SIZE_RANGE[0], hi=_FAR)
+    return _within(field, value, (MIN_RADIUS * SIZE_RANGE[0], _FAR))
 
 
 def _check_region(field, r):
@@ -406,13 +410,10 @@ def _check_entry(kind, i, e):
         if "stiffness" in e:
             out["stiffness"] = _penalty(f"{field}.stiffness", e["stiffness"])
         return out
-    if kind == "excisions":
-        _only(field, e, ("polygon", "method"))
-        return {"polygon": _points(f"{field}.polygon", e.get("polygon"), 3),
-                "method": _string(f"{field}.method", e.get("method", "elements"), CUT_METHODS)}
-    if kind == "incisions":
-        _only(field, e, ("path", "method"))
-        return {"path": _points(f"{field}.path", e.get("path"), 2),
+    if kind in ("excisions", "incisions"):
+        key, least = ("polygon", 3) if kind == "excisions" else ("path", 2)
+        _only(field, e, (key, "method"))
+        return {key: _points(f"{field}.{key}", e.get(key), least),
                 "method": _string(f"{field}.method", e.get("method", "elements"), CUT_METHODS)}
     # sutures
     _only(field, e, ("pairs", "stiffness", "tightness"))
@@ -437,19 +438,16 @@ def _check_effects(effects):
                          f"known effects: {list(EFFECTS)}")
     out = {}
     if "inertia" in effects:
-        e = _table("effects.inertia", effects["inertia"])
-        _only("effects.inertia", e, ("time_step", "mass"))
-        out["inertia"] = {"time_step": _number("effects.inertia.time_step", e.get("time_step", FRAME_BUDGET),
-                                               positive=True, lo=TIME_STEP_RANGE[0], hi=TIME_STEP_RANGE[1]),
+        e = _table("effects.inertia", effects["inertia"], ("time_step", "mass"))
+        out["inertia"] = {"time_step": _within("effects.inertia.time_step", e.get("time_step", FRAME_BUDGET),
+                                               TIME_STEP_RANGE),
                           "mass": _string("effects.inertia.mass", e.get("mass", "lumped"), ("lumped", "consistent"))}
     if "gravity" in effects:
-        e = _table("effects.gravity", effects["gravity"])
-        _only("effects.gravity", e, ("acceleration",))
+        e = _table("effects.gravity", effects["gravity"], ("acceleration",))
         out["gravity"] = {"acceleration": _vector("effects.gravity.acceleration", e.get("acceleration", [0.0, -9.81]),
                                                   MAX_ACCELERATION)}
     if "fibers" in effects:
-        e = _table("effects.fibers", effects["fibers"])
-        _only("effects.fibers", e, ("stiffness", "direction"))
+        e = _table("effects.fibers", effects["fibers"], ("stiffness", "direction"))
         _require("effects.fibers", e, ("stiffness",))
         direction = e.get("direction", [1.0, 0.0])
         if isinstance(direction, str):
@@ -462,18 +460,16 @@ def _check_effects(effects):
                                               hi=FIBER_STIFFNESS_RANGE[1]),
                          "direction": direction}
     if "inversion" in effects:
-        e = _table("effects.inversion", effects["inversion"])
-        _only("effects.inversion", e, ("method", "threshold"))
+        e = _table("effects.inversion", effects["inversion"], ("method", "threshold"))
         method = _string("effects.inversion.method", e.get("method", "projected"), ("itf", "projected"))
         out["inversion"] = {"method": method}
         if method == "itf":
-            out["inversion"]["threshold"] = _number("effects.inversion.threshold", e.get("threshold", 0.3),
-                                                    positive=True, lo=THRESHOLD_RANGE[0], hi=THRESHOLD_RANGE[1])
+            out["inversion"]["threshold"] = _within("effects.inversion.threshold", e.get("threshold", 0.3),
+                                                    THRESHOLD_RANGE)
         elif "threshold" in e:
             raise ValueError("effects.inversion.threshold: only the 'itf' method has a threshold")
     if "contact" in effects:
-        e = _table("effects.contact", effects["contact"])
-        _only("effects.contact", e, ("distance", "stiffness"))
+        e = _table("effects.contact", effects["contact"], ("distance", "stiffness"))
         out["contact"] = {}
         if "distance" in e:
             out["contact"]["distance"] = _number("effects.contact.distance", e["distance"], positive=True, hi=_FAR)
@@ -506,12 +502,10 @@ def _linear_solver(value):
 
 
 def _check_solver(s):
-    s = _table("solver", s)
-    _only("solver", s, ("budget", "rtol", "linear_solver", "max_iterations"))
+    s = _table("solver", s, ("budget", "rtol", "linear_solver", "max_iterations"))
     return {
-        "budget": _number("solver.budget", s.get("budget", FRAME_BUDGET), positive=True, lo=BUDGET_RANGE[0],
-                          hi=BUDGET_RANGE[1]),
-        "rtol": _number("solver.rtol", s.get("rtol", 1e-6), positive=True, lo=RTOL_RANGE[0], hi=RTOL_RANGE[1]),
+        "budget": _within("solver.budget", s.get("budget", FRAME_BUDGET), BUDGET_RANGE),
+        "rtol": _within("solver.rtol", s.get("rtol", 1e-6), RTOL_RANGE),
         "linear_solver": _linear_solver(s.get("linear_solver", "reuse")),
         "max_iterations": _number("solver.max_iterations", s.get("max_iterations", 50), integer=True, lo=1,
                                   hi=MAX_ITERATIONS),
