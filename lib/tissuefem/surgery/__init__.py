@@ -4,8 +4,7 @@
 * :mod:`.element_cuts` -- cuts through elements by the virtual node algorithm;
 * :mod:`.surfaces` -- the contact surface of a body cut through elements (where its material ends);
 * :mod:`.scene` -- the declarative description of a simulation, read from and written to TOML/JSON;
-* :mod:`.simulation` -- a scene built into a model and a real-time stepper, with the surgical operations
-  between frames (grab, drag, release, probe, cut, excise, suture);
+* :mod:`.simulation` -- a scene built and stepped, with grab, drag, release, probe, cut, excise, suture between frames;
 * :mod:`.flaps` -- local flap procedures and their tension reports;
 * :mod:`.interactive` -- the view that turns mouse events into those operations.
 

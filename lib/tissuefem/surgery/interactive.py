@@ -83,13 +83,7 @@ _KEEP = 600
 #: seconds between whole pictures pushed to a browser canvas (the others are differences)
 KEYFRAME_S = 0.5
 
-_MOUSE_EVENTS = {
-    "press": "button_press_event",
-    "move": "motion_notify_event",
-    "release": "button_release_event",
-}
-
-_SIM_METHODS = ("positions", "frame", "grab", "drag", "release", "cut")
+_MOUSE_EVENTS = {"press": "button_press_event", "move": "motion_notify_event", "release": "button_release_event"}
 
 #: every view not yet disconnected, to stop the one a new view replaces
 _VIEWS: weakref.WeakSet = weakref.WeakSet()
@@ -309,7 +303,7 @@ class SurgeryView:
     """
 
     def __init__(self, sim, ax=None, radius=None, interval_ms=33, autostart=True):
-        missing = [m for m in ("mesh", *_SIM_METHODS) if not hasattr(sim, m)]
+        missing = [m for m in ("mesh", "positions", "frame", "grab", "drag", "release", "cut") if not hasattr(sim, m)]
         if missing:
             raise ValueError(f"sim must be a tissuefem.surgery.simulation.Simulation; {type(sim).__name__} has no {missing}")
         radius = check_positive("radius", 2.0 * mean_edge_length(sim.mesh) if radius is None else radius)
@@ -372,9 +366,8 @@ class SurgeryView:
         ax.add_patch(self.mesh_edges)
         (self.stroke_artist,) = ax.plot([], [], "-", color="k", lw=1.2, zorder=3)
         (self.target_artist,) = ax.plot([], [], "o", ms=7, mfc="none", mec="tab:blue", mew=1.5, zorder=3)
-        # the readout and the message in fixed places, left out of any layout: they never move the axes.
-        # In the view's own figure: above the axes and at the foot of the figure (under the tick labels);
-        # in axes of your own: above the axes and inside them, at the bottom
+        # the readout and the message in fixed places, left out of any layout (they never move the axes): above
+        # the axes, and at the foot of the view's own figure (under the tick labels) or inside axes of your own
         text = dict(ha="left", fontsize=TEXT_SIZE, family="monospace", clip_on=False, in_layout=False)
         if self.owns_figure:
             self.status_text = ax.text(0.05, 0.985, "", transform=self.fig.transFigure, va="top", **text)
@@ -404,13 +397,10 @@ class SurgeryView:
             else:
                 sockets.add(self._sent_images)
 
-        self._cids = [
-            self.canvas.mpl_connect("button_press_event", self._on_press),
-            self.canvas.mpl_connect("motion_notify_event", self._on_motion),
-            self.canvas.mpl_connect("button_release_event", self._on_release),
-            self.canvas.mpl_connect("key_press_event", self._on_key),
-            self.canvas.mpl_connect("close_event", self._on_close),
-        ]
+        handlers = {"button_press_event": self._on_press, "motion_notify_event": self._on_motion,
+                    "button_release_event": self._on_release, "key_press_event": self._on_key,
+                    "close_event": self._on_close}
+        self._cids = [self.canvas.mpl_connect(name, handler) for name, handler in handlers.items()]
         self._origin = _cell_origin()
         self._replace_older_views()
         _VIEWS.add(self)
