@@ -1,25 +1,19 @@
 """One-dimensional bars with scikit-fem: the notes' "1D elasticity" section (chapters 1-2).
 
-The bar occupies ``[a, b]`` in the reference configuration; the unknown is the
-displacement ``u(X)``, so ``F = 1 + du/dX``. With Lagrange shape functions
-``N_i`` the notes' discrete equations are
+The bar occupies ``[a, b]`` in the reference configuration; the unknown is the displacement ``u(X)``, so
+``F = 1 + du/dX``. With Lagrange shape functions ``N_i`` the notes' discrete equations are
 
 * linear:      ``A u = F_ext + g``, ``A_ij = E1 int N_i' N_j' dX``;
 * nonlinear:   ``q_i(u) = int N_i' P(F(u)) dX - F_ext_i - g_i = 0``;
 
-with ``F_ext_i = int f N_i dX`` and the boundary term
-``g_i = N_i(b) P(b) - N_i(a) P(a)``. Here ``E1 = lam + 2 mu`` is the 1D
-modulus (the notes print ``2 mu - lam``) and the residual subtracts ``g``
-(the notes print ``+ g_i`` in ``q``, which contradicts their own linear
-system).
+with ``F_ext_i = int f N_i dX`` and the boundary term ``g_i = N_i(b) P(b) - N_i(a) P(a)``. Here ``E1 = lam + 2 mu``
+is the 1D modulus (the notes print ``2 mu - lam``) and the residual subtracts ``g`` (the notes print ``+ g_i`` in
+``q``, which contradicts their own linear system).
 
-End conditions are given per end as :class:`Displacement` (Dirichlet) or
-:class:`Traction`. A traction is the applied force per unit reference area,
-as its X component, ``t = P n`` with ``n`` the outward normal: at ``b``
-(n = +1) ``t = P(b)``, at ``a`` (n = -1) ``t = -P(a)``. So a positive value
-points in the +X direction: at the right end it pulls (tension), at the left
-end it pushes (compression); this is the same sign rule as a 2D traction
-vector.
+End conditions are given per end as :class:`Displacement` (Dirichlet) or :class:`Traction`. A traction is the
+applied force per unit reference area, as its X component, ``t = P n`` with ``n`` the outward normal: at ``b``
+(``n = +1``) ``t = P(b)``, at ``a`` (``n = -1``) ``t = -P(a)``. So a positive value points in the +X direction: at
+the right end it pulls (tension), at the left end it pushes (compression), as a 2D traction vector does.
 """
 
 from __future__ import annotations
@@ -87,11 +81,9 @@ def _body_force(v, w):
 def nonlinear_forms(material: Material1D):
     """The notes' residual and tangent as scikit-fem forms for one material.
 
-    Returns ``(internal_force, tangent, strain_energy)``: a ``LinearForm``
-    ``int N_i' P(F) dX``, a ``BilinearForm`` ``int N_i' dP/dF N_j' dX`` and a
-    ``Functional`` ``int Psi(F) dX``, each evaluated at the field ``w["u"]``
-    (``F = 1 + du/dX``). The material is bound by closure because scikit-fem
-    passes only arrays through ``w``.
+    Returns ``(internal_force, tangent, strain_energy)``: a ``LinearForm`` ``int N_i' P(F) dX``, a ``BilinearForm``
+    ``int N_i' dP/dF N_j' dX`` and a ``Functional`` ``int Psi(F) dX``, each evaluated at the field ``w["u"]``
+    (``F = 1 + du/dX``). The material is bound by closure because scikit-fem passes only arrays through ``w``.
     """
 
     @LinearForm
@@ -165,8 +157,7 @@ class Bar1D:
     def boundary_term(self, left=Traction(0.0), right=Traction(0.0)) -> np.ndarray:
         """``g_i = N_i(b) P(b) - N_i(a) P(a) = N_i(b) t_b + N_i(a) t_a``; Dirichlet ends contribute 0.
 
-        Lagrange shape functions are 1 at their own node and 0 at the others,
-        so ``g`` is zero except at the end dofs.
+        Lagrange shape functions are 1 at their own node and 0 at the others, so ``g`` is zero but at the end dofs.
         """
         left, right = _as_end(left, "left"), _as_end(right, "right")
         g = np.zeros(self.ndofs)
@@ -183,10 +174,8 @@ class Bar1D:
                 fixed.append(dof)
                 values.append(cond.value)
         if not fixed:
-            raise ValueError(
-                "at least one end needs a Displacement condition: with tractions at both ends the "
-                "bar can translate freely and the stiffness matrix is singular"
-            )
+            raise ValueError("at least one end needs a Displacement condition: with tractions at both ends the "
+                             "bar can translate freely and the stiffness matrix is singular")
         return np.array(fixed, dtype=int), np.array(values, dtype=float)
 
     def solve_linear(self, modulus: float, f=0.0, left=Displacement(0.0), right=Traction(0.0)) -> np.ndarray:
@@ -225,20 +214,12 @@ class Bar1D:
         external = self.body_force(f) + self.boundary_term(left, right)
         return self.internal_force(u, material) - load * external
 
-    def solve_nonlinear(
-        self,
-        material: Material1D,
-        f=0.0,
-        left=Displacement(0.0),
-        right=Traction(0.0),
-        load_steps: int = 1,
-        u0=None,
-        **newton_options,
-    ) -> tuple[np.ndarray, list[NewtonResult]]:
+    def solve_nonlinear(self, material: Material1D, f=0.0, left=Displacement(0.0), right=Traction(0.0),
+                        load_steps: int = 1, u0=None, **newton_options) -> tuple[np.ndarray, list[NewtonResult]]:
         """Load stepping + Newton: ramp the loads (and prescribed displacements) over ``load_steps``.
 
-        Returns the final displacement and the Newton result of every load step.
-        Stops early (returning the last converged state) if a step fails.
+        Returns the final displacement and the Newton result of every load step; stops early (returning the last
+        converged state) if a step fails.
         """
         left, right = _as_end(left, "left"), _as_end(right, "right")
         if int(load_steps) != load_steps or load_steps < 1:
@@ -256,14 +237,9 @@ class Bar1D:
         for s in np.arange(1, load_steps + 1) / load_steps:
             x0 = u.copy()
             x0[fixed] = s * values
-            result = newton(
-                x0,
-                lambda x: self.internal_force(x, material) - s * external,
-                lambda x: self.tangent(x, material),
-                free=free,
-                energy=lambda x: self.strain_energy(x, material) - s * external @ x,
-                **newton_options,
-            )
+            result = newton(x0, lambda x: self.internal_force(x, material) - s * external,
+                            lambda x: self.tangent(x, material), free=free,
+                            energy=lambda x: self.strain_energy(x, material) - s * external @ x, **newton_options)
             results.append(result)
             if not result.converged:
                 break
@@ -289,10 +265,8 @@ class Bar1D:
 def uniform_bar_stretch(material: Material1D, traction: float, F0: float = 1.0, tol: float = 1e-14) -> float:
     """Closed form for a bar with one end fixed and an end traction ``T``, no body force.
 
-    Equilibrium makes ``P`` constant and equal to ``T`` everywhere, so ``F`` is
-    the uniform root of ``P(F) = T`` (unique where ``dP/dF > 0``); the
-    displacement is ``u(X) = (F - 1)(X - a)``. Solved by scalar Newton with
-    bisection safeguard on ``F > 0``.
+    Equilibrium makes ``P = T`` everywhere, so ``F`` is the uniform root of ``P(F) = T`` (unique where
+    ``dP/dF > 0``) and ``u(X) = (F - 1)(X - a)``. Solved by scalar Newton with a bisection safeguard on ``F > 0``.
     """
     lo, hi = 1e-12, 2.0
     while material.stress(hi) < traction:
@@ -304,10 +278,7 @@ def uniform_bar_stretch(material: Material1D, traction: float, F0: float = 1.0, 
         g = float(material.stress(F)) - traction
         if abs(g) <= tol * max(1.0, abs(traction), material.modulus):
             return F
-        if g > 0:
-            hi = F
-        else:
-            lo = F
+        lo, hi = (lo, F) if g > 0 else (F, hi)
         step = F - g / float(material.tangent(F))
         F = step if lo < step < hi else 0.5 * (lo + hi)
     return F
