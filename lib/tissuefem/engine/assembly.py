@@ -1,61 +1,47 @@
 """The fast P1 path: vectorised assembly into a fixed sparsity pattern.
 
-On linear (P1) triangles the shape-function gradients are constant in each
-triangle, so the deformation gradient ``F = I + grad u`` is one 2x2 matrix per
-element and every integral over a triangle is its area times the integrand.
-:class:`P1Assembler` uses that to assemble the same energy, internal-force
-vector and tangent matrix as the scikit-fem forms of :mod:`tissuefem.forms`
-(to round-off), without calling a form per pair of basis functions:
+On linear (P1) triangles the shape-function gradients are constant in each triangle, so
+``F = I + grad u`` is one 2x2 matrix per element and every integral over a triangle is its
+area times the integrand. :class:`P1Assembler` assembles the same energy, internal forces
+and tangent as the scikit-fem forms of :mod:`tissuefem.forms` (to round-off), without
+calling a form per pair of basis functions:
 
-* once, at construction: the signed areas and the gradients ``dN_a/dX_j`` of
-  every triangle, the 6 global degrees of freedom of every triangle, the
-  compressed sparse row (CSR) pattern of the global matrix and a *scatter map*
-  telling, for each of the ``36 n_elements`` local entries, where it lands in
-  the CSR data array (built from the node-adjacency pattern, whose entries are
-  2x2 blocks: ~50 ms at 32k triangles);
+* once: the signed areas and gradients ``dN_a/dX_j`` of every triangle, its 6 global dofs,
+  the CSR pattern of the global matrix and a *scatter map* telling where each of the
+  ``36 n_elements`` local entries lands in the CSR data array (built from the
+  node-adjacency pattern, whose entries are 2x2 blocks: ~50 ms at 32k triangles);
 * per call: ``F`` for all elements at once, **one** call of the material's
-  ``stress``/``tangent`` on ``F`` shaped ``[2, 2, n_elements]``, the local
-  vectors/matrices by ``einsum``, and a single ``np.bincount`` into the
-  data array (the pattern, ``indices`` and ``indptr``, never changes).
+  ``stress``/``tangent`` on ``F`` shaped ``[2, 2, n_elements]``, the local vectors/matrices
+  by ``einsum``, and a single ``np.bincount`` into the data array (the pattern never changes).
 
-Formulas (with ``G[a, j] = dN_a/dX_j`` and area ``A_e`` of element e; the
-index convention of :mod:`tissuefem`, ``F[i, j] = d phi_i / d X_j``)::
+Formulas (with ``G[a, j] = dN_a/dX_j``, area ``A_e``, and ``F[i, j] = d phi_i / d X_j``)::
 
     F_ij        = d_ij + sum_a u_(a,i) G[a, j]
     E           = sum_e A_e Psi(F_e)
     r_(a,i)     = sum_e A_e P_ij(F_e) G[a, j]                    (= dE/du_(a,i))
     K_(a,i)(b,k) = sum_e A_e A_ijkl(F_e) G[a, j] G[b, l]           (= dr_(a,i)/du_(b,k))
 
-Degree-of-freedom ordering is scikit-fem's for
-``Basis(mesh, ElementVector(ElementTriP1()))``: the dofs of node ``n`` are
-``(2 n, 2 n + 1)`` (x then y), so vectors and matrices compare entry by entry
-with the forms path.
+The dofs of node ``n`` are ``(2 n, 2 n + 1)`` (x then y), scikit-fem's order for
+``Basis(mesh, ElementVector(ElementTriP1()))``, so results compare entry by entry with
+the forms path.
 
 Choices made here
 -----------------
-* **Orientation.** scikit-fem sorts each triangle's vertex indices by default
-  (``MeshTri(..., sort_t=True)``), so a perfectly good mesh usually has about
-  half of its triangles clockwise. The P1 gradients and areas do not depend on
-  the order of a triangle's vertices, so clockwise triangles are *reoriented*
-  (their second and third vertices swapped in the assembler's own copy
-  ``self.t``; the mesh itself is untouched and element indices keep their
-  meaning). ``self.flipped`` lists them. Triangles with zero area (or
-  area below ``1e-12`` times their longest edge squared) are rejected, and so
-  are inverted ones: a triangle folded over a neighbour (both lie on the same
-  side of their shared edge), which no reorientation can repair.
-* **Scatter.** Measured on the 2-core reference machine at 8k triangles
-  (288k local entries into 114k nonzeros): ``np.bincount`` with weights
-  ~0.45 ms, ``np.add.at`` ~0.57 ms, a sparse 0/1 scatter-matrix product
-  ~0.3 ms (but no better at 32k), sort + ``np.add.reduceat`` ~2 ms. bincount
-  is simple, needs no extra matrix, and is used.
-* **Local matrices.** A single plain ``einsum`` (no ``optimize``) on
-  element-last arrays, ~0.6 ms at 8k triangles; ``optimize=True`` is ten times
-  slower here because it inserts transposed temporaries.
-* **Fibers.** The P1 path has a single point per element: a
-  :class:`~tissuefem.materials.FiberReinforced` material with per-element
-  fibers ``(2, n_elements)`` (or uniform ``(2,)``) works as is; per-quadrature
-  fibers ``(2, n_elements, n_points)`` are rejected with a ``ValueError``
-  (average and normalise them per element first, if that is what you mean).
+* **Orientation.** scikit-fem sorts each triangle's vertices (``sort_t=True``), so a good
+  mesh usually has about half of its triangles clockwise. P1 gradients and areas do not
+  depend on the vertex order, so clockwise triangles are *reoriented* in the assembler's
+  own copy ``self.t`` (the mesh is untouched; ``self.flipped`` lists them). Triangles with
+  area below ``1e-12`` times their longest edge squared are rejected, and so are inverted
+  ones (folded over a neighbour), which no reorientation can repair.
+* **Scatter.** At 8k triangles (288k local entries into 114k nonzeros, 2-core reference
+  machine): ``np.bincount`` with weights ~0.45 ms, ``np.add.at`` ~0.57 ms, a sparse 0/1
+  scatter-matrix product ~0.3 ms (no better at 32k), sort + ``np.add.reduceat`` ~2 ms.
+  bincount is simple and needs no extra matrix.
+* **Local matrices.** One plain ``einsum`` (no ``optimize``) on element-last arrays,
+  ~0.6 ms at 8k triangles; ``optimize=True`` is ten times slower here (transposed temporaries).
+* **Fibers.** One point per element: a :class:`~tissuefem.materials.FiberReinforced`
+  material with fibers ``(2, n_elements)`` or ``(2,)`` works as is; per-quadrature fibers
+  ``(2, n_elements, n_points)`` are refused (average and normalise them per element first).
 """
 
 from __future__ import annotations
@@ -83,47 +69,21 @@ def _list(idx, limit=20) -> str:
 class P1Assembler:
     """Energy, internal forces and tangent of a hyperelastic material on a P1 triangle mesh.
 
-    Parameters
-    ----------
-    mesh
-        A scikit-fem :class:`~skfem.MeshTri` (straight-sided linear triangles).
-        Triangles may be oriented either way (see the module docstring);
-        non-finite coordinates or zero-area triangles raise ``ValueError``.
-    material
-        The default material (any object with ``energy``, ``stress`` and
-        ``tangent`` following :mod:`tissuefem.materials`); every method also
-        takes a ``material`` argument that overrides it for that call.
-    weights
-        Optional ``(n_elements,)`` fractions in ``(0, 1]``: the share of its
-        triangle's area that each element's material fills (1 everywhere by
-        default). Elements made by cutting through a triangle keep the
-        triangle's shape functions but carry only the material on their side
-        of the cut.
+    ``mesh`` is a scikit-fem :class:`~skfem.MeshTri` (straight-sided, either orientation;
+    non-finite coordinates or zero-area triangles raise ``ValueError``). ``material`` is the
+    default material (``energy``, ``stress``, ``tangent`` as in :mod:`tissuefem.materials`);
+    every method takes a ``material`` that overrides it. ``weights``: optional
+    ``(n_elements,)`` fractions in ``(0, 1]`` of its triangle's area that each element's
+    material fills: elements made by cutting through a triangle keep its shape functions
+    but carry only the material on their side of the cut.
 
-    Attributes
-    ----------
-    n_nodes, n_elements, n_dofs
-        Sizes; ``n_dofs = 2 n_nodes``.
-    t
-        ``(3, n_elements)`` connectivity, counter-clockwise.
-    flipped
-        Indices of the elements whose vertex order was reversed to make ``t``
-        counter-clockwise.
-    areas
-        ``(n_elements,)`` reference areas ``A_e > 0`` of the material (the
-        triangle's area times its weight).
-    grads
-        ``(n_elements, 3, 2)`` constant shape-function gradients
-        ``grads[e, a, j] = dN_a/dX_j`` (vertex ``a`` of ``t[:, e]``).
-    element_dofs
-        ``(6, n_elements)``: row ``2 a + i`` holds the global dof of
-        displacement component ``i`` at vertex ``a`` (``2 t[a, e] + i``).
-    indptr, indices
-        The fixed CSR pattern of the tangent (read-only arrays, shared by every
-        matrix this assembler returns).
-    scatter
-        ``(6, 6, n_elements)``: position in the CSR data array of the local
-        entry (row ``2 a + i``, column ``2 b + k``) of element ``e``.
+    Attributes: ``n_nodes, n_elements, n_dofs = 2 n_nodes``; ``t`` ``(3, n_elements)``
+    counter-clockwise and ``flipped``, the elements reoriented to make it so; ``areas``
+    ``(n_elements,)``, the material's reference areas (triangle area times weight);
+    ``grads`` ``(n_elements, 3, 2)``, ``dN_a/dX_j`` of vertex ``a`` of ``t[:, e]``;
+    ``element_dofs`` ``(6, n_elements)``, row ``2 a + i`` the dof ``2 t[a, e] + i``;
+    ``indptr, indices``, the fixed CSR pattern (read-only, shared by every matrix returned);
+    ``scatter`` ``(6, 6, n_elements)``, the data position of local entry ``(2a+i, 2b+k)``.
     """
 
     def __init__(self, mesh, material=None, weights=None):
@@ -219,10 +179,8 @@ class P1Assembler:
         except AttributeError:
             raise ValueError(f"mesh must be a scikit-fem MeshTri (with p and t), got {type(mesh).__name__}") from None
         if p.ndim != 2 or p.shape[0] != 2 or t.ndim != 2 or t.shape[0] != 3:
-            raise ValueError(
-                f"mesh must be a 2D triangle mesh: p shaped (2, n_nodes) and t shaped (3, n_elements), "
-                f"got p {p.shape} and t {t.shape}"
-            )
+            raise ValueError(f"mesh must be a 2D triangle mesh: p shaped (2, n_nodes) and t shaped (3, n_elements), "
+                             f"got p {p.shape} and t {t.shape}")
         if getattr(mesh, "affine", True) is False:
             raise ValueError("mesh must be a straight-sided linear (P1) triangle mesh, got a curved/high-order mesh")
         if t.shape[1] == 0:
@@ -236,10 +194,8 @@ class P1Assembler:
         bad_nodes = np.flatnonzero(~np.isfinite(p).all(axis=0))
         if bad_nodes.size:
             bad_elems = np.flatnonzero(np.isin(t, bad_nodes).any(axis=0))
-            raise ValueError(
-                f"mesh has non-finite coordinates at nodes {_list(bad_nodes)}, "
-                f"used by elements {_list(bad_elems)}"
-            )
+            raise ValueError(f"mesh has non-finite coordinates at nodes {_list(bad_nodes)}, "
+                             f"used by elements {_list(bad_elems)}")
         # A node in no triangle has neither stiffness nor mass: every Newton matrix would be singular.
         # (Edges in three triangles and overlapping copies of a triangle are allowed here: cutting through
         # elements makes them next to a crack tip; only a user's mesh file is refused for them.)
@@ -263,25 +219,19 @@ class P1Assembler:
         h2 = np.maximum(np.maximum((d1**2).sum(0), (d2**2).sum(0)), (d3**2).sum(0))
         degenerate = np.flatnonzero(~(np.abs(det) > _DEGENERATE_TOL * h2))
         if degenerate.size:
-            raise ValueError(
-                f"mesh has zero-area (degenerate) triangles: elements {_list(degenerate)}"
-            )
+            raise ValueError(f"mesh has zero-area (degenerate) triangles: elements {_list(degenerate)}")
         folded = folded_triangles(p, t)
         if folded.size:
-            raise ValueError(
-                f"mesh has inverted triangles (folded over a neighbour across a shared edge): element pairs "
-                f"{', '.join(f'({i}, {j})' for i, j in folded.T[:10])}{' ...' if folded.shape[1] > 10 else ''}; "
-                "a rest mesh must not overlap itself"
-            )
+            pairs = ", ".join(f"({i}, {j})" for i, j in folded.T[:10]) + (" ..." if folded.shape[1] > 10 else "")
+            raise ValueError(f"mesh has inverted triangles (folded over a neighbour across a shared edge): element "
+                             f"pairs {pairs}; a rest mesh must not overlap itself")
         return p, t
 
     def _check_u(self, u) -> np.ndarray:
         u = np.asarray(u, dtype=float)
         if u.shape != (self.n_dofs,):
-            raise ValueError(
-                f"u must be a displacement vector of shape (n_dofs,) = ({self.n_dofs},) "
-                f"in scikit-fem's ordering (node n has dofs 2n, 2n+1), got shape {u.shape}"
-            )
+            raise ValueError(f"u must be a displacement vector of shape (n_dofs,) = ({self.n_dofs},) "
+                             f"in scikit-fem's ordering (node n has dofs 2n, 2n+1), got shape {u.shape}")
         return u
 
     def _material(self, material):
@@ -298,16 +248,12 @@ class P1Assembler:
             if fibers is not None:
                 shape = np.shape(fibers)
                 if len(shape) == 3:
-                    raise ValueError(
-                        f"material has per-quadrature-point fibers of shape {shape}; the P1 path has one "
-                        "point per element: give fibers shaped (2, n_elements) (e.g. the normalised "
-                        "average over the points) or (2,)"
-                    )
+                    raise ValueError(f"material has per-quadrature-point fibers of shape {shape}; the P1 path has one "
+                                     "point per element: give fibers shaped (2, n_elements) (e.g. the normalised "
+                                     "average over the points) or (2,)")
                 if len(shape) == 2 and shape[1] != self.n_elements:
-                    raise ValueError(
-                        f"material has per-element fibers of shape {shape}, but the mesh has "
-                        f"{self.n_elements} elements: expected (2, {self.n_elements})"
-                    )
+                    raise ValueError(f"material has per-element fibers of shape {shape}, but the mesh has "
+                                     f"{self.n_elements} elements: expected (2, {self.n_elements})")
             level = getattr(level, "base", None)
         return m
 
@@ -344,10 +290,8 @@ class P1Assembler:
     def csr(self, data) -> sp.csr_matrix:
         """A ``n_dofs x n_dofs`` CSR matrix with this assembler's pattern and the given data.
 
-        The pattern arrays are shared (and read-only): operations that would
-        change a matrix's pattern in place (``eliminate_zeros``,
-        ``sum_duplicates`` on a modified matrix, ``sort_indices``) raise
-        instead of corrupting it; build a copy first (``K.copy()``).
+        The pattern arrays are shared and read-only: in-place pattern changes (``eliminate_zeros``,
+        ``sort_indices`` ...) raise instead of corrupting them; use a copy (``K.copy()``).
         """
         data = np.asarray(data, dtype=float)
         if data.shape != (self.nnz,):
@@ -417,10 +361,8 @@ class P1Assembler:
         return _diagonal_positions(self.indptr, self.indices)
 
     def __repr__(self):
-        return (
-            f"P1Assembler({self.n_elements} triangles, {self.n_nodes} nodes, {self.n_dofs} dofs, "
-            f"nnz={self.nnz}, material={self.material!r})"
-        )
+        return (f"P1Assembler({self.n_elements} triangles, {self.n_nodes} nodes, {self.n_dofs} dofs, "
+                f"nnz={self.nnz}, material={self.material!r})")
 
 
 def check_weights(weights, m) -> np.ndarray:
@@ -449,8 +391,7 @@ def _diagonal_positions(indptr, indices) -> np.ndarray:
 def vector_basis(mesh, order: int = 1, intorder: int | None = None) -> Basis:
     """scikit-fem's ``Basis(mesh, ElementVector(ElementTriP<order>()), intorder)`` (default degree ``2 order``).
 
-    Its dof numbering interleaves the components at the vertices (node ``a`` has dofs
-    ``2a, 2a + 1``), then the edge midpoints for P2: the layout every assembler here uses.
+    Node ``a`` has dofs ``2a, 2a + 1``, then come the P2 edge midpoints: every assembler's layout.
     """
     if order not in (1, 2):
         raise ValueError(f"order must be 1 or 2, got {order!r}")
@@ -465,29 +406,19 @@ def vector_basis(mesh, order: int = 1, intorder: int | None = None) -> Basis:
 class QuadratureAssembler:
     """Vectorised energy, residual and tangent for a vector Lagrange basis on triangles (P1, P2).
 
-    The same sums as the scikit-fem forms of :mod:`tissuefem.engine.forms`, done at
-    once for every element and quadrature point instead of once per pair of
-    local basis functions: with the scalar shape functions ``N_a`` of the
-    element and the quadrature weights ``dx`` (weight times Jacobian),
+    The sums of the scikit-fem forms of :mod:`tissuefem.engine.forms`, at once for every
+    element and quadrature point instead of once per pair of local basis functions: with
+    the scalar shape functions ``N_a`` and the quadrature weights ``dx`` (weight times Jacobian),
 
         F_ij      = d_ij + sum_a u_ai dN_a/dX_j                     (per element and point)
         E         = sum_e,q Psi(F) dx
         r_ai      = sum_e,q P_ij dN_a/dX_j dx
         K_ai,bk   = sum_e,q A_ijkl dN_a/dX_j dN_b/dX_l dx
 
-    scattered into a sparsity pattern computed once (like :class:`P1Assembler`).
-    For P1, :class:`P1Assembler` is faster still (one point per element); this
-    class is what makes P2 affordable.
-
-    Parameters
-    ----------
-    basis
-        ``Basis(mesh, ElementVector(ElementTriPk()))`` (:func:`vector_basis`); its quadrature is used.
-        Local vector function ``2 a + i`` is ``N_a e_i`` (scikit-fem's layout).
-    material
-        The default material (each method also takes one).
-    weights
-        Optional per-element material fractions in ``(0, 1]`` (as :class:`P1Assembler`'s).
+    scattered into a pattern computed once. For P1, :class:`P1Assembler` is faster still;
+    this class makes P2 affordable. ``basis``: ``Basis(mesh, ElementVector(ElementTriPk()))``
+    (:func:`vector_basis`), local vector function ``2 a + i`` being ``N_a e_i``; ``material``
+    and ``weights`` as :class:`P1Assembler`'s.
     """
 
     def __init__(self, basis, material=None, weights=None):
@@ -603,9 +534,8 @@ class QuadratureAssembler:
 class FormsAssembler(QuadratureAssembler):
     """Energy, residual and tangent by the readable scikit-fem forms of :mod:`tissuefem.engine.forms`.
 
-    The reference path the fast assemblers are tested against: scikit-fem calls the
-    form once per pair of local basis functions. Its matrices are put on the same
-    fixed pattern as :class:`QuadratureAssembler`'s, so everything downstream is shared.
+    The reference the fast assemblers are tested against (one form call per pair of local
+    basis functions), on :class:`QuadratureAssembler`'s fixed pattern.
     """
 
     def energy(self, u, material=None) -> float:
@@ -627,11 +557,8 @@ class FormsAssembler(QuadratureAssembler):
 
 
 def make_assembler(mesh, *, order: int = 1, intorder: int | None = None, assembly: str = "fast", weights=None):
-    """``(basis, assembler)`` for a mesh: the fast P1 path, the quadrature path (P2) or the scikit-fem forms.
-
-    ``assembly="fast"`` takes :class:`P1Assembler` for P1 and :class:`QuadratureAssembler` for P2;
-    ``"forms"`` takes :class:`FormsAssembler` (the readable reference, slow).
-    """
+    """``(basis, assembler)``: :class:`P1Assembler` (P1) or :class:`QuadratureAssembler` (P2) for
+    ``assembly="fast"``, :class:`FormsAssembler` (the readable reference, slow) for ``"forms"``."""
     if not isinstance(assembly, str) or assembly not in ("fast", "forms"):
         raise ValueError(f"assembly must be 'fast' or 'forms', got {assembly!r}")
     P1Assembler._validate_mesh(mesh)

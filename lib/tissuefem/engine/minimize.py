@@ -1,45 +1,35 @@
 """The one minimiser: Newton's method with an energy line search, safeguards, and an optional time budget.
 
-Every solve in tissuefem -- a 1D bar, a quasistatic load step, a backward-Euler
-step, a real-time frame -- is a call of :func:`newton`. The notes' iteration
-(notes, "1D elasticity") is
+Every solve in tissuefem -- a 1D bar, a quasistatic load step, a backward-Euler step, a
+real-time frame -- is a call of :func:`newton`. The notes' iteration ("1D elasticity") is
 
     dq/du (u^k) du = -q(u^k),    u^{k+1} = u^k + du,
 
-for the residual ``q``; when ``q`` is the gradient of an energy ``E`` (it
-always is here: the incremental potential of :mod:`tissuefem.engine.stepping`)
-the safeguards below make every step safe:
+for the residual ``q``; when ``q`` is the gradient of an energy ``E`` (here always: the
+incremental potential of :mod:`tissuefem.engine.stepping`) the safeguards make every step safe:
 
-* **line search** ``"energy"``: backtracking (Armijo) on ``E``: a step is
-  accepted only when it lowers the energy enough, so an accepted iterate is
-  finite and never worse than the last. When energy differences are down at
-  round-off, a step that still lowers the residual is accepted instead.
-  ``"finite"`` only halves until the residual is finite (no energy needed);
-  ``None`` is the notes' plain iteration.
+* **line search** ``"energy"``: backtracking (Armijo) on ``E``, so an accepted iterate is
+  finite and never worse than the last; when energy differences are down at round-off, a
+  step that still lowers the residual is accepted instead. ``"finite"`` only halves until
+  the residual is finite (no energy needed); ``None`` is the notes' plain iteration.
 * **descent**: with the energy line search the direction must point downhill
-  (``q . du < 0``). An indefinite tangent can give an uphill direction; then
-  the linear solver refactorizes, then the tangent is shifted by ``tau I``
-  with growing ``tau``, and as a last resort the step is steepest descent.
+  (``q . du < 0``). If an indefinite tangent gives an uphill one, the linear solver
+  refactorizes, then the tangent is shifted by ``tau I`` with growing ``tau``, and as a
+  last resort the step is steepest descent.
 * **step cap** ``max_step``: no dof moves by more than this per iteration.
-* **admissible steps** ``step_limit``: a callable ``(x, dx) -> fraction`` that
-  says how much of a step may be taken at all (self-contact: the fraction
-  before any surface would pass through another, see
-  :mod:`tissuefem.engine.contact`). The direction is shortened to it before the
-  line search, so no trial point, and no accepted iterate, lies beyond it. A
-  model without such a term passes ``None`` and nothing is called.
-* **time budget**: with a ``clock`` and a ``budget`` (seconds), no new
-  tangent assembly or linear solve starts once the budget is spent; the first
-  iteration always runs. The clock is any callable returning seconds, so
-  tests pass a fake one.
+* **admissible steps** ``step_limit(x, dx) -> fraction``: how much of a step may be taken
+  at all (self-contact: before any surface would pass through another,
+  :mod:`tissuefem.engine.contact`). The direction is shortened to it before the line
+  search, so no trial point lies beyond it.
+* **time budget**: with a ``clock`` (any callable returning seconds) and a ``budget``, no
+  new tangent assembly or linear solve starts once the budget is spent; the first
+  iteration always runs.
 
-Prescribed (Dirichlet) dofs are held at their ``x0`` values: only the free
-rows and columns of the tangent are solved (condensation, by the linear
-solver's :class:`~tissuefem.engine.linsolve.Condenser`). The linear solves go
-through a :class:`~tissuefem.engine.linsolve.LinearSolver` policy, which may
-keep a factorization across iterations and across calls.
-
-A numerical failure never escapes as an exception or a NaN state: it is a
-``status`` of the result, whose ``x`` is the last accepted iterate.
+Prescribed (Dirichlet) dofs are held at their ``x0`` values: only the free rows and columns
+of the tangent are solved, through a :class:`~tissuefem.engine.linsolve.LinearSolver`
+policy that condenses them and may keep a factorization across iterations and calls.
+A numerical failure never escapes as an exception or a NaN state: it is a ``status`` of
+the result, whose ``x`` is the last accepted iterate.
 """
 
 from __future__ import annotations
@@ -175,67 +165,35 @@ def _shifted_direction(A, rhs, shifts=None):
     return rhs / (1e3 * scale), math.inf, factorizations
 
 
-def newton(
-    x0,
-    gradient: Callable[[np.ndarray], np.ndarray],
-    hessian: Callable[[np.ndarray], sp.spmatrix],
-    *,
-    energy: Callable[[np.ndarray], float] | None = None,
-    free=None,
-    line_search: str | None = "energy",
-    rtol: float = 1e-10,
-    atol: float = 0.0,
-    reference_norm: float = 0.0,
-    floor: float = 0.0,
-    max_iterations: int = 30,
-    max_step: float | None = None,
-    linear: LinearSolver | None = None,
-    safe_hessian: Callable[[np.ndarray], sp.spmatrix] | None = None,
-    clock: Callable[[], float] | None = None,
-    budget: float = math.inf,
-    start: float | None = None,
-    energy0: float | None = None,
-    energy_floor: float = 0.0,
-    max_halvings: int = 30,
-    step_limit: Callable[[np.ndarray, np.ndarray], float] | None = None,
-) -> NewtonResult:
+def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[np.ndarray], sp.spmatrix], *,
+           energy: Callable[[np.ndarray], float] | None = None, free=None, line_search: str | None = "energy",
+           rtol: float = 1e-10, atol: float = 0.0, reference_norm: float = 0.0, floor: float = 0.0,
+           max_iterations: int = 30, max_step: float | None = None, linear: LinearSolver | None = None,
+           safe_hessian: Callable[[np.ndarray], sp.spmatrix] | None = None, clock: Callable[[], float] | None = None,
+           budget: float = math.inf, start: float | None = None, energy0: float | None = None,
+           energy_floor: float = 0.0, max_halvings: int = 30,
+           step_limit: Callable[[np.ndarray, np.ndarray], float] | None = None) -> NewtonResult:
     """Minimise ``energy`` (or find a zero of ``gradient``) over the ``free`` dofs by Newton's method.
 
-    Parameters
-    ----------
-    x0 : array (n,)
-        The start; entries that are not free are prescribed values and never change.
-    gradient, hessian : callables
-        ``gradient(x) -> (n,)`` (the residual ``q``) and ``hessian(x) -> (n, n)`` sparse, its Jacobian.
-    energy : callable, optional
-        ``E(x)`` with ``gradient = dE/dx``; needed by ``line_search="energy"``.
-    free : boolean mask or index array, optional
-        The unknowns (default: every dof).
-    line_search : ``"energy"``, ``"finite"`` or ``None``
-        See the module docstring.
-    rtol, atol, reference_norm, floor
-        Converged when ``||q_free|| <= max(atol + rtol max(||q_free(x0)||, reference_norm), floor)``.
-        ``reference_norm`` is the size of the load the solve balances when ``x0`` is already a good
-        guess (a tiny start residual would otherwise ask for more than round-off allows);
-        ``floor`` is the round-off level of the residual, below which nothing is asked.
-    max_iterations, max_step, max_halvings
-        Iteration cap, step cap (largest change of one dof per iteration), line-search halvings.
-    linear : LinearSolver, optional
-        The linear-solve policy (default: a fresh direct factorization each iteration).
-    safe_hessian : callable, optional
-        A positive semi-definite approximation of the Hessian, tried before the diagonal shift
-        when the exact one gives no descent direction (a projected tangent).
-    clock, budget, start
-        Wall-clock budget in seconds measured by ``clock`` from ``start`` (default: when called).
-    energy0
-        ``E(x0)`` if already known.
-    energy_floor
-        The energy's round-off level (absolute): energy changes below it are not trusted, and a step
-        that changes the energy by less but lowers the residual is accepted.
-    step_limit : callable, optional
-        ``step_limit(x, dx)``: the largest fraction in ``[0, 1]`` of the step ``dx`` from ``x`` that may be
-        taken (contact's collision detection). A step it allows none of ends the solve with the status
-        ``"blocked"`` (the last iterate is kept).
+    ``x0`` ``(n,)`` is the start (entries that are not ``free`` -- a mask or indices, default
+    all -- are prescribed and never change); ``gradient(x) -> (n,)`` the residual ``q`` and
+    ``hessian(x)`` its sparse Jacobian; ``energy(x)`` ``E`` with ``gradient = dE/dx`` (needed by
+    ``line_search="energy"``; ``energy0 = E(x0)`` if already known).
+
+    Converged when ``||q_free|| <= max(atol + rtol max(||q_free(x0)||, reference_norm), floor)``:
+    ``reference_norm`` is the size of the load the solve balances when ``x0`` is already a good
+    guess (a tiny start residual would otherwise ask for more than round-off allows); ``floor``
+    is the residual's round-off level. ``energy_floor`` is the energy's: changes below it are
+    not trusted, and a step that changes the energy by less but lowers the residual is accepted.
+
+    ``max_iterations``, ``max_step`` (largest change of one dof per iteration) and
+    ``max_halvings`` (of the line search) cap the work; ``linear`` is the linear-solve policy
+    (default: a fresh direct factorization each iteration); ``safe_hessian(x)``, a positive
+    semi-definite approximation of the Hessian (a projected tangent), is tried before the
+    diagonal shift when the exact one gives no descent direction. ``budget`` seconds are
+    measured by ``clock`` from ``start`` (default: when called). ``step_limit(x, dx)`` is the
+    largest fraction in ``[0, 1]`` of ``dx`` that may be taken (contact's collision detection);
+    a step it allows none of ends the solve as ``"blocked"``, keeping the last iterate.
     """
     x = np.array(_real_array("x0", x0), dtype=float, copy=True)  # complex, strings, objects: refused by name
     if x.ndim != 1:

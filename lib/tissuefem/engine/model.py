@@ -1,33 +1,28 @@
 """The model: a body and exactly the terms acting on it, with the handles that hold it.
 
-A :class:`Model` is a mesh with a displacement basis (P1 or P2), a material,
-and a list of terms (:mod:`tissuefem.engine.terms`). Its potential is their sum,
+A :class:`Model` is a mesh with a displacement basis (P1 or P2), a material, and a list of
+terms (:mod:`tissuefem.engine.terms`). Its potential is their sum,
 
     E(u) = W(u) [+ fibres] [+ probe] [+ sutures] [+ contact] [- f . u] [+ 1/(2 dt^2) |u - u~|_M^2],
 
-with nothing evaluated -- or even built -- for an effect it was not given: a
-model without ``dt`` has no inertia term and no mass matrix; without fibres no
-fibre code runs. Chapters 3 to 9, the scenes and the surgery layer all use this
-one class; :mod:`tissuefem.engine.stepping` minimises its potential.
+with nothing evaluated -- or even built -- for an effect it was not given (without ``dt``
+no inertia term and no mass matrix). Chapters 3 to 9, the scenes and the surgery layer
+all use this one class; :mod:`tissuefem.engine.stepping` minimises its potential.
 
-Handles are not terms but constraints: a :class:`Handle` holds a region of the
-body (a boundary, a box, the nodes near a point, a mask, or node indices) at
-prescribed positions; its target (a translation or a map ``X -> x``) is the
-user input that a frame reads. The model owns its handles (:meth:`Model.add_handle`,
-:meth:`Model.remove_handle`, :meth:`Model.set_targets`); a handle's target is
-checked where it enters (:meth:`Handle.move`), and a refused target changes
-nothing. Regions become mesh nodes through one function, :func:`region_nodes`.
+Handles are constraints, not terms: a :class:`Handle` holds a region of the body (a
+boundary, a box, the nodes near a point, a mask, or node indices; :func:`region_nodes`)
+at prescribed positions; its target (a translation or a map ``X -> x``) is the user input
+a frame reads, checked where it enters (:meth:`Handle.move`, :meth:`Model.set_targets`):
+a refused target changes nothing.
 
-The Hessian of every term goes into one fixed sparsity pattern
-(:class:`Pattern`): the assembler's, widened where a term couples dofs that the
-mesh does not (sutures). Newton's matrices then share their index arrays,
-which lets the linear solver condense them by a precomputed gather. A term whose
-couplings change with the state (self-contact, :mod:`tissuefem.engine.contact`)
-says when the pattern no longer holds them (``covers``); :meth:`Model.hessian`
-then rebuilds the pattern before it assembles (the linear solver sees new index
-arrays and condenses afresh; a kept factorization stays a valid preconditioner).
-Such a term may also limit how far a step may go (``max_step``: no surface passes
-through another) and note where a step starts (``begin_step``); the model offers
+Every term's Hessian goes into one fixed sparsity pattern (:class:`Pattern`): the
+assembler's, widened where a term couples dofs the mesh does not (sutures), so Newton's
+matrices share their index arrays and the linear solver condenses them by a precomputed
+gather. A term whose couplings change with the state (self-contact,
+:mod:`tissuefem.engine.contact`) says when the pattern no longer holds them (``covers``);
+:meth:`Model.hessian` then rebuilds the pattern (the linear solver condenses afresh; a kept
+factorization stays a valid preconditioner). Such a term may also limit how far a step
+may go (``max_step``) and note where a step starts (``begin_step``); the model offers
 these hooks to the stepper and the minimiser only when a term has them.
 """
 
@@ -160,24 +155,13 @@ def _check_target(target, points=None, field="target", reach=None):
 class Handle:
     """Material points held at prescribed positions (a fixed edge, a pulled edge, a user's grab).
 
-    Parameters
-    ----------
-    region
-        Which points: anything :func:`region_nodes` takes (a boundary name, a
-        mask, a box, a disc, node indices).
-    target
-        Where they go: a translation ``(dx, dy)`` (default: none, a fixed
-        region) or a callable map ``phi(X) -> x`` on reference coordinates
-        ``(2, n) -> (2, n)``.
-    base
-        For a grab: the held nodes' displacement ``(2, n_nodes)`` when grabbed
-        (``region`` must then be node indices). The prescribed displacement is
-        ``base + (phi(X) - X)``, so the grabbed tissue stays where it is and
-        then follows the target's offset.
-    name
-        A name to find the handle by (the model names unnamed handles).
-    anchor
-        Optional point the user grabbed (a drag moves the handle by the mouse's offset from it).
+    ``region``: anything :func:`region_nodes` takes. ``target``: a translation ``(dx, dy)``
+    (default: none, a fixed region) or a map ``phi(X) -> x`` on reference coordinates
+    ``(2, n) -> (2, n)``. ``base`` (a grab; ``region`` must then be node indices): the held
+    nodes' displacement ``(2, n_nodes)`` when grabbed; the prescribed displacement is
+    ``base + (phi(X) - X)``, so the grabbed tissue stays where it is and then follows the
+    target's offset. ``name``: to find the handle by (the model names unnamed ones).
+    ``anchor``: the point the user grabbed (a drag moves the handle by the mouse's offset from it).
     """
 
     def __init__(self, region, target=(0.0, 0.0), *, base=None, name=None, anchor=None):
@@ -406,37 +390,29 @@ class Model:
     Parameters
     ----------
     mesh : skfem.MeshTri
-        Straight-sided triangles, either orientation; degenerate or folded
-        meshes are refused.
+        Straight-sided triangles, either orientation; degenerate or folded meshes are refused.
     material
         A material of :mod:`tissuefem.engine.materials` (or a wrapper of
         :mod:`tissuefem.engine.inversion`): the :class:`~tissuefem.engine.terms.Elastic` term.
     order, intorder, assembly
-        P1 or P2 displacements; the quadrature degree (default ``2 order``);
-        ``"fast"`` (vectorised assembly) or ``"forms"`` (the readable
-        scikit-fem forms, for reference).
+        P1 or P2; the quadrature degree (default ``2 order``); ``"fast"`` (vectorised) or
+        ``"forms"`` (the readable scikit-fem forms, for reference).
     handles
         :class:`Handle` objects (prescribed positions).
     dt, density, mass
-        With ``dt`` (seconds): the inertia term of backward Euler with the
-        ``"lumped"`` or ``"consistent"`` mass of density ``density``. Without:
-        quasistatic (no mass matrix is built).
+        With ``dt`` (seconds): backward Euler's inertia term with the ``"lumped"`` or
+        ``"consistent"`` mass of ``density``. Without: quasistatic (no mass matrix is built).
     gravity, body_force, tractions
-        Constant loads (each a :class:`~tissuefem.engine.terms.Load` term):
-        gravity ``(gx, gy)`` (the body force ``density * g``), a body force per
-        unit reference area ``(bx, by)``, and tractions
+        Constant :class:`~tissuefem.engine.terms.Load` terms: gravity ``(gx, gy)`` (the body
+        force ``density * g``), a body force per unit reference area ``(bx, by)``, tractions
         ``{boundary: (tx, ty)}`` (force per unit reference length).
-    fibers
-        ``(stiffness, directions)``: a :class:`~tissuefem.engine.terms.Fibers`
-        term (directions ``(2,)`` or ``(2, n_elements)``).
-    probes
-        Dicts ``center, radius, stiffness[, label]``: :class:`~tissuefem.engine.terms.Probe` terms.
-    sutures
-        A dict ``pairs, stiffness, gaps[, tightness]``: a :class:`~tissuefem.engine.terms.Sutures` term.
-    contact
-        A dict ``distance, stiffness[, surface, skin]``: a :class:`~tissuefem.engine.contact.Contact` term
-        (self-contact of ``surface``, a :class:`~tissuefem.engine.contact.ContactSurface`; default: the
-        mesh's boundary).
+    fibers, probes, sutures, contact
+        ``(stiffness, directions)`` (directions ``(2,)`` or ``(2, n_elements)``): a
+        :class:`~tissuefem.engine.terms.Fibers` term; dicts ``center, radius, stiffness[, label]``:
+        :class:`~tissuefem.engine.terms.Probe` terms; a dict ``pairs, stiffness, gaps[, tightness]``:
+        a :class:`~tissuefem.engine.terms.Sutures` term; a dict ``distance, stiffness[, surface, skin]``:
+        a :class:`~tissuefem.engine.contact.Contact` term (self-contact of ``surface``, default
+        the mesh's boundary).
     weights
         Optional per-element material fractions (elements cut through carry part of their triangle).
     """
@@ -468,11 +444,9 @@ class Model:
         self.material = material
         # which component each dof carries, and where it sits
         self.component = np.empty(n, dtype=np.intp)
-        self.component[self.basis.nodal_dofs[0]] = 0
-        self.component[self.basis.nodal_dofs[1]] = 1
+        self.component[self.basis.nodal_dofs] = [[0], [1]]
         if order == 2:
-            self.component[self.basis.facet_dofs[0]] = 0
-            self.component[self.basis.facet_dofs[1]] = 1
+            self.component[self.basis.facet_dofs] = [[0], [1]]
         self.dof_points = np.asarray(self.basis.doflocs, dtype=float)
         # lumped boundary length per vertex: half of each boundary edge it ends (a probe's surface weights)
         self.boundary_lengths = _boundary_lengths(mesh)
@@ -541,18 +515,16 @@ class Model:
             self._build()
             raise
 
-    def remove_term(self, term: Term) -> None:
-        self.terms.remove(term)
-        self._build()
-
     def terms_of(self, kind) -> list:
         return [t for t in self.terms if isinstance(t, kind)]
+
+    def _first(self, kind):
+        return next((t for t in self.terms if isinstance(t, kind)), None)
 
     @property
     def inertia(self) -> Inertia | None:
         """The backward-Euler inertia term, or ``None`` for a quasistatic model."""
-        found = self.terms_of(Inertia)
-        return found[0] if found else None
+        return self._first(Inertia)
 
     @property
     def dynamic(self) -> bool:
@@ -568,14 +540,12 @@ class Model:
 
     @property
     def sutures(self) -> Sutures | None:
-        found = self.terms_of(Sutures)
-        return found[0] if found else None
+        return self._first(Sutures)
 
     @property
     def contact(self) -> Contact | None:
         """The self-contact term, or ``None``."""
-        found = self.terms_of(Contact)
-        return found[0] if found else None
+        return self._first(Contact)
 
     # ------------------------------------------------------------------ step hooks (terms that have them only)
     @property
@@ -839,9 +809,7 @@ class Model:
     def element_areas(self) -> np.ndarray:
         """Material area of every element (the triangle's area times its weight)."""
         a = getattr(self.assembler, "areas", None)
-        if a is not None:
-            return a
-        return np.asarray(self.assembler._dx.sum(axis=1))
+        return a if a is not None else np.asarray(self.assembler._dx.sum(axis=1))
 
     def deformation_gradient(self, u) -> np.ndarray:
         """``F = I + grad u``: ``[2, 2, n_elements]`` for P1, ``[2, 2, n_elements, n_points]`` otherwise."""

@@ -4,40 +4,32 @@ The *incremental potential* of a step is the model's energy,
 
     E(x) = W(x) [+ other terms] - f . x  [+ 1/(2 dt^2) (x - x~)^T M (x - x~)],   x~ = u^n + dt v^n,
 
-where the inertia term is there only when the model has a time step (see
-:mod:`tissuefem.engine.terms`). Its gradient is the backward-Euler residual
-(the notes' ``q`` of "Time stepping", with the slips of the README's errata
-corrected), and without inertia it is the quasistatic residual. A
+with the inertia term only when the model has a time step (:mod:`tissuefem.engine.terms`).
+Its gradient is the backward-Euler residual (the notes' ``q`` of "Time stepping", with the
+slips of the README's errata corrected), without inertia the quasistatic one. A
 :class:`Stepper` holds the state ``u, v`` and takes one step at a time:
 
 1. **input**: the handles' new targets, checked before anything moves
    (:meth:`~tissuefem.engine.model.Model.set_targets`); a refusal changes nothing;
-2. **warm start** (the one predictor): the lowest-energy valid guess. A dynamic
-   step tries the constant-acceleration guess ``x~ + dt (v^n - v^{n-1})``,
-   the inertial guess ``x~`` and the previous state; a quasistatic step
-   takes one linearised step from the previous state, which carries the free
-   dofs along with the handles (``K_ff dx_f = -g_f - K_fc dx_c``), or the
-   previous state. If no guess is valid (a handle jerked so far that an
-   element would invert under a model that cannot take it), the handles go
-   part of the way; the report's ``handle_fraction`` says how far. With
-   self-contact, the handles' own motion is taken as given (a handle may drag
-   tissue through tissue: the report's ``crossed`` counts such points, which
-   contact ignores until they are back out), and each guess is cut back to
-   what the collision detection allows from there;
-3. **solve**: :func:`tissuefem.engine.minimize.newton` with the energy line
-   search, until the residual is below ``atol + rtol ||g(x0)||`` (never below
-   the residual's round-off level) or the step's wall-clock ``budget`` is
-   spent; the linear solves go through one
-   :class:`~tissuefem.engine.linsolve.LinearSolver` kept across steps, so a
-   factorization is reused across Newton iterations *and* steps;
-4. **commit**: a converged iterate becomes ``u^{n+1}`` (and
-   ``v^{n+1} = (u^{n+1} - u^n)/dt``). An unconverged step either leaves the
-   state as it was (the default) or, with ``anytime=True`` (the real-time
-   loop), commits the last accepted iterate, which is finite and no higher
-   in energy than the start: unfinished work carries into the next step.
+2. **warm start**: the lowest-energy valid guess. A dynamic step tries the
+   constant-acceleration guess ``x~ + dt (v^n - v^{n-1})``, the inertial guess ``x~`` and
+   the previous state; a quasistatic step one linearised step from the previous state,
+   which carries the free dofs along with the handles (``K_ff dx_f = -g_f - K_fc dx_c``),
+   or the previous state. If no guess is valid (a handle jerked so far that an element
+   would invert), the handles go part of the way (the report's ``handle_fraction``). With
+   self-contact the handles' own motion is taken as given (a handle may drag tissue through
+   tissue: the report's ``crossed`` counts such points, which contact ignores until they
+   are back out), and each guess is cut back to what the collision detection allows;
+3. **solve**: :func:`tissuefem.engine.minimize.newton` with the energy line search, until
+   the residual is below ``atol + rtol ||g(x0)||`` (never below its round-off level) or the
+   step's wall-clock ``budget`` is spent; one :class:`~tissuefem.engine.linsolve.LinearSolver`
+   kept across steps reuses a factorization across Newton iterations *and* steps;
+4. **commit**: a converged iterate becomes ``u^{n+1}`` (and ``v^{n+1} = (u^{n+1} - u^n)/dt``).
+   An unconverged step leaves the state as it was, or with ``anytime=True`` (the real-time
+   loop) commits the last accepted iterate, finite and no higher in energy than the start.
 
-:func:`solve` is the quasistatic solve of chapters 3 to 6: load steps that
-ramp the loads and the handles' displacements, each one a quasistatic step.
+:func:`solve` is the quasistatic solve of chapters 3 to 6: load steps that ramp the loads
+and the handles' displacements, each one a quasistatic step.
 """
 
 from __future__ import annotations
@@ -50,10 +42,9 @@ import numpy as np
 
 from .linsolve import LinearSolver
 from .materials import _real_array
-from .minimize import NewtonIteration, NewtonResult, newton
+from .minimize import NewtonResult, newton
 from .model import Model
-from .parameters import check_count, check_real
-from .terms import check_time_step
+from .parameters import check_count, check_real, check_time_step
 
 __all__ = ["Stepper", "StepReport", "StaticResult", "solve"]
 
@@ -62,6 +53,11 @@ _ROUNDOFF = 1e-13
 #: The most Newton iterations a step may take, and the most load steps of :func:`solve`.
 MAX_ITERATIONS = 100_000
 MAX_LOAD_STEPS = 100_000
+
+
+def _forward(name, doc=None) -> property:
+    """A read-only property that passes on the Newton result's attribute ``name``."""
+    return property(lambda report: getattr(report.newton, name), doc=doc)
 
 
 @dataclass
@@ -85,18 +81,9 @@ class StepReport:
         return "crossed" if self.crossed else "clear"
 
     # -- the Newton solve, forwarded
-    @property
-    def x(self) -> np.ndarray:
-        """The solve's last accepted iterate (the new state when committed)."""
-        return self.newton.x
-
-    @property
-    def converged(self) -> bool:
-        return self.newton.converged
-
-    @property
-    def status(self) -> str:
-        return self.newton.status
+    x = _forward("x", "The solve's last accepted iterate (the new state when committed).")
+    converged = _forward("converged")
+    status = _forward("status")
 
     @property
     def newton_iterations(self) -> int:
@@ -105,50 +92,16 @@ class StepReport:
         return self.newton.iterations + (self.warm_start == "linearised")
 
     iterations = newton_iterations
-
-    @property
-    def linear_iterations(self) -> int:
-        return self.newton.linear_iterations
-
-    @property
-    def factorizations(self) -> int:
-        return self.newton.factorizations
-
-    @property
-    def residual_norm(self) -> float:
-        return self.newton.residual_norm
-
-    @property
-    def initial_residual(self) -> float:
-        return self.newton.initial_residual
-
-    @property
-    def relative_residual(self) -> float:
-        return self.newton.relative_residual
-
-    @property
-    def energy(self) -> float:
-        return self.newton.energy
-
-    @property
-    def start_energy(self) -> float:
-        return self.newton.start_energy
-
-    @property
-    def line_search_cuts(self) -> int:
-        return self.newton.line_search_cuts
-
-    @property
-    def history(self) -> list[NewtonIteration]:
-        return self.newton.history
-
-    @property
-    def residual_history(self) -> list[float]:
-        return list(self.newton.residual_norms())
-
-    @property
-    def energies(self) -> np.ndarray:
-        return self.newton.energies
+    linear_iterations = _forward("linear_iterations")
+    factorizations = _forward("factorizations")
+    residual_norm = _forward("residual_norm")
+    initial_residual = _forward("initial_residual")
+    relative_residual = _forward("relative_residual")
+    energy = _forward("energy")
+    start_energy = _forward("start_energy")
+    line_search_cuts = _forward("line_search_cuts")
+    history = _forward("history")
+    energies = _forward("energies")
 
     def residual_norms(self) -> np.ndarray:
         return self.newton.residual_norms()
@@ -159,11 +112,6 @@ class StepReport:
     @property
     def frame(self) -> int:
         return self.step
-
-    @property
-    def over_budget(self) -> float:
-        """Seconds past the budget (0 if within)."""
-        return max(0.0, self.elapsed - self.budget)
 
     def __repr__(self):
         crossed = f", {self.crossed} points through the surface" if self.crossed else ""
@@ -207,14 +155,13 @@ class _CheckedClock:
 def _roundoff_floors(model: Model) -> tuple[float, float]:
     """``(residual floor, energy floor)``: the levels below which round-off hides the residual and the energy.
 
-    At rest the stress is a difference of terms of the size of the material's
-    modulus (``mu F - mu F^-T`` for neo-Hookean), so each element's force is
-    computed with an error of a few ``eps`` times ``A_e |A(I)| |grad N|``. This
-    sums ``|A(I)| sqrt(A_e)`` (``|grad N| ~ 1/h``, ``A_e ~ h^2``) at the nodes;
-    ``_ROUNDOFF`` times its norm is a few thousand times that error and far
-    below any tolerance a user asks for. The energy is a sum of element terms
-    of the size ``|A(I)| A_e``, whatever its value (which cancels to nearly 0 at
-    rest): ``_ROUNDOFF`` times their sum bounds what an energy difference can tell.
+    At rest the stress is a difference of terms of the size of the modulus (``mu F - mu F^-T``
+    for neo-Hookean), so each element's force carries an error of a few ``eps`` times
+    ``A_e |A(I)| |grad N|``. This sums ``|A(I)| sqrt(A_e)`` (``|grad N| ~ 1/h``, ``A_e ~ h^2``)
+    at the nodes; ``_ROUNDOFF`` times its norm is a few thousand times that error and far
+    below any tolerance a user asks for. The energy is a sum of element terms of the size
+    ``|A(I)| A_e`` (whatever its value, nearly 0 at rest): ``_ROUNDOFF`` times their sum
+    bounds what an energy difference can tell.
     """
     F = np.eye(2).reshape(2, 2, 1)
     with np.errstate(all="ignore"):
@@ -230,22 +177,13 @@ def _roundoff_floors(model: Model) -> tuple[float, float]:
 class Stepper:
     """Steps a :class:`~tissuefem.engine.model.Model` forward: quasistatic if it has no inertia, else backward Euler.
 
-    Parameters
-    ----------
-    model
-        The body and its terms (with ``dt``: dynamic).
-    linear_solver
-        A :class:`~tissuefem.engine.linsolve.LinearSolver` method name (``"reuse"``, the default: CG
-        preconditioned by a kept factorization; ``"direct"``; ``"constant"`` for a quadratic model;
-        a backend name) or a ``LinearSolver``.
-    rtol, atol, max_iterations, line_search, max_step
-        Newton's settings (see :func:`~tissuefem.engine.minimize.newton`).
-    budget, clock
-        Wall-clock seconds per step (default: none) measured by ``clock`` (any callable returning
-        seconds; tests pass a fake one).
-    anytime
-        Commit the last accepted iterate of an unconverged step (the real-time loop) instead of
-        keeping the old state.
+    ``linear_solver``: a :class:`~tissuefem.engine.linsolve.LinearSolver` or its method name
+    (``"reuse"``, the default: CG preconditioned by a kept factorization; ``"direct"``;
+    ``"constant"`` for a quadratic model; a backend name). ``rtol, atol, max_iterations,
+    line_search, max_step``: Newton's settings (:func:`~tissuefem.engine.minimize.newton`).
+    ``budget``: wall-clock seconds per step (default: none) measured by ``clock`` (any callable
+    returning seconds). ``anytime``: commit the last accepted iterate of an unconverged step
+    (the real-time loop) instead of keeping the old state.
     """
 
     def __init__(self, model: Model, *, linear_solver="reuse", rtol: float = 1e-6, atol: float = 0.0,
@@ -260,9 +198,7 @@ class Stepper:
         if line_search is not None and (not isinstance(line_search, str) or line_search not in ("energy", "finite")):
             raise ValueError(f"line_search must be 'energy', 'finite' or None, got {line_search!r}")
         self.line_search = line_search
-        if max_step is not None:
-            max_step = _positive("max_step", max_step)
-        self.max_step = max_step
+        self.max_step = None if max_step is None else _positive("max_step", max_step)
         self._budget = _positive("budget", budget, allow_inf=True)
         if not callable(clock):
             raise ValueError(f"clock must be a callable returning seconds, got {clock!r}")
@@ -274,8 +210,7 @@ class Stepper:
         self.linear = linear_solver if isinstance(linear_solver, LinearSolver) else LinearSolver(linear_solver)
         self.floor, self.energy_floor = _roundoff_floors(model)
         n = model.n_dofs
-        self.u = np.zeros(n)
-        self.v = np.zeros(n)
+        self.u, self.v = np.zeros(n), np.zeros(n)
         self.v_previous = None
         self.time = 0.0
         self.steps = 0
@@ -362,12 +297,10 @@ class Stepper:
     def step(self, targets=None, *, prescribed=None, load: float = 1.0) -> StepReport:
         """Take one step: apply ``targets`` (see :meth:`Model.set_targets`), solve, commit, report.
 
-        ``prescribed``: ``(dofs, values)`` to hold instead of the handles' (load stepping);
-        ``load``: the factor on the constant loads, in ``[0, 1]`` (1 but during load stepping).
-
-        All or nothing: whatever is refused or raised before the commit (a bad target, a map that
-        raises, a clock that cannot be read, a failing linear solver) leaves the state, the handles'
-        targets and the model exactly as they were.
+        ``prescribed``: ``(dofs, values)`` to hold instead of the handles' and ``load``: the factor in
+        ``[0, 1]`` on the constant loads (both for load stepping). All or nothing: whatever is
+        refused or raised before the commit (a bad target, a map that raises, a clock that cannot
+        be read, a failing linear solver) leaves the state, the targets and the model as they were.
         """
         model = self.model
         load = check_real("load", load, 0.0, 1.0)
@@ -502,8 +435,7 @@ class Stepper:
                 candidates = [("previous", u)]
                 if linearised is not None:  # the linear prediction scales with the handles' increment
                     candidates.insert(0, ("linearised", u + fraction * linearised))
-            best = None
-            reference = None
+            best = reference = None
             if model.notes_steps:
                 reference = u.copy()
                 reference[fixed] = held
@@ -586,11 +518,9 @@ class StaticResult:
 def solve(model: Model, load_steps: int = 1, u0=None, *, stepper: Stepper | None = None, **options) -> StaticResult:
     """Equilibrium of a quasistatic model: ramp the loads and the handles' displacements over ``load_steps``.
 
-    Each load step is a quasistatic :meth:`Stepper.step` from the previous one's
-    state. ``options`` go to :class:`Stepper` (``rtol``, ``atol``,
-    ``max_iterations``, ``line_search``, ``max_step``, ``linear_solver``;
-    the defaults here ask for ``rtol = 1e-10``). If a step fails, the result
-    holds the last converged state and ``converged`` is False.
+    Each load step is a quasistatic :meth:`Stepper.step` from the previous one's state.
+    ``options`` go to :class:`Stepper` (here ``rtol`` defaults to ``1e-10``). If a step fails,
+    the result holds the last converged state and ``converged`` is False.
     """
     if not isinstance(model, Model):
         raise ValueError(f"model must be a tissuefem Model, got {type(model).__name__}")

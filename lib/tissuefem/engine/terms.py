@@ -16,25 +16,20 @@ term              energy                                                       H
 ``Contact``       self-contact of the surface, see :mod:`.contact`             per pair
 ================  ===========================================================  ==========
 
-Every term has ``energy(u)``, ``gradient(u)`` (a dof vector) and
-``add_hessian(u, data)``, which adds its Hessian into ``data``, the CSR data
-array of the model's one fixed sparsity pattern. ``quadratic`` says whether
-the Hessian is constant (then a kept factorization is exact). A term that
-couples dofs the mesh does not (a suture between two far nodes) lists those
-couplings in ``couplings()``, and the model widens its pattern for them.
-Terms are bound to the model's pattern by ``bind(pattern)`` before use.
+Every term has ``energy(u)``, ``gradient(u)`` (a dof vector) and ``add_hessian(u, data)``,
+which adds its Hessian into ``data``, the CSR data array of the model's one fixed sparsity
+pattern (bound by ``bind(pattern)`` before use). ``quadratic`` says whether the Hessian is
+constant (then a kept factorization is exact). A term that couples dofs the mesh does not
+(a suture between two far nodes) lists them in ``couplings()``; the model widens its pattern.
 
-Why backward Euler's inertia is written with ``1/dt^2``: the notes' residual
-``q = M (u - u~)/dt^2 + f_int(u) - f_ext`` (up to the slips listed in the
-README's errata) is then exactly the gradient of ``W(u) - f.u + Inertia(u)``,
-so the residual of a dynamic step is measured in the same units (force) as a
-quasistatic one, and a scene without inertia simply has no such term. The
-chapters' ``E = 1/2 |u - u~|_M^2 + dt^2 [W - f.u]`` is this potential times
-``dt^2``: the same minimiser.
+Why inertia is written with ``1/dt^2``: the notes' residual
+``q = M (u - u~)/dt^2 + f_int(u) - f_ext`` (up to the slips in the README's errata) is then
+exactly the gradient of ``W(u) - f.u + Inertia(u)``, so a dynamic step's residual is a force
+like a quasistatic one's. The chapters' ``E = 1/2 |u - u~|_M^2 + dt^2 [W - f.u]`` is this
+potential times ``dt^2``: the same minimiser.
 
-Elastic and fibre terms share the element loop: :class:`ElementTerm` exposes
-the energy density (``density``), and the model evaluates all of them in one
-assembly pass (one ``F`` per element, summed stresses and tangents).
+Elastic and fibre terms share the element loop: :class:`ElementTerm` exposes the energy
+density (``density``), and the model evaluates all of them in one assembly pass.
 """
 
 from __future__ import annotations
@@ -44,8 +39,8 @@ from skfem import FacetBasis, LinearForm, asm
 
 from .materials import (FiberReinforced, Material, _real_array, check_fiber_stiffness, fiber_energy_term,
                         fiber_stress_term, fiber_tangent_term)
-from .parameters import FORCE_MAX, PENALTY_MAX, RADIUS_RANGE, REACH, check_bounded_vector, check_density, check_real
-from .parameters import check_time_step as _check_time_step
+from .parameters import (FORCE_MAX, PENALTY_MAX, RADIUS_RANGE, REACH, check_bounded_vector, check_density, check_real,
+                         check_time_step)
 
 __all__ = ["Term", "ElementTerm", "Elastic", "Fibers", "Inertia", "Load", "Probe", "Sutures", "traction_vector",
            "check_vector", "check_nonnegative", "check_reach"]
@@ -249,10 +244,8 @@ class _SafeView:
 class Inertia(Term):
     """Backward Euler's inertia: ``1/(2 dt^2) (x - x~)^T M (x - x~)`` with ``x~ = u^n + dt v^n``.
 
-    ``M`` is the lumped or consistent mass of density ``rho0`` (assembled on the
-    model's pattern by its assembler). The stepper sets ``x_tilde`` before each
-    step; ``dt`` may change between steps. Quadratic: its Hessian ``M / dt^2``
-    is constant for a given ``dt``.
+    ``M`` is the lumped or consistent mass of density ``rho0``. The stepper sets ``x_tilde``
+    before each step; ``dt`` may change between steps (the Hessian ``M / dt^2`` with it).
     """
 
     name = "inertia"
@@ -261,7 +254,7 @@ class Inertia(Term):
     def __init__(self, assembler, dt, density, mass="lumped"):
         if not isinstance(mass, str) or mass not in ("lumped", "consistent"):
             raise ValueError(f"mass must be 'lumped' or 'consistent', got {mass!r}")
-        self.dt = check_time_step(dt)
+        self.dt = check_time_step(dt)  # dt^2 divides the mass: a closed range, neither end open
         self.density = check_density(density)
         self.lumped = mass == "lumped"
         self.mass_kind = mass
@@ -301,17 +294,8 @@ def check_positive(name, value) -> float:
     return check_real(name, value, 0.0, lo_open=True)
 
 
-def check_time_step(dt) -> float:
-    """A time step in :data:`~tissuefem.engine.parameters.TIME_STEP_RANGE` (``[1e-6, 10]`` s): ``dt^2``
-    divides the mass, so neither end may be left open."""
-    return _check_time_step(dt)
-
-
 class Load(Term):
-    """A constant external force ``f`` (a dof vector): energy ``-scale f . u``.
-
-    ``scale`` ramps the load during load stepping (it is 1 otherwise).
-    """
+    """A constant external force ``f`` (a dof vector): energy ``-scale f . u`` (``scale`` ramps it in load steps)."""
 
     quadratic = True
 
@@ -391,29 +375,24 @@ def traction_vector(basis, boundary, traction) -> np.ndarray:
 class Probe(Term):
     """A rigid disc (a tool tip) of centre ``c`` and radius ``R`` pressed into the tissue's surface.
 
-    Contact acts on the surface, so each *boundary* node ``a`` carries its share
-    ``l_a`` of the boundary's length (half of each boundary edge it ends), and
-    the penalty is a pressure: with the penetration ``g_a = R - d_a``,
-    ``d_a = |x_a - c|``,
+    Each *boundary* node ``a`` carries its share ``l_a`` of the boundary's length (half of
+    each boundary edge it ends), and the penalty is a pressure: with the penetration
+    ``g_a = R - d_a``, ``d_a = |x_a - c|``,
 
         E = sum_a k l_a h(g_a),   h(g) = g^3 / (6 delta)             (0 < g < delta),
                                   h(g) = g^2/2 - delta g/2 + delta^2/6  (g >= delta),
 
-    and ``h = 0`` outside the disc. ``k`` is a stiffness per unit area (a
-    pressure per unit penetration): the force per unit surface length is
-    ``k h'(g)``, the same on any mesh, so the penetration a given push leaves
-    does not depend on the element size. ``h`` is twice continuously
-    differentiable (the pressure starts smoothly over ``delta``, a small
-    fraction of ``R``), so a node entering or leaving the disc does not make
-    the Newton matrix jump, and Newton converges as it does without contact.
-    With ``n_a = (x_a - c) / d_a`` the force on the node is ``k l_a h'(g) n_a``
-    (outward); the Hessian is ``k l_a [h''(g) n n^T - h'(g)/d (I - n n^T)]``,
-    whose tangential part (the disc's curvature) is negative and small (order
-    ``g / R``) but not negligible where the tissue slides along the tool: the
-    Newton matrix takes the exact Hessian (quadratic convergence), and its
-    *safe* version (``safe=True``, what the minimiser falls back on when a
-    direction does not point downhill) keeps only the positive normal part.
-    The tool moves between frames through :meth:`move`.
+    and ``h = 0`` outside the disc. ``k`` is a pressure per unit penetration: the force per
+    unit surface length ``k h'(g)`` is the same on any mesh, so the penetration a push leaves
+    does not depend on the element size. ``h`` is twice continuously differentiable (the
+    pressure starts smoothly over ``delta``, a small fraction of ``R``), so a node entering
+    or leaving the disc does not make the Newton matrix jump. With ``n_a = (x_a - c) / d_a``
+    the force on the node is ``k l_a h'(g) n_a`` (outward); the Hessian is
+    ``k l_a [h''(g) n n^T - h'(g)/d (I - n n^T)]``, whose tangential part (the disc's
+    curvature) is negative and small (order ``g / R``) but not negligible where the tissue
+    slides along the tool: Newton takes the exact Hessian (quadratic convergence), and the
+    *safe* one (``safe=True``, the minimiser's fallback when a direction does not point
+    downhill) keeps only the positive normal part. :meth:`move` moves the tool.
     """
 
     name = "probe"
@@ -507,27 +486,18 @@ class Probe(Term):
 class Sutures(Term):
     """Stiff springs that tie pairs of points together: ``E = sum_s k/2 |x_a - x_b - g_s|^2``.
 
-    A stitch's two ends are points of the tissue: a node, or a point inside
-    an element (on a wound cut through elements), which moves with the
-    element's three nodes, ``x_a = sum_c w_c x_{n_c}`` with its barycentric
-    weights ``w``. ``g_s`` is the slack: the gap the suture still allows. A
-    suture is placed with its current gap as slack (no force at first) and then
-    *tightened*: ``tighten(s)`` sets ``g = (1 - s) g_0``, so ``s = 1`` closes the
-    wound. Every term is quadratic (a zero-length spring), so the Hessian is
-    constant: ``k D^T D`` with ``D`` the map from nodes to the gap; it couples
-    the nodes of the two ends, which widens the model's pattern. ``k`` is a
-    force per unit length (per unit thickness, in 2D).
+    A stitch's end is a node, or a point inside an element (on a wound cut through
+    elements) that moves with the element's nodes, ``x_a = sum_c w_c x_{n_c}`` with
+    barycentric weights ``w``. ``g_s`` is the slack: a suture is placed with its current gap
+    as slack (no force at first) and then *tightened*: ``tighten(s)`` sets
+    ``g = (1 - s) g_0``, so ``s = 1`` closes the wound. The Hessian is constant,
+    ``k D^T D`` with ``D`` the map from nodes to the gap; it couples the two ends' nodes,
+    which widens the model's pattern. ``k`` is a force per unit length (per unit thickness).
 
-    Parameters
-    ----------
-    X : ndarray, shape (2, n_nodes)
-    pairs : int array, shape (2, k) or (2, c, k)
-        Node pairs; or, with ``coefficients``, the ``c`` nodes of each end.
-    stiffness : float or (k,), gaps : (2, k), tightness
-    coefficients : array, shape (2, c, k), optional
-        Weights of the nodes of each end (each end's weights add up to 1; a
-        point just outside its element, carried by the element's P1 map
-        extended to it, has a slightly negative one).
+    ``X`` is ``(2, n_nodes)``; ``pairs`` ``(2, k)`` node pairs or, with ``coefficients``
+    ``(2, c, k)``, the ``c`` nodes of each end and their weights (each end's add up to 1; a
+    point just outside its element, carried by the element's P1 map, has a slightly
+    negative one); ``stiffness`` one number or ``(k,)``; ``gaps`` ``(2, k)``.
     """
 
     name = "sutures"
@@ -583,9 +553,8 @@ class Sutures(Term):
     def tighten(self, fraction, stitches=None) -> None:
         """Set the tightness (0 slack ... 1 closed) of all stitches, or of those indexed by ``stitches``.
 
-        ``fraction``: one number in ``[0, 1]``, or one per selected stitch; ``stitches``: stitch
-        indices (integers in ``0 .. k-1``; floats, booleans and negative indices are refused).
-        Checked before anything changes.
+        ``fraction``: one number in ``[0, 1]``, or one per selected stitch; ``stitches``: integers
+        in ``0 .. k-1`` (floats, booleans and negative indices are refused). All or nothing.
         """
         count = self.pairs.shape[1]
         index = np.arange(count) if stitches is None else _stitch_indices(stitches, count)
