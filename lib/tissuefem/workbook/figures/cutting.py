@@ -55,17 +55,6 @@ def draw_picture(ax, sim, values=None, norm=None, *, color="0.88", lw=0.2, outli
 
 # --- the construction, close up -----------------------------------------------------------------------------
 
-def _virtual_nodes_run():
-    scene = sheet_scene(16, handles=[{"name": "fixed", "region": "left"},
-                                     {"name": "pull", "region": "right", "target": [0.0, 0.0]}])
-    sim = _simulation(scene)
-    n_old = sim.mesh.nvertices
-    edit = sim.cut([[0.62, 1.1], [0.9, 0.6], [1.05, 0.35]])  # from the top edge, bending, ending inside
-    for k in range(1, 4):
-        _check(sim.frame({"pull": [0.12 * k / 3, 0.0]}), "the cut sheet, pulled")
-    return sim, edit, n_old
-
-
 @lecture_figure
 def fig_ch10_virtual_nodes(path=None) -> Figure:
     """Chapter 10: the virtual node algorithm on a 16-triangle sheet (after Molino, Bao and Fedkiw 2004).
@@ -76,7 +65,13 @@ def fig_ch10_virtual_nodes(path=None) -> Figure:
     virtual nodes, added where a copy's material lies away from a vertex. The triangle holding the
     stroke's end is not split: the crack closes inside it (its tip).
     """
-    sim, edit, n_old = _virtual_nodes_run()
+    sim = _simulation(sheet_scene(16, handles=[{"name": "fixed", "region": "left"},
+                                               {"name": "pull", "region": "right", "target": [0.0, 0.0]}]))
+    n_old = sim.mesh.nvertices
+    stroke = np.array([[0.62, 1.1], [0.9, 0.6], [1.05, 0.35]])  # from the top edge, bending, ending inside
+    edit = sim.cut(stroke)
+    for k in range(1, 4):
+        _check(sim.frame({"pull": [0.12 * k / 3, 0.0]}), "the cut sheet, pulled")
     fig = Figure(figsize=(10.0, 3.9), layout="constrained")
     axes = fig.subplots(1, 2)
     ax = axes[0]
@@ -85,16 +80,14 @@ def fig_ch10_virtual_nodes(path=None) -> Figure:
     ax.add_collection(PolyCollection(P[:, t_old].transpose(2, 1, 0), facecolors="0.9", edgecolors="0.4",
                                      linewidths=0.6))
     ax.plot(*P, "o", color="k", ms=3)
-    stroke = np.array([[0.62, 1.1], [0.9, 0.6], [1.05, 0.35]])
     ax.plot(*stroke.T, "-", color="C3", lw=2)
     _frame_axes(ax, (-0.1, 2.25), (-0.12, 1.15))
     ax.set_title(f"(a) the stroke on the mesh: {t_old.shape[1]} triangles, {n_old} nodes", fontsize=9)
     ax = axes[1]
     x = sim.positions()
-    t = sim.mesh.t
     cut = np.array(sorted(sim._regions))
     draw_picture(ax, sim, color="0.85", lw=0.5)
-    ax.add_collection(PolyCollection(shown(x[:, t[:, cut]]).transpose(2, 1, 0), facecolors="none",
+    ax.add_collection(PolyCollection(shown(x[:, sim.mesh.t[:, cut]]).transpose(2, 1, 0), facecolors="none",
                                      edgecolors="C0", linewidths=0.8, linestyles="--"))
     real = np.arange(sim.mesh.nvertices) < n_old
     ax.plot(*shown(x[:, real]), "o", color="k", ms=3, label="nodes of the mesh")
@@ -288,10 +281,8 @@ def _pressed_cut_run(contact: bool):
     mesh = rectangle(2.0, 1.0, 16, 8)
     h = mean_edge_length(mesh)
     cut = cut_through(mesh, [[0.93, 1.2], [1.07, 0.25]])
-    options = {}
-    if contact:
-        options["contact"] = dict(surface=contact_surface(cut.mesh, cut.weights, cut.regions), distance=0.1 * h,
-                                  stiffness=100.0)
+    options = dict(contact=dict(surface=contact_surface(cut.mesh, cut.weights, cut.regions), distance=0.1 * h,
+                                stiffness=100.0)) if contact else {}
     model = Model(cut.mesh, StableNeoHookean(577.0, 385.0), weights=cut.weights,
                   handles=[Handle("left"), Handle("right", name="push")], **options)
     stepper = Stepper(model, linear_solver="reuse")

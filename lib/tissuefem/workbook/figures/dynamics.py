@@ -16,7 +16,7 @@ from matplotlib.colors import to_rgba
 from matplotlib.figure import Figure
 from matplotlib.ticker import NullFormatter
 
-from ...engine.constants import TISSUE_E, TISSUE_NU
+from ...engine.constants import FRAME_BUDGET as FRAME_DT, TISSUE_E, TISSUE_NU  # FRAME_DT: one frame, 1/30 s
 from .base import animation_figure, lecture_figure, save, save_animation, shown
 from ...engine.materials import StableNeoHookean
 from ...engine.meshes import rectangle
@@ -27,8 +27,6 @@ from ...engine.explicit import SymplecticEuler, critical_time_step
 from ..timestepping import cfl_study
 from .inversion import UPRIGHT_COLOR, draw_state
 
-#: one frame of an interactive simulation, in seconds
-FRAME_DT = 1.0 / 30.0
 #: mesh sizes (cells along the flap's length) of the CFL figure
 CFL_SIZES = (4, 8, 16, 32, 64)
 #: backward-Euler steps of the energy figure
@@ -245,9 +243,8 @@ def fig_ch07_released_flap(path=None) -> Figure:
     ax.set(xlabel="time $t$ (s), one backward-Euler step per frame", ylabel="tip $u_y$",
            xlim=(0.0, times[-1]))
     ax.grid(alpha=0.3)
-    lines = ax.get_legend_handles_labels()
-    lines2 = ax2.get_legend_handles_labels()
-    ax.legend(lines[0] + lines2[0], lines[1] + lines2[1], fontsize=8, loc="upper right")
+    (h1, l1), (h2, l2) = ax.get_legend_handles_labels(), ax2.get_legend_handles_labels()
+    ax.legend(h1 + h2, l1 + l2, fontsize=8, loc="upper right")
     fig.suptitle(f"Chapter 7: the flap let go, backward Euler at $\\Delta t$ = 1/30 s "
                  f"(stable neo-Hookean, E = {TISSUE_E:g}, ν = {TISSUE_NU:g}, $\\rho_0$ = 1, left edge held)",
                  fontsize=10)

@@ -23,6 +23,14 @@ FRAME_BUDGET_MS = 1000.0 / 30.0
 _LABEL_BOX = dict(boxstyle="round,pad=0.12", fc="white", ec="none", alpha=0.8)
 
 
+def _arrow(ax, start, vec, color, text, offset) -> None:
+    """An arrow ``vec`` from ``start``, labelled with ``text`` at ``offset`` from its head."""
+    ax.annotate("", xy=start + vec, xytext=start, zorder=5,
+                arrowprops=dict(arrowstyle="-|>", color=color, lw=2.0, shrinkA=0, shrinkB=0))
+    ax.text(*(start + vec + offset), text, color=color, fontsize=10, ha="center", va="center", bbox=_LABEL_BOX,
+            zorder=6)
+
+
 def _mapped_edges(mesh, phi, samples: int = 12) -> np.ndarray:
     """Every mesh edge sampled at ``samples`` points and mapped by ``phi``: segments (n_edges, samples, 2)."""
     s = np.linspace(0.0, 1.0, samples)
@@ -93,13 +101,8 @@ def fig02_kinematics(path=None) -> Figure:
                1: (np.array([-0.2, 0.02]), np.array([-0.25, 0.02]))}
     for j, (color, name) in enumerate((("C3", "1"), ("C2", "2"))):
         e = np.eye(2)[:, j]
-        dx = scale * F0 @ e
-        for start, vec, text, offset in ((X0, scale * e, f"$d\\mathbf{{X}}_{name}$", offsets[j][0]),
-                                         (x0, dx, f"$\\mathbf{{F}}\\,d\\mathbf{{X}}_{name}$", offsets[j][1])):
-            ax.annotate("", xy=start + vec, xytext=start, zorder=5,
-                        arrowprops=dict(arrowstyle="-|>", color=color, lw=2.0, shrinkA=0, shrinkB=0))
-            ax.text(*(start + vec + offset), text, color=color, fontsize=10, ha="center", va="center",
-                    bbox=_LABEL_BOX, zorder=6)
+        _arrow(ax, X0, scale * e, color, f"$d\\mathbf{{X}}_{name}$", offsets[j][0])
+        _arrow(ax, x0, scale * F0 @ e, color, f"$\\mathbf{{F}}\\,d\\mathbf{{X}}_{name}$", offsets[j][1])
     ax.plot(*X0, "ko", ms=5, zorder=6)
     ax.plot(*x0, "ko", ms=5, zorder=6)
     ax.text(X0[0] - 0.06, X0[1] - 0.05, "$\\mathbf{X}$", ha="right", va="top", fontsize=12, zorder=6,
@@ -141,17 +144,10 @@ def _stress_half(ax, F0) -> None:
         ax.fill(patch[0], patch[1], color=fill, ec=color, lw=1.2, zorder=1)
         line = offset[:, None] + M @ cut
         ax.plot(line[0], line[1], color="k", lw=1.6, ls="--", zorder=2)
-
-    def arrow(start, vec, color, text, offset):
-        ax.annotate("", xy=start + vec, xytext=start, zorder=5,
-                    arrowprops=dict(arrowstyle="-|>", color=color, lw=2.0, shrinkA=0, shrinkB=0))
-        ax.text(*(start + vec + offset), text, color=color, fontsize=10, ha="center", va="center",
-                bbox=_LABEL_BOX, zorder=6)
-
-    arrow(np.zeros(2), 0.32 * N, "k", "$\\mathbf{N}$", np.array([0.08, 0.04]))
-    arrow(shift, 0.32 * n_dir, "k", "$\\mathbf{n}$", np.array([0.09, 0.0]))
-    arrow(shift, 0.5 * f_dir, "C3", "$\\mathbf{P}\\mathbf{N}\\,dA = \\boldsymbol{\\sigma}\\mathbf{n}\\,da$",
-          np.array([0.05, 0.1]))
+    _arrow(ax, np.zeros(2), 0.32 * N, "k", "$\\mathbf{N}$", np.array([0.08, 0.04]))
+    _arrow(ax, shift, 0.32 * n_dir, "k", "$\\mathbf{n}$", np.array([0.09, 0.0]))
+    _arrow(ax, shift, 0.5 * f_dir, "C3", "$\\mathbf{P}\\mathbf{N}\\,dA = \\boldsymbol{\\sigma}\\mathbf{n}\\,da$",
+           np.array([0.05, 0.1]))
     ax.add_patch(FancyArrowPatch((0.25, 0.48), (1.2, 0.48), connectionstyle="arc3,rad=-0.25",
                                  arrowstyle="-|>", mutation_scale=14, lw=1.2, color="k", zorder=4))
     ax.text(0.72, 0.66, "$\\mathbf{F}$", ha="center", fontsize=12)

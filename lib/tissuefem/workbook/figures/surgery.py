@@ -18,15 +18,13 @@ from matplotlib.colors import Normalize, to_rgba
 from matplotlib.figure import Figure
 from matplotlib.patches import Circle
 
-from ...engine.constants import TISSUE_E, TISSUE_NU
+from ...engine.constants import FRAME_BUDGET as FRAME_DT, TISSUE_E, TISSUE_NU  # FRAME_DT: one frame, 1/30 s
 from .base import animation_figure, at_least, lecture_figure, save, save_animation
 from ...surgery.scene import Scene
 from ...surgery.simulation import Simulation
 from ...surgery.topology import connected_components
 from ...surgery.flaps import advancement_flap
 
-#: one frame of the interactive loop, in seconds
-FRAME_DT = 1.0 / 30.0
 #: the colour map of the tension (largest principal Cauchy stress); centred at zero
 TENSION_CMAP = "RdBu_r"
 #: the held piece and the free piece of the two-pieces figure
@@ -160,17 +158,14 @@ def fig_ch08_incision(path=None) -> Figure:
     norm = tension_norm(before["tension"], after["tension"])
     fig = Figure(figsize=(11.0, 3.7), layout="constrained")
     axes = fig.subplots(1, 2)
-    X = before["mesh"].p
-    outline = np.array([[0, 0], [2, 0], [2, 1], [0, 1], [0, 0]], dtype=float).T
     xlim, ylim = (-0.12, 2.0 + INCISION_PULL + 0.12), (-0.15, 1.22)
     titles = (f"(a) pulled by {INCISION_PULL:g}: {before['nodes']} nodes",
               f"(b) cut from the top edge to mid-height: {after['nodes']} nodes "
               f"(+{after['nodes'] - before['nodes']} copies)")
     for ax, state, title in zip(axes, (before, after), titles):
-        ax.plot(*outline, color="0.6", lw=0.8, ls="--")
+        ax.plot([0, 2, 2, 0, 0], [0, 0, 1, 1, 0], color="0.6", lw=0.8, ls="--")  # the sheet at rest
         draw_mesh(ax, state["x"], state["t"], state["tension"], norm)
-        left = np.flatnonzero(np.isclose(X[0], 0.0))
-        ax.plot([0.0, 0.0], [X[1, left].min(), X[1, left].max()], color="k", lw=3)
+        ax.plot([0.0, 0.0], [0.0, 1.0], color="k", lw=3)  # the held edge
         ax.annotate("", xy=(2.0 + INCISION_PULL + 0.1, 0.5), xytext=(2.0 + INCISION_PULL - 0.02, 0.5),
                     arrowprops=dict(arrowstyle="-|>", color="k", lw=1.2))
         _frame_axes(ax, xlim, ylim)
@@ -309,22 +304,20 @@ def fig_ch08_two_pieces(path=None) -> Figure:
         if k == cut:
             ax.plot([1.0, 1.0], [1.25, -0.25], color="k", lw=0.9, ls=":")
         _frame_axes(ax, xlim, ylim)
-        stage = " (cut)" if k == cut else ""
-        ax.set_title(f"t = {times[k]:.2f} s{stage}", fontsize=8.5)
+        ax.set_title(f"t = {times[k]:.2f} s" + (" (cut)" if k == cut else ""), fontsize=8.5)
     ax = fig.add_subplot(grid[1, :])
     com = run["com"]
     ax.plot(times, com[:, 0], "o-", color=HELD_COLOR, ms=3, lw=1.2, label="left part (held piece after the cut)")
     ax.plot(times, com[:, 1], "o-", color=FREE_COLOR, ms=3, lw=1.2, label="right part (free piece after the cut)")
-    t_fall = times[cut:]
-    ax.plot(t_fall, run["free_fall"], color="k", lw=0.9, ls="--",
+    ax.plot(times[cut:], run["free_fall"], color="k", lw=0.9, ls="--",
             label="discrete free fall from the state at the cut")
     ax.axvline(times[cut], color="0.4", lw=0.8, ls=":")
     ax.text(times[cut], 0.98, " cut", transform=ax.get_xaxis_transform(), va="top", fontsize=8)
     ax.plot(times[list(FILMSTRIP)], com[list(FILMSTRIP), 1], "s", color="C3", ms=5, label="frames shown above")
     err = float(np.max(np.abs(com[cut:, 1] - run["free_fall"])))
     ax.set(xlabel="time (s), one backward-Euler step per frame", ylabel="centre of mass height $y$",
-           xlim=(0.0, times[-1]), title=f"free piece against free fall: largest difference {at_least(err, spec='.1e')}")
-    ax.title.set_fontsize(9)
+           xlim=(0.0, times[-1]))
+    ax.set_title(f"free piece against free fall: largest difference {at_least(err, spec='.1e')}", fontsize=9)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7.5, loc="lower left")
     fig.suptitle(f"Chapter 8: a cut through the body makes two pieces (stable neo-Hookean, E = {TISSUE_E:g}, "
@@ -387,7 +380,8 @@ def fig_ch08_probe(path=None) -> Figure:
     """
     run = probe_run()
     states, R = run["states"], run["radius"]
-    shown = [s for s in states if any(np.isclose(s["depth"], d) for d in PROBE_SHOWN)]
+    sel = [i for i, s in enumerate(states) if any(np.isclose(s["depth"], d) for d in PROBE_SHOWN)]
+    shown = [states[i] for i in sel]
     norm = tension_norm(*[s["tension"] for s in shown])
     fig = Figure(figsize=(12.5, 3.6), layout="constrained")
     axes = fig.subplots(1, 3, width_ratios=[1, 1, 0.75])
@@ -408,11 +402,9 @@ def fig_ch08_probe(path=None) -> Figure:
     depth = np.array([s["depth"] for s in states])
     force = np.array([-s["force"][1] for s in states])
     ax.plot(depth, force, "o-", color="C0", ms=4, label="force on the tool (vertical)")
-    sel = [i for i, s in enumerate(states) if any(np.isclose(s["depth"], d) for d in PROBE_SHOWN)]
     ax.plot(depth[sel], force[sel], "s", color="C3", ms=6, label="(a), (b)")
-    ax.set(xlabel="depth of the disc below the top edge", ylabel="force (per unit thickness)",
-           title="the tissue pushes back")
-    ax.title.set_fontsize(9)
+    ax.set(xlabel="depth of the disc below the top edge", ylabel="force (per unit thickness)")
+    ax.set_title("the tissue pushes back", fontsize=9)
     ax.grid(alpha=0.3)
     ax2 = ax.twinx()
     ax2.plot(depth, [s["penetration"] for s in states], "^--", color="C2", ms=4, lw=0.9, label="penetration left")
@@ -496,10 +488,9 @@ def fig_ch08_flap(path=None, runs=None) -> Figure:
     for L in lengths:
         ax.annotate(f"{runs[L].stitches} stitches", (L, runs[L].flap_tension), xytext=(0, 8),
                     textcoords="offset points", ha="center", fontsize=7)
-    ax.set(xlabel="flap length", ylabel="tension", xticks=lengths, title="(c) longer flap, less tension",
-           xlim=(lengths[0] - 0.25, lengths[-1] + 0.25),
+    ax.set(xlabel="flap length", ylabel="tension", xticks=lengths, xlim=(lengths[0] - 0.25, lengths[-1] + 0.25),
            ylim=(0.0, 1.25 * max(runs[L].flap_tension for L in lengths)))
-    ax.title.set_fontsize(9)
+    ax.set_title("(c) longer flap, less tension", fontsize=9)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7.5, loc="lower left")
     fig.suptitle(f"Chapter 8: an advancement flap closes a 0.6 x 0.6 defect (stable neo-Hookean, E = {TISSUE_E:g}, "
