@@ -1,12 +1,9 @@
 """The numbers the whole workbook shares, defined once.
 
-* :data:`FRAME_BUDGET` -- the notes' real-time constraint: the state is updated
-  every thirtieth of a second (notes, "Real-time computing"); it is also the
-  default time step of an interactive scene, one step per drawn frame.
-* :data:`TISSUE_E`, :data:`TISSUE_NU` -- the soft-tissue material of the
-  exercises: the notes suggest a Young's modulus "around 1000", and a
-  Poisson's ratio of 0.3 keeps it clearly compressible (plane strain).
-* :data:`TISSUE_DENSITY` -- mass per unit reference area of the 2D tissue.
+The notes' real-time constraint updates the state every thirtieth of a second (notes, "Real-time computing"),
+which is also the default time step of an interactive scene: one step per drawn frame. The exercises' soft tissue
+has the Young's modulus the notes suggest, "around 1000", and a Poisson's ratio of 0.3 that keeps it clearly
+compressible (plane strain).
 """
 
 #: the notes' frame time, 1/30 s: the budget of one real-time frame and the default time step

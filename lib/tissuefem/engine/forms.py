@@ -4,18 +4,16 @@ The notes' weak form of quasistatic equilibrium ``-P_ij,j = f_i`` is
 
     int_B0 w_i,j P_ij(F) dX = int_dB0 w_i P_ij n_j dS + int_B0 w_i f_i dX
 
-for every test function ``w``, with ``F = I + grad u``. Discretising ``u`` and
-``w`` with the same vector-valued shape functions, the left-hand side is the
-internal force vector ``q(u)``, and Newton needs its derivative, obtained by
-linearising ``P`` in ``F`` and ``F`` in ``u`` (``dF = grad du``):
+for every test function ``w``, with ``F = I + grad u``. Discretising ``u`` and ``w`` with the same vector-valued
+shape functions, the left-hand side is the internal force vector ``q(u)``, and Newton needs its derivative, obtained
+by linearising ``P`` in ``F`` and ``F`` in ``u`` (``dF = grad du``):
 
     q_a(u)       = int grad(v_a) : P(F) dX                      residual_form
     dq_a/du_b    = int grad(v_a) : A(F) : grad(du_b) dX        tangent_form
     E(u)         = int Psi(F) dX,   q = dE/du                   energy_form
 
-with ``A_ijkl = dP_ij/dF_kl``. In scikit-fem the test function ``v`` plays
-``w`` (``grad(v)[i, j] = w_i,j``), so each form below is one line that reads
-like its equation::
+with ``A_ijkl = dP_ij/dF_kl``. In scikit-fem the test function ``v`` plays ``w`` (``grad(v)[i, j] = w_i,j``), so
+each form below is one line that reads like its equation::
 
     >>> from skfem import Basis, ElementTriP1, ElementVector, MeshTri, asm
     >>> from tissuefem.materials import NeoHookean
@@ -27,15 +25,12 @@ like its equation::
     >>> float(abs(q).max())
     0.0
 
-The current displacement is passed as ``u=basis.interpolate(u)``; the
-material is bound by closure because scikit-fem passes only arrays through
-``w``. A :class:`~tissuefem.materials.FiberReinforced` material with
-per-quadrature-point fibres (shape ``(2, n_elements, n_points)``) must use the
-same quadrature as the basis (``basis.X.shape[1]`` points).
+The material is bound by closure because scikit-fem passes only arrays through ``w``. A
+:class:`~tissuefem.materials.FiberReinforced` material with per-quadrature-point fibres (shape
+``(2, n_elements, n_points)``) must use the same quadrature as the basis (``basis.X.shape[1]`` points).
 
-These forms evaluate the material once per pair of local basis functions
-(scikit-fem's assembly loop), which is clear but not fast; they are the
-reference that faster assembly is tested against.
+These forms evaluate the material once per pair of local basis functions (scikit-fem's assembly loop), which is
+clear but not fast; they are the reference that faster assembly is tested against.
 """
 
 from __future__ import annotations
@@ -60,8 +55,7 @@ def residual_form(material: Material) -> LinearForm:
 
     @LinearForm
     def residual(v, w):
-        F = deformation_gradient(w["u"])
-        return ddot(material.stress(F), grad(v))
+        return ddot(material.stress(deformation_gradient(w["u"])), grad(v))
 
     return residual
 
@@ -71,9 +65,8 @@ def tangent_form(material: Material) -> BilinearForm:
 
     @BilinearForm
     def tangent(du, v, w):
-        F = deformation_gradient(w["u"])
-        dP = np.einsum("ijkl...,kl...->ij...", material.tangent(F), grad(du))  # dP = A : grad du
-        return ddot(dP, grad(v))
+        A = material.tangent(deformation_gradient(w["u"]))
+        return ddot(np.einsum("ijkl...,kl...->ij...", A, grad(du)), grad(v))  # (A : grad du) : grad v
 
     return tangent
 

@@ -102,19 +102,16 @@ def _short(value, limit: int = 60) -> str:
 
 
 def _interval(lo, hi, lo_open, hi_open) -> str:
-    left = "(" if lo_open else "["
-    right = ")" if hi_open else "]"
     lo_text = "-inf" if lo is None else f"{lo:g}"
     hi_text = "inf" if hi is None else f"{hi:g}"
-    return f"{left}{lo_text}, {hi_text}{right}"
+    return f"{'(' if lo_open else '['}{lo_text}, {hi_text}{')' if hi_open else ']'}"
 
 
 def check_real(name: str, value, lo=None, hi=None, *, lo_open: bool = False, hi_open: bool = False) -> float:
     """``value`` as a finite float within ``[lo, hi]`` (ends open on request), else ``ValueError`` naming ``name``.
 
-    Refused: ``bool``, strings, complex numbers, ``NaN``, infinities, integers
-    too large for a float, and values outside the range. ``None`` for ``lo`` or
-    ``hi`` leaves that side unbounded (but the value must still be finite).
+    Refused: ``bool``, strings, complex numbers, ``NaN``, infinities, integers too large for a float, and values
+    outside the range. ``None`` for ``lo`` or ``hi`` leaves that side unbounded (the value must still be finite).
     """
     v = _real_value(name, value)
     if not math.isfinite(v):
@@ -131,7 +128,7 @@ def check_real(name: str, value, lo=None, hi=None, *, lo_open: bool = False, hi_
 
 
 def check_count(name: str, value, lo: int = 1, hi: int | None = None) -> int:
-    """``value`` as an int within ``[lo, hi]``: a true integer (``int`` or numpy integer), never a ``bool`` or a float."""
+    """``value`` as an int within ``[lo, hi]``: a true integer (``int``, numpy integer), never a ``bool`` or a float."""
     if isinstance(value, np.ndarray) and value.ndim == 0:
         value = value[()]
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral):
@@ -154,11 +151,8 @@ def check_density(rho, name: str = "density") -> float:
 
 
 def check_bounded_vector(name: str, value, bound: float) -> np.ndarray:
-    """A vector ``(x, y)`` of real numbers each within ``+-bound``; ``ValueError`` naming ``name`` otherwise.
-
-    Refused like :func:`check_real`: bools, strings, complex numbers, NaN, infinities, and
-    vectors of another shape.
-    """
+    """A vector ``(x, y)`` of real numbers each within ``+-bound``, else a ``ValueError`` naming ``name`` (refused
+    like :func:`check_real`: bools, strings, complex numbers, NaN, infinities, and vectors of another shape)."""
     try:
         items = None if isinstance(value, (str, bytes, dict)) or len(value) != 2 else list(value)
     except Exception:  # no length, or one that cannot be taken: not a vector
@@ -171,10 +165,9 @@ def check_bounded_vector(name: str, value, bound: float) -> np.ndarray:
 def check_poisson_ratio(nu, name: str = "nu (Poisson's ratio)") -> float:
     """Poisson's ratio in :data:`POISSON_RATIO_RANGE`; the error names ``name``.
 
-    Outside ``(-1, 0.5)`` the message says so; inside it but within ``1e-6`` of
-    an end, that the value is too close: there ``lam`` and ``mu`` are huge and
-    of opposite sign (``nu -> -1``) or ``lam/mu`` exceeds ``5e5`` (``nu -> 0.5``),
-    and the bulk modulus ``lam + 2 mu / 3`` is lost to round-off.
+    Outside ``(-1, 0.5)`` the message says so; within ``1e-6`` of an end, that the value is too close: there ``lam``
+    and ``mu`` are huge and of opposite sign (``nu -> -1``) or ``lam/mu`` exceeds ``5e5`` (``nu -> 0.5``), and the
+    bulk modulus ``lam + 2 mu / 3`` is lost to round-off.
     """
     nu = check_real(name, nu, -1.0, 0.5, lo_open=True, hi_open=True)
     lo, hi = POISSON_RATIO_RANGE
@@ -185,7 +178,7 @@ def check_poisson_ratio(nu, name: str = "nu (Poisson's ratio)") -> float:
 
 
 def check_young_poisson(E, nu) -> tuple[float, float]:
-    """Validate Young's modulus ``E`` in :data:`YOUNGS_MODULUS_RANGE` and Poisson's ratio in :data:`POISSON_RATIO_RANGE`."""
+    """Validate Young's modulus and Poisson's ratio (:data:`YOUNGS_MODULUS_RANGE`, :data:`POISSON_RATIO_RANGE`)."""
     E = check_real("E (Young's modulus)", E, *YOUNGS_MODULUS_RANGE)
     return E, check_poisson_ratio(nu)
 
@@ -193,21 +186,16 @@ def check_young_poisson(E, nu) -> tuple[float, float]:
 def lame_parameters(E, nu, plane: str = "strain") -> tuple[float, float]:
     """Lamé parameters ``(lam, mu)`` from Young's modulus and Poisson's ratio.
 
-    ``lam = E nu / ((1 + nu)(1 - 2 nu))`` and ``mu = E / (2 (1 + nu))``
-    (the notes' formula, where Young's modulus is written K). In 2D this is
-    plane strain; ``plane="stress"`` gives the plane-stress value
-    ``lam* = 2 lam mu / (lam + 2 mu)`` used by linear elasticity for thin
-    sheets.
+    ``lam = E nu / ((1 + nu)(1 - 2 nu))`` and ``mu = E / (2 (1 + nu))`` (the notes' formula, where Young's modulus
+    is written K). In 2D this is plane strain; ``plane="stress"`` gives the plane-stress value
+    ``lam* = 2 lam mu / (lam + 2 mu)`` used by linear elasticity for thin sheets.
 
-    The admissible range is ``-1 < nu < 0.5`` (the notes say "between 0 and
-    1/2"; auxetic materials with ``nu < 0`` are admissible too), of which
-    :data:`POISSON_RATIO_RANGE` keeps ``1e-6`` away from each end, and ``E`` in
-    :data:`YOUNGS_MODULUS_RANGE`. ``nu -> 0.5`` makes ``lam`` blow up: nearly
-    incompressible.
+    ``nu`` lies in :data:`POISSON_RATIO_RANGE`, ``1e-6`` inside the admissible ``-1 < nu < 0.5`` (the notes say
+    "between 0 and 1/2"; auxetic materials with ``nu < 0`` are admissible too), and ``E`` in
+    :data:`YOUNGS_MODULUS_RANGE`. ``nu -> 0.5`` makes ``lam`` blow up: nearly incompressible.
     """
     E, nu = check_young_poisson(E, nu)
-    lam = E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu))
-    mu = E / (2.0 * (1.0 + nu))
+    lam, mu = E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu)), E / (2.0 * (1.0 + nu))
     if plane == "strain":
         return lam, mu
     if plane == "stress":
@@ -218,8 +206,7 @@ def lame_parameters(E, nu, plane: str = "strain") -> tuple[float, float]:
 def check_lame(lam, mu) -> tuple[float, float]:
     """Validate Lamé parameters given directly: ``mu`` in ``[1e-7, 1e30]`` and ``-2 mu / 3 < lam <= 1e30``.
 
-    ``lam > -2 mu / 3`` (a positive bulk modulus ``lam + 2 mu / 3``) is exactly
-    what ``-1 < nu < 0.5`` maps to through :func:`lame_parameters`.
+    ``lam > -2 mu / 3`` (a positive bulk modulus) is exactly what ``-1 < nu < 0.5`` maps to (:func:`lame_parameters`).
     """
     mu = check_real("mu (shear modulus)", mu, SHEAR_MODULUS_MIN, LAME_MAX)
     lam = check_real("lam (first Lamé parameter)", lam, -2.0 * mu / 3.0, LAME_MAX, lo_open=True)
