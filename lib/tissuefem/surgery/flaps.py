@@ -2,30 +2,22 @@
 
 After Sifakis, Hellrung, Teran, Oliker and Cutting, "Local flaps: a real-time
 finite element based solution to the plastic surgery defect puzzle" (2009).
-A surgeon removes a lesion (excision), which leaves a defect too wide to pull
-shut; instead a *flap* of nearby skin is cut on three sides and moved (advanced
-or rotated) into the defect, and its edges are sutured to the wound's. Which
-design leaves the least tension in the skin is the question such a simulator
-answers before the operation.
+Excising a lesion leaves a defect too wide to pull shut; instead a *flap* of
+nearby skin is cut on three sides, moved (advanced or rotated) into the defect
+and sutured to the wound's edges. Which design leaves the least tension in the
+skin is what such a simulator answers before the operation.
 
-:func:`advancement_flap` runs the whole procedure on a patch of skin held on
-its outer edges:
+:func:`advancement_flap` runs the procedure on a patch of skin held on its outer edges:
 
 1. **excise** a rectangular defect;
 2. **cut** the flap: two parallel incisions continuing the defect's top and
-   bottom edges away from it (the flap stays attached at its far end, its
-   *base*);
-3. **suture**: each node on the flap's wound edges is paired with the wound
-   node where the planned motion (a translation by the defect's width) would
-   take it; the stitches start slack and are tightened over several frames
-   (quasistatic frames of the budget solver, so the flap is pulled in
-   gradually);
+   bottom edges (the flap stays attached at its far end, its *base*);
+3. **suture**: each point on the flap's wound edges is paired with where the
+   planned motion (a translation by the defect's width) takes it
+   (:func:`pair_by_motion`, any rigid motion); the slack stitches are
+   tightened over several quasistatic frames;
 4. **report** the tension left: the largest principal Cauchy stress of every
-   element, its maximum and area-weighted mean, the stitch forces and the
-   gaps still open.
-
-:func:`pair_by_motion` is the general rule used in step 3 (any rigid motion:
-a rotation flap passes a rotation).
+   element, its maximum and area-weighted mean, the stitch forces and the gaps.
 """
 
 from __future__ import annotations
@@ -79,21 +71,15 @@ def wound_nodes(mesh, names=("cut", "defect")) -> np.ndarray:
 def pair_by_motion(mesh, positions, flap_elements, motion, tolerance) -> np.ndarray:
     """Stitches for moving a flap by ``motion``: node pairs ``(2, k)``, flap node first.
 
-    A wound node belongs to the flap when all its triangles are flap
-    triangles (``flap_elements``, a boolean mask); after a cut the two copies
-    of a node on the cut fall on different sides. Each flap wound node is
-    moved by ``motion`` (``(2, n) -> (2, n)``, e.g. a translation or a rotation
-    about the flap's pivot) and paired with the nearest non-flap wound node,
-    if that is within ``tolerance``.
+    A wound node belongs to the flap when all its triangles are flap triangles (``flap_elements``, a
+    boolean mask); the two copies of a node on a cut fall on different sides. Each flap wound node is moved
+    by ``motion`` (``(2, n) -> (2, n)``) and paired with the nearest non-flap wound node within ``tolerance``.
     """
     wound = wound_nodes(mesh)
     t = mesh.t
-    on_flap = np.ones(mesh.nvertices, dtype=bool)
-    off = t[:, ~np.asarray(flap_elements, dtype=bool)].ravel()
-    on_flap[off] = False
-    touched = np.zeros(mesh.nvertices, dtype=bool)
-    touched[t.ravel()] = True
-    on_flap &= touched
+    on_flap = np.zeros(mesh.nvertices, dtype=bool)
+    on_flap[t.ravel()] = True  # used by some triangle, and only by flap triangles:
+    on_flap[t[:, ~np.asarray(flap_elements, dtype=bool)].ravel()] = False
     flap_nodes = wound[on_flap[wound]]
     others = wound[~on_flap[wound]]
     if flap_nodes.size == 0 or others.size == 0:
@@ -114,8 +100,7 @@ def _weighted_percentile(values, weights, q) -> float:
 def _snapshot(sim):
     """The tissue as drawn: the drawn points and triangles of its material (see ``Simulation.picture``), and
     the element of each drawn triangle (to colour it by a per-element value)."""
-    picture = sim.picture
-    return picture.points(sim.positions()).copy(), picture.triangles.copy(), picture.element.copy()
+    return sim.picture.points(sim.positions()).copy(), sim.picture.triangles.copy(), sim.picture.element.copy()
 
 
 def _material_points(sim) -> np.ndarray:
@@ -131,12 +116,10 @@ def _material_points(sim) -> np.ndarray:
 def stitch_points(samples, normals, motion, offset) -> np.ndarray:
     """Stitches for a flap cut through elements: point pairs ``(k, 2, 2)``, flap point first.
 
-    ``samples`` ``(k, 2)`` are points on the flap's wound edges and ``normals``
-    ``(k, 2)`` unit vectors into the flap there. Each is paired with the point
-    ``motion`` takes it to (on the bed's wound edge). Both ends are moved by
-    ``offset`` into their own side's material (into the flap; into the bed,
-    away from where the flap arrives), so that each is attached to the right
-    lip where two lips touch.
+    ``samples`` ``(k, 2)`` on the flap's wound edges, with unit ``normals`` ``(k, 2)`` into the flap, are
+    paired with the points ``motion`` takes them to (on the bed's wound edge). Both ends are moved by
+    ``offset`` into their own side's material (into the flap; into the bed, away from where the flap
+    arrives), so that each is attached to the right lip where two lips touch.
     """
     samples = np.asarray(samples, dtype=float)
     normals = np.asarray(normals, dtype=float)
@@ -243,20 +226,16 @@ def advancement_flap(*, width=4.0, height=2.0, n_triangles=3000, defect=(1.2, 0.
     defect
         ``(x, y, w, h)``: the defect's lower-left corner and size.
     flap_length
-        How far the two incisions run from the defect's right edge (the flap is
-        ``flap_length`` long and ``h`` wide, attached at its far end). Longer flaps
-        stretch less: the classic advancement-flap trade-off.
+        How far the two incisions run from the defect's right edge (the flap is ``h`` wide, attached at its
+        far end). Longer flaps stretch less: the classic advancement-flap trade-off.
     tighten_frames, settle_frames
-        Frames over which the stitches are tightened from slack to closed, and
-        frames run after that (each tightening frame is solved to the solver's
-        tolerance, so extra frames change nothing; they only report).
+        Frames over which the stitches are tightened from slack to closed, and frames run after that (each
+        tightening frame is solved to tolerance, so extra frames only report).
     method
-        ``"elements"`` (default): the defect and the incisions are cut through
-        the elements along the drawn lines, and the stitches sit on the wound's
-        edges, about one per mesh edge length. ``"edges"``: the defect is the
-        triangles whose centroids fall inside it, the incisions are snapped to
-        mesh edges, and the stitches tie wound nodes (the jagged, mesh-dependent
-        version, to compare).
+        ``"elements"`` (default): the defect and the incisions are cut through the elements along the drawn
+        lines, with stitches on the wound's edges about one per mesh edge length. ``"edges"``: the defect is
+        the triangles whose centroids fall inside it, the incisions snap to mesh edges and the stitches tie
+        wound nodes (the jagged, mesh-dependent version, to compare).
     """
     method = _method(method)
     x0, y0, w, h = (float(v) for v in defect)
@@ -296,19 +275,13 @@ def rotation_flap(*, width=4.0, height=3.0, n_triangles=3000, pivot=(1.5, 1.5), 
                   method="elements", contact=False) -> FlapResult:
     """Close a wedge-shaped defect by rotating a flap about its pivot, and report the tension.
 
-    The defect is the sector of the circle of ``radius`` about ``pivot``
-    between the angles 60 and ``60 + defect_angle`` degrees. The flap is the
-    sector beside it, between ``60 - flap_angle`` and 60 degrees: an arc-shaped
-    incision along the circle frees its curved edge, and it stays attached
-    along its straight base (the radius at ``60 - flap_angle`` degrees). Its
-    leading edge turns by ``defect_angle`` about the pivot onto the defect's
-    far edge; its base cannot turn, so the flap fans out: the radius at angle
-    ``theta`` turns by ``defect_angle (theta - theta_0) / flap_angle``, and the
-    arc slides along the circle, where each of its stitches meets the outer
-    lip. A wider flap (larger ``flap_angle``) fans out less and leaves less
-    tension: the rotation flap's rule of thumb (an arc several times the
-    defect's width).
-    ``method`` and ``contact`` as in :func:`advancement_flap`.
+    The defect is the sector of the circle of ``radius`` about ``pivot`` between 60 and ``60 + defect_angle``
+    degrees; the flap is the sector between ``60 - flap_angle`` and 60 degrees, freed by an incision along
+    the arc and attached along its straight base. Its leading edge turns by ``defect_angle`` onto the
+    defect's far edge; its base cannot turn, so the flap fans out: the radius at angle ``theta`` turns by
+    ``defect_angle (theta - theta_0) / flap_angle`` and the arc slides along the circle, where its stitches
+    meet the outer lip. A wider flap fans out less and leaves less tension: the rotation flap's rule of
+    thumb (an arc several times the defect's width). ``method`` and ``contact`` as in :func:`advancement_flap`.
     """
     method = _method(method)
     px, py = (float(v) for v in pivot)
@@ -334,7 +307,8 @@ def rotation_flap(*, width=4.0, height=3.0, n_triangles=3000, pivot=(1.5, 1.5), 
     # (h/4)^2 / (8 r), far less than the offset by which a stitch's ends are put on their own side
     n_arc = max(8, int(np.ceil(4.0 * r * (a1 - a0) / edge_guess)))
     defect = np.vstack([[[px, py]], arc(a1, a1 + alpha, max(4, int(np.ceil(4.0 * r * alpha / edge_guess))))])
-    scene = _patch_scene("rotation flap", "A wedge-shaped defect closed by rotating the flap beside it about its pivot.",
+    scene = _patch_scene("rotation flap",
+                         "A wedge-shaped defect closed by rotating the flap beside it about its pivot.",
                          (width, height, n_triangles), (model, youngs_modulus, poisson_ratio), method,
                          [defect.tolist()], [arc(a1, a0, n_arc).tolist()], contact)
     def motion(X):  # the flap fans out: each radius turns in proportion to its angle from the base

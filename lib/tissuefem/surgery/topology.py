@@ -1,47 +1,35 @@
 """Mesh topology operations for virtual surgery: cutting and removing tissue.
 
 A cut in a P1 triangle mesh is a path of mesh edges that is *opened*: the
-triangles on its two sides stop sharing the path's nodes. We never split a
-triangle; the cut follows existing edges, and every node on it is duplicated
-as often as the cut separates its neighbourhood. Removing tissue (a defect)
-deletes whole triangles. Both are *pure*: they take a mesh and return a new
-one, with maps back to the old mesh so that a simulation can carry its state
-(displacements, velocities, per-element data) across the change.
+triangles on its two sides stop sharing the path's nodes. No triangle is split;
+every node on the cut is duplicated as often as the cut separates its
+neighbourhood. Removing tissue (a defect) deletes whole triangles. Both are
+*pure*: they return a new mesh, with maps back to the old one so that a
+simulation can carry its state across the change.
 
 Functions
 ---------
-* :func:`duplicate_along_edges`: the core of a cut, on bare connectivity
-  arrays: duplicate the nodes of a set of edges so that the edges open.
-* :func:`cut_path`: the node path along mesh edges that follows a drawn
-  polyline (what a scalpel stroke becomes).
-* :func:`incise`: ``cut_path`` + ``duplicate_along_edges`` on a
-  :class:`skfem.MeshTri`, with the named boundaries carried over and the
-  wound's faces named ``"cut"``.
-* :func:`excise`: remove the triangles inside a region; the rim of the hole
-  is named ``"defect"``.
-* :func:`connected_components`: the separate pieces of a mesh.
-* :func:`nodes_near`: the nodes within a radius of a point (to pick a node
-  to grab, or to test where a cut went).
+* :func:`duplicate_along_edges`: the core of a cut, on bare connectivity arrays.
+* :func:`cut_path`: the node path along mesh edges that follows a drawn polyline.
+* :func:`incise`: ``cut_path`` + ``duplicate_along_edges`` on a :class:`skfem.MeshTri`;
+  the wound's faces are named ``"cut"``.
+* :func:`excise`: remove the triangles inside a region; the rim is named ``"defect"``.
+* :func:`connected_components`, :func:`nodes_near`: the pieces of a mesh, the nodes near a point.
 
 Conventions
 -----------
-* A :class:`MeshEdit` describes the result: the new mesh, ``parent`` (for
-  every new node, the old node it comes from) and ``elements`` (for every new
-  element, the old element it comes from). A per-node field ``u`` of the old
-  mesh becomes ``u[..., parent]`` on the new one (:meth:`MeshEdit.transfer`);
-  copies made by a cut start where their original was, so a deformed state
-  carries over without any jump.
+* A :class:`MeshEdit` holds the new mesh, ``parent`` (new node -> old node) and
+  ``elements`` (new element -> old element). A per-node field ``u`` becomes
+  ``u[..., parent]`` (:meth:`MeshEdit.transfer`): copies start where their
+  original was, so a deformed state carries over without any jump.
 * The new meshes are built with ``sort_t=False``: every element keeps its
-  vertex order (hence its orientation) and its index (:func:`incise`) or its
-  relative order (:func:`excise`). scikit-fem's default ``sort_t=True`` would
-  re-sort each column of ``t``; since the copies made by a cut get the
-  highest indices, that would reorder the vertices of exactly the triangles
-  along the wound.
-* Named boundaries are carried by *parent pairs*: a facet of the new mesh
-  belongs to the old name ``X`` if the parents of its two nodes formed a facet
-  of ``X``. Names are never dropped (a name may end up with no facet), and the
-  new facets accumulate: a second cut adds to ``"cut"``, a second excision to
-  ``"defect"``.
+  vertex order (hence its orientation). scikit-fem's default ``sort_t=True``
+  re-sorts each column of ``t``; since the copies made by a cut get the highest
+  indices, that would reorder the vertices of exactly the triangles along the wound.
+* Named boundaries are carried by *parent pairs*: a new facet belongs to the old
+  name ``X`` if the parents of its two nodes formed a facet of ``X``. Names are
+  never dropped (one may end up with no facet), and new facets accumulate: a
+  second cut adds to ``"cut"``.
 """
 
 from __future__ import annotations
@@ -77,9 +65,7 @@ _HUG = 10.0
 _NEAR_BOUNDARY = 0.5
 
 
-# --------------------------------------------------------------------------
-# the result
-# --------------------------------------------------------------------------
+# --- the result ---
 @dataclass(frozen=True, eq=False)
 class MeshEdit:
     """The result of a topology change: the new mesh and the maps to the old one.
@@ -87,16 +73,12 @@ class MeshEdit:
     Attributes
     ----------
     mesh : skfem.MeshTri
-        The new mesh.
     parent : ndarray of int, shape (n_new_nodes,)
-        The old node each new node comes from. A copy made by a cut points to
-        the node it was copied from; after :func:`excise`, ``parent`` lists the
-        surviving old nodes in increasing order.
+        The old node each new node comes from (after :func:`excise`: the surviving old nodes, increasing).
     elements : ndarray of int, shape (n_new_elements,)
         The old element each new element comes from (``arange`` for a cut).
     cut_edges : ndarray of int, shape (2, k)
-        Old-node pairs of the edges that were opened, in the order the cut
-        passed them (empty ``(2, 0)`` for :func:`excise`).
+        Old-node pairs of the edges opened, in the order the cut passed them (empty for :func:`excise`).
     n_old_nodes, n_old_elements : int
         Sizes of the old mesh (to check what is transferred).
     """
@@ -109,51 +91,33 @@ class MeshEdit:
     n_old_elements: int
 
     def transfer(self, values) -> np.ndarray:
-        """Per-node values of the old mesh, shape ``(..., n_old_nodes)``, on the new mesh.
-
-        Every new node takes the value of its parent, so a copy starts with
-        the position, displacement or velocity of the node it was copied from.
-        Returns a new array of shape ``(..., n_new_nodes)``.
-        """
-        v = np.asarray(values)
-        if v.ndim < 1 or v.shape[-1] != self.n_old_nodes:
-            raise ValueError(
-                f"values must have one entry per old node on the last axis "
-                f"(length {self.n_old_nodes}), got shape {v.shape}"
-            )
-        return v[..., self.parent]
+        """Per-node values of the old mesh, shape ``(..., n_old_nodes)``, on the new mesh (a new array,
+        ``(..., n_new_nodes)``): a copy starts with the position, displacement or velocity of its parent."""
+        return _last_axis(values, self.n_old_nodes, "one entry per old node")[..., self.parent]
 
     def transfer_elements(self, values) -> np.ndarray:
         """Per-element values of the old mesh, shape ``(..., n_old_elements)``, on the new mesh."""
-        v = np.asarray(values)
-        if v.ndim < 1 or v.shape[-1] != self.n_old_elements:
-            raise ValueError(
-                f"values must have one entry per old element on the last axis "
-                f"(length {self.n_old_elements}), got shape {v.shape}"
-            )
-        return v[..., self.elements]
+        return _last_axis(values, self.n_old_elements, "one entry per old element")[..., self.elements]
 
     def transfer_dofs(self, values) -> np.ndarray:
         """A vector P1 field in scikit-fem's dof order, ``(..., 2 n_old_nodes)``, on the new mesh.
 
         The dofs of node ``n`` are ``(2 n, 2 n + 1)`` (x then y), the order of
-        ``Basis(mesh, ElementVector(ElementTriP1()))`` and of
-        :class:`~tissuefem.assembly.P1Assembler`; displacement and velocity
-        vectors transfer with this.
+        ``Basis(mesh, ElementVector(ElementTriP1()))`` and of :class:`~tissuefem.assembly.P1Assembler`.
         """
-        v = np.asarray(values)
-        if v.ndim < 1 or v.shape[-1] != 2 * self.n_old_nodes:
-            raise ValueError(
-                f"values must have two dofs per old node on the last axis "
-                f"(length {2 * self.n_old_nodes}), got shape {v.shape}"
-            )
+        v = _last_axis(values, 2 * self.n_old_nodes, "two dofs per old node")
         pairs = v.reshape(v.shape[:-1] + (self.n_old_nodes, 2))
         return pairs[..., self.parent, :].reshape(v.shape[:-1] + (2 * self.parent.size,))
 
 
-# --------------------------------------------------------------------------
-# validation helpers
-# --------------------------------------------------------------------------
+# --- validation helpers ---
+def _last_axis(values, length, what) -> np.ndarray:
+    v = np.asarray(values)
+    if v.ndim < 1 or v.shape[-1] != length:
+        raise ValueError(f"values must have {what} on the last axis (length {length}), got shape {v.shape}")
+    return v
+
+
 def _index_array(name: str, value, rows: int) -> np.ndarray:
     """``value`` as an int64 array shaped ``(rows, k)``; integral floats are accepted."""
     try:
@@ -173,10 +137,14 @@ def _index_array(name: str, value, rows: int) -> np.ndarray:
     return a.astype(np.int64)
 
 
-def _count(name: str, value) -> int:
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or int(value) < 0:
-        raise ValueError(f"{name} must be a non-negative integer, got {value!r}")
-    return int(value)
+def _triangles(t, n_nodes):
+    """Checked ``(t (3, m) int64, n_nodes)``: every index in ``t`` is a node."""
+    if isinstance(n_nodes, bool) or not isinstance(n_nodes, numbers.Integral) or int(n_nodes) < 0:
+        raise ValueError(f"n_nodes must be a non-negative integer, got {n_nodes!r}")
+    n_nodes, t = int(n_nodes), _index_array("t", t, 3)
+    if t.size and (t.min() < 0 or t.max() >= n_nodes):
+        raise ValueError(f"t must hold node indices in [0, n_nodes) = [0, {n_nodes}), got range [{t.min()}, {t.max()}]")
+    return t, n_nodes
 
 
 def _mesh_arrays(mesh):
@@ -187,10 +155,8 @@ def _mesh_arrays(mesh):
     except AttributeError:
         raise ValueError(f"mesh must be a skfem.MeshTri, got {type(mesh).__name__}") from None
     if p.ndim != 2 or p.shape[0] != 2 or t.ndim != 2 or t.shape[0] != 3:
-        raise ValueError(
-            f"mesh must be a 2D triangle mesh (p shaped (2, n), t shaped (3, m)), "
-            f"got p {p.shape} and t {t.shape}"
-        )
+        raise ValueError(f"mesh must be a 2D triangle mesh (p shaped (2, n), t shaped (3, m)), "
+                         f"got p {p.shape} and t {t.shape}")
     return p, t
 
 
@@ -227,32 +193,13 @@ def _points(name: str, value, min_points: int) -> np.ndarray:
     return a
 
 
-# --------------------------------------------------------------------------
-# edges as keys
-# --------------------------------------------------------------------------
 def _keys(pairs: np.ndarray, n: int) -> np.ndarray:
     """One int64 per undirected node pair: ``min * n + max``."""
     pairs = np.asarray(pairs, dtype=np.int64)
     return np.minimum(pairs[0], pairs[1]) * n + np.maximum(pairs[0], pairs[1])
 
 
-def _element_edges(t: np.ndarray):
-    """The three edges of every triangle, as corner indices into ``t.ravel()``.
-
-    Corner ``i m + e`` is vertex ``i`` of triangle ``e`` (``m`` triangles), the
-    order of ``t.ravel()``. Returns ``(ci, cj)``: the corners at the two ends
-    of edges ``(0, 1)``, ``(1, 2)``, ``(2, 0)`` of every triangle, shape ``(3 m,)``.
-    """
-    m = t.shape[1]
-    e = np.arange(m, dtype=np.int64)
-    ci = np.concatenate([0 * m + e, 1 * m + e, 2 * m + e])
-    cj = np.concatenate([1 * m + e, 2 * m + e, 0 * m + e])
-    return ci, cj
-
-
-# --------------------------------------------------------------------------
-# 1. node duplication
-# --------------------------------------------------------------------------
+# --- 1. node duplication ---
 def duplicate_along_edges(t, n_nodes, edges):
     """Duplicate nodes so that the given edges open: the core of a cut.
 
@@ -278,61 +225,49 @@ def duplicate_along_edges(t, n_nodes, edges):
     Notes
     -----
     For every node ``v`` on a cut edge, its triangles are grouped into *fans*:
-    two triangles around ``v`` are in the same fan if they share an edge
-    ``(v, x)`` that is not cut (and fans are closed under that). Each fan
-    will be one side of the wound at ``v``:
+    two triangles around ``v`` are in the same fan if they share an uncut edge
+    ``(v, x)`` (closed under that). Each fan is one side of the wound at ``v``:
 
     * a node in the middle of a cut from boundary to boundary has two cut
-      edges, which split its ring (or, on the boundary, its half-ring) in two:
-      it gets one copy;
+      edges, which split its ring (or half-ring) in two: it gets one copy;
     * the tip of an interior crack has one cut edge; its ring stays connected
-      the other way round, so it keeps a single node (a crack is open along
-      its length and closed at its tips);
+      the other way round, so it keeps a single node (a crack is closed at its tips);
     * where ``j`` cut edges meet at an interior node, its ring breaks into
       ``j`` fans (``j - 1`` copies); at a boundary node, ``j + 1`` fans.
 
-    The fan holding the lowest-numbered triangle keeps the node; the other
-    fans get new nodes in the order (node, lowest triangle of the fan), so the
-    output depends only on the input. A cut edge on the boundary opens
-    nothing and does no harm; a single interior edge with both ends interior
-    does not open either (both ends are tips).
-
-    The fans of all cut nodes are found at once: the *corners* (triangle,
-    vertex) of the cut nodes are linked whenever two triangles share an uncut
-    edge at that vertex, and the connected components of that graph are the
-    fans.
+    The fan holding the lowest-numbered triangle keeps the node; the others get
+    new nodes in the order (node, lowest triangle of the fan), so the output
+    depends only on the input. A cut edge on the boundary opens nothing, nor
+    does a single interior edge with both ends interior (both ends are tips).
+    All fans are found at once: the *corners* (triangle, vertex) of the cut
+    nodes are linked whenever two triangles share an uncut edge at that vertex,
+    and the fans are the connected components of that graph.
     """
-    n_nodes = _count("n_nodes", n_nodes)
-    t = _index_array("t", t, 3)
+    t, n_nodes = _triangles(t, n_nodes)
     m = t.shape[1]
-    if m and (t.min() < 0 or t.max() >= n_nodes):
-        raise ValueError(f"t must hold node indices in [0, n_nodes) = [0, {n_nodes}), got range [{t.min()}, {t.max()}]")
     edges = _index_array("edges", edges, 2)
     parent = np.arange(n_nodes, dtype=np.int64)
     if edges.shape[1] == 0:
         return t.copy(), parent
     if edges.min() < 0 or edges.max() >= n_nodes:
         bad = int(np.flatnonzero((edges < 0).any(axis=0) | (edges >= n_nodes).any(axis=0))[0])
-        raise ValueError(
-            f"edges: column {bad} = ({edges[0, bad]}, {edges[1, bad]}) is out of the node range [0, {n_nodes})"
-        )
+        raise ValueError(f"edges: column {bad} = ({edges[0, bad]}, {edges[1, bad]}) is out of the node range "
+                         f"[0, {n_nodes})")
 
-    flat = t.ravel()  # corner -> node
-    ci, cj = _element_edges(t)
+    flat = t.ravel()  # corner -> node: corner i m + e is vertex i of triangle e
+    ci = np.arange(3 * m, dtype=np.int64)
+    cj = np.roll(ci, -m)  # ci -> cj: the edges (0, 1), (1, 2), (2, 0) of every triangle
     a, b = flat[ci], flat[cj]
     key = _keys(np.stack([a, b]), n_nodes)
     cut_key = _keys(edges, n_nodes)
     known = np.isin(cut_key, key)
     if not np.all(known):
         bad = int(np.flatnonzero(~known)[0])
-        raise ValueError(
-            f"edges: ({edges[0, bad]}, {edges[1, bad]}) (column {bad}) is not an edge of the mesh "
-            f"(no triangle has both nodes)"
-        )
+        raise ValueError(f"edges: ({edges[0, bad]}, {edges[1, bad]}) (column {bad}) is not an edge of the mesh "
+                         f"(no triangle has both nodes)")
 
-    cut_nodes = np.unique(edges)
     is_cut_node = np.zeros(n_nodes, dtype=bool)
-    is_cut_node[cut_nodes] = True
+    is_cut_node[edges.ravel()] = True
 
     # Pair up the occurrences of each edge in different triangles (sorted by
     # key, each occurrence with the next one of the same key; on a manifold
@@ -341,9 +276,8 @@ def duplicate_along_edges(t, n_nodes, edges):
     order = np.argsort(key, kind="stable")
     ks = key[order]
     same = np.flatnonzero(ks[1:] == ks[:-1])
-    o1, o2 = order[same], order[same + 1]
     keep = ~np.isin(ks[same], cut_key)
-    o1, o2 = o1[keep], o2[keep]
+    o1, o2 = order[same][keep], order[same + 1][keep]
     links = []
     for end in (a, b):
         node = end[o1]
@@ -358,9 +292,8 @@ def duplicate_along_edges(t, n_nodes, edges):
     corners = np.flatnonzero(is_cut_node[flat])
     local = np.full(flat.size, -1, dtype=np.int64)
     local[corners] = np.arange(corners.size)
-    graph = sp.coo_matrix(
-        (np.ones(links.shape[1]), (local[links[0]], local[links[1]])), shape=(corners.size, corners.size)
-    )
+    graph = sp.coo_matrix((np.ones(links.shape[1]), (local[links[0]], local[links[1]])),
+                          shape=(corners.size, corners.size))
     n_fans, fan = csgraph.connected_components(graph, directed=False)
 
     # each fan holds corners of a single node (links only join corners of the same node)
@@ -382,29 +315,14 @@ def duplicate_along_edges(t, n_nodes, edges):
     return new_flat.reshape(3, m), parent
 
 
-# --------------------------------------------------------------------------
-# 5. pieces, 6. picking nodes
-# --------------------------------------------------------------------------
+# --- 5. pieces, 6. picking nodes ---
 def connected_components(t, n_nodes):
-    """The pieces of a mesh: nodes connected through its triangles.
+    """The pieces of a mesh ``t (3, m)`` with ``n_nodes`` nodes: nodes connected through its triangles.
 
-    Parameters
-    ----------
-    t : array_like of int, shape (3, m)
-    n_nodes : int
-
-    Returns
-    -------
-    n_pieces : int
-        Number of pieces. A node used by no triangle is a piece of its own.
-    labels : ndarray of int, shape (n_nodes,)
-        The piece of every node, numbered in the order of each piece's lowest
-        node (so node 0 is in piece 0).
+    Returns ``(n_pieces, labels)``: the number of pieces (a node used by no triangle is a piece of its own)
+    and the piece of every node, shape (n_nodes,), numbered in the order of each piece's lowest node.
     """
-    n_nodes = _count("n_nodes", n_nodes)
-    t = _index_array("t", t, 3)
-    if t.size and (t.min() < 0 or t.max() >= n_nodes):
-        raise ValueError(f"t must hold node indices in [0, n_nodes) = [0, {n_nodes}), got range [{t.min()}, {t.max()}]")
+    t, n_nodes = _triangles(t, n_nodes)
     rows = np.concatenate([t[0], t[1]])
     cols = np.concatenate([t[1], t[2]])
     graph = sp.coo_matrix((np.ones(rows.size), (rows, cols)), shape=(n_nodes, n_nodes))
@@ -413,22 +331,8 @@ def connected_components(t, n_nodes):
 
 
 def nodes_near(positions, point, radius):
-    """Indices (increasing) of the nodes within ``radius`` of ``point``.
-
-    Parameters
-    ----------
-    positions : array_like, shape (2, n_nodes)
-        Node positions (``mesh.p``, or the deformed positions).
-    point : array_like, shape (2,)
-    radius : float
-        Finite and >= 0; a node at exactly ``radius`` counts.
-
-    Raises
-    ------
-    ValueError
-        If no node is that close (the message names the point and radius),
-        or for bad arguments.
-    """
+    """Indices (increasing) of the nodes at ``positions`` (2, n_nodes) within ``radius`` (finite, >= 0, a node at
+    exactly ``radius`` counts) of ``point`` (2,); ``ValueError`` if no node is that close, or for bad arguments."""
     try:
         x = np.asarray(positions, dtype=float)
     except (TypeError, ValueError):
@@ -447,21 +351,17 @@ def nodes_near(positions, point, radius):
     found = np.flatnonzero(d <= radius)
     if found.size == 0:
         nearest = float(np.nanmin(d)) if d.size else math.inf
-        raise ValueError(
-            f"no node within radius={radius!r} of point=({c[0]:g}, {c[1]:g}); the nearest is {nearest:.3g} away"
-        )
+        raise ValueError(f"no node within radius={radius!r} of point=({c[0]:g}, {c[1]:g}); "
+                         f"the nearest is {nearest:.3g} away")
     return found
 
 
-# --------------------------------------------------------------------------
-# 2. the path of a cut
-# --------------------------------------------------------------------------
+# --- 2. the path of a cut ---
 def _segment_distance(px, py, ax, ay, bx, by):
     """Distance from points (px, py) to segments (a, b); broadcasts."""
     dx, dy = bx - ax, by - ay
     L2 = dx * dx + dy * dy
-    s = ((px - ax) * dx + (py - ay) * dy) / np.where(L2 > 0.0, L2, 1.0)
-    s = np.clip(s, 0.0, 1.0)
+    s = np.clip(((px - ax) * dx + (py - ay) * dy) / np.where(L2 > 0.0, L2, 1.0), 0.0, 1.0)
     return np.hypot(px - ax - s * dx, py - ay - s * dy)
 
 
@@ -476,20 +376,16 @@ def _inside(x, t, q) -> bool:
     area = cross(a, b, c)
     s1, s2, s3 = cross(qq, b, c), cross(a, qq, c), cross(a, b, qq)
     # q is inside when the three sub-areas have the sign of the whole (either orientation)
-    tol = 1e-12 * np.abs(area)
-    sign = np.sign(area)
-    ok = (sign * s1 >= -tol) & (sign * s2 >= -tol) & (sign * s3 >= -tol) & (area != 0.0)
-    return bool(np.any(ok))
+    tol, sign = 1e-12 * np.abs(area), np.sign(area)
+    return bool(np.any((sign * s1 >= -tol) & (sign * s2 >= -tol) & (sign * s3 >= -tol) & (area != 0.0)))
 
 
 def _boundary_snap(x, t, bfacets, end, towards):
     """The boundary node where a polyline that starts at ``end`` enters (or leaves) the body.
 
-    ``bfacets`` (2, nb) are the boundary facets. If ``end`` lies outside the
-    body or within half a facet of its boundary, returns the boundary node
-    where the segment ``end -> towards`` first crosses the boundary (the
-    nearer end of the crossed facet), or the boundary node nearest to ``end``
-    if the segment crosses none. Otherwise returns ``None``.
+    If ``end`` lies outside the body or within half a facet of its boundary (``bfacets`` (2, nb)), returns
+    the nearer end of the facet the segment ``end -> towards`` first crosses, or the boundary node nearest
+    to ``end`` if it crosses none. Otherwise returns ``None``.
     """
     A, B = x[:, bfacets[0]], x[:, bfacets[1]]
     dist = _segment_distance(end[0], end[1], A[0], A[1], B[0], B[1])
@@ -527,36 +423,32 @@ def cut_path(mesh, polyline, positions=None) -> np.ndarray:
     polyline : array_like, shape (k, 2), k >= 2
         The stroke, in the coordinates of ``positions``.
     positions : array_like, shape (2, n_nodes), optional
-        Where the nodes are now (the deformed configuration), so that a cut
-        drawn on the deformed tissue goes where it was drawn. Default
-        ``mesh.p``.
+        Where the nodes are now (default ``mesh.p``), so that a cut drawn on the
+        deformed tissue goes where it was drawn.
 
     Returns
     -------
     ndarray of int64
-        Node indices; consecutive entries are the two ends of a mesh edge.
-        The one exception is a step between two copies of the same material
-        point (nodes with the same ``mesh.p``, left by an earlier cut): that
-        is how a new stroke crosses an old wound.
+        Node indices; consecutive entries are the two ends of a mesh edge, or two
+        copies of the same material point (left by an earlier cut): that is how a
+        new stroke crosses an old wound.
 
     Notes
     -----
-    Each polyline vertex snaps to the nearest node. An *endpoint* outside
-    the body (or within about half an edge of its boundary) snaps instead to a
-    boundary node: the one where its first (or last) segment crosses the
-    boundary, so a stroke drawn across the whole body cuts it through (and
-    the path ends where it first meets the boundary: no steps along it). Between
-    consecutive snapped nodes the path is a shortest path (Dijkstra) over the
-    mesh edges, each costing ``length * (1 + 10 d / h)`` with ``d`` the mean
-    distance of its nodes from the drawn segment and ``h`` the median edge
-    length: the path hugs the line, within about one element.
+    Each polyline vertex snaps to the nearest node. An *endpoint* outside the
+    body (or within about half an edge of its boundary) snaps instead to the
+    boundary node where its first (or last) segment crosses the boundary, so a
+    stroke across the whole body cuts it through, and the path ends where it
+    first meets the boundary. Between snapped nodes the path is a shortest path
+    (Dijkstra) over the mesh edges, each costing ``length * (1 + 10 d / h)``
+    with ``d`` the mean distance of its nodes from the drawn segment and ``h``
+    the median edge length: the path hugs the line, within about one element.
 
     Raises
     ------
     ValueError
-        For a polyline that is not finite, not shaped (k, 2), has fewer than
-        two points, collapses to a single node, or joins two pieces that the
-        mesh does not connect.
+        For a polyline that is not finite, not shaped (k, 2), has fewer than two
+        points, collapses to a single node, or joins two unconnected pieces.
     """
     pts = _points("polyline", polyline, 2)
     p, t = _mesh_arrays(mesh)
@@ -609,15 +501,12 @@ def cut_path(mesh, polyline, positions=None) -> np.ndarray:
         cost = length * (1.0 + _HUG * 0.5 * (d[ends[0]] + d[ends[1]]) / h)
         # a floor keeps zero-length links (copies at the same place) in the graph
         cost = np.maximum(cost, 1e-12 * h)
-        graph = sp.csr_matrix(
-            (np.concatenate([cost, cost]), (np.r_[ends[0], ends[1]], np.r_[ends[1], ends[0]])), shape=(n, n)
-        )
+        graph = sp.csr_matrix((np.concatenate([cost, cost]), (np.r_[ends[0], ends[1]], np.r_[ends[1], ends[0]])),
+                              shape=(n, n))
         dist, pred = csgraph.dijkstra(graph, directed=True, indices=src, return_predecessors=True)
         if not np.isfinite(dist[dst]):
-            raise ValueError(
-                f"polyline segment {k} ({ax:g}, {ay:g}) -> ({bx:g}, {by:g}) joins nodes {src} and {dst}, "
-                f"which lie on pieces of the mesh that are not connected"
-            )
+            raise ValueError(f"polyline segment {k} ({ax:g}, {ay:g}) -> ({bx:g}, {by:g}) joins nodes {src} and {dst}, "
+                             f"which lie on pieces of the mesh that are not connected")
         leg = [dst]
         while leg[-1] != src:
             leg.append(int(pred[leg[-1]]))
@@ -635,23 +524,15 @@ def cut_path(mesh, polyline, positions=None) -> np.ndarray:
             while len(path) > 2 and int(_keys(np.array([[path[-2]], [path[-1]]]), n)[0]) in on_boundary:
                 path.pop()
     if len(path) < 2:
-        raise ValueError(
-            f"polyline collapses to the single node {path[0]}: draw a longer stroke "
-            f"(the mesh edges are about {h:.3g} long)"
-        )
+        raise ValueError(f"polyline collapses to the single node {path[0]}: draw a longer stroke "
+                         f"(the mesh edges are about {h:.3g} long)")
     return np.asarray(path, dtype=np.int64)
 
 
-# --------------------------------------------------------------------------
-# named boundaries across an edit
-# --------------------------------------------------------------------------
+# --- named boundaries across an edit ---
 def _carry_boundaries(old, new, parent, name, opened):
-    """Named facet sets of ``new`` from those of ``old`` (by parent pairs), plus ``name``.
-
-    ``opened`` (bool per facet of ``new``) marks the facets the edit created
-    on the boundary; they join the set ``name`` (merged with what the old
-    ``name`` carries over).
-    """
+    """Named facet sets of ``new`` from those of ``old`` (by parent pairs), plus the facets the edit opened
+    (``opened``, bool per facet of ``new``) added to the set ``name``."""
     n_old = old.p.shape[1]
     new_keys = _keys(parent[np.asarray(new.facets, dtype=np.int64)], n_old)
     old_facets = np.asarray(old.facets, dtype=np.int64)
@@ -677,11 +558,8 @@ def _carry_subdomains(old, elements):
 
 
 def _new_mesh(p, t) -> MeshTri:
-    """A MeshTri that keeps the vertex order of every triangle.
-
-    Fancy indexing along the node axis leaves Fortran-ordered arrays, which
-    scikit-fem would copy with a warning on large meshes: hand it C order.
-    """
+    """A MeshTri that keeps the vertex order of every triangle, given C-ordered arrays (fancy indexing leaves
+    Fortran order, which scikit-fem would copy with a warning on large meshes)."""
     return MeshTri(np.ascontiguousarray(p), np.ascontiguousarray(t), sort_t=False)
 
 
@@ -691,14 +569,8 @@ def _build(old, plain, parent, elements, name, opened, cut_edges) -> MeshEdit:
     subdomains = _carry_subdomains(old, elements)
     if subdomains:
         mesh = mesh.with_subdomains(subdomains)
-    return MeshEdit(
-        mesh=mesh,
-        parent=parent,
-        elements=elements,
-        cut_edges=cut_edges,
-        n_old_nodes=int(old.p.shape[1]),
-        n_old_elements=int(old.t.shape[1]),
-    )
+    return MeshEdit(mesh=mesh, parent=parent, elements=elements, cut_edges=cut_edges,
+                    n_old_nodes=int(old.p.shape[1]), n_old_elements=int(old.t.shape[1]))
 
 
 def _opened(new_mesh, parent, interior_keys, n_old) -> np.ndarray:
@@ -707,43 +579,20 @@ def _opened(new_mesh, parent, interior_keys, n_old) -> np.ndarray:
     return (np.asarray(new_mesh.f2t)[1] < 0) & np.isin(new_keys, interior_keys)
 
 
-# --------------------------------------------------------------------------
-# 3. incise
-# --------------------------------------------------------------------------
+# --- 3. incise ---
 def incise(mesh, polyline, positions=None) -> MeshEdit:
-    """Cut ``mesh`` along a drawn polyline.
+    """Cut ``mesh`` (not modified) along a drawn polyline.
 
-    The polyline becomes a path of mesh edges (:func:`cut_path`), whose edges
-    are opened by duplicating nodes (:func:`duplicate_along_edges`). A stroke
-    whose ends lie outside the body cuts it through; one that ends inside
-    leaves a crack whose tip stays closed.
+    The polyline becomes a path of mesh edges (:func:`cut_path`, which describes ``polyline`` and
+    ``positions``), opened by duplicating nodes (:func:`duplicate_along_edges`). A stroke whose ends lie
+    outside the body cuts it through; one that ends inside leaves a crack whose tip stays closed. The new
+    mesh is in the reference configuration (``p`` is ``mesh.p[:, parent]``; transfer the deformed state
+    with :meth:`MeshEdit.transfer`).
 
-    Parameters
-    ----------
-    mesh : skfem.MeshTri
-        Not modified.
-    polyline : array_like, shape (k, 2)
-        The stroke (see :func:`cut_path`).
-    positions : array_like, shape (2, n_nodes), optional
-        Current node positions to draw on (default ``mesh.p``). The new mesh
-        is always in the reference configuration: its ``p`` is
-        ``mesh.p[:, parent]``; transfer the deformed state with
-        :meth:`MeshEdit.transfer`.
-
-    Returns
-    -------
-    MeshEdit
-        ``elements`` is ``arange(m)`` (the triangles keep their indices and
-        vertex order); ``cut_edges`` are the old edges that opened. The new
-        mesh keeps every named boundary of ``mesh`` and names the two faces
-        of the wound ``"cut"`` (added to an existing ``"cut"``).
-
-    Raises
-    ------
-    ValueError
-        For a bad polyline (see :func:`cut_path`), or one that opens no edge
-        (it runs along the boundary, or is a single edge inside the body,
-        which a cut along edges cannot open).
+    Returns a :class:`MeshEdit` whose ``elements`` is ``arange(m)`` (the triangles keep their indices and
+    vertex order) and ``cut_edges`` the old edges that opened; the new mesh keeps every named boundary and
+    names the two faces of the wound ``"cut"``. Raises ``ValueError`` for a bad polyline, or one that opens
+    no edge (it runs along the boundary, or is a single edge inside the body, which cannot open).
     """
     p, t = _mesh_arrays(mesh)
     n = p.shape[1]
@@ -767,17 +616,12 @@ def incise(mesh, polyline, positions=None) -> MeshEdit:
     first = np.sort(first)
     cut_edges = pairs[:, first[np.isin(pair_keys[first], opened_keys)]]
     if cut_edges.shape[1] == 0:
-        raise ValueError(
-            f"polyline opens no edge: its path {path.tolist()} runs along the boundary or is a single "
-            f"interior edge (a crack needs at least one node strictly inside it)"
-        )
-    elements = np.arange(t.shape[1], dtype=np.int64)
-    return _build(mesh, plain, parent, elements, "cut", wound, cut_edges)
+        raise ValueError(f"polyline opens no edge: its path {path.tolist()} runs along the boundary or is a single "
+                         f"interior edge (a crack needs at least one node strictly inside it)")
+    return _build(mesh, plain, parent, np.arange(t.shape[1], dtype=np.int64), "cut", wound, cut_edges)
 
 
-# --------------------------------------------------------------------------
-# 4. excise
-# --------------------------------------------------------------------------
+# --- 4. excise ---
 def _region_mask(region, centroids) -> np.ndarray:
     m = centroids.shape[1]
     if callable(region):
@@ -786,10 +630,8 @@ def _region_mask(region, centroids) -> np.ndarray:
         except Exception as err:  # the user's function may raise anything: a refusal by name, not a crash
             raise ValueError(f"region (a function of the centroids) raised {type(err).__name__}: {err}") from None
         if mask.shape != (m,) or mask.dtype != bool:
-            raise ValueError(
-                f"region, as a function of the centroids (2, m), must return a bool array shaped ({m},), "
-                f"got dtype {mask.dtype} shape {mask.shape}"
-            )
+            raise ValueError(f"region, as a function of the centroids (2, m), must return a bool array shaped "
+                             f"({m},), got dtype {mask.dtype} shape {mask.shape}")
         return mask
 
     poly = _points("region", region, 3)
@@ -802,35 +644,16 @@ def _region_mask(region, centroids) -> np.ndarray:
 
 
 def excise(mesh, region, positions=None) -> MeshEdit:
-    """Remove the triangles whose centroid lies in ``region`` (a defect).
+    """Remove the triangles of ``mesh`` (not modified) whose centroid lies in ``region`` (a defect).
 
-    Parameters
-    ----------
-    mesh : skfem.MeshTri
-        Not modified.
-    region : array_like shaped (k, 2) with k >= 3, or callable
-        A polygon (its vertices in order; tested with
-        :meth:`matplotlib.path.Path.contains_points`), or a function
-        ``centroids (2, m) -> bool (m,)`` that is True for the triangles to
-        remove.
-    positions : array_like, shape (2, n_nodes), optional
-        Current node positions, for the centroids (default ``mesh.p``).
+    ``region`` is a polygon (k, 2), k >= 3 (tested with :meth:`matplotlib.path.Path.contains_points`), or a
+    function ``centroids (2, m) -> bool (m,)``, True for the triangles to remove; the centroids are taken
+    at ``positions`` (2, n_nodes) (default ``mesh.p``).
 
-    Returns
-    -------
-    MeshEdit
-        Nodes no longer used by any triangle are dropped and the rest
-        renumbered in their old order (``parent`` is increasing). The
-        surviving triangles keep their relative order (``elements``) and
-        their vertex order. The rim of the hole is named ``"defect"`` (added
-        to an existing ``"defect"``); old names keep their surviving facets.
-        ``cut_edges`` is empty.
-
-    Raises
-    ------
-    ValueError
-        If ``region`` is not a valid polygon or mask, selects no element, or
-        selects every element.
+    Returns a :class:`MeshEdit`: nodes no longer used are dropped and the rest renumbered in their old
+    order (``parent`` is increasing); the surviving triangles keep their relative and vertex order. The rim
+    of the hole is named ``"defect"``; old names keep their surviving facets. Raises ``ValueError`` if
+    ``region`` is not a valid polygon or mask, selects no element, or selects every element.
     """
     p, t = _mesh_arrays(mesh)
     x = _positions(mesh, positions)
