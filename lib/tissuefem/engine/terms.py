@@ -615,8 +615,7 @@ class Sutures(Term):
         return rows, cols, np.concatenate([w.ravel(), w.ravel()])
 
     def couplings(self):
-        rows, cols, _ = self._triplets()
-        return rows, cols
+        return self._triplets()[:2]
 
     def bind(self, pattern):
         super().bind(pattern)
