@@ -222,7 +222,9 @@ def main(argv=None) -> int:
     p.add_argument("--repeats", type=int, default=5, help="assembly: timed repetitions")
     p.add_argument("--frames", type=int, default=90, help="realtime: frames of the scripted drag")
     p.add_argument("--baseline-frames", type=int, default=10, help="realtime: frames of the ex43-way baseline")
-    p.add_argument("--linear", default="reuse-background", help="realtime: linear solver (reuse-background, reuse, reuse-pardiso, direct, superlu, superlu-colamd, pardiso)")
+    p.add_argument("--linear", default="reuse-background",
+                   help="realtime: linear solver (reuse-background, reuse, reuse-pardiso, direct, superlu, "
+                        "superlu-colamd, pardiso)")
     p.add_argument("--plan", default="full", choices=["full", "reduced", "tiny"],
                    help="accuracy: the sweep (full: several minutes; reduced: chapter 9's; tiny: seconds)")
     p.add_argument("--out", help="assembly: a JSON file; realtime, scenes, accuracy: a folder (default bench-results/)")

@@ -14,7 +14,6 @@ Index convention as everywhere in the package: ``F[i, j] = d phi_i / d X_j``.
 from __future__ import annotations
 
 import math
-import numbers
 
 import numpy as np
 
@@ -25,6 +24,7 @@ from ..engine.meshes import rectangle
 from ..engine.model import Handle, Model
 from ..engine.stepping import StaticResult, solve
 from .bench.common import cell_text, markdown_table
+from .bench.common import check_positive_int as _count
 from .measure import median_time, relative_l2_error
 
 __all__ = [
@@ -32,12 +32,6 @@ __all__ = [
     "rotated_block", "BLOCK_HANDLE", "block_model", "handle_force", "newton_iteration_time", "cost_accuracy_study",
     "format_cost_accuracy", "cost_accuracy_markdown", "RECORDED_COST_ACCURACY",
 ]
-
-
-def _count(name, value) -> int:
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
-        raise ValueError(f"{name} must be a positive integer, got {value!r}")
-    return int(value)
 
 
 def _sizes(name, values) -> tuple[int, ...]:

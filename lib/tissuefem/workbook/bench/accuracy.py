@@ -21,12 +21,10 @@ Each run records its *cost*, the median wall time per displayed frame (the solve
 The reference (:func:`reference_run`) pushes every knob further than any setting: P2 on a mesh graded
 towards the edges (:func:`graded_flap`; where a held edge meets a free one the solution is singular, and
 uniform refinement converges there at only about 1.6), Newton to ``rtol = 1e-10`` and, for the flap, a
-small time step extrapolated (Richardson: ``2 u(dt/2s) - u(dt/s)``). Its own error is *estimated* from the
-distances to the same reference on two coarser meshes (and two larger time steps) and the rate they show,
-``estimate = d / (2^p - 1)``; chapter 9 relies on it lying ten times below the smallest error of any setting.
-``verification`` adds the nonlinear models' mesh convergence
-(:func:`tissuefem.workbook.accuracy.manufactured_convergence`) and the published linear benchmark
-(:func:`tissuefem.workbook.accuracy.beam_problem_tip`). On the flap alone, :func:`solver_scaling` fits
+small time step extrapolated (Richardson). Its own error is *estimated* (:func:`_estimate`); chapter 9
+relies on it lying ten times below the smallest error of any setting. ``verification`` adds
+:func:`tissuefem.workbook.accuracy.manufactured_convergence` and
+:func:`~tissuefem.workbook.accuracy.beam_problem_tip`. On the flap alone, :func:`solver_scaling` fits
 ``ms ~ triangles^p`` per linear solver and :func:`budget_residual` shows what the budgeted solver leaves
 unfinished when its 33 ms are spent.
 
@@ -54,7 +52,7 @@ from ...surgery.scene import Scene, flap_path, flap_scene
 from ...surgery.simulation import Simulation
 from ..accuracy import beam_problem_tip, manufactured_convergence
 from ..measure import fitted_exponent, pareto_front, relative_l2_error
-from .common import load_results, machine_info, markdown_table, write_csv, write_json
+from .common import check_positive_int, load_results, machine_info, markdown_table, write_csv, write_json
 
 __all__ = [
     "Setting", "KNOBS", "PLANS", "BLOCK_TARGET", "EASE_IN", "REFERENCE_GRADING", "eased_flap_path", "graded_flap",
@@ -120,9 +118,7 @@ class Setting:
 
     def check(self) -> "Setting":
         for name in ("triangles", "max_iterations", "substeps"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-                raise ValueError(f"setting {name} must be a positive integer, got {value!r}")
+            check_positive_int(f"setting {name}", getattr(self, name))
         if self.order not in (1, 2):
             raise ValueError(f"setting order must be 1 or 2, got {self.order!r}")
         if self.material not in MATERIALS:
@@ -257,7 +253,7 @@ def _drive(solver, benchmark: str, frames: int, substeps: int, checkpoints=(), d
         ms.append(1e3 * spent)
         if f in checkpoints:
             states[f] = solver.u.copy()
-    each = dict(zip(fields, zip(*records)))
+    each = {k: [r[i] for r in records] for i, k in enumerate(fields)}
     stats = {
         "ms": ms,
         "ms_median": float(np.median(ms)),

@@ -18,7 +18,6 @@ compare columns of one run rather than numbers across runs.
 from __future__ import annotations
 
 import math
-import numbers
 import time
 
 import numpy as np
@@ -31,7 +30,7 @@ from ...engine.forms import residual_form, tangent_form
 from ...engine.materials import NeoHookean
 from ...engine.meshes import mesh_with_about
 from ..measure import median_time
-from .common import check_sizes, machine_info, markdown_table, write_json
+from .common import check_positive_int, check_sizes, machine_info, markdown_table, write_json
 
 __all__ = ["assembly_benchmark", "format_table"]
 
@@ -73,9 +72,7 @@ def assembly_benchmark(sizes=(2000, 8000, 32000), repeats=5, material=None, out=
     ``rel_diff_tangent``/``rel_diff_residual`` (relative Frobenius difference of the two paths, a sanity check).
     """
     sizes = check_sizes(sizes)
-    if isinstance(repeats, bool) or not isinstance(repeats, numbers.Integral) or repeats < 1:
-        raise ValueError(f"repeats must be a positive integer, got {repeats!r}")
-    repeats = int(repeats)
+    repeats = check_positive_int("repeats", repeats)
     if material is None:
         material = NeoHookean.from_young(TISSUE_E, TISSUE_NU)
     say = progress if progress is not None else (lambda *_: None)
