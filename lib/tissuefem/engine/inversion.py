@@ -137,14 +137,10 @@ def _rotate_back(U, V, A_hat):
 def _project_diagonal_blocks(A, floor):
     """Clamp the eigenvalues of a diagonal-space tangent's two 2x2 blocks at ``floor``."""
     out = np.zeros_like(A)
-    # stretch block over (dF00, dF11)
-    a, b, d = A[0, 0, 0, 0], 0.5 * (A[0, 0, 1, 1] + A[1, 1, 0, 0]), A[1, 1, 1, 1]
-    a, b, d = _project_sym2(a, b, d, floor)
-    out[0, 0, 0, 0], out[0, 0, 1, 1], out[1, 1, 0, 0], out[1, 1, 1, 1] = a, b, b, d
-    # twist/flip block over (dF01, dF10): [[p, c], [c, q]] (p = q for isotropic materials)
-    a, b, d = A[0, 1, 0, 1], 0.5 * (A[0, 1, 1, 0] + A[1, 0, 0, 1]), A[1, 0, 1, 0]
-    a, b, d = _project_sym2(a, b, d, floor)
-    out[0, 1, 0, 1], out[0, 1, 1, 0], out[1, 0, 0, 1], out[1, 0, 1, 0] = a, b, b, d
+    # the stretch block over (dF00, dF11), the twist/flip block over (dF01, dF10) (equal diagonal if isotropic)
+    for (i, j), (k, l) in (((0, 0), (1, 1)), ((0, 1), (1, 0))):
+        a, b, d = _project_sym2(A[i, j, i, j], 0.5 * (A[i, j, k, l] + A[k, l, i, j]), A[k, l, k, l], floor)
+        out[i, j, i, j], out[i, j, k, l], out[k, l, i, j], out[k, l, k, l] = a, b, b, d
     return out
 
 

@@ -4,48 +4,41 @@ Every material maps the deformation gradient ``F[i, j] = d phi_i / d X_j`` to
 
 * ``energy(F)``: the strain energy density ``Psi(F)``, shape ``F.shape[2:]``;
 * ``stress(F)``: the first Piola-Kirchhoff stress ``P = dPsi/dF``, shape ``F.shape``;
-* ``tangent(F)``: the fourth-order tangent ``A[i, j, k, l] = dP_ij / dF_kl``,
-  shape ``(2, 2, 2, 2) + F.shape[2:]``.
+* ``tangent(F)``: the fourth-order tangent ``A[i, j, k, l] = dP_ij / dF_kl``, shape ``(2, 2, 2, 2) + F.shape[2:]``.
 
-``F`` is a 2x2 matrix or a field of them shaped ``[2, 2, *rest]`` (scikit-fem
-hands us ``[2, 2, elements, quadrature points]``); everything is vectorised.
+``F`` is a 2x2 matrix or a field of them shaped ``[2, 2, *rest]`` (scikit-fem hands us
+``[2, 2, elements, quadrature points]``); everything is vectorised.
 
 Derivations (re-done here; checked by finite differences in ``tests/test_materials.py``)
 ---------------------------------------------------------------------------------------
 
-Two identities carry most of the work. In 2D ``J = det F = F00 F11 - F01 F10``,
-so entry by entry
+Two identities carry most of the work. In 2D ``J = det F = F00 F11 - F01 F10``, so entry by entry
 
     dJ/dF = cof F = J F^-T = [[F11, -F10], [-F01, F00]],
 
-and ``cof F`` is *linear* in ``F``: ``d(cof F)_ij / dF_kl = e_ik e_jl =: H_ijkl``
-with the 2D permutation symbol ``e_01 = 1, e_10 = -1``. Hence any volumetric
-energy ``h(J)`` has
+and ``cof F`` is *linear* in ``F``: ``d(cof F)_ij / dF_kl = e_ik e_jl =: H_ijkl`` with the 2D permutation symbol
+``e_01 = 1, e_10 = -1``. Hence any volumetric energy ``h(J)`` has
 
     P = h'(J) cof F,    A = h''(J) cof F (x) cof F + h'(J) H.
 
-The term ``mu/2 (F:F - 2)`` has ``P = mu F`` and ``A = mu I4`` with
-``I4_ijkl = d_ik d_jl``. The Neo-Hookean family below is exactly
-``mu/2 (F:F - 2) + h(J)`` for three choices of ``h``.
+The term ``mu/2 (F:F - 2)`` has ``P = mu F`` and ``A = mu I4`` with ``I4_ijkl = d_ik d_jl``. The Neo-Hookean family
+below is exactly ``mu/2 (F:F - 2) + h(J)`` for three choices of ``h``.
 
-At ``F = I``, ``H_ijkl = d_ij d_kl - d_il d_jk`` (a 2D identity), so a model
-with ``h'(1) = -mu`` and ``h''(1) = lam + mu`` linearises to the linear-elastic
-tangent ``lam d_ij d_kl + mu (d_ik d_jl + d_il d_jk)``: that is how each model
-below is checked to reduce to linear elasticity with the same ``(lam, mu)``.
+At ``F = I``, ``H_ijkl = d_ij d_kl - d_il d_jk`` (a 2D identity), so a model with ``h'(1) = -mu`` and
+``h''(1) = lam + mu`` linearises to the linear-elastic tangent ``lam d_ij d_kl + mu (d_ik d_jl + d_il d_jk)``: that
+is how each model below is checked to reduce to linear elasticity with the same ``(lam, mu)``.
 
-Models: :class:`LinearElastic`, :class:`NeoHookean`, :class:`TaylorNeoHookean`,
-:class:`StableNeoHookean`, :class:`Corotated` (registry :data:`MATERIALS`, factory
-:func:`material`) and the anisotropic wrapper :class:`FiberReinforced`.
+Models: :class:`LinearElastic`, :class:`NeoHookean`, :class:`TaylorNeoHookean`, :class:`StableNeoHookean`,
+:class:`Corotated` (registry :data:`MATERIALS`, factory :func:`material`) and the anisotropic wrapper
+:class:`FiberReinforced`.
 
 Slips in the notes confirmed here
 ---------------------------------
-* The Neo-Hookean energy is printed with ``F_ij F_ji`` (``tr(F F)``), which is
-  not frame indifferent (``tr(R R) = 2 cos 2 theta`` for a rotation ``R``);
-  the stress printed next to it, ``mu F + ...``, is the derivative of
-  ``F_ij F_ij = F:F``, which is what we use.
-* The robust (Taylor) variant prints the matrix ``[[F22, -F12], [-F21, F11]]``
-  (the adjugate, ``J F^-1``); the derivative ``dJ/dF`` is its transpose, the
-  cofactor ``[[F22, -F21], [-F12, F11]]`` (1-based indices).
+* The Neo-Hookean energy is printed with ``F_ij F_ji`` (``tr(F F)``), which is not frame indifferent
+  (``tr(R R) = 2 cos 2 theta`` for a rotation ``R``); the stress printed next to it, ``mu F + ...``, is the
+  derivative of ``F_ij F_ij = F:F``, which is what we use.
+* The robust (Taylor) variant prints the matrix ``[[F22, -F12], [-F21, F11]]`` (the adjugate, ``J F^-1``); the
+  derivative ``dJ/dF`` is its transpose, the cofactor ``[[F22, -F21], [-F12, F11]]`` (1-based indices).
 """
 
 from __future__ import annotations
@@ -58,23 +51,9 @@ from .materials1d import _LameMaterial, _safe_log, taylor_log, taylor_log_prime,
 from .parameters import LAME_MAX, check_real, lame_parameters
 
 __all__ = [
-    "det2",
-    "cofactor2",
-    "inv2",
-    "Material",
-    "LinearElastic",
-    "NeoHookean",
-    "TaylorNeoHookean",
-    "StableNeoHookean",
-    "Corotated",
-    "FiberReinforced",
-    "fiber_invariant",
-    "fiber_energy",
-    "fiber_stress",
-    "fiber_tangent",
-    "check_fiber_stiffness",
-    "MATERIALS",
-    "material",
+    "det2", "cofactor2", "inv2", "Material", "LinearElastic", "NeoHookean", "TaylorNeoHookean", "StableNeoHookean",
+    "Corotated", "FiberReinforced", "fiber_invariant", "fiber_energy", "fiber_stress", "fiber_tangent",
+    "check_fiber_stiffness", "MATERIALS", "material",
 ]
 
 
@@ -158,8 +137,8 @@ class Material(_LameMaterial):
     def from_young(cls, E, nu, plane: str = "strain"):
         """Build from Young's modulus ``E > 0`` and Poisson's ratio ``-1 < nu < 0.5``.
 
-        ``plane="stress"`` (``lam -> 2 lam mu / (lam + 2 mu)``) is exact only for
-        linear elasticity; the nonlinear models refuse it.
+        ``plane="stress"`` (``lam -> 2 lam mu / (lam + 2 mu)``) is exact only for linear elasticity; the nonlinear
+        models refuse it.
         """
         lam, mu = lame_parameters(E, nu, plane)
         if plane == "stress" and not cls._plane_stress_ok:
@@ -174,9 +153,9 @@ class LinearElastic(Material):
     """Small-strain linear elasticity (the notes' first model).
 
     ``eps = (F + F^T)/2 - I``, ``Psi = mu eps:eps + lam/2 tr(eps)^2``. Since
-    ``d eps_ab / dF_ij = (d_ai d_bj + d_aj d_bi)/2`` and ``eps`` is symmetric,
-    ``P = 2 mu eps + lam tr(eps) I`` and ``A = lam d_ij d_kl + mu (d_ik d_jl + d_il d_jk)`` (constant).
-    Not frame indifferent (a pure rotation has ``eps != 0``): small deformations only. Finite for every F.
+    ``d eps_ab / dF_ij = (d_ai d_bj + d_aj d_bi)/2`` and ``eps`` is symmetric, ``P = 2 mu eps + lam tr(eps) I`` and
+    ``A = lam d_ij d_kl + mu (d_ik d_jl + d_il d_jk)`` (constant). Not frame indifferent (a pure rotation has
+    ``eps != 0``): small deformations only. Finite for every F.
     """
 
     name = "linear"
@@ -234,10 +213,10 @@ class NeoHookean(_NeoHookeanFamily):
     """The notes' Neo-Hookean model with ``ln J``.
 
     ``Psi = mu/2 (F:F - 2) - mu ln J + lam/2 (ln J)^2``, i.e. ``h(J) = -mu ln J + lam/2 (ln J)^2``,
-    ``h' = (lam ln J - mu)/J`` and ``h'' = (lam + mu - lam ln J)/J^2``. With ``cof F / J = F^-T`` this is
-    the notes' ``P = mu F + (lam ln J - mu) F^-T``. At ``J = 1``: ``h' = -mu``, ``h'' = lam + mu``, so the
-    small-strain limit is linear elasticity. (The notes print ``F_ij F_ji`` in the energy: a slip, see the
-    module docstring.) Undefined for ``J <= 0``: NaN there, without a warning, so a solver can detect inversion.
+    ``h' = (lam ln J - mu)/J`` and ``h'' = (lam + mu - lam ln J)/J^2``. With ``cof F / J = F^-T`` this is the notes'
+    ``P = mu F + (lam ln J - mu) F^-T``. At ``J = 1``: ``h' = -mu``, ``h'' = lam + mu``, so the small-strain limit is
+    linear elasticity. (The notes print ``F_ij F_ji`` in the energy: a slip, see the module docstring.) Undefined for
+    ``J <= 0``: NaN there, without a warning, so a solver can detect inversion.
     """
 
     name = "neo-Hookean"
@@ -259,13 +238,13 @@ class TaylorNeoHookean(_NeoHookeanFamily):
     """Neo-Hookean with ``ln J`` replaced by its cubic Taylor polynomial (the notes' robust variant).
 
     ``r(J) = (J-1) - (J-1)^2/2 + (J-1)^3/3`` (:func:`tissuefem.materials1d.taylor_log`),
-    ``Psi = mu/2 (F:F - 2) - mu r(J) + lam/2 r(J)^2``. So ``h = -mu r + lam/2 r^2``,
-    ``h' = (lam r - mu) r'`` and ``h'' = lam r'^2 + (lam r - mu) r''``, giving
+    ``Psi = mu/2 (F:F - 2) - mu r(J) + lam/2 r(J)^2``. So ``h = -mu r + lam/2 r^2``, ``h' = (lam r - mu) r'`` and
+    ``h'' = lam r'^2 + (lam r - mu) r''``, giving
 
         P = mu F + (lam r(J) - mu) r'(J) cof F,   cof F = [[F22, -F21], [-F12, F11]]
 
-    (1-based; the notes print the adjugate). ``r(1) = 0``, ``r'(1) = 1``, ``r''(1) = -1`` reproduce the
-    Neo-Hookean values at ``J = 1``: linear elasticity in the small-strain limit. Finite for every F.
+    (1-based; the notes print the adjugate). ``r(1) = 0``, ``r'(1) = 1``, ``r''(1) = -1`` reproduce the Neo-Hookean
+    values at ``J = 1``: linear elasticity in the small-strain limit. Finite for every F.
     """
 
     name = "neo-Hookean (cubic r(J))"
@@ -280,13 +259,13 @@ class StableNeoHookean(_NeoHookeanFamily):
     """Stable Neo-Hookean (Smith, de Goes, Kim, ACM TOG 37(2), 2018), 2D form without the log term.
 
     ``Psi = mu/2 (F:F - 2) + lam_s/2 (J - alpha)^2 - mu^2 / (2 lam_s)`` with ``lam_s = lam + mu`` and
-    ``alpha = 1 + mu / lam_s``; the constant makes ``Psi(I) = 0`` (the paper's energy has
-    ``Psi(I) = mu^2 / (2 lam_s)``; a constant changes neither stress nor tangent).
+    ``alpha = 1 + mu / lam_s``; the constant makes ``Psi(I) = 0`` (the paper's energy has ``Psi(I) = mu^2 / (2 lam_s)``;
+    a constant changes neither stress nor tangent).
 
-    ``h' = lam_s (J - alpha)``, ``h'' = lam_s``: ``P = mu F + lam_s (J - alpha) cof F``. At ``J = 1``,
-    ``h'(1) = -mu`` (rest is stress free: that fixes alpha) and ``h''(1) = lam_s = lam + mu`` (what
-    linearises to linear elasticity with ``(lam, mu)``, module docstring: that fixes lam_s).
-    ``lam_s > 0`` since ``lam > -2 mu / 3``. Finite for every F, no log.
+    ``h' = lam_s (J - alpha)``, ``h'' = lam_s``: ``P = mu F + lam_s (J - alpha) cof F``. At ``J = 1``, ``h'(1) = -mu``
+    (rest is stress free: that fixes alpha) and ``h''(1) = lam_s = lam + mu`` (what linearises to linear elasticity with
+    ``(lam, mu)``, module docstring: that fixes lam_s). ``lam_s > 0`` since ``lam > -2 mu / 3``. Finite for every F, no
+    log.
     """
 
     name = "stable neo-Hookean"
@@ -313,19 +292,15 @@ _RHO_MIN = math.sqrt(np.finfo(float).tiny)
 def _polar_rotation(F):
     """The 2D polar rotation of ``F = R S`` as ``(c, s, rho)``: ``R = [[c, -s], [s, c]]``.
 
-    ``R`` maximises ``tr(R^T F) = c (F00 + F11) + s (F10 - F01)`` over
-    rotations, so ``theta = atan2(F10 - F01, F00 + F11)`` and the maximum is
-    ``rho = tr S = hypot(F00 + F11, F10 - F01)``. Stationarity in theta is
-    exactly ``S = R^T F`` symmetric, for every F (also J <= 0, where S is
-    indefinite).
+    ``R`` maximises ``tr(R^T F) = c (F00 + F11) + s (F10 - F01)`` over rotations, so
+    ``theta = atan2(F10 - F01, F00 + F11)`` and the maximum is ``rho = tr S = hypot(F00 + F11, F10 - F01)``.
+    Stationarity in theta is exactly ``S = R^T F`` symmetric, for every F (also J <= 0, where S is indefinite).
 
-    At ``rho = 0`` the angle is undefined, and near it the rotation turns at a
-    rate ``1/rho`` (the tangent's ``R' (x) R' / rho`` term). Below :data:`_RHO_MIN`
-    (e.g. subnormal entries of F) ``1/rho`` overflows (``inf * 0 = NaN`` in the
-    tangent) and ``atan2`` loses precision; there ``R = I`` is used *consistently*
-    by energy, stress and tangent, the exact derivatives of
-    ``mu ||F - I||^2 + lam/2 (J - 1)^2`` in that tiny ball. The energy changes by
-    at most ``4 mu _RHO_MIN`` across the ball's edge.
+    At ``rho = 0`` the angle is undefined, and near it the rotation turns at a rate ``1/rho`` (the tangent's
+    ``R' (x) R' / rho`` term). Below :data:`_RHO_MIN` (e.g. subnormal entries of F) ``1/rho`` overflows
+    (``inf * 0 = NaN`` in the tangent) and ``atan2`` loses precision; there ``R = I`` is used *consistently* by energy,
+    stress and tangent, the exact derivatives of ``mu ||F - I||^2 + lam/2 (J - 1)^2`` in that tiny ball. The energy
+    changes by at most ``4 mu _RHO_MIN`` across the ball's edge.
     """
     x = F[0, 0] + F[1, 1]
     y = F[1, 0] - F[0, 1]
@@ -342,28 +317,27 @@ def _polar_rotation(F):
 class Corotated(Material):
     """Fixed corotated elasticity (Stomakhin, Howes, Schroeder, Teran, SCA 2012).
 
-    ``Psi = mu ||F - R||_F^2 + lam/2 (J - 1)^2`` with ``R`` the rotation of the
-    polar decomposition ``F = R S`` (closed form in 2D, :func:`_polar_rotation`).
+    ``Psi = mu ||F - R||_F^2 + lam/2 (J - 1)^2`` with ``R`` the rotation of the polar decomposition ``F = R S`` (closed
+    form in 2D, :func:`_polar_rotation`).
 
-    Stress: ``d||F - R||^2 = 2 (F - R):dF - 2 (F - R):dR`` and
-    ``(F - R):dR = (S - I):(R^T dR) = 0`` (symmetric against skew), so
+    Stress: ``d||F - R||^2 = 2 (F - R):dF - 2 (F - R):dR`` and ``(F - R):dR = (S - I):(R^T dR) = 0`` (symmetric against
+    skew), so
 
         P = 2 mu (F - R) + lam (J - 1) cof F.
 
     Tangent: ``R`` depends on F only through ``theta``, ``dR = R' dtheta`` with
-    ``R' = dR/dtheta = [[-s, -c], [c, -s]]``. From ``theta = atan2(y, x)``,
-    ``dtheta = (x dy - y dx)/rho^2`` with ``dx/dF = I``,
-    ``dy/dF = [[0, -1], [1, 0]]``, which simplifies to ``dtheta/dF = R'/rho``.
-    Hence ``dR_ij/dF_kl = R'_ij R'_kl / rho`` and
+    ``R' = dR/dtheta = [[-s, -c], [c, -s]]``. From ``theta = atan2(y, x)``, ``dtheta = (x dy - y dx)/rho^2`` with
+    ``dx/dF = I``, ``dy/dF = [[0, -1], [1, 0]]``, which simplifies to ``dtheta/dF = R'/rho``. Hence
+    ``dR_ij/dF_kl = R'_ij R'_kl / rho`` and
 
         A = 2 mu (I4 - R' (x) R' / rho) + lam cof F (x) cof F + lam (J - 1) H.
 
-    At ``F = I``: ``rho = 2``, ``R' = [[0, -1], [1, 0]]`` and
-    ``I4 - R'(x)R'/2 = (I4 + I4^T)/2``, so ``A`` is the linear-elastic tangent.
+    At ``F = I``: ``rho = 2``, ``R' = [[0, -1], [1, 0]]`` and ``I4 - R'(x)R'/2 = (I4 + I4^T)/2``, so ``A`` is the
+    linear-elastic tangent.
 
-    Finite for every finite F: where ``rho = 0`` (``F00 + F11 = F10 - F01 = 0``) ``R`` is undefined and
-    the exact tangent blows up like ``-1/rho``; within ``rho < _RHO_MIN`` energy, stress and tangent alike
-    take ``R = I`` (:func:`_polar_rotation`), so they stay finite and consistent.
+    Finite for every finite F: where ``rho = 0`` (``F00 + F11 = F10 - F01 = 0``) ``R`` is undefined and the exact
+    tangent blows up like ``-1/rho``; within ``rho < _RHO_MIN`` energy, stress and tangent alike take ``R = I``
+    (:func:`_polar_rotation`), so they stay finite and consistent.
     """
 
     name = "corotated"
@@ -488,19 +462,19 @@ class FiberReinforced(Material):
         Psi = Psi_base(F) + k/8 (I4 - 1)^2,
 
     scaled so that ``k`` *is* the extra small-strain modulus along the fibre: with ``F = I + grad u``,
-    ``I4 - 1 ~ 2 eps_ff`` (``eps_ff = g.eps.g``), so the fibre energy is ``~ k/2 eps_ff^2``, the 1D form
-    ``E/2 eps^2`` with modulus k (:meth:`fiber_modulus`). Derivatives, with ``a = F g`` (``dI4/dF = 2 a (x) g``):
+    ``I4 - 1 ~ 2 eps_ff`` (``eps_ff = g.eps.g``), so the fibre energy is ``~ k/2 eps_ff^2``, the 1D form ``E/2 eps^2``
+    with modulus k (:meth:`fiber_modulus`). Derivatives, with ``a = F g`` (``dI4/dF = 2 a (x) g``):
 
         P_fiber = k/2 (I4 - 1) a (x) g,
         A_fiber_ijkl = k a_i g_j a_k g_l + k/2 (I4 - 1) d_ik g_j g_l.
 
-    At ``F = I``, ``A_fiber = k g (x) g (x) g (x) g``, so ``A_ffff`` gains exactly k.
-    The fibre term resists compression as well as stretch (no tension-only switch).
+    At ``F = I``, ``A_fiber = k g (x) g (x) g (x) g``, so ``A_ffff`` gains exactly k. The fibre term resists compression
+    as well as stretch (no tension-only switch).
 
-    ``base`` is any :class:`Material` (another ``FiberReinforced`` gives a second fibre family),
-    ``stiffness`` is ``k >= 0``, finite, and ``fibers`` the directions, normalised here: shape ``(2,)``
-    (uniform), ``(2, n_elements)`` (per element) or ``(2, n_elements, n_points)`` (per quadrature point);
-    ``(2, *g_shape)`` is aligned with the *leading* axes of ``F.shape[2:]`` and must broadcast to it.
+    ``base`` is any :class:`Material` (another ``FiberReinforced`` gives a second fibre family), ``stiffness`` is
+    ``k >= 0``, finite, and ``fibers`` the directions, normalised here: shape ``(2,)`` (uniform), ``(2, n_elements)``
+    (per element) or ``(2, n_elements, n_points)`` (per quadrature point); ``(2, *g_shape)`` is aligned with the
+    *leading* axes of ``F.shape[2:]`` and must broadcast to it.
     """
 
     def __init__(self, base: Material, stiffness, fibers):

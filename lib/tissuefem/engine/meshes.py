@@ -32,18 +32,8 @@ from skfem import MeshTri
 from .parameters import check_count, check_real
 
 __all__ = [
-    "edge_lengths",
-    "mesh_size",
-    "mean_edge_length",
-    "rectangle",
-    "mesh_with_about",
-    "fusiform_muscle",
-    "fusiform_width",
-    "fusiform_fiber_direction",
-    "fusiform_fiber_field",
-    "flap",
-    "signed_areas",
-    "check_mesh",
+    "edge_lengths", "mesh_size", "mean_edge_length", "rectangle", "mesh_with_about", "fusiform_muscle",
+    "fusiform_width", "fusiform_fiber_direction", "fusiform_fiber_field", "flap", "signed_areas", "check_mesh",
 ]
 
 #: The most triangles a generated domain (and a mesh passed to :func:`check_mesh`) may have.

@@ -38,26 +38,10 @@ import numbers
 import numpy as np
 
 __all__ = [
-    "lame_parameters",
-    "check_young_poisson",
-    "check_poisson_ratio",
-    "check_lame",
-    "check_real",
-    "check_count",
-    "check_time_step",
-    "YOUNGS_MODULUS_RANGE",
-    "POISSON_RATIO_RANGE",
-    "LAME_MAX",
-    "SHEAR_MODULUS_MIN",
-    "TIME_STEP_RANGE",
-    "DENSITY_RANGE",
-    "ACCELERATION_MAX",
-    "FORCE_MAX",
-    "PENALTY_MAX",
-    "REACH",
-    "RADIUS_RANGE",
-    "check_density",
-    "check_bounded_vector",
+    "lame_parameters", "check_young_poisson", "check_poisson_ratio", "check_lame", "check_real", "check_count",
+    "check_time_step", "YOUNGS_MODULUS_RANGE", "POISSON_RATIO_RANGE", "LAME_MAX", "SHEAR_MODULUS_MIN",
+    "TIME_STEP_RANGE", "DENSITY_RANGE", "ACCELERATION_MAX", "FORCE_MAX", "PENALTY_MAX", "REACH", "RADIUS_RANGE",
+    "check_density", "check_bounded_vector",
 ]
 
 #: Young's modulus accepted by :func:`check_young_poisson` (closed interval).
