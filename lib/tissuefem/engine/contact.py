@@ -200,11 +200,11 @@ class ContactSurface:
     material; ``wound`` (one bool per segment, optional) flags those on a wound's lips (for drawing and reports).
 
     Attributes: ``next`` / ``previous`` (n_segments,), the segment that starts where this one ends (ends where it
-    starts), -1 where there is none or more than one; ``neighbourhood`` (n_segments, 4), the points the broad phase
-    does not pair a segment with (its ends and its neighbours' far ends, -1 where missing); ``hinge_points``,
+    starts), -1 where there is none or more than one; ``neighbourhood`` (n_segments, 4), the points the broad phase does
+    not pair a segment with (its ends and its neighbours' far ends, -1 where missing); ``hinge_points``,
     ``hinge_segments``, ``hinge_corner``, the pairs it leaves out but that can touch where the surface folds back on
-    itself: at the corner between a segment and the next (``hinge_corner`` is the first), the far end of each
-    against the other (at a crack tip, the first point of one lip against the first segment of the other).
+    itself: at the corner between a segment and the next (``hinge_corner`` is the first), the far end of each against
+    the other (at a crack tip, the first point of one lip against the first segment of the other).
     """
 
     def __init__(self, nodes, weights, segments, n_nodes, wound=None):
@@ -212,8 +212,7 @@ class ContactSurface:
             raise ValueError(f"contact.surface: n_nodes must be a positive integer, got {n_nodes!r}")
         self.n_nodes = int(n_nodes)
         nodes = np.asarray(nodes)
-        if nodes.ndim == 1:
-            nodes = nodes[:, None]
+        nodes = nodes[:, None] if nodes.ndim == 1 else nodes
         if nodes.ndim != 2 or nodes.shape[1] < 1 or not (nodes.size == 0 or np.issubdtype(nodes.dtype, np.integer)):
             raise ValueError(f"contact.surface.nodes must be node indices shaped (n_points, k), got {nodes!r}")
         if nodes.size and (nodes.min() < 0 or nodes.max() >= self.n_nodes):
@@ -223,8 +222,7 @@ class ContactSurface:
             weights = np.asarray(weights, dtype=float)
         except (TypeError, ValueError):
             raise ValueError(f"contact.surface.weights must be numbers shaped {nodes.shape}") from None
-        if weights.ndim == 1:
-            weights = weights[:, None]
+        weights = weights[:, None] if weights.ndim == 1 else weights
         if weights.shape != nodes.shape or not np.all(np.isfinite(weights)):
             raise ValueError(f"contact.surface.weights must be finite and shaped like the nodes {nodes.shape}, "
                              f"got shape {weights.shape}")
@@ -272,9 +270,8 @@ class ContactSurface:
     def from_mesh(cls, mesh, wound_boundary="cut") -> "ContactSurface":
         """The boundary of a plain mesh: one point per boundary node, one segment per boundary facet.
 
-        After :func:`tissuefem.surgery.topology.incise` the two lips of a cut
-        are boundary facets between duplicated nodes, so they are part of it;
-        the facets named ``wound_boundary`` are flagged as wound.
+        After :func:`tissuefem.surgery.topology.incise` the two lips of a cut are boundary facets between duplicated
+        nodes, so they are part of it; the facets named ``wound_boundary`` are flagged as wound.
         """
         p = np.asarray(mesh.p, dtype=float)
         facets = np.asarray(mesh.boundary_facets(), dtype=np.intp)
@@ -331,12 +328,12 @@ class ContactSurface:
 class Contact(Term):
     """Self-contact of a :class:`ContactSurface`: a one-sided barrier in the skin behind it (module docstring).
 
-    ``X`` (2, n_nodes) are the reference node positions; ``distance`` is ``d^``, the depth of the skin in which
-    contact pressure builds up (the largest overlap ever allowed), at most half the surface's median segment
-    length; ``stiffness`` is ``kappa``, a pressure (the contact pressure at an overlap of about ``0.46 d^``);
-    ``skin`` the Verlet list's margin (default: the median segment length). The hooks for the minimiser and the
-    stepper: :meth:`covers` (the pattern), :meth:`max_step` (collision detection), :meth:`begin_step` /
-    :meth:`end_step` (where a step starts).
+    ``X`` (2, n_nodes) are the reference node positions; ``distance`` is ``d^``, the depth of the skin in which contact
+    pressure builds up (the largest overlap ever allowed), at most half the surface's median segment length;
+    ``stiffness`` is ``kappa``, a pressure (the contact pressure at an overlap of about ``0.46 d^``); ``skin`` the
+    Verlet list's margin (default: the median segment length). The hooks for the minimiser and the stepper:
+    :meth:`covers` (the pattern), :meth:`max_step` (collision detection), :meth:`begin_step` / :meth:`end_step` (where a
+    step starts).
     """
 
     name = "contact"
@@ -387,9 +384,7 @@ class Contact(Term):
         self._fold[:n_seg] = np.where((surface.next >= 0) & turns_in, -1.0, 1.0)
         # hinges count only at corners that turn back into the material in the reference configuration (a crack
         # tip, a notch): closing such a corner is contact; closing a convex corner crushes the material between
-        into = surface.hinge_corner
-        e_in = Y[:, b[into]] - Y[:, a[into]]
-        e_out = Y[:, b[surface.next[into]]] - Y[:, a[surface.next[into]]]
+        e_in, e_out = e_s[:, surface.hinge_corner], e_s[:, surface.next[surface.hinge_corner]]
         size = np.hypot(*e_in) * np.hypot(*e_out)
         armed = (_cross(e_in, e_out) < -1e-9 * size) | ((np.abs(_cross(e_in, e_out)) <= 1e-9 * size)
                                                           & (_dot(e_in, e_out) < 0))
@@ -426,11 +421,11 @@ class Contact(Term):
 
     def _arc_neighbourhood(self, length, reach, stops) -> np.ndarray:
         """The points each segment is not paired with, (n_segments, k) padded with -1: its ends, the far ends of
-        its neighbours, and every point less than ``reach`` away from it along the surface at rest (walking
-        from its ends along the loop, but not round a corner in ``stops``, given by the segment ending there).
+        its neighbours, and every point less than ``reach`` away from it along the surface at rest (walking from its
+        ends along the loop, but not round a corner in ``stops``, given by the segment ending there).
 
-        Such a point is within the skin of the segment, or gets there only by folding the surface right over in
-        less than a few skins, where the sign of a gap says nothing.
+        Such a point is within the skin of the segment, or gets there only by folding the surface right over in less
+        than a few skins, where the sign of a gap says nothing.
         """
         surface = self.surface
         seg = surface.segments
@@ -545,8 +540,7 @@ class Contact(Term):
 
     def _ensure_list(self, Y) -> None:
         """Refresh the list when the points have moved more than ``skin / 2`` relative to each other since it
-        was built (a pair not in it was farther than ``d^ + skin`` apart, and has come closer by less than
-        ``skin``)."""
+        was built (a pair not in it was farther than ``d^ + skin`` apart, and has come closer by less than ``skin``)."""
         if self._spread(Y - self._list_points) > 0.5 * self.skin:
             self._refresh(Y)
 
@@ -587,9 +581,9 @@ class Contact(Term):
     @staticmethod
     def _classify_at(yp, ya, yb, y_before, y_after, has_previous, has_next, fold_start, fold_end):
         """The classification of :meth:`_classify` from coordinates (2, m): the point, the segment's ends, the
-        previous segment's start and the next segment's end (``has_*``: whether there is one; ``fold_*``: the
-        side a corner folded right back on itself opens to, see ``_fold``). A segment collapsed to a point (an
-        element crushed flat) gives NaN gaps, which count as no contact."""
+        previous segment's start and the next segment's end (``has_*``: whether there is one; ``fold_*``: the side a
+        corner folded right back on itself opens to, see ``_fold``). A segment collapsed to a point (an element crushed
+        flat) gives NaN gaps, which count as no contact."""
 
         def corner_normal(e_in, e_out, fold):
             """The pseudonormal of a corner: the mean of its segments' normals (of a corner folded right back,
@@ -741,9 +735,7 @@ class Contact(Term):
     # -------------------------------------------------------------- the term
     def energy(self, u) -> float:
         c = self._evaluate(u)
-        if c["p"].size == 0:
-            return 0.0
-        return float(np.sum(self._barrier(c)[0]))
+        return float(np.sum(self._barrier(c)[0])) if c["p"].size else 0.0
 
     def _dofs(self, points):
         """Node dofs (m, 6 width) and their weights of the point triples ``points`` (m, 3)."""
@@ -836,10 +828,10 @@ class Contact(Term):
         """Start a step at ``u``: pairs whose point is deeper than ``d^`` behind the segment are ignored until the
         step ends (module docstring). Returns how many surface points are through the surface now.
 
-        ``previous`` is the state before the handles moved to ``u``: pairs that the handles' own motion carries
-        through a wall (the collision detection of a Newton step) are *crossings*, remembered step after step
-        while their point stays deeper than ``d^`` behind the segment (and less than the segment's length:
-        farther, the sign of a gap says nothing).
+        ``previous`` is the state before the handles moved to ``u``: pairs that the handles' own motion carries through
+        a wall (the collision detection of a Newton step) are *crossings*, remembered step after step while their point
+        stays deeper than ``d^`` behind the segment (and less than the segment's length: farther, the sign of a gap says
+        nothing).
         """
         Y = self._points(u)
         self._step_start = Y.copy()
@@ -902,9 +894,9 @@ class Contact(Term):
     def _times_of_impact(self, Y0, dY, p, s) -> np.ndarray:
         """For every pair, the earliest ``tau`` in ``[0, 1]`` at which it reaches its wall (``inf`` if it does not).
 
-        The walls: the segment's line moved inward by ``d^`` (where the point projects onto the segment), and
-        circles of radius ``d^`` round its ends (behind a corner). A wall counts where the segment owns the
-        point: no neighbouring segment is nearer than ``d^`` then.
+        The walls: the segment's line moved inward by ``d^`` (where the point projects onto the segment), and circles of
+        radius ``d^`` round its ends (behind a corner). A wall counts where the segment owns the point: no neighbouring
+        segment is nearer than ``d^`` then.
         """
         out = np.full(p.size, np.inf)
         if p.size == 0:
