@@ -423,6 +423,9 @@ class Stepper:
         if not dynamic and np.any(values != previous):
             linearised, load_norm, factorizations = self._linearised_increment(fixed, free, values - previous)
         x_tilde = model.inertia.x_tilde if dynamic else None
+        # a quadratic energy with its exact factorization: one Newton step from any start reaches the minimiser
+        # (and the linearised start is it), so the first valid start is as good as the best
+        exact = model.quadratic and self.linear.constant
         for halvings in range(12):
             fraction = 0.5**halvings
             held = previous + fraction * (values - previous)
@@ -451,6 +454,8 @@ class Stepper:
                     E = model.energy(x)
                 if np.isfinite(E) and (best is None or E < best[1]):
                     best = (x, E, name)
+                    if exact:
+                        break
             if best is not None:
                 return best[0], best[1], fraction, best[2], load_norm, factorizations, crossed
         # the handles cannot move at all without leaving the valid states: stay
