@@ -1,4 +1,4 @@
-"""Reusable studies of chapters 3 and 4, and the reference answers of their exercises.
+"""Reusable studies of chapters 3 and 4 (their exercises' reference answers are in :mod:`tissuefem.workbook.answers`).
 
 Chapter 3 (kinematics, 2D linear elasticity): :func:`rotation`, :func:`bending_map` / :func:`bending_gradient`
 (a smooth example deformation with its exact ``F``), :func:`displacement_from_map`,
