@@ -19,10 +19,8 @@ The construction in 2D
    at (0, 0), 1 at (1, 0), 2 at (0, 1)). First, a stroke passing within 1e-6
    of an edge length of a node is moved onto it, once for the whole mesh, so
    that neighbouring triangles never disagree on whether it went through it.
-2. **The material of an element** is a :class:`Region`: the polygon its
-   material fills (the whole triangle if never cut), the cracks inside it that
-   do not separate it (*slits*), and the parts of its edges cut off from the
-   element across (*severed*). Its weight, the polygon's share of the
+2. **The material of an element** is a :class:`Region`: the polygon it fills,
+   its *slits* and *severed* edge parts. Its weight, the polygon's share of the
    triangle's area, is what :class:`~tissuefem.engine.assembly.P1Assembler`
    integrates over.
 3. **Splitting an element.** The region's boundary, its slits and the new
@@ -51,10 +49,9 @@ The construction in 2D
    it are severed instead: the cut's topology is snapped onto the element's
    edges (by less than the sliver's width), while the :class:`Wound` stays
    where the stroke was drawn.
-7. **One element per set of nodes.** Copies of one triangle that end up with
-   the same three nodes hold connected material (a short crack with both ends
-   in the neighbours, or the corners outside a V-shaped crack): they are one
-   element, whose region may have several polygons.
+7. **One element per set of nodes.** Copies of one triangle with the same
+   three nodes hold connected material (e.g. the corners outside a V-shaped
+   crack): they are one element, whose region may have several polygons.
 
 Cuts through vertices and along edges need no special case: the clipping keeps
 pieces on a triangle's edge and drops pieces of zero length; this
@@ -124,7 +121,9 @@ def _segments(name, value) -> np.ndarray:
 
 @dataclass(frozen=True, eq=False)
 class Region:
-    """The part of its triangle an element's material fills, in local coordinates ``(xi, eta)``.
+    """The part of its triangle an element's material fills.
+
+    In the triangle's local coordinates ``(xi, eta)``: vertex 0 at (0, 0), 1 at (1, 0), 2 at (0, 1).
 
     Attributes
     ----------
@@ -258,8 +257,7 @@ def _crossings(p, q, a, b):
     den = _cross(rx, ry, vx, vy)
     tr, tv = _EPS / lr, _EPS / lv
     if abs(den) > 1e-12 * lr * lv:
-        s = _cross(wx, wy, vx, vy) / den
-        u = _cross(wx, wy, rx, ry) / den
+        s, u = _cross(wx, wy, vx, vy) / den, _cross(wx, wy, rx, ry) / den
         if -tr <= s <= 1.0 + tr and -tv <= u <= 1.0 + tv:
             return [(min(max(s, 0.0), 1.0), min(max(u, 0.0), 1.0))]
         return []
@@ -343,16 +341,9 @@ _WHOLE = Region((np.array(_CORNERS),))
 class _Arrangement:
     """The planar graph of one element's region, old slits and new cut pieces (local coordinates).
 
-    Parameters
-    ----------
-    region : Region
-    cuts : list of (stroke0, stroke1, a, b)
-        New pieces of the stroke inside the triangle: stroke parameters of the
-        two ends (segment index + fraction) and the ends in local coordinates.
-    open_edge : three bools
-        Whether each local edge has an element across it (a cut along an edge
-        of the body's boundary separates nothing and is not recorded).
-    min_weight : float
+    ``cuts`` are the new pieces of the stroke in the triangle, ``(stroke0, stroke1, a, b)``: stroke
+    parameters (segment + fraction) and local coordinates of the two ends. ``open_edge`` (three bools) says
+    whether each local edge has an element across it (a cut along the body's boundary is not recorded).
     """
 
     def __init__(self, region: Region, cuts, open_edge, min_weight):
@@ -374,11 +365,8 @@ class _Arrangement:
                     continue  # the polygons are simple and apart: their edges meet at vertices only
                 for s, u in _crossings(pi, qi, pj, qj):
                     # the point from the older segment, so region boundaries stay where they were
-                    if kj < ki:
-                        pt = (pj[0] + u * (qj[0] - pj[0]), pj[1] + u * (qj[1] - pj[1]))
-                    else:
-                        pt = (pi[0] + s * (qi[0] - pi[0]), pi[1] + s * (qi[1] - pi[1]))
-                    v = self._vertex(_snap(*pt))
+                    a, b, f = (pj, qj, u) if kj < ki else (pi, qi, s)
+                    v = self._vertex(_snap(a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1])))
                     splits[i].append((s, v))
                     splits[j].append((u, v))
 
@@ -590,18 +578,12 @@ class _Arrangement:
                     s, e = _edge_param(k, self.verts[u]), _edge_param(k, self.verts[v])
                     touched[k].append((min(s, e), max(s, e)))
             touched = [_merge_intervals(iv) for iv in touched]
-            cut_off = []
-            for k in range(3):
-                for a, b in _subtract(touched[k], _subtract(touched[k], severed[k])):
-                    cut_off.append((_edge_point(k, a), _edge_point(k, b)))
+            cut_off = [(_edge_point(k, a), _edge_point(k, b)) for k in range(3)
+                       for a, b in _subtract(touched[k], _subtract(touched[k], severed[k]))]
             touched = [_subtract(touched[k], severed[k]) for k in range(3)]
             slits = [s for s, g in zip(slit_pts, slit_face) if g == i]
-            region = Region._trusted(
-                (np.array(pts),),
-                np.array(slits, dtype=float).reshape(-1, 2, 2),
-                np.array(cut_off, dtype=float).reshape(-1, 2, 2),
-                2.0 * f["area"],
-            )
+            region = Region._trusted((np.array(pts),), np.array(slits, dtype=float).reshape(-1, 2, 2),
+                                     np.array(cut_off, dtype=float).reshape(-1, 2, 2), 2.0 * f["area"])
             whole = len(pts) == 3 and not slits and not cut_off and abs(2.0 * f["area"] - 1.0) <= _EPS
             out.append((region, touched, whole))
         return out
@@ -840,8 +822,8 @@ def _weights(weights, m) -> np.ndarray:
 
 
 def _check_regions(regions, weights, m):
-    if regions is None:
-        regions = {}
+    """Checked ``(regions, weights)``: the weights follow from the regions, or must agree with them."""
+    regions = {} if regions is None else regions
     if not isinstance(regions, dict):
         raise ValueError(f"regions must be a dict element -> Region, got {type(regions).__name__}")
     out = {}

@@ -78,7 +78,7 @@ def pair_by_motion(mesh, positions, flap_elements, motion, tolerance) -> np.ndar
     wound = wound_nodes(mesh)
     t = mesh.t
     on_flap = np.zeros(mesh.nvertices, dtype=bool)
-    on_flap[t.ravel()] = True  # used by some triangle, and only by flap triangles:
+    on_flap[t.ravel()] = True  # a node of some triangle, and of flap triangles only
     on_flap[t[:, ~np.asarray(flap_elements, dtype=bool)].ravel()] = False
     flap_nodes = wound[on_flap[wound]]
     others = wound[~on_flap[wound]]
@@ -107,9 +107,9 @@ def _material_points(sim) -> np.ndarray:
     """A point inside the material of every element (reference coordinates), shape (2, n_elements)."""
     picture = sim.picture
     x = picture.points(sim.model.X)
-    centres = x[:, picture.triangles].mean(axis=1)
     out = np.empty((2, sim.mesh.nelements))
-    out[:, picture.element] = centres  # an element drawn as several triangles keeps the last one's centre
+    # an element drawn as several triangles keeps the last one's centre
+    out[:, picture.element] = x[:, picture.triangles].mean(axis=1)
     return out
 
 
@@ -169,20 +169,12 @@ def _close_flap(scene, *, in_flap, motion, samples, normals, method, tighten_fra
     tension = sim.tension()
     areas = sim.model.element_areas()
     flap = in_flap(_material_points(sim))
-    return FlapResult(
-        simulation=sim,
-        stitches=stitches,
-        tension=tension,
-        max_tension=float(tension.max()),
-        p95_tension=_weighted_percentile(tension, areas, 0.95),
-        mean_tension=float(np.dot(areas, np.maximum(tension, 0.0)) / areas.sum()),
-        flap_tension=float(np.dot(areas[flap], tension[flap]) / areas[flap].sum()),
-        max_gap=float(sim.suture_gaps().max()),
-        initial_gap=initial_gap,
-        suture_forces=sim.model.sutures.forces(sim.u),
-        reports=reports,
-        snapshots=snapshots,
-    )
+    return FlapResult(simulation=sim, stitches=stitches, tension=tension, max_tension=float(tension.max()),
+                      p95_tension=_weighted_percentile(tension, areas, 0.95),
+                      mean_tension=float(np.dot(areas, np.maximum(tension, 0.0)) / areas.sum()),
+                      flap_tension=float(np.dot(areas[flap], tension[flap]) / areas[flap].sum()),
+                      max_gap=float(sim.suture_gaps().max()), initial_gap=initial_gap,
+                      suture_forces=sim.model.sutures.forces(sim.u), reports=reports, snapshots=snapshots)
 
 
 def _patch_scene(name, description, patch, material, method, excisions, incisions, contact=False) -> Scene:
@@ -197,14 +189,10 @@ def _patch_scene(name, description, patch, material, method, excisions, incision
     }
     if contact:
         effects["contact"] = {}
-    return Scene(
-        name=name,
-        description=description,
-        domain={"shape": "rectangle", "width": width, "height": height, "triangles": int(n_triangles)},
-        material={"model": model, "youngs_modulus": youngs_modulus, "poisson_ratio": poisson_ratio},
-        effects=effects,
-        solver={"budget": 1e9, "rtol": 1e-6, "max_iterations": 100},
-    )
+    return Scene(name=name, description=description,
+                 domain={"shape": "rectangle", "width": width, "height": height, "triangles": int(n_triangles)},
+                 material={"model": model, "youngs_modulus": youngs_modulus, "poisson_ratio": poisson_ratio},
+                 effects=effects, solver={"budget": 1e9, "rtol": 1e-6, "max_iterations": 100})
 
 
 def _method(method) -> str:
@@ -311,6 +299,7 @@ def rotation_flap(*, width=4.0, height=3.0, n_triangles=3000, pivot=(1.5, 1.5), 
                          "A wedge-shaped defect closed by rotating the flap beside it about its pivot.",
                          (width, height, n_triangles), (model, youngs_modulus, poisson_ratio), method,
                          [defect.tolist()], [arc(a1, a0, n_arc).tolist()], contact)
+
     def motion(X):  # the flap fans out: each radius turns in proportion to its angle from the base
         d = np.asarray(X, float) - np.array([[px], [py]])
         ang = np.arctan2(d[1], d[0])
@@ -325,7 +314,7 @@ def rotation_flap(*, width=4.0, height=3.0, n_triangles=3000, pivot=(1.5, 1.5), 
         ang = np.where(ang < a0 - 1e-12, ang + 2 * np.pi, ang)
         return (np.hypot(d[0], d[1]) < r) & (ang > a0) & (ang < a1)
 
-    def parts(spacing):
+    def parts(spacing):  # (the leading edge, its normals, the rim, its normals)
         lead = _along((px, py), (px + r * np.cos(a1), py + r * np.sin(a1)), spacing)
         n = max(1, int(round(r * (a1 - a0) / spacing)))
         ang = a1 - (np.arange(n) + 0.5) / n * (a1 - a0)
@@ -334,12 +323,10 @@ def rotation_flap(*, width=4.0, height=3.0, n_triangles=3000, pivot=(1.5, 1.5), 
                 rim, -np.stack([np.cos(ang), np.sin(ang)], axis=1))
 
     def samples(spacing):
-        lead, _, rim, _ = parts(spacing)
-        return np.vstack([lead, rim])
+        return np.vstack(parts(spacing)[0::2])
 
     def normals(spacing):
-        _, n_lead, _, n_rim = parts(spacing)
-        return np.vstack([n_lead, n_rim])
+        return np.vstack(parts(spacing)[1::2])
 
     return _close_flap(scene, in_flap=in_flap, motion=motion, samples=samples, normals=normals, method=method,
                        tighten_frames=tighten_frames, settle_frames=settle_frames,

@@ -44,15 +44,7 @@ import scipy.sparse as sp
 from scipy.sparse import csgraph
 from skfem import MeshTri
 
-__all__ = [
-    "MeshEdit",
-    "duplicate_along_edges",
-    "cut_path",
-    "incise",
-    "excise",
-    "connected_components",
-    "nodes_near",
-]
+__all__ = ["MeshEdit", "duplicate_along_edges", "cut_path", "incise", "excise", "connected_components", "nodes_near"]
 
 #: The cost of a mesh edge in :func:`cut_path` is ``length * (1 + _HUG * d / h)``
 #: with ``d`` the mean distance of its two nodes from the drawn segment and ``h``
@@ -512,9 +504,8 @@ def cut_path(mesh, polyline, positions=None) -> np.ndarray:
             leg.append(int(pred[leg[-1]]))
         path.extend(leg[-2::-1])
 
-    # An end snapped to the boundary may reach it at a neighbouring boundary
-    # node and then walk along the boundary to the snapped one. Such steps
-    # open nothing: the cut ends where it first meets the boundary.
+    # An end snapped to the boundary may reach it at a neighbouring boundary node and walk along the
+    # boundary to the snapped one. Such steps open nothing: the cut ends where it first meets the boundary.
     if bfacets.size:
         on_boundary = set(_keys(bfacets, n).tolist())
         if boundary_start:
@@ -598,9 +589,7 @@ def incise(mesh, polyline, positions=None) -> MeshEdit:
     n = p.shape[1]
     path = cut_path(mesh, polyline, positions)
     pairs = np.stack([path[:-1], path[1:]])
-    facets = np.asarray(mesh.facets, dtype=np.int64)
-    facet_keys = _keys(facets, n)
-    interior_keys = facet_keys[np.asarray(mesh.f2t)[1] >= 0]
+    interior_keys = _keys(np.asarray(mesh.facets, dtype=np.int64), n)[np.asarray(mesh.f2t)[1] >= 0]
     # steps between copies of one point (crossing an old wound) are not edges;
     # edges on the boundary are already open
     pair_keys = _keys(pairs, n)
@@ -612,8 +601,7 @@ def incise(mesh, polyline, positions=None) -> MeshEdit:
     # the path's edges that actually opened, once each, in the order of the path
     opened_keys = _keys(parent[np.asarray(plain.facets, dtype=np.int64)[:, wound]], n)
     pair_keys = _keys(pairs, n)
-    _, first = np.unique(pair_keys, return_index=True)
-    first = np.sort(first)
+    first = np.sort(np.unique(pair_keys, return_index=True)[1])
     cut_edges = pairs[:, first[np.isin(pair_keys[first], opened_keys)]]
     if cut_edges.shape[1] == 0:
         raise ValueError(f"polyline opens no edge: its path {path.tolist()} runs along the boundary or is a single "
