@@ -1,9 +1,8 @@
 """Every lecture figure as a function: the command line and the chapters call the same code.
 
-:data:`FIGURES` maps each figure's name to its function, in the chapters' order;
-:func:`generate` writes them (``python -m tissuefem figures``). Figure modules
-draw; they never run a benchmark (recorded results are read through
-:mod:`tissuefem.workbook.bench.common`).
+:data:`FIGURES` maps each figure's name to its function, in the chapters' order; :func:`generate` writes them
+(``python -m tissuefem figures``). Figure modules draw; they never run a benchmark (recorded results are
+read through :mod:`tissuefem.workbook.bench.common`).
 """
 
 from __future__ import annotations
@@ -32,17 +31,14 @@ def generate(names=None, outdir="figures", progress=print) -> list[Path]:
     unknown = [n for n in names if n not in FIGURES]
     if unknown:
         raise ValueError(f"unknown figure(s) {unknown}; choose from {sorted(FIGURES)}")
-    outdir = Path(outdir)
     paths = []
     start = time.perf_counter()
     for i, name in enumerate(names, 1):
         t0 = time.perf_counter()
-        path = outdir / f"{name}.png"
+        path = Path(outdir) / f"{name}.png"
         FIGURES[name](path)
         paths.append(path)
         if progress:
-            progress(
-                f"[figure {i}/{len(names)}] {path}  ({time.perf_counter() - t0:.1f} s, "
-                f"total {time.perf_counter() - start:.1f} s)"
-            )
+            progress(f"[figure {i}/{len(names)}] {path}  ({time.perf_counter() - t0:.1f} s, "
+                     f"total {time.perf_counter() - start:.1f} s)")
     return paths

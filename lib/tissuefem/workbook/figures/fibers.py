@@ -13,11 +13,6 @@ from ..fibers import (K_FIBER, block_pull, confined_pull, fiber_direction, muscl
 _FIBER_COLOR = "#b2182b"
 
 
-def _centroids(p, t) -> np.ndarray:
-    """Centroids ``(2, n_elements)`` of triangles ``t`` with vertex positions ``p``."""
-    return p[:, t].mean(axis=1)
-
-
 def _segments(centers, directions, lengths) -> np.ndarray:
     """Line segments ``(n, 2, 2)`` of the given lengths, centred on ``centers`` along unit ``directions``."""
     half = 0.5 * lengths * directions
@@ -37,19 +32,19 @@ def _deformed_fibers(result, fibers, scale):
     F = problem.deformation_gradient(result.u)
     a = np.einsum("ije,je->ie", F, fibers)  # F g: the deformed fiber, length = stretch
     stretch = np.hypot(a[0], a[1])
-    return x, _segments(_centroids(x, problem.mesh.t), a / stretch, scale * stretch), stretch
+    return x, _segments(x[:, problem.mesh.t].mean(axis=1), a / stretch, scale * stretch), stretch  # at centroids
 
 
 @lecture_figure
 def fig03_fiber_field(path=None) -> Figure:
     """Notes' Figure 3 in 2D: the fiber field g of a fusiform muscle, one short segment per element.
 
-    The muscle is :func:`tissuefem.meshes.fusiform_muscle` and ``g`` :func:`tissuefem.meshes.fusiform_fiber_field`:
+    The muscle is :func:`tissuefem.meshes.fusiform_muscle`, ``g`` :func:`tissuefem.meshes.fusiform_fiber_field`:
     fibers run from tendon to tendon, fan out into the belly and converge again.
     """
     mesh = fusiform_muscle(nx=32, ny=8)
     g = fusiform_fiber_field(mesh)
-    c = _centroids(mesh.p, mesh.t)
+    c = mesh.p[:, mesh.t].mean(axis=1)  # element centroids
     fig = Figure(figsize=(9.0, 2.9), layout="constrained")
     ax = fig.subplots()
     X = np.linspace(0.0, 4.0, 201)

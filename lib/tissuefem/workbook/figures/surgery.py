@@ -221,13 +221,12 @@ def two_pieces_run(n_triangles=800, sag_frames=SAG_FRAMES, fall_frames=FALL_FRAM
     free_nodes = labels != labels[sim.handles["fixed"].nodes[0]]
     free_elements = free_nodes[sim.mesh.t[0]]
     side["right"] = free_nodes
-    # the free piece's centre of mass and velocity at the moment of the cut (the cut moves nothing)
+    del frames[-1], com[-1]
+    record(free_elements)  # the last frame again, drawn cut (the cut moves nothing)
+    # the free piece's centre of mass and velocity at the moment of the cut
     m = sim.model.inertia.M.diagonal()[0::2]
-    mass = m[free_nodes].sum()
-    y_cut = float(np.dot(m[free_nodes], sim.positions()[1, free_nodes]) / mass)
-    vy_cut = float(np.dot(m[free_nodes], sim.v.reshape(-1, 2)[free_nodes, 1]) / mass)
-    frames[-1] = (sim.positions().copy(), sim.mesh.t.copy(), free_elements)  # the last frame, drawn cut
-    com[-1] = _side_com(sim.positions(), m, free_nodes)
+    y_cut = com[-1][1]
+    vy_cut = float(np.dot(m[free_nodes], sim.v.reshape(-1, 2)[free_nodes, 1]) / m[free_nodes].sum())
     for _ in range(fall_frames):
         _check(sim.frame(), "the falling piece")
         record(free_elements)
