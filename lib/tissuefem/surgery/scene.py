@@ -178,9 +178,7 @@ budget = 0.0333333
 """
 
 
-# ---------------------------------------------------------------------------------------------------------------
-# checking fields
-# ---------------------------------------------------------------------------------------------------------------
+# --- checking fields ---------------------------------------------------------------------------------------------
 
 _REPR = reprlib.Repr()
 _REPR.maxstring = _REPR.maxother = 60
@@ -593,9 +591,7 @@ def _check_text_nesting(text, kind):
                          f"(line {line}); a scene needs at most 7")
 
 
-# ---------------------------------------------------------------------------------------------------------------
-# TOML output (the subset scenes use: tables, arrays of tables, numbers, strings, arrays)
-# ---------------------------------------------------------------------------------------------------------------
+# --- TOML output (the subset scenes use: tables, arrays of tables, numbers, strings, arrays) ---------------------
 
 # A TOML basic string may hold any Unicode scalar value except '"', '\' and the control characters, which
 # are escaped (\b \t \n \f \r, else \uXXXX); everything else, also outside the Basic Multilingual Plane, is
@@ -655,9 +651,7 @@ def _scene_path(path, argument="path") -> Path:
     return path
 
 
-# ---------------------------------------------------------------------------------------------------------------
-# the scene
-# ---------------------------------------------------------------------------------------------------------------
+# --- the scene ---------------------------------------------------------------------------------------------------
 
 class Scene:
     """A checked scene description.
@@ -829,9 +823,7 @@ class Scene:
         return mat
 
 
-# ---------------------------------------------------------------------------------------------------------------
-# mesh files
-# ---------------------------------------------------------------------------------------------------------------
+# --- mesh files --------------------------------------------------------------------------------------------------
 
 #: the cells a mesh file may hold: 3-node triangles, and lines and vertices (boundary and point groups)
 _CELLS_ALLOWED = ("triangle", "line", "vertex")

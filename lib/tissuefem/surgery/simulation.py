@@ -476,14 +476,13 @@ class Simulation:
         return merged, second.elements
 
     def _loose_elements(self, mesh, parent, sutures):
-        """``(loose, pieces)``: which elements of ``mesh`` lie in pieces that nothing holds (no handle, no suture
-        to a held piece), and how many such pieces there are. ``parent`` maps its nodes to the current
-        mesh's (through which the handles are carried); ``sutures`` are the stitches on ``mesh``. ``pieces``
-        is 0 when every piece is held -- or when none is (then :meth:`_check_held` has the say)."""
-        n = mesh.nvertices
-        t = mesh.t
-        rows = [t[0], t[1], t[2]]
-        cols = [t[1], t[2], t[0]]
+        """``(loose, pieces)``: which elements of ``mesh`` lie in pieces that nothing holds, and how many pieces.
+
+        ``parent`` maps its nodes to the current mesh's (which carries the handles); ``sutures`` are the stitches
+        on ``mesh``. ``pieces`` is 0 when every piece is held -- or none is (then :meth:`_check_held` has the say).
+        """
+        t, n = mesh.t, mesh.nvertices
+        rows, cols = list(t), list(t[[1, 2, 0]])  # the three edges of every triangle
         if sutures is not None:  # a stitch joins the pieces of its two ends
             rows.append(t[0, sutures["elements"][0]])
             cols.append(t[0, sutures["elements"][1]])
