@@ -344,7 +344,8 @@ def test_a_bad_handle_map_is_refused_when_set():
 
 def test_a_linear_scene_accepts_a_reuse_backend_name():
     sim = make(dynamic=False, model="linear")
-    sim2 = Simulation(Scene.from_dict({**sim.scene.to_dict(), "solver": {"linear_solver": "reuse-superlu"}}))
+    sim2 = Simulation(Scene.from_dict({**sim.scene.to_dict(), "solver": {"linear_solver": "reuse-superlu"}}),
+                      clock=lambda: 0.0)
     assert sim2.frame().converged
 
 
