@@ -196,12 +196,11 @@ def _show(value) -> str:
         return f"a {type(value).__name__}"
 
 
-def _number(field, value, *, positive=False, nonnegative=False, integer=False, below=None,
-            lo=None, hi=None, lo_open=False, hi_open=False):
-    """``value`` as a number for ``field`` within a range; ``ValueError`` naming ``field`` otherwise.
+def _number(field, value, *, positive=False, nonnegative=False, integer=False, lo=None, hi=None):
+    """``value`` as a number for ``field`` within ``[lo, hi]``; ``ValueError`` naming ``field`` otherwise.
 
-    ``positive`` (> 0), ``nonnegative`` (>= 0) and ``below`` (< below) are shorthands for ``lo``/``hi``
-    with open or closed ends; with ``integer``, a float such as ``800.0`` is refused.
+    Without ``lo``, ``positive`` means > 0 and ``nonnegative`` >= 0; with ``integer``, a float such as
+    ``800.0`` is refused.
     """
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise ValueError(f"{field} must be a number, got {_show(value)}")
@@ -209,10 +208,8 @@ def _number(field, value, *, positive=False, nonnegative=False, integer=False, b
         low = lo if lo is not None else 1 if positive else 0 if nonnegative else -(2**63)
         return check_count(field, value, int(low), None if hi is None else int(hi))
     if lo is None and (positive or nonnegative):
-        lo, lo_open = 0.0, positive
-    if hi is None and below is not None:
-        hi, hi_open = below, True
-    return check_real(field, value, lo, hi, lo_open=lo_open, hi_open=hi_open)
+        return check_real(field, value, 0.0, hi, lo_open=positive)
+    return check_real(field, value, lo, hi)
 
 
 def _is_sequence(value) -> bool:
