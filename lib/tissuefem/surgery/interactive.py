@@ -598,10 +598,7 @@ class SurgeryView:
         self.canvas.draw()
 
     def timings(self, last=None) -> dict:
-        """Medians of the step and the draw (ms), their sum, and the frames drawn per second.
-
-        ``last``: only the last so many frames and draws (default all that are kept).
-        """
+        """Medians of the step and the draw (ms), their sum, and the frames drawn per second (of the ``last`` ones)."""
         steps = self.frame_times[-last:] if last else self.frame_times
         draws = self.draw_times[-last:] if last else self.draw_times
         step = float(np.median(steps)) if steps else None
@@ -862,10 +859,8 @@ class SurgeryView:
         try:
             import ipywidgets as widgets
         except ImportError:
-            raise ImportError(
-                "SurgeryView.controls needs ipywidgets (pip install 'tissuefem[interactive]'); "
-                "without it, press 'c' or set view.mode"
-            ) from None
+            raise ImportError("SurgeryView.controls needs ipywidgets (pip install 'tissuefem[interactive]'); "
+                              "without it, press 'c' or set view.mode") from None
         if self._widgets is None:
             mode = widgets.ToggleButtons(options=list(MODES), value=self._mode,
                                          tooltips=["drag the tissue", "draw a stroke to cut along"],
@@ -880,10 +875,7 @@ class SurgeryView:
         return self._widgets[2]
 
     def widget(self):
-        """The view as one widget, its buttons above the live figure.
-
-        ``None`` unless the canvas is an ipywidget (ipympl's, under ``%matplotlib widget``).
-        """
+        """The view as one widget, its buttons above the live figure; ``None`` unless the canvas is ipympl's."""
         try:
             import ipywidgets as widgets
         except ImportError:
