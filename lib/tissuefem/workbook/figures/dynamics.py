@@ -184,9 +184,8 @@ def fig_ch07_energy(path=None) -> Figure:
 
 
 def _flap_axes_limits(states, problem, margin: float = 0.08):
-    xs = np.concatenate([problem.deformed_positions(u)[0] for u in states])
-    ys = np.concatenate([problem.deformed_positions(u)[1] for u in states])
-    return (xs.min() - margin, xs.max() + margin), (ys.min() - margin, ys.max() + margin)
+    x = np.hstack([problem.deformed_positions(u) for u in states])
+    return (x[0].min() - margin, x[0].max() + margin), (x[1].min() - margin, x[1].max() + margin)
 
 
 def write_flap_animation(gif_path, problem, states, dt: float, dpi: int = 100) -> Path:

@@ -243,9 +243,8 @@ def _side_com(x, m, right):
 
 
 def _two_pieces_limits(frames, margin=0.08):
-    xs = np.concatenate([f[0][0] for f in frames])
-    ys = np.concatenate([f[0][1] for f in frames])
-    return (min(xs.min(), 0.0) - margin, xs.max() + margin), (ys.min() - margin, max(ys.max(), 1.0) + margin)
+    x = np.hstack([f[0] for f in frames])
+    return (min(x[0].min(), 0.0) - margin, x[0].max() + margin), (x[1].min() - margin, max(x[1].max(), 1.0) + margin)
 
 
 def _piece_colors(free_elements, alpha=0.75):
