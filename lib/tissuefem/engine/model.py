@@ -747,7 +747,8 @@ class Model:
             try:
                 seq = list(targets)
             except TypeError:
-                raise ValueError(f"targets must be a dict, a sequence (one per handle) or None, got {targets!r}") from None
+                raise ValueError("targets must be a dict, a sequence (one per handle) or None, "
+                                 f"got {targets!r}") from None
             if len(seq) != len(self.handles):
                 raise ValueError(f"targets has {len(seq)} entries but the model has {len(self.handles)} handles")
             items = list(enumerate(seq))

@@ -305,7 +305,8 @@ class SurgeryView:
     def __init__(self, sim, ax=None, radius=None, interval_ms=33, autostart=True):
         missing = [m for m in ("mesh", "positions", "frame", "grab", "drag", "release", "cut") if not hasattr(sim, m)]
         if missing:
-            raise ValueError(f"sim must be a tissuefem.surgery.simulation.Simulation; {type(sim).__name__} has no {missing}")
+            raise ValueError("sim must be a tissuefem.surgery.simulation.Simulation; "
+                             f"{type(sim).__name__} has no {missing}")
         radius = check_positive("radius", 2.0 * mean_edge_length(sim.mesh) if radius is None else radius)
         if isinstance(interval_ms, bool) or not isinstance(interval_ms, (int, np.integer)) or interval_ms < 1:
             raise ValueError(f"interval_ms must be a positive integer (milliseconds), got {interval_ms!r}")

@@ -369,7 +369,8 @@ def _check_region(field, r):
         return {"box": box}
     if "near" in r:
         _only(field, r, ("near", "radius"))
-        return {"near": _vector(f"{field}.near", r["near"]), "radius": _radius(f"{field}.radius", r.get("radius", 0.05))}
+        return {"near": _vector(f"{field}.near", r["near"]),
+                "radius": _radius(f"{field}.radius", r.get("radius", 0.05))}
     if "nodes" in r:
         _only(field, r, ("nodes",))
         nodes = _count_list(f"{field}.nodes", r["nodes"], "node indices", MAX_NODES)
@@ -508,7 +509,8 @@ def _check_solver(s):
 
 
 def _check_reach(effects, box, where=""):
-    """Points, displacements and radii against the domain's size ``L``: within ``REACH L``, radii ``>= MIN_RADIUS L``."""
+    """Points, displacements and radii against the domain's size ``L``: within ``REACH L``, radii
+    ``>= MIN_RADIUS L``."""
     x0, y0, x1, y1 = box
     size = max(x1 - x0, y1 - y0)
     cx, cy = 0.5 * (x0 + x1), 0.5 * (y0 + y1)

@@ -507,7 +507,8 @@ class Simulation:
             return None, {}
         else:
             weights = self._weights[edit.elements]
-            regions = {new: self._regions[old] for new, old in enumerate(edit.elements.tolist()) if old in self._regions}
+            regions = {new: self._regions[old] for new, old in enumerate(edit.elements.tolist())
+                       if old in self._regions}
         return (None if np.all(weights == 1.0) else weights), regions
 
     @staticmethod
