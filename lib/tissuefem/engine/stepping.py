@@ -476,19 +476,18 @@ class Stepper:
         try:
             with np.errstate(all="ignore"):
                 if model.quadratic and self.linear.constant:
-                    # a constant Hessian with a kept factorization: assembled once for these terms and this dt
-                    key = (id(model.pattern), tuple(id(t) for t in model.terms),
-                           None if model.inertia is None else model.inertia.dt)
-                    cached = getattr(self, "_constant_hessian", None)
-                    if cached is None or cached[0] != key:
-                        cached = self._constant_hessian = (key, model.hessian(self.u))
-                    K = cached[1]
+                    # a quadratic energy: g(u) + K dx is g(u + dx) exactly, and the constant K is needed only
+                    # to make the kept factorization
+                    rhs = -model.gradient(self.u + dx)[free]
+                    A = self.linear.matrix(self._quadratic_hessian, free)
                 else:
                     K = model.hessian(self.u)
-                rhs = -model.gradient(self.u)[free] - (K @ dx)[free]
-            if not (np.all(np.isfinite(K.data)) and np.all(np.isfinite(rhs))):
+                    rhs = -model.gradient(self.u)[free] - (K @ dx)[free]
+                    if not np.all(np.isfinite(K.data)):
+                        return None, 0.0, 0
+                    A = self.linear.matrix(lambda: K, free)
+            if not np.all(np.isfinite(rhs)):
                 return None, 0.0, 0
-            A = self.linear.matrix(lambda: K, free)
             load_norm = float(np.linalg.norm(rhs))
             if not math.isfinite(load_norm):  # finite entries whose norm overflows: no prediction from here
                 return None, 0.0, 0
@@ -499,6 +498,20 @@ class Stepper:
             return None, load_norm, info.factorizations
         dx[free] = dx_free
         return dx, load_norm, info.factorizations
+
+    def _quadratic_hessian(self):
+        """The constant Hessian of a quadratic model, assembled once for its terms and time step
+        (``ValueError`` when it is not finite)."""
+        model = self.model
+        dt = None if model.inertia is None else model.inertia.dt
+        key = (id(model.pattern), tuple(id(t) for t in model.terms), dt)
+        cached = getattr(self, "_quadratic_K", None)
+        if cached is None or cached[0] != key:
+            K = model.hessian(self.u)
+            if not np.all(np.isfinite(K.data)):
+                raise ValueError("the constant Hessian is not finite")
+            cached = self._quadratic_K = (key, K)
+        return cached[1]
 
 
 # ------------------------------------------------------------------------------------------------ quasistatics
