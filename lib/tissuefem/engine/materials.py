@@ -48,7 +48,7 @@ import math
 import numpy as np
 
 from .materials1d import _LameMaterial, _safe_log, taylor_log, taylor_log_prime, taylor_log_second
-from .parameters import LAME_MAX, check_real, lame_parameters
+from .parameters import LAME_MAX, check_real, check_real_array, lame_parameters
 
 __all__ = [
     "det2", "cofactor2", "inv2", "Material", "LinearElastic", "NeoHookean", "TaylorNeoHookean", "StableNeoHookean",
@@ -59,23 +59,8 @@ __all__ = [
 
 # --- 2x2 tensor helpers ---------------------------------------------------------
 
-def _real_array(name: str, value) -> np.ndarray:
-    """``value`` as a float array, else a ``ValueError`` naming ``name``: strings, ragged lists, objects, booleans
-    and complex numbers are refused (``np.asarray(..., dtype=float)`` would drop an imaginary part with a warning)."""
-    try:
-        a = np.asarray(value)
-    except (TypeError, ValueError):  # ragged nested lists
-        raise ValueError(f"{name} must be an array of real numbers, got a {type(value).__name__} that is not "
-                         "rectangular (ragged)") from None
-    if a.dtype.kind not in "iuf":
-        what = {"c": "complex numbers", "b": "booleans", "U": "strings", "S": "bytes", "O": "Python objects"}
-        raise ValueError(f"{name} must be an array of real numbers, got {what.get(a.dtype.kind, a.dtype)} "
-                         f"(dtype {a.dtype})")
-    return a if a.dtype == np.float64 else a.astype(np.float64)
-
-
 def _as_F(F) -> np.ndarray:
-    F = _real_array("F", F)
+    F = check_real_array("F", F)
     if F.ndim < 2 or F.shape[:2] != (2, 2):
         raise ValueError(f"F must be shaped [2, 2, ...], got shape {F.shape}")
     return F
@@ -384,7 +369,7 @@ _UNIT_TOL = 1e-6
 def _check_Fg(F, g):
     """``F`` shaped ``[2, 2, ...]`` and unit fibres ``g`` ``(2, ...)`` broadcasting against it, both finite."""
     F = _as_F(F)
-    g = _real_array("g (an array of 2D unit vectors)", g)  # complex g is refused, never truncated
+    g = check_real_array("g (an array of 2D unit vectors)", g)  # complex g is refused, never truncated
     if g.ndim < 1 or g.shape[0] != 2:
         raise ValueError(f"g must be shaped (2, ...), got shape {g.shape}")
     if not (np.all(np.isfinite(F)) and np.all(np.isfinite(g))):
@@ -489,7 +474,7 @@ class FiberReinforced(Material):
 
     @staticmethod
     def _check_fibers(fibers) -> np.ndarray:
-        g = np.array(_real_array("fibers (an array of 2D vectors)", fibers))
+        g = np.array(check_real_array("fibers (an array of 2D vectors)", fibers))
         if g.ndim not in (1, 2, 3) or g.shape[0] != 2:
             raise ValueError(f"fibers must be shaped (2,), (2, n_elements) or (2, n_elements, n_points), "
                              f"got shape {g.shape}")

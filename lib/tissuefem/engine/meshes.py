@@ -34,6 +34,7 @@ from .parameters import check_count, check_real
 __all__ = [
     "edge_lengths", "mesh_size", "mean_edge_length", "rectangle", "mesh_with_about", "fusiform_muscle",
     "fusiform_width", "fusiform_fiber_direction", "fusiform_fiber_field", "flap", "signed_areas", "check_mesh",
+    "index_list",
 ]
 
 #: The most triangles a generated domain (and a mesh passed to :func:`check_mesh`) may have.
@@ -77,7 +78,8 @@ def _check_grid(nx, ny, diagonal) -> tuple[int, int]:
     return nx, ny
 
 
-def _list(idx, limit=10) -> str:
+def index_list(idx, limit=10) -> str:
+    """Indices for an error message: the first ``limit`` of them and how many in all."""
     idx = np.asarray(idx).ravel()
     shown = ", ".join(str(int(i)) for i in idx[:limit])
     return f"[{shown}{', ...' if idx.size > limit else ''}] ({idx.size} in all)"
@@ -181,22 +183,22 @@ def check_mesh(p, t, name: str = "mesh", *, unused_nodes: str = "refuse"):
         raise ValueError(f"{name}: has {m} triangles, more than the {MAX_TRIANGLES} allowed")
     if t_arr.min() < 0 or t_arr.max() >= n:
         bad = np.flatnonzero(((t_arr < 0) | (t_arr >= n)).any(axis=0))
-        raise ValueError(f"{name}: triangles {_list(bad)} refer to nodes outside 0..{n - 1}")
+        raise ValueError(f"{name}: triangles {index_list(bad)} refer to nodes outside 0..{n - 1}")
     p_arr = np.array(p_arr, dtype=np.float64)
     t_arr = np.array(t_arr, dtype=np.int64)
     bad = np.flatnonzero(~np.isfinite(p_arr).all(axis=0))
     if bad.size:
-        raise ValueError(f"{name}: nodes {_list(bad)} have non-finite coordinates")
+        raise ValueError(f"{name}: nodes {index_list(bad)} have non-finite coordinates")
     bad = np.flatnonzero((np.abs(p_arr) > COORDINATE_MAX).any(axis=0))
     if bad.size:
-        raise ValueError(f"{name}: nodes {_list(bad)} lie beyond the coordinate limit +-{COORDINATE_MAX:g}")
+        raise ValueError(f"{name}: nodes {index_list(bad)} lie beyond the coordinate limit +-{COORDINATE_MAX:g}")
     if unused_nodes not in ("refuse", "ignore"):
         raise ValueError(f"unused_nodes must be 'refuse' or 'ignore', got {unused_nodes!r}")
     used = np.zeros(n, dtype=bool)
     used[t_arr.ravel()] = True
     if unused_nodes == "refuse" and not used.all():
-        raise ValueError(f"{name}: nodes {_list(np.flatnonzero(~used))} belong to no triangle (an unused node has no "
-                         "stiffness and no mass); remove them and renumber")
+        raise ValueError(f"{name}: nodes {index_list(np.flatnonzero(~used))} belong to no triangle (an unused node "
+                         "has no stiffness and no mass); remove them and renumber")
     extent = float(np.ptp(p_arr[:, used], axis=1).max())
     if extent < SIZE_RANGE[0]:
         raise ValueError(f"{name}: spans only {extent:g} (the largest side of its bounding box must be at least "
@@ -204,7 +206,7 @@ def check_mesh(p, t, name: str = "mesh", *, unused_nodes: str = "refuse"):
     tri = np.sort(t_arr, axis=0)
     repeated = np.flatnonzero((tri[0] == tri[1]) | (tri[1] == tri[2]))
     if repeated.size:
-        raise ValueError(f"{name}: triangles {_list(repeated)} use the same node twice")
+        raise ValueError(f"{name}: triangles {index_list(repeated)} use the same node twice")
     key, owner, _ = _edge_table(t_arr)
     same = (key[0, 1:] == key[0, :-1]) & (key[1, 1:] == key[1, :-1])
     fins = np.flatnonzero(same[1:] & same[:-1])  # three equal keys in a row: start index fins + 0
@@ -230,7 +232,7 @@ def check_mesh(p, t, name: str = "mesh", *, unused_nodes: str = "refuse"):
     h2 = np.maximum(np.maximum((d1**2).sum(0), (d2**2).sum(0)), (d3**2).sum(0))
     degenerate = np.flatnonzero(~(np.abs(det) > DEGENERATE_TOL * h2))
     if degenerate.size:
-        raise ValueError(f"{name}: triangles {_list(degenerate)} are degenerate (zero or round-off area)")
+        raise ValueError(f"{name}: triangles {index_list(degenerate)} are degenerate (zero or round-off area)")
     folded = folded_triangles(p_arr, t_arr)
     if folded.size:
         pairs = ", ".join(f"({i}, {j})" for i, j in folded.T[:10])

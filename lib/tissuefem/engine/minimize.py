@@ -43,8 +43,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .linsolve import LinearSolver, SuperLU
-from .materials import _real_array
-from .parameters import check_count, check_real
+from .parameters import check_count, check_real, check_real_array
 
 __all__ = ["newton", "NewtonResult", "NewtonIteration", "STATUSES"]
 
@@ -195,7 +194,7 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
     largest fraction in ``[0, 1]`` of ``dx`` that may be taken (contact's collision detection);
     a step it allows none of ends the solve as ``"blocked"``, keeping the last iterate.
     """
-    x = np.array(_real_array("x0", x0), dtype=float, copy=True)  # complex, strings, objects: refused by name
+    x = np.array(check_real_array("x0", x0), dtype=float, copy=True)  # complex, strings, objects: refused by name
     if x.ndim != 1:
         raise ValueError(f"x0 must be a 1D array, got shape {np.shape(x0)}")
     if not np.all(np.isfinite(x)):

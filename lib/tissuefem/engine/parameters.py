@@ -41,7 +41,7 @@ __all__ = [
     "lame_parameters", "check_young_poisson", "check_poisson_ratio", "check_lame", "check_real", "check_count",
     "check_time_step", "YOUNGS_MODULUS_RANGE", "POISSON_RATIO_RANGE", "LAME_MAX", "SHEAR_MODULUS_MIN",
     "TIME_STEP_RANGE", "DENSITY_RANGE", "ACCELERATION_MAX", "FORCE_MAX", "PENALTY_MAX", "REACH", "RADIUS_RANGE",
-    "check_density", "check_bounded_vector",
+    "check_density", "check_bounded_vector", "check_real_array",
 ]
 
 #: Young's modulus accepted by :func:`check_young_poisson` (closed interval).
@@ -195,3 +195,18 @@ def check_lame(lam, mu) -> tuple[float, float]:
     mu = check_real("mu (shear modulus)", mu, SHEAR_MODULUS_MIN, LAME_MAX)
     lam = check_real("lam (first Lamé parameter)", lam, -2.0 * mu / 3.0, LAME_MAX, lo_open=True)
     return lam, mu
+
+
+def check_real_array(name: str, value) -> np.ndarray:
+    """``value`` as a float array, else a ``ValueError`` naming ``name``: strings, ragged lists, objects, booleans
+    and complex numbers are refused (``np.asarray(..., dtype=float)`` would drop an imaginary part with a warning)."""
+    try:
+        a = np.asarray(value)
+    except (TypeError, ValueError):  # ragged nested lists
+        raise ValueError(f"{name} must be an array of real numbers, got a {type(value).__name__} that is not "
+                         "rectangular (ragged)") from None
+    if a.dtype.kind not in "iuf":
+        what = {"c": "complex numbers", "b": "booleans", "U": "strings", "S": "bytes", "O": "Python objects"}
+        raise ValueError(f"{name} must be an array of real numbers, got {what.get(a.dtype.kind, a.dtype)} "
+                         f"(dtype {a.dtype})")
+    return a if a.dtype == np.float64 else a.astype(np.float64)

@@ -41,10 +41,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .linsolve import LinearSolver
-from .materials import _real_array
 from .minimize import NewtonResult, newton
 from .model import Model
-from .parameters import check_count, check_real, check_time_step
+from .parameters import check_count, check_real, check_real_array, check_time_step
 
 __all__ = ["Stepper", "StepReport", "StaticResult", "solve"]
 
@@ -129,7 +128,7 @@ def _positive(name, value, allow_inf=False) -> float:
 
 def _state_vector(name, value, n) -> np.ndarray:
     """A finite real dof vector of shape ``(n,)`` (a private copy), or a ``ValueError`` naming ``name``."""
-    a = _real_array(name, value)
+    a = check_real_array(name, value)
     if a.shape != (n,):
         raise ValueError(f"{name} must have shape ({n},), got {a.shape}")
     if not np.all(np.isfinite(a)):
@@ -334,7 +333,7 @@ class Stepper:
                              f"and shape {fixed.shape}")
         if fixed.size and (fixed.min() < 0 or fixed.max() >= n):
             raise ValueError(f"prescribed: dofs must be in 0..{n - 1}")
-        values = _real_array("prescribed values", values)
+        values = check_real_array("prescribed values", values)
         if values.shape != fixed.shape:
             raise ValueError(f"prescribed: values must have the shape of dofs {fixed.shape}, got {values.shape}")
         if not np.all(np.isfinite(values)):

@@ -37,10 +37,10 @@ from __future__ import annotations
 import numpy as np
 from skfem import FacetBasis, LinearForm, asm
 
-from .materials import (FiberReinforced, Material, _real_array, check_fiber_stiffness, fiber_energy_term,
-                        fiber_stress_term, fiber_tangent_term)
+from .materials import (FiberReinforced, Material, check_fiber_stiffness, fiber_energy_term, fiber_stress_term,
+                        fiber_tangent_term)
 from .parameters import (FORCE_MAX, PENALTY_MAX, RADIUS_RANGE, REACH, check_bounded_vector, check_density, check_real,
-                         check_time_step)
+                         check_real_array, check_time_step)
 
 __all__ = ["Term", "ElementTerm", "Elastic", "Fibers", "Inertia", "Load", "Probe", "Sutures", "traction_vector",
            "check_vector", "check_nonnegative", "check_reach"]
@@ -176,7 +176,7 @@ class Fibers(ElementTerm):
         super().__init__(assembler)
         self.stiffness = check_fiber_stiffness(stiffness, "fibers.stiffness")
         nel = assembler.n_elements
-        g = _real_array("fibers.direction (an array of 2D vectors)", directions)  # complex is refused, not cut
+        g = check_real_array("fibers.direction (an array of 2D vectors)", directions)  # complex is refused, not cut
         if g.ndim == 1 and g.shape == (2,):
             g = np.repeat(g.reshape(2, 1), nel, axis=1)
         if g.shape != (2, nel):
@@ -521,7 +521,7 @@ class Sutures(Term):
                 raise ValueError("sutures.pairs ties a node to itself")
         else:
             nodes = pairs
-            coef = _real_array("sutures.coefficients", coefficients)
+            coef = check_real_array("sutures.coefficients", coefficients)
             if coef.shape != nodes.shape or not np.all(np.isfinite(coef)) or np.any(np.abs(coef) > 10.0) \
                     or not np.allclose(coef.sum(axis=1), 1.0, atol=1e-9):
                 raise ValueError(f"sutures.coefficients must be barycentric weights shaped {nodes.shape} "
@@ -531,7 +531,7 @@ class Sutures(Term):
         k_count = nodes.shape[-1]
         #: node pairs (2, k): each end's node of largest weight (the node itself for node-to-node stitches)
         self.pairs = np.take_along_axis(self.nodes, np.argmax(coef, axis=1)[:, None, :], axis=1)[:, 0, :]
-        k = _real_array("sutures.stiffness", stiffness)
+        k = check_real_array("sutures.stiffness", stiffness)
         try:
             k = np.broadcast_to(k, (k_count,)).copy()
         except ValueError:
@@ -540,7 +540,7 @@ class Sutures(Term):
         if not np.all(np.isfinite(k) & (k > 0) & (k <= PENALTY_MAX)):
             raise ValueError(f"sutures.stiffness must be finite, > 0 and <= {PENALTY_MAX:g}, got {stiffness!r:.200}")
         self.k = k
-        gaps = _real_array("sutures.gaps", gaps)
+        gaps = check_real_array("sutures.gaps", gaps)
         reach = REACH * _extent(X)[1]
         if gaps.shape != (2, k_count) or not np.all(np.abs(gaps) <= reach):
             raise ValueError(f"sutures.gaps must be finite, within {REACH:g} domain sizes ({reach:g}) and shaped "
@@ -558,7 +558,7 @@ class Sutures(Term):
         """
         count = self.pairs.shape[1]
         index = np.arange(count) if stitches is None else _stitch_indices(stitches, count)
-        s = _real_array("fraction (suture tightness)", fraction)
+        s = check_real_array("fraction (suture tightness)", fraction)
         if s.ndim > 1 or (s.ndim == 1 and s.shape != index.shape):
             raise ValueError(f"fraction (suture tightness) must be one number or one per stitch tightened "
                              f"({index.size}), got shape {s.shape}")

@@ -96,7 +96,8 @@ from ..engine.materials import material as make_material
 from ..engine.constants import FRAME_BUDGET, TISSUE_DENSITY, TISSUE_E, TISSUE_NU
 from ..engine.inversion import ITFClamped, ProjectedTangent
 from ..engine.linsolve import LinearSolver
-from ..engine.parameters import TIME_STEP_RANGE, YOUNGS_MODULUS_RANGE, check_count, check_poisson_ratio, check_real
+from ..engine.parameters import (ACCELERATION_MAX, DENSITY_RANGE, FORCE_MAX, PENALTY_MAX, RADIUS_RANGE, REACH,
+                                 TIME_STEP_RANGE, YOUNGS_MODULUS_RANGE, check_count, check_poisson_ratio, check_real)
 
 __all__ = ["Scene", "EFFECTS", "SHAPES", "EXAMPLE_TOML", "demo_scene", "flap_scene", "flap_path", "read_mesh"]
 
@@ -115,20 +116,19 @@ _LISTS = ("handles", "tractions", "probes", "excisions", "incisions", "sutures")
 #: triangles of a generated domain (and of a mesh file); lengths of a generated domain, and ``domain.scale``;
 #: the largest aspect ratio of a domain, either way round
 MAX_TRIANGLES, SIZE_RANGE, MAX_ASPECT = meshes.MAX_TRIANGLES, meshes.SIZE_RANGE, meshes.MAX_ASPECT
-DENSITY_RANGE = (1e-6, 1e6)
-#: bounds on each component of ``effects.gravity.acceleration`` and of a traction (a stress, like Young's modulus)
-MAX_ACCELERATION, MAX_TRACTION = 1e6, 1e12
+#: bounds on each component of ``effects.gravity.acceleration`` and of a traction (a stress, like Young's modulus);
+#: the density's range: the engine's
+MAX_ACCELERATION, MAX_TRACTION = ACCELERATION_MAX, FORCE_MAX
 FIBER_STIFFNESS_RANGE = (0.0, 1e12)
-#: the largest penalty stiffness of a probe, a suture or the contact
-MAX_PENALTY_STIFFNESS = 1e40
+#: the largest penalty stiffness of a probe, a suture or the contact (the engine's)
+MAX_PENALTY_STIFFNESS = PENALTY_MAX
 THRESHOLD_RANGE = (0.01, 0.99)
 BUDGET_RANGE = (1e-6, 1e9)
 RTOL_RANGE = (1e-14, 0.5)
 MAX_ITERATIONS = 1000
-#: points and displacements lie within REACH domain sizes of the domain's centre; radii at most REACH sizes
-REACH = 1e3
-#: radii are at least MIN_RADIUS domain sizes
-MIN_RADIUS = 1e-6
+#: points and displacements lie within REACH domain sizes of the domain's centre (the engine's REACH); radii
+#: within MIN_RADIUS and REACH sizes
+MIN_RADIUS = RADIUS_RANGE[0]
 #: entries of one list-valued effect; points of a polygon or path, pairs of a suture
 MAX_ENTRIES, MAX_POINTS = 1000, 10_000
 #: node indices lie below this (a mesh of MAX_TRIANGLES triangles has fewer nodes)
@@ -895,11 +895,11 @@ def _read_mesh(path, scale):
                          "expected 2D (or planar 3D) coordinates")
     bad = np.flatnonzero(~np.isfinite(points).all(axis=1))
     if bad.size:
-        raise ValueError(f"domain.path: {name!r}: nodes {meshes._list(bad)} have non-finite coordinates")
+        raise ValueError(f"domain.path: {name!r}: nodes {meshes.index_list(bad)} have non-finite coordinates")
     if points.shape[1] == 3:
         off = np.flatnonzero(points[:, 2] != 0)
         if off.size:
-            raise ValueError(f"domain.path: {name!r} is not planar: nodes {meshes._list(off)} (0-based) have a "
+            raise ValueError(f"domain.path: {name!r} is not planar: nodes {meshes.index_list(off)} (0-based) have a "
                              f"third coordinate other than 0 (up to |z| = {np.abs(points[off, 2]).max():g}); only 2D "
                              "meshes are read, never flattened")
     t = np.concatenate([np.asarray(b.data).T for b in m.cells if b.type == "triangle"], axis=1)
@@ -977,7 +977,7 @@ def _drop_nodes(mesh, used):
 
 def _dropped_note(path, dropped) -> str:
     return (f"domain.path: {path!r}: dropped {dropped.size} node(s) that belong to no triangle "
-            f"(0-based {meshes._list(dropped)}); the other nodes were renumbered in their order")
+            f"(0-based {meshes.index_list(dropped)}); the other nodes were renumbered in their order")
 
 
 def read_mesh(path, scale=1.0, notes=None):

@@ -13,6 +13,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from .base import lecture_figure, save
+from ...engine.constants import FRAME_BUDGET
 from ..accuracy import manufactured_convergence
 from ..bench.accuracy import recorded_results
 from ..measure import pareto_front
@@ -67,7 +68,7 @@ def plot_pareto(results, path=None, annotate=True) -> Figure:
     benchmarks = list(dict.fromkeys(r["benchmark"] for r in rows))
     fig = Figure(figsize=(6.2 * len(benchmarks) + 2.6, 5.0), layout="constrained")
     axes = np.atleast_1d(fig.subplots(1, len(benchmarks)))
-    budget = results.get("frame_budget_ms", 1e3 / 30)
+    budget = results.get("frame_budget_ms", 1e3 * FRAME_BUDGET)
     titles = {"flap": "Flap scene: backward Euler, dt = 1/30, the drag eased in",
               "block": "Quasistatic block: stretched and sheared in frames"}
     for ax, b in zip(axes, benchmarks):
@@ -123,7 +124,7 @@ def plot_scaling(results, path=None) -> Figure:
         label = SOLVER_LABELS.get(solver, solver) + (f": p = {p:.2f}" if p is not None else "")
         ax.loglog([r["triangles"] for r in sel], [r["ms_median"] for r in sel], marker=markers[k % len(markers)],
                   ls="-", label=label)
-    budget = results.get("frame_budget_ms", 1e3 / 30)
+    budget = results.get("frame_budget_ms", 1e3 * FRAME_BUDGET)
     ax.axhline(budget, color="k", ls="--", lw=1)
     ax.text(min(r["triangles"] for r in rows), budget * 1.1, "33 ms: 30 frames per second", fontsize=8)
     ax.set(xlabel="triangles (P1)", ylabel="ms per converged frame (median)",

@@ -10,7 +10,7 @@ from matplotlib.figure import Figure
 from matplotlib.patches import FancyArrowPatch
 from matplotlib.tri import Triangulation
 
-from ...engine.constants import TISSUE_E, TISSUE_NU
+from ...engine.constants import FRAME_BUDGET, TISSUE_E, TISSUE_NU
 from .base import at_least, lecture_figure, save, shown
 from ...engine.meshes import rectangle
 from ..studies import (BLOCK_HANDLE, RECORDED_COST_ACCURACY, bending_gradient, bending_map, block_model,
@@ -19,7 +19,7 @@ from ...engine.materials import LinearElastic, NeoHookean
 from ...engine.stepping import solve
 
 #: one frame at 30 frames per second, in milliseconds
-FRAME_BUDGET_MS = 1000.0 / 30.0
+FRAME_BUDGET_MS = 1e3 * FRAME_BUDGET
 _LABEL_BOX = dict(boxstyle="round,pad=0.12", fc="white", ec="none", alpha=0.8)
 
 
