@@ -128,7 +128,7 @@ fig_ch08_flap()
 # %% [markdown]
 # ## 2. The cost of each effect
 #
-# `bench_scenes.effects_benchmark` runs the standard drag of chapter 7 once per variant of one scene: a base
+# `effects_benchmark` (`tissuefem.workbook.bench.scenes`) runs the standard drag of chapter 7 once per variant of one scene: a base
 # (stable neo-Hookean, quasistatic), the linear model with and without its constant factorisation, and the
 # base with one effect added at a time, then everything together. Every frame is solved to the tolerance (no
 # budget), so the columns compare the same work. A small run here (1000 triangles, 8 frames each); the full

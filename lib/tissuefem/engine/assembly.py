@@ -3,7 +3,7 @@
 On linear (P1) triangles the shape-function gradients are constant in each triangle, so
 ``F = I + grad u`` is one 2x2 matrix per element and every integral over a triangle is its
 area times the integrand. :class:`P1Assembler` assembles the same energy, internal forces
-and tangent as the scikit-fem forms of :mod:`tissuefem.forms` (to round-off), without
+and tangent as the scikit-fem forms of :mod:`tissuefem.engine.forms` (to round-off), without
 calling a form per pair of basis functions:
 
 * once: the signed areas and gradients ``dN_a/dX_j`` of every triangle, its 6 global dofs,
@@ -39,7 +39,7 @@ Choices made here
   bincount is simple and needs no extra matrix.
 * **Local matrices.** One plain ``einsum`` (no ``optimize``) on element-last arrays,
   ~0.6 ms at 8k triangles; ``optimize=True`` is ten times slower here (transposed temporaries).
-* **Fibers.** One point per element: a :class:`~tissuefem.materials.FiberReinforced`
+* **Fibers.** One point per element: a :class:`~tissuefem.engine.materials.FiberReinforced`
   material with fibers ``(2, n_elements)`` or ``(2,)`` works as is; per-quadrature fibers
   ``(2, n_elements, n_points)`` are refused (average and normalise them per element first).
 """
@@ -71,7 +71,7 @@ class P1Assembler:
 
     ``mesh`` is a scikit-fem :class:`~skfem.MeshTri` (straight-sided, either orientation;
     non-finite coordinates or zero-area triangles raise ``ValueError``). ``material`` is the
-    default material (``energy``, ``stress``, ``tangent`` as in :mod:`tissuefem.materials`);
+    default material (``energy``, ``stress``, ``tangent`` as in :mod:`tissuefem.engine.materials`);
     every method takes a ``material`` that overrides it. ``weights``: optional
     ``(n_elements,)`` fractions in ``(0, 1]`` of its triangle's area that each element's
     material fills: elements made by cutting through a triangle keep its shape functions

@@ -16,7 +16,7 @@ with ``A_ijkl = dP_ij/dF_kl``. In scikit-fem the test function ``v`` plays ``w``
 each form below is one line that reads like its equation::
 
     >>> from skfem import Basis, ElementTriP1, ElementVector, MeshTri, asm
-    >>> from tissuefem.materials import NeoHookean
+    >>> from tissuefem.engine.materials import NeoHookean
     >>> basis = Basis(MeshTri().refined(2), ElementVector(ElementTriP1()))
     >>> mat = NeoHookean(lam=1.0, mu=1.0)
     >>> u = basis.zeros()
@@ -26,7 +26,7 @@ each form below is one line that reads like its equation::
     0.0
 
 The material is bound by closure because scikit-fem passes only arrays through ``w``. A
-:class:`~tissuefem.materials.FiberReinforced` material with per-quadrature-point fibres (shape
+:class:`~tissuefem.engine.materials.FiberReinforced` material with per-quadrature-point fibres (shape
 ``(2, n_elements, n_points)``) must use the same quadrature as the basis (``basis.X.shape[1]`` points).
 
 These forms evaluate the material once per pair of local basis functions (scikit-fem's assembly loop), which is

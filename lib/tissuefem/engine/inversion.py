@@ -216,7 +216,7 @@ class ITFClamped:
     (away from the kink); region ``s1 < c <= s0`` needs a third derivative of the base model, a central difference
     of its tangent.
 
-    Why only the ``ln J`` model (``material``, a :class:`~tissuefem.materials.NeoHookean`): a highly stretched
+    Why only the ``ln J`` model (``material``, a :class:`~tissuefem.engine.materials.NeoHookean`): a highly stretched
     element (``s0`` large) with ``s1`` below the threshold feels ``psi_1(s0, c)``, which becomes positive (the
     material wants ``s1 ~ 1/s0`` to keep its volume), and the spring bounds the energy below only while
     ``psi_1^2 / (2k)`` grows slower than ``Psi(s0, c)``. With ``ln J``, ``psi_1`` grows like ``ln s0``; with a

@@ -113,7 +113,7 @@ _HCOF = np.einsum("ik,jl->ijkl", _PERM, _PERM)
 
 class Material(_LameMaterial):
     """Base class: a 2D hyperelastic material with Lamé parameters ``lam`` and ``mu`` (checked by
-    :func:`tissuefem.parameters.check_lame`); subclasses implement ``energy``, ``stress`` and ``tangent``."""
+    :func:`tissuefem.engine.parameters.check_lame`); subclasses implement ``energy``, ``stress`` and ``tangent``."""
 
     #: Only linear elasticity has a meaningful plane-stress reduction by a modified lam.
     _plane_stress_ok = False
@@ -222,7 +222,7 @@ class NeoHookean(_NeoHookeanFamily):
 class TaylorNeoHookean(_NeoHookeanFamily):
     """Neo-Hookean with ``ln J`` replaced by its cubic Taylor polynomial (the notes' robust variant).
 
-    ``r(J) = (J-1) - (J-1)^2/2 + (J-1)^3/3`` (:func:`tissuefem.materials1d.taylor_log`),
+    ``r(J) = (J-1) - (J-1)^2/2 + (J-1)^3/3`` (:func:`tissuefem.engine.materials1d.taylor_log`),
     ``Psi = mu/2 (F:F - 2) - mu r(J) + lam/2 r(J)^2``. So ``h = -mu r + lam/2 r^2``, ``h' = (lam r - mu) r'`` and
     ``h'' = lam r'^2 + (lam r - mu) r''``, giving
 

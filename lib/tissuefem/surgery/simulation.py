@@ -44,7 +44,7 @@ class Simulation:
     linear_solver
         Overrides the scene's ``solver.linear_solver``.
     constant_tangent
-        Use :class:`~tissuefem.realtime.ConstantTangentSolver` when the model is quadratic (default);
+        Use :class:`~tissuefem.engine.realtime.ConstantTangentSolver` when the model is quadratic (default);
         ``False`` forces the general Newton loop (to measure what the shortcut saves).
     """
 

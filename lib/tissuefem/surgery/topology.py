@@ -95,7 +95,7 @@ class MeshEdit:
         """A vector P1 field in scikit-fem's dof order, ``(..., 2 n_old_nodes)``, on the new mesh.
 
         The dofs of node ``n`` are ``(2 n, 2 n + 1)`` (x then y), the order of
-        ``Basis(mesh, ElementVector(ElementTriP1()))`` and of :class:`~tissuefem.assembly.P1Assembler`.
+        ``Basis(mesh, ElementVector(ElementTriP1()))`` and of :class:`~tissuefem.engine.assembly.P1Assembler`.
         """
         v = _last_axis(values, 2 * self.n_old_nodes, "two dofs per old node")
         pairs = v.reshape(v.shape[:-1] + (self.n_old_nodes, 2))

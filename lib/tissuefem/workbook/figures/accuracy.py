@@ -1,6 +1,6 @@
 """Chapter 9 figures: what accuracy costs in time.
 
-The three study figures are drawn from a results dict of :func:`tissuefem.bench_accuracy.accuracy_study`:
+The three study figures are drawn from a results dict of :func:`tissuefem.workbook.bench.accuracy.accuracy_study`:
 the lecture figures from the recorded full study shipped with the package (the same on every machine),
 ``bench accuracy`` from its own fresh run. The verification figure is computed afresh (errors only, no clock).
 """

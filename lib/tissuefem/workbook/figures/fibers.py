@@ -39,8 +39,9 @@ def _deformed_fibers(result, fibers, scale):
 def fig03_fiber_field(path=None) -> Figure:
     """Notes' Figure 3 in 2D: the fiber field g of a fusiform muscle, one short segment per element.
 
-    The muscle is :func:`tissuefem.meshes.fusiform_muscle`, ``g`` :func:`tissuefem.meshes.fusiform_fiber_field`:
-    fibers run from tendon to tendon, fan out into the belly and converge again.
+    The muscle is :func:`tissuefem.engine.meshes.fusiform_muscle`, ``g``
+    :func:`tissuefem.engine.meshes.fusiform_fiber_field`: fibers run from tendon to tendon, fan out into the belly
+    and converge again.
     """
     mesh = fusiform_muscle(nx=32, ny=8)
     g = fusiform_fiber_field(mesh)

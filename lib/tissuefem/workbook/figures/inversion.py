@@ -19,7 +19,7 @@ from ...engine.inversion import diagonal
 UPRIGHT_COLOR, INVERTED_COLOR = "#6baed6", "#d6604d"
 #: the crush depths shown as columns of the crush-and-release figure (1 = flat); the released shape follows
 CRUSH_COLUMNS = (0.0, 0.5, 0.9, 1.0, 1.3)
-#: line colour of each model (same order as :func:`tissuefem.hardcases.inversion_models`)
+#: line colour of each model (same order as :func:`tissuefem.workbook.hardcases.inversion_models`)
 MODEL_COLORS = ("C0", "C2", "C1", "C3")
 
 
@@ -41,7 +41,7 @@ def draw_state(ax, mesh, x, *, J=None, alpha: float = 1.0, tol: float = 1e-12) -
 
 
 def crush_and_release_runs(E: float = TISSUE_E, nu: float = TISSUE_NU, mesh=None) -> dict:
-    """Run :func:`tissuefem.hardcases.crush_and_release` (default depth 1.3) for the four models, by name."""
+    """Run :func:`tissuefem.workbook.hardcases.crush_and_release` (default depth 1.3) for the four models, by name."""
     mesh = block() if mesh is None else mesh
     return {name: crush_and_release(material, mesh) for name, material in inversion_models(E, nu).items()}
 

@@ -41,7 +41,7 @@ def _mapped_edges(mesh, phi, samples: int = 12) -> np.ndarray:
 
 
 def _boundary_loop(nx: int, ny: int) -> np.ndarray:
-    """Node indices around the boundary of a structured :func:`~tissuefem.meshes.rectangle`, closed."""
+    """Node indices around the boundary of a structured :func:`~tissuefem.engine.meshes.rectangle`, closed."""
     row = nx + 1
     return np.concatenate([np.arange(row), nx + row * np.arange(1, ny + 1),  # bottom, right
                            ny * row + np.arange(nx - 1, -1, -1), row * np.arange(ny - 1, -1, -1)])  # top, left
@@ -117,7 +117,8 @@ def fig02_kinematics(path=None) -> Figure:
     ax.set_aspect("equal")
     ax.set(xlim=(-0.25, 6.0), ylim=(-0.3, 1.9), xlabel="$X_1$, $x_1$", ylabel="$X_2$, $x_2$")
     ax.set_title("Notes' Figure 2: $\\phi$ carries $\\mathbf{X}$ to $\\mathbf{x}$; "
-                 "$F_{ij} = \\partial\\phi_i/\\partial X_j$ carries $d\\mathbf{X}$ to $d\\mathbf{x} = \\mathbf{F}\\,d\\mathbf{X}$")
+                 "$F_{ij} = \\partial\\phi_i/\\partial X_j$ carries $d\\mathbf{X}$ "
+                 "to $d\\mathbf{x} = \\mathbf{F}\\,d\\mathbf{X}$")
     _stress_half(ax_s, F0)
     save(fig, path)
     return fig
@@ -270,8 +271,8 @@ def fig_ch04_block(path=None) -> Figure:
 def fig_ch04_cost_accuracy(path=None, rows=None) -> Figure:
     """Chapter 4: L2 displacement error against solve time, P1 against P2, with the 33 ms frame budget.
 
-    ``rows`` from :func:`tissuefem.studies.cost_accuracy_study`; by default the recorded run
-    :data:`tissuefem.studies.RECORDED_COST_ACCURACY` (a deterministic figure). Left: the whole solve from
+    ``rows`` from :func:`tissuefem.workbook.studies.cost_accuracy_study`; by default the recorded run
+    :data:`tissuefem.workbook.studies.RECORDED_COST_ACCURACY` (a deterministic figure). Left: the whole solve from
     rest; right: one Newton iteration at the solution, the least a warm-started frame needs. Labels: dofs.
     """
     source = "recorded run" if rows is None else "this run"

@@ -434,7 +434,7 @@ def stitch_arcs(a, b, bulge=0.18, n=12) -> np.ndarray:
 
 def flap_runs(lengths=FLAP_LENGTHS, n_triangles=FLAP_TRIANGLES, tighten_frames=FLAP_TIGHTEN_FRAMES,
               method="edges") -> dict:
-    """:func:`tissuefem.flaps.advancement_flap` for each flap length, ``{length: FlapResult}``.
+    """:func:`tissuefem.surgery.flaps.advancement_flap` for each flap length, ``{length: FlapResult}``.
 
     Chapter 8 cuts along mesh edges (``method="edges"``); chapter 10 redoes the flap through the elements."""
     return {float(L): advancement_flap(flap_length=float(L), n_triangles=n_triangles, tighten_frames=tighten_frames,
