@@ -209,6 +209,18 @@ def test_a_linear_scene_factorises_once_and_each_frame_is_a_back_substitution():
     assert [r.factorizations for r in reports] == [1] + [0] * 7
     # a quasistatic frame's linearised start is the whole (linear) solve: one Newton step, one back-substitution
     assert all(r.converged and r.newton_iterations == 1 for r in reports)
+    # and it pays for one energy, two forces and no Hessian: one start is enough when one step from any is exact
+    calls = {"energy": 0, "gradient": 0, "hessian": 0}
+    for name in calls:
+        def counted(*args, _name=name, _f=getattr(sim.model, name), **kwargs):
+            calls[_name] += 1
+            return _f(*args, **kwargs)
+        setattr(sim.model, name, counted)
+    assert sim.frame({"pull": [0.09, 0.045]}).converged
+    assert calls == {"energy": 1, "gradient": 2, "hessian": 0}
+    for name in calls:
+        del sim.model.__dict__[name]
+    sim.frame({"pull": [0.08, 0.04]})  # back where the general path below goes
     # the same frames through the general Newton path
     general = RealtimeSolver(Model(sim.mesh, sim.material, handles=[
         Handle(sim.handles["fixed"].nodes), Handle(sim.handles["pull"].nodes, [0.08, 0.04])]),
