@@ -126,6 +126,16 @@ def test_measured_limit_scales_like_h_and_matches_the_estimate():
     assert largest_stable_dt(_held_flap(4, density=4.0)) == pytest.approx(2 * largest_stable_dt(_held_flap(4)), rel=0.02)
 
 
+@pytest.mark.parametrize("E, rho", [(1e10, 1e-3), (1e-3, 1e3)], ids=["stiff and light", "soft and heavy"])
+def test_the_stable_step_of_an_extreme_body_is_measured_outside_an_implicit_steps_range(E, rho):
+    # a bone-stiff, light body's limit lies below 1e-6 s, a jelly's above 10 s: both are measured, not refused
+    lam, mu = lame_parameters(E, 0.3, "strain")
+    model = _held_flap(4, material=StableNeoHookean(lam, mu), density=rho)
+    dt = largest_stable_dt(model)
+    estimate = critical_time_step(model)
+    assert 0.3 * estimate < dt < 3.0 * estimate
+
+
 def test_bad_arguments_raise_value_errors_naming_them():
     problem = _held_flap(4)
     for bad in (0.0, -1.0, np.nan, np.inf, "fast"):

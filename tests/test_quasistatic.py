@@ -139,3 +139,18 @@ def test_energy_line_search_converges_when_equilibrium_energy_is_zero():
     problem, result = rotated_block(NeoHookean.from_young(1000.0, 0.3), np.pi / 3)
     assert result.converged
     assert problem.stored_energy(result.u) < 1e-9
+
+
+def test_a_term_added_and_removed_leaves_the_model_as_it_was():
+    from tissuefem import Load
+    mesh = rectangle(2.0, 1.0, 6, 3)
+    model = Model(mesh, NeoHookean.from_young(1000.0, 0.3), handles=[Handle("left")])
+    u = 1e-3 * np.arange(model.n_dofs, dtype=float)
+    before = model.energy(u)
+    push = Load("push", np.ones(model.n_dofs))
+    model.add_term(push)
+    assert model.loads == [push] and model.energy(u) == pytest.approx(before - u.sum())
+    model.remove_term(push)
+    assert model.loads == [] and model.energy(u) == before
+    with pytest.raises(ValueError, match="holds no term"):
+        model.remove_term(push)

@@ -25,9 +25,10 @@ each form below is one line that reads like its equation::
     >>> float(abs(q).max())
     0.0
 
-The material is bound by closure because scikit-fem passes only arrays through ``w``. A
-:class:`~tissuefem.engine.materials.FiberReinforced` material with per-quadrature-point fibres (shape
-``(2, n_elements, n_points)``) must use the same quadrature as the basis (``basis.X.shape[1]`` points).
+The current displacement is passed as ``u=basis.interpolate(u)``; the material is bound by closure because
+scikit-fem passes only arrays through ``w``. A :class:`~tissuefem.engine.materials.FiberReinforced` material with
+per-quadrature-point fibres (shape ``(2, n_elements, n_points)``) must use the same quadrature as the basis
+(``basis.X.shape[1]`` points).
 
 These forms evaluate the material once per pair of local basis functions (scikit-fem's assembly loop), which is
 clear but not fast; they are the reference that faster assembly is tested against.

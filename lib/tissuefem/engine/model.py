@@ -515,6 +515,19 @@ class Model:
             self._build()
             raise
 
+    def remove_term(self, term: Term) -> None:
+        """Remove a term the model holds (``ValueError`` if it holds no such term). All or nothing."""
+        index = next((i for i, t in enumerate(self.terms) if t is term), None)
+        if index is None:
+            raise ValueError(f"the model holds no term {term!r}")
+        del self.terms[index]
+        try:
+            self._build()
+        except BaseException:  # the model is left as it was
+            self.terms.insert(index, term)
+            self._build()
+            raise
+
     def terms_of(self, kind) -> list:
         return [t for t in self.terms if isinstance(t, kind)]
 

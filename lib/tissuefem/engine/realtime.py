@@ -1,6 +1,7 @@
 """The real-time loop: the notes' frame loop, one step per drawn frame within a wall-clock budget.
 
-A :class:`RealtimeSolver` is a :class:`~tissuefem.engine.stepping.Stepper` whose
+The notes' interactive simulator reads the user's boundary input, advances ``t``, solves and
+renders, every 1/30 s. A :class:`RealtimeSolver` is a :class:`~tissuefem.engine.stepping.Stepper` whose
 :meth:`~RealtimeSolver.frame` reads the user's input and stops its Newton solve when the
 frame's budget (:data:`~tissuefem.engine.constants.FRAME_BUDGET`) is spent -- the clock is
 read before each tangent assembly and each linear solve, so a frame overruns by at most

@@ -11,8 +11,9 @@ slips of the README's errata corrected), without inertia the quasistatic one. A
 
 1. **input**: the handles' new targets, checked before anything moves
    (:meth:`~tissuefem.engine.model.Model.set_targets`); a refusal changes nothing;
-2. **warm start**: the lowest-energy valid guess. A dynamic step tries the
-   constant-acceleration guess ``x~ + dt (v^n - v^{n-1})``, the inertial guess ``x~`` and
+2. **warm start**: the lowest-energy valid guess (for a quadratic model with its exact
+   factorization, the first valid one: one Newton step from any reaches the same answer).
+   A dynamic step tries the constant-acceleration guess ``x~ + dt (v^n - v^{n-1})``, the inertial guess ``x~`` and
    the previous state; a quasistatic step one linearised step from the previous state,
    which carries the free dofs along with the handles (``K_ff dx_f = -g_f - K_fc dx_c``),
    or the previous state. If no guess is valid (a handle jerked so far that an element
@@ -407,7 +408,8 @@ class Stepper:
         return [self.step(t) for t in targets_per_step]
 
     def _warm_start(self, fixed, values, free):
-        """``(x0, E0, handle_fraction, name, load_norm, factorizations, crossed)``: the lowest-energy valid start.
+        """``(x0, E0, handle_fraction, name, load_norm, factorizations, crossed)``: the lowest-energy valid start
+        (the first valid one where one Newton step from any start is exact).
 
         With a term that limits steps (self-contact), the state with the handles moved and everything else
         where it was is where the step starts (``Model.begin_step``: its crossings are counted and left
@@ -422,9 +424,9 @@ class Stepper:
         if not dynamic and np.any(values != previous):
             linearised, load_norm, factorizations = self._linearised_increment(fixed, free, values - previous)
         x_tilde = model.inertia.x_tilde if dynamic else None
-        # a quadratic energy with its exact factorization: one Newton step from any start reaches the minimiser
-        # (and the linearised start is it), so the first valid start is as good as the best
-        exact = model.quadratic and self.linear.constant
+        # a quadratic energy with its exact factorization and no step cap: one Newton step from any start reaches
+        # the minimiser (and the linearised start is it), so the first valid start is as good as the best
+        exact = model.quadratic and self.linear.constant and self.max_step is None
         for halvings in range(12):
             fraction = 0.5**halvings
             held = previous + fraction * (values - previous)

@@ -116,8 +116,8 @@ _LISTS = ("handles", "tractions", "probes", "excisions", "incisions", "sutures")
 #: triangles of a generated domain (and of a mesh file); lengths of a generated domain, and ``domain.scale``;
 #: the largest aspect ratio of a domain, either way round
 MAX_TRIANGLES, SIZE_RANGE, MAX_ASPECT = meshes.MAX_TRIANGLES, meshes.SIZE_RANGE, meshes.MAX_ASPECT
-#: bounds on each component of ``effects.gravity.acceleration`` and of a traction (a stress, like Young's modulus);
-#: the density's range: the engine's
+#: bounds on each component of ``effects.gravity.acceleration`` and of a traction (a stress, like Young's modulus):
+#: the engine's (as is the density's range, ``DENSITY_RANGE``)
 MAX_ACCELERATION, MAX_TRACTION = ACCELERATION_MAX, FORCE_MAX
 FIBER_STIFFNESS_RANGE = (0.0, 1e12)
 #: the largest penalty stiffness of a probe, a suture or the contact (the engine's)

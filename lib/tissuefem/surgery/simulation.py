@@ -44,8 +44,9 @@ class Simulation:
     linear_solver
         Overrides the scene's ``solver.linear_solver``.
     constant_tangent
-        Use :class:`~tissuefem.engine.realtime.ConstantTangentSolver` when the model is quadratic (default);
-        ``False`` forces the general Newton loop (to measure what the shortcut saves).
+        Run a quadratic model with the ``"constant"`` linear solver (default: one factorization per set of held
+        dofs, then one back-substitution a frame); ``False`` forces the general Newton loop (to measure what the
+        shortcut saves).
     """
 
     def __init__(self, scene: Scene, *, clock=time.perf_counter, linear_solver=None, constant_tangent=True,
