@@ -385,6 +385,7 @@ def build_book(chapters_dir, executed_dir, outdir, readme=None, exercises_dir=No
     errata = _markdown_notebook(ERRATA_HEADING, [f"# {ERRATA_HEADING}\n\n"
                                                  + readme_section(readme_text, ERRATA_HEADING)])
     write("errata.html", _render(exporter, errata, "errata.html", chapters, links, root))
-    for warning in links.warnings if progress else ():
-        progress(f"[book] warning: {warning}")
+    if progress:
+        for warning in links.warnings:
+            progress(f"[book] warning: {warning}")
     return written

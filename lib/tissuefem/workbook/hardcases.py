@@ -128,8 +128,8 @@ def crush_and_release(material, mesh=None, depth: float = 1.3, steps: int = 13, 
     The bottom edge is fixed; the top edge is a handle moved down in ``steps`` equal increments, each
     solved from the previous state; then the handle lets go and the body is released. Returns ``frames``
     (node positions after each crush step, then the released shape), ``crush`` (per-step results),
-    ``released`` (a :class:`ReleaseResult`), ``crushed`` (how deep the top got before a step failed),
-    ``iterations``, ``cuts`` and ``final_energy``.
+    ``released`` (a :class:`ReleaseResult`), ``crushed`` (how deep the top got before a step failed:
+    ``depth`` when all succeeded), ``iterations``, ``cuts`` and ``final_energy``.
     """
     mesh = block() if mesh is None else mesh
     X = np.asarray(mesh.p, dtype=float)
@@ -160,7 +160,8 @@ def drag_through(material, mesh=None, depth: float = 1.6, steps: int = 16, **new
     The left and right edges are held (a clamped sheet); the handle holds the top-edge nodes within 0.2 of
     the middle and moves down by ``depth`` in ``steps`` increments, each solved from the previous state;
     then it lets go and the sheet is released. Returns ``positions`` (after each step), ``drag`` (per-step
-    results), ``released`` and ``failed_steps`` (steps that did not converge; the drag goes on).
+    results), ``released`` and ``failed_steps`` (steps that did not converge; the state then stays at the
+    last converged one and the drag goes on).
     """
     mesh = block() if mesh is None else mesh
     X = np.asarray(mesh.p, dtype=float)

@@ -53,7 +53,9 @@ def relative_l2_error(basis, u, reference_basis, u_reference, intorder: int = 4)
     uh = np.asarray(quad.interpolate(u))  # (2, nel, nq)
     x = quad.mapping.F(quad.quadrature[0])  # quadrature points (2, nel, nq)
     ur = evaluate(reference_basis, u_reference, x.reshape(2, -1)).reshape(uh.shape)
-    return float(np.sqrt(np.sum(np.sum((uh - ur) ** 2, axis=0) * quad.dx) / np.sum(np.sum(ur**2, axis=0) * quad.dx)))
+    err = np.sum(np.sum((uh - ur) ** 2, axis=0) * quad.dx)
+    norm = np.sum(np.sum(ur**2, axis=0) * quad.dx)
+    return float(np.sqrt(err / norm))
 
 
 def power_law_fit(x, y) -> tuple[float, float]:
@@ -92,8 +94,9 @@ def pareto_front(costs, errors, rtol: float = 0.0) -> np.ndarray:
 
     Point ``i`` is dominated when some ``j`` has ``cost_j <= cost_i`` and ``error_j <= error_i`` with at
     least one strict. Ties keep the first; non-finite entries are never on the front. ``rtol`` is the
-    errors' resolution: an error counts as smaller only by more than the factor ``1 + rtol`` (with ``0.01``,
-    a slower setting only 0.5 % more accurate, below what the reference can tell, is not on the front).
+    errors' resolution: an error counts as smaller only if it is smaller by more than the factor ``1 + rtol``
+    (with ``0.01``, a slower setting only 0.5 % more accurate, below what the reference can tell, is not on
+    the front).
     """
     c, e, factor = _costs_errors(costs, errors, rtol)
     ok = np.flatnonzero(np.isfinite(c) & np.isfinite(e))
@@ -124,8 +127,9 @@ def best_within_budget(costs, errors, budget, rtol: float = 0.0):
     """Index of the most accurate setting whose cost is at most ``budget`` (the cheaper on a tie), or ``None``.
 
     What an engineer reads off a Pareto plot: draw the budget line, take the lowest point to its left.
-    Non-finite entries never qualify. Every setting within the factor ``1 + rtol`` of the smallest error
-    under the budget ties with it, and the cheapest wins (never a difference in the last digits).
+    Non-finite entries never qualify. ``rtol`` is the errors' resolution: every setting within the factor
+    ``1 + rtol`` of the smallest error under the budget ties with it, and the cheapest of them is chosen, so a
+    winner is never decided by a difference in the last digits.
     """
     c, e = _costs_errors(costs, errors)[:2]
     budget = float(budget)

@@ -25,7 +25,7 @@ __all__ = ["CFLStudy", "cfl_study"]
 class CFLStudy:
     """Rows of :func:`cfl_study` and the fitted exponents.
 
-    ``rows`` (also the study's items) are dicts with ``nx``, ``h``, ``dofs``, ``dt_measured``,
+    ``rows`` (iterating the study yields them) are dicts with ``nx``, ``h``, ``dofs``, ``dt_measured``,
     ``dt_estimate`` (``2 / omega_max``), ``ratio`` (measured / estimate), ``courant`` (``dt_measured c / h``)
     and ``seconds``. The fit ``dt_measured = constant h^exponent`` has ``exponent`` 1 under the CFL
     condition; ``exponent_estimate`` is the same slope for the estimate.

@@ -1,7 +1,19 @@
 """What accuracy costs in time: the measured study of chapter 9 (``python -m tissuefem bench accuracy``).
 
-Every speed/accuracy knob (``KNOBS``: mesh, P2, quadrature, material, Newton tolerance, a cap on Newton
-iterations, time step, linear solver) is turned, one at a time, away from a *baseline* setting, on two benchmarks:
+Every speed/accuracy knob (``KNOBS``) is turned, one at a time, away from a *baseline* setting:
+
+- mesh resolution (P1);
+- element order (P2 over the same meshes);
+- quadrature order (P2);
+- material model;
+- Newton tolerance;
+- a cap on Newton iterations (a quasistatic frame's linearised start counts as one);
+- time step: substeps per displayed frame (flap only);
+- linear solver: SuperLU with the minimum-degree (MMD) ordering and with SciPy's default COLAMD, CG with a
+  Jacobi or an incomplete-LU preconditioner, CG preconditioned by a reused factorization, and PARDISO when
+  it is installed.
+
+Each setting runs on two benchmarks:
 
 ``flap``
     the standard flap scene of :mod:`tissuefem.workbook.bench.realtime`, backward Euler, one displayed frame
@@ -13,16 +25,20 @@ iterations, time step, linear solver) is turned, one at a time, away from a *bas
     quasistatic: the same rectangle ``[0, 2] x [0, 1]`` with its right edge carried to ``(0.6, 0.4)``
     (chapter 4's block) in equal increments, one solve per frame.
 
-Each run records its *cost*, the median wall time per displayed frame (the solver's own clock), and its
-*error*, the relative ``L2`` displacement error against a reference
-(:func:`tissuefem.workbook.measure.relative_l2_error`): for the flap the largest over a few checkpoint frames
-(``errors`` lists them, ``error_final`` is the last), for the block that of the final equilibrium.
+Each run records its *cost*, the median wall time per displayed frame (the solver's own clock, with every
+Newton iteration, assembly and linear solve included), and its *error*, the relative ``L2`` displacement
+error against a reference (:func:`tissuefem.workbook.measure.relative_l2_error`): for the flap the largest
+over a few checkpoint frames (``errors`` lists them, ``error_final`` is the last), for the block that of the
+final equilibrium.
 
 The reference (:func:`reference_run`) pushes every knob further than any setting: P2 on a mesh graded
 towards the edges (:func:`graded_flap`; where a held edge meets a free one the solution is singular, and
 uniform refinement converges there at only about 1.6), Newton to ``rtol = 1e-10`` and, for the flap, a
-small time step extrapolated (Richardson). Its own error is *estimated* (:func:`_estimate`); chapter 9
-relies on it lying ten times below the smallest error of any setting. ``verification`` adds
+small time step extrapolated (Richardson: ``2 u(dt/2s) - u(dt/s)`` removes backward Euler's first-order
+error). Its own error is *estimated*, not assumed (:func:`_estimate`): the distances to the same reference
+on two coarser meshes (and, for the flap, from the extrapolations with two larger steps) give ``d`` (the
+nearer one) and a rate ``p``, and ``estimate = d / (2^p - 1)``. Chapter 9 relies on that estimate lying
+ten times below the smallest error of any setting. ``verification`` adds
 :func:`tissuefem.workbook.accuracy.manufactured_convergence` and
 :func:`~tissuefem.workbook.accuracy.beam_problem_tip`. On the flap alone, :func:`solver_scaling` fits
 ``ms ~ triangles^p`` per linear solver and :func:`budget_residual` shows what the budgeted solver leaves
@@ -193,7 +209,8 @@ def make_simulation(setting: Setting, benchmark: str = "flap", budget=math.inf, 
     """The standard flap scene with ``setting`` (mesh, order, quadrature, material, Newton, time step, solver).
 
     ``benchmark="flap"``: backward Euler with ``dt = 1/30 / substeps`` (P2 takes the consistent mass:
-    row-sum lumping gives its vertices none); ``"block"``: the same body quasistatic.
+    row-sum lumping gives its vertices none); ``"block"``: the same body quasistatic. A linear material
+    runs on its constant factorization (the Simulation picks it for a quadratic model), hence its cheap row.
     """
     setting.check()
     scene = flap_scene(setting.triangles, model=setting.material, dynamic=benchmark == "flap",
@@ -511,8 +528,9 @@ def budget_residual(sizes, frames: int, solvers=("reuse",), budget: float = FRAM
     """What the budgeted real-time solver leaves when its budget is spent, on the flap scene, by mesh size.
 
     For each size and solver: the share of frames converged within ``budget`` seconds, the median relative
-    residual ``|grad E| / |grad E(x0)|`` at the end of a frame and the relative ``L2`` distance of the final
-    state from the same run with every frame converged. ``clock`` is injectable (tests use a fake one).
+    residual ``|grad E| / |grad E(x0)|`` at the end of a frame (1e-6 or less for a converged frame) and the
+    relative ``L2`` distance of the final state from the same run with every frame converged. ``clock`` is
+    injectable (tests use a fake one).
     """
     rows = []
     for solver in solvers:
@@ -565,10 +583,11 @@ def capped_newton_experiment(triangles: int = 500, frames: int = 5, drag: str = 
 
     Runs of the flap (P1, ``triangles``, ``frames`` frames, ``drag`` as in :func:`time_convergence`): Newton
     converged, Newton capped at one step per frame, and a reference in time on the same mesh (``2 u(dt/2s) -
-    u(dt/s)``, ``s = reference_substeps``; the flap's error is backward Euler's time error). Returns, at the
-    last frame, both errors, the capped run's distance from the converged one (``capped_moved``) and
-    ``cosine`` (``L2`` inner product) between what the cap changed (capped - converged) and the converged
-    run's error (reference - converged): positive when the cap moved the state towards the reference.
+    u(dt/s)``, ``s = reference_substeps``; the flap's error is backward Euler's time error, so the mesh can
+    stay). Returns, at the last frame, both errors, the capped run's distance from the converged one
+    (``capped_moved``) and ``cosine`` (``L2`` inner product) between what the cap changed (capped -
+    converged) and the converged run's error (reference - converged): positive when the cap moved the state
+    towards the reference.
     """
     path = _drag_path(drag)
     cps = (frames,)

@@ -114,7 +114,8 @@ def write_csv(path, rows, extra=None) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     extra = extra or {}
-    keys = list(dict.fromkeys(k for row in rows for k, v in row.items() if not isinstance(v, (list, dict, np.ndarray))))
+    keys = list(dict.fromkeys(k for row in rows for k, v in row.items()
+                              if not isinstance(v, (list, dict, np.ndarray))))
     keys += [k for k in extra if k not in keys]
     with open(path, "w", encoding="utf-8", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=keys, extrasaction="ignore")

@@ -10,10 +10,11 @@ converged to a relative residual of ``1e-6``; run as a user runs it, a
   time is what a converged frame costs: the P1 assembler, warm starts, and the reused factorization as
   the CG preconditioner, refreshed on the second core (``"reuse-background"``; ``--linear reuse``
   refreshes it in the frame instead);
-* **ex43 way**: the same Newton iteration as scikit-fem's hyperelasticity example writes it: the forms
-  of :mod:`tissuefem.engine.forms` and the mass matrix assembled with ``asm`` every iteration,
-  ``condense`` on the fixed dofs and ``skfem.solve``, with one safeguard added (a step whose residual is
-  not finite is halved: plain Newton ends in NaN in the first frame at 32k triangles). Slow, so only the
+* **ex43 way**: the same Newton iteration as scikit-fem's hyperelasticity example writes it: a
+  ``BilinearForm`` and a ``LinearForm`` (the forms of :mod:`tissuefem.engine.forms`, plus the mass matrix)
+  assembled with ``asm`` every iteration, ``condense`` on the fixed dofs and ``skfem.solve`` (SciPy's
+  ``spsolve``), with one safeguard added (a step whose residual is not finite is halved: plain Newton
+  ends in NaN in the first frame at 32k triangles). Slow, so only the
   first ``baseline_frames`` frames; the ratio compares medians over those same frames;
 * **budgeted**: the real-time solver with its 1/30 s budget and the real clock: the share of frames
   converged in budget and the residual left when it runs out;

@@ -1,7 +1,8 @@
 """What every lecture figure shares: deterministic saving and the mark that lists a function as a figure.
 
 Each figure function takes an optional output ``path``, builds a ``matplotlib.figure.Figure`` without
-pyplot's global state, saves it when a path is given (so a file changes only when the figure does) and returns it.
+pyplot's global state, saves it when a path is given (PNG with no timestamp or version in its metadata, so a
+file changes only when the figure does) and returns it.
 """
 
 from __future__ import annotations

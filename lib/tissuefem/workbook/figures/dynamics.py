@@ -131,10 +131,12 @@ def fig_ch07_cfl(path=None, study=None) -> Figure:
 def fig_ch07_energy(path=None) -> Figure:
     """Chapter 7: total energy of the released flap, backward Euler at three steps and symplectic Euler.
 
-    Left: backward Euler (an incremental potential, stable at any step) loses energy, the faster the
-    larger the step; the first steps remove the fast modes the release excites. Symplectic Euler at half
-    its (rest-state) critical step keeps it within a few percent (middle: zoom, no drift); at 1.1 times
-    it blows up (right, stopped at a million times the start). Energies relative to the lifted flap's.
+    Left: backward Euler (an incremental potential, stable at any step) loses energy at every step, the
+    faster the larger the step: at 1/30 s the flap is almost at rest after two seconds, at 1/480 s it still
+    swings; the first steps remove the fast modes the release excites. Symplectic Euler at half its
+    (rest-state) critical step keeps the energy within a few percent for the whole run (middle: zoom, no
+    drift). Right, log scale: at 1.1 times the critical step it blows up within a few steps (the run stops
+    once the energy passes a million times its start). Energies are relative to the lifted flap's stored one.
     """
     problem, u0 = released_flap()
     dt_crit = critical_time_step(problem)

@@ -69,8 +69,8 @@ def fig02_kinematics(path=None) -> Figure:
     Right, the figure's stress half at the same point: a small square around X with a diagonal cut (unit
     normal N) and its image under F. The first Piola-Kirchhoff stress P (Neo-Hookean, E = 1000, nu = 0.3)
     maps N to the force the material beyond the cut exerts across it per unit *reference* length (area in
-    3D): t dA = P N dA. The same force is sigma n da per unit *deformed* length, with the Cauchy stress
-    sigma = P F^T / J (Nanson: n da = J F^-T N dA).
+    3D): t dA = P N dA. The same force is sigma n da per unit *deformed* length, with the deformed normal n
+    and the Cauchy stress sigma = P F^T / J (Nanson: n da = J F^-T N dA).
     """
     mesh = rectangle(2.0, 1.0, 8, 4)
     fig = Figure(figsize=(13.2, 3.9), layout="constrained")
