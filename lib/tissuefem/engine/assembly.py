@@ -51,19 +51,13 @@ import scipy.sparse as sp
 from skfem import Basis, ElementTriP1, ElementTriP2, ElementVector, asm
 
 from .forms import energy_form, residual_form, tangent_form
-from .meshes import COORDINATE_MAX, SIZE_RANGE, folded_triangles
+from .meshes import COORDINATE_MAX, SIZE_RANGE, folded_triangles, index_list
 from .parameters import check_density
 
 __all__ = ["P1Assembler", "QuadratureAssembler", "FormsAssembler", "make_assembler", "vector_basis"]
 
 #: Triangles with ``|2 area| <= _DEGENERATE_TOL * (longest edge)^2`` count as degenerate.
 _DEGENERATE_TOL = 1e-12
-
-
-def _list(idx, limit=20) -> str:
-    idx = np.asarray(idx).ravel()
-    shown = ", ".join(str(int(i)) for i in idx[:limit])
-    return f"[{shown}{', ...' if idx.size > limit else ''}] ({idx.size} in all)"
 
 
 class P1Assembler:
@@ -189,24 +183,24 @@ class P1Assembler:
             raise ValueError(f"mesh.t must hold integer node indices, got dtype {t.dtype}")
         if t.min() < 0 or t.max() >= p.shape[1]:
             bad = np.flatnonzero(((t < 0) | (t >= p.shape[1])).any(axis=0))
-            raise ValueError(f"mesh: elements {_list(bad)} refer to nodes outside 0..{p.shape[1] - 1}")
+            raise ValueError(f"mesh: elements {index_list(bad)} refer to nodes outside 0..{p.shape[1] - 1}")
         t = np.array(t, dtype=np.int64)  # a private copy (made read-only later)
         bad_nodes = np.flatnonzero(~np.isfinite(p).all(axis=0))
         if bad_nodes.size:
             bad_elems = np.flatnonzero(np.isin(t, bad_nodes).any(axis=0))
-            raise ValueError(f"mesh has non-finite coordinates at nodes {_list(bad_nodes)}, "
-                             f"used by elements {_list(bad_elems)}")
+            raise ValueError(f"mesh has non-finite coordinates at nodes {index_list(bad_nodes)}, "
+                             f"used by elements {index_list(bad_elems)}")
         # A node in no triangle has neither stiffness nor mass: every Newton matrix would be singular.
         # (Edges in three triangles and overlapping copies of a triangle are allowed here: cutting through
         # elements makes them next to a crack tip; only a user's mesh file is refused for them.)
         used = np.zeros(p.shape[1], dtype=bool)
         used[t.ravel()] = True
         if not used.all():
-            raise ValueError(f"mesh: nodes {_list(np.flatnonzero(~used))} belong to no triangle (an unused node has "
-                             "no stiffness and no mass); remove them and renumber")
+            raise ValueError(f"mesh: nodes {index_list(np.flatnonzero(~used))} belong to no triangle (an unused node "
+                             "has no stiffness and no mass); remove them and renumber")
         far = np.flatnonzero((np.abs(p) > COORDINATE_MAX).any(axis=0))
         if far.size:
-            raise ValueError(f"mesh: nodes {_list(far)} lie beyond the coordinate limit +-{COORDINATE_MAX:g}")
+            raise ValueError(f"mesh: nodes {index_list(far)} lie beyond the coordinate limit +-{COORDINATE_MAX:g}")
         extent = float(np.ptp(p, axis=1).max())
         if extent < SIZE_RANGE[0]:
             raise ValueError(f"mesh: spans only {extent:g} (the largest side of its bounding box must be at least "
@@ -219,7 +213,7 @@ class P1Assembler:
         h2 = np.maximum(np.maximum((d1**2).sum(0), (d2**2).sum(0)), (d3**2).sum(0))
         degenerate = np.flatnonzero(~(np.abs(det) > _DEGENERATE_TOL * h2))
         if degenerate.size:
-            raise ValueError(f"mesh has zero-area (degenerate) triangles: elements {_list(degenerate)}")
+            raise ValueError(f"mesh has zero-area (degenerate) triangles: elements {index_list(degenerate)}")
         folded = folded_triangles(p, t)
         if folded.size:
             pairs = ", ".join(f"({i}, {j})" for i, j in folded.T[:10]) + (" ..." if folded.shape[1] > 10 else "")

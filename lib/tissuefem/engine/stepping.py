@@ -127,6 +127,13 @@ def _positive(name, value, allow_inf=False) -> float:
     return check_real(name, value, 0.0, None, lo_open=True)
 
 
+def _finite_hessian(K):
+    """``K`` if every entry is finite, else a ``ValueError`` (a linear solve must never factorize it)."""
+    if not np.all(np.isfinite(K.data)):
+        raise ValueError("the Hessian is not finite")
+    return K
+
+
 def _state_vector(name, value, n) -> np.ndarray:
     """A finite real dof vector of shape ``(n,)`` (a private copy), or a ``ValueError`` naming ``name``."""
     a = check_real_array(name, value)
@@ -477,10 +484,10 @@ class Stepper:
         try:
             with np.errstate(all="ignore"):
                 if model.quadratic and self.linear.constant:
-                    # a quadratic energy: g(u) + K dx is g(u + dx) exactly, and the constant K is needed only
-                    # to make the kept factorization
+                    # a quadratic energy: g(u) + K dx is g(u + dx) exactly, and the constant K is assembled only
+                    # when the kept factorization is to be made
                     rhs = -model.gradient(self.u + dx)[free]
-                    A = self.linear.matrix(self._quadratic_hessian, free)
+                    A = self.linear.matrix(lambda: _finite_hessian(model.hessian(self.u)), free)
                 else:
                     K = model.hessian(self.u)
                     rhs = -model.gradient(self.u)[free] - (K @ dx)[free]
@@ -499,20 +506,6 @@ class Stepper:
             return None, load_norm, info.factorizations
         dx[free] = dx_free
         return dx, load_norm, info.factorizations
-
-    def _quadratic_hessian(self):
-        """The constant Hessian of a quadratic model, assembled once for its terms and time step
-        (``ValueError`` when it is not finite)."""
-        model = self.model
-        dt = None if model.inertia is None else model.inertia.dt
-        key = (id(model.pattern), tuple(id(t) for t in model.terms), dt)
-        cached = getattr(self, "_quadratic_K", None)
-        if cached is None or cached[0] != key:
-            K = model.hessian(self.u)
-            if not np.all(np.isfinite(K.data)):
-                raise ValueError("the constant Hessian is not finite")
-            cached = self._quadratic_K = (key, K)
-        return cached[1]
 
 
 # ------------------------------------------------------------------------------------------------ quasistatics
