@@ -22,9 +22,9 @@ from ..engine.linsolve import LinearSolver
 from ..engine.materials import LinearElastic, Material, NeoHookean
 from ..engine.meshes import rectangle
 from ..engine.model import Handle, Model
+from ..engine.parameters import check_count as _count
 from ..engine.stepping import StaticResult, solve
 from .bench.common import cell_text, markdown_table
-from .bench.common import check_positive_int as _count
 from .measure import median_time, relative_l2_error
 
 __all__ = [

@@ -62,13 +62,14 @@ from ...engine.linsolve import LinearSolver, available
 from ...engine.materials import MATERIALS, material as make_material
 from ...engine.meshes import flap
 from ...engine.model import Handle, Model
+from ...engine.parameters import check_count
 from ...engine.realtime import RealtimeSolver
 from ...engine.stepping import solve
 from ...surgery.scene import Scene, flap_path, flap_scene
 from ...surgery.simulation import Simulation
 from ..accuracy import beam_problem_tip, manufactured_convergence
 from ..measure import fitted_exponent, pareto_front, relative_l2_error
-from .common import check_positive_int, load_results, machine_info, markdown_table, write_csv, write_json
+from .common import load_results, machine_info, markdown_table, write_csv, write_json
 
 __all__ = [
     "Setting", "KNOBS", "PLANS", "BLOCK_TARGET", "EASE_IN", "REFERENCE_GRADING", "eased_flap_path", "graded_flap",
@@ -134,7 +135,7 @@ class Setting:
 
     def check(self) -> "Setting":
         for name in ("triangles", "max_iterations", "substeps"):
-            check_positive_int(f"setting {name}", getattr(self, name))
+            check_count(f"setting {name}", getattr(self, name))
         if self.order not in (1, 2):
             raise ValueError(f"setting order must be 1 or 2, got {self.order!r}")
         if self.material not in MATERIALS:

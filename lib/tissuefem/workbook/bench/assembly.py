@@ -26,11 +26,12 @@ from skfem import Basis, ElementTriP1, ElementVector, asm
 
 from ...engine.assembly import P1Assembler
 from ...engine.constants import TISSUE_E, TISSUE_NU
+from ...engine.parameters import check_count
 from ...engine.forms import residual_form, tangent_form
 from ...engine.materials import NeoHookean
 from ...engine.meshes import mesh_with_about
 from ..measure import median_time
-from .common import check_positive_int, check_sizes, machine_info, markdown_table, write_json
+from .common import check_sizes, machine_info, markdown_table, write_json
 
 __all__ = ["assembly_benchmark", "format_table"]
 
@@ -72,7 +73,7 @@ def assembly_benchmark(sizes=(2000, 8000, 32000), repeats=5, material=None, out=
     ``rel_diff_tangent``/``rel_diff_residual`` (relative Frobenius difference of the two paths, a sanity check).
     """
     sizes = check_sizes(sizes)
-    repeats = check_positive_int("repeats", repeats)
+    repeats = check_count("repeats", repeats)
     if material is None:
         material = NeoHookean.from_young(TISSUE_E, TISSUE_NU)
     say = progress if progress is not None else (lambda *_: None)

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["machine_info", "markdown_table", "cell_text", "check_positive_int", "check_sizes", "write_json",
+__all__ = ["machine_info", "markdown_table", "cell_text", "check_sizes", "write_json",
            "write_csv", "load_results"]
 
 
@@ -59,13 +59,6 @@ def markdown_table(rows, columns, text_columns: int = 0) -> str:
 def cell_text(value, fmt: str) -> str:
     """``fmt.format(value)``, or ``-`` for a missing or non-finite value."""
     return "-" if value is None or (isinstance(value, float) and not math.isfinite(value)) else fmt.format(value)
-
-
-def check_positive_int(name: str, value) -> int:
-    """``value`` as an ``int`` when it is an integer >= 1 (not a bool), else a ``ValueError`` naming ``name``."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
-        raise ValueError(f"{name} must be a positive integer, got {value!r}")
-    return int(value)
 
 
 def check_sizes(sizes):
