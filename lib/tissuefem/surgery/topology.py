@@ -35,7 +35,6 @@ Conventions
 from __future__ import annotations
 
 import math
-import numbers
 from dataclasses import dataclass
 
 import numpy as np
@@ -43,6 +42,8 @@ from matplotlib.path import Path
 import scipy.sparse as sp
 from scipy.sparse import csgraph
 from skfem import MeshTri
+
+from ..engine.parameters import check_count, check_real
 
 __all__ = ["MeshEdit", "duplicate_along_edges", "cut_path", "incise", "excise", "connected_components", "nodes_near"]
 
@@ -131,9 +132,7 @@ def _index_array(name: str, value, rows: int) -> np.ndarray:
 
 def _triangles(t, n_nodes):
     """Checked ``(t (3, m) int64, n_nodes)``: every index in ``t`` is a node."""
-    if isinstance(n_nodes, bool) or not isinstance(n_nodes, numbers.Integral) or int(n_nodes) < 0:
-        raise ValueError(f"n_nodes must be a non-negative integer, got {n_nodes!r}")
-    n_nodes, t = int(n_nodes), _index_array("t", t, 3)
+    n_nodes, t = check_count("n_nodes", n_nodes, 0), _index_array("t", t, 3)
     if t.size and (t.min() < 0 or t.max() >= n_nodes):
         raise ValueError(f"t must hold node indices in [0, n_nodes) = [0, {n_nodes}), got range [{t.min()}, {t.max()}]")
     return t, n_nodes
@@ -337,8 +336,7 @@ def nodes_near(positions, point, radius):
         raise ValueError(f"point must be two coordinates (x, y), got {point!r}") from None
     if c.shape != (2,) or not np.all(np.isfinite(c)):
         raise ValueError(f"point must be two finite coordinates (x, y), got {point!r}")
-    if isinstance(radius, bool) or not isinstance(radius, numbers.Real) or not math.isfinite(radius) or radius < 0:
-        raise ValueError(f"radius must be a finite number >= 0, got {radius!r}")
+    radius = check_real("radius", radius, 0.0)
     d = np.hypot(x[0] - c[0], x[1] - c[1])
     found = np.flatnonzero(d <= radius)
     if found.size == 0:

@@ -38,6 +38,7 @@ from skfem import BilinearForm, asm, condense, solve
 from ...engine.constants import FRAME_BUDGET, TISSUE_DENSITY, TISSUE_E, TISSUE_NU
 from ...engine.forms import residual_form, tangent_form
 from ...engine.linsolve import LinearSolver
+from ...engine.parameters import check_count
 from ...surgery.scene import flap_path, flap_scene
 from ...surgery.simulation import Simulation
 from .common import check_sizes, machine_info, markdown_table, write_csv, write_json
@@ -165,11 +166,9 @@ def realtime_benchmark(sizes=(2000, 8000, 16000, 32000), frames: int = 90, basel
     ``baseline_frames = 0`` skips the ex43-way run.
     """
     sizes = check_sizes(sizes)
-    for name, value in (("frames", frames), ("baseline_frames", baseline_frames), ("budget_frames", budget_frames)):
-        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
-            raise ValueError(f"{name} must be a non-negative integer, got {value!r}")
-    if frames < 1:
-        raise ValueError(f"frames must be at least 1, got {frames!r}")
+    frames = check_count("frames", frames, 1)
+    baseline_frames = check_count("baseline_frames", baseline_frames, 0)
+    budget_frames = check_count("budget_frames", budget_frames, 0)
     say = progress if progress is not None else (lambda *_: None)
 
     # one untimed pass at the largest size warms the allocator up (see the assembly benchmark)
