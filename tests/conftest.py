@@ -191,4 +191,4 @@ def pytest_terminal_summary(terminalreporter, exitstatus, config):
         folder = "" if grading.EXERCISES_DIR == grading.DEFAULT_EXERCISES_DIR else \
             f"TISSUEFEM_EXERCISES={grading.EXERCISES_DIR} "
         tr.write_line(f"a check's full message: {folder}TISSUEFEM_GRADE={grading.MODE} python -m pytest "
-                      f"tests/test_exercises*.py -k ex{first} --tb=short")
+                      f"tests/chapters/test_exercises*.py -k ex{first} --tb=short")

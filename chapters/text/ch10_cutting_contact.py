@@ -144,7 +144,7 @@ print("momentum before / after:", (velocity * before).sum(axis=1), (velocity[:, 
 # $\sqrt{\sec(\pi a/W)}$ for a plate of width $W$). Below, `griffith_opening` cuts the crack through the
 # elements of three meshes of a $10\times 10$ plate (`cut_through`, then `Model(..., weights=cut.weights)`
 # and `solve`) and reads the jump between the two lips of the wound; the test suite runs the same check
-# (`tests/test_cutting.py::test_a_crack_cut_through_elements_opens_as_griffiths_crack`).
+# (`tests/workbook/test_cutting.py::test_a_crack_cut_through_elements_opens_as_griffiths_crack`).
 
 # %%
 E, nu = 1000.0, 0.3

@@ -9,7 +9,7 @@ Every material maps the deformation gradient ``F[i, j] = d phi_i / d X_j`` to
 ``F`` is a 2x2 matrix or a field of them shaped ``[2, 2, *rest]`` (scikit-fem hands us
 ``[2, 2, elements, quadrature points]``); everything is vectorised.
 
-Derivations (re-done here; checked by finite differences in ``tests/test_materials.py``)
+Derivations (re-done here; checked by finite differences in ``tests/engine/test_materials.py``)
 ---------------------------------------------------------------------------------------
 
 Two identities carry most of the work. In 2D ``J = det F = F00 F11 - F01 F10``, so entry by entry

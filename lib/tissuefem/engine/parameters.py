@@ -38,7 +38,8 @@ import numbers
 import numpy as np
 
 __all__ = [
-    "lame_parameters", "check_young_poisson", "check_poisson_ratio", "check_lame", "check_real", "check_count",
+    "ParameterError", "lame_parameters", "check_young_poisson", "check_poisson_ratio", "check_lame", "check_real",
+    "check_count",
     "check_time_step", "YOUNGS_MODULUS_RANGE", "POISSON_RATIO_RANGE", "LAME_MAX", "SHEAR_MODULUS_MIN",
     "TIME_STEP_RANGE", "DENSITY_RANGE", "ACCELERATION_MAX", "FORCE_MAX", "PENALTY_MAX", "REACH", "RADIUS_RANGE",
     "check_density", "check_bounded_vector", "check_real_array",
@@ -68,16 +69,28 @@ REACH = 1e3
 RADIUS_RANGE = (1e-6, 1e3)
 
 
+class ParameterError(ValueError):
+    """A refused input: a ``ValueError`` whose ``field`` names the offending argument (``"probe.radius"``).
+
+    The message is the whole sentence (it names the field too); callers that relabel an error (a scene
+    file's section, a command-line option) read ``field`` instead of parsing the message.
+    """
+
+    def __init__(self, field: str, message: str):
+        super().__init__(message)
+        self.field = field
+
+
 def _real_value(name: str, value) -> float:
     """``value`` as a float if it is a real number (not a bool, a string or a complex number)."""
     if isinstance(value, np.ndarray) and value.ndim == 0:
         value = value[()]
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
-        raise ValueError(f"{name} must be a real number, got {value!r}")
+        raise ParameterError(name, f"{name} must be a real number, got {value!r}")
     try:
         return float(value)
     except OverflowError:  # an integer with hundreds of digits
-        raise ValueError(f"{name} is out of range (too large for a float), got {_short(value)}") from None
+        raise ParameterError(name, f"{name} is out of range (too large for a float), got {_short(value)}") from None
 
 
 def _short(value, limit: int = 60) -> str:
@@ -99,15 +112,15 @@ def check_real(name: str, value, lo=None, hi=None, *, lo_open: bool = False, hi_
     """
     v = _real_value(name, value)
     if not math.isfinite(v):
-        raise ValueError(f"{name} must be finite, got {value!r}")
+        raise ParameterError(name, f"{name} must be finite, got {value!r}")
     violated = None
     if lo is not None and (v <= lo if lo_open else v < lo):
         violated = "> 0" if (lo == 0 and lo_open) or (v <= 0 < lo) else f"{'>' if lo_open else '>='} {lo:g}"
     elif hi is not None and (v >= hi if hi_open else v > hi):
         violated = f"{'<' if hi_open else '<='} {hi:g}"
     if violated is not None:
-        raise ValueError(f"{name} must be {violated} (allowed range {_interval(lo, hi, lo_open, hi_open)}), "
-                         f"got {_short(value)}")
+        allowed = _interval(lo, hi, lo_open, hi_open)
+        raise ParameterError(name, f"{name} must be {violated} (allowed range {allowed}), got {_short(value)}")
     return v
 
 
@@ -116,11 +129,11 @@ def check_count(name: str, value, lo: int = 1, hi: int | None = None) -> int:
     if isinstance(value, np.ndarray) and value.ndim == 0:
         value = value[()]
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral):
-        raise ValueError(f"{name} must be an integer, got {_short(value)}")
+        raise ParameterError(name, f"{name} must be an integer, got {_short(value)}")
     v = int(value)
     if v < lo or (hi is not None and v > hi):
         bounds = f"[{lo}, {hi}]" if hi is not None else f">= {lo}"
-        raise ValueError(f"{name} must be an integer in {bounds}, got {_short(value)}")
+        raise ParameterError(name, f"{name} must be an integer in {bounds}, got {_short(value)}")
     return v
 
 
@@ -142,7 +155,7 @@ def check_bounded_vector(name: str, value, bound: float) -> np.ndarray:
     except Exception:  # no length, or one that cannot be taken: not a vector
         items = None
     if items is None or len(items) != 2:
-        raise ValueError(f"{name} must be a vector (x, y) of two real numbers, got {_short(value)}")
+        raise ParameterError(name, f"{name} must be a vector (x, y) of two real numbers, got {_short(value)}")
     return np.array([check_real(f"{name}[{i}]", v, -bound, bound) for i, v in enumerate(items)])
 
 
@@ -156,8 +169,8 @@ def check_poisson_ratio(nu, name: str = "nu (Poisson's ratio)") -> float:
     nu = check_real(name, nu, -1.0, 0.5, lo_open=True, hi_open=True)
     lo, hi = POISSON_RATIO_RANGE
     if not lo <= nu <= hi:
-        raise ValueError(f"{name} = {nu!r} is too close to {'0.5' if nu > 0 else '-1'}; the allowed range is "
-                         f"[{lo:.6f}, {hi:.6f}]")
+        raise ParameterError(name, f"{name} = {nu!r} is too close to {'0.5' if nu > 0 else '-1'}; the allowed "
+                                   f"range is [{lo:.6f}, {hi:.6f}]")
     return nu
 
 
@@ -184,7 +197,7 @@ def lame_parameters(E, nu, plane: str = "strain") -> tuple[float, float]:
         return lam, mu
     if plane == "stress":
         return 2.0 * lam * mu / (lam + 2.0 * mu), mu
-    raise ValueError(f"plane must be 'strain' or 'stress', got {plane!r}")
+    raise ParameterError("plane", f"plane must be 'strain' or 'stress', got {plane!r}")
 
 
 def check_lame(lam, mu) -> tuple[float, float]:
@@ -203,10 +216,10 @@ def check_real_array(name: str, value) -> np.ndarray:
     try:
         a = np.asarray(value)
     except (TypeError, ValueError):  # ragged nested lists
-        raise ValueError(f"{name} must be an array of real numbers, got a {type(value).__name__} that is not "
-                         "rectangular (ragged)") from None
+        raise ParameterError(name, f"{name} must be an array of real numbers, got a {type(value).__name__} "
+                                   "that is not rectangular (ragged)") from None
     if a.dtype.kind not in "iuf":
         what = {"c": "complex numbers", "b": "booleans", "U": "strings", "S": "bytes", "O": "Python objects"}
-        raise ValueError(f"{name} must be an array of real numbers, got {what.get(a.dtype.kind, a.dtype)} "
-                         f"(dtype {a.dtype})")
+        raise ParameterError(name, f"{name} must be an array of real numbers, got "
+                                   f"{what.get(a.dtype.kind, a.dtype)} (dtype {a.dtype})")
     return a if a.dtype == np.float64 else a.astype(np.float64)

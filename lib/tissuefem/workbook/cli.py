@@ -122,7 +122,7 @@ def cmd_grade(args) -> int:
         if not folder.is_dir():
             raise SystemExit(f"--exercises: {args.exercises} is not a folder (it should hold ch01.py ... ch09.py)")
         env["TISSUEFEM_EXERCISES"] = str(folder)
-    tests = sorted((root / "tests").glob("test_exercises*.py"))
+    tests = sorted((root / "tests" / "chapters").glob("test_exercises*.py"))
     if args.chapter:
         # only the files that grade this chapter: quicker to collect
         tests = [t for t in tests if f'"{args.chapter}"' in t.read_text(encoding="utf-8")] or tests

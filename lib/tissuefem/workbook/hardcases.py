@@ -1,7 +1,7 @@
 """The hard cases: crushed, collapsed, mirrored, stretched and dragged bodies, and their release.
 
 Promise 2 of the workbook is that hard cases stay numerically stable. Chapter 6 shows and
-``tests/test_hard_cases.py`` asserts the experiment: put a small block in a violent state (mirrored,
+``tests/workbook/test_hard_cases.py`` asserts the experiment: put a small block in a violent state (mirrored,
 collapsed to a point or a line, stretched 10x, crushed past flat, dragged through itself), *release* it
 (hold a few nodes at rest, free the others, solve for equilibrium), and measure how far the result is
 from the rest shape and what it cost (Newton iterations, line-search cuts, shifted tangents).

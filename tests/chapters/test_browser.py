@@ -11,7 +11,7 @@ frame rate and the latency it measured are a benchmark, written to
 ``bench-results/interactive_browser.json`` and printed, never asserted.
 
 Run it alone with ``python -m pytest -m browser -s``, or as a script
-(``python tests/test_browser.py``) to print the measurement. Without Chromium
+(``python tests/chapters/test_browser.py``) to print the measurement. Without Chromium
 and chromium-driver it skips, saying how to install them.
 
 How the numbers are measured (in the page, with ``performance.now()``):
@@ -45,7 +45,7 @@ from browser_lab import (PROBE_SHOWN, JupyterLab, browser_missing, cpu_seconds, 
 
 pytestmark = pytest.mark.browser
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 CHAPTER = ROOT / "chapters" / "ch08b_virtual_surgery.ipynb"
 SECTION = "With the mouse"
 BENCH_OUT = ROOT / "bench-results" / "interactive_browser.json"

@@ -14,7 +14,7 @@ from tissuefem.workbook import cli
 from tissuefem.workbook.book import build_book, chapter_goals, estimate_minutes, readme_section
 from tissuefem.workbook.notebooks import execute_notebook
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 ALPHA_INTRO = """# Chapter 1 — Alpha: adding numbers
 

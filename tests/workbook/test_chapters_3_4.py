@@ -12,7 +12,7 @@ matplotlib.use("Agg")
 
 import numpy as np
 import pytest
-from figure_checks import assert_figure_deterministic
+from helpers import assert_figure_deterministic
 from skfem import Basis, ElementTriP1, ElementTriP2, ElementVector, asm
 
 from tissuefem import (FormsAssembler, LinearElastic, NeoHookean, P1Assembler, QuadratureAssembler, energy_form,

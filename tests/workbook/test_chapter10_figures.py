@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from figure_checks import assert_figure_deterministic
+from helpers import assert_figure_deterministic
 from tissuefem.workbook import figures
 from tissuefem.workbook.figures.cutting import (CRACK_MESHES, _fold_run, _pressed_cut_run, crack_opening, crack_runs,
                                                 overlap_area)

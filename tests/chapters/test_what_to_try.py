@@ -22,7 +22,7 @@ from tissuefem.workbook.notebooks import chapter_paths
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-CHAPTERS = Path(__file__).resolve().parents[1] / "chapters"
+CHAPTERS = Path(__file__).resolve().parents[2] / "chapters"
 FENCE = re.compile(r"^```python\s*\n(.*?)^```\s*$", re.S | re.M)
 INLINE = re.compile(r"`([^`\n]+)`")
 

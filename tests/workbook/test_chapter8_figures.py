@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from figure_checks import assert_figure_deterministic
+from helpers import assert_figure_deterministic
 from tissuefem.workbook import figures
 from tissuefem.workbook.figures.surgery import FALL_FRAMES, SAG_FRAMES, two_pieces_run
 

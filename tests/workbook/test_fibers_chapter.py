@@ -12,7 +12,7 @@ matplotlib.use("Agg")
 
 import numpy as np
 import pytest
-from figure_checks import assert_figure_deterministic
+from helpers import assert_figure_deterministic
 
 from tissuefem.workbook import fibers
 from tissuefem import TISSUE_E, TISSUE_NU, FiberReinforced, LinearElastic, NeoHookean, StableNeoHookean

@@ -15,7 +15,7 @@ import pytest
 
 import grading
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 # Chapter 2 with three slips: the sign of one stress term, a factor 2 on the tangent, and the
 # Newton update solved with +q.

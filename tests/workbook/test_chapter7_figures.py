@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from figure_checks import assert_figure_deterministic
+from helpers import assert_figure_deterministic
 from tissuefem import Handle, Model, NeoHookean, flap
 from tissuefem.workbook.figures.realtime import capped_runs
 

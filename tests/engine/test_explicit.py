@@ -5,7 +5,7 @@ import warnings
 import numpy as np
 import pytest
 import scipy.linalg
-from figure_checks import assert_figure_deterministic
+from helpers import assert_figure_deterministic
 
 from tissuefem import (Handle, Model, NeoHookean, StableNeoHookean, SymplecticEuler, critical_time_step,
                        lame_parameters, largest_stable_dt, mesh_size, rectangle, solve, wave_speed)

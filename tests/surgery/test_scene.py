@@ -252,7 +252,7 @@ def test_demo_scene_runs():
 
 # --- the shipped scene files and the command ------------------------------------------------------------------
 
-SCENES_DIR = __import__("pathlib").Path(__file__).resolve().parents[1] / "scenes"
+SCENES_DIR = __import__("pathlib").Path(__file__).resolve().parents[2] / "scenes"
 
 
 @pytest.mark.parametrize("path", sorted(SCENES_DIR.glob("*.toml")), ids=lambda p: p.name)

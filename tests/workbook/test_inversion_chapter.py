@@ -13,7 +13,7 @@ matplotlib.use("Agg")
 
 import numpy as np
 import pytest
-from figure_checks import assert_figure_deterministic
+from helpers import assert_figure_deterministic
 from matplotlib.figure import Figure
 
 from tissuefem.workbook.figures.inversion import CRUSH_COLUMNS, cover_counts, draw_state, element_jacobians, frame_depths

@@ -7,7 +7,7 @@ import pytest
 
 from tissuefem.workbook.notebooks import chapter_paths, execute_notebook
 
-CHAPTERS = Path(__file__).resolve().parents[1] / "chapters"
+CHAPTERS = Path(__file__).resolve().parents[2] / "chapters"
 NOTEBOOKS = chapter_paths(CHAPTERS)
 
 

@@ -1,4 +1,4 @@
-"""Shared check for chapter figures: registered, documented, a PNG, byte-identical across runs."""
+"""Helpers shared by the tests of every layer: a chapter figure registered, documented, a PNG, byte-identical across runs."""
 
 import hashlib
 

@@ -2,7 +2,7 @@
 
 import pytest
 
-from figure_checks import assert_figure_deterministic
+from helpers import assert_figure_deterministic
 from tissuefem.workbook import figures
 from tissuefem.workbook.bench.accuracy import recorded_results
 from tissuefem.workbook.figures.accuracy import KNOB_STYLE, plot_pareto

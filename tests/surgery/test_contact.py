@@ -1,6 +1,6 @@
 """Self-contact of the boundary: surfaces that touch, press and slide, and never pass through each other.
 
-The term's derivatives are checked in the finite-difference table (tests/test_derivatives.py); here:
+The term's derivatives are checked in the finite-difference table (tests/engine/test_derivatives.py); here:
 the barrier's shape, the two surface builders (plain meshes and cuts through elements), that contact
 costs nothing when nothing is near (and nothing at all without it), that the collision detection keeps
 every step out of the walls, that a folded sheet and a wound pressed shut never interpenetrate (checked
