@@ -25,6 +25,7 @@ given to :func:`check_mesh`; lengths (``width``, ``height``, ``length``, ``max_w
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 from skfem import MeshTri
@@ -34,7 +35,7 @@ from .parameters import check_count, check_real
 __all__ = [
     "edge_lengths", "mesh_size", "mean_edge_length", "rectangle", "mesh_with_about", "fusiform_muscle",
     "fusiform_width", "fusiform_fiber_direction", "fusiform_fiber_field", "flap", "signed_areas", "check_mesh",
-    "index_list",
+    "index_list", "MeshMap",
 ]
 
 #: The most triangles a generated domain (and a mesh passed to :func:`check_mesh`) may have.
@@ -460,3 +461,58 @@ def fusiform_fiber_field(mesh, length=None, max_width=None, tendon_width=None) -
     centroid = p[:, t].mean(axis=1)
     centroid[0] -= x0
     return fusiform_fiber_direction(centroid, length, max_width, tendon_width)
+
+
+# --- maps between meshes ---
+@dataclass(frozen=True, eq=False, kw_only=True)
+class MeshMap:
+    """A new mesh and the maps back to the old one, after a topology change (a cut, an excision).
+
+    It is what a model needs to carry its terms, handles and state across the change.
+
+    Attributes
+    ----------
+    mesh : skfem.MeshTri
+        The new mesh.
+    parent : ndarray of int, shape (n_new_nodes,)
+        The old node each new node comes from (after an excision: the surviving old nodes, increasing).
+    elements : ndarray of int, shape (n_new_elements,)
+        The old element each new element comes from.
+    n_old_nodes, n_old_elements : int
+        Sizes of the old mesh (to check what is transferred).
+    weights : ndarray, shape (n_new_elements,), or None
+        Share of its triangle's area each new element's material fills (a cut through elements); None: whole.
+    """
+
+    mesh: MeshTri
+    parent: np.ndarray
+    elements: np.ndarray
+    n_old_nodes: int
+    n_old_elements: int
+    weights: np.ndarray | None = None
+
+    def transfer(self, values) -> np.ndarray:
+        """Per-node values of the old mesh, shape ``(..., n_old_nodes)``, on the new mesh (a new array,
+        ``(..., n_new_nodes)``): a copy starts with the position, displacement or velocity of its parent."""
+        return _last_axis(values, self.n_old_nodes, "one entry per old node")[..., self.parent]
+
+    def transfer_elements(self, values) -> np.ndarray:
+        """Per-element values of the old mesh, shape ``(..., n_old_elements)``, on the new mesh."""
+        return _last_axis(values, self.n_old_elements, "one entry per old element")[..., self.elements]
+
+    def transfer_dofs(self, values) -> np.ndarray:
+        """A vector P1 field in scikit-fem's dof order, ``(..., 2 n_old_nodes)``, on the new mesh.
+
+        The dofs of node ``n`` are ``(2 n, 2 n + 1)`` (x then y), the order of
+        ``Basis(mesh, ElementVector(ElementTriP1()))`` and of :class:`~tissuefem.engine.assembly.P1Assembler`.
+        """
+        v = _last_axis(values, 2 * self.n_old_nodes, "two dofs per old node")
+        pairs = v.reshape(v.shape[:-1] + (self.n_old_nodes, 2))
+        return pairs[..., self.parent, :].reshape(v.shape[:-1] + (2 * self.parent.size,))
+
+
+def _last_axis(values, length, what) -> np.ndarray:
+    v = np.asarray(values)
+    if v.ndim < 1 or v.shape[-1] != length:
+        raise ValueError(f"values must have {what} on the last axis (length {length}), got shape {v.shape}")
+    return v

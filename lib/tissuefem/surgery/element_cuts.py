@@ -765,7 +765,7 @@ class Wound:
         return 0.5 * float(np.hypot(d[:, 0], d[:, 1]).sum())
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, kw_only=True)
 class ElementCut(MeshEdit):
     """A :class:`~tissuefem.surgery.topology.MeshEdit` that cut through elements.
 

@@ -18,8 +18,8 @@ Functions
 
 Conventions
 -----------
-* A :class:`MeshEdit` holds the new mesh, ``parent`` (new node -> old node) and
-  ``elements`` (new element -> old element). A per-node field ``u`` becomes
+* A :class:`MeshEdit` (the engine's :class:`~tissuefem.engine.meshes.MeshMap`) holds the new mesh,
+  ``parent`` (new node -> old node) and ``elements`` (new element -> old element). A per-node field ``u`` becomes
   ``u[..., parent]`` (:meth:`MeshEdit.transfer`): copies start where their
   original was, so a deformed state carries over without any jump.
 * The new meshes are built with ``sort_t=False``: every element keeps its
@@ -43,6 +43,7 @@ import scipy.sparse as sp
 from scipy.sparse import csgraph
 from skfem import MeshTri
 
+from ..engine.meshes import MeshMap
 from ..engine.parameters import check_count, check_real
 
 __all__ = ["MeshEdit", "duplicate_along_edges", "cut_path", "incise", "excise", "connected_components", "nodes_near"]
@@ -59,58 +60,18 @@ _NEAR_BOUNDARY = 0.5
 
 
 # --- the result ---
-@dataclass(frozen=True, eq=False)
-class MeshEdit:
-    """The result of a topology change: the new mesh and the maps to the old one.
+@dataclass(frozen=True, eq=False, kw_only=True)
+class MeshEdit(MeshMap):
+    """A :class:`~tissuefem.engine.meshes.MeshMap` made by a cut along mesh edges or an excision.
 
-    Attributes
-    ----------
-    mesh : skfem.MeshTri
-    parent : ndarray of int, shape (n_new_nodes,)
-        The old node each new node comes from (after :func:`excise`: the surviving old nodes, increasing).
-    elements : ndarray of int, shape (n_new_elements,)
-        The old element each new element comes from (``arange`` for a cut).
-    cut_edges : ndarray of int, shape (2, k)
-        Old-node pairs of the edges opened, in the order the cut passed them (empty for :func:`excise`).
-    n_old_nodes, n_old_elements : int
-        Sizes of the old mesh (to check what is transferred).
+    ``cut_edges`` : ndarray of int, shape (2, k): old-node pairs of the edges opened, in the order the
+    cut passed them (empty for :func:`excise`).
     """
 
-    mesh: MeshTri
-    parent: np.ndarray
-    elements: np.ndarray
     cut_edges: np.ndarray
-    n_old_nodes: int
-    n_old_elements: int
-
-    def transfer(self, values) -> np.ndarray:
-        """Per-node values of the old mesh, shape ``(..., n_old_nodes)``, on the new mesh (a new array,
-        ``(..., n_new_nodes)``): a copy starts with the position, displacement or velocity of its parent."""
-        return _last_axis(values, self.n_old_nodes, "one entry per old node")[..., self.parent]
-
-    def transfer_elements(self, values) -> np.ndarray:
-        """Per-element values of the old mesh, shape ``(..., n_old_elements)``, on the new mesh."""
-        return _last_axis(values, self.n_old_elements, "one entry per old element")[..., self.elements]
-
-    def transfer_dofs(self, values) -> np.ndarray:
-        """A vector P1 field in scikit-fem's dof order, ``(..., 2 n_old_nodes)``, on the new mesh.
-
-        The dofs of node ``n`` are ``(2 n, 2 n + 1)`` (x then y), the order of
-        ``Basis(mesh, ElementVector(ElementTriP1()))`` and of :class:`~tissuefem.engine.assembly.P1Assembler`.
-        """
-        v = _last_axis(values, 2 * self.n_old_nodes, "two dofs per old node")
-        pairs = v.reshape(v.shape[:-1] + (self.n_old_nodes, 2))
-        return pairs[..., self.parent, :].reshape(v.shape[:-1] + (2 * self.parent.size,))
 
 
 # --- validation helpers ---
-def _last_axis(values, length, what) -> np.ndarray:
-    v = np.asarray(values)
-    if v.ndim < 1 or v.shape[-1] != length:
-        raise ValueError(f"values must have {what} on the last axis (length {length}), got shape {v.shape}")
-    return v
-
-
 def _index_array(name: str, value, rows: int) -> np.ndarray:
     """``value`` as an int64 array shaped ``(rows, k)``; integral floats are accepted."""
     try:
