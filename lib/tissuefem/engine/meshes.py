@@ -491,6 +491,11 @@ class MeshMap:
     n_old_elements: int
     weights: np.ndarray | None = None
 
+    def contact_surface(self):
+        """The contact surface of the new body where the operation knows it better than the mesh's boundary
+        (a cut through elements: where the material ends), else ``None`` (the boundary is the surface)."""
+        return None
+
     def transfer(self, values) -> np.ndarray:
         """Per-node values of the old mesh, shape ``(..., n_old_nodes)``, on the new mesh (a new array,
         ``(..., n_new_nodes)``): a copy starts with the position, displacement or velocity of its parent."""
