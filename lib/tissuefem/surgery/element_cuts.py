@@ -1,99 +1,80 @@
 """Cutting through elements: the virtual node algorithm in 2D.
 
-:func:`~tissuefem.surgery.topology.incise` snaps a stroke to mesh edges, so the
-wound is jagged and depends on the mesh. Here the stroke is followed exactly,
-without remeshing, by the *virtual node algorithm* of Molino, Bao and Fedkiw
-[1]_: every triangle the cut separates is duplicated, one copy per piece of its
-material; every copy keeps the triangle's reference geometry (hence its P1
-shape functions) and carries only the material of its piece; vertices whose
+:func:`~tissuefem.surgery.topology.incise` snaps a stroke to mesh edges, so the wound is jagged and depends on the
+mesh. Here the stroke is followed exactly, without remeshing, by the *virtual node algorithm* of Molino, Bao and Fedkiw
+[1]_: every triangle the cut separates is duplicated, one copy per piece of its material; every copy keeps the
+triangle's reference geometry (hence its P1 shape functions) and carries only the material of its piece; vertices whose
 material a copy does not hold become extra ("virtual") nodes.
 
 The construction in 2D
 ----------------------
-1. **Where the stroke lies.** The stroke is drawn on the deformed tissue. In
-   one triangle the P1 map is affine, so a straight piece of the stroke is
-   straight in the reference triangle, with the same barycentric coordinates.
-   Each segment ``a -> b`` is clipped against each triangle by keeping the
-   ``s`` with ``lambda_i(a) + s (lambda_i(b) - lambda_i(a)) >= 0``; the pieces
-   are kept in local coordinates ``(xi, eta) = (lambda_1, lambda_2)`` (vertex 0
-   at (0, 0), 1 at (1, 0), 2 at (0, 1)). First, a stroke passing within 1e-6
-   of an edge length of a node is moved onto it, once for the whole mesh, so
-   that neighbouring triangles never disagree on whether it went through it.
-2. **The material of an element** is a :class:`Region`: the polygon it fills,
-   its *slits* and *severed* edge parts. Its weight, the polygon's share of the
-   triangle's area, is what :class:`~tissuefem.engine.assembly.P1Assembler`
+1. **Where the stroke lies.** The stroke is drawn on the deformed tissue. In one triangle the P1 map is affine, so a
+   straight piece of the stroke is straight in the reference triangle, with the same barycentric coordinates. Each
+   segment ``a -> b`` is clipped against each triangle by keeping the ``s`` with
+   ``lambda_i(a) + s (lambda_i(b) - lambda_i(a)) >= 0``; the pieces are kept in local coordinates
+   ``(xi, eta) = (lambda_1, lambda_2)`` (vertex 0 at (0, 0), 1 at (1, 0), 2 at (0, 1)). First, a stroke passing within
+   1e-6 of an edge length of a node is moved onto it, once for the whole mesh, so that neighbouring triangles never
+   disagree on whether it went through it.
+2. **The material of an element** is a :class:`Region`: the polygon it fills, its *slits* and *severed* edge parts. Its
+   weight, the polygon's share of the triangle's area, is what :class:`~tissuefem.engine.assembly.P1Assembler`
    integrates over.
-3. **Splitting an element.** The region's boundary, its slits and the new
-   pieces of the stroke form a planar graph. Dangling edges (a crack ending in
-   the material) are pruned and kept as slits; the faces of what remains are
-   the pieces of material: ``k`` faces give ``k`` copies of the element, each
-   with one face as its region.
-4. **Nodes.** Two elements on the two sides of a mesh edge are *joined* where
-   the parts of the edge their regions touch (less what is severed) overlap
-   over a positive length; joined elements share the edge's two nodes. The
-   nodes of the new mesh are the classes of corners (element, vertex) under
-   these joins: a copy whose material lies away from a vertex gets a virtual
-   node there, shared with every copy on its side of the cut it is joined to.
-   A cut along a mesh edge needs no split: severing the edge stops the join.
-5. **The crack tip.** The triangle holding the end of a crack is one piece of
-   material, so (as in [1]_) it is not duplicated; the crack in it is a slit.
-   The two copies through which the crack enters it are both joined to it, so
-   they differ only at their third vertex: the displacement jump is that
-   vertex's shape function times the difference of its two nodes, zero on the
-   tip triangle's edge and growing linearly away from it. The crack closes
-   within one element of the drawn tip, the resolution of P1 with virtual
-   nodes (phantom-node methods [3]_ make the same choice): two P1 copies agree
-   along a line only if they share all three nodes, that is, are one element.
-6. **No slivers.** A piece lighter than ``min_weight`` is merged into its
-   neighbour across the cut and the parts of the triangle's edges that bounded
-   it are severed instead: the cut's topology is snapped onto the element's
-   edges (by less than the sliver's width), while the :class:`Wound` stays
-   where the stroke was drawn.
-7. **One element per set of nodes.** Copies of one triangle with the same
-   three nodes hold connected material (e.g. the corners outside a V-shaped
-   crack): they are one element, whose region may have several polygons.
+3. **Splitting an element.** The region's boundary, its slits and the new pieces of the stroke form a planar graph.
+   Dangling edges (a crack ending in the material) are pruned and kept as slits; the faces of what remains are the
+   pieces of material: ``k`` faces give ``k`` copies of the element, each with one face as its region.
+4. **Nodes.** Two elements on the two sides of a mesh edge are *joined* where the parts of the edge their regions touch
+   (less what is severed) overlap over a positive length; joined elements share the edge's two nodes. The nodes of the
+   new mesh are the classes of corners (element, vertex) under these joins: a copy whose material lies away from a
+   vertex gets a virtual node there, shared with every copy on its side of the cut it is joined to. A cut along a mesh
+   edge needs no split: severing the edge stops the join.
+5. **The crack tip.** The triangle holding the end of a crack is one piece of material, so (as in [1]_) it is not
+   duplicated; the crack in it is a slit. The two copies through which the crack enters it are both joined to it, so
+   they differ only at their third vertex: the displacement jump is that vertex's shape function times the difference
+   of its two nodes, zero on the tip triangle's edge and growing linearly away from it. The crack closes within one
+   element of the drawn tip, the resolution of P1 with virtual nodes (phantom-node methods [3]_ make the same choice):
+   two P1 copies agree along a line only if they share all three nodes, that is, are one element.
+6. **No slivers.** A piece lighter than ``min_weight`` is merged into its neighbour across the cut and the parts of the
+   triangle's edges that bounded it are severed instead: the cut's topology is snapped onto the element's edges (by
+   less than the sliver's width), while the :class:`Wound` stays where the stroke was drawn.
+7. **One element per set of nodes.** Copies of one triangle with the same three nodes hold connected material (e.g. the
+   corners outside a V-shaped crack): they are one element, whose region may have several polygons.
 
-Cuts through vertices and along edges need no special case: the clipping keeps
-pieces on a triangle's edge and drops pieces of zero length; this
-generalisation of [1]_ is that of Wang et al. [2]_.
+Cuts through vertices and along edges need no special case: the clipping keeps pieces on a triangle's edge and drops
+pieces of zero length; this generalisation of [1]_ is that of Wang et al. [2]_.
 
 References
 ----------
-.. [1] N. Molino, Z. Bao, R. Fedkiw, *A virtual node algorithm for changing
-   mesh topology during simulation*, ACM Transactions on Graphics 23(3)
-   (SIGGRAPH 2004), 385-392.
-.. [2] Y. Wang, C. Jiang, C. Schroeder, J. Teran, *An adaptive virtual node
-   algorithm with robust mesh cutting*, Symposium on Computer Animation 2014.
-.. [3] J.-H. Song, P. M. A. Areias, T. Belytschko, *A method for dynamic crack
-   and shear band propagation with phantom nodes*, International Journal for
-   Numerical Methods in Engineering 67 (2006), 868-893.
+.. [1] N. Molino, Z. Bao, R. Fedkiw, *A virtual node algorithm for changing mesh topology during simulation*, ACM
+   Transactions on Graphics 23(3) (SIGGRAPH 2004), 385-392.
+.. [2] Y. Wang, C. Jiang, C. Schroeder, J. Teran, *An adaptive virtual node algorithm with robust mesh cutting*,
+   Symposium on Computer Animation 2014.
+.. [3] J.-H. Song, P. M. A. Areias, T. Belytschko, *A method for dynamic crack and shear band propagation with phantom
+   nodes*, International Journal for Numerical Methods in Engineering 67 (2006), 868-893.
 
 Conventions
 -----------
-The result is an :class:`ElementCut`. Uncut elements keep their index and
-vertex order; the first piece of a cut element keeps its index, the others are
-appended; every copy keeps its triangle's vertex order (``sort_t=False``). Old
-nodes keep their index; virtual nodes are appended. Mass and momentum carry
-over exactly with nodal masses from the material areas (:func:`lumped_mass`).
+The result is an :class:`ElementCut`. Uncut elements keep their index and vertex order; the first piece of a cut
+element keeps its index, the others are appended; every copy keeps its triangle's vertex order (``sort_t=False``). Old
+nodes keep their index; virtual nodes are appended. Mass and momentum carry over exactly with nodal masses from the
+material areas (:func:`lumped_mass`).
 """
 
 from __future__ import annotations
 
 import math
-import numbers
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
-from ..engine.assembly import check_weights
-from .topology import MeshEdit, _keys, _mesh_arrays, _new_mesh, _points, _positions, excise
+from ..engine.parameters import check_real
+from .geometry import (EPS, FULL_TOUCH, WHOLE, Region, carry_names, check_points, check_regions, cross, crossings,
+                       edge_intervals, edge_param, edge_point, edges_of, element_edges, element_weights, mesh_arrays,
+                       merge_intervals, new_mesh, node_positions, overlaps, polygon_area, polygon_contains,
+                       region_touch, reversed_intervals, snap, subtract_intervals, winding)
+from .surfaces import contact_surface
+from .topology import MeshEdit, excise
 
 __all__ = ["Region", "Wound", "ElementCut", "cut_through", "excise_through", "Picture", "picture", "locate",
            "firm_anchor", "carry_points", "region_holds", "lumped_mass", "material_areas"]
-
-#: Tolerance in a triangle's local coordinates: points closer than this are one point, and a point
-#: this close to an edge is on it.
-_EPS = 1e-9
 
 #: A stroke closer than this (times the median edge length) to a node is moved onto it, once for the
 #: whole mesh, so that no two triangles disagree on whether it went through the node.
@@ -106,251 +87,22 @@ MIN_WEIGHT = 1e-3
 
 # kinds of the edges of an element's planar graph
 _P, _S, _C = 0, 1, 2  # region boundary, old slit, new cut
-_CORNERS = ((0.0, 0.0), (1.0, 0.0), (0.0, 1.0))
-
-
-# --- the material of an element ---
-def _segments(name, value) -> np.ndarray:
-    a = np.zeros((0, 2, 2)) if value is None else np.asarray(value, dtype=float)
-    if a.size == 0:
-        return np.zeros((0, 2, 2))
-    if a.ndim != 3 or a.shape[1:] != (2, 2) or not np.all(np.isfinite(a)):
-        raise ValueError(f"{name} must be finite segments shaped (k, 2, 2), got shape {a.shape}")
-    return a
-
-
-@dataclass(frozen=True, eq=False)
-class Region:
-    """The part of its triangle an element's material fills.
-
-    In the triangle's local coordinates ``(xi, eta)``: vertex 0 at (0, 0), 1 at (1, 0), 2 at (0, 1).
-
-    Attributes
-    ----------
-    polygons : tuple of ndarray, each shaped (k, 2)
-        The material, as counter-clockwise polygons that do not overlap. Several
-        when pieces a cut separates inside the triangle are joined outside it
-        (around the end of the cut): they share all three nodes, one element.
-    slits : ndarray, shape (s, 2, 2)
-        Cracks inside the material that do not separate it (a crack tip).
-    severed : ndarray, shape (r, 2, 2)
-        Parts of the triangle's edges cut off from the element across.
-    """
-
-    polygons: tuple
-    slits: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 2)))
-    severed: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 2)))
-
-    def __post_init__(self):
-        polys = self.polygons
-        if isinstance(polys, np.ndarray) and polys.ndim == 2:
-            polys = (polys,)
-        out, weight = [], 0.0
-        for i, poly in enumerate(polys):
-            poly = np.asarray(poly, dtype=float)
-            name = f"Region.polygons[{i}]"
-            if poly.ndim != 2 or poly.shape[1] != 2 or poly.shape[0] < 3 or not np.all(np.isfinite(poly)):
-                raise ValueError(f"{name} must be at least 3 finite points shaped (k, 2), got shape {poly.shape}")
-            if not ((poly >= -_EPS).all() and (poly.sum(axis=1) <= 1.0 + _EPS).all()):
-                raise ValueError(f"{name} must lie in the unit triangle (xi, eta >= 0, xi + eta <= 1)")
-            area = 2.0 * _area(poly.tolist())
-            if not area > 0.0:
-                raise ValueError(f"{name} must be counter-clockwise with a positive area")
-            out.append(poly)
-            weight += area
-        if not out:
-            raise ValueError("Region.polygons must hold at least one polygon")
-        if weight > 1.0 + 1e-9:
-            raise ValueError(f"Region.polygons cover {weight:.6g} times the triangle: they must not overlap")
-        object.__setattr__(self, "polygons", tuple(out))
-        object.__setattr__(self, "slits", _segments("Region.slits", self.slits))
-        object.__setattr__(self, "severed", _segments("Region.severed", self.severed))
-        object.__setattr__(self, "_weight", weight)
-
-    @classmethod
-    def _trusted(cls, polygons, slits, severed, weight):
-        """A region built by this module (already valid): no checks, no copies."""
-        region = object.__new__(cls)
-        for name, value in (("polygons", polygons), ("slits", slits), ("severed", severed), ("_weight", weight)):
-            object.__setattr__(region, name, value)
-        return region
-
-    @property
-    def weight(self) -> float:
-        """The share of the triangle's area the material fills (twice the polygons' area)."""
-        return self._weight
-
-
-# --- small geometry in local coordinates (plain floats: numpy's per-call cost dominates on tiny graphs) ---
-def _cross(ax, ay, bx, by):
-    return ax * by - ay * bx
-
-
-def _snap(x, y):
-    """A local point pulled onto the triangle's edges and vertices it is within ``_EPS`` of."""
-    x = 0.0 if abs(x) <= _EPS else x
-    y = 0.0 if abs(y) <= _EPS else y
-    r = 1.0 - x - y
-    if abs(r) <= _EPS:
-        if x == 0.0:
-            y = 1.0
-        elif y == 0.0:
-            x = 1.0
-        else:
-            x += 0.5 * r
-            y = 1.0 - x
-    # a point a round-off outside: back onto the triangle
-    x, y = max(x, 0.0), max(y, 0.0)
-    if x + y > 1.0:
-        s = x + y
-        x, y = x / s, 1.0 - x / s
-    return x, y
-
-
-def _edges_of(pt):
-    """The local edges (0: eta = 0, 1: xi + eta = 1, 2: xi = 0) a point lies on."""
-    x, y = pt
-    return [k for k, d in enumerate((y, 1.0 - x - y, x)) if abs(d) <= _EPS]
-
-
-def _edge_param(k, pt) -> float:
-    """Position along local edge ``k``, 0 at its vertex ``k`` and 1 at vertex ``k + 1``."""
-    return pt[0] if k == 0 else pt[1] if k == 1 else 1.0 - pt[1]
-
-
-def _edge_point(k, s):
-    """The local point at parameter ``s`` along local edge ``k`` (the inverse of :func:`_edge_param`)."""
-    return (s, 0.0) if k == 0 else (1.0 - s, s) if k == 1 else (0.0, 1.0 - s)
-
-
-def _winding(pt, poly) -> int:
-    """Winding number of a closed polygon (list of points) around ``pt``."""
-    px, py = pt
-    w = 0
-    for (ax, ay), (bx, by) in zip(poly, poly[1:] + poly[:1]):
-        side = _cross(bx - ax, by - ay, px - ax, py - ay)
-        if ay <= py:
-            if by > py and side > 0.0:
-                w += 1
-        elif by <= py and side < 0.0:
-            w -= 1
-    return w
-
-
-def _area(poly) -> float:
-    """Signed area of a polygon (a list of points, not an array)."""
-    return 0.5 * sum(ax * by - ay * bx for (ax, ay), (bx, by) in zip(poly, poly[1:] + poly[:1]))
-
-
-def _crossings(p, q, a, b):
-    """Where segments ``p -> q`` and ``a -> b`` meet: a list of (s, u) parameters (0, 1 or 2 pairs).
-
-    Two pairs for collinear overlapping segments (the ends of the overlap).
-    Ends within ``_EPS`` of the other segment count as meeting it.
-    """
-    rx, ry = q[0] - p[0], q[1] - p[1]
-    vx, vy = b[0] - a[0], b[1] - a[1]
-    lr, lv = math.hypot(rx, ry), math.hypot(vx, vy)
-    if lr <= _EPS or lv <= _EPS:
-        return []
-    wx, wy = a[0] - p[0], a[1] - p[1]
-    den = _cross(rx, ry, vx, vy)
-    tr, tv = _EPS / lr, _EPS / lv
-    if abs(den) > 1e-12 * lr * lv:
-        s, u = _cross(wx, wy, vx, vy) / den, _cross(wx, wy, rx, ry) / den
-        if -tr <= s <= 1.0 + tr and -tv <= u <= 1.0 + tv:
-            return [(min(max(s, 0.0), 1.0), min(max(u, 0.0), 1.0))]
-        return []
-    if abs(_cross(rx, ry, wx, wy)) / lr > _EPS:  # parallel, apart
-        return []
-    sa = (wx * rx + wy * ry) / (lr * lr)
-    sb = ((b[0] - p[0]) * rx + (b[1] - p[1]) * ry) / (lr * lr)
-    lo, hi = max(0.0, min(sa, sb)), min(1.0, max(sa, sb))
-    if hi < lo - tr:
-        return []
-    out = []
-    for s in (lo, hi) if hi > lo else (lo,):
-        u = ((p[0] + s * rx - a[0]) * vx + (p[1] + s * ry - a[1]) * vy) / (lv * lv)
-        out.append((s, min(max(u, 0.0), 1.0)))
-    return out
-
-
-def _merge_intervals(iv):
-    out = []
-    for a, b in sorted(iv):
-        if out and a <= out[-1][1] + _EPS:
-            out[-1] = (out[-1][0], max(out[-1][1], b))
-        else:
-            out.append((a, b))
-    return out
-
-
-def _subtract(iv, cut):
-    """Intervals ``iv`` less the intervals ``cut`` (both merged lists)."""
-    out = []
-    for a, b in iv:
-        pieces = [(a, b)]
-        for c, d in cut:
-            nxt = []
-            for x, y in pieces:
-                if d <= x or c >= y:
-                    nxt.append((x, y))
-                    continue
-                if c > x:
-                    nxt.append((x, c))
-                if d < y:
-                    nxt.append((d, y))
-            pieces = nxt
-        out.extend((x, y) for x, y in pieces if y - x > _EPS)
-    return out
-
-
-def _overlaps(iv, jv) -> bool:
-    """Do two interval lists overlap over more than ``_EPS``?"""
-    return any(min(b, d) - max(a, c) > _EPS for a, b in iv for c, d in jv)
-
-
-def _edge_intervals(segments):
-    """Severed or touched segments (k, 2, 2) on the triangle's edges -> three merged interval lists."""
-    out = [[], [], []]
-    for a, b in segments:
-        for k in set(_edges_of(a)) & set(_edges_of(b)):
-            s, u = _edge_param(k, a), _edge_param(k, b)
-            if abs(u - s) > _EPS:
-                out[k].append((min(s, u), max(s, u)))
-    return [_merge_intervals(iv) for iv in out]
-
-
-def _sides(region):
-    """The region's polygon sides (k, 2, 2), in local coordinates, counter-clockwise (material on the left)."""
-    return np.concatenate([np.stack([poly, np.roll(poly, -1, axis=0)], axis=1) for poly in region.polygons])
-
-
-def _region_touch(region: Region):
-    """The parts of each local edge the region's material touches, less what is severed."""
-    touched = _edge_intervals(_sides(region))
-    severed = _edge_intervals(region.severed)
-    return [_subtract(touched[k], severed[k]) for k in range(3)]
-
-
-_FULL_TOUCH = [[(0.0, 1.0)], [(0.0, 1.0)], [(0.0, 1.0)]]
-_WHOLE = Region((np.array(_CORNERS),))
 
 
 # --- one element: its material, cut by the new pieces of the stroke ---
 class _Arrangement:
     """The planar graph of one element's region, old slits and new cut pieces (local coordinates).
 
-    ``cuts`` are the new pieces of the stroke in the triangle, ``(stroke0, stroke1, a, b)``: stroke
-    parameters (segment + fraction) and local coordinates of the two ends. ``open_edge`` (three bools) says
-    whether each local edge has an element across it (a cut along the body's boundary is not recorded).
+    ``cuts`` are the new pieces of the stroke in the triangle, ``(stroke0, stroke1, a, b)``: stroke parameters (segment
+    + fraction) and local coordinates of the two ends. ``open_edge`` (three bools) says whether each local edge has an
+    element across it (a cut along the body's boundary is not recorded).
     """
 
     def __init__(self, region: Region, cuts, open_edge, min_weight):
         self.verts = []
         self.min_weight = min_weight
         polys = [[tuple(v) for v in poly] for poly in region.polygons]
-        self.old_severed = _edge_intervals(region.severed)
+        self.old_severed = edge_intervals(region.severed)
         self.new_severed = [[], [], []]
 
         segs = [(poly[i], poly[(i + 1) % len(poly)], _P, None) for poly in polys for i in range(len(poly))]
@@ -363,10 +115,10 @@ class _Arrangement:
                 pj, qj, kj, _ = segs[j]
                 if ki == _P and kj == _P:
                     continue  # the polygons are simple and apart: their edges meet at vertices only
-                for s, u in _crossings(pi, qi, pj, qj):
+                for s, u in crossings(pi, qi, pj, qj):
                     # the point from the older segment, so region boundaries stay where they were
                     a, b, f = (pj, qj, u) if kj < ki else (pi, qi, s)
-                    v = self._vertex(_snap(a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1])))
+                    v = self._vertex(snap(a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1])))
                     splits[i].append((s, v))
                     splits[j].append((u, v))
 
@@ -395,7 +147,7 @@ class _Arrangement:
             if kind == _P:
                 k = self._edge_of(u, v)
                 if k is not None and open_edge[k]:
-                    s, e = _edge_param(k, self.verts[u]), _edge_param(k, self.verts[v])
+                    s, e = edge_param(k, self.verts[u]), edge_param(k, self.verts[v])
                     self.new_severed[k].append((min(s, e), max(s, e)))
                     self.wound.append(("edge", u, v, t0, t1, k))
                     self.changed = True
@@ -406,7 +158,7 @@ class _Arrangement:
             if self._edge_of(u, v) is not None:
                 continue  # on the triangle's edge where this copy has no material
             mid = (0.5 * (self.verts[u][0] + self.verts[v][0]), 0.5 * (self.verts[u][1] + self.verts[v][1]))
-            if sum(_winding(mid, poly) for poly in polys) == 0:
+            if sum(winding(mid, poly) for poly in polys) == 0:
                 continue  # outside this copy's material
             self.graph[key] = _C
             self.wound.append(("inner", u, v, t0, t1))
@@ -417,13 +169,13 @@ class _Arrangement:
     def _vertex(self, pt) -> int:
         x, y = pt
         for i, (vx, vy) in enumerate(self.verts):
-            if abs(vx - x) <= _EPS and abs(vy - y) <= _EPS:
+            if abs(vx - x) <= EPS and abs(vy - y) <= EPS:
                 return i
         self.verts.append((float(x), float(y)))
         return len(self.verts) - 1
 
     def _edge_of(self, u, v):
-        both = set(_edges_of(self.verts[u])) & set(_edges_of(self.verts[v]))
+        both = set(edges_of(self.verts[u])) & set(edges_of(self.verts[v]))
         return min(both) if both else None
 
     # -- the faces
@@ -488,7 +240,7 @@ class _Arrangement:
                     lst = nbrs[v]
                     he = (v, lst[lst.index(u) - 1])  # the next edge clockwise from v -> u
                 pts = [self.verts[a] for a, _ in cycle]
-                faces.append({"edges": cycle, "area": _area(pts), "points": pts})
+                faces.append({"edges": cycle, "area": polygon_area(pts), "points": pts})
         keep = [i for i, f in enumerate(faces) if f["area"] > 0.0]
         renum = {old: new for new, old in enumerate(keep)}
         self.face_of = {he: renum.get(f, -1) for he, f in self.face_of.items()}  # -1: the outer face
@@ -535,14 +287,14 @@ class _Arrangement:
                 if self.graph[key] == _P:
                     k = self._edge_of(u, v)
                     if k is not None:
-                        s, e = _edge_param(k, self.verts[u]), _edge_param(k, self.verts[v])
+                        s, e = edge_param(k, self.verts[u]), edge_param(k, self.verts[v])
                         self.new_severed[k].append((min(s, e), max(s, e)))
                 elif self.face_of[(v, u)] == g:
                     del self.graph[key]  # dropped, not kept as a slit: the cut moved to the edges
 
     def merge(self, groups):
-        """Merge faces (lists of face indices) into one each, the cuts between them becoming slits; returns, for
-        every old face, its new face index."""
+        """Merge faces (lists of face indices) into one each, the cuts between them becoming slits; returns, for every
+        old face, its new face index."""
         group_of = {f: gi for gi, members in enumerate(groups) for f in members}
         for key in list(self.graph):
             if self.graph[key] == _P:
@@ -559,11 +311,11 @@ class _Arrangement:
 
     # -- results
     def locate(self, pt) -> int:
-        return next((i for i, f in enumerate(self.faces) if _winding(pt, f["points"]) != 0), -1)
+        return next((i for i, f in enumerate(self.faces) if winding(pt, f["points"]) != 0), -1)
 
     def face_regions(self):
         """For every face: (Region, its touched intervals per local edge, whole?)."""
-        severed = [_merge_intervals(self.old_severed[k] + self.new_severed[k]) for k in range(3)]
+        severed = [merge_intervals(self.old_severed[k] + self.new_severed[k]) for k in range(3)]
         slit_pts = [(self.verts[u], self.verts[v]) for u, v in self.slits]
         slit_face = [self.locate((0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]))) for a, b in slit_pts]
         out = []
@@ -575,24 +327,24 @@ class _Arrangement:
                     continue
                 k = self._edge_of(u, v)
                 if k is not None:
-                    s, e = _edge_param(k, self.verts[u]), _edge_param(k, self.verts[v])
+                    s, e = edge_param(k, self.verts[u]), edge_param(k, self.verts[v])
                     touched[k].append((min(s, e), max(s, e)))
-            touched = [_merge_intervals(iv) for iv in touched]
-            cut_off = [(_edge_point(k, a), _edge_point(k, b)) for k in range(3)
-                       for a, b in _subtract(touched[k], _subtract(touched[k], severed[k]))]
-            touched = [_subtract(touched[k], severed[k]) for k in range(3)]
+            touched = [merge_intervals(iv) for iv in touched]
+            cut_off = [(edge_point(k, a), edge_point(k, b)) for k in range(3)
+                       for a, b in subtract_intervals(touched[k], subtract_intervals(touched[k], severed[k]))]
+            touched = [subtract_intervals(touched[k], severed[k]) for k in range(3)]
             slits = [s for s, g in zip(slit_pts, slit_face) if g == i]
-            region = Region._trusted((np.array(pts),), np.array(slits, dtype=float).reshape(-1, 2, 2),
+            region = Region.unchecked((np.array(pts),), np.array(slits, dtype=float).reshape(-1, 2, 2),
                                      np.array(cut_off, dtype=float).reshape(-1, 2, 2), 2.0 * f["area"])
-            whole = len(pts) == 3 and not slits and not cut_off and abs(2.0 * f["area"] - 1.0) <= _EPS
+            whole = len(pts) == 3 and not slits and not cut_off and abs(2.0 * f["area"] - 1.0) <= EPS
             out.append((region, touched, whole))
         return out
 
     def wound_faces(self):
         """One record per side of each new wound piece: (face, side, stroke0, stroke1, a, b, opened).
 
-        ``side`` is +1 when the face lies to the left of the stroke (in local coordinates), -1 to the right. A
-        piece along an edge of the triangle has one side here (the other is in the element across).
+        ``side`` is +1 when the face lies to the left of the stroke (in local coordinates), -1 to the right. A piece
+        along an edge of the triangle has one side here (the other is in the element across).
         """
         out = []
         for rec in self.wound:
@@ -619,7 +371,7 @@ def _simplify(pts):
     i = 0
     while len(out) > 3 and i < len(out):
         (ax, ay), (bx, by), (cx, cy) = out[i - 1], out[i], out[(i + 1) % len(out)]
-        straight = abs(_cross(bx - ax, by - ay, cx - bx, cy - by)) <= _EPS * _EPS
+        straight = abs(cross(bx - ax, by - ay, cx - bx, cy - by)) <= EPS * EPS
         if straight and (bx - ax) * (cx - bx) + (by - ay) * (cy - by) > 0:
             del out[i]
         else:
@@ -631,8 +383,8 @@ def _simplify(pts):
 def _through_nearby_nodes(x, t, pts):
     """The stroke moved onto the nodes it nearly meets (within ``_NODE_SNAP`` edge lengths).
 
-    A vertex of the stroke near a node becomes the node; a node near a segment becomes a new vertex of the
-    stroke. Returns the new points (k', 2) and each one's parameter on the drawn stroke (segment + fraction).
+    A vertex of the stroke near a node becomes the node; a node near a segment becomes a new vertex of the stroke.
+    Returns the new points (k', 2) and each one's parameter on the drawn stroke (segment + fraction).
     """
     used = np.unique(t)
     xs = x[:, used]
@@ -664,9 +416,9 @@ def _through_nearby_nodes(x, t, pts):
 def _stroke_pieces(x, t, pts):
     """Pieces of the stroke inside each triangle of the drawing configuration (collapsed triangles skipped).
 
-    Returns ``(pieces, orientation)``: ``pieces`` maps an element to a list of ``(stroke0, stroke1, a, b)``
-    (stroke parameters, ends in local coordinates snapped within ``_EPS``), and ``orientation`` is the sign
-    of every triangle's drawn area.
+    Returns ``(pieces, orientation)``: ``pieces`` maps an element to a list of ``(stroke0, stroke1, a, b)`` (stroke
+    parameters, ends in local coordinates snapped within ``EPS``), and ``orientation`` is the sign of every triangle's
+    drawn area.
     """
     X = x[:, t]  # (2, 3, m)
     x0, d1, d2 = X[:, 0], X[:, 1] - X[:, 0], X[:, 2] - X[:, 0]
@@ -695,10 +447,10 @@ def _stroke_pieces(x, t, pts):
         la, lb = local(a), local(b)
         dl = lb - la
         s_lo, s_hi = np.zeros(cand.size), np.ones(cand.size)
-        # A stroke segment along the line of an edge (lambda_i within _EPS of 0 at both ends,
+        # A stroke segment along the line of an edge (lambda_i within EPS of 0 at both ends,
         # scaled by how far the segment reaches) lies on the edge: that constraint is dropped.
         # Every other one is cut exactly at lambda_i = 0, so that the ends stay on the stroke.
-        along = (np.abs(la) <= _EPS * np.maximum(1.0, np.abs(lb))) & (np.abs(lb) <= _EPS * np.maximum(1.0, np.abs(la)))
+        along = (np.abs(la) <= EPS * np.maximum(1.0, np.abs(lb))) & (np.abs(lb) <= EPS * np.maximum(1.0, np.abs(la)))
         with np.errstate(divide="ignore", invalid="ignore"):
             bound = -la / dl
         for i in range(3):
@@ -707,10 +459,10 @@ def _stroke_pieces(x, t, pts):
             s_hi = np.where(active & (dl[i] < 0), np.minimum(s_hi, bound[i]), s_hi)
             s_hi = np.where(active & (dl[i] == 0) & (la[i] < 0), -1.0, s_hi)
         pa, pb = la[1:] + s_lo * dl[1:], la[1:] + s_hi * dl[1:]
-        keep = (s_hi > s_lo) & (np.hypot(*(pb - pa)) > _EPS)
+        keep = (s_hi > s_lo) & (np.hypot(*(pb - pa)) > EPS)
         for c in np.flatnonzero(keep):
-            pa_c, pb_c = _snap(float(pa[0, c]), float(pa[1, c])), _snap(float(pb[0, c]), float(pb[1, c]))
-            if math.hypot(pb_c[0] - pa_c[0], pb_c[1] - pa_c[1]) <= _EPS:
+            pa_c, pb_c = snap(float(pa[0, c]), float(pa[1, c])), snap(float(pb[0, c]), float(pb[1, c]))
+            if math.hypot(pb_c[0] - pa_c[0], pb_c[1] - pa_c[1]) <= EPS:
                 continue
             pieces.setdefault(int(cand[c]), []).append((j + float(s_lo[c]), j + float(s_hi[c]), pa_c, pb_c))
     return pieces, np.sign(det)
@@ -721,9 +473,8 @@ def _stroke_pieces(x, t, pts):
 class Wound:
     """The faces of a cut, one record per side of each piece: what to draw.
 
-    Each side of a piece of the stroke is carried by one element of the new
-    mesh, and the wound's edge on that side moves with it. Where the stroke
-    runs along a mesh edge, the two records come from two triangles.
+    Each side of a piece of the stroke is carried by one element of the new mesh, and the wound's edge on that side
+    moves with it. Where the stroke runs along a mesh edge, the two records come from two triangles.
 
     Attributes
     ----------
@@ -740,8 +491,8 @@ class Wound:
     stroke : ndarray, shape (k, 2)
         Where the ends lie on the drawn polyline: segment index plus fraction (to order the pieces).
     opened : ndarray of bool, shape (k,)
-        False where the two sides are still one piece: a crack in the triangle that holds its tip, or
-        a piece snapped onto element edges to avoid a sliver.
+        False where the two sides are still one piece: a crack in the triangle that holds its tip, or a piece snapped
+        onto element edges to avoid a sliver.
     """
 
     element: np.ndarray
@@ -774,11 +525,11 @@ class ElementCut(MeshEdit):
     Attributes
     ----------
     weights : ndarray, shape (n_new_elements,)
-        Share of its triangle's area each element's material fills, in ``(0, 1]``; the copies of one old
-        element add up to its old weight. Pass them to :class:`~tissuefem.engine.assembly.P1Assembler`.
+        Share of its triangle's area each element's material fills, in ``(0, 1]``; the copies of one old element add up
+        to its old weight. Pass them to :class:`~tissuefem.engine.assembly.P1Assembler`.
     regions : dict int -> Region
-        Where the material of each element that is not whole lies (absent: the whole triangle). Pass them,
-        with the weights, to the next cut: :meth:`cut`.
+        Where the material of each element that is not whole lies (absent: the whole triangle). Pass them, with the
+        weights, to the next cut: :meth:`cut`.
     wound : Wound
         The new wound's faces, to draw its two edges smoothly.
     cut_edges : ndarray of int, shape (2, k)
@@ -789,6 +540,10 @@ class ElementCut(MeshEdit):
     regions: dict
     wound: Wound
 
+    def contact_surface(self):
+        """The contact surface of the cut body: where its material ends (:func:`~.surfaces.contact_surface`)."""
+        return contact_surface(self.mesh, self.weights, self.regions)
+
     def cut(self, polyline, positions=None, min_weight=MIN_WEIGHT) -> "ElementCut":
         """Cut this result's mesh again (its weights and regions carried): :func:`cut_through`."""
         return cut_through(self.mesh, polyline, positions, weights=self.weights, regions=self.regions,
@@ -798,69 +553,20 @@ class ElementCut(MeshEdit):
 # --- masses ---
 def material_areas(mesh, weights=None) -> np.ndarray:
     """Reference area of every element's material: triangle area times weight, shape (n_elements,)."""
-    p, t = _mesh_arrays(mesh)
-    w = _weights(weights, t.shape[1])
+    p, t = mesh_arrays(mesh)
+    w = element_weights(weights, t.shape[1])
     a, b, c = p[:, t[0]], p[:, t[1]], p[:, t[2]]
     return 0.5 * np.abs((b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1])) * w
 
 
 def lumped_mass(mesh, weights=None, density=1.0) -> np.ndarray:
-    """Lumped P1 mass of every node, shape (n_nodes,): ``density`` times a third of the material area of each
-    of its elements. With a cut's weights the copies of a node hold exactly the mass it held, so carrying
-    displacement and velocity by ``parent`` keeps the total mass and momentum."""
-    if isinstance(density, bool) or not isinstance(density, numbers.Real) or not math.isfinite(density) or density <= 0:
-        raise ValueError(f"density must be a finite number > 0, got {density!r}")
-    p, t = _mesh_arrays(mesh)
+    """Lumped P1 mass of every node, shape (n_nodes,): ``density`` times a third of the material area of each of its
+    elements. With a cut's weights the copies of a node hold exactly the mass it held, so carrying displacement and
+    velocity by ``parent`` keeps the total mass and momentum."""
+    density = check_real("density", density, 0.0, lo_open=True)
+    p, t = mesh_arrays(mesh)
     share = np.repeat(material_areas(mesh, weights)[None, :] * (float(density) / 3.0), 3, axis=0)
     return np.bincount(t.ravel(), weights=share.ravel(), minlength=p.shape[1])
-
-
-# --- validation ---
-def _weights(weights, m) -> np.ndarray:
-    """The weights (each element's share of its triangle), all 1 when ``None``; checked as the assembler checks them."""
-    return np.ones(m) if weights is None else check_weights(weights, m)
-
-
-def _check_regions(regions, weights, m):
-    """Checked ``(regions, weights)``: the weights follow from the regions, or must agree with them."""
-    regions = {} if regions is None else regions
-    if not isinstance(regions, dict):
-        raise ValueError(f"regions must be a dict element -> Region, got {type(regions).__name__}")
-    out = {}
-    for e, r in regions.items():
-        if isinstance(e, bool) or not isinstance(e, numbers.Integral) or not 0 <= int(e) < m:
-            raise ValueError(f"regions: key {e!r} is not an element index in [0, {m})")
-        if not isinstance(r, Region):
-            raise ValueError(f"regions[{e}] must be a Region, got {type(r).__name__}")
-        out[int(e)] = r
-    implied = np.ones(m)
-    for e, r in out.items():
-        implied[e] = r.weight
-    if weights is None:
-        return out, implied
-    w = _weights(weights, m)
-    bad = np.flatnonzero(np.abs(w - implied) > 1e-9)
-    if bad.size:
-        e = int(bad[0])
-        hint = "" if e in out else " (an element cut through before needs its region: pass regions=previous.regions)"
-        raise ValueError(f"weights[{e}] = {w[e]!r} does not match the material of its region ({implied[e]!r}){hint}")
-    return out, w
-
-
-# --- the cut ---
-def _edge_table(p, t):
-    """Every element edge: node keys and the side of the edge its element lies on.
-
-    Returns ``(key, side)``, both shaped (3, m): edge ``k`` of element ``e`` joins ``t[k, e]`` and
-    ``t[(k+1) % 3, e]``; ``side`` is +1 if the element's third vertex is to the left of the edge run from
-    its lower to its higher node, -1 otherwise (in the reference configuration).
-    """
-    n = p.shape[1]
-    b, c = np.roll(t, -1, axis=0), np.roll(t, -2, axis=0)
-    lo, hi = np.minimum(t, b), np.maximum(t, b)
-    key = lo * n + hi
-    s = (p[0, hi] - p[0, lo]) * (p[1, c] - p[1, lo]) - (p[1, hi] - p[1, lo]) * (p[0, c] - p[0, lo])
-    return key, np.where(s > 0, 1, -1)
 
 
 def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_weight=MIN_WEIGHT) -> ElementCut:
@@ -869,23 +575,23 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
     Parameters
     ----------
     mesh : skfem.MeshTri
-        Not modified. It may have been cut before (by this function, with its ``weights`` and ``regions``,
-        or by :func:`~tissuefem.surgery.topology.incise`).
+        Not modified. It may have been cut before (by this function, with its ``weights`` and ``regions``, or by
+        :func:`~tissuefem.surgery.topology.incise`).
     polyline : array_like, shape (k, 2), k >= 2
-        The stroke, in the coordinates of ``positions``. It may end inside the body (a crack), on its
-        boundary or outside it.
+        The stroke, in the coordinates of ``positions``. It may end inside the body (a crack), on its boundary or
+        outside it.
     positions : array_like, shape (2, n_nodes), optional
-        Where the nodes are now (default ``mesh.p``): the stroke is carried back to the reference triangle
-        by triangle (P1 map). Triangles collapsed to a segment there are not cut.
+        Where the nodes are now (default ``mesh.p``): the stroke is carried back to the reference triangle by triangle
+        (P1 map). Triangles collapsed to a segment there are not cut.
     weights : array_like, shape (n_elements,), optional
-        The material share of every element (default 1). Elements with a weight below 1 need their
-        ``regions``; with ``regions`` alone the weights follow.
+        The material share of every element (default 1). Elements with a weight below 1 need their ``regions``; with
+        ``regions`` alone the weights follow.
     regions : dict int -> Region, optional
-        Where the material of the elements already cut through lies (``ElementCut.regions`` of the
-        previous cut; :meth:`ElementCut.cut` passes them).
+        Where the material of the elements already cut through lies (``ElementCut.regions`` of the previous cut;
+        :meth:`ElementCut.cut` passes them).
     min_weight : float in [0, 0.5)
-        No piece may carry less than this share of its triangle: such a sliver is merged into its
-        neighbour and the cut snapped onto the triangle's edges there (default 0.001).
+        No piece may carry less than this share of its triangle: such a sliver is merged into its neighbour and the cut
+        snapped onto the triangle's edges there (default 0.001).
 
     Returns
     -------
@@ -895,17 +601,15 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
     Raises
     ------
     ValueError
-        For bad arguments, or a stroke that changes nothing (it meets no material, or only runs along the
-        body's boundary or an existing wound).
+        For bad arguments, or a stroke that changes nothing (it meets no material, or only runs along the body's
+        boundary or an existing wound).
     """
-    p, t = _mesh_arrays(mesh)
+    p, t = mesh_arrays(mesh)
     n, m = p.shape[1], t.shape[1]
-    x = _positions(mesh, positions)
-    pts = _points("polyline", polyline, 2)
-    if (isinstance(min_weight, bool) or not isinstance(min_weight, numbers.Real)
-            or not 0.0 <= float(min_weight) < 0.5):
-        raise ValueError(f"min_weight must be a number in [0, 0.5), got {min_weight!r}")
-    regions, w = _check_regions(regions, weights, m)
+    x = node_positions(mesh, positions)
+    pts = check_points("polyline", polyline, 2)
+    min_weight = check_real("min_weight", min_weight, 0.0, 0.5, hi_open=True)
+    regions, w = check_regions(regions, weights, m)
 
     # 1. the stroke in each triangle (stroke parameters back on the drawn polyline), and what it does to each
     #    element's material
@@ -915,13 +619,13 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
     for e, lst in pieces.items():
         pieces[e] = [(float(np.interp(s0, vertex, drawn)), float(np.interp(s1, vertex, drawn)), a, b)
                      for s0, s1, a, b in lst]
-    key, side = _edge_table(p, t)
+    key, side = element_edges(p, t)
     flat_key, flat_side = key.ravel(), side.ravel()
     # an element edge has an element across when some element has the same node pair on the other side
     has_across = np.isin(flat_key * 2 + (flat_side > 0), flat_key * 2 + (flat_side < 0)).reshape(3, m)
     arrangements = {}
     for e in sorted(pieces):
-        arr = _Arrangement(regions.get(e, _WHOLE), pieces[e], has_across[:, e], float(min_weight))
+        arr = _Arrangement(regions.get(e, WHOLE), pieces[e], has_across[:, e], float(min_weight))
         if arr.changed:
             arrangements[e] = arr
     if not arrangements:
@@ -939,7 +643,7 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
         next_id += len(faces_of[e]) - 1
         touched.update({pid: face[1] for pid, face in zip(piece_ids[e], faces_of[e])})
     for e in regions:  # elements cut before (their material touches only parts of their edges)
-        touched.setdefault(e, _region_touch(regions[e]))
+        touched.setdefault(e, region_touch(regions[e]))
 
     # 3. nodes: classes of corners joined across edges
     node_of, new_parent, fan = _number_nodes(t, n, key, side, affected, piece_ids, touched)
@@ -972,10 +676,10 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
             if len(members) == 1:
                 region, touch, whole = faces[members[0]]
             else:
-                region = Region._trusted(tuple(faces[f][0].polygons[0] for f in members),
+                region = Region.unchecked(tuple(faces[f][0].polygons[0] for f in members),
                                          np.concatenate([faces[f][0].slits for f in members]),
                                          np.concatenate([faces[f][0].severed for f in members]), 2.0 * area)
-                touch = [_merge_intervals([iv for f in members for iv in faces[f][1][k]]) for k in range(3)]
+                touch = [merge_intervals([iv for f in members for iv in faces[f][1][k]]) for k in range(3)]
                 whole = False
             final_faces[e].append((ids[min(g)], region, touch, whole, area))
             pid_of_face[e].update({f: ids[min(g)] for f in members})
@@ -1014,20 +718,23 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
     wound, cut_edges = _wound(p, t, arrangements, element_of_face, orientation, new_t)
 
     # 7. the mesh, with names and subdomains carried over
-    new_mesh = _carry_names(mesh, _new_mesh(p[:, parent], new_t), parent, elements, new_regions, new_touch)
-    return ElementCut(mesh=new_mesh, parent=parent, elements=elements, cut_edges=cut_edges, n_old_nodes=n,
+    touches = np.ones((3, elements.size), dtype=bool)  # which local edges each element's material touches
+    for e, touch in new_touch.items():
+        touches[:, e] = [bool(iv) for iv in touch]
+    cut_mesh = carry_names(mesh, new_mesh(p[:, parent], new_t), parent, elements, touches)
+    return ElementCut(mesh=cut_mesh, parent=parent, elements=elements, cut_edges=cut_edges, n_old_nodes=n,
                       n_old_elements=m, weights=new_w, regions=new_regions, wound=wound)
 
 
 def _number_nodes(t, n, key, side, affected, piece_ids, touched):
     """The node of every corner at the nodes of the cut elements.
 
-    Two elements on the two sides of a mesh edge are joined where the parts of the edge their materials
-    touch overlap; a join makes their corners at the edge's ends one node. Every class of corners at an old
-    node becomes a node: the class holding the lowest element keeps the old index, the others are appended.
+    Two elements on the two sides of a mesh edge are joined where the parts of the edge their materials touch overlap;
+    a join makes their corners at the edge's ends one node. Every class of corners at an old node becomes a node: the
+    class holding the lowest element keeps the old index, the others are appended.
 
-    Returns ``(node_of, new_parent, fan)``: the node of each corner ``(provisional id, local vertex)`` at
-    those nodes, the old node of each appended node, and the elements with a corner there.
+    Returns ``(node_of, new_parent, fan)``: the node of each corner ``(provisional id, local vertex)`` at those nodes,
+    the old node of each appended node, and the elements with a corner there.
     """
     hub = np.unique(t[:, affected])
     at_hub = np.zeros(n, dtype=bool)
@@ -1050,8 +757,8 @@ def _number_nodes(t, n, key, side, affected, piece_ids, touched):
         return root
 
     def along(pid, e, k, forward):  # touched intervals, run from the edge's lower node to its higher
-        iv = touched.get(pid, _FULL_TOUCH)[k]
-        return iv if forward else [(1.0 - hi, 1.0 - lo) for lo, hi in iv]
+        iv = touched.get(pid, FULL_TOUCH)[k]
+        return iv if forward else reversed_intervals(iv)
 
     for kk, (plus, minus) in sides.items():
         a_node, b_node = divmod(kk, n)
@@ -1064,7 +771,7 @@ def _number_nodes(t, n, key, side, affected, piece_ids, touched):
                 for pe in piece_ids.get(e, (e,)):
                     te = along(pe, e, k, e_fwd)
                     for pf in piece_ids.get(f, (f,)):
-                        if not _overlaps(te, along(pf, f, l, f_fwd)):
+                        if not overlaps(te, along(pf, f, l, f_fwd)):
                             continue
                         for node, ce, cf in ((a_node, (pe, e_a), (pf, f_a)), (b_node, (pe, e_b), (pf, f_b))):
                             if at_hub[node]:
@@ -1120,44 +827,18 @@ def _wound(p, t, arrangements, element_of_face, orientation, new_t):
     return wound, cut_edges
 
 
-def _carry_names(old, new, parent, elements, regions, touched):
-    """Named boundaries (to the facets whose material touches the old facet) and subdomains (to every copy);
-    ``touched`` holds the touched intervals of some of the ``regions`` (the others are worked out)."""
-    out = new
-    n_old = old.p.shape[1]
-    if old.boundaries:
-        touches = np.ones((3, new.t.shape[1]), dtype=bool)
-        for e, region in regions.items():
-            touches[:, e] = [bool(iv) for iv in (touched[e] if e in touched else _region_touch(region))]
-        t2f = np.asarray(new.t2f)  # row k: the facet of local edge k (scikit-fem's edge order)
-        parent_keys = _keys(parent[np.asarray(new.facets, dtype=np.int64)], n_old)
-        old_facets = np.asarray(old.facets, dtype=np.int64)
-        names = {}
-        for label, facets in old.boundaries.items():
-            old_keys = _keys(old_facets[:, np.asarray(facets, dtype=np.int64)], n_old)
-            hit = t2f[touches]
-            hit = np.unique(hit[np.isin(parent_keys[hit], old_keys)])
-            names[label] = hit.astype(np.int32)
-        out = out.with_boundaries(names)
-    if old.subdomains:
-        subs = {label: np.flatnonzero(np.isin(elements, np.asarray(els))).astype(np.int32)
-                for label, els in old.subdomains.items()}
-        out = out.with_subdomains(subs)
-    return out
-
-
 # --- removing what a closed cut encloses ---
 def excise_through(mesh, polygon, positions=None, weights=None, regions=None, min_weight=MIN_WEIGHT) -> ElementCut:
     """Cut along a closed ``polygon`` through the elements and remove the material inside it.
 
     The rim of the defect follows the drawn outline, not the triangles whose centroids fall inside
-    (:func:`~tissuefem.surgery.topology.excise`). The outline is cut with :func:`cut_through` (closed), then
-    every element whose material lies inside it is removed, with the nodes no other element uses.
+    (:func:`~tissuefem.surgery.topology.excise`). The outline is cut with :func:`cut_through` (closed), then every
+    element whose material lies inside it is removed, with the nodes no other element uses.
 
-    Returns an :class:`ElementCut` whose ``parent`` and ``elements`` map to ``mesh`` as it was, with the
-    surviving elements' ``weights`` and ``regions``; its ``wound`` holds the records of the rim that stays.
+    Returns an :class:`ElementCut` whose ``parent`` and ``elements`` map to ``mesh`` as it was, with the surviving
+    elements' ``weights`` and ``regions``; its ``wound`` holds the records of the rim that stays.
     """
-    pts = _points("polygon", polygon, 3)
+    pts = check_points("polygon", polygon, 3)
     closed = np.vstack([pts, pts[:1]]) if np.any(pts[0] != pts[-1]) else pts
     if closed.shape[0] < 4:
         raise ValueError("polygon must have at least 3 distinct points")
@@ -1165,13 +846,13 @@ def excise_through(mesh, polygon, positions=None, weights=None, regions=None, mi
     m = first.mesh.t.shape[1]
     # where each element's material is now (the stroke was drawn there): a point inside its material, carried
     # by the P1 map of its triangle
-    x = _positions(first.mesh, None if positions is None else first.transfer(np.asarray(positions, float)))
+    x = node_positions(first.mesh, None if positions is None else first.transfer(np.asarray(positions, float)))
     t = first.mesh.t
     centre = np.full((m, 3), 1.0 / 3.0)
     for e, region in first.regions.items():
         centre[e] = _interior_barycentric(region)
     inside_point = np.einsum("ea,iae->ie", centre, x[:, t])
-    remove = _inside(closed, inside_point)
+    remove = polygon_contains(closed, inside_point.T)
     if not remove.any():
         raise ValueError("polygon encloses no material")
     if remove.all():
@@ -1186,28 +867,16 @@ def excise_through(mesh, polygon, positions=None, weights=None, regions=None, mi
 
 
 def _interior_barycentric(region) -> np.ndarray:
-    """Barycentric coordinates of a point inside the material of ``region`` (its largest piece's centroid of
-    a triangle of its triangulation, which lies inside even when the polygon is not convex)."""
+    """Barycentric coordinates of a point inside the material of ``region`` (its largest piece's centroid of a triangle
+    of its triangulation, which lies inside even when the polygon is not convex)."""
     best, best_area = None, -1.0
     for poly in region.polygons:
         for tri in _triangulate(poly):
             a, b, c = poly[tri[0]], poly[tri[1]], poly[tri[2]]
-            area = abs(_cross(b[0] - a[0], b[1] - a[1], c[0] - a[0], c[1] - a[1]))
+            area = abs(cross(b[0] - a[0], b[1] - a[1], c[0] - a[0], c[1] - a[1]))
             if area > best_area:
                 best, best_area = (a + b + c) / 3.0, area
     return np.array([1.0 - best[0] - best[1], best[0], best[1]])
-
-
-def _inside(polygon, points) -> np.ndarray:
-    """Even-odd test of ``points`` (2, k) against the closed ``polygon`` (k, 2)."""
-    px, py = points
-    inside = np.zeros(px.shape, dtype=bool)
-    for (ax, ay), (bx, by) in zip(polygon[:-1], polygon[1:]):
-        crosses = (ay > py) != (by > py)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            xs = ax + (py - ay) * (bx - ax) / (by - ay)
-        inside ^= crosses & (px < xs)
-    return inside
 
 
 def _renumber_wound(wound, keep, t) -> Wound:
@@ -1226,10 +895,9 @@ def _renumber_wound(wound, keep, t) -> Wound:
 class Picture:
     """What to draw of a mesh whose elements may fill only part of their triangle.
 
-    Drawing both copies of a cut triangle whole would paint material across the
-    cut: every element that is not whole is drawn as its material polygons,
-    split into triangles. A drawn point is the barycentric combination of its
-    element's three nodes, so the picture follows the deformation as P1 does.
+    Drawing both copies of a cut triangle whole would paint material across the cut: every element that is not whole is
+    drawn as its material polygons, split into triangles. A drawn point is the barycentric combination of its element's
+    three nodes, so the picture follows the deformation as P1 does.
 
     Attributes
     ----------
@@ -1260,7 +928,7 @@ class Picture:
 
 def picture(mesh, regions=None) -> Picture:
     """The :class:`Picture` of ``mesh`` with the material ``regions`` of a cut through elements."""
-    p, t = _mesh_arrays(mesh)
+    p, t = mesh_arrays(mesh)
     n, m = p.shape[1], t.shape[1]
     regions = {} if regions is None else regions
     whole = np.ones(m, dtype=bool)
@@ -1305,7 +973,7 @@ def _triangulate(poly) -> list:
         for j in range(len(idx)):
             ia, ib, ic = idx[j - 1], idx[j], idx[(j + 1) % len(idx)]
             (ax, ay), (bx, by), (cx, cy) = pts[ia], pts[ib], pts[ic]
-            if _cross(bx - ax, by - ay, cx - ax, cy - ay) <= 0.0:
+            if cross(bx - ax, by - ay, cx - ax, cy - ay) <= 0.0:
                 continue  # a reflex or flat corner is no ear
             if any(_in_triangle(pts[q], pts[ia], pts[ib], pts[ic]) for q in idx if q not in (ia, ib, ic)):
                 continue
@@ -1320,9 +988,9 @@ def _triangulate(poly) -> list:
 
 
 def _in_triangle(q, a, b, c) -> bool:
-    d1 = _cross(b[0] - a[0], b[1] - a[1], q[0] - a[0], q[1] - a[1])
-    d2 = _cross(c[0] - b[0], c[1] - b[1], q[0] - b[0], q[1] - b[1])
-    d3 = _cross(a[0] - c[0], a[1] - c[1], q[0] - c[0], q[1] - c[1])
+    d1 = cross(b[0] - a[0], b[1] - a[1], q[0] - a[0], q[1] - a[1])
+    d2 = cross(c[0] - b[0], c[1] - b[1], q[0] - b[0], q[1] - b[1])
+    d3 = cross(a[0] - c[0], a[1] - c[1], q[0] - c[0], q[1] - c[1])
     return d1 >= 0.0 and d2 >= 0.0 and d3 >= 0.0
 
 
@@ -1336,7 +1004,7 @@ def _region_distance(region, xi) -> float:
     """How far the local point ``xi`` lies outside the material of ``region`` (0 inside or on its boundary)."""
     best = math.inf
     for poly in region.polygons:
-        if _winding(xi, poly.tolist()) != 0:
+        if winding(xi, poly.tolist()) != 0:
             return 0.0
         for a, b in zip(poly, np.roll(poly, -1, axis=0)):
             d = b - a
@@ -1348,13 +1016,13 @@ def _region_distance(region, xi) -> float:
 def locate(mesh, point, positions=None, regions=None, candidates=None, reach=1e-3):
     """The element whose material holds ``point`` (deformed coordinates) and the point's barycentric coordinates.
 
-    Returns ``(element, barycentric (3,))``, or ``None`` when no material is within ``reach`` of the point
-    (in a triangle's local coordinates: a fraction of its size). Of the copies of a cut triangle, the one
-    whose material holds the point (or lies nearest to it) is chosen; a point just off the material (in an
-    open wound) gets coordinates that extend the element's P1 map to it. ``candidates`` restricts the search.
+    Returns ``(element, barycentric (3,))``, or ``None`` when no material is within ``reach`` of the point (in a
+    triangle's local coordinates: a fraction of its size). Of the copies of a cut triangle, the one whose material
+    holds the point (or lies nearest to it) is chosen; a point just off the material (in an open wound) gets
+    coordinates that extend the element's P1 map to it. ``candidates`` restricts the search.
     """
-    p, t = _mesh_arrays(mesh)
-    x = _positions(mesh, positions)
+    p, t = mesh_arrays(mesh)
+    x = node_positions(mesh, positions)
     q = np.asarray(point, dtype=float)
     elements = np.arange(t.shape[1]) if candidates is None else np.asarray(candidates, dtype=np.int64)
     a, b, c = (x[:, t[k, elements]] for k in range(3))
@@ -1388,18 +1056,17 @@ FIRM_WEIGHT = 0.25
 def firm_anchor(mesh, element, barycentric, positions=None, weights=None, regions=None, firm=FIRM_WEIGHT):
     """Attach a point of the material to an element that carries at least ``firm`` of its triangle.
 
-    A copy holding a thin sliver of its triangle has as little stiffness as material: a stitch pulling at a
-    point of it would stretch the sliver, whose far ("virtual") nodes hold almost nothing, instead of the
-    tissue. The point is then carried by the firm neighbour (an element sharing a node with it, hence joined
-    to its material) whose material lies nearest to it: its position is that element's P1 map extended to
-    it (barycentric coordinates that may be slightly negative), so the sliver moves with the tissue next to
-    it. Returns ``(element, barycentric)``.
+    A copy holding a thin sliver of its triangle has as little stiffness as material: a stitch pulling at a point of it
+    would stretch the sliver, whose far ("virtual") nodes hold almost nothing, instead of the tissue. The point is then
+    carried by the firm neighbour (an element sharing a node with it, hence joined to its material) whose material lies
+    nearest to it: its position is that element's P1 map extended to it (barycentric coordinates that may be slightly
+    negative), so the sliver moves with the tissue next to it. Returns ``(element, barycentric)``.
     """
-    p, t = _mesh_arrays(mesh)
-    w = _weights(weights, t.shape[1])
+    p, t = mesh_arrays(mesh)
+    w = element_weights(weights, t.shape[1])
     if w[element] >= firm:
         return element, np.asarray(barycentric, dtype=float)
-    x = _positions(mesh, positions)
+    x = node_positions(mesh, positions)
     point = x[:, t[:, element]] @ np.asarray(barycentric, dtype=float)
     near = np.flatnonzero(np.isin(t, t[:, element]).any(axis=0) & (w >= firm))
     if near.size == 0:
@@ -1419,11 +1086,11 @@ def firm_anchor(mesh, element, barycentric, positions=None, weights=None, region
 
 
 def carry_points(edit, elements, barycentric, regions=None):
-    """Points of the material (``elements (k,)`` with ``barycentric (k, 3)``) after ``edit``: the new element of
-    each, or -1 where its element was removed.
+    """Points of the material (``elements (k,)`` with ``barycentric (k, 3)``) after ``edit``: the new element of each,
+    or -1 where its element was removed.
 
-    A cut keeps each element's local coordinates, so a point keeps its barycentric coordinates; of the
-    copies of its element, it goes to the one whose material (``regions`` of the new mesh) holds it.
+    A cut keeps each element's local coordinates, so a point keeps its barycentric coordinates; of the copies of its
+    element, it goes to the one whose material (``regions`` of the new mesh) holds it.
     """
     elements = np.asarray(elements, dtype=np.int64)
     bary = np.asarray(barycentric, dtype=float)

@@ -1,23 +1,20 @@
 """Local flaps: close a defect with a flap of neighbouring skin, and see the tension it leaves.
 
-After Sifakis, Hellrung, Teran, Oliker and Cutting, "Local flaps: a real-time
-finite element based solution to the plastic surgery defect puzzle" (2009).
-Excising a lesion leaves a defect too wide to pull shut; instead a *flap* of
-nearby skin is cut on three sides, moved (advanced or rotated) into the defect
-and sutured to the wound's edges. Which design leaves the least tension in the
-skin is what such a simulator answers before the operation.
+After Sifakis, Hellrung, Teran, Oliker and Cutting, "Local flaps: a real-time finite element based solution to the
+plastic surgery defect puzzle" (2009). Excising a lesion leaves a defect too wide to pull shut; instead a *flap* of
+nearby skin is cut on three sides, moved (advanced or rotated) into the defect and sutured to the wound's edges. Which
+design leaves the least tension in the skin is what such a simulator answers before the operation.
 
 :func:`advancement_flap` runs the procedure on a patch of skin held on its outer edges:
 
 1. **excise** a rectangular defect;
-2. **cut** the flap: two parallel incisions continuing the defect's top and
-   bottom edges (the flap stays attached at its far end, its *base*);
-3. **suture**: each point on the flap's wound edges is paired with where the
-   planned motion (a translation by the defect's width) takes it
-   (:func:`pair_by_motion`, any rigid motion); the slack stitches are
-   tightened over several quasistatic frames;
-4. **report** the tension left: the largest principal Cauchy stress of every
-   element, its maximum and area-weighted mean, the stitch forces and the gaps.
+2. **cut** the flap: two parallel incisions continuing the defect's top and bottom edges (the flap stays attached at
+   its far end, its *base*);
+3. **suture**: each point on the flap's wound edges is paired with where the planned motion (a translation by the
+   defect's width) takes it (:func:`pair_by_motion`, any rigid motion); the slack stitches are tightened over several
+   quasistatic frames;
+4. **report** the tension left: the largest principal Cauchy stress of every element, its maximum and area-weighted
+   mean, the stitch forces and the gaps.
 """
 
 from __future__ import annotations
@@ -71,9 +68,9 @@ def wound_nodes(mesh, names=("cut", "defect")) -> np.ndarray:
 def pair_by_motion(mesh, positions, flap_elements, motion, tolerance) -> np.ndarray:
     """Stitches for moving a flap by ``motion``: node pairs ``(2, k)``, flap node first.
 
-    A wound node belongs to the flap when all its triangles are flap triangles (``flap_elements``, a
-    boolean mask); the two copies of a node on a cut fall on different sides. Each flap wound node is moved
-    by ``motion`` (``(2, n) -> (2, n)``) and paired with the nearest non-flap wound node within ``tolerance``.
+    A wound node belongs to the flap when all its triangles are flap triangles (``flap_elements``, a boolean mask); the
+    two copies of a node on a cut fall on different sides. Each flap wound node is moved by ``motion``
+    (``(2, n) -> (2, n)``) and paired with the nearest non-flap wound node within ``tolerance``.
     """
     wound = wound_nodes(mesh)
     t = mesh.t
@@ -98,8 +95,8 @@ def _weighted_percentile(values, weights, q) -> float:
 
 
 def _snapshot(sim):
-    """The tissue as drawn: the drawn points and triangles of its material (see ``Simulation.picture``), and
-    the element of each drawn triangle (to colour it by a per-element value)."""
+    """The tissue as drawn: the drawn points and triangles of its material (see ``Simulation.picture``), and the
+    element of each drawn triangle (to colour it by a per-element value)."""
     return sim.picture.points(sim.positions()).copy(), sim.picture.triangles.copy(), sim.picture.element.copy()
 
 
@@ -116,10 +113,10 @@ def _material_points(sim) -> np.ndarray:
 def stitch_points(samples, normals, motion, offset) -> np.ndarray:
     """Stitches for a flap cut through elements: point pairs ``(k, 2, 2)``, flap point first.
 
-    ``samples`` ``(k, 2)`` on the flap's wound edges, with unit ``normals`` ``(k, 2)`` into the flap, are
-    paired with the points ``motion`` takes them to (on the bed's wound edge). Both ends are moved by
-    ``offset`` into their own side's material (into the flap; into the bed, away from where the flap
-    arrives), so that each is attached to the right lip where two lips touch.
+    ``samples`` ``(k, 2)`` on the flap's wound edges, with unit ``normals`` ``(k, 2)`` into the flap, are paired with
+    the points ``motion`` takes them to (on the bed's wound edge). Both ends are moved by ``offset`` into their own
+    side's material (into the flap; into the bed, away from where the flap arrives), so that each is attached to the
+    right lip where two lips touch.
     """
     samples = np.asarray(samples, dtype=float)
     normals = np.asarray(normals, dtype=float)
@@ -178,8 +175,8 @@ def _close_flap(scene, *, in_flap, motion, samples, normals, method, tighten_fra
 
 
 def _patch_scene(name, description, patch, material, method, excisions, incisions, contact=False) -> Scene:
-    """A ``width x height`` patch of skin held on its four outer edges, with the flap's excisions and incisions
-    (and self-contact of its surface when ``contact``)."""
+    """A ``width x height`` patch of skin held on its four outer edges, with the flap's excisions and incisions (and
+    self-contact of its surface when ``contact``)."""
     width, height, n_triangles = patch
     model, youngs_modulus, poisson_ratio = material
     effects = {
@@ -214,16 +211,16 @@ def advancement_flap(*, width=4.0, height=2.0, n_triangles=3000, defect=(1.2, 0.
     defect
         ``(x, y, w, h)``: the defect's lower-left corner and size.
     flap_length
-        How far the two incisions run from the defect's right edge (the flap is ``h`` wide, attached at its
-        far end). Longer flaps stretch less: the classic advancement-flap trade-off.
+        How far the two incisions run from the defect's right edge (the flap is ``h`` wide, attached at its far end).
+        Longer flaps stretch less: the classic advancement-flap trade-off.
     tighten_frames, settle_frames
-        Frames over which the stitches are tightened from slack to closed, and frames run after that (each
-        tightening frame is solved to tolerance, so extra frames only report).
+        Frames over which the stitches are tightened from slack to closed, and frames run after that (each tightening
+        frame is solved to tolerance, so extra frames only report).
     method
-        ``"elements"`` (default): the defect and the incisions are cut through the elements along the drawn
-        lines, with stitches on the wound's edges about one per mesh edge length. ``"edges"``: the defect is
-        the triangles whose centroids fall inside it, the incisions snap to mesh edges and the stitches tie
-        wound nodes (the jagged, mesh-dependent version, to compare).
+        ``"elements"`` (default): the defect and the incisions are cut through the elements along the drawn lines, with
+        stitches on the wound's edges about one per mesh edge length. ``"edges"``: the defect is the triangles whose
+        centroids fall inside it, the incisions snap to mesh edges and the stitches tie wound nodes (the jagged,
+        mesh-dependent version, to compare).
     """
     method = _method(method)
     x0, y0, w, h = (float(v) for v in defect)
@@ -263,13 +260,13 @@ def rotation_flap(*, width=4.0, height=3.0, n_triangles=3000, pivot=(1.5, 1.5), 
                   method="elements", contact=False) -> FlapResult:
     """Close a wedge-shaped defect by rotating a flap about its pivot, and report the tension.
 
-    The defect is the sector of the circle of ``radius`` about ``pivot`` between 60 and ``60 + defect_angle``
-    degrees; the flap is the sector between ``60 - flap_angle`` and 60 degrees, freed by an incision along
-    the arc and attached along its straight base. Its leading edge turns by ``defect_angle`` onto the
-    defect's far edge; its base cannot turn, so the flap fans out: the radius at angle ``theta`` turns by
-    ``defect_angle (theta - theta_0) / flap_angle`` and the arc slides along the circle, where its stitches
-    meet the outer lip. A wider flap fans out less and leaves less tension: the rotation flap's rule of
-    thumb (an arc several times the defect's width). ``method`` and ``contact`` as in :func:`advancement_flap`.
+    The defect is the sector of the circle of ``radius`` about ``pivot`` between 60 and ``60 + defect_angle`` degrees;
+    the flap is the sector between ``60 - flap_angle`` and 60 degrees, freed by an incision along the arc and attached
+    along its straight base. Its leading edge turns by ``defect_angle`` onto the defect's far edge; its base cannot
+    turn, so the flap fans out: the radius at angle ``theta`` turns by ``defect_angle (theta - theta_0) / flap_angle``
+    and the arc slides along the circle, where its stitches meet the outer lip. A wider flap fans out less and leaves
+    less tension: the rotation flap's rule of thumb (an arc several times the defect's width). ``method`` and
+    ``contact`` as in :func:`advancement_flap`.
     """
     method = _method(method)
     px, py = (float(v) for v in pivot)

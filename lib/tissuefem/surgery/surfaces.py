@@ -1,28 +1,23 @@
 """The contact surface of a cut body: where its material ends, outer boundary and wound lips alike.
 
-:class:`~tissuefem.engine.contact.Contact` keeps a :class:`~tissuefem.engine.contact.ContactSurface`
-from passing through itself. For a plain mesh, and after the edge-snapping
-:func:`~tissuefem.surgery.topology.incise`, that surface is the mesh's boundary
-(:meth:`ContactSurface.from_mesh <tissuefem.engine.contact.ContactSurface.from_mesh>`).
+:class:`~tissuefem.engine.contact.Contact` keeps a :class:`~tissuefem.engine.contact.ContactSurface` from passing
+through itself. For a plain mesh, and after the edge-snapping :func:`~tissuefem.surgery.topology.incise`, that surface
+is the mesh's boundary (:meth:`ContactSurface.from_mesh <tissuefem.engine.contact.ContactSurface.from_mesh>`).
 
-After :func:`~tissuefem.surgery.element_cuts.cut_through` it is not: the copies
-of a cut triangle share its full edges, but each copy's material fills only
-part of it (its :class:`~tissuefem.surgery.element_cuts.Region`); the copies'
-edges would put two "surfaces" on top of each other along every phantom part
-of an edge, in contact at distance zero. :func:`contact_surface` instead
-follows the material, whose polygon sides (material on the left) are the
-candidate pieces:
+After :func:`~tissuefem.surgery.element_cuts.cut_through` it is not: the copies of a cut triangle share its full edges,
+but each copy's material fills only part of it (its :class:`~tissuefem.surgery.element_cuts.Region`); the copies' edges
+would put two "surfaces" on top of each other along every phantom part of an edge, in contact at distance zero.
+:func:`contact_surface` instead follows the material, whose polygon sides (material on the left) are the candidate
+pieces:
 
 * a side *inside* the triangle is a lip of a wound: always surface;
-* a side *on* one of the triangle's edges is surface except where material
-  of an element across that edge is joined to it (they share the edge's nodes
-  and their materials touch the same part of it, outside what a cut along the
-  edge severed).
+* a side *on* one of the triangle's edges is surface except where material of an element across that edge is joined to
+  it (they share the edge's nodes and their materials touch the same part of it, outside what a cut along the edge
+  severed).
 
-Each end of a piece is the barycentric combination of the element's nodes;
-ends that are the same combination seen from two elements are one point, so
-the pieces join into closed loops round the material. The lips come from the
-regions, so every wound the body carries is there, not only the latest cut's.
+Each end of a piece is the barycentric combination of the element's nodes; ends that are the same combination seen from
+two elements are one point, so the pieces join into closed loops round the material. The lips come from the regions, so
+every wound the body carries is there, not only the latest cut's.
 """
 
 from __future__ import annotations
@@ -30,19 +25,14 @@ from __future__ import annotations
 import numpy as np
 
 from ..engine.contact import ContactSurface
-from .element_cuts import (_FULL_TOUCH, _check_regions, _edge_intervals, _edge_point, _edge_table, _edges_of,
-                           _merge_intervals, _region_touch, _sides, _subtract)
-from .topology import _keys, _mesh_arrays
+from .geometry import (FULL_TOUCH, check_regions, edge_intervals, edge_point, edges_of, element_edges,
+                       intersect_intervals, mesh_arrays, merge_intervals, pair_keys, region_sides, region_touch,
+                       reversed_intervals, subtract_intervals)
 
 __all__ = ["contact_surface"]
 
 #: weights closer than this are one point (the same crossing of an edge seen from two elements)
 _SAME = 1e-9
-
-
-def _intersect(iv, jv):
-    """The intersection of two interval lists, merged."""
-    return _merge_intervals([(max(a, c), min(b, d)) for a, b in iv for c, d in jv if min(b, d) > max(a, c)])
 
 
 def contact_surface(mesh, weights=None, regions=None) -> ContactSurface:
@@ -52,22 +42,22 @@ def contact_surface(mesh, weights=None, regions=None) -> ContactSurface:
     ----------
     mesh : skfem.MeshTri
     weights, regions
-        The material of the elements cut through (:attr:`~tissuefem.surgery.element_cuts.ElementCut.weights`
-        and ``.regions``); absent: the surface is the mesh's boundary.
+        The material of the elements cut through (:attr:`~tissuefem.surgery.element_cuts.ElementCut.weights` and
+        ``.regions``); absent: the surface is the mesh's boundary.
 
     Returns
     -------
     ContactSurface
-        Points that are single nodes or combinations of an element's nodes, segments with the material on
-        their left, the wound's lips flagged (sides inside a triangle, severed parts of edges, and facets
-        named ``"cut"`` by :func:`~tissuefem.surgery.topology.incise`).
+        Points that are single nodes or combinations of an element's nodes, segments with the material on their left,
+        the wound's lips flagged (sides inside a triangle, severed parts of edges, and facets named ``"cut"`` by
+        :func:`~tissuefem.surgery.topology.incise`).
     """
-    p, t = _mesh_arrays(mesh)
+    p, t = mesh_arrays(mesh)
     n, m = p.shape[1], t.shape[1]
-    regions, _ = _check_regions(regions, weights, m)
+    regions, _ = check_regions(regions, weights, m)
     if not regions:
         return ContactSurface.from_mesh(mesh)
-    key, side = _edge_table(p, t)  # edge k of element e: nodes t[k], t[k+1]; side of the edge e lies on
+    key, side = element_edges(p, t)  # edge k of element e: nodes t[k], t[k+1]; side of the edge e lies on
     # which elements lie across each element edge: the same node pair, the other side
     flat_key, flat_side = key.ravel(), side.ravel()
     order = np.lexsort((flat_side, flat_key))
@@ -77,11 +67,11 @@ def contact_surface(mesh, weights=None, regions=None) -> ContactSurface:
     cut_facets = set()
     if mesh.boundaries and "cut" in mesh.boundaries:
         facets = np.asarray(mesh.facets)[:, np.asarray(mesh.boundaries["cut"], dtype=np.intp)]
-        cut_facets = set(_keys(facets, n).tolist())
+        cut_facets = set(pair_keys(facets, n).tolist())
 
     def touch(e):  # (touched by the material, touched and joinable: not severed) per local edge
         r = regions.get(e)
-        return (_FULL_TOUCH, _FULL_TOUCH) if r is None else (_edge_intervals(_sides(r)), _region_touch(r))
+        return (FULL_TOUCH, FULL_TOUCH) if r is None else (edge_intervals(region_sides(r)), region_touch(r))
 
     det = ((p[0, t[1]] - p[0, t[0]]) * (p[1, t[2]] - p[1, t[0]])
            - (p[0, t[2]] - p[0, t[0]]) * (p[1, t[1]] - p[1, t[0]]))
@@ -102,16 +92,16 @@ def contact_surface(mesh, weights=None, regions=None) -> ContactSurface:
                     l, f = divmod(i, m)
                     f_iv = touch(f)[1][l]
                     if int(t[l, f]) != int(t[k, e]):  # the edge runs the other way in f
-                        f_iv = [(1.0 - hi, 1.0 - lo) for lo, hi in f_iv]
+                        f_iv = reversed_intervals(f_iv)
                     reach += f_iv
-                joined = _intersect(joinable, _merge_intervals(reach))
+                joined = intersect_intervals(joinable, merge_intervals(reach))
             wound = kk in cut_facets
-            for lo, hi in _subtract(touched, joined):
-                severed = bool(_subtract([(lo, hi)], touch(e)[1][k])) if e in involved else False
-                pieces.append((e, _edge_point(k, lo), _edge_point(k, hi), wound or severed))
+            for lo, hi in subtract_intervals(touched, joined):
+                severed = bool(subtract_intervals([(lo, hi)], touch(e)[1][k])) if e in involved else False
+                pieces.append((e, edge_point(k, lo), edge_point(k, hi), wound or severed))
     for e, r in regions.items():
-        for a, b in _sides(r):
-            if set(_edges_of(a)) & set(_edges_of(b)):
+        for a, b in region_sides(r):
+            if set(edges_of(a)) & set(edges_of(b)):
                 continue  # on an edge of the triangle: done above
             pieces.append((e, (float(a[0]), float(a[1])), (float(b[0]), float(b[1])), True))
     return _assemble(pieces, t, det, n)

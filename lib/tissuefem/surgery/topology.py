@@ -1,35 +1,22 @@
-"""Mesh topology operations for virtual surgery: cutting and removing tissue.
+"""Mesh topology operations for virtual surgery: cutting along mesh edges and removing tissue.
 
-A cut in a P1 triangle mesh is a path of mesh edges that is *opened*: the
-triangles on its two sides stop sharing the path's nodes. No triangle is split;
-every node on the cut is duplicated as often as the cut separates its
-neighbourhood. Removing tissue (a defect) deletes whole triangles. Both are
-*pure*: they return a new mesh, with maps back to the old one so that a
-simulation can carry its state across the change.
+A cut along mesh edges *opens* a path of edges: no triangle is split; every node on the cut is duplicated as often as
+the cut separates its neighbourhood. Removing tissue (a defect) deletes whole triangles. Both are *pure*: they return a
+new mesh, as a :class:`MeshEdit` (the engine's :class:`~tissuefem.engine.meshes.MeshMap`) with ``parent`` (new node ->
+old node) and ``elements`` (new element -> old element), so that a simulation can carry its state across: a per-node
+field ``u`` becomes ``u[..., parent]`` (copies start where their original was, so a deformed state carries over without
+a jump).
 
-Functions
----------
-* :func:`duplicate_along_edges`: the core of a cut, on bare connectivity arrays.
-* :func:`cut_path`: the node path along mesh edges that follows a drawn polyline.
-* :func:`incise`: ``cut_path`` + ``duplicate_along_edges`` on a :class:`skfem.MeshTri`;
-  the wound's faces are named ``"cut"``.
-* :func:`excise`: remove the triangles inside a region; the rim is named ``"defect"``.
+* :func:`duplicate_along_edges`: the core of a cut, on bare connectivity arrays;
+* :func:`cut_path`: the node path along mesh edges that follows a drawn polyline;
+* :func:`incise`: the two together on a :class:`skfem.MeshTri`, the wound's faces named ``"cut"``;
+* :func:`excise`: remove the triangles inside a region, its rim named ``"defect"``;
 * :func:`connected_components`, :func:`nodes_near`: the pieces of a mesh, the nodes near a point.
 
-Conventions
------------
-* A :class:`MeshEdit` (the engine's :class:`~tissuefem.engine.meshes.MeshMap`) holds the new mesh,
-  ``parent`` (new node -> old node) and ``elements`` (new element -> old element). A per-node field ``u`` becomes
-  ``u[..., parent]`` (:meth:`MeshEdit.transfer`): copies start where their
-  original was, so a deformed state carries over without any jump.
-* The new meshes are built with ``sort_t=False``: every element keeps its
-  vertex order (hence its orientation). scikit-fem's default ``sort_t=True``
-  re-sorts each column of ``t``; since the copies made by a cut get the highest
-  indices, that would reorder the vertices of exactly the triangles along the wound.
-* Named boundaries are carried by *parent pairs*: a new facet belongs to the old
-  name ``X`` if the parents of its two nodes formed a facet of ``X``. Names are
-  never dropped (one may end up with no facet), and new facets accumulate: a
-  second cut adds to ``"cut"``.
+The new meshes keep every element's vertex order, hence its orientation (``sort_t=False``: scikit-fem's default
+re-sorts each column of ``t``, and since a cut's copies get the highest indices, that would reorder exactly the
+triangles along the wound). Named boundaries are carried by parent pairs
+(:func:`~tissuefem.surgery.geometry.carry_names`).
 """
 
 from __future__ import annotations
@@ -38,24 +25,22 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from matplotlib.path import Path
 import scipy.sparse as sp
 from scipy.sparse import csgraph
-from skfem import MeshTri
 
 from ..engine.meshes import MeshMap
 from ..engine.parameters import check_count, check_real
+from .geometry import carry_names, check_points, mesh_arrays, new_mesh, node_positions, pair_keys, polygon_contains
 
 __all__ = ["MeshEdit", "duplicate_along_edges", "cut_path", "incise", "excise", "connected_components", "nodes_near"]
 
-#: The cost of a mesh edge in :func:`cut_path` is ``length * (1 + _HUG * d / h)``
-#: with ``d`` the mean distance of its two nodes from the drawn segment and ``h``
-#: the median edge length. Large enough that a detour of one edge length away
-#: from the line costs more than several edges along it.
+#: The cost of a mesh edge in :func:`cut_path` is ``length * (1 + _HUG * d / h)`` with ``d`` the mean distance of
+#: its two nodes from the drawn segment and ``h`` the median edge length. Large enough that a detour of one edge
+#: length away from the line costs more than several edges along it.
 _HUG = 10.0
 
-#: An endpoint of the polyline this close to the boundary (in units of the
-#: nearest boundary facet's length) counts as "on the boundary".
+#: An endpoint of the polyline this close to the boundary (in units of the nearest boundary facet's length) counts
+#: as "on the boundary".
 _NEAR_BOUNDARY = 0.5
 
 
@@ -64,8 +49,8 @@ _NEAR_BOUNDARY = 0.5
 class MeshEdit(MeshMap):
     """A :class:`~tissuefem.engine.meshes.MeshMap` made by a cut along mesh edges or an excision.
 
-    ``cut_edges`` : ndarray of int, shape (2, k): old-node pairs of the edges opened, in the order the
-    cut passed them (empty for :func:`excise`).
+    ``cut_edges`` : ndarray of int, shape (2, k): old-node pairs of the edges opened, in the order the cut passed them
+    (empty for :func:`excise`).
     """
 
     cut_edges: np.ndarray
@@ -99,101 +84,26 @@ def _triangles(t, n_nodes):
     return t, n_nodes
 
 
-def _mesh_arrays(mesh):
-    """(p, t) of a 2D triangle mesh, validated."""
-    try:
-        p = np.asarray(mesh.p, dtype=float)
-        t = np.asarray(mesh.t, dtype=np.int64)
-    except AttributeError:
-        raise ValueError(f"mesh must be a skfem.MeshTri, got {type(mesh).__name__}") from None
-    if p.ndim != 2 or p.shape[0] != 2 or t.ndim != 2 or t.shape[0] != 3:
-        raise ValueError(f"mesh must be a 2D triangle mesh (p shaped (2, n), t shaped (3, m)), "
-                         f"got p {p.shape} and t {t.shape}")
-    return p, t
-
-
-def _positions(mesh, positions) -> np.ndarray:
-    p, _ = _mesh_arrays(mesh)
-    if positions is None:
-        return p
-    try:
-        x = np.asarray(positions, dtype=float)
-    except (TypeError, ValueError):
-        raise ValueError("positions must be a float array shaped (2, n_nodes)") from None
-    if x.shape != p.shape:
-        raise ValueError(f"positions must be shaped (2, n_nodes) = {p.shape}, got {x.shape}")
-    if not np.all(np.isfinite(x)):
-        raise ValueError("positions must be finite (got NaN or inf)")
-    return x
-
-
-def _points(name: str, value, min_points: int) -> np.ndarray:
-    """A finite float array shaped (k, 2) with k >= min_points (real numbers: complex points are refused, not cut)."""
-    try:
-        a = np.asarray(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be an array of points shaped (k, 2), got {value!r}") from None
-    if a.dtype.kind not in "iuf":
-        raise ValueError(f"{name} must be an array of real points shaped (k, 2), got dtype {a.dtype}")
-    a = a.astype(float)
-    if a.ndim != 2 or a.shape[1] != 2:
-        raise ValueError(f"{name} must be an array of points shaped (k, 2), got shape {a.shape}")
-    if a.shape[0] < min_points:
-        raise ValueError(f"{name} needs at least {min_points} points, got {a.shape[0]}")
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"{name} must be finite, got NaN or inf in {a.tolist()}")
-    return a
-
-
-def _keys(pairs: np.ndarray, n: int) -> np.ndarray:
-    """One int64 per undirected node pair: ``min * n + max``."""
-    pairs = np.asarray(pairs, dtype=np.int64)
-    return np.minimum(pairs[0], pairs[1]) * n + np.maximum(pairs[0], pairs[1])
-
-
 # --- 1. node duplication ---
 def duplicate_along_edges(t, n_nodes, edges):
     """Duplicate nodes so that the given edges open: the core of a cut.
 
-    Parameters
-    ----------
-    t : array_like of int, shape (3, m)
-        Triangles (node indices). Not modified.
-    n_nodes : int
-        Number of nodes (every index in ``t`` is below it).
-    edges : array_like of int, shape (2, k)
-        Node pairs to open, in either order; each must be an edge of some
-        triangle of ``t``. Repeats are fine; ``k = 0`` changes nothing.
+    ``t`` (3, m) are the triangles (not modified) of a mesh with ``n_nodes`` nodes; ``edges`` (2, k) the node pairs to
+    open, in either order, each an edge of some triangle (repeats are fine; ``k = 0`` changes nothing). Returns
+    ``(new_t, parent)``: ``new_t`` (3, m) int64 keeps the triangles and their vertex order, only the indices of
+    duplicated nodes change; ``parent`` (n_nodes + n_copies,) is ``i`` for the old nodes, and the copies are appended
+    (``n_nodes, n_nodes + 1, ...``) pointing to the node they copy.
 
-    Returns
-    -------
-    new_t : ndarray of int64, shape (3, m)
-        The triangles, in the same order and with the same vertex order; only
-        indices of duplicated nodes change.
-    parent : ndarray of int64, shape (n_nodes + n_copies,)
-        ``parent[i] = i`` for the old nodes; the copies are appended (indices
-        ``n_nodes, n_nodes + 1, ...``) and point to the node they copy.
-
-    Notes
-    -----
-    For every node ``v`` on a cut edge, its triangles are grouped into *fans*:
-    two triangles around ``v`` are in the same fan if they share an uncut edge
-    ``(v, x)`` (closed under that). Each fan is one side of the wound at ``v``:
-
-    * a node in the middle of a cut from boundary to boundary has two cut
-      edges, which split its ring (or half-ring) in two: it gets one copy;
-    * the tip of an interior crack has one cut edge; its ring stays connected
-      the other way round, so it keeps a single node (a crack is closed at its tips);
-    * where ``j`` cut edges meet at an interior node, its ring breaks into
-      ``j`` fans (``j - 1`` copies); at a boundary node, ``j + 1`` fans.
-
-    The fan holding the lowest-numbered triangle keeps the node; the others get
-    new nodes in the order (node, lowest triangle of the fan), so the output
-    depends only on the input. A cut edge on the boundary opens nothing, nor
-    does a single interior edge with both ends interior (both ends are tips).
-    All fans are found at once: the *corners* (triangle, vertex) of the cut
-    nodes are linked whenever two triangles share an uncut edge at that vertex,
-    and the fans are the connected components of that graph.
+    For every node ``v`` on a cut edge, its triangles are grouped into *fans*: two triangles around ``v`` are in the
+    same fan if they share an uncut edge ``(v, x)`` (closed under that). Each fan is one side of the wound: a node in
+    the middle of a cut from boundary to boundary has two cut edges that split its ring (or half-ring) in two: one
+    copy; the tip of an interior crack has one cut edge and its ring stays connected the other way round: no copy (a
+    crack is closed at its tips); where ``j`` cut edges meet, an interior node's ring breaks into ``j`` fans (``j - 1``
+    copies), a boundary node's into ``j + 1``. A cut edge on the boundary opens nothing, nor does a single interior
+    edge with both ends interior. The fan holding the lowest-numbered triangle keeps the node; the others get new nodes
+    in the order (node, lowest triangle of the fan), so the output depends only on the input. All fans are found at
+    once: the *corners* (triangle, vertex) of the cut nodes are linked whenever two triangles share an uncut edge at
+    that vertex, and the fans are the connected components of that graph.
     """
     t, n_nodes = _triangles(t, n_nodes)
     m = t.shape[1]
@@ -210,8 +120,8 @@ def duplicate_along_edges(t, n_nodes, edges):
     ci = np.arange(3 * m, dtype=np.int64)
     cj = np.roll(ci, -m)  # ci -> cj: the edges (0, 1), (1, 2), (2, 0) of every triangle
     a, b = flat[ci], flat[cj]
-    key = _keys(np.stack([a, b]), n_nodes)
-    cut_key = _keys(edges, n_nodes)
+    key = pair_keys(np.stack([a, b]), n_nodes)
+    cut_key = pair_keys(edges, n_nodes)
     known = np.isin(cut_key, key)
     if not np.all(known):
         bad = int(np.flatnonzero(~known)[0])
@@ -271,8 +181,8 @@ def duplicate_along_edges(t, n_nodes, edges):
 def connected_components(t, n_nodes):
     """The pieces of a mesh ``t (3, m)`` with ``n_nodes`` nodes: nodes connected through its triangles.
 
-    Returns ``(n_pieces, labels)``: the number of pieces (a node used by no triangle is a piece of its own)
-    and the piece of every node, shape (n_nodes,), numbered in the order of each piece's lowest node.
+    Returns ``(n_pieces, labels)``: the number of pieces (a node used by no triangle is a piece of its own) and the
+    piece of every node, shape (n_nodes,), numbered in the order of each piece's lowest node.
     """
     t, n_nodes = _triangles(t, n_nodes)
     rows = np.concatenate([t[0], t[1]])
@@ -334,9 +244,9 @@ def _inside(x, t, q) -> bool:
 def _boundary_snap(x, t, bfacets, end, towards):
     """The boundary node where a polyline that starts at ``end`` enters (or leaves) the body.
 
-    If ``end`` lies outside the body or within half a facet of its boundary (``bfacets`` (2, nb)), returns
-    the nearer end of the facet the segment ``end -> towards`` first crosses, or the boundary node nearest
-    to ``end`` if it crosses none. Otherwise returns ``None``.
+    If ``end`` lies outside the body or within half a facet of its boundary (``bfacets`` (2, nb)), returns the nearer
+    end of the facet the segment ``end -> towards`` first crosses, or the boundary node nearest to ``end`` if it
+    crosses none. Otherwise returns ``None``.
     """
     A, B = x[:, bfacets[0]], x[:, bfacets[1]]
     dist = _segment_distance(end[0], end[1], A[0], A[1], B[0], B[1])
@@ -365,51 +275,10 @@ def _boundary_snap(x, t, bfacets, end, towards):
     return int(bnodes[np.argmin(dn)])
 
 
-def cut_path(mesh, polyline, positions=None) -> np.ndarray:
-    """The path of mesh nodes that follows a drawn polyline.
-
-    Parameters
-    ----------
-    mesh : skfem.MeshTri
-    polyline : array_like, shape (k, 2), k >= 2
-        The stroke, in the coordinates of ``positions``.
-    positions : array_like, shape (2, n_nodes), optional
-        Where the nodes are now (default ``mesh.p``), so that a cut drawn on the
-        deformed tissue goes where it was drawn.
-
-    Returns
-    -------
-    ndarray of int64
-        Node indices; consecutive entries are the two ends of a mesh edge, or two
-        copies of the same material point (left by an earlier cut): that is how a
-        new stroke crosses an old wound.
-
-    Notes
-    -----
-    Each polyline vertex snaps to the nearest node. An *endpoint* outside the
-    body (or within about half an edge of its boundary) snaps instead to the
-    boundary node where its first (or last) segment crosses the boundary, so a
-    stroke across the whole body cuts it through, and the path ends where it
-    first meets the boundary. Between snapped nodes the path is a shortest path
-    (Dijkstra) over the mesh edges, each costing ``length * (1 + 10 d / h)``
-    with ``d`` the mean distance of its nodes from the drawn segment and ``h``
-    the median edge length: the path hugs the line, within about one element.
-
-    Raises
-    ------
-    ValueError
-        For a polyline that is not finite, not shaped (k, 2), has fewer than two
-        points, collapses to a single node, or joins two unconnected pieces.
-    """
-    pts = _points("polyline", polyline, 2)
-    p, t = _mesh_arrays(mesh)
-    x = _positions(mesh, positions)
-    n = p.shape[1]
-    facets = np.asarray(mesh.facets, dtype=np.int64)
-    bfacets = facets[:, np.asarray(mesh.boundary_facets(), dtype=np.int64)]
+def _path_graph(p, x, t, facets):
+    """The graph a cut path runs on: ``(ends (2, k), length (k,), h)``, the mesh edges (``facets`` first) plus links
+    between copies of the same material point, their lengths at ``x``, and the median edge length ``h``."""
     used = np.unique(t)
-
-    # the graph: mesh edges, plus links between copies of the same material point
     ends = [facets]
     if used.size:
         _, group = np.unique(p[:, used].T, axis=0, return_inverse=True)
@@ -423,24 +292,50 @@ def cut_path(mesh, polyline, positions=None) -> np.ndarray:
     ends = np.concatenate(ends, axis=1)
     length = np.hypot(*(x[:, ends[0]] - x[:, ends[1]]))
     h = float(np.median(length[: facets.shape[1]])) if facets.shape[1] else 1.0
-    if not h > 0.0:
-        h = 1.0
+    return ends, length, h if h > 0.0 else 1.0
 
-    # snap the vertices
-    snapped = []
-    boundary_start = boundary_end = False
+
+def _snap_vertices(x, t, bfacets, pts):
+    """The node every polyline vertex snaps to (the ends possibly to the boundary: :func:`_boundary_snap`), and whether
+    the first and the last did."""
+    used = np.unique(t)
+    snapped, on_boundary = [], [False, False]
     for k, q in enumerate(pts):
         node = None
         if k == 0 or k == len(pts) - 1:
             towards = pts[1] if k == 0 else pts[-2]
             node = _boundary_snap(x, t, bfacets, q, towards) if bfacets.size else None
-            if k == 0:
-                boundary_start = node is not None
-            else:
-                boundary_end = node is not None
+            on_boundary[0 if k == 0 else 1] = node is not None
         if node is None:
             node = int(used[np.argmin(np.hypot(x[0, used] - q[0], x[1, used] - q[1]))])
         snapped.append(node)
+    return snapped, on_boundary
+
+
+def cut_path(mesh, polyline, positions=None) -> np.ndarray:
+    """The path of mesh nodes that follows a drawn ``polyline`` (k, 2), k >= 2.
+
+    The polyline is in the coordinates of ``positions`` (2, n_nodes), where the nodes are now (default ``mesh.p``), so
+    that a cut drawn on the deformed tissue goes where it was drawn. Returns node indices (int64); consecutive entries
+    are the two ends of a mesh edge, or two copies of the same material point (left by an earlier cut): that is how a
+    new stroke crosses an old wound.
+
+    Each polyline vertex snaps to the nearest node. An *endpoint* outside the body (or within about half an edge of its
+    boundary) snaps instead to the boundary node where its first (or last) segment crosses the boundary, so a stroke
+    across the whole body cuts it through, and the path ends where it first meets the boundary. Between snapped nodes
+    the path is a shortest path (Dijkstra) over the mesh edges, each costing ``length * (1 + 10 d / h)`` with ``d`` the
+    mean distance of its nodes from the drawn segment and ``h`` the median edge length: the path hugs the line, within
+    about one element. ``ValueError`` for a polyline that is not finite, not shaped (k, 2), has fewer than two points,
+    collapses to a single node, or joins two unconnected pieces.
+    """
+    pts = check_points("polyline", polyline, 2)
+    p, t = mesh_arrays(mesh)
+    x = node_positions(mesh, positions)
+    n = p.shape[1]
+    facets = np.asarray(mesh.facets, dtype=np.int64)
+    bfacets = facets[:, np.asarray(mesh.boundary_facets(), dtype=np.int64)]
+    ends, length, h = _path_graph(p, x, t, facets)
+    snapped, (boundary_start, boundary_end) = _snap_vertices(x, t, bfacets, pts)
 
     path = [snapped[0]]
     for k in range(len(pts) - 1):
@@ -466,12 +361,12 @@ def cut_path(mesh, polyline, positions=None) -> np.ndarray:
     # An end snapped to the boundary may reach it at a neighbouring boundary node and walk along the
     # boundary to the snapped one. Such steps open nothing: the cut ends where it first meets the boundary.
     if bfacets.size:
-        on_boundary = set(_keys(bfacets, n).tolist())
+        on_boundary = set(pair_keys(bfacets, n).tolist())
         if boundary_start:
-            while len(path) > 2 and int(_keys(np.array([[path[0]], [path[1]]]), n)[0]) in on_boundary:
+            while len(path) > 2 and int(pair_keys(np.array([[path[0]], [path[1]]]), n)[0]) in on_boundary:
                 path.pop(0)
         if boundary_end:
-            while len(path) > 2 and int(_keys(np.array([[path[-2]], [path[-1]]]), n)[0]) in on_boundary:
+            while len(path) > 2 and int(pair_keys(np.array([[path[-2]], [path[-1]]]), n)[0]) in on_boundary:
                 path.pop()
     if len(path) < 2:
         raise ValueError(f"polyline collapses to the single node {path[0]}: draw a longer stroke "
@@ -479,89 +374,50 @@ def cut_path(mesh, polyline, positions=None) -> np.ndarray:
     return np.asarray(path, dtype=np.int64)
 
 
-# --- named boundaries across an edit ---
-def _carry_boundaries(old, new, parent, name, opened):
-    """Named facet sets of ``new`` from those of ``old`` (by parent pairs), plus the facets the edit opened
-    (``opened``, bool per facet of ``new``) added to the set ``name``."""
-    n_old = old.p.shape[1]
-    new_keys = _keys(parent[np.asarray(new.facets, dtype=np.int64)], n_old)
-    old_facets = np.asarray(old.facets, dtype=np.int64)
-    sets = {}
-    for label, facets in (old.boundaries or {}).items():
-        old_keys = _keys(old_facets[:, np.asarray(facets, dtype=np.int64)], n_old)
-        sets[label] = np.flatnonzero(np.isin(new_keys, old_keys)).astype(np.int32)
-    extra = np.flatnonzero(opened).astype(np.int32)
-    sets[name] = np.union1d(sets.get(name, np.zeros(0, dtype=np.int32)), extra).astype(np.int32)
-    return sets
-
-
-def _carry_subdomains(old, elements):
-    if not old.subdomains:
-        return None
-    new_index = np.full(old.t.shape[1], -1, dtype=np.int64)
-    new_index[elements] = np.arange(elements.size)
-    out = {}
-    for label, els in old.subdomains.items():
-        mapped = new_index[np.asarray(els, dtype=np.int64)]
-        out[label] = np.sort(mapped[mapped >= 0]).astype(np.int32)
-    return out
-
-
-def _new_mesh(p, t) -> MeshTri:
-    """A MeshTri that keeps the vertex order of every triangle, given C-ordered arrays (fancy indexing leaves
-    Fortran order, which scikit-fem would copy with a warning on large meshes)."""
-    return MeshTri(np.ascontiguousarray(p), np.ascontiguousarray(t), sort_t=False)
-
-
 def _build(old, plain, parent, elements, name, opened, cut_edges) -> MeshEdit:
     """The MeshEdit of ``plain`` (the new mesh without names) with names and subdomains carried over."""
-    mesh = plain.with_boundaries(_carry_boundaries(old, plain, parent, name, opened))
-    subdomains = _carry_subdomains(old, elements)
-    if subdomains:
-        mesh = mesh.with_subdomains(subdomains)
-    return MeshEdit(mesh=mesh, parent=parent, elements=elements, cut_edges=cut_edges,
-                    n_old_nodes=int(old.p.shape[1]), n_old_elements=int(old.t.shape[1]))
+    return MeshEdit(mesh=carry_names(old, plain, parent, elements, name=name, opened=opened), parent=parent,
+                    elements=elements, cut_edges=cut_edges, n_old_nodes=int(old.p.shape[1]),
+                    n_old_elements=int(old.t.shape[1]))
 
 
-def _opened(new_mesh, parent, interior_keys, n_old) -> np.ndarray:
-    """Boundary facets of ``new_mesh`` whose parent pair was an interior edge of the old mesh."""
-    new_keys = _keys(parent[np.asarray(new_mesh.facets, dtype=np.int64)], n_old)
-    return (np.asarray(new_mesh.f2t)[1] < 0) & np.isin(new_keys, interior_keys)
+def _opened(mesh, parent, interior_keys, n_old) -> np.ndarray:
+    """Boundary facets of the new ``mesh`` whose parent pair was an interior edge of the old mesh."""
+    new_keys = pair_keys(parent[np.asarray(mesh.facets, dtype=np.int64)], n_old)
+    return (np.asarray(mesh.f2t)[1] < 0) & np.isin(new_keys, interior_keys)
 
 
 # --- 3. incise ---
 def incise(mesh, polyline, positions=None) -> MeshEdit:
     """Cut ``mesh`` (not modified) along a drawn polyline.
 
-    The polyline becomes a path of mesh edges (:func:`cut_path`, which describes ``polyline`` and
-    ``positions``), opened by duplicating nodes (:func:`duplicate_along_edges`). A stroke whose ends lie
-    outside the body cuts it through; one that ends inside leaves a crack whose tip stays closed. The new
-    mesh is in the reference configuration (``p`` is ``mesh.p[:, parent]``; transfer the deformed state
-    with :meth:`MeshEdit.transfer`).
+    The polyline becomes a path of mesh edges (:func:`cut_path`, which describes ``polyline`` and ``positions``),
+    opened by duplicating nodes (:func:`duplicate_along_edges`). A stroke whose ends lie outside the body cuts it
+    through; one that ends inside leaves a crack whose tip stays closed. The new mesh is in the reference configuration
+    (``p`` is ``mesh.p[:, parent]``; transfer the deformed state with :meth:`MeshEdit.transfer`).
 
-    Returns a :class:`MeshEdit` whose ``elements`` is ``arange(m)`` (the triangles keep their indices and
-    vertex order) and ``cut_edges`` the old edges that opened; the new mesh keeps every named boundary and
-    names the two faces of the wound ``"cut"``. Raises ``ValueError`` for a bad polyline, or one that opens
-    no edge (it runs along the boundary, or is a single edge inside the body, which cannot open).
+    Returns a :class:`MeshEdit` whose ``elements`` is ``arange(m)`` (the triangles keep their indices and vertex order)
+    and ``cut_edges`` the old edges that opened; the new mesh keeps every named boundary and names the two faces of the
+    wound ``"cut"``. Raises ``ValueError`` for a bad polyline, or one that opens no edge (it runs along the boundary,
+    or is a single edge inside the body, which cannot open).
     """
-    p, t = _mesh_arrays(mesh)
+    p, t = mesh_arrays(mesh)
     n = p.shape[1]
     path = cut_path(mesh, polyline, positions)
     pairs = np.stack([path[:-1], path[1:]])
-    interior_keys = _keys(np.asarray(mesh.facets, dtype=np.int64), n)[np.asarray(mesh.f2t)[1] >= 0]
+    interior_keys = pair_keys(np.asarray(mesh.facets, dtype=np.int64), n)[np.asarray(mesh.f2t)[1] >= 0]
     # steps between copies of one point (crossing an old wound) are not edges;
     # edges on the boundary are already open
-    pair_keys = _keys(pairs, n)
-    pairs = pairs[:, np.isin(pair_keys, interior_keys)]
+    pairs = pairs[:, np.isin(pair_keys(pairs, n), interior_keys)]
     new_t, parent = duplicate_along_edges(t, n, pairs)
-    plain = _new_mesh(p[:, parent], new_t)
+    plain = new_mesh(p[:, parent], new_t)
     wound = _opened(plain, parent, interior_keys, n)
 
     # the path's edges that actually opened, once each, in the order of the path
-    opened_keys = _keys(parent[np.asarray(plain.facets, dtype=np.int64)[:, wound]], n)
-    pair_keys = _keys(pairs, n)
-    first = np.sort(np.unique(pair_keys, return_index=True)[1])
-    cut_edges = pairs[:, first[np.isin(pair_keys[first], opened_keys)]]
+    opened_keys = pair_keys(parent[np.asarray(plain.facets, dtype=np.int64)[:, wound]], n)
+    keys = pair_keys(pairs, n)
+    first = np.sort(np.unique(keys, return_index=True)[1])
+    cut_edges = pairs[:, first[np.isin(keys[first], opened_keys)]]
     if cut_edges.shape[1] == 0:
         raise ValueError(f"polyline opens no edge: its path {path.tolist()} runs along the boundary or is a single "
                          f"interior edge (a crack needs at least one node strictly inside it)")
@@ -581,29 +437,29 @@ def _region_mask(region, centroids) -> np.ndarray:
                              f"({m},), got dtype {mask.dtype} shape {mask.shape}")
         return mask
 
-    poly = _points("region", region, 3)
+    poly = check_points("region", region, 3)
     x, y = poly[:, 0], poly[:, 1]
     area = 0.5 * (x @ np.roll(y, -1) - y @ np.roll(x, -1))
     scale = np.ptp(poly, axis=0).max()
     if not abs(area) > 1e-12 * scale * scale:
         raise ValueError(f"region must be a polygon with non-zero area, got {poly.tolist()}")
-    return Path(poly).contains_points(centroids.T)
+    return polygon_contains(poly, centroids.T)
 
 
 def excise(mesh, region, positions=None) -> MeshEdit:
     """Remove the triangles of ``mesh`` (not modified) whose centroid lies in ``region`` (a defect).
 
-    ``region`` is a polygon (k, 2), k >= 3 (tested with :meth:`matplotlib.path.Path.contains_points`), or a
-    function ``centroids (2, m) -> bool (m,)``, True for the triangles to remove; the centroids are taken
-    at ``positions`` (2, n_nodes) (default ``mesh.p``).
+    ``region`` is a polygon (k, 2), k >= 3 (even-odd rule: :func:`~tissuefem.surgery.geometry.polygon_contains`), or a
+    function ``centroids (2, m) -> bool (m,)``, True for the triangles to remove; the centroids are taken at
+    ``positions`` (2, n_nodes) (default ``mesh.p``).
 
-    Returns a :class:`MeshEdit`: nodes no longer used are dropped and the rest renumbered in their old
-    order (``parent`` is increasing); the surviving triangles keep their relative and vertex order. The rim
-    of the hole is named ``"defect"``; old names keep their surviving facets. Raises ``ValueError`` if
-    ``region`` is not a valid polygon or mask, selects no element, or selects every element.
+    Returns a :class:`MeshEdit`: nodes no longer used are dropped and the rest renumbered in their old order
+    (``parent`` is increasing); the surviving triangles keep their relative and vertex order. The rim of the hole is
+    named ``"defect"``; old names keep their surviving facets. Raises ``ValueError`` if ``region`` is not a valid
+    polygon or mask, selects no element, or selects every element.
     """
-    p, t = _mesh_arrays(mesh)
-    x = _positions(mesh, positions)
+    p, t = mesh_arrays(mesh)
+    x = node_positions(mesh, positions)
     m = t.shape[1]
     centroids = x[:, t].mean(axis=1)
     remove = _region_mask(region, centroids)
@@ -619,7 +475,7 @@ def excise(mesh, region, positions=None) -> MeshEdit:
     new_t = new_index[kept]
 
     n = p.shape[1]
-    interior_keys = _keys(np.asarray(mesh.facets, dtype=np.int64)[:, np.asarray(mesh.f2t)[1] >= 0], n)
-    plain = _new_mesh(p[:, parent], new_t)
+    interior_keys = pair_keys(np.asarray(mesh.facets, dtype=np.int64)[:, np.asarray(mesh.f2t)[1] >= 0], n)
+    plain = new_mesh(p[:, parent], new_t)
     rim = _opened(plain, parent, interior_keys, n)
     return _build(mesh, plain, parent, elements, "defect", rim, np.zeros((2, 0), dtype=np.int64))

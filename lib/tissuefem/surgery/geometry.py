@@ -1,0 +1,426 @@
+"""The geometry of cuts, shared by :mod:`.topology`, :mod:`.element_cuts` and :mod:`.surfaces`.
+
+* **Meshes and inputs**: :func:`mesh_arrays`, :func:`node_positions`, :func:`check_points`, :func:`new_mesh`,
+  :func:`carry_names` (named boundaries and subdomains across an edit), :func:`polygon_contains`.
+* **Edges** keyed by node pair (:func:`pair_keys`), and every element's edges with the side it lies on
+  (:func:`element_edges`).
+* **A triangle's local coordinates** ``(xi, eta) = (lambda_1, lambda_2)``: vertex 0 at (0, 0), 1 at (1, 0), 2 at (0,
+  1); local edge ``k`` runs from vertex ``k`` to vertex ``k + 1`` (0: ``eta = 0``, 1: ``xi + eta = 1``, 2: ``xi = 0``).
+  Points (:func:`snap`, :func:`edges_of`, :func:`edge_param`, :func:`edge_point`), segments (:func:`crossings`),
+  polygons (:func:`winding`, :func:`polygon_area`), and sorted lists of intervals ``[(lo, hi), ...]`` of the edge
+  parameter (:func:`merge_intervals`, :func:`subtract_intervals`, ...). Points closer than :data:`EPS` are one point.
+  These work on plain floats: on the tiny graphs of one triangle, numpy's per-call cost would dominate.
+* **The material of an element** cut through: :class:`Region`, its sides and the parts of its edges it touches, and
+  :func:`check_regions`.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+from dataclasses import dataclass, field
+
+import numpy as np
+from skfem import MeshTri
+
+from ..engine.assembly import check_weights
+
+__all__ = ["EPS", "CORNERS", "FULL_TOUCH", "WHOLE", "Region", "mesh_arrays", "node_positions", "check_points",
+           "pair_keys", "element_edges", "new_mesh", "carry_names", "polygon_contains", "cross", "snap", "edges_of",
+           "edge_param", "edge_point", "winding", "polygon_area", "crossings", "merge_intervals", "subtract_intervals",
+           "intersect_intervals", "overlaps", "reversed_intervals", "edge_intervals", "region_sides", "region_touch",
+           "element_weights", "check_regions"]
+
+#: Tolerance in a triangle's local coordinates: points closer than this are one point, and a point this close
+#: to an edge is on it.
+EPS = 1e-9
+#: The vertices of the local triangle.
+CORNERS = ((0.0, 0.0), (1.0, 0.0), (0.0, 1.0))
+#: The touched intervals of a whole element: all of its three edges.
+FULL_TOUCH = [[(0.0, 1.0)], [(0.0, 1.0)], [(0.0, 1.0)]]
+
+
+# --- meshes and inputs ---
+def mesh_arrays(mesh):
+    """``(p (2, n) float, t (3, m) int64)`` of a 2D triangle mesh, checked."""
+    try:
+        p = np.asarray(mesh.p, dtype=float)
+        t = np.asarray(mesh.t, dtype=np.int64)
+    except AttributeError:
+        raise ValueError(f"mesh must be a skfem.MeshTri, got {type(mesh).__name__}") from None
+    if p.ndim != 2 or p.shape[0] != 2 or t.ndim != 2 or t.shape[0] != 3:
+        raise ValueError(f"mesh must be a 2D triangle mesh (p shaped (2, n), t shaped (3, m)), "
+                         f"got p {p.shape} and t {t.shape}")
+    return p, t
+
+
+def node_positions(mesh, positions) -> np.ndarray:
+    """Where the nodes of ``mesh`` are now: ``positions`` checked as a finite ``(2, n_nodes)`` array, or ``mesh.p``."""
+    p, _ = mesh_arrays(mesh)
+    if positions is None:
+        return p
+    try:
+        x = np.asarray(positions, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError("positions must be a float array shaped (2, n_nodes)") from None
+    if x.shape != p.shape:
+        raise ValueError(f"positions must be shaped (2, n_nodes) = {p.shape}, got {x.shape}")
+    if not np.all(np.isfinite(x)):
+        raise ValueError("positions must be finite (got NaN or inf)")
+    return x
+
+
+def check_points(name: str, value, min_points: int) -> np.ndarray:
+    """A finite float array shaped (k, 2) with k >= min_points (real numbers: complex points are refused, not cut)."""
+    try:
+        a = np.asarray(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be an array of points shaped (k, 2), got {value!r}") from None
+    if a.dtype.kind not in "iuf":
+        raise ValueError(f"{name} must be an array of real points shaped (k, 2), got dtype {a.dtype}")
+    a = a.astype(float)
+    if a.ndim != 2 or a.shape[1] != 2:
+        raise ValueError(f"{name} must be an array of points shaped (k, 2), got shape {a.shape}")
+    if a.shape[0] < min_points:
+        raise ValueError(f"{name} needs at least {min_points} points, got {a.shape[0]}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} must be finite, got NaN or inf in {a.tolist()}")
+    return a
+
+
+def pair_keys(pairs, n: int) -> np.ndarray:
+    """One int64 per undirected node pair ``(2, k)`` of a mesh with ``n`` nodes: ``min * n + max``."""
+    pairs = np.asarray(pairs, dtype=np.int64)
+    return np.minimum(pairs[0], pairs[1]) * n + np.maximum(pairs[0], pairs[1])
+
+
+def element_edges(p, t):
+    """Every element edge: its key (:func:`pair_keys`) and the side of the edge its element lies on.
+
+    Returns ``(key, side)``, both shaped (3, m): edge ``k`` of element ``e`` joins ``t[k, e]`` and ``t[(k+1) % 3, e]``;
+    ``side`` is +1 if the element's third vertex is to the left of the edge run from its lower to its higher node, -1
+    otherwise (in the reference configuration).
+    """
+    n = p.shape[1]
+    b, c = np.roll(t, -1, axis=0), np.roll(t, -2, axis=0)
+    lo, hi = np.minimum(t, b), np.maximum(t, b)
+    s = (p[0, hi] - p[0, lo]) * (p[1, c] - p[1, lo]) - (p[1, hi] - p[1, lo]) * (p[0, c] - p[0, lo])
+    return lo * n + hi, np.where(s > 0, 1, -1)
+
+
+def new_mesh(p, t) -> MeshTri:
+    """A MeshTri that keeps the vertex order of every triangle (``sort_t=False``), from C-ordered copies (fancy
+    indexing leaves Fortran order, which scikit-fem would copy with a warning on large meshes)."""
+    return MeshTri(np.ascontiguousarray(p), np.ascontiguousarray(t), sort_t=False)
+
+
+def carry_names(old, new, parent, elements, touches=None, name=None, opened=None) -> MeshTri:
+    """``new`` with the named boundaries and subdomains of ``old`` carried across an edit.
+
+    A facet of ``new`` keeps a boundary name of ``old`` if the parents of its two nodes formed a facet of that name
+    and, with ``touches`` (bool (3, n_new_elements), per local edge), if it is an edge some element's material touches.
+    Names are never dropped (one may end up with no facet). The facets ``opened`` (bool per facet of ``new``) are added
+    to the set ``name``: a second cut adds to ``"cut"``. Subdomains go to every new element whose old element
+    (``elements``) was in them.
+    """
+    n_old = old.p.shape[1]
+    names = {}
+    if old.boundaries:
+        t2f = np.asarray(new.t2f)  # row k: the facet of local edge k (scikit-fem's edge order)
+        parent_keys = pair_keys(parent[np.asarray(new.facets, dtype=np.int64)], n_old)
+        old_facets = np.asarray(old.facets, dtype=np.int64)
+        hit = np.unique(t2f if touches is None else t2f[touches])
+        for label, facets in old.boundaries.items():
+            old_keys = pair_keys(old_facets[:, np.asarray(facets, dtype=np.int64)], n_old)
+            names[label] = hit[np.isin(parent_keys[hit], old_keys)].astype(np.int32)
+    if name is not None:
+        extra = np.flatnonzero(opened).astype(np.int32)
+        names[name] = np.union1d(names.get(name, np.zeros(0, dtype=np.int32)), extra).astype(np.int32)
+    out = new.with_boundaries(names) if names else new
+    if old.subdomains:
+        out = out.with_subdomains({label: np.flatnonzero(np.isin(elements, np.asarray(els))).astype(np.int32)
+                                   for label, els in old.subdomains.items()})
+    return out
+
+
+def polygon_contains(polygon, points) -> np.ndarray:
+    """Which ``points`` (k, 2) lie inside the closed ``polygon`` (q, 2): bool (k,).
+
+    The crossing-number (even-odd) test, with the same arithmetic and ties as ``matplotlib.path.Path.contains_points``,
+    so that a point on the outline goes the same way.
+    """
+    tx, ty = points[:, 0], points[:, 1]
+    inside = np.zeros(tx.shape, dtype=bool)
+    for (x0, y0), (x1, y1) in zip(polygon, np.roll(polygon, -1, axis=0)):
+        above0, above1 = y0 >= ty, y1 >= ty
+        inside ^= (above0 != above1) & (((y1 - ty) * (x0 - x1) >= (x1 - tx) * (y0 - y1)) == above1)
+    return inside
+
+
+# --- a triangle's local coordinates ---
+def cross(ax, ay, bx, by):
+    """The cross product ``a x b`` of two plane vectors."""
+    return ax * by - ay * bx
+
+
+def snap(x, y):
+    """A local point pulled onto the triangle's edges and vertices it is within :data:`EPS` of."""
+    x = 0.0 if abs(x) <= EPS else x
+    y = 0.0 if abs(y) <= EPS else y
+    r = 1.0 - x - y
+    if abs(r) <= EPS:
+        if x == 0.0:
+            y = 1.0
+        elif y == 0.0:
+            x = 1.0
+        else:
+            x += 0.5 * r
+            y = 1.0 - x
+    # a point a round-off outside: back onto the triangle
+    x, y = max(x, 0.0), max(y, 0.0)
+    if x + y > 1.0:
+        s = x + y
+        x, y = x / s, 1.0 - x / s
+    return x, y
+
+
+def edges_of(pt):
+    """The local edges a point lies on."""
+    x, y = pt
+    return [k for k, d in enumerate((y, 1.0 - x - y, x)) if abs(d) <= EPS]
+
+
+def edge_param(k, pt) -> float:
+    """Position along local edge ``k``, 0 at its vertex ``k`` and 1 at vertex ``k + 1``."""
+    return pt[0] if k == 0 else pt[1] if k == 1 else 1.0 - pt[1]
+
+
+def edge_point(k, s):
+    """The local point at parameter ``s`` along local edge ``k`` (the inverse of :func:`edge_param`)."""
+    return (s, 0.0) if k == 0 else (1.0 - s, s) if k == 1 else (0.0, 1.0 - s)
+
+
+def winding(pt, poly) -> int:
+    """Winding number of a closed polygon (a list of points) around ``pt``."""
+    px, py = pt
+    w = 0
+    for (ax, ay), (bx, by) in zip(poly, poly[1:] + poly[:1]):
+        side = cross(bx - ax, by - ay, px - ax, py - ay)
+        if ay <= py:
+            if by > py and side > 0.0:
+                w += 1
+        elif by <= py and side < 0.0:
+            w -= 1
+    return w
+
+
+def polygon_area(poly) -> float:
+    """Signed area of a polygon (a list of points, not an array)."""
+    return 0.5 * sum(ax * by - ay * bx for (ax, ay), (bx, by) in zip(poly, poly[1:] + poly[:1]))
+
+
+def crossings(p, q, a, b):
+    """Where segments ``p -> q`` and ``a -> b`` meet: a list of (s, u) parameters (0, 1 or 2 pairs).
+
+    Two pairs for collinear overlapping segments (the ends of the overlap). Ends within :data:`EPS` of the other
+    segment count as meeting it.
+    """
+    rx, ry = q[0] - p[0], q[1] - p[1]
+    vx, vy = b[0] - a[0], b[1] - a[1]
+    lr, lv = math.hypot(rx, ry), math.hypot(vx, vy)
+    if lr <= EPS or lv <= EPS:
+        return []
+    wx, wy = a[0] - p[0], a[1] - p[1]
+    den = cross(rx, ry, vx, vy)
+    tr, tv = EPS / lr, EPS / lv
+    if abs(den) > 1e-12 * lr * lv:
+        s, u = cross(wx, wy, vx, vy) / den, cross(wx, wy, rx, ry) / den
+        if -tr <= s <= 1.0 + tr and -tv <= u <= 1.0 + tv:
+            return [(min(max(s, 0.0), 1.0), min(max(u, 0.0), 1.0))]
+        return []
+    if abs(cross(rx, ry, wx, wy)) / lr > EPS:  # parallel, apart
+        return []
+    sa = (wx * rx + wy * ry) / (lr * lr)
+    sb = ((b[0] - p[0]) * rx + (b[1] - p[1]) * ry) / (lr * lr)
+    lo, hi = max(0.0, min(sa, sb)), min(1.0, max(sa, sb))
+    if hi < lo - tr:
+        return []
+    out = []
+    for s in (lo, hi) if hi > lo else (lo,):
+        u = ((p[0] + s * rx - a[0]) * vx + (p[1] + s * ry - a[1]) * vy) / (lv * lv)
+        out.append((s, min(max(u, 0.0), 1.0)))
+    return out
+
+
+def merge_intervals(iv):
+    """Intervals sorted and merged where they overlap or meet within :data:`EPS`."""
+    out = []
+    for a, b in sorted(iv):
+        if out and a <= out[-1][1] + EPS:
+            out[-1] = (out[-1][0], max(out[-1][1], b))
+        else:
+            out.append((a, b))
+    return out
+
+
+def subtract_intervals(iv, cut):
+    """Intervals ``iv`` less the intervals ``cut`` (both merged lists); pieces shorter than :data:`EPS` dropped."""
+    out = []
+    for a, b in iv:
+        pieces = [(a, b)]
+        for c, d in cut:
+            nxt = []
+            for x, y in pieces:
+                if d <= x or c >= y:
+                    nxt.append((x, y))
+                    continue
+                if c > x:
+                    nxt.append((x, c))
+                if d < y:
+                    nxt.append((d, y))
+            pieces = nxt
+        out.extend((x, y) for x, y in pieces if y - x > EPS)
+    return out
+
+
+def intersect_intervals(iv, jv):
+    """The intersection of two interval lists, merged."""
+    return merge_intervals([(max(a, c), min(b, d)) for a, b in iv for c, d in jv if min(b, d) > max(a, c)])
+
+
+def overlaps(iv, jv) -> bool:
+    """Do two interval lists overlap over more than :data:`EPS`?"""
+    return any(min(b, d) - max(a, c) > EPS for a, b in iv for c, d in jv)
+
+
+def reversed_intervals(iv):
+    """Intervals of an edge seen from its other end."""
+    return [(1.0 - hi, 1.0 - lo) for lo, hi in iv]
+
+
+def edge_intervals(segments):
+    """Segments (k, 2, 2) on the triangle's edges (severed or touched parts) -> three merged interval lists."""
+    out = [[], [], []]
+    for a, b in segments:
+        for k in set(edges_of(a)) & set(edges_of(b)):
+            s, u = edge_param(k, a), edge_param(k, b)
+            if abs(u - s) > EPS:
+                out[k].append((min(s, u), max(s, u)))
+    return [merge_intervals(iv) for iv in out]
+
+
+# --- the material of an element ---
+def _segments(name, value) -> np.ndarray:
+    a = np.zeros((0, 2, 2)) if value is None else np.asarray(value, dtype=float)
+    if a.size == 0:
+        return np.zeros((0, 2, 2))
+    if a.ndim != 3 or a.shape[1:] != (2, 2) or not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} must be finite segments shaped (k, 2, 2), got shape {a.shape}")
+    return a
+
+
+@dataclass(frozen=True, eq=False)
+class Region:
+    """The part of its triangle an element's material fills, in the triangle's local coordinates.
+
+    Attributes
+    ----------
+    polygons : tuple of ndarray, each shaped (k, 2)
+        The material, as counter-clockwise polygons that do not overlap. Several when pieces a cut separates inside the
+        triangle are joined outside it (around the end of the cut): they share all three nodes.
+    slits : ndarray, shape (s, 2, 2)
+        Cracks inside the material that do not separate it (a crack tip).
+    severed : ndarray, shape (r, 2, 2)
+        Parts of the triangle's edges cut off from the element across.
+    """
+
+    polygons: tuple
+    slits: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 2)))
+    severed: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 2)))
+
+    def __post_init__(self):
+        polys = self.polygons
+        if isinstance(polys, np.ndarray) and polys.ndim == 2:
+            polys = (polys,)
+        out, weight = [], 0.0
+        for i, poly in enumerate(polys):
+            poly = np.asarray(poly, dtype=float)
+            name = f"Region.polygons[{i}]"
+            if poly.ndim != 2 or poly.shape[1] != 2 or poly.shape[0] < 3 or not np.all(np.isfinite(poly)):
+                raise ValueError(f"{name} must be at least 3 finite points shaped (k, 2), got shape {poly.shape}")
+            if not ((poly >= -EPS).all() and (poly.sum(axis=1) <= 1.0 + EPS).all()):
+                raise ValueError(f"{name} must lie in the unit triangle (xi, eta >= 0, xi + eta <= 1)")
+            area = 2.0 * polygon_area(poly.tolist())
+            if not area > 0.0:
+                raise ValueError(f"{name} must be counter-clockwise with a positive area")
+            out.append(poly)
+            weight += area
+        if not out:
+            raise ValueError("Region.polygons must hold at least one polygon")
+        if weight > 1.0 + 1e-9:
+            raise ValueError(f"Region.polygons cover {weight:.6g} times the triangle: they must not overlap")
+        object.__setattr__(self, "polygons", tuple(out))
+        object.__setattr__(self, "slits", _segments("Region.slits", self.slits))
+        object.__setattr__(self, "severed", _segments("Region.severed", self.severed))
+        object.__setattr__(self, "_weight", weight)
+
+    @classmethod
+    def unchecked(cls, polygons, slits, severed, weight):
+        """A region the cut built itself (valid by construction): no checks, no copies."""
+        region = object.__new__(cls)
+        for name, value in (("polygons", polygons), ("slits", slits), ("severed", severed), ("_weight", weight)):
+            object.__setattr__(region, name, value)
+        return region
+
+    @property
+    def weight(self) -> float:
+        """The share of the triangle's area the material fills (twice the polygons' area)."""
+        return self._weight
+
+
+#: The material of a whole element.
+WHOLE = Region((np.array(CORNERS),))
+
+
+def region_sides(region):
+    """The region's polygon sides (k, 2, 2), counter-clockwise (material on the left)."""
+    return np.concatenate([np.stack([poly, np.roll(poly, -1, axis=0)], axis=1) for poly in region.polygons])
+
+
+def region_touch(region: Region):
+    """The parts of each local edge the region's material touches, less what is severed."""
+    touched = edge_intervals(region_sides(region))
+    severed = edge_intervals(region.severed)
+    return [subtract_intervals(touched[k], severed[k]) for k in range(3)]
+
+
+def element_weights(weights, m) -> np.ndarray:
+    """The weights (each element's share of its triangle), all 1 when ``None``; checked as the assembler does."""
+    return np.ones(m) if weights is None else check_weights(weights, m)
+
+
+def check_regions(regions, weights, m):
+    """Checked ``(regions, weights)`` of a mesh with ``m`` elements: the weights follow from the regions, or must agree
+    with them."""
+    regions = {} if regions is None else regions
+    if not isinstance(regions, dict):
+        raise ValueError(f"regions must be a dict element -> Region, got {type(regions).__name__}")
+    out = {}
+    for e, r in regions.items():
+        if isinstance(e, bool) or not isinstance(e, numbers.Integral) or not 0 <= int(e) < m:
+            raise ValueError(f"regions: key {e!r} is not an element index in [0, {m})")
+        if not isinstance(r, Region):
+            raise ValueError(f"regions[{e}] must be a Region, got {type(r).__name__}")
+        out[int(e)] = r
+    implied = np.ones(m)
+    for e, r in out.items():
+        implied[e] = r.weight
+    if weights is None:
+        return out, implied
+    w = element_weights(weights, m)
+    bad = np.flatnonzero(np.abs(w - implied) > 1e-9)
+    if bad.size:
+        e = int(bad[0])
+        hint = "" if e in out else " (an element cut through before needs its region: pass regions=previous.regions)"
+        raise ValueError(f"weights[{e}] = {w[e]!r} does not match the material of its region ({implied[e]!r}){hint}")
+    return out, w
