@@ -569,40 +569,76 @@ def lumped_mass(mesh, weights=None, density=1.0) -> np.ndarray:
     return np.bincount(t.ravel(), weights=share.ravel(), minlength=p.shape[1])
 
 
+def _arrangements(p, x, t, pts, regions, min_weight):
+    """The stroke in each triangle (stroke parameters back on the drawn polyline) and what it does to each element's
+    material: ``(arrangements {element: _Arrangement} of the elements it changes, orientation (m,), key, side)``."""
+    snapped, drawn = _through_nearby_nodes(x, t, pts)
+    pieces, orientation = _stroke_pieces(x, t, snapped)
+    vertex = np.arange(drawn.size)
+    key, side = element_edges(p, t)
+    flat_key, flat_side = key.ravel(), side.ravel()
+    # an element edge has an element across when some element has the same node pair on the other side
+    has_across = np.isin(flat_key * 2 + (flat_side > 0), flat_key * 2 + (flat_side < 0)).reshape(3, t.shape[1])
+    arrangements = {}
+    for e in sorted(pieces):
+        cuts = [(float(np.interp(s0, vertex, drawn)), float(np.interp(s1, vertex, drawn)), a, b)
+                for s0, s1, a, b in pieces[e]]
+        arr = _Arrangement(regions.get(e, WHOLE), cuts, has_across[:, e], min_weight)
+        if arr.changed:
+            arrangements[e] = arr
+    if not arrangements:
+        raise ValueError("polyline changes nothing: it meets no material, or runs only along the body's boundary "
+                         "or along an existing wound")
+    return arrangements, orientation, key, side
+
+
+def _one_element_per_nodes(arr, ids, faces, triples):
+    """Copies of one triangle with the same three nodes (``triples``, per face) are one piece of material: one
+    element. Returns its elements ``[(provisional id, Region, touched, whole, area)]`` and ``{face: provisional id}``.
+    """
+    by_triple = {}
+    for i, nodes in enumerate(triples):
+        by_triple.setdefault(nodes, []).append(i)
+    groups = list(by_triple.values())
+    new_of = list(range(len(ids)))
+    if len(groups) < len(ids):
+        # faces that share a cut become one face (the cut between them a slit); faces joined only outside the
+        # triangle stay apart, as polygons of one region
+        new_of = arr.merge([g for g in groups if len(g) > 1])
+        faces = arr.face_regions()
+    out, pid_of_face = [], {}
+    for g in groups:
+        members = sorted({new_of[i] for i in g})
+        area = sum(arr.faces[f]["area"] for f in members)
+        if len(members) == 1:
+            region, touch, whole = faces[members[0]]
+        else:
+            region = Region.unchecked(tuple(faces[f][0].polygons[0] for f in members),
+                                      np.concatenate([faces[f][0].slits for f in members]),
+                                      np.concatenate([faces[f][0].severed for f in members]), 2.0 * area)
+            touch = [merge_intervals([iv for f in members for iv in faces[f][1][k]]) for k in range(3)]
+            whole = False
+        out.append((ids[min(g)], region, touch, whole, area))
+        pid_of_face.update({f: ids[min(g)] for f in members})
+    return out, pid_of_face
+
+
 def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_weight=MIN_WEIGHT) -> ElementCut:
-    """Cut ``mesh`` along a drawn polyline through its elements (the virtual node algorithm).
+    """Cut ``mesh`` (not modified) along a drawn polyline through its elements (the virtual node algorithm).
 
-    Parameters
-    ----------
-    mesh : skfem.MeshTri
-        Not modified. It may have been cut before (by this function, with its ``weights`` and ``regions``, or by
-        :func:`~tissuefem.surgery.topology.incise`).
-    polyline : array_like, shape (k, 2), k >= 2
-        The stroke, in the coordinates of ``positions``. It may end inside the body (a crack), on its boundary or
-        outside it.
-    positions : array_like, shape (2, n_nodes), optional
-        Where the nodes are now (default ``mesh.p``): the stroke is carried back to the reference triangle by triangle
-        (P1 map). Triangles collapsed to a segment there are not cut.
-    weights : array_like, shape (n_elements,), optional
-        The material share of every element (default 1). Elements with a weight below 1 need their ``regions``; with
-        ``regions`` alone the weights follow.
-    regions : dict int -> Region, optional
-        Where the material of the elements already cut through lies (``ElementCut.regions`` of the previous cut;
-        :meth:`ElementCut.cut` passes them).
-    min_weight : float in [0, 0.5)
-        No piece may carry less than this share of its triangle: such a sliver is merged into its neighbour and the cut
-        snapped onto the triangle's edges there (default 0.001).
+    ``mesh`` may have been cut before (by this function, with its ``weights`` and ``regions``, or by
+    :func:`~tissuefem.surgery.topology.incise`). ``polyline`` (k, 2), k >= 2, is the stroke in the coordinates of
+    ``positions`` (2, n_nodes), where the nodes are now (default ``mesh.p``): it is carried back to the reference
+    triangle by triangle (P1 map); triangles collapsed to a segment there are not cut. It may end inside the body (a
+    crack), on its boundary or outside it. ``weights`` (n_elements,) is the material share of every element (default
+    1); elements with a weight below 1 need their ``regions`` (``ElementCut.regions`` of the previous cut:
+    :meth:`ElementCut.cut` passes both); with ``regions`` alone the weights follow. No piece may carry less than
+    ``min_weight`` in [0, 0.5) of its triangle: such a sliver is merged into its neighbour and the cut snapped onto
+    the triangle's edges there.
 
-    Returns
-    -------
-    ElementCut
-        Named boundaries are carried to the facets whose material touched them, subdomains to every copy.
-
-    Raises
-    ------
-    ValueError
-        For bad arguments, or a stroke that changes nothing (it meets no material, or only runs along the body's
-        boundary or an existing wound).
+    Returns an :class:`ElementCut`; named boundaries are carried to the facets whose material touched them,
+    subdomains to every copy. ``ValueError`` for bad arguments, or a stroke that changes nothing (it meets no
+    material, or only runs along the body's boundary or an existing wound).
     """
     p, t = mesh_arrays(mesh)
     n, m = p.shape[1], t.shape[1]
@@ -610,81 +646,30 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
     pts = check_points("polyline", polyline, 2)
     min_weight = check_real("min_weight", min_weight, 0.0, 0.5, hi_open=True)
     regions, w = check_regions(regions, weights, m)
-
-    # 1. the stroke in each triangle (stroke parameters back on the drawn polyline), and what it does to each
-    #    element's material
-    snapped, drawn = _through_nearby_nodes(x, t, pts)
-    pieces, orientation = _stroke_pieces(x, t, snapped)
-    vertex = np.arange(drawn.size)
-    for e, lst in pieces.items():
-        pieces[e] = [(float(np.interp(s0, vertex, drawn)), float(np.interp(s1, vertex, drawn)), a, b)
-                     for s0, s1, a, b in lst]
-    key, side = element_edges(p, t)
-    flat_key, flat_side = key.ravel(), side.ravel()
-    # an element edge has an element across when some element has the same node pair on the other side
-    has_across = np.isin(flat_key * 2 + (flat_side > 0), flat_key * 2 + (flat_side < 0)).reshape(3, m)
-    arrangements = {}
-    for e in sorted(pieces):
-        arr = _Arrangement(regions.get(e, WHOLE), pieces[e], has_across[:, e], float(min_weight))
-        if arr.changed:
-            arrangements[e] = arr
-    if not arrangements:
-        raise ValueError("polyline changes nothing: it meets no material, or runs only along the body's boundary "
-                         "or along an existing wound")
+    arrangements, orientation, key, side = _arrangements(p, x, t, pts, regions, min_weight)
     affected = np.array(sorted(arrangements), dtype=np.int64)
 
-    # 2. provisional pieces: face 0 of a cut element keeps its index, the others are numbered from m
+    # provisional pieces: face 0 of a cut element keeps its index, the others are numbered from m
     faces_of = {e: arrangements[e].face_regions() for e in arrangements}
     piece_ids = {}  # element -> provisional ids of its faces
     touched = {}  # provisional id -> touched intervals per local edge
-    next_id = m
     for e in affected.tolist():
-        piece_ids[e] = [e] + list(range(next_id, next_id + len(faces_of[e]) - 1))
-        next_id += len(faces_of[e]) - 1
+        first = m + sum(len(ids) - 1 for ids in piece_ids.values())
+        piece_ids[e] = [e] + list(range(first, first + len(faces_of[e]) - 1))
         touched.update({pid: face[1] for pid, face in zip(piece_ids[e], faces_of[e])})
     for e in regions:  # elements cut before (their material touches only parts of their edges)
         touched.setdefault(e, region_touch(regions[e]))
-
-    # 3. nodes: classes of corners joined across edges
     node_of, new_parent, fan = _number_nodes(t, n, key, side, affected, piece_ids, touched)
 
     def triple(pid, e):
         return tuple(node_of.get((pid, lv), int(t[lv, e])) for lv in range(3))
 
-    # 4. copies of one triangle with the same three nodes are one piece of material: one element
-    final_faces = {}  # element -> list of (provisional id, Region, touched, whole, area)
-    pid_of_face = {}  # element -> {face of its arrangement: provisional id of its element}
+    final_faces, pid_of_face = {}, {}  # element -> its new elements; element -> {face: provisional id}
     for e in affected.tolist():
-        arr = arrangements[e]
-        ids = piece_ids[e]
-        by_triple = {}
-        for i, pid in enumerate(ids):
-            by_triple.setdefault(triple(pid, e), []).append(i)
-        groups = list(by_triple.values())
-        faces = faces_of[e]
-        new_of = list(range(len(ids)))
-        if len(groups) < len(ids):
-            # faces that share a cut become one face (the cut between them a slit); faces joined
-            # only outside the triangle stay apart, as polygons of one region
-            new_of = arr.merge([g for g in groups if len(g) > 1])
-            faces = arr.face_regions()
-        final_faces[e] = []
-        pid_of_face[e] = {}
-        for g in groups:
-            members = sorted({new_of[i] for i in g})
-            area = sum(arr.faces[f]["area"] for f in members)
-            if len(members) == 1:
-                region, touch, whole = faces[members[0]]
-            else:
-                region = Region.unchecked(tuple(faces[f][0].polygons[0] for f in members),
-                                         np.concatenate([faces[f][0].slits for f in members]),
-                                         np.concatenate([faces[f][0].severed for f in members]), 2.0 * area)
-                touch = [merge_intervals([iv for f in members for iv in faces[f][1][k]]) for k in range(3)]
-                whole = False
-            final_faces[e].append((ids[min(g)], region, touch, whole, area))
-            pid_of_face[e].update({f: ids[min(g)] for f in members})
+        final_faces[e], pid_of_face[e] = _one_element_per_nodes(arrangements[e], piece_ids[e], faces_of[e],
+                                                                [triple(pid, e) for pid in piece_ids[e]])
 
-    # 5. the new elements: old indices for the first piece, the others appended
+    # the new elements: old indices for the first piece, the others appended
     final_id = {}
     elements = list(range(m))
     for e in affected.tolist():
@@ -693,10 +678,8 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
             if i:
                 elements.append(e)
     elements = np.asarray(elements, dtype=np.int64)
-    new_t = np.empty((3, elements.size), dtype=np.int64)
-    new_t[:, :m] = t
-    new_w = np.empty(elements.size)
-    new_w[:m] = w
+    new_t = np.concatenate([t, np.empty((3, elements.size - m), dtype=np.int64)], axis=1)
+    new_w = np.concatenate([w, np.empty(elements.size - m)])
     new_regions = {e: r for e, r in regions.items() if e not in arrangements}
     new_touch = {e: touched[e] for e in new_regions}
     for e in fan.tolist():
@@ -709,15 +692,10 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
             new_t[:, E] = triple(pid, e)
             new_w[E] = w[e] * area / total
             if not whole:
-                new_regions[E] = region
-                new_touch[E] = touch
+                new_regions[E], new_touch[E] = region, touch
     parent = np.concatenate([np.arange(n, dtype=np.int64), np.asarray(new_parent, dtype=np.int64)])
-
-    # 6. the wound, and the mesh edges the stroke ran along
     element_of_face = {e: {f: final_id[pid] for f, pid in faces.items()} for e, faces in pid_of_face.items()}
     wound, cut_edges = _wound(p, t, arrangements, element_of_face, orientation, new_t)
-
-    # 7. the mesh, with names and subdomains carried over
     touches = np.ones((3, elements.size), dtype=bool)  # which local edges each element's material touches
     for e, touch in new_touch.items():
         touches[:, e] = [bool(iv) for iv in touch]
