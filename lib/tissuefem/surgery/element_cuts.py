@@ -50,8 +50,6 @@ References
 .. [3] J.-H. Song, P. M. A. Areias, T. Belytschko, *A method for dynamic crack and shear band propagation with phantom
    nodes*, International Journal for Numerical Methods in Engineering 67 (2006), 868-893.
 
-Conventions
------------
 The result is an :class:`ElementCut`. Uncut elements keep their index and vertex order; the first piece of a cut
 element keeps its index, the others are appended; every copy keeps its triangle's vertex order (``sort_t=False``). Old
 nodes keep their index; virtual nodes are appended. Mass and momentum carry over exactly with nodal masses from the
@@ -135,20 +133,19 @@ class _Arrangement:
                     t0, t1 = strokes
                     cut_edges.append((u, v, t0 + s0 * (t1 - t0), t0 + s1 * (t1 - t0)))
                 else:
-                    key = (min(u, v), max(u, v))
+                    key = _key(u, v)
                     if self.graph.get(key, _C) > kind:
                         self.graph[key] = kind
         self.slits = []  # (u, v) edges of cracks that do not separate
         self.wound = []  # ("inner", u, v, t0, t1) or ("edge", u, v, t0, t1, k)
         self.changed = False
         for u, v, t0, t1 in cut_edges:
-            key = (min(u, v), max(u, v))
+            key = _key(u, v)
             kind = self.graph.get(key)
             if kind == _P:
                 k = self._edge_of(u, v)
                 if k is not None and open_edge[k]:
-                    s, e = edge_param(k, self.verts[u]), edge_param(k, self.verts[v])
-                    self.new_severed[k].append((min(s, e), max(s, e)))
+                    self.new_severed[k].append(self._interval(k, u, v))
                     self.wound.append(("edge", u, v, t0, t1, k))
                     self.changed = True
                 continue  # along an old wound, or along the body's boundary: nothing to do
@@ -157,8 +154,7 @@ class _Arrangement:
                 continue
             if self._edge_of(u, v) is not None:
                 continue  # on the triangle's edge where this copy has no material
-            mid = (0.5 * (self.verts[u][0] + self.verts[v][0]), 0.5 * (self.verts[u][1] + self.verts[v][1]))
-            if sum(winding(mid, poly) for poly in polys) == 0:
+            if sum(winding(_mid(self.verts[u], self.verts[v]), poly) for poly in polys) == 0:
                 continue  # outside this copy's material
             self.graph[key] = _C
             self.wound.append(("inner", u, v, t0, t1))
@@ -178,6 +174,10 @@ class _Arrangement:
         both = set(edges_of(self.verts[u])) & set(edges_of(self.verts[v]))
         return min(both) if both else None
 
+    def _interval(self, k, u, v):
+        s, e = edge_param(k, self.verts[u]), edge_param(k, self.verts[v])
+        return min(s, e), max(s, e)
+
     # -- the faces
     def _prune(self):
         """Move dangling cut edges (and cut loops that touch no boundary) to the slits."""
@@ -191,7 +191,7 @@ class _Arrangement:
             if len(adj.get(u, ())) != 1:
                 continue
             (v,) = adj[u]
-            key = (min(u, v), max(u, v))
+            key = _key(u, v)
             self.slits.append(key)
             del self.graph[key]
             adj[u].discard(v)
@@ -250,7 +250,7 @@ class _Arrangement:
         """Length of the non-boundary edges face ``f`` shares with each other face: {face: length}."""
         out = {}
         for u, v in self.faces[f]["edges"]:
-            if self.graph[(min(u, v), max(u, v))] == _P:
+            if self.graph[_key(u, v)] == _P:
                 continue
             g = self.face_of[(v, u)]
             if g >= 0 and g != f:
@@ -263,11 +263,11 @@ class _Arrangement:
             self._prune()
             self._extract()
             # a face bounded by cuts alone (a loop inside the material, attached at one point): not cut out
-            island = next((f for f in self.faces if all(self.graph[(min(u, v), max(u, v))] != _P
+            island = next((f for f in self.faces if all(self.graph[_key(u, v)] != _P
                                                          for u, v in f["edges"])), None)
             if island is not None:
                 for u, v in island["edges"]:
-                    key = (min(u, v), max(u, v))
+                    key = _key(u, v)
                     if key in self.graph:
                         self.slits.append(key)
                         del self.graph[key]
@@ -283,12 +283,11 @@ class _Arrangement:
                 return
             g = max(shared, key=lambda h: (shared[h], -h))
             for u, v in self.faces[f]["edges"]:
-                key = (min(u, v), max(u, v))
+                key = _key(u, v)
                 if self.graph[key] == _P:
                     k = self._edge_of(u, v)
                     if k is not None:
-                        s, e = edge_param(k, self.verts[u]), edge_param(k, self.verts[v])
-                        self.new_severed[k].append((min(s, e), max(s, e)))
+                        self.new_severed[k].append(self._interval(k, u, v))
                 elif self.face_of[(v, u)] == g:
                     del self.graph[key]  # dropped, not kept as a slit: the cut moved to the edges
 
@@ -317,18 +316,17 @@ class _Arrangement:
         """For every face: (Region, its touched intervals per local edge, whole?)."""
         severed = [merge_intervals(self.old_severed[k] + self.new_severed[k]) for k in range(3)]
         slit_pts = [(self.verts[u], self.verts[v]) for u, v in self.slits]
-        slit_face = [self.locate((0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]))) for a, b in slit_pts]
+        slit_face = [self.locate(_mid(a, b)) for a, b in slit_pts]
         out = []
         for i, f in enumerate(self.faces):
             pts = _simplify(f["points"])
             touched = [[], [], []]
             for (u, v) in f["edges"]:
-                if self.graph[(min(u, v), max(u, v))] != _P:
+                if self.graph[_key(u, v)] != _P:
                     continue
                 k = self._edge_of(u, v)
                 if k is not None:
-                    s, e = edge_param(k, self.verts[u]), edge_param(k, self.verts[v])
-                    touched[k].append((min(s, e), max(s, e)))
+                    touched[k].append(self._interval(k, u, v))
             touched = [merge_intervals(iv) for iv in touched]
             cut_off = [(edge_point(k, a), edge_point(k, b)) for k in range(3)
                        for a, b in subtract_intervals(touched[k], subtract_intervals(touched[k], severed[k]))]
@@ -355,14 +353,22 @@ class _Arrangement:
                 out.append((left, 1, t0, t1, a, b, True) if left >= 0
                            else (self.face_of[(v, u)], -1, t0, t1, a, b, True))
                 continue
-            if (min(u, v), max(u, v)) in self.graph:
+            if _key(u, v) in self.graph:
                 left, right = self.face_of[(u, v)], self.face_of[(v, u)]
             else:  # a slit, or a cut snapped away from a sliver: material on both sides
-                left = right = self.locate((0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])))
+                left = right = self.locate(_mid(a, b))
             opened = left != right
             out.append((left, 1, t0, t1, a, b, opened))
             out.append((right, -1, t0, t1, a, b, opened))
         return out
+
+
+def _key(u, v):
+    return (u, v) if u < v else (v, u)
+
+
+def _mid(a, b):
+    return 0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])
 
 
 def _simplify(pts):
@@ -471,36 +477,20 @@ def _stroke_pieces(x, t, pts):
 # --- the result ---
 @dataclass(frozen=True, eq=False)
 class Wound:
-    """The faces of a cut, one record per side of each piece: what to draw.
+    """The faces of a cut, one record per side of each piece of the stroke (``k`` records): what to draw.
 
-    Each side of a piece of the stroke is carried by one element of the new mesh, and the wound's edge on that side
-    moves with it. Where the stroke runs along a mesh edge, the two records come from two triangles.
-
-    Attributes
-    ----------
-    element : ndarray of int, shape (k,)
-        The new element that carries the material on this side.
-    side : ndarray of int, shape (k,)
-        +1 if the material lies to the left of the stroke (as drawn), -1 to its right.
-    barycentric : ndarray, shape (k, 2, 3)
-        The two ends of the piece in the element's barycentric coordinates.
-    nodes : ndarray of int, shape (k, 3)
-        The element's nodes (in the new mesh), so that :meth:`positions` needs no mesh.
-    reference : ndarray, shape (k, 2, 2)
-        The two ends (k, end, xy) in the reference configuration.
-    stroke : ndarray, shape (k, 2)
-        Where the ends lie on the drawn polyline: segment index plus fraction (to order the pieces).
-    opened : ndarray of bool, shape (k,)
-        False where the two sides are still one piece: a crack in the triangle that holds its tip, or a piece snapped
-        onto element edges to avoid a sliver.
+    Each side of a piece is carried by one element of the new mesh, and the wound's edge on that side moves with it.
+    Where the stroke runs along a mesh edge, the two records come from two triangles.
     """
 
-    element: np.ndarray
-    side: np.ndarray
-    barycentric: np.ndarray
-    nodes: np.ndarray
-    reference: np.ndarray
-    stroke: np.ndarray
+    element: np.ndarray  #: (k,) int: the new element that carries the material on this side
+    side: np.ndarray  #: (k,) int: +1 if the material lies to the left of the stroke (as drawn), -1 to its right
+    barycentric: np.ndarray  #: (k, 2, 3): the two ends of the piece in the element's barycentric coordinates
+    nodes: np.ndarray  #: (k, 3) int: the element's nodes in the new mesh (so that :meth:`positions` needs no mesh)
+    reference: np.ndarray  #: (k, 2, 2): the two ends (k, end, xy) in the reference configuration
+    stroke: np.ndarray  #: (k, 2): where the ends lie on the drawn polyline, segment index plus fraction
+    #: (k,) bool: False where the two sides are still one piece: a crack in the triangle that holds its tip, or a
+    #: piece snapped onto element edges to avoid a sliver
     opened: np.ndarray
 
     def positions(self, x) -> np.ndarray:
@@ -518,27 +508,15 @@ class Wound:
 
 @dataclass(frozen=True, eq=False, kw_only=True)
 class ElementCut(MeshEdit):
-    """A :class:`~tissuefem.surgery.topology.MeshEdit` that cut through elements.
+    """A :class:`~tissuefem.surgery.topology.MeshEdit` that cut through elements: the copies of a cut triangle all
+    point to it in ``elements``; ``cut_edges`` are the old-node pairs of the mesh edges the stroke ran along."""
 
-    The copies of a cut triangle all point to it in ``elements``.
-
-    Attributes
-    ----------
-    weights : ndarray, shape (n_new_elements,)
-        Share of its triangle's area each element's material fills, in ``(0, 1]``; the copies of one old element add up
-        to its old weight. Pass them to :class:`~tissuefem.engine.assembly.P1Assembler`.
-    regions : dict int -> Region
-        Where the material of each element that is not whole lies (absent: the whole triangle). Pass them, with the
-        weights, to the next cut: :meth:`cut`.
-    wound : Wound
-        The new wound's faces, to draw its two edges smoothly.
-    cut_edges : ndarray of int, shape (2, k)
-        Old-node pairs of the mesh edges the stroke ran along (empty when it only crosses elements).
-    """
-
+    #: (n_new_elements,): share of its triangle's area each element's material fills, in (0, 1]; the copies of one
+    #: old element add up to its old weight (for :class:`~tissuefem.engine.assembly.P1Assembler`)
     weights: np.ndarray
+    #: element -> :class:`Region`: where the material of each element that is not whole lies (for the next cut)
     regions: dict
-    wound: Wound
+    wound: Wound  #: the new wound's faces, to draw its two edges smoothly
 
     def contact_surface(self):
         """The contact surface of the cut body: where its material ends (:func:`~.surfaces.contact_surface`)."""
@@ -877,26 +855,15 @@ class Picture:
     drawn as its material polygons, split into triangles. A drawn point is the barycentric combination of its element's
     three nodes, so the picture follows the deformation as P1 does.
 
-    Attributes
-    ----------
-    nodes, coefficients : ndarray, shape (3, k)
-        Drawn point ``j`` sits at ``sum_a coefficients[a, j] * x[:, nodes[a, j]]``.
-    triangles : ndarray of int, shape (3, q)
-        The filled triangles, by drawn point.
-    element : ndarray of int, shape (q,)
-        The element each drawn triangle belongs to (to colour it by a per-element value).
-    edges : ndarray of int, shape (2, r)
-        Lines to draw (element edges, material outlines, cracks), by drawn point.
-    plain : bool
-        No element is cut: the drawn points are the nodes themselves (``points(x) is x``).
+    Drawn point ``j`` sits at ``sum_a coefficients[a, j] * x[:, nodes[a, j]]`` (``nodes``, ``coefficients``: (3, k)).
     """
 
     nodes: np.ndarray
     coefficients: np.ndarray
-    triangles: np.ndarray
-    element: np.ndarray
-    edges: np.ndarray
-    plain: bool
+    triangles: np.ndarray  #: (3, q) int: the filled triangles, by drawn point
+    element: np.ndarray  #: (q,) int: the element of each drawn triangle (to colour it by a per-element value)
+    edges: np.ndarray  #: (2, r) int: lines to draw (element edges, material outlines, cracks), by drawn point
+    plain: bool  #: no element is cut: the drawn points are the nodes themselves (``points(x) is x``)
 
     def points(self, x) -> np.ndarray:
         """The drawn points ``(2, k)`` at node positions ``x`` ``(2, n_nodes)``."""

@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..engine.parameters import check_count
 from .scene import Scene
 from .simulation import Simulation
 
@@ -138,9 +139,8 @@ def _along(a, b, spacing) -> np.ndarray:
 def _close_flap(scene, *, in_flap, motion, samples, normals, method, tighten_frames, settle_frames,
                 suture_stiffness, clock) -> FlapResult:
     """Build the cut scene, stitch the flap to the bed by ``motion``, tighten, and report the tension."""
-    for name, value, low in (("tighten_frames", tighten_frames, 1), ("settle_frames", settle_frames, 0)):
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
-            raise ValueError(f"{name} must be an integer >= {low}, got {value!r}")
+    tighten_frames = check_count("tighten_frames", tighten_frames)
+    settle_frames = check_count("settle_frames", settle_frames, 0)
     options = {} if clock is None else {"clock": clock}
     sim = Simulation(scene, **options)
     snapshots = {"cut": _snapshot(sim)}
@@ -158,10 +158,10 @@ def _close_flap(scene, *, in_flap, motion, samples, normals, method, tighten_fra
     sim.suture(pairs, stiffness=suture_stiffness, tightness=0.0)
     initial_gap = float(sim.suture_gaps().max())
     reports = []
-    for k in range(1, int(tighten_frames) + 1):
-        sim.tighten(k / int(tighten_frames))
+    for k in range(1, tighten_frames + 1):
+        sim.tighten(k / tighten_frames)
         reports.append(sim.frame())
-    reports += sim.run(int(settle_frames))
+    reports += sim.run(settle_frames)
     snapshots["sutured"] = _snapshot(sim)
     tension = sim.tension()
     areas = sim.model.element_areas()

@@ -321,21 +321,14 @@ def _segments(name, value) -> np.ndarray:
 
 @dataclass(frozen=True, eq=False)
 class Region:
-    """The part of its triangle an element's material fills, in the triangle's local coordinates.
+    """The part of its triangle an element's material fills, in the triangle's local coordinates."""
 
-    Attributes
-    ----------
-    polygons : tuple of ndarray, each shaped (k, 2)
-        The material, as counter-clockwise polygons that do not overlap. Several when pieces a cut separates inside the
-        triangle are joined outside it (around the end of the cut): they share all three nodes.
-    slits : ndarray, shape (s, 2, 2)
-        Cracks inside the material that do not separate it (a crack tip).
-    severed : ndarray, shape (r, 2, 2)
-        Parts of the triangle's edges cut off from the element across.
-    """
-
+    #: (k, 2) arrays: the material, as counter-clockwise polygons that do not overlap; several when pieces a cut
+    #: separates inside the triangle are joined outside it (around the end of the cut): they share all three nodes
     polygons: tuple
+    #: (s, 2, 2): cracks inside the material that do not separate it (a crack tip)
     slits: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 2)))
+    #: (r, 2, 2): parts of the triangle's edges cut off from the element across
     severed: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 2)))
 
     def __post_init__(self):

@@ -29,7 +29,7 @@ import scipy.sparse as sp
 from scipy.sparse import csgraph
 
 from ..engine.meshes import MeshMap
-from ..engine.parameters import check_count, check_real
+from ..engine.parameters import ParameterError, check_bounded_vector, check_count, check_real, check_real_array
 from .geometry import carry_names, check_points, mesh_arrays, new_mesh, node_positions, pair_keys, polygon_contains
 
 __all__ = ["MeshEdit", "duplicate_along_edges", "cut_path", "incise", "excise", "connected_components", "nodes_near"]
@@ -195,18 +195,10 @@ def connected_components(t, n_nodes):
 def nodes_near(positions, point, radius):
     """Indices (increasing) of the nodes at ``positions`` (2, n_nodes) within ``radius`` (finite, >= 0, a node at
     exactly ``radius`` counts) of ``point`` (2,); ``ValueError`` if no node is that close, or for bad arguments."""
-    try:
-        x = np.asarray(positions, dtype=float)
-    except (TypeError, ValueError):
-        raise ValueError("positions must be a float array shaped (2, n_nodes)") from None
+    x = check_real_array("positions", positions)
     if x.ndim != 2 or x.shape[0] != 2:
-        raise ValueError(f"positions must be shaped (2, n_nodes), got {x.shape}")
-    try:
-        c = np.asarray(point, dtype=float)
-    except (TypeError, ValueError):
-        raise ValueError(f"point must be two coordinates (x, y), got {point!r}") from None
-    if c.shape != (2,) or not np.all(np.isfinite(c)):
-        raise ValueError(f"point must be two finite coordinates (x, y), got {point!r}")
+        raise ParameterError("positions", f"positions must be shaped (2, n_nodes), got {x.shape}")
+    c = check_bounded_vector("point", point, math.inf)
     radius = check_real("radius", radius, 0.0)
     d = np.hypot(x[0] - c[0], x[1] - c[1])
     found = np.flatnonzero(d <= radius)
