@@ -29,6 +29,7 @@ from tissuefem.surgery.element_cuts import (
     lumped_mass,
     material_areas,
 )
+from tissuefem.surgery.surfaces import contact_surface
 from tissuefem.surgery.topology import connected_components, incise
 
 ACROSS = [[1.124, -0.2], [1.04, 1.2]]  # across a 2 x 1 strip, x = 1.112 - 0.06 y: off the grid nodes
@@ -351,6 +352,17 @@ def test_a_mesh_cut_along_edges_before_can_be_cut_through():
     cut = cut_through(along.mesh, [[-0.2, 0.43], [2.2, 0.61]])
     check_cut(along.mesh, cut)
     assert pieces(cut.mesh) == 4
+
+
+
+def test_a_cut_knows_the_contact_surface_where_its_material_ends():
+    mesh = rectangle(2.0, 1.0, 8, 4)
+    cut = cut_through(mesh, CRACK)
+    mine, expected = cut.contact_surface(), contact_surface(cut.mesh, cut.weights, cut.regions)
+    for name in ("nodes", "weights", "segments", "wound"):
+        np.testing.assert_array_equal(getattr(mine, name), getattr(expected, name))
+    assert mine.wound.any()  # the crack's lips
+    assert incise(mesh, ACROSS).contact_surface() is None  # a cut along edges: the mesh's boundary
 
 
 # --- mass and momentum -------------------------------------------------------------------------

@@ -1,5 +1,6 @@
 """The surgery layer: topology operations, scenes, the running simulation and the mouse.
 
+* :mod:`.geometry` -- the cut geometry the three below share (edges, local coordinates, a cut element's material);
 * :mod:`.topology` -- cuts along mesh edges (node duplication), excisions, connected pieces;
 * :mod:`.element_cuts` -- cuts through elements by the virtual node algorithm;
 * :mod:`.surfaces` -- the contact surface of a body cut through elements (where its material ends);
