@@ -547,6 +547,7 @@ def lumped_mass(mesh, weights=None, density=1.0) -> np.ndarray:
     return np.bincount(t.ravel(), weights=share.ravel(), minlength=p.shape[1])
 
 
+# --- the cut ---
 def _arrangements(p, x, t, pts, regions, min_weight):
     """The stroke in each triangle (stroke parameters back on the drawn polyline) and what it does to each element's
     material: ``(arrangements {element: _Arrangement} of the elements it changes, orientation (m,), key, side)``."""

@@ -84,7 +84,7 @@ def _triangles(t, n_nodes):
     return t, n_nodes
 
 
-# --- 1. node duplication ---
+# --- node duplication ---
 def duplicate_along_edges(t, n_nodes, edges):
     """Duplicate nodes so that the given edges open: the core of a cut.
 
@@ -177,7 +177,7 @@ def duplicate_along_edges(t, n_nodes, edges):
     return new_flat.reshape(3, m), parent
 
 
-# --- 5. pieces, 6. picking nodes ---
+# --- pieces, picking nodes ---
 def connected_components(t, n_nodes):
     """The pieces of a mesh ``t (3, m)`` with ``n_nodes`` nodes: nodes connected through its triangles.
 
@@ -209,7 +209,7 @@ def nodes_near(positions, point, radius):
     return found
 
 
-# --- 2. the path of a cut ---
+# --- the path of a cut ---
 def _segment_distance(px, py, ax, ay, bx, by):
     """Distance from points (px, py) to segments (a, b); broadcasts."""
     dx, dy = bx - ax, by - ay
@@ -379,7 +379,7 @@ def _opened(mesh, parent, interior_keys, n_old) -> np.ndarray:
     return (np.asarray(mesh.f2t)[1] < 0) & np.isin(new_keys, interior_keys)
 
 
-# --- 3. incise ---
+# --- incise ---
 def incise(mesh, polyline, positions=None) -> MeshEdit:
     """Cut ``mesh`` (not modified) along a drawn polyline.
 
@@ -416,7 +416,7 @@ def incise(mesh, polyline, positions=None) -> MeshEdit:
     return _build(mesh, plain, parent, np.arange(t.shape[1], dtype=np.int64), "cut", wound, cut_edges)
 
 
-# --- 4. excise ---
+# --- excise ---
 def _region_mask(region, centroids) -> np.ndarray:
     m = centroids.shape[1]
     if callable(region):
