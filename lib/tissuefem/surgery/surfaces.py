@@ -38,19 +38,11 @@ _SAME = 1e-9
 def contact_surface(mesh, weights=None, regions=None) -> ContactSurface:
     """The surface of the material of ``mesh`` (cut through elements or not), as a contact surface.
 
-    Parameters
-    ----------
-    mesh : skfem.MeshTri
-    weights, regions
-        The material of the elements cut through (:attr:`~tissuefem.surgery.element_cuts.ElementCut.weights` and
-        ``.regions``); absent: the surface is the mesh's boundary.
-
-    Returns
-    -------
-    ContactSurface
-        Points that are single nodes or combinations of an element's nodes, segments with the material on their left,
-        the wound's lips flagged (sides inside a triangle, severed parts of edges, and facets named ``"cut"`` by
-        :func:`~tissuefem.surgery.topology.incise`).
+    ``weights`` and ``regions`` are the material of the elements cut through (those of an
+    :class:`~tissuefem.surgery.element_cuts.ElementCut`); without them the surface is the mesh's boundary. The
+    points are single nodes or combinations of an element's nodes, the segments have the material on their left, and
+    the wound's lips are flagged (sides inside a triangle, severed parts of edges, and facets named ``"cut"`` by
+    :func:`~tissuefem.surgery.topology.incise`).
     """
     p, t = mesh_arrays(mesh)
     n, m = p.shape[1], t.shape[1]
