@@ -4,12 +4,13 @@
   :func:`carry_names` (named boundaries and subdomains across an edit), :func:`polygon_contains`.
 * **Edges** keyed by node pair (:func:`pair_keys`), and every element's edges with the side it lies on
   (:func:`element_edges`).
-* **A triangle's local coordinates** ``(xi, eta) = (lambda_1, lambda_2)``: vertex 0 at (0, 0), 1 at (1, 0), 2 at (0,
-  1); local edge ``k`` runs from vertex ``k`` to vertex ``k + 1`` (0: ``eta = 0``, 1: ``xi + eta = 1``, 2: ``xi = 0``).
-  Points (:func:`snap`, :func:`edges_of`, :func:`edge_param`, :func:`edge_point`), segments (:func:`crossings`),
-  polygons (:func:`winding`, :func:`polygon_area`), and sorted lists of intervals ``[(lo, hi), ...]`` of the edge
-  parameter (:func:`merge_intervals`, :func:`subtract_intervals`, ...). Points closer than :data:`EPS` are one point.
-  These work on plain floats: on the tiny graphs of one triangle, numpy's per-call cost would dominate.
+* **A triangle's local coordinates** ``(xi, eta) = (lambda_1, lambda_2)``: vertex 0 at ``(0, 0)``, 1 at ``(1, 0)``,
+  2 at ``(0, 1)``; local edge ``k`` runs from vertex ``k`` to vertex ``k + 1`` (0: ``eta = 0``, 1: ``xi + eta = 1``,
+  2: ``xi = 0``). Points (:func:`snap`, :func:`edges_of`, :func:`edge_param`, :func:`edge_point`), segments
+  (:func:`crossings`), polygons (:func:`winding`, :func:`polygon_area`), and sorted lists of intervals
+  ``[(lo, hi), ...]`` of the edge parameter (:func:`merge_intervals`, :func:`subtract_intervals`, ...). Points closer
+  than :data:`EPS` are one point. These work on plain floats: on the tiny graphs of one triangle, numpy's per-call
+  cost would dominate.
 * **The material of an element** cut through: :class:`Region`, its sides and the parts of its edges it touches, and
   :func:`check_regions`.
 """
