@@ -51,13 +51,10 @@ import scipy.sparse as sp
 from skfem import Basis, ElementTriP1, ElementTriP2, ElementVector, asm
 
 from .forms import energy_form, residual_form, tangent_form
-from .meshes import COORDINATE_MAX, SIZE_RANGE, folded_triangles, index_list
-from .parameters import check_density
+from .meshes import check_mesh
+from .parameters import ParameterError, check_density, check_weights
 
-__all__ = ["P1Assembler", "QuadratureAssembler", "FormsAssembler", "make_assembler", "vector_basis"]
-
-#: Triangles with ``|2 area| <= _DEGENERATE_TOL * (longest edge)^2`` count as degenerate.
-_DEGENERATE_TOL = 1e-12
+__all__ = ["P1Assembler", "QuadratureAssembler", "FormsAssembler", "make_assembler", "vector_basis", "check_weights"]
 
 
 class P1Assembler:
@@ -81,7 +78,7 @@ class P1Assembler:
     """
 
     def __init__(self, mesh, material=None, weights=None):
-        p, t = self._validate_mesh(mesh)
+        p, t = _mesh_arrays(mesh)
         self.mesh = mesh
         self.material = material
         self.n_nodes = p.shape[1]
@@ -165,76 +162,20 @@ class P1Assembler:
         self._dofs_flat = dofs.reshape(-1).astype(np.intp)
 
     # ------------------------------------------------------------------ checks
-    @staticmethod
-    def _validate_mesh(mesh):
-        try:
-            p = np.asarray(mesh.p, dtype=float)
-            t = np.asarray(mesh.t)
-        except AttributeError:
-            raise ValueError(f"mesh must be a scikit-fem MeshTri (with p and t), got {type(mesh).__name__}") from None
-        if p.ndim != 2 or p.shape[0] != 2 or t.ndim != 2 or t.shape[0] != 3:
-            raise ValueError(f"mesh must be a 2D triangle mesh: p shaped (2, n_nodes) and t shaped (3, n_elements), "
-                             f"got p {p.shape} and t {t.shape}")
-        if getattr(mesh, "affine", True) is False:
-            raise ValueError("mesh must be a straight-sided linear (P1) triangle mesh, got a curved/high-order mesh")
-        if t.shape[1] == 0:
-            raise ValueError("mesh has no triangles")
-        if not np.issubdtype(t.dtype, np.integer):
-            raise ValueError(f"mesh.t must hold integer node indices, got dtype {t.dtype}")
-        if t.min() < 0 or t.max() >= p.shape[1]:
-            bad = np.flatnonzero(((t < 0) | (t >= p.shape[1])).any(axis=0))
-            raise ValueError(f"mesh: elements {index_list(bad)} refer to nodes outside 0..{p.shape[1] - 1}")
-        t = np.array(t, dtype=np.int64)  # a private copy (made read-only later)
-        bad_nodes = np.flatnonzero(~np.isfinite(p).all(axis=0))
-        if bad_nodes.size:
-            bad_elems = np.flatnonzero(np.isin(t, bad_nodes).any(axis=0))
-            raise ValueError(f"mesh has non-finite coordinates at nodes {index_list(bad_nodes)}, "
-                             f"used by elements {index_list(bad_elems)}")
-        # A node in no triangle has neither stiffness nor mass: every Newton matrix would be singular.
-        # (Edges in three triangles and overlapping copies of a triangle are allowed here: cutting through
-        # elements makes them next to a crack tip; only a user's mesh file is refused for them.)
-        used = np.zeros(p.shape[1], dtype=bool)
-        used[t.ravel()] = True
-        if not used.all():
-            raise ValueError(f"mesh: nodes {index_list(np.flatnonzero(~used))} belong to no triangle (an unused node "
-                             "has no stiffness and no mass); remove them and renumber")
-        far = np.flatnonzero((np.abs(p) > COORDINATE_MAX).any(axis=0))
-        if far.size:
-            raise ValueError(f"mesh: nodes {index_list(far)} lie beyond the coordinate limit +-{COORDINATE_MAX:g}")
-        extent = float(np.ptp(p, axis=1).max())
-        if extent < SIZE_RANGE[0]:
-            raise ValueError(f"mesh: spans only {extent:g} (the largest side of its bounding box must be at least "
-                             f"{SIZE_RANGE[0]:g})")
-        x = p[:, t]
-        d1 = x[:, 1] - x[:, 0]
-        d2 = x[:, 2] - x[:, 0]
-        d3 = x[:, 2] - x[:, 1]
-        det = d1[0] * d2[1] - d1[1] * d2[0]
-        h2 = np.maximum(np.maximum((d1**2).sum(0), (d2**2).sum(0)), (d3**2).sum(0))
-        degenerate = np.flatnonzero(~(np.abs(det) > _DEGENERATE_TOL * h2))
-        if degenerate.size:
-            raise ValueError(f"mesh has zero-area (degenerate) triangles: elements {index_list(degenerate)}")
-        folded = folded_triangles(p, t)
-        if folded.size:
-            pairs = ", ".join(f"({i}, {j})" for i, j in folded.T[:10]) + (" ..." if folded.shape[1] > 10 else "")
-            raise ValueError(f"mesh has inverted triangles (folded over a neighbour across a shared edge): element "
-                             f"pairs {pairs}; a rest mesh must not overlap itself")
-        return p, t
-
     def _check_u(self, u) -> np.ndarray:
         u = np.asarray(u, dtype=float)
         if u.shape != (self.n_dofs,):
-            raise ValueError(f"u must be a displacement vector of shape (n_dofs,) = ({self.n_dofs},) "
+            raise ParameterError("u", f"u must be a displacement vector of shape (n_dofs,) = ({self.n_dofs},) "
                              f"in scikit-fem's ordering (node n has dofs 2n, 2n+1), got shape {u.shape}")
         return u
 
     def _material(self, material):
         m = self.material if material is None else material
         if m is None:
-            raise ValueError("material must be given (to the constructor or to this call), got None")
+            raise ParameterError("material", "material must be given (to the constructor or to this call), got None")
         for name in ("energy", "stress", "tangent"):
             if not callable(getattr(m, name, None)):
-                raise ValueError(f"material must have energy, stress and tangent methods, got {m!r}")
+                raise ParameterError("material", f"material must have energy, stress and tangent methods, got {m!r}")
         # fibers (possibly nested: FiberReinforced of FiberReinforced ...)
         level = m
         while level is not None:
@@ -242,12 +183,12 @@ class P1Assembler:
             if fibers is not None:
                 shape = np.shape(fibers)
                 if len(shape) == 3:
-                    raise ValueError(f"material has per-quadrature-point fibers of shape {shape}; the P1 path has one "
-                                     "point per element: give fibers shaped (2, n_elements) (e.g. the normalised "
-                                     "average over the points) or (2,)")
+                    raise ParameterError("material", f"material has per-quadrature-point fibers of shape {shape}; the "
+                                         "P1 path has one point per element: give fibers shaped (2, n_elements) (e.g. "
+                                         "the normalised average over the points) or (2,)")
                 if len(shape) == 2 and shape[1] != self.n_elements:
-                    raise ValueError(f"material has per-element fibers of shape {shape}, but the mesh has "
-                                     f"{self.n_elements} elements: expected (2, {self.n_elements})")
+                    raise ParameterError("material", f"material has per-element fibers of shape {shape}, but the mesh "
+                                         f"has {self.n_elements} elements: expected (2, {self.n_elements})")
             level = getattr(level, "base", None)
         return m
 
@@ -289,7 +230,7 @@ class P1Assembler:
         """
         data = np.asarray(data, dtype=float)
         if data.shape != (self.nnz,):
-            raise ValueError(f"data must have shape (nnz,) = ({self.nnz},), got {data.shape}")
+            raise ParameterError("data", f"data must have shape (nnz,) = ({self.nnz},), got {data.shape}")
         K = sp.csr_matrix((data, self.indices, self.indptr), shape=(self.n_dofs, self.n_dofs), copy=False)
         K.has_sorted_indices = True
         K.has_canonical_format = True
@@ -359,18 +300,16 @@ class P1Assembler:
                 f"nnz={self.nnz}, material={self.material!r})")
 
 
-def check_weights(weights, m) -> np.ndarray:
-    """Per-element material fractions: ``m`` real numbers in ``(0, 1]`` (complex or boolean ones are refused)."""
-    try:
-        w = np.asarray(weights)
-    except (TypeError, ValueError):
-        w = np.asarray(None)
-    if w.dtype.kind not in "iuf" or w.shape != (m,):
-        raise ValueError(f"weights must be one real number in (0, 1] per element, shape ({m},), got {weights!r:.80}")
-    w = w.astype(float)
-    if not (np.all(np.isfinite(w)) and np.all(w > 0) and np.all(w <= 1)):
-        raise ValueError(f"weights must be one number in (0, 1] per element, shape ({m},)")
-    return w
+def _mesh_arrays(mesh):
+    """``(p, t)`` of a straight-sided scikit-fem triangle mesh, checked by :func:`~tissuefem.engine.meshes.check_mesh`
+    as made by cuts: a node in no triangle has neither stiffness nor mass (every Newton matrix would be singular);
+    edges in three triangles and overlapping copies of one are allowed (cutting through elements makes them)."""
+    if not (hasattr(mesh, "p") and hasattr(mesh, "t")):
+        raise ParameterError("mesh", f"mesh must be a scikit-fem MeshTri (with p and t), got {type(mesh).__name__}")
+    if getattr(mesh, "affine", True) is False:
+        raise ParameterError("mesh", "mesh must be a straight-sided linear (P1) triangle mesh, got a curved/high-order "
+                                     "mesh")
+    return check_mesh(mesh.p, mesh.t, cut=True)
 
 
 def _diagonal_positions(indptr, indices) -> np.ndarray:
@@ -388,11 +327,11 @@ def vector_basis(mesh, order: int = 1, intorder: int | None = None) -> Basis:
     Node ``a`` has dofs ``2a, 2a + 1``, then come the P2 edge midpoints: every assembler's layout.
     """
     if order not in (1, 2):
-        raise ValueError(f"order must be 1 or 2, got {order!r}")
+        raise ParameterError("order", f"order must be 1 or 2, got {order!r}")
     if intorder is None:
         intorder = 2 * order
     if isinstance(intorder, bool) or not isinstance(intorder, (int, np.integer)) or not 1 <= intorder <= 19:
-        raise ValueError(f"intorder must be an integer from 1 to 19, got {intorder!r}")
+        raise ParameterError("intorder", f"intorder must be an integer from 1 to 19, got {intorder!r}")
     element = ElementVector(ElementTriP1() if order == 1 else ElementTriP2())
     return Basis(mesh, element, intorder=int(intorder))
 
@@ -417,8 +356,9 @@ class QuadratureAssembler:
 
     def __init__(self, basis, material=None, weights=None):
         if not isinstance(getattr(basis, "elem", None), ElementVector):
-            raise ValueError(f"basis must be a scikit-fem Basis with an ElementVector element, got {basis!r}")
-        P1Assembler._validate_mesh(basis.mesh)
+            raise ParameterError("basis", f"basis must be a scikit-fem Basis with an ElementVector element, got "
+                                          f"{basis!r}")
+        _mesh_arrays(basis.mesh)
         self.basis, self.material = basis, material
         nloc = len(basis.basis) // 2
         self.n_local = nloc
@@ -463,14 +403,14 @@ class QuadratureAssembler:
     def _material(self, material):
         m = self.material if material is None else material
         if m is None:
-            raise ValueError("material must be given (to the constructor or to this call), got None")
+            raise ParameterError("material", "material must be given (to the constructor or to this call), got None")
         return m
 
     def deformation_gradient(self, u) -> np.ndarray:
         """``F = I + grad u`` at every element and quadrature point, shaped ``[2, 2, nel, nq]``."""
         u = np.asarray(u, dtype=float)
         if u.shape != (self.n_dofs,):
-            raise ValueError(f"u must have shape ({self.n_dofs},), got {u.shape}")
+            raise ParameterError("u", f"u must have shape ({self.n_dofs},), got {u.shape}")
         ue = u[self._dofs].reshape(self.n_local, 2, -1)
         F = np.einsum("aie,ajeq->ijeq", ue, self._G)
         F[0, 0] += 1.0
@@ -508,8 +448,8 @@ class QuadratureAssembler:
             return data
         rows = self.csr(data).sum(axis=1).A.ravel()
         if not np.all(rows > 1e-8 * np.mean(np.abs(rows))):
-            raise ValueError("mass='lumped': row-sum lumping gives some dofs zero or negative mass with this "
-                             "element (P2 triangles' vertices get none); use mass='consistent'")
+            raise ParameterError("mass", "mass='lumped': row-sum lumping gives some dofs zero or negative mass with "
+                                         "this element (P2 triangles' vertices get none); use mass='consistent'")
         lumped_data = np.zeros(self.nnz)
         lumped_data[self.diagonal] = rows
         return lumped_data
@@ -554,8 +494,8 @@ def make_assembler(mesh, *, order: int = 1, intorder: int | None = None, assembl
     """``(basis, assembler)``: :class:`P1Assembler` (P1) or :class:`QuadratureAssembler` (P2) for
     ``assembly="fast"``, :class:`FormsAssembler` (the readable reference, slow) for ``"forms"``."""
     if not isinstance(assembly, str) or assembly not in ("fast", "forms"):
-        raise ValueError(f"assembly must be 'fast' or 'forms', got {assembly!r}")
-    P1Assembler._validate_mesh(mesh)
+        raise ParameterError("assembly", f"assembly must be 'fast' or 'forms', got {assembly!r}")
+    _mesh_arrays(mesh)
     basis = vector_basis(mesh, order, intorder)
     if assembly == "forms":
         return basis, FormsAssembler(basis, weights=weights)

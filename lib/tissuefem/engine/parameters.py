@@ -39,7 +39,7 @@ import numpy as np
 
 __all__ = [
     "ParameterError", "lame_parameters", "check_young_poisson", "check_poisson_ratio", "check_lame", "check_real",
-    "check_count",
+    "check_count", "check_positive", "check_nonnegative", "check_vector", "check_reach", "check_weights",
     "check_time_step", "YOUNGS_MODULUS_RANGE", "POISSON_RATIO_RANGE", "LAME_MAX", "SHEAR_MODULUS_MIN",
     "TIME_STEP_RANGE", "DENSITY_RANGE", "ACCELERATION_MAX", "FORCE_MAX", "PENALTY_MAX", "REACH", "RADIUS_RANGE",
     "check_density", "check_bounded_vector", "check_real_array",
@@ -135,6 +135,54 @@ def check_count(name: str, value, lo: int = 1, hi: int | None = None) -> int:
         bounds = f"[{lo}, {hi}]" if hi is not None else f">= {lo}"
         raise ParameterError(name, f"{name} must be an integer in {bounds}, got {_short(value)}")
     return v
+
+
+def check_positive(name, value) -> float:
+    """A finite real number ``> 0``, or a ``ValueError`` naming ``name``."""
+    return check_real(name, value, 0.0, lo_open=True)
+
+
+def check_nonnegative(name, value) -> float:
+    """A finite real number ``>= 0``, or a ``ValueError`` naming ``name``."""
+    return check_real(name, value, 0.0)
+
+
+def check_vector(name, value) -> np.ndarray:
+    """A finite vector ``(x, y)`` of real numbers, or a ``ValueError`` naming ``name``."""
+    try:
+        v = np.asarray(value)
+    except (TypeError, ValueError):
+        raise ParameterError(name, f"{name} must be a finite vector (x, y), got {value!r}") from None
+    if v.dtype.kind not in "iuf":  # strings, booleans, objects; complex would lose its imaginary part
+        raise ParameterError(name, f"{name} must be a finite vector (x, y) of real numbers, got {value!r}")
+    v = v.astype(float)
+    if v.shape != (2,) or not np.all(np.isfinite(v)):
+        raise ParameterError(name, f"{name} must be a finite vector (x, y), got {value!r}")
+    return v
+
+
+def check_reach(name, point, middle, size) -> np.ndarray:
+    """``point`` if it lies within ``REACH`` domain sizes of the domain's centre ``middle``, else ``ValueError``."""
+    far = REACH * size
+    if np.any(np.abs(np.asarray(point) - middle) > far):
+        raise ParameterError(name, f"{name} = {np.asarray(point).tolist()} lies farther than {REACH:g} domain sizes "
+                                   f"({far:g}) from the domain's centre ({middle[0]:g}, {middle[1]:g})")
+    return point
+
+
+def check_weights(weights, m) -> np.ndarray:
+    """Per-element material fractions: ``m`` real numbers in ``(0, 1]`` (complex or boolean ones are refused)."""
+    try:
+        w = np.asarray(weights)
+    except (TypeError, ValueError):
+        w = np.asarray(None)
+    if w.dtype.kind not in "iuf" or w.shape != (m,):
+        raise ParameterError("weights", f"weights must be one real number in (0, 1] per element, shape ({m},), "
+                                        f"got {weights!r:.80}")
+    w = w.astype(float)
+    if not (np.all(np.isfinite(w)) and np.all(w > 0) and np.all(w <= 1)):
+        raise ParameterError("weights", f"weights must be one number in (0, 1] per element, shape ({m},)")
+    return w
 
 
 def check_time_step(dt, name: str = "dt") -> float:
