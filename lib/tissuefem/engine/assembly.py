@@ -1,18 +1,15 @@
 """The fast P1 path: vectorised assembly into a fixed sparsity pattern.
 
-On linear (P1) triangles the shape-function gradients are constant in each triangle, so
-``F = I + grad u`` is one 2x2 matrix per element and every integral over a triangle is its
-area times the integrand. :class:`P1Assembler` assembles the same energy, internal forces
-and tangent as the scikit-fem forms of :mod:`tissuefem.engine.forms` (to round-off), without
-calling a form per pair of basis functions:
+On linear (P1) triangles the shape-function gradients are constant in each triangle, so ``F = I + grad u`` is one
+2x2 matrix per element and every integral over a triangle is its area times the integrand. :class:`P1Assembler`
+assembles the energy, internal forces and tangent of the scikit-fem forms of :mod:`tissuefem.engine.forms` (to
+round-off) without calling a form per pair of basis functions:
 
-* once: the signed areas and gradients ``dN_a/dX_j`` of every triangle, its 6 global dofs,
-  the CSR pattern of the global matrix and a *scatter map* telling where each of the
-  ``36 n_elements`` local entries lands in the CSR data array (built from the
+* once: areas and gradients ``dN_a/dX_j`` of every triangle, its 6 global dofs, the CSR pattern and a *scatter map*
+  telling where each of the ``36 n_elements`` local entries lands in the CSR data array (built from the
   node-adjacency pattern, whose entries are 2x2 blocks: ~50 ms at 32k triangles);
-* per call: ``F`` for all elements at once, **one** call of the material's
-  ``stress``/``tangent`` on ``F`` shaped ``[2, 2, n_elements]``, the local vectors/matrices
-  by ``einsum``, and a single ``np.bincount`` into the data array (the pattern never changes).
+* per call: ``F`` for all elements at once, **one** call of the material's ``stress``/``tangent`` on ``F`` shaped
+  ``[2, 2, n_elements]``, the local vectors/matrices by ``einsum``, and one ``np.bincount`` into the data array.
 
 Formulas (with ``G[a, j] = dN_a/dX_j``, area ``A_e``, and ``F[i, j] = d phi_i / d X_j``)::
 
@@ -22,25 +19,20 @@ Formulas (with ``G[a, j] = dN_a/dX_j``, area ``A_e``, and ``F[i, j] = d phi_i / 
     K_(a,i)(b,k) = sum_e A_e A_ijkl(F_e) G[a, j] G[b, l]           (= dr_(a,i)/du_(b,k))
 
 The dofs of node ``n`` are ``(2 n, 2 n + 1)`` (x then y), scikit-fem's order for
-``Basis(mesh, ElementVector(ElementTriP1()))``, so results compare entry by entry with
-the forms path.
+``Basis(mesh, ElementVector(ElementTriP1()))``, so results compare entry by entry with the forms path.
 
 Choices made here
 -----------------
-* **Orientation.** scikit-fem sorts each triangle's vertices (``sort_t=True``), so a good
-  mesh usually has about half of its triangles clockwise. P1 gradients and areas do not
-  depend on the vertex order, so clockwise triangles are *reoriented* in the assembler's
-  own copy ``self.t`` (the mesh is untouched; ``self.flipped`` lists them). Triangles with
-  area below ``1e-12`` times their longest edge squared are rejected, and so are inverted
-  ones (folded over a neighbour), which no reorientation can repair.
-* **Scatter.** At 8k triangles (288k local entries into 114k nonzeros, 2-core reference
-  machine): ``np.bincount`` with weights ~0.45 ms, ``np.add.at`` ~0.57 ms, a sparse 0/1
-  scatter-matrix product ~0.3 ms (no better at 32k), sort + ``np.add.reduceat`` ~2 ms.
-  bincount is simple and needs no extra matrix.
-* **Local matrices.** One plain ``einsum`` (no ``optimize``) on element-last arrays,
-  ~0.6 ms at 8k triangles; ``optimize=True`` is ten times slower here (transposed temporaries).
-* **Fibers.** One point per element: a :class:`~tissuefem.engine.materials.FiberReinforced`
-  material with fibers ``(2, n_elements)`` or ``(2,)`` works as is; per-quadrature fibers
+* **Orientation.** scikit-fem sorts each triangle's vertices, so about half of a mesh's triangles are clockwise. P1
+  gradients and areas do not depend on the vertex order, so clockwise triangles are *reoriented* in the assembler's
+  own copy ``self.t`` (``self.flipped`` lists them). Degenerate and inverted (folded) triangles, which no
+  reorientation can repair, are refused (:func:`~tissuefem.engine.meshes.check_mesh`).
+* **Scatter.** At 8k triangles (288k local entries into 114k nonzeros, 2-core reference machine): ``np.bincount``
+  with weights ~0.45 ms, ``np.add.at`` ~0.57 ms, a sparse 0/1 scatter-matrix product ~0.3 ms (no better at 32k),
+  sort + ``np.add.reduceat`` ~2 ms. bincount is simple and needs no extra matrix.
+* **Local matrices.** One plain ``einsum`` (no ``optimize``) on element-last arrays, ~0.6 ms at 8k triangles;
+  ``optimize=True`` is ten times slower here (transposed temporaries).
+* **Fibers.** One point per element: fibers ``(2, n_elements)`` or ``(2,)`` work as they are; per-quadrature fibers
   ``(2, n_elements, n_points)`` are refused (average and normalise them per element first).
 """
 
@@ -57,7 +49,49 @@ from .parameters import ParameterError, check_density, check_weights
 __all__ = ["P1Assembler", "QuadratureAssembler", "FormsAssembler", "make_assembler", "vector_basis", "check_weights"]
 
 
-class P1Assembler:
+class _FixedPattern:
+    """What the assemblers share: a default ``material`` and a fixed CSR pattern (``indptr``, ``indices``: shared by
+    every matrix returned, read-only, so in-place pattern changes such as ``eliminate_zeros`` raise instead of
+    corrupting it; use ``K.copy()``)."""
+
+    def _material(self, material):
+        m = self.material if material is None else material
+        if m is None:
+            raise ParameterError("material", "material must be given (to the constructor or to this call), got None")
+        return m
+
+    def _check_u(self, u) -> np.ndarray:
+        u = np.asarray(u, dtype=float)
+        if u.shape != (self.n_dofs,):
+            raise ParameterError("u", f"u must be a displacement vector of shape (n_dofs,) = ({self.n_dofs},) "
+                                      f"in scikit-fem's ordering (node n has dofs 2n, 2n+1), got shape {u.shape}")
+        return u
+
+    def csr(self, data) -> sp.csr_matrix:
+        """A ``n_dofs x n_dofs`` CSR matrix with this assembler's pattern and the given data."""
+        data = np.asarray(data, dtype=float)
+        if data.shape != (self.nnz,):
+            raise ParameterError("data", f"data must have shape (nnz,) = ({self.nnz},), got {data.shape}")
+        K = sp.csr_matrix((data, self.indices, self.indptr), shape=(self.n_dofs, self.n_dofs), copy=False)
+        K.has_sorted_indices = True
+        K.has_canonical_format = True
+        return K
+
+    def pattern(self) -> sp.csr_matrix:
+        """The fixed sparsity pattern, as a CSR matrix of zeros."""
+        return self.csr(np.zeros(self.nnz))
+
+    @property
+    def diagonal(self) -> np.ndarray:
+        """Positions of the diagonal entries in the CSR data array, row by row."""
+        rows = np.repeat(np.arange(self.n_dofs), np.diff(self.indptr))
+        pos = np.flatnonzero(rows == self.indices)
+        if pos.size != self.n_dofs:
+            raise ValueError("the sparsity pattern lacks diagonal entries")
+        return pos
+
+
+class P1Assembler(_FixedPattern):
     """Energy, internal forces and tangent of a hyperelastic material on a P1 triangle mesh.
 
     ``mesh`` is a scikit-fem :class:`~skfem.MeshTri` (straight-sided, either orientation;
@@ -161,18 +195,8 @@ class P1Assembler:
         self._scatter = np.ascontiguousarray(scatter).reshape(-1).astype(np.intp)
         self._dofs_flat = dofs.reshape(-1).astype(np.intp)
 
-    # ------------------------------------------------------------------ checks
-    def _check_u(self, u) -> np.ndarray:
-        u = np.asarray(u, dtype=float)
-        if u.shape != (self.n_dofs,):
-            raise ParameterError("u", f"u must be a displacement vector of shape (n_dofs,) = ({self.n_dofs},) "
-                             f"in scikit-fem's ordering (node n has dofs 2n, 2n+1), got shape {u.shape}")
-        return u
-
     def _material(self, material):
-        m = self.material if material is None else material
-        if m is None:
-            raise ParameterError("material", "material must be given (to the constructor or to this call), got None")
+        m = super()._material(material)
         for name in ("energy", "stress", "tangent"):
             if not callable(getattr(m, name, None)):
                 raise ParameterError("material", f"material must have energy, stress and tangent methods, got {m!r}")
@@ -221,24 +245,6 @@ class P1Assembler:
     def scatter(self) -> np.ndarray:
         """``(6, 6, n_elements)``: CSR data position of each local matrix entry."""
         return self._scatter.reshape(6, 6, self.n_elements)
-
-    def csr(self, data) -> sp.csr_matrix:
-        """A ``n_dofs x n_dofs`` CSR matrix with this assembler's pattern and the given data.
-
-        The pattern arrays are shared and read-only: in-place pattern changes (``eliminate_zeros``,
-        ``sort_indices`` ...) raise instead of corrupting them; use a copy (``K.copy()``).
-        """
-        data = np.asarray(data, dtype=float)
-        if data.shape != (self.nnz,):
-            raise ParameterError("data", f"data must have shape (nnz,) = ({self.nnz},), got {data.shape}")
-        K = sp.csr_matrix((data, self.indices, self.indptr), shape=(self.n_dofs, self.n_dofs), copy=False)
-        K.has_sorted_indices = True
-        K.has_canonical_format = True
-        return K
-
-    def pattern(self) -> sp.csr_matrix:
-        """The fixed sparsity pattern, as a CSR matrix of zeros."""
-        return self.csr(np.zeros(self.nnz))
 
     def deformation_gradient(self, u) -> np.ndarray:
         """``F = I + grad u`` of every element, shaped ``[2, 2, n_elements]``."""
@@ -290,11 +296,6 @@ class P1Assembler:
         share = np.bincount(self.t.ravel(), weights=np.tile(self.areas / 3.0, 3), minlength=self.n_nodes)
         return (share[:, None] * b[None, :]).ravel()
 
-    @property
-    def diagonal(self) -> np.ndarray:
-        """Positions of the diagonal entries in the CSR data array, row by row."""
-        return _diagonal_positions(self.indptr, self.indices)
-
     def __repr__(self):
         return (f"P1Assembler({self.n_elements} triangles, {self.n_nodes} nodes, {self.n_dofs} dofs, "
                 f"nnz={self.nnz}, material={self.material!r})")
@@ -312,15 +313,6 @@ def _mesh_arrays(mesh):
     return check_mesh(mesh.p, mesh.t, cut=True)
 
 
-def _diagonal_positions(indptr, indices) -> np.ndarray:
-    n = indptr.size - 1
-    rows = np.repeat(np.arange(n), np.diff(indptr))
-    pos = np.flatnonzero(rows == indices)
-    if pos.size != n:
-        raise ValueError("the sparsity pattern lacks diagonal entries")
-    return pos
-
-
 def vector_basis(mesh, order: int = 1, intorder: int | None = None) -> Basis:
     """scikit-fem's ``Basis(mesh, ElementVector(ElementTriP<order>()), intorder)`` (default degree ``2 order``).
 
@@ -336,7 +328,7 @@ def vector_basis(mesh, order: int = 1, intorder: int | None = None) -> Basis:
     return Basis(mesh, element, intorder=int(intorder))
 
 
-class QuadratureAssembler:
+class QuadratureAssembler(_FixedPattern):
     """Vectorised energy, residual and tangent for a vector Lagrange basis on triangles (P1, P2).
 
     The sums of the scikit-fem forms of :mod:`tissuefem.engine.forms`, at once for every
@@ -388,30 +380,9 @@ class QuadratureAssembler:
         self.indptr.setflags(write=False)
         self._scatter = inverse.reshape(-1)
 
-    def csr(self, data) -> sp.csr_matrix:
-        """A CSR matrix on this assembler's fixed pattern (shared, read-only index arrays)."""
-        K = sp.csr_matrix((np.asarray(data, dtype=float), self.indices, self.indptr),
-                          shape=(self.n_dofs, self.n_dofs), copy=False)
-        K.has_sorted_indices = True
-        K.has_canonical_format = True
-        return K
-
-    @property
-    def diagonal(self) -> np.ndarray:
-        return _diagonal_positions(self.indptr, self.indices)
-
-    def _material(self, material):
-        m = self.material if material is None else material
-        if m is None:
-            raise ParameterError("material", "material must be given (to the constructor or to this call), got None")
-        return m
-
     def deformation_gradient(self, u) -> np.ndarray:
         """``F = I + grad u`` at every element and quadrature point, shaped ``[2, 2, nel, nq]``."""
-        u = np.asarray(u, dtype=float)
-        if u.shape != (self.n_dofs,):
-            raise ParameterError("u", f"u must have shape ({self.n_dofs},), got {u.shape}")
-        ue = u[self._dofs].reshape(self.n_local, 2, -1)
+        ue = self._check_u(u)[self._dofs].reshape(self.n_local, 2, -1)
         F = np.einsum("aie,ajeq->ijeq", ue, self._G)
         F[0, 0] += 1.0
         F[1, 1] += 1.0
