@@ -1,13 +1,13 @@
 """The fast P1 path: vectorised assembly into a fixed sparsity pattern.
 
-On linear (P1) triangles the shape-function gradients are constant in each triangle, so ``F = I + grad u`` is one
-2x2 matrix per element and every integral over a triangle is its area times the integrand. :class:`P1Assembler`
-assembles the energy, internal forces and tangent of the scikit-fem forms of :mod:`tissuefem.engine.forms` (to
-round-off) without calling a form per pair of basis functions:
+On linear (P1) triangles the shape-function gradients are constant in each triangle, so ``F = I + grad u`` is one 2x2
+matrix per element and every integral over a triangle is its area times the integrand. :class:`P1Assembler` assembles
+the energy, internal forces and tangent of the scikit-fem forms of :mod:`tissuefem.engine.forms` (to round-off) without
+calling a form per pair of basis functions:
 
 * once: areas and gradients ``dN_a/dX_j`` of every triangle, its 6 global dofs, the CSR pattern and a *scatter map*
-  telling where each of the ``36 n_elements`` local entries lands in the CSR data array (built from the
-  node-adjacency pattern, whose entries are 2x2 blocks: ~50 ms at 32k triangles);
+  telling where each of the ``36 n_elements`` local entries lands in the CSR data array (built from the node-adjacency
+  pattern, whose entries are 2x2 blocks: ~50 ms at 32k triangles);
 * per call: ``F`` for all elements at once, **one** call of the material's ``stress``/``tangent`` on ``F`` shaped
   ``[2, 2, n_elements]``, the local vectors/matrices by ``einsum``, and one ``np.bincount`` into the data array.
 
@@ -94,21 +94,18 @@ class _FixedPattern:
 class P1Assembler(_FixedPattern):
     """Energy, internal forces and tangent of a hyperelastic material on a P1 triangle mesh.
 
-    ``mesh`` is a scikit-fem :class:`~skfem.MeshTri` (straight-sided, either orientation;
-    non-finite coordinates or zero-area triangles raise ``ValueError``). ``material`` is the
-    default material (``energy``, ``stress``, ``tangent`` as in :mod:`tissuefem.engine.materials`);
-    every method takes a ``material`` that overrides it. ``weights``: optional
-    ``(n_elements,)`` fractions in ``(0, 1]`` of its triangle's area that each element's
-    material fills: elements made by cutting through a triangle keep its shape functions
-    but carry only the material on their side of the cut.
+    ``mesh`` is a scikit-fem :class:`~skfem.MeshTri` (straight-sided, either orientation; non-finite coordinates or
+    zero-area triangles raise ``ValueError``). ``material`` is the default material (``energy``, ``stress``, ``tangent``
+    as in :mod:`tissuefem.engine.materials`); every method takes a ``material`` that overrides it. ``weights``: optional
+    ``(n_elements,)`` fractions in ``(0, 1]`` of its triangle's area that each element's material fills: elements made
+    by cutting through a triangle keep its shape functions but carry only the material on their side of the cut.
 
-    Attributes: ``n_nodes, n_elements, n_dofs = 2 n_nodes``; ``t`` ``(3, n_elements)``
-    counter-clockwise and ``flipped``, the elements reoriented to make it so; ``areas``
-    ``(n_elements,)``, the material's reference areas (triangle area times weight);
-    ``grads`` ``(n_elements, 3, 2)``, ``dN_a/dX_j`` of vertex ``a`` of ``t[:, e]``;
-    ``element_dofs`` ``(6, n_elements)``, row ``2 a + i`` the dof ``2 t[a, e] + i``;
-    ``indptr, indices``, the fixed CSR pattern (read-only, shared by every matrix returned);
-    ``scatter`` ``(6, 6, n_elements)``, the data position of local entry ``(2a+i, 2b+k)``.
+    Attributes: ``n_nodes, n_elements, n_dofs = 2 n_nodes``; ``t`` ``(3, n_elements)`` counter-clockwise and
+    ``flipped``, the elements reoriented to make it so; ``areas`` ``(n_elements,)``, the material's reference areas
+    (triangle area times weight); ``grads`` ``(n_elements, 3, 2)``, ``dN_a/dX_j`` of vertex ``a`` of ``t[:, e]``;
+    ``element_dofs`` ``(6, n_elements)``, row ``2 a + i`` the dof ``2 t[a, e] + i``; ``indptr, indices``, the fixed CSR
+    pattern (read-only, shared by every matrix returned); ``scatter`` ``(6, 6, n_elements)``, the data position of local
+    entry ``(2a+i, 2b+k)``.
     """
 
     def __init__(self, mesh, material=None, weights=None):
@@ -276,9 +273,9 @@ class P1Assembler(_FixedPattern):
     def mass(self, density, lumped: bool = True) -> np.ndarray:
         """The mass matrix ``M_(a,i)(b,k) = int rho0 N_a N_b d_ik dX`` as data on this pattern.
 
-        Per element the consistent P1 mass is ``rho0 A_e (1 + d_ab) / 12``; lumped, each
-        vertex gets ``rho0 A_e / 3`` (the row sum). ``A_e`` is the element's material area,
-        so copies made by cutting a triangle carry the mass of their part only.
+        Per element the consistent P1 mass is ``rho0 A_e (1 + d_ab) / 12``; lumped, each vertex gets ``rho0 A_e / 3``
+        (the row sum). ``A_e`` is the element's material area, so copies made by cutting a triangle carry the mass of
+        their part only.
         """
         rho = check_density(density)
         data = np.zeros(self.nnz)
@@ -303,8 +300,8 @@ class P1Assembler(_FixedPattern):
 
 def _mesh_arrays(mesh):
     """``(p, t)`` of a straight-sided scikit-fem triangle mesh, checked by :func:`~tissuefem.engine.meshes.check_mesh`
-    as made by cuts: a node in no triangle has neither stiffness nor mass (every Newton matrix would be singular);
-    edges in three triangles and overlapping copies of one are allowed (cutting through elements makes them)."""
+    as made by cuts: a node in no triangle has neither stiffness nor mass (every Newton matrix would be singular); edges
+    in three triangles and overlapping copies of one are allowed (cutting through elements makes them)."""
     if not (hasattr(mesh, "p") and hasattr(mesh, "t")):
         raise ParameterError("mesh", f"mesh must be a scikit-fem MeshTri (with p and t), got {type(mesh).__name__}")
     if getattr(mesh, "affine", True) is False:
@@ -331,19 +328,18 @@ def vector_basis(mesh, order: int = 1, intorder: int | None = None) -> Basis:
 class QuadratureAssembler(_FixedPattern):
     """Vectorised energy, residual and tangent for a vector Lagrange basis on triangles (P1, P2).
 
-    The sums of the scikit-fem forms of :mod:`tissuefem.engine.forms`, at once for every
-    element and quadrature point instead of once per pair of local basis functions: with
-    the scalar shape functions ``N_a`` and the quadrature weights ``dx`` (weight times Jacobian),
+    The sums of the scikit-fem forms of :mod:`tissuefem.engine.forms`, at once for every element and quadrature point
+    instead of once per pair of local basis functions: with the scalar shape functions ``N_a`` and the quadrature
+    weights ``dx`` (weight times Jacobian),
 
         F_ij      = d_ij + sum_a u_ai dN_a/dX_j                     (per element and point)
         E         = sum_e,q Psi(F) dx
         r_ai      = sum_e,q P_ij dN_a/dX_j dx
         K_ai,bk   = sum_e,q A_ijkl dN_a/dX_j dN_b/dX_l dx
 
-    scattered into a pattern computed once. For P1, :class:`P1Assembler` is faster still;
-    this class makes P2 affordable. ``basis``: ``Basis(mesh, ElementVector(ElementTriPk()))``
-    (:func:`vector_basis`), local vector function ``2 a + i`` being ``N_a e_i``; ``material``
-    and ``weights`` as :class:`P1Assembler`'s.
+    scattered into a pattern computed once. For P1, :class:`P1Assembler` is faster still; this class makes P2
+    affordable. ``basis``: ``Basis(mesh, ElementVector(ElementTriPk()))`` (:func:`vector_basis`), local vector function
+    ``2 a + i`` being ``N_a e_i``; ``material`` and ``weights`` as :class:`P1Assembler`'s.
     """
 
     def __init__(self, basis, material=None, weights=None):
@@ -409,8 +405,8 @@ class QuadratureAssembler(_FixedPattern):
         return self.csr(np.bincount(self._scatter, weights=K.reshape(-1), minlength=self.nnz))
 
     def mass(self, density, lumped: bool = False) -> np.ndarray:
-        """The mass matrix ``int rho0 N_a N_b d_ik dX`` as data on this pattern (``lumped``: row sums,
-        refused where some dof would get no mass, as the vertices of P2 triangles do)."""
+        """The mass matrix ``int rho0 N_a N_b d_ik dX`` as data on this pattern (``lumped``: row sums, refused where
+        some dof would get no mass, as the vertices of P2 triangles do)."""
         rho = check_density(density)
         NN = np.einsum("aeq,beq,eq->abe", self._N, self._N, rho * self._dx)
         M_loc = np.einsum("abe,ik->aibke", NN, np.eye(2))
@@ -439,8 +435,8 @@ class QuadratureAssembler(_FixedPattern):
 class FormsAssembler(QuadratureAssembler):
     """Energy, residual and tangent by the readable scikit-fem forms of :mod:`tissuefem.engine.forms`.
 
-    The reference the fast assemblers are tested against (one form call per pair of local
-    basis functions), on :class:`QuadratureAssembler`'s fixed pattern.
+    The reference the fast assemblers are tested against (one form call per pair of local basis functions), on
+    :class:`QuadratureAssembler`'s fixed pattern.
     """
 
     def energy(self, u, material=None) -> float:
@@ -462,8 +458,8 @@ class FormsAssembler(QuadratureAssembler):
 
 
 def make_assembler(mesh, *, order: int = 1, intorder: int | None = None, assembly: str = "fast", weights=None):
-    """``(basis, assembler)``: :class:`P1Assembler` (P1) or :class:`QuadratureAssembler` (P2) for
-    ``assembly="fast"``, :class:`FormsAssembler` (the readable reference, slow) for ``"forms"``."""
+    """``(basis, assembler)``: :class:`P1Assembler` (P1) or :class:`QuadratureAssembler` (P2) for ``assembly="fast"``,
+    :class:`FormsAssembler` (the readable reference, slow) for ``"forms"``."""
     if not isinstance(assembly, str) or assembly not in ("fast", "forms"):
         raise ParameterError("assembly", f"assembly must be 'fast' or 'forms', got {assembly!r}")
     _mesh_arrays(mesh)

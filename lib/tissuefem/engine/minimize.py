@@ -1,35 +1,30 @@
 """The one minimiser: Newton's method with an energy line search, safeguards, and an optional time budget.
 
-Every solve in tissuefem -- a 1D bar, a quasistatic load step, a backward-Euler step, a
-real-time frame -- is a call of :func:`newton`. The notes' iteration ("1D elasticity") is
+Every solve in tissuefem -- a 1D bar, a quasistatic load step, a backward-Euler step, a real-time frame -- is a call of
+:func:`newton`. The notes' iteration ("1D elasticity") is
 
     dq/du (u^k) du = -q(u^k),    u^{k+1} = u^k + du,
 
-for the residual ``q``; when ``q`` is the gradient of an energy ``E`` (here always: the
-incremental potential of :mod:`tissuefem.engine.stepping`) the safeguards make every step safe:
+for the residual ``q``; when ``q`` is the gradient of an energy ``E`` (here always: the incremental potential of
+:mod:`tissuefem.engine.stepping`) the safeguards make every step safe:
 
-* **line search** ``"energy"``: backtracking (Armijo) on ``E``, so an accepted iterate is
-  finite and never worse than the last; when energy differences are down at round-off, a
-  step that still lowers the residual is accepted instead. ``"finite"`` only halves until
-  the residual is finite (no energy needed); ``None`` is the notes' plain iteration.
-* **descent**: with the energy line search the direction must point downhill
-  (``q . du < 0``). If an indefinite tangent gives an uphill one, the linear solver
-  refactorizes, then the tangent is shifted by ``tau I`` with growing ``tau``, and as a
-  last resort the step is steepest descent.
+* **line search** ``"energy"``: backtracking (Armijo) on ``E``, so an accepted iterate is finite and never worse than
+  the last; when energy differences are down at round-off, a step that still lowers the residual is accepted instead.
+  ``"finite"`` only halves until the residual is finite (no energy needed); ``None`` is the notes' plain iteration.
+* **descent**: with the energy line search the direction must point downhill (``q . du < 0``). If an indefinite tangent
+  gives an uphill one, the linear solver refactorizes, then the tangent is shifted by ``tau I`` with growing ``tau``,
+  and as a last resort the step is steepest descent.
 * **step cap** ``max_step``: no dof moves by more than this per iteration.
-* **admissible steps** ``step_limit(x, dx) -> fraction``: how much of a step may be taken
-  at all (self-contact: before any surface would pass through another,
-  :mod:`tissuefem.engine.contact`). The direction is shortened to it before the line
-  search, so no trial point lies beyond it.
-* **time budget**: with a ``clock`` (any callable returning seconds) and a ``budget``, no
-  new tangent assembly or linear solve starts once the budget is spent; the first
-  iteration always runs.
+* **admissible steps** ``step_limit(x, dx) -> fraction``: how much of a step may be taken at all (self-contact: before
+  any surface would pass through another, :mod:`tissuefem.engine.contact`). The direction is shortened to it before the
+  line search, so no trial point lies beyond it.
+* **time budget**: with a ``clock`` (any callable returning seconds) and a ``budget``, no new tangent assembly or linear
+  solve starts once the budget is spent; the first iteration always runs.
 
-Prescribed (Dirichlet) dofs are held at their ``x0`` values: only the free rows and columns
-of the tangent are solved, through a :class:`~tissuefem.engine.linsolve.LinearSolver`
-policy that condenses them and may keep a factorization across iterations and calls.
-A numerical failure never escapes as an exception or a NaN state: it is a ``status`` of
-the result, whose ``x`` is the last accepted iterate.
+Prescribed (Dirichlet) dofs are held at their ``x0`` values: only the free rows and columns of the tangent are solved,
+through a :class:`~tissuefem.engine.linsolve.LinearSolver` policy that condenses them and may keep a factorization
+across iterations and calls. A numerical failure never escapes as an exception or a NaN state: it is a ``status`` of the
+result, whose ``x`` is the last accepted iterate.
 """
 
 from __future__ import annotations
@@ -209,8 +204,8 @@ def _shifted_direction(A, rhs, shifts=None):
 
 def _descent(dx_free, A, rhs, x, mask, hessian, safe_hessian, linear, line_search, stats):
     """The descent safeguard: ``(dx_free, shift)``, the Newton step if it is usable (and points downhill,
-    ``q . dx < 0``, under the energy line search), else the safe Hessian's step, then a shifted tangent's, then
-    steepest descent; ``(None, 0)`` when there is no usable step and no energy to descend (singular)."""
+    ``q . dx < 0``, under the energy line search), else the safe Hessian's step, then a shifted tangent's, then steepest
+    descent; ``(None, 0)`` when there is no usable step and no energy to descend (singular)."""
     if dx_free is not None and np.all(np.isfinite(dx_free)) and (line_search != "energy" or rhs @ dx_free > 0):
         return dx_free, 0.0
     if line_search != "energy":
@@ -285,23 +280,22 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
            step_limit: Callable[[np.ndarray, np.ndarray], float] | None = None) -> NewtonResult:
     """Minimise ``energy`` (or find a zero of ``gradient``) over the ``free`` dofs by Newton's method.
 
-    ``x0`` ``(n,)`` is the start (entries that are not ``free`` -- a mask or indices, default all -- are prescribed
-    and never change); ``gradient(x) -> (n,)`` the residual ``q`` and ``hessian(x)`` its sparse Jacobian;
-    ``energy(x)`` ``E`` with ``gradient = dE/dx`` (needed by ``line_search="energy"``; ``energy0 = E(x0)`` if known).
+    ``x0`` ``(n,)`` is the start (entries that are not ``free`` -- a mask or indices, default all -- are prescribed and
+    never change); ``gradient(x) -> (n,)`` the residual ``q`` and ``hessian(x)`` its sparse Jacobian; ``energy(x)``
+    ``E`` with ``gradient = dE/dx`` (needed by ``line_search="energy"``; ``energy0 = E(x0)`` if known).
 
-    Converged when ``||q_free|| <= max(atol + rtol max(||q_free(x0)||, reference_norm), floor)``: ``reference_norm``
-    is the size of the load the solve balances when ``x0`` is already a good guess (a tiny start residual would
-    otherwise ask for more than round-off allows); ``floor`` is the residual's round-off level. ``energy_floor`` is
-    the energy's: changes below it are not trusted, and a step that changes the energy by less but lowers the
-    residual is accepted.
+    Converged when ``||q_free|| <= max(atol + rtol max(||q_free(x0)||, reference_norm), floor)``: ``reference_norm`` is
+    the size of the load the solve balances when ``x0`` is already a good guess (a tiny start residual would otherwise
+    ask for more than round-off allows); ``floor`` is the residual's round-off level. ``energy_floor`` is the energy's:
+    changes below it are not trusted, and a step that changes the energy by less but lowers the residual is accepted.
 
-    ``max_iterations``, ``max_step`` (largest change of one dof per iteration) and ``max_halvings`` (of the line
-    search) cap the work; ``linear`` is the linear-solve policy (default: a fresh direct factorization each
-    iteration); ``safe_hessian(x)``, a positive semi-definite approximation of the Hessian (a projected tangent), is
-    tried before the diagonal shift when the exact one gives no descent direction. ``budget`` seconds are measured
-    by ``clock`` from ``start`` (default: when called). ``step_limit(x, dx)`` is the largest fraction in ``[0, 1]``
-    of ``dx`` that may be taken (contact's collision detection); a step it allows none of ends the solve as
-    ``"blocked"``, keeping the last iterate.
+    ``max_iterations``, ``max_step`` (largest change of one dof per iteration) and ``max_halvings`` (of the line search)
+    cap the work; ``linear`` is the linear-solve policy (default: a fresh direct factorization each iteration);
+    ``safe_hessian(x)``, a positive semi-definite approximation of the Hessian (a projected tangent), is tried before
+    the diagonal shift when the exact one gives no descent direction. ``budget`` seconds are measured by ``clock`` from
+    ``start`` (default: when called). ``step_limit(x, dx)`` is the largest fraction in ``[0, 1]`` of ``dx`` that may be
+    taken (contact's collision detection); a step it allows none of ends the solve as ``"blocked"``, keeping the last
+    iterate.
     """
     x, max_step, max_iterations, max_halvings, budget = _checked(
         x0, {"gradient": gradient, "hessian": hessian, "energy": energy, "clock": clock, "safe_hessian": safe_hessian},
@@ -377,8 +371,8 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
 def _forcing(rnorm, r0, target):
     """Inexact Newton: how accurately an iterative linear solve must be (absolute residual).
 
-    The forcing term shrinks with the residual (``rnorm / r0``, capped at 1e-3), so the
-    convergence stays quadratic; a solve never needs to be tighter than a third of the target.
+    The forcing term shrinks with the residual (``rnorm / r0``, capped at 1e-3), so the convergence stays quadratic; a
+    solve never needs to be tighter than a third of the target.
     """
     eta = min(1e-3, rnorm / r0) if r0 > 0 else 1e-3
     return max(eta * rnorm, 0.3 * target)
