@@ -175,8 +175,8 @@ class Bar1D:
                 fixed.append(dof)
                 values.append(cond.value)
         if not fixed:
-            raise ParameterError("left", "at least one end needs a Displacement condition: with tractions at both ends the "
-                             "bar can translate freely and the stiffness matrix is singular")
+            raise ParameterError("left", "at least one end needs a Displacement condition: with tractions at both "
+                                         "ends the bar can translate freely and the stiffness matrix is singular")
         return np.array(fixed, dtype=int), np.array(values, dtype=float)
 
     def solve_linear(self, modulus: float, f=0.0, left=Displacement(0.0), right=Traction(0.0)) -> np.ndarray:
