@@ -48,7 +48,7 @@ import math
 import numpy as np
 
 from .materials1d import _LameMaterial, _safe_log, taylor_log, taylor_log_prime, taylor_log_second
-from .parameters import LAME_MAX, ParameterError, check_real, check_real_array, lame_parameters
+from .parameters import ParameterError, check_fiber_stiffness, check_real_array, lame_parameters
 
 __all__ = [
     "det2", "cofactor2", "inv2", "Material", "LinearElastic", "NeoHookean", "TaylorNeoHookean", "StableNeoHookean",
@@ -358,11 +358,6 @@ class Corotated(Material):
 
 
 # --- anisotropy: a fibre term -------------------------------------------------------
-
-def check_fiber_stiffness(k, name: str = "k") -> float:
-    """Validate a fiber modulus: a real number in ``[0, LAME_MAX]`` (1e30); the error names the argument ``name``."""
-    return check_real(f"{name} (fiber modulus)", k, 0.0, LAME_MAX)
-
 
 _UNIT_TOL = 1e-6
 

@@ -1,4 +1,4 @@
-"""Material parameters: Lamé constants from Young's modulus and Poisson's ratio, and the checks of numbers.
+"""Material parameters: Lamé constants from Young's modulus and Poisson's ratio, and the checks of every input.
 
 Every number the library accepts has a documented range, chosen so that what is
 accepted can also be computed (no overflow, no division by zero later on):
@@ -26,8 +26,9 @@ radii                       ``[1e-6 L, 1000 L]``             a probe's ``k ~ E /
 counts                      true integers (never ``bool``)   :func:`check_count`
 ==========================  ===============================  ==============================================
 
-:func:`check_real` and :func:`check_count` are the two checks every other module
-uses; their errors name the argument and the allowed range.
+This module is the one home of the library's input checks. :func:`check_real` and :func:`check_count` are the two
+every other module uses; each refusal is a :class:`ParameterError` whose message names the argument and the allowed
+range and whose ``field`` is that argument.
 """
 
 from __future__ import annotations
@@ -39,10 +40,10 @@ import numpy as np
 
 __all__ = [
     "ParameterError", "lame_parameters", "check_young_poisson", "check_poisson_ratio", "check_lame", "check_real",
-    "check_count", "check_positive", "check_nonnegative", "check_vector", "check_reach", "check_weights",
-    "check_time_step", "YOUNGS_MODULUS_RANGE", "POISSON_RATIO_RANGE", "LAME_MAX", "SHEAR_MODULUS_MIN",
-    "TIME_STEP_RANGE", "DENSITY_RANGE", "ACCELERATION_MAX", "FORCE_MAX", "PENALTY_MAX", "REACH", "RADIUS_RANGE",
-    "check_density", "check_bounded_vector", "check_real_array",
+    "check_count", "check_positive", "check_nonnegative", "check_vector", "check_bounded_vector", "check_real_array",
+    "check_reach", "check_weights", "check_fiber_stiffness", "check_time_step", "check_density",
+    "YOUNGS_MODULUS_RANGE", "POISSON_RATIO_RANGE", "LAME_MAX", "SHEAR_MODULUS_MIN", "TIME_STEP_RANGE",
+    "DENSITY_RANGE", "ACCELERATION_MAX", "FORCE_MAX", "PENALTY_MAX", "REACH", "RADIUS_RANGE",
 ]
 
 #: Young's modulus accepted by :func:`check_young_poisson` (closed interval).
@@ -183,6 +184,11 @@ def check_weights(weights, m) -> np.ndarray:
     if not (np.all(np.isfinite(w)) and np.all(w > 0) and np.all(w <= 1)):
         raise ParameterError("weights", f"weights must be one number in (0, 1] per element, shape ({m},)")
     return w
+
+
+def check_fiber_stiffness(k, name: str = "k") -> float:
+    """Validate a fiber modulus: a real number in ``[0, LAME_MAX]`` (1e30); the error names the argument ``name``."""
+    return check_real(f"{name} (fiber modulus)", k, 0.0, LAME_MAX)
 
 
 def check_time_step(dt, name: str = "dt") -> float:
