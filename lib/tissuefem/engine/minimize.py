@@ -30,7 +30,6 @@ result, whose ``x`` is the last accepted iterate.
 from __future__ import annotations
 
 import math
-import numbers
 from dataclasses import dataclass, field
 from typing import Callable
 
@@ -38,7 +37,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .linsolve import LinearSolver, SuperLU
-from .parameters import ParameterError, check_count, check_real, check_real_array
+from .parameters import ParameterError, check_count, check_real, check_real_array, check_real_number
 
 __all__ = ["newton", "NewtonResult", "NewtonIteration", "STATUSES"]
 
@@ -168,12 +167,7 @@ def _checked(x0, callables, line_search, linear, optional_reals, max_step, max_i
         budget = check_real("budget", budget, 0.0, None, lo_open=True)
     for name, value in optional_reals.items():
         if value is not None:
-            if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
-                raise ParameterError(name, f"{name} must be a real number or None, got {value!r:.100}")
-            try:
-                float(value)
-            except OverflowError:  # an integer with hundreds of digits
-                raise ParameterError(name, f"{name} is out of range (too large for a float)") from None
+            check_real_number(name, value)
     if linear is not None and not all(callable(getattr(linear, m, None)) for m in ("matrix", "solve")):
         raise ParameterError("linear", f"linear must be a LinearSolver (with matrix and solve methods) or None, got "
                                        f"{linear!r}")

@@ -40,8 +40,8 @@ import numpy as np
 
 __all__ = [
     "ParameterError", "lame_parameters", "check_young_poisson", "check_poisson_ratio", "check_lame", "check_real",
-    "check_count", "check_positive", "check_nonnegative", "check_vector", "check_bounded_vector", "check_real_array",
-    "check_reach", "check_weights", "check_fiber_stiffness", "check_time_step", "check_density",
+    "check_real_number", "check_count", "check_positive", "check_nonnegative", "check_vector", "check_bounded_vector",
+    "check_real_array", "check_reach", "check_weights", "check_fiber_stiffness", "check_time_step", "check_density",
     "YOUNGS_MODULUS_RANGE", "POISSON_RATIO_RANGE", "LAME_MAX", "SHEAR_MODULUS_MIN", "TIME_STEP_RANGE",
     "DENSITY_RANGE", "ACCELERATION_MAX", "FORCE_MAX", "PENALTY_MAX", "REACH", "RADIUS_RANGE",
 ]
@@ -82,8 +82,9 @@ class ParameterError(ValueError):
         self.field = field
 
 
-def _real_value(name: str, value) -> float:
-    """``value`` as a float if it is a real number (not a bool, a string or a complex number)."""
+def check_real_number(name: str, value) -> float:
+    """``value`` as a float if it is a real number (not a bool, a string or a complex number); NaN and infinities
+    pass (:func:`check_real` refuses them)."""
     if isinstance(value, np.ndarray) and value.ndim == 0:
         value = value[()]
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
@@ -111,7 +112,7 @@ def check_real(name: str, value, lo=None, hi=None, *, lo_open: bool = False, hi_
     Refused: ``bool``, strings, complex numbers, ``NaN``, infinities, integers too large for a float, and values
     outside the range. ``None`` for ``lo`` or ``hi`` leaves that side unbounded (the value must still be finite).
     """
-    v = _real_value(name, value)
+    v = check_real_number(name, value)
     if not math.isfinite(v):
         raise ParameterError(name, f"{name} must be finite, got {value!r}")
     violated = None
