@@ -5,23 +5,10 @@ symmetric, and positive definite away from buckling). Beyond a couple of thousan
 assembly, decides the frame rate. A backend has ``factorize(A)``, returning an object whose ``solve(b)`` may be
 called any number of times, and ``backend(A, b) -> x`` (factorize and solve once).
 
-Backends
---------
-:class:`SuperLU`
-    SciPy's sparse LU. With a symmetric minimum-degree ordering of ``A + A^T`` (``"MMD_AT_PLUS_A"``) and SuperLU's
-    *symmetric mode* (diagonal pivots preferred) the fill is about half of the default ``"COLAMD"``'s and it
-    factorizes 1.5-2.5x faster (23 ms against 43 ms at 8k triangles); without symmetric mode the same ordering can
-    be *slower* than COLAMD (173 ms: off-diagonal pivoting destroys it). If the diagonal pivots fail (a zero pivot,
-    or a poor first residual: an indefinite matrix) it refactorizes with partial pivoting.
-:class:`Pardiso`
-    Intel MKL's PARDISO through the optional ``pypardiso`` (``pip install tissuefem[pardiso]``).
-:class:`ReusedFactorization`
-    An earlier matrix's factorization as the preconditioner of conjugate gradients (:func:`pcg`). Along a Newton
-    solve and from frame to frame the tangent changes slowly, so a few CG iterations (one back-substitution each,
-    ~1 ms at 8k triangles) replace a factorization (~20 ms).
-:class:`PreconditionedCG`
-    ``"cg-jacobi"``, ``"cg-ilu"``, ``"cg"``: CG with a cheap preconditioner built for each matrix, no factorization
-    (chapter 9 measures them against the direct backends).
+Backends: :class:`SuperLU` (the default), :class:`Pardiso` (MKL, ``pip install tissuefem[pardiso]``),
+:class:`ReusedFactorization` (an earlier factorization as the preconditioner of conjugate gradients, :func:`pcg`) and
+:class:`PreconditionedCG` (a cheap preconditioner, no factorization; chapter 9 measures them against the direct
+backends).
 
 Newton calls a :class:`LinearSolver`, the one policy that decides when to factorize: afresh every solve
 (``"direct"`` or a backend's name), a kept factorization as CG's preconditioner (``"reuse"``, the real-time
@@ -96,7 +83,14 @@ class _LUFactor:
 
 class SuperLU(_Direct):
     """SciPy's SuperLU with the column ``ordering`` ``"MMD_AT_PLUS_A"`` (default), ``"COLAMD"`` (SciPy's default),
-    ``"MMD_ATA"`` or ``"NATURAL"``; ``symmetric``: SuperLU's symmetric mode, by default on for the first only."""
+    ``"MMD_ATA"`` or ``"NATURAL"``; ``symmetric``: SuperLU's symmetric mode, by default on for the first only.
+
+    With the symmetric minimum-degree ordering of ``A + A^T`` and symmetric mode (diagonal pivots preferred) the fill
+    is about half of COLAMD's and it factorizes 1.5-2.5x faster (23 ms against 43 ms at 8k triangles); without
+    symmetric mode the same ordering can be *slower* than COLAMD (173 ms: off-diagonal pivoting destroys it). If the
+    diagonal pivots fail (a zero pivot, or a poor first residual: an indefinite matrix) it refactorizes with partial
+    pivoting.
+    """
 
     def __init__(self, ordering: str = "MMD_AT_PLUS_A", symmetric: bool | None = None):
         if ordering not in _ORDERINGS:
@@ -229,6 +223,9 @@ class SolveInfo:
 
 class ReusedFactorization:
     """Conjugate gradients preconditioned by a kept factorization, refreshed when it stops paying.
+
+    Along a Newton solve and from frame to frame the tangent changes slowly, so a few CG iterations (one
+    back-substitution each, ~1 ms at 8k triangles) replace a factorization (~20 ms).
 
     ``direct`` is the backend that factorizes (default :class:`SuperLU`). A solve that needs more than
     ``refresh_after`` CG iterations marks the factorization stale (the *next* solve refactorizes); one that reaches
