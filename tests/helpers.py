@@ -1,8 +1,15 @@
-"""Helpers shared by the tests of every layer: a chapter figure registered, documented, a PNG, byte-identical across runs."""
+"""Helpers shared by the tests of every layer: a chapter figure registered, documented, a PNG, byte-identical across
+runs; random deformation gradients, central finite differences of a function of ``F``, and the isotropic materials."""
 
 import hashlib
 
+import numpy as np
+
+from tissuefem.engine.materials import MATERIALS
 from tissuefem.workbook import figures
+
+#: the step of the central differences of the materials' stress and tangent
+H = 1e-6
 
 
 def assert_figure_deterministic(name, tmp_path):
@@ -13,3 +20,70 @@ def assert_figure_deterministic(name, tmp_path):
     assert data[:8] == b"\x89PNG\r\n\x1a\n"
     assert hashlib.sha256(data).digest() == hashlib.sha256(second.read_bytes()).digest()
     assert b"Software" not in data[:400]
+
+
+def isotropic_materials(lam, mu) -> dict:
+    """Every isotropic model of the engine (:data:`tissuefem.engine.materials.MATERIALS`) with Lamé ``lam, mu``."""
+    return {name: cls(lam, mu) for name, cls in MATERIALS.items()}
+
+
+def rotation(theta):
+    c, s = np.cos(theta), np.sin(theta)
+    return np.array([[c, -s], [s, c]])
+
+
+def matmul(A, B):
+    """Products of fields of 2x2 matrices ``[2, 2, ...]``."""
+    return np.einsum("ij...,jk...->ik...", A, B)
+
+
+def random_F(kind, seed=0, shape=(30, 3)):
+    """Fields of F shaped ``[2, 2, *shape]``: ``"positive"`` (J > 0), ``"inverted"`` (J < 0, down to about -4),
+    ``"singular"`` (J = 0), built as ``U diag(s1, s2) V^T`` with rotations U, V; or the named states ``"rest"``,
+    ``"stretched"``, ``"sheared"`` (the same F everywhere). Inverted samples keep ``s1 - |s2| >= 0.2``: the corotated
+    rotation is singular where the signed singular values sum to 0 (a measure-zero set, tested apart)."""
+    named = {"rest": np.eye(2), "stretched": np.diag([1.3, 0.85]), "sheared": np.array([[1.0, 0.4], [0.0, 1.0]])}
+    if kind in named:
+        return np.broadcast_to(named[kind].reshape(2, 2, 1, 1), (2, 2) + shape).copy()
+    rng = np.random.default_rng(seed)
+    U = rotation(rng.uniform(-np.pi, np.pi, shape))
+    V = rotation(rng.uniform(-np.pi, np.pi, shape))
+    if kind == "positive":
+        s1, s2 = np.exp(rng.normal(0.0, 0.35, shape)), np.exp(rng.normal(0.0, 0.35, shape))
+    elif kind == "inverted":
+        s1, s2 = rng.uniform(1.2, 2.0, shape), -rng.uniform(0.1, 1.0, shape)
+    elif kind == "singular":
+        s1, s2 = rng.uniform(0.5, 2.0, shape), np.zeros(shape)
+    else:
+        raise ValueError(kind)
+    z = np.zeros(shape)
+    return matmul(matmul(U, np.array([[s1, z], [z, s2]])), V.swapaxes(0, 1))
+
+
+def fd_derivative(f, F, h=H):
+    """Central differences of ``f`` with respect to ``F`` (a 2x2 matrix or a field ``[2, 2, ...]``), one entry
+    ``F[k, l]`` at a time: ``out[..., k, l, *rest] = (f(F + h e_kl) - f(F - h e_kl)) / 2h``, where ``...`` are the
+    leading axes of ``f``'s value (none for an energy, ``(2, 2)`` for a stress) and ``rest`` are ``F.shape[2:]``."""
+    F = np.asarray(F)
+    rest = F.shape[2:]
+    out = None
+    for k in range(2):
+        for l in range(2):
+            dF = np.zeros(F.shape)
+            dF[k, l] = h
+            d = (f(F + dF) - f(F - dF)) / (2.0 * h)
+            if out is None:
+                lead = np.shape(d)[:np.ndim(d) - len(rest)]
+                out = np.empty(lead + (2, 2) + rest)
+            out[(slice(None),) * len(lead) + (k, l)] = d
+    return out
+
+
+def fd_stress(m, F, h=H):
+    """The stress of material ``m`` by central differences of its energy density (all samples at once)."""
+    return fd_derivative(m.energy, F, h)
+
+
+def fd_tangent(m, F, h=H):
+    """The tangent of material ``m`` by central differences of its stress."""
+    return fd_derivative(m.stress, F, h)

@@ -23,68 +23,15 @@ from tissuefem.surgery.element_cuts import cut_through
 from tissuefem.surgery.surfaces import contact_surface
 from tissuefem.surgery.topology import incise
 
+from helpers import H, fd_stress, fd_tangent, random_F
+
 LAM, MU = 1.7, 0.6
 NEL, NQP = 30, 3  # random F fields are shaped [2, 2, NEL, NQP], like scikit-fem's
-H = 1e-6
 RTOL = 1e-6
 
 
 def _rng(seed=0):
     return np.random.default_rng(seed)
-
-
-def _rotation(theta):
-    c, s = np.cos(theta), np.sin(theta)
-    return np.array([[c, -s], [s, c]])
-
-
-def _matmul(A, B):
-    return np.einsum("ij...,jk...->ik...", A, B)
-
-
-def random_F(kind, seed=0, shape=(NEL, NQP)):
-    """Fields of F: ``"positive"`` (J > 0), ``"inverted"`` (J < 0, down to about -4), ``"singular"`` (J = 0),
-    built as ``U diag(s1, s2) V^T`` with rotations U, V; or the named states ``"rest"``, ``"stretched"``,
-    ``"sheared"`` (the same F everywhere). Inverted samples keep ``s1 - |s2| >= 0.2``: the corotated
-    rotation is singular where the signed singular values sum to 0 (a measure-zero set, tested apart)."""
-    named = {"rest": np.eye(2), "stretched": np.diag([1.3, 0.85]), "sheared": np.array([[1.0, 0.4], [0.0, 1.0]])}
-    if kind in named:
-        return np.broadcast_to(named[kind].reshape(2, 2, 1, 1), (2, 2) + shape).copy()
-    rng = _rng(seed)
-    U = _rotation(rng.uniform(-np.pi, np.pi, shape))
-    V = _rotation(rng.uniform(-np.pi, np.pi, shape))
-    if kind == "positive":
-        s1, s2 = np.exp(rng.normal(0.0, 0.35, shape)), np.exp(rng.normal(0.0, 0.35, shape))
-    elif kind == "inverted":
-        s1, s2 = rng.uniform(1.2, 2.0, shape), -rng.uniform(0.1, 1.0, shape)
-    elif kind == "singular":
-        s1, s2 = rng.uniform(0.5, 2.0, shape), np.zeros(shape)
-    else:
-        raise ValueError(kind)
-    z = np.zeros(shape)
-    return _matmul(_matmul(U, np.array([[s1, z], [z, s2]])), V.swapaxes(0, 1))
-
-
-def fd_stress(m, F, h=H):
-    """Central differences of the energy density, one component of F at a time (all samples at once)."""
-    P = np.empty_like(F)
-    for k in range(2):
-        for l in range(2):
-            dF = np.zeros_like(F)
-            dF[k, l] = h
-            P[k, l] = (m.energy(F + dF) - m.energy(F - dF)) / (2.0 * h)
-    return P
-
-
-def fd_tangent(m, F, h=H):
-    """Central differences of the stress, one component of F at a time."""
-    A = np.empty((2, 2) + F.shape)
-    for k in range(2):
-        for l in range(2):
-            dF = np.zeros_like(F)
-            dF[k, l] = h
-            A[:, :, k, l] = (m.stress(F + dF) - m.stress(F - dF)) / (2.0 * h)
-    return A
 
 
 def assert_close_per_sample(exact, approx, ncomp_axes, rtol=RTOL):

@@ -102,7 +102,7 @@ def test_projected_newton_reaches_the_same_equilibrium():
 
 # --- ITF threshold extrapolation ----------------------------------------------------------------
 
-from test_derivatives import fd_stress, fd_tangent  # noqa: E402
+from helpers import fd_stress, fd_tangent  # noqa: E402
 from tissuefem.engine.inversion import ITFClamped, diagonal  # noqa: E402
 
 LAM, MU = 577.0, 385.0

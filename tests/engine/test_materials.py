@@ -80,7 +80,9 @@ def _frame_indifferent(models):
 
 # --- random deformation gradients and finite differences: the one table's (test_derivatives) ----------
 
-from test_derivatives import H, _matmul, _rotation, assert_close_per_sample, fd_stress, random_F  # noqa: E402
+from helpers import H, fd_stress, random_F  # noqa: E402
+from helpers import matmul as _matmul, rotation as _rotation  # noqa: E402
+from test_derivatives import assert_close_per_sample  # noqa: E402
 
 
 @settings(derandomize=True, max_examples=100, deadline=None)

@@ -41,6 +41,8 @@ from tissuefem.surgery import scene as scene_module
 from tissuefem.surgery.scene import EXAMPLE_TOML, Scene, read_mesh
 from tissuefem.surgery.simulation import Simulation
 
+from helpers import fd_tangent
+
 HYPOTHESIS = settings(max_examples=60, deadline=None, derandomize=True,
                       suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
 
@@ -658,23 +660,13 @@ def test_corotated_is_finite_and_consistent_for_collapsed_F(scale):
     assert np.allclose(A, (2 * MU * I4 - LAM * H)[..., None])
 
 
-def _fd_tangent(m, F, h):
-    A = np.empty((2, 2) + F.shape)
-    for k in range(2):
-        for l in range(2):
-            dF = np.zeros_like(F)
-            dF[k, l] = h
-            A[:, :, k, l] = (m.stress(F + dF) - m.stress(F - dF)) / (2.0 * h)
-    return A
-
-
 @pytest.mark.parametrize("scale", [1.0, 1e-3, 1e-50, 1e-100, 1e-150])
 def test_corotated_tangent_is_the_derivative_of_its_stress_down_to_tiny_F(scale):
     # the tangent grows like 1/rho as F shrinks; with a step relative to F the finite differences follow it
     m = Corotated(LAM, MU)
     F = scale * _G(1)
     A = m.tangent(F)
-    fd = _fd_tangent(m, F, 1e-6 * scale)
+    fd = fd_tangent(m, F, 1e-6 * scale)
     assert np.all(np.isfinite(A))
     err = np.max(np.abs(A - fd), axis=(0, 1, 2, 3)) / np.max(np.abs(A), axis=(0, 1, 2, 3))
     assert err.max() < 1e-6

@@ -1,18 +1,15 @@
 """The fast P1 path: vectorised assembly into a fixed sparsity pattern.
 
-On linear (P1) triangles the shape-function gradients are constant in each triangle, so
-``F = I + grad u`` is one 2x2 matrix per element and every integral over a triangle is its
-area times the integrand. :class:`P1Assembler` assembles the same energy, internal forces
-and tangent as the scikit-fem forms of :mod:`tissuefem.engine.forms` (to round-off), without
+On linear (P1) triangles the shape-function gradients are constant in each triangle, so ``F = I + grad u`` is one 2x2
+matrix per element and every integral over a triangle is its area times the integrand. :class:`P1Assembler` assembles
+the energy, internal forces and tangent of the scikit-fem forms of :mod:`tissuefem.engine.forms` (to round-off) without
 calling a form per pair of basis functions:
 
-* once: the signed areas and gradients ``dN_a/dX_j`` of every triangle, its 6 global dofs,
-  the CSR pattern of the global matrix and a *scatter map* telling where each of the
-  ``36 n_elements`` local entries lands in the CSR data array (built from the
-  node-adjacency pattern, whose entries are 2x2 blocks: ~50 ms at 32k triangles);
-* per call: ``F`` for all elements at once, **one** call of the material's
-  ``stress``/``tangent`` on ``F`` shaped ``[2, 2, n_elements]``, the local vectors/matrices
-  by ``einsum``, and a single ``np.bincount`` into the data array (the pattern never changes).
+* once: areas and gradients ``dN_a/dX_j`` of every triangle, its 6 global dofs, the CSR pattern and a *scatter map*
+  telling where each of the ``36 n_elements`` local entries lands in the CSR data array (built from the node-adjacency
+  pattern, whose entries are 2x2 blocks: ~50 ms at 32k triangles);
+* per call: ``F`` for all elements at once, **one** call of the material's ``stress``/``tangent`` on ``F`` shaped
+  ``[2, 2, n_elements]``, the local vectors/matrices by ``einsum``, and one ``np.bincount`` into the data array.
 
 Formulas (with ``G[a, j] = dN_a/dX_j``, area ``A_e``, and ``F[i, j] = d phi_i / d X_j``)::
 
@@ -22,25 +19,20 @@ Formulas (with ``G[a, j] = dN_a/dX_j``, area ``A_e``, and ``F[i, j] = d phi_i / 
     K_(a,i)(b,k) = sum_e A_e A_ijkl(F_e) G[a, j] G[b, l]           (= dr_(a,i)/du_(b,k))
 
 The dofs of node ``n`` are ``(2 n, 2 n + 1)`` (x then y), scikit-fem's order for
-``Basis(mesh, ElementVector(ElementTriP1()))``, so results compare entry by entry with
-the forms path.
+``Basis(mesh, ElementVector(ElementTriP1()))``, so results compare entry by entry with the forms path.
 
 Choices made here
 -----------------
-* **Orientation.** scikit-fem sorts each triangle's vertices (``sort_t=True``), so a good
-  mesh usually has about half of its triangles clockwise. P1 gradients and areas do not
-  depend on the vertex order, so clockwise triangles are *reoriented* in the assembler's
-  own copy ``self.t`` (the mesh is untouched; ``self.flipped`` lists them). Triangles with
-  area below ``1e-12`` times their longest edge squared are rejected, and so are inverted
-  ones (folded over a neighbour), which no reorientation can repair.
-* **Scatter.** At 8k triangles (288k local entries into 114k nonzeros, 2-core reference
-  machine): ``np.bincount`` with weights ~0.45 ms, ``np.add.at`` ~0.57 ms, a sparse 0/1
-  scatter-matrix product ~0.3 ms (no better at 32k), sort + ``np.add.reduceat`` ~2 ms.
-  bincount is simple and needs no extra matrix.
-* **Local matrices.** One plain ``einsum`` (no ``optimize``) on element-last arrays,
-  ~0.6 ms at 8k triangles; ``optimize=True`` is ten times slower here (transposed temporaries).
-* **Fibers.** One point per element: a :class:`~tissuefem.engine.materials.FiberReinforced`
-  material with fibers ``(2, n_elements)`` or ``(2,)`` works as is; per-quadrature fibers
+* **Orientation.** scikit-fem sorts each triangle's vertices, so about half of a mesh's triangles are clockwise. P1
+  gradients and areas do not depend on the vertex order, so clockwise triangles are *reoriented* in the assembler's
+  own copy ``self.t`` (``self.flipped`` lists them). Degenerate and inverted (folded) triangles, which no
+  reorientation can repair, are refused (:func:`~tissuefem.engine.meshes.check_mesh`).
+* **Scatter.** At 8k triangles (288k local entries into 114k nonzeros, 2-core reference machine): ``np.bincount``
+  with weights ~0.45 ms, ``np.add.at`` ~0.57 ms, a sparse 0/1 scatter-matrix product ~0.3 ms (no better at 32k),
+  sort + ``np.add.reduceat`` ~2 ms. bincount is simple and needs no extra matrix.
+* **Local matrices.** One plain ``einsum`` (no ``optimize``) on element-last arrays, ~0.6 ms at 8k triangles;
+  ``optimize=True`` is ten times slower here (transposed temporaries).
+* **Fibers.** One point per element: fibers ``(2, n_elements)`` or ``(2,)`` work as they are; per-quadrature fibers
   ``(2, n_elements, n_points)`` are refused (average and normalise them per element first).
 """
 
@@ -51,37 +43,73 @@ import scipy.sparse as sp
 from skfem import Basis, ElementTriP1, ElementTriP2, ElementVector, asm
 
 from .forms import energy_form, residual_form, tangent_form
-from .meshes import COORDINATE_MAX, SIZE_RANGE, folded_triangles, index_list
-from .parameters import check_density
+from .meshes import check_mesh
+from .parameters import ParameterError, check_density, check_weights
 
-__all__ = ["P1Assembler", "QuadratureAssembler", "FormsAssembler", "make_assembler", "vector_basis"]
-
-#: Triangles with ``|2 area| <= _DEGENERATE_TOL * (longest edge)^2`` count as degenerate.
-_DEGENERATE_TOL = 1e-12
+__all__ = ["P1Assembler", "QuadratureAssembler", "FormsAssembler", "make_assembler", "vector_basis", "check_weights"]
 
 
-class P1Assembler:
+class _FixedPattern:
+    """What the assemblers share: a default ``material`` and a fixed CSR pattern (``indptr``, ``indices``: shared by
+    every matrix returned, read-only, so in-place pattern changes such as ``eliminate_zeros`` raise instead of
+    corrupting it; use ``K.copy()``)."""
+
+    def _material(self, material):
+        m = self.material if material is None else material
+        if m is None:
+            raise ParameterError("material", "material must be given (to the constructor or to this call), got None")
+        return m
+
+    def _check_u(self, u) -> np.ndarray:
+        u = np.asarray(u, dtype=float)
+        if u.shape != (self.n_dofs,):
+            raise ParameterError("u", f"u must be a displacement vector of shape (n_dofs,) = ({self.n_dofs},) "
+                                      f"in scikit-fem's ordering (node n has dofs 2n, 2n+1), got shape {u.shape}")
+        return u
+
+    def csr(self, data) -> sp.csr_matrix:
+        """A ``n_dofs x n_dofs`` CSR matrix with this assembler's pattern and the given data."""
+        data = np.asarray(data, dtype=float)
+        if data.shape != (self.nnz,):
+            raise ParameterError("data", f"data must have shape (nnz,) = ({self.nnz},), got {data.shape}")
+        K = sp.csr_matrix((data, self.indices, self.indptr), shape=(self.n_dofs, self.n_dofs), copy=False)
+        K.has_sorted_indices = True
+        K.has_canonical_format = True
+        return K
+
+    def pattern(self) -> sp.csr_matrix:
+        """The fixed sparsity pattern, as a CSR matrix of zeros."""
+        return self.csr(np.zeros(self.nnz))
+
+    @property
+    def diagonal(self) -> np.ndarray:
+        """Positions of the diagonal entries in the CSR data array, row by row."""
+        rows = np.repeat(np.arange(self.n_dofs), np.diff(self.indptr))
+        pos = np.flatnonzero(rows == self.indices)
+        if pos.size != self.n_dofs:
+            raise ValueError("the sparsity pattern lacks diagonal entries")
+        return pos
+
+
+class P1Assembler(_FixedPattern):
     """Energy, internal forces and tangent of a hyperelastic material on a P1 triangle mesh.
 
-    ``mesh`` is a scikit-fem :class:`~skfem.MeshTri` (straight-sided, either orientation;
-    non-finite coordinates or zero-area triangles raise ``ValueError``). ``material`` is the
-    default material (``energy``, ``stress``, ``tangent`` as in :mod:`tissuefem.engine.materials`);
-    every method takes a ``material`` that overrides it. ``weights``: optional
-    ``(n_elements,)`` fractions in ``(0, 1]`` of its triangle's area that each element's
-    material fills: elements made by cutting through a triangle keep its shape functions
-    but carry only the material on their side of the cut.
+    ``mesh`` is a scikit-fem :class:`~skfem.MeshTri` (straight-sided, either orientation; non-finite coordinates or
+    zero-area triangles raise ``ValueError``). ``material`` is the default material (``energy``, ``stress``, ``tangent``
+    as in :mod:`tissuefem.engine.materials`); every method takes a ``material`` that overrides it. ``weights``: optional
+    ``(n_elements,)`` fractions in ``(0, 1]`` of its triangle's area that each element's material fills: elements made
+    by cutting through a triangle keep its shape functions but carry only the material on their side of the cut.
 
-    Attributes: ``n_nodes, n_elements, n_dofs = 2 n_nodes``; ``t`` ``(3, n_elements)``
-    counter-clockwise and ``flipped``, the elements reoriented to make it so; ``areas``
-    ``(n_elements,)``, the material's reference areas (triangle area times weight);
-    ``grads`` ``(n_elements, 3, 2)``, ``dN_a/dX_j`` of vertex ``a`` of ``t[:, e]``;
-    ``element_dofs`` ``(6, n_elements)``, row ``2 a + i`` the dof ``2 t[a, e] + i``;
-    ``indptr, indices``, the fixed CSR pattern (read-only, shared by every matrix returned);
-    ``scatter`` ``(6, 6, n_elements)``, the data position of local entry ``(2a+i, 2b+k)``.
+    Attributes: ``n_nodes, n_elements, n_dofs = 2 n_nodes``; ``t`` ``(3, n_elements)`` counter-clockwise and
+    ``flipped``, the elements reoriented to make it so; ``areas`` ``(n_elements,)``, the material's reference areas
+    (triangle area times weight); ``grads`` ``(n_elements, 3, 2)``, ``dN_a/dX_j`` of vertex ``a`` of ``t[:, e]``;
+    ``element_dofs`` ``(6, n_elements)``, row ``2 a + i`` the dof ``2 t[a, e] + i``; ``indptr, indices``, the fixed CSR
+    pattern (read-only, shared by every matrix returned); ``scatter`` ``(6, 6, n_elements)``, the data position of local
+    entry ``(2a+i, 2b+k)``.
     """
 
     def __init__(self, mesh, material=None, weights=None):
-        p, t = self._validate_mesh(mesh)
+        p, t = _mesh_arrays(mesh)
         self.mesh = mesh
         self.material = material
         self.n_nodes = p.shape[1]
@@ -164,77 +192,11 @@ class P1Assembler:
         self._scatter = np.ascontiguousarray(scatter).reshape(-1).astype(np.intp)
         self._dofs_flat = dofs.reshape(-1).astype(np.intp)
 
-    # ------------------------------------------------------------------ checks
-    @staticmethod
-    def _validate_mesh(mesh):
-        try:
-            p = np.asarray(mesh.p, dtype=float)
-            t = np.asarray(mesh.t)
-        except AttributeError:
-            raise ValueError(f"mesh must be a scikit-fem MeshTri (with p and t), got {type(mesh).__name__}") from None
-        if p.ndim != 2 or p.shape[0] != 2 or t.ndim != 2 or t.shape[0] != 3:
-            raise ValueError(f"mesh must be a 2D triangle mesh: p shaped (2, n_nodes) and t shaped (3, n_elements), "
-                             f"got p {p.shape} and t {t.shape}")
-        if getattr(mesh, "affine", True) is False:
-            raise ValueError("mesh must be a straight-sided linear (P1) triangle mesh, got a curved/high-order mesh")
-        if t.shape[1] == 0:
-            raise ValueError("mesh has no triangles")
-        if not np.issubdtype(t.dtype, np.integer):
-            raise ValueError(f"mesh.t must hold integer node indices, got dtype {t.dtype}")
-        if t.min() < 0 or t.max() >= p.shape[1]:
-            bad = np.flatnonzero(((t < 0) | (t >= p.shape[1])).any(axis=0))
-            raise ValueError(f"mesh: elements {index_list(bad)} refer to nodes outside 0..{p.shape[1] - 1}")
-        t = np.array(t, dtype=np.int64)  # a private copy (made read-only later)
-        bad_nodes = np.flatnonzero(~np.isfinite(p).all(axis=0))
-        if bad_nodes.size:
-            bad_elems = np.flatnonzero(np.isin(t, bad_nodes).any(axis=0))
-            raise ValueError(f"mesh has non-finite coordinates at nodes {index_list(bad_nodes)}, "
-                             f"used by elements {index_list(bad_elems)}")
-        # A node in no triangle has neither stiffness nor mass: every Newton matrix would be singular.
-        # (Edges in three triangles and overlapping copies of a triangle are allowed here: cutting through
-        # elements makes them next to a crack tip; only a user's mesh file is refused for them.)
-        used = np.zeros(p.shape[1], dtype=bool)
-        used[t.ravel()] = True
-        if not used.all():
-            raise ValueError(f"mesh: nodes {index_list(np.flatnonzero(~used))} belong to no triangle (an unused node "
-                             "has no stiffness and no mass); remove them and renumber")
-        far = np.flatnonzero((np.abs(p) > COORDINATE_MAX).any(axis=0))
-        if far.size:
-            raise ValueError(f"mesh: nodes {index_list(far)} lie beyond the coordinate limit +-{COORDINATE_MAX:g}")
-        extent = float(np.ptp(p, axis=1).max())
-        if extent < SIZE_RANGE[0]:
-            raise ValueError(f"mesh: spans only {extent:g} (the largest side of its bounding box must be at least "
-                             f"{SIZE_RANGE[0]:g})")
-        x = p[:, t]
-        d1 = x[:, 1] - x[:, 0]
-        d2 = x[:, 2] - x[:, 0]
-        d3 = x[:, 2] - x[:, 1]
-        det = d1[0] * d2[1] - d1[1] * d2[0]
-        h2 = np.maximum(np.maximum((d1**2).sum(0), (d2**2).sum(0)), (d3**2).sum(0))
-        degenerate = np.flatnonzero(~(np.abs(det) > _DEGENERATE_TOL * h2))
-        if degenerate.size:
-            raise ValueError(f"mesh has zero-area (degenerate) triangles: elements {index_list(degenerate)}")
-        folded = folded_triangles(p, t)
-        if folded.size:
-            pairs = ", ".join(f"({i}, {j})" for i, j in folded.T[:10]) + (" ..." if folded.shape[1] > 10 else "")
-            raise ValueError(f"mesh has inverted triangles (folded over a neighbour across a shared edge): element "
-                             f"pairs {pairs}; a rest mesh must not overlap itself")
-        return p, t
-
-    def _check_u(self, u) -> np.ndarray:
-        u = np.asarray(u, dtype=float)
-        if u.shape != (self.n_dofs,):
-            raise ValueError(f"u must be a displacement vector of shape (n_dofs,) = ({self.n_dofs},) "
-                             f"in scikit-fem's ordering (node n has dofs 2n, 2n+1), got shape {u.shape}")
-        return u
-
     def _material(self, material):
-        m = self.material if material is None else material
-        if m is None:
-            raise ValueError("material must be given (to the constructor or to this call), got None")
+        m = super()._material(material)
         for name in ("energy", "stress", "tangent"):
             if not callable(getattr(m, name, None)):
-                raise ValueError(f"material must have energy, stress and tangent methods, got {m!r}")
+                raise ParameterError("material", f"material must have energy, stress and tangent methods, got {m!r}")
         # fibers (possibly nested: FiberReinforced of FiberReinforced ...)
         level = m
         while level is not None:
@@ -242,12 +204,12 @@ class P1Assembler:
             if fibers is not None:
                 shape = np.shape(fibers)
                 if len(shape) == 3:
-                    raise ValueError(f"material has per-quadrature-point fibers of shape {shape}; the P1 path has one "
-                                     "point per element: give fibers shaped (2, n_elements) (e.g. the normalised "
-                                     "average over the points) or (2,)")
+                    raise ParameterError("material", f"material has per-quadrature-point fibers of shape {shape}; the "
+                                         "P1 path has one point per element: give fibers shaped (2, n_elements) (e.g. "
+                                         "the normalised average over the points) or (2,)")
                 if len(shape) == 2 and shape[1] != self.n_elements:
-                    raise ValueError(f"material has per-element fibers of shape {shape}, but the mesh has "
-                                     f"{self.n_elements} elements: expected (2, {self.n_elements})")
+                    raise ParameterError("material", f"material has per-element fibers of shape {shape}, but the mesh "
+                                         f"has {self.n_elements} elements: expected (2, {self.n_elements})")
             level = getattr(level, "base", None)
         return m
 
@@ -281,24 +243,6 @@ class P1Assembler:
         """``(6, 6, n_elements)``: CSR data position of each local matrix entry."""
         return self._scatter.reshape(6, 6, self.n_elements)
 
-    def csr(self, data) -> sp.csr_matrix:
-        """A ``n_dofs x n_dofs`` CSR matrix with this assembler's pattern and the given data.
-
-        The pattern arrays are shared and read-only: in-place pattern changes (``eliminate_zeros``,
-        ``sort_indices`` ...) raise instead of corrupting them; use a copy (``K.copy()``).
-        """
-        data = np.asarray(data, dtype=float)
-        if data.shape != (self.nnz,):
-            raise ValueError(f"data must have shape (nnz,) = ({self.nnz},), got {data.shape}")
-        K = sp.csr_matrix((data, self.indices, self.indptr), shape=(self.n_dofs, self.n_dofs), copy=False)
-        K.has_sorted_indices = True
-        K.has_canonical_format = True
-        return K
-
-    def pattern(self) -> sp.csr_matrix:
-        """The fixed sparsity pattern, as a CSR matrix of zeros."""
-        return self.csr(np.zeros(self.nnz))
-
     def deformation_gradient(self, u) -> np.ndarray:
         """``F = I + grad u`` of every element, shaped ``[2, 2, n_elements]``."""
         return self._F(self._check_u(u))
@@ -329,9 +273,9 @@ class P1Assembler:
     def mass(self, density, lumped: bool = True) -> np.ndarray:
         """The mass matrix ``M_(a,i)(b,k) = int rho0 N_a N_b d_ik dX`` as data on this pattern.
 
-        Per element the consistent P1 mass is ``rho0 A_e (1 + d_ab) / 12``; lumped, each
-        vertex gets ``rho0 A_e / 3`` (the row sum). ``A_e`` is the element's material area,
-        so copies made by cutting a triangle carry the mass of their part only.
+        Per element the consistent P1 mass is ``rho0 A_e (1 + d_ab) / 12``; lumped, each vertex gets ``rho0 A_e / 3``
+        (the row sum). ``A_e`` is the element's material area, so copies made by cutting a triangle carry the mass of
+        their part only.
         """
         rho = check_density(density)
         data = np.zeros(self.nnz)
@@ -349,37 +293,21 @@ class P1Assembler:
         share = np.bincount(self.t.ravel(), weights=np.tile(self.areas / 3.0, 3), minlength=self.n_nodes)
         return (share[:, None] * b[None, :]).ravel()
 
-    @property
-    def diagonal(self) -> np.ndarray:
-        """Positions of the diagonal entries in the CSR data array, row by row."""
-        return _diagonal_positions(self.indptr, self.indices)
-
     def __repr__(self):
         return (f"P1Assembler({self.n_elements} triangles, {self.n_nodes} nodes, {self.n_dofs} dofs, "
                 f"nnz={self.nnz}, material={self.material!r})")
 
 
-def check_weights(weights, m) -> np.ndarray:
-    """Per-element material fractions: ``m`` real numbers in ``(0, 1]`` (complex or boolean ones are refused)."""
-    try:
-        w = np.asarray(weights)
-    except (TypeError, ValueError):
-        w = np.asarray(None)
-    if w.dtype.kind not in "iuf" or w.shape != (m,):
-        raise ValueError(f"weights must be one real number in (0, 1] per element, shape ({m},), got {weights!r:.80}")
-    w = w.astype(float)
-    if not (np.all(np.isfinite(w)) and np.all(w > 0) and np.all(w <= 1)):
-        raise ValueError(f"weights must be one number in (0, 1] per element, shape ({m},)")
-    return w
-
-
-def _diagonal_positions(indptr, indices) -> np.ndarray:
-    n = indptr.size - 1
-    rows = np.repeat(np.arange(n), np.diff(indptr))
-    pos = np.flatnonzero(rows == indices)
-    if pos.size != n:
-        raise ValueError("the sparsity pattern lacks diagonal entries")
-    return pos
+def _mesh_arrays(mesh):
+    """``(p, t)`` of a straight-sided scikit-fem triangle mesh, checked by :func:`~tissuefem.engine.meshes.check_mesh`
+    as made by cuts: a node in no triangle has neither stiffness nor mass (every Newton matrix would be singular); edges
+    in three triangles and overlapping copies of one are allowed (cutting through elements makes them)."""
+    if not (hasattr(mesh, "p") and hasattr(mesh, "t")):
+        raise ParameterError("mesh", f"mesh must be a scikit-fem MeshTri (with p and t), got {type(mesh).__name__}")
+    if getattr(mesh, "affine", True) is False:
+        raise ParameterError("mesh", "mesh must be a straight-sided linear (P1) triangle mesh, got a curved/high-order "
+                                     "mesh")
+    return check_mesh(mesh.p, mesh.t, cut=True)
 
 
 def vector_basis(mesh, order: int = 1, intorder: int | None = None) -> Basis:
@@ -388,37 +316,37 @@ def vector_basis(mesh, order: int = 1, intorder: int | None = None) -> Basis:
     Node ``a`` has dofs ``2a, 2a + 1``, then come the P2 edge midpoints: every assembler's layout.
     """
     if order not in (1, 2):
-        raise ValueError(f"order must be 1 or 2, got {order!r}")
+        raise ParameterError("order", f"order must be 1 or 2, got {order!r}")
     if intorder is None:
         intorder = 2 * order
     if isinstance(intorder, bool) or not isinstance(intorder, (int, np.integer)) or not 1 <= intorder <= 19:
-        raise ValueError(f"intorder must be an integer from 1 to 19, got {intorder!r}")
+        raise ParameterError("intorder", f"intorder must be an integer from 1 to 19, got {intorder!r}")
     element = ElementVector(ElementTriP1() if order == 1 else ElementTriP2())
     return Basis(mesh, element, intorder=int(intorder))
 
 
-class QuadratureAssembler:
+class QuadratureAssembler(_FixedPattern):
     """Vectorised energy, residual and tangent for a vector Lagrange basis on triangles (P1, P2).
 
-    The sums of the scikit-fem forms of :mod:`tissuefem.engine.forms`, at once for every
-    element and quadrature point instead of once per pair of local basis functions: with
-    the scalar shape functions ``N_a`` and the quadrature weights ``dx`` (weight times Jacobian),
+    The sums of the scikit-fem forms of :mod:`tissuefem.engine.forms`, at once for every element and quadrature point
+    instead of once per pair of local basis functions: with the scalar shape functions ``N_a`` and the quadrature
+    weights ``dx`` (weight times Jacobian),
 
         F_ij      = d_ij + sum_a u_ai dN_a/dX_j                     (per element and point)
         E         = sum_e,q Psi(F) dx
         r_ai      = sum_e,q P_ij dN_a/dX_j dx
         K_ai,bk   = sum_e,q A_ijkl dN_a/dX_j dN_b/dX_l dx
 
-    scattered into a pattern computed once. For P1, :class:`P1Assembler` is faster still;
-    this class makes P2 affordable. ``basis``: ``Basis(mesh, ElementVector(ElementTriPk()))``
-    (:func:`vector_basis`), local vector function ``2 a + i`` being ``N_a e_i``; ``material``
-    and ``weights`` as :class:`P1Assembler`'s.
+    scattered into a pattern computed once. For P1, :class:`P1Assembler` is faster still; this class makes P2
+    affordable. ``basis``: ``Basis(mesh, ElementVector(ElementTriPk()))`` (:func:`vector_basis`), local vector function
+    ``2 a + i`` being ``N_a e_i``; ``material`` and ``weights`` as :class:`P1Assembler`'s.
     """
 
     def __init__(self, basis, material=None, weights=None):
         if not isinstance(getattr(basis, "elem", None), ElementVector):
-            raise ValueError(f"basis must be a scikit-fem Basis with an ElementVector element, got {basis!r}")
-        P1Assembler._validate_mesh(basis.mesh)
+            raise ParameterError("basis", f"basis must be a scikit-fem Basis with an ElementVector element, got "
+                                          f"{basis!r}")
+        _mesh_arrays(basis.mesh)
         self.basis, self.material = basis, material
         nloc = len(basis.basis) // 2
         self.n_local = nloc
@@ -448,30 +376,9 @@ class QuadratureAssembler:
         self.indptr.setflags(write=False)
         self._scatter = inverse.reshape(-1)
 
-    def csr(self, data) -> sp.csr_matrix:
-        """A CSR matrix on this assembler's fixed pattern (shared, read-only index arrays)."""
-        K = sp.csr_matrix((np.asarray(data, dtype=float), self.indices, self.indptr),
-                          shape=(self.n_dofs, self.n_dofs), copy=False)
-        K.has_sorted_indices = True
-        K.has_canonical_format = True
-        return K
-
-    @property
-    def diagonal(self) -> np.ndarray:
-        return _diagonal_positions(self.indptr, self.indices)
-
-    def _material(self, material):
-        m = self.material if material is None else material
-        if m is None:
-            raise ValueError("material must be given (to the constructor or to this call), got None")
-        return m
-
     def deformation_gradient(self, u) -> np.ndarray:
         """``F = I + grad u`` at every element and quadrature point, shaped ``[2, 2, nel, nq]``."""
-        u = np.asarray(u, dtype=float)
-        if u.shape != (self.n_dofs,):
-            raise ValueError(f"u must have shape ({self.n_dofs},), got {u.shape}")
-        ue = u[self._dofs].reshape(self.n_local, 2, -1)
+        ue = self._check_u(u)[self._dofs].reshape(self.n_local, 2, -1)
         F = np.einsum("aie,ajeq->ijeq", ue, self._G)
         F[0, 0] += 1.0
         F[1, 1] += 1.0
@@ -498,8 +405,8 @@ class QuadratureAssembler:
         return self.csr(np.bincount(self._scatter, weights=K.reshape(-1), minlength=self.nnz))
 
     def mass(self, density, lumped: bool = False) -> np.ndarray:
-        """The mass matrix ``int rho0 N_a N_b d_ik dX`` as data on this pattern (``lumped``: row sums,
-        refused where some dof would get no mass, as the vertices of P2 triangles do)."""
+        """The mass matrix ``int rho0 N_a N_b d_ik dX`` as data on this pattern (``lumped``: row sums, refused where
+        some dof would get no mass, as the vertices of P2 triangles do)."""
         rho = check_density(density)
         NN = np.einsum("aeq,beq,eq->abe", self._N, self._N, rho * self._dx)
         M_loc = np.einsum("abe,ik->aibke", NN, np.eye(2))
@@ -508,8 +415,8 @@ class QuadratureAssembler:
             return data
         rows = self.csr(data).sum(axis=1).A.ravel()
         if not np.all(rows > 1e-8 * np.mean(np.abs(rows))):
-            raise ValueError("mass='lumped': row-sum lumping gives some dofs zero or negative mass with this "
-                             "element (P2 triangles' vertices get none); use mass='consistent'")
+            raise ParameterError("mass", "mass='lumped': row-sum lumping gives some dofs zero or negative mass with "
+                                         "this element (P2 triangles' vertices get none); use mass='consistent'")
         lumped_data = np.zeros(self.nnz)
         lumped_data[self.diagonal] = rows
         return lumped_data
@@ -528,8 +435,8 @@ class QuadratureAssembler:
 class FormsAssembler(QuadratureAssembler):
     """Energy, residual and tangent by the readable scikit-fem forms of :mod:`tissuefem.engine.forms`.
 
-    The reference the fast assemblers are tested against (one form call per pair of local
-    basis functions), on :class:`QuadratureAssembler`'s fixed pattern.
+    The reference the fast assemblers are tested against (one form call per pair of local basis functions), on
+    :class:`QuadratureAssembler`'s fixed pattern.
     """
 
     def energy(self, u, material=None) -> float:
@@ -551,11 +458,11 @@ class FormsAssembler(QuadratureAssembler):
 
 
 def make_assembler(mesh, *, order: int = 1, intorder: int | None = None, assembly: str = "fast", weights=None):
-    """``(basis, assembler)``: :class:`P1Assembler` (P1) or :class:`QuadratureAssembler` (P2) for
-    ``assembly="fast"``, :class:`FormsAssembler` (the readable reference, slow) for ``"forms"``."""
+    """``(basis, assembler)``: :class:`P1Assembler` (P1) or :class:`QuadratureAssembler` (P2) for ``assembly="fast"``,
+    :class:`FormsAssembler` (the readable reference, slow) for ``"forms"``."""
     if not isinstance(assembly, str) or assembly not in ("fast", "forms"):
-        raise ValueError(f"assembly must be 'fast' or 'forms', got {assembly!r}")
-    P1Assembler._validate_mesh(mesh)
+        raise ParameterError("assembly", f"assembly must be 'fast' or 'forms', got {assembly!r}")
+    _mesh_arrays(mesh)
     basis = vector_basis(mesh, order, intorder)
     if assembly == "forms":
         return basis, FormsAssembler(basis, weights=weights)

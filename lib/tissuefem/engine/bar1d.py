@@ -27,6 +27,7 @@ from skfem import Basis, BilinearForm, ElementLineP1, ElementLineP2, Functional,
 
 from .materials1d import Material1D
 from .minimize import NewtonResult, newton
+from .parameters import ParameterError, check_count, check_real, check_real_array
 
 
 @dataclass(frozen=True)
@@ -45,9 +46,9 @@ class Traction:
 
 def _as_end(condition, name):
     if not isinstance(condition, (Displacement, Traction)):
-        raise ValueError(f"{name} must be Displacement(value) or Traction(value), got {condition!r}")
+        raise ParameterError(name, f"{name} must be Displacement(value) or Traction(value), got {condition!r}")
     if not np.isfinite(condition.value):
-        raise ValueError(f"{name} has a non-finite value {condition.value!r}")
+        raise ParameterError(name, f"{name} has a non-finite value {condition.value!r}")
     return condition
 
 
@@ -58,9 +59,9 @@ def _as_field(f, name) -> Callable:
     try:
         value = float(f)
     except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number or a callable of X, got {f!r}") from None
+        raise ParameterError(name, f"{name} must be a number or a callable of X, got {f!r}") from None
     if not np.isfinite(value):
-        raise ValueError(f"{name} must be finite, got {f!r}")
+        raise ParameterError(name, f"{name} must be finite, got {f!r}")
     return lambda X: np.full_like(X, value)
 
 
@@ -109,22 +110,22 @@ class Bar1D:
 
     def __init__(self, a: float = 0.0, b: float = 1.0, n: int = 10, order: int = 1, nodes=None):
         if nodes is not None:
-            nodes = np.asarray(nodes, dtype=float)
+            nodes = check_real_array("nodes", nodes)
             if nodes.ndim != 1 or nodes.size < 2:
-                raise ValueError(f"nodes must be a 1D array of at least 2 coordinates, got shape {nodes.shape}")
+                raise ParameterError("nodes", f"nodes must be a 1D array of at least 2 coordinates, got shape "
+                                              f"{nodes.shape}")
             if not np.all(np.isfinite(nodes)):
-                raise ValueError("nodes contains non-finite coordinates")
+                raise ParameterError("nodes", "nodes contains non-finite coordinates")
             if np.any(np.diff(nodes) <= 0):
-                raise ValueError("nodes must be strictly increasing (an element of zero or negative length)")
+                raise ParameterError("nodes", "nodes must be strictly increasing (an element of zero or negative "
+                                              "length)")
             mesh = MeshLine(nodes)
         else:
-            if not (np.isfinite(a) and np.isfinite(b)) or not a < b:
-                raise ValueError(f"the bar needs finite ends with a < b, got a={a!r}, b={b!r}")
-            if int(n) != n or n < 1:
-                raise ValueError(f"n (number of elements) must be a positive integer, got {n!r}")
-            mesh = MeshLine(np.linspace(a, b, int(n) + 1))
+            if not check_real("a", a) < check_real("b", b):
+                raise ParameterError("b", f"the bar needs finite ends with a < b, got a={a!r}, b={b!r}")
+            mesh = MeshLine(np.linspace(a, b, check_count("n (number of elements)", n) + 1))
         if order not in (1, 2):
-            raise ValueError(f"order must be 1 or 2, got {order!r}")
+            raise ParameterError("order", f"order must be 1 or 2, got {order!r}")
         self.mesh = mesh
         self.order = order
         self.a = float(mesh.p[0].min())
@@ -174,14 +175,13 @@ class Bar1D:
                 fixed.append(dof)
                 values.append(cond.value)
         if not fixed:
-            raise ValueError("at least one end needs a Displacement condition: with tractions at both ends the "
-                             "bar can translate freely and the stiffness matrix is singular")
+            raise ParameterError("left", "at least one end needs a Displacement condition: with tractions at both "
+                                         "ends the bar can translate freely and the stiffness matrix is singular")
         return np.array(fixed, dtype=int), np.array(values, dtype=float)
 
     def solve_linear(self, modulus: float, f=0.0, left=Displacement(0.0), right=Traction(0.0)) -> np.ndarray:
         """Solve ``A u = F_ext + g`` with the given end conditions; returns the dof vector ``u``."""
-        if not np.isfinite(modulus) or modulus <= 0:
-            raise ValueError(f"modulus must be finite and > 0, got {modulus!r}")
+        check_real("modulus", modulus, 0.0, lo_open=True)
         left, right = _as_end(left, "left"), _as_end(right, "right")
         fixed, values = self._dirichlet(left, right)
         A = self.stiffness(modulus)
@@ -222,13 +222,12 @@ class Bar1D:
         converged state) if a step fails.
         """
         left, right = _as_end(left, "left"), _as_end(right, "right")
-        if int(load_steps) != load_steps or load_steps < 1:
-            raise ValueError(f"load_steps must be a positive integer, got {load_steps!r}")
+        load_steps = check_count("load_steps", load_steps)
         fixed, values = self._dirichlet(left, right)
         external = self.body_force(f) + self.boundary_term(left, right)
         u = np.zeros(self.ndofs) if u0 is None else np.array(u0, dtype=float, copy=True)
         if u.shape != (self.ndofs,):
-            raise ValueError(f"u0 must have shape ({self.ndofs},), got {u.shape}")
+            raise ParameterError("u0", f"u0 must have shape ({self.ndofs},), got {u.shape}")
         newton_options.setdefault("line_search", None)  # the notes' plain iteration (chapter 2 adds safeguards)
         newton_options.setdefault("atol", 1e-12)
         free = np.ones(self.ndofs, dtype=bool)
@@ -272,7 +271,7 @@ def uniform_bar_stretch(material: Material1D, traction: float, F0: float = 1.0, 
     while material.stress(hi) < traction:
         hi *= 2.0
         if hi > 1e12:
-            raise ValueError(f"no stretch balances traction {traction!r}")
+            raise ParameterError("traction", f"no stretch balances traction {traction!r}")
     F = min(max(F0, lo), hi)
     for _ in range(200):
         g = float(material.stress(F)) - traction

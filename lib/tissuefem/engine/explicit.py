@@ -9,19 +9,18 @@ free, and symplectic (semi-implicit) Euler needs no solve:
     v^{n+1} = v^n + dt M^{-1} (f_ext - f_int(u^n))      (kick: forces at the *old* position)
     u^{n+1} = u^n + dt v^{n+1}                          (drift: with the *new* velocity)
 
-on the free dofs; the handles' dofs are set to their targets, with the velocity that got
-them there, ``(u_prescribed^{n+1} - u^n) / dt``. A step is one internal-force evaluation
-and no linear algebra: far cheaper than a backward-Euler (Newton) step.
+on the free dofs; the handles' dofs are set to their targets, with the velocity that got them there,
+``(u_prescribed^{n+1} - u^n) / dt``. A step is one internal-force evaluation and no linear algebra: far cheaper than a
+backward-Euler (Newton) step.
 
-The new velocity in the drift makes the scheme symplectic: on a stable step it neither
-pumps energy in nor drains it (as forward and backward Euler do). For one mode of angular
-frequency ``omega`` it keeps the *modified* energy
+The new velocity in the drift makes the scheme symplectic: on a stable step it neither pumps energy in nor drains it (as
+forward and backward Euler do). For one mode of angular frequency ``omega`` it keeps the *modified* energy
 
     I = 1/2 (v^2 + omega^2 x^2 - dt omega^2 x v)
 
-exactly, so the true energy ``1/2 (v^2 + omega^2 x^2)`` stays between
-``I / (1 + dt omega / 2)`` and ``I / (1 - dt omega / 2)``: it oscillates about its initial
-value, in a band that widens for the fast modes as ``dt`` nears the limit.
+exactly, so the true energy ``1/2 (v^2 + omega^2 x^2)`` stays between ``I / (1 + dt omega / 2)`` and
+``I / (1 - dt omega / 2)``: it oscillates about its initial value, in a band that widens for the fast modes as ``dt``
+nears the limit.
 
 Why it is only conditionally stable
 -----------------------------------
@@ -33,8 +32,7 @@ round-off. The step must resolve the *fastest* mode of the mesh:
 
     dt <= dt_crit = 2 / omega_max,   omega_max^2 = largest eigenvalue of M^{-1} K   (free dofs),
 
-which :func:`critical_time_step` computes. (Backward Euler has no such limit; it pays
-with numerical damping instead.)
+which :func:`critical_time_step` computes. (Backward Euler has no such limit; it pays with numerical damping instead.)
 
 CFL condition
 -------------
@@ -57,7 +55,7 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import eigsh
 
 from .meshes import mesh_size
-from .parameters import check_real
+from .parameters import ParameterError, check_count, check_real
 
 __all__ = ["SymplecticEuler", "ExplicitStepReport", "critical_time_step", "largest_stable_dt", "is_stable",
            "wave_speed"]
@@ -79,14 +77,14 @@ class ExplicitStepReport:
 
 
 def _lumped_mass(model) -> np.ndarray:
-    """The lumped (row-sum) mass of the model's density, one entry per dof (refused for P2, whose
-    vertices would get none: row-sum lumping works for P1 only)."""
+    """The lumped (row-sum) mass of the model's density, one entry per dof (refused for P2, whose vertices would get
+    none: row-sum lumping works for P1 only)."""
     return model.assembler.csr(model.assembler.mass(model.density, lumped=True)).diagonal()
 
 
 def _check_model(model):
     if model.inertia is not None:
-        raise ValueError("the explicit scheme brings its own dynamics: give it a model without dt")
+        raise ParameterError("model", "the explicit scheme brings its own dynamics: give it a model without dt")
 
 
 def _free_dofs(n: int, fixed) -> np.ndarray:
@@ -98,15 +96,14 @@ def _free_dofs(n: int, fixed) -> np.ndarray:
 class SymplecticEuler:
     """Explicit symplectic Euler on a :class:`~tissuefem.engine.model.Model`'s body.
 
-    The counterpart of backward Euler (a :class:`~tissuefem.engine.stepping.Stepper` on a
-    model with ``dt``; same state, same energy), stable only for ``dt`` below about
-    :func:`critical_time_step`. A step whose result is not finite (it blew up, or an
-    ``ln J`` material inverted) leaves the state untouched and reports ``"non-finite"``;
-    it never raises. ``model`` must have no ``dt`` (the time step is this scheme's); its
-    handles apply every step, its loads (gravity included) are constant.
+    The counterpart of backward Euler (a :class:`~tissuefem.engine.stepping.Stepper` on a model with ``dt``; same state,
+    same energy), stable only for ``dt`` below about :func:`critical_time_step`. A step whose result is not finite (it
+    blew up, or an ``ln J`` material inverted) leaves the state untouched and reports ``"non-finite"``; it never raises.
+    ``model`` must have no ``dt`` (the time step is this scheme's); its handles apply every step, its loads (gravity
+    included) are constant.
 
-    Attributes: ``u, v`` (dof vectors; assign them to set an initial state), ``time``,
-    ``mass`` (the lumped masses, one per dof).
+    Attributes: ``u, v`` (dof vectors; assign them to set an initial state), ``time``, ``mass`` (the lumped masses, one
+    per dof).
     """
 
     def __init__(self, model, dt: float):
@@ -140,15 +137,14 @@ class SymplecticEuler:
     def run(self, n_steps: int, energy_limit: float | None = None) -> np.ndarray:
         """Take up to ``n_steps`` steps; returns the total energy before the first and after each step.
 
-        Stops early when a step is non-finite (the state is the last finite one) or once the
-        total energy is above ``energy_limit`` or not finite (that state and its energy are
-        kept). :attr:`last_report` holds the last step's report.
+        Stops early when a step is non-finite (the state is the last finite one) or once the total energy is above
+        ``energy_limit`` or not finite (that state and its energy are kept). :attr:`last_report` holds the last step's
+        report.
         """
-        if int(n_steps) != n_steps or n_steps < 0:
-            raise ValueError(f"n_steps must be an integer >= 0, got {n_steps!r}")
+        n_steps = check_count("n_steps", n_steps, 0)
         history = [self.total_energy()]
         self.last_report = None
-        for _ in range(int(n_steps)):
+        for _ in range(n_steps):
             self.last_report = self.step()
             if not self.last_report.finite:
                 break
@@ -171,12 +167,11 @@ class SymplecticEuler:
 def critical_time_step(model, u=None) -> float:
     """The linearised stability limit of :class:`SymplecticEuler`, ``dt_crit = 2 / omega_max``.
 
-    ``omega_max^2`` is the largest eigenvalue of ``K_ff x = omega^2 M_ff x`` on the free
-    dofs, with ``K = model.hessian(u)`` (default: rest) and ``M`` the lumped mass. ``M`` is
-    diagonal, so it is solved as ``M^-1/2 K M^-1/2 y = omega^2 y`` (Lanczos,
-    :func:`scipy.sparse.linalg.eigsh`, from a fixed start vector so that runs agree; small
-    problems go dense). Far from ``u`` the limit changes: a compressed ``ln J`` material
-    stiffens a lot.
+    ``omega_max^2`` is the largest eigenvalue of ``K_ff x = omega^2 M_ff x`` on the free dofs, with
+    ``K = model.hessian(u)`` (default: rest) and ``M`` the lumped mass. ``M`` is diagonal, so it is solved as
+    ``M^-1/2 K M^-1/2 y = omega^2 y`` (Lanczos, :func:`scipy.sparse.linalg.eigsh`, from a fixed start vector so that
+    runs agree; small problems go dense). Far from ``u`` the limit changes: a compressed ``ln J`` material stiffens a
+    lot.
     """
     _check_model(model)
     u = model.zeros() if u is None else np.asarray(u, dtype=float)
@@ -184,7 +179,7 @@ def critical_time_step(model, u=None) -> float:
     fixed, _ = model.prescribed()
     free = _free_dofs(m.size, fixed)
     if free.size == 0:
-        raise ValueError("the problem has no free degrees of freedom: nothing moves, no stability limit")
+        raise ParameterError("model", "the problem has no free degrees of freedom: nothing moves, no stability limit")
     K = model.hessian(u).tocsr()[free][:, free]
     scale = sp.diags(1.0 / np.sqrt(m[free]))
     A = (scale @ K @ scale).tocsr()
@@ -195,19 +190,17 @@ def critical_time_step(model, u=None) -> float:
         omega2 = float(eigsh(A, k=1, which="LA", v0=np.ones(free.size), tol=1e-10,
                              return_eigenvectors=False)[0])
     if not (np.isfinite(omega2) and omega2 > 0):
-        raise ValueError(f"the stiffness at u has no positive eigenvalue (omega_max^2 = {omega2!r})")
+        raise ParameterError("u", f"the stiffness at u has no positive eigenvalue (omega_max^2 = {omega2!r})")
     return float(2.0 / np.sqrt(omega2))
 
 
 def wave_speed(material, density: float = 1.0) -> float:
     """Dilatational (P-) wave speed ``c = sqrt((lambda + 2 mu) / rho0)`` of a material with Lamé ``lam, mu``."""
-    density = float(density)
-    if not (np.isfinite(density) and density > 0):
-        raise ValueError(f"density must be finite and > 0, got {density!r}")
+    density = check_real("density", density, 0.0, lo_open=True)
     try:
         lam, mu = float(material.lam), float(material.mu)
     except AttributeError:
-        raise ValueError(f"material must have Lamé parameters lam and mu, got {material!r}") from None
+        raise ParameterError("material", f"material must have Lamé parameters lam and mu, got {material!r}") from None
     return float(np.sqrt((lam + 2.0 * mu) / density))
 
 
@@ -226,15 +219,14 @@ def is_stable(model, dt: float, *, steps: int = 400, growth: float = 10.0,
               amplitude: float = 1e-4, seed: int = 0, u0=None) -> bool:
     """Run :class:`SymplecticEuler` ``steps`` steps from rest at ``u0`` and say whether it stayed bounded.
 
-    ``u0`` defaults to a seeded random perturbation of the free dofs (``amplitude`` times the
-    mesh size), which excites every mode. Unstable: a non-finite step, or a total energy
-    above ``growth`` times the initial one.
+    ``u0`` defaults to a seeded random perturbation of the free dofs (``amplitude`` times the mesh size), which excites
+    every mode. Unstable: a non-finite step, or a total energy above ``growth`` times the initial one.
     """
     scheme = SymplecticEuler(model, dt)
     scheme.u = _initial_perturbation(model, amplitude, seed) if u0 is None else np.array(u0, dtype=float)
     e0 = scheme.total_energy()
     if not (np.isfinite(e0) and e0 > 0):
-        raise ValueError(f"the initial state must have a finite positive energy, got {e0!r}")
+        raise ParameterError("u0", f"the initial state must have a finite positive energy, got {e0!r}")
     history = scheme.run(steps, energy_limit=growth * e0)
     return history.size == steps + 1 and bool(np.all(history <= growth * e0))
 
@@ -243,26 +235,20 @@ def largest_stable_dt(model, *, steps: int = 400, growth: float = 10.0,
                       amplitude: float = 1e-4, seed: int = 0, rtol: float = 0.005, dt_guess=None) -> float:
     """The largest time step with which :class:`SymplecticEuler` stays bounded, measured by bisection.
 
-    Each trial is :func:`is_stable` from the same seeded perturbation (small: the motion is
-    linear). The search doubles or halves ``dt_guess`` (default ``mesh_size / wave_speed``
-    if the material has Lamé parameters, else ``1e-3``) until one trial is stable and the
-    next not, then bisects geometrically to a bracket narrower than ``rtol`` (relative) and
+    Each trial is :func:`is_stable` from the same seeded perturbation (small: the motion is linear). The search doubles
+    or halves ``dt_guess`` (default ``mesh_size / wave_speed`` if the material has Lamé parameters, else ``1e-3``) until
+    one trial is stable and the next not, then bisects geometrically to a bracket narrower than ``rtol`` (relative) and
     returns its stable end.
 
-    It measures what :func:`critical_time_step` predicts, without linearising. Just above
-    ``dt_crit`` the growth is slow (``~ 1 + 2 sqrt(2 eps)`` per step at
-    ``dt = (1 + eps) dt_crit``), so a finite run places the limit slightly high; just below
-    it the fastest modes' energy swings by up to ``1 / (1 - dt omega / 2)``, so a ``growth``
-    near 1 places it low. On chapter 7's flap (4 x 2 and 8 x 4 cells) the ratio to
-    :func:`critical_time_step` was 0.65-0.72 with ``growth = 2``, 0.985-0.99 with the
-    default 10 and 0.999 with 100, for 100 to 2000 steps.
+    It measures what :func:`critical_time_step` predicts, without linearising. Just above ``dt_crit`` the growth is slow
+    (``~ 1 + 2 sqrt(2 eps)`` per step at ``dt = (1 + eps) dt_crit``), so a finite run places the limit slightly high;
+    just below it the fastest modes' energy swings by up to ``1 / (1 - dt omega / 2)``, so a ``growth`` near 1 places it
+    low. On chapter 7's flap (4 x 2 and 8 x 4 cells) the ratio to :func:`critical_time_step` was 0.65-0.72 with
+    ``growth = 2``, 0.985-0.99 with the default 10 and 0.999 with 100, for 100 to 2000 steps.
     """
-    if int(steps) != steps or steps < 1:
-        raise ValueError(f"steps must be a positive integer, got {steps!r}")
-    if not (np.isfinite(growth) and growth > 1):
-        raise ValueError(f"growth must be finite and > 1, got {growth!r}")
-    if not (np.isfinite(rtol) and 0 < rtol < 1):
-        raise ValueError(f"rtol must be in (0, 1), got {rtol!r}")
+    check_count("steps", steps)
+    check_real("growth", growth, 1.0, lo_open=True)
+    check_real("rtol", rtol, 0.0, 1.0, lo_open=True, hi_open=True)
     if dt_guess is None:
         try:
             dt_guess = mesh_size(model.mesh) / wave_speed(model.material, model.density)

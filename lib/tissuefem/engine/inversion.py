@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import numpy as np
 from .materials import Corotated, NeoHookean, StableNeoHookean, TaylorNeoHookean
+from .parameters import ParameterError, check_real
 
 
 def _rotation(angle) -> np.ndarray:
@@ -48,7 +49,7 @@ def rotation_preserving_svd(F):
     """
     F = np.asarray(F, dtype=float)
     if F.shape[:2] != (2, 2):
-        raise ValueError(f"F must be shaped [2, 2, ...], got {F.shape}")
+        raise ParameterError("F", f"F must be shaped [2, 2, ...], got {F.shape}")
     E = 0.5 * (F[0, 0] + F[1, 1])
     H = 0.5 * (F[1, 0] - F[0, 1])
     Fa = 0.5 * (F[0, 0] - F[1, 1])
@@ -159,10 +160,8 @@ class ProjectedTangent:
     """
 
     def __init__(self, material, floor: float = 0.0, adaptive: bool = False):
-        if not np.isfinite(floor) or floor < 0:
-            raise ValueError(f"floor must be finite and >= 0, got {floor!r}")
         self.material = material
-        self.floor = float(floor)
+        self.floor = check_real("floor", floor, 0.0)
         self.adaptive = bool(adaptive)
         self.lam, self.mu = material.lam, material.mu
         self.inversion_safe = material.inversion_safe
@@ -233,14 +232,12 @@ class ITFClamped:
 
     def __init__(self, material, threshold: float = 0.3, stiffness: float | None = None, project: bool = True):
         if type(material) is not NeoHookean:
-            raise ValueError(
-                f"material must be the ln J NeoHookean model, got {material!r}: the first-order extension is "
-                "bounded below only while the threshold stress psi_1(s0, c) grows slower than sqrt(Psi) as s0 "
-                "grows (ln J does; the polynomial volumetric terms of the Taylor and stable models and of "
+            raise ParameterError(
+                "material", f"material must be the ln J NeoHookean model, got {material!r}: the first-order "
+                "extension is bounded below only while the threshold stress psi_1(s0, c) grows slower than sqrt(Psi) "
+                "as s0 grows (ln J does; the polynomial volumetric terms of the Taylor and stable models and of "
                 "corotated do not, and those models need no clamping: they are finite through inversion)")
-        c = float(threshold)
-        if not (np.isfinite(c) and 0.0 < c < 1.0):
-            raise ValueError(f"threshold must satisfy 0 < threshold < 1, got {threshold!r}")
+        c = check_real("threshold", threshold, 0.0, 1.0, lo_open=True, hi_open=True)
         self.base, self.threshold, self.project = material, c, bool(project)
         self.lam, self.mu = material.lam, material.mu
         D = diagonal(np.full((2, 1), c))
@@ -248,10 +245,8 @@ class ITFClamped:
         self._psi_cc = float(np.asarray(material.energy(D)).ravel()[0])
         self._g_cc = float(np.asarray(material.stress(D))[0, 0, 0])
         self._h01_cc = float(A[0, 0, 1, 1, 0])
-        k = float(A[1, 1, 1, 1, 0]) if stiffness is None else float(stiffness)
-        if not (np.isfinite(k) and k > 0):
-            raise ValueError(f"stiffness must be finite and > 0, got {stiffness!r}")
-        self.stiffness = k
+        self.stiffness = k = check_real("stiffness", A[1, 1, 1, 1, 0] if stiffness is None else stiffness, 0.0,
+                                        lo_open=True)
         self.name = f"ITF-clamped {material.name}"
 
     def __repr__(self):
@@ -346,7 +341,7 @@ class ITFClamped:
     def _field(F):
         F = np.asarray(F, dtype=float)
         if F.shape[:2] != (2, 2):
-            raise ValueError(f"F must be shaped [2, 2, ...], got {F.shape}")
+            raise ParameterError("F", f"F must be shaped [2, 2, ...], got {F.shape}")
         return F.reshape((2, 2, -1)), F.shape[2:]
 
     def energy(self, F):

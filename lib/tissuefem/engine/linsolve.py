@@ -1,40 +1,19 @@
 """Linear solver backends behind one small interface, and the policy that decides when to factorize.
 
-Every Newton step solves ``A dx = b`` with ``A`` the condensed tangent (for backward Euler
-``M + dt^2 K``: symmetric, and positive definite away from buckling). Beyond a couple of
-thousand triangles this solve, not assembly, decides the frame rate. A backend has
-``factorize(A) -> Factorization`` (an object with ``solve(b)``, any number of times) and
-``backend(A, b) -> x`` (factorize and solve once).
+Every Newton step solves ``A dx = b`` with ``A`` the condensed tangent (for backward Euler ``M + dt^2 K``:
+symmetric, and positive definite away from buckling). Beyond a couple of thousand triangles this solve, not
+assembly, decides the frame rate. A backend has ``factorize(A)``, returning an object whose ``solve(b)`` may be
+called any number of times, and ``backend(A, b) -> x`` (factorize and solve once).
 
-Backends
---------
-:class:`SuperLU`
-    SciPy's sparse LU. With a symmetric minimum-degree ordering of ``A + A^T``
-    (``"MMD_AT_PLUS_A"``) and SuperLU's *symmetric mode* (diagonal pivots preferred) the
-    fill is about half of the default ``"COLAMD"``'s and it factorizes 1.5-2.5x faster
-    (23 ms against 43 ms at 8k triangles). Without symmetric mode the same ordering can be
-    *slower* than COLAMD, because off-diagonal pivoting destroys it (173 ms). If the
-    diagonal pivots fail (a zero pivot, or a poor first residual: an indefinite matrix)
-    it refactorizes with partial pivoting.
-:class:`Pardiso`
-    Intel MKL's PARDISO through the optional ``pypardiso`` (``pip install
-    tissuefem[pardiso]``); :func:`available` tells whether it is installed.
-:class:`ReusedFactorization`
-    Keeps the factorization of an earlier matrix as the preconditioner of conjugate
-    gradients (:func:`pcg`) for the current one. Along a Newton solve and from frame to
-    frame the tangent changes slowly, so a few CG iterations (one back-substitution each,
-    ~1 ms at 8k triangles) replace a factorization (~20 ms). When CG slows down (more than
-    ``refresh_after`` iterations) the next solve refactorizes; when it fails the current one does.
-:class:`PreconditionedCG`
-    ``"cg-jacobi"``, ``"cg-ilu"``, ``"cg"``: CG with a cheap preconditioner built for each
-    matrix, no factorization at all (chapter 9 measures them against the direct backends).
+Backends: :class:`SuperLU` (the default), :class:`Pardiso` (MKL, ``pip install tissuefem[pardiso]``),
+:class:`ReusedFactorization` (an earlier factorization as the preconditioner of conjugate gradients, :func:`pcg`) and
+:class:`PreconditionedCG` (a cheap preconditioner, no factorization; chapter 9 measures them against the direct
+backends).
 
-Newton calls a :class:`LinearSolver`, the one policy that decides when to factorize:
-afresh every solve (``"direct"`` or a backend's name), a kept factorization as CG's
-preconditioner (``"reuse"``, the real-time default), or a kept factorization used as it
-is (``"constant"``: exact when the tangent never changes, as for linear elasticity and
-springs). It condenses the tangent to its free rows and columns (:class:`Condenser`) by a
-gather map computed once per set of free dofs. :func:`make` builds a backend by name.
+Newton calls a :class:`LinearSolver`, the one policy that decides when to factorize: afresh every solve
+(``"direct"`` or a backend's name), a kept factorization as CG's preconditioner (``"reuse"``, the real-time
+default), or a kept factorization used as it is (``"constant"``: exact when the tangent never changes). It condenses
+the tangent to its free rows and columns (:class:`Condenser`). :func:`make` builds a backend by name.
 """
 
 from __future__ import annotations
@@ -47,6 +26,8 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from .parameters import ParameterError, check_count, check_real
+
 __all__ = ["LinearSolver", "LinearInfo", "Condenser", "SuperLU", "Pardiso", "ReusedFactorization", "PreconditionedCG",
            "SolveInfo", "PCGResult", "pcg", "available", "make", "BACKENDS"]
 
@@ -55,18 +36,18 @@ _ORDERINGS = ("MMD_AT_PLUS_A", "COLAMD", "MMD_ATA", "NATURAL")
 
 def _square(A, what="A") -> sp.csr_matrix:
     if not sp.issparse(A):
-        raise ValueError(f"{what} must be a scipy sparse matrix, got {type(A).__name__}")
+        raise ParameterError(what, f"{what} must be a scipy sparse matrix, got {type(A).__name__}")
     if A.ndim != 2 or A.shape[0] != A.shape[1]:
-        raise ValueError(f"{what} must be square, got shape {A.shape}")
+        raise ParameterError(what, f"{what} must be square, got shape {A.shape}")
     return A
 
 
 def _rhs(b, n) -> np.ndarray:
     b = np.asarray(b, dtype=float)
     if b.shape != (n,):
-        raise ValueError(f"b must have shape ({n},) to match the matrix, got {b.shape}")
+        raise ParameterError("b", f"b must have shape ({n},) to match the matrix, got {b.shape}")
     if not np.all(np.isfinite(b)):
-        raise ValueError("b contains non-finite values")
+        raise ParameterError("b", "b contains non-finite values")
     return b
 
 
@@ -101,16 +82,19 @@ class _LUFactor:
 
 
 class SuperLU(_Direct):
-    """SciPy's SuperLU with a chosen column ordering (default: symmetric minimum degree, symmetric mode).
+    """SciPy's SuperLU with the column ``ordering`` ``"MMD_AT_PLUS_A"`` (default), ``"COLAMD"`` (SciPy's default),
+    ``"MMD_ATA"`` or ``"NATURAL"``; ``symmetric``: SuperLU's symmetric mode, by default on for the first only.
 
-    ``ordering``: ``"MMD_AT_PLUS_A"`` (default), ``"COLAMD"`` (SciPy's default), ``"MMD_ATA"`` or
-    ``"NATURAL"``; ``symmetric``: SuperLU's symmetric mode (prefer diagonal pivots), by default
-    on for ``"MMD_AT_PLUS_A"`` only.
+    With the symmetric minimum-degree ordering of ``A + A^T`` and symmetric mode (diagonal pivots preferred) the fill
+    is about half of COLAMD's and it factorizes 1.5-2.5x faster (23 ms against 43 ms at 8k triangles); without
+    symmetric mode the same ordering can be *slower* than COLAMD (173 ms: off-diagonal pivoting destroys it). If the
+    diagonal pivots fail (a zero pivot, or a poor first residual: an indefinite matrix) it refactorizes with partial
+    pivoting.
     """
 
     def __init__(self, ordering: str = "MMD_AT_PLUS_A", symmetric: bool | None = None):
         if ordering not in _ORDERINGS:
-            raise ValueError(f"ordering must be one of {_ORDERINGS}, got {ordering!r}")
+            raise ParameterError("ordering", f"ordering must be one of {_ORDERINGS}, got {ordering!r}")
         self.ordering = ordering
         self.symmetric = (ordering == "MMD_AT_PLUS_A") if symmetric is None else bool(symmetric)
         self.name = "superlu" if ordering == "MMD_AT_PLUS_A" else f"superlu-{ordering.lower()}"
@@ -148,16 +132,15 @@ class _PardisoFactor:
 class Pardiso(_Direct):
     """MKL PARDISO via the optional ``pypardiso`` package (real nonsymmetric mode, as pypardiso sets it).
 
-    Each :meth:`factorize` uses a fresh pypardiso solver, so a kept
-    factorization is never silently replaced (pypardiso otherwise reuses the
-    factorization of the last matrix it saw when called with the same one).
+    Each :meth:`factorize` uses a fresh pypardiso solver, so a kept factorization is never silently replaced
+    (pypardiso otherwise reuses the factorization of the last matrix it saw when called with the same one).
     """
 
     name = "pardiso"
 
     def __init__(self):
         if not available("pardiso"):
-            raise ValueError("linear solver 'pardiso' needs the optional package pypardiso "
+            raise ParameterError("linear_solver", "linear solver 'pardiso' needs the optional package pypardiso "
                              "(pip install 'tissuefem[pardiso]'); use 'superlu' instead")
         import pypardiso
 
@@ -188,10 +171,9 @@ def pcg(A, b, precondition=None, *, x0=None, atol: float = 0.0, rtol: float = 1e
         should_stop=None) -> PCGResult:
     """Preconditioned conjugate gradients for a symmetric ``A``; ``precondition(r)`` applies an approximate inverse.
 
-    Stops when ``||b - A x|| <= max(atol, rtol ||b||)``, after ``max_iterations``, when
-    ``should_stop()`` says so (a time budget), or on *negative curvature* (``p^T A p <= 0``
-    for a search direction ``p``: ``A`` is not positive definite; ``x`` is then the last
-    iterate, which for ``x0 = 0`` is still a descent direction of the quadratic model).
+    Stops when ``||b - A x|| <= max(atol, rtol ||b||)``, after ``max_iterations``, when ``should_stop()`` says so
+    (a time budget), or on *negative curvature* (``p^T A p <= 0`` for a search direction ``p``: ``A`` is not positive
+    definite; ``x`` is then the last iterate, which for ``x0 = 0`` is still a descent direction).
     """
     b = np.asarray(b, dtype=float)
     x = np.zeros_like(b) if x0 is None else np.array(x0, dtype=float, copy=True)
@@ -242,31 +224,29 @@ class SolveInfo:
 class ReusedFactorization:
     """Conjugate gradients preconditioned by a kept factorization, refreshed when it stops paying.
 
-    ``direct`` is the backend that factorizes (default :class:`SuperLU`). A solve that needs
-    more than ``refresh_after`` CG iterations marks the factorization stale (the *next* solve
-    refactorizes); one that reaches ``max_iterations`` refactorizes and solves directly.
+    Along a Newton solve and from frame to frame the tangent changes slowly, so a few CG iterations (one
+    back-substitution each, ~1 ms at 8k triangles) replace a factorization (~20 ms).
 
-    ``background``: a CG solve that needs more than ``background_after`` iterations starts a
-    factorization of its matrix in a thread on the second core (SuperLU releases the
-    interpreter meanwhile), and the first solve after it has finished adopts it: no frame
-    waits for a factorization once one exists. The iteration counts then depend on the
-    machine's timing (the results only to the solve's tolerance), so it is off by default.
+    ``direct`` is the backend that factorizes (default :class:`SuperLU`). A solve that needs more than
+    ``refresh_after`` CG iterations marks the factorization stale (the *next* solve refactorizes); one that reaches
+    ``max_iterations`` refactorizes and solves directly.
 
-    ``solve(A, b, atol=..., rtol=...)`` returns ``(x, SolveInfo)``, ``backend(A, b)`` ``x`` alone;
-    :meth:`invalidate` forgets the factorization. Counters ``factorizations`` (in the
-    foreground), ``background_factorizations`` and ``cg_iterations`` accumulate.
+    ``background``: a CG solve that needs more than ``background_after`` iterations starts a factorization of its
+    matrix in a thread on the second core (SuperLU releases the interpreter meanwhile), and the first solve after it
+    has finished adopts it: no frame waits for a factorization once one exists. The iteration counts then depend on
+    the machine's timing (the results only to the solve's tolerance), so it is off by default.
+
+    ``solve(A, b, atol=..., rtol=...)`` returns ``(x, SolveInfo)``, ``backend(A, b)`` ``x`` alone; counters
+    ``factorizations`` (in the foreground), ``background_factorizations`` and ``cg_iterations`` accumulate.
     """
 
     def __init__(self, direct=None, refresh_after: int = 15, max_iterations: int = 40, background: bool = False,
                  background_after: int = 3):
-        if isinstance(refresh_after, bool) or not isinstance(refresh_after, (int, np.integer)) or refresh_after < 1:
-            raise ValueError(f"refresh_after must be a positive integer, got {refresh_after!r}")
-        if isinstance(max_iterations, bool) or not isinstance(max_iterations, (int, np.integer)) or max_iterations < 1:
-            raise ValueError(f"max_iterations must be a positive integer, got {max_iterations!r}")
+        self.refresh_after = check_count("refresh_after", refresh_after)
+        self.max_iterations = check_count("max_iterations", max_iterations)
         self.direct = direct if direct is not None else SuperLU()
         if not callable(getattr(self.direct, "factorize", None)):
-            raise ValueError(f"direct must be a backend with a factorize method, got {direct!r}")
-        self.refresh_after, self.max_iterations = int(refresh_after), int(max_iterations)
+            raise ParameterError("direct", f"direct must be a backend with a factorize method, got {direct!r}")
         self.background = bool(background)
         self.background_after = int(background_after)
         self.name = f"cg+reused-{self.direct.name}" + ("+background" if self.background else "")
@@ -366,16 +346,14 @@ class _CGFactor:
 class PreconditionedCG:
     """Conjugate gradients with a preconditioner built for each matrix: no factorization.
 
-    The direct backends' interface (``factorize(A).solve(b)``), where ``factorize`` only builds
-    the preconditioner: ``"jacobi"``, the inverse of the diagonal (free, and weak: the
-    iteration count grows like ``1/h`` on these elasticity matrices); ``"ilu"``, SciPy's
-    incomplete LU (``spilu``, drop tolerance ``drop_tol``), cheaper than a full factorization
-    and much stronger than Jacobi; ``"none"``, plain CG.
+    The direct backends' interface (``factorize(A).solve(b)``), where ``factorize`` only builds the preconditioner:
+    ``"jacobi"``, the inverse of the diagonal (free, and weak: the iteration count grows like ``1/h`` on these
+    elasticity matrices); ``"ilu"``, SciPy's incomplete LU (``spilu``, drop tolerance ``drop_tol``), cheaper than a
+    full factorization and much stronger than Jacobi; ``"none"``, plain CG.
 
-    A solve stops at ``rtol`` times the right-hand side's norm or after ``max_iterations``
-    (default ``max(200, 2 n)``); the factor's ``iterations`` counts CG iterations and
-    ``converged`` says whether every solve reached ``rtol``. An unconverged solve still returns
-    its iterate: a Newton loop that needs a descent direction checks it.
+    A solve stops at ``rtol`` times the right-hand side's norm or after ``max_iterations`` (default
+    ``max(200, 2 n)``); the factor's ``iterations`` counts CG iterations and ``converged`` says whether every solve
+    reached ``rtol``. An unconverged solve still returns its iterate: Newton checks that it is a descent direction.
     """
 
     _KINDS = ("jacobi", "ilu", "none")
@@ -383,16 +361,11 @@ class PreconditionedCG:
     def __init__(self, preconditioner: str = "jacobi", rtol: float = 1e-8, max_iterations: int | None = None,
                  drop_tol: float = 1e-4):
         if preconditioner not in self._KINDS:
-            raise ValueError(f"preconditioner must be one of {self._KINDS}, got {preconditioner!r}")
-        if not (np.isfinite(rtol) and 0 < rtol < 1):
-            raise ValueError(f"rtol must be in (0, 1), got {rtol!r}")
-        if max_iterations is not None and (isinstance(max_iterations, bool)
-                                           or not isinstance(max_iterations, (int, np.integer)) or max_iterations < 1):
-            raise ValueError(f"max_iterations must be a positive integer or None, got {max_iterations!r}")
-        if not (np.isfinite(drop_tol) and drop_tol > 0):
-            raise ValueError(f"drop_tol must be finite and > 0, got {drop_tol!r}")
-        self.preconditioner, self.rtol, self.max_iterations = preconditioner, float(rtol), max_iterations
-        self.drop_tol = float(drop_tol)
+            raise ParameterError("preconditioner", f"preconditioner must be one of {self._KINDS}, got "
+                                                   f"{preconditioner!r}")
+        self.preconditioner, self.rtol = preconditioner, check_real("rtol", rtol, 0, 1, lo_open=True, hi_open=True)
+        self.max_iterations = None if max_iterations is None else check_count("max_iterations", max_iterations)
+        self.drop_tol = check_real("drop_tol", drop_tol, 0, lo_open=True)
         self.name = "cg" if preconditioner == "none" else f"cg-{preconditioner}"
 
     def factorize(self, A) -> _CGFactor:
@@ -433,7 +406,8 @@ def make(name: str = "superlu"):
     if name == "auto":
         name = "pardiso" if available("pardiso") else "superlu"
     if name not in BACKENDS:
-        raise ValueError(f"unknown linear solver {name!r}; choose from {sorted(BACKENDS) + ['auto']}")
+        raise ParameterError("linear_solver", f"unknown linear solver {name!r}; choose from "
+                                              f"{sorted(BACKENDS) + ['auto']}")
     return BACKENDS[name]()
 
 
@@ -442,9 +416,9 @@ def make(name: str = "superlu"):
 class Condenser:
     """The free-free block of a sparse matrix: ``K[free][:, free]``, fast for a fixed pattern.
 
-    Matrices assembled into one fixed pattern share their ``indptr``/``indices`` arrays; for
-    those the block is a gather of the data array through a map computed once per pattern
-    and set of free dofs (a few are kept: each grab makes a new set). Any other matrix is sliced.
+    Matrices assembled into one fixed pattern share their ``indptr``/``indices`` arrays; for those the block is a
+    gather of the data array through a map computed once per pattern and set of free dofs (a few are kept: each grab
+    makes a new set). Any other matrix is sliced.
     """
 
     def __init__(self, keep: int = 8):
@@ -492,17 +466,15 @@ class LinearSolver:
 
     * ``"direct"``: a fresh :class:`SuperLU` factorization for every solve: exact Newton;
     * a backend name of :func:`make`: that backend, afresh for every solve;
-    * ``"reuse"`` or ``"reuse-<backend>"``: conjugate gradients preconditioned by a kept
-      factorization (:class:`ReusedFactorization`), refreshed when CG slows down;
-    * ``"reuse-background"``: the same with SuperLU, refreshed on the second core while the
-      frames go on (no frame waits for a factorization once there is one);
-    * ``"constant"`` or ``"constant-<backend>"``: a kept factorization used as it is, without
-      even assembling the tangent again -- exact when the tangent is constant (linear
-      elasticity, springs), so each solve is one back-substitution;
+    * ``"reuse"`` or ``"reuse-<backend>"``: conjugate gradients preconditioned by a kept factorization
+      (:class:`ReusedFactorization`), refreshed when CG slows down;
+    * ``"reuse-background"``: the same with SuperLU, refreshed on the second core while the frames go on;
+    * ``"constant"`` or ``"constant-<backend>"``: a kept factorization used as it is, without even assembling the
+      tangent again -- exact when the tangent is constant (linear elasticity, springs): one back-substitution;
     * a backend object (with ``factorize``) or a :class:`ReusedFactorization`.
 
-    A kept factorization belongs to one set of free dofs and one matrix pattern and is
-    dropped when either changes, or by :meth:`invalidate` (when the time step changes).
+    A kept factorization belongs to one set of free dofs and one matrix pattern and is dropped when either changes,
+    or by :meth:`invalidate` (when the time step changes).
     """
 
     def __init__(self, method="reuse"):
@@ -524,15 +496,16 @@ class LinearSolver:
             elif method in BACKENDS or method == "auto":
                 self.backend = make(method)
             else:
-                raise ValueError(
-                    f"linear_solver must be 'direct', 'reuse', 'constant', 'reuse-<backend>', 'constant-<backend>' or "
-                    f"a backend ({', '.join(sorted(BACKENDS))}), got {method!r}")
+                raise ParameterError("linear_solver", "linear_solver must be 'direct', 'reuse', 'constant', "
+                                     f"'reuse-<backend>', 'constant-<backend>' or a backend "
+                                     f"({', '.join(sorted(BACKENDS))}), got {method!r}")
         elif isinstance(method, ReusedFactorization) or callable(getattr(method, "factorize", None)):
             self.backend = method
         else:
-            raise ValueError(f"linear_solver must be a name or a backend object, got {method!r}")
+            raise ParameterError("linear_solver", f"linear_solver must be a name or a backend object, got {method!r}")
         if self.constant and not callable(getattr(self.backend, "factorize", None)):
-            raise ValueError(f"linear_solver {method!r}: a constant tangent needs a direct backend")
+            raise ParameterError("linear_solver", f"linear_solver {method!r}: a constant tangent needs a direct "
+                                                  "backend")
         self.condense = Condenser()
         self._factor, self._key = None, None
         self.factorizations = 0

@@ -48,7 +48,7 @@ import math
 import numpy as np
 
 from .materials1d import _LameMaterial, _safe_log, taylor_log, taylor_log_prime, taylor_log_second
-from .parameters import LAME_MAX, check_real, check_real_array, lame_parameters
+from .parameters import ParameterError, check_fiber_stiffness, check_real_array, lame_parameters
 
 __all__ = [
     "det2", "cofactor2", "inv2", "Material", "LinearElastic", "NeoHookean", "TaylorNeoHookean", "StableNeoHookean",
@@ -62,7 +62,7 @@ __all__ = [
 def _as_F(F) -> np.ndarray:
     F = check_real_array("F", F)
     if F.ndim < 2 or F.shape[:2] != (2, 2):
-        raise ValueError(f"F must be shaped [2, 2, ...], got shape {F.shape}")
+        raise ParameterError("F", f"F must be shaped [2, 2, ...], got shape {F.shape}")
     return F
 
 
@@ -127,8 +127,9 @@ class Material(_LameMaterial):
         """
         lam, mu = lame_parameters(E, nu, plane)
         if plane == "stress" and not cls._plane_stress_ok:
-            raise ValueError(f"plane='stress' is only supported by LinearElastic; {cls.__name__} is plane strain "
-                             "(the plane-stress reduction of a nonlinear model is not a change of lam)")
+            raise ParameterError("plane", f"plane='stress' is only supported by LinearElastic; {cls.__name__} is "
+                                          "plane strain (the plane-stress reduction of a nonlinear model is not a "
+                                          "change of lam)")
         return cls(lam, mu)
 
 
@@ -358,11 +359,6 @@ class Corotated(Material):
 
 # --- anisotropy: a fibre term -------------------------------------------------------
 
-def check_fiber_stiffness(k, name: str = "k") -> float:
-    """Validate a fiber modulus: a real number in ``[0, LAME_MAX]`` (1e30); the error names the argument ``name``."""
-    return check_real(f"{name} (fiber modulus)", k, 0.0, LAME_MAX)
-
-
 _UNIT_TOL = 1e-6
 
 
@@ -371,17 +367,17 @@ def _check_Fg(F, g):
     F = _as_F(F)
     g = check_real_array("g (an array of 2D unit vectors)", g)  # complex g is refused, never truncated
     if g.ndim < 1 or g.shape[0] != 2:
-        raise ValueError(f"g must be shaped (2, ...), got shape {g.shape}")
+        raise ParameterError("g", f"g must be shaped (2, ...), got shape {g.shape}")
     if not (np.all(np.isfinite(F)) and np.all(np.isfinite(g))):
-        raise ValueError("F and g must be finite")
+        raise ParameterError("F", "F and g must be finite")
     norm = np.hypot(g[0], g[1])
     if np.any(np.abs(norm - 1.0) > _UNIT_TOL):
-        raise ValueError(f"g must be unit fiber directions (|g| = 1 within {_UNIT_TOL:g}); got lengths between "
-                         f"{norm.min():.6g} and {norm.max():.6g}: normalise g first")
+        raise ParameterError("g", f"g must be unit fiber directions (|g| = 1 within {_UNIT_TOL:g}); got lengths "
+                                  f"between {norm.min():.6g} and {norm.max():.6g}: normalise g first")
     try:
         np.broadcast_shapes(F.shape[2:], g.shape[1:])
     except ValueError:
-        raise ValueError(f"g of shape {g.shape} does not broadcast against F of shape {F.shape}") from None
+        raise ParameterError("g", f"g of shape {g.shape} does not broadcast against F of shape {F.shape}") from None
     return F, g
 
 
@@ -464,7 +460,7 @@ class FiberReinforced(Material):
 
     def __init__(self, base: Material, stiffness, fibers):
         if not isinstance(base, Material):
-            raise ValueError(f"base must be a Material instance, got {base!r}")
+            raise ParameterError("base", f"base must be a Material instance, got {base!r}")
         self.base = base
         self.stiffness = check_fiber_stiffness(stiffness, "stiffness")
         self.fibers = self._check_fibers(fibers)
@@ -476,13 +472,13 @@ class FiberReinforced(Material):
     def _check_fibers(fibers) -> np.ndarray:
         g = np.array(check_real_array("fibers (an array of 2D vectors)", fibers))
         if g.ndim not in (1, 2, 3) or g.shape[0] != 2:
-            raise ValueError(f"fibers must be shaped (2,), (2, n_elements) or (2, n_elements, n_points), "
-                             f"got shape {g.shape}")
+            raise ParameterError("fibers", "fibers must be shaped (2,), (2, n_elements) or (2, n_elements, "
+                                           f"n_points), got shape {g.shape}")
         if not np.all(np.isfinite(g)):
-            raise ValueError("fibers contains non-finite entries")
+            raise ParameterError("fibers", "fibers contains non-finite entries")
         norm = np.hypot(g[0], g[1])
         if not np.all(norm > 0.0):
-            raise ValueError("fibers contains zero-length vectors (a fibre needs a direction)")
+            raise ParameterError("fibers", "fibers contains zero-length vectors (a fibre needs a direction)")
         return g / norm
 
     @classmethod
@@ -501,7 +497,7 @@ class FiberReinforced(Material):
         g = self.fibers
         gshape = g.shape[1:]
         rest = tuple(rest)
-        mismatch = ValueError(f"fibers of shape {g.shape} do not match F with trailing shape {rest}")
+        mismatch = ParameterError("fibers", f"fibers of shape {g.shape} do not match F with trailing shape {rest}")
         if len(gshape) > len(rest):
             raise mismatch
         g = g.reshape((2,) + gshape + (1,) * (len(rest) - len(gshape)))
@@ -546,7 +542,7 @@ def _lookup(name):
     try:
         return MATERIALS[name.lower()]
     except (KeyError, AttributeError):
-        raise ValueError(f"name must be one of {', '.join(sorted(MATERIALS))}; got {name!r}") from None
+        raise ParameterError("name", f"name must be one of {', '.join(sorted(MATERIALS))}; got {name!r}") from None
 
 
 def material(name: str, E, nu, plane: str = "strain") -> Material:

@@ -15,7 +15,7 @@ tendons) with its fibres :func:`fusiform_fiber_field` (per element) and :func:`f
 point), :func:`flap` (the rectangle of the tissue-flap scene); :func:`check_mesh` is what every mesh must satisfy
 before a model is built on it.
 
-Limits, checked before anything is allocated and refused with a ``ValueError`` naming the argument: at most
+Limits, checked before anything is allocated and refused with a :class:`ParameterError` naming the argument: at most
 :data:`MAX_TRIANGLES` (200 000) triangles in a generated domain (``2 nx ny``, or ``n_triangles``) and in a mesh
 given to :func:`check_mesh`; lengths (``width``, ``height``, ``length``, ``max_width``, ``tendon_width``) in
 :data:`SIZE_RANGE` ``[1e-6, 1e6]``; aspect ratios (``width / height``, ``length / max_width``,
@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 from skfem import MeshTri
 
-from .parameters import check_count, check_real
+from .parameters import ParameterError, check_count, check_real, check_real_array
 
 __all__ = [
     "edge_lengths", "mesh_size", "mean_edge_length", "rectangle", "mesh_with_about", "fusiform_muscle",
@@ -52,30 +52,24 @@ DEGENERATE_TOL = 1e-12
 _DIAGONALS = ("alternate", "right", "left")
 
 
-# --- validation helpers ----------------------------------------------------
-
-def _positive_size(name: str, value) -> float:
+def _size(name: str, value) -> float:
     return check_real(name, value, *SIZE_RANGE)
-
-
-def _positive_count(name: str, value, hi: int = MAX_TRIANGLES) -> int:
-    return check_count(name, value, 1, hi)
 
 
 def _check_aspect(name: str, ratio: float) -> None:
     if not (1.0 / MAX_ASPECT <= ratio <= MAX_ASPECT):
-        raise ValueError(f"{name} = {ratio:g}: the aspect ratio must lie within [1/{MAX_ASPECT:g}, {MAX_ASPECT:g}]")
+        raise ParameterError(name, f"{name} = {ratio:g}: the aspect ratio must lie within [1/{MAX_ASPECT:g}, "
+                                   f"{MAX_ASPECT:g}]")
 
 
 def _check_grid(nx, ny, diagonal) -> tuple[int, int]:
     """``(nx, ny)`` checked as counts whose ``2 nx ny`` triangles are allowed, and a known ``diagonal``."""
-    nx = _positive_count("nx", nx, MAX_TRIANGLES // 2)
-    ny = _positive_count("ny", ny, MAX_TRIANGLES // 2)
+    nx, ny = check_count("nx", nx, 1, MAX_TRIANGLES // 2), check_count("ny", ny, 1, MAX_TRIANGLES // 2)
     if 2 * nx * ny > MAX_TRIANGLES:
-        raise ValueError(f"nx, ny: nx = {nx} and ny = {ny} give 2 nx ny = {2 * nx * ny} triangles, more than the "
-                         f"{MAX_TRIANGLES} a generated domain may have")
+        raise ParameterError("nx", f"nx, ny: nx = {nx} and ny = {ny} give 2 nx ny = {2 * nx * ny} triangles, more "
+                                   f"than the {MAX_TRIANGLES} a generated domain may have")
     if not isinstance(diagonal, str) or diagonal not in _DIAGONALS:
-        raise ValueError(f"diagonal must be one of {_DIAGONALS}, got {diagonal!r}")
+        raise ParameterError("diagonal", f"diagonal must be one of {_DIAGONALS}, got {diagonal!r}")
     return nx, ny
 
 
@@ -146,10 +140,11 @@ def _edge_table(t: np.ndarray):
     return key[:, order], np.tile(np.arange(t.shape[1]), 3)[order], np.concatenate([t[2], t[0], t[1]])[order]
 
 
-def check_mesh(p, t, name: str = "mesh", *, unused_nodes: str = "refuse"):
+def check_mesh(p, t, name: str = "mesh", *, unused_nodes: str = "refuse", cut: bool = False):
     """Check that ``(p, t)`` is a valid 2D triangle mesh; return ``(p, t)`` as float64 ``(2, n)`` and int64 ``(3, m)``.
 
-    Refused, with a ``ValueError`` that starts with ``name`` and lists the offending nodes, edges or triangles:
+    The one mesh validator: scene files and the assemblers use it. Refused, with a :class:`ParameterError` (field
+    ``name``) whose message starts with ``name`` and lists the offending nodes, edges or triangles:
 
     * ``p`` not a real array shaped ``(2, n)``; ``t`` not an integer array shaped ``(3, m)`` (floats and booleans
       are refused, never rounded); no triangle, or more than :data:`MAX_TRIANGLES`; node indices outside ``0..n-1``;
@@ -164,82 +159,84 @@ def check_mesh(p, t, name: str = "mesh", *, unused_nodes: str = "refuse"):
     * degenerate triangles (``|2 area| <= DEGENERATE_TOL * (longest edge)^2``);
     * inverted triangles folded over a neighbour (:func:`folded_triangles`).
 
-    The orientation of the triangles is free (scikit-fem sorts their nodes).
+    ``cut=True`` (the assemblers) accepts what cutting through elements makes next to a crack tip, fins and
+    overlapping copies of a triangle, and any number of triangles. The orientation is free (scikit-fem sorts nodes).
     """
+    def refuse(message):
+        raise ParameterError(name, f"{name}: {message}")
+
     try:
-        p_arr = np.asarray(p)
-        t_arr = np.asarray(t)
+        p_arr, t_arr = np.asarray(p), np.asarray(t)
     except (TypeError, ValueError):
-        raise ValueError(f"{name}: p and t must be rectangular arrays (p shaped (2, n), t shaped (3, m))") from None
+        refuse("p and t must be rectangular arrays (p shaped (2, n), t shaped (3, m))")
     if p_arr.dtype.kind not in "iuf" or p_arr.ndim != 2 or p_arr.shape[0] != 2:
-        raise ValueError(f"{name}: p must be a real array shaped (2, n_nodes), got dtype {p_arr.dtype} and shape "
-                         f"{p_arr.shape}")
+        refuse(f"p must be a real array shaped (2, n_nodes), got dtype {p_arr.dtype} and shape {p_arr.shape}")
     if t_arr.dtype.kind not in "iu" or t_arr.ndim != 2 or t_arr.shape[0] != 3:
-        raise ValueError(f"{name}: t must be an integer array shaped (3, n_triangles), got dtype {t_arr.dtype} and "
-                         f"shape {t_arr.shape}")
+        refuse(f"t must be an integer array shaped (3, n_triangles), got dtype {t_arr.dtype} and shape {t_arr.shape}")
     n, m = p_arr.shape[1], t_arr.shape[1]
     if m == 0:
-        raise ValueError(f"{name}: has no triangles")
-    if m > MAX_TRIANGLES:
-        raise ValueError(f"{name}: has {m} triangles, more than the {MAX_TRIANGLES} allowed")
+        refuse("has no triangles")
+    if m > MAX_TRIANGLES and not cut:
+        refuse(f"has {m} triangles, more than the {MAX_TRIANGLES} allowed")
     if t_arr.min() < 0 or t_arr.max() >= n:
-        bad = np.flatnonzero(((t_arr < 0) | (t_arr >= n)).any(axis=0))
-        raise ValueError(f"{name}: triangles {index_list(bad)} refer to nodes outside 0..{n - 1}")
-    p_arr = np.array(p_arr, dtype=np.float64)
-    t_arr = np.array(t_arr, dtype=np.int64)
+        refuse(f"triangles {index_list(np.flatnonzero(((t_arr < 0) | (t_arr >= n)).any(axis=0)))} refer to nodes "
+               f"outside 0..{n - 1}")
+    p_arr, t_arr = np.array(p_arr, dtype=np.float64), np.array(t_arr, dtype=np.int64)
     bad = np.flatnonzero(~np.isfinite(p_arr).all(axis=0))
     if bad.size:
-        raise ValueError(f"{name}: nodes {index_list(bad)} have non-finite coordinates")
+        refuse(f"non-finite coordinates at nodes {index_list(bad)}")
     bad = np.flatnonzero((np.abs(p_arr) > COORDINATE_MAX).any(axis=0))
     if bad.size:
-        raise ValueError(f"{name}: nodes {index_list(bad)} lie beyond the coordinate limit +-{COORDINATE_MAX:g}")
+        refuse(f"nodes {index_list(bad)} lie beyond the coordinate limit +-{COORDINATE_MAX:g}")
     if unused_nodes not in ("refuse", "ignore"):
-        raise ValueError(f"unused_nodes must be 'refuse' or 'ignore', got {unused_nodes!r}")
+        raise ParameterError("unused_nodes", f"unused_nodes must be 'refuse' or 'ignore', got {unused_nodes!r}")
     used = np.zeros(n, dtype=bool)
     used[t_arr.ravel()] = True
     if unused_nodes == "refuse" and not used.all():
-        raise ValueError(f"{name}: nodes {index_list(np.flatnonzero(~used))} belong to no triangle (an unused node "
-                         "has no stiffness and no mass); remove them and renumber")
+        refuse(f"nodes {index_list(np.flatnonzero(~used))} belong to no triangle (an unused node has no stiffness "
+               "and no mass); remove them and renumber")
     extent = float(np.ptp(p_arr[:, used], axis=1).max())
     if extent < SIZE_RANGE[0]:
-        raise ValueError(f"{name}: spans only {extent:g} (the largest side of its bounding box must be at least "
-                         f"{SIZE_RANGE[0]:g})")
+        refuse(f"spans only {extent:g} (the largest side of its bounding box must be at least {SIZE_RANGE[0]:g})")
     tri = np.sort(t_arr, axis=0)
     repeated = np.flatnonzero((tri[0] == tri[1]) | (tri[1] == tri[2]))
     if repeated.size:
-        raise ValueError(f"{name}: triangles {index_list(repeated)} use the same node twice")
-    key, owner, _ = _edge_table(t_arr)
+        refuse(f"triangles {index_list(repeated)} use the same node twice")
+    if not cut:
+        _refuse_fins_and_copies(tri, t_arr, n, refuse)
+    x = p_arr[:, t_arr]
+    d1, d2, d3 = x[:, 1] - x[:, 0], x[:, 2] - x[:, 0], x[:, 2] - x[:, 1]
+    det = d1[0] * d2[1] - d1[1] * d2[0]
+    h2 = np.maximum(np.maximum((d1**2).sum(0), (d2**2).sum(0)), (d3**2).sum(0))
+    degenerate = np.flatnonzero(~(np.abs(det) > DEGENERATE_TOL * h2))
+    if degenerate.size:
+        refuse(f"zero-area (degenerate) triangles {index_list(degenerate)}")
+    folded = folded_triangles(p_arr, t_arr)
+    if folded.size:
+        pairs = ", ".join(f"({i}, {j})" for i, j in folded.T[:10]) + (" ..." if folded.shape[1] > 10 else "")
+        refuse(f"inverted triangles (folded over a neighbour across a shared edge): pairs {pairs}; a rest mesh "
+               "must not overlap itself")
+    return p_arr, t_arr
+
+
+def _refuse_fins_and_copies(tri, t, n, refuse) -> None:
+    """Refuse an edge in three or more triangles and a triangle listed twice (``tri``: ``t`` sorted per column)."""
+    key, owner, _ = _edge_table(t)
     same = (key[0, 1:] == key[0, :-1]) & (key[1, 1:] == key[1, :-1])
     fins = np.flatnonzero(same[1:] & same[:-1])  # three equal keys in a row: start index fins + 0
     if fins.size:
-        i = int(fins[0])
-        a, b = int(key[0, i]), int(key[1, i])
+        a, b = int(key[0, fins[0]]), int(key[1, fins[0]])
         sharing = owner[(key[0] == a) & (key[1] == b)]
         count = np.unique(key[0, fins] * np.int64(n) + key[1, fins]).size
-        raise ValueError(f"{name}: edge ({a}, {b}) is shared by {sharing.size} triangles {sorted(sharing.tolist())} "
-                         f"(a 2D mesh allows at most 2; a duplicated triangle?); {count} such edge(s) in all")
+        refuse(f"edge ({a}, {b}) is shared by {sharing.size} triangles {sorted(sharing.tolist())} (a 2D mesh allows "
+               f"at most 2; a duplicated triangle?); {count} such edge(s) in all")
     order = np.lexsort(tri[::-1])
     tri_sorted = tri[:, order]
     dup = np.flatnonzero((tri_sorted[:, 1:] == tri_sorted[:, :-1]).all(axis=0))
     if dup.size:
         i = int(dup[0])
-        raise ValueError(f"{name}: triangles {int(order[i])} and {int(order[i + 1])} are the same triangle "
-                         f"{tuple(int(v) for v in tri_sorted[:, i])}; {dup.size} duplicate(s) in all")
-    x = p_arr[:, t_arr]
-    d1 = x[:, 1] - x[:, 0]
-    d2 = x[:, 2] - x[:, 0]
-    d3 = x[:, 2] - x[:, 1]
-    det = d1[0] * d2[1] - d1[1] * d2[0]
-    h2 = np.maximum(np.maximum((d1**2).sum(0), (d2**2).sum(0)), (d3**2).sum(0))
-    degenerate = np.flatnonzero(~(np.abs(det) > DEGENERATE_TOL * h2))
-    if degenerate.size:
-        raise ValueError(f"{name}: triangles {index_list(degenerate)} are degenerate (zero or round-off area)")
-    folded = folded_triangles(p_arr, t_arr)
-    if folded.size:
-        pairs = ", ".join(f"({i}, {j})" for i, j in folded.T[:10])
-        raise ValueError(f"{name}: triangles fold over their neighbours across a shared edge: pairs {pairs}"
-                         f"{' ...' if folded.shape[1] > 10 else ''}; a rest mesh must not overlap itself")
-    return p_arr, t_arr
+        refuse(f"triangles {int(order[i])} and {int(order[i + 1])} are the same triangle "
+               f"{tuple(int(v) for v in tri_sorted[:, i])}; {dup.size} duplicate(s) in all")
 
 
 # --- structured rectangle --------------------------------------------------
@@ -283,8 +280,8 @@ def rectangle(width=1.0, height=1.0, nx=10, ny=10, diagonal="alternate") -> Mesh
 
     Named boundaries: ``"left"`` (x = 0), ``"right"`` (x = width), ``"bottom"`` (y = 0), ``"top"`` (y = height).
     """
-    width = _positive_size("width", width)
-    height = _positive_size("height", height)
+    width = _size("width", width)
+    height = _size("height", height)
     _check_aspect("width / height", width / height)
     nx, ny = _check_grid(nx, ny, diagonal)
     X, Y = np.meshgrid(np.linspace(0.0, width, nx + 1), np.linspace(0.0, height, ny + 1), indexing="xy")
@@ -329,9 +326,9 @@ def mesh_with_about(n_triangles, width=1.0, height=1.0, diagonal="alternate") ->
     to ``n_triangles`` as such grids allow: always within a factor 1.5, also for thin strips (whose cells then get
     elongated). ``n_triangles`` is at most :data:`MAX_TRIANGLES`.
     """
-    n_triangles = _positive_count("n_triangles", n_triangles)
-    width = _positive_size("width", width)
-    height = _positive_size("height", height)
+    n_triangles = check_count("n_triangles", n_triangles, 1, MAX_TRIANGLES)
+    width = _size("width", width)
+    height = _size("height", height)
     _check_aspect("width / height", width / height)
     nx, ny = _grid_for(n_triangles, width, height)
     return rectangle(width, height, nx, ny, diagonal=diagonal)
@@ -365,14 +362,13 @@ def fusiform_width(x, length=4.0, max_width=1.0, tendon_width=0.25):
 
 
 def _check_fusiform(length, max_width, tendon_width):
-    length = _positive_size("length", length)
-    max_width = _positive_size("max_width", max_width)
-    tendon_width = _positive_size("tendon_width", tendon_width)
+    length = _size("length", length)
+    max_width = _size("max_width", max_width)
+    tendon_width = _size("tendon_width", tendon_width)
     if tendon_width > max_width:
-        raise ValueError(
-            f"tendon_width must not exceed max_width (a fusiform belly is widest in the middle), "
-            f"got tendon_width={tendon_width!r} > max_width={max_width!r}"
-        )
+        raise ParameterError("tendon_width", "tendon_width must not exceed max_width (a fusiform belly is widest "
+                                             f"in the middle), got tendon_width={tendon_width!r} > "
+                                             f"max_width={max_width!r}")
     _check_aspect("length / max_width", length / max_width)
     _check_aspect("max_width / tendon_width", max_width / tendon_width)
     return length, max_width, tendon_width
@@ -421,17 +417,11 @@ def fusiform_fiber_direction(points, length=4.0, max_width=1.0, tendon_width=0.2
     left tendon (as in :func:`fusiform_muscle`).
     """
     length, max_width, tendon_width = _check_fusiform(length, max_width, tendon_width)
-    try:
-        pts = np.asarray(points)
-    except (TypeError, ValueError):  # ragged lists
-        raise ValueError(f"points must be real coordinates shaped (2, ...), got {points!r}") from None
-    if pts.dtype.kind not in "iuf":  # complex points would lose their imaginary part
-        raise ValueError(f"points must be real coordinates shaped (2, ...), got dtype {pts.dtype}")
-    pts = pts.astype(float)
+    pts = check_real_array("points", points)
     if pts.ndim < 1 or pts.shape[0] != 2:
-        raise ValueError(f"points must be shaped (2, ...), got shape {pts.shape}")
+        raise ParameterError("points", f"points must be shaped (2, ...), got shape {pts.shape}")
     if not np.all(np.abs(pts) <= COORDINATE_MAX):
-        raise ValueError(f"points must be finite and within the coordinate limit +-{COORDINATE_MAX:g}")
+        raise ParameterError("points", f"points must be finite and within the coordinate limit +-{COORDINATE_MAX:g}")
     w, dw = fusiform_width(pts[0], length, max_width, tendon_width)
     eta = pts[1] / w
     a = np.stack([np.ones_like(eta), eta * dw])
@@ -449,9 +439,9 @@ def fusiform_fiber_field(mesh, length=None, max_width=None, tendon_width=None) -
     p = np.asarray(mesh.p, dtype=float)
     t = np.asarray(mesh.t)
     if p.ndim != 2 or p.shape[0] != 2 or t.ndim != 2 or t.shape[0] != 3:
-        raise ValueError("mesh must be a 2D triangle mesh (p shaped (2, n), t shaped (3, n))")
+        raise ParameterError("mesh", "mesh must be a 2D triangle mesh (p shaped (2, n), t shaped (3, n))")
     if not np.all(np.isfinite(p)):
-        raise ValueError("mesh has non-finite node coordinates")
+        raise ParameterError("mesh", "mesh has non-finite node coordinates")
     x0 = p[0].min()
     length = p[0].max() - x0 if length is None else length
     max_width = 2.0 * np.abs(p[1]).max() if max_width is None else max_width
@@ -519,5 +509,6 @@ class MeshMap:
 def _last_axis(values, length, what) -> np.ndarray:
     v = np.asarray(values)
     if v.ndim < 1 or v.shape[-1] != length:
-        raise ValueError(f"values must have {what} on the last axis (length {length}), got shape {v.shape}")
+        raise ParameterError("values", f"values must have {what} on the last axis (length {length}), got shape "
+                                       f"{v.shape}")
     return v

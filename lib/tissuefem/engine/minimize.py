@@ -1,41 +1,35 @@
 """The one minimiser: Newton's method with an energy line search, safeguards, and an optional time budget.
 
-Every solve in tissuefem -- a 1D bar, a quasistatic load step, a backward-Euler step, a
-real-time frame -- is a call of :func:`newton`. The notes' iteration ("1D elasticity") is
+Every solve in tissuefem -- a 1D bar, a quasistatic load step, a backward-Euler step, a real-time frame -- is a call of
+:func:`newton`. The notes' iteration ("1D elasticity") is
 
     dq/du (u^k) du = -q(u^k),    u^{k+1} = u^k + du,
 
-for the residual ``q``; when ``q`` is the gradient of an energy ``E`` (here always: the
-incremental potential of :mod:`tissuefem.engine.stepping`) the safeguards make every step safe:
+for the residual ``q``; when ``q`` is the gradient of an energy ``E`` (here always: the incremental potential of
+:mod:`tissuefem.engine.stepping`) the safeguards make every step safe:
 
-* **line search** ``"energy"``: backtracking (Armijo) on ``E``, so an accepted iterate is
-  finite and never worse than the last; when energy differences are down at round-off, a
-  step that still lowers the residual is accepted instead. ``"finite"`` only halves until
-  the residual is finite (no energy needed); ``None`` is the notes' plain iteration.
-* **descent**: with the energy line search the direction must point downhill
-  (``q . du < 0``). If an indefinite tangent gives an uphill one, the linear solver
-  refactorizes, then the tangent is shifted by ``tau I`` with growing ``tau``, and as a
-  last resort the step is steepest descent.
+* **line search** ``"energy"``: backtracking (Armijo) on ``E``, so an accepted iterate is finite and never worse than
+  the last; when energy differences are down at round-off, a step that still lowers the residual is accepted instead.
+  ``"finite"`` only halves until the residual is finite (no energy needed); ``None`` is the notes' plain iteration.
+* **descent**: with the energy line search the direction must point downhill (``q . du < 0``). If an indefinite tangent
+  gives an uphill one, the linear solver refactorizes, then the tangent is shifted by ``tau I`` with growing ``tau``,
+  and as a last resort the step is steepest descent.
 * **step cap** ``max_step``: no dof moves by more than this per iteration.
-* **admissible steps** ``step_limit(x, dx) -> fraction``: how much of a step may be taken
-  at all (self-contact: before any surface would pass through another,
-  :mod:`tissuefem.engine.contact`). The direction is shortened to it before the line
-  search, so no trial point lies beyond it.
-* **time budget**: with a ``clock`` (any callable returning seconds) and a ``budget``, no
-  new tangent assembly or linear solve starts once the budget is spent; the first
-  iteration always runs.
+* **admissible steps** ``step_limit(x, dx) -> fraction``: how much of a step may be taken at all (self-contact: before
+  any surface would pass through another, :mod:`tissuefem.engine.contact`). The direction is shortened to it before the
+  line search, so no trial point lies beyond it.
+* **time budget**: with a ``clock`` (any callable returning seconds) and a ``budget``, no new tangent assembly or linear
+  solve starts once the budget is spent; the first iteration always runs.
 
-Prescribed (Dirichlet) dofs are held at their ``x0`` values: only the free rows and columns
-of the tangent are solved, through a :class:`~tissuefem.engine.linsolve.LinearSolver`
-policy that condenses them and may keep a factorization across iterations and calls.
-A numerical failure never escapes as an exception or a NaN state: it is a ``status`` of
-the result, whose ``x`` is the last accepted iterate.
+Prescribed (Dirichlet) dofs are held at their ``x0`` values: only the free rows and columns of the tangent are solved,
+through a :class:`~tissuefem.engine.linsolve.LinearSolver` policy that condenses them and may keep a factorization
+across iterations and calls. A numerical failure never escapes as an exception or a NaN state: it is a ``status`` of the
+result, whose ``x`` is the last accepted iterate.
 """
 
 from __future__ import annotations
 
 import math
-import numbers
 from dataclasses import dataclass, field
 from typing import Callable
 
@@ -43,7 +37,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .linsolve import LinearSolver, SuperLU
-from .parameters import check_count, check_real, check_real_array
+from .parameters import ParameterError, check_count, check_real, check_real_array, check_real_number
 
 __all__ = ["newton", "NewtonResult", "NewtonIteration", "STATUSES"]
 
@@ -127,19 +121,57 @@ def _free_mask(n, free) -> np.ndarray:
     try:
         free = np.asarray(free)
     except (TypeError, ValueError):  # ragged lists
-        raise ValueError(f"free must be a boolean mask of shape ({n},) or dof indices, got {free!r:.100}") from None
+        raise ParameterError("free", f"free must be a boolean mask of shape ({n},) or dof indices, got "
+                                     f"{free!r:.100}") from None
     if free.dtype == bool:
         if free.shape != (n,):
-            raise ValueError(f"free must be a boolean mask of shape ({n},) or dof indices, got shape {free.shape}")
+            raise ParameterError("free", f"free must be a boolean mask of shape ({n},) or dof indices, got shape "
+                                         f"{free.shape}")
         return free.copy()
     if free.ndim != 1 or not (free.size == 0 or free.dtype.kind in "iu"):
-        raise ValueError(f"free must be a boolean mask of shape ({n},) or integer dof indices, got dtype {free.dtype} "
-                         f"and shape {free.shape}")
+        raise ParameterError("free", f"free must be a boolean mask of shape ({n},) or integer dof indices, got "
+                                     f"dtype {free.dtype} and shape {free.shape}")
     if free.size and (free.min() < 0 or free.max() >= n):
-        raise ValueError(f"free: dof indices must be in 0..{n - 1}")
+        raise ParameterError("free", f"free: dof indices must be in 0..{n - 1}")
     mask = np.zeros(n, dtype=bool)
     mask[free.astype(np.intp)] = True
     return mask
+
+
+def _checked(x0, callables, line_search, linear, optional_reals, max_step, max_iterations, max_halvings, budget,
+             tolerances):
+    """:func:`newton`'s arguments checked: ``(x, max_step, max_iterations, max_halvings, budget)``, ``x`` a copy.
+
+    ``start`` and ``energy0`` (``optional_reals``) must be real numbers or None (NaN and infinities pass: they are
+    results); a ``linear`` policy needs ``matrix`` and ``solve``.
+    """
+    x = np.array(check_real_array("x0", x0), dtype=float, copy=True)  # complex, strings, objects: refused by name
+    if x.ndim != 1:
+        raise ParameterError("x0", f"x0 must be a 1D array, got shape {np.shape(x0)}")
+    if not np.all(np.isfinite(x)):
+        raise ParameterError("x0", "x0 contains non-finite values")
+    for name, f in callables.items():
+        if not (callable(f) or (f is None and name in ("energy", "clock", "safe_hessian"))):
+            raise ParameterError(name, f"{name} must be a callable, got {f!r}")
+    if line_search is not None and (not isinstance(line_search, str) or line_search not in ("finite", "energy")):
+        raise ParameterError("line_search", f"line_search must be None, 'finite' or 'energy', got {line_search!r}")
+    if line_search == "energy" and callables["energy"] is None:
+        raise ParameterError("energy", "line_search='energy' needs the energy callable")
+    if max_step is not None:
+        max_step = check_real("max_step", max_step, 0.0, None, lo_open=True)
+    for name, value in tolerances.items():
+        check_real(name, value, 0.0, None)
+    max_iterations = check_count("max_iterations", max_iterations, 0)
+    max_halvings = check_count("max_halvings", max_halvings, 0, 1074)  # 2^-1074: the smallest double
+    if not (isinstance(budget, (float, np.floating)) and budget == math.inf):
+        budget = check_real("budget", budget, 0.0, None, lo_open=True)
+    for name, value in optional_reals.items():
+        if value is not None:
+            check_real_number(name, value)
+    if linear is not None and not all(callable(getattr(linear, m, None)) for m in ("matrix", "solve")):
+        raise ParameterError("linear", f"linear must be a LinearSolver (with matrix and solve methods) or None, got "
+                                       f"{linear!r}")
+    return x, max_step, max_iterations, max_halvings, budget
 
 
 def _shifted_direction(A, rhs, shifts=None):
@@ -164,6 +196,74 @@ def _shifted_direction(A, rhs, shifts=None):
     return rhs / (1e3 * scale), math.inf, factorizations
 
 
+def _descent(dx_free, A, rhs, x, mask, hessian, safe_hessian, linear, line_search, stats):
+    """The descent safeguard: ``(dx_free, shift)``, the Newton step if it is usable (and points downhill,
+    ``q . dx < 0``, under the energy line search), else the safe Hessian's step, then a shifted tangent's, then steepest
+    descent; ``(None, 0)`` when there is no usable step and no energy to descend (singular)."""
+    if dx_free is not None and np.all(np.isfinite(dx_free)) and (line_search != "energy" or rhs @ dx_free > 0):
+        return dx_free, 0.0
+    if line_search != "energy":
+        return None, 0.0
+    if safe_hessian is not None:
+        A = linear.condense(safe_hessian(x), mask)
+        dx_free, shift, fac = _shifted_direction(A, rhs, shifts=(0.0,))
+        stats["factorizations"] += fac
+        if shift == 0.0:
+            return dx_free, shift
+    if A is None:  # a kept factorization that no longer fits: look at the tangent itself
+        A = linear.matrix(lambda: hessian(x), mask, force=True)
+    dx_free, shift, fac = _shifted_direction(A, rhs)
+    stats["factorizations"] += fac
+    return dx_free, shift
+
+
+def _bounded_step(x, dx_free, mask, max_step, step_limit):
+    """The full step ``dx`` (zero on prescribed dofs) after the cap ``max_step`` and the admissible fraction
+    ``step_limit``, and its free part; ``(None, None)`` when no part of it is admissible (blocked)."""
+    if max_step is not None:
+        biggest = float(np.max(np.abs(dx_free), initial=0.0))
+        if biggest > max_step:
+            dx_free = dx_free * (max_step / biggest)
+    dx = np.zeros(x.size)
+    dx[mask] = dx_free
+    if step_limit is not None:
+        fraction = float(step_limit(x, dx))
+        if not fraction > 0.0:
+            return None, None
+        if fraction < 1.0:
+            dx *= fraction
+            dx_free = dx[mask]
+    return dx, dx_free
+
+
+def _line_search(x, dx, E, slope, rnorm, mask, gradient, energy, line_search, max_halvings, tolerance):
+    """Halve ``alpha`` from 1 until the step is accepted: ``(alpha, x_new, g_new or None, E_new or None)``, or None.
+
+    ``None``: the full step; ``"finite"``: a finite residual; ``"energy"``: Armijo's decrease of ``E``, or, when the
+    energy change is within ``tolerance`` (round-off), a lower residual norm than ``rnorm``.
+    """
+    alpha = 1.0
+    for _ in range(max_halvings + 1):
+        x_new = x + alpha * dx
+        if line_search is None:
+            return alpha, x_new, None, None
+        if line_search == "finite":
+            g_new = np.asarray(gradient(x_new), dtype=float)
+            if np.all(np.isfinite(g_new[mask])):
+                return alpha, x_new, g_new, None
+        else:
+            E_new = float(energy(x_new))
+            if np.isfinite(E_new):
+                if E_new <= E + _ARMIJO * alpha * min(slope, 0.0):
+                    return alpha, x_new, None, E_new
+                if E_new - E <= tolerance:
+                    g_new = np.asarray(gradient(x_new), dtype=float)
+                    if np.linalg.norm(g_new[mask]) < rnorm:
+                        return alpha, x_new, g_new, E_new
+        alpha *= 0.5
+    return None
+
+
 def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[np.ndarray], sp.spmatrix], *,
            energy: Callable[[np.ndarray], float] | None = None, free=None, line_search: str | None = "energy",
            rtol: float = 1e-10, atol: float = 0.0, reference_norm: float = 0.0, floor: float = 0.0,
@@ -174,76 +274,41 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
            step_limit: Callable[[np.ndarray, np.ndarray], float] | None = None) -> NewtonResult:
     """Minimise ``energy`` (or find a zero of ``gradient``) over the ``free`` dofs by Newton's method.
 
-    ``x0`` ``(n,)`` is the start (entries that are not ``free`` -- a mask or indices, default
-    all -- are prescribed and never change); ``gradient(x) -> (n,)`` the residual ``q`` and
-    ``hessian(x)`` its sparse Jacobian; ``energy(x)`` ``E`` with ``gradient = dE/dx`` (needed by
-    ``line_search="energy"``; ``energy0 = E(x0)`` if already known).
+    ``x0`` ``(n,)`` is the start (entries that are not ``free`` -- a mask or indices, default all -- are prescribed and
+    never change); ``gradient(x) -> (n,)`` the residual ``q`` and ``hessian(x)`` its sparse Jacobian; ``energy(x)``
+    ``E`` with ``gradient = dE/dx`` (needed by ``line_search="energy"``; ``energy0 = E(x0)`` if known).
 
-    Converged when ``||q_free|| <= max(atol + rtol max(||q_free(x0)||, reference_norm), floor)``:
-    ``reference_norm`` is the size of the load the solve balances when ``x0`` is already a good
-    guess (a tiny start residual would otherwise ask for more than round-off allows); ``floor``
-    is the residual's round-off level. ``energy_floor`` is the energy's: changes below it are
-    not trusted, and a step that changes the energy by less but lowers the residual is accepted.
+    Converged when ``||q_free|| <= max(atol + rtol max(||q_free(x0)||, reference_norm), floor)``: ``reference_norm`` is
+    the size of the load the solve balances when ``x0`` is already a good guess (a tiny start residual would otherwise
+    ask for more than round-off allows); ``floor`` is the residual's round-off level. ``energy_floor`` is the energy's:
+    changes below it are not trusted, and a step that changes the energy by less but lowers the residual is accepted.
 
-    ``max_iterations``, ``max_step`` (largest change of one dof per iteration) and
-    ``max_halvings`` (of the line search) cap the work; ``linear`` is the linear-solve policy
-    (default: a fresh direct factorization each iteration); ``safe_hessian(x)``, a positive
-    semi-definite approximation of the Hessian (a projected tangent), is tried before the
-    diagonal shift when the exact one gives no descent direction. ``budget`` seconds are
-    measured by ``clock`` from ``start`` (default: when called). ``step_limit(x, dx)`` is the
-    largest fraction in ``[0, 1]`` of ``dx`` that may be taken (contact's collision detection);
-    a step it allows none of ends the solve as ``"blocked"``, keeping the last iterate.
+    ``max_iterations``, ``max_step`` (largest change of one dof per iteration) and ``max_halvings`` (of the line search)
+    cap the work; ``linear`` is the linear-solve policy (default: a fresh direct factorization each iteration);
+    ``safe_hessian(x)``, a positive semi-definite approximation of the Hessian (a projected tangent), is tried before
+    the diagonal shift when the exact one gives no descent direction. ``budget`` seconds are measured by ``clock`` from
+    ``start`` (default: when called). ``step_limit(x, dx)`` is the largest fraction in ``[0, 1]`` of ``dx`` that may be
+    taken (contact's collision detection); a step it allows none of ends the solve as ``"blocked"``, keeping the last
+    iterate.
     """
-    x = np.array(check_real_array("x0", x0), dtype=float, copy=True)  # complex, strings, objects: refused by name
-    if x.ndim != 1:
-        raise ValueError(f"x0 must be a 1D array, got shape {np.shape(x0)}")
-    if not np.all(np.isfinite(x)):
-        raise ValueError("x0 contains non-finite values")
-    for name, f in (("gradient", gradient), ("hessian", hessian), ("energy", energy), ("clock", clock),
-                    ("safe_hessian", safe_hessian)):
-        if not (callable(f) or (f is None and name in ("energy", "clock", "safe_hessian"))):
-            raise ValueError(f"{name} must be a callable, got {f!r}")
-    if line_search is not None and (not isinstance(line_search, str) or line_search not in ("finite", "energy")):
-        raise ValueError(f"line_search must be None, 'finite' or 'energy', got {line_search!r}")
-    if line_search == "energy" and energy is None:
-        raise ValueError("line_search='energy' needs the energy callable")
-    if max_step is not None:
-        max_step = check_real("max_step", max_step, 0.0, None, lo_open=True)
-    for name, value in (("rtol", rtol), ("atol", atol), ("floor", floor), ("reference_norm", reference_norm),
-                        ("energy_floor", energy_floor)):
-        check_real(name, value, 0.0, None)
-    max_iterations = check_count("max_iterations", max_iterations, 0)
-    max_halvings = check_count("max_halvings", max_halvings, 0, 1074)  # 2^-1074: the smallest double
-    if not (isinstance(budget, (float, np.floating)) and budget == math.inf):
-        budget = check_real("budget", budget, 0.0, None, lo_open=True)
-    for name, value in (("start", start), ("energy0", energy0)):
-        if value is not None:
-            if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
-                raise ValueError(f"{name} must be a real number or None, got {value!r:.100}")
-            try:
-                float(value)
-            except OverflowError:  # an integer with hundreds of digits
-                raise ValueError(f"{name} is out of range (too large for a float)") from None
-    if linear is not None and not all(callable(getattr(linear, m, None)) for m in ("matrix", "solve")):
-        raise ValueError(f"linear must be a LinearSolver (with matrix and solve methods) or None, got {linear!r}")
-    n = x.size
-    mask = _free_mask(n, free)
+    x, max_step, max_iterations, max_halvings, budget = _checked(
+        x0, {"gradient": gradient, "hessian": hessian, "energy": energy, "clock": clock, "safe_hessian": safe_hessian},
+        line_search, linear, {"start": start, "energy0": energy0}, max_step, max_iterations, max_halvings, budget,
+        {"rtol": rtol, "atol": atol, "floor": floor, "reference_norm": reference_norm, "energy_floor": energy_floor})
+    mask = _free_mask(x.size, free)
     linear = LinearSolver("direct") if linear is None else linear
     timed = clock is not None and budget < math.inf
     if timed and start is None:
         start = clock()
 
-    def out_of_time():
+    def out_of_time():  # the budget: no new assembly or solve once it is spent (the first iteration always runs)
         return timed and clock() - start >= budget
 
     history: list[NewtonIteration] = []
     g = np.asarray(gradient(x), dtype=float)
-    rnorm = float(np.linalg.norm(g[mask]))
-    E = None
-    if energy is not None:
-        E = float(energy(x)) if energy0 is None else float(energy0)
-    E_start = E
-    r0 = rnorm
+    rnorm = r0 = float(np.linalg.norm(g[mask]))
+    E = None if energy is None else float(energy(x)) if energy0 is None else float(energy0)
+    E_start, e_scale = E, abs(E) if E is not None else 0.0
     target = max(atol + rtol * max(r0, float(reference_norm)), float(floor))
     stats = {"linear": 0, "factorizations": 0}
 
@@ -253,8 +318,6 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
 
     if not np.isfinite(rnorm):
         return result("non-finite", 0)
-    e_scale = abs(E) if E is not None else 0.0
-
     for k in range(max_iterations + 1):
         if rnorm <= target:
             return result("converged", k)
@@ -263,85 +326,38 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
         if k >= 1 and out_of_time():
             return result("budget", k)
         rhs = -g[mask]
-
-        # the Newton direction: the tangent's free block (unless the policy keeps an exact factorization),
-        # then -- budget permitting -- the linear solve
+        # the tangent's free block (unless the policy keeps a factorization), then, budget permitting, the solve
         A = linear.matrix(lambda: hessian(x), mask)
         if k >= 1 and out_of_time():
             return result("budget", k)
         dx_free, info = linear.solve(A, rhs, atol=_forcing(rnorm, r0, target))
         stats["linear"] += info.iterations
         stats["factorizations"] += info.factorizations
-        shift = 0.0
-        descent = dx_free is not None and np.all(np.isfinite(dx_free)) and (
-            line_search != "energy" or rhs @ dx_free > 0)
-        if not descent and line_search == "energy" and safe_hessian is not None:
-            A = linear.condense(safe_hessian(x), mask)
-            dx_free, shift, fac = _shifted_direction(A, rhs, shifts=(0.0,))
-            stats["factorizations"] += fac
-            descent = shift == 0.0
-        if not descent and line_search == "energy":
-            if A is None:  # a kept factorization that no longer fits: look at the tangent itself
-                A = linear.matrix(lambda: hessian(x), mask, force=True)
-            dx_free, shift, fac = _shifted_direction(A, rhs)
-            stats["factorizations"] += fac
-        elif not descent:
+        dx_free, shift = _descent(dx_free, A, rhs, x, mask, hessian, safe_hessian, linear, line_search, stats)
+        if dx_free is None:
             return result("singular", k)
-        if max_step is not None:
-            biggest = float(np.max(np.abs(dx_free), initial=0.0))
-            if biggest > max_step:
-                dx_free = dx_free * (max_step / biggest)
-        dx = np.zeros(n)
-        dx[mask] = dx_free
-        if step_limit is not None:
-            fraction = float(step_limit(x, dx))
-            if not fraction > 0.0:
-                return result("blocked", k)
-            if fraction < 1.0:
-                dx *= fraction
-                dx_free = dx[mask]
-
-        # the line search
+        dx, dx_free = _bounded_step(x, dx_free, mask, max_step, step_limit)
+        if dx is None:
+            return result("blocked", k)
         slope = -float(rhs @ dx_free)  # dE/dalpha at alpha = 0
         if E is not None:
             e_scale = max(e_scale, abs(E), abs(slope))
-        alpha, accepted = 1.0, False
-        for _ in range(max_halvings + 1):
-            x_new, g_new = x + alpha * dx, None
-            if line_search is None:
-                accepted = True
-                break
-            if line_search == "finite":
-                g_new = np.asarray(gradient(x_new), dtype=float)
-                if np.all(np.isfinite(g_new[mask])):
-                    accepted = True
-                    break
-            else:
-                E_new = float(energy(x_new))
-                if np.isfinite(E_new):
-                    if E_new <= E + _ARMIJO * alpha * min(slope, 0.0):
-                        accepted = True
-                    elif E_new - E <= max(_ENERGY_ROUNDOFF * e_scale, energy_floor):
-                        g_new = np.asarray(gradient(x_new), dtype=float)
-                        accepted = bool(np.linalg.norm(g_new[mask]) < rnorm)
-                    if accepted:
-                        break
-            alpha *= 0.5
-        if not accepted:
+        step = _line_search(x, dx, E, slope, rnorm, mask, gradient, energy, line_search, max_halvings,
+                            max(_ENERGY_ROUNDOFF * e_scale, energy_floor))
+        if step is None:
             return result("line-search-failed", k)
+        alpha, x_new, g_new, E_new = step
         if g_new is None:
             g_new = np.asarray(gradient(x_new), dtype=float)
-        rn_new = float(np.linalg.norm(g_new[mask]))
+        rn_new, step_norm = float(np.linalg.norm(g_new[mask])), float(np.linalg.norm(alpha * dx))
         if not np.isfinite(rn_new):
-            history.append(NewtonIteration(k, rnorm, float(np.linalg.norm(alpha * dx)), alpha, None, shift,
-                                           info.iterations))
+            history.append(NewtonIteration(k, rnorm, step_norm, alpha, None, shift, info.iterations))
             return result("non-finite", k + 1)
         if line_search == "energy":
             E = min(E_new, E)
         elif energy is not None:
             E = float(energy(x_new))
-        history.append(NewtonIteration(k, rnorm, float(np.linalg.norm(alpha * dx)), alpha, E, shift,
-                                       info.iterations))
+        history.append(NewtonIteration(k, rnorm, step_norm, alpha, E, shift, info.iterations))
         x, g, rnorm = x_new, g_new, rn_new
     return result("max-iterations", max_iterations)  # pragma: no cover - the loop returns
 
@@ -349,8 +365,8 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
 def _forcing(rnorm, r0, target):
     """Inexact Newton: how accurately an iterative linear solve must be (absolute residual).
 
-    The forcing term shrinks with the residual (``rnorm / r0``, capped at 1e-3), so the
-    convergence stays quadratic; a solve never needs to be tighter than a third of the target.
+    The forcing term shrinks with the residual (``rnorm / r0``, capped at 1e-3), so the convergence stays quadratic; a
+    solve never needs to be tighter than a third of the target.
     """
     eta = min(1e-3, rnorm / r0) if r0 > 0 else 1e-3
     return max(eta * rnorm, 0.3 * target)

@@ -1,4 +1,4 @@
-"""Material parameters: Lamé constants from Young's modulus and Poisson's ratio, and the checks of numbers.
+"""Material parameters: Lamé constants from Young's modulus and Poisson's ratio, and the checks of every input.
 
 Every number the library accepts has a documented range, chosen so that what is
 accepted can also be computed (no overflow, no division by zero later on):
@@ -26,8 +26,9 @@ radii                       ``[1e-6 L, 1000 L]``             a probe's ``k ~ E /
 counts                      true integers (never ``bool``)   :func:`check_count`
 ==========================  ===============================  ==============================================
 
-:func:`check_real` and :func:`check_count` are the two checks every other module
-uses; their errors name the argument and the allowed range.
+This module is the one home of the library's input checks. :func:`check_real` and :func:`check_count` are the two
+every other module uses; each refusal is a :class:`ParameterError` whose message names the argument and the allowed
+range and whose ``field`` is that argument.
 """
 
 from __future__ import annotations
@@ -39,10 +40,10 @@ import numpy as np
 
 __all__ = [
     "ParameterError", "lame_parameters", "check_young_poisson", "check_poisson_ratio", "check_lame", "check_real",
-    "check_count",
-    "check_time_step", "YOUNGS_MODULUS_RANGE", "POISSON_RATIO_RANGE", "LAME_MAX", "SHEAR_MODULUS_MIN",
-    "TIME_STEP_RANGE", "DENSITY_RANGE", "ACCELERATION_MAX", "FORCE_MAX", "PENALTY_MAX", "REACH", "RADIUS_RANGE",
-    "check_density", "check_bounded_vector", "check_real_array",
+    "check_real_number", "check_count", "check_positive", "check_nonnegative", "check_vector", "check_bounded_vector",
+    "check_real_array", "check_reach", "check_weights", "check_fiber_stiffness", "check_time_step", "check_density",
+    "YOUNGS_MODULUS_RANGE", "POISSON_RATIO_RANGE", "LAME_MAX", "SHEAR_MODULUS_MIN", "TIME_STEP_RANGE",
+    "DENSITY_RANGE", "ACCELERATION_MAX", "FORCE_MAX", "PENALTY_MAX", "REACH", "RADIUS_RANGE",
 ]
 
 #: Young's modulus accepted by :func:`check_young_poisson` (closed interval).
@@ -81,8 +82,9 @@ class ParameterError(ValueError):
         self.field = field
 
 
-def _real_value(name: str, value) -> float:
-    """``value`` as a float if it is a real number (not a bool, a string or a complex number)."""
+def check_real_number(name: str, value) -> float:
+    """``value`` as a float if it is a real number (not a bool, a string or a complex number); NaN and infinities
+    pass (:func:`check_real` refuses them)."""
     if isinstance(value, np.ndarray) and value.ndim == 0:
         value = value[()]
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
@@ -110,7 +112,7 @@ def check_real(name: str, value, lo=None, hi=None, *, lo_open: bool = False, hi_
     Refused: ``bool``, strings, complex numbers, ``NaN``, infinities, integers too large for a float, and values
     outside the range. ``None`` for ``lo`` or ``hi`` leaves that side unbounded (the value must still be finite).
     """
-    v = _real_value(name, value)
+    v = check_real_number(name, value)
     if not math.isfinite(v):
         raise ParameterError(name, f"{name} must be finite, got {value!r}")
     violated = None
@@ -135,6 +137,59 @@ def check_count(name: str, value, lo: int = 1, hi: int | None = None) -> int:
         bounds = f"[{lo}, {hi}]" if hi is not None else f">= {lo}"
         raise ParameterError(name, f"{name} must be an integer in {bounds}, got {_short(value)}")
     return v
+
+
+def check_positive(name, value) -> float:
+    """A finite real number ``> 0``, or a ``ValueError`` naming ``name``."""
+    return check_real(name, value, 0.0, lo_open=True)
+
+
+def check_nonnegative(name, value) -> float:
+    """A finite real number ``>= 0``, or a ``ValueError`` naming ``name``."""
+    return check_real(name, value, 0.0)
+
+
+def check_vector(name, value) -> np.ndarray:
+    """A finite vector ``(x, y)`` of real numbers, or a ``ValueError`` naming ``name``."""
+    try:
+        v = np.asarray(value)
+    except (TypeError, ValueError):
+        raise ParameterError(name, f"{name} must be a finite vector (x, y), got {value!r}") from None
+    if v.dtype.kind not in "iuf":  # strings, booleans, objects; complex would lose its imaginary part
+        raise ParameterError(name, f"{name} must be a finite vector (x, y) of real numbers, got {value!r}")
+    v = v.astype(float)
+    if v.shape != (2,) or not np.all(np.isfinite(v)):
+        raise ParameterError(name, f"{name} must be a finite vector (x, y), got {value!r}")
+    return v
+
+
+def check_reach(name, point, middle, size) -> np.ndarray:
+    """``point`` if it lies within ``REACH`` domain sizes of the domain's centre ``middle``, else ``ValueError``."""
+    far = REACH * size
+    if np.any(np.abs(np.asarray(point) - middle) > far):
+        raise ParameterError(name, f"{name} = {np.asarray(point).tolist()} lies farther than {REACH:g} domain sizes "
+                                   f"({far:g}) from the domain's centre ({middle[0]:g}, {middle[1]:g})")
+    return point
+
+
+def check_weights(weights, m) -> np.ndarray:
+    """Per-element material fractions: ``m`` real numbers in ``(0, 1]`` (complex or boolean ones are refused)."""
+    try:
+        w = np.asarray(weights)
+    except (TypeError, ValueError):
+        w = np.asarray(None)
+    if w.dtype.kind not in "iuf" or w.shape != (m,):
+        raise ParameterError("weights", f"weights must be one real number in (0, 1] per element, shape ({m},), "
+                                        f"got {weights!r:.80}")
+    w = w.astype(float)
+    if not (np.all(np.isfinite(w)) and np.all(w > 0) and np.all(w <= 1)):
+        raise ParameterError("weights", f"weights must be one number in (0, 1] per element, shape ({m},)")
+    return w
+
+
+def check_fiber_stiffness(k, name: str = "k") -> float:
+    """Validate a fiber modulus: a real number in ``[0, LAME_MAX]`` (1e30); the error names the argument ``name``."""
+    return check_real(f"{name} (fiber modulus)", k, 0.0, LAME_MAX)
 
 
 def check_time_step(dt, name: str = "dt") -> float:
