@@ -199,7 +199,7 @@ def test_a_surface_far_from_itself_is_inactive_and_costs_no_coupling():
     contact, u = model.contact, model.zeros()
     assert contact.energy(u) == 0.0 and not np.any(contact.gradient(u))
     assert contact.active_pairs(u).shape == (2, 0)
-    assert contact._keys.size == 0  # nothing within reach: an empty list
+    assert contact.pairs.keys.size == 0  # nothing within reach: an empty list
     K = model.hessian(u)
     assert model.pattern.nnz == model.assembler.nnz and K.nnz == model.assembler.nnz  # no widening
     # a few frames of a drag: still nothing near, nothing active, no pattern rebuilt

@@ -1,0 +1,351 @@
+"""Which (point, segment) pairs may touch: the signed gap, the neighbourhoods left out, the owners, the Verlet list.
+
+The signed gap: which feature of the surface a point is measured against
+------------------------------------------------------------------------
+For a point ``p`` and a segment ``s = (a, b)`` with ``e = y_b - y_a``, ``w = y_p - y_a``, ``t = w . e / |e|^2`` says
+where ``p`` projects along it:
+
+* **point-segment (interior)**, ``0 < t < 1``: the distance to the segment's line, signed by the outward normal,
+  ``sigma = cross(w, e) / |e| = (y_p - y_a) . n``;
+* **point-point (an end)**, ``t <= 0`` or ``t >= 1``: the distance ``|y_p - y_v|`` to that end ``v``, negative when
+  ``(y_p - y_v) . n_v < 0`` with the corner's *pseudonormal* ``n_v`` (the mean of the normals of the two segments
+  meeting at ``v``). Behind a reflex corner a point is inside; behind a convex corner no point projects outside both
+  segments.
+
+This is the signed distance to a polygon of [3], continuous where the nearest feature changes from a segment's
+interior to its end *inside the run the point sees*: the segments within ``d^`` of a point form runs of consecutive
+segments (one where it touches one stretch of surface, two where it is pinched between two), and in each run only the
+nearest segment, the *owner*, counts. So a point pressed into a convex corner belongs to the nearer side (the only
+kink is across the corner's bisector), is never counted twice, and segments shorter than the skin (the sliver a cut
+through elements leaves next to a node) are handled like any other.
+
+A point is not paired with the two segments it ends, nor (in the broad phase) with their neighbours, nor with any
+segment less than ``2 d^`` away from it along the surface at rest: a point and its own neighbourhood are not in
+contact (else a cut's lip, a chain of pieces shorter than ``d^``, puts its own points within the skin of its corners
+as soon as it bends). The walk along the loop stops at a corner that turned back into the material when the surface
+was built, the tip of a crack: there the first point of each lip is checked against the first segment of the other
+(a *hinge*) whenever the corner turns by more than 90 degrees, so that a crack pressed shut right up to its tip does
+not overlap there. Two coinciding lips are at ``sigma = 0``: in contact, with no force.
+
+The reference configuration touches nothing. Where parts of the surface lie closer than the skin there (a zigzag of
+segments shorter than ``d^``), a point sits behind another part already at rest; its skin is then measured from where
+it sits, an *offset* ``o_p`` (its depth at rest): its energy uses ``sigma + o_p`` and its wall lies at
+``sigma = -(d^ + o_p)``. Being one number per point, the offset keeps the energy continuous where the owner changes.
+
+A point found deeper than ``d^`` behind a segment when a step *starts* (and not within ``d^`` of the segment's
+neighbours, along which it may slide into this segment's ownership later in the step) is ignored for that pair until
+the step is over: the far side of a thin body is such a pair, and so is tissue a handle dragged through tissue.
+
+Where the energy jumps
+----------------------
+An owner's gap is continuous while the point stays in the cone of the corner it is measured from. Two cases are not,
+and both are open (rare; the energy jumps by a finite amount, or from zero to the wall, and Newton's line search stops
+at the jump): a corner whose point is *outside* the corner's cone, because the segment on the corner's other side is
+in the point's own neighbourhood (the pseudonormal's sign flips on the line through the corner perpendicular to it,
+possibly closer than ``d^``); and a corner whose segments fold right over (through 180 degrees, as a crumpled lip of a
+cut through elements can), where the pseudonormal turns over with the sign of every point in its cone.
+
+The broad phase
+---------------
+A Verlet list [4] of the (point, segment) pairs closer than ``d^ + skin`` (the nearest points of each segment's
+midpoint, from a k-d tree), valid while the points have moved less than ``skin / 2`` *relative to each other* since it
+was built (a rigid drag refreshes nothing); a surface nowhere near itself has an empty list and costs a few vector
+operations per evaluation. A pair's *key* is ``p * n_segments + s``; lists are sorted by it.
+
+(References [n]: :mod:`tissuefem.engine.contact`.)
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from .surface import cross, dot, segment_distance
+
+__all__ = ["CandidatePairs", "signed_gaps", "spread"]
+
+
+def signed_gaps(yp, ya, yb, y_before, y_after, has_previous, has_next, fold_start, fold_end):
+    """``(kind, distance, sigma)`` of points ``yp`` against segments ``ya -> yb`` (all coordinates (2, m)): which
+    feature is nearest the point (1 the interior, 2 the start ``a``, 3 the end ``b``), how far, and the signed gap.
+
+    ``y_before`` / ``y_after`` are the previous segment's start and the next segment's end (``has_*``: whether there
+    is one); ``fold_*`` the side a corner folded right back on itself opens to (:attr:`CandidatePairs.fold`). A
+    segment collapsed to a point (an element crushed flat) gives NaN gaps, which count as no contact.
+    """
+
+    def corner_normal(e_in, e_out, fold):
+        """The pseudonormal of a corner: the mean of its segments' normals (folded right back: where it opens)."""
+        m = np.stack([e_in[1], -e_in[0]]) / np.sqrt(dot(e_in, e_in)) + \
+            np.stack([e_out[1], -e_out[0]]) / np.sqrt(dot(e_out, e_out))
+        size = np.sqrt(dot(m, m))
+        folded = size < 1e-9
+        return np.where(folded, fold * e_in / np.sqrt(dot(e_in, e_in)), m / np.where(folded, 1.0, size))
+
+    with np.errstate(invalid="ignore", divide="ignore"):
+        e, w, wb = yb - ya, yp - ya, yp - yb
+        L = np.sqrt(dot(e, e))
+        t = dot(w, e) / (L * L)
+        g = cross(w, e) / L
+        r_a, r_b = np.sqrt(dot(w, w)), np.sqrt(dot(wb, wb))
+        side_a = dot(w, corner_normal(np.where(has_previous, ya - y_before, e), e, fold_start))
+        side_b = dot(wb, corner_normal(e, np.where(has_next, y_after - yb, e), fold_end))
+        kind = np.where(t <= 0, 2, np.where(t >= 1, 3, 1))
+        distance = np.where(kind == 1, np.abs(g), np.where(kind == 2, r_a, r_b))
+        sigma = np.where(kind == 1, g, np.where(kind == 2, np.where(side_a < 0, -r_a, r_a),
+                                                np.where(side_b < 0, -r_b, r_b)))
+    return kind, distance, sigma
+
+
+def spread(dY) -> float:
+    """How far the points moved relative to each other: ``max_i |dY_i - c|`` with ``c`` the centre of the moves'
+    bounding box. Two points' distance changes by at most twice this (a rigid shift moves nothing)."""
+    if dY.shape[1] == 0:
+        return 0.0
+    c = 0.5 * (dY.max(axis=1) + dY.min(axis=1))
+    return float(np.max(np.hypot(*(dY - c[:, None]))))
+
+
+def _arc_neighbourhood(surface, length, reach, stops) -> np.ndarray:
+    """The points each segment is not paired with, (n_segments, k) padded with -1: its ends, the far ends of its
+    neighbours, and every point less than ``reach`` away from it along the surface at rest (walking from its ends along
+    the loop, but not round a corner in ``stops``, given by the segment ending there). Such a point is within the skin
+    of the segment, or gets there only by folding the surface right over, where the sign of a gap says nothing."""
+    seg = surface.segments
+    n_seg = seg.shape[1]
+    base = surface.neighbourhood
+    if n_seg == 0:
+        return base
+    stop_after = np.zeros(n_seg, dtype=bool)  # no walking from this segment to its next
+    stop_after[np.asarray(stops, dtype=np.intp)] = True
+    stop_before = stop_after[np.maximum(surface.previous, 0)] & (surface.previous >= 0)  # ... to its previous
+    columns = [base]
+    for step, end, stop in ((surface.next, 1, stop_after), (surface.previous, 0, stop_before)):
+        at = step.copy()  # the neighbour (its far end is in base already)
+        arc = np.where(at >= 0, length[np.maximum(at, 0)], np.inf)
+        alive = (at >= 0) & ~stop
+        for _ in range(n_seg):
+            alive &= ~stop[np.maximum(at, 0)]
+            nxt = np.where(alive, step[np.maximum(at, 0)], -1)
+            alive &= nxt >= 0
+            arc = np.where(alive, arc + length[np.maximum(nxt, 0)], np.inf)
+            alive &= arc < reach
+            if not np.any(alive):
+                break
+            columns.append(np.where(alive, seg[end, np.maximum(nxt, 0)], -1)[:, None])
+            at = nxt
+    return np.concatenate(columns, axis=1)
+
+
+class CandidatePairs:
+    """The pairs of a :class:`~tissuefem.engine.contact.surface.ContactSurface` that may touch, and their gaps.
+
+    Built at the rest points ``Y`` (2, n_points) with the segments' rest lengths, the skin ``distance`` (``d^``) and
+    the list's margin ``skin``. Attributes: ``offset`` / ``skins`` / ``reach``, each point's rest offset, its wall
+    depth ``d^ + o_p`` and the deepest of them (no pair is in contact farther apart); ``excluded`` (n_segments, k), the
+    points each segment is never paired with; ``fold``, per segment, the side the corner at its end opens to if it
+    folds right back (-1 backwards along the segment if it turned into the material at rest, a crack tip; +1 forwards,
+    a needle); ``hinge`` (the hinges that count: at corners turning back into the material at rest) with their
+    ``hinge_keys``; the list ``p``, ``s``, ``keys``, built at ``points`` (``refreshes`` times so far); ``ignored`` /
+    ``hinge_ignored``, pairs deep behind their segment at ``step_start``; ``positions`` / ``hinge_positions``, each
+    pair's entries in the model's sparsity pattern (-1 until the term looks them up).
+    """
+
+    def __init__(self, surface, Y, rest_length, distance, skin):
+        self.surface, self.rest_length, self.skin = surface, rest_length, skin
+        n_seg = surface.n_segments
+        a, b = surface.segments
+        self.n_local = (6 * surface.nodes.shape[1]) ** 2  # Hessian entries of a pair: 3 points of k nodes, 2 dofs
+        self.fold = np.ones(max(n_seg, 1))
+        e_s = Y[:, b] - Y[:, a]
+        e_n = e_s[:, np.maximum(surface.next, 0)]
+        turns_in = cross(e_s, e_n) <= 1e-9 * np.hypot(*e_s) * np.hypot(*e_n)
+        self.fold[:n_seg] = np.where((surface.next >= 0) & turns_in, -1.0, 1.0)
+        # closing a corner that turns back into the material at rest (a crack tip, a notch) is contact; closing a
+        # convex corner crushes the material between
+        e_in, e_out = e_s[:, surface.hinge_corner], e_s[:, surface.next[surface.hinge_corner]]
+        size = np.hypot(*e_in) * np.hypot(*e_out)
+        armed = (cross(e_in, e_out) < -1e-9 * size) | ((np.abs(cross(e_in, e_out)) <= 1e-9 * size)
+                                                        & (dot(e_in, e_out) < 0))
+        self.hinge = np.flatnonzero(armed)
+        self.excluded = _arc_neighbourhood(surface, rest_length, 2.0 * distance, surface.hinge_corner[self.hinge])
+        self.hinge_keys = surface.hinge_points[self.hinge].astype(np.int64) * max(n_seg, 1) \
+            + surface.hinge_segments[self.hinge]
+        self.hinge_positions = np.full((self.hinge_keys.size, self.n_local), -1, dtype=np.intp)
+        self.hinge_ignored = np.zeros(self.hinge_keys.size, dtype=bool)
+        self.step_start = None
+        self.refreshes = 0
+        self.keys = self.positions = None
+        # the rest offsets: the reference configuration touches nothing
+        self.offset = np.zeros(surface.n_points)
+        for _ in range(8):
+            reach = distance + float(self.offset.max(initial=0.0))
+            p, s = self.query(Y, reach)
+            p = np.concatenate([p, surface.hinge_points[self.hinge]])
+            s = np.concatenate([s, surface.hinge_segments[self.hinge]])
+            _, gap, sigma = self.classify(Y, p, s)
+            # (two lips that coincide are at sigma = 0 up to round-off: they touch, they are not inside)
+            inside = (gap < distance + self.offset[p]) & (sigma < -self.offset[p] - 1e-9 * rest_length[s])
+            if not np.any(inside):
+                break
+            np.maximum.at(self.offset, p[inside], -sigma[inside])
+        self.skins = distance + self.offset
+        self.reach = float(self.skins.max(initial=distance))
+        self.refresh(Y)
+
+    def query(self, Y, reach):
+        """``(p, s)``: the pairs with the point within ``half length + reach`` of the segment's midpoint at the points
+        ``Y``, the excluded ones left out, sorted by key."""
+        seg = self.surface.segments
+        n_seg = seg.shape[1]
+        if n_seg == 0 or self.surface.n_points == 0:
+            empty = np.zeros(0, dtype=np.intp)
+            return empty, empty
+        ya, yb = Y[:, seg[0]], Y[:, seg[1]]
+        radius = 0.5 * np.hypot(*(yb - ya)) + reach
+        tree = cKDTree(Y.T)
+        mid = (0.5 * (ya + yb)).T
+        rows, k = np.arange(n_seg), min(8, Y.shape[1])
+        found_s, found_p = [], []
+        while rows.size:  # the k nearest points of each midpoint; again with more where all k are within reach
+            dist, idx = tree.query(mid[rows], k=k, distance_upper_bound=float(radius[rows].max()))
+            dist, idx = dist.reshape(rows.size, k), idx.reshape(rows.size, k)
+            within = dist <= radius[rows, None]
+            more = within[:, -1] & (k < Y.shape[1])
+            done = ~more
+            found_s.append(np.broadcast_to(rows[done, None], within[done].shape)[within[done]])
+            found_p.append(idx[done][within[done]])
+            rows, k = rows[more], min(2 * k, Y.shape[1])
+        s = np.concatenate(found_s).astype(np.intp)
+        p = np.concatenate(found_p).astype(np.intp)
+        keep = np.all(self.excluded[s] != p[:, None], axis=1)
+        p, s = p[keep], s[keep]
+        keys = p.astype(np.int64) * n_seg + s
+        order = np.argsort(keys)
+        return p[order], s[order]
+
+    def classify(self, Y, p, s):
+        """:func:`signed_gaps` of the pairs ``(p, s)`` at the points ``Y``."""
+        seg = self.surface.segments
+        prev, nxt = self.surface.previous[s], self.surface.next[s]
+        return signed_gaps(Y[:, p], Y[:, seg[0, s]], Y[:, seg[1, s]],
+                           Y[:, seg[0, np.maximum(prev, 0)]], Y[:, seg[1, np.maximum(nxt, 0)]],
+                           prev >= 0, nxt >= 0, self.fold[np.maximum(prev, 0)], self.fold[s])
+
+    def owners(self, p, s, keys, distance):
+        """Which of the pairs own their point: the nearest segment of each run of consecutive segments that are all
+        within ``d^`` of the point (ties to the lower key). ``keys`` must be unique."""
+        n_seg = max(self.surface.n_segments, 1)
+        order = np.argsort(keys)
+        k = keys[order]
+
+        def find(target):  # the position (in sorted order) of the pair with key ``target``, or -1
+            at = np.minimum(np.searchsorted(k, target), k.size - 1)
+            return np.where(k[at] == target, at, -1)
+
+        pp, ss = p[order], s[order]
+        prev, nxt = self.surface.previous[ss], self.surface.next[ss]
+        links = [np.where(prev >= 0, find(pp.astype(np.int64) * n_seg + prev), -1),
+                 np.where(nxt >= 0, find(pp.astype(np.int64) * n_seg + nxt), -1)]
+        best_d, best_k = distance[order].copy(), k.copy()
+        for _ in range(k.size):  # spread the run's nearest along it, one segment per sweep
+            changed = False
+            for link in links:
+                has = link >= 0
+                if not np.any(has):
+                    continue
+                d_n = np.where(has, best_d[np.maximum(link, 0)], np.inf)
+                k_n = np.where(has, best_k[np.maximum(link, 0)], -1)
+                better = has & ((d_n < best_d) | ((d_n == best_d) & (k_n < best_k)))
+                if np.any(better):
+                    best_d[better], best_k[better] = d_n[better], k_n[better]
+                    changed = True
+            if not changed:
+                break
+        owner = np.empty(k.size, dtype=bool)
+        owner[order] = best_k == k
+        return owner
+
+    def neighbour_nearer(self, at, p, s, check, depth):
+        """Where ``check``: whether a neighbour of segment ``s`` (one the point ``p`` is not excluded from) is nearer
+        the point than ``depth``, so the point lies on that stretch and may slide into ``s``'s ownership.
+        ``at(i, rows)`` gives the coordinates (2, len(rows)) of the points ``i`` of the pairs ``rows``."""
+        seg, near = self.surface.segments, np.zeros(p.size, dtype=bool)
+        for neighbour in (self.surface.previous[s], self.surface.next[s]):
+            nb = np.maximum(neighbour, 0)
+            i = np.flatnonzero(check & (neighbour >= 0) & np.all(self.excluded[nb] != p[:, None], axis=1))
+            if i.size:
+                near[i] |= segment_distance(at(p[i], i), at(seg[0, nb[i]], i), at(seg[1, nb[i]], i)) < depth[i]
+        return near
+
+    def deep_at_start(self, p, s) -> np.ndarray:
+        """Which pairs had their point deeper than its wall behind the segment when the step started (and not within
+        its skin of a neighbouring segment: :meth:`neighbour_nearer`)."""
+        if self.step_start is None or p.size == 0:
+            return np.zeros(p.size, dtype=bool)
+        Y = self.step_start
+        _, _, sigma = self.classify(Y, p, s)
+        deep = sigma <= -self.skins[p]
+        return deep & ~self.neighbour_nearer(lambda i, rows: Y[:, i], p, s, deep, self.skins[p])
+
+    def refresh(self, Y) -> None:
+        """Rebuild the list at the points ``Y``: every pair closer than ``reach + skin`` (not excluded), keeping the
+        pattern positions already found for pairs that stay in it."""
+        old_keys, old_positions = self.keys, self.positions
+        self.p, self.s = self.query(Y, self.reach + self.skin)
+        self.keys = self.p.astype(np.int64) * max(self.surface.n_segments, 1) + self.s
+        self.points = Y.copy()
+        self.refreshes += 1
+        self.ignored = self.deep_at_start(self.p, self.s)
+        self.positions = np.full((self.keys.size, self.n_local), -1, dtype=np.intp)
+        if old_keys is not None and old_keys.size and self.keys.size:
+            at = np.minimum(np.searchsorted(old_keys, self.keys), old_keys.size - 1)
+            same = old_keys[at] == self.keys
+            self.positions[same] = old_positions[at[same]]
+
+    def ensure(self, Y) -> None:
+        """Refresh the list when the points have moved more than ``skin / 2`` relative to each other since it was
+        built (a pair not in it was farther than ``reach + skin`` apart, and has come closer by less than ``skin``)."""
+        if spread(Y - self.points) > 0.5 * self.skin:
+            self.refresh(Y)
+
+    def sharp_hinges(self, Y) -> np.ndarray:
+        """Indices (into ``hinge``) of the hinges at corners that turn by more than 90 degrees at ``Y`` (the others
+        cannot touch: the point projects before the segment)."""
+        if self.hinge_keys.size == 0:
+            return np.zeros(0, dtype=np.intp)
+        seg = self.surface.segments
+        into = self.surface.hinge_corner[self.hinge]
+        out = self.surface.next[into]
+        e_in = Y[:, seg[1, into]] - Y[:, seg[0, into]]
+        e_out = Y[:, seg[1, out]] - Y[:, seg[0, out]]
+        return np.flatnonzero(dot(e_in, e_out) < 0)
+
+    def hinge_pairs(self, hinges):
+        """``(p, s)`` of the hinges ``hinges`` (indices into ``hinge``)."""
+        return self.surface.hinge_points[self.hinge[hinges]], self.surface.hinge_segments[self.hinge[hinges]]
+
+    def current(self, Y):
+        """``(p, s, keys, ignored, rows)`` of every pair to look at, at ``Y``: the list and the sharp hinges
+        (``rows``: the pair's row in ``positions``, or ``list size + hinge index`` in ``hinge_positions``)."""
+        hinges = self.sharp_hinges(Y)
+        rows = np.arange(self.keys.size)
+        if hinges.size == 0:
+            return self.p, self.s, self.keys, self.ignored, rows
+        p, s = self.hinge_pairs(hinges)
+        return (np.concatenate([self.p, p]), np.concatenate([self.s, s]),
+                np.concatenate([self.keys, self.hinge_keys[hinges]]),
+                np.concatenate([self.ignored, self.hinge_ignored[hinges]]),
+                np.concatenate([rows, self.keys.size + hinges]))
+
+    def start_step(self, Y) -> None:
+        """A step starts at ``Y``: a fresh list, and the pairs deep behind their segment there ignored."""
+        self.step_start = Y.copy()
+        self.refresh(Y)
+        self.hinge_ignored = self.deep_at_start(*self.hinge_pairs(slice(None)))
+
+    def end_step(self) -> None:
+        """The step is over: every pair counts again."""
+        self.step_start = None
+        self.ignored = np.zeros(self.keys.size, dtype=bool)
+        self.hinge_ignored[:] = False

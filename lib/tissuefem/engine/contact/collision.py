@@ -1,0 +1,138 @@
+"""Continuous collision detection: how far a step may go before a point reaches a wall.
+
+The barrier is infinite only in the skin; a large step could carry a point from in front of a segment to deeper than
+``d^`` behind it, where the energy is zero again. So every step is first limited: with all points moving linearly,
+``y(tau) = y0 + tau dy``, the first ``tau`` in ``[0, 1]`` at which a point reaches a *wall* of a segment that owns it
+then (no neighbouring segment nearer than ``d^``) is its time of impact. The walls are the segment's line moved inward
+by ``d^``, ``cross(w(tau), e(tau)) = -d^ |e(tau)|`` (squared, a quartic in ``tau``, solved only for the pairs a
+conservative quadratic bound flags), and the circles of radius ``d^`` round its ends, ``|y_p(tau) - y_v(tau)|^2 =
+d^2`` (a quadratic), where ``p`` lies behind the corner. The step is cut to :data:`SAFETY` of the earliest time of
+impact, IPC's safety factor [1] (references: :mod:`tissuefem.engine.contact`). The pairs checked are the Verlet list's while
+the points stay within its margin, else those found afresh within reach of the whole step.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .candidates import signed_gaps, spread
+from .surface import cross, dot
+
+__all__ = ["SAFETY", "times_of_impact", "step_fraction", "crossings"]
+
+#: the fraction of the time of impact a step may take (IPC's choice)
+SAFETY = 0.8
+
+
+def _quartic_roots(c0, c1, c2, d, q0, q1, q2):
+    """The ``tau`` in ``[0, 1]`` where ``cross(w, e) = c0 + c1 tau + c2 tau^2`` reaches ``-d |e|`` with
+    ``|e|^2 = q0 + q1 tau + q2 tau^2``: the roots of ``c^2 - d^2 q`` with ``c < 0``."""
+    coeffs = np.array([c2 * c2, 2 * c1 * c2, c1 ** 2 + 2 * c0 * c2 - d * d * q2, 2 * c0 * c1 - d * d * q1,
+                       c0 ** 2 - d * d * q0])
+    coeffs = coeffs / np.max(np.abs(coeffs))
+    lead = np.flatnonzero(np.abs(coeffs) > 1e-14)
+    if lead.size == 0 or lead[0] == 4:
+        return []
+    roots = np.roots(coeffs[lead[0]:])
+    # nearly real roots count as real: a graze of the wall is a touch (the safe side)
+    real = roots[np.abs(roots.imag) <= 1e-7 * np.maximum(1.0, np.abs(roots.real))].real
+    real = real[(real >= 0.0) & (real <= 1.0)]
+    return real[c0 + c1 * real + c2 * real**2 < 0].tolist()
+
+
+def times_of_impact(pairs, Y0, dY, p, s) -> np.ndarray:
+    """For the pairs ``(p, s)`` of the :class:`~tissuefem.engine.contact.candidates.CandidatePairs` ``pairs``, the
+    earliest ``tau`` in ``[0, 1]`` at which each reaches its wall on the way ``Y0 + tau dY`` (``inf`` if it does not).
+
+    The walls: the segment's line moved inward by the point's wall depth (where the point projects onto the segment),
+    and circles of that radius round its ends (behind a corner). A wall counts where the segment owns the point: no
+    neighbouring segment is nearer than that depth then.
+    """
+    out = np.full(p.size, np.inf)
+    if p.size == 0:
+        return out
+    d = pairs.skins[p]  # each point's wall depth
+    surface = pairs.surface
+    seg = surface.segments
+    a, b = seg[0, s], seg[1, s]
+    prev, nxt = surface.previous[s], surface.next[s]
+    before, after = seg[0, np.maximum(prev, 0)], seg[1, np.maximum(nxt, 0)]
+    w0, dw = Y0[:, p] - Y0[:, a], dY[:, p] - dY[:, a]
+    e0, de = Y0[:, b] - Y0[:, a], dY[:, b] - dY[:, a]
+    # c(tau) = cross(w, e) = c0 + c1 tau + c2 tau^2;  q(tau) = |e|^2 = q0 + q1 tau + q2 tau^2
+    c0, c1, c2 = cross(w0, e0), cross(w0, de) + cross(dw, e0), cross(dw, de)
+    q0, q1, q2 = dot(e0, e0), 2.0 * dot(e0, de), dot(de, de)
+    found = []  # (pair, tau, wall): 1 the line, 2 the circle round a, 3 the circle round b
+    # the line: only pairs in front of it, which a conservative bound says may reach it (the wall needs
+    # c(tau) <= -d |e(tau)| <= -d min|e|, so c's minimum over [0, 1] must get there)
+    in_front = c0 + d * np.sqrt(q0) > 0
+    vertex = -c1 / np.where(c2 != 0, 2.0 * c2, 1.0)
+    c_min = np.minimum(c0, c0 + c1 + c2)
+    inner = (c2 > 0) & (vertex > 0) & (vertex < 1)
+    c_min = np.where(inner, c0 + c1 * vertex + c2 * vertex**2, c_min)
+    q_vertex = np.clip(-q1 / np.where(q2 > 0, 2.0 * q2, 1.0), 0.0, 1.0)
+    L_low = np.sqrt(np.maximum(q0 + q1 * q_vertex + q2 * q_vertex**2, 0.0))
+    for k in np.flatnonzero(in_front & (c_min + d * L_low <= 0)).tolist():
+        found += [(k, tau, 1) for tau in _quartic_roots(c0[k], c1[k], c2[k], d[k], q0[k], q1[k], q2[k])]
+    # the circles: |y_p - y_v|^2 = d^2 on the way out of the disc of radius d round the end v
+    for wall, end in ((2, a), (3, b)):
+        r0, dr = Y0[:, p] - Y0[:, end], dY[:, p] - dY[:, end]
+        A, B, C = dot(dr, dr), 2.0 * dot(r0, dr), dot(r0, r0) - d * d
+        tau_out = (-B + np.sqrt(np.maximum(B * B - 4 * A * C, 0.0))) / np.where(A > 0, 2 * A, 1.0)
+        leaving = (C < 0) & (A > 0) & (tau_out <= 1.0)
+        found += [(k, max(float(tau_out[k]), 0.0), wall) for k in np.flatnonzero(leaving).tolist()]
+    if not found:
+        return out
+    k = np.array([f[0] for f in found], dtype=np.intp)
+    tau = np.array([f[1] for f in found])
+    wall = np.array([f[2] for f in found])
+
+    def at(i, rows=slice(None)):  # the points i of the candidates rows at their time
+        return Y0[:, i] + tau[rows] * dY[:, i]
+
+    kind, _, sigma = signed_gaps(at(p[k]), at(a[k]), at(b[k]), at(before[k]), at(after[k]), prev[k] >= 0,
+                                 nxt[k] >= 0, pairs.fold[np.maximum(prev[k], 0)], pairs.fold[s[k]])
+    hit = (kind == wall) & (sigma < 0)
+    # the segment owns the point there unless a neighbour (one the point may meet) is nearer than d; a neighbour
+    # through the wall's own corner lies at distance d exactly, and does not count
+    hit &= ~pairs.neighbour_nearer(at, p[k], s[k], hit, (1.0 - 1e-9) * d[k])
+    np.minimum.at(out, k[hit], tau[hit])
+    return out
+
+
+def step_fraction(pairs, Y0, dY) -> float:
+    """The largest fraction of the move ``Y0 -> Y0 + dY`` of the surface points that keeps every point out of the
+    walls: :data:`SAFETY` times the earliest time of impact, or 1 when nothing is hit."""
+    moved = spread(dY)
+    if moved == 0.0:
+        return 1.0
+    pairs.ensure(Y0)
+    drift = spread(Y0 - pairs.points)
+    if drift + moved < 0.5 * pairs.skin:
+        p, s, ignored = pairs.p, pairs.s, pairs.ignored
+    else:  # a long step: the pairs that could meet on the way, found afresh
+        p, s = pairs.query(Y0, pairs.reach + 2.0 * moved)
+        ignored = pairs.deep_at_start(p, s)
+    hinges = np.union1d(pairs.sharp_hinges(Y0), pairs.sharp_hinges(Y0 + dY))
+    if hinges.size:
+        hp, hs = pairs.hinge_pairs(hinges)
+        p, s = np.concatenate([p, hp]), np.concatenate([s, hs])
+        ignored = np.concatenate([ignored, pairs.hinge_ignored[hinges]])
+    if p.size == 0:
+        return 1.0
+    toi = float(np.min(times_of_impact(pairs, Y0, dY, p[~ignored], s[~ignored]), initial=np.inf))
+    return 1.0 if toi > 1.0 else SAFETY * toi
+
+
+def crossings(pairs, Y0, Y):
+    """``(p, s)``: the pairs the move ``Y0 -> Y`` carries through a wall (a handle dragging tissue through tissue)."""
+    dY = Y - Y0
+    moved = spread(dY)
+    if not moved > 0.0:
+        return np.zeros(0, dtype=np.intp), np.zeros(0, dtype=np.intp)
+    if moved < 0.5 * pairs.skin:  # the list at Y holds every pair that came within d^ on the way
+        p, s = pairs.p, pairs.s
+    else:
+        p, s = pairs.query(Y0, pairs.reach + 2.0 * moved)
+    hit = np.isfinite(times_of_impact(pairs, Y0, dY, p, s))
+    return p[hit], s[hit]
