@@ -1,38 +1,27 @@
 """Self-contact of the boundary: surfaces that touch, press, slide, and never pass through each other.
 
-A :class:`Contact` term is one more term of the incremental potential (:mod:`tissuefem.engine.terms`), with two
-hooks that a model without contact never calls:
+A :class:`Contact` term is one more term of the incremental potential (:mod:`tissuefem.engine.terms`), with hooks a
+model without contact never calls. Its Hessian couples nodes no element couples (two sides of a fold, two lips of a
+wound), and *which* nodes changes as the body moves: the model's pattern is widened with the couplings of the current
+candidate pairs and rebuilt (a merge of a few keys, ~4 ms at 8k triangles) only when a pair appears that it does not
+hold (:meth:`Contact.covers`). A state on the far side of a surface must never be reached: the minimiser asks
+:meth:`Contact.max_step` for the largest fraction of a Newton step free of crossings before its line search, the
+stepper the same of its warm start (``step_limit`` of :func:`tissuefem.engine.minimize.newton`). A handle that drags
+tissue through tissue is obeyed; its crossings are counted (:meth:`Contact.begin_step`, ``StepReport.crossed``) while
+the points stay through. After a cut, :meth:`Contact.remap` gives the same contact on the new mesh.
 
-* its Hessian couples nodes that no element couples (two sides of a fold, two lips of a wound), and *which* nodes
-  changes as the body moves. The model's sparsity pattern is widened with the couplings of the current candidate
-  pairs and rebuilt (a merge of a few keys, ~4 ms at 8k triangles) only when a pair appears that the pattern does
-  not hold (:meth:`Contact.covers`);
-* a state on the far side of a surface must never be reached. The minimiser asks :meth:`Contact.max_step` for the
-  largest fraction of a Newton step free of crossings (continuous collision detection) before its line search, and
-  the stepper asks the same of its warm start (:func:`tissuefem.engine.minimize.newton`, ``step_limit``).
-
-A handle that drags tissue through tissue is obeyed: its crossings are counted (:meth:`Contact.begin_step`, in
-``StepReport.crossed``) while the points stay through, and contact acts again once they are back out. After a cut,
-:meth:`Contact.remap` gives the same contact on the new mesh.
-
-The pieces, each a module:
-
-* :mod:`.surface` -- :class:`ContactSurface`, points as linear combinations of nodes and the segments between them;
-* :mod:`.barrier` -- the one-sided barrier ``beta`` on signed gaps (why, and its derivatives);
-* :mod:`.candidates` -- the signed gap of a (point, segment) pair, which pairs may touch (neighbourhoods, hinges,
-  rest offsets, owners) and the Verlet list that finds them;
-* :mod:`.collision` -- continuous collision detection: times of impact and the largest safe step;
-* :mod:`.term` -- :class:`Contact`, the term that composes them.
+The pieces: :mod:`.surface` (:class:`ContactSurface`, points as combinations of nodes, and segments),
+:mod:`.barrier` (the one-sided barrier on signed gaps, and why), :mod:`.candidates` (the signed gap of a pair, which
+pairs may touch, the Verlet list that finds them), :mod:`.collision` (times of impact, the largest safe step) and
+:mod:`.term` (:class:`Contact`, which composes them).
 
 References
 ----------
 .. [1] M. Li, Z. Ferguson, T. Schneider, T. Langlois, D. Zorin, D. Panozzo, C. Jiang, D. M. Kaufman, *Incremental
-   Potential Contact: intersection- and inversion-free, large-deformation dynamics*, ACM Transactions on Graphics
-   39(4) (SIGGRAPH 2020), 49.
-.. [2] M. Li, D. M. Kaufman, C. Jiang, *Codimensional Incremental Potential Contact*, ACM Transactions on Graphics
-   40(4) (SIGGRAPH 2021), 170.
-.. [3] J. A. Baerentzen, H. Aanaes, *Signed distance computation using the angle weighted pseudonormal*, IEEE
-   Transactions on Visualization and Computer Graphics 11(3) (2005), 243-253.
+   Potential Contact: intersection- and inversion-free, large-deformation dynamics*, ACM TOG 39(4) (2020), 49.
+.. [2] M. Li, D. M. Kaufman, C. Jiang, *Codimensional Incremental Potential Contact*, ACM TOG 40(4) (2021), 170.
+.. [3] J. A. Baerentzen, H. Aanaes, *Signed distance computation using the angle weighted pseudonormal*, IEEE TVCG
+   11(3) (2005), 243-253.
 .. [4] L. Verlet, *Computer "experiments" on classical fluids. I. Thermodynamical properties of Lennard-Jones
    molecules*, Physical Review 159(1) (1967), 98-103.
 """

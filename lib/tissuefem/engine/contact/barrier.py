@@ -1,47 +1,33 @@
-"""The barrier on signed gaps, and the derivatives of a gap with respect to the points it is measured between.
+"""The one-sided barrier on signed gaps, and the derivatives of a gap with respect to its points.
 
-Why a one-sided band behind the surface (and not IPC's barrier as it is)
--------------------------------------------------------------------------
-Incremental Potential Contact (IPC) [1] keeps surfaces apart by a barrier on the
-unsigned distance ``d`` between a point and a segment, ``b(d) = -(d - d^)^2 ln(d / d^)`` for ``0 < d < d^``: zero and
-twice differentiable at the activation distance ``d^``, infinite at ``d = 0``, so two surfaces never touch. That
-cannot work here: the moment a wound is cut its two lips *coincide* (``d = 0``), and a closed wound must be allowed
-to stay closed without force.
-
-So the gap ``sigma`` is *signed* by the outward normal (positive in front, negative behind; :mod:`.candidates` says
-against which feature) and the barrier acts on the inside: zero for ``sigma >= 0`` (two lips that touch feel nothing),
-infinite as the overlap reaches ``d^``:
+Incremental Potential Contact (IPC) [1] keeps surfaces apart by a barrier on the unsigned distance ``d`` of a point
+to a segment, ``b(d) = -(d - d^)^2 ln(d / d^)`` on ``0 < d < d^``: twice differentiable at ``d^``, infinite at ``d =
+0``, so two surfaces never touch. That cannot work here: a wound's two lips *coincide* the moment it is cut, and a
+closed wound must stay closed without force. So the gap ``sigma`` is *signed* by the outward normal (negative behind;
+:mod:`.candidates` says against which feature), and the barrier acts on the inside:
 
     E = kappa * sum_(points p) sum_(stretches of surface near p) l_p d^ beta(1 + (sigma + o_p) / d^),
     beta(zeta) = -(zeta - 1)^2 ln(zeta)   for 0 < zeta < 1,   beta = 0 for zeta >= 1,
 
-with ``o_p`` the point's rest offset (:mod:`.candidates`). This is IPC's barrier measured from the surface moved
-*inward* by ``d^`` (the "thickness" offset of codimensional IPC [2], with the opposite sign): ``d^`` is the thin skin
-in which contact pressure builds up. ``beta`` and its first two derivatives vanish at ``zeta = 1`` (contact starts
-smoothly) and ``beta -> infinity`` as ``zeta -> 0``: no accepted state has a point deeper than ``d^`` behind a surface
-it is near. ``l_p`` is the point's share of the surface length at rest (half of each segment it ends), so ``kappa`` is
-a *pressure*: at an overlap ``delta`` it is ``kappa |beta'(1 - delta / d^)|``, ``kappa`` itself at ``delta = 0.46 d^``
-(a scene's default ``kappa`` is Young's modulus: tissue pressed at a tenth of its modulus overlaps by a fifth of
-``d^``).
+with ``o_p`` the point's rest offset (:mod:`.candidates`): IPC's barrier measured from the surface moved *inward* by
+``d^`` (the "thickness" offset of codimensional IPC [2], with the opposite sign). ``d^`` is the thin skin in which
+pressure builds up: ``beta`` and its first two derivatives vanish at ``zeta = 1`` (contact starts smoothly, two lips
+that touch feel nothing), and ``beta -> infinity`` as ``zeta -> 0`` (no accepted state has a point deeper than ``d^``
+behind a surface it is near). ``l_p`` is the point's share of the surface length at rest (half of each segment it
+ends), so ``kappa`` is a pressure: ``kappa |beta'(1 - delta / d^)|`` at an overlap ``delta``, ``kappa`` itself at
+``delta = 0.46 d^`` (a scene's default ``kappa``, Young's modulus, overlaps by a fifth of ``d^`` at a tenth of it).
 
-Why a barrier and not a penalty with a no-crossing check: a finite penalty lets Newton push a point against the
-collision detection's limit step after step (each step cut to 0.8 of the way, never converging); a barrier's energy
-grows without bound before the wall, so the minimiser turns back on its own and the collision detection only catches
-steps that would jump over the skin.
+A barrier, not a penalty with a no-crossing check: a finite penalty lets Newton push a point against the collision
+detection's limit step after step (each cut to 0.8 of the way, never converging); a barrier grows without bound
+before the wall, so the minimiser turns back on its own. The gradient ``dE/dy = kappa l_p beta'(zeta) dsigma/dy``
+pushes the point out along the normal and the segment back, equal and opposite; the Hessian is
 
-The gradient is ``dE/dy = kappa l_p beta'(zeta) dsigma/dy`` (the force ``-kappa l_p beta' n`` pushes the point out
-along the normal and the segment back, equal and opposite), and the Hessian
+    d2E/dy2 = kappa l_p [ beta''(zeta) / d^ (dsigma/dy)(dsigma/dy)^T  +  beta'(zeta) d2sigma/dy2 ],
 
-    d2E/dy2 = kappa l_p [ beta''(zeta) / d^ (dsigma/dy)(dsigma/dy)^T  +  beta'(zeta) d2sigma/dy2 ].
-
-``beta'' >= 0``, ``beta' <= 0`` and ``d2sigma/dy2`` (the turning of the normal) is indefinite: the *safe* Hessian
-(``safe=True``, the minimiser's fallback when a direction is not downhill) keeps only the first, positive
-semi-definite part. The weights ``W`` of the surface carry the points' Hessian to the nodes.
-
-(References [n]: :mod:`tissuefem.engine.contact`.)
+with ``beta'' >= 0``, ``beta' <= 0`` and ``d2sigma/dy2`` (the turning of the normal) indefinite: the *safe* Hessian
+(the minimiser's fallback when a direction is not downhill) keeps the first, positive semi-definite part. The
+surface's weights carry the points' derivatives to the nodes. (References: :mod:`tissuefem.engine.contact`.)
 """
-
-from __future__ import annotations
 
 import numpy as np
 
@@ -49,11 +35,8 @@ __all__ = ["barrier", "gap_derivatives"]
 
 
 def barrier(zeta):
-    """``beta(zeta) = -(zeta - 1)^2 ln(zeta)`` on ``0 < zeta < 1`` (0 from 1 on) and its first two derivatives.
-
-    Returns ``(beta, beta', beta'')``, zero where ``zeta >= 1`` (``beta(1) = beta'(1) = beta''(1) = 0``: the barrier
-    starts twice differentiably; ``beta -> infinity`` as ``zeta -> 0``; the caller never passes ``zeta <= 0``).
-    """
+    """``(beta, beta', beta'')`` at ``zeta``: ``-(zeta - 1)^2 ln(zeta)`` on ``(0, 1)``, zero from 1 on (all three
+    vanish at 1: the barrier starts twice differentiably; the caller never passes ``zeta <= 0``)."""
     z = np.asarray(zeta, dtype=float)
     inside = (z > 0.0) & (z < 1.0)
     zz = np.where(inside, z, 1.0)

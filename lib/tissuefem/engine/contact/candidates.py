@@ -1,61 +1,38 @@
-"""Which (point, segment) pairs may touch: the signed gap, the neighbourhoods left out, the owners, the Verlet list.
+"""Which (point, segment) pairs may touch: their signed gaps, the neighbourhoods left out, owners, the Verlet list.
 
-The signed gap: which feature of the surface a point is measured against
-------------------------------------------------------------------------
-For a point ``p`` and a segment ``s = (a, b)`` with ``e = y_b - y_a``, ``w = y_p - y_a``, ``t = w . e / |e|^2`` says
-where ``p`` projects along it:
-
-* **point-segment (interior)**, ``0 < t < 1``: the distance to the segment's line, signed by the outward normal,
-  ``sigma = cross(w, e) / |e| = (y_p - y_a) . n``;
-* **point-point (an end)**, ``t <= 0`` or ``t >= 1``: the distance ``|y_p - y_v|`` to that end ``v``, negative when
-  ``(y_p - y_v) . n_v < 0`` with the corner's *pseudonormal* ``n_v`` (the mean of the normals of the two segments
-  meeting at ``v``). Behind a reflex corner a point is inside; behind a convex corner no point projects outside both
-  segments.
-
-This is the signed distance to a polygon of [3], continuous where the nearest feature changes from a segment's
-interior to its end *inside the run the point sees*: the segments within ``d^`` of a point form runs of consecutive
-segments (one where it touches one stretch of surface, two where it is pinched between two), and in each run only the
-nearest segment, the *owner*, counts. So a point pressed into a convex corner belongs to the nearer side (the only
-kink is across the corner's bisector), is never counted twice, and segments shorter than the skin (the sliver a cut
+For a point ``p`` and a segment ``s = (a, b)``, ``e = y_b - y_a``, ``w = y_p - y_a``, ``t = w . e / |e|^2`` says where
+``p`` projects along it. For ``0 < t < 1`` (point-segment) the gap is the distance to the segment's line, signed by
+the outward normal, ``sigma = cross(w, e) / |e| = w . n``; else (point-point) it is the distance ``|y_p - y_v|`` to
+that end ``v``, negative when ``(y_p - y_v) . n_v < 0`` with the corner's *pseudonormal* ``n_v`` (the mean of its two
+segments' normals): behind a reflex corner a point is inside; behind a convex one no point projects outside both
+segments. This is the signed distance to a polygon of [3], continuous where the nearest feature changes *inside the
+run the point sees*: the segments within ``d^`` of a point form runs of consecutive segments (two where it is pinched
+between two stretches), and in each run only the nearest, the *owner*, counts. So a point pressed into a convex
+corner belongs to the nearer side, is never counted twice, and segments shorter than the skin (the sliver a cut
 through elements leaves next to a node) are handled like any other.
 
-A point is not paired with the two segments it ends, nor (in the broad phase) with their neighbours, nor with any
-segment less than ``2 d^`` away from it along the surface at rest: a point and its own neighbourhood are not in
-contact (else a cut's lip, a chain of pieces shorter than ``d^``, puts its own points within the skin of its corners
-as soon as it bends). The walk along the loop stops at a corner that turned back into the material when the surface
-was built, the tip of a crack: there the first point of each lip is checked against the first segment of the other
-(a *hinge*) whenever the corner turns by more than 90 degrees, so that a crack pressed shut right up to its tip does
-not overlap there. Two coinciding lips are at ``sigma = 0``: in contact, with no force.
+A point is not paired with the segments it ends, their neighbours, nor any segment less than ``2 d^`` from it along
+the surface at rest: else a cut's lip, a chain of pieces shorter than ``d^``, puts its own points in the skin of its
+corners as soon as it bends. The walk along the loop stops at a corner that turned back into the material at rest (a
+crack tip); there the first point of each lip is checked against the first segment of the other (a *hinge*) when the
+corner turns by more than 90 degrees, so a crack pressed shut up to its tip does not overlap there. Coinciding lips
+are at ``sigma = 0``: in contact, without force. Where parts of the surface lie closer than ``d^`` at rest (a zigzag
+of short segments), a point's skin is measured from where it sits, its *rest offset* ``o_p``: its wall is at ``sigma
+= -(d^ + o_p)``, one number per point, so the energy stays continuous where the owner changes. A pair whose point is
+deeper than its wall when a step *starts* (and not within it of the segment's neighbours, along which it may slide
+into this segment's ownership) is ignored until the step ends: the far side of a thin body, or tissue a handle
+dragged through tissue.
 
-The reference configuration touches nothing. Where parts of the surface lie closer than the skin there (a zigzag of
-segments shorter than ``d^``), a point sits behind another part already at rest; its skin is then measured from where
-it sits, an *offset* ``o_p`` (its depth at rest): its energy uses ``sigma + o_p`` and its wall lies at
-``sigma = -(d^ + o_p)``. Being one number per point, the offset keeps the energy continuous where the owner changes.
+Where the energy jumps (both rare, both open; Newton's line search stops at the jump): at a corner whose point is
+*outside* its cone because the segment on the other side is in the point's own neighbourhood (the pseudonormal's sign
+flips on the line through the corner perpendicular to it), and at a corner folded right over (through 180 degrees, as
+a crumpled lip of a cut through elements can), where the pseudonormal turns over with every sign in its cone.
 
-A point found deeper than ``d^`` behind a segment when a step *starts* (and not within ``d^`` of the segment's
-neighbours, along which it may slide into this segment's ownership later in the step) is ignored for that pair until
-the step is over: the far side of a thin body is such a pair, and so is tissue a handle dragged through tissue.
-
-Where the energy jumps
-----------------------
-An owner's gap is continuous while the point stays in the cone of the corner it is measured from. Two cases are not,
-and both are open (rare; the energy jumps by a finite amount, or from zero to the wall, and Newton's line search stops
-at the jump): a corner whose point is *outside* the corner's cone, because the segment on the corner's other side is
-in the point's own neighbourhood (the pseudonormal's sign flips on the line through the corner perpendicular to it,
-possibly closer than ``d^``); and a corner whose segments fold right over (through 180 degrees, as a crumpled lip of a
-cut through elements can), where the pseudonormal turns over with the sign of every point in its cone.
-
-The broad phase
----------------
-A Verlet list [4] of the (point, segment) pairs closer than ``d^ + skin`` (the nearest points of each segment's
-midpoint, from a k-d tree), valid while the points have moved less than ``skin / 2`` *relative to each other* since it
-was built (a rigid drag refreshes nothing); a surface nowhere near itself has an empty list and costs a few vector
-operations per evaluation. A pair's *key* is ``p * n_segments + s``; lists are sorted by it.
-
-(References [n]: :mod:`tissuefem.engine.contact`.)
+The broad phase is a Verlet list [4] of the pairs closer than ``reach + skin`` (the nearest points of each segment's
+midpoint, from a k-d tree), valid while the points move less than ``skin / 2`` *relative to each other* (a rigid drag
+refreshes nothing): a surface nowhere near itself costs a few vector operations. A pair's *key* is ``p * n_segments +
+s``; lists are sorted by it. (References: :mod:`tissuefem.engine.contact`.)
 """
-
-from __future__ import annotations
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -147,8 +124,8 @@ class CandidatePairs:
     folds right back (-1 backwards along the segment if it turned into the material at rest, a crack tip; +1 forwards,
     a needle); ``hinge`` (the hinges that count: at corners turning back into the material at rest) with their
     ``hinge_keys``; the list ``p``, ``s``, ``keys``, built at ``points`` (``refreshes`` times so far); ``ignored`` /
-    ``hinge_ignored``, pairs deep behind their segment at ``step_start``; ``positions`` / ``hinge_positions``, each
-    pair's entries in the model's sparsity pattern (-1 until the term looks them up).
+    ``hinge_ignored``, pairs deep behind their wall at ``step_start``; ``positions``, the entries of each pair's
+    Hessian in the model's pattern (rows: the list's pairs, then the hinges; -1 until the term looks them up).
     """
 
     def __init__(self, surface, Y, rest_length, distance, skin):
@@ -171,7 +148,6 @@ class CandidatePairs:
         self.excluded = _arc_neighbourhood(surface, rest_length, 2.0 * distance, surface.hinge_corner[self.hinge])
         self.hinge_keys = surface.hinge_points[self.hinge].astype(np.int64) * max(n_seg, 1) \
             + surface.hinge_segments[self.hinge]
-        self.hinge_positions = np.full((self.hinge_keys.size, self.n_local), -1, dtype=np.intp)
         self.hinge_ignored = np.zeros(self.hinge_keys.size, dtype=bool)
         self.step_start = None
         self.refreshes = 0
@@ -297,11 +273,13 @@ class CandidatePairs:
         self.points = Y.copy()
         self.refreshes += 1
         self.ignored = self.deep_at_start(self.p, self.s)
-        self.positions = np.full((self.keys.size, self.n_local), -1, dtype=np.intp)
-        if old_keys is not None and old_keys.size and self.keys.size:
-            at = np.minimum(np.searchsorted(old_keys, self.keys), old_keys.size - 1)
-            same = old_keys[at] == self.keys
-            self.positions[same] = old_positions[at[same]]
+        self.positions = np.full((self.keys.size + self.hinge_keys.size, self.n_local), -1, dtype=np.intp)
+        if old_keys is not None:
+            self.positions[self.keys.size:] = old_positions[old_keys.size:]  # the hinges'
+            if old_keys.size and self.keys.size:
+                at = np.minimum(np.searchsorted(old_keys, self.keys), old_keys.size - 1)
+                same = np.flatnonzero(old_keys[at] == self.keys)
+                self.positions[same] = old_positions[at[same]]
 
     def ensure(self, Y) -> None:
         """Refresh the list when the points have moved more than ``skin / 2`` relative to each other since it was
@@ -327,7 +305,7 @@ class CandidatePairs:
 
     def current(self, Y):
         """``(p, s, keys, ignored, rows)`` of every pair to look at, at ``Y``: the list and the sharp hinges
-        (``rows``: the pair's row in ``positions``, or ``list size + hinge index`` in ``hinge_positions``)."""
+        (``rows``: the pair's row in ``positions``)."""
         hinges = self.sharp_hinges(Y)
         rows = np.arange(self.keys.size)
         if hinges.size == 0:

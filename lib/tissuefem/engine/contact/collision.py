@@ -1,17 +1,14 @@
 """Continuous collision detection: how far a step may go before a point reaches a wall.
 
-The barrier is infinite only in the skin; a large step could carry a point from in front of a segment to deeper than
-``d^`` behind it, where the energy is zero again. So every step is first limited: with all points moving linearly,
-``y(tau) = y0 + tau dy``, the first ``tau`` in ``[0, 1]`` at which a point reaches a *wall* of a segment that owns it
-then (no neighbouring segment nearer than ``d^``) is its time of impact. The walls are the segment's line moved inward
-by ``d^``, ``cross(w(tau), e(tau)) = -d^ |e(tau)|`` (squared, a quartic in ``tau``, solved only for the pairs a
-conservative quadratic bound flags), and the circles of radius ``d^`` round its ends, ``|y_p(tau) - y_v(tau)|^2 =
-d^2`` (a quadratic), where ``p`` lies behind the corner. The step is cut to :data:`SAFETY` of the earliest time of
-impact, IPC's safety factor [1] (references: :mod:`tissuefem.engine.contact`). The pairs checked are the Verlet list's while
-the points stay within its margin, else those found afresh within reach of the whole step.
+The barrier is infinite only in the skin: a large step could carry a point from in front of a segment to deeper than
+``d^`` behind it, where the energy is zero again. So every step is first limited: with the points moving linearly,
+``y(tau) = y0 + tau dy``, a point's time of impact is the first ``tau`` in ``[0, 1]`` at which it reaches a *wall* of
+a segment that owns it then (no neighbouring segment nearer than its depth). The walls are the segment's line moved
+inward by ``d^``, ``cross(w(tau), e(tau)) = -d^ |e(tau)|`` (squared: a quartic in ``tau``, solved only for the pairs
+a conservative quadratic bound flags), and the circles of radius ``d^`` round its ends where ``p`` lies behind the
+corner, ``|y_p(tau) - y_v(tau)|^2 = d^2`` (a quadratic). A step is cut to :data:`SAFETY` of the earliest time of
+impact, IPC's safety factor [1] (:mod:`tissuefem.engine.contact`).
 """
-
-from __future__ import annotations
 
 import numpy as np
 
@@ -41,22 +38,15 @@ def _quartic_roots(c0, c1, c2, d, q0, q1, q2):
 
 
 def times_of_impact(pairs, Y0, dY, p, s) -> np.ndarray:
-    """For the pairs ``(p, s)`` of the :class:`~tissuefem.engine.contact.candidates.CandidatePairs` ``pairs``, the
-    earliest ``tau`` in ``[0, 1]`` at which each reaches its wall on the way ``Y0 + tau dY`` (``inf`` if it does not).
-
-    The walls: the segment's line moved inward by the point's wall depth (where the point projects onto the segment),
-    and circles of that radius round its ends (behind a corner). A wall counts where the segment owns the point: no
-    neighbouring segment is nearer than that depth then.
-    """
+    """The earliest ``tau`` in ``[0, 1]`` at which each pair ``(p, s)`` of the :class:`~.candidates.CandidatePairs`
+    ``pairs`` reaches a wall of its segment that owns it then, on the way ``Y0 + tau dY`` (``inf``: never). The walls
+    lie at the point's depth ``d^ + o_p``."""
     out = np.full(p.size, np.inf)
     if p.size == 0:
         return out
     d = pairs.skins[p]  # each point's wall depth
-    surface = pairs.surface
-    seg = surface.segments
-    a, b = seg[0, s], seg[1, s]
-    prev, nxt = surface.previous[s], surface.next[s]
-    before, after = seg[0, np.maximum(prev, 0)], seg[1, np.maximum(nxt, 0)]
+    seg, prev, nxt = pairs.surface.segments, pairs.surface.previous[s], pairs.surface.next[s]
+    a, b, before, after = seg[0, s], seg[1, s], seg[0, np.maximum(prev, 0)], seg[1, np.maximum(nxt, 0)]
     w0, dw = Y0[:, p] - Y0[:, a], dY[:, p] - dY[:, a]
     e0, de = Y0[:, b] - Y0[:, a], dY[:, b] - dY[:, a]
     # c(tau) = cross(w, e) = c0 + c1 tau + c2 tau^2;  q(tau) = |e|^2 = q0 + q1 tau + q2 tau^2
@@ -83,9 +73,7 @@ def times_of_impact(pairs, Y0, dY, p, s) -> np.ndarray:
         found += [(k, max(float(tau_out[k]), 0.0), wall) for k in np.flatnonzero(leaving).tolist()]
     if not found:
         return out
-    k = np.array([f[0] for f in found], dtype=np.intp)
-    tau = np.array([f[1] for f in found])
-    wall = np.array([f[2] for f in found])
+    k, tau, wall = (np.array(column) for column in zip(*found))
 
     def at(i, rows=slice(None)):  # the points i of the candidates rows at their time
         return Y0[:, i] + tau[rows] * dY[:, i]
@@ -93,8 +81,8 @@ def times_of_impact(pairs, Y0, dY, p, s) -> np.ndarray:
     kind, _, sigma = signed_gaps(at(p[k]), at(a[k]), at(b[k]), at(before[k]), at(after[k]), prev[k] >= 0,
                                  nxt[k] >= 0, pairs.fold[np.maximum(prev[k], 0)], pairs.fold[s[k]])
     hit = (kind == wall) & (sigma < 0)
-    # the segment owns the point there unless a neighbour (one the point may meet) is nearer than d; a neighbour
-    # through the wall's own corner lies at distance d exactly, and does not count
+    # the segment owns the point there unless a neighbour (one it may meet) is nearer than d; one through the wall's
+    # own corner lies at d exactly, and does not count
     hit &= ~pairs.neighbour_nearer(at, p[k], s[k], hit, (1.0 - 1e-9) * d[k])
     np.minimum.at(out, k[hit], tau[hit])
     return out
@@ -107,8 +95,7 @@ def step_fraction(pairs, Y0, dY) -> float:
     if moved == 0.0:
         return 1.0
     pairs.ensure(Y0)
-    drift = spread(Y0 - pairs.points)
-    if drift + moved < 0.5 * pairs.skin:
+    if spread(Y0 - pairs.points) + moved < 0.5 * pairs.skin:
         p, s, ignored = pairs.p, pairs.s, pairs.ignored
     else:  # a long step: the pairs that could meet on the way, found afresh
         p, s = pairs.query(Y0, pairs.reach + 2.0 * moved)

@@ -1,15 +1,11 @@
 """The contact surface: points that are fixed linear combinations of nodes, and the segments between them.
 
-A point is ``y_i = sum_k W_ik x_(N_ik)``: a boundary node is one node with weight 1, a point on the lip of a cut
-through an element (:mod:`tissuefem.surgery.element_cuts`) the barycentric combination of the nodes of the element
-copy that carries that lip. A segment ``(a, b)`` has the material on its *left* (counter-clockwise round the
-material), so its outward normal is the tangent turned clockwise, ``n = (e_y, -e_x) / |e|`` with ``e = y_b - y_a``.
-Segments follow each other round closed loops (:attr:`ContactSurface.next`).
-
-The small vector helpers below work on coordinates stored as (2, ...) arrays; the other contact modules share them.
+A boundary node is a point of one node with weight 1; a point on the lip of a cut through an element
+(:mod:`tissuefem.surgery.element_cuts`) the barycentric combination of the nodes of the element copy that carries that
+lip. A segment ``(a, b)`` has the material on its *left* (counter-clockwise round it), so its outward normal is the
+tangent turned clockwise, ``n = (e_y, -e_x) / |e|`` with ``e = y_b - y_a``. The vector helpers (on coordinates stored
+as (2, ...) arrays) are shared by the other contact modules.
 """
-
-from __future__ import annotations
 
 import numpy as np
 from skfem import MeshTri
@@ -20,12 +16,12 @@ __all__ = ["ContactSurface", "cross", "dot", "segment_distance"]
 
 
 def cross(u, v):
-    """``u_x v_y - u_y v_x`` of vectors stored as (2, ...) arrays."""
+    """``u_x v_y - u_y v_x``."""
     return u[0] * v[1] - u[1] * v[0]
 
 
 def dot(u, v):
-    """``u . v`` of vectors stored as (2, ...) arrays."""
+    """``u . v``."""
     return u[0] * v[0] + u[1] * v[1]
 
 
@@ -44,71 +40,55 @@ def _refused(field, message) -> ParameterError:
 class ContactSurface:
     """Points (linear combinations of nodes) and the segments between them, material on each segment's left.
 
-    Point ``i`` is ``sum_j weights[i, j] * x[:, nodes[i, j]]`` (``nodes``, ``weights`` shaped (n_points, k), unused
-    slots padded with weight 0; a plain boundary node has ``k = 1``, weight 1) among ``n_nodes`` mesh nodes.
-    ``segments`` (2, n_segments) are the point indices ``(a, b)`` of every segment, run counter-clockwise round the
-    material; ``wound`` (one bool per segment, optional) flags those on a wound's lips (for drawing and reports).
-
-    Attributes: ``next`` / ``previous`` (n_segments,), the segment that starts where this one ends (ends where it
-    starts), -1 where there is none or more than one; ``neighbourhood`` (n_segments, 4), the points the broad phase does
-    not pair a segment with (its ends and its neighbours' far ends, -1 where missing); ``hinge_points``,
-    ``hinge_segments``, ``hinge_corner``, the pairs it leaves out but that can touch where the surface folds back on
-    itself: at the corner between a segment and the next (``hinge_corner`` is the first), the far end of each against
-    the other (at a crack tip, the first point of one lip against the first segment of the other).
+    Point ``i`` is ``sum_j weights[i, j] * x[:, nodes[i, j]]`` among ``n_nodes`` mesh nodes (``nodes``, ``weights``
+    shaped (n_points, k), unused slots weighing 0); ``segments`` (2, n_segments) are the points ``(a, b)`` of each
+    segment; ``wound`` (one bool per segment) flags those on a wound's lips. Attributes: ``next`` / ``previous``, the
+    segment that starts where this one ends (ends where it starts), -1 where there is none or more than one;
+    ``neighbourhood`` (n_segments, 4), its ends and its neighbours' far ends (-1 where missing); ``hinge_points``,
+    ``hinge_segments``, ``hinge_corner``: at the corner between a segment and the next (``hinge_corner`` is the first),
+    the far end of each against the other (at a crack tip: one lip's first point against the other's first segment).
     """
 
     def __init__(self, nodes, weights, segments, n_nodes, wound=None):
         self.n_nodes = check_count("contact.surface.n_nodes", n_nodes)
         nodes = np.asarray(nodes)
         nodes = nodes[:, None] if nodes.ndim == 1 else nodes
-        if nodes.ndim != 2 or nodes.shape[1] < 1 or not (nodes.size == 0 or np.issubdtype(nodes.dtype, np.integer)):
-            raise _refused("nodes", f" must be node indices shaped (n_points, k), got {nodes!r}")
-        if nodes.size and (nodes.min() < 0 or nodes.max() >= self.n_nodes):
-            raise _refused("nodes", f": node indices must lie in 0..{self.n_nodes - 1}, got "
-                                    f"{int(nodes.min())}..{int(nodes.max())}")
+        if nodes.ndim != 2 or nodes.shape[1] < 1 or nodes.size and (not np.issubdtype(nodes.dtype, np.integer)
+                                                                    or nodes.min() < 0 or nodes.max() >= self.n_nodes):
+            raise _refused("nodes", f" must be node indices in 0..{self.n_nodes - 1} shaped (n_points, k), got "
+                                    f"{nodes!r}")
         try:
             weights = np.asarray(weights, dtype=float)
         except (TypeError, ValueError):
             raise _refused("weights", f" must be numbers shaped {nodes.shape}") from None
         weights = weights[:, None] if weights.ndim == 1 else weights
         if weights.shape != nodes.shape or not np.all(np.isfinite(weights)):
-            raise _refused("weights", f" must be finite and shaped like the nodes {nodes.shape}, got shape "
-                                      f"{weights.shape}")
-        segments = np.asarray(segments)
-        if (segments.ndim != 2 or segments.shape[0] != 2
-                or not (segments.size == 0 or np.issubdtype(segments.dtype, np.integer))):
-            raise _refused("segments", f" must be point indices shaped (2, n_segments), got shape {segments.shape}")
-        n_points = nodes.shape[0]
-        if segments.size and (segments.min() < 0 or segments.max() >= n_points):
-            raise _refused("segments", f": point indices must lie in 0..{n_points - 1}")
+            raise _refused("weights", f" must be finite and shaped like the nodes {nodes.shape}, got {weights!r}")
+        segments, n_points = np.asarray(segments), nodes.shape[0]
+        if segments.ndim != 2 or segments.shape[0] != 2 or segments.size and (
+                not np.issubdtype(segments.dtype, np.integer) or segments.min() < 0 or segments.max() >= n_points):
+            raise _refused("segments", f" must be point indices in 0..{n_points - 1} shaped (2, n_segments), got "
+                                       f"{segments!r}")
         if np.any(segments[0] == segments[1]):
             raise _refused("segments", ": a segment joins a point to itself")
-        self.nodes = nodes.astype(np.intp)
-        self.weights = weights
+        self.nodes, self.weights, self.segments = nodes.astype(np.intp), weights, segments.astype(np.intp)
         self._plain = nodes.shape[1] == 1 and bool(np.all(weights == 1.0))  # every point a node
-        self.segments = segments.astype(np.intp)
         n_seg = self.segments.shape[1]
         self.wound = np.zeros(n_seg, dtype=bool) if wound is None else np.asarray(wound, dtype=bool)
         if self.wound.shape != (n_seg,):
             raise _refused("wound", f" must be one bool per segment ({n_seg}), got {self.wound.shape}")
         # the loops: the segment leaving each segment's end (unique, or none)
         a, b = self.segments
-        starts = np.bincount(a, minlength=n_points)
-        ends = np.bincount(b, minlength=n_points)
-        leaving = np.full(n_points, -1, dtype=np.intp)
-        leaving[a] = np.arange(n_seg)
-        arriving = np.full(n_points, -1, dtype=np.intp)
-        arriving[b] = np.arange(n_seg)
-        self.next = np.where(starts[b] == 1, leaving[b], -1)
-        self.previous = np.where(ends[a] == 1, arriving[a], -1)
+        leaving, arriving = np.full(n_points, -1, dtype=np.intp), np.full(n_points, -1, dtype=np.intp)
+        leaving[a], arriving[b] = np.arange(n_seg), np.arange(n_seg)
+        self.next = np.where(np.bincount(a, minlength=n_points)[b] == 1, leaving[b], -1)
+        self.previous = np.where(np.bincount(b, minlength=n_points)[a] == 1, arriving[a], -1)
         self.neighbourhood = np.stack([a, b, np.where(self.previous >= 0, a[np.maximum(self.previous, 0)], -1),
                                        np.where(self.next >= 0, b[np.maximum(self.next, 0)], -1)], axis=1)
         # hinges: at the corner between a segment and the next, each one's far end against the other segment
         into = np.flatnonzero(self.next >= 0)
         out = self.next[into]
-        hinge_p = np.concatenate([a[into], b[out]])
-        hinge_s = np.concatenate([out, into])
-        corner = np.concatenate([into, into])  # the segment that ends at the hinge's corner
+        hinge_p, hinge_s, corner = np.concatenate([a[into], b[out]]), np.concatenate([out, into]), np.tile(into, 2)
         keep = (hinge_p != a[hinge_s]) & (hinge_p != b[hinge_s])  # not in a loop of two segments
         self.hinge_points, self.hinge_segments, self.hinge_corner = hinge_p[keep], hinge_s[keep], corner[keep]
 
@@ -123,21 +103,16 @@ class ContactSurface:
             raise ParameterError("mesh", f"mesh must be a triangle mesh (skfem.MeshTri), got {type(mesh).__name__}")
         if not isinstance(wound_boundary, str):
             raise ParameterError("wound_boundary", f"wound_boundary must be a boundary's name, got {wound_boundary!r}")
-        p = np.asarray(mesh.p, dtype=float)
-        facets = np.asarray(mesh.boundary_facets(), dtype=np.intp)
+        p, facets = np.asarray(mesh.p, dtype=float), np.asarray(mesh.boundary_facets(), dtype=np.intp)
         pairs = np.asarray(mesh.facets, dtype=np.intp)[:, facets]
-        element = np.asarray(mesh.f2t, dtype=np.intp)[0, facets]
-        t = np.asarray(mesh.t, dtype=np.intp)[:, element]
+        t = np.asarray(mesh.t, dtype=np.intp)[:, np.asarray(mesh.f2t, dtype=np.intp)[0, facets]]
         third = t.sum(axis=0) - pairs.sum(axis=0)  # the element's vertex off the facet
-        e = p[:, pairs[1]] - p[:, pairs[0]]
-        left = cross(e, p[:, third] - p[:, pairs[0]]) > 0
-        pairs = np.where(left, pairs, pairs[::-1])  # the material on the left
-        nodes, segments = np.unique(pairs, return_inverse=True)
-        segments = segments.reshape(2, -1)
+        left = cross(p[:, pairs[1]] - p[:, pairs[0]], p[:, third] - p[:, pairs[0]]) > 0
+        nodes, segments = np.unique(np.where(left, pairs, pairs[::-1]), return_inverse=True)  # material on the left
         wound = None
         if mesh.boundaries and wound_boundary in mesh.boundaries:
             wound = np.isin(facets, np.asarray(mesh.boundaries[wound_boundary]))
-        return cls(nodes[:, None], np.ones((nodes.size, 1)), segments, p.shape[1], wound=wound)
+        return cls(nodes[:, None], np.ones((nodes.size, 1)), segments.reshape(2, -1), p.shape[1], wound=wound)
 
     @property
     def n_points(self) -> int:
@@ -163,5 +138,4 @@ class ContactSurface:
         return np.stack([y[:, self.segments[0]].T, y[:, self.segments[1]].T], axis=1)
 
     def __repr__(self):
-        return (f"ContactSurface({self.n_points} points, {self.n_segments} segments, "
-                f"{int(self.wound.sum())} on wounds)")
+        return f"ContactSurface({self.n_points} points, {self.n_segments} segments, {int(self.wound.sum())} on wounds)"

@@ -165,21 +165,14 @@ class Contact(Term):
         np.add.at(data, self._hessian_positions(c["rows"], dofs).ravel(), block.ravel())
 
     def _hessian_positions(self, rows, dofs):
-        """Positions in the pattern's data of the (6 width)^2 entries of each pair (found once per pattern)."""
-        pairs = self.pairs
-        n_list = pairs.keys.size
-        in_list = rows < n_list
-        pos = np.where(in_list[:, None], pairs.positions[np.minimum(rows, max(n_list - 1, 0))] if n_list else -1,
-                       pairs.hinge_positions[np.maximum(rows - n_list, 0)] if pairs.hinge_keys.size else -1)
+        """Positions in the pattern's data of the (6 width)^2 entries of each pair (looked up once per pattern)."""
+        pos = self.pairs.positions[rows]
         missing = pos[:, 0] < 0
         if np.any(missing):
             d = dofs[missing]
-            found = self.pattern.positions(np.repeat(d, d.shape[1], axis=1).ravel(),
-                                           np.tile(d, (1, d.shape[1])).ravel()).reshape(d.shape[0], -1)
-            pos[missing] = found
-            r = rows[missing]
-            pairs.positions[r[r < n_list]] = found[r < n_list]
-            pairs.hinge_positions[r[r >= n_list] - n_list] = found[r >= n_list]
+            pos[missing] = self.pattern.positions(np.repeat(d, d.shape[1], axis=1).ravel(),
+                                                  np.tile(d, (1, d.shape[1])).ravel()).reshape(d.shape[0], -1)
+            self.pairs.positions[rows[missing]] = pos[missing]
         return pos
 
     # -------------------------------------------------------------- the hooks
@@ -204,7 +197,6 @@ class Contact(Term):
         super().bind(pattern)
         self._covered = self._coupled
         self.pairs.positions[:] = -1
-        self.pairs.hinge_positions[:] = -1
 
     def covers(self, u) -> bool:
         """Whether the bound pattern holds the couplings of every pair active at ``u`` (else the model rebuilds it:
