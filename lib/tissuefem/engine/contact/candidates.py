@@ -1,37 +1,32 @@
 """Which (point, segment) pairs may touch: their signed gaps, the neighbourhoods left out, owners, the Verlet list.
 
-For a point ``p`` and a segment ``s = (a, b)``, ``e = y_b - y_a``, ``w = y_p - y_a``, ``t = w . e / |e|^2`` says where
-``p`` projects along it. For ``0 < t < 1`` (point-segment) the gap is the distance to the segment's line, signed by
-the outward normal, ``sigma = cross(w, e) / |e| = w . n``; else (point-point) it is the distance ``|y_p - y_v|`` to
-that end ``v``, negative when ``(y_p - y_v) . n_v < 0`` with the corner's *pseudonormal* ``n_v`` (the mean of its two
-segments' normals): behind a reflex corner a point is inside; behind a convex one no point projects outside both
-segments. This is the signed distance to a polygon of [3], continuous where the nearest feature changes *inside the
-run the point sees*: the segments within ``d^`` of a point form runs of consecutive segments (two where it is pinched
-between two stretches), and in each run only the nearest, the *owner*, counts. So a point pressed into a convex
-corner belongs to the nearer side, is never counted twice, and segments shorter than the skin (the sliver a cut
+With ``e = y_b - y_a``, ``w = y_p - y_a`` and ``t = w . e / |e|^2``, the gap of a point ``p`` to a segment ``(a, b)``
+is, for ``0 < t < 1``, its distance to the segment's line signed by the outward normal, ``sigma = cross(w, e) / |e|``;
+else the distance ``|y_p - y_v|`` to that end ``v``, negative when ``(y_p - y_v) . n_v < 0`` with the corner's
+*pseudonormal* ``n_v`` (the mean of its two segments' normals): the signed distance to a polygon of [3]. It is
+continuous where the nearest feature changes *inside the run the point sees*: the segments within ``d^`` of a point
+form runs of consecutive segments, and in each run only the nearest, the *owner*, counts. So a point pressed into a
+convex corner belongs to the nearer side, is never counted twice, and segments shorter than the skin (the sliver a cut
 through elements leaves next to a node) are handled like any other.
 
 A point is not paired with the segments it ends, their neighbours, nor any segment less than ``2 d^`` from it along
 the surface at rest: else a cut's lip, a chain of pieces shorter than ``d^``, puts its own points in the skin of its
 corners as soon as it bends. The walk along the loop stops at a corner that turned back into the material at rest (a
-crack tip); there the first point of each lip is checked against the first segment of the other (a *hinge*) when the
-corner turns by more than 90 degrees, so a crack pressed shut up to its tip does not overlap there. Coinciding lips
-are at ``sigma = 0``: in contact, without force. Where parts of the surface lie closer than ``d^`` at rest (a zigzag
-of short segments), a point's skin is measured from where it sits, its *rest offset* ``o_p``: its wall is at ``sigma
-= -(d^ + o_p)``, one number per point, so the energy stays continuous where the owner changes. A pair whose point is
-deeper than its wall when a step *starts* (and not within it of the segment's neighbours, along which it may slide
-into this segment's ownership) is ignored until the step ends: the far side of a thin body, or tissue a handle
+crack tip); there the first point of each lip is checked against the other's first segment (a *hinge*) while the
+corner turns by more than 90 degrees, so a crack pressed shut up to its tip does not overlap. Coinciding lips are at
+``sigma = 0``: in contact, without force. Where parts of the surface lie closer than ``d^`` at rest, a point's wall is
+moved by its depth there, its *rest offset* ``o_p`` (one number per point: the energy stays continuous). A pair whose
+point is deeper than its wall when a step *starts* (and not within it of the segment's neighbours, along which it may
+slide into this segment's ownership) is ignored until the step ends: the far side of a thin body, or tissue a handle
 dragged through tissue.
 
-Where the energy jumps (both rare, both open; Newton's line search stops at the jump): at a corner whose point is
-*outside* its cone because the segment on the other side is in the point's own neighbourhood (the pseudonormal's sign
-flips on the line through the corner perpendicular to it), and at a corner folded right over (through 180 degrees, as
-a crumpled lip of a cut through elements can), where the pseudonormal turns over with every sign in its cone.
+The energy jumps (rare, open: Newton's line search stops there) where a point is *outside* the cone of the corner it
+is measured from because the segment beyond is in its own neighbourhood, and at a corner folded right over (through
+180 degrees, as a crumpled lip of a cut through elements can): the pseudonormal's sign flips.
 
 The broad phase is a Verlet list [4] of the pairs closer than ``reach + skin`` (the nearest points of each segment's
 midpoint, from a k-d tree), valid while the points move less than ``skin / 2`` *relative to each other* (a rigid drag
-refreshes nothing): a surface nowhere near itself costs a few vector operations. A pair's *key* is ``p * n_segments +
-s``; lists are sorted by it. (References: :mod:`tissuefem.engine.contact`.)
+refreshes nothing). A pair's *key* is ``p * n_segments + s``; lists are sorted by it. (References: the package.)
 """
 
 import numpy as np
@@ -43,14 +38,10 @@ __all__ = ["CandidatePairs", "signed_gaps", "spread"]
 
 
 def signed_gaps(yp, ya, yb, y_before, y_after, has_previous, has_next, fold_start, fold_end):
-    """``(kind, distance, sigma)`` of points ``yp`` against segments ``ya -> yb`` (all coordinates (2, m)): which
-    feature is nearest the point (1 the interior, 2 the start ``a``, 3 the end ``b``), how far, and the signed gap.
-
-    ``y_before`` / ``y_after`` are the previous segment's start and the next segment's end (``has_*``: whether there
-    is one); ``fold_*`` the side a corner folded right back on itself opens to (:attr:`CandidatePairs.fold`). A
-    segment collapsed to a point (an element crushed flat) gives NaN gaps, which count as no contact.
-    """
-
+    """``(kind, distance, sigma)`` of points ``yp`` against segments ``ya -> yb`` (all (2, m)): the nearest feature (1
+    the interior, 2 ``a``, 3 ``b``), how far, and the signed gap. ``y_before`` / ``y_after``: the previous segment's
+    start, the next one's end (``has_*``: if any); ``fold_*``: :attr:`CandidatePairs.fold`. A segment collapsed to a
+    point (an element crushed flat) gives NaN gaps, which count as no contact."""
     def corner_normal(e_in, e_out, fold):
         """The pseudonormal of a corner: the mean of its segments' normals (folded right back: where it opens)."""
         m = np.stack([e_in[1], -e_in[0]]) / np.sqrt(dot(e_in, e_in)) + \
@@ -58,7 +49,6 @@ def signed_gaps(yp, ya, yb, y_before, y_after, has_previous, has_next, fold_star
         size = np.sqrt(dot(m, m))
         folded = size < 1e-9
         return np.where(folded, fold * e_in / np.sqrt(dot(e_in, e_in)), m / np.where(folded, 1.0, size))
-
     with np.errstate(invalid="ignore", divide="ignore"):
         e, w, wb = yb - ya, yp - ya, yp - yb
         L = np.sqrt(dot(e, e))
@@ -84,10 +74,8 @@ def spread(dY) -> float:
 
 
 def _arc_neighbourhood(surface, length, reach, stops) -> np.ndarray:
-    """The points each segment is not paired with, (n_segments, k) padded with -1: its ends, the far ends of its
-    neighbours, and every point less than ``reach`` away from it along the surface at rest (walking from its ends along
-    the loop, but not round a corner in ``stops``, given by the segment ending there). Such a point is within the skin
-    of the segment, or gets there only by folding the surface right over, where the sign of a gap says nothing."""
+    """The points each segment is not paired with, (n_segments, k) padded with -1: its ends, its neighbours' far ends,
+    and every point less than ``reach`` from it along the surface at rest (not round the corners ending ``stops``)."""
     seg = surface.segments
     n_seg = seg.shape[1]
     base = surface.neighbourhood
@@ -115,18 +103,13 @@ def _arc_neighbourhood(surface, length, reach, stops) -> np.ndarray:
 
 
 class CandidatePairs:
-    """The pairs of a :class:`~tissuefem.engine.contact.surface.ContactSurface` that may touch, and their gaps.
-
-    Built at the rest points ``Y`` (2, n_points) with the segments' rest lengths, the skin ``distance`` (``d^``) and
-    the list's margin ``skin``. Attributes: ``offset`` / ``skins`` / ``reach``, each point's rest offset, its wall
-    depth ``d^ + o_p`` and the deepest of them (no pair is in contact farther apart); ``excluded`` (n_segments, k), the
-    points each segment is never paired with; ``fold``, per segment, the side the corner at its end opens to if it
-    folds right back (-1 backwards along the segment if it turned into the material at rest, a crack tip; +1 forwards,
-    a needle); ``hinge`` (the hinges that count: at corners turning back into the material at rest) with their
-    ``hinge_keys``; the list ``p``, ``s``, ``keys``, built at ``points`` (``refreshes`` times so far); ``ignored`` /
-    ``hinge_ignored``, pairs deep behind their wall at ``step_start``; ``positions``, the entries of each pair's
-    Hessian in the model's pattern (rows: the list's pairs, then the hinges; -1 until the term looks them up).
-    """
+    """The pairs of a surface that may touch, from its rest points ``Y``, segment lengths, ``distance`` ``d^`` and the
+    list's margin ``skin``. ``offset``, ``skins``, ``reach``: the points' rest offsets, walls ``d^ + o_p`` and the
+    deepest; ``excluded``: the points each segment is never paired with; ``fold``: per segment, where the corner at its
+    end opens if it folds right back (-1 backwards: it turned into the material at rest, a crack tip; +1 forwards);
+    ``hinge``: the hinges that count; the list ``p``, ``s``, ``keys`` built at ``points``; ``ignored`` /
+    ``hinge_ignored``: deep at ``step_start``; ``positions``: each pair's Hessian entries in the model's pattern (the
+    list's rows, then the hinges'; -1 until looked up)."""
 
     def __init__(self, surface, Y, rest_length, distance, skin):
         self.surface, self.rest_length, self.skin = surface, rest_length, skin
@@ -146,19 +129,14 @@ class CandidatePairs:
                                                         & (dot(e_in, e_out) < 0))
         self.hinge = np.flatnonzero(armed)
         self.excluded = _arc_neighbourhood(surface, rest_length, 2.0 * distance, surface.hinge_corner[self.hinge])
-        self.hinge_keys = surface.hinge_points[self.hinge].astype(np.int64) * max(n_seg, 1) \
-            + surface.hinge_segments[self.hinge]
+        hp, hs = self.hinge_pairs(slice(None))
+        self.hinge_keys = hp.astype(np.int64) * max(n_seg, 1) + hs
         self.hinge_ignored = np.zeros(self.hinge_keys.size, dtype=bool)
-        self.step_start = None
-        self.refreshes = 0
-        self.keys = self.positions = None
-        # the rest offsets: the reference configuration touches nothing
-        self.offset = np.zeros(surface.n_points)
+        self.step_start, self.refreshes, self.keys, self.positions = None, 0, None, None
+        self.offset = np.zeros(surface.n_points)  # the rest offsets: the reference configuration touches nothing
         for _ in range(8):
-            reach = distance + float(self.offset.max(initial=0.0))
-            p, s = self.query(Y, reach)
-            p = np.concatenate([p, surface.hinge_points[self.hinge]])
-            s = np.concatenate([s, surface.hinge_segments[self.hinge]])
+            p, s = self.query(Y, distance + float(self.offset.max(initial=0.0)))
+            p, s = np.concatenate([p, hp]), np.concatenate([s, hs])
             _, gap, sigma = self.classify(Y, p, s)
             # (two lips that coincide are at sigma = 0 up to round-off: they touch, they are not inside)
             inside = (gap < distance + self.offset[p]) & (sigma < -self.offset[p] - 1e-9 * rest_length[s])
@@ -170,8 +148,8 @@ class CandidatePairs:
         self.refresh(Y)
 
     def query(self, Y, reach):
-        """``(p, s)``: the pairs with the point within ``half length + reach`` of the segment's midpoint at the points
-        ``Y``, the excluded ones left out, sorted by key."""
+        """``(p, s)``: the pairs not excluded with the point within ``half length + reach`` of the segment's midpoint
+        at the points ``Y``, sorted by key."""
         seg = self.surface.segments
         n_seg = seg.shape[1]
         if n_seg == 0 or self.surface.n_points == 0:
@@ -214,7 +192,6 @@ class CandidatePairs:
         n_seg = max(self.surface.n_segments, 1)
         order = np.argsort(keys)
         k = keys[order]
-
         def find(target):  # the position (in sorted order) of the pair with key ``target``, or -1
             at = np.minimum(np.searchsorted(k, target), k.size - 1)
             return np.where(k[at] == target, at, -1)
@@ -243,9 +220,8 @@ class CandidatePairs:
         return owner
 
     def neighbour_nearer(self, at, p, s, check, depth):
-        """Where ``check``: whether a neighbour of segment ``s`` (one the point ``p`` is not excluded from) is nearer
-        the point than ``depth``, so the point lies on that stretch and may slide into ``s``'s ownership.
-        ``at(i, rows)`` gives the coordinates (2, len(rows)) of the points ``i`` of the pairs ``rows``."""
+        """Where ``check``: whether a neighbour of segment ``s`` (not excluded for ``p``) is nearer the point than
+        ``depth``. ``at(i, rows)``: the coordinates (2, len(rows)) of the points ``i`` of the pairs ``rows``."""
         seg, near = self.surface.segments, np.zeros(p.size, dtype=bool)
         for neighbour in (self.surface.previous[s], self.surface.next[s]):
             nb = np.maximum(neighbour, 0)
@@ -255,8 +231,7 @@ class CandidatePairs:
         return near
 
     def deep_at_start(self, p, s) -> np.ndarray:
-        """Which pairs had their point deeper than its wall behind the segment when the step started (and not within
-        its skin of a neighbouring segment: :meth:`neighbour_nearer`)."""
+        """Which pairs had their point deeper than its wall behind the segment (and its neighbours) at the start."""
         if self.step_start is None or p.size == 0:
             return np.zeros(p.size, dtype=bool)
         Y = self.step_start
@@ -265,8 +240,7 @@ class CandidatePairs:
         return deep & ~self.neighbour_nearer(lambda i, rows: Y[:, i], p, s, deep, self.skins[p])
 
     def refresh(self, Y) -> None:
-        """Rebuild the list at the points ``Y``: every pair closer than ``reach + skin`` (not excluded), keeping the
-        pattern positions already found for pairs that stay in it."""
+        """Rebuild the list at the points ``Y``, keeping the positions found for pairs that stay in it."""
         old_keys, old_positions = self.keys, self.positions
         self.p, self.s = self.query(Y, self.reach + self.skin)
         self.keys = self.p.astype(np.int64) * max(self.surface.n_segments, 1) + self.s
@@ -282,14 +256,14 @@ class CandidatePairs:
                 self.positions[same] = old_positions[at[same]]
 
     def ensure(self, Y) -> None:
-        """Refresh the list when the points have moved more than ``skin / 2`` relative to each other since it was
-        built (a pair not in it was farther than ``reach + skin`` apart, and has come closer by less than ``skin``)."""
+        """Refresh the list if the points moved by more than ``skin / 2`` relative to each other since it was built
+        (a pair not in it was farther than ``reach + skin`` apart, and has come closer by less than ``skin``)."""
         if spread(Y - self.points) > 0.5 * self.skin:
             self.refresh(Y)
 
     def sharp_hinges(self, Y) -> np.ndarray:
-        """Indices (into ``hinge``) of the hinges at corners that turn by more than 90 degrees at ``Y`` (the others
-        cannot touch: the point projects before the segment)."""
+        """Indices (into ``hinge``) of the hinges at corners turning by over 90 degrees at ``Y`` (the others cannot
+        touch: the point projects before the segment)."""
         if self.hinge_keys.size == 0:
             return np.zeros(0, dtype=np.intp)
         seg = self.surface.segments
@@ -304,8 +278,7 @@ class CandidatePairs:
         return self.surface.hinge_points[self.hinge[hinges]], self.surface.hinge_segments[self.hinge[hinges]]
 
     def current(self, Y):
-        """``(p, s, keys, ignored, rows)`` of every pair to look at, at ``Y``: the list and the sharp hinges
-        (``rows``: the pair's row in ``positions``)."""
+        """``(p, s, keys, ignored, rows)`` of the list and the sharp hinges at ``Y`` (``rows``: in ``positions``)."""
         hinges = self.sharp_hinges(Y)
         rows = np.arange(self.keys.size)
         if hinges.size == 0:
@@ -317,13 +290,12 @@ class CandidatePairs:
                 np.concatenate([rows, self.keys.size + hinges]))
 
     def start_step(self, Y) -> None:
-        """A step starts at ``Y``: a fresh list, and the pairs deep behind their segment there ignored."""
+        """A step starts at ``Y``: a fresh list, the pairs deep there ignored."""
         self.step_start = Y.copy()
         self.refresh(Y)
         self.hinge_ignored = self.deep_at_start(*self.hinge_pairs(slice(None)))
 
     def end_step(self) -> None:
-        """The step is over: every pair counts again."""
         self.step_start = None
         self.ignored = np.zeros(self.keys.size, dtype=bool)
         self.hinge_ignored[:] = False
