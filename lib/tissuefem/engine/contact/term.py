@@ -1,7 +1,5 @@
 """The self-contact term: the barrier on the signed gaps of the pairs in contact, and the hooks it needs."""
 
-from __future__ import annotations
-
 import numpy as np
 
 from ..meshes import MeshMap
@@ -16,14 +14,13 @@ __all__ = ["Contact"]
 
 
 class Contact(Term):
-    """Self-contact of a :class:`ContactSurface`: a one-sided barrier in the skin behind it
-    (:mod:`tissuefem.engine.contact`).
+    """Self-contact of a :class:`ContactSurface`: a one-sided barrier in the skin behind it.
 
     ``X`` (2, n_nodes) are the reference node positions; ``distance`` is ``d^``, the depth of the skin in which contact
     pressure builds up (the largest overlap ever allowed), at most half the surface's median segment length;
     ``stiffness`` is ``kappa``, a pressure (the contact pressure at an overlap of about ``0.46 d^``); ``skin`` the
-    Verlet list's margin (default: the median segment length). ``pairs`` is the
-    :class:`~tissuefem.engine.contact.candidates.CandidatePairs` of the surface, ``offset`` its points' rest offsets.
+    Verlet list's margin (default: the median segment length). ``pairs`` are the surface's
+    :class:`~.candidates.CandidatePairs`, ``offset`` its points' rest offsets.
     """
 
     name = "contact"
@@ -53,29 +50,25 @@ class Contact(Term):
             raise ParameterError("contact.distance", f"contact.distance = {self.distance:g} must be at most half the "
                                  f"surface's median segment length ({0.5 * median:g}): the skin is a thin layer")
         self._skin_setting = skin
-        if skin is None:
-            self.skin = median if np.isfinite(median) else 1.0
-        else:
-            self.skin = check_real("contact.skin", skin, 0.0, lo_open=True)
-        # local dof layout of a (point, a, b) triple: (point j, node slot k, component c) -> 6-vector entry 2 j + c
+        self.skin = (median if np.isfinite(median) else 1.0) if skin is None else \
+            check_real("contact.skin", skin, 0.0, lo_open=True)
+        # local dofs of a (point, a, b) triple: (point j, node slot k, component c) -> 6-vector entry 2 j + c
         j, k, c = np.meshgrid(np.arange(3), np.arange(surface.nodes.shape[1]), np.arange(2), indexing="ij")
-        self._slot_point, self._slot_node, self._slot_comp = j.ravel(), k.ravel(), c.ravel()
-        self._slot_local = (2 * j + c).ravel()
+        self._slots, self._slot_local = (j.ravel(), k.ravel(), c.ravel()), (2 * j + c).ravel()
         self.pairs = CandidatePairs(surface, Y, self.rest_length, self.distance, self.skin)
         self.offset = self.pairs.offset
         self._through = (np.zeros(0, dtype=np.intp), np.zeros(0, dtype=np.intp))  # pairs a handle dragged through
         self._cache = self._seen = self.pattern = None
         self._coupled = self._covered = np.zeros(0, dtype=np.int64)
 
-    def remap(self, meshmap) -> Contact:
+    def remap(self, meshmap) -> "Contact":
         """This contact on the new mesh of a :class:`~tissuefem.engine.meshes.MeshMap` (a cut, an excision): the same
         distance, stiffness and skin setting (a default skin is again the new surface's median segment length), on
         the surface the change knows (``meshmap.contact_surface()``), else on the new mesh's boundary."""
         if not isinstance(meshmap, MeshMap):
             raise ParameterError("meshmap", f"meshmap must be a MeshMap, got {type(meshmap).__name__}")
         surface = meshmap.contact_surface()
-        if surface is None:
-            surface = ContactSurface.from_mesh(meshmap.mesh)
+        surface = ContactSurface.from_mesh(meshmap.mesh) if surface is None else surface
         return Contact(meshmap.mesh.p, surface, self.distance, self.stiffness, self._skin_setting)
 
     def describe(self):
@@ -85,8 +78,8 @@ class Contact(Term):
         return self.surface.positions(self.X + np.asarray(u)[: 2 * self.n_nodes].reshape(-1, 2).T)
 
     def _evaluate(self, u):
-        """The active pairs at ``u``: a dict of their point ``p``, segment ``s``, ``keys``, ``rows`` (in the pattern
-        positions' caches), ``kind`` and gap ``sigma`` (:func:`~.candidates.signed_gaps`), cached by the points."""
+        """The active pairs at ``u``, cached by the points: their point ``p``, segment ``s``, ``keys``, ``rows`` (in
+        ``pairs.positions``), ``kind`` and gap ``sigma`` (:func:`~.candidates.signed_gaps`)."""
         Y = self._points(u)
         pairs = self.pairs
         if self._cache is not None and self._cache["list"] == pairs.refreshes and np.array_equal(self._cache["Y"], Y):
@@ -110,18 +103,21 @@ class Contact(Term):
         self._seen = Y
         return self._cache
 
-    def _derivatives(self, c):
-        """``(points (m, 3), grad (m, 6), hess (m, 6, 6))``: each active pair's ``(p, a, b)`` and the derivatives of
-        its gap with respect to them (:func:`~.barrier.gap_derivatives`), once per cached state."""
+    def _local(self, c):
+        """``(grad (m, 6), hess (m, 6, 6), dofs, weights (m, 6 k))`` of the active pairs, once per cached state: the
+        derivatives of each gap by its points ``(p, a, b)``, and the node dofs of those 6 coordinates with weights."""
         if "local" not in c:
             seg = self.surface.segments
             p, a, b = c["p"], seg[0, c["s"]], seg[1, c["s"]]
-            c["local"] = (np.stack([p, a, b], axis=1), *gap_derivatives(c["Y"], p, a, b, c["kind"]))
+            points = np.stack([p, a, b], axis=1)
+            nodes, weights = self.surface.nodes[points], self.surface.weights[points]  # (m, 3, k)
+            j, k, comp = self._slots
+            c["local"] = (*gap_derivatives(c["Y"], p, a, b, c["kind"]), 2 * nodes[:, j, k] + comp, weights[:, j, k])
         return c["local"]
 
     def _barrier(self, c):
         """``(l kappa d^ beta, l kappa beta', l kappa beta'' / d^)`` of the active pairs: the energy and its first two
-        derivatives with respect to ``sigma``."""
+        derivatives by ``sigma``."""
         d = self.distance
         b0, b1, b2 = barrier(1.0 + (c["sigma"] + self.offset[c["p"]]) / d)
         scale = self.stiffness * self.point_length[c["p"]]
@@ -131,54 +127,39 @@ class Contact(Term):
         c = self._evaluate(u)
         return float(np.sum(self._barrier(c)[0])) if c["p"].size else 0.0
 
-    def _dofs(self, points):
-        """Node dofs (m, 6 width) and their weights of the point triples ``points`` (m, 3)."""
-        nodes = self.surface.nodes[points]  # (m, 3, width)
-        weights = self.surface.weights[points]
-        j, k, comp = self._slot_point, self._slot_node, self._slot_comp
-        return 2 * nodes[:, j, k] + comp, weights[:, j, k]
-
     def gradient(self, u) -> np.ndarray:
         out = np.zeros(np.asarray(u).size)
         c = self._evaluate(u)
-        if c["p"].size == 0:
-            return out
-        points, grad, _ = self._derivatives(c)
-        _, e1, _ = self._barrier(c)
-        dofs, coef = self._dofs(points)
-        values = coef * (e1[:, None] * grad)[:, self._slot_local]
-        out[: 2 * self.n_nodes] += np.bincount(dofs.ravel(), weights=values.ravel(), minlength=2 * self.n_nodes)
+        if c["p"].size:
+            grad, _, dofs, coef = self._local(c)
+            values = coef * (self._barrier(c)[1][:, None] * grad)[:, self._slot_local]
+            out[: 2 * self.n_nodes] += np.bincount(dofs.ravel(), weights=values.ravel(), minlength=2 * self.n_nodes)
         return out
 
     def add_hessian(self, u, data, safe=False) -> None:
         c = self._evaluate(u)
         if c["p"].size == 0:
             return
-        points, grad, hess = self._derivatives(c)
+        grad, hess, dofs, coef = self._local(c)
         _, e1, e2 = self._barrier(c)
         H = e2[:, None, None] * grad[:, :, None] * grad[:, None, :]
         if not safe:
             H = H + e1[:, None, None] * hess
-        dofs, coef = self._dofs(points)
         local = self._slot_local
         block = coef[:, :, None] * coef[:, None, :] * H[:, local[:, None], local[None, :]]
-        np.add.at(data, self._hessian_positions(c["rows"], dofs).ravel(), block.ravel())
-
-    def _hessian_positions(self, rows, dofs):
-        """Positions in the pattern's data of the (6 width)^2 entries of each pair (looked up once per pattern)."""
-        pos = self.pairs.positions[rows]
+        # the positions of each pair's (6 k)^2 entries in the pattern's data, looked up once per pattern
+        pos = self.pairs.positions[c["rows"]]
         missing = pos[:, 0] < 0
         if np.any(missing):
             d = dofs[missing]
             pos[missing] = self.pattern.positions(np.repeat(d, d.shape[1], axis=1).ravel(),
                                                   np.tile(d, (1, d.shape[1])).ravel()).reshape(d.shape[0], -1)
-            self.pairs.positions[rows[missing]] = pos[missing]
-        return pos
+            self.pairs.positions[c["rows"][missing]] = pos[missing]
+        np.add.at(data, pos.ravel(), block.ravel())
 
-    # -------------------------------------------------------------- the hooks
     def couplings(self):
-        """The dof couplings of every pair the contact may need now: the list and the hinges that are sharp where the
-        surface was last seen (the model asks for them when :meth:`covers` says the pattern lacks one)."""
+        """The dof couplings of the pairs the contact may need now: the list, and the hinges sharp where the surface
+        was last seen (the model asks when :meth:`covers` says the pattern lacks one)."""
         p, s, keys, _, _ = self.pairs.current(self._seen if self._seen is not None else self.pairs.points)
         self._coupled = np.sort(keys)
         if p.size == 0:
@@ -188,8 +169,7 @@ class Contact(Term):
         nodes = np.unique(np.sort(self.surface.nodes[points].reshape(points.shape[0], -1), axis=1), axis=0)
         rows = np.repeat(nodes, nodes.shape[1], axis=1).ravel()
         cols = np.tile(nodes, (1, nodes.shape[1])).ravel()
-        pairs = np.unique(rows.astype(np.int64) * self.n_nodes + cols)
-        r, q = np.divmod(pairs, self.n_nodes)
+        r, q = np.divmod(np.unique(rows.astype(np.int64) * self.n_nodes + cols), self.n_nodes)
         return (np.concatenate([2 * r, 2 * r, 2 * r + 1, 2 * r + 1]),
                 np.concatenate([2 * q, 2 * q + 1, 2 * q, 2 * q + 1]))
 
@@ -199,8 +179,7 @@ class Contact(Term):
         self.pairs.positions[:] = -1
 
     def covers(self, u) -> bool:
-        """Whether the bound pattern holds the couplings of every pair active at ``u`` (else the model rebuilds it:
-        :meth:`couplings` then names the pairs of the current list)."""
+        """Whether the bound pattern holds the couplings of every pair active at ``u`` (else the model rebuilds it)."""
         keys = self._evaluate(u)["keys"]
         if keys.size == 0:
             return True
@@ -210,23 +189,19 @@ class Contact(Term):
         return bool(np.all(self._covered[at] == keys))
 
     def begin_step(self, u, previous=None) -> int:
-        """Start a step at ``u``: pairs whose point is deeper than its wall behind the segment are ignored until the
-        step ends (:mod:`.candidates`). Returns how many surface points are through the surface now.
-
-        ``previous`` is the state before the handles moved to ``u``: pairs that the handles' own motion carries through
-        a wall are *crossings*, remembered step after step while their point stays deeper than its wall behind the
-        segment (and less than the segment's length: farther, the sign of a gap says nothing).
-        """
+        """Start a step at ``u`` (pairs deep behind their wall are ignored until it ends); returns how many surface
+        points are through the surface. ``previous``, the state before the handles moved to ``u``: pairs their motion
+        carries through a wall count as through while their point stays behind its wall, and less than the segment's
+        length deep (farther, the sign of a gap says nothing)."""
         Y = self._points(u)
-        pairs = self.pairs
-        pairs.start_step(Y)
+        self.pairs.start_step(Y)
         through_p, through_s = self._through
         if previous is not None:
-            p, s = crossings(pairs, self._points(previous), Y)
+            p, s = crossings(self.pairs, self._points(previous), Y)
             through_p, through_s = np.concatenate([through_p, p]), np.concatenate([through_s, s])
-        if through_p.size:  # still through: deeper than the wall behind the segment, but not beyond its length
-            _, _, sigma = pairs.classify(Y, through_p, through_s)
-            deep = (sigma <= -pairs.skins[through_p]) & (sigma > -self.rest_length[through_s])
+        if through_p.size:
+            _, _, sigma = self.pairs.classify(Y, through_p, through_s)
+            deep = (sigma <= -self.pairs.skins[through_p]) & (sigma > -self.rest_length[through_s])
             n_seg = max(self.surface.n_segments, 1)
             through_p, through_s = np.divmod(np.unique(through_p[deep].astype(np.int64) * n_seg + through_s[deep]),
                                              n_seg)
@@ -239,20 +214,17 @@ class Contact(Term):
         self._cache = None
 
     def max_step(self, u, du) -> float:
-        """The largest fraction of the step ``u -> u + du`` that keeps every point out of the walls
-        (:func:`~.collision.step_fraction`)."""
+        """The largest fraction of the step ``u -> u + du`` free of crossings (:func:`~.collision.step_fraction`)."""
         Y0 = self._points(u)
         return step_fraction(self.pairs, Y0, self._points(np.asarray(u) + np.asarray(du)) - Y0)
 
-    # -------------------------------------------------------------- reports
     def active_pairs(self, u) -> np.ndarray:
         """The (point, segment) pairs in contact at ``u``: shape (2, m)."""
         c = self._evaluate(u)
         return np.stack([c["p"], c["s"]])
 
     def overlap(self, u) -> float:
-        """The deepest any point is pressed into the skin at ``u`` (0 when nothing touches; beyond its rest offset,
-        for a point that sits behind another part of the surface at rest)."""
+        """The deepest any point is pressed into its skin at ``u`` beyond its rest offset (0: nothing touches)."""
         c = self._evaluate(u)
         return float(-(c["sigma"] + self.offset[c["p"]]).min()) if c["p"].size else 0.0
 
