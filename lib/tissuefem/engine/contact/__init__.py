@@ -10,20 +10,17 @@ stepper the same of its warm start (``step_limit`` of :func:`tissuefem.engine.mi
 tissue through tissue is obeyed; its crossings are counted (:meth:`Contact.begin_step`, ``StepReport.crossed``) while
 the points stay through. After a cut, :meth:`Contact.remap` gives the same contact on the new mesh.
 
-The pieces: :mod:`.surface` (:class:`ContactSurface`, points as combinations of nodes, and segments),
-:mod:`.barrier` (the one-sided barrier on signed gaps, and why), :mod:`.candidates` (the signed gap of a pair, which
-pairs may touch, the Verlet list that finds them), :mod:`.collision` (times of impact, the largest safe step) and
-:mod:`.term` (:class:`Contact`, which composes them).
+The pieces: :mod:`.surface` (:class:`ContactSurface`), :mod:`.barrier` (on signed gaps, and why),
+:mod:`.candidates` (signed gaps; which pairs may touch), :mod:`.collision` (times of impact) and :mod:`.term`.
 
 References
 ----------
-.. [1] M. Li, Z. Ferguson, T. Schneider, T. Langlois, D. Zorin, D. Panozzo, C. Jiang, D. M. Kaufman, *Incremental
-   Potential Contact: intersection- and inversion-free, large-deformation dynamics*, ACM TOG 39(4) (2020), 49.
+.. [1] M. Li et al., *Incremental Potential Contact: intersection- and inversion-free, large-deformation dynamics*,
+   ACM Transactions on Graphics 39(4) (2020), 49.
 .. [2] M. Li, D. M. Kaufman, C. Jiang, *Codimensional Incremental Potential Contact*, ACM TOG 40(4) (2021), 170.
 .. [3] J. A. Baerentzen, H. Aanaes, *Signed distance computation using the angle weighted pseudonormal*, IEEE TVCG
    11(3) (2005), 243-253.
-.. [4] L. Verlet, *Computer "experiments" on classical fluids. I. Thermodynamical properties of Lennard-Jones
-   molecules*, Physical Review 159(1) (1967), 98-103.
+.. [4] L. Verlet, *Computer "experiments" on classical fluids. I.*, Physical Review 159(1) (1967), 98-103.
 """
 
 from .barrier import barrier

@@ -1,32 +1,30 @@
 """The one-sided barrier on signed gaps, and the derivatives of a gap with respect to its points.
 
-Incremental Potential Contact (IPC) [1] keeps surfaces apart by a barrier on the unsigned distance ``d`` of a point
-to a segment, ``b(d) = -(d - d^)^2 ln(d / d^)`` on ``0 < d < d^``: twice differentiable at ``d^``, infinite at ``d =
-0``, so two surfaces never touch. That cannot work here: a wound's two lips *coincide* the moment it is cut, and a
-closed wound must stay closed without force. So the gap ``sigma`` is *signed* by the outward normal (negative behind;
-:mod:`.candidates` says against which feature), and the barrier acts on the inside:
+Incremental Potential Contact (IPC) [1] puts a barrier ``b(d) = -(d - d^)^2 ln(d / d^)`` on the unsigned distance
+``0 < d < d^`` of a point to a segment, infinite at ``d = 0``: surfaces never touch. Here a wound's lips *coincide*
+the moment it is cut, and a closed wound must stay closed without force. So the gap ``sigma`` is *signed* (negative
+behind the surface; :mod:`.candidates`), and the barrier acts on the inside:
 
     E = kappa * sum_(points p) sum_(stretches of surface near p) l_p d^ beta(1 + (sigma + o_p) / d^),
     beta(zeta) = -(zeta - 1)^2 ln(zeta)   for 0 < zeta < 1,   beta = 0 for zeta >= 1,
 
-with ``o_p`` the point's rest offset (:mod:`.candidates`): IPC's barrier measured from the surface moved *inward* by
-``d^`` (the "thickness" offset of codimensional IPC [2], with the opposite sign). ``d^`` is the thin skin in which
-pressure builds up: ``beta`` and its first two derivatives vanish at ``zeta = 1`` (contact starts smoothly, two lips
-that touch feel nothing), and ``beta -> infinity`` as ``zeta -> 0`` (no accepted state has a point deeper than ``d^``
-behind a surface it is near). ``l_p`` is the point's share of the surface length at rest (half of each segment it
-ends), so ``kappa`` is a pressure: ``kappa |beta'(1 - delta / d^)|`` at an overlap ``delta``, ``kappa`` itself at
-``delta = 0.46 d^`` (a scene's default ``kappa``, Young's modulus, overlaps by a fifth of ``d^`` at a tenth of it).
+with ``o_p`` the point's rest offset: IPC's barrier from the surface moved *inward* by ``d^`` (the "thickness" of
+codimensional IPC [2], with the opposite sign). ``beta``, ``beta'`` and ``beta''`` vanish at ``zeta = 1`` (contact
+starts smoothly; lips that touch feel nothing) and ``beta -> infinity`` as ``zeta -> 0`` (no accepted state has a
+point deeper than ``d^`` behind a surface it is near). ``l_p`` is the point's share of the surface length at rest
+(half of each segment it ends), so ``kappa`` is a pressure: ``kappa |beta'(1 - delta / d^)|`` at an overlap
+``delta``, ``kappa`` at ``delta = 0.46 d^`` (with a scene's default, Young's modulus: ``d^ / 5`` at a tenth of it).
 
-A barrier, not a penalty with a no-crossing check: a finite penalty lets Newton push a point against the collision
-detection's limit step after step (each cut to 0.8 of the way, never converging); a barrier grows without bound
-before the wall, so the minimiser turns back on its own. The gradient ``dE/dy = kappa l_p beta'(zeta) dsigma/dy``
-pushes the point out along the normal and the segment back, equal and opposite; the Hessian is
+Not a penalty with a no-crossing check: Newton would push a point against the collision detection's limit step after
+step (each cut to 0.8 of the way, never converging); a barrier grows without bound before the wall, so the minimiser
+turns back on its own. The force ``-dE/dy = -kappa l_p beta'(zeta) dsigma/dy`` pushes the point out along the normal
+and the segment back; the Hessian is
 
     d2E/dy2 = kappa l_p [ beta''(zeta) / d^ (dsigma/dy)(dsigma/dy)^T  +  beta'(zeta) d2sigma/dy2 ],
 
 with ``beta'' >= 0``, ``beta' <= 0`` and ``d2sigma/dy2`` (the turning of the normal) indefinite: the *safe* Hessian
-(the minimiser's fallback when a direction is not downhill) keeps the first, positive semi-definite part. The
-surface's weights carry the points' derivatives to the nodes. (References: :mod:`tissuefem.engine.contact`.)
+(the minimiser's fallback when a direction is not downhill) keeps the first, positive semi-definite part.
+(References: :mod:`tissuefem.engine.contact`.)
 """
 
 import numpy as np
@@ -48,9 +46,8 @@ def barrier(zeta):
 
 
 def gap_derivatives(Y, p, a, b, kind):
-    """``sigma``'s gradient (m, 6) and Hessian (m, 6, 6) with respect to the three points ``(p, a, b)`` of each pair
-    at the points ``Y`` (2, n_points); ``kind`` 1 measures ``p`` against the segment ``a -> b``, 2 against ``a`` and 3
-    against ``b`` (a point-point gap depends on the point and that end only, and is negative: it lies behind)."""
+    """``sigma``'s gradient (m, 6) and Hessian (m, 6, 6) by the points ``(p, a, b)`` of each pair at ``Y``: ``kind`` 1
+    against the segment ``a -> b``, 2 against ``a``, 3 against ``b`` (negative there: the point lies behind)."""
     m = p.size
     grad = np.zeros((m, 6))
     hess = np.zeros((m, 6, 6))

@@ -22,8 +22,7 @@ SAFETY = 0.8
 
 
 def _quartic_roots(c0, c1, c2, d, q0, q1, q2):
-    """The ``tau`` in ``[0, 1]`` where ``cross(w, e) = c0 + c1 tau + c2 tau^2`` reaches ``-d |e|`` with
-    ``|e|^2 = q0 + q1 tau + q2 tau^2``: the roots of ``c^2 - d^2 q`` with ``c < 0``."""
+    """The ``tau`` in ``[0, 1]`` where ``c(tau) = -d sqrt(q(tau))``: the roots of ``c^2 - d^2 q`` with ``c < 0``."""
     coeffs = np.array([c2 * c2, 2 * c1 * c2, c1 ** 2 + 2 * c0 * c2 - d * d * q2, 2 * c0 * c1 - d * d * q1,
                        c0 ** 2 - d * d * q0])
     coeffs = coeffs / np.max(np.abs(coeffs))

@@ -73,7 +73,7 @@ class ContactSurface:
             raise _refused("segments", ": a segment joins a point to itself")
         self.nodes, self.weights, self.segments = nodes.astype(np.intp), weights, segments.astype(np.intp)
         self._plain = nodes.shape[1] == 1 and bool(np.all(weights == 1.0))  # every point a node
-        n_seg = self.segments.shape[1]
+        self.n_points, self.n_segments = n_points, n_seg = nodes.shape[0], self.segments.shape[1]
         self.wound = np.zeros(n_seg, dtype=bool) if wound is None else np.asarray(wound, dtype=bool)
         if self.wound.shape != (n_seg,):
             raise _refused("wound", f" must be one bool per segment ({n_seg}), got {self.wound.shape}")
@@ -113,14 +113,6 @@ class ContactSurface:
         if mesh.boundaries and wound_boundary in mesh.boundaries:
             wound = np.isin(facets, np.asarray(mesh.boundaries[wound_boundary]))
         return cls(nodes[:, None], np.ones((nodes.size, 1)), segments.reshape(2, -1), p.shape[1], wound=wound)
-
-    @property
-    def n_points(self) -> int:
-        return self.nodes.shape[0]
-
-    @property
-    def n_segments(self) -> int:
-        return self.segments.shape[1]
 
     def positions(self, x) -> np.ndarray:
         """The points at node positions ``x`` (2, n_nodes): shape (2, n_points)."""
