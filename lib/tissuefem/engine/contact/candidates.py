@@ -113,12 +113,11 @@ class CandidatePairs:
 
     def __init__(self, surface, Y, rest_length, distance, skin):
         self.surface, self.rest_length, self.skin = surface, rest_length, skin
-        n_seg = surface.n_segments
-        a, b = surface.segments
+        n_seg, (a, b) = surface.n_segments, surface.segments
         self.n_local = (6 * surface.nodes.shape[1]) ** 2  # Hessian entries of a pair: 3 points of k nodes, 2 dofs
         self.fold = np.ones(max(n_seg, 1))
         e_s = Y[:, b] - Y[:, a]
-        e_n = e_s[:, np.maximum(surface.next, 0)]
+        e_n = e_s[:, np.maximum(surface.next, 0)]  # a folded corner opens backwards if it turned into the material
         turns_in = cross(e_s, e_n) <= 1e-9 * np.hypot(*e_s) * np.hypot(*e_n)
         self.fold[:n_seg] = np.where((surface.next >= 0) & turns_in, -1.0, 1.0)
         # closing a corner that turns back into the material at rest (a crack tip, a notch) is contact; closing a
@@ -144,7 +143,7 @@ class CandidatePairs:
                 break
             np.maximum.at(self.offset, p[inside], -sigma[inside])
         self.skins = distance + self.offset
-        self.reach = float(self.skins.max(initial=distance))
+        self.reach = float(self.skins.max(initial=distance))  # no pair is in contact farther apart
         self.refresh(Y)
 
     def query(self, Y, reach):
@@ -153,8 +152,7 @@ class CandidatePairs:
         seg = self.surface.segments
         n_seg = seg.shape[1]
         if n_seg == 0 or self.surface.n_points == 0:
-            empty = np.zeros(0, dtype=np.intp)
-            return empty, empty
+            return np.zeros(0, dtype=np.intp), np.zeros(0, dtype=np.intp)
         ya, yb = Y[:, seg[0]], Y[:, seg[1]]
         radius = 0.5 * np.hypot(*(yb - ya)) + reach
         tree = cKDTree(Y.T)
@@ -170,12 +168,10 @@ class CandidatePairs:
             found_s.append(np.broadcast_to(rows[done, None], within[done].shape)[within[done]])
             found_p.append(idx[done][within[done]])
             rows, k = rows[more], min(2 * k, Y.shape[1])
-        s = np.concatenate(found_s).astype(np.intp)
-        p = np.concatenate(found_p).astype(np.intp)
+        s, p = np.concatenate(found_s).astype(np.intp), np.concatenate(found_p).astype(np.intp)
         keep = np.all(self.excluded[s] != p[:, None], axis=1)
         p, s = p[keep], s[keep]
-        keys = p.astype(np.int64) * n_seg + s
-        order = np.argsort(keys)
+        order = np.argsort(p.astype(np.int64) * n_seg + s)
         return p[order], s[order]
 
     def classify(self, Y, p, s):
@@ -244,8 +240,7 @@ class CandidatePairs:
         old_keys, old_positions = self.keys, self.positions
         self.p, self.s = self.query(Y, self.reach + self.skin)
         self.keys = self.p.astype(np.int64) * max(self.surface.n_segments, 1) + self.s
-        self.points = Y.copy()
-        self.refreshes += 1
+        self.points, self.refreshes = Y.copy(), self.refreshes + 1
         self.ignored = self.deep_at_start(self.p, self.s)
         self.positions = np.full((self.keys.size + self.hinge_keys.size, self.n_local), -1, dtype=np.intp)
         if old_keys is not None:
@@ -266,12 +261,9 @@ class CandidatePairs:
         touch: the point projects before the segment)."""
         if self.hinge_keys.size == 0:
             return np.zeros(0, dtype=np.intp)
-        seg = self.surface.segments
-        into = self.surface.hinge_corner[self.hinge]
+        seg, into = self.surface.segments, self.surface.hinge_corner[self.hinge]
         out = self.surface.next[into]
-        e_in = Y[:, seg[1, into]] - Y[:, seg[0, into]]
-        e_out = Y[:, seg[1, out]] - Y[:, seg[0, out]]
-        return np.flatnonzero(dot(e_in, e_out) < 0)
+        return np.flatnonzero(dot(Y[:, seg[1, into]] - Y[:, seg[0, into]], Y[:, seg[1, out]] - Y[:, seg[0, out]]) < 0)
 
     def hinge_pairs(self, hinges):
         """``(p, s)`` of the hinges ``hinges`` (indices into ``hinge``)."""

@@ -227,7 +227,3 @@ class Contact(Term):
         """The deepest any point is pressed into its skin at ``u`` beyond its rest offset (0: nothing touches)."""
         c = self._evaluate(u)
         return float(-(c["sigma"] + self.offset[c["p"]]).min()) if c["p"].size else 0.0
-
-    def forces(self, u) -> np.ndarray:
-        """The contact forces on the nodes ``(2, n_nodes)``."""
-        return -self.gradient(u)[: 2 * self.n_nodes].reshape(-1, 2).T
