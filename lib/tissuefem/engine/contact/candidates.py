@@ -3,30 +3,25 @@
 With ``e = y_b - y_a``, ``w = y_p - y_a`` and ``t = w . e / |e|^2``, the gap of a point ``p`` to a segment ``(a, b)``
 is, for ``0 < t < 1``, its distance to the segment's line signed by the outward normal, ``sigma = cross(w, e) / |e|``;
 else the distance ``|y_p - y_v|`` to that end ``v``, negative when ``(y_p - y_v) . n_v < 0`` with the corner's
-*pseudonormal* ``n_v`` (the mean of its two segments' normals): the signed distance to a polygon of [3]. It is
-continuous where the nearest feature changes *inside the run the point sees*: the segments within ``d^`` of a point
-form runs of consecutive segments, and in each run only the nearest, the *owner*, counts. So a point pressed into a
-convex corner belongs to the nearer side, is never counted twice, and segments shorter than the skin (the sliver a cut
-through elements leaves next to a node) are handled like any other.
+*pseudonormal* ``n_v`` (the mean of its segments' normals): the signed distance to a polygon of [3]. The segments
+within ``d^`` of a point form runs; only the nearest of each run, its *owner*, counts: the gap is continuous where the
+nearest feature changes inside the run, a point in a convex corner is never counted twice, and segments shorter than
+the skin (slivers of a cut through elements) are handled like any other. It jumps (rare, open: the line search stops
+there) where the pseudonormal's sign flips: for a point outside its corner's cone, and at a corner folded right over.
 
-A point is not paired with the segments it ends, their neighbours, nor any segment less than ``2 d^`` from it along
-the surface at rest: else a cut's lip, a chain of pieces shorter than ``d^``, puts its own points in the skin of its
-corners as soon as it bends. The walk along the loop stops at a corner that turned back into the material at rest (a
-crack tip); there the first point of each lip is checked against the other's first segment (a *hinge*) while the
-corner turns by more than 90 degrees, so a crack pressed shut up to its tip does not overlap. Coinciding lips are at
-``sigma = 0``: in contact, without force. Where parts of the surface lie closer than ``d^`` at rest, a point's wall is
-moved by its depth there, its *rest offset* ``o_p`` (one number per point: the energy stays continuous). A pair whose
-point is deeper than its wall when a step *starts* (and not within it of the segment's neighbours, along which it may
-slide into this segment's ownership) is ignored until the step ends: the far side of a thin body, or tissue a handle
-dragged through tissue.
+A point is not paired with segments less than ``2 d^`` from it along the surface at rest (nor their neighbours): else
+a cut's lip, a chain of pieces shorter than ``d^``, puts its own points in the skin of its corners once it bends. The
+walk stops at a corner that turned back into the material at rest (a crack tip), where each lip's first point is
+paired with the other's first segment (a *hinge*) while the corner turns by over 90 degrees: a crack pressed shut up
+to its tip does not overlap. Coinciding lips are at ``sigma = 0``: in contact, without force. Where the surface lies
+closer than ``d^`` to itself at rest, a point's wall is moved by its depth there, its *rest offset* ``o_p`` (one
+number per point: the energy stays continuous). A pair whose point is behind its wall when a step *starts* (and not
+near the segment's neighbours, along which it may slide into its ownership) is ignored until the step ends: the far
+side of a thin body, or tissue a handle dragged through tissue.
 
-The energy jumps (rare, open: Newton's line search stops there) where a point is *outside* the cone of the corner it
-is measured from because the segment beyond is in its own neighbourhood, and at a corner folded right over (through
-180 degrees, as a crumpled lip of a cut through elements can): the pseudonormal's sign flips.
-
-The broad phase is a Verlet list [4] of the pairs closer than ``reach + skin`` (the nearest points of each segment's
-midpoint, from a k-d tree), valid while the points move less than ``skin / 2`` *relative to each other* (a rigid drag
-refreshes nothing). A pair's *key* is ``p * n_segments + s``; lists are sorted by it. (References: the package.)
+The broad phase is a Verlet list [4] of the pairs closer than ``reach + skin`` (near each segment's midpoint, from a
+k-d tree), valid while the points move less than ``skin / 2`` *relative to each other* (a rigid drag refreshes
+nothing). A pair's *key* is ``p * n_segments + s``; lists are sorted by it. (References: the package.)
 """
 
 import numpy as np
@@ -103,13 +98,11 @@ def _arc_neighbourhood(surface, length, reach, stops) -> np.ndarray:
 
 
 class CandidatePairs:
-    """The pairs of a surface that may touch, from its rest points ``Y``, segment lengths, ``distance`` ``d^`` and the
-    list's margin ``skin``. ``offset``, ``skins``, ``reach``: the points' rest offsets, walls ``d^ + o_p`` and the
-    deepest; ``excluded``: the points each segment is never paired with; ``fold``: per segment, where the corner at its
-    end opens if it folds right back (-1 backwards: it turned into the material at rest, a crack tip; +1 forwards);
-    ``hinge``: the hinges that count; the list ``p``, ``s``, ``keys`` built at ``points``; ``ignored`` /
-    ``hinge_ignored``: deep at ``step_start``; ``positions``: each pair's Hessian entries in the model's pattern (the
-    list's rows, then the hinges'; -1 until looked up)."""
+    """The pairs of a surface that may touch (rest points ``Y``, segment lengths, ``d^``, the list's margin ``skin``).
+    ``offset``, ``skins``, ``reach``: rest offsets, walls ``d^ + o_p``, the deepest; ``excluded``: the points each
+    segment is never paired with; ``fold``: where a corner folded right back opens; ``hinge``: the hinges that count;
+    the list ``p``, ``s``, ``keys`` (built at ``points``); ``ignored``, ``hinge_ignored``: deep at ``step_start``;
+    ``positions``: each pair's Hessian entries in the model's pattern (list, then hinges; -1 until looked up)."""
 
     def __init__(self, surface, Y, rest_length, distance, skin):
         self.surface, self.rest_length, self.skin = surface, rest_length, skin

@@ -56,9 +56,8 @@ def times_of_impact(pairs, Y0, dY, p, s) -> np.ndarray:
     # c(tau) <= -d |e(tau)| <= -d min|e|, so c's minimum over [0, 1] must get there)
     in_front = c0 + d * np.sqrt(q0) > 0
     vertex = -c1 / np.where(c2 != 0, 2.0 * c2, 1.0)
-    c_min = np.minimum(c0, c0 + c1 + c2)
-    inner = (c2 > 0) & (vertex > 0) & (vertex < 1)
-    c_min = np.where(inner, c0 + c1 * vertex + c2 * vertex**2, c_min)
+    c_min = np.where((c2 > 0) & (vertex > 0) & (vertex < 1), c0 + c1 * vertex + c2 * vertex**2,
+                     np.minimum(c0, c0 + c1 + c2))
     q_vertex = np.clip(-q1 / np.where(q2 > 0, 2.0 * q2, 1.0), 0.0, 1.0)
     L_low = np.sqrt(np.maximum(q0 + q1 * q_vertex + q2 * q_vertex**2, 0.0))
     for k in np.flatnonzero(in_front & (c_min + d * L_low <= 0)).tolist():

@@ -94,11 +94,8 @@ class ContactSurface:
 
     @classmethod
     def from_mesh(cls, mesh, wound_boundary="cut") -> "ContactSurface":
-        """The boundary of a triangle mesh: one point per boundary node, one segment per boundary facet.
-
-        After :func:`tissuefem.surgery.topology.incise` the two lips of a cut are boundary facets between duplicated
-        nodes, so they are part of it; the facets named ``wound_boundary`` are flagged as wound.
-        """
+        """The boundary of a triangle mesh: a point per boundary node, a segment per boundary facet (with the lips of
+        a :func:`~tissuefem.surgery.topology.incise` cut), flagged as wound on the facets named ``wound_boundary``."""
         if not isinstance(mesh, MeshTri):
             raise ParameterError("mesh", f"mesh must be a triangle mesh (skfem.MeshTri), got {type(mesh).__name__}")
         if not isinstance(wound_boundary, str):

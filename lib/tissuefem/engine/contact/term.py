@@ -16,11 +16,10 @@ __all__ = ["Contact"]
 class Contact(Term):
     """Self-contact of a :class:`ContactSurface`: a one-sided barrier in the skin behind it.
 
-    ``X`` (2, n_nodes) are the reference node positions; ``distance`` is ``d^``, the depth of the skin in which contact
-    pressure builds up (the largest overlap ever allowed), at most half the surface's median segment length;
-    ``stiffness`` is ``kappa``, a pressure (the contact pressure at an overlap of about ``0.46 d^``); ``skin`` the
-    Verlet list's margin (default: the median segment length). ``pairs`` are the surface's
-    :class:`~.candidates.CandidatePairs`, ``offset`` its points' rest offsets.
+    ``X`` (2, n_nodes): the reference node positions; ``distance``: ``d^``, the depth of the skin in which pressure
+    builds up (the largest overlap allowed), at most half the median segment length; ``stiffness``: ``kappa``, a
+    pressure (at an overlap of about ``0.46 d^``); ``skin``: the Verlet list's margin (default: the median segment
+    length). ``pairs``: the :class:`~.candidates.CandidatePairs`; ``offset``: the points' rest offsets.
     """
 
     name = "contact"
@@ -167,8 +166,7 @@ class Contact(Term):
         seg = self.surface.segments
         points = np.stack([p, seg[0, s], seg[1, s]], axis=1)
         nodes = np.unique(np.sort(self.surface.nodes[points].reshape(points.shape[0], -1), axis=1), axis=0)
-        rows = np.repeat(nodes, nodes.shape[1], axis=1).ravel()
-        cols = np.tile(nodes, (1, nodes.shape[1])).ravel()
+        rows, cols = np.repeat(nodes, nodes.shape[1], axis=1).ravel(), np.tile(nodes, (1, nodes.shape[1])).ravel()
         r, q = np.divmod(np.unique(rows.astype(np.int64) * self.n_nodes + cols), self.n_nodes)
         return (np.concatenate([2 * r, 2 * r, 2 * r + 1, 2 * r + 1]),
                 np.concatenate([2 * q, 2 * q + 1, 2 * q, 2 * q + 1]))
