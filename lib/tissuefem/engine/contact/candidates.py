@@ -29,34 +29,16 @@ from scipy.spatial import cKDTree
 
 from .surface import cross, dot, segment_distance
 
-__all__ = ["CandidatePairs", "signed_gaps", "spread"]
+__all__ = ["CandidatePairs", "spread"]
 
 
-def signed_gaps(yp, ya, yb, y_before, y_after, has_previous, has_next, fold_start, fold_end):
-    """``(kind, distance, sigma)`` of points ``yp`` against segments ``ya -> yb`` (all (2, m)): the nearest feature (1
-    the interior, 2 ``a``, 3 ``b``), how far, and the signed gap. ``y_before`` / ``y_after``: the previous segment's
-    start, the next one's end (``has_*``: if any); ``fold_*``: :attr:`CandidatePairs.fold`. A segment collapsed to a
-    point (an element crushed flat) gives NaN gaps, which count as no contact."""
-    def corner_normal(e_in, e_out, fold):
-        """The pseudonormal of a corner: the mean of its segments' normals (folded right back: where it opens)."""
-        m = np.stack([e_in[1], -e_in[0]]) / np.sqrt(dot(e_in, e_in)) + \
-            np.stack([e_out[1], -e_out[0]]) / np.sqrt(dot(e_out, e_out))
-        size = np.sqrt(dot(m, m))
-        folded = size < 1e-9
-        return np.where(folded, fold * e_in / np.sqrt(dot(e_in, e_in)), m / np.where(folded, 1.0, size))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        e, w, wb = yb - ya, yp - ya, yp - yb
-        L = np.sqrt(dot(e, e))
-        t = dot(w, e) / (L * L)
-        g = cross(w, e) / L
-        r_a, r_b = np.sqrt(dot(w, w)), np.sqrt(dot(wb, wb))
-        side_a = dot(w, corner_normal(np.where(has_previous, ya - y_before, e), e, fold_start))
-        side_b = dot(wb, corner_normal(e, np.where(has_next, y_after - yb, e), fold_end))
-        kind = np.where(t <= 0, 2, np.where(t >= 1, 3, 1))
-        distance = np.where(kind == 1, np.abs(g), np.where(kind == 2, r_a, r_b))
-        sigma = np.where(kind == 1, g, np.where(kind == 2, np.where(side_a < 0, -r_a, r_a),
-                                                np.where(side_b < 0, -r_b, r_b)))
-    return kind, distance, sigma
+def _corner_normal(e_in, e_out, fold):
+    """The pseudonormal of a corner: the mean of its segments' normals (folded right back: ``fold`` along ``e_in``)."""
+    m = np.stack([e_in[1], -e_in[0]]) / np.sqrt(dot(e_in, e_in)) + \
+        np.stack([e_out[1], -e_out[0]]) / np.sqrt(dot(e_out, e_out))
+    size = np.sqrt(dot(m, m))
+    folded = size < 1e-9
+    return np.where(folded, fold * e_in / np.sqrt(dot(e_in, e_in)), m / np.where(folded, 1.0, size))
 
 
 def spread(dY) -> float:
@@ -129,7 +111,7 @@ class CandidatePairs:
         for _ in range(8):
             p, s = self.query(Y, distance + float(self.offset.max(initial=0.0)))
             p, s = np.concatenate([p, hp]), np.concatenate([s, hs])
-            _, gap, sigma = self.classify(Y, p, s)
+            _, gap, sigma = self.classify(lambda i: Y[:, i], p, s)
             # (two lips that coincide are at sigma = 0 up to round-off: they touch, they are not inside)
             inside = (gap < distance + self.offset[p]) & (sigma < -self.offset[p] - 1e-9 * rest_length[s])
             if not np.any(inside):
@@ -167,13 +149,26 @@ class CandidatePairs:
         order = np.argsort(p.astype(np.int64) * n_seg + s)
         return p[order], s[order]
 
-    def classify(self, Y, p, s):
-        """:func:`signed_gaps` of the pairs ``(p, s)`` at the points ``Y``."""
-        seg = self.surface.segments
-        prev, nxt = self.surface.previous[s], self.surface.next[s]
-        return signed_gaps(Y[:, p], Y[:, seg[0, s]], Y[:, seg[1, s]],
-                           Y[:, seg[0, np.maximum(prev, 0)]], Y[:, seg[1, np.maximum(nxt, 0)]],
-                           prev >= 0, nxt >= 0, self.fold[np.maximum(prev, 0)], self.fold[s])
+    def classify(self, at, p, s):
+        """``(kind, distance, sigma)`` of the pairs ``(p, s)``, ``at(i)`` giving the coordinates (2, m) of the points
+        ``i`` of each pair: the feature nearest the point (1 the interior, 2 the start ``a``, 3 the end ``b``), how far,
+        and the signed gap. A segment collapsed to a point (an element crushed flat) gives NaN: no contact."""
+        seg, prev, nxt = self.surface.segments, self.surface.previous[s], self.surface.next[s]
+        yp, ya, yb = at(p), at(seg[0, s]), at(seg[1, s])
+        y_before, y_after = at(seg[0, np.maximum(prev, 0)]), at(seg[1, np.maximum(nxt, 0)])
+        with np.errstate(invalid="ignore", divide="ignore"):
+            e, w, wb = yb - ya, yp - ya, yp - yb
+            L = np.sqrt(dot(e, e))
+            t = dot(w, e) / (L * L)
+            g = cross(w, e) / L
+            r_a, r_b = np.sqrt(dot(w, w)), np.sqrt(dot(wb, wb))
+            side_a = dot(w, _corner_normal(np.where(prev >= 0, ya - y_before, e), e, self.fold[np.maximum(prev, 0)]))
+            side_b = dot(wb, _corner_normal(e, np.where(nxt >= 0, y_after - yb, e), self.fold[s]))
+            kind = np.where(t <= 0, 2, np.where(t >= 1, 3, 1))
+            distance = np.where(kind == 1, np.abs(g), np.where(kind == 2, r_a, r_b))
+            sigma = np.where(kind == 1, g, np.where(kind == 2, np.where(side_a < 0, -r_a, r_a),
+                                                    np.where(side_b < 0, -r_b, r_b)))
+        return kind, distance, sigma
 
     def owners(self, p, s, keys, distance):
         """Which of the pairs own their point: the nearest segment of each run of consecutive segments that are all
@@ -224,7 +219,7 @@ class CandidatePairs:
         if self.step_start is None or p.size == 0:
             return np.zeros(p.size, dtype=bool)
         Y = self.step_start
-        _, _, sigma = self.classify(Y, p, s)
+        _, _, sigma = self.classify(lambda i: Y[:, i], p, s)
         deep = sigma <= -self.skins[p]
         return deep & ~self.neighbour_nearer(lambda i, rows: Y[:, i], p, s, deep, self.skins[p])
 

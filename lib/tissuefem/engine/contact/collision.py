@@ -12,7 +12,7 @@ impact, IPC's safety factor [1] (:mod:`tissuefem.engine.contact`).
 
 import numpy as np
 
-from .candidates import signed_gaps, spread
+from .candidates import spread
 from .surface import cross, dot
 
 __all__ = ["SAFETY", "times_of_impact", "step_fraction", "crossings"]
@@ -44,8 +44,7 @@ def times_of_impact(pairs, Y0, dY, p, s) -> np.ndarray:
     if p.size == 0:
         return out
     d = pairs.skins[p]  # each point's wall depth
-    seg, prev, nxt = pairs.surface.segments, pairs.surface.previous[s], pairs.surface.next[s]
-    a, b, before, after = seg[0, s], seg[1, s], seg[0, np.maximum(prev, 0)], seg[1, np.maximum(nxt, 0)]
+    a, b = pairs.surface.segments[:, s]
     w0, dw = Y0[:, p] - Y0[:, a], dY[:, p] - dY[:, a]
     e0, de = Y0[:, b] - Y0[:, a], dY[:, b] - dY[:, a]
     # c(tau) = cross(w, e) = c0 + c1 tau + c2 tau^2;  q(tau) = |e|^2 = q0 + q1 tau + q2 tau^2
@@ -76,8 +75,7 @@ def times_of_impact(pairs, Y0, dY, p, s) -> np.ndarray:
     def at(i, rows=slice(None)):  # the points i of the candidates rows at their time
         return Y0[:, i] + tau[rows] * dY[:, i]
 
-    kind, _, sigma = signed_gaps(at(p[k]), at(a[k]), at(b[k]), at(before[k]), at(after[k]), prev[k] >= 0,
-                                 nxt[k] >= 0, pairs.fold[np.maximum(prev[k], 0)], pairs.fold[s[k]])
+    kind, _, sigma = pairs.classify(at, p[k], s[k])
     hit = (kind == wall) & (sigma < 0)
     # the segment owns the point there unless a neighbour (one it may meet) is nearer than d; one through the wall's
     # own corner lies at d exactly, and does not count

@@ -78,7 +78,7 @@ class Contact(Term):
 
     def _evaluate(self, u):
         """The active pairs at ``u``, cached by the points: their point ``p``, segment ``s``, ``keys``, ``rows`` (in
-        ``pairs.positions``), ``kind`` and gap ``sigma`` (:func:`~.candidates.signed_gaps`)."""
+        ``pairs.positions``), ``kind`` and gap ``sigma`` (:meth:`~.candidates.CandidatePairs.classify`)."""
         Y = self._points(u)
         pairs = self.pairs
         if self._cache is not None and self._cache["list"] == pairs.refreshes and np.array_equal(self._cache["Y"], Y):
@@ -93,7 +93,7 @@ class Contact(Term):
             near = np.flatnonzero(segment_distance(Y[:, p], Y[:, seg[0, s]], Y[:, seg[1, s]]) < pairs.skins[p])
             p, s, keys, ignored, rows = p[near], s[near], keys[near], ignored[near], rows[near]
             if p.size:
-                kind, distance, sigma = pairs.classify(Y, p, s)
+                kind, distance, sigma = pairs.classify(lambda i: Y[:, i], p, s)
                 near = np.flatnonzero(distance < pairs.skins[p])
                 near = near[pairs.owners(p[near], s[near], keys[near], distance[near])]
                 active = near[(sigma[near] < -self.offset[p[near]]) & ~ignored[near]]
@@ -198,7 +198,7 @@ class Contact(Term):
             p, s = crossings(self.pairs, self._points(previous), Y)
             through_p, through_s = np.concatenate([through_p, p]), np.concatenate([through_s, s])
         if through_p.size:
-            _, _, sigma = self.pairs.classify(Y, through_p, through_s)
+            _, _, sigma = self.pairs.classify(lambda i: Y[:, i], through_p, through_s)
             deep = (sigma <= -self.pairs.skins[through_p]) & (sigma > -self.rest_length[through_s])
             n_seg = max(self.surface.n_segments, 1)
             through_p, through_s = np.divmod(np.unique(through_p[deep].astype(np.int64) * n_seg + through_s[deep]),
