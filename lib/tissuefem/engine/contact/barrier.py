@@ -29,8 +29,6 @@ with ``beta'' >= 0``, ``beta' <= 0`` and ``d2sigma/dy2`` (the turning of the nor
 
 import numpy as np
 
-__all__ = ["barrier", "gap_derivatives"]
-
 
 def barrier(zeta):
     """``(beta, beta', beta'')`` at ``zeta``: ``-(zeta - 1)^2 ln(zeta)`` on ``(0, 1)``, zero from 1 on (all three

@@ -29,8 +29,6 @@ from scipy.spatial import cKDTree
 
 from .surface import cross, dot, segment_distance
 
-__all__ = ["CandidatePairs", "spread"]
-
 
 def _corner_normal(e_in, e_out, fold):
     """The pseudonormal of a corner: the mean of its segments' normals (folded right back: ``fold`` along ``e_in``)."""

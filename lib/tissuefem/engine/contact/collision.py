@@ -1,21 +1,17 @@
 """Continuous collision detection: how far a step may go before a point reaches a wall.
 
-The barrier is infinite only in the skin: a large step could carry a point from in front of a segment to deeper than
-``d^`` behind it, where the energy is zero again. So every step is first limited: with the points moving linearly,
-``y(tau) = y0 + tau dy``, a point's time of impact is the first ``tau`` in ``[0, 1]`` at which it reaches a *wall* of
-a segment that owns it then (no neighbouring segment nearer than its depth). The walls are the segment's line moved
-inward by ``d^``, ``cross(w(tau), e(tau)) = -d^ |e(tau)|`` (squared: a quartic in ``tau``, solved only for the pairs
-a conservative quadratic bound flags), and the circles of radius ``d^`` round its ends where ``p`` lies behind the
-corner, ``|y_p(tau) - y_v(tau)|^2 = d^2`` (a quadratic). A step is cut to :data:`SAFETY` of the earliest time of
-impact, IPC's safety factor [1] (:mod:`tissuefem.engine.contact`).
+The barrier is infinite only in the skin: a long step could carry a point past it, where the energy is zero again.
+With the points moving linearly, ``y(tau) = y0 + tau dy``, a point's time of impact is the first ``tau`` in ``[0, 1]``
+at which it reaches a *wall* of a segment that owns it then: the segment's line moved inward by ``d^``, ``cross(w(tau),
+e(tau)) = -d^ |e(tau)|`` (squared: a quartic, solved only for the pairs a conservative quadratic bound flags), or the
+circle of radius ``d^`` round an end, ``|y_p(tau) - y_v(tau)|^2 = d^2``. A step is cut to :data:`SAFETY` of the
+earliest, IPC's safety factor [1] (:mod:`tissuefem.engine.contact`).
 """
 
 import numpy as np
 
 from .candidates import spread
 from .surface import cross, dot
-
-__all__ = ["SAFETY", "times_of_impact", "step_fraction", "crossings"]
 
 #: the fraction of the time of impact a step may take (IPC's choice)
 SAFETY = 0.8

@@ -10,9 +10,7 @@ as (2, ...) arrays) are shared by the other contact modules.
 import numpy as np
 from skfem import MeshTri
 
-from ..parameters import ParameterError, check_count
-
-__all__ = ["ContactSurface", "cross", "dot", "segment_distance"]
+from ..parameters import ParameterError, check_count, check_real_array
 
 
 def cross(u, v):
@@ -40,13 +38,12 @@ def _refused(field, message) -> ParameterError:
 class ContactSurface:
     """Points (linear combinations of nodes) and the segments between them, material on each segment's left.
 
-    Point ``i`` is ``sum_j weights[i, j] * x[:, nodes[i, j]]`` among ``n_nodes`` mesh nodes (``nodes``, ``weights``
-    shaped (n_points, k), unused slots weighing 0); ``segments`` (2, n_segments) are the points ``(a, b)`` of each
-    segment; ``wound`` (one bool per segment) flags those on a wound's lips. Attributes: ``next`` / ``previous``, the
-    segment that starts where this one ends (ends where it starts), -1 where there is none or more than one;
-    ``neighbourhood`` (n_segments, 4), its ends and its neighbours' far ends (-1 where missing); ``hinge_points``,
-    ``hinge_segments``, ``hinge_corner``: at the corner between a segment and the next (``hinge_corner`` is the first),
-    the far end of each against the other (at a crack tip: one lip's first point against the other's first segment).
+    Point ``i`` is ``sum_j weights[i, j] * x[:, nodes[i, j]]`` (``nodes``, ``weights`` shaped (n_points, k), unused
+    slots weighing 0); ``segments`` (2, n_segments) are the points ``(a, b)`` of each segment; ``wound`` flags those on
+    a wound's lips. ``next`` / ``previous``: the segment that starts where this one ends (ends where it starts), -1 if
+    none or several; ``neighbourhood`` (n_segments, 4): its ends and its neighbours' far ends; ``hinge_points``,
+    ``hinge_segments``, ``hinge_corner``: at each corner (``hinge_corner`` the segment ending there), the far end of
+    each segment against the other (at a crack tip: one lip's first point against the other's first segment).
     """
 
     def __init__(self, nodes, weights, segments, n_nodes, wound=None):
@@ -57,10 +54,7 @@ class ContactSurface:
                                                                     or nodes.min() < 0 or nodes.max() >= self.n_nodes):
             raise _refused("nodes", f" must be node indices in 0..{self.n_nodes - 1} shaped (n_points, k), got "
                                     f"{nodes!r}")
-        try:
-            weights = np.asarray(weights, dtype=float)
-        except (TypeError, ValueError):
-            raise _refused("weights", f" must be numbers shaped {nodes.shape}") from None
+        weights = check_real_array("contact.surface.weights", weights)
         weights = weights[:, None] if weights.ndim == 1 else weights
         if weights.shape != nodes.shape or not np.all(np.isfinite(weights)):
             raise _refused("weights", f" must be finite and shaped like the nodes {nodes.shape}, got {weights!r}")

@@ -10,8 +10,6 @@ from .candidates import CandidatePairs
 from .collision import crossings, step_fraction
 from .surface import ContactSurface, segment_distance
 
-__all__ = ["Contact"]
-
 
 class Contact(Term):
     """Self-contact of a :class:`ContactSurface`: a one-sided barrier in the skin behind it.
@@ -187,10 +185,9 @@ class Contact(Term):
         return bool(np.all(self._covered[at] == keys))
 
     def begin_step(self, u, previous=None) -> int:
-        """Start a step at ``u`` (pairs deep behind their wall are ignored until it ends); returns how many surface
-        points are through the surface. ``previous``, the state before the handles moved to ``u``: pairs their motion
-        carries through a wall count as through while their point stays behind its wall, and less than the segment's
-        length deep (farther, the sign of a gap says nothing)."""
+        """Start a step at ``u``; returns how many points are through the surface: those the handles' motion from
+        ``previous`` carried through a wall, while they stay behind it (less than the segment's length deep: farther,
+        the sign of a gap says nothing)."""
         Y = self._points(u)
         self.pairs.start_step(Y)
         through_p, through_s = self._through
