@@ -1,14 +1,13 @@
 """Self-contact of the boundary: surfaces that touch, press, slide, and never pass through each other.
 
-:class:`Contact` (:mod:`.term`) is one more term of the incremental potential, with hooks a model without contact
-never calls. Its Hessian couples nodes no element couples (two lips of a wound), and *which* changes as the body
-moves: the model's pattern is widened with the current candidate pairs and rebuilt (a merge of a few keys, ~4 ms at
-8k triangles) only when a pair appears that it does not hold (:meth:`Contact.covers`). No state on the far side of a
-surface may be reached: Newton's line search and the stepper's warm start take at most :meth:`Contact.max_step` of a
-step (``step_limit`` of :func:`tissuefem.engine.minimize.newton`). A handle dragging tissue through tissue is obeyed,
-its crossings counted (:meth:`Contact.begin_step`). After a cut, :meth:`Contact.remap` carries the term over. The
-other pieces: :mod:`.surface`, :mod:`.barrier` (and why), :mod:`.candidates` (signed gaps; which pairs may touch),
-:mod:`.collision` (times of impact). References:
+:class:`Contact` (:mod:`.term`) is a term of the incremental potential whose Hessian couples nodes no element couples
+(two lips of a wound), *which* changing as the body moves: the model's pattern holds the current candidate pairs and
+is rebuilt (a merge of a few keys, ~4 ms at 8k triangles) only when a pair appears that it lacks
+(:meth:`Contact.covers`). No state on the far side of a surface may be reached: Newton's line search and the stepper's
+warm start take at most :meth:`Contact.max_step` of a step. Handles dragging tissue through tissue are obeyed, the
+crossings counted (:meth:`Contact.begin_step`); after a cut :meth:`Contact.remap` carries the term over. The pieces:
+:mod:`.surface`, :mod:`.barrier` (and why), :mod:`.candidates` (signed gaps; which pairs may touch), :mod:`.collision`
+(times of impact). References:
 
 .. [1] M. Li et al., *Incremental Potential Contact: intersection- and inversion-free, large-deformation dynamics*,
    ACM Transactions on Graphics 39(4) (2020), 49.

@@ -1,24 +1,21 @@
 """The one-sided barrier on signed gaps, and the derivatives of a gap with respect to its points.
 
-Incremental Potential Contact (IPC) [1] puts a barrier ``b(d) = -(d - d^)^2 ln(d / d^)`` on the unsigned distance
-``0 < d < d^`` of a point to a segment, infinite at ``d = 0``: surfaces never touch. Here a wound's lips *coincide*
-the moment it is cut, and a closed wound must stay closed without force. So the gap ``sigma`` is *signed* (negative
-behind the surface; :mod:`.candidates`), and the barrier acts on the inside:
+Incremental Potential Contact (IPC) [1] puts a barrier ``-(d - d^)^2 ln(d / d^)`` on the unsigned distance ``0 < d <
+d^`` of a point to a segment: surfaces never touch. But a wound's lips *coincide* the moment it is cut, and a closed
+wound must stay closed without force. So the gap ``sigma`` is *signed* (negative behind the surface), and the barrier
+acts on the inside:
 
     E = kappa * sum_(points p) sum_(stretches of surface near p) l_p d^ beta(1 + (sigma + o_p) / d^),
     beta(zeta) = -(zeta - 1)^2 ln(zeta)   for 0 < zeta < 1,   beta = 0 for zeta >= 1,
 
-with ``o_p`` the point's rest offset: IPC's barrier from the surface moved *inward* by ``d^`` (the "thickness" of
-codimensional IPC [2], with the opposite sign). ``beta``, ``beta'`` and ``beta''`` vanish at ``zeta = 1`` (contact
-starts smoothly; lips that touch feel nothing) and ``beta -> infinity`` as ``zeta -> 0`` (no accepted state has a
-point deeper than ``d^`` behind a surface it is near). ``l_p`` is the point's share of the surface length at rest
-(half of each segment it ends), so ``kappa`` is a pressure: ``kappa |beta'(1 - delta / d^)|`` at an overlap
-``delta``, ``kappa`` at ``delta = 0.46 d^`` (with a scene's default, Young's modulus: ``d^ / 5`` at a tenth of it).
-
-Not a penalty with a no-crossing check: Newton would push a point against the collision detection's limit step after
-step (each cut to 0.8 of the way, never converging); a barrier grows without bound before the wall, so the minimiser
-turns back on its own. The force ``-dE/dy = -kappa l_p beta'(zeta) dsigma/dy`` pushes the point out along the normal
-and the segment back; the Hessian is
+with ``o_p`` the point's rest offset (:mod:`.candidates`): IPC's barrier from the surface moved *inward* by ``d^``
+(the "thickness" of codimensional IPC [2], with the opposite sign). ``beta``, ``beta'``, ``beta''`` vanish at ``zeta =
+1`` (contact starts smoothly; lips that touch feel nothing); ``beta -> infinity`` as ``zeta -> 0`` (no accepted state
+has a point deeper than ``d^`` behind a surface it is near). ``l_p`` is the point's share of the surface length at
+rest, so ``kappa`` is a pressure: ``kappa |beta'(1 - delta / d^)|`` at an overlap ``delta``, ``kappa`` at ``delta =
+0.46 d^``. Not a penalty with a no-crossing check: Newton would push a point against the collision detection's limit
+step after step (each cut to 0.8 of the way, never converging); a barrier grows without bound before the wall, so
+the minimiser turns back on its own. With the force ``-kappa l_p beta'(zeta) dsigma/dy`` on the points, the Hessian is
 
     d2E/dy2 = kappa l_p [ beta''(zeta) / d^ (dsigma/dy)(dsigma/dy)^T  +  beta'(zeta) d2sigma/dy2 ],
 

@@ -40,8 +40,7 @@ def _corner_normal(e_in, e_out, fold):
 
 
 def spread(dY) -> float:
-    """How far the points moved relative to each other: ``max_i |dY_i - c|`` with ``c`` the centre of the moves'
-    bounding box. Two points' distance changes by at most twice this (a rigid shift moves nothing)."""
+    """``max_i |dY_i - c|``, ``c`` the centre of the moves' bounding box: no distance changes by over twice this."""
     if dY.shape[1] == 0:
         return 0.0
     c = 0.5 * (dY.max(axis=1) + dY.min(axis=1))
@@ -237,8 +236,8 @@ class CandidatePairs:
                 self.positions[same] = old_positions[at[same]]
 
     def ensure(self, Y) -> None:
-        """Refresh the list if the points moved by more than ``skin / 2`` relative to each other since it was built
-        (a pair not in it was farther than ``reach + skin`` apart, and has come closer by less than ``skin``)."""
+        """Refresh the list if the points moved by over ``skin / 2`` relative to each other (else no pair out of it,
+        farther than ``reach + skin`` apart, came closer than ``reach``)."""
         if spread(Y - self.points) > 0.5 * self.skin:
             self.refresh(Y)
 
@@ -261,11 +260,8 @@ class CandidatePairs:
         rows = np.arange(self.keys.size)
         if hinges.size == 0:
             return self.p, self.s, self.keys, self.ignored, rows
-        p, s = self.hinge_pairs(hinges)
-        return (np.concatenate([self.p, p]), np.concatenate([self.s, s]),
-                np.concatenate([self.keys, self.hinge_keys[hinges]]),
-                np.concatenate([self.ignored, self.hinge_ignored[hinges]]),
-                np.concatenate([rows, self.keys.size + hinges]))
+        hinge = (*self.hinge_pairs(hinges), self.hinge_keys[hinges], self.hinge_ignored[hinges], rows.size + hinges)
+        return tuple(np.concatenate([a, b]) for a, b in zip((self.p, self.s, self.keys, self.ignored, rows), hinge))
 
     def start_step(self, Y) -> None:
         """A step starts at ``Y``: a fresh list, the pairs deep there ignored."""

@@ -67,10 +67,8 @@ def times_of_impact(pairs, Y0, dY, p, s) -> np.ndarray:
     if not found:
         return out
     k, tau, wall = (np.array(column) for column in zip(*found))
-
     def at(i, rows=slice(None)):  # the points i of the candidates rows at their time
         return Y0[:, i] + tau[rows] * dY[:, i]
-
     kind, _, sigma = pairs.classify(at, p[k], s[k])
     hit = (kind == wall) & (sigma < 0)
     # the segment owns the point there unless a neighbour (one it may meet) is nearer than d; one through the wall's
@@ -109,9 +107,7 @@ def crossings(pairs, Y0, Y):
     moved = spread(dY)
     if not moved > 0.0:
         return np.zeros(0, dtype=np.intp), np.zeros(0, dtype=np.intp)
-    if moved < 0.5 * pairs.skin:  # the list at Y holds every pair that came within d^ on the way
-        p, s = pairs.p, pairs.s
-    else:
-        p, s = pairs.query(Y0, pairs.reach + 2.0 * moved)
+    # a short move: the list at Y holds every pair that came within d^ on the way
+    p, s = (pairs.p, pairs.s) if moved < 0.5 * pairs.skin else pairs.query(Y0, pairs.reach + 2.0 * moved)
     hit = np.isfinite(times_of_impact(pairs, Y0, dY, p, s))
     return p[hit], s[hit]

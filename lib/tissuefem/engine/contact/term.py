@@ -64,8 +64,7 @@ class Contact(Term):
         the surface the change knows (``meshmap.contact_surface()``), else on the new mesh's boundary."""
         if not isinstance(meshmap, MeshMap):
             raise ParameterError("meshmap", f"meshmap must be a MeshMap, got {type(meshmap).__name__}")
-        surface = meshmap.contact_surface()
-        surface = ContactSurface.from_mesh(meshmap.mesh) if surface is None else surface
+        surface = meshmap.contact_surface() or ContactSurface.from_mesh(meshmap.mesh)
         return Contact(meshmap.mesh.p, surface, self.distance, self.stiffness, self._skin_setting)
 
     def describe(self):
@@ -177,10 +176,8 @@ class Contact(Term):
     def covers(self, u) -> bool:
         """Whether the bound pattern holds the couplings of every pair active at ``u`` (else the model rebuilds it)."""
         keys = self._evaluate(u)["keys"]
-        if keys.size == 0:
-            return True
-        if self._covered.size == 0:
-            return False
+        if keys.size == 0 or self._covered.size == 0:
+            return keys.size == 0
         at = np.minimum(np.searchsorted(self._covered, keys), self._covered.size - 1)
         return bool(np.all(self._covered[at] == keys))
 
