@@ -15,6 +15,7 @@ from tissuefem import Handle, Model, StableNeoHookean, Stepper, rectangle
 from tissuefem.engine import stepping
 from tissuefem.engine.contact import Contact, ContactSurface, barrier
 from tissuefem.engine.meshes import mean_edge_length
+from tissuefem.engine.parameters import ParameterError
 from tissuefem.surgery.element_cuts import cut_through, material_areas
 from tissuefem.surgery.surfaces import contact_surface
 from tissuefem.surgery.topology import excise, incise
@@ -199,7 +200,7 @@ def test_a_surface_far_from_itself_is_inactive_and_costs_no_coupling():
     contact, u = model.contact, model.zeros()
     assert contact.energy(u) == 0.0 and not np.any(contact.gradient(u))
     assert contact.active_pairs(u).shape == (2, 0)
-    assert contact._keys.size == 0  # nothing within reach: an empty list
+    assert contact.pairs.keys.size == 0  # nothing within reach: an empty list
     K = model.hessian(u)
     assert model.pattern.nnz == model.assembler.nnz and K.nnz == model.assembler.nnz  # no widening
     # a few frames of a drag: still nothing near, nothing active, no pattern rebuilt
@@ -392,12 +393,49 @@ def test_bad_contact_input_is_refused_by_name():
         Contact(X, ContactSurface([[0], [1]], [[1.0], [1.0]], [[0], [1]], n_nodes=9), 0.01, 1.0)
     with pytest.raises(ValueError, match="zero length"):
         Contact(X, ContactSurface([[0], [0]], [[1.0], [1.0]], [[0], [1]], n_nodes=25), 0.01, 1.0)
+    for bad in (None, X, "mesh"):  # not a triangle mesh: refused by name, not an AttributeError
+        with pytest.raises(ParameterError, match="mesh must be a triangle mesh") as refused:
+            ContactSurface.from_mesh(bad)
+        assert refused.value.field == "mesh"
+    with pytest.raises(ParameterError, match="wound_boundary"):
+        ContactSurface.from_mesh(mesh, wound_boundary=["cut"])
+    with pytest.raises(ParameterError, match=r"contact\.surface must be a ContactSurface") as refused:
+        Contact(X, "boundary", 0.01, 1.0)
+    assert refused.value.field == "contact.surface"
     with pytest.raises(ValueError, match=r"contact\.stiffness: missing"):
         Model(mesh, MATERIAL, contact=dict(distance=0.01))
     with pytest.raises(ValueError, match="contact: unknown"):
         Model(mesh, MATERIAL, contact=dict(distance=0.01, stiffness=1.0, stiffnes=2.0))
     with pytest.raises(ValueError, match="contact must be a dict"):
         Model(mesh, MATERIAL, contact=0.01)
+
+
+# ------------------------------------------------------------------------------------------------ remap
+
+def test_remap_carries_the_contact_across_an_edge_cut_and_a_cut_through_elements(monkeypatch):
+    mesh = rectangle(2.0, 1.0, 16, 8)
+    h = mean_edge_length(mesh)
+    contact = Contact(mesh.p, ContactSurface.from_mesh(mesh), 0.1 * h, 100.0, skin=0.5 * h)
+    stroke = [[0.93, 1.2], [1.07, 0.25]]
+    edge = incise(mesh, stroke)  # no surface of its own: the new mesh's boundary, with the lips
+    moved = contact.remap(edge)
+    assert (moved.distance, moved.stiffness, moved.skin) == (contact.distance, contact.stiffness, 0.5 * h)
+    np.testing.assert_array_equal(moved.X, edge.mesh.p)
+    np.testing.assert_array_equal(moved.surface.segments, ContactSurface.from_mesh(edge.mesh).segments)
+    assert moved.surface.wound.sum() > 0 and moved.energy(np.zeros(2 * moved.n_nodes)) == 0.0  # lips touch freely
+    # a default skin follows the new surface (the median length of its segments)
+    default = Contact(mesh.p, ContactSurface.from_mesh(mesh), 0.1 * h, 100.0).remap(edge)
+    assert default.skin == np.median(default.rest_length)
+    # through elements: the surface the cut knows (where the material ends) when it offers one, else the boundary
+    cut = cut_through(mesh, stroke)
+    assert contact.remap(cut).n_nodes == cut.mesh.p.shape[1]
+    material = contact_surface(cut.mesh, cut.weights, cut.regions)
+    monkeypatch.setattr(type(cut), "contact_surface", lambda self: material)
+    moved = contact.remap(cut)
+    assert moved.surface is material and moved.energy(np.zeros(2 * moved.n_nodes)) == 0.0
+    assert (moved.distance, moved.stiffness, moved.skin) == (contact.distance, contact.stiffness, 0.5 * h)
+    with pytest.raises(ParameterError, match="meshmap must be a MeshMap"):
+        contact.remap(cut.mesh)
 
 
 # ------------------------------------------------------------------------------------------------ scenes

@@ -1,0 +1,275 @@
+"""Which (point, segment) pairs may touch: their signed gaps, the neighbourhoods left out, owners, the Verlet list.
+
+With ``e = y_b - y_a``, ``w = y_p - y_a`` and ``t = w . e / |e|^2``, the gap of a point ``p`` to a segment ``(a, b)``
+is, for ``0 < t < 1``, its distance to the segment's line signed by the outward normal, ``sigma = cross(w, e) / |e|``;
+else the distance ``|y_p - y_v|`` to that end ``v``, negative when ``(y_p - y_v) . n_v < 0`` with the corner's
+*pseudonormal* ``n_v`` (the mean of its segments' normals): the signed distance to a polygon of [3]. The segments
+within ``d^`` of a point form runs; only the nearest of each run, its *owner*, counts: the gap is continuous where the
+nearest feature changes inside the run, a point in a convex corner is never counted twice, and segments shorter than
+the skin (slivers of a cut through elements) are handled like any other. It jumps (rare, open: the line search stops
+there) where the pseudonormal's sign flips: for a point outside its corner's cone, and at a corner folded right over.
+
+A point is not paired with segments less than ``2 d^`` from it along the surface at rest (nor their neighbours): else
+a cut's lip, a chain of pieces shorter than ``d^``, puts its own points in the skin of its corners once it bends. The
+walk stops at a corner that turned back into the material at rest (a crack tip), where each lip's first point is
+paired with the other's first segment (a *hinge*) while the corner turns by over 90 degrees: a crack pressed shut up
+to its tip does not overlap. Coinciding lips are at ``sigma = 0``: in contact, without force. Where the surface lies
+closer than ``d^`` to itself at rest, a point's wall is moved by its depth there, its *rest offset* ``o_p`` (one
+number per point: the energy stays continuous). A pair whose point is behind its wall when a step *starts* (and not
+near the segment's neighbours, along which it may slide into its ownership) is ignored until the step ends: the far
+side of a thin body, or tissue a handle dragged through tissue.
+
+The broad phase is a Verlet list [4] of the pairs closer than ``reach + skin`` (near each segment's midpoint, from a
+k-d tree), valid while the points move less than ``skin / 2`` *relative to each other* (a rigid drag refreshes
+nothing). A pair's *key* is ``p * n_segments + s``; lists are sorted by it. (References: the package.)
+"""
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from .surface import cross, dot, segment_distance
+
+
+def _corner_normal(e_in, e_out, fold):
+    """The pseudonormal of a corner: the mean of its segments' normals (folded right back: ``fold`` along ``e_in``)."""
+    m = np.stack([e_in[1], -e_in[0]]) / np.sqrt(dot(e_in, e_in)) + \
+        np.stack([e_out[1], -e_out[0]]) / np.sqrt(dot(e_out, e_out))
+    size = np.sqrt(dot(m, m))
+    folded = size < 1e-9
+    return np.where(folded, fold * e_in / np.sqrt(dot(e_in, e_in)), m / np.where(folded, 1.0, size))
+
+
+def spread(dY) -> float:
+    """``max_i |dY_i - c|``, ``c`` the centre of the moves' bounding box: no distance changes by over twice this."""
+    if dY.shape[1] == 0:
+        return 0.0
+    c = 0.5 * (dY.max(axis=1) + dY.min(axis=1))
+    return float(np.max(np.hypot(*(dY - c[:, None]))))
+
+
+def _arc_neighbourhood(surface, length, reach, stops) -> np.ndarray:
+    """The points each segment is not paired with, (n_segments, k) padded with -1: its ends, its neighbours' far ends,
+    and every point less than ``reach`` from it along the surface at rest (not round the corners ending ``stops``)."""
+    seg = surface.segments
+    n_seg = seg.shape[1]
+    base = surface.neighbourhood
+    if n_seg == 0:
+        return base
+    stop_after = np.zeros(n_seg, dtype=bool)  # no walking from this segment to its next
+    stop_after[np.asarray(stops, dtype=np.intp)] = True
+    stop_before = stop_after[np.maximum(surface.previous, 0)] & (surface.previous >= 0)  # ... to its previous
+    columns = [base]
+    for step, end, stop in ((surface.next, 1, stop_after), (surface.previous, 0, stop_before)):
+        at = step.copy()  # the neighbour (its far end is in base already)
+        arc = np.where(at >= 0, length[np.maximum(at, 0)], np.inf)
+        alive = (at >= 0) & ~stop
+        for _ in range(n_seg):
+            alive &= ~stop[np.maximum(at, 0)]
+            nxt = np.where(alive, step[np.maximum(at, 0)], -1)
+            alive &= nxt >= 0
+            arc = np.where(alive, arc + length[np.maximum(nxt, 0)], np.inf)
+            alive &= arc < reach
+            if not np.any(alive):
+                break
+            columns.append(np.where(alive, seg[end, np.maximum(nxt, 0)], -1)[:, None])
+            at = nxt
+    return np.concatenate(columns, axis=1)
+
+
+class CandidatePairs:
+    """The pairs of a surface that may touch (rest points ``Y``, segment lengths, ``d^``, the list's margin ``skin``).
+    ``offset``, ``skins``, ``reach``: rest offsets, walls ``d^ + o_p``, the deepest; ``excluded``: the points each
+    segment is never paired with; ``fold``: where a corner folded right back opens; ``hinge``: the hinges that count;
+    the list ``p``, ``s``, ``keys`` (built at ``points``); ``ignored``, ``hinge_ignored``: deep at ``step_start``;
+    ``positions``: each pair's Hessian entries in the model's pattern (list, then hinges; -1 until looked up)."""
+
+    def __init__(self, surface, Y, rest_length, distance, skin):
+        self.surface, self.rest_length, self.skin = surface, rest_length, skin
+        n_seg, (a, b) = surface.n_segments, surface.segments
+        self.n_local = (6 * surface.nodes.shape[1]) ** 2  # Hessian entries of a pair: 3 points of k nodes, 2 dofs
+        self.fold = np.ones(max(n_seg, 1))
+        e_s = Y[:, b] - Y[:, a]
+        e_n = e_s[:, np.maximum(surface.next, 0)]  # a folded corner opens backwards if it turned into the material
+        turns_in = cross(e_s, e_n) <= 1e-9 * np.hypot(*e_s) * np.hypot(*e_n)
+        self.fold[:n_seg] = np.where((surface.next >= 0) & turns_in, -1.0, 1.0)
+        # closing a corner that turns back into the material at rest (a crack tip, a notch) is contact; closing a
+        # convex corner crushes the material between
+        e_in, e_out = e_s[:, surface.hinge_corner], e_s[:, surface.next[surface.hinge_corner]]
+        size = np.hypot(*e_in) * np.hypot(*e_out)
+        armed = (cross(e_in, e_out) < -1e-9 * size) | ((np.abs(cross(e_in, e_out)) <= 1e-9 * size)
+                                                        & (dot(e_in, e_out) < 0))
+        self.hinge = np.flatnonzero(armed)
+        self.excluded = _arc_neighbourhood(surface, rest_length, 2.0 * distance, surface.hinge_corner[self.hinge])
+        hp, hs = self.hinge_pairs(slice(None))
+        self.hinge_keys = hp.astype(np.int64) * max(n_seg, 1) + hs
+        self.hinge_ignored = np.zeros(self.hinge_keys.size, dtype=bool)
+        self.step_start, self.refreshes, self.keys, self.positions = None, 0, None, None
+        self.offset = np.zeros(surface.n_points)  # the rest offsets: the reference configuration touches nothing
+        for _ in range(8):
+            p, s = self.query(Y, distance + float(self.offset.max(initial=0.0)))
+            p, s = np.concatenate([p, hp]), np.concatenate([s, hs])
+            _, gap, sigma = self.classify(lambda i: Y[:, i], p, s)
+            # (two lips that coincide are at sigma = 0 up to round-off: they touch, they are not inside)
+            inside = (gap < distance + self.offset[p]) & (sigma < -self.offset[p] - 1e-9 * rest_length[s])
+            if not np.any(inside):
+                break
+            np.maximum.at(self.offset, p[inside], -sigma[inside])
+        self.skins = distance + self.offset
+        self.reach = float(self.skins.max(initial=distance))  # no pair is in contact farther apart
+        self.refresh(Y)
+
+    def query(self, Y, reach):
+        """``(p, s)``: the pairs not excluded with the point within ``half length + reach`` of the segment's midpoint
+        at the points ``Y``, sorted by key."""
+        seg = self.surface.segments
+        n_seg = seg.shape[1]
+        if n_seg == 0 or self.surface.n_points == 0:
+            return np.zeros(0, dtype=np.intp), np.zeros(0, dtype=np.intp)
+        ya, yb = Y[:, seg[0]], Y[:, seg[1]]
+        radius = 0.5 * np.hypot(*(yb - ya)) + reach
+        tree = cKDTree(Y.T)
+        mid = (0.5 * (ya + yb)).T
+        rows, k = np.arange(n_seg), min(8, Y.shape[1])
+        found_s, found_p = [], []
+        while rows.size:  # the k nearest points of each midpoint; again with more where all k are within reach
+            dist, idx = tree.query(mid[rows], k=k, distance_upper_bound=float(radius[rows].max()))
+            dist, idx = dist.reshape(rows.size, k), idx.reshape(rows.size, k)
+            within = dist <= radius[rows, None]
+            more = within[:, -1] & (k < Y.shape[1])
+            done = ~more
+            found_s.append(np.broadcast_to(rows[done, None], within[done].shape)[within[done]])
+            found_p.append(idx[done][within[done]])
+            rows, k = rows[more], min(2 * k, Y.shape[1])
+        s, p = np.concatenate(found_s).astype(np.intp), np.concatenate(found_p).astype(np.intp)
+        keep = np.all(self.excluded[s] != p[:, None], axis=1)
+        p, s = p[keep], s[keep]
+        order = np.argsort(p.astype(np.int64) * n_seg + s)
+        return p[order], s[order]
+
+    def classify(self, at, p, s):
+        """``(kind, distance, sigma)`` of the pairs ``(p, s)``, ``at(i)`` giving the coordinates (2, m) of the points
+        ``i`` of each pair: the feature nearest the point (1 the interior, 2 the start ``a``, 3 the end ``b``), how far,
+        and the signed gap. A segment collapsed to a point (an element crushed flat) gives NaN: no contact."""
+        seg, prev, nxt = self.surface.segments, self.surface.previous[s], self.surface.next[s]
+        yp, ya, yb = at(p), at(seg[0, s]), at(seg[1, s])
+        y_before, y_after = at(seg[0, np.maximum(prev, 0)]), at(seg[1, np.maximum(nxt, 0)])
+        with np.errstate(invalid="ignore", divide="ignore"):
+            e, w, wb = yb - ya, yp - ya, yp - yb
+            L = np.sqrt(dot(e, e))
+            t = dot(w, e) / (L * L)
+            g = cross(w, e) / L
+            r_a, r_b = np.sqrt(dot(w, w)), np.sqrt(dot(wb, wb))
+            side_a = dot(w, _corner_normal(np.where(prev >= 0, ya - y_before, e), e, self.fold[np.maximum(prev, 0)]))
+            side_b = dot(wb, _corner_normal(e, np.where(nxt >= 0, y_after - yb, e), self.fold[s]))
+            kind = np.where(t <= 0, 2, np.where(t >= 1, 3, 1))
+            distance = np.where(kind == 1, np.abs(g), np.where(kind == 2, r_a, r_b))
+            sigma = np.where(kind == 1, g, np.where(kind == 2, np.where(side_a < 0, -r_a, r_a),
+                                                    np.where(side_b < 0, -r_b, r_b)))
+        return kind, distance, sigma
+
+    def owners(self, p, s, keys, distance):
+        """Which of the pairs own their point: the nearest segment of each run of consecutive segments that are all
+        within ``d^`` of the point (ties to the lower key). ``keys`` must be unique."""
+        n_seg = max(self.surface.n_segments, 1)
+        order = np.argsort(keys)
+        k = keys[order]
+        def find(target):  # the position (in sorted order) of the pair with key ``target``, or -1
+            at = np.minimum(np.searchsorted(k, target), k.size - 1)
+            return np.where(k[at] == target, at, -1)
+
+        pp, ss = p[order], s[order]
+        prev, nxt = self.surface.previous[ss], self.surface.next[ss]
+        links = [np.where(prev >= 0, find(pp.astype(np.int64) * n_seg + prev), -1),
+                 np.where(nxt >= 0, find(pp.astype(np.int64) * n_seg + nxt), -1)]
+        best_d, best_k = distance[order].copy(), k.copy()
+        for _ in range(k.size):  # spread the run's nearest along it, one segment per sweep
+            changed = False
+            for link in links:
+                has = link >= 0
+                if not np.any(has):
+                    continue
+                d_n = np.where(has, best_d[np.maximum(link, 0)], np.inf)
+                k_n = np.where(has, best_k[np.maximum(link, 0)], -1)
+                better = has & ((d_n < best_d) | ((d_n == best_d) & (k_n < best_k)))
+                if np.any(better):
+                    best_d[better], best_k[better] = d_n[better], k_n[better]
+                    changed = True
+            if not changed:
+                break
+        owner = np.empty(k.size, dtype=bool)
+        owner[order] = best_k == k
+        return owner
+
+    def neighbour_nearer(self, at, p, s, check, depth):
+        """Where ``check``: whether a neighbour of segment ``s`` (not excluded for ``p``) is nearer the point than
+        ``depth``. ``at(i, rows)``: the coordinates (2, len(rows)) of the points ``i`` of the pairs ``rows``."""
+        seg, near = self.surface.segments, np.zeros(p.size, dtype=bool)
+        for neighbour in (self.surface.previous[s], self.surface.next[s]):
+            nb = np.maximum(neighbour, 0)
+            i = np.flatnonzero(check & (neighbour >= 0) & np.all(self.excluded[nb] != p[:, None], axis=1))
+            if i.size:
+                near[i] |= segment_distance(at(p[i], i), at(seg[0, nb[i]], i), at(seg[1, nb[i]], i)) < depth[i]
+        return near
+
+    def deep_at_start(self, p, s) -> np.ndarray:
+        """Which pairs had their point deeper than its wall behind the segment (and its neighbours) at the start."""
+        if self.step_start is None or p.size == 0:
+            return np.zeros(p.size, dtype=bool)
+        Y = self.step_start
+        _, _, sigma = self.classify(lambda i: Y[:, i], p, s)
+        deep = sigma <= -self.skins[p]
+        return deep & ~self.neighbour_nearer(lambda i, rows: Y[:, i], p, s, deep, self.skins[p])
+
+    def refresh(self, Y) -> None:
+        """Rebuild the list at the points ``Y``, keeping the positions found for pairs that stay in it."""
+        old_keys, old_positions = self.keys, self.positions
+        self.p, self.s = self.query(Y, self.reach + self.skin)
+        self.keys = self.p.astype(np.int64) * max(self.surface.n_segments, 1) + self.s
+        self.points, self.refreshes = Y.copy(), self.refreshes + 1
+        self.ignored = self.deep_at_start(self.p, self.s)
+        self.positions = np.full((self.keys.size + self.hinge_keys.size, self.n_local), -1, dtype=np.intp)
+        if old_keys is not None:
+            self.positions[self.keys.size:] = old_positions[old_keys.size:]  # the hinges'
+            if old_keys.size and self.keys.size:
+                at = np.minimum(np.searchsorted(old_keys, self.keys), old_keys.size - 1)
+                same = np.flatnonzero(old_keys[at] == self.keys)
+                self.positions[same] = old_positions[at[same]]
+
+    def ensure(self, Y) -> None:
+        """Refresh the list if the points moved by over ``skin / 2`` relative to each other (else no pair out of it,
+        farther than ``reach + skin`` apart, came closer than ``reach``)."""
+        if spread(Y - self.points) > 0.5 * self.skin:
+            self.refresh(Y)
+
+    def sharp_hinges(self, Y) -> np.ndarray:
+        """Indices (into ``hinge``) of the hinges at corners turning by over 90 degrees at ``Y`` (the others cannot
+        touch: the point projects before the segment)."""
+        if self.hinge_keys.size == 0:
+            return np.zeros(0, dtype=np.intp)
+        seg, into = self.surface.segments, self.surface.hinge_corner[self.hinge]
+        out = self.surface.next[into]
+        return np.flatnonzero(dot(Y[:, seg[1, into]] - Y[:, seg[0, into]], Y[:, seg[1, out]] - Y[:, seg[0, out]]) < 0)
+
+    def hinge_pairs(self, hinges):
+        """``(p, s)`` of the hinges ``hinges`` (indices into ``hinge``)."""
+        return self.surface.hinge_points[self.hinge[hinges]], self.surface.hinge_segments[self.hinge[hinges]]
+
+    def current(self, Y):
+        """``(p, s, keys, ignored, rows)`` of the list and the sharp hinges at ``Y`` (``rows``: in ``positions``)."""
+        hinges = self.sharp_hinges(Y)
+        rows = np.arange(self.keys.size)
+        if hinges.size == 0:
+            return self.p, self.s, self.keys, self.ignored, rows
+        hinge = (*self.hinge_pairs(hinges), self.hinge_keys[hinges], self.hinge_ignored[hinges], rows.size + hinges)
+        return tuple(np.concatenate([a, b]) for a, b in zip((self.p, self.s, self.keys, self.ignored, rows), hinge))
+
+    def start_step(self, Y) -> None:
+        """A step starts at ``Y``: a fresh list, the pairs deep there ignored."""
+        self.step_start = Y.copy()
+        self.refresh(Y)
+        self.hinge_ignored = self.deep_at_start(*self.hinge_pairs(slice(None)))
+
+    def end_step(self) -> None:
+        self.step_start = None
+        self.ignored = np.zeros(self.keys.size, dtype=bool)
+        self.hinge_ignored[:] = False
