@@ -1,6 +1,10 @@
 """SurgeryView: mouse drags and cuts on a running simulation, driven headless by synthetic events."""
 
+import os
+import subprocess
+import sys
 import warnings
+from pathlib import Path
 
 import matplotlib
 
@@ -13,6 +17,7 @@ from matplotlib.backend_bases import MouseButton
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+import tissuefem
 from tissuefem.surgery import interactive
 from tissuefem.surgery.interactive import MODES, SurgeryView, mean_edge_length, synthetic_key, synthetic_mouse
 from tissuefem.surgery.scene import Scene
@@ -71,6 +76,17 @@ def move_along(view, start, end, steps=4):
     """Motion events from ``start`` to ``end`` (the button held, if it was pressed)."""
     for s in np.linspace(0.0, 1.0, steps + 1)[1:]:
         synthetic_mouse(view, "move", (1 - s) * np.asarray(start) + s * np.asarray(end))
+
+
+# ------------------------------------------------------------------ a light face
+def test_import_tissuefem_loads_neither_pyplot_nor_ipython():
+    """The view is imported where it is used: the package itself loads no drawing or notebook machinery."""
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(Path(tissuefem.__file__).parents[1]),
+                                                       os.environ.get("PYTHONPATH", "")]))
+    code = "import sys, tissuefem; print(sorted({'matplotlib.pyplot', 'IPython'} & set(sys.modules)))"
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+    assert out.stdout.split() == ["[]"]
+    assert "SurgeryView" not in tissuefem.__all__ and not hasattr(tissuefem, "SurgeryView")
 
 
 # ------------------------------------------------------------------ drawing and set-up
