@@ -39,7 +39,7 @@ import numpy as np
 
 __all__ = [
     "ParameterError", "lame_parameters", "check_young_poisson", "check_poisson_ratio", "check_lame", "check_real",
-    "check_count",
+    "check_count", "check_positive",
     "check_time_step", "YOUNGS_MODULUS_RANGE", "POISSON_RATIO_RANGE", "LAME_MAX", "SHEAR_MODULUS_MIN",
     "TIME_STEP_RANGE", "DENSITY_RANGE", "ACCELERATION_MAX", "FORCE_MAX", "PENALTY_MAX", "REACH", "RADIUS_RANGE",
     "check_density", "check_bounded_vector", "check_real_array",
@@ -122,6 +122,11 @@ def check_real(name: str, value, lo=None, hi=None, *, lo_open: bool = False, hi_
         allowed = _interval(lo, hi, lo_open, hi_open)
         raise ParameterError(name, f"{name} must be {violated} (allowed range {allowed}), got {_short(value)}")
     return v
+
+
+def check_positive(name, value) -> float:
+    """A finite real number ``> 0``, or a ``ValueError`` naming ``name``."""
+    return check_real(name, value, 0.0, lo_open=True)
 
 
 def check_count(name: str, value, lo: int = 1, hi: int | None = None) -> int:
