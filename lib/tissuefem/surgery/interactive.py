@@ -76,13 +76,11 @@ def _cell_origin():
             parent = get_parent("shell")
         except TypeError:
             parent = get_parent()
-        metadata = (parent or {}).get("metadata") or {}
-        if metadata.get("cellId"):
-            cell = "id:" + str(metadata["cellId"])
+        cell_id = ((parent or {}).get("metadata") or {}).get("cellId")
+        cell = f"id:{cell_id}" if cell_id else None
     if cell is None:
         history = getattr(getattr(shell, "history_manager", None), "input_hist_raw", None)
-        if history:
-            cell = "source:" + history[-1]
+        cell = "source:" + history[-1] if history else None
     return None if cell is None else (cell, getattr(shell, "execution_count", None))
 
 
@@ -99,6 +97,118 @@ def _one_at_a_time(method):
             return method(self, *args, **kwargs)
 
     return locked
+
+
+class Gestures:
+    """A view's mouse and keyboard mapped to the simulation's operations (``grab``, ``drag``, ``release``, ``cut``).
+
+    Press and motion events outside the axes are ignored, and clicks while the toolbar's pan or zoom tool
+    is active; a release anywhere ends the current grab or stroke, so a handle never stays stuck to a mouse
+    that left the axes. A grab made in code (a :func:`synthetic_mouse` press) is not carried on by the real
+    mouse moving, nor a real grab by made-up moves; a real press replaces it. A ``ValueError`` raised by
+    the simulation is shown as the view's message instead of propagating. The key ``c`` toggles the mode; it
+    is also the toolbar's default "back" key, which only matters after zooming.
+    """
+
+    def __init__(self, view):
+        self.view, self.sim, self.ax, self._lock = view, view.sim, view.ax, view._lock
+        self.mode = "drag"
+        self.handle = None  # name of the grabbed handle
+        self.real_press = False  # whether the grab or stroke began with a real press (a GUI event) or in code
+        self.stroke: list[np.ndarray] | None = None  # the cut polyline being drawn
+        (self.stroke_artist,) = self.ax.plot([], [], "-", color="k", lw=1.2, zorder=3)
+        (self.target_artist,) = self.ax.plot([], [], "o", ms=7, mfc="none", mec="tab:blue", mew=1.5, zorder=3)
+
+    def _point(self, event):
+        if event.inaxes is not self.ax or event.xdata is None or event.ydata is None:
+            return None
+        return np.array([event.xdata, event.ydata], dtype=float)
+
+    @_one_at_a_time
+    def on_press(self, event):
+        point = self._point(event)
+        if point is None or event.button != MouseButton.LEFT or self.ax.get_navigate_mode() is not None:
+            return
+        self.view.message = ""
+        self.real_press = event.guiEvent is not None
+        if self.mode == "drag":
+            self.end_grab()
+            try:
+                self.handle = self.sim.grab(point, self.view.radius)
+            except ValueError:
+                return  # no tissue under the pointer: nothing to grab
+            self.target_artist.set_data([point[0]], [point[1]])
+        else:
+            self.stroke = [point]
+            self.stroke_artist.set_data([point[0]], [point[1]])
+        self.view._changed()
+
+    @_one_at_a_time
+    def on_motion(self, event):
+        point = self._point(event)
+        # a real mouse moving (no button held) does not carry on a grab that code made, nor code a real one
+        if point is None or (self.handle is None and self.stroke is None) or (
+                event.guiEvent is not None) != self.real_press:
+            return
+        if self.handle is not None:
+            try:
+                self.sim.drag(self.handle, point)
+            except ValueError as exc:
+                self.view._show(f"drag rejected: {exc}")
+                return
+            self.target_artist.set_data([point[0]], [point[1]])
+        else:
+            if np.linalg.norm(point - self.stroke[-1]) < self.view.stroke_spacing:
+                return
+            self.stroke.append(point)
+            self.stroke_artist.set_data(*np.array(self.stroke).T)
+        self.view._request_draw()
+
+    @_one_at_a_time
+    def on_release(self, event):
+        if event.button not in (None, MouseButton.LEFT):
+            return
+        if self.handle is not None:
+            self.end_grab()
+            self.view._changed()
+        elif self.stroke is not None:
+            point, stroke = self._point(event), self.stroke
+            if point is not None and np.linalg.norm(point - stroke[-1]) > 0:
+                stroke.append(point)
+            self.drop()
+            stroke = np.array(stroke)
+            distinct = stroke[np.r_[True, np.any(np.diff(stroke, axis=0) != 0, axis=1)]]
+            if len(distinct) < 2:
+                self.view._show("cut: draw a stroke (press, move, release)")
+                return
+            try:
+                self.sim.cut(distinct)
+            except ValueError as exc:
+                self.view._show(f"cut failed: {exc}")
+                return
+            self.view.message = ""
+            self.view._refresh()
+
+    @_one_at_a_time
+    def on_key(self, event):
+        if event.inaxes in (None, self.ax) and event.key == "c":
+            self.view.mode = "drag" if self.mode == "cut" else "cut"
+
+    def end_grab(self) -> None:
+        """Release the grabbed handle, if any."""
+        if self.handle is not None:
+            handle, self.handle = self.handle, None
+            self.target_artist.set_data([], [])
+            try:
+                self.sim.release(handle)
+            except ValueError as exc:
+                self.view.message = f"release failed: {exc}"
+
+    def drop(self) -> None:
+        """End a grab and drop a stroke in progress."""
+        self.end_grab()
+        self.stroke = None
+        self.stroke_artist.set_data([], [])
 
 
 class SurgeryView:
@@ -138,12 +248,8 @@ class SurgeryView:
 
     Notes
     -----
-    Press and motion events outside the axes are ignored, and clicks while the toolbar's pan or zoom tool
-    is active; a release anywhere ends the current grab or stroke, so a handle never stays stuck to a mouse
-    that left the axes. A grab made in code (a :func:`synthetic_mouse` press) is not carried on by the real
-    mouse moving, nor a real grab by made-up moves; a real press replaces it. A ``ValueError`` raised by
+    The mouse and the keyboard are read by :class:`Gestures` (``view.gestures``). A ``ValueError`` raised by
     the simulation in an event handler or a timer frame is shown as the message instead of propagating.
-    The key ``c`` is also the toolbar's default "back" key, which only matters after zooming.
 
     Examples
     --------
@@ -174,18 +280,15 @@ class SurgeryView:
         except RuntimeError:
             self._loop = None
         self._loop_thread = threading.get_ident()
-        self.last_report, self.message, self._mode, self.closed = None, "", "drag", False
-        self._handle = None  # name of the grabbed handle
-        self._real_press = False  # whether the grab or stroke began with a real press (a GUI event) or in code
-        self._stroke: list[np.ndarray] | None = None  # the cut polyline being drawn
+        self.last_report, self.message, self.closed = None, "", False
         self.stroke_spacing = 0.25 * mean_edge_length(sim.mesh)
         self._timer, self._running, self._widgets, self._box = None, False, None, None
         self._keyframe_at = -math.inf
 
         self.drawing = MeshDrawing(self.ax, sim.mesh)
         self.mesh_faces, self.mesh_edges = self.drawing.faces, self.drawing.edges
-        (self.stroke_artist,) = self.ax.plot([], [], "-", color="k", lw=1.2, zorder=3)
-        (self.target_artist,) = self.ax.plot([], [], "o", ms=7, mfc="none", mec="tab:blue", mew=1.5, zorder=3)
+        self.gestures = Gestures(self)
+        self.stroke_artist, self.target_artist = self.gestures.stroke_artist, self.gestures.target_artist
         self.readout = Readout(self.ax, self.owns_figure, self._update_text)
         self.status_text, self.message_text = self.readout.status_text, self.readout.message_text
         self.frame_times, self.draw_times = self.readout.frame_times, self.readout.draw_times
@@ -196,18 +299,17 @@ class SurgeryView:
         self.drawing.rebuild(sim.picture, np.asarray(sim.positions(), dtype=float))
         self._update_text()
 
-        handlers = {"button_press_event": self._on_press, "motion_notify_event": self._on_motion,
-                    "button_release_event": self._on_release, "key_press_event": self._on_key,
+        g = self.gestures
+        handlers = {"button_press_event": g.on_press, "motion_notify_event": g.on_motion,
+                    "button_release_event": g.on_release, "key_press_event": g.on_key,
                     "close_event": lambda event: self.disconnect()}
         self._cids = [self.canvas.mpl_connect(name, handler) for name, handler in handlers.items()]
         self._origin = _cell_origin()
-        for old in list(_VIEWS):
-            if old.closed:
-                continue
+        for old in [view for view in _VIEWS if not view.closed]:
             if old.sim is self.sim:
                 old.disconnect()
                 old._show("stopped: a newer view drives this simulation")
-            elif self._origin and old._origin and old._origin[0] == self._origin[0] and old._origin[1] != self._origin[1]:
+            elif self._origin and old._origin and old._origin[0] == self._origin[0] and old._origin != self._origin:
                 old.close()  # its cell was run again: its output is gone
         _VIEWS.add(self)
         if self.autostart and is_gui(self.canvas):
@@ -217,33 +319,30 @@ class SurgeryView:
     @property
     def mode(self) -> str:
         """``"drag"`` or ``"cut"``. Switching ends a grab (released) or drops a stroke in progress."""
-        return self._mode
+        return self.gestures.mode
 
     @mode.setter
     @_one_at_a_time
     def mode(self, value):
         if value not in MODES:
             raise ParameterError("mode", f"mode must be one of {MODES}, got {value!r}")
-        if value == self._mode:
+        if value == self.gestures.mode:
             return
-        self._end_grab()
-        self._stroke = None
-        self.stroke_artist.set_data([], [])
-        self._mode = value
+        self.gestures.drop()
+        self.gestures.mode = value
         if self._widgets is not None and self._widgets[0].value != value:
             self._widgets[0].value = value
-        self._update_text()
-        self._request_draw()
+        self._changed()
 
     @property
     def grabbed(self):
         """The name of the grabbed handle, or ``None``."""
-        return self._handle
+        return self.gestures.handle
 
     @property
     def stroke(self):
         """The cut stroke being drawn, ``(k, 2)``, or ``None``."""
-        return None if self._stroke is None else np.array(self._stroke)
+        return None if self.gestures.stroke is None else np.array(self.gestures.stroke)
 
     @property
     def drawn_positions(self) -> np.ndarray:
@@ -253,93 +352,6 @@ class SurgeryView:
     def triangles(self) -> np.ndarray:
         """The drawn triangles' corners ``(n_triangles, 3, 2)``, as the faces' path holds them."""
         return self.drawing.triangles()
-
-    # ------------------------------------------------------------------ mouse and keyboard -> the simulation
-    def _point(self, event):
-        if event.inaxes is not self.ax or event.xdata is None or event.ydata is None:
-            return None
-        return np.array([event.xdata, event.ydata], dtype=float)
-
-    @_one_at_a_time
-    def _on_press(self, event):
-        point = self._point(event)
-        if point is None or event.button != MouseButton.LEFT or self.ax.get_navigate_mode() is not None:
-            return
-        self.message = ""
-        self._real_press = event.guiEvent is not None
-        if self._mode == "drag":
-            self._end_grab()
-            try:
-                self._handle = self.sim.grab(point, self.radius)
-            except ValueError:
-                return  # no tissue under the pointer: nothing to grab
-            self.target_artist.set_data([point[0]], [point[1]])
-        else:
-            self._stroke = [point]
-            self.stroke_artist.set_data([point[0]], [point[1]])
-        self._update_text()
-        self._request_draw()
-
-    @_one_at_a_time
-    def _on_motion(self, event):
-        point = self._point(event)
-        # a real mouse moving (no button held) does not carry on a grab that code made, nor code a real one
-        if point is None or (self._handle is None and self._stroke is None) or (
-                event.guiEvent is not None) != self._real_press:
-            return
-        if self._handle is not None:
-            try:
-                self.sim.drag(self._handle, point)
-            except ValueError as exc:
-                self._show(f"drag rejected: {exc}")
-                return
-            self.target_artist.set_data([point[0]], [point[1]])
-        else:
-            if np.linalg.norm(point - self._stroke[-1]) < self.stroke_spacing:
-                return
-            self._stroke.append(point)
-            self.stroke_artist.set_data(*np.array(self._stroke).T)
-        self._request_draw()
-
-    @_one_at_a_time
-    def _on_release(self, event):
-        if event.button not in (None, MouseButton.LEFT):
-            return
-        if self._handle is not None:
-            self._end_grab()
-            self._update_text()
-            self._request_draw()
-        elif self._stroke is not None:
-            point, stroke, self._stroke = self._point(event), self._stroke, None
-            if point is not None and np.linalg.norm(point - stroke[-1]) > 0:
-                stroke.append(point)
-            self.stroke_artist.set_data([], [])
-            stroke = np.array(stroke)
-            distinct = stroke[np.r_[True, np.any(np.diff(stroke, axis=0) != 0, axis=1)]]
-            if len(distinct) < 2:
-                self._show("cut: draw a stroke (press, move, release)")
-                return
-            try:
-                self.sim.cut(distinct)
-            except ValueError as exc:
-                self._show(f"cut failed: {exc}")
-                return
-            self.message = ""
-            self._refresh()
-
-    @_one_at_a_time
-    def _on_key(self, event):
-        if event.inaxes in (None, self.ax) and event.key == "c":
-            self.mode = "drag" if self._mode == "cut" else "cut"
-
-    def _end_grab(self) -> None:
-        if self._handle is not None:
-            handle, self._handle = self._handle, None
-            self.target_artist.set_data([], [])
-            try:
-                self.sim.release(handle)
-            except ValueError as exc:
-                self.message = f"release failed: {exc}"
 
     # ------------------------------------------------------------------ frames, drawing and the timer
     @_one_at_a_time
@@ -381,23 +393,22 @@ class SurgeryView:
         return self.draw_times[-1] if len(self.draw_times) > n else None
 
     def _update_text(self) -> None:
-        self.readout.update(self._mode, self.message, self.last_report, getattr(self.sim, "frames", 0))
+        self.readout.update(self.gestures.mode, self.message, self.last_report, getattr(self.sim, "frames", 0))
 
     def _show(self, message: str) -> None:
         self.message = message
+        self._changed()
+
+    def _changed(self) -> None:
         self._update_text()
         self._request_draw()
 
-    def _request_draw(self) -> None:
-        # while the timer runs, its next frame asks for the picture; otherwise ask the canvas now
-        if not self._running:
-            self._ask_canvas()
-
-    def _ask_canvas(self) -> None:
-        # a non-interactive canvas draws when it is saved or shown: drawing it here would only cost time.
+    def _request_draw(self, now=False) -> None:
+        # while the timer runs, its next frame asks for the picture (now=True); otherwise ask the canvas now.
+        # A non-interactive canvas draws when it is saved or shown: drawing it here would only cost time.
         # An interactive one coalesces: Qt and Tk draw once per pass of their loop; a browser canvas
         # (ipympl) asks for a picture only when it has shown the last one.
-        if self.interactive:
+        if self.interactive and (now or not self._running):
             self.canvas.draw_idle()
 
     def timings(self, last=None) -> dict:
@@ -455,13 +466,11 @@ class SurgeryView:
             self.stop()  # one traceback, not thirty a second
             raise
         if not self.readout.sends:
-            self._ask_canvas()
+            self._request_draw(now=True)
             return
-        # A browser canvas: render and send the picture now. The page's protocol asks for each picture with a
-        # message to the kernel (a request and two kernel status changes the page redraws, per frame); pushing
-        # from the timer saves that round trip. Pictures are differences to the last one and the page drops those
-        # that arrive faster than it decodes, so every KEYFRAME_S seconds a whole picture repairs what a dropped
-        # difference left behind.
+        # A browser canvas: send the picture now, saving the page's round trip of asking for it (a message to
+        # the kernel and two kernel status changes per frame). The page drops difference pictures that come
+        # faster than it decodes them: every KEYFRAME_S seconds a whole one repairs what they left behind.
         now = time.perf_counter()
         if now - self._keyframe_at >= KEYFRAME_S and hasattr(self.canvas, "_force_full"):
             self.canvas._force_full = True  # WebAgg's flag for a whole picture (as after a page refresh)
@@ -472,7 +481,7 @@ class SurgeryView:
     def disconnect(self) -> None:
         """Stop the timer and detach every event handler (the figure stays as it is)."""
         self.stop()
-        self._end_grab()
+        self.gestures.end_grab()
         for cid in self._cids:
             self.canvas.mpl_disconnect(cid)
         self._cids = []
@@ -497,7 +506,7 @@ class SurgeryView:
             raise ImportError("SurgeryView.controls needs ipywidgets (pip install 'tissuefem[interactive]'); "
                               "without it, press 'c' or set view.mode") from None
         if self._widgets is None:
-            mode = widgets.ToggleButtons(options=list(MODES), value=self._mode,
+            mode = widgets.ToggleButtons(options=list(MODES), value=self.mode,
                                          tooltips=["drag the tissue", "draw a stroke to cut along"],
                                          style={"button_width": "5em"})
             run = widgets.ToggleButton(value=self._running, description="run", icon="play",
@@ -542,7 +551,7 @@ class SurgeryView:
 
     def __repr__(self):
         state = "closed" if self.closed else ("running" if self._running else "stopped")
-        return f"<SurgeryView {self._mode}, {state}, frame {int(getattr(self.sim, 'frames', 0))}>"
+        return f"<SurgeryView {self.mode}, {state}, frame {int(getattr(self.sim, 'frames', 0))}>"
 
 
 # ------------------------------------------------------------------ made-up events
