@@ -11,21 +11,19 @@ solve, render, every 1/30 s):
   when the button is released; the drawing is rebuilt for the new topology.
 
 The mode buttons, the key ``c`` (once the figure has the keyboard) and ``view.mode = "cut"`` switch modes.
-A timer of the canvas runs one frame every ``interval_ms`` (:meth:`SurgeryView.step`: ``sim.frame()``, then
-a redraw is requested), but only on an interactive canvas (``%matplotlib widget``, a Qt or Tk window); on
-Agg or the inline backend code calls :meth:`~SurgeryView.step` and, to time the drawing too,
-:meth:`~SurgeryView.draw`. So the same cells run in a browser with the mouse and headless in the tests.
-Mouse events only change the state: while the timer runs, its next frame draws it. On a browser canvas
-(ipympl) the timer sends each frame's picture itself, with no request from the page; Qt and Tk are asked to
-redraw and coalesce the requests. How a frame is drawn within the 33 ms budget: :mod:`.view_drawing`.
+A timer of the canvas runs one frame every ``interval_ms`` (:meth:`SurgeryView.step`), but only on an
+interactive canvas (``%matplotlib widget``, a Qt or Tk window); on Agg or the inline backend code calls
+:meth:`~SurgeryView.step` (and :meth:`~SurgeryView.draw` to time the drawing), so the same cells run in a
+browser with the mouse and headless in the tests. Mouse events only change the state: while the timer runs,
+its next frame draws it (on a browser canvas, ipympl, the timer sends the picture itself, unasked; Qt and Tk
+coalesce redraw requests). How a frame is drawn within the 33 ms budget: :mod:`.view_drawing`.
 
 **One live view per simulation and per notebook cell.** A new view of the same simulation stops the old
 one; re-running the cell that made a view closes the old view (its timer would keep stepping otherwise).
 
-:func:`synthetic_mouse` and :func:`synthetic_key` send a made-up event through the canvas's callbacks, as
-a backend would, so a notebook can show a drag or a cut without a mouse (and the tests can check it).
-Nothing here needs ipympl or ipywidgets; with ipywidgets the view shows buttons for the mode and the
-timer (:meth:`SurgeryView.widget`).
+:func:`synthetic_mouse` and :func:`synthetic_key` send a made-up event through the canvas's callbacks, as a
+backend would: a notebook shows a drag or a cut without a mouse, and the tests check it. Nothing here needs
+ipympl or ipywidgets; with them the view shows buttons for the mode and the timer (:meth:`SurgeryView.widget`).
 """
 
 from __future__ import annotations
@@ -42,7 +40,6 @@ import weakref
 import matplotlib.pyplot as plt
 import numpy as np
 from IPython import get_ipython
-from IPython.display import display
 from matplotlib.backend_bases import KeyEvent, MouseButton, MouseEvent
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 
@@ -112,10 +109,8 @@ class Gestures:
 
     def __init__(self, view):
         self.view, self.sim, self.ax, self._lock = view, view.sim, view.ax, view._lock
-        self.mode = "drag"
-        self.handle = None  # name of the grabbed handle
+        self.mode, self.handle, self.stroke = "drag", None, None  # the grabbed handle's name; the stroke being drawn
         self.real_press = False  # whether the grab or stroke began with a real press (a GUI event) or in code
-        self.stroke: list[np.ndarray] | None = None  # the cut polyline being drawn
         (self.stroke_artist,) = self.ax.plot([], [], "-", color="k", lw=1.2, zorder=3)
         (self.target_artist,) = self.ax.plot([], [], "o", ms=7, mfc="none", mec="tab:blue", mew=1.5, zorder=3)
 
@@ -282,8 +277,7 @@ class SurgeryView:
         self._loop_thread = threading.get_ident()
         self.last_report, self.message, self.closed = None, "", False
         self.stroke_spacing = 0.25 * mean_edge_length(sim.mesh)
-        self._timer, self._running, self._widgets, self._box = None, False, None, None
-        self._keyframe_at = -math.inf
+        self._timer, self._running, self._widgets, self._box, self._keyframe_at = None, False, None, None, -math.inf
 
         self.drawing = MeshDrawing(self.ax, sim.mesh)
         self.mesh_faces, self.mesh_edges = self.drawing.faces, self.drawing.edges
@@ -377,9 +371,9 @@ class SurgeryView:
     def draw(self) -> float | None:
         """Render the picture now, off-screen, and return how long it took (ms; ``None`` if not timed).
 
-        This times the drawing of frames that code steps (the timer would have drawn each one). It renders
-        into the canvas's buffer and sends or paints nothing, so unlike the live readout on a browser canvas
-        it leaves out the encoding. Timed in the view's own figure only.
+        For frames that code steps (the timer draws its own): it renders into the canvas's buffer and sends or
+        paints nothing, so unlike the live readout on a browser canvas it leaves out the encoding. Timed in the
+        view's own figure only.
         """
         n = len(self.draw_times)
         if isinstance(self.canvas, FigureCanvasAgg):
@@ -545,21 +539,12 @@ class SurgeryView:
             data = base64.b64encode(png.getvalue()).decode("ascii")
         return {"image/png": data, "text/plain": repr(self)}
 
-    def show(self) -> None:
-        """Display the view (the same as ending a notebook cell with ``view``)."""
-        display(self)
-
     def __repr__(self):
         state = "closed" if self.closed else ("running" if self._running else "stopped")
         return f"<SurgeryView {self.mode}, {state}, frame {int(getattr(self.sim, 'frames', 0))}>"
 
 
 # ------------------------------------------------------------------ made-up events
-def _check_view(view):
-    if not isinstance(view, SurgeryView):
-        raise ParameterError("view", f"view must be a SurgeryView, got {type(view).__name__}")
-
-
 def _data_to_pixels(ax, point, transform=None):
     """Pixels of ``point`` as the next draw places it: the axes box after its equal aspect is applied."""
     fig = ax.figure
@@ -578,7 +563,8 @@ def synthetic_mouse(view, kind, point, button=1):
     them); ``button``: of a press or release (1 = left). Returns the
     :class:`~matplotlib.backend_bases.MouseEvent` after every handler connected to the canvas has seen it.
     """
-    _check_view(view)
+    if not isinstance(view, SurgeryView):
+        raise ParameterError("view", f"view must be a SurgeryView, got {type(view).__name__}")
     if kind not in _MOUSE_EVENTS:
         raise ParameterError("kind", f"kind must be one of {tuple(_MOUSE_EVENTS)}, got {kind!r}")
     p = np.asarray(point, dtype=float)
@@ -596,14 +582,13 @@ def synthetic_key(view, key, point=None):
 
     Returns the :class:`matplotlib.backend_bases.KeyEvent` after the handlers have seen it.
     """
-    _check_view(view)
+    if not isinstance(view, SurgeryView):
+        raise ParameterError("view", f"view must be a SurgeryView, got {type(view).__name__}")
     if not isinstance(key, str) or not key:
         raise ParameterError("key", f"key must be a non-empty string such as 'c', got {key!r}")
     ax = view.ax
-    if point is None:
-        x, y = _data_to_pixels(ax, (0.5, 0.5), ax.transAxes)
-    else:
-        x, y = _data_to_pixels(ax, np.asarray(point, dtype=float))
+    x, y = (_data_to_pixels(ax, (0.5, 0.5), ax.transAxes) if point is None
+            else _data_to_pixels(ax, np.asarray(point, dtype=float)))
     event = KeyEvent("key_press_event", view.canvas, key, x, y)
     view.canvas.callbacks.process("key_press_event", event)
     return event
