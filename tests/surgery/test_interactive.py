@@ -19,6 +19,7 @@ from matplotlib.figure import Figure
 
 import tissuefem
 from tissuefem.surgery import interactive, view_drawing
+from tissuefem.engine.parameters import ParameterError
 from tissuefem.surgery.interactive import MODES, SurgeryView, mean_edge_length, synthetic_key, synthetic_mouse
 from tissuefem.surgery.scene import Scene
 from tissuefem.surgery.simulation import Simulation
@@ -362,6 +363,19 @@ def test_arguments_are_checked():
         synthetic_mouse(ax, "press", (0.0, 0.0))
     with pytest.raises(ValueError, match="key"):
         synthetic_key(v, "")
+
+
+def test_a_refusal_names_its_field():
+    sim, ax = make_sim(), Figure().add_subplot()
+    view = SurgeryView(sim, ax=ax)
+    for field, call in [("radius", lambda: SurgeryView(sim, ax=ax, radius=np.inf)),
+                        ("interval_ms", lambda: SurgeryView(sim, ax=ax, interval_ms=33.0)),
+                        ("sim", lambda: SurgeryView(object(), ax=ax)),
+                        ("mode", lambda: setattr(view, "mode", "scalpel")),
+                        ("kind", lambda: synthetic_mouse(view, "click", (0.0, 0.0)))]:
+        with pytest.raises(ParameterError) as refused:
+            call()
+        assert refused.value.field == field
 
 
 def test_controls_follow_the_mode(view):
