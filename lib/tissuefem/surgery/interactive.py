@@ -289,8 +289,8 @@ class SurgeryView:
         if isinstance(self.fig, LayeredFigure):
             self.fig.animate([self.mesh_faces, self.mesh_edges, self.stroke_artist, self.target_artist],
                              [self.status_text, self.message_text], self.readout)
-        self._mesh = sim.mesh
-        self.drawing.rebuild(sim.picture, np.asarray(sim.positions(), dtype=float))
+        self._mesh = None  # the mesh drawn
+        self._follow()
         self._update_text()
 
         g = self.gestures
@@ -356,16 +356,19 @@ class SurgeryView:
         self._refresh()
         return report
 
-    def _refresh(self) -> None:
-        """After a frame or a topology change: new vertex data (new paths only after a cut), then a redraw."""
+    def _follow(self) -> None:
+        """The simulation's node positions into the drawing (new paths only for a new mesh: after a cut)."""
         x = np.asarray(self.sim.positions(), dtype=float)
         if self.sim.mesh is not self._mesh or x.shape != self.drawing.x.shape:
             self._mesh = self.sim.mesh
-            self.drawing.rebuild(self.sim.picture, x)
+            self.drawing.rebuild(self.sim.picture, x)  # the triangles, or for elements cut through their material
         else:
             self.drawing.fill(x)
-        self._update_text()
-        self._request_draw()
+
+    def _refresh(self) -> None:
+        """After a frame or a topology change: new vertex data, then a redraw."""
+        self._follow()
+        self._changed()
 
     @_one_at_a_time
     def draw(self) -> float | None:
