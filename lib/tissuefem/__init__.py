@@ -6,7 +6,8 @@ surgery*, built on scikit-fem. It has three layers, and each imports only the on
 * :mod:`tissuefem.engine` -- materials, meshes, assembly, the model and its terms, the one minimiser, stepping,
   linear solvers and the real-time loop;
 * :mod:`tissuefem.surgery` -- cutting and excising, scenes, the running simulation with its surgical operations,
-  local flaps and the mouse view;
+  local flaps and the mouse view (imported where it is used:
+  ``from tissuefem.surgery.interactive import SurgeryView``, so that ``import tissuefem`` loads no pyplot or IPython);
 * :mod:`tissuefem.workbook` -- the chapters' studies, the benchmarks, the lecture figures, the exercises' reference
   answers and the command line.
 
@@ -45,7 +46,6 @@ from .engine.stepping import StaticResult, Stepper, StepReport, solve
 from .engine.terms import Elastic, Fibers, Inertia, Load, Probe, Sutures, Term
 from .surgery.element_cuts import cut_through, excise_through
 from .surgery.flaps import advancement_flap, rotation_flap
-from .surgery.interactive import SurgeryView
 from .surgery.scene import Scene, demo_scene, flap_path, flap_scene
 from .surgery.simulation import Simulation
 from .surgery.surfaces import contact_surface
@@ -70,7 +70,7 @@ __all__ = [
     "newton", "NewtonResult", "LinearSolver", "Stepper", "StepReport", "solve", "StaticResult", "RealtimeSolver",
     "SymplecticEuler", "critical_time_step", "largest_stable_dt", "wave_speed",
     # surgery
-    "Scene", "Simulation", "demo_scene", "flap_scene", "flap_path", "advancement_flap", "rotation_flap", "SurgeryView",
+    "Scene", "Simulation", "demo_scene", "flap_scene", "flap_path", "advancement_flap", "rotation_flap",
     "cut_through", "excise_through", "contact_surface",
     "__version__",
 ]

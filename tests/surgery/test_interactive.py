@@ -1,6 +1,10 @@
 """SurgeryView: mouse drags and cuts on a running simulation, driven headless by synthetic events."""
 
+import os
+import subprocess
+import sys
 import warnings
+from pathlib import Path
 
 import matplotlib
 
@@ -13,7 +17,9 @@ from matplotlib.backend_bases import MouseButton
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from tissuefem.surgery import interactive
+import tissuefem
+from tissuefem.surgery import interactive, view_drawing
+from tissuefem.engine.parameters import ParameterError
 from tissuefem.surgery.interactive import MODES, SurgeryView, mean_edge_length, synthetic_key, synthetic_mouse
 from tissuefem.surgery.scene import Scene
 from tissuefem.surgery.simulation import Simulation
@@ -71,6 +77,17 @@ def move_along(view, start, end, steps=4):
     """Motion events from ``start`` to ``end`` (the button held, if it was pressed)."""
     for s in np.linspace(0.0, 1.0, steps + 1)[1:]:
         synthetic_mouse(view, "move", (1 - s) * np.asarray(start) + s * np.asarray(end))
+
+
+# ------------------------------------------------------------------ a light face
+def test_import_tissuefem_loads_neither_pyplot_nor_ipython():
+    """The view is imported where it is used: the package itself loads no drawing or notebook machinery."""
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(Path(tissuefem.__file__).parents[1]),
+                                                       os.environ.get("PYTHONPATH", "")]))
+    code = "import sys, tissuefem; print(sorted({'matplotlib.pyplot', 'IPython'} & set(sys.modules)))"
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+    assert out.stdout.split() == ["[]"]
+    assert "SurgeryView" not in tissuefem.__all__ and not hasattr(tissuefem, "SurgeryView")
 
 
 # ------------------------------------------------------------------ drawing and set-up
@@ -348,6 +365,19 @@ def test_arguments_are_checked():
         synthetic_key(v, "")
 
 
+def test_a_refusal_names_its_field():
+    sim, ax = make_sim(), Figure().add_subplot()
+    view = SurgeryView(sim, ax=ax)
+    for field, call in [("radius", lambda: SurgeryView(sim, ax=ax, radius=np.inf)),
+                        ("interval_ms", lambda: SurgeryView(sim, ax=ax, interval_ms=33.0)),
+                        ("sim", lambda: SurgeryView(object(), ax=ax)),
+                        ("mode", lambda: setattr(view, "mode", "scalpel")),
+                        ("kind", lambda: synthetic_mouse(view, "click", (0.0, 0.0)))]:
+        with pytest.raises(ParameterError) as refused:
+            call()
+        assert refused.value.field == field
+
+
 def test_controls_follow_the_mode(view):
     pytest.importorskip("ipywidgets")
     box = view.controls()
@@ -375,8 +405,8 @@ def buffer(view):
 def test_own_figure_has_fixed_axes_and_no_layout_engine(own):
     fig = own.fig
     assert fig.get_layout_engine() is None
-    assert tuple(own.ax.get_position(original=True).bounds) == pytest.approx(interactive.AXES_RECT)
-    assert tuple(fig.get_size_inches()) == pytest.approx(interactive.FIGSIZE)
+    assert tuple(own.ax.get_position(original=True).bounds) == pytest.approx(view_drawing.AXES_RECT)
+    assert tuple(fig.get_size_inches()) == pytest.approx(view_drawing.FIGSIZE)
     # not left in pyplot's list on a non-interactive backend: the inline backend cannot show a copy of it later
     assert all(plt.figure(n) is not fig for n in plt.get_fignums())
 
@@ -396,7 +426,7 @@ def test_layered_draw_restores_the_background_and_draws_only_the_moving_layer(ow
     # numbers included, which otherwise show at a readable pace)
     fig.slow_interval = 0.0
     own.draw()
-    own._update_text = lambda: None  # the same readout in both pictures (it shows the last draw's time)
+    own.readout.update = lambda *args: None  # the same readout in both pictures (it shows the last draw's time)
     own.step()
     own.draw()
     fast = buffer(own)
@@ -404,7 +434,7 @@ def test_layered_draw_restores_the_background_and_draws_only_the_moving_layer(ow
     own.draw()
     assert fig.full_draws == 2
     np.testing.assert_array_equal(buffer(own), fast)
-    del own._update_text
+    del own.readout.update
     # something that does not move changes (the limits): the next draw is a full one
     own.ax.set_xlim(-1.0, 3.0)
     own.draw()
@@ -467,7 +497,7 @@ def test_a_long_message_is_wrapped_inside_the_figure_and_the_axes_stay(own):
     own._show("cut failed: " + "a very long explanation of what went wrong with the stroke " * 6)
     own.draw()
     text = own.message_text.get_text()
-    assert 1 < len(text.splitlines()) <= interactive.MESSAGE_LINES and text.endswith("...")
+    assert 1 < len(text.splitlines()) <= view_drawing.MESSAGE_LINES and text.endswith("...")
     renderer = own.canvas.get_renderer()
     extent = own.message_text.get_window_extent(renderer)
     assert 0 <= extent.x0 and extent.x1 <= own.fig.bbox.width and 0 <= extent.y0
@@ -557,13 +587,13 @@ def browser_view():
     """A view on an ipympl canvas (the widget of %matplotlib widget), with no page attached."""
     pytest.importorskip("ipywidgets")
     nbagg = pytest.importorskip("ipympl.backend_nbagg")
-    fig = interactive._LayeredFigure(figsize=interactive.FIGSIZE)
+    fig = view_drawing.LayeredFigure(figsize=view_drawing.FIGSIZE)
     canvas = nbagg.Canvas(fig)
     with warnings.catch_warnings():  # ipympl's toolbar passes traitlets an argument it deprecates
         warnings.simplefilter("ignore", DeprecationWarning)
         nbagg.FigureManager(canvas, 9999)
     canvas.syncing_data_url = False  # as once a page has the widget
-    v = SurgeryView(make_sim(), ax=fig.add_axes(interactive.AXES_RECT), autostart=False)
+    v = SurgeryView(make_sim(), ax=fig.add_axes(view_drawing.AXES_RECT), autostart=False)
     yield v
     v.disconnect()
     canvas.close()
@@ -597,8 +627,7 @@ def test_a_picture_sent_to_the_page_is_timed_with_its_encoding(browser_view):
     assert len(v.draw_times) == 2 and v.fig.full_draws == 1
     assert v.frames_per_second() is not None
     v.disconnect()
-    assert v._sent_images is None and all(
-        not isinstance(s, interactive._SentImages) for s in v.canvas.manager.web_sockets)
+    assert not v.readout.sends and v.readout not in v.canvas.manager.web_sockets
 
 
 def test_the_timer_sends_each_frame_to_the_page_and_events_only_change_the_state(browser_view, monkeypatch):
@@ -615,7 +644,7 @@ def test_the_timer_sends_each_frame_to_the_page_and_events_only_change_the_state
     assert len(v.draw_times) == 1 and asked == [] and v.canvas._current_image_mode == "full"
     v._on_timer()
     assert len(v.draw_times) == 2 and v.canvas._current_image_mode == "diff"  # then differences ...
-    v._keyframe_at -= interactive.KEYFRAME_S
+    v._keyframe_at -= view_drawing.KEYFRAME_S
     v._on_timer()
     assert v.canvas._current_image_mode == "full"  # ... and a whole picture every KEYFRAME_S
     v._running = False

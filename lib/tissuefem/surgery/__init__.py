@@ -7,7 +7,8 @@
 * :mod:`.scene` -- the declarative description of a simulation, read from and written to TOML/JSON;
 * :mod:`.simulation` -- a scene built and stepped, with grab, drag, release, probe, cut, excise, suture between frames;
 * :mod:`.flaps` -- local flap procedures and their tension reports;
-* :mod:`.interactive` -- the view that turns mouse events into those operations.
+* :mod:`.interactive` -- the view that turns mouse events into those operations, and :mod:`.view_drawing`, what
+  it draws within the frame budget (both imported where they are used: ``import tissuefem`` loads no pyplot).
 
 It imports the engine, never the workbook.
 """
