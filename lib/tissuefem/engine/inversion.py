@@ -1,33 +1,27 @@
 """Inversion-robust building blocks: the rotation-preserving SVD and the definiteness fix.
 
-Rotation-preserving SVD (Irving, Teran, Fedkiw 2004/2006)
----------------------------------------------------------
-An ordinary SVD ``F = U S V^T`` has ``S >= 0`` and may return reflections for ``U`` or ``V``. For an inverted
-element (``J < 0``) ITF instead keep ``U`` and ``V`` proper rotations and move the reflection onto the smallest
-singular value, which then carries the sign of ``J``: ``F = U diag(s0, s1) V^T`` with ``det U = det V = 1`` and
-``s0 >= |s1|``.
-
-In 2D this has a closed form. Split ``F`` into a similarity part and an anti-similarity part,
+**Rotation-preserving SVD** (Irving, Teran, Fedkiw 2004/2006). An ordinary SVD ``F = U S V^T`` has ``S >= 0`` and may
+return reflections for ``U`` or ``V``. ITF keep ``U`` and ``V`` proper rotations and move the reflection onto the
+smallest singular value, which then carries the sign of ``J``: ``F = U diag(s0, s1) V^T``, ``det U = det V = 1``,
+``s0 >= |s1|``. In 2D this has a closed form. Split ``F`` into a similarity and an anti-similarity part,
 
     F = [[E + Fa, Ga - H], [Ga + H, E - Fa]],  E = (F00 + F11)/2,  H = (F10 - F01)/2,
                                                  Fa = (F00 - F11)/2, Ga = (F10 + F01)/2,
 
-with ``Q = hypot(E, H)`` and ``R = hypot(Fa, Ga)``. Then ``s0 = Q + R``, ``s1 = Q - R`` (so
-``s0 s1 = Q^2 - R^2 = J``), and with ``a1 = atan2(Ga, Fa)``, ``a2 = atan2(H, E)`` the rotations are
-``U = rot((a1 + a2)/2)`` and ``V = rot((a1 - a2)/2)``: indeed ``rot(u) diag(s0, s1) rot(v)^T`` is ``Q rot(u - v)``
-plus ``R`` times the reflection ``[[cos(u + v), sin(u + v)], [sin(u + v), -cos(u + v)]]``. No branch, no iteration,
-finite for every F (including F = 0, where every rotation is a valid answer).
+with ``Q = hypot(E, H)`` and ``R = hypot(Fa, Ga)``. Then ``s0 = Q + R``, ``s1 = Q - R`` (``s0 s1 = Q^2 - R^2 = J``),
+and with ``a1 = atan2(Ga, Fa)``, ``a2 = atan2(H, E)``: ``U = rot((a1 + a2)/2)``, ``V = rot((a1 - a2)/2)``, since
+``rot(u) diag(s0, s1) rot(v)^T`` is ``Q rot(u - v)`` plus ``R`` times the reflection
+``[[cos(u + v), sin(u + v)], [sin(u + v), -cos(u + v)]]``. No branch, no iteration, finite for every F (at F = 0
+every rotation is a valid answer).
 
-The definiteness fix (Teran, Sifakis, Irving, Fedkiw 2005)
------------------------------------------------------------
-For an isotropic material the tangent rotates with the SVD: ``A(F) = (U x V) A_hat(S) (U x V)^T`` with
-``A_hat = A(diag(s))``. In the basis ``(dF_00, dF_11 | dF_01, dF_10)`` of diagonal space ``A_hat`` is block
-diagonal: a 2x2 *stretch* block (the Hessian of ``Psi`` in the singular values) and a 2x2 *twist/flip* block
-``[[b, c], [c, b]]`` with eigenvalues ``b + c = (psi0 - psi1)/(s0 - s1)`` (twist) and
+**The definiteness fix** (Teran, Sifakis, Irving, Fedkiw 2005). For an isotropic material
+``A(F) = (U x V) A_hat(S) (U x V)^T`` with ``A_hat = A(diag(s))``. In the basis ``(dF_00, dF_11 | dF_01, dF_10)``
+``A_hat`` is block diagonal: a 2x2 *stretch* block (the Hessian of ``Psi`` in the singular values) and a 2x2
+*twist/flip* block ``[[b, c], [c, b]]`` with eigenvalues ``b + c = (psi0 - psi1)/(s0 - s1)`` (twist) and
 ``b - c = (psi0 + psi1)/(s0 + s1)`` (flip), ``psi_i = dPsi/ds_i``. Clamping each block's negative eigenvalues and
-rotating back gives the closest positive semi-definite tangent. Because ``A_hat`` is taken from the material's own
-tangent at the diagonal ``F`` (not from the divided differences), nothing divides 0 by 0 when ``s0 = s1``. Newton
-with this tangent always computes a descent direction.
+rotating back gives the closest positive semi-definite tangent, so Newton always finds a descent direction.
+``A_hat`` is the material's own tangent at the diagonal ``F`` (not divided differences): nothing divides 0 by 0 when
+``s0 = s1``.
 """
 
 from __future__ import annotations
@@ -148,11 +142,8 @@ def _project_diagonal_blocks(A, floor):
 class ProjectedTangent:
     """A material whose tangent is the positive semi-definite projection of another's.
 
-    Energy and stress are the wrapped material's, so a Newton solve still converges to the same equilibrium; only
-    the search direction changes (it is always a descent direction for the energy). Works with the fast assembler
-    and with the scikit-fem forms alike.
-
-    ``adaptive=True`` projects only when Newton needs it: ``tangent`` is then the exact one (quadratic convergence
+    Energy and stress are the wrapped material's: the same equilibrium, only the search direction changes (always
+    downhill). ``adaptive=True`` projects only when Newton needs it: ``tangent`` is then the exact one (quadratic convergence
     where the Hessian is positive definite, as it usually is away from inversion) and ``safe_tangent`` the
     projection, which the minimiser assembles when the exact direction does not point downhill. Clamping every
     element's negative curvature in every step costs Newton its quadratic convergence: on chapter 8's drag with the
@@ -174,9 +165,7 @@ class ProjectedTangent:
         return self.material.stress(F)
 
     def tangent(self, F):
-        if self.adaptive:
-            return self.material.tangent(F)
-        return projected_tangent(self.material, F, self.floor)
+        return self.material.tangent(F) if self.adaptive else projected_tangent(self.material, F, self.floor)
 
     def safe_tangent(self, F):
         """The projected (positive semi-definite) tangent."""
@@ -203,26 +192,22 @@ class ITFClamped:
       ``Psi + psi_0 d0 + psi_1 d1 + Psi_01 d0 d1 + k/2 (d0^2 + d1^2)``.
 
     Each piece is the previous one extended in one more variable, so the energy is C1 across the thresholds and the
-    stress is its exact gradient: the energy line search stays valid (ITF's original clamps ``P_hat`` directly,
-    with the same finite push-back but no consistent energy). The restoring force grows only linearly with the depth
-    of inversion (spring ``k``, by default the base model's ``d2Psi/ds1^2`` at ``(c, c)``), so an element crushed to
-    a point or turned inside out still gets a finite force that pushes it back, and ``F = 0`` is not an equilibrium
-    (there ``P = psi_0(c, c) (1 - ...) I`` pushes outward).
+    stress is its exact gradient: the energy line search stays valid (ITF's original clamps ``P_hat`` directly, with
+    the same finite push-back but no consistent energy). The restoring force grows only linearly with the depth of
+    inversion (spring ``k``), so an element crushed to a point or turned inside out is still pushed back, and ``F = 0``
+    is not an equilibrium.
 
-    The tangent is assembled in diagonal space (module docstring) and, with ``project=True`` (the default), projected
-    to be positive semi-definite (Teran et al. 2005): where ``s0 + s1 = 0`` the energy has a kink of unbounded
-    curvature, and the projection keeps Newton's direction downhill there. ``project=False`` gives the exact Hessian
-    (away from the kink); region ``s1 < c <= s0`` needs a third derivative of the base model, a central difference
-    of its tangent.
+    The tangent is assembled in diagonal space and, with ``project=True`` (the default), projected to be positive
+    semi-definite: where ``s0 + s1 = 0`` the energy has a kink of unbounded curvature. ``project=False`` gives the
+    exact Hessian (away from the kink; region ``s1 < c <= s0`` takes the base model's third derivative by a central
+    difference of its tangent).
 
-    Why only the ``ln J`` model (``material``, a :class:`~tissuefem.engine.materials.NeoHookean`): a highly stretched
-    element (``s0`` large) with ``s1`` below the threshold feels ``psi_1(s0, c)``, which becomes positive (the
-    material wants ``s1 ~ 1/s0`` to keep its volume), and the spring bounds the energy below only while
-    ``psi_1^2 / (2k)`` grows slower than ``Psi(s0, c)``. With ``ln J``, ``psi_1`` grows like ``ln s0``; with a
-    polynomial volumetric term (Taylor, stable Neo-Hookean, corotated) like ``s0^2`` or faster, and the extended
-    energy would be unbounded below; those models are finite through inversion already. The same fact limits the
-    accuracy of a singular-value threshold: where the physical answer has ``s1 < c`` (a nearly incompressible body
-    stretched beyond ``1/c``), the clamped model no longer reproduces the base model.
+    Only the ``ln J`` :class:`~tissuefem.engine.materials.NeoHookean`: a stretched element (``s0`` large) with ``s1``
+    below the threshold feels ``psi_1(s0, c) > 0`` (it wants ``s1 ~ 1/s0``), and the spring bounds the energy below
+    only while ``psi_1^2 / (2k)`` grows slower than ``Psi(s0, c)``: ``psi_1 ~ ln s0`` for ``ln J``, ``~ s0^2`` or
+    faster for the polynomial volumetric terms (which are finite through inversion anyway). For the same reason, where
+    the physical answer has ``s1 < c`` (nearly incompressible, stretched beyond ``1/c``) the clamped model departs
+    from the base model.
 
     ``threshold`` is ``c``, ``0 < c < 1``; ``stiffness`` the spring ``k > 0`` (default ``d2Psi/ds1^2(c, c)``).
     """
@@ -253,7 +238,6 @@ class ITFClamped:
         return (f"ITFClamped({self.base!r}, threshold={self.threshold:g}, stiffness={self.stiffness:g}, "
                 f"project={self.project})")
 
-    # --- diagonal space ------------------------------------------------------------------
     def _regions(self, s):
         """``s`` as floats and where it is ``(normal, one, both)``: no, one or both singular values below ``c``."""
         s = np.asarray(s, dtype=float)

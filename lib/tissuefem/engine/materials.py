@@ -1,44 +1,21 @@
 """Two-dimensional hyperelastic materials (plane strain).
 
-Every material maps the deformation gradient ``F[i, j] = d phi_i / d X_j`` to
+Every material maps ``F[i, j] = d phi_i / d X_j``, a 2x2 matrix or a field of them shaped ``[2, 2, *rest]`` (scikit-fem
+hands us ``[2, 2, elements, quadrature points]``), to ``energy(F)`` ``Psi`` (shape ``rest``), ``stress(F)``
+``P = dPsi/dF`` (shape of ``F``) and ``tangent(F)`` ``A[i, j, k, l] = dP_ij / dF_kl`` (shape ``(2, 2, 2, 2) + rest``).
 
-* ``energy(F)``: the strain energy density ``Psi(F)``, shape ``F.shape[2:]``;
-* ``stress(F)``: the first Piola-Kirchhoff stress ``P = dPsi/dF``, shape ``F.shape``;
-* ``tangent(F)``: the fourth-order tangent ``A[i, j, k, l] = dP_ij / dF_kl``, shape ``(2, 2, 2, 2) + F.shape[2:]``.
-
-``F`` is a 2x2 matrix or a field of them shaped ``[2, 2, *rest]`` (scikit-fem hands us
-``[2, 2, elements, quadrature points]``); everything is vectorised.
-
-Derivations (re-done here; checked by finite differences in ``tests/engine/test_materials.py``)
----------------------------------------------------------------------------------------
-
-Two identities carry most of the work. In 2D ``J = det F = F00 F11 - F01 F10``, so entry by entry
+Derivations (checked by finite differences in ``tests/engine/test_materials.py``). In 2D ``J = F00 F11 - F01 F10``, so
 
     dJ/dF = cof F = J F^-T = [[F11, -F10], [-F01, F00]],
 
 and ``cof F`` is *linear* in ``F``: ``d(cof F)_ij / dF_kl = e_ik e_jl =: H_ijkl`` with the 2D permutation symbol
-``e_01 = 1, e_10 = -1``. Hence any volumetric energy ``h(J)`` has
+``e_01 = 1, e_10 = -1``. Hence any volumetric energy ``h(J)`` has ``P = h'(J) cof F`` and
+``A = h''(J) cof F (x) cof F + h'(J) H``. The term ``mu/2 (F:F - 2)`` has ``P = mu F`` and ``A = mu I4``
+(``I4_ijkl = d_ik d_jl``); the Neo-Hookean family below is ``mu/2 (F:F - 2) + h(J)`` for three choices of ``h``.
 
-    P = h'(J) cof F,    A = h''(J) cof F (x) cof F + h'(J) H.
-
-The term ``mu/2 (F:F - 2)`` has ``P = mu F`` and ``A = mu I4`` with ``I4_ijkl = d_ik d_jl``. The Neo-Hookean family
-below is exactly ``mu/2 (F:F - 2) + h(J)`` for three choices of ``h``.
-
-At ``F = I``, ``H_ijkl = d_ij d_kl - d_il d_jk`` (a 2D identity), so a model with ``h'(1) = -mu`` and
-``h''(1) = lam + mu`` linearises to the linear-elastic tangent ``lam d_ij d_kl + mu (d_ik d_jl + d_il d_jk)``: that
-is how each model below is checked to reduce to linear elasticity with the same ``(lam, mu)``.
-
-Models: :class:`LinearElastic`, :class:`NeoHookean`, :class:`TaylorNeoHookean`, :class:`StableNeoHookean`,
-:class:`Corotated` (registry :data:`MATERIALS`, factory :func:`material`) and the anisotropic wrapper
-:class:`FiberReinforced`.
-
-Slips in the notes confirmed here
----------------------------------
-* The Neo-Hookean energy is printed with ``F_ij F_ji`` (``tr(F F)``), which is not frame indifferent
-  (``tr(R R) = 2 cos 2 theta`` for a rotation ``R``); the stress printed next to it, ``mu F + ...``, is the
-  derivative of ``F_ij F_ij = F:F``, which is what we use.
-* The robust (Taylor) variant prints the matrix ``[[F22, -F12], [-F21, F11]]`` (the adjugate, ``J F^-1``); the
-  derivative ``dJ/dF`` is its transpose, the cofactor ``[[F22, -F21], [-F12, F11]]`` (1-based indices).
+At ``F = I``, ``H_ijkl = d_ij d_kl - d_il d_jk``, so a model with ``h'(1) = -mu`` and ``h''(1) = lam + mu`` linearises
+to the linear-elastic tangent ``lam d_ij d_kl + mu (d_ik d_jl + d_il d_jk)``: each model reduces to linear elasticity
+with the same ``(lam, mu)``.
 """
 
 from __future__ import annotations
@@ -99,14 +76,10 @@ def _constant4(T, rest) -> np.ndarray:
 
 _DELTA = np.eye(2)
 _PERM = np.array([[0.0, 1.0], [-1.0, 0.0]])  # 2D permutation symbol e_ij
-#: ``d_ik d_jl``: the derivative of ``F`` with respect to itself.
-_I4 = np.einsum("ik,jl->ijkl", _DELTA, _DELTA)
-#: ``d_il d_jk``: the derivative of ``F^T`` with respect to ``F``.
-_I4T = np.einsum("il,jk->ijkl", _DELTA, _DELTA)
-#: ``d_ij d_kl``.
-_IXI = np.einsum("ij,kl->ijkl", _DELTA, _DELTA)
-#: ``H_ijkl = e_ik e_jl = d(cof F)_ij / dF_kl`` (constant: cof F is linear in F).
-_HCOF = np.einsum("ik,jl->ijkl", _PERM, _PERM)
+_I4 = np.einsum("ik,jl->ijkl", _DELTA, _DELTA)  # d_ik d_jl = dF/dF
+_I4T = np.einsum("il,jk->ijkl", _DELTA, _DELTA)  # d_il d_jk = dF^T/dF
+_IXI = np.einsum("ij,kl->ijkl", _DELTA, _DELTA)  # d_ij d_kl
+_HCOF = np.einsum("ik,jl->ijkl", _PERM, _PERM)  # H_ijkl = e_ik e_jl = d(cof F)_ij / dF_kl (constant)
 
 
 # --- base class ---------------------------------------------------------------
@@ -201,7 +174,8 @@ class NeoHookean(_NeoHookeanFamily):
     ``Psi = mu/2 (F:F - 2) - mu ln J + lam/2 (ln J)^2``, i.e. ``h(J) = -mu ln J + lam/2 (ln J)^2``,
     ``h' = (lam ln J - mu)/J`` and ``h'' = (lam + mu - lam ln J)/J^2``. With ``cof F / J = F^-T`` this is the notes'
     ``P = mu F + (lam ln J - mu) F^-T``. At ``J = 1``: ``h' = -mu``, ``h'' = lam + mu``, so the small-strain limit is
-    linear elasticity. (The notes print ``F_ij F_ji`` in the energy: a slip, see the module docstring.) Undefined for
+    linear elasticity. The notes print ``F_ij F_ji = tr(F F)`` in the energy, which is not frame indifferent
+    (``tr(R R) = 2 cos 2 theta``); their stress ``mu F + ...`` derives from ``F:F``, used here. Undefined for
     ``J <= 0``: NaN there, without a warning, so a solver can detect inversion.
     """
 
@@ -319,11 +293,7 @@ class Corotated(Material):
         A = 2 mu (I4 - R' (x) R' / rho) + lam cof F (x) cof F + lam (J - 1) H.
 
     At ``F = I``: ``rho = 2``, ``R' = [[0, -1], [1, 0]]`` and ``I4 - R'(x)R'/2 = (I4 + I4^T)/2``, so ``A`` is the
-    linear-elastic tangent.
-
-    Finite for every finite F: where ``rho = 0`` (``F00 + F11 = F10 - F01 = 0``) ``R`` is undefined and the exact
-    tangent blows up like ``-1/rho``; within ``rho < _RHO_MIN`` energy, stress and tangent alike take ``R = I``
-    (:func:`_polar_rotation`), so they stay finite and consistent.
+    linear-elastic tangent. Finite for every finite F (near ``rho = 0``, :func:`_polar_rotation`).
     """
 
     name = "corotated"
@@ -382,31 +352,27 @@ def _check_Fg(F, g):
 
 
 def fiber_invariant(F, g):
-    """``I4 = g^T F^T F g = |F g|^2``, the squared stretch of the unit fibre ``g`` (the notes' fibre argument).
-
-    ``F`` is shaped ``[2, 2, ...]``, ``g`` ``(2, ...)`` broadcasting against ``F.shape[2:]``; a float for one ``F``.
-    """
+    """``I4 = g^T F^T F g = |F g|^2``, the squared stretch of the unit fibre ``g`` ``(2, ...)`` (broadcasting against
+    ``F.shape[2:]``); a float for one ``F``. The ``fiber_*`` functions check their arguments; the ``*_term`` kernels
+    (which assembly calls on every element) do not. Formulas: :class:`FiberReinforced`."""
     F, g = _check_Fg(F, g)
     I4 = _fiber_kinematics(F, g)[1]
     return float(I4) if I4.ndim == 0 else I4
 
 
 def fiber_energy(F, g, k):
-    """``Psi_fiber = k/8 (I4 - 1)^2``, about ``k/2 eps_ff^2`` for small strains (checked arguments)."""
-    F, g = _check_Fg(F, g)
-    return fiber_energy_term(F, g, check_fiber_stiffness(k, "k"))
+    """``Psi_fiber = k/8 (I4 - 1)^2``."""
+    return fiber_energy_term(*_check_Fg(F, g), check_fiber_stiffness(k, "k"))
 
 
 def fiber_stress(F, g, k):
-    """``P_fiber = k/2 (I4 - 1) (F g) g^T`` (checked arguments; see :func:`fiber_stress_term`)."""
-    F, g = _check_Fg(F, g)
-    return fiber_stress_term(F, g, check_fiber_stiffness(k, "k"))
+    """``P_fiber = k/2 (I4 - 1) (F g) g^T``."""
+    return fiber_stress_term(*_check_Fg(F, g), check_fiber_stiffness(k, "k"))
 
 
 def fiber_tangent(F, g, k):
-    """``dP_fiber_ij / dF_kl = k a_i g_j a_k g_l + k/2 (I4 - 1) d_ik g_j g_l``, ``a = F g`` (checked arguments)."""
-    F, g = _check_Fg(F, g)
-    return fiber_tangent_term(F, g, check_fiber_stiffness(k, "k"))
+    """``dP_fiber_ij / dF_kl = k a_i g_j a_k g_l + k/2 (I4 - 1) d_ik g_j g_l``, ``a = F g``."""
+    return fiber_tangent_term(*_check_Fg(F, g), check_fiber_stiffness(k, "k"))
 
 
 def _fiber_kinematics(F, g):
@@ -415,20 +381,16 @@ def _fiber_kinematics(F, g):
 
 
 def fiber_energy_term(F, g, k):
-    """The unchecked kernel of :func:`fiber_energy` (assembly calls it on every element):
-    ``Psi_fiber = k/8 (I4 - 1)^2`` with ``I4 = |F g|^2`` (the 1/8: see :class:`FiberReinforced`)."""
     _, I4 = _fiber_kinematics(F, g)
     return k / 8.0 * (I4 - 1.0) ** 2
 
 
 def fiber_stress_term(F, g, k):
-    """``P_fiber = 2 Psi_fiber'(I4) F g g^T = k/2 (I4 - 1) (F g) g^T``."""
     a, I4 = _fiber_kinematics(F, g)
     return 0.5 * k * (I4 - 1.0) * np.einsum("i...,j...->ij...", a, g)
 
 
 def fiber_tangent_term(F, g, k):
-    """``dP_fiber_ij/dF_kl = k a_i g_j a_k g_l + k/2 (I4 - 1) d_ik g_j g_l`` with ``a = F g``."""
     a, I4 = _fiber_kinematics(F, g)
     ag = np.einsum("i...,j...->ij...", a, g)
     gg = np.einsum("j...,l...->jl...", g, g)
@@ -488,8 +450,7 @@ class FiberReinforced(Material):
         return cls(base_cls.from_young(E, nu, plane), stiffness, fibers)
 
     def fiber_modulus(self) -> float:
-        """The small-strain stiffness added along the fibre: ``A_ffff(I) - A_base_ffff(I) = k``, with
-        ``A_ffff = g_i g_j g_k g_l A_ijkl`` at ``F = I`` (the extra ``d sigma_ff / d eps_ff`` along the fibre)."""
+        """The small-strain stiffness added along the fibre, ``g_i g_j g_k g_l (A - A_base)_ijkl`` at ``F = I``: k."""
         return self.stiffness
 
     def _g(self, rest) -> np.ndarray:
@@ -522,8 +483,7 @@ class FiberReinforced(Material):
         return self.base.tangent(F) + fiber_tangent_term(F, self._g(F.shape[2:]), self.stiffness)
 
     def __repr__(self):
-        shape = self.fibers.shape
-        return f"FiberReinforced({self.base!r}, stiffness={self.stiffness:g}, fibers of shape {shape})"
+        return f"FiberReinforced({self.base!r}, stiffness={self.stiffness:g}, fibers of shape {self.fibers.shape})"
 
 
 # --- registry -----------------------------------------------------------------------
