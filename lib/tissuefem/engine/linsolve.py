@@ -1,19 +1,12 @@
 """Linear solver backends behind one small interface, and the policy that decides when to factorize.
 
-Every Newton step solves ``A dx = b`` with ``A`` the condensed tangent (for backward Euler ``M + dt^2 K``:
-symmetric, and positive definite away from buckling). Beyond a couple of thousand triangles this solve, not
-assembly, decides the frame rate. A backend has ``factorize(A)``, returning an object whose ``solve(b)`` may be
-called any number of times, and ``backend(A, b) -> x`` (factorize and solve once).
-
-Backends: :class:`SuperLU` (the default), :class:`Pardiso` (MKL, ``pip install tissuefem[pardiso]``),
-:class:`ReusedFactorization` (an earlier factorization as the preconditioner of conjugate gradients, :func:`pcg`) and
-:class:`PreconditionedCG` (a cheap preconditioner, no factorization; chapter 9 measures them against the direct
-backends).
-
-Newton calls a :class:`LinearSolver`, the one policy that decides when to factorize: afresh every solve
-(``"direct"`` or a backend's name), a kept factorization as CG's preconditioner (``"reuse"``, the real-time
-default), or a kept factorization used as it is (``"constant"``: exact when the tangent never changes). It condenses
-the tangent to its free rows and columns (:class:`Condenser`). :func:`make` builds a backend by name.
+Every Newton step solves ``A dx = b`` with ``A`` the condensed tangent (for backward Euler ``M + dt^2 K``: symmetric,
+and positive definite away from buckling); beyond a couple of thousand triangles this solve, not assembly, decides the
+frame rate. A backend has ``factorize(A)``, returning an object whose ``solve(b)`` may be called any number of times,
+and ``backend(A, b) -> x``: :class:`SuperLU` (the default), :class:`Pardiso` (MKL, ``pip install tissuefem[pardiso]``),
+:class:`ReusedFactorization` (a kept factorization as the preconditioner of :func:`pcg`) and :class:`PreconditionedCG`
+(no factorization); :func:`make` builds one by name. Newton calls a :class:`LinearSolver`, which condenses the tangent
+to its free dofs (:class:`Condenser`) and decides when to factorize.
 """
 
 from __future__ import annotations
@@ -85,11 +78,9 @@ class SuperLU(_Direct):
     """SciPy's SuperLU with the column ``ordering`` ``"MMD_AT_PLUS_A"`` (default), ``"COLAMD"`` (SciPy's default),
     ``"MMD_ATA"`` or ``"NATURAL"``; ``symmetric``: SuperLU's symmetric mode, by default on for the first only.
 
-    With the symmetric minimum-degree ordering of ``A + A^T`` and symmetric mode (diagonal pivots preferred) the fill
-    is about half of COLAMD's and it factorizes 1.5-2.5x faster (23 ms against 43 ms at 8k triangles); without
-    symmetric mode the same ordering can be *slower* than COLAMD (173 ms: off-diagonal pivoting destroys it). If the
-    diagonal pivots fail (a zero pivot, or a poor first residual: an indefinite matrix) it refactorizes with partial
-    pivoting.
+    The minimum-degree ordering of ``A + A^T`` in symmetric mode (diagonal pivots) halves COLAMD's fill and factorizes
+    1.5-2.5x faster (23 ms against 43 ms at 8k triangles); without symmetric mode it is *slower* (173 ms). If the
+    diagonal pivots fail (a zero pivot, or a poor first residual) it refactorizes with partial pivoting.
     """
 
     def __init__(self, ordering: str = "MMD_AT_PLUS_A", symmetric: bool | None = None):
@@ -224,17 +215,13 @@ class SolveInfo:
 class ReusedFactorization:
     """Conjugate gradients preconditioned by a kept factorization, refreshed when it stops paying.
 
-    Along a Newton solve and from frame to frame the tangent changes slowly, so a few CG iterations (one
-    back-substitution each, ~1 ms at 8k triangles) replace a factorization (~20 ms).
-
-    ``direct`` is the backend that factorizes (default :class:`SuperLU`). A solve that needs more than
-    ``refresh_after`` CG iterations marks the factorization stale (the *next* solve refactorizes); one that reaches
-    ``max_iterations`` refactorizes and solves directly.
-
-    ``background``: a CG solve that needs more than ``background_after`` iterations starts a factorization of its
-    matrix in a thread on the second core (SuperLU releases the interpreter meanwhile), and the first solve after it
-    has finished adopts it: no frame waits for a factorization once one exists. The iteration counts then depend on
-    the machine's timing (the results only to the solve's tolerance), so it is off by default.
+    The tangent changes slowly along a Newton solve and from frame to frame, so a few CG iterations (one
+    back-substitution each, ~1 ms at 8k triangles) replace a factorization (~20 ms). ``direct`` is the backend that
+    factorizes (default :class:`SuperLU`). A solve needing more than ``refresh_after`` CG iterations marks the
+    factorization stale (the *next* solve refactorizes); one reaching ``max_iterations`` refactorizes and solves
+    directly. ``background``: a solve needing more than ``background_after`` iterations starts a factorization in a
+    thread on the second core (SuperLU releases the interpreter), adopted by the first solve after it has finished;
+    iteration counts then depend on the machine's timing, so it is off by default.
 
     ``solve(A, b, atol=..., rtol=...)`` returns ``(x, SolveInfo)``, ``backend(A, b)`` ``x`` alone; counters
     ``factorizations`` (in the foreground), ``background_factorizations`` and ``cg_iterations`` accumulate.
@@ -283,9 +270,7 @@ class ReusedFactorization:
         thread.start()
 
     def _refactorize(self, A, b, reason) -> tuple[np.ndarray, SolveInfo]:
-        self._factor = self.direct.factorize(A)
-        self._shape = A.shape
-        self._stale = False
+        self._factor, self._shape, self._stale = self.direct.factorize(A), A.shape, False
         self.factorizations += 1
         x = self._factor.solve(b)
         res = float(np.linalg.norm(b - A @ x))
@@ -343,13 +328,10 @@ class _CGFactor:
         return result.x
 
 
-class PreconditionedCG:
-    """Conjugate gradients with a preconditioner built for each matrix: no factorization.
-
-    The direct backends' interface (``factorize(A).solve(b)``), where ``factorize`` only builds the preconditioner:
-    ``"jacobi"``, the inverse of the diagonal (free, and weak: the iteration count grows like ``1/h`` on these
-    elasticity matrices); ``"ilu"``, SciPy's incomplete LU (``spilu``, drop tolerance ``drop_tol``), cheaper than a
-    full factorization and much stronger than Jacobi; ``"none"``, plain CG.
+class PreconditionedCG(_Direct):
+    """Conjugate gradients with a preconditioner built for each matrix (by ``factorize``): ``"jacobi"``, the inverse
+    of the diagonal (free, and weak: the iteration count grows like ``1/h`` here); ``"ilu"``, SciPy's incomplete LU
+    (``spilu``, ``drop_tol``), cheaper than a factorization and much stronger; ``"none"``, plain CG.
 
     A solve stops at ``rtol`` times the right-hand side's norm or after ``max_iterations`` (default
     ``max(200, 2 n)``); the factor's ``iterations`` counts CG iterations and ``converged`` says whether every solve
@@ -382,9 +364,6 @@ class PreconditionedCG:
             precondition = None
         limit = self.max_iterations or max(200, 2 * A.shape[0])
         return _CGFactor(A, precondition, self.rtol, limit)
-
-    def __call__(self, A, b) -> np.ndarray:
-        return self.factorize(A).solve(b)
 
     def __repr__(self):
         return f"PreconditionedCG(preconditioner={self.preconditioner!r}, rtol={self.rtol})"
@@ -534,11 +513,8 @@ class LinearSolver:
         return self.condense(assemble(), mask)
 
     def solve(self, A, b, *, atol: float = 0.0):
-        """``(dx, LinearInfo)`` for ``A dx = b``; ``A`` is ``None`` only for a kept constant factorization.
-
-        ``atol`` is the absolute residual an iterative solve may stop at (inexact Newton); direct
-        solves ignore it. A failed solve returns ``dx = None``.
-        """
+        """``(dx, LinearInfo)`` for ``A dx = b`` (``dx = None``: the solve failed); ``A`` is ``None`` only for a kept
+        constant factorization. ``atol``: where an iterative solve may stop (inexact Newton)."""
         info = LinearInfo()
         try:
             if self.constant:

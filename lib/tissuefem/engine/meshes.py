@@ -1,25 +1,13 @@
-"""The 2D domains the chapters use, as scikit-fem triangle meshes.
+"""The 2D domains the chapters use, as scikit-fem triangle meshes, and the one mesh validator (:func:`check_mesh`).
 
-Every function here returns a :class:`skfem.MeshTri` that is
+Every generator returns a :class:`skfem.MeshTri` that is deterministic, counter-clockwise (built with ``sort_t=False``:
+scikit-fem's default sorts the vertex indices, which makes the orientation arbitrary) and named on the boundary
+(``mesh.boundaries[name]``, ready for ``basis.get_dofs(name)``). Structured meshes number their nodes row by row:
+node ``j (nx + 1) + i`` sits at column ``i`` and row ``j``.
 
-* **deterministic**: the same arguments give the same nodes, in the same order, and the same triangles;
-* **counter-clockwise**: every triangle ``t[:, e] = (a, b, c)`` has positive signed area (built with
-  ``sort_t=False``: scikit-fem's default sorts the vertex indices, which makes the orientation arbitrary);
-* **named on the boundary**: ``mesh.boundaries[name]`` gives facet indices, ready for ``basis.get_dofs(name)``.
-
-Structured meshes number their nodes row by row: node ``j (nx + 1) + i`` sits at column ``i`` and row ``j``.
-
-Domains: :func:`rectangle` (structured), :func:`mesh_with_about` (a rectangle with about a given number of
-triangles, what benchmarks use to sweep sizes), :func:`fusiform_muscle` (a spindle-shaped muscle belly between two
-tendons) with its fibres :func:`fusiform_fiber_field` (per element) and :func:`fusiform_fiber_direction` (at any
-point), :func:`flap` (the rectangle of the tissue-flap scene); :func:`check_mesh` is what every mesh must satisfy
-before a model is built on it.
-
-Limits, checked before anything is allocated and refused with a :class:`ParameterError` naming the argument: at most
-:data:`MAX_TRIANGLES` (200 000) triangles in a generated domain (``2 nx ny``, or ``n_triangles``) and in a mesh
-given to :func:`check_mesh`; lengths (``width``, ``height``, ``length``, ``max_width``, ``tendon_width``) in
-:data:`SIZE_RANGE` ``[1e-6, 1e6]``; aspect ratios (``width / height``, ``length / max_width``,
-``max_width / tendon_width``) at most :data:`MAX_ASPECT` (1e4); node coordinates within ``+-COORDINATE_MAX`` (1e6).
+Limits, checked before anything is allocated: at most :data:`MAX_TRIANGLES` triangles (generated, or given to
+:func:`check_mesh`); lengths in :data:`SIZE_RANGE`; aspect ratios at most :data:`MAX_ASPECT`; node coordinates within
+``+-COORDINATE_MAX``.
 """
 
 from __future__ import annotations
@@ -143,21 +131,14 @@ def _edge_table(t: np.ndarray):
 def check_mesh(p, t, name: str = "mesh", *, unused_nodes: str = "refuse", cut: bool = False):
     """Check that ``(p, t)`` is a valid 2D triangle mesh; return ``(p, t)`` as float64 ``(2, n)`` and int64 ``(3, m)``.
 
-    The one mesh validator: scene files and the assemblers use it. Refused, with a :class:`ParameterError` (field
-    ``name``) whose message starts with ``name`` and lists the offending nodes, edges or triangles:
-
-    * ``p`` not a real array shaped ``(2, n)``; ``t`` not an integer array shaped ``(3, m)`` (floats and booleans
-      are refused, never rounded); no triangle, or more than :data:`MAX_TRIANGLES`; node indices outside ``0..n-1``;
-    * non-finite coordinates, or coordinates beyond ``+-COORDINATE_MAX``, or a mesh smaller than ``SIZE_RANGE[0]``
-      (the largest side of its bounding box);
-    * **unused nodes** (in no triangle): with neither stiffness nor mass, every linear system of the model would be
-      singular, far from the cause. Refused rather than dropped, because renumbering behind the caller's back would
-      change what node indices given elsewhere (handles, sutures) refer to. (:func:`tissuefem.surgery.scene.read_mesh`
-      checks a file with ``unused_nodes="ignore"``, so that messages use the file's numbers, then drops them with
-      a note: it can still refuse the node indices of that scene.)
-    * **an edge shared by three or more triangles** (a non-manifold "fin"), and duplicated triangles;
-    * degenerate triangles (``|2 area| <= DEGENERATE_TOL * (longest edge)^2``);
-    * inverted triangles folded over a neighbour (:func:`folded_triangles`).
+    Refused, with a :class:`ParameterError` (field and message start ``name``) listing the offending items: ``p`` not
+    a real ``(2, n)`` array, ``t`` not an integer ``(3, m)`` array (floats are never rounded); no triangle or more than
+    :data:`MAX_TRIANGLES`; node indices outside ``0..n-1``; non-finite coordinates or beyond ``+-COORDINATE_MAX``; a
+    mesh smaller than ``SIZE_RANGE[0]``; **unused nodes** (with neither stiffness nor mass, every linear system would
+    be singular, far from the cause; refused rather than dropped, since renumbering would change what node indices
+    given elsewhere refer to: ``unused_nodes="ignore"`` lets a file reader report in the file's numbers first); an
+    edge in three or more triangles (a "fin") and duplicated triangles; degenerate triangles (``|2 area| <=
+    DEGENERATE_TOL * (longest edge)^2``); triangles folded over a neighbour (:func:`folded_triangles`).
 
     ``cut=True`` (the assemblers) accepts what cutting through elements makes next to a crack tip, fins and
     overlapping copies of a triangle, and any number of triangles. The orientation is free (scikit-fem sorts nodes).
@@ -266,19 +247,12 @@ def _structured_triangles(nx: int, ny: int, diagonal: str) -> np.ndarray:
 
 
 def _structured_mesh(x: np.ndarray, y: np.ndarray, nx: int, ny: int, diagonal: str) -> MeshTri:
-    p = np.vstack([x.ravel(), y.ravel()])
-    t = _structured_triangles(nx, ny, diagonal)
-    return MeshTri(p, t, sort_t=False)
+    return MeshTri(np.vstack([x.ravel(), y.ravel()]), _structured_triangles(nx, ny, diagonal), sort_t=False)
 
 
 def rectangle(width=1.0, height=1.0, nx=10, ny=10, diagonal="alternate") -> MeshTri:
-    """Structured triangulation of ``[0, width] x [0, height]``.
-
-    ``nx`` x ``ny`` cells, each cut into two counter-clockwise triangles (``2 nx ny`` triangles,
-    ``(nx + 1)(ny + 1)`` nodes). ``diagonal`` is ``"alternate"`` (default; cells alternate like a checkerboard),
-    ``"right"`` (every cell cut from lower left to upper right) or ``"left"``.
-
-    Named boundaries: ``"left"`` (x = 0), ``"right"`` (x = width), ``"bottom"`` (y = 0), ``"top"`` (y = height).
+    """Structured triangulation of ``[0, width] x [0, height]``: ``nx`` x ``ny`` cells, each cut into two triangles
+    along ``diagonal`` (:func:`_structured_triangles`). Named boundaries: ``"left"`` (x = 0), ``"right"`` (x = width), ``"bottom"`` (y = 0), ``"top"`` (y = height).
     """
     width = _size("width", width)
     height = _size("height", height)
@@ -320,12 +294,8 @@ def _grid_for(n_triangles: int, width: float, height: float) -> tuple[int, int]:
 
 
 def mesh_with_about(n_triangles, width=1.0, height=1.0, diagonal="alternate") -> MeshTri:
-    """A :func:`rectangle` of ``width x height`` with about ``n_triangles`` triangles.
-
-    Picks ``nx, ny`` with ``nx / ny`` close to ``width / height`` (cells close to square) and ``2 nx ny`` as close
-    to ``n_triangles`` as such grids allow: always within a factor 1.5, also for thin strips (whose cells then get
-    elongated). ``n_triangles`` is at most :data:`MAX_TRIANGLES`.
-    """
+    """A :func:`rectangle` of ``width x height`` with about ``n_triangles`` (at most :data:`MAX_TRIANGLES`) triangles,
+    cells close to square (:func:`_grid_for`)."""
     n_triangles = check_count("n_triangles", n_triangles, 1, MAX_TRIANGLES)
     width = _size("width", width)
     height = _size("height", height)
@@ -335,12 +305,8 @@ def mesh_with_about(n_triangles, width=1.0, height=1.0, diagonal="alternate") ->
 
 
 def flap(width=2.0, height=1.0, n_triangles=2000, diagonal="alternate") -> MeshTri:
-    """The rectangle of the tissue-flap scene: ``[0, width] x [0, height]``.
-
-    A :func:`mesh_with_about` rectangle with the usual boundaries ``"left"``, ``"right"``, ``"bottom"``, ``"top"``
-    plus two aliases naming the scene's roles: ``"fixed"`` (= ``"left"``, where the flap stays attached) and
-    ``"handle"`` (= ``"right"``, the edge a handle pulls).
-    """
+    """The :func:`mesh_with_about` rectangle of the tissue-flap scene, with the aliases ``"fixed"`` (= ``"left"``,
+    where the flap stays attached) and ``"handle"`` (= ``"right"``, the edge a handle pulls)."""
     mesh = mesh_with_about(n_triangles, width, height, diagonal=diagonal)
     return mesh.with_boundaries({"fixed": mesh.boundaries["left"], "handle": mesh.boundaries["right"]})
 
@@ -348,14 +314,8 @@ def flap(width=2.0, height=1.0, n_triangles=2000, diagonal="alternate") -> MeshT
 # --- fusiform (spindle-shaped) muscle ---------------------------------------
 
 def fusiform_width(x, length=4.0, max_width=1.0, tendon_width=0.25):
-    """Width profile ``w(x)`` of the fusiform muscle and its slope ``w'(x)``.
-
-    ``w(x) = tendon_width + (max_width - tendon_width) sin^2(pi x / length)`` for ``0 <= x <= length``:
-    ``tendon_width`` at both tendons, ``max_width`` in the middle of the belly, smooth, with ``w' = 0`` at the
-    tendons (the belly meets each tendon without a kink) and in the middle.
-
-    Returns ``(w, dw_dx)`` with the shape of ``x``.
-    """
+    """``(w, dw/dx)`` of the fusiform muscle's width ``w(x) = tendon_width + (max_width - tendon_width)
+    sin^2(pi x / length)``: smooth, with ``w' = 0`` at the tendons (no kink) and in the middle; the shape of ``x``."""
     x, k = np.asarray(x, dtype=float), math.pi / length
     s, c = np.sin(k * x), np.cos(k * x)
     return tendon_width + (max_width - tendon_width) * s * s, (max_width - tendon_width) * 2.0 * s * c * k
@@ -375,17 +335,13 @@ def _check_fusiform(length, max_width, tendon_width):
 
 
 def fusiform_muscle(length=4.0, max_width=1.0, tendon_width=0.25, nx=40, ny=8, diagonal="alternate") -> MeshTri:
-    """A spindle-shaped (fusiform) muscle belly between two tendons.
+    """A spindle-shaped (fusiform) muscle belly between two tendons: ``0 <= x <= length``, ``|y| <= w(x) / 2``
+    (:func:`fusiform_width`).
 
-    The domain is ``0 <= x <= length``, ``|y| <= w(x) / 2`` with the width profile :func:`fusiform_width`: symmetric
-    about the x-axis (and about ``x = length / 2``), ``tendon_width`` wide at both ends and ``max_width`` in the
-    middle.
-
-    It is the image of the structured :func:`rectangle`-style grid on ``(xi, eta) in [0, length] x [-1/2, 1/2]``
-    under the map ``(xi, eta) -> (xi, eta w(xi))``, whose Jacobian determinant ``w(xi)`` is positive, so the
-    triangles stay counter-clockwise. The grid lines ``eta = const`` become the curves ``y = eta w(x)`` running
-    tendon to tendon: the natural fiber directions (:func:`fusiform_fiber_field`). With ``ny`` even, the mid-line
-    ``y = 0`` is a grid line and the mesh is a mirror image of itself about the x-axis.
+    It is the image of a structured grid on ``(xi, eta) in [0, length] x [-1/2, 1/2]`` under
+    ``(xi, eta) -> (xi, eta w(xi))``, whose Jacobian ``w(xi) > 0`` keeps the triangles counter-clockwise. The grid
+    lines ``eta = const`` become the curves ``y = eta w(x)`` running tendon to tendon: the natural fiber directions
+    (:func:`fusiform_fiber_field`). With ``ny`` even the mesh is its own mirror image about the x-axis.
 
     Named boundaries: ``"left_tendon"`` (x = 0), ``"right_tendon"`` (x = length), ``"top"`` and ``"bottom"`` (the
     curved sides).
@@ -408,14 +364,8 @@ def fusiform_muscle(length=4.0, max_width=1.0, tendon_width=0.25, nx=40, ny=8, d
 
 
 def fusiform_fiber_direction(points, length=4.0, max_width=1.0, tendon_width=0.25) -> np.ndarray:
-    """Unit fiber direction of the fusiform muscle at ``points`` (shape ``(2, ...)``).
-
-    The fibers are the curves ``y = eta w(x)`` (``eta`` constant, ``w`` from :func:`fusiform_width`) of the muscle's
-    parametrisation: the curve through ``(x, y)`` has ``eta = y / w(x)`` and tangent ``(1, eta w'(x))``, returned
-    normalised. Horizontal on the mid-line ``y = 0``, at the tendons and at the widest section (where ``w' = 0``);
-    elsewhere the fibers spread out of the left tendon and converge into the right one. ``x`` is measured from the
-    left tendon (as in :func:`fusiform_muscle`).
-    """
+    """Unit fiber direction of the fusiform muscle at ``points`` ``(2, ...)`` (``x`` from the left tendon): the curve
+    ``y = eta w(x)`` through ``(x, y)`` has ``eta = y / w(x)`` and tangent ``(1, eta w'(x))``, returned normalised."""
     length, max_width, tendon_width = _check_fusiform(length, max_width, tendon_width)
     pts = check_real_array("points", points)
     if pts.ndim < 1 or pts.shape[0] != 2:
@@ -456,23 +406,11 @@ def fusiform_fiber_field(mesh, length=None, max_width=None, tendon_width=None) -
 # --- maps between meshes ---
 @dataclass(frozen=True, eq=False, kw_only=True)
 class MeshMap:
-    """A new mesh and the maps back to the old one, after a topology change (a cut, an excision).
-
-    It is what a model needs to carry its terms, handles and state across the change.
-
-    Attributes
-    ----------
-    mesh : skfem.MeshTri
-        The new mesh.
-    parent : ndarray of int, shape (n_new_nodes,)
-        The old node each new node comes from (after an excision: the surviving old nodes, increasing).
-    elements : ndarray of int, shape (n_new_elements,)
-        The old element each new element comes from.
-    n_old_nodes, n_old_elements : int
-        Sizes of the old mesh (to check what is transferred).
-    weights : ndarray, shape (n_new_elements,), or None
-        Share of its triangle's area each new element's material fills (a cut through elements); None: whole.
-    """
+    """A new ``mesh`` and the maps back to the old one after a topology change (a cut, an excision): what a model
+    needs to carry its terms, handles and state across. ``parent`` ``(n_new_nodes,)``: the old node of each new node
+    (after an excision: the surviving old nodes, increasing); ``elements`` ``(n_new_elements,)``: the old element of
+    each new element; ``n_old_nodes``, ``n_old_elements``: the old sizes; ``weights`` ``(n_new_elements,)``: the share
+    of its triangle's area each new element's material fills (a cut through elements), or None (whole)."""
 
     mesh: MeshTri
     parent: np.ndarray
@@ -496,11 +434,8 @@ class MeshMap:
         return _last_axis(values, self.n_old_elements, "one entry per old element")[..., self.elements]
 
     def transfer_dofs(self, values) -> np.ndarray:
-        """A vector P1 field in scikit-fem's dof order, ``(..., 2 n_old_nodes)``, on the new mesh.
-
-        The dofs of node ``n`` are ``(2 n, 2 n + 1)`` (x then y), the order of
-        ``Basis(mesh, ElementVector(ElementTriP1()))`` and of :class:`~tissuefem.engine.assembly.P1Assembler`.
-        """
+        """A vector P1 field in scikit-fem's dof order (node ``n``: dofs ``2 n, 2 n + 1``), ``(..., 2 n_old_nodes)``,
+        on the new mesh."""
         v = _last_axis(values, 2 * self.n_old_nodes, "two dofs per old node")
         pairs = v.reshape(v.shape[:-1] + (self.n_old_nodes, 2))
         return pairs[..., self.parent, :].reshape(v.shape[:-1] + (2 * self.parent.size,))
