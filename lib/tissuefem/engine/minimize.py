@@ -9,22 +9,15 @@ for the residual ``q``; when ``q`` is the gradient of an energy ``E`` (here alwa
 :mod:`tissuefem.engine.stepping`) the safeguards make every step safe:
 
 * **line search** ``"energy"``: backtracking (Armijo) on ``E``, so an accepted iterate is finite and never worse than
-  the last; when energy differences are down at round-off, a step that still lowers the residual is accepted instead.
-  ``"finite"`` only halves until the residual is finite (no energy needed); ``None`` is the notes' plain iteration.
-* **descent**: with the energy line search the direction must point downhill (``q . du < 0``). If an indefinite tangent
-  gives an uphill one, the linear solver refactorizes, then the tangent is shifted by ``tau I`` with growing ``tau``,
-  and as a last resort the step is steepest descent.
-* **step cap** ``max_step``: no dof moves by more than this per iteration.
-* **admissible steps** ``step_limit(x, dx) -> fraction``: how much of a step may be taken at all (self-contact: before
-  any surface would pass through another, :mod:`tissuefem.engine.contact`). The direction is shortened to it before the
-  line search, so no trial point lies beyond it.
-* **time budget**: with a ``clock`` (any callable returning seconds) and a ``budget``, no new tangent assembly or linear
-  solve starts once the budget is spent; the first iteration always runs.
+  the last (at round-off, a step that still lowers the residual is accepted instead); ``"finite"`` only halves until
+  the residual is finite; ``None`` is the notes' plain iteration.
+* **descent**: under the energy line search the direction must point downhill (``q . du < 0``); else the linear
+  solver refactorizes, then the tangent is shifted by ``tau I`` with growing ``tau``, at last steepest descent.
+* **step cap** ``max_step`` and **admissible steps** ``step_limit`` (self-contact), applied before the line search, so
+  no trial point lies beyond them; a **time budget** measured by ``clock``.
 
-Prescribed (Dirichlet) dofs are held at their ``x0`` values: only the free rows and columns of the tangent are solved,
-through a :class:`~tissuefem.engine.linsolve.LinearSolver` policy that condenses them and may keep a factorization
-across iterations and calls. A numerical failure never escapes as an exception or a NaN state: it is a ``status`` of the
-result, whose ``x`` is the last accepted iterate.
+Prescribed dofs are held at their ``x0`` values; a numerical failure never escapes as an exception or a NaN state: it
+is a ``status`` of the result, whose ``x`` is the last accepted iterate.
 """
 
 from __future__ import annotations
@@ -141,10 +134,7 @@ def _free_mask(n, free) -> np.ndarray:
 def _checked(x0, callables, line_search, linear, optional_reals, max_step, max_iterations, max_halvings, budget,
              tolerances):
     """:func:`newton`'s arguments checked: ``(x, max_step, max_iterations, max_halvings, budget)``, ``x`` a copy.
-
-    ``start`` and ``energy0`` (``optional_reals``) must be real numbers or None (NaN and infinities pass: they are
-    results); a ``linear`` policy needs ``matrix`` and ``solve``.
-    """
+    ``optional_reals`` may be None, NaN or infinite (they are results)."""
     x = np.array(check_real_array("x0", x0), dtype=float, copy=True)  # complex, strings, objects: refused by name
     if x.ndim != 1:
         raise ParameterError("x0", f"x0 must be a 1D array, got shape {np.shape(x0)}")
@@ -237,11 +227,9 @@ def _bounded_step(x, dx_free, mask, max_step, step_limit):
 
 
 def _line_search(x, dx, E, slope, rnorm, mask, gradient, energy, line_search, max_halvings, tolerance):
-    """Halve ``alpha`` from 1 until the step is accepted: ``(alpha, x_new, g_new or None, E_new or None)``, or None.
-
-    ``None``: the full step; ``"finite"``: a finite residual; ``"energy"``: Armijo's decrease of ``E``, or, when the
-    energy change is within ``tolerance`` (round-off), a lower residual norm than ``rnorm``.
-    """
+    """Halve ``alpha`` from 1 until the step is accepted (``line_search`` None: at once; ``"finite"``: a finite
+    residual; ``"energy"``: Armijo's decrease of ``E``, or within ``tolerance`` of ``E`` a residual below ``rnorm``):
+    ``(alpha, x_new, g_new or None, E_new or None)``, or None."""
     alpha = 1.0
     for _ in range(max_halvings + 1):
         x_new = x + alpha * dx
@@ -363,10 +351,7 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
 
 
 def _forcing(rnorm, r0, target):
-    """Inexact Newton: how accurately an iterative linear solve must be (absolute residual).
-
-    The forcing term shrinks with the residual (``rnorm / r0``, capped at 1e-3), so the convergence stays quadratic; a
-    solve never needs to be tighter than a third of the target.
-    """
+    """Inexact Newton: the absolute residual an iterative linear solve must reach, shrinking with the residual
+    (``rnorm / r0``, capped at 1e-3: convergence stays quadratic), never below a third of the target."""
     eta = min(1e-3, rnorm / r0) if r0 > 0 else 1e-3
     return max(eta * rnorm, 0.3 * target)
