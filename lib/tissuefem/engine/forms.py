@@ -1,19 +1,15 @@
 """The nonlinear elasticity weak form as scikit-fem forms: the readable reference path.
 
-The notes' weak form of quasistatic equilibrium ``-P_ij,j = f_i`` is
-
-    int_B0 w_i,j P_ij(F) dX = int_dB0 w_i P_ij n_j dS + int_B0 w_i f_i dX
-
-for every test function ``w``, with ``F = I + grad u``. Discretising ``u`` and ``w`` with the same vector-valued
-shape functions, the left-hand side is the internal force vector ``q(u)``, and Newton needs its derivative, obtained
-by linearising ``P`` in ``F`` and ``F`` in ``u`` (``dF = grad du``):
+The notes' weak form of ``-P_ij,j = f_i`` is ``int_B0 w_i,j P_ij(F) dX = int_dB0 w_i P_ij n_j dS + int_B0 w_i f_i dX``
+for every test function ``w``, ``F = I + grad u``. With the same shape functions for ``u`` and ``w`` the left-hand side
+is the internal force ``q(u)``; Newton needs its derivative (``dF = grad du``):
 
     q_a(u)       = int grad(v_a) : P(F) dX                      residual_form
     dq_a/du_b    = int grad(v_a) : A(F) : grad(du_b) dX        tangent_form
     E(u)         = int Psi(F) dX,   q = dE/du                   energy_form
 
-with ``A_ijkl = dP_ij/dF_kl``. In scikit-fem the test function ``v`` plays ``w`` (``grad(v)[i, j] = w_i,j``), so
-each form below is one line that reads like its equation::
+with ``A_ijkl = dP_ij/dF_kl``. The test function ``v`` plays ``w`` (``grad(v)[i, j] = w_i,j``), so each form below is
+one line that reads like its equation::
 
     >>> from skfem import Basis, ElementTriP1, ElementVector, MeshTri, asm
     >>> from tissuefem.engine.materials import NeoHookean
@@ -25,13 +21,9 @@ each form below is one line that reads like its equation::
     >>> float(abs(q).max())
     0.0
 
-The current displacement is passed as ``u=basis.interpolate(u)``; the material is bound by closure because
-scikit-fem passes only arrays through ``w``. A :class:`~tissuefem.engine.materials.FiberReinforced` material with
-per-quadrature-point fibres (shape ``(2, n_elements, n_points)``) must use the same quadrature as the basis
-(``basis.X.shape[1]`` points).
-
-These forms evaluate the material once per pair of local basis functions (scikit-fem's assembly loop), which is
-clear but not fast; they are the reference that faster assembly is tested against.
+The material is bound by closure because scikit-fem passes only arrays through ``w``; per-quadrature-point fibres
+``(2, n_elements, n_points)`` must match the basis's quadrature. The forms evaluate the material once per pair of local
+basis functions: clear but not fast, the reference that faster assembly is tested against.
 """
 
 from __future__ import annotations

@@ -143,8 +143,8 @@ class ProjectedTangent:
     """A material whose tangent is the positive semi-definite projection of another's.
 
     Energy and stress are the wrapped material's: the same equilibrium, only the search direction changes (always
-    downhill). ``adaptive=True`` projects only when Newton needs it: ``tangent`` is then the exact one (quadratic convergence
-    where the Hessian is positive definite, as it usually is away from inversion) and ``safe_tangent`` the
+    downhill). ``adaptive=True`` projects only when Newton needs it: ``tangent`` is then the exact one (quadratic
+    convergence where the Hessian is positive definite, as it usually is away from inversion) and ``safe_tangent`` the
     projection, which the minimiser assembles when the exact direction does not point downhill. Clamping every
     element's negative curvature in every step costs Newton its quadratic convergence: on chapter 8's drag with the
     stable neo-Hookean model, about 7 Newton steps a frame instead of 2.

@@ -252,7 +252,8 @@ def _structured_mesh(x: np.ndarray, y: np.ndarray, nx: int, ny: int, diagonal: s
 
 def rectangle(width=1.0, height=1.0, nx=10, ny=10, diagonal="alternate") -> MeshTri:
     """Structured triangulation of ``[0, width] x [0, height]``: ``nx`` x ``ny`` cells, each cut into two triangles
-    along ``diagonal`` (:func:`_structured_triangles`). Named boundaries: ``"left"`` (x = 0), ``"right"`` (x = width), ``"bottom"`` (y = 0), ``"top"`` (y = height).
+    along ``diagonal`` (``"alternate"``, ``"right"`` or ``"left"``, as above). Named boundaries: ``"left"`` (x = 0),
+    ``"right"`` (x = width), ``"bottom"`` (y = 0), ``"top"`` (y = height).
     """
     width = _size("width", width)
     height = _size("height", height)
@@ -295,7 +296,7 @@ def _grid_for(n_triangles: int, width: float, height: float) -> tuple[int, int]:
 
 def mesh_with_about(n_triangles, width=1.0, height=1.0, diagonal="alternate") -> MeshTri:
     """A :func:`rectangle` of ``width x height`` with about ``n_triangles`` (at most :data:`MAX_TRIANGLES`) triangles,
-    cells close to square (:func:`_grid_for`)."""
+    cells close to square; the count is within a factor 1.5 of the request, also for thin strips."""
     n_triangles = check_count("n_triangles", n_triangles, 1, MAX_TRIANGLES)
     width = _size("width", width)
     height = _size("height", height)
