@@ -1,30 +1,18 @@
 """Material parameters: Lamé constants from Young's modulus and Poisson's ratio, and the checks of every input.
 
-Every number the library accepts has a documented range, chosen so that what is
-accepted can also be computed (no overflow, no division by zero later on):
+Every number the library accepts has a documented range, chosen so that what is accepted can also be computed (no
+overflow, no division by zero later on):
 
-==========================  ===============================  ==============================================
-quantity                    range                            why
-==========================  ===============================  ==============================================
-Young's modulus ``E``       ``[1e-6, 1e12]``                 soft gels (~1 Pa) to steel (2e11 Pa), with
-                                                             room; products such as ``E^2`` stay finite
-Poisson's ratio ``nu``      ``[-0.999999, 0.499999]``        the admissible ``(-1, 0.5)`` less ``1e-6`` at
-                                                             each end, where ``lam + 2 mu / 3`` would be
-                                                             lost to round-off; ``lam/mu <= 5e5``
-Lamé ``mu`` (given)         ``[1e-7, 1e30]``                 what ``E`` and ``nu`` above map to (at most
-                                                             ``5e17``), with room
-Lamé ``lam`` (given)        ``(-2 mu / 3, 1e30]``            a positive bulk modulus
-time step ``dt``            ``[1e-6, 10]`` s                 :func:`check_time_step`
-density ``rho0``            ``[1e-6, 1e6]``                  the mass ``rho0 A`` over ``dt^2`` stays finite
-gravity (each component)    within ``+-1e6``                 ``rho0 g`` and its work stay finite
-body force, traction        within ``+-1e12`` per component  as Young's modulus: forces of the stresses' size
-penalty stiffness           ``[0, 1e40]``                    a probe's or a suture's ``k``: ``k d^2`` stays
-                                                             finite for any depth or gap within reach
-points and displacements    within ``REACH L`` (1000 L)      ``L`` is the domain's size (the larger side of
-                                                             its bounding box): targets, probe centres, cuts
-radii                       ``[1e-6 L, 1000 L]``             a probe's ``k ~ E / r^2`` stays finite
-counts                      true integers (never ``bool``)   :func:`check_count`
-==========================  ===============================  ==============================================
+* Young's modulus ``E`` in ``[1e-6, 1e12]``: soft gels (~1 Pa) to steel (2e11 Pa), with room; ``E^2`` stays finite.
+* Poisson's ratio ``nu`` in ``[-0.999999, 0.499999]``: the admissible ``(-1, 0.5)`` less ``1e-6`` at each end, where
+  ``lam + 2 mu / 3`` would be lost to round-off; ``lam/mu <= 5e5``.
+* Lamé ``mu`` given directly in ``[1e-7, 1e30]`` (``E`` and ``nu`` above map to at most ``5e17``), ``lam`` in
+  ``(-2 mu / 3, 1e30]`` (a positive bulk modulus).
+* time step ``dt`` in ``[1e-6, 10]`` s; density ``rho0`` in ``[1e-6, 1e6]`` (``rho0 A / dt^2`` stays finite).
+* gravity within ``+-1e6`` per component; body forces and tractions within ``+-1e12`` (the stresses' size).
+* penalty stiffness (a probe's, a suture's ``k``) in ``[0, 1e40]``: ``k d^2`` stays finite for any depth within reach.
+* points and displacements within ``REACH L`` (1000 L, ``L`` the larger side of the domain's bounding box); radii in
+  ``[1e-6 L, 1000 L]`` (a probe's ``k ~ E / r^2`` stays finite); counts are true integers (never ``bool``).
 
 This is the one home of the library's input checks; each refusal is a :class:`ParameterError` whose message names the
 argument and the allowed range and whose ``field`` is that argument.
