@@ -44,17 +44,11 @@ def rotation_preserving_svd(F):
     F = np.asarray(F, dtype=float)
     if F.shape[:2] != (2, 2):
         raise ParameterError("F", f"F must be shaped [2, 2, ...], got {F.shape}")
-    E = 0.5 * (F[0, 0] + F[1, 1])
-    H = 0.5 * (F[1, 0] - F[0, 1])
-    Fa = 0.5 * (F[0, 0] - F[1, 1])
-    Ga = 0.5 * (F[1, 0] + F[0, 1])
-    Q = np.hypot(E, H)
-    R = np.hypot(Fa, Ga)
-    a1 = np.arctan2(Ga, Fa)
-    a2 = np.arctan2(H, E)
-    U = _rotation(0.5 * (a2 + a1))
-    V = _rotation(0.5 * (a1 - a2))
-    return U, np.array([Q + R, Q - R]), V
+    E, H = 0.5 * (F[0, 0] + F[1, 1]), 0.5 * (F[1, 0] - F[0, 1])
+    Fa, Ga = 0.5 * (F[0, 0] - F[1, 1]), 0.5 * (F[1, 0] + F[0, 1])
+    Q, R = np.hypot(E, H), np.hypot(Fa, Ga)
+    a1, a2 = np.arctan2(Ga, Fa), np.arctan2(H, E)
+    return _rotation(0.5 * (a2 + a1)), np.array([Q + R, Q - R]), _rotation(0.5 * (a1 - a2))
 
 
 def diagonal(s) -> np.ndarray:
@@ -78,11 +72,8 @@ def _project_sym2(a, b, d, floor):
 
 
 def eigen_projection(A, floor: float = 0.0):
-    """Numerical projection: clamp the eigenvalues of each 4x4 tangent ``A [2,2,2,2,*rest]`` at ``floor``.
-
-    The reference the closed form is tested against, and the fallback for materials that are not isotropic (fibers)
-    or not frame indifferent (linear).
-    """
+    """Clamp the eigenvalues of each 4x4 tangent ``A [2,2,2,2,*rest]`` at ``floor`` numerically: the closed form's
+    reference, and the fallback for materials not isotropic (fibers) or not frame indifferent (linear)."""
     A = np.asarray(A, dtype=float)
     rest = A.shape[4:]
     M = np.moveaxis(A.reshape((4, 4, -1)), -1, 0)
@@ -98,13 +89,9 @@ def _rotation_invariant(material) -> bool:
 
 
 def projected_tangent(material, F, floor: float = 0.0):
-    """The positive semi-definite projection of ``material.tangent(F)`` (Teran et al. 2005).
-
-    Closed form in diagonal space for the isotropic, frame-indifferent models (Neo-Hookean family, corotated); other
-    materials (linear elasticity, fiber terms) fall back to :func:`eigen_projection`. Eigenvalues below ``floor``
-    (default 0) are raised to ``floor``; positive ones are kept, so where the tangent is already positive
-    semi-definite it is returned unchanged (up to round-off). Returns ``[2, 2, 2, 2, *rest]`` like
-    ``material.tangent``.
+    """The positive semi-definite projection of ``material.tangent(F)`` (Teran et al. 2005), ``[2, 2, 2, 2, *rest]``:
+    eigenvalues below ``floor`` are raised to it, the others kept. Closed form in diagonal space for the isotropic,
+    frame-indifferent models (Neo-Hookean family, corotated), else :func:`eigen_projection`.
     """
     if not _rotation_invariant(material):
         return eigen_projection(material.tangent(F), floor)

@@ -50,10 +50,8 @@ def det2(F):
 
 
 def cofactor2(F):
-    """The cofactor ``cof F = dJ/dF = J F^-T = [[F11, -F10], [-F01, F00]]``; shape ``F.shape``.
-
-    Defined for every ``F`` (also singular ones): the inversion-safe models use it rather than ``F^-T``.
-    """
+    """The cofactor ``cof F = dJ/dF = J F^-T = [[F11, -F10], [-F01, F00]]``; shape ``F.shape``. Defined for every
+    ``F`` (also singular ones): the inversion-safe models use it rather than ``F^-T``."""
     F = _as_F(F)
     return np.array([[F[1, 1], -F[1, 0]], [-F[0, 1], F[0, 0]]])
 
@@ -82,8 +80,6 @@ _IXI = np.einsum("ij,kl->ijkl", _DELTA, _DELTA)  # d_ij d_kl
 _HCOF = np.einsum("ik,jl->ijkl", _PERM, _PERM)  # H_ijkl = e_ik e_jl = d(cof F)_ij / dF_kl (constant)
 
 
-# --- base class ---------------------------------------------------------------
-
 class Material(_LameMaterial):
     """Base class: a 2D hyperelastic material with Lamé parameters ``lam`` and ``mu`` (checked by
     :func:`tissuefem.engine.parameters.check_lame`); subclasses implement ``energy``, ``stress`` and ``tangent``."""
@@ -93,11 +89,8 @@ class Material(_LameMaterial):
 
     @classmethod
     def from_young(cls, E, nu, plane: str = "strain"):
-        """Build from Young's modulus ``E > 0`` and Poisson's ratio ``-1 < nu < 0.5``.
-
-        ``plane="stress"`` (``lam -> 2 lam mu / (lam + 2 mu)``) is exact only for linear elasticity; the nonlinear
-        models refuse it.
-        """
+        """Build from Young's modulus and Poisson's ratio; ``plane="stress"`` (``lam -> 2 lam mu / (lam + 2 mu)``) is
+        exact only for linear elasticity, the nonlinear models refuse it."""
         lam, mu = lame_parameters(E, nu, plane)
         if plane == "stress" and not cls._plane_stress_ok:
             raise ParameterError("plane", f"plane='stress' is only supported by LinearElastic; {cls.__name__} is "
@@ -105,8 +98,6 @@ class Material(_LameMaterial):
                                           "change of lam)")
         return cls(lam, mu)
 
-
-# --- linear elasticity ------------------------------------------------------------
 
 class LinearElastic(Material):
     """Small-strain linear elasticity (the notes' first model).
@@ -242,8 +233,6 @@ class StableNeoHookean(_NeoHookeanFamily):
         return h, self.lam_s * d, np.full(J.shape, self.lam_s)
 
 
-# --- corotated --------------------------------------------------------------------
-
 #: Below this ``rho = tr S`` the polar rotation is taken as ``R = I`` (see :func:`_polar_rotation`): the
 #: ``sqrt`` of the smallest normal double (~1.5e-154), above which ``1/rho`` is finite and full precision.
 _RHO_MIN = math.sqrt(np.finfo(float).tiny)
@@ -257,15 +246,11 @@ def _polar_rotation(F):
     Stationarity in theta is exactly ``S = R^T F`` symmetric, for every F (also J <= 0, where S is indefinite).
 
     At ``rho = 0`` the angle is undefined, and near it the rotation turns at a rate ``1/rho`` (the tangent's
-    ``R' (x) R' / rho`` term). Below :data:`_RHO_MIN` (e.g. subnormal entries of F) ``1/rho`` overflows
-    (``inf * 0 = NaN`` in the tangent) and ``atan2`` loses precision; there ``R = I`` is used *consistently* by energy,
-    stress and tangent, the exact derivatives of ``mu ||F - I||^2 + lam/2 (J - 1)^2`` in that tiny ball. The energy
-    changes by at most ``4 mu _RHO_MIN`` across the ball's edge.
+    ``R' (x) R' / rho``). Below :data:`_RHO_MIN` ``1/rho`` overflows (``inf * 0 = NaN``) and ``atan2`` loses precision:
+    there energy, stress and tangent all take ``R = I``, consistently (the energy jumps by at most ``4 mu _RHO_MIN``).
     """
-    x = F[0, 0] + F[1, 1]
-    y = F[1, 0] - F[0, 1]
-    rho = np.hypot(x, y)
-    theta = np.arctan2(y, x)
+    x, y = F[0, 0] + F[1, 1], F[1, 0] - F[0, 1]
+    rho, theta = np.hypot(x, y), np.arctan2(y, x)
     c, s = np.cos(theta), np.sin(theta)
     collapsed = rho < _RHO_MIN
     if np.any(collapsed):
@@ -485,8 +470,6 @@ class FiberReinforced(Material):
     def __repr__(self):
         return f"FiberReinforced({self.base!r}, stiffness={self.stiffness:g}, fibers of shape {self.fibers.shape})"
 
-
-# --- registry -----------------------------------------------------------------------
 
 #: The isotropic models by name (the keys accepted by :func:`material`).
 MATERIALS = {
