@@ -95,13 +95,9 @@ def signed_areas(mesh) -> np.ndarray:
 
 
 def folded_triangles(p, t) -> np.ndarray:
-    """Pairs of triangles that overlap across their shared edge, shape ``(2, n_pairs)``.
-
-    In a valid triangulation the two triangles on an interior edge lie on opposite sides of it; if one is folded
-    over its neighbour, both third vertices lie on the same side (whatever order the triangles list their vertices
-    in: scikit-fem sorts them). Two triangles whose third vertices sit at the same point are not a fold but two
-    copies of one triangle, each carrying part of its material (:func:`tissuefem.surgery.element_cuts.cut_through`
-    makes them next to a crack tip): they are not reported.
+    """Pairs of triangles that overlap across their shared edge, shape ``(2, n_pairs)``: both third vertices on the
+    same side of it (whatever the vertex order). Third vertices at the same point are not a fold but two copies of one
+    triangle, each carrying part of its material (a cut through elements makes them at a crack tip): not reported.
     """
     p = np.asarray(p, dtype=float)
     key, owner, opposite = _edge_table(np.asarray(t, dtype=np.int64))
@@ -223,26 +219,18 @@ def _refuse_fins_and_copies(tri, t, n, refuse) -> None:
 # --- structured rectangle --------------------------------------------------
 
 def _structured_triangles(nx: int, ny: int, diagonal: str) -> np.ndarray:
-    """Connectivity (3, 2 nx ny) of a structured grid of (nx + 1) x (ny + 1) nodes.
-
-    Each cell (i, j) has corners sw, se, ne, nw and is cut along one diagonal: ``"right"`` cuts sw-ne, ``"left"``
-    cuts se-nw, ``"alternate"`` uses sw-ne on cells with ``i + j`` even and se-nw otherwise (a pattern without a
-    preferred direction, the usual choice for elasticity). Both triangles of a cell are listed counter-clockwise;
-    cell (i, j) gives triangles ``2 (j nx + i)`` and ``2 (j nx + i) + 1``.
-    """
-    i, j = np.meshgrid(np.arange(nx), np.arange(ny), indexing="xy")
-    i, j = i.ravel(), j.ravel()  # cell order: row by row
+    """Connectivity (3, 2 nx ny) of a structured grid of (nx + 1) x (ny + 1) nodes: cell (i, j) (corners sw, se, ne,
+    nw) gives the counter-clockwise triangles ``2 (j nx + i)`` and ``2 (j nx + i) + 1``, cut sw-ne (``"right"``), se-nw
+    (``"left"``), or sw-ne where ``i + j`` is even and se-nw elsewhere (``"alternate"``: no preferred direction)."""
+    i, j = (a.ravel() for a in np.meshgrid(np.arange(nx), np.arange(ny), indexing="xy"))  # cells row by row
     sw = j * (nx + 1) + i
-    se = sw + 1
-    nw = sw + (nx + 1)
-    ne = nw + 1
+    se, nw, ne = sw + 1, sw + nx + 1, sw + nx + 2
     cut_sw_ne = (i + j) % 2 == 0 if diagonal == "alternate" else np.full(i.shape, diagonal == "right")
     # sw-ne diagonal: (sw, se, ne) and (sw, ne, nw); se-nw: (sw, se, nw) and (se, ne, nw)
     first = np.where(cut_sw_ne, np.stack([sw, se, ne]), np.stack([sw, se, nw]))
     second = np.where(cut_sw_ne, np.stack([sw, ne, nw]), np.stack([se, ne, nw]))
     t = np.empty((3, 2 * i.size), dtype=np.int64)
-    t[:, 0::2] = first
-    t[:, 1::2] = second
+    t[:, 0::2], t[:, 1::2] = first, second
     return t
 
 
@@ -255,8 +243,7 @@ def rectangle(width=1.0, height=1.0, nx=10, ny=10, diagonal="alternate") -> Mesh
     along ``diagonal`` (``"alternate"``, ``"right"`` or ``"left"``, as above). Named boundaries: ``"left"`` (x = 0),
     ``"right"`` (x = width), ``"bottom"`` (y = 0), ``"top"`` (y = height).
     """
-    width = _size("width", width)
-    height = _size("height", height)
+    width, height = _size("width", width), _size("height", height)
     _check_aspect("width / height", width / height)
     nx, ny = _check_grid(nx, ny, diagonal)
     X, Y = np.meshgrid(np.linspace(0.0, width, nx + 1), np.linspace(0.0, height, ny + 1), indexing="xy")
@@ -270,13 +257,9 @@ def rectangle(width=1.0, height=1.0, nx=10, ny=10, diagonal="alternate") -> Mesh
 
 
 def _grid_for(n_triangles: int, width: float, height: float) -> tuple[int, int]:
-    """(nx, ny) with 2 nx ny closest to n_triangles and cells as square as possible.
-
-    Square cells want ``nx ~ sqrt(n/2 * aspect)``; for a strip wider than ``n/2`` (aspect ``> n/2``) that alone
-    would exceed the request by orders of magnitude (``ny`` cannot drop below 1), so ``nx`` is capped at ``n/2``:
-    the cells get elongated instead. The result has ``2 nx ny`` within a factor 1.5 of ``n_triangles`` for any
-    aspect ratio (2 triangles for a request of 1) and never more than :data:`MAX_TRIANGLES`.
-    """
+    """(nx, ny) with 2 nx ny closest to n_triangles (within a factor 1.5, at most :data:`MAX_TRIANGLES`) and cells
+    as square as possible: ``nx ~ sqrt(n/2 * aspect)``, capped at ``n/2`` (``ny`` cannot drop below 1, so a strip wider
+    than ``n/2`` would exceed the request by orders of magnitude): such a strip's cells get elongated instead."""
     aspect = width / height
     half = max(1, n_triangles // 2)
     nx0 = min(half, max(1, round(math.sqrt(n_triangles / 2.0 * aspect))))
@@ -298,8 +281,7 @@ def mesh_with_about(n_triangles, width=1.0, height=1.0, diagonal="alternate") ->
     """A :func:`rectangle` of ``width x height`` with about ``n_triangles`` (at most :data:`MAX_TRIANGLES`) triangles,
     cells close to square; the count is within a factor 1.5 of the request, also for thin strips."""
     n_triangles = check_count("n_triangles", n_triangles, 1, MAX_TRIANGLES)
-    width = _size("width", width)
-    height = _size("height", height)
+    width, height = _size("width", width), _size("height", height)
     _check_aspect("width / height", width / height)
     nx, ny = _grid_for(n_triangles, width, height)
     return rectangle(width, height, nx, ny, diagonal=diagonal)
@@ -380,13 +362,9 @@ def fusiform_fiber_direction(points, length=4.0, max_width=1.0, tendon_width=0.2
 
 
 def fusiform_fiber_field(mesh, length=None, max_width=None, tendon_width=None) -> np.ndarray:
-    """Unit fiber directions (2, n_elements) of a :func:`fusiform_muscle` mesh: each triangle gets
-    :func:`fusiform_fiber_direction` at its centroid (a field mirror-symmetric about the x-axis).
-
-    ``length``, ``max_width`` and ``tendon_width`` are the values the mesh was made with; left as ``None`` they are
-    read off the mesh (its x-extent, its y-extent, and the y-extent of the nodes on the left tendon), which is exact
-    for meshes from :func:`fusiform_muscle`.
-    """
+    """Unit fiber directions (2, n_elements) of a :func:`fusiform_muscle` mesh, :func:`fusiform_fiber_direction` at
+    each centroid. ``length``, ``max_width``, ``tendon_width`` left as ``None`` are read off the mesh (its x-extent,
+    y-extent, and the y-extent of the left tendon's nodes): exact for meshes from :func:`fusiform_muscle`."""
     p = np.asarray(mesh.p, dtype=float)
     t = np.asarray(mesh.t)
     if p.ndim != 2 or p.shape[0] != 2 or t.ndim != 2 or t.shape[0] != 3:
