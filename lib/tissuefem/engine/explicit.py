@@ -77,20 +77,16 @@ class SymplecticEuler:
     :func:`critical_time_step`. A step whose result is not finite leaves the state untouched and reports
     ``"non-finite"``; it never raises.
 
-    Attributes: ``u, v`` (dof vectors; assign them to set an initial state), ``time``, ``mass`` (the lumped masses, one
-    per dof).
+    Attributes: ``u, v`` (dof vectors; assign them to set an initial state), ``time``, ``mass`` (lumped, per dof).
     """
 
     def __init__(self, model, dt: float):
         _check_model(model)
         # any finite dt > 0: the stable step of a stiff, light body lies far below an implicit step's range
         self.dt = check_real("dt", dt, 0.0, lo_open=True)
-        self.model = model
-        self.mass = _lumped_mass(model)
-        self.external = model.external
+        self.model, self.mass, self.external = model, _lumped_mass(model), model.external
         self.u, self.v = model.zeros(), model.zeros()
-        self.time = 0.0
-        self.last_report = None
+        self.time, self.last_report = 0.0, None
 
     def step(self) -> ExplicitStepReport:
         """Advance one step (kick, then drift, then the handles); on a non-finite result keep the old state."""

@@ -267,17 +267,14 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
     ``E`` with ``gradient = dE/dx`` (needed by ``line_search="energy"``; ``energy0 = E(x0)`` if known).
 
     Converged when ``||q_free|| <= max(atol + rtol max(||q_free(x0)||, reference_norm), floor)``: ``reference_norm`` is
-    the size of the load the solve balances when ``x0`` is already a good guess (a tiny start residual would otherwise
-    ask for more than round-off allows); ``floor`` is the residual's round-off level. ``energy_floor`` is the energy's:
-    changes below it are not trusted, and a step that changes the energy by less but lowers the residual is accepted.
+    the size of the load balanced when ``x0`` is already a good guess (a tiny start residual would ask for more than
+    round-off allows), ``floor`` the residual's round-off level; energy changes below ``energy_floor`` are not trusted.
 
-    ``max_iterations``, ``max_step`` (largest change of one dof per iteration) and ``max_halvings`` (of the line search)
-    cap the work; ``linear`` is the linear-solve policy (default: a fresh direct factorization each iteration);
-    ``safe_hessian(x)``, a positive semi-definite approximation of the Hessian (a projected tangent), is tried before
-    the diagonal shift when the exact one gives no descent direction. ``budget`` seconds are measured by ``clock`` from
-    ``start`` (default: when called). ``step_limit(x, dx)`` is the largest fraction in ``[0, 1]`` of ``dx`` that may be
-    taken (contact's collision detection); a step it allows none of ends the solve as ``"blocked"``, keeping the last
-    iterate.
+    ``max_iterations``, ``max_step`` (largest change of one dof per iteration) and ``max_halvings`` cap the work;
+    ``linear`` is the linear-solve policy (default: a fresh direct factorization each iteration); ``safe_hessian(x)``,
+    a positive semi-definite Hessian (a projected tangent), is tried before the diagonal shift. ``budget`` seconds are
+    measured by ``clock`` from ``start`` (default: now). ``step_limit(x, dx)`` is the admissible fraction in ``[0, 1]``
+    of ``dx``; a step with none ends the solve as ``"blocked"``.
     """
     x, max_step, max_iterations, max_halvings, budget = _checked(
         x0, {"gradient": gradient, "hessian": hessian, "energy": energy, "clock": clock, "safe_hessian": safe_hessian},
