@@ -68,10 +68,6 @@ class _FixedPattern:
         K.has_canonical_format = True
         return K
 
-    def pattern(self) -> sp.csr_matrix:
-        """The fixed sparsity pattern, as a CSR matrix of zeros."""
-        return self.csr(np.zeros(self.nnz))
-
     @property
     def diagonal(self) -> np.ndarray:
         """Positions of the diagonal entries in the CSR data array, row by row."""

@@ -132,14 +132,12 @@ class Pardiso(_Direct):
     def __init__(self):
         if not available("pardiso"):
             raise ParameterError("linear_solver", "linear solver 'pardiso' needs the optional package pypardiso "
-                             "(pip install 'tissuefem[pardiso]'); use 'superlu' instead")
+                                                  "(pip install 'tissuefem[pardiso]'); use 'superlu' instead")
         import pypardiso
-
         self._module = pypardiso
 
     def factorize(self, A) -> _PardisoFactor:
-        A = sp.csr_matrix(_square(A))
-        solver = self._module.PyPardisoSolver()
+        A, solver = sp.csr_matrix(_square(A)), self._module.PyPardisoSolver()
         solver.set_statistical_info_off()
         solver.factorize(A)
         return _PardisoFactor(solver, A)
@@ -174,8 +172,7 @@ def pcg(A, b, precondition=None, *, x0=None, atol: float = 0.0, rtol: float = 1e
     if rnorm <= target:
         return PCGResult(x, 0, True, rnorm)
     z = precondition(r) if precondition is not None else r.copy()
-    p = z.copy()
-    rz = float(r @ z)
+    p, rz = z.copy(), float(r @ z)
     for k in range(1, int(max_iterations) + 1):
         Ap = A @ p
         curvature = float(p @ Ap)
@@ -188,16 +185,11 @@ def pcg(A, b, precondition=None, *, x0=None, atol: float = 0.0, rtol: float = 1e
         x += alpha * p
         r -= alpha * Ap
         rnorm = float(np.linalg.norm(r))
-        if not np.isfinite(rnorm):
-            return PCGResult(x, k, False, rnorm)
-        if rnorm <= target:
-            return PCGResult(x, k, True, rnorm)
-        if should_stop is not None and should_stop():
-            return PCGResult(x, k, False, rnorm)
+        if not np.isfinite(rnorm) or rnorm <= target or (should_stop is not None and should_stop()):
+            return PCGResult(x, k, rnorm <= target, rnorm)
         z = precondition(r) if precondition is not None else r
         rz_new = float(r @ z)
-        p = z + (rz_new / rz) * p
-        rz = rz_new
+        p, rz = z + (rz_new / rz) * p, rz_new
     return PCGResult(x, int(max_iterations), False, rnorm)
 
 
@@ -404,18 +396,14 @@ class Condenser:
         self.keep = int(keep)
         self._maps = {}
 
-    @staticmethod
-    def key(K, mask) -> tuple:
-        # the pattern by the memory of its index arrays (scipy may hand back views of them)
-        return (K.indptr.ctypes.data, K.indices.ctypes.data, K.shape, np.packbits(mask).tobytes())
-
     def __call__(self, K, mask) -> sp.csr_matrix:
         K = sp.csr_matrix(K) if not sp.isspmatrix_csr(K) else K
         if mask.all():
             return K
         if K.indptr.flags.writeable or K.indices.flags.writeable:
             return K[mask][:, mask]  # not a fixed (read-only) pattern: slice
-        key = self.key(K, mask)
+        # the pattern by the memory of its index arrays (scipy may hand back views of them)
+        key = (K.indptr.ctypes.data, K.indices.ctypes.data, K.shape, np.packbits(mask).tobytes())
         entry = self._maps.get(key)
         if entry is None:
             if len(self._maps) >= self.keep:
