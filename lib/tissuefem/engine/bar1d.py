@@ -82,7 +82,6 @@ def nonlinear_forms(material: Material1D):
     """``(internal_force, tangent, strain_energy)`` as scikit-fem forms at the field ``w["u"]`` (``F = 1 + du/dX``):
     ``int N_i' P(F) dX``, ``int N_i' dP/dF N_j' dX`` and ``int Psi(F) dX``. The material is bound by closure because
     scikit-fem passes only arrays through ``w``."""
-
     @LinearForm
     def internal_force(v, w):
         F = 1.0 + w["u"].grad[0]
@@ -97,7 +96,6 @@ def nonlinear_forms(material: Material1D):
     def strain_energy(w):
         F = 1.0 + w["u"].grad[0]
         return material.energy(F)
-
     return internal_force, tangent, strain_energy
 
 
@@ -234,7 +232,6 @@ class Bar1D:
     # --- errors against a closed form ----------------------------------------
     def errors(self, u, exact: Callable, exact_derivative: Callable) -> tuple[float, float]:
         """``(||u - u_exact||_L2, |u - u_exact|_H1)`` by quadrature."""
-
         @Functional
         def l2(w):
             return (w["uh"] - exact(w.x[0])) ** 2
@@ -242,7 +239,6 @@ class Bar1D:
         @Functional
         def h1(w):
             return (w["uh"].grad[0] - exact_derivative(w.x[0])) ** 2
-
         uh = self.basis.interpolate(u)
         return float(np.sqrt(asm(l2, self.basis, uh=uh))), float(np.sqrt(asm(h1, self.basis, uh=uh)))
 

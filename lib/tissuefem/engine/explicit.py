@@ -220,7 +220,6 @@ def largest_stable_dt(model, *, steps: int = 400, growth: float = 10.0,
 
     def stable(dt):
         return is_stable(model, dt, steps=steps, growth=growth, u0=u0)
-
     lo = hi = dt_guess
     for _ in range(60):
         if stable(lo):

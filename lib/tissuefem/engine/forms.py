@@ -45,30 +45,24 @@ def deformation_gradient(u) -> np.ndarray:
 
 def residual_form(material: Material) -> LinearForm:
     """``q_a(u) = int P(F) : grad(v_a) dX`` (the notes' ``int w_i,j P_ij dX``) at ``F = I + grad u``."""
-
     @LinearForm
     def residual(v, w):
         return ddot(material.stress(deformation_gradient(w["u"])), grad(v))
-
     return residual
 
 
 def tangent_form(material: Material) -> BilinearForm:
     """``K_ab = int (A(F) : grad(du_b)) : grad(v_a) dX``, the derivative of :func:`residual_form`."""
-
     @BilinearForm
     def tangent(du, v, w):
         A = material.tangent(deformation_gradient(w["u"]))
         return ddot(np.einsum("ijkl...,kl...->ij...", A, grad(du)), grad(v))  # (A : grad du) : grad v
-
     return tangent
 
 
 def energy_form(material: Material) -> Functional:
     """``E(u) = int Psi(F) dX``, whose gradient is :func:`residual_form`."""
-
     @Functional
     def energy(w):
         return material.energy(deformation_gradient(w["u"]))
-
     return energy

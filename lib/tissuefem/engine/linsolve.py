@@ -256,7 +256,6 @@ class ReusedFactorization:
                 box["factor"] = self.direct.factorize(A)
             except Exception:  # a failed refresh only means the old factorization stays
                 box["factor"] = None
-
         thread = threading.Thread(target=work, name="tissuefem-refactorize", daemon=True)
         self._pending = (thread, box)
         thread.start()

@@ -109,7 +109,6 @@ def folded_triangles(p, t) -> np.ndarray:
     def side(o):
         c = p[:, o]
         return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
-
     s1, s2 = side(opposite[same]), side(opposite[same + 1])
     copies = (p[:, opposite[same]] == p[:, opposite[same + 1]]).all(axis=0)
     bad = same[(s1 * s2 > 0) & ~copies]
@@ -141,7 +140,6 @@ def check_mesh(p, t, name: str = "mesh", *, unused_nodes: str = "refuse", cut: b
     """
     def refuse(message):
         raise ParameterError(name, f"{name}: {message}")
-
     try:
         p_arr, t_arr = np.asarray(p), np.asarray(t)
     except (TypeError, ValueError):
@@ -337,7 +335,6 @@ def fusiform_muscle(length=4.0, max_width=1.0, tendon_width=0.25, nx=40, ny=8, d
 
     def at_end(m):
         return (np.abs(m[0]) < tx) | (np.abs(m[0] - length) < tx)
-
     return _structured_mesh(XI, ETA * w, nx, ny, diagonal).with_boundaries({
         "left_tendon": lambda m: np.abs(m[0]) < tx,
         "right_tendon": lambda m: np.abs(m[0] - length) < tx,

@@ -288,7 +288,6 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
 
     def out_of_time():  # the budget: no new assembly or solve once it is spent (the first iteration always runs)
         return timed and clock() - start >= budget
-
     history: list[NewtonIteration] = []
     g = np.asarray(gradient(x), dtype=float)
     rnorm = r0 = float(np.linalg.norm(g[mask]))
@@ -300,7 +299,6 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
     def result(status, k):
         return NewtonResult(x, status == "converged", status, k, rnorm, r0, target, E, E_start,
                             stats["linear"], stats["factorizations"], history)
-
     if not np.isfinite(rnorm):
         return result("non-finite", 0)
     for k in range(max_iterations + 1):
