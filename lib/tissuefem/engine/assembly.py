@@ -86,12 +86,9 @@ class P1Assembler(_FixedPattern):
     ``(0, 1]`` of its triangle's area that each element's material fills (elements made by cutting through a triangle
     keep its shape functions but carry only the material on their side of the cut).
 
-    Attributes: ``n_nodes, n_elements, n_dofs = 2 n_nodes``; ``t`` ``(3, n_elements)`` counter-clockwise and
-    ``flipped``, the elements reoriented to make it so; ``areas`` ``(n_elements,)``, the material's reference areas
-    (triangle area times weight); ``grads`` ``(n_elements, 3, 2)``, ``dN_a/dX_j`` of vertex ``a`` of ``t[:, e]``;
-    ``element_dofs`` ``(6, n_elements)``, row ``2 a + i`` the dof ``2 t[a, e] + i``; ``indptr, indices``, the fixed CSR
-    pattern (read-only, shared by every matrix returned); ``scatter`` ``(6, 6, n_elements)``, the data position of local
-    entry ``(2a+i, 2b+k)``.
+    Attributes: ``n_nodes, n_elements, n_dofs = 2 n_nodes``; ``t`` ``(3, n_elements)`` counter-clockwise (``flipped``:
+    the elements reoriented); ``areas`` ``(n_elements,)`` (triangle area times weight); ``element_dofs``
+    ``(6, n_elements)``, row ``2 a + i`` the dof ``2 t[a, e] + i``; ``indptr, indices``, the fixed CSR pattern.
     """
 
     def __init__(self, mesh, material=None, weights=None):
@@ -234,17 +231,12 @@ class P1Assembler(_FixedPattern):
 
     def residual_and_tangent(self, u, material=None):
         """``(residual(u), tangent(u))`` from one evaluation of ``F``."""
-        m = self._material(material)
-        F = self._F(self._check_u(u))
+        m, F = self._material(material), self._F(self._check_u(u))
         return self._residual_from_F(m, F), self._tangent_from_F(m, F)
 
     def mass(self, density, lumped: bool = True) -> np.ndarray:
-        """The mass matrix ``M_(a,i)(b,k) = int rho0 N_a N_b d_ik dX`` as data on this pattern.
-
-        Per element the consistent P1 mass is ``rho0 A_e (1 + d_ab) / 12``; lumped, each vertex gets ``rho0 A_e / 3``
-        (the row sum). ``A_e`` is the element's material area, so copies made by cutting a triangle carry the mass of
-        their part only.
-        """
+        """The mass matrix ``M_(a,i)(b,k) = int rho0 N_a N_b d_ik dX`` as data on this pattern: per element
+        ``rho0 A_e (1 + d_ab) / 12``, lumped ``rho0 A_e / 3`` per vertex (the row sum), ``A_e`` the material area."""
         rho = check_density(density)
         data = np.zeros(self.nnz)
         if lumped:

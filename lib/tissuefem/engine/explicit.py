@@ -7,8 +7,8 @@ consistent mass) the inverse is free, and symplectic (semi-implicit) Euler needs
     u^{n+1} = u^n + dt v^{n+1}                          (drift: with the *new* velocity)
 
 on the free dofs; the handles' dofs are set to their targets, with the velocity ``(u_prescribed^{n+1} - u^n) / dt``.
-A step is one internal-force evaluation and no linear algebra. The new velocity in the drift makes the scheme
-symplectic: for one mode of angular frequency ``omega`` it keeps the *modified* energy
+A step is one internal-force evaluation, no linear algebra. The new velocity in the drift makes it symplectic: for one
+mode of angular frequency ``omega`` it keeps the *modified* energy
 ``I = 1/2 (v^2 + omega^2 x^2 - dt omega^2 x v)`` exactly, so the true energy stays between ``I / (1 + dt omega / 2)``
 and ``I / (1 - dt omega / 2)`` instead of drifting (as forward and backward Euler's do).
 
@@ -172,11 +172,9 @@ def wave_speed(material, density: float = 1.0) -> float:
 
 def _initial_perturbation(model, amplitude: float, seed: int) -> np.ndarray:
     """A seeded random displacement of the free dofs (``amplitude h`` at most), handles at their targets."""
-    fixed, values = model.prescribed()
-    u0 = model.zeros()
+    (fixed, values), u0 = model.prescribed(), model.zeros()
     free = _free_dofs(u0.size, fixed)
-    rng = np.random.default_rng(seed)
-    u0[free] = amplitude * mesh_size(model.mesh) * rng.uniform(-1.0, 1.0, size=free.size)
+    u0[free] = amplitude * mesh_size(model.mesh) * np.random.default_rng(seed).uniform(-1.0, 1.0, size=free.size)
     u0[fixed] = values
     return u0
 

@@ -61,8 +61,7 @@ def diagonal(s) -> np.ndarray:
 
 def _project_sym2(a, b, d, floor):
     """Clamp the eigenvalues of the symmetric 2x2 blocks ``[[a, b], [b, d]]`` at ``floor`` (closed form)."""
-    mean = 0.5 * (a + d)
-    rad = np.hypot(0.5 * (a - d), b)
+    mean, rad = 0.5 * (a + d), np.hypot(0.5 * (a - d), b)
     lam_hi, lam_lo = mean + rad, mean - rad
     # unit eigenvector of lam_hi: (cos t, sin t) with t = atan2(2b, a - d) / 2 (well defined; rad = 0 -> any)
     t = 0.5 * np.arctan2(2.0 * b, a - d)
@@ -167,10 +166,9 @@ class ProjectedTangent:
 class ITFClamped:
     """An isotropic material made invertible after Irving, Teran and Fedkiw (2004/2006).
 
-    The energy is evaluated in diagonal space, ``Psi(F) = Psi_hat(s)`` with the rotation-preserving SVD
-    ``F = U diag(s) V^T`` (``s0 >= |s1|``; ``s1 < 0`` for an inverted element), and the stress is
-    ``P = U diag(psi) V^T`` with ``psi_i = dPsi_hat/ds_i``. Below the compression threshold ``c`` the base model is
-    *extrapolated* from the threshold:
+    In diagonal space ``Psi(F) = Psi_hat(s)`` (rotation-preserving SVD ``F = U diag(s) V^T``, ``s1 < 0`` for an inverted
+    element) and ``P = U diag(psi) V^T``, ``psi_i = dPsi_hat/ds_i``. Below the compression threshold ``c`` the base model
+    is *extrapolated* from the threshold:
 
     * ``s1 >= c`` (the usual case): the base model itself.
     * ``s1 < c <= s0`` (one direction crushed, flat or inverted): first-order in ``d1 = s1 - c`` from ``(s0, c)``
@@ -184,10 +182,9 @@ class ITFClamped:
     inversion (spring ``k``), so an element crushed to a point or turned inside out is still pushed back, and ``F = 0``
     is not an equilibrium.
 
-    The tangent is assembled in diagonal space and, with ``project=True`` (the default), projected to be positive
-    semi-definite: where ``s0 + s1 = 0`` the energy has a kink of unbounded curvature. ``project=False`` gives the
-    exact Hessian (away from the kink; region ``s1 < c <= s0`` takes the base model's third derivative by a central
-    difference of its tangent).
+    ``project=True`` (the default) projects the tangent to be positive semi-definite (where ``s0 + s1 = 0`` the energy
+    has a kink of unbounded curvature); ``project=False`` gives the exact Hessian away from the kink (for
+    ``s1 < c <= s0`` with the base model's third derivative by a central difference of its tangent).
 
     Only the ``ln J`` :class:`~tissuefem.engine.materials.NeoHookean`: a stretched element (``s0`` large) with ``s1``
     below the threshold feels ``psi_1(s0, c) > 0`` (it wants ``s1 ~ 1/s0``), and the spring bounds the energy below

@@ -239,8 +239,7 @@ class ReusedFactorization:
         """Take a finished background factorization (one of the current shape) as the preconditioner."""
         if self._pending is None or self._pending[0].is_alive():
             return
-        _, box = self._pending
-        self._pending = None
+        box, self._pending = self._pending[1], None
         if box.get("factor") is not None and box["shape"] == self._shape:
             self._factor, self._stale = box["factor"], False
             self.background_factorizations += 1
@@ -248,8 +247,7 @@ class ReusedFactorization:
     def _refresh_in_background(self, A) -> None:
         if self._pending is not None:
             return
-        A = A.copy()
-        box = {"shape": A.shape}
+        A, box = A.copy(), {"shape": A.shape}
 
         def work():
             try:
@@ -426,9 +424,7 @@ class LinearInfo:
 
 
 class LinearSolver:
-    """How Newton solves ``A dx = b``: which backend, and when to factorize.
-
-    ``method`` is one of:
+    """How Newton solves ``A dx = b``: which backend, and when to factorize. ``method`` is one of:
 
     * ``"direct"``: a fresh :class:`SuperLU` factorization for every solve: exact Newton;
     * a backend name of :func:`make`: that backend, afresh for every solve;
@@ -439,13 +435,11 @@ class LinearSolver:
       tangent again -- exact when the tangent is constant (linear elasticity, springs): one back-substitution;
     * a backend object (with ``factorize``) or a :class:`ReusedFactorization`.
 
-    A kept factorization belongs to one set of free dofs and one matrix pattern and is dropped when either changes,
-    or by :meth:`invalidate` (when the time step changes).
+    A kept factorization is dropped when the free dofs or the pattern change, or by :meth:`invalidate`.
     """
 
     def __init__(self, method="reuse"):
-        self.method = method
-        self.constant = False
+        self.method, self.constant = method, False
         if isinstance(method, str):
             if method == "direct":
                 self.backend = SuperLU()

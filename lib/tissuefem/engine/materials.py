@@ -190,11 +190,9 @@ class TaylorNeoHookean(_NeoHookeanFamily):
 
     ``r(J) = (J-1) - (J-1)^2/2 + (J-1)^3/3`` (:func:`tissuefem.engine.materials1d.taylor_log`),
     ``Psi = mu/2 (F:F - 2) - mu r(J) + lam/2 r(J)^2``. So ``h = -mu r + lam/2 r^2``, ``h' = (lam r - mu) r'`` and
-    ``h'' = lam r'^2 + (lam r - mu) r''``, giving
-
-        P = mu F + (lam r(J) - mu) r'(J) cof F,   cof F = [[F22, -F21], [-F12, F11]]
-
-    (1-based; the notes print the adjugate). ``r(1) = 0``, ``r'(1) = 1``, ``r''(1) = -1`` reproduce the Neo-Hookean
+    ``h'' = lam r'^2 + (lam r - mu) r''``: ``P = mu F + (lam r(J) - mu) r'(J) cof F`` with
+    ``cof F = [[F22, -F21], [-F12, F11]]`` (1-based; the notes print the adjugate ``[[F22, -F12], [-F21, F11]]``,
+    which fails the finite-difference check). ``r(1) = 0``, ``r'(1) = 1``, ``r''(1) = -1`` reproduce the Neo-Hookean
     values at ``J = 1``: linear elasticity in the small-strain limit. Finite for every F.
     """
 
@@ -210,9 +208,7 @@ class StableNeoHookean(_NeoHookeanFamily):
     """Stable Neo-Hookean (Smith, de Goes, Kim, ACM TOG 37(2), 2018), 2D form without the log term.
 
     ``Psi = mu/2 (F:F - 2) + lam_s/2 (J - alpha)^2 - mu^2 / (2 lam_s)`` with ``lam_s = lam + mu`` and
-    ``alpha = 1 + mu / lam_s``; the constant makes ``Psi(I) = 0`` (the paper's energy has ``Psi(I) = mu^2 / (2 lam_s)``;
-    a constant changes neither stress nor tangent).
-
+    ``alpha = 1 + mu / lam_s``; the constant makes ``Psi(I) = 0`` (the paper's has ``Psi(I) = mu^2 / (2 lam_s)``).
     ``h' = lam_s (J - alpha)``, ``h'' = lam_s``: ``P = mu F + lam_s (J - alpha) cof F``. At ``J = 1``, ``h'(1) = -mu``
     (rest is stress free: that fixes alpha) and ``h''(1) = lam_s = lam + mu`` (what linearises to linear elasticity with
     ``(lam, mu)``, module docstring: that fixes lam_s). ``lam_s > 0`` since ``lam > -2 mu / 3``. Finite for every F, no
@@ -266,11 +262,7 @@ class Corotated(Material):
     form in 2D, :func:`_polar_rotation`).
 
     Stress: ``d||F - R||^2 = 2 (F - R):dF - 2 (F - R):dR`` and ``(F - R):dR = (S - I):(R^T dR) = 0`` (symmetric against
-    skew), so
-
-        P = 2 mu (F - R) + lam (J - 1) cof F.
-
-    Tangent: ``R`` depends on F only through ``theta``, ``dR = R' dtheta`` with
+    skew), so ``P = 2 mu (F - R) + lam (J - 1) cof F``. Tangent: ``R`` depends on F only through ``theta``, ``dR = R' dtheta`` with
     ``R' = dR/dtheta = [[-s, -c], [c, -s]]``. From ``theta = atan2(y, x)``, ``dtheta = (x dy - y dx)/rho^2`` with
     ``dx/dF = I``, ``dy/dF = [[0, -1], [1, 0]]``, which simplifies to ``dtheta/dF = R'/rho``. Hence
     ``dR_ij/dF_kl = R'_ij R'_kl / rho`` and
@@ -399,10 +391,9 @@ class FiberReinforced(Material):
     At ``F = I``, ``A_fiber = k g (x) g (x) g (x) g``, so ``A_ffff`` gains exactly k. The fibre term resists compression
     as well as stretch (no tension-only switch).
 
-    ``base`` is any :class:`Material` (another ``FiberReinforced`` gives a second fibre family), ``stiffness`` is
-    ``k >= 0``, finite, and ``fibers`` the directions, normalised here: shape ``(2,)`` (uniform), ``(2, n_elements)``
-    (per element) or ``(2, n_elements, n_points)`` (per quadrature point); ``(2, *g_shape)`` is aligned with the
-    *leading* axes of ``F.shape[2:]`` and must broadcast to it.
+    ``base`` is any :class:`Material` (another ``FiberReinforced`` adds a second family), ``stiffness`` is ``k >= 0``,
+    ``fibers`` the directions (normalised here) ``(2,)``, ``(2, n_elements)`` or ``(2, n_elements, n_points)``,
+    aligned with the *leading* axes of ``F.shape[2:]``.
     """
 
     def __init__(self, base: Material, stiffness, fibers):
