@@ -229,7 +229,6 @@ class Bar1D:
             u = result.x
         return u, results
 
-    # --- errors against a closed form ----------------------------------------
     def errors(self, u, exact: Callable, exact_derivative: Callable) -> tuple[float, float]:
         """``(||u - u_exact||_L2, |u - u_exact|_H1)`` by quadrature."""
         @Functional

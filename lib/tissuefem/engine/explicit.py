@@ -130,8 +130,6 @@ class SymplecticEuler:
             return self.kinetic_energy() + self.model.stored_energy(self.u) - float(self.external @ self.u)
 
 
-# --- the stability limit ------------------------------------------------------------------------
-
 def critical_time_step(model, u=None) -> float:
     """The linearised stability limit of :class:`SymplecticEuler`, ``dt_crit = 2 / omega_max`` at ``u`` (default:
     rest; a compressed ``ln J`` material stiffens a lot).

@@ -161,8 +161,6 @@ class ProjectedTangent:
         return f"ProjectedTangent({self.material!r}, floor={self.floor:g}, adaptive={self.adaptive})"
 
 
-# --- the ITF compression threshold: clamping and extrapolation ------------------------------------
-
 class ITFClamped:
     """An isotropic material made invertible after Irving, Teran and Fedkiw (2004/2006).
 
@@ -304,7 +302,7 @@ class ITFClamped:
         A[0, 1, 1, 0][sub] = A[1, 0, 0, 1][sub] = 0.5 * (twist - flip)
         return A
 
-    # --- the material interface (F shaped [2, 2, *rest], also a single 2x2) -------------------------
+    # the material interface (F shaped [2, 2, *rest], also a single 2x2)
     @staticmethod
     def _field(F):
         F = np.asarray(F, dtype=float)

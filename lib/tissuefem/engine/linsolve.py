@@ -64,9 +64,7 @@ class _LUFactor:
     def solve(self, b) -> np.ndarray:
         b = np.asarray(b, dtype=float)
         x = self._lu.solve(b)
-        if self._A is not None:
-            # diagonal pivots without a threshold can lose accuracy on an indefinite matrix: check the
-            # residual once and, if it is poor, refactorize with partial pivoting for good
+        if self._A is not None:  # diagonal pivots may lose accuracy on an indefinite matrix: check the residual once
             if not np.all(np.isfinite(x)) or np.linalg.norm(self._A @ x - b) > 1e-8 * np.linalg.norm(b):
                 self._lu = spla.splu(self._A, permc_spec=self._ordering)
                 x = self._lu.solve(b)

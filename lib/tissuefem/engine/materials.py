@@ -399,11 +399,9 @@ class FiberReinforced(Material):
     def __init__(self, base: Material, stiffness, fibers):
         if not isinstance(base, Material):
             raise ParameterError("base", f"base must be a Material instance, got {base!r}")
-        self.base = base
-        self.stiffness = check_fiber_stiffness(stiffness, "stiffness")
+        self.base, self.stiffness = base, check_fiber_stiffness(stiffness, "stiffness")
         self.fibers = self._check_fibers(fibers)
-        self.lam, self.mu = base.lam, base.mu
-        self.inversion_safe = base.inversion_safe
+        self.lam, self.mu, self.inversion_safe = base.lam, base.mu, base.inversion_safe
         self.name = f"{base.name} + fibers"
 
     @staticmethod
@@ -431,20 +429,15 @@ class FiberReinforced(Material):
 
     def _g(self, rest) -> np.ndarray:
         """Fibres shaped to broadcast against ``F.shape[2:] = rest`` (aligned on the leading axes)."""
-        g = self.fibers
-        gshape = g.shape[1:]
-        rest = tuple(rest)
-        mismatch = ParameterError("fibers", f"fibers of shape {g.shape} do not match F with trailing shape {rest}")
-        if len(gshape) > len(rest):
-            raise mismatch
-        g = g.reshape((2,) + gshape + (1,) * (len(rest) - len(gshape)))
+        g, rest = self.fibers, tuple(rest)
+        extra = len(rest) - (g.ndim - 1)
         try:
-            ok = np.broadcast_shapes(g.shape[1:], rest) == rest
+            ok = extra >= 0 and np.broadcast_shapes(g.shape[1:] + (1,) * extra, rest) == rest
         except ValueError:
             ok = False
         if not ok:
-            raise mismatch
-        return g
+            raise ParameterError("fibers", f"fibers of shape {g.shape} do not match F with trailing shape {rest}")
+        return g.reshape(g.shape + (1,) * extra)
 
     def energy(self, F):
         F = _as_F(F)

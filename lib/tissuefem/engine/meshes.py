@@ -379,7 +379,6 @@ def fusiform_fiber_field(mesh, length=None, max_width=None, tendon_width=None) -
     return fusiform_fiber_direction(centroid, length, max_width, tendon_width)
 
 
-# --- maps between meshes ---
 @dataclass(frozen=True, eq=False, kw_only=True)
 class MeshMap:
     """A new ``mesh`` and the maps back to the old one after a topology change (a cut, an excision): what a model
