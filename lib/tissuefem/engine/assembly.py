@@ -18,9 +18,8 @@ The dofs of node ``n`` are ``(2 n, 2 n + 1)`` (x then y), scikit-fem's order for
 
 Choices (measured at 8k triangles on the 2-core reference machine):
 
-* **Orientation.** scikit-fem sorts each triangle's vertices, so about half are clockwise; P1 gradients and areas do
-  not depend on the order, so they are *reoriented* in the assembler's copy ``self.t`` (``self.flipped``).
-  Degenerate and folded triangles, which no reorientation repairs, are refused (:func:`~.meshes.check_mesh`).
+* **Orientation.** scikit-fem sorts each triangle's vertices, so about half are clockwise: they are *reoriented* in
+  the assembler's copy ``self.t`` (``self.flipped``); degenerate and folded triangles are refused.
 * **Scatter.** ``np.bincount`` with weights ~0.45 ms, ``np.add.at`` ~0.57 ms, a sparse 0/1 scatter-matrix product
   ~0.3 ms (no better at 32k), sort + ``np.add.reduceat`` ~2 ms: bincount is simple and needs no extra matrix.
 * **Local matrices.** One plain ``einsum`` on element-last arrays, ~0.6 ms; ``optimize=True`` is ten times slower.
@@ -42,8 +41,7 @@ __all__ = ["P1Assembler", "QuadratureAssembler", "FormsAssembler", "make_assembl
 
 class _FixedPattern:
     """What the assemblers share: a default ``material`` and a fixed CSR pattern (``indptr``, ``indices``: shared by
-    every matrix returned, read-only, so in-place pattern changes such as ``eliminate_zeros`` raise instead of
-    corrupting it; use ``K.copy()``)."""
+    every matrix returned and read-only, so ``eliminate_zeros`` and the like raise instead of corrupting it)."""
 
     def _material(self, material):
         m = self.material if material is None else material

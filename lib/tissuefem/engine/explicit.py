@@ -13,12 +13,9 @@ mode of angular frequency ``omega`` it keeps the *modified* energy
 and ``I / (1 - dt omega / 2)`` instead of drifting (as forward and backward Euler's do).
 
 **Stability.** Linearised about rest (``f_int ~ K u``), a mode ``K x = omega^2 M x`` steps by a linear map of
-``(x, v)`` with determinant 1 and trace ``2 - (dt omega)^2``; its eigenvalues stay on the unit circle while
-``dt <= 2 / omega``, and beyond it the mode grows geometrically from round-off. So
-
-    dt <= dt_crit = 2 / omega_max,   omega_max^2 = largest eigenvalue of M^{-1} K   (free dofs),
-
-:func:`critical_time_step`. (Backward Euler has no such limit; it pays with numerical damping.) **CFL:** the fastest
+``(x, v)`` with determinant 1 and trace ``2 - (dt omega)^2``, stable while ``dt <= 2 / omega`` (beyond, the mode grows
+geometrically from round-off): ``dt <= dt_crit = 2 / omega_max``, ``omega_max^2`` the largest eigenvalue of
+``M^{-1} K`` on the free dofs (:func:`critical_time_step`; backward Euler has no such limit, it damps). **CFL:** the fastest
 mode is a wave across one element, ``omega_max ~ c / h`` with the P-wave speed ``c = sqrt((lambda + 2 mu) / rho0)``,
 so ``dt <= C h / c`` with a Courant number ``C`` of order one, and one simulated second costs ``h^-3`` in 2D. For the
 notes' tissue (``c ~ 37``) a 1/30 s frame needs ``h`` of the order of a metre: an explicit real-time simulator must
@@ -147,12 +144,11 @@ def critical_time_step(model, u=None) -> float:
     K = model.hessian(u).tocsr()[free][:, free]
     scale = sp.diags(1.0 / np.sqrt(m[free]))
     A = (scale @ K @ scale).tocsr()
-    A = 0.5 * (A + A.T)
+    A = 0.5 * (A + A.T)  # symmetric to round-off
     if free.size <= 400:
         omega2 = float(np.linalg.eigvalsh(A.toarray())[-1])
     else:
-        omega2 = float(eigsh(A, k=1, which="LA", v0=np.ones(free.size), tol=1e-10,
-                             return_eigenvectors=False)[0])
+        omega2 = float(eigsh(A, k=1, which="LA", v0=np.ones(free.size), tol=1e-10, return_eigenvectors=False)[0])
     if not (np.isfinite(omega2) and omega2 > 0):
         raise ParameterError("u", f"the stiffness at u has no positive eigenvalue (omega_max^2 = {omega2!r})")
     return float(2.0 / np.sqrt(omega2))

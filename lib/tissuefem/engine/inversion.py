@@ -14,14 +14,13 @@ and with ``a1 = atan2(Ga, Fa)``, ``a2 = atan2(H, E)``: ``U = rot((a1 + a2)/2)``,
 ``[[cos(u + v), sin(u + v)], [sin(u + v), -cos(u + v)]]``. No branch, no iteration, finite for every F (at F = 0
 every rotation is a valid answer).
 
-**The definiteness fix** (Teran, Sifakis, Irving, Fedkiw 2005). For an isotropic material
-``A(F) = (U x V) A_hat(S) (U x V)^T`` with ``A_hat = A(diag(s))``. In the basis ``(dF_00, dF_11 | dF_01, dF_10)``
-``A_hat`` is block diagonal: a 2x2 *stretch* block (the Hessian of ``Psi`` in the singular values) and a 2x2
-*twist/flip* block ``[[b, c], [c, b]]`` with eigenvalues ``b + c = (psi0 - psi1)/(s0 - s1)`` (twist) and
-``b - c = (psi0 + psi1)/(s0 + s1)`` (flip), ``psi_i = dPsi/ds_i``. Clamping each block's negative eigenvalues and
-rotating back gives the closest positive semi-definite tangent, so Newton always finds a descent direction.
-``A_hat`` is the material's own tangent at the diagonal ``F`` (not divided differences): nothing divides 0 by 0 when
-``s0 = s1``.
+**The definiteness fix** (Teran, Sifakis, Irving, Fedkiw 2005). For an isotropic material ``A(F) = (U x V) A_hat(S)
+(U x V)^T``, ``A_hat = A(diag(s))``, block diagonal in the basis ``(dF_00, dF_11 | dF_01, dF_10)``: a 2x2 *stretch*
+block (the Hessian of ``Psi`` in the singular values) and a 2x2 *twist/flip* block ``[[b, c], [c, b]]`` with
+eigenvalues ``b + c = (psi0 - psi1)/(s0 - s1)`` (twist) and ``b - c = (psi0 + psi1)/(s0 + s1)`` (flip),
+``psi_i = dPsi/ds_i``. Clamping each block's negative eigenvalues and rotating back gives the closest positive
+semi-definite tangent, so Newton always finds a descent direction. ``A_hat`` is the material's own tangent at the
+diagonal ``F`` (not divided differences): nothing divides 0 by 0 when ``s0 = s1``.
 """
 
 from __future__ import annotations
@@ -131,9 +130,8 @@ class ProjectedTangent:
     Energy and stress are the wrapped material's: the same equilibrium, only the search direction changes (always
     downhill). ``adaptive=True`` projects only when Newton needs it: ``tangent`` is then the exact one (quadratic
     convergence where the Hessian is positive definite, as it usually is away from inversion) and ``safe_tangent`` the
-    projection, which the minimiser assembles when the exact direction does not point downhill. Clamping every
-    element's negative curvature in every step costs Newton its quadratic convergence: on chapter 8's drag with the
-    stable neo-Hookean model, about 7 Newton steps a frame instead of 2.
+    projection, for when the exact direction is not downhill. Clamping in every step costs Newton its quadratic
+    convergence: about 7 Newton steps a frame instead of 2 on chapter 8's drag (stable neo-Hookean).
     """
 
     def __init__(self, material, floor: float = 0.0, adaptive: bool = False):
@@ -212,7 +210,7 @@ class ITFClamped:
         self._psi_cc = float(np.asarray(material.energy(D)).ravel()[0])
         self._g_cc = float(np.asarray(material.stress(D))[0, 0, 0])
         self._h01_cc = float(A[0, 0, 1, 1, 0])
-        self.stiffness = k = check_real("stiffness", A[1, 1, 1, 1, 0] if stiffness is None else stiffness, 0.0,
+        self.stiffness = check_real("stiffness", A[1, 1, 1, 1, 0] if stiffness is None else stiffness, 0.0,
                                         lo_open=True)
         self.name = f"ITF-clamped {material.name}"
 

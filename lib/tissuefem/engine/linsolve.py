@@ -260,13 +260,11 @@ class ReusedFactorization:
         self._factor, self._shape, self._stale = self.direct.factorize(A), A.shape, False
         self.factorizations += 1
         x = self._factor.solve(b)
-        res = float(np.linalg.norm(b - A @ x))
-        return x, SolveInfo(0, True, bool(np.all(np.isfinite(x))), res, reason)
+        return x, SolveInfo(0, True, bool(np.all(np.isfinite(x))), float(np.linalg.norm(b - A @ x)), reason)
 
     def solve(self, A, b, *, atol: float = 0.0, rtol: float = 1e-10, refactorize: bool = False,
               should_stop=None) -> tuple[np.ndarray, SolveInfo]:
-        A = _square(A)
-        b = _rhs(b, A.shape[0])
+        A, b = _square(A), _rhs(b, A.shape[0])
         if refactorize:
             return self._refactorize(A, b, "forced")
         if self._factor is None:
@@ -298,14 +296,11 @@ class ReusedFactorization:
                 f"max_iterations={self.max_iterations})")
 
 
-# --- conjugate gradients as a backend ---------------------------------------------------------
-
 class _CGFactor:
     def __init__(self, A, precondition, rtol, max_iterations):
         self._A, self._precondition = A, precondition
         self.rtol, self.max_iterations = rtol, max_iterations
-        self.iterations = 0  # CG iterations of all solves with this matrix
-        self.converged = True
+        self.iterations, self.converged = 0, True  # over all solves with this matrix
 
     def solve(self, b) -> np.ndarray:
         result = pcg(self._A, _rhs(b, self._A.shape[0]), self._precondition, rtol=self.rtol,

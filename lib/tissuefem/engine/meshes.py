@@ -362,8 +362,7 @@ def fusiform_fiber_field(mesh, length=None, max_width=None, tendon_width=None) -
     """Unit fiber directions (2, n_elements) of a :func:`fusiform_muscle` mesh, :func:`fusiform_fiber_direction` at
     each centroid. ``length``, ``max_width``, ``tendon_width`` left as ``None`` are read off the mesh (its x-extent,
     y-extent, and the y-extent of the left tendon's nodes): exact for meshes from :func:`fusiform_muscle`."""
-    p = np.asarray(mesh.p, dtype=float)
-    t = np.asarray(mesh.t)
+    p, t = np.asarray(mesh.p, dtype=float), np.asarray(mesh.t)
     if p.ndim != 2 or p.shape[0] != 2 or t.ndim != 2 or t.shape[0] != 3:
         raise ParameterError("mesh", "mesh must be a 2D triangle mesh (p shaped (2, n), t shaped (3, n))")
     if not np.all(np.isfinite(p)):
