@@ -15,11 +15,11 @@ and ``I / (1 - dt omega / 2)`` instead of drifting (as forward and backward Eule
 **Stability.** Linearised about rest (``f_int ~ K u``), a mode ``K x = omega^2 M x`` steps by a linear map of
 ``(x, v)`` with determinant 1 and trace ``2 - (dt omega)^2``, stable while ``dt <= 2 / omega`` (beyond, the mode grows
 geometrically from round-off): ``dt <= dt_crit = 2 / omega_max``, ``omega_max^2`` the largest eigenvalue of
-``M^{-1} K`` on the free dofs (:func:`critical_time_step`; backward Euler has no such limit, it damps). **CFL:** the fastest
-mode is a wave across one element, ``omega_max ~ c / h`` with the P-wave speed ``c = sqrt((lambda + 2 mu) / rho0)``,
-so ``dt <= C h / c`` with a Courant number ``C`` of order one, and one simulated second costs ``h^-3`` in 2D. For the
-notes' tissue (``c ~ 37``) a 1/30 s frame needs ``h`` of the order of a metre: an explicit real-time simulator must
-sub-step. :func:`largest_stable_dt` measures the limit by experiment (chapter 7 checks ``dt ~ h``).
+``M^{-1} K`` on the free dofs (:func:`critical_time_step`; backward Euler has no such limit, it damps).
+**CFL:** the fastest mode is a wave across one element, ``omega_max ~ c / h`` with the P-wave speed
+``c = sqrt((lambda + 2 mu) / rho0)``, so ``dt <= C h / c`` with a Courant number ``C`` of order one, and one simulated
+second costs ``h^-3`` in 2D. For the notes' tissue (``c ~ 37``) a 1/30 s frame needs ``h`` of the order of a metre: an
+explicit real-time simulator must sub-step. :func:`largest_stable_dt` measures the limit (chapter 7 checks ``dt ~ h``).
 """
 
 from __future__ import annotations

@@ -162,9 +162,9 @@ class ProjectedTangent:
 class ITFClamped:
     """An isotropic material made invertible after Irving, Teran and Fedkiw (2004/2006).
 
-    In diagonal space ``Psi(F) = Psi_hat(s)`` (rotation-preserving SVD ``F = U diag(s) V^T``, ``s1 < 0`` for an inverted
-    element) and ``P = U diag(psi) V^T``, ``psi_i = dPsi_hat/ds_i``. Below the compression threshold ``c`` the base model
-    is *extrapolated* from the threshold:
+    In diagonal space ``Psi(F) = Psi_hat(s)`` (rotation-preserving SVD ``F = U diag(s) V^T``, ``s1 < 0`` for an
+    inverted element) and ``P = U diag(psi) V^T``, ``psi_i = dPsi_hat/ds_i``. Below the compression threshold ``c``
+    the base model is *extrapolated* from the threshold:
 
     * ``s1 >= c`` (the usual case): the base model itself.
     * ``s1 < c <= s0`` (one direction crushed, flat or inverted): first-order in ``d1 = s1 - c`` from ``(s0, c)``

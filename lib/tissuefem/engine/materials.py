@@ -262,10 +262,10 @@ class Corotated(Material):
     form in 2D, :func:`_polar_rotation`).
 
     Stress: ``d||F - R||^2 = 2 (F - R):dF - 2 (F - R):dR`` and ``(F - R):dR = (S - I):(R^T dR) = 0`` (symmetric against
-    skew), so ``P = 2 mu (F - R) + lam (J - 1) cof F``. Tangent: ``R`` depends on F only through ``theta``, ``dR = R' dtheta`` with
-    ``R' = dR/dtheta = [[-s, -c], [c, -s]]``. From ``theta = atan2(y, x)``, ``dtheta = (x dy - y dx)/rho^2`` with
-    ``dx/dF = I``, ``dy/dF = [[0, -1], [1, 0]]``, which simplifies to ``dtheta/dF = R'/rho``. Hence
-    ``dR_ij/dF_kl = R'_ij R'_kl / rho`` and
+    skew), so ``P = 2 mu (F - R) + lam (J - 1) cof F``. Tangent: ``R`` depends on F only through ``theta``,
+    ``dR = R' dtheta`` with ``R' = dR/dtheta = [[-s, -c], [c, -s]]``. From ``theta = atan2(y, x)``,
+    ``dtheta = (x dy - y dx)/rho^2`` with ``dx/dF = I``, ``dy/dF = [[0, -1], [1, 0]]``, which simplifies to
+    ``dtheta/dF = R'/rho``. Hence ``dR_ij/dF_kl = R'_ij R'_kl / rho`` and
 
         A = 2 mu (I4 - R' (x) R' / rho) + lam cof F (x) cof F + lam (J - 1) H.
 

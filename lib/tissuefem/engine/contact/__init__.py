@@ -5,7 +5,8 @@
 when a pair appears that it lacks (:meth:`Contact.covers`). Newton's line search and the stepper's warm start take at
 most :meth:`Contact.max_step` of a step, so no state on the far side of a surface is reached; handles dragging tissue
 through tissue are obeyed and the crossings counted (:meth:`Contact.begin_step`). The pieces: :mod:`.surface`,
-:mod:`.barrier`, :mod:`.candidates` (signed gaps; which pairs may touch), :mod:`.collision` (times of impact). References:
+:mod:`.barrier`, :mod:`.candidates` (signed gaps; which pairs may touch), :mod:`.collision` (times of impact).
+References:
 
 .. [1] M. Li et al., *Incremental Potential Contact: intersection- and inversion-free, large-deformation dynamics*,
    ACM Transactions on Graphics 39(4) (2020), 49.
