@@ -1,14 +1,10 @@
 """One-dimensional bars with scikit-fem: the notes' "1D elasticity" section (chapters 1-2).
 
-The bar occupies ``[a, b]`` in the reference configuration; the unknown is the displacement ``u(X)``, so
-``F = 1 + du/dX``. With Lagrange shape functions ``N_i`` the notes' discrete equations are
-
-* linear:      ``A u = F_ext + g``, ``A_ij = E1 int N_i' N_j' dX``;
-* nonlinear:   ``q_i(u) = int N_i' P(F(u)) dX - F_ext_i - g_i = 0``;
-
-with ``F_ext_i = int f N_i dX`` and the boundary term ``g_i = N_i(b) P(b) - N_i(a) P(a)``. Here ``E1 = lam + 2 mu``
-is the 1D modulus (the notes print ``2 mu - lam``) and the residual subtracts ``g`` (the notes print ``+ g_i`` in
-``q``, which contradicts their own linear system).
+The bar occupies ``[a, b]`` at rest; the unknown is the displacement ``u(X)``, ``F = 1 + du/dX``. With Lagrange shape
+functions ``N_i`` the notes' discrete equations are ``A u = F_ext + g``, ``A_ij = E1 int N_i' N_j' dX`` (linear) and
+``q_i(u) = int N_i' P(F(u)) dX - F_ext_i - g_i = 0`` (nonlinear), with ``F_ext_i = int f N_i dX`` and the boundary
+term ``g_i = N_i(b) P(b) - N_i(a) P(a)``. Here ``E1 = lam + 2 mu`` is the 1D modulus (the notes print ``2 mu - lam``)
+and the residual subtracts ``g`` (the notes print ``+ g_i`` in ``q``, which contradicts their own linear system).
 
 Each end is a :class:`Displacement` (Dirichlet) or a :class:`Traction`, the X component of the applied force per unit
 reference area, ``t = P n`` with ``n`` the outward normal (``t = P(b)`` at ``b``, ``t = -P(a)`` at ``a``): a positive

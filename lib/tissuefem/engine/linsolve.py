@@ -77,8 +77,8 @@ class SuperLU(_Direct):
     ``"MMD_ATA"`` or ``"NATURAL"``; ``symmetric``: SuperLU's symmetric mode, by default on for the first only.
 
     The minimum-degree ordering of ``A + A^T`` in symmetric mode (diagonal pivots) halves COLAMD's fill and factorizes
-    1.5-2.5x faster (23 ms against 43 ms at 8k triangles); without symmetric mode it is *slower* (173 ms). If the
-    diagonal pivots fail (a zero pivot, or a poor first residual) it refactorizes with partial pivoting.
+    1.5-2.5x faster (23 ms against 43 ms at 8k triangles; 173 ms without symmetric mode). If the diagonal pivots fail
+    (a zero pivot, or a poor first residual) it refactorizes with partial pivoting.
     """
 
     def __init__(self, ordering: str = "MMD_AT_PLUS_A", symmetric: bool | None = None):
@@ -213,9 +213,8 @@ class ReusedFactorization:
     thread on the second core (SuperLU releases the interpreter), adopted by the first solve after it has finished;
     iteration counts then depend on the machine's timing, so it is off by default.
 
-    ``solve(A, b, atol=..., rtol=...)`` returns ``(x, SolveInfo)``, ``backend(A, b)`` ``x`` alone; counters
-    ``factorizations`` (in the foreground), ``background_factorizations`` and ``cg_iterations`` accumulate.
-    """
+    ``solve(A, b, atol=..., rtol=...)`` returns ``(x, SolveInfo)``, ``backend(A, b)`` ``x`` alone; ``factorizations``
+    (in the foreground), ``background_factorizations`` and ``cg_iterations`` count."""
 
     def __init__(self, direct=None, refresh_after: int = 15, max_iterations: int = 40, background: bool = False,
                  background_after: int = 3):

@@ -5,9 +5,8 @@ scikit-fem's default sorts the vertex indices, which makes the orientation arbit
 (``mesh.boundaries[name]``, ready for ``basis.get_dofs(name)``). Structured meshes number their nodes row by row:
 node ``j (nx + 1) + i`` sits at column ``i`` and row ``j``.
 
-Limits, checked before anything is allocated: at most :data:`MAX_TRIANGLES` triangles (generated, or given to
-:func:`check_mesh`); lengths in :data:`SIZE_RANGE`; aspect ratios at most :data:`MAX_ASPECT`; node coordinates within
-``+-COORDINATE_MAX``.
+Limits, checked before anything is allocated: :data:`MAX_TRIANGLES`, :data:`SIZE_RANGE` (lengths),
+:data:`MAX_ASPECT`, :data:`COORDINATE_MAX`.
 """
 
 from __future__ import annotations

@@ -1,11 +1,8 @@
 """The one minimiser: Newton's method with an energy line search, safeguards, and an optional time budget.
 
-Every solve in tissuefem -- a 1D bar, a quasistatic load step, a backward-Euler step, a real-time frame -- is a call of
-:func:`newton`. The notes' iteration ("1D elasticity") is
-
-    dq/du (u^k) du = -q(u^k),    u^{k+1} = u^k + du,
-
-for the residual ``q``; when ``q`` is the gradient of an energy ``E`` (here always: the incremental potential of
+Every solve in tissuefem -- a 1D bar, a load step, a backward-Euler step, a real-time frame -- is a call of
+:func:`newton`: the notes' iteration ("1D elasticity") ``dq/du (u^k) du = -q(u^k)``, ``u^{k+1} = u^k + du`` for the
+residual ``q``. When ``q`` is the gradient of an energy ``E`` (here always: the incremental potential of
 :mod:`tissuefem.engine.stepping`) the safeguards make every step safe:
 
 * **line search** ``"energy"``: backtracking (Armijo) on ``E``, so an accepted iterate is finite and never worse than
@@ -262,9 +259,8 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
            step_limit: Callable[[np.ndarray, np.ndarray], float] | None = None) -> NewtonResult:
     """Minimise ``energy`` (or find a zero of ``gradient``) over the ``free`` dofs by Newton's method.
 
-    ``x0`` ``(n,)`` is the start (entries that are not ``free`` -- a mask or indices, default all -- are prescribed and
-    never change); ``gradient(x) -> (n,)`` the residual ``q`` and ``hessian(x)`` its sparse Jacobian; ``energy(x)``
-    ``E`` with ``gradient = dE/dx`` (needed by ``line_search="energy"``; ``energy0 = E(x0)`` if known).
+    ``x0`` ``(n,)`` is the start (dofs not ``free``, a mask or indices, are held); ``gradient(x) -> (n,)`` the residual
+    ``q``, ``hessian(x)`` its sparse Jacobian, ``energy(x)`` ``E`` with ``q = dE/dx`` (``energy0 = E(x0)`` if known).
 
     Converged when ``||q_free|| <= max(atol + rtol max(||q_free(x0)||, reference_norm), floor)``: ``reference_norm`` is
     the size of the load balanced when ``x0`` is already a good guess (a tiny start residual would ask for more than
