@@ -350,14 +350,9 @@ class PreconditionedCG(_Direct):
         return f"PreconditionedCG(preconditioner={self.preconditioner!r}, rtol={self.rtol})"
 
 
-BACKENDS = {
-    "superlu": lambda: SuperLU("MMD_AT_PLUS_A"),
-    "superlu-colamd": lambda: SuperLU("COLAMD"),
-    "pardiso": Pardiso,
-    "cg-jacobi": lambda: PreconditionedCG("jacobi"),
-    "cg-ilu": lambda: PreconditionedCG("ilu"),
-    "cg": lambda: PreconditionedCG("none"),
-}
+BACKENDS = {"superlu": lambda: SuperLU("MMD_AT_PLUS_A"), "superlu-colamd": lambda: SuperLU("COLAMD"),
+            "pardiso": Pardiso, "cg-jacobi": lambda: PreconditionedCG("jacobi"),
+            "cg-ilu": lambda: PreconditionedCG("ilu"), "cg": lambda: PreconditionedCG("none")}
 
 
 def make(name: str = "superlu"):

@@ -7,8 +7,9 @@ hands us ``[2, 2, elements, quadrature points]``), to ``energy(F)`` ``Psi`` (sha
 Derivations (checked by finite differences in ``tests/engine/test_materials.py``). In 2D ``J = F00 F11 - F01 F10``,
 so ``dJ/dF = cof F = J F^-T = [[F11, -F10], [-F01, F00]]``, and ``cof F`` is *linear* in ``F``:
 ``d(cof F)_ij / dF_kl = e_ik e_jl =: H_ijkl`` with the 2D permutation symbol ``e_01 = 1, e_10 = -1``. Hence any
-volumetric energy ``h(J)`` has ``P = h'(J) cof F`` and ``A = h''(J) cof F (x) cof F + h'(J) H``. The term ``mu/2 (F:F - 2)`` has ``P = mu F`` and ``A = mu I4``
-(``I4_ijkl = d_ik d_jl``); the Neo-Hookean family below is ``mu/2 (F:F - 2) + h(J)`` for three choices of ``h``.
+volumetric energy ``h(J)`` has ``P = h'(J) cof F`` and ``A = h''(J) cof F (x) cof F + h'(J) H``. The term
+``mu/2 (F:F - 2)`` has ``P = mu F`` and ``A = mu I4`` (``I4_ijkl = d_ik d_jl``); the Neo-Hookean family below is
+``mu/2 (F:F - 2) + h(J)`` for three choices of ``h``.
 
 At ``F = I``, ``H_ijkl = d_ij d_kl - d_il d_jk``, so a model with ``h'(1) = -mu`` and ``h''(1) = lam + mu`` linearises
 to the linear-elastic tangent ``lam d_ij d_kl + mu (d_ik d_jl + d_il d_jk)``: each model reduces to linear elasticity
@@ -453,13 +454,8 @@ class FiberReinforced(Material):
 
 
 #: The isotropic models by name (the keys accepted by :func:`material`).
-MATERIALS = {
-    "linear": LinearElastic,
-    "neo-hookean": NeoHookean,
-    "taylor-neo-hookean": TaylorNeoHookean,
-    "stable-neo-hookean": StableNeoHookean,
-    "corotated": Corotated,
-}
+MATERIALS = {"linear": LinearElastic, "neo-hookean": NeoHookean, "taylor-neo-hookean": TaylorNeoHookean,
+             "stable-neo-hookean": StableNeoHookean, "corotated": Corotated}
 
 
 def _lookup(name):

@@ -126,13 +126,12 @@ def check_mesh(p, t, name: str = "mesh", *, unused_nodes: str = "refuse", cut: b
     """Check that ``(p, t)`` is a valid 2D triangle mesh; return ``(p, t)`` as float64 ``(2, n)`` and int64 ``(3, m)``.
 
     Refused, with a :class:`ParameterError` (field and message start ``name``) listing the offending items: ``p`` not
-    a real ``(2, n)`` array, ``t`` not an integer ``(3, m)`` array (floats are never rounded); no triangle or more than
-    :data:`MAX_TRIANGLES`; node indices outside ``0..n-1``; non-finite coordinates or beyond ``+-COORDINATE_MAX``; a
-    mesh smaller than ``SIZE_RANGE[0]``; **unused nodes** (with neither stiffness nor mass, every linear system would
-    be singular, far from the cause; refused rather than dropped, since renumbering would change what node indices
-    given elsewhere refer to: ``unused_nodes="ignore"`` lets a file reader report in the file's numbers first); an
-    edge in three or more triangles (a "fin") and duplicated triangles; degenerate triangles (``|2 area| <=
-    DEGENERATE_TOL * (longest edge)^2``); triangles folded over a neighbour (:func:`folded_triangles`).
+    a real ``(2, n)`` array, ``t`` not an integer ``(3, m)`` array (never rounded); no triangle or more than
+    :data:`MAX_TRIANGLES`; node indices outside ``0..n-1``; coordinates not finite or beyond ``+-COORDINATE_MAX``; a
+    mesh smaller than ``SIZE_RANGE[0]``; **unused nodes** (without stiffness or mass every linear system is singular,
+    far from the cause; not dropped, since renumbering would change node indices given elsewhere:
+    ``unused_nodes="ignore"`` lets a file reader report in the file's numbers first); an edge in three triangles (a
+    "fin"); duplicated, degenerate (``|2 area| <= DEGENERATE_TOL * longest_edge^2``) and folded triangles.
 
     ``cut=True`` (the assemblers) accepts what cutting through elements makes next to a crack tip, fins and
     overlapping copies of a triangle, and any number of triangles. The orientation is free (scikit-fem sorts nodes).
