@@ -258,8 +258,7 @@ class P1Assembler(_FixedPattern):
 
 def _mesh_arrays(mesh):
     """``(p, t)`` of a straight-sided scikit-fem triangle mesh, checked by :func:`~tissuefem.engine.meshes.check_mesh`
-    as made by cuts: a node in no triangle has neither stiffness nor mass (every Newton matrix would be singular); edges
-    in three triangles and overlapping copies of one are allowed (cutting through elements makes them)."""
+    with ``cut=True`` (cutting through elements makes edges in three triangles and overlapping copies of one)."""
     if not (hasattr(mesh, "p") and hasattr(mesh, "t")):
         raise ParameterError("mesh", f"mesh must be a scikit-fem MeshTri (with p and t), got {type(mesh).__name__}")
     if getattr(mesh, "affine", True) is False:
@@ -269,10 +268,8 @@ def _mesh_arrays(mesh):
 
 
 def vector_basis(mesh, order: int = 1, intorder: int | None = None) -> Basis:
-    """scikit-fem's ``Basis(mesh, ElementVector(ElementTriP<order>()), intorder)`` (default degree ``2 order``).
-
-    Node ``a`` has dofs ``2a, 2a + 1``, then come the P2 edge midpoints: every assembler's layout.
-    """
+    """scikit-fem's ``Basis(mesh, ElementVector(ElementTriP<order>()), intorder)`` (default degree ``2 order``): node
+    ``a`` has dofs ``2a, 2a + 1``, then come the P2 edge midpoints, every assembler's layout."""
     if order not in (1, 2):
         raise ParameterError("order", f"order must be 1 or 2, got {order!r}")
     if intorder is None:

@@ -184,9 +184,8 @@ def _shifted_direction(A, rhs, shifts=None):
 
 
 def _descent(dx_free, A, rhs, x, mask, hessian, safe_hessian, linear, line_search, stats):
-    """The descent safeguard: ``(dx_free, shift)``, the Newton step if it is usable (and points downhill,
-    ``q . dx < 0``, under the energy line search), else the safe Hessian's step, then a shifted tangent's, then steepest
-    descent; ``(None, 0)`` when there is no usable step and no energy to descend (singular)."""
+    """``(dx_free, shift)``: the Newton step if usable (and downhill under the energy line search), else the safe
+    Hessian's, a shifted tangent's, steepest descent; ``(None, 0)``: no usable step and no energy to descend."""
     if dx_free is not None and np.all(np.isfinite(dx_free)) and (line_search != "energy" or rhs @ dx_free > 0):
         return dx_free, 0.0
     if line_search != "energy":
