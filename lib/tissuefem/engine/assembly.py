@@ -110,13 +110,10 @@ class P1Assembler(_FixedPattern):
             self.areas = self.areas * check_weights(weights, t.shape[1])
         # G[a, j, e] = dN_a/dX_j: rows of the inverse of the Jacobian [d1 d2]
         G = np.empty((3, 2, self.n_elements))
-        G[1, 0] = d2[1] / det
-        G[1, 1] = -d2[0] / det
-        G[2, 0] = -d1[1] / det
-        G[2, 1] = d1[0] / det
+        G[1, 0], G[1, 1] = d2[1] / det, -d2[0] / det
+        G[2, 0], G[2, 1] = -d1[1] / det, d1[0] / det
         G[0] = -G[1] - G[2]
-        self._G = G
-        self._GA = G * self.areas  # area-weighted gradients
+        self._G, self._GA = G, G * self.areas  # and the area-weighted gradients
 
         # The dof pattern is the node-adjacency pattern with 2x2 blocks, so np.unique sorts 9 node pairs per triangle,
         # not 36 dof pairs. Node row p with deg(p) neighbours gives dof rows 2p, 2p+1, each 2 deg(p) long: dof row
@@ -133,8 +130,7 @@ class P1Assembler(_FixedPattern):
         nptr = np.concatenate([[0], np.cumsum(deg)])
         self.nnz = 4 * keys.size
         index_dtype = np.int32 if max(self.nnz, n) < np.iinfo(np.int32).max else np.int64
-        col_nodes = keys % nn
-        row_nodes = keys // nn
+        row_nodes, col_nodes = keys // nn, keys % nn
         # indices: for each node row p, row 2p and row 2p+1 both list 2q, 2q+1 for its q's
         start = 4 * nptr[:-1]  # first data slot of dof row 2p
         local = np.arange(keys.size) - nptr[row_nodes]  # rank of q within node row p

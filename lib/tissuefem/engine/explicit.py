@@ -70,9 +70,10 @@ def _free_dofs(n: int, fixed) -> np.ndarray:
 
 class SymplecticEuler:
     """Explicit symplectic Euler on the body of a :class:`~tissuefem.engine.model.Model` without ``dt`` (the time
-    step is this scheme's; its handles apply every step, its loads are constant), stable only for ``dt`` below about
-    :func:`critical_time_step`. A step whose result is not finite leaves the state untouched and reports
-    ``"non-finite"``; it never raises.
+    step is this scheme's; its handles apply every step, its loads are constant): the counterpart of backward Euler (a
+    :class:`~tissuefem.engine.stepping.Stepper` on a model with ``dt``), stable only for ``dt`` below about
+    :func:`critical_time_step`. A step whose result is not finite (it blew up, or an ``ln J`` material inverted)
+    leaves the state untouched and reports ``"non-finite"``; it never raises.
 
     Attributes: ``u, v`` (dof vectors; assign them to set an initial state), ``time``, ``mass`` (lumped, per dof).
     """

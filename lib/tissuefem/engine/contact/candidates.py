@@ -11,10 +11,12 @@ jumps (rare, open: the line search stops there) where the pseudonormal's sign fl
 A point is not paired with segments less than ``2 d^`` from it along the surface at rest (nor their neighbours), else
 a cut's lip, a chain of pieces shorter than ``d^``, would touch itself once it bends. The walk stops at a corner that
 turned back into the material at rest (a crack tip), where each lip's first point is paired with the other's first
-segment (a *hinge*) while the corner turns by over 90 degrees. Coinciding lips are at ``sigma = 0``: in contact,
-without force. Where the surface lies closer than ``d^`` to itself at rest, a point's wall is moved by its depth there,
-its *rest offset* ``o_p``. A pair whose point is behind its wall when a step *starts* (and not near the segment's
-neighbours) is ignored until the step ends: the far side of a thin body, or tissue a handle dragged through tissue.
+segment (a *hinge*) while the corner turns by over 90 degrees: a crack pressed shut up to its tip does not overlap.
+Coinciding lips are at ``sigma = 0``: in contact, without force. Where the surface lies closer than ``d^`` to itself at
+rest, a point's wall is moved by its depth there, its *rest offset* ``o_p`` (one per point: the energy stays
+continuous). A pair whose point is behind its wall when a step *starts* (and not near the segment's neighbours, along
+which it may slide into its ownership) is ignored until the step ends: the far side of a thin body, or tissue a handle
+dragged through tissue.
 
 The broad phase is a Verlet list [4] of the pairs closer than ``reach + skin`` (from a k-d tree of the points and the
 segments' midpoints), valid while the points move less than ``skin / 2`` *relative to each other* (a rigid drag
