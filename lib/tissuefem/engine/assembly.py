@@ -2,16 +2,11 @@
 
 On linear (P1) triangles the shape-function gradients are constant in each triangle, so ``F = I + grad u`` is one 2x2
 matrix per element and every integral over a triangle is its area times the integrand. :class:`P1Assembler` assembles
-the energy, internal forces and tangent of the scikit-fem forms of :mod:`tissuefem.engine.forms` (to round-off) without
-calling a form per pair of basis functions:
-
-* once: areas and gradients ``dN_a/dX_j`` of every triangle, its 6 global dofs, the CSR pattern and a *scatter map*
-  telling where each of the ``36 n_elements`` local entries lands in the CSR data array (built from the node-adjacency
-  pattern, whose entries are 2x2 blocks: ~50 ms at 32k triangles);
-* per call: ``F`` for all elements at once, **one** call of the material's ``stress``/``tangent`` on ``F`` shaped
-  ``[2, 2, n_elements]``, the local vectors/matrices by ``einsum``, and one ``np.bincount`` into the data array.
-
-Formulas (with ``G[a, j] = dN_a/dX_j``, area ``A_e``, and ``F[i, j] = d phi_i / d X_j``)::
+the energy, internal forces and tangent of the scikit-fem forms of :mod:`tissuefem.engine.forms` (to round-off)
+without calling a form per pair of basis functions: once, the areas and gradients of every triangle, the CSR pattern
+and a *scatter map* (where each of the ``36 n_elements`` local entries lands in the CSR data array); per call, ``F``
+for all elements, **one** call of the material on ``F`` shaped ``[2, 2, n_elements]``, the local vectors or matrices
+by ``einsum``, and one ``np.bincount`` into the data array. With ``G[a, j] = dN_a/dX_j`` and area ``A_e``::
 
     F_ij        = d_ij + sum_a u_(a,i) G[a, j]
     E           = sum_e A_e Psi(F_e)
@@ -21,19 +16,14 @@ Formulas (with ``G[a, j] = dN_a/dX_j``, area ``A_e``, and ``F[i, j] = d phi_i / 
 The dofs of node ``n`` are ``(2 n, 2 n + 1)`` (x then y), scikit-fem's order for
 ``Basis(mesh, ElementVector(ElementTriP1()))``, so results compare entry by entry with the forms path.
 
-Choices made here
------------------
-* **Orientation.** scikit-fem sorts each triangle's vertices, so about half of a mesh's triangles are clockwise. P1
-  gradients and areas do not depend on the vertex order, so clockwise triangles are *reoriented* in the assembler's
-  own copy ``self.t`` (``self.flipped`` lists them). Degenerate and inverted (folded) triangles, which no
-  reorientation can repair, are refused (:func:`~tissuefem.engine.meshes.check_mesh`).
-* **Scatter.** At 8k triangles (288k local entries into 114k nonzeros, 2-core reference machine): ``np.bincount``
-  with weights ~0.45 ms, ``np.add.at`` ~0.57 ms, a sparse 0/1 scatter-matrix product ~0.3 ms (no better at 32k),
-  sort + ``np.add.reduceat`` ~2 ms. bincount is simple and needs no extra matrix.
-* **Local matrices.** One plain ``einsum`` (no ``optimize``) on element-last arrays, ~0.6 ms at 8k triangles;
-  ``optimize=True`` is ten times slower here (transposed temporaries).
-* **Fibers.** One point per element: fibers ``(2, n_elements)`` or ``(2,)`` work as they are; per-quadrature fibers
-  ``(2, n_elements, n_points)`` are refused (average and normalise them per element first).
+Choices (measured at 8k triangles on the 2-core reference machine):
+
+* **Orientation.** scikit-fem sorts each triangle's vertices, so about half are clockwise: they are *reoriented* in
+  the assembler's copy ``self.t`` (``self.flipped``); degenerate and folded triangles are refused.
+* **Scatter.** ``np.bincount`` with weights ~0.45 ms, ``np.add.at`` ~0.57 ms, a sparse 0/1 scatter-matrix product
+  ~0.3 ms (no better at 32k), sort + ``np.add.reduceat`` ~2 ms: bincount is simple and needs no extra matrix.
+* **Local matrices.** One plain ``einsum`` on element-last arrays, ~0.6 ms; ``optimize=True`` is ten times slower.
+* **Fibers.** One point per element: fibers ``(2, n_elements)`` or ``(2,)``; per-quadrature-point fibers are refused.
 """
 
 from __future__ import annotations
@@ -51,8 +41,7 @@ __all__ = ["P1Assembler", "QuadratureAssembler", "FormsAssembler", "make_assembl
 
 class _FixedPattern:
     """What the assemblers share: a default ``material`` and a fixed CSR pattern (``indptr``, ``indices``: shared by
-    every matrix returned, read-only, so in-place pattern changes such as ``eliminate_zeros`` raise instead of
-    corrupting it; use ``K.copy()``)."""
+    every matrix returned and read-only, so ``eliminate_zeros`` and the like raise instead of corrupting it)."""
 
     def _material(self, material):
         m = self.material if material is None else material
@@ -77,10 +66,6 @@ class _FixedPattern:
         K.has_canonical_format = True
         return K
 
-    def pattern(self) -> sp.csr_matrix:
-        """The fixed sparsity pattern, as a CSR matrix of zeros."""
-        return self.csr(np.zeros(self.nnz))
-
     @property
     def diagonal(self) -> np.ndarray:
         """Positions of the diagonal entries in the CSR data array, row by row."""
@@ -94,29 +79,22 @@ class _FixedPattern:
 class P1Assembler(_FixedPattern):
     """Energy, internal forces and tangent of a hyperelastic material on a P1 triangle mesh.
 
-    ``mesh`` is a scikit-fem :class:`~skfem.MeshTri` (straight-sided, either orientation; non-finite coordinates or
-    zero-area triangles raise ``ValueError``). ``material`` is the default material (``energy``, ``stress``, ``tangent``
-    as in :mod:`tissuefem.engine.materials`); every method takes a ``material`` that overrides it. ``weights``: optional
-    ``(n_elements,)`` fractions in ``(0, 1]`` of its triangle's area that each element's material fills: elements made
-    by cutting through a triangle keep its shape functions but carry only the material on their side of the cut.
+    ``mesh``: a straight-sided scikit-fem :class:`~skfem.MeshTri` (either orientation). ``material``: the default
+    material; every method takes a ``material`` that overrides it. ``weights``: optional ``(n_elements,)`` fractions in
+    ``(0, 1]`` of its triangle's area that each element's material fills (elements made by cutting through a triangle
+    keep its shape functions but carry only the material on their side of the cut).
 
-    Attributes: ``n_nodes, n_elements, n_dofs = 2 n_nodes``; ``t`` ``(3, n_elements)`` counter-clockwise and
-    ``flipped``, the elements reoriented to make it so; ``areas`` ``(n_elements,)``, the material's reference areas
-    (triangle area times weight); ``grads`` ``(n_elements, 3, 2)``, ``dN_a/dX_j`` of vertex ``a`` of ``t[:, e]``;
-    ``element_dofs`` ``(6, n_elements)``, row ``2 a + i`` the dof ``2 t[a, e] + i``; ``indptr, indices``, the fixed CSR
-    pattern (read-only, shared by every matrix returned); ``scatter`` ``(6, 6, n_elements)``, the data position of local
-    entry ``(2a+i, 2b+k)``.
+    Attributes: ``n_nodes, n_elements, n_dofs = 2 n_nodes``; ``t`` ``(3, n_elements)`` counter-clockwise (``flipped``:
+    the elements reoriented); ``areas`` ``(n_elements,)`` (triangle area times weight); ``element_dofs``
+    ``(6, n_elements)``, row ``2 a + i`` the dof ``2 t[a, e] + i``; ``indptr, indices``, the fixed CSR pattern.
     """
 
     def __init__(self, mesh, material=None, weights=None):
         p, t = _mesh_arrays(mesh)
-        self.mesh = mesh
-        self.material = material
-        self.n_nodes = p.shape[1]
-        self.n_elements = t.shape[1]
+        self.mesh, self.material = mesh, material
+        self.n_nodes, self.n_elements = p.shape[1], t.shape[1]
         self.n_dofs = 2 * self.n_nodes
-
-        # --- geometry: orientation, areas, gradients (element-last layout) ---
+        # geometry: orientation, areas, gradients (element-last layout)
         x = p[:, t]  # (2, 3, nel)
         det = (x[0, 1] - x[0, 0]) * (x[1, 2] - x[1, 0]) - (x[0, 2] - x[0, 0]) * (x[1, 1] - x[1, 0])
         flipped = np.flatnonzero(det < 0)
@@ -124,37 +102,23 @@ class P1Assembler(_FixedPattern):
             t = t.copy()
             t[1:, flipped] = t[2:0:-1, flipped]
             x = p[:, t]
-        d1 = x[:, 1] - x[:, 0]
-        d2 = x[:, 2] - x[:, 0]
+        d1, d2 = x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]
         det = d1[0] * d2[1] - d1[1] * d2[0]  # twice the (now positive) area
-        self.t = t
+        self.t, self.flipped, self.areas = t, flipped, 0.5 * det
         self.t.setflags(write=False)
-        self.flipped = flipped
-        self.areas = 0.5 * det
-        if weights is not None:
-            w = check_weights(weights, t.shape[1])
-            # an element that carries only part of its triangle's material (a copy made by cutting
-            # through the triangle) integrates over that part: its area shrinks, its gradients do not
-            self.areas = self.areas * w
+        if weights is not None:  # a part of a triangle integrates over that part: its area shrinks, its gradients not
+            self.areas = self.areas * check_weights(weights, t.shape[1])
         # G[a, j, e] = dN_a/dX_j: rows of the inverse of the Jacobian [d1 d2]
         G = np.empty((3, 2, self.n_elements))
-        G[1, 0] = d2[1] / det
-        G[1, 1] = -d2[0] / det
-        G[2, 0] = -d1[1] / det
-        G[2, 1] = d1[0] / det
+        G[1, 0], G[1, 1] = d2[1] / det, -d2[0] / det
+        G[2, 0], G[2, 1] = -d1[1] / det, d1[0] / det
         G[0] = -G[1] - G[2]
-        self._G = G
-        self._GA = G * self.areas  # area-weighted gradients
+        self._G, self._GA = G, G * self.areas  # and the area-weighted gradients
 
-        # --- degrees of freedom and the fixed CSR pattern ---
-        # The vector pattern is the node-adjacency pattern with every entry a
-        # 2x2 block, so the sort (np.unique) runs on the 9 node pairs of each
-        # triangle rather than its 36 dof pairs. Node row p with deg(p)
-        # neighbours gives dof rows 2p and 2p+1, each 2 deg(p) long, so dof row
-        # 2p+i starts at 4 nptr[p] + 2 i deg(p) and node column number r of row
-        # p holds dof columns 2r, 2r+1 of it.
-        nel, n = self.n_elements, self.n_dofs
-        nn = self.n_nodes
+        # The dof pattern is the node-adjacency pattern with 2x2 blocks, so np.unique sorts 9 node pairs per triangle,
+        # not 36 dof pairs. Node row p with deg(p) neighbours gives dof rows 2p, 2p+1, each 2 deg(p) long: dof row
+        # 2p+i starts at 4 nptr[p] + 2 i deg(p), and node column number r of row p holds its dof columns 2r, 2r+1.
+        nel, n, nn = self.n_elements, self.n_dofs, self.n_nodes
         dofs = (2 * t[:, None, :] + np.arange(2)[None, :, None]).reshape(6, nel)  # row 2a+i
         self.element_dofs = dofs
         self.element_dofs.setflags(write=False)
@@ -166,8 +130,7 @@ class P1Assembler(_FixedPattern):
         nptr = np.concatenate([[0], np.cumsum(deg)])
         self.nnz = 4 * keys.size
         index_dtype = np.int32 if max(self.nnz, n) < np.iinfo(np.int32).max else np.int64
-        col_nodes = keys % nn
-        row_nodes = keys // nn
+        row_nodes, col_nodes = keys // nn, keys % nn
         # indices: for each node row p, row 2p and row 2p+1 both list 2q, 2q+1 for its q's
         start = 4 * nptr[:-1]  # first data slot of dof row 2p
         local = np.arange(keys.size) - nptr[row_nodes]  # rank of q within node row p
@@ -213,7 +176,6 @@ class P1Assembler(_FixedPattern):
             level = getattr(level, "base", None)
         return m
 
-    # ------------------------------------------------------------------ kernels
     def _F(self, u) -> np.ndarray:
         ue = u[self.element_dofs].reshape(3, 2, self.n_elements)  # ue[a, i, e]
         F = np.einsum("aie,aje->ije", ue, self._G)
@@ -232,7 +194,6 @@ class P1Assembler(_FixedPattern):
         data = np.bincount(self._scatter, weights=K_loc.reshape(-1), minlength=self.nnz)
         return self.csr(data)
 
-    # ------------------------------------------------------------------ public API
     @property
     def grads(self) -> np.ndarray:
         """``(n_elements, 3, 2)``: ``grads[e, a, j] = dN_a/dX_j`` (a view, do not modify)."""
@@ -250,9 +211,7 @@ class P1Assembler(_FixedPattern):
     def energy(self, u, material=None) -> float:
         """Stored energy ``sum_e A_e Psi(F_e)`` (NaN if the material is NaN somewhere, e.g. log J at J <= 0)."""
         m = self._material(material)
-        F = self._F(self._check_u(u))
-        psi = np.broadcast_to(m.energy(F), (self.n_elements,))
-        return float(np.dot(self.areas, psi))
+        return float(np.dot(self.areas, np.broadcast_to(m.energy(self._F(self._check_u(u))), (self.n_elements,))))
 
     def residual(self, u, material=None) -> np.ndarray:
         """Internal force vector ``(n_dofs,)``, the gradient of :meth:`energy`."""
@@ -266,17 +225,12 @@ class P1Assembler(_FixedPattern):
 
     def residual_and_tangent(self, u, material=None):
         """``(residual(u), tangent(u))`` from one evaluation of ``F``."""
-        m = self._material(material)
-        F = self._F(self._check_u(u))
+        m, F = self._material(material), self._F(self._check_u(u))
         return self._residual_from_F(m, F), self._tangent_from_F(m, F)
 
     def mass(self, density, lumped: bool = True) -> np.ndarray:
-        """The mass matrix ``M_(a,i)(b,k) = int rho0 N_a N_b d_ik dX`` as data on this pattern.
-
-        Per element the consistent P1 mass is ``rho0 A_e (1 + d_ab) / 12``; lumped, each vertex gets ``rho0 A_e / 3``
-        (the row sum). ``A_e`` is the element's material area, so copies made by cutting a triangle carry the mass of
-        their part only.
-        """
+        """The mass matrix ``M_(a,i)(b,k) = int rho0 N_a N_b d_ik dX`` as data on this pattern: per element
+        ``rho0 A_e (1 + d_ab) / 12``, lumped ``rho0 A_e / 3`` per vertex (the row sum), ``A_e`` the material area."""
         rho = check_density(density)
         data = np.zeros(self.nnz)
         if lumped:
@@ -300,8 +254,7 @@ class P1Assembler(_FixedPattern):
 
 def _mesh_arrays(mesh):
     """``(p, t)`` of a straight-sided scikit-fem triangle mesh, checked by :func:`~tissuefem.engine.meshes.check_mesh`
-    as made by cuts: a node in no triangle has neither stiffness nor mass (every Newton matrix would be singular); edges
-    in three triangles and overlapping copies of one are allowed (cutting through elements makes them)."""
+    with ``cut=True`` (cutting through elements makes edges in three triangles and overlapping copies of one)."""
     if not (hasattr(mesh, "p") and hasattr(mesh, "t")):
         raise ParameterError("mesh", f"mesh must be a scikit-fem MeshTri (with p and t), got {type(mesh).__name__}")
     if getattr(mesh, "affine", True) is False:
@@ -311,10 +264,8 @@ def _mesh_arrays(mesh):
 
 
 def vector_basis(mesh, order: int = 1, intorder: int | None = None) -> Basis:
-    """scikit-fem's ``Basis(mesh, ElementVector(ElementTriP<order>()), intorder)`` (default degree ``2 order``).
-
-    Node ``a`` has dofs ``2a, 2a + 1``, then come the P2 edge midpoints: every assembler's layout.
-    """
+    """scikit-fem's ``Basis(mesh, ElementVector(ElementTriP<order>()), intorder)`` (default degree ``2 order``): node
+    ``a`` has dofs ``2a, 2a + 1``, then come the P2 edge midpoints, every assembler's layout."""
     if order not in (1, 2):
         raise ParameterError("order", f"order must be 1 or 2, got {order!r}")
     if intorder is None:
@@ -328,18 +279,10 @@ def vector_basis(mesh, order: int = 1, intorder: int | None = None) -> Basis:
 class QuadratureAssembler(_FixedPattern):
     """Vectorised energy, residual and tangent for a vector Lagrange basis on triangles (P1, P2).
 
-    The sums of the scikit-fem forms of :mod:`tissuefem.engine.forms`, at once for every element and quadrature point
-    instead of once per pair of local basis functions: with the scalar shape functions ``N_a`` and the quadrature
-    weights ``dx`` (weight times Jacobian),
-
-        F_ij      = d_ij + sum_a u_ai dN_a/dX_j                     (per element and point)
-        E         = sum_e,q Psi(F) dx
-        r_ai      = sum_e,q P_ij dN_a/dX_j dx
-        K_ai,bk   = sum_e,q A_ijkl dN_a/dX_j dN_b/dX_l dx
-
-    scattered into a pattern computed once. For P1, :class:`P1Assembler` is faster still; this class makes P2
-    affordable. ``basis``: ``Basis(mesh, ElementVector(ElementTriPk()))`` (:func:`vector_basis`), local vector function
-    ``2 a + i`` being ``N_a e_i``; ``material`` and ``weights`` as :class:`P1Assembler`'s.
+    :class:`P1Assembler`'s sums (module docstring) at every quadrature point, ``A_e`` replaced by the quadrature
+    weights ``dx`` (weight times Jacobian), into a pattern computed once: this makes P2 affordable. ``basis``:
+    ``Basis(mesh, ElementVector(ElementTriPk()))`` (:func:`vector_basis`), local vector function ``2 a + i`` being
+    ``N_a e_i``; ``material`` and ``weights`` as :class:`P1Assembler`'s.
     """
 
     def __init__(self, basis, material=None, weights=None):
@@ -348,23 +291,16 @@ class QuadratureAssembler(_FixedPattern):
                                           f"{basis!r}")
         _mesh_arrays(basis.mesh)
         self.basis, self.material = basis, material
-        nloc = len(basis.basis) // 2
-        self.n_local = nloc
+        self.n_local = nloc = len(basis.basis) // 2
         self.n_elements = basis.mesh.nelements
         # grad N_a and N_a: component 0 of the vector function N_a e_0
         self._G = np.array([basis.basis[2 * a][0].grad[0] for a in range(nloc)])  # (nloc, 2, nel, nq)
         self._N = np.array([np.asarray(basis.basis[2 * a][0])[0] for a in range(nloc)])  # (nloc, nel, nq)
-        dx = basis.dx  # (nel, nq)
-        if weights is not None:
-            w = check_weights(weights, self.n_elements)
-            dx = dx * w[:, None]
-        self._dx = dx
+        self._dx = basis.dx if weights is None else basis.dx * check_weights(weights, self.n_elements)[:, None]
         self._GW = self._G * self._dx
         dofs = np.asarray(basis.element_dofs, dtype=np.int64)  # (2 nloc, nel), row 2 a + i
         nel, n = dofs.shape[1], basis.N
-        self.n_dofs = n
-        self._dofs = dofs
-        self._dofs_flat = dofs.reshape(-1)
+        self.n_dofs, self._dofs, self._dofs_flat = n, dofs, dofs.reshape(-1)
         rows = np.broadcast_to(dofs[:, None, :], (2 * nloc, 2 * nloc, nel)).reshape(-1)
         cols = np.broadcast_to(dofs[None, :, :], (2 * nloc, 2 * nloc, nel)).reshape(-1)
         keys, inverse = np.unique(rows * n + cols, return_inverse=True)

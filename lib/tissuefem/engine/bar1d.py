@@ -1,19 +1,14 @@
 """One-dimensional bars with scikit-fem: the notes' "1D elasticity" section (chapters 1-2).
 
-The bar occupies ``[a, b]`` in the reference configuration; the unknown is the displacement ``u(X)``, so
-``F = 1 + du/dX``. With Lagrange shape functions ``N_i`` the notes' discrete equations are
+The bar occupies ``[a, b]`` at rest; the unknown is the displacement ``u(X)``, ``F = 1 + du/dX``. With Lagrange shape
+functions ``N_i`` the notes' discrete equations are ``A u = F_ext + g``, ``A_ij = E1 int N_i' N_j' dX`` (linear) and
+``q_i(u) = int N_i' P(F(u)) dX - F_ext_i - g_i = 0`` (nonlinear), with ``F_ext_i = int f N_i dX`` and the boundary
+term ``g_i = N_i(b) P(b) - N_i(a) P(a)``. Here ``E1 = lam + 2 mu`` is the 1D modulus (the notes print ``2 mu - lam``)
+and the residual subtracts ``g`` (the notes print ``+ g_i`` in ``q``, which contradicts their own linear system).
 
-* linear:      ``A u = F_ext + g``, ``A_ij = E1 int N_i' N_j' dX``;
-* nonlinear:   ``q_i(u) = int N_i' P(F(u)) dX - F_ext_i - g_i = 0``;
-
-with ``F_ext_i = int f N_i dX`` and the boundary term ``g_i = N_i(b) P(b) - N_i(a) P(a)``. Here ``E1 = lam + 2 mu``
-is the 1D modulus (the notes print ``2 mu - lam``) and the residual subtracts ``g`` (the notes print ``+ g_i`` in
-``q``, which contradicts their own linear system).
-
-End conditions are given per end as :class:`Displacement` (Dirichlet) or :class:`Traction`. A traction is the
-applied force per unit reference area, as its X component, ``t = P n`` with ``n`` the outward normal: at ``b``
-(``n = +1``) ``t = P(b)``, at ``a`` (``n = -1``) ``t = -P(a)``. So a positive value points in the +X direction: at
-the right end it pulls (tension), at the left end it pushes (compression), as a 2D traction vector does.
+Each end is a :class:`Displacement` (Dirichlet) or a :class:`Traction`, the X component of the applied force per unit
+reference area, ``t = P n`` with ``n`` the outward normal (``t = P(b)`` at ``b``, ``t = -P(a)`` at ``a``): a positive
+value points along +X, pulling at the right end and pushing at the left, as a 2D traction vector does.
 """
 
 from __future__ import annotations
@@ -80,13 +75,9 @@ def _body_force(v, w):
 
 
 def nonlinear_forms(material: Material1D):
-    """The notes' residual and tangent as scikit-fem forms for one material.
-
-    Returns ``(internal_force, tangent, strain_energy)``: a ``LinearForm`` ``int N_i' P(F) dX``, a ``BilinearForm``
-    ``int N_i' dP/dF N_j' dX`` and a ``Functional`` ``int Psi(F) dX``, each evaluated at the field ``w["u"]``
-    (``F = 1 + du/dX``). The material is bound by closure because scikit-fem passes only arrays through ``w``.
-    """
-
+    """``(internal_force, tangent, strain_energy)`` as scikit-fem forms at the field ``w["u"]`` (``F = 1 + du/dX``):
+    ``int N_i' P(F) dX``, ``int N_i' dP/dF N_j' dX`` and ``int Psi(F) dX``. The material is bound by closure because
+    scikit-fem passes only arrays through ``w``."""
     @LinearForm
     def internal_force(v, w):
         F = 1.0 + w["u"].grad[0]
@@ -101,7 +92,6 @@ def nonlinear_forms(material: Material1D):
     def strain_energy(w):
         F = 1.0 + w["u"].grad[0]
         return material.energy(F)
-
     return internal_force, tangent, strain_energy
 
 
@@ -126,10 +116,8 @@ class Bar1D:
             mesh = MeshLine(np.linspace(a, b, check_count("n (number of elements)", n) + 1))
         if order not in (1, 2):
             raise ParameterError("order", f"order must be 1 or 2, got {order!r}")
-        self.mesh = mesh
-        self.order = order
-        self.a = float(mesh.p[0].min())
-        self.b = float(mesh.p[0].max())
+        self.mesh, self.order = mesh, order
+        self.a, self.b = float(mesh.p[0].min()), float(mesh.p[0].max())
         element = ElementLineP1() if order == 1 else ElementLineP2()
         # P1: one quadrature point would do; P2 stresses vary, so integrate generously.
         self.basis = Basis(mesh, element, intorder=2 * order + 2)
@@ -156,10 +144,8 @@ class Bar1D:
         return asm(_body_force, self.basis, f=f(np.asarray(self.basis.global_coordinates())[0]))
 
     def boundary_term(self, left=Traction(0.0), right=Traction(0.0)) -> np.ndarray:
-        """``g_i = N_i(b) P(b) - N_i(a) P(a) = N_i(b) t_b + N_i(a) t_a``; Dirichlet ends contribute 0.
-
-        Lagrange shape functions are 1 at their own node and 0 at the others, so ``g`` is zero but at the end dofs.
-        """
+        """``g_i = N_i(b) P(b) - N_i(a) P(a) = N_i(b) t_b + N_i(a) t_a``: zero but at the end dofs (Lagrange shape
+        functions are 1 at their own node, 0 at the others); Dirichlet ends contribute 0."""
         left, right = _as_end(left, "left"), _as_end(right, "right")
         g = np.zeros(self.ndofs)
         if isinstance(left, Traction):
@@ -196,18 +182,15 @@ class Bar1D:
     # --- nonlinear problem --------------------------------------------------
     def internal_force(self, u, material: Material1D) -> np.ndarray:
         """``int N_i' P(F(u)) dX``."""
-        form = nonlinear_forms(material)[0]
-        return asm(form, self.basis, u=self.basis.interpolate(u))
+        return asm(nonlinear_forms(material)[0], self.basis, u=self.basis.interpolate(u))
 
     def tangent(self, u, material: Material1D) -> sp.csr_matrix:
         """``dq_i/du_j = int N_i' dP/dF N_j' dX``."""
-        form = nonlinear_forms(material)[1]
-        return asm(form, self.basis, u=self.basis.interpolate(u)).tocsr()
+        return asm(nonlinear_forms(material)[1], self.basis, u=self.basis.interpolate(u)).tocsr()
 
     def strain_energy(self, u, material: Material1D) -> float:
         """``int Psi(F(u)) dX``."""
-        form = nonlinear_forms(material)[2]
-        return float(asm(form, self.basis, u=self.basis.interpolate(u)))
+        return float(asm(nonlinear_forms(material)[2], self.basis, u=self.basis.interpolate(u)))
 
     def residual(self, u, material, f=0.0, left=Displacement(0.0), right=Traction(0.0), load=1.0):
         """The notes' ``q(u) = int N' P dX - F_ext - g`` with loads scaled by ``load``."""
@@ -216,11 +199,8 @@ class Bar1D:
 
     def solve_nonlinear(self, material: Material1D, f=0.0, left=Displacement(0.0), right=Traction(0.0),
                         load_steps: int = 1, u0=None, **newton_options) -> tuple[np.ndarray, list[NewtonResult]]:
-        """Load stepping + Newton: ramp the loads (and prescribed displacements) over ``load_steps``.
-
-        Returns the final displacement and the Newton result of every load step; stops early (returning the last
-        converged state) if a step fails.
-        """
+        """Load stepping + Newton: ramp the loads (and prescribed displacements) over ``load_steps``; returns the final
+        displacement and each step's Newton result, stopping at the last converged state if a step fails."""
         left, right = _as_end(left, "left"), _as_end(right, "right")
         load_steps = check_count("load_steps", load_steps)
         fixed, values = self._dirichlet(left, right)
@@ -245,10 +225,8 @@ class Bar1D:
             u = result.x
         return u, results
 
-    # --- errors against a closed form ----------------------------------------
     def errors(self, u, exact: Callable, exact_derivative: Callable) -> tuple[float, float]:
         """``(||u - u_exact||_L2, |u - u_exact|_H1)`` by quadrature."""
-
         @Functional
         def l2(w):
             return (w["uh"] - exact(w.x[0])) ** 2
@@ -256,17 +234,14 @@ class Bar1D:
         @Functional
         def h1(w):
             return (w["uh"].grad[0] - exact_derivative(w.x[0])) ** 2
-
         uh = self.basis.interpolate(u)
         return float(np.sqrt(asm(l2, self.basis, uh=uh))), float(np.sqrt(asm(h1, self.basis, uh=uh)))
 
 
 def uniform_bar_stretch(material: Material1D, traction: float, F0: float = 1.0, tol: float = 1e-14) -> float:
-    """Closed form for a bar with one end fixed and an end traction ``T``, no body force.
-
-    Equilibrium makes ``P = T`` everywhere, so ``F`` is the uniform root of ``P(F) = T`` (unique where
-    ``dP/dF > 0``) and ``u(X) = (F - 1)(X - a)``. Solved by scalar Newton with a bisection safeguard on ``F > 0``.
-    """
+    """Closed form for a bar with one end fixed and an end traction ``T``, no body force: ``P = T`` everywhere, so
+    ``F`` is the uniform root of ``P(F) = T`` (unique where ``dP/dF > 0``) and ``u(X) = (F - 1)(X - a)``. Scalar
+    Newton with a bisection safeguard on ``F > 0``."""
     lo, hi = 1e-12, 2.0
     while material.stress(hi) < traction:
         hi *= 2.0

@@ -1,49 +1,25 @@
 """Explicit time stepping: symplectic Euler with a lumped mass, and its stability limit (CFL).
 
-Scheme
-------
-The equations of motion (:mod:`tissuefem.engine.stepping`) are ``M a = f_ext - f_int(u)``.
-With the *lumped* mass ``M = diag(m)`` (row sums of the consistent mass) the inverse is
-free, and symplectic (semi-implicit) Euler needs no solve:
+The equations of motion are ``M a = f_ext - f_int(u)``. With the *lumped* mass ``M = diag(m)`` (row sums of the
+consistent mass) the inverse is free, and symplectic (semi-implicit) Euler needs no solve:
 
     v^{n+1} = v^n + dt M^{-1} (f_ext - f_int(u^n))      (kick: forces at the *old* position)
     u^{n+1} = u^n + dt v^{n+1}                          (drift: with the *new* velocity)
 
-on the free dofs; the handles' dofs are set to their targets, with the velocity that got them there,
-``(u_prescribed^{n+1} - u^n) / dt``. A step is one internal-force evaluation and no linear algebra: far cheaper than a
-backward-Euler (Newton) step.
+on the free dofs; the handles' dofs are set to their targets, with the velocity ``(u_prescribed^{n+1} - u^n) / dt``.
+A step is one internal-force evaluation, no linear algebra. The new velocity in the drift makes it symplectic: for one
+mode of angular frequency ``omega`` it keeps the *modified* energy
+``I = 1/2 (v^2 + omega^2 x^2 - dt omega^2 x v)`` exactly, so the true energy stays between ``I / (1 + dt omega / 2)``
+and ``I / (1 - dt omega / 2)`` instead of drifting (as forward and backward Euler's do).
 
-The new velocity in the drift makes the scheme symplectic: on a stable step it neither pumps energy in nor drains it (as
-forward and backward Euler do). For one mode of angular frequency ``omega`` it keeps the *modified* energy
-
-    I = 1/2 (v^2 + omega^2 x^2 - dt omega^2 x v)
-
-exactly, so the true energy ``1/2 (v^2 + omega^2 x^2)`` stays between ``I / (1 + dt omega / 2)`` and
-``I / (1 - dt omega / 2)``: it oscillates about its initial value, in a band that widens for the fast modes as ``dt``
-nears the limit.
-
-Why it is only conditionally stable
------------------------------------
-Linearise about rest, ``f_int(u) ~ K u``. In a mode ``K x = omega^2 M x`` the step
-``v' = v - dt omega^2 x``, ``x' = x + dt v'`` is a linear map of ``(x, v)`` with determinant
-1 and trace ``2 - (dt omega)^2``; its eigenvalues stay on the unit circle while
-``|trace| <= 2``, i.e. ``dt <= 2 / omega``, and beyond it the mode grows geometrically from
-round-off. The step must resolve the *fastest* mode of the mesh:
-
-    dt <= dt_crit = 2 / omega_max,   omega_max^2 = largest eigenvalue of M^{-1} K   (free dofs),
-
-which :func:`critical_time_step` computes. (Backward Euler has no such limit; it pays with numerical damping instead.)
-
-CFL condition
--------------
-The fastest mode is a wave across one element: wavelength ~ the element size ``h``,
-speed the dilatational (P-) wave speed ``c = sqrt((lambda + 2 mu) / rho0)``, so
-``omega_max ~ c / h`` and ``dt <= C h / c`` with a Courant number ``C`` of order one
-(element shape, mass lumping). Halving ``h`` halves the step, so simulating one second
-costs ``h^-3`` in 2D. For the notes' tissue (``E = 1000``, ``nu = 0.3``, ``rho0 = 1``:
-``c ~ 37``) a 1/30 s frame needs ``h`` of the order of a metre: an explicit real-time
-simulator must sub-step. :func:`largest_stable_dt` measures the limit by experiment
-(chapter 7's CFL study checks the ``dt ~ h`` scaling).
+**Stability.** Linearised about rest (``f_int ~ K u``), a mode ``K x = omega^2 M x`` steps by a linear map of
+``(x, v)`` with determinant 1 and trace ``2 - (dt omega)^2``, stable while ``dt <= 2 / omega`` (beyond, the mode grows
+geometrically from round-off): ``dt <= dt_crit = 2 / omega_max``, ``omega_max^2`` the largest eigenvalue of
+``M^{-1} K`` on the free dofs (:func:`critical_time_step`; backward Euler has no such limit, it damps).
+**CFL:** the fastest mode is a wave across one element, ``omega_max ~ c / h`` with the P-wave speed
+``c = sqrt((lambda + 2 mu) / rho0)``, so ``dt <= C h / c`` with a Courant number ``C`` of order one, and one simulated
+second costs ``h^-3`` in 2D. For the notes' tissue (``c ~ 37``) a 1/30 s frame needs ``h`` of the order of a metre: an
+explicit real-time simulator must sub-step. :func:`largest_stable_dt` measures the limit (chapter 7 checks ``dt ~ h``).
 """
 
 from __future__ import annotations
@@ -77,8 +53,7 @@ class ExplicitStepReport:
 
 
 def _lumped_mass(model) -> np.ndarray:
-    """The lumped (row-sum) mass of the model's density, one entry per dof (refused for P2, whose vertices would get
-    none: row-sum lumping works for P1 only)."""
+    """The lumped (row-sum) mass, one entry per dof (refused for P2, whose vertices would get none)."""
     return model.assembler.csr(model.assembler.mass(model.density, lumped=True)).diagonal()
 
 
@@ -94,28 +69,22 @@ def _free_dofs(n: int, fixed) -> np.ndarray:
 
 
 class SymplecticEuler:
-    """Explicit symplectic Euler on a :class:`~tissuefem.engine.model.Model`'s body.
+    """Explicit symplectic Euler on the body of a :class:`~tissuefem.engine.model.Model` without ``dt`` (the time
+    step is this scheme's; its handles apply every step, its loads are constant): the counterpart of backward Euler (a
+    :class:`~tissuefem.engine.stepping.Stepper` on a model with ``dt``), stable only for ``dt`` below about
+    :func:`critical_time_step`. A step whose result is not finite (it blew up, or an ``ln J`` material inverted)
+    leaves the state untouched and reports ``"non-finite"``; it never raises.
 
-    The counterpart of backward Euler (a :class:`~tissuefem.engine.stepping.Stepper` on a model with ``dt``; same state,
-    same energy), stable only for ``dt`` below about :func:`critical_time_step`. A step whose result is not finite (it
-    blew up, or an ``ln J`` material inverted) leaves the state untouched and reports ``"non-finite"``; it never raises.
-    ``model`` must have no ``dt`` (the time step is this scheme's); its handles apply every step, its loads (gravity
-    included) are constant.
-
-    Attributes: ``u, v`` (dof vectors; assign them to set an initial state), ``time``, ``mass`` (the lumped masses, one
-    per dof).
+    Attributes: ``u, v`` (dof vectors; assign them to set an initial state), ``time``, ``mass`` (lumped, per dof).
     """
 
     def __init__(self, model, dt: float):
         _check_model(model)
         # any finite dt > 0: the stable step of a stiff, light body lies far below an implicit step's range
         self.dt = check_real("dt", dt, 0.0, lo_open=True)
-        self.model = model
-        self.mass = _lumped_mass(model)
-        self.external = model.external
+        self.model, self.mass, self.external = model, _lumped_mass(model), model.external
         self.u, self.v = model.zeros(), model.zeros()
-        self.time = 0.0
-        self.last_report = None
+        self.time, self.last_report = 0.0, None
 
     def step(self) -> ExplicitStepReport:
         """Advance one step (kick, then drift, then the handles); on a non-finite result keep the old state."""
@@ -135,12 +104,9 @@ class SymplecticEuler:
         return ExplicitStepReport(True, "ok", self.time, float(np.abs(v_new).max(initial=0.0)))
 
     def run(self, n_steps: int, energy_limit: float | None = None) -> np.ndarray:
-        """Take up to ``n_steps`` steps; returns the total energy before the first and after each step.
-
-        Stops early when a step is non-finite (the state is the last finite one) or once the total energy is above
-        ``energy_limit`` or not finite (that state and its energy are kept). :attr:`last_report` holds the last step's
-        report.
-        """
+        """Take up to ``n_steps`` steps; returns the total energy before the first and after each step. Stops early at
+        a non-finite step (keeping the last finite state) or once the total energy is not ``<= energy_limit`` (keeping
+        that state); :attr:`last_report` is the last step's report."""
         n_steps = check_count("n_steps", n_steps, 0)
         history = [self.total_energy()]
         self.last_report = None
@@ -162,16 +128,12 @@ class SymplecticEuler:
             return self.kinetic_energy() + self.model.stored_energy(self.u) - float(self.external @ self.u)
 
 
-# --- the stability limit ------------------------------------------------------------------------
-
 def critical_time_step(model, u=None) -> float:
-    """The linearised stability limit of :class:`SymplecticEuler`, ``dt_crit = 2 / omega_max``.
+    """The linearised stability limit of :class:`SymplecticEuler`, ``dt_crit = 2 / omega_max`` at ``u`` (default:
+    rest; a compressed ``ln J`` material stiffens a lot).
 
-    ``omega_max^2`` is the largest eigenvalue of ``K_ff x = omega^2 M_ff x`` on the free dofs, with
-    ``K = model.hessian(u)`` (default: rest) and ``M`` the lumped mass. ``M`` is diagonal, so it is solved as
-    ``M^-1/2 K M^-1/2 y = omega^2 y`` (Lanczos, :func:`scipy.sparse.linalg.eigsh`, from a fixed start vector so that
-    runs agree; small problems go dense). Far from ``u`` the limit changes: a compressed ``ln J`` material stiffens a
-    lot.
+    ``omega_max^2``, the largest eigenvalue of ``K_ff x = omega^2 M_ff x`` on the free dofs, is that of
+    ``M^-1/2 K M^-1/2`` (``M`` is diagonal): Lanczos from a fixed start vector so that runs agree, dense when small.
     """
     _check_model(model)
     u = model.zeros() if u is None else np.asarray(u, dtype=float)
@@ -183,12 +145,11 @@ def critical_time_step(model, u=None) -> float:
     K = model.hessian(u).tocsr()[free][:, free]
     scale = sp.diags(1.0 / np.sqrt(m[free]))
     A = (scale @ K @ scale).tocsr()
-    A = 0.5 * (A + A.T)
+    A = 0.5 * (A + A.T)  # symmetric to round-off
     if free.size <= 400:
         omega2 = float(np.linalg.eigvalsh(A.toarray())[-1])
     else:
-        omega2 = float(eigsh(A, k=1, which="LA", v0=np.ones(free.size), tol=1e-10,
-                             return_eigenvectors=False)[0])
+        omega2 = float(eigsh(A, k=1, which="LA", v0=np.ones(free.size), tol=1e-10, return_eigenvectors=False)[0])
     if not (np.isfinite(omega2) and omega2 > 0):
         raise ParameterError("u", f"the stiffness at u has no positive eigenvalue (omega_max^2 = {omega2!r})")
     return float(2.0 / np.sqrt(omega2))
@@ -206,22 +167,18 @@ def wave_speed(material, density: float = 1.0) -> float:
 
 def _initial_perturbation(model, amplitude: float, seed: int) -> np.ndarray:
     """A seeded random displacement of the free dofs (``amplitude h`` at most), handles at their targets."""
-    fixed, values = model.prescribed()
-    u0 = model.zeros()
+    (fixed, values), u0 = model.prescribed(), model.zeros()
     free = _free_dofs(u0.size, fixed)
-    rng = np.random.default_rng(seed)
-    u0[free] = amplitude * mesh_size(model.mesh) * rng.uniform(-1.0, 1.0, size=free.size)
+    u0[free] = amplitude * mesh_size(model.mesh) * np.random.default_rng(seed).uniform(-1.0, 1.0, size=free.size)
     u0[fixed] = values
     return u0
 
 
 def is_stable(model, dt: float, *, steps: int = 400, growth: float = 10.0,
               amplitude: float = 1e-4, seed: int = 0, u0=None) -> bool:
-    """Run :class:`SymplecticEuler` ``steps`` steps from rest at ``u0`` and say whether it stayed bounded.
-
-    ``u0`` defaults to a seeded random perturbation of the free dofs (``amplitude`` times the mesh size), which excites
-    every mode. Unstable: a non-finite step, or a total energy above ``growth`` times the initial one.
-    """
+    """Whether :class:`SymplecticEuler` stays bounded for ``steps`` steps from rest at ``u0`` (default: a seeded random
+    perturbation of ``amplitude`` mesh sizes, exciting every mode): no non-finite step, no total energy above
+    ``growth`` times the initial one."""
     scheme = SymplecticEuler(model, dt)
     scheme.u = _initial_perturbation(model, amplitude, seed) if u0 is None else np.array(u0, dtype=float)
     e0 = scheme.total_energy()
@@ -233,12 +190,9 @@ def is_stable(model, dt: float, *, steps: int = 400, growth: float = 10.0,
 
 def largest_stable_dt(model, *, steps: int = 400, growth: float = 10.0,
                       amplitude: float = 1e-4, seed: int = 0, rtol: float = 0.005, dt_guess=None) -> float:
-    """The largest time step with which :class:`SymplecticEuler` stays bounded, measured by bisection.
-
-    Each trial is :func:`is_stable` from the same seeded perturbation (small: the motion is linear). The search doubles
-    or halves ``dt_guess`` (default ``mesh_size / wave_speed`` if the material has Lamé parameters, else ``1e-3``) until
-    one trial is stable and the next not, then bisects geometrically to a bracket narrower than ``rtol`` (relative) and
-    returns its stable end.
+    """The largest time step with which :class:`SymplecticEuler` stays bounded: :func:`is_stable` trials from one
+    seeded perturbation, doubling or halving ``dt_guess`` (default ``mesh_size / wave_speed``, else ``1e-3``) until one
+    is stable and the next not, then geometric bisection to a relative bracket ``rtol``; returns its stable end.
 
     It measures what :func:`critical_time_step` predicts, without linearising. Just above ``dt_crit`` the growth is slow
     (``~ 1 + 2 sqrt(2 eps)`` per step at ``dt = (1 + eps) dt_crit``), so a finite run places the limit slightly high;
@@ -259,7 +213,6 @@ def largest_stable_dt(model, *, steps: int = 400, growth: float = 10.0,
 
     def stable(dt):
         return is_stable(model, dt, steps=steps, growth=growth, u0=u0)
-
     lo = hi = dt_guess
     for _ in range(60):
         if stable(lo):

@@ -1,37 +1,26 @@
 """The nonlinear elasticity weak form as scikit-fem forms: the readable reference path.
 
-The notes' weak form of quasistatic equilibrium ``-P_ij,j = f_i`` is
-
-    int_B0 w_i,j P_ij(F) dX = int_dB0 w_i P_ij n_j dS + int_B0 w_i f_i dX
-
-for every test function ``w``, with ``F = I + grad u``. Discretising ``u`` and ``w`` with the same vector-valued
-shape functions, the left-hand side is the internal force vector ``q(u)``, and Newton needs its derivative, obtained
-by linearising ``P`` in ``F`` and ``F`` in ``u`` (``dF = grad du``):
+The notes' weak form of ``-P_ij,j = f_i`` is ``int_B0 w_i,j P_ij(F) dX = int_dB0 w_i P_ij n_j dS + int_B0 w_i f_i dX``
+for every test function ``w``, ``F = I + grad u``. With the same shape functions for ``u`` and ``w`` the left-hand side
+is the internal force ``q(u)``; Newton needs its derivative (``dF = grad du``):
 
     q_a(u)       = int grad(v_a) : P(F) dX                      residual_form
     dq_a/du_b    = int grad(v_a) : A(F) : grad(du_b) dX        tangent_form
     E(u)         = int Psi(F) dX,   q = dE/du                   energy_form
 
-with ``A_ijkl = dP_ij/dF_kl``. In scikit-fem the test function ``v`` plays ``w`` (``grad(v)[i, j] = w_i,j``), so
-each form below is one line that reads like its equation::
+with ``A_ijkl = dP_ij/dF_kl``. The test function ``v`` plays ``w`` (``grad(v)[i, j] = w_i,j``), so each form below is
+one line that reads like its equation::
 
     >>> from skfem import Basis, ElementTriP1, ElementVector, MeshTri, asm
     >>> from tissuefem.engine.materials import NeoHookean
-    >>> basis = Basis(MeshTri().refined(2), ElementVector(ElementTriP1()))
-    >>> mat = NeoHookean(lam=1.0, mu=1.0)
-    >>> u = basis.zeros()
-    >>> q = asm(residual_form(mat), basis, u=basis.interpolate(u))
-    >>> K = asm(tangent_form(mat), basis, u=basis.interpolate(u))
+    >>> basis, mat = Basis(MeshTri().refined(2), ElementVector(ElementTriP1())), NeoHookean(lam=1.0, mu=1.0)
+    >>> q = asm(residual_form(mat), basis, u=basis.interpolate(basis.zeros()))
     >>> float(abs(q).max())
     0.0
 
-The current displacement is passed as ``u=basis.interpolate(u)``; the material is bound by closure because
-scikit-fem passes only arrays through ``w``. A :class:`~tissuefem.engine.materials.FiberReinforced` material with
-per-quadrature-point fibres (shape ``(2, n_elements, n_points)``) must use the same quadrature as the basis
-(``basis.X.shape[1]`` points).
-
-These forms evaluate the material once per pair of local basis functions (scikit-fem's assembly loop), which is
-clear but not fast; they are the reference that faster assembly is tested against.
+The material is bound by closure because scikit-fem passes only arrays through ``w``; per-quadrature-point fibres
+``(2, n_elements, n_points)`` must match the basis's quadrature. The forms evaluate the material once per pair of local
+basis functions: clear but not fast, the reference that faster assembly is tested against.
 """
 
 from __future__ import annotations
@@ -53,30 +42,24 @@ def deformation_gradient(u) -> np.ndarray:
 
 def residual_form(material: Material) -> LinearForm:
     """``q_a(u) = int P(F) : grad(v_a) dX`` (the notes' ``int w_i,j P_ij dX``) at ``F = I + grad u``."""
-
     @LinearForm
     def residual(v, w):
         return ddot(material.stress(deformation_gradient(w["u"])), grad(v))
-
     return residual
 
 
 def tangent_form(material: Material) -> BilinearForm:
     """``K_ab = int (A(F) : grad(du_b)) : grad(v_a) dX``, the derivative of :func:`residual_form`."""
-
     @BilinearForm
     def tangent(du, v, w):
         A = material.tangent(deformation_gradient(w["u"]))
         return ddot(np.einsum("ijkl...,kl...->ij...", A, grad(du)), grad(v))  # (A : grad du) : grad v
-
     return tangent
 
 
 def energy_form(material: Material) -> Functional:
     """``E(u) = int Psi(F) dX``, whose gradient is :func:`residual_form`."""
-
     @Functional
     def energy(w):
         return material.energy(deformation_gradient(w["u"]))
-
     return energy

@@ -1,33 +1,26 @@
 """Inversion-robust building blocks: the rotation-preserving SVD and the definiteness fix.
 
-Rotation-preserving SVD (Irving, Teran, Fedkiw 2004/2006)
----------------------------------------------------------
-An ordinary SVD ``F = U S V^T`` has ``S >= 0`` and may return reflections for ``U`` or ``V``. For an inverted
-element (``J < 0``) ITF instead keep ``U`` and ``V`` proper rotations and move the reflection onto the smallest
-singular value, which then carries the sign of ``J``: ``F = U diag(s0, s1) V^T`` with ``det U = det V = 1`` and
-``s0 >= |s1|``.
-
-In 2D this has a closed form. Split ``F`` into a similarity part and an anti-similarity part,
+**Rotation-preserving SVD** (Irving, Teran, Fedkiw 2004/2006). An ordinary SVD ``F = U S V^T`` has ``S >= 0`` and may
+return reflections for ``U`` or ``V``. ITF keep ``U`` and ``V`` proper rotations and move the reflection onto the
+smallest singular value, which then carries the sign of ``J``: ``F = U diag(s0, s1) V^T``, ``det U = det V = 1``,
+``s0 >= |s1|``. In 2D this has a closed form. Split ``F`` into a similarity and an anti-similarity part,
 
     F = [[E + Fa, Ga - H], [Ga + H, E - Fa]],  E = (F00 + F11)/2,  H = (F10 - F01)/2,
                                                  Fa = (F00 - F11)/2, Ga = (F10 + F01)/2,
 
-with ``Q = hypot(E, H)`` and ``R = hypot(Fa, Ga)``. Then ``s0 = Q + R``, ``s1 = Q - R`` (so
-``s0 s1 = Q^2 - R^2 = J``), and with ``a1 = atan2(Ga, Fa)``, ``a2 = atan2(H, E)`` the rotations are
-``U = rot((a1 + a2)/2)`` and ``V = rot((a1 - a2)/2)``: indeed ``rot(u) diag(s0, s1) rot(v)^T`` is ``Q rot(u - v)``
-plus ``R`` times the reflection ``[[cos(u + v), sin(u + v)], [sin(u + v), -cos(u + v)]]``. No branch, no iteration,
-finite for every F (including F = 0, where every rotation is a valid answer).
+with ``Q = hypot(E, H)`` and ``R = hypot(Fa, Ga)``. Then ``s0 = Q + R``, ``s1 = Q - R`` (``s0 s1 = Q^2 - R^2 = J``),
+and with ``a1 = atan2(Ga, Fa)``, ``a2 = atan2(H, E)``: ``U = rot((a1 + a2)/2)``, ``V = rot((a1 - a2)/2)``, since
+``rot(u) diag(s0, s1) rot(v)^T`` is ``Q rot(u - v)`` plus ``R`` times the reflection
+``[[cos(u + v), sin(u + v)], [sin(u + v), -cos(u + v)]]``. No branch, no iteration, finite for every F (at F = 0
+every rotation is a valid answer).
 
-The definiteness fix (Teran, Sifakis, Irving, Fedkiw 2005)
------------------------------------------------------------
-For an isotropic material the tangent rotates with the SVD: ``A(F) = (U x V) A_hat(S) (U x V)^T`` with
-``A_hat = A(diag(s))``. In the basis ``(dF_00, dF_11 | dF_01, dF_10)`` of diagonal space ``A_hat`` is block
-diagonal: a 2x2 *stretch* block (the Hessian of ``Psi`` in the singular values) and a 2x2 *twist/flip* block
-``[[b, c], [c, b]]`` with eigenvalues ``b + c = (psi0 - psi1)/(s0 - s1)`` (twist) and
-``b - c = (psi0 + psi1)/(s0 + s1)`` (flip), ``psi_i = dPsi/ds_i``. Clamping each block's negative eigenvalues and
-rotating back gives the closest positive semi-definite tangent. Because ``A_hat`` is taken from the material's own
-tangent at the diagonal ``F`` (not from the divided differences), nothing divides 0 by 0 when ``s0 = s1``. Newton
-with this tangent always computes a descent direction.
+**The definiteness fix** (Teran, Sifakis, Irving, Fedkiw 2005). For an isotropic material ``A(F) = (U x V) A_hat(S)
+(U x V)^T``, ``A_hat = A(diag(s))``, block diagonal in the basis ``(dF_00, dF_11 | dF_01, dF_10)``: a 2x2 *stretch*
+block (the Hessian of ``Psi`` in the singular values) and a 2x2 *twist/flip* block ``[[b, c], [c, b]]`` with
+eigenvalues ``b + c = (psi0 - psi1)/(s0 - s1)`` (twist) and ``b - c = (psi0 + psi1)/(s0 + s1)`` (flip),
+``psi_i = dPsi/ds_i``. Clamping each block's negative eigenvalues and rotating back gives the closest positive
+semi-definite tangent, so Newton always finds a descent direction. ``A_hat`` is the material's own tangent at the
+diagonal ``F`` (not divided differences): nothing divides 0 by 0 when ``s0 = s1``.
 """
 
 from __future__ import annotations
@@ -50,17 +43,11 @@ def rotation_preserving_svd(F):
     F = np.asarray(F, dtype=float)
     if F.shape[:2] != (2, 2):
         raise ParameterError("F", f"F must be shaped [2, 2, ...], got {F.shape}")
-    E = 0.5 * (F[0, 0] + F[1, 1])
-    H = 0.5 * (F[1, 0] - F[0, 1])
-    Fa = 0.5 * (F[0, 0] - F[1, 1])
-    Ga = 0.5 * (F[1, 0] + F[0, 1])
-    Q = np.hypot(E, H)
-    R = np.hypot(Fa, Ga)
-    a1 = np.arctan2(Ga, Fa)
-    a2 = np.arctan2(H, E)
-    U = _rotation(0.5 * (a2 + a1))
-    V = _rotation(0.5 * (a1 - a2))
-    return U, np.array([Q + R, Q - R]), V
+    E, H = 0.5 * (F[0, 0] + F[1, 1]), 0.5 * (F[1, 0] - F[0, 1])
+    Fa, Ga = 0.5 * (F[0, 0] - F[1, 1]), 0.5 * (F[1, 0] + F[0, 1])
+    Q, R = np.hypot(E, H), np.hypot(Fa, Ga)
+    a1, a2 = np.arctan2(Ga, Fa), np.arctan2(H, E)
+    return _rotation(0.5 * (a2 + a1)), np.array([Q + R, Q - R]), _rotation(0.5 * (a1 - a2))
 
 
 def diagonal(s) -> np.ndarray:
@@ -73,8 +60,7 @@ def diagonal(s) -> np.ndarray:
 
 def _project_sym2(a, b, d, floor):
     """Clamp the eigenvalues of the symmetric 2x2 blocks ``[[a, b], [b, d]]`` at ``floor`` (closed form)."""
-    mean = 0.5 * (a + d)
-    rad = np.hypot(0.5 * (a - d), b)
+    mean, rad = 0.5 * (a + d), np.hypot(0.5 * (a - d), b)
     lam_hi, lam_lo = mean + rad, mean - rad
     # unit eigenvector of lam_hi: (cos t, sin t) with t = atan2(2b, a - d) / 2 (well defined; rad = 0 -> any)
     t = 0.5 * np.arctan2(2.0 * b, a - d)
@@ -84,11 +70,8 @@ def _project_sym2(a, b, d, floor):
 
 
 def eigen_projection(A, floor: float = 0.0):
-    """Numerical projection: clamp the eigenvalues of each 4x4 tangent ``A [2,2,2,2,*rest]`` at ``floor``.
-
-    The reference the closed form is tested against, and the fallback for materials that are not isotropic (fibers)
-    or not frame indifferent (linear).
-    """
+    """Clamp the eigenvalues of each 4x4 tangent ``A [2,2,2,2,*rest]`` at ``floor`` numerically: the closed form's
+    reference, and the fallback for materials not isotropic (fibers) or not frame indifferent (linear)."""
     A = np.asarray(A, dtype=float)
     rest = A.shape[4:]
     M = np.moveaxis(A.reshape((4, 4, -1)), -1, 0)
@@ -104,13 +87,9 @@ def _rotation_invariant(material) -> bool:
 
 
 def projected_tangent(material, F, floor: float = 0.0):
-    """The positive semi-definite projection of ``material.tangent(F)`` (Teran et al. 2005).
-
-    Closed form in diagonal space for the isotropic, frame-indifferent models (Neo-Hookean family, corotated); other
-    materials (linear elasticity, fiber terms) fall back to :func:`eigen_projection`. Eigenvalues below ``floor``
-    (default 0) are raised to ``floor``; positive ones are kept, so where the tangent is already positive
-    semi-definite it is returned unchanged (up to round-off). Returns ``[2, 2, 2, 2, *rest]`` like
-    ``material.tangent``.
+    """The positive semi-definite projection of ``material.tangent(F)`` (Teran et al. 2005), ``[2, 2, 2, 2, *rest]``:
+    eigenvalues below ``floor`` are raised to it, the others kept. Closed form in diagonal space for the isotropic,
+    frame-indifferent models (Neo-Hookean family, corotated), else :func:`eigen_projection`.
     """
     if not _rotation_invariant(material):
         return eigen_projection(material.tangent(F), floor)
@@ -121,10 +100,9 @@ def projected_tangent(material, F, floor: float = 0.0):
 def _rotate_back(U, V, A_hat):
     """``A_ijkl = U_ia V_jb U_kc V_ld A_hat_abcd`` for a diagonal-space tangent of the block form above.
 
-    With ``E_ab = u_a v_b^T`` (``u_a``, ``v_b`` the columns of ``U``, ``V``) this is
-    ``sum A_hat[ab, cd] E_ab (x) E_cd``, and ``A_hat`` couples only ``{00, 11}`` (stretch) and ``{01, 10}``
-    (twist/flip). Grouping each block's row into one 2x2 field leaves four outer products of 2x2 fields: a few dozen
-    multiplications per element instead of a five-operand contraction (measured about 25x faster at 8k elements).
+    With ``E_ab = u_a v_b^T`` (the columns of ``U``, ``V``) this is ``sum A_hat[ab, cd] E_ab (x) E_cd``, ``A_hat``
+    coupling only ``{00, 11}`` and ``{01, 10}``: four outer products of 2x2 fields instead of a five-operand
+    contraction (measured about 25x faster at 8k elements).
     """
     E = {(a, b): U[:, a][:, None] * V[:, b][None, :] for a in range(2) for b in range(2)}
     out = 0.0
@@ -148,15 +126,11 @@ def _project_diagonal_blocks(A, floor):
 class ProjectedTangent:
     """A material whose tangent is the positive semi-definite projection of another's.
 
-    Energy and stress are the wrapped material's, so a Newton solve still converges to the same equilibrium; only
-    the search direction changes (it is always a descent direction for the energy). Works with the fast assembler
-    and with the scikit-fem forms alike.
-
-    ``adaptive=True`` projects only when Newton needs it: ``tangent`` is then the exact one (quadratic convergence
-    where the Hessian is positive definite, as it usually is away from inversion) and ``safe_tangent`` the
-    projection, which the minimiser assembles when the exact direction does not point downhill. Clamping every
-    element's negative curvature in every step costs Newton its quadratic convergence: on chapter 8's drag with the
-    stable neo-Hookean model, about 7 Newton steps a frame instead of 2.
+    Energy and stress are the wrapped material's: the same equilibrium, only the search direction changes (always
+    downhill). ``adaptive=True`` projects only when Newton needs it: ``tangent`` is then the exact one (quadratic
+    convergence where the Hessian is positive definite, as it usually is away from inversion) and ``safe_tangent`` the
+    projection, for when the exact direction is not downhill. Clamping in every step costs Newton its quadratic
+    convergence: about 7 Newton steps a frame instead of 2 on chapter 8's drag (stable neo-Hookean).
     """
 
     def __init__(self, material, floor: float = 0.0, adaptive: bool = False):
@@ -174,9 +148,7 @@ class ProjectedTangent:
         return self.material.stress(F)
 
     def tangent(self, F):
-        if self.adaptive:
-            return self.material.tangent(F)
-        return projected_tangent(self.material, F, self.floor)
+        return self.material.tangent(F) if self.adaptive else projected_tangent(self.material, F, self.floor)
 
     def safe_tangent(self, F):
         """The projected (positive semi-definite) tangent."""
@@ -186,15 +158,12 @@ class ProjectedTangent:
         return f"ProjectedTangent({self.material!r}, floor={self.floor:g}, adaptive={self.adaptive})"
 
 
-# --- the ITF compression threshold: clamping and extrapolation ------------------------------------
-
 class ITFClamped:
     """An isotropic material made invertible after Irving, Teran and Fedkiw (2004/2006).
 
-    The energy is evaluated in diagonal space, ``Psi(F) = Psi_hat(s)`` with the rotation-preserving SVD
-    ``F = U diag(s) V^T`` (``s0 >= |s1|``; ``s1 < 0`` for an inverted element), and the stress is
-    ``P = U diag(psi) V^T`` with ``psi_i = dPsi_hat/ds_i``. Below the compression threshold ``c`` the base model is
-    *extrapolated* from the threshold:
+    In diagonal space ``Psi(F) = Psi_hat(s)`` (rotation-preserving SVD ``F = U diag(s) V^T``, ``s1 < 0`` for an
+    inverted element) and ``P = U diag(psi) V^T``, ``psi_i = dPsi_hat/ds_i``. Below the compression threshold ``c``
+    the base model is *extrapolated* from the threshold:
 
     * ``s1 >= c`` (the usual case): the base model itself.
     * ``s1 < c <= s0`` (one direction crushed, flat or inverted): first-order in ``d1 = s1 - c`` from ``(s0, c)``
@@ -203,26 +172,21 @@ class ITFClamped:
       ``Psi + psi_0 d0 + psi_1 d1 + Psi_01 d0 d1 + k/2 (d0^2 + d1^2)``.
 
     Each piece is the previous one extended in one more variable, so the energy is C1 across the thresholds and the
-    stress is its exact gradient: the energy line search stays valid (ITF's original clamps ``P_hat`` directly,
-    with the same finite push-back but no consistent energy). The restoring force grows only linearly with the depth
-    of inversion (spring ``k``, by default the base model's ``d2Psi/ds1^2`` at ``(c, c)``), so an element crushed to
-    a point or turned inside out still gets a finite force that pushes it back, and ``F = 0`` is not an equilibrium
-    (there ``P = psi_0(c, c) (1 - ...) I`` pushes outward).
+    stress is its exact gradient: the energy line search stays valid (ITF's original clamps ``P_hat`` directly, with
+    the same finite push-back but no consistent energy). The restoring force grows only linearly with the depth of
+    inversion (spring ``k``), so an element crushed to a point or turned inside out is still pushed back, and ``F = 0``
+    is not an equilibrium.
 
-    The tangent is assembled in diagonal space (module docstring) and, with ``project=True`` (the default), projected
-    to be positive semi-definite (Teran et al. 2005): where ``s0 + s1 = 0`` the energy has a kink of unbounded
-    curvature, and the projection keeps Newton's direction downhill there. ``project=False`` gives the exact Hessian
-    (away from the kink); region ``s1 < c <= s0`` needs a third derivative of the base model, a central difference
-    of its tangent.
+    ``project=True`` (the default) projects the tangent to be positive semi-definite (where ``s0 + s1 = 0`` the energy
+    has a kink of unbounded curvature); ``project=False`` gives the exact Hessian away from the kink (for
+    ``s1 < c <= s0`` with the base model's third derivative by a central difference of its tangent).
 
-    Why only the ``ln J`` model (``material``, a :class:`~tissuefem.engine.materials.NeoHookean`): a highly stretched
-    element (``s0`` large) with ``s1`` below the threshold feels ``psi_1(s0, c)``, which becomes positive (the
-    material wants ``s1 ~ 1/s0`` to keep its volume), and the spring bounds the energy below only while
-    ``psi_1^2 / (2k)`` grows slower than ``Psi(s0, c)``. With ``ln J``, ``psi_1`` grows like ``ln s0``; with a
-    polynomial volumetric term (Taylor, stable Neo-Hookean, corotated) like ``s0^2`` or faster, and the extended
-    energy would be unbounded below; those models are finite through inversion already. The same fact limits the
-    accuracy of a singular-value threshold: where the physical answer has ``s1 < c`` (a nearly incompressible body
-    stretched beyond ``1/c``), the clamped model no longer reproduces the base model.
+    Only the ``ln J`` :class:`~tissuefem.engine.materials.NeoHookean`: a stretched element (``s0`` large) with ``s1``
+    below the threshold feels ``psi_1(s0, c) > 0`` (it wants ``s1 ~ 1/s0``), and the spring bounds the energy below
+    only while ``psi_1^2 / (2k)`` grows slower than ``Psi(s0, c)``: ``psi_1 ~ ln s0`` for ``ln J``, ``~ s0^2`` or
+    faster for the polynomial volumetric terms (which are finite through inversion anyway). For the same reason, where
+    the physical answer has ``s1 < c`` (nearly incompressible, stretched beyond ``1/c``) the clamped model departs
+    from the base model.
 
     ``threshold`` is ``c``, ``0 < c < 1``; ``stiffness`` the spring ``k > 0`` (default ``d2Psi/ds1^2(c, c)``).
     """
@@ -245,7 +209,7 @@ class ITFClamped:
         self._psi_cc = float(np.asarray(material.energy(D)).ravel()[0])
         self._g_cc = float(np.asarray(material.stress(D))[0, 0, 0])
         self._h01_cc = float(A[0, 0, 1, 1, 0])
-        self.stiffness = k = check_real("stiffness", A[1, 1, 1, 1, 0] if stiffness is None else stiffness, 0.0,
+        self.stiffness = check_real("stiffness", A[1, 1, 1, 1, 0] if stiffness is None else stiffness, 0.0,
                                         lo_open=True)
         self.name = f"ITF-clamped {material.name}"
 
@@ -253,7 +217,6 @@ class ITFClamped:
         return (f"ITFClamped({self.base!r}, threshold={self.threshold:g}, stiffness={self.stiffness:g}, "
                 f"project={self.project})")
 
-    # --- diagonal space ------------------------------------------------------------------
     def _regions(self, s):
         """``s`` as floats and where it is ``(normal, one, both)``: no, one or both singular values below ``c``."""
         s = np.asarray(s, dtype=float)
@@ -336,7 +299,7 @@ class ITFClamped:
         A[0, 1, 1, 0][sub] = A[1, 0, 0, 1][sub] = 0.5 * (twist - flip)
         return A
 
-    # --- the material interface (F shaped [2, 2, *rest], also a single 2x2) -------------------------
+    # the material interface (F shaped [2, 2, *rest], also a single 2x2)
     @staticmethod
     def _field(F):
         F = np.asarray(F, dtype=float)

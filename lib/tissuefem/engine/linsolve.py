@@ -1,19 +1,12 @@
 """Linear solver backends behind one small interface, and the policy that decides when to factorize.
 
-Every Newton step solves ``A dx = b`` with ``A`` the condensed tangent (for backward Euler ``M + dt^2 K``:
-symmetric, and positive definite away from buckling). Beyond a couple of thousand triangles this solve, not
-assembly, decides the frame rate. A backend has ``factorize(A)``, returning an object whose ``solve(b)`` may be
-called any number of times, and ``backend(A, b) -> x`` (factorize and solve once).
-
-Backends: :class:`SuperLU` (the default), :class:`Pardiso` (MKL, ``pip install tissuefem[pardiso]``),
-:class:`ReusedFactorization` (an earlier factorization as the preconditioner of conjugate gradients, :func:`pcg`) and
-:class:`PreconditionedCG` (a cheap preconditioner, no factorization; chapter 9 measures them against the direct
-backends).
-
-Newton calls a :class:`LinearSolver`, the one policy that decides when to factorize: afresh every solve
-(``"direct"`` or a backend's name), a kept factorization as CG's preconditioner (``"reuse"``, the real-time
-default), or a kept factorization used as it is (``"constant"``: exact when the tangent never changes). It condenses
-the tangent to its free rows and columns (:class:`Condenser`). :func:`make` builds a backend by name.
+Every Newton step solves ``A dx = b`` with ``A`` the condensed tangent (for backward Euler ``M + dt^2 K``: symmetric,
+and positive definite away from buckling); beyond a couple of thousand triangles this solve, not assembly, decides the
+frame rate. A backend has ``factorize(A)``, returning an object whose ``solve(b)`` may be called any number of times,
+and ``backend(A, b) -> x``: :class:`SuperLU` (the default), :class:`Pardiso` (MKL, ``pip install tissuefem[pardiso]``),
+:class:`ReusedFactorization` (a kept factorization as the preconditioner of :func:`pcg`) and :class:`PreconditionedCG`
+(no factorization); :func:`make` builds one by name. Newton calls a :class:`LinearSolver`, which condenses the tangent
+to its free dofs (:class:`Condenser`) and decides when to factorize.
 """
 
 from __future__ import annotations
@@ -71,9 +64,7 @@ class _LUFactor:
     def solve(self, b) -> np.ndarray:
         b = np.asarray(b, dtype=float)
         x = self._lu.solve(b)
-        if self._A is not None:
-            # diagonal pivots without a threshold can lose accuracy on an indefinite matrix: check the
-            # residual once and, if it is poor, refactorize with partial pivoting for good
+        if self._A is not None:  # diagonal pivots may lose accuracy on an indefinite matrix: check the residual once
             if not np.all(np.isfinite(x)) or np.linalg.norm(self._A @ x - b) > 1e-8 * np.linalg.norm(b):
                 self._lu = spla.splu(self._A, permc_spec=self._ordering)
                 x = self._lu.solve(b)
@@ -85,11 +76,9 @@ class SuperLU(_Direct):
     """SciPy's SuperLU with the column ``ordering`` ``"MMD_AT_PLUS_A"`` (default), ``"COLAMD"`` (SciPy's default),
     ``"MMD_ATA"`` or ``"NATURAL"``; ``symmetric``: SuperLU's symmetric mode, by default on for the first only.
 
-    With the symmetric minimum-degree ordering of ``A + A^T`` and symmetric mode (diagonal pivots preferred) the fill
-    is about half of COLAMD's and it factorizes 1.5-2.5x faster (23 ms against 43 ms at 8k triangles); without
-    symmetric mode the same ordering can be *slower* than COLAMD (173 ms: off-diagonal pivoting destroys it). If the
-    diagonal pivots fail (a zero pivot, or a poor first residual: an indefinite matrix) it refactorizes with partial
-    pivoting.
+    The minimum-degree ordering of ``A + A^T`` in symmetric mode (diagonal pivots) halves COLAMD's fill and factorizes
+    1.5-2.5x faster (23 ms against 43 ms at 8k triangles; 173 ms without symmetric mode). If the diagonal pivots fail
+    (a zero pivot, or a poor first residual) it refactorizes with partial pivoting.
     """
 
     def __init__(self, ordering: str = "MMD_AT_PLUS_A", symmetric: bool | None = None):
@@ -141,14 +130,12 @@ class Pardiso(_Direct):
     def __init__(self):
         if not available("pardiso"):
             raise ParameterError("linear_solver", "linear solver 'pardiso' needs the optional package pypardiso "
-                             "(pip install 'tissuefem[pardiso]'); use 'superlu' instead")
+                                                  "(pip install 'tissuefem[pardiso]'); use 'superlu' instead")
         import pypardiso
-
         self._module = pypardiso
 
     def factorize(self, A) -> _PardisoFactor:
-        A = sp.csr_matrix(_square(A))
-        solver = self._module.PyPardisoSolver()
+        A, solver = sp.csr_matrix(_square(A)), self._module.PyPardisoSolver()
         solver.set_statistical_info_off()
         solver.factorize(A)
         return _PardisoFactor(solver, A)
@@ -183,8 +170,7 @@ def pcg(A, b, precondition=None, *, x0=None, atol: float = 0.0, rtol: float = 1e
     if rnorm <= target:
         return PCGResult(x, 0, True, rnorm)
     z = precondition(r) if precondition is not None else r.copy()
-    p = z.copy()
-    rz = float(r @ z)
+    p, rz = z.copy(), float(r @ z)
     for k in range(1, int(max_iterations) + 1):
         Ap = A @ p
         curvature = float(p @ Ap)
@@ -197,16 +183,11 @@ def pcg(A, b, precondition=None, *, x0=None, atol: float = 0.0, rtol: float = 1e
         x += alpha * p
         r -= alpha * Ap
         rnorm = float(np.linalg.norm(r))
-        if not np.isfinite(rnorm):
-            return PCGResult(x, k, False, rnorm)
-        if rnorm <= target:
-            return PCGResult(x, k, True, rnorm)
-        if should_stop is not None and should_stop():
-            return PCGResult(x, k, False, rnorm)
+        if not np.isfinite(rnorm) or rnorm <= target or (should_stop is not None and should_stop()):
+            return PCGResult(x, k, rnorm <= target, rnorm)
         z = precondition(r) if precondition is not None else r
         rz_new = float(r @ z)
-        p = z + (rz_new / rz) * p
-        rz = rz_new
+        p, rz = z + (rz_new / rz) * p, rz_new
     return PCGResult(x, int(max_iterations), False, rnorm)
 
 
@@ -224,21 +205,16 @@ class SolveInfo:
 class ReusedFactorization:
     """Conjugate gradients preconditioned by a kept factorization, refreshed when it stops paying.
 
-    Along a Newton solve and from frame to frame the tangent changes slowly, so a few CG iterations (one
-    back-substitution each, ~1 ms at 8k triangles) replace a factorization (~20 ms).
+    The tangent changes slowly along a Newton solve and from frame to frame, so a few CG iterations (one
+    back-substitution each, ~1 ms at 8k triangles) replace a factorization (~20 ms). ``direct`` is the backend that
+    factorizes (default :class:`SuperLU`). A solve needing more than ``refresh_after`` CG iterations marks the
+    factorization stale (the *next* solve refactorizes); one reaching ``max_iterations`` refactorizes and solves
+    directly. ``background``: a solve needing more than ``background_after`` iterations starts a factorization in a
+    thread on the second core (SuperLU releases the interpreter), adopted by the first solve after it has finished;
+    iteration counts then depend on the machine's timing, so it is off by default.
 
-    ``direct`` is the backend that factorizes (default :class:`SuperLU`). A solve that needs more than
-    ``refresh_after`` CG iterations marks the factorization stale (the *next* solve refactorizes); one that reaches
-    ``max_iterations`` refactorizes and solves directly.
-
-    ``background``: a CG solve that needs more than ``background_after`` iterations starts a factorization of its
-    matrix in a thread on the second core (SuperLU releases the interpreter meanwhile), and the first solve after it
-    has finished adopts it: no frame waits for a factorization once one exists. The iteration counts then depend on
-    the machine's timing (the results only to the solve's tolerance), so it is off by default.
-
-    ``solve(A, b, atol=..., rtol=...)`` returns ``(x, SolveInfo)``, ``backend(A, b)`` ``x`` alone; counters
-    ``factorizations`` (in the foreground), ``background_factorizations`` and ``cg_iterations`` accumulate.
-    """
+    ``solve(A, b, atol=..., rtol=...)`` returns ``(x, SolveInfo)``, ``backend(A, b)`` ``x`` alone; ``factorizations``
+    (in the foreground), ``background_factorizations`` and ``cg_iterations`` count."""
 
     def __init__(self, direct=None, refresh_after: int = 15, max_iterations: int = 40, background: bool = False,
                  background_after: int = 3):
@@ -260,8 +236,7 @@ class ReusedFactorization:
         """Take a finished background factorization (one of the current shape) as the preconditioner."""
         if self._pending is None or self._pending[0].is_alive():
             return
-        _, box = self._pending
-        self._pending = None
+        box, self._pending = self._pending[1], None
         if box.get("factor") is not None and box["shape"] == self._shape:
             self._factor, self._stale = box["factor"], False
             self.background_factorizations += 1
@@ -269,32 +244,26 @@ class ReusedFactorization:
     def _refresh_in_background(self, A) -> None:
         if self._pending is not None:
             return
-        A = A.copy()
-        box = {"shape": A.shape}
+        A, box = A.copy(), {"shape": A.shape}
 
         def work():
             try:
                 box["factor"] = self.direct.factorize(A)
             except Exception:  # a failed refresh only means the old factorization stays
                 box["factor"] = None
-
         thread = threading.Thread(target=work, name="tissuefem-refactorize", daemon=True)
         self._pending = (thread, box)
         thread.start()
 
     def _refactorize(self, A, b, reason) -> tuple[np.ndarray, SolveInfo]:
-        self._factor = self.direct.factorize(A)
-        self._shape = A.shape
-        self._stale = False
+        self._factor, self._shape, self._stale = self.direct.factorize(A), A.shape, False
         self.factorizations += 1
         x = self._factor.solve(b)
-        res = float(np.linalg.norm(b - A @ x))
-        return x, SolveInfo(0, True, bool(np.all(np.isfinite(x))), res, reason)
+        return x, SolveInfo(0, True, bool(np.all(np.isfinite(x))), float(np.linalg.norm(b - A @ x)), reason)
 
     def solve(self, A, b, *, atol: float = 0.0, rtol: float = 1e-10, refactorize: bool = False,
               should_stop=None) -> tuple[np.ndarray, SolveInfo]:
-        A = _square(A)
-        b = _rhs(b, A.shape[0])
+        A, b = _square(A), _rhs(b, A.shape[0])
         if refactorize:
             return self._refactorize(A, b, "forced")
         if self._factor is None:
@@ -326,14 +295,11 @@ class ReusedFactorization:
                 f"max_iterations={self.max_iterations})")
 
 
-# --- conjugate gradients as a backend ---------------------------------------------------------
-
 class _CGFactor:
     def __init__(self, A, precondition, rtol, max_iterations):
         self._A, self._precondition = A, precondition
         self.rtol, self.max_iterations = rtol, max_iterations
-        self.iterations = 0  # CG iterations of all solves with this matrix
-        self.converged = True
+        self.iterations, self.converged = 0, True  # over all solves with this matrix
 
     def solve(self, b) -> np.ndarray:
         result = pcg(self._A, _rhs(b, self._A.shape[0]), self._precondition, rtol=self.rtol,
@@ -343,13 +309,10 @@ class _CGFactor:
         return result.x
 
 
-class PreconditionedCG:
-    """Conjugate gradients with a preconditioner built for each matrix: no factorization.
-
-    The direct backends' interface (``factorize(A).solve(b)``), where ``factorize`` only builds the preconditioner:
-    ``"jacobi"``, the inverse of the diagonal (free, and weak: the iteration count grows like ``1/h`` on these
-    elasticity matrices); ``"ilu"``, SciPy's incomplete LU (``spilu``, drop tolerance ``drop_tol``), cheaper than a
-    full factorization and much stronger than Jacobi; ``"none"``, plain CG.
+class PreconditionedCG(_Direct):
+    """Conjugate gradients with a preconditioner built for each matrix (by ``factorize``): ``"jacobi"``, the inverse
+    of the diagonal (free, and weak: the iteration count grows like ``1/h`` here); ``"ilu"``, SciPy's incomplete LU
+    (``spilu``, ``drop_tol``), cheaper than a factorization and much stronger; ``"none"``, plain CG.
 
     A solve stops at ``rtol`` times the right-hand side's norm or after ``max_iterations`` (default
     ``max(200, 2 n)``); the factor's ``iterations`` counts CG iterations and ``converged`` says whether every solve
@@ -383,21 +346,13 @@ class PreconditionedCG:
         limit = self.max_iterations or max(200, 2 * A.shape[0])
         return _CGFactor(A, precondition, self.rtol, limit)
 
-    def __call__(self, A, b) -> np.ndarray:
-        return self.factorize(A).solve(b)
-
     def __repr__(self):
         return f"PreconditionedCG(preconditioner={self.preconditioner!r}, rtol={self.rtol})"
 
 
-BACKENDS = {
-    "superlu": lambda: SuperLU("MMD_AT_PLUS_A"),
-    "superlu-colamd": lambda: SuperLU("COLAMD"),
-    "pardiso": Pardiso,
-    "cg-jacobi": lambda: PreconditionedCG("jacobi"),
-    "cg-ilu": lambda: PreconditionedCG("ilu"),
-    "cg": lambda: PreconditionedCG("none"),
-}
+BACKENDS = {"superlu": lambda: SuperLU("MMD_AT_PLUS_A"), "superlu-colamd": lambda: SuperLU("COLAMD"),
+            "pardiso": Pardiso, "cg-jacobi": lambda: PreconditionedCG("jacobi"),
+            "cg-ilu": lambda: PreconditionedCG("ilu"), "cg": lambda: PreconditionedCG("none")}
 
 
 def make(name: str = "superlu"):
@@ -425,18 +380,14 @@ class Condenser:
         self.keep = int(keep)
         self._maps = {}
 
-    @staticmethod
-    def key(K, mask) -> tuple:
-        # the pattern by the memory of its index arrays (scipy may hand back views of them)
-        return (K.indptr.ctypes.data, K.indices.ctypes.data, K.shape, np.packbits(mask).tobytes())
-
     def __call__(self, K, mask) -> sp.csr_matrix:
         K = sp.csr_matrix(K) if not sp.isspmatrix_csr(K) else K
         if mask.all():
             return K
         if K.indptr.flags.writeable or K.indices.flags.writeable:
             return K[mask][:, mask]  # not a fixed (read-only) pattern: slice
-        key = self.key(K, mask)
+        # the pattern by the memory of its index arrays (scipy may hand back views of them)
+        key = (K.indptr.ctypes.data, K.indices.ctypes.data, K.shape, np.packbits(mask).tobytes())
         entry = self._maps.get(key)
         if entry is None:
             if len(self._maps) >= self.keep:
@@ -460,9 +411,7 @@ class LinearInfo:
 
 
 class LinearSolver:
-    """How Newton solves ``A dx = b``: which backend, and when to factorize.
-
-    ``method`` is one of:
+    """How Newton solves ``A dx = b``: which backend, and when to factorize. ``method`` is one of:
 
     * ``"direct"``: a fresh :class:`SuperLU` factorization for every solve: exact Newton;
     * a backend name of :func:`make`: that backend, afresh for every solve;
@@ -473,13 +422,11 @@ class LinearSolver:
       tangent again -- exact when the tangent is constant (linear elasticity, springs): one back-substitution;
     * a backend object (with ``factorize``) or a :class:`ReusedFactorization`.
 
-    A kept factorization belongs to one set of free dofs and one matrix pattern and is dropped when either changes,
-    or by :meth:`invalidate` (when the time step changes).
+    A kept factorization is dropped when the free dofs or the pattern change, or by :meth:`invalidate`.
     """
 
     def __init__(self, method="reuse"):
-        self.method = method
-        self.constant = False
+        self.method, self.constant = method, False
         if isinstance(method, str):
             if method == "direct":
                 self.backend = SuperLU()
@@ -534,11 +481,8 @@ class LinearSolver:
         return self.condense(assemble(), mask)
 
     def solve(self, A, b, *, atol: float = 0.0):
-        """``(dx, LinearInfo)`` for ``A dx = b``; ``A`` is ``None`` only for a kept constant factorization.
-
-        ``atol`` is the absolute residual an iterative solve may stop at (inexact Newton); direct
-        solves ignore it. A failed solve returns ``dx = None``.
-        """
+        """``(dx, LinearInfo)`` for ``A dx = b`` (``dx = None``: the solve failed); ``A`` is ``None`` only for a kept
+        constant factorization. ``atol``: where an iterative solve may stop (inexact Newton)."""
         info = LinearInfo()
         try:
             if self.constant:

@@ -1,44 +1,19 @@
 """Two-dimensional hyperelastic materials (plane strain).
 
-Every material maps the deformation gradient ``F[i, j] = d phi_i / d X_j`` to
+Every material maps ``F[i, j] = d phi_i / d X_j``, a 2x2 matrix or a field of them shaped ``[2, 2, *rest]`` (scikit-fem
+hands us ``[2, 2, elements, quadrature points]``), to ``energy(F)`` ``Psi`` (shape ``rest``), ``stress(F)``
+``P = dPsi/dF`` (shape of ``F``) and ``tangent(F)`` ``A[i, j, k, l] = dP_ij / dF_kl`` (shape ``(2, 2, 2, 2) + rest``).
 
-* ``energy(F)``: the strain energy density ``Psi(F)``, shape ``F.shape[2:]``;
-* ``stress(F)``: the first Piola-Kirchhoff stress ``P = dPsi/dF``, shape ``F.shape``;
-* ``tangent(F)``: the fourth-order tangent ``A[i, j, k, l] = dP_ij / dF_kl``, shape ``(2, 2, 2, 2) + F.shape[2:]``.
+Derivations (checked by finite differences in ``tests/engine/test_materials.py``). In 2D ``J = F00 F11 - F01 F10``,
+so ``dJ/dF = cof F = J F^-T = [[F11, -F10], [-F01, F00]]``, and ``cof F`` is *linear* in ``F``:
+``d(cof F)_ij / dF_kl = e_ik e_jl =: H_ijkl`` with the 2D permutation symbol ``e_01 = 1, e_10 = -1``. Hence any
+volumetric energy ``h(J)`` has ``P = h'(J) cof F`` and ``A = h''(J) cof F (x) cof F + h'(J) H``. The term
+``mu/2 (F:F - 2)`` has ``P = mu F`` and ``A = mu I4`` (``I4_ijkl = d_ik d_jl``); the Neo-Hookean family below is
+``mu/2 (F:F - 2) + h(J)`` for three choices of ``h``.
 
-``F`` is a 2x2 matrix or a field of them shaped ``[2, 2, *rest]`` (scikit-fem hands us
-``[2, 2, elements, quadrature points]``); everything is vectorised.
-
-Derivations (re-done here; checked by finite differences in ``tests/engine/test_materials.py``)
----------------------------------------------------------------------------------------
-
-Two identities carry most of the work. In 2D ``J = det F = F00 F11 - F01 F10``, so entry by entry
-
-    dJ/dF = cof F = J F^-T = [[F11, -F10], [-F01, F00]],
-
-and ``cof F`` is *linear* in ``F``: ``d(cof F)_ij / dF_kl = e_ik e_jl =: H_ijkl`` with the 2D permutation symbol
-``e_01 = 1, e_10 = -1``. Hence any volumetric energy ``h(J)`` has
-
-    P = h'(J) cof F,    A = h''(J) cof F (x) cof F + h'(J) H.
-
-The term ``mu/2 (F:F - 2)`` has ``P = mu F`` and ``A = mu I4`` with ``I4_ijkl = d_ik d_jl``. The Neo-Hookean family
-below is exactly ``mu/2 (F:F - 2) + h(J)`` for three choices of ``h``.
-
-At ``F = I``, ``H_ijkl = d_ij d_kl - d_il d_jk`` (a 2D identity), so a model with ``h'(1) = -mu`` and
-``h''(1) = lam + mu`` linearises to the linear-elastic tangent ``lam d_ij d_kl + mu (d_ik d_jl + d_il d_jk)``: that
-is how each model below is checked to reduce to linear elasticity with the same ``(lam, mu)``.
-
-Models: :class:`LinearElastic`, :class:`NeoHookean`, :class:`TaylorNeoHookean`, :class:`StableNeoHookean`,
-:class:`Corotated` (registry :data:`MATERIALS`, factory :func:`material`) and the anisotropic wrapper
-:class:`FiberReinforced`.
-
-Slips in the notes confirmed here
----------------------------------
-* The Neo-Hookean energy is printed with ``F_ij F_ji`` (``tr(F F)``), which is not frame indifferent
-  (``tr(R R) = 2 cos 2 theta`` for a rotation ``R``); the stress printed next to it, ``mu F + ...``, is the
-  derivative of ``F_ij F_ij = F:F``, which is what we use.
-* The robust (Taylor) variant prints the matrix ``[[F22, -F12], [-F21, F11]]`` (the adjugate, ``J F^-1``); the
-  derivative ``dJ/dF`` is its transpose, the cofactor ``[[F22, -F21], [-F12, F11]]`` (1-based indices).
+At ``F = I``, ``H_ijkl = d_ij d_kl - d_il d_jk``, so a model with ``h'(1) = -mu`` and ``h''(1) = lam + mu`` linearises
+to the linear-elastic tangent ``lam d_ij d_kl + mu (d_ik d_jl + d_il d_jk)``: each model reduces to linear elasticity
+with the same ``(lam, mu)``.
 """
 
 from __future__ import annotations
@@ -73,10 +48,8 @@ def det2(F):
 
 
 def cofactor2(F):
-    """The cofactor ``cof F = dJ/dF = J F^-T = [[F11, -F10], [-F01, F00]]``; shape ``F.shape``.
-
-    Defined for every ``F`` (also singular ones): the inversion-safe models use it rather than ``F^-T``.
-    """
+    """The cofactor ``cof F = dJ/dF = J F^-T = [[F11, -F10], [-F01, F00]]``; shape ``F.shape``. Defined for every
+    ``F`` (also singular ones): the inversion-safe models use it rather than ``F^-T``."""
     F = _as_F(F)
     return np.array([[F[1, 1], -F[1, 0]], [-F[0, 1], F[0, 0]]])
 
@@ -99,17 +72,11 @@ def _constant4(T, rest) -> np.ndarray:
 
 _DELTA = np.eye(2)
 _PERM = np.array([[0.0, 1.0], [-1.0, 0.0]])  # 2D permutation symbol e_ij
-#: ``d_ik d_jl``: the derivative of ``F`` with respect to itself.
-_I4 = np.einsum("ik,jl->ijkl", _DELTA, _DELTA)
-#: ``d_il d_jk``: the derivative of ``F^T`` with respect to ``F``.
-_I4T = np.einsum("il,jk->ijkl", _DELTA, _DELTA)
-#: ``d_ij d_kl``.
-_IXI = np.einsum("ij,kl->ijkl", _DELTA, _DELTA)
-#: ``H_ijkl = e_ik e_jl = d(cof F)_ij / dF_kl`` (constant: cof F is linear in F).
-_HCOF = np.einsum("ik,jl->ijkl", _PERM, _PERM)
+_I4 = np.einsum("ik,jl->ijkl", _DELTA, _DELTA)  # d_ik d_jl = dF/dF
+_I4T = np.einsum("il,jk->ijkl", _DELTA, _DELTA)  # d_il d_jk = dF^T/dF
+_IXI = np.einsum("ij,kl->ijkl", _DELTA, _DELTA)  # d_ij d_kl
+_HCOF = np.einsum("ik,jl->ijkl", _PERM, _PERM)  # H_ijkl = e_ik e_jl = d(cof F)_ij / dF_kl (constant)
 
-
-# --- base class ---------------------------------------------------------------
 
 class Material(_LameMaterial):
     """Base class: a 2D hyperelastic material with Lamé parameters ``lam`` and ``mu`` (checked by
@@ -120,11 +87,8 @@ class Material(_LameMaterial):
 
     @classmethod
     def from_young(cls, E, nu, plane: str = "strain"):
-        """Build from Young's modulus ``E > 0`` and Poisson's ratio ``-1 < nu < 0.5``.
-
-        ``plane="stress"`` (``lam -> 2 lam mu / (lam + 2 mu)``) is exact only for linear elasticity; the nonlinear
-        models refuse it.
-        """
+        """Build from Young's modulus and Poisson's ratio; ``plane="stress"`` (``lam -> 2 lam mu / (lam + 2 mu)``) is
+        exact only for linear elasticity, the nonlinear models refuse it."""
         lam, mu = lame_parameters(E, nu, plane)
         if plane == "stress" and not cls._plane_stress_ok:
             raise ParameterError("plane", f"plane='stress' is only supported by LinearElastic; {cls.__name__} is "
@@ -132,8 +96,6 @@ class Material(_LameMaterial):
                                           "change of lam)")
         return cls(lam, mu)
 
-
-# --- linear elasticity ------------------------------------------------------------
 
 class LinearElastic(Material):
     """Small-strain linear elasticity (the notes' first model).
@@ -201,7 +163,8 @@ class NeoHookean(_NeoHookeanFamily):
     ``Psi = mu/2 (F:F - 2) - mu ln J + lam/2 (ln J)^2``, i.e. ``h(J) = -mu ln J + lam/2 (ln J)^2``,
     ``h' = (lam ln J - mu)/J`` and ``h'' = (lam + mu - lam ln J)/J^2``. With ``cof F / J = F^-T`` this is the notes'
     ``P = mu F + (lam ln J - mu) F^-T``. At ``J = 1``: ``h' = -mu``, ``h'' = lam + mu``, so the small-strain limit is
-    linear elasticity. (The notes print ``F_ij F_ji`` in the energy: a slip, see the module docstring.) Undefined for
+    linear elasticity. The notes print ``F_ij F_ji = tr(F F)`` in the energy, which is not frame indifferent
+    (``tr(R R) = 2 cos 2 theta``); their stress ``mu F + ...`` derives from ``F:F``, used here. Undefined for
     ``J <= 0``: NaN there, without a warning, so a solver can detect inversion.
     """
 
@@ -225,11 +188,9 @@ class TaylorNeoHookean(_NeoHookeanFamily):
 
     ``r(J) = (J-1) - (J-1)^2/2 + (J-1)^3/3`` (:func:`tissuefem.engine.materials1d.taylor_log`),
     ``Psi = mu/2 (F:F - 2) - mu r(J) + lam/2 r(J)^2``. So ``h = -mu r + lam/2 r^2``, ``h' = (lam r - mu) r'`` and
-    ``h'' = lam r'^2 + (lam r - mu) r''``, giving
-
-        P = mu F + (lam r(J) - mu) r'(J) cof F,   cof F = [[F22, -F21], [-F12, F11]]
-
-    (1-based; the notes print the adjugate). ``r(1) = 0``, ``r'(1) = 1``, ``r''(1) = -1`` reproduce the Neo-Hookean
+    ``h'' = lam r'^2 + (lam r - mu) r''``: ``P = mu F + (lam r(J) - mu) r'(J) cof F`` with
+    ``cof F = [[F22, -F21], [-F12, F11]]`` (1-based; the notes print the adjugate ``[[F22, -F12], [-F21, F11]]``,
+    which fails the finite-difference check). ``r(1) = 0``, ``r'(1) = 1``, ``r''(1) = -1`` reproduce the Neo-Hookean
     values at ``J = 1``: linear elasticity in the small-strain limit. Finite for every F.
     """
 
@@ -245,9 +206,7 @@ class StableNeoHookean(_NeoHookeanFamily):
     """Stable Neo-Hookean (Smith, de Goes, Kim, ACM TOG 37(2), 2018), 2D form without the log term.
 
     ``Psi = mu/2 (F:F - 2) + lam_s/2 (J - alpha)^2 - mu^2 / (2 lam_s)`` with ``lam_s = lam + mu`` and
-    ``alpha = 1 + mu / lam_s``; the constant makes ``Psi(I) = 0`` (the paper's energy has ``Psi(I) = mu^2 / (2 lam_s)``;
-    a constant changes neither stress nor tangent).
-
+    ``alpha = 1 + mu / lam_s``; the constant makes ``Psi(I) = 0`` (the paper's has ``Psi(I) = mu^2 / (2 lam_s)``).
     ``h' = lam_s (J - alpha)``, ``h'' = lam_s``: ``P = mu F + lam_s (J - alpha) cof F``. At ``J = 1``, ``h'(1) = -mu``
     (rest is stress free: that fixes alpha) and ``h''(1) = lam_s = lam + mu`` (what linearises to linear elasticity with
     ``(lam, mu)``, module docstring: that fixes lam_s). ``lam_s > 0`` since ``lam > -2 mu / 3``. Finite for every F, no
@@ -268,8 +227,6 @@ class StableNeoHookean(_NeoHookeanFamily):
         return h, self.lam_s * d, np.full(J.shape, self.lam_s)
 
 
-# --- corotated --------------------------------------------------------------------
-
 #: Below this ``rho = tr S`` the polar rotation is taken as ``R = I`` (see :func:`_polar_rotation`): the
 #: ``sqrt`` of the smallest normal double (~1.5e-154), above which ``1/rho`` is finite and full precision.
 _RHO_MIN = math.sqrt(np.finfo(float).tiny)
@@ -283,15 +240,11 @@ def _polar_rotation(F):
     Stationarity in theta is exactly ``S = R^T F`` symmetric, for every F (also J <= 0, where S is indefinite).
 
     At ``rho = 0`` the angle is undefined, and near it the rotation turns at a rate ``1/rho`` (the tangent's
-    ``R' (x) R' / rho`` term). Below :data:`_RHO_MIN` (e.g. subnormal entries of F) ``1/rho`` overflows
-    (``inf * 0 = NaN`` in the tangent) and ``atan2`` loses precision; there ``R = I`` is used *consistently* by energy,
-    stress and tangent, the exact derivatives of ``mu ||F - I||^2 + lam/2 (J - 1)^2`` in that tiny ball. The energy
-    changes by at most ``4 mu _RHO_MIN`` across the ball's edge.
+    ``R' (x) R' / rho``). Below :data:`_RHO_MIN` ``1/rho`` overflows (``inf * 0 = NaN``) and ``atan2`` loses precision:
+    there energy, stress and tangent all take ``R = I``, consistently (the energy jumps by at most ``4 mu _RHO_MIN``).
     """
-    x = F[0, 0] + F[1, 1]
-    y = F[1, 0] - F[0, 1]
-    rho = np.hypot(x, y)
-    theta = np.arctan2(y, x)
+    x, y = F[0, 0] + F[1, 1], F[1, 0] - F[0, 1]
+    rho, theta = np.hypot(x, y), np.arctan2(y, x)
     c, s = np.cos(theta), np.sin(theta)
     collapsed = rho < _RHO_MIN
     if np.any(collapsed):
@@ -307,23 +260,15 @@ class Corotated(Material):
     form in 2D, :func:`_polar_rotation`).
 
     Stress: ``d||F - R||^2 = 2 (F - R):dF - 2 (F - R):dR`` and ``(F - R):dR = (S - I):(R^T dR) = 0`` (symmetric against
-    skew), so
-
-        P = 2 mu (F - R) + lam (J - 1) cof F.
-
-    Tangent: ``R`` depends on F only through ``theta``, ``dR = R' dtheta`` with
-    ``R' = dR/dtheta = [[-s, -c], [c, -s]]``. From ``theta = atan2(y, x)``, ``dtheta = (x dy - y dx)/rho^2`` with
-    ``dx/dF = I``, ``dy/dF = [[0, -1], [1, 0]]``, which simplifies to ``dtheta/dF = R'/rho``. Hence
-    ``dR_ij/dF_kl = R'_ij R'_kl / rho`` and
+    skew), so ``P = 2 mu (F - R) + lam (J - 1) cof F``. Tangent: ``R`` depends on F only through ``theta``,
+    ``dR = R' dtheta`` with ``R' = dR/dtheta = [[-s, -c], [c, -s]]``. From ``theta = atan2(y, x)``,
+    ``dtheta = (x dy - y dx)/rho^2`` with ``dx/dF = I``, ``dy/dF = [[0, -1], [1, 0]]``, which simplifies to
+    ``dtheta/dF = R'/rho``. Hence ``dR_ij/dF_kl = R'_ij R'_kl / rho`` and
 
         A = 2 mu (I4 - R' (x) R' / rho) + lam cof F (x) cof F + lam (J - 1) H.
 
     At ``F = I``: ``rho = 2``, ``R' = [[0, -1], [1, 0]]`` and ``I4 - R'(x)R'/2 = (I4 + I4^T)/2``, so ``A`` is the
-    linear-elastic tangent.
-
-    Finite for every finite F: where ``rho = 0`` (``F00 + F11 = F10 - F01 = 0``) ``R`` is undefined and the exact
-    tangent blows up like ``-1/rho``; within ``rho < _RHO_MIN`` energy, stress and tangent alike take ``R = I``
-    (:func:`_polar_rotation`), so they stay finite and consistent.
+    linear-elastic tangent. Finite for every finite F (near ``rho = 0``, :func:`_polar_rotation`).
     """
 
     name = "corotated"
@@ -382,31 +327,27 @@ def _check_Fg(F, g):
 
 
 def fiber_invariant(F, g):
-    """``I4 = g^T F^T F g = |F g|^2``, the squared stretch of the unit fibre ``g`` (the notes' fibre argument).
-
-    ``F`` is shaped ``[2, 2, ...]``, ``g`` ``(2, ...)`` broadcasting against ``F.shape[2:]``; a float for one ``F``.
-    """
+    """``I4 = g^T F^T F g = |F g|^2``, the squared stretch of the unit fibre ``g`` ``(2, ...)`` (broadcasting against
+    ``F.shape[2:]``); a float for one ``F``. The ``fiber_*`` functions check their arguments; the ``*_term`` kernels
+    (which assembly calls on every element) do not. Formulas: :class:`FiberReinforced`."""
     F, g = _check_Fg(F, g)
     I4 = _fiber_kinematics(F, g)[1]
     return float(I4) if I4.ndim == 0 else I4
 
 
 def fiber_energy(F, g, k):
-    """``Psi_fiber = k/8 (I4 - 1)^2``, about ``k/2 eps_ff^2`` for small strains (checked arguments)."""
-    F, g = _check_Fg(F, g)
-    return fiber_energy_term(F, g, check_fiber_stiffness(k, "k"))
+    """``Psi_fiber = k/8 (I4 - 1)^2``."""
+    return fiber_energy_term(*_check_Fg(F, g), check_fiber_stiffness(k, "k"))
 
 
 def fiber_stress(F, g, k):
-    """``P_fiber = k/2 (I4 - 1) (F g) g^T`` (checked arguments; see :func:`fiber_stress_term`)."""
-    F, g = _check_Fg(F, g)
-    return fiber_stress_term(F, g, check_fiber_stiffness(k, "k"))
+    """``P_fiber = k/2 (I4 - 1) (F g) g^T``."""
+    return fiber_stress_term(*_check_Fg(F, g), check_fiber_stiffness(k, "k"))
 
 
 def fiber_tangent(F, g, k):
-    """``dP_fiber_ij / dF_kl = k a_i g_j a_k g_l + k/2 (I4 - 1) d_ik g_j g_l``, ``a = F g`` (checked arguments)."""
-    F, g = _check_Fg(F, g)
-    return fiber_tangent_term(F, g, check_fiber_stiffness(k, "k"))
+    """``dP_fiber_ij / dF_kl = k a_i g_j a_k g_l + k/2 (I4 - 1) d_ik g_j g_l``, ``a = F g``."""
+    return fiber_tangent_term(*_check_Fg(F, g), check_fiber_stiffness(k, "k"))
 
 
 def _fiber_kinematics(F, g):
@@ -415,20 +356,16 @@ def _fiber_kinematics(F, g):
 
 
 def fiber_energy_term(F, g, k):
-    """The unchecked kernel of :func:`fiber_energy` (assembly calls it on every element):
-    ``Psi_fiber = k/8 (I4 - 1)^2`` with ``I4 = |F g|^2`` (the 1/8: see :class:`FiberReinforced`)."""
     _, I4 = _fiber_kinematics(F, g)
     return k / 8.0 * (I4 - 1.0) ** 2
 
 
 def fiber_stress_term(F, g, k):
-    """``P_fiber = 2 Psi_fiber'(I4) F g g^T = k/2 (I4 - 1) (F g) g^T``."""
     a, I4 = _fiber_kinematics(F, g)
     return 0.5 * k * (I4 - 1.0) * np.einsum("i...,j...->ij...", a, g)
 
 
 def fiber_tangent_term(F, g, k):
-    """``dP_fiber_ij/dF_kl = k a_i g_j a_k g_l + k/2 (I4 - 1) d_ik g_j g_l`` with ``a = F g``."""
     a, I4 = _fiber_kinematics(F, g)
     ag = np.einsum("i...,j...->ij...", a, g)
     gg = np.einsum("j...,l...->jl...", g, g)
@@ -452,20 +389,17 @@ class FiberReinforced(Material):
     At ``F = I``, ``A_fiber = k g (x) g (x) g (x) g``, so ``A_ffff`` gains exactly k. The fibre term resists compression
     as well as stretch (no tension-only switch).
 
-    ``base`` is any :class:`Material` (another ``FiberReinforced`` gives a second fibre family), ``stiffness`` is
-    ``k >= 0``, finite, and ``fibers`` the directions, normalised here: shape ``(2,)`` (uniform), ``(2, n_elements)``
-    (per element) or ``(2, n_elements, n_points)`` (per quadrature point); ``(2, *g_shape)`` is aligned with the
-    *leading* axes of ``F.shape[2:]`` and must broadcast to it.
+    ``base`` is any :class:`Material` (another ``FiberReinforced`` adds a second family), ``stiffness`` is ``k >= 0``,
+    ``fibers`` the directions (normalised here) ``(2,)``, ``(2, n_elements)`` or ``(2, n_elements, n_points)``,
+    aligned with the *leading* axes of ``F.shape[2:]``.
     """
 
     def __init__(self, base: Material, stiffness, fibers):
         if not isinstance(base, Material):
             raise ParameterError("base", f"base must be a Material instance, got {base!r}")
-        self.base = base
-        self.stiffness = check_fiber_stiffness(stiffness, "stiffness")
+        self.base, self.stiffness = base, check_fiber_stiffness(stiffness, "stiffness")
         self.fibers = self._check_fibers(fibers)
-        self.lam, self.mu = base.lam, base.mu
-        self.inversion_safe = base.inversion_safe
+        self.lam, self.mu, self.inversion_safe = base.lam, base.mu, base.inversion_safe
         self.name = f"{base.name} + fibers"
 
     @staticmethod
@@ -488,26 +422,20 @@ class FiberReinforced(Material):
         return cls(base_cls.from_young(E, nu, plane), stiffness, fibers)
 
     def fiber_modulus(self) -> float:
-        """The small-strain stiffness added along the fibre: ``A_ffff(I) - A_base_ffff(I) = k``, with
-        ``A_ffff = g_i g_j g_k g_l A_ijkl`` at ``F = I`` (the extra ``d sigma_ff / d eps_ff`` along the fibre)."""
+        """The small-strain stiffness added along the fibre, ``g_i g_j g_k g_l (A - A_base)_ijkl`` at ``F = I``: k."""
         return self.stiffness
 
     def _g(self, rest) -> np.ndarray:
         """Fibres shaped to broadcast against ``F.shape[2:] = rest`` (aligned on the leading axes)."""
-        g = self.fibers
-        gshape = g.shape[1:]
-        rest = tuple(rest)
-        mismatch = ParameterError("fibers", f"fibers of shape {g.shape} do not match F with trailing shape {rest}")
-        if len(gshape) > len(rest):
-            raise mismatch
-        g = g.reshape((2,) + gshape + (1,) * (len(rest) - len(gshape)))
+        g, rest = self.fibers, tuple(rest)
+        extra = len(rest) - (g.ndim - 1)
         try:
-            ok = np.broadcast_shapes(g.shape[1:], rest) == rest
+            ok = extra >= 0 and np.broadcast_shapes(g.shape[1:] + (1,) * extra, rest) == rest
         except ValueError:
             ok = False
         if not ok:
-            raise mismatch
-        return g
+            raise ParameterError("fibers", f"fibers of shape {g.shape} do not match F with trailing shape {rest}")
+        return g.reshape(g.shape + (1,) * extra)
 
     def energy(self, F):
         F = _as_F(F)
@@ -522,20 +450,12 @@ class FiberReinforced(Material):
         return self.base.tangent(F) + fiber_tangent_term(F, self._g(F.shape[2:]), self.stiffness)
 
     def __repr__(self):
-        shape = self.fibers.shape
-        return f"FiberReinforced({self.base!r}, stiffness={self.stiffness:g}, fibers of shape {shape})"
+        return f"FiberReinforced({self.base!r}, stiffness={self.stiffness:g}, fibers of shape {self.fibers.shape})"
 
-
-# --- registry -----------------------------------------------------------------------
 
 #: The isotropic models by name (the keys accepted by :func:`material`).
-MATERIALS = {
-    "linear": LinearElastic,
-    "neo-hookean": NeoHookean,
-    "taylor-neo-hookean": TaylorNeoHookean,
-    "stable-neo-hookean": StableNeoHookean,
-    "corotated": Corotated,
-}
+MATERIALS = {"linear": LinearElastic, "neo-hookean": NeoHookean, "taylor-neo-hookean": TaylorNeoHookean,
+             "stable-neo-hookean": StableNeoHookean, "corotated": Corotated}
 
 
 def _lookup(name):

@@ -1,20 +1,17 @@
 """One-dimensional hyperelastic materials (chapters 1 and 2).
 
-In 1D ``F = dphi/dX = 1 + du/dX`` and ``J = det F = F``. Each material gives the energy density
-``Psi(F)``, the first Piola-Kirchhoff stress ``P = dPsi/dF`` and the tangent ``dP/dF``, vectorised
-over arrays of any shape (scikit-fem hands us ``F`` as ``[elements, quadrature points]``).
+In 1D ``F = dphi/dX = 1 + du/dX`` and ``J = F``. Each material gives ``Psi(F)``, ``P = dPsi/dF`` and ``dP/dF``,
+vectorised over arrays of any shape (scikit-fem hands us ``F`` as ``[elements, quadrature points]``). Derivations
+(checked by finite differences in the tests):
 
-Derivations (re-done here, checked by finite differences in the tests):
-
-* Linear elasticity. With ``eps = F - 1`` the notes' energy ``mu eps_ij eps_ij + lam/2 eps_kk^2``
-  becomes ``(mu + lam/2) eps^2``, so ``P = (2 mu + lam) eps``. The notes print the modulus as
-  ``(2 mu - lam)``: a sign slip (the bar would get *softer* as lam grows, and negative for lam > 2 mu).
-* Neo-Hookean (log J). The notes' 2D energy has the dimension in the constant (``F:F - 2``); in 1D
-  ``Psi = mu/2 (F^2 - 1) - mu ln F + lam/2 (ln F)^2`` so that ``Psi(1) = 0``. Then
-  ``P = mu F + (lam ln F - mu) / F`` (the notes' 1D formula) and
-  ``dP/dF = mu + (mu + lam (1 - ln F)) / F^2``, which is ``2 mu + lam`` at ``F = 1``.
-* Neo-Hookean with ``ln`` replaced by its cubic Taylor polynomial ``r(J)`` about ``J = 1`` (the notes'
-  inversion-robust variant, Figure 7): ``P = mu F + (lam r - mu) r'``, ``dP/dF = mu + lam r'^2 + (lam r - mu) r''``.
+* Linear: with ``eps = F - 1`` the notes' ``mu eps_ij eps_ij + lam/2 eps_kk^2`` is ``(mu + lam/2) eps^2``, so
+  ``P = (2 mu + lam) eps``. The notes print the modulus as ``(2 mu - lam)``: a sign slip (the bar would get *softer*
+  as lam grows, and negative for lam > 2 mu).
+* Neo-Hookean (log J): ``Psi = mu/2 (F^2 - 1) - mu ln F + lam/2 (ln F)^2`` (``Psi(1) = 0``; the 2D energy's constant
+  holds the dimension), ``P = mu F + (lam ln F - mu) / F`` (the notes' formula), ``dP/dF = mu + (mu + lam (1 - ln F))
+  / F^2``, which is ``2 mu + lam`` at ``F = 1``.
+* Cubic Taylor ``r(J)`` of ``ln`` about 1 (the notes' inversion-robust variant, Figure 7): ``P = mu F + (lam r - mu)
+  r'``, ``dP/dF = mu + lam r'^2 + (lam r - mu) r''``.
 """
 
 from __future__ import annotations
@@ -43,15 +40,12 @@ def taylor_log_second(J):
 
 
 def _safe_log(F):
-    """``ln F`` where ``F > 0``, NaN elsewhere (no warning): the log model is undefined there, and NaN
-    (rather than an exception) lets a solver see the failure and report it."""
+    """``ln F`` where ``F > 0``, NaN elsewhere without a warning: NaN, not an exception, lets a solver report it."""
     F = np.asarray(F, dtype=float)
     out = np.full(F.shape, np.nan)
     np.log(F, out=out, where=F > 0)
     return out
 
-
-# --- material objects ---------------------------------------------------------
 
 class _LameMaterial:
     """The base of the 1D and the 2D materials: Lamé parameters ``lam``, ``mu`` (checked) and the three maps."""

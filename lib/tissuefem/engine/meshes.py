@@ -1,25 +1,12 @@
-"""The 2D domains the chapters use, as scikit-fem triangle meshes.
+"""The 2D domains the chapters use, as scikit-fem triangle meshes, and the one mesh validator (:func:`check_mesh`).
 
-Every function here returns a :class:`skfem.MeshTri` that is
+Every generator returns a :class:`skfem.MeshTri` that is deterministic, counter-clockwise (built with ``sort_t=False``:
+scikit-fem's default sorts the vertex indices, which makes the orientation arbitrary) and named on the boundary
+(``mesh.boundaries[name]``, ready for ``basis.get_dofs(name)``). Structured meshes number their nodes row by row:
+node ``j (nx + 1) + i`` sits at column ``i`` and row ``j``.
 
-* **deterministic**: the same arguments give the same nodes, in the same order, and the same triangles;
-* **counter-clockwise**: every triangle ``t[:, e] = (a, b, c)`` has positive signed area (built with
-  ``sort_t=False``: scikit-fem's default sorts the vertex indices, which makes the orientation arbitrary);
-* **named on the boundary**: ``mesh.boundaries[name]`` gives facet indices, ready for ``basis.get_dofs(name)``.
-
-Structured meshes number their nodes row by row: node ``j (nx + 1) + i`` sits at column ``i`` and row ``j``.
-
-Domains: :func:`rectangle` (structured), :func:`mesh_with_about` (a rectangle with about a given number of
-triangles, what benchmarks use to sweep sizes), :func:`fusiform_muscle` (a spindle-shaped muscle belly between two
-tendons) with its fibres :func:`fusiform_fiber_field` (per element) and :func:`fusiform_fiber_direction` (at any
-point), :func:`flap` (the rectangle of the tissue-flap scene); :func:`check_mesh` is what every mesh must satisfy
-before a model is built on it.
-
-Limits, checked before anything is allocated and refused with a :class:`ParameterError` naming the argument: at most
-:data:`MAX_TRIANGLES` (200 000) triangles in a generated domain (``2 nx ny``, or ``n_triangles``) and in a mesh
-given to :func:`check_mesh`; lengths (``width``, ``height``, ``length``, ``max_width``, ``tendon_width``) in
-:data:`SIZE_RANGE` ``[1e-6, 1e6]``; aspect ratios (``width / height``, ``length / max_width``,
-``max_width / tendon_width``) at most :data:`MAX_ASPECT` (1e4); node coordinates within ``+-COORDINATE_MAX`` (1e6).
+Limits, checked before anything is allocated: :data:`MAX_TRIANGLES`, :data:`SIZE_RANGE` (lengths),
+:data:`MAX_ASPECT`, :data:`COORDINATE_MAX`.
 """
 
 from __future__ import annotations
@@ -107,13 +94,9 @@ def signed_areas(mesh) -> np.ndarray:
 
 
 def folded_triangles(p, t) -> np.ndarray:
-    """Pairs of triangles that overlap across their shared edge, shape ``(2, n_pairs)``.
-
-    In a valid triangulation the two triangles on an interior edge lie on opposite sides of it; if one is folded
-    over its neighbour, both third vertices lie on the same side (whatever order the triangles list their vertices
-    in: scikit-fem sorts them). Two triangles whose third vertices sit at the same point are not a fold but two
-    copies of one triangle, each carrying part of its material (:func:`tissuefem.surgery.element_cuts.cut_through`
-    makes them next to a crack tip): they are not reported.
+    """Pairs of triangles that overlap across their shared edge, shape ``(2, n_pairs)``: both third vertices on the
+    same side of it (whatever the vertex order). Third vertices at the same point are not a fold but two copies of one
+    triangle, each carrying part of its material (a cut through elements makes them at a crack tip): not reported.
     """
     p = np.asarray(p, dtype=float)
     key, owner, opposite = _edge_table(np.asarray(t, dtype=np.int64))
@@ -125,7 +108,6 @@ def folded_triangles(p, t) -> np.ndarray:
     def side(o):
         c = p[:, o]
         return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
-
     s1, s2 = side(opposite[same]), side(opposite[same + 1])
     copies = (p[:, opposite[same]] == p[:, opposite[same + 1]]).all(axis=0)
     bad = same[(s1 * s2 > 0) & ~copies]
@@ -143,28 +125,19 @@ def _edge_table(t: np.ndarray):
 def check_mesh(p, t, name: str = "mesh", *, unused_nodes: str = "refuse", cut: bool = False):
     """Check that ``(p, t)`` is a valid 2D triangle mesh; return ``(p, t)`` as float64 ``(2, n)`` and int64 ``(3, m)``.
 
-    The one mesh validator: scene files and the assemblers use it. Refused, with a :class:`ParameterError` (field
-    ``name``) whose message starts with ``name`` and lists the offending nodes, edges or triangles:
-
-    * ``p`` not a real array shaped ``(2, n)``; ``t`` not an integer array shaped ``(3, m)`` (floats and booleans
-      are refused, never rounded); no triangle, or more than :data:`MAX_TRIANGLES`; node indices outside ``0..n-1``;
-    * non-finite coordinates, or coordinates beyond ``+-COORDINATE_MAX``, or a mesh smaller than ``SIZE_RANGE[0]``
-      (the largest side of its bounding box);
-    * **unused nodes** (in no triangle): with neither stiffness nor mass, every linear system of the model would be
-      singular, far from the cause. Refused rather than dropped, because renumbering behind the caller's back would
-      change what node indices given elsewhere (handles, sutures) refer to. (:func:`tissuefem.surgery.scene.read_mesh`
-      checks a file with ``unused_nodes="ignore"``, so that messages use the file's numbers, then drops them with
-      a note: it can still refuse the node indices of that scene.)
-    * **an edge shared by three or more triangles** (a non-manifold "fin"), and duplicated triangles;
-    * degenerate triangles (``|2 area| <= DEGENERATE_TOL * (longest edge)^2``);
-    * inverted triangles folded over a neighbour (:func:`folded_triangles`).
+    Refused, with a :class:`ParameterError` (field and message start ``name``) listing the offending items: ``p`` not
+    a real ``(2, n)`` array, ``t`` not an integer ``(3, m)`` array (never rounded); no triangle or more than
+    :data:`MAX_TRIANGLES`; node indices outside ``0..n-1``; coordinates not finite or beyond ``+-COORDINATE_MAX``; a
+    mesh smaller than ``SIZE_RANGE[0]``; **unused nodes** (without stiffness or mass every linear system is singular,
+    far from the cause; not dropped, since renumbering would change node indices given elsewhere:
+    ``unused_nodes="ignore"`` lets a file reader report in the file's numbers first); an edge in three triangles (a
+    "fin"); duplicated, degenerate (``|2 area| <= DEGENERATE_TOL * longest_edge^2``) and folded triangles.
 
     ``cut=True`` (the assemblers) accepts what cutting through elements makes next to a crack tip, fins and
     overlapping copies of a triangle, and any number of triangles. The orientation is free (scikit-fem sorts nodes).
     """
     def refuse(message):
         raise ParameterError(name, f"{name}: {message}")
-
     try:
         p_arr, t_arr = np.asarray(p), np.asarray(t)
     except (TypeError, ValueError):
@@ -242,46 +215,31 @@ def _refuse_fins_and_copies(tri, t, n, refuse) -> None:
 # --- structured rectangle --------------------------------------------------
 
 def _structured_triangles(nx: int, ny: int, diagonal: str) -> np.ndarray:
-    """Connectivity (3, 2 nx ny) of a structured grid of (nx + 1) x (ny + 1) nodes.
-
-    Each cell (i, j) has corners sw, se, ne, nw and is cut along one diagonal: ``"right"`` cuts sw-ne, ``"left"``
-    cuts se-nw, ``"alternate"`` uses sw-ne on cells with ``i + j`` even and se-nw otherwise (a pattern without a
-    preferred direction, the usual choice for elasticity). Both triangles of a cell are listed counter-clockwise;
-    cell (i, j) gives triangles ``2 (j nx + i)`` and ``2 (j nx + i) + 1``.
-    """
-    i, j = np.meshgrid(np.arange(nx), np.arange(ny), indexing="xy")
-    i, j = i.ravel(), j.ravel()  # cell order: row by row
+    """Connectivity (3, 2 nx ny) of a structured grid of (nx + 1) x (ny + 1) nodes: cell (i, j) (corners sw, se, ne,
+    nw) gives the counter-clockwise triangles ``2 (j nx + i)`` and ``2 (j nx + i) + 1``, cut sw-ne (``"right"``), se-nw
+    (``"left"``), or sw-ne where ``i + j`` is even and se-nw elsewhere (``"alternate"``: no preferred direction)."""
+    i, j = (a.ravel() for a in np.meshgrid(np.arange(nx), np.arange(ny), indexing="xy"))  # cells row by row
     sw = j * (nx + 1) + i
-    se = sw + 1
-    nw = sw + (nx + 1)
-    ne = nw + 1
+    se, nw, ne = sw + 1, sw + nx + 1, sw + nx + 2
     cut_sw_ne = (i + j) % 2 == 0 if diagonal == "alternate" else np.full(i.shape, diagonal == "right")
     # sw-ne diagonal: (sw, se, ne) and (sw, ne, nw); se-nw: (sw, se, nw) and (se, ne, nw)
     first = np.where(cut_sw_ne, np.stack([sw, se, ne]), np.stack([sw, se, nw]))
     second = np.where(cut_sw_ne, np.stack([sw, ne, nw]), np.stack([se, ne, nw]))
     t = np.empty((3, 2 * i.size), dtype=np.int64)
-    t[:, 0::2] = first
-    t[:, 1::2] = second
+    t[:, 0::2], t[:, 1::2] = first, second
     return t
 
 
 def _structured_mesh(x: np.ndarray, y: np.ndarray, nx: int, ny: int, diagonal: str) -> MeshTri:
-    p = np.vstack([x.ravel(), y.ravel()])
-    t = _structured_triangles(nx, ny, diagonal)
-    return MeshTri(p, t, sort_t=False)
+    return MeshTri(np.vstack([x.ravel(), y.ravel()]), _structured_triangles(nx, ny, diagonal), sort_t=False)
 
 
 def rectangle(width=1.0, height=1.0, nx=10, ny=10, diagonal="alternate") -> MeshTri:
-    """Structured triangulation of ``[0, width] x [0, height]``.
-
-    ``nx`` x ``ny`` cells, each cut into two counter-clockwise triangles (``2 nx ny`` triangles,
-    ``(nx + 1)(ny + 1)`` nodes). ``diagonal`` is ``"alternate"`` (default; cells alternate like a checkerboard),
-    ``"right"`` (every cell cut from lower left to upper right) or ``"left"``.
-
-    Named boundaries: ``"left"`` (x = 0), ``"right"`` (x = width), ``"bottom"`` (y = 0), ``"top"`` (y = height).
+    """Structured triangulation of ``[0, width] x [0, height]``: ``nx`` x ``ny`` cells, each cut into two triangles
+    along ``diagonal`` (``"alternate"``, ``"right"`` or ``"left"``, as above). Named boundaries: ``"left"`` (x = 0),
+    ``"right"`` (x = width), ``"bottom"`` (y = 0), ``"top"`` (y = height).
     """
-    width = _size("width", width)
-    height = _size("height", height)
+    width, height = _size("width", width), _size("height", height)
     _check_aspect("width / height", width / height)
     nx, ny = _check_grid(nx, ny, diagonal)
     X, Y = np.meshgrid(np.linspace(0.0, width, nx + 1), np.linspace(0.0, height, ny + 1), indexing="xy")
@@ -295,13 +253,9 @@ def rectangle(width=1.0, height=1.0, nx=10, ny=10, diagonal="alternate") -> Mesh
 
 
 def _grid_for(n_triangles: int, width: float, height: float) -> tuple[int, int]:
-    """(nx, ny) with 2 nx ny closest to n_triangles and cells as square as possible.
-
-    Square cells want ``nx ~ sqrt(n/2 * aspect)``; for a strip wider than ``n/2`` (aspect ``> n/2``) that alone
-    would exceed the request by orders of magnitude (``ny`` cannot drop below 1), so ``nx`` is capped at ``n/2``:
-    the cells get elongated instead. The result has ``2 nx ny`` within a factor 1.5 of ``n_triangles`` for any
-    aspect ratio (2 triangles for a request of 1) and never more than :data:`MAX_TRIANGLES`.
-    """
+    """(nx, ny) with 2 nx ny closest to n_triangles (within a factor 1.5, at most :data:`MAX_TRIANGLES`) and cells
+    as square as possible: ``nx ~ sqrt(n/2 * aspect)``, capped at ``n/2`` (``ny`` cannot drop below 1, so a strip wider
+    than ``n/2`` would exceed the request by orders of magnitude): such a strip's cells get elongated instead."""
     aspect = width / height
     half = max(1, n_triangles // 2)
     nx0 = min(half, max(1, round(math.sqrt(n_triangles / 2.0 * aspect))))
@@ -320,27 +274,18 @@ def _grid_for(n_triangles: int, width: float, height: float) -> tuple[int, int]:
 
 
 def mesh_with_about(n_triangles, width=1.0, height=1.0, diagonal="alternate") -> MeshTri:
-    """A :func:`rectangle` of ``width x height`` with about ``n_triangles`` triangles.
-
-    Picks ``nx, ny`` with ``nx / ny`` close to ``width / height`` (cells close to square) and ``2 nx ny`` as close
-    to ``n_triangles`` as such grids allow: always within a factor 1.5, also for thin strips (whose cells then get
-    elongated). ``n_triangles`` is at most :data:`MAX_TRIANGLES`.
-    """
+    """A :func:`rectangle` of ``width x height`` with about ``n_triangles`` (at most :data:`MAX_TRIANGLES`) triangles,
+    cells close to square; the count is within a factor 1.5 of the request, also for thin strips."""
     n_triangles = check_count("n_triangles", n_triangles, 1, MAX_TRIANGLES)
-    width = _size("width", width)
-    height = _size("height", height)
+    width, height = _size("width", width), _size("height", height)
     _check_aspect("width / height", width / height)
     nx, ny = _grid_for(n_triangles, width, height)
     return rectangle(width, height, nx, ny, diagonal=diagonal)
 
 
 def flap(width=2.0, height=1.0, n_triangles=2000, diagonal="alternate") -> MeshTri:
-    """The rectangle of the tissue-flap scene: ``[0, width] x [0, height]``.
-
-    A :func:`mesh_with_about` rectangle with the usual boundaries ``"left"``, ``"right"``, ``"bottom"``, ``"top"``
-    plus two aliases naming the scene's roles: ``"fixed"`` (= ``"left"``, where the flap stays attached) and
-    ``"handle"`` (= ``"right"``, the edge a handle pulls).
-    """
+    """The :func:`mesh_with_about` rectangle of the tissue-flap scene, with the aliases ``"fixed"`` (= ``"left"``,
+    where the flap stays attached) and ``"handle"`` (= ``"right"``, the edge a handle pulls)."""
     mesh = mesh_with_about(n_triangles, width, height, diagonal=diagonal)
     return mesh.with_boundaries({"fixed": mesh.boundaries["left"], "handle": mesh.boundaries["right"]})
 
@@ -348,14 +293,8 @@ def flap(width=2.0, height=1.0, n_triangles=2000, diagonal="alternate") -> MeshT
 # --- fusiform (spindle-shaped) muscle ---------------------------------------
 
 def fusiform_width(x, length=4.0, max_width=1.0, tendon_width=0.25):
-    """Width profile ``w(x)`` of the fusiform muscle and its slope ``w'(x)``.
-
-    ``w(x) = tendon_width + (max_width - tendon_width) sin^2(pi x / length)`` for ``0 <= x <= length``:
-    ``tendon_width`` at both tendons, ``max_width`` in the middle of the belly, smooth, with ``w' = 0`` at the
-    tendons (the belly meets each tendon without a kink) and in the middle.
-
-    Returns ``(w, dw_dx)`` with the shape of ``x``.
-    """
+    """``(w, dw/dx)`` of the fusiform muscle's width ``w(x) = tendon_width + (max_width - tendon_width)
+    sin^2(pi x / length)``: smooth, with ``w' = 0`` at the tendons (no kink) and in the middle; the shape of ``x``."""
     x, k = np.asarray(x, dtype=float), math.pi / length
     s, c = np.sin(k * x), np.cos(k * x)
     return tendon_width + (max_width - tendon_width) * s * s, (max_width - tendon_width) * 2.0 * s * c * k
@@ -375,17 +314,13 @@ def _check_fusiform(length, max_width, tendon_width):
 
 
 def fusiform_muscle(length=4.0, max_width=1.0, tendon_width=0.25, nx=40, ny=8, diagonal="alternate") -> MeshTri:
-    """A spindle-shaped (fusiform) muscle belly between two tendons.
+    """A spindle-shaped (fusiform) muscle belly between two tendons: ``0 <= x <= length``, ``|y| <= w(x) / 2``
+    (:func:`fusiform_width`).
 
-    The domain is ``0 <= x <= length``, ``|y| <= w(x) / 2`` with the width profile :func:`fusiform_width`: symmetric
-    about the x-axis (and about ``x = length / 2``), ``tendon_width`` wide at both ends and ``max_width`` in the
-    middle.
-
-    It is the image of the structured :func:`rectangle`-style grid on ``(xi, eta) in [0, length] x [-1/2, 1/2]``
-    under the map ``(xi, eta) -> (xi, eta w(xi))``, whose Jacobian determinant ``w(xi)`` is positive, so the
-    triangles stay counter-clockwise. The grid lines ``eta = const`` become the curves ``y = eta w(x)`` running
-    tendon to tendon: the natural fiber directions (:func:`fusiform_fiber_field`). With ``ny`` even, the mid-line
-    ``y = 0`` is a grid line and the mesh is a mirror image of itself about the x-axis.
+    It is the image of a structured grid on ``(xi, eta) in [0, length] x [-1/2, 1/2]`` under
+    ``(xi, eta) -> (xi, eta w(xi))``, whose Jacobian ``w(xi) > 0`` keeps the triangles counter-clockwise. The grid
+    lines ``eta = const`` become the curves ``y = eta w(x)`` running tendon to tendon: the natural fiber directions
+    (:func:`fusiform_fiber_field`). With ``ny`` even the mesh is its own mirror image about the x-axis.
 
     Named boundaries: ``"left_tendon"`` (x = 0), ``"right_tendon"`` (x = length), ``"top"`` and ``"bottom"`` (the
     curved sides).
@@ -398,7 +333,6 @@ def fusiform_muscle(length=4.0, max_width=1.0, tendon_width=0.25, nx=40, ny=8, d
 
     def at_end(m):
         return (np.abs(m[0]) < tx) | (np.abs(m[0] - length) < tx)
-
     return _structured_mesh(XI, ETA * w, nx, ny, diagonal).with_boundaries({
         "left_tendon": lambda m: np.abs(m[0]) < tx,
         "right_tendon": lambda m: np.abs(m[0] - length) < tx,
@@ -408,14 +342,8 @@ def fusiform_muscle(length=4.0, max_width=1.0, tendon_width=0.25, nx=40, ny=8, d
 
 
 def fusiform_fiber_direction(points, length=4.0, max_width=1.0, tendon_width=0.25) -> np.ndarray:
-    """Unit fiber direction of the fusiform muscle at ``points`` (shape ``(2, ...)``).
-
-    The fibers are the curves ``y = eta w(x)`` (``eta`` constant, ``w`` from :func:`fusiform_width`) of the muscle's
-    parametrisation: the curve through ``(x, y)`` has ``eta = y / w(x)`` and tangent ``(1, eta w'(x))``, returned
-    normalised. Horizontal on the mid-line ``y = 0``, at the tendons and at the widest section (where ``w' = 0``);
-    elsewhere the fibers spread out of the left tendon and converge into the right one. ``x`` is measured from the
-    left tendon (as in :func:`fusiform_muscle`).
-    """
+    """Unit fiber direction of the fusiform muscle at ``points`` ``(2, ...)`` (``x`` from the left tendon): the curve
+    ``y = eta w(x)`` through ``(x, y)`` has ``eta = y / w(x)`` and tangent ``(1, eta w'(x))``, returned normalised."""
     length, max_width, tendon_width = _check_fusiform(length, max_width, tendon_width)
     pts = check_real_array("points", points)
     if pts.ndim < 1 or pts.shape[0] != 2:
@@ -429,15 +357,10 @@ def fusiform_fiber_direction(points, length=4.0, max_width=1.0, tendon_width=0.2
 
 
 def fusiform_fiber_field(mesh, length=None, max_width=None, tendon_width=None) -> np.ndarray:
-    """Unit fiber directions (2, n_elements) of a :func:`fusiform_muscle` mesh: each triangle gets
-    :func:`fusiform_fiber_direction` at its centroid (a field mirror-symmetric about the x-axis).
-
-    ``length``, ``max_width`` and ``tendon_width`` are the values the mesh was made with; left as ``None`` they are
-    read off the mesh (its x-extent, its y-extent, and the y-extent of the nodes on the left tendon), which is exact
-    for meshes from :func:`fusiform_muscle`.
-    """
-    p = np.asarray(mesh.p, dtype=float)
-    t = np.asarray(mesh.t)
+    """Unit fiber directions (2, n_elements) of a :func:`fusiform_muscle` mesh, :func:`fusiform_fiber_direction` at
+    each centroid. ``length``, ``max_width``, ``tendon_width`` left as ``None`` are read off the mesh (its x-extent,
+    y-extent, and the y-extent of the left tendon's nodes): exact for meshes from :func:`fusiform_muscle`."""
+    p, t = np.asarray(mesh.p, dtype=float), np.asarray(mesh.t)
     if p.ndim != 2 or p.shape[0] != 2 or t.ndim != 2 or t.shape[0] != 3:
         raise ParameterError("mesh", "mesh must be a 2D triangle mesh (p shaped (2, n), t shaped (3, n))")
     if not np.all(np.isfinite(p)):
@@ -453,26 +376,13 @@ def fusiform_fiber_field(mesh, length=None, max_width=None, tendon_width=None) -
     return fusiform_fiber_direction(centroid, length, max_width, tendon_width)
 
 
-# --- maps between meshes ---
 @dataclass(frozen=True, eq=False, kw_only=True)
 class MeshMap:
-    """A new mesh and the maps back to the old one, after a topology change (a cut, an excision).
-
-    It is what a model needs to carry its terms, handles and state across the change.
-
-    Attributes
-    ----------
-    mesh : skfem.MeshTri
-        The new mesh.
-    parent : ndarray of int, shape (n_new_nodes,)
-        The old node each new node comes from (after an excision: the surviving old nodes, increasing).
-    elements : ndarray of int, shape (n_new_elements,)
-        The old element each new element comes from.
-    n_old_nodes, n_old_elements : int
-        Sizes of the old mesh (to check what is transferred).
-    weights : ndarray, shape (n_new_elements,), or None
-        Share of its triangle's area each new element's material fills (a cut through elements); None: whole.
-    """
+    """A new ``mesh`` and the maps back to the old one after a topology change (a cut, an excision): what a model
+    needs to carry its terms, handles and state across. ``parent`` ``(n_new_nodes,)``: the old node of each new node
+    (after an excision: the surviving old nodes, increasing); ``elements`` ``(n_new_elements,)``: the old element of
+    each new element; ``n_old_nodes``, ``n_old_elements``: the old sizes; ``weights`` ``(n_new_elements,)``: the share
+    of its triangle's area each new element's material fills (a cut through elements), or None (whole)."""
 
     mesh: MeshTri
     parent: np.ndarray
@@ -496,11 +406,8 @@ class MeshMap:
         return _last_axis(values, self.n_old_elements, "one entry per old element")[..., self.elements]
 
     def transfer_dofs(self, values) -> np.ndarray:
-        """A vector P1 field in scikit-fem's dof order, ``(..., 2 n_old_nodes)``, on the new mesh.
-
-        The dofs of node ``n`` are ``(2 n, 2 n + 1)`` (x then y), the order of
-        ``Basis(mesh, ElementVector(ElementTriP1()))`` and of :class:`~tissuefem.engine.assembly.P1Assembler`.
-        """
+        """A vector P1 field in scikit-fem's dof order (node ``n``: dofs ``2 n, 2 n + 1``), ``(..., 2 n_old_nodes)``,
+        on the new mesh."""
         v = _last_axis(values, 2 * self.n_old_nodes, "two dofs per old node")
         pairs = v.reshape(v.shape[:-1] + (self.n_old_nodes, 2))
         return pairs[..., self.parent, :].reshape(v.shape[:-1] + (2 * self.parent.size,))

@@ -1,30 +1,20 @@
 """The one minimiser: Newton's method with an energy line search, safeguards, and an optional time budget.
 
-Every solve in tissuefem -- a 1D bar, a quasistatic load step, a backward-Euler step, a real-time frame -- is a call of
-:func:`newton`. The notes' iteration ("1D elasticity") is
-
-    dq/du (u^k) du = -q(u^k),    u^{k+1} = u^k + du,
-
-for the residual ``q``; when ``q`` is the gradient of an energy ``E`` (here always: the incremental potential of
+Every solve in tissuefem -- a 1D bar, a load step, a backward-Euler step, a real-time frame -- is a call of
+:func:`newton`: the notes' iteration ("1D elasticity") ``dq/du (u^k) du = -q(u^k)``, ``u^{k+1} = u^k + du`` for the
+residual ``q``. When ``q`` is the gradient of an energy ``E`` (here always: the incremental potential of
 :mod:`tissuefem.engine.stepping`) the safeguards make every step safe:
 
 * **line search** ``"energy"``: backtracking (Armijo) on ``E``, so an accepted iterate is finite and never worse than
-  the last; when energy differences are down at round-off, a step that still lowers the residual is accepted instead.
-  ``"finite"`` only halves until the residual is finite (no energy needed); ``None`` is the notes' plain iteration.
-* **descent**: with the energy line search the direction must point downhill (``q . du < 0``). If an indefinite tangent
-  gives an uphill one, the linear solver refactorizes, then the tangent is shifted by ``tau I`` with growing ``tau``,
-  and as a last resort the step is steepest descent.
-* **step cap** ``max_step``: no dof moves by more than this per iteration.
-* **admissible steps** ``step_limit(x, dx) -> fraction``: how much of a step may be taken at all (self-contact: before
-  any surface would pass through another, :mod:`tissuefem.engine.contact`). The direction is shortened to it before the
-  line search, so no trial point lies beyond it.
-* **time budget**: with a ``clock`` (any callable returning seconds) and a ``budget``, no new tangent assembly or linear
-  solve starts once the budget is spent; the first iteration always runs.
+  the last (at round-off, a step that still lowers the residual is accepted instead); ``"finite"`` only halves until
+  the residual is finite; ``None`` is the notes' plain iteration.
+* **descent**: under the energy line search the direction must point downhill (``q . du < 0``); else the linear
+  solver refactorizes, then the tangent is shifted by ``tau I`` with growing ``tau``, at last steepest descent.
+* **step cap** ``max_step`` and **admissible steps** ``step_limit`` (self-contact), applied before the line search, so
+  no trial point lies beyond them; a **time budget** measured by ``clock``.
 
-Prescribed (Dirichlet) dofs are held at their ``x0`` values: only the free rows and columns of the tangent are solved,
-through a :class:`~tissuefem.engine.linsolve.LinearSolver` policy that condenses them and may keep a factorization
-across iterations and calls. A numerical failure never escapes as an exception or a NaN state: it is a ``status`` of the
-result, whose ``x`` is the last accepted iterate.
+Prescribed dofs are held at their ``x0`` values; a numerical failure never escapes as an exception or a NaN state: it
+is a ``status`` of the result, whose ``x`` is the last accepted iterate.
 """
 
 from __future__ import annotations
@@ -141,10 +131,7 @@ def _free_mask(n, free) -> np.ndarray:
 def _checked(x0, callables, line_search, linear, optional_reals, max_step, max_iterations, max_halvings, budget,
              tolerances):
     """:func:`newton`'s arguments checked: ``(x, max_step, max_iterations, max_halvings, budget)``, ``x`` a copy.
-
-    ``start`` and ``energy0`` (``optional_reals``) must be real numbers or None (NaN and infinities pass: they are
-    results); a ``linear`` policy needs ``matrix`` and ``solve``.
-    """
+    ``optional_reals`` may be None, NaN or infinite (they are results)."""
     x = np.array(check_real_array("x0", x0), dtype=float, copy=True)  # complex, strings, objects: refused by name
     if x.ndim != 1:
         raise ParameterError("x0", f"x0 must be a 1D array, got shape {np.shape(x0)}")
@@ -197,9 +184,8 @@ def _shifted_direction(A, rhs, shifts=None):
 
 
 def _descent(dx_free, A, rhs, x, mask, hessian, safe_hessian, linear, line_search, stats):
-    """The descent safeguard: ``(dx_free, shift)``, the Newton step if it is usable (and points downhill,
-    ``q . dx < 0``, under the energy line search), else the safe Hessian's step, then a shifted tangent's, then steepest
-    descent; ``(None, 0)`` when there is no usable step and no energy to descend (singular)."""
+    """``(dx_free, shift)``: the Newton step if usable (and downhill under the energy line search), else the safe
+    Hessian's, a shifted tangent's, steepest descent; ``(None, 0)``: no usable step and no energy to descend."""
     if dx_free is not None and np.all(np.isfinite(dx_free)) and (line_search != "energy" or rhs @ dx_free > 0):
         return dx_free, 0.0
     if line_search != "energy":
@@ -237,11 +223,9 @@ def _bounded_step(x, dx_free, mask, max_step, step_limit):
 
 
 def _line_search(x, dx, E, slope, rnorm, mask, gradient, energy, line_search, max_halvings, tolerance):
-    """Halve ``alpha`` from 1 until the step is accepted: ``(alpha, x_new, g_new or None, E_new or None)``, or None.
-
-    ``None``: the full step; ``"finite"``: a finite residual; ``"energy"``: Armijo's decrease of ``E``, or, when the
-    energy change is within ``tolerance`` (round-off), a lower residual norm than ``rnorm``.
-    """
+    """Halve ``alpha`` from 1 until the step is accepted (``line_search`` None: at once; ``"finite"``: a finite
+    residual; ``"energy"``: Armijo's decrease of ``E``, or within ``tolerance`` of ``E`` a residual below ``rnorm``):
+    ``(alpha, x_new, g_new or None, E_new or None)``, or None."""
     alpha = 1.0
     for _ in range(max_halvings + 1):
         x_new = x + alpha * dx
@@ -274,22 +258,18 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
            step_limit: Callable[[np.ndarray, np.ndarray], float] | None = None) -> NewtonResult:
     """Minimise ``energy`` (or find a zero of ``gradient``) over the ``free`` dofs by Newton's method.
 
-    ``x0`` ``(n,)`` is the start (entries that are not ``free`` -- a mask or indices, default all -- are prescribed and
-    never change); ``gradient(x) -> (n,)`` the residual ``q`` and ``hessian(x)`` its sparse Jacobian; ``energy(x)``
-    ``E`` with ``gradient = dE/dx`` (needed by ``line_search="energy"``; ``energy0 = E(x0)`` if known).
+    ``x0`` ``(n,)`` is the start (dofs not ``free``, a mask or indices, are held); ``gradient(x) -> (n,)`` the residual
+    ``q``, ``hessian(x)`` its sparse Jacobian, ``energy(x)`` ``E`` with ``q = dE/dx`` (``energy0 = E(x0)`` if known).
 
     Converged when ``||q_free|| <= max(atol + rtol max(||q_free(x0)||, reference_norm), floor)``: ``reference_norm`` is
-    the size of the load the solve balances when ``x0`` is already a good guess (a tiny start residual would otherwise
-    ask for more than round-off allows); ``floor`` is the residual's round-off level. ``energy_floor`` is the energy's:
-    changes below it are not trusted, and a step that changes the energy by less but lowers the residual is accepted.
+    the size of the load balanced when ``x0`` is already a good guess (a tiny start residual would ask for more than
+    round-off allows), ``floor`` the residual's round-off level; energy changes below ``energy_floor`` are not trusted.
 
-    ``max_iterations``, ``max_step`` (largest change of one dof per iteration) and ``max_halvings`` (of the line search)
-    cap the work; ``linear`` is the linear-solve policy (default: a fresh direct factorization each iteration);
-    ``safe_hessian(x)``, a positive semi-definite approximation of the Hessian (a projected tangent), is tried before
-    the diagonal shift when the exact one gives no descent direction. ``budget`` seconds are measured by ``clock`` from
-    ``start`` (default: when called). ``step_limit(x, dx)`` is the largest fraction in ``[0, 1]`` of ``dx`` that may be
-    taken (contact's collision detection); a step it allows none of ends the solve as ``"blocked"``, keeping the last
-    iterate.
+    ``max_iterations``, ``max_step`` (largest change of one dof per iteration) and ``max_halvings`` cap the work;
+    ``linear`` is the linear-solve policy (default: a fresh direct factorization each iteration); ``safe_hessian(x)``,
+    a positive semi-definite Hessian (a projected tangent), is tried before the diagonal shift. ``budget`` seconds are
+    measured by ``clock`` from ``start`` (default: now). ``step_limit(x, dx)`` is the admissible fraction in ``[0, 1]``
+    of ``dx``; a step with none ends the solve as ``"blocked"``.
     """
     x, max_step, max_iterations, max_halvings, budget = _checked(
         x0, {"gradient": gradient, "hessian": hessian, "energy": energy, "clock": clock, "safe_hessian": safe_hessian},
@@ -303,7 +283,6 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
 
     def out_of_time():  # the budget: no new assembly or solve once it is spent (the first iteration always runs)
         return timed and clock() - start >= budget
-
     history: list[NewtonIteration] = []
     g = np.asarray(gradient(x), dtype=float)
     rnorm = r0 = float(np.linalg.norm(g[mask]))
@@ -315,7 +294,6 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
     def result(status, k):
         return NewtonResult(x, status == "converged", status, k, rnorm, r0, target, E, E_start,
                             stats["linear"], stats["factorizations"], history)
-
     if not np.isfinite(rnorm):
         return result("non-finite", 0)
     for k in range(max_iterations + 1):
@@ -363,10 +341,7 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
 
 
 def _forcing(rnorm, r0, target):
-    """Inexact Newton: how accurately an iterative linear solve must be (absolute residual).
-
-    The forcing term shrinks with the residual (``rnorm / r0``, capped at 1e-3), so the convergence stays quadratic; a
-    solve never needs to be tighter than a third of the target.
-    """
+    """Inexact Newton: the absolute residual an iterative linear solve must reach, shrinking with the residual
+    (``rnorm / r0``, capped at 1e-3: convergence stays quadratic), never below a third of the target."""
     eta = min(1e-3, rnorm / r0) if r0 > 0 else 1e-3
     return max(eta * rnorm, 0.3 * target)

@@ -1,34 +1,21 @@
 """Material parameters: Lamé constants from Young's modulus and Poisson's ratio, and the checks of every input.
 
-Every number the library accepts has a documented range, chosen so that what is
-accepted can also be computed (no overflow, no division by zero later on):
+Every number the library accepts has a documented range, chosen so that what is accepted can also be computed (no
+overflow, no division by zero later on):
 
-==========================  ===============================  ==============================================
-quantity                    range                            why
-==========================  ===============================  ==============================================
-Young's modulus ``E``       ``[1e-6, 1e12]``                 soft gels (~1 Pa) to steel (2e11 Pa), with
-                                                             room; products such as ``E^2`` stay finite
-Poisson's ratio ``nu``      ``[-0.999999, 0.499999]``        the admissible ``(-1, 0.5)`` less ``1e-6`` at
-                                                             each end, where ``lam + 2 mu / 3`` would be
-                                                             lost to round-off; ``lam/mu <= 5e5``
-Lamé ``mu`` (given)         ``[1e-7, 1e30]``                 what ``E`` and ``nu`` above map to (at most
-                                                             ``5e17``), with room
-Lamé ``lam`` (given)        ``(-2 mu / 3, 1e30]``            a positive bulk modulus
-time step ``dt``            ``[1e-6, 10]`` s                 :func:`check_time_step`
-density ``rho0``            ``[1e-6, 1e6]``                  the mass ``rho0 A`` over ``dt^2`` stays finite
-gravity (each component)    within ``+-1e6``                 ``rho0 g`` and its work stay finite
-body force, traction        within ``+-1e12`` per component  as Young's modulus: forces of the stresses' size
-penalty stiffness           ``[0, 1e40]``                    a probe's or a suture's ``k``: ``k d^2`` stays
-                                                             finite for any depth or gap within reach
-points and displacements    within ``REACH L`` (1000 L)      ``L`` is the domain's size (the larger side of
-                                                             its bounding box): targets, probe centres, cuts
-radii                       ``[1e-6 L, 1000 L]``             a probe's ``k ~ E / r^2`` stays finite
-counts                      true integers (never ``bool``)   :func:`check_count`
-==========================  ===============================  ==============================================
+* Young's modulus ``E`` in ``[1e-6, 1e12]``: soft gels (~1 Pa) to steel (2e11 Pa), with room; ``E^2`` stays finite.
+* Poisson's ratio ``nu`` in ``[-0.999999, 0.499999]``: the admissible ``(-1, 0.5)`` less ``1e-6`` at each end, where
+  ``lam + 2 mu / 3`` would be lost to round-off; ``lam/mu <= 5e5``.
+* Lamé ``mu`` given directly in ``[1e-7, 1e30]`` (``E`` and ``nu`` above map to at most ``5e17``), ``lam`` in
+  ``(-2 mu / 3, 1e30]`` (a positive bulk modulus).
+* time step ``dt`` in ``[1e-6, 10]`` s; density ``rho0`` in ``[1e-6, 1e6]`` (``rho0 A / dt^2`` stays finite).
+* gravity within ``+-1e6`` per component; body forces and tractions within ``+-1e12`` (the stresses' size).
+* penalty stiffness (a probe's, a suture's ``k``) in ``[0, 1e40]``: ``k d^2`` stays finite for any depth within reach.
+* points and displacements within ``REACH L`` (1000 L, ``L`` the larger side of the domain's bounding box); radii in
+  ``[1e-6 L, 1000 L]`` (a probe's ``k ~ E / r^2`` stays finite); counts are true integers (never ``bool``).
 
-This module is the one home of the library's input checks. :func:`check_real` and :func:`check_count` are the two
-every other module uses; each refusal is a :class:`ParameterError` whose message names the argument and the allowed
-range and whose ``field`` is that argument.
+This is the one home of the library's input checks; each refusal is a :class:`ParameterError` whose message names the
+argument and the allowed range and whose ``field`` is that argument.
 """
 
 from __future__ import annotations
@@ -46,36 +33,22 @@ __all__ = [
     "DENSITY_RANGE", "ACCELERATION_MAX", "FORCE_MAX", "PENALTY_MAX", "REACH", "RADIUS_RANGE",
 ]
 
-#: Young's modulus accepted by :func:`check_young_poisson` (closed interval).
-YOUNGS_MODULUS_RANGE = (1e-6, 1e12)
-#: Poisson's ratio accepted by :func:`check_young_poisson` (closed interval inside the admissible (-1, 0.5)).
-POISSON_RATIO_RANGE = (-1.0 + 1e-6, 0.5 - 1e-6)
-#: Largest Lamé parameter (and fibre modulus) accepted when given directly.
-LAME_MAX = 1e30
-#: Smallest shear modulus accepted when given directly (``E >= 1e-6`` maps to ``mu > 1e-6 / 3``).
-SHEAR_MODULUS_MIN = 1e-7
-#: Time steps accepted by :func:`check_time_step`, in seconds (closed interval).
-TIME_STEP_RANGE = (1e-6, 10.0)
-#: Densities (mass per unit reference area) accepted by :func:`check_density` (closed interval).
-DENSITY_RANGE = (1e-6, 1e6)
-#: Largest component of a gravitational acceleration.
-ACCELERATION_MAX = 1e6
-#: Largest component of a body force (per unit area) or a traction (per unit length).
-FORCE_MAX = 1e12
-#: Largest penalty stiffness of a probe or a suture.
-PENALTY_MAX = 1e40
-#: Points and displacements must lie within ``REACH`` domain sizes (of the domain's centre, for points).
-REACH = 1e3
-#: Radii (probes, grabs), in domain sizes (closed interval).
-RADIUS_RANGE = (1e-6, 1e3)
+YOUNGS_MODULUS_RANGE = (1e-6, 1e12)  #: Young's modulus (closed interval, as every range here)
+POISSON_RATIO_RANGE = (-1.0 + 1e-6, 0.5 - 1e-6)  #: Poisson's ratio, inside the admissible (-1, 0.5)
+LAME_MAX = 1e30  #: the largest Lamé parameter (and fibre modulus) given directly
+SHEAR_MODULUS_MIN = 1e-7  #: the smallest shear modulus given directly (``E >= 1e-6`` maps to ``mu > 1e-6 / 3``)
+TIME_STEP_RANGE = (1e-6, 10.0)  #: time steps, in seconds
+DENSITY_RANGE = (1e-6, 1e6)  #: densities (mass per unit reference area)
+ACCELERATION_MAX = 1e6  #: the largest component of a gravitational acceleration
+FORCE_MAX = 1e12  #: the largest component of a body force (per unit area) or a traction (per unit length)
+PENALTY_MAX = 1e40  #: the largest penalty stiffness of a probe or a suture
+REACH = 1e3  #: points and displacements lie within ``REACH`` domain sizes (of the domain's centre, for points)
+RADIUS_RANGE = (1e-6, 1e3)  #: radii (probes, grabs), in domain sizes
 
 
 class ParameterError(ValueError):
-    """A refused input: a ``ValueError`` whose ``field`` names the offending argument (``"probe.radius"``).
-
-    The message is the whole sentence (it names the field too); callers that relabel an error (a scene
-    file's section, a command-line option) read ``field`` instead of parsing the message.
-    """
+    """A refused input: a ``ValueError`` whose ``field`` names the offending argument (``"probe.radius"``); callers
+    that relabel an error (a scene file's section, a command-line option) read ``field``, not the message."""
 
     def __init__(self, field: str, message: str):
         super().__init__(message)
@@ -215,11 +188,9 @@ def check_bounded_vector(name: str, value, bound: float) -> np.ndarray:
 
 
 def check_poisson_ratio(nu, name: str = "nu (Poisson's ratio)") -> float:
-    """Poisson's ratio in :data:`POISSON_RATIO_RANGE`; the error names ``name``.
-
-    Outside ``(-1, 0.5)`` the message says so; within ``1e-6`` of an end, that the value is too close: there ``lam``
-    and ``mu`` are huge and of opposite sign (``nu -> -1``) or ``lam/mu`` exceeds ``5e5`` (``nu -> 0.5``), and the
-    bulk modulus ``lam + 2 mu / 3`` is lost to round-off.
+    """Poisson's ratio in :data:`POISSON_RATIO_RANGE`; the error names ``name``. Within ``1e-6`` of an end of
+    ``(-1, 0.5)`` the message says it is too close: there ``lam`` and ``mu`` are huge and of opposite sign
+    (``nu -> -1``) or ``lam/mu > 5e5`` (``nu -> 0.5``), and the bulk modulus ``lam + 2 mu / 3`` is lost to round-off.
     """
     nu = check_real(name, nu, -1.0, 0.5, lo_open=True, hi_open=True)
     lo, hi = POISSON_RATIO_RANGE
@@ -236,15 +207,12 @@ def check_young_poisson(E, nu) -> tuple[float, float]:
 
 
 def lame_parameters(E, nu, plane: str = "strain") -> tuple[float, float]:
-    """Lamé parameters ``(lam, mu)`` from Young's modulus and Poisson's ratio.
+    """Lamé parameters ``(lam, mu)`` from Young's modulus and Poisson's ratio (:func:`check_young_poisson`).
 
-    ``lam = E nu / ((1 + nu)(1 - 2 nu))`` and ``mu = E / (2 (1 + nu))`` (the notes' formula, where Young's modulus
-    is written K). In 2D this is plane strain; ``plane="stress"`` gives the plane-stress value
-    ``lam* = 2 lam mu / (lam + 2 mu)`` used by linear elasticity for thin sheets.
-
-    ``nu`` lies in :data:`POISSON_RATIO_RANGE`, ``1e-6`` inside the admissible ``-1 < nu < 0.5`` (the notes say
-    "between 0 and 1/2"; auxetic materials with ``nu < 0`` are admissible too), and ``E`` in
-    :data:`YOUNGS_MODULUS_RANGE`. ``nu -> 0.5`` makes ``lam`` blow up: nearly incompressible.
+    ``lam = E nu / ((1 + nu)(1 - 2 nu))``, ``mu = E / (2 (1 + nu))`` (the notes' formula, Young's modulus written K):
+    plane strain in 2D; ``plane="stress"`` gives ``lam* = 2 lam mu / (lam + 2 mu)`` (linear elasticity of thin
+    sheets). ``-1 < nu < 0.5`` (the notes say "between 0 and 1/2"; auxetic ``nu < 0`` is admissible too); ``nu -> 0.5``
+    makes ``lam`` blow up: nearly incompressible.
     """
     E, nu = check_young_poisson(E, nu)
     lam, mu = E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu)), E / (2.0 * (1.0 + nu))

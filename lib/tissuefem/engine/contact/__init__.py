@@ -1,13 +1,12 @@
 """Self-contact of the boundary: surfaces that touch, press, slide, and never pass through each other.
 
 :class:`Contact` (:mod:`.term`) is a term of the incremental potential whose Hessian couples nodes no element couples
-(two lips of a wound), *which* changing as the body moves: the model's pattern holds the current candidate pairs and
-is rebuilt (a merge of a few keys, ~4 ms at 8k triangles) only when a pair appears that it lacks
-(:meth:`Contact.covers`). No state on the far side of a surface may be reached: Newton's line search and the stepper's
-warm start take at most :meth:`Contact.max_step` of a step. Handles dragging tissue through tissue are obeyed, the
-crossings counted (:meth:`Contact.begin_step`); after a cut :meth:`Contact.remap` carries the term over. The pieces:
-:mod:`.surface`, :mod:`.barrier` (and why), :mod:`.candidates` (signed gaps; which pairs may touch), :mod:`.collision`
-(times of impact). References:
+(two lips of a wound), *which* changing as the body moves: the model's pattern is rebuilt (~4 ms at 8k triangles) only
+when a pair appears that it lacks (:meth:`Contact.covers`). Newton's line search and the stepper's warm start take at
+most :meth:`Contact.max_step` of a step, so no state on the far side of a surface is reached; handles dragging tissue
+through tissue are obeyed and the crossings counted (:meth:`Contact.begin_step`). The pieces: :mod:`.surface`,
+:mod:`.barrier`, :mod:`.candidates` (signed gaps; which pairs may touch), :mod:`.collision` (times of impact).
+References:
 
 .. [1] M. Li et al., *Incremental Potential Contact: intersection- and inversion-free, large-deformation dynamics*,
    ACM Transactions on Graphics 39(4) (2020), 49.

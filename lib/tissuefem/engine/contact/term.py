@@ -34,8 +34,7 @@ class Contact(Term):
         self.X, self.n_nodes, self.surface = X, X.shape[1], surface
         self.distance = check_real("contact.distance", distance, 0.0, lo_open=True)
         self.stiffness = check_real("contact.stiffness", stiffness, 0.0, lo_open=True)
-        Y = surface.positions(X)
-        a, b = surface.segments
+        Y, (a, b) = surface.positions(X), surface.segments
         self.rest_length = np.hypot(*(Y[:, b] - Y[:, a]))
         if np.any(self.rest_length <= 1e-12 * max(1.0, float(np.ptp(X)))):
             raise ParameterError("contact.surface",
