@@ -1,18 +1,11 @@
-"""The geometry of cuts, shared by :mod:`.topology`, :mod:`.element_cuts` and :mod:`.surfaces`.
+"""The geometry of cuts, shared by :mod:`.topology`, :mod:`.element_cuts` and :mod:`.surfaces`: checked mesh arrays
+and inputs, edges keyed by node pair, a triangle's local coordinates, and the material of an element cut through.
 
-* **Meshes and inputs**: :func:`mesh_arrays`, :func:`node_positions`, :func:`check_points`, :func:`new_mesh`,
-  :func:`carry_names` (named boundaries and subdomains across an edit), :func:`polygon_contains`.
-* **Edges** keyed by node pair (:func:`pair_keys`), and every element's edges with the side it lies on
-  (:func:`element_edges`).
-* **A triangle's local coordinates** ``(xi, eta) = (lambda_1, lambda_2)``: vertex 0 at ``(0, 0)``, 1 at ``(1, 0)``,
-  2 at ``(0, 1)``; local edge ``k`` runs from vertex ``k`` to vertex ``k + 1`` (0: ``eta = 0``, 1: ``xi + eta = 1``,
-  2: ``xi = 0``). Points (:func:`snap`, :func:`edges_of`, :func:`edge_param`, :func:`edge_point`), segments
-  (:func:`crossings`), polygons (:func:`winding`, :func:`polygon_area`), and sorted lists of intervals
-  ``[(lo, hi), ...]`` of the edge parameter (:func:`merge_intervals`, :func:`subtract_intervals`, ...). Points closer
-  than :data:`EPS` are one point. These work on plain floats: on the tiny graphs of one triangle, numpy's per-call
-  cost would dominate.
-* **The material of an element** cut through: :class:`Region`, its sides and the parts of its edges it touches, and
-  :func:`check_regions`.
+A triangle's local coordinates are ``(xi, eta) = (lambda_1, lambda_2)``: vertex 0 at ``(0, 0)``, 1 at ``(1, 0)``, 2 at
+``(0, 1)``; local edge ``k`` runs from vertex ``k`` to vertex ``k + 1`` (0: ``eta = 0``, 1: ``xi + eta = 1``, 2:
+``xi = 0``). Points closer than :data:`EPS` are one point. Intervals are sorted lists ``[(lo, hi), ...]`` of an edge's
+parameter. The local helpers work on plain floats: on the tiny graphs of one triangle, numpy's per-call cost would
+dominate.
 """
 
 from __future__ import annotations

@@ -1,22 +1,13 @@
-"""Mesh topology operations for virtual surgery: cutting along mesh edges and removing tissue.
+"""Mesh topology operations for virtual surgery: cutting along mesh edges (:func:`incise`, built from
+:func:`cut_path` and :func:`duplicate_along_edges`) and removing tissue (:func:`excise`).
 
 A cut along mesh edges *opens* a path of edges: no triangle is split; every node on the cut is duplicated as often as
 the cut separates its neighbourhood. Removing tissue (a defect) deletes whole triangles. Both are *pure*: they return a
 new mesh, as a :class:`MeshEdit` (the engine's :class:`~tissuefem.engine.meshes.MeshMap`) with ``parent`` (new node ->
-old node) and ``elements`` (new element -> old element), so that a simulation can carry its state across: a per-node
-field ``u`` becomes ``u[..., parent]`` (copies start where their original was, so a deformed state carries over without
-a jump).
-
-* :func:`duplicate_along_edges`: the core of a cut, on bare connectivity arrays;
-* :func:`cut_path`: the node path along mesh edges that follows a drawn polyline;
-* :func:`incise`: the two together on a :class:`skfem.MeshTri`, the wound's faces named ``"cut"``;
-* :func:`excise`: remove the triangles inside a region, its rim named ``"defect"``;
-* :func:`connected_components`, :func:`nodes_near`: the pieces of a mesh, the nodes near a point.
-
-The new meshes keep every element's vertex order, hence its orientation (``sort_t=False``: scikit-fem's default
-re-sorts each column of ``t``, and since a cut's copies get the highest indices, that would reorder exactly the
-triangles along the wound). Named boundaries are carried by parent pairs
-(:func:`~tissuefem.surgery.geometry.carry_names`).
+old node) and ``elements`` (new element -> old element), so that a per-node field ``u`` carries over as
+``u[..., parent]`` (copies start where their original was: a deformed state carries over without a jump). The new
+meshes keep every element's vertex order (a cut's copies get the highest indices, so scikit-fem's default re-sorting
+would reorder exactly the triangles along the wound) and their named boundaries.
 """
 
 from __future__ import annotations
@@ -30,7 +21,8 @@ from scipy.sparse import csgraph
 
 from ..engine.meshes import MeshMap
 from ..engine.parameters import ParameterError, check_bounded_vector, check_count, check_real, check_real_array
-from .geometry import carry_names, check_points, mesh_arrays, new_mesh, node_positions, pair_keys, polygon_contains
+from .geometry import (carry_names, check_points, cross, mesh_arrays, new_mesh, node_positions, pair_keys,
+                       polygon_contains)
 
 __all__ = ["MeshEdit", "duplicate_along_edges", "cut_path", "incise", "excise", "connected_components", "nodes_near"]
 
@@ -47,12 +39,9 @@ _NEAR_BOUNDARY = 0.5
 # --- the result ---
 @dataclass(frozen=True, eq=False, kw_only=True)
 class MeshEdit(MeshMap):
-    """A :class:`~tissuefem.engine.meshes.MeshMap` made by a cut along mesh edges or an excision.
+    """A :class:`~tissuefem.engine.meshes.MeshMap` made by a cut along mesh edges or an excision."""
 
-    ``cut_edges`` : ndarray of int, shape (2, k): old-node pairs of the edges opened, in the order the cut passed them
-    (empty for :func:`excise`).
-    """
-
+    #: (2, k) int: old-node pairs of the edges opened, in the order the cut passed them (empty for :func:`excise`)
     cut_edges: np.ndarray
 
 
@@ -94,16 +83,12 @@ def duplicate_along_edges(t, n_nodes, edges):
     duplicated nodes change; ``parent`` (n_nodes + n_copies,) is ``i`` for the old nodes, and the copies are appended
     (``n_nodes, n_nodes + 1, ...``) pointing to the node they copy.
 
-    For every node ``v`` on a cut edge, its triangles are grouped into *fans*: two triangles around ``v`` are in the
-    same fan if they share an uncut edge ``(v, x)`` (closed under that). Each fan is one side of the wound: a node in
-    the middle of a cut from boundary to boundary has two cut edges that split its ring (or half-ring) in two: one
-    copy; the tip of an interior crack has one cut edge and its ring stays connected the other way round: no copy (a
-    crack is closed at its tips); where ``j`` cut edges meet, an interior node's ring breaks into ``j`` fans (``j - 1``
-    copies), a boundary node's into ``j + 1``. A cut edge on the boundary opens nothing, nor does a single interior
-    edge with both ends interior. The fan holding the lowest-numbered triangle keeps the node; the others get new nodes
-    in the order (node, lowest triangle of the fan), so the output depends only on the input. All fans are found at
-    once: the *corners* (triangle, vertex) of the cut nodes are linked whenever two triangles share an uncut edge at
-    that vertex, and the fans are the connected components of that graph.
+    The triangles round a node ``v`` on a cut edge fall into *fans*, linked where two share an uncut edge ``(v, x)``;
+    each fan is one side of the wound. Where ``j`` cut edges meet, an interior node's ring breaks into ``j`` fans, a
+    boundary node's into ``j + 1``: the middle of a cut through gets one copy, the tip of a crack none (a crack is
+    closed at its tips), and a single interior edge opens nothing. The fan holding the lowest triangle keeps the node;
+    the others get new nodes in the order (node, lowest triangle of the fan). All fans are found at once, as the
+    connected components of the graph of the cut nodes' *corners* (triangle, vertex) linked across uncut edges.
     """
     t, n_nodes = _triangles(t, n_nodes)
     m = t.shape[1]
@@ -131,10 +116,8 @@ def duplicate_along_edges(t, n_nodes, edges):
     is_cut_node = np.zeros(n_nodes, dtype=bool)
     is_cut_node[edges.ravel()] = True
 
-    # Pair up the occurrences of each edge in different triangles (sorted by
-    # key, each occurrence with the next one of the same key; on a manifold
-    # mesh that is the two triangles of an interior edge). Uncut pairs glue
-    # the corners of their two shared nodes.
+    # each occurrence of an edge paired with the next of the same key (on a manifold mesh: the two triangles of an
+    # interior edge); uncut pairs glue the corners of their two shared nodes
     order = np.argsort(key, kind="stable")
     ks = key[order]
     same = np.flatnonzero(ks[1:] == ks[:-1])
@@ -220,14 +203,11 @@ def _segment_distance(px, py, ax, ay, bx, by):
 
 def _inside(x, t, q) -> bool:
     """Is point q inside (or on) some triangle of (x, t)?"""
-    a, b, c = x[:, t[0]], x[:, t[1]], x[:, t[2]]
-
-    def cross(u, v, w):  # (v - u) x (w - u)
-        return (v[0] - u[0]) * (w[1] - u[1]) - (v[1] - u[1]) * (w[0] - u[0])
-
-    qq = q[:, None]
-    area = cross(a, b, c)
-    s1, s2, s3 = cross(qq, b, c), cross(a, qq, c), cross(a, b, qq)
+    a, b, c, qq = x[:, t[0]], x[:, t[1]], x[:, t[2]], q[:, None]
+    area = cross(b[0] - a[0], b[1] - a[1], c[0] - a[0], c[1] - a[1])
+    s1 = cross(b[0] - qq[0], b[1] - qq[1], c[0] - qq[0], c[1] - qq[1])
+    s2 = cross(qq[0] - a[0], qq[1] - a[1], c[0] - a[0], c[1] - a[1])
+    s3 = cross(b[0] - a[0], b[1] - a[1], qq[0] - a[0], qq[1] - a[1])
     # q is inside when the three sub-areas have the sign of the whole (either orientation)
     tol, sign = 1e-12 * np.abs(area), np.sign(area)
     return bool(np.any((sign * s1 >= -tol) & (sign * s2 >= -tol) & (sign * s3 >= -tol) & (area != 0.0)))
@@ -307,18 +287,14 @@ def _snap_vertices(x, t, bfacets, pts):
 def cut_path(mesh, polyline, positions=None) -> np.ndarray:
     """The path of mesh nodes that follows a drawn ``polyline`` (k, 2), k >= 2.
 
-    The polyline is in the coordinates of ``positions`` (2, n_nodes), where the nodes are now (default ``mesh.p``), so
-    that a cut drawn on the deformed tissue goes where it was drawn. Returns node indices (int64); consecutive entries
-    are the two ends of a mesh edge, or two copies of the same material point (left by an earlier cut): that is how a
-    new stroke crosses an old wound.
-
-    Each polyline vertex snaps to the nearest node. An *endpoint* outside the body (or within about half an edge of its
-    boundary) snaps instead to the boundary node where its first (or last) segment crosses the boundary, so a stroke
-    across the whole body cuts it through, and the path ends where it first meets the boundary. Between snapped nodes
-    the path is a shortest path (Dijkstra) over the mesh edges, each costing ``length * (1 + 10 d / h)`` with ``d`` the
-    mean distance of its nodes from the drawn segment and ``h`` the median edge length: the path hugs the line, within
-    about one element. ``ValueError`` for a polyline that is not finite, not shaped (k, 2), has fewer than two points,
-    collapses to a single node, or joins two unconnected pieces.
+    The polyline is drawn where the nodes are now, ``positions`` (2, n_nodes) (default ``mesh.p``). Returns node
+    indices (int64); consecutive entries are the ends of a mesh edge, or two copies of one material point (crossing an
+    old wound). Each polyline vertex snaps to the nearest node; an *endpoint* outside the body (or within about half an
+    edge of its boundary) snaps to the boundary node where its segment crosses the boundary, so a stroke across the
+    body cuts it through. Between snapped nodes the path is a shortest path (Dijkstra) over the mesh edges, each
+    costing ``length * (1 + 10 d / h)`` (``d`` the mean distance of its nodes from the drawn segment, ``h`` the median
+    edge length): it hugs the line within about one element. ``ValueError`` for a bad polyline, one that collapses
+    to a single node, or one that joins two unconnected pieces.
     """
     pts = check_points("polyline", polyline, 2)
     p, t = mesh_arrays(mesh)
@@ -383,23 +359,18 @@ def _opened(mesh, parent, interior_keys, n_old) -> np.ndarray:
 def incise(mesh, polyline, positions=None) -> MeshEdit:
     """Cut ``mesh`` (not modified) along a drawn polyline.
 
-    The polyline becomes a path of mesh edges (:func:`cut_path`, which describes ``polyline`` and ``positions``),
-    opened by duplicating nodes (:func:`duplicate_along_edges`). A stroke whose ends lie outside the body cuts it
-    through; one that ends inside leaves a crack whose tip stays closed. The new mesh is in the reference configuration
-    (``p`` is ``mesh.p[:, parent]``; transfer the deformed state with :meth:`MeshEdit.transfer`).
-
-    Returns a :class:`MeshEdit` whose ``elements`` is ``arange(m)`` (the triangles keep their indices and vertex order)
-    and ``cut_edges`` the old edges that opened; the new mesh keeps every named boundary and names the two faces of the
-    wound ``"cut"``. Raises ``ValueError`` for a bad polyline, or one that opens no edge (it runs along the boundary,
-    or is a single edge inside the body, which cannot open).
+    The polyline becomes a path of mesh edges (:func:`cut_path`), opened by duplicating nodes
+    (:func:`duplicate_along_edges`); a stroke that ends inside the body leaves a crack whose tip stays closed. Returns
+    a :class:`MeshEdit` in the reference configuration (``p`` is ``mesh.p[:, parent]``) whose ``elements`` is
+    ``arange(m)``; the two faces of the wound are named ``"cut"``. ``ValueError`` for a bad polyline, or one that
+    opens no edge (it runs along the boundary, or is a single edge inside the body).
     """
     p, t = mesh_arrays(mesh)
     n = p.shape[1]
     path = cut_path(mesh, polyline, positions)
     pairs = np.stack([path[:-1], path[1:]])
     interior_keys = pair_keys(np.asarray(mesh.facets, dtype=np.int64), n)[np.asarray(mesh.f2t)[1] >= 0]
-    # steps between copies of one point (crossing an old wound) are not edges;
-    # edges on the boundary are already open
+    # steps between copies of one point (crossing an old wound) are not edges; edges on the boundary are already open
     pairs = pairs[:, np.isin(pair_keys(pairs, n), interior_keys)]
     new_t, parent = duplicate_along_edges(t, n, pairs)
     plain = new_mesh(p[:, parent], new_t)
@@ -441,14 +412,11 @@ def _region_mask(region, centroids) -> np.ndarray:
 def excise(mesh, region, positions=None) -> MeshEdit:
     """Remove the triangles of ``mesh`` (not modified) whose centroid lies in ``region`` (a defect).
 
-    ``region`` is a polygon (k, 2), k >= 3 (even-odd rule: :func:`~tissuefem.surgery.geometry.polygon_contains`), or a
-    function ``centroids (2, m) -> bool (m,)``, True for the triangles to remove; the centroids are taken at
-    ``positions`` (2, n_nodes) (default ``mesh.p``).
-
-    Returns a :class:`MeshEdit`: nodes no longer used are dropped and the rest renumbered in their old order
-    (``parent`` is increasing); the surviving triangles keep their relative and vertex order. The rim of the hole is
-    named ``"defect"``; old names keep their surviving facets. Raises ``ValueError`` if ``region`` is not a valid
-    polygon or mask, selects no element, or selects every element.
+    ``region`` is a polygon (k, 2), k >= 3 (even-odd rule), or a function ``centroids (2, m) -> bool (m,)``, True for
+    the triangles to remove; the centroids are taken at ``positions`` (2, n_nodes) (default ``mesh.p``). Returns a
+    :class:`MeshEdit`: unused nodes are dropped and the rest keep their order (``parent`` is increasing), the surviving
+    triangles keep theirs, and the rim of the hole is named ``"defect"``. ``ValueError`` if ``region`` is not a valid
+    polygon or mask, or selects no element or every element.
     """
     p, t = mesh_arrays(mesh)
     x = node_positions(mesh, positions)
@@ -460,12 +428,8 @@ def excise(mesh, region, positions=None) -> MeshEdit:
     if remove.all():
         raise ValueError(f"region selects every element (all {m}): nothing would be left")
     elements = np.flatnonzero(~remove).astype(np.int64)
-    kept = t[:, elements]
-    parent = np.unique(kept)  # increasing: a compact renumbering in the old order
-    new_index = np.full(p.shape[1], -1, dtype=np.int64)
-    new_index[parent] = np.arange(parent.size)
-    new_t = new_index[kept]
-
+    parent, new_t = np.unique(t[:, elements], return_inverse=True)  # increasing: the old order, compacted
+    new_t = new_t.reshape(3, -1).astype(np.int64)
     n = p.shape[1]
     interior_keys = pair_keys(np.asarray(mesh.facets, dtype=np.int64)[:, np.asarray(mesh.f2t)[1] >= 0], n)
     plain = new_mesh(p[:, parent], new_t)
