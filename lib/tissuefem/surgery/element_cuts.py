@@ -8,13 +8,11 @@ material a copy does not hold become extra ("virtual") nodes.
 
 The construction in 2D
 ----------------------
-1. **Where the stroke lies.** The stroke is drawn on the deformed tissue. In one triangle the P1 map is affine, so a
-   straight piece of the stroke is straight in the reference triangle, with the same barycentric coordinates. Each
+1. **Where the stroke lies.** The stroke is drawn on the deformed tissue. The P1 map of a triangle is affine, so a
+   straight piece of the stroke is straight in the reference triangle, with the same barycentric coordinates: each
    segment ``a -> b`` is clipped against each triangle by keeping the ``s`` with
-   ``lambda_i(a) + s (lambda_i(b) - lambda_i(a)) >= 0``; the pieces are kept in local coordinates
-   ``(xi, eta) = (lambda_1, lambda_2)`` (vertex 0 at (0, 0), 1 at (1, 0), 2 at (0, 1)). First, a stroke passing within
-   1e-6 of an edge length of a node is moved onto it, once for the whole mesh, so that neighbouring triangles never
-   disagree on whether it went through it.
+   ``lambda_i(a) + s (lambda_i(b) - lambda_i(a)) >= 0``. First, a stroke passing within 1e-6 of an edge length of a
+   node is moved onto it, once for the whole mesh, so that neighbouring triangles never disagree about that node.
 2. **The material of an element** is a :class:`Region`: the polygon it fills, its *slits* and *severed* edge parts. Its
    weight, the polygon's share of the triangle's area, is what :class:`~tissuefem.engine.assembly.P1Assembler`
    integrates over.
@@ -29,9 +27,8 @@ The construction in 2D
 5. **The crack tip.** The triangle holding the end of a crack is one piece of material, so (as in [1]_) it is not
    duplicated; the crack in it is a slit. The two copies through which the crack enters it are both joined to it, so
    they differ only at their third vertex: the displacement jump is that vertex's shape function times the difference
-   of its two nodes, zero on the tip triangle's edge and growing linearly away from it. The crack closes within one
-   element of the drawn tip, the resolution of P1 with virtual nodes (phantom-node methods [3]_ make the same choice):
-   two P1 copies agree along a line only if they share all three nodes, that is, are one element.
+   of its two nodes, zero on the tip triangle's edge. The crack closes within one element of the drawn tip, the
+   resolution of P1 with virtual nodes (phantom-node methods [3]_ make the same choice).
 6. **No slivers.** A piece lighter than ``min_weight`` is merged into its neighbour across the cut and the parts of the
    triangle's edges that bounded it are severed instead: the cut's topology is snapped onto the element's edges (by
    less than the sliver's width), while the :class:`Wound` stays where the stroke was drawn.
@@ -50,10 +47,9 @@ References
 .. [3] J.-H. Song, P. M. A. Areias, T. Belytschko, *A method for dynamic crack and shear band propagation with phantom
    nodes*, International Journal for Numerical Methods in Engineering 67 (2006), 868-893.
 
-The result is an :class:`ElementCut`. Uncut elements keep their index and vertex order; the first piece of a cut
-element keeps its index, the others are appended; every copy keeps its triangle's vertex order (``sort_t=False``). Old
-nodes keep their index; virtual nodes are appended. Mass and momentum carry over exactly with nodal masses from the
-material areas (:func:`lumped_mass`).
+Uncut elements and old nodes keep their index (and vertex order); the first piece of a cut element keeps its index, the
+other pieces and the virtual nodes are appended. Nodal masses from the material areas (:func:`lumped_mass`) carry mass
+and momentum over exactly.
 """
 
 from __future__ import annotations
@@ -63,6 +59,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..engine.meshes import signed_areas
 from ..engine.parameters import check_real
 from .geometry import (EPS, FULL_TOUCH, WHOLE, Region, carry_names, check_points, check_regions, cross, crossings,
                        edge_intervals, edge_param, edge_point, edges_of, element_edges, element_weights, mesh_arrays,
@@ -531,10 +528,8 @@ class ElementCut(MeshEdit):
 # --- masses ---
 def material_areas(mesh, weights=None) -> np.ndarray:
     """Reference area of every element's material: triangle area times weight, shape (n_elements,)."""
-    p, t = mesh_arrays(mesh)
-    w = element_weights(weights, t.shape[1])
-    a, b, c = p[:, t[0]], p[:, t[1]], p[:, t[2]]
-    return 0.5 * np.abs((b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1])) * w
+    _, t = mesh_arrays(mesh)
+    return np.abs(signed_areas(mesh)) * element_weights(weights, t.shape[1])
 
 
 def lumped_mass(mesh, weights=None, density=1.0) -> np.ndarray:
@@ -801,50 +796,35 @@ def excise_through(mesh, polygon, positions=None, weights=None, regions=None, mi
         raise ValueError("polygon must have at least 3 distinct points")
     first = cut_through(mesh, closed, positions, weights=weights, regions=regions, min_weight=min_weight)
     m = first.mesh.t.shape[1]
-    # where each element's material is now (the stroke was drawn there): a point inside its material, carried
-    # by the P1 map of its triangle
-    x = node_positions(first.mesh, None if positions is None else first.transfer(np.asarray(positions, float)))
-    t = first.mesh.t
+    # where each element's material is now (the stroke was drawn there): a point inside its material, carried by the
+    # P1 map of its triangle; for a cut element, the centroid of the largest triangle of its material's triangulation
+    # (inside even when the polygon is not convex)
     centre = np.full((m, 3), 1.0 / 3.0)
     for e, region in first.regions.items():
-        centre[e] = _interior_barycentric(region)
-    inside_point = np.einsum("ea,iae->ie", centre, x[:, t])
-    remove = polygon_contains(closed, inside_point.T)
+        tris = [(poly[i], poly[j], poly[k]) for poly in region.polygons for i, j, k in _triangulate(poly)]
+        a, b, c = max(tris, key=lambda abc: abs(cross(*(abc[1] - abc[0]), *(abc[2] - abc[0]))))
+        g = (a + b + c) / 3.0
+        centre[e] = [1.0 - g[0] - g[1], g[0], g[1]]
+    x = node_positions(first.mesh, None if positions is None else first.transfer(np.asarray(positions, float)))
+    remove = polygon_contains(closed, np.einsum("ea,iae->ie", centre, x[:, first.mesh.t]).T)
     if not remove.any():
         raise ValueError("polygon encloses no material")
     if remove.all():
         raise ValueError("polygon encloses all the material: nothing would be left")
     second = excise(first.mesh, lambda _centroids: remove)
     keep = second.elements
+    new_of = np.full(m, -1, dtype=np.int64)  # the wound records of the surviving elements, renumbered
+    new_of[keep] = np.arange(keep.size)
+    w = first.wound
+    stay = new_of[w.element] >= 0
+    element = new_of[w.element[stay]]
+    wound = Wound(element=element, side=w.side[stay], barycentric=w.barycentric[stay],
+                  nodes=np.asarray(second.mesh.t)[:, element].T.copy(), reference=w.reference[stay],
+                  stroke=w.stroke[stay], opened=w.opened[stay])
     regions = {new: first.regions[old] for new, old in enumerate(keep.tolist()) if old in first.regions}
     return ElementCut(mesh=second.mesh, parent=first.parent[second.parent], elements=first.elements[keep],
                       cut_edges=first.cut_edges, n_old_nodes=first.n_old_nodes, n_old_elements=first.n_old_elements,
-                      weights=first.weights[keep], regions=regions,
-                      wound=_renumber_wound(first.wound, keep, second.mesh.t))
-
-
-def _interior_barycentric(region) -> np.ndarray:
-    """Barycentric coordinates of a point inside the material of ``region`` (its largest piece's centroid of a triangle
-    of its triangulation, which lies inside even when the polygon is not convex)."""
-    best, best_area = None, -1.0
-    for poly in region.polygons:
-        for tri in _triangulate(poly):
-            a, b, c = poly[tri[0]], poly[tri[1]], poly[tri[2]]
-            area = abs(cross(b[0] - a[0], b[1] - a[1], c[0] - a[0], c[1] - a[1]))
-            if area > best_area:
-                best, best_area = (a + b + c) / 3.0, area
-    return np.array([1.0 - best[0] - best[1], best[0], best[1]])
-
-
-def _renumber_wound(wound, keep, t) -> Wound:
-    """The wound records of the elements that survive an excision, in the new numbering."""
-    new_of = np.full(max(int(wound.element.max(initial=-1)), int(keep.max(initial=-1))) + 1, -1, dtype=np.int64)
-    new_of[keep] = np.arange(keep.size)
-    stay = new_of[wound.element] >= 0 if wound.element.size else np.zeros(0, dtype=bool)
-    element = new_of[wound.element[stay]]
-    return Wound(element=element, side=wound.side[stay], barycentric=wound.barycentric[stay],
-                 nodes=np.asarray(t)[:, element].T.copy(), reference=wound.reference[stay],
-                 stroke=wound.stroke[stay], opened=wound.opened[stay])
+                      weights=first.weights[keep], regions=regions, wound=wound)
 
 
 # --- what to draw ---
@@ -921,8 +901,10 @@ def _triangulate(poly) -> list:
             (ax, ay), (bx, by), (cx, cy) = pts[ia], pts[ib], pts[ic]
             if cross(bx - ax, by - ay, cx - ax, cy - ay) <= 0.0:
                 continue  # a reflex or flat corner is no ear
-            if any(_in_triangle(pts[q], pts[ia], pts[ib], pts[ic]) for q in idx if q not in (ia, ib, ic)):
-                continue
+            if any(cross(bx - ax, by - ay, qx - ax, qy - ay) >= 0.0 and cross(cx - bx, cy - by, qx - bx, qy - by) >= 0.0
+                   and cross(ax - cx, ay - cy, qx - cx, qy - cy) >= 0.0
+                   for qx, qy in (pts[q] for q in idx if q not in (ia, ib, ic))):
+                continue  # another corner inside (or on) the candidate ear
             tris.append((ia, ib, ic))
             idx.pop(j)
             break
@@ -931,13 +913,6 @@ def _triangulate(poly) -> list:
             return tris
     tris.append(tuple(idx))
     return tris
-
-
-def _in_triangle(q, a, b, c) -> bool:
-    d1 = cross(b[0] - a[0], b[1] - a[1], q[0] - a[0], q[1] - a[1])
-    d2 = cross(c[0] - b[0], c[1] - b[1], q[0] - b[0], q[1] - b[1])
-    d3 = cross(a[0] - c[0], a[1] - c[1], q[0] - c[0], q[1] - c[1])
-    return d1 >= 0.0 and d2 >= 0.0 and d3 >= 0.0
 
 
 # --- points of the material: where a stitch or a probe attaches ---
