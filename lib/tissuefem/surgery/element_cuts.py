@@ -71,13 +71,11 @@ from .topology import MeshEdit, excise
 __all__ = ["Region", "Wound", "ElementCut", "cut_through", "excise_through", "Picture", "picture", "locate",
            "firm_anchor", "carry_points", "region_holds", "lumped_mass", "material_areas"]
 
-#: A stroke closer than this (times the median edge length) to a node is moved onto it, once for the
-#: whole mesh, so that no two triangles disagree on whether it went through the node.
+#: A stroke closer than this (times the median edge length) to a node is moved onto it (step 1 above).
 _NODE_SNAP = 1e-6
-
-#: Default smallest share of its triangle a piece may carry (``min_weight``). A corner piece's share is
-#: the product of the fractions of the two edges it cuts off, so this snaps a cut passing within about
-#: 3 % of an element of a vertex; copies this light still give a well-conditioned tangent.
+#: Default smallest share of its triangle a piece may carry (``min_weight``). A corner piece's share is the product
+#: of the fractions of the two edges it cuts off, so this snaps a cut passing within about 3 % of an element of a
+#: vertex; copies this light still give a well-conditioned tangent.
 MIN_WEIGHT = 1e-3
 
 # kinds of the edges of an element's planar graph
@@ -158,7 +156,6 @@ class _Arrangement:
             self.changed = True
         self._settle()
 
-    # -- construction helpers
     def _vertex(self, pt) -> int:
         x, y = pt
         for i, (vx, vy) in enumerate(self.verts):
@@ -175,7 +172,6 @@ class _Arrangement:
         s, e = edge_param(k, self.verts[u]), edge_param(k, self.verts[v])
         return min(s, e), max(s, e)
 
-    # -- the faces
     def _prune(self):
         """Move dangling cut edges (and cut loops that touch no boundary) to the slits."""
         adj = {}
@@ -200,14 +196,11 @@ class _Arrangement:
         for start in adj:
             if start in label or not adj[start]:
                 continue
-            label[start] = start
-            todo = [start]
+            label[start], todo = start, [start]
             while todo:
-                u = todo.pop()
-                for v in adj[u]:
-                    if v not in label:
-                        label[v] = start
-                        todo.append(v)
+                for v in adj[todo.pop()] - label.keys():
+                    label[v] = start
+                    todo.append(v)
         keep = {label[u] for (u, v), kind in self.graph.items() if kind == _P}
         for key in [k for k in self.graph if label[k[0]] not in keep]:
             self.slits.append(key)
@@ -305,7 +298,6 @@ class _Arrangement:
         return [self.face_of[next(he for he in f["edges"] if self.graph.get((min(he), max(he))) == _P)]
                 for f in old_faces]
 
-    # -- results
     def locate(self, pt) -> int:
         return next((i for i, f in enumerate(self.faces) if winding(pt, f["points"]) != 0), -1)
 
