@@ -84,12 +84,9 @@ _P, _S, _C = 0, 1, 2  # region boundary, old slit, new cut
 
 # --- one element: its material, cut by the new pieces of the stroke ---
 class _Arrangement:
-    """The planar graph of one element's region, old slits and new cut pieces (local coordinates).
-
-    ``cuts`` are the new pieces of the stroke in the triangle, ``(stroke0, stroke1, a, b)``: stroke parameters (segment
-    + fraction) and local coordinates of the two ends. ``open_edge`` (three bools) says whether each local edge has an
-    element across it (a cut along the body's boundary is not recorded).
-    """
+    """The planar graph of one element's region, old slits and new cut pieces ``cuts`` (stroke0, stroke1, a, b) (stroke
+    parameters and local ends); ``open_edge`` (3 bools): has each local edge an element across (else a cut along it is
+    not recorded)."""
 
     def __init__(self, region: Region, cuts, open_edge, min_weight):
         self.verts = []
@@ -236,18 +233,6 @@ class _Arrangement:
         self.face_of = {he: renum.get(f, -1) for he, f in self.face_of.items()}  # -1: the outer face
         self.faces = [faces[i] for i in keep]
 
-    def _shared(self, f):
-        """Length of the non-boundary edges face ``f`` shares with each other face: {face: length}."""
-        out = {}
-        for u, v in self.faces[f]["edges"]:
-            if self.graph[_key(u, v)] == _P:
-                continue
-            g = self.face_of[(v, u)]
-            if g >= 0 and g != f:
-                (ax, ay), (bx, by) = self.verts[u], self.verts[v]
-                out[g] = out.get(g, 0.0) + math.hypot(bx - ax, by - ay)
-        return out
-
     def _settle(self):
         while True:
             self._prune()
@@ -265,10 +250,15 @@ class _Arrangement:
             weights = [2.0 * f["area"] for f in self.faces]
             if len(self.faces) < 2 or min(weights) >= self.min_weight:
                 return
-            # a sliver: merge it into the neighbour it shares the most cut with, and sever its
-            # part of the triangle's edges, so that the cut runs along them instead
+            # a sliver: merge it into the neighbour it shares the most cut with, and sever its part of the triangle's
+            # edges, so that the cut runs along them instead
             f = int(np.argmin(weights))
-            shared = self._shared(f)
+            shared = {}
+            for u, v in self.faces[f]["edges"]:
+                g = self.face_of[(v, u)]
+                if self.graph[_key(u, v)] != _P and g >= 0 and g != f:
+                    (ax, ay), (bx, by) = self.verts[u], self.verts[v]
+                    shared[g] = shared.get(g, 0.0) + math.hypot(bx - ax, by - ay)
             if not shared:
                 return
             g = max(shared, key=lambda h: (shared[h], -h))
@@ -328,11 +318,8 @@ class _Arrangement:
         return out
 
     def wound_faces(self):
-        """One record per side of each new wound piece: (face, side, stroke0, stroke1, a, b, opened).
-
-        ``side`` is +1 when the face lies to the left of the stroke (in local coordinates), -1 to the right. A piece
-        along an edge of the triangle has one side here (the other is in the element across).
-        """
+        """One record per side of each new wound piece: (face, side (+1: the face is left of the stroke), stroke0,
+        stroke1, a, b, opened); a piece along the triangle's edge has one side here, the other in the element across."""
         out = []
         for rec in self.wound:
             kind, u, v, t0, t1 = rec[:5]
@@ -376,11 +363,8 @@ def _simplify(pts):
 
 # --- the stroke in every triangle ---
 def _through_nearby_nodes(x, t, pts):
-    """The stroke moved onto the nodes it nearly meets (within ``_NODE_SNAP`` edge lengths).
-
-    A vertex of the stroke near a node becomes the node; a node near a segment becomes a new vertex of the stroke.
-    Returns the new points (k', 2) and each one's parameter on the drawn stroke (segment + fraction).
-    """
+    """The stroke moved onto the nodes it nearly meets: the points (k', 2), each with its parameter on the drawn stroke
+    (segment + fraction). A vertex near a node becomes the node; a node near a segment becomes a new vertex."""
     used = np.unique(t)
     xs = x[:, used]
     edges = x[:, np.roll(t, -1, axis=0)] - x[:, t]
@@ -409,12 +393,8 @@ def _through_nearby_nodes(x, t, pts):
 
 
 def _stroke_pieces(x, t, pts):
-    """Pieces of the stroke inside each triangle of the drawing configuration (collapsed triangles skipped).
-
-    Returns ``(pieces, orientation)``: ``pieces`` maps an element to a list of ``(stroke0, stroke1, a, b)`` (stroke
-    parameters, ends in local coordinates snapped within ``EPS``), and ``orientation`` is the sign of every triangle's
-    drawn area.
-    """
+    """Pieces of the stroke in each triangle as drawn (collapsed triangles skipped): ``(pieces, orientation)``, with
+    ``pieces`` {element: [(stroke0, stroke1, a, b)]} (ends in local coordinates) and the sign of each drawn area."""
     X = x[:, t]  # (2, 3, m)
     x0, d1, d2 = X[:, 0], X[:, 1] - X[:, 0], X[:, 2] - X[:, 0]
     det = d1[0] * d2[1] - d1[1] * d2[0]
@@ -442,9 +422,8 @@ def _stroke_pieces(x, t, pts):
         la, lb = local(a), local(b)
         dl = lb - la
         s_lo, s_hi = np.zeros(cand.size), np.ones(cand.size)
-        # A stroke segment along the line of an edge (lambda_i within EPS of 0 at both ends,
-        # scaled by how far the segment reaches) lies on the edge: that constraint is dropped.
-        # Every other one is cut exactly at lambda_i = 0, so that the ends stay on the stroke.
+        # a segment with lambda_i within EPS of 0 at both ends (scaled by its reach) lies on that edge: that constraint
+        # is dropped; every other one cuts exactly at lambda_i = 0, so that the ends stay on the stroke
         along = (np.abs(la) <= EPS * np.maximum(1.0, np.abs(lb))) & (np.abs(lb) <= EPS * np.maximum(1.0, np.abs(la)))
         with np.errstate(divide="ignore", invalid="ignore"):
             bound = -la / dl
@@ -466,11 +445,8 @@ def _stroke_pieces(x, t, pts):
 # --- the result ---
 @dataclass(frozen=True, eq=False)
 class Wound:
-    """The faces of a cut, one record per side of each piece of the stroke (``k`` records): what to draw.
-
-    Each side of a piece is carried by one element of the new mesh, and the wound's edge on that side moves with it.
-    Where the stroke runs along a mesh edge, the two records come from two triangles.
-    """
+    """The faces of a cut to draw: ``k`` records, one per side of each piece of the stroke, each carried by (and moving
+    with) one element of the new mesh."""
 
     element: np.ndarray  #: (k,) int: the new element that carries the material on this side
     side: np.ndarray  #: (k,) int: +1 if the material lies to the left of the stroke (as drawn), -1 to its right
@@ -525,9 +501,8 @@ def material_areas(mesh, weights=None) -> np.ndarray:
 
 
 def lumped_mass(mesh, weights=None, density=1.0) -> np.ndarray:
-    """Lumped P1 mass of every node, shape (n_nodes,): ``density`` times a third of the material area of each of its
-    elements. With a cut's weights the copies of a node hold exactly the mass it held, so carrying displacement and
-    velocity by ``parent`` keeps the total mass and momentum."""
+    """Lumped P1 mass of every node (n_nodes,): ``density`` times a third of the material area of its elements. With a
+    cut's weights the copies of a node hold the mass it held: carrying a state by ``parent`` keeps mass and momentum."""
     density = check_real("density", density, 0.0, lo_open=True)
     p, t = mesh_arrays(mesh)
     share = np.repeat(material_areas(mesh, weights)[None, :] * (float(density) / 3.0), 3, axis=0)
@@ -536,8 +511,7 @@ def lumped_mass(mesh, weights=None, density=1.0) -> np.ndarray:
 
 # --- the cut ---
 def _arrangements(p, x, t, pts, regions, min_weight):
-    """The stroke in each triangle (stroke parameters back on the drawn polyline) and what it does to each element's
-    material: ``(arrangements {element: _Arrangement} of the elements it changes, orientation (m,), key, side)``."""
+    """``({element: _Arrangement} of the elements the stroke changes, orientation (m,), key, side)``."""
     snapped, drawn = _through_nearby_nodes(x, t, pts)
     pieces, orientation = _stroke_pieces(x, t, snapped)
     vertex = np.arange(drawn.size)
@@ -559,9 +533,8 @@ def _arrangements(p, x, t, pts, regions, min_weight):
 
 
 def _one_element_per_nodes(arr, ids, faces, triples):
-    """Copies of one triangle with the same three nodes (``triples``, per face) are one piece of material: one
-    element. Returns its elements ``[(provisional id, Region, touched, whole, area)]`` and ``{face: provisional id}``.
-    """
+    """Copies of one triangle with the same three nodes (``triples``) as one element (step 7): its elements
+    ``[(provisional id, Region, touched, whole, area)]`` and ``{face: provisional id}``."""
     by_triple = {}
     for i, nodes in enumerate(triples):
         by_triple.setdefault(nodes, []).append(i)
@@ -592,19 +565,13 @@ def _one_element_per_nodes(arr, ids, faces, triples):
 def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_weight=MIN_WEIGHT) -> ElementCut:
     """Cut ``mesh`` (not modified) along a drawn polyline through its elements (the virtual node algorithm).
 
-    ``mesh`` may have been cut before (by this function, with its ``weights`` and ``regions``, or by
-    :func:`~tissuefem.surgery.topology.incise`). ``polyline`` (k, 2), k >= 2, is the stroke in the coordinates of
-    ``positions`` (2, n_nodes), where the nodes are now (default ``mesh.p``): it is carried back to the reference
-    triangle by triangle (P1 map); triangles collapsed to a segment there are not cut. It may end inside the body (a
-    crack), on its boundary or outside it. ``weights`` (n_elements,) is the material share of every element (default
-    1); elements with a weight below 1 need their ``regions`` (``ElementCut.regions`` of the previous cut:
-    :meth:`ElementCut.cut` passes both); with ``regions`` alone the weights follow. No piece may carry less than
-    ``min_weight`` in [0, 0.5) of its triangle: such a sliver is merged into its neighbour and the cut snapped onto
-    the triangle's edges there.
-
-    Returns an :class:`ElementCut`; named boundaries are carried to the facets whose material touched them,
-    subdomains to every copy. ``ValueError`` for bad arguments, or a stroke that changes nothing (it meets no
-    material, or only runs along the body's boundary or an existing wound).
+    ``polyline`` (k, 2), k >= 2, is drawn where the nodes are now, ``positions`` (2, n_nodes) (default ``mesh.p``);
+    triangles collapsed to a segment there are not cut. It may end inside the body (a crack), on its boundary or
+    outside it. A mesh cut before passes its ``weights`` (n_elements,) (default 1) and ``regions`` (or ``regions``
+    alone: the weights follow); :meth:`ElementCut.cut` passes both. No piece may carry less than ``min_weight`` in
+    [0, 0.5) of its triangle (step 6). Named boundaries go to the facets whose material touched them, subdomains to
+    every copy. ``ValueError`` for bad arguments, or a stroke that changes nothing (it meets no material, or only runs
+    along the body's boundary or an existing wound).
     """
     p, t = mesh_arrays(mesh)
     n, m = p.shape[1], t.shape[1]
