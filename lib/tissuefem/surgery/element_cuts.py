@@ -638,15 +638,9 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
 
 
 def _number_nodes(t, n, key, side, affected, piece_ids, touched):
-    """The node of every corner at the nodes of the cut elements.
-
-    Two elements on the two sides of a mesh edge are joined where the parts of the edge their materials touch overlap;
-    a join makes their corners at the edge's ends one node. Every class of corners at an old node becomes a node: the
-    class holding the lowest element keeps the old index, the others are appended.
-
-    Returns ``(node_of, new_parent, fan)``: the node of each corner ``(provisional id, local vertex)`` at those nodes,
-    the old node of each appended node, and the elements with a corner there.
-    """
+    """The node of every corner at the nodes of the cut elements (step 4): ``(node_of {(provisional id, local vertex):
+    node}, new_parent (the old node of each appended node), fan (the elements with a corner there))``. Of the classes
+    of joined corners at an old node, the one holding the lowest element keeps its index."""
     hub = np.unique(t[:, affected])
     at_hub = np.zeros(n, dtype=bool)
     at_hub[hub] = True
@@ -667,7 +661,7 @@ def _number_nodes(t, n, key, side, affected, piece_ids, touched):
             uf[c], c = root, uf[c]
         return root
 
-    def along(pid, e, k, forward):  # touched intervals, run from the edge's lower node to its higher
+    def along(pid, k, forward):  # touched intervals, run from the edge's lower node to its higher
         iv = touched.get(pid, FULL_TOUCH)[k]
         return iv if forward else reversed_intervals(iv)
 
@@ -680,9 +674,9 @@ def _number_nodes(t, n, key, side, affected, piece_ids, touched):
                 f_fwd = t[l, f] == a_node
                 f_a, f_b = (l, (l + 1) % 3) if f_fwd else ((l + 1) % 3, l)
                 for pe in piece_ids.get(e, (e,)):
-                    te = along(pe, e, k, e_fwd)
+                    te = along(pe, k, e_fwd)
                     for pf in piece_ids.get(f, (f,)):
-                        if not overlaps(te, along(pf, f, l, f_fwd)):
+                        if not overlaps(te, along(pf, l, f_fwd)):
                             continue
                         for node, ce, cf in ((a_node, (pe, e_a), (pf, f_a)), (b_node, (pe, e_b), (pf, f_b))):
                             if at_hub[node]:
@@ -740,14 +734,10 @@ def _wound(p, t, arrangements, element_of_face, orientation, new_t):
 
 # --- removing what a closed cut encloses ---
 def excise_through(mesh, polygon, positions=None, weights=None, regions=None, min_weight=MIN_WEIGHT) -> ElementCut:
-    """Cut along a closed ``polygon`` through the elements and remove the material inside it.
+    """Cut along a closed ``polygon`` through the elements (:func:`cut_through`) and remove the material inside it, so
+    that the rim follows the drawn outline (not the centroids, as :func:`~tissuefem.surgery.topology.excise` does).
 
-    The rim of the defect follows the drawn outline, not the triangles whose centroids fall inside
-    (:func:`~tissuefem.surgery.topology.excise`). The outline is cut with :func:`cut_through` (closed), then every
-    element whose material lies inside it is removed, with the nodes no other element uses.
-
-    Returns an :class:`ElementCut` whose ``parent`` and ``elements`` map to ``mesh`` as it was, with the surviving
-    elements' ``weights`` and ``regions``; its ``wound`` holds the records of the rim that stays.
+    Returns an :class:`ElementCut` that maps to ``mesh`` as it was; its ``wound`` holds the rim's records.
     """
     pts = check_points("polygon", polygon, 3)
     closed = np.vstack([pts, pts[:1]]) if np.any(pts[0] != pts[-1]) else pts
@@ -789,14 +779,9 @@ def excise_through(mesh, polygon, positions=None, weights=None, regions=None, mi
 # --- what to draw ---
 @dataclass(frozen=True, eq=False)
 class Picture:
-    """What to draw of a mesh whose elements may fill only part of their triangle.
-
-    Drawing both copies of a cut triangle whole would paint material across the cut: every element that is not whole is
-    drawn as its material polygons, split into triangles. A drawn point is the barycentric combination of its element's
-    three nodes, so the picture follows the deformation as P1 does.
-
-    Drawn point ``j`` sits at ``sum_a coefficients[a, j] * x[:, nodes[a, j]]`` (``nodes``, ``coefficients``: (3, k)).
-    """
+    """What to draw of a mesh whose elements may fill only part of their triangle: its material polygons, split into
+    triangles (drawing both copies of a cut triangle whole would paint material across the cut). Drawn point ``j`` sits
+    at ``sum_a coefficients[a, j] * x[:, nodes[a, j]]`` (``nodes``, ``coefficients``: (3, k)): it follows P1."""
 
     nodes: np.ndarray
     coefficients: np.ndarray
@@ -894,13 +879,9 @@ def _region_distance(region, xi) -> float:
 
 
 def locate(mesh, point, positions=None, regions=None, candidates=None, reach=1e-3):
-    """The element whose material holds ``point`` (deformed coordinates) and the point's barycentric coordinates.
-
-    Returns ``(element, barycentric (3,))``, or ``None`` when no material is within ``reach`` of the point (in a
-    triangle's local coordinates: a fraction of its size). Of the copies of a cut triangle, the one whose material
-    holds the point (or lies nearest to it) is chosen; a point just off the material (in an open wound) gets
-    coordinates that extend the element's P1 map to it. ``candidates`` restricts the search.
-    """
+    """``(element, barycentric (3,))`` of the material that holds ``point`` (deformed coordinates) or lies nearest to it,
+    or ``None`` if none is within ``reach`` (in local coordinates: a fraction of a triangle's size); a point just off
+    the material (in an open wound) extends the element's P1 map. ``candidates`` restricts the search."""
     p, t = mesh_arrays(mesh)
     x = node_positions(mesh, positions)
     q = np.asarray(point, dtype=float)
@@ -928,20 +909,15 @@ def locate(mesh, point, positions=None, regions=None, candidates=None, reach=1e-
     return None if best is None or best_d > reach else best
 
 
-#: A point attached to the material (a stitch's end) in a copy lighter than this share of its triangle is
-#: carried by a firmer neighbour instead (see :func:`firm_anchor`)
+#: A point of the material in a copy lighter than this share of its triangle is carried by a firmer neighbour
 FIRM_WEIGHT = 0.25
 
 
 def firm_anchor(mesh, element, barycentric, positions=None, weights=None, regions=None, firm=FIRM_WEIGHT):
-    """Attach a point of the material to an element that carries at least ``firm`` of its triangle.
-
-    A copy holding a thin sliver of its triangle has as little stiffness as material: a stitch pulling at a point of it
-    would stretch the sliver, whose far ("virtual") nodes hold almost nothing, instead of the tissue. The point is then
-    carried by the firm neighbour (an element sharing a node with it, hence joined to its material) whose material lies
-    nearest to it: its position is that element's P1 map extended to it (barycentric coordinates that may be slightly
-    negative), so the sliver moves with the tissue next to it. Returns ``(element, barycentric)``.
-    """
+    """``(element, barycentric)`` of a point of the material, moved to an element carrying at least ``firm`` of its
+    triangle. A stitch pulling at a thin sliver would stretch it (its virtual nodes hold almost nothing) instead of the
+    tissue: the point goes to the firm neighbour (sharing a node) whose material lies nearest, by that element's P1
+    map extended to it (barycentric coordinates may be slightly negative)."""
     p, t = mesh_arrays(mesh)
     w = element_weights(weights, t.shape[1])
     if w[element] >= firm:
@@ -966,12 +942,9 @@ def firm_anchor(mesh, element, barycentric, positions=None, weights=None, region
 
 
 def carry_points(edit, elements, barycentric, regions=None):
-    """Points of the material (``elements (k,)`` with ``barycentric (k, 3)``) after ``edit``: the new element of each,
-    or -1 where its element was removed.
-
-    A cut keeps each element's local coordinates, so a point keeps its barycentric coordinates; of the copies of its
-    element, it goes to the one whose material (``regions`` of the new mesh) holds it.
-    """
+    """The new element of each point of the material (``elements (k,)``, ``barycentric (k, 3)``) after ``edit``, -1
+    where it was removed: of the copies of its element, the one whose material (``regions`` of the new mesh) holds it
+    (a cut keeps local coordinates)."""
     elements = np.asarray(elements, dtype=np.int64)
     bary = np.asarray(barycentric, dtype=float)
     copies = {}

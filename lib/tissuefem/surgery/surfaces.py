@@ -1,23 +1,16 @@
 """The contact surface of a cut body: where its material ends, outer boundary and wound lips alike.
 
-:class:`~tissuefem.engine.contact.Contact` keeps a :class:`~tissuefem.engine.contact.ContactSurface` from passing
-through itself. For a plain mesh, and after the edge-snapping :func:`~tissuefem.surgery.topology.incise`, that surface
-is the mesh's boundary (:meth:`ContactSurface.from_mesh <tissuefem.engine.contact.ContactSurface.from_mesh>`).
-
-After :func:`~tissuefem.surgery.element_cuts.cut_through` it is not: the copies of a cut triangle share its full edges,
-but each copy's material fills only part of it (its :class:`~tissuefem.surgery.element_cuts.Region`); the copies' edges
-would put two "surfaces" on top of each other along every phantom part of an edge, in contact at distance zero.
-:func:`contact_surface` instead follows the material, whose polygon sides (material on the left) are the candidate
-pieces:
+For a plain mesh, and after :func:`~tissuefem.surgery.topology.incise`, that is the mesh's boundary. After
+:func:`~tissuefem.surgery.element_cuts.cut_through` it is not: the copies of a cut triangle share its full edges, each
+filling only part of it, so their edges would put two surfaces on top of each other, in contact at distance zero.
+:func:`contact_surface` follows the material instead: of its polygon sides (material on the left),
 
 * a side *inside* the triangle is a lip of a wound: always surface;
 * a side *on* one of the triangle's edges is surface except where material of an element across that edge is joined to
-  it (they share the edge's nodes and their materials touch the same part of it, outside what a cut along the edge
-  severed).
+  it (they share the edge's nodes and touch the same part of it, outside what a cut along the edge severed).
 
-Each end of a piece is the barycentric combination of the element's nodes; ends that are the same combination seen from
-two elements are one point, so the pieces join into closed loops round the material. The lips come from the regions, so
-every wound the body carries is there, not only the latest cut's.
+Each end of a piece is a barycentric combination of the element's nodes; the same combination seen from two elements is
+one point, so the pieces join into closed loops. The lips come from the regions: every wound the body carries is there.
 """
 
 from __future__ import annotations
@@ -36,14 +29,9 @@ _SAME = 1e-9
 
 
 def contact_surface(mesh, weights=None, regions=None) -> ContactSurface:
-    """The surface of the material of ``mesh`` (cut through elements or not), as a contact surface.
-
-    ``weights`` and ``regions`` are the material of the elements cut through (those of an
-    :class:`~tissuefem.surgery.element_cuts.ElementCut`); without them the surface is the mesh's boundary. The
-    points are single nodes or combinations of an element's nodes, the segments have the material on their left, and
-    the wound's lips are flagged (sides inside a triangle, severed parts of edges, and facets named ``"cut"`` by
-    :func:`~tissuefem.surgery.topology.incise`).
-    """
+    """The surface of the material of ``mesh`` with the ``weights`` and ``regions`` of a cut through elements (without
+    them: the mesh's boundary), material on the left of each segment; the wound's lips are flagged (sides inside a
+    triangle, severed parts of edges, facets named ``"cut"``)."""
     p, t = mesh_arrays(mesh)
     n, m = p.shape[1], t.shape[1]
     regions, _ = check_regions(regions, weights, m)
