@@ -69,7 +69,7 @@ from .surfaces import contact_surface
 from .topology import MeshEdit, excise
 
 __all__ = ["Region", "Wound", "ElementCut", "cut_through", "excise_through", "Picture", "picture", "locate",
-           "firm_anchor", "carry_points", "region_holds", "lumped_mass", "material_areas"]
+           "firm_anchor", "carry_points", "lumped_mass", "material_areas"]
 
 #: A stroke closer than this (times the median edge length) to a node is moved onto it (step 1 above).
 _NODE_SNAP = 1e-6
@@ -860,11 +860,6 @@ def _triangulate(poly) -> list:
 
 
 # --- points of the material: where a stitch or a probe attaches ---
-def region_holds(region, xi) -> bool:
-    """Whether the local point ``xi = (xi, eta)`` lies in the material of ``region`` (or on its outline)."""
-    return _region_distance(region, np.asarray(xi, dtype=float)) == 0.0
-
-
 def _region_distance(region, xi) -> float:
     """How far the local point ``xi`` lies outside the material of ``region`` (0 inside or on its boundary)."""
     best = math.inf

@@ -214,12 +214,9 @@ def _inside(x, t, q) -> bool:
 
 
 def _boundary_snap(x, t, bfacets, end, towards):
-    """The boundary node where a polyline that starts at ``end`` enters (or leaves) the body.
-
-    If ``end`` lies outside the body or within half a facet of its boundary (``bfacets`` (2, nb)), returns the nearer
-    end of the facet the segment ``end -> towards`` first crosses, or the boundary node nearest to ``end`` if it
-    crosses none. Otherwise returns ``None``.
-    """
+    """The boundary node where a polyline from ``end`` towards ``towards`` enters the body, if ``end`` lies outside or
+    within half a facet of the boundary ``bfacets`` (2, nb) (else ``None``): the nearer end of the first facet crossed,
+    or the boundary node nearest to ``end``."""
     A, B = x[:, bfacets[0]], x[:, bfacets[1]]
     dist = _segment_distance(end[0], end[1], A[0], A[1], B[0], B[1])
     nearest = int(np.argmin(dist))
@@ -388,27 +385,6 @@ def incise(mesh, polyline, positions=None) -> MeshEdit:
 
 
 # --- excise ---
-def _region_mask(region, centroids) -> np.ndarray:
-    m = centroids.shape[1]
-    if callable(region):
-        try:
-            mask = np.asarray(region(centroids.copy()))
-        except Exception as err:  # the user's function may raise anything: a refusal by name, not a crash
-            raise ValueError(f"region (a function of the centroids) raised {type(err).__name__}: {err}") from None
-        if mask.shape != (m,) or mask.dtype != bool:
-            raise ValueError(f"region, as a function of the centroids (2, m), must return a bool array shaped "
-                             f"({m},), got dtype {mask.dtype} shape {mask.shape}")
-        return mask
-
-    poly = check_points("region", region, 3)
-    x, y = poly[:, 0], poly[:, 1]
-    area = 0.5 * (x @ np.roll(y, -1) - y @ np.roll(x, -1))
-    scale = np.ptp(poly, axis=0).max()
-    if not abs(area) > 1e-12 * scale * scale:
-        raise ValueError(f"region must be a polygon with non-zero area, got {poly.tolist()}")
-    return polygon_contains(poly, centroids.T)
-
-
 def excise(mesh, region, positions=None) -> MeshEdit:
     """Remove the triangles of ``mesh`` (not modified) whose centroid lies in ``region`` (a defect).
 
@@ -422,7 +398,20 @@ def excise(mesh, region, positions=None) -> MeshEdit:
     x = node_positions(mesh, positions)
     m = t.shape[1]
     centroids = x[:, t].mean(axis=1)
-    remove = _region_mask(region, centroids)
+    if callable(region):
+        try:
+            remove = np.asarray(region(centroids.copy()))
+        except Exception as err:  # the user's function may raise anything: a refusal by name, not a crash
+            raise ValueError(f"region (a function of the centroids) raised {type(err).__name__}: {err}") from None
+        if remove.shape != (m,) or remove.dtype != bool:
+            raise ValueError(f"region, as a function of the centroids (2, m), must return a bool array shaped "
+                             f"({m},), got dtype {remove.dtype} shape {remove.shape}")
+    else:
+        poly = check_points("region", region, 3)
+        area = 0.5 * (poly[:, 0] @ np.roll(poly[:, 1], -1) - poly[:, 1] @ np.roll(poly[:, 0], -1))
+        if not abs(area) > 1e-12 * np.ptp(poly, axis=0).max() ** 2:
+            raise ValueError(f"region must be a polygon with non-zero area, got {poly.tolist()}")
+        remove = polygon_contains(poly, centroids.T)
     if not remove.any():
         raise ValueError("region selects no element (no triangle centroid lies inside it)")
     if remove.all():
