@@ -703,28 +703,21 @@ def _number_nodes(t, n, key, side, affected, piece_ids, touched):
 
 def _wound(p, t, arrangements, element_of_face, orientation, new_t):
     """The wound's records (one per side of each piece) and the mesh edges the stroke ran along."""
-    rec_el, rec_old, rec_side, rec_bary, rec_stroke, rec_open = [], [], [], [], [], []
-    along = []
+    records, along = [], []  # (new element, old element, side, barycentric ends, stroke, opened)
     for e, arr in arrangements.items():
-        for f, s, t0, t1, a, b, opened in arr.wound_faces():
-            if f < 0:
-                continue
-            rec_el.append(element_of_face[e][f])
-            rec_old.append(e)
-            rec_side.append(s * int(orientation[e]))  # the local map may mirror the drawing
-            rec_bary.append([[1.0 - a[0] - a[1], a[0], a[1]], [1.0 - b[0] - b[1], b[0], b[1]]])
-            rec_stroke.append((t0, t1))
-            rec_open.append(opened)
-        for rec in arr.wound:
-            if rec[0] == "edge":
-                k = rec[5]
-                along.append((rec[3], *sorted((int(t[k, e]), int(t[(k + 1) % 3, e])))))
-    rec_el = np.asarray(rec_el, dtype=np.int64)
-    bary = np.asarray(rec_bary, dtype=float).reshape(-1, 2, 3)
-    wound = Wound(element=rec_el, side=np.asarray(rec_side, dtype=np.int64), barycentric=bary,
-                  nodes=new_t[:, rec_el].T.copy(),
-                  reference=np.einsum("kea,iak->kei", bary, p[:, t[:, np.asarray(rec_old, dtype=np.int64)]]),
-                  stroke=np.asarray(rec_stroke, dtype=float).reshape(-1, 2), opened=np.asarray(rec_open, dtype=bool))
+        records += [(element_of_face[e][f], e, s * int(orientation[e]),  # the local map may mirror the drawing
+                     [[1.0 - a[0] - a[1], a[0], a[1]], [1.0 - b[0] - b[1], b[0], b[1]]], (t0, t1), opened)
+                    for f, s, t0, t1, a, b, opened in arr.wound_faces() if f >= 0]
+        along += [(rec[3], *sorted((int(t[rec[5], e]), int(t[(rec[5] + 1) % 3, e])))) for rec in arr.wound
+                  if rec[0] == "edge"]
+
+    def column(i, dtype):
+        return np.asarray([r[i] for r in records], dtype=dtype)
+
+    element, bary = column(0, np.int64), column(3, float).reshape(-1, 2, 3)
+    wound = Wound(element=element, side=column(2, np.int64), barycentric=bary, nodes=new_t[:, element].T.copy(),
+                  reference=np.einsum("kea,iak->kei", bary, p[:, t[:, column(1, np.int64)]]),
+                  stroke=column(4, float).reshape(-1, 2), opened=column(5, bool))
     first = {}
     for order, a, b in sorted(along):
         first.setdefault((a, b), order)

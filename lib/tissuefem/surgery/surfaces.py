@@ -56,12 +56,11 @@ def contact_surface(mesh, weights=None, regions=None) -> ContactSurface:
     det = ((p[0, t[1]] - p[0, t[0]]) * (p[1, t[2]] - p[1, t[0]])
            - (p[0, t[2]] - p[0, t[0]]) * (p[1, t[1]] - p[1, t[0]]))
     pieces = []  # (element, local point a, local point b, wound?) with the material on the left in local coordinates
-    involved = set(regions)
     for e in range(m):
         for k in range(3):
             kk = int(key[k, e])
             across = [i for i in by_key[kk] if flat_side[i] != side[k, e]]
-            if e not in involved and all(i % m not in involved for i in across):
+            if e not in regions and all(i % m not in regions for i in across):
                 if across:
                     continue  # two whole elements share this edge: inside the material
                 touched, joined = [(0.0, 1.0)], []
@@ -77,7 +76,7 @@ def contact_surface(mesh, weights=None, regions=None) -> ContactSurface:
                 joined = intersect_intervals(joinable, merge_intervals(reach))
             wound = kk in cut_facets
             for lo, hi in subtract_intervals(touched, joined):
-                severed = bool(subtract_intervals([(lo, hi)], touch(e)[1][k])) if e in involved else False
+                severed = bool(subtract_intervals([(lo, hi)], touch(e)[1][k])) if e in regions else False
                 pieces.append((e, edge_point(k, lo), edge_point(k, hi), wound or severed))
     for e, r in regions.items():
         for a, b in region_sides(r):
