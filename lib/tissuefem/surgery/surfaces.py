@@ -88,14 +88,12 @@ def contact_surface(mesh, weights=None, regions=None) -> ContactSurface:
 
 def _assemble(pieces, t, det, n) -> ContactSurface:
     """Points (merged where two elements see the same combination of nodes) and oriented segments."""
-    rows = []  # per piece end: (nodes (3,), weights (3,))
-    for e, a, b, _ in pieces:
-        for xi, eta in (a, b):
-            lam = np.array([1.0 - xi - eta, xi, eta])
-            lam[np.abs(lam) < 1e-12] = 0.0
-            rows.append((t[:, e], lam / lam.sum()))
-    nodes = np.array([r[0] for r in rows], dtype=np.int64)
-    weights = np.array([r[1] for r in rows])
+    element = np.array([e for e, _, _, _ in pieces])
+    local = np.array([end for _, a, b, _ in pieces for end in (a, b)], dtype=float)  # per piece end
+    lam = np.stack([1.0 - local[:, 0] - local[:, 1], local[:, 0], local[:, 1]], axis=1)
+    lam[np.abs(lam) < 1e-12] = 0.0
+    nodes = np.repeat(t[:, element].T, 2, axis=0).astype(np.int64)
+    weights = lam / lam.sum(axis=1, keepdims=True)
     # canonical form: nodes with weight, sorted by node; unused slots point at the first node with weight 0
     weights = np.where(weights > 0, weights, 0.0)
     sort_key = np.where(weights > 0, nodes, n + np.arange(3))
@@ -108,19 +106,16 @@ def _assemble(pieces, t, det, n) -> ContactSurface:
     count = used.sum(axis=1)
     tag = np.where(used, nodes, -1)
     order = np.lexsort((weights[:, 2], weights[:, 1], weights[:, 0], tag[:, 2], tag[:, 1], tag[:, 0], count))
-    point = np.empty(len(rows), dtype=np.intp)
-    current, previous = -1, None
-    for i in order.tolist():
-        if (previous is None or not np.array_equal(tag[i], tag[previous])
-                or np.max(np.abs(weights[i] - weights[previous])) > _SAME):
-            current += 1
-        point[i] = current
-        previous = i
-    first = np.full(current + 1, -1, dtype=np.intp)  # the first row of every point
-    first[point[::-1]] = np.arange(len(rows))[::-1]
+    new = np.ones(order.size, dtype=bool)
+    new[1:] = (tag[order[1:]] != tag[order[:-1]]).any(axis=1)
+    new[1:] |= np.abs(weights[order[1:]] - weights[order[:-1]]).max(axis=1) > _SAME
+    point = np.empty(order.size, dtype=np.intp)
+    point[order] = np.cumsum(new) - 1
+    first = np.full(int(new.sum()), -1, dtype=np.intp)  # the first row of every point
+    first[point[::-1]] = np.arange(order.size)[::-1]
     width = int(count.max(initial=1))
     ends = point.reshape(-1, 2).T  # (2, pieces)
-    flip = det[[e for e, _, _, _ in pieces]] < 0  # a clockwise triangle mirrors "left"
+    flip = det[element] < 0  # a clockwise triangle mirrors "left"
     segments = np.where(flip, ends[::-1], ends)
     keep = segments[0] != segments[1]
     wound = np.array([w for _, _, _, w in pieces], dtype=bool)

@@ -56,12 +56,10 @@ def _index_array(name: str, value, rows: int) -> np.ndarray:
         raise ValueError(f"{name} must be an integer array shaped ({rows}, k), got shape {a.shape}")
     if a.size == 0:
         return np.zeros((rows, a.shape[1]), dtype=np.int64)
-    if a.dtype == bool or not (np.issubdtype(a.dtype, np.integer) or np.issubdtype(a.dtype, np.floating)):
+    if a.dtype.kind not in "iuf":
         raise ValueError(f"{name} must hold integer node indices, got dtype {a.dtype}")
-    if np.issubdtype(a.dtype, np.floating):
-        # node indices written as floats (e.g. from a text file) are fine when they are whole numbers
-        if not np.all(np.isfinite(a)) or np.any(a != np.round(a)):
-            raise ValueError(f"{name} must hold integer node indices, got non-integral values")
+    if a.dtype.kind == "f" and not (np.all(np.isfinite(a)) and np.all(a == np.round(a))):  # e.g. read from a text file
+        raise ValueError(f"{name} must hold integer node indices, got non-integral values")
     return a.astype(np.int64)
 
 
