@@ -321,16 +321,13 @@ def cut_path(mesh, polyline, positions=None) -> np.ndarray:
             leg.append(int(pred[leg[-1]]))
         path.extend(leg[-2::-1])
 
-    # An end snapped to the boundary may reach it at a neighbouring boundary node and walk along the
-    # boundary to the snapped one. Such steps open nothing: the cut ends where it first meets the boundary.
-    if bfacets.size:
-        on_boundary = set(pair_keys(bfacets, n).tolist())
-        if boundary_start:
-            while len(path) > 2 and int(pair_keys(np.array([[path[0]], [path[1]]]), n)[0]) in on_boundary:
-                path.pop(0)
-        if boundary_end:
-            while len(path) > 2 and int(pair_keys(np.array([[path[-2]], [path[-1]]]), n)[0]) in on_boundary:
-                path.pop()
+    # an end snapped to the boundary may reach it at a neighbouring boundary node and walk along the boundary to the
+    # snapped one: such steps open nothing, the cut ends where it first meets the boundary
+    on_boundary = set(pair_keys(bfacets, n).tolist())
+    while boundary_start and len(path) > 2 and min(path[:2]) * n + max(path[:2]) in on_boundary:
+        path.pop(0)
+    while boundary_end and len(path) > 2 and min(path[-2:]) * n + max(path[-2:]) in on_boundary:
+        path.pop()
     if len(path) < 2:
         raise ValueError(f"polyline collapses to the single node {path[0]}: draw a longer stroke "
                          f"(the mesh edges are about {h:.3g} long)")
