@@ -493,7 +493,6 @@ class ElementCut(MeshEdit):
                            min_weight=min_weight)
 
 
-# --- masses ---
 def material_areas(mesh, weights=None) -> np.ndarray:
     """Reference area of every element's material: triangle area times weight, shape (n_elements,)."""
     _, t = mesh_arrays(mesh)

@@ -36,7 +36,6 @@ _HUG = 10.0
 _NEAR_BOUNDARY = 0.5
 
 
-# --- the result ---
 @dataclass(frozen=True, eq=False, kw_only=True)
 class MeshEdit(MeshMap):
     """A :class:`~tissuefem.engine.meshes.MeshMap` made by a cut along mesh edges or an excision."""
@@ -45,7 +44,6 @@ class MeshEdit(MeshMap):
     cut_edges: np.ndarray
 
 
-# --- validation helpers ---
 def _index_array(name: str, value, rows: int) -> np.ndarray:
     """``value`` as an int64 array shaped ``(rows, k)``; integral floats are accepted."""
     try:
@@ -71,7 +69,6 @@ def _triangles(t, n_nodes):
     return t, n_nodes
 
 
-# --- node duplication ---
 def duplicate_along_edges(t, n_nodes, edges):
     """Duplicate nodes so that the given edges open: the core of a cut.
 
@@ -347,7 +344,6 @@ def _opened(mesh, parent, interior_keys, n_old) -> np.ndarray:
     return (np.asarray(mesh.f2t)[1] < 0) & np.isin(new_keys, interior_keys)
 
 
-# --- incise ---
 def incise(mesh, polyline, positions=None) -> MeshEdit:
     """Cut ``mesh`` (not modified) along a drawn polyline.
 
@@ -379,7 +375,6 @@ def incise(mesh, polyline, positions=None) -> MeshEdit:
     return _build(mesh, plain, parent, np.arange(t.shape[1], dtype=np.int64), "cut", wound, cut_edges)
 
 
-# --- excise ---
 def excise(mesh, region, positions=None) -> MeshEdit:
     """Remove the triangles of ``mesh`` (not modified) whose centroid lies in ``region`` (a defect).
 
