@@ -239,43 +239,6 @@ def _boundary_snap(x, t, bfacets, end, towards):
     return int(bnodes[np.argmin(dn)])
 
 
-def _path_graph(p, x, t, facets):
-    """The graph a cut path runs on: ``(ends (2, k), length (k,), h)``, the mesh edges (``facets`` first) plus links
-    between copies of the same material point, their lengths at ``x``, and the median edge length ``h``."""
-    used = np.unique(t)
-    ends = [facets]
-    if used.size:
-        _, group = np.unique(p[:, used].T, axis=0, return_inverse=True)
-        group = group.ravel()
-        order = np.lexsort((used, group))
-        g, u = group[order], used[order]
-        first = np.r_[0, np.flatnonzero(g[1:] != g[:-1]) + 1]
-        head = np.repeat(u[first], np.diff(np.r_[first, g.size]))
-        twin = head != u
-        ends.append(np.stack([head[twin], u[twin]]))
-    ends = np.concatenate(ends, axis=1)
-    length = np.hypot(*(x[:, ends[0]] - x[:, ends[1]]))
-    h = float(np.median(length[: facets.shape[1]])) if facets.shape[1] else 1.0
-    return ends, length, h if h > 0.0 else 1.0
-
-
-def _snap_vertices(x, t, bfacets, pts):
-    """The node every polyline vertex snaps to (the ends possibly to the boundary: :func:`_boundary_snap`), and whether
-    the first and the last did."""
-    used = np.unique(t)
-    snapped, on_boundary = [], [False, False]
-    for k, q in enumerate(pts):
-        node = None
-        if k == 0 or k == len(pts) - 1:
-            towards = pts[1] if k == 0 else pts[-2]
-            node = _boundary_snap(x, t, bfacets, q, towards) if bfacets.size else None
-            on_boundary[0 if k == 0 else 1] = node is not None
-        if node is None:
-            node = int(used[np.argmin(np.hypot(x[0, used] - q[0], x[1, used] - q[1]))])
-        snapped.append(node)
-    return snapped, on_boundary
-
-
 def cut_path(mesh, polyline, positions=None) -> np.ndarray:
     """The path of mesh nodes that follows a drawn ``polyline`` (k, 2), k >= 2.
 
@@ -294,8 +257,32 @@ def cut_path(mesh, polyline, positions=None) -> np.ndarray:
     n = p.shape[1]
     facets = np.asarray(mesh.facets, dtype=np.int64)
     bfacets = facets[:, np.asarray(mesh.boundary_facets(), dtype=np.int64)]
-    ends, length, h = _path_graph(p, x, t, facets)
-    snapped, (boundary_start, boundary_end) = _snap_vertices(x, t, bfacets, pts)
+    # the graph the path runs on: the mesh edges (facets first) plus links between copies of one material point
+    used = np.unique(t)
+    ends = [facets]
+    if used.size:
+        _, group = np.unique(p[:, used].T, axis=0, return_inverse=True)
+        group = group.ravel()
+        order = np.lexsort((used, group))
+        g, u = group[order], used[order]
+        first = np.r_[0, np.flatnonzero(g[1:] != g[:-1]) + 1]
+        head = np.repeat(u[first], np.diff(np.r_[first, g.size]))
+        twin = head != u
+        ends.append(np.stack([head[twin], u[twin]]))
+    ends = np.concatenate(ends, axis=1)
+    length = np.hypot(*(x[:, ends[0]] - x[:, ends[1]]))
+    h = float(np.median(length[: facets.shape[1]])) if facets.shape[1] else 1.0
+    h = h if h > 0.0 else 1.0
+    # every polyline vertex snaps to the nearest node, an end possibly to the boundary (and then the path ends there)
+    snapped, at_boundary = [], [False, False]  # did the first, the last end snap to the boundary?
+    for k, q in enumerate(pts):
+        node = None
+        if bfacets.size and (k == 0 or k == len(pts) - 1):
+            node = _boundary_snap(x, t, bfacets, q, pts[1] if k == 0 else pts[-2])
+            at_boundary[0 if k == 0 else 1] = node is not None
+        if node is None:
+            node = int(used[np.argmin(np.hypot(x[0, used] - q[0], x[1, used] - q[1]))])
+        snapped.append(node)
 
     path = [snapped[0]]
     for k in range(len(pts) - 1):
@@ -321,9 +308,9 @@ def cut_path(mesh, polyline, positions=None) -> np.ndarray:
     # an end snapped to the boundary may reach it at a neighbouring boundary node and walk along the boundary to the
     # snapped one: such steps open nothing, the cut ends where it first meets the boundary
     on_boundary = set(pair_keys(bfacets, n).tolist())
-    while boundary_start and len(path) > 2 and min(path[:2]) * n + max(path[:2]) in on_boundary:
+    while at_boundary[0] and len(path) > 2 and min(path[:2]) * n + max(path[:2]) in on_boundary:
         path.pop(0)
-    while boundary_end and len(path) > 2 and min(path[-2:]) * n + max(path[-2:]) in on_boundary:
+    while at_boundary[1] and len(path) > 2 and min(path[-2:]) * n + max(path[-2:]) in on_boundary:
         path.pop()
     if len(path) < 2:
         raise ValueError(f"polyline collapses to the single node {path[0]}: draw a longer stroke "
