@@ -196,18 +196,6 @@ def _segment_distance(px, py, ax, ay, bx, by):
     return np.hypot(px - ax - s * dx, py - ay - s * dy)
 
 
-def _inside(x, t, q) -> bool:
-    """Is point q inside (or on) some triangle of (x, t)?"""
-    a, b, c, qq = x[:, t[0]], x[:, t[1]], x[:, t[2]], q[:, None]
-    area = cross(b[0] - a[0], b[1] - a[1], c[0] - a[0], c[1] - a[1])
-    s1 = cross(b[0] - qq[0], b[1] - qq[1], c[0] - qq[0], c[1] - qq[1])
-    s2 = cross(qq[0] - a[0], qq[1] - a[1], c[0] - a[0], c[1] - a[1])
-    s3 = cross(b[0] - a[0], b[1] - a[1], qq[0] - a[0], qq[1] - a[1])
-    # q is inside when the three sub-areas have the sign of the whole (either orientation)
-    tol, sign = 1e-12 * np.abs(area), np.sign(area)
-    return bool(np.any((sign * s1 >= -tol) & (sign * s2 >= -tol) & (sign * s3 >= -tol) & (area != 0.0)))
-
-
 def _boundary_snap(x, t, bfacets, end, towards):
     """The boundary node where a polyline from ``end`` towards ``towards`` enters the body, if ``end`` lies outside or
     within half a facet of the boundary ``bfacets`` (2, nb) (else ``None``): the nearer end of the first facet crossed,
@@ -216,7 +204,14 @@ def _boundary_snap(x, t, bfacets, end, towards):
     dist = _segment_distance(end[0], end[1], A[0], A[1], B[0], B[1])
     nearest = int(np.argmin(dist))
     length = np.hypot(*(B[:, nearest] - A[:, nearest]))
-    outside = not _inside(x, t, end)
+    # inside (or on) a triangle where its three sub-areas at ``end`` have the sign of the whole (either orientation)
+    a, b, c, q = x[:, t[0]], x[:, t[1]], x[:, t[2]], end[:, None]
+    area = cross(b[0] - a[0], b[1] - a[1], c[0] - a[0], c[1] - a[1])
+    s1 = cross(b[0] - q[0], b[1] - q[1], c[0] - q[0], c[1] - q[1])
+    s2 = cross(q[0] - a[0], q[1] - a[1], c[0] - a[0], c[1] - a[1])
+    s3 = cross(b[0] - a[0], b[1] - a[1], q[0] - a[0], q[1] - a[1])
+    tol, sign = 1e-12 * np.abs(area), np.sign(area)
+    outside = not np.any((sign * s1 >= -tol) & (sign * s2 >= -tol) & (sign * s3 >= -tol) & (area != 0.0))
     if not outside and dist[nearest] >= _NEAR_BOUNDARY * length:
         return None
     bnodes = np.unique(bfacets)
