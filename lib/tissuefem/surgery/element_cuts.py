@@ -8,14 +8,12 @@ material a copy does not hold become extra ("virtual") nodes.
 
 The construction in 2D
 ----------------------
-1. **Where the stroke lies.** The stroke is drawn on the deformed tissue. The P1 map of a triangle is affine, so a
-   straight piece of the stroke is straight in the reference triangle, with the same barycentric coordinates: each
-   segment ``a -> b`` is clipped against each triangle by keeping the ``s`` with
+1. **Where the stroke lies.** The stroke is drawn on the deformed tissue. The P1 map of a triangle is affine, so each
+   segment ``a -> b`` is clipped against each triangle in barycentric coordinates, keeping the ``s`` with
    ``lambda_i(a) + s (lambda_i(b) - lambda_i(a)) >= 0``. First, a stroke passing within 1e-6 of an edge length of a
    node is moved onto it, once for the whole mesh, so that neighbouring triangles never disagree about that node.
-2. **The material of an element** is a :class:`Region`: the polygon it fills, its *slits* and *severed* edge parts. Its
-   weight, the polygon's share of the triangle's area, is what :class:`~tissuefem.engine.assembly.P1Assembler`
-   integrates over.
+2. **The material of an element** is a :class:`Region`: the polygon it fills, its *slits* and *severed* edge parts; its
+   weight (the polygon's share of the triangle) is what :class:`~tissuefem.engine.assembly.P1Assembler` integrates.
 3. **Splitting an element.** The region's boundary, its slits and the new pieces of the stroke form a planar graph.
    Dangling edges (a crack ending in the material) are pruned and kept as slits; the faces of what remains are the
    pieces of material: ``k`` faces give ``k`` copies of the element, each with one face as its region.
@@ -25,10 +23,9 @@ The construction in 2D
    vertex gets a virtual node there, shared with every copy on its side of the cut it is joined to. A cut along a mesh
    edge needs no split: severing the edge stops the join.
 5. **The crack tip.** The triangle holding the end of a crack is one piece of material, so (as in [1]_) it is not
-   duplicated; the crack in it is a slit. The two copies through which the crack enters it are both joined to it, so
-   they differ only at their third vertex: the displacement jump is that vertex's shape function times the difference
-   of its two nodes, zero on the tip triangle's edge. The crack closes within one element of the drawn tip, the
-   resolution of P1 with virtual nodes (phantom-node methods [3]_ make the same choice).
+   duplicated: the crack in it is a slit, and the two copies it enters through, both joined to it, differ only at their
+   third vertex. The crack closes within one element of the drawn tip, the resolution of P1 with virtual nodes
+   (phantom-node methods [3]_ make the same choice).
 6. **No slivers.** A piece lighter than ``min_weight`` is merged into its neighbour across the cut and the parts of the
    triangle's edges that bounded it are severed instead: the cut's topology is snapped onto the element's edges (by
    less than the sliver's width), while the :class:`Wound` stays where the stroke was drawn.
@@ -907,16 +904,13 @@ def firm_anchor(mesh, element, barycentric, positions=None, weights=None, region
     map extended to it (barycentric coordinates may be slightly negative)."""
     p, t = mesh_arrays(mesh)
     w = element_weights(weights, t.shape[1])
+    best, best_d = (element, np.asarray(barycentric, dtype=float)), math.inf
     if w[element] >= firm:
-        return element, np.asarray(barycentric, dtype=float)
+        return best
     x = node_positions(mesh, positions)
-    point = x[:, t[:, element]] @ np.asarray(barycentric, dtype=float)
-    near = np.flatnonzero(np.isin(t, t[:, element]).any(axis=0) & (w >= firm))
-    if near.size == 0:
-        return element, np.asarray(barycentric, dtype=float)
+    point = x[:, t[:, element]] @ best[1]
     regions = {} if regions is None else regions
-    best, best_d = None, math.inf
-    for e in near.tolist():
+    for e in np.flatnonzero(np.isin(t, t[:, element]).any(axis=0) & (w >= firm)).tolist():  # the firm neighbours
         a, b, c = x[:, t[0, e]], x[:, t[1, e]], x[:, t[2, e]]
         J = np.column_stack([b - a, c - a])
         if abs(np.linalg.det(J)) <= 0:
@@ -925,7 +919,7 @@ def firm_anchor(mesh, element, barycentric, positions=None, weights=None, region
         d = _region_distance(regions[e], xi) if e in regions else max(0.0, -xi[0], -xi[1], xi.sum() - 1.0)
         if d < best_d:
             best, best_d = (e, np.array([1.0 - xi.sum(), xi[0], xi[1]])), d
-    return best if best is not None else (element, np.asarray(barycentric, dtype=float))
+    return best
 
 
 def carry_points(edit, elements, barycentric, regions=None):
@@ -941,9 +935,7 @@ def carry_points(edit, elements, barycentric, regions=None):
     out = np.full(elements.shape, -1, dtype=np.int64)
     for j, (e, w) in enumerate(zip(elements.tolist(), bary)):
         options = copies.get(e, [])
-        if len(options) == 1:
-            out[j] = options[0]
-        elif options:
+        if options:
             dist = [(_region_distance(regions[c], w[1:]) if c in regions else 0.0) for c in options]
             out[j] = options[int(np.argmin(dist))]
     return out

@@ -1,13 +1,11 @@
 """Mesh topology operations for virtual surgery: cutting along mesh edges (:func:`incise`, built from
 :func:`cut_path` and :func:`duplicate_along_edges`) and removing tissue (:func:`excise`).
 
-A cut along mesh edges *opens* a path of edges: no triangle is split; every node on the cut is duplicated as often as
-the cut separates its neighbourhood. Removing tissue (a defect) deletes whole triangles. Both are *pure*: they return a
-new mesh, as a :class:`MeshEdit` (the engine's :class:`~tissuefem.engine.meshes.MeshMap`) with ``parent`` (new node ->
-old node) and ``elements`` (new element -> old element), so that a per-node field ``u`` carries over as
-``u[..., parent]`` (copies start where their original was: a deformed state carries over without a jump). The new
-meshes keep every element's vertex order (a cut's copies get the highest indices, so scikit-fem's default re-sorting
-would reorder exactly the triangles along the wound) and their named boundaries.
+A cut along mesh edges duplicates every node on the cut as often as the cut separates its neighbourhood; a defect
+deletes whole triangles. Both return a new mesh as a :class:`MeshEdit` (``parent``: new node -> old node, ``elements``:
+new element -> old element), so that a per-node field ``u`` carries over as ``u[..., parent]``. The new meshes keep
+every element's vertex order (scikit-fem's re-sorting would reorder exactly the triangles along the wound, whose copies
+get the highest indices) and their named boundaries.
 """
 
 from __future__ import annotations
