@@ -408,15 +408,10 @@ def _stroke_pieces(x, t, pts):
                               & (lo[1] <= max(a[1], b[1]) + pad) & (hi[1] >= min(a[1], b[1]) - pad))
         if cand.size == 0:
             continue
-        o, e1, e2, dt = x0[:, cand], d1[:, cand], d2[:, cand], det[cand]
-
-        def local(q):
-            wx, wy = q[0] - o[0], q[1] - o[1]
-            xi = (wx * e2[1] - wy * e2[0]) / dt
-            eta = (e1[0] * wy - e1[1] * wx) / dt
-            return np.stack([1.0 - xi - eta, xi, eta])
-
-        la, lb = local(a), local(b)
+        e1, e2, dt = d1[:, cand], d2[:, cand], det[cand]
+        w = np.stack([a, b])[:, :, None] - x0[:, cand]  # (end, xy, candidate)
+        xi, eta = (w[:, 0] * e2[1] - w[:, 1] * e2[0]) / dt, (e1[0] * w[:, 1] - e1[1] * w[:, 0]) / dt
+        la, lb = np.stack([1.0 - xi - eta, xi, eta], axis=1)  # barycentric coordinates of a and b
         dl = lb - la
         s_lo, s_hi = np.zeros(cand.size), np.ones(cand.size)
         # a segment with lambda_i within EPS of 0 at both ends (scaled by its reach) lies on that edge: that constraint

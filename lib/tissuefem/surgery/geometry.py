@@ -247,20 +247,12 @@ def subtract_intervals(iv, cut):
     """Intervals ``iv`` less the intervals ``cut`` (both merged lists); pieces shorter than :data:`EPS` dropped."""
     out = []
     for a, b in iv:
-        pieces = [(a, b)]
-        for c, d in cut:
-            nxt = []
-            for x, y in pieces:
-                if d <= x or c >= y:
-                    nxt.append((x, y))
-                    continue
-                if c > x:
-                    nxt.append((x, c))
-                if d < y:
-                    nxt.append((d, y))
-            pieces = nxt
-        out.extend((x, y) for x, y in pieces if y - x > EPS)
-    return out
+        for c, d in cut:  # sorted and apart: what is left of [a, b] lies right of the cuts passed
+            if d > a and c < b:
+                out.append((a, c))
+                a = d
+        out.append((a, b))
+    return [(x, y) for x, y in out if y - x > EPS]
 
 
 def intersect_intervals(iv, jv):
