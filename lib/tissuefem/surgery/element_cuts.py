@@ -633,8 +633,7 @@ def _number_nodes(t, n, key, side, affected, piece_ids, touched):
     node}, new_parent (the old node of each appended node), fan (the elements with a corner there))``. Of the classes
     of joined corners at an old node, the one holding the lowest element keeps its index."""
     hub = np.unique(t[:, affected])
-    at_hub = np.zeros(n, dtype=bool)
-    at_hub[hub] = True
+    at_hub = np.isin(np.arange(n), hub)
     fan = np.flatnonzero(at_hub[t].any(axis=0))
     sel_k, sel_e = np.nonzero(at_hub[t[:, fan]] | at_hub[np.roll(t, -1, axis=0)[:, fan]])
     sel_e = fan[sel_e]

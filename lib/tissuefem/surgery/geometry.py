@@ -284,11 +284,9 @@ def edge_intervals(segments):
 # --- the material of an element ---
 def _segments(name, value) -> np.ndarray:
     a = np.zeros((0, 2, 2)) if value is None else np.asarray(value, dtype=float)
-    if a.size == 0:
-        return np.zeros((0, 2, 2))
-    if a.ndim != 3 or a.shape[1:] != (2, 2) or not np.all(np.isfinite(a)):
+    if a.size and (a.ndim != 3 or a.shape[1:] != (2, 2) or not np.all(np.isfinite(a))):
         raise ValueError(f"{name} must be finite segments shaped (k, 2, 2), got shape {a.shape}")
-    return a
+    return a if a.size else np.zeros((0, 2, 2))
 
 
 @dataclass(frozen=True, eq=False)

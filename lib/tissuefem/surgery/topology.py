@@ -106,8 +106,7 @@ def duplicate_along_edges(t, n_nodes, edges):
         raise ValueError(f"edges: ({edges[0, bad]}, {edges[1, bad]}) (column {bad}) is not an edge of the mesh "
                          f"(no triangle has both nodes)")
 
-    is_cut_node = np.zeros(n_nodes, dtype=bool)
-    is_cut_node[edges.ravel()] = True
+    is_cut_node = np.isin(np.arange(n_nodes), edges)
 
     # each occurrence of an edge paired with the next of the same key (on a manifold mesh: the two triangles of an
     # interior edge); uncut pairs glue the corners of their two shared nodes
@@ -161,8 +160,7 @@ def connected_components(t, n_nodes):
     piece of every node, shape (n_nodes,), numbered in the order of each piece's lowest node.
     """
     t, n_nodes = _triangles(t, n_nodes)
-    rows = np.concatenate([t[0], t[1]])
-    cols = np.concatenate([t[1], t[2]])
+    rows, cols = np.concatenate([t[0], t[1]]), np.concatenate([t[1], t[2]])  # two edges of each triangle suffice
     graph = sp.coo_matrix((np.ones(rows.size), (rows, cols)), shape=(n_nodes, n_nodes))
     n, labels = csgraph.connected_components(graph, directed=False)
     return int(n), labels.astype(np.int64)
