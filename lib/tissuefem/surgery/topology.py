@@ -309,13 +309,6 @@ def cut_path(mesh, polyline, positions=None) -> np.ndarray:
     return np.asarray(path, dtype=np.int64)
 
 
-def _build(old, plain, parent, elements, name, opened, cut_edges) -> MeshEdit:
-    """The MeshEdit of ``plain`` (the new mesh without names) with names and subdomains carried over."""
-    return MeshEdit(mesh=carry_names(old, plain, parent, elements, name=name, opened=opened), parent=parent,
-                    elements=elements, cut_edges=cut_edges, n_old_nodes=int(old.p.shape[1]),
-                    n_old_elements=int(old.t.shape[1]))
-
-
 def _opened(mesh, parent, interior_keys, n_old) -> np.ndarray:
     """Boundary facets of the new ``mesh`` whose parent pair was an interior edge of the old mesh."""
     new_keys = pair_keys(parent[np.asarray(mesh.facets, dtype=np.int64)], n_old)
@@ -350,7 +343,9 @@ def incise(mesh, polyline, positions=None) -> MeshEdit:
     if cut_edges.shape[1] == 0:
         raise ValueError(f"polyline opens no edge: its path {path.tolist()} runs along the boundary or is a single "
                          f"interior edge (a crack needs at least one node strictly inside it)")
-    return _build(mesh, plain, parent, np.arange(t.shape[1], dtype=np.int64), "cut", wound, cut_edges)
+    elements = np.arange(t.shape[1], dtype=np.int64)
+    return MeshEdit(mesh=carry_names(mesh, plain, parent, elements, name="cut", opened=wound), parent=parent,
+                    elements=elements, cut_edges=cut_edges, n_old_nodes=n, n_old_elements=t.shape[1])
 
 
 def excise(mesh, region, positions=None) -> MeshEdit:
@@ -391,4 +386,5 @@ def excise(mesh, region, positions=None) -> MeshEdit:
     interior_keys = pair_keys(np.asarray(mesh.facets, dtype=np.int64)[:, np.asarray(mesh.f2t)[1] >= 0], n)
     plain = new_mesh(p[:, parent], new_t)
     rim = _opened(plain, parent, interior_keys, n)
-    return _build(mesh, plain, parent, elements, "defect", rim, np.zeros((2, 0), dtype=np.int64))
+    return MeshEdit(mesh=carry_names(mesh, plain, parent, elements, name="defect", opened=rim), parent=parent,
+                    elements=elements, cut_edges=np.zeros((2, 0), dtype=np.int64), n_old_nodes=n, n_old_elements=m)
