@@ -1,11 +1,10 @@
 """The geometry of cuts, shared by :mod:`.topology`, :mod:`.element_cuts` and :mod:`.surfaces`: checked mesh arrays
 and inputs, edges keyed by node pair, a triangle's local coordinates, and the material of an element cut through.
 
-A triangle's local coordinates are ``(xi, eta) = (lambda_1, lambda_2)``: vertex 0 at ``(0, 0)``, 1 at ``(1, 0)``, 2 at
-``(0, 1)``; local edge ``k`` runs from vertex ``k`` to vertex ``k + 1`` (0: ``eta = 0``, 1: ``xi + eta = 1``, 2:
-``xi = 0``). Points closer than :data:`EPS` are one point. Intervals are sorted lists ``[(lo, hi), ...]`` of an edge's
-parameter. The local helpers work on plain floats: on the tiny graphs of one triangle, numpy's per-call cost would
-dominate.
+Local coordinates are ``(xi, eta) = (lambda_1, lambda_2)``: vertex 0 at ``(0, 0)``, 1 at ``(1, 0)``, 2 at ``(0, 1)``;
+local edge ``k`` runs from vertex ``k`` to ``k + 1``. Points closer than :data:`EPS` are one point. Intervals are sorted
+lists ``[(lo, hi), ...]`` of an edge's parameter. The local helpers work on plain floats: on the tiny graphs of one
+triangle, numpy's per-call cost would dominate.
 """
 
 from __future__ import annotations
