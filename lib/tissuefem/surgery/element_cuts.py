@@ -209,14 +209,12 @@ class _Arrangement:
         for u, lst in nbrs.items():
             ux, uy = self.verts[u]
             lst.sort(key=lambda w: math.atan2(self.verts[w][1] - uy, self.verts[w][0] - ux))
-        self.face_of = {}
-        faces = []
+        self.face_of, faces = {}, []
         for u0, v0 in sorted(self.graph):
             for start in ((u0, v0), (v0, u0)):
                 if start in self.face_of:
                     continue
-                cycle = []
-                he = start
+                cycle, he = [], start
                 while he not in self.face_of:
                     self.face_of[he] = len(faces)
                     cycle.append(he)
@@ -446,9 +444,7 @@ class Wound:
     nodes: np.ndarray  #: (k, 3) int: the element's nodes in the new mesh (so that :meth:`positions` needs no mesh)
     reference: np.ndarray  #: (k, 2, 2): the two ends (k, end, xy) in the reference configuration
     stroke: np.ndarray  #: (k, 2): where the ends lie on the drawn polyline, segment index plus fraction
-    #: (k,) bool: False where the two sides are still one piece: a crack in the triangle that holds its tip, or a
-    #: piece snapped onto element edges to avoid a sliver
-    opened: np.ndarray
+    opened: np.ndarray  #: (k,) bool: False where both sides are still one piece (a crack's tip, a sliver snapped away)
 
     def positions(self, x) -> np.ndarray:
         """The ends of every record at node positions ``x`` (2, n_new_nodes): shape (k, 2, 2)."""
@@ -594,8 +590,7 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
                                                                 [triple(pid, e) for pid in piece_ids[e]])
 
     # the new elements: old indices for the first piece, the others appended
-    final_id = {}
-    elements = list(range(m))
+    final_id, elements = {}, list(range(m))
     for e in affected.tolist():
         for i, (pid, *_) in enumerate(sorted(final_faces[e], key=lambda r: r[0])):
             final_id[pid] = e if i == 0 else len(elements)
@@ -857,9 +852,9 @@ def _region_distance(region, xi) -> float:
 
 
 def locate(mesh, point, positions=None, regions=None, candidates=None, reach=1e-3):
-    """``(element, barycentric (3,))`` of the material that holds ``point`` (deformed coordinates) or lies nearest to it,
-    or ``None`` if none is within ``reach`` (in local coordinates: a fraction of a triangle's size); a point just off
-    the material (in an open wound) extends the element's P1 map. ``candidates`` restricts the search."""
+    """``(element, barycentric (3,))`` of the material holding ``point`` (deformed coordinates) or nearest to it, or
+    ``None`` if none is within ``reach`` (in local coordinates: a fraction of a triangle's size); a point just off the
+    material (in an open wound) extends the element's P1 map. ``candidates`` restricts the search."""
     p, t = mesh_arrays(mesh)
     x = node_positions(mesh, positions)
     q = np.asarray(point, dtype=float)

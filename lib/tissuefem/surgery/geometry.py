@@ -119,8 +119,8 @@ def carry_names(old, new, parent, elements, touches=None, name=None, opened=None
             old_keys = pair_keys(old_facets[:, np.asarray(facets, dtype=np.int64)], n_old)
             names[label] = hit[np.isin(parent_keys[hit], old_keys)].astype(np.int32)
     if name is not None:
-        extra = np.flatnonzero(opened).astype(np.int32)
-        names[name] = np.union1d(names.get(name, np.zeros(0, dtype=np.int32)), extra).astype(np.int32)
+        opened = np.flatnonzero(opened).astype(np.int32)
+        names[name] = np.union1d(names.get(name, np.zeros(0, dtype=np.int32)), opened).astype(np.int32)
     out = new.with_boundaries(names) if names else new
     if old.subdomains:
         out = out.with_subdomains({label: np.flatnonzero(np.isin(elements, np.asarray(els))).astype(np.int32)
@@ -302,8 +302,7 @@ class Region:
 
     def __post_init__(self):
         polys = self.polygons
-        if isinstance(polys, np.ndarray) and polys.ndim == 2:
-            polys = (polys,)
+        polys = (polys,) if isinstance(polys, np.ndarray) and polys.ndim == 2 else polys  # one polygon
         out, weight = [], 0.0
         for i, poly in enumerate(polys):
             poly = np.asarray(poly, dtype=float)

@@ -140,11 +140,9 @@ def duplicate_along_edges(t, n_nodes, edges):
     np.minimum.at(fan_first, fan, corners % m)  # lowest triangle of each fan
     by_node = np.lexsort((fan_first, fan_node))
     sorted_node = fan_node[by_node]
-    keeps = np.ones(n_fans, dtype=bool)
-    keeps[1:] = sorted_node[1:] != sorted_node[:-1]  # the first fan of each node keeps it
-    extra = ~keeps
+    extra = np.r_[False, sorted_node[1:] == sorted_node[:-1]]  # the first fan of each node keeps it
     new_index = np.empty(n_fans, dtype=np.int64)
-    new_index[by_node] = np.where(keeps, sorted_node, n_nodes + np.cumsum(extra) - 1)
+    new_index[by_node] = np.where(extra, n_nodes + np.cumsum(extra) - 1, sorted_node)
 
     new_flat = flat.copy()
     new_flat[corners] = new_index[fan]
