@@ -119,8 +119,7 @@ def carry_names(old, new, parent, elements, touches=None, name=None, opened=None
             old_keys = pair_keys(old_facets[:, np.asarray(facets, dtype=np.int64)], n_old)
             names[label] = hit[np.isin(parent_keys[hit], old_keys)].astype(np.int32)
     if name is not None:
-        opened = np.flatnonzero(opened).astype(np.int32)
-        names[name] = np.union1d(names.get(name, np.zeros(0, dtype=np.int32)), opened).astype(np.int32)
+        names[name] = np.union1d(names.get(name, np.zeros(0, dtype=np.int32)), np.flatnonzero(opened)).astype(np.int32)
     out = new.with_boundaries(names) if names else new
     if old.subdomains:
         out = out.with_subdomains({label: np.flatnonzero(np.isin(elements, np.asarray(els))).astype(np.int32)

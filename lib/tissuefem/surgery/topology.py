@@ -208,11 +208,8 @@ def _boundary_snap(x, t, bfacets, end, towards):
     outside = not np.any((sign * s1 >= -tol) & (sign * s2 >= -tol) & (sign * s3 >= -tol) & (area != 0.0))
     if not outside and dist[nearest] >= _NEAR_BOUNDARY * length:
         return None
-    bnodes = np.unique(bfacets)
-    if outside:
-        # where does end -> towards cross the boundary first?
-        d = towards - end
-        e = B - A
+    if outside:  # where does end -> towards cross the boundary first?
+        d, e = towards - end, B - A
         denom = d[0] * e[1] - d[1] * e[0]
         w = A - end[:, None]
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -224,8 +221,8 @@ def _boundary_snap(x, t, bfacets, end, towards):
             q = end + s[f] * d
             na, nb = bfacets[0, f], bfacets[1, f]
             return int(na if np.hypot(*(x[:, na] - q)) <= np.hypot(*(x[:, nb] - q)) else nb)
-    dn = np.hypot(x[0, bnodes] - end[0], x[1, bnodes] - end[1])
-    return int(bnodes[np.argmin(dn)])
+    bnodes = np.unique(bfacets)
+    return int(bnodes[np.argmin(np.hypot(x[0, bnodes] - end[0], x[1, bnodes] - end[1]))])
 
 
 def cut_path(mesh, polyline, positions=None) -> np.ndarray:
