@@ -497,28 +497,6 @@ def lumped_mass(mesh, weights=None, density=1.0) -> np.ndarray:
 
 
 # --- the cut ---
-def _arrangements(p, x, t, pts, regions, min_weight):
-    """``({element: _Arrangement} of the elements the stroke changes, orientation (m,), key, side)``."""
-    snapped, drawn = _through_nearby_nodes(x, t, pts)
-    pieces, orientation = _stroke_pieces(x, t, snapped)
-    vertex = np.arange(drawn.size)
-    key, side = element_edges(p, t)
-    flat_key, flat_side = key.ravel(), side.ravel()
-    # an element edge has an element across when some element has the same node pair on the other side
-    has_across = np.isin(flat_key * 2 + (flat_side > 0), flat_key * 2 + (flat_side < 0)).reshape(3, t.shape[1])
-    arrangements = {}
-    for e in sorted(pieces):
-        cuts = [(float(np.interp(s0, vertex, drawn)), float(np.interp(s1, vertex, drawn)), a, b)
-                for s0, s1, a, b in pieces[e]]
-        arr = _Arrangement(regions.get(e, WHOLE), cuts, has_across[:, e], min_weight)
-        if arr.changed:
-            arrangements[e] = arr
-    if not arrangements:
-        raise ValueError("polyline changes nothing: it meets no material, or runs only along the body's boundary "
-                         "or along an existing wound")
-    return arrangements, orientation, key, side
-
-
 def _one_element_per_nodes(arr, ids, faces, triples):
     """Copies of one triangle with the same three nodes (``triples``) as one element (step 7): its elements
     ``[(provisional id, Region, touched, whole, area)]`` and ``{face: provisional id}``."""
@@ -566,7 +544,24 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
     pts = check_points("polyline", polyline, 2)
     min_weight = check_real("min_weight", min_weight, 0.0, 0.5, hi_open=True)
     regions, w = check_regions(regions, weights, m)
-    arrangements, orientation, key, side = _arrangements(p, x, t, pts, regions, min_weight)
+    # the stroke in each triangle (stroke parameters back on the drawn polyline) and what it does to the material
+    snapped, drawn = _through_nearby_nodes(x, t, pts)
+    pieces, orientation = _stroke_pieces(x, t, snapped)
+    vertex = np.arange(drawn.size)
+    key, side = element_edges(p, t)
+    flat_key, flat_side = key.ravel(), side.ravel()
+    # an element edge has an element across when some element has the same node pair on the other side
+    has_across = np.isin(flat_key * 2 + (flat_side > 0), flat_key * 2 + (flat_side < 0)).reshape(3, m)
+    arrangements = {}
+    for e in sorted(pieces):
+        cuts = [(float(np.interp(s0, vertex, drawn)), float(np.interp(s1, vertex, drawn)), a, b)
+                for s0, s1, a, b in pieces[e]]
+        arr = _Arrangement(regions.get(e, WHOLE), cuts, has_across[:, e], min_weight)
+        if arr.changed:
+            arrangements[e] = arr
+    if not arrangements:
+        raise ValueError("polyline changes nothing: it meets no material, or runs only along the body's boundary "
+                         "or along an existing wound")
     affected = np.array(sorted(arrangements), dtype=np.int64)
 
     # provisional pieces: face 0 of a cut element keeps its index, the others are numbered from m
