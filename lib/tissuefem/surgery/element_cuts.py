@@ -75,8 +75,7 @@ _NODE_SNAP = 1e-6
 #: vertex; copies this light still give a well-conditioned tangent.
 MIN_WEIGHT = 1e-3
 
-# kinds of the edges of an element's planar graph
-_P, _S, _C = 0, 1, 2  # region boundary, old slit, new cut
+_P, _S, _C = 0, 1, 2  # the kinds of edge of an element's planar graph: region boundary, old slit, new cut
 
 
 # --- one element: its material, cut by the new pieces of the stroke ---
@@ -267,8 +266,7 @@ class _Arrangement:
                     del self.graph[key]  # dropped, not kept as a slit: the cut moved to the edges
 
     def merge(self, groups):
-        """Merge faces (lists of face indices) into one each, the cuts between them becoming slits; returns, for every
-        old face, its new face index."""
+        """Merge each group of faces into one (the cuts between them become slits): the new index of every old face."""
         group_of = {f: gi for gi, members in enumerate(groups) for f in members}
         for key in list(self.graph):
             if self.graph[key] == _P:
@@ -435,8 +433,7 @@ def _stroke_pieces(x, t, pts):
 # --- the result ---
 @dataclass(frozen=True, eq=False)
 class Wound:
-    """The faces of a cut to draw: ``k`` records, one per side of each piece of the stroke, each carried by (and moving
-    with) one element of the new mesh."""
+    """The faces of a cut to draw: one record per side of each piece of the stroke (``k``), moving with its element."""
 
     element: np.ndarray  #: (k,) int: the new element that carries the material on this side
     side: np.ndarray  #: (k,) int: +1 if the material lies to the left of the stroke (as drawn), -1 to its right
@@ -461,14 +458,10 @@ class Wound:
 
 @dataclass(frozen=True, eq=False, kw_only=True)
 class ElementCut(MeshEdit):
-    """A :class:`~tissuefem.surgery.topology.MeshEdit` that cut through elements: the copies of a cut triangle all
-    point to it in ``elements``; ``cut_edges`` are the old-node pairs of the mesh edges the stroke ran along."""
+    """A :class:`~tissuefem.surgery.topology.MeshEdit` that cut through elements (``cut_edges``: those it ran along)."""
 
-    #: (n_new_elements,): share of its triangle's area each element's material fills, in (0, 1]; the copies of one
-    #: old element add up to its old weight (for :class:`~tissuefem.engine.assembly.P1Assembler`)
-    weights: np.ndarray
-    #: element -> :class:`Region`: where the material of each element that is not whole lies (for the next cut)
-    regions: dict
+    weights: np.ndarray  #: (n_new_elements,): each element's share of its triangle, in (0, 1]; copies add up
+    regions: dict  #: element -> :class:`Region`: where the material of each element that is not whole lies
     wound: Wound  #: the new wound's faces, to draw its two edges smoothly
 
     def contact_surface(self):

@@ -24,8 +24,7 @@ __all__ = ["EPS", "FULL_TOUCH", "WHOLE", "Region", "mesh_arrays", "node_position
            "intersect_intervals", "overlaps", "reversed_intervals", "edge_intervals", "region_sides", "region_touch",
            "element_weights", "check_regions"]
 
-#: Tolerance in a triangle's local coordinates: points closer than this are one point, and a point this close
-#: to an edge is on it.
+#: Tolerance in local coordinates: points closer than this are one point, a point this close to an edge is on it.
 EPS = 1e-9
 #: The touched intervals of a whole element: all of its three edges.
 FULL_TOUCH = [[(0.0, 1.0)], [(0.0, 1.0)], [(0.0, 1.0)]]

@@ -94,8 +94,7 @@ def _assemble(pieces, t, det, n) -> ContactSurface:
     weights = np.where(weights > 0, weights, 0.0)
     sort_key = np.where(weights > 0, nodes, n + np.arange(3))
     order = np.argsort(sort_key, axis=1)
-    nodes = np.take_along_axis(nodes, order, axis=1)
-    weights = np.take_along_axis(weights, order, axis=1)
+    nodes, weights = np.take_along_axis(nodes, order, axis=1), np.take_along_axis(weights, order, axis=1)
     nodes = np.where(weights > 0, nodes, nodes[:, :1])
     used = weights > 0
     # merge the same combination seen from several elements (the weights agree to round-off)
@@ -111,8 +110,7 @@ def _assemble(pieces, t, det, n) -> ContactSurface:
     first[point[::-1]] = np.arange(order.size)[::-1]
     width = int(count.max(initial=1))
     ends = point.reshape(-1, 2).T  # (2, pieces)
-    flip = det[element] < 0  # a clockwise triangle mirrors "left"
-    segments = np.where(flip, ends[::-1], ends)
+    segments = np.where(det[element] < 0, ends[::-1], ends)  # a clockwise triangle mirrors "left"
     keep = segments[0] != segments[1]
     wound = np.array([w for _, _, _, w in pieces], dtype=bool)
     return ContactSurface(nodes[first, :width], weights[first, :width], segments[:, keep], n, wound=wound[keep])

@@ -24,13 +24,10 @@ from .geometry import (carry_names, check_points, cross, mesh_arrays, new_mesh, 
 
 __all__ = ["MeshEdit", "duplicate_along_edges", "cut_path", "incise", "excise", "connected_components", "nodes_near"]
 
-#: The cost of a mesh edge in :func:`cut_path` is ``length * (1 + _HUG * d / h)`` with ``d`` the mean distance of
-#: its two nodes from the drawn segment and ``h`` the median edge length. Large enough that a detour of one edge
-#: length away from the line costs more than several edges along it.
+#: An edge costs ``length * (1 + _HUG * d / h)`` in :func:`cut_path`: large enough that a detour of one edge length
+#: away from the line costs more than several edges along it.
 _HUG = 10.0
-
-#: An endpoint of the polyline this close to the boundary (in units of the nearest boundary facet's length) counts
-#: as "on the boundary".
+#: An end of the polyline this close to the boundary (in lengths of the nearest boundary facet) is on it.
 _NEAR_BOUNDARY = 0.5
 
 
