@@ -702,9 +702,7 @@ def _wound(p, t, arrangements, element_of_face, orientation, new_t):
 def excise_through(mesh, polygon, positions=None, weights=None, regions=None, min_weight=MIN_WEIGHT) -> ElementCut:
     """Cut along a closed ``polygon`` through the elements (:func:`cut_through`) and remove the material inside it, so
     that the rim follows the drawn outline (not the centroids, as :func:`~tissuefem.surgery.topology.excise` does).
-
-    Returns an :class:`ElementCut` that maps to ``mesh`` as it was; its ``wound`` holds the rim's records.
-    """
+    Returns an :class:`ElementCut` that maps to ``mesh`` as it was; its ``wound`` holds the rim's records."""
     pts = check_points("polygon", polygon, 3)
     closed = np.vstack([pts, pts[:1]]) if np.any(pts[0] != pts[-1]) else pts
     if closed.shape[0] < 4:

@@ -149,11 +149,8 @@ def duplicate_along_edges(t, n_nodes, edges):
 
 # --- pieces, picking nodes ---
 def connected_components(t, n_nodes):
-    """The pieces of a mesh ``t (3, m)`` with ``n_nodes`` nodes: nodes connected through its triangles.
-
-    Returns ``(n_pieces, labels)``: the number of pieces (a node used by no triangle is a piece of its own) and the
-    piece of every node, shape (n_nodes,), numbered in the order of each piece's lowest node.
-    """
+    """The pieces of a mesh ``t (3, m)`` with ``n_nodes`` nodes: ``(n_pieces, labels (n_nodes,))``, the pieces numbered
+    in the order of their lowest node (a node used by no triangle is a piece of its own)."""
     t, n_nodes = _triangles(t, n_nodes)
     rows, cols = np.concatenate([t[0], t[1]]), np.concatenate([t[1], t[2]])  # two edges of each triangle suffice
     graph = sp.coo_matrix((np.ones(rows.size), (rows, cols)), shape=(n_nodes, n_nodes))
