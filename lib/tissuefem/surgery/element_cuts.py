@@ -460,7 +460,9 @@ class Wound:
 class ElementCut(MeshEdit):
     """A :class:`~tissuefem.surgery.topology.MeshEdit` that cut through elements (``cut_edges``: those it ran along)."""
 
-    weights: np.ndarray  #: (n_new_elements,): each element's share of its triangle, in (0, 1]; copies add up
+    #: (n_new_elements,): share of its triangle each element's material fills, in (0, 1]; the copies of one old element
+    #: add up to its old weight (for :class:`~tissuefem.engine.assembly.P1Assembler`)
+    weights: np.ndarray
     regions: dict  #: element -> :class:`Region`: where the material of each element that is not whole lies
     wound: Wound  #: the new wound's faces, to draw its two edges smoothly
 
