@@ -8,16 +8,12 @@ material a copy does not hold become extra ("virtual") nodes.
 
 The construction in 2D
 ----------------------
-1. **Where the stroke lies.** The stroke is drawn on the deformed tissue. In one triangle the P1 map is affine, so a
-   straight piece of the stroke is straight in the reference triangle, with the same barycentric coordinates. Each
-   segment ``a -> b`` is clipped against each triangle by keeping the ``s`` with
-   ``lambda_i(a) + s (lambda_i(b) - lambda_i(a)) >= 0``; the pieces are kept in local coordinates
-   ``(xi, eta) = (lambda_1, lambda_2)`` (vertex 0 at (0, 0), 1 at (1, 0), 2 at (0, 1)). First, a stroke passing within
-   1e-6 of an edge length of a node is moved onto it, once for the whole mesh, so that neighbouring triangles never
-   disagree on whether it went through it.
-2. **The material of an element** is a :class:`Region`: the polygon it fills, its *slits* and *severed* edge parts. Its
-   weight, the polygon's share of the triangle's area, is what :class:`~tissuefem.engine.assembly.P1Assembler`
-   integrates over.
+1. **Where the stroke lies.** The stroke is drawn on the deformed tissue. The P1 map of a triangle is affine, so each
+   segment ``a -> b`` is clipped against each triangle in barycentric coordinates, keeping the ``s`` with
+   ``lambda_i(a) + s (lambda_i(b) - lambda_i(a)) >= 0``. First, a stroke passing within 1e-6 of an edge length of a
+   node is moved onto it, once for the whole mesh, so that neighbouring triangles never disagree about that node.
+2. **The material of an element** is a :class:`Region`: the polygon it fills, its *slits* and *severed* edge parts; its
+   weight (the polygon's share of the triangle) is what :class:`~tissuefem.engine.assembly.P1Assembler` integrates.
 3. **Splitting an element.** The region's boundary, its slits and the new pieces of the stroke form a planar graph.
    Dangling edges (a crack ending in the material) are pruned and kept as slits; the faces of what remains are the
    pieces of material: ``k`` faces give ``k`` copies of the element, each with one face as its region.
@@ -27,11 +23,9 @@ The construction in 2D
    vertex gets a virtual node there, shared with every copy on its side of the cut it is joined to. A cut along a mesh
    edge needs no split: severing the edge stops the join.
 5. **The crack tip.** The triangle holding the end of a crack is one piece of material, so (as in [1]_) it is not
-   duplicated; the crack in it is a slit. The two copies through which the crack enters it are both joined to it, so
-   they differ only at their third vertex: the displacement jump is that vertex's shape function times the difference
-   of its two nodes, zero on the tip triangle's edge and growing linearly away from it. The crack closes within one
-   element of the drawn tip, the resolution of P1 with virtual nodes (phantom-node methods [3]_ make the same choice):
-   two P1 copies agree along a line only if they share all three nodes, that is, are one element.
+   duplicated: the crack in it is a slit, and the two copies it enters through, both joined to it, differ only at their
+   third vertex. The crack closes within one element of the drawn tip, the resolution of P1 with virtual nodes
+   (phantom-node methods [3]_ make the same choice).
 6. **No slivers.** A piece lighter than ``min_weight`` is merged into its neighbour across the cut and the parts of the
    triangle's edges that bounded it are severed instead: the cut's topology is snapped onto the element's edges (by
    less than the sliver's width), while the :class:`Wound` stays where the stroke was drawn.
@@ -50,10 +44,9 @@ References
 .. [3] J.-H. Song, P. M. A. Areias, T. Belytschko, *A method for dynamic crack and shear band propagation with phantom
    nodes*, International Journal for Numerical Methods in Engineering 67 (2006), 868-893.
 
-The result is an :class:`ElementCut`. Uncut elements keep their index and vertex order; the first piece of a cut
-element keeps its index, the others are appended; every copy keeps its triangle's vertex order (``sort_t=False``). Old
-nodes keep their index; virtual nodes are appended. Mass and momentum carry over exactly with nodal masses from the
-material areas (:func:`lumped_mass`).
+Uncut elements and old nodes keep their index (and vertex order); the first piece of a cut element keeps its index, the
+other pieces and the virtual nodes are appended. Nodal masses from the material areas (:func:`lumped_mass`) carry mass
+and momentum over exactly.
 """
 
 from __future__ import annotations
@@ -63,6 +56,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..engine.meshes import signed_areas
 from ..engine.parameters import check_real
 from .geometry import (EPS, FULL_TOUCH, WHOLE, Region, carry_names, check_points, check_regions, cross, crossings,
                        edge_intervals, edge_param, edge_point, edges_of, element_edges, element_weights, mesh_arrays,
@@ -72,29 +66,23 @@ from .surfaces import contact_surface
 from .topology import MeshEdit, excise
 
 __all__ = ["Region", "Wound", "ElementCut", "cut_through", "excise_through", "Picture", "picture", "locate",
-           "firm_anchor", "carry_points", "region_holds", "lumped_mass", "material_areas"]
+           "firm_anchor", "carry_points", "lumped_mass", "material_areas"]
 
-#: A stroke closer than this (times the median edge length) to a node is moved onto it, once for the
-#: whole mesh, so that no two triangles disagree on whether it went through the node.
+#: A stroke closer than this (times the median edge length) to a node is moved onto it (step 1 above).
 _NODE_SNAP = 1e-6
-
-#: Default smallest share of its triangle a piece may carry (``min_weight``). A corner piece's share is
-#: the product of the fractions of the two edges it cuts off, so this snaps a cut passing within about
-#: 3 % of an element of a vertex; copies this light still give a well-conditioned tangent.
+#: Default smallest share of its triangle a piece may carry (``min_weight``). A corner piece's share is the product
+#: of the fractions of the two edges it cuts off, so this snaps a cut passing within about 3 % of an element of a
+#: vertex; copies this light still give a well-conditioned tangent.
 MIN_WEIGHT = 1e-3
 
-# kinds of the edges of an element's planar graph
-_P, _S, _C = 0, 1, 2  # region boundary, old slit, new cut
+_P, _S, _C = 0, 1, 2  # the kinds of edge of an element's planar graph: region boundary, old slit, new cut
 
 
 # --- one element: its material, cut by the new pieces of the stroke ---
 class _Arrangement:
-    """The planar graph of one element's region, old slits and new cut pieces (local coordinates).
-
-    ``cuts`` are the new pieces of the stroke in the triangle, ``(stroke0, stroke1, a, b)``: stroke parameters (segment
-    + fraction) and local coordinates of the two ends. ``open_edge`` (three bools) says whether each local edge has an
-    element across it (a cut along the body's boundary is not recorded).
-    """
+    """The planar graph of one element's region, old slits and new cut pieces ``cuts`` (stroke0, stroke1, a, b) (stroke
+    parameters and local ends); ``open_edge`` (3 bools): has each local edge an element across (else a cut along it is
+    not recorded)."""
 
     def __init__(self, region: Region, cuts, open_edge, min_weight):
         self.verts = []
@@ -161,7 +149,6 @@ class _Arrangement:
             self.changed = True
         self._settle()
 
-    # -- construction helpers
     def _vertex(self, pt) -> int:
         x, y = pt
         for i, (vx, vy) in enumerate(self.verts):
@@ -178,7 +165,6 @@ class _Arrangement:
         s, e = edge_param(k, self.verts[u]), edge_param(k, self.verts[v])
         return min(s, e), max(s, e)
 
-    # -- the faces
     def _prune(self):
         """Move dangling cut edges (and cut loops that touch no boundary) to the slits."""
         adj = {}
@@ -203,14 +189,11 @@ class _Arrangement:
         for start in adj:
             if start in label or not adj[start]:
                 continue
-            label[start] = start
-            todo = [start]
+            label[start], todo = start, [start]
             while todo:
-                u = todo.pop()
-                for v in adj[u]:
-                    if v not in label:
-                        label[v] = start
-                        todo.append(v)
+                for v in adj[todo.pop()] - label.keys():
+                    label[v] = start
+                    todo.append(v)
         keep = {label[u] for (u, v), kind in self.graph.items() if kind == _P}
         for key in [k for k in self.graph if label[k[0]] not in keep]:
             self.slits.append(key)
@@ -225,14 +208,12 @@ class _Arrangement:
         for u, lst in nbrs.items():
             ux, uy = self.verts[u]
             lst.sort(key=lambda w: math.atan2(self.verts[w][1] - uy, self.verts[w][0] - ux))
-        self.face_of = {}
-        faces = []
+        self.face_of, faces = {}, []
         for u0, v0 in sorted(self.graph):
             for start in ((u0, v0), (v0, u0)):
                 if start in self.face_of:
                     continue
-                cycle = []
-                he = start
+                cycle, he = [], start
                 while he not in self.face_of:
                     self.face_of[he] = len(faces)
                     cycle.append(he)
@@ -245,18 +226,6 @@ class _Arrangement:
         renum = {old: new for new, old in enumerate(keep)}
         self.face_of = {he: renum.get(f, -1) for he, f in self.face_of.items()}  # -1: the outer face
         self.faces = [faces[i] for i in keep]
-
-    def _shared(self, f):
-        """Length of the non-boundary edges face ``f`` shares with each other face: {face: length}."""
-        out = {}
-        for u, v in self.faces[f]["edges"]:
-            if self.graph[_key(u, v)] == _P:
-                continue
-            g = self.face_of[(v, u)]
-            if g >= 0 and g != f:
-                (ax, ay), (bx, by) = self.verts[u], self.verts[v]
-                out[g] = out.get(g, 0.0) + math.hypot(bx - ax, by - ay)
-        return out
 
     def _settle(self):
         while True:
@@ -275,10 +244,15 @@ class _Arrangement:
             weights = [2.0 * f["area"] for f in self.faces]
             if len(self.faces) < 2 or min(weights) >= self.min_weight:
                 return
-            # a sliver: merge it into the neighbour it shares the most cut with, and sever its
-            # part of the triangle's edges, so that the cut runs along them instead
+            # a sliver: merge it into the neighbour it shares the most cut with, and sever its part of the triangle's
+            # edges, so that the cut runs along them instead
             f = int(np.argmin(weights))
-            shared = self._shared(f)
+            shared = {}
+            for u, v in self.faces[f]["edges"]:
+                g = self.face_of[(v, u)]
+                if self.graph[_key(u, v)] != _P and g >= 0 and g != f:
+                    (ax, ay), (bx, by) = self.verts[u], self.verts[v]
+                    shared[g] = shared.get(g, 0.0) + math.hypot(bx - ax, by - ay)
             if not shared:
                 return
             g = max(shared, key=lambda h: (shared[h], -h))
@@ -292,8 +266,7 @@ class _Arrangement:
                     del self.graph[key]  # dropped, not kept as a slit: the cut moved to the edges
 
     def merge(self, groups):
-        """Merge faces (lists of face indices) into one each, the cuts between them becoming slits; returns, for every
-        old face, its new face index."""
+        """Merge each group of faces into one (the cuts between them become slits): the new index of every old face."""
         group_of = {f: gi for gi, members in enumerate(groups) for f in members}
         for key in list(self.graph):
             if self.graph[key] == _P:
@@ -308,7 +281,6 @@ class _Arrangement:
         return [self.face_of[next(he for he in f["edges"] if self.graph.get((min(he), max(he))) == _P)]
                 for f in old_faces]
 
-    # -- results
     def locate(self, pt) -> int:
         return next((i for i, f in enumerate(self.faces) if winding(pt, f["points"]) != 0), -1)
 
@@ -339,11 +311,8 @@ class _Arrangement:
         return out
 
     def wound_faces(self):
-        """One record per side of each new wound piece: (face, side, stroke0, stroke1, a, b, opened).
-
-        ``side`` is +1 when the face lies to the left of the stroke (in local coordinates), -1 to the right. A piece
-        along an edge of the triangle has one side here (the other is in the element across).
-        """
+        """One record per side of each new wound piece: (face, side (+1: the face is left of the stroke), stroke0,
+        stroke1, a, b, opened); a piece along the triangle's edge has one side here, the other in the element across."""
         out = []
         for rec in self.wound:
             kind, u, v, t0, t1 = rec[:5]
@@ -387,11 +356,8 @@ def _simplify(pts):
 
 # --- the stroke in every triangle ---
 def _through_nearby_nodes(x, t, pts):
-    """The stroke moved onto the nodes it nearly meets (within ``_NODE_SNAP`` edge lengths).
-
-    A vertex of the stroke near a node becomes the node; a node near a segment becomes a new vertex of the stroke.
-    Returns the new points (k', 2) and each one's parameter on the drawn stroke (segment + fraction).
-    """
+    """The stroke moved onto the nodes it nearly meets: the points (k', 2), each with its parameter on the drawn stroke
+    (segment + fraction). A vertex near a node becomes the node; a node near a segment becomes a new vertex."""
     used = np.unique(t)
     xs = x[:, used]
     edges = x[:, np.roll(t, -1, axis=0)] - x[:, t]
@@ -420,12 +386,8 @@ def _through_nearby_nodes(x, t, pts):
 
 
 def _stroke_pieces(x, t, pts):
-    """Pieces of the stroke inside each triangle of the drawing configuration (collapsed triangles skipped).
-
-    Returns ``(pieces, orientation)``: ``pieces`` maps an element to a list of ``(stroke0, stroke1, a, b)`` (stroke
-    parameters, ends in local coordinates snapped within ``EPS``), and ``orientation`` is the sign of every triangle's
-    drawn area.
-    """
+    """Pieces of the stroke in each triangle as drawn (collapsed triangles skipped): ``(pieces, orientation)``, with
+    ``pieces`` {element: [(stroke0, stroke1, a, b)]} (ends in local coordinates) and the sign of each drawn area."""
     X = x[:, t]  # (2, 3, m)
     x0, d1, d2 = X[:, 0], X[:, 1] - X[:, 0], X[:, 2] - X[:, 0]
     det = d1[0] * d2[1] - d1[1] * d2[0]
@@ -442,20 +404,14 @@ def _stroke_pieces(x, t, pts):
                               & (lo[1] <= max(a[1], b[1]) + pad) & (hi[1] >= min(a[1], b[1]) - pad))
         if cand.size == 0:
             continue
-        o, e1, e2, dt = x0[:, cand], d1[:, cand], d2[:, cand], det[cand]
-
-        def local(q):
-            wx, wy = q[0] - o[0], q[1] - o[1]
-            xi = (wx * e2[1] - wy * e2[0]) / dt
-            eta = (e1[0] * wy - e1[1] * wx) / dt
-            return np.stack([1.0 - xi - eta, xi, eta])
-
-        la, lb = local(a), local(b)
+        e1, e2, dt = d1[:, cand], d2[:, cand], det[cand]
+        w = np.stack([a, b])[:, :, None] - x0[:, cand]  # (end, xy, candidate)
+        xi, eta = (w[:, 0] * e2[1] - w[:, 1] * e2[0]) / dt, (e1[0] * w[:, 1] - e1[1] * w[:, 0]) / dt
+        la, lb = np.stack([1.0 - xi - eta, xi, eta], axis=1)  # barycentric coordinates of a and b
         dl = lb - la
         s_lo, s_hi = np.zeros(cand.size), np.ones(cand.size)
-        # A stroke segment along the line of an edge (lambda_i within EPS of 0 at both ends,
-        # scaled by how far the segment reaches) lies on the edge: that constraint is dropped.
-        # Every other one is cut exactly at lambda_i = 0, so that the ends stay on the stroke.
+        # a segment with lambda_i within EPS of 0 at both ends (scaled by its reach) lies on that edge: that constraint
+        # is dropped; every other one cuts exactly at lambda_i = 0, so that the ends stay on the stroke
         along = (np.abs(la) <= EPS * np.maximum(1.0, np.abs(lb))) & (np.abs(lb) <= EPS * np.maximum(1.0, np.abs(la)))
         with np.errstate(divide="ignore", invalid="ignore"):
             bound = -la / dl
@@ -477,11 +433,7 @@ def _stroke_pieces(x, t, pts):
 # --- the result ---
 @dataclass(frozen=True, eq=False)
 class Wound:
-    """The faces of a cut, one record per side of each piece of the stroke (``k`` records): what to draw.
-
-    Each side of a piece is carried by one element of the new mesh, and the wound's edge on that side moves with it.
-    Where the stroke runs along a mesh edge, the two records come from two triangles.
-    """
+    """The faces of a cut to draw: one record per side of each piece of the stroke (``k``), moving with its element."""
 
     element: np.ndarray  #: (k,) int: the new element that carries the material on this side
     side: np.ndarray  #: (k,) int: +1 if the material lies to the left of the stroke (as drawn), -1 to its right
@@ -489,9 +441,7 @@ class Wound:
     nodes: np.ndarray  #: (k, 3) int: the element's nodes in the new mesh (so that :meth:`positions` needs no mesh)
     reference: np.ndarray  #: (k, 2, 2): the two ends (k, end, xy) in the reference configuration
     stroke: np.ndarray  #: (k, 2): where the ends lie on the drawn polyline, segment index plus fraction
-    #: (k,) bool: False where the two sides are still one piece: a crack in the triangle that holds its tip, or a
-    #: piece snapped onto element edges to avoid a sliver
-    opened: np.ndarray
+    opened: np.ndarray  #: (k,) bool: False where both sides are still one piece (a crack's tip, a sliver snapped away)
 
     def positions(self, x) -> np.ndarray:
         """The ends of every record at node positions ``x`` (2, n_new_nodes): shape (k, 2, 2)."""
@@ -508,14 +458,12 @@ class Wound:
 
 @dataclass(frozen=True, eq=False, kw_only=True)
 class ElementCut(MeshEdit):
-    """A :class:`~tissuefem.surgery.topology.MeshEdit` that cut through elements: the copies of a cut triangle all
-    point to it in ``elements``; ``cut_edges`` are the old-node pairs of the mesh edges the stroke ran along."""
+    """A :class:`~tissuefem.surgery.topology.MeshEdit` that cut through elements (``cut_edges``: those it ran along)."""
 
-    #: (n_new_elements,): share of its triangle's area each element's material fills, in (0, 1]; the copies of one
-    #: old element add up to its old weight (for :class:`~tissuefem.engine.assembly.P1Assembler`)
+    #: (n_new_elements,): share of its triangle each element's material fills, in (0, 1]; the copies of one old element
+    #: add up to its old weight (for :class:`~tissuefem.engine.assembly.P1Assembler`)
     weights: np.ndarray
-    #: element -> :class:`Region`: where the material of each element that is not whole lies (for the next cut)
-    regions: dict
+    regions: dict  #: element -> :class:`Region`: where the material of each element that is not whole lies
     wound: Wound  #: the new wound's faces, to draw its two edges smoothly
 
     def contact_surface(self):
@@ -528,19 +476,15 @@ class ElementCut(MeshEdit):
                            min_weight=min_weight)
 
 
-# --- masses ---
 def material_areas(mesh, weights=None) -> np.ndarray:
     """Reference area of every element's material: triangle area times weight, shape (n_elements,)."""
-    p, t = mesh_arrays(mesh)
-    w = element_weights(weights, t.shape[1])
-    a, b, c = p[:, t[0]], p[:, t[1]], p[:, t[2]]
-    return 0.5 * np.abs((b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1])) * w
+    _, t = mesh_arrays(mesh)
+    return np.abs(signed_areas(mesh)) * element_weights(weights, t.shape[1])
 
 
 def lumped_mass(mesh, weights=None, density=1.0) -> np.ndarray:
-    """Lumped P1 mass of every node, shape (n_nodes,): ``density`` times a third of the material area of each of its
-    elements. With a cut's weights the copies of a node hold exactly the mass it held, so carrying displacement and
-    velocity by ``parent`` keeps the total mass and momentum."""
+    """Lumped P1 mass of every node (n_nodes,): ``density`` times a third of the material area of its elements. With a
+    cut's weights the copies of a node hold the mass it held: carrying a state by ``parent`` keeps mass and momentum."""
     density = check_real("density", density, 0.0, lo_open=True)
     p, t = mesh_arrays(mesh)
     share = np.repeat(material_areas(mesh, weights)[None, :] * (float(density) / 3.0), 3, axis=0)
@@ -548,33 +492,9 @@ def lumped_mass(mesh, weights=None, density=1.0) -> np.ndarray:
 
 
 # --- the cut ---
-def _arrangements(p, x, t, pts, regions, min_weight):
-    """The stroke in each triangle (stroke parameters back on the drawn polyline) and what it does to each element's
-    material: ``(arrangements {element: _Arrangement} of the elements it changes, orientation (m,), key, side)``."""
-    snapped, drawn = _through_nearby_nodes(x, t, pts)
-    pieces, orientation = _stroke_pieces(x, t, snapped)
-    vertex = np.arange(drawn.size)
-    key, side = element_edges(p, t)
-    flat_key, flat_side = key.ravel(), side.ravel()
-    # an element edge has an element across when some element has the same node pair on the other side
-    has_across = np.isin(flat_key * 2 + (flat_side > 0), flat_key * 2 + (flat_side < 0)).reshape(3, t.shape[1])
-    arrangements = {}
-    for e in sorted(pieces):
-        cuts = [(float(np.interp(s0, vertex, drawn)), float(np.interp(s1, vertex, drawn)), a, b)
-                for s0, s1, a, b in pieces[e]]
-        arr = _Arrangement(regions.get(e, WHOLE), cuts, has_across[:, e], min_weight)
-        if arr.changed:
-            arrangements[e] = arr
-    if not arrangements:
-        raise ValueError("polyline changes nothing: it meets no material, or runs only along the body's boundary "
-                         "or along an existing wound")
-    return arrangements, orientation, key, side
-
-
 def _one_element_per_nodes(arr, ids, faces, triples):
-    """Copies of one triangle with the same three nodes (``triples``, per face) are one piece of material: one
-    element. Returns its elements ``[(provisional id, Region, touched, whole, area)]`` and ``{face: provisional id}``.
-    """
+    """Copies of one triangle with the same three nodes (``triples``) as one element (step 7): its elements
+    ``[(provisional id, Region, touched, whole, area)]`` and ``{face: provisional id}``."""
     by_triple = {}
     for i, nodes in enumerate(triples):
         by_triple.setdefault(nodes, []).append(i)
@@ -605,19 +525,13 @@ def _one_element_per_nodes(arr, ids, faces, triples):
 def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_weight=MIN_WEIGHT) -> ElementCut:
     """Cut ``mesh`` (not modified) along a drawn polyline through its elements (the virtual node algorithm).
 
-    ``mesh`` may have been cut before (by this function, with its ``weights`` and ``regions``, or by
-    :func:`~tissuefem.surgery.topology.incise`). ``polyline`` (k, 2), k >= 2, is the stroke in the coordinates of
-    ``positions`` (2, n_nodes), where the nodes are now (default ``mesh.p``): it is carried back to the reference
-    triangle by triangle (P1 map); triangles collapsed to a segment there are not cut. It may end inside the body (a
-    crack), on its boundary or outside it. ``weights`` (n_elements,) is the material share of every element (default
-    1); elements with a weight below 1 need their ``regions`` (``ElementCut.regions`` of the previous cut:
-    :meth:`ElementCut.cut` passes both); with ``regions`` alone the weights follow. No piece may carry less than
-    ``min_weight`` in [0, 0.5) of its triangle: such a sliver is merged into its neighbour and the cut snapped onto
-    the triangle's edges there.
-
-    Returns an :class:`ElementCut`; named boundaries are carried to the facets whose material touched them,
-    subdomains to every copy. ``ValueError`` for bad arguments, or a stroke that changes nothing (it meets no
-    material, or only runs along the body's boundary or an existing wound).
+    ``polyline`` (k, 2), k >= 2, is drawn where the nodes are now, ``positions`` (2, n_nodes) (default ``mesh.p``);
+    triangles collapsed to a segment there are not cut. It may end inside the body (a crack), on its boundary or
+    outside it. A mesh cut before passes its ``weights`` (n_elements,) (default 1) and ``regions`` (or ``regions``
+    alone: the weights follow); :meth:`ElementCut.cut` passes both. No piece may carry less than ``min_weight`` in
+    [0, 0.5) of its triangle (step 6). Named boundaries go to the facets whose material touched them, subdomains to
+    every copy. ``ValueError`` for bad arguments, or a stroke that changes nothing (it meets no material, or only runs
+    along the body's boundary or an existing wound).
     """
     p, t = mesh_arrays(mesh)
     n, m = p.shape[1], t.shape[1]
@@ -625,7 +539,24 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
     pts = check_points("polyline", polyline, 2)
     min_weight = check_real("min_weight", min_weight, 0.0, 0.5, hi_open=True)
     regions, w = check_regions(regions, weights, m)
-    arrangements, orientation, key, side = _arrangements(p, x, t, pts, regions, min_weight)
+    # the stroke in each triangle (stroke parameters back on the drawn polyline) and what it does to the material
+    snapped, drawn = _through_nearby_nodes(x, t, pts)
+    pieces, orientation = _stroke_pieces(x, t, snapped)
+    vertex = np.arange(drawn.size)
+    key, side = element_edges(p, t)
+    flat_key, flat_side = key.ravel(), side.ravel()
+    # an element edge has an element across when some element has the same node pair on the other side
+    has_across = np.isin(flat_key * 2 + (flat_side > 0), flat_key * 2 + (flat_side < 0)).reshape(3, m)
+    arrangements = {}
+    for e in sorted(pieces):
+        cuts = [(float(np.interp(s0, vertex, drawn)), float(np.interp(s1, vertex, drawn)), a, b)
+                for s0, s1, a, b in pieces[e]]
+        arr = _Arrangement(regions.get(e, WHOLE), cuts, has_across[:, e], min_weight)
+        if arr.changed:
+            arrangements[e] = arr
+    if not arrangements:
+        raise ValueError("polyline changes nothing: it meets no material, or runs only along the body's boundary "
+                         "or along an existing wound")
     affected = np.array(sorted(arrangements), dtype=np.int64)
 
     # provisional pieces: face 0 of a cut element keeps its index, the others are numbered from m
@@ -649,8 +580,7 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
                                                                 [triple(pid, e) for pid in piece_ids[e]])
 
     # the new elements: old indices for the first piece, the others appended
-    final_id = {}
-    elements = list(range(m))
+    final_id, elements = {}, list(range(m))
     for e in affected.tolist():
         for i, (pid, *_) in enumerate(sorted(final_faces[e], key=lambda r: r[0])):
             final_id[pid] = e if i == 0 else len(elements)
@@ -684,18 +614,11 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
 
 
 def _number_nodes(t, n, key, side, affected, piece_ids, touched):
-    """The node of every corner at the nodes of the cut elements.
-
-    Two elements on the two sides of a mesh edge are joined where the parts of the edge their materials touch overlap;
-    a join makes their corners at the edge's ends one node. Every class of corners at an old node becomes a node: the
-    class holding the lowest element keeps the old index, the others are appended.
-
-    Returns ``(node_of, new_parent, fan)``: the node of each corner ``(provisional id, local vertex)`` at those nodes,
-    the old node of each appended node, and the elements with a corner there.
-    """
+    """The node of every corner at the nodes of the cut elements (step 4): ``(node_of {(provisional id, local vertex):
+    node}, new_parent (the old node of each appended node), fan (the elements with a corner there))``. Of the classes
+    of joined corners at an old node, the one holding the lowest element keeps its index."""
     hub = np.unique(t[:, affected])
-    at_hub = np.zeros(n, dtype=bool)
-    at_hub[hub] = True
+    at_hub = np.isin(np.arange(n), hub)
     fan = np.flatnonzero(at_hub[t].any(axis=0))
     sel_k, sel_e = np.nonzero(at_hub[t[:, fan]] | at_hub[np.roll(t, -1, axis=0)[:, fan]])
     sel_e = fan[sel_e]
@@ -713,7 +636,7 @@ def _number_nodes(t, n, key, side, affected, piece_ids, touched):
             uf[c], c = root, uf[c]
         return root
 
-    def along(pid, e, k, forward):  # touched intervals, run from the edge's lower node to its higher
+    def along(pid, k, forward):  # touched intervals, run from the edge's lower node to its higher
         iv = touched.get(pid, FULL_TOUCH)[k]
         return iv if forward else reversed_intervals(iv)
 
@@ -726,9 +649,9 @@ def _number_nodes(t, n, key, side, affected, piece_ids, touched):
                 f_fwd = t[l, f] == a_node
                 f_a, f_b = (l, (l + 1) % 3) if f_fwd else ((l + 1) % 3, l)
                 for pe in piece_ids.get(e, (e,)):
-                    te = along(pe, e, k, e_fwd)
+                    te = along(pe, k, e_fwd)
                     for pf in piece_ids.get(f, (f,)):
-                        if not overlaps(te, along(pf, f, l, f_fwd)):
+                        if not overlaps(te, along(pf, l, f_fwd)):
                             continue
                         for node, ce, cf in ((a_node, (pe, e_a), (pf, f_a)), (b_node, (pe, e_b), (pf, f_b))):
                             if at_hub[node]:
@@ -755,28 +678,21 @@ def _number_nodes(t, n, key, side, affected, piece_ids, touched):
 
 def _wound(p, t, arrangements, element_of_face, orientation, new_t):
     """The wound's records (one per side of each piece) and the mesh edges the stroke ran along."""
-    rec_el, rec_old, rec_side, rec_bary, rec_stroke, rec_open = [], [], [], [], [], []
-    along = []
+    records, along = [], []  # (new element, old element, side, barycentric ends, stroke, opened)
     for e, arr in arrangements.items():
-        for f, s, t0, t1, a, b, opened in arr.wound_faces():
-            if f < 0:
-                continue
-            rec_el.append(element_of_face[e][f])
-            rec_old.append(e)
-            rec_side.append(s * int(orientation[e]))  # the local map may mirror the drawing
-            rec_bary.append([[1.0 - a[0] - a[1], a[0], a[1]], [1.0 - b[0] - b[1], b[0], b[1]]])
-            rec_stroke.append((t0, t1))
-            rec_open.append(opened)
-        for rec in arr.wound:
-            if rec[0] == "edge":
-                k = rec[5]
-                along.append((rec[3], *sorted((int(t[k, e]), int(t[(k + 1) % 3, e])))))
-    rec_el = np.asarray(rec_el, dtype=np.int64)
-    bary = np.asarray(rec_bary, dtype=float).reshape(-1, 2, 3)
-    wound = Wound(element=rec_el, side=np.asarray(rec_side, dtype=np.int64), barycentric=bary,
-                  nodes=new_t[:, rec_el].T.copy(),
-                  reference=np.einsum("kea,iak->kei", bary, p[:, t[:, np.asarray(rec_old, dtype=np.int64)]]),
-                  stroke=np.asarray(rec_stroke, dtype=float).reshape(-1, 2), opened=np.asarray(rec_open, dtype=bool))
+        records += [(element_of_face[e][f], e, s * int(orientation[e]),  # the local map may mirror the drawing
+                     [[1.0 - a[0] - a[1], a[0], a[1]], [1.0 - b[0] - b[1], b[0], b[1]]], (t0, t1), opened)
+                    for f, s, t0, t1, a, b, opened in arr.wound_faces() if f >= 0]
+        along += [(rec[3], *sorted((int(t[rec[5], e]), int(t[(rec[5] + 1) % 3, e])))) for rec in arr.wound
+                  if rec[0] == "edge"]
+
+    def column(i, dtype):
+        return np.asarray([r[i] for r in records], dtype=dtype)
+
+    element, bary = column(0, np.int64), column(3, float).reshape(-1, 2, 3)
+    wound = Wound(element=element, side=column(2, np.int64), barycentric=bary, nodes=new_t[:, element].T.copy(),
+                  reference=np.einsum("kea,iak->kei", bary, p[:, t[:, column(1, np.int64)]]),
+                  stroke=column(4, float).reshape(-1, 2), opened=column(5, bool))
     first = {}
     for order, a, b in sorted(along):
         first.setdefault((a, b), order)
@@ -786,78 +702,52 @@ def _wound(p, t, arrangements, element_of_face, orientation, new_t):
 
 # --- removing what a closed cut encloses ---
 def excise_through(mesh, polygon, positions=None, weights=None, regions=None, min_weight=MIN_WEIGHT) -> ElementCut:
-    """Cut along a closed ``polygon`` through the elements and remove the material inside it.
-
-    The rim of the defect follows the drawn outline, not the triangles whose centroids fall inside
-    (:func:`~tissuefem.surgery.topology.excise`). The outline is cut with :func:`cut_through` (closed), then every
-    element whose material lies inside it is removed, with the nodes no other element uses.
-
-    Returns an :class:`ElementCut` whose ``parent`` and ``elements`` map to ``mesh`` as it was, with the surviving
-    elements' ``weights`` and ``regions``; its ``wound`` holds the records of the rim that stays.
-    """
+    """Cut along a closed ``polygon`` through the elements (:func:`cut_through`) and remove the material inside it, so
+    that the rim follows the drawn outline (not the centroids, as :func:`~tissuefem.surgery.topology.excise` does).
+    Returns an :class:`ElementCut` that maps to ``mesh`` as it was; its ``wound`` holds the rim's records."""
     pts = check_points("polygon", polygon, 3)
     closed = np.vstack([pts, pts[:1]]) if np.any(pts[0] != pts[-1]) else pts
     if closed.shape[0] < 4:
         raise ValueError("polygon must have at least 3 distinct points")
     first = cut_through(mesh, closed, positions, weights=weights, regions=regions, min_weight=min_weight)
     m = first.mesh.t.shape[1]
-    # where each element's material is now (the stroke was drawn there): a point inside its material, carried
-    # by the P1 map of its triangle
-    x = node_positions(first.mesh, None if positions is None else first.transfer(np.asarray(positions, float)))
-    t = first.mesh.t
+    # where each element's material is now (the stroke was drawn there): a point inside its material, carried by the
+    # P1 map of its triangle; for a cut element, the centroid of the largest triangle of its material's triangulation
+    # (inside even when the polygon is not convex)
     centre = np.full((m, 3), 1.0 / 3.0)
     for e, region in first.regions.items():
-        centre[e] = _interior_barycentric(region)
-    inside_point = np.einsum("ea,iae->ie", centre, x[:, t])
-    remove = polygon_contains(closed, inside_point.T)
+        tris = [(poly[i], poly[j], poly[k]) for poly in region.polygons for i, j, k in _triangulate(poly)]
+        a, b, c = max(tris, key=lambda abc: abs(cross(*(abc[1] - abc[0]), *(abc[2] - abc[0]))))
+        g = (a + b + c) / 3.0
+        centre[e] = [1.0 - g[0] - g[1], g[0], g[1]]
+    x = node_positions(first.mesh, None if positions is None else first.transfer(np.asarray(positions, float)))
+    remove = polygon_contains(closed, np.einsum("ea,iae->ie", centre, x[:, first.mesh.t]).T)
     if not remove.any():
         raise ValueError("polygon encloses no material")
     if remove.all():
         raise ValueError("polygon encloses all the material: nothing would be left")
     second = excise(first.mesh, lambda _centroids: remove)
     keep = second.elements
+    new_of = np.full(m, -1, dtype=np.int64)  # the wound records of the surviving elements, renumbered
+    new_of[keep] = np.arange(keep.size)
+    w = first.wound
+    stay = new_of[w.element] >= 0
+    element = new_of[w.element[stay]]
+    wound = Wound(element=element, side=w.side[stay], barycentric=w.barycentric[stay],
+                  nodes=np.asarray(second.mesh.t)[:, element].T.copy(), reference=w.reference[stay],
+                  stroke=w.stroke[stay], opened=w.opened[stay])
     regions = {new: first.regions[old] for new, old in enumerate(keep.tolist()) if old in first.regions}
     return ElementCut(mesh=second.mesh, parent=first.parent[second.parent], elements=first.elements[keep],
                       cut_edges=first.cut_edges, n_old_nodes=first.n_old_nodes, n_old_elements=first.n_old_elements,
-                      weights=first.weights[keep], regions=regions,
-                      wound=_renumber_wound(first.wound, keep, second.mesh.t))
-
-
-def _interior_barycentric(region) -> np.ndarray:
-    """Barycentric coordinates of a point inside the material of ``region`` (its largest piece's centroid of a triangle
-    of its triangulation, which lies inside even when the polygon is not convex)."""
-    best, best_area = None, -1.0
-    for poly in region.polygons:
-        for tri in _triangulate(poly):
-            a, b, c = poly[tri[0]], poly[tri[1]], poly[tri[2]]
-            area = abs(cross(b[0] - a[0], b[1] - a[1], c[0] - a[0], c[1] - a[1]))
-            if area > best_area:
-                best, best_area = (a + b + c) / 3.0, area
-    return np.array([1.0 - best[0] - best[1], best[0], best[1]])
-
-
-def _renumber_wound(wound, keep, t) -> Wound:
-    """The wound records of the elements that survive an excision, in the new numbering."""
-    new_of = np.full(max(int(wound.element.max(initial=-1)), int(keep.max(initial=-1))) + 1, -1, dtype=np.int64)
-    new_of[keep] = np.arange(keep.size)
-    stay = new_of[wound.element] >= 0 if wound.element.size else np.zeros(0, dtype=bool)
-    element = new_of[wound.element[stay]]
-    return Wound(element=element, side=wound.side[stay], barycentric=wound.barycentric[stay],
-                 nodes=np.asarray(t)[:, element].T.copy(), reference=wound.reference[stay],
-                 stroke=wound.stroke[stay], opened=wound.opened[stay])
+                      weights=first.weights[keep], regions=regions, wound=wound)
 
 
 # --- what to draw ---
 @dataclass(frozen=True, eq=False)
 class Picture:
-    """What to draw of a mesh whose elements may fill only part of their triangle.
-
-    Drawing both copies of a cut triangle whole would paint material across the cut: every element that is not whole is
-    drawn as its material polygons, split into triangles. A drawn point is the barycentric combination of its element's
-    three nodes, so the picture follows the deformation as P1 does.
-
-    Drawn point ``j`` sits at ``sum_a coefficients[a, j] * x[:, nodes[a, j]]`` (``nodes``, ``coefficients``: (3, k)).
-    """
+    """What to draw of a mesh whose elements may fill only part of their triangle: its material polygons, split into
+    triangles (drawing both copies of a cut triangle whole would paint material across the cut). Drawn point ``j`` sits
+    at ``sum_a coefficients[a, j] * x[:, nodes[a, j]]`` (``nodes``, ``coefficients``: (3, k)): it follows P1."""
 
     nodes: np.ndarray
     coefficients: np.ndarray
@@ -921,8 +811,10 @@ def _triangulate(poly) -> list:
             (ax, ay), (bx, by), (cx, cy) = pts[ia], pts[ib], pts[ic]
             if cross(bx - ax, by - ay, cx - ax, cy - ay) <= 0.0:
                 continue  # a reflex or flat corner is no ear
-            if any(_in_triangle(pts[q], pts[ia], pts[ib], pts[ic]) for q in idx if q not in (ia, ib, ic)):
-                continue
+            if any(cross(bx - ax, by - ay, qx - ax, qy - ay) >= 0.0 and cross(cx - bx, cy - by, qx - bx, qy - by) >= 0.0
+                   and cross(ax - cx, ay - cy, qx - cx, qy - cy) >= 0.0
+                   for qx, qy in (pts[q] for q in idx if q not in (ia, ib, ic))):
+                continue  # another corner inside (or on) the candidate ear
             tris.append((ia, ib, ic))
             idx.pop(j)
             break
@@ -933,19 +825,7 @@ def _triangulate(poly) -> list:
     return tris
 
 
-def _in_triangle(q, a, b, c) -> bool:
-    d1 = cross(b[0] - a[0], b[1] - a[1], q[0] - a[0], q[1] - a[1])
-    d2 = cross(c[0] - b[0], c[1] - b[1], q[0] - b[0], q[1] - b[1])
-    d3 = cross(a[0] - c[0], a[1] - c[1], q[0] - c[0], q[1] - c[1])
-    return d1 >= 0.0 and d2 >= 0.0 and d3 >= 0.0
-
-
 # --- points of the material: where a stitch or a probe attaches ---
-def region_holds(region, xi) -> bool:
-    """Whether the local point ``xi = (xi, eta)`` lies in the material of ``region`` (or on its outline)."""
-    return _region_distance(region, np.asarray(xi, dtype=float)) == 0.0
-
-
 def _region_distance(region, xi) -> float:
     """How far the local point ``xi`` lies outside the material of ``region`` (0 inside or on its boundary)."""
     best = math.inf
@@ -960,13 +840,9 @@ def _region_distance(region, xi) -> float:
 
 
 def locate(mesh, point, positions=None, regions=None, candidates=None, reach=1e-3):
-    """The element whose material holds ``point`` (deformed coordinates) and the point's barycentric coordinates.
-
-    Returns ``(element, barycentric (3,))``, or ``None`` when no material is within ``reach`` of the point (in a
-    triangle's local coordinates: a fraction of its size). Of the copies of a cut triangle, the one whose material
-    holds the point (or lies nearest to it) is chosen; a point just off the material (in an open wound) gets
-    coordinates that extend the element's P1 map to it. ``candidates`` restricts the search.
-    """
+    """``(element, barycentric (3,))`` of the material holding ``point`` (deformed coordinates) or nearest to it, or
+    ``None`` if none is within ``reach`` (in local coordinates: a fraction of a triangle's size); a point just off the
+    material (in an open wound) extends the element's P1 map. ``candidates`` restricts the search."""
     p, t = mesh_arrays(mesh)
     x = node_positions(mesh, positions)
     q = np.asarray(point, dtype=float)
@@ -994,32 +870,24 @@ def locate(mesh, point, positions=None, regions=None, candidates=None, reach=1e-
     return None if best is None or best_d > reach else best
 
 
-#: A point attached to the material (a stitch's end) in a copy lighter than this share of its triangle is
-#: carried by a firmer neighbour instead (see :func:`firm_anchor`)
+#: A point of the material in a copy lighter than this share of its triangle is carried by a firmer neighbour
 FIRM_WEIGHT = 0.25
 
 
 def firm_anchor(mesh, element, barycentric, positions=None, weights=None, regions=None, firm=FIRM_WEIGHT):
-    """Attach a point of the material to an element that carries at least ``firm`` of its triangle.
-
-    A copy holding a thin sliver of its triangle has as little stiffness as material: a stitch pulling at a point of it
-    would stretch the sliver, whose far ("virtual") nodes hold almost nothing, instead of the tissue. The point is then
-    carried by the firm neighbour (an element sharing a node with it, hence joined to its material) whose material lies
-    nearest to it: its position is that element's P1 map extended to it (barycentric coordinates that may be slightly
-    negative), so the sliver moves with the tissue next to it. Returns ``(element, barycentric)``.
-    """
+    """``(element, barycentric)`` of a point of the material, moved to an element carrying at least ``firm`` of its
+    triangle. A stitch pulling at a thin sliver would stretch it (its virtual nodes hold almost nothing) instead of the
+    tissue: the point goes to the firm neighbour (sharing a node) whose material lies nearest, by that element's P1
+    map extended to it (barycentric coordinates may be slightly negative)."""
     p, t = mesh_arrays(mesh)
     w = element_weights(weights, t.shape[1])
+    best, best_d = (element, np.asarray(barycentric, dtype=float)), math.inf
     if w[element] >= firm:
-        return element, np.asarray(barycentric, dtype=float)
+        return best
     x = node_positions(mesh, positions)
-    point = x[:, t[:, element]] @ np.asarray(barycentric, dtype=float)
-    near = np.flatnonzero(np.isin(t, t[:, element]).any(axis=0) & (w >= firm))
-    if near.size == 0:
-        return element, np.asarray(barycentric, dtype=float)
+    point = x[:, t[:, element]] @ best[1]
     regions = {} if regions is None else regions
-    best, best_d = None, math.inf
-    for e in near.tolist():
+    for e in np.flatnonzero(np.isin(t, t[:, element]).any(axis=0) & (w >= firm)).tolist():  # the firm neighbours
         a, b, c = x[:, t[0, e]], x[:, t[1, e]], x[:, t[2, e]]
         J = np.column_stack([b - a, c - a])
         if abs(np.linalg.det(J)) <= 0:
@@ -1028,16 +896,13 @@ def firm_anchor(mesh, element, barycentric, positions=None, weights=None, region
         d = _region_distance(regions[e], xi) if e in regions else max(0.0, -xi[0], -xi[1], xi.sum() - 1.0)
         if d < best_d:
             best, best_d = (e, np.array([1.0 - xi.sum(), xi[0], xi[1]])), d
-    return best if best is not None else (element, np.asarray(barycentric, dtype=float))
+    return best
 
 
 def carry_points(edit, elements, barycentric, regions=None):
-    """Points of the material (``elements (k,)`` with ``barycentric (k, 3)``) after ``edit``: the new element of each,
-    or -1 where its element was removed.
-
-    A cut keeps each element's local coordinates, so a point keeps its barycentric coordinates; of the copies of its
-    element, it goes to the one whose material (``regions`` of the new mesh) holds it.
-    """
+    """The new element of each point of the material (``elements (k,)``, ``barycentric (k, 3)``) after ``edit``, -1
+    where it was removed: of the copies of its element, the one whose material (``regions`` of the new mesh) holds it
+    (a cut keeps local coordinates)."""
     elements = np.asarray(elements, dtype=np.int64)
     bary = np.asarray(barycentric, dtype=float)
     copies = {}
@@ -1047,9 +912,7 @@ def carry_points(edit, elements, barycentric, regions=None):
     out = np.full(elements.shape, -1, dtype=np.int64)
     for j, (e, w) in enumerate(zip(elements.tolist(), bary)):
         options = copies.get(e, [])
-        if len(options) == 1:
-            out[j] = options[0]
-        elif options:
+        if options:
             dist = [(_region_distance(regions[c], w[1:]) if c in regions else 0.0) for c in options]
             out[j] = options[int(np.argmin(dist))]
     return out

@@ -1,18 +1,10 @@
-"""The geometry of cuts, shared by :mod:`.topology`, :mod:`.element_cuts` and :mod:`.surfaces`.
+"""The geometry of cuts, shared by :mod:`.topology`, :mod:`.element_cuts` and :mod:`.surfaces`: checked mesh arrays
+and inputs, edges keyed by node pair, a triangle's local coordinates, and the material of an element cut through.
 
-* **Meshes and inputs**: :func:`mesh_arrays`, :func:`node_positions`, :func:`check_points`, :func:`new_mesh`,
-  :func:`carry_names` (named boundaries and subdomains across an edit), :func:`polygon_contains`.
-* **Edges** keyed by node pair (:func:`pair_keys`), and every element's edges with the side it lies on
-  (:func:`element_edges`).
-* **A triangle's local coordinates** ``(xi, eta) = (lambda_1, lambda_2)``: vertex 0 at ``(0, 0)``, 1 at ``(1, 0)``,
-  2 at ``(0, 1)``; local edge ``k`` runs from vertex ``k`` to vertex ``k + 1`` (0: ``eta = 0``, 1: ``xi + eta = 1``,
-  2: ``xi = 0``). Points (:func:`snap`, :func:`edges_of`, :func:`edge_param`, :func:`edge_point`), segments
-  (:func:`crossings`), polygons (:func:`winding`, :func:`polygon_area`), and sorted lists of intervals
-  ``[(lo, hi), ...]`` of the edge parameter (:func:`merge_intervals`, :func:`subtract_intervals`, ...). Points closer
-  than :data:`EPS` are one point. These work on plain floats: on the tiny graphs of one triangle, numpy's per-call
-  cost would dominate.
-* **The material of an element** cut through: :class:`Region`, its sides and the parts of its edges it touches, and
-  :func:`check_regions`.
+Local coordinates are ``(xi, eta) = (lambda_1, lambda_2)``: vertex 0 at ``(0, 0)``, 1 at ``(1, 0)``, 2 at ``(0, 1)``;
+local edge ``k`` runs from vertex ``k`` to ``k + 1``. Points closer than :data:`EPS` are one point. Intervals are sorted
+lists ``[(lo, hi), ...]`` of an edge's parameter. The local helpers work on plain floats: on the tiny graphs of one
+triangle, numpy's per-call cost would dominate.
 """
 
 from __future__ import annotations
@@ -26,17 +18,14 @@ from skfem import MeshTri
 
 from ..engine.assembly import check_weights
 
-__all__ = ["EPS", "CORNERS", "FULL_TOUCH", "WHOLE", "Region", "mesh_arrays", "node_positions", "check_points",
+__all__ = ["EPS", "FULL_TOUCH", "WHOLE", "Region", "mesh_arrays", "node_positions", "check_points",
            "pair_keys", "element_edges", "new_mesh", "carry_names", "polygon_contains", "cross", "snap", "edges_of",
            "edge_param", "edge_point", "winding", "polygon_area", "crossings", "merge_intervals", "subtract_intervals",
            "intersect_intervals", "overlaps", "reversed_intervals", "edge_intervals", "region_sides", "region_touch",
            "element_weights", "check_regions"]
 
-#: Tolerance in a triangle's local coordinates: points closer than this are one point, and a point this close
-#: to an edge is on it.
+#: Tolerance in local coordinates: points closer than this are one point, a point this close to an edge is on it.
 EPS = 1e-9
-#: The vertices of the local triangle.
-CORNERS = ((0.0, 0.0), (1.0, 0.0), (0.0, 1.0))
 #: The touched intervals of a whole element: all of its three edges.
 FULL_TOUCH = [[(0.0, 1.0)], [(0.0, 1.0)], [(0.0, 1.0)]]
 
@@ -96,12 +85,8 @@ def pair_keys(pairs, n: int) -> np.ndarray:
 
 
 def element_edges(p, t):
-    """Every element edge: its key (:func:`pair_keys`) and the side of the edge its element lies on.
-
-    Returns ``(key, side)``, both shaped (3, m): edge ``k`` of element ``e`` joins ``t[k, e]`` and ``t[(k+1) % 3, e]``;
-    ``side`` is +1 if the element's third vertex is to the left of the edge run from its lower to its higher node, -1
-    otherwise (in the reference configuration).
-    """
+    """``(key, side)`` (3, m) of edge ``k`` of element ``e`` (from ``t[k, e]`` to ``t[(k+1) % 3, e]``): its
+    :func:`pair_keys` and +1 if the element lies left of the edge run from its lower to its higher node, else -1."""
     n = p.shape[1]
     b, c = np.roll(t, -1, axis=0), np.roll(t, -2, axis=0)
     lo, hi = np.minimum(t, b), np.maximum(t, b)
@@ -110,19 +95,17 @@ def element_edges(p, t):
 
 
 def new_mesh(p, t) -> MeshTri:
-    """A MeshTri that keeps the vertex order of every triangle (``sort_t=False``), from C-ordered copies (fancy
-    indexing leaves Fortran order, which scikit-fem would copy with a warning on large meshes)."""
+    """A MeshTri that keeps every triangle's vertex order, from C-ordered copies (scikit-fem would copy the Fortran
+    order fancy indexing leaves, with a warning on large meshes)."""
     return MeshTri(np.ascontiguousarray(p), np.ascontiguousarray(t), sort_t=False)
 
 
 def carry_names(old, new, parent, elements, touches=None, name=None, opened=None) -> MeshTri:
     """``new`` with the named boundaries and subdomains of ``old`` carried across an edit.
 
-    A facet of ``new`` keeps a boundary name of ``old`` if the parents of its two nodes formed a facet of that name
-    and, with ``touches`` (bool (3, n_new_elements), per local edge), if it is an edge some element's material touches.
-    Names are never dropped (one may end up with no facet). The facets ``opened`` (bool per facet of ``new``) are added
-    to the set ``name``: a second cut adds to ``"cut"``. Subdomains go to every new element whose old element
-    (``elements``) was in them.
+    A facet keeps a name if its nodes' parents formed a facet of that name (and, with ``touches`` (bool (3,
+    n_new_elements)), if some element's material touches it); names are never dropped. The facets ``opened`` (bool
+    per facet) join the set ``name`` (a second cut adds to ``"cut"``). Subdomains go to every copy (``elements``).
     """
     n_old = old.p.shape[1]
     names = {}
@@ -135,8 +118,7 @@ def carry_names(old, new, parent, elements, touches=None, name=None, opened=None
             old_keys = pair_keys(old_facets[:, np.asarray(facets, dtype=np.int64)], n_old)
             names[label] = hit[np.isin(parent_keys[hit], old_keys)].astype(np.int32)
     if name is not None:
-        extra = np.flatnonzero(opened).astype(np.int32)
-        names[name] = np.union1d(names.get(name, np.zeros(0, dtype=np.int32)), extra).astype(np.int32)
+        names[name] = np.union1d(names.get(name, np.zeros(0, dtype=np.int32)), np.flatnonzero(opened)).astype(np.int32)
     out = new.with_boundaries(names) if names else new
     if old.subdomains:
         out = out.with_subdomains({label: np.flatnonzero(np.isin(elements, np.asarray(els))).astype(np.int32)
@@ -145,11 +127,8 @@ def carry_names(old, new, parent, elements, touches=None, name=None, opened=None
 
 
 def polygon_contains(polygon, points) -> np.ndarray:
-    """Which ``points`` (k, 2) lie inside the closed ``polygon`` (q, 2): bool (k,).
-
-    The crossing-number (even-odd) test, with the same arithmetic and ties as ``matplotlib.path.Path.contains_points``,
-    so that a point on the outline goes the same way.
-    """
+    """Which ``points`` (k, 2) lie inside the closed ``polygon`` (q, 2): bool (k,), by the even-odd test with the
+    arithmetic and ties of ``matplotlib.path.Path.contains_points`` (a point on the outline goes the same way)."""
     tx, ty = points[:, 0], points[:, 1]
     inside = np.zeros(tx.shape, dtype=bool)
     for (x0, y0), (x1, y1) in zip(polygon, np.roll(polygon, -1, axis=0)):
@@ -221,11 +200,8 @@ def polygon_area(poly) -> float:
 
 
 def crossings(p, q, a, b):
-    """Where segments ``p -> q`` and ``a -> b`` meet: a list of (s, u) parameters (0, 1 or 2 pairs).
-
-    Two pairs for collinear overlapping segments (the ends of the overlap). Ends within :data:`EPS` of the other
-    segment count as meeting it.
-    """
+    """Where segments ``p -> q`` and ``a -> b`` meet (ends within :data:`EPS` count): a list of (s, u) parameters, two
+    for collinear overlapping segments (the ends of the overlap)."""
     rx, ry = q[0] - p[0], q[1] - p[1]
     vx, vy = b[0] - a[0], b[1] - a[1]
     lr, lv = math.hypot(rx, ry), math.hypot(vx, vy)
@@ -268,20 +244,12 @@ def subtract_intervals(iv, cut):
     """Intervals ``iv`` less the intervals ``cut`` (both merged lists); pieces shorter than :data:`EPS` dropped."""
     out = []
     for a, b in iv:
-        pieces = [(a, b)]
-        for c, d in cut:
-            nxt = []
-            for x, y in pieces:
-                if d <= x or c >= y:
-                    nxt.append((x, y))
-                    continue
-                if c > x:
-                    nxt.append((x, c))
-                if d < y:
-                    nxt.append((d, y))
-            pieces = nxt
-        out.extend((x, y) for x, y in pieces if y - x > EPS)
-    return out
+        for c, d in cut:  # sorted and apart: what is left of [a, b] lies right of the cuts passed
+            if d > a and c < b:
+                out.append((a, c))
+                a = d
+        out.append((a, b))
+    return [(x, y) for x, y in out if y - x > EPS]
 
 
 def intersect_intervals(iv, jv):
@@ -313,11 +281,9 @@ def edge_intervals(segments):
 # --- the material of an element ---
 def _segments(name, value) -> np.ndarray:
     a = np.zeros((0, 2, 2)) if value is None else np.asarray(value, dtype=float)
-    if a.size == 0:
-        return np.zeros((0, 2, 2))
-    if a.ndim != 3 or a.shape[1:] != (2, 2) or not np.all(np.isfinite(a)):
+    if a.size and (a.ndim != 3 or a.shape[1:] != (2, 2) or not np.all(np.isfinite(a))):
         raise ValueError(f"{name} must be finite segments shaped (k, 2, 2), got shape {a.shape}")
-    return a
+    return a if a.size else np.zeros((0, 2, 2))
 
 
 @dataclass(frozen=True, eq=False)
@@ -334,8 +300,7 @@ class Region:
 
     def __post_init__(self):
         polys = self.polygons
-        if isinstance(polys, np.ndarray) and polys.ndim == 2:
-            polys = (polys,)
+        polys = (polys,) if isinstance(polys, np.ndarray) and polys.ndim == 2 else polys  # one polygon
         out, weight = [], 0.0
         for i, poly in enumerate(polys):
             poly = np.asarray(poly, dtype=float)
@@ -373,7 +338,7 @@ class Region:
 
 
 #: The material of a whole element.
-WHOLE = Region((np.array(CORNERS),))
+WHOLE = Region((np.array([(0.0, 0.0), (1.0, 0.0), (0.0, 1.0)]),))
 
 
 def region_sides(region):
@@ -394,8 +359,7 @@ def element_weights(weights, m) -> np.ndarray:
 
 
 def check_regions(regions, weights, m):
-    """Checked ``(regions, weights)`` of a mesh with ``m`` elements: the weights follow from the regions, or must agree
-    with them."""
+    """Checked ``(regions, weights)`` of ``m`` elements: the weights follow from the regions, or must agree."""
     regions = {} if regions is None else regions
     if not isinstance(regions, dict):
         raise ValueError(f"regions must be a dict element -> Region, got {type(regions).__name__}")

@@ -1,23 +1,12 @@
 """The contact surface of a cut body: where its material ends, outer boundary and wound lips alike.
 
-:class:`~tissuefem.engine.contact.Contact` keeps a :class:`~tissuefem.engine.contact.ContactSurface` from passing
-through itself. For a plain mesh, and after the edge-snapping :func:`~tissuefem.surgery.topology.incise`, that surface
-is the mesh's boundary (:meth:`ContactSurface.from_mesh <tissuefem.engine.contact.ContactSurface.from_mesh>`).
-
-After :func:`~tissuefem.surgery.element_cuts.cut_through` it is not: the copies of a cut triangle share its full edges,
-but each copy's material fills only part of it (its :class:`~tissuefem.surgery.element_cuts.Region`); the copies' edges
-would put two "surfaces" on top of each other along every phantom part of an edge, in contact at distance zero.
-:func:`contact_surface` instead follows the material, whose polygon sides (material on the left) are the candidate
-pieces:
-
-* a side *inside* the triangle is a lip of a wound: always surface;
-* a side *on* one of the triangle's edges is surface except where material of an element across that edge is joined to
-  it (they share the edge's nodes and their materials touch the same part of it, outside what a cut along the edge
-  severed).
-
-Each end of a piece is the barycentric combination of the element's nodes; ends that are the same combination seen from
-two elements are one point, so the pieces join into closed loops round the material. The lips come from the regions, so
-every wound the body carries is there, not only the latest cut's.
+For a plain mesh, and after :func:`~tissuefem.surgery.topology.incise`, that is the mesh's boundary. After
+:func:`~tissuefem.surgery.element_cuts.cut_through` the copies of a cut triangle share its full edges, each filling only
+part of it, so :func:`contact_surface` follows the material instead: of its polygon sides (material on the left), a side
+*inside* the triangle is a wound's lip, always surface; a side *on* a triangle's edge is surface except where material
+of an element across that edge is joined to it (same nodes, same part of the edge touched, not severed by a cut along
+it). The ends of the pieces are barycentric combinations of an element's nodes; the same combination seen from two
+elements is one point, so the pieces join into closed loops.
 """
 
 from __future__ import annotations
@@ -36,14 +25,9 @@ _SAME = 1e-9
 
 
 def contact_surface(mesh, weights=None, regions=None) -> ContactSurface:
-    """The surface of the material of ``mesh`` (cut through elements or not), as a contact surface.
-
-    ``weights`` and ``regions`` are the material of the elements cut through (those of an
-    :class:`~tissuefem.surgery.element_cuts.ElementCut`); without them the surface is the mesh's boundary. The
-    points are single nodes or combinations of an element's nodes, the segments have the material on their left, and
-    the wound's lips are flagged (sides inside a triangle, severed parts of edges, and facets named ``"cut"`` by
-    :func:`~tissuefem.surgery.topology.incise`).
-    """
+    """The surface of the material of ``mesh`` with the ``weights`` and ``regions`` of a cut through elements (without
+    them: the mesh's boundary), material on the left of each segment; the wound's lips are flagged (sides inside a
+    triangle, severed parts of edges, facets named ``"cut"``)."""
     p, t = mesh_arrays(mesh)
     n, m = p.shape[1], t.shape[1]
     regions, _ = check_regions(regions, weights, m)
@@ -68,12 +52,11 @@ def contact_surface(mesh, weights=None, regions=None) -> ContactSurface:
     det = ((p[0, t[1]] - p[0, t[0]]) * (p[1, t[2]] - p[1, t[0]])
            - (p[0, t[2]] - p[0, t[0]]) * (p[1, t[1]] - p[1, t[0]]))
     pieces = []  # (element, local point a, local point b, wound?) with the material on the left in local coordinates
-    involved = set(regions)
     for e in range(m):
         for k in range(3):
             kk = int(key[k, e])
             across = [i for i in by_key[kk] if flat_side[i] != side[k, e]]
-            if e not in involved and all(i % m not in involved for i in across):
+            if e not in regions and all(i % m not in regions for i in across):
                 if across:
                     continue  # two whole elements share this edge: inside the material
                 touched, joined = [(0.0, 1.0)], []
@@ -89,7 +72,7 @@ def contact_surface(mesh, weights=None, regions=None) -> ContactSurface:
                 joined = intersect_intervals(joinable, merge_intervals(reach))
             wound = kk in cut_facets
             for lo, hi in subtract_intervals(touched, joined):
-                severed = bool(subtract_intervals([(lo, hi)], touch(e)[1][k])) if e in involved else False
+                severed = bool(subtract_intervals([(lo, hi)], touch(e)[1][k])) if e in regions else False
                 pieces.append((e, edge_point(k, lo), edge_point(k, hi), wound or severed))
     for e, r in regions.items():
         for a, b in region_sides(r):
@@ -101,40 +84,33 @@ def contact_surface(mesh, weights=None, regions=None) -> ContactSurface:
 
 def _assemble(pieces, t, det, n) -> ContactSurface:
     """Points (merged where two elements see the same combination of nodes) and oriented segments."""
-    rows = []  # per piece end: (nodes (3,), weights (3,))
-    for e, a, b, _ in pieces:
-        for xi, eta in (a, b):
-            lam = np.array([1.0 - xi - eta, xi, eta])
-            lam[np.abs(lam) < 1e-12] = 0.0
-            rows.append((t[:, e], lam / lam.sum()))
-    nodes = np.array([r[0] for r in rows], dtype=np.int64)
-    weights = np.array([r[1] for r in rows])
+    element = np.array([e for e, _, _, _ in pieces])
+    local = np.array([end for _, a, b, _ in pieces for end in (a, b)], dtype=float)  # per piece end
+    lam = np.stack([1.0 - local[:, 0] - local[:, 1], local[:, 0], local[:, 1]], axis=1)
+    lam[np.abs(lam) < 1e-12] = 0.0
+    nodes = np.repeat(t[:, element].T, 2, axis=0).astype(np.int64)
+    weights = lam / lam.sum(axis=1, keepdims=True)
     # canonical form: nodes with weight, sorted by node; unused slots point at the first node with weight 0
     weights = np.where(weights > 0, weights, 0.0)
     sort_key = np.where(weights > 0, nodes, n + np.arange(3))
     order = np.argsort(sort_key, axis=1)
-    nodes = np.take_along_axis(nodes, order, axis=1)
-    weights = np.take_along_axis(weights, order, axis=1)
+    nodes, weights = np.take_along_axis(nodes, order, axis=1), np.take_along_axis(weights, order, axis=1)
     nodes = np.where(weights > 0, nodes, nodes[:, :1])
     used = weights > 0
     # merge the same combination seen from several elements (the weights agree to round-off)
     count = used.sum(axis=1)
     tag = np.where(used, nodes, -1)
     order = np.lexsort((weights[:, 2], weights[:, 1], weights[:, 0], tag[:, 2], tag[:, 1], tag[:, 0], count))
-    point = np.empty(len(rows), dtype=np.intp)
-    current, previous = -1, None
-    for i in order.tolist():
-        if (previous is None or not np.array_equal(tag[i], tag[previous])
-                or np.max(np.abs(weights[i] - weights[previous])) > _SAME):
-            current += 1
-        point[i] = current
-        previous = i
-    first = np.full(current + 1, -1, dtype=np.intp)  # the first row of every point
-    first[point[::-1]] = np.arange(len(rows))[::-1]
+    new = np.ones(order.size, dtype=bool)
+    new[1:] = (tag[order[1:]] != tag[order[:-1]]).any(axis=1)
+    new[1:] |= np.abs(weights[order[1:]] - weights[order[:-1]]).max(axis=1) > _SAME
+    point = np.empty(order.size, dtype=np.intp)
+    point[order] = np.cumsum(new) - 1
+    first = np.full(int(new.sum()), -1, dtype=np.intp)  # the first row of every point
+    first[point[::-1]] = np.arange(order.size)[::-1]
     width = int(count.max(initial=1))
     ends = point.reshape(-1, 2).T  # (2, pieces)
-    flip = det[[e for e, _, _, _ in pieces]] < 0  # a clockwise triangle mirrors "left"
-    segments = np.where(flip, ends[::-1], ends)
+    segments = np.where(det[element] < 0, ends[::-1], ends)  # a clockwise triangle mirrors "left"
     keep = segments[0] != segments[1]
     wound = np.array([w for _, _, _, w in pieces], dtype=bool)
     return ContactSurface(nodes[first, :width], weights[first, :width], segments[:, keep], n, wound=wound[keep])

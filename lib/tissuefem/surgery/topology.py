@@ -1,22 +1,11 @@
-"""Mesh topology operations for virtual surgery: cutting along mesh edges and removing tissue.
+"""Mesh topology operations for virtual surgery: cutting along mesh edges (:func:`incise`, built from
+:func:`cut_path` and :func:`duplicate_along_edges`) and removing tissue (:func:`excise`).
 
-A cut along mesh edges *opens* a path of edges: no triangle is split; every node on the cut is duplicated as often as
-the cut separates its neighbourhood. Removing tissue (a defect) deletes whole triangles. Both are *pure*: they return a
-new mesh, as a :class:`MeshEdit` (the engine's :class:`~tissuefem.engine.meshes.MeshMap`) with ``parent`` (new node ->
-old node) and ``elements`` (new element -> old element), so that a simulation can carry its state across: a per-node
-field ``u`` becomes ``u[..., parent]`` (copies start where their original was, so a deformed state carries over without
-a jump).
-
-* :func:`duplicate_along_edges`: the core of a cut, on bare connectivity arrays;
-* :func:`cut_path`: the node path along mesh edges that follows a drawn polyline;
-* :func:`incise`: the two together on a :class:`skfem.MeshTri`, the wound's faces named ``"cut"``;
-* :func:`excise`: remove the triangles inside a region, its rim named ``"defect"``;
-* :func:`connected_components`, :func:`nodes_near`: the pieces of a mesh, the nodes near a point.
-
-The new meshes keep every element's vertex order, hence its orientation (``sort_t=False``: scikit-fem's default
-re-sorts each column of ``t``, and since a cut's copies get the highest indices, that would reorder exactly the
-triangles along the wound). Named boundaries are carried by parent pairs
-(:func:`~tissuefem.surgery.geometry.carry_names`).
+A cut along mesh edges duplicates every node on the cut as often as the cut separates its neighbourhood; a defect
+deletes whole triangles. Both return a new mesh as a :class:`MeshEdit` (``parent``: new node -> old node, ``elements``:
+new element -> old element), so that a per-node field ``u`` carries over as ``u[..., parent]``. The new meshes keep
+every element's vertex order (scikit-fem's re-sorting would reorder exactly the triangles along the wound, whose copies
+get the highest indices) and their named boundaries.
 """
 
 from __future__ import annotations
@@ -30,33 +19,26 @@ from scipy.sparse import csgraph
 
 from ..engine.meshes import MeshMap
 from ..engine.parameters import ParameterError, check_bounded_vector, check_count, check_real, check_real_array
-from .geometry import carry_names, check_points, mesh_arrays, new_mesh, node_positions, pair_keys, polygon_contains
+from .geometry import (carry_names, check_points, cross, mesh_arrays, new_mesh, node_positions, pair_keys,
+                       polygon_contains)
 
 __all__ = ["MeshEdit", "duplicate_along_edges", "cut_path", "incise", "excise", "connected_components", "nodes_near"]
 
-#: The cost of a mesh edge in :func:`cut_path` is ``length * (1 + _HUG * d / h)`` with ``d`` the mean distance of
-#: its two nodes from the drawn segment and ``h`` the median edge length. Large enough that a detour of one edge
-#: length away from the line costs more than several edges along it.
+#: An edge costs ``length * (1 + _HUG * d / h)`` in :func:`cut_path`: large enough that a detour of one edge length
+#: away from the line costs more than several edges along it.
 _HUG = 10.0
-
-#: An endpoint of the polyline this close to the boundary (in units of the nearest boundary facet's length) counts
-#: as "on the boundary".
+#: An end of the polyline this close to the boundary (in lengths of the nearest boundary facet) is on it.
 _NEAR_BOUNDARY = 0.5
 
 
-# --- the result ---
 @dataclass(frozen=True, eq=False, kw_only=True)
 class MeshEdit(MeshMap):
-    """A :class:`~tissuefem.engine.meshes.MeshMap` made by a cut along mesh edges or an excision.
+    """A :class:`~tissuefem.engine.meshes.MeshMap` made by a cut along mesh edges or an excision."""
 
-    ``cut_edges`` : ndarray of int, shape (2, k): old-node pairs of the edges opened, in the order the cut passed them
-    (empty for :func:`excise`).
-    """
-
+    #: (2, k) int: old-node pairs of the edges opened, in the order the cut passed them (empty for :func:`excise`)
     cut_edges: np.ndarray
 
 
-# --- validation helpers ---
 def _index_array(name: str, value, rows: int) -> np.ndarray:
     """``value`` as an int64 array shaped ``(rows, k)``; integral floats are accepted."""
     try:
@@ -67,12 +49,10 @@ def _index_array(name: str, value, rows: int) -> np.ndarray:
         raise ValueError(f"{name} must be an integer array shaped ({rows}, k), got shape {a.shape}")
     if a.size == 0:
         return np.zeros((rows, a.shape[1]), dtype=np.int64)
-    if a.dtype == bool or not (np.issubdtype(a.dtype, np.integer) or np.issubdtype(a.dtype, np.floating)):
+    if a.dtype.kind not in "iuf":
         raise ValueError(f"{name} must hold integer node indices, got dtype {a.dtype}")
-    if np.issubdtype(a.dtype, np.floating):
-        # node indices written as floats (e.g. from a text file) are fine when they are whole numbers
-        if not np.all(np.isfinite(a)) or np.any(a != np.round(a)):
-            raise ValueError(f"{name} must hold integer node indices, got non-integral values")
+    if a.dtype.kind == "f" and not (np.all(np.isfinite(a)) and np.all(a == np.round(a))):  # e.g. read from a text file
+        raise ValueError(f"{name} must hold integer node indices, got non-integral values")
     return a.astype(np.int64)
 
 
@@ -84,7 +64,6 @@ def _triangles(t, n_nodes):
     return t, n_nodes
 
 
-# --- node duplication ---
 def duplicate_along_edges(t, n_nodes, edges):
     """Duplicate nodes so that the given edges open: the core of a cut.
 
@@ -94,16 +73,12 @@ def duplicate_along_edges(t, n_nodes, edges):
     duplicated nodes change; ``parent`` (n_nodes + n_copies,) is ``i`` for the old nodes, and the copies are appended
     (``n_nodes, n_nodes + 1, ...``) pointing to the node they copy.
 
-    For every node ``v`` on a cut edge, its triangles are grouped into *fans*: two triangles around ``v`` are in the
-    same fan if they share an uncut edge ``(v, x)`` (closed under that). Each fan is one side of the wound: a node in
-    the middle of a cut from boundary to boundary has two cut edges that split its ring (or half-ring) in two: one
-    copy; the tip of an interior crack has one cut edge and its ring stays connected the other way round: no copy (a
-    crack is closed at its tips); where ``j`` cut edges meet, an interior node's ring breaks into ``j`` fans (``j - 1``
-    copies), a boundary node's into ``j + 1``. A cut edge on the boundary opens nothing, nor does a single interior
-    edge with both ends interior. The fan holding the lowest-numbered triangle keeps the node; the others get new nodes
-    in the order (node, lowest triangle of the fan), so the output depends only on the input. All fans are found at
-    once: the *corners* (triangle, vertex) of the cut nodes are linked whenever two triangles share an uncut edge at
-    that vertex, and the fans are the connected components of that graph.
+    The triangles round a node ``v`` on a cut edge fall into *fans*, linked where two share an uncut edge ``(v, x)``;
+    each fan is one side of the wound. Where ``j`` cut edges meet, an interior node's ring breaks into ``j`` fans, a
+    boundary node's into ``j + 1``: the middle of a cut through gets one copy, the tip of a crack none (a crack is
+    closed at its tips), and a single interior edge opens nothing. The fan holding the lowest triangle keeps the node;
+    the others get new nodes in the order (node, lowest triangle of the fan). All fans are found at once, as the
+    connected components of the graph of the cut nodes' *corners* (triangle, vertex) linked across uncut edges.
     """
     t, n_nodes = _triangles(t, n_nodes)
     m = t.shape[1]
@@ -128,13 +103,10 @@ def duplicate_along_edges(t, n_nodes, edges):
         raise ValueError(f"edges: ({edges[0, bad]}, {edges[1, bad]}) (column {bad}) is not an edge of the mesh "
                          f"(no triangle has both nodes)")
 
-    is_cut_node = np.zeros(n_nodes, dtype=bool)
-    is_cut_node[edges.ravel()] = True
+    is_cut_node = np.isin(np.arange(n_nodes), edges)
 
-    # Pair up the occurrences of each edge in different triangles (sorted by
-    # key, each occurrence with the next one of the same key; on a manifold
-    # mesh that is the two triangles of an interior edge). Uncut pairs glue
-    # the corners of their two shared nodes.
+    # each occurrence of an edge paired with the next of the same key (on a manifold mesh: the two triangles of an
+    # interior edge); uncut pairs glue the corners of their two shared nodes
     order = np.argsort(key, kind="stable")
     ks = key[order]
     same = np.flatnonzero(ks[1:] == ks[:-1])
@@ -165,11 +137,9 @@ def duplicate_along_edges(t, n_nodes, edges):
     np.minimum.at(fan_first, fan, corners % m)  # lowest triangle of each fan
     by_node = np.lexsort((fan_first, fan_node))
     sorted_node = fan_node[by_node]
-    keeps = np.ones(n_fans, dtype=bool)
-    keeps[1:] = sorted_node[1:] != sorted_node[:-1]  # the first fan of each node keeps it
-    extra = ~keeps
+    extra = np.r_[False, sorted_node[1:] == sorted_node[:-1]]  # the first fan of each node keeps it
     new_index = np.empty(n_fans, dtype=np.int64)
-    new_index[by_node] = np.where(keeps, sorted_node, n_nodes + np.cumsum(extra) - 1)
+    new_index[by_node] = np.where(extra, n_nodes + np.cumsum(extra) - 1, sorted_node)
 
     new_flat = flat.copy()
     new_flat[corners] = new_index[fan]
@@ -179,14 +149,10 @@ def duplicate_along_edges(t, n_nodes, edges):
 
 # --- pieces, picking nodes ---
 def connected_components(t, n_nodes):
-    """The pieces of a mesh ``t (3, m)`` with ``n_nodes`` nodes: nodes connected through its triangles.
-
-    Returns ``(n_pieces, labels)``: the number of pieces (a node used by no triangle is a piece of its own) and the
-    piece of every node, shape (n_nodes,), numbered in the order of each piece's lowest node.
-    """
+    """The pieces of a mesh ``t (3, m)`` with ``n_nodes`` nodes: ``(n_pieces, labels (n_nodes,))``, the pieces numbered
+    in the order of their lowest node (a node used by no triangle is a piece of its own)."""
     t, n_nodes = _triangles(t, n_nodes)
-    rows = np.concatenate([t[0], t[1]])
-    cols = np.concatenate([t[1], t[2]])
+    rows, cols = np.concatenate([t[0], t[1]]), np.concatenate([t[1], t[2]])  # two edges of each triangle suffice
     graph = sp.coo_matrix((np.ones(rows.size), (rows, cols)), shape=(n_nodes, n_nodes))
     n, labels = csgraph.connected_components(graph, directed=False)
     return int(n), labels.astype(np.int64)
@@ -218,40 +184,26 @@ def _segment_distance(px, py, ax, ay, bx, by):
     return np.hypot(px - ax - s * dx, py - ay - s * dy)
 
 
-def _inside(x, t, q) -> bool:
-    """Is point q inside (or on) some triangle of (x, t)?"""
-    a, b, c = x[:, t[0]], x[:, t[1]], x[:, t[2]]
-
-    def cross(u, v, w):  # (v - u) x (w - u)
-        return (v[0] - u[0]) * (w[1] - u[1]) - (v[1] - u[1]) * (w[0] - u[0])
-
-    qq = q[:, None]
-    area = cross(a, b, c)
-    s1, s2, s3 = cross(qq, b, c), cross(a, qq, c), cross(a, b, qq)
-    # q is inside when the three sub-areas have the sign of the whole (either orientation)
-    tol, sign = 1e-12 * np.abs(area), np.sign(area)
-    return bool(np.any((sign * s1 >= -tol) & (sign * s2 >= -tol) & (sign * s3 >= -tol) & (area != 0.0)))
-
-
 def _boundary_snap(x, t, bfacets, end, towards):
-    """The boundary node where a polyline that starts at ``end`` enters (or leaves) the body.
-
-    If ``end`` lies outside the body or within half a facet of its boundary (``bfacets`` (2, nb)), returns the nearer
-    end of the facet the segment ``end -> towards`` first crosses, or the boundary node nearest to ``end`` if it
-    crosses none. Otherwise returns ``None``.
-    """
+    """The boundary node where a polyline from ``end`` towards ``towards`` enters the body, if ``end`` lies outside or
+    within half a facet of the boundary ``bfacets`` (2, nb) (else ``None``): the nearer end of the first facet crossed,
+    or the boundary node nearest to ``end``."""
     A, B = x[:, bfacets[0]], x[:, bfacets[1]]
     dist = _segment_distance(end[0], end[1], A[0], A[1], B[0], B[1])
     nearest = int(np.argmin(dist))
     length = np.hypot(*(B[:, nearest] - A[:, nearest]))
-    outside = not _inside(x, t, end)
+    # inside (or on) a triangle where its three sub-areas at ``end`` have the sign of the whole (either orientation)
+    a, b, c, q = x[:, t[0]], x[:, t[1]], x[:, t[2]], end[:, None]
+    area = cross(b[0] - a[0], b[1] - a[1], c[0] - a[0], c[1] - a[1])
+    s1 = cross(b[0] - q[0], b[1] - q[1], c[0] - q[0], c[1] - q[1])
+    s2 = cross(q[0] - a[0], q[1] - a[1], c[0] - a[0], c[1] - a[1])
+    s3 = cross(b[0] - a[0], b[1] - a[1], q[0] - a[0], q[1] - a[1])
+    tol, sign = 1e-12 * np.abs(area), np.sign(area)
+    outside = not np.any((sign * s1 >= -tol) & (sign * s2 >= -tol) & (sign * s3 >= -tol) & (area != 0.0))
     if not outside and dist[nearest] >= _NEAR_BOUNDARY * length:
         return None
-    bnodes = np.unique(bfacets)
-    if outside:
-        # where does end -> towards cross the boundary first?
-        d = towards - end
-        e = B - A
+    if outside:  # where does end -> towards cross the boundary first?
+        d, e = towards - end, B - A
         denom = d[0] * e[1] - d[1] * e[0]
         w = A - end[:, None]
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -263,13 +215,29 @@ def _boundary_snap(x, t, bfacets, end, towards):
             q = end + s[f] * d
             na, nb = bfacets[0, f], bfacets[1, f]
             return int(na if np.hypot(*(x[:, na] - q)) <= np.hypot(*(x[:, nb] - q)) else nb)
-    dn = np.hypot(x[0, bnodes] - end[0], x[1, bnodes] - end[1])
-    return int(bnodes[np.argmin(dn)])
+    bnodes = np.unique(bfacets)
+    return int(bnodes[np.argmin(np.hypot(x[0, bnodes] - end[0], x[1, bnodes] - end[1]))])
 
 
-def _path_graph(p, x, t, facets):
-    """The graph a cut path runs on: ``(ends (2, k), length (k,), h)``, the mesh edges (``facets`` first) plus links
-    between copies of the same material point, their lengths at ``x``, and the median edge length ``h``."""
+def cut_path(mesh, polyline, positions=None) -> np.ndarray:
+    """The path of mesh nodes that follows a drawn ``polyline`` (k, 2), k >= 2.
+
+    The polyline is drawn where the nodes are now, ``positions`` (2, n_nodes) (default ``mesh.p``). Returns node
+    indices (int64); consecutive entries are the ends of a mesh edge, or two copies of one material point (crossing an
+    old wound). Each polyline vertex snaps to the nearest node; an *endpoint* outside the body (or within about half an
+    edge of its boundary) snaps to the boundary node where its segment crosses the boundary, so a stroke across the
+    body cuts it through. Between snapped nodes the path is a shortest path (Dijkstra) over the mesh edges, each
+    costing ``length * (1 + 10 d / h)`` (``d`` the mean distance of its nodes from the drawn segment, ``h`` the median
+    edge length): it hugs the line within about one element. ``ValueError`` for a bad polyline, one that collapses
+    to a single node, or one that joins two unconnected pieces.
+    """
+    pts = check_points("polyline", polyline, 2)
+    p, t = mesh_arrays(mesh)
+    x = node_positions(mesh, positions)
+    n = p.shape[1]
+    facets = np.asarray(mesh.facets, dtype=np.int64)
+    bfacets = facets[:, np.asarray(mesh.boundary_facets(), dtype=np.int64)]
+    # the graph the path runs on: the mesh edges (facets first) plus links between copies of one material point
     used = np.unique(t)
     ends = [facets]
     if used.size:
@@ -284,50 +252,17 @@ def _path_graph(p, x, t, facets):
     ends = np.concatenate(ends, axis=1)
     length = np.hypot(*(x[:, ends[0]] - x[:, ends[1]]))
     h = float(np.median(length[: facets.shape[1]])) if facets.shape[1] else 1.0
-    return ends, length, h if h > 0.0 else 1.0
-
-
-def _snap_vertices(x, t, bfacets, pts):
-    """The node every polyline vertex snaps to (the ends possibly to the boundary: :func:`_boundary_snap`), and whether
-    the first and the last did."""
-    used = np.unique(t)
-    snapped, on_boundary = [], [False, False]
+    h = h if h > 0.0 else 1.0
+    # every polyline vertex snaps to the nearest node, an end possibly to the boundary (and then the path ends there)
+    snapped, at_boundary = [], [False, False]  # did the first, the last end snap to the boundary?
     for k, q in enumerate(pts):
         node = None
-        if k == 0 or k == len(pts) - 1:
-            towards = pts[1] if k == 0 else pts[-2]
-            node = _boundary_snap(x, t, bfacets, q, towards) if bfacets.size else None
-            on_boundary[0 if k == 0 else 1] = node is not None
+        if bfacets.size and (k == 0 or k == len(pts) - 1):
+            node = _boundary_snap(x, t, bfacets, q, pts[1] if k == 0 else pts[-2])
+            at_boundary[0 if k == 0 else 1] = node is not None
         if node is None:
             node = int(used[np.argmin(np.hypot(x[0, used] - q[0], x[1, used] - q[1]))])
         snapped.append(node)
-    return snapped, on_boundary
-
-
-def cut_path(mesh, polyline, positions=None) -> np.ndarray:
-    """The path of mesh nodes that follows a drawn ``polyline`` (k, 2), k >= 2.
-
-    The polyline is in the coordinates of ``positions`` (2, n_nodes), where the nodes are now (default ``mesh.p``), so
-    that a cut drawn on the deformed tissue goes where it was drawn. Returns node indices (int64); consecutive entries
-    are the two ends of a mesh edge, or two copies of the same material point (left by an earlier cut): that is how a
-    new stroke crosses an old wound.
-
-    Each polyline vertex snaps to the nearest node. An *endpoint* outside the body (or within about half an edge of its
-    boundary) snaps instead to the boundary node where its first (or last) segment crosses the boundary, so a stroke
-    across the whole body cuts it through, and the path ends where it first meets the boundary. Between snapped nodes
-    the path is a shortest path (Dijkstra) over the mesh edges, each costing ``length * (1 + 10 d / h)`` with ``d`` the
-    mean distance of its nodes from the drawn segment and ``h`` the median edge length: the path hugs the line, within
-    about one element. ``ValueError`` for a polyline that is not finite, not shaped (k, 2), has fewer than two points,
-    collapses to a single node, or joins two unconnected pieces.
-    """
-    pts = check_points("polyline", polyline, 2)
-    p, t = mesh_arrays(mesh)
-    x = node_positions(mesh, positions)
-    n = p.shape[1]
-    facets = np.asarray(mesh.facets, dtype=np.int64)
-    bfacets = facets[:, np.asarray(mesh.boundary_facets(), dtype=np.int64)]
-    ends, length, h = _path_graph(p, x, t, facets)
-    snapped, (boundary_start, boundary_end) = _snap_vertices(x, t, bfacets, pts)
 
     path = [snapped[0]]
     for k in range(len(pts) - 1):
@@ -350,27 +285,17 @@ def cut_path(mesh, polyline, positions=None) -> np.ndarray:
             leg.append(int(pred[leg[-1]]))
         path.extend(leg[-2::-1])
 
-    # An end snapped to the boundary may reach it at a neighbouring boundary node and walk along the
-    # boundary to the snapped one. Such steps open nothing: the cut ends where it first meets the boundary.
-    if bfacets.size:
-        on_boundary = set(pair_keys(bfacets, n).tolist())
-        if boundary_start:
-            while len(path) > 2 and int(pair_keys(np.array([[path[0]], [path[1]]]), n)[0]) in on_boundary:
-                path.pop(0)
-        if boundary_end:
-            while len(path) > 2 and int(pair_keys(np.array([[path[-2]], [path[-1]]]), n)[0]) in on_boundary:
-                path.pop()
+    # an end snapped to the boundary may reach it at a neighbouring boundary node and walk along the boundary to the
+    # snapped one: such steps open nothing, the cut ends where it first meets the boundary
+    on_boundary = set(pair_keys(bfacets, n).tolist())
+    while at_boundary[0] and len(path) > 2 and min(path[:2]) * n + max(path[:2]) in on_boundary:
+        path.pop(0)
+    while at_boundary[1] and len(path) > 2 and min(path[-2:]) * n + max(path[-2:]) in on_boundary:
+        path.pop()
     if len(path) < 2:
         raise ValueError(f"polyline collapses to the single node {path[0]}: draw a longer stroke "
                          f"(the mesh edges are about {h:.3g} long)")
     return np.asarray(path, dtype=np.int64)
-
-
-def _build(old, plain, parent, elements, name, opened, cut_edges) -> MeshEdit:
-    """The MeshEdit of ``plain`` (the new mesh without names) with names and subdomains carried over."""
-    return MeshEdit(mesh=carry_names(old, plain, parent, elements, name=name, opened=opened), parent=parent,
-                    elements=elements, cut_edges=cut_edges, n_old_nodes=int(old.p.shape[1]),
-                    n_old_elements=int(old.t.shape[1]))
 
 
 def _opened(mesh, parent, interior_keys, n_old) -> np.ndarray:
@@ -379,27 +304,21 @@ def _opened(mesh, parent, interior_keys, n_old) -> np.ndarray:
     return (np.asarray(mesh.f2t)[1] < 0) & np.isin(new_keys, interior_keys)
 
 
-# --- incise ---
 def incise(mesh, polyline, positions=None) -> MeshEdit:
     """Cut ``mesh`` (not modified) along a drawn polyline.
 
-    The polyline becomes a path of mesh edges (:func:`cut_path`, which describes ``polyline`` and ``positions``),
-    opened by duplicating nodes (:func:`duplicate_along_edges`). A stroke whose ends lie outside the body cuts it
-    through; one that ends inside leaves a crack whose tip stays closed. The new mesh is in the reference configuration
-    (``p`` is ``mesh.p[:, parent]``; transfer the deformed state with :meth:`MeshEdit.transfer`).
-
-    Returns a :class:`MeshEdit` whose ``elements`` is ``arange(m)`` (the triangles keep their indices and vertex order)
-    and ``cut_edges`` the old edges that opened; the new mesh keeps every named boundary and names the two faces of the
-    wound ``"cut"``. Raises ``ValueError`` for a bad polyline, or one that opens no edge (it runs along the boundary,
-    or is a single edge inside the body, which cannot open).
+    The polyline becomes a path of mesh edges (:func:`cut_path`), opened by duplicating nodes
+    (:func:`duplicate_along_edges`); a stroke that ends inside the body leaves a crack whose tip stays closed. Returns
+    a :class:`MeshEdit` in the reference configuration (``p`` is ``mesh.p[:, parent]``) whose ``elements`` is
+    ``arange(m)``; the two faces of the wound are named ``"cut"``. ``ValueError`` for a bad polyline, or one that
+    opens no edge (it runs along the boundary, or is a single edge inside the body).
     """
     p, t = mesh_arrays(mesh)
     n = p.shape[1]
     path = cut_path(mesh, polyline, positions)
     pairs = np.stack([path[:-1], path[1:]])
     interior_keys = pair_keys(np.asarray(mesh.facets, dtype=np.int64), n)[np.asarray(mesh.f2t)[1] >= 0]
-    # steps between copies of one point (crossing an old wound) are not edges;
-    # edges on the boundary are already open
+    # steps between copies of one point (crossing an old wound) are not edges; edges on the boundary are already open
     pairs = pairs[:, np.isin(pair_keys(pairs, n), interior_keys)]
     new_t, parent = duplicate_along_edges(t, n, pairs)
     plain = new_mesh(p[:, parent], new_t)
@@ -413,61 +332,48 @@ def incise(mesh, polyline, positions=None) -> MeshEdit:
     if cut_edges.shape[1] == 0:
         raise ValueError(f"polyline opens no edge: its path {path.tolist()} runs along the boundary or is a single "
                          f"interior edge (a crack needs at least one node strictly inside it)")
-    return _build(mesh, plain, parent, np.arange(t.shape[1], dtype=np.int64), "cut", wound, cut_edges)
-
-
-# --- excise ---
-def _region_mask(region, centroids) -> np.ndarray:
-    m = centroids.shape[1]
-    if callable(region):
-        try:
-            mask = np.asarray(region(centroids.copy()))
-        except Exception as err:  # the user's function may raise anything: a refusal by name, not a crash
-            raise ValueError(f"region (a function of the centroids) raised {type(err).__name__}: {err}") from None
-        if mask.shape != (m,) or mask.dtype != bool:
-            raise ValueError(f"region, as a function of the centroids (2, m), must return a bool array shaped "
-                             f"({m},), got dtype {mask.dtype} shape {mask.shape}")
-        return mask
-
-    poly = check_points("region", region, 3)
-    x, y = poly[:, 0], poly[:, 1]
-    area = 0.5 * (x @ np.roll(y, -1) - y @ np.roll(x, -1))
-    scale = np.ptp(poly, axis=0).max()
-    if not abs(area) > 1e-12 * scale * scale:
-        raise ValueError(f"region must be a polygon with non-zero area, got {poly.tolist()}")
-    return polygon_contains(poly, centroids.T)
+    elements = np.arange(t.shape[1], dtype=np.int64)
+    return MeshEdit(mesh=carry_names(mesh, plain, parent, elements, name="cut", opened=wound), parent=parent,
+                    elements=elements, cut_edges=cut_edges, n_old_nodes=n, n_old_elements=t.shape[1])
 
 
 def excise(mesh, region, positions=None) -> MeshEdit:
     """Remove the triangles of ``mesh`` (not modified) whose centroid lies in ``region`` (a defect).
 
-    ``region`` is a polygon (k, 2), k >= 3 (even-odd rule: :func:`~tissuefem.surgery.geometry.polygon_contains`), or a
-    function ``centroids (2, m) -> bool (m,)``, True for the triangles to remove; the centroids are taken at
-    ``positions`` (2, n_nodes) (default ``mesh.p``).
-
-    Returns a :class:`MeshEdit`: nodes no longer used are dropped and the rest renumbered in their old order
-    (``parent`` is increasing); the surviving triangles keep their relative and vertex order. The rim of the hole is
-    named ``"defect"``; old names keep their surviving facets. Raises ``ValueError`` if ``region`` is not a valid
-    polygon or mask, selects no element, or selects every element.
+    ``region`` is a polygon (k, 2), k >= 3 (even-odd rule), or a function ``centroids (2, m) -> bool (m,)``, True for
+    the triangles to remove; the centroids are taken at ``positions`` (2, n_nodes) (default ``mesh.p``). Returns a
+    :class:`MeshEdit`: unused nodes are dropped and the rest keep their order (``parent`` is increasing), the surviving
+    triangles keep theirs, and the rim of the hole is named ``"defect"``. ``ValueError`` if ``region`` is not a valid
+    polygon or mask, or selects no element or every element.
     """
     p, t = mesh_arrays(mesh)
     x = node_positions(mesh, positions)
     m = t.shape[1]
     centroids = x[:, t].mean(axis=1)
-    remove = _region_mask(region, centroids)
+    if callable(region):
+        try:
+            remove = np.asarray(region(centroids.copy()))
+        except Exception as err:  # the user's function may raise anything: a refusal by name, not a crash
+            raise ValueError(f"region (a function of the centroids) raised {type(err).__name__}: {err}") from None
+        if remove.shape != (m,) or remove.dtype != bool:
+            raise ValueError(f"region, as a function of the centroids (2, m), must return a bool array shaped "
+                             f"({m},), got dtype {remove.dtype} shape {remove.shape}")
+    else:
+        poly = check_points("region", region, 3)
+        area = 0.5 * (poly[:, 0] @ np.roll(poly[:, 1], -1) - poly[:, 1] @ np.roll(poly[:, 0], -1))
+        if not abs(area) > 1e-12 * np.ptp(poly, axis=0).max() ** 2:
+            raise ValueError(f"region must be a polygon with non-zero area, got {poly.tolist()}")
+        remove = polygon_contains(poly, centroids.T)
     if not remove.any():
         raise ValueError("region selects no element (no triangle centroid lies inside it)")
     if remove.all():
         raise ValueError(f"region selects every element (all {m}): nothing would be left")
     elements = np.flatnonzero(~remove).astype(np.int64)
-    kept = t[:, elements]
-    parent = np.unique(kept)  # increasing: a compact renumbering in the old order
-    new_index = np.full(p.shape[1], -1, dtype=np.int64)
-    new_index[parent] = np.arange(parent.size)
-    new_t = new_index[kept]
-
+    parent, new_t = np.unique(t[:, elements], return_inverse=True)  # increasing: the old order, compacted
+    new_t = new_t.reshape(3, -1).astype(np.int64)
     n = p.shape[1]
     interior_keys = pair_keys(np.asarray(mesh.facets, dtype=np.int64)[:, np.asarray(mesh.f2t)[1] >= 0], n)
     plain = new_mesh(p[:, parent], new_t)
     rim = _opened(plain, parent, interior_keys, n)
-    return _build(mesh, plain, parent, elements, "defect", rim, np.zeros((2, 0), dtype=np.int64))
+    return MeshEdit(mesh=carry_names(mesh, plain, parent, elements, name="defect", opened=rim), parent=parent,
+                    elements=elements, cut_edges=np.zeros((2, 0), dtype=np.int64), n_old_nodes=n, n_old_elements=m)
