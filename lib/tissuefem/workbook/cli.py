@@ -24,15 +24,16 @@ from pathlib import Path
 import matplotlib
 import numpy as np
 
+from ..engine.parameters import ParameterError
 from ..surgery.scene import Scene
 from ..surgery.simulation import Simulation
 from . import figures
-from .bench.accuracy import accuracy_study
+from .bench.accuracy_cost import accuracy_study
 from .bench.assembly import assembly_benchmark
 from .bench.realtime import realtime_benchmark
 from .bench.scenes import effects_benchmark
 from .book import build_book
-from .figures.accuracy import plot_budget, plot_pareto, plot_scaling
+from .figures.tradeoffs import plot_budget, plot_pareto, plot_scaling
 from .figures.realtime import plot_realtime
 from .notebooks import build_chapters, chapter_paths
 
@@ -133,9 +134,13 @@ def cmd_grade(args) -> int:
 
 
 def _one_line(path, err) -> str:
-    """An error as the single line the ``scene`` command prints: ``PATH: message`` (the path once)."""
+    """An error as the single line the ``scene`` command prints: ``PATH: message``, the path once.
+
+    A :class:`~tissuefem.engine.parameters.ParameterError` is about a field inside the file (its message names
+    the field), so the path goes in front; an error about the file itself may already name it.
+    """
     message = " ".join(str(err).split()) or type(err).__name__
-    return message if str(path) in message else f"{path}: {message}"
+    return f"{path}: {message}" if isinstance(err, ParameterError) or str(path) not in message else message
 
 
 def cmd_scene(args) -> int:
@@ -249,4 +254,9 @@ def main(argv=None) -> int:
     p.set_defaults(func=cmd_list)
 
     args = parser.parse_args(argv)
-    return int(args.func(args) or 0)
+    try:
+        return int(args.func(args) or 0)
+    except ParameterError as err:  # a refused option value: name the option, as argparse does for its own checks
+        if not hasattr(args, err.field):
+            raise
+        sub.choices[args.command].error(f"argument --{err.field.replace('_', '-')}: {err}")

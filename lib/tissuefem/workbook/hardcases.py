@@ -32,7 +32,8 @@ from ..engine.realtime import RealtimeSolver
 from ..engine.stepping import solve
 
 __all__ = ["inversion_models", "block", "start_states", "ReleaseResult", "release", "crush_and_release",
-           "crush_in_frames", "element_jacobians", "cover_counts", "drag_through", "RELEASE_OPTIONS"]
+           "crush_and_release_runs", "crush_in_frames", "element_jacobians", "cover_counts", "drag_through",
+           "RELEASE_OPTIONS"]
 
 #: Newton options of a release solve: absolute residual tolerance (the start residual is huge,
 #: so a relative one would stop early), a step cap and room for the creeping iterations.
@@ -255,3 +256,9 @@ def cover_counts(mesh, x, tol: float = 1e-9) -> np.ndarray:
     a, b, c = a[:, None, :], b[:, None, :], c[:, None, :]
     inside = ok & (side(b, c, point) / area > tol) & (side(c, a, point) / area > tol) & (side(a, b, point) / area > tol)
     return inside.sum(axis=1)
+
+
+def crush_and_release_runs(E: float = TISSUE_E, nu: float = TISSUE_NU, mesh=None) -> dict:
+    """:func:`crush_and_release` (default depth 1.3) for the four models, by name."""
+    mesh = block() if mesh is None else mesh
+    return {name: crush_and_release(material, mesh) for name, material in inversion_models(E, nu).items()}

@@ -24,8 +24,8 @@ from ..engine.meshes import rectangle
 from ..engine.model import Handle, Model
 from ..engine.parameters import check_count as _count
 from ..engine.stepping import StaticResult, solve
-from .bench.common import cell_text, markdown_table
 from .measure import median_time, relative_l2_error
+from .tables import markdown_table, text_table
 
 __all__ = [
     "rotation", "bending_map", "bending_gradient", "displacement_from_map", "rigid_rotation_response",
@@ -288,11 +288,7 @@ def cost_accuracy_markdown(rows) -> str:
 
 def format_cost_accuracy(rows) -> str:
     """The rows of :func:`cost_accuracy_study` as a plain-text table."""
-    widths = [max(len(title), 9) for _, title, _ in _TABLE]
-    lines = ["  ".join(f"{title:>{w}}" for (_, title, _), w in zip(_TABLE, widths))]
-    for row in rows:
-        lines.append("  ".join(f"{cell_text(row.get(key), fmt):>{w}}" for (key, _, fmt), w in zip(_TABLE, widths)))
-    return "\n".join(lines)
+    return text_table(rows, _TABLE)
 
 
 # --- recorded measurements (for the deterministic lecture figure) -------------------------------------

@@ -31,7 +31,8 @@ from ...engine.forms import residual_form, tangent_form
 from ...engine.materials import NeoHookean
 from ...engine.meshes import mesh_with_about
 from ..measure import median_time
-from .common import check_sizes, machine_info, markdown_table, write_json
+from ..tables import markdown_table
+from .common import check_sizes, machine_info, write_json
 
 __all__ = ["assembly_benchmark", "format_table"]
 

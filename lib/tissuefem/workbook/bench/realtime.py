@@ -41,7 +41,8 @@ from ...engine.linsolve import LinearSolver
 from ...engine.parameters import check_count
 from ...surgery.scene import flap_path, flap_scene
 from ...surgery.simulation import Simulation
-from .common import check_sizes, machine_info, markdown_table, write_csv, write_json
+from ..tables import markdown_table
+from .common import check_sizes, machine_info, write_csv, write_json
 
 __all__ = ["realtime_benchmark", "ex43_frames", "format_realtime_table", "flap_simulation", "frame_floor"]
 

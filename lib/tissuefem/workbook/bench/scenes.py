@@ -23,10 +23,12 @@ from pathlib import Path
 import numpy as np
 
 from ...engine.constants import FRAME_BUDGET
+from ...engine.parameters import check_count
 from ...surgery.scene import Scene, flap_path, flap_scene
 from ...surgery.simulation import Simulation
 from ..measure import median_time
-from .common import check_sizes, machine_info, write_csv, write_json
+from ..tables import markdown_table
+from .common import machine_info, write_csv, write_json
 
 __all__ = ["effects_benchmark", "variants", "format_effects_table", "term_costs", "cut_costs"]
 
@@ -115,24 +117,23 @@ def term_costs(sim, repeats=5) -> dict:
     return costs
 
 
+_TABLE = [("variant", "variant", "{}"), ("terms", "terms", "{}"), ("median_ms", "median ms/frame", "{:.1f}"),
+          ("p95_ms", "p95 ms", "{:.1f}"), ("newton", "Newton/frame", "{:.2f}"),
+          ("cost_ms", "cost vs base (ms)", "{:+.1f}")]
+
+
 def format_effects_table(rows) -> str:
-    head = "| variant | terms | median ms/frame | p95 ms | Newton/frame | cost vs base (ms) |"
-    lines = [head, "|---|---|---:|---:|---:|---:|"]
-    for r in rows:
-        lines.append(f"| {r['variant']} | {', '.join(r['terms'])} | {r['median_ms']:.1f} | {r['p95_ms']:.1f} | "
-                     f"{r['newton']:.2f} | {r['cost_ms']:+.1f} |")
-    return "\n".join(lines)
+    """The variants as a Markdown table."""
+    return markdown_table([{**r, "terms": ", ".join(r["terms"])} for r in rows], _TABLE, text_columns=2)
 
 
 def effects_benchmark(n_triangles=8000, frames=30, repeats=5, out=None, progress=print) -> dict:
     """Run every variant; return ``{"rows": [...], "terms": {...}}`` and write JSON/CSV under ``out``."""
-    n_triangles = check_sizes([n_triangles])[0]
-    if n_triangles < 50 or isinstance(frames, bool) or int(frames) < 1:
-        raise ValueError("n_triangles must be >= 50 and frames >= 1")
+    n_triangles, frames = check_count("n_triangles", n_triangles, 50), check_count("frames", frames)
     say = progress or (lambda *a, **k: None)
     rows, base, everything = [], None, None
     for name, data, options in variants(n_triangles):
-        sim, ms, newton = _run(data, options, int(frames))
+        sim, ms, newton = _run(data, options, frames)
         median = float(np.median(ms))
         if base is None:
             base = median

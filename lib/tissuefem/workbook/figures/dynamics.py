@@ -17,14 +17,9 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import NullFormatter
 
 from ...engine.constants import FRAME_BUDGET as FRAME_DT, TISSUE_E, TISSUE_NU  # FRAME_DT: one frame, 1/30 s
-from .base import animation_figure, lecture_figure, save, save_animation, shown
-from ...engine.materials import StableNeoHookean
-from ...engine.meshes import rectangle
-from ...engine.parameters import lame_parameters
-from ...engine.model import Handle, Model
-from ...engine.stepping import Stepper, solve
 from ...engine.explicit import SymplecticEuler, critical_time_step
-from ..timestepping import cfl_study
+from ..timestepping import backward_euler_run, cfl_study, released_flap
+from .base import animation_figure, frame_axes, lecture_figure, save, save_animation, shown
 from .inversion import UPRIGHT_COLOR, draw_state
 
 #: mesh sizes (cells along the flap's length) of the CFL figure
@@ -37,44 +32,6 @@ ENERGY_T_END = 2.0
 ANIMATION_FRAMES = 50
 #: frames shown in the filmstrip PNG
 FILMSTRIP_FRAMES = (0, 3, 6, 10, 16, 25, 49)
-#: how far the flap's right edge is lifted before it is let go
-LIFT = 0.5
-
-
-def released_flap(material=None, nx: int = 8, ny: int = 4, lift: float = LIFT):
-    """The chapter's flap, lifted and about to be released: returns ``(model, u0)``.
-
-    A ``2 x 1`` rectangle of ``nx x ny`` cells (stable neo-Hookean, plane strain, unless ``material`` is
-    given), its left edge held and its right edge moved up by ``lift`` (quasistatic): ``u0``. ``model`` holds
-    only the left edge: stepping it from ``u0`` at rest is the release (:func:`backward_euler_run`).
-    """
-    material = StableNeoHookean(*lame_parameters(TISSUE_E, TISSUE_NU, "strain")) if material is None else material
-    mesh = rectangle(2.0, 1.0, nx, ny)
-    pulled = Model(mesh, material, handles=[Handle("left"), Handle("right", (0.0, lift))])
-    result = solve(pulled, load_steps=2)
-    if not result.converged:
-        raise RuntimeError(f"the flap could not be lifted by {lift}: {result.status}")
-    return Model(mesh, material, handles=[Handle("left")]), result.u
-
-
-def backward_euler_run(model, u0, dt: float, n_steps: int, frames: bool = False):
-    """Backward Euler (time step ``dt``) on ``model``'s body from ``u0`` at rest:
-    ``(times, total energies[, displacements])``, one entry per step."""
-    dynamic = Model(model.mesh, model.material, handles=[Handle("left")], dt=dt, density=model.density)
-    scheme = Stepper(dynamic, rtol=1e-10)
-    scheme.reset(u0)
-    times, energies, states = [0.0], [scheme.total_energy()], [scheme.u.copy()]
-    for _ in range(n_steps):
-        report = scheme.step()
-        if not report.converged:
-            raise RuntimeError(f"backward Euler failed at t = {scheme.time:.3f}: {report.status}")
-        times.append(scheme.time)
-        energies.append(scheme.total_energy())
-        states.append(scheme.u.copy())
-    out = (np.array(times), np.array(energies))
-    return out + (states,) if frames else out
-
-
 @lecture_figure
 def fig_ch07_cfl(path=None, study=None) -> Figure:
     """Chapter 7: symplectic Euler's largest stable time step against the element size h (log-log).
@@ -230,7 +187,7 @@ def fig_ch07_released_flap(path=None) -> Figure:
         ax.plot(*mesh.p[:, mesh.t[[0, 1, 2, 0]]], color="0.8", lw=0.3)  # the rest shape, faint
         draw_state(ax, mesh, problem.deformed_positions(states[k]))
         ax.plot([0.0, 0.0], [0.0, 1.0], color="k", lw=2.0)
-        ax.set(aspect="equal", xlim=xlim, ylim=ylim, xticks=[], yticks=[])
+        frame_axes(ax, xlim, ylim)
         ax.set_title(f"t = {times[k]:.2f} s" + (" (let go)" if k == 0 else ""), fontsize=8.5)
     ax = fig.add_subplot(grid[1, :])
     tip_y = np.array([u[tip_dof] for u in states])

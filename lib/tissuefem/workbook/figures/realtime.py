@@ -11,35 +11,9 @@ import numpy as np
 from matplotlib.ticker import NullFormatter
 from matplotlib.figure import Figure
 
-from .base import lecture_figure, save, shown
 from ...engine.constants import FRAME_BUDGET
-from ...surgery.scene import Scene, flap_path, flap_scene
-from ...surgery.simulation import Simulation
-
-SIZES = (500, 2000, 8000)
-CAPS = (1, 2, 3)
-FRAMES = 40
-
-
-def capped_runs(sizes=SIZES, caps=CAPS, frames=FRAMES) -> list[dict]:
-    """For each size and cap: median relative residual per frame and the final state error against converged frames."""
-    rows = []
-    for n in sizes:
-        reference = Simulation(flap_scene(n, rtol=1e-10))
-        for f in range(frames):
-            reference.frame({"handle": flap_path((f + 1) * FRAME_BUDGET)})
-        scale = float(np.max(np.abs(reference.u)))
-        for cap in caps:
-            scene = flap_scene(n, rtol=1e-12).to_dict()
-            scene["solver"]["max_iterations"] = cap
-            solver = Simulation(Scene.from_dict(scene))
-            relative = [solver.frame({"handle": flap_path((f + 1) * FRAME_BUDGET)}).relative_residual
-                        for f in range(frames)]
-            rows.append({"triangles": int(solver.mesh.t.shape[1]), "cap": cap,
-                         "median_relative_residual": float(np.median(relative)),
-                         "state_error": float(np.max(np.abs(solver.u - reference.u)) / scale)})
-    return rows
-
+from ..timestepping import CAPPED_FRAMES, CAPS, capped_runs
+from .base import lecture_figure, save, shown
 
 #: a relative state error below this is round-off (its digits differ between machines)
 STATE_ROUND_OFF = 1e-12
@@ -66,7 +40,7 @@ def fig_ch07_budget_residual(path=None, rows=None) -> Figure:
     ax_r.set(xlabel="triangles", ylabel="median of |residual| / |first residual| per frame",
              title="Residual left at the end of a frame")
     ax_e.set(xlabel="triangles", ylabel="max |u - u_converged| / max |u_converged|",
-             title=f"State error after {FRAMES} frames of the drag")
+             title=f"State error after {CAPPED_FRAMES} frames of the drag")
     for ax in (ax_r, ax_e):
         ax.grid(True, which="both", alpha=0.3)
         ax.xaxis.set_minor_formatter(NullFormatter())

@@ -39,8 +39,8 @@ error). Its own error is *estimated*, not assumed (:func:`_estimate`): the dista
 on two coarser meshes (and, for the flap, from the extrapolations with two larger steps) give ``d`` (the
 nearer one) and a rate ``p``, and ``estimate = d / (2^p - 1)``. Chapter 9 relies on that estimate lying
 ten times below the smallest error of any setting. ``verification`` adds
-:func:`tissuefem.workbook.accuracy.manufactured_convergence` and
-:func:`~tissuefem.workbook.accuracy.beam_problem_tip`. On the flap alone, :func:`solver_scaling` fits
+:func:`tissuefem.workbook.verification.manufactured_convergence` and
+:func:`~tissuefem.workbook.verification.beam_problem_tip`. On the flap alone, :func:`solver_scaling` fits
 ``ms ~ triangles^p`` per linear solver and :func:`budget_residual` shows what the budgeted solver leaves
 unfinished when its 33 ms are spent.
 
@@ -67,9 +67,10 @@ from ...engine.realtime import RealtimeSolver
 from ...engine.stepping import solve
 from ...surgery.scene import Scene, flap_path, flap_scene
 from ...surgery.simulation import Simulation
-from ..accuracy import beam_problem_tip, manufactured_convergence
+from ..verification import beam_problem_tip, manufactured_convergence
 from ..measure import fitted_exponent, pareto_front, relative_l2_error
-from .common import load_results, machine_info, markdown_table, write_csv, write_json
+from ..tables import markdown_table
+from .common import load_results, machine_info, write_csv, write_json
 
 __all__ = [
     "Setting", "KNOBS", "PLANS", "BLOCK_TARGET", "EASE_IN", "REFERENCE_GRADING", "eased_flap_path", "graded_flap",

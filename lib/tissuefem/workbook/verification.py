@@ -10,7 +10,7 @@ in wall time. This module verifies the chain the reference is computed with:
   body force (:func:`manufactured_body_force`).
 
 The measuring tools are in :mod:`tissuefem.workbook.measure`; the sweeps (the knobs, the flap and block
-benchmarks, the CLI's ``bench accuracy``) in :mod:`tissuefem.workbook.bench.accuracy`.
+benchmarks, the CLI's ``bench accuracy``) in :mod:`tissuefem.workbook.bench.accuracy_cost`.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Chapter 9 figures: what accuracy costs in time.
 
-The three study figures are drawn from a results dict of :func:`tissuefem.workbook.bench.accuracy.accuracy_study`:
+The three study figures are drawn from a results dict of :func:`tissuefem.workbook.bench.accuracy_cost.accuracy_study`:
 the lecture figures from the recorded full study shipped with the package (the same on every machine),
 ``bench accuracy`` from its own fresh run. The verification figure is computed afresh (errors only, no clock).
 """
@@ -14,8 +14,8 @@ from matplotlib.figure import Figure
 
 from .base import lecture_figure, save
 from ...engine.constants import FRAME_BUDGET
-from ..accuracy import manufactured_convergence
-from ..bench.accuracy import recorded_results
+from ..verification import manufactured_convergence
+from ..bench.accuracy_cost import recorded_results
 from ..measure import pareto_front
 
 #: errors that agree to this relative tolerance are not told apart (no winner by the last digits)
