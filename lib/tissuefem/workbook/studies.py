@@ -13,7 +13,9 @@ Index convention as everywhere in the package: ``F[i, j] = d phi_i / d X_j``.
 
 from __future__ import annotations
 
+import json
 import math
+from pathlib import Path
 
 import numpy as np
 
@@ -291,26 +293,9 @@ def format_cost_accuracy(rows) -> str:
     return text_table(rows, _TABLE)
 
 
-# --- recorded measurements (for the deterministic lecture figure) -------------------------------------
-
-_RECORDED_COLUMNS = ("order", "n", "triangles", "dofs", "L2", "energy", "rate_L2", "newton_iterations",
-                     "solve_ms", "iteration_ms")
-_NAN = float("nan")
-_RECORDED = [
-    # P   n  tri.  dofs  L2 error    energy err   rate its  solve ms  1 it. ms
-    (1,  2,   16,   30, 2.8574e-02, 3.9018e-02,  _NAN, 3,   2.84,  0.57),
-    (1,  4,   64,   90, 9.1950e-03, 1.3442e-02, 1.636, 3,   3.20,  0.72),
-    (1,  8,  256,  306, 2.8753e-03, 4.4562e-03, 1.677, 3,   5.61,  1.15),
-    (1, 16, 1024, 1122, 9.1687e-04, 1.4731e-03, 1.649, 3,  14.03,  2.87),
-    (1, 32, 4096, 4290, 2.8921e-04, 4.8143e-04, 1.665, 3,  73.94, 14.48),
-    (2,  1,    4,   30, 2.0210e-02, 1.8730e-02,  _NAN, 3,   3.47,  0.55),
-    (2,  2,   16,   90, 4.8940e-03, 4.4342e-03, 2.046, 3,   4.03,  0.73),
-    (2,  4,   64,  306, 1.2681e-03, 1.3299e-03, 1.948, 3,   7.80,  1.54),
-    (2,  8,  256, 1122, 3.6456e-04, 4.2239e-04, 1.798, 3,  24.75,  5.29),
-    (2, 16, 1024, 4290, 1.1132e-04, 1.2852e-04, 1.711, 4,  95.85, 16.96),
-]
-#: One run of ``cost_accuracy_study(p1_sizes=(2, 4, 8, 16, 32), p2_sizes=(1, 2, 4, 8, 16),
-#: reference_size=64, repeats=5)`` (one load step) on a 2-core Linux machine (Python 3.11, numpy 2.4,
-#: scipy 1.17, scikit-fem 12.0.2). The errors are reproducible to the digits shown;
-#: the times are one machine's medians, to be read, not asserted.
-RECORDED_COST_ACCURACY: list[dict] = [dict(zip(_RECORDED_COLUMNS, row), h=1.0 / row[1]) for row in _RECORDED]
+#: One recorded run of :func:`cost_accuracy_study` (its settings and machine in ``data/cost_accuracy.json``, shipped
+#: with the package), for the deterministic lecture figure: the errors are reproducible to the digits shown, the
+#: times are one machine's medians, to be read, not asserted.
+RECORDED_COST_ACCURACY: list[dict] = [
+    {**row, "rate_L2": float("nan") if row["rate_L2"] is None else row["rate_L2"], "h": 1.0 / row["n"]}
+    for row in json.loads((Path(__file__).parent / "data" / "cost_accuracy.json").read_text())["rows"]]

@@ -24,7 +24,7 @@ from ..surgery.scene import Scene, flap_path, flap_scene
 from ..surgery.simulation import Simulation
 from .measure import power_law_fit
 
-__all__ = ["CFLStudy", "cfl_study", "released_flap", "backward_euler_run", "capped_runs"]
+__all__ = ["CFLStudy", "cfl_study", "released_flap", "backward_euler_run", "flap_drag", "capped_runs"]
 
 #: how far the released flap's right edge is lifted before it is let go
 LIFT = 0.5
@@ -123,20 +123,23 @@ def backward_euler_run(model, u0, dt: float, n_steps: int, frames: bool = False)
     return out + (states,) if frames else out
 
 
+def flap_drag(sim, frames: int, start: int = 0) -> list:
+    """Frames ``start + 1 ... start + frames`` of the standard drag (the handle on ``flap_path``): their reports."""
+    return [sim.frame({"handle": flap_path((f + 1) * FRAME_BUDGET)}) for f in range(start, start + frames)]
+
+
 def capped_runs(sizes=CAPPED_SIZES, caps=CAPS, frames=CAPPED_FRAMES) -> list[dict]:
     """For each size and cap: median relative residual per frame and the final state error against converged frames."""
     rows = []
     for n in sizes:
         reference = Simulation(flap_scene(n, rtol=1e-10))
-        for f in range(frames):
-            reference.frame({"handle": flap_path((f + 1) * FRAME_BUDGET)})
+        flap_drag(reference, frames)
         scale = float(np.max(np.abs(reference.u)))
         for cap in caps:
             scene = flap_scene(n, rtol=1e-12).to_dict()
             scene["solver"]["max_iterations"] = cap
             solver = Simulation(Scene.from_dict(scene))
-            relative = [solver.frame({"handle": flap_path((f + 1) * FRAME_BUDGET)}).relative_residual
-                        for f in range(frames)]
+            relative = [r.relative_residual for r in flap_drag(solver, frames)]
             rows.append({"triangles": int(solver.mesh.t.shape[1]), "cap": cap,
                          "median_relative_residual": float(np.median(relative)),
                          "state_error": float(np.max(np.abs(solver.u - reference.u)) / scale)})

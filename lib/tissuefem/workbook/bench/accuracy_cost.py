@@ -1,51 +1,21 @@
-"""What accuracy costs in time: the measured study of chapter 9 (``python -m tissuefem bench accuracy``).
+"""What accuracy costs in time: chapter 9's measured study (``python -m tissuefem bench accuracy``).
 
-Every speed/accuracy knob (``KNOBS``) is turned, one at a time, away from a *baseline* setting:
+Every speed/accuracy knob (:data:`KNOBS`: mesh, P2, quadrature, material, Newton tolerance, a cap on Newton
+iterations, substeps per frame, linear solver) is turned one at a time away from a baseline :class:`Setting`,
+on two benchmarks: ``flap``, the standard flap scene under backward Euler at 1/30 s a frame with its drag eased
+in (:func:`eased_flap_path`: started with a jump, backward Euler resolves the wave so slowly, ``~ dt^0.4``, that
+no affordable reference could be checked), and ``block``, chapter 4's block carried quasistatically to
+:data:`BLOCK_TARGET`. A run's *cost* is the median wall time per displayed frame, its *error* the relative
+``L2`` displacement error against a reference (the largest over checkpoint frames for the flap, the final
+equilibrium for the block).
 
-- mesh resolution (P1);
-- element order (P2 over the same meshes);
-- quadrature order (P2);
-- material model;
-- Newton tolerance;
-- a cap on Newton iterations (a quasistatic frame's linearised start counts as one);
-- time step: substeps per displayed frame (flap only);
-- linear solver: SuperLU with the minimum-degree (MMD) ordering and with SciPy's default COLAMD, CG with a
-  Jacobi or an incomplete-LU preconditioner, CG preconditioned by a reused factorization, and PARDISO when
-  it is installed.
-
-Each setting runs on two benchmarks:
-
-``flap``
-    the standard flap scene of :mod:`tissuefem.workbook.bench.realtime`, backward Euler, one displayed frame
-    every 1/30 s, its right edge on :func:`~tissuefem.surgery.scene.flap_path` *eased in* over :data:`EASE_IN`
-    seconds (:func:`eased_flap_path`). The standard loop starts with a jump in velocity whose wave backward
-    Euler resolves so slowly (error ``~ dt^0.4``) that no affordable reference could be checked; eased in,
-    backward Euler converges at first order and its extrapolation at second;
-``block``
-    quasistatic: the same rectangle ``[0, 2] x [0, 1]`` with its right edge carried to ``(0.6, 0.4)``
-    (chapter 4's block) in equal increments, one solve per frame.
-
-Each run records its *cost*, the median wall time per displayed frame (the solver's own clock, with every
-Newton iteration, assembly and linear solve included), and its *error*, the relative ``L2`` displacement
-error against a reference (:func:`tissuefem.workbook.measure.relative_l2_error`): for the flap the largest
-over a few checkpoint frames (``errors`` lists them, ``error_final`` is the last), for the block that of the
-final equilibrium.
-
-The reference (:func:`reference_run`) pushes every knob further than any setting: P2 on a mesh graded
-towards the edges (:func:`graded_flap`; where a held edge meets a free one the solution is singular, and
-uniform refinement converges there at only about 1.6), Newton to ``rtol = 1e-10`` and, for the flap, a
-small time step extrapolated (Richardson: ``2 u(dt/2s) - u(dt/s)`` removes backward Euler's first-order
-error). Its own error is *estimated*, not assumed (:func:`_estimate`): the distances to the same reference
-on two coarser meshes (and, for the flap, from the extrapolations with two larger steps) give ``d`` (the
-nearer one) and a rate ``p``, and ``estimate = d / (2^p - 1)``. Chapter 9 relies on that estimate lying
-ten times below the smallest error of any setting. ``verification`` adds
-:func:`tissuefem.workbook.verification.manufactured_convergence` and
-:func:`~tissuefem.workbook.verification.beam_problem_tip`. On the flap alone, :func:`solver_scaling` fits
-``ms ~ triangles^p`` per linear solver and :func:`budget_residual` shows what the budgeted solver leaves
-unfinished when its 33 ms are spent.
-
-Timings are medians of one run on one machine: compare settings within one run and quote ratios, never
-assert them. The errors are deterministic.
+The reference (:func:`reference_run`) pushes every knob further: P2 on a mesh graded towards the edges
+(:func:`graded_flap`; at the corners the solution is singular), Newton to ``1e-10`` and, for the flap,
+Richardson extrapolation in time (``2 u(dt/2s) - u(dt/s)``). Its own error is estimated from coarser
+versions of it (:func:`_estimate`), and chapter 9 relies on that estimate lying ten times below every
+setting's error. :func:`solver_scaling` fits ``ms ~ triangles^p`` per linear solver and
+:func:`budget_residual` shows what the budgeted solver leaves unfinished. Timings are one machine's medians:
+compare within a run, never assert them; the errors are deterministic (``docs/benchmarks.md``).
 """
 
 from __future__ import annotations

@@ -1,29 +1,17 @@
 """Frame-rate benchmark of the standard scene: the real-time solver against the scikit-fem ex43 way.
 
-The standard scene (:func:`tissuefem.surgery.scene.flap_scene`): a Neo-Hookean flap ``[0, 2] x [0, 1]``
-(E = 1000, nu = 0.3, plane strain, rho0 = 1), its left edge fixed, its right edge carried along
-:func:`~tissuefem.surgery.scene.flap_path` by a handle; backward Euler with ``dt = 1/30``, every frame
-converged to a relative residual of ``1e-6``; run as a user runs it, a
-:class:`~tissuefem.surgery.simulation.Simulation` of the scene. For each mesh size, on the same frames:
+The standard scene (:func:`tissuefem.surgery.scene.flap_scene`: a Neo-Hookean flap ``[0, 2] x [0, 1]``, E =
+1000, nu = 0.3, rho0 = 1, left edge fixed, right edge on :func:`~tissuefem.surgery.scene.flap_path`; backward
+Euler at ``dt = 1/30``, every frame converged to ``1e-6``), run for each mesh size as
 
-* **fast**: the scene's :class:`~tissuefem.engine.realtime.RealtimeSolver` with no budget, so a frame's
-  time is what a converged frame costs: the P1 assembler, warm starts, and the reused factorization as
-  the CG preconditioner, refreshed on the second core (``"reuse-background"``; ``--linear reuse``
-  refreshes it in the frame instead);
-* **ex43 way**: the same Newton iteration as scikit-fem's hyperelasticity example writes it: a
-  ``BilinearForm`` and a ``LinearForm`` (the forms of :mod:`tissuefem.engine.forms`, plus the mass matrix)
-  assembled with ``asm`` every iteration, ``condense`` on the fixed dofs and ``skfem.solve`` (SciPy's
-  ``spsolve``), with one safeguard added (a step whose residual is not finite is halved: plain Newton
-  ends in NaN in the first frame at 32k triangles). Slow, so only the
-  first ``baseline_frames`` frames; the ratio compares medians over those same frames;
-* **budgeted**: the real-time solver with its 1/30 s budget and the real clock: the share of frames
-  converged in budget and the residual left when it runs out;
-* **floor**: one tangent assembly plus one back-substitution with a kept factorization at the final
-  state; no frame can be cheaper than one Newton step, and a converged frame over this floor says how
-  much of a frame is spent beyond that.
+* **fast**: its :class:`~tissuefem.engine.realtime.RealtimeSolver` with no budget (what a converged frame
+  costs; ``--linear reuse`` refreshes the kept factorization in the frame instead of the background);
+* **ex43 way** (:func:`ex43_frames`): scikit-fem's hyperelasticity example's Newton (``asm``, ``condense``,
+  ``solve`` every iteration) with one safeguard added, for the first ``baseline_frames`` frames;
+* **budgeted**: the real-time solver with its 1/30 s budget and the real clock;
+* **floor** (:func:`frame_floor`): one tangent assembly plus one back-substitution, the least a frame costs.
 
-Timings are medians and 95th percentiles of ``time.perf_counter`` per frame. This is a benchmark to read,
-not a test: compare columns of one run.
+Medians and 95th percentiles of wall time per frame: compare columns of one run (``docs/benchmarks.md``).
 """
 
 from __future__ import annotations
@@ -42,6 +30,7 @@ from ...engine.parameters import check_count
 from ...surgery.scene import flap_path, flap_scene
 from ...surgery.simulation import Simulation
 from ..tables import markdown_table
+from ..timestepping import flap_drag
 from .common import check_sizes, machine_info, write_csv, write_json
 
 __all__ = ["realtime_benchmark", "ex43_frames", "format_realtime_table", "flap_simulation", "frame_floor"]
@@ -113,8 +102,7 @@ def _fast_frames(n_triangles, n_frames, budget=None, linear_solver="reuse"):
     sim = flap_simulation(n_triangles, linear_solver)
     if budget is not None:
         sim.solver.budget = budget
-    reports = [sim.frame({"handle": flap_path((f + 1) * FRAME_BUDGET)}) for f in range(n_frames)]
-    return sim, reports
+    return sim, flap_drag(sim, n_frames)
 
 
 def frame_floor(sim, repeats: int = 9) -> dict:

@@ -1,18 +1,12 @@
 """What each effect costs: the same scripted drag with one effect added at a time.
 
-``python -m tissuefem bench scenes`` runs the standard flap (:func:`tissuefem.surgery.scene.flap_scene`,
-the right edge on :func:`~tissuefem.surgery.scene.flap_path`) as a scene, once per variant (:func:`variants`):
-a linear scene with its constant factorisation and the same forced through the general Newton loop; the
-quasistatic stable neo-Hookean base; the base plus one effect (inertia, gravity, fibres, a probe, sutures,
-inversion handling, a crack through the elements or along edges, self-contact with nothing near); an
-incision across the middle whose lips the drag presses together, without and with contact; everything.
-
-Every variant runs the same frames with no budget and the real clock. The table gives the median and 95th
-percentile ms per frame, Newton iterations per frame, and the median's difference from the base: the time
-the effect costs. A second table times each *term* of the all-effects model alone (energy + force +
-Hessian), separating the cost of evaluating a term from the extra Newton iterations it causes.
-
-Timings are from a shared machine: compare rows of one run, not runs.
+The standard flap (:func:`tissuefem.surgery.scene.flap_scene`) runs as a scene once per variant
+(:func:`variants`): linear with its constant factorisation and through the general Newton loop, the
+quasistatic stable neo-Hookean base, the base plus one effect, an incision whose lips the drag presses
+together (without and with contact), and everything. No budget, the real clock; the table
+gives ms per frame, Newton iterations per frame and the median's difference from the base. Each term of the
+all-effects model is also timed alone (:func:`term_costs`), and one cut during the drag (:func:`cut_costs`).
+Timings from a shared machine: compare rows of one run, not runs.
 """
 
 from __future__ import annotations
@@ -24,10 +18,11 @@ import numpy as np
 
 from ...engine.constants import FRAME_BUDGET
 from ...engine.parameters import check_count
-from ...surgery.scene import Scene, flap_path, flap_scene
+from ...surgery.scene import Scene, flap_scene
 from ...surgery.simulation import Simulation
 from ..measure import median_time
 from ..tables import markdown_table
+from ..timestepping import flap_drag
 from .common import machine_info, write_csv, write_json
 
 __all__ = ["effects_benchmark", "variants", "format_effects_table", "term_costs", "cut_costs"]
@@ -83,7 +78,7 @@ def variants(n_triangles):
 
 def _run(data, options, frames):
     sim = Simulation(Scene.from_dict(data), **options)
-    reports = [sim.frame({"handle": flap_path((k + 1) * FRAME_BUDGET)}) for k in range(frames)]
+    reports = flap_drag(sim, frames)
     return sim, np.array([1e3 * r.elapsed for r in reports]), np.array([r.newton_iterations for r in reports])
 
 
@@ -95,8 +90,7 @@ def cut_costs(n_triangles, repeats=3) -> dict:
         times = []
         for _ in range(int(repeats)):
             sim = Simulation(Scene.from_dict(_base(n_triangles)))
-            for k in range(3):
-                sim.frame({"handle": flap_path((k + 1) * FRAME_BUDGET)})
+            flap_drag(sim, 3)
             start = time.perf_counter()
             sim.cut(CUT["path"], method=method)
             times.append(1e3 * (time.perf_counter() - start))
