@@ -34,12 +34,11 @@ CAPPED_SIZES, CAPS, CAPPED_FRAMES = (500, 2000, 8000), (1, 2, 3), 40
 
 @dataclass
 class CFLStudy:
-    """Rows of :func:`cfl_study` and the fitted exponents.
+    """Rows of :func:`cfl_study` (iterating the study yields them) and the fitted exponents.
 
-    ``rows`` (iterating the study yields them) are dicts with ``nx``, ``h``, ``dofs``, ``dt_measured``,
-    ``dt_estimate`` (``2 / omega_max``), ``ratio`` (measured / estimate), ``courant`` (``dt_measured c / h``)
-    and ``seconds``. The fit ``dt_measured = constant h^exponent`` has ``exponent`` 1 under the CFL
-    condition; ``exponent_estimate`` is the same slope for the estimate.
+    A row has ``nx``, ``h``, ``dofs``, ``dt_measured``, ``dt_estimate`` (``2 / omega_max``), ``ratio`` (measured /
+    estimate), ``courant`` (``dt_measured c / h``) and ``seconds``; ``dt_measured = constant h^exponent`` has
+    ``exponent`` 1 under the CFL condition, ``exponent_estimate`` is the estimate's slope.
     """
 
     rows: list = field(default_factory=list)
@@ -60,12 +59,10 @@ class CFLStudy:
 
 def cfl_study(sizes=(4, 8, 16, 32), *, E: float = TISSUE_E, nu: float = TISSUE_NU, density: float = TISSUE_DENSITY,
               material=None, width: float = 2.0, height: float = 1.0, **measure) -> CFLStudy:
-    """Measured largest stable ``dt`` of :class:`SymplecticEuler` on a flap refined ``nx = sizes``.
-
-    The flap ``width x height`` has square cells of side ``h = width / nx`` and its left edge fixed; the
-    material defaults to stable neo-Hookean with plane-strain Lamé parameters from ``E, nu``. For each mesh:
-    :func:`largest_stable_dt` (``measure`` goes to it), the estimate :func:`critical_time_step` and their
-    ratio. The CFL condition predicts ``dt ~ h`` (exponent 1).
+    """Measured largest stable ``dt`` of :class:`SymplecticEuler` on a ``width x height`` flap of square cells
+    ``h = width / nx`` for each ``nx`` in ``sizes``, left edge fixed (stable neo-Hookean from ``E, nu`` unless
+    ``material``): :func:`largest_stable_dt` (``measure`` goes to it) beside the estimate
+    :func:`critical_time_step`. The CFL condition predicts ``dt ~ h``.
     """
     if material is None:
         material = StableNeoHookean(*lame_parameters(E, nu, "strain"))
@@ -90,11 +87,9 @@ def cfl_study(sizes=(4, 8, 16, 32), *, E: float = TISSUE_E, nu: float = TISSUE_N
 
 
 def released_flap(material=None, nx: int = 8, ny: int = 4, lift: float = LIFT):
-    """The chapter's flap, lifted and about to be released: returns ``(model, u0)``.
-
-    A ``2 x 1`` rectangle of ``nx x ny`` cells (stable neo-Hookean, plane strain, unless ``material`` is
-    given), its left edge held and its right edge moved up by ``lift`` (quasistatic): ``u0``. ``model`` holds
-    only the left edge: stepping it from ``u0`` at rest is the release (:func:`backward_euler_run`).
+    """Chapter 7's flap lifted and about to be let go: ``(model, u0)``. A ``2 x 1`` rectangle of ``nx x ny``
+    cells (stable neo-Hookean unless ``material``), left edge held, right edge lifted by ``lift`` (quasistatic):
+    ``u0``; ``model`` holds only the left edge, so stepping it from ``u0`` at rest is the release.
     """
     material = StableNeoHookean(*lame_parameters(TISSUE_E, TISSUE_NU, "strain")) if material is None else material
     mesh = rectangle(2.0, 1.0, nx, ny)

@@ -32,7 +32,7 @@ from ...engine.linsolve import LinearSolver, available
 from ...engine.materials import MATERIALS, material as make_material
 from ...engine.meshes import flap
 from ...engine.model import Handle, Model
-from ...engine.parameters import check_count
+from ...engine.parameters import check_count, check_real
 from ...engine.realtime import RealtimeSolver
 from ...engine.stepping import solve
 from ...surgery.scene import Scene, flap_path, flap_scene
@@ -111,8 +111,7 @@ class Setting:
             raise ValueError(f"setting order must be 1 or 2, got {self.order!r}")
         if self.material not in MATERIALS:
             raise ValueError(f"setting material must be one of {sorted(MATERIALS)}, got {self.material!r}")
-        if not (isinstance(self.rtol, (int, float)) and 0 < self.rtol < 1):
-            raise ValueError(f"setting rtol must be in (0, 1), got {self.rtol!r}")
+        check_real("setting rtol", self.rtol, 0.0, 1.0, lo_open=True, hi_open=True)
         if not isinstance(self.linear_solver, str):
             raise ValueError(f"setting linear_solver must be a name, got {self.linear_solver!r}")
         try:
@@ -196,27 +195,16 @@ def make_simulation(setting: Setting, benchmark: str = "flap", budget=math.inf, 
     return sim
 
 
-def _targets(benchmark: str, frame: int, substep: int, substeps: int, frames: int, drag=None):
-    """The handle's target for ``substep`` (1-based) of displayed ``frame`` (1-based); ``drag(t)`` is the
-    flap's path (default :func:`eased_flap_path`)."""
-    if benchmark == "flap":
-        return {"handle": (drag or eased_flap_path)((frame - 1 + substep / substeps) * FRAME_BUDGET)}
-    return {"handle": np.array(BLOCK_TARGET) * frame / frames}
-
-
 def _checkpoints(benchmark: str, frames: int, every: int) -> tuple[int, ...]:
-    if benchmark == "block":
-        return (frames,)
-    return tuple(f for f in range(1, frames + 1) if f % every == 0 or f == frames)
+    """The frames whose state is kept: every ``every``-th and the last (the block: its last)."""
+    return tuple(f for f in range(1, frames + 1) if f == frames or (benchmark == "flap" and f % every == 0))
 
 
 def run_setting(benchmark: str, setting: Setting, frames: int, checkpoints=(), budget=math.inf,
                 clock=time.perf_counter, drag=None):
-    """Run ``frames`` displayed frames of ``benchmark`` with ``setting``.
-
-    ``drag(t)`` replaces the flap's path (default :func:`eased_flap_path`).
-    Returns ``(model, states, stats)``: ``states`` maps each checkpoint frame to a copy of ``u``; ``stats``
-    holds the per-frame milliseconds (summed over substeps), iteration counts, convergence and residuals.
+    """Run ``frames`` displayed frames of ``benchmark`` with ``setting`` (``drag(t)``: the flap's path, default
+    :func:`eased_flap_path`). Returns ``(model, states, stats)``: ``states`` maps each checkpoint frame to a copy
+    of ``u``; ``stats`` holds the ms per frame (summed over substeps), iteration counts, convergence, residuals.
     """
     if benchmark not in BENCHMARKS:
         raise ValueError(f"benchmark must be one of {BENCHMARKS}, got {benchmark!r}")
@@ -236,7 +224,9 @@ def _drive(solver, benchmark: str, frames: int, substeps: int, checkpoints=(), d
     for f in range(1, frames + 1):
         spent = 0.0
         for s in range(1, substeps + 1):
-            report = solver.frame(_targets(benchmark, f, s, substeps, frames, drag))
+            target = ((drag or eased_flap_path)((f - 1 + s / substeps) * FRAME_BUDGET) if benchmark == "flap"
+                      else np.array(BLOCK_TARGET) * f / frames)
+            report = solver.frame({"handle": target})
             spent += report.elapsed
             records.append([getattr(report, k) for k in fields])  # not the report: it holds the state
         ms.append(1e3 * spent)
@@ -244,13 +234,11 @@ def _drive(solver, benchmark: str, frames: int, substeps: int, checkpoints=(), d
             states[f] = solver.u.copy()
     each = {k: [r[i] for r in records] for i, k in enumerate(fields)}
     stats = {
-        "ms": ms,
-        "ms_median": float(np.median(ms)),
-        "ms_p95": float(np.percentile(ms, 95)),
-        "newton": float(np.sum(each["newton_iterations"]) / frames),  # per displayed frame (all substeps)
+        "ms": ms, "ms_median": float(np.median(ms)), "ms_p95": float(np.percentile(ms, 95)),
+        # per displayed frame (all substeps)
+        "newton": float(np.sum(each["newton_iterations"]) / frames),
         "linear_iterations": float(np.sum(each["linear_iterations"]) / frames),
-        "factorizations": int(np.sum(each["factorizations"])),
-        "converged_share": float(np.mean(each["converged"])),
+        "factorizations": int(np.sum(each["factorizations"])), "converged_share": float(np.mean(each["converged"])),
         "residual_median": float(np.median(each["relative_residual"])),
         # the smallest share of its motion a handle made in one frame (< 1: a frame could not move it all the
         # way without inverting elements, and the real-time solver kept the state valid instead)
@@ -330,16 +318,13 @@ def _estimate(d_coarse, d_fine, ratio: float = 2.0):
 
 
 def reference_run(benchmark: str, plan: dict, progress=None, check: bool = True):
-    """The reference of ``benchmark`` for ``plan``: ``(problem, states, info)``.
+    """The reference of ``benchmark`` for ``plan``: ``(problem, states, info)``; P2, Newton to ``1e-10``.
 
     ``plan["reference"]``: ``triangles`` (the flap's mesh), ``block_triangles`` (the block's; default
-    ``triangles``), ``substeps`` ``s`` (the flap: ``2 u(dt/2s) - u(dt/s)``) and ``grading`` (:func:`graded_flap`;
-    default :data:`REFERENCE_GRADING`). P2, Newton to ``1e-10``.
-
-    With ``check``, ``info`` holds the reference's own error estimate (:func:`_estimate`): in space from
-    meshes with 1/4 and 1/16 of the triangles (``space_distance`` to the next-coarser one, ``space_rate`` per
-    halving of ``h``, ``space_error_estimate``), for the flap in time from the extrapolations with 2 and 4
-    times larger steps (``time_distance``, ``time_rate``, ``time_error_estimate``), and their sum ``error_estimate``.
+    ``triangles``), ``substeps`` ``s`` (the flap: ``2 u(dt/2s) - u(dt/s)``) and ``grading`` (:func:`graded_flap`).
+    With ``check``, ``info`` holds the reference's own error estimate (:func:`_estimate`): in space from meshes
+    with 1/4 and 1/16 of the triangles (``space_*``), for the flap in time from the extrapolations with 2 and 4
+    times larger steps (``time_*``), and their sum ``error_estimate``.
     """
     ref = plan["reference"]
     frames = plan["frames"] if benchmark == "flap" else plan["block_frames"]

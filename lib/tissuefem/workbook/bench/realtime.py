@@ -45,11 +45,9 @@ def flap_simulation(n_triangles: int, linear_solver: str = "reuse") -> Simulatio
 
 def ex43_frames(model, n_frames: int, dt: float = FRAME_BUDGET, rtol: float = RTOL_FLAP, density=TISSUE_DENSITY,
                 lumped: bool = True):
-    """Run ``n_frames`` of the scene the ex43 way; return ``(ms per frame, Newton iterations per frame, u)``.
-
-    ``model`` supplies the basis, the material and the handles (the second follows :func:`flap_path`). The
-    mass matrix is built once (lumped by default, as the real-time solver's, so both solve the same
-    equations); the stiffness and the residual are assembled every Newton iteration.
+    """Run ``n_frames`` of the scene the ex43 way: ``(ms per frame, Newton iterations per frame, u)``. ``model``
+    supplies the basis, the material and the handles (the second follows :func:`flap_path`); the mass matrix is
+    built once (lumped by default, as the real-time solver's), stiffness and residual every Newton iteration.
     """
     basis = model.basis
     grab = model.handles[1]
@@ -106,10 +104,8 @@ def _fast_frames(n_triangles, n_frames, budget=None, linear_solver="reuse"):
 
 
 def frame_floor(sim, repeats: int = 9) -> dict:
-    """What one Newton step costs at the simulation's state: a tangent assembly and one back-substitution.
-
-    Medians in ms of the model's Hessian and of one solve with a kept factorization
-    (``back_substitution``); their sum is the floor of a frame.
+    """What one Newton step costs at the simulation's state: median ms of a tangent assembly (``assembly_ms``) and
+    of one solve with a kept factorization (``back_substitution_ms``); their sum is a frame's floor.
     """
     model, u = sim.model, sim.u
     fixed, _ = model.prescribed()
