@@ -26,7 +26,8 @@ from .tables import markdown_table, text_table
 
 __all__ = [
     "rotation", "bending_map", "bending_gradient", "displacement_from_map", "rigid_rotation_response",
-    "rotated_block", "BLOCK_HANDLE", "block_model", "handle_force", "newton_iteration_time", "cost_accuracy_study",
+    "rotated_block", "BLOCK_HANDLE", "block_model", "stretched_block", "handle_force", "newton_iteration_time",
+    "cost_accuracy_study",
     "format_cost_accuracy", "cost_accuracy_markdown", "RECORDED_COST_ACCURACY",
 ]
 
@@ -164,6 +165,15 @@ def block_model(n: int = 8, order: int = 1, material: Material | None = None, ha
     mesh = rectangle(width, height, max(1, round(n * width / height)), n)
     return Model(mesh, material, order=order, assembly=assembly,
                  handles=[Handle("left", name="left"), Handle("right", handle, name="right")])
+
+
+def stretched_block(n: int = 12):
+    """Chapter 4's block (:func:`block_model`, P1, ``n`` cells across the height) at equilibrium: ``(model, u)``."""
+    model = block_model(n)
+    result = solve(model)
+    if not result.converged:
+        raise RuntimeError(f"the stretched block did not converge ({result.status})")
+    return model, result.u
 
 
 def handle_force(model: Model, u, boundary: str) -> np.ndarray:

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..engine.constants import FRAME_BUDGET, TISSUE_DENSITY, TISSUE_E, TISSUE_NU
-from ..engine.explicit import critical_time_step, largest_stable_dt, wave_speed
+from ..engine.explicit import SymplecticEuler, critical_time_step, largest_stable_dt, wave_speed
 from ..engine.materials import StableNeoHookean
 from ..engine.meshes import mesh_size, rectangle
 from ..engine.model import Handle, Model
@@ -24,7 +24,8 @@ from ..surgery.scene import Scene, flap_path, flap_scene
 from ..surgery.simulation import Simulation
 from .measure import power_law_fit
 
-__all__ = ["CFLStudy", "cfl_study", "released_flap", "backward_euler_run", "flap_drag", "capped_runs"]
+__all__ = ["CFLStudy", "cfl_study", "released_flap", "backward_euler_run", "symplectic_energies", "flap_drag",
+           "capped_runs"]
 
 #: how far the released flap's right edge is lifted before it is let go
 LIFT = 0.5
@@ -116,6 +117,14 @@ def backward_euler_run(model, u0, dt: float, n_steps: int, frames: bool = False)
         states.append(scheme.u.copy())
     out = (np.array(times), np.array(energies))
     return out + (states,) if frames else out
+
+
+def symplectic_energies(model, u0, dt: float, t_end: float, energy_limit=None) -> np.ndarray:
+    """Symplectic Euler (step ``dt``) on ``model``'s body from ``u0`` at rest until ``t_end``: the total energy
+    before the first step and after each, stopping early once it passes ``energy_limit``."""
+    scheme = SymplecticEuler(model, dt)
+    scheme.u = u0.copy()
+    return scheme.run(int(np.ceil(t_end / dt)), energy_limit=energy_limit)
 
 
 def flap_drag(sim, frames: int, start: int = 0) -> list:
