@@ -39,8 +39,9 @@ from .notebooks import build_chapters, chapter_paths
 
 
 def project_root() -> Path:
-    """The workbook folder: the current directory if it holds ``chapters/``, else the checkout
-    this package was installed from (``lib/`` is the source root)."""
+    """The workbook folder: the current directory if it holds ``chapters/``, else the checkout this package
+    was installed from.
+    """
     cwd = Path.cwd()
     if (cwd / "chapters").is_dir():
         return cwd
@@ -50,24 +51,24 @@ def project_root() -> Path:
     raise SystemExit("cannot find the workbook's chapters/ folder: run this from the workbook's root folder")
 
 
-def cmd_figures(args) -> int:
+def _figures(names, out, note: bool) -> None:
+    """Regenerate figures (a note when this matplotlib would change the committed ones' text)."""
     matplotlib.use("Agg")
-    root = project_root()
-    out = Path(args.out) if args.out else root / "figures"
-    figures.generate(args.only or None, out)
-    if not args.out and figures.matplotlib_note():
+    figures.generate(names, out)
+    if note and figures.matplotlib_note():
         print(figures.matplotlib_note())
+
+
+def cmd_figures(args) -> int:
+    _figures(args.only or None, Path(args.out) if args.out else project_root() / "figures", not args.out)
     return 0
 
 
 def cmd_build(args) -> int:
-    matplotlib.use("Agg")
     start = time.perf_counter()
     root = project_root()
     if not args.skip_figures:
-        figures.generate(None, root / "figures")
-        if figures.matplotlib_note():
-            print(figures.matplotlib_note())
+        _figures(None, root / "figures", True)
     executed = Path(args.out) if args.out else root / "build" / "chapters"
     build_chapters(root / "chapters", executed, args.chapters)
     if not args.no_book:
@@ -144,10 +145,8 @@ def _one_line(path, err) -> str:
 
 
 def cmd_scene(args) -> int:
-    """Check a scene file and run it: one line per frame (time, status, Newton steps), then a summary.
-
-    A scene that cannot be read or built (not a file, not UTF-8 TOML/JSON, nested too deeply, an invalid
-    field, a bad mesh file) is answered with one line on stderr and exit status 2, never a traceback.
+    """Check a scene file and run it: one line per frame (``--verbose``), then a summary. A scene that cannot
+    be read or built is answered with one line on stderr and exit status 2, never a traceback.
     """
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
