@@ -33,8 +33,7 @@ from .bench.assembly import assembly_benchmark
 from .bench.realtime import realtime_benchmark
 from .bench.scenes import effects_benchmark
 from .book import build_book
-from .figures.tradeoffs import plot_budget, plot_pareto, plot_scaling
-from .figures.realtime import plot_realtime
+from .figures.tradeoffs import plot_budget, plot_pareto, plot_realtime, plot_scaling
 from .notebooks import build_chapters, chapter_paths
 
 

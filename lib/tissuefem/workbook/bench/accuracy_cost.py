@@ -405,12 +405,10 @@ def _knob_settings(knob: str, plan: dict, base: Setting):
 
 
 def knob_sweep(benchmark: str, plan: dict, reference, knobs=None, progress=None) -> list[dict]:
-    """One row per (knob, value) of ``plan`` on ``benchmark``: the setting, its cost and its error.
-
-    Each row also has ``from_baseline``, the same measure against the baseline's answer: a knob whose
-    ``from_baseline`` is far below the error cannot change the error beyond its last digits. Settings that
-    cannot run here (PARDISO without pypardiso) are skipped; one that fails (``ValueError``, ``RuntimeError``)
-    gives a row with ``error = nan`` and the reason in ``failed``.
+    """One row per (knob, value) of ``plan`` on ``benchmark``: the setting, its cost and its error, and
+    ``from_baseline``, the same measure against the baseline's answer (a knob moving it far less than the error
+    cannot change the error beyond its last digits). Settings this machine cannot run are skipped; one that fails
+    gives ``error = nan`` and the reason in ``failed``.
     """
     knobs = list(KNOBS) if knobs is None else list(knobs)
     frames = plan["frames"] if benchmark == "flap" else plan["block_frames"]
@@ -446,10 +444,8 @@ def knob_sweep(benchmark: str, plan: dict, reference, knobs=None, progress=None)
 
 
 def solver_scaling(sizes, solvers, frames: int, largest=None, progress=None) -> dict:
-    """Time per frame of the flap scene against mesh size, per linear solver, with fitted exponents.
-
-    ``largest`` maps a (slow) solver to the largest size it is run at. Returns ``{"rows": [...],
-    "exponents": {solver: p}}`` with ``ms ~ C triangles^p`` fitted over the sizes where the solver ran.
+    """Time per frame of the flap against mesh size per linear solver (``largest``: a slow solver's largest
+    size): ``{"rows", "exponents"}`` with ``ms ~ C triangles^p`` fitted where the solver ran.
     """
     largest = largest or {}
     rows = []
@@ -482,12 +478,9 @@ def solver_scaling(sizes, solvers, frames: int, largest=None, progress=None) -> 
 
 def budget_residual(sizes, frames: int, solvers=("reuse",), budget: float = FRAME_BUDGET, clock=time.perf_counter,
                     progress=None) -> list[dict]:
-    """What the budgeted real-time solver leaves when its budget is spent, on the flap scene, by mesh size.
-
-    For each size and solver: the share of frames converged within ``budget`` seconds, the median relative
-    residual ``|grad E| / |grad E(x0)|`` at the end of a frame (1e-6 or less for a converged frame) and the
-    relative ``L2`` distance of the final state from the same run with every frame converged. ``clock`` is
-    injectable (tests use a fake one).
+    """What the budgeted real-time solver leaves on the flap when ``budget`` seconds are spent, by mesh size and
+    solver: the share of frames converged, the median relative residual at a frame's end and the relative ``L2``
+    distance of the final state from the same run converged. ``clock`` is injectable (tests use a fake one).
     """
     rows = []
     for solver in solvers:
@@ -517,12 +510,10 @@ def _drag_path(drag: str):
 
 
 def time_convergence(drag: str = "jump", triangles: int = 500, substeps=(1, 2, 4, 8, 16), frames: int = 5) -> dict:
-    """How fast backward Euler converges in time on the flap, with the standard drag or the eased one.
-
-    The flap (P1, ``triangles``, Newton to ``1e-10``) is run with each number of ``substeps`` per frame;
-    ``distances[k]`` is the largest relative ``L2`` distance, over every fifth frame, between the runs with
-    ``substeps[k]`` and ``substeps[k + 1]``, and ``ratios`` the factor from each distance to the next (0.5 for
-    first order). ``drag``: ``"jump"`` (:func:`~tissuefem.surgery.scene.flap_path`) or ``"eased"``.
+    """How fast backward Euler converges in time on the flap (P1, ``triangles``, Newton to ``1e-10``), with the
+    standard drag (``"jump"``, :func:`~tissuefem.surgery.scene.flap_path`) or the ``"eased"`` one.
+    ``distances[k]``: the largest relative ``L2`` distance over every fifth frame between the runs with
+    ``substeps[k]`` and ``substeps[k + 1]``; ``ratios``: from each distance to the next (0.5 for first order).
     """
     path = _drag_path(drag)
     checkpoints = _checkpoints("flap", frames, 5)
@@ -538,13 +529,11 @@ def capped_newton_experiment(triangles: int = 500, frames: int = 5, drag: str = 
                               reference_substeps: int = 8) -> dict:
     """Why a cap of one Newton step per frame can *lower* the flap's measured error: the experiment.
 
-    Runs of the flap (P1, ``triangles``, ``frames`` frames, ``drag`` as in :func:`time_convergence`): Newton
-    converged, Newton capped at one step per frame, and a reference in time on the same mesh (``2 u(dt/2s) -
-    u(dt/s)``, ``s = reference_substeps``; the flap's error is backward Euler's time error, so the mesh can
-    stay). Returns, at the last frame, both errors, the capped run's distance from the converged one
-    (``capped_moved``) and ``cosine`` (``L2`` inner product) between what the cap changed (capped -
-    converged) and the converged run's error (reference - converged): positive when the cap moved the state
-    towards the reference.
+    The flap (P1, ``triangles``, ``frames`` frames, ``drag`` as in :func:`time_convergence`) with Newton converged
+    and capped at one step, against a reference in time on the same mesh (``2 u(dt/2s) - u(dt/s)``, ``s =
+    reference_substeps``: the flap's error is backward Euler's). Returns, at the last frame, both errors, how far
+    the cap moved the state (``capped_moved``) and the ``cosine`` (``L2``) between that move and the converged
+    run's error: positive when the cap moved the state towards the reference.
     """
     path = _drag_path(drag)
     cps = (frames,)
@@ -585,12 +574,12 @@ def _plan(plan) -> tuple[str, dict]:
 
 def accuracy_study(plan="full", benchmarks=BENCHMARKS, knobs=None, scaling: bool = True, budget: bool = True,
                    verification: bool = True, out=None, progress=print) -> dict:
-    """Run the study; return its results (and write them to the folder ``out``).
+    """Run the study; return its results (and write them into the folder ``out``).
 
-    ``plan`` is ``"full"`` (the CLI's, several minutes), ``"reduced"`` (chapter 9's, under a minute),
-    ``"tiny"`` (the tests'), or a dict shaped like them. The results hold ``machine``, ``plan``,
-    ``references``, ``knobs`` (the rows of :func:`knob_sweep`), ``pareto`` (per benchmark, the indices of
-    the Pareto-optimal rows), ``scaling``, ``budget`` and ``verification``.
+    ``plan``: ``"full"`` (the CLI's, several minutes), ``"reduced"`` (chapter 9's, under a minute), ``"tiny"``
+    (the tests') or a dict shaped like them. The results hold ``machine``, ``plan``, ``references``, ``knobs``
+    (:func:`knob_sweep`'s rows), ``pareto`` (per benchmark, the Pareto-optimal rows), ``scaling``, ``budget`` and
+    ``verification``.
     """
     name, plan = _plan(plan)
     for b in benchmarks:

@@ -29,6 +29,7 @@ from ...engine.linsolve import LinearSolver
 from ...engine.parameters import check_count
 from ...surgery.scene import flap_path, flap_scene
 from ...surgery.simulation import Simulation
+from ..measure import median_time
 from ..tables import markdown_table
 from ..timestepping import flap_drag
 from .common import check_sizes, machine_info, write_csv, write_json
@@ -114,16 +115,8 @@ def frame_floor(sim, repeats: int = 9) -> dict:
     linear = LinearSolver("constant")
     rhs = -model.gradient(u)[free]
     linear.solve(linear.matrix(lambda: model.hessian(u), free), rhs)  # factorize once, untimed
-    assemble, back = [], []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        model.hessian(u)
-        t1 = time.perf_counter()
-        linear.solve(None, rhs)
-        t2 = time.perf_counter()
-        assemble.append(t1 - t0)
-        back.append(t2 - t1)
-    a, b = 1e3 * float(np.median(assemble)), 1e3 * float(np.median(back))
+    a = median_time(lambda: model.hessian(u), repeats)
+    b = median_time(lambda: linear.solve(None, rhs), repeats)
     return {"assembly_ms": a, "back_substitution_ms": b, "floor_ms": a + b}
 
 

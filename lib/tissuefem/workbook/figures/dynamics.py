@@ -1,9 +1,10 @@
-"""Figures of chapter 7 (time stepping): explicit against implicit.
+"""Figures of chapter 7 (time stepping): explicit against implicit, and what the real-time budget trades.
 
 ``fig_ch07_cfl`` (symplectic Euler's largest stable step against the element size), ``fig_ch07_energy``
-(numerical damping against bounded oscillation and blow-up) and ``fig_ch07_released_flap`` (a filmstrip and
-a GIF). The flap of the last two is the one of the chapter's tests: a 2 x 1 rectangle (8 x 4 cells), stable
-neo-Hookean with E = 1000, nu = 0.3, rho0 = 1, left edge held, its right edge lifted by 0.5 and let go.
+(numerical damping against bounded oscillation and blow-up) and ``fig_ch07_released_flap`` (a filmstrip and a
+GIF) let go the flap of the chapter's tests: a 2 x 1 rectangle (8 x 4 cells), stable neo-Hookean with E = 1000,
+nu = 0.3, rho0 = 1, left edge held, right edge lifted by 0.5. ``fig_ch07_budget_residual``: the residual and
+the error a frame stopped after 1, 2 or 3 Newton steps leaves (a cap, not a clock: reproducible).
 """
 
 from __future__ import annotations
@@ -18,7 +19,8 @@ from matplotlib.ticker import NullFormatter
 
 from ...engine.constants import FRAME_BUDGET as FRAME_DT, TISSUE_E, TISSUE_NU  # FRAME_DT: one frame, 1/30 s
 from ...engine.explicit import critical_time_step
-from ..timestepping import backward_euler_run, cfl_study, released_flap, symplectic_energies
+from ..timestepping import (CAPPED_FRAMES, CAPS, backward_euler_run, capped_runs, cfl_study, released_flap,
+                            symplectic_energies)
 from .base import animation_figure, frame_axes, lecture_figure, save, save_animation, shown
 from .inversion import UPRIGHT_COLOR, draw_state
 
@@ -205,4 +207,38 @@ def fig_ch07_released_flap(path=None) -> Figure:
     save(fig, path)
     if path is not None:
         write_flap_animation(Path(path).with_suffix(".gif"), problem, states, FRAME_DT)
+    return fig
+
+
+#: a relative state error below this is round-off (its digits differ between machines)
+STATE_ROUND_OFF = 1e-12
+
+
+@lecture_figure
+def fig_ch07_budget_residual(path=None, rows=None) -> Figure:
+    """Chapter 7: residual and state error left when a frame stops after 1, 2 or 3 Newton steps, by mesh size."""
+    rows = capped_runs() if rows is None else rows
+    fig = Figure(figsize=(9.0, 3.8), layout="constrained")
+    ax_r, ax_e = fig.subplots(1, 2)
+    for cap, marker in zip(CAPS, "os^"):
+        sel = [r for r in rows if r["cap"] == cap]
+        tri = [r["triangles"] for r in sel]
+        label = f"{cap} Newton step{'s' if cap > 1 else ''} per frame"
+        # a residual of 1e-9 of the first one carries round-off at 1e-4 of itself: two digits
+        ax_r.loglog(tri, shown([r["median_relative_residual"] for r in sel], digits=2), marker + "-", label=label)
+        ax_e.loglog(tri, shown([r["state_error"] for r in sel], floor=STATE_ROUND_OFF), marker + "-", label=label)
+    ax_e.axhspan(STATE_ROUND_OFF / 20, STATE_ROUND_OFF, color="0.9", lw=0, zorder=0)
+    ax_e.text(0.02, STATE_ROUND_OFF / 5, f"round-off (drawn at {STATE_ROUND_OFF:.0e})",
+              transform=ax_e.get_yaxis_transform(), fontsize=7.5, color="0.35", va="center")
+    ax_r.axhline(1e-6, color="k", ls="--", lw=1)
+    ax_r.text(rows[0]["triangles"], 1.5e-6, "converged: rtol = 1e-6", fontsize=8)
+    ax_r.set(xlabel="triangles", ylabel="median of |residual| / |first residual| per frame",
+             title="Residual left at the end of a frame")
+    ax_e.set(xlabel="triangles", ylabel="max |u - u_converged| / max |u_converged|",
+             title=f"State error after {CAPPED_FRAMES} frames of the drag")
+    for ax in (ax_r, ax_e):
+        ax.grid(True, which="both", alpha=0.3)
+        ax.xaxis.set_minor_formatter(NullFormatter())
+        ax.legend(fontsize=8, loc="center right")
+    save(fig, path)
     return fig
