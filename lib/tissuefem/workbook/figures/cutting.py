@@ -63,7 +63,7 @@ def fig_ch10_virtual_nodes(path=None) -> Figure:
     ax.set_title(f"(a) the stroke on the mesh: {t_old.shape[1]} triangles, {n_old} nodes", fontsize=9)
     ax = axes[1]
     x = sim.positions()
-    cut = np.array(sorted(sim._regions))
+    cut = np.array(sorted(edit.regions))
     draw_picture(ax, sim, color="0.85", lw=0.5)
     ax.add_collection(PolyCollection(shown(x[:, sim.mesh.t[:, cut]]).transpose(2, 1, 0), facecolors="none",
                                      edgecolors="C0", linewidths=0.8, linestyles="--"))
