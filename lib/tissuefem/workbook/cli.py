@@ -24,7 +24,7 @@ from pathlib import Path
 import matplotlib
 import numpy as np
 
-from ..engine.parameters import ParameterError
+from ..engine.parameters import ParameterError, check_count
 from ..surgery.scene import Scene
 from ..surgery.simulation import Simulation
 from . import figures
@@ -147,6 +147,7 @@ def cmd_scene(args) -> int:
     """Check a scene file and run it: one line per frame (``--verbose``), then a summary. A scene that cannot
     be read or built is answered with one line on stderr and exit status 2, never a traceback.
     """
+    frames = check_count("frames", args.frames, 1, 1_000_000)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
@@ -167,25 +168,15 @@ def cmd_scene(args) -> int:
     if args.check:
         return 0
     ms = []
-    for _ in range(args.frames):
+    for _ in range(frames):
         r = sim.frame()
         ms.append(1e3 * r.elapsed)
         if args.verbose:
             print(f"  frame {r.frame:4d}  {ms[-1]:7.1f} ms  {r.status:18s} Newton {r.newton_iterations}")
     finite = bool(np.all(np.isfinite(sim.u)))
-    print(f"{args.frames} frames: median {np.median(ms):.1f} ms/frame (budget {1e3 * sim.solver.budget:.0f} ms), "
+    print(f"{frames} frames: median {np.median(ms):.1f} ms/frame (budget {1e3 * sim.solver.budget:.0f} ms), "
           f"max {max(ms):.1f} ms; {sim.pieces()} piece(s); state finite: {finite}")
     return 0 if finite else 1
-
-
-def _frame_count(text) -> int:
-    try:
-        n = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"frames must be an integer, got {text!r}") from None
-    if not 1 <= n <= 1_000_000:
-        raise argparse.ArgumentTypeError(f"frames must lie in [1, 1000000], got {n}")
-    return n
 
 
 def cmd_list(args) -> int:
@@ -235,7 +226,7 @@ def main(argv=None) -> int:
 
     p = sub.add_parser("scene", help="check a scene file (TOML or JSON) and run it for some frames")
     p.add_argument("path", help="the scene file, e.g. scenes/incision.toml")
-    p.add_argument("--frames", type=_frame_count, default=30, help="frames to run (default 30, at most 1000000)")
+    p.add_argument("--frames", type=int, default=30, help="frames to run (default 30, at most 1000000)")
     p.add_argument("--check", action="store_true", help="only check and build the scene")
     p.add_argument("--verbose", "-v", action="store_true", help="one line per frame")
     p.set_defaults(func=cmd_scene)
