@@ -2,7 +2,7 @@
 
 A sentence of a chapter that quotes or compares numbers is pinned here, so that a
 change of the engine which changes the number also fails a test (chapter 9's claims
-about its recorded study are pinned in ``test_bench_accuracy.py``).
+about its recorded study are pinned in ``test_bench_accuracy_cost.py``).
 """
 
 import numpy as np

@@ -37,7 +37,7 @@ def beam_exact(X, *, length=48.0, depth=12.0, load=1000.0, E=3.0e7, nu=0.3) -> n
 
     Its stresses ``sigma_xx = -P (L - x) y / I``, ``sigma_yy = 0``, ``sigma_xy = P / (2 I) (D^2/4 - y^2)``
     are in equilibrium without body force, free on ``y = +-D/2``, and at ``x = L`` the parabolic shear of
-    resultant ``P`` (``tests/workbook/test_accuracy.py`` checks all of this by finite differences).
+    resultant ``P`` (``tests/workbook/test_verification.py`` checks all of this by finite differences).
     """
     x, y = np.asarray(X, dtype=float)
     I = depth**3 / 12.0
