@@ -23,6 +23,10 @@ from ..surgery.simulation import Simulation
 from ..surgery.surfaces import contact_surface
 from ..surgery.topology import connected_components
 
+__all__ = ["still_clock", "sheet_scene", "still_simulation", "check_frame", "pulled_sheet", "incision_run",
+           "two_pieces_run", "probe_run", "probe_indentation", "flap_runs", "crack_runs", "virtual_nodes_run",
+           "crack_opening", "flap_comparison", "overlap_area", "fold_run", "pressed_cut_run"]
+
 #: the incision: how far the right edge is pulled, and the cut (from above the top edge to mid-height)
 INCISION_PULL, INCISION_PATH = 0.4, ((1.0, 1.2), (1.0, 0.5))
 #: the two pieces: frames of sagging before the cut and of falling after it
