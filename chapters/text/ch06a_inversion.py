@@ -45,8 +45,8 @@ import numpy as np
 import matplotlib.pyplot as plt
 from scipy.sparse.linalg import MatrixRankWarning
 
-from tissuefem.workbook.figures.inversion import cover_counts, draw_state, element_jacobians, fig_ch06_itf_energy
-from tissuefem.workbook.hardcases import block, inversion_models, release, start_states
+from tissuefem.workbook.figures.inversion import draw_state, fig_ch06_itf_energy
+from tissuefem.workbook.hardcases import block, cover_counts, element_jacobians, inversion_models, release, start_states
 from tissuefem import Handle, Model, NeoHookean, TaylorNeoHookean, rotation_preserving_svd
 from tissuefem.engine.materials1d import taylor_log, taylor_log_prime
 

@@ -43,10 +43,10 @@ import numpy as np
 from IPython.display import Markdown, display
 from scipy.sparse.linalg import MatrixRankWarning
 
-from tissuefem.workbook.bench.common import markdown_table
-from tissuefem.workbook.figures.inversion import (cover_counts, crush_and_release_runs, element_jacobians,
-                                                  fig06_crush_release)
-from tissuefem.workbook.hardcases import block, crush_in_frames, inversion_models, release, start_states
+from tissuefem.workbook.figures.inversion import fig06_crush_release
+from tissuefem.workbook.hardcases import (block, cover_counts, crush_and_release_runs, crush_in_frames,
+                                          element_jacobians, inversion_models, release, start_states)
+from tissuefem.workbook.tables import markdown_table
 from tissuefem import (Handle, ITFClamped, Model, P1Assembler, StableNeoHookean, TaylorNeoHookean,
                        projected_tangent, rotation_preserving_svd)
 

@@ -47,8 +47,8 @@ from tissuefem import (FRAME_BUDGET, Handle, Model, NeoHookean, RealtimeSolver, 
                        SymplecticEuler, critical_time_step, flap, flap_path, flap_scene, largest_stable_dt, mesh_size,
                        rectangle, wave_speed)
 from tissuefem.engine import linsolve
-from tissuefem.workbook.figures.dynamics import CFL_SIZES, fig_ch07_cfl, fig_ch07_energy, fig_ch07_released_flap
-from tissuefem.workbook.figures.realtime import fig_ch07_budget_residual
+from tissuefem.workbook.figures.dynamics import (CFL_SIZES, fig_ch07_budget_residual, fig_ch07_cfl, fig_ch07_energy,
+                                                 fig_ch07_released_flap)
 from tissuefem.workbook.timestepping import cfl_study
 
 E, nu, rho0 = 1000.0, 0.3, 1.0

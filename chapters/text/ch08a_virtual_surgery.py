@@ -45,8 +45,8 @@ import numpy as np
 import matplotlib.pyplot as plt
 
 from tissuefem.surgery import topology as surgery
-from tissuefem.workbook.figures.surgery import (draw_mesh, fig_ch08_incision, fig_ch08_probe, fig_ch08_two_pieces,
-                                               probe_indentation, sheet_scene)
+from tissuefem.workbook.figures.surgery import draw_mesh, fig_ch08_incision, fig_ch08_probe, fig_ch08_two_pieces
+from tissuefem.workbook.procedures import probe_indentation, sheet_scene
 from tissuefem import FRAME_BUDGET, Scene, Simulation, rectangle
 from tissuefem.surgery.scene import EFFECTS, EXAMPLE_TOML
 
@@ -400,7 +400,7 @@ fig_ch08_two_pieces()
 # ```python
 # import numpy as np
 # from tissuefem import Simulation
-# from tissuefem.workbook.figures.surgery import sheet_scene
+# from tissuefem.workbook.procedures import sheet_scene
 #
 # for n, end in ((1200, 0.7), (1200, 0.4), (4800, 0.4)):
 #     sim = Simulation(sheet_scene(n, handles=[{"name": "fixed", "region": "left"},
@@ -423,7 +423,7 @@ fig_ch08_two_pieces()
 # ```python
 # import numpy as np
 # from tissuefem import Simulation
-# from tissuefem.workbook.figures.surgery import sheet_scene
+# from tissuefem.workbook.procedures import sheet_scene
 #
 # sim = Simulation(sheet_scene(1200, handles=[{"name": "base", "region": "bottom"},
 #                                             {"name": "pull", "region": "top", "target": [0.0, 0.3]}]))
@@ -441,7 +441,7 @@ fig_ch08_two_pieces()
 #
 # ```python
 # from tissuefem import Simulation
-# from tissuefem.workbook.figures.surgery import sheet_scene
+# from tissuefem.workbook.procedures import sheet_scene
 #
 # sim = Simulation(sheet_scene(800, handles=[{"name": "base", "region": "bottom"}], dynamic=True))
 # tool = sim.add_probe([1.0, 1.25], radius=0.25, stiffness=1e5)

@@ -39,7 +39,8 @@ import matplotlib.pyplot as plt
 from IPython.display import Markdown, display
 
 from tissuefem.workbook.bench.scenes import effects_benchmark, format_effects_table
-from tissuefem.workbook.figures.surgery import fig_ch08_flap, sheet_scene
+from tissuefem.workbook.figures.surgery import fig_ch08_flap
+from tissuefem.workbook.procedures import sheet_scene
 from tissuefem import FRAME_BUDGET, Simulation, advancement_flap, demo_scene
 
 print(f"frame budget {1e3 * FRAME_BUDGET:.1f} ms")
@@ -290,7 +291,7 @@ if INTERACTIVE:
 # ```python
 # import numpy as np
 # from tissuefem import Simulation
-# from tissuefem.workbook.figures.surgery import sheet_scene
+# from tissuefem.workbook.procedures import sheet_scene
 #
 # for frames in (1, 10):
 #     sim = Simulation(sheet_scene(800, dynamic=True, handles=[{"name": "fixed", "region": "left"},

@@ -45,11 +45,11 @@ import time
 import numpy as np
 from IPython.display import Markdown, display
 
-from tissuefem.workbook.accuracy import beam_problem_tip, manufactured_convergence
+from tissuefem.workbook.verification import beam_problem_tip, manufactured_convergence
 from tissuefem.workbook.measure import best_within_budget, cost_at_error, fitted_exponent, pareto_front
-from tissuefem.workbook.bench.accuracy import (accuracy_study, capped_newton_experiment, format_knob_table,
+from tissuefem.workbook.bench.accuracy_cost import (accuracy_study, capped_newton_experiment, format_knob_table,
                                                recorded_results, time_convergence)
-from tissuefem.workbook.figures.accuracy import (ERROR_RESOLUTION, fig_ch09_verification, plot_budget, plot_pareto,
+from tissuefem.workbook.figures.tradeoffs import (ERROR_RESOLUTION, fig_ch09_verification, plot_budget, plot_pareto,
                                                  plot_scaling)
 
 recorded = recorded_results()
@@ -371,8 +371,8 @@ for b in ("flap", "block"):
 #   which did not? (`python -m tissuefem bench accuracy --plan reduced --out my-results` writes the files.)
 #
 # ```python
-# from tissuefem.workbook.bench.accuracy import accuracy_study
-# from tissuefem.workbook.figures.accuracy import plot_pareto
+# from tissuefem.workbook.bench.accuracy_cost import accuracy_study
+# from tissuefem.workbook.figures.tradeoffs import plot_pareto
 #
 # results = accuracy_study("tiny", scaling=False, budget=False, verification=False, progress=None)
 # plot_pareto(results)
@@ -382,7 +382,7 @@ for b in ("flap", "block"):
 #   $2\mathbf u_{\Delta t/2} - \mathbf u_{\Delta t}$. How close to the reference does that get, and at what cost?
 #
 # ```python
-# from tissuefem.workbook.bench.accuracy import PLANS, Setting, reference_run, run_setting
+# from tissuefem.workbook.bench.accuracy_cost import PLANS, Setting, reference_run, run_setting
 # from tissuefem.workbook.measure import relative_l2_error
 #
 # plan = PLANS["tiny"]
@@ -396,10 +396,10 @@ for b in ("flap", "block"):
 # ```
 #
 # - Make a knob of your own, the Poisson ratio near $\frac12$ say: a plan is a dict, and each knob maps to the
-#   values it sweeps (see `PLANS` in `tissuefem.workbook.bench.accuracy`). Start from the tiny plan:
+#   values it sweeps (see `PLANS` in `tissuefem.workbook.bench.accuracy_cost`). Start from the tiny plan:
 #
 # ```python
-# from tissuefem.workbook.bench.accuracy import PLANS, accuracy_study
+# from tissuefem.workbook.bench.accuracy_cost import PLANS, accuracy_study
 #
 # plan = dict(PLANS["tiny"], knobs={"mesh": (100, 200), "newton_tolerance": (1e-2, 1e-6)})
 # results = accuracy_study(plan, benchmarks=("block",), scaling=False, budget=False, verification=False,

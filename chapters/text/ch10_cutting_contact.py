@@ -44,10 +44,11 @@ from IPython.display import Markdown, display
 from tissuefem import Scene, Simulation, rectangle
 from tissuefem.surgery.element_cuts import cut_through, lumped_mass
 from tissuefem.surgery.flaps import advancement_flap, rotation_flap
-from tissuefem.workbook.bench.common import markdown_table
 from tissuefem.workbook.cracks import griffith_closed_form, griffith_opening
-from tissuefem.workbook.figures.cutting import (crack_opening, crack_runs, fig_ch10_contact, fig_ch10_cut_through,
-                                                fig_ch10_flaps, fig_ch10_virtual_nodes)
+from tissuefem.workbook.figures.cutting import (fig_ch10_contact, fig_ch10_cut_through, fig_ch10_flaps,
+                                                fig_ch10_virtual_nodes)
+from tissuefem.workbook.procedures import crack_opening, crack_runs
+from tissuefem.workbook.tables import markdown_table
 
 # %% [markdown]
 # ## 1. A cut that follows the mesh is a property of the mesh

@@ -2,7 +2,7 @@
 
 A sentence of a chapter that quotes or compares numbers is pinned here, so that a
 change of the engine which changes the number also fails a test (chapter 9's claims
-about its recorded study are pinned in ``test_bench_accuracy.py``).
+about its recorded study are pinned in ``test_bench_accuracy_cost.py``).
 """
 
 import numpy as np
@@ -78,7 +78,7 @@ def test_ch07_explicit_steps_per_frame():
 def test_ch08_the_probe_leaves_the_same_penetration_on_every_mesh():
     """"The same push leaves the same penetration on every mesh: ... agree to within a few per cent (the test
     suite checks 600 to 12 000 triangles)" -- the surface-weighted penalty of ``terms.Probe``."""
-    from tissuefem.workbook.figures.surgery import probe_indentation
+    from tissuefem.workbook.procedures import probe_indentation
 
     left = [probe_indentation(n)["penetration"] for n in (600, 1200, 4800, 12000)]
     assert max(left) / min(left) < 1.05, left
@@ -88,7 +88,7 @@ def test_ch08_the_probe_leaves_the_same_penetration_on_every_mesh():
 def test_ch08_stiffer_probes_leave_less_penetration_and_cost_newton_steps():
     """"Ten times the stiffness leaves about a third of the penetration (for k >= 1e6) and costs Newton steps:
     from 4 or 5 per frame at k = 1e4 to 11 to 17 at 1e8"."""
-    from tissuefem.workbook.figures.surgery import probe_indentation
+    from tissuefem.workbook.procedures import probe_indentation
 
     runs = {k: probe_indentation(1200, stiffness=k) for k in (1e4, 1e6, 1e7, 1e8)}
     for k in (1e6, 1e7):

@@ -5,8 +5,7 @@ import pytest
 
 from helpers import assert_figure_deterministic
 from tissuefem.workbook import figures
-from tissuefem.workbook.figures.cutting import (CRACK_MESHES, _fold_run, _pressed_cut_run, crack_opening, crack_runs,
-                                                overlap_area)
+from tissuefem.workbook.procedures import CRACK_MESHES, crack_opening, crack_runs, fold_run, overlap_area, pressed_cut_run
 from tissuefem.surgery.element_cuts import picture
 
 CHAPTER_10 = ["fig_ch10_virtual_nodes", "fig_ch10_cut_through", "fig_ch10_flaps", "fig_ch10_contact"]
@@ -30,7 +29,7 @@ def test_the_crack_opens_alike_on_both_meshes_only_when_cut_through_elements():
     assert abs(snapped[1] - snapped[0]) > 5 * abs(through[1] - through[0])
 
 
-@pytest.mark.parametrize("run", [_fold_run, _pressed_cut_run], ids=["fold", "pressed-cut"])
+@pytest.mark.parametrize("run", [fold_run, pressed_cut_run], ids=["fold", "pressed-cut"])
 def test_without_contact_the_body_overlaps_itself_and_with_it_only_within_the_skin(run):
     mesh, regions, free, u_free = run(False)
     _, _, held, u_held = run(True)

@@ -5,7 +5,7 @@ import pytest
 
 from helpers import assert_figure_deterministic
 from tissuefem import Handle, Model, NeoHookean, flap
-from tissuefem.workbook.figures.realtime import capped_runs
+from tissuefem.workbook.timestepping import capped_runs
 
 
 def test_more_newton_steps_per_frame_leave_less_residual_and_error():

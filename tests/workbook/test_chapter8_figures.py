@@ -5,7 +5,7 @@ import pytest
 
 from helpers import assert_figure_deterministic
 from tissuefem.workbook import figures
-from tissuefem.workbook.figures.surgery import FALL_FRAMES, SAG_FRAMES, two_pieces_run
+from tissuefem.workbook.procedures import FALL_FRAMES, SAG_FRAMES, two_pieces_run
 
 CHAPTER_8 = ["fig_ch08_incision", "fig_ch08_two_pieces", "fig_ch08_probe", "fig_ch08_flap"]
 

@@ -4,8 +4,8 @@ import pytest
 
 from helpers import assert_figure_deterministic
 from tissuefem.workbook import figures
-from tissuefem.workbook.bench.accuracy import recorded_results
-from tissuefem.workbook.figures.accuracy import KNOB_STYLE, plot_pareto
+from tissuefem.workbook.bench.accuracy_cost import recorded_results
+from tissuefem.workbook.figures.tradeoffs import KNOB_STYLE, plot_pareto
 
 CHAPTER_9 = ["fig_ch09_pareto", "fig_ch09_scaling", "fig_ch09_budget", "fig_ch09_verification"]
 

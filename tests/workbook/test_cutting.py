@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from tissuefem.workbook.cracks import griffith_closed_form, griffith_opening
-from tissuefem.workbook.figures.cutting import crack_opening
+from tissuefem.workbook.procedures import crack_opening
 
 E, NU = 1000.0, 0.3
 LAM, MU = E * NU / ((1 + NU) * (1 - 2 * NU)), E / (2 * (1 + NU))

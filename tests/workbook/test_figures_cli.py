@@ -60,3 +60,24 @@ def test_the_installed_tissuefem_command_runs(tmp_path):
     done = subprocess.run([str(exe), "list"], capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr
     assert "fig07_neo_hookean_1d" in done.stdout
+
+
+def test_a_refused_option_is_named_by_its_field(capsys):
+    """The command line reads ``ParameterError.field`` to name the option, as argparse names its own."""
+    with pytest.raises(SystemExit) as exit_:
+        cli.main(["bench", "assembly", "--repeats", "0"])
+    assert exit_.value.code == 2
+    err = capsys.readouterr().err
+    assert "argument --repeats: repeats must be an integer" in err and "Traceback" not in err
+
+
+def test_a_scene_field_error_is_one_line_with_the_path(monkeypatch, tmp_path, capsys):
+    from tissuefem.engine.parameters import ParameterError
+
+    def refuse(path):
+        raise ParameterError("material.poisson_ratio", "material.poisson_ratio must lie in [0, 0.5), got 0.7")
+
+    monkeypatch.setattr(cli.Scene, "load", staticmethod(refuse))
+    assert cli.main(["scene", str(tmp_path / "s.toml"), "--check"]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert err == [f"{tmp_path / 's.toml'}: material.poisson_ratio must lie in [0, 0.5), got 0.7"]

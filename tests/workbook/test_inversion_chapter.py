@@ -16,8 +16,8 @@ import pytest
 from helpers import assert_figure_deterministic
 from matplotlib.figure import Figure
 
-from tissuefem.workbook.figures.inversion import CRUSH_COLUMNS, cover_counts, draw_state, element_jacobians, frame_depths
-from tissuefem.workbook.hardcases import block, start_states
+from tissuefem.workbook.figures.inversion import CRUSH_COLUMNS, draw_state, frame_depths
+from tissuefem.workbook.hardcases import block, cover_counts, element_jacobians, start_states
 from tissuefem.engine.materials import StableNeoHookean
 from tissuefem.engine.meshes import rectangle
 from tissuefem import Handle, Model

@@ -1,18 +1,10 @@
 """The workbook as a static website: ``python -m tissuefem book`` (and the last step of ``build``).
 
-Every chapter becomes one HTML page, made by nbconvert's HTML exporter from its executed copy
-(``build/chapters/``), with every output and figure embedded and the mathematics typeset by MathJax when
-online (readable TeX when not); each page links to its neighbours, the contents and the errata. The index
-page carries the syllabus: each chapter's goals, read from its first cell, and its time, stated there
-(``*Time: about 40 min ...*``, :func:`stated_minutes`; the tests check it) or estimated from its length
-(:func:`estimate_minutes`). A chapter split into sittings (``chNNa_*``, ``chNNb_*``) shows as "6a" and "6b".
-
-Every link is relative, so the folder can be copied to any web server or opened from disk::
-
-    index.html                the syllabus
-    errata.html               errata to the lecture notes
-    chapters/chNN_*.html      one page per chapter
-    <other files>             files a chapter links to, at their place in the workbook
+Each chapter becomes one HTML page (nbconvert's HTML exporter, from its executed copy in ``build/chapters/``,
+outputs embedded, MathJax when online) linked to its neighbours, the contents and the errata. The index page is
+the syllabus: each chapter's goals (from its first cell) and time (stated there, :func:`stated_minutes`, or
+estimated, :func:`estimate_minutes`); a chapter in sittings (``chNNa_*``, ``chNNb_*``) shows as "6a", "6b".
+Every link is relative: copy the folder to any web server, or open ``index.html`` from disk.
 """
 
 from __future__ import annotations
@@ -111,8 +103,9 @@ def chapter_title(nb, fallback: str) -> str:
 
 
 def chapter_goals(nb) -> str:
-    """The goals of a chapter as Markdown: the ``**Goals.** ...`` paragraph of its first cell without the label,
-    else the first paragraph after the title."""
+    """The ``**Goals.** ...`` paragraph of a chapter's first cell without its label, else the first paragraph
+    after the title (Markdown).
+    """
     paragraphs = [p for p in map(str.strip, re.split(r"\n\s*\n", _first_cell_text(nb))) if p and not p.startswith("#")]
     for p in paragraphs:
         if re.match(r"\**\s*Goals?\b", p):
@@ -146,10 +139,9 @@ _TRY = re.compile(r"^## What to try\b.*?(?=^## |\Z)", re.S | re.M)
 
 
 def reading_load(nb) -> tuple[int, int]:
-    """``(words, code_lines)``: the words of a chapter's prose and the non-empty lines of its code.
-
-    Fenced code in Markdown counts as code. The "What to try" section is left out: like the exercises, it is
-    for after the sitting."""
+    """``(words, code_lines)`` of a chapter: fenced code in Markdown counts as code, and the "What to try" section
+    is left out (like the exercises, it is for after the sitting).
+    """
     words = code_lines = 0
     for c in nb.cells:
         if c.cell_type == "markdown":
@@ -177,8 +169,9 @@ def stated_minutes(nb) -> int | None:
 
 
 def chapter_exercises(nb) -> list[str] | None:
-    """The exercises a chapter lists in its "Exercises" section (``**6.1**``, ...), in order; ``None`` when it
-    has no such section (the syllabus then counts the stubs of its exercise file)."""
+    """The exercises a chapter's "Exercises" section lists (``**6.1**``, ...), or ``None`` without one (the
+    syllabus then counts the stubs of its exercise file).
+    """
     text = "\n\n".join(c.source for c in nb.cells if c.cell_type == "markdown")
     m = re.search(r"^## Exercises.*?(?=^## |\Z)", text, re.S | re.M)
     return re.findall(r"\*\*(\d+\.\d+)\*\*", m.group(0)) if m else None
@@ -332,10 +325,10 @@ def syllabus_cells(chapters: list[Chapter], intro: str) -> list[str]:
 def build_book(chapters_dir, executed_dir, outdir, readme=None, exercises_dir=None, progress=print) -> list[Path]:
     """Write the static site into ``outdir``; returns the pages written.
 
-    ``executed_dir`` holds executed copies of the chapters in ``chapters_dir`` (a chapter without one is
-    shown without outputs, with a note); ``readme`` (default: next to ``chapters_dir``) gives the index page's
-    opening and the errata; ``exercises_dir`` (default ``chapters_dir/exercises``) the exercise counts.
-    Relative links go to a chapter's page, the errata page, or a copy of the linked workbook file.
+    A chapter without an executed copy in ``executed_dir`` is shown without outputs, with a note; ``readme``
+    (default: beside ``chapters_dir``) gives the index page's opening and the errata, ``exercises_dir`` (default
+    ``chapters_dir/exercises``) the exercise counts. Relative links go to a chapter's page, the errata page or a
+    copy of the linked workbook file.
     """
     chapters_dir, executed_dir, outdir = Path(chapters_dir), Path(executed_dir), Path(outdir)
     root = chapters_dir.resolve().parent

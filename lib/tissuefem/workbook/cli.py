@@ -24,22 +24,23 @@ from pathlib import Path
 import matplotlib
 import numpy as np
 
+from ..engine.parameters import ParameterError, check_count
 from ..surgery.scene import Scene
 from ..surgery.simulation import Simulation
 from . import figures
-from .bench.accuracy import accuracy_study
+from .bench.accuracy_cost import accuracy_study
 from .bench.assembly import assembly_benchmark
 from .bench.realtime import realtime_benchmark
 from .bench.scenes import effects_benchmark
 from .book import build_book
-from .figures.accuracy import plot_budget, plot_pareto, plot_scaling
-from .figures.realtime import plot_realtime
+from .figures.tradeoffs import plot_budget, plot_pareto, plot_realtime, plot_scaling
 from .notebooks import build_chapters, chapter_paths
 
 
 def project_root() -> Path:
-    """The workbook folder: the current directory if it holds ``chapters/``, else the checkout
-    this package was installed from (``lib/`` is the source root)."""
+    """The workbook folder: the current directory if it holds ``chapters/``, else the checkout this package
+    was installed from.
+    """
     cwd = Path.cwd()
     if (cwd / "chapters").is_dir():
         return cwd
@@ -49,24 +50,24 @@ def project_root() -> Path:
     raise SystemExit("cannot find the workbook's chapters/ folder: run this from the workbook's root folder")
 
 
-def cmd_figures(args) -> int:
+def _figures(names, out, note: bool) -> None:
+    """Regenerate figures (a note when this matplotlib would change the committed ones' text)."""
     matplotlib.use("Agg")
-    root = project_root()
-    out = Path(args.out) if args.out else root / "figures"
-    figures.generate(args.only or None, out)
-    if not args.out and figures.matplotlib_note():
+    figures.generate(names, out)
+    if note and figures.matplotlib_note():
         print(figures.matplotlib_note())
+
+
+def cmd_figures(args) -> int:
+    _figures(args.only or None, Path(args.out) if args.out else project_root() / "figures", not args.out)
     return 0
 
 
 def cmd_build(args) -> int:
-    matplotlib.use("Agg")
     start = time.perf_counter()
     root = project_root()
     if not args.skip_figures:
-        figures.generate(None, root / "figures")
-        if figures.matplotlib_note():
-            print(figures.matplotlib_note())
+        _figures(None, root / "figures", True)
     executed = Path(args.out) if args.out else root / "build" / "chapters"
     build_chapters(root / "chapters", executed, args.chapters)
     if not args.no_book:
@@ -133,17 +134,20 @@ def cmd_grade(args) -> int:
 
 
 def _one_line(path, err) -> str:
-    """An error as the single line the ``scene`` command prints: ``PATH: message`` (the path once)."""
+    """An error as the single line the ``scene`` command prints: ``PATH: message``, the path once.
+
+    A :class:`~tissuefem.engine.parameters.ParameterError` is about a field inside the file (its message names
+    the field), so the path goes in front; an error about the file itself may already name it.
+    """
     message = " ".join(str(err).split()) or type(err).__name__
-    return message if str(path) in message else f"{path}: {message}"
+    return f"{path}: {message}" if isinstance(err, ParameterError) or str(path) not in message else message
 
 
 def cmd_scene(args) -> int:
-    """Check a scene file and run it: one line per frame (time, status, Newton steps), then a summary.
-
-    A scene that cannot be read or built (not a file, not UTF-8 TOML/JSON, nested too deeply, an invalid
-    field, a bad mesh file) is answered with one line on stderr and exit status 2, never a traceback.
+    """Check a scene file and run it: one line per frame (``--verbose``), then a summary. A scene that cannot
+    be read or built is answered with one line on stderr and exit status 2, never a traceback.
     """
+    frames = check_count("frames", args.frames, 1, 1_000_000)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
@@ -164,25 +168,15 @@ def cmd_scene(args) -> int:
     if args.check:
         return 0
     ms = []
-    for _ in range(args.frames):
+    for _ in range(frames):
         r = sim.frame()
         ms.append(1e3 * r.elapsed)
         if args.verbose:
             print(f"  frame {r.frame:4d}  {ms[-1]:7.1f} ms  {r.status:18s} Newton {r.newton_iterations}")
     finite = bool(np.all(np.isfinite(sim.u)))
-    print(f"{args.frames} frames: median {np.median(ms):.1f} ms/frame (budget {1e3 * sim.solver.budget:.0f} ms), "
+    print(f"{frames} frames: median {np.median(ms):.1f} ms/frame (budget {1e3 * sim.solver.budget:.0f} ms), "
           f"max {max(ms):.1f} ms; {sim.pieces()} piece(s); state finite: {finite}")
     return 0 if finite else 1
-
-
-def _frame_count(text) -> int:
-    try:
-        n = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"frames must be an integer, got {text!r}") from None
-    if not 1 <= n <= 1_000_000:
-        raise argparse.ArgumentTypeError(f"frames must lie in [1, 1000000], got {n}")
-    return n
 
 
 def cmd_list(args) -> int:
@@ -232,7 +226,7 @@ def main(argv=None) -> int:
 
     p = sub.add_parser("scene", help="check a scene file (TOML or JSON) and run it for some frames")
     p.add_argument("path", help="the scene file, e.g. scenes/incision.toml")
-    p.add_argument("--frames", type=_frame_count, default=30, help="frames to run (default 30, at most 1000000)")
+    p.add_argument("--frames", type=int, default=30, help="frames to run (default 30, at most 1000000)")
     p.add_argument("--check", action="store_true", help="only check and build the scene")
     p.add_argument("--verbose", "-v", action="store_true", help="one line per frame")
     p.set_defaults(func=cmd_scene)
@@ -249,4 +243,9 @@ def main(argv=None) -> int:
     p.set_defaults(func=cmd_list)
 
     args = parser.parse_args(argv)
-    return int(args.func(args) or 0)
+    try:
+        return int(args.func(args) or 0)
+    except ParameterError as err:  # a refused option value: name the option, as argparse does for its own checks
+        if not hasattr(args, err.field):
+            raise
+        sub.choices[args.command].error(f"argument --{err.field.replace('_', '-')}: {err}")

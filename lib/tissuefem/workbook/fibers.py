@@ -1,40 +1,24 @@
 """Anisotropic fibers (chapter 5): the fiber term on its own, and pulling along versus across.
 
-The notes make a fibrous tissue anisotropic with a field of unit fiber directions ``g : B0 -> R^2`` in the
-*reference* configuration and a term in the squared fiber stretch (notes, "Continuum mechanics and
-elasticity", the paragraph after the Neo-Hookean model):
+A field of unit fiber directions ``g`` in the *reference* configuration makes a tissue anisotropic (notes,
+"Continuum mechanics and elasticity", after the Neo-Hookean model): ``Psi(F) = Psi_iso(F) + Psi_fiber(I4)``
+with ``I4 = g^T F^T F g = |F g|^2``, the squared stretch of the fiber (``dX = g dS`` becomes ``dx = F g dS``).
+With ``a = F g``, ``dI4 = 2 (a (x) g) : dF``, hence
 
-    Psi(F) = Psi_iso(F) + Psi_fiber(I4),    I4 = g^T F^T F g = |F g|^2.
+    P_fiber = 2 Psi_fiber'(I4) a (x) g,    A_fiber_ijkl = 4 Psi'' a_i g_j a_k g_l + 2 Psi' d_ik g_j g_l.
 
-A material line element ``dX = g dS`` becomes ``dx = F g dS``, so ``sqrt(I4)`` is the fiber's stretch.
+For ``Psi_fiber = k/8 (I4 - 1)^2`` (the :class:`~tissuefem.engine.terms.Fibers` term; ``Psi'(1) = 0`` keeps
+the rest state stress free): ``P_fiber = k/2 (I4 - 1) a (x) g`` and
+``A_fiber = k (a (x) g) (x) (a (x) g) + k/2 (I4 - 1) d_ik g_j g_l``. At ``F = I`` the tangent adds
+``k g (x) g (x) g (x) g``: ``k cos^4 theta`` along a direction at ``theta`` to the fiber
+(:func:`fiber_modulus_gain`). The formulas live in :mod:`tissuefem.engine.materials`; here are the
+chapter's experiments:
 
-Derivations (with ``a = F g``)
--------------------------------
-``dI4 = 2 a . (dF g) = 2 (a (x) g) : dF``, hence
-
-    P_fiber = 2 Psi_fiber'(I4) a (x) g                      (= 2 Psi' F g g^T)
-    A_fiber_ijkl = 4 Psi'' a_i g_j a_k g_l + 2 Psi' d_ik g_j g_l.
-
-We use ``Psi_fiber = k/8 (I4 - 1)^2`` (the model's :class:`~tissuefem.engine.terms.Fibers` term, or
-:class:`~tissuefem.engine.materials.FiberReinforced` added to a material): ``Psi'(1) = 0`` keeps the rest
-state stress free, and with ``Psi' = k/4 (I4 - 1)``, ``Psi'' = k/4``
-
-    P_fiber = k/2 (I4 - 1) a (x) g,
-    A_fiber = k (a (x) g) (x) (a (x) g) + k/2 (I4 - 1) d_ik g_j g_l.
-
-Small strain: at ``F = I`` the tangent is ``k g (x) g (x) g (x) g``: it adds ``k`` to ``C_ffff`` in the
-fiber's frame and nothing else; along a unit direction ``e`` at angle ``theta`` to the fiber it adds
-``e_i e_j e_k e_l k g_i g_j g_k g_l = k cos^4 theta`` (:func:`fiber_modulus_gain`).
-
-The formulas live in :mod:`tissuefem.engine.materials` (``fiber_invariant``, ``fiber_energy``,
-``fiber_stress``, ``fiber_tangent``); this module holds the chapter's experiments:
-
-* :func:`confined_pull` imposes ``F = diag(1 + eps, 1)`` on the whole boundary of a square. P1 reproduces
-  a homogeneous deformation exactly, so the reaction per unit height is ``P_xx``; divided by ``eps`` it is
-  the confined modulus ``lam + 2 mu + k cos^4 theta`` to leading order (:func:`predicted_confined_modulus`).
-  :func:`along_vs_across` compares fibers at 0 and 90 degrees: their moduli differ by ``k``, exactly by
-  ``k (1 + eps)(1 + eps/2)`` at finite strain.
-* :func:`block_pull`: a strip clamped at both ends and pulled, the force-stretch curve of a tensile test.
+* :func:`confined_pull`: ``F = diag(1 + eps, 1)`` imposed on a square's whole boundary (P1 reproduces it
+  exactly), whose reaction over ``eps`` is the confined modulus ``lam + 2 mu + k cos^4 theta`` to leading
+  order (:func:`predicted_confined_modulus`); :func:`along_vs_across` compares fibers at 0 and 90 degrees,
+  whose moduli differ by ``k``, exactly ``k (1 + eps)(1 + eps/2)`` at finite strain;
+* :func:`block_pull`: a strip clamped at both ends and pulled, a tensile test's force-stretch curve;
 * :func:`muscle_pull`: the fusiform muscle of :mod:`tissuefem.engine.meshes`, pulled by its right tendon.
 """
 
@@ -49,6 +33,7 @@ from ..engine.constants import TISSUE_E, TISSUE_NU
 from ..engine.materials import Material, NeoHookean, check_fiber_stiffness
 from ..engine.meshes import fusiform_fiber_field, fusiform_muscle, rectangle
 from ..engine.model import Handle, Model
+from ..engine.parameters import check_real
 from ..engine.stepping import solve
 
 __all__ = ["K_FIBER", "fiber_direction", "fiber_modulus_gain", "predicted_confined_modulus", "PullResult",
@@ -64,12 +49,7 @@ def _check_stiffness(k) -> float:
 
 def fiber_direction(angle_deg) -> np.ndarray:
     """The unit fiber direction ``(cos theta, sin theta)`` at ``angle_deg`` degrees from the X axis."""
-    try:
-        theta = math.radians(float(angle_deg))
-    except (TypeError, ValueError):
-        raise ValueError(f"angle_deg must be a number (degrees), got {angle_deg!r}") from None
-    if not math.isfinite(theta):
-        raise ValueError(f"angle_deg must be finite, got {angle_deg!r}")
+    theta = math.radians(check_real("angle_deg", angle_deg))
     return np.array([math.cos(theta), math.sin(theta)])
 
 
@@ -91,10 +71,8 @@ def _default_base(base):
 
 
 def predicted_confined_modulus(angle_deg, *, stiffness=K_FIBER, base=None) -> float:
-    """Small-strain confined modulus ``lam + 2 mu + k cos^4 theta`` for a pull along X.
-
-    ``theta = angle_deg`` is the fiber angle from X; ``lam + 2 mu`` is the isotropic matrix's ``C_xxxx``
-    (any of our models linearises to linear elasticity).
+    """Small-strain confined modulus ``lam + 2 mu + k cos^4 theta`` for a pull along X, fibers at
+    ``angle_deg``: ``lam + 2 mu`` is the matrix's ``C_xxxx`` (every model linearises to linear elasticity).
     """
     base = _default_base(base)
     return base.lam + 2.0 * base.mu + fiber_modulus_gain(stiffness, angle_deg)
@@ -104,11 +82,9 @@ def predicted_confined_modulus(angle_deg, *, stiffness=K_FIBER, base=None) -> fl
 
 @dataclass
 class PullResult:
-    """A pull test: stretches, the reaction force on the pulled edge, and the final state.
-
-    ``forces[s]`` is the X component of the total force (per unit thickness) holding the pulled edge at
-    ``stretches[s]``, the sum of the internal forces on its X dofs; ``nominal_stress = forces / edge_length``
-    (its reference length) is the average ``P_xx`` on it.
+    """A pull test: stretches, the reaction on the pulled edge and the final state. ``forces[s]`` is the X force
+    (per unit thickness, the sum of the internal forces on the edge's X dofs) holding the edge at ``stretches[s]``;
+    ``nominal_stress = forces / edge_length`` is the average ``P_xx`` on it.
     """
 
     stretches: np.ndarray
@@ -158,11 +134,9 @@ def _ramp(model, handle, to_target, stretches, pulled_edge, edge_length, rtol) -
 
 
 def confined_pull(angle_deg, strain, *, stiffness=K_FIBER, base=None, n=4, rtol=1e-12) -> PullResult:
-    """The unit square stretched by ``F = diag(1 + strain, 1)``, imposed on its whole boundary.
-
-    ``angle_deg``: fiber angle from X (``None``: the matrix alone). The deformation is homogeneous, so
-    ``nominal_stress / strain`` is the confined (uniaxial-strain) modulus, compared with
-    :func:`predicted_confined_modulus`. ``strain``: a number or a sequence (solved in order, warm-started).
+    """The unit square stretched by ``F = diag(1 + strain, 1)`` imposed on its whole boundary, fibers at
+    ``angle_deg`` (``None``: the matrix alone). Homogeneous, so ``nominal_stress / strain`` is the confined modulus
+    (:func:`predicted_confined_modulus`). ``strain``: a number or a sequence (solved in order, warm-started).
     """
     base = _default_base(base)
     strains = _check_stretches(1.0 + np.atleast_1d(np.asarray(strain, dtype=float))) - 1.0
@@ -201,11 +175,9 @@ class AlongAcross:
 
 
 def along_vs_across(strain=1e-4, *, stiffness=K_FIBER, base=None, n=4) -> AlongAcross:
-    """Pull the confined square (:func:`confined_pull`) with fibers along and across; compare moduli.
-
-    Same matrix and ``F`` in both runs, so only the fiber term is left in the difference: at 90 degrees
-    ``F g = g`` (``I4 = 1``, no fiber stress), at 0 degrees ``P_fiber_xx = k/2 ((1 + eps)^2 - 1)(1 + eps)``.
-    Divided by ``eps`` the difference is ``k (1 + eps)(1 + eps/2)``, which tends to ``k``.
+    """The confined square (:func:`confined_pull`) with fibers along and across the pull. Only the fiber term
+    differs: at 90 degrees ``F g = g`` (no fiber stress), at 0 degrees ``P_fiber_xx = k/2 ((1 + eps)^2 - 1)(1 + eps)``,
+    so the moduli differ by ``k (1 + eps)(1 + eps/2)``, which tends to ``k``.
     """
     eps = float(strain)
     if not math.isfinite(eps) or eps == 0.0 or eps <= -1.0:
@@ -219,11 +191,9 @@ def along_vs_across(strain=1e-4, *, stiffness=K_FIBER, base=None, n=4) -> AlongA
 
 def block_pull(angle_deg, stretches, *, stiffness=K_FIBER, base=None, width=2.0, height=1.0, nx=16, ny=8,
                rtol=1e-10) -> PullResult:
-    """A tensile test: a ``width x height`` strip clamped at both ends, the right end pulled along X.
-
-    ``angle_deg``: the uniform fiber angle from the pull (``None``: no fibers). The free sides narrow but
-    the clamped ends cannot, so the state is not homogeneous (no closed form). The right end moves to
-    ``X = stretch * width`` for each of ``stretches`` in turn.
+    """A tensile test: a ``width x height`` strip clamped at both ends, the right end moved to ``X = stretch *
+    width`` for each of ``stretches``; fibers at ``angle_deg`` (``None``: none). The free sides narrow, the clamped
+    ends cannot: the state is not homogeneous (no closed form).
     """
     base = _default_base(base)
     stretches = _check_stretches(stretches)
@@ -235,12 +205,10 @@ def block_pull(angle_deg, stretches, *, stiffness=K_FIBER, base=None, width=2.0,
 
 def muscle_pull(stretches, *, stiffness=K_FIBER, base=None, with_fibers=True, fibers=None, mesh=None,
                 rtol=1e-10) -> PullResult:
-    """The fusiform muscle held at its left tendon and pulled along X by its right tendon.
-
-    ``mesh`` defaults to :func:`tissuefem.engine.meshes.fusiform_muscle` (length 4); its fibers are
-    ``fibers`` (shape ``(2,)`` or ``(2, n_elements)``) if given, else
-    :func:`tissuefem.engine.meshes.fusiform_fiber_field`; ``with_fibers=False`` leaves the matrix alone.
-    The right tendon moves to ``X = stretch * length``; ``edge_length`` is the tendon's width.
+    """The fusiform muscle (default :func:`tissuefem.engine.meshes.fusiform_muscle`, length 4) held at its left
+    tendon, its right tendon moved to ``X = stretch * length``. Its fibers are ``fibers`` (``(2,)`` or ``(2,
+    n_elements)``), else :func:`~tissuefem.engine.meshes.fusiform_fiber_field`; ``with_fibers=False``: the matrix
+    alone. ``edge_length`` is the tendon's width.
     """
     base = _default_base(base)
     stretches = _check_stretches(stretches)

@@ -1,18 +1,11 @@
-"""The hard cases: crushed, collapsed, mirrored, stretched and dragged bodies, and their release.
+"""The hard cases of chapter 6: crushed, collapsed, mirrored, stretched and dragged bodies, and their release.
 
-Promise 2 of the workbook is that hard cases stay numerically stable. Chapter 6 shows and
-``tests/workbook/test_hard_cases.py`` asserts the experiment: put a small block in a violent state (mirrored,
-collapsed to a point or a line, stretched 10x, crushed past flat, dragged through itself), *release* it
-(hold a few nodes at rest, free the others, solve for equilibrium), and measure how far the result is
-from the rest shape and what it cost (Newton iterations, line-search cuts, shifted tangents).
-
-The release has a unique answer only if the energy has one well: a solve started far away could settle
-in another local minimum (a fold). Steps are capped (``max_step``, a crude trust region) so the iterates
-creep downhill instead of jumping across wells.
-
-Models (:func:`inversion_models`): the ``ln J`` Neo-Hookean model (its energy is NaN on any inverted
-element), the notes' cubic Taylor variant and stable Neo-Hookean, both with the projected (positive
-semi-definite) tangent of Teran et al. 2005, and the ITF-clamped ``ln J`` model, which projects its own.
+Promise 2 of the workbook is that hard cases stay numerically stable: a small block is put in a violent state,
+*released* (a few nodes held at rest, the rest freed, equilibrium solved for), and the result measured against
+the rest shape, with what it cost. Steps are capped (``max_step``, a crude trust region) so the iterates creep
+downhill instead of jumping into another well of the energy (a fold). The models (:func:`inversion_models`):
+``ln J`` Neo-Hookean (NaN on an inverted element), the notes' cubic Taylor variant and stable Neo-Hookean with
+the projected tangent of Teran et al. 2005, and the ITF-clamped ``ln J`` model.
 """
 
 from __future__ import annotations
@@ -32,7 +25,8 @@ from ..engine.realtime import RealtimeSolver
 from ..engine.stepping import solve
 
 __all__ = ["inversion_models", "block", "start_states", "ReleaseResult", "release", "crush_and_release",
-           "crush_in_frames", "element_jacobians", "cover_counts", "drag_through", "RELEASE_OPTIONS"]
+           "crush_and_release_runs", "crush_in_frames", "element_jacobians", "cover_counts", "drag_through",
+           "RELEASE_OPTIONS"]
 
 #: Newton options of a release solve: absolute residual tolerance (the start residual is huge,
 #: so a relative one would stop early), a step cap and room for the creeping iterations.
@@ -123,13 +117,10 @@ def release(mesh, material, x_start, held=None, **newton_options) -> ReleaseResu
 
 
 def crush_and_release(material, mesh=None, depth: float = 1.3, steps: int = 13, **newton_options) -> dict:
-    """Push the top edge of a block down by ``depth`` (1 = flat, more = past flat) and release it.
-
-    The bottom edge is fixed; the top edge is a handle moved down in ``steps`` equal increments, each
-    solved from the previous state; then the handle lets go and the body is released. Returns ``frames``
-    (node positions after each crush step, then the released shape), ``crush`` (per-step results),
-    ``released`` (a :class:`ReleaseResult`), ``crushed`` (how deep the top got before a step failed:
-    ``depth`` when all succeeded), ``iterations``, ``cuts`` and ``final_energy``.
+    """Push the top edge of a block down by ``depth`` (1 = flat, more = past flat) in ``steps`` solves, the
+    bottom edge fixed, then release it. Returns ``frames`` (positions after each step, then the released shape),
+    ``crush`` (the steps' results), ``released`` (a :class:`ReleaseResult`), ``crushed`` (the depth reached before
+    a step failed), ``iterations``, ``cuts`` and ``final_energy``.
     """
     mesh = block() if mesh is None else mesh
     X = np.asarray(mesh.p, dtype=float)
@@ -155,13 +146,10 @@ def crush_and_release(material, mesh=None, depth: float = 1.3, steps: int = 13, 
 
 
 def drag_through(material, mesh=None, depth: float = 1.6, steps: int = 16, **newton_options) -> dict:
-    """Grab the middle of the top edge and drag it down through the body and out below the bottom.
-
-    The left and right edges are held (a clamped sheet); the handle holds the top-edge nodes within 0.2 of
-    the middle and moves down by ``depth`` in ``steps`` increments, each solved from the previous state;
-    then it lets go and the sheet is released. Returns ``positions`` (after each step), ``drag`` (per-step
-    results), ``released`` and ``failed_steps`` (steps that did not converge; the state then stays at the
-    last converged one and the drag goes on).
+    """Grab the top edge's middle (nodes within 0.2) of a sheet held on its left and right edges and drag it
+    down by ``depth``, through the body and out below, in ``steps`` solves; then release it. Returns
+    ``positions``, ``drag`` (the steps' results), ``released`` and ``failed_steps`` (unconverged steps: the state
+    stays at the last converged one and the drag goes on).
     """
     mesh = block() if mesh is None else mesh
     X = np.asarray(mesh.p, dtype=float)
@@ -188,15 +176,11 @@ def crush_in_frames(material, mesh=None, depth: float = 1.3, steps: int = 13, ex
                     rtol: float = 1e-8, max_iterations: int = 100) -> dict:
     """The crush of :func:`crush_and_release` as the real-time solver runs it: quasistatic *frames*.
 
-    The top edge is moved down in ``steps`` frames to ``depth``; each frame runs Newton up to
-    ``max_iterations`` steps and, unlike :func:`crush_and_release` (where a failed step ends the crush),
-    commits what it has and carries the rest into the next frame (chapter 7's anytime rule); up to
-    ``extra_frames`` more frames finish the work at the final depth. Then the body is released.
-
-    Returns ``x`` (positions at the final depth), ``reached`` (the depth the top got to), ``converged``
-    (the last crush frame), ``frames`` (crush frames used), ``inverted`` (elements with ``J <= 0``),
-    ``folded`` (element centroids covered more than once: the mesh lies over itself although no element
-    is inverted) and ``released`` (a :class:`ReleaseResult`).
+    Each of ``steps`` frames moves the top edge further down and runs Newton up to ``max_iterations`` steps,
+    committing what it has and carrying the rest into the next frame (chapter 7's anytime rule); up to
+    ``extra_frames`` more frames finish at ``depth``. Returns ``x``, ``reached`` (the top's depth), ``converged``,
+    ``frames``, ``inverted`` (elements with ``J <= 0``), ``folded`` (centroids covered more than once: the mesh
+    lies over itself with no element inverted) and ``released``.
     """
     mesh = block() if mesh is None else mesh
     X = np.asarray(mesh.p, dtype=float)
@@ -220,10 +204,8 @@ def crush_in_frames(material, mesh=None, depth: float = 1.3, steps: int = 13, ex
 
 
 def element_jacobians(mesh, x) -> np.ndarray:
-    """``J = det F`` of every P1 triangle of ``mesh`` when its nodes sit at ``x`` (shape ``(2, n_nodes)``).
-
-    On a linear triangle ``J`` is the ratio of the signed areas, deformed over reference: negative when the
-    triangle is turned inside out, zero when it is flat or collapsed to a point.
+    """``J = det F`` of every P1 triangle with its nodes at ``x`` ``(2, n_nodes)``: the ratio of signed areas,
+    negative for a triangle turned inside out, zero for a flat or collapsed one.
     """
     x = np.asarray(x, dtype=float)
 
@@ -235,12 +217,11 @@ def element_jacobians(mesh, x) -> np.ndarray:
 
 
 def cover_counts(mesh, x, tol: float = 1e-9) -> np.ndarray:
-    """How many deformed triangles contain the centroid of each deformed triangle (nodes at ``x``).
+    """How many deformed triangles contain each deformed triangle's centroid (nodes at ``x``).
 
-    A one-to-one deformation gives 1 everywhere; above 1 the mesh lies over itself there. A global test, it
-    sees a fold even when every triangle has ``J > 0``. Flat triangles contain nothing (their own centroid
-    counts 0). ``tol``, the margin on the barycentric coordinates, keeps points on a shared edge from
-    counting twice. Cost: ``n_elements^2``.
+    1 everywhere for a one-to-one deformation; above 1 the mesh lies over itself, even with every ``J > 0``. Flat
+    triangles contain nothing; ``tol`` on the barycentric coordinates keeps points on a shared edge from counting
+    twice. Cost: ``n_elements^2``.
     """
     x = np.asarray(x, dtype=float)
     a, b, c = (x[:, mesh.t[k]] for k in range(3))  # corners, each (2, n_elements)
@@ -255,3 +236,9 @@ def cover_counts(mesh, x, tol: float = 1e-9) -> np.ndarray:
     a, b, c = a[:, None, :], b[:, None, :], c[:, None, :]
     inside = ok & (side(b, c, point) / area > tol) & (side(c, a, point) / area > tol) & (side(a, b, point) / area > tol)
     return inside.sum(axis=1)
+
+
+def crush_and_release_runs(E: float = TISSUE_E, nu: float = TISSUE_NU, mesh=None) -> dict:
+    """:func:`crush_and_release` (default depth 1.3) for the four models, by name."""
+    mesh = block() if mesh is None else mesh
+    return {name: crush_and_release(material, mesh) for name, material in inversion_models(E, nu).items()}

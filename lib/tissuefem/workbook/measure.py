@@ -1,12 +1,6 @@
-"""Measuring: errors, rates, fits, timings and the Pareto reading -- the one place for each.
-
-* :func:`relative_l2_error` -- ``||u - u_ref||_L2 / ||u_ref||_L2`` of a finite element field against a
-  reference on another (finer) mesh, by quadrature and point location;
-* :func:`fitted_exponent` / :func:`power_law_fit` -- the slope (and constant) of a log-log fit: a
-  convergence rate (error against h), a cost growth (time against triangles), the CFL slope;
-* :func:`observed_rates` -- rates between successive meshes;
-* :func:`pareto_front` and :func:`best_within_budget` -- what a cost/error plot says;
-* :func:`median_time` -- a median wall time after a warm-up (benchmarks only: never assert on it).
+"""Measuring, one place for each: errors (:func:`relative_l2_error`), rates and fits (:func:`fitted_exponent`,
+:func:`power_law_fit`, :func:`observed_rates`), what a cost/error plot says (:func:`pareto_front`,
+:func:`best_within_budget`, :func:`cost_at_error`) and timings (:func:`median_time`: read, never asserted).
 """
 
 from __future__ import annotations
@@ -15,6 +9,8 @@ import time
 
 import numpy as np
 from skfem import Basis
+
+from ..engine.parameters import check_real
 
 __all__ = ["relative_l2_error", "fitted_exponent", "power_law_fit", "observed_rates", "pareto_front",
            "best_within_budget", "cost_at_error", "median_time", "evaluate"]
@@ -32,20 +28,16 @@ def median_time(fn, repeats: int) -> float:
 
 
 def evaluate(basis, u, points, chunk: int = 400) -> np.ndarray:
-    """Values ``(2, n)`` of the finite element field ``u`` at arbitrary points ``(2, n)``.
-
-    Fed in chunks: scikit-fem's point location compares every point of a call with every candidate element
-    of the call (memory grows like points^2).
+    """Values ``(2, n)`` of the finite element field ``u`` at points ``(2, n)``, fed in chunks (scikit-fem's point
+    location compares every point of a call with every candidate element: memory grows like points^2).
     """
     f = basis.interpolator(u)
     return np.concatenate([f(points[:, i:i + chunk]) for i in range(0, points.shape[1], chunk)], axis=1)
 
 
 def relative_l2_error(basis, u, reference_basis, u_reference, intorder: int = 4) -> float:
-    """``||u - u_ref||_L2 / ||u_ref||_L2`` over the body, by quadrature on ``basis``'s mesh.
-
-    ``u_ref`` (on another, finer mesh) is evaluated at the quadrature points by point location; ``intorder``
-    is the quadrature degree (4 is ample for P1 and P2). The bases may be models (anything with a ``basis``).
+    """``||u - u_ref||_L2 / ||u_ref||_L2`` by quadrature of degree ``intorder`` on ``basis``'s mesh, ``u_ref``
+    (on another, finer mesh) located at the quadrature points. The bases may be models (anything with ``basis``).
     """
     basis = getattr(basis, "basis", basis)
     reference_basis = getattr(reference_basis, "basis", reference_basis)
@@ -74,29 +66,20 @@ def fitted_exponent(x, y) -> float:
     return power_law_fit(x, y)[0]
 
 
-def _check_rtol(rtol) -> float:
-    rtol = float(rtol)
-    if not (np.isfinite(rtol) and rtol >= 0):
-        raise ValueError(f"rtol must be finite and >= 0, got {rtol!r}")
-    return rtol
-
-
 def _costs_errors(costs, errors, rtol=0.0):
     """``(costs, errors, 1 + rtol)`` checked: two 1D float arrays of one length and a resolution factor."""
     c, e = np.asarray(costs, dtype=float), np.asarray(errors, dtype=float)
     if c.shape != e.shape or c.ndim != 1:
         raise ValueError(f"costs and errors must be 1D arrays of the same length, got {c.shape} and {e.shape}")
-    return c, e, 1.0 + _check_rtol(rtol)
+    return c, e, 1.0 + check_real("rtol", rtol, 0.0)
 
 
 def pareto_front(costs, errors, rtol: float = 0.0) -> np.ndarray:
-    """Indices of the non-dominated points, in order of increasing cost.
+    """Indices of the non-dominated points, by increasing cost.
 
-    Point ``i`` is dominated when some ``j`` has ``cost_j <= cost_i`` and ``error_j <= error_i`` with at
-    least one strict. Ties keep the first; non-finite entries are never on the front. ``rtol`` is the
-    errors' resolution: an error counts as smaller only if it is smaller by more than the factor ``1 + rtol``
-    (with ``0.01``, a slower setting only 0.5 % more accurate, below what the reference can tell, is not on
-    the front).
+    ``i`` is dominated when some ``j`` costs no more and errs no more, one of them strictly; ties keep the first,
+    non-finite entries are never on the front. ``rtol`` is the errors' resolution: an error counts as smaller only
+    by more than the factor ``1 + rtol`` (a slower setting 0.5 % more accurate is not on a front at ``0.01``).
     """
     c, e, factor = _costs_errors(costs, errors, rtol)
     ok = np.flatnonzero(np.isfinite(c) & np.isfinite(e))
@@ -124,18 +107,15 @@ def observed_rates(h, errors) -> np.ndarray:
 
 
 def best_within_budget(costs, errors, budget, rtol: float = 0.0):
-    """Index of the most accurate setting whose cost is at most ``budget`` (the cheaper on a tie), or ``None``.
-
-    What an engineer reads off a Pareto plot: draw the budget line, take the lowest point to its left.
-    Non-finite entries never qualify. ``rtol`` is the errors' resolution: every setting within the factor
-    ``1 + rtol`` of the smallest error under the budget ties with it, and the cheapest of them is chosen, so a
-    winner is never decided by a difference in the last digits.
+    """Index of the most accurate setting costing at most ``budget`` (the cheaper on a tie), or ``None``: the
+    lowest point left of the budget line on a Pareto plot. Settings within the factor ``1 + rtol`` of the smallest
+    error tie, and the cheapest of them wins: no winner by the last digits. Non-finite entries never qualify.
     """
     c, e = _costs_errors(costs, errors)[:2]
     budget = float(budget)
     if not budget > 0:
         raise ValueError(f"budget must be > 0, got {budget!r}")
-    factor = 1.0 + _check_rtol(rtol)
+    factor = 1.0 + check_real("rtol", rtol, 0.0)
     ok = np.flatnonzero(np.isfinite(c) & np.isfinite(e) & (c <= budget))
     if ok.size == 0:
         return None
@@ -144,10 +124,8 @@ def best_within_budget(costs, errors, budget, rtol: float = 0.0):
 
 
 def cost_at_error(costs, errors, target):
-    """The cost at which a curve (one knob's settings, by increasing cost) reaches the error ``target``.
-
-    Interpolated linearly on log-log axes between the two settings around ``target`` (the curves of a
-    convergence study are nearly straight there); ``None`` when the curve does not reach it.
+    """The cost at which a curve (one knob's settings) reaches the error ``target``, interpolated on log-log axes
+    between the two settings around it; ``None`` when the curve does not reach it.
     """
     c, e = np.asarray(costs, dtype=float), np.asarray(errors, dtype=float)
     order = np.argsort(c)

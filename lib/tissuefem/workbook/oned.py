@@ -1,12 +1,14 @@
-"""The studies of the 1D chapters: a manufactured solution and the mesh convergence of the bar."""
+"""The studies of the 1D chapters: a manufactured solution, the mesh convergence of the bar, and Newton on it."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from ..engine.bar1d import Bar1D, Displacement, Traction
+from ..engine.constants import TISSUE_E, TISSUE_NU
+from ..engine.materials1d import NeoHookean1D
 
-__all__ = ["manufactured_solution", "convergence_study"]
+__all__ = ["manufactured_solution", "convergence_study", "newton_histories"]
 
 
 # --- a convergence study with a manufactured solution (chapter 1) -------------------
@@ -55,3 +57,14 @@ def convergence_study(orders=(1, 2), ns=(4, 8, 16, 32, 64, 128), modulus: float 
             rows.append(row)
             previous = row
     return rows
+
+
+def newton_histories(tractions=(100.0, 300.0, 600.0, -300.0, -600.0), n: int = 16) -> dict:
+    """Chapter 2: ``{T: (residual norms, status)}`` of Newton on the 1D Neo-Hookean bar (E = 1000, nu = 0.3,
+    ``n`` elements) under each end traction ``T``, to ``rtol = 1e-13``."""
+    material, bar = NeoHookean1D.from_young(TISSUE_E, TISSUE_NU), Bar1D(0.0, 1.0, n)
+    histories = {}
+    for T in tractions:
+        _, results = bar.solve_nonlinear(material, right=Traction(T), rtol=1e-13)
+        histories[T] = (results[-1].residual_norms(), results[-1].status)
+    return histories

@@ -1,19 +1,16 @@
-"""Reusable studies of chapters 3 and 4 (their exercises' reference answers are in :mod:`tissuefem.workbook.answers`).
+"""Studies of chapters 3 and 4 (the exercises' reference answers are in :mod:`tissuefem.workbook.answers`).
 
-Chapter 3 (kinematics, 2D linear elasticity): :func:`rotation`, :func:`bending_map` / :func:`bending_gradient`
-(a smooth example deformation with its exact ``F``), :func:`displacement_from_map`,
-:func:`rigid_rotation_response` and :func:`rotated_block`.
-
-Chapter 4 (2D Neo-Hookean quasistatics): :func:`block_model` (the block stretched and sheared by two handles),
-:func:`handle_force` and :func:`cost_accuracy_study`, the first measurement of what accuracy costs in time,
-with :data:`RECORDED_COST_ACCURACY` (one recorded run, for the deterministic lecture figure).
-
-Index convention as everywhere in the package: ``F[i, j] = d phi_i / d X_j``.
+Chapter 3: :func:`rotation`, the example deformation :func:`bending_map` with its exact ``F``
+(:func:`bending_gradient`), :func:`displacement_from_map`, :func:`rigid_rotation_response`, :func:`rotated_block`.
+Chapter 4: :func:`block_model`, :func:`handle_force` and :func:`cost_accuracy_study`, the first measurement of
+what accuracy costs in time. Index convention as everywhere: ``F[i, j] = d phi_i / d X_j``.
 """
 
 from __future__ import annotations
 
+import json
 import math
+from pathlib import Path
 
 import numpy as np
 
@@ -22,14 +19,15 @@ from ..engine.linsolve import LinearSolver
 from ..engine.materials import LinearElastic, Material, NeoHookean
 from ..engine.meshes import rectangle
 from ..engine.model import Handle, Model
-from ..engine.parameters import check_count as _count
+from ..engine.parameters import check_count as _count, check_real
 from ..engine.stepping import StaticResult, solve
-from .bench.common import cell_text, markdown_table
 from .measure import median_time, relative_l2_error
+from .tables import markdown_table, text_table
 
 __all__ = [
     "rotation", "bending_map", "bending_gradient", "displacement_from_map", "rigid_rotation_response",
-    "rotated_block", "BLOCK_HANDLE", "block_model", "handle_force", "newton_iteration_time", "cost_accuracy_study",
+    "rotated_block", "BLOCK_HANDLE", "block_model", "stretched_block", "handle_force", "newton_iteration_time",
+    "cost_accuracy_study",
     "format_cost_accuracy", "cost_accuracy_markdown", "RECORDED_COST_ACCURACY",
 ]
 
@@ -116,20 +114,11 @@ def rigid_rotation_response(material: Material, angles) -> dict:
 
 
 def rotated_block(material: Material, theta, n: int = 8, width: float = 1.0, height: float = 1.0):
-    """Quasistatic equilibrium of a block whose left edge is turned rigidly by ``theta``.
-
-    The left edge is clamped to a wall rotating by ``theta`` (radians) about the edge's midpoint; the other
-    edges are free. A frame-indifferent model answers with a rigid rotation (zero energy); linear elasticity,
-    which only knows infinitesimal rotations, strains the block and changes its area. The nonlinear solve
-    turns the wall in steps of at most 15 degrees. Returns ``(model, result)``.
+    """Quasistatic equilibrium of a block whose left edge is clamped to a wall turned by ``theta`` (radians)
+    about the edge's midpoint; the other edges are free. A frame-indifferent model answers with a rigid rotation
+    (zero energy); linear elasticity strains the block and changes its area. Returns ``(model, result)``.
     """
-    n = _count("n", n)
-    try:
-        theta = float(theta)
-    except (TypeError, ValueError):
-        raise ValueError(f"theta must be an angle in radians, got {theta!r}") from None
-    if not math.isfinite(theta):
-        raise ValueError(f"theta must be finite, got {theta!r}")
+    n, theta = _count("n", n), check_real("theta", theta)
     mesh = rectangle(width, height, max(1, round(n * width / height)), n)
     R = rotation(theta)
     pivot = np.array([[0.0], [0.5 * height]])
@@ -178,12 +167,19 @@ def block_model(n: int = 8, order: int = 1, material: Material | None = None, ha
                  handles=[Handle("left", name="left"), Handle("right", handle, name="right")])
 
 
-def handle_force(model: Model, u, boundary: str) -> np.ndarray:
-    """The resultant force ``(f1, f2)`` the handle on ``boundary`` exerts on the body at equilibrium.
+def stretched_block(n: int = 12):
+    """Chapter 4's block (:func:`block_model`, P1, ``n`` cells across the height) at equilibrium: ``(model, u)``."""
+    model = block_model(n)
+    result = solve(model)
+    if not result.converged:
+        raise RuntimeError(f"the stretched block did not converge ({result.status})")
+    return model, result.u
 
-    At a prescribed dof the internal force ``q_a(u) = int grad(v_a) : P dX`` is balanced by the handle, so
-    its force is the sum of ``q - f_ext`` over its dofs, per component (:meth:`Model.reaction`; per unit
-    thickness). This is what a haptic device would render.
+
+def handle_force(model: Model, u, boundary: str) -> np.ndarray:
+    """The resultant force ``(f1, f2)`` the handle on ``boundary`` exerts on the body at equilibrium: the sum of
+    ``q - f_ext`` over its dofs, per component (:meth:`Model.reaction`; per unit thickness), what a haptic device
+    would render.
     """
     for h in model.handles:
         if isinstance(h.region, str) and h.region == boundary:
@@ -192,10 +188,8 @@ def handle_force(model: Model, u, boundary: str) -> np.ndarray:
 
 
 def newton_iteration_time(model: Model, u, repeats: int = 3) -> float:
-    """Median time (ms) of one Newton iteration at ``u``: gradient, tangent, a fresh factorization, solve.
-
-    The linear solve is a fresh SuperLU factorization (``"direct"``). One iteration is the least a
-    real-time frame can do.
+    """Median time (ms) of one Newton iteration at ``u``: gradient, tangent, a fresh SuperLU factorization and
+    the solve, the least a real-time frame can do.
     """
     fixed, _ = model.prescribed()
     free = np.ones(model.n_dofs, dtype=bool)
@@ -215,17 +209,12 @@ def cost_accuracy_study(p1_sizes=(2, 4, 8, 16), p2_sizes=(1, 2, 4, 8), reference
                         handle=BLOCK_HANDLE, progress=None) -> list[dict]:
     """Error and solve time of chapter 4's block, P1 against P2, over several meshes.
 
-    Every mesh size ``n`` (cells across the height, ``h = 1/n``) is solved by :func:`block_model` with
-    ``load_steps`` load steps from rest and compared with P2 on ``n = reference_size`` (several times finer):
-    ``L2`` is the relative displacement error (:func:`~tissuefem.workbook.measure.relative_l2_error`),
-    ``energy`` the relative error of ``int Psi dX`` (with prescribed edges it falls like the square of the
-    energy-norm error). Times are medians over ``repeats`` runs after one warm-up: ``solve_ms`` for the
-    whole solve, ``iteration_ms`` for one Newton iteration at the solution (:func:`newton_iteration_time`);
-    read them, compare within one run, never assert them.
-
-    Returns one dict per mesh (the reference is not a row) with ``order, n, h, triangles, dofs, L2, energy,
-    rate_L2`` (against the previous mesh of the same order; NaN on the first), ``newton_iterations,
-    solve_ms, iteration_ms`` (print them with :func:`format_cost_accuracy`).
+    Each ``n`` (cells across the height, ``h = 1/n``) is solved by :func:`block_model` in ``load_steps`` load steps
+    and compared with P2 on ``n = reference_size``: ``L2`` is the relative displacement error, ``energy`` the
+    relative error of ``int Psi dX`` (it falls like the square of the energy-norm error), ``rate_L2`` the rate
+    from the previous mesh of the same order (NaN on the first). ``solve_ms`` and ``iteration_ms``
+    (:func:`newton_iteration_time`) are medians over ``repeats`` runs: compare within one run, never assert them.
+    Returns one dict per mesh (:func:`format_cost_accuracy` prints them).
     """
     p1_sizes, p2_sizes = _sizes("p1_sizes", p1_sizes), _sizes("p2_sizes", p2_sizes)
     reference_size, repeats = _count("reference_size", reference_size), _count("repeats", repeats)
@@ -267,18 +256,10 @@ def cost_accuracy_study(p1_sizes=(2, 4, 8, 16), p2_sizes=(1, 2, 4, 8), reference
     return rows
 
 
-_TABLE = [
-    ("order", "P", "{:d}"),
-    ("n", "n", "{:d}"),
-    ("triangles", "triangles", "{:d}"),
-    ("dofs", "dofs", "{:d}"),
-    ("L2", "L2 error", "{:.2e}"),
-    ("rate_L2", "rate", "{:.2f}"),
-    ("energy", "energy error", "{:.2e}"),
-    ("newton_iterations", "Newton its", "{:d}"),
-    ("solve_ms", "solve [ms]", "{:.1f}"),
-    ("iteration_ms", "1 iteration [ms]", "{:.2f}"),
-]
+_TABLE = [("order", "P", "{:d}"), ("n", "n", "{:d}"), ("triangles", "triangles", "{:d}"), ("dofs", "dofs", "{:d}"),
+          ("L2", "L2 error", "{:.2e}"), ("rate_L2", "rate", "{:.2f}"), ("energy", "energy error", "{:.2e}"),
+          ("newton_iterations", "Newton its", "{:d}"), ("solve_ms", "solve [ms]", "{:.1f}"),
+          ("iteration_ms", "1 iteration [ms]", "{:.2f}")]
 
 
 def cost_accuracy_markdown(rows) -> str:
@@ -288,33 +269,12 @@ def cost_accuracy_markdown(rows) -> str:
 
 def format_cost_accuracy(rows) -> str:
     """The rows of :func:`cost_accuracy_study` as a plain-text table."""
-    widths = [max(len(title), 9) for _, title, _ in _TABLE]
-    lines = ["  ".join(f"{title:>{w}}" for (_, title, _), w in zip(_TABLE, widths))]
-    for row in rows:
-        lines.append("  ".join(f"{cell_text(row.get(key), fmt):>{w}}" for (key, _, fmt), w in zip(_TABLE, widths)))
-    return "\n".join(lines)
+    return text_table(rows, _TABLE)
 
 
-# --- recorded measurements (for the deterministic lecture figure) -------------------------------------
-
-_RECORDED_COLUMNS = ("order", "n", "triangles", "dofs", "L2", "energy", "rate_L2", "newton_iterations",
-                     "solve_ms", "iteration_ms")
-_NAN = float("nan")
-_RECORDED = [
-    # P   n  tri.  dofs  L2 error    energy err   rate its  solve ms  1 it. ms
-    (1,  2,   16,   30, 2.8574e-02, 3.9018e-02,  _NAN, 3,   2.84,  0.57),
-    (1,  4,   64,   90, 9.1950e-03, 1.3442e-02, 1.636, 3,   3.20,  0.72),
-    (1,  8,  256,  306, 2.8753e-03, 4.4562e-03, 1.677, 3,   5.61,  1.15),
-    (1, 16, 1024, 1122, 9.1687e-04, 1.4731e-03, 1.649, 3,  14.03,  2.87),
-    (1, 32, 4096, 4290, 2.8921e-04, 4.8143e-04, 1.665, 3,  73.94, 14.48),
-    (2,  1,    4,   30, 2.0210e-02, 1.8730e-02,  _NAN, 3,   3.47,  0.55),
-    (2,  2,   16,   90, 4.8940e-03, 4.4342e-03, 2.046, 3,   4.03,  0.73),
-    (2,  4,   64,  306, 1.2681e-03, 1.3299e-03, 1.948, 3,   7.80,  1.54),
-    (2,  8,  256, 1122, 3.6456e-04, 4.2239e-04, 1.798, 3,  24.75,  5.29),
-    (2, 16, 1024, 4290, 1.1132e-04, 1.2852e-04, 1.711, 4,  95.85, 16.96),
-]
-#: One run of ``cost_accuracy_study(p1_sizes=(2, 4, 8, 16, 32), p2_sizes=(1, 2, 4, 8, 16),
-#: reference_size=64, repeats=5)`` (one load step) on a 2-core Linux machine (Python 3.11, numpy 2.4,
-#: scipy 1.17, scikit-fem 12.0.2). The errors are reproducible to the digits shown;
-#: the times are one machine's medians, to be read, not asserted.
-RECORDED_COST_ACCURACY: list[dict] = [dict(zip(_RECORDED_COLUMNS, row), h=1.0 / row[1]) for row in _RECORDED]
+#: One recorded run of :func:`cost_accuracy_study` (its settings and machine in ``data/cost_accuracy.json``, shipped
+#: with the package), for the deterministic lecture figure: the errors are reproducible to the digits shown, the
+#: times are one machine's medians, to be read, not asserted.
+RECORDED_COST_ACCURACY: list[dict] = [
+    {**row, "rate_L2": float("nan") if row["rate_L2"] is None else row["rate_L2"], "h": 1.0 / row["n"]}
+    for row in json.loads((Path(__file__).parent / "data" / "cost_accuracy.json").read_text())["rows"]]

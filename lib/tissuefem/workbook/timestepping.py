@@ -1,8 +1,9 @@
-"""The studies of chapter 7 (time stepping): the CFL condition of the explicit scheme, measured.
+"""The studies of chapter 7 (time stepping): the CFL condition, the released flap and the capped frame.
 
-:func:`cfl_study` measures symplectic Euler's largest stable time step on a flap
-refined several times and checks that it scales like the element size ``h``
-(the Courant-Friedrichs-Lewy condition; :mod:`tissuefem.engine.explicit` derives it).
+:func:`cfl_study` measures symplectic Euler's largest stable time step on a flap refined several times and
+checks that it scales like the element size ``h`` (the Courant-Friedrichs-Lewy condition;
+:mod:`tissuefem.engine.explicit` derives it). :func:`released_flap` and :func:`backward_euler_run` let a lifted
+flap go; :func:`capped_runs` caps the Newton steps of the standard flap scene's frames.
 """
 
 from __future__ import annotations
@@ -10,25 +11,35 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 
-from ..engine.constants import TISSUE_DENSITY, TISSUE_E, TISSUE_NU
-from ..engine.explicit import critical_time_step, largest_stable_dt, wave_speed
+import numpy as np
+
+from ..engine.constants import FRAME_BUDGET, TISSUE_DENSITY, TISSUE_E, TISSUE_NU
+from ..engine.explicit import SymplecticEuler, critical_time_step, largest_stable_dt, wave_speed
 from ..engine.materials import StableNeoHookean
 from ..engine.meshes import mesh_size, rectangle
 from ..engine.model import Handle, Model
 from ..engine.parameters import lame_parameters
+from ..engine.stepping import Stepper, solve
+from ..surgery.scene import Scene, flap_path, flap_scene
+from ..surgery.simulation import Simulation
 from .measure import power_law_fit
 
-__all__ = ["CFLStudy", "cfl_study"]
+__all__ = ["CFLStudy", "cfl_study", "released_flap", "backward_euler_run", "symplectic_energies", "flap_drag",
+           "capped_runs"]
+
+#: how far the released flap's right edge is lifted before it is let go
+LIFT = 0.5
+#: the capped frames: mesh sizes (triangles), Newton steps allowed per frame, frames of the drag
+CAPPED_SIZES, CAPS, CAPPED_FRAMES = (500, 2000, 8000), (1, 2, 3), 40
 
 
 @dataclass
 class CFLStudy:
-    """Rows of :func:`cfl_study` and the fitted exponents.
+    """Rows of :func:`cfl_study` (iterating the study yields them) and the fitted exponents.
 
-    ``rows`` (iterating the study yields them) are dicts with ``nx``, ``h``, ``dofs``, ``dt_measured``,
-    ``dt_estimate`` (``2 / omega_max``), ``ratio`` (measured / estimate), ``courant`` (``dt_measured c / h``)
-    and ``seconds``. The fit ``dt_measured = constant h^exponent`` has ``exponent`` 1 under the CFL
-    condition; ``exponent_estimate`` is the same slope for the estimate.
+    A row has ``nx``, ``h``, ``dofs``, ``dt_measured``, ``dt_estimate`` (``2 / omega_max``), ``ratio`` (measured /
+    estimate), ``courant`` (``dt_measured c / h``) and ``seconds``; ``dt_measured = constant h^exponent`` has
+    ``exponent`` 1 under the CFL condition, ``exponent_estimate`` is the estimate's slope.
     """
 
     rows: list = field(default_factory=list)
@@ -49,12 +60,10 @@ class CFLStudy:
 
 def cfl_study(sizes=(4, 8, 16, 32), *, E: float = TISSUE_E, nu: float = TISSUE_NU, density: float = TISSUE_DENSITY,
               material=None, width: float = 2.0, height: float = 1.0, **measure) -> CFLStudy:
-    """Measured largest stable ``dt`` of :class:`SymplecticEuler` on a flap refined ``nx = sizes``.
-
-    The flap ``width x height`` has square cells of side ``h = width / nx`` and its left edge fixed; the
-    material defaults to stable neo-Hookean with plane-strain Lamé parameters from ``E, nu``. For each mesh:
-    :func:`largest_stable_dt` (``measure`` goes to it), the estimate :func:`critical_time_step` and their
-    ratio. The CFL condition predicts ``dt ~ h`` (exponent 1).
+    """Measured largest stable ``dt`` of :class:`SymplecticEuler` on a ``width x height`` flap of square cells
+    ``h = width / nx`` for each ``nx`` in ``sizes``, left edge fixed (stable neo-Hookean from ``E, nu`` unless
+    ``material``): :func:`largest_stable_dt` (``measure`` goes to it) beside the estimate
+    :func:`critical_time_step`. The CFL condition predicts ``dt ~ h``.
     """
     if material is None:
         material = StableNeoHookean(*lame_parameters(E, nu, "strain"))
@@ -76,3 +85,66 @@ def cfl_study(sizes=(4, 8, 16, 32), *, E: float = TISSUE_E, nu: float = TISSUE_N
         study.exponent, study.constant = power_law_fit(h, [r["dt_measured"] for r in study.rows])
         study.exponent_estimate, _ = power_law_fit(h, [r["dt_estimate"] for r in study.rows])
     return study
+
+
+def released_flap(material=None, nx: int = 8, ny: int = 4, lift: float = LIFT):
+    """Chapter 7's flap lifted and about to be let go: ``(model, u0)``. A ``2 x 1`` rectangle of ``nx x ny``
+    cells (stable neo-Hookean unless ``material``), left edge held, right edge lifted by ``lift`` (quasistatic):
+    ``u0``; ``model`` holds only the left edge, so stepping it from ``u0`` at rest is the release.
+    """
+    material = StableNeoHookean(*lame_parameters(TISSUE_E, TISSUE_NU, "strain")) if material is None else material
+    mesh = rectangle(2.0, 1.0, nx, ny)
+    pulled = Model(mesh, material, handles=[Handle("left"), Handle("right", (0.0, lift))])
+    result = solve(pulled, load_steps=2)
+    if not result.converged:
+        raise RuntimeError(f"the flap could not be lifted by {lift}: {result.status}")
+    return Model(mesh, material, handles=[Handle("left")]), result.u
+
+
+def backward_euler_run(model, u0, dt: float, n_steps: int, frames: bool = False):
+    """Backward Euler (time step ``dt``) on ``model``'s body from ``u0`` at rest:
+    ``(times, total energies[, displacements])``, one entry per step."""
+    dynamic = Model(model.mesh, model.material, handles=[Handle("left")], dt=dt, density=model.density)
+    scheme = Stepper(dynamic, rtol=1e-10)
+    scheme.reset(u0)
+    times, energies, states = [0.0], [scheme.total_energy()], [scheme.u.copy()]
+    for _ in range(n_steps):
+        report = scheme.step()
+        if not report.converged:
+            raise RuntimeError(f"backward Euler failed at t = {scheme.time:.3f}: {report.status}")
+        times.append(scheme.time)
+        energies.append(scheme.total_energy())
+        states.append(scheme.u.copy())
+    out = (np.array(times), np.array(energies))
+    return out + (states,) if frames else out
+
+
+def symplectic_energies(model, u0, dt: float, t_end: float, energy_limit=None) -> np.ndarray:
+    """Symplectic Euler (step ``dt``) on ``model``'s body from ``u0`` at rest until ``t_end``: the total energy
+    before the first step and after each, stopping early once it passes ``energy_limit``."""
+    scheme = SymplecticEuler(model, dt)
+    scheme.u = u0.copy()
+    return scheme.run(int(np.ceil(t_end / dt)), energy_limit=energy_limit)
+
+
+def flap_drag(sim, frames: int, start: int = 0) -> list:
+    """Frames ``start + 1 ... start + frames`` of the standard drag (the handle on ``flap_path``): their reports."""
+    return [sim.frame({"handle": flap_path((f + 1) * FRAME_BUDGET)}) for f in range(start, start + frames)]
+
+
+def capped_runs(sizes=CAPPED_SIZES, caps=CAPS, frames=CAPPED_FRAMES) -> list[dict]:
+    """For each size and cap: median relative residual per frame and the final state error against converged frames."""
+    rows = []
+    for n in sizes:
+        reference = Simulation(flap_scene(n, rtol=1e-10))
+        flap_drag(reference, frames)
+        scale = float(np.max(np.abs(reference.u)))
+        for cap in caps:
+            scene = flap_scene(n, rtol=1e-12).to_dict()
+            scene["solver"]["max_iterations"] = cap
+            solver = Simulation(Scene.from_dict(scene))
+            relative = [r.relative_residual for r in flap_drag(solver, frames)]
+            rows.append({"triangles": int(solver.mesh.t.shape[1]), "cap": cap,
+                         "median_relative_residual": float(np.median(relative)),
+                         "state_error": float(np.max(np.abs(solver.u - reference.u)) / scale)})
+    return rows

@@ -1,4 +1,4 @@
-"""What every benchmark shares: the machine record, tables, argument checks, and writing and reading results.
+"""What every benchmark shares: the machine record, argument checks, and writing and reading results.
 
 Benchmarks measure; they never draw (the figure modules draw from the results they
 write, read back through :func:`load_results`).
@@ -18,8 +18,9 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["machine_info", "markdown_table", "cell_text", "check_sizes", "write_json",
-           "write_csv", "load_results"]
+from ...engine.parameters import ParameterError
+
+__all__ = ["machine_info", "check_sizes", "write_json", "write_csv", "load_results"]
 
 
 def _version(dist: str) -> str:
@@ -43,35 +44,17 @@ def machine_info() -> dict:
     }
 
 
-def markdown_table(rows, columns, text_columns: int = 0) -> str:
-    """Rows (dicts) as a Markdown table; ``columns`` is ``[(key, title, format), ...]``.
-
-    The first ``text_columns`` columns are left-aligned, the rest right-aligned
-    (numbers); a missing or non-finite value prints as ``-``.
-    """
-    lines = ["| " + " | ".join(title for _, title, _ in columns) + " |",
-             "|" + "---|" * text_columns + "---:|" * (len(columns) - text_columns)]
-    for row in rows:
-        lines.append("| " + " | ".join(cell_text(row.get(key), fmt) for key, _, fmt in columns) + " |")
-    return "\n".join(lines)
-
-
-def cell_text(value, fmt: str) -> str:
-    """``fmt.format(value)``, or ``-`` for a missing or non-finite value."""
-    return "-" if value is None or (isinstance(value, float) and not math.isfinite(value)) else fmt.format(value)
-
-
 def check_sizes(sizes):
-    """The mesh sizes as a list of positive ints, or a ``ValueError``."""
+    """The mesh sizes as a list of positive ints, or a :class:`~tissuefem.engine.parameters.ParameterError`."""
     try:
         sizes = list(sizes)
     except TypeError:
-        raise ValueError(f"sizes must be a sequence of positive integers, got {sizes!r}") from None
+        raise ParameterError("sizes", f"sizes must be a sequence of positive integers, got {sizes!r}") from None
     if not sizes:
-        raise ValueError("sizes must contain at least one mesh size")
+        raise ParameterError("sizes", "sizes must contain at least one mesh size")
     for s in sizes:
         if isinstance(s, bool) or not isinstance(s, numbers.Integral) or s <= 0:
-            raise ValueError(f"sizes must be positive integers (triangle counts), got {s!r}")
+            raise ParameterError("sizes", f"sizes must be positive integers (triangle counts), got {s!r}")
     return [int(s) for s in sizes]
 
 

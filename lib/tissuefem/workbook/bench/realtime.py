@@ -1,29 +1,17 @@
 """Frame-rate benchmark of the standard scene: the real-time solver against the scikit-fem ex43 way.
 
-The standard scene (:func:`tissuefem.surgery.scene.flap_scene`): a Neo-Hookean flap ``[0, 2] x [0, 1]``
-(E = 1000, nu = 0.3, plane strain, rho0 = 1), its left edge fixed, its right edge carried along
-:func:`~tissuefem.surgery.scene.flap_path` by a handle; backward Euler with ``dt = 1/30``, every frame
-converged to a relative residual of ``1e-6``; run as a user runs it, a
-:class:`~tissuefem.surgery.simulation.Simulation` of the scene. For each mesh size, on the same frames:
+The standard scene (:func:`tissuefem.surgery.scene.flap_scene`: a Neo-Hookean flap ``[0, 2] x [0, 1]``, E =
+1000, nu = 0.3, rho0 = 1, left edge fixed, right edge on :func:`~tissuefem.surgery.scene.flap_path`; backward
+Euler at ``dt = 1/30``, every frame converged to ``1e-6``), run for each mesh size as
 
-* **fast**: the scene's :class:`~tissuefem.engine.realtime.RealtimeSolver` with no budget, so a frame's
-  time is what a converged frame costs: the P1 assembler, warm starts, and the reused factorization as
-  the CG preconditioner, refreshed on the second core (``"reuse-background"``; ``--linear reuse``
-  refreshes it in the frame instead);
-* **ex43 way**: the same Newton iteration as scikit-fem's hyperelasticity example writes it: a
-  ``BilinearForm`` and a ``LinearForm`` (the forms of :mod:`tissuefem.engine.forms`, plus the mass matrix)
-  assembled with ``asm`` every iteration, ``condense`` on the fixed dofs and ``skfem.solve`` (SciPy's
-  ``spsolve``), with one safeguard added (a step whose residual is not finite is halved: plain Newton
-  ends in NaN in the first frame at 32k triangles). Slow, so only the
-  first ``baseline_frames`` frames; the ratio compares medians over those same frames;
-* **budgeted**: the real-time solver with its 1/30 s budget and the real clock: the share of frames
-  converged in budget and the residual left when it runs out;
-* **floor**: one tangent assembly plus one back-substitution with a kept factorization at the final
-  state; no frame can be cheaper than one Newton step, and a converged frame over this floor says how
-  much of a frame is spent beyond that.
+* **fast**: its :class:`~tissuefem.engine.realtime.RealtimeSolver` with no budget (what a converged frame
+  costs; ``--linear reuse`` refreshes the kept factorization in the frame instead of the background);
+* **ex43 way** (:func:`ex43_frames`): scikit-fem's hyperelasticity example's Newton (``asm``, ``condense``,
+  ``solve`` every iteration) with one safeguard added, for the first ``baseline_frames`` frames;
+* **budgeted**: the real-time solver with its 1/30 s budget and the real clock;
+* **floor** (:func:`frame_floor`): one tangent assembly plus one back-substitution, the least a frame costs.
 
-Timings are medians and 95th percentiles of ``time.perf_counter`` per frame. This is a benchmark to read,
-not a test: compare columns of one run.
+Medians and 95th percentiles of wall time per frame: compare columns of one run (``docs/benchmarks.md``).
 """
 
 from __future__ import annotations
@@ -41,7 +29,10 @@ from ...engine.linsolve import LinearSolver
 from ...engine.parameters import check_count
 from ...surgery.scene import flap_path, flap_scene
 from ...surgery.simulation import Simulation
-from .common import check_sizes, machine_info, markdown_table, write_csv, write_json
+from ..measure import median_time
+from ..tables import markdown_table
+from ..timestepping import flap_drag
+from .common import check_sizes, machine_info, write_csv, write_json
 
 __all__ = ["realtime_benchmark", "ex43_frames", "format_realtime_table", "flap_simulation", "frame_floor"]
 
@@ -55,11 +46,9 @@ def flap_simulation(n_triangles: int, linear_solver: str = "reuse") -> Simulatio
 
 def ex43_frames(model, n_frames: int, dt: float = FRAME_BUDGET, rtol: float = RTOL_FLAP, density=TISSUE_DENSITY,
                 lumped: bool = True):
-    """Run ``n_frames`` of the scene the ex43 way; return ``(ms per frame, Newton iterations per frame, u)``.
-
-    ``model`` supplies the basis, the material and the handles (the second follows :func:`flap_path`). The
-    mass matrix is built once (lumped by default, as the real-time solver's, so both solve the same
-    equations); the stiffness and the residual are assembled every Newton iteration.
+    """Run ``n_frames`` of the scene the ex43 way: ``(ms per frame, Newton iterations per frame, u)``. ``model``
+    supplies the basis, the material and the handles (the second follows :func:`flap_path`); the mass matrix is
+    built once (lumped by default, as the real-time solver's), stiffness and residual every Newton iteration.
     """
     basis = model.basis
     grab = model.handles[1]
@@ -112,15 +101,12 @@ def _fast_frames(n_triangles, n_frames, budget=None, linear_solver="reuse"):
     sim = flap_simulation(n_triangles, linear_solver)
     if budget is not None:
         sim.solver.budget = budget
-    reports = [sim.frame({"handle": flap_path((f + 1) * FRAME_BUDGET)}) for f in range(n_frames)]
-    return sim, reports
+    return sim, flap_drag(sim, n_frames)
 
 
 def frame_floor(sim, repeats: int = 9) -> dict:
-    """What one Newton step costs at the simulation's state: a tangent assembly and one back-substitution.
-
-    Medians in ms of the model's Hessian and of one solve with a kept factorization
-    (``back_substitution``); their sum is the floor of a frame.
+    """What one Newton step costs at the simulation's state: median ms of a tangent assembly (``assembly_ms``) and
+    of one solve with a kept factorization (``back_substitution_ms``); their sum is a frame's floor.
     """
     model, u = sim.model, sim.u
     fixed, _ = model.prescribed()
@@ -129,16 +115,8 @@ def frame_floor(sim, repeats: int = 9) -> dict:
     linear = LinearSolver("constant")
     rhs = -model.gradient(u)[free]
     linear.solve(linear.matrix(lambda: model.hessian(u), free), rhs)  # factorize once, untimed
-    assemble, back = [], []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        model.hessian(u)
-        t1 = time.perf_counter()
-        linear.solve(None, rhs)
-        t2 = time.perf_counter()
-        assemble.append(t1 - t0)
-        back.append(t2 - t1)
-    a, b = 1e3 * float(np.median(assemble)), 1e3 * float(np.median(back))
+    a = median_time(lambda: model.hessian(u), repeats)
+    b = median_time(lambda: linear.solve(None, rhs), repeats)
     return {"assembly_ms": a, "back_substitution_ms": b, "floor_ms": a + b}
 
 

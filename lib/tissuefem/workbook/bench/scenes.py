@@ -1,18 +1,12 @@
 """What each effect costs: the same scripted drag with one effect added at a time.
 
-``python -m tissuefem bench scenes`` runs the standard flap (:func:`tissuefem.surgery.scene.flap_scene`,
-the right edge on :func:`~tissuefem.surgery.scene.flap_path`) as a scene, once per variant (:func:`variants`):
-a linear scene with its constant factorisation and the same forced through the general Newton loop; the
-quasistatic stable neo-Hookean base; the base plus one effect (inertia, gravity, fibres, a probe, sutures,
-inversion handling, a crack through the elements or along edges, self-contact with nothing near); an
-incision across the middle whose lips the drag presses together, without and with contact; everything.
-
-Every variant runs the same frames with no budget and the real clock. The table gives the median and 95th
-percentile ms per frame, Newton iterations per frame, and the median's difference from the base: the time
-the effect costs. A second table times each *term* of the all-effects model alone (energy + force +
-Hessian), separating the cost of evaluating a term from the extra Newton iterations it causes.
-
-Timings are from a shared machine: compare rows of one run, not runs.
+The standard flap (:func:`tissuefem.surgery.scene.flap_scene`) runs as a scene once per variant
+(:func:`variants`): linear with its constant factorisation and through the general Newton loop, the
+quasistatic stable neo-Hookean base, the base plus one effect, an incision whose lips the drag presses
+together (without and with contact), and everything. No budget, the real clock; the table
+gives ms per frame, Newton iterations per frame and the median's difference from the base. Each term of the
+all-effects model is also timed alone (:func:`term_costs`), and one cut during the drag (:func:`cut_costs`).
+Timings from a shared machine: compare rows of one run, not runs.
 """
 
 from __future__ import annotations
@@ -23,10 +17,13 @@ from pathlib import Path
 import numpy as np
 
 from ...engine.constants import FRAME_BUDGET
-from ...surgery.scene import Scene, flap_path, flap_scene
+from ...engine.parameters import check_count
+from ...surgery.scene import Scene, flap_scene
 from ...surgery.simulation import Simulation
 from ..measure import median_time
-from .common import check_sizes, machine_info, write_csv, write_json
+from ..tables import markdown_table
+from ..timestepping import flap_drag
+from .common import machine_info, write_csv, write_json
 
 __all__ = ["effects_benchmark", "variants", "format_effects_table", "term_costs", "cut_costs"]
 
@@ -81,7 +78,7 @@ def variants(n_triangles):
 
 def _run(data, options, frames):
     sim = Simulation(Scene.from_dict(data), **options)
-    reports = [sim.frame({"handle": flap_path((k + 1) * FRAME_BUDGET)}) for k in range(frames)]
+    reports = flap_drag(sim, frames)
     return sim, np.array([1e3 * r.elapsed for r in reports]), np.array([r.newton_iterations for r in reports])
 
 
@@ -93,8 +90,7 @@ def cut_costs(n_triangles, repeats=3) -> dict:
         times = []
         for _ in range(int(repeats)):
             sim = Simulation(Scene.from_dict(_base(n_triangles)))
-            for k in range(3):
-                sim.frame({"handle": flap_path((k + 1) * FRAME_BUDGET)})
+            flap_drag(sim, 3)
             start = time.perf_counter()
             sim.cut(CUT["path"], method=method)
             times.append(1e3 * (time.perf_counter() - start))
@@ -115,24 +111,23 @@ def term_costs(sim, repeats=5) -> dict:
     return costs
 
 
+_TABLE = [("variant", "variant", "{}"), ("terms", "terms", "{}"), ("median_ms", "median ms/frame", "{:.1f}"),
+          ("p95_ms", "p95 ms", "{:.1f}"), ("newton", "Newton/frame", "{:.2f}"),
+          ("cost_ms", "cost vs base (ms)", "{:+.1f}")]
+
+
 def format_effects_table(rows) -> str:
-    head = "| variant | terms | median ms/frame | p95 ms | Newton/frame | cost vs base (ms) |"
-    lines = [head, "|---|---|---:|---:|---:|---:|"]
-    for r in rows:
-        lines.append(f"| {r['variant']} | {', '.join(r['terms'])} | {r['median_ms']:.1f} | {r['p95_ms']:.1f} | "
-                     f"{r['newton']:.2f} | {r['cost_ms']:+.1f} |")
-    return "\n".join(lines)
+    """The variants as a Markdown table."""
+    return markdown_table([{**r, "terms": ", ".join(r["terms"])} for r in rows], _TABLE, text_columns=2)
 
 
 def effects_benchmark(n_triangles=8000, frames=30, repeats=5, out=None, progress=print) -> dict:
     """Run every variant; return ``{"rows": [...], "terms": {...}}`` and write JSON/CSV under ``out``."""
-    n_triangles = check_sizes([n_triangles])[0]
-    if n_triangles < 50 or isinstance(frames, bool) or int(frames) < 1:
-        raise ValueError("n_triangles must be >= 50 and frames >= 1")
+    n_triangles, frames = check_count("n_triangles", n_triangles, 50), check_count("frames", frames)
     say = progress or (lambda *a, **k: None)
     rows, base, everything = [], None, None
     for name, data, options in variants(n_triangles):
-        sim, ms, newton = _run(data, options, int(frames))
+        sim, ms, newton = _run(data, options, frames)
         median = float(np.median(ms))
         if base is None:
             base = median

@@ -11,7 +11,7 @@ import time
 from pathlib import Path
 from typing import Callable
 
-from . import accuracy, cutting, dynamics, fibers, inversion, kinematics, oned, realtime, surgery
+from . import cutting, dynamics, fibers, inversion, kinematics, oned, surgery, tradeoffs
 from .base import lecture_figure, matplotlib_note, save
 
 __all__ = ["FIGURES", "generate", "lecture_figure", "matplotlib_note", "save"]
@@ -19,7 +19,7 @@ __all__ = ["FIGURES", "generate", "lecture_figure", "matplotlib_note", "save"]
 #: every lecture figure by name, chapter by chapter
 FIGURES: dict[str, Callable] = {
     name: func
-    for module in (oned, kinematics, fibers, inversion, dynamics, realtime, surgery, accuracy, cutting)
+    for module in (oned, kinematics, fibers, inversion, dynamics, surgery, tradeoffs, cutting)
     for name, func in vars(module).items()
     if getattr(func, "lecture_figure", False) and getattr(func, "__module__", None) == module.__name__
 }

@@ -17,7 +17,7 @@ from matplotlib.animation import FuncAnimation, PillowWriter
 from matplotlib.figure import Figure
 
 __all__ = ["lecture_figure", "save", "shown", "at_least", "whole_pixels", "matplotlib_note", "ANIMATION_MIN_WIDTH",
-           "animation_figure", "save_animation"]
+           "animation_figure", "save_animation", "frame_axes"]
 
 #: the resolution of every saved figure
 DPI = 110
@@ -107,9 +107,14 @@ def animation_figure(figsize, top: float, xlim, ylim, title_y: float, fontsize: 
     held left edge drawn, and an empty title text for each frame to set."""
     fig = Figure(figsize=figsize)
     ax = fig.add_axes([0.02, 0.02, 0.96, top])
-    ax.set(aspect="equal", xlim=xlim, ylim=ylim, xticks=[], yticks=[])
+    frame_axes(ax, xlim, ylim)
     ax.plot([0.0, 0.0], [0.0, 1.0], color="k", lw=4)
     return fig, ax, fig.text(0.5, title_y, "", ha="center", va="center", fontsize=fontsize)
+
+
+def frame_axes(ax, xlim, ylim) -> None:
+    """Equal aspect, the given limits, no ticks: the axes of a drawing of the body."""
+    ax.set(aspect="equal", xlim=xlim, ylim=ylim, xticks=[], yticks=[])
 
 
 def save_animation(fig: Figure, update: Callable, frames: int, gif_path, dt: float, dpi: float) -> Path:

@@ -3,37 +3,20 @@ flaps redone with it, and self-contact."""
 
 from __future__ import annotations
 
-from itertools import product
-
 import numpy as np
 from matplotlib.collections import LineCollection, PolyCollection
 from matplotlib.figure import Figure
 
 from ...engine.constants import TISSUE_E, TISSUE_NU
 from ...engine.contact import ContactSurface
-from ...engine.materials import StableNeoHookean
-from ...engine.meshes import mean_edge_length, rectangle
-from ...engine.model import Handle, Model
-from ...engine.stepping import Stepper
-from ...surgery.element_cuts import cut_through
 from ...surgery.element_cuts import picture as element_picture
-from ...surgery.flaps import advancement_flap, rotation_flap
 from ...surgery.surfaces import contact_surface
-from .base import lecture_figure, save, shown
-from .surgery import _check, _frame_axes, _simulation, _still_clock, _tension_colorbar, sheet_scene, tension_norm
-from .surgery import TENSION_CMAP
+from ..procedures import (CRACK, CRACK_MESHES, FLAP_MESHES, VIRTUAL_NODES_STROKE, crack_opening, crack_runs,
+                          flap_comparison, fold_run, overlap_area, pressed_cut_run, virtual_nodes_run)
+from .base import frame_axes, lecture_figure, save, shown
+from .surgery import TENSION_CMAP, tension_colorbar, tension_norm
 
-__all__ = ["fig_ch10_virtual_nodes", "fig_ch10_cut_through", "fig_ch10_flaps", "fig_ch10_contact", "crack_runs",
-           "flap_comparison", "draw_picture", "overlap_area", "CRACK", "CRACK_MESHES"]
-
-#: the slanted crack of chapter 10: from above the top edge to mid-height (reference coordinates of a 2 x 1 sheet)
-CRACK = [[0.93, 1.05], [1.17, 0.45]]
-#: the two meshes the crack is cut on (triangles)
-CRACK_MESHES = (1200, 2600)
-#: how far the sheet's right edge is pulled
-CRACK_PULL = 0.1
-#: the flaps' meshes (triangles), coarse and fine
-FLAP_MESHES = (1500, 3000)
+__all__ = ["fig_ch10_virtual_nodes", "fig_ch10_cut_through", "fig_ch10_flaps", "fig_ch10_contact", "draw_picture"]
 
 
 def draw_picture(ax, sim, values=None, norm=None, *, color="0.88", lw=0.2, outline=True):
@@ -65,13 +48,8 @@ def fig_ch10_virtual_nodes(path=None) -> Figure:
     virtual nodes, added where a copy's material lies away from a vertex. The triangle holding the
     stroke's end is not split: the crack closes inside it (its tip).
     """
-    sim = _simulation(sheet_scene(16, handles=[{"name": "fixed", "region": "left"},
-                                               {"name": "pull", "region": "right", "target": [0.0, 0.0]}]))
-    n_old = sim.mesh.nvertices
-    stroke = np.array([[0.62, 1.1], [0.9, 0.6], [1.05, 0.35]])  # from the top edge, bending, ending inside
-    edit = sim.cut(stroke)
-    for k in range(1, 4):
-        _check(sim.frame({"pull": [0.12 * k / 3, 0.0]}), "the cut sheet, pulled")
+    sim, edit, n_old = virtual_nodes_run()
+    stroke = np.array(VIRTUAL_NODES_STROKE)
     fig = Figure(figsize=(10.0, 3.9), layout="constrained")
     axes = fig.subplots(1, 2)
     ax = axes[0]
@@ -81,11 +59,11 @@ def fig_ch10_virtual_nodes(path=None) -> Figure:
                                      linewidths=0.6))
     ax.plot(*P, "o", color="k", ms=3)
     ax.plot(*stroke.T, "-", color="C3", lw=2)
-    _frame_axes(ax, (-0.1, 2.25), (-0.12, 1.15))
+    frame_axes(ax, (-0.1, 2.25), (-0.12, 1.15))
     ax.set_title(f"(a) the stroke on the mesh: {t_old.shape[1]} triangles, {n_old} nodes", fontsize=9)
     ax = axes[1]
     x = sim.positions()
-    cut = np.array(sorted(sim._regions))
+    cut = np.array(sorted(edit.regions))
     draw_picture(ax, sim, color="0.85", lw=0.5)
     ax.add_collection(PolyCollection(shown(x[:, sim.mesh.t[:, cut]]).transpose(2, 1, 0), facecolors="none",
                                      edgecolors="C0", linewidths=0.8, linestyles="--"))
@@ -93,7 +71,7 @@ def fig_ch10_virtual_nodes(path=None) -> Figure:
     ax.plot(*shown(x[:, real]), "o", color="k", ms=3, label="nodes of the mesh")
     ax.plot(*shown(x[:, ~real]), "o", mfc="white", mec="C0", ms=6, mew=1.3,
             label=f"virtual nodes ({int((~real).sum())})")
-    _frame_axes(ax, (-0.1, 2.25), (-0.12, 1.15))
+    frame_axes(ax, (-0.1, 2.25), (-0.12, 1.15))
     ax.legend(fontsize=7.5, loc="lower right")
     ax.set_title(f"(b) cut, pulled open: {cut.size} elements hold part of a triangle "
                  f"({sim.mesh.nelements - t_old.shape[1]} copies)", fontsize=9)
@@ -103,33 +81,6 @@ def fig_ch10_virtual_nodes(path=None) -> Figure:
 
 
 # --- a crack on two meshes --------------------------------------------------------------------------------------
-
-def crack_runs(meshes=CRACK_MESHES, crack=CRACK, pull=CRACK_PULL) -> dict:
-    """``{(method, triangles): (simulation, edit)}``: the pulled sheet, then the crack, then the new equilibrium."""
-    out = {}
-    for method, n in product(("edges", "elements"), meshes):
-        sim = _simulation(sheet_scene(n, handles=[{"name": "fixed", "region": "left"},
-                                                  {"name": "pull", "region": "right", "target": [pull, 0.0]}]))
-        _check(sim.frame(), "the pulled sheet")
-        edit = sim.cut(np.asarray(crack, dtype=float), method=method)
-        _check(sim.frame(), "the cracked sheet")
-        out[(method, n)] = (sim, edit)
-    return out
-
-
-def crack_opening(sim, edit) -> float:
-    """Opening of the crack at its mouth (the sheet's top edge), in the current configuration."""
-    x = sim.positions()
-    if getattr(edit, "wound", None) is not None:
-        wound = edit.wound
-        ends = wound.positions(x)
-        first = np.flatnonzero(wound.stroke[:, 0] == wound.stroke[:, 0].min())
-        a, b = first[wound.side[first] > 0][0], first[wound.side[first] < 0][0]
-        return float(np.hypot(*(ends[a, 0] - ends[b, 0])))
-    top = np.flatnonzero(np.isclose(sim.model.X[1], 1.0))
-    copies = top[top >= edit.n_old_nodes]
-    return float(np.max(np.hypot(*(x[:, copies] - x[:, edit.parent[copies]]))))
-
 
 @lecture_figure
 def fig_ch10_cut_through(path=None, runs=None) -> Figure:
@@ -151,11 +102,11 @@ def fig_ch10_cut_through(path=None, runs=None) -> Figure:
             ax = axes[i, j]
             draw_picture(ax, sim, sim.tension(), norm, lw=0.12)
             ax.plot(*crack.T, color="C3", lw=0.6, alpha=0.8)
-            _frame_axes(ax, (0.55, 1.55), (0.3, 1.12))
+            frame_axes(ax, (0.55, 1.55), (0.3, 1.12))
             kind = "snapped to mesh edges" if method == "edges" else "through the elements"
             ax.set_title(f"({'abcd'[2 * i + j]}) {kind}, {sim.mesh.nelements} elements: opening "
                          f"{crack_opening(sim, edit):.4f}", fontsize=9)
-    _tension_colorbar(fig, norm, list(axes.ravel()), shrink=0.8)
+    tension_colorbar(fig, norm, list(axes.ravel()), shrink=0.8)
     fig.suptitle(f"Chapter 10: a crack drawn on a pulled sheet (stable neo-Hookean, E = {TISSUE_E:g}, "
                  f"ν = {TISSUE_NU:g}), on {CRACK_MESHES[0]} and {CRACK_MESHES[1]} triangles", fontsize=10)
     save(fig, path)
@@ -163,14 +114,6 @@ def fig_ch10_cut_through(path=None, runs=None) -> Figure:
 
 
 # --- the flaps -------------------------------------------------------------------------------------------------
-
-def flap_comparison(meshes=FLAP_MESHES, tighten_frames=8) -> dict:
-    """``{(flap, method, triangles): FlapResult}`` for the advancement and the rotation flap."""
-    procedures = (("advancement", advancement_flap), ("rotation", rotation_flap))
-    return {(name, method, n): procedure(n_triangles=n, tighten_frames=tighten_frames, method=method,
-                                         clock=_still_clock)
-            for (name, procedure), method, n in product(procedures, ("edges", "elements"), meshes)}
-
 
 @lecture_figure
 def fig_ch10_flaps(path=None, runs=None) -> Figure:
@@ -197,7 +140,7 @@ def fig_ch10_flaps(path=None, runs=None) -> Figure:
             draw_picture(ax, sim, result.tension, norm, lw=0.1)
             ends = sim.model.sutures.ends(sim.u)
             ax.plot(*shown(ends[0]), "o", ms=1.8, color="C0", zorder=5)
-            _frame_axes(ax, *windows[name])
+            frame_axes(ax, *windows[name])
             kind = "snapped to edges" if method == "edges" else "through elements"
             ax.set_title(f"({'abcdef'[3 * i + j]}) {name}, {kind}: {result.stitches} stitches,\n"
                          f"gap {result.initial_gap:.2f} → {result.max_gap:.0e}", fontsize=8.5)
@@ -218,7 +161,7 @@ def fig_ch10_flaps(path=None, runs=None) -> Figure:
         ax.legend(fontsize=7, loc="upper left", ncols=1)
         ax.set_title(f"({'cf'[i]}) {name} flap: the report on two meshes", fontsize=8.5)
         ax.grid(alpha=0.3, axis="y")
-    _tension_colorbar(fig, norm, [axes[0, 0], axes[0, 1], axes[1, 0], axes[1, 1]], shrink=0.7)
+    tension_colorbar(fig, norm, [axes[0, 0], axes[0, 1], axes[1, 0], axes[1, 1]], shrink=0.7)
     fig.suptitle(f"Chapter 10: two local flaps cut through the elements beside the edge-snapped versions "
                  f"(stable neo-Hookean, E = {TISSUE_E:g}, ν = {TISSUE_NU:g}; after Sifakis et al. 2009)",
                  fontsize=10)
@@ -228,87 +171,22 @@ def fig_ch10_flaps(path=None, runs=None) -> Figure:
 
 # --- self-contact ------------------------------------------------------------------------------------------------
 
-def overlap_area(picture, x, cells=400) -> float:
-    """The area covered twice or more by the drawn material at node positions ``x``: where the body overlaps
-    itself (counted on a ``cells x cells`` grid over its bounding box)."""
-    y = picture.points(x)
-    lo, hi = y.min(axis=1), y.max(axis=1)
-    step = float((hi - lo).max()) / cells
-    nx, ny = (np.ceil((hi - lo) / step).astype(int) + 1).tolist()
-    count = np.zeros((ny, nx), dtype=np.int32)
-    gx, gy = lo[0] + (np.arange(nx) + 0.5) * step, lo[1] + (np.arange(ny) + 0.5) * step
-    for tri in picture.triangles.T:
-        a, b, c = y[:, tri[0]], y[:, tri[1]], y[:, tri[2]]
-        i0, i1 = np.searchsorted(gx, min(a[0], b[0], c[0])), np.searchsorted(gx, max(a[0], b[0], c[0]))
-        j0, j1 = np.searchsorted(gy, min(a[1], b[1], c[1])), np.searchsorted(gy, max(a[1], b[1], c[1]))
-        if i1 <= i0 or j1 <= j0:
-            continue
-        X, Y = np.meshgrid(gx[i0:i1], gy[j0:j1])
-        det = (b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1])
-        if det == 0:
-            continue
-        xi = ((c[1] - a[1]) * (X - a[0]) - (c[0] - a[0]) * (Y - a[1])) / det
-        eta = (-(b[1] - a[1]) * (X - a[0]) + (b[0] - a[0]) * (Y - a[1])) / det
-        count[j0:j1, i0:i1] += ((xi >= 0) & (eta >= 0) & (xi + eta < 1)).astype(np.int32)
-    return float(np.count_nonzero(count >= 2)) * step * step
-
-
-def _fold_run(contact: bool):
-    """A thin strip: its left part lies on a table, its right end is turned over onto it and pressed down."""
-    mesh = rectangle(3.0, 0.1, 40, 2)
-    h = mean_edge_length(mesh)
-    options = dict(contact=dict(distance=0.1 * h, stiffness=5770.0)) if contact else {}
-    model = Model(mesh, StableNeoHookean(577.0, 385.0), handles=[Handle({"box": [-1.0, -0.01, 1.2, 0.01]},
-                  name="table"), Handle("right", name="end")], **options)
-    stepper = Stepper(model, linear_solver="reuse")
-    centre = np.array([[1.8], [0.25]])
-
-    def fold(theta, drop):
-        R = np.array([[np.cos(theta), -np.sin(theta)], [np.sin(theta), np.cos(theta)]])
-        return lambda P: centre + R @ (P - centre) - np.array([[0.0], [drop]])
-
-    path = ([(th, 0.0) for th in np.linspace(0, np.pi, 13)[1:]] + [(np.pi, d) for d in np.linspace(0, 0.29, 5)[1:]]
-            + [(np.pi, d) for d in np.linspace(0.29, 0.33, 9)[1:]])
-    for theta, drop in path:
-        report = stepper.step({"end": fold(theta, drop)})
-        if not report.converged:
-            raise RuntimeError(f"the fold did not converge ({report.status})")
-    return mesh, None, model, stepper.u
-
-
-def _pressed_cut_run(contact: bool):
-    """A sheet with a crack cut through its elements, its right edge pushed left and up: the lips press and slide."""
-    mesh = rectangle(2.0, 1.0, 16, 8)
-    h = mean_edge_length(mesh)
-    cut = cut_through(mesh, [[0.93, 1.2], [1.07, 0.25]])
-    options = dict(contact=dict(surface=contact_surface(cut.mesh, cut.weights, cut.regions), distance=0.1 * h,
-                                stiffness=100.0)) if contact else {}
-    model = Model(cut.mesh, StableNeoHookean(577.0, 385.0), weights=cut.weights,
-                  handles=[Handle("left"), Handle("right", name="push")], **options)
-    stepper = Stepper(model, linear_solver="reuse")
-    for k in range(1, 9):
-        report = stepper.step({"push": (-0.03 * k, 0.012 * k)})
-        if not report.converged:
-            raise RuntimeError(f"the pressed cut did not converge ({report.status})")
-    return cut.mesh, cut.regions, model, stepper.u
-
-
 @lecture_figure
 def fig_ch10_contact(path=None) -> Figure:
     """Chapter 10: self-contact keeps a fold and a wound's lips from passing through each other.
 
     Top: a thin strip whose left part lies on a table, its right end turned over and pressed down onto it
-    (:func:`_fold_run`). Bottom: a crack cut through the elements, pressed shut and sheared
-    (:func:`_pressed_cut_run`). Left: without contact the body passes through itself (material drawn
-    half-transparent: overlaps show darker; the title gives the area covered twice). Right: with the
-    contact term (a one-sided barrier in a thin skin behind the surface, and collision detection that
-    shortens every Newton step) the surfaces touch and press, and nothing crosses: what overlap is left
+    (:func:`~tissuefem.workbook.procedures.fold_run`). Bottom: a crack cut through the elements, pressed shut
+    and sheared (:func:`~tissuefem.workbook.procedures.pressed_cut_run`). Left: without contact the body passes
+    through itself (drawn half-transparent, overlaps show darker; the title gives the area covered twice).
+    Right: with the contact term (a one-sided barrier in a thin skin behind the surface, and collision detection
+    that shortens every Newton step) the surfaces touch and press, and nothing crosses: what overlap is left
     lies within the skin (a tenth of an edge here), where the contact pressure builds up.
     """
     fig = Figure(figsize=(12.0, 6.2), layout="constrained")
     axes = fig.subplots(2, 2, height_ratios=[0.8, 1.0])
     windows = [((0.5, 2.2), (-0.15, 0.45)), ((0.45, 1.65), (0.1, 1.15))]
-    for i, run in enumerate((_fold_run, _pressed_cut_run)):
+    for i, run in enumerate((fold_run, pressed_cut_run)):
         for j, contact in enumerate((False, True)):
             mesh, regions, model, u = run(contact)
             x = model.positions(u)
@@ -322,7 +200,7 @@ def fig_ch10_contact(path=None) -> Figure:
             y = shown(surface.positions(x))
             a, b = surface.segments
             ax.add_collection(LineCollection(np.stack([y[:, a].T, y[:, b].T], axis=1), colors="k", linewidths=0.6))
-            _frame_axes(ax, *windows[i])
+            frame_axes(ax, *windows[i])
             overlap = overlap_area(picture, x)
             what = ("a strip folded onto itself", "a crack pressed shut, sheared")[i]
             state = "with contact" if contact else "no contact"

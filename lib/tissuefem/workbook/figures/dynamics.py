@@ -1,9 +1,10 @@
-"""Figures of chapter 7 (time stepping): explicit against implicit.
+"""Figures of chapter 7 (time stepping): explicit against implicit, and what the real-time budget trades.
 
 ``fig_ch07_cfl`` (symplectic Euler's largest stable step against the element size), ``fig_ch07_energy``
-(numerical damping against bounded oscillation and blow-up) and ``fig_ch07_released_flap`` (a filmstrip and
-a GIF). The flap of the last two is the one of the chapter's tests: a 2 x 1 rectangle (8 x 4 cells), stable
-neo-Hookean with E = 1000, nu = 0.3, rho0 = 1, left edge held, its right edge lifted by 0.5 and let go.
+(numerical damping against bounded oscillation and blow-up) and ``fig_ch07_released_flap`` (a filmstrip and a
+GIF) let go the flap of the chapter's tests: a 2 x 1 rectangle (8 x 4 cells), stable neo-Hookean with E = 1000,
+nu = 0.3, rho0 = 1, left edge held, right edge lifted by 0.5. ``fig_ch07_budget_residual``: the residual and
+the error a frame stopped after 1, 2 or 3 Newton steps leaves (a cap, not a clock: reproducible).
 """
 
 from __future__ import annotations
@@ -17,14 +18,10 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import NullFormatter
 
 from ...engine.constants import FRAME_BUDGET as FRAME_DT, TISSUE_E, TISSUE_NU  # FRAME_DT: one frame, 1/30 s
-from .base import animation_figure, lecture_figure, save, save_animation, shown
-from ...engine.materials import StableNeoHookean
-from ...engine.meshes import rectangle
-from ...engine.parameters import lame_parameters
-from ...engine.model import Handle, Model
-from ...engine.stepping import Stepper, solve
-from ...engine.explicit import SymplecticEuler, critical_time_step
-from ..timestepping import cfl_study
+from ...engine.explicit import critical_time_step
+from ..timestepping import (CAPPED_FRAMES, CAPS, backward_euler_run, capped_runs, cfl_study, released_flap,
+                            symplectic_energies)
+from .base import animation_figure, frame_axes, lecture_figure, save, save_animation, shown
 from .inversion import UPRIGHT_COLOR, draw_state
 
 #: mesh sizes (cells along the flap's length) of the CFL figure
@@ -37,44 +34,6 @@ ENERGY_T_END = 2.0
 ANIMATION_FRAMES = 50
 #: frames shown in the filmstrip PNG
 FILMSTRIP_FRAMES = (0, 3, 6, 10, 16, 25, 49)
-#: how far the flap's right edge is lifted before it is let go
-LIFT = 0.5
-
-
-def released_flap(material=None, nx: int = 8, ny: int = 4, lift: float = LIFT):
-    """The chapter's flap, lifted and about to be released: returns ``(model, u0)``.
-
-    A ``2 x 1`` rectangle of ``nx x ny`` cells (stable neo-Hookean, plane strain, unless ``material`` is
-    given), its left edge held and its right edge moved up by ``lift`` (quasistatic): ``u0``. ``model`` holds
-    only the left edge: stepping it from ``u0`` at rest is the release (:func:`backward_euler_run`).
-    """
-    material = StableNeoHookean(*lame_parameters(TISSUE_E, TISSUE_NU, "strain")) if material is None else material
-    mesh = rectangle(2.0, 1.0, nx, ny)
-    pulled = Model(mesh, material, handles=[Handle("left"), Handle("right", (0.0, lift))])
-    result = solve(pulled, load_steps=2)
-    if not result.converged:
-        raise RuntimeError(f"the flap could not be lifted by {lift}: {result.status}")
-    return Model(mesh, material, handles=[Handle("left")]), result.u
-
-
-def backward_euler_run(model, u0, dt: float, n_steps: int, frames: bool = False):
-    """Backward Euler (time step ``dt``) on ``model``'s body from ``u0`` at rest:
-    ``(times, total energies[, displacements])``, one entry per step."""
-    dynamic = Model(model.mesh, model.material, handles=[Handle("left")], dt=dt, density=model.density)
-    scheme = Stepper(dynamic, rtol=1e-10)
-    scheme.reset(u0)
-    times, energies, states = [0.0], [scheme.total_energy()], [scheme.u.copy()]
-    for _ in range(n_steps):
-        report = scheme.step()
-        if not report.converged:
-            raise RuntimeError(f"backward Euler failed at t = {scheme.time:.3f}: {report.status}")
-        times.append(scheme.time)
-        energies.append(scheme.total_energy())
-        states.append(scheme.u.copy())
-    out = (np.array(times), np.array(energies))
-    return out + (states,) if frames else out
-
-
 @lecture_figure
 def fig_ch07_cfl(path=None, study=None) -> Figure:
     """Chapter 7: symplectic Euler's largest stable time step against the element size h (log-log).
@@ -148,9 +107,7 @@ def fig_ch07_energy(path=None) -> Figure:
         e0 = e[0]
         ax.plot(t, e / e0, color=color, lw=1.6, label=f"backward Euler, $\\Delta t$ = 1/{1 / dt:.0f} s")
     stable_dt = 0.5 * dt_crit
-    scheme = SymplecticEuler(problem, stable_dt)
-    scheme.u = u0.copy()
-    e = scheme.run(int(np.ceil(ENERGY_T_END / stable_dt)))
+    e = symplectic_energies(problem, u0, stable_dt, ENERGY_T_END)
     t = stable_dt * np.arange(e.size)
     label = f"symplectic Euler, $\\Delta t$ = 0.5 $\\Delta t_{{crit}}$ = {1000 * stable_dt:.2f} ms"
     ax.plot(t, e / e0, color="C4", lw=0.8, label=label)
@@ -166,9 +123,7 @@ def fig_ch07_energy(path=None) -> Figure:
     ax_z.grid(alpha=0.3)
     # just above the limit
     unstable_dt = 1.1 * dt_crit
-    scheme = SymplecticEuler(problem, unstable_dt)
-    scheme.u = u0.copy()
-    e = scheme.run(int(np.ceil(ENERGY_T_END / unstable_dt)), energy_limit=1e6 * e0)
+    e = symplectic_energies(problem, u0, unstable_dt, ENERGY_T_END, energy_limit=1e6 * e0)
     steps = np.arange(e.size)
     ax_u.semilogy(steps, e / e0, "o-", color="C3", ms=4, lw=1.2)
     ax_u.axhline(1.0, color="k", lw=0.6, ls="--")
@@ -230,7 +185,7 @@ def fig_ch07_released_flap(path=None) -> Figure:
         ax.plot(*mesh.p[:, mesh.t[[0, 1, 2, 0]]], color="0.8", lw=0.3)  # the rest shape, faint
         draw_state(ax, mesh, problem.deformed_positions(states[k]))
         ax.plot([0.0, 0.0], [0.0, 1.0], color="k", lw=2.0)
-        ax.set(aspect="equal", xlim=xlim, ylim=ylim, xticks=[], yticks=[])
+        frame_axes(ax, xlim, ylim)
         ax.set_title(f"t = {times[k]:.2f} s" + (" (let go)" if k == 0 else ""), fontsize=8.5)
     ax = fig.add_subplot(grid[1, :])
     tip_y = np.array([u[tip_dof] for u in states])
@@ -252,4 +207,38 @@ def fig_ch07_released_flap(path=None) -> Figure:
     save(fig, path)
     if path is not None:
         write_flap_animation(Path(path).with_suffix(".gif"), problem, states, FRAME_DT)
+    return fig
+
+
+#: a relative state error below this is round-off (its digits differ between machines)
+STATE_ROUND_OFF = 1e-12
+
+
+@lecture_figure
+def fig_ch07_budget_residual(path=None, rows=None) -> Figure:
+    """Chapter 7: residual and state error left when a frame stops after 1, 2 or 3 Newton steps, by mesh size."""
+    rows = capped_runs() if rows is None else rows
+    fig = Figure(figsize=(9.0, 3.8), layout="constrained")
+    ax_r, ax_e = fig.subplots(1, 2)
+    for cap, marker in zip(CAPS, "os^"):
+        sel = [r for r in rows if r["cap"] == cap]
+        tri = [r["triangles"] for r in sel]
+        label = f"{cap} Newton step{'s' if cap > 1 else ''} per frame"
+        # a residual of 1e-9 of the first one carries round-off at 1e-4 of itself: two digits
+        ax_r.loglog(tri, shown([r["median_relative_residual"] for r in sel], digits=2), marker + "-", label=label)
+        ax_e.loglog(tri, shown([r["state_error"] for r in sel], floor=STATE_ROUND_OFF), marker + "-", label=label)
+    ax_e.axhspan(STATE_ROUND_OFF / 20, STATE_ROUND_OFF, color="0.9", lw=0, zorder=0)
+    ax_e.text(0.02, STATE_ROUND_OFF / 5, f"round-off (drawn at {STATE_ROUND_OFF:.0e})",
+              transform=ax_e.get_yaxis_transform(), fontsize=7.5, color="0.35", va="center")
+    ax_r.axhline(1e-6, color="k", ls="--", lw=1)
+    ax_r.text(rows[0]["triangles"], 1.5e-6, "converged: rtol = 1e-6", fontsize=8)
+    ax_r.set(xlabel="triangles", ylabel="median of |residual| / |first residual| per frame",
+             title="Residual left at the end of a frame")
+    ax_e.set(xlabel="triangles", ylabel="max |u - u_converged| / max |u_converged|",
+             title=f"State error after {CAPPED_FRAMES} frames of the drag")
+    for ax in (ax_r, ax_e):
+        ax.grid(True, which="both", alpha=0.3)
+        ax.xaxis.set_minor_formatter(NullFormatter())
+        ax.legend(fontsize=8, loc="center right")
+    save(fig, path)
     return fig

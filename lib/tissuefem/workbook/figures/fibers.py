@@ -6,7 +6,7 @@ import numpy as np
 from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 
-from .base import lecture_figure, save
+from .base import frame_axes, lecture_figure, save
 from ...engine.meshes import fusiform_fiber_field, fusiform_muscle, fusiform_width
 from ..fibers import (K_FIBER, block_pull, confined_pull, fiber_direction, muscle_pull, predicted_confined_modulus)
 
@@ -91,7 +91,7 @@ def fig_ch05_along_vs_across(path=None) -> Figure:
         _outline(ax, type(mesh)(x, mesh.t, sort_t=False), colors=color, linewidths=1.4)
         if angle is not None:
             ax.add_collection(LineCollection(segs[::3], colors=_FIBER_COLOR, linewidths=1.0))
-        ax.set(aspect="equal", xlim=(-0.1, 2.7), ylim=(-0.2, 1.2), xticks=[], yticks=[])
+        frame_axes(ax, (-0.1, 2.7), (-0.2, 1.2))
         ax.set_title(label, fontsize=9, color=color)
         ax_curve.plot(stretches, result.nominal_stress, "o-", ms=3, color=color, label=label)
     top.suptitle("the strip at stretch 1.3 (dashed: rest shape; red: deformed fibers $\\mathbf{F}\\mathbf{g}$)",

@@ -10,10 +10,9 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 
 from ...engine.constants import TISSUE_E, TISSUE_NU
-from .base import at_least, lecture_figure, save
-# cover_counts: the chapter imports it from here
-from ..hardcases import block, cover_counts, crush_and_release, element_jacobians, inversion_models  # noqa: F401
 from ...engine.inversion import diagonal
+from ..hardcases import block, crush_and_release_runs, element_jacobians, inversion_models
+from .base import at_least, frame_axes, lecture_figure, save
 
 #: fill colours of a triangle that keeps its orientation (J > 0) and of an inverted or flat one (J <= 0)
 UPRIGHT_COLOR, INVERTED_COLOR = "#6baed6", "#d6604d"
@@ -38,12 +37,6 @@ def draw_state(ax, mesh, x, *, J=None, alpha: float = 1.0, tol: float = 1e-12) -
             ax.add_collection(PolyCollection(verts[mask], facecolors=to_rgba(color, 0.6 * alpha),
                                              edgecolors=to_rgba("0.25", alpha), linewidths=0.45))
     return int(bad.sum())
-
-
-def crush_and_release_runs(E: float = TISSUE_E, nu: float = TISSUE_NU, mesh=None) -> dict:
-    """Run :func:`tissuefem.workbook.hardcases.crush_and_release` (default depth 1.3) for the four models, by name."""
-    mesh = block() if mesh is None else mesh
-    return {name: crush_and_release(material, mesh) for name, material in inversion_models(E, nu).items()}
 
 
 def frame_depths(mesh, frames) -> np.ndarray:
@@ -91,7 +84,7 @@ def fig06_crush_release(path=None, runs=None) -> Figure:
                 transform=ax.transAxes, ha="center", va="bottom", fontsize=7)
         for ax in row:
             ax.plot(xlim, [bottom, bottom], color="k", lw=1.6)  # the held bottom edge
-            ax.set(aspect="equal", xlim=xlim, ylim=ylim, xticks=[], yticks=[])
+            frame_axes(ax, xlim, ylim)
         row[0].set_ylabel(name, fontsize=8.5)
     for ax, target in zip(axes[0], CRUSH_COLUMNS):
         label = "rest" if target == 0 else ("flat" if target == 1 else f"pushed {target:g}")

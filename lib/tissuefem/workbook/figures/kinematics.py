@@ -11,12 +11,11 @@ from matplotlib.patches import FancyArrowPatch
 from matplotlib.tri import Triangulation
 
 from ...engine.constants import FRAME_BUDGET, TISSUE_E, TISSUE_NU
-from .base import at_least, lecture_figure, save, shown
-from ...engine.meshes import rectangle
-from ..studies import (BLOCK_HANDLE, RECORDED_COST_ACCURACY, bending_gradient, bending_map, block_model,
-                       rigid_rotation_response, rotated_block, rotation)
 from ...engine.materials import LinearElastic, NeoHookean
-from ...engine.stepping import solve
+from ...engine.meshes import rectangle
+from ..studies import (BLOCK_HANDLE, RECORDED_COST_ACCURACY, bending_gradient, bending_map, rigid_rotation_response,
+                       rotated_block, rotation, stretched_block)
+from .base import at_least, lecture_figure, save, shown
 
 #: one frame at 30 frames per second, in milliseconds
 FRAME_BUDGET_MS = 1e3 * FRAME_BUDGET
@@ -230,13 +229,11 @@ def fig_ch04_block(path=None) -> Figure:
     Block [0, 2] x [0, 1], 24 x 12 cells (P1); left edge fixed, right edge moved by (0.6, 0.4) (one load
     step). Per triangle: the area ratio J = det F (white = no change) and the energy density Psi.
     """
-    material = NeoHookean.from_young(TISSUE_E, TISSUE_NU)
-    problem = block_model(n=12, order=1, material=material)
-    result = solve(problem)
-    F = problem.deformation_gradient(result.u)
+    problem, u = stretched_block()
+    F = problem.deformation_gradient(u)
     J = F[0, 0] * F[1, 1] - F[0, 1] * F[1, 0]
-    psi = material.energy(F)
-    x = problem.deformed_positions(result.u)
+    psi = problem.material.energy(F)
+    x = problem.deformed_positions(u)
     tri = Triangulation(x[0], x[1], problem.mesh.t.T)
     outline = _outline(2.0, 1.0)
     fig = Figure(figsize=(11.0, 3.9), layout="constrained")

@@ -5,10 +5,9 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.figure import Figure
 
-from ...engine.bar1d import Bar1D, Traction
 from ...engine.constants import TISSUE_E, TISSUE_NU
 from ...engine.materials1d import Linear1D, NeoHookean1D, TaylorNeoHookean1D
-from ..oned import convergence_study
+from ..oned import convergence_study, newton_histories
 from .base import lecture_figure, save, shown
 
 
@@ -104,16 +103,11 @@ def fig_ch01_convergence(path=None) -> Figure:
 @lecture_figure
 def fig_ch02_newton(path=None) -> Figure:
     """Chapter 2: Newton residual histories for the 1D Neo-Hookean bar under several end tractions."""
-    material = NeoHookean1D.from_young(TISSUE_E, TISSUE_NU)
-    bar = Bar1D(0.0, 1.0, 16)
     fig = Figure(figsize=(6.4, 4.6), layout="constrained")
     ax = fig.subplots()
     round_off = 1e-11  # the residual of this bar cannot fall below about 1e-12 (chapter 2, section 3)
-    for T in (100.0, 300.0, 600.0, -300.0, -600.0):
-        _, results = bar.solve_nonlinear(material, right=Traction(T), rtol=1e-13)
-        norms = results[-1].residual_norms()
-        ax.semilogy(np.arange(norms.size), shown(norms, floor=round_off), "o-",
-                    label=f"T = {T:g} ({results[-1].status})")
+    for T, (norms, status) in newton_histories().items():
+        ax.semilogy(np.arange(norms.size), shown(norms, floor=round_off), "o-", label=f"T = {T:g} ({status})")
     ax.axhspan(round_off / 20, round_off, color="0.9", lw=0, zorder=0)
     ax.text(0.02, round_off / 5, f"round-off (drawn at {round_off:.0e})", transform=ax.get_yaxis_transform(),
             fontsize=7.5, color="0.35", va="center")

@@ -1,8 +1,7 @@
 """Figures of chapter 8 (virtual surgery): an incision, a cut through two pieces, a probe and a flap.
 
-Every simulation here runs with an unlimited budget and a clock that never advances, so each frame is
-solved to the solver's tolerance and nothing depends on the machine's speed: the files are byte-identical
-from run to run. Elements are coloured by their largest principal Cauchy stress
+The runs are :mod:`tissuefem.workbook.procedures`' (on a clock that never advances: the files are byte-identical
+from run to run). Elements are coloured by their largest principal Cauchy stress
 (:meth:`tissuefem.surgery.simulation.Simulation.tension`) on one diverging scale per figure: red is pulled
 apart, blue is pressed together, white is at rest.
 """
@@ -19,65 +18,16 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Circle
 
 from ...engine.constants import FRAME_BUDGET as FRAME_DT, TISSUE_E, TISSUE_NU  # FRAME_DT: one frame, 1/30 s
-from .base import animation_figure, at_least, lecture_figure, save, save_animation
-from ...surgery.scene import Scene
-from ...surgery.simulation import Simulation
-from ...surgery.topology import connected_components
-from ...surgery.flaps import advancement_flap
+from ..procedures import INCISION_PULL, flap_runs, incision_run, probe_run, two_pieces_run
+from .base import animation_figure, at_least, frame_axes, lecture_figure, save, save_animation
 
 #: the colour map of the tension (largest principal Cauchy stress); centred at zero
 TENSION_CMAP = "RdBu_r"
 #: the held piece and the free piece of the two-pieces figure
 HELD_COLOR, FREE_COLOR = "#6baed6", "#fd8d3c"
 WOUND_COLOR = "#67000d"
-
-#: incision figure: how far the right edge is pulled, and the cut (from above the top edge to mid-height)
-INCISION_PULL = 0.4
-INCISION_PATH = ((1.0, 1.2), (1.0, 0.5))
-#: two-pieces figure: frames of sagging before the cut, frames after it, and the columns of the filmstrip
-SAG_FRAMES = 12
-FALL_FRAMES = 14
-FILMSTRIP = (0, 6, 12, 15, 18, 22, 26)
-#: probe figure: disc radius, the depths swept (below the top edge) and the two shown
-PROBE_RADIUS = 0.25
-PROBE_DEPTHS = (0.0, 0.05, 0.1, 0.15, 0.2, 0.25, 0.3)
-PROBE_SHOWN = (0.1, 0.25)
-#: flap figure: the flap lengths compared, and the one drawn
-FLAP_LENGTHS = (0.8, 1.2, 1.8)
-FLAP_SHOWN = 1.2
-FLAP_TRIANGLES = 2000
-FLAP_TIGHTEN_FRAMES = 6
-
-
-def _still_clock():
-    """A clock that never advances: no frame ever runs out of budget, whatever the machine."""
-    return 0.0
-
-
-def sheet_scene(n_triangles=1200, *, handles, dynamic=False, gravity=False, width=2.0, height=1.0):
-    """A ``width x height`` sheet of stable neo-Hookean tissue (E = 1000, nu = 0.3) with the given handles."""
-    effects = {"handles": handles}
-    if dynamic:
-        effects["inertia"] = {"time_step": FRAME_DT}
-    if gravity:
-        effects["gravity"] = {"acceleration": [0.0, -9.81]}
-    return Scene(
-        name="sheet",
-        domain={"shape": "rectangle", "width": width, "height": height, "triangles": int(n_triangles)},
-        material={"model": "stable-neo-hookean", "youngs_modulus": TISSUE_E, "poisson_ratio": TISSUE_NU},
-        effects=effects,
-        solver={"budget": 1e9, "rtol": 1e-8, "max_iterations": 100},
-    )
-
-
-def _simulation(scene):
-    return Simulation(scene, clock=_still_clock)
-
-
-def _check(report, what):
-    if not report.converged:
-        raise RuntimeError(f"{what}: the frame did not converge ({report.status})")
-    return report
+#: the frames in the two-pieces filmstrip, the probe's depths drawn and the flap length drawn
+FILMSTRIP, PROBE_SHOWN, FLAP_SHOWN = (0, 6, 12, 15, 18, 22, 26), (0.1, 0.25), 1.2
 
 
 # --- drawing helpers ----------------------------------------------------------------------------------
@@ -112,11 +62,7 @@ def draw_wound(ax, mesh, x, names=("cut", "defect"), **kwargs):
     return ax.add_collection(LineCollection(segments, **options))
 
 
-def _frame_axes(ax, xlim, ylim):
-    ax.set(aspect="equal", xlim=xlim, ylim=ylim, xticks=[], yticks=[])
-
-
-def _tension_colorbar(fig, norm, axes, label="tension: largest principal Cauchy stress", **kwargs):
+def tension_colorbar(fig, norm, axes, label="tension: largest principal Cauchy stress", **kwargs):
     bar = fig.colorbar(ScalarMappable(norm=norm, cmap=TENSION_CMAP), ax=axes, extend="both", **kwargs)
     bar.set_label(label, fontsize=8)
     bar.ax.tick_params(labelsize=7)
@@ -124,25 +70,6 @@ def _tension_colorbar(fig, norm, axes, label="tension: largest principal Cauchy 
 
 
 # --- the incision -----------------------------------------------------------------------------------
-
-def incision_run(n_triangles=1200, pull=INCISION_PULL, path=INCISION_PATH, method="edges") -> dict:
-    """The pulled sheet before and after the incision: positions, triangles, tension, the edit and counts.
-
-    ``method``: how the cut meets the mesh (chapter 8 snaps to edges, chapter 10 cuts through the elements)."""
-    sim = _simulation(sheet_scene(n_triangles, handles=[
-        {"name": "fixed", "region": "left"}, {"name": "pull", "region": "right", "target": [pull, 0.0]}]))
-    _check(sim.frame(), "the pulled sheet")
-    before = dict(x=sim.positions().copy(), t=sim.mesh.t.copy(), tension=sim.tension(), mesh=sim.mesh,
-                  nodes=sim.mesh.nvertices)
-    edit = sim.cut(np.asarray(path, dtype=float), method=method)
-    _check(sim.frame(), "the cut sheet")
-    x = sim.positions()
-    copies = np.arange(before["nodes"], sim.mesh.nvertices)
-    opening = np.hypot(*(x[:, copies] - x[:, edit.parent[copies]]))
-    after = dict(x=x.copy(), t=sim.mesh.t.copy(), tension=sim.tension(), mesh=sim.mesh, nodes=sim.mesh.nvertices,
-                 opening=float(opening.max(initial=0.0)), pieces=sim.pieces())
-    return {"before": before, "after": after, "edit": edit, "simulation": sim}
-
 
 @lecture_figure
 def fig_ch08_incision(path=None) -> Figure:
@@ -168,7 +95,7 @@ def fig_ch08_incision(path=None) -> Figure:
         ax.plot([0.0, 0.0], [0.0, 1.0], color="k", lw=3)  # the held edge
         ax.annotate("", xy=(2.0 + INCISION_PULL + 0.1, 0.5), xytext=(2.0 + INCISION_PULL - 0.02, 0.5),
                     arrowprops=dict(arrowstyle="-|>", color="k", lw=1.2))
-        _frame_axes(ax, xlim, ylim)
+        frame_axes(ax, xlim, ylim)
         ax.set_title(title, fontsize=9)
     draw_wound(axes[1], after["mesh"], after["x"])
     cut_nodes = np.unique(after["mesh"].facets[:, after["mesh"].boundaries["cut"]])
@@ -183,7 +110,7 @@ def fig_ch08_incision(path=None) -> Figure:
                  transform=axes[1].transAxes, fontsize=7.5)
     axes[0].text(0.02, 0.02, f"max tension {before['tension'].max():.0f} (at the corners of the pulled edge)",
                  transform=axes[0].transAxes, fontsize=7.5)
-    _tension_colorbar(fig, norm, axes, shrink=0.85)
+    tension_colorbar(fig, norm, axes, shrink=0.85)
     fig.suptitle(f"Chapter 8: an incision in a pulled sheet (quasistatic, stable neo-Hookean, E = {TISSUE_E:g}, "
                  f"ν = {TISSUE_NU:g}; left edge held, right edge pulled)", fontsize=10)
     save(fig, path)
@@ -191,56 +118,6 @@ def fig_ch08_incision(path=None) -> Figure:
 
 
 # --- a cut through: two pieces ------------------------------------------------------------------------
-
-def two_pieces_run(n_triangles=800, sag_frames=SAG_FRAMES, fall_frames=FALL_FRAMES, cut_x=1.0) -> dict:
-    """The hanging sheet cut through at ``x = cut_x`` after ``sag_frames`` frames; ``fall_frames`` more frames.
-
-    Returns the frames (positions, triangles, whether each element is on the free piece), their times,
-    the centres of mass (y) left and right of the cut, and the free piece's discrete free fall from the cut.
-    """
-    sim = _simulation(sheet_scene(n_triangles, handles=[{"name": "fixed", "region": "left"}], dynamic=True,
-                                  gravity=True))
-    X0 = sim.mesh.p
-    frames, com = [], []
-    side = {"right": X0[0] > cut_x}  # before the cut: the nodes right of it; after: the free piece's nodes
-
-    def record(free_elements):
-        x = sim.positions()
-        m = sim.model.inertia.M.diagonal()[0::2]  # lumped nodal masses
-        frames.append((x.copy(), sim.mesh.t.copy(), free_elements))
-        com.append(_side_com(x, m, side["right"]))
-
-    record(np.zeros(sim.mesh.nelements, dtype=bool))
-    for _ in range(sag_frames):
-        _check(sim.frame(), "the hanging sheet")
-        record(np.zeros(sim.mesh.nelements, dtype=bool))
-    edit = sim.cut([[cut_x, 1.3], [cut_x, -0.3]])
-    n_pieces, labels = connected_components(sim.mesh.t, sim.mesh.nvertices)
-    if n_pieces != 2:
-        raise RuntimeError(f"the cut should leave two pieces, left {n_pieces}")
-    free_nodes = labels != labels[sim.handles["fixed"].nodes[0]]
-    free_elements = free_nodes[sim.mesh.t[0]]
-    side["right"] = free_nodes
-    del frames[-1], com[-1]
-    record(free_elements)  # the last frame again, drawn cut (the cut moves nothing)
-    # the free piece's centre of mass and velocity at the moment of the cut
-    m = sim.model.inertia.M.diagonal()[0::2]
-    y_cut = com[-1][1]
-    vy_cut = float(np.dot(m[free_nodes], sim.v.reshape(-1, 2)[free_nodes, 1]) / m[free_nodes].sum())
-    for _ in range(fall_frames):
-        _check(sim.frame(), "the falling piece")
-        record(free_elements)
-    k = np.arange(fall_frames + 1)
-    free_fall = y_cut + k * FRAME_DT * vy_cut - 0.5 * 9.81 * FRAME_DT**2 * k * (k + 1)
-    return {"frames": frames, "times": FRAME_DT * np.arange(len(frames)), "com": np.array(com),
-            "cut_frame": sag_frames, "edit": edit, "free_fall": free_fall, "simulation": sim, "X0": X0}
-
-
-def _side_com(x, m, right):
-    """Centre-of-mass heights of the nodes left of the cut (held side) and right of it (free side)."""
-    return (float(np.dot(m[~right], x[1, ~right]) / m[~right].sum()),
-            float(np.dot(m[right], x[1, right]) / m[right].sum()))
-
 
 def _two_pieces_limits(frames, margin=0.08):
     x = np.hstack([f[0] for f in frames])
@@ -301,7 +178,7 @@ def fig_ch08_two_pieces(path=None) -> Figure:
         ax.plot([0.0, 0.0], [0.0, 1.0], color="k", lw=2.0)
         if k == cut:
             ax.plot([1.0, 1.0], [1.25, -0.25], color="k", lw=0.9, ls=":")
-        _frame_axes(ax, xlim, ylim)
+        frame_axes(ax, xlim, ylim)
         ax.set_title(f"t = {times[k]:.2f} s" + (" (cut)" if k == cut else ""), fontsize=8.5)
     ax = fig.add_subplot(grid[1, :])
     com = run["com"]
@@ -327,44 +204,6 @@ def fig_ch08_two_pieces(path=None) -> Figure:
 
 
 # --- the probe ---------------------------------------------------------------------------------------
-
-def probe_run(n_triangles=1200, radius=PROBE_RADIUS, depths=PROBE_DEPTHS, x_probe=1.0) -> dict:
-    """A block held on its bottom edge, a disc pressed into its top edge ever deeper (one frame per depth).
-
-    For each depth: positions, tension, the nodal contact forces (the penalty's ``k l_a h'(R - d_a) n_a``
-    on the surface nodes), the total force on the tissue and the deepest penetration left.
-    """
-    sim = _simulation(sheet_scene(n_triangles, handles=[{"name": "base", "region": "bottom"}]))
-    label = sim.add_probe([x_probe, 1.0 + radius - depths[0]], radius)
-    states = []
-    for depth in depths:
-        sim.move_probe(label, [x_probe, 1.0 + radius - depth])
-        _check(sim.frame(), f"the probe at depth {depth}")
-        probe = sim.model.probes[0]
-        contact = -probe.gradient(sim.u).reshape(-1, 2).T  # force on each node
-        states.append(dict(depth=depth, center=probe.center.copy(), x=sim.positions().copy(), t=sim.mesh.t.copy(),
-                           tension=sim.tension(), contact=contact, force=contact.sum(axis=1),
-                           penetration=probe.penetration(sim.u), stiffness=probe.stiffness))
-    return {"states": states, "radius": radius, "simulation": sim}
-
-
-def probe_indentation(n_triangles=1200, stiffness=None, depths=(0.05, 0.1, 0.15, 0.2), radius=0.25) -> dict:
-    """Chapter 8's indentation: a disc pressed into the top edge of a sheet held on its bottom edge.
-
-    A probe of ``radius`` moved down to each of ``depths`` in turn, one frame each, with the penalty
-    ``stiffness`` (default: the simulation's, ``100 E / radius``). Returns the penetration left at the
-    last depth, the Newton steps of each frame, the triangles and the stiffness used.
-    """
-    sim = _simulation(sheet_scene(n_triangles, handles=[{"name": "base", "region": "bottom"}]))
-    tool = sim.add_probe([1.0, 1.0 + radius], radius=radius, stiffness=stiffness)
-    newton = []
-    for depth in depths:
-        sim.move_probe(tool, [1.0, 1.0 + radius - depth])
-        newton.append(_check(sim.frame(), f"the indentation to {depth}").newton_iterations)
-    probe = sim.model.probes[0]
-    return {"penetration": probe.penetration(sim.u), "newton": newton, "triangles": int(sim.mesh.nelements),
-            "stiffness": float(probe.stiffness)}
-
 
 @lecture_figure
 def fig_ch08_probe(path=None) -> Figure:
@@ -392,10 +231,10 @@ def fig_ch08_probe(path=None) -> Figure:
         ax.quiver(s["x"][0, active], s["x"][1, active], s["contact"][0, active] / scale,
                   s["contact"][1, active] / scale, angles="xy", scale_units="xy", scale=4.0, color="k",
                   width=0.004, zorder=5)
-        _frame_axes(ax, (-0.08, 2.08), (-0.1, 1.0 + R + 0.1))
+        frame_axes(ax, (-0.08, 2.08), (-0.1, 1.0 + R + 0.1))
         ax.set_title(f"({letter}) depth {s['depth']:g}: {active.size} nodes in contact, "
                      f"penetration {s['penetration']:.1e}", fontsize=9)
-    _tension_colorbar(fig, norm, list(axes[:2]), shrink=0.85)
+    tension_colorbar(fig, norm, list(axes[:2]), shrink=0.85)
     ax = axes[2]
     depth = np.array([s["depth"] for s in states])
     force = np.array([-s["force"][1] for s in states])
@@ -432,15 +271,6 @@ def stitch_arcs(a, b, bulge=0.18, n=12) -> np.ndarray:
     return curve.transpose(2, 0, 1)  # (k, n, 2)
 
 
-def flap_runs(lengths=FLAP_LENGTHS, n_triangles=FLAP_TRIANGLES, tighten_frames=FLAP_TIGHTEN_FRAMES,
-              method="edges") -> dict:
-    """:func:`tissuefem.surgery.flaps.advancement_flap` for each flap length, ``{length: FlapResult}``.
-
-    Chapter 8 cuts along mesh edges (``method="edges"``); chapter 10 redoes the flap through the elements."""
-    return {float(L): advancement_flap(flap_length=float(L), n_triangles=n_triangles, tighten_frames=tighten_frames,
-                                       clock=_still_clock, method=method) for L in lengths}
-
-
 @lecture_figure
 def fig_ch08_flap(path=None, runs=None) -> Figure:
     """Chapter 8: a local advancement flap closes a defect (after Sifakis et al. 2009); the tension it leaves.
@@ -468,17 +298,17 @@ def fig_ch08_flap(path=None, runs=None) -> Figure:
     draw_wound(ax, mesh, x_cut)
     ax.add_collection(LineCollection(stitch_arcs(ends_cut[0], ends_cut[1]), colors="C0", linewidths=0.7, zorder=4))
     ax.plot(*ends_cut[0], "o", ms=2.0, color="C0", zorder=5)
-    _frame_axes(ax, xlim, ylim)
+    frame_axes(ax, xlim, ylim)
     ax.set_title(f"(a) defect excised, flap cut ({FLAP_SHOWN:g} long); {result.stitches} stitches planned",
                  fontsize=9)
     ax = axes[1]
     draw_mesh(ax, x_sut, t_sut, result.tension[e_sut], norm, lw=0.15)
     draw_wound(ax, mesh, x_sut, linewidths=0.8)
     ax.plot(*ends_sut[0], "o", ms=2.2, color="C0", zorder=5)
-    _frame_axes(ax, xlim, ylim)
+    frame_axes(ax, xlim, ylim)
     ax.set_title(f"(b) sutured: gap {result.initial_gap:.2f} → {result.max_gap:.0e}, "
                  f"mean tension in the flap {result.flap_tension:.0f}", fontsize=9)
-    _tension_colorbar(fig, norm, list(axes[:2]), shrink=0.85)
+    tension_colorbar(fig, norm, list(axes[:2]), shrink=0.85)
     ax = axes[2]
     lengths = np.array(sorted(runs))
     ax.plot(lengths, [runs[L].flap_tension for L in lengths], "o-", color="C3", label="mean tension in the flap")

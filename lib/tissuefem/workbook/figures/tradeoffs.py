@@ -1,6 +1,6 @@
-"""Chapter 9 figures: what accuracy costs in time.
+"""Chapter 9 figures: what accuracy costs in time; and the plot of ``bench realtime``'s results.
 
-The three study figures are drawn from a results dict of :func:`tissuefem.workbook.bench.accuracy.accuracy_study`:
+The three study figures are drawn from a results dict of :func:`tissuefem.workbook.bench.accuracy_cost.accuracy_study`:
 the lecture figures from the recorded full study shipped with the package (the same on every machine),
 ``bench accuracy`` from its own fresh run. The verification figure is computed afresh (errors only, no clock).
 """
@@ -14,8 +14,8 @@ from matplotlib.figure import Figure
 
 from .base import lecture_figure, save
 from ...engine.constants import FRAME_BUDGET
-from ..accuracy import manufactured_convergence
-from ..bench.accuracy import recorded_results
+from ..verification import manufactured_convergence
+from ..bench.accuracy_cost import recorded_results
 from ..measure import pareto_front
 
 #: errors that agree to this relative tolerance are not told apart (no winner by the last digits)
@@ -201,5 +201,26 @@ def fig_ch09_verification(path=None, rows=None) -> Figure:
            title="Manufactured solution (bent arch + its body force)")
     ax.grid(True, which="both", alpha=0.25)
     ax.legend(fontsize=7.5)
+    save(fig, path)
+    return fig
+
+
+def plot_realtime(rows, path=None):
+    """The realtime benchmark's results (``python -m tissuefem bench realtime``): ms per frame against mesh
+    size (median and 95th percentile, ex43 way), with the 33 ms line."""
+    tri = np.array([r["triangles"] for r in rows])
+    fig = Figure(figsize=(6.4, 4.4), layout="constrained")
+    ax = fig.subplots()
+    ax.loglog(tri, [r["fast_median_ms"] for r in rows], "o-", color="tab:blue",
+              label=f"real-time solver, median ({rows[0].get('linear_solver', '')})")
+    ax.loglog(tri, [r["fast_p95_ms"] for r in rows], "v:", color="tab:blue", alpha=0.7, label="real-time solver, p95")
+    if "ex43_median_ms" in rows[0]:
+        ax.loglog(tri, [r["ex43_median_ms"] for r in rows], "s-", color="tab:red", label="scikit-fem ex43 way, median")
+    ax.axhline(1e3 * FRAME_BUDGET, color="k", ls="--", lw=1)
+    ax.text(tri[0], 1e3 * FRAME_BUDGET * 1.08, "33 ms: 30 frames per second", fontsize=8)
+    ax.set(xlabel="triangles", ylabel="ms per converged frame",
+           title="Standard flap scene, backward Euler, dt = 1/30, rtol 1e-6")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
     save(fig, path)
     return fig

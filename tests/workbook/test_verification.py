@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from tissuefem.workbook.accuracy import beam_exact, beam_problem_tip
+from tissuefem.workbook.verification import beam_exact, beam_problem_tip
 from tissuefem.workbook.measure import best_within_budget, cost_at_error, fitted_exponent, pareto_front
 
 

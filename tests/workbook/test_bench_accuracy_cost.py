@@ -13,9 +13,9 @@ import pytest
 import scipy.sparse as sp
 
 from tissuefem.engine import linsolve
-from tissuefem.workbook.accuracy import manufactured_body_force, manufactured_convergence
+from tissuefem.workbook.verification import manufactured_body_force, manufactured_convergence
 from tissuefem.workbook.measure import pareto_front
-from tissuefem.workbook.bench.accuracy import (
+from tissuefem.workbook.bench.accuracy_cost import (
     KNOBS,
     PLANS,
     Setting,
@@ -116,7 +116,7 @@ def test_the_reference_is_finer_than_the_sweep_and_checked(tiny):
 
 
 def test_the_estimate_of_a_reference_uses_the_observed_rate():
-    from tissuefem.workbook.bench.accuracy import _estimate
+    from tissuefem.workbook.bench.accuracy_cost import _estimate
 
     rate, estimate = _estimate(4e-4, 1e-4)  # the distance falls by 4 per level: rate 2, error d / 3
     assert rate == pytest.approx(2.0) and estimate == pytest.approx(1e-4 / 3)
@@ -125,7 +125,7 @@ def test_the_estimate_of_a_reference_uses_the_observed_rate():
 
 
 def test_graded_meshes_keep_the_flap_topology():
-    from tissuefem.workbook.bench.accuracy import graded_flap
+    from tissuefem.workbook.bench.accuracy_cost import graded_flap
     from tissuefem import flap as flap_mesh
 
     uniform, graded = flap_mesh(n_triangles=200), graded_flap(200)
@@ -207,7 +207,7 @@ def test_bad_settings_and_plans_are_rejected():
 
 
 def test_cli_runs_the_accuracy_study(tmp_path, capsys, monkeypatch):
-    import tissuefem.workbook.bench.accuracy as ba
+    import tissuefem.workbook.bench.accuracy_cost as ba
 
     small = dict(PLANS["tiny"], knobs={"mesh": (100,), "linear_solver": ("reuse",)}, scaling={}, budget={})
     small.pop("scaling")
@@ -313,7 +313,7 @@ def test_the_recorded_study_supports_what_chapter_9_says():
     """The errors are deterministic, so the chapter's and README's claims about them are pinned here (the
     milliseconds are one machine's record: the claims about them are pinned against that record)."""
     from tissuefem.workbook.measure import best_within_budget, cost_at_error
-    from tissuefem.workbook.figures.accuracy import ERROR_RESOLUTION
+    from tissuefem.workbook.figures.tradeoffs import ERROR_RESOLUTION
 
     results = recorded_results()
     rows = results["knobs"]
@@ -389,7 +389,7 @@ def test_the_recorded_study_supports_what_chapter_9_says():
 def test_why_a_capped_newton_seemed_more_accurate():
     """Chapter 9, section 4: with the abrupt drag the cap moves the state towards the reference (cosine about
     0.8) by about 1e-3; with the eased drag nearly at right angles (cosine about 0.1)."""
-    from tissuefem.workbook.bench.accuracy import capped_newton_experiment
+    from tissuefem.workbook.bench.accuracy_cost import capped_newton_experiment
 
     jump, eased = capped_newton_experiment(drag="jump"), capped_newton_experiment(drag="eased")
     assert jump["error_capped"] < jump["error_converged"] and 0.65 < jump["cosine"] < 0.9
@@ -401,7 +401,7 @@ def test_why_a_capped_newton_seemed_more_accurate():
 def test_backward_euler_converges_slowly_after_an_abrupt_start():
     """Chapter 9, section 2: distances between successive halvings of dt shrink by about 0.8 with the abrupt
     drag, and approach 0.5 (first order) with the eased one."""
-    from tissuefem.workbook.bench.accuracy import time_convergence
+    from tissuefem.workbook.bench.accuracy_cost import time_convergence
 
     jump = time_convergence("jump", substeps=(2, 4, 8, 16))
     eased = time_convergence("eased", substeps=(2, 4, 8, 16))

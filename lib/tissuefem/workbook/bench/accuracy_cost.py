@@ -1,51 +1,21 @@
-"""What accuracy costs in time: the measured study of chapter 9 (``python -m tissuefem bench accuracy``).
+"""What accuracy costs in time: chapter 9's measured study (``python -m tissuefem bench accuracy``).
 
-Every speed/accuracy knob (``KNOBS``) is turned, one at a time, away from a *baseline* setting:
+Every speed/accuracy knob (:data:`KNOBS`: mesh, P2, quadrature, material, Newton tolerance, a cap on Newton
+iterations, substeps per frame, linear solver) is turned one at a time away from a baseline :class:`Setting`,
+on two benchmarks: ``flap``, the standard flap scene under backward Euler at 1/30 s a frame with its drag eased
+in (:func:`eased_flap_path`: started with a jump, backward Euler resolves the wave so slowly, ``~ dt^0.4``, that
+no affordable reference could be checked), and ``block``, chapter 4's block carried quasistatically to
+:data:`BLOCK_TARGET`. A run's *cost* is the median wall time per displayed frame, its *error* the relative
+``L2`` displacement error against a reference (the largest over checkpoint frames for the flap, the final
+equilibrium for the block).
 
-- mesh resolution (P1);
-- element order (P2 over the same meshes);
-- quadrature order (P2);
-- material model;
-- Newton tolerance;
-- a cap on Newton iterations (a quasistatic frame's linearised start counts as one);
-- time step: substeps per displayed frame (flap only);
-- linear solver: SuperLU with the minimum-degree (MMD) ordering and with SciPy's default COLAMD, CG with a
-  Jacobi or an incomplete-LU preconditioner, CG preconditioned by a reused factorization, and PARDISO when
-  it is installed.
-
-Each setting runs on two benchmarks:
-
-``flap``
-    the standard flap scene of :mod:`tissuefem.workbook.bench.realtime`, backward Euler, one displayed frame
-    every 1/30 s, its right edge on :func:`~tissuefem.surgery.scene.flap_path` *eased in* over :data:`EASE_IN`
-    seconds (:func:`eased_flap_path`). The standard loop starts with a jump in velocity whose wave backward
-    Euler resolves so slowly (error ``~ dt^0.4``) that no affordable reference could be checked; eased in,
-    backward Euler converges at first order and its extrapolation at second;
-``block``
-    quasistatic: the same rectangle ``[0, 2] x [0, 1]`` with its right edge carried to ``(0.6, 0.4)``
-    (chapter 4's block) in equal increments, one solve per frame.
-
-Each run records its *cost*, the median wall time per displayed frame (the solver's own clock, with every
-Newton iteration, assembly and linear solve included), and its *error*, the relative ``L2`` displacement
-error against a reference (:func:`tissuefem.workbook.measure.relative_l2_error`): for the flap the largest
-over a few checkpoint frames (``errors`` lists them, ``error_final`` is the last), for the block that of the
-final equilibrium.
-
-The reference (:func:`reference_run`) pushes every knob further than any setting: P2 on a mesh graded
-towards the edges (:func:`graded_flap`; where a held edge meets a free one the solution is singular, and
-uniform refinement converges there at only about 1.6), Newton to ``rtol = 1e-10`` and, for the flap, a
-small time step extrapolated (Richardson: ``2 u(dt/2s) - u(dt/s)`` removes backward Euler's first-order
-error). Its own error is *estimated*, not assumed (:func:`_estimate`): the distances to the same reference
-on two coarser meshes (and, for the flap, from the extrapolations with two larger steps) give ``d`` (the
-nearer one) and a rate ``p``, and ``estimate = d / (2^p - 1)``. Chapter 9 relies on that estimate lying
-ten times below the smallest error of any setting. ``verification`` adds
-:func:`tissuefem.workbook.accuracy.manufactured_convergence` and
-:func:`~tissuefem.workbook.accuracy.beam_problem_tip`. On the flap alone, :func:`solver_scaling` fits
-``ms ~ triangles^p`` per linear solver and :func:`budget_residual` shows what the budgeted solver leaves
-unfinished when its 33 ms are spent.
-
-Timings are medians of one run on one machine: compare settings within one run and quote ratios, never
-assert them. The errors are deterministic.
+The reference (:func:`reference_run`) pushes every knob further: P2 on a mesh graded towards the edges
+(:func:`graded_flap`; at the corners the solution is singular), Newton to ``1e-10`` and, for the flap,
+Richardson extrapolation in time (``2 u(dt/2s) - u(dt/s)``). Its own error is estimated from coarser
+versions of it (:func:`_estimate`), and chapter 9 relies on that estimate lying ten times below every
+setting's error. :func:`solver_scaling` fits ``ms ~ triangles^p`` per linear solver and
+:func:`budget_residual` shows what the budgeted solver leaves unfinished. Timings are one machine's medians:
+compare within a run, never assert them; the errors are deterministic (``docs/benchmarks.md``).
 """
 
 from __future__ import annotations
@@ -62,14 +32,15 @@ from ...engine.linsolve import LinearSolver, available
 from ...engine.materials import MATERIALS, material as make_material
 from ...engine.meshes import flap
 from ...engine.model import Handle, Model
-from ...engine.parameters import check_count
+from ...engine.parameters import check_count, check_real
 from ...engine.realtime import RealtimeSolver
 from ...engine.stepping import solve
 from ...surgery.scene import Scene, flap_path, flap_scene
 from ...surgery.simulation import Simulation
-from ..accuracy import beam_problem_tip, manufactured_convergence
+from ..verification import beam_problem_tip, manufactured_convergence
 from ..measure import fitted_exponent, pareto_front, relative_l2_error
-from .common import load_results, machine_info, markdown_table, write_csv, write_json
+from ..tables import markdown_table
+from .common import load_results, machine_info, write_csv, write_json
 
 __all__ = [
     "Setting", "KNOBS", "PLANS", "BLOCK_TARGET", "EASE_IN", "REFERENCE_GRADING", "eased_flap_path", "graded_flap",
@@ -140,8 +111,7 @@ class Setting:
             raise ValueError(f"setting order must be 1 or 2, got {self.order!r}")
         if self.material not in MATERIALS:
             raise ValueError(f"setting material must be one of {sorted(MATERIALS)}, got {self.material!r}")
-        if not (isinstance(self.rtol, (int, float)) and 0 < self.rtol < 1):
-            raise ValueError(f"setting rtol must be in (0, 1), got {self.rtol!r}")
+        check_real("setting rtol", self.rtol, 0.0, 1.0, lo_open=True, hi_open=True)
         if not isinstance(self.linear_solver, str):
             raise ValueError(f"setting linear_solver must be a name, got {self.linear_solver!r}")
         try:
@@ -225,27 +195,16 @@ def make_simulation(setting: Setting, benchmark: str = "flap", budget=math.inf, 
     return sim
 
 
-def _targets(benchmark: str, frame: int, substep: int, substeps: int, frames: int, drag=None):
-    """The handle's target for ``substep`` (1-based) of displayed ``frame`` (1-based); ``drag(t)`` is the
-    flap's path (default :func:`eased_flap_path`)."""
-    if benchmark == "flap":
-        return {"handle": (drag or eased_flap_path)((frame - 1 + substep / substeps) * FRAME_BUDGET)}
-    return {"handle": np.array(BLOCK_TARGET) * frame / frames}
-
-
 def _checkpoints(benchmark: str, frames: int, every: int) -> tuple[int, ...]:
-    if benchmark == "block":
-        return (frames,)
-    return tuple(f for f in range(1, frames + 1) if f % every == 0 or f == frames)
+    """The frames whose state is kept: every ``every``-th and the last (the block: its last)."""
+    return tuple(f for f in range(1, frames + 1) if f == frames or (benchmark == "flap" and f % every == 0))
 
 
 def run_setting(benchmark: str, setting: Setting, frames: int, checkpoints=(), budget=math.inf,
                 clock=time.perf_counter, drag=None):
-    """Run ``frames`` displayed frames of ``benchmark`` with ``setting``.
-
-    ``drag(t)`` replaces the flap's path (default :func:`eased_flap_path`).
-    Returns ``(model, states, stats)``: ``states`` maps each checkpoint frame to a copy of ``u``; ``stats``
-    holds the per-frame milliseconds (summed over substeps), iteration counts, convergence and residuals.
+    """Run ``frames`` displayed frames of ``benchmark`` with ``setting`` (``drag(t)``: the flap's path, default
+    :func:`eased_flap_path`). Returns ``(model, states, stats)``: ``states`` maps each checkpoint frame to a copy
+    of ``u``; ``stats`` holds the ms per frame (summed over substeps), iteration counts, convergence, residuals.
     """
     if benchmark not in BENCHMARKS:
         raise ValueError(f"benchmark must be one of {BENCHMARKS}, got {benchmark!r}")
@@ -265,7 +224,9 @@ def _drive(solver, benchmark: str, frames: int, substeps: int, checkpoints=(), d
     for f in range(1, frames + 1):
         spent = 0.0
         for s in range(1, substeps + 1):
-            report = solver.frame(_targets(benchmark, f, s, substeps, frames, drag))
+            target = ((drag or eased_flap_path)((f - 1 + s / substeps) * FRAME_BUDGET) if benchmark == "flap"
+                      else np.array(BLOCK_TARGET) * f / frames)
+            report = solver.frame({"handle": target})
             spent += report.elapsed
             records.append([getattr(report, k) for k in fields])  # not the report: it holds the state
         ms.append(1e3 * spent)
@@ -273,13 +234,11 @@ def _drive(solver, benchmark: str, frames: int, substeps: int, checkpoints=(), d
             states[f] = solver.u.copy()
     each = {k: [r[i] for r in records] for i, k in enumerate(fields)}
     stats = {
-        "ms": ms,
-        "ms_median": float(np.median(ms)),
-        "ms_p95": float(np.percentile(ms, 95)),
-        "newton": float(np.sum(each["newton_iterations"]) / frames),  # per displayed frame (all substeps)
+        "ms": ms, "ms_median": float(np.median(ms)), "ms_p95": float(np.percentile(ms, 95)),
+        # per displayed frame (all substeps)
+        "newton": float(np.sum(each["newton_iterations"]) / frames),
         "linear_iterations": float(np.sum(each["linear_iterations"]) / frames),
-        "factorizations": int(np.sum(each["factorizations"])),
-        "converged_share": float(np.mean(each["converged"])),
+        "factorizations": int(np.sum(each["factorizations"])), "converged_share": float(np.mean(each["converged"])),
         "residual_median": float(np.median(each["relative_residual"])),
         # the smallest share of its motion a handle made in one frame (< 1: a frame could not move it all the
         # way without inverting elements, and the real-time solver kept the state valid instead)
@@ -359,16 +318,13 @@ def _estimate(d_coarse, d_fine, ratio: float = 2.0):
 
 
 def reference_run(benchmark: str, plan: dict, progress=None, check: bool = True):
-    """The reference of ``benchmark`` for ``plan``: ``(problem, states, info)``.
+    """The reference of ``benchmark`` for ``plan``: ``(problem, states, info)``; P2, Newton to ``1e-10``.
 
     ``plan["reference"]``: ``triangles`` (the flap's mesh), ``block_triangles`` (the block's; default
-    ``triangles``), ``substeps`` ``s`` (the flap: ``2 u(dt/2s) - u(dt/s)``) and ``grading`` (:func:`graded_flap`;
-    default :data:`REFERENCE_GRADING`). P2, Newton to ``1e-10``.
-
-    With ``check``, ``info`` holds the reference's own error estimate (:func:`_estimate`): in space from
-    meshes with 1/4 and 1/16 of the triangles (``space_distance`` to the next-coarser one, ``space_rate`` per
-    halving of ``h``, ``space_error_estimate``), for the flap in time from the extrapolations with 2 and 4
-    times larger steps (``time_distance``, ``time_rate``, ``time_error_estimate``), and their sum ``error_estimate``.
+    ``triangles``), ``substeps`` ``s`` (the flap: ``2 u(dt/2s) - u(dt/s)``) and ``grading`` (:func:`graded_flap`).
+    With ``check``, ``info`` holds the reference's own error estimate (:func:`_estimate`): in space from meshes
+    with 1/4 and 1/16 of the triangles (``space_*``), for the flap in time from the extrapolations with 2 and 4
+    times larger steps (``time_*``), and their sum ``error_estimate``.
     """
     ref = plan["reference"]
     frames = plan["frames"] if benchmark == "flap" else plan["block_frames"]
@@ -449,12 +405,10 @@ def _knob_settings(knob: str, plan: dict, base: Setting):
 
 
 def knob_sweep(benchmark: str, plan: dict, reference, knobs=None, progress=None) -> list[dict]:
-    """One row per (knob, value) of ``plan`` on ``benchmark``: the setting, its cost and its error.
-
-    Each row also has ``from_baseline``, the same measure against the baseline's answer: a knob whose
-    ``from_baseline`` is far below the error cannot change the error beyond its last digits. Settings that
-    cannot run here (PARDISO without pypardiso) are skipped; one that fails (``ValueError``, ``RuntimeError``)
-    gives a row with ``error = nan`` and the reason in ``failed``.
+    """One row per (knob, value) of ``plan`` on ``benchmark``: the setting, its cost and its error, and
+    ``from_baseline``, the same measure against the baseline's answer (a knob moving it far less than the error
+    cannot change the error beyond its last digits). Settings this machine cannot run are skipped; one that fails
+    gives ``error = nan`` and the reason in ``failed``.
     """
     knobs = list(KNOBS) if knobs is None else list(knobs)
     frames = plan["frames"] if benchmark == "flap" else plan["block_frames"]
@@ -490,10 +444,8 @@ def knob_sweep(benchmark: str, plan: dict, reference, knobs=None, progress=None)
 
 
 def solver_scaling(sizes, solvers, frames: int, largest=None, progress=None) -> dict:
-    """Time per frame of the flap scene against mesh size, per linear solver, with fitted exponents.
-
-    ``largest`` maps a (slow) solver to the largest size it is run at. Returns ``{"rows": [...],
-    "exponents": {solver: p}}`` with ``ms ~ C triangles^p`` fitted over the sizes where the solver ran.
+    """Time per frame of the flap against mesh size per linear solver (``largest``: a slow solver's largest
+    size): ``{"rows", "exponents"}`` with ``ms ~ C triangles^p`` fitted where the solver ran.
     """
     largest = largest or {}
     rows = []
@@ -526,12 +478,9 @@ def solver_scaling(sizes, solvers, frames: int, largest=None, progress=None) -> 
 
 def budget_residual(sizes, frames: int, solvers=("reuse",), budget: float = FRAME_BUDGET, clock=time.perf_counter,
                     progress=None) -> list[dict]:
-    """What the budgeted real-time solver leaves when its budget is spent, on the flap scene, by mesh size.
-
-    For each size and solver: the share of frames converged within ``budget`` seconds, the median relative
-    residual ``|grad E| / |grad E(x0)|`` at the end of a frame (1e-6 or less for a converged frame) and the
-    relative ``L2`` distance of the final state from the same run with every frame converged. ``clock`` is
-    injectable (tests use a fake one).
+    """What the budgeted real-time solver leaves on the flap when ``budget`` seconds are spent, by mesh size and
+    solver: the share of frames converged, the median relative residual at a frame's end and the relative ``L2``
+    distance of the final state from the same run converged. ``clock`` is injectable (tests use a fake one).
     """
     rows = []
     for solver in solvers:
@@ -561,12 +510,10 @@ def _drag_path(drag: str):
 
 
 def time_convergence(drag: str = "jump", triangles: int = 500, substeps=(1, 2, 4, 8, 16), frames: int = 5) -> dict:
-    """How fast backward Euler converges in time on the flap, with the standard drag or the eased one.
-
-    The flap (P1, ``triangles``, Newton to ``1e-10``) is run with each number of ``substeps`` per frame;
-    ``distances[k]`` is the largest relative ``L2`` distance, over every fifth frame, between the runs with
-    ``substeps[k]`` and ``substeps[k + 1]``, and ``ratios`` the factor from each distance to the next (0.5 for
-    first order). ``drag``: ``"jump"`` (:func:`~tissuefem.surgery.scene.flap_path`) or ``"eased"``.
+    """How fast backward Euler converges in time on the flap (P1, ``triangles``, Newton to ``1e-10``), with the
+    standard drag (``"jump"``, :func:`~tissuefem.surgery.scene.flap_path`) or the ``"eased"`` one.
+    ``distances[k]``: the largest relative ``L2`` distance over every fifth frame between the runs with
+    ``substeps[k]`` and ``substeps[k + 1]``; ``ratios``: from each distance to the next (0.5 for first order).
     """
     path = _drag_path(drag)
     checkpoints = _checkpoints("flap", frames, 5)
@@ -582,13 +529,11 @@ def capped_newton_experiment(triangles: int = 500, frames: int = 5, drag: str = 
                               reference_substeps: int = 8) -> dict:
     """Why a cap of one Newton step per frame can *lower* the flap's measured error: the experiment.
 
-    Runs of the flap (P1, ``triangles``, ``frames`` frames, ``drag`` as in :func:`time_convergence`): Newton
-    converged, Newton capped at one step per frame, and a reference in time on the same mesh (``2 u(dt/2s) -
-    u(dt/s)``, ``s = reference_substeps``; the flap's error is backward Euler's time error, so the mesh can
-    stay). Returns, at the last frame, both errors, the capped run's distance from the converged one
-    (``capped_moved``) and ``cosine`` (``L2`` inner product) between what the cap changed (capped -
-    converged) and the converged run's error (reference - converged): positive when the cap moved the state
-    towards the reference.
+    The flap (P1, ``triangles``, ``frames`` frames, ``drag`` as in :func:`time_convergence`) with Newton converged
+    and capped at one step, against a reference in time on the same mesh (``2 u(dt/2s) - u(dt/s)``, ``s =
+    reference_substeps``: the flap's error is backward Euler's). Returns, at the last frame, both errors, how far
+    the cap moved the state (``capped_moved``) and the ``cosine`` (``L2``) between that move and the converged
+    run's error: positive when the cap moved the state towards the reference.
     """
     path = _drag_path(drag)
     cps = (frames,)
@@ -629,12 +574,12 @@ def _plan(plan) -> tuple[str, dict]:
 
 def accuracy_study(plan="full", benchmarks=BENCHMARKS, knobs=None, scaling: bool = True, budget: bool = True,
                    verification: bool = True, out=None, progress=print) -> dict:
-    """Run the study; return its results (and write them to the folder ``out``).
+    """Run the study; return its results (and write them into the folder ``out``).
 
-    ``plan`` is ``"full"`` (the CLI's, several minutes), ``"reduced"`` (chapter 9's, under a minute),
-    ``"tiny"`` (the tests'), or a dict shaped like them. The results hold ``machine``, ``plan``,
-    ``references``, ``knobs`` (the rows of :func:`knob_sweep`), ``pareto`` (per benchmark, the indices of
-    the Pareto-optimal rows), ``scaling``, ``budget`` and ``verification``.
+    ``plan``: ``"full"`` (the CLI's, several minutes), ``"reduced"`` (chapter 9's, under a minute), ``"tiny"``
+    (the tests') or a dict shaped like them. The results hold ``machine``, ``plan``, ``references``, ``knobs``
+    (:func:`knob_sweep`'s rows), ``pareto`` (per benchmark, the Pareto-optimal rows), ``scaling``, ``budget`` and
+    ``verification``.
     """
     name, plan = _plan(plan)
     for b in benchmarks:

@@ -1,16 +1,9 @@
-"""What accuracy costs in time: the tools of the study (chapter 9), and the verification of its reference.
+"""The verification of chapter 9's reference: the chain it is computed with, against exact solutions.
 
-A study measures, for each setting of a speed/accuracy knob, an *error* against a reference and a *cost*
-in wall time. This module verifies the chain the reference is computed with:
-
-* :func:`beam_problem_tip` -- the linear chain against a published closed-form benchmark, the end-loaded
-  cantilever of Timoshenko and Goodier (*Theory of Elasticity*), :func:`beam_exact`;
-* :func:`manufactured_convergence` -- the nonlinear chain: mesh convergence of every hyperelastic model at
-  the rate its elements promise, against chapter 3's bending map held in equilibrium by a manufactured
-  body force (:func:`manufactured_body_force`).
-
-The measuring tools are in :mod:`tissuefem.workbook.measure`; the sweeps (the knobs, the flap and block
-benchmarks, the CLI's ``bench accuracy``) in :mod:`tissuefem.workbook.bench.accuracy`.
+* :func:`beam_problem_tip`: the linear chain against a published closed form, the end-loaded cantilever of
+  Timoshenko and Goodier (*Theory of Elasticity*), :func:`beam_exact`;
+* :func:`manufactured_convergence`: the nonlinear chain, every hyperelastic model converging at its elements'
+  rate to chapter 3's bending map held by a manufactured body force (:func:`manufactured_body_force`).
 """
 
 from __future__ import annotations
@@ -44,7 +37,7 @@ def beam_exact(X, *, length=48.0, depth=12.0, load=1000.0, E=3.0e7, nu=0.3) -> n
 
     Its stresses ``sigma_xx = -P (L - x) y / I``, ``sigma_yy = 0``, ``sigma_xy = P / (2 I) (D^2/4 - y^2)``
     are in equilibrium without body force, free on ``y = +-D/2``, and at ``x = L`` the parabolic shear of
-    resultant ``P`` (``tests/workbook/test_accuracy.py`` checks all of this by finite differences).
+    resultant ``P`` (``tests/workbook/test_verification.py`` checks all of this by finite differences).
     """
     x, y = np.asarray(X, dtype=float)
     I = depth**3 / 12.0
@@ -56,12 +49,9 @@ def beam_exact(X, *, length=48.0, depth=12.0, load=1000.0, E=3.0e7, nu=0.3) -> n
 
 def beam_problem_tip(nx: int, ny: int, order: int = 2, *, length=48.0, depth=12.0, load=1000.0, E=3.0e7,
                      nu=0.3) -> tuple[float, float]:
-    """``(computed, exact)`` tip deflection ``u_y(L, 0)`` of the cantilever of :func:`beam_exact`.
-
-    Verifies the linear chain (material, forms, traction assembly, condensation, solve): the exact
-    displacement is prescribed on ``x = 0``, the exact parabolic shear applied on ``x = L``; top and bottom
-    are free. The classic parameters (L = 48, D = 12, P = 1000, E = 3e7, nu = 0.3) give a tip deflection of
-    8.9e-3.
+    """``(computed, exact)`` tip deflection ``u_y(L, 0)`` of the cantilever of :func:`beam_exact`: the exact
+    displacement prescribed on ``x = 0``, the exact parabolic shear applied on ``x = L``, top and bottom free. The
+    classic parameters (L = 48, D = 12, P = 1000, E = 3e7, nu = 0.3) give 8.9e-3.
     """
     if order not in (1, 2):
         raise ValueError(f"order must be 1 or 2, got {order!r}")
@@ -93,11 +83,9 @@ def beam_problem_tip(nx: int, ny: int, order: int = 2, *, length=48.0, depth=12.
 def manufactured_body_force(material, X, step: float = 1e-4) -> np.ndarray:
     """The body force ``b = -Div P(F(X))`` that holds chapter 3's bending map in equilibrium, shaped like ``X``.
 
-    Equilibrium without inertia is ``Div P + b = 0`` (``(Div P)_i = dP_iJ/dX_J``), so the exact
-    deformation ``phi`` (:func:`tissuefem.workbook.studies.bending_map`, its ``F`` from
-    :func:`~tissuefem.workbook.studies.bending_gradient`) solves the problem with body force ``-Div P(F)``
-    and the whole boundary held at ``phi``. The divergence is taken by central differences of the
-    material's own stress with ``step`` (error ``~ step^2``, about 1e-8 relative: far below every
+    With ``Div P + b = 0`` (``(Div P)_i = dP_iJ/dX_J``), the map :func:`~tissuefem.workbook.studies.bending_map`
+    solves the problem with this ``b`` and the whole boundary held on it. The divergence is taken by central
+    differences of the material's stress with ``step`` (error ``~ step^2``, about 1e-8 relative: far below every
     discretisation error measured here).
     """
     X = np.asarray(X, dtype=float)
@@ -111,11 +99,9 @@ def manufactured_body_force(material, X, step: float = 1e-4) -> np.ndarray:
 
 
 def manufactured_error(material, n: int, order: int, load_steps: int = 4) -> float:
-    """Relative ``L2`` error of the computed displacement against the exact bending map.
-
-    The block ``[0, 2] x [0, 1]`` with ``2n x n`` cells, P``order`` elements, every edge held at the exact
-    map, the body force of :func:`manufactured_body_force`; Newton to ``rtol = 1e-11`` in ``load_steps``
-    load steps from rest.
+    """Relative ``L2`` error of the computed displacement against the bending map: the block ``[0, 2] x [0, 1]``
+    of ``2n x n`` cells, P``order``, every edge held on the map, the body force of :func:`manufactured_body_force`,
+    Newton to ``rtol = 1e-11`` in ``load_steps`` load steps.
     """
     mesh = rectangle(2.0, 1.0, 2 * int(n), int(n))
 
@@ -144,10 +130,9 @@ def manufactured_convergence(models=("neo-hookean", "stable-neo-hookean", "corot
                              E: float = TISSUE_E, nu: float = TISSUE_NU) -> list[dict]:
     """Mesh convergence of each nonlinear model against the manufactured solution.
 
-    ``sizes`` maps the order to the values of ``n`` (``h = 1/n``); default ``{1: (4, 8, 16, 32), 2: (2, 4,
-    8, 16)}``. Returns one dict per model and order with the errors, the rates between successive meshes and
-    the fitted rate (:func:`~tissuefem.workbook.measure.fitted_exponent`). The exact solution is smooth, so
-    the expected ``L2`` rates are ``order + 1`` (measured: 2.00 and 2.99 for all three models).
+    ``sizes`` maps the order to the values of ``n`` (``h = 1/n``). One dict per model and order: the errors, the
+    rates between successive meshes and the fitted rate; the solution is smooth, so the ``L2`` rate should be
+    ``order + 1`` (measured: 2.00 and 2.99 for all three models).
     """
     sizes = {1: (4, 8, 16, 32), 2: (2, 4, 8, 16)} if sizes is None else sizes
     rows = []
