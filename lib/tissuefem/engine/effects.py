@@ -388,8 +388,12 @@ def _contact(model, p, scene):
         surface = ContactSurface.from_mesh(model.mesh) if p.get("surface") is None else p["surface"]
         return Contact(model.X, surface, p["distance"], p["stiffness"], p.get("skin"))
     surface = ContactSurface.from_mesh(model.mesh)
-    default = "distance" not in p
-    distance = CONTACT_DISTANCE * median_segment(surface, model.X) if default else p["distance"]
+    default, median = "distance" not in p, median_segment(surface, model.X)
+    distance = CONTACT_DISTANCE * median if default else p["distance"]
+    if distance > 0.5 * median:  # the contact term's own rule, refused here by the field's name
+        raise ParameterError("contact.distance", f"contact.distance = {distance:g} must be at most half the surface's "
+                                                 f"median segment length ({0.5 * median:g}): the skin is a thin layer "
+                                                 "of the surface")
     stiffness = p.get("stiffness", CONTACT_STIFFNESS * _youngs_modulus(scene))
     return SkinContact(model.X, surface, distance, stiffness, default=default)
 

@@ -370,7 +370,7 @@ class Model:
             raise ParameterError("terms", f"terms must be a sequence of terms, got {terms!r}") from None
         made = keyword_terms(dt=dt, mass=mass, gravity=gravity, body_force=body_force, tractions=tractions,
                              fibers=fibers, probes=probes, sutures=sutures, contact=contact)
-        self.mesh, self.order, self.intorder, self.assembly = mesh, order, intorder, assembly
+        self.mesh, self.order, self.intorder, self.assembly, self.weights = mesh, order, intorder, assembly, weights
         self.basis, self.assembler = make_assembler(mesh, order=order, intorder=intorder, assembly=assembly,
                                                     weights=weights)
         n = self.basis.N
@@ -417,8 +417,11 @@ class Model:
         self._limit_terms = [t for t in self._other_terms if _overrides(t, "max_step")]
         self._step_terms = [t for t in self._other_terms if _overrides(t, "begin_step") or _overrides(t, "end_step")]
 
-    def _change_terms(self, terms) -> None:
-        """Take the list ``terms`` (sorted by rank), or keep the old one if the pattern cannot be built."""
+    def set_terms(self, terms) -> None:
+        """Take the list ``terms`` (kept sorted by rank), or keep the old one if the pattern cannot be built."""
+        terms = list(terms)
+        if not all(isinstance(t, Term) for t in terms):
+            raise ParameterError("terms", f"terms must be Term objects, got {terms!r:.200}")
         old, self.terms = self.terms, sorted(terms, key=lambda t: t.rank)
         try:
             self._build()
@@ -431,19 +434,19 @@ class Model:
         """Add a term (a probe, sutures ...); the pattern is widened if the term needs it. All or nothing."""
         if not isinstance(term, Term):
             raise ValueError(f"term must be a Term, got {term!r}")
-        self._change_terms(self.terms + [term])
+        self.set_terms(self.terms + [term])
 
     def remove_term(self, term: Term) -> None:
         """Remove a term the model holds (``ValueError`` if it holds no such term). All or nothing."""
         if not any(t is term for t in self.terms):
             raise ValueError(f"the model holds no term {term!r}")
-        self._change_terms([t for t in self.terms if t is not term])
+        self.set_terms([t for t in self.terms if t is not term])
 
     def replace_term(self, old: Term, new: Term) -> None:
         """Put ``new`` where ``old`` was (more stitches in one sutures term). All or nothing."""
         if not isinstance(new, Term) or not any(t is old for t in self.terms):
             raise ValueError(f"replace_term: the model holds no term {old!r}, or {new!r} is no Term")
-        self._change_terms([new if t is old else t for t in self.terms])
+        self.set_terms([new if t is old else t for t in self.terms])
 
     def remapped(self, meshmap, state=()) -> tuple["Model", tuple]:
         """This model on the mesh of a topology change (a cut or an excision), and ``state`` carried with it.

@@ -384,7 +384,7 @@ def traction_vector(basis, boundary, traction) -> np.ndarray:
     mesh = basis.mesh
     if mesh.boundaries is None or boundary not in mesh.boundaries:
         names = sorted(mesh.boundaries) if mesh.boundaries else []
-        raise ValueError(f"tractions: {boundary!r} is not a boundary of the mesh; boundaries: {names}")
+        raise ParameterError("tractions", f"tractions: {boundary!r} is not a boundary of the mesh; boundaries: {names}")
     facets = mesh.boundaries[boundary]
     if len(facets) == 0:
         return np.zeros(basis.N)
