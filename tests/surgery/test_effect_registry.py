@@ -22,9 +22,17 @@ def _scene(**more):
                  effects={"handles": [{"name": "fixed", "region": "left"}], "inertia": {}, **more},
                  solver={"budget": 1e9})
 
-def test_a_new_effect_is_its_term_and_one_registry_entry(monkeypatch):
+def test_a_new_effect_is_its_term_and_one_registry_entry():
     """A constant wind, a body force per unit area: the term is a Load, the entry checks the table and makes it."""
-    monkeypatch.setattr(effects, "EFFECTS", dict(effects.EFFECTS))  # registered for this test only
+    saved = dict(effects.EFFECTS)  # registered for this test only
+    try:
+        _run_a_windy_scene()
+    finally:
+        effects.EFFECTS.clear()
+        effects.EFFECTS.update(saved)
+
+
+def _run_a_windy_scene():
 
     def check(field, table):
         table = effects.table(field, table, ("force",))
@@ -36,8 +44,6 @@ def test_a_new_effect_is_its_term_and_one_registry_entry(monkeypatch):
         return Load("wind", make(model), make)
 
     effects.register("wind", check, build)
-    monkeypatch.setattr("tissuefem.surgery.scene.EFFECTS_REGISTRY", effects.EFFECTS)
-    monkeypatch.setattr("tissuefem.surgery.simulation.EFFECTS", effects.EFFECTS)
     scene = _scene(wind={"force": [50.0, 0.0]})
     assert Scene.from_toml(scene.to_toml()) == scene
     sim = Simulation(scene, clock=lambda: 0.0)
