@@ -1,73 +1,15 @@
 """Scenes: a declarative description of a simulation (run one with :class:`~tissuefem.surgery.simulation.Simulation`).
 
-A scene names a domain, a material and the *effects* it calls for, and nothing else gets built:
-
-================  =============================================================================
-effect            what it adds
-================  =============================================================================
-``inertia``       dynamics: backward Euler with time step ``time_step`` (absent: quasistatic, no mass matrix)
-``gravity``       the body force ``rho0 g`` (a constant load)
-``fibers``        the fibre energy ``k/8 (I4 - 1)^2`` along ``direction``
-``inversion``     ``"itf"`` (ITF-clamped ln J) or ``"projected"`` (PSD-projected tangent)
-``handles``       nodes held or pulled (a boundary name, a box, or the nodes near a point)
-``tractions``     a constant traction on a named boundary
-``probes``        rigid disc tool tips pressed into the tissue (a penalty term)
-``excisions``     defects cut out along polygons before the first frame (``method``: ``"elements"``,
-                  through the elements along the outline, or ``"edges"``, the triangles inside)
-``incisions``     cuts along polylines before the first frame (``method``: ``"elements"``, through the
-                  elements, or ``"edges"``, snapped to mesh edges with duplicated nodes)
-``sutures``       pairs of points tied together by stiff springs
-``contact``       self-contact: wound lips and folds touch but never pass through (``distance``: the
-                  skin's depth, default a quarter of the median boundary edge; ``stiffness``: a pressure,
-                  default Young's modulus)
-================  =============================================================================
-
-A scene is a plain nested dictionary with these keys (see :data:`EXAMPLE_TOML`), written in Python
-(:class:`Scene`) or loaded from a TOML or JSON file (:meth:`Scene.load`). Every field is checked, and an
-invalid scene raises ``ValueError`` naming the field (``effects.handles[1].region``).
-
-Limits
-------
-Every numeric field has a range, so that whatever is accepted can also be computed (no overflow or
-division by zero later on); sizes are capped before anything is allocated. ``L`` is the domain's size
-(the larger side of its bounding box).
-
-=====================================================  ==========================================================
-field                                                  allowed
-=====================================================  ==========================================================
-``domain.triangles``; ``2 nx ny`` (fusiform)           an integer in ``[1, 200 000]`` (:data:`MAX_TRIANGLES`)
-``domain.nx``, ``domain.ny``                           integers in ``[1, 100 000]``, with ``2 nx ny <= 200 000``
-lengths (``width``, ...), ``domain.scale``             ``[1e-6, 1e6]``
-aspect ratios (``width/height``, ``length/max_width``,  at most ``1e4`` either way
-``max_width/tendon_width``)
-a mesh file (``domain.path``)                          at most 64 MiB and 200 000 3-node triangles (plus lines and
-                                                       vertices naming groups), planar (``z = 0`` if given),
-                                                       coordinates within ``+-1e6`` after scaling
-``material.youngs_modulus`` / ``poisson_ratio`` /      ``[1e-6, 1e12]`` / ``[-0.999999, 0.499999]`` /
-``density``                                            ``[1e-6, 1e6]``
-``effects.inertia.time_step``                          ``[1e-6, 10]`` s
-gravity ``acceleration`` / ``traction`` (components)   ``[-1e6, 1e6]`` / ``[-1e12, 1e12]``
-``effects.fibers.stiffness``                           ``[0, 1e12]``
-``effects.inversion.threshold``                        ``[0.01, 0.99]``
-probe / suture / contact ``stiffness``                 ``[0, 1e40]`` / ``(0, 1e40]`` / ``(0, 1e40]``
-``effects.contact.distance``                           ``> 0``, at most half the median length of a surface
-                                                       segment (checked when the model is built)
-``effects.sutures[i].tightness``                       ``[0, 1]``
-points (centres, boxes, polygons, paths, sutures)      within ``1000 L`` of the domain's centre
-and handle ``target`` displacements
-radii (``near`` regions, probes)                       ``[1e-6 L, 1000 L]``
-node indices (``region.nodes``)                        integers in ``[0, 600 000)``
-``solver.budget`` / ``rtol`` / ``max_iterations``      ``[1e-6, 1e9]`` s / ``[1e-14, 0.5]`` / an integer in
-                                                       ``[1, 1000]``
-entries of one list-valued effect                      at most 1000; points of a polygon or path, pairs of a
-                                                       suture: at most 10 000
-strings                                                at most 10 000 characters, no lone surrogates (``domain.path``:
-                                                       no NUL either)
-a scene file                                           at most 16 MiB of UTF-8, nested at most 16 levels
-=====================================================  ==========================================================
-
-Counts and node indices are true integers: ``800.0``, ``True`` and ``"1000"`` are refused. For a ``file``
-domain the limits that need ``L`` are checked when the mesh is read (:meth:`Scene.build_mesh`).
+A scene names a domain, a material and the *effects* it calls for, and nothing else gets built. It is a
+plain nested dictionary (see :data:`EXAMPLE_TOML`), written in Python (:class:`Scene`) or loaded from a
+TOML or JSON file (:meth:`Scene.load`). The effects that become terms are checked and built by the
+registry of effects (:mod:`tissuefem.engine.effects`); the scene's own are ``inversion`` (wraps the
+material), ``handles``, ``excisions`` and ``incisions``. docs/scenes.md lists every effect and the
+allowed range of every field: every field is checked, sizes are capped before anything is allocated,
+and an invalid scene raises a ``ParameterError`` (a ``ValueError``) naming the field
+(``effects.handles[1].region``). Counts and node indices are true integers (``800.0``, ``True`` and
+``"1000"`` are refused). For a ``file`` domain the limits that need the domain's size ``L`` are checked
+when the mesh is read (:meth:`Scene.build_mesh`).
 """
 
 from __future__ import annotations
@@ -123,7 +65,7 @@ _LISTS = ("handles", "excisions", "incisions")
 def _listed(kind) -> bool:
     return kind in _LISTS or (kind in EFFECTS_REGISTRY and EFFECTS_REGISTRY[kind].listed)
 
-# --- limits (the table in the module docstring and in docs/scenes.md) -------------------------------------------
+# --- limits (the table in docs/scenes.md) -----------------------------------------------------------------------
 #: triangles of a generated domain (and of a mesh file); lengths of a generated domain, and ``domain.scale``;
 #: the largest aspect ratio of a domain, either way round
 MAX_TRIANGLES, SIZE_RANGE, MAX_ASPECT = meshes.MAX_TRIANGLES, meshes.SIZE_RANGE, meshes.MAX_ASPECT
