@@ -322,7 +322,150 @@ def _overrides(term, hook) -> bool:
     return getattr(type(term), hook) is not getattr(Term, hook)
 
 
-class Model:
+class Holding:
+    """The handles of a :class:`Model`: the part of it that holds the body at prescribed positions.
+
+    Each handle's region is resolved to nodes and dofs when the model takes it (:meth:`add_handle`);
+    its target enters checked (:meth:`Handle.move`, :meth:`set_targets`), and :meth:`prescribed`
+    gives the stepper the held dofs and their displacements.
+    """
+
+    def _handle_dofs(self, h: Handle, nodes) -> tuple[np.ndarray, np.ndarray]:
+        """The dofs a handle holding ``nodes`` holds and the index of each dof's node in ``nodes`` (-1 for P2 edge
+        dofs)."""
+        dofs = [self.basis.nodal_dofs[:, nodes].ravel()]
+        owner = [np.tile(np.arange(nodes.size), 2)]
+        if self.order == 2:
+            mesh = self.mesh
+            if isinstance(h.region, str):
+                edges = np.asarray(mesh.boundaries[h.region])
+            elif callable(h.region):
+                mid = 0.5 * (self.X[:, mesh.facets[0]] + self.X[:, mesh.facets[1]])
+                try:
+                    on = np.asarray(h.region(mid))
+                except Exception as err:  # the user's mask, at the edges' midpoints
+                    raise ValueError(f"handle {h.name!r} region: the mask raised {type(err).__name__}: {err}") from None
+                if on.shape != (mid.shape[1],) or on.dtype.kind not in "biu":
+                    raise ValueError(f"handle {h.name!r} region: the mask must return one bool per point")
+                edges = np.flatnonzero(on.astype(bool))
+            else:
+                held = np.zeros(mesh.nvertices, dtype=bool)
+                held[nodes] = True
+                edges = np.flatnonzero(held[mesh.facets[0]] & held[mesh.facets[1]])
+            dofs.append(self.basis.facet_dofs[:, edges].ravel())
+            owner.append(np.full(2 * edges.size, -1))
+        return np.concatenate(dofs), np.concatenate(owner)
+
+    def add_handle(self, handle: Handle) -> Handle:
+        """Take a handle: resolve its region to nodes and dofs (a name is given if it has none)."""
+        if not isinstance(handle, Handle):
+            raise ValueError(f"handles must be Handle objects, got {handle!r}")
+        field = f"handle {handle.name!r} region" if handle.name else "handle region"
+        nodes = region_nodes(self.mesh, handle.region, field)
+        if handle.base is not None and handle.base.shape[1] != nodes.size:
+            raise ValueError(f"handle {handle.name!r}: base has {handle.base.shape[1]} columns for {nodes.size} nodes")
+        if handle.base is not None and self.order != 1:
+            raise ValueError("handles with a base displacement (grabs) need order=1")
+        names = {h.name for h in self.handles}
+        name = handle.name
+        if name is None:
+            k = len(self.handles)
+            while f"handle{k}" in names:
+                k += 1
+            name = f"handle{k}"
+        elif name in names:
+            raise ValueError(f"a handle named {name!r} exists already")
+        # everything is checked before the handle is touched: a refused handle is left as it was given
+        dofs, owner = self._handle_dofs(handle, nodes)
+        points = self.dof_points[:, dofs]
+        reach = REACH * self.size
+        _check_target(handle.target, points, f"handle {name!r} target", reach)
+        handle.name, handle.nodes, handle._reach = name, nodes, reach
+        handle._points, handle._dofs, handle._owner = points, dofs, owner
+        self.handles.append(handle)
+        return handle
+
+    def remove_handle(self, name) -> Handle:
+        """Let go of the handle ``name`` (its nodes are free from the next step on)."""
+        h = self.handle(name)
+        self.handles.remove(h)
+        return h
+
+    def handle(self, name) -> Handle:
+        """The handle called ``name`` (or at index ``name``)."""
+        if isinstance(name, (int, np.integer)) and not isinstance(name, (bool, np.bool_)):
+            if 0 <= name < len(self.handles):
+                return self.handles[name]
+            raise ValueError(f"no handle at index {name}; there are {len(self.handles)}")
+        if isinstance(name, str):  # names are strings: anything else (an array, a list) names no handle
+            for h in self.handles:
+                if h.name == name:
+                    return h
+        raise ValueError(f"no handle named {name!r:.100}; handles: {[h.name for h in self.handles]}")
+
+    def set_targets(self, targets) -> None:
+        """Move several handles at once, all or nothing.
+
+        ``targets``: ``None``; a sequence with one entry per handle (``None`` leaves one where
+        it is); or a dict ``{name or index: target}``. Every target is checked before any
+        handle moves, so a refusal leaves all of them as they were.
+        """
+        if targets is None:
+            return
+        if isinstance(targets, dict):
+            items = list(targets.items())
+        else:
+            try:
+                seq = list(targets)
+            except TypeError:
+                raise ValueError("targets must be a dict, a sequence (one per handle) or None, "
+                                 f"got {targets!r}") from None
+            if len(seq) != len(self.handles):
+                raise ValueError(f"targets has {len(seq)} entries but the model has {len(self.handles)} handles")
+            items = list(enumerate(seq))
+        checked = []
+        for key, target in items:
+            if isinstance(key, bool):
+                raise ValueError(f"targets: {key!r} is not a handle name or index")
+            try:
+                h = self.handle(key)
+            except ValueError as err:
+                raise ValueError(f"targets: {err}") from None
+            if target is None:
+                continue
+            checked.append((h, _check_target(target, h._points, f"targets[{key!r}]", h._reach)))
+        for h, target in checked:
+            h.target = target
+
+    def prescribed(self) -> tuple[np.ndarray, np.ndarray]:
+        """The held dofs (sorted) and their displacements; where handles overlap, the later one wins."""
+        if not self.handles:
+            return np.zeros(0, dtype=np.intp), np.zeros(0)
+        all_dofs, all_values = [], []
+        for h in self.handles:
+            base = None
+            if h.base is not None:
+                base = np.where(h._owner >= 0, h.base[self.component[h._dofs], np.maximum(h._owner, 0)], 0.0)
+            x = _map_positions(h.target, h._points, f"handle {h.name!r} target") if callable(h.target) else \
+                h._points + h.target[:, None]
+            u = x - h._points
+            values = u[self.component[h._dofs], np.arange(h._dofs.size)]
+            all_dofs.append(h._dofs)
+            all_values.append(values if base is None else values + base)
+        dofs, values = np.concatenate(all_dofs), np.concatenate(all_values)
+        unique, first_in_reversed = np.unique(dofs[::-1], return_index=True)
+        return unique.astype(np.intp), values[::-1][first_in_reversed]
+
+    def reaction(self, u, handle) -> np.ndarray:
+        """The resultant force ``(f1, f2)`` the handle exerts on the body at ``u`` (at equilibrium, what a
+        haptic device would render): the sum of ``f_int - f_ext`` over the handle's dofs, per component."""
+        h = handle if isinstance(handle, Handle) else self.handle(handle)
+        q = self.internal_force(u) - self.external
+        dofs = np.unique(h._dofs)
+        return np.array([q[dofs[self.component[dofs] == i]].sum() for i in range(2)])
+
+
+class Model(Holding):
     """A hyperelastic body (mesh, displacement basis, material) and exactly the terms acting on it.
 
     Parameters
@@ -608,141 +751,6 @@ class Model:
         if u.shape != (self.n_dofs,):
             raise ValueError(f"u must be a displacement vector of shape ({self.n_dofs},), got shape {u.shape}")
         return u
-
-    # ------------------------------------------------------------------ handles
-    def _handle_dofs(self, h: Handle, nodes) -> tuple[np.ndarray, np.ndarray]:
-        """The dofs a handle holding ``nodes`` holds and the index of each dof's node in ``nodes`` (-1 for P2 edge
-        dofs)."""
-        dofs = [self.basis.nodal_dofs[:, nodes].ravel()]
-        owner = [np.tile(np.arange(nodes.size), 2)]
-        if self.order == 2:
-            mesh = self.mesh
-            if isinstance(h.region, str):
-                edges = np.asarray(mesh.boundaries[h.region])
-            elif callable(h.region):
-                mid = 0.5 * (self.X[:, mesh.facets[0]] + self.X[:, mesh.facets[1]])
-                try:
-                    on = np.asarray(h.region(mid))
-                except Exception as err:  # the user's mask, at the edges' midpoints
-                    raise ValueError(f"handle {h.name!r} region: the mask raised {type(err).__name__}: {err}") from None
-                if on.shape != (mid.shape[1],) or on.dtype.kind not in "biu":
-                    raise ValueError(f"handle {h.name!r} region: the mask must return one bool per point")
-                edges = np.flatnonzero(on.astype(bool))
-            else:
-                held = np.zeros(mesh.nvertices, dtype=bool)
-                held[nodes] = True
-                edges = np.flatnonzero(held[mesh.facets[0]] & held[mesh.facets[1]])
-            dofs.append(self.basis.facet_dofs[:, edges].ravel())
-            owner.append(np.full(2 * edges.size, -1))
-        return np.concatenate(dofs), np.concatenate(owner)
-
-    def add_handle(self, handle: Handle) -> Handle:
-        """Take a handle: resolve its region to nodes and dofs (a name is given if it has none)."""
-        if not isinstance(handle, Handle):
-            raise ValueError(f"handles must be Handle objects, got {handle!r}")
-        field = f"handle {handle.name!r} region" if handle.name else "handle region"
-        nodes = region_nodes(self.mesh, handle.region, field)
-        if handle.base is not None and handle.base.shape[1] != nodes.size:
-            raise ValueError(f"handle {handle.name!r}: base has {handle.base.shape[1]} columns for {nodes.size} nodes")
-        if handle.base is not None and self.order != 1:
-            raise ValueError("handles with a base displacement (grabs) need order=1")
-        names = {h.name for h in self.handles}
-        name = handle.name
-        if name is None:
-            k = len(self.handles)
-            while f"handle{k}" in names:
-                k += 1
-            name = f"handle{k}"
-        elif name in names:
-            raise ValueError(f"a handle named {name!r} exists already")
-        # everything is checked before the handle is touched: a refused handle is left as it was given
-        dofs, owner = self._handle_dofs(handle, nodes)
-        points = self.dof_points[:, dofs]
-        reach = REACH * self.size
-        _check_target(handle.target, points, f"handle {name!r} target", reach)
-        handle.name, handle.nodes, handle._reach = name, nodes, reach
-        handle._points, handle._dofs, handle._owner = points, dofs, owner
-        self.handles.append(handle)
-        return handle
-
-    def remove_handle(self, name) -> Handle:
-        """Let go of the handle ``name`` (its nodes are free from the next step on)."""
-        h = self.handle(name)
-        self.handles.remove(h)
-        return h
-
-    def handle(self, name) -> Handle:
-        """The handle called ``name`` (or at index ``name``)."""
-        if isinstance(name, (int, np.integer)) and not isinstance(name, (bool, np.bool_)):
-            if 0 <= name < len(self.handles):
-                return self.handles[name]
-            raise ValueError(f"no handle at index {name}; there are {len(self.handles)}")
-        if isinstance(name, str):  # names are strings: anything else (an array, a list) names no handle
-            for h in self.handles:
-                if h.name == name:
-                    return h
-        raise ValueError(f"no handle named {name!r:.100}; handles: {[h.name for h in self.handles]}")
-
-    def set_targets(self, targets) -> None:
-        """Move several handles at once, all or nothing.
-
-        ``targets``: ``None``; a sequence with one entry per handle (``None`` leaves one where
-        it is); or a dict ``{name or index: target}``. Every target is checked before any
-        handle moves, so a refusal leaves all of them as they were.
-        """
-        if targets is None:
-            return
-        if isinstance(targets, dict):
-            items = list(targets.items())
-        else:
-            try:
-                seq = list(targets)
-            except TypeError:
-                raise ValueError("targets must be a dict, a sequence (one per handle) or None, "
-                                 f"got {targets!r}") from None
-            if len(seq) != len(self.handles):
-                raise ValueError(f"targets has {len(seq)} entries but the model has {len(self.handles)} handles")
-            items = list(enumerate(seq))
-        checked = []
-        for key, target in items:
-            if isinstance(key, bool):
-                raise ValueError(f"targets: {key!r} is not a handle name or index")
-            try:
-                h = self.handle(key)
-            except ValueError as err:
-                raise ValueError(f"targets: {err}") from None
-            if target is None:
-                continue
-            checked.append((h, _check_target(target, h._points, f"targets[{key!r}]", h._reach)))
-        for h, target in checked:
-            h.target = target
-
-    def prescribed(self) -> tuple[np.ndarray, np.ndarray]:
-        """The held dofs (sorted) and their displacements; where handles overlap, the later one wins."""
-        if not self.handles:
-            return np.zeros(0, dtype=np.intp), np.zeros(0)
-        all_dofs, all_values = [], []
-        for h in self.handles:
-            base = None
-            if h.base is not None:
-                base = np.where(h._owner >= 0, h.base[self.component[h._dofs], np.maximum(h._owner, 0)], 0.0)
-            x = _map_positions(h.target, h._points, f"handle {h.name!r} target") if callable(h.target) else \
-                h._points + h.target[:, None]
-            u = x - h._points
-            values = u[self.component[h._dofs], np.arange(h._dofs.size)]
-            all_dofs.append(h._dofs)
-            all_values.append(values if base is None else values + base)
-        dofs, values = np.concatenate(all_dofs), np.concatenate(all_values)
-        unique, first_in_reversed = np.unique(dofs[::-1], return_index=True)
-        return unique.astype(np.intp), values[::-1][first_in_reversed]
-
-    def reaction(self, u, handle) -> np.ndarray:
-        """The resultant force ``(f1, f2)`` the handle exerts on the body at ``u`` (at equilibrium, what a
-        haptic device would render): the sum of ``f_int - f_ext`` over the handle's dofs, per component."""
-        h = handle if isinstance(handle, Handle) else self.handle(handle)
-        q = self.internal_force(u) - self.external
-        dofs = np.unique(h._dofs)
-        return np.array([q[dofs[self.component[dofs] == i]].sum() for i in range(2)])
 
     # ------------------------------------------------------------------ post-processing
     def zeros(self) -> np.ndarray:

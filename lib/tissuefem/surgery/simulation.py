@@ -88,7 +88,7 @@ class Simulation:
                 operation = _OPERATIONS[kind][e.get("method", "elements")]
                 self._apply_edit(operation, np.asarray(e[key], dtype=float), f"effects.{kind}[{i}]")
         if not self.dynamic:
-            _, pieces = self._loose_elements(self.mesh, np.arange(self.mesh.nvertices), None)
+            _, pieces = _loose_elements(self.mesh, np.arange(self.mesh.nvertices), None, self.model.handles)
             if pieces:
                 raise ValueError(f"effects.handles: {pieces} piece(s) of the domain are held by nothing; a quasistatic "
                                  "scene must hold every piece (or it floats and has no equilibrium)")
@@ -119,11 +119,10 @@ class Simulation:
 
     def _new_solver(self, state=None) -> None:
         """A real-time solver for the model, with the running one's state (or ``state``: ``u, v, v_previous``)."""
-        model, settings, old = self.model, self.scene.solver, self.solver
-        choice = self._linear_choice
+        model, settings, old, choice = self.model, self.scene.solver, self.solver, self._linear_choice
         if model.quadratic and self._constant_tangent and isinstance(choice, str):
             # a constant Hessian: one factorization per held set is exact (with the named direct backend)
-            base = choice[len("reuse-"):] if choice.startswith("reuse-") else choice
+            base = choice.removeprefix("reuse-")
             choice = "constant" if base in ("reuse", "direct", "background", "superlu") else f"constant-{base}"
         solver = RealtimeSolver(model, linear_solver=choice, budget=settings["budget"], rtol=settings["rtol"],
                                 clock=self.clock, max_iterations=settings["max_iterations"])
@@ -289,7 +288,7 @@ class Simulation:
         """Let go of a handle: its nodes are free from the next frame on.
 
         A quasistatic scene lifts out a piece that nothing holds any more (no equilibrium), as after a cut
-        (:meth:`_drop_loose_pieces`); a dynamic scene keeps it: it falls.
+        (see `_drop_loose_pieces`); a dynamic scene keeps it: it falls.
         """
         handle = self.model.handle(name)
         self._check_held([h for h in self.model.handles if h is not handle])
@@ -299,8 +298,8 @@ class Simulation:
         with self._transaction():
             self.model.remove_handle(name)
             stitches = self.model.sutures
-            loose, pieces = self._loose_elements(self.mesh, np.arange(self.mesh.nvertices),
-                                                 None if stitches is None else stitches.elements)
+            loose, pieces = _loose_elements(self.mesh, np.arange(self.mesh.nvertices),
+                                            None if stitches is None else stitches.elements, self.model.handles)
             if pieces:
                 self._apply_edit(topology.excise, lambda centroids: loose.copy(), f"release({name!r})")
                 self.removed_pieces += pieces
@@ -350,19 +349,20 @@ class Simulation:
             if operation in (topology.incise, element_cuts.cut_through):  # where the user drew, on the deformed tissue
                 options = material if operation is element_cuts.cut_through else {}
                 edit = operation(self.mesh, argument, self.positions() if running else None, **options)
-            elif operation is element_cuts.excise_through:  # an outline in reference coordinates
-                edit = operation(self.mesh, argument, None, **material)
-            else:
-                edit = operation(self.mesh, argument)
+            else:  # an outline in reference coordinates, or a mask
+                edit = operation(self.mesh, argument, None, **material) if operation is element_cuts.excise_through \
+                    else operation(self.mesh, argument)
         except ValueError as err:
             raise ValueError(f"{field}: {err}") from None
         with self._transaction():
-            weights, regions = self._material_after(edit)
+            weights, regions = _material_after(edit, self.model.weights, self._regions)
             stages = [(edit, regions)]
             if not self.dynamic:
                 stitches = self.model.sutures
                 ends = None if stitches is None else Stitches.carry(stitches.ends_spec(), edit, regions)
-                edit, kept = self._drop_loose_pieces(edit, None if ends is None else ends["elements"])
+                edit, kept, pieces = _drop_loose_pieces(edit, None if ends is None else ends["elements"],
+                                                        self.model.handles)
+                self.removed_pieces += pieces
                 if kept is not None:  # the elements that stay, of those the edit made
                     weights = None if weights is None else weights[kept]
                     regions = {int(new): regions[int(old)] for new, old in enumerate(kept.tolist())
@@ -379,61 +379,6 @@ class Simulation:
             if running:
                 self._new_solver(state)
         return edit
-
-    def _drop_loose_pieces(self, edit, stitch_elements):
-        """Quasistatic scenes: remove pieces that nothing holds (no handle, no suture to a held piece).
-
-        Such a piece has no equilibrium (a singular stiffness matrix; under a load it would run away), so
-        it is lifted out, as a surgeon lifts out what was cut free. ``stitch_elements`` ``(2, k)``: the
-        elements of the stitches' ends on ``edit``'s mesh. Returns ``(edit, kept)``: the edit with the
-        pieces removed, and which of its elements stay (``None`` when nothing was removed).
-        """
-        mesh = edit.mesh
-        loose, pieces = self._loose_elements(mesh, edit.parent, stitch_elements)
-        if not pieces:
-            return edit, None  # nothing to drop (or nothing held at all: _check_held reports it)
-        second = topology.excise(mesh, lambda centroids: loose.copy())
-        self.removed_pieces += pieces
-        merged = dataclasses.replace(second, parent=edit.parent[second.parent], elements=edit.elements[second.elements],
-                                     cut_edges=edit.cut_edges, n_old_nodes=edit.n_old_nodes,
-                                     n_old_elements=edit.n_old_elements)
-        return merged, second.elements
-
-    def _loose_elements(self, mesh, parent, stitch_elements):
-        """``(loose, pieces)``: which elements of ``mesh`` lie in pieces that nothing holds, and how many pieces.
-
-        ``parent`` maps its nodes to the current mesh's (which carries the handles); ``stitch_elements`` are the
-        elements of the stitches' ends on ``mesh``. ``pieces`` is 0 when every piece is held -- or none is (then
-        :meth:`_check_held` has the say).
-        """
-        t, n = mesh.t, mesh.nvertices
-        rows, cols = list(t), list(t[[1, 2, 0]])  # the three edges of every triangle
-        if stitch_elements is not None:  # a stitch joins the pieces of its two ends
-            rows.append(t[0, stitch_elements[0]])
-            cols.append(t[0, stitch_elements[1]])
-        r, c = np.concatenate(rows), np.concatenate(cols)
-        _, labels = connected_components(sp.coo_matrix((np.ones(r.size), (r, c)), shape=(n, n)), directed=False)
-        held = np.zeros(labels.max() + 1, dtype=bool)
-        for h in self.model.handles:
-            moved = h.remap(parent)
-            if moved is not None:
-                held[labels[moved.nodes]] = True
-        loose = ~held[labels[t[0]]]
-        if not np.any(loose) or np.all(loose):
-            return np.zeros(t.shape[1], dtype=bool), 0
-        return loose, int(np.unique(labels[t[0]][loose]).size)
-
-    def _material_after(self, edit):
-        """The weights and regions of the elements of ``edit``'s mesh (a cut through elements brings its own)."""
-        if isinstance(edit, element_cuts.ElementCut):
-            weights, regions = edit.weights, edit.regions
-        elif self.model.weights is None:
-            return None, {}
-        else:
-            weights = self.model.weights[edit.elements]
-            regions = {new: self._regions[old] for new, old in enumerate(edit.elements.tolist())
-                       if old in self._regions}
-        return (None if np.all(weights == 1.0) else weights), regions
 
     def cut(self, polyline, method="elements"):
         """Incise along ``polyline`` (points in deformed coordinates, as drawn on the tissue now).
@@ -465,19 +410,6 @@ class Simulation:
         return self._apply_edit(operation, region, "region")
 
     # ------------------------------------------------------------------ sutures
-    def _snap(self, point):
-        """The node nearest to ``point`` (deformed coordinates); among coincident copies of a cut node, the
-        one on the side of the point (whose elements' centroids are nearest)."""
-        x = self.positions()
-        d = np.hypot(x[0] - point[0], x[1] - point[1])
-        best = np.flatnonzero(d <= d.min() + 1e-12 * max(1.0, float(np.ptp(x))))
-        if best.size == 1:
-            return int(best[0])
-        t = self.mesh.t
-        centroids = x[:, t].mean(axis=1)
-        scores = [np.hypot(*(centroids[:, np.any(t == node, axis=0)].mean(axis=1) - point)) for node in best]
-        return int(best[int(np.argmin(scores))])
-
     def suture(self, pairs, stiffness=None, tightness=1.0, _field="sutures"):
         """Tie pairs of points together with stiff springs.
 
@@ -490,39 +422,9 @@ class Simulation:
         """
         E = self.scene.material["youngs_modulus"]
         k = 100.0 * E if stiffness is None else penalty(f"{_field}.stiffness", stiffness, positive=True)
-        try:
-            arr = np.asarray(pairs)
-        except (TypeError, ValueError):
-            raise ValueError(f"{_field}.pairs must be point pairs shaped (k, 2, 2) or node index pairs shaped "
-                             f"(2, k), got {pairs!r:.200}") from None
-        t = np.asarray(self.mesh.t)
-        if arr.dtype.kind in "iu" and arr.ndim == 2 and arr.shape[0] == 2:
-            nodes = arr.astype(np.intp)
-            if nodes.size == 0 or nodes.min() < 0 or nodes.max() >= self.mesh.nvertices:
-                raise ValueError(f"{_field}.pairs: node indices must be in 0..{self.mesh.nvertices - 1}")
-            ends = [[self._node_end(int(q)) for q in nodes[s]] for s in range(2)]
-        else:
-            if arr.dtype.kind not in "iuf":  # booleans, strings, complex numbers: not points
-                raise ValueError(f"{_field}.pairs must be real point pairs shaped (k, 2, 2), got dtype {arr.dtype}")
-            arr = arr.astype(float)
-            if arr.ndim != 3 or arr.shape[1:] != (2, 2) or arr.shape[0] == 0 or not np.all(np.isfinite(arr)):
-                raise ValueError(f"{_field}.pairs must be point pairs shaped (k, 2, 2), got shape {arr.shape}")
-            for j, pair in enumerate(arr):
-                for i, q in enumerate(pair):
-                    self._point(f"{_field}.pairs[{j}][{i}]", q)
-            ends = [[self._point_end(q[s]) for q in arr] for s in range(2)]
-        elements = np.array([[e for e, _ in side] for side in ends], dtype=np.int64).reshape(2, -1)
-        bary = np.array([[w for _, w in side] for side in ends], dtype=float).reshape(2, -1, 3)
-        x = self.positions()
-        at = np.einsum("skc,iskc->sik", bary, x[:, t[:, elements].transpose(1, 2, 0)])  # (2 ends, 2, k)
-        same = np.array([_end_key(t[:, elements[0, j]], bary[0, j]) == _end_key(t[:, elements[1, j]], bary[1, j])
-                         for j in range(elements.shape[1])], dtype=bool)
-        if np.all(same):
-            raise ValueError(f"{_field}.pairs: every pair ties a point to itself; nothing to tie")
-        keep = ~same
-        k_new = int(keep.sum())
-        spec = {"elements": elements[:, keep], "barycentric": bary[:, keep], "stiffness": np.full(k_new, k),
-                "gaps": (at[0] - at[1])[:, keep], "tightness": np.zeros(k_new)}
+        spec = _new_stitches(self.mesh, self.positions(), pairs, k, _field, self._point, self.model.weights,
+                             self._regions)
+        k_new = spec["stiffness"].size
         tightness = number(f"{_field}.tightness", tightness, nonnegative=True)
         if tightness > 1:
             raise ValueError(f"{_field}.tightness must be in [0, 1], got {tightness!r}")
@@ -536,26 +438,6 @@ class Simulation:
             if tightness > 0:
                 self.tighten(tightness, stitches=np.arange(total - k_new, total))
         return self.model.sutures.pairs[:, -k_new:]
-
-    def _node_end(self, node):
-        """A stitch end at ``node``: an element with that corner, and the corner's barycentric weights."""
-        corner, element = np.nonzero(np.asarray(self.mesh.t) == node)
-        if element.size == 0:
-            raise ValueError(f"node {node} belongs to no element")
-        w = np.zeros(3)
-        w[corner[0]] = 1.0
-        return int(element[0]), w
-
-    def _point_end(self, point):
-        """A stitch end at ``point`` (deformed coordinates): on the material there or within half an element of
-        it, or else at the nearest node."""
-        x = self.positions()
-        # within half an element of some material (in an open wound, just off its lip): attached to it
-        found = element_cuts.locate(self.mesh, point, x, self._regions, reach=0.5)
-        if found is not None:  # on a sliver of a cut element: carried by the firm tissue beside it
-            return element_cuts.firm_anchor(self.mesh, *found, positions=x, weights=self.model.weights,
-                                            regions=self._regions)
-        return self._node_end(self._snap(point))
 
     def tighten(self, fraction, stitches=None) -> None:
         """Tighten sutures: each keeps ``(1 - fraction)`` of its gap when placed as slack (1: closed).
@@ -628,6 +510,131 @@ class _Kept:
     """The elements that stay after lifting out loose pieces (``elements[new] = old``), as an edit shows them."""
 
     elements: np.ndarray
+
+
+def _new_stitches(mesh, x, pairs, k, field, check_point, weights, regions) -> dict:
+    """The stitches of :meth:`Simulation.suture`: each end an element and barycentric weights, ``elements``
+    ``(2, k)``, ``barycentric`` ``(2, k, 3)``, with their ``gaps`` at the positions ``x`` (pairs that tie a
+    point to itself are left out); ``check_point(field, point)`` refuses points out of reach."""
+    try:
+        arr = np.asarray(pairs)
+    except (TypeError, ValueError):
+        raise ValueError(f"{field}.pairs must be point pairs shaped (k, 2, 2) or node index pairs shaped "
+                         f"(2, k), got {pairs!r:.200}") from None
+    t = np.asarray(mesh.t)
+    if arr.dtype.kind in "iu" and arr.ndim == 2 and arr.shape[0] == 2:
+        nodes = arr.astype(np.intp)
+        if nodes.size == 0 or nodes.min() < 0 or nodes.max() >= mesh.nvertices:
+            raise ValueError(f"{field}.pairs: node indices must be in 0..{mesh.nvertices - 1}")
+        ends = [[_node_end(mesh, int(q)) for q in nodes[s]] for s in range(2)]
+    else:
+        if arr.dtype.kind not in "iuf":  # booleans, strings, complex numbers: not points
+            raise ValueError(f"{field}.pairs must be real point pairs shaped (k, 2, 2), got dtype {arr.dtype}")
+        arr = arr.astype(float)
+        if arr.ndim != 3 or arr.shape[1:] != (2, 2) or arr.shape[0] == 0 or not np.all(np.isfinite(arr)):
+            raise ValueError(f"{field}.pairs must be point pairs shaped (k, 2, 2), got shape {arr.shape}")
+        for j, pair in enumerate(arr):
+            for i, q in enumerate(pair):
+                check_point(f"{field}.pairs[{j}][{i}]", q)
+        ends = [[_point_end(mesh, x, q[s], weights, regions) for q in arr] for s in range(2)]
+    elements = np.array([[e for e, _ in side] for side in ends], dtype=np.int64).reshape(2, -1)
+    bary = np.array([[w for _, w in side] for side in ends], dtype=float).reshape(2, -1, 3)
+    at = np.einsum("skc,iskc->sik", bary, x[:, t[:, elements].transpose(1, 2, 0)])  # (2 ends, 2, k)
+    same = np.array([_end_key(t[:, elements[0, j]], bary[0, j]) == _end_key(t[:, elements[1, j]], bary[1, j])
+                     for j in range(elements.shape[1])], dtype=bool)
+    if np.all(same):
+        raise ValueError(f"{field}.pairs: every pair ties a point to itself; nothing to tie")
+    keep = ~same
+    return {"elements": elements[:, keep], "barycentric": bary[:, keep], "stiffness": np.full(int(keep.sum()), k),
+            "gaps": (at[0] - at[1])[:, keep], "tightness": np.zeros(int(keep.sum()))}
+
+
+def _drop_loose_pieces(edit, stitch_elements, handles):
+    """Quasistatic scenes: remove pieces that nothing holds (no handle, no suture to a held piece).
+
+    Such a piece has no equilibrium (a singular stiffness matrix; under a load it would run away), so
+    it is lifted out, as a surgeon lifts out what was cut free. ``stitch_elements`` ``(2, k)``: the
+    elements of the stitches' ends on ``edit``'s mesh; ``handles``: on the mesh before the edit. Returns
+    ``(edit, kept, pieces)``: the edit with the pieces removed, which of its elements stay (``None`` when
+    nothing was removed) and how many pieces went.
+    """
+    loose, pieces = _loose_elements(edit.mesh, edit.parent, stitch_elements, handles)
+    if not pieces:
+        return edit, None, 0  # nothing to drop (or nothing held at all: _check_held reports it)
+    second = topology.excise(edit.mesh, lambda centroids: loose.copy())
+    merged = dataclasses.replace(second, parent=edit.parent[second.parent], elements=edit.elements[second.elements],
+                                 cut_edges=edit.cut_edges, n_old_nodes=edit.n_old_nodes,
+                                 n_old_elements=edit.n_old_elements)
+    return merged, second.elements, pieces
+
+
+def _loose_elements(mesh, parent, stitch_elements, handles):
+    """``(loose, pieces)``: which elements of ``mesh`` lie in pieces that nothing holds, and how many pieces.
+
+    ``parent`` maps its nodes to the mesh of the ``handles``; ``stitch_elements`` are the elements of the
+    stitches' ends on ``mesh``. ``pieces`` is 0 when every piece is held -- or none is (then
+    :meth:`Simulation._check_held` has the say).
+    """
+    t, n = mesh.t, mesh.nvertices
+    rows, cols = list(t), list(t[[1, 2, 0]])  # the three edges of every triangle
+    if stitch_elements is not None:  # a stitch joins the pieces of its two ends
+        rows.append(t[0, stitch_elements[0]])
+        cols.append(t[0, stitch_elements[1]])
+    r, c = np.concatenate(rows), np.concatenate(cols)
+    _, labels = connected_components(sp.coo_matrix((np.ones(r.size), (r, c)), shape=(n, n)), directed=False)
+    held = np.zeros(labels.max() + 1, dtype=bool)
+    for h in handles:
+        moved = h.remap(parent)
+        if moved is not None:
+            held[labels[moved.nodes]] = True
+    loose = ~held[labels[t[0]]]
+    if not np.any(loose) or np.all(loose):
+        return np.zeros(t.shape[1], dtype=bool), 0
+    return loose, int(np.unique(labels[t[0]][loose]).size)
+
+
+def _material_after(edit, weights, regions):
+    """The weights and regions of the elements of ``edit``'s mesh (a cut through elements brings its own)."""
+    if isinstance(edit, element_cuts.ElementCut):
+        weights, regions = edit.weights, edit.regions
+    elif weights is None:
+        return None, {}
+    else:
+        weights = weights[edit.elements]
+        regions = {new: regions[old] for new, old in enumerate(edit.elements.tolist()) if old in regions}
+    return (None if np.all(weights == 1.0) else weights), regions
+
+
+def _snap(mesh, x, point):
+    """The node nearest to ``point`` (positions ``x``); among coincident copies of a cut node, the one on the
+    side of the point (whose elements' centroids are nearest)."""
+    d = np.hypot(x[0] - point[0], x[1] - point[1])
+    best = np.flatnonzero(d <= d.min() + 1e-12 * max(1.0, float(np.ptp(x))))
+    if best.size == 1:
+        return int(best[0])
+    t = mesh.t
+    centroids = x[:, t].mean(axis=1)
+    scores = [np.hypot(*(centroids[:, np.any(t == node, axis=0)].mean(axis=1) - point)) for node in best]
+    return int(best[int(np.argmin(scores))])
+
+
+def _node_end(mesh, node):
+    """A stitch end at ``node``: an element with that corner, and the corner's barycentric weights."""
+    corner, element = np.nonzero(np.asarray(mesh.t) == node)
+    if element.size == 0:
+        raise ValueError(f"node {node} belongs to no element")
+    w = np.zeros(3)
+    w[corner[0]] = 1.0
+    return int(element[0]), w
+
+
+def _point_end(mesh, x, point, weights, regions):
+    """A stitch end at ``point`` (positions ``x``): on the material there or within half an element of it (in an
+    open wound, just off its lip), or else at the nearest node."""
+    found = element_cuts.locate(mesh, point, x, regions, reach=0.5)
+    if found is not None:  # on a sliver of a cut element: carried by the firm tissue beside it
+        return element_cuts.firm_anchor(mesh, *found, positions=x, weights=weights, regions=regions)
+    return _node_end(mesh, _snap(mesh, x, point))
 
 
 #: the operation of each method of an excision and an incision
