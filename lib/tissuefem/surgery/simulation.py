@@ -64,25 +64,12 @@ class Simulation:
         self._linear_choice = linear_solver or scene.solver["linear_solver"]
         self._constant_tangent = bool(constant_tangent)
         self.material = scene.build_material()
-        mesh = scene.build_mesh()
-        handles = []
-        for i, h in enumerate(scene.effects.get("handles", [])):
-            nodes = region_nodes(mesh, h["region"], f"effects.handles[{i}].region")
-            handles.append(Handle(nodes, h["target"], name=h["name"]))
-        if not handles and not scene.dynamic:
-            raise ValueError("effects.handles: a quasistatic scene needs at least one handle (e.g. a fixed edge), "
-                             "or the body floats freely")
-        if (scene.effects.get("excisions") or scene.effects.get("incisions")) and order != 1:
-            raise ValueError("solver: excisions and incisions need P1 elements (order=1)")
+        self.model = _scene_model(scene, self.material, order, intorder)
         self._grab_count = self._probe_count = 0
         #: pieces lifted out because nothing held them (quasistatic scenes only; see _drop_loose_pieces)
         self.removed_pieces = 0
         self._regions = {}  # where the material of each element cut through lies (its weight: model.weights)
         self.solver = None
-        terms = [factory(name, params, scene) for name, params in scene.effects.items()
-                 if name in EFFECTS and not EFFECTS[name].placed]
-        self.model = Model(mesh, self.material, order=order, intorder=intorder, handles=handles,
-                           density=scene.material["density"], terms=terms)
         for kind, key in (("excisions", "polygon"), ("incisions", "path")):
             for i, e in enumerate(scene.effects.get(kind, [])):
                 operation = _OPERATIONS[kind][e.get("method", "elements")]
@@ -100,17 +87,9 @@ class Simulation:
                         _field=f"effects.sutures[{i}]")
 
     # ------------------------------------------------------------------ building
-    @property
-    def dynamic(self) -> bool:
-        return self.scene.dynamic
-
-    @property
-    def mesh(self):
-        return self.model.mesh
-
-    @property
-    def order(self) -> int:
-        return self.model.order
+    dynamic = property(lambda self: self.scene.dynamic, doc="Whether the scene names inertia.")
+    mesh = property(lambda self: self.model.mesh, doc="The current mesh (cuts and excisions change it).")
+    order = property(lambda self: self.model.order, doc="The elements' order (1: P1).")
 
     @property
     def handles(self) -> dict:
@@ -124,17 +103,10 @@ class Simulation:
             # a constant Hessian: one factorization per held set is exact (with the named direct backend)
             base = choice.removeprefix("reuse-")
             choice = "constant" if base in ("reuse", "direct", "background", "superlu") else f"constant-{base}"
-        solver = RealtimeSolver(model, linear_solver=choice, budget=settings["budget"], rtol=settings["rtol"],
-                                clock=self.clock, max_iterations=settings["max_iterations"])
+        self.solver = RealtimeSolver(model, linear_solver=choice, budget=settings["budget"], rtol=settings["rtol"],
+                                     clock=self.clock, max_iterations=settings["max_iterations"])
         if old is not None:
-            u, v, v_prev = state if state is not None else (old.u.copy(), old.v.copy(), old.v_previous)
-            solver.set_state(u, v if model.dynamic else None, v_previous=v_prev if model.dynamic else None,
-                             time_=old.time, steps=old.steps)
-            solver.budget = old.budget
-            if old.dt is not None:
-                solver.dt = old.dt
-            solver.last_report = old.last_report
-        self.solver = solver
+            _carry_state(old, self.solver, state)
 
     def _set_terms(self, terms) -> None:
         """The running model with ``terms`` (a probe or stitches added or removed), and a solver for it."""
@@ -175,21 +147,10 @@ class Simulation:
             names = names[:i] + [f"inversion ({self.scene.effects['inversion']['method']})"] + names[i:]
         return names
 
-    @property
-    def u(self):
-        return self.solver.u
-
-    @property
-    def v(self):
-        return self.solver.v
-
-    @property
-    def frames(self) -> int:
-        return self.solver.steps
-
-    @property
-    def time(self) -> float:
-        return self.solver.time
+    u = property(lambda self: self.solver.u, doc="The displacement (a dof vector).")
+    v = property(lambda self: self.solver.v, doc="The velocity (a dof vector).")
+    frames = property(lambda self: self.solver.steps, doc="Frames run so far.")
+    time = property(lambda self: self.solver.time, doc="Simulated seconds so far.")
 
     def frame(self, targets=None):
         """One frame. ``targets``: ``{handle name: translation (dx, dy) or map}`` (others keep theirs).
@@ -344,38 +305,18 @@ class Simulation:
     def _apply_edit(self, operation, argument, field):
         """Apply a cut or an excision (all or nothing) and carry the model and the state to its mesh."""
         running = self.solver is not None
-        material = dict(weights=self.model.weights, regions=self._regions)
         try:
-            if operation in (topology.incise, element_cuts.cut_through):  # where the user drew, on the deformed tissue
-                options = material if operation is element_cuts.cut_through else {}
-                edit = operation(self.mesh, argument, self.positions() if running else None, **options)
-            else:  # an outline in reference coordinates, or a mask
-                edit = operation(self.mesh, argument, None, **material) if operation is element_cuts.excise_through \
-                    else operation(self.mesh, argument)
+            edit = _edit(operation, self.mesh, argument, self.positions() if running else None, self.model.weights,
+                         self._regions)
         except ValueError as err:
             raise ValueError(f"{field}: {err}") from None
         with self._transaction():
-            weights, regions = _material_after(edit, self.model.weights, self._regions)
-            stages = [(edit, regions)]
-            if not self.dynamic:
-                stitches = self.model.sutures
-                ends = None if stitches is None else Stitches.carry(stitches.ends_spec(), edit, regions)
-                edit, kept, pieces = _drop_loose_pieces(edit, None if ends is None else ends["elements"],
-                                                        self.model.handles)
-                self.removed_pieces += pieces
-                if kept is not None:  # the elements that stay, of those the edit made
-                    weights = None if weights is None else weights[kept]
-                    regions = {int(new): regions[int(old)] for new, old in enumerate(kept.tolist())
-                               if int(old) in regions}
-                    stages.append((_Kept(kept), regions))
-            carried = _Carried(mesh=edit.mesh, parent=edit.parent, elements=edit.elements,
-                               n_old_nodes=edit.n_old_nodes, n_old_elements=edit.n_old_elements, weights=weights,
-                               regions=regions, stages=tuple(stages))
+            edit, carried, pieces = _carried(edit, self.model, self._regions, keep_loose=self.dynamic)
+            self.removed_pieces += pieces
             s = self.solver
             model, state = self.model.remapped(carried, () if not running else (s.u, s.v, s.v_previous))
             self._check_held(model.handles)
-            self.model = model
-            self._regions = regions
+            self.model, self._regions = model, carried.regions
             if running:
                 self._new_solver(state)
         return edit
@@ -510,6 +451,67 @@ class _Kept:
     """The elements that stay after lifting out loose pieces (``elements[new] = old``), as an edit shows them."""
 
     elements: np.ndarray
+
+
+def _scene_model(scene, material, order, intorder) -> Model:
+    """The model of a scene on its mesh: its handles, and a term for every effect of the registry it names
+    (probes and sutures are placed afterwards, by the simulation's operations)."""
+    mesh = scene.build_mesh()
+    handles = []
+    for i, h in enumerate(scene.effects.get("handles", [])):
+        nodes = region_nodes(mesh, h["region"], f"effects.handles[{i}].region")
+        handles.append(Handle(nodes, h["target"], name=h["name"]))
+    if not handles and not scene.dynamic:
+        raise ValueError("effects.handles: a quasistatic scene needs at least one handle (e.g. a fixed edge), "
+                         "or the body floats freely")
+    if (scene.effects.get("excisions") or scene.effects.get("incisions")) and order != 1:
+        raise ValueError("solver: excisions and incisions need P1 elements (order=1)")
+    terms = [factory(name, params, scene) for name, params in scene.effects.items()
+             if name in EFFECTS and not EFFECTS[name].placed]
+    return Model(mesh, material, order=order, intorder=intorder, handles=handles, density=scene.material["density"],
+                 terms=terms)
+
+
+def _carry_state(old, solver, state=None) -> None:
+    """The state of the solver ``old`` (or ``state``: ``u, v, v_previous`` on the new model) in ``solver``: time,
+    frames, budget, time step and last report too."""
+    u, v, v_prev = state if state is not None else (old.u.copy(), old.v.copy(), old.v_previous)
+    dynamic = solver.model.dynamic
+    solver.set_state(u, v if dynamic else None, v_previous=v_prev if dynamic else None, time_=old.time,
+                     steps=old.steps)
+    solver.budget = old.budget
+    if old.dt is not None:
+        solver.dt = old.dt
+    solver.last_report = old.last_report
+
+
+def _edit(operation, mesh, argument, positions, weights, regions):
+    """The edit of ``mesh`` by ``operation`` (with the material cut through so far, where it takes it)."""
+    if operation in (topology.incise, element_cuts.cut_through):  # where the user drew, on the deformed tissue
+        options = dict(weights=weights, regions=regions) if operation is element_cuts.cut_through else {}
+        return operation(mesh, argument, positions, **options)
+    if operation is element_cuts.excise_through:  # an outline in reference coordinates
+        return operation(mesh, argument, None, weights=weights, regions=regions)
+    return operation(mesh, argument)
+
+
+def _carried(edit, model, regions, keep_loose):
+    """``(edit, map, pieces)``: the edit (with the pieces nothing holds lifted out unless ``keep_loose``), the map
+    the model is carried by (the material's weights and regions after it, the stages of its stitches) and how
+    many pieces were lifted out."""
+    weights, regions = _material_after(edit, model.weights, regions)
+    stages, pieces = [(edit, regions)], 0
+    if not keep_loose:
+        stitches = model.sutures
+        ends = None if stitches is None else Stitches.carry(stitches.ends_spec(), edit, regions)
+        edit, kept, pieces = _drop_loose_pieces(edit, None if ends is None else ends["elements"], model.handles)
+        if kept is not None:  # the elements that stay, of those the edit made
+            weights = None if weights is None else weights[kept]
+            regions = {int(new): regions[int(old)] for new, old in enumerate(kept.tolist()) if int(old) in regions}
+            stages.append((_Kept(kept), regions))
+    carried = _Carried(mesh=edit.mesh, parent=edit.parent, elements=edit.elements, n_old_nodes=edit.n_old_nodes,
+                       n_old_elements=edit.n_old_elements, weights=weights, regions=regions, stages=tuple(stages))
+    return edit, carried, pieces
 
 
 def _new_stitches(mesh, x, pairs, k, field, check_point, weights, regions) -> dict:
