@@ -230,7 +230,8 @@ def _body_force(model, p, scene):
 def _check_traction(field, e):
     e = table(field, e, ("boundary", "traction"))
     require(field, e, ("boundary", "traction"))
-    return {"boundary": string(f"{field}.boundary", e["boundary"], nonempty=True), "traction": vector(f"{field}.traction", e["traction"], FORCE_MAX)}
+    return {"boundary": string(f"{field}.boundary", e["boundary"], nonempty=True),
+            "traction": vector(f"{field}.traction", e["traction"], FORCE_MAX)}
 
 
 def _tractions(model, entries, scene):

@@ -49,9 +49,8 @@ class Simulation:
     linear_solver
         Overrides the scene's ``solver.linear_solver``.
     constant_tangent
-        Run a quadratic model with the ``"constant"`` linear solver (default: one factorization per set of held
-        dofs, then one back-substitution a frame); ``False`` forces the general Newton loop (to measure what the
-        shortcut saves).
+        Run a quadratic model with the ``"constant"`` linear solver (one factorization per set of held dofs);
+        ``False`` forces the general Newton loop (to measure what the shortcut saves).
     order, intorder
         The model's elements (cuts and excisions need P1) and quadrature degree.
     """
@@ -171,23 +170,15 @@ class Simulation:
         return check_reach(field, check_vector(field, point), self.model.middle, self.model.size)
 
     def _radius(self, field, radius) -> float:
-        """A radius within ``RADIUS_RANGE`` domain sizes: what a penalty ``~ 1 / r^2`` can be computed for."""
-        r = number(field, radius, positive=True)
-        lo, hi = RADIUS_RANGE[0] * self.model.size, RADIUS_RANGE[1] * self.model.size
-        if not lo <= r <= hi:
-            raise ValueError(f"{field} = {r:g} must lie within [{RADIUS_RANGE[0]:g}, {RADIUS_RANGE[1]:g}] domain "
-                             f"sizes, i.e. [{lo:g}, {hi:g}]")
-        return r
+        return _check_radius(field, radius, self.model.size)
 
     @property
     def picture(self):
         """What to draw (:class:`~tissuefem.surgery.element_cuts.Picture`): the triangles, and for elements cut
         through, the material they carry (built once per mesh)."""
-        cached = getattr(self, "_picture", None)
-        if cached is None or cached[0] is not self.mesh:
-            cached = (self.mesh, element_cuts.picture(self.mesh, self._regions))
-            self._picture = cached
-        return cached[1]
+        if getattr(self, "_picture", (None,))[0] is not self.mesh:
+            self._picture = (self.mesh, element_cuts.picture(self.mesh, self._regions))
+        return self._picture[1]
 
     def positions(self) -> np.ndarray:
         """Deformed node positions ``x = X + u`` ``(2, n_nodes)``."""
@@ -238,6 +229,7 @@ class Simulation:
         h.move(point - (np.zeros(2) if h.anchor is None else h.anchor))
 
     def handle_offset(self, name) -> np.ndarray:
+        """The handle's target if it is a translation (a copy), else ``None``."""
         t = self.model.handle(name).target
         return None if callable(t) else t.copy()
 
@@ -286,10 +278,9 @@ class Simulation:
         return label
 
     def _probe(self, label):
-        if isinstance(label, str):  # labels are strings: anything else (an array, a list) names no probe
-            for p in self.model.probes:
-                if p.label == label:
-                    return p
+        for p in self.model.probes if isinstance(label, str) else ():  # labels are strings (not arrays, lists)
+            if p.label == label:
+                return p
         raise ValueError(f"no probe named {label!r:.100}; probes: {[p.label for p in self.model.probes]}")
 
     def move_probe(self, label, center) -> None:
@@ -326,9 +317,8 @@ class Simulation:
 
         ``method="elements"`` (default) cuts through the elements along the stroke (the virtual node
         algorithm, :func:`~tissuefem.surgery.element_cuts.cut_through`); ``"edges"`` snaps it to mesh edges
-        and duplicates their nodes (:func:`~tissuefem.surgery.topology.incise`: jagged, kept to compare).
-        Each copy of a node keeps its displacement and velocity. Returns the edit
-        (:class:`~tissuefem.surgery.element_cuts.ElementCut` or :class:`~tissuefem.surgery.topology.MeshEdit`).
+        (:func:`~tissuefem.surgery.topology.incise`: jagged, kept to compare). Each copy of a node keeps its
+        displacement and velocity. Returns the edit (a :class:`~tissuefem.engine.meshes.MeshMap`).
         """
         operation = _operation("incisions", method)
         points = _polyline(polyline)
@@ -451,6 +441,16 @@ class _Kept:
     """The elements that stay after lifting out loose pieces (``elements[new] = old``), as an edit shows them."""
 
     elements: np.ndarray
+
+
+def _check_radius(field, radius, size) -> float:
+    """A radius within ``RADIUS_RANGE`` domain sizes: what a penalty ``~ 1 / r^2`` can be computed for."""
+    r = number(field, radius, positive=True)
+    lo, hi = RADIUS_RANGE[0] * size, RADIUS_RANGE[1] * size
+    if not lo <= r <= hi:
+        raise ValueError(f"{field} = {r:g} must lie within [{RADIUS_RANGE[0]:g}, {RADIUS_RANGE[1]:g}] domain "
+                         f"sizes, i.e. [{lo:g}, {hi:g}]")
+    return r
 
 
 def _scene_model(scene, material, order, intorder) -> Model:
