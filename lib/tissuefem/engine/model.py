@@ -1,29 +1,29 @@
 """The model: a body and exactly the terms acting on it, with the handles that hold it.
 
 A :class:`Model` is a mesh with a displacement basis (P1 or P2), a material, and a list of
-terms (:mod:`tissuefem.engine.terms`). Its potential is their sum,
+terms (:mod:`tissuefem.engine.terms`, made by :mod:`tissuefem.engine.effects`). Its potential is their sum,
 
     E(u) = W(u) [+ fibres] [+ probe] [+ sutures] [+ contact] [- f . u] [+ 1/(2 dt^2) |u - u~|_M^2],
 
 with nothing evaluated -- or even built -- for an effect it was not given (without ``dt``
 no inertia term and no mass matrix). Chapters 3 to 9, the scenes and the surgery layer
-all use this one class; :mod:`tissuefem.engine.stepping` minimises its potential.
+all use this one class; :mod:`tissuefem.engine.stepping` minimises its potential, and
+:meth:`Model.remapped` carries it across a cut or an excision.
 
 Handles are constraints, not terms: a :class:`Handle` holds a region of the body (a
 boundary, a box, the nodes near a point, a mask, or node indices; :func:`region_nodes`)
-at prescribed positions; its target (a translation or a map ``X -> x``) is the user input
-a frame reads, checked where it enters (:meth:`Handle.move`, :meth:`Model.set_targets`):
-a refused target changes nothing.
+at prescribed positions. Its target is a displacement (a translation ``(dx, dy)`` or a map
+``X -> x``), checked where it enters (:meth:`Handle.move`, :meth:`Model.set_targets`): a
+refused target changes nothing.
 
 Every term's Hessian goes into one fixed sparsity pattern (:class:`Pattern`): the
 assembler's, widened where a term couples dofs the mesh does not (sutures), so Newton's
 matrices share their index arrays and the linear solver condenses them by a precomputed
-gather. A term whose couplings change with the state (self-contact,
-:mod:`tissuefem.engine.contact`) says when the pattern no longer holds them (``covers``);
-:meth:`Model.hessian` then rebuilds the pattern (the linear solver condenses afresh; a kept
-factorization stays a valid preconditioner). Such a term may also limit how far a step
-may go (``max_step``) and note where a step starts (``begin_step``); the model offers
-these hooks to the stepper and the minimiser only when a term has them.
+gather. A term whose couplings change with the state (self-contact) says when the pattern
+no longer holds them (``covers``); :meth:`Model.hessian` then rebuilds it (the linear solver
+condenses afresh; a kept factorization stays a valid preconditioner). The model calls a
+term's hooks (``covers``, ``max_step``, ``begin_step``/``end_step``) only where its class
+overrides the default: a model without such a term pays nothing for them.
 """
 
 from __future__ import annotations
