@@ -38,10 +38,9 @@ from ..engine.constants import FRAME_BUDGET, TISSUE_DENSITY, TISSUE_E, TISSUE_NU
 from ..engine.inversion import ITFClamped, ProjectedTangent
 from ..engine.linsolve import LinearSolver
 from ..engine.effects import EFFECTS as EFFECTS_REGISTRY
-from ..engine.effects import (FAR, FIBER_STIFFNESS_RANGE, MAX_POINTS, MAX_STRING, count_list, is_sequence, number,
-                              points, require, show, string, table, vector)
-from ..engine.parameters import (ACCELERATION_MAX, DENSITY_RANGE, FORCE_MAX, PENALTY_MAX, RADIUS_RANGE, REACH,
-                                 YOUNGS_MODULUS_RANGE, ParameterError, check_poisson_ratio)
+from ..engine.effects import FAR, count_list, is_sequence, number, points, require, show, string, table, vector
+from ..engine.parameters import (DENSITY_RANGE, RADIUS_RANGE, REACH, YOUNGS_MODULUS_RANGE, ParameterError,
+                                 check_poisson_ratio)
 
 __all__ = ["Scene", "EFFECTS", "SHAPES", "EXAMPLE_TOML", "demo_scene", "flap_scene", "flap_path", "read_mesh"]
 
@@ -61,19 +60,10 @@ SHAPES = ("rectangle", "flap", "fusiform", "file")
 #: the list-valued effects of the scene's own (each entry is a table); the registry's say whether they are
 _LISTS = ("handles", "excisions", "incisions")
 
-
-def _listed(kind) -> bool:
-    return kind in _LISTS or (kind in EFFECTS_REGISTRY and EFFECTS_REGISTRY[kind].listed)
-
 # --- limits (the table in docs/scenes.md) -----------------------------------------------------------------------
 #: triangles of a generated domain (and of a mesh file); lengths of a generated domain, and ``domain.scale``;
 #: the largest aspect ratio of a domain, either way round
 MAX_TRIANGLES, SIZE_RANGE, MAX_ASPECT = meshes.MAX_TRIANGLES, meshes.SIZE_RANGE, meshes.MAX_ASPECT
-#: bounds on each component of ``effects.gravity.acceleration`` and of a traction (a stress, like Young's modulus):
-#: the engine's (as is the density's range, ``DENSITY_RANGE``)
-MAX_ACCELERATION, MAX_TRACTION = ACCELERATION_MAX, FORCE_MAX
-#: the largest penalty stiffness of a probe, a suture or the contact (the engine's)
-MAX_PENALTY_STIFFNESS = PENALTY_MAX
 THRESHOLD_RANGE = (0.01, 0.99)
 BUDGET_RANGE = (1e-6, 1e9)
 RTOL_RANGE = (1e-14, 0.5)
@@ -231,6 +221,10 @@ def _check_region(field, r):
                           for i, n in enumerate(nodes)]}
     raise ValueError(f"{field} must be a boundary name or a table with 'box', 'near' (+ 'radius') or 'nodes', "
                      f"got {show(r)}")
+
+
+def _listed(kind) -> bool:
+    return kind in _LISTS or (kind in EFFECTS_REGISTRY and EFFECTS_REGISTRY[kind].listed)
 
 
 def _check_entry(kind, i, e):
