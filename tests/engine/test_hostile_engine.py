@@ -101,9 +101,11 @@ def stepper_state(s):
 
 
 def sim_state(sim):
-    sutures = None if sim._sutures is None else tuple((k, _bytes(v)) for k, v in sorted(sim._sutures.items()))
+    stitches = sim.model.sutures
+    sutures = None if stitches is None else tuple((k, _bytes(v)) for k, v in sorted(stitches.ends_spec().items()))
+    probes = repr([(p.label, p.center.tolist(), p.radius, p.stiffness) for p in sim.model.probes])
     return (stepper_state(sim.solver), id(sim.model), id(sim.solver), id(sim.mesh), _bytes(sim.mesh.p),
-            _bytes(sim.mesh.t), repr(sim._probe_specs), sutures, sim.removed_pieces, sim._grab_count,
+            _bytes(sim.mesh.t), probes, sutures, sim.removed_pieces, sim._grab_count,
             sim._probe_count, sim.frames, sim.time)
 
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from tissuefem import Handle, Model, P1Assembler, RealtimeSolver, Scene, Simulation, StableNeoHookean, demo_scene, rectangle
-from tissuefem.engine import model as model_module
+from tissuefem.engine import effects as effects_module
 from tissuefem.engine import terms as terms_module
 from tissuefem.surgery.scene import EFFECTS, EXAMPLE_TOML
 
@@ -173,7 +173,7 @@ def test_an_absent_effect_is_never_evaluated(monkeypatch):
         monkeypatch.setattr(terms_module, name, forbidden)
     monkeypatch.setattr(terms_module.Probe, "_contact", forbidden)
     monkeypatch.setattr(terms_module.Sutures, "_gap", forbidden)
-    monkeypatch.setattr(model_module, "traction_vector", forbidden)  # no traction
+    monkeypatch.setattr(effects_module, "traction_vector", forbidden)  # no traction
     monkeypatch.setattr(P1Assembler, "body_force", forbidden)  # no gravity
     monkeypatch.setattr(P1Assembler, "mass", forbidden)  # quasistatic: no mass matrix
     sim = run(sheet(), frames=3)

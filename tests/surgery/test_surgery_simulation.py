@@ -314,8 +314,7 @@ def test_the_constant_factorisation_follows_a_new_time_step():
     data = dict(dynamic=True, gravity=True, model="linear")
     fast, newton = make(**data), make(**data)
     newton._constant_tangent = False
-    newton._save_state()
-    newton._rebuild()
+    newton._new_solver()
     for sim in (fast, newton):
         sim.run(3)
         sim.solver.dt = 0.2

@@ -100,7 +100,7 @@ def test_crossing_cuts_through_elements_keep_the_mass_and_a_valid_state():
     sim.cut([[0.3, 0.9], [0.6, 0.5], [0.9, 0.7]])  # bends, through vertices or not
     assert sim.total_mass() == pytest.approx(mass, rel=1e-12)
     np.testing.assert_allclose(sim.momentum(), momentum, rtol=1e-11, atol=1e-13)
-    weights = sim._weights
+    weights = sim.model.weights
     assert weights is not None and np.all(weights > 0) and np.all(weights <= 1)
     used = np.zeros(sim.mesh.nvertices, dtype=bool)
     used[sim.mesh.t.ravel()] = True

@@ -1,29 +1,29 @@
 """The model: a body and exactly the terms acting on it, with the handles that hold it.
 
 A :class:`Model` is a mesh with a displacement basis (P1 or P2), a material, and a list of
-terms (:mod:`tissuefem.engine.terms`). Its potential is their sum,
+terms (:mod:`tissuefem.engine.terms`, made by :mod:`tissuefem.engine.effects`). Its potential is their sum,
 
     E(u) = W(u) [+ fibres] [+ probe] [+ sutures] [+ contact] [- f . u] [+ 1/(2 dt^2) |u - u~|_M^2],
 
 with nothing evaluated -- or even built -- for an effect it was not given (without ``dt``
 no inertia term and no mass matrix). Chapters 3 to 9, the scenes and the surgery layer
-all use this one class; :mod:`tissuefem.engine.stepping` minimises its potential.
+all use this one class; :mod:`tissuefem.engine.stepping` minimises its potential, and
+:meth:`Model.remapped` carries it across a cut or an excision.
 
 Handles are constraints, not terms: a :class:`Handle` holds a region of the body (a
 boundary, a box, the nodes near a point, a mask, or node indices; :func:`region_nodes`)
-at prescribed positions; its target (a translation or a map ``X -> x``) is the user input
-a frame reads, checked where it enters (:meth:`Handle.move`, :meth:`Model.set_targets`):
-a refused target changes nothing.
+at prescribed positions. Its target is a displacement (a translation ``(dx, dy)`` or a map
+``X -> x``), checked where it enters (:meth:`Handle.move`, :meth:`Model.set_targets`): a
+refused target changes nothing.
 
 Every term's Hessian goes into one fixed sparsity pattern (:class:`Pattern`): the
 assembler's, widened where a term couples dofs the mesh does not (sutures), so Newton's
 matrices share their index arrays and the linear solver condenses them by a precomputed
-gather. A term whose couplings change with the state (self-contact,
-:mod:`tissuefem.engine.contact`) says when the pattern no longer holds them (``covers``);
-:meth:`Model.hessian` then rebuilds the pattern (the linear solver condenses afresh; a kept
-factorization stays a valid preconditioner). Such a term may also limit how far a step
-may go (``max_step``) and note where a step starts (``begin_step``); the model offers
-these hooks to the stepper and the minimiser only when a term has them.
+gather. A term whose couplings change with the state (self-contact) says when the pattern
+no longer holds them (``covers``); :meth:`Model.hessian` then rebuilds it (the linear solver
+condenses afresh; a kept factorization stays a valid preconditioner). The model calls a
+term's hooks (``covers``, ``max_step``, ``begin_step``/``end_step``) only where its class
+overrides the default: a model without such a term pays nothing for them.
 """
 
 from __future__ import annotations
@@ -33,11 +33,12 @@ import scipy.sparse as sp
 
 from .assembly import make_assembler
 from .constants import TISSUE_DENSITY
-from .contact import Contact, ContactSurface
-from .parameters import (ACCELERATION_MAX, FORCE_MAX, REACH, check_bounded_vector, check_count, check_density,
-                         check_real)
-from .terms import (Elastic, ElementTerm, Fibers, Inertia, Load, Probe, Sutures, Term, _extent, _SafeView,
-                    _SummedDensity, check_vector, traction_vector)
+from .contact import Contact
+from .effects import as_terms, keyword_terms
+from .parameters import (REACH, ParameterError, check_bounded_vector, check_count, check_density, check_real,
+                         check_vector)
+from .terms import (Elastic, ElementTerm, Inertia, Load, Probe, SafeView, SummedDensity, Sutures, Term,
+                    boundary_lengths, extent)
 
 __all__ = ["Model", "Handle", "Pattern", "region_nodes"]
 
@@ -193,17 +194,6 @@ class Handle:
         """Set a new target (a translation or a map): user input enters here, checked; a refusal keeps the old."""
         self.target = _check_target(target, self._points, f"handle {self.name!r} target", self._reach)
 
-    def positions(self, X) -> np.ndarray:
-        """Deformed positions ``x`` of the reference points ``X`` ``(2, n)`` under the target."""
-        if callable(self.target):
-            return np.asarray(self.target(X), dtype=float)
-        return X + self.target[:, None]
-
-    def displacement(self, X, base=None) -> np.ndarray:
-        """Prescribed displacement ``(2, n)`` of the points ``X``: ``base + phi(X) - X``."""
-        u = self.positions(X) - X
-        return u if base is None else base + u
-
     def remap(self, parent) -> "Handle | None":
         """The same handle on a mesh whose node ``i`` comes from old node ``parent[i]`` (after a cut or an
         excision): every copy of a held node is held, with its parent's base displacement. ``None`` if none
@@ -307,18 +297,6 @@ class Pattern:
 
 # ------------------------------------------------------------------------------------------------ the model
 
-def _check_keys(field, spec, required, optional=()) -> None:
-    """``spec`` is a dict with the ``required`` keys and no others than those and ``optional``."""
-    if not isinstance(spec, dict):
-        raise ValueError(f"{field} must be a dict with keys {', '.join(required + optional)}, got {spec!r}")
-    missing = [k for k in required if k not in spec]
-    unknown = [k for k in spec if k not in required + optional]
-    if missing or unknown:
-        raise ValueError(f"{field}: " + "; ".join(
-            ([f"missing {', '.join(map(str, missing))}"] if missing else [])
-            + ([f"unknown keys {unknown!r} (allowed: {', '.join(required + optional)})"] if unknown else [])))
-
-
 def _check_material_at_rest(assembler, material) -> None:
     """The material answers for the model's own ``F`` at rest with finite arrays of the right shapes, so that a
     wrong object is refused where it enters rather than in the middle of a step."""
@@ -340,338 +318,18 @@ def _check_material_at_rest(assembler, material) -> None:
                              f"dtype {value.dtype} shape {value.shape}")
 
 
-def _boundary_lengths(mesh) -> np.ndarray:
-    """Each vertex's share of the boundary's length: half of every boundary edge it ends (0 inside)."""
-    facets = mesh.facets[:, mesh.boundary_facets()]
-    d = mesh.p[:, facets[1]] - mesh.p[:, facets[0]]
-    half = 0.5 * np.hypot(d[0], d[1])
-    return np.bincount(facets.ravel(), weights=np.concatenate([half, half]), minlength=mesh.nvertices)
+def _overrides(term, hook) -> bool:
+    return getattr(type(term), hook) is not getattr(Term, hook)
 
 
-def _named_tractions(tractions):
-    if tractions is None:
-        return []
-    bad = ValueError(f"tractions must be {{boundary: (tx, ty)}} or [(boundary, (tx, ty)), ...], got {tractions!r:.200}")
-    try:
-        items = list(tractions.items() if isinstance(tractions, dict) else tractions)
-    except TypeError:
-        raise bad from None
-    out = []
-    for item in items:
-        try:
-            name, t = item
-        except (TypeError, ValueError):
-            raise bad from None
-        if not isinstance(name, str):
-            raise ValueError(f"tractions: a boundary is named by a string, got {name!r}")
-        out.append((name, t))
-    return out
+class Holding:
+    """The handles of a :class:`Model`: the part of it that holds the body at prescribed positions.
 
-
-def _contact_term(X, mesh, spec) -> Contact:
-    """The :class:`~tissuefem.engine.contact.Contact` term of a ``contact`` dict."""
-    if not isinstance(spec, dict):
-        raise ValueError(f"contact must be a dict (distance, stiffness[, surface, skin]), got {spec!r}")
-    unknown = sorted(set(spec) - {"distance", "stiffness", "surface", "skin"})
-    if unknown:
-        raise ValueError(f"contact: unknown key(s) {unknown}; allowed: distance, stiffness, surface, skin")
-    for key in ("distance", "stiffness"):
-        if key not in spec:
-            raise ValueError(f"contact.{key}: missing")
-    surface = spec.get("surface")
-    if surface is None:
-        surface = ContactSurface.from_mesh(mesh)
-    return Contact(X, surface, spec["distance"], spec["stiffness"], spec.get("skin"))
-
-
-class Model:
-    """A hyperelastic body (mesh, displacement basis, material) and exactly the terms acting on it.
-
-    Parameters
-    ----------
-    mesh : skfem.MeshTri
-        Straight-sided triangles, either orientation; degenerate or folded meshes are refused.
-    material
-        A material of :mod:`tissuefem.engine.materials` (or a wrapper of
-        :mod:`tissuefem.engine.inversion`): the :class:`~tissuefem.engine.terms.Elastic` term.
-    order, intorder, assembly
-        P1 or P2; the quadrature degree (default ``2 order``); ``"fast"`` (vectorised) or
-        ``"forms"`` (the readable scikit-fem forms, for reference).
-    handles
-        :class:`Handle` objects (prescribed positions).
-    dt, density, mass
-        With ``dt`` (seconds): backward Euler's inertia term with the ``"lumped"`` or
-        ``"consistent"`` mass of ``density``. Without: quasistatic (no mass matrix is built).
-    gravity, body_force, tractions
-        Constant :class:`~tissuefem.engine.terms.Load` terms: gravity ``(gx, gy)`` (the body
-        force ``density * g``), a body force per unit reference area ``(bx, by)``, tractions
-        ``{boundary: (tx, ty)}`` (force per unit reference length).
-    fibers, probes, sutures, contact
-        ``(stiffness, directions)`` (directions ``(2,)`` or ``(2, n_elements)``): a
-        :class:`~tissuefem.engine.terms.Fibers` term; dicts ``center, radius, stiffness[, label]``:
-        :class:`~tissuefem.engine.terms.Probe` terms; a dict ``pairs, stiffness, gaps[, tightness]``:
-        a :class:`~tissuefem.engine.terms.Sutures` term; a dict ``distance, stiffness[, surface, skin]``:
-        a :class:`~tissuefem.engine.contact.Contact` term (self-contact of ``surface``, default
-        the mesh's boundary).
-    weights
-        Optional per-element material fractions (elements cut through carry part of their triangle).
+    Each handle's region is resolved to nodes and dofs when the model takes it (:meth:`add_handle`);
+    its target enters checked (:meth:`Handle.move`, :meth:`set_targets`), and :meth:`prescribed`
+    gives the stepper the held dofs and their displacements.
     """
 
-    def __init__(self, mesh, material, *, order: int = 1, intorder: int | None = None, assembly: str = "fast",
-                 handles=(), dt=None, density=TISSUE_DENSITY, mass: str = "lumped", gravity=None,
-                 body_force=None, tractions=None, fibers=None, probes=(), sutures=None, contact=None, weights=None):
-        order = check_count("order", order, 1, 2)
-        try:
-            handles = list(handles)
-        except TypeError:
-            raise ValueError(f"handles must be a sequence of Handle objects, got {handles!r}") from None
-        try:
-            probes = list(probes)
-        except TypeError:
-            raise ValueError(f"probes must be a sequence of dicts (center, radius, stiffness[, label]), "
-                             f"got {probes!r}") from None
-        self.mesh = mesh
-        self.order = order
-        self.basis, self.assembler = make_assembler(mesh, order=order, intorder=intorder, assembly=assembly,
-                                                    weights=weights)
-        n = self.basis.N
-        if not np.array_equal(self.basis.nodal_dofs, np.arange(2 * mesh.nvertices).reshape(-1, 2).T):
-            raise RuntimeError("unexpected dof numbering of the vector basis")
-        self.n_dofs = n
-        self.X = np.asarray(mesh.p, dtype=float)
-        self.middle, self.size = _extent(self.X)  # the domain's centre and size L (what "reach" is measured in)
-        self.density = check_density(density)
-        self.material = material
-        # which component each dof carries, and where it sits
-        self.component = np.empty(n, dtype=np.intp)
-        self.component[self.basis.nodal_dofs] = [[0], [1]]
-        if order == 2:
-            self.component[self.basis.facet_dofs] = [[0], [1]]
-        self.dof_points = np.asarray(self.basis.doflocs, dtype=float)
-        # lumped boundary length per vertex: half of each boundary edge it ends (a probe's surface weights)
-        self.boundary_lengths = _boundary_lengths(mesh)
-
-        terms: list[Term] = [Elastic(self.assembler, material)]
-        _check_material_at_rest(self.assembler, material)
-        if fibers is not None:
-            try:
-                stiffness, directions = fibers
-            except (TypeError, ValueError):
-                raise ValueError(f"fibers must be (stiffness, directions), got {fibers!r}") from None
-            terms.append(Fibers(self.assembler, stiffness, directions))
-        if dt is not None:
-            terms.insert(0, Inertia(self.assembler, dt, self.density, mass))
-        for i, spec in enumerate(probes):
-            _check_keys(f"probes[{i}]", spec, ("center", "radius", "stiffness"), ("label", "smoothing"))
-            terms.append(Probe(self.X, self.boundary_lengths, **spec))
-        if sutures is not None:
-            _check_keys("sutures", sutures, ("pairs", "stiffness", "gaps"), ("tightness", "coefficients"))
-            terms.append(Sutures(self.X, sutures["pairs"], sutures["stiffness"], sutures["gaps"],
-                                 sutures.get("tightness", 0.0), coefficients=sutures.get("coefficients")))
-        if contact is not None:
-            terms.append(_contact_term(self.X, mesh, contact))
-        if gravity is not None:
-            g = check_bounded_vector("gravity", gravity, ACCELERATION_MAX)
-            terms.append(Load("gravity", self.assembler.body_force(self.density * g)))
-        if body_force is not None:
-            b = check_bounded_vector("body_force", body_force, FORCE_MAX)
-            terms.append(Load("body force", self.assembler.body_force(b)))
-        named = _named_tractions(tractions)
-        if named:
-            f = np.zeros(n)
-            for boundary, t in named:
-                f += traction_vector(self.basis, boundary, t)
-            terms.append(Load("tractions", f))
-        self.terms = terms
-        self._build()
-        self.handles: list[Handle] = []
-        for h in handles:
-            self.add_handle(h)
-
-    # ------------------------------------------------------------------ terms and pattern
-    def _build(self):
-        couplings = [c for c in (t.couplings() for t in self.terms) if c is not None]
-        self.pattern = Pattern(self.assembler, self.mesh.nvertices, couplings)
-        for t in self.terms:
-            t.bind(self.pattern)
-        self._element_terms = [t for t in self.terms if isinstance(t, ElementTerm)]
-        self._other_terms = [t for t in self.terms if not isinstance(t, ElementTerm)]
-        densities = [t.density for t in self._element_terms]
-        self._density = densities[0] if len(densities) == 1 else _SummedDensity(densities)
-        # the hooks of terms that change the pattern, limit steps or note a step's start (contact): none, no cost
-        self._pattern_terms = [t for t in self._other_terms if callable(getattr(t, "covers", None))]
-        self._limit_terms = [t for t in self._other_terms if callable(getattr(t, "max_step", None))]
-        self._step_terms = [t for t in self._other_terms if callable(getattr(t, "begin_step", None))]
-
-    def add_term(self, term: Term) -> None:
-        """Add a term (a probe, sutures ...); the pattern is widened if the term needs it. All or nothing."""
-        if not isinstance(term, Term):
-            raise ValueError(f"term must be a Term, got {term!r}")
-        self.terms.append(term)
-        try:
-            self._build()
-        except BaseException:  # whatever went wrong, the model is left as it was
-            self.terms.pop()
-            self._build()
-            raise
-
-    def remove_term(self, term: Term) -> None:
-        """Remove a term the model holds (``ValueError`` if it holds no such term). All or nothing."""
-        index = next((i for i, t in enumerate(self.terms) if t is term), None)
-        if index is None:
-            raise ValueError(f"the model holds no term {term!r}")
-        del self.terms[index]
-        try:
-            self._build()
-        except BaseException:  # the model is left as it was
-            self.terms.insert(index, term)
-            self._build()
-            raise
-
-    def terms_of(self, kind) -> list:
-        return [t for t in self.terms if isinstance(t, kind)]
-
-    def _first(self, kind):
-        return next((t for t in self.terms if isinstance(t, kind)), None)
-
-    @property
-    def inertia(self) -> Inertia | None:
-        """The backward-Euler inertia term, or ``None`` for a quasistatic model."""
-        return self._first(Inertia)
-
-    @property
-    def dynamic(self) -> bool:
-        return self.inertia is not None
-
-    @property
-    def loads(self) -> list[Load]:
-        return self.terms_of(Load)
-
-    @property
-    def probes(self) -> list[Probe]:
-        return self.terms_of(Probe)
-
-    @property
-    def sutures(self) -> Sutures | None:
-        return self._first(Sutures)
-
-    @property
-    def contact(self) -> Contact | None:
-        """The self-contact term, or ``None``."""
-        return self._first(Contact)
-
-    # ------------------------------------------------------------------ step hooks (terms that have them only)
-    @property
-    def step_limit(self):
-        """``None`` when no term limits steps; else ``limit(u, du)``: the largest fraction of the step ``du``
-        from ``u`` that every term allows (contact: no surface passes through another)."""
-        if not self._limit_terms:
-            return None
-        terms = list(self._limit_terms)
-
-        def limit(u, du):
-            return min(t.max_step(u, du) for t in terms)
-
-        return limit
-
-    @property
-    def notes_steps(self) -> bool:
-        """Whether a term wants to know where each step starts (:meth:`begin_step`; self-contact)."""
-        return bool(self._step_terms)
-
-    def begin_step(self, u, previous=None) -> int:
-        """Tell the terms a step starts at ``u`` (reached from the state ``previous`` by the handles' motion);
-        returns the crossings they found (surface points the handles dragged through the surface, which
-        contact ignores until they are back out)."""
-        return sum(int(t.begin_step(u, previous) or 0) for t in self._step_terms)
-
-    def end_step(self) -> None:
-        for t in self._step_terms:
-            t.end_step()
-
-    @property
-    def term_names(self) -> list[str]:
-        """The names of the terms this model evaluates, in order."""
-        return [t.name for t in self.terms]
-
-    def describe(self) -> list[str]:
-        return [t.describe() for t in self.terms]
-
-    @property
-    def has_safe_hessian(self) -> bool:
-        """Whether a term offers a positive semi-definite Hessian besides its exact one."""
-        return (any(hasattr(t.density, "safe_tangent") for t in self._element_terms)
-                or any(t.has_safe_hessian for t in self._other_terms))
-
-    @property
-    def quadratic(self) -> bool:
-        """True when every term is quadratic: the Hessian is constant (linear material, springs, loads)."""
-        return all(t.quadratic for t in self.terms)
-
-    @property
-    def external(self) -> np.ndarray:
-        """The sum of the constant loads (a dof vector)."""
-        f = np.zeros(self.n_dofs)
-        for load in self.loads:
-            f += load.scale * load.vector
-        return f
-
-    # ------------------------------------------------------------------ the potential
-    def energy(self, u) -> float:
-        """The potential ``E(u)``: the sum of every term's energy."""
-        u = self._check_u(u)
-        e = self.assembler.energy(u, self._density)
-        for t in self._other_terms:
-            e += t.energy(u)
-        return e
-
-    def gradient(self, u) -> np.ndarray:
-        """``dE/du``: the residual (internal forces minus loads, plus inertia)."""
-        u = self._check_u(u)
-        g = self.assembler.residual(u, self._density)
-        for t in self._other_terms:
-            g += t.gradient(u)
-        return g
-
-    def hessian(self, u, safe: bool = False) -> sp.csr_matrix:
-        """``d^2E/du^2`` on the model's fixed pattern (the Newton matrix).
-
-        ``safe=True`` takes the positive semi-definite variants where the terms offer one (a
-        :class:`~tissuefem.engine.inversion.ProjectedTangent` with ``adaptive=True``, the probe's
-        normal part): what the minimiser falls back on when the exact Hessian gives no descent
-        direction.
-        """
-        u = self._check_u(u)
-        if self._pattern_terms and not all(t.covers(u) for t in self._pattern_terms):
-            self._build()  # a term's couplings changed (contact pairs): a new pattern, the same terms
-        data = self.pattern.zeros()
-        density = _SafeView(self._density) if safe else self._density
-        self.pattern.add_base(data, self.assembler.tangent(u, density).data)
-        for t in self._other_terms:
-            t.add_hessian(u, data, safe=safe)
-        return self.pattern.csr(data)
-
-    def _stored_terms(self):
-        return [t for t in self.terms if not isinstance(t, (Inertia, Load))]
-
-    def stored_energy(self, u) -> float:
-        """The stored energy of the body and its tools: every term but inertia and the loads."""
-        return sum(t.energy(u) for t in self._stored_terms())
-
-    def internal_force(self, u) -> np.ndarray:
-        """The gradient of :meth:`stored_energy`: the forces the body (and its tools) exert on the nodes."""
-        g = np.zeros(self.n_dofs)
-        for t in self._stored_terms():
-            g += t.gradient(u)
-        return g
-
-    def _check_u(self, u) -> np.ndarray:
-        u = np.asarray(u, dtype=float)
-        if u.shape != (self.n_dofs,):
-            raise ValueError(f"u must be a displacement vector of shape ({self.n_dofs},), got shape {u.shape}")
-        return u
-
-    # ------------------------------------------------------------------ handles
     def _handle_dofs(self, h: Handle, nodes) -> tuple[np.ndarray, np.ndarray]:
         """The dofs a handle holding ``nodes`` holds and the index of each dof's node in ``nodes`` (-1 for P2 edge
         dofs)."""
@@ -805,6 +463,294 @@ class Model:
         q = self.internal_force(u) - self.external
         dofs = np.unique(h._dofs)
         return np.array([q[dofs[self.component[dofs] == i]].sum() for i in range(2)])
+
+
+class Model(Holding):
+    """A hyperelastic body (mesh, displacement basis, material) and exactly the terms acting on it.
+
+    Parameters
+    ----------
+    mesh : skfem.MeshTri
+        Straight-sided triangles, either orientation; degenerate or folded meshes are refused.
+    material
+        A material of :mod:`tissuefem.engine.materials` (or a wrapper of
+        :mod:`tissuefem.engine.inversion`): the :class:`~tissuefem.engine.terms.Elastic` term.
+    order, intorder, assembly
+        P1 or P2; the quadrature degree (default ``2 order``); ``"fast"`` (vectorised) or
+        ``"forms"`` (the readable scikit-fem forms, for reference).
+    terms
+        More terms: :class:`~tissuefem.engine.terms.Term` objects, or factories ``model -> Term``
+        (:func:`tissuefem.engine.effects.factory`) for terms made from the model's own assembly.
+    handles
+        :class:`Handle` objects (prescribed positions).
+    density
+        ``rho0``, mass per unit reference area (inertia, gravity).
+    weights
+        Optional per-element material fractions (elements cut through carry part of their triangle).
+    dt, mass, gravity, body_force, tractions, fibers, probes, sutures, contact
+        Shorthands for the common terms, made by the factories of :mod:`tissuefem.engine.effects`:
+        ``dt`` (seconds) with the ``"lumped"`` or ``"consistent"`` ``mass``: backward Euler's
+        inertia (without: quasistatic, no mass matrix); gravity ``(gx, gy)`` (the body force
+        ``density * g``), a body force per unit reference area ``(bx, by)``, tractions
+        ``{boundary: (tx, ty)}`` (force per unit reference length): loads; ``(stiffness,
+        directions)`` (directions ``(2,)`` or ``(2, n_elements)``): fibres; dicts ``center, radius,
+        stiffness[, label, smoothing]``: probes; a dict ``pairs, stiffness, gaps[, tightness,
+        coefficients]``: sutures; a dict ``distance, stiffness[, surface, skin]``: self-contact of
+        ``surface`` (default the mesh's boundary).
+    """
+
+    def __init__(self, mesh, material, *, order: int = 1, intorder: int | None = None, assembly: str = "fast",
+                 terms=(), handles=(), density=TISSUE_DENSITY, weights=None, dt=None, mass: str = "lumped",
+                 gravity=None, body_force=None, tractions=None, fibers=None, probes=(), sutures=None, contact=None):
+        order = check_count("order", order, 1, 2)
+        try:
+            handles = list(handles)
+        except TypeError:
+            raise ValueError(f"handles must be a sequence of Handle objects, got {handles!r}") from None
+        try:
+            terms = list(terms)
+        except TypeError:
+            raise ParameterError("terms", f"terms must be a sequence of terms, got {terms!r}") from None
+        made = keyword_terms(dt=dt, mass=mass, gravity=gravity, body_force=body_force, tractions=tractions,
+                             fibers=fibers, probes=probes, sutures=sutures, contact=contact)
+        self.mesh, self.order, self.intorder, self.assembly, self.weights = mesh, order, intorder, assembly, weights
+        self.basis, self.assembler = make_assembler(mesh, order=order, intorder=intorder, assembly=assembly,
+                                                    weights=weights)
+        n = self.basis.N
+        if not np.array_equal(self.basis.nodal_dofs, np.arange(2 * mesh.nvertices).reshape(-1, 2).T):
+            raise RuntimeError("unexpected dof numbering of the vector basis")
+        self.n_dofs = n
+        self.X = np.asarray(mesh.p, dtype=float)
+        self.middle, self.size = extent(self.X)  # the domain's centre and size L (what "reach" is measured in)
+        self.density = check_density(density)
+        self.material = material
+        # which component each dof carries, and where it sits
+        self.component = np.empty(n, dtype=np.intp)
+        self.component[self.basis.nodal_dofs] = [[0], [1]]
+        if order == 2:
+            self.component[self.basis.facet_dofs] = [[0], [1]]
+        self.dof_points = np.asarray(self.basis.doflocs, dtype=float)
+        self.boundary_lengths = boundary_lengths(mesh)  # a probe's surface weights
+        elastic = Elastic(self.assembler, material)
+        _check_material_at_rest(self.assembler, material)
+        self.terms = [elastic]
+        for t in made + terms:
+            for term in as_terms(t if isinstance(t, Term) else t(self)):
+                if not isinstance(term, Term):
+                    raise ValueError(f"terms must be Term objects or factories of them, got {term!r}")
+                self.terms.append(term)
+        self.terms.sort(key=lambda t: t.rank)  # stable: the order of the sums is the order given, by rank
+        self._build()
+        self.handles: list[Handle] = []
+        for h in handles:
+            self.add_handle(h)
+
+    # ------------------------------------------------------------------ terms and pattern
+    def _build(self):
+        couplings = [c for c in (t.couplings() for t in self.terms) if c is not None]
+        self.pattern = Pattern(self.assembler, self.mesh.nvertices, couplings)
+        for t in self.terms:
+            t.bind(self.pattern)
+        self._element_terms = [t for t in self.terms if isinstance(t, ElementTerm)]
+        self._other_terms = [t for t in self.terms if not isinstance(t, ElementTerm)]
+        densities = [t.density for t in self._element_terms]
+        self._density = densities[0] if len(densities) == 1 else SummedDensity(densities)
+        # the terms whose class overrides a hook (contact): a model without one pays nothing per iteration
+        self._pattern_terms = [t for t in self._other_terms if _overrides(t, "covers")]
+        self._limit_terms = [t for t in self._other_terms if _overrides(t, "max_step")]
+        self._step_terms = [t for t in self._other_terms if _overrides(t, "begin_step") or _overrides(t, "end_step")]
+
+    def set_terms(self, terms) -> None:
+        """Take the list ``terms`` (kept sorted by rank), or keep the old one if the pattern cannot be built."""
+        terms = list(terms)
+        if not all(isinstance(t, Term) for t in terms):
+            raise ParameterError("terms", f"terms must be Term objects, got {terms!r:.200}")
+        old, self.terms = self.terms, sorted(terms, key=lambda t: t.rank)
+        try:
+            self._build()
+        except BaseException:  # whatever went wrong, the model is left as it was
+            self.terms = old
+            self._build()
+            raise
+
+    def add_term(self, term: Term) -> None:
+        """Add a term (a probe, sutures ...); the pattern is widened if the term needs it. All or nothing."""
+        if not isinstance(term, Term):
+            raise ValueError(f"term must be a Term, got {term!r}")
+        self.set_terms(self.terms + [term])
+
+    def remove_term(self, term: Term) -> None:
+        """Remove a term the model holds (``ValueError`` if it holds no such term). All or nothing."""
+        if not any(t is term for t in self.terms):
+            raise ValueError(f"the model holds no term {term!r}")
+        self.set_terms([t for t in self.terms if t is not term])
+
+    def replace_term(self, old: Term, new: Term) -> None:
+        """Put ``new`` where ``old`` was (more stitches in one sutures term). All or nothing."""
+        if not isinstance(new, Term) or not any(t is old for t in self.terms):
+            raise ValueError(f"replace_term: the model holds no term {old!r}, or {new!r} is no Term")
+        self.set_terms([new if t is old else t for t in self.terms])
+
+    def remapped(self, meshmap, state=()) -> tuple["Model", tuple]:
+        """This model on the mesh of a topology change (a cut or an excision), and ``state`` carried with it.
+
+        ``meshmap``: a :class:`~tissuefem.engine.meshes.MeshMap` (the surgery layer's edits are ones);
+        ``state``: dof vectors of this model (``u``, ``v``, the previous ``v``; ``None`` stays ``None``),
+        each copy of a node taking its parent's values. Every term is carried by its ``remap`` (dropped
+        if nothing of it survives), every handle by :meth:`Handle.remap`; the elastic term is the new
+        model's own, with the material weights of ``meshmap``. P1 only.
+        """
+        if self.order != 1:
+            raise ParameterError("order", "remapped: a topology change needs P1 elements (order=1)")
+        carried = [t.remap(meshmap) for t in self.terms if not isinstance(t, Elastic)]
+        handles = [m for m in (h.remap(meshmap.parent) for h in self.handles) if m is not None]
+        model = Model(meshmap.mesh, self.material, order=1, intorder=self.intorder, assembly=self.assembly,
+                      density=self.density, weights=meshmap.weights, handles=handles,
+                      terms=[t for t in carried if t is not None])
+        return model, tuple(None if s is None else meshmap.transfer_dofs(s) for s in state)
+
+    def terms_of(self, kind) -> list:
+        return [t for t in self.terms if isinstance(t, kind)]
+
+    def _first(self, kind):
+        return next((t for t in self.terms if isinstance(t, kind)), None)
+
+    @property
+    def inertia(self) -> Inertia | None:
+        """The backward-Euler inertia term, or ``None`` for a quasistatic model."""
+        return self._first(Inertia)
+
+    @property
+    def dynamic(self) -> bool:
+        return self.inertia is not None
+
+    @property
+    def loads(self) -> list[Load]:
+        return self.terms_of(Load)
+
+    @property
+    def probes(self) -> list[Probe]:
+        return self.terms_of(Probe)
+
+    @property
+    def sutures(self) -> Sutures | None:
+        return self._first(Sutures)
+
+    @property
+    def contact(self) -> Contact | None:
+        """The self-contact term, or ``None``."""
+        return self._first(Contact)
+
+    # ------------------------------------------------------------------ step hooks (terms that have them only)
+    @property
+    def step_limit(self):
+        """``None`` when no term limits steps; else ``limit(u, du)``: the largest fraction of the step ``du``
+        from ``u`` that every term allows (contact: no surface passes through another)."""
+        if not self._limit_terms:
+            return None
+        terms = list(self._limit_terms)
+
+        def limit(u, du):
+            return min(t.max_step(u, du) for t in terms)
+
+        return limit
+
+    @property
+    def notes_steps(self) -> bool:
+        """Whether a term wants to know where each step starts (:meth:`begin_step`; self-contact)."""
+        return bool(self._step_terms)
+
+    def begin_step(self, u, previous=None) -> int:
+        """Tell the terms a step starts at ``u`` (reached from the state ``previous`` by the handles' motion);
+        returns the crossings they found (surface points the handles dragged through the surface, which
+        contact ignores until they are back out)."""
+        return sum(int(t.begin_step(u, previous) or 0) for t in self._step_terms)
+
+    def end_step(self) -> None:
+        for t in self._step_terms:
+            t.end_step()
+
+    @property
+    def term_names(self) -> list[str]:
+        """The names of the terms this model evaluates, in order."""
+        return [t.name for t in self.terms]
+
+    def describe(self) -> list[str]:
+        return [t.describe() for t in self.terms]
+
+    @property
+    def has_safe_hessian(self) -> bool:
+        """Whether a term offers a positive semi-definite Hessian besides its exact one."""
+        return (any(hasattr(t.density, "safe_tangent") for t in self._element_terms)
+                or any(t.has_safe_hessian for t in self._other_terms))
+
+    @property
+    def quadratic(self) -> bool:
+        """True when every term is quadratic: the Hessian is constant (linear material, springs, loads)."""
+        return all(t.quadratic for t in self.terms)
+
+    @property
+    def external(self) -> np.ndarray:
+        """The sum of the constant loads (a dof vector)."""
+        f = np.zeros(self.n_dofs)
+        for load in self.loads:
+            f += load.scale * load.vector
+        return f
+
+    # ------------------------------------------------------------------ the potential
+    def energy(self, u) -> float:
+        """The potential ``E(u)``: the sum of every term's energy."""
+        u = self._check_u(u)
+        e = self.assembler.energy(u, self._density)
+        for t in self._other_terms:
+            e += t.energy(u)
+        return e
+
+    def gradient(self, u) -> np.ndarray:
+        """``dE/du``: the residual (internal forces minus loads, plus inertia)."""
+        u = self._check_u(u)
+        g = self.assembler.residual(u, self._density)
+        for t in self._other_terms:
+            g += t.gradient(u)
+        return g
+
+    def hessian(self, u, safe: bool = False) -> sp.csr_matrix:
+        """``d^2E/du^2`` on the model's fixed pattern (the Newton matrix).
+
+        ``safe=True`` takes the positive semi-definite variants where the terms offer one (a
+        :class:`~tissuefem.engine.inversion.ProjectedTangent` with ``adaptive=True``, the probe's
+        normal part): what the minimiser falls back on when the exact Hessian gives no descent
+        direction.
+        """
+        u = self._check_u(u)
+        if self._pattern_terms and not all(t.covers(u) for t in self._pattern_terms):
+            self._build()  # a term's couplings changed (contact pairs): a new pattern, the same terms
+        data = self.pattern.zeros()
+        density = SafeView(self._density) if safe else self._density
+        self.pattern.add_base(data, self.assembler.tangent(u, density).data)
+        for t in self._other_terms:
+            t.add_hessian(u, data, safe=safe)
+        return self.pattern.csr(data)
+
+    def _stored_terms(self):
+        return [t for t in self.terms if not isinstance(t, (Inertia, Load))]
+
+    def stored_energy(self, u) -> float:
+        """The stored energy of the body and its tools: every term but inertia and the loads."""
+        return sum(t.energy(u) for t in self._stored_terms())
+
+    def internal_force(self, u) -> np.ndarray:
+        """The gradient of :meth:`stored_energy`: the forces the body (and its tools) exert on the nodes."""
+        g = np.zeros(self.n_dofs)
+        for t in self._stored_terms():
+            g += t.gradient(u)
+        return g
+
+    def _check_u(self, u) -> np.ndarray:
+        u = np.asarray(u, dtype=float)
+        if u.shape != (self.n_dofs,):
+            raise ValueError(f"u must be a displacement vector of shape ({self.n_dofs},), got shape {u.shape}")
+        return u
 
     # ------------------------------------------------------------------ post-processing
     def zeros(self) -> np.ndarray:

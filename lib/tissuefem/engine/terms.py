@@ -39,41 +39,43 @@ from skfem import FacetBasis, LinearForm, asm
 
 from .materials import (FiberReinforced, Material, check_fiber_stiffness, fiber_energy_term, fiber_stress_term,
                         fiber_tangent_term)
-from .parameters import (FORCE_MAX, PENALTY_MAX, RADIUS_RANGE, REACH, check_bounded_vector, check_density, check_real,
-                         check_real_array, check_time_step)
+from .parameters import (FORCE_MAX, PENALTY_MAX, RADIUS_RANGE, REACH, ParameterError, check_bounded_vector,
+                         check_density, check_positive, check_reach, check_real, check_real_array, check_time_step,
+                         check_vector)
 
 __all__ = ["Term", "ElementTerm", "Elastic", "Fibers", "Inertia", "Load", "Probe", "Sutures", "traction_vector",
-           "check_vector", "check_nonnegative", "check_reach"]
-
-
-def check_vector(name, value) -> np.ndarray:
-    """A finite vector ``(x, y)`` of real numbers, or a ``ValueError`` naming ``name``."""
-    try:
-        v = np.asarray(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a finite vector (x, y), got {value!r}") from None
-    if v.dtype.kind not in "iuf":  # strings, booleans, objects; complex would lose its imaginary part
-        raise ValueError(f"{name} must be a finite vector (x, y) of real numbers, got {value!r}")
-    v = v.astype(float)
-    if v.shape != (2,) or not np.all(np.isfinite(v)):
-        raise ValueError(f"{name} must be a finite vector (x, y), got {value!r}")
-    return v
-
-
-def check_nonnegative(name, value) -> float:
-    """A finite real number ``>= 0``, or a ``ValueError`` naming ``name``."""
-    return check_real(name, value, 0.0)
+           "SummedDensity", "SafeView", "extent", "boundary_lengths", "check_positive"]
 
 
 class Term:
-    """One additive piece of the potential (see the module docstring for the interface)."""
+    """One additive piece of the potential (see the module docstring for the interface).
+
+    The hooks below have defaults that cost nothing; a term that needs one overrides it, and the model
+    calls only the overridden ones (:meth:`~tissuefem.engine.model.Model.hessian`, the stepper):
+
+    * ``covers(u)``: whether the model's pattern holds the couplings the term needs at ``u`` (else the
+      model rebuilds the pattern; self-contact's pairs change with the state);
+    * ``max_step(u, du)``: the largest fraction of the step ``du`` from ``u`` the term allows (contact:
+      no surface passes through another);
+    * ``begin_step(u, previous)`` / ``end_step()``: where a step starts (returns the crossings found) and
+      that it ended;
+    * ``remap(meshmap)``: the same term after a topology change
+      (:class:`~tissuefem.engine.meshes.MeshMap`): a term, ``None`` if nothing of it survives, or, for a
+      term made from the model's own assembly (inertia, fibres, loads), a factory ``model -> Term``
+      that makes it on the new model.
+    """
 
     name = "term"
     #: True when the energy is quadratic in ``u`` (a constant Hessian)
     quadratic = False
+    #: whether ``add_hessian(..., safe=True)`` differs from the exact Hessian
+    has_safe_hessian = False
+    #: where the model keeps the term in its list (inertia, element terms, probes, sutures, others, loads): the
+    #: order of the sums, so a term added to a running model sums as if the model had been built with it
+    rank = 5
 
     def bind(self, pattern) -> None:
-        """Remember the model's sparsity pattern (called by the model; the default keeps nothing)."""
+        """Remember the model's sparsity pattern (called by the model)."""
         self.pattern = pattern
 
     def couplings(self):
@@ -91,8 +93,20 @@ class Term:
         whose Hessian can be indefinite offer one and set ``has_safe_hessian``)."""
         raise NotImplementedError
 
-    #: whether ``add_hessian(..., safe=True)`` differs from the exact Hessian
-    has_safe_hessian = False
+    def covers(self, u) -> bool:
+        return True
+
+    def max_step(self, u, du) -> float:
+        return 1.0
+
+    def begin_step(self, u, previous=None) -> int:
+        return 0
+
+    def end_step(self) -> None:
+        pass
+
+    def remap(self, meshmap):
+        raise NotImplementedError(f"{self.name}: this term cannot be carried across a topology change")
 
     def describe(self) -> str:
         return self.name
@@ -107,6 +121,7 @@ class ElementTerm(Term):
     """A term ``sum_e int Psi(F) dX`` of an energy density ``density`` (energy/stress/tangent of ``F``)."""
 
     density = None
+    rank = 1
 
     def __init__(self, assembler):
         self.assembler = assembler
@@ -118,7 +133,7 @@ class ElementTerm(Term):
         return self.assembler.residual(u, self.density)
 
     def add_hessian(self, u, data, safe=False):
-        density = _SafeView(self.density) if safe else self.density
+        density = SafeView(self.density) if safe else self.density
         self.pattern.add_base(data, self.assembler.tangent(u, density).data)
 
 
@@ -181,14 +196,18 @@ class Fibers(ElementTerm):
             g = np.repeat(g.reshape(2, 1), nel, axis=1)
         if g.shape != (2, nel):
             raise ValueError(f"fibers.direction must be shaped (2,) or (2, n_elements={nel}), got {g.shape}")
+        self.given = g  # as given (a remap carries these, so the normalisation is done once, as at the start)
         self.density = _FiberDensity(self.stiffness, g)
         self.directions = self.density.fibers
+
+    def remap(self, meshmap):
+        return lambda model: Fibers(model.assembler, self.stiffness, meshmap.transfer_elements(self.given))
 
     def describe(self):
         return f"fibers: k = {self.stiffness:g}"
 
 
-class _SummedDensity:
+class SummedDensity:
     """The sum of several energy densities, evaluated on one ``F`` (one assembly pass for all element terms)."""
 
     def __init__(self, densities):
@@ -211,19 +230,19 @@ class _SummedDensity:
         return self._sum("tangent", F)
 
     def safe_tangent(self, F):
-        out = _safe_tangent(self.densities[0], F)
+        out = safe_tangent(self.densities[0], F)
         for d in self.densities[1:]:
-            out = out + _safe_tangent(d, F)
+            out = out + safe_tangent(d, F)
         return out
 
 
-def _safe_tangent(density, F):
+def safe_tangent(density, F):
     """A density's positive semi-definite tangent where it offers one (else its tangent)."""
     safe = getattr(density, "safe_tangent", None)
     return safe(F) if safe is not None else density.tangent(F)
 
 
-class _SafeView:
+class SafeView:
     """An energy density seen through its positive semi-definite tangent (the safe Hessian)."""
 
     def __init__(self, density):
@@ -236,7 +255,7 @@ class _SafeView:
         return self.density.stress(F)
 
     def tangent(self, F):
-        return _safe_tangent(self.density, F)
+        return safe_tangent(self.density, F)
 
 
 # --------------------------------------------------------------------------------------- inertia and loads
@@ -250,6 +269,7 @@ class Inertia(Term):
 
     name = "inertia"
     quadratic = True
+    rank = 0
 
     def __init__(self, assembler, dt, density, mass="lumped"):
         if not isinstance(mass, str) or mass not in ("lumped", "consistent"):
@@ -288,19 +308,23 @@ class Inertia(Term):
     def describe(self):
         return f"inertia: dt = {self.dt:g}, {self.mass_kind} mass, rho0 = {self.density:g}"
 
-
-def check_positive(name, value) -> float:
-    """A finite real number ``> 0``, or a ``ValueError`` naming ``name``."""
-    return check_real(name, value, 0.0, lo_open=True)
+    def remap(self, meshmap):
+        return lambda model: Inertia(model.assembler, self.dt, self.density, self.mass_kind)
 
 
 class Load(Term):
-    """A constant external force ``f`` (a dof vector): energy ``-scale f . u`` (``scale`` ramps it in load steps)."""
+    """A constant external force ``f`` (a dof vector): energy ``-scale f . u`` (``scale`` ramps it in load steps).
+
+    ``make``: how the vector is made from a model (``make(model) -> f``), so that a remap makes it on the
+    new mesh (a load given as a bare vector cannot be carried).
+    """
 
     quadratic = True
+    rank = 9
 
-    def __init__(self, name, vector):
+    def __init__(self, name, vector, make=None):
         self.name = name
+        self.make = make
         self.vector = np.asarray(vector, dtype=float)
         if not np.all(np.isfinite(self.vector)):
             raise ValueError(f"{name}: the load vector must be finite")
@@ -318,20 +342,24 @@ class Load(Term):
     def describe(self):
         return f"load: {self.name}"
 
+    def remap(self, meshmap):
+        if self.make is None:
+            return super().remap(meshmap)
+        return lambda model: Load(self.name, self.make(model), self.make)
 
-def _extent(X) -> tuple[np.ndarray, float]:
+
+def extent(X) -> tuple[np.ndarray, float]:
     """The centre of the bounding box of the points ``X`` ``(2, n)`` and its larger side (the domain's size)."""
     lo, hi = X.min(axis=1), X.max(axis=1)
     return 0.5 * (lo + hi), float(np.max(hi - lo))
 
 
-def check_reach(name, point, middle, size) -> np.ndarray:
-    """``point`` if it lies within ``REACH`` domain sizes of the domain's centre ``middle``, else ``ValueError``."""
-    far = REACH * size
-    if np.any(np.abs(np.asarray(point) - middle) > far):
-        raise ValueError(f"{name} = {np.asarray(point).tolist()} lies farther than {REACH:g} domain sizes ({far:g}) "
-                         f"from the domain's centre ({middle[0]:g}, {middle[1]:g})")
-    return point
+def boundary_lengths(mesh) -> np.ndarray:
+    """Each vertex's share of the boundary's length: half of every boundary edge it ends (0 inside)."""
+    facets = mesh.facets[:, mesh.boundary_facets()]
+    d = mesh.p[:, facets[1]] - mesh.p[:, facets[0]]
+    half = 0.5 * np.hypot(d[0], d[1])
+    return np.bincount(facets.ravel(), weights=np.concatenate([half, half]), minlength=mesh.nvertices)
 
 
 def _stitch_indices(stitches, count) -> np.ndarray:
@@ -356,7 +384,7 @@ def traction_vector(basis, boundary, traction) -> np.ndarray:
     mesh = basis.mesh
     if mesh.boundaries is None or boundary not in mesh.boundaries:
         names = sorted(mesh.boundaries) if mesh.boundaries else []
-        raise ValueError(f"tractions: {boundary!r} is not a boundary of the mesh; boundaries: {names}")
+        raise ParameterError("tractions", f"tractions: {boundary!r} is not a boundary of the mesh; boundaries: {names}")
     facets = mesh.boundaries[boundary]
     if len(facets) == 0:
         return np.zeros(basis.N)
@@ -396,13 +424,14 @@ class Probe(Term):
     """
 
     name = "probe"
+    rank = 2
 
     def __init__(self, X, boundary_lengths, center, radius, stiffness, label=None, smoothing=0.02):
         self.X = X
         self.n_nodes = X.shape[1]
         self.length = np.asarray(boundary_lengths, dtype=float)
         self.surface = np.flatnonzero(self.length > 0)
-        self._middle, self._size = _extent(X)
+        self._middle, self._size = extent(X)
         self.move(center)
         # a radius in domain sizes: the default stiffness of a tool (~ E / r) and its depths stay finite
         r = check_real("probe.radius", radius, 0.0, None, lo_open=True)
@@ -413,8 +442,13 @@ class Probe(Term):
         self.radius = r
         self.stiffness = check_real("probe.stiffness", stiffness, 0.0, PENALTY_MAX)
         # g^3 / (6 delta): a smoothing length far below the radius would overflow the energy
-        self.delta = check_real("probe.smoothing", smoothing, 1e-6, 1.0) * self.radius
+        self.smoothing = check_real("probe.smoothing", smoothing, 1e-6, 1.0)
+        self.delta = self.smoothing * self.radius
         self.label = label
+
+    def remap(self, meshmap):
+        return Probe(np.asarray(meshmap.mesh.p, dtype=float), boundary_lengths(meshmap.mesh), self.center, self.radius,
+                     self.stiffness, self.label, self.smoothing)
 
     def move(self, center) -> None:
         """Move the tool to ``center`` (within ``REACH`` domain sizes of the domain's centre); a refusal keeps it."""
@@ -502,6 +536,7 @@ class Sutures(Term):
 
     name = "sutures"
     quadratic = True
+    rank = 3
 
     def __init__(self, X, pairs, stiffness, gaps, tightness=0.0, coefficients=None):
         self.X = X
@@ -541,7 +576,7 @@ class Sutures(Term):
             raise ValueError(f"sutures.stiffness must be finite, > 0 and <= {PENALTY_MAX:g}, got {stiffness!r:.200}")
         self.k = k
         gaps = check_real_array("sutures.gaps", gaps)
-        reach = REACH * _extent(X)[1]
+        reach = REACH * extent(X)[1]
         if gaps.shape != (2, k_count) or not np.all(np.abs(gaps) <= reach):
             raise ValueError(f"sutures.gaps must be finite, within {REACH:g} domain sizes ({reach:g}) and shaped "
                              f"{(2, k_count)}, got shape {gaps.shape}")
@@ -571,6 +606,18 @@ class Sutures(Term):
 
     def describe(self):
         return f"sutures: {self.k.size} stitches, mean tightness {self.tightness.mean():g}"
+
+    def remap(self, meshmap):
+        """Each end on the first copy of its nodes (a cut through an end's element may need a better choice:
+        the surgery layer carries its stitches as points of the material); stitches on removed nodes go."""
+        first = np.full(meshmap.n_old_nodes, -1, dtype=np.intp)
+        first[meshmap.parent[::-1]] = np.arange(meshmap.parent.size - 1, -1, -1)
+        nodes = first[self.nodes]
+        keep = np.all(nodes >= 0, axis=(0, 1))
+        if not np.any(keep):
+            return None
+        return Sutures(np.asarray(meshmap.mesh.p, dtype=float), nodes[..., keep], self.k[keep], self.gap0[:, keep],
+                       self.tightness[keep], coefficients=self.coefficients[..., keep])
 
     def ends(self, u) -> np.ndarray:
         """Where the two ends of every stitch are: shape (2 ends, 2 coordinates, k)."""

@@ -1,73 +1,15 @@
 """Scenes: a declarative description of a simulation (run one with :class:`~tissuefem.surgery.simulation.Simulation`).
 
-A scene names a domain, a material and the *effects* it calls for, and nothing else gets built:
-
-================  =============================================================================
-effect            what it adds
-================  =============================================================================
-``inertia``       dynamics: backward Euler with time step ``time_step`` (absent: quasistatic, no mass matrix)
-``gravity``       the body force ``rho0 g`` (a constant load)
-``fibers``        the fibre energy ``k/8 (I4 - 1)^2`` along ``direction``
-``inversion``     ``"itf"`` (ITF-clamped ln J) or ``"projected"`` (PSD-projected tangent)
-``handles``       nodes held or pulled (a boundary name, a box, or the nodes near a point)
-``tractions``     a constant traction on a named boundary
-``probes``        rigid disc tool tips pressed into the tissue (a penalty term)
-``excisions``     defects cut out along polygons before the first frame (``method``: ``"elements"``,
-                  through the elements along the outline, or ``"edges"``, the triangles inside)
-``incisions``     cuts along polylines before the first frame (``method``: ``"elements"``, through the
-                  elements, or ``"edges"``, snapped to mesh edges with duplicated nodes)
-``sutures``       pairs of points tied together by stiff springs
-``contact``       self-contact: wound lips and folds touch but never pass through (``distance``: the
-                  skin's depth, default a quarter of the median boundary edge; ``stiffness``: a pressure,
-                  default Young's modulus)
-================  =============================================================================
-
-A scene is a plain nested dictionary with these keys (see :data:`EXAMPLE_TOML`), written in Python
-(:class:`Scene`) or loaded from a TOML or JSON file (:meth:`Scene.load`). Every field is checked, and an
-invalid scene raises ``ValueError`` naming the field (``effects.handles[1].region``).
-
-Limits
-------
-Every numeric field has a range, so that whatever is accepted can also be computed (no overflow or
-division by zero later on); sizes are capped before anything is allocated. ``L`` is the domain's size
-(the larger side of its bounding box).
-
-=====================================================  ==========================================================
-field                                                  allowed
-=====================================================  ==========================================================
-``domain.triangles``; ``2 nx ny`` (fusiform)           an integer in ``[1, 200 000]`` (:data:`MAX_TRIANGLES`)
-``domain.nx``, ``domain.ny``                           integers in ``[1, 100 000]``, with ``2 nx ny <= 200 000``
-lengths (``width``, ...), ``domain.scale``             ``[1e-6, 1e6]``
-aspect ratios (``width/height``, ``length/max_width``,  at most ``1e4`` either way
-``max_width/tendon_width``)
-a mesh file (``domain.path``)                          at most 64 MiB and 200 000 3-node triangles (plus lines and
-                                                       vertices naming groups), planar (``z = 0`` if given),
-                                                       coordinates within ``+-1e6`` after scaling
-``material.youngs_modulus`` / ``poisson_ratio`` /      ``[1e-6, 1e12]`` / ``[-0.999999, 0.499999]`` /
-``density``                                            ``[1e-6, 1e6]``
-``effects.inertia.time_step``                          ``[1e-6, 10]`` s
-gravity ``acceleration`` / ``traction`` (components)   ``[-1e6, 1e6]`` / ``[-1e12, 1e12]``
-``effects.fibers.stiffness``                           ``[0, 1e12]``
-``effects.inversion.threshold``                        ``[0.01, 0.99]``
-probe / suture / contact ``stiffness``                 ``[0, 1e40]`` / ``(0, 1e40]`` / ``(0, 1e40]``
-``effects.contact.distance``                           ``> 0``, at most half the median length of a surface
-                                                       segment (checked when the model is built)
-``effects.sutures[i].tightness``                       ``[0, 1]``
-points (centres, boxes, polygons, paths, sutures)      within ``1000 L`` of the domain's centre
-and handle ``target`` displacements
-radii (``near`` regions, probes)                       ``[1e-6 L, 1000 L]``
-node indices (``region.nodes``)                        integers in ``[0, 600 000)``
-``solver.budget`` / ``rtol`` / ``max_iterations``      ``[1e-6, 1e9]`` s / ``[1e-14, 0.5]`` / an integer in
-                                                       ``[1, 1000]``
-entries of one list-valued effect                      at most 1000; points of a polygon or path, pairs of a
-                                                       suture: at most 10 000
-strings                                                at most 10 000 characters, no lone surrogates (``domain.path``:
-                                                       no NUL either)
-a scene file                                           at most 16 MiB of UTF-8, nested at most 16 levels
-=====================================================  ==========================================================
-
-Counts and node indices are true integers: ``800.0``, ``True`` and ``"1000"`` are refused. For a ``file``
-domain the limits that need ``L`` are checked when the mesh is read (:meth:`Scene.build_mesh`).
+A scene names a domain, a material and the *effects* it calls for, and nothing else gets built. It is a
+plain nested dictionary (see :data:`EXAMPLE_TOML`), written in Python (:class:`Scene`) or loaded from a
+TOML or JSON file (:meth:`Scene.load`). The effects that become terms are checked and built by the
+registry of effects (:mod:`tissuefem.engine.effects`); the scene's own are ``inversion`` (wraps the
+material), ``handles``, ``excisions`` and ``incisions``. docs/scenes.md lists every effect and the
+allowed range of every field: every field is checked, sizes are capped before anything is allocated,
+and an invalid scene raises a ``ParameterError`` (a ``ValueError``) naming the field
+(``effects.handles[1].region``). Counts and node indices are true integers (``800.0``, ``True`` and
+``"1000"`` are refused). For a ``file`` domain the limits that need the domain's size ``L`` are checked
+when the mesh is read (:meth:`Scene.build_mesh`).
 """
 
 from __future__ import annotations
@@ -81,7 +23,6 @@ import logging
 import math
 import os
 import re
-import reprlib
 import tomllib
 from pathlib import Path
 
@@ -96,32 +37,33 @@ from ..engine.materials import material as make_material
 from ..engine.constants import FRAME_BUDGET, TISSUE_DENSITY, TISSUE_E, TISSUE_NU
 from ..engine.inversion import ITFClamped, ProjectedTangent
 from ..engine.linsolve import LinearSolver
-from ..engine.parameters import (ACCELERATION_MAX, DENSITY_RANGE, FORCE_MAX, PENALTY_MAX, RADIUS_RANGE, REACH,
-                                 TIME_STEP_RANGE, YOUNGS_MODULUS_RANGE, check_count, check_poisson_ratio, check_real)
+from ..engine.effects import EFFECTS as EFFECTS_REGISTRY
+from ..engine.effects import FAR, count_list, is_sequence, number, points, require, show, string, table, vector
+from ..engine.parameters import (DENSITY_RANGE, RADIUS_RANGE, REACH, YOUNGS_MODULUS_RANGE, ParameterError,
+                                 check_poisson_ratio)
 
 __all__ = ["Scene", "EFFECTS", "SHAPES", "EXAMPLE_TOML", "demo_scene", "flap_scene", "flap_path", "read_mesh"]
 
 #: How a cut or an excision meets the mesh: through the elements (:mod:`~tissuefem.surgery.element_cuts`), or
 #: snapped to the mesh's edges (:mod:`~tissuefem.surgery.topology`: jagged, mesh-dependent; kept to compare)
 CUT_METHODS = ("elements", "edges")
-#: the effects a scene may name
+#: the effects a scene may name: those of the registry of effects (:data:`tissuefem.engine.effects.EFFECTS`, each
+#: checked and made into a term there) and the scene's own (inversion wraps the material, handles hold the tissue,
+#: excisions and incisions are cut before the first frame)
 EFFECTS = ("inertia", "gravity", "fibers", "inversion", "handles", "tractions", "probes", "excisions",
            "incisions", "sutures", "contact")
+#: the order in which a scene's effects are checked (and written)
+_ORDER = ["inertia", "gravity", "fibers", "inversion", "contact", "handles", "tractions", "probes", "excisions",
+          "incisions", "sutures"]
 #: the domains a scene may use ("file": a 2D triangle mesh read through meshio)
 SHAPES = ("rectangle", "flap", "fusiform", "file")
-#: the list-valued effects (each entry is a table)
-_LISTS = ("handles", "tractions", "probes", "excisions", "incisions", "sutures")
+#: the list-valued effects of the scene's own (each entry is a table); the registry's say whether they are
+_LISTS = ("handles", "excisions", "incisions")
 
-# --- limits (the table in the module docstring and in docs/scenes.md) -------------------------------------------
+# --- limits (the table in docs/scenes.md) -----------------------------------------------------------------------
 #: triangles of a generated domain (and of a mesh file); lengths of a generated domain, and ``domain.scale``;
 #: the largest aspect ratio of a domain, either way round
 MAX_TRIANGLES, SIZE_RANGE, MAX_ASPECT = meshes.MAX_TRIANGLES, meshes.SIZE_RANGE, meshes.MAX_ASPECT
-#: bounds on each component of ``effects.gravity.acceleration`` and of a traction (a stress, like Young's modulus):
-#: the engine's (as is the density's range, ``DENSITY_RANGE``)
-MAX_ACCELERATION, MAX_TRACTION = ACCELERATION_MAX, FORCE_MAX
-FIBER_STIFFNESS_RANGE = (0.0, 1e12)
-#: the largest penalty stiffness of a probe, a suture or the contact (the engine's)
-MAX_PENALTY_STIFFNESS = PENALTY_MAX
 THRESHOLD_RANGE = (0.01, 0.99)
 BUDGET_RANGE = (1e-6, 1e9)
 RTOL_RANGE = (1e-14, 0.5)
@@ -130,17 +72,15 @@ MAX_ITERATIONS = 1000
 #: within MIN_RADIUS and REACH sizes
 MIN_RADIUS = RADIUS_RANGE[0]
 #: entries of one list-valued effect; points of a polygon or path, pairs of a suture
-MAX_ENTRIES, MAX_POINTS = 1000, 10_000
+MAX_ENTRIES = 1000
 #: node indices lie below this (a mesh of MAX_TRIANGLES triangles has fewer nodes)
 MAX_NODES = 3 * MAX_TRIANGLES
-MAX_STRING = 10_000
 #: nesting of a scene's tables and arrays (a valid scene needs 7)
 MAX_NESTING = 16
 MAX_SCENE_BYTES = 16 * 2**20
 MAX_MESH_FILE_BYTES = 64 * 2**20
-# points and lengths before the domain's size is known (a file domain): beyond REACH times the largest domain
-_FAR = 1e10
-assert _FAR >= (2 * REACH + 1) * meshes.COORDINATE_MAX
+# points and lengths before the domain's size is known (a file domain, FAR): beyond REACH times the largest domain
+assert FAR >= (2 * REACH + 1) * meshes.COORDINATE_MAX
 
 EXAMPLE_TOML = """\
 name = "pulled sheet"
@@ -180,97 +120,8 @@ budget = 0.0333333
 
 # --- checking fields ---------------------------------------------------------------------------------------------
 
-_REPR = reprlib.Repr()
-_REPR.maxstring = _REPR.maxother = 60
-_REPR.maxlist = _REPR.maxtuple = _REPR.maxdict = 6
-_REPR.maxlevel = 3
-
-
-def _show(value) -> str:
-    """A short, one-line rendering of any value for an error message (bounded however large or deep it is)."""
-    if isinstance(value, int) and not isinstance(value, bool) and value.bit_length() > 200:
-        return f"an integer of {len(str(value)) if value.bit_length() < 10_000 else 'thousands of'} digits"
-    try:
-        return _REPR.repr(value)
-    except Exception:  # a foreign object whose repr fails
-        return f"a {type(value).__name__}"
-
-
-def _number(field, value, *, positive=False, nonnegative=False, integer=False, lo=None, hi=None):
-    """``value`` as a number for ``field`` within ``[lo, hi]``; ``ValueError`` naming ``field`` otherwise.
-
-    Without ``lo``, ``positive`` means > 0 and ``nonnegative`` >= 0; with ``integer``, a float such as
-    ``800.0`` is refused.
-    """
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise ValueError(f"{field} must be a number, got {_show(value)}")
-    if integer:
-        low = lo if lo is not None else 1 if positive else 0 if nonnegative else -(2**63)
-        return check_count(field, value, int(low), None if hi is None else int(hi))
-    if lo is None and (positive or nonnegative):
-        return check_real(field, value, 0.0, hi, lo_open=positive)
-    return check_real(field, value, lo, hi)
-
-
-def _is_sequence(value) -> bool:
-    return isinstance(value, (list, tuple)) or (isinstance(value, np.ndarray) and value.ndim == 1)
-
-
-def _vector(field, value, bound=_FAR):
-    if not _is_sequence(value) or len(value) != 2:
-        raise ValueError(f"{field} must be a vector [x, y], got {_show(value)}")
-    return [_number(f"{field}[{i}]", c, lo=-bound, hi=bound) for i, c in enumerate(value)]
-
-
-def _points(field, value, minimum, maximum=MAX_POINTS):
-    if not _is_sequence(value) or not minimum <= len(value) <= maximum:
-        raise ValueError(f"{field} must be a list of {minimum} to {maximum} points [x, y], got {_show(value)}")
-    return [_vector(f"{field}[{i}]", p) for i, p in enumerate(value)]
-
-
-def _table(field, value, allowed=None):
-    """``value`` if it is a table (a dict) with no keys but ``allowed`` (if given)."""
-    if not isinstance(value, dict):
-        raise ValueError(f"{field} must be a table (a dict), got {_show(value)}")
-    if allowed is not None:
-        _only(field, value, allowed)
-    return value
-
-
-def _only(field, table, allowed):
-    unknown = [k for k in table if k not in allowed]  # keys may be of any type when given from Python
-    if unknown:
-        shown = sorted(_show(k) for k in unknown)
-        raise ValueError(f"{field}: unknown key(s) [{', '.join(shown)}]; allowed: {sorted(allowed)}")
-
-
-def _require(field, table, keys):
-    for key in keys:
-        if key not in table:
-            raise ValueError(f"{field}.{key}: missing")
-
-
-def _string(field, value, choices=None, *, nonempty=False):
-    if not isinstance(value, str):
-        raise ValueError(f"{field} must be a string, got {_show(value)}")
-    if choices is not None:
-        if value not in choices:
-            raise ValueError(f"{field} must be one of {list(choices)}, got {_show(value)}")
-        return value
-    if len(value) > MAX_STRING:
-        raise ValueError(f"{field} must be at most {MAX_STRING} characters long, got {len(value)}")
-    if nonempty and not value:
-        raise ValueError(f"{field} must not be empty")
-    try:
-        value.encode("utf-8")
-    except UnicodeEncodeError as err:  # a lone surrogate: no UTF-8 file (TOML or JSON) can hold it
-        raise ValueError(f"{field} contains a lone surrogate code point at character {err.start} (not text that "
-                         "a scene file can hold)") from None
-    return value
-
-
 def _within(field, value, bounds):
-    return _number(field, value, lo=bounds[0], hi=bounds[1])
+    return number(field, value, lo=bounds[0], hi=bounds[1])
 
 
 def _length(field, value):
@@ -282,26 +133,18 @@ def _aspect(field, ratio):
         raise ValueError(f"{field} = {ratio:g}: the aspect ratio must lie within [1/{MAX_ASPECT:g}, {MAX_ASPECT:g}]")
 
 
-def _count_list(field, value, what, maximum):
-    if not _is_sequence(value) or not value:
-        raise ValueError(f"{field} must be a non-empty list of {what}, got {_show(value)}")
-    if len(value) > maximum:
-        raise ValueError(f"{field}: at most {maximum} {what}, got {len(value)}")
-    return value
-
-
 def _check_domain(d):
-    d = _table("domain", d)
-    shape = _string("domain.shape", d.get("shape", "rectangle"), SHAPES)
+    d = table("domain", d)
+    shape = string("domain.shape", d.get("shape", "rectangle"), SHAPES)
     out = {"shape": shape}
     if shape in ("rectangle", "flap"):
-        _only("domain", d, ("shape", "width", "height", "triangles"))
+        table("domain", d, ("shape", "width", "height", "triangles"))
         out["width"] = _length("domain.width", d.get("width", 2.0 if shape == "flap" else 1.0))
         out["height"] = _length("domain.height", d.get("height", 1.0))
         _aspect("domain.width / domain.height", out["width"] / out["height"])
-        out["triangles"] = _number("domain.triangles", d.get("triangles", 800), integer=True, lo=1, hi=MAX_TRIANGLES)
+        out["triangles"] = number("domain.triangles", d.get("triangles", 800), integer=True, lo=1, hi=MAX_TRIANGLES)
     elif shape == "fusiform":
-        _only("domain", d, ("shape", "length", "max_width", "tendon_width", "nx", "ny"))
+        table("domain", d, ("shape", "length", "max_width", "tendon_width", "nx", "ny"))
         out["length"] = _length("domain.length", d.get("length", 4.0))
         out["max_width"] = _length("domain.max_width", d.get("max_width", 1.0))
         out["tendon_width"] = _length("domain.tendon_width", d.get("tendon_width", 0.25))
@@ -310,16 +153,16 @@ def _check_domain(d):
                              f"middle), got {out['tendon_width']!r} > {out['max_width']!r}")
         _aspect("domain.length / domain.max_width", out["length"] / out["max_width"])
         _aspect("domain.max_width / domain.tendon_width", out["max_width"] / out["tendon_width"])
-        out["nx"] = _number("domain.nx", d.get("nx", 40), integer=True, lo=1, hi=MAX_TRIANGLES // 2)
-        out["ny"] = _number("domain.ny", d.get("ny", 8), integer=True, lo=1, hi=MAX_TRIANGLES // 2)
+        out["nx"] = number("domain.nx", d.get("nx", 40), integer=True, lo=1, hi=MAX_TRIANGLES // 2)
+        out["ny"] = number("domain.ny", d.get("ny", 8), integer=True, lo=1, hi=MAX_TRIANGLES // 2)
         if 2 * out["nx"] * out["ny"] > MAX_TRIANGLES:
             raise ValueError(f"domain.nx, domain.ny: {out['nx']} x {out['ny']} cells make "
                              f"{2 * out['nx'] * out['ny']} triangles, more than {MAX_TRIANGLES}")
     else:
-        _only("domain", d, ("shape", "path", "scale"))
+        table("domain", d, ("shape", "path", "scale"))
         if "path" not in d:
             raise ValueError("domain.path: a 'file' domain needs the path of a mesh file (gmsh .msh, .vtk, ...)")
-        out["path"] = _string("domain.path", d["path"], nonempty=True)
+        out["path"] = string("domain.path", d["path"], nonempty=True)
         if "\0" in out["path"]:
             raise ValueError("domain.path must not contain a NUL character")
         out["scale"] = _length("domain.scale", d.get("scale", 1.0))
@@ -339,157 +182,120 @@ def _check_material(m):
     if m is None:
         raise ValueError("material: missing; a scene needs a [material] table with model, youngs_modulus, "
                          "poisson_ratio")
-    m = _table("material", m, ("model", "youngs_modulus", "poisson_ratio", "density"))
-    _require("material", m, ("model", "youngs_modulus", "poisson_ratio"))
+    m = table("material", m, ("model", "youngs_modulus", "poisson_ratio", "density"))
+    require("material", m, ("model", "youngs_modulus", "poisson_ratio"))
     return {
-        "model": _string("material.model", m["model"], sorted(MATERIALS)),
+        "model": string("material.model", m["model"], sorted(MATERIALS)),
         "youngs_modulus": _within("material.youngs_modulus", m["youngs_modulus"], YOUNGS_MODULUS_RANGE),
-        "poisson_ratio": check_poisson_ratio(_number("material.poisson_ratio", m["poisson_ratio"]),
+        "poisson_ratio": check_poisson_ratio(number("material.poisson_ratio", m["poisson_ratio"]),
                                              "material.poisson_ratio"),
         "density": _within("material.density", m.get("density", 1.0), DENSITY_RANGE),
     }
 
 
 def _radius(field, value):
-    return _within(field, value, (MIN_RADIUS * SIZE_RANGE[0], _FAR))
+    return _within(field, value, (MIN_RADIUS * SIZE_RANGE[0], FAR))
 
 
 def _check_region(field, r):
     if isinstance(r, str):
-        return _string(field, r, nonempty=True)
-    r = _table(field, r)
+        return string(field, r, nonempty=True)
+    r = table(field, r)
     if "box" in r:
-        _only(field, r, ("box",))
+        table(field, r, ("box",))
         box = r["box"]
-        if not _is_sequence(box) or len(box) != 4:
-            raise ValueError(f"{field}.box must be [xmin, ymin, xmax, ymax], got {_show(box)}")
-        box = [_number(f"{field}.box[{i}]", b, lo=-_FAR, hi=_FAR) for i, b in enumerate(box)]
+        if not is_sequence(box) or len(box) != 4:
+            raise ValueError(f"{field}.box must be [xmin, ymin, xmax, ymax], got {show(box)}")
+        box = [number(f"{field}.box[{i}]", b, lo=-FAR, hi=FAR) for i, b in enumerate(box)]
         if box[0] > box[2] or box[1] > box[3]:
             raise ValueError(f"{field}.box must have xmin <= xmax and ymin <= ymax, got {box}")
         return {"box": box}
     if "near" in r:
-        _only(field, r, ("near", "radius"))
-        return {"near": _vector(f"{field}.near", r["near"]),
+        table(field, r, ("near", "radius"))
+        return {"near": vector(f"{field}.near", r["near"]),
                 "radius": _radius(f"{field}.radius", r.get("radius", 0.05))}
     if "nodes" in r:
-        _only(field, r, ("nodes",))
-        nodes = _count_list(f"{field}.nodes", r["nodes"], "node indices", MAX_NODES)
-        return {"nodes": [_number(f"{field}.nodes[{i}]", n, integer=True, lo=0, hi=MAX_NODES - 1)
+        table(field, r, ("nodes",))
+        nodes = count_list(f"{field}.nodes", r["nodes"], "node indices", MAX_NODES)
+        return {"nodes": [number(f"{field}.nodes[{i}]", n, integer=True, lo=0, hi=MAX_NODES - 1)
                           for i, n in enumerate(nodes)]}
     raise ValueError(f"{field} must be a boundary name or a table with 'box', 'near' (+ 'radius') or 'nodes', "
-                     f"got {_show(r)}")
+                     f"got {show(r)}")
 
 
-def _penalty(field, value, positive=False):
-    return _number(field, value, positive=positive, nonnegative=not positive, hi=MAX_PENALTY_STIFFNESS)
+def _listed(kind) -> bool:
+    return kind in _LISTS or (kind in EFFECTS_REGISTRY and EFFECTS_REGISTRY[kind].listed)
 
 
 def _check_entry(kind, i, e):
     field = f"effects.{kind}[{i}]"
-    e = _table(field, e)
+    if kind in EFFECTS_REGISTRY:
+        return EFFECTS_REGISTRY[kind].check(field, e)
     if kind == "handles":
-        _only(field, e, ("name", "region", "target"))
+        e = table(field, e, ("name", "region", "target"))
         if "region" not in e:
-            raise ValueError(f"{field}.region: missing (a boundary name, a box or a point with radius)")
-        return {"name": _string(f"{field}.name", e.get("name", f"handle{i}")),
+            raise ParameterError(f"{field}.region", f"{field}.region: missing (a boundary name, a box or a point "
+                                                    "with radius)")
+        return {"name": string(f"{field}.name", e.get("name", f"handle{i}")),
                 "region": _check_region(f"{field}.region", e["region"]),
-                "target": _vector(f"{field}.target", e.get("target", [0.0, 0.0]))}
-    if kind == "tractions":
-        _only(field, e, ("boundary", "traction"))
-        _require(field, e, ("boundary", "traction"))
-        return {"boundary": _string(f"{field}.boundary", e["boundary"], nonempty=True),
-                "traction": _vector(f"{field}.traction", e["traction"], MAX_TRACTION)}
-    if kind == "probes":
-        _only(field, e, ("center", "radius", "stiffness"))
-        _require(field, e, ("center", "radius"))
-        out = {"center": _vector(f"{field}.center", e["center"]), "radius": _radius(f"{field}.radius", e["radius"])}
-        if "stiffness" in e:
-            out["stiffness"] = _penalty(f"{field}.stiffness", e["stiffness"])
-        return out
-    if kind in ("excisions", "incisions"):
-        key, least = ("polygon", 3) if kind == "excisions" else ("path", 2)
-        _only(field, e, (key, "method"))
-        return {key: _points(f"{field}.{key}", e.get(key), least),
-                "method": _string(f"{field}.method", e.get("method", "elements"), CUT_METHODS)}
-    # sutures
-    _only(field, e, ("pairs", "stiffness", "tightness"))
-    pairs = _count_list(f"{field}.pairs", e.get("pairs"), "point pairs [[x1, y1], [x2, y2]]", MAX_POINTS)
-    checked = []
-    for j, pair in enumerate(pairs):
-        if not _is_sequence(pair) or len(pair) != 2:
-            raise ValueError(f"{field}.pairs[{j}] must be two points [[x1, y1], [x2, y2]], got {_show(pair)}")
-        checked.append(_points(f"{field}.pairs[{j}]", pair, 2, 2))
-    out = {"pairs": checked,
-           "tightness": _number(f"{field}.tightness", e.get("tightness", 1.0), nonnegative=True, hi=1.0)}
-    if "stiffness" in e:
-        out["stiffness"] = _penalty(f"{field}.stiffness", e["stiffness"], positive=True)
+                "target": vector(f"{field}.target", e.get("target", [0.0, 0.0]))}
+    key, least = ("polygon", 3) if kind == "excisions" else ("path", 2)
+    e = table(field, e, (key, "method"))
+    return {key: points(f"{field}.{key}", e.get(key), least),
+            "method": string(f"{field}.method", e.get("method", "elements"), CUT_METHODS)}
+
+
+def _check_inversion(e):
+    e = table("effects.inversion", e, ("method", "threshold"))
+    method = string("effects.inversion.method", e.get("method", "projected"), ("itf", "projected"))
+    out = {"method": method}
+    if method == "itf":
+        out["threshold"] = _within("effects.inversion.threshold", e.get("threshold", 0.3), THRESHOLD_RANGE)
+    elif "threshold" in e:
+        raise ParameterError("effects.inversion.threshold", "effects.inversion.threshold: only the 'itf' method has "
+                                                            "a threshold")
     return out
 
 
+def _known_effects() -> list:
+    """The effects a scene may name: the registry's (the engine's and any registered since) and the scene's own."""
+    return list(EFFECTS) + [name for name, e in EFFECTS_REGISTRY.items() if e.check is not None and name not in EFFECTS]
+
+
 def _check_effects(effects):
-    effects = _table("effects", effects)
-    unknown = [k for k in effects if k not in EFFECTS]
+    effects = table("effects", effects)
+    known = _known_effects()
+    unknown = [k for k in effects if k not in known]
     if unknown:
-        raise ValueError(f"effects: unknown effect(s) [{', '.join(sorted(_show(k) for k in unknown))}]; "
-                         f"known effects: {list(EFFECTS)}")
+        raise ParameterError("effects", f"effects: unknown effect(s) [{', '.join(sorted(show(k) for k in unknown))}]; "
+                                        f"known effects: {known}")
     out = {}
-    if "inertia" in effects:
-        e = _table("effects.inertia", effects["inertia"], ("time_step", "mass"))
-        out["inertia"] = {"time_step": _within("effects.inertia.time_step", e.get("time_step", FRAME_BUDGET),
-                                               TIME_STEP_RANGE),
-                          "mass": _string("effects.inertia.mass", e.get("mass", "lumped"), ("lumped", "consistent"))}
-    if "gravity" in effects:
-        e = _table("effects.gravity", effects["gravity"], ("acceleration",))
-        out["gravity"] = {"acceleration": _vector("effects.gravity.acceleration", e.get("acceleration", [0.0, -9.81]),
-                                                  MAX_ACCELERATION)}
-    if "fibers" in effects:
-        e = _table("effects.fibers", effects["fibers"], ("stiffness", "direction"))
-        _require("effects.fibers", e, ("stiffness",))
-        direction = e.get("direction", [1.0, 0.0])
-        if isinstance(direction, str):
-            _string("effects.fibers.direction", direction, ("fusiform",))
+    for kind in _ORDER + [k for k in known if k not in _ORDER]:
+        if kind not in effects:
+            continue
+        if kind == "inversion":
+            out[kind] = _check_inversion(effects[kind])
+        elif not _listed(kind):
+            out[kind] = EFFECTS_REGISTRY[kind].check(f"effects.{kind}", effects[kind])
         else:
-            direction = _vector("effects.fibers.direction", direction)
-            if direction == [0.0, 0.0]:
-                raise ValueError("effects.fibers.direction must not be zero")
-        out["fibers"] = {"stiffness": _number("effects.fibers.stiffness", e["stiffness"], nonnegative=True,
-                                              hi=FIBER_STIFFNESS_RANGE[1]),
-                         "direction": direction}
-    if "inversion" in effects:
-        e = _table("effects.inversion", effects["inversion"], ("method", "threshold"))
-        method = _string("effects.inversion.method", e.get("method", "projected"), ("itf", "projected"))
-        out["inversion"] = {"method": method}
-        if method == "itf":
-            out["inversion"]["threshold"] = _within("effects.inversion.threshold", e.get("threshold", 0.3),
-                                                    THRESHOLD_RANGE)
-        elif "threshold" in e:
-            raise ValueError("effects.inversion.threshold: only the 'itf' method has a threshold")
-    if "contact" in effects:
-        e = _table("effects.contact", effects["contact"], ("distance", "stiffness"))
-        out["contact"] = {}
-        if "distance" in e:
-            out["contact"]["distance"] = _number("effects.contact.distance", e["distance"], positive=True, hi=_FAR)
-        if "stiffness" in e:
-            out["contact"]["stiffness"] = _penalty("effects.contact.stiffness", e["stiffness"], positive=True)
-    for kind in _LISTS:
-        if kind in effects:
             entries = effects[kind]
             if isinstance(entries, dict):
                 entries = [entries]
-            if not _is_sequence(entries):
-                raise ValueError(f"effects.{kind} must be a list of tables, got {_show(entries)}")
+            if not is_sequence(entries):
+                raise ParameterError(f"effects.{kind}", f"effects.{kind} must be a list of tables, got {show(entries)}")
             if len(entries) > MAX_ENTRIES:
-                raise ValueError(f"effects.{kind}: at most {MAX_ENTRIES} entries, got {len(entries)}")
+                raise ParameterError(f"effects.{kind}", f"effects.{kind}: at most {MAX_ENTRIES} entries, got "
+                                                        f"{len(entries)}")
             if len(entries):  # an empty list is the same as leaving the effect out
                 out[kind] = [_check_entry(kind, i, e) for i, e in enumerate(entries)]
     names = [h["name"] for h in out.get("handles", [])]
     if len(set(names)) != len(names):
-        raise ValueError(f"effects.handles: names must be unique, got {_show(names)}")
+        raise ParameterError("effects.handles", f"effects.handles: names must be unique, got {show(names)}")
     return out
 
 
 def _linear_solver(value):
-    name = _string("solver.linear_solver", value)
+    name = string("solver.linear_solver", value)
     try:
         LinearSolver(name)
     except ValueError as err:
@@ -498,12 +304,12 @@ def _linear_solver(value):
 
 
 def _check_solver(s):
-    s = _table("solver", s, ("budget", "rtol", "linear_solver", "max_iterations"))
+    s = table("solver", s, ("budget", "rtol", "linear_solver", "max_iterations"))
     return {
         "budget": _within("solver.budget", s.get("budget", FRAME_BUDGET), BUDGET_RANGE),
         "rtol": _within("solver.rtol", s.get("rtol", 1e-6), RTOL_RANGE),
         "linear_solver": _linear_solver(s.get("linear_solver", "reuse")),
-        "max_iterations": _number("solver.max_iterations", s.get("max_iterations", 50), integer=True, lo=1,
+        "max_iterations": number("solver.max_iterations", s.get("max_iterations", 50), integer=True, lo=1,
                                   hi=MAX_ITERATIONS),
     }
 
@@ -622,26 +428,26 @@ def _toml_value(v):
         return "[" + ", ".join(_toml_value(x) for x in v) + "]"
     if isinstance(v, dict):
         return "{ " + ", ".join(f"{_toml_key(k)} = {_toml_value(x)}" for k, x in v.items()) + " }"
-    raise ValueError(f"cannot write {_show(v)} to TOML")
+    raise ValueError(f"cannot write {show(v)} to TOML")
 
 
 def _toml(data) -> str:
     lines = [f"{key} = {_toml_value(data[key])}" for key in ("name", "description") if key in data]
 
-    def table(header, values):
+    def add(header, values):
         lines.extend(["", header] + [f"{_toml_key(k)} = {_toml_value(v)}" for k, v in values.items()])
 
     for section in ("domain", "material", "solver"):
-        table(f"[{section}]", data[section])
+        add(f"[{section}]", data[section])
     for kind, value in data["effects"].items():
-        for entry in value if kind in _LISTS else [value]:
-            table(f"[[effects.{kind}]]" if kind in _LISTS else f"[effects.{kind}]", entry)
+        for entry in value if _listed(kind) else [value]:
+            add(f"[[effects.{kind}]]" if _listed(kind) else f"[effects.{kind}]", entry)
     return "\n".join(lines) + "\n"
 
 
 def _scene_path(path, argument="path") -> Path:
     if isinstance(path, bytes) or not isinstance(path, (str, os.PathLike)):
-        raise ValueError(f"{argument} must be a file path (str or pathlib.Path), got {_show(path)}")
+        raise ValueError(f"{argument} must be a file path (str or pathlib.Path), got {show(path)}")
     if "\0" in os.fspath(path):
         raise ValueError(f"{argument} must not contain a NUL character")
     path = Path(path)
@@ -664,8 +470,8 @@ class Scene:
 
     def __init__(self, *, domain=None, material=None, effects=None, solver=None, name="scene", description="",
                  base_dir=None):
-        self.name = _string("name", name)
-        self.description = _string("description", description)
+        self.name = string("name", name)
+        self.description = string("description", description)
         self.domain = _check_domain(domain if domain is not None else {"shape": "rectangle"})
         self.material = _check_material(material)
         self.effects = _check_effects(effects if effects is not None else {})
@@ -674,16 +480,16 @@ class Scene:
         if box is not None:
             _check_reach(self.effects, box)
         if base_dir is not None and (isinstance(base_dir, bytes) or not isinstance(base_dir, (str, os.PathLike))):
-            raise ValueError(f"base_dir must be a folder path (str or pathlib.Path), got {_show(base_dir)}")
+            raise ValueError(f"base_dir must be a folder path (str or pathlib.Path), got {show(base_dir)}")
         self.base_dir = None if base_dir is None else Path(base_dir)
         self.notes = []
 
     # ------------------------------------------------------------------ constructors and output
     @classmethod
     def from_dict(cls, data, base_dir=None) -> "Scene":
-        data = _table("scene", data)
+        data = table("scene", data)
         _check_nesting(data)
-        _only("scene", data, ("name", "description", "domain", "material", "effects", "solver"))
+        table("scene", data, ("name", "description", "domain", "material", "effects", "solver"))
         for key in ("domain", "material", "effects", "solver"):
             if key in data and data[key] is None:
                 raise ValueError(f"{key} must be a table (a dict), got None (leave {key} out for the defaults)")
@@ -714,7 +520,7 @@ class Scene:
             except UnicodeDecodeError as err:
                 raise ValueError(f"scene: not UTF-8 text (byte {err.start})") from None
         if not isinstance(text, str):
-            raise ValueError(f"scene: the {kind} text must be a string, got {_show(text)}")
+            raise ValueError(f"scene: the {kind} text must be a string, got {show(text)}")
         if len(text) > MAX_SCENE_BYTES:
             raise ValueError(f"scene: {len(text)} characters, more than the {MAX_SCENE_BYTES} a scene may have")
         _check_text_nesting(text, kind)

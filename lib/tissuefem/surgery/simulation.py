@@ -1,18 +1,22 @@
 """The running simulation: a scene built, stepped frame by frame, and operated on between frames.
 
-:class:`Simulation` builds a :class:`~tissuefem.surgery.scene.Scene` (mesh, then excisions and
-incisions, then the model of exactly the named terms, then the real-time solver) and offers the
+:class:`Simulation` builds a :class:`~tissuefem.surgery.scene.Scene` (mesh, the model of exactly the
+named effects, the scene's excisions and incisions, then the real-time solver) and offers the
 virtual-surgery operations between frames: :meth:`~Simulation.grab`/:meth:`~Simulation.drag`/
 :meth:`~Simulation.release`, :meth:`~Simulation.add_probe`, :meth:`~Simulation.cut`,
-:meth:`~Simulation.excise` and :meth:`~Simulation.suture`. A topology change (cut, excision) builds
-a new mesh and model and carries the state over (displacement, velocity, time, frame count);
-nothing is lost.
+:meth:`~Simulation.excise` and :meth:`~Simulation.suture`. A probe or a suture is a term added to the
+running model; a topology change (cut, excision) carries the model, its terms, handles and state to
+the new mesh (:meth:`~tissuefem.engine.model.Model.remapped`); nothing is lost.
+
+A handle's *target* is a displacement everywhere (:meth:`frame`, :meth:`move_handle`,
+:meth:`~tissuefem.engine.model.Handle.move`, :meth:`~tissuefem.engine.model.Model.set_targets`): a
+translation ``(dx, dy)`` of the held reference points, or a map ``X -> x``. :meth:`drag` takes the
+pointer's position and sets the target to its offset from the grab point.
 """
 
 from __future__ import annotations
 
 import contextlib
-import copy
 import dataclasses
 import time
 
@@ -21,16 +25,17 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
 from ..engine import meshes
-from ..engine.contact import ContactSurface
+from ..engine.effects import EFFECTS, factory, number, penalty
+from ..engine.meshes import MeshMap
 from ..engine.model import Handle, Model, region_nodes
-from ..engine.parameters import PENALTY_MAX, RADIUS_RANGE, check_count
+from ..engine.parameters import PENALTY_MAX, RADIUS_RANGE, check_count, check_reach, check_vector
 from ..engine.realtime import RealtimeSolver
-from ..engine.terms import check_reach, check_vector
+from ..engine.terms import Sutures
 from . import element_cuts, topology
-from .scene import Scene, _number
+from .scene import Scene
 from .surfaces import contact_surface
 
-__all__ = ["Simulation"]
+__all__ = ["Simulation", "Stitches"]
 
 
 class Simulation:
@@ -44,68 +49,36 @@ class Simulation:
     linear_solver
         Overrides the scene's ``solver.linear_solver``.
     constant_tangent
-        Run a quadratic model with the ``"constant"`` linear solver (default: one factorization per set of held
-        dofs, then one back-substitution a frame); ``False`` forces the general Newton loop (to measure what the
-        shortcut saves).
+        Run a quadratic model with the ``"constant"`` linear solver (one factorization per set of held dofs);
+        ``False`` forces the general Newton loop (to measure what the shortcut saves).
+    order, intorder
+        The model's elements (cuts and excisions need P1) and quadrature degree.
     """
 
     def __init__(self, scene: Scene, *, clock=time.perf_counter, linear_solver=None, constant_tangent=True,
                  order: int = 1, intorder: int | None = None):
         if not isinstance(scene, Scene):
             raise ValueError(f"scene must be a Scene, got {scene!r}")
-        self.scene = scene
-        self.clock = clock
+        self.scene, self.clock = scene, clock
         self._linear_choice = linear_solver or scene.solver["linear_solver"]
         self._constant_tangent = bool(constant_tangent)
-        self.order, self.intorder = order, intorder
-        self.density = scene.material["density"]
         self.material = scene.build_material()
-        mesh = scene.build_mesh()
-        fx = scene.effects.get("fibers")
-        self._fibers = None
-        if fx is not None:
-            if fx["direction"] == "fusiform":
-                if scene.domain["shape"] != "fusiform":
-                    raise ValueError("effects.fibers.direction: 'fusiform' needs domain.shape = 'fusiform'")
-                g = meshes.fusiform_fiber_field(mesh)
-            else:
-                g = np.repeat(np.asarray(fx["direction"], dtype=float)[:, None], mesh.nelements, axis=1)
-            self._fibers = (fx["stiffness"], g)
-        self.mesh = mesh
-        self._contact = self._contact_settings(scene, mesh)
-        self._grab_count = 0
-        # handles: resolved to nodes on the original mesh, then carried through the edits
-        handles = []
-        for i, h in enumerate(scene.effects.get("handles", [])):
-            nodes = region_nodes(mesh, h["region"], f"effects.handles[{i}].region")
-            handle = Handle(nodes, h["target"], name=h["name"])
-            handle.nodes = nodes
-            handles.append(handle)
-        if not handles and not scene.dynamic:
-            raise ValueError("effects.handles: a quasistatic scene needs at least one handle (e.g. a fixed edge), "
-                             "or the body floats freely")
-        self._pending_handles = handles  # until the first model takes them
-        self._probe_specs = []
-        self._probe_count = 0
+        self.model = _scene_model(scene, self.material, order, intorder)
+        self._grab_count = self._probe_count = 0
         #: pieces lifted out because nothing held them (quasistatic scenes only; see _drop_loose_pieces)
         self.removed_pieces = 0
-        self._sutures = None
-        self._state = None
-        # the material of elements cut through (weights: share of the triangle; regions: where it lies)
-        self._weights = None
-        self._regions = {}
-        if (scene.effects.get("excisions") or scene.effects.get("incisions")) and order != 1:
-            raise ValueError("solver: excisions and incisions need P1 elements (order=1)")
+        self._regions = {}  # where the material of each element cut through lies (its weight: model.weights)
+        self.solver = None
         for kind, key in (("excisions", "polygon"), ("incisions", "path")):
             for i, e in enumerate(scene.effects.get(kind, [])):
                 operation = _OPERATIONS[kind][e.get("method", "elements")]
-                self._apply_edit(operation, np.asarray(e[key], dtype=float), f"effects.{kind}[{i}]", rebuild=False)
+                self._apply_edit(operation, np.asarray(e[key], dtype=float), f"effects.{kind}[{i}]")
         if not self.dynamic:
-            _, pieces = self._loose_elements(self.mesh, np.arange(self.mesh.nvertices), self._sutures)
+            _, pieces = _loose_elements(self.mesh, np.arange(self.mesh.nvertices), None, self.model.handles)
             if pieces:
                 raise ValueError(f"effects.handles: {pieces} piece(s) of the domain are held by nothing; a quasistatic "
                                  "scene must hold every piece (or it floats and has no equilibrium)")
-        self._rebuild()
+        self._new_solver()
         for i, p in enumerate(scene.effects.get("probes", [])):
             self.add_probe(p["center"], p["radius"], p.get("stiffness"), _field=f"effects.probes[{i}]")
         for i, s in enumerate(scene.effects.get("sutures", [])):
@@ -113,125 +86,54 @@ class Simulation:
                         _field=f"effects.sutures[{i}]")
 
     # ------------------------------------------------------------------ building
-    @property
-    def dynamic(self) -> bool:
-        return self.scene.dynamic
+    dynamic = property(lambda self: self.scene.dynamic, doc="Whether the scene names inertia.")
+    mesh = property(lambda self: self.model.mesh, doc="The current mesh (cuts and excisions change it).")
+    order = property(lambda self: self.model.order, doc="The elements' order (1: P1).")
 
     @property
     def handles(self) -> dict:
         """The handles holding the tissue, by name (the model owns them)."""
-        return {h.name: h for h in self._current_handles()}
+        return {h.name: h for h in self.model.handles}
 
-    def _current_handles(self) -> list:
-        return list(self.model.handles) if hasattr(self, "model") else list(self._pending_handles)
-
-    def _build_model(self, handles) -> Model:
-        """The model of exactly the scene's effects on the current mesh, holding ``handles``."""
-        effects = self.scene.effects
-        inertia = effects.get("inertia")
-        gravity = effects.get("gravity")
-        tractions = [(t["boundary"], t["traction"]) for t in effects.get("tractions", [])]
-        probes = [dict(p) for p in self._probe_specs]  # center, radius, stiffness, label (see add_probe)
-        try:
-            return Model(
-                self.mesh, self.material, order=self.order, intorder=self.intorder, handles=handles,
-                dt=None if inertia is None else inertia["time_step"], density=self.density,
-                mass="lumped" if inertia is None else inertia["mass"],
-                gravity=None if gravity is None else gravity["acceleration"],
-                tractions=tractions or None, fibers=self._fibers, probes=probes,
-                sutures=self._suture_spec(self._sutures), weights=self._weights, contact=self._contact_spec(),
-            )
-        except ValueError as err:
-            if "tractions" in str(err) and "effects." not in str(err):
-                raise ValueError(f"effects.tractions: {err}") from None
-            if str(err).startswith("contact."):
-                raise ValueError(f"effects.{err}") from None
-            raise
-
-    #: the default depth of the contact skin, in the median length of the surface's segments (its boundary
-    #: edges), and its stiffness (a pressure), in Young's moduli
-    CONTACT_DISTANCE, CONTACT_STIFFNESS = 0.25, 1.0
-
-    @classmethod
-    def _contact_settings(cls, scene, mesh):
-        """The scene's contact effect with its defaults filled in (fixed for the whole run, so the skin does not
-        change when a cut rebuilds the model), or ``None``."""
-        spec = scene.effects.get("contact")
-        if spec is None:
-            return None
-        distance = spec["distance"] if "distance" in spec else \
-            cls.CONTACT_DISTANCE * _median_segment(ContactSurface.from_mesh(mesh), mesh.p)
-        return {"distance": distance, "default_distance": "distance" not in spec,
-                "stiffness": spec.get("stiffness", cls.CONTACT_STIFFNESS * scene.material["youngs_modulus"])}
-
-    def _contact_spec(self):
-        """The model's ``contact`` argument: the surface of the current material (its weights and regions
-        where it was cut through elements) and the run's settings."""
-        if self._contact is None:
-            return None
-        surface = contact_surface(self.mesh, self._weights, self._regions)
-        spec = dict(self._contact, surface=surface)
-        if self._contact.get("default_distance"):
-            # the skin must stay thin against the surface's segments: a cut through elements (or a curved
-            # excision) leaves short pieces, so the default depth shrinks to half their median length
-            spec["distance"] = min(spec["distance"], 0.5 * _median_segment(surface, self.mesh.p))
-        spec.pop("default_distance", None)
-        return spec
-
-    def _rebuild(self, handles=None):
-        """Build the model and the solver for the current mesh, keeping the state (if any)."""
-        handles = self._current_handles() if handles is None else handles
-        model = self._build_model(handles)
-        solver_settings = self.scene.solver
-        choice = self._linear_choice
+    def _new_solver(self, state=None) -> None:
+        """A real-time solver for the model, with the running one's state (or ``state``: ``u, v, v_previous``)."""
+        model, settings, old, choice = self.model, self.scene.solver, self.solver, self._linear_choice
         if model.quadratic and self._constant_tangent and isinstance(choice, str):
             # a constant Hessian: one factorization per held set is exact (with the named direct backend)
-            base = choice[len("reuse-"):] if choice.startswith("reuse-") else choice
+            base = choice.removeprefix("reuse-")
             choice = "constant" if base in ("reuse", "direct", "background", "superlu") else f"constant-{base}"
-        solver = RealtimeSolver(model, linear_solver=choice, budget=solver_settings["budget"],
-                                rtol=solver_settings["rtol"], clock=self.clock,
-                                max_iterations=solver_settings["max_iterations"])
-        previous = getattr(self, "solver", None)
-        if self._state is not None:
-            u, v, v_prev, t, frames, budget, dt = self._state
-            solver.set_state(u, v if model.dynamic else None, v_previous=v_prev if model.dynamic else None,
-                             time_=t, steps=frames)
-            solver.budget = budget
-            if dt is not None:
-                solver.dt = dt
-            solver.last_report = previous.last_report if previous is not None else None
-        self.model, self.solver = model, solver
-        self._state = None
+        self.solver = RealtimeSolver(model, linear_solver=choice, budget=settings["budget"], rtol=settings["rtol"],
+                                     clock=self.clock, max_iterations=settings["max_iterations"])
+        if old is not None:
+            _carry_state(old, self.solver, state)
+
+    def _set_terms(self, terms) -> None:
+        """The running model with ``terms`` (a probe or stitches added or removed), and a solver for it."""
+        self.model.set_terms(terms)
+        self._new_solver()
 
     @contextlib.contextmanager
     def _transaction(self):
         """Apply a change completely or not at all: on any error, everything is put back as it was."""
-        saved = (self.mesh, self._fibers, copy.deepcopy(self._sutures), copy.deepcopy(self._probe_specs),
-                 getattr(self, "model", None), getattr(self, "solver", None), self._grab_count, self._probe_count,
-                 self.removed_pieces, self._weights, self._regions)
-        handles = [(h, h.target) for h in self._current_handles()]
+        model, solver, terms = self.model, self.solver, list(self.model.terms)
+        saved = (self._grab_count, self._probe_count, self.removed_pieces, self._regions)
+        handles = [(h, h.target) for h in model.handles]
         try:
             yield
         except BaseException:
-            (self.mesh, self._fibers, self._sutures, self._probe_specs, model, solver, self._grab_count,
-             self._probe_count, self.removed_pieces, self._weights, self._regions) = saved
-            self._state = None
-            if model is not None:
-                self.model, self.solver = model, solver
-                model.handles[:] = [h for h, _ in handles]
-                for h, target in handles:
-                    h.target = target
+            self.model, self.solver = model, solver
+            (self._grab_count, self._probe_count, self.removed_pieces, self._regions) = saved
+            if model.terms != terms:
+                model.set_terms(terms)
+            model.handles[:] = [h for h, _ in handles]
+            for h, target in handles:
+                h.target = target
             raise
 
     def _check_held(self, handles):
         """A quasistatic scene must keep at least one handle (or the body floats and K is singular)."""
         if not self.dynamic and not handles:
             raise ValueError("handles: a quasistatic scene needs at least one handle; this change would leave none")
-
-    def _save_state(self):
-        s = self.solver
-        self._state = (s.u.copy(), s.v.copy(), None if s.v_previous is None else s.v_previous.copy(),
-                       s.time, s.steps, s.budget, s.dt)
 
     # ------------------------------------------------------------------ frames
     @property
@@ -244,21 +146,10 @@ class Simulation:
             names = names[:i] + [f"inversion ({self.scene.effects['inversion']['method']})"] + names[i:]
         return names
 
-    @property
-    def u(self):
-        return self.solver.u
-
-    @property
-    def v(self):
-        return self.solver.v
-
-    @property
-    def frames(self) -> int:
-        return self.solver.steps
-
-    @property
-    def time(self) -> float:
-        return self.solver.time
+    u = property(lambda self: self.solver.u, doc="The displacement (a dof vector).")
+    v = property(lambda self: self.solver.v, doc="The velocity (a dof vector).")
+    frames = property(lambda self: self.solver.steps, doc="Frames run so far.")
+    time = property(lambda self: self.solver.time, doc="Simulated seconds so far.")
 
     def frame(self, targets=None):
         """One frame. ``targets``: ``{handle name: translation (dx, dy) or map}`` (others keep theirs).
@@ -274,29 +165,20 @@ class Simulation:
         frames = check_count("frames", frames, 0)
         return [self.frame(targets) for _ in range(frames)]
 
-    # ------------------------------------------------------------------ checks of points and radii
     def _point(self, field, point) -> np.ndarray:
         """A finite point within ``REACH`` domain sizes of the domain's centre (the model's reference box)."""
         return check_reach(field, check_vector(field, point), self.model.middle, self.model.size)
 
     def _radius(self, field, radius) -> float:
-        """A radius within ``RADIUS_RANGE`` domain sizes: what a penalty ``~ 1 / r^2`` can be computed for."""
-        r = _number(field, radius, positive=True)
-        lo, hi = RADIUS_RANGE[0] * self.model.size, RADIUS_RANGE[1] * self.model.size
-        if not lo <= r <= hi:
-            raise ValueError(f"{field} = {r:g} must lie within [{RADIUS_RANGE[0]:g}, {RADIUS_RANGE[1]:g}] domain "
-                             f"sizes, i.e. [{lo:g}, {hi:g}]")
-        return r
+        return _check_radius(field, radius, self.model.size)
 
     @property
     def picture(self):
         """What to draw (:class:`~tissuefem.surgery.element_cuts.Picture`): the triangles, and for elements cut
         through, the material they carry (built once per mesh)."""
-        cached = getattr(self, "_picture", None)
-        if cached is None or cached[0] is not self.mesh:
-            cached = (self.mesh, element_cuts.picture(self.mesh, getattr(self, "_regions", None)))
-            self._picture = cached
-        return cached[1]
+        if getattr(self, "_picture", (None,))[0] is not self.mesh:
+            self._picture = (self.mesh, element_cuts.picture(self.mesh, self._regions))
+        return self._picture[1]
 
     def positions(self) -> np.ndarray:
         """Deformed node positions ``x = X + u`` ``(2, n_nodes)``."""
@@ -320,7 +202,7 @@ class Simulation:
     def grab(self, point, radius=None) -> str:
         """Grab the nodes within ``radius`` of ``point`` (deformed coordinates); returns the handle's name.
 
-        The nodes stay where they are until :meth:`drag` moves them by the mouse's offset from the grab
+        The nodes stay where they are until :meth:`drag` moves them by the pointer's offset from the grab
         point. Default radius: 1.5 mean edge lengths.
         """
         radius = 1.5 * meshes.mean_edge_length(self.mesh) if radius is None else self._radius("radius", radius)
@@ -328,8 +210,7 @@ class Simulation:
         if self.order != 1:
             raise ValueError("grab: grabbing needs P1 elements (order=1)")
         x = self.positions()
-        d = np.hypot(x[0] - point[0], x[1] - point[1])
-        nodes = np.flatnonzero(d <= radius)
+        nodes = np.flatnonzero(np.hypot(x[0] - point[0], x[1] - point[1]) <= radius)
         if nodes.size == 0:
             raise ValueError(f"point {point.tolist()}: no tissue within radius {radius:g}")
         names = set(self.handles)
@@ -342,12 +223,13 @@ class Simulation:
         return f"grab{count}"
 
     def drag(self, name, point) -> None:
-        """Move a grabbed handle so that its grab point follows ``point``."""
+        """Move the pointer of a grab to ``point``: the handle's target becomes the offset from its grab point."""
         h = self.model.handle(name)
         point = self._point("point", point)
         h.move(point - (np.zeros(2) if h.anchor is None else h.anchor))
 
     def handle_offset(self, name) -> np.ndarray:
+        """The handle's target if it is a translation (a copy), else ``None``."""
         t = self.model.handle(name).target
         return None if callable(t) else t.copy()
 
@@ -359,7 +241,7 @@ class Simulation:
         """Let go of a handle: its nodes are free from the next frame on.
 
         A quasistatic scene lifts out a piece that nothing holds any more (no equilibrium), as after a cut
-        (:meth:`_drop_loose_pieces`); a dynamic scene keeps it: it falls.
+        (see `_drop_loose_pieces`); a dynamic scene keeps it: it falls.
         """
         handle = self.model.handle(name)
         self._check_held([h for h in self.model.handles if h is not handle])
@@ -368,185 +250,75 @@ class Simulation:
             return
         with self._transaction():
             self.model.remove_handle(name)
-            loose, pieces = self._loose_elements(self.mesh, np.arange(self.mesh.nvertices), self._sutures)
+            stitches = self.model.sutures
+            loose, pieces = _loose_elements(self.mesh, np.arange(self.mesh.nvertices),
+                                            None if stitches is None else stitches.elements, self.model.handles)
             if pieces:
                 self._apply_edit(topology.excise, lambda centroids: loose.copy(), f"release({name!r})")
                 self.removed_pieces += pieces
 
     # ------------------------------------------------------------------ probe
     def add_probe(self, center, radius, stiffness=None, _field="probe"):
-        """Press a rigid disc (a tool tip) into the tissue; returns its label for :meth:`move_probe`."""
+        """Press a rigid disc (a tool tip) into the tissue; returns its label for :meth:`move_probe`.
+
+        Default stiffness ``100 E / radius``: the penetration stays near 1 % of the radius under a moderate
+        pressure."""
         center = self._point(f"{_field}.center", center).tolist()
         radius = self._radius(f"{_field}.radius", radius)  # in domain sizes: the default stiffness stays finite
-        E = self.scene.material["youngs_modulus"]
-        if stiffness is None:  # stiff enough to keep the penetration near 1 % of the radius under moderate pressure
-            stiffness = _number(f"{_field}.stiffness (default 100 E / radius)", 100.0 * E / radius, hi=PENALTY_MAX)
+        if stiffness is None:
+            E = self.scene.material["youngs_modulus"]
+            stiffness = number(f"{_field}.stiffness (default 100 E / radius)", 100.0 * E / radius, hi=PENALTY_MAX)
         else:
-            stiffness = _number(f"{_field}.stiffness", stiffness, nonnegative=True, hi=PENALTY_MAX)
+            stiffness = penalty(f"{_field}.stiffness", stiffness)
+        label = f"probe{self._probe_count + 1}"
+        spec = dict(center=center, radius=radius, stiffness=stiffness, label=label)
         with self._transaction():
+            self._set_terms(self.model.terms + factory("probes", [spec])(self.model))
             self._probe_count += 1
-            label = f"probe{self._probe_count}"
-            self._probe_specs.append(dict(center=center, radius=radius, stiffness=stiffness, label=label))
-            self._save_state()
-            self._rebuild()
         return label
 
     def _probe(self, label):
-        if isinstance(label, str):  # labels are strings: anything else (an array, a list) names no probe
-            for p in self.model.probes:
-                if p.label == label:
-                    return p
+        for p in self.model.probes if isinstance(label, str) else ():  # labels are strings (not arrays, lists)
+            if p.label == label:
+                return p
         raise ValueError(f"no probe named {label!r:.100}; probes: {[p.label for p in self.model.probes]}")
 
     def move_probe(self, label, center) -> None:
         """Move the probe ``label`` to ``center`` (checked; a refusal keeps it where it was)."""
-        probe = self._probe(label)
-        probe.move(self._point("center", center))
-        for spec in self._probe_specs:
-            if spec["label"] == label:
-                spec["center"] = list(probe.center)
+        self._probe(label).move(self._point("center", center))
 
     def remove_probe(self, label) -> None:
-        self._probe(label)
+        probe = self._probe(label)
         with self._transaction():
-            self._probe_specs = [p for p in self._probe_specs if p["label"] != label]
-            self._save_state()
-            self._rebuild()
+            self._set_terms([t for t in self.model.terms if t is not probe])
 
     # ------------------------------------------------------------------ topology changes
-    def _apply_edit(self, operation, argument, field, rebuild=True):
-        running = hasattr(self, "solver")
-        material = dict(weights=self._weights, regions=self._regions)
+    def _apply_edit(self, operation, argument, field):
+        """Apply a cut or an excision (all or nothing) and carry the model and the state to its mesh."""
+        running = self.solver is not None
         try:
-            if operation in (topology.incise, element_cuts.cut_through):  # where the user drew, on the deformed tissue
-                options = material if operation is element_cuts.cut_through else {}
-                edit = operation(self.mesh, argument, self.positions() if running else None, **options)
-            elif operation is element_cuts.excise_through:  # an outline in reference coordinates
-                edit = operation(self.mesh, argument, None, **material)
-            else:
-                edit = operation(self.mesh, argument)
+            edit = _edit(operation, self.mesh, argument, self.positions() if running else None, self.model.weights,
+                         self._regions)
         except ValueError as err:
             raise ValueError(f"{field}: {err}") from None
         with self._transaction():
+            edit, carried, pieces = _carried(edit, self.model, self._regions, keep_loose=self.dynamic)
+            self.removed_pieces += pieces
+            s = self.solver
+            model, state = self.model.remapped(carried, () if not running else (s.u, s.v, s.v_previous))
+            self._check_held(model.handles)
+            self.model, self._regions = model, carried.regions
             if running:
-                self._save_state()
-            weights, regions = self._material_after(edit)
-            sutures = self._carry_sutures(self._sutures, edit, regions)
-            if not self.dynamic:
-                edit, kept = self._drop_loose_pieces(edit, sutures)
-                if kept is not None:  # the elements that stay, of those the edit made
-                    weights = None if weights is None else weights[kept]
-                    regions = {int(new): regions[int(old)] for new, old in enumerate(kept.tolist())
-                               if int(old) in regions}
-                    sutures = self._carry_sutures(sutures, _Kept(kept), regions)
-            parent = edit.parent
-            # carry everything node- and element-based over
-            new_handles = [m for m in (h.remap(parent) for h in self._current_handles()) if m is not None]
-            self._check_held(new_handles)
-            if self._fibers is not None:
-                self._fibers = (self._fibers[0], self._fibers[1][:, edit.elements])
-            self._sutures = sutures
-            self._weights, self._regions = weights, regions
-            if self._state is not None:  # u, v and the previous v node by node (time, frames, budget, dt stay)
-                vectors = (None if w is None else w.reshape(-1, 2)[parent].ravel() for w in self._state[:3])
-                self._state = (*vectors, *self._state[3:])
-            self.mesh = edit.mesh
-            if rebuild:
-                self._rebuild(new_handles)
-            else:
-                self._pending_handles = new_handles
+                self._new_solver(state)
         return edit
-
-    def _drop_loose_pieces(self, edit, sutures):
-        """Quasistatic scenes: remove pieces that nothing holds (no handle, no suture to a held piece).
-
-        Such a piece has no equilibrium (a singular stiffness matrix; under a load it would run away), so
-        it is lifted out, as a surgeon lifts out what was cut free. ``sutures`` are the stitches on
-        ``edit``'s mesh. Returns ``(edit, kept)``: the edit with the pieces removed, and which of its
-        elements stay (``None`` when nothing was removed).
-        """
-        mesh = edit.mesh
-        loose, pieces = self._loose_elements(mesh, edit.parent, sutures)
-        if not pieces:
-            return edit, None  # nothing to drop (or nothing held at all: _check_held reports it)
-        second = topology.excise(mesh, lambda centroids: loose.copy())
-        self.removed_pieces += pieces
-        merged = dataclasses.replace(second, parent=edit.parent[second.parent], elements=edit.elements[second.elements],
-                                     cut_edges=edit.cut_edges, n_old_nodes=edit.n_old_nodes,
-                                     n_old_elements=edit.n_old_elements)
-        return merged, second.elements
-
-    def _loose_elements(self, mesh, parent, sutures):
-        """``(loose, pieces)``: which elements of ``mesh`` lie in pieces that nothing holds, and how many pieces.
-
-        ``parent`` maps its nodes to the current mesh's (which carries the handles); ``sutures`` are the stitches
-        on ``mesh``. ``pieces`` is 0 when every piece is held -- or none is (then :meth:`_check_held` has the say).
-        """
-        t, n = mesh.t, mesh.nvertices
-        rows, cols = list(t), list(t[[1, 2, 0]])  # the three edges of every triangle
-        if sutures is not None:  # a stitch joins the pieces of its two ends
-            rows.append(t[0, sutures["elements"][0]])
-            cols.append(t[0, sutures["elements"][1]])
-        r, c = np.concatenate(rows), np.concatenate(cols)
-        graph = sp.coo_matrix((np.ones(r.size), (r, c)), shape=(n, n))
-        _, labels = connected_components(graph, directed=False)
-        held = np.zeros(labels.max() + 1, dtype=bool)
-        for h in self._current_handles():
-            moved = h.remap(parent)
-            if moved is not None:
-                held[labels[moved.nodes]] = True
-        loose = ~held[labels[t[0]]]
-        if not np.any(loose) or np.all(loose):
-            return np.zeros(t.shape[1], dtype=bool), 0
-        return loose, int(np.unique(labels[t[0]][loose]).size)
-
-    def _material_after(self, edit):
-        """The weights and regions of the elements of ``edit``'s mesh (a cut through elements brings its own)."""
-        if isinstance(edit, element_cuts.ElementCut):
-            weights, regions = edit.weights, edit.regions
-        elif self._weights is None:
-            return None, {}
-        else:
-            weights = self._weights[edit.elements]
-            regions = {new: self._regions[old] for new, old in enumerate(edit.elements.tolist())
-                       if old in self._regions}
-        return (None if np.all(weights == 1.0) else weights), regions
-
-    @staticmethod
-    def _carry_sutures(sutures, edit, regions):
-        """The stitches after ``edit``: each end stays at its point of the material (dropped with its element)."""
-        if sutures is None:
-            return None
-        ends = [element_cuts.carry_points(edit, sutures["elements"][s], sutures["barycentric"][s], regions)
-                for s in range(2)]
-        keep = (ends[0] >= 0) & (ends[1] >= 0)
-        if not np.any(keep):
-            return None
-        return {
-            "elements": np.vstack([ends[0][keep], ends[1][keep]]),
-            "barycentric": sutures["barycentric"][:, keep],
-            "gaps": sutures["gaps"][:, keep],
-            "stiffness": sutures["stiffness"][keep],
-            "tightness": sutures["tightness"][keep],
-        }
-
-    def _suture_spec(self, sutures):
-        """The model's sutures: each end as its element's three nodes with the barycentric weights."""
-        if sutures is None:
-            return None
-        t = np.asarray(self.mesh.t)
-        return {"pairs": np.stack([t[:, sutures["elements"][0]], t[:, sutures["elements"][1]]]),
-                "coefficients": sutures["barycentric"].transpose(0, 2, 1), "stiffness": sutures["stiffness"],
-                "gaps": sutures["gaps"], "tightness": sutures["tightness"]}
 
     def cut(self, polyline, method="elements"):
         """Incise along ``polyline`` (points in deformed coordinates, as drawn on the tissue now).
 
         ``method="elements"`` (default) cuts through the elements along the stroke (the virtual node
         algorithm, :func:`~tissuefem.surgery.element_cuts.cut_through`); ``"edges"`` snaps it to mesh edges
-        and duplicates their nodes (:func:`~tissuefem.surgery.topology.incise`: jagged, kept to compare).
-        Each copy of a node keeps its displacement and velocity. Returns the edit
-        (:class:`~tissuefem.surgery.element_cuts.ElementCut` or :class:`~tissuefem.surgery.topology.MeshEdit`).
+        (:func:`~tissuefem.surgery.topology.incise`: jagged, kept to compare). Each copy of a node keeps its
+        displacement and velocity. Returns the edit (a :class:`~tissuefem.engine.meshes.MeshMap`).
         """
         operation = _operation("incisions", method)
         points = _polyline(polyline)
@@ -569,19 +341,6 @@ class Simulation:
         return self._apply_edit(operation, region, "region")
 
     # ------------------------------------------------------------------ sutures
-    def _snap(self, point, field):
-        """The node nearest to ``point`` (deformed coordinates); among coincident copies of a cut node, the
-        one on the side of the point (whose elements' centroids are nearest)."""
-        x = self.positions()
-        d = np.hypot(x[0] - point[0], x[1] - point[1])
-        best = np.flatnonzero(d <= d.min() + 1e-12 * max(1.0, float(np.ptp(x))))
-        if best.size == 1:
-            return int(best[0])
-        t = self.mesh.t
-        centroids = x[:, t].mean(axis=1)
-        scores = [np.hypot(*(centroids[:, np.any(t == node, axis=0)].mean(axis=1) - point)) for node in best]
-        return int(best[int(np.argmin(scores))])
-
     def suture(self, pairs, stiffness=None, tightness=1.0, _field="sutures"):
         """Tie pairs of points together with stiff springs.
 
@@ -593,77 +352,23 @@ class Simulation:
         most of it, ``(2, k)``.
         """
         E = self.scene.material["youngs_modulus"]
-        k = 100.0 * E if stiffness is None else _number(f"{_field}.stiffness", stiffness, positive=True,
-                                                         hi=PENALTY_MAX)
-        try:
-            arr = np.asarray(pairs)
-        except (TypeError, ValueError):
-            raise ValueError(f"{_field}.pairs must be point pairs shaped (k, 2, 2) or node index pairs shaped "
-                             f"(2, k), got {pairs!r:.200}") from None
-        t = np.asarray(self.mesh.t)
-        if arr.dtype.kind in "iu" and arr.ndim == 2 and arr.shape[0] == 2:
-            nodes = arr.astype(np.intp)
-            if nodes.size == 0 or nodes.min() < 0 or nodes.max() >= self.mesh.nvertices:
-                raise ValueError(f"{_field}.pairs: node indices must be in 0..{self.mesh.nvertices - 1}")
-            ends = [[self._node_end(int(q)) for q in nodes[s]] for s in range(2)]
-        else:
-            if arr.dtype.kind not in "iuf":  # booleans, strings, complex numbers: not points
-                raise ValueError(f"{_field}.pairs must be real point pairs shaped (k, 2, 2), got dtype {arr.dtype}")
-            arr = arr.astype(float)
-            if arr.ndim != 3 or arr.shape[1:] != (2, 2) or arr.shape[0] == 0 or not np.all(np.isfinite(arr)):
-                raise ValueError(f"{_field}.pairs must be point pairs shaped (k, 2, 2), got shape {arr.shape}")
-            for j, pair in enumerate(arr):
-                for i, q in enumerate(pair):
-                    self._point(f"{_field}.pairs[{j}][{i}]", q)
-            ends = [[self._point_end(q[s], _field) for q in arr] for s in range(2)]
-        elements = np.array([[e for e, _ in side] for side in ends], dtype=np.int64).reshape(2, -1)
-        bary = np.array([[w for _, w in side] for side in ends], dtype=float).reshape(2, -1, 3)
-        x = self.positions()
-        at = np.einsum("skc,iskc->sik", bary, x[:, t[:, elements].transpose(1, 2, 0)])  # (2 ends, 2, k)
-        gaps = at[0] - at[1]
-        same = np.array([_end_key(t[:, elements[0, j]], bary[0, j]) == _end_key(t[:, elements[1, j]], bary[1, j])
-                         for j in range(elements.shape[1])], dtype=bool)
-        if np.all(same):
-            raise ValueError(f"{_field}.pairs: every pair ties a point to itself; nothing to tie")
-        keep = ~same
-        k_new = int(keep.sum())
-        new = {"elements": elements[:, keep], "barycentric": bary[:, keep], "stiffness": np.full(k_new, k),
-               "gaps": gaps[:, keep], "tightness": np.zeros(k_new)}
-        tightness = _number(f"{_field}.tightness", tightness, nonnegative=True)
+        k = 100.0 * E if stiffness is None else penalty(f"{_field}.stiffness", stiffness, positive=True)
+        spec = _new_stitches(self.mesh, self.positions(), pairs, k, _field, self._point, self.model.weights,
+                             self._regions)
+        k_new = spec["stiffness"].size
+        tightness = number(f"{_field}.tightness", tightness, nonnegative=True)
         if tightness > 1:
             raise ValueError(f"{_field}.tightness must be in [0, 1], got {tightness!r}")
-        if self._sutures is not None:  # the old stitches keep their gap when placed and their tightness
-            old = self._sutures
-            new = {key: np.concatenate([old[key], new[key]], axis=-1 if key != "barycentric" else 1) for key in new}
+        old = self.model.sutures
+        if old is not None:  # the old stitches keep their gap when placed and their tightness
+            spec = {key: np.concatenate([value, spec[key]], axis=1 if key == "barycentric" else -1)
+                    for key, value in old.ends_spec().items()}
         with self._transaction():
-            self._sutures = new
-            self._save_state()
-            self._rebuild()
-            total = new["stiffness"].size
+            self._set_terms([t for t in self.model.terms if t is not old] + [Stitches(self.mesh, **spec)])
+            total = spec["stiffness"].size
             if tightness > 0:
                 self.tighten(tightness, stitches=np.arange(total - k_new, total))
         return self.model.sutures.pairs[:, -k_new:]
-
-    def _node_end(self, node):
-        """A stitch end at ``node``: an element with that corner, and the corner's barycentric weights."""
-        t = np.asarray(self.mesh.t)
-        corner, element = np.nonzero(t == node)
-        if element.size == 0:
-            raise ValueError(f"node {node} belongs to no element")
-        w = np.zeros(3)
-        w[corner[0]] = 1.0
-        return int(element[0]), w
-
-    def _point_end(self, point, field):
-        """A stitch end at ``point`` (deformed coordinates): on the material there or within half an element of
-        it, or else at the nearest node."""
-        x = self.positions()
-        # within half an element of some material (in an open wound, just off its lip): attached to it
-        found = element_cuts.locate(self.mesh, point, x, self._regions, reach=0.5)
-        if found is not None:  # on a sliver of a cut element: carried by the firm tissue beside it
-            return element_cuts.firm_anchor(self.mesh, *found, positions=x, weights=self._weights,
-                                            regions=self._regions)
-        return self._node_end(self._snap(point, field))
 
     def tighten(self, fraction, stitches=None) -> None:
         """Tighten sutures: each keeps ``(1 - fraction)`` of its gap when placed as slack (1: closed).
@@ -673,13 +378,265 @@ class Simulation:
         if self.model.sutures is None:
             raise ValueError("tighten: there are no sutures")
         self.model.sutures.tighten(fraction, stitches)
-        self._sutures["tightness"] = self.model.sutures.tightness.copy()
 
     def suture_gaps(self) -> np.ndarray:
         """Distances between the sutured points (0 when closed)."""
         if self.model.sutures is None:
             return np.zeros(0)
         return self.model.sutures.distances(self.solver.u)
+
+
+class Stitches(Sutures):
+    """Sutures whose ends are points of the material: an element and barycentric weights per end,
+    ``elements`` ``(2, k)`` and ``barycentric`` ``(2, k, 3)``, so that a cut carries each end to the copy
+    of its element that holds it (:func:`~tissuefem.surgery.element_cuts.carry_points`)."""
+
+    def __init__(self, mesh, elements, barycentric, stiffness, gaps, tightness):
+        t = np.asarray(mesh.t)
+        self.elements, self.barycentric = elements, barycentric
+        super().__init__(np.asarray(mesh.p, dtype=float), np.stack([t[:, elements[0]], t[:, elements[1]]]),
+                         stiffness, gaps, tightness, coefficients=barycentric.transpose(0, 2, 1))
+
+    def ends_spec(self) -> dict:
+        return {"elements": self.elements, "barycentric": self.barycentric, "stiffness": self.k, "gaps": self.gap0,
+                "tightness": self.tightness}
+
+    @staticmethod
+    def carry(spec, edit, regions):
+        """The stitches ``spec`` after ``edit``: each end stays at its point of the material (dropped with its
+        element); ``None`` if none is left."""
+        ends = [element_cuts.carry_points(edit, spec["elements"][s], spec["barycentric"][s], regions)
+                for s in range(2)]
+        keep = (ends[0] >= 0) & (ends[1] >= 0)
+        if not np.any(keep):
+            return None
+        return {"elements": np.vstack([ends[0][keep], ends[1][keep]]), "barycentric": spec["barycentric"][:, keep],
+                "gaps": spec["gaps"][:, keep], "stiffness": spec["stiffness"][keep],
+                "tightness": spec["tightness"][keep]}
+
+    def remap(self, meshmap):
+        stages = getattr(meshmap, "stages", None) or ((meshmap, getattr(meshmap, "regions", None)),)
+        spec = self.ends_spec()
+        for edit, regions in stages:
+            spec = self.carry(spec, edit, regions)
+            if spec is None:
+                return None
+        return Stitches(meshmap.mesh, **spec)
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class _Carried(MeshMap):
+    """An edit as the model sees it: the material after it (``weights``, ``regions``: the contact surface is
+    where the material ends), and the ``stages`` (edit, regions) that stitches are carried through."""
+
+    regions: dict
+    stages: tuple = ()
+
+    def contact_surface(self):
+        return contact_surface(self.mesh, self.weights, self.regions)
+
+
+@dataclasses.dataclass(frozen=True)
+class _Kept:
+    """The elements that stay after lifting out loose pieces (``elements[new] = old``), as an edit shows them."""
+
+    elements: np.ndarray
+
+
+def _check_radius(field, radius, size) -> float:
+    """A radius within ``RADIUS_RANGE`` domain sizes: what a penalty ``~ 1 / r^2`` can be computed for."""
+    r = number(field, radius, positive=True)
+    lo, hi = RADIUS_RANGE[0] * size, RADIUS_RANGE[1] * size
+    if not lo <= r <= hi:
+        raise ValueError(f"{field} = {r:g} must lie within [{RADIUS_RANGE[0]:g}, {RADIUS_RANGE[1]:g}] domain "
+                         f"sizes, i.e. [{lo:g}, {hi:g}]")
+    return r
+
+
+def _scene_model(scene, material, order, intorder) -> Model:
+    """The model of a scene on its mesh: its handles, and a term for every effect of the registry it names
+    (probes and sutures are placed afterwards, by the simulation's operations)."""
+    mesh = scene.build_mesh()
+    handles = []
+    for i, h in enumerate(scene.effects.get("handles", [])):
+        nodes = region_nodes(mesh, h["region"], f"effects.handles[{i}].region")
+        handles.append(Handle(nodes, h["target"], name=h["name"]))
+    if not handles and not scene.dynamic:
+        raise ValueError("effects.handles: a quasistatic scene needs at least one handle (e.g. a fixed edge), "
+                         "or the body floats freely")
+    if (scene.effects.get("excisions") or scene.effects.get("incisions")) and order != 1:
+        raise ValueError("solver: excisions and incisions need P1 elements (order=1)")
+    terms = [factory(name, params, scene) for name, params in scene.effects.items()
+             if name in EFFECTS and not EFFECTS[name].placed]
+    return Model(mesh, material, order=order, intorder=intorder, handles=handles, density=scene.material["density"],
+                 terms=terms)
+
+
+def _carry_state(old, solver, state=None) -> None:
+    """The state of the solver ``old`` (or ``state``: ``u, v, v_previous`` on the new model) in ``solver``: time,
+    frames, budget, time step and last report too."""
+    u, v, v_prev = state if state is not None else (old.u.copy(), old.v.copy(), old.v_previous)
+    dynamic = solver.model.dynamic
+    solver.set_state(u, v if dynamic else None, v_previous=v_prev if dynamic else None, time_=old.time,
+                     steps=old.steps)
+    solver.budget = old.budget
+    if old.dt is not None:
+        solver.dt = old.dt
+    solver.last_report = old.last_report
+
+
+def _edit(operation, mesh, argument, positions, weights, regions):
+    """The edit of ``mesh`` by ``operation`` (with the material cut through so far, where it takes it)."""
+    if operation in (topology.incise, element_cuts.cut_through):  # where the user drew, on the deformed tissue
+        options = dict(weights=weights, regions=regions) if operation is element_cuts.cut_through else {}
+        return operation(mesh, argument, positions, **options)
+    if operation is element_cuts.excise_through:  # an outline in reference coordinates
+        return operation(mesh, argument, None, weights=weights, regions=regions)
+    return operation(mesh, argument)
+
+
+def _carried(edit, model, regions, keep_loose):
+    """``(edit, map, pieces)``: the edit (with the pieces nothing holds lifted out unless ``keep_loose``), the map
+    the model is carried by (the material's weights and regions after it, the stages of its stitches) and how
+    many pieces were lifted out."""
+    weights, regions = _material_after(edit, model.weights, regions)
+    stages, pieces = [(edit, regions)], 0
+    if not keep_loose:
+        stitches = model.sutures
+        ends = None if stitches is None else Stitches.carry(stitches.ends_spec(), edit, regions)
+        edit, kept, pieces = _drop_loose_pieces(edit, None if ends is None else ends["elements"], model.handles)
+        if kept is not None:  # the elements that stay, of those the edit made
+            weights = None if weights is None else weights[kept]
+            regions = {int(new): regions[int(old)] for new, old in enumerate(kept.tolist()) if int(old) in regions}
+            stages.append((_Kept(kept), regions))
+    carried = _Carried(mesh=edit.mesh, parent=edit.parent, elements=edit.elements, n_old_nodes=edit.n_old_nodes,
+                       n_old_elements=edit.n_old_elements, weights=weights, regions=regions, stages=tuple(stages))
+    return edit, carried, pieces
+
+
+def _new_stitches(mesh, x, pairs, k, field, check_point, weights, regions) -> dict:
+    """The stitches of :meth:`Simulation.suture`: each end an element and barycentric weights, ``elements``
+    ``(2, k)``, ``barycentric`` ``(2, k, 3)``, with their ``gaps`` at the positions ``x`` (pairs that tie a
+    point to itself are left out); ``check_point(field, point)`` refuses points out of reach."""
+    try:
+        arr = np.asarray(pairs)
+    except (TypeError, ValueError):
+        raise ValueError(f"{field}.pairs must be point pairs shaped (k, 2, 2) or node index pairs shaped "
+                         f"(2, k), got {pairs!r:.200}") from None
+    t = np.asarray(mesh.t)
+    if arr.dtype.kind in "iu" and arr.ndim == 2 and arr.shape[0] == 2:
+        nodes = arr.astype(np.intp)
+        if nodes.size == 0 or nodes.min() < 0 or nodes.max() >= mesh.nvertices:
+            raise ValueError(f"{field}.pairs: node indices must be in 0..{mesh.nvertices - 1}")
+        ends = [[_node_end(mesh, int(q)) for q in nodes[s]] for s in range(2)]
+    else:
+        if arr.dtype.kind not in "iuf":  # booleans, strings, complex numbers: not points
+            raise ValueError(f"{field}.pairs must be real point pairs shaped (k, 2, 2), got dtype {arr.dtype}")
+        arr = arr.astype(float)
+        if arr.ndim != 3 or arr.shape[1:] != (2, 2) or arr.shape[0] == 0 or not np.all(np.isfinite(arr)):
+            raise ValueError(f"{field}.pairs must be point pairs shaped (k, 2, 2), got shape {arr.shape}")
+        for j, pair in enumerate(arr):
+            for i, q in enumerate(pair):
+                check_point(f"{field}.pairs[{j}][{i}]", q)
+        ends = [[_point_end(mesh, x, q[s], weights, regions) for q in arr] for s in range(2)]
+    elements = np.array([[e for e, _ in side] for side in ends], dtype=np.int64).reshape(2, -1)
+    bary = np.array([[w for _, w in side] for side in ends], dtype=float).reshape(2, -1, 3)
+    at = np.einsum("skc,iskc->sik", bary, x[:, t[:, elements].transpose(1, 2, 0)])  # (2 ends, 2, k)
+    same = np.array([_end_key(t[:, elements[0, j]], bary[0, j]) == _end_key(t[:, elements[1, j]], bary[1, j])
+                     for j in range(elements.shape[1])], dtype=bool)
+    if np.all(same):
+        raise ValueError(f"{field}.pairs: every pair ties a point to itself; nothing to tie")
+    keep = ~same
+    return {"elements": elements[:, keep], "barycentric": bary[:, keep], "stiffness": np.full(int(keep.sum()), k),
+            "gaps": (at[0] - at[1])[:, keep], "tightness": np.zeros(int(keep.sum()))}
+
+
+def _drop_loose_pieces(edit, stitch_elements, handles):
+    """Quasistatic scenes: remove pieces that nothing holds (no handle, no suture to a held piece).
+
+    Such a piece has no equilibrium (a singular stiffness matrix; under a load it would run away), so
+    it is lifted out, as a surgeon lifts out what was cut free. ``stitch_elements`` ``(2, k)``: the
+    elements of the stitches' ends on ``edit``'s mesh; ``handles``: on the mesh before the edit. Returns
+    ``(edit, kept, pieces)``: the edit with the pieces removed, which of its elements stay (``None`` when
+    nothing was removed) and how many pieces went.
+    """
+    loose, pieces = _loose_elements(edit.mesh, edit.parent, stitch_elements, handles)
+    if not pieces:
+        return edit, None, 0  # nothing to drop (or nothing held at all: _check_held reports it)
+    second = topology.excise(edit.mesh, lambda centroids: loose.copy())
+    merged = dataclasses.replace(second, parent=edit.parent[second.parent], elements=edit.elements[second.elements],
+                                 cut_edges=edit.cut_edges, n_old_nodes=edit.n_old_nodes,
+                                 n_old_elements=edit.n_old_elements)
+    return merged, second.elements, pieces
+
+
+def _loose_elements(mesh, parent, stitch_elements, handles):
+    """``(loose, pieces)``: which elements of ``mesh`` lie in pieces that nothing holds, and how many pieces.
+
+    ``parent`` maps its nodes to the mesh of the ``handles``; ``stitch_elements`` are the elements of the
+    stitches' ends on ``mesh``. ``pieces`` is 0 when every piece is held -- or none is (then
+    :meth:`Simulation._check_held` has the say).
+    """
+    t, n = mesh.t, mesh.nvertices
+    rows, cols = list(t), list(t[[1, 2, 0]])  # the three edges of every triangle
+    if stitch_elements is not None:  # a stitch joins the pieces of its two ends
+        rows.append(t[0, stitch_elements[0]])
+        cols.append(t[0, stitch_elements[1]])
+    r, c = np.concatenate(rows), np.concatenate(cols)
+    _, labels = connected_components(sp.coo_matrix((np.ones(r.size), (r, c)), shape=(n, n)), directed=False)
+    held = np.zeros(labels.max() + 1, dtype=bool)
+    for h in handles:
+        moved = h.remap(parent)
+        if moved is not None:
+            held[labels[moved.nodes]] = True
+    loose = ~held[labels[t[0]]]
+    if not np.any(loose) or np.all(loose):
+        return np.zeros(t.shape[1], dtype=bool), 0
+    return loose, int(np.unique(labels[t[0]][loose]).size)
+
+
+def _material_after(edit, weights, regions):
+    """The weights and regions of the elements of ``edit``'s mesh (a cut through elements brings its own)."""
+    if isinstance(edit, element_cuts.ElementCut):
+        weights, regions = edit.weights, edit.regions
+    elif weights is None:
+        return None, {}
+    else:
+        weights = weights[edit.elements]
+        regions = {new: regions[old] for new, old in enumerate(edit.elements.tolist()) if old in regions}
+    return (None if np.all(weights == 1.0) else weights), regions
+
+
+def _snap(mesh, x, point):
+    """The node nearest to ``point`` (positions ``x``); among coincident copies of a cut node, the one on the
+    side of the point (whose elements' centroids are nearest)."""
+    d = np.hypot(x[0] - point[0], x[1] - point[1])
+    best = np.flatnonzero(d <= d.min() + 1e-12 * max(1.0, float(np.ptp(x))))
+    if best.size == 1:
+        return int(best[0])
+    t = mesh.t
+    centroids = x[:, t].mean(axis=1)
+    scores = [np.hypot(*(centroids[:, np.any(t == node, axis=0)].mean(axis=1) - point)) for node in best]
+    return int(best[int(np.argmin(scores))])
+
+
+def _node_end(mesh, node):
+    """A stitch end at ``node``: an element with that corner, and the corner's barycentric weights."""
+    corner, element = np.nonzero(np.asarray(mesh.t) == node)
+    if element.size == 0:
+        raise ValueError(f"node {node} belongs to no element")
+    w = np.zeros(3)
+    w[corner[0]] = 1.0
+    return int(element[0]), w
+
+
+def _point_end(mesh, x, point, weights, regions):
+    """A stitch end at ``point`` (positions ``x``): on the material there or within half an element of it (in an
+    open wound, just off its lip), or else at the nearest node."""
+    found = element_cuts.locate(mesh, point, x, regions, reach=0.5)
+    if found is not None:  # on a sliver of a cut element: carried by the firm tissue beside it
+        return element_cuts.firm_anchor(mesh, *found, positions=x, weights=weights, regions=regions)
+    return _node_end(mesh, _snap(mesh, x, point))
 
 
 #: the operation of each method of an excision and an incision
@@ -692,19 +649,6 @@ def _operation(kind, method):
     if operation is None:
         raise ValueError(f"method must be 'elements' or 'edges', got {method!r:.100}")
     return operation
-
-
-def _median_segment(surface, p) -> float:
-    """The median length of the segments of a contact surface, at the node positions ``p``."""
-    ends = surface.segment_positions(p)
-    return float(np.median(np.hypot(*(ends[:, 1] - ends[:, 0]).T)))
-
-
-@dataclasses.dataclass(frozen=True)
-class _Kept:
-    """The elements that stay after lifting out loose pieces (``elements[new] = old``), as an edit shows them."""
-
-    elements: np.ndarray
 
 
 def _end_key(nodes, weights):
@@ -729,4 +673,3 @@ def _polyline(points, minimum=2, field="polyline"):
     if not np.all(np.isfinite(arr)):
         raise ValueError(f"{field} contains non-finite coordinates")
     return arr
-

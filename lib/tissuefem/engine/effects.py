@@ -1,0 +1,481 @@
+"""The effects a scene can name, and the one place where each becomes a term.
+
+:data:`EFFECTS` maps an effect's name (a key of a scene's ``effects`` table) to an :class:`Effect`:
+how its table is checked (``check(field, table) -> params``, a ``ParameterError`` naming the field)
+and how its term is made (``build(model, params, scene) -> Term | list[Term] | None``; ``scene``
+is the scene being built, for defaults taken from its material or domain, or ``None``). A new
+effect is a term and one :func:`register` call::
+
+    register("wind", check=lambda field, table: {...}, build=lambda model, params, scene: Load(...))
+
+The model's keywords (``dt``, ``gravity``, ``fibers``, ...) go through the same factories
+(:func:`keyword_terms`). Probes and sutures are *placed* effects: the simulation places them with
+its operations (:meth:`~tissuefem.surgery.simulation.Simulation.add_probe`,
+:meth:`~tissuefem.surgery.simulation.Simulation.suture`), which build their terms here.
+
+The table checks (:func:`table`, :func:`number`, :func:`vector`, ...) are shared with the scene:
+a refusal names the field (``effects.probes[0].radius``).
+"""
+
+from __future__ import annotations
+
+import reprlib
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from . import meshes
+from .constants import FRAME_BUDGET
+from .contact import Contact, ContactSurface
+from .parameters import (ACCELERATION_MAX, FORCE_MAX, PENALTY_MAX, RADIUS_RANGE, TIME_STEP_RANGE, ParameterError,
+                         check_bounded_vector, check_count, check_real)
+from .terms import Fibers, Inertia, Load, Probe, Sutures, Term, traction_vector
+
+__all__ = ["Effect", "EFFECTS", "register", "factory", "keyword_terms", "SkinContact", "median_segment"]
+
+# --------------------------------------------------------------------------------------------- table checks
+
+#: points and lengths before the domain's size is known: beyond REACH times the largest domain
+FAR = 1e10
+MAX_POINTS = 10_000
+MAX_STRING = 10_000
+FIBER_STIFFNESS_RANGE = (0.0, 1e12)
+
+_REPR = reprlib.Repr()
+_REPR.maxstring = _REPR.maxother = 60
+_REPR.maxlist = _REPR.maxtuple = _REPR.maxdict = 6
+_REPR.maxlevel = 3
+
+
+def show(value) -> str:
+    """A short, one-line rendering of any value for an error message (bounded however large or deep it is)."""
+    if isinstance(value, int) and not isinstance(value, bool) and value.bit_length() > 200:
+        return f"an integer of {len(str(value)) if value.bit_length() < 10_000 else 'thousands of'} digits"
+    try:
+        return _REPR.repr(value)
+    except Exception:  # a foreign object whose repr fails
+        return f"a {type(value).__name__}"
+
+
+def number(field, value, *, positive=False, nonnegative=False, integer=False, lo=None, hi=None):
+    """``value`` as a number for ``field`` within ``[lo, hi]``; without ``lo``, ``positive`` means > 0 and
+    ``nonnegative`` >= 0; with ``integer``, a float such as ``800.0`` is refused."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise ParameterError(field, f"{field} must be a number, got {show(value)}")
+    if integer:
+        low = lo if lo is not None else 1 if positive else 0 if nonnegative else -(2**63)
+        return check_count(field, value, int(low), None if hi is None else int(hi))
+    if lo is None and (positive or nonnegative):
+        return check_real(field, value, 0.0, hi, lo_open=positive)
+    return check_real(field, value, lo, hi)
+
+
+def is_sequence(value) -> bool:
+    return isinstance(value, (list, tuple)) or (isinstance(value, np.ndarray) and value.ndim == 1)
+
+
+def vector(field, value, bound=FAR) -> list:
+    if not is_sequence(value) or len(value) != 2:
+        raise ParameterError(field, f"{field} must be a vector [x, y], got {show(value)}")
+    return [number(f"{field}[{i}]", c, lo=-bound, hi=bound) for i, c in enumerate(value)]
+
+
+def points(field, value, minimum, maximum=MAX_POINTS) -> list:
+    if not is_sequence(value) or not minimum <= len(value) <= maximum:
+        raise ParameterError(field, f"{field} must be a list of {minimum} to {maximum} points [x, y], "
+                                    f"got {show(value)}")
+    return [vector(f"{field}[{i}]", p) for i, p in enumerate(value)]
+
+
+def table(field, value, allowed=None) -> dict:
+    """``value`` if it is a table (a dict) with no keys but ``allowed`` (if given)."""
+    if not isinstance(value, dict):
+        raise ParameterError(field, f"{field} must be a table (a dict), got {show(value)}")
+    unknown = [] if allowed is None else [k for k in value if k not in allowed]  # keys may be of any type
+    if unknown:
+        shown = sorted(show(k) for k in unknown)
+        raise ParameterError(field, f"{field}: unknown key(s) [{', '.join(shown)}]; allowed: {sorted(allowed)}")
+    return value
+
+
+def require(field, value, keys) -> None:
+    for key in keys:
+        if key not in value:
+            raise ParameterError(f"{field}.{key}", f"{field}.{key}: missing")
+
+
+def string(field, value, choices=None, *, nonempty=False) -> str:
+    """A string (one of ``choices`` if given) that a UTF-8 scene file can hold, at most ``MAX_STRING`` long."""
+    if not isinstance(value, str):
+        raise ParameterError(field, f"{field} must be a string, got {show(value)}")
+    if choices is not None:
+        if value not in choices:
+            raise ParameterError(field, f"{field} must be one of {list(choices)}, got {show(value)}")
+        return value
+    if len(value) > MAX_STRING:
+        raise ParameterError(field, f"{field} must be at most {MAX_STRING} characters long, got {len(value)}")
+    if nonempty and not value:
+        raise ParameterError(field, f"{field} must not be empty")
+    try:
+        value.encode("utf-8")
+    except UnicodeEncodeError as err:  # a lone surrogate: no UTF-8 file (TOML or JSON) can hold it
+        raise ParameterError(field, f"{field} contains a lone surrogate code point at character {err.start} (not "
+                                    "text that a scene file can hold)") from None
+    return value
+
+
+def count_list(field, value, what, maximum) -> list:
+    if not is_sequence(value) or not value:
+        raise ParameterError(field, f"{field} must be a non-empty list of {what}, got {show(value)}")
+    if len(value) > maximum:
+        raise ParameterError(field, f"{field}: at most {maximum} {what}, got {len(value)}")
+    return value
+
+
+def penalty(field, value, positive=False) -> float:
+    return number(field, value, positive=positive, nonnegative=not positive, hi=PENALTY_MAX)
+
+
+# --------------------------------------------------------------------------------------------- the registry
+
+@dataclass(frozen=True)
+class Effect:
+    """A scene's effect: ``check(field, table) -> params`` and ``build(model, params, scene) -> term(s)``.
+
+    ``listed``: the scene gives a list of tables (``build`` gets the list of checked tables);
+    ``placed``: the simulation places it with an operation between frames (probes, sutures);
+    ``check=None``: a model keyword only, not a scene's effect.
+    """
+
+    name: str
+    check: Callable | None
+    build: Callable
+    listed: bool = False
+    placed: bool = False
+
+
+EFFECTS: dict[str, Effect] = {}
+
+
+def register(name, check, build, *, listed=False, placed=False) -> Effect:
+    """Add (or replace) the effect ``name``: a scene may name it from now on."""
+    if not isinstance(name, str) or not name.isidentifier():
+        raise ParameterError("name", f"name must be an identifier, got {name!r}")
+    EFFECTS[name] = Effect(name, check, build, listed, placed)
+    return EFFECTS[name]
+
+
+def factory(name, params, scene=None) -> Callable:
+    """``model -> Term | list | None``: the effect ``name`` with checked ``params`` on a model.
+
+    Built for a ``scene``, a refusal is named after the scene's field (``effects.contact.distance``).
+    """
+    effect = EFFECTS[name]
+
+    def make(model):
+        try:
+            return effect.build(model, params, scene)
+        except ParameterError as err:
+            if scene is None or err.field.startswith("effects."):
+                raise
+            text = f"effects.{err}" if err.field.startswith(f"{name}.") else f"effects.{name}: {err}"
+            raise ParameterError(f"effects.{err.field}", text) from None
+
+    return make
+
+
+def _youngs_modulus(scene):
+    return scene.material["youngs_modulus"]
+
+
+# inertia: backward Euler -------------------------------------------------------------------------------------
+
+def _check_inertia(field, e):
+    e = table(field, e, ("time_step", "mass"))
+    return {"time_step": number(f"{field}.time_step", e.get("time_step", FRAME_BUDGET), lo=TIME_STEP_RANGE[0],
+                                hi=TIME_STEP_RANGE[1]),
+            "mass": string(f"{field}.mass", e.get("mass", "lumped"), ("lumped", "consistent"))}
+
+
+register("inertia", _check_inertia,
+         lambda model, p, scene: Inertia(model.assembler, p["time_step"], model.density, p["mass"]))
+
+
+# loads -------------------------------------------------------------------------------------------------------
+
+def _body_load(name, per_area):
+    """A load of ``per_area(model)`` per unit reference area (a body force ``(bx, by)``)."""
+    def make(model):
+        return model.assembler.body_force(per_area(model))
+
+    return lambda model: Load(name, make(model), make)
+
+
+def _check_gravity(field, e):
+    e = table(field, e, ("acceleration",))
+    return {"acceleration": vector(f"{field}.acceleration", e.get("acceleration", [0.0, -9.81]), ACCELERATION_MAX)}
+
+
+def _gravity(model, p, scene):
+    g = check_bounded_vector("gravity", p["acceleration"], ACCELERATION_MAX)
+    return _body_load("gravity", lambda m: m.density * g)(model)
+
+
+def _body_force(model, p, scene):
+    b = check_bounded_vector("body_force", p["force"], FORCE_MAX)
+    return _body_load("body force", lambda m: b)(model)
+
+
+def _check_traction(field, e):
+    e = table(field, e, ("boundary", "traction"))
+    require(field, e, ("boundary", "traction"))
+    return {"boundary": string(f"{field}.boundary", e["boundary"], nonempty=True),
+            "traction": vector(f"{field}.traction", e["traction"], FORCE_MAX)}
+
+
+def _tractions(model, entries, scene):
+    """All tractions as one load ``f_(a,i) = sum int_boundary N_a t_i dS``."""
+    if not entries:
+        return None
+
+    def make(m):
+        f = np.zeros(m.n_dofs)
+        for e in entries:
+            f += traction_vector(m.basis, e["boundary"], e["traction"])
+        return f
+
+    return Load("tractions", make(model), make)
+
+
+register("gravity", _check_gravity, _gravity)
+register("body_force", None, _body_force)
+register("tractions", _check_traction, _tractions, listed=True)
+
+
+# fibres ------------------------------------------------------------------------------------------------------
+
+def _check_fibers(field, e):
+    e = table(field, e, ("stiffness", "direction"))
+    require(field, e, ("stiffness",))
+    direction = e.get("direction", [1.0, 0.0])
+    if isinstance(direction, str):
+        string(f"{field}.direction", direction, ("fusiform",))
+    else:
+        direction = vector(f"{field}.direction", direction)
+        if direction == [0.0, 0.0]:
+            raise ParameterError(f"{field}.direction", f"{field}.direction must not be zero")
+    return {"stiffness": number(f"{field}.stiffness", e["stiffness"], nonnegative=True, hi=FIBER_STIFFNESS_RANGE[1]),
+            "direction": direction}
+
+
+def _fibers(model, p, scene):
+    g = p["direction"]
+    if isinstance(g, str) and g == "fusiform":  # along the: along the muscle's mapped grid lines
+        if scene is not None and scene.domain["shape"] != "fusiform":
+            raise ParameterError("fibers.direction", "fibers.direction: 'fusiform' needs domain.shape = 'fusiform'")
+        g = meshes.fusiform_fiber_field(model.mesh)
+    return Fibers(model.assembler, p["stiffness"], g)
+
+
+register("fibers", _check_fibers, _fibers)
+
+
+# probes and sutures (placed by the simulation) ---------------------------------------------------------------
+
+def _check_probe(field, e):
+    e = table(field, e, ("center", "radius", "stiffness"))
+    require(field, e, ("center", "radius"))
+    out = {"center": vector(f"{field}.center", e["center"]),
+           "radius": number(f"{field}.radius", e["radius"], lo=RADIUS_RANGE[0] * meshes.SIZE_RANGE[0], hi=FAR)}
+    if "stiffness" in e:
+        out["stiffness"] = penalty(f"{field}.stiffness", e["stiffness"])
+    return out
+
+
+def _probes(model, entries, scene):
+    """Rigid discs; default stiffness ``100 E / radius`` (the penetration near 1 % of the radius under a moderate
+    pressure)."""
+    out = []
+    for p in entries:
+        p = dict(p)
+        if scene is not None and p.get("stiffness") is None:
+            p["stiffness"] = 100.0 * _youngs_modulus(scene) / p["radius"]
+        out.append(Probe(model.X, model.boundary_lengths, **p))
+    return out
+
+
+def _check_suture(field, e):
+    e = table(field, e, ("pairs", "stiffness", "tightness"))
+    pairs = count_list(f"{field}.pairs", e.get("pairs"), "point pairs [[x1, y1], [x2, y2]]", MAX_POINTS)
+    checked = []
+    for j, pair in enumerate(pairs):
+        if not is_sequence(pair) or len(pair) != 2:
+            raise ParameterError(f"{field}.pairs[{j}]", f"{field}.pairs[{j}] must be two points [[x1, y1], "
+                                                        f"[x2, y2]], got {show(pair)}")
+        checked.append(points(f"{field}.pairs[{j}]", pair, 2, 2))
+    out = {"pairs": checked, "tightness": number(f"{field}.tightness", e.get("tightness", 1.0), nonnegative=True,
+                                                 hi=1.0)}
+    if "stiffness" in e:
+        out["stiffness"] = penalty(f"{field}.stiffness", e["stiffness"], positive=True)
+    return out
+
+
+def _sutures(model, spec, scene):
+    """Stitches given by their ends' nodes: ``pairs`` ``(2, k)`` or, with ``coefficients``, ``(2, c, k)``."""
+    return Sutures(model.X, spec["pairs"], spec["stiffness"], spec["gaps"], spec.get("tightness", 0.0),
+                   coefficients=spec.get("coefficients"))
+
+
+register("probes", _check_probe, _probes, listed=True, placed=True)
+register("sutures", _check_suture, _sutures, listed=True, placed=True)
+
+
+# self-contact ------------------------------------------------------------------------------------------------
+
+#: the default depth of the contact skin, in the median length of the surface's segments, and its stiffness (a
+#: pressure), in Young's moduli
+CONTACT_DISTANCE, CONTACT_STIFFNESS = 0.25, 1.0
+
+
+def median_segment(surface, p) -> float:
+    """The median length of the segments of a contact surface, at the node positions ``p``."""
+    ends = surface.segment_positions(p)
+    return float(np.median(np.hypot(*(ends[:, 1] - ends[:, 0]).T)))
+
+
+class SkinContact(Contact):
+    """Self-contact that keeps its settings across cuts: the surface after a topology change is the one the
+    change knows (:meth:`~tissuefem.engine.meshes.MeshMap.contact_surface`, else the mesh's boundary).
+
+    ``default``: the skin's depth was not given; it must stay thin against the surface's segments, and a cut
+    through elements (or a curved excision) leaves short pieces, so after a remap the depth shrinks to half
+    their median length (never grows past the depth at the start, ``base``).
+    """
+
+    def __init__(self, X, surface, distance, stiffness, *, default=False, base=None):
+        self.default, self.base = default, distance if base is None else base
+        super().__init__(X, surface, distance, stiffness)
+
+    def remap(self, meshmap):
+        p = np.asarray(meshmap.mesh.p, dtype=float)
+        surface = meshmap.contact_surface()
+        surface = ContactSurface.from_mesh(meshmap.mesh) if surface is None else surface
+        distance = min(self.base, 0.5 * median_segment(surface, p)) if self.default else self.base
+        return SkinContact(p, surface, distance, self.stiffness, default=self.default, base=self.base)
+
+
+def _check_contact(field, e):
+    e = table(field, e, ("distance", "stiffness"))
+    out = {}
+    if "distance" in e:
+        out["distance"] = number(f"{field}.distance", e["distance"], positive=True, hi=FAR)
+    if "stiffness" in e:
+        out["stiffness"] = penalty(f"{field}.stiffness", e["stiffness"], positive=True)
+    return out
+
+
+def _contact(model, p, scene):
+    """A scene's contact: the mesh's boundary, a skin of a quarter of its median segment and Young's modulus as the
+    stiffness unless given. A model's ``contact`` keyword: ``distance, stiffness[, surface, skin]``, all given."""
+    if scene is None:
+        if not isinstance(p, dict):
+            raise ParameterError("contact", f"contact must be a dict (distance, stiffness[, surface, skin]), got {p!r}")
+        unknown = sorted(set(p) - {"distance", "stiffness", "surface", "skin"})
+        if unknown:
+            raise ParameterError("contact", f"contact: unknown key(s) {unknown}; allowed: distance, stiffness, "
+                                            "surface, skin")
+        require("contact", p, ("distance", "stiffness"))
+        surface = ContactSurface.from_mesh(model.mesh) if p.get("surface") is None else p["surface"]
+        return Contact(model.X, surface, p["distance"], p["stiffness"], p.get("skin"))
+    surface = ContactSurface.from_mesh(model.mesh)
+    default, median = "distance" not in p, median_segment(surface, model.X)
+    distance = CONTACT_DISTANCE * median if default else p["distance"]
+    if distance > 0.5 * median:  # the contact term's own rule, refused here by the field's name
+        raise ParameterError("contact.distance", f"contact.distance = {distance:g} must be at most half the surface's "
+                                                 f"median segment length ({0.5 * median:g}): the skin is a thin layer "
+                                                 "of the surface")
+    stiffness = p.get("stiffness", CONTACT_STIFFNESS * _youngs_modulus(scene))
+    return SkinContact(model.X, surface, distance, stiffness, default=default)
+
+
+register("contact", _check_contact, _contact)
+
+
+# --------------------------------------------------------------------------------------------- model keywords
+
+def _entries(field, value, what) -> list:
+    try:
+        return list(value)
+    except TypeError:
+        raise ParameterError(field, f"{field} must be a sequence of {what}, got {value!r}") from None
+
+
+def _named_tractions(tractions) -> list:
+    bad = ParameterError("tractions", f"tractions must be {{boundary: (tx, ty)}} or [(boundary, (tx, ty)), ...], "
+                                      f"got {tractions!r:.200}")
+    try:
+        items = list(tractions.items() if isinstance(tractions, dict) else tractions)
+    except TypeError:
+        raise bad from None
+    out = []
+    for item in items:
+        try:
+            name, t = item
+        except (TypeError, ValueError):
+            raise bad from None
+        if not isinstance(name, str):
+            raise ParameterError("tractions", f"tractions: a boundary is named by a string, got {name!r}")
+        out.append({"boundary": name, "traction": t})
+    return out
+
+
+def _keys(field, spec, required, optional=()) -> dict:
+    """``spec`` is a dict with the ``required`` keys and no others than those and ``optional``."""
+    if not isinstance(spec, dict):
+        raise ParameterError(field, f"{field} must be a dict with keys {', '.join(required + optional)}, got {spec!r}")
+    missing = [k for k in required if k not in spec]
+    unknown = [k for k in spec if k not in required + optional]
+    if missing or unknown:
+        raise ParameterError(field, f"{field}: " + "; ".join(
+            ([f"missing {', '.join(map(str, missing))}"] if missing else [])
+            + ([f"unknown keys {unknown!r} (allowed: {', '.join(required + optional)})"] if unknown else [])))
+    return spec
+
+
+def keyword_terms(*, dt=None, mass="lumped", gravity=None, body_force=None, tractions=None, fibers=None, probes=(),
+                  sutures=None, contact=None) -> list:
+    """The factories of a model's keywords (see :class:`~tissuefem.engine.model.Model`), in the order the model
+    builds them; each checks its keyword when it is called."""
+    probes = _entries("probes", probes, "dicts (center, radius, stiffness[, label])")
+
+    def fibers_term(model):
+        try:
+            stiffness, directions = fibers
+        except (TypeError, ValueError):
+            raise ParameterError("fibers", f"fibers must be (stiffness, directions), got {fibers!r}") from None
+        return _fibers(model, {"stiffness": stiffness, "direction": directions}, None)
+
+    out = [] if fibers is None else [fibers_term]
+    if dt is not None:
+        out.append(factory("inertia", {"time_step": dt, "mass": mass}))
+    for i, spec in enumerate(probes):
+        out.append(lambda model, i=i, spec=spec: _probes(
+            model, [_keys(f"probes[{i}]", spec, ("center", "radius", "stiffness"), ("label", "smoothing"))], None))
+    if sutures is not None:
+        out.append(lambda model: _sutures(model, _keys("sutures", sutures, ("pairs", "stiffness", "gaps"),
+                                                       ("tightness", "coefficients")), None))
+    if contact is not None:
+        out.append(factory("contact", contact))
+    if gravity is not None:
+        out.append(factory("gravity", {"acceleration": gravity}))
+    if body_force is not None:
+        out.append(factory("body_force", {"force": body_force}))
+    if tractions is not None:
+        out.append(lambda model: _tractions(model, _named_tractions(tractions), None))
+    return out
+
+
+def as_terms(made) -> list[Term]:
+    """A factory's result as a list of terms (``None``: none)."""
+    return [] if made is None else list(made) if isinstance(made, (list, tuple)) else [made]
