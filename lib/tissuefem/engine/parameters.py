@@ -246,36 +246,3 @@ def check_real_array(name: str, value) -> np.ndarray:
         raise ParameterError(name, f"{name} must be an array of real numbers, got "
                                    f"{what.get(a.dtype.kind, a.dtype)} (dtype {a.dtype})")
     return a if a.dtype == np.float64 else a.astype(np.float64)
-
-
-def check_vector(name, value) -> np.ndarray:
-    """A finite vector ``(x, y)`` of real numbers, or a ``ValueError`` naming ``name``."""
-    try:
-        v = np.asarray(value)
-    except (TypeError, ValueError):
-        raise ParameterError(name, f"{name} must be a finite vector (x, y), got {value!r}") from None
-    if v.dtype.kind not in "iuf":  # strings, booleans, objects; complex would lose its imaginary part
-        raise ParameterError(name, f"{name} must be a finite vector (x, y) of real numbers, got {value!r}")
-    v = v.astype(float)
-    if v.shape != (2,) or not np.all(np.isfinite(v)):
-        raise ParameterError(name, f"{name} must be a finite vector (x, y), got {value!r}")
-    return v
-
-
-def check_nonnegative(name, value) -> float:
-    """A finite real number ``>= 0``, or a ``ValueError`` naming ``name``."""
-    return check_real(name, value, 0.0)
-
-
-def check_positive(name, value) -> float:
-    """A finite real number ``> 0``, or a ``ValueError`` naming ``name``."""
-    return check_real(name, value, 0.0, lo_open=True)
-
-
-def check_reach(name, point, middle, size) -> np.ndarray:
-    """``point`` if it lies within ``REACH`` domain sizes of the domain's centre ``middle``, else ``ValueError``."""
-    far = REACH * size
-    if np.any(np.abs(np.asarray(point) - middle) > far):
-        raise ParameterError(name, f"{name} = {np.asarray(point).tolist()} lies farther than {REACH:g} domain sizes "
-                                   f"({far:g}) from the domain's centre ({middle[0]:g}, {middle[1]:g})")
-    return point
