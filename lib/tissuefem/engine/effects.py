@@ -13,13 +13,12 @@ The model's keywords (``dt``, ``gravity``, ``fibers``, ...) go through the same 
 its operations (:meth:`~tissuefem.surgery.simulation.Simulation.add_probe`,
 :meth:`~tissuefem.surgery.simulation.Simulation.suture`), which build their terms here.
 
-The table checks (:func:`table`, :func:`number`, :func:`vector`, ...) are shared with the scene:
-a refusal names the field (``effects.probes[0].radius``).
+The table checks (:func:`~tissuefem.engine.parameters.table`, ``number``, ``vector``, ...) live with the
+engine's other checks in :mod:`tissuefem.engine.parameters`: a refusal names the field (``effects.probes[0].radius``).
 """
 
 from __future__ import annotations
 
-import reprlib
 from dataclasses import dataclass
 from typing import Callable
 
@@ -28,114 +27,12 @@ import numpy as np
 from . import meshes
 from .constants import FRAME_BUDGET
 from .contact import Contact, ContactSurface
-from .parameters import (ACCELERATION_MAX, FORCE_MAX, PENALTY_MAX, RADIUS_RANGE, TIME_STEP_RANGE, ParameterError,
-                         check_bounded_vector, check_count, check_real)
+from .parameters import (ACCELERATION_MAX, FAR, FIBER_STIFFNESS_RANGE, FORCE_MAX, RADIUS_RANGE, TIME_STEP_RANGE,
+                         MAX_POINTS, ParameterError, check_bounded_vector, count_list,
+                         is_sequence, number, penalty, points, require, show, string, table, vector)
 from .terms import Fibers, Inertia, Load, Probe, Sutures, Term, traction_vector
 
 __all__ = ["Effect", "EFFECTS", "register", "factory", "keyword_terms", "SkinContact", "median_segment"]
-
-# --------------------------------------------------------------------------------------------- table checks
-
-#: points and lengths before the domain's size is known: beyond REACH times the largest domain
-FAR = 1e10
-MAX_POINTS = 10_000
-MAX_STRING = 10_000
-FIBER_STIFFNESS_RANGE = (0.0, 1e12)
-
-_REPR = reprlib.Repr()
-_REPR.maxstring = _REPR.maxother = 60
-_REPR.maxlist = _REPR.maxtuple = _REPR.maxdict = 6
-_REPR.maxlevel = 3
-
-
-def show(value) -> str:
-    """A short, one-line rendering of any value for an error message (bounded however large or deep it is)."""
-    if isinstance(value, int) and not isinstance(value, bool) and value.bit_length() > 200:
-        return f"an integer of {len(str(value)) if value.bit_length() < 10_000 else 'thousands of'} digits"
-    try:
-        return _REPR.repr(value)
-    except Exception:  # a foreign object whose repr fails
-        return f"a {type(value).__name__}"
-
-
-def number(field, value, *, positive=False, nonnegative=False, integer=False, lo=None, hi=None):
-    """``value`` as a number for ``field`` within ``[lo, hi]``; without ``lo``, ``positive`` means > 0 and
-    ``nonnegative`` >= 0; with ``integer``, a float such as ``800.0`` is refused."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise ParameterError(field, f"{field} must be a number, got {show(value)}")
-    if integer:
-        low = lo if lo is not None else 1 if positive else 0 if nonnegative else -(2**63)
-        return check_count(field, value, int(low), None if hi is None else int(hi))
-    if lo is None and (positive or nonnegative):
-        return check_real(field, value, 0.0, hi, lo_open=positive)
-    return check_real(field, value, lo, hi)
-
-
-def is_sequence(value) -> bool:
-    return isinstance(value, (list, tuple)) or (isinstance(value, np.ndarray) and value.ndim == 1)
-
-
-def vector(field, value, bound=FAR) -> list:
-    if not is_sequence(value) or len(value) != 2:
-        raise ParameterError(field, f"{field} must be a vector [x, y], got {show(value)}")
-    return [number(f"{field}[{i}]", c, lo=-bound, hi=bound) for i, c in enumerate(value)]
-
-
-def points(field, value, minimum, maximum=MAX_POINTS) -> list:
-    if not is_sequence(value) or not minimum <= len(value) <= maximum:
-        raise ParameterError(field, f"{field} must be a list of {minimum} to {maximum} points [x, y], "
-                                    f"got {show(value)}")
-    return [vector(f"{field}[{i}]", p) for i, p in enumerate(value)]
-
-
-def table(field, value, allowed=None) -> dict:
-    """``value`` if it is a table (a dict) with no keys but ``allowed`` (if given)."""
-    if not isinstance(value, dict):
-        raise ParameterError(field, f"{field} must be a table (a dict), got {show(value)}")
-    unknown = [] if allowed is None else [k for k in value if k not in allowed]  # keys may be of any type
-    if unknown:
-        shown = sorted(show(k) for k in unknown)
-        raise ParameterError(field, f"{field}: unknown key(s) [{', '.join(shown)}]; allowed: {sorted(allowed)}")
-    return value
-
-
-def require(field, value, keys) -> None:
-    for key in keys:
-        if key not in value:
-            raise ParameterError(f"{field}.{key}", f"{field}.{key}: missing")
-
-
-def string(field, value, choices=None, *, nonempty=False) -> str:
-    """A string (one of ``choices`` if given) that a UTF-8 scene file can hold, at most ``MAX_STRING`` long."""
-    if not isinstance(value, str):
-        raise ParameterError(field, f"{field} must be a string, got {show(value)}")
-    if choices is not None:
-        if value not in choices:
-            raise ParameterError(field, f"{field} must be one of {list(choices)}, got {show(value)}")
-        return value
-    if len(value) > MAX_STRING:
-        raise ParameterError(field, f"{field} must be at most {MAX_STRING} characters long, got {len(value)}")
-    if nonempty and not value:
-        raise ParameterError(field, f"{field} must not be empty")
-    try:
-        value.encode("utf-8")
-    except UnicodeEncodeError as err:  # a lone surrogate: no UTF-8 file (TOML or JSON) can hold it
-        raise ParameterError(field, f"{field} contains a lone surrogate code point at character {err.start} (not "
-                                    "text that a scene file can hold)") from None
-    return value
-
-
-def count_list(field, value, what, maximum) -> list:
-    if not is_sequence(value) or not value:
-        raise ParameterError(field, f"{field} must be a non-empty list of {what}, got {show(value)}")
-    if len(value) > maximum:
-        raise ParameterError(field, f"{field}: at most {maximum} {what}, got {len(value)}")
-    return value
-
-
-def penalty(field, value, positive=False) -> float:
-    return number(field, value, positive=positive, nonnegative=not positive, hi=PENALTY_MAX)
-
 
 # --------------------------------------------------------------------------------------------- the registry
 

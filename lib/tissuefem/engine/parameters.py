@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import math
 import numbers
+import reprlib
 
 import numpy as np
 
@@ -31,6 +32,9 @@ __all__ = [
     "check_real_array", "check_reach", "check_weights", "check_fiber_stiffness", "check_time_step", "check_density",
     "YOUNGS_MODULUS_RANGE", "POISSON_RATIO_RANGE", "LAME_MAX", "SHEAR_MODULUS_MIN", "TIME_STEP_RANGE",
     "DENSITY_RANGE", "ACCELERATION_MAX", "FORCE_MAX", "PENALTY_MAX", "REACH", "RADIUS_RANGE",
+    # a scene's tables: each refusal names the field (``effects.probes[0].radius``)
+    "show", "number", "is_sequence", "vector", "points", "table", "require", "string", "count_list", "penalty",
+    "FAR", "MAX_POINTS", "MAX_STRING", "FIBER_STIFFNESS_RANGE",
 ]
 
 YOUNGS_MODULUS_RANGE = (1e-6, 1e12)  #: Young's modulus (closed interval, as every range here)
@@ -246,3 +250,106 @@ def check_real_array(name: str, value) -> np.ndarray:
         raise ParameterError(name, f"{name} must be an array of real numbers, got "
                                    f"{what.get(a.dtype.kind, a.dtype)} (dtype {a.dtype})")
     return a if a.dtype == np.float64 else a.astype(np.float64)
+
+
+# --------------------------------------------------------------------------------------------- a scene's tables
+
+#: points and lengths before the domain's size is known: beyond REACH times the largest domain
+FAR = 1e10
+MAX_POINTS = 10_000
+MAX_STRING = 10_000
+FIBER_STIFFNESS_RANGE = (0.0, 1e12)
+
+_REPR = reprlib.Repr()
+_REPR.maxstring = _REPR.maxother = 60
+_REPR.maxlist = _REPR.maxtuple = _REPR.maxdict = 6
+_REPR.maxlevel = 3
+
+
+def show(value) -> str:
+    """A short, one-line rendering of any value for an error message (bounded however large or deep it is)."""
+    if isinstance(value, int) and not isinstance(value, bool) and value.bit_length() > 200:
+        return f"an integer of {len(str(value)) if value.bit_length() < 10_000 else 'thousands of'} digits"
+    try:
+        return _REPR.repr(value)
+    except Exception:  # a foreign object whose repr fails
+        return f"a {type(value).__name__}"
+
+
+def number(field, value, *, positive=False, nonnegative=False, integer=False, lo=None, hi=None):
+    """``value`` as a number for ``field`` within ``[lo, hi]``; without ``lo``, ``positive`` means > 0 and
+    ``nonnegative`` >= 0; with ``integer``, a float such as ``800.0`` is refused."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise ParameterError(field, f"{field} must be a number, got {show(value)}")
+    if integer:
+        low = lo if lo is not None else 1 if positive else 0 if nonnegative else -(2**63)
+        return check_count(field, value, int(low), None if hi is None else int(hi))
+    if lo is None and (positive or nonnegative):
+        return check_real(field, value, 0.0, hi, lo_open=positive)
+    return check_real(field, value, lo, hi)
+
+
+def is_sequence(value) -> bool:
+    return isinstance(value, (list, tuple)) or (isinstance(value, np.ndarray) and value.ndim == 1)
+
+
+def vector(field, value, bound=FAR) -> list:
+    if not is_sequence(value) or len(value) != 2:
+        raise ParameterError(field, f"{field} must be a vector [x, y], got {show(value)}")
+    return [number(f"{field}[{i}]", c, lo=-bound, hi=bound) for i, c in enumerate(value)]
+
+
+def points(field, value, minimum, maximum=MAX_POINTS) -> list:
+    if not is_sequence(value) or not minimum <= len(value) <= maximum:
+        raise ParameterError(field, f"{field} must be a list of {minimum} to {maximum} points [x, y], "
+                                    f"got {show(value)}")
+    return [vector(f"{field}[{i}]", p) for i, p in enumerate(value)]
+
+
+def table(field, value, allowed=None) -> dict:
+    """``value`` if it is a table (a dict) with no keys but ``allowed`` (if given)."""
+    if not isinstance(value, dict):
+        raise ParameterError(field, f"{field} must be a table (a dict), got {show(value)}")
+    unknown = [] if allowed is None else [k for k in value if k not in allowed]  # keys may be of any type
+    if unknown:
+        shown = sorted(show(k) for k in unknown)
+        raise ParameterError(field, f"{field}: unknown key(s) [{', '.join(shown)}]; allowed: {sorted(allowed)}")
+    return value
+
+
+def require(field, value, keys) -> None:
+    for key in keys:
+        if key not in value:
+            raise ParameterError(f"{field}.{key}", f"{field}.{key}: missing")
+
+
+def string(field, value, choices=None, *, nonempty=False) -> str:
+    """A string (one of ``choices`` if given) that a UTF-8 scene file can hold, at most ``MAX_STRING`` long."""
+    if not isinstance(value, str):
+        raise ParameterError(field, f"{field} must be a string, got {show(value)}")
+    if choices is not None:
+        if value not in choices:
+            raise ParameterError(field, f"{field} must be one of {list(choices)}, got {show(value)}")
+        return value
+    if len(value) > MAX_STRING:
+        raise ParameterError(field, f"{field} must be at most {MAX_STRING} characters long, got {len(value)}")
+    if nonempty and not value:
+        raise ParameterError(field, f"{field} must not be empty")
+    try:
+        value.encode("utf-8")
+    except UnicodeEncodeError as err:  # a lone surrogate: no UTF-8 file (TOML or JSON) can hold it
+        raise ParameterError(field, f"{field} contains a lone surrogate code point at character {err.start} (not "
+                                    "text that a scene file can hold)") from None
+    return value
+
+
+def count_list(field, value, what, maximum) -> list:
+    if not is_sequence(value) or not value:
+        raise ParameterError(field, f"{field} must be a non-empty list of {what}, got {show(value)}")
+    if len(value) > maximum:
+        raise ParameterError(field, f"{field}: at most {maximum} {what}, got {len(value)}")
+    return value
+
+
+def penalty(field, value, positive=False) -> float:
+    return number(field, value, positive=positive, nonnegative=not positive, hi=PENALTY_MAX)

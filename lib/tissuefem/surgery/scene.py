@@ -38,7 +38,8 @@ from ..engine.constants import FRAME_BUDGET, TISSUE_DENSITY, TISSUE_E, TISSUE_NU
 from ..engine.inversion import ITFClamped, ProjectedTangent
 from ..engine.linsolve import LinearSolver
 from ..engine.effects import EFFECTS as EFFECTS_REGISTRY
-from ..engine.effects import FAR, count_list, is_sequence, number, points, require, show, string, table, vector
+from ..engine.parameters import (FAR, count_list, is_sequence, number, points, require, show, string, table,
+                                 vector)
 from ..engine.parameters import (DENSITY_RANGE, RADIUS_RANGE, REACH, YOUNGS_MODULUS_RANGE, ParameterError,
                                  check_poisson_ratio)
 

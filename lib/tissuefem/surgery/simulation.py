@@ -25,10 +25,10 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
 from ..engine import meshes
-from ..engine.effects import EFFECTS, factory, number, penalty
+from ..engine.effects import EFFECTS, factory
 from ..engine.meshes import MeshMap
 from ..engine.model import Handle, Model, region_nodes
-from ..engine.parameters import PENALTY_MAX, RADIUS_RANGE, check_count, check_reach, check_vector
+from ..engine.parameters import PENALTY_MAX, RADIUS_RANGE, check_count, check_reach, check_vector, number, penalty
 from ..engine.realtime import RealtimeSolver
 from ..engine.terms import Sutures
 from . import element_cuts, topology
