@@ -4,7 +4,7 @@ and sutures it gains; a model carries itself across a cut."""
 import numpy as np
 import pytest
 
-from tissuefem.engine import effects
+from tissuefem.engine import effects, parameters
 from tissuefem.engine import model as model_module
 from tissuefem.engine.meshes import rectangle
 from tissuefem.engine.materials import material
@@ -34,9 +34,9 @@ def test_a_new_effect_is_its_term_and_one_registry_entry():
 
 def _run_a_windy_scene():
 
-    def check(field, table):
-        table = effects.table(field, table, ("force",))
-        return {"force": effects.vector(f"{field}.force", table.get("force", [1.0, 0.0]), 1e6)}
+    def check(field, entry):
+        entry = parameters.table(field, entry, ("force",))
+        return {"force": parameters.vector(f"{field}.force", entry.get("force", [1.0, 0.0]), 1e6)}
 
     def build(model, params, scene):
         def make(m):
