@@ -117,3 +117,13 @@ def test_there_is_no_import_cycle():
     for m in graph:
         if m not in state:
             visit(m, [m])
+
+
+@pytest.mark.parametrize("module", sorted(MODULES))
+def test_no_private_name_is_imported_from_another_module(module):
+    """What modules share is public: ``from .x import _helper`` would tie one module to another's insides."""
+    tree = ast.parse(MODULES[module].read_text())
+    private = [f"{node.module or '.'}.{alias.name}" for node in ast.walk(tree)
+               if isinstance(node, ast.ImportFrom) and (node.level > 0 or (node.module or "").startswith("tissuefem"))
+               for alias in node.names if alias.name.startswith("_")]
+    assert not private, f"{module} imports private names: {private}"

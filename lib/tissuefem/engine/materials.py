@@ -22,7 +22,7 @@ import math
 
 import numpy as np
 
-from .materials1d import _LameMaterial, _safe_log, taylor_log, taylor_log_prime, taylor_log_second
+from .materials1d import LameMaterial, safe_log, taylor_log, taylor_log_prime, taylor_log_second
 from .parameters import ParameterError, check_fiber_stiffness, check_real_array, lame_parameters
 
 __all__ = [
@@ -78,7 +78,7 @@ _IXI = np.einsum("ij,kl->ijkl", _DELTA, _DELTA)  # d_ij d_kl
 _HCOF = np.einsum("ik,jl->ijkl", _PERM, _PERM)  # H_ijkl = e_ik e_jl = d(cof F)_ij / dF_kl (constant)
 
 
-class Material(_LameMaterial):
+class Material(LameMaterial):
     """Base class: a 2D hyperelastic material with Lamé parameters ``lam`` and ``mu`` (checked by
     :func:`tissuefem.engine.parameters.check_lame`); subclasses implement ``energy``, ``stress`` and ``tangent``."""
 
@@ -173,7 +173,7 @@ class NeoHookean(_NeoHookeanFamily):
 
     def _h(self, J):
         J = np.asarray(J, dtype=float)
-        lnJ = _safe_log(J)
+        lnJ = safe_log(J)
         invJ = np.full(J.shape, np.nan)
         np.divide(1.0, J, out=invJ, where=J > 0)
         lam, mu = self.lam, self.mu

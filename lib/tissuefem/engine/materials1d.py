@@ -39,7 +39,7 @@ def taylor_log_second(J):
     return -1.0 + 2.0 * d
 
 
-def _safe_log(F):
+def safe_log(F):
     """``ln F`` where ``F > 0``, NaN elsewhere without a warning: NaN, not an exception, lets a solver report it."""
     F = np.asarray(F, dtype=float)
     out = np.full(F.shape, np.nan)
@@ -47,7 +47,7 @@ def _safe_log(F):
     return out
 
 
-class _LameMaterial:
+class LameMaterial:
     """The base of the 1D and the 2D materials: Lamé parameters ``lam``, ``mu`` (checked) and the three maps."""
 
     name = "material"
@@ -70,7 +70,7 @@ class _LameMaterial:
         return f"{type(self).__name__}(lam={self.lam:g}, mu={self.mu:g})"
 
 
-class Material1D(_LameMaterial):
+class Material1D(LameMaterial):
     """Base class: a 1D hyperelastic material with Lamé parameters ``lam`` and ``mu``."""
 
     @classmethod
@@ -107,18 +107,18 @@ class NeoHookean1D(Material1D):
 
     def energy(self, F):
         F = np.asarray(F, dtype=float)
-        lnF = _safe_log(F)
+        lnF = safe_log(F)
         return 0.5 * self.mu * (F**2 - 1.0) - self.mu * lnF + 0.5 * self.lam * lnF**2
 
     def stress(self, F):
         F = np.asarray(F, dtype=float)
-        lnF = _safe_log(F)
+        lnF = safe_log(F)
         with np.errstate(divide="ignore", invalid="ignore"):
             return self.mu * F + (self.lam * lnF - self.mu) / F
 
     def tangent(self, F):
         F = np.asarray(F, dtype=float)
-        lnF = _safe_log(F)
+        lnF = safe_log(F)
         with np.errstate(divide="ignore", invalid="ignore"):
             return self.mu + (self.mu + self.lam * (1.0 - lnF)) / F**2
 
