@@ -76,8 +76,7 @@ class StepReport:
 
     @property
     def contact_status(self) -> str:
-        """``"crossed"`` when the step started with surface points through the surface (a handle dragged
-        tissue through tissue; contact ignores them until they are back out), else ``"clear"``."""
+        """``"crossed"`` when the step started with surface points through the surface, else ``"clear"``."""
         return "crossed" if self.crossed else "clear"
 
     # -- the Newton solve, forwarded
@@ -223,7 +222,6 @@ class Stepper:
         self.steps = 0
         self.last_report: StepReport | None = None
 
-    # ------------------------------------------------------------------ settings
     @property
     def dt(self):
         """The time step (``None`` when quasistatic). May be changed between steps (checked; a refusal keeps it)."""
@@ -257,7 +255,6 @@ class Stepper:
     def linear_solver_name(self) -> str:
         return self.linear.name
 
-    # ------------------------------------------------------------------ state
     def _checked_state(self, u, v) -> tuple[np.ndarray, np.ndarray]:
         n = self.model.n_dofs
         u = np.zeros(n) if u is None else _state_vector("u", u, n)
@@ -267,16 +264,13 @@ class Stepper:
         return u, v
 
     def reset(self, u=None, v=None) -> None:
-        """Set the state (default: rest), checking shapes and finiteness; nothing changes on a refusal."""
+        """Set the state (default: rest); checked, nothing changes on a refusal."""
         self.u, self.v = self._checked_state(u, v)
         self.v_previous = None
 
     def set_state(self, u, v=None, *, v_previous=None, time_=0.0, steps=0) -> None:
-        """Carry a state over (after the model was rebuilt): displacement, velocities, time and step count.
-
-        Everything is checked before anything changes: ``u``, ``v``, ``v_previous`` finite dof vectors,
-        ``time_`` a finite real number, ``steps`` an integer ``>= 0``.
-        """
+        """Carry a state over (after the model was rebuilt): displacement, velocities, time and step count (all
+        checked before anything changes)."""
         u, v = self._checked_state(u, v)
         if v_previous is not None:
             v_previous = _state_vector("v_previous", v_previous, self.model.n_dofs)
@@ -300,7 +294,6 @@ class Stepper:
         model = self.model
         return self.kinetic_energy() + model.stored_energy(self.u) - float(model.external @ self.u)
 
-    # ------------------------------------------------------------------ one step
     def step(self, targets=None, *, prescribed=None, load: float = 1.0) -> StepReport:
         """Take one step: apply ``targets`` (see :meth:`Model.set_targets`), solve, commit, report.
 
@@ -415,12 +408,9 @@ class Stepper:
         return [self.step(t) for t in targets_per_step]
 
     def _warm_start(self, fixed, values, free):
-        """``(x0, E0, handle_fraction, name, load_norm, factorizations, crossed)``: the lowest-energy valid start
-        (the first valid one where one Newton step from any start is exact).
+        """``(x0, E0, handle_fraction, name, load_norm, factorizations, crossed)``: step 2 of the module docstring.
 
-        With a term that limits steps (self-contact), the state with the handles moved and everything else
-        where it was is where the step starts (``Model.begin_step``: its crossings are counted and left
-        alone), and every other guess is cut back to the fraction the collision detection allows from it.
+        With self-contact the reference is the state with only the handles moved (``Model.begin_step``).
         """
         model, u = self.model, self.u
         limit = model.step_limit
@@ -466,8 +456,7 @@ class Stepper:
                         break
             if best is not None:
                 return best[0], best[1], fraction, best[2], load_norm, factorizations, crossed
-        # the handles cannot move at all without leaving the valid states: stay
-        x = u.copy()
+        x = u.copy()  # the handles cannot move at all without leaving the valid states: stay
         if model.notes_steps:
             crossed = model.begin_step(x, u)
         with np.errstate(all="ignore"):
@@ -503,12 +492,11 @@ class Stepper:
         except (RuntimeError, ValueError, np.linalg.LinAlgError, ZeroDivisionError):
             return None, 0.0, 0
         if dx_free is None or not np.all(np.isfinite(dx_free)):
-            return None, load_norm, info.factorizations
-        dx[free] = dx_free
+            dx = None
+        else:
+            dx[free] = dx_free
         return dx, load_norm, info.factorizations
 
-
-# ------------------------------------------------------------------------------------------------ quasistatics
 
 @dataclass
 class StaticResult:
@@ -530,9 +518,8 @@ class StaticResult:
 def solve(model: Model, load_steps: int = 1, u0=None, *, stepper: Stepper | None = None, **options) -> StaticResult:
     """Equilibrium of a quasistatic model: ramp the loads and the handles' displacements over ``load_steps``.
 
-    Each load step is a quasistatic :meth:`Stepper.step` from the previous one's state.
-    ``options`` go to :class:`Stepper` (here ``rtol`` defaults to ``1e-10``). If a step fails,
-    the result holds the last converged state and ``converged`` is False.
+    ``options`` go to :class:`Stepper` (here ``rtol`` defaults to ``1e-10``). If a step fails, the result holds
+    the last converged state and ``converged`` is False.
     """
     if not isinstance(model, Model):
         raise ValueError(f"model must be a tissuefem Model, got {type(model).__name__}")
@@ -553,8 +540,7 @@ def solve(model: Model, load_steps: int = 1, u0=None, *, stepper: Stepper | None
     start = stepper.u[fixed].copy()
     steps = []
     for s in np.arange(1, load_steps + 1) / load_steps:
-        report = stepper.step(prescribed=(fixed, start + s * (values - start)), load=s)
-        steps.append(report)
-        if not report.converged:
-            return StaticResult(stepper.u.copy(), False, steps)
-    return StaticResult(stepper.u.copy(), True, steps)
+        steps.append(stepper.step(prescribed=(fixed, start + s * (values - start)), load=s))
+        if not steps[-1].converged:
+            break
+    return StaticResult(stepper.u.copy(), steps[-1].converged, steps)

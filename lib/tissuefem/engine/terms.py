@@ -27,9 +27,6 @@ Why inertia is written with ``1/dt^2``: the notes' residual
 exactly the gradient of ``W(u) - f.u + Inertia(u)``, so a dynamic step's residual is a force
 like a quasistatic one's. The chapters' ``E = 1/2 |u - u~|_M^2 + dt^2 [W - f.u]`` is this
 potential times ``dt^2``: the same minimiser.
-
-Elastic and fibre terms share the element loop: :class:`ElementTerm` exposes the energy
-density (``density``), and the model evaluates all of them in one assembly pass.
 """
 
 from __future__ import annotations
@@ -89,8 +86,7 @@ class Term:
         raise NotImplementedError
 
     def add_hessian(self, u, data, safe=False) -> None:
-        """Add the Hessian into ``data``; ``safe=True`` asks for a positive semi-definite version (terms
-        whose Hessian can be indefinite offer one and set ``has_safe_hessian``)."""
+        """``safe=True`` asks for a positive semi-definite version (where ``has_safe_hessian``)."""
         raise NotImplementedError
 
     def covers(self, u) -> bool:
@@ -115,10 +111,9 @@ class Term:
         return f"<{self.describe()}>"
 
 
-# --------------------------------------------------------------------------------------- element terms
-
 class ElementTerm(Term):
-    """A term ``sum_e int Psi(F) dX`` of an energy density ``density`` (energy/stress/tangent of ``F``)."""
+    """A term ``sum_e int Psi(F) dX`` of an energy density ``density`` (energy/stress/tangent of ``F``); the model
+    sums the densities of all element terms in one assembly pass (:class:`SummedDensity`)."""
 
     density = None
     rank = 1
@@ -215,25 +210,22 @@ class SummedDensity:
         self.name = " + ".join(getattr(d, "name", "?") for d in self.densities)
 
     def _sum(self, method, F):
-        out = getattr(self.densities[0], method)(F)
+        out = method(self.densities[0], F)
         for d in self.densities[1:]:
-            out = out + getattr(d, method)(F)
+            out = out + method(d, F)
         return out
 
     def energy(self, F):
-        return self._sum("energy", F)
+        return self._sum(lambda d, F: d.energy(F), F)
 
     def stress(self, F):
-        return self._sum("stress", F)
+        return self._sum(lambda d, F: d.stress(F), F)
 
     def tangent(self, F):
-        return self._sum("tangent", F)
+        return self._sum(lambda d, F: d.tangent(F), F)
 
     def safe_tangent(self, F):
-        out = safe_tangent(self.densities[0], F)
-        for d in self.densities[1:]:
-            out = out + safe_tangent(d, F)
-        return out
+        return self._sum(safe_tangent, F)
 
 
 def safe_tangent(density, F):
@@ -247,18 +239,11 @@ class SafeView:
 
     def __init__(self, density):
         self.density = density
-
-    def energy(self, F):
-        return self.density.energy(F)
-
-    def stress(self, F):
-        return self.density.stress(F)
+        self.energy, self.stress = density.energy, density.stress
 
     def tangent(self, F):
         return safe_tangent(self.density, F)
 
-
-# --------------------------------------------------------------------------------------- inertia and loads
 
 class Inertia(Term):
     """Backward Euler's inertia: ``1/(2 dt^2) (x - x~)^T M (x - x~)`` with ``x~ = u^n + dt v^n``.
@@ -284,8 +269,7 @@ class Inertia(Term):
         self._diagonal = self.M.diagonal() if self.lumped else None
         self.x_tilde = np.zeros(assembler.n_dofs)
 
-    def matvec(self, w) -> np.ndarray:
-        """``M w``."""
+    def matvec(self, w) -> np.ndarray:  # M w
         return self._diagonal * w if self.lumped else self.M @ w
 
     def energy(self, u):
@@ -398,8 +382,6 @@ def traction_vector(basis, boundary, traction) -> np.ndarray:
     return asm(traction_form, fb)
 
 
-# --------------------------------------------------------------------------------------- tools and sutures
-
 class Probe(Term):
     """A rigid disc (a tool tip) of centre ``c`` and radius ``R`` pressed into the tissue's surface.
 
@@ -425,6 +407,7 @@ class Probe(Term):
 
     name = "probe"
     rank = 2
+    has_safe_hessian = True  # the normal part of the Hessian is positive semi-definite
 
     def __init__(self, X, boundary_lengths, center, radius, stiffness, label=None, smoothing=0.02):
         self.X = X
@@ -499,9 +482,6 @@ class Probe(Term):
         """The deepest any surface node is inside the disc (0 when none is)."""
         _, g, _, _ = self._contact(u)
         return float(g.max(initial=0.0))
-
-    #: the Hessian has a positive semi-definite variant (its normal part)
-    has_safe_hessian = True
 
     def add_hessian(self, u, data, safe=False):
         nodes, g, n, d = self._contact(u)
@@ -640,8 +620,7 @@ class Sutures(Term):
             np.add.at(g, 2 * self.nodes.ravel() + i, (signed * e[i]).ravel())
         return g
 
-    def distances(self, u) -> np.ndarray:
-        """How far apart the two ends of each stitch are (0 when closed)."""
+    def distances(self, u) -> np.ndarray:  # how far apart the two ends of each stitch are
         a, b = self.ends(u)
         return np.hypot(*(a - b))
 
