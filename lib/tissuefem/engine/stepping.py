@@ -86,8 +86,7 @@ class StepReport:
 
     @property
     def newton_iterations(self) -> int:
-        """Newton steps of the step: the minimiser's, plus the linearised start of a quasistatic step (one
-        Newton step from the previous state towards the new handle positions)."""
+        """The minimiser's Newton steps, plus one for a quasistatic step's linearised start."""
         return self.newton.iterations + (self.warm_start == "linearised")
 
     iterations = newton_iterations
@@ -143,19 +142,17 @@ def _state_vector(name, value, n) -> np.ndarray:
     return a.copy()
 
 
-class _CheckedClock:
+def _checked_clock(clock):
     """The user's clock, read through a check: what it raises or returns that is not a finite real number of
     seconds is a ``ValueError`` naming ``clock``."""
 
-    def __init__(self, clock):
-        self.clock = clock
-
-    def __call__(self) -> float:
+    def read() -> float:
         try:
-            now = self.clock()
+            now = clock()
         except Exception as err:
             raise ValueError(f"clock: the clock raised {type(err).__name__}: {err}") from None
         return check_real("clock (its reading in seconds)", now)
+    return read
 
 
 def _roundoff_floors(model: Model) -> tuple[float, float]:
@@ -209,7 +206,7 @@ class Stepper:
         if not callable(clock):
             raise ValueError(f"clock must be a callable returning seconds, got {clock!r}")
         self.clock = clock
-        self._clock = _CheckedClock(clock)
+        self._clock = _checked_clock(clock)
         if not isinstance(anytime, (bool, np.bool_)):
             raise ValueError(f"anytime must be True or False, got {anytime!r}")
         self.anytime = bool(anytime)
@@ -224,7 +221,7 @@ class Stepper:
 
     @property
     def dt(self):
-        """The time step (``None`` when quasistatic). May be changed between steps (checked; a refusal keeps it)."""
+        """The time step (``None`` when quasistatic); may be changed between steps (checked)."""
         inertia = self.model.inertia
         return None if inertia is None else inertia.dt
 
@@ -349,8 +346,7 @@ class Stepper:
         values = np.asarray(values, dtype=float)
         if not np.all(np.isfinite(values)):
             raise ValueError("the prescribed displacements are not finite")
-        n = model.n_dofs
-        free = np.ones(n, dtype=bool)
+        free = np.ones(model.n_dofs, dtype=bool)
         free[fixed] = False
 
         inertia = model.inertia
@@ -368,20 +364,15 @@ class Stepper:
                 # part of the way and carries the rest into the next frame)
                 g = model.gradient(self.u)
                 r = float(np.linalg.norm(g[free])) if np.all(np.isfinite(g)) else math.inf
-                result = NewtonResult(self.u.copy(), False, "non-finite", 0, r, r, 0.0, E0, E0)
-                report = StepReport(result, self.steps, self.time, self._clock() - start, self._budget, fraction,
-                                    which, False, crossed)
-                self.last_report = report
-                return report
-            result = newton(
-                x0, model.gradient, model.hessian, energy=model.energy, free=free,
-                line_search=self.line_search, rtol=self.rtol, atol=self.atol, reference_norm=load_norm,
-                floor=self.floor, max_iterations=self.max_iterations - (which == "linearised"), max_step=self.max_step,
-                linear=self.linear, clock=self._clock, budget=self._budget, start=start, energy0=E0,
-                energy_floor=self.energy_floor,
-                safe_hessian=(lambda x: model.hessian(x, safe=True)) if model.has_safe_hessian else None,
-                step_limit=model.step_limit,
-            )
+                result, pre = NewtonResult(self.u.copy(), False, "non-finite", 0, r, r, 0.0, E0, E0), 0
+            else:
+                result = newton(
+                    x0, model.gradient, model.hessian, energy=model.energy, free=free, line_search=self.line_search,
+                    rtol=self.rtol, atol=self.atol, reference_norm=load_norm, floor=self.floor,
+                    max_iterations=self.max_iterations - (which == "linearised"), max_step=self.max_step,
+                    linear=self.linear, clock=self._clock, budget=self._budget, start=start, energy0=E0,
+                    energy_floor=self.energy_floor, step_limit=model.step_limit,
+                    safe_hessian=(lambda x: model.hessian(x, safe=True)) if model.has_safe_hessian else None)
         finally:
             for term in loads:
                 term.scale = 1.0
@@ -396,10 +387,9 @@ class Stepper:
                 self.time += dt
             self.u = result.x
             self.steps += 1
-        report = StepReport(result, self.steps, self.time, elapsed, self._budget, fraction, which,
-                            bool(commit), crossed)
-        self.last_report = report
-        return report
+        self.last_report = StepReport(result, self.steps, self.time, elapsed, self._budget, fraction, which,
+                                       bool(commit), crossed)
+        return self.last_report
 
     frame = step
 

@@ -47,19 +47,13 @@ __all__ = ["Term", "ElementTerm", "Elastic", "Fibers", "Inertia", "Load", "Probe
 class Term:
     """One additive piece of the potential (see the module docstring for the interface).
 
-    The hooks below have defaults that cost nothing; a term that needs one overrides it, and the model
-    calls only the overridden ones (:meth:`~tissuefem.engine.model.Model.hessian`, the stepper):
-
-    * ``covers(u)``: whether the model's pattern holds the couplings the term needs at ``u`` (else the
-      model rebuilds the pattern; self-contact's pairs change with the state);
-    * ``max_step(u, du)``: the largest fraction of the step ``du`` from ``u`` the term allows (contact:
-      no surface passes through another);
-    * ``begin_step(u, previous)`` / ``end_step()``: where a step starts (returns the crossings found) and
-      that it ended;
-    * ``remap(meshmap)``: the same term after a topology change
-      (:class:`~tissuefem.engine.meshes.MeshMap`): a term, ``None`` if nothing of it survives, or, for a
-      term made from the model's own assembly (inertia, fibres, loads), a factory ``model -> Term``
-      that makes it on the new model.
+    The hooks have defaults that cost nothing; the model calls only those a term overrides: ``covers(u)``
+    (does the model's pattern hold the couplings needed at ``u``? else it is rebuilt: self-contact's pairs
+    change with the state), ``max_step(u, du)`` (the largest fraction of ``du`` allowed: contact lets no
+    surface pass through another), ``begin_step(u, previous)`` (returns the crossings found) / ``end_step()``,
+    and ``remap(meshmap)`` (:class:`~tissuefem.engine.meshes.MeshMap`): the term after a topology change,
+    ``None`` if nothing of it survives, or a factory ``model -> Term`` for a term made from the model's own
+    assembly (inertia, fibres, loads).
     """
 
     name = "term"
@@ -385,24 +379,21 @@ def traction_vector(basis, boundary, traction) -> np.ndarray:
 class Probe(Term):
     """A rigid disc (a tool tip) of centre ``c`` and radius ``R`` pressed into the tissue's surface.
 
-    Each *boundary* node ``a`` carries its share ``l_a`` of the boundary's length (half of
-    each boundary edge it ends), and the penalty is a pressure: with the penetration
-    ``g_a = R - d_a``, ``d_a = |x_a - c|``,
+    Each *boundary* node ``a`` carries its share ``l_a`` of the boundary's length, and the penalty is a
+    pressure: with the penetration ``g_a = R - d_a``, ``d_a = |x_a - c|``,
 
         E = sum_a k l_a h(g_a),   h(g) = g^3 / (6 delta)             (0 < g < delta),
                                   h(g) = g^2/2 - delta g/2 + delta^2/6  (g >= delta),
 
-    and ``h = 0`` outside the disc. ``k`` is a pressure per unit penetration: the force per
-    unit surface length ``k h'(g)`` is the same on any mesh, so the penetration a push leaves
-    does not depend on the element size. ``h`` is twice continuously differentiable (the
-    pressure starts smoothly over ``delta``, a small fraction of ``R``), so a node entering
-    or leaving the disc does not make the Newton matrix jump. With ``n_a = (x_a - c) / d_a``
-    the force on the node is ``k l_a h'(g) n_a`` (outward); the Hessian is
-    ``k l_a [h''(g) n n^T - h'(g)/d (I - n n^T)]``, whose tangential part (the disc's
-    curvature) is negative and small (order ``g / R``) but not negligible where the tissue
-    slides along the tool: Newton takes the exact Hessian (quadratic convergence), and the
-    *safe* one (``safe=True``, the minimiser's fallback when a direction does not point
-    downhill) keeps only the positive normal part. :meth:`move` moves the tool.
+    and ``h = 0`` outside the disc. ``k`` is a pressure per unit penetration: the force per unit surface
+    length ``k h'(g)`` is the same on any mesh, so the penetration a push leaves does not depend on the
+    element size. ``h`` is twice continuously differentiable (the pressure starts smoothly over ``delta``,
+    a small fraction of ``R``), so a node entering or leaving the disc does not make the Newton matrix jump.
+    With ``n_a = (x_a - c) / d_a`` the force on the node is ``k l_a h'(g) n_a`` (outward); the Hessian is
+    ``k l_a [h''(g) n n^T - h'(g)/d (I - n n^T)]``, whose tangential part (the disc's curvature) is negative and
+    small (order ``g / R``) but not negligible where the tissue slides along the tool: Newton takes the exact
+    Hessian (quadratic convergence), and the *safe* one (``safe=True``, the minimiser's fallback when a
+    direction does not point downhill) keeps only the positive normal part. :meth:`move` moves the tool.
     """
 
     name = "probe"
@@ -500,18 +491,16 @@ class Probe(Term):
 class Sutures(Term):
     """Stiff springs that tie pairs of points together: ``E = sum_s k/2 |x_a - x_b - g_s|^2``.
 
-    A stitch's end is a node, or a point inside an element (on a wound cut through
-    elements) that moves with the element's nodes, ``x_a = sum_c w_c x_{n_c}`` with
-    barycentric weights ``w``. ``g_s`` is the slack: a suture is placed with its current gap
-    as slack (no force at first) and then *tightened*: ``tighten(s)`` sets
-    ``g = (1 - s) g_0``, so ``s = 1`` closes the wound. The Hessian is constant,
-    ``k D^T D`` with ``D`` the map from nodes to the gap; it couples the two ends' nodes,
-    which widens the model's pattern. ``k`` is a force per unit length (per unit thickness).
+    A stitch's end is a node, or a point inside an element (a wound cut through elements) that moves with its
+    nodes, ``x_a = sum_c w_c x_{n_c}`` with barycentric weights ``w``. ``g_s`` is the slack: a suture is placed
+    with its current gap as slack (no force at first) and then *tightened*: ``tighten(s)`` sets
+    ``g = (1 - s) g_0``, so ``s = 1`` closes the wound. The Hessian ``k D^T D`` (``D``: nodes to gap) is
+    constant and couples the two ends' nodes, which widens the model's pattern. ``k`` is a force per unit
+    length (per unit thickness).
 
-    ``X`` is ``(2, n_nodes)``; ``pairs`` ``(2, k)`` node pairs or, with ``coefficients``
-    ``(2, c, k)``, the ``c`` nodes of each end and their weights (each end's add up to 1; a
-    point just outside its element, carried by the element's P1 map, has a slightly
-    negative one); ``stiffness`` one number or ``(k,)``; ``gaps`` ``(2, k)``.
+    ``X`` is ``(2, n_nodes)``; ``pairs`` ``(2, k)`` node pairs or, with ``coefficients`` ``(2, c, k)``, the
+    ``c`` nodes of each end and their weights (adding up to 1; slightly negative for a point just outside its
+    element); ``stiffness`` one number or ``(k,)``; ``gaps`` ``(2, k)``.
     """
 
     name = "sutures"
