@@ -4,33 +4,30 @@ The *incremental potential* of a step is the model's energy,
 
     E(x) = W(x) [+ other terms] - f . x  [+ 1/(2 dt^2) (x - x~)^T M (x - x~)],   x~ = u^n + dt v^n,
 
-with the inertia term only when the model has a time step (:mod:`tissuefem.engine.terms`).
-Its gradient is the backward-Euler residual (the notes' ``q`` of "Time stepping", with the
-slips of the README's errata corrected), without inertia the quasistatic one. A
-:class:`Stepper` holds the state ``u, v`` and takes one step at a time:
+with the inertia term only when the model has a time step (:mod:`tissuefem.engine.terms`). Its gradient is the
+backward-Euler residual (the notes' ``q`` of "Time stepping", with the slips of the README's errata corrected), without
+inertia the quasistatic one. A :class:`Stepper` holds the state ``u, v`` and takes one step at a time:
 
 1. **input**: the handles' new targets, checked before anything moves
    (:meth:`~tissuefem.engine.model.Model.set_targets`); a refusal changes nothing;
-2. **warm start**: the lowest-energy valid guess (for a quadratic model with its exact
-   factorization, the first valid one: one Newton step from any reaches the same answer).
-   A dynamic step tries the constant-acceleration guess ``x~ + dt (v^n - v^{n-1})``, the inertial guess ``x~`` and
-   the previous state; a quasistatic step one linearised step from the previous state,
-   which carries the free dofs along with the handles (``K_ff dx_f = -g_f - K_fc dx_c``),
-   or the previous state. If no guess is valid (a handle jerked so far that an element
-   would invert), the handles go part of the way (the report's ``handle_fraction``). With
-   self-contact the handles' own motion is taken as given (a handle may drag tissue through
-   tissue: the report's ``crossed`` counts such points, which contact ignores until they
-   are back out), and each guess is cut back to what the collision detection allows;
-3. **solve**: :func:`tissuefem.engine.minimize.newton` with the energy line search, until
-   the residual is below ``atol + rtol ||g(x0)||`` (never below its round-off level) or the
-   step's wall-clock ``budget`` is spent; one :class:`~tissuefem.engine.linsolve.LinearSolver`
-   kept across steps reuses a factorization across Newton iterations *and* steps;
-4. **commit**: a converged iterate becomes ``u^{n+1}`` (and ``v^{n+1} = (u^{n+1} - u^n)/dt``).
-   An unconverged step leaves the state as it was, or with ``anytime=True`` (the real-time
-   loop) commits the last accepted iterate, finite and no higher in energy than the start.
+2. **warm start**: the lowest-energy valid guess (for a quadratic model with its exact factorization, the first valid
+   one: one Newton step from any reaches the same answer). A dynamic step tries the constant-acceleration guess
+   ``x~ + dt (v^n - v^{n-1})``, the inertial guess ``x~`` and the previous state; a quasistatic step one linearised step
+   from the previous state, which carries the free dofs along with the handles (``K_ff dx_f = -g_f - K_fc dx_c``), or
+   the previous state. If no guess is valid (a handle jerked so far that an element would invert), the handles go part
+   of the way (the report's ``handle_fraction``). With self-contact the handles' own motion is taken as given (a handle
+   may drag tissue through tissue: the report's ``crossed`` counts such points, which contact ignores until they are
+   back out), and each guess is cut back to what the collision detection allows;
+3. **solve**: :func:`tissuefem.engine.minimize.newton` with the energy line search, until the residual is below
+   ``atol + rtol ||g(x0)||`` (never below its round-off level) or the step's wall-clock ``budget`` is spent; one
+   :class:`~tissuefem.engine.linsolve.LinearSolver` kept across steps reuses a factorization across Newton iterations
+   *and* steps;
+4. **commit**: a converged iterate becomes ``u^{n+1}`` (and ``v^{n+1} = (u^{n+1} - u^n)/dt``). An unconverged step
+   leaves the state as it was, or with ``anytime=True`` (the real-time loop) commits the last accepted iterate, finite
+   and no higher in energy than the start.
 
-:func:`solve` is the quasistatic solve of chapters 3 to 6: load steps that ramp the loads
-and the handles' displacements, each one a quasistatic step.
+:func:`solve` is the quasistatic solve of chapters 3 to 6: load steps that ramp the loads and the handles'
+displacements, each one a quasistatic step.
 """
 
 from __future__ import annotations

@@ -1,8 +1,7 @@
 """The terms of the potential: each effect a scene can name is one term with one interface.
 
-The whole engine minimises one energy (the *incremental potential*; see
-:mod:`tissuefem.engine.stepping`). A :class:`~tissuefem.engine.model.Model` is
-the sum of exactly the terms it was built with:
+The whole engine minimises one energy (the *incremental potential*; see :mod:`tissuefem.engine.stepping`). A
+:class:`~tissuefem.engine.model.Model` is the sum of exactly the terms it was built with:
 
 ================  ===========================================================  ==========
 term              energy                                                       Hessian
@@ -16,17 +15,15 @@ term              energy                                                       H
 ``Contact``       self-contact of the surface, see :mod:`.contact`             per pair
 ================  ===========================================================  ==========
 
-Every term has ``energy(u)``, ``gradient(u)`` (a dof vector) and ``add_hessian(u, data)``,
-which adds its Hessian into ``data``, the CSR data array of the model's one fixed sparsity
-pattern (bound by ``bind(pattern)`` before use). ``quadratic`` says whether the Hessian is
-constant (then a kept factorization is exact). A term that couples dofs the mesh does not
-(a suture between two far nodes) lists them in ``couplings()``; the model widens its pattern.
+Every term has ``energy(u)``, ``gradient(u)`` (a dof vector) and ``add_hessian(u, data)``, which adds its Hessian into
+``data``, the CSR data array of the model's one fixed sparsity pattern (bound by ``bind(pattern)`` before use).
+``quadratic`` says whether the Hessian is constant (then a kept factorization is exact). A term that couples dofs the
+mesh does not (a suture between two far nodes) lists them in ``couplings()``; the model widens its pattern.
 
-Why inertia is written with ``1/dt^2``: the notes' residual
-``q = M (u - u~)/dt^2 + f_int(u) - f_ext`` (up to the slips in the README's errata) is then
-exactly the gradient of ``W(u) - f.u + Inertia(u)``, so a dynamic step's residual is a force
-like a quasistatic one's. The chapters' ``E = 1/2 |u - u~|_M^2 + dt^2 [W - f.u]`` is this
-potential times ``dt^2``: the same minimiser.
+Why inertia is written with ``1/dt^2``: the notes' residual ``q = M (u - u~)/dt^2 + f_int(u) - f_ext`` (up to the slips
+in the README's errata) is then exactly the gradient of ``W(u) - f.u + Inertia(u)``, so a dynamic step's residual is a
+force like a quasistatic one's. The chapters' ``E = 1/2 |u - u~|_M^2 + dt^2 [W - f.u]`` is this potential times
+``dt^2``: the same minimiser.
 """
 
 from __future__ import annotations
