@@ -155,13 +155,11 @@ def _checked_clock(clock):
 def _roundoff_floors(model: Model) -> tuple[float, float]:
     """``(residual floor, energy floor)``: the levels below which round-off hides the residual and the energy.
 
-    At rest the stress is a difference of terms of the size of the modulus (``mu F - mu F^-T``
-    for neo-Hookean), so each element's force carries an error of a few ``eps`` times
-    ``A_e |A(I)| |grad N|``. This sums ``|A(I)| sqrt(A_e)`` (``|grad N| ~ 1/h``, ``A_e ~ h^2``)
-    at the nodes; ``_ROUNDOFF`` times its norm is a few thousand times that error and far
-    below any tolerance a user asks for. The energy is a sum of element terms of the size
-    ``|A(I)| A_e`` (whatever its value, nearly 0 at rest): ``_ROUNDOFF`` times their sum
-    bounds what an energy difference can tell.
+    At rest the stress is a difference of terms of the size of the modulus (``mu F - mu F^-T`` for neo-Hookean), so each
+    element's force carries an error of a few ``eps`` times ``A_e |A(I)| |grad N|``. This sums ``|A(I)| sqrt(A_e)``
+    (``|grad N| ~ 1/h``, ``A_e ~ h^2``) at the nodes; ``_ROUNDOFF`` times its norm is a few thousand times that error
+    and far below any tolerance a user asks for. The energy is a sum of element terms of the size ``|A(I)| A_e``
+    (whatever its value, nearly 0 at rest): ``_ROUNDOFF`` times their sum bounds what an energy difference can tell.
     """
     F = np.eye(2).reshape(2, 2, 1)
     with np.errstate(all="ignore"):
@@ -177,12 +175,11 @@ def _roundoff_floors(model: Model) -> tuple[float, float]:
 class Stepper:
     """Steps a :class:`~tissuefem.engine.model.Model` forward: quasistatic if it has no inertia, else backward Euler.
 
-    ``linear_solver``: a :class:`~tissuefem.engine.linsolve.LinearSolver` or its method name
-    (``"reuse"``, the default: CG preconditioned by a kept factorization; ``"direct"``;
-    ``"constant"`` for a quadratic model; a backend name). ``rtol, atol, max_iterations,
-    line_search, max_step``: Newton's settings (:func:`~tissuefem.engine.minimize.newton`).
-    ``budget``: wall-clock seconds per step (default: none) measured by ``clock`` (any callable
-    returning seconds). ``anytime``: commit the last accepted iterate of an unconverged step
+    ``linear_solver``: a :class:`~tissuefem.engine.linsolve.LinearSolver` or its method name (``"reuse"``, the default:
+    CG preconditioned by a kept factorization; ``"direct"``; ``"constant"`` for a quadratic model; a backend name).
+    ``rtol, atol, max_iterations, line_search, max_step``: Newton's settings
+    (:func:`~tissuefem.engine.minimize.newton`). ``budget``: wall-clock seconds per step (default: none) measured by
+    ``clock`` (any callable returning seconds). ``anytime``: commit the last accepted iterate of an unconverged step
     (the real-time loop) instead of keeping the old state.
     """
 
@@ -291,10 +288,10 @@ class Stepper:
     def step(self, targets=None, *, prescribed=None, load: float = 1.0) -> StepReport:
         """Take one step: apply ``targets`` (see :meth:`Model.set_targets`), solve, commit, report.
 
-        ``prescribed``: ``(dofs, values)`` to hold instead of the handles' and ``load``: the factor in
-        ``[0, 1]`` on the constant loads (both for load stepping). All or nothing: whatever is
-        refused or raised before the commit (a bad target, a map that raises, a clock that cannot
-        be read, a failing linear solver) leaves the state, the targets and the model as they were.
+        ``prescribed``: ``(dofs, values)`` to hold instead of the handles' and ``load``: the factor in ``[0, 1]`` on the
+        constant loads (both for load stepping). All or nothing: whatever is refused or raised before the commit (a bad
+        target, a map that raises, a clock that cannot be read, a failing linear solver) leaves the state, the targets
+        and the model as they were.
         """
         model = self.model
         load = check_real("load", load, 0.0, 1.0)

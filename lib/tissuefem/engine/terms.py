@@ -167,8 +167,8 @@ class _FiberDensity(Material):
 class Fibers(ElementTerm):
     """The fibre energy ``k/8 (I4 - 1)^2``, ``I4 = |F g|^2``, per element (chapter 5), on any material.
 
-    ``directions``: one unit vector ``(2,)`` for all elements or one per element ``(2, n_elements)``
-    (normalised here); ``k >= 0`` is the extra small-strain modulus along the fibre.
+    ``directions``: one unit vector ``(2,)`` for all elements or one per element ``(2, n_elements)`` (normalised here);
+    ``k >= 0`` is the extra small-strain modulus along the fibre.
     """
 
     name = "fibers"
@@ -239,8 +239,8 @@ class SafeView:
 class Inertia(Term):
     """Backward Euler's inertia: ``1/(2 dt^2) (x - x~)^T M (x - x~)`` with ``x~ = u^n + dt v^n``.
 
-    ``M`` is the lumped or consistent mass of density ``rho0``. The stepper sets ``x_tilde``
-    before each step; ``dt`` may change between steps (the Hessian ``M / dt^2`` with it).
+    ``M`` is the lumped or consistent mass of density ``rho0``. The stepper sets ``x_tilde`` before each step; ``dt``
+    may change between steps (the Hessian ``M / dt^2`` with it).
     """
 
     name = "inertia"
@@ -290,8 +290,8 @@ class Inertia(Term):
 class Load(Term):
     """A constant external force ``f`` (a dof vector): energy ``-scale f . u`` (``scale`` ramps it in load steps).
 
-    ``make``: how the vector is made from a model (``make(model) -> f``), so that a remap makes it on the
-    new mesh (a load given as a bare vector cannot be carried).
+    ``make``: how the vector is made from a model (``make(model) -> f``), so that a remap makes it on the new mesh (a
+    load given as a bare vector cannot be carried).
     """
 
     quadratic = True
@@ -554,8 +554,8 @@ class Sutures(Term):
     def tighten(self, fraction, stitches=None) -> None:
         """Set the tightness (0 slack ... 1 closed) of all stitches, or of those indexed by ``stitches``.
 
-        ``fraction``: one number in ``[0, 1]``, or one per selected stitch; ``stitches``: integers
-        in ``0 .. k-1`` (floats, booleans and negative indices are refused). All or nothing.
+        ``fraction``: one number in ``[0, 1]``, or one per selected stitch; ``stitches``: integers in ``0 .. k-1``
+        (floats, booleans and negative indices are refused). All or nothing.
         """
         count = self.pairs.shape[1]
         index = np.arange(count) if stitches is None else _stitch_indices(stitches, count)
