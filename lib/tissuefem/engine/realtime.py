@@ -1,18 +1,12 @@
-"""The real-time loop: the notes' frame loop, one step per drawn frame within a wall-clock budget.
+"""The real-time loop: one step per drawn frame within a wall-clock budget (the notes' interactive simulator).
 
-The notes' interactive simulator reads the user's boundary input, advances ``t``, solves and
-renders, every 1/30 s. A :class:`RealtimeSolver` is a :class:`~tissuefem.engine.stepping.Stepper` whose
-:meth:`~RealtimeSolver.frame` reads the user's input and stops its Newton solve when the
-frame's budget (:data:`~tissuefem.engine.constants.FRAME_BUDGET`) is spent -- the clock is
-read before each tangent assembly and each linear solve, so a frame overruns by at most
-the one solve that was running -- and commits the last accepted iterate whether or not it
-converged (*anytime*: it is finite and no higher in energy than the frame's start; the
-residual left carries into the next frame). Every frame takes at least one Newton step.
-
-Speed comes from the fixed-pattern assembly, warm starts, and a factorization kept across
-Newton iterations *and* frames as CG's preconditioner (``"reuse"``); a quadratic model
-(linear elasticity, springs) runs ``"constant"``: one factorization per set of held dofs,
-then one back-substitution a frame. The clock is a parameter, so tests use a fake one.
+:meth:`RealtimeSolver.frame` reads the user's input and stops its Newton solve when the frame's budget
+(:data:`~tissuefem.engine.constants.FRAME_BUDGET`) is spent -- the clock is read before each tangent assembly and
+each linear solve, so a frame overruns by at most one solve -- and commits the last accepted iterate whether or not
+it converged (*anytime*: finite and no higher in energy than the frame's start; the residual left carries into the
+next frame). Every frame takes at least one Newton step. A factorization is kept across Newton iterations *and*
+frames as CG's preconditioner (``"reuse"``); a quadratic model runs ``"constant"``: one factorization per set of
+held dofs, then one back-substitution a frame. The clock is a parameter, so tests use a fake one.
 """
 
 from __future__ import annotations

@@ -4,33 +4,30 @@ The *incremental potential* of a step is the model's energy,
 
     E(x) = W(x) [+ other terms] - f . x  [+ 1/(2 dt^2) (x - x~)^T M (x - x~)],   x~ = u^n + dt v^n,
 
-with the inertia term only when the model has a time step (:mod:`tissuefem.engine.terms`).
-Its gradient is the backward-Euler residual (the notes' ``q`` of "Time stepping", with the
-slips of the README's errata corrected), without inertia the quasistatic one. A
-:class:`Stepper` holds the state ``u, v`` and takes one step at a time:
+with the inertia term only when the model has a time step (:mod:`tissuefem.engine.terms`). Its gradient is the
+backward-Euler residual (the notes' ``q`` of "Time stepping", with the slips of the README's errata corrected), without
+inertia the quasistatic one. A :class:`Stepper` holds the state ``u, v`` and takes one step at a time:
 
 1. **input**: the handles' new targets, checked before anything moves
    (:meth:`~tissuefem.engine.model.Model.set_targets`); a refusal changes nothing;
-2. **warm start**: the lowest-energy valid guess (for a quadratic model with its exact
-   factorization, the first valid one: one Newton step from any reaches the same answer).
-   A dynamic step tries the constant-acceleration guess ``x~ + dt (v^n - v^{n-1})``, the inertial guess ``x~`` and
-   the previous state; a quasistatic step one linearised step from the previous state,
-   which carries the free dofs along with the handles (``K_ff dx_f = -g_f - K_fc dx_c``),
-   or the previous state. If no guess is valid (a handle jerked so far that an element
-   would invert), the handles go part of the way (the report's ``handle_fraction``). With
-   self-contact the handles' own motion is taken as given (a handle may drag tissue through
-   tissue: the report's ``crossed`` counts such points, which contact ignores until they
-   are back out), and each guess is cut back to what the collision detection allows;
-3. **solve**: :func:`tissuefem.engine.minimize.newton` with the energy line search, until
-   the residual is below ``atol + rtol ||g(x0)||`` (never below its round-off level) or the
-   step's wall-clock ``budget`` is spent; one :class:`~tissuefem.engine.linsolve.LinearSolver`
-   kept across steps reuses a factorization across Newton iterations *and* steps;
-4. **commit**: a converged iterate becomes ``u^{n+1}`` (and ``v^{n+1} = (u^{n+1} - u^n)/dt``).
-   An unconverged step leaves the state as it was, or with ``anytime=True`` (the real-time
-   loop) commits the last accepted iterate, finite and no higher in energy than the start.
+2. **warm start**: the lowest-energy valid guess (for a quadratic model with its exact factorization, the first valid
+   one: one Newton step from any reaches the same answer). A dynamic step tries the constant-acceleration guess
+   ``x~ + dt (v^n - v^{n-1})``, the inertial guess ``x~`` and the previous state; a quasistatic step one linearised step
+   from the previous state, which carries the free dofs along with the handles (``K_ff dx_f = -g_f - K_fc dx_c``), or
+   the previous state. If no guess is valid (a handle jerked so far that an element would invert), the handles go part
+   of the way (the report's ``handle_fraction``). With self-contact the handles' own motion is taken as given (a handle
+   may drag tissue through tissue: the report's ``crossed`` counts such points, which contact ignores until they are
+   back out), and each guess is cut back to what the collision detection allows;
+3. **solve**: :func:`tissuefem.engine.minimize.newton` with the energy line search, until the residual is below
+   ``atol + rtol ||g(x0)||`` (never below its round-off level) or the step's wall-clock ``budget`` is spent; one
+   :class:`~tissuefem.engine.linsolve.LinearSolver` kept across steps reuses a factorization across Newton iterations
+   *and* steps;
+4. **commit**: a converged iterate becomes ``u^{n+1}`` (and ``v^{n+1} = (u^{n+1} - u^n)/dt``). An unconverged step
+   leaves the state as it was, or with ``anytime=True`` (the real-time loop) commits the last accepted iterate, finite
+   and no higher in energy than the start.
 
-:func:`solve` is the quasistatic solve of chapters 3 to 6: load steps that ramp the loads
-and the handles' displacements, each one a quasistatic step.
+:func:`solve` is the quasistatic solve of chapters 3 to 6: load steps that ramp the loads and the handles'
+displacements, each one a quasistatic step.
 """
 
 from __future__ import annotations
@@ -76,8 +73,7 @@ class StepReport:
 
     @property
     def contact_status(self) -> str:
-        """``"crossed"`` when the step started with surface points through the surface (a handle dragged
-        tissue through tissue; contact ignores them until they are back out), else ``"clear"``."""
+        """``"crossed"`` when the step started with surface points through the surface, else ``"clear"``."""
         return "crossed" if self.crossed else "clear"
 
     # -- the Newton solve, forwarded
@@ -87,8 +83,7 @@ class StepReport:
 
     @property
     def newton_iterations(self) -> int:
-        """Newton steps of the step: the minimiser's, plus the linearised start of a quasistatic step (one
-        Newton step from the previous state towards the new handle positions)."""
+        """The minimiser's Newton steps, plus one for a quasistatic step's linearised start."""
         return self.newton.iterations + (self.warm_start == "linearised")
 
     iterations = newton_iterations
@@ -144,31 +139,27 @@ def _state_vector(name, value, n) -> np.ndarray:
     return a.copy()
 
 
-class _CheckedClock:
+def _checked_clock(clock):
     """The user's clock, read through a check: what it raises or returns that is not a finite real number of
     seconds is a ``ValueError`` naming ``clock``."""
 
-    def __init__(self, clock):
-        self.clock = clock
-
-    def __call__(self) -> float:
+    def read() -> float:
         try:
-            now = self.clock()
+            now = clock()
         except Exception as err:
             raise ValueError(f"clock: the clock raised {type(err).__name__}: {err}") from None
         return check_real("clock (its reading in seconds)", now)
+    return read
 
 
 def _roundoff_floors(model: Model) -> tuple[float, float]:
     """``(residual floor, energy floor)``: the levels below which round-off hides the residual and the energy.
 
-    At rest the stress is a difference of terms of the size of the modulus (``mu F - mu F^-T``
-    for neo-Hookean), so each element's force carries an error of a few ``eps`` times
-    ``A_e |A(I)| |grad N|``. This sums ``|A(I)| sqrt(A_e)`` (``|grad N| ~ 1/h``, ``A_e ~ h^2``)
-    at the nodes; ``_ROUNDOFF`` times its norm is a few thousand times that error and far
-    below any tolerance a user asks for. The energy is a sum of element terms of the size
-    ``|A(I)| A_e`` (whatever its value, nearly 0 at rest): ``_ROUNDOFF`` times their sum
-    bounds what an energy difference can tell.
+    At rest the stress is a difference of terms of the size of the modulus (``mu F - mu F^-T`` for neo-Hookean), so each
+    element's force carries an error of a few ``eps`` times ``A_e |A(I)| |grad N|``. This sums ``|A(I)| sqrt(A_e)``
+    (``|grad N| ~ 1/h``, ``A_e ~ h^2``) at the nodes; ``_ROUNDOFF`` times its norm is a few thousand times that error
+    and far below any tolerance a user asks for. The energy is a sum of element terms of the size ``|A(I)| A_e``
+    (whatever its value, nearly 0 at rest): ``_ROUNDOFF`` times their sum bounds what an energy difference can tell.
     """
     F = np.eye(2).reshape(2, 2, 1)
     with np.errstate(all="ignore"):
@@ -184,12 +175,11 @@ def _roundoff_floors(model: Model) -> tuple[float, float]:
 class Stepper:
     """Steps a :class:`~tissuefem.engine.model.Model` forward: quasistatic if it has no inertia, else backward Euler.
 
-    ``linear_solver``: a :class:`~tissuefem.engine.linsolve.LinearSolver` or its method name
-    (``"reuse"``, the default: CG preconditioned by a kept factorization; ``"direct"``;
-    ``"constant"`` for a quadratic model; a backend name). ``rtol, atol, max_iterations,
-    line_search, max_step``: Newton's settings (:func:`~tissuefem.engine.minimize.newton`).
-    ``budget``: wall-clock seconds per step (default: none) measured by ``clock`` (any callable
-    returning seconds). ``anytime``: commit the last accepted iterate of an unconverged step
+    ``linear_solver``: a :class:`~tissuefem.engine.linsolve.LinearSolver` or its method name (``"reuse"``, the default:
+    CG preconditioned by a kept factorization; ``"direct"``; ``"constant"`` for a quadratic model; a backend name).
+    ``rtol, atol, max_iterations, line_search, max_step``: Newton's settings
+    (:func:`~tissuefem.engine.minimize.newton`). ``budget``: wall-clock seconds per step (default: none) measured by
+    ``clock`` (any callable returning seconds). ``anytime``: commit the last accepted iterate of an unconverged step
     (the real-time loop) instead of keeping the old state.
     """
 
@@ -210,7 +200,7 @@ class Stepper:
         if not callable(clock):
             raise ValueError(f"clock must be a callable returning seconds, got {clock!r}")
         self.clock = clock
-        self._clock = _CheckedClock(clock)
+        self._clock = _checked_clock(clock)
         if not isinstance(anytime, (bool, np.bool_)):
             raise ValueError(f"anytime must be True or False, got {anytime!r}")
         self.anytime = bool(anytime)
@@ -223,10 +213,9 @@ class Stepper:
         self.steps = 0
         self.last_report: StepReport | None = None
 
-    # ------------------------------------------------------------------ settings
     @property
     def dt(self):
-        """The time step (``None`` when quasistatic). May be changed between steps (checked; a refusal keeps it)."""
+        """The time step (``None`` when quasistatic); may be changed between steps (checked)."""
         inertia = self.model.inertia
         return None if inertia is None else inertia.dt
 
@@ -257,7 +246,6 @@ class Stepper:
     def linear_solver_name(self) -> str:
         return self.linear.name
 
-    # ------------------------------------------------------------------ state
     def _checked_state(self, u, v) -> tuple[np.ndarray, np.ndarray]:
         n = self.model.n_dofs
         u = np.zeros(n) if u is None else _state_vector("u", u, n)
@@ -267,16 +255,13 @@ class Stepper:
         return u, v
 
     def reset(self, u=None, v=None) -> None:
-        """Set the state (default: rest), checking shapes and finiteness; nothing changes on a refusal."""
+        """Set the state (default: rest); checked, nothing changes on a refusal."""
         self.u, self.v = self._checked_state(u, v)
         self.v_previous = None
 
     def set_state(self, u, v=None, *, v_previous=None, time_=0.0, steps=0) -> None:
-        """Carry a state over (after the model was rebuilt): displacement, velocities, time and step count.
-
-        Everything is checked before anything changes: ``u``, ``v``, ``v_previous`` finite dof vectors,
-        ``time_`` a finite real number, ``steps`` an integer ``>= 0``.
-        """
+        """Carry a state over (after the model was rebuilt): displacement, velocities, time and step count (all
+        checked before anything changes)."""
         u, v = self._checked_state(u, v)
         if v_previous is not None:
             v_previous = _state_vector("v_previous", v_previous, self.model.n_dofs)
@@ -300,14 +285,13 @@ class Stepper:
         model = self.model
         return self.kinetic_energy() + model.stored_energy(self.u) - float(model.external @ self.u)
 
-    # ------------------------------------------------------------------ one step
     def step(self, targets=None, *, prescribed=None, load: float = 1.0) -> StepReport:
         """Take one step: apply ``targets`` (see :meth:`Model.set_targets`), solve, commit, report.
 
-        ``prescribed``: ``(dofs, values)`` to hold instead of the handles' and ``load``: the factor in
-        ``[0, 1]`` on the constant loads (both for load stepping). All or nothing: whatever is
-        refused or raised before the commit (a bad target, a map that raises, a clock that cannot
-        be read, a failing linear solver) leaves the state, the targets and the model as they were.
+        ``prescribed``: ``(dofs, values)`` to hold instead of the handles' and ``load``: the factor in ``[0, 1]`` on the
+        constant loads (both for load stepping). All or nothing: whatever is refused or raised before the commit (a bad
+        target, a map that raises, a clock that cannot be read, a failing linear solver) leaves the state, the targets
+        and the model as they were.
         """
         model = self.model
         load = check_real("load", load, 0.0, 1.0)
@@ -356,8 +340,7 @@ class Stepper:
         values = np.asarray(values, dtype=float)
         if not np.all(np.isfinite(values)):
             raise ValueError("the prescribed displacements are not finite")
-        n = model.n_dofs
-        free = np.ones(n, dtype=bool)
+        free = np.ones(model.n_dofs, dtype=bool)
         free[fixed] = False
 
         inertia = model.inertia
@@ -375,20 +358,15 @@ class Stepper:
                 # part of the way and carries the rest into the next frame)
                 g = model.gradient(self.u)
                 r = float(np.linalg.norm(g[free])) if np.all(np.isfinite(g)) else math.inf
-                result = NewtonResult(self.u.copy(), False, "non-finite", 0, r, r, 0.0, E0, E0)
-                report = StepReport(result, self.steps, self.time, self._clock() - start, self._budget, fraction,
-                                    which, False, crossed)
-                self.last_report = report
-                return report
-            result = newton(
-                x0, model.gradient, model.hessian, energy=model.energy, free=free,
-                line_search=self.line_search, rtol=self.rtol, atol=self.atol, reference_norm=load_norm,
-                floor=self.floor, max_iterations=self.max_iterations - (which == "linearised"), max_step=self.max_step,
-                linear=self.linear, clock=self._clock, budget=self._budget, start=start, energy0=E0,
-                energy_floor=self.energy_floor,
-                safe_hessian=(lambda x: model.hessian(x, safe=True)) if model.has_safe_hessian else None,
-                step_limit=model.step_limit,
-            )
+                result, pre = NewtonResult(self.u.copy(), False, "non-finite", 0, r, r, 0.0, E0, E0), 0
+            else:
+                result = newton(
+                    x0, model.gradient, model.hessian, energy=model.energy, free=free, line_search=self.line_search,
+                    rtol=self.rtol, atol=self.atol, reference_norm=load_norm, floor=self.floor,
+                    max_iterations=self.max_iterations - (which == "linearised"), max_step=self.max_step,
+                    linear=self.linear, clock=self._clock, budget=self._budget, start=start, energy0=E0,
+                    energy_floor=self.energy_floor, step_limit=model.step_limit,
+                    safe_hessian=(lambda x: model.hessian(x, safe=True)) if model.has_safe_hessian else None)
         finally:
             for term in loads:
                 term.scale = 1.0
@@ -403,10 +381,9 @@ class Stepper:
                 self.time += dt
             self.u = result.x
             self.steps += 1
-        report = StepReport(result, self.steps, self.time, elapsed, self._budget, fraction, which,
-                            bool(commit), crossed)
-        self.last_report = report
-        return report
+        self.last_report = StepReport(result, self.steps, self.time, elapsed, self._budget, fraction, which,
+                                       bool(commit), crossed)
+        return self.last_report
 
     frame = step
 
@@ -415,12 +392,9 @@ class Stepper:
         return [self.step(t) for t in targets_per_step]
 
     def _warm_start(self, fixed, values, free):
-        """``(x0, E0, handle_fraction, name, load_norm, factorizations, crossed)``: the lowest-energy valid start
-        (the first valid one where one Newton step from any start is exact).
+        """``(x0, E0, handle_fraction, name, load_norm, factorizations, crossed)``: step 2 of the module docstring.
 
-        With a term that limits steps (self-contact), the state with the handles moved and everything else
-        where it was is where the step starts (``Model.begin_step``: its crossings are counted and left
-        alone), and every other guess is cut back to the fraction the collision detection allows from it.
+        With self-contact the reference is the state with only the handles moved (``Model.begin_step``).
         """
         model, u = self.model, self.u
         limit = model.step_limit
@@ -466,8 +440,7 @@ class Stepper:
                         break
             if best is not None:
                 return best[0], best[1], fraction, best[2], load_norm, factorizations, crossed
-        # the handles cannot move at all without leaving the valid states: stay
-        x = u.copy()
+        x = u.copy()  # the handles cannot move at all without leaving the valid states: stay
         if model.notes_steps:
             crossed = model.begin_step(x, u)
         with np.errstate(all="ignore"):
@@ -503,12 +476,11 @@ class Stepper:
         except (RuntimeError, ValueError, np.linalg.LinAlgError, ZeroDivisionError):
             return None, 0.0, 0
         if dx_free is None or not np.all(np.isfinite(dx_free)):
-            return None, load_norm, info.factorizations
-        dx[free] = dx_free
+            dx = None
+        else:
+            dx[free] = dx_free
         return dx, load_norm, info.factorizations
 
-
-# ------------------------------------------------------------------------------------------------ quasistatics
 
 @dataclass
 class StaticResult:
@@ -530,9 +502,8 @@ class StaticResult:
 def solve(model: Model, load_steps: int = 1, u0=None, *, stepper: Stepper | None = None, **options) -> StaticResult:
     """Equilibrium of a quasistatic model: ramp the loads and the handles' displacements over ``load_steps``.
 
-    Each load step is a quasistatic :meth:`Stepper.step` from the previous one's state.
-    ``options`` go to :class:`Stepper` (here ``rtol`` defaults to ``1e-10``). If a step fails,
-    the result holds the last converged state and ``converged`` is False.
+    ``options`` go to :class:`Stepper` (here ``rtol`` defaults to ``1e-10``). If a step fails, the result holds
+    the last converged state and ``converged`` is False.
     """
     if not isinstance(model, Model):
         raise ValueError(f"model must be a tissuefem Model, got {type(model).__name__}")
@@ -553,8 +524,7 @@ def solve(model: Model, load_steps: int = 1, u0=None, *, stepper: Stepper | None
     start = stepper.u[fixed].copy()
     steps = []
     for s in np.arange(1, load_steps + 1) / load_steps:
-        report = stepper.step(prescribed=(fixed, start + s * (values - start)), load=s)
-        steps.append(report)
-        if not report.converged:
-            return StaticResult(stepper.u.copy(), False, steps)
-    return StaticResult(stepper.u.copy(), True, steps)
+        steps.append(stepper.step(prescribed=(fixed, start + s * (values - start)), load=s))
+        if not steps[-1].converged:
+            break
+    return StaticResult(stepper.u.copy(), steps[-1].converged, steps)

@@ -1,8 +1,7 @@
 """The terms of the potential: each effect a scene can name is one term with one interface.
 
-The whole engine minimises one energy (the *incremental potential*; see
-:mod:`tissuefem.engine.stepping`). A :class:`~tissuefem.engine.model.Model` is
-the sum of exactly the terms it was built with:
+The whole engine minimises one energy (the *incremental potential*; see :mod:`tissuefem.engine.stepping`). A
+:class:`~tissuefem.engine.model.Model` is the sum of exactly the terms it was built with:
 
 ================  ===========================================================  ==========
 term              energy                                                       Hessian
@@ -16,20 +15,15 @@ term              energy                                                       H
 ``Contact``       self-contact of the surface, see :mod:`.contact`             per pair
 ================  ===========================================================  ==========
 
-Every term has ``energy(u)``, ``gradient(u)`` (a dof vector) and ``add_hessian(u, data)``,
-which adds its Hessian into ``data``, the CSR data array of the model's one fixed sparsity
-pattern (bound by ``bind(pattern)`` before use). ``quadratic`` says whether the Hessian is
-constant (then a kept factorization is exact). A term that couples dofs the mesh does not
-(a suture between two far nodes) lists them in ``couplings()``; the model widens its pattern.
+Every term has ``energy(u)``, ``gradient(u)`` (a dof vector) and ``add_hessian(u, data)``, which adds its Hessian into
+``data``, the CSR data array of the model's one fixed sparsity pattern (bound by ``bind(pattern)`` before use).
+``quadratic`` says whether the Hessian is constant (then a kept factorization is exact). A term that couples dofs the
+mesh does not (a suture between two far nodes) lists them in ``couplings()``; the model widens its pattern.
 
-Why inertia is written with ``1/dt^2``: the notes' residual
-``q = M (u - u~)/dt^2 + f_int(u) - f_ext`` (up to the slips in the README's errata) is then
-exactly the gradient of ``W(u) - f.u + Inertia(u)``, so a dynamic step's residual is a force
-like a quasistatic one's. The chapters' ``E = 1/2 |u - u~|_M^2 + dt^2 [W - f.u]`` is this
-potential times ``dt^2``: the same minimiser.
-
-Elastic and fibre terms share the element loop: :class:`ElementTerm` exposes the energy
-density (``density``), and the model evaluates all of them in one assembly pass.
+Why inertia is written with ``1/dt^2``: the notes' residual ``q = M (u - u~)/dt^2 + f_int(u) - f_ext`` (up to the slips
+in the README's errata) is then exactly the gradient of ``W(u) - f.u + Inertia(u)``, so a dynamic step's residual is a
+force like a quasistatic one's. The chapters' ``E = 1/2 |u - u~|_M^2 + dt^2 [W - f.u]`` is this potential times
+``dt^2``: the same minimiser.
 """
 
 from __future__ import annotations
@@ -50,19 +44,13 @@ __all__ = ["Term", "ElementTerm", "Elastic", "Fibers", "Inertia", "Load", "Probe
 class Term:
     """One additive piece of the potential (see the module docstring for the interface).
 
-    The hooks below have defaults that cost nothing; a term that needs one overrides it, and the model
-    calls only the overridden ones (:meth:`~tissuefem.engine.model.Model.hessian`, the stepper):
-
-    * ``covers(u)``: whether the model's pattern holds the couplings the term needs at ``u`` (else the
-      model rebuilds the pattern; self-contact's pairs change with the state);
-    * ``max_step(u, du)``: the largest fraction of the step ``du`` from ``u`` the term allows (contact:
-      no surface passes through another);
-    * ``begin_step(u, previous)`` / ``end_step()``: where a step starts (returns the crossings found) and
-      that it ended;
-    * ``remap(meshmap)``: the same term after a topology change
-      (:class:`~tissuefem.engine.meshes.MeshMap`): a term, ``None`` if nothing of it survives, or, for a
-      term made from the model's own assembly (inertia, fibres, loads), a factory ``model -> Term``
-      that makes it on the new model.
+    The hooks have defaults that cost nothing; the model calls only those a term overrides: ``covers(u)``
+    (does the model's pattern hold the couplings needed at ``u``? else it is rebuilt: self-contact's pairs
+    change with the state), ``max_step(u, du)`` (the largest fraction of ``du`` allowed: contact lets no
+    surface pass through another), ``begin_step(u, previous)`` (returns the crossings found) / ``end_step()``,
+    and ``remap(meshmap)`` (:class:`~tissuefem.engine.meshes.MeshMap`): the term after a topology change,
+    ``None`` if nothing of it survives, or a factory ``model -> Term`` for a term made from the model's own
+    assembly (inertia, fibres, loads).
     """
 
     name = "term"
@@ -89,8 +77,7 @@ class Term:
         raise NotImplementedError
 
     def add_hessian(self, u, data, safe=False) -> None:
-        """Add the Hessian into ``data``; ``safe=True`` asks for a positive semi-definite version (terms
-        whose Hessian can be indefinite offer one and set ``has_safe_hessian``)."""
+        """``safe=True`` asks for a positive semi-definite version (where ``has_safe_hessian``)."""
         raise NotImplementedError
 
     def covers(self, u) -> bool:
@@ -115,10 +102,9 @@ class Term:
         return f"<{self.describe()}>"
 
 
-# --------------------------------------------------------------------------------------- element terms
-
 class ElementTerm(Term):
-    """A term ``sum_e int Psi(F) dX`` of an energy density ``density`` (energy/stress/tangent of ``F``)."""
+    """A term ``sum_e int Psi(F) dX`` of an energy density ``density`` (energy/stress/tangent of ``F``); the model
+    sums the densities of all element terms in one assembly pass (:class:`SummedDensity`)."""
 
     density = None
     rank = 1
@@ -181,8 +167,8 @@ class _FiberDensity(Material):
 class Fibers(ElementTerm):
     """The fibre energy ``k/8 (I4 - 1)^2``, ``I4 = |F g|^2``, per element (chapter 5), on any material.
 
-    ``directions``: one unit vector ``(2,)`` for all elements or one per element ``(2, n_elements)``
-    (normalised here); ``k >= 0`` is the extra small-strain modulus along the fibre.
+    ``directions``: one unit vector ``(2,)`` for all elements or one per element ``(2, n_elements)`` (normalised here);
+    ``k >= 0`` is the extra small-strain modulus along the fibre.
     """
 
     name = "fibers"
@@ -215,25 +201,22 @@ class SummedDensity:
         self.name = " + ".join(getattr(d, "name", "?") for d in self.densities)
 
     def _sum(self, method, F):
-        out = getattr(self.densities[0], method)(F)
+        out = method(self.densities[0], F)
         for d in self.densities[1:]:
-            out = out + getattr(d, method)(F)
+            out = out + method(d, F)
         return out
 
     def energy(self, F):
-        return self._sum("energy", F)
+        return self._sum(lambda d, F: d.energy(F), F)
 
     def stress(self, F):
-        return self._sum("stress", F)
+        return self._sum(lambda d, F: d.stress(F), F)
 
     def tangent(self, F):
-        return self._sum("tangent", F)
+        return self._sum(lambda d, F: d.tangent(F), F)
 
     def safe_tangent(self, F):
-        out = safe_tangent(self.densities[0], F)
-        for d in self.densities[1:]:
-            out = out + safe_tangent(d, F)
-        return out
+        return self._sum(safe_tangent, F)
 
 
 def safe_tangent(density, F):
@@ -247,24 +230,17 @@ class SafeView:
 
     def __init__(self, density):
         self.density = density
-
-    def energy(self, F):
-        return self.density.energy(F)
-
-    def stress(self, F):
-        return self.density.stress(F)
+        self.energy, self.stress = density.energy, density.stress
 
     def tangent(self, F):
         return safe_tangent(self.density, F)
 
 
-# --------------------------------------------------------------------------------------- inertia and loads
-
 class Inertia(Term):
     """Backward Euler's inertia: ``1/(2 dt^2) (x - x~)^T M (x - x~)`` with ``x~ = u^n + dt v^n``.
 
-    ``M`` is the lumped or consistent mass of density ``rho0``. The stepper sets ``x_tilde``
-    before each step; ``dt`` may change between steps (the Hessian ``M / dt^2`` with it).
+    ``M`` is the lumped or consistent mass of density ``rho0``. The stepper sets ``x_tilde`` before each step; ``dt``
+    may change between steps (the Hessian ``M / dt^2`` with it).
     """
 
     name = "inertia"
@@ -284,8 +260,7 @@ class Inertia(Term):
         self._diagonal = self.M.diagonal() if self.lumped else None
         self.x_tilde = np.zeros(assembler.n_dofs)
 
-    def matvec(self, w) -> np.ndarray:
-        """``M w``."""
+    def matvec(self, w) -> np.ndarray:  # M w
         return self._diagonal * w if self.lumped else self.M @ w
 
     def energy(self, u):
@@ -315,8 +290,8 @@ class Inertia(Term):
 class Load(Term):
     """A constant external force ``f`` (a dof vector): energy ``-scale f . u`` (``scale`` ramps it in load steps).
 
-    ``make``: how the vector is made from a model (``make(model) -> f``), so that a remap makes it on the
-    new mesh (a load given as a bare vector cannot be carried).
+    ``make``: how the vector is made from a model (``make(model) -> f``), so that a remap makes it on the new mesh (a
+    load given as a bare vector cannot be carried).
     """
 
     quadratic = True
@@ -398,33 +373,29 @@ def traction_vector(basis, boundary, traction) -> np.ndarray:
     return asm(traction_form, fb)
 
 
-# --------------------------------------------------------------------------------------- tools and sutures
-
 class Probe(Term):
     """A rigid disc (a tool tip) of centre ``c`` and radius ``R`` pressed into the tissue's surface.
 
-    Each *boundary* node ``a`` carries its share ``l_a`` of the boundary's length (half of
-    each boundary edge it ends), and the penalty is a pressure: with the penetration
-    ``g_a = R - d_a``, ``d_a = |x_a - c|``,
+    Each *boundary* node ``a`` carries its share ``l_a`` of the boundary's length, and the penalty is a
+    pressure: with the penetration ``g_a = R - d_a``, ``d_a = |x_a - c|``,
 
         E = sum_a k l_a h(g_a),   h(g) = g^3 / (6 delta)             (0 < g < delta),
                                   h(g) = g^2/2 - delta g/2 + delta^2/6  (g >= delta),
 
-    and ``h = 0`` outside the disc. ``k`` is a pressure per unit penetration: the force per
-    unit surface length ``k h'(g)`` is the same on any mesh, so the penetration a push leaves
-    does not depend on the element size. ``h`` is twice continuously differentiable (the
-    pressure starts smoothly over ``delta``, a small fraction of ``R``), so a node entering
-    or leaving the disc does not make the Newton matrix jump. With ``n_a = (x_a - c) / d_a``
-    the force on the node is ``k l_a h'(g) n_a`` (outward); the Hessian is
-    ``k l_a [h''(g) n n^T - h'(g)/d (I - n n^T)]``, whose tangential part (the disc's
-    curvature) is negative and small (order ``g / R``) but not negligible where the tissue
-    slides along the tool: Newton takes the exact Hessian (quadratic convergence), and the
-    *safe* one (``safe=True``, the minimiser's fallback when a direction does not point
-    downhill) keeps only the positive normal part. :meth:`move` moves the tool.
+    and ``h = 0`` outside the disc. ``k`` is a pressure per unit penetration: the force per unit surface
+    length ``k h'(g)`` is the same on any mesh, so the penetration a push leaves does not depend on the
+    element size. ``h`` is twice continuously differentiable (the pressure starts smoothly over ``delta``,
+    a small fraction of ``R``), so a node entering or leaving the disc does not make the Newton matrix jump.
+    With ``n_a = (x_a - c) / d_a`` the force on the node is ``k l_a h'(g) n_a`` (outward); the Hessian is
+    ``k l_a [h''(g) n n^T - h'(g)/d (I - n n^T)]``, whose tangential part (the disc's curvature) is negative and
+    small (order ``g / R``) but not negligible where the tissue slides along the tool: Newton takes the exact
+    Hessian (quadratic convergence), and the *safe* one (``safe=True``, the minimiser's fallback when a
+    direction does not point downhill) keeps only the positive normal part. :meth:`move` moves the tool.
     """
 
     name = "probe"
     rank = 2
+    has_safe_hessian = True  # the normal part of the Hessian is positive semi-definite
 
     def __init__(self, X, boundary_lengths, center, radius, stiffness, label=None, smoothing=0.02):
         self.X = X
@@ -500,9 +471,6 @@ class Probe(Term):
         _, g, _, _ = self._contact(u)
         return float(g.max(initial=0.0))
 
-    #: the Hessian has a positive semi-definite variant (its normal part)
-    has_safe_hessian = True
-
     def add_hessian(self, u, data, safe=False):
         nodes, g, n, d = self._contact(u)
         if nodes.size == 0:
@@ -520,18 +488,16 @@ class Probe(Term):
 class Sutures(Term):
     """Stiff springs that tie pairs of points together: ``E = sum_s k/2 |x_a - x_b - g_s|^2``.
 
-    A stitch's end is a node, or a point inside an element (on a wound cut through
-    elements) that moves with the element's nodes, ``x_a = sum_c w_c x_{n_c}`` with
-    barycentric weights ``w``. ``g_s`` is the slack: a suture is placed with its current gap
-    as slack (no force at first) and then *tightened*: ``tighten(s)`` sets
-    ``g = (1 - s) g_0``, so ``s = 1`` closes the wound. The Hessian is constant,
-    ``k D^T D`` with ``D`` the map from nodes to the gap; it couples the two ends' nodes,
-    which widens the model's pattern. ``k`` is a force per unit length (per unit thickness).
+    A stitch's end is a node, or a point inside an element (a wound cut through elements) that moves with its
+    nodes, ``x_a = sum_c w_c x_{n_c}`` with barycentric weights ``w``. ``g_s`` is the slack: a suture is placed
+    with its current gap as slack (no force at first) and then *tightened*: ``tighten(s)`` sets
+    ``g = (1 - s) g_0``, so ``s = 1`` closes the wound. The Hessian ``k D^T D`` (``D``: nodes to gap) is
+    constant and couples the two ends' nodes, which widens the model's pattern. ``k`` is a force per unit
+    length (per unit thickness).
 
-    ``X`` is ``(2, n_nodes)``; ``pairs`` ``(2, k)`` node pairs or, with ``coefficients``
-    ``(2, c, k)``, the ``c`` nodes of each end and their weights (each end's add up to 1; a
-    point just outside its element, carried by the element's P1 map, has a slightly
-    negative one); ``stiffness`` one number or ``(k,)``; ``gaps`` ``(2, k)``.
+    ``X`` is ``(2, n_nodes)``; ``pairs`` ``(2, k)`` node pairs or, with ``coefficients`` ``(2, c, k)``, the
+    ``c`` nodes of each end and their weights (adding up to 1; slightly negative for a point just outside its
+    element); ``stiffness`` one number or ``(k,)``; ``gaps`` ``(2, k)``.
     """
 
     name = "sutures"
@@ -588,8 +554,8 @@ class Sutures(Term):
     def tighten(self, fraction, stitches=None) -> None:
         """Set the tightness (0 slack ... 1 closed) of all stitches, or of those indexed by ``stitches``.
 
-        ``fraction``: one number in ``[0, 1]``, or one per selected stitch; ``stitches``: integers
-        in ``0 .. k-1`` (floats, booleans and negative indices are refused). All or nothing.
+        ``fraction``: one number in ``[0, 1]``, or one per selected stitch; ``stitches``: integers in ``0 .. k-1``
+        (floats, booleans and negative indices are refused). All or nothing.
         """
         count = self.pairs.shape[1]
         index = np.arange(count) if stitches is None else _stitch_indices(stitches, count)
@@ -640,8 +606,7 @@ class Sutures(Term):
             np.add.at(g, 2 * self.nodes.ravel() + i, (signed * e[i]).ravel())
         return g
 
-    def distances(self, u) -> np.ndarray:
-        """How far apart the two ends of each stitch are (0 when closed)."""
+    def distances(self, u) -> np.ndarray:  # how far apart the two ends of each stitch are
         a, b = self.ends(u)
         return np.hypot(*(a - b))
 
