@@ -5,25 +5,18 @@ terms (:mod:`tissuefem.engine.terms`, made by :mod:`tissuefem.engine.effects`). 
 
     E(u) = W(u) [+ fibres] [+ probe] [+ sutures] [+ contact] [- f . u] [+ 1/(2 dt^2) |u - u~|_M^2],
 
-with nothing evaluated -- or even built -- for an effect it was not given (without ``dt``
-no inertia term and no mass matrix). Chapters 3 to 9, the scenes and the surgery layer
-all use this one class; :mod:`tissuefem.engine.stepping` minimises its potential, and
-:meth:`Model.remapped` carries it across a cut or an excision.
+with nothing built for an effect it was not given (without ``dt`` no inertia and no mass matrix).
+:mod:`tissuefem.engine.stepping` minimises it; :meth:`Model.remapped` carries it across a cut or an excision.
 
-Handles are constraints, not terms: a :class:`Handle` holds a region of the body (a
-boundary, a box, the nodes near a point, a mask, or node indices; :func:`region_nodes`)
-at prescribed positions. Its target is a displacement (a translation ``(dx, dy)`` or a map
-``X -> x``), checked where it enters (:meth:`Handle.move`, :meth:`Model.set_targets`): a
-refused target changes nothing.
+Handles are constraints, not terms: a :class:`Handle` holds a region (:func:`region_nodes`) at prescribed
+positions; its target is a displacement (a translation ``(dx, dy)`` or a map ``X -> x``), checked where it
+enters: a refused target changes nothing.
 
-Every term's Hessian goes into one fixed sparsity pattern (:class:`Pattern`): the
-assembler's, widened where a term couples dofs the mesh does not (sutures), so Newton's
-matrices share their index arrays and the linear solver condenses them by a precomputed
-gather. A term whose couplings change with the state (self-contact) says when the pattern
-no longer holds them (``covers``); :meth:`Model.hessian` then rebuilds it (the linear solver
-condenses afresh; a kept factorization stays a valid preconditioner). The model calls a
-term's hooks (``covers``, ``max_step``, ``begin_step``/``end_step``) only where its class
-overrides the default: a model without such a term pays nothing for them.
+Every term's Hessian goes into one fixed sparsity pattern (:class:`Pattern`): the assembler's, widened where a
+term couples dofs the mesh does not (sutures), so the linear solver condenses by a precomputed gather. A term
+whose couplings change with the state (self-contact) says when the pattern no longer holds them (``covers``);
+:meth:`Model.hessian` then rebuilds it. The hooks (``covers``, ``max_step``, ``begin_step``/``end_step``) are
+called only where a term's class overrides the default: a model without such a term pays nothing for them.
 """
 
 from __future__ import annotations
@@ -108,10 +101,8 @@ def region_nodes(mesh, region, field: str = "region") -> np.ndarray:
 # ------------------------------------------------------------------------------------------------ handles
 
 def _map_positions(target, points, field) -> np.ndarray:
-    """``target(points)``, the positions a map sends ``points`` to, checked: whatever the user's callable raises or
-    returns that is not a finite real array shaped like ``points`` is a ``ValueError`` naming ``field``."""
-    try:
-        # a copy: a map that writes into its argument cannot change the handle's reference points
+    """``target(points)`` checked: a finite real array shaped like ``points``, else a ``ValueError`` naming ``field``."""
+    try:  # a copy: a map that writes into its argument cannot change the handle's reference points
         x = np.asarray(target(points.copy()))
     except Exception as err:  # anything a user's map raises is a refusal, not a crash
         raise ValueError(f"{field}: the map raised {type(err).__name__}: {err}") from None
@@ -126,11 +117,8 @@ def _map_positions(target, points, field) -> np.ndarray:
 
 
 def _check_target(target, points=None, field="target", reach=None):
-    """A checked target: a finite translation ``(2,)`` or a map whose values at ``points`` are finite.
-
-    With ``reach`` (``REACH`` domain sizes, set when a model takes the handle) the displacement a
-    target prescribes may not exceed it in either component.
-    """
+    """A checked target: a finite translation ``(2,)`` or a map finite at ``points``; with ``reach`` (``REACH``
+    domain sizes) its displacement may not exceed it in either component."""
     if callable(target):
         if points is not None:
             x = _map_positions(target, points, field)
@@ -323,12 +311,8 @@ def _overrides(term, hook) -> bool:
 
 
 class Holding:
-    """The handles of a :class:`Model`: the part of it that holds the body at prescribed positions.
-
-    Each handle's region is resolved to nodes and dofs when the model takes it (:meth:`add_handle`);
-    its target enters checked (:meth:`Handle.move`, :meth:`set_targets`), and :meth:`prescribed`
-    gives the stepper the held dofs and their displacements.
-    """
+    """The handles of a :class:`Model`, resolved to nodes and dofs when taken; :meth:`prescribed` gives the
+    stepper the held dofs and their displacements."""
 
     def _handle_dofs(self, h: Handle, nodes) -> tuple[np.ndarray, np.ndarray]:
         """The dofs a handle holding ``nodes`` holds and the index of each dof's node in ``nodes`` (-1 for P2 edge
@@ -404,12 +388,8 @@ class Holding:
         raise ValueError(f"no handle named {name!r:.100}; handles: {[h.name for h in self.handles]}")
 
     def set_targets(self, targets) -> None:
-        """Move several handles at once, all or nothing.
-
-        ``targets``: ``None``; a sequence with one entry per handle (``None`` leaves one where
-        it is); or a dict ``{name or index: target}``. Every target is checked before any
-        handle moves, so a refusal leaves all of them as they were.
-        """
+        """Move several handles at once, all or nothing: ``None``, one target per handle (``None`` leaves one
+        where it is) or ``{name or index: target}``; a refusal leaves all of them as they were."""
         if targets is None:
             return
         if isinstance(targets, dict):
