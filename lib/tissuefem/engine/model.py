@@ -101,7 +101,7 @@ def region_nodes(mesh, region, field: str = "region") -> np.ndarray:
 # ------------------------------------------------------------------------------------------------ handles
 
 def _map_positions(target, points, field) -> np.ndarray:
-    """``target(points)`` checked: a finite real array shaped like ``points``, else a ``ValueError`` naming ``field``."""
+    """``target(points)`` checked: finite real values shaped like ``points``, else a ``ValueError`` naming ``field``."""
     try:  # a copy: a map that writes into its argument cannot change the handle's reference points
         x = np.asarray(target(points.copy()))
     except Exception as err:  # anything a user's map raises is a refusal, not a crash
@@ -468,15 +468,12 @@ class Model(Holding):
     weights
         Optional per-element material fractions (elements cut through carry part of their triangle).
     dt, mass, gravity, body_force, tractions, fibers, probes, sutures, contact
-        Shorthands for the common terms, made by the factories of :mod:`tissuefem.engine.effects`:
-        ``dt`` (seconds) with the ``"lumped"`` or ``"consistent"`` ``mass``: backward Euler's
-        inertia (without: quasistatic, no mass matrix); gravity ``(gx, gy)`` (the body force
-        ``density * g``), a body force per unit reference area ``(bx, by)``, tractions
-        ``{boundary: (tx, ty)}`` (force per unit reference length): loads; ``(stiffness,
-        directions)`` (directions ``(2,)`` or ``(2, n_elements)``): fibres; dicts ``center, radius,
-        stiffness[, label, smoothing]``: probes; a dict ``pairs, stiffness, gaps[, tightness,
-        coefficients]``: sutures; a dict ``distance, stiffness[, surface, skin]``: self-contact of
-        ``surface`` (default the mesh's boundary).
+        Shorthands for the common terms (:mod:`tissuefem.engine.effects`): ``dt`` (seconds) with ``"lumped"`` or
+        ``"consistent"`` ``mass`` (backward Euler; without: quasistatic); gravity ``(gx, gy)``, a body force per
+        unit reference area ``(bx, by)``, tractions ``{boundary: (tx, ty)}`` per unit reference length; fibres
+        ``(stiffness, directions)`` (``(2,)`` or ``(2, n_elements)``); probes: dicts ``center, radius,
+        stiffness[, label, smoothing]``; sutures: ``pairs, stiffness, gaps[, tightness, coefficients]``;
+        contact: ``distance, stiffness[, surface, skin]`` (default surface: the mesh's boundary).
     """
 
     def __init__(self, mesh, material, *, order: int = 1, intorder: int | None = None, assembly: str = "fast",
@@ -572,14 +569,10 @@ class Model(Holding):
         self.set_terms([new if t is old else t for t in self.terms])
 
     def remapped(self, meshmap, state=()) -> tuple["Model", tuple]:
-        """This model on the mesh of a topology change (a cut or an excision), and ``state`` carried with it.
-
-        ``meshmap``: a :class:`~tissuefem.engine.meshes.MeshMap` (the surgery layer's edits are ones);
-        ``state``: dof vectors of this model (``u``, ``v``, the previous ``v``; ``None`` stays ``None``),
-        each copy of a node taking its parent's values. Every term is carried by its ``remap`` (dropped
-        if nothing of it survives), every handle by :meth:`Handle.remap`; the elastic term is the new
-        model's own, with the material weights of ``meshmap``. P1 only.
-        """
+        """This model on the mesh of a topology change (a :class:`~tissuefem.engine.meshes.MeshMap`: a cut or an
+        excision), and ``state`` (dof vectors; ``None`` stays ``None``), each copy of a node taking its parent's
+        values. Terms are carried by their ``remap`` (dropped if nothing survives), handles by :meth:`Handle.remap`;
+        the elastic term is the new model's own, with the weights of ``meshmap``. P1 only."""
         if self.order != 1:
             raise ParameterError("order", "remapped: a topology change needs P1 elements (order=1)")
         carried = [t.remap(meshmap) for t in self.terms if not isinstance(t, Elastic)]
@@ -629,11 +622,7 @@ class Model(Holding):
         if not self._limit_terms:
             return None
         terms = list(self._limit_terms)
-
-        def limit(u, du):
-            return min(t.max_step(u, du) for t in terms)
-
-        return limit
+        return lambda u, du: min(t.max_step(u, du) for t in terms)
 
     @property
     def notes_steps(self) -> bool:
