@@ -41,11 +41,9 @@ __all__ = ["Model", "Handle", "Pattern", "region_nodes"]
 def region_nodes(mesh, region, field: str = "region") -> np.ndarray:
     """The mesh nodes (sorted indices) that a region selects; ``ValueError`` naming ``field`` if none.
 
-    ``region`` is one of: a boundary name of the mesh (``"left"``); a callable
-    ``mask(X) -> bool`` on the reference node coordinates ``X`` shaped
-    ``(2, n_nodes)``; a dict ``{"box": [x0, y0, x1, y1]}``,
-    ``{"near": [x, y], "radius": r}`` (a node exactly on the circle counts) or
-    ``{"nodes": [...]}``; or an integer array of node indices.
+    ``region``: a boundary name (``"left"``); a ``mask(X) -> bool`` on the reference coordinates ``(2, n_nodes)``;
+    ``{"box": [x0, y0, x1, y1]}``, ``{"near": [x, y], "radius": r}`` (the circle included) or ``{"nodes": [...]}``;
+    or an integer array of node indices.
     """
     p = np.asarray(mesh.p, dtype=float)
     n = p.shape[1]
@@ -144,13 +142,11 @@ def _check_target(target, points=None, field="target", reach=None):
 class Handle:
     """Material points held at prescribed positions (a fixed edge, a pulled edge, a user's grab).
 
-    ``region``: anything :func:`region_nodes` takes. ``target``: a translation ``(dx, dy)``
-    (default: none, a fixed region) or a map ``phi(X) -> x`` on reference coordinates
-    ``(2, n) -> (2, n)``. ``base`` (a grab; ``region`` must then be node indices): the held
-    nodes' displacement ``(2, n_nodes)`` when grabbed; the prescribed displacement is
-    ``base + (phi(X) - X)``, so the grabbed tissue stays where it is and then follows the
-    target's offset. ``name``: to find the handle by (the model names unnamed ones).
-    ``anchor``: the point the user grabbed (a drag moves the handle by the mouse's offset from it).
+    ``region``: anything :func:`region_nodes` takes. ``target``: a translation ``(dx, dy)`` (default none: fixed)
+    or a map ``phi(X) -> x``, ``(2, n) -> (2, n)``. ``base`` (a grab; ``region`` must be node indices): the held
+    nodes' displacement ``(2, n_nodes)`` when grabbed; the prescribed displacement is ``base + (phi(X) - X)``, so
+    the grabbed tissue stays put, then follows the target's offset. ``name``: to find it by (else the model names
+    it). ``anchor``: the point the user grabbed (a drag moves the handle by the mouse's offset from it).
     """
 
     def __init__(self, region, target=(0.0, 0.0), *, base=None, name=None, anchor=None):
@@ -210,12 +206,9 @@ class Handle:
 # ------------------------------------------------------------------------------------------------ the pattern
 
 class Pattern:
-    """The model's fixed CSR sparsity pattern: the assembler's, widened by the terms' couplings.
-
-    ``base_positions`` maps the assembler's entries into this pattern (``None``
-    when they are the same); ``node_block[i, j, a]`` is the position of the
-    entry (``2a + i``, ``2a + j``) of vertex ``a``'s diagonal block.
-    """
+    """The model's fixed CSR sparsity pattern: the assembler's, widened by the terms' couplings. ``base_positions``
+    maps the assembler's entries into it (``None``: the same); ``node_block[i, j, a]`` is the position of the entry
+    (``2a + i``, ``2a + j``) of vertex ``a``'s diagonal block."""
 
     def __init__(self, assembler, n_vertices, couplings=()):
         n = assembler.n_dofs
@@ -315,8 +308,7 @@ class Holding:
     stepper the held dofs and their displacements."""
 
     def _handle_dofs(self, h: Handle, nodes) -> tuple[np.ndarray, np.ndarray]:
-        """The dofs a handle holding ``nodes`` holds and the index of each dof's node in ``nodes`` (-1 for P2 edge
-        dofs)."""
+        """The dofs a handle holding ``nodes`` holds, and each dof's node's index in ``nodes`` (-1: P2 edge dofs)."""
         dofs = [self.basis.nodal_dofs[:, nodes].ravel()]
         owner = [np.tile(np.arange(nodes.size), 2)]
         if self.order == 2:
@@ -684,13 +676,8 @@ class Model(Holding):
         return g
 
     def hessian(self, u, safe: bool = False) -> sp.csr_matrix:
-        """``d^2E/du^2`` on the model's fixed pattern (the Newton matrix).
-
-        ``safe=True`` takes the positive semi-definite variants where the terms offer one (a
-        :class:`~tissuefem.engine.inversion.ProjectedTangent` with ``adaptive=True``, the probe's
-        normal part): what the minimiser falls back on when the exact Hessian gives no descent
-        direction.
-        """
+        """``d^2E/du^2`` on the model's fixed pattern (the Newton matrix). ``safe=True`` takes the terms' positive
+        semi-definite variants where they offer one: the minimiser's fallback when the exact one gives no descent."""
         u = self._check_u(u)
         if self._pattern_terms and not all(t.covers(u) for t in self._pattern_terms):
             self._build()  # a term's couplings changed (contact pairs): a new pattern, the same terms

@@ -384,9 +384,8 @@ def _check_text_nesting(text, kind):
 
 # --- TOML output (the subset scenes use: tables, arrays of tables, numbers, strings, arrays) ---------------------
 
-# A TOML basic string may hold any Unicode scalar value except '"', '\' and the control characters, which
-# are escaped (\b \t \n \f \r, else \uXXXX); everything else, also outside the Basic Multilingual Plane, is
-# written as itself in the UTF-8 file. (JSON's \ud83d\ude00 surrogate-pair escapes are not valid TOML.)
+# a TOML basic string escapes '"', '\' and the control characters; all else (also beyond the BMP) is written as
+# itself (JSON's surrogate-pair escapes are not valid TOML)
 _TOML_ESCAPE = re.compile(r'["\\\x00-\x1f\x7f]')
 _TOML_SHORT = {'"': '\\"', "\\": "\\\\", "\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f", "\r": "\\r"}
 
@@ -445,14 +444,9 @@ def _scene_path(path, argument="path") -> Path:
 # --- the scene ---------------------------------------------------------------------------------------------------
 
 class Scene:
-    """A checked scene description.
-
-    ``Scene(domain=..., material=..., effects=..., solver=..., name=..., description=...)`` with
-    dictionaries as in a scene file; missing optional fields get their defaults, so :meth:`to_dict` is the
-    complete, normalised scene. ``None`` means "the default" only for the keyword arguments. ``base_dir``
-    is where a ``file`` domain's relative path starts (the scene file's folder when loaded from a file);
-    ``notes`` lists what :meth:`build_mesh` had to say about a mesh file (nodes it dropped).
-    """
+    """A checked scene: dictionaries as in a scene file, missing optional fields set to their defaults (so
+    :meth:`to_dict` is the complete scene); ``None`` means "the default" for the keyword arguments only.
+    ``base_dir``: where a ``file`` domain's relative path starts; ``notes``: what :meth:`build_mesh` said."""
 
     def __init__(self, *, domain=None, material=None, effects=None, solver=None, name="scene", description="",
                  base_dir=None):
@@ -546,10 +540,8 @@ class Scene:
         return reader(text, base_dir=path.parent)
 
     def save(self, path) -> None:
-        """Write the scene to a ``.toml`` or ``.json`` file that :meth:`load` reads back as this very scene.
-
-        The text is read back and compared first, and the file replaced in one step: a failure leaves it as it was.
-        """
+        """Write the scene to a ``.toml`` or ``.json`` file that :meth:`load` reads back as this very scene (checked
+        first; the file is replaced in one step, so a failure leaves it as it was)."""
         path = _scene_path(path)
         toml = path.suffix == ".toml"
         text = self.to_toml() if toml else self.to_json()
@@ -735,13 +727,9 @@ def _facet_index(mesh, pairs) -> np.ndarray:
 
 
 def _skfem_boundaries(m, t, mesh):
-    """Boundaries scikit-fem wrote into the file (``skfem:b:NAME`` cell data), as facet indices of ``mesh``.
-
-    scikit-fem encodes a boundary as bit flags of each triangle's local edges, in the node order *as
-    written*; its reader decodes them after sorting each triangle's nodes, which picks other edges when
-    that order was not sorted (the counter-clockwise meshes of :mod:`~tissuefem.engine.meshes`). Here they
-    are decoded in the written order.
-    """
+    """Boundaries scikit-fem wrote into the file (``skfem:b:NAME`` cell data), as facet indices of ``mesh``:
+    bit flags of each triangle's local edges in the node order *as written*, decoded here in that order
+    (scikit-fem's reader sorts the nodes first, which picks other edges of counter-clockwise triangles)."""
     local = np.asarray(skfem.refdom.RefTri.facets)  # local edge k joins nodes local[k] of the triangle
     triangle_blocks = [i for i, b in enumerate(m.cells) if b.type == "triangle"]
     out = {}
