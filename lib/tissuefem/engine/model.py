@@ -179,9 +179,8 @@ class Handle:
         self.target = _check_target(target, self._points, f"handle {self.name!r} target", self._reach)
 
     def remap(self, parent) -> "Handle | None":
-        """The same handle on a mesh whose node ``i`` comes from old node ``parent[i]`` (after a cut or an
-        excision): every copy of a held node is held, with its parent's base displacement. ``None`` if none
-        of its nodes survives."""
+        """The same handle on a mesh whose node ``i`` comes from old node ``parent[i]`` (a cut or an excision): every
+        copy of a held node is held, with its parent's base displacement; ``None`` if none survives."""
         if self.nodes is None:
             raise ValueError("remap: the handle is not part of a model yet")
         parent = np.asarray(parent, dtype=np.intp)
@@ -609,8 +608,8 @@ class Model(Holding):
     # ------------------------------------------------------------------ step hooks (terms that have them only)
     @property
     def step_limit(self):
-        """``None`` when no term limits steps; else ``limit(u, du)``: the largest fraction of the step ``du``
-        from ``u`` that every term allows (contact: no surface passes through another)."""
+        """``None`` when no term limits steps; else ``limit(u, du)``: the largest fraction of the step ``du`` from
+        ``u`` every term allows (contact: no surface passes through another)."""
         if not self._limit_terms:
             return None
         terms = list(self._limit_terms)
@@ -622,9 +621,8 @@ class Model(Holding):
         return bool(self._step_terms)
 
     def begin_step(self, u, previous=None) -> int:
-        """Tell the terms a step starts at ``u`` (reached from the state ``previous`` by the handles' motion);
-        returns the crossings they found (surface points the handles dragged through the surface, which
-        contact ignores until they are back out)."""
+        """Tell the terms a step starts at ``u`` (reached from ``previous`` by the handles' motion); returns the
+        crossings found (points the handles dragged through the surface, ignored by contact until back out)."""
         return sum(int(t.begin_step(u, previous) or 0) for t in self._step_terms)
 
     def end_step(self) -> None:

@@ -54,16 +54,13 @@ SHAPES = ("rectangle", "flap", "fusiform", "file")
 #: the list-valued effects of the scene's own (each entry is a table); the registry's say whether they are
 _LISTS = ("handles", "excisions", "incisions")
 
-# --- limits (the table in docs/scenes.md) -----------------------------------------------------------------------
-#: triangles of a generated domain (and of a mesh file); lengths of a generated domain, and ``domain.scale``;
-#: the largest aspect ratio of a domain, either way round
+# --- limits (the table in docs/scenes.md): triangles, lengths (and ``domain.scale``), aspect ratio either way round
 MAX_TRIANGLES, SIZE_RANGE, MAX_ASPECT = meshes.MAX_TRIANGLES, meshes.SIZE_RANGE, meshes.MAX_ASPECT
 THRESHOLD_RANGE = (0.01, 0.99)
 BUDGET_RANGE = (1e-6, 1e9)
 RTOL_RANGE = (1e-14, 0.5)
 MAX_ITERATIONS = 1000
-#: points and displacements lie within REACH domain sizes of the domain's centre (the engine's REACH); radii
-#: within MIN_RADIUS and REACH sizes
+#: points and displacements lie within REACH domain sizes of the centre; radii within MIN_RADIUS and REACH sizes
 MIN_RADIUS = RADIUS_RANGE[0]
 #: entries of one list-valued effect; points of a polygon or path, pairs of a suture
 MAX_ENTRIES = 1000
@@ -301,8 +298,7 @@ def _check_solver(s):
 
 
 def _check_reach(effects, box, where=""):
-    """Points, displacements and radii against the domain's size ``L``: within ``REACH L``, radii
-    ``>= MIN_RADIUS L``."""
+    """Points, displacements and radii against the domain size ``L``: within ``REACH L``, radii ``>= MIN_RADIUS L``."""
     x0, y0, x1, y1 = box
     size = max(x1 - x0, y1 - y0)
     cx, cy = 0.5 * (x0 + x1), 0.5 * (y0 + y1)
