@@ -178,8 +178,7 @@ def _check_probe(field, e):
 
 
 def _probes(model, entries, scene):
-    """Rigid discs; default stiffness ``100 E / radius`` (the penetration near 1 % of the radius under a moderate
-    pressure)."""
+    """Rigid discs; default stiffness ``100 E / radius`` (penetration near 1 % of the radius at moderate pressure)."""
     out = []
     for p in entries:
         p = dict(p)
@@ -229,13 +228,10 @@ def median_segment(surface, p) -> float:
 
 
 class SkinContact(Contact):
-    """Self-contact that keeps its settings across cuts: the surface after a topology change is the one the
-    change knows (:meth:`~tissuefem.engine.meshes.MeshMap.contact_surface`, else the mesh's boundary).
-
-    ``default``: the skin's depth was not given; it must stay thin against the surface's segments, and a cut
-    through elements (or a curved excision) leaves short pieces, so after a remap the depth shrinks to half
-    their median length (never grows past the depth at the start, ``base``).
-    """
+    """Self-contact that keeps its settings across cuts, on the surface the change knows
+    (:meth:`~tissuefem.engine.meshes.MeshMap.contact_surface`, else the mesh's boundary). ``default`` (no depth
+    given): the skin must stay thin against the segments, and a cut leaves short ones, so after a remap the depth
+    shrinks to half their median length (never past the starting depth ``base``)."""
 
     def __init__(self, X, surface, distance, stiffness, *, default=False, base=None):
         self.default, self.base = default, distance if base is None else base
@@ -329,8 +325,8 @@ def _keys(field, spec, required, optional=()) -> dict:
 
 def keyword_terms(*, dt=None, mass="lumped", gravity=None, body_force=None, tractions=None, fibers=None, probes=(),
                   sutures=None, contact=None) -> list:
-    """The factories of a model's keywords (see :class:`~tissuefem.engine.model.Model`), in the order the model
-    builds them; each checks its keyword when it is called."""
+    """The factories of a model's keywords (:class:`~tissuefem.engine.model.Model`) in build order; each checks its
+    keyword when called."""
     probes = _entries("probes", probes, "dicts (center, radius, stiffness[, label])")
 
     def fibers_term(model):
