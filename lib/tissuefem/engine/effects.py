@@ -8,13 +8,9 @@ effect is a term and one :func:`register` call::
 
     register("wind", check=lambda field, table: {...}, build=lambda model, params, scene: Load(...))
 
-The model's keywords (``dt``, ``gravity``, ``fibers``, ...) go through the same factories
-(:func:`keyword_terms`). Probes and sutures are *placed* effects: the simulation places them with
-its operations (:meth:`~tissuefem.surgery.simulation.Simulation.add_probe`,
-:meth:`~tissuefem.surgery.simulation.Simulation.suture`), which build their terms here.
-
-The table checks (:func:`~tissuefem.engine.parameters.table`, ``number``, ``vector``, ...) live with the
-engine's other checks in :mod:`tissuefem.engine.parameters`: a refusal names the field (``effects.probes[0].radius``).
+The model's keywords (``dt``, ``gravity``, ``fibers``, ...) go through the same factories (:func:`keyword_terms`).
+Probes and sutures are *placed* effects: the simulation's operations (``add_probe``, ``suture``) place them.
+The table checks live in :mod:`tissuefem.engine.parameters`: a refusal names the field (``effects.probes[0].radius``).
 """
 
 from __future__ import annotations
@@ -39,11 +35,8 @@ __all__ = ["Effect", "EFFECTS", "register", "factory", "keyword_terms", "SkinCon
 @dataclass(frozen=True)
 class Effect:
     """A scene's effect: ``check(field, table) -> params`` and ``build(model, params, scene) -> term(s)``.
-
-    ``listed``: the scene gives a list of tables (``build`` gets the list of checked tables);
-    ``placed``: the simulation places it with an operation between frames (probes, sutures);
-    ``check=None``: a model keyword only, not a scene's effect.
-    """
+    ``listed``: a list of tables; ``placed``: placed by the simulation between frames; ``check=None``: a model
+    keyword only."""
 
     name: str
     check: Callable | None
@@ -64,10 +57,8 @@ def register(name, check, build, *, listed=False, placed=False) -> Effect:
 
 
 def factory(name, params, scene=None) -> Callable:
-    """``model -> Term | list | None``: the effect ``name`` with checked ``params`` on a model.
-
-    Built for a ``scene``, a refusal is named after the scene's field (``effects.contact.distance``).
-    """
+    """``model -> Term | list | None``: the effect ``name`` with checked ``params``; built for a ``scene``, a refusal
+    is named after the scene's field (``effects.contact.distance``)."""
     effect = EFFECTS[name]
 
     def make(model):
@@ -80,10 +71,6 @@ def factory(name, params, scene=None) -> Callable:
             raise ParameterError(f"effects.{err.field}", text) from None
 
     return make
-
-
-def _youngs_modulus(scene):
-    return scene.material["youngs_modulus"]
 
 
 # inertia: backward Euler -------------------------------------------------------------------------------------
@@ -168,7 +155,7 @@ def _check_fibers(field, e):
 
 def _fibers(model, p, scene):
     g = p["direction"]
-    if isinstance(g, str) and g == "fusiform":  # along the: along the muscle's mapped grid lines
+    if isinstance(g, str) and g == "fusiform":  # along the muscle's mapped grid lines
         if scene is not None and scene.domain["shape"] != "fusiform":
             raise ParameterError("fibers.direction", "fibers.direction: 'fusiform' needs domain.shape = 'fusiform'")
         g = meshes.fusiform_fiber_field(model.mesh)
@@ -191,13 +178,12 @@ def _check_probe(field, e):
 
 
 def _probes(model, entries, scene):
-    """Rigid discs; default stiffness ``100 E / radius`` (the penetration near 1 % of the radius under a moderate
-    pressure)."""
+    """Rigid discs; default stiffness ``100 E / radius`` (penetration near 1 % of the radius at moderate pressure)."""
     out = []
     for p in entries:
         p = dict(p)
         if scene is not None and p.get("stiffness") is None:
-            p["stiffness"] = 100.0 * _youngs_modulus(scene) / p["radius"]
+            p["stiffness"] = 100.0 * scene.material["youngs_modulus"] / p["radius"]
         out.append(Probe(model.X, model.boundary_lengths, **p))
     return out
 
@@ -242,13 +228,10 @@ def median_segment(surface, p) -> float:
 
 
 class SkinContact(Contact):
-    """Self-contact that keeps its settings across cuts: the surface after a topology change is the one the
-    change knows (:meth:`~tissuefem.engine.meshes.MeshMap.contact_surface`, else the mesh's boundary).
-
-    ``default``: the skin's depth was not given; it must stay thin against the surface's segments, and a cut
-    through elements (or a curved excision) leaves short pieces, so after a remap the depth shrinks to half
-    their median length (never grows past the depth at the start, ``base``).
-    """
+    """Self-contact that keeps its settings across cuts, on the surface the change knows
+    (:meth:`~tissuefem.engine.meshes.MeshMap.contact_surface`, else the mesh's boundary). ``default`` (no depth
+    given): the skin must stay thin against the segments, and a cut leaves short ones, so after a remap the depth
+    shrinks to half their median length (never past the starting depth ``base``)."""
 
     def __init__(self, X, surface, distance, stiffness, *, default=False, base=None):
         self.default, self.base = default, distance if base is None else base
@@ -292,7 +275,7 @@ def _contact(model, p, scene):
         raise ParameterError("contact.distance", f"contact.distance = {distance:g} must be at most half the surface's "
                                                  f"median segment length ({0.5 * median:g}): the skin is a thin layer "
                                                  "of the surface")
-    stiffness = p.get("stiffness", CONTACT_STIFFNESS * _youngs_modulus(scene))
+    stiffness = p.get("stiffness", CONTACT_STIFFNESS * scene.material["youngs_modulus"])
     return SkinContact(model.X, surface, distance, stiffness, default=default)
 
 
@@ -342,8 +325,8 @@ def _keys(field, spec, required, optional=()) -> dict:
 
 def keyword_terms(*, dt=None, mass="lumped", gravity=None, body_force=None, tractions=None, fibers=None, probes=(),
                   sutures=None, contact=None) -> list:
-    """The factories of a model's keywords (see :class:`~tissuefem.engine.model.Model`), in the order the model
-    builds them; each checks its keyword when it is called."""
+    """The factories of a model's keywords (:class:`~tissuefem.engine.model.Model`) in build order; each checks its
+    keyword when called."""
     probes = _entries("probes", probes, "dicts (center, radius, stiffness[, label])")
 
     def fibers_term(model):

@@ -5,25 +5,18 @@ terms (:mod:`tissuefem.engine.terms`, made by :mod:`tissuefem.engine.effects`). 
 
     E(u) = W(u) [+ fibres] [+ probe] [+ sutures] [+ contact] [- f . u] [+ 1/(2 dt^2) |u - u~|_M^2],
 
-with nothing evaluated -- or even built -- for an effect it was not given (without ``dt``
-no inertia term and no mass matrix). Chapters 3 to 9, the scenes and the surgery layer
-all use this one class; :mod:`tissuefem.engine.stepping` minimises its potential, and
-:meth:`Model.remapped` carries it across a cut or an excision.
+with nothing built for an effect it was not given (without ``dt`` no inertia and no mass matrix).
+:mod:`tissuefem.engine.stepping` minimises it; :meth:`Model.remapped` carries it across a cut or an excision.
 
-Handles are constraints, not terms: a :class:`Handle` holds a region of the body (a
-boundary, a box, the nodes near a point, a mask, or node indices; :func:`region_nodes`)
-at prescribed positions. Its target is a displacement (a translation ``(dx, dy)`` or a map
-``X -> x``), checked where it enters (:meth:`Handle.move`, :meth:`Model.set_targets`): a
-refused target changes nothing.
+Handles are constraints, not terms: a :class:`Handle` holds a region (:func:`region_nodes`) at prescribed
+positions; its target is a displacement (a translation ``(dx, dy)`` or a map ``X -> x``), checked where it
+enters: a refused target changes nothing.
 
-Every term's Hessian goes into one fixed sparsity pattern (:class:`Pattern`): the
-assembler's, widened where a term couples dofs the mesh does not (sutures), so Newton's
-matrices share their index arrays and the linear solver condenses them by a precomputed
-gather. A term whose couplings change with the state (self-contact) says when the pattern
-no longer holds them (``covers``); :meth:`Model.hessian` then rebuilds it (the linear solver
-condenses afresh; a kept factorization stays a valid preconditioner). The model calls a
-term's hooks (``covers``, ``max_step``, ``begin_step``/``end_step``) only where its class
-overrides the default: a model without such a term pays nothing for them.
+Every term's Hessian goes into one fixed sparsity pattern (:class:`Pattern`): the assembler's, widened where a
+term couples dofs the mesh does not (sutures), so the linear solver condenses by a precomputed gather. A term
+whose couplings change with the state (self-contact) says when the pattern no longer holds them (``covers``);
+:meth:`Model.hessian` then rebuilds it. The hooks (``covers``, ``max_step``, ``begin_step``/``end_step``) are
+called only where a term's class overrides the default: a model without such a term pays nothing for them.
 """
 
 from __future__ import annotations
@@ -48,11 +41,9 @@ __all__ = ["Model", "Handle", "Pattern", "region_nodes"]
 def region_nodes(mesh, region, field: str = "region") -> np.ndarray:
     """The mesh nodes (sorted indices) that a region selects; ``ValueError`` naming ``field`` if none.
 
-    ``region`` is one of: a boundary name of the mesh (``"left"``); a callable
-    ``mask(X) -> bool`` on the reference node coordinates ``X`` shaped
-    ``(2, n_nodes)``; a dict ``{"box": [x0, y0, x1, y1]}``,
-    ``{"near": [x, y], "radius": r}`` (a node exactly on the circle counts) or
-    ``{"nodes": [...]}``; or an integer array of node indices.
+    ``region``: a boundary name (``"left"``); a ``mask(X) -> bool`` on the reference coordinates ``(2, n_nodes)``;
+    ``{"box": [x0, y0, x1, y1]}``, ``{"near": [x, y], "radius": r}`` (the circle included) or ``{"nodes": [...]}``;
+    or an integer array of node indices.
     """
     p = np.asarray(mesh.p, dtype=float)
     n = p.shape[1]
@@ -108,10 +99,8 @@ def region_nodes(mesh, region, field: str = "region") -> np.ndarray:
 # ------------------------------------------------------------------------------------------------ handles
 
 def _map_positions(target, points, field) -> np.ndarray:
-    """``target(points)``, the positions a map sends ``points`` to, checked: whatever the user's callable raises or
-    returns that is not a finite real array shaped like ``points`` is a ``ValueError`` naming ``field``."""
-    try:
-        # a copy: a map that writes into its argument cannot change the handle's reference points
+    """``target(points)`` checked: finite real values shaped like ``points``, else a ``ValueError`` naming ``field``."""
+    try:  # a copy: a map that writes into its argument cannot change the handle's reference points
         x = np.asarray(target(points.copy()))
     except Exception as err:  # anything a user's map raises is a refusal, not a crash
         raise ValueError(f"{field}: the map raised {type(err).__name__}: {err}") from None
@@ -126,11 +115,8 @@ def _map_positions(target, points, field) -> np.ndarray:
 
 
 def _check_target(target, points=None, field="target", reach=None):
-    """A checked target: a finite translation ``(2,)`` or a map whose values at ``points`` are finite.
-
-    With ``reach`` (``REACH`` domain sizes, set when a model takes the handle) the displacement a
-    target prescribes may not exceed it in either component.
-    """
+    """A checked target: a finite translation ``(2,)`` or a map finite at ``points``; with ``reach`` (``REACH``
+    domain sizes) its displacement may not exceed it in either component."""
     if callable(target):
         if points is not None:
             x = _map_positions(target, points, field)
@@ -156,13 +142,11 @@ def _check_target(target, points=None, field="target", reach=None):
 class Handle:
     """Material points held at prescribed positions (a fixed edge, a pulled edge, a user's grab).
 
-    ``region``: anything :func:`region_nodes` takes. ``target``: a translation ``(dx, dy)``
-    (default: none, a fixed region) or a map ``phi(X) -> x`` on reference coordinates
-    ``(2, n) -> (2, n)``. ``base`` (a grab; ``region`` must then be node indices): the held
-    nodes' displacement ``(2, n_nodes)`` when grabbed; the prescribed displacement is
-    ``base + (phi(X) - X)``, so the grabbed tissue stays where it is and then follows the
-    target's offset. ``name``: to find the handle by (the model names unnamed ones).
-    ``anchor``: the point the user grabbed (a drag moves the handle by the mouse's offset from it).
+    ``region``: anything :func:`region_nodes` takes. ``target``: a translation ``(dx, dy)`` (default none: fixed)
+    or a map ``phi(X) -> x``, ``(2, n) -> (2, n)``. ``base`` (a grab; ``region`` must be node indices): the held
+    nodes' displacement ``(2, n_nodes)`` when grabbed; the prescribed displacement is ``base + (phi(X) - X)``, so
+    the grabbed tissue stays put, then follows the target's offset. ``name``: to find it by (else the model names
+    it). ``anchor``: the point the user grabbed (a drag moves the handle by the mouse's offset from it).
     """
 
     def __init__(self, region, target=(0.0, 0.0), *, base=None, name=None, anchor=None):
@@ -195,9 +179,8 @@ class Handle:
         self.target = _check_target(target, self._points, f"handle {self.name!r} target", self._reach)
 
     def remap(self, parent) -> "Handle | None":
-        """The same handle on a mesh whose node ``i`` comes from old node ``parent[i]`` (after a cut or an
-        excision): every copy of a held node is held, with its parent's base displacement. ``None`` if none
-        of its nodes survives."""
+        """The same handle on a mesh whose node ``i`` comes from old node ``parent[i]`` (a cut or an excision): every
+        copy of a held node is held, with its parent's base displacement; ``None`` if none survives."""
         if self.nodes is None:
             raise ValueError("remap: the handle is not part of a model yet")
         parent = np.asarray(parent, dtype=np.intp)
@@ -222,12 +205,9 @@ class Handle:
 # ------------------------------------------------------------------------------------------------ the pattern
 
 class Pattern:
-    """The model's fixed CSR sparsity pattern: the assembler's, widened by the terms' couplings.
-
-    ``base_positions`` maps the assembler's entries into this pattern (``None``
-    when they are the same); ``node_block[i, j, a]`` is the position of the
-    entry (``2a + i``, ``2a + j``) of vertex ``a``'s diagonal block.
-    """
+    """The model's fixed CSR sparsity pattern: the assembler's, widened by the terms' couplings. ``base_positions``
+    maps the assembler's entries into it (``None``: the same); ``node_block[i, j, a]`` is the position of the entry
+    (``2a + i``, ``2a + j``) of vertex ``a``'s diagonal block."""
 
     def __init__(self, assembler, n_vertices, couplings=()):
         n = assembler.n_dofs
@@ -323,16 +303,11 @@ def _overrides(term, hook) -> bool:
 
 
 class Holding:
-    """The handles of a :class:`Model`: the part of it that holds the body at prescribed positions.
-
-    Each handle's region is resolved to nodes and dofs when the model takes it (:meth:`add_handle`);
-    its target enters checked (:meth:`Handle.move`, :meth:`set_targets`), and :meth:`prescribed`
-    gives the stepper the held dofs and their displacements.
-    """
+    """The handles of a :class:`Model`, resolved to nodes and dofs when taken; :meth:`prescribed` gives the
+    stepper the held dofs and their displacements."""
 
     def _handle_dofs(self, h: Handle, nodes) -> tuple[np.ndarray, np.ndarray]:
-        """The dofs a handle holding ``nodes`` holds and the index of each dof's node in ``nodes`` (-1 for P2 edge
-        dofs)."""
+        """The dofs a handle holding ``nodes`` holds, and each dof's node's index in ``nodes`` (-1: P2 edge dofs)."""
         dofs = [self.basis.nodal_dofs[:, nodes].ravel()]
         owner = [np.tile(np.arange(nodes.size), 2)]
         if self.order == 2:
@@ -404,12 +379,8 @@ class Holding:
         raise ValueError(f"no handle named {name!r:.100}; handles: {[h.name for h in self.handles]}")
 
     def set_targets(self, targets) -> None:
-        """Move several handles at once, all or nothing.
-
-        ``targets``: ``None``; a sequence with one entry per handle (``None`` leaves one where
-        it is); or a dict ``{name or index: target}``. Every target is checked before any
-        handle moves, so a refusal leaves all of them as they were.
-        """
+        """Move several handles at once, all or nothing: ``None``, one target per handle (``None`` leaves one
+        where it is) or ``{name or index: target}``; a refusal leaves all of them as they were."""
         if targets is None:
             return
         if isinstance(targets, dict):
@@ -488,15 +459,12 @@ class Model(Holding):
     weights
         Optional per-element material fractions (elements cut through carry part of their triangle).
     dt, mass, gravity, body_force, tractions, fibers, probes, sutures, contact
-        Shorthands for the common terms, made by the factories of :mod:`tissuefem.engine.effects`:
-        ``dt`` (seconds) with the ``"lumped"`` or ``"consistent"`` ``mass``: backward Euler's
-        inertia (without: quasistatic, no mass matrix); gravity ``(gx, gy)`` (the body force
-        ``density * g``), a body force per unit reference area ``(bx, by)``, tractions
-        ``{boundary: (tx, ty)}`` (force per unit reference length): loads; ``(stiffness,
-        directions)`` (directions ``(2,)`` or ``(2, n_elements)``): fibres; dicts ``center, radius,
-        stiffness[, label, smoothing]``: probes; a dict ``pairs, stiffness, gaps[, tightness,
-        coefficients]``: sutures; a dict ``distance, stiffness[, surface, skin]``: self-contact of
-        ``surface`` (default the mesh's boundary).
+        Shorthands for the common terms (:mod:`tissuefem.engine.effects`): ``dt`` (seconds) with ``"lumped"`` or
+        ``"consistent"`` ``mass`` (backward Euler; without: quasistatic); gravity ``(gx, gy)``, a body force per
+        unit reference area ``(bx, by)``, tractions ``{boundary: (tx, ty)}`` per unit reference length; fibres
+        ``(stiffness, directions)`` (``(2,)`` or ``(2, n_elements)``); probes: dicts ``center, radius,
+        stiffness[, label, smoothing]``; sutures: ``pairs, stiffness, gaps[, tightness, coefficients]``;
+        contact: ``distance, stiffness[, surface, skin]`` (default surface: the mesh's boundary).
     """
 
     def __init__(self, mesh, material, *, order: int = 1, intorder: int | None = None, assembly: str = "fast",
@@ -592,14 +560,10 @@ class Model(Holding):
         self.set_terms([new if t is old else t for t in self.terms])
 
     def remapped(self, meshmap, state=()) -> tuple["Model", tuple]:
-        """This model on the mesh of a topology change (a cut or an excision), and ``state`` carried with it.
-
-        ``meshmap``: a :class:`~tissuefem.engine.meshes.MeshMap` (the surgery layer's edits are ones);
-        ``state``: dof vectors of this model (``u``, ``v``, the previous ``v``; ``None`` stays ``None``),
-        each copy of a node taking its parent's values. Every term is carried by its ``remap`` (dropped
-        if nothing of it survives), every handle by :meth:`Handle.remap`; the elastic term is the new
-        model's own, with the material weights of ``meshmap``. P1 only.
-        """
+        """This model on the mesh of a topology change (a :class:`~tissuefem.engine.meshes.MeshMap`: a cut or an
+        excision), and ``state`` (dof vectors; ``None`` stays ``None``), each copy of a node taking its parent's
+        values. Terms are carried by their ``remap`` (dropped if nothing survives), handles by :meth:`Handle.remap`;
+        the elastic term is the new model's own, with the weights of ``meshmap``. P1 only."""
         if self.order != 1:
             raise ParameterError("order", "remapped: a topology change needs P1 elements (order=1)")
         carried = [t.remap(meshmap) for t in self.terms if not isinstance(t, Elastic)]
@@ -644,16 +608,12 @@ class Model(Holding):
     # ------------------------------------------------------------------ step hooks (terms that have them only)
     @property
     def step_limit(self):
-        """``None`` when no term limits steps; else ``limit(u, du)``: the largest fraction of the step ``du``
-        from ``u`` that every term allows (contact: no surface passes through another)."""
+        """``None`` when no term limits steps; else ``limit(u, du)``: the largest fraction of the step ``du`` from
+        ``u`` every term allows (contact: no surface passes through another)."""
         if not self._limit_terms:
             return None
         terms = list(self._limit_terms)
-
-        def limit(u, du):
-            return min(t.max_step(u, du) for t in terms)
-
-        return limit
+        return lambda u, du: min(t.max_step(u, du) for t in terms)
 
     @property
     def notes_steps(self) -> bool:
@@ -661,9 +621,8 @@ class Model(Holding):
         return bool(self._step_terms)
 
     def begin_step(self, u, previous=None) -> int:
-        """Tell the terms a step starts at ``u`` (reached from the state ``previous`` by the handles' motion);
-        returns the crossings they found (surface points the handles dragged through the surface, which
-        contact ignores until they are back out)."""
+        """Tell the terms a step starts at ``u`` (reached from ``previous`` by the handles' motion); returns the
+        crossings found (points the handles dragged through the surface, ignored by contact until back out)."""
         return sum(int(t.begin_step(u, previous) or 0) for t in self._step_terms)
 
     def end_step(self) -> None:
@@ -715,13 +674,8 @@ class Model(Holding):
         return g
 
     def hessian(self, u, safe: bool = False) -> sp.csr_matrix:
-        """``d^2E/du^2`` on the model's fixed pattern (the Newton matrix).
-
-        ``safe=True`` takes the positive semi-definite variants where the terms offer one (a
-        :class:`~tissuefem.engine.inversion.ProjectedTangent` with ``adaptive=True``, the probe's
-        normal part): what the minimiser falls back on when the exact Hessian gives no descent
-        direction.
-        """
+        """``d^2E/du^2`` on the model's fixed pattern (the Newton matrix). ``safe=True`` takes the terms' positive
+        semi-definite variants where they offer one: the minimiser's fallback when the exact one gives no descent."""
         u = self._check_u(u)
         if self._pattern_terms and not all(t.covers(u) for t in self._pattern_terms):
             self._build()  # a term's couplings changed (contact pairs): a new pattern, the same terms

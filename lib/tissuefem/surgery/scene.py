@@ -1,15 +1,10 @@
 """Scenes: a declarative description of a simulation (run one with :class:`~tissuefem.surgery.simulation.Simulation`).
 
-A scene names a domain, a material and the *effects* it calls for, and nothing else gets built. It is a
-plain nested dictionary (see :data:`EXAMPLE_TOML`), written in Python (:class:`Scene`) or loaded from a
-TOML or JSON file (:meth:`Scene.load`). The effects that become terms are checked and built by the
-registry of effects (:mod:`tissuefem.engine.effects`); the scene's own are ``inversion`` (wraps the
-material), ``handles``, ``excisions`` and ``incisions``. docs/scenes.md lists every effect and the
-allowed range of every field: every field is checked, sizes are capped before anything is allocated,
-and an invalid scene raises a ``ParameterError`` (a ``ValueError``) naming the field
-(``effects.handles[1].region``). Counts and node indices are true integers (``800.0``, ``True`` and
-``"1000"`` are refused). For a ``file`` domain the limits that need the domain's size ``L`` are checked
-when the mesh is read (:meth:`Scene.build_mesh`).
+A scene names a domain, a material and the *effects* it calls for (a nested dictionary, see
+:data:`EXAMPLE_TOML`, or a TOML/JSON file). The registry (:mod:`tissuefem.engine.effects`) checks and builds
+the effects that become terms; the scene's own are ``inversion``, ``handles``, ``excisions`` and ``incisions``.
+docs/scenes.md lists every field and its range; an invalid scene raises a ``ParameterError`` naming the field
+(``effects.handles[1].region``). A ``file`` domain's size-dependent limits are checked when its mesh is read.
 """
 
 from __future__ import annotations
@@ -48,9 +43,7 @@ __all__ = ["Scene", "EFFECTS", "SHAPES", "EXAMPLE_TOML", "demo_scene", "flap_sce
 #: How a cut or an excision meets the mesh: through the elements (:mod:`~tissuefem.surgery.element_cuts`), or
 #: snapped to the mesh's edges (:mod:`~tissuefem.surgery.topology`: jagged, mesh-dependent; kept to compare)
 CUT_METHODS = ("elements", "edges")
-#: the effects a scene may name: those of the registry of effects (:data:`tissuefem.engine.effects.EFFECTS`, each
-#: checked and made into a term there) and the scene's own (inversion wraps the material, handles hold the tissue,
-#: excisions and incisions are cut before the first frame)
+#: the effects a scene may name: the registry's and the scene's own (inversion, handles, excisions, incisions)
 EFFECTS = ("inertia", "gravity", "fibers", "inversion", "handles", "tractions", "probes", "excisions",
            "incisions", "sutures", "contact")
 #: the order in which a scene's effects are checked (and written)
@@ -61,16 +54,13 @@ SHAPES = ("rectangle", "flap", "fusiform", "file")
 #: the list-valued effects of the scene's own (each entry is a table); the registry's say whether they are
 _LISTS = ("handles", "excisions", "incisions")
 
-# --- limits (the table in docs/scenes.md) -----------------------------------------------------------------------
-#: triangles of a generated domain (and of a mesh file); lengths of a generated domain, and ``domain.scale``;
-#: the largest aspect ratio of a domain, either way round
+# --- limits (the table in docs/scenes.md): triangles, lengths (and ``domain.scale``), aspect ratio either way round
 MAX_TRIANGLES, SIZE_RANGE, MAX_ASPECT = meshes.MAX_TRIANGLES, meshes.SIZE_RANGE, meshes.MAX_ASPECT
 THRESHOLD_RANGE = (0.01, 0.99)
 BUDGET_RANGE = (1e-6, 1e9)
 RTOL_RANGE = (1e-14, 0.5)
 MAX_ITERATIONS = 1000
-#: points and displacements lie within REACH domain sizes of the domain's centre (the engine's REACH); radii
-#: within MIN_RADIUS and REACH sizes
+#: points and displacements lie within REACH domain sizes of the centre; radii within MIN_RADIUS and REACH sizes
 MIN_RADIUS = RADIUS_RANGE[0]
 #: entries of one list-valued effect; points of a polygon or path, pairs of a suture
 MAX_ENTRIES = 1000
@@ -194,10 +184,6 @@ def _check_material(m):
     }
 
 
-def _radius(field, value):
-    return _within(field, value, (MIN_RADIUS * SIZE_RANGE[0], FAR))
-
-
 def _check_region(field, r):
     if isinstance(r, str):
         return string(field, r, nonempty=True)
@@ -214,7 +200,7 @@ def _check_region(field, r):
     if "near" in r:
         table(field, r, ("near", "radius"))
         return {"near": vector(f"{field}.near", r["near"]),
-                "radius": _radius(f"{field}.radius", r.get("radius", 0.05))}
+                "radius": _within(f"{field}.radius", r.get("radius", 0.05), (MIN_RADIUS * SIZE_RANGE[0], FAR))}
     if "nodes" in r:
         table(field, r, ("nodes",))
         nodes = count_list(f"{field}.nodes", r["nodes"], "node indices", MAX_NODES)
@@ -258,14 +244,10 @@ def _check_inversion(e):
     return out
 
 
-def _known_effects() -> list:
-    """The effects a scene may name: the registry's (the engine's and any registered since) and the scene's own."""
-    return list(EFFECTS) + [name for name, e in EFFECTS_REGISTRY.items() if e.check is not None and name not in EFFECTS]
-
-
 def _check_effects(effects):
     effects = table("effects", effects)
-    known = _known_effects()
+    # the scene's own and the registry's (the engine's and any registered since)
+    known = list(EFFECTS) + [k for k, e in EFFECTS_REGISTRY.items() if e.check is not None and k not in EFFECTS]
     unknown = [k for k in effects if k not in known]
     if unknown:
         raise ParameterError("effects", f"effects: unknown effect(s) [{', '.join(sorted(show(k) for k in unknown))}]; "
@@ -316,8 +298,7 @@ def _check_solver(s):
 
 
 def _check_reach(effects, box, where=""):
-    """Points, displacements and radii against the domain's size ``L``: within ``REACH L``, radii
-    ``>= MIN_RADIUS L``."""
+    """Points, displacements and radii against the domain size ``L``: within ``REACH L``, radii ``>= MIN_RADIUS L``."""
     x0, y0, x1, y1 = box
     size = max(x1 - x0, y1 - y0)
     cx, cy = 0.5 * (x0 + x1), 0.5 * (y0 + y1)
@@ -399,9 +380,8 @@ def _check_text_nesting(text, kind):
 
 # --- TOML output (the subset scenes use: tables, arrays of tables, numbers, strings, arrays) ---------------------
 
-# A TOML basic string may hold any Unicode scalar value except '"', '\' and the control characters, which
-# are escaped (\b \t \n \f \r, else \uXXXX); everything else, also outside the Basic Multilingual Plane, is
-# written as itself in the UTF-8 file. (JSON's \ud83d\ude00 surrogate-pair escapes are not valid TOML.)
+# a TOML basic string escapes '"', '\' and the control characters; all else (also beyond the BMP) is written as
+# itself (JSON's surrogate-pair escapes are not valid TOML)
 _TOML_ESCAPE = re.compile(r'["\\\x00-\x1f\x7f]')
 _TOML_SHORT = {'"': '\\"', "\\": "\\\\", "\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f", "\r": "\\r"}
 
@@ -460,14 +440,9 @@ def _scene_path(path, argument="path") -> Path:
 # --- the scene ---------------------------------------------------------------------------------------------------
 
 class Scene:
-    """A checked scene description.
-
-    ``Scene(domain=..., material=..., effects=..., solver=..., name=..., description=...)`` with
-    dictionaries as in a scene file; missing optional fields get their defaults, so :meth:`to_dict` is the
-    complete, normalised scene. ``None`` means "the default" only for the keyword arguments. ``base_dir``
-    is where a ``file`` domain's relative path starts (the scene file's folder when loaded from a file);
-    ``notes`` lists what :meth:`build_mesh` had to say about a mesh file (nodes it dropped).
-    """
+    """A checked scene: dictionaries as in a scene file, missing optional fields set to their defaults (so
+    :meth:`to_dict` is the complete scene); ``None`` means "the default" for the keyword arguments only.
+    ``base_dir``: where a ``file`` domain's relative path starts; ``notes``: what :meth:`build_mesh` said."""
 
     def __init__(self, *, domain=None, material=None, effects=None, solver=None, name="scene", description="",
                  base_dir=None):
@@ -561,10 +536,8 @@ class Scene:
         return reader(text, base_dir=path.parent)
 
     def save(self, path) -> None:
-        """Write the scene to a ``.toml`` or ``.json`` file that :meth:`load` reads back as this very scene.
-
-        The text is read back and compared first, and the file replaced in one step: a failure leaves it as it was.
-        """
+        """Write the scene to a ``.toml`` or ``.json`` file that :meth:`load` reads back as this very scene (checked
+        first; the file is replaced in one step, so a failure leaves it as it was)."""
         path = _scene_path(path)
         toml = path.suffix == ".toml"
         text = self.to_toml() if toml else self.to_json()
@@ -750,13 +723,9 @@ def _facet_index(mesh, pairs) -> np.ndarray:
 
 
 def _skfem_boundaries(m, t, mesh):
-    """Boundaries scikit-fem wrote into the file (``skfem:b:NAME`` cell data), as facet indices of ``mesh``.
-
-    scikit-fem encodes a boundary as bit flags of each triangle's local edges, in the node order *as
-    written*; its reader decodes them after sorting each triangle's nodes, which picks other edges when
-    that order was not sorted (the counter-clockwise meshes of :mod:`~tissuefem.engine.meshes`). Here they
-    are decoded in the written order.
-    """
+    """Boundaries scikit-fem wrote into the file (``skfem:b:NAME`` cell data), as facet indices of ``mesh``:
+    bit flags of each triangle's local edges in the node order *as written*, decoded here in that order
+    (scikit-fem's reader sorts the nodes first, which picks other edges of counter-clockwise triangles)."""
     local = np.asarray(skfem.refdom.RefTri.facets)  # local edge k joins nodes local[k] of the triangle
     triangle_blocks = [i for i, b in enumerate(m.cells) if b.type == "triangle"]
     out = {}
@@ -790,12 +759,9 @@ def _dropped_note(path, dropped) -> str:
 def read_mesh(path, scale=1.0, notes=None):
     """A 2D triangle mesh from a file meshio reads (gmsh ``.msh``, ``.vtk``, ...), coordinates times ``scale``.
 
-    Physical line groups become named boundaries. Only 3-node triangles are read (lines and vertices may
-    come with them); anything else (tetrahedra, quads, quadratic triangles, points off ``z = 0``, more than
-    :data:`MAX_TRIANGLES` triangles, a file over :data:`MAX_MESH_FILE_BYTES`), a mesh that fails
-    :func:`tissuefem.engine.meshes.check_mesh` (with the file's 0-based node numbers) and a reader that fails,
-    even by calling ``sys.exit`` as meshio does, raise a ``ValueError`` naming ``domain.path``.
-
+    Physical line groups become named boundaries. Anything but 3-node triangles (with lines and vertices), points
+    off ``z = 0``, a file over the size limits, a mesh that fails :func:`~tissuefem.engine.meshes.check_mesh` and a
+    failing reader (even by ``sys.exit``, as meshio does) raise a ``ValueError`` naming ``domain.path``.
     Nodes in no triangle (gmsh writes geometry points, such as an arc's centre, as nodes) are dropped and
     the rest renumbered in their order; a note saying so is appended to ``notes`` (a list) if given.
     """
@@ -811,12 +777,9 @@ def demo_scene(n_triangles=400, dynamic=True) -> Scene:
     effects = {"handles": [{"name": "fixed", "region": "left"}]}
     if dynamic:
         effects["inertia"] = {"time_step": FRAME_BUDGET}
-    return Scene(
-        name="sheet",
-        domain={"shape": "rectangle", "width": 2.0, "height": 1.0, "triangles": n_triangles},
-        material={"model": "stable-neo-hookean", "youngs_modulus": TISSUE_E, "poisson_ratio": TISSUE_NU},
-        effects=effects,
-    )
+    return Scene(name="sheet", domain={"shape": "rectangle", "width": 2.0, "height": 1.0, "triangles": n_triangles},
+                 material={"model": "stable-neo-hookean", "youngs_modulus": TISSUE_E, "poisson_ratio": TISSUE_NU},
+                 effects=effects)
 
 
 def flap_path(t) -> np.ndarray:
@@ -837,11 +800,8 @@ def flap_scene(n_triangles: int = 8000, model: str = "neo-hookean", dynamic: boo
     effects = {"handles": [{"name": "fixed", "region": "fixed"}, {"name": "handle", "region": "handle"}]}
     if dynamic:
         effects["inertia"] = {"time_step": FRAME_BUDGET}
-    return Scene(
-        name="standard flap",
-        domain={"shape": "flap", "width": 2.0, "height": 1.0, "triangles": int(n_triangles)},
-        material={"model": model, "youngs_modulus": TISSUE_E, "poisson_ratio": TISSUE_NU,
-                  "density": TISSUE_DENSITY},
-        effects=effects,
-        solver={"budget": 1e9, "rtol": rtol, "linear_solver": linear_solver},
-    )
+    return Scene(name="standard flap",
+                 domain={"shape": "flap", "width": 2.0, "height": 1.0, "triangles": int(n_triangles)},
+                 material={"model": model, "youngs_modulus": TISSUE_E, "poisson_ratio": TISSUE_NU,
+                           "density": TISSUE_DENSITY},
+                 effects=effects, solver={"budget": 1e9, "rtol": rtol, "linear_solver": linear_solver})
