@@ -16,6 +16,7 @@ import pytest
 
 from tissuefem import (Corotated, FiberReinforced, Handle, ITFClamped, LinearElastic, Model, NeoHookean, ProjectedTangent,
                        StableNeoHookean, Stepper, TaylorNeoHookean, rectangle)
+from tissuefem.engine.materials import MATERIALS as ENGINE_MATERIALS
 from tissuefem.engine.materials import det2
 from tissuefem.engine.meshes import mean_edge_length
 from tissuefem.engine.terms import Elastic, Fibers, Inertia, Load, Probe, Sutures
@@ -51,11 +52,7 @@ def _fibers(shape, seed=7):
 
 
 MATERIALS = {
-    "linear": lambda: LinearElastic(LAM, MU),
-    "neo-hookean": lambda: NeoHookean(LAM, MU),
-    "taylor-neo-hookean": lambda: TaylorNeoHookean(LAM, MU),
-    "stable-neo-hookean": lambda: StableNeoHookean(LAM, MU),
-    "corotated": lambda: Corotated(LAM, MU),
+    **{name: (lambda cls=cls: cls(LAM, MU)) for name, cls in ENGINE_MATERIALS.items()},  # every isotropic model
     "itf-clamped (exact tangent)": lambda: ITFClamped(NeoHookean(LAM, MU), project=False),
     "neo-hookean+fibers(uniform)": lambda: FiberReinforced(NeoHookean(LAM, MU), 2.5, [1.0, 2.0]),
     "stable+fibers(per element)": lambda: FiberReinforced(StableNeoHookean(LAM, MU), 2.5, _fibers((NEL,))),

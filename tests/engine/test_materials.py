@@ -48,13 +48,7 @@ def _fibers(shape, seed=7):
 
 # The table: every isotropic model, plus the fibre term on several bases with
 # uniform, per-element and per-quadrature-point fibres.
-ISOTROPIC = {
-    "linear": lambda: LinearElastic(LAM, MU),
-    "neo-hookean": lambda: NeoHookean(LAM, MU),
-    "taylor-neo-hookean": lambda: TaylorNeoHookean(LAM, MU),
-    "stable-neo-hookean": lambda: StableNeoHookean(LAM, MU),
-    "corotated": lambda: Corotated(LAM, MU),
-}
+ISOTROPIC = {name: (lambda cls=cls: cls(LAM, MU)) for name, cls in MATERIALS.items()}
 ALL = {
     **ISOTROPIC,
     "neo-hookean+fibers(uniform)": lambda: FiberReinforced(NeoHookean(LAM, MU), K_FIBER, [1.0, 2.0]),
