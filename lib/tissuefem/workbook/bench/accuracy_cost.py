@@ -1,21 +1,13 @@
 """What accuracy costs in time: chapter 9's measured study (``python -m tissuefem bench accuracy``).
 
-Every speed/accuracy knob (:data:`KNOBS`: mesh, P2, quadrature, material, Newton tolerance, a cap on Newton
-iterations, substeps per frame, linear solver) is turned one at a time away from a baseline :class:`Setting`,
-on two benchmarks: ``flap``, the standard flap scene under backward Euler at 1/30 s a frame with its drag eased
-in (:func:`eased_flap_path`: started with a jump, backward Euler resolves the wave so slowly, ``~ dt^0.4``, that
-no affordable reference could be checked), and ``block``, chapter 4's block carried quasistatically to
-:data:`BLOCK_TARGET`. A run's *cost* is the median wall time per displayed frame, its *error* the relative
-``L2`` displacement error against a reference (the largest over checkpoint frames for the flap, the final
-equilibrium for the block).
-
-The reference (:func:`reference_run`) pushes every knob further: P2 on a mesh graded towards the edges
-(:func:`graded_flap`; at the corners the solution is singular), Newton to ``1e-10`` and, for the flap,
-Richardson extrapolation in time (``2 u(dt/2s) - u(dt/s)``). Its own error is estimated from coarser
-versions of it (:func:`_estimate`), and chapter 9 relies on that estimate lying ten times below every
-setting's error. :func:`solver_scaling` fits ``ms ~ triangles^p`` per linear solver and
-:func:`budget_residual` shows what the budgeted solver leaves unfinished. Timings are one machine's medians:
-compare within a run, never assert them; the errors are deterministic (``docs/benchmarks.md``).
+Each knob of :data:`KNOBS` is turned one at a time away from a baseline :class:`Setting` on two benchmarks:
+``flap``, the standard flap scene (backward Euler, 1/30 s a frame) with its drag eased in
+(:func:`eased_flap_path`: after a jump backward Euler converges like ``dt^0.4``, too slowly to check any
+reference), and ``block``, chapter 4's block carried quasistatically to :data:`BLOCK_TARGET`. *Cost*: the
+median wall time per displayed frame; *error*: the relative ``L2`` displacement error against
+:func:`reference_run` (P2 on :func:`graded_flap`, Newton to ``1e-10``, Richardson in time for the flap), whose
+own estimated error (:func:`_estimate`) must lie ten times below every setting's. Timings are one machine's
+medians: compare within a run, never assert them; the errors are deterministic (``docs/benchmarks.md``).
 """
 
 from __future__ import annotations
@@ -59,11 +51,9 @@ REFERENCE_GRADING = 1.5
 
 
 def eased_flap_path(t) -> np.ndarray:
-    """The flap benchmark's drag: :func:`~tissuefem.surgery.scene.flap_path` eased in over :data:`EASE_IN` s.
-
-    Multiplied by the smooth step ``s(tau) = 10 tau^3 - 15 tau^4 + 6 tau^5`` (``tau = t / EASE_IN``), the
-    edge starts at rest with zero acceleration and follows ``flap_path`` exactly from ``EASE_IN`` on.
-    """
+    """:func:`~tissuefem.surgery.scene.flap_path` times the smooth step ``10 tau^3 - 15 tau^4 + 6 tau^5``,
+    ``tau = t / EASE_IN``: the edge starts at rest with zero acceleration, and is ``flap_path`` from
+    ``EASE_IN`` on."""
     tau = min(max(float(t) / EASE_IN, 0.0), 1.0)
     return tau**3 * (10.0 - 15.0 * tau + 6.0 * tau**2) * flap_path(t)
 
@@ -77,12 +67,9 @@ def _graded(xi, grading: float) -> np.ndarray:
 
 
 def graded_flap(n_triangles: int, grading: float = REFERENCE_GRADING):
-    """The flap mesh of about ``n_triangles`` with its nodes pulled towards the four edges.
-
-    Each coordinate is mapped by ``x -> 0.5 (2 x)^grading`` on its lower half (symmetrically on the upper),
-    so cells shrink most towards the corners, where the solution is singular. ``grading = 1`` is the uniform
-    mesh; topology, node numbering and named boundaries are those of :func:`~tissuefem.engine.meshes.flap`.
-    """
+    """:func:`~tissuefem.engine.meshes.flap` (same topology and boundaries) with each coordinate mapped by ``x
+    -> 0.5 (2 x)^grading`` on its lower half, symmetrically above: cells shrink towards the corners, where the
+    solution is singular (``grading = 1``: uniform)."""
     mesh = flap(n_triangles=int(n_triangles))
     if grading == 1:
         return mesh
@@ -177,12 +164,9 @@ def _runnable(linear_solver: str) -> bool:
 
 
 def make_simulation(setting: Setting, benchmark: str = "flap", budget=math.inf, clock=time.perf_counter) -> Simulation:
-    """The standard flap scene with ``setting`` (mesh, order, quadrature, material, Newton, time step, solver).
-
-    ``benchmark="flap"``: backward Euler with ``dt = 1/30 / substeps`` (P2 takes the consistent mass:
-    row-sum lumping gives its vertices none); ``"block"``: the same body quasistatic. A linear material
-    runs on its constant factorization (the Simulation picks it for a quadratic model), hence its cheap row.
-    """
+    """The standard flap scene with ``setting``: ``"flap"`` backward Euler at ``dt = 1/30 / substeps`` (P2
+    with the consistent mass: lumping gives its vertices none), ``"block"`` quasistatic. A linear material
+    runs on its constant factorization, hence its cheap row."""
     setting.check()
     scene = flap_scene(setting.triangles, model=setting.material, dynamic=benchmark == "flap",
                        rtol=setting.rtol, linear_solver=setting.linear_solver).to_dict()
@@ -257,15 +241,10 @@ def _reference_model(benchmark: str, triangles: int, grading: float, substeps: i
 
 
 def _reference_states(benchmark: str, triangles: int, grading: float, frames: int, checkpoints, substeps=None):
-    """One reference solution at the checkpoints: ``(model, {frame: u})``.
-
-    The block: its final equilibrium (path-independent), by load stepping with the linearised predictor
-    (moving a P2 edge alone would invert the elements beside it). The flap: backward Euler with ``substeps``
-    steps per displayed frame, Newton to ``1e-10``.
-    """
+    """One reference solution at the checkpoints, ``(model, {frame: u})``: the block's final equilibrium by
+    load stepping (finer until no step inverts the graded mesh's thinnest cells), the flap by backward Euler
+    with ``substeps`` steps per frame; Newton to ``1e-10``."""
     if benchmark == "block":
-        # load steps small enough for the graded mesh's thinnest cells at the handle's corners: a step that
-        # cannot move the handle without inverting one is refused, and the ramp is made finer
         for load_steps in (20, 60, 180):
             model = _reference_model("block", triangles, grading)
             model.handle("handle").move(np.array(BLOCK_TARGET))
@@ -297,18 +276,10 @@ def _extrapolated(benchmark, triangles, grading, frames, checkpoints, substeps, 
     return model, {f: 2.0 * fine[f] - coarse[f] for f in checkpoints}
 
 
-def _distance(a, b) -> float:
-    """Largest relative ``L2`` distance over the checkpoints between two ``(model, states)`` (``a`` on its own mesh)."""
-    return max(relative_l2_error(a[0], a[1][f], b[0], b[1][f]) for f in sorted(b[1]))
-
-
 def _estimate(d_coarse, d_fine, ratio: float = 2.0):
-    """The error of the finest of three solutions from the distances between them: ``(rate, estimate)``.
-
-    ``d_fine`` / ``d_coarse``: distance between the two finer / coarser ones, each level ``ratio`` times
-    finer. An error falling like ``ratio^-p`` per level leaves the finest ``d_fine / (ratio^p - 1)``; without
-    a clear rate (two levels, or ``p < 1``) the estimate is ``d_fine``, which bounds it for any rate >= 1.
-    """
+    """``(rate, estimate)`` of the finest of three solutions, each ``ratio`` times finer, from the distances
+    between the finer (``d_fine``) and the coarser two: an error ``~ ratio^-p`` leaves ``d_fine / (ratio^p -
+    1)``; with no clear rate (two levels, ``p < 1``) it is ``d_fine``, a bound for any rate >= 1."""
     if d_coarse is None or not (d_fine > 0 and d_coarse > d_fine):
         return None, float(d_fine)
     p = math.log(d_coarse / d_fine) / math.log(ratio)
@@ -318,13 +289,10 @@ def _estimate(d_coarse, d_fine, ratio: float = 2.0):
 
 
 def reference_run(benchmark: str, plan: dict, progress=None, check: bool = True):
-    """The reference of ``benchmark`` for ``plan``: ``(problem, states, info)``; P2, Newton to ``1e-10``.
-
-    ``plan["reference"]``: ``triangles`` (the flap's mesh), ``block_triangles`` (the block's; default
-    ``triangles``), ``substeps`` ``s`` (the flap: ``2 u(dt/2s) - u(dt/s)``) and ``grading`` (:func:`graded_flap`).
-    With ``check``, ``info`` holds the reference's own error estimate (:func:`_estimate`): in space from meshes
-    with 1/4 and 1/16 of the triangles (``space_*``), for the flap in time from the extrapolations with 2 and 4
-    times larger steps (``time_*``), and their sum ``error_estimate``.
+    """``(problem, states, info)``: P2, Newton to ``1e-10``, on ``plan["reference"]``'s ``triangles`` (the
+    block: ``block_triangles``) and ``grading``, the flap as ``2 u(dt/2s) - u(dt/s)`` (``s = substeps``). With
+    ``check``, ``info`` holds its error estimate (:func:`_estimate`) in space from 1/4 and 1/16 of the
+    triangles (``space_*``), for the flap in time from 2 and 4 times larger steps (``time_*``), and their sum.
     """
     ref = plan["reference"]
     frames = plan["frames"] if benchmark == "flap" else plan["block_frames"]
@@ -340,8 +308,9 @@ def reference_run(benchmark: str, plan: dict, progress=None, check: bool = True)
     if check:
         def from_coarser(coarser):
             """``(distance, rate, estimate)`` from coarser versions of the reference, finest first."""
-            d_fine = _distance(coarser[0], (problem, states)) if coarser else float("nan")
-            return (d_fine, *_estimate(_distance(coarser[1], coarser[0]) if len(coarser) > 1 else None, d_fine))
+            d_fine = max(_errors(*coarser[0], (problem, states))) if coarser else float("nan")
+            d_coarse = max(_errors(*coarser[1], coarser[0])) if len(coarser) > 1 else None
+            return (d_fine, *_estimate(d_coarse, d_fine))
 
         # space: the same reference on coarser meshes (each a quarter of the triangles: h doubles)
         siblings = [_extrapolated(benchmark, m, grading, frames, checkpoints, s, cache)
@@ -376,7 +345,7 @@ def _relative_same_mesh(M, u, u_ref) -> float:
 
 
 def _errors(problem, states, reference) -> list[float]:
-    """Relative ``L2`` errors at the checkpoints against the reference (same checkpoints, in order)."""
+    """Relative ``L2`` errors at the reference's checkpoints, in order (``problem`` on its own mesh)."""
     ref_problem, ref_states = reference[0], reference[1]
     return [relative_l2_error(problem, states[f], ref_problem, ref_states[f]) for f in sorted(ref_states)]
 
@@ -405,11 +374,9 @@ def _knob_settings(knob: str, plan: dict, base: Setting):
 
 
 def knob_sweep(benchmark: str, plan: dict, reference, knobs=None, progress=None) -> list[dict]:
-    """One row per (knob, value) of ``plan`` on ``benchmark``: the setting, its cost and its error, and
-    ``from_baseline``, the same measure against the baseline's answer (a knob moving it far less than the error
-    cannot change the error beyond its last digits). Settings this machine cannot run are skipped; one that fails
-    gives ``error = nan`` and the reason in ``failed``.
-    """
+    """One row per (knob, value) of ``plan``: the setting, its cost, its error and ``from_baseline`` (the same
+    measure against the baseline's answer). Settings this machine cannot run are skipped; a failed one has
+    ``error = nan`` and the reason in ``failed``."""
     knobs = list(KNOBS) if knobs is None else list(knobs)
     frames = plan["frames"] if benchmark == "flap" else plan["block_frames"]
     checkpoints = _checkpoints(benchmark, frames, plan["checkpoints"])
@@ -478,10 +445,9 @@ def solver_scaling(sizes, solvers, frames: int, largest=None, progress=None) -> 
 
 def budget_residual(sizes, frames: int, solvers=("reuse",), budget: float = FRAME_BUDGET, clock=time.perf_counter,
                     progress=None) -> list[dict]:
-    """What the budgeted real-time solver leaves on the flap when ``budget`` seconds are spent, by mesh size and
-    solver: the share of frames converged, the median relative residual at a frame's end and the relative ``L2``
-    distance of the final state from the same run converged. ``clock`` is injectable (tests use a fake one).
-    """
+    """What the budgeted solver leaves on the flap, by mesh size and solver: the share of frames converged,
+    the median relative residual at a frame's end and the final state's relative ``L2`` distance from a
+    converged run."""
     rows = []
     for solver in solvers:
         if not _runnable(solver):
@@ -510,11 +476,9 @@ def _drag_path(drag: str):
 
 
 def time_convergence(drag: str = "jump", triangles: int = 500, substeps=(1, 2, 4, 8, 16), frames: int = 5) -> dict:
-    """How fast backward Euler converges in time on the flap (P1, ``triangles``, Newton to ``1e-10``), with the
-    standard drag (``"jump"``, :func:`~tissuefem.surgery.scene.flap_path`) or the ``"eased"`` one.
-    ``distances[k]``: the largest relative ``L2`` distance over every fifth frame between the runs with
-    ``substeps[k]`` and ``substeps[k + 1]``; ``ratios``: from each distance to the next (0.5 for first order).
-    """
+    """Backward Euler's convergence in time on the flap (P1, Newton to ``1e-10``), drag ``"jump"``
+    (``flap_path``) or ``"eased"``: ``distances[k]``, the largest relative ``L2`` distance over every fifth
+    frame between ``substeps[k]`` and ``substeps[k + 1]``, and their ``ratios`` (0.5 for first order)."""
     path = _drag_path(drag)
     checkpoints = _checkpoints("flap", frames, 5)
     runs = [run_setting("flap", Setting(triangles=triangles, rtol=1e-10, substeps=int(s)), frames, checkpoints,
@@ -527,14 +491,10 @@ def time_convergence(drag: str = "jump", triangles: int = 500, substeps=(1, 2, 4
 
 def capped_newton_experiment(triangles: int = 500, frames: int = 5, drag: str = "jump",
                               reference_substeps: int = 8) -> dict:
-    """Why a cap of one Newton step per frame can *lower* the flap's measured error: the experiment.
-
-    The flap (P1, ``triangles``, ``frames`` frames, ``drag`` as in :func:`time_convergence`) with Newton converged
-    and capped at one step, against a reference in time on the same mesh (``2 u(dt/2s) - u(dt/s)``, ``s =
-    reference_substeps``: the flap's error is backward Euler's). Returns, at the last frame, both errors, how far
-    the cap moved the state (``capped_moved``) and the ``cosine`` (``L2``) between that move and the converged
-    run's error: positive when the cap moved the state towards the reference.
-    """
+    """Why one Newton step per frame can *lower* the flap's error: the flap converged and capped, against ``2
+    u(dt/2s) - u(dt/s)`` on the same mesh (``s = reference_substeps``). At the last frame: both errors, how
+    far the cap moved the state (``capped_moved``) and the ``L2`` ``cosine`` of that move with the converged
+    run's error (positive: towards the reference)."""
     path = _drag_path(drag)
     cps = (frames,)
     runs = {}
@@ -574,13 +534,10 @@ def _plan(plan) -> tuple[str, dict]:
 
 def accuracy_study(plan="full", benchmarks=BENCHMARKS, knobs=None, scaling: bool = True, budget: bool = True,
                    verification: bool = True, out=None, progress=print) -> dict:
-    """Run the study; return its results (and write them into the folder ``out``).
-
-    ``plan``: ``"full"`` (the CLI's, several minutes), ``"reduced"`` (chapter 9's, under a minute), ``"tiny"``
-    (the tests') or a dict shaped like them. The results hold ``machine``, ``plan``, ``references``, ``knobs``
-    (:func:`knob_sweep`'s rows), ``pareto`` (per benchmark, the Pareto-optimal rows), ``scaling``, ``budget`` and
-    ``verification``.
-    """
+    """Run the study and return (and write into the folder ``out``) its results: ``machine``, ``plan``,
+    ``references``, ``knobs``, ``pareto`` (per benchmark, the front's rows), ``scaling``, ``budget``,
+    ``verification``. ``plan``: ``"full"`` (minutes), ``"reduced"`` (chapter 9's), ``"tiny"`` (tests') or a
+    dict."""
     name, plan = _plan(plan)
     for b in benchmarks:
         if b not in BENCHMARKS:
@@ -625,16 +582,13 @@ def accuracy_study(plan="full", benchmarks=BENCHMARKS, knobs=None, scaling: bool
 
 # --- results files ---------------------------------------------------------------------------------
 
-_VERSION_COLUMNS = ("python", "numpy", "scipy", "scikit-fem", "platform")
-
-
 def write_results(results: dict, out) -> list[Path]:
     """Write ``accuracy.json`` and one CSV per table (knobs, scaling, budget; library versions in every row)
     into the folder ``out``; return the paths. (The figures of the study draw from these results.)"""
     out = Path(out)
     paths = [write_json(out / "accuracy.json", results)]
     machine = results.get("machine", {})
-    versions = {c: machine.get(c, "") for c in _VERSION_COLUMNS}
+    versions = {c: machine.get(c, "") for c in ("python", "numpy", "scipy", "scikit-fem", "platform")}
     tables = {"knobs": results.get("knobs", []), "scaling": results.get("scaling", {}).get("rows", []),
               "budget": results.get("budget", [])}
     for table, rows in tables.items():

@@ -7,6 +7,8 @@ file changes only when the figure does) and returns it.
 
 from __future__ import annotations
 
+import functools
+import inspect
 import math
 from pathlib import Path
 from typing import Callable
@@ -36,9 +38,19 @@ SHOWN_DIGITS = 3
 
 
 def lecture_figure(func: Callable) -> Callable:
-    """Mark a function as a lecture figure (:data:`tissuefem.workbook.figures.FIGURES` lists the marked ones)."""
-    func.lecture_figure = True
-    return func
+    """Mark a function returning a figure as a lecture figure (:data:`~tissuefem.workbook.figures.FIGURES`),
+    called as ``figure(path=None, **data)``: it also saves it to ``path`` (:func:`save`), and passes ``path``
+    on to a function that takes it (to write a GIF beside)."""
+    takes_path = "path" in inspect.signature(func).parameters
+
+    @functools.wraps(func)
+    def figure(path=None, **data) -> Figure:
+        fig = func(path, **data) if takes_path else func(**data)
+        save(fig, path)
+        return fig
+
+    figure.lecture_figure = True
+    return figure
 
 
 def matplotlib_note() -> str | None:

@@ -13,7 +13,7 @@ from ...surgery.element_cuts import picture as element_picture
 from ...surgery.surfaces import contact_surface
 from ..procedures import (CRACK, CRACK_MESHES, FLAP_MESHES, VIRTUAL_NODES_STROKE, crack_opening, crack_runs,
                           flap_comparison, fold_run, overlap_area, pressed_cut_run, virtual_nodes_run)
-from .base import frame_axes, lecture_figure, save, shown
+from .base import frame_axes, lecture_figure, shown
 from .surgery import TENSION_CMAP, tension_colorbar, tension_norm
 
 __all__ = ["fig_ch10_virtual_nodes", "fig_ch10_cut_through", "fig_ch10_flaps", "fig_ch10_contact", "draw_picture"]
@@ -39,7 +39,7 @@ def draw_picture(ax, sim, values=None, norm=None, *, color="0.88", lw=0.2, outli
 # --- the construction, close up -----------------------------------------------------------------------------
 
 @lecture_figure
-def fig_ch10_virtual_nodes(path=None) -> Figure:
+def fig_ch10_virtual_nodes() -> Figure:
     """Chapter 10: the virtual node algorithm on a 16-triangle sheet (after Molino, Bao and Fedkiw 2004).
 
     (a) The stroke (red) on the sheet before the cut. (b) After the cut, pulled open: every triangle the
@@ -76,14 +76,13 @@ def fig_ch10_virtual_nodes(path=None) -> Figure:
     ax.set_title(f"(b) cut, pulled open: {cut.size} elements hold part of a triangle "
                  f"({sim.mesh.nelements - t_old.shape[1]} copies)", fontsize=9)
     fig.suptitle("Chapter 10: the virtual node algorithm, up close", fontsize=10)
-    save(fig, path)
     return fig
 
 
 # --- a crack on two meshes --------------------------------------------------------------------------------------
 
 @lecture_figure
-def fig_ch10_cut_through(path=None, runs=None) -> Figure:
+def fig_ch10_cut_through(runs=None) -> Figure:
     """Chapter 10: the same slanted crack, snapped to mesh edges (top) or cut through the elements (bottom).
 
     A 2 x 1 sheet, left edge held, right edge pulled 0.1; the crack (thin red line: as drawn) runs from
@@ -109,14 +108,13 @@ def fig_ch10_cut_through(path=None, runs=None) -> Figure:
     tension_colorbar(fig, norm, list(axes.ravel()), shrink=0.8)
     fig.suptitle(f"Chapter 10: a crack drawn on a pulled sheet (stable neo-Hookean, E = {TISSUE_E:g}, "
                  f"ν = {TISSUE_NU:g}), on {CRACK_MESHES[0]} and {CRACK_MESHES[1]} triangles", fontsize=10)
-    save(fig, path)
     return fig
 
 
 # --- the flaps -------------------------------------------------------------------------------------------------
 
 @lecture_figure
-def fig_ch10_flaps(path=None, runs=None) -> Figure:
+def fig_ch10_flaps(runs=None) -> Figure:
     """Chapter 10: the advancement flap and a rotation flap, snapped to edges and cut through elements.
 
     Each row is one procedure on a patch held on its outer edges: (a, d) snapped to mesh edges and sutured
@@ -165,14 +163,13 @@ def fig_ch10_flaps(path=None, runs=None) -> Figure:
     fig.suptitle(f"Chapter 10: two local flaps cut through the elements beside the edge-snapped versions "
                  f"(stable neo-Hookean, E = {TISSUE_E:g}, ν = {TISSUE_NU:g}; after Sifakis et al. 2009)",
                  fontsize=10)
-    save(fig, path)
     return fig
 
 
 # --- self-contact ------------------------------------------------------------------------------------------------
 
 @lecture_figure
-def fig_ch10_contact(path=None) -> Figure:
+def fig_ch10_contact() -> Figure:
     """Chapter 10: self-contact keeps a fold and a wound's lips from passing through each other.
 
     Top: a thin strip whose left part lies on a table, its right end turned over and pressed down onto it
@@ -209,5 +206,4 @@ def fig_ch10_contact(path=None) -> Figure:
             ax.set_title(f"({'abcd'[2 * i + j]}) {what}, {state}:\narea overlapping itself {overlap:.2g}{extra}",
                          fontsize=8.5)
     fig.suptitle("Chapter 10: self-contact of the surface (outer boundary and wound lips)", fontsize=10)
-    save(fig, path)
     return fig

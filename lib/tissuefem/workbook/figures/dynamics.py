@@ -21,7 +21,7 @@ from ...engine.constants import FRAME_BUDGET as FRAME_DT, TISSUE_E, TISSUE_NU  #
 from ...engine.explicit import critical_time_step
 from ..timestepping import (CAPPED_FRAMES, CAPS, backward_euler_run, capped_runs, cfl_study, released_flap,
                             symplectic_energies)
-from .base import animation_figure, frame_axes, lecture_figure, save, save_animation, shown
+from .base import animation_figure, frame_axes, lecture_figure, save_animation, shown
 from .inversion import UPRIGHT_COLOR, draw_state
 
 #: mesh sizes (cells along the flap's length) of the CFL figure
@@ -35,7 +35,7 @@ ANIMATION_FRAMES = 50
 #: frames shown in the filmstrip PNG
 FILMSTRIP_FRAMES = (0, 3, 6, 10, 16, 25, 49)
 @lecture_figure
-def fig_ch07_cfl(path=None, study=None) -> Figure:
+def fig_ch07_cfl(study=None) -> Figure:
     """Chapter 7: symplectic Euler's largest stable time step against the element size h (log-log).
 
     For the flap refined ``nx = 4 ... 64``: the step found by bisection (unstable when the energy grows
@@ -82,12 +82,11 @@ def fig_ch07_cfl(path=None, study=None) -> Figure:
     fig.suptitle(f"Chapter 7, the CFL condition: $\\Delta t \\leq C h / c$ (stable neo-Hookean flap, "
                  f"E = {TISSUE_E:g}, ν = {TISSUE_NU:g}, $\\rho_0$ = 1; fitted exponent {study.exponent:.3f})",
                  fontsize=10)
-    save(fig, path)
     return fig
 
 
 @lecture_figure
-def fig_ch07_energy(path=None) -> Figure:
+def fig_ch07_energy() -> Figure:
     """Chapter 7: total energy of the released flap, backward Euler at three steps and symplectic Euler.
 
     Left: backward Euler (an incremental potential, stable at any step) loses energy at every step, the
@@ -136,7 +135,6 @@ def fig_ch07_energy(path=None) -> Figure:
     fig.suptitle(f"Chapter 7: energy of the released flap ($\\Delta t_{{crit}} = 2/\\omega_{{max}}$ = "
                  f"{1000 * dt_crit:.2f} ms at rest; 8 x 4 cells, stable neo-Hookean, E = {TISSUE_E:g}, "
                  f"ν = {TISSUE_NU:g}, $\\rho_0$ = 1)", fontsize=10)
-    save(fig, path)
     return fig
 
 
@@ -204,7 +202,6 @@ def fig_ch07_released_flap(path=None) -> Figure:
     fig.suptitle(f"Chapter 7: the flap let go, backward Euler at $\\Delta t$ = 1/30 s "
                  f"(stable neo-Hookean, E = {TISSUE_E:g}, ν = {TISSUE_NU:g}, $\\rho_0$ = 1, left edge held)",
                  fontsize=10)
-    save(fig, path)
     if path is not None:
         write_flap_animation(Path(path).with_suffix(".gif"), problem, states, FRAME_DT)
     return fig
@@ -215,7 +212,7 @@ STATE_ROUND_OFF = 1e-12
 
 
 @lecture_figure
-def fig_ch07_budget_residual(path=None, rows=None) -> Figure:
+def fig_ch07_budget_residual(rows=None) -> Figure:
     """Chapter 7: residual and state error left when a frame stops after 1, 2 or 3 Newton steps, by mesh size."""
     rows = capped_runs() if rows is None else rows
     fig = Figure(figsize=(9.0, 3.8), layout="constrained")
@@ -240,5 +237,4 @@ def fig_ch07_budget_residual(path=None, rows=None) -> Figure:
         ax.grid(True, which="both", alpha=0.3)
         ax.xaxis.set_minor_formatter(NullFormatter())
         ax.legend(fontsize=8, loc="center right")
-    save(fig, path)
     return fig

@@ -6,7 +6,7 @@ import numpy as np
 from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 
-from .base import frame_axes, lecture_figure, save
+from .base import frame_axes, lecture_figure
 from ...engine.meshes import fusiform_fiber_field, fusiform_muscle, fusiform_width
 from ..fibers import (K_FIBER, block_pull, confined_pull, fiber_direction, muscle_pull, predicted_confined_modulus)
 
@@ -36,7 +36,7 @@ def _deformed_fibers(result, fibers, scale):
 
 
 @lecture_figure
-def fig03_fiber_field(path=None) -> Figure:
+def fig03_fiber_field() -> Figure:
     """Notes' Figure 3 in 2D: the fiber field g of a fusiform muscle, one short segment per element.
 
     The muscle is :func:`tissuefem.engine.meshes.fusiform_muscle`, ``g``
@@ -63,12 +63,11 @@ def fig03_fiber_field(path=None) -> Figure:
     ax.set(aspect="equal", xlim=(-0.9, 4.9), ylim=(-0.66, 0.7), xlabel="$X_1$", ylabel="$X_2$")
     ax.set_title("Notes' Figure 3 in 2D: a fiber field $\\mathbf{g}: B_0 \\to \\mathbb{R}^2$ "
                  "on a fusiform muscle (reference configuration)", fontsize=10)
-    save(fig, path)
     return fig
 
 
 @lecture_figure
-def fig_ch05_along_vs_across(path=None) -> Figure:
+def fig_ch05_along_vs_across() -> Figure:
     """Chapter 5: a strip pulled along, at 45 degrees to and across its fibers, and the confined modulus.
 
     Top: the strip (clamped ends, free sides) at stretch 1.3, deformed fibers drawn as ``F g``. Bottom
@@ -121,12 +120,11 @@ def fig_ch05_along_vs_across(path=None) -> Figure:
     ax_mod.legend(fontsize=8)
     fig.suptitle(f"Pulling along versus across the fibers: neo-Hookean matrix (E = 1000, ν = 0.3) "
                  f"+ fiber term k/8 (I$_4$ − 1)², k = {K_FIBER:g}", fontsize=11)
-    save(fig, path)
     return fig
 
 
 @lecture_figure
-def fig_ch05_muscle_pull(path=None) -> Figure:
+def fig_ch05_muscle_pull() -> Figure:
     """Chapter 5: the fusiform muscle pulled by its right tendon, with and without fibers.
 
     Left: the deformed muscle at stretch 1.2 (tendon to tendon; dashed: rest shape), coloured by the
@@ -157,5 +155,4 @@ def fig_ch05_muscle_pull(path=None) -> Figure:
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     fig.suptitle("The fusiform muscle held at its left tendon and pulled by its right one", fontsize=11)
-    save(fig, path)
     return fig

@@ -12,7 +12,7 @@ from matplotlib.patches import Patch
 from ...engine.constants import TISSUE_E, TISSUE_NU
 from ...engine.inversion import diagonal
 from ..hardcases import block, crush_and_release_runs, element_jacobians, inversion_models
-from .base import at_least, frame_axes, lecture_figure, save
+from .base import at_least, frame_axes, lecture_figure
 
 #: fill colours of a triangle that keeps its orientation (J > 0) and of an inverted or flat one (J <= 0)
 UPRIGHT_COLOR, INVERTED_COLOR = "#6baed6", "#d6604d"
@@ -47,7 +47,7 @@ def frame_depths(mesh, frames) -> np.ndarray:
 
 
 @lecture_figure
-def fig06_crush_release(path=None, runs=None) -> Figure:
+def fig06_crush_release(runs=None) -> Figure:
     """Notes' Figure 6 as an experiment: a block crushed to flat and past it, then let go, for four models.
 
     Rows: the ``ln J`` neo-Hookean model, the notes' cubic-Taylor variant and stable neo-Hookean (both
@@ -97,12 +97,11 @@ def fig06_crush_release(path=None, runs=None) -> Figure:
     fig.suptitle("Notes' Figure 6 as an experiment: crush a block to flat and past it, then let go\n"
                  f"(E = {TISSUE_E:g}, ν = {TISSUE_NU:g}; bottom edge held; dashed: the top handle)",
                  fontsize=10)
-    save(fig, path)
     return fig
 
 
 @lecture_figure
-def fig_ch06_itf_energy(path=None) -> Figure:
+def fig_ch06_itf_energy() -> Figure:
     """Chapter 6: the four models' energy along one signed singular value, and along a shrink to F = 0.
 
     Left: ``Psi(diag(1, s1))`` for ``s1`` from -1 (turned inside out) to 1.6; middle: its slope
@@ -139,5 +138,4 @@ def fig_ch06_itf_energy(path=None) -> Figure:
              ylabel="$\\Psi(t\\,\\mathbf{I})$", title="uniform shrink to a point ($t = 0$: $\\mathbf{F} = 0$)")
     ax_t.grid(alpha=0.3)
     fig.suptitle(f"Inversion in diagonal space: E = {TISSUE_E:g}, ν = {TISSUE_NU:g} (plane strain)", fontsize=11)
-    save(fig, path)
     return fig

@@ -15,7 +15,7 @@ from ...engine.materials import LinearElastic, NeoHookean
 from ...engine.meshes import rectangle
 from ..studies import (BLOCK_HANDLE, RECORDED_COST_ACCURACY, bending_gradient, bending_map, rigid_rotation_response,
                        rotated_block, rotation, stretched_block)
-from .base import at_least, lecture_figure, save, shown
+from .base import at_least, lecture_figure, shown
 
 #: one frame at 30 frames per second, in milliseconds
 FRAME_BUDGET_MS = 1e3 * FRAME_BUDGET
@@ -56,7 +56,7 @@ def _outline(width, height, samples: int = 60) -> np.ndarray:
 
 
 @lecture_figure
-def fig02_kinematics(path=None) -> Figure:
+def fig02_kinematics() -> Figure:
     """Notes' Figure 2: reference and deformed mesh, a point X carried to x = phi(X), F acting on dX, and P.
 
     The block B0 = [0, 2] x [0, 1] is bent into an arch by :func:`tissuefem.workbook.studies.bending_map`;
@@ -119,7 +119,6 @@ def fig02_kinematics(path=None) -> Figure:
                  "$F_{ij} = \\partial\\phi_i/\\partial X_j$ carries $d\\mathbf{X}$ "
                  "to $d\\mathbf{x} = \\mathbf{F}\\,d\\mathbf{X}$")
     _stress_half(ax_s, F0)
-    save(fig, path)
     return fig
 
 
@@ -168,7 +167,7 @@ def _deformed_area(problem, u) -> float:
 
 
 @lecture_figure
-def fig_ch03_rotation_stress(path=None) -> Figure:
+def fig_ch03_rotation_stress() -> Figure:
     """Chapter 3: a rigid rotation stresses linear elasticity, not Neo-Hookean; a turned block grows.
 
     Left and middle: energy density and stress norm |P| at F = R(theta), 0 <= theta <= 180 degrees. Right:
@@ -218,12 +217,11 @@ def fig_ch03_rotation_stress(path=None) -> Figure:
              title="equilibrium of a block turned at its left edge")
     ax_b.legend(fontsize=7.5, loc="upper left")
     fig.suptitle(f"Linear elasticity is not frame indifferent (E = {TISSUE_E:g}, $\\nu$ = {TISSUE_NU:g})")
-    save(fig, path)
     return fig
 
 
 @lecture_figure
-def fig_ch04_block(path=None) -> Figure:
+def fig_ch04_block() -> Figure:
     """Chapter 4: the Neo-Hookean block stretched and sheared by its handles, coloured by J and by Psi.
 
     Block [0, 2] x [0, 1], 24 x 12 cells (P1); left edge fixed, right edge moved by (0.6, 0.4) (one load
@@ -260,12 +258,11 @@ def fig_ch04_block(path=None) -> Figure:
         fig.colorbar(art, ax=ax, shrink=0.8)
     fig.suptitle(f"Neo-Hookean block (E = {TISSUE_E:g}, $\\nu$ = {TISSUE_NU:g}), {problem.mesh.t.shape[1]} P1 "
                  f"triangles, left edge fixed, right edge moved by {tuple(BLOCK_HANDLE)}")
-    save(fig, path)
     return fig
 
 
 @lecture_figure
-def fig_ch04_cost_accuracy(path=None, rows=None) -> Figure:
+def fig_ch04_cost_accuracy(rows=None) -> Figure:
     """Chapter 4: L2 displacement error against solve time, P1 against P2, with the 33 ms frame budget.
 
     ``rows`` from :func:`tissuefem.workbook.studies.cost_accuracy_study`; by default the recorded run
@@ -296,5 +293,4 @@ def fig_ch04_cost_accuracy(path=None, rows=None) -> Figure:
         ax.legend(fontsize=8, loc="lower left")
     axes[0].set_ylabel("relative $L^2$ error of the displacement")
     fig.suptitle(f"What accuracy costs: Neo-Hookean block, error against time ({source}; labels: dofs)")
-    save(fig, path)
     return fig

@@ -8,11 +8,11 @@ from matplotlib.figure import Figure
 from ...engine.constants import TISSUE_E, TISSUE_NU
 from ...engine.materials1d import Linear1D, NeoHookean1D, TaylorNeoHookean1D
 from ..oned import convergence_study, newton_histories
-from .base import lecture_figure, save, shown
+from .base import lecture_figure, shown
 
 
 @lecture_figure
-def fig05_admissible_maps(path=None) -> Figure:
+def fig05_admissible_maps() -> Figure:
     """Notes' Figure 5: phi(X) = X^2 (admissible) beside phi(X) = sin(2 pi X) (inverting).
 
     Top: the maps, shaded where phi'(X) <= 0. Bottom: material points X (bottom line) joined to their
@@ -46,12 +46,11 @@ def fig05_admissible_maps(path=None) -> Figure:
         ax.plot(phis, np.ones_like(Xs), "k.", ms=4)
         ax.set(yticks=[0, 1], yticklabels=["$X$", "$x$"], xlim=(-1.1, 1.1), xlabel="position")
     fig.suptitle("Notes' Figure 5: a deformation must keep $\\phi' > 0$ to stay a bijection")
-    save(fig, path)
     return fig
 
 
 @lecture_figure
-def fig07_neo_hookean_1d(path=None) -> Figure:
+def fig07_neo_hookean_1d() -> Figure:
     """Notes' Figure 7: 1D Neo-Hookean energy and stress against J = F.
 
     The ln J model (blue) is undefined for J <= 0 and blows up as J -> 0+; the cubic-Taylor r(J) model
@@ -77,12 +76,11 @@ def fig07_neo_hookean_1d(path=None) -> Figure:
     ax_s.set(ylim=(-11000, 3000), ylabel="stress $P = d\\Psi/dF$", title="first Piola-Kirchhoff stress")
     ax_e.legend(fontsize=8, loc="upper right")
     fig.suptitle(f"Notes' Figure 7: 1D Neo-Hookean, E = {TISSUE_E:g}, nu = {TISSUE_NU:g}")
-    save(fig, path)
     return fig
 
 
 @lecture_figure
-def fig_ch01_convergence(path=None) -> Figure:
+def fig_ch01_convergence() -> Figure:
     """Chapter 1: L2 and H1 errors of the 1D linear bar against h, P1 and P2, with observed rates."""
     rows = convergence_study()
     fig = Figure(figsize=(6.4, 4.6), layout="constrained")
@@ -96,12 +94,11 @@ def fig_ch01_convergence(path=None) -> Figure:
     ax.set(xlabel="element size $h$", ylabel="error", title="1D linear bar: error against mesh size")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
-    save(fig, path)
     return fig
 
 
 @lecture_figure
-def fig_ch02_newton(path=None) -> Figure:
+def fig_ch02_newton() -> Figure:
     """Chapter 2: Newton residual histories for the 1D Neo-Hookean bar under several end tractions."""
     fig = Figure(figsize=(6.4, 4.6), layout="constrained")
     ax = fig.subplots()
@@ -115,5 +112,4 @@ def fig_ch02_newton(path=None) -> Figure:
            title="Newton on the 1D Neo-Hookean bar: quadratic convergence")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
-    save(fig, path)
     return fig

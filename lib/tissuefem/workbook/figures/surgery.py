@@ -19,7 +19,7 @@ from matplotlib.patches import Circle
 
 from ...engine.constants import FRAME_BUDGET as FRAME_DT, TISSUE_E, TISSUE_NU  # FRAME_DT: one frame, 1/30 s
 from ..procedures import INCISION_PULL, flap_runs, incision_run, probe_run, two_pieces_run
-from .base import animation_figure, at_least, frame_axes, lecture_figure, save, save_animation
+from .base import animation_figure, at_least, frame_axes, lecture_figure, save_animation
 
 #: the colour map of the tension (largest principal Cauchy stress); centred at zero
 TENSION_CMAP = "RdBu_r"
@@ -72,7 +72,7 @@ def tension_colorbar(fig, norm, axes, label="tension: largest principal Cauchy s
 # --- the incision -----------------------------------------------------------------------------------
 
 @lecture_figure
-def fig_ch08_incision(path=None) -> Figure:
+def fig_ch08_incision() -> Figure:
     """Chapter 8: an incision in a pulled sheet: before and after the cut, coloured by tension.
 
     A 2 x 1 sheet (quasistatic), left edge held, right edge pulled 0.4, is cut from above the top edge to
@@ -113,7 +113,6 @@ def fig_ch08_incision(path=None) -> Figure:
     tension_colorbar(fig, norm, axes, shrink=0.85)
     fig.suptitle(f"Chapter 8: an incision in a pulled sheet (quasistatic, stable neo-Hookean, E = {TISSUE_E:g}, "
                  f"ν = {TISSUE_NU:g}; left edge held, right edge pulled)", fontsize=10)
-    save(fig, path)
     return fig
 
 
@@ -197,7 +196,6 @@ def fig_ch08_two_pieces(path=None) -> Figure:
     ax.legend(fontsize=7.5, loc="lower left")
     fig.suptitle(f"Chapter 8: a cut through the body makes two pieces (stable neo-Hookean, E = {TISSUE_E:g}, "
                  f"ν = {TISSUE_NU:g}, $\\rho_0$ = 1, g = 9.81, $\\Delta t$ = 1/30 s)", fontsize=10)
-    save(fig, path)
     if path is not None:
         write_two_pieces_animation(Path(path).with_suffix(".gif"), run)
     return fig
@@ -206,7 +204,7 @@ def fig_ch08_two_pieces(path=None) -> Figure:
 # --- the probe ---------------------------------------------------------------------------------------
 
 @lecture_figure
-def fig_ch08_probe(path=None) -> Figure:
+def fig_ch08_probe() -> Figure:
     """Chapter 8: a rigid disc (a tool tip) pressed into the top edge of a block, at two depths.
 
     A 2 x 1 block (quasistatic) held on its bottom edge; a disc of radius 0.25 moved down into its top
@@ -252,7 +250,6 @@ def fig_ch08_probe(path=None) -> Figure:
     fig.suptitle(f"Chapter 8: a probe pressed into the tissue, a surface penalty $E = \\sum_a k\\, l_a\\, h(R - d_a)$, "
                  f"$h(g) \\approx g^2/2$ (R = {R:g}, k = {states[0]['stiffness']:.2g}; block held on its bottom edge)",
                  fontsize=10)
-    save(fig, path)
     return fig
 
 
@@ -272,7 +269,7 @@ def stitch_arcs(a, b, bulge=0.18, n=12) -> np.ndarray:
 
 
 @lecture_figure
-def fig_ch08_flap(path=None, runs=None) -> Figure:
+def fig_ch08_flap(runs=None) -> Figure:
     """Chapter 8: a local advancement flap closes a defect (after Sifakis et al. 2009); the tension it leaves.
 
     A 4 x 2 patch of skin held on its outer edges: (a) a 0.6 x 0.6 defect excised, two incisions continuing
@@ -323,5 +320,4 @@ def fig_ch08_flap(path=None, runs=None) -> Figure:
     ax.legend(fontsize=7.5, loc="lower left")
     fig.suptitle(f"Chapter 8: an advancement flap closes a 0.6 x 0.6 defect (stable neo-Hookean, E = {TISSUE_E:g}, "
                  f"ν = {TISSUE_NU:g}, patch held on its outer edges; after Sifakis et al. 2009)", fontsize=10)
-    save(fig, path)
     return fig

@@ -163,25 +163,25 @@ def plot_budget(results, path=None) -> Figure:
 
 
 @lecture_figure
-def fig_ch09_pareto(path=None, results=None) -> Figure:
+def fig_ch09_pareto(results=None) -> Figure:
     """Chapter 9: error against ms per frame for every knob, flap and quasistatic block (recorded full study)."""
-    return plot_pareto(recorded_results() if results is None else results, path)
+    return plot_pareto(recorded_results() if results is None else results)
 
 
 @lecture_figure
-def fig_ch09_scaling(path=None, results=None) -> Figure:
+def fig_ch09_scaling(results=None) -> Figure:
     """Chapter 9: ms per frame against mesh size per linear solver, with fitted growth exponents (recorded)."""
-    return plot_scaling(recorded_results() if results is None else results, path)
+    return plot_scaling(recorded_results() if results is None else results)
 
 
 @lecture_figure
-def fig_ch09_budget(path=None, results=None) -> Figure:
+def fig_ch09_budget(results=None) -> Figure:
     """Chapter 9: residual and converged share left by the 33 ms budget, by mesh size (recorded)."""
-    return plot_budget(recorded_results() if results is None else results, path)
+    return plot_budget(recorded_results() if results is None else results)
 
 
 @lecture_figure
-def fig_ch09_verification(path=None, rows=None) -> Figure:
+def fig_ch09_verification(rows=None) -> Figure:
     """Chapter 9: the reference verified -- nonlinear mesh convergence at rates 2 (P1) and 3 (P2)."""
     rows = manufactured_convergence() if rows is None else rows
     fig = Figure(figsize=(6.4, 4.6), layout="constrained")
@@ -201,7 +201,6 @@ def fig_ch09_verification(path=None, rows=None) -> Figure:
            title="Manufactured solution (bent arch + its body force)")
     ax.grid(True, which="both", alpha=0.25)
     ax.legend(fontsize=7.5)
-    save(fig, path)
     return fig
 
 
