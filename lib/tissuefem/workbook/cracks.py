@@ -1,10 +1,8 @@
 """Chapter 10's study: a crack cut through the elements against Griffith's closed form.
 
-A straight crack of length ``2a`` in a plate pulled by the stress ``sigma`` across it opens, in plane strain
-and small strains, by ``delta = 4 sigma a (1 - nu^2) / E`` at its centre (Griffith 1921); a plate of width
-``W`` multiplies this by about ``sqrt(sec(pi a / W))`` (Feddersen's factor, in Tada, Paris and Irwin, *The
-Stress Analysis of Cracks Handbook*). :func:`griffith_opening` cuts the crack through the elements of an
-``n x n`` mesh (the virtual node algorithm) and measures the opening between the two lips.
+A crack ``2a`` pulled open by ``sigma`` opens by ``4 sigma a (1 - nu^2) / E`` at its centre (plane strain,
+Griffith 1921), times about ``sqrt(sec(pi a / W))`` in a plate of width ``W`` (Feddersen's factor, in Tada,
+Paris and Irwin, *The Stress Analysis of Cracks Handbook*).
 """
 
 from __future__ import annotations
@@ -42,9 +40,8 @@ def lip_opening(wound, x, at) -> float:
 
 
 def griffith_opening(n, a=1.0, width=10.0, stress=1.0, E=TISSUE_E, nu=TISSUE_NU, nudge=0.37):
-    """``(elements, opening)``: the crack ``2a`` cut through the elements of an ``n x n`` mesh of the square
-    plate, pulled by ``stress`` on its top and bottom edges (linear elasticity, plane strain), held at the
-    middles of its left and right edges (no rigid motion); the opening at the crack's centre."""
+    """``(elements, opening)``: the crack cut through the elements of an ``n x n`` mesh of the square plate
+    pulled by ``stress`` at top and bottom (linear, plane strain), held at its sides' middles."""
     mesh = rectangle(width, width, n, n)
     c = 0.5 * width
     y0 = c + nudge * width / n  # off the grid lines: the crack crosses elements on every mesh

@@ -1,26 +1,15 @@
 """Anisotropic fibers (chapter 5): the fiber term on its own, and pulling along versus across.
 
-A field of unit fiber directions ``g`` in the *reference* configuration makes a tissue anisotropic (notes,
-"Continuum mechanics and elasticity", after the Neo-Hookean model): ``Psi(F) = Psi_iso(F) + Psi_fiber(I4)``
-with ``I4 = g^T F^T F g = |F g|^2``, the squared stretch of the fiber (``dX = g dS`` becomes ``dx = F g dS``).
-With ``a = F g``, ``dI4 = 2 (a (x) g) : dF``, hence
+Unit fiber directions ``g`` in the reference configuration add ``Psi_fiber(I4)``, ``I4 = |F g|^2`` the
+squared fiber stretch (notes, "Continuum mechanics and elasticity"). With ``a = F g``:
 
     P_fiber = 2 Psi_fiber'(I4) a (x) g,    A_fiber_ijkl = 4 Psi'' a_i g_j a_k g_l + 2 Psi' d_ik g_j g_l.
 
-For ``Psi_fiber = k/8 (I4 - 1)^2`` (the :class:`~tissuefem.engine.terms.Fibers` term; ``Psi'(1) = 0`` keeps
-the rest state stress free): ``P_fiber = k/2 (I4 - 1) a (x) g`` and
-``A_fiber = k (a (x) g) (x) (a (x) g) + k/2 (I4 - 1) d_ik g_j g_l``. At ``F = I`` the tangent adds
-``k g (x) g (x) g (x) g``: ``k cos^4 theta`` along a direction at ``theta`` to the fiber
-(:func:`fiber_modulus_gain`). The formulas live in :mod:`tissuefem.engine.materials`; here are the
-chapter's experiments:
-
-* :func:`confined_pull`: ``F = diag(1 + eps, 1)`` imposed on a square's whole boundary (P1 reproduces it
-  exactly), whose reaction over ``eps`` is the confined modulus ``lam + 2 mu + k cos^4 theta`` to leading
-  order (:func:`predicted_confined_modulus`); :func:`along_vs_across` compares fibers at 0 and 90 degrees,
-  whose moduli differ by ``k``, exactly ``k (1 + eps)(1 + eps/2)`` at finite strain;
-* :func:`block_pull`: a strip clamped at both ends and pulled, a tensile test's force-stretch curve;
-* :func:`muscle_pull`: the fusiform muscle of :mod:`tissuefem.engine.meshes`, pulled by its right tendon.
-"""
+The :class:`~tissuefem.engine.terms.Fibers` term takes ``Psi_fiber = k/8 (I4 - 1)^2`` (stress free at rest):
+at ``F = I`` it adds ``k cos^4 theta`` along a direction at ``theta`` to the fiber
+(:func:`fiber_modulus_gain`). The formulas live in :mod:`tissuefem.engine.materials`; here are the chapter's
+experiments: a homogeneous strain (:func:`confined_pull`, :func:`along_vs_across`), a tensile test
+(:func:`block_pull`) and the fusiform muscle pulled by its tendon (:func:`muscle_pull`)."""
 
 from __future__ import annotations
 
@@ -43,10 +32,6 @@ __all__ = ["K_FIBER", "fiber_direction", "fiber_modulus_gain", "predicted_confin
 K_FIBER = 4.0 * TISSUE_E
 
 
-def _check_stiffness(k) -> float:
-    return check_fiber_stiffness(k, "k")
-
-
 def fiber_direction(angle_deg) -> np.ndarray:
     """The unit fiber direction ``(cos theta, sin theta)`` at ``angle_deg`` degrees from the X axis."""
     theta = math.radians(check_real("angle_deg", angle_deg))
@@ -54,12 +39,9 @@ def fiber_direction(angle_deg) -> np.ndarray:
 
 
 def fiber_modulus_gain(k, angle_deg):
-    """The small-strain modulus the fiber adds along a direction ``angle_deg`` degrees away from it.
-
-    ``e_i e_j e_k e_l (k g_i g_j g_k g_l) = k (e . g)^4 = k cos^4 theta``: ``k`` along the fiber, ``k/4`` at
-    45 degrees and nothing across it.
-    """
-    return float(_check_stiffness(k) * fiber_direction(angle_deg)[0] ** 4)
+    """The small-strain modulus the fiber adds ``angle_deg`` degrees away from it: ``k (e . g)^4 = k cos^4
+    theta`` (``k`` along, ``k/4`` at 45 degrees, nothing across)."""
+    return float(check_fiber_stiffness(k) * fiber_direction(angle_deg)[0] ** 4)
 
 
 def _default_base(base):
@@ -71,9 +53,8 @@ def _default_base(base):
 
 
 def predicted_confined_modulus(angle_deg, *, stiffness=K_FIBER, base=None) -> float:
-    """Small-strain confined modulus ``lam + 2 mu + k cos^4 theta`` for a pull along X, fibers at
-    ``angle_deg``: ``lam + 2 mu`` is the matrix's ``C_xxxx`` (every model linearises to linear elasticity).
-    """
+    """Small-strain confined modulus ``lam + 2 mu + k cos^4 theta`` (``lam + 2 mu``: the matrix's ``C_xxxx``)
+    for a pull along X, fibers at ``angle_deg``."""
     base = _default_base(base)
     return base.lam + 2.0 * base.mu + fiber_modulus_gain(stiffness, angle_deg)
 
@@ -82,9 +63,8 @@ def predicted_confined_modulus(angle_deg, *, stiffness=K_FIBER, base=None) -> fl
 
 @dataclass
 class PullResult:
-    """A pull test: stretches, the reaction on the pulled edge and the final state. ``forces[s]`` is the X force
-    (per unit thickness, the sum of the internal forces on the edge's X dofs) holding the edge at ``stretches[s]``;
-    ``nominal_stress = forces / edge_length`` is the average ``P_xx`` on it.
+    """A pull test: ``forces[s]``, the X force (per unit thickness) holding the pulled edge at
+    ``stretches[s]``; ``nominal_stress = forces / edge_length``, the average ``P_xx`` on it; the final state.
     """
 
     stretches: np.ndarray
@@ -108,7 +88,7 @@ def _model(mesh, base, handles, angle_deg, stiffness, fibers=None) -> Model:
     if angle_deg is None and fibers is None:
         return Model(mesh, base, handles=handles)
     g = fiber_direction(angle_deg) if fibers is None else fibers
-    return Model(mesh, base, handles=handles, fibers=(_check_stiffness(stiffness), g))
+    return Model(mesh, base, handles=handles, fibers=(check_fiber_stiffness(stiffness), g))
 
 
 def _check_stretches(stretches) -> np.ndarray:
@@ -134,10 +114,9 @@ def _ramp(model, handle, to_target, stretches, pulled_edge, edge_length, rtol) -
 
 
 def confined_pull(angle_deg, strain, *, stiffness=K_FIBER, base=None, n=4, rtol=1e-12) -> PullResult:
-    """The unit square stretched by ``F = diag(1 + strain, 1)`` imposed on its whole boundary, fibers at
-    ``angle_deg`` (``None``: the matrix alone). Homogeneous, so ``nominal_stress / strain`` is the confined modulus
-    (:func:`predicted_confined_modulus`). ``strain``: a number or a sequence (solved in order, warm-started).
-    """
+    """The unit square under ``F = diag(1 + strain, 1)`` on its whole boundary (P1 is exact), fibers at
+    ``angle_deg`` (``None``: none): ``nominal_stress / strain`` is the confined modulus. ``strain``: a number
+    or a sequence (warm-started)."""
     base = _default_base(base)
     strains = _check_stretches(1.0 + np.atleast_1d(np.asarray(strain, dtype=float))) - 1.0
     mesh = rectangle(1.0, 1.0, n, n)
@@ -175,14 +154,12 @@ class AlongAcross:
 
 
 def along_vs_across(strain=1e-4, *, stiffness=K_FIBER, base=None, n=4) -> AlongAcross:
-    """The confined square (:func:`confined_pull`) with fibers along and across the pull. Only the fiber term
-    differs: at 90 degrees ``F g = g`` (no fiber stress), at 0 degrees ``P_fiber_xx = k/2 ((1 + eps)^2 - 1)(1 + eps)``,
-    so the moduli differ by ``k (1 + eps)(1 + eps/2)``, which tends to ``k``.
-    """
+    """:func:`confined_pull` with fibers along and across: at 90 degrees ``F g = g`` (no fiber stress), at 0
+    ``P_fiber_xx = k/2 ((1 + eps)^2 - 1)(1 + eps)``: the moduli differ by ``k (1 + eps)(1 + eps/2) -> k``."""
     eps = float(strain)
     if not math.isfinite(eps) or eps == 0.0 or eps <= -1.0:
         raise ValueError(f"strain must be finite, nonzero and > -1, got {strain!r}")
-    k = _check_stiffness(stiffness)
+    k = check_fiber_stiffness(stiffness)
     moduli = [float(confined_pull(a, eps, stiffness=k, base=base, n=n).nominal_stress[0]) / eps
               for a in (0.0, 90.0)]
     predicted = float(fiber_modulus_gain(k, 0.0) - fiber_modulus_gain(k, 90.0))
@@ -192,9 +169,7 @@ def along_vs_across(strain=1e-4, *, stiffness=K_FIBER, base=None, n=4) -> AlongA
 def block_pull(angle_deg, stretches, *, stiffness=K_FIBER, base=None, width=2.0, height=1.0, nx=16, ny=8,
                rtol=1e-10) -> PullResult:
     """A tensile test: a ``width x height`` strip clamped at both ends, the right end moved to ``X = stretch *
-    width`` for each of ``stretches``; fibers at ``angle_deg`` (``None``: none). The free sides narrow, the clamped
-    ends cannot: the state is not homogeneous (no closed form).
-    """
+    width``; fibers at ``angle_deg`` (``None``: none). Not homogeneous: no closed form."""
     base = _default_base(base)
     stretches = _check_stretches(stretches)
     mesh = rectangle(width, height, nx, ny)
@@ -205,11 +180,9 @@ def block_pull(angle_deg, stretches, *, stiffness=K_FIBER, base=None, width=2.0,
 
 def muscle_pull(stretches, *, stiffness=K_FIBER, base=None, with_fibers=True, fibers=None, mesh=None,
                 rtol=1e-10) -> PullResult:
-    """The fusiform muscle (default :func:`tissuefem.engine.meshes.fusiform_muscle`, length 4) held at its left
-    tendon, its right tendon moved to ``X = stretch * length``. Its fibers are ``fibers`` (``(2,)`` or ``(2,
-    n_elements)``), else :func:`~tissuefem.engine.meshes.fusiform_fiber_field`; ``with_fibers=False``: the matrix
-    alone. ``edge_length`` is the tendon's width.
-    """
+    """The fusiform muscle (:func:`~tissuefem.engine.meshes.fusiform_muscle`) held at its left tendon, its
+    right one moved to ``X = stretch * length``. Fibers: ``fibers`` (``(2,)`` or ``(2, n_elements)``), by
+    default :func:`~tissuefem.engine.meshes.fusiform_fiber_field`, none if not ``with_fibers``."""
     base = _default_base(base)
     stretches = _check_stretches(stretches)
     mesh = fusiform_muscle() if mesh is None else mesh

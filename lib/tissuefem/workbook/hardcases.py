@@ -1,12 +1,7 @@
-"""The hard cases of chapter 6: crushed, collapsed, mirrored, stretched and dragged bodies, and their release.
-
-Promise 2 of the workbook is that hard cases stay numerically stable: a small block is put in a violent state,
-*released* (a few nodes held at rest, the rest freed, equilibrium solved for), and the result measured against
-the rest shape, with what it cost. Steps are capped (``max_step``, a crude trust region) so the iterates creep
-downhill instead of jumping into another well of the energy (a fold). The models (:func:`inversion_models`):
-``ln J`` Neo-Hookean (NaN on an inverted element), the notes' cubic Taylor variant and stable Neo-Hookean with
-the projected tangent of Teran et al. 2005, and the ITF-clamped ``ln J`` model.
-"""
+"""The hard cases of chapter 6: a small block put in a violent state (crushed, collapsed, mirrored, stretched,
+dragged) and *released* (a few nodes held, equilibrium solved for), measured against its rest shape. Newton's
+steps are capped (``max_step``) so the iterates creep downhill instead of jumping into a fold. The models:
+:func:`inversion_models`."""
 
 from __future__ import annotations
 
@@ -34,7 +29,9 @@ RELEASE_OPTIONS = {"atol": 1e-7, "rtol": 1e-12, "max_step": 0.5, "max_iterations
 
 
 def inversion_models(E: float = TISSUE_E, nu: float = TISSUE_NU) -> dict:
-    """The four models of chapter 6, from Young's modulus and Poisson's ratio (plane strain)."""
+    """Chapter 6's models (plane strain): ``ln J`` Neo-Hookean (NaN once inverted), the notes' cubic Taylor
+    variant and stable Neo-Hookean with the projected tangent (Teran et al. 2005), and ITF-clamped ``ln J``.
+    """
     lam, mu = lame_parameters(E, nu, "strain")
     return {
         "neo-Hookean (ln J)": NeoHookean(lam, mu),
@@ -88,10 +85,8 @@ def _bottom(mesh):
 
 
 def release(mesh, material, x_start, held=None, **newton_options) -> ReleaseResult:
-    """Release a body from node positions ``x_start``: hold ``held`` nodes at rest, free the rest.
-
-    ``held`` defaults to the bottom edge. Never raises for a numerical failure (the status tells).
-    """
+    """Release a body from node positions ``x_start``, the ``held`` nodes (default: the bottom edge) at rest;
+    a numerical failure is in the status, never raised."""
     X = np.asarray(mesh.p, dtype=float)
     x_start = np.asarray(x_start, dtype=float)
     if x_start.shape != X.shape:
@@ -117,11 +112,9 @@ def release(mesh, material, x_start, held=None, **newton_options) -> ReleaseResu
 
 
 def crush_and_release(material, mesh=None, depth: float = 1.3, steps: int = 13, **newton_options) -> dict:
-    """Push the top edge of a block down by ``depth`` (1 = flat, more = past flat) in ``steps`` solves, the
-    bottom edge fixed, then release it. Returns ``frames`` (positions after each step, then the released shape),
-    ``crush`` (the steps' results), ``released`` (a :class:`ReleaseResult`), ``crushed`` (the depth reached before
-    a step failed), ``iterations``, ``cuts`` and ``final_energy``.
-    """
+    """Push the top edge down by ``depth`` (1 = flat) in ``steps`` solves, bottom fixed, then release:
+    ``frames`` (positions, the released shape last), ``crush`` (the results), ``released``, ``crushed`` (the
+    depth reached), ``iterations``, ``cuts``, ``final_energy``."""
     mesh = block() if mesh is None else mesh
     X = np.asarray(mesh.p, dtype=float)
     top = Handle("top")
@@ -146,11 +139,9 @@ def crush_and_release(material, mesh=None, depth: float = 1.3, steps: int = 13, 
 
 
 def drag_through(material, mesh=None, depth: float = 1.6, steps: int = 16, **newton_options) -> dict:
-    """Grab the top edge's middle (nodes within 0.2) of a sheet held on its left and right edges and drag it
-    down by ``depth``, through the body and out below, in ``steps`` solves; then release it. Returns
-    ``positions``, ``drag`` (the steps' results), ``released`` and ``failed_steps`` (unconverged steps: the state
-    stays at the last converged one and the drag goes on).
-    """
+    """Drag the top edge's middle (within 0.2) of a sheet held at its sides down by ``depth``, through the
+    body, in ``steps`` solves, then release: ``positions``, ``drag`` (the results), ``released``,
+    ``failed_steps``."""
     mesh = block() if mesh is None else mesh
     X = np.asarray(mesh.p, dtype=float)
     sides = np.flatnonzero((np.abs(X[0] - X[0].min()) < 1e-9) | (np.abs(X[0] - X[0].max()) < 1e-9))
@@ -174,14 +165,9 @@ def drag_through(material, mesh=None, depth: float = 1.6, steps: int = 16, **new
 
 def crush_in_frames(material, mesh=None, depth: float = 1.3, steps: int = 13, extra_frames: int = 50,
                     rtol: float = 1e-8, max_iterations: int = 100) -> dict:
-    """The crush of :func:`crush_and_release` as the real-time solver runs it: quasistatic *frames*.
-
-    Each of ``steps`` frames moves the top edge further down and runs Newton up to ``max_iterations`` steps,
-    committing what it has and carrying the rest into the next frame (chapter 7's anytime rule); up to
-    ``extra_frames`` more frames finish at ``depth``. Returns ``x``, ``reached`` (the top's depth), ``converged``,
-    ``frames``, ``inverted`` (elements with ``J <= 0``), ``folded`` (centroids covered more than once: the mesh
-    lies over itself with no element inverted) and ``released``.
-    """
+    """The crush of :func:`crush_and_release` in real-time frames of at most ``max_iterations`` Newton steps
+    (the rest carried over), then up to ``extra_frames`` more: ``x``, ``reached``, ``converged``, ``frames``,
+    ``inverted`` (``J <= 0``), ``folded`` (centroids covered twice: :func:`cover_counts`), ``released``."""
     mesh = block() if mesh is None else mesh
     X = np.asarray(mesh.p, dtype=float)
     model = Model(mesh, material, handles=[Handle("bottom", name="bottom"), Handle("top", name="top")])
@@ -204,8 +190,7 @@ def crush_in_frames(material, mesh=None, depth: float = 1.3, steps: int = 13, ex
 
 
 def element_jacobians(mesh, x) -> np.ndarray:
-    """``J = det F`` of every P1 triangle with its nodes at ``x`` ``(2, n_nodes)``: the ratio of signed areas,
-    negative for a triangle turned inside out, zero for a flat or collapsed one.
+    """``J = det F`` of every P1 triangle with its nodes at ``x`` ``(2, n_nodes)``: the ratio of signed areas.
     """
     x = np.asarray(x, dtype=float)
 
@@ -217,12 +202,8 @@ def element_jacobians(mesh, x) -> np.ndarray:
 
 
 def cover_counts(mesh, x, tol: float = 1e-9) -> np.ndarray:
-    """How many deformed triangles contain each deformed triangle's centroid (nodes at ``x``).
-
-    1 everywhere for a one-to-one deformation; above 1 the mesh lies over itself, even with every ``J > 0``. Flat
-    triangles contain nothing; ``tol`` on the barycentric coordinates keeps points on a shared edge from counting
-    twice. Cost: ``n_elements^2``.
-    """
+    """How many deformed triangles contain each deformed triangle's centroid: above 1 the mesh lies over
+    itself, even with every ``J > 0`` (``tol``: shared edges count once; cost ``n_elements^2``)."""
     x = np.asarray(x, dtype=float)
     a, b, c = (x[:, mesh.t[k]] for k in range(3))  # corners, each (2, n_elements)
     point = ((a + b + c) / 3.0)[:, :, None]  # the centroids, against every triangle: [.., point, triangle]

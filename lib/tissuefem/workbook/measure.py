@@ -28,17 +28,15 @@ def median_time(fn, repeats: int) -> float:
 
 
 def evaluate(basis, u, points, chunk: int = 400) -> np.ndarray:
-    """Values ``(2, n)`` of the finite element field ``u`` at points ``(2, n)``, fed in chunks (scikit-fem's point
-    location compares every point of a call with every candidate element: memory grows like points^2).
-    """
+    """Values ``(2, n)`` of the field ``u`` at points ``(2, n)``, in chunks (scikit-fem's point location takes
+    memory ~ points^2)."""
     f = basis.interpolator(u)
     return np.concatenate([f(points[:, i:i + chunk]) for i in range(0, points.shape[1], chunk)], axis=1)
 
 
 def relative_l2_error(basis, u, reference_basis, u_reference, intorder: int = 4) -> float:
-    """``||u - u_ref||_L2 / ||u_ref||_L2`` by quadrature of degree ``intorder`` on ``basis``'s mesh, ``u_ref``
-    (on another, finer mesh) located at the quadrature points. The bases may be models (anything with ``basis``).
-    """
+    """``||u - u_ref||_L2 / ||u_ref||_L2`` by quadrature on ``basis``'s mesh, ``u_ref`` (on another mesh)
+    located at its points. Models (anything with ``basis``) may stand for the bases."""
     basis = getattr(basis, "basis", basis)
     reference_basis = getattr(reference_basis, "basis", reference_basis)
     quad = Basis(basis.mesh, basis.elem, intorder=intorder)
@@ -75,16 +73,12 @@ def _costs_errors(costs, errors, rtol=0.0):
 
 
 def pareto_front(costs, errors, rtol: float = 0.0) -> np.ndarray:
-    """Indices of the non-dominated points, by increasing cost.
-
-    ``i`` is dominated when some ``j`` costs no more and errs no more, one of them strictly; ties keep the first,
-    non-finite entries are never on the front. ``rtol`` is the errors' resolution: an error counts as smaller only
-    by more than the factor ``1 + rtol`` (a slower setting 0.5 % more accurate is not on a front at ``0.01``).
-    """
+    """Indices of the non-dominated points by increasing cost (dominated: another costs and errs no more, one
+    strictly; ties keep the first; non-finite never on it). An error is smaller only by more than ``1 +
+    rtol``."""
     c, e, factor = _costs_errors(costs, errors, rtol)
     ok = np.flatnonzero(np.isfinite(c) & np.isfinite(e))
-    # sort by cost, then error: walking in that order, a point is on the front when its error is below
-    # every error seen so far (by more than the resolution)
+    # by cost, then error: a point is on the front when its error is below every error seen so far
     order = ok[np.lexsort((e[ok], c[ok]))]
     front, best = [], np.inf
     for i in order:
@@ -107,10 +101,9 @@ def observed_rates(h, errors) -> np.ndarray:
 
 
 def best_within_budget(costs, errors, budget, rtol: float = 0.0):
-    """Index of the most accurate setting costing at most ``budget`` (the cheaper on a tie), or ``None``: the
-    lowest point left of the budget line on a Pareto plot. Settings within the factor ``1 + rtol`` of the smallest
-    error tie, and the cheapest of them wins: no winner by the last digits. Non-finite entries never qualify.
-    """
+    """Index of the most accurate setting costing at most ``budget``, or ``None``; errors within ``1 + rtol``
+    of the smallest tie and the cheapest wins (no winner by the last digits); non-finite entries never
+    qualify."""
     c, e = _costs_errors(costs, errors)[:2]
     budget = float(budget)
     if not budget > 0:
@@ -124,9 +117,7 @@ def best_within_budget(costs, errors, budget, rtol: float = 0.0):
 
 
 def cost_at_error(costs, errors, target):
-    """The cost at which a curve (one knob's settings) reaches the error ``target``, interpolated on log-log axes
-    between the two settings around it; ``None`` when the curve does not reach it.
-    """
+    """The cost at which a curve reaches the error ``target`` (log-log interpolation), or ``None``."""
     c, e = np.asarray(costs, dtype=float), np.asarray(errors, dtype=float)
     order = np.argsort(c)
     c, e = c[order], e[order]

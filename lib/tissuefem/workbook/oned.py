@@ -14,11 +14,8 @@ __all__ = ["manufactured_solution", "convergence_study", "newton_histories"]
 # --- a convergence study with a manufactured solution (chapter 1) -------------------
 
 def manufactured_solution(modulus: float = 1.0, traction: float = 1.0):
-    """A bar on [0, 1], ``u(0) = 0``, end traction ``T`` at 1, body force ``f = E1 pi^2 sin(pi X)``.
-
-    Then ``-E1 u'' = f`` gives ``u = sin(pi X) + c X`` with ``E1 u'(1) = T``, i.e. ``c = T / E1 + pi``.
-    Returns ``(f, u, du)`` as callables of X.
-    """
+    """``(f, u, du)`` of the bar on [0, 1], ``u(0) = 0``, end traction ``T``, ``f = E1 pi^2 sin(pi X)``: ``-E1
+    u'' = f`` and ``E1 u'(1) = T`` give ``u = sin(pi X) + c X``, ``c = T / E1 + pi``."""
     c = traction / modulus + np.pi
 
     def f(X):
@@ -34,11 +31,8 @@ def manufactured_solution(modulus: float = 1.0, traction: float = 1.0):
 
 
 def convergence_study(orders=(1, 2), ns=(4, 8, 16, 32, 64, 128), modulus: float = 1.0, traction: float = 1.0):
-    """Errors of the linear bar against :func:`manufactured_solution` as the mesh is refined.
-
-    Returns dicts with ``order, n, h, L2, H1, nodal`` (the largest error at the element end points) and the
-    rates ``rate_L2, rate_H1`` = log(e_coarse / e_fine) / log(h_coarse / h_fine) (NaN on the coarsest mesh).
-    """
+    """Errors of the linear bar against :func:`manufactured_solution`: dicts of ``order, n, h, L2, H1, nodal``
+    (largest at the nodes) and ``rate_L2, rate_H1`` from the previous mesh (NaN on the coarsest)."""
     f, u_exact, du_exact = manufactured_solution(modulus, traction)
     rows = []
     for order in orders:

@@ -1,9 +1,6 @@
-"""The surgical procedures of chapters 8 and 10, run for their figures and the chapters' claims.
-
-Every simulation here runs with an unlimited budget and a clock that never advances (:func:`still_clock`), so
-each frame is solved to the solver's tolerance and nothing depends on the machine's speed: the figures
-drawn from these runs are byte-identical from run to run.
-"""
+"""The surgical procedures of chapters 8 and 10, run for their figures and claims on a clock that never
+advances (:func:`still_clock`): every frame converges whatever the machine, and the figures are
+byte-identical."""
 
 from __future__ import annotations
 
@@ -86,8 +83,8 @@ def pulled_sheet(n_triangles, pull) -> Simulation:
 
 
 def incision_run(n_triangles=1200, pull=INCISION_PULL, path=INCISION_PATH) -> dict:
-    """The pulled sheet before and after an incision along mesh edges: positions, triangles, tension, the
-    edit, node counts, the lips' largest opening and the number of pieces."""
+    """The pulled sheet before and after an incision along mesh edges (positions, tension, opening, pieces).
+    """
     sim = pulled_sheet(n_triangles, pull)
     before = dict(x=sim.positions().copy(), t=sim.mesh.t.copy(), tension=sim.tension(), mesh=sim.mesh,
                   nodes=sim.mesh.nvertices)
@@ -102,11 +99,9 @@ def incision_run(n_triangles=1200, pull=INCISION_PULL, path=INCISION_PATH) -> di
 
 
 def two_pieces_run(n_triangles=800, sag_frames=SAG_FRAMES, fall_frames=FALL_FRAMES, cut_x=1.0) -> dict:
-    """The hanging sheet cut through at ``x = cut_x`` after ``sag_frames`` frames; ``fall_frames`` more frames.
-
-    Returns the frames (positions, triangles, whether each element is on the free piece), their times,
-    the centres of mass (y) left and right of the cut, and the free piece's discrete free fall from the cut.
-    """
+    """The hanging sheet cut at ``x = cut_x`` after ``sag_frames`` frames, then ``fall_frames`` more: the
+    frames (positions, triangles, free elements), times, heights of the centres of mass and the discrete free
+    fall."""
     sim = still_simulation(n_triangles, [{"name": "fixed", "region": "left"}], dynamic=True, gravity=True)
     X0 = sim.mesh.p
     frames, com = [], []
@@ -144,11 +139,8 @@ def two_pieces_run(n_triangles=800, sag_frames=SAG_FRAMES, fall_frames=FALL_FRAM
 
 
 def probe_run(n_triangles=1200, radius=PROBE_RADIUS, depths=PROBE_DEPTHS, x_probe=1.0) -> dict:
-    """A block held on its bottom edge, a disc pressed into its top edge ever deeper (one frame per depth).
-
-    For each depth: positions, tension, the nodal contact forces (the penalty's ``k l_a h'(R - d_a) n_a``
-    on the surface nodes), the total force on the tissue and the deepest penetration left.
-    """
+    """A disc pressed ever deeper into a block held on its bottom edge, one frame per depth: positions,
+    tension, nodal contact forces ``k l_a h'(R - d_a) n_a``, their total and the penetration left."""
     sim = still_simulation(n_triangles, [{"name": "base", "region": "bottom"}])
     label = sim.add_probe([x_probe, 1.0 + radius - depths[0]], radius)
     states = []
@@ -164,9 +156,8 @@ def probe_run(n_triangles=1200, radius=PROBE_RADIUS, depths=PROBE_DEPTHS, x_prob
 
 
 def probe_indentation(n_triangles=1200, stiffness=None, depths=(0.05, 0.1, 0.15, 0.2), radius=0.25) -> dict:
-    """Chapter 8's indentation: the probe of :func:`probe_run` moved down to each of ``depths``, one frame each,
-    with the penalty ``stiffness`` (default: the simulation's, ``100 E / radius``). Returns the penetration left
-    at the last depth, the Newton steps of each frame, the triangles and the stiffness used."""
+    """The probe of :func:`probe_run` with the penalty ``stiffness`` (default ``100 E / radius``): penetration
+    left at the last depth, Newton steps per frame, triangles and stiffness."""
     sim = still_simulation(n_triangles, [{"name": "base", "region": "bottom"}])
     tool = sim.add_probe([1.0, 1.0 + radius], radius=radius, stiffness=stiffness)
     newton = []
@@ -231,8 +222,7 @@ def flap_comparison(meshes=FLAP_MESHES, tighten_frames=8) -> dict:
 
 
 def overlap_area(picture, x, cells=400) -> float:
-    """The area covered twice or more by the drawn material at node positions ``x``: where the body overlaps
-    itself (counted on a ``cells x cells`` grid over its bounding box)."""
+    """The area the drawn material at ``x`` covers twice or more (on a ``cells x cells`` grid)."""
     y = picture.points(x)
     lo, hi = y.min(axis=1), y.max(axis=1)
     step = float((hi - lo).max()) / cells

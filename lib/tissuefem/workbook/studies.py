@@ -1,10 +1,5 @@
-"""Studies of chapters 3 and 4 (the exercises' reference answers are in :mod:`tissuefem.workbook.answers`).
-
-Chapter 3: :func:`rotation`, the example deformation :func:`bending_map` with its exact ``F``
-(:func:`bending_gradient`), :func:`displacement_from_map`, :func:`rigid_rotation_response`, :func:`rotated_block`.
-Chapter 4: :func:`block_model`, :func:`handle_force` and :func:`cost_accuracy_study`, the first measurement of
-what accuracy costs in time. Index convention as everywhere: ``F[i, j] = d phi_i / d X_j``.
-"""
+"""Studies of chapters 3 (kinematics: :func:`bending_map`, :func:`rotated_block`) and 4 (the block:
+:func:`block_model`, :func:`cost_accuracy_study`). As everywhere, ``F[i, j] = d phi_i / d X_j``."""
 
 from __future__ import annotations
 
@@ -50,9 +45,7 @@ def rotation(theta) -> np.ndarray:
     return np.array([[c, -s], [s, c]])
 
 
-# The example deformation of chapter 3 and of the kinematics figure: the block
-# [0, 2] x [0, 1] bent into an arch around the centre C below it. Material lines
-# X = const become rays, Y = const become circular arcs of radius r(Y).
+# chapter 3's example deformation (:func:`bending_map`): the block [0, 2] x [0, 1] bent around C below it
 _BEND_CENTRE = np.array([4.3, -2.3])
 _BEND_ANGLE = 0.35  # a: radians of arc per unit length of X
 _BEND_RADIUS = 2.6  # r0: radius of the arc Y = 0
@@ -60,12 +53,9 @@ _BEND_THICKNESS = 1.15  # b: radial length of a unit of Y (a 15 % stretch across
 
 
 def bending_map(X) -> np.ndarray:
-    """The example deformation ``x = phi(X)`` of chapter 3: a block bent into an arch.
-
-    With ``theta = a (X - 1)`` and ``r = r0 + b Y``, ``phi(X, Y) = C + r (sin theta, cos theta)``; ``X`` is
-    shaped ``(2, ...)``, as is the result. The bottom edge (``Y = 0``) is shortened, the top edge stretched;
-    ``J = a b r > 0`` everywhere.
-    """
+    """Chapter 3's example ``x = phi(X)``, a block bent into an arch: ``theta = a (X - 1)``, ``r = r0 + b Y``,
+    ``phi(X, Y) = C + r (sin theta, cos theta)`` (lines X = const become rays, Y = const arcs; ``J = a b r >
+    0``). ``X``: ``(2, ...)``, as the result."""
     X = np.asarray(X, dtype=float)
     theta = _BEND_ANGLE * (X[0] - 1.0)
     r = _BEND_RADIUS + _BEND_THICKNESS * X[1]
@@ -73,11 +63,8 @@ def bending_map(X) -> np.ndarray:
 
 
 def bending_gradient(X) -> np.ndarray:
-    """The exact deformation gradient of :func:`bending_map`, ``F[i, j] = d phi_i / d X_j``.
-
-    ``d theta/dX = a`` and ``dr/dY = b`` give ``F = [[a r cos theta, b sin theta], [-a r sin theta,
-    b cos theta]]`` and ``J = det F = a b r``. Shape ``[2, 2, *X.shape[1:]]``.
-    """
+    """The exact ``F`` of :func:`bending_map`: ``[[a r cos theta, b sin theta], [-a r sin theta, b cos
+    theta]]`` (``J = a b r``), shaped ``[2, 2, *X.shape[1:]]``."""
     X = np.asarray(X, dtype=float)
     a, b = _BEND_ANGLE, _BEND_THICKNESS
     r = _BEND_RADIUS + b * X[1]
@@ -86,11 +73,8 @@ def bending_gradient(X) -> np.ndarray:
 
 
 def displacement_from_map(mesh, phi) -> np.ndarray:
-    """The P1 nodal displacement vector ``u = phi(X) - X`` of a map, in scikit-fem's dof order.
-
-    Node ``n`` carries the dofs ``2 n`` (x) and ``2 n + 1`` (y), as in ``ElementVector(ElementTriP1())``.
-    ``phi`` maps ``(2, n)`` reference points to ``(2, n)`` deformed points.
-    """
+    """The P1 nodal displacements ``u = phi(X) - X`` of a map ``(2, n) -> (2, n)``, in scikit-fem's dof order
+    (node ``n``: dofs ``2 n`` and ``2 n + 1``)."""
     X = np.asarray(mesh.p, dtype=float)
     x = np.asarray(phi(X), dtype=float)
     if x.shape != X.shape:
@@ -99,12 +83,9 @@ def displacement_from_map(mesh, phi) -> np.ndarray:
 
 
 def rigid_rotation_response(material: Material, angles) -> dict:
-    """Energy density and stress of a rigid rotation ``F = R(theta)`` for each angle (radians).
-
-    Returns ``{"angle", "energy", "stress_norm"}`` (arrays shaped like ``angles``; ``|P|`` Frobenius). A
-    frame-indifferent model gives zero for both; linear elasticity gives ``eps = (cos theta - 1) I``, hence
-    ``Psi = 2 (lam + mu)(1 - cos theta)^2`` and ``P = 2 (lam + mu)(cos theta - 1) I``.
-    """
+    """``{"angle", "energy", "stress_norm"}`` (Frobenius) at ``F = R(theta)`` for each angle (radians): zero
+    for a frame-indifferent model; linear elasticity has ``eps = (cos theta - 1) I``, ``Psi = 2 (lam + mu)(1 -
+    cos theta)^2``, ``P = 2 (lam + mu)(cos theta - 1) I``."""
     angles = np.asarray(angles, dtype=float)
     R = rotation(angles.reshape(-1))
     energy = np.asarray(material.energy(R)).reshape(angles.shape)
@@ -114,10 +95,8 @@ def rigid_rotation_response(material: Material, angles) -> dict:
 
 
 def rotated_block(material: Material, theta, n: int = 8, width: float = 1.0, height: float = 1.0):
-    """Quasistatic equilibrium of a block whose left edge is clamped to a wall turned by ``theta`` (radians)
-    about the edge's midpoint; the other edges are free. A frame-indifferent model answers with a rigid rotation
-    (zero energy); linear elasticity strains the block and changes its area. Returns ``(model, result)``.
-    """
+    """``(model, result)``: the equilibrium of a block whose left edge is clamped to a wall turned by
+    ``theta`` (radians) about its midpoint, the rest free; rigid for a frame-indifferent model."""
     n, theta = _count("n", n), check_real("theta", theta)
     mesh = rectangle(width, height, max(1, round(n * width / height)), n)
     R = rotation(theta)
@@ -130,8 +109,7 @@ def rotated_block(material: Material, theta, n: int = 8, width: float = 1.0, hei
     model = Model(mesh, material, handles=[handle])
     if isinstance(material, LinearElastic):  # linear: one Newton step, whatever the angle
         return model, solve(model)
-    # Ramp the *angle*: load stepping ramps the handle's displacement linearly, which for a
-    # large turn squeezes the edge through shorter (for 180 degrees: zero-length) segments.
+    # ramp the angle: a linear ramp of the displacement would squeeze the edge (to zero length at 180 degrees)
     steps = max(1, math.ceil(abs(theta) / (np.pi / 12)))
     u, history = None, []
     for k in range(1, steps + 1):
@@ -154,11 +132,9 @@ BLOCK_HANDLE = (0.6, 0.4)
 
 def block_model(n: int = 8, order: int = 1, material: Material | None = None, handle=BLOCK_HANDLE,
                 width: float = 2.0, height: float = 1.0, assembly: str = "fast") -> Model:
-    """Chapter 4's tissue block: ``[0, width] x [0, height]``, left edge fixed, right edge moved by ``handle``.
-
-    Square cells, ``n`` across the height (``h = height / n``). ``material`` defaults to
-    ``NeoHookean.from_young(1000, 0.3)``; ``assembly="forms"`` uses the readable scikit-fem forms (slow).
-    """
+    """Chapter 4's block ``[0, width] x [0, height]`` of square cells, ``n`` across the height, left edge
+    fixed, right edge moved by ``handle``; Neo-Hookean (E = 1000, nu = 0.3) by default; ``assembly="forms"``:
+    the readable scikit-fem forms (slow)."""
     n = _count("n", n)
     if material is None:
         material = NeoHookean.from_young(TISSUE_E, TISSUE_NU)
@@ -177,10 +153,8 @@ def stretched_block(n: int = 12):
 
 
 def handle_force(model: Model, u, boundary: str) -> np.ndarray:
-    """The resultant force ``(f1, f2)`` the handle on ``boundary`` exerts on the body at equilibrium: the sum of
-    ``q - f_ext`` over its dofs, per component (:meth:`Model.reaction`; per unit thickness), what a haptic device
-    would render.
-    """
+    """The force ``(f1, f2)`` the handle on ``boundary`` exerts on the body at equilibrium
+    (:meth:`Model.reaction`, per unit thickness): what a haptic device would render."""
     for h in model.handles:
         if isinstance(h.region, str) and h.region == boundary:
             return model.reaction(u, h)
@@ -188,8 +162,7 @@ def handle_force(model: Model, u, boundary: str) -> np.ndarray:
 
 
 def newton_iteration_time(model: Model, u, repeats: int = 3) -> float:
-    """Median time (ms) of one Newton iteration at ``u``: gradient, tangent, a fresh SuperLU factorization and
-    the solve, the least a real-time frame can do.
+    """Median ms of one Newton iteration at ``u`` (gradient, tangent, a fresh SuperLU factorization, solve).
     """
     fixed, _ = model.prescribed()
     free = np.ones(model.n_dofs, dtype=bool)
@@ -207,15 +180,11 @@ def newton_iteration_time(model: Model, u, repeats: int = 3) -> float:
 def cost_accuracy_study(p1_sizes=(2, 4, 8, 16), p2_sizes=(1, 2, 4, 8), reference_size: int = 32,
                         repeats: int = 3, load_steps: int = 1, material: Material | None = None,
                         handle=BLOCK_HANDLE, progress=None) -> list[dict]:
-    """Error and solve time of chapter 4's block, P1 against P2, over several meshes.
-
-    Each ``n`` (cells across the height, ``h = 1/n``) is solved by :func:`block_model` in ``load_steps`` load steps
-    and compared with P2 on ``n = reference_size``: ``L2`` is the relative displacement error, ``energy`` the
-    relative error of ``int Psi dX`` (it falls like the square of the energy-norm error), ``rate_L2`` the rate
-    from the previous mesh of the same order (NaN on the first). ``solve_ms`` and ``iteration_ms``
-    (:func:`newton_iteration_time`) are medians over ``repeats`` runs: compare within one run, never assert them.
-    Returns one dict per mesh (:func:`format_cost_accuracy` prints them).
-    """
+    """Error and solve time of chapter 4's block, P1 against P2: one dict per ``n`` (``h = 1/n``) with ``L2``,
+    the relative displacement error against P2 on ``n = reference_size``, ``energy``, the relative error of
+    ``int Psi dX`` (the square of the energy-norm error), ``rate_L2`` from the previous mesh (NaN on the
+    first), and the median ``solve_ms`` and ``iteration_ms`` over ``repeats`` (compare within one run, never
+    assert them)."""
     p1_sizes, p2_sizes = _sizes("p1_sizes", p1_sizes), _sizes("p2_sizes", p2_sizes)
     reference_size, repeats = _count("reference_size", reference_size), _count("repeats", repeats)
     load_steps = _count("load_steps", load_steps)
@@ -272,9 +241,8 @@ def format_cost_accuracy(rows) -> str:
     return text_table(rows, _TABLE)
 
 
-#: One recorded run of :func:`cost_accuracy_study` (its settings and machine in ``data/cost_accuracy.json``, shipped
-#: with the package), for the deterministic lecture figure: the errors are reproducible to the digits shown, the
-#: times are one machine's medians, to be read, not asserted.
+#: One recorded run of :func:`cost_accuracy_study` (``data/cost_accuracy.json``) for the deterministic lecture
+#: figure: its times are one machine's medians, to be read, not asserted.
 RECORDED_COST_ACCURACY: list[dict] = [
     {**row, "rate_L2": float("nan") if row["rate_L2"] is None else row["rate_L2"], "h": 1.0 / row["n"]}
     for row in json.loads((Path(__file__).parent / "data" / "cost_accuracy.json").read_text())["rows"]]

@@ -1,10 +1,5 @@
-"""The studies of chapter 7 (time stepping): the CFL condition, the released flap and the capped frame.
-
-:func:`cfl_study` measures symplectic Euler's largest stable time step on a flap refined several times and
-checks that it scales like the element size ``h`` (the Courant-Friedrichs-Lewy condition;
-:mod:`tissuefem.engine.explicit` derives it). :func:`released_flap` and :func:`backward_euler_run` let a lifted
-flap go; :func:`capped_runs` caps the Newton steps of the standard flap scene's frames.
-"""
+"""The studies of chapter 7 (time stepping): the CFL condition (:func:`cfl_study`;
+:mod:`tissuefem.engine.explicit` derives it), the released flap and the capped frame (:func:`capped_runs`)."""
 
 from __future__ import annotations
 
@@ -35,12 +30,9 @@ CAPPED_SIZES, CAPS, CAPPED_FRAMES = (500, 2000, 8000), (1, 2, 3), 40
 
 @dataclass
 class CFLStudy:
-    """Rows of :func:`cfl_study` (iterating the study yields them) and the fitted exponents.
-
-    A row has ``nx``, ``h``, ``dofs``, ``dt_measured``, ``dt_estimate`` (``2 / omega_max``), ``ratio`` (measured /
-    estimate), ``courant`` (``dt_measured c / h``) and ``seconds``; ``dt_measured = constant h^exponent`` has
-    ``exponent`` 1 under the CFL condition, ``exponent_estimate`` is the estimate's slope.
-    """
+    """Rows of :func:`cfl_study` (iterating yields them: ``nx``, ``h``, ``dofs``, ``dt_measured``,
+    ``dt_estimate`` = ``2 / omega_max``, ``ratio``, ``courant`` = ``dt c / h``, ``seconds``) and the fit
+    ``dt_measured = constant h^exponent`` (1 under the CFL condition)."""
 
     rows: list = field(default_factory=list)
     exponent: float = float("nan")
@@ -60,10 +52,8 @@ class CFLStudy:
 
 def cfl_study(sizes=(4, 8, 16, 32), *, E: float = TISSUE_E, nu: float = TISSUE_NU, density: float = TISSUE_DENSITY,
               material=None, width: float = 2.0, height: float = 1.0, **measure) -> CFLStudy:
-    """Measured largest stable ``dt`` of :class:`SymplecticEuler` on a ``width x height`` flap of square cells
-    ``h = width / nx`` for each ``nx`` in ``sizes``, left edge fixed (stable neo-Hookean from ``E, nu`` unless
-    ``material``): :func:`largest_stable_dt` (``measure`` goes to it) beside the estimate
-    :func:`critical_time_step`. The CFL condition predicts ``dt ~ h``.
+    """:func:`largest_stable_dt` (given ``measure``) and :func:`critical_time_step` of symplectic Euler on a
+    ``width x height`` flap, left edge fixed, of square cells ``h = width / nx`` for each ``nx`` in ``sizes``.
     """
     if material is None:
         material = StableNeoHookean(*lame_parameters(E, nu, "strain"))
@@ -88,10 +78,8 @@ def cfl_study(sizes=(4, 8, 16, 32), *, E: float = TISSUE_E, nu: float = TISSUE_N
 
 
 def released_flap(material=None, nx: int = 8, ny: int = 4, lift: float = LIFT):
-    """Chapter 7's flap lifted and about to be let go: ``(model, u0)``. A ``2 x 1`` rectangle of ``nx x ny``
-    cells (stable neo-Hookean unless ``material``), left edge held, right edge lifted by ``lift`` (quasistatic):
-    ``u0``; ``model`` holds only the left edge, so stepping it from ``u0`` at rest is the release.
-    """
+    """``(model, u0)``: chapter 7's ``2 x 1`` flap (``nx x ny`` cells) with its right edge lifted by ``lift``
+    (``u0``), ``model`` holding only its left edge: stepping it from ``u0`` at rest lets it go."""
     material = StableNeoHookean(*lame_parameters(TISSUE_E, TISSUE_NU, "strain")) if material is None else material
     mesh = rectangle(2.0, 1.0, nx, ny)
     pulled = Model(mesh, material, handles=[Handle("left"), Handle("right", (0.0, lift))])

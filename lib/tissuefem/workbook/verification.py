@@ -1,10 +1,6 @@
-"""The verification of chapter 9's reference: the chain it is computed with, against exact solutions.
-
-* :func:`beam_problem_tip`: the linear chain against a published closed form, the end-loaded cantilever of
-  Timoshenko and Goodier (*Theory of Elasticity*), :func:`beam_exact`;
-* :func:`manufactured_convergence`: the nonlinear chain, every hyperelastic model converging at its elements'
-  rate to chapter 3's bending map held by a manufactured body force (:func:`manufactured_body_force`).
-"""
+"""Chapter 9's reference verified against exact solutions: the linear chain on Timoshenko and Goodier's
+cantilever (:func:`beam_problem_tip`), the nonlinear one on a manufactured solution
+(:func:`manufactured_convergence`)."""
 
 from __future__ import annotations
 
@@ -28,16 +24,14 @@ __all__ = ["beam_exact", "beam_problem_tip", "manufactured_body_force", "manufac
 
 
 def beam_exact(X, *, length=48.0, depth=12.0, load=1000.0, E=3.0e7, nu=0.3) -> np.ndarray:
-    """Timoshenko and Goodier's exact plane-stress displacement of an end-loaded cantilever, ``(2, n)``.
-
-    The beam is ``0 <= x <= L``, ``|y| <= D/2``; ``I = D^3 / 12``; ``P`` is the total shear load at ``x = L``:
+    """Timoshenko and Goodier (*Theory of Elasticity*): the plane-stress displacement ``(2, n)`` of the
+    cantilever ``0 <= x <= L``, ``|y| <= D/2``, ``I = D^3 / 12``, under the end shear load ``P`` at ``x = L``:
 
         u_x = -P y / (6 E I) [6 L x - 3 x^2 + (2 + nu) (y^2 - D^2/4)],
         u_y =  P / (6 E I) [3 nu y^2 (L - x) + (4 + 5 nu) D^2 x / 4 + 3 L x^2 - x^3].
 
     Its stresses ``sigma_xx = -P (L - x) y / I``, ``sigma_yy = 0``, ``sigma_xy = P / (2 I) (D^2/4 - y^2)``
-    are in equilibrium without body force, free on ``y = +-D/2``, and at ``x = L`` the parabolic shear of
-    resultant ``P`` (``tests/workbook/test_verification.py`` checks all of this by finite differences).
+    are free on ``y = +-D/2`` and at ``x = L`` the parabolic shear of resultant ``P``.
     """
     x, y = np.asarray(X, dtype=float)
     I = depth**3 / 12.0
@@ -49,10 +43,8 @@ def beam_exact(X, *, length=48.0, depth=12.0, load=1000.0, E=3.0e7, nu=0.3) -> n
 
 def beam_problem_tip(nx: int, ny: int, order: int = 2, *, length=48.0, depth=12.0, load=1000.0, E=3.0e7,
                      nu=0.3) -> tuple[float, float]:
-    """``(computed, exact)`` tip deflection ``u_y(L, 0)`` of the cantilever of :func:`beam_exact`: the exact
-    displacement prescribed on ``x = 0``, the exact parabolic shear applied on ``x = L``, top and bottom free. The
-    classic parameters (L = 48, D = 12, P = 1000, E = 3e7, nu = 0.3) give 8.9e-3.
-    """
+    """``(computed, exact)`` tip deflection ``u_y(L, 0)`` of :func:`beam_exact`'s cantilever, held on the
+    exact displacement at ``x = 0`` and loaded by the exact shear at ``x = L`` (8.9e-3 with the defaults)."""
     if order not in (1, 2):
         raise ValueError(f"order must be 1 or 2, got {order!r}")
     mesh = rectangle(length, depth, int(nx), int(ny))
@@ -81,13 +73,9 @@ def beam_problem_tip(nx: int, ny: int, order: int = 2, *, length=48.0, depth=12.
 # --- nonlinear verification: a manufactured solution -----------------------------------------------
 
 def manufactured_body_force(material, X, step: float = 1e-4) -> np.ndarray:
-    """The body force ``b = -Div P(F(X))`` that holds chapter 3's bending map in equilibrium, shaped like ``X``.
-
-    With ``Div P + b = 0`` (``(Div P)_i = dP_iJ/dX_J``), the map :func:`~tissuefem.workbook.studies.bending_map`
-    solves the problem with this ``b`` and the whole boundary held on it. The divergence is taken by central
-    differences of the material's stress with ``step`` (error ``~ step^2``, about 1e-8 relative: far below every
-    discretisation error measured here).
-    """
+    """The body force ``b = -Div P(F(X))`` (``(Div P)_i = dP_iJ/dX_J``) that holds chapter 3's
+    :func:`~tissuefem.workbook.studies.bending_map` in equilibrium, shaped like ``X``; central differences of
+    step ``step`` (relative error about 1e-8)."""
     X = np.asarray(X, dtype=float)
     b = np.zeros_like(X)
     for J in range(2):
@@ -99,10 +87,8 @@ def manufactured_body_force(material, X, step: float = 1e-4) -> np.ndarray:
 
 
 def manufactured_error(material, n: int, order: int, load_steps: int = 4) -> float:
-    """Relative ``L2`` error of the computed displacement against the bending map: the block ``[0, 2] x [0, 1]``
-    of ``2n x n`` cells, P``order``, every edge held on the map, the body force of :func:`manufactured_body_force`,
-    Newton to ``rtol = 1e-11`` in ``load_steps`` load steps.
-    """
+    """Relative ``L2`` error against the bending map of the block ``[0, 2] x [0, 1]`` (``2n x n`` cells,
+    P``order``) held on it at every edge under :func:`manufactured_body_force` (Newton to ``1e-11``)."""
     mesh = rectangle(2.0, 1.0, 2 * int(n), int(n))
 
     def boundary(X):
@@ -128,12 +114,8 @@ def manufactured_error(material, n: int, order: int, load_steps: int = 4) -> flo
 
 def manufactured_convergence(models=("neo-hookean", "stable-neo-hookean", "corotated"), sizes=None,
                              E: float = TISSUE_E, nu: float = TISSUE_NU) -> list[dict]:
-    """Mesh convergence of each nonlinear model against the manufactured solution.
-
-    ``sizes`` maps the order to the values of ``n`` (``h = 1/n``). One dict per model and order: the errors, the
-    rates between successive meshes and the fitted rate; the solution is smooth, so the ``L2`` rate should be
-    ``order + 1`` (measured: 2.00 and 2.99 for all three models).
-    """
+    """One dict per model and order (``sizes``: order -> values of ``n``, ``h = 1/n``): the errors against the
+    manufactured solution, the rates and the fitted rate, ``order + 1`` for this smooth solution."""
     sizes = {1: (4, 8, 16, 32), 2: (2, 4, 8, 16)} if sizes is None else sizes
     rows = []
     for name in models:
