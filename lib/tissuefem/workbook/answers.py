@@ -1,9 +1,6 @@
-"""The library's own answers to the exercises: what ``python -m pytest`` grades beside the student's files.
-
-Each function has the name and signature of its stub in ``chapters/exercises/chNN.py`` and calls the engine
-wherever the engine already computes it, so no second copy of a solution can drift: the tests grade the
-library with the same checks as a student (``tests/grading.py``).
-"""
+"""The library's answers to the exercises, graded with the student's checks (``tests/grading.py``): each has
+its stub's name and signature (``chapters/exercises/chNN.py``) and calls the engine wherever it computes the
+answer."""
 
 from __future__ import annotations
 

@@ -42,15 +42,9 @@ def format_table(rows) -> str:
 
 
 def assembly_benchmark(sizes=(2000, 8000, 32000), repeats=5, material=None, out=None, progress=print) -> list[dict]:
-    """Time reference (scikit-fem forms) versus fast (P1Assembler) assembly; return one dict per size.
-
-    ``sizes``: approximate triangle counts of unit squares (:func:`~tissuefem.engine.meshes.mesh_with_about`);
-    ``repeats``: timings per median; ``material``: Neo-Hookean, E = 1000, nu = 0.3 by default; ``out``: a JSON
-    path; ``progress`` gets progress lines and the Markdown table (:func:`format_table`). A row holds the sizes,
-    the median ms of each path (``ref_*``, ``fast_*``; ``fast_both`` is one ``residual_and_tangent``), the
-    ``speedup``s, the fast path's one-off ``setup_ms``, the SuperLU times and ``rel_diff_*``, the two paths'
-    relative Frobenius difference (a sanity check).
-    """
+    """Time the reference against the fast assembly on unit squares of about ``sizes`` triangles; one dict per
+    size: median ms of each path (``ref_*``, ``fast_*``), ``speedup``, the fast path's ``setup_ms``, SuperLU
+    times and ``rel_diff_*`` (the paths' relative difference). ``out``: a JSON path."""
     sizes = check_sizes(sizes)
     repeats = check_count("repeats", repeats)
     if material is None:
@@ -70,11 +64,8 @@ def assembly_benchmark(sizes=(2000, 8000, 32000), repeats=5, material=None, out=
         u = 0.02 * h * rng.standard_normal(basis.N)
         return mesh, fast, setup_ms, basis, u
 
-    # Warm the allocator up on the largest case first. glibc's malloc raises its mmap/trim thresholds only
-    # after large blocks have been freed, so whichever size runs first pays page faults for its temporaries
-    # (the reference path was 3-5x slower at 8k triangles right after 2k than after 32k). One pass at the
-    # largest size puts every row on the same footing (as would MALLOC_MMAP_THRESHOLD_ /
-    # MALLOC_TRIM_THRESHOLD_ set before Python starts).
+    # warm the allocator up at the largest size: glibc's malloc raises its mmap/trim thresholds only after
+    # large blocks were freed, so the first size would pay page faults (3-5x slower) for its temporaries
     cases = {max(sizes): make_case(max(sizes))}
     _, fast, _, basis, u = cases[max(sizes)]
     say(f"assembly benchmark: warm-up at {fast.n_elements} triangles ...")

@@ -1,8 +1,5 @@
-"""What every benchmark shares: the machine record, argument checks, and writing and reading results.
-
-Benchmarks measure; they never draw (the figure modules draw from the results they
-write, read back through :func:`load_results`).
-"""
+"""What every benchmark shares: the machine record, argument checks, and writing and reading results
+(benchmarks measure, never draw: figures read their results through :func:`load_results`)."""
 
 from __future__ import annotations
 

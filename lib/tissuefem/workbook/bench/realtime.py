@@ -1,17 +1,10 @@
 """Frame-rate benchmark of the standard scene: the real-time solver against the scikit-fem ex43 way.
 
-The standard scene (:func:`tissuefem.surgery.scene.flap_scene`: a Neo-Hookean flap ``[0, 2] x [0, 1]``, E =
-1000, nu = 0.3, rho0 = 1, left edge fixed, right edge on :func:`~tissuefem.surgery.scene.flap_path`; backward
-Euler at ``dt = 1/30``, every frame converged to ``1e-6``), run for each mesh size as
-
-* **fast**: its :class:`~tissuefem.engine.realtime.RealtimeSolver` with no budget (what a converged frame
-  costs; ``--linear reuse`` refreshes the kept factorization in the frame instead of the background);
-* **ex43 way** (:func:`ex43_frames`): scikit-fem's hyperelasticity example's Newton (``asm``, ``condense``,
-  ``solve`` every iteration) with one safeguard added, for the first ``baseline_frames`` frames;
-* **budgeted**: the real-time solver with its 1/30 s budget and the real clock;
-* **floor** (:func:`frame_floor`): one tangent assembly plus one back-substitution, the least a frame costs.
-
-Medians and 95th percentiles of wall time per frame: compare columns of one run (``docs/benchmarks.md``).
+The standard flap scene (:func:`tissuefem.surgery.scene.flap_scene`, every frame converged to ``1e-6``) runs
+for each mesh size on its :class:`~tissuefem.engine.realtime.RealtimeSolver` with no budget (**fast**), the
+way of scikit-fem's hyperelasticity example (:func:`ex43_frames`), with the 1/30 s budget (**budgeted**),
+beside the least a frame costs (:func:`frame_floor`). Wall times per frame: compare columns of one run
+(``docs/benchmarks.md``).
 """
 
 from __future__ import annotations
@@ -46,10 +39,9 @@ def flap_simulation(n_triangles: int, linear_solver: str = "reuse") -> Simulatio
 
 def ex43_frames(model, n_frames: int, dt: float = FRAME_BUDGET, rtol: float = RTOL_FLAP, density=TISSUE_DENSITY,
                 lumped: bool = True):
-    """Run ``n_frames`` of the scene the ex43 way: ``(ms per frame, Newton iterations per frame, u)``. ``model``
-    supplies the basis, the material and the handles (the second follows :func:`flap_path`); the mass matrix is
-    built once (lumped by default, as the real-time solver's), stiffness and residual every Newton iteration.
-    """
+    """``(ms per frame, Newton iterations per frame, u)`` of ``n_frames`` the ex43 way (``asm``, ``condense``,
+    ``solve`` every iteration; the mass lumped by default) on ``model``, its second handle on
+    :func:`flap_path`."""
     basis = model.basis
     grab = model.handles[1]
     K_form, r_form = tangent_form(model.material), residual_form(model.material)
@@ -105,9 +97,8 @@ def _fast_frames(n_triangles, n_frames, budget=None, linear_solver="reuse"):
 
 
 def frame_floor(sim, repeats: int = 9) -> dict:
-    """What one Newton step costs at the simulation's state: median ms of a tangent assembly (``assembly_ms``) and
-    of one solve with a kept factorization (``back_substitution_ms``); their sum is a frame's floor.
-    """
+    """Median ms of a tangent assembly and of one back-substitution at the simulation's state: their sum, the
+    least a frame costs (``floor_ms``)."""
     model, u = sim.model, sim.u
     fixed, _ = model.prescribed()
     free = np.ones(model.n_dofs, dtype=bool)
@@ -139,10 +130,8 @@ def format_realtime_table(rows) -> str:
 def realtime_benchmark(sizes=(2000, 8000, 16000, 32000), frames: int = 90, baseline_frames: int = 10,
                        budget_frames: int = 60, linear_solver: str = "reuse-background", out=None,
                        progress=print) -> list[dict]:
-    """Run the frame-rate benchmark; return one dict per size (and write JSON and CSV into the folder ``out``).
-
-    ``baseline_frames = 0`` skips the ex43-way run.
-    """
+    """Run the benchmark; return one dict per size (and write JSON and CSV into ``out``); ``baseline_frames =
+    0`` skips the ex43 way."""
     sizes = check_sizes(sizes)
     frames = check_count("frames", frames, 1)
     baseline_frames = check_count("baseline_frames", baseline_frames, 0)

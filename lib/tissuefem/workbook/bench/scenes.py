@@ -1,12 +1,8 @@
 """What each effect costs: the same scripted drag with one effect added at a time.
 
-The standard flap (:func:`tissuefem.surgery.scene.flap_scene`) runs as a scene once per variant
-(:func:`variants`): linear with its constant factorisation and through the general Newton loop, the
-quasistatic stable neo-Hookean base, the base plus one effect, an incision whose lips the drag presses
-together (without and with contact), and everything. No budget, the real clock; the table
-gives ms per frame, Newton iterations per frame and the median's difference from the base. Each term of the
-all-effects model is also timed alone (:func:`term_costs`), and one cut during the drag (:func:`cut_costs`).
-Timings from a shared machine: compare rows of one run, not runs.
+The standard flap runs once per :func:`variants` (no budget, the real clock): ms and Newton iterations per
+frame, and the difference from the base; each term of the all-effects model is timed alone
+(:func:`term_costs`), and one cut during the drag (:func:`cut_costs`). Compare rows of one run, not runs.
 """
 
 from __future__ import annotations
@@ -29,8 +25,8 @@ __all__ = ["effects_benchmark", "variants", "format_effects_table", "term_costs"
 
 
 def _base(n_triangles):
-    """The quasistatic base: the standard flap in stable neo-Hookean, no budget, in the real-time configuration
-    (the kept factorization refreshed in the background)."""
+    """The quasistatic base: the standard flap in stable neo-Hookean, factorization refreshed in the
+    background."""
     return flap_scene(n_triangles, model="stable-neo-hookean", dynamic=False,
                       linear_solver="reuse-background").to_dict()
 
@@ -83,8 +79,8 @@ def _run(data, options, frames):
 
 
 def cut_costs(n_triangles, repeats=3) -> dict:
-    """Median ms of one cut made during the drag (the edit of the mesh, the new model and solver, the state
-    carried over), through the elements and along edges, on the base scene after a few frames."""
+    """Median ms of one cut during the drag (the edit, the new model and solver), through elements and edges.
+    """
     out = {}
     for method in ("elements", "edges"):
         times = []

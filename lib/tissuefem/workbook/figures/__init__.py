@@ -1,9 +1,5 @@
-"""Every lecture figure as a function: the command line and the chapters call the same code.
-
-:data:`FIGURES` maps each figure's name to its function, in the chapters' order; :func:`generate` writes them
-(``python -m tissuefem figures``). Figure modules draw; they never run a benchmark (recorded results are
-read through :mod:`tissuefem.workbook.bench.common`).
-"""
+"""Every lecture figure as a function (:data:`FIGURES`, in the chapters' order), written by :func:`generate`
+(``python -m tissuefem figures``). Figures draw; they never run a benchmark, only read recorded results."""
 
 from __future__ import annotations
 

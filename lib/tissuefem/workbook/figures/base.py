@@ -1,9 +1,5 @@
-"""What every lecture figure shares: deterministic saving and the mark that lists a function as a figure.
-
-Each figure function takes an optional output ``path``, builds a ``matplotlib.figure.Figure`` without
-pyplot's global state, saves it when a path is given (PNG with no timestamp or version in its metadata, so a
-file changes only when the figure does) and returns it.
-"""
+"""What every lecture figure shares: the mark that lists a function as a figure, and deterministic saving (no
+pyplot state; no timestamp or version in the PNG, so a file changes only when the figure does)."""
 
 from __future__ import annotations
 

@@ -40,14 +40,9 @@ def draw_picture(ax, sim, values=None, norm=None, *, color="0.88", lw=0.2, outli
 
 @lecture_figure
 def fig_ch10_virtual_nodes() -> Figure:
-    """Chapter 10: the virtual node algorithm on a 16-triangle sheet (after Molino, Bao and Fedkiw 2004).
-
-    (a) The stroke (red) on the sheet before the cut. (b) After the cut, pulled open: every triangle the
-    stroke separates is duplicated; each copy keeps the whole triangle (dashed) and its shape functions
-    but carries only the material on its side (filled). Dots: nodes of the original mesh; rings: the
-    virtual nodes, added where a copy's material lies away from a vertex. The triangle holding the
-    stroke's end is not split: the crack closes inside it (its tip).
-    """
+    """Chapter 10: the virtual node algorithm on a 16-triangle sheet (Molino, Bao and Fedkiw 2004): each
+    triangle the stroke separates is duplicated, each copy carrying the material on its side; rings: the
+    virtual nodes; the tip's triangle is not split."""
     sim, edit, n_old = virtual_nodes_run()
     stroke = np.array(VIRTUAL_NODES_STROKE)
     fig = Figure(figsize=(10.0, 3.9), layout="constrained")
@@ -83,13 +78,8 @@ def fig_ch10_virtual_nodes() -> Figure:
 
 @lecture_figure
 def fig_ch10_cut_through(runs=None) -> Figure:
-    """Chapter 10: the same slanted crack, snapped to mesh edges (top) or cut through the elements (bottom).
-
-    A 2 x 1 sheet, left edge held, right edge pulled 0.1; the crack (thin red line: as drawn) runs from
-    the top edge to mid-height. Snapped to edges, its path is a staircase of mesh edges that changes with
-    the mesh, and so do its length, slant and opening; cut through the elements, it is the drawn line on
-    both meshes, and the opening agrees. Colour: tension.
-    """
+    """Chapter 10: a slanted crack snapped to mesh edges (a staircase that changes with the mesh) or cut
+    through the elements (the drawn line on both meshes), coloured by tension."""
     runs = crack_runs() if runs is None else runs
     norm = tension_norm(*[r[0].tension() for r in runs.values()])
     fig = Figure(figsize=(11.0, 6.4), layout="constrained")
@@ -115,14 +105,8 @@ def fig_ch10_cut_through(runs=None) -> Figure:
 
 @lecture_figure
 def fig_ch10_flaps(runs=None) -> Figure:
-    """Chapter 10: the advancement flap and a rotation flap, snapped to edges and cut through elements.
-
-    Each row is one procedure on a patch held on its outer edges: (a, d) snapped to mesh edges and sutured
-    node to node; (b, e) cut through the elements along the planned lines and sutured at points of the
-    wound's edges; colour: tension, dots: stitches. (c, f) The tension report on a coarse and a fine mesh:
-    the mean tension in the flap and the 95th percentile over the patch. Cut through the elements, both
-    stay put when the mesh is refined; snapped to edges, the flap's outline, and the answer, move with it.
-    """
+    """Chapter 10: the advancement and a rotation flap, snapped to edges and cut through elements, with the
+    tension report on two meshes: cut through the elements, it stays put."""
     runs = flap_comparison() if runs is None else runs
     fine = FLAP_MESHES[-1]
     fig = Figure(figsize=(13.5, 7.2), layout="constrained")
@@ -170,16 +154,9 @@ def fig_ch10_flaps(runs=None) -> Figure:
 
 @lecture_figure
 def fig_ch10_contact() -> Figure:
-    """Chapter 10: self-contact keeps a fold and a wound's lips from passing through each other.
-
-    Top: a thin strip whose left part lies on a table, its right end turned over and pressed down onto it
-    (:func:`~tissuefem.workbook.procedures.fold_run`). Bottom: a crack cut through the elements, pressed shut
-    and sheared (:func:`~tissuefem.workbook.procedures.pressed_cut_run`). Left: without contact the body passes
-    through itself (drawn half-transparent, overlaps show darker; the title gives the area covered twice).
-    Right: with the contact term (a one-sided barrier in a thin skin behind the surface, and collision detection
-    that shortens every Newton step) the surfaces touch and press, and nothing crosses: what overlap is left
-    lies within the skin (a tenth of an edge here), where the contact pressure builds up.
-    """
+    """Chapter 10: self-contact: a strip folded onto itself (:func:`~tissuefem.workbook.procedures.fold_run`)
+    and a crack pressed shut (:func:`~tissuefem.workbook.procedures.pressed_cut_run`), without contact (they
+    pass through) and with it (what overlap is left lies in the barrier's skin)."""
     fig = Figure(figsize=(12.0, 6.2), layout="constrained")
     axes = fig.subplots(2, 2, height_ratios=[0.8, 1.0])
     windows = [((0.5, 2.2), (-0.15, 0.45)), ((0.45, 1.65), (0.1, 1.15))]

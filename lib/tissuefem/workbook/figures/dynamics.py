@@ -1,11 +1,5 @@
-"""Figures of chapter 7 (time stepping): explicit against implicit, and what the real-time budget trades.
-
-``fig_ch07_cfl`` (symplectic Euler's largest stable step against the element size), ``fig_ch07_energy``
-(numerical damping against bounded oscillation and blow-up) and ``fig_ch07_released_flap`` (a filmstrip and a
-GIF) let go the flap of the chapter's tests: a 2 x 1 rectangle (8 x 4 cells), stable neo-Hookean with E = 1000,
-nu = 0.3, rho0 = 1, left edge held, right edge lifted by 0.5. ``fig_ch07_budget_residual``: the residual and
-the error a frame stopped after 1, 2 or 3 Newton steps leaves (a cap, not a clock: reproducible).
-"""
+"""Figures of chapter 7 (time stepping): explicit against implicit on the released flap
+(:func:`~tissuefem.workbook.timestepping.released_flap`), and what capping a frame's Newton steps leaves."""
 
 from __future__ import annotations
 
@@ -36,14 +30,9 @@ ANIMATION_FRAMES = 50
 FILMSTRIP_FRAMES = (0, 3, 6, 10, 16, 25, 49)
 @lecture_figure
 def fig_ch07_cfl(study=None) -> Figure:
-    """Chapter 7: symplectic Euler's largest stable time step against the element size h (log-log).
-
-    For the flap refined ``nx = 4 ... 64``: the step found by bisection (unstable when the energy grows
-    tenfold) beside the estimate ``2 / omega_max``, a fit ``dt = C h^p`` (the CFL condition says ``p = 1``)
-    and the 1/30 s frame, which the fit reaches only at an element as large as the flap. Right: the Courant
-    number ``c dt / h`` (``c`` the P-wave speed) and measured / estimate. ``study``: from
-    :func:`tissuefem.workbook.timestepping.cfl_study`.
-    """
+    """Chapter 7: symplectic Euler's largest stable step (bisection) and the estimate ``2 / omega_max``
+    against h, the fit ``dt = C h^p`` (CFL: ``p = 1``) and the 1/30 s frame; right: the Courant number ``c dt
+    / h`` and measured / estimate."""
     study = cfl_study(CFL_SIZES, E=TISSUE_E, nu=TISSUE_NU) if study is None else study
     h = np.array([r["h"] for r in study])
     measured = shown([r["dt_measured"] for r in study])  # bisection and ARPACK: the last digits vary
@@ -87,15 +76,8 @@ def fig_ch07_cfl(study=None) -> Figure:
 
 @lecture_figure
 def fig_ch07_energy() -> Figure:
-    """Chapter 7: total energy of the released flap, backward Euler at three steps and symplectic Euler.
-
-    Left: backward Euler (an incremental potential, stable at any step) loses energy at every step, the
-    faster the larger the step: at 1/30 s the flap is almost at rest after two seconds, at 1/480 s it still
-    swings; the first steps remove the fast modes the release excites. Symplectic Euler at half its
-    (rest-state) critical step keeps the energy within a few percent for the whole run (middle: zoom, no
-    drift). Right, log scale: at 1.1 times the critical step it blows up within a few steps (the run stops
-    once the energy passes a million times its start). Energies are relative to the lifted flap's stored one.
-    """
+    """Chapter 7: the released flap's total energy: backward Euler damps it, the more the larger the step;
+    symplectic Euler keeps it bounded at half its critical step and blows up at 1.1 times it."""
     problem, u0 = released_flap()
     dt_crit = critical_time_step(problem)
     fig = Figure(figsize=(13.0, 4.4), layout="constrained")
@@ -163,12 +145,8 @@ def write_flap_animation(gif_path, problem, states, dt: float, dpi: int = 100) -
 
 @lecture_figure
 def fig_ch07_released_flap(path=None) -> Figure:
-    """Chapter 7: the flap let go, backward Euler at one step per frame (1/30 s), as a filmstrip.
-
-    Top: the flap at a few frames; bottom: the tip's (right edge, middle) vertical displacement against
-    time. The swing dies out within about a second: backward Euler's numerical damping, not the material's
-    (it has no viscosity). With a ``path``, also writes the run as ``<path stem>.gif`` (50 frames, 30 fps).
-    """
+    """Chapter 7: the flap let go, backward Euler at 1/30 s, as a filmstrip with the tip's displacement: the
+    swing dies out by numerical damping. With a ``path``, also writes ``<path stem>.gif``."""
     problem, u0 = released_flap()
     times, energies, states = backward_euler_run(problem, u0, FRAME_DT, ANIMATION_FRAMES - 1, frames=True)
     mesh = problem.mesh

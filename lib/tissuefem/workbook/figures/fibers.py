@@ -37,12 +37,8 @@ def _deformed_fibers(result, fibers, scale):
 
 @lecture_figure
 def fig03_fiber_field() -> Figure:
-    """Notes' Figure 3 in 2D: the fiber field g of a fusiform muscle, one short segment per element.
-
-    The muscle is :func:`tissuefem.engine.meshes.fusiform_muscle`, ``g``
-    :func:`tissuefem.engine.meshes.fusiform_fiber_field`: fibers run from tendon to tendon, fan out into the belly
-    and converge again.
-    """
+    """Notes' Figure 3 in 2D: the fiber field of the fusiform muscle
+    (:func:`~tissuefem.engine.meshes.fusiform_fiber_field`), one segment per element."""
     mesh = fusiform_muscle(nx=32, ny=8)
     g = fusiform_fiber_field(mesh)
     c = mesh.p[:, mesh.t].mean(axis=1)  # element centroids
@@ -68,12 +64,9 @@ def fig03_fiber_field() -> Figure:
 
 @lecture_figure
 def fig_ch05_along_vs_across() -> Figure:
-    """Chapter 5: a strip pulled along, at 45 degrees to and across its fibers, and the confined modulus.
-
-    Top: the strip (clamped ends, free sides) at stretch 1.3, deformed fibers drawn as ``F g``. Bottom
-    left: force-stretch curves. Bottom right: the small-strain confined modulus against the fiber angle,
-    finite elements (dots) on the prediction ``lam + 2 mu + k cos^4 theta``.
-    """
+    """Chapter 5: a strip pulled along, at 45 degrees to and across its fibers (at stretch 1.3; force-stretch
+    curves), and the small-strain confined modulus against the fiber angle on its prediction ``lam + 2 mu + k
+    cos^4 theta``."""
     cases = [(0.0, "fibers along the pull (0°)", "C3"), (45.0, "fibers at 45°", "C2"),
              (90.0, "fibers across the pull (90°)", "C0"), (None, "no fibers", "0.35")]
     stretches = np.linspace(1.0, 1.3, 13)
@@ -125,11 +118,8 @@ def fig_ch05_along_vs_across() -> Figure:
 
 @lecture_figure
 def fig_ch05_muscle_pull() -> Figure:
-    """Chapter 5: the fusiform muscle pulled by its right tendon, with and without fibers.
-
-    Left: the deformed muscle at stretch 1.2 (tendon to tendon; dashed: rest shape), coloured by the
-    stretch ``sqrt(I4) = |F g|`` along the anatomical fiber direction. Right: the tendon force.
-    """
+    """Chapter 5: the fusiform muscle pulled by its right tendon, with and without fibers: the shape at
+    stretch 1.2 coloured by the fiber stretch ``|F g|``, and the tendon force."""
     stretches = np.linspace(1.0, 1.2, 9)
     runs = [(False, "isotropic (no fibers)", "0.35"), (True, f"with fibers, k = {K_FIBER:g}", "C3")]
     fig = Figure(figsize=(10.0, 5.0), layout="constrained")

@@ -23,12 +23,8 @@ MODEL_COLORS = ("C0", "C2", "C1", "C3")
 
 
 def draw_state(ax, mesh, x, *, J=None, alpha: float = 1.0, tol: float = 1e-12) -> int:
-    """Draw the mesh with its nodes at ``x``: upright triangles blue, ``J <= 0`` red. Returns the red count.
-
-    The fill is translucent, so where the mesh lies on top of itself the overlap shows darker; inverted
-    triangles are drawn last, on top. ``J`` (one per element) colours by another state's Jacobians, e.g.
-    the reference mesh by where the deformation will invert it; ``alpha`` fades the whole drawing.
-    """
+    """Draw the mesh with nodes at ``x``, translucent (overlaps show darker): upright triangles blue, ``J <=
+    0`` red, on top (``J``: another state's, per element; ``alpha`` fades all). Returns the red count."""
     J = element_jacobians(mesh, x) if J is None else np.asarray(J, dtype=float)
     bad = J <= tol
     verts = np.asarray(x, dtype=float)[:, mesh.t].transpose(2, 1, 0)  # (n_elements, 3, 2)
@@ -48,13 +44,9 @@ def frame_depths(mesh, frames) -> np.ndarray:
 
 @lecture_figure
 def fig06_crush_release(runs=None) -> Figure:
-    """Notes' Figure 6 as an experiment: a block crushed to flat and past it, then let go, for four models.
-
-    Rows: the ``ln J`` neo-Hookean model, the notes' cubic-Taylor variant and stable neo-Hookean (both
-    with the projected tangent), and the ITF-clamped ``ln J`` model. Columns: the top edge pushed down by
-    0, 0.5, 0.9, 1 (flat) and 1.3 (past flat), bottom edge held, then the released shape. Red: ``J <= 0``;
-    a panel the crush did not reach shows its last state, faded. ``runs``: from :func:`crush_and_release_runs`.
-    """
+    """Notes' Figure 6 as an experiment: a block crushed to flat and past it, then let go, one row per model
+    of :func:`~tissuefem.workbook.hardcases.inversion_models` (red: ``J <= 0``; faded: a depth the crush did
+    not reach)."""
     mesh = block()
     runs = crush_and_release_runs(mesh=mesh) if runs is None else runs
     xlim, ylim = (-0.38, 1.38), (-0.68, 1.12)
@@ -102,14 +94,9 @@ def fig06_crush_release(runs=None) -> Figure:
 
 @lecture_figure
 def fig_ch06_itf_energy() -> Figure:
-    """Chapter 6: the four models' energy along one signed singular value, and along a shrink to F = 0.
-
-    Left: ``Psi(diag(1, s1))`` for ``s1`` from -1 (turned inside out) to 1.6; middle: its slope
-    ``dPsi/ds1``, the stress that pushes the element back. The ``ln J`` model ends at ``s1 = 0``; the
-    ITF-clamped model leaves it at the threshold ``c`` with a finite slope plus a spring. Right: a uniform
-    shrink ``F = t I``: the Taylor and stable models reach ``F = 0`` with zero slope (a stationary point),
-    the ITF-clamped model with a finite one (it pushes outward).
-    """
+    """Chapter 6: the four models' energy ``Psi(diag(1, s2))`` and its slope (the push back) along a signed
+    singular value, and the energy along a shrink ``F = t I`` to 0: Taylor and stable reach it with zero
+    slope, ITF-clamped with a finite one."""
     models = inversion_models(TISSUE_E, TISSUE_NU)
     c = models["ITF-clamped neo-Hookean"].threshold
     s1 = np.linspace(-1.0, 1.6, 521)

@@ -57,20 +57,9 @@ def _outline(width, height, samples: int = 60) -> np.ndarray:
 
 @lecture_figure
 def fig02_kinematics() -> Figure:
-    """Notes' Figure 2: reference and deformed mesh, a point X carried to x = phi(X), F acting on dX, and P.
-
-    The block B0 = [0, 2] x [0, 1] is bent into an arch by :func:`tissuefem.workbook.studies.bending_map`;
-    every edge of the reference mesh is drawn, and its exact (curved) image. The grey arrow is the
-    displacement u(X) = phi(X) - X of one material point; the coloured arrows are two short material
-    vectors dX at X and their images dx = F dX at x: the columns of F = d phi / d X are the images of the
-    unit vectors.
-
-    Right, the figure's stress half at the same point: a small square around X with a diagonal cut (unit
-    normal N) and its image under F. The first Piola-Kirchhoff stress P (Neo-Hookean, E = 1000, nu = 0.3)
-    maps N to the force the material beyond the cut exerts across it per unit *reference* length (area in
-    3D): t dA = P N dA. The same force is sigma n da per unit *deformed* length, with the deformed normal n
-    and the Cauchy stress sigma = P F^T / J (Nanson: n da = J F^-T N dA).
-    """
+    """Notes' Figure 2: the block bent by :func:`~tissuefem.workbook.studies.bending_map`, a point X carried
+    to x = phi(X), vectors dX and their images F dX (the columns of F). Right: a cut of normal N at X and its
+    image: the force across it is P N dA = sigma n da (sigma = P F^T / J; Nanson: n da = J F^-T N dA)."""
     mesh = rectangle(2.0, 1.0, 8, 4)
     fig = Figure(figsize=(13.2, 3.9), layout="constrained")
     ax, ax_s = fig.subplots(1, 2, width_ratios=[9.0, 3.9])
@@ -168,12 +157,9 @@ def _deformed_area(problem, u) -> float:
 
 @lecture_figure
 def fig_ch03_rotation_stress() -> Figure:
-    """Chapter 3: a rigid rotation stresses linear elasticity, not Neo-Hookean; a turned block grows.
-
-    Left and middle: energy density and stress norm |P| at F = R(theta), 0 <= theta <= 180 degrees. Right:
-    a unit block, its left edge clamped to a wall turned by 60 degrees (other edges free), at equilibrium:
-    the Neo-Hookean block turns rigidly, the linear-elastic one is strained and its area grows.
-    """
+    """Chapter 3: a rigid rotation stresses linear elasticity, not Neo-Hookean (energy and |P| at F =
+    R(theta)); right: a block clamped to a wall turned by 60 degrees, which the linear model strains and
+    grows."""
     linear = LinearElastic.from_young(TISSUE_E, TISSUE_NU)
     neo = NeoHookean.from_young(TISSUE_E, TISSUE_NU)
     deg = np.linspace(0.0, 180.0, 181)
@@ -222,11 +208,8 @@ def fig_ch03_rotation_stress() -> Figure:
 
 @lecture_figure
 def fig_ch04_block() -> Figure:
-    """Chapter 4: the Neo-Hookean block stretched and sheared by its handles, coloured by J and by Psi.
-
-    Block [0, 2] x [0, 1], 24 x 12 cells (P1); left edge fixed, right edge moved by (0.6, 0.4) (one load
-    step). Per triangle: the area ratio J = det F (white = no change) and the energy density Psi.
-    """
+    """Chapter 4: the Neo-Hookean block (24 x 12 cells, P1) stretched and sheared by its handles, coloured by
+    J = det F and by Psi."""
     problem, u = stretched_block()
     F = problem.deformation_gradient(u)
     J = F[0, 0] * F[1, 1] - F[0, 1] * F[1, 0]
@@ -263,12 +246,9 @@ def fig_ch04_block() -> Figure:
 
 @lecture_figure
 def fig_ch04_cost_accuracy(rows=None) -> Figure:
-    """Chapter 4: L2 displacement error against solve time, P1 against P2, with the 33 ms frame budget.
-
-    ``rows`` from :func:`tissuefem.workbook.studies.cost_accuracy_study`; by default the recorded run
-    :data:`tissuefem.workbook.studies.RECORDED_COST_ACCURACY` (a deterministic figure). Left: the whole solve from
-    rest; right: one Newton iteration at the solution, the least a warm-started frame needs. Labels: dofs.
-    """
+    """Chapter 4: L2 displacement error against time (the whole solve; one Newton iteration), P1 against P2,
+    with the 33 ms frame budget; ``rows`` default to
+    :data:`~tissuefem.workbook.studies.RECORDED_COST_ACCURACY`."""
     source = "recorded run" if rows is None else "this run"
     rows = RECORDED_COST_ACCURACY if rows is None else list(rows)
     fig = Figure(figsize=(11.0, 4.4), layout="constrained")

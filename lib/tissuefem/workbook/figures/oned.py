@@ -13,11 +13,9 @@ from .base import lecture_figure, shown
 
 @lecture_figure
 def fig05_admissible_maps() -> Figure:
-    """Notes' Figure 5: phi(X) = X^2 (admissible) beside phi(X) = sin(2 pi X) (inverting).
-
-    Top: the maps, shaded where phi'(X) <= 0. Bottom: material points X (bottom line) joined to their
-    images (top line); crossing lines are material folded onto itself.
-    """
+    """Notes' Figure 5: phi(X) = X^2 (admissible) beside phi(X) = sin(2 pi X) (inverting): the maps, shaded
+    where phi'(X) <= 0, and material points joined to their images (crossing lines: material folded onto
+    itself)."""
     X = np.linspace(0.0, 1.0, 401)
     maps = [
         ("admissible: $\\phi(X) = X^2$", X**2, 2.0 * X),
@@ -51,11 +49,8 @@ def fig05_admissible_maps() -> Figure:
 
 @lecture_figure
 def fig07_neo_hookean_1d() -> Figure:
-    """Notes' Figure 7: 1D Neo-Hookean energy and stress against J = F.
-
-    The ln J model (blue) is undefined for J <= 0 and blows up as J -> 0+; the cubic-Taylor r(J) model
-    (green) matches it near J = 1 and stays finite through inversion. Linear (grey): the tangent at J = 1.
-    """
+    """Notes' Figure 7: 1D Neo-Hookean energy and stress against J = F: ln J (undefined for J <= 0), the
+    cubic-Taylor r(J) model (finite through inversion) and linear."""
     models = [
         (NeoHookean1D.from_young(TISSUE_E, TISSUE_NU), "C0", "-", "ln J (notes' model)"),
         (TaylorNeoHookean1D.from_young(TISSUE_E, TISSUE_NU), "C2", "-", "cubic Taylor r(J)"),

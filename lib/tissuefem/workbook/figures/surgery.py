@@ -1,10 +1,6 @@
-"""Figures of chapter 8 (virtual surgery): an incision, a cut through two pieces, a probe and a flap.
-
-The runs are :mod:`tissuefem.workbook.procedures`' (on a clock that never advances: the files are byte-identical
-from run to run). Elements are coloured by their largest principal Cauchy stress
-(:meth:`tissuefem.surgery.simulation.Simulation.tension`) on one diverging scale per figure: red is pulled
-apart, blue is pressed together, white is at rest.
-"""
+"""Figures of chapter 8 (virtual surgery) from :mod:`tissuefem.workbook.procedures`' runs: an incision, a cut
+through two pieces, a probe and a flap. Colour: the tension
+(:meth:`~tissuefem.surgery.simulation.Simulation.tension`), red pulled apart, blue pressed together."""
 
 from __future__ import annotations
 
@@ -73,13 +69,8 @@ def tension_colorbar(fig, norm, axes, label="tension: largest principal Cauchy s
 
 @lecture_figure
 def fig_ch08_incision() -> Figure:
-    """Chapter 8: an incision in a pulled sheet: before and after the cut, coloured by tension.
-
-    A 2 x 1 sheet (quasistatic), left edge held, right edge pulled 0.4, is cut from above the top edge to
-    mid-height: the nodes along the stroke are duplicated (the tip is not), the state carries over, and
-    the next frame lets the wound gape. The tension the cut released around its lips moves to its tip.
-    Dark lines: the wound's edges; dashed outline: the sheet at rest.
-    """
+    """Chapter 8: an incision in a pulled sheet before and after the cut, coloured by tension: the nodes along
+    the stroke are duplicated and the tension moves to the tip."""
     run = incision_run()
     before, after = run["before"], run["after"]
     norm = tension_norm(before["tension"], after["tension"])
@@ -153,14 +144,9 @@ def write_two_pieces_animation(gif_path, run, dpi=120) -> Path:
 
 @lecture_figure
 def fig_ch08_two_pieces(path=None) -> Figure:
-    """Chapter 8: a sheet under gravity cut through from top to bottom; the free piece falls away (filmstrip).
-
-    A 2 x 1 sheet (rho0 = 1, g = 9.81, backward Euler at 1/30 s a frame) hangs from its left edge for 12
-    frames; a stroke at x = 1 then cuts it in two: the held piece (blue) keeps swinging, the free one
-    (orange) falls. Bottom: the heights of the two parts' centres of mass; from the cut on, the free
-    piece's follows backward Euler's discrete free fall ``y_k = y_c + k dt v_c - g dt^2 k (k + 1) / 2``
-    (its internal forces cancel). With a ``path``, also writes the run as ``<path stem>.gif``.
-    """
+    """Chapter 8: a sheet hanging under gravity cut in two; the free piece falls (filmstrip) and its centre of
+    mass follows backward Euler's discrete free fall ``y_k = y_c + k dt v_c - g dt^2 k (k + 1) / 2``. With a
+    ``path``, also writes ``<path stem>.gif``."""
     run = two_pieces_run()
     frames, times, cut = run["frames"], run["times"], run["cut_frame"]
     shown = [frames[k] for k in FILMSTRIP]
@@ -205,14 +191,9 @@ def fig_ch08_two_pieces(path=None) -> Figure:
 
 @lecture_figure
 def fig_ch08_probe() -> Figure:
-    """Chapter 8: a rigid disc (a tool tip) pressed into the top edge of a block, at two depths.
-
-    A 2 x 1 block (quasistatic) held on its bottom edge; a disc of radius 0.25 moved down into its top
-    edge, one frame per step of 0.05. The contact is a surface penalty: every boundary node inside the
-    disc is pushed out along the normal with the force ``k l_a h'(R - d_a) n_a`` (arrows, scaled; ``l_a``
-    its share of the boundary's length, see :class:`~tissuefem.engine.terms.Probe`). Right: the force on
-    the tool against the depth, and the penetration left.
-    """
+    """Chapter 8: a rigid disc pressed into a block held on its bottom edge, at two depths, with the penalty's
+    nodal forces ``k l_a h'(R - d_a) n_a`` (:class:`~tissuefem.engine.terms.Probe`); right: the force on the
+    tool and the penetration against depth."""
     run = probe_run()
     states, R = run["states"], run["radius"]
     sel = [i for i, s in enumerate(states) if any(np.isclose(s["depth"], d) for d in PROBE_SHOWN)]
@@ -270,14 +251,8 @@ def stitch_arcs(a, b, bulge=0.18, n=12) -> np.ndarray:
 
 @lecture_figure
 def fig_ch08_flap(runs=None) -> Figure:
-    """Chapter 8: a local advancement flap closes a defect (after Sifakis et al. 2009); the tension it leaves.
-
-    A 4 x 2 patch of skin held on its outer edges: (a) a 0.6 x 0.6 defect excised, two incisions continuing
-    its top and bottom edges for the flap's length; thin lines: the planned stitches, from each wound node
-    of the flap to where the advance (0.6 to the left) takes it. (b) The stitches tightened over six
-    quasistatic frames, coloured by tension, stitches as dots. (c) The mean tension in the flap and over
-    the patch for three flap lengths: a longer flap spreads the same advance over more skin.
-    """
+    """Chapter 8: an advancement flap closes a 0.6 x 0.6 defect (after Sifakis et al. 2009): (a) cut, stitches
+    planned, (b) sutured, coloured by tension, (c) the mean tension for three flap lengths."""
     runs = flap_runs() if runs is None else runs
     result = runs[FLAP_SHOWN]
     sim = result.simulation

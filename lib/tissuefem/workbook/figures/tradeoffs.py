@@ -1,9 +1,6 @@
-"""Chapter 9 figures: what accuracy costs in time; and the plot of ``bench realtime``'s results.
-
-The three study figures are drawn from a results dict of :func:`tissuefem.workbook.bench.accuracy_cost.accuracy_study`:
-the lecture figures from the recorded full study shipped with the package (the same on every machine),
-``bench accuracy`` from its own fresh run. The verification figure is computed afresh (errors only, no clock).
-"""
+"""Chapter 9 figures: what accuracy costs in time, drawn from the results of
+:func:`~tissuefem.workbook.bench.accuracy_cost.accuracy_study` (the lecture figures: the recorded full study);
+and the plot of ``bench realtime``'s results."""
 
 from __future__ import annotations
 
@@ -58,12 +55,8 @@ def _finite(r) -> bool:
 
 
 def plot_pareto(results, path=None, annotate=True) -> Figure:
-    """Error against ms per frame for every setting of every knob, one panel per benchmark, with the budget line.
-
-    Each knob is one curve through its settings (in the order swept); the baseline is the black star; the
-    grey staircase is the Pareto front of the panel's settings (nothing is both faster and more accurate
-    by more than :data:`ERROR_RESOLUTION`). One legend beside both panels: every knob in either.
-    """
+    """Error against ms per frame for every knob's settings, one panel per benchmark, with the baseline
+    (star), the Pareto front (grey; resolution :data:`ERROR_RESOLUTION`) and the budget line."""
     rows = results["knobs"]
     benchmarks = list(dict.fromkeys(r["benchmark"] for r in rows))
     fig = Figure(figsize=(6.2 * len(benchmarks) + 2.6, 5.0), layout="constrained")
