@@ -43,12 +43,6 @@ class CFLStudy:
     def __iter__(self):
         return iter(self.rows)
 
-    def __len__(self):
-        return len(self.rows)
-
-    def __getitem__(self, i):
-        return self.rows[i]
-
 
 def cfl_study(sizes=(4, 8, 16, 32), *, E: float = TISSUE_E, nu: float = TISSUE_NU, density: float = TISSUE_DENSITY,
               material=None, width: float = 2.0, height: float = 1.0, **measure) -> CFLStudy:

@@ -6,7 +6,6 @@ from __future__ import annotations
 import csv
 import json
 import math
-import numbers
 import os
 import platform
 import sys
@@ -15,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...engine.parameters import ParameterError
+from ...engine.parameters import ParameterError, check_count
 
 __all__ = ["machine_info", "check_sizes", "write_json", "write_csv", "load_results"]
 
@@ -49,10 +48,7 @@ def check_sizes(sizes):
         raise ParameterError("sizes", f"sizes must be a sequence of positive integers, got {sizes!r}") from None
     if not sizes:
         raise ParameterError("sizes", "sizes must contain at least one mesh size")
-    for s in sizes:
-        if isinstance(s, bool) or not isinstance(s, numbers.Integral) or s <= 0:
-            raise ParameterError("sizes", f"sizes must be positive integers (triangle counts), got {s!r}")
-    return [int(s) for s in sizes]
+    return [check_count("sizes", s) for s in sizes]
 
 
 def _json_ready(x):

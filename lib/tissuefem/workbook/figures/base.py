@@ -22,14 +22,12 @@ DPI = 110
 #: the least width of an animation in pixels: large enough to project in a lecture room
 ANIMATION_MIN_WIDTH = 640
 
-#: the matplotlib minor version that drew the committed PNGs. Versions up to 3.10 bundle
-#: FreeType 2.6.1 and 3.11 FreeType 2.14: every text is rasterised differently, so every
-#: PNG changes between them. Within 3.11 the files are the same byte for byte.
+#: the matplotlib minor version that drew the committed PNGs: up to 3.10 it bundles FreeType 2.6.1, 3.11
+#: FreeType 2.14, which rasterises every text differently. Within 3.11 the files are the same byte for byte.
 FIGURES_MATPLOTLIB = "3.11"
 
-#: significant digits of the data a figure draws. Round-off (another numpy, BLAS or processor)
-#: changes the tenth digit or a later one; drawn unrounded, it can move a line or a marker by
-#: a fraction of a pixel and change the PNG's bytes, rounded it cannot (but at a tie).
+#: significant digits of the data a figure draws: round-off (another numpy, BLAS or processor) changes a
+#: later digit, which drawn unrounded could move a line by a fraction of a pixel and change the PNG's bytes.
 SHOWN_DIGITS = 3
 
 
@@ -60,11 +58,8 @@ def matplotlib_note() -> str | None:
 
 
 def whole_pixels(inches: float, dpi: float = DPI) -> float:
-    """``inches``, nudged up by an ulp or two when it is a whole number of pixels at ``dpi`` but
-    its product with ``dpi`` falls just short of it in floating point (any other size is unchanged).
-
-    4.6 in at 110 dpi is 505.99999999999994 px: matplotlib up to 3.11.0 truncates that to 505 px,
-    3.11.1 and later add 1e-8 px first and make it 506. Nudged to 506.00000000000006, all agree.
+    """``inches``, nudged up by an ulp or two when ``inches * dpi`` falls just short of a whole number of
+    pixels: 4.6 in at 110 dpi is 505.99999999999994 px, 505 px for matplotlib up to 3.11.0, 506 from 3.11.1.
     """
     pixels = round(inches * dpi)
     if abs(inches * dpi - pixels) > 1e-6:
@@ -76,9 +71,8 @@ def whole_pixels(inches: float, dpi: float = DPI) -> float:
 
 
 def shown(values, floor=None, digits=SHOWN_DIGITS) -> np.ndarray:
-    """Data as a figure draws it: rounded to ``digits`` significant digits (fewer for data whose
-    own noise is larger than round-off), and with ``floor`` (a round-off level, for positive data
-    on a log axis) raised to at least it."""
+    """Data as a figure draws it: rounded to ``digits`` significant digits, and raised to at least ``floor``
+    (a round-off level, for positive data on a log axis)."""
     a = np.array(values, dtype=float)
     if floor is not None:
         a = np.maximum(a, floor)
@@ -91,8 +85,7 @@ NEGLIGIBLE = 1e-10
 
 
 def at_least(value: float, level: float = NEGLIGIBLE, spec: str = ".2g") -> str:
-    """``value`` formatted for a label, or ``< level`` when it is below ``level``: the digits of
-    a round-off-sized number differ from one machine (or one solver version) to the next."""
+    """``value`` formatted for a label, or ``< level`` below it (a round-off-sized number's digits vary)."""
     if abs(value) >= level:
         return format(value, spec)
     power = math.log10(level)
@@ -111,8 +104,7 @@ def save(fig: Figure, path) -> None:
 
 
 def animation_figure(figsize, top: float, xlim, ylim, title_y: float, fontsize: float):
-    """An animation's figure, ``(fig, ax, title)``: fixed axes (every frame has the same layout) with the
-    held left edge drawn, and an empty title text for each frame to set."""
+    """``(fig, ax, title)`` of an animation: fixed axes with the held left edge drawn, and an empty title."""
     fig = Figure(figsize=figsize)
     ax = fig.add_axes([0.02, 0.02, 0.96, top])
     frame_axes(ax, xlim, ylim)
