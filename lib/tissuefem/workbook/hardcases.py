@@ -20,8 +20,8 @@ from ..engine.realtime import RealtimeSolver
 from ..engine.stepping import solve
 
 __all__ = ["inversion_models", "block", "start_states", "ReleaseResult", "release", "crush_and_release",
-           "crush_and_release_runs", "crush_in_frames", "element_jacobians", "cover_counts", "drag_through",
-           "RELEASE_OPTIONS"]
+           "crush_and_release_runs", "crush_in_frames", "twice_signed_areas", "element_jacobians",
+           "cover_counts", "drag_through", "RELEASE_OPTIONS"]
 
 #: Newton options of a release solve: absolute residual tolerance (the start residual is huge,
 #: so a relative one would stop early), a step cap and room for the creeping iterations.
@@ -189,16 +189,15 @@ def crush_in_frames(material, mesh=None, depth: float = 1.3, steps: int = 13, ex
             "released": release(mesh, material, x, held=_bottom(mesh))}
 
 
+def twice_signed_areas(mesh, x) -> np.ndarray:
+    """Twice the signed area of each triangle, nodes at ``x`` ``(2, n_nodes)`` (> 0: anticlockwise)."""
+    a, b, c = (np.asarray(x, dtype=float)[:, mesh.t[k]] for k in range(3))
+    return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+
+
 def element_jacobians(mesh, x) -> np.ndarray:
-    """``J = det F`` of every P1 triangle with its nodes at ``x`` ``(2, n_nodes)``: the ratio of signed areas.
-    """
-    x = np.asarray(x, dtype=float)
-
-    def twice_signed_area(p):
-        a, b, c = (p[:, mesh.t[k]] for k in range(3))
-        return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
-
-    return twice_signed_area(x) / twice_signed_area(np.asarray(mesh.p, dtype=float))
+    """``J = det F`` of every P1 triangle with its nodes at ``x``: the ratio of signed areas."""
+    return twice_signed_areas(mesh, x) / twice_signed_areas(mesh, mesh.p)
 
 
 def cover_counts(mesh, x, tol: float = 1e-9) -> np.ndarray:

@@ -104,11 +104,10 @@ def best_within_budget(costs, errors, budget, rtol: float = 0.0):
     """Index of the most accurate setting costing at most ``budget``, or ``None``; errors within ``1 + rtol``
     of the smallest tie and the cheapest wins (no winner by the last digits); non-finite entries never
     qualify."""
-    c, e = _costs_errors(costs, errors)[:2]
+    c, e, factor = _costs_errors(costs, errors, rtol)
     budget = float(budget)
     if not budget > 0:
         raise ValueError(f"budget must be > 0, got {budget!r}")
-    factor = 1.0 + check_real("rtol", rtol, 0.0)
     ok = np.flatnonzero(np.isfinite(c) & np.isfinite(e) & (c <= budget))
     if ok.size == 0:
         return None

@@ -14,6 +14,7 @@ from ..engine.materials import LinearElastic
 from ..engine.materials import material as make_material
 from ..engine.meshes import rectangle
 from ..engine.model import Handle, Model
+from ..engine.parameters import check_count
 from ..engine.stepping import solve
 from ..engine.terms import Load
 from .measure import fitted_exponent
@@ -45,8 +46,7 @@ def beam_problem_tip(nx: int, ny: int, order: int = 2, *, length=48.0, depth=12.
                      nu=0.3) -> tuple[float, float]:
     """``(computed, exact)`` tip deflection ``u_y(L, 0)`` of :func:`beam_exact`'s cantilever, held on the
     exact displacement at ``x = 0`` and loaded by the exact shear at ``x = L`` (8.9e-3 with the defaults)."""
-    if order not in (1, 2):
-        raise ValueError(f"order must be 1 or 2, got {order!r}")
+    check_count("order", order, 1, 2)
     mesh = rectangle(length, depth, int(nx), int(ny))
     mesh = MeshTri(mesh.p - np.array([[0.0], [depth / 2.0]]), mesh.t)
     mesh = mesh.with_boundaries({"left": lambda p: np.isclose(p[0], 0.0),

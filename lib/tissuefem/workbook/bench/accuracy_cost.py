@@ -24,7 +24,7 @@ from ...engine.linsolve import LinearSolver, available
 from ...engine.materials import MATERIALS, material as make_material
 from ...engine.meshes import flap
 from ...engine.model import Handle, Model
-from ...engine.parameters import check_count, check_real
+from ...engine.parameters import check_count, check_real, string
 from ...engine.realtime import RealtimeSolver
 from ...engine.stepping import solve
 from ...surgery.scene import Scene, flap_path, flap_scene
@@ -94,13 +94,10 @@ class Setting:
     def check(self) -> "Setting":
         for name in ("triangles", "max_iterations", "substeps"):
             check_count(f"setting {name}", getattr(self, name))
-        if self.order not in (1, 2):
-            raise ValueError(f"setting order must be 1 or 2, got {self.order!r}")
-        if self.material not in MATERIALS:
-            raise ValueError(f"setting material must be one of {sorted(MATERIALS)}, got {self.material!r}")
+        check_count("setting order", self.order, 1, 2)
+        string("setting material", self.material, sorted(MATERIALS))
         check_real("setting rtol", self.rtol, 0.0, 1.0, lo_open=True, hi_open=True)
-        if not isinstance(self.linear_solver, str):
-            raise ValueError(f"setting linear_solver must be a name, got {self.linear_solver!r}")
+        string("setting linear_solver", self.linear_solver)
         try:
             LinearSolver(self.linear_solver) if _runnable(self.linear_solver) else None
         except ValueError as err:
@@ -190,9 +187,7 @@ def run_setting(benchmark: str, setting: Setting, frames: int, checkpoints=(), b
     :func:`eased_flap_path`). Returns ``(model, states, stats)``: ``states`` maps each checkpoint frame to a copy
     of ``u``; ``stats`` holds the ms per frame (summed over substeps), iteration counts, convergence, residuals.
     """
-    if benchmark not in BENCHMARKS:
-        raise ValueError(f"benchmark must be one of {BENCHMARKS}, got {benchmark!r}")
-    if benchmark == "block" and setting.substeps != 1:
+    if string("benchmark", benchmark, BENCHMARKS) == "block" and setting.substeps != 1:
         raise ValueError("the quasistatic block has no time step: substeps must be 1")
     sim = make_simulation(setting, benchmark, budget=budget, clock=clock)
     states, stats = _drive(sim.solver, benchmark, frames, setting.substeps, checkpoints, drag)
@@ -469,9 +464,7 @@ def budget_residual(sizes, frames: int, solvers=("reuse",), budget: float = FRAM
 
 
 def _drag_path(drag: str):
-    if drag not in ("jump", "eased"):
-        raise ValueError(f"drag must be 'jump' or 'eased', got {drag!r}")
-    return flap_path if drag == "jump" else eased_flap_path
+    return flap_path if string("drag", drag, ("jump", "eased")) == "jump" else eased_flap_path
 
 
 def time_convergence(drag: str = "jump", triangles: int = 500, substeps=(1, 2, 4, 8, 16), frames: int = 5) -> dict:
@@ -539,8 +532,7 @@ def accuracy_study(plan="full", benchmarks=BENCHMARKS, knobs=None, scaling: bool
     dict."""
     name, plan = _plan(plan)
     for b in benchmarks:
-        if b not in BENCHMARKS:
-            raise ValueError(f"benchmarks must be among {BENCHMARKS}, got {b!r}")
+        string("benchmarks", b, BENCHMARKS)
     say = progress or (lambda *_: None)
     started = time.perf_counter()
     # one untimed run first: imports, caches and the allocator warm up before anything is timed

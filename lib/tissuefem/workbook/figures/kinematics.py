@@ -13,6 +13,7 @@ from matplotlib.tri import Triangulation
 from ...engine.constants import FRAME_BUDGET, TISSUE_E, TISSUE_NU
 from ...engine.materials import LinearElastic, NeoHookean
 from ...engine.meshes import rectangle
+from ..hardcases import twice_signed_areas
 from ..studies import (BLOCK_HANDLE, RECORDED_COST_ACCURACY, bending_gradient, bending_map, rigid_rotation_response,
                        rotated_block, rotation, stretched_block)
 from .base import at_least, lecture_figure, shown
@@ -148,13 +149,6 @@ def _stress_half(ax, F0) -> None:
                  "to the force across it per unit reference area", fontsize=10)
 
 
-def _deformed_area(problem, u) -> float:
-    x = problem.deformed_positions(u)
-    t = problem.mesh.t
-    a, b, c = x[:, t[0]], x[:, t[1]], x[:, t[2]]
-    return float(0.5 * np.sum((b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1])))
-
-
 @lecture_figure
 def fig_ch03_rotation_stress() -> Figure:
     """Chapter 3: a rigid rotation stresses linear elasticity, not Neo-Hookean (energy and |P| at F =
@@ -189,7 +183,7 @@ def fig_ch03_rotation_stress() -> Figure:
         x = np.round(problem.deformed_positions(result.u), 4)  # drawn to 1e-4: round-off moves no line
         loop = x[:, _boundary_loop(8, 8)]
         tri = Triangulation(x[0], x[1], problem.mesh.t.T)
-        ratio = _deformed_area(problem, result.u)  # the reference area is 1
+        ratio = float(0.5 * np.sum(twice_signed_areas(problem.mesh, problem.deformed_positions(result.u))))
         energy = abs(problem.stored_energy(result.u))
         ax_b.fill(loop[0], loop[1], color=color, alpha=0.15, lw=0)
         ax_b.triplot(tri, color=color, lw=0.3, alpha=0.6)
