@@ -37,8 +37,6 @@ __all__ = [
 ]
 
 
-# --- chapter 1 -----------------------------------------------------------------------------------
-
 def linear_modulus_1d(lam, mu):
     """Exercise 1.1: the 1D small-strain modulus ``dP/dF`` at rest, ``lam + 2 mu`` (the notes print ``2 mu - lam``)."""
     return NeoHookean1D(lam, mu).modulus
@@ -48,8 +46,6 @@ def assemble_stiffness_1d(nodes, modulus) -> np.ndarray:
     """Exercise 1.2: the dense P1 stiffness ``A_ij = modulus int N_i' N_j' dX`` on the given nodes."""
     return Bar1D(nodes=nodes).stiffness(modulus).toarray()
 
-
-# --- chapter 2 -----------------------------------------------------------------------------------
 
 def neo_hookean_stress_1d(F, lam, mu):
     """Exercise 2.1: ``P(F) = mu F + (lam ln F - mu) / F``."""
@@ -77,8 +73,6 @@ def newton_step_1d(nodes, u, lam, mu, traction) -> np.ndarray:
                     rtol=0.0)
     return result.x
 
-
-# --- chapter 3 -----------------------------------------------------------------------------------
 
 def _single_F(F) -> np.ndarray:
     F = np.asarray(F, dtype=float)
@@ -119,8 +113,6 @@ def linear_elastic_stress_2d(F, lam, mu) -> np.ndarray:
     """Exercise 3.3: ``P = 2 mu eps + lam tr(eps) I``, ``eps = (F + F^T)/2 - I``, for one 2x2 ``F``."""
     return LinearElastic(lam, mu).stress(_single_F(F))
 
-
-# --- chapter 4 -----------------------------------------------------------------------------------
 
 def neo_hookean_energy_2d(F, lam, mu) -> float:
     """Exercise 4.1: ``Psi = mu/2 (F:F - 2) - mu ln J + lam/2 (ln J)^2`` for one 2x2 ``F``."""
@@ -173,8 +165,6 @@ def newton_line_search(u0, energy, gradient, hessian, free, rtol=1e-8, max_itera
     return result.x, result.iterations
 
 
-# --- chapter 6 -----------------------------------------------------------------------------------
-
 def taylor_log(J):
     """Exercise 6.2: ``(r(J), r'(J))``, the notes' cubic Taylor polynomial of ``ln J`` at 1 and its derivative."""
     return _r(J), _r_prime(J)
@@ -184,8 +174,6 @@ def taylor_neo_hookean_stress(F, lam, mu):
     """Exercise 6.3: ``P = mu F + (lam r - mu) r' cof F`` (the cofactor, not the notes' adjugate)."""
     return TaylorNeoHookean(lam, mu).stress(F)
 
-
-# --- chapter 7 -----------------------------------------------------------------------------------
 
 def backward_euler_residual(M, u, u_n, v_n, dt, f_int, f_ext):
     """Exercise 7.1: ``M (u - u_n - dt v_n) + dt^2 (f_int - f_ext)``: ``dt^2`` times the gradient of the
@@ -214,8 +202,6 @@ def budgeted_newton(x0, energy, gradient, newton_step, clock, budget, rtol):
     return result.x, result.iterations, result.converged
 
 
-# --- chapter 8 -----------------------------------------------------------------------------------
-
 def duplicate_cut_nodes(t, n_nodes, cut_edges):
     """Exercise 8.1: node duplication along a cut (the library's cutting core)."""
     return duplicate_along_edges(t, n_nodes, cut_edges)
@@ -237,14 +223,10 @@ def scene_file_text():
     ).to_toml()
 
 
-# --- chapter 9 -----------------------------------------------------------------------------------
-
 def pareto_front(costs, errors):
     """Exercise 9.1: indices of the non-dominated settings, by increasing cost (a list)."""
     return _pareto_front(costs, errors).tolist()
 
-
-# --- chapter 10 ----------------------------------------------------------------------------------
 
 def _barycentric(triangle, p):
     T = np.asarray(triangle, dtype=float)

@@ -59,8 +59,6 @@ def predicted_confined_modulus(angle_deg, *, stiffness=K_FIBER, base=None) -> fl
     return base.lam + 2.0 * base.mu + fiber_modulus_gain(stiffness, angle_deg)
 
 
-# --- pulling experiments ---------------------------------------------------------------
-
 @dataclass
 class PullResult:
     """A pull test: ``forces[s]``, the X force (per unit thickness) holding the pulled edge at

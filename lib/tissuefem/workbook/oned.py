@@ -11,8 +11,6 @@ from ..engine.materials1d import NeoHookean1D
 __all__ = ["manufactured_solution", "convergence_study", "newton_histories"]
 
 
-# --- a convergence study with a manufactured solution (chapter 1) -------------------
-
 def manufactured_solution(modulus: float = 1.0, traction: float = 1.0):
     """``(f, u, du)`` of the bar on [0, 1], ``u(0) = 0``, end traction ``T``, ``f = E1 pi^2 sin(pi X)``: ``-E1
     u'' = f`` and ``E1 u'(1) = T`` give ``u = sin(pi X) + c X``, ``c = T / E1 + pi``."""

@@ -35,8 +35,6 @@ def _sizes(name, values) -> tuple[int, ...]:
     return tuple(_count(name, v) for v in values)
 
 
-# --- chapter 3: kinematics ----------------------------------------------------------------------------
-
 def rotation(theta) -> np.ndarray:
     """The rotation ``R(theta) = [[cos, -sin], [sin, cos]]`` (radians, counter-clockwise); shape
     ``[2, 2, *theta.shape]``."""
@@ -123,8 +121,6 @@ def rotated_block(material: Material, theta, n: int = 8, width: float = 1.0, hei
     handle.move(wall)
     return model, StaticResult(result.u, result.converged, history)
 
-
-# --- chapter 4: the stretched and sheared tissue block -------------------------------------------------
 
 #: The default handle motion of chapter 4's block [0, 2] x [0, 1]: the right edge moves by (0.6, 0.4).
 BLOCK_HANDLE = (0.6, 0.4)

@@ -70,8 +70,6 @@ def beam_problem_tip(nx: int, ny: int, order: int = 2, *, length=48.0, depth=12.
     return float(result.u[model.basis.nodal_dofs[1, tip]]), exact_tip
 
 
-# --- nonlinear verification: a manufactured solution -----------------------------------------------
-
 def manufactured_body_force(material, X, step: float = 1e-4) -> np.ndarray:
     """The body force ``b = -Div P(F(X))`` (``(Div P)_i = dP_iJ/dX_J``) that holds chapter 3's
     :func:`~tissuefem.workbook.studies.bending_map` in equilibrium, shaped like ``X``; central differences of

@@ -36,8 +36,6 @@ def draw_picture(ax, sim, values=None, norm=None, *, color="0.88", lw=0.2, outli
     return coll
 
 
-# --- the construction, close up -----------------------------------------------------------------------------
-
 @lecture_figure
 def fig_ch10_virtual_nodes() -> Figure:
     """Chapter 10: the virtual node algorithm on a 16-triangle sheet (Molino, Bao and Fedkiw 2004): each
@@ -74,8 +72,6 @@ def fig_ch10_virtual_nodes() -> Figure:
     return fig
 
 
-# --- a crack on two meshes --------------------------------------------------------------------------------------
-
 @lecture_figure
 def fig_ch10_cut_through(runs=None) -> Figure:
     """Chapter 10: a slanted crack snapped to mesh edges (a staircase that changes with the mesh) or cut
@@ -100,8 +96,6 @@ def fig_ch10_cut_through(runs=None) -> Figure:
                  f"ν = {TISSUE_NU:g}), on {CRACK_MESHES[0]} and {CRACK_MESHES[1]} triangles", fontsize=10)
     return fig
 
-
-# --- the flaps -------------------------------------------------------------------------------------------------
 
 @lecture_figure
 def fig_ch10_flaps(runs=None) -> Figure:
@@ -149,8 +143,6 @@ def fig_ch10_flaps(runs=None) -> Figure:
                  fontsize=10)
     return fig
 
-
-# --- self-contact ------------------------------------------------------------------------------------------------
 
 @lecture_figure
 def fig_ch10_contact() -> Figure:

@@ -28,6 +28,8 @@ ENERGY_T_END = 2.0
 ANIMATION_FRAMES = 50
 #: frames shown in the filmstrip PNG
 FILMSTRIP_FRAMES = (0, 3, 6, 10, 16, 25, 49)
+
+
 @lecture_figure
 def fig_ch07_cfl(study=None) -> Figure:
     """Chapter 7: symplectic Euler's largest stable step (bisection) and the estimate ``2 / omega_max``

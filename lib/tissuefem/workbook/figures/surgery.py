@@ -26,8 +26,6 @@ WOUND_COLOR = "#67000d"
 FILMSTRIP, PROBE_SHOWN, FLAP_SHOWN = (0, 6, 12, 15, 18, 22, 26), (0.1, 0.25), 1.2
 
 
-# --- drawing helpers ----------------------------------------------------------------------------------
-
 def tension_norm(*values, percentile=98.0) -> Normalize:
     """A symmetric colour scale ``[-s, s]`` with ``s`` the given percentile of ``|tension|`` (tips excluded)."""
     s = float(np.percentile(np.abs(np.concatenate([np.ravel(v) for v in values])), percentile))
@@ -64,8 +62,6 @@ def tension_colorbar(fig, norm, axes, label="tension: largest principal Cauchy s
     bar.ax.tick_params(labelsize=7)
     return bar
 
-
-# --- the incision -----------------------------------------------------------------------------------
 
 @lecture_figure
 def fig_ch08_incision() -> Figure:
@@ -106,8 +102,6 @@ def fig_ch08_incision() -> Figure:
                  f"ν = {TISSUE_NU:g}; left edge held, right edge pulled)", fontsize=10)
     return fig
 
-
-# --- a cut through: two pieces ------------------------------------------------------------------------
 
 def _two_pieces_limits(frames, margin=0.08):
     x = np.hstack([f[0] for f in frames])
@@ -187,8 +181,6 @@ def fig_ch08_two_pieces(path=None) -> Figure:
     return fig
 
 
-# --- the probe ---------------------------------------------------------------------------------------
-
 @lecture_figure
 def fig_ch08_probe() -> Figure:
     """Chapter 8: a rigid disc pressed into a block held on its bottom edge, at two depths, with the penalty's
@@ -233,8 +225,6 @@ def fig_ch08_probe() -> Figure:
                  fontsize=10)
     return fig
 
-
-# --- the advancement flap ----------------------------------------------------------------------------
 
 def stitch_arcs(a, b, bulge=0.18, n=12) -> np.ndarray:
     """Curved segments from the points ``a`` to ``b`` (each ``(2, k)``), bent to the right of ``a -> b``.
