@@ -62,30 +62,20 @@ def newton_step_1d(nodes, u, lam, mu, traction) -> np.ndarray:
     fixed, traction at the right), by the library's minimiser limited to one plain iteration."""
     bar = Bar1D(nodes=nodes)
     material = NeoHookean1D(lam, mu)
-    u = np.asarray(u, dtype=float)
-    if u.shape != (bar.ndofs,):
-        raise ValueError(f"u must have shape ({bar.ndofs},), got {u.shape}")
-    u0 = u.copy()
+    u0 = _shaped("u", u, (bar.ndofs,)).copy()
     u0[0] = 0.0
     free = np.arange(1, bar.ndofs)
-    result = newton(u0, lambda x: bar.residual(x, material, right=Traction(traction)),
-                    lambda x: bar.tangent(x, material), free=free, line_search=None, max_iterations=1,
-                    rtol=0.0)
-    return result.x
+    return newton(u0, lambda x: bar.residual(x, material, right=Traction(traction)),
+                  lambda x: bar.tangent(x, material), free=free, line_search=None, max_iterations=1,
+                  rtol=0.0).x
 
 
-def _single_F(F) -> np.ndarray:
-    F = np.asarray(F, dtype=float)
-    if F.shape != (2, 2):
-        raise ValueError(f"F must be a single 2x2 matrix, got shape {F.shape}")
-    return F
-
-
-def _vertices(name, V) -> np.ndarray:
-    V = np.asarray(V, dtype=float)
-    if V.shape != (2, 3):
-        raise ValueError(f"{name} must be shaped (2, 3) (column a = vertex a), got shape {V.shape}")
-    return V
+def _shaped(name, value, shape) -> np.ndarray:
+    """``value`` as a float array of ``shape`` (one ``F``: (2, 2); a triangle's vertex columns: (2, 3))."""
+    a = np.asarray(value, dtype=float)
+    if a.shape != shape:
+        raise ValueError(f"{name} must be shaped {shape}, got shape {a.shape}")
+    return a
 
 
 def lame_from_young(E, nu, plane: str = "strain") -> tuple[float, float]:
@@ -104,29 +94,29 @@ def _p1_gradients(X):
 
 def deformation_gradient_p1(X_nodes, x_nodes) -> np.ndarray:
     """Exercise 3.2: ``F[i, j] = dx_i/dX_j`` of one linear triangle: ``F = sum_a x_a (grad N_a)^T``."""
-    X, x = _vertices("X_nodes", X_nodes), _vertices("x_nodes", x_nodes)
+    X, x = _shaped("X_nodes", X_nodes, (2, 3)), _shaped("x_nodes", x_nodes, (2, 3))
     _, grads = _p1_gradients(X)
     return x @ grads
 
 
 def linear_elastic_stress_2d(F, lam, mu) -> np.ndarray:
     """Exercise 3.3: ``P = 2 mu eps + lam tr(eps) I``, ``eps = (F + F^T)/2 - I``, for one 2x2 ``F``."""
-    return LinearElastic(lam, mu).stress(_single_F(F))
+    return LinearElastic(lam, mu).stress(_shaped("F", F, (2, 2)))
 
 
 def neo_hookean_energy_2d(F, lam, mu) -> float:
     """Exercise 4.1: ``Psi = mu/2 (F:F - 2) - mu ln J + lam/2 (ln J)^2`` for one 2x2 ``F``."""
-    return float(NeoHookean(lam, mu).energy(_single_F(F)))
+    return float(NeoHookean(lam, mu).energy(_shaped("F", F, (2, 2))))
 
 
 def neo_hookean_stress_2d(F, lam, mu) -> np.ndarray:
     """Exercise 4.2: ``P = mu F + (lam ln J - mu) F^-T`` for one 2x2 ``F``."""
-    return NeoHookean(lam, mu).stress(_single_F(F))
+    return NeoHookean(lam, mu).stress(_shaped("F", F, (2, 2)))
 
 
 def element_forces_p1(X_nodes, x_nodes, lam, mu) -> np.ndarray:
     """Exercise 4.3: the Neo-Hookean forces on the vertices of one linear triangle, ``f_ia = A P_ij dN_a/dX_j``."""
-    X = _vertices("X_nodes", X_nodes)
+    X = _shaped("X_nodes", X_nodes, (2, 3))
     area, grads = _p1_gradients(X)
     return area * NeoHookean(lam, mu).stress(deformation_gradient_p1(X, x_nodes)) @ grads.T
 
