@@ -278,9 +278,7 @@ def _estimate(d_coarse, d_fine, ratio: float = 2.0):
     if d_coarse is None or not (d_fine > 0 and d_coarse > d_fine):
         return None, float(d_fine)
     p = math.log(d_coarse / d_fine) / math.log(ratio)
-    if p < 1.0:
-        return float(p), float(d_fine)
-    return float(p), float(d_fine / (ratio**p - 1.0))
+    return float(p), float(d_fine if p < 1.0 else d_fine / (ratio**p - 1.0))
 
 
 def reference_run(benchmark: str, plan: dict, progress=None, check: bool = True):
