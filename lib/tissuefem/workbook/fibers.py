@@ -62,8 +62,7 @@ def predicted_confined_modulus(angle_deg, *, stiffness=K_FIBER, base=None) -> fl
 @dataclass
 class PullResult:
     """A pull test: ``forces[s]``, the X force (per unit thickness) holding the pulled edge at
-    ``stretches[s]``; ``nominal_stress = forces / edge_length``, the average ``P_xx`` on it; the final state.
-    """
+    ``stretches[s]``; ``nominal_stress = forces / edge_length``, the average ``P_xx``; the final state."""
 
     stretches: np.ndarray
     forces: np.ndarray

@@ -83,8 +83,7 @@ def pulled_sheet(n_triangles, pull) -> Simulation:
 
 
 def incision_run(n_triangles=1200, pull=INCISION_PULL, path=INCISION_PATH) -> dict:
-    """The pulled sheet before and after an incision along mesh edges (positions, tension, opening, pieces).
-    """
+    """The pulled sheet before and after an incision along edges (positions, tension, opening, pieces)."""
     sim = pulled_sheet(n_triangles, pull)
     before = dict(x=sim.positions().copy(), t=sim.mesh.t.copy(), tension=sim.tension(), mesh=sim.mesh,
                   nodes=sim.mesh.nvertices)

@@ -158,8 +158,7 @@ def handle_force(model: Model, u, boundary: str) -> np.ndarray:
 
 
 def newton_iteration_time(model: Model, u, repeats: int = 3) -> float:
-    """Median ms of one Newton iteration at ``u`` (gradient, tangent, a fresh SuperLU factorization, solve).
-    """
+    """Median ms of a Newton iteration at ``u`` (gradient, tangent, a fresh SuperLU factorization, solve)."""
     fixed, _ = model.prescribed()
     free = np.ones(model.n_dofs, dtype=bool)
     free[fixed] = False

@@ -47,8 +47,7 @@ class CFLStudy:
 def cfl_study(sizes=(4, 8, 16, 32), *, E: float = TISSUE_E, nu: float = TISSUE_NU, density: float = TISSUE_DENSITY,
               material=None, width: float = 2.0, height: float = 1.0, **measure) -> CFLStudy:
     """:func:`largest_stable_dt` (given ``measure``) and :func:`critical_time_step` of symplectic Euler on a
-    ``width x height`` flap, left edge fixed, of square cells ``h = width / nx`` for each ``nx`` in ``sizes``.
-    """
+    ``width x height`` flap, left edge held, of square cells ``h = width / nx``, ``nx`` in ``sizes``."""
     if material is None:
         material = StableNeoHookean(*lame_parameters(E, nu, "strain"))
     c = wave_speed(material, density)

@@ -183,10 +183,9 @@ def _checkpoints(benchmark: str, frames: int, every: int) -> tuple[int, ...]:
 
 def run_setting(benchmark: str, setting: Setting, frames: int, checkpoints=(), budget=math.inf,
                 clock=time.perf_counter, drag=None):
-    """Run ``frames`` displayed frames of ``benchmark`` with ``setting`` (``drag(t)``: the flap's path, default
-    :func:`eased_flap_path`). Returns ``(model, states, stats)``: ``states`` maps each checkpoint frame to a copy
-    of ``u``; ``stats`` holds the ms per frame (summed over substeps), iteration counts, convergence, residuals.
-    """
+    """Run ``frames`` displayed frames of ``benchmark`` with ``setting`` (``drag(t)``: the flap's path,
+    default :func:`eased_flap_path`): ``(model, states, stats)``, ``states`` a copy of ``u`` at each
+    checkpoint frame, ``stats`` the ms per frame (over substeps), iterations, convergence, residuals."""
     if string("benchmark", benchmark, BENCHMARKS) == "block" and setting.substeps != 1:
         raise ValueError("the quasistatic block has no time step: substeps must be 1")
     sim = make_simulation(setting, benchmark, budget=budget, clock=clock)
@@ -282,8 +281,8 @@ def _estimate(d_coarse, d_fine, ratio: float = 2.0):
 
 
 def reference_run(benchmark: str, plan: dict, progress=None, check: bool = True):
-    """``(problem, states, info)``: P2, Newton to ``1e-10``, on ``plan["reference"]``'s ``triangles`` (the
-    block: ``block_triangles``) and ``grading``, the flap as ``2 u(dt/2s) - u(dt/s)`` (``s = substeps``). With
+    """``(problem, states, info)``: P2, Newton to ``1e-10``, on ``plan["reference"]``'s ``triangles`` (block:
+    ``block_triangles``) and ``grading``, the flap as ``2 u(dt/2s) - u(dt/s)`` (``s = substeps``). With
     ``check``, ``info`` holds its error estimate (:func:`_estimate`) in space from 1/4 and 1/16 of the
     triangles (``space_*``), for the flap in time from 2 and 4 times larger steps (``time_*``), and their sum.
     """
@@ -405,8 +404,7 @@ def knob_sweep(benchmark: str, plan: dict, reference, knobs=None, progress=None)
 
 def solver_scaling(sizes, solvers, frames: int, largest=None, progress=None) -> dict:
     """Time per frame of the flap against mesh size per linear solver (``largest``: a slow solver's largest
-    size): ``{"rows", "exponents"}`` with ``ms ~ C triangles^p`` fitted where the solver ran.
-    """
+    size): ``{"rows", "exponents"}`` with ``ms ~ C triangles^p`` fitted where the solver ran."""
     largest = largest or {}
     rows = []
     for solver in solvers:

@@ -79,8 +79,7 @@ def _run(data, options, frames):
 
 
 def cut_costs(n_triangles, repeats=3) -> dict:
-    """Median ms of one cut during the drag (the edit, the new model and solver), through elements and edges.
-    """
+    """Median ms of one cut during the drag (the edit, new model and solver), through elements and edges."""
     out = {}
     for method in ("elements", "edges"):
         times = []

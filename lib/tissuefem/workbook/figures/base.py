@@ -59,8 +59,7 @@ def matplotlib_note() -> str | None:
 
 def whole_pixels(inches: float, dpi: float = DPI) -> float:
     """``inches``, nudged up by an ulp or two when ``inches * dpi`` falls just short of a whole number of
-    pixels: 4.6 in at 110 dpi is 505.99999999999994 px, 505 px for matplotlib up to 3.11.0, 506 from 3.11.1.
-    """
+    pixels: 4.6 in at 110 dpi is 505.99999999999994 px, 505 px up to matplotlib 3.11.0, 506 later."""
     pixels = round(inches * dpi)
     if abs(inches * dpi - pixels) > 1e-6:
         return inches  # a fraction of a pixel: truncated alike by every version
