@@ -1,9 +1,6 @@
-"""Assembly benchmark: what one Newton iteration of 2D Neo-Hookean costs to assemble, on the same meshes,
-by scikit-fem's forms (:mod:`tissuefem.engine.forms`, the ``BilinearForm`` way of scikit-fem's hyperelasticity
-example) and by the fast :class:`tissuefem.engine.assembly.P1Assembler`, with a SuperLU factorization of the
-tangent (``COLAMD`` and ``MMD_AT_PLUS_A`` orderings) for context. Medians over ``repeats`` after a warm-up:
-compare columns of one run, not runs.
-"""
+"""Assembly benchmark: one Neo-Hookean Newton iteration's assembly by scikit-fem's forms
+(:mod:`tissuefem.engine.forms`) and by :class:`tissuefem.engine.assembly.P1Assembler`, and SuperLU's
+factorization (``COLAMD``, ``MMD_AT_PLUS_A``) for context. Compare columns of one run, not runs."""
 
 from __future__ import annotations
 

@@ -1,10 +1,8 @@
 """Frame-rate benchmark of the standard scene: the real-time solver against the scikit-fem ex43 way.
 
-The standard flap scene (:func:`tissuefem.surgery.scene.flap_scene`, every frame converged to ``1e-6``) runs
-for each mesh size on its :class:`~tissuefem.engine.realtime.RealtimeSolver` with no budget (**fast**), the
-way of scikit-fem's hyperelasticity example (:func:`ex43_frames`), with the 1/30 s budget (**budgeted**),
-beside the least a frame costs (:func:`frame_floor`). Wall times per frame: compare columns of one run
-(``docs/benchmarks.md``).
+The standard flap scene, per mesh size: its real-time solver unbudgeted (**fast**) and with the 1/30 s budget
+(**budgeted**), scikit-fem's hyperelasticity example's way (:func:`ex43_frames`) and a frame's floor
+(:func:`frame_floor`). Compare columns of one run (``docs/benchmarks.md``).
 """
 
 from __future__ import annotations

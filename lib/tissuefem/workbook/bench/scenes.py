@@ -1,8 +1,7 @@
 """What each effect costs: the same scripted drag with one effect added at a time.
 
-The standard flap runs once per :func:`variants` (no budget, the real clock): ms and Newton iterations per
-frame, and the difference from the base; each term of the all-effects model is timed alone
-(:func:`term_costs`), and one cut during the drag (:func:`cut_costs`). Compare rows of one run, not runs.
+The standard flap runs once per :func:`variants` (no budget, the real clock); :func:`term_costs` times each
+term alone, :func:`cut_costs` one cut during the drag. Compare rows of one run, not runs.
 """
 
 from __future__ import annotations

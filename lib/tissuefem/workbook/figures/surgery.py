@@ -227,10 +227,8 @@ def fig_ch08_probe() -> Figure:
 
 
 def stitch_arcs(a, b, bulge=0.18, n=12) -> np.ndarray:
-    """Curved segments from the points ``a`` to ``b`` (each ``(2, k)``), bent to the right of ``a -> b``.
-
-    A stitch planned along an incision would lie on the incision's line; bent, it stays visible.
-    """
+    """Curved segments ``(k, n, 2)`` from the points ``a`` to ``b`` (each ``(2, k)``), bent to the right of
+    ``a -> b``: a stitch along an incision stays visible."""
     a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
     s = np.linspace(0.0, 1.0, n)[:, None, None]
     d = b - a
