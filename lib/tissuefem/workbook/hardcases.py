@@ -138,9 +138,8 @@ def crush_and_release(material, mesh=None, depth: float = 1.3, steps: int = 13, 
 
 
 def drag_through(material, mesh=None, depth: float = 1.6, steps: int = 16, **newton_options) -> dict:
-    """Drag the top edge's middle (within 0.2) of a sheet held at its sides down by ``depth``, through the
-    body, in ``steps`` solves, then release: ``positions``, ``drag`` (the results), ``released``,
-    ``failed_steps``."""
+    """Drag the top edge's middle (within 0.2) of a sheet held at its sides down by ``depth`` in ``steps``
+    solves, then release: ``positions``, ``drag``, ``released``, ``failed_steps``."""
     mesh = block() if mesh is None else mesh
     X = np.asarray(mesh.p, dtype=float)
     sides = np.flatnonzero((np.abs(X[0] - X[0].min()) < 1e-9) | (np.abs(X[0] - X[0].max()) < 1e-9))

@@ -52,8 +52,7 @@ REFERENCE_GRADING = 1.5
 
 def eased_flap_path(t) -> np.ndarray:
     """:func:`~tissuefem.surgery.scene.flap_path` times the smooth step ``10 tau^3 - 15 tau^4 + 6 tau^5``,
-    ``tau = t / EASE_IN``: the edge starts at rest with zero acceleration, and is ``flap_path`` from
-    ``EASE_IN`` on."""
+    ``tau = t / EASE_IN``: the edge starts at rest with zero acceleration."""
     tau = min(max(float(t) / EASE_IN, 0.0), 1.0)
     return tau**3 * (10.0 - 15.0 * tau + 6.0 * tau**2) * flap_path(t)
 
@@ -366,9 +365,8 @@ def _knob_settings(knob: str, plan: dict, base: Setting):
 
 
 def knob_sweep(benchmark: str, plan: dict, reference, knobs=None, progress=None) -> list[dict]:
-    """One row per (knob, value) of ``plan``: the setting, its cost, its error and ``from_baseline`` (the same
-    measure against the baseline's answer). Settings this machine cannot run are skipped; a failed one has
-    ``error = nan`` and the reason in ``failed``."""
+    """One row per (knob, value) of ``plan``: the setting, its cost, its error and ``from_baseline``; a
+    setting this machine cannot run is skipped, a failed one has ``error = nan``."""
     knobs = list(KNOBS) if knobs is None else list(knobs)
     frames = plan["frames"] if benchmark == "flap" else plan["block_frames"]
     checkpoints = _checkpoints(benchmark, frames, plan["checkpoints"])
@@ -435,9 +433,8 @@ def solver_scaling(sizes, solvers, frames: int, largest=None, progress=None) -> 
 
 def budget_residual(sizes, frames: int, solvers=("reuse",), budget: float = FRAME_BUDGET, clock=time.perf_counter,
                     progress=None) -> list[dict]:
-    """What the budgeted solver leaves on the flap, by mesh size and solver: the share of frames converged,
-    the median relative residual at a frame's end and the final state's relative ``L2`` distance from a
-    converged run."""
+    """What the budgeted solver leaves on the flap by mesh size and solver: frames converged, median
+    end-of-frame residual, final state's distance from a converged run."""
     rows = []
     for solver in solvers:
         if not _runnable(solver):
@@ -464,9 +461,8 @@ def _drag_path(drag: str):
 
 
 def time_convergence(drag: str = "jump", triangles: int = 500, substeps=(1, 2, 4, 8, 16), frames: int = 5) -> dict:
-    """Backward Euler's convergence in time on the flap (P1, Newton to ``1e-10``), drag ``"jump"``
-    (``flap_path``) or ``"eased"``: ``distances[k]``, the largest relative ``L2`` distance over every fifth
-    frame between ``substeps[k]`` and ``substeps[k + 1]``, and their ``ratios`` (0.5 for first order)."""
+    """Backward Euler's convergence in time on the flap: ``distances[k]``, the largest relative ``L2``
+    distance between ``substeps[k]`` and ``substeps[k + 1]``, and their ``ratios`` (0.5: first order)."""
     path = _drag_path(drag)
     checkpoints = _checkpoints("flap", frames, 5)
     runs = [run_setting("flap", Setting(triangles=triangles, rtol=1e-10, substeps=int(s)), frames, checkpoints,

@@ -38,9 +38,8 @@ def draw_picture(ax, sim, values=None, norm=None, *, color="0.88", lw=0.2, outli
 
 @lecture_figure
 def fig_ch10_virtual_nodes() -> Figure:
-    """Chapter 10: the virtual node algorithm on a 16-triangle sheet (Molino, Bao and Fedkiw 2004): each
-    triangle the stroke separates is duplicated, each copy carrying the material on its side; rings: the
-    virtual nodes; the tip's triangle is not split."""
+    """Chapter 10: the virtual node algorithm (Molino, Bao and Fedkiw 2004) on 16 triangles: each one the
+    stroke separates is duplicated, each copy holding its side's material; rings: virtual nodes."""
     sim, edit, n_old = virtual_nodes_run()
     stroke = np.array(VIRTUAL_NODES_STROKE)
     fig = Figure(figsize=(10.0, 3.9), layout="constrained")
@@ -147,8 +146,8 @@ def fig_ch10_flaps(runs=None) -> Figure:
 @lecture_figure
 def fig_ch10_contact() -> Figure:
     """Chapter 10: self-contact: a strip folded onto itself (:func:`~tissuefem.workbook.procedures.fold_run`)
-    and a crack pressed shut (:func:`~tissuefem.workbook.procedures.pressed_cut_run`), without contact (they
-    pass through) and with it (what overlap is left lies in the barrier's skin)."""
+    and a crack pressed shut (:func:`~tissuefem.workbook.procedures.pressed_cut_run`), without and with
+    contact."""
     fig = Figure(figsize=(12.0, 6.2), layout="constrained")
     axes = fig.subplots(2, 2, height_ratios=[0.8, 1.0])
     windows = [((0.5, 2.2), (-0.15, 0.45)), ((0.45, 1.65), (0.1, 1.15))]

@@ -32,9 +32,8 @@ FILMSTRIP_FRAMES = (0, 3, 6, 10, 16, 25, 49)
 
 @lecture_figure
 def fig_ch07_cfl(study=None) -> Figure:
-    """Chapter 7: symplectic Euler's largest stable step (bisection) and the estimate ``2 / omega_max``
-    against h, the fit ``dt = C h^p`` (CFL: ``p = 1``) and the 1/30 s frame; right: the Courant number ``c dt
-    / h`` and measured / estimate."""
+    """Chapter 7: symplectic Euler's largest stable step (bisection) and its estimate ``2 / omega_max``
+    against h, fitted by ``dt = C h^p`` (CFL: ``p = 1``); right: the Courant number ``c dt / h``."""
     study = cfl_study(CFL_SIZES, E=TISSUE_E, nu=TISSUE_NU) if study is None else study
     h = np.array([r["h"] for r in study])
     measured = shown([r["dt_measured"] for r in study])  # bisection and ARPACK: the last digits vary

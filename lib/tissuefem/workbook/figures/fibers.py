@@ -64,9 +64,8 @@ def fig03_fiber_field() -> Figure:
 
 @lecture_figure
 def fig_ch05_along_vs_across() -> Figure:
-    """Chapter 5: a strip pulled along, at 45 degrees to and across its fibers (at stretch 1.3; force-stretch
-    curves), and the small-strain confined modulus against the fiber angle on its prediction ``lam + 2 mu + k
-    cos^4 theta``."""
+    """Chapter 5: a strip pulled along, at 45 degrees to and across its fibers, and the small-strain confined
+    modulus against the fiber angle on ``lam + 2 mu + k cos^4 theta``."""
     cases = [(0.0, "fibers along the pull (0°)", "C3"), (45.0, "fibers at 45°", "C2"),
              (90.0, "fibers across the pull (90°)", "C0"), (None, "no fibers", "0.35")]
     stretches = np.linspace(1.0, 1.3, 13)

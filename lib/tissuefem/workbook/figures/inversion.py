@@ -45,8 +45,7 @@ def frame_depths(mesh, frames) -> np.ndarray:
 @lecture_figure
 def fig06_crush_release(runs=None) -> Figure:
     """Notes' Figure 6 as an experiment: a block crushed to flat and past it, then let go, one row per model
-    of :func:`~tissuefem.workbook.hardcases.inversion_models` (red: ``J <= 0``; faded: a depth the crush did
-    not reach)."""
+    of :func:`~tissuefem.workbook.hardcases.inversion_models` (red: ``J <= 0``)."""
     mesh = block()
     runs = crush_and_release_runs(mesh=mesh) if runs is None else runs
     xlim, ylim = (-0.38, 1.38), (-0.68, 1.12)
@@ -95,8 +94,7 @@ def fig06_crush_release(runs=None) -> Figure:
 @lecture_figure
 def fig_ch06_itf_energy() -> Figure:
     """Chapter 6: the four models' energy ``Psi(diag(1, s2))`` and its slope (the push back) along a signed
-    singular value, and the energy along a shrink ``F = t I`` to 0: Taylor and stable reach it with zero
-    slope, ITF-clamped with a finite one."""
+    singular value, and the energy along a shrink ``F = t I`` to 0."""
     models = inversion_models(TISSUE_E, TISSUE_NU)
     c = models["ITF-clamped neo-Hookean"].threshold
     s1 = np.linspace(-1.0, 1.6, 521)

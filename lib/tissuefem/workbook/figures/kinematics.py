@@ -58,9 +58,8 @@ def _outline(width, height, samples: int = 60) -> np.ndarray:
 
 @lecture_figure
 def fig02_kinematics() -> Figure:
-    """Notes' Figure 2: the block bent by :func:`~tissuefem.workbook.studies.bending_map`, a point X carried
-    to x = phi(X), vectors dX and their images F dX (the columns of F). Right: a cut of normal N at X and its
-    image: the force across it is P N dA = sigma n da (sigma = P F^T / J; Nanson: n da = J F^-T N dA)."""
+    """Notes' Figure 2: the bent block (:func:`~tissuefem.workbook.studies.bending_map`), X carried to x =
+    phi(X), dX to F dX; right: a cut's normal N and the force across it, P N dA = sigma n da."""
     mesh = rectangle(2.0, 1.0, 8, 4)
     fig = Figure(figsize=(13.2, 3.9), layout="constrained")
     ax, ax_s = fig.subplots(1, 2, width_ratios=[9.0, 3.9])
@@ -152,8 +151,7 @@ def _stress_half(ax, F0) -> None:
 @lecture_figure
 def fig_ch03_rotation_stress() -> Figure:
     """Chapter 3: a rigid rotation stresses linear elasticity, not Neo-Hookean (energy and |P| at F =
-    R(theta)); right: a block clamped to a wall turned by 60 degrees, which the linear model strains and
-    grows."""
+    R(theta)); right: a block clamped to a wall turned by 60 degrees."""
     linear = LinearElastic.from_young(TISSUE_E, TISSUE_NU)
     neo = NeoHookean.from_young(TISSUE_E, TISSUE_NU)
     deg = np.linspace(0.0, 180.0, 181)
@@ -240,9 +238,9 @@ def fig_ch04_block() -> Figure:
 
 @lecture_figure
 def fig_ch04_cost_accuracy(rows=None) -> Figure:
-    """Chapter 4: L2 displacement error against time (the whole solve; one Newton iteration), P1 against P2,
-    with the 33 ms frame budget; ``rows`` default to
-    :data:`~tissuefem.workbook.studies.RECORDED_COST_ACCURACY`."""
+    """Chapter 4: L2 error against time (the whole solve; one Newton iteration), P1 against P2, with the 33 ms
+    budget; ``rows`` default to the recorded run (:data:`~tissuefem.workbook.studies.RECORDED_COST_ACCURACY`).
+    """
     source = "recorded run" if rows is None else "this run"
     rows = RECORDED_COST_ACCURACY if rows is None else list(rows)
     fig = Figure(figsize=(11.0, 4.4), layout="constrained")

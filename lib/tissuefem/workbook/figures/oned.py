@@ -13,9 +13,8 @@ from .base import lecture_figure, shown
 
 @lecture_figure
 def fig05_admissible_maps() -> Figure:
-    """Notes' Figure 5: phi(X) = X^2 (admissible) beside phi(X) = sin(2 pi X) (inverting): the maps, shaded
-    where phi'(X) <= 0, and material points joined to their images (crossing lines: material folded onto
-    itself)."""
+    """Notes' Figure 5: phi(X) = X^2 (admissible) beside phi(X) = sin(2 pi X) (inverting), shaded where
+    phi'(X) <= 0, and material points joined to their images."""
     X = np.linspace(0.0, 1.0, 401)
     maps = [
         ("admissible: $\\phi(X) = X^2$", X**2, 2.0 * X),

@@ -138,9 +138,8 @@ def write_two_pieces_animation(gif_path, run, dpi=120) -> Path:
 
 @lecture_figure
 def fig_ch08_two_pieces(path=None) -> Figure:
-    """Chapter 8: a sheet hanging under gravity cut in two; the free piece falls (filmstrip) and its centre of
-    mass follows backward Euler's discrete free fall ``y_k = y_c + k dt v_c - g dt^2 k (k + 1) / 2``. With a
-    ``path``, also writes ``<path stem>.gif``."""
+    """Chapter 8: a hanging sheet cut in two, the free piece on backward Euler's discrete free fall ``y_k =
+    y_c + k dt v_c - g dt^2 k (k + 1) / 2``. With a ``path``, also writes ``<path stem>.gif``."""
     run = two_pieces_run()
     frames, times, cut = run["frames"], run["times"], run["cut_frame"]
     shown = [frames[k] for k in FILMSTRIP]
@@ -183,9 +182,8 @@ def fig_ch08_two_pieces(path=None) -> Figure:
 
 @lecture_figure
 def fig_ch08_probe() -> Figure:
-    """Chapter 8: a rigid disc pressed into a block held on its bottom edge, at two depths, with the penalty's
-    nodal forces ``k l_a h'(R - d_a) n_a`` (:class:`~tissuefem.engine.terms.Probe`); right: the force on the
-    tool and the penetration against depth."""
+    """Chapter 8: a rigid disc pressed into a block, at two depths, with the penalty's nodal forces
+    (:class:`~tissuefem.engine.terms.Probe`); right: the force on the tool and the penetration."""
     run = probe_run()
     states, R = run["states"], run["radius"]
     sel = [i for i, s in enumerate(states) if any(np.isclose(s["depth"], d) for d in PROBE_SHOWN)]
