@@ -1,22 +1,14 @@
-"""The model: a body and exactly the terms acting on it, with the handles that hold it.
+"""The model: a body, exactly the terms acting on it, and the handles that hold it.
 
-A :class:`Model` is a mesh with a displacement basis (P1 or P2), a material, and a list of
-terms (:mod:`tissuefem.engine.terms`, made by :mod:`tissuefem.engine.effects`). Its potential is their sum,
+A :class:`Model` is a mesh with a P1 or P2 displacement basis, a material and a list of terms
+(:mod:`.terms`, made by :mod:`.effects`); its potential is their sum,
 
-    E(u) = W(u) [+ fibres] [+ probe] [+ sutures] [+ contact] [- f . u] [+ 1/(2 dt^2) |u - u~|_M^2],
+    E(u) = W(u) [+ fibres] [+ probe] [+ sutures] [+ contact] [- f . u] [+ 1/(2 dt^2) |u - u~|_M^2].
 
-with nothing built for an effect it was not given (without ``dt`` no inertia and no mass matrix).
-:mod:`tissuefem.engine.stepping` minimises it; :meth:`Model.remapped` carries it across a cut or an excision.
-
-Handles are constraints, not terms: a :class:`Handle` holds a region (:func:`region_nodes`) at prescribed
-positions; its target is a displacement (a translation ``(dx, dy)`` or a map ``X -> x``), checked where it
-enters: a refused target changes nothing.
-
-Every term's Hessian goes into one fixed sparsity pattern (:class:`Pattern`): the assembler's, widened where a
-term couples dofs the mesh does not (sutures), so the linear solver condenses by a precomputed gather. A term
-whose couplings change with the state (self-contact) says when the pattern no longer holds them (``covers``);
-:meth:`Model.hessian` then rebuilds it. The hooks (``covers``, ``max_step``, ``begin_step``/``end_step``) are
-called only where a term's class overrides the default: a model without such a term pays nothing for them.
+:mod:`.stepping` minimises it; :meth:`Model.remapped` carries it across a cut or an excision. A :class:`Handle`
+is a constraint, not a term: it holds a region at prescribed displacements (checked where they enter).
+Every Hessian goes into one fixed sparsity pattern (:class:`Pattern`), widened where a term couples dofs the
+mesh does not (sutures) and rebuilt when a term's couplings change (self-contact's ``covers``).
 """
 
 from __future__ import annotations
@@ -28,8 +20,8 @@ from .assembly import make_assembler
 from .constants import TISSUE_DENSITY
 from .contact import Contact
 from .effects import as_terms, keyword_terms
-from .parameters import (REACH, ParameterError, check_bounded_vector, check_count, check_density, check_real,
-                         check_vector)
+from .parameters import (REACH, ParameterError, call_user, check_bounded_vector, check_count, check_density,
+                         check_real, check_real_array, check_vector)
 from .terms import (Elastic, ElementTerm, Inertia, Load, Probe, SafeView, SummedDensity, Sutures, Term,
                     boundary_lengths, extent)
 
@@ -53,10 +45,7 @@ def region_nodes(mesh, region, field: str = "region") -> np.ndarray:
             raise ValueError(f"{field}: {region!r} is not a boundary of the mesh; boundaries: {names}")
         nodes = np.unique(mesh.facets[:, mesh.boundaries[region]])
     elif callable(region):
-        try:
-            mask = np.asarray(region(p.copy()))  # a copy: a mask that writes into its argument changes nothing
-        except Exception as err:  # a user's callable may raise anything: refuse it by name
-            raise ValueError(f"{field}: the mask raised {type(err).__name__}: {err}") from None
+        mask = np.asarray(call_user(field, "mask", region, p.copy()))  # a copy: the mask cannot change the mesh
         if mask.dtype.kind not in "biu":  # bools (or 0/1 integers), never floats, strings or objects cast to bool
             raise ValueError(f"{field}: the mask must return bools, got dtype {mask.dtype}")
         if mask.shape != (n,):
@@ -100,17 +89,11 @@ def region_nodes(mesh, region, field: str = "region") -> np.ndarray:
 
 def _map_positions(target, points, field) -> np.ndarray:
     """``target(points)`` checked: finite real values shaped like ``points``, else a ``ValueError`` naming ``field``."""
-    try:  # a copy: a map that writes into its argument cannot change the handle's reference points
-        x = np.asarray(target(points.copy()))
-    except Exception as err:  # anything a user's map raises is a refusal, not a crash
-        raise ValueError(f"{field}: the map raised {type(err).__name__}: {err}") from None
-    if x.dtype.kind not in "iuf":  # complex positions would lose their imaginary part
-        raise ValueError(f"{field}: the map must return real positions, got dtype {x.dtype}")
+    x = check_real_array(field, call_user(field, "map", target, points.copy()))  # a copy: the points stay put
     if x.shape != points.shape:
-        raise ValueError(f"{field}: the map returned shape {x.shape}, expected {points.shape}")
-    x = x.astype(float)
+        raise ParameterError(field, f"{field}: the map returned shape {x.shape}, expected {points.shape}")
     if not np.all(np.isfinite(x)):
-        raise ValueError(f"{field}: the map returned non-finite positions")
+        raise ParameterError(field, f"{field}: the map returned non-finite positions")
     return x
 
 
@@ -124,16 +107,10 @@ def _check_target(target, points=None, field="target", reach=None):
                 raise ValueError(f"{field}: the map moves points by more than {REACH:g} domain sizes ({reach:g})")
         return target
     try:
-        t = np.asarray(target)
-    except (TypeError, ValueError):
-        raise ValueError(f"{field} must be a translation (dx, dy) or a callable, got {target!r}") from None
-    if t.dtype.kind not in "iuf":
-        raise ValueError(f"{field} must be a translation (dx, dy) of real numbers or a callable, got {target!r}")
-    if t.shape != (2,):
-        raise ValueError(f"{field} must be a translation of shape (2,) or a callable, got shape {t.shape}")
-    t = t.astype(float)
-    if not np.all(np.isfinite(t)):
-        raise ValueError(f"{field} must be finite, got {t}")
+        t = check_vector(field, target)
+    except ParameterError:
+        raise ParameterError(field, f"{field} must be a translation (dx, dy) of finite real numbers, shape (2,), or "
+                                    f"a callable, got {target!r:.100}") from None
     if reach is not None and np.any(np.abs(t) > reach):
         raise ValueError(f"{field} = {t.tolist()}: a displacement larger than {REACH:g} domain sizes ({reach:g})")
     return t
@@ -284,11 +261,8 @@ def _check_material_at_rest(assembler, material) -> None:
     rest = F.shape[2:]
     expected = {"energy": rest, "stress": F.shape, "tangent": (2, 2) + F.shape}
     for method, shape in expected.items():
-        try:
-            with np.errstate(all="ignore"):
-                value = np.asarray(getattr(material, method)(F))
-        except Exception as err:  # a user's object may raise anything: refuse it by name
-            raise ValueError(f"material: {method}(F) at rest raised {type(err).__name__}: {err}") from None
+        with np.errstate(all="ignore"):
+            value = np.asarray(call_user("material", f"{method}(F) at rest", getattr(material, method), F))
         try:
             fits = np.broadcast_shapes(value.shape, shape) == shape
         except ValueError:
@@ -316,10 +290,7 @@ class Holding:
                 edges = np.asarray(mesh.boundaries[h.region])
             elif callable(h.region):
                 mid = 0.5 * (self.X[:, mesh.facets[0]] + self.X[:, mesh.facets[1]])
-                try:
-                    on = np.asarray(h.region(mid))
-                except Exception as err:  # the user's mask, at the edges' midpoints
-                    raise ValueError(f"handle {h.name!r} region: the mask raised {type(err).__name__}: {err}") from None
+                on = np.asarray(call_user(f"handle {h.name!r} region", "mask", h.region, mid))
                 if on.shape != (mid.shape[1],) or on.dtype.kind not in "biu":
                     raise ValueError(f"handle {h.name!r} region: the mask must return one bool per point")
                 edges = np.flatnonzero(on.astype(bool))
@@ -439,32 +410,18 @@ class Holding:
 class Model(Holding):
     """A hyperelastic body (mesh, displacement basis, material) and exactly the terms acting on it.
 
-    Parameters
-    ----------
-    mesh : skfem.MeshTri
-        Straight-sided triangles, either orientation; degenerate or folded meshes are refused.
-    material
-        A material of :mod:`tissuefem.engine.materials` (or a wrapper of
-        :mod:`tissuefem.engine.inversion`): the :class:`~tissuefem.engine.terms.Elastic` term.
-    order, intorder, assembly
-        P1 or P2; the quadrature degree (default ``2 order``); ``"fast"`` (vectorised) or
-        ``"forms"`` (the readable scikit-fem forms, for reference).
-    terms
-        More terms: :class:`~tissuefem.engine.terms.Term` objects, or factories ``model -> Term``
-        (:func:`tissuefem.engine.effects.factory`) for terms made from the model's own assembly.
-    handles
-        :class:`Handle` objects (prescribed positions).
-    density
-        ``rho0``, mass per unit reference area (inertia, gravity).
-    weights
-        Optional per-element material fractions (elements cut through carry part of their triangle).
-    dt, mass, gravity, body_force, tractions, fibers, probes, sutures, contact
-        Shorthands for the common terms (:mod:`tissuefem.engine.effects`): ``dt`` (seconds) with ``"lumped"`` or
-        ``"consistent"`` ``mass`` (backward Euler; without: quasistatic); gravity ``(gx, gy)``, a body force per
-        unit reference area ``(bx, by)``, tractions ``{boundary: (tx, ty)}`` per unit reference length; fibres
-        ``(stiffness, directions)`` (``(2,)`` or ``(2, n_elements)``); probes: dicts ``center, radius,
-        stiffness[, label, smoothing]``; sutures: ``pairs, stiffness, gaps[, tightness, coefficients]``;
-        contact: ``distance, stiffness[, surface, skin]`` (default surface: the mesh's boundary).
+    ``mesh``: a ``skfem.MeshTri`` of straight triangles (degenerate or folded ones are refused); ``material``: the
+    :class:`~tissuefem.engine.terms.Elastic` term's (:mod:`.materials`, :mod:`.inversion`); ``order``: P1 or P2,
+    ``intorder``: the quadrature degree (default ``2 order``), ``assembly``: ``"fast"`` or ``"forms"`` (the
+    readable reference); ``terms``: more :class:`~tissuefem.engine.terms.Term` objects or factories
+    ``model -> Term`` (:func:`.effects.factory`); ``handles``: :class:`Handle` objects; ``density``: ``rho0`` per
+    unit reference area; ``weights``: per-element material fractions (elements cut through).
+
+    Shorthands for the common terms (:mod:`.effects`): ``dt`` (s) with ``mass`` ``"lumped"`` or ``"consistent"``
+    (backward Euler; without: quasistatic); ``gravity`` ``(gx, gy)``; ``body_force`` ``(bx, by)`` per unit area;
+    ``tractions`` ``{boundary: (tx, ty)}`` per unit length; ``fibers`` ``(stiffness, directions)``; ``probes``:
+    dicts ``center, radius, stiffness[, label, smoothing]``; ``sutures``: ``pairs, stiffness, gaps[, tightness,
+    coefficients]``; ``contact``: ``distance, stiffness[, surface, skin]``.
     """
 
     def __init__(self, mesh, material, *, order: int = 1, intorder: int | None = None, assembly: str = "fast",
@@ -579,31 +536,12 @@ class Model(Holding):
     def _first(self, kind):
         return next((t for t in self.terms if isinstance(t, kind)), None)
 
-    @property
-    def inertia(self) -> Inertia | None:
-        """The backward-Euler inertia term, or ``None`` for a quasistatic model."""
-        return self._first(Inertia)
-
-    @property
-    def dynamic(self) -> bool:
-        return self.inertia is not None
-
-    @property
-    def loads(self) -> list[Load]:
-        return self.terms_of(Load)
-
-    @property
-    def probes(self) -> list[Probe]:
-        return self.terms_of(Probe)
-
-    @property
-    def sutures(self) -> Sutures | None:
-        return self._first(Sutures)
-
-    @property
-    def contact(self) -> Contact | None:
-        """The self-contact term, or ``None``."""
-        return self._first(Contact)
+    inertia = property(lambda self: self._first(Inertia), doc="The inertia term, or ``None`` (quasistatic).")
+    dynamic = property(lambda self: self.inertia is not None)
+    loads = property(lambda self: self.terms_of(Load))
+    probes = property(lambda self: self.terms_of(Probe))
+    sutures = property(lambda self: self._first(Sutures))
+    contact = property(lambda self: self._first(Contact), doc="The self-contact term, or ``None``.")
 
     # ------------------------------------------------------------------ step hooks (terms that have them only)
     @property

@@ -28,7 +28,7 @@ import numpy as np
 
 __all__ = [
     "ParameterError", "lame_parameters", "check_young_poisson", "check_poisson_ratio", "check_lame", "check_real",
-    "check_real_number", "check_count", "check_positive", "check_nonnegative", "check_vector", "check_bounded_vector",
+    "check_real_number", "check_count", "check_positive", "call_user", "check_vector", "check_bounded_vector",
     "check_real_array", "check_reach", "check_weights", "check_fiber_stiffness", "check_time_step", "check_density",
     "YOUNGS_MODULUS_RANGE", "POISSON_RATIO_RANGE", "LAME_MAX", "SHEAR_MODULUS_MIN", "TIME_STEP_RANGE",
     "DENSITY_RANGE", "ACCELERATION_MAX", "FORCE_MAX", "PENALTY_MAX", "REACH", "RADIUS_RANGE",
@@ -121,9 +121,13 @@ def check_positive(name, value) -> float:
     return check_real(name, value, 0.0, lo_open=True)
 
 
-def check_nonnegative(name, value) -> float:
-    """A finite real number ``>= 0``, or a ``ValueError`` naming ``name``."""
-    return check_real(name, value, 0.0)
+def call_user(field: str, what: str, function, *args):
+    """``function(*args)`` for a user's callable (a ``what``: mask, map, clock); whatever it raises is refused as
+    a ``ParameterError`` naming ``field``."""
+    try:
+        return function(*args)
+    except Exception as err:  # a user's callable may raise anything: a refusal, not a crash
+        raise ParameterError(field, f"{field}: the {what} raised {type(err).__name__}: {err}") from None
 
 
 def check_vector(name, value) -> np.ndarray:

@@ -1,33 +1,27 @@
-"""Stepping: every step -- quasistatic, backward Euler, a real-time frame -- minimises one potential.
-
-The *incremental potential* of a step is the model's energy,
+"""Stepping: every step -- quasistatic, backward Euler, a real-time frame -- minimises one potential,
 
     E(x) = W(x) [+ other terms] - f . x  [+ 1/(2 dt^2) (x - x~)^T M (x - x~)],   x~ = u^n + dt v^n,
 
-with the inertia term only when the model has a time step (:mod:`tissuefem.engine.terms`). Its gradient is the
-backward-Euler residual (the notes' ``q`` of "Time stepping", with the slips of the README's errata corrected), without
-inertia the quasistatic one. A :class:`Stepper` holds the state ``u, v`` and takes one step at a time:
+the inertia term only with a time step (:mod:`.terms`). Its gradient is the backward-Euler residual (the notes'
+``q`` of "Time stepping", with the README's errata), without inertia the quasistatic one. A :class:`Stepper`
+holds ``u, v`` and takes one step at a time:
 
-1. **input**: the handles' new targets, checked before anything moves
-   (:meth:`~tissuefem.engine.model.Model.set_targets`); a refusal changes nothing;
-2. **warm start**: the lowest-energy valid guess (for a quadratic model with its exact factorization, the first valid
-   one: one Newton step from any reaches the same answer). A dynamic step tries the constant-acceleration guess
-   ``x~ + dt (v^n - v^{n-1})``, the inertial guess ``x~`` and the previous state; a quasistatic step one linearised step
-   from the previous state, which carries the free dofs along with the handles (``K_ff dx_f = -g_f - K_fc dx_c``), or
-   the previous state. If no guess is valid (a handle jerked so far that an element would invert), the handles go part
-   of the way (the report's ``handle_fraction``). With self-contact the handles' own motion is taken as given (a handle
-   may drag tissue through tissue: the report's ``crossed`` counts such points, which contact ignores until they are
-   back out), and each guess is cut back to what the collision detection allows;
-3. **solve**: :func:`tissuefem.engine.minimize.newton` with the energy line search, until the residual is below
-   ``atol + rtol ||g(x0)||`` (never below its round-off level) or the step's wall-clock ``budget`` is spent; one
-   :class:`~tissuefem.engine.linsolve.LinearSolver` kept across steps reuses a factorization across Newton iterations
-   *and* steps;
-4. **commit**: a converged iterate becomes ``u^{n+1}`` (and ``v^{n+1} = (u^{n+1} - u^n)/dt``). An unconverged step
-   leaves the state as it was, or with ``anytime=True`` (the real-time loop) commits the last accepted iterate, finite
-   and no higher in energy than the start.
+1. **input**: the handles' new targets, checked before anything moves (a refusal changes nothing);
+2. **warm start**: the lowest-energy valid guess. Dynamic: the constant-acceleration guess
+   ``x~ + dt (v^n - v^{n-1})``, the inertial ``x~``, the previous state; quasistatic: one linearised step
+   ``K_ff dx_f = -g_f - K_fc dx_c`` (the free dofs follow the handles), or the previous state. A quadratic model
+   with its exact factorization takes the first valid one. If none is valid (an element would invert), the
+   handles go part of the way (``handle_fraction``). With self-contact the handles' motion is taken as given
+   (points dragged through the surface are counted in ``crossed`` and ignored until back out) and each guess is
+   cut back to what collision detection allows;
+3. **solve**: :func:`.minimize.newton` with the energy line search, until the residual is below
+   ``atol + rtol ||g(x0)||`` (never below its round-off level) or the wall-clock ``budget`` is spent; one
+   :class:`~.linsolve.LinearSolver` reuses a factorization across iterations *and* steps;
+4. **commit**: a converged iterate becomes ``u^{n+1}`` (``v^{n+1} = (u^{n+1} - u^n)/dt``). An unconverged step
+   keeps the state, or with ``anytime=True`` (the real-time loop) commits the last accepted iterate (finite, no
+   higher in energy than the start).
 
-:func:`solve` is the quasistatic solve of chapters 3 to 6: load steps that ramp the loads and the handles'
-displacements, each one a quasistatic step.
+:func:`solve`: the quasistatic solve of chapters 3 to 6, load steps ramping the loads and the handles.
 """
 
 from __future__ import annotations
@@ -41,7 +35,7 @@ import numpy as np
 from .linsolve import LinearSolver
 from .minimize import NewtonResult, newton
 from .model import Model
-from .parameters import check_count, check_real, check_real_array, check_time_step
+from .parameters import call_user, check_count, check_real, check_real_array, check_time_step
 
 __all__ = ["Stepper", "StepReport", "StaticResult", "solve"]
 
@@ -50,11 +44,6 @@ _ROUNDOFF = 1e-13
 #: The most Newton iterations a step may take, and the most load steps of :func:`solve`.
 MAX_ITERATIONS = 100_000
 MAX_LOAD_STEPS = 100_000
-
-
-def _forward(name, doc=None) -> property:
-    """A read-only property that passes on the Newton result's attribute ``name``."""
-    return property(lambda report: getattr(report.newton, name), doc=doc)
 
 
 @dataclass
@@ -76,10 +65,16 @@ class StepReport:
         """``"crossed"`` when the step started with surface points through the surface, else ``"clear"``."""
         return "crossed" if self.crossed else "clear"
 
-    # -- the Newton solve, forwarded
-    x = _forward("x", "The solve's last accepted iterate (the new state when committed).")
-    converged = _forward("converged")
-    status = _forward("status")
+    #: the Newton solve's results and methods, passed on (``x``: the last accepted iterate, the new state when
+    #: committed)
+    FORWARDED = ("x", "converged", "status", "linear_iterations", "factorizations", "residual_norm",
+                 "initial_residual", "relative_residual", "energy", "start_energy", "line_search_cuts", "history",
+                 "energies", "residual_norms", "table")
+
+    def __getattr__(self, name):
+        if name in StepReport.FORWARDED:
+            return getattr(self.newton, name)
+        raise AttributeError(f"StepReport has no attribute {name!r}")
 
     @property
     def newton_iterations(self) -> int:
@@ -87,26 +82,7 @@ class StepReport:
         return self.newton.iterations + (self.warm_start == "linearised")
 
     iterations = newton_iterations
-    linear_iterations = _forward("linear_iterations")
-    factorizations = _forward("factorizations")
-    residual_norm = _forward("residual_norm")
-    initial_residual = _forward("initial_residual")
-    relative_residual = _forward("relative_residual")
-    energy = _forward("energy")
-    start_energy = _forward("start_energy")
-    line_search_cuts = _forward("line_search_cuts")
-    history = _forward("history")
-    energies = _forward("energies")
-
-    def residual_norms(self) -> np.ndarray:
-        return self.newton.residual_norms()
-
-    def table(self) -> str:
-        return self.newton.table()
-
-    @property
-    def frame(self) -> int:
-        return self.step
+    frame = property(lambda self: self.step)
 
     def __repr__(self):
         crossed = f", {self.crossed} points through the surface" if self.crossed else ""
@@ -137,19 +113,6 @@ def _state_vector(name, value, n) -> np.ndarray:
     if not np.all(np.isfinite(a)):
         raise ValueError(f"{name} contains non-finite values")
     return a.copy()
-
-
-def _checked_clock(clock):
-    """The user's clock, read through a check: what it raises or returns that is not a finite real number of
-    seconds is a ``ValueError`` naming ``clock``."""
-
-    def read() -> float:
-        try:
-            now = clock()
-        except Exception as err:
-            raise ValueError(f"clock: the clock raised {type(err).__name__}: {err}") from None
-        return check_real("clock (its reading in seconds)", now)
-    return read
 
 
 def _roundoff_floors(model: Model) -> tuple[float, float]:
@@ -200,7 +163,8 @@ class Stepper:
         if not callable(clock):
             raise ValueError(f"clock must be a callable returning seconds, got {clock!r}")
         self.clock = clock
-        self._clock = _checked_clock(clock)
+        # read through a check: a clock that raises or returns no finite number of seconds is refused by name
+        self._clock = lambda: check_real("clock (its reading in seconds)", call_user("clock", "clock", clock))
         if not isinstance(anytime, (bool, np.bool_)):
             raise ValueError(f"anytime must be True or False, got {anytime!r}")
         self.anytime = bool(anytime)
