@@ -21,7 +21,7 @@ from .constants import TISSUE_DENSITY
 from .contact import Contact
 from .effects import as_terms, keyword_terms
 from .parameters import (REACH, ParameterError, call_user, check_bounded_vector, check_count, check_density,
-                         check_real, check_real_array, check_vector)
+                         check_indices, check_real, check_real_array, check_vector)
 from .terms import (Elastic, ElementTerm, Inertia, Load, Probe, SafeView, SummedDensity, Sutures, Term,
                     boundary_lengths, extent)
 
@@ -71,13 +71,10 @@ def region_nodes(mesh, region, field: str = "region") -> np.ndarray:
         nodes = np.flatnonzero(d <= radius * (1 + 1e-9))
     else:
         raw = region["nodes"] if isinstance(region, dict) and "nodes" in region else region
-        nodes = np.asarray(raw)
-        if nodes.ndim != 1 or not (nodes.size == 0 or np.issubdtype(nodes.dtype, np.integer)):
-            raise ValueError(f"{field}: a region is a boundary name, a mask, a box, a disc or node indices; "
-                             f"got {region!r}")
-        if nodes.size and (nodes.min() < 0 or nodes.max() >= n):
-            raise ValueError(f"{field}: node indices must be in 0..{n - 1}")
-        nodes = np.unique(nodes.astype(np.intp))
+        if isinstance(raw, dict):
+            raise ParameterError(field, f"{field}: a region is a boundary name, a mask, a box, a disc or node "
+                                        f"indices; got {region!r:.200}")
+        nodes = np.unique(check_indices(field, raw, n, "node indices"))
     if nodes.size == 0:
         lo, hi = p.min(axis=1), p.max(axis=1)
         raise ValueError(f"{field}: selects no node of the mesh (it lies outside the domain, which spans "

@@ -1,21 +1,11 @@
-"""Material parameters: Lamé constants from Young's modulus and Poisson's ratio, and the checks of every input.
+"""The one home of the library's input checks, and Lamé constants from Young's modulus and Poisson's ratio.
 
-Every number the library accepts has a documented range, chosen so that what is accepted can also be computed (no
-overflow, no division by zero later on):
-
-* Young's modulus ``E`` in ``[1e-6, 1e12]``: soft gels (~1 Pa) to steel (2e11 Pa), with room; ``E^2`` stays finite.
-* Poisson's ratio ``nu`` in ``[-0.999999, 0.499999]``: the admissible ``(-1, 0.5)`` less ``1e-6`` at each end, where
-  ``lam + 2 mu / 3`` would be lost to round-off; ``lam/mu <= 5e5``.
-* Lamé ``mu`` given directly in ``[1e-7, 1e30]`` (``E`` and ``nu`` above map to at most ``5e17``), ``lam`` in
-  ``(-2 mu / 3, 1e30]`` (a positive bulk modulus).
-* time step ``dt`` in ``[1e-6, 10]`` s; density ``rho0`` in ``[1e-6, 1e6]`` (``rho0 A / dt^2`` stays finite).
-* gravity within ``+-1e6`` per component; body forces and tractions within ``+-1e12`` (the stresses' size).
-* penalty stiffness (a probe's, a suture's ``k``) in ``[0, 1e40]``: ``k d^2`` stays finite for any depth within reach.
-* points and displacements within ``REACH L`` (1000 L, ``L`` the larger side of the domain's bounding box); radii in
-  ``[1e-6 L, 1000 L]`` (a probe's ``k ~ E / r^2`` stays finite); counts are true integers (never ``bool``).
-
-This is the one home of the library's input checks; each refusal is a :class:`ParameterError` whose message names the
-argument and the allowed range and whose ``field`` is that argument.
+Every number the library accepts has a documented range (the constants below), chosen so that what is accepted
+can also be computed: ``E^2``, ``rho0 A / dt^2``, a penalty's ``k d^2`` stay finite; ``nu`` keeps ``1e-6`` from
+each end of ``(-1, 0.5)``, where ``lam + 2 mu / 3`` would be lost to round-off; points and radii are measured in
+domain sizes ``L`` (the larger side of the domain's bounding box); counts are true integers (never ``bool``).
+Each refusal is a :class:`ParameterError` whose message names the argument and the allowed range and whose
+``field`` is that argument.
 """
 
 from __future__ import annotations
@@ -29,7 +19,7 @@ import numpy as np
 __all__ = [
     "ParameterError", "lame_parameters", "check_young_poisson", "check_poisson_ratio", "check_lame", "check_real",
     "check_real_number", "check_count", "check_positive", "call_user", "check_vector", "check_bounded_vector",
-    "check_real_array", "check_reach", "check_weights", "check_fiber_stiffness", "check_time_step", "check_density",
+    "check_real_array", "check_indices", "check_reach", "check_weights", "check_fiber_stiffness", "check_time_step", "check_density",
     "YOUNGS_MODULUS_RANGE", "POISSON_RATIO_RANGE", "LAME_MAX", "SHEAR_MODULUS_MIN", "TIME_STEP_RANGE",
     "DENSITY_RANGE", "ACCELERATION_MAX", "FORCE_MAX", "PENALTY_MAX", "REACH", "RADIUS_RANGE",
     # a scene's tables: each refusal names the field (``effects.probes[0].radius``)
@@ -69,12 +59,7 @@ def check_real_number(name: str, value) -> float:
     try:
         return float(value)
     except OverflowError:  # an integer with hundreds of digits
-        raise ParameterError(name, f"{name} is out of range (too large for a float), got {_short(value)}") from None
-
-
-def _short(value, limit: int = 60) -> str:
-    text = repr(value)
-    return text if len(text) <= limit else f"{text[:limit // 2]}...{text[-10:]} ({len(text)} characters)"
+        raise ParameterError(name, f"{name} is out of range (too large for a float), got {show(value)}") from None
 
 
 def _interval(lo, hi, lo_open, hi_open) -> str:
@@ -99,7 +84,7 @@ def check_real(name: str, value, lo=None, hi=None, *, lo_open: bool = False, hi_
         violated = f"{'<' if hi_open else '<='} {hi:g}"
     if violated is not None:
         allowed = _interval(lo, hi, lo_open, hi_open)
-        raise ParameterError(name, f"{name} must be {violated} (allowed range {allowed}), got {_short(value)}")
+        raise ParameterError(name, f"{name} must be {violated} (allowed range {allowed}), got {show(value)}")
     return v
 
 
@@ -108,11 +93,11 @@ def check_count(name: str, value, lo: int = 1, hi: int | None = None) -> int:
     if isinstance(value, np.ndarray) and value.ndim == 0:
         value = value[()]
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral):
-        raise ParameterError(name, f"{name} must be an integer, got {_short(value)}")
+        raise ParameterError(name, f"{name} must be an integer, got {show(value)}")
     v = int(value)
     if v < lo or (hi is not None and v > hi):
         bounds = f"[{lo}, {hi}]" if hi is not None else f">= {lo}"
-        raise ParameterError(name, f"{name} must be an integer in {bounds}, got {_short(value)}")
+        raise ParameterError(name, f"{name} must be an integer in {bounds}, got {show(value)}")
     return v
 
 
@@ -142,6 +127,19 @@ def check_vector(name, value) -> np.ndarray:
     if v.shape != (2,) or not np.all(np.isfinite(v)):
         raise ParameterError(name, f"{name} must be a finite vector (x, y), got {value!r}")
     return v
+
+
+def check_indices(name: str, value, count: int, what: str = "indices") -> np.ndarray:
+    """``value`` as a 1D array of indices (``what``) in ``0 .. count-1``: true integers, never floats or bools."""
+    try:
+        idx = np.asarray(value)
+    except (TypeError, ValueError):  # ragged lists
+        idx = np.asarray(None)
+    if idx.ndim != 1 or not (idx.size == 0 or idx.dtype.kind in "iu"):
+        raise ParameterError(name, f"{name} must be a list of integer {what} in 0..{count - 1}, got {show(value)}")
+    if idx.size and (idx.min() < 0 or idx.max() >= count):
+        raise ParameterError(name, f"{name} must be {what} in 0..{count - 1} (there are {count}), got {show(value)}")
+    return idx.astype(np.intp)
 
 
 def check_reach(name, point, middle, size) -> np.ndarray:
@@ -191,7 +189,7 @@ def check_bounded_vector(name: str, value, bound: float) -> np.ndarray:
     except Exception:  # no length, or one that cannot be taken: not a vector
         items = None
     if items is None or len(items) != 2:
-        raise ParameterError(name, f"{name} must be a vector (x, y) of two real numbers, got {_short(value)}")
+        raise ParameterError(name, f"{name} must be a vector (x, y) of two real numbers, got {show(value)}")
     return np.array([check_real(f"{name}[{i}]", v, -bound, bound) for i, v in enumerate(items)])
 
 

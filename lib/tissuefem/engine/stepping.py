@@ -35,7 +35,7 @@ import numpy as np
 from .linsolve import LinearSolver
 from .minimize import NewtonResult, newton
 from .model import Model
-from .parameters import call_user, check_count, check_real, check_real_array, check_time_step
+from .parameters import ParameterError, call_user, check_count, check_indices, check_real, check_real_array, check_time_step
 
 __all__ = ["Stepper", "StepReport", "StaticResult", "solve"]
 
@@ -109,9 +109,9 @@ def _state_vector(name, value, n) -> np.ndarray:
     """A finite real dof vector of shape ``(n,)`` (a private copy), or a ``ValueError`` naming ``name``."""
     a = check_real_array(name, value)
     if a.shape != (n,):
-        raise ValueError(f"{name} must have shape ({n},), got {a.shape}")
+        raise ParameterError(name, f"{name} must have shape ({n},), got {a.shape}")
     if not np.all(np.isfinite(a)):
-        raise ValueError(f"{name} contains non-finite values")
+        raise ParameterError(name, f"{name} contains non-finite values")
     return a.copy()
 
 
@@ -279,22 +279,8 @@ class Stepper:
             fixed, values = prescribed
         except (TypeError, ValueError):
             raise ValueError(f"prescribed must be (dofs, values), got {prescribed!r}") from None
-        n = self.model.n_dofs
-        try:
-            fixed = np.asarray(fixed)
-        except (TypeError, ValueError):
-            raise ValueError("prescribed: dofs must be an array of dof indices") from None
-        if fixed.ndim != 1 or not (fixed.size == 0 or fixed.dtype.kind in "iu"):
-            raise ValueError(f"prescribed: dofs must be a 1D array of integer dof indices, got dtype {fixed.dtype} "
-                             f"and shape {fixed.shape}")
-        if fixed.size and (fixed.min() < 0 or fixed.max() >= n):
-            raise ValueError(f"prescribed: dofs must be in 0..{n - 1}")
-        values = check_real_array("prescribed values", values)
-        if values.shape != fixed.shape:
-            raise ValueError(f"prescribed: values must have the shape of dofs {fixed.shape}, got {values.shape}")
-        if not np.all(np.isfinite(values)):
-            raise ValueError("prescribed: the prescribed displacements are not finite")
-        return fixed.astype(np.intp), values
+        fixed = check_indices("prescribed dofs", fixed, self.model.n_dofs)
+        return fixed, _state_vector("prescribed values", values, fixed.size)
 
     def _step(self, targets, prescribed, load, start) -> StepReport:
         model = self.model

@@ -22,13 +22,15 @@ chapters' ``E = 1/2 |u - u~|_M^2 + dt^2 [W - f.u]`` is this potential times ``dt
 
 from __future__ import annotations
 
+import numbers
+
 import numpy as np
 from skfem import FacetBasis, LinearForm, asm
 
 from .materials import (FiberReinforced, Material, check_fiber_stiffness, fiber_energy_term, fiber_stress_term,
                         fiber_tangent_term)
 from .parameters import (FORCE_MAX, PENALTY_MAX, RADIUS_RANGE, REACH, ParameterError, check_bounded_vector,
-                         check_density, check_reach, check_real, check_real_array, check_time_step, check_vector)
+                         check_density, check_indices, check_reach, check_real, check_real_array, check_time_step, check_vector)
 
 __all__ = ["Term", "ElementTerm", "Elastic", "Fibers", "Inertia", "Load", "Probe", "Sutures", "traction_vector",
            "SummedDensity", "SafeView", "extent", "boundary_lengths"]
@@ -325,22 +327,6 @@ def boundary_lengths(mesh) -> np.ndarray:
     return np.bincount(facets.ravel(), weights=np.concatenate([half, half]), minlength=mesh.nvertices)
 
 
-def _stitch_indices(stitches, count) -> np.ndarray:
-    """Checked stitch indices: true integers in ``0 .. count-1`` (one index or a list of them)."""
-    try:
-        idx = np.asarray(stitches)
-    except (TypeError, ValueError):
-        raise ValueError(f"stitches must be stitch indices (integers), got {stitches!r}") from None
-    if idx.size == 0 and idx.ndim == 1:
-        return np.zeros(0, dtype=np.intp)
-    if idx.dtype.kind not in "iu" or idx.ndim > 1:
-        raise ValueError(f"stitches must be stitch indices (integers in 0..{count - 1}), got {stitches!r}")
-    idx = idx.reshape(-1)
-    if idx.min() < 0 or idx.max() >= count:
-        raise ValueError(f"stitches must be indices in 0..{count - 1} (there are {count} stitches), got {stitches!r}")
-    return idx.astype(np.intp)
-
-
 def traction_vector(basis, boundary, traction) -> np.ndarray:
     """``f_(a,i) = int_boundary N_a t_i dS`` for a constant traction ``t`` (force per unit reference length)."""
     t = check_bounded_vector(f"tractions[{boundary!r}]", traction, FORCE_MAX)
@@ -539,7 +525,9 @@ class Sutures(Term):
         (floats, booleans and negative indices are refused). All or nothing.
         """
         count = self.pairs.shape[1]
-        index = np.arange(count) if stitches is None else _stitch_indices(stitches, count)
+        if isinstance(stitches, numbers.Integral) and not isinstance(stitches, (bool, np.bool_)):
+            stitches = [stitches]
+        index = np.arange(count) if stitches is None else check_indices("stitches", stitches, count)
         s = check_real_array("fraction (suture tightness)", fraction)
         if s.ndim > 1 or (s.ndim == 1 and s.shape != index.shape):
             raise ValueError(f"fraction (suture tightness) must be one number or one per stitch tightened "
