@@ -1,16 +1,16 @@
 """The effects a scene can name, and the one place where each becomes a term.
 
-:data:`EFFECTS` maps an effect's name (a key of a scene's ``effects`` table) to an :class:`Effect`:
-how its table is checked (``check(field, table) -> params``, a ``ParameterError`` naming the field)
-and how its term is made (``build(model, params, scene) -> Term | list[Term] | None``; ``scene``
-is the scene being built, for defaults taken from its material or domain, or ``None``). A new
-effect is a term and one :func:`register` call::
+:data:`EFFECTS` maps an effect's name (a key of a scene's ``effects`` table) to an :class:`Effect`: how its
+table is checked (``check(field, table) -> params``, refusals name the field: ``effects.probes[0].radius``)
+and how its term is made (``build(model, params, scene) -> Term | list[Term] | None``; ``scene``: the scene
+being built, for defaults from its material or domain, or ``None``). A new effect is a term and one
+:func:`register` call::
 
     register("wind", check=lambda field, table: {...}, build=lambda model, params, scene: Load(...))
 
-The model's keywords (``dt``, ``gravity``, ``fibers``, ...) go through the same factories (:func:`keyword_terms`).
-Probes and sutures are *placed* effects: the simulation's operations (``add_probe``, ``suture``) place them.
-The table checks live in :mod:`tissuefem.engine.parameters`: a refusal names the field (``effects.probes[0].radius``).
+A model's keywords (``dt``, ``gravity``, ``fibers`` ...) go through the same factories
+(:func:`keyword_terms`). Probes and sutures are *placed* by the simulation's operations (``add_probe``,
+``suture``).
 """
 
 from __future__ import annotations
@@ -34,9 +34,8 @@ __all__ = ["Effect", "EFFECTS", "register", "factory", "keyword_terms", "SkinCon
 
 @dataclass(frozen=True)
 class Effect:
-    """A scene's effect: ``check(field, table) -> params`` and ``build(model, params, scene) -> term(s)``.
-    ``listed``: a list of tables; ``placed``: placed by the simulation between frames; ``check=None``: a model
-    keyword only."""
+    """``listed``: a list of tables; ``placed``: placed by the simulation; ``check=None``: a model keyword
+    only."""
 
     name: str
     check: Callable | None

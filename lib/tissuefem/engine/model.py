@@ -5,13 +5,15 @@ A :class:`Model` is a mesh with a P1 or P2 displacement basis, a material and a 
 
     E(u) = W(u) [+ fibres] [+ probe] [+ sutures] [+ contact] [- f . u] [+ 1/(2 dt^2) |u - u~|_M^2].
 
-:mod:`.stepping` minimises it; :meth:`Model.remapped` carries it across a cut or an excision. A :class:`Handle`
-is a constraint, not a term: it holds a region at prescribed displacements (checked where they enter).
-Every Hessian goes into one fixed sparsity pattern (:class:`Pattern`), widened where a term couples dofs the
-mesh does not (sutures) and rebuilt when a term's couplings change (self-contact's ``covers``).
+:mod:`.stepping` minimises it; :meth:`Model.remapped` carries it across a cut or an excision. A
+:class:`Handle` is a constraint, not a term: it holds a region at prescribed displacements (checked where they
+enter). Every Hessian goes into one fixed sparsity pattern (:class:`Pattern`), widened where a term couples
+dofs the mesh does not (sutures) and rebuilt when a term's couplings change (self-contact's ``covers``).
 """
 
 from __future__ import annotations
+
+import itertools
 
 import numpy as np
 import scipy.sparse as sp
@@ -30,6 +32,17 @@ __all__ = ["Model", "Handle", "Pattern", "region_nodes"]
 
 # ------------------------------------------------------------------------------------------------ regions
 
+def _selected(field, mask, points) -> np.ndarray:
+    """The indices of the points ``(2, n)`` a user's ``mask(points) -> bools`` selects (given a copy)."""
+    on = np.asarray(call_user(field, "mask", mask, points.copy()))
+    if on.dtype.kind not in "biu":  # bools (or 0/1 integers), never floats, strings or objects cast to bool
+        raise ParameterError(field, f"{field}: the mask must return bools, got dtype {on.dtype}")
+    if on.shape != points.shape[1:]:
+        raise ParameterError(field, f"{field}: the mask must return one bool per point, shape "
+                                    f"({points.shape[1]},), got {on.shape}")
+    return np.flatnonzero(on)
+
+
 def region_nodes(mesh, region, field: str = "region") -> np.ndarray:
     """The mesh nodes (sorted indices) that a region selects; ``ValueError`` naming ``field`` if none.
 
@@ -45,12 +58,7 @@ def region_nodes(mesh, region, field: str = "region") -> np.ndarray:
             raise ValueError(f"{field}: {region!r} is not a boundary of the mesh; boundaries: {names}")
         nodes = np.unique(mesh.facets[:, mesh.boundaries[region]])
     elif callable(region):
-        mask = np.asarray(call_user(field, "mask", region, p.copy()))  # a copy: the mask cannot change the mesh
-        if mask.dtype.kind not in "biu":  # bools (or 0/1 integers), never floats, strings or objects cast to bool
-            raise ValueError(f"{field}: the mask must return bools, got dtype {mask.dtype}")
-        if mask.shape != (n,):
-            raise ValueError(f"{field}: the mask must return one bool per node, shape ({n},), got {mask.shape}")
-        nodes = np.flatnonzero(mask)
+        nodes = _selected(field, region, p)
     elif isinstance(region, dict) and "box" in region:
         box = region["box"]
         try:
@@ -72,8 +80,8 @@ def region_nodes(mesh, region, field: str = "region") -> np.ndarray:
     else:
         raw = region["nodes"] if isinstance(region, dict) and "nodes" in region else region
         if isinstance(raw, dict):
-            raise ParameterError(field, f"{field}: a region is a boundary name, a mask, a box, a disc or node "
-                                        f"indices; got {region!r:.200}")
+            raise ParameterError(field, f"{field}: a region is a boundary name, a mask, a box, a disc or "
+                                        f"node indices; got {region!r:.200}")
         nodes = np.unique(check_indices(field, raw, n, "node indices"))
     if nodes.size == 0:
         lo, hi = p.min(axis=1), p.max(axis=1)
@@ -106,8 +114,8 @@ def _check_target(target, points=None, field="target", reach=None):
     try:
         t = check_vector(field, target)
     except ParameterError:
-        raise ParameterError(field, f"{field} must be a translation (dx, dy) of finite real numbers, shape (2,), or "
-                                    f"a callable, got {target!r:.100}") from None
+        raise ParameterError(field, f"{field} must be a translation (dx, dy) of finite real numbers, "
+                                    f"shape (2,), or a callable, got {target!r:.100}") from None
     if reach is not None and np.any(np.abs(t) > reach):
         raise ValueError(f"{field} = {t.tolist()}: a displacement larger than {REACH:g} domain sizes ({reach:g})")
     return t
@@ -287,10 +295,7 @@ class Holding:
                 edges = np.asarray(mesh.boundaries[h.region])
             elif callable(h.region):
                 mid = 0.5 * (self.X[:, mesh.facets[0]] + self.X[:, mesh.facets[1]])
-                on = np.asarray(call_user(f"handle {h.name!r} region", "mask", h.region, mid))
-                if on.shape != (mid.shape[1],) or on.dtype.kind not in "biu":
-                    raise ValueError(f"handle {h.name!r} region: the mask must return one bool per point")
-                edges = np.flatnonzero(on.astype(bool))
+                edges = _selected(f"handle {h.name!r} region", h.region, mid)
             else:
                 held = np.zeros(mesh.nvertices, dtype=bool)
                 held[nodes] = True
@@ -312,10 +317,7 @@ class Holding:
         names = {h.name for h in self.handles}
         name = handle.name
         if name is None:
-            k = len(self.handles)
-            while f"handle{k}" in names:
-                k += 1
-            name = f"handle{k}"
+            name = next(f"handle{k}" for k in itertools.count(len(self.handles)) if f"handle{k}" not in names)
         elif name in names:
             raise ValueError(f"a handle named {name!r} exists already")
         # everything is checked before the handle is touched: a refused handle is left as it was given
@@ -340,10 +342,9 @@ class Holding:
             if 0 <= name < len(self.handles):
                 return self.handles[name]
             raise ValueError(f"no handle at index {name}; there are {len(self.handles)}")
-        if isinstance(name, str):  # names are strings: anything else (an array, a list) names no handle
-            for h in self.handles:
-                if h.name == name:
-                    return h
+        found = [h for h in self.handles if isinstance(name, str) and h.name == name]  # names are strings
+        if found:
+            return found[0]
         raise ValueError(f"no handle named {name!r:.100}; handles: {[h.name for h in self.handles]}")
 
     def set_targets(self, targets) -> None:
@@ -380,18 +381,16 @@ class Holding:
         """The held dofs (sorted) and their displacements; where handles overlap, the later one wins."""
         if not self.handles:
             return np.zeros(0, dtype=np.intp), np.zeros(0)
-        all_dofs, all_values = [], []
+        all_values = []
         for h in self.handles:
-            base = None
-            if h.base is not None:
-                base = np.where(h._owner >= 0, h.base[self.component[h._dofs], np.maximum(h._owner, 0)], 0.0)
             x = _map_positions(h.target, h._points, f"handle {h.name!r} target") if callable(h.target) else \
                 h._points + h.target[:, None]
-            u = x - h._points
-            values = u[self.component[h._dofs], np.arange(h._dofs.size)]
-            all_dofs.append(h._dofs)
-            all_values.append(values if base is None else values + base)
-        dofs, values = np.concatenate(all_dofs), np.concatenate(all_values)
+            values = (x - h._points)[self.component[h._dofs], np.arange(h._dofs.size)]
+            if h.base is not None:  # a grab: its nodes' displacement when grabbed, plus the target's offset
+                held = h.base[self.component[h._dofs], np.maximum(h._owner, 0)]
+                values = values + np.where(h._owner >= 0, held, 0.0)
+            all_values.append(values)
+        dofs, values = np.concatenate([h._dofs for h in self.handles]), np.concatenate(all_values)
         unique, first_in_reversed = np.unique(dofs[::-1], return_index=True)
         return unique.astype(np.intp), values[::-1][first_in_reversed]
 
@@ -407,18 +406,18 @@ class Holding:
 class Model(Holding):
     """A hyperelastic body (mesh, displacement basis, material) and exactly the terms acting on it.
 
-    ``mesh``: a ``skfem.MeshTri`` of straight triangles (degenerate or folded ones are refused); ``material``: the
-    :class:`~tissuefem.engine.terms.Elastic` term's (:mod:`.materials`, :mod:`.inversion`); ``order``: P1 or P2,
-    ``intorder``: the quadrature degree (default ``2 order``), ``assembly``: ``"fast"`` or ``"forms"`` (the
-    readable reference); ``terms``: more :class:`~tissuefem.engine.terms.Term` objects or factories
-    ``model -> Term`` (:func:`.effects.factory`); ``handles``: :class:`Handle` objects; ``density``: ``rho0`` per
-    unit reference area; ``weights``: per-element material fractions (elements cut through).
+    ``mesh``: a ``skfem.MeshTri`` of straight triangles (degenerate or folded ones are refused); ``material``:
+    the :class:`~tissuefem.engine.terms.Elastic` term's (:mod:`.materials`, :mod:`.inversion`); ``order``: P1
+    or P2, ``intorder``: the quadrature degree (default ``2 order``), ``assembly``: ``"fast"`` or ``"forms"``
+    (the readable reference); ``terms``: more :class:`~tissuefem.engine.terms.Term` objects or factories
+    ``model -> Term`` (:func:`.effects.factory`); ``handles``: :class:`Handle` objects; ``density``: ``rho0``
+    per unit reference area; ``weights``: per-element material fractions (elements cut through).
 
-    Shorthands for the common terms (:mod:`.effects`): ``dt`` (s) with ``mass`` ``"lumped"`` or ``"consistent"``
-    (backward Euler; without: quasistatic); ``gravity`` ``(gx, gy)``; ``body_force`` ``(bx, by)`` per unit area;
-    ``tractions`` ``{boundary: (tx, ty)}`` per unit length; ``fibers`` ``(stiffness, directions)``; ``probes``:
-    dicts ``center, radius, stiffness[, label, smoothing]``; ``sutures``: ``pairs, stiffness, gaps[, tightness,
-    coefficients]``; ``contact``: ``distance, stiffness[, surface, skin]``.
+    Shorthands for the common terms (:mod:`.effects`): ``dt`` (s) with ``mass`` ``"lumped"`` or
+    ``"consistent"`` (backward Euler; without: quasistatic); ``gravity`` ``(gx, gy)``; ``body_force`` ``(bx,
+    by)`` per unit area; ``tractions`` ``{boundary: (tx, ty)}`` per unit length; ``fibers`` ``(stiffness,
+    directions)``; ``probes``: dicts ``center, radius, stiffness[, label, smoothing]``; ``sutures``: ``pairs,
+    stiffness, gaps[, tightness, coefficients]``; ``contact``: ``distance, stiffness[, surface, skin]``.
     """
 
     def __init__(self, mesh, material, *, order: int = 1, intorder: int | None = None, assembly: str = "fast",

@@ -1,11 +1,11 @@
 """The one home of the library's input checks, and Lamé constants from Young's modulus and Poisson's ratio.
 
 Every number the library accepts has a documented range (the constants below), chosen so that what is accepted
-can also be computed: ``E^2``, ``rho0 A / dt^2``, a penalty's ``k d^2`` stay finite; ``nu`` keeps ``1e-6`` from
-each end of ``(-1, 0.5)``, where ``lam + 2 mu / 3`` would be lost to round-off; points and radii are measured in
-domain sizes ``L`` (the larger side of the domain's bounding box); counts are true integers (never ``bool``).
-Each refusal is a :class:`ParameterError` whose message names the argument and the allowed range and whose
-``field`` is that argument.
+can also be computed: ``E^2``, ``rho0 A / dt^2``, a penalty's ``k d^2`` stay finite; ``nu`` keeps ``1e-6``
+from each end of ``(-1, 0.5)``, where ``lam + 2 mu / 3`` would be lost to round-off; points and radii are
+measured in domain sizes ``L`` (the larger side of the domain's bounding box); counts are true integers (never
+``bool``). Each refusal is a :class:`ParameterError` whose message names the argument and the allowed range
+and whose ``field`` is that argument.
 """
 
 from __future__ import annotations
@@ -19,7 +19,8 @@ import numpy as np
 __all__ = [
     "ParameterError", "lame_parameters", "check_young_poisson", "check_poisson_ratio", "check_lame", "check_real",
     "check_real_number", "check_count", "check_positive", "call_user", "check_vector", "check_bounded_vector",
-    "check_real_array", "check_indices", "check_reach", "check_weights", "check_fiber_stiffness", "check_time_step", "check_density",
+    "check_real_array", "check_indices", "check_reach", "check_weights", "check_fiber_stiffness",
+    "check_time_step", "check_density",
     "YOUNGS_MODULUS_RANGE", "POISSON_RATIO_RANGE", "LAME_MAX", "SHEAR_MODULUS_MIN", "TIME_STEP_RANGE",
     "DENSITY_RANGE", "ACCELERATION_MAX", "FORCE_MAX", "PENALTY_MAX", "REACH", "RADIUS_RANGE",
     # a scene's tables: each refusal names the field (``effects.probes[0].radius``)
@@ -59,7 +60,8 @@ def check_real_number(name: str, value) -> float:
     try:
         return float(value)
     except OverflowError:  # an integer with hundreds of digits
-        raise ParameterError(name, f"{name} is out of range (too large for a float), got {show(value)}") from None
+        raise ParameterError(name, f"{name} is out of range (too large for a float), got {show(value)}") \
+            from None
 
 
 def _interval(lo, hi, lo_open, hi_open) -> str:
@@ -107,8 +109,8 @@ def check_positive(name, value) -> float:
 
 
 def call_user(field: str, what: str, function, *args):
-    """``function(*args)`` for a user's callable (a ``what``: mask, map, clock); whatever it raises is refused as
-    a ``ParameterError`` naming ``field``."""
+    """``function(*args)`` for a user's callable (a ``what``: mask, map, clock); whatever it raises is refused
+    as a ``ParameterError`` naming ``field``."""
     try:
         return function(*args)
     except Exception as err:  # a user's callable may raise anything: a refusal, not a crash
@@ -130,15 +132,18 @@ def check_vector(name, value) -> np.ndarray:
 
 
 def check_indices(name: str, value, count: int, what: str = "indices") -> np.ndarray:
-    """``value`` as a 1D array of indices (``what``) in ``0 .. count-1``: true integers, never floats or bools."""
+    """``value`` as a 1D array of indices (``what``) in ``0 .. count-1``: true integers, never floats or
+    bools."""
     try:
         idx = np.asarray(value)
     except (TypeError, ValueError):  # ragged lists
         idx = np.asarray(None)
     if idx.ndim != 1 or not (idx.size == 0 or idx.dtype.kind in "iu"):
-        raise ParameterError(name, f"{name} must be a list of integer {what} in 0..{count - 1}, got {show(value)}")
+        raise ParameterError(name, f"{name} must be a list of integer {what} in 0..{count - 1}, "
+                                   f"got {show(value)}")
     if idx.size and (idx.min() < 0 or idx.max() >= count):
-        raise ParameterError(name, f"{name} must be {what} in 0..{count - 1} (there are {count}), got {show(value)}")
+        raise ParameterError(name, f"{name} must be {what} in 0..{count - 1} (there are {count}), "
+                                   f"got {show(value)}")
     return idx.astype(np.intp)
 
 

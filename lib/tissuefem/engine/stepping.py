@@ -2,24 +2,24 @@
 
     E(x) = W(x) [+ other terms] - f . x  [+ 1/(2 dt^2) (x - x~)^T M (x - x~)],   x~ = u^n + dt v^n,
 
-the inertia term only with a time step (:mod:`.terms`). Its gradient is the backward-Euler residual (the notes'
-``q`` of "Time stepping", with the README's errata), without inertia the quasistatic one. A :class:`Stepper`
-holds ``u, v`` and takes one step at a time:
+the inertia term only with a time step (:mod:`.terms`). Its gradient is the backward-Euler residual (the
+notes' ``q`` of "Time stepping", with the README's errata), without inertia the quasistatic one. A
+:class:`Stepper` holds ``u, v`` and takes one step at a time:
 
 1. **input**: the handles' new targets, checked before anything moves (a refusal changes nothing);
 2. **warm start**: the lowest-energy valid guess. Dynamic: the constant-acceleration guess
    ``x~ + dt (v^n - v^{n-1})``, the inertial ``x~``, the previous state; quasistatic: one linearised step
-   ``K_ff dx_f = -g_f - K_fc dx_c`` (the free dofs follow the handles), or the previous state. A quadratic model
-   with its exact factorization takes the first valid one. If none is valid (an element would invert), the
-   handles go part of the way (``handle_fraction``). With self-contact the handles' motion is taken as given
-   (points dragged through the surface are counted in ``crossed`` and ignored until back out) and each guess is
-   cut back to what collision detection allows;
+   ``K_ff dx_f = -g_f - K_fc dx_c`` (the free dofs follow the handles), or the previous state. A quadratic
+   model with its exact factorization takes the first valid one. If none is valid (an element would invert),
+   the handles go part of the way (``handle_fraction``). With self-contact the handles' motion is taken as
+   given (points dragged through the surface are counted in ``crossed`` and ignored until back out) and each
+   guess is cut back to what collision detection allows;
 3. **solve**: :func:`.minimize.newton` with the energy line search, until the residual is below
    ``atol + rtol ||g(x0)||`` (never below its round-off level) or the wall-clock ``budget`` is spent; one
    :class:`~.linsolve.LinearSolver` reuses a factorization across iterations *and* steps;
 4. **commit**: a converged iterate becomes ``u^{n+1}`` (``v^{n+1} = (u^{n+1} - u^n)/dt``). An unconverged step
-   keeps the state, or with ``anytime=True`` (the real-time loop) commits the last accepted iterate (finite, no
-   higher in energy than the start).
+   keeps the state, or with ``anytime=True`` (the real-time loop) commits the last accepted iterate (finite,
+   no higher in energy than the start).
 
 :func:`solve`: the quasistatic solve of chapters 3 to 6, load steps ramping the loads and the handles.
 """
@@ -35,7 +35,8 @@ import numpy as np
 from .linsolve import LinearSolver
 from .minimize import NewtonResult, newton
 from .model import Model
-from .parameters import ParameterError, call_user, check_count, check_indices, check_real, check_real_array, check_time_step
+from .parameters import (ParameterError, call_user, check_count, check_indices, check_real, check_real_array,
+                         check_time_step)
 
 __all__ = ["Stepper", "StepReport", "StaticResult", "solve"]
 
@@ -60,16 +61,14 @@ class StepReport:
     committed: bool = True  # whether the state moved to the result
     crossed: int = 0  # surface points found through the surface when the step started (self-contact)
 
-    @property
-    def contact_status(self) -> str:
-        """``"crossed"`` when the step started with surface points through the surface, else ``"clear"``."""
-        return "crossed" if self.crossed else "clear"
+    contact_status = property(lambda self: "crossed" if self.crossed else "clear",
+                              doc="``crossed``: the step started with surface points through the surface.")
 
     #: the Newton solve's results and methods, passed on (``x``: the last accepted iterate, the new state when
     #: committed)
     FORWARDED = ("x", "converged", "status", "linear_iterations", "factorizations", "residual_norm",
-                 "initial_residual", "relative_residual", "energy", "start_energy", "line_search_cuts", "history",
-                 "energies", "residual_norms", "table")
+                 "initial_residual", "relative_residual", "energy", "start_energy", "line_search_cuts",
+                 "history", "energies", "residual_norms", "table")
 
     def __getattr__(self, name):
         if name in StepReport.FORWARDED:
@@ -202,13 +201,8 @@ class Stepper:
     def budget(self, value):
         self._budget = _positive("budget", value, allow_inf=True)
 
-    @property
-    def frames(self) -> int:
-        return self.steps
-
-    @property
-    def linear_solver_name(self) -> str:
-        return self.linear.name
+    frames = property(lambda self: self.steps)
+    linear_solver_name = property(lambda self: self.linear.name)
 
     def _checked_state(self, u, v) -> tuple[np.ndarray, np.ndarray]:
         n = self.model.n_dofs

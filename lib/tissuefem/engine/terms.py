@@ -30,7 +30,8 @@ from skfem import FacetBasis, LinearForm, asm
 from .materials import (FiberReinforced, Material, check_fiber_stiffness, fiber_energy_term, fiber_stress_term,
                         fiber_tangent_term)
 from .parameters import (FORCE_MAX, PENALTY_MAX, RADIUS_RANGE, REACH, ParameterError, check_bounded_vector,
-                         check_density, check_indices, check_reach, check_real, check_real_array, check_time_step, check_vector)
+                         check_density, check_indices, check_reach, check_real, check_real_array,
+                         check_time_step, check_vector)
 
 __all__ = ["Term", "ElementTerm", "Elastic", "Fibers", "Inertia", "Load", "Probe", "Sutures", "traction_vector",
            "SummedDensity", "SafeView", "extent", "boundary_lengths"]
@@ -50,8 +51,8 @@ class Term:
     name = "term"
     quadratic = False  #: a constant Hessian (then a kept factorization is exact)
     has_safe_hessian = False  #: whether ``add_hessian(..., safe=True)`` differs from the exact Hessian
-    #: the term's place in the model's sums (inertia, element terms, probes, sutures, others, loads): a term added
-    #: to a running model sums as if the model had been built with it
+    #: the term's place in the model's sums (inertia, element terms, probes, sutures, others, loads): a term
+    #: added to a running model sums as if the model had been built with it
     rank = 5
 
     def bind(self, pattern) -> None:
@@ -350,17 +351,18 @@ def traction_vector(basis, boundary, traction) -> np.ndarray:
 class Probe(Term):
     """A rigid disc (a tool tip) of centre ``c`` and radius ``R`` pressed into the tissue's surface.
 
-    A penalty pressure on each *boundary* node ``a``, weighted by its share ``l_a`` of the boundary's length, at
-    the penetration ``g_a = R - d_a``, ``d_a = |x_a - c|``:
+    A penalty pressure on each *boundary* node ``a``, weighted by its share ``l_a`` of the boundary's length,
+    at the penetration ``g_a = R - d_a``, ``d_a = |x_a - c|``:
 
         E = sum_a k l_a h(g_a),   h(g) = g^3 / (6 delta)             (0 < g < delta),
                                   h(g) = g^2/2 - delta g/2 + delta^2/6  (g >= delta),
 
     ``h = 0`` outside. ``k`` is a pressure per unit penetration, so the penetration does not depend on the
-    element size; ``h`` is C2 (smoothed over ``delta``, a small fraction of ``R``), so the Newton matrix does not
-    jump as nodes enter or leave. With ``n_a = (x_a - c) / d_a`` the force is ``k l_a h'(g) n_a`` and the Hessian
-    ``k l_a [h''(g) n n^T - h'(g)/d (I - n n^T)]``; its tangential part (the disc's curvature) is negative and of
-    order ``g / R``: the *safe* Hessian (``safe=True``, the minimiser's fallback) keeps only the normal part.
+    element size; ``h`` is C2 (smoothed over ``delta``, a small fraction of ``R``), so the Newton matrix does
+    not jump as nodes enter or leave. With ``n_a = (x_a - c) / d_a`` the force is ``k l_a h'(g) n_a`` and the
+    Hessian ``k l_a [h''(g) n n^T - h'(g)/d (I - n n^T)]``; its tangential part (the disc's curvature) is
+    negative and of order ``g / R``: the *safe* Hessian (``safe=True``, the minimiser's fallback) keeps only
+    the normal part.
     """
 
     name = "probe"
@@ -460,11 +462,12 @@ class Sutures(Term):
 
     An end is a node, or a point inside an element that moves with its nodes, ``x_a = sum_c w_c x_{n_c}``
     (barycentric weights ``w``). A suture is placed with its gap as slack ``g_0`` (no force) and *tightened*:
-    ``tighten(s)`` sets ``g = (1 - s) g_0``, ``s = 1`` closes the wound. The Hessian ``k D^T D`` (``D``: nodes to
-    gap) is constant and couples the ends' nodes (a widened pattern). ``k``: force per unit length.
+    ``tighten(s)`` sets ``g = (1 - s) g_0``, ``s = 1`` closes the wound. The Hessian ``k D^T D`` (``D``: nodes
+    to gap) is constant and couples the ends' nodes (a widened pattern). ``k``: force per unit length.
 
-    ``X`` ``(2, n_nodes)``; ``pairs`` ``(2, k)`` node pairs or, with ``coefficients`` ``(2, c, k)`` (each end's
-    weights, adding up to 1), each end's ``c`` nodes; ``stiffness`` one number or ``(k,)``; ``gaps`` ``(2, k)``.
+    ``X`` ``(2, n_nodes)``; ``pairs`` ``(2, k)`` node pairs or, with ``coefficients`` ``(2, c, k)`` (each
+    end's weights, adding up to 1), each end's ``c`` nodes; ``stiffness`` one number or ``(k,)``; ``gaps``
+    ``(2, k)``.
     """
 
     name = "sutures"
