@@ -23,8 +23,8 @@ from .constants import TISSUE_DENSITY
 from .contact import Contact
 from .effects import as_terms, keyword_terms
 from .parameters import (REACH, ParameterError, call_user, check_bounded_vector, check_count, check_density,
-                         check_indices, check_real, check_real_array, check_vector)
-from .terms import (Elastic, ElementTerm, Inertia, Load, Probe, SafeView, SummedDensity, Sutures, Term,
+                         check_indices, check_real, check_real_array, check_vector, is_sequence)
+from .terms import (Elastic, ElementTerm, Inertia, Load, Probe, SummedDensity, Sutures, Term,
                     boundary_lengths, extent)
 
 __all__ = ["Model", "Handle", "Pattern", "region_nodes"]
@@ -61,12 +61,8 @@ def region_nodes(mesh, region, field: str = "region") -> np.ndarray:
         nodes = _selected(field, region, p)
     elif isinstance(region, dict) and "box" in region:
         box = region["box"]
-        try:
-            ok = not isinstance(box, (str, bytes, dict)) and len(box) == 4
-        except TypeError:
-            ok = False
-        if not ok:
-            raise ValueError(f"{field}.box must be [x0, y0, x1, y1], got {box!r}")
+        if not is_sequence(box) or len(box) != 4:
+            raise ParameterError(f"{field}.box", f"{field}.box must be [x0, y0, x1, y1], got {box!r:.200}")
         x0, y0, x1, y1 = (check_real(f"{field}.box[{i}]", b) for i, b in enumerate(box))
         tol = 1e-9 * max(1.0, float(np.ptp(p)))
         nodes = np.flatnonzero((p[0] >= x0 - tol) & (p[0] <= x1 + tol) & (p[1] >= y0 - tol) & (p[1] <= y1 + tol))
@@ -476,6 +472,7 @@ class Model(Holding):
         self._other_terms = [t for t in self.terms if not isinstance(t, ElementTerm)]
         densities = [t.density for t in self._element_terms]
         self._density = densities[0] if len(densities) == 1 else SummedDensity(densities)
+        self._safe_density = SummedDensity(densities, safe=True)
         # the terms whose class overrides a hook (contact): a model without one pays nothing per iteration
         self._pattern_terms = [t for t in self._other_terms if _overrides(t, "covers")]
         self._limit_terms = [t for t in self._other_terms if _overrides(t, "max_step")]
@@ -614,7 +611,7 @@ class Model(Holding):
         if self._pattern_terms and not all(t.covers(u) for t in self._pattern_terms):
             self._build()  # a term's couplings changed (contact pairs): a new pattern, the same terms
         data = self.pattern.zeros()
-        density = SafeView(self._density) if safe else self._density
+        density = self._safe_density if safe else self._density
         self.pattern.add_base(data, self.assembler.tangent(u, density).data)
         for t in self._other_terms:
             t.add_hessian(u, data, safe=safe)

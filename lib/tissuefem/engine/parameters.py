@@ -189,13 +189,9 @@ def check_density(rho, name: str = "density") -> float:
 def check_bounded_vector(name: str, value, bound: float) -> np.ndarray:
     """A vector ``(x, y)`` of real numbers each within ``+-bound``, else a ``ValueError`` naming ``name`` (refused
     like :func:`check_real`: bools, strings, complex numbers, NaN, infinities, and vectors of another shape)."""
-    try:
-        items = None if isinstance(value, (str, bytes, dict)) or len(value) != 2 else list(value)
-    except Exception:  # no length, or one that cannot be taken: not a vector
-        items = None
-    if items is None or len(items) != 2:
+    if not is_sequence(value) or len(value) != 2:
         raise ParameterError(name, f"{name} must be a vector (x, y) of two real numbers, got {show(value)}")
-    return np.array([check_real(f"{name}[{i}]", v, -bound, bound) for i, v in enumerate(items)])
+    return np.array([check_real(f"{name}[{i}]", v, -bound, bound) for i, v in enumerate(value)])
 
 
 def check_poisson_ratio(nu, name: str = "nu (Poisson's ratio)") -> float:

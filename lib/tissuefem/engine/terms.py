@@ -34,7 +34,7 @@ from .parameters import (FORCE_MAX, PENALTY_MAX, RADIUS_RANGE, REACH, ParameterE
                          check_time_step, check_vector)
 
 __all__ = ["Term", "ElementTerm", "Elastic", "Fibers", "Inertia", "Load", "Probe", "Sutures", "traction_vector",
-           "SummedDensity", "SafeView", "extent", "boundary_lengths"]
+           "SummedDensity", "extent", "boundary_lengths"]
 
 
 class Term:
@@ -110,7 +110,7 @@ class ElementTerm(Term):
         return self.assembler.residual(u, self.density)
 
     def add_hessian(self, u, data, safe=False):
-        density = SafeView(self.density) if safe else self.density
+        density = SummedDensity([self.density], safe=True) if safe else self.density
         self.pattern.add_base(data, self.assembler.tangent(u, density).data)
 
 
@@ -185,10 +185,11 @@ class Fibers(ElementTerm):
 
 
 class SummedDensity:
-    """The sum of several energy densities, evaluated on one ``F`` (one assembly pass for all element terms)."""
+    """The sum of energy densities evaluated on one ``F`` (one assembly pass for all element terms); with
+    ``safe``, each density's positive semi-definite tangent where it offers one (the safe Hessian)."""
 
-    def __init__(self, densities):
-        self.densities = list(densities)
+    def __init__(self, densities, safe=False):
+        self.densities, self.safe = list(densities), safe
         self.name = " + ".join(getattr(d, "name", "?") for d in self.densities)
 
     def _sum(self, method, F):
@@ -204,27 +205,13 @@ class SummedDensity:
         return self._sum(lambda d, F: d.stress(F), F)
 
     def tangent(self, F):
-        return self._sum(lambda d, F: d.tangent(F), F)
-
-    def safe_tangent(self, F):
-        return self._sum(safe_tangent, F)
+        return self._sum(safe_tangent if self.safe else lambda d, F: d.tangent(F), F)
 
 
 def safe_tangent(density, F):
     """A density's positive semi-definite tangent where it offers one (else its tangent)."""
     safe = getattr(density, "safe_tangent", None)
     return safe(F) if safe is not None else density.tangent(F)
-
-
-class SafeView:
-    """An energy density seen through its positive semi-definite tangent (the safe Hessian)."""
-
-    def __init__(self, density):
-        self.density = density
-        self.energy, self.stress = density.energy, density.stress
-
-    def tangent(self, F):
-        return safe_tangent(self.density, F)
 
 
 class Inertia(Term):
