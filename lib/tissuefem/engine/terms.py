@@ -156,11 +156,8 @@ class _FiberDensity(Material):
 
 
 class Fibers(ElementTerm):
-    """The fibre energy ``k/8 (I4 - 1)^2``, ``I4 = |F g|^2``, per element (chapter 5), on any material.
-
-    ``directions``: one unit vector ``(2,)`` for all elements or one per element ``(2, n_elements)`` (normalised here);
-    ``k >= 0`` is the extra small-strain modulus along the fibre.
-    """
+    """The fibre energy ``k/8 (I4 - 1)^2``, ``I4 = |F g|^2`` (chapter 5), on any material: ``k >= 0`` is the
+    extra small-strain modulus along ``directions``, ``(2,)`` or ``(2, n_elements)`` (normalised here)."""
 
     name = "fibers"
 
@@ -215,11 +212,8 @@ def safe_tangent(density, F):
 
 
 class Inertia(Term):
-    """Backward Euler's inertia: ``1/(2 dt^2) (x - x~)^T M (x - x~)`` with ``x~ = u^n + dt v^n``.
-
-    ``M`` is the lumped or consistent mass of density ``rho0``. The stepper sets ``x_tilde`` before each step; ``dt``
-    may change between steps (the Hessian ``M / dt^2`` with it).
-    """
+    """Backward Euler's inertia ``1/(2 dt^2) (x - x~)^T M (x - x~)``, ``x~ = u^n + dt v^n`` (set by the
+    stepper), ``M`` the lumped or consistent mass of density ``rho0``; ``dt`` may change between steps."""
 
     name = "inertia"
     quadratic = True
@@ -267,10 +261,7 @@ class Inertia(Term):
 
 class Load(Term):
     """A constant external force ``f`` (a dof vector): energy ``-scale f . u`` (``scale`` ramps it in load steps).
-
-    ``make``: how the vector is made from a model (``make(model) -> f``), so that a remap makes it on the new mesh (a
-    load given as a bare vector cannot be carried).
-    """
+    ``make(model) -> f`` makes it again on a remapped mesh (a bare vector cannot be carried)."""
 
     quadratic = True
     rank = 9
