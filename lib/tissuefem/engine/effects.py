@@ -34,8 +34,7 @@ __all__ = ["Effect", "EFFECTS", "register", "factory", "keyword_terms", "SkinCon
 
 @dataclass(frozen=True)
 class Effect:
-    """``listed``: a list of tables; ``placed``: placed by the simulation; ``check=None``: a model keyword
-    only."""
+    """``listed``: a list of tables; ``placed``: by the simulation; ``check=None``: a model keyword only."""
 
     name: str
     check: Callable | None
@@ -87,12 +86,11 @@ register("inertia", _check_inertia,
 
 # loads -------------------------------------------------------------------------------------------------------
 
-def _body_load(name, per_area):
+def _body_load(model, name, per_area):
     """A load of ``per_area(model)`` per unit reference area (a body force ``(bx, by)``)."""
-    def make(model):
-        return model.assembler.body_force(per_area(model))
-
-    return lambda model: Load(name, make(model), make)
+    def make(m):
+        return m.assembler.body_force(per_area(m))
+    return Load(name, make(model), make)
 
 
 def _check_gravity(field, e):
@@ -102,12 +100,12 @@ def _check_gravity(field, e):
 
 def _gravity(model, p, scene):
     g = check_bounded_vector("gravity", p["acceleration"], ACCELERATION_MAX)
-    return _body_load("gravity", lambda m: m.density * g)(model)
+    return _body_load(model, "gravity", lambda m: m.density * g)
 
 
 def _body_force(model, p, scene):
     b = check_bounded_vector("body_force", p["force"], FORCE_MAX)
-    return _body_load("body force", lambda m: b)(model)
+    return _body_load(model, "body force", lambda m: b)
 
 
 def _check_traction(field, e):

@@ -546,10 +546,7 @@ class Model(Holding):
         terms = list(self._limit_terms)
         return lambda u, du: min(t.max_step(u, du) for t in terms)
 
-    @property
-    def notes_steps(self) -> bool:
-        """Whether a term wants to know where each step starts (:meth:`begin_step`; self-contact)."""
-        return bool(self._step_terms)
+    notes_steps = property(lambda self: bool(self._step_terms), doc="Whether a term wants begin_step.")
 
     def begin_step(self, u, previous=None) -> int:
         """Tell the terms a step starts at ``u`` (reached from ``previous`` by the handles' motion); returns the
@@ -560,10 +557,7 @@ class Model(Holding):
         for t in self._step_terms:
             t.end_step()
 
-    @property
-    def term_names(self) -> list[str]:
-        """The names of the terms this model evaluates, in order."""
-        return [t.name for t in self.terms]
+    term_names = property(lambda self: [t.name for t in self.terms], doc="The terms' names, in order.")
 
     def describe(self) -> list[str]:
         return [t.describe() for t in self.terms]
@@ -574,10 +568,7 @@ class Model(Holding):
         return (any(hasattr(t.density, "safe_tangent") for t in self._element_terms)
                 or any(t.has_safe_hessian for t in self._other_terms))
 
-    @property
-    def quadratic(self) -> bool:
-        """True when every term is quadratic: the Hessian is constant (linear material, springs, loads)."""
-        return all(t.quadratic for t in self.terms)
+    quadratic = property(lambda self: all(t.quadratic for t in self.terms), doc="A constant Hessian?")
 
     @property
     def external(self) -> np.ndarray:

@@ -430,13 +430,8 @@ class StaticResult:
     converged: bool
     steps: list[StepReport] = field(default_factory=list)
 
-    @property
-    def newton_iterations(self) -> int:
-        return sum(r.newton_iterations for r in self.steps)
-
-    @property
-    def status(self) -> str:
-        return self.steps[-1].status if self.steps else "not run"
+    newton_iterations = property(lambda self: sum(r.newton_iterations for r in self.steps))
+    status = property(lambda self: self.steps[-1].status if self.steps else "not run")
 
 
 def solve(model: Model, load_steps: int = 1, u0=None, *, stepper: Stepper | None = None, **options) -> StaticResult:
