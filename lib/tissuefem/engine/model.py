@@ -44,12 +44,9 @@ def _selected(field, mask, points) -> np.ndarray:
 
 
 def region_nodes(mesh, region, field: str = "region") -> np.ndarray:
-    """The mesh nodes (sorted indices) that a region selects; ``ValueError`` naming ``field`` if none.
-
-    ``region``: a boundary name (``"left"``); a ``mask(X) -> bool`` on the reference coordinates ``(2, n_nodes)``;
-    ``{"box": [x0, y0, x1, y1]}``, ``{"near": [x, y], "radius": r}`` (the circle included) or ``{"nodes": [...]}``;
-    or an integer array of node indices.
-    """
+    """The mesh nodes (sorted indices) a region selects, ``ValueError`` naming ``field`` if none: a boundary
+    name (``"left"``), a ``mask(X) -> bool`` on the reference coordinates ``(2, n_nodes)``, a box
+    ``{"box": [x0, y0, x1, y1]}``, a disc ``{"near": [x, y], "radius": r}``, ``{"nodes": [...]}`` or indices."""
     p = np.asarray(mesh.p, dtype=float)
     n = p.shape[1]
     if isinstance(region, str):
@@ -120,11 +117,10 @@ def _check_target(target, points=None, field="target", reach=None):
 class Handle:
     """Material points held at prescribed positions (a fixed edge, a pulled edge, a user's grab).
 
-    ``region``: anything :func:`region_nodes` takes. ``target``: a translation ``(dx, dy)`` (default none: fixed)
-    or a map ``phi(X) -> x``, ``(2, n) -> (2, n)``. ``base`` (a grab; ``region`` must be node indices): the held
-    nodes' displacement ``(2, n_nodes)`` when grabbed; the prescribed displacement is ``base + (phi(X) - X)``, so
-    the grabbed tissue stays put, then follows the target's offset. ``name``: to find it by (else the model names
-    it). ``anchor``: the point the user grabbed (a drag moves the handle by the mouse's offset from it).
+    ``region``: anything :func:`region_nodes` takes. ``target``: a translation ``(dx, dy)`` (default: fixed)
+    or a map ``phi(X) -> x``, ``(2, n) -> (2, n)``. ``base`` (a grab, of node indices): the nodes'
+    displacement ``(2, n_nodes)`` when grabbed; they are held at ``base + (phi(X) - X)``. ``name``: to find it
+    by (else the model names it); ``anchor``: the point grabbed (a drag moves it by the mouse's offset).
     """
 
     def __init__(self, region, target=(0.0, 0.0), *, base=None, name=None, anchor=None):

@@ -71,11 +71,8 @@ def _interval(lo, hi, lo_open, hi_open) -> str:
 
 
 def check_real(name: str, value, lo=None, hi=None, *, lo_open: bool = False, hi_open: bool = False) -> float:
-    """``value`` as a finite float within ``[lo, hi]`` (ends open on request), else ``ValueError`` naming ``name``.
-
-    Refused: ``bool``, strings, complex numbers, ``NaN``, infinities, integers too large for a float, and values
-    outside the range. ``None`` for ``lo`` or ``hi`` leaves that side unbounded (the value must still be finite).
-    """
+    """``value`` as a finite float within ``[lo, hi]`` (ends open on request; ``None``: unbounded), else a
+    ``ParameterError`` naming ``name`` (also for bools, strings, complex numbers and integers too large)."""
     v = check_real_number(name, value)
     if not math.isfinite(v):
         raise ParameterError(name, f"{name} must be finite, got {value!r}")
@@ -158,16 +155,10 @@ def check_reach(name, point, middle, size) -> np.ndarray:
 
 def check_weights(weights, m) -> np.ndarray:
     """Per-element material fractions: ``m`` real numbers in ``(0, 1]`` (complex or boolean ones are refused)."""
-    try:
-        w = np.asarray(weights)
-    except (TypeError, ValueError):
-        w = np.asarray(None)
-    if w.dtype.kind not in "iuf" or w.shape != (m,):
-        raise ParameterError("weights", f"weights must be one real number in (0, 1] per element, shape ({m},), "
-                                        f"got {weights!r:.80}")
-    w = w.astype(float)
-    if not (np.all(np.isfinite(w)) and np.all(w > 0) and np.all(w <= 1)):
-        raise ParameterError("weights", f"weights must be one number in (0, 1] per element, shape ({m},)")
+    w = np.array(check_real_array("weights", weights))  # a copy: the caller's array may change
+    if w.shape != (m,) or not (np.all(np.isfinite(w)) and np.all(w > 0) and np.all(w <= 1)):
+        raise ParameterError("weights", f"weights must be one number in (0, 1] per element, shape ({m},), "
+                                        f"got {show(weights)}")
     return w
 
 
@@ -195,10 +186,8 @@ def check_bounded_vector(name: str, value, bound: float) -> np.ndarray:
 
 
 def check_poisson_ratio(nu, name: str = "nu (Poisson's ratio)") -> float:
-    """Poisson's ratio in :data:`POISSON_RATIO_RANGE`; the error names ``name``. Within ``1e-6`` of an end of
-    ``(-1, 0.5)`` the message says it is too close: there ``lam`` and ``mu`` are huge and of opposite sign
-    (``nu -> -1``) or ``lam/mu > 5e5`` (``nu -> 0.5``), and the bulk modulus ``lam + 2 mu / 3`` is lost to round-off.
-    """
+    """Poisson's ratio in :data:`POISSON_RATIO_RANGE`; within ``1e-6`` of an end of ``(-1, 0.5)`` the message
+    says it is too close (``lam/mu > 5e5``, or huge ``lam``, ``mu`` of opposite sign)."""
     nu = check_real(name, nu, -1.0, 0.5, lo_open=True, hi_open=True)
     lo, hi = POISSON_RATIO_RANGE
     if not lo <= nu <= hi:
@@ -231,10 +220,8 @@ def lame_parameters(E, nu, plane: str = "strain") -> tuple[float, float]:
 
 
 def check_lame(lam, mu) -> tuple[float, float]:
-    """Validate Lamé parameters given directly: ``mu`` in ``[1e-7, 1e30]`` and ``-2 mu / 3 < lam <= 1e30``.
-
-    ``lam > -2 mu / 3`` (a positive bulk modulus) is exactly what ``-1 < nu < 0.5`` maps to (:func:`lame_parameters`).
-    """
+    """Lamé parameters given directly: ``mu`` in ``[1e-7, 1e30]``, ``-2 mu / 3 < lam <= 1e30`` (a positive
+    bulk modulus: exactly what ``-1 < nu < 0.5`` maps to)."""
     mu = check_real("mu (shear modulus)", mu, SHEAR_MODULUS_MIN, LAME_MAX)
     lam = check_real("lam (first Lamé parameter)", lam, -2.0 * mu / 3.0, LAME_MAX, lo_open=True)
     return lam, mu

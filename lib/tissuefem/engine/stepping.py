@@ -117,11 +117,10 @@ def _state_vector(name, value, n) -> np.ndarray:
 def _roundoff_floors(model: Model) -> tuple[float, float]:
     """``(residual floor, energy floor)``: the levels below which round-off hides the residual and the energy.
 
-    At rest the stress is a difference of terms of the size of the modulus (``mu F - mu F^-T`` for neo-Hookean), so each
-    element's force carries an error of a few ``eps`` times ``A_e |A(I)| |grad N|``. This sums ``|A(I)| sqrt(A_e)``
-    (``|grad N| ~ 1/h``, ``A_e ~ h^2``) at the nodes; ``_ROUNDOFF`` times its norm is a few thousand times that error
-    and far below any tolerance a user asks for. The energy is a sum of element terms of the size ``|A(I)| A_e``
-    (whatever its value, nearly 0 at rest): ``_ROUNDOFF`` times their sum bounds what an energy difference can tell.
+    At rest the stress is a difference of terms of the modulus' size (``mu F - mu F^-T``): each element's
+    force errs by a few ``eps A_e |A(I)| |grad N|``. The floor, ``_ROUNDOFF`` times the norm of
+    ``|A(I)| sqrt(A_e)`` summed at the nodes (``|grad N| ~ 1/h``), is thousands of times that error and far
+    below any tolerance asked for; the energy's is ``_ROUNDOFF`` times the sum of ``|A(I)| A_e``.
     """
     F = np.eye(2).reshape(2, 2, 1)
     with np.errstate(all="ignore"):
@@ -244,13 +243,10 @@ class Stepper:
         return self.kinetic_energy() + model.stored_energy(self.u) - float(model.external @ self.u)
 
     def step(self, targets=None, *, prescribed=None, load: float = 1.0) -> StepReport:
-        """Take one step: apply ``targets`` (see :meth:`Model.set_targets`), solve, commit, report.
-
-        ``prescribed``: ``(dofs, values)`` to hold instead of the handles' and ``load``: the factor in ``[0, 1]`` on the
-        constant loads (both for load stepping). All or nothing: whatever is refused or raised before the commit (a bad
-        target, a map that raises, a clock that cannot be read, a failing linear solver) leaves the state, the targets
-        and the model as they were.
-        """
+        """Take one step: apply ``targets`` (see :meth:`Model.set_targets`), solve, commit, report. For load
+        stepping, ``prescribed``: ``(dofs, values)`` held instead of the handles', ``load``: the loads' factor
+        in ``[0, 1]``. All or nothing: whatever is refused or raised before the commit leaves the state, the
+        targets and the model as they were."""
         model = self.model
         load = check_real("load", load, 0.0, 1.0)
         if prescribed is not None:
@@ -349,21 +345,19 @@ class Stepper:
         if not dynamic and np.any(values != previous):
             linearised, load_norm, factorizations = self._linearised_increment(fixed, free, values - previous)
         x_tilde = model.inertia.x_tilde if dynamic else None
+        accelerating = None  # constant acceleration: the best guess along a smooth drag
+        if dynamic and self.v_previous is not None:
+            accelerating = x_tilde + model.inertia.dt * (self.v - self.v_previous)
         # a quadratic energy with its exact factorization and no step cap: one Newton step from any start reaches
         # the minimiser (and the linearised start is it), so the first valid start is as good as the best
         exact = model.quadratic and self.linear.constant and self.max_step is None
         for halvings in range(12):
             fraction = 0.5**halvings
             held = previous + fraction * (values - previous)
-            if dynamic:
-                candidates = [("inertial", x_tilde), ("previous", u)]
-                if self.v_previous is not None:
-                    # constant acceleration: the best guess along a smooth drag
-                    candidates.insert(0, ("accelerating", x_tilde + model.inertia.dt * (self.v - self.v_previous)))
-            else:
-                candidates = [("previous", u)]
-                if linearised is not None:  # the linear prediction scales with the handles' increment
-                    candidates.insert(0, ("linearised", u + fraction * linearised))
+            # in order of preference; the linear prediction scales with the handles' increment
+            scaled = None if linearised is None else u + fraction * linearised
+            candidates = [(name, x) for name, x in (("accelerating", accelerating), ("inertial", x_tilde),
+                                                    ("linearised", scaled), ("previous", u)) if x is not None]
             best = reference = None
             if model.notes_steps:
                 reference = u.copy()

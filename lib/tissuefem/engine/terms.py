@@ -500,11 +500,8 @@ class Sutures(Term):
         self.tighten(tightness)
 
     def tighten(self, fraction, stitches=None) -> None:
-        """Set the tightness (0 slack ... 1 closed) of all stitches, or of those indexed by ``stitches``.
-
-        ``fraction``: one number in ``[0, 1]``, or one per selected stitch; ``stitches``: integers in ``0 .. k-1``
-        (floats, booleans and negative indices are refused). All or nothing.
-        """
+        """Set the tightness (0 slack ... 1 closed) of all stitches or of the ``stitches`` (indices):
+        ``fraction`` one number in ``[0, 1]`` or one per stitch. All or nothing."""
         count = self.pairs.shape[1]
         if isinstance(stitches, numbers.Integral) and not isinstance(stitches, (bool, np.bool_)):
             stitches = [stitches]
