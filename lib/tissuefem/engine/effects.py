@@ -24,8 +24,8 @@ from . import meshes
 from .constants import FRAME_BUDGET
 from .contact import Contact, ContactSurface
 from .parameters import (ACCELERATION_MAX, FAR, FIBER_STIFFNESS_RANGE, FORCE_MAX, RADIUS_RANGE, TIME_STEP_RANGE,
-                         MAX_POINTS, ParameterError, check_bounded_vector, count_list,
-                         is_sequence, number, penalty, points, require, show, string, table, vector)
+                         MAX_POINTS, ParameterError, check_bounded_vector, count_list, number, penalty, points,
+                         require, string, table, vector)
 from .terms import Fibers, Inertia, Load, Probe, Sutures, Term, traction_vector
 
 __all__ = ["Effect", "EFFECTS", "register", "factory", "keyword_terms", "SkinContact", "median_segment"]
@@ -188,12 +188,7 @@ def _probes(model, entries, scene):
 def _check_suture(field, e):
     e = table(field, e, ("pairs", "stiffness", "tightness"))
     pairs = count_list(f"{field}.pairs", e.get("pairs"), "point pairs [[x1, y1], [x2, y2]]", MAX_POINTS)
-    checked = []
-    for j, pair in enumerate(pairs):
-        if not is_sequence(pair) or len(pair) != 2:
-            raise ParameterError(f"{field}.pairs[{j}]", f"{field}.pairs[{j}] must be two points [[x1, y1], "
-                                                        f"[x2, y2]], got {show(pair)}")
-        checked.append(points(f"{field}.pairs[{j}]", pair, 2, 2))
+    checked = [points(f"{field}.pairs[{j}]", pair, 2, 2) for j, pair in enumerate(pairs)]
     out = {"pairs": checked, "tightness": number(f"{field}.tightness", e.get("tightness", 1.0), nonnegative=True,
                                                  hi=1.0)}
     if "stiffness" in e:
@@ -258,10 +253,7 @@ def _contact(model, p, scene):
     if scene is None:
         if not isinstance(p, dict):
             raise ParameterError("contact", f"contact must be a dict (distance, stiffness[, surface, skin]), got {p!r}")
-        unknown = sorted(set(p) - {"distance", "stiffness", "surface", "skin"})
-        if unknown:
-            raise ParameterError("contact", f"contact: unknown key(s) {unknown}; allowed: distance, stiffness, "
-                                            "surface, skin")
+        table("contact", p, ("distance", "stiffness", "surface", "skin"))
         require("contact", p, ("distance", "stiffness"))
         surface = ContactSurface.from_mesh(model.mesh) if p.get("surface") is None else p["surface"]
         return Contact(model.X, surface, p["distance"], p["stiffness"], p.get("skin"))

@@ -46,7 +46,7 @@ def _selected(field, mask, points) -> np.ndarray:
 def region_nodes(mesh, region, field: str = "region") -> np.ndarray:
     """The mesh nodes (sorted indices) a region selects, ``ValueError`` naming ``field`` if none: a boundary
     name (``"left"``), a ``mask(X) -> bool`` on the reference coordinates ``(2, n_nodes)``, a box
-    ``{"box": [x0, y0, x1, y1]}``, a disc ``{"near": [x, y], "radius": r}``, ``{"nodes": [...]}`` or indices."""
+    ``{"box": [x0, y0, x1, y1]}``, a disc ``{"near": [x, y], "radius": r}``, ``{"nodes": [...]}``, indices."""
     p = np.asarray(mesh.p, dtype=float)
     n = p.shape[1]
     if isinstance(region, str):
@@ -201,8 +201,8 @@ class Pattern:
             self._keys = base_keys
             self.base_positions = None
         else:
-            # merge the few new keys into the sorted base keys (a widening is rebuilt whenever a term's couplings
-            # change, e.g. contact pairs: it must cost a merge, not a sort of everything)
+            # merge the few new keys into the sorted base keys: rebuilt whenever contact pairs change, a
+            # widening must cost a merge, not a sort of everything
             inserted = np.searchsorted(base_keys, new)
             keys = np.insert(base_keys, inserted, new)
             counts = np.bincount(keys // n, minlength=n)

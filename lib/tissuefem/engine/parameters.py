@@ -291,8 +291,8 @@ def vector(field, value, bound=FAR) -> list:
 
 def points(field, value, minimum, maximum=MAX_POINTS) -> list:
     if not is_sequence(value) or not minimum <= len(value) <= maximum:
-        raise ParameterError(field, f"{field} must be a list of {minimum} to {maximum} points [x, y], "
-                                    f"got {show(value)}")
+        count = minimum if minimum == maximum else f"{minimum} to {maximum}"
+        raise ParameterError(field, f"{field} must be a list of {count} points [x, y], got {show(value)}")
     return [vector(f"{field}[{i}]", p) for i, p in enumerate(value)]
 
 

@@ -64,8 +64,7 @@ class StepReport:
     contact_status = property(lambda self: "crossed" if self.crossed else "clear",
                               doc="``crossed``: the step started with surface points through the surface.")
 
-    #: the Newton solve's results and methods, passed on (``x``: the last accepted iterate, the new state when
-    #: committed)
+    #: the Newton solve's results, passed on (``x``: the last accepted iterate, the new state if committed)
     FORWARDED = ("x", "converged", "status", "linear_iterations", "factorizations", "residual_norm",
                  "initial_residual", "relative_residual", "energy", "start_energy", "line_search_cuts",
                  "history", "energies", "residual_norms", "table")
@@ -293,9 +292,8 @@ class Stepper:
                 inertia.x_tilde = self.u + dt * self.v
             x0, E0, fraction, which, load_norm, pre, crossed = self._warm_start(fixed, values, free)
             if fraction < 1.0 and not self.anytime:
-                # the handles' targets cannot be reached from here without leaving the valid (finite-energy)
-                # states: an offline step fails at once and keeps the state (the real-time loop instead goes
-                # part of the way and carries the rest into the next frame)
+                # the targets cannot be reached without leaving the valid (finite-energy) states: an offline
+                # step fails at once (the real-time loop goes part of the way and carries the rest over)
                 g = model.gradient(self.u)
                 r = float(np.linalg.norm(g[free])) if np.all(np.isfinite(g)) else math.inf
                 result, pre = NewtonResult(self.u.copy(), False, "non-finite", 0, r, r, 0.0, E0, E0), 0
