@@ -1,29 +1,16 @@
-"""tissuefem: real-time soft-tissue simulation with the finite element method.
+"""tissuefem: real-time soft-tissue simulation with the finite element method, on scikit-fem.
 
-A teaching library that follows J. Teran's lecture notes *Simulation of elasticity, biomechanics and virtual
-surgery*, built on scikit-fem. It has three layers, and each imports only the ones below it:
+A teaching library following J. Teran's lecture notes *Simulation of elasticity, biomechanics and virtual
+surgery*, in three layers, each importing only the ones below it: :mod:`tissuefem.engine` (materials, meshes,
+assembly, the model and its terms, the minimiser, stepping, linear solvers, the real-time loop),
+:mod:`tissuefem.surgery` (cuts, scenes, the simulation and its operations, flaps; the mouse view is imported
+where it is used, ``from tissuefem.surgery.interactive import SurgeryView``, so ``import tissuefem`` loads no
+pyplot) and :mod:`tissuefem.workbook` (the chapters' studies, benchmarks, figures, reference answers, the
+command line). What a chapter needs is importable from here (``from tissuefem import Model, solve``).
 
-* :mod:`tissuefem.engine` -- materials, meshes, assembly, the model and its terms, the one minimiser, stepping,
-  linear solvers and the real-time loop;
-* :mod:`tissuefem.surgery` -- cutting and excising, scenes, the running simulation with its surgical operations,
-  local flaps and the mouse view (imported where it is used:
-  ``from tissuefem.surgery.interactive import SurgeryView``, so that ``import tissuefem`` loads no pyplot or IPython);
-* :mod:`tissuefem.workbook` -- the chapters' studies, the benchmarks, the lecture figures, the exercises' reference
-  answers and the command line.
-
-What a chapter or a user needs is importable from here (``from tissuefem import Model, solve``).
-
-Index convention (used everywhere in this package)
---------------------------------------------------
-The deformation gradient is ``F[i, j] = d phi_i / d X_j`` (row = spatial component, column = material derivative).
-This is the convention of scikit-fem (``grad(u)[i, j] = du_i/dX_j``) and of Bonet & Wood. The notes write
-``F_ij = d phi_j / d X_i`` (the transpose) in their kinematics section but then use ``P_ij,j`` (divergence over the
-second index) in the balance law and weak form, which only matches ``F[i, j] = d phi_i / d X_j``. Every formula in
-this package is written for that convention; formulas such as ``P = mu F + (lambda ln J - mu) F^-T`` read the same
-in both conventions.
-
-Arrays of tensors follow scikit-fem's layout: a field of 2x2 matrices is shaped
-``[2, 2, elements, quadrature points]`` (any trailing shape works), so our forms mix with scikit-fem's.
+Index convention: ``F[i, j] = d phi_i / d X_j`` (row = spatial component), as in scikit-fem (``grad(u)[i, j] =
+du_i/dX_j``) and Bonet & Wood. The notes' kinematics write the transpose, but their balance law and weak form
+(``P_ij,j``) only match this one. Fields of 2x2 matrices are shaped ``[2, 2, elements, quadrature points]``.
 """
 
 from .engine.assembly import FormsAssembler, P1Assembler, QuadratureAssembler

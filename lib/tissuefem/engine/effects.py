@@ -1,16 +1,16 @@
 """The effects a scene can name, and the one place where each becomes a term.
 
-:data:`EFFECTS` maps an effect's name (a key of a scene's ``effects`` table) to an :class:`Effect`:
-how its table is checked (``check(field, table) -> params``, a ``ParameterError`` naming the field)
-and how its term is made (``build(model, params, scene) -> Term | list[Term] | None``; ``scene``
-is the scene being built, for defaults taken from its material or domain, or ``None``). A new
-effect is a term and one :func:`register` call::
+:data:`EFFECTS` maps an effect's name (a key of a scene's ``effects`` table) to an :class:`Effect`: how its
+table is checked (``check(field, table) -> params``, refusals name the field: ``effects.probes[0].radius``)
+and how its term is made (``build(model, params, scene) -> Term | list[Term] | None``; ``scene``: the scene
+being built, for defaults from its material or domain, or ``None``). A new effect is a term and one
+:func:`register` call::
 
     register("wind", check=lambda field, table: {...}, build=lambda model, params, scene: Load(...))
 
-The model's keywords (``dt``, ``gravity``, ``fibers``, ...) go through the same factories (:func:`keyword_terms`).
-Probes and sutures are *placed* effects: the simulation's operations (``add_probe``, ``suture``) place them.
-The table checks live in :mod:`tissuefem.engine.parameters`: a refusal names the field (``effects.probes[0].radius``).
+A model's keywords (``dt``, ``gravity``, ``fibers`` ...) go through the same factories
+(:func:`keyword_terms`). Probes and sutures are *placed* by the simulation's operations (``add_probe``,
+``suture``).
 """
 
 from __future__ import annotations
@@ -24,8 +24,8 @@ from . import meshes
 from .constants import FRAME_BUDGET
 from .contact import Contact, ContactSurface
 from .parameters import (ACCELERATION_MAX, FAR, FIBER_STIFFNESS_RANGE, FORCE_MAX, RADIUS_RANGE, TIME_STEP_RANGE,
-                         MAX_POINTS, ParameterError, check_bounded_vector, count_list,
-                         is_sequence, number, penalty, points, require, show, string, table, vector)
+                         MAX_POINTS, ParameterError, check_bounded_vector, count_list, number, penalty, points,
+                         require, string, table, vector)
 from .terms import Fibers, Inertia, Load, Probe, Sutures, Term, traction_vector
 
 __all__ = ["Effect", "EFFECTS", "register", "factory", "keyword_terms", "SkinContact", "median_segment"]
@@ -34,9 +34,7 @@ __all__ = ["Effect", "EFFECTS", "register", "factory", "keyword_terms", "SkinCon
 
 @dataclass(frozen=True)
 class Effect:
-    """A scene's effect: ``check(field, table) -> params`` and ``build(model, params, scene) -> term(s)``.
-    ``listed``: a list of tables; ``placed``: placed by the simulation between frames; ``check=None``: a model
-    keyword only."""
+    """``listed``: a list of tables; ``placed``: by the simulation; ``check=None``: a model keyword only."""
 
     name: str
     check: Callable | None
@@ -88,12 +86,11 @@ register("inertia", _check_inertia,
 
 # loads -------------------------------------------------------------------------------------------------------
 
-def _body_load(name, per_area):
+def _body_load(model, name, per_area):
     """A load of ``per_area(model)`` per unit reference area (a body force ``(bx, by)``)."""
-    def make(model):
-        return model.assembler.body_force(per_area(model))
-
-    return lambda model: Load(name, make(model), make)
+    def make(m):
+        return m.assembler.body_force(per_area(m))
+    return Load(name, make(model), make)
 
 
 def _check_gravity(field, e):
@@ -103,12 +100,12 @@ def _check_gravity(field, e):
 
 def _gravity(model, p, scene):
     g = check_bounded_vector("gravity", p["acceleration"], ACCELERATION_MAX)
-    return _body_load("gravity", lambda m: m.density * g)(model)
+    return _body_load(model, "gravity", lambda m: m.density * g)
 
 
 def _body_force(model, p, scene):
     b = check_bounded_vector("body_force", p["force"], FORCE_MAX)
-    return _body_load("body force", lambda m: b)(model)
+    return _body_load(model, "body force", lambda m: b)
 
 
 def _check_traction(field, e):
@@ -191,12 +188,7 @@ def _probes(model, entries, scene):
 def _check_suture(field, e):
     e = table(field, e, ("pairs", "stiffness", "tightness"))
     pairs = count_list(f"{field}.pairs", e.get("pairs"), "point pairs [[x1, y1], [x2, y2]]", MAX_POINTS)
-    checked = []
-    for j, pair in enumerate(pairs):
-        if not is_sequence(pair) or len(pair) != 2:
-            raise ParameterError(f"{field}.pairs[{j}]", f"{field}.pairs[{j}] must be two points [[x1, y1], "
-                                                        f"[x2, y2]], got {show(pair)}")
-        checked.append(points(f"{field}.pairs[{j}]", pair, 2, 2))
+    checked = [points(f"{field}.pairs[{j}]", pair, 2, 2) for j, pair in enumerate(pairs)]
     out = {"pairs": checked, "tightness": number(f"{field}.tightness", e.get("tightness", 1.0), nonnegative=True,
                                                  hi=1.0)}
     if "stiffness" in e:
@@ -261,10 +253,7 @@ def _contact(model, p, scene):
     if scene is None:
         if not isinstance(p, dict):
             raise ParameterError("contact", f"contact must be a dict (distance, stiffness[, surface, skin]), got {p!r}")
-        unknown = sorted(set(p) - {"distance", "stiffness", "surface", "skin"})
-        if unknown:
-            raise ParameterError("contact", f"contact: unknown key(s) {unknown}; allowed: distance, stiffness, "
-                                            "surface, skin")
+        table("contact", p, ("distance", "stiffness", "surface", "skin"))
         require("contact", p, ("distance", "stiffness"))
         surface = ContactSurface.from_mesh(model.mesh) if p.get("surface") is None else p["surface"]
         return Contact(model.X, surface, p["distance"], p["stiffness"], p.get("skin"))

@@ -1,25 +1,19 @@
-"""The model: a body and exactly the terms acting on it, with the handles that hold it.
+"""The model: a body, exactly the terms acting on it, and the handles that hold it.
 
-A :class:`Model` is a mesh with a displacement basis (P1 or P2), a material, and a list of
-terms (:mod:`tissuefem.engine.terms`, made by :mod:`tissuefem.engine.effects`). Its potential is their sum,
+A :class:`Model` is a mesh with a P1 or P2 displacement basis, a material and a list of terms
+(:mod:`.terms`, made by :mod:`.effects`); its potential is their sum,
 
-    E(u) = W(u) [+ fibres] [+ probe] [+ sutures] [+ contact] [- f . u] [+ 1/(2 dt^2) |u - u~|_M^2],
+    E(u) = W(u) [+ fibres] [+ probe] [+ sutures] [+ contact] [- f . u] [+ 1/(2 dt^2) |u - u~|_M^2].
 
-with nothing built for an effect it was not given (without ``dt`` no inertia and no mass matrix).
-:mod:`tissuefem.engine.stepping` minimises it; :meth:`Model.remapped` carries it across a cut or an excision.
-
-Handles are constraints, not terms: a :class:`Handle` holds a region (:func:`region_nodes`) at prescribed
-positions; its target is a displacement (a translation ``(dx, dy)`` or a map ``X -> x``), checked where it
-enters: a refused target changes nothing.
-
-Every term's Hessian goes into one fixed sparsity pattern (:class:`Pattern`): the assembler's, widened where a
-term couples dofs the mesh does not (sutures), so the linear solver condenses by a precomputed gather. A term
-whose couplings change with the state (self-contact) says when the pattern no longer holds them (``covers``);
-:meth:`Model.hessian` then rebuilds it. The hooks (``covers``, ``max_step``, ``begin_step``/``end_step``) are
-called only where a term's class overrides the default: a model without such a term pays nothing for them.
+:mod:`.stepping` minimises it; :meth:`Model.remapped` carries it across a cut or an excision. A
+:class:`Handle` is a constraint, not a term: it holds a region at prescribed displacements (checked where they
+enter). Every Hessian goes into one fixed sparsity pattern (:class:`Pattern`), widened where a term couples
+dofs the mesh does not (sutures) and rebuilt when a term's couplings change (self-contact's ``covers``).
 """
 
 from __future__ import annotations
+
+import itertools
 
 import numpy as np
 import scipy.sparse as sp
@@ -28,9 +22,9 @@ from .assembly import make_assembler
 from .constants import TISSUE_DENSITY
 from .contact import Contact
 from .effects import as_terms, keyword_terms
-from .parameters import (REACH, ParameterError, check_bounded_vector, check_count, check_density, check_real,
-                         check_vector)
-from .terms import (Elastic, ElementTerm, Inertia, Load, Probe, SafeView, SummedDensity, Sutures, Term,
+from .parameters import (REACH, ParameterError, call_user, check_bounded_vector, check_count, check_density,
+                         check_indices, check_real, check_real_array, check_vector, is_sequence)
+from .terms import (Elastic, ElementTerm, Inertia, Load, Probe, SummedDensity, Sutures, Term,
                     boundary_lengths, extent)
 
 __all__ = ["Model", "Handle", "Pattern", "region_nodes"]
@@ -38,13 +32,21 @@ __all__ = ["Model", "Handle", "Pattern", "region_nodes"]
 
 # ------------------------------------------------------------------------------------------------ regions
 
-def region_nodes(mesh, region, field: str = "region") -> np.ndarray:
-    """The mesh nodes (sorted indices) that a region selects; ``ValueError`` naming ``field`` if none.
+def _selected(field, mask, points) -> np.ndarray:
+    """The indices of the points ``(2, n)`` a user's ``mask(points) -> bools`` selects (given a copy)."""
+    on = np.asarray(call_user(field, "mask", mask, points.copy()))
+    if on.dtype.kind not in "biu":  # bools (or 0/1 integers), never floats, strings or objects cast to bool
+        raise ParameterError(field, f"{field}: the mask must return bools, got dtype {on.dtype}")
+    if on.shape != points.shape[1:]:
+        raise ParameterError(field, f"{field}: the mask must return one bool per point, shape "
+                                    f"({points.shape[1]},), got {on.shape}")
+    return np.flatnonzero(on)
 
-    ``region``: a boundary name (``"left"``); a ``mask(X) -> bool`` on the reference coordinates ``(2, n_nodes)``;
-    ``{"box": [x0, y0, x1, y1]}``, ``{"near": [x, y], "radius": r}`` (the circle included) or ``{"nodes": [...]}``;
-    or an integer array of node indices.
-    """
+
+def region_nodes(mesh, region, field: str = "region") -> np.ndarray:
+    """The mesh nodes (sorted indices) a region selects, ``ValueError`` naming ``field`` if none: a boundary
+    name (``"left"``), a ``mask(X) -> bool`` on the reference coordinates ``(2, n_nodes)``, a box
+    ``{"box": [x0, y0, x1, y1]}``, a disc ``{"near": [x, y], "radius": r}``, ``{"nodes": [...]}``, indices."""
     p = np.asarray(mesh.p, dtype=float)
     n = p.shape[1]
     if isinstance(region, str):
@@ -53,23 +55,11 @@ def region_nodes(mesh, region, field: str = "region") -> np.ndarray:
             raise ValueError(f"{field}: {region!r} is not a boundary of the mesh; boundaries: {names}")
         nodes = np.unique(mesh.facets[:, mesh.boundaries[region]])
     elif callable(region):
-        try:
-            mask = np.asarray(region(p.copy()))  # a copy: a mask that writes into its argument changes nothing
-        except Exception as err:  # a user's callable may raise anything: refuse it by name
-            raise ValueError(f"{field}: the mask raised {type(err).__name__}: {err}") from None
-        if mask.dtype.kind not in "biu":  # bools (or 0/1 integers), never floats, strings or objects cast to bool
-            raise ValueError(f"{field}: the mask must return bools, got dtype {mask.dtype}")
-        if mask.shape != (n,):
-            raise ValueError(f"{field}: the mask must return one bool per node, shape ({n},), got {mask.shape}")
-        nodes = np.flatnonzero(mask)
+        nodes = _selected(field, region, p)
     elif isinstance(region, dict) and "box" in region:
         box = region["box"]
-        try:
-            ok = not isinstance(box, (str, bytes, dict)) and len(box) == 4
-        except TypeError:
-            ok = False
-        if not ok:
-            raise ValueError(f"{field}.box must be [x0, y0, x1, y1], got {box!r}")
+        if not is_sequence(box) or len(box) != 4:
+            raise ParameterError(f"{field}.box", f"{field}.box must be [x0, y0, x1, y1], got {box!r:.200}")
         x0, y0, x1, y1 = (check_real(f"{field}.box[{i}]", b) for i, b in enumerate(box))
         tol = 1e-9 * max(1.0, float(np.ptp(p)))
         nodes = np.flatnonzero((p[0] >= x0 - tol) & (p[0] <= x1 + tol) & (p[1] >= y0 - tol) & (p[1] <= y1 + tol))
@@ -82,13 +72,10 @@ def region_nodes(mesh, region, field: str = "region") -> np.ndarray:
         nodes = np.flatnonzero(d <= radius * (1 + 1e-9))
     else:
         raw = region["nodes"] if isinstance(region, dict) and "nodes" in region else region
-        nodes = np.asarray(raw)
-        if nodes.ndim != 1 or not (nodes.size == 0 or np.issubdtype(nodes.dtype, np.integer)):
-            raise ValueError(f"{field}: a region is a boundary name, a mask, a box, a disc or node indices; "
-                             f"got {region!r}")
-        if nodes.size and (nodes.min() < 0 or nodes.max() >= n):
-            raise ValueError(f"{field}: node indices must be in 0..{n - 1}")
-        nodes = np.unique(nodes.astype(np.intp))
+        if isinstance(raw, dict):
+            raise ParameterError(field, f"{field}: a region is a boundary name, a mask, a box, a disc or "
+                                        f"node indices; got {region!r:.200}")
+        nodes = np.unique(check_indices(field, raw, n, "node indices"))
     if nodes.size == 0:
         lo, hi = p.min(axis=1), p.max(axis=1)
         raise ValueError(f"{field}: selects no node of the mesh (it lies outside the domain, which spans "
@@ -100,17 +87,11 @@ def region_nodes(mesh, region, field: str = "region") -> np.ndarray:
 
 def _map_positions(target, points, field) -> np.ndarray:
     """``target(points)`` checked: finite real values shaped like ``points``, else a ``ValueError`` naming ``field``."""
-    try:  # a copy: a map that writes into its argument cannot change the handle's reference points
-        x = np.asarray(target(points.copy()))
-    except Exception as err:  # anything a user's map raises is a refusal, not a crash
-        raise ValueError(f"{field}: the map raised {type(err).__name__}: {err}") from None
-    if x.dtype.kind not in "iuf":  # complex positions would lose their imaginary part
-        raise ValueError(f"{field}: the map must return real positions, got dtype {x.dtype}")
+    x = check_real_array(field, call_user(field, "map", target, points.copy()))  # a copy: the points stay put
     if x.shape != points.shape:
-        raise ValueError(f"{field}: the map returned shape {x.shape}, expected {points.shape}")
-    x = x.astype(float)
+        raise ParameterError(field, f"{field}: the map returned shape {x.shape}, expected {points.shape}")
     if not np.all(np.isfinite(x)):
-        raise ValueError(f"{field}: the map returned non-finite positions")
+        raise ParameterError(field, f"{field}: the map returned non-finite positions")
     return x
 
 
@@ -124,16 +105,10 @@ def _check_target(target, points=None, field="target", reach=None):
                 raise ValueError(f"{field}: the map moves points by more than {REACH:g} domain sizes ({reach:g})")
         return target
     try:
-        t = np.asarray(target)
-    except (TypeError, ValueError):
-        raise ValueError(f"{field} must be a translation (dx, dy) or a callable, got {target!r}") from None
-    if t.dtype.kind not in "iuf":
-        raise ValueError(f"{field} must be a translation (dx, dy) of real numbers or a callable, got {target!r}")
-    if t.shape != (2,):
-        raise ValueError(f"{field} must be a translation of shape (2,) or a callable, got shape {t.shape}")
-    t = t.astype(float)
-    if not np.all(np.isfinite(t)):
-        raise ValueError(f"{field} must be finite, got {t}")
+        t = check_vector(field, target)
+    except ParameterError:
+        raise ParameterError(field, f"{field} must be a translation (dx, dy) of finite real numbers, "
+                                    f"shape (2,), or a callable, got {target!r:.100}") from None
     if reach is not None and np.any(np.abs(t) > reach):
         raise ValueError(f"{field} = {t.tolist()}: a displacement larger than {REACH:g} domain sizes ({reach:g})")
     return t
@@ -142,11 +117,10 @@ def _check_target(target, points=None, field="target", reach=None):
 class Handle:
     """Material points held at prescribed positions (a fixed edge, a pulled edge, a user's grab).
 
-    ``region``: anything :func:`region_nodes` takes. ``target``: a translation ``(dx, dy)`` (default none: fixed)
-    or a map ``phi(X) -> x``, ``(2, n) -> (2, n)``. ``base`` (a grab; ``region`` must be node indices): the held
-    nodes' displacement ``(2, n_nodes)`` when grabbed; the prescribed displacement is ``base + (phi(X) - X)``, so
-    the grabbed tissue stays put, then follows the target's offset. ``name``: to find it by (else the model names
-    it). ``anchor``: the point the user grabbed (a drag moves the handle by the mouse's offset from it).
+    ``region``: anything :func:`region_nodes` takes. ``target``: a translation ``(dx, dy)`` (default: fixed)
+    or a map ``phi(X) -> x``, ``(2, n) -> (2, n)``. ``base`` (a grab, of node indices): the nodes'
+    displacement ``(2, n_nodes)`` when grabbed; they are held at ``base + (phi(X) - X)``. ``name``: to find it
+    by (else the model names it); ``anchor``: the point grabbed (a drag moves it by the mouse's offset).
     """
 
     def __init__(self, region, target=(0.0, 0.0), *, base=None, name=None, anchor=None):
@@ -227,8 +201,8 @@ class Pattern:
             self._keys = base_keys
             self.base_positions = None
         else:
-            # merge the few new keys into the sorted base keys (a widening is rebuilt whenever a term's couplings
-            # change, e.g. contact pairs: it must cost a merge, not a sort of everything)
+            # merge the few new keys into the sorted base keys: rebuilt whenever contact pairs change, a
+            # widening must cost a merge, not a sort of everything
             inserted = np.searchsorted(base_keys, new)
             keys = np.insert(base_keys, inserted, new)
             counts = np.bincount(keys // n, minlength=n)
@@ -284,11 +258,8 @@ def _check_material_at_rest(assembler, material) -> None:
     rest = F.shape[2:]
     expected = {"energy": rest, "stress": F.shape, "tangent": (2, 2) + F.shape}
     for method, shape in expected.items():
-        try:
-            with np.errstate(all="ignore"):
-                value = np.asarray(getattr(material, method)(F))
-        except Exception as err:  # a user's object may raise anything: refuse it by name
-            raise ValueError(f"material: {method}(F) at rest raised {type(err).__name__}: {err}") from None
+        with np.errstate(all="ignore"):
+            value = np.asarray(call_user("material", f"{method}(F) at rest", getattr(material, method), F))
         try:
             fits = np.broadcast_shapes(value.shape, shape) == shape
         except ValueError:
@@ -316,13 +287,7 @@ class Holding:
                 edges = np.asarray(mesh.boundaries[h.region])
             elif callable(h.region):
                 mid = 0.5 * (self.X[:, mesh.facets[0]] + self.X[:, mesh.facets[1]])
-                try:
-                    on = np.asarray(h.region(mid))
-                except Exception as err:  # the user's mask, at the edges' midpoints
-                    raise ValueError(f"handle {h.name!r} region: the mask raised {type(err).__name__}: {err}") from None
-                if on.shape != (mid.shape[1],) or on.dtype.kind not in "biu":
-                    raise ValueError(f"handle {h.name!r} region: the mask must return one bool per point")
-                edges = np.flatnonzero(on.astype(bool))
+                edges = _selected(f"handle {h.name!r} region", h.region, mid)
             else:
                 held = np.zeros(mesh.nvertices, dtype=bool)
                 held[nodes] = True
@@ -344,10 +309,7 @@ class Holding:
         names = {h.name for h in self.handles}
         name = handle.name
         if name is None:
-            k = len(self.handles)
-            while f"handle{k}" in names:
-                k += 1
-            name = f"handle{k}"
+            name = next(f"handle{k}" for k in itertools.count(len(self.handles)) if f"handle{k}" not in names)
         elif name in names:
             raise ValueError(f"a handle named {name!r} exists already")
         # everything is checked before the handle is touched: a refused handle is left as it was given
@@ -372,10 +334,9 @@ class Holding:
             if 0 <= name < len(self.handles):
                 return self.handles[name]
             raise ValueError(f"no handle at index {name}; there are {len(self.handles)}")
-        if isinstance(name, str):  # names are strings: anything else (an array, a list) names no handle
-            for h in self.handles:
-                if h.name == name:
-                    return h
+        found = [h for h in self.handles if isinstance(name, str) and h.name == name]  # names are strings
+        if found:
+            return found[0]
         raise ValueError(f"no handle named {name!r:.100}; handles: {[h.name for h in self.handles]}")
 
     def set_targets(self, targets) -> None:
@@ -412,18 +373,16 @@ class Holding:
         """The held dofs (sorted) and their displacements; where handles overlap, the later one wins."""
         if not self.handles:
             return np.zeros(0, dtype=np.intp), np.zeros(0)
-        all_dofs, all_values = [], []
+        all_values = []
         for h in self.handles:
-            base = None
-            if h.base is not None:
-                base = np.where(h._owner >= 0, h.base[self.component[h._dofs], np.maximum(h._owner, 0)], 0.0)
             x = _map_positions(h.target, h._points, f"handle {h.name!r} target") if callable(h.target) else \
                 h._points + h.target[:, None]
-            u = x - h._points
-            values = u[self.component[h._dofs], np.arange(h._dofs.size)]
-            all_dofs.append(h._dofs)
-            all_values.append(values if base is None else values + base)
-        dofs, values = np.concatenate(all_dofs), np.concatenate(all_values)
+            values = (x - h._points)[self.component[h._dofs], np.arange(h._dofs.size)]
+            if h.base is not None:  # a grab: its nodes' displacement when grabbed, plus the target's offset
+                held = h.base[self.component[h._dofs], np.maximum(h._owner, 0)]
+                values = values + np.where(h._owner >= 0, held, 0.0)
+            all_values.append(values)
+        dofs, values = np.concatenate([h._dofs for h in self.handles]), np.concatenate(all_values)
         unique, first_in_reversed = np.unique(dofs[::-1], return_index=True)
         return unique.astype(np.intp), values[::-1][first_in_reversed]
 
@@ -439,32 +398,18 @@ class Holding:
 class Model(Holding):
     """A hyperelastic body (mesh, displacement basis, material) and exactly the terms acting on it.
 
-    Parameters
-    ----------
-    mesh : skfem.MeshTri
-        Straight-sided triangles, either orientation; degenerate or folded meshes are refused.
-    material
-        A material of :mod:`tissuefem.engine.materials` (or a wrapper of
-        :mod:`tissuefem.engine.inversion`): the :class:`~tissuefem.engine.terms.Elastic` term.
-    order, intorder, assembly
-        P1 or P2; the quadrature degree (default ``2 order``); ``"fast"`` (vectorised) or
-        ``"forms"`` (the readable scikit-fem forms, for reference).
-    terms
-        More terms: :class:`~tissuefem.engine.terms.Term` objects, or factories ``model -> Term``
-        (:func:`tissuefem.engine.effects.factory`) for terms made from the model's own assembly.
-    handles
-        :class:`Handle` objects (prescribed positions).
-    density
-        ``rho0``, mass per unit reference area (inertia, gravity).
-    weights
-        Optional per-element material fractions (elements cut through carry part of their triangle).
-    dt, mass, gravity, body_force, tractions, fibers, probes, sutures, contact
-        Shorthands for the common terms (:mod:`tissuefem.engine.effects`): ``dt`` (seconds) with ``"lumped"`` or
-        ``"consistent"`` ``mass`` (backward Euler; without: quasistatic); gravity ``(gx, gy)``, a body force per
-        unit reference area ``(bx, by)``, tractions ``{boundary: (tx, ty)}`` per unit reference length; fibres
-        ``(stiffness, directions)`` (``(2,)`` or ``(2, n_elements)``); probes: dicts ``center, radius,
-        stiffness[, label, smoothing]``; sutures: ``pairs, stiffness, gaps[, tightness, coefficients]``;
-        contact: ``distance, stiffness[, surface, skin]`` (default surface: the mesh's boundary).
+    ``mesh``: a ``skfem.MeshTri`` of straight triangles (degenerate or folded ones are refused); ``material``:
+    the :class:`~tissuefem.engine.terms.Elastic` term's (:mod:`.materials`, :mod:`.inversion`); ``order``: P1
+    or P2, ``intorder``: the quadrature degree (default ``2 order``), ``assembly``: ``"fast"`` or ``"forms"``
+    (the readable reference); ``terms``: more :class:`~tissuefem.engine.terms.Term` objects or factories
+    ``model -> Term`` (:func:`.effects.factory`); ``handles``: :class:`Handle` objects; ``density``: ``rho0``
+    per unit reference area; ``weights``: per-element material fractions (elements cut through).
+
+    Shorthands for the common terms (:mod:`.effects`): ``dt`` (s) with ``mass`` ``"lumped"`` or
+    ``"consistent"`` (backward Euler; without: quasistatic); ``gravity`` ``(gx, gy)``; ``body_force`` ``(bx,
+    by)`` per unit area; ``tractions`` ``{boundary: (tx, ty)}`` per unit length; ``fibers`` ``(stiffness,
+    directions)``; ``probes``: dicts ``center, radius, stiffness[, label, smoothing]``; ``sutures``: ``pairs,
+    stiffness, gaps[, tightness, coefficients]``; ``contact``: ``distance, stiffness[, surface, skin]``.
     """
 
     def __init__(self, mesh, material, *, order: int = 1, intorder: int | None = None, assembly: str = "fast",
@@ -523,6 +468,7 @@ class Model(Holding):
         self._other_terms = [t for t in self.terms if not isinstance(t, ElementTerm)]
         densities = [t.density for t in self._element_terms]
         self._density = densities[0] if len(densities) == 1 else SummedDensity(densities)
+        self._safe_density = SummedDensity(densities, safe=True)
         # the terms whose class overrides a hook (contact): a model without one pays nothing per iteration
         self._pattern_terms = [t for t in self._other_terms if _overrides(t, "covers")]
         self._limit_terms = [t for t in self._other_terms if _overrides(t, "max_step")]
@@ -579,31 +525,12 @@ class Model(Holding):
     def _first(self, kind):
         return next((t for t in self.terms if isinstance(t, kind)), None)
 
-    @property
-    def inertia(self) -> Inertia | None:
-        """The backward-Euler inertia term, or ``None`` for a quasistatic model."""
-        return self._first(Inertia)
-
-    @property
-    def dynamic(self) -> bool:
-        return self.inertia is not None
-
-    @property
-    def loads(self) -> list[Load]:
-        return self.terms_of(Load)
-
-    @property
-    def probes(self) -> list[Probe]:
-        return self.terms_of(Probe)
-
-    @property
-    def sutures(self) -> Sutures | None:
-        return self._first(Sutures)
-
-    @property
-    def contact(self) -> Contact | None:
-        """The self-contact term, or ``None``."""
-        return self._first(Contact)
+    inertia = property(lambda self: self._first(Inertia), doc="The inertia term, or ``None`` (quasistatic).")
+    dynamic = property(lambda self: self.inertia is not None)
+    loads = property(lambda self: self.terms_of(Load))
+    probes = property(lambda self: self.terms_of(Probe))
+    sutures = property(lambda self: self._first(Sutures))
+    contact = property(lambda self: self._first(Contact), doc="The self-contact term, or ``None``.")
 
     # ------------------------------------------------------------------ step hooks (terms that have them only)
     @property
@@ -615,10 +542,7 @@ class Model(Holding):
         terms = list(self._limit_terms)
         return lambda u, du: min(t.max_step(u, du) for t in terms)
 
-    @property
-    def notes_steps(self) -> bool:
-        """Whether a term wants to know where each step starts (:meth:`begin_step`; self-contact)."""
-        return bool(self._step_terms)
+    notes_steps = property(lambda self: bool(self._step_terms), doc="Whether a term wants begin_step.")
 
     def begin_step(self, u, previous=None) -> int:
         """Tell the terms a step starts at ``u`` (reached from ``previous`` by the handles' motion); returns the
@@ -629,10 +553,7 @@ class Model(Holding):
         for t in self._step_terms:
             t.end_step()
 
-    @property
-    def term_names(self) -> list[str]:
-        """The names of the terms this model evaluates, in order."""
-        return [t.name for t in self.terms]
+    term_names = property(lambda self: [t.name for t in self.terms], doc="The terms' names, in order.")
 
     def describe(self) -> list[str]:
         return [t.describe() for t in self.terms]
@@ -643,10 +564,7 @@ class Model(Holding):
         return (any(hasattr(t.density, "safe_tangent") for t in self._element_terms)
                 or any(t.has_safe_hessian for t in self._other_terms))
 
-    @property
-    def quadratic(self) -> bool:
-        """True when every term is quadratic: the Hessian is constant (linear material, springs, loads)."""
-        return all(t.quadratic for t in self.terms)
+    quadratic = property(lambda self: all(t.quadratic for t in self.terms), doc="A constant Hessian?")
 
     @property
     def external(self) -> np.ndarray:
@@ -680,7 +598,7 @@ class Model(Holding):
         if self._pattern_terms and not all(t.covers(u) for t in self._pattern_terms):
             self._build()  # a term's couplings changed (contact pairs): a new pattern, the same terms
         data = self.pattern.zeros()
-        density = SafeView(self._density) if safe else self._density
+        density = self._safe_density if safe else self._density
         self.pattern.add_base(data, self.assembler.tangent(u, density).data)
         for t in self._other_terms:
             t.add_hessian(u, data, safe=safe)

@@ -1,21 +1,11 @@
-"""Material parameters: Lamé constants from Young's modulus and Poisson's ratio, and the checks of every input.
+"""The one home of the library's input checks, and Lamé constants from Young's modulus and Poisson's ratio.
 
-Every number the library accepts has a documented range, chosen so that what is accepted can also be computed (no
-overflow, no division by zero later on):
-
-* Young's modulus ``E`` in ``[1e-6, 1e12]``: soft gels (~1 Pa) to steel (2e11 Pa), with room; ``E^2`` stays finite.
-* Poisson's ratio ``nu`` in ``[-0.999999, 0.499999]``: the admissible ``(-1, 0.5)`` less ``1e-6`` at each end, where
-  ``lam + 2 mu / 3`` would be lost to round-off; ``lam/mu <= 5e5``.
-* Lamé ``mu`` given directly in ``[1e-7, 1e30]`` (``E`` and ``nu`` above map to at most ``5e17``), ``lam`` in
-  ``(-2 mu / 3, 1e30]`` (a positive bulk modulus).
-* time step ``dt`` in ``[1e-6, 10]`` s; density ``rho0`` in ``[1e-6, 1e6]`` (``rho0 A / dt^2`` stays finite).
-* gravity within ``+-1e6`` per component; body forces and tractions within ``+-1e12`` (the stresses' size).
-* penalty stiffness (a probe's, a suture's ``k``) in ``[0, 1e40]``: ``k d^2`` stays finite for any depth within reach.
-* points and displacements within ``REACH L`` (1000 L, ``L`` the larger side of the domain's bounding box); radii in
-  ``[1e-6 L, 1000 L]`` (a probe's ``k ~ E / r^2`` stays finite); counts are true integers (never ``bool``).
-
-This is the one home of the library's input checks; each refusal is a :class:`ParameterError` whose message names the
-argument and the allowed range and whose ``field`` is that argument.
+Every number the library accepts has a documented range (the constants below), chosen so that what is accepted
+can also be computed: ``E^2``, ``rho0 A / dt^2``, a penalty's ``k d^2`` stay finite; ``nu`` keeps ``1e-6``
+from each end of ``(-1, 0.5)``, where ``lam + 2 mu / 3`` would be lost to round-off; points and radii are
+measured in domain sizes ``L`` (the larger side of the domain's bounding box); counts are true integers (never
+``bool``). Each refusal is a :class:`ParameterError` whose message names the argument and the allowed range
+and whose ``field`` is that argument.
 """
 
 from __future__ import annotations
@@ -28,8 +18,9 @@ import numpy as np
 
 __all__ = [
     "ParameterError", "lame_parameters", "check_young_poisson", "check_poisson_ratio", "check_lame", "check_real",
-    "check_real_number", "check_count", "check_positive", "check_nonnegative", "check_vector", "check_bounded_vector",
-    "check_real_array", "check_reach", "check_weights", "check_fiber_stiffness", "check_time_step", "check_density",
+    "check_real_number", "check_count", "check_positive", "call_user", "check_vector", "check_bounded_vector",
+    "check_real_array", "check_indices", "check_reach", "check_weights", "check_fiber_stiffness",
+    "check_time_step", "check_density",
     "YOUNGS_MODULUS_RANGE", "POISSON_RATIO_RANGE", "LAME_MAX", "SHEAR_MODULUS_MIN", "TIME_STEP_RANGE",
     "DENSITY_RANGE", "ACCELERATION_MAX", "FORCE_MAX", "PENALTY_MAX", "REACH", "RADIUS_RANGE",
     # a scene's tables: each refusal names the field (``effects.probes[0].radius``)
@@ -69,12 +60,8 @@ def check_real_number(name: str, value) -> float:
     try:
         return float(value)
     except OverflowError:  # an integer with hundreds of digits
-        raise ParameterError(name, f"{name} is out of range (too large for a float), got {_short(value)}") from None
-
-
-def _short(value, limit: int = 60) -> str:
-    text = repr(value)
-    return text if len(text) <= limit else f"{text[:limit // 2]}...{text[-10:]} ({len(text)} characters)"
+        raise ParameterError(name, f"{name} is out of range (too large for a float), got {show(value)}") \
+            from None
 
 
 def _interval(lo, hi, lo_open, hi_open) -> str:
@@ -84,11 +71,8 @@ def _interval(lo, hi, lo_open, hi_open) -> str:
 
 
 def check_real(name: str, value, lo=None, hi=None, *, lo_open: bool = False, hi_open: bool = False) -> float:
-    """``value`` as a finite float within ``[lo, hi]`` (ends open on request), else ``ValueError`` naming ``name``.
-
-    Refused: ``bool``, strings, complex numbers, ``NaN``, infinities, integers too large for a float, and values
-    outside the range. ``None`` for ``lo`` or ``hi`` leaves that side unbounded (the value must still be finite).
-    """
+    """``value`` as a finite float within ``[lo, hi]`` (ends open on request; ``None``: unbounded), else a
+    ``ParameterError`` naming ``name`` (also for bools, strings, complex numbers and integers too large)."""
     v = check_real_number(name, value)
     if not math.isfinite(v):
         raise ParameterError(name, f"{name} must be finite, got {value!r}")
@@ -99,7 +83,7 @@ def check_real(name: str, value, lo=None, hi=None, *, lo_open: bool = False, hi_
         violated = f"{'<' if hi_open else '<='} {hi:g}"
     if violated is not None:
         allowed = _interval(lo, hi, lo_open, hi_open)
-        raise ParameterError(name, f"{name} must be {violated} (allowed range {allowed}), got {_short(value)}")
+        raise ParameterError(name, f"{name} must be {violated} (allowed range {allowed}), got {show(value)}")
     return v
 
 
@@ -108,11 +92,11 @@ def check_count(name: str, value, lo: int = 1, hi: int | None = None) -> int:
     if isinstance(value, np.ndarray) and value.ndim == 0:
         value = value[()]
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral):
-        raise ParameterError(name, f"{name} must be an integer, got {_short(value)}")
+        raise ParameterError(name, f"{name} must be an integer, got {show(value)}")
     v = int(value)
     if v < lo or (hi is not None and v > hi):
         bounds = f"[{lo}, {hi}]" if hi is not None else f">= {lo}"
-        raise ParameterError(name, f"{name} must be an integer in {bounds}, got {_short(value)}")
+        raise ParameterError(name, f"{name} must be an integer in {bounds}, got {show(value)}")
     return v
 
 
@@ -121,9 +105,13 @@ def check_positive(name, value) -> float:
     return check_real(name, value, 0.0, lo_open=True)
 
 
-def check_nonnegative(name, value) -> float:
-    """A finite real number ``>= 0``, or a ``ValueError`` naming ``name``."""
-    return check_real(name, value, 0.0)
+def call_user(field: str, what: str, function, *args):
+    """``function(*args)`` for a user's callable (a ``what``: mask, map, clock); whatever it raises is refused
+    as a ``ParameterError`` naming ``field``."""
+    try:
+        return function(*args)
+    except Exception as err:  # a user's callable may raise anything: a refusal, not a crash
+        raise ParameterError(field, f"{field}: the {what} raised {type(err).__name__}: {err}") from None
 
 
 def check_vector(name, value) -> np.ndarray:
@@ -140,6 +128,22 @@ def check_vector(name, value) -> np.ndarray:
     return v
 
 
+def check_indices(name: str, value, count: int, what: str = "indices") -> np.ndarray:
+    """``value`` as a 1D array of indices (``what``) in ``0 .. count-1``: true integers, never floats or
+    bools."""
+    try:
+        idx = np.asarray(value)
+    except (TypeError, ValueError):  # ragged lists
+        idx = np.asarray(None)
+    if idx.ndim != 1 or not (idx.size == 0 or idx.dtype.kind in "iu"):
+        raise ParameterError(name, f"{name} must be a list of integer {what} in 0..{count - 1}, "
+                                   f"got {show(value)}")
+    if idx.size and (idx.min() < 0 or idx.max() >= count):
+        raise ParameterError(name, f"{name} must be {what} in 0..{count - 1} (there are {count}), "
+                                   f"got {show(value)}")
+    return idx.astype(np.intp)
+
+
 def check_reach(name, point, middle, size) -> np.ndarray:
     """``point`` if it lies within ``REACH`` domain sizes of the domain's centre ``middle``, else ``ValueError``."""
     far = REACH * size
@@ -151,16 +155,10 @@ def check_reach(name, point, middle, size) -> np.ndarray:
 
 def check_weights(weights, m) -> np.ndarray:
     """Per-element material fractions: ``m`` real numbers in ``(0, 1]`` (complex or boolean ones are refused)."""
-    try:
-        w = np.asarray(weights)
-    except (TypeError, ValueError):
-        w = np.asarray(None)
-    if w.dtype.kind not in "iuf" or w.shape != (m,):
-        raise ParameterError("weights", f"weights must be one real number in (0, 1] per element, shape ({m},), "
-                                        f"got {weights!r:.80}")
-    w = w.astype(float)
-    if not (np.all(np.isfinite(w)) and np.all(w > 0) and np.all(w <= 1)):
-        raise ParameterError("weights", f"weights must be one number in (0, 1] per element, shape ({m},)")
+    w = np.array(check_real_array("weights", weights))  # a copy: the caller's array may change
+    if w.shape != (m,) or not (np.all(np.isfinite(w)) and np.all(w > 0) and np.all(w <= 1)):
+        raise ParameterError("weights", f"weights must be one number in (0, 1] per element, shape ({m},), "
+                                        f"got {show(weights)}")
     return w
 
 
@@ -182,20 +180,14 @@ def check_density(rho, name: str = "density") -> float:
 def check_bounded_vector(name: str, value, bound: float) -> np.ndarray:
     """A vector ``(x, y)`` of real numbers each within ``+-bound``, else a ``ValueError`` naming ``name`` (refused
     like :func:`check_real`: bools, strings, complex numbers, NaN, infinities, and vectors of another shape)."""
-    try:
-        items = None if isinstance(value, (str, bytes, dict)) or len(value) != 2 else list(value)
-    except Exception:  # no length, or one that cannot be taken: not a vector
-        items = None
-    if items is None or len(items) != 2:
-        raise ParameterError(name, f"{name} must be a vector (x, y) of two real numbers, got {_short(value)}")
-    return np.array([check_real(f"{name}[{i}]", v, -bound, bound) for i, v in enumerate(items)])
+    if not is_sequence(value) or len(value) != 2:
+        raise ParameterError(name, f"{name} must be a vector (x, y) of two real numbers, got {show(value)}")
+    return np.array([check_real(f"{name}[{i}]", v, -bound, bound) for i, v in enumerate(value)])
 
 
 def check_poisson_ratio(nu, name: str = "nu (Poisson's ratio)") -> float:
-    """Poisson's ratio in :data:`POISSON_RATIO_RANGE`; the error names ``name``. Within ``1e-6`` of an end of
-    ``(-1, 0.5)`` the message says it is too close: there ``lam`` and ``mu`` are huge and of opposite sign
-    (``nu -> -1``) or ``lam/mu > 5e5`` (``nu -> 0.5``), and the bulk modulus ``lam + 2 mu / 3`` is lost to round-off.
-    """
+    """Poisson's ratio in :data:`POISSON_RATIO_RANGE`; within ``1e-6`` of an end of ``(-1, 0.5)`` the message
+    says it is too close (``lam/mu > 5e5``, or huge ``lam``, ``mu`` of opposite sign)."""
     nu = check_real(name, nu, -1.0, 0.5, lo_open=True, hi_open=True)
     lo, hi = POISSON_RATIO_RANGE
     if not lo <= nu <= hi:
@@ -228,10 +220,8 @@ def lame_parameters(E, nu, plane: str = "strain") -> tuple[float, float]:
 
 
 def check_lame(lam, mu) -> tuple[float, float]:
-    """Validate Lamé parameters given directly: ``mu`` in ``[1e-7, 1e30]`` and ``-2 mu / 3 < lam <= 1e30``.
-
-    ``lam > -2 mu / 3`` (a positive bulk modulus) is exactly what ``-1 < nu < 0.5`` maps to (:func:`lame_parameters`).
-    """
+    """Lamé parameters given directly: ``mu`` in ``[1e-7, 1e30]``, ``-2 mu / 3 < lam <= 1e30`` (a positive
+    bulk modulus: exactly what ``-1 < nu < 0.5`` maps to)."""
     mu = check_real("mu (shear modulus)", mu, SHEAR_MODULUS_MIN, LAME_MAX)
     lam = check_real("lam (first Lamé parameter)", lam, -2.0 * mu / 3.0, LAME_MAX, lo_open=True)
     return lam, mu
@@ -301,8 +291,8 @@ def vector(field, value, bound=FAR) -> list:
 
 def points(field, value, minimum, maximum=MAX_POINTS) -> list:
     if not is_sequence(value) or not minimum <= len(value) <= maximum:
-        raise ParameterError(field, f"{field} must be a list of {minimum} to {maximum} points [x, y], "
-                                    f"got {show(value)}")
+        count = minimum if minimum == maximum else f"{minimum} to {maximum}"
+        raise ParameterError(field, f"{field} must be a list of {count} points [x, y], got {show(value)}")
     return [vector(f"{field}[{i}]", p) for i, p in enumerate(value)]
 
 

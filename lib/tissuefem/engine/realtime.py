@@ -1,12 +1,9 @@
 """The real-time loop: one step per drawn frame within a wall-clock budget (the notes' interactive simulator).
 
-:meth:`RealtimeSolver.frame` reads the user's input and stops its Newton solve when the frame's budget
-(:data:`~tissuefem.engine.constants.FRAME_BUDGET`) is spent -- the clock is read before each tangent assembly and
-each linear solve, so a frame overruns by at most one solve -- and commits the last accepted iterate whether or not
-it converged (*anytime*: finite and no higher in energy than the frame's start; the residual left carries into the
-next frame). Every frame takes at least one Newton step. A factorization is kept across Newton iterations *and*
-frames as CG's preconditioner (``"reuse"``); a quadratic model runs ``"constant"``: one factorization per set of
-held dofs, then one back-substitution a frame. The clock is a parameter, so tests use a fake one.
+:meth:`RealtimeSolver.frame` stops its Newton solve when the frame's budget (:data:`.constants.FRAME_BUDGET`)
+is spent -- the clock is read before each assembly and linear solve, so a frame overruns by at most one solve
+-- and commits the last accepted iterate (*anytime*, see :mod:`.stepping`); the residual left carries into the
+next frame. The clock is a parameter, so tests use a fake one.
 """
 
 from __future__ import annotations
@@ -20,12 +17,9 @@ __all__ = ["RealtimeSolver", "FRAME_BUDGET"]
 
 
 class RealtimeSolver(Stepper):
-    """A :class:`~tissuefem.engine.stepping.Stepper` with a per-frame budget and anytime commits.
-
-    Takes the arguments of :class:`~tissuefem.engine.stepping.Stepper`; the defaults differ:
-    ``budget = 1/30`` s, ``rtol = 1e-6``, ``anytime = True``, and the linear solver is
-    ``"constant"`` when the model is quadratic, else ``"reuse"``.
-    """
+    """A :class:`~tissuefem.engine.stepping.Stepper` with a frame's defaults: ``budget = 1/30`` s, ``rtol =
+    1e-6``, ``anytime = True``, the linear solver ``"constant"`` (one factorization per set of held dofs) for
+    a quadratic model, else ``"reuse"`` (a kept factorization as CG's preconditioner)."""
 
     def __init__(self, model, *, budget: float = FRAME_BUDGET, rtol: float = 1e-6, linear_solver=None,
                  clock=time.perf_counter, anytime: bool = True, **options):

@@ -1,33 +1,27 @@
-"""Stepping: every step -- quasistatic, backward Euler, a real-time frame -- minimises one potential.
-
-The *incremental potential* of a step is the model's energy,
+"""Stepping: every step -- quasistatic, backward Euler, a real-time frame -- minimises one potential,
 
     E(x) = W(x) [+ other terms] - f . x  [+ 1/(2 dt^2) (x - x~)^T M (x - x~)],   x~ = u^n + dt v^n,
 
-with the inertia term only when the model has a time step (:mod:`tissuefem.engine.terms`). Its gradient is the
-backward-Euler residual (the notes' ``q`` of "Time stepping", with the slips of the README's errata corrected), without
-inertia the quasistatic one. A :class:`Stepper` holds the state ``u, v`` and takes one step at a time:
+the inertia term only with a time step (:mod:`.terms`). Its gradient is the backward-Euler residual (the
+notes' ``q`` of "Time stepping", with the README's errata), without inertia the quasistatic one. A
+:class:`Stepper` holds ``u, v`` and takes one step at a time:
 
-1. **input**: the handles' new targets, checked before anything moves
-   (:meth:`~tissuefem.engine.model.Model.set_targets`); a refusal changes nothing;
-2. **warm start**: the lowest-energy valid guess (for a quadratic model with its exact factorization, the first valid
-   one: one Newton step from any reaches the same answer). A dynamic step tries the constant-acceleration guess
-   ``x~ + dt (v^n - v^{n-1})``, the inertial guess ``x~`` and the previous state; a quasistatic step one linearised step
-   from the previous state, which carries the free dofs along with the handles (``K_ff dx_f = -g_f - K_fc dx_c``), or
-   the previous state. If no guess is valid (a handle jerked so far that an element would invert), the handles go part
-   of the way (the report's ``handle_fraction``). With self-contact the handles' own motion is taken as given (a handle
-   may drag tissue through tissue: the report's ``crossed`` counts such points, which contact ignores until they are
-   back out), and each guess is cut back to what the collision detection allows;
-3. **solve**: :func:`tissuefem.engine.minimize.newton` with the energy line search, until the residual is below
-   ``atol + rtol ||g(x0)||`` (never below its round-off level) or the step's wall-clock ``budget`` is spent; one
-   :class:`~tissuefem.engine.linsolve.LinearSolver` kept across steps reuses a factorization across Newton iterations
-   *and* steps;
-4. **commit**: a converged iterate becomes ``u^{n+1}`` (and ``v^{n+1} = (u^{n+1} - u^n)/dt``). An unconverged step
-   leaves the state as it was, or with ``anytime=True`` (the real-time loop) commits the last accepted iterate, finite
-   and no higher in energy than the start.
+1. **input**: the handles' new targets, checked before anything moves (a refusal changes nothing);
+2. **warm start**: the lowest-energy valid guess. Dynamic: the constant-acceleration guess
+   ``x~ + dt (v^n - v^{n-1})``, the inertial ``x~``, the previous state; quasistatic: one linearised step
+   ``K_ff dx_f = -g_f - K_fc dx_c`` (the free dofs follow the handles), or the previous state. A quadratic
+   model with its exact factorization takes the first valid one. If none is valid (an element would invert),
+   the handles go part of the way (``handle_fraction``). With self-contact the handles' motion is taken as
+   given (points dragged through the surface are counted in ``crossed`` and ignored until back out) and each
+   guess is cut back to what collision detection allows;
+3. **solve**: :func:`.minimize.newton` with the energy line search, until the residual is below
+   ``atol + rtol ||g(x0)||`` (never below its round-off level) or the wall-clock ``budget`` is spent; one
+   :class:`~.linsolve.LinearSolver` reuses a factorization across iterations *and* steps;
+4. **commit**: a converged iterate becomes ``u^{n+1}`` (``v^{n+1} = (u^{n+1} - u^n)/dt``). An unconverged step
+   keeps the state, or with ``anytime=True`` (the real-time loop) commits the last accepted iterate (finite,
+   no higher in energy than the start).
 
-:func:`solve` is the quasistatic solve of chapters 3 to 6: load steps that ramp the loads and the handles'
-displacements, each one a quasistatic step.
+:func:`solve`: the quasistatic solve of chapters 3 to 6, load steps ramping the loads and the handles.
 """
 
 from __future__ import annotations
@@ -41,7 +35,8 @@ import numpy as np
 from .linsolve import LinearSolver
 from .minimize import NewtonResult, newton
 from .model import Model
-from .parameters import check_count, check_real, check_real_array, check_time_step
+from .parameters import (ParameterError, call_user, check_count, check_indices, check_real, check_real_array,
+                         check_time_step)
 
 __all__ = ["Stepper", "StepReport", "StaticResult", "solve"]
 
@@ -50,11 +45,6 @@ _ROUNDOFF = 1e-13
 #: The most Newton iterations a step may take, and the most load steps of :func:`solve`.
 MAX_ITERATIONS = 100_000
 MAX_LOAD_STEPS = 100_000
-
-
-def _forward(name, doc=None) -> property:
-    """A read-only property that passes on the Newton result's attribute ``name``."""
-    return property(lambda report: getattr(report.newton, name), doc=doc)
 
 
 @dataclass
@@ -71,15 +61,18 @@ class StepReport:
     committed: bool = True  # whether the state moved to the result
     crossed: int = 0  # surface points found through the surface when the step started (self-contact)
 
-    @property
-    def contact_status(self) -> str:
-        """``"crossed"`` when the step started with surface points through the surface, else ``"clear"``."""
-        return "crossed" if self.crossed else "clear"
+    contact_status = property(lambda self: "crossed" if self.crossed else "clear",
+                              doc="``crossed``: the step started with surface points through the surface.")
 
-    # -- the Newton solve, forwarded
-    x = _forward("x", "The solve's last accepted iterate (the new state when committed).")
-    converged = _forward("converged")
-    status = _forward("status")
+    #: the Newton solve's results, passed on (``x``: the last accepted iterate, the new state if committed)
+    FORWARDED = ("x", "converged", "status", "linear_iterations", "factorizations", "residual_norm",
+                 "initial_residual", "relative_residual", "energy", "start_energy", "line_search_cuts",
+                 "history", "energies", "residual_norms", "table")
+
+    def __getattr__(self, name):
+        if name in StepReport.FORWARDED:
+            return getattr(self.newton, name)
+        raise AttributeError(f"StepReport has no attribute {name!r}")
 
     @property
     def newton_iterations(self) -> int:
@@ -87,26 +80,7 @@ class StepReport:
         return self.newton.iterations + (self.warm_start == "linearised")
 
     iterations = newton_iterations
-    linear_iterations = _forward("linear_iterations")
-    factorizations = _forward("factorizations")
-    residual_norm = _forward("residual_norm")
-    initial_residual = _forward("initial_residual")
-    relative_residual = _forward("relative_residual")
-    energy = _forward("energy")
-    start_energy = _forward("start_energy")
-    line_search_cuts = _forward("line_search_cuts")
-    history = _forward("history")
-    energies = _forward("energies")
-
-    def residual_norms(self) -> np.ndarray:
-        return self.newton.residual_norms()
-
-    def table(self) -> str:
-        return self.newton.table()
-
-    @property
-    def frame(self) -> int:
-        return self.step
+    frame = property(lambda self: self.step)
 
     def __repr__(self):
         crossed = f", {self.crossed} points through the surface" if self.crossed else ""
@@ -133,33 +107,19 @@ def _state_vector(name, value, n) -> np.ndarray:
     """A finite real dof vector of shape ``(n,)`` (a private copy), or a ``ValueError`` naming ``name``."""
     a = check_real_array(name, value)
     if a.shape != (n,):
-        raise ValueError(f"{name} must have shape ({n},), got {a.shape}")
+        raise ParameterError(name, f"{name} must have shape ({n},), got {a.shape}")
     if not np.all(np.isfinite(a)):
-        raise ValueError(f"{name} contains non-finite values")
+        raise ParameterError(name, f"{name} contains non-finite values")
     return a.copy()
-
-
-def _checked_clock(clock):
-    """The user's clock, read through a check: what it raises or returns that is not a finite real number of
-    seconds is a ``ValueError`` naming ``clock``."""
-
-    def read() -> float:
-        try:
-            now = clock()
-        except Exception as err:
-            raise ValueError(f"clock: the clock raised {type(err).__name__}: {err}") from None
-        return check_real("clock (its reading in seconds)", now)
-    return read
 
 
 def _roundoff_floors(model: Model) -> tuple[float, float]:
     """``(residual floor, energy floor)``: the levels below which round-off hides the residual and the energy.
 
-    At rest the stress is a difference of terms of the size of the modulus (``mu F - mu F^-T`` for neo-Hookean), so each
-    element's force carries an error of a few ``eps`` times ``A_e |A(I)| |grad N|``. This sums ``|A(I)| sqrt(A_e)``
-    (``|grad N| ~ 1/h``, ``A_e ~ h^2``) at the nodes; ``_ROUNDOFF`` times its norm is a few thousand times that error
-    and far below any tolerance a user asks for. The energy is a sum of element terms of the size ``|A(I)| A_e``
-    (whatever its value, nearly 0 at rest): ``_ROUNDOFF`` times their sum bounds what an energy difference can tell.
+    At rest the stress is a difference of terms of the modulus' size (``mu F - mu F^-T``): each element's
+    force errs by a few ``eps A_e |A(I)| |grad N|``. The floor, ``_ROUNDOFF`` times the norm of
+    ``|A(I)| sqrt(A_e)`` summed at the nodes (``|grad N| ~ 1/h``), is thousands of times that error and far
+    below any tolerance asked for; the energy's is ``_ROUNDOFF`` times the sum of ``|A(I)| A_e``.
     """
     F = np.eye(2).reshape(2, 2, 1)
     with np.errstate(all="ignore"):
@@ -200,7 +160,8 @@ class Stepper:
         if not callable(clock):
             raise ValueError(f"clock must be a callable returning seconds, got {clock!r}")
         self.clock = clock
-        self._clock = _checked_clock(clock)
+        # read through a check: a clock that raises or returns no finite number of seconds is refused by name
+        self._clock = lambda: check_real("clock (its reading in seconds)", call_user("clock", "clock", clock))
         if not isinstance(anytime, (bool, np.bool_)):
             raise ValueError(f"anytime must be True or False, got {anytime!r}")
         self.anytime = bool(anytime)
@@ -238,13 +199,8 @@ class Stepper:
     def budget(self, value):
         self._budget = _positive("budget", value, allow_inf=True)
 
-    @property
-    def frames(self) -> int:
-        return self.steps
-
-    @property
-    def linear_solver_name(self) -> str:
-        return self.linear.name
+    frames = property(lambda self: self.steps)
+    linear_solver_name = property(lambda self: self.linear.name)
 
     def _checked_state(self, u, v) -> tuple[np.ndarray, np.ndarray]:
         n = self.model.n_dofs
@@ -286,13 +242,10 @@ class Stepper:
         return self.kinetic_energy() + model.stored_energy(self.u) - float(model.external @ self.u)
 
     def step(self, targets=None, *, prescribed=None, load: float = 1.0) -> StepReport:
-        """Take one step: apply ``targets`` (see :meth:`Model.set_targets`), solve, commit, report.
-
-        ``prescribed``: ``(dofs, values)`` to hold instead of the handles' and ``load``: the factor in ``[0, 1]`` on the
-        constant loads (both for load stepping). All or nothing: whatever is refused or raised before the commit (a bad
-        target, a map that raises, a clock that cannot be read, a failing linear solver) leaves the state, the targets
-        and the model as they were.
-        """
+        """Take one step: apply ``targets`` (see :meth:`Model.set_targets`), solve, commit, report. For load
+        stepping, ``prescribed``: ``(dofs, values)`` held instead of the handles', ``load``: the loads' factor
+        in ``[0, 1]``. All or nothing: whatever is refused or raised before the commit leaves the state, the
+        targets and the model as they were."""
         model = self.model
         load = check_real("load", load, 0.0, 1.0)
         if prescribed is not None:
@@ -315,22 +268,8 @@ class Stepper:
             fixed, values = prescribed
         except (TypeError, ValueError):
             raise ValueError(f"prescribed must be (dofs, values), got {prescribed!r}") from None
-        n = self.model.n_dofs
-        try:
-            fixed = np.asarray(fixed)
-        except (TypeError, ValueError):
-            raise ValueError("prescribed: dofs must be an array of dof indices") from None
-        if fixed.ndim != 1 or not (fixed.size == 0 or fixed.dtype.kind in "iu"):
-            raise ValueError(f"prescribed: dofs must be a 1D array of integer dof indices, got dtype {fixed.dtype} "
-                             f"and shape {fixed.shape}")
-        if fixed.size and (fixed.min() < 0 or fixed.max() >= n):
-            raise ValueError(f"prescribed: dofs must be in 0..{n - 1}")
-        values = check_real_array("prescribed values", values)
-        if values.shape != fixed.shape:
-            raise ValueError(f"prescribed: values must have the shape of dofs {fixed.shape}, got {values.shape}")
-        if not np.all(np.isfinite(values)):
-            raise ValueError("prescribed: the prescribed displacements are not finite")
-        return fixed.astype(np.intp), values
+        fixed = check_indices("prescribed dofs", fixed, self.model.n_dofs)
+        return fixed, _state_vector("prescribed values", values, fixed.size)
 
     def _step(self, targets, prescribed, load, start) -> StepReport:
         model = self.model
@@ -353,9 +292,8 @@ class Stepper:
                 inertia.x_tilde = self.u + dt * self.v
             x0, E0, fraction, which, load_norm, pre, crossed = self._warm_start(fixed, values, free)
             if fraction < 1.0 and not self.anytime:
-                # the handles' targets cannot be reached from here without leaving the valid (finite-energy)
-                # states: an offline step fails at once and keeps the state (the real-time loop instead goes
-                # part of the way and carries the rest into the next frame)
+                # the targets cannot be reached without leaving the valid (finite-energy) states: an offline
+                # step fails at once (the real-time loop goes part of the way and carries the rest over)
                 g = model.gradient(self.u)
                 r = float(np.linalg.norm(g[free])) if np.all(np.isfinite(g)) else math.inf
                 result, pre = NewtonResult(self.u.copy(), False, "non-finite", 0, r, r, 0.0, E0, E0), 0
@@ -405,21 +343,19 @@ class Stepper:
         if not dynamic and np.any(values != previous):
             linearised, load_norm, factorizations = self._linearised_increment(fixed, free, values - previous)
         x_tilde = model.inertia.x_tilde if dynamic else None
+        accelerating = None  # constant acceleration: the best guess along a smooth drag
+        if dynamic and self.v_previous is not None:
+            accelerating = x_tilde + model.inertia.dt * (self.v - self.v_previous)
         # a quadratic energy with its exact factorization and no step cap: one Newton step from any start reaches
         # the minimiser (and the linearised start is it), so the first valid start is as good as the best
         exact = model.quadratic and self.linear.constant and self.max_step is None
         for halvings in range(12):
             fraction = 0.5**halvings
             held = previous + fraction * (values - previous)
-            if dynamic:
-                candidates = [("inertial", x_tilde), ("previous", u)]
-                if self.v_previous is not None:
-                    # constant acceleration: the best guess along a smooth drag
-                    candidates.insert(0, ("accelerating", x_tilde + model.inertia.dt * (self.v - self.v_previous)))
-            else:
-                candidates = [("previous", u)]
-                if linearised is not None:  # the linear prediction scales with the handles' increment
-                    candidates.insert(0, ("linearised", u + fraction * linearised))
+            # in order of preference; the linear prediction scales with the handles' increment
+            scaled = None if linearised is None else u + fraction * linearised
+            candidates = [(name, x) for name, x in (("accelerating", accelerating), ("inertial", x_tilde),
+                                                    ("linearised", scaled), ("previous", u)) if x is not None]
             best = reference = None
             if model.notes_steps:
                 reference = u.copy()
@@ -462,15 +398,11 @@ class Stepper:
                     rhs = -model.gradient(self.u + dx)[free]
                     A = self.linear.matrix(lambda: _finite_hessian(model.hessian(self.u)), free)
                 else:
-                    K = model.hessian(self.u)
+                    K = _finite_hessian(model.hessian(self.u))
                     rhs = -model.gradient(self.u)[free] - (K @ dx)[free]
-                    if not np.all(np.isfinite(K.data)):
-                        return None, 0.0, 0
                     A = self.linear.matrix(lambda: K, free)
-            if not np.all(np.isfinite(rhs)):
-                return None, 0.0, 0
             load_norm = float(np.linalg.norm(rhs))
-            if not math.isfinite(load_norm):  # finite entries whose norm overflows: no prediction from here
+            if not math.isfinite(load_norm):  # a non-finite entry, or a norm that overflows: no prediction
                 return None, 0.0, 0
             dx_free, info = self.linear.solve(A, rhs, atol=1e-3 * load_norm)
         except (RuntimeError, ValueError, np.linalg.LinAlgError, ZeroDivisionError):
@@ -490,13 +422,8 @@ class StaticResult:
     converged: bool
     steps: list[StepReport] = field(default_factory=list)
 
-    @property
-    def newton_iterations(self) -> int:
-        return sum(r.newton_iterations for r in self.steps)
-
-    @property
-    def status(self) -> str:
-        return self.steps[-1].status if self.steps else "not run"
+    newton_iterations = property(lambda self: sum(r.newton_iterations for r in self.steps))
+    status = property(lambda self: self.steps[-1].status if self.steps else "not run")
 
 
 def solve(model: Model, load_steps: int = 1, u0=None, *, stepper: Stepper | None = None, **options) -> StaticResult:

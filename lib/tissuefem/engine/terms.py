@@ -15,18 +15,14 @@ term              energy                                                       H
 ``Contact``       self-contact of the surface, see :mod:`.contact`             per pair
 ================  ===========================================================  ==========
 
-Every term has ``energy(u)``, ``gradient(u)`` (a dof vector) and ``add_hessian(u, data)``, which adds its Hessian into
-``data``, the CSR data array of the model's one fixed sparsity pattern (bound by ``bind(pattern)`` before use).
-``quadratic`` says whether the Hessian is constant (then a kept factorization is exact). A term that couples dofs the
-mesh does not (a suture between two far nodes) lists them in ``couplings()``; the model widens its pattern.
-
-Why inertia is written with ``1/dt^2``: the notes' residual ``q = M (u - u~)/dt^2 + f_int(u) - f_ext`` (up to the slips
-in the README's errata) is then exactly the gradient of ``W(u) - f.u + Inertia(u)``, so a dynamic step's residual is a
-force like a quasistatic one's. The chapters' ``E = 1/2 |u - u~|_M^2 + dt^2 [W - f.u]`` is this potential times
-``dt^2``: the same minimiser.
+Inertia carries ``1/dt^2`` so that the gradient of ``W(u) - f.u + Inertia(u)`` is exactly the notes' residual
+``q = M (u - u~)/dt^2 + f_int(u) - f_ext`` (with the README's errata): a force, as in a quasistatic step. The
+chapters' ``E = 1/2 |u - u~|_M^2 + dt^2 [W - f.u]`` is this potential times ``dt^2``: the same minimiser.
 """
 
 from __future__ import annotations
+
+import numbers
 
 import numpy as np
 from skfem import FacetBasis, LinearForm, asm
@@ -34,40 +30,35 @@ from skfem import FacetBasis, LinearForm, asm
 from .materials import (FiberReinforced, Material, check_fiber_stiffness, fiber_energy_term, fiber_stress_term,
                         fiber_tangent_term)
 from .parameters import (FORCE_MAX, PENALTY_MAX, RADIUS_RANGE, REACH, ParameterError, check_bounded_vector,
-                         check_density, check_positive, check_reach, check_real, check_real_array, check_time_step,
-                         check_vector)
+                         check_density, check_indices, check_reach, check_real, check_real_array,
+                         check_time_step, check_vector)
 
 __all__ = ["Term", "ElementTerm", "Elastic", "Fibers", "Inertia", "Load", "Probe", "Sutures", "traction_vector",
-           "SummedDensity", "SafeView", "extent", "boundary_lengths", "check_positive"]
+           "SummedDensity", "extent", "boundary_lengths"]
 
 
 class Term:
-    """One additive piece of the potential (see the module docstring for the interface).
+    """One additive piece of the potential: ``energy(u)``, ``gradient(u)`` (a dof vector) and
+    ``add_hessian(u, data)``, which adds the Hessian into ``data``, the CSR data of the model's one sparsity
+    pattern (given by ``bind``). ``couplings()``: Hessian entries the mesh's pattern lacks (sutures).
 
-    The hooks have defaults that cost nothing; the model calls only those a term overrides: ``covers(u)``
-    (does the model's pattern hold the couplings needed at ``u``? else it is rebuilt: self-contact's pairs
-    change with the state), ``max_step(u, du)`` (the largest fraction of ``du`` allowed: contact lets no
-    surface pass through another), ``begin_step(u, previous)`` (returns the crossings found) / ``end_step()``,
-    and ``remap(meshmap)`` (:class:`~tissuefem.engine.meshes.MeshMap`): the term after a topology change,
-    ``None`` if nothing of it survives, or a factory ``model -> Term`` for a term made from the model's own
-    assembly (inertia, fibres, loads).
+    The model calls a hook only where a term overrides it: ``covers(u)`` (does the pattern still hold the
+    couplings? self-contact's pairs change), ``max_step(u, du)`` (the largest fraction of ``du`` allowed),
+    ``begin_step(u, previous)`` (returns the crossings found) and ``end_step()``. ``remap(meshmap)``: the term
+    after a topology change, ``None`` if nothing survives, or a factory ``model -> Term``.
     """
 
     name = "term"
-    #: True when the energy is quadratic in ``u`` (a constant Hessian)
-    quadratic = False
-    #: whether ``add_hessian(..., safe=True)`` differs from the exact Hessian
-    has_safe_hessian = False
-    #: where the model keeps the term in its list (inertia, element terms, probes, sutures, others, loads): the
-    #: order of the sums, so a term added to a running model sums as if the model had been built with it
+    quadratic = False  #: a constant Hessian (then a kept factorization is exact)
+    has_safe_hessian = False  #: whether ``add_hessian(..., safe=True)`` differs from the exact Hessian
+    #: the term's place in the model's sums (inertia, element terms, probes, sutures, others, loads): a term
+    #: added to a running model sums as if the model had been built with it
     rank = 5
 
     def bind(self, pattern) -> None:
-        """Remember the model's sparsity pattern (called by the model)."""
         self.pattern = pattern
 
     def couplings(self):
-        """``(rows, cols)`` of Hessian entries outside the mesh's pattern (none by default)."""
         return None
 
     def energy(self, u) -> float:
@@ -119,7 +110,7 @@ class ElementTerm(Term):
         return self.assembler.residual(u, self.density)
 
     def add_hessian(self, u, data, safe=False):
-        density = SafeView(self.density) if safe else self.density
+        density = SummedDensity([self.density], safe=True) if safe else self.density
         self.pattern.add_base(data, self.assembler.tangent(u, density).data)
 
 
@@ -165,11 +156,8 @@ class _FiberDensity(Material):
 
 
 class Fibers(ElementTerm):
-    """The fibre energy ``k/8 (I4 - 1)^2``, ``I4 = |F g|^2``, per element (chapter 5), on any material.
-
-    ``directions``: one unit vector ``(2,)`` for all elements or one per element ``(2, n_elements)`` (normalised here);
-    ``k >= 0`` is the extra small-strain modulus along the fibre.
-    """
+    """The fibre energy ``k/8 (I4 - 1)^2``, ``I4 = |F g|^2`` (chapter 5), on any material: ``k >= 0`` is the
+    extra small-strain modulus along ``directions``, ``(2,)`` or ``(2, n_elements)`` (normalised here)."""
 
     name = "fibers"
 
@@ -194,10 +182,11 @@ class Fibers(ElementTerm):
 
 
 class SummedDensity:
-    """The sum of several energy densities, evaluated on one ``F`` (one assembly pass for all element terms)."""
+    """The sum of energy densities evaluated on one ``F`` (one assembly pass for all element terms); with
+    ``safe``, each density's positive semi-definite tangent where it offers one (the safe Hessian)."""
 
-    def __init__(self, densities):
-        self.densities = list(densities)
+    def __init__(self, densities, safe=False):
+        self.densities, self.safe = list(densities), safe
         self.name = " + ".join(getattr(d, "name", "?") for d in self.densities)
 
     def _sum(self, method, F):
@@ -213,10 +202,7 @@ class SummedDensity:
         return self._sum(lambda d, F: d.stress(F), F)
 
     def tangent(self, F):
-        return self._sum(lambda d, F: d.tangent(F), F)
-
-    def safe_tangent(self, F):
-        return self._sum(safe_tangent, F)
+        return self._sum(safe_tangent if self.safe else lambda d, F: d.tangent(F), F)
 
 
 def safe_tangent(density, F):
@@ -225,23 +211,9 @@ def safe_tangent(density, F):
     return safe(F) if safe is not None else density.tangent(F)
 
 
-class SafeView:
-    """An energy density seen through its positive semi-definite tangent (the safe Hessian)."""
-
-    def __init__(self, density):
-        self.density = density
-        self.energy, self.stress = density.energy, density.stress
-
-    def tangent(self, F):
-        return safe_tangent(self.density, F)
-
-
 class Inertia(Term):
-    """Backward Euler's inertia: ``1/(2 dt^2) (x - x~)^T M (x - x~)`` with ``x~ = u^n + dt v^n``.
-
-    ``M`` is the lumped or consistent mass of density ``rho0``. The stepper sets ``x_tilde`` before each step; ``dt``
-    may change between steps (the Hessian ``M / dt^2`` with it).
-    """
+    """Backward Euler's inertia ``1/(2 dt^2) (x - x~)^T M (x - x~)``, ``x~ = u^n + dt v^n`` (set by the
+    stepper), ``M`` the lumped or consistent mass of density ``rho0``; ``dt`` may change between steps."""
 
     name = "inertia"
     quadratic = True
@@ -289,10 +261,7 @@ class Inertia(Term):
 
 class Load(Term):
     """A constant external force ``f`` (a dof vector): energy ``-scale f . u`` (``scale`` ramps it in load steps).
-
-    ``make``: how the vector is made from a model (``make(model) -> f``), so that a remap makes it on the new mesh (a
-    load given as a bare vector cannot be carried).
-    """
+    ``make(model) -> f`` makes it again on a remapped mesh (a bare vector cannot be carried)."""
 
     quadratic = True
     rank = 9
@@ -337,22 +306,6 @@ def boundary_lengths(mesh) -> np.ndarray:
     return np.bincount(facets.ravel(), weights=np.concatenate([half, half]), minlength=mesh.nvertices)
 
 
-def _stitch_indices(stitches, count) -> np.ndarray:
-    """Checked stitch indices: true integers in ``0 .. count-1`` (one index or a list of them)."""
-    try:
-        idx = np.asarray(stitches)
-    except (TypeError, ValueError):
-        raise ValueError(f"stitches must be stitch indices (integers), got {stitches!r}") from None
-    if idx.size == 0 and idx.ndim == 1:
-        return np.zeros(0, dtype=np.intp)
-    if idx.dtype.kind not in "iu" or idx.ndim > 1:
-        raise ValueError(f"stitches must be stitch indices (integers in 0..{count - 1}), got {stitches!r}")
-    idx = idx.reshape(-1)
-    if idx.min() < 0 or idx.max() >= count:
-        raise ValueError(f"stitches must be indices in 0..{count - 1} (there are {count} stitches), got {stitches!r}")
-    return idx.astype(np.intp)
-
-
 def traction_vector(basis, boundary, traction) -> np.ndarray:
     """``f_(a,i) = int_boundary N_a t_i dS`` for a constant traction ``t`` (force per unit reference length)."""
     t = check_bounded_vector(f"tractions[{boundary!r}]", traction, FORCE_MAX)
@@ -376,21 +329,18 @@ def traction_vector(basis, boundary, traction) -> np.ndarray:
 class Probe(Term):
     """A rigid disc (a tool tip) of centre ``c`` and radius ``R`` pressed into the tissue's surface.
 
-    Each *boundary* node ``a`` carries its share ``l_a`` of the boundary's length, and the penalty is a
-    pressure: with the penetration ``g_a = R - d_a``, ``d_a = |x_a - c|``,
+    A penalty pressure on each *boundary* node ``a``, weighted by its share ``l_a`` of the boundary's length,
+    at the penetration ``g_a = R - d_a``, ``d_a = |x_a - c|``:
 
         E = sum_a k l_a h(g_a),   h(g) = g^3 / (6 delta)             (0 < g < delta),
                                   h(g) = g^2/2 - delta g/2 + delta^2/6  (g >= delta),
 
-    and ``h = 0`` outside the disc. ``k`` is a pressure per unit penetration: the force per unit surface
-    length ``k h'(g)`` is the same on any mesh, so the penetration a push leaves does not depend on the
-    element size. ``h`` is twice continuously differentiable (the pressure starts smoothly over ``delta``,
-    a small fraction of ``R``), so a node entering or leaving the disc does not make the Newton matrix jump.
-    With ``n_a = (x_a - c) / d_a`` the force on the node is ``k l_a h'(g) n_a`` (outward); the Hessian is
-    ``k l_a [h''(g) n n^T - h'(g)/d (I - n n^T)]``, whose tangential part (the disc's curvature) is negative and
-    small (order ``g / R``) but not negligible where the tissue slides along the tool: Newton takes the exact
-    Hessian (quadratic convergence), and the *safe* one (``safe=True``, the minimiser's fallback when a
-    direction does not point downhill) keeps only the positive normal part. :meth:`move` moves the tool.
+    ``h = 0`` outside. ``k`` is a pressure per unit penetration, so the penetration does not depend on the
+    element size; ``h`` is C2 (smoothed over ``delta``, a small fraction of ``R``), so the Newton matrix does
+    not jump as nodes enter or leave. With ``n_a = (x_a - c) / d_a`` the force is ``k l_a h'(g) n_a`` and the
+    Hessian ``k l_a [h''(g) n n^T - h'(g)/d (I - n n^T)]``; its tangential part (the disc's curvature) is
+    negative and of order ``g / R``: the *safe* Hessian (``safe=True``, the minimiser's fallback) keeps only
+    the normal part.
     """
 
     name = "probe"
@@ -488,16 +438,14 @@ class Probe(Term):
 class Sutures(Term):
     """Stiff springs that tie pairs of points together: ``E = sum_s k/2 |x_a - x_b - g_s|^2``.
 
-    A stitch's end is a node, or a point inside an element (a wound cut through elements) that moves with its
-    nodes, ``x_a = sum_c w_c x_{n_c}`` with barycentric weights ``w``. ``g_s`` is the slack: a suture is placed
-    with its current gap as slack (no force at first) and then *tightened*: ``tighten(s)`` sets
-    ``g = (1 - s) g_0``, so ``s = 1`` closes the wound. The Hessian ``k D^T D`` (``D``: nodes to gap) is
-    constant and couples the two ends' nodes, which widens the model's pattern. ``k`` is a force per unit
-    length (per unit thickness).
+    An end is a node, or a point inside an element that moves with its nodes, ``x_a = sum_c w_c x_{n_c}``
+    (barycentric weights ``w``). A suture is placed with its gap as slack ``g_0`` (no force) and *tightened*:
+    ``tighten(s)`` sets ``g = (1 - s) g_0``, ``s = 1`` closes the wound. The Hessian ``k D^T D`` (``D``: nodes
+    to gap) is constant and couples the ends' nodes (a widened pattern). ``k``: force per unit length.
 
-    ``X`` is ``(2, n_nodes)``; ``pairs`` ``(2, k)`` node pairs or, with ``coefficients`` ``(2, c, k)``, the
-    ``c`` nodes of each end and their weights (adding up to 1; slightly negative for a point just outside its
-    element); ``stiffness`` one number or ``(k,)``; ``gaps`` ``(2, k)``.
+    ``X`` ``(2, n_nodes)``; ``pairs`` ``(2, k)`` node pairs or, with ``coefficients`` ``(2, c, k)`` (each
+    end's weights, adding up to 1), each end's ``c`` nodes; ``stiffness`` one number or ``(k,)``; ``gaps``
+    ``(2, k)``.
     """
 
     name = "sutures"
@@ -552,13 +500,12 @@ class Sutures(Term):
         self.tighten(tightness)
 
     def tighten(self, fraction, stitches=None) -> None:
-        """Set the tightness (0 slack ... 1 closed) of all stitches, or of those indexed by ``stitches``.
-
-        ``fraction``: one number in ``[0, 1]``, or one per selected stitch; ``stitches``: integers in ``0 .. k-1``
-        (floats, booleans and negative indices are refused). All or nothing.
-        """
+        """Set the tightness (0 slack ... 1 closed) of all stitches or of the ``stitches`` (indices):
+        ``fraction`` one number in ``[0, 1]`` or one per stitch. All or nothing."""
         count = self.pairs.shape[1]
-        index = np.arange(count) if stitches is None else _stitch_indices(stitches, count)
+        if isinstance(stitches, numbers.Integral) and not isinstance(stitches, (bool, np.bool_)):
+            stitches = [stitches]
+        index = np.arange(count) if stitches is None else check_indices("stitches", stitches, count)
         s = check_real_array("fraction (suture tightness)", fraction)
         if s.ndim > 1 or (s.ndim == 1 and s.shape != index.shape):
             raise ValueError(f"fraction (suture tightness) must be one number or one per stitch tightened "
