@@ -9,9 +9,9 @@ solve (handles set to their targets, with the velocity ``(u_prescribed^{n+1} - u
 Symplectic: a mode of frequency ``omega`` keeps ``I = 1/2 (v^2 + omega^2 x^2 - dt omega^2 x v)`` exactly, so its
 energy stays within ``I / (1 +- dt omega / 2)`` instead of drifting. **Stability:** linearised, a mode's map has
 determinant 1 and trace ``2 - (dt omega)^2``: stable while ``dt <= dt_crit = 2 / omega_max``
-(:func:`critical_time_step`). **CFL:** ``omega_max ~ c / h`` with the P-wave speed ``c = sqrt((lambda + 2 mu) / rho0)``, so ``dt <= C h / c``
-(``C`` of order one): for the notes' tissue (``c ~ 37``) a 1/30 s frame needs ``h`` of a metre, so an explicit
-real-time simulator must sub-step. :func:`largest_stable_dt` measures the limit.
+(:func:`critical_time_step`). **CFL:** ``omega_max ~ c / h``, ``c = sqrt((lambda + 2 mu) / rho0)`` the P-wave speed,
+so ``dt <= C h / c`` (``C`` of order one): for the notes' tissue (``c ~ 37``) a 1/30 s frame needs ``h`` of a metre,
+so an explicit real-time simulator must sub-step. :func:`largest_stable_dt` measures the limit.
 """
 
 from __future__ import annotations
