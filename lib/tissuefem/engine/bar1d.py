@@ -45,19 +45,6 @@ def _as_end(condition, name):
     return condition
 
 
-def _as_field(f, name) -> Callable:
-    """A body force given as a number or a callable of X, as a callable of X."""
-    if callable(f):
-        return f
-    try:
-        value = float(f)
-    except (TypeError, ValueError):
-        raise ParameterError(name, f"{name} must be a number or a callable of X, got {f!r}") from None
-    if not np.isfinite(value):
-        raise ParameterError(name, f"{name} must be finite, got {f!r}")
-    return lambda X: np.full_like(X, value)
-
-
 # --- the scikit-fem forms (read them next to the equations above) --------------
 
 @BilinearForm
@@ -137,8 +124,9 @@ class Bar1D:
 
     def body_force(self, f=0.0) -> np.ndarray:
         """``F_ext_i = int f(X) N_i dX`` for a number or a callable ``f(X)``."""
-        f = _as_field(f, "f (body force)")
-        return asm(_body_force, self.basis, f=f(np.asarray(self.basis.global_coordinates())[0]))
+        X = np.asarray(self.basis.global_coordinates())[0]
+        values = f(X) if callable(f) else np.full_like(X, check_real("f (body force)", f))
+        return asm(_body_force, self.basis, f=values)
 
     def boundary_term(self, left=Traction(0.0), right=Traction(0.0)) -> np.ndarray:
         """``g_i = N_i(b) t_b + N_i(a) t_a``: the tractions at the end dofs (Dirichlet ends contribute 0)."""

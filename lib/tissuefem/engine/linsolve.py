@@ -448,30 +448,23 @@ class LinearSolver:
         try:
             if self.constant:
                 if self._factor is None:
-                    self._factor = self.backend.factorize(A)
-                    info.factorizations = 1
-                    self.factorizations += 1
-                return np.asarray(self._factor.solve(b), dtype=float), info
-            if isinstance(self.backend, ReusedFactorization):
+                    self._factor, info.factorizations = self.backend.factorize(A), 1
+                dx = np.asarray(self._factor.solve(b), dtype=float)
+            elif isinstance(self.backend, ReusedFactorization):
                 dx, done = self.backend.solve(A, b, atol=atol, rtol=0.0)
                 info.iterations, info.factorizations = done.iterations, int(done.factorized)
-                self.factorizations += info.factorizations
                 if not (np.all(np.isfinite(dx)) and b @ dx > 0) and not done.factorized:
-                    # CG with an old factorization found no descent direction: try a fresh one
-                    dx, done = self.backend.solve(A, b, refactorize=True)
+                    dx, _ = self.backend.solve(A, b, refactorize=True)  # no descent with the old factorization
                     info.factorizations += 1
-                    self.factorizations += 1
-                return dx, info
-            factor = self.backend.factorize(A)
-            dx = np.asarray(factor.solve(b), dtype=float)
-            if hasattr(factor, "iterations"):  # an iterative backend factorizes nothing
-                info.iterations = int(factor.iterations)
             else:
-                info.factorizations = 1
-                self.factorizations += 1
-            return dx, info
+                factor = self.backend.factorize(A)
+                dx = np.asarray(factor.solve(b), dtype=float)
+                iterative = hasattr(factor, "iterations")  # an iterative backend factorizes nothing
+                info.iterations, info.factorizations = int(getattr(factor, "iterations", 0)), int(not iterative)
         except (RuntimeError, ValueError, np.linalg.LinAlgError, ZeroDivisionError):
-            return None, info
+            dx = None
+        self.factorizations += info.factorizations
+        return dx, info
 
     def __repr__(self):
         return f"LinearSolver({self.method!r})"

@@ -164,8 +164,23 @@ def check_mesh(p, t, name: str = "mesh", *, unused_nodes: str = "refuse", cut: b
     repeated = np.flatnonzero((tri[0] == tri[1]) | (tri[1] == tri[2]))
     if repeated.size:
         refuse(f"triangles {index_list(repeated)} use the same node twice")
-    if not cut:
-        _refuse_fins_and_copies(tri, t_arr, n, refuse)
+    if not cut:  # an edge in three or more triangles, a triangle listed twice
+        key, owner, _ = _edge_table(t_arr)
+        same = (key[0, 1:] == key[0, :-1]) & (key[1, 1:] == key[1, :-1])
+        fins = np.flatnonzero(same[1:] & same[:-1])  # three equal keys in a row: start index fins + 0
+        if fins.size:
+            a, b = int(key[0, fins[0]]), int(key[1, fins[0]])
+            sharing = owner[(key[0] == a) & (key[1] == b)]
+            count = np.unique(key[0, fins] * np.int64(n) + key[1, fins]).size
+            refuse(f"edge ({a}, {b}) is shared by {sharing.size} triangles {sorted(sharing.tolist())} (a 2D mesh "
+                   f"allows at most 2; a duplicated triangle?); {count} such edge(s) in all")
+        order = np.lexsort(tri[::-1])
+        tri_sorted = tri[:, order]
+        dup = np.flatnonzero((tri_sorted[:, 1:] == tri_sorted[:, :-1]).all(axis=0))
+        if dup.size:
+            i = int(dup[0])
+            refuse(f"triangles {int(order[i])} and {int(order[i + 1])} are the same triangle "
+                   f"{tuple(int(v) for v in tri_sorted[:, i])}; {dup.size} duplicate(s) in all")
     x = p_arr[:, t_arr]
     d1, d2, d3 = x[:, 1] - x[:, 0], x[:, 2] - x[:, 0], x[:, 2] - x[:, 1]
     det = d1[0] * d2[1] - d1[1] * d2[0]
@@ -181,32 +196,12 @@ def check_mesh(p, t, name: str = "mesh", *, unused_nodes: str = "refuse", cut: b
     return p_arr, t_arr
 
 
-def _refuse_fins_and_copies(tri, t, n, refuse) -> None:
-    """Refuse an edge in three or more triangles and a triangle listed twice (``tri``: ``t`` sorted per column)."""
-    key, owner, _ = _edge_table(t)
-    same = (key[0, 1:] == key[0, :-1]) & (key[1, 1:] == key[1, :-1])
-    fins = np.flatnonzero(same[1:] & same[:-1])  # three equal keys in a row: start index fins + 0
-    if fins.size:
-        a, b = int(key[0, fins[0]]), int(key[1, fins[0]])
-        sharing = owner[(key[0] == a) & (key[1] == b)]
-        count = np.unique(key[0, fins] * np.int64(n) + key[1, fins]).size
-        refuse(f"edge ({a}, {b}) is shared by {sharing.size} triangles {sorted(sharing.tolist())} (a 2D mesh allows "
-               f"at most 2; a duplicated triangle?); {count} such edge(s) in all")
-    order = np.lexsort(tri[::-1])
-    tri_sorted = tri[:, order]
-    dup = np.flatnonzero((tri_sorted[:, 1:] == tri_sorted[:, :-1]).all(axis=0))
-    if dup.size:
-        i = int(dup[0])
-        refuse(f"triangles {int(order[i])} and {int(order[i + 1])} are the same triangle "
-               f"{tuple(int(v) for v in tri_sorted[:, i])}; {dup.size} duplicate(s) in all")
-
-
 # --- structured rectangle --------------------------------------------------
 
-def _structured_triangles(nx: int, ny: int, diagonal: str) -> np.ndarray:
-    """Connectivity (3, 2 nx ny) of a grid of (nx + 1) x (ny + 1) nodes: cell (i, j) gives the counter-clockwise
-    triangles ``2 (j nx + i)`` and ``2 (j nx + i) + 1``, cut sw-ne (``"right"``), se-nw (``"left"``), or sw-ne where
-    ``i + j`` is even, se-nw elsewhere (``"alternate"``)."""
+def _structured_mesh(x: np.ndarray, y: np.ndarray, nx: int, ny: int, diagonal: str) -> MeshTri:
+    """The grid of (nx + 1) x (ny + 1) nodes at ``(x, y)``: cell (i, j) gives the counter-clockwise triangles
+    ``2 (j nx + i)`` and ``2 (j nx + i) + 1``, cut sw-ne (``"right"``), se-nw (``"left"``), or sw-ne where ``i + j``
+    is even, se-nw elsewhere (``"alternate"``)."""
     i, j = (a.ravel() for a in np.meshgrid(np.arange(nx), np.arange(ny), indexing="xy"))  # cells row by row
     sw = j * (nx + 1) + i
     se, nw, ne = sw + 1, sw + nx + 1, sw + nx + 2
@@ -216,11 +211,7 @@ def _structured_triangles(nx: int, ny: int, diagonal: str) -> np.ndarray:
     second = np.where(cut_sw_ne, np.stack([sw, ne, nw]), np.stack([se, ne, nw]))
     t = np.empty((3, 2 * i.size), dtype=np.int64)
     t[:, 0::2], t[:, 1::2] = first, second
-    return t
-
-
-def _structured_mesh(x: np.ndarray, y: np.ndarray, nx: int, ny: int, diagonal: str) -> MeshTri:
-    return MeshTri(np.vstack([x.ravel(), y.ravel()]), _structured_triangles(nx, ny, diagonal), sort_t=False)
+    return MeshTri(np.vstack([x.ravel(), y.ravel()]), t, sort_t=False)
 
 
 def rectangle(width=1.0, height=1.0, nx=10, ny=10, diagonal="alternate") -> MeshTri:

@@ -301,7 +301,10 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
         A = linear.matrix(lambda: hessian(x), mask)
         if k >= 1 and out_of_time():
             return result("budget", k)
-        dx_free, info = linear.solve(A, rhs, atol=_forcing(rnorm, r0, target))
+        # inexact Newton: an iterative solve may stop at eta ||q||, eta = min(1e-3, ||q|| / ||q0||) (quadratic
+        # convergence stays), never below a third of the target
+        eta = min(1e-3, rnorm / r0) if r0 > 0 else 1e-3
+        dx_free, info = linear.solve(A, rhs, atol=max(eta * rnorm, 0.3 * target))
         stats["linear"] += info.iterations
         stats["factorizations"] += info.factorizations
         dx_free, shift = _descent(dx_free, A, rhs, x, mask, hessian, safe_hessian, linear, line_search, stats)
@@ -331,10 +334,3 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
         history.append(NewtonIteration(k, rnorm, step_norm, alpha, E, shift, info.iterations))
         x, g, rnorm = x_new, g_new, rn_new
     return result("max-iterations", max_iterations)  # pragma: no cover - the loop returns
-
-
-def _forcing(rnorm, r0, target):
-    """Inexact Newton: the absolute residual an iterative linear solve must reach, shrinking with the residual
-    (``rnorm / r0``, capped at 1e-3: convergence stays quadratic), never below a third of the target."""
-    eta = min(1e-3, rnorm / r0) if r0 > 0 else 1e-3
-    return max(eta * rnorm, 0.3 * target)
