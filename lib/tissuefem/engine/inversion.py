@@ -27,10 +27,8 @@ def _rotation(angle) -> np.ndarray:
 
 
 def rotation_preserving_svd(F):
-    """``F = U diag(s) V^T`` with ``U``, ``V`` rotations and ``s[0] >= |s[1]|``; ``s[1] < 0`` iff ``J < 0``.
-
-    ``F`` is shaped ``[2, 2, *rest]``; returns ``U [2, 2, *rest]``, ``s [2, *rest]``, ``V [2, 2, *rest]``.
-    """
+    """``(U [2, 2, *rest], s [2, *rest], V [2, 2, *rest])`` with ``F = U diag(s) V^T``, ``U``, ``V`` rotations,
+    ``s[0] >= |s[1]|``; ``s[1] < 0`` iff ``J < 0``."""
     F = np.asarray(F, dtype=float)
     if F.shape[:2] != (2, 2):
         raise ParameterError("F", f"F must be shaped [2, 2, ...], got {F.shape}")
@@ -49,17 +47,6 @@ def diagonal(s) -> np.ndarray:
     return out
 
 
-def _project_sym2(a, b, d, floor):
-    """Clamp the eigenvalues of the symmetric 2x2 blocks ``[[a, b], [b, d]]`` at ``floor`` (closed form)."""
-    mean, rad = 0.5 * (a + d), np.hypot(0.5 * (a - d), b)
-    lam_hi, lam_lo = mean + rad, mean - rad
-    # unit eigenvector of lam_hi: (cos t, sin t) with t = atan2(2b, a - d) / 2 (well defined; rad = 0 -> any)
-    t = 0.5 * np.arctan2(2.0 * b, a - d)
-    c, s = np.cos(t), np.sin(t)
-    hi, lo = np.maximum(lam_hi, floor), np.maximum(lam_lo, floor)
-    return hi * c * c + lo * s * s, (hi - lo) * c * s, hi * s * s + lo * c * c
-
-
 def eigen_projection(A, floor: float = 0.0):
     """Clamp the eigenvalues of each 4x4 tangent ``A [2,2,2,2,*rest]`` at ``floor`` numerically: the closed form's
     reference, and the fallback for materials not isotropic (fibers) or not frame indifferent (linear)."""
@@ -72,17 +59,11 @@ def eigen_projection(A, floor: float = 0.0):
     return np.moveaxis(P, 0, -1).reshape((2, 2, 2, 2) + rest)
 
 
-def _rotation_invariant(material) -> bool:
-    return (type(material) in (NeoHookean, TaylorNeoHookean, StableNeoHookean, Corotated)
-            or bool(getattr(material, "rotation_invariant", False)))
-
-
 def projected_tangent(material, F, floor: float = 0.0):
-    """The positive semi-definite projection of ``material.tangent(F)`` (Teran et al. 2005), ``[2, 2, 2, 2, *rest]``:
-    eigenvalues below ``floor`` are raised to it, the others kept. Closed form in diagonal space for the isotropic,
-    frame-indifferent models (Neo-Hookean family, corotated), else :func:`eigen_projection`.
-    """
-    if not _rotation_invariant(material):
+    """``material.tangent(F)`` with eigenvalues below ``floor`` raised to it (Teran et al. 2005): in diagonal space
+    for the isotropic, frame-indifferent models, else by :func:`eigen_projection`."""
+    if not (type(material) in (NeoHookean, TaylorNeoHookean, StableNeoHookean, Corotated)
+            or getattr(material, "rotation_invariant", False)):
         return eigen_projection(material.tangent(F), floor)
     U, s, V = rotation_preserving_svd(F)
     return _rotate_back(U, V, _project_diagonal_blocks(np.asarray(material.tangent(diagonal(s)), dtype=float), floor))
@@ -101,12 +82,17 @@ def _rotate_back(U, V, A_hat):
 
 
 def _project_diagonal_blocks(A, floor):
-    """Clamp the eigenvalues of a diagonal-space tangent's two 2x2 blocks at ``floor``."""
+    """Clamp the eigenvalues of a diagonal-space tangent's two symmetric 2x2 blocks ``[[a, b], [b, d]]`` at ``floor``
+    (closed form): the stretch block over (dF00, dF11), the twist/flip block over (dF01, dF10)."""
     out = np.zeros_like(A)
-    # the stretch block over (dF00, dF11), the twist/flip block over (dF01, dF10) (equal diagonal if isotropic)
     for (i, j), (k, l) in (((0, 0), (1, 1)), ((0, 1), (1, 0))):
-        a, b, d = _project_sym2(A[i, j, i, j], 0.5 * (A[i, j, k, l] + A[k, l, i, j]), A[k, l, k, l], floor)
-        out[i, j, i, j], out[i, j, k, l], out[k, l, i, j], out[k, l, k, l] = a, b, b, d
+        a, b, d = A[i, j, i, j], 0.5 * (A[i, j, k, l] + A[k, l, i, j]), A[k, l, k, l]
+        mean, rad = 0.5 * (a + d), np.hypot(0.5 * (a - d), b)
+        t = 0.5 * np.arctan2(2.0 * b, a - d)  # the larger eigenvalue's eigenvector is (cos t, sin t)
+        c, s = np.cos(t), np.sin(t)
+        hi, lo = np.maximum(mean + rad, floor), np.maximum(mean - rad, floor)
+        out[i, j, i, j], out[k, l, k, l] = hi * c * c + lo * s * s, hi * s * s + lo * c * c
+        out[i, j, k, l] = out[k, l, i, j] = (hi - lo) * c * s
     return out
 
 
@@ -164,11 +150,9 @@ class ITFClamped:
 
     def __init__(self, material, threshold: float = 0.3, stiffness: float | None = None, project: bool = True):
         if type(material) is not NeoHookean:
-            raise ParameterError(
-                "material", f"material must be the ln J NeoHookean model, got {material!r}: the first-order "
-                "extension is bounded below only while the threshold stress psi_1(s0, c) grows slower than sqrt(Psi) "
-                "as s0 grows (ln J does; the polynomial volumetric terms of the Taylor and stable models and of "
-                "corotated do not, and those models need no clamping: they are finite through inversion)")
+            raise ParameterError("material", f"material must be the ln J NeoHookean model, got {material!r}: the "
+                                             "other models are finite through inversion (and their extension is "
+                                             "not bounded below)")
         c = check_real("threshold", threshold, 0.0, 1.0, lo_open=True, hi_open=True)
         self.base, self.threshold, self.project = material, c, bool(project)
         self.lam, self.mu = material.lam, material.mu
@@ -177,8 +161,8 @@ class ITFClamped:
         self._psi_cc = float(np.asarray(material.energy(D)).ravel()[0])
         self._g_cc = float(np.asarray(material.stress(D))[0, 0, 0])
         self._h01_cc = float(A[0, 0, 1, 1, 0])
-        self.stiffness = check_real("stiffness", A[1, 1, 1, 1, 0] if stiffness is None else stiffness, 0.0,
-                                        lo_open=True)
+        k = A[1, 1, 1, 1, 0] if stiffness is None else stiffness
+        self.stiffness = check_real("stiffness", k, 0.0, lo_open=True)
         self.name = f"ITF-clamped {material.name}"
 
     def __repr__(self):

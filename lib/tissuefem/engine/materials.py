@@ -205,7 +205,7 @@ _RHO_MIN = math.sqrt(np.finfo(float).tiny)
 
 
 def _polar_rotation(F):
-    """The 2D polar rotation of ``F = R S`` as ``(c, s, rho)``, ``R = [[c, -s], [s, c]]``: ``R`` maximises
+    """The 2D polar rotation of ``F = R S`` as ``(R, c, s, rho)``, ``R = [[c, -s], [s, c]]``: ``R`` maximises
     ``tr(R^T F)``, so ``theta = atan2(F10 - F01, F00 + F11)`` and ``rho = tr S = hypot(F00 + F11, F10 - F01)`` (for
     every F, also J <= 0). Below :data:`_RHO_MIN` energy, stress and tangent all take ``R = I``."""
     x, y = F[0, 0] + F[1, 1], F[1, 0] - F[0, 1]
@@ -215,7 +215,7 @@ def _polar_rotation(F):
     if np.any(collapsed):
         c = np.where(collapsed, 1.0, c)
         s = np.where(collapsed, 0.0, s)
-    return c, s, rho
+    return np.array([[c, -s], [s, c]]), c, s, rho
 
 
 class Corotated(Material):
@@ -232,25 +232,18 @@ class Corotated(Material):
 
     name = "corotated"
 
-    def _parts(self, F):
-        c, s, rho = _polar_rotation(F)
-        R = np.array([[c, -s], [s, c]])
-        return R, c, s, rho
-
     def energy(self, F):
         F = _as_F(F)
-        R, _, _, _ = self._parts(F)
-        D = F - R
+        D = F - _polar_rotation(F)[0]
         return self.mu * np.einsum("ij...,ij...->...", D, D) + 0.5 * self.lam * (det2(F) - 1.0) ** 2
 
     def stress(self, F):
         F = _as_F(F)
-        R, _, _, _ = self._parts(F)
-        return 2.0 * self.mu * (F - R) + self.lam * (det2(F) - 1.0) * cofactor2(F)
+        return 2.0 * self.mu * (F - _polar_rotation(F)[0]) + self.lam * (det2(F) - 1.0) * cofactor2(F)
 
     def tangent(self, F):
         F = _as_F(F)
-        _, c, s, rho = self._parts(F)
+        _, c, s, rho = _polar_rotation(F)
         Rp = np.array([[-s, -c], [c, -s]])
         inv_rho = np.zeros(rho.shape)
         np.divide(1.0, rho, out=inv_rho, where=rho >= _RHO_MIN)  # R = I (constant) below it
