@@ -117,7 +117,6 @@ class Bar1D:
         """Reference coordinate ``X`` of every degree of freedom."""
         return self.basis.doflocs[0]
 
-    # --- linear problem -----------------------------------------------------
     def stiffness(self, modulus: float) -> sp.csr_matrix:
         """``A_ij = modulus * int N_i' N_j' dX``."""
         return asm(_stiffness, self.basis, modulus=float(modulus)).tocsr()
@@ -163,7 +162,6 @@ class Bar1D:
         u[free] = sp.linalg.spsolve(A[free][:, free].tocsc(), rhs_free)
         return u
 
-    # --- nonlinear problem --------------------------------------------------
     def internal_force(self, u, material: Material1D) -> np.ndarray:
         """``int N_i' P(F(u)) dX``."""
         return asm(nonlinear_forms(material)[0], self.basis, u=self.basis.interpolate(u))
