@@ -151,12 +151,12 @@ class P1Assembler(_FixedPattern):
         while level is not None:  # fibers, possibly nested (FiberReinforced of FiberReinforced ...)
             shape = np.shape(getattr(level, "fibers", None))
             if len(shape) == 3:
-                raise ParameterError("material", f"material has per-quadrature-point fibers of shape {shape}; the "
-                                     "P1 path has one point per element: give fibers shaped (2, n_elements) (e.g. "
-                                     "the normalised average over the points) or (2,)")
+                raise ParameterError("material", f"material has per-quadrature-point fibers of shape {shape}; "
+                                     "the P1 path has one point per element: give fibers shaped (2, n_elements) "
+                                     "(e.g. the normalised average over the points) or (2,)")
             if len(shape) == 2 and shape[1] != self.n_elements:
-                raise ParameterError("material", f"material has per-element fibers of shape {shape}, but the mesh "
-                                     f"has {self.n_elements} elements: expected (2, {self.n_elements})")
+                raise ParameterError("material", f"material has per-element fibers of shape {shape}, but the "
+                                     f"mesh has {self.n_elements} elements: expected (2, {self.n_elements})")
             level = getattr(level, "base", None)
         return m
 
@@ -191,8 +191,8 @@ class P1Assembler(_FixedPattern):
 
     def energy(self, u, material=None) -> float:
         """Stored energy ``sum_e A_e Psi(F_e)`` (NaN if the material is NaN somewhere, e.g. log J at J <= 0)."""
-        m = self._material(material)
-        return float(np.dot(self.areas, np.broadcast_to(m.energy(self.deformation_gradient(u)), (self.n_elements,))))
+        psi = self._material(material).energy(self.deformation_gradient(u))
+        return float(np.dot(self.areas, np.broadcast_to(psi, (self.n_elements,))))
 
     def residual(self, u, material=None) -> np.ndarray:
         """Internal force vector ``(n_dofs,)``, the gradient of :meth:`energy`."""

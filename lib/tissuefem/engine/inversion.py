@@ -150,9 +150,9 @@ class ITFClamped:
 
     def __init__(self, material, threshold: float = 0.3, stiffness: float | None = None, project: bool = True):
         if type(material) is not NeoHookean:
-            raise ParameterError("material", f"material must be the ln J NeoHookean model, got {material!r}: the "
-                                             "other models are finite through inversion (and their extension is "
-                                             "not bounded below)")
+            raise ParameterError("material", f"material must be the ln J NeoHookean model, got {material!r}: "
+                                 "the other models are finite through inversion (and their extension is not "
+                                 "bounded below)")
         c = check_real("threshold", threshold, 0.0, 1.0, lo_open=True, hi_open=True)
         self.base, self.threshold, self.project = material, c, bool(project)
         self.lam, self.mu = material.lam, material.mu

@@ -401,7 +401,8 @@ class LinearSolver:
             elif kind in ("reuse", "constant"):
                 background = method == "reuse-background"
                 direct = SuperLU() if method in ("reuse", "constant") or background else make(base)
-                self.backend = ReusedFactorization(direct, background=background) if kind == "reuse" else direct
+                reuse = kind == "reuse"
+                self.backend = ReusedFactorization(direct, background=background) if reuse else direct
                 self.constant = kind == "constant"
             else:
                 raise ParameterError("linear_solver", "linear_solver must be 'direct', 'reuse', 'constant', "
@@ -453,14 +454,15 @@ class LinearSolver:
             elif isinstance(self.backend, ReusedFactorization):
                 dx, done = self.backend.solve(A, b, atol=atol, rtol=0.0)
                 info.iterations, info.factorizations = done.iterations, int(done.factorized)
-                if not (np.all(np.isfinite(dx)) and b @ dx > 0) and not done.factorized:
-                    dx, _ = self.backend.solve(A, b, refactorize=True)  # no descent with the old factorization
+                if not (np.all(np.isfinite(dx)) and b @ dx > 0) and not done.factorized:  # no descent: refresh
+                    dx, _ = self.backend.solve(A, b, refactorize=True)
                     info.factorizations += 1
             else:
                 factor = self.backend.factorize(A)
                 dx = np.asarray(factor.solve(b), dtype=float)
                 iterative = hasattr(factor, "iterations")  # an iterative backend factorizes nothing
-                info.iterations, info.factorizations = int(getattr(factor, "iterations", 0)), int(not iterative)
+                info.iterations = int(factor.iterations) if iterative else 0
+                info.factorizations = 0 if iterative else 1
         except (RuntimeError, ValueError, np.linalg.LinAlgError, ZeroDivisionError):
             dx = None
         self.factorizations += info.factorizations

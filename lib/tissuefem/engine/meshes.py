@@ -172,8 +172,8 @@ def check_mesh(p, t, name: str = "mesh", *, unused_nodes: str = "refuse", cut: b
             a, b = int(key[0, fins[0]]), int(key[1, fins[0]])
             sharing = owner[(key[0] == a) & (key[1] == b)]
             count = np.unique(key[0, fins] * np.int64(n) + key[1, fins]).size
-            refuse(f"edge ({a}, {b}) is shared by {sharing.size} triangles {sorted(sharing.tolist())} (a 2D mesh "
-                   f"allows at most 2; a duplicated triangle?); {count} such edge(s) in all")
+            refuse(f"edge ({a}, {b}) is shared by {sharing.size} triangles {sorted(sharing.tolist())} (a 2D "
+                   f"mesh allows at most 2; a duplicated triangle?); {count} such edge(s) in all")
         order = np.lexsort(tri[::-1])
         tri_sorted = tri[:, order]
         dup = np.flatnonzero((tri_sorted[:, 1:] == tri_sorted[:, :-1]).all(axis=0))
