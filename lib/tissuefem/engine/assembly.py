@@ -152,8 +152,8 @@ class P1Assembler(_FixedPattern):
             shape = np.shape(getattr(level, "fibers", None))
             if len(shape) == 3:
                 raise ParameterError("material", f"material has per-quadrature-point fibers of shape {shape}; "
-                                     "the P1 path has one point per element: give fibers shaped (2, n_elements) "
-                                     "(e.g. the normalised average over the points) or (2,)")
+                                     "the P1 path has one point per element: give fibers shaped "
+                                     "(2, n_elements) (e.g. the normalised average over the points) or (2,)")
             if len(shape) == 2 and shape[1] != self.n_elements:
                 raise ParameterError("material", f"material has per-element fibers of shape {shape}, but the "
                                      f"mesh has {self.n_elements} elements: expected (2, {self.n_elements})")

@@ -454,7 +454,7 @@ class LinearSolver:
             elif isinstance(self.backend, ReusedFactorization):
                 dx, done = self.backend.solve(A, b, atol=atol, rtol=0.0)
                 info.iterations, info.factorizations = done.iterations, int(done.factorized)
-                if not (np.all(np.isfinite(dx)) and b @ dx > 0) and not done.factorized:  # no descent: refresh
+                if not (np.all(np.isfinite(dx)) and b @ dx > 0) and not done.factorized:  # no descent
                     dx, _ = self.backend.solve(A, b, refactorize=True)
                     info.factorizations += 1
             else:
