@@ -151,8 +151,8 @@ class P1Assembler(_FixedPattern):
         while level is not None:  # fibers, possibly nested (FiberReinforced of FiberReinforced ...)
             shape = np.shape(getattr(level, "fibers", None))
             if len(shape) == 3:
-                raise ParameterError("material", f"material has per-quadrature-point fibers of shape {shape}; "
-                                     "the P1 path has one point per element: give fibers shaped "
+                raise ParameterError("material", "material has per-quadrature-point fibers of shape "
+                                     f"{shape}; the P1 path has one point per element: give fibers shaped "
                                      "(2, n_elements) (e.g. the normalised average over the points) or (2,)")
             if len(shape) == 2 and shape[1] != self.n_elements:
                 raise ParameterError("material", f"material has per-element fibers of shape {shape}, but the "
