@@ -192,12 +192,10 @@ class SolveInfo:
 class ReusedFactorization:
     """Conjugate gradients preconditioned by a kept factorization of the ``direct`` backend (default :class:`SuperLU`):
     the tangent changes slowly, so a few CG iterations (~1 ms each at 8k triangles) replace a factorization (~20 ms).
-
-    A solve needing more than ``refresh_after`` iterations marks the factorization stale (the *next* solve
-    refactorizes); one reaching ``max_iterations`` refactorizes and solves directly. ``background``: beyond
-    ``background_after`` iterations a thread on the second core refactorizes, adopted once finished (iteration counts
-    then depend on timing). ``solve`` returns ``(x, SolveInfo)``; ``factorizations``, ``background_factorizations``
-    and ``cg_iterations`` count."""
+    Beyond ``refresh_after`` iterations the *next* solve refactorizes; at ``max_iterations`` this one does.
+    ``background``: beyond ``background_after`` iterations a thread on the second core refactorizes, adopted once
+    finished (iteration counts then depend on timing). ``solve`` returns ``(x, SolveInfo)``; ``factorizations``,
+    ``background_factorizations`` and ``cg_iterations`` count."""
 
     def __init__(self, direct=None, refresh_after: int = 15, max_iterations: int = 40, background: bool = False,
                  background_after: int = 3):

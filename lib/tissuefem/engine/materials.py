@@ -221,13 +221,10 @@ def _polar_rotation(F):
 class Corotated(Material):
     """Fixed corotated elasticity (Stomakhin, Howes, Schroeder, Teran, SCA 2012):
     ``Psi = mu ||F - R||_F^2 + lam/2 (J - 1)^2``, ``R`` the polar rotation (:func:`_polar_rotation`).
+    ``(F - R):dR = (S - I):(R^T dR) = 0`` (symmetric against skew), so ``P = 2 mu (F - R) + lam (J - 1) cof F``; with
+    ``dtheta/dF = R'/rho``, ``R' = dR/dtheta = [[-s, -c], [c, -s]]``, the tangent (at ``F = I`` the linear one) is
 
-    ``(F - R):dR = (S - I):(R^T dR) = 0`` (symmetric against skew), so ``P = 2 mu (F - R) + lam (J - 1) cof F``. ``R``
-    depends on F only through ``theta``, ``dtheta/dF = R'/rho`` with ``R' = dR/dtheta = [[-s, -c], [c, -s]]``, so
-
-        A = 2 mu (I4 - R' (x) R' / rho) + lam cof F (x) cof F + lam (J - 1) H,
-
-    at ``F = I`` the linear-elastic tangent. Finite for every finite F.
+        A = 2 mu (I4 - R' (x) R' / rho) + lam cof F (x) cof F + lam (J - 1) H.
     """
 
     name = "corotated"

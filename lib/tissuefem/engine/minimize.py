@@ -253,16 +253,14 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
            budget: float = math.inf, start: float | None = None, energy0: float | None = None,
            energy_floor: float = 0.0, max_halvings: int = 30,
            step_limit: Callable[[np.ndarray, np.ndarray], float] | None = None) -> NewtonResult:
-    """Minimise ``energy`` (or find a zero of ``gradient``) over the ``free`` dofs (a mask or indices; the others
-    keep their ``x0`` values). ``gradient(x) -> (n,)`` is ``q``, ``hessian(x)`` its sparse Jacobian, ``energy(x)``
-    ``E`` with ``q = dE/dx`` (``energy0 = E(x0)`` if known).
-
-    Converged when ``||q_free|| <= max(atol + rtol max(||q_free(x0)||, reference_norm), floor)``: ``reference_norm``
-    the size of the balanced load (for a good ``x0``), ``floor`` the round-off level; energy changes below
-    ``energy_floor`` are not trusted. ``max_step`` caps one dof's change per iteration; ``linear``: the linear-solve
-    policy (default: a fresh direct factorization); ``safe_hessian(x)``: a positive semi-definite Hessian tried before
-    the shift; ``budget`` seconds by ``clock`` from ``start`` (default: now); ``step_limit(x, dx)``: the admissible
-    fraction of ``dx`` (none: ``"blocked"``).
+    """Minimise ``energy`` (or zero ``gradient``, ``q``) over the ``free`` dofs (a mask or indices; the others keep
+    their ``x0`` values); ``hessian(x)``: the sparse Jacobian of ``q``; ``energy0 = E(x0)`` if known. Converged when
+    ``||q_free|| <= max(atol + rtol max(||q_free(x0)||, reference_norm), floor)``: ``reference_norm`` the size of the
+    balanced load (for a good ``x0``), ``floor`` the round-off level; energy changes below ``energy_floor`` are not
+    trusted. ``max_step`` caps one dof's change per iteration; ``linear``: the linear-solve policy (default: a fresh
+    direct factorization); ``safe_hessian(x)``: a positive semi-definite Hessian tried before the shift; ``budget``
+    seconds by ``clock`` from ``start`` (default: now); ``step_limit(x, dx)``: the admissible fraction of ``dx``
+    (none: ``"blocked"``).
     """
     x, max_step, max_iterations, max_halvings, budget = _checked(
         x0, {"gradient": gradient, "hessian": hessian, "energy": energy, "clock": clock, "safe_hessian": safe_hessian},

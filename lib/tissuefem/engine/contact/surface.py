@@ -1,10 +1,9 @@
 """The contact surface: points that are fixed linear combinations of nodes, and the segments between them.
 
-A boundary node is a point of one node with weight 1; a point on the lip of a cut through an element
-(:mod:`tissuefem.surgery.element_cuts`) the barycentric combination of the nodes of the element copy that carries that
-lip. A segment ``(a, b)`` has the material on its *left* (counter-clockwise round it), so its outward normal is the
-tangent turned clockwise, ``n = (e_y, -e_x) / |e|`` with ``e = y_b - y_a``. The vector helpers (on coordinates stored
-as (2, ...) arrays) are shared by the other contact modules.
+A boundary node is a point of one node with weight 1; a point on the lip of a cut through an element the barycentric
+combination of the element copy's nodes (:mod:`tissuefem.surgery.element_cuts`). A segment ``(a, b)`` has the material
+on its *left*, so its outward normal is ``n = (e_y, -e_x) / |e|``, ``e = y_b - y_a``. The vector helpers (on (2, ...)
+coordinate arrays) serve the other contact modules.
 """
 
 import numpy as np
