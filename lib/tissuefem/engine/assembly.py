@@ -26,7 +26,7 @@ from skfem import Basis, ElementTriP1, ElementTriP2, ElementVector, asm
 
 from .forms import energy_form, residual_form, tangent_form
 from .meshes import check_mesh
-from .parameters import ParameterError, check_density, check_weights
+from .parameters import ParameterError, check_count, check_density, check_weights
 
 __all__ = ["P1Assembler", "QuadratureAssembler", "FormsAssembler", "make_assembler", "vector_basis", "check_weights"]
 
@@ -247,12 +247,9 @@ def vector_basis(mesh, order: int = 1, intorder: int | None = None) -> Basis:
     ``a`` has dofs ``2a, 2a + 1``, then come the P2 edge midpoints, every assembler's layout."""
     if order not in (1, 2):
         raise ParameterError("order", f"order must be 1 or 2, got {order!r}")
-    if intorder is None:
-        intorder = 2 * order
-    if isinstance(intorder, bool) or not isinstance(intorder, (int, np.integer)) or not 1 <= intorder <= 19:
-        raise ParameterError("intorder", f"intorder must be an integer from 1 to 19, got {intorder!r}")
+    intorder = check_count("intorder", 2 * order if intorder is None else intorder, 1, 19)
     element = ElementVector(ElementTriP1() if order == 1 else ElementTriP2())
-    return Basis(mesh, element, intorder=int(intorder))
+    return Basis(mesh, element, intorder=intorder)
 
 
 class QuadratureAssembler(_FixedPattern):
