@@ -1,29 +1,21 @@
 """The fast P1 path: vectorised assembly into a fixed sparsity pattern.
 
-On linear (P1) triangles the shape-function gradients are constant in each triangle, so ``F = I + grad u`` is one 2x2
-matrix per element and every integral over a triangle is its area times the integrand. :class:`P1Assembler` assembles
-the energy, internal forces and tangent of the scikit-fem forms of :mod:`tissuefem.engine.forms` (to round-off)
-without calling a form per pair of basis functions: once, the areas and gradients of every triangle, the CSR pattern
-and a *scatter map* (where each of the ``36 n_elements`` local entries lands in the CSR data array); per call, ``F``
-for all elements, **one** call of the material on ``F`` shaped ``[2, 2, n_elements]``, the local vectors or matrices
-by ``einsum``, and one ``np.bincount`` into the data array. With ``G[a, j] = dN_a/dX_j`` and area ``A_e``::
+On P1 triangles the shape-function gradients are constant per triangle, so ``F = I + grad u`` is one 2x2 matrix per
+element and an integral is the area times the integrand. :class:`P1Assembler` computes the energy, forces and tangent
+of the forms of :mod:`tissuefem.engine.forms` (to round-off) without a form call per pair of basis functions: once,
+areas, gradients, the CSR pattern and a *scatter map* (the CSR data slot of each of the ``36 n_elements`` local
+entries); per call, **one** material call on ``F`` shaped ``[2, 2, n_elements]``, ``einsum`` for the local arrays and
+one ``np.bincount``. With ``G[a, j] = dN_a/dX_j`` and area ``A_e``::
 
     F_ij        = d_ij + sum_a u_(a,i) G[a, j]
     E           = sum_e A_e Psi(F_e)
     r_(a,i)     = sum_e A_e P_ij(F_e) G[a, j]                    (= dE/du_(a,i))
     K_(a,i)(b,k) = sum_e A_e A_ijkl(F_e) G[a, j] G[b, l]           (= dr_(a,i)/du_(b,k))
 
-The dofs of node ``n`` are ``(2 n, 2 n + 1)`` (x then y), scikit-fem's order for
-``Basis(mesh, ElementVector(ElementTriP1()))``, so results compare entry by entry with the forms path.
-
-Choices (measured at 8k triangles on the 2-core reference machine):
-
-* **Orientation.** scikit-fem sorts each triangle's vertices, so about half are clockwise: they are *reoriented* in
-  the assembler's copy ``self.t`` (``self.flipped``); degenerate and folded triangles are refused.
-* **Scatter.** ``np.bincount`` with weights ~0.45 ms, ``np.add.at`` ~0.57 ms, a sparse 0/1 scatter-matrix product
-  ~0.3 ms (no better at 32k), sort + ``np.add.reduceat`` ~2 ms: bincount is simple and needs no extra matrix.
-* **Local matrices.** One plain ``einsum`` on element-last arrays, ~0.6 ms; ``optimize=True`` is ten times slower.
-* **Fibers.** One point per element: fibers ``(2, n_elements)`` or ``(2,)``; per-quadrature-point fibers are refused.
+Node ``n`` has dofs ``(2 n, 2 n + 1)``, scikit-fem's order for ``ElementVector(ElementTriP1())``. Clockwise triangles
+(scikit-fem sorts vertices) are reoriented in the copy ``self.t``. Measured at 8k triangles: ``np.bincount`` scatters
+in ~0.45 ms (``np.add.at`` ~0.57, sort + ``reduceat`` ~2); a plain ``einsum`` on element-last arrays takes ~0.6 ms
+(``optimize=True`` is ten times slower).
 """
 
 from __future__ import annotations
@@ -34,7 +26,7 @@ from skfem import Basis, ElementTriP1, ElementTriP2, ElementVector, asm
 
 from .forms import energy_form, residual_form, tangent_form
 from .meshes import check_mesh
-from .parameters import ParameterError, check_density, check_weights
+from .parameters import ParameterError, check_count, check_density, check_weights
 
 __all__ = ["P1Assembler", "QuadratureAssembler", "FormsAssembler", "make_assembler", "vector_basis", "check_weights"]
 
@@ -77,16 +69,12 @@ class _FixedPattern:
 
 
 class P1Assembler(_FixedPattern):
-    """Energy, internal forces and tangent of a hyperelastic material on a P1 triangle mesh.
+    """Energy, internal forces and tangent of a hyperelastic material on a straight-sided P1 :class:`~skfem.MeshTri`.
 
-    ``mesh``: a straight-sided scikit-fem :class:`~skfem.MeshTri` (either orientation). ``material``: the default
-    material; every method takes a ``material`` that overrides it. ``weights``: optional ``(n_elements,)`` fractions in
-    ``(0, 1]`` of its triangle's area that each element's material fills (elements made by cutting through a triangle
-    keep its shape functions but carry only the material on their side of the cut).
-
-    Attributes: ``n_nodes, n_elements, n_dofs = 2 n_nodes``; ``t`` ``(3, n_elements)`` counter-clockwise (``flipped``:
-    the elements reoriented); ``areas`` ``(n_elements,)`` (triangle area times weight); ``element_dofs``
-    ``(6, n_elements)``, row ``2 a + i`` the dof ``2 t[a, e] + i``; ``indptr, indices``, the fixed CSR pattern.
+    ``material``: the default, which every method's ``material`` overrides. ``weights``: optional ``(n_elements,)``
+    fractions in ``(0, 1]`` of each triangle's area its material fills (a cut through elements). Attributes: ``t``
+    ``(3, n_elements)`` counter-clockwise (``flipped``: those reoriented); ``areas`` (times the weights);
+    ``element_dofs`` ``(6, n_elements)``, row ``2 a + i`` the dof ``2 t[a, e] + i``; ``indptr, indices``.
     """
 
     def __init__(self, mesh, material=None, weights=None):
@@ -115,9 +103,8 @@ class P1Assembler(_FixedPattern):
         G[0] = -G[1] - G[2]
         self._G, self._GA = G, G * self.areas  # and the area-weighted gradients
 
-        # The dof pattern is the node-adjacency pattern with 2x2 blocks, so np.unique sorts 9 node pairs per triangle,
-        # not 36 dof pairs. Node row p with deg(p) neighbours gives dof rows 2p, 2p+1, each 2 deg(p) long: dof row
-        # 2p+i starts at 4 nptr[p] + 2 i deg(p), and node column number r of row p holds its dof columns 2r, 2r+1.
+        # The dof pattern is the node-adjacency pattern in 2x2 blocks (np.unique sorts 9 node pairs per triangle):
+        # dof row 2p+i starts at 4 nptr[p] + 2 i deg(p), and node column r of row p holds dof columns 2r, 2r+1.
         nel, n, nn = self.n_elements, self.n_dofs, self.n_nodes
         dofs = (2 * t[:, None, :] + np.arange(2)[None, :, None]).reshape(6, nel)  # row 2a+i
         self.element_dofs = dofs
@@ -160,28 +147,18 @@ class P1Assembler(_FixedPattern):
         for name in ("energy", "stress", "tangent"):
             if not callable(getattr(m, name, None)):
                 raise ParameterError("material", f"material must have energy, stress and tangent methods, got {m!r}")
-        # fibers (possibly nested: FiberReinforced of FiberReinforced ...)
         level = m
-        while level is not None:
-            fibers = getattr(level, "fibers", None)
-            if fibers is not None:
-                shape = np.shape(fibers)
-                if len(shape) == 3:
-                    raise ParameterError("material", f"material has per-quadrature-point fibers of shape {shape}; the "
-                                         "P1 path has one point per element: give fibers shaped (2, n_elements) (e.g. "
-                                         "the normalised average over the points) or (2,)")
-                if len(shape) == 2 and shape[1] != self.n_elements:
-                    raise ParameterError("material", f"material has per-element fibers of shape {shape}, but the mesh "
-                                         f"has {self.n_elements} elements: expected (2, {self.n_elements})")
+        while level is not None:  # fibers, possibly nested (FiberReinforced of FiberReinforced ...)
+            shape = np.shape(getattr(level, "fibers", None))
+            if len(shape) == 3:
+                raise ParameterError("material", "material has per-quadrature-point fibers of shape "
+                                     f"{shape}; the P1 path has one point per element: give fibers shaped "
+                                     "(2, n_elements) (e.g. the normalised average over the points) or (2,)")
+            if len(shape) == 2 and shape[1] != self.n_elements:
+                raise ParameterError("material", f"material has per-element fibers of shape {shape}, but the "
+                                     f"mesh has {self.n_elements} elements: expected (2, {self.n_elements})")
             level = getattr(level, "base", None)
         return m
-
-    def _F(self, u) -> np.ndarray:
-        ue = u[self.element_dofs].reshape(3, 2, self.n_elements)  # ue[a, i, e]
-        F = np.einsum("aie,aje->ije", ue, self._G)
-        F[0, 0] += 1.0
-        F[1, 1] += 1.0
-        return F
 
     def _residual_from_F(self, m, F) -> np.ndarray:
         P = np.broadcast_to(m.stress(F), (2, 2, self.n_elements))
@@ -206,26 +183,28 @@ class P1Assembler(_FixedPattern):
 
     def deformation_gradient(self, u) -> np.ndarray:
         """``F = I + grad u`` of every element, shaped ``[2, 2, n_elements]``."""
-        return self._F(self._check_u(u))
+        ue = self._check_u(u)[self.element_dofs].reshape(3, 2, self.n_elements)  # ue[a, i, e]
+        F = np.einsum("aie,aje->ije", ue, self._G)
+        F[0, 0] += 1.0
+        F[1, 1] += 1.0
+        return F
 
     def energy(self, u, material=None) -> float:
         """Stored energy ``sum_e A_e Psi(F_e)`` (NaN if the material is NaN somewhere, e.g. log J at J <= 0)."""
-        m = self._material(material)
-        return float(np.dot(self.areas, np.broadcast_to(m.energy(self._F(self._check_u(u))), (self.n_elements,))))
+        psi = self._material(material).energy(self.deformation_gradient(u))
+        return float(np.dot(self.areas, np.broadcast_to(psi, (self.n_elements,))))
 
     def residual(self, u, material=None) -> np.ndarray:
         """Internal force vector ``(n_dofs,)``, the gradient of :meth:`energy`."""
-        m = self._material(material)
-        return self._residual_from_F(m, self._F(self._check_u(u)))
+        return self._residual_from_F(self._material(material), self.deformation_gradient(u))
 
     def tangent(self, u, material=None) -> sp.csr_matrix:
         """Tangent stiffness (the Hessian of :meth:`energy`) as CSR with the fixed pattern."""
-        m = self._material(material)
-        return self._tangent_from_F(m, self._F(self._check_u(u)))
+        return self._tangent_from_F(self._material(material), self.deformation_gradient(u))
 
     def residual_and_tangent(self, u, material=None):
         """``(residual(u), tangent(u))`` from one evaluation of ``F``."""
-        m, F = self._material(material), self._F(self._check_u(u))
+        m, F = self._material(material), self.deformation_gradient(u)
         return self._residual_from_F(m, F), self._tangent_from_F(m, F)
 
     def mass(self, density, lumped: bool = True) -> np.ndarray:
@@ -254,7 +233,7 @@ class P1Assembler(_FixedPattern):
 
 def _mesh_arrays(mesh):
     """``(p, t)`` of a straight-sided scikit-fem triangle mesh, checked by :func:`~tissuefem.engine.meshes.check_mesh`
-    with ``cut=True`` (cutting through elements makes edges in three triangles and overlapping copies of one)."""
+    with ``cut=True``."""
     if not (hasattr(mesh, "p") and hasattr(mesh, "t")):
         raise ParameterError("mesh", f"mesh must be a scikit-fem MeshTri (with p and t), got {type(mesh).__name__}")
     if getattr(mesh, "affine", True) is False:
@@ -268,22 +247,15 @@ def vector_basis(mesh, order: int = 1, intorder: int | None = None) -> Basis:
     ``a`` has dofs ``2a, 2a + 1``, then come the P2 edge midpoints, every assembler's layout."""
     if order not in (1, 2):
         raise ParameterError("order", f"order must be 1 or 2, got {order!r}")
-    if intorder is None:
-        intorder = 2 * order
-    if isinstance(intorder, bool) or not isinstance(intorder, (int, np.integer)) or not 1 <= intorder <= 19:
-        raise ParameterError("intorder", f"intorder must be an integer from 1 to 19, got {intorder!r}")
+    intorder = check_count("intorder", 2 * order if intorder is None else intorder, 1, 19)
     element = ElementVector(ElementTriP1() if order == 1 else ElementTriP2())
-    return Basis(mesh, element, intorder=int(intorder))
+    return Basis(mesh, element, intorder=intorder)
 
 
 class QuadratureAssembler(_FixedPattern):
-    """Vectorised energy, residual and tangent for a vector Lagrange basis on triangles (P1, P2).
-
-    :class:`P1Assembler`'s sums (module docstring) at every quadrature point, ``A_e`` replaced by the quadrature
-    weights ``dx`` (weight times Jacobian), into a pattern computed once: this makes P2 affordable. ``basis``:
-    ``Basis(mesh, ElementVector(ElementTriPk()))`` (:func:`vector_basis`), local vector function ``2 a + i`` being
-    ``N_a e_i``; ``material`` and ``weights`` as :class:`P1Assembler`'s.
-    """
+    """:class:`P1Assembler`'s sums at every quadrature point (``A_e`` replaced by the weights ``dx``), into a pattern
+    computed once: this makes P2 affordable. ``basis``: a :func:`vector_basis` (local function ``2 a + i`` is
+    ``N_a e_i``); ``material`` and ``weights`` as :class:`P1Assembler`'s."""
 
     def __init__(self, basis, material=None, weights=None):
         if not isinstance(getattr(basis, "elem", None), ElementVector):
@@ -322,20 +294,17 @@ class QuadratureAssembler(_FixedPattern):
 
     def energy(self, u, material=None) -> float:
         """``sum Psi(F) dx`` (NaN where the material is, e.g. the log model at ``J <= 0``)."""
-        m = self._material(material)
-        return float(np.sum(m.energy(self.deformation_gradient(u)) * self._dx))
+        return float(np.sum(self._material(material).energy(self.deformation_gradient(u)) * self._dx))
 
     def residual(self, u, material=None) -> np.ndarray:
         """The internal force vector, the gradient of :meth:`energy`."""
-        m = self._material(material)
-        P = m.stress(self.deformation_gradient(u))
+        P = self._material(material).stress(self.deformation_gradient(u))
         r = np.einsum("ijeq,ajeq->aie", P, self._GW)
         return np.bincount(self._dofs_flat, weights=r.reshape(-1), minlength=self.n_dofs)
 
     def tangent(self, u, material=None) -> sp.csr_matrix:
         """The tangent stiffness (Hessian of :meth:`energy`) on the fixed pattern."""
-        m = self._material(material)
-        A = m.tangent(self.deformation_gradient(u))
+        A = self._material(material).tangent(self.deformation_gradient(u))
         AG = np.einsum("ijkleq,ajeq->aikleq", A, self._GW)
         K = np.einsum("aikleq,bleq->aibke", AG, self._G)
         return self.csr(np.bincount(self._scatter, weights=K.reshape(-1), minlength=self.nnz))
@@ -369,23 +338,17 @@ class QuadratureAssembler(_FixedPattern):
 
 
 class FormsAssembler(QuadratureAssembler):
-    """Energy, residual and tangent by the readable scikit-fem forms of :mod:`tissuefem.engine.forms`.
-
-    The reference the fast assemblers are tested against (one form call per pair of local basis functions), on
-    :class:`QuadratureAssembler`'s fixed pattern.
-    """
+    """Energy, residual and tangent by the readable forms of :mod:`tissuefem.engine.forms`, on
+    :class:`QuadratureAssembler`'s pattern: the reference the fast assemblers are tested against."""
 
     def energy(self, u, material=None) -> float:
-        m = self._material(material)
-        return float(asm(energy_form(m), self.basis, u=self.basis.interpolate(u)))
+        return float(asm(energy_form(self._material(material)), self.basis, u=self.basis.interpolate(u)))
 
     def residual(self, u, material=None) -> np.ndarray:
-        m = self._material(material)
-        return asm(residual_form(m), self.basis, u=self.basis.interpolate(u))
+        return asm(residual_form(self._material(material)), self.basis, u=self.basis.interpolate(u))
 
     def tangent(self, u, material=None) -> sp.csr_matrix:
-        m = self._material(material)
-        K = asm(tangent_form(m), self.basis, u=self.basis.interpolate(u)).tocsr()
+        K = asm(tangent_form(self._material(material)), self.basis, u=self.basis.interpolate(u)).tocsr()
         K.sum_duplicates()
         if K.nnz == self.nnz and np.array_equal(K.indptr, self.indptr) and np.array_equal(K.indices, self.indices):
             return self.csr(K.data)

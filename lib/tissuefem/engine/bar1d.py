@@ -1,14 +1,12 @@
 """One-dimensional bars with scikit-fem: the notes' "1D elasticity" section (chapters 1-2).
 
-The bar occupies ``[a, b]`` at rest; the unknown is the displacement ``u(X)``, ``F = 1 + du/dX``. With Lagrange shape
-functions ``N_i`` the notes' discrete equations are ``A u = F_ext + g``, ``A_ij = E1 int N_i' N_j' dX`` (linear) and
-``q_i(u) = int N_i' P(F(u)) dX - F_ext_i - g_i = 0`` (nonlinear), with ``F_ext_i = int f N_i dX`` and the boundary
-term ``g_i = N_i(b) P(b) - N_i(a) P(a)``. Here ``E1 = lam + 2 mu`` is the 1D modulus (the notes print ``2 mu - lam``)
-and the residual subtracts ``g`` (the notes print ``+ g_i`` in ``q``, which contradicts their own linear system).
+The bar ``[a, b]``, displacement ``u(X)``, ``F = 1 + du/dX``. The notes' discrete equations: ``A u = F_ext + g`` with
+``A_ij = E1 int N_i' N_j' dX`` (linear), ``q_i(u) = int N_i' P(F(u)) dX - F_ext_i - g_i = 0`` (nonlinear),
+``F_ext_i = int f N_i dX``, ``g_i = N_i(b) P(b) - N_i(a) P(a)``. Errata: ``E1 = lam + 2 mu`` (the notes print
+``2 mu - lam``); ``q`` subtracts ``g`` (the notes print ``+ g_i``, contradicting their linear system).
 
-Each end is a :class:`Displacement` (Dirichlet) or a :class:`Traction`, the X component of the applied force per unit
-reference area, ``t = P n`` with ``n`` the outward normal (``t = P(b)`` at ``b``, ``t = -P(a)`` at ``a``): a positive
-value points along +X, pulling at the right end and pushing at the left, as a 2D traction vector does.
+Each end is a :class:`Displacement` or a :class:`Traction` ``t = P n`` (``n`` the outward normal): a positive value
+points along +X, pulling at the right end and pushing at the left.
 """
 
 from __future__ import annotations
@@ -47,19 +45,6 @@ def _as_end(condition, name):
     return condition
 
 
-def _as_field(f, name) -> Callable:
-    """A body force given as a number or a callable of X, as a callable of X."""
-    if callable(f):
-        return f
-    try:
-        value = float(f)
-    except (TypeError, ValueError):
-        raise ParameterError(name, f"{name} must be a number or a callable of X, got {f!r}") from None
-    if not np.isfinite(value):
-        raise ParameterError(name, f"{name} must be finite, got {f!r}")
-    return lambda X: np.full_like(X, value)
-
-
 # --- the scikit-fem forms (read them next to the equations above) --------------
 
 @BilinearForm
@@ -75,9 +60,8 @@ def _body_force(v, w):
 
 
 def nonlinear_forms(material: Material1D):
-    """``(internal_force, tangent, strain_energy)`` as scikit-fem forms at the field ``w["u"]`` (``F = 1 + du/dX``):
-    ``int N_i' P(F) dX``, ``int N_i' dP/dF N_j' dX`` and ``int Psi(F) dX``. The material is bound by closure because
-    scikit-fem passes only arrays through ``w``."""
+    """``(internal_force, tangent, strain_energy)`` as scikit-fem forms at ``w["u"]``: ``int N_i' P(F) dX``,
+    ``int N_i' dP/dF N_j' dX``, ``int Psi(F) dX`` (the material bound by closure: ``w`` passes only arrays)."""
     @LinearForm
     def internal_force(v, w):
         F = 1.0 + w["u"].grad[0]
@@ -133,19 +117,18 @@ class Bar1D:
         """Reference coordinate ``X`` of every degree of freedom."""
         return self.basis.doflocs[0]
 
-    # --- linear problem -----------------------------------------------------
     def stiffness(self, modulus: float) -> sp.csr_matrix:
         """``A_ij = modulus * int N_i' N_j' dX``."""
         return asm(_stiffness, self.basis, modulus=float(modulus)).tocsr()
 
     def body_force(self, f=0.0) -> np.ndarray:
         """``F_ext_i = int f(X) N_i dX`` for a number or a callable ``f(X)``."""
-        f = _as_field(f, "f (body force)")
-        return asm(_body_force, self.basis, f=f(np.asarray(self.basis.global_coordinates())[0]))
+        X = np.asarray(self.basis.global_coordinates())[0]
+        values = f(X) if callable(f) else np.full_like(X, check_real("f (body force)", f))
+        return asm(_body_force, self.basis, f=values)
 
     def boundary_term(self, left=Traction(0.0), right=Traction(0.0)) -> np.ndarray:
-        """``g_i = N_i(b) P(b) - N_i(a) P(a) = N_i(b) t_b + N_i(a) t_a``: zero but at the end dofs (Lagrange shape
-        functions are 1 at their own node, 0 at the others); Dirichlet ends contribute 0."""
+        """``g_i = N_i(b) t_b + N_i(a) t_a``: the tractions at the end dofs (Dirichlet ends contribute 0)."""
         left, right = _as_end(left, "left"), _as_end(right, "right")
         g = np.zeros(self.ndofs)
         if isinstance(left, Traction):
@@ -179,7 +162,6 @@ class Bar1D:
         u[free] = sp.linalg.spsolve(A[free][:, free].tocsc(), rhs_free)
         return u
 
-    # --- nonlinear problem --------------------------------------------------
     def internal_force(self, u, material: Material1D) -> np.ndarray:
         """``int N_i' P(F(u)) dX``."""
         return asm(nonlinear_forms(material)[0], self.basis, u=self.basis.interpolate(u))
@@ -239,9 +221,8 @@ class Bar1D:
 
 
 def uniform_bar_stretch(material: Material1D, traction: float, F0: float = 1.0, tol: float = 1e-14) -> float:
-    """Closed form for a bar with one end fixed and an end traction ``T``, no body force: ``P = T`` everywhere, so
-    ``F`` is the uniform root of ``P(F) = T`` (unique where ``dP/dF > 0``) and ``u(X) = (F - 1)(X - a)``. Scalar
-    Newton with a bisection safeguard on ``F > 0``."""
+    """The uniform stretch ``F`` of a bar with one end fixed and an end traction ``T`` (``P(F) = T``, so
+    ``u(X) = (F - 1)(X - a)``): scalar Newton with a bisection safeguard on ``F > 0``."""
     lo, hi = 1e-12, 2.0
     while material.stress(hi) < traction:
         hi *= 2.0

@@ -1,25 +1,17 @@
 """Explicit time stepping: symplectic Euler with a lumped mass, and its stability limit (CFL).
 
-The equations of motion are ``M a = f_ext - f_int(u)``. With the *lumped* mass ``M = diag(m)`` (row sums of the
-consistent mass) the inverse is free, and symplectic (semi-implicit) Euler needs no solve:
+With the *lumped* mass ``M = diag(m)`` (row sums of the consistent mass), ``M a = f_ext - f_int(u)`` steps without a
+solve (handles set to their targets, with the velocity ``(u_prescribed^{n+1} - u^n) / dt``):
 
     v^{n+1} = v^n + dt M^{-1} (f_ext - f_int(u^n))      (kick: forces at the *old* position)
     u^{n+1} = u^n + dt v^{n+1}                          (drift: with the *new* velocity)
 
-on the free dofs; the handles' dofs are set to their targets, with the velocity ``(u_prescribed^{n+1} - u^n) / dt``.
-A step is one internal-force evaluation, no linear algebra. The new velocity in the drift makes it symplectic: for one
-mode of angular frequency ``omega`` it keeps the *modified* energy
-``I = 1/2 (v^2 + omega^2 x^2 - dt omega^2 x v)`` exactly, so the true energy stays between ``I / (1 + dt omega / 2)``
-and ``I / (1 - dt omega / 2)`` instead of drifting (as forward and backward Euler's do).
-
-**Stability.** Linearised about rest (``f_int ~ K u``), a mode ``K x = omega^2 M x`` steps by a linear map of
-``(x, v)`` with determinant 1 and trace ``2 - (dt omega)^2``, stable while ``dt <= 2 / omega`` (beyond, the mode grows
-geometrically from round-off): ``dt <= dt_crit = 2 / omega_max``, ``omega_max^2`` the largest eigenvalue of
-``M^{-1} K`` on the free dofs (:func:`critical_time_step`; backward Euler has no such limit, it damps).
-**CFL:** the fastest mode is a wave across one element, ``omega_max ~ c / h`` with the P-wave speed
-``c = sqrt((lambda + 2 mu) / rho0)``, so ``dt <= C h / c`` with a Courant number ``C`` of order one, and one simulated
-second costs ``h^-3`` in 2D. For the notes' tissue (``c ~ 37``) a 1/30 s frame needs ``h`` of the order of a metre: an
-explicit real-time simulator must sub-step. :func:`largest_stable_dt` measures the limit (chapter 7 checks ``dt ~ h``).
+Symplectic: a mode of frequency ``omega`` keeps ``I = 1/2 (v^2 + omega^2 x^2 - dt omega^2 x v)`` exactly, so its
+energy stays within ``I / (1 +- dt omega / 2)`` instead of drifting. **Stability:** linearised, a mode's map has
+determinant 1 and trace ``2 - (dt omega)^2``: stable while ``dt <= dt_crit = 2 / omega_max``
+(:func:`critical_time_step`). **CFL:** ``omega_max ~ c / h``, ``c = sqrt((lambda + 2 mu) / rho0)`` the P-wave speed,
+so ``dt <= C h / c`` (``C`` of order one): for the notes' tissue (``c ~ 37``) a 1/30 s frame needs ``h`` of a metre,
+so an explicit real-time simulator must sub-step. :func:`largest_stable_dt` measures the limit.
 """
 
 from __future__ import annotations
@@ -69,14 +61,9 @@ def _free_dofs(n: int, fixed) -> np.ndarray:
 
 
 class SymplecticEuler:
-    """Explicit symplectic Euler on the body of a :class:`~tissuefem.engine.model.Model` without ``dt`` (the time
-    step is this scheme's; its handles apply every step, its loads are constant): the counterpart of backward Euler (a
-    :class:`~tissuefem.engine.stepping.Stepper` on a model with ``dt``), stable only for ``dt`` below about
-    :func:`critical_time_step`. A step whose result is not finite (it blew up, or an ``ln J`` material inverted)
-    leaves the state untouched and reports ``"non-finite"``; it never raises.
-
-    Attributes: ``u, v`` (dof vectors; assign them to set an initial state), ``time``, ``mass`` (lumped, per dof).
-    """
+    """Explicit symplectic Euler on a :class:`~tissuefem.engine.model.Model` without ``dt`` (handles apply every step,
+    loads are constant), stable for ``dt`` below about :func:`critical_time_step`. A non-finite step leaves the state
+    untouched and reports ``"non-finite"``. Attributes: ``u, v`` (assign them to set a state), ``time``, ``mass``."""
 
     def __init__(self, model, dt: float):
         _check_model(model)
@@ -129,12 +116,9 @@ class SymplecticEuler:
 
 
 def critical_time_step(model, u=None) -> float:
-    """The linearised stability limit of :class:`SymplecticEuler`, ``dt_crit = 2 / omega_max`` at ``u`` (default:
-    rest; a compressed ``ln J`` material stiffens a lot).
-
-    ``omega_max^2``, the largest eigenvalue of ``K_ff x = omega^2 M_ff x`` on the free dofs, is that of
-    ``M^-1/2 K M^-1/2`` (``M`` is diagonal): Lanczos from a fixed start vector so that runs agree, dense when small.
-    """
+    """The linearised stability limit ``dt_crit = 2 / omega_max`` of :class:`SymplecticEuler` at ``u`` (default:
+    rest), ``omega_max^2`` the largest eigenvalue of ``M^-1/2 K M^-1/2`` on the free dofs (Lanczos from a fixed start
+    vector, so that runs agree; dense when small)."""
     _check_model(model)
     u = model.zeros() if u is None else np.asarray(u, dtype=float)
     m = _lumped_mass(model)
@@ -190,16 +174,11 @@ def is_stable(model, dt: float, *, steps: int = 400, growth: float = 10.0,
 
 def largest_stable_dt(model, *, steps: int = 400, growth: float = 10.0,
                       amplitude: float = 1e-4, seed: int = 0, rtol: float = 0.005, dt_guess=None) -> float:
-    """The largest time step with which :class:`SymplecticEuler` stays bounded: :func:`is_stable` trials from one
-    seeded perturbation, doubling or halving ``dt_guess`` (default ``mesh_size / wave_speed``, else ``1e-3``) until one
-    is stable and the next not, then geometric bisection to a relative bracket ``rtol``; returns its stable end.
-
-    It measures what :func:`critical_time_step` predicts, without linearising. Just above ``dt_crit`` the growth is slow
-    (``~ 1 + 2 sqrt(2 eps)`` per step at ``dt = (1 + eps) dt_crit``), so a finite run places the limit slightly high;
-    just below it the fastest modes' energy swings by up to ``1 / (1 - dt omega / 2)``, so a ``growth`` near 1 places it
-    low. On chapter 7's flap (4 x 2 and 8 x 4 cells) the ratio to :func:`critical_time_step` was 0.65-0.72 with
-    ``growth = 2``, 0.985-0.99 with the default 10 and 0.999 with 100, for 100 to 2000 steps.
-    """
+    """The largest time step with which :class:`SymplecticEuler` stays bounded (:func:`is_stable` from one seeded
+    perturbation): ``dt_guess`` (default ``mesh_size / wave_speed``, else ``1e-3``) doubled or halved to a bracket,
+    then geometric bisection to ``rtol``; its stable end. On chapter 7's flap the ratio to :func:`critical_time_step`
+    was 0.65-0.72 with ``growth = 2``, 0.985-0.99 with the default 10 and 0.999 with 100 (the energy swings by up to
+    ``1 / (1 - dt omega / 2)`` below the limit; above it, growth is slow)."""
     check_count("steps", steps)
     check_real("growth", growth, 1.0, lo_open=True)
     check_real("rtol", rtol, 0.0, 1.0, lo_open=True, hi_open=True)

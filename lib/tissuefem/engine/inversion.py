@@ -1,26 +1,17 @@
 """Inversion-robust building blocks: the rotation-preserving SVD and the definiteness fix.
 
-**Rotation-preserving SVD** (Irving, Teran, Fedkiw 2004/2006). An ordinary SVD ``F = U S V^T`` has ``S >= 0`` and may
-return reflections for ``U`` or ``V``. ITF keep ``U`` and ``V`` proper rotations and move the reflection onto the
-smallest singular value, which then carries the sign of ``J``: ``F = U diag(s0, s1) V^T``, ``det U = det V = 1``,
-``s0 >= |s1|``. In 2D this has a closed form. Split ``F`` into a similarity and an anti-similarity part,
+**Rotation-preserving SVD** (Irving, Teran, Fedkiw 2004/2006): ``F = U diag(s0, s1) V^T`` with ``U``, ``V`` proper
+rotations and ``s0 >= |s1|``, the reflection moved onto ``s1``, which carries the sign of ``J``. In 2D, with
+``E = (F00 + F11)/2``, ``H = (F10 - F01)/2``, ``Fa = (F00 - F11)/2``, ``Ga = (F10 + F01)/2`` (similarity and
+anti-similarity parts), ``Q = hypot(E, H)``, ``R = hypot(Fa, Ga)``: ``s0 = Q + R``, ``s1 = Q - R`` (``s0 s1 = J``),
+``U = rot((a1 + a2)/2)``, ``V = rot((a1 - a2)/2)`` with ``a1 = atan2(Ga, Fa)``, ``a2 = atan2(H, E)``. No branch,
+finite for every F.
 
-    F = [[E + Fa, Ga - H], [Ga + H, E - Fa]],  E = (F00 + F11)/2,  H = (F10 - F01)/2,
-                                                 Fa = (F00 - F11)/2, Ga = (F10 + F01)/2,
-
-with ``Q = hypot(E, H)`` and ``R = hypot(Fa, Ga)``. Then ``s0 = Q + R``, ``s1 = Q - R`` (``s0 s1 = Q^2 - R^2 = J``),
-and with ``a1 = atan2(Ga, Fa)``, ``a2 = atan2(H, E)``: ``U = rot((a1 + a2)/2)``, ``V = rot((a1 - a2)/2)``, since
-``rot(u) diag(s0, s1) rot(v)^T`` is ``Q rot(u - v)`` plus ``R`` times the reflection
-``[[cos(u + v), sin(u + v)], [sin(u + v), -cos(u + v)]]``. No branch, no iteration, finite for every F (at F = 0
-every rotation is a valid answer).
-
-**The definiteness fix** (Teran, Sifakis, Irving, Fedkiw 2005). For an isotropic material ``A(F) = (U x V) A_hat(S)
-(U x V)^T``, ``A_hat = A(diag(s))``, block diagonal in the basis ``(dF_00, dF_11 | dF_01, dF_10)``: a 2x2 *stretch*
-block (the Hessian of ``Psi`` in the singular values) and a 2x2 *twist/flip* block ``[[b, c], [c, b]]`` with
-eigenvalues ``b + c = (psi0 - psi1)/(s0 - s1)`` (twist) and ``b - c = (psi0 + psi1)/(s0 + s1)`` (flip),
-``psi_i = dPsi/ds_i``. Clamping each block's negative eigenvalues and rotating back gives the closest positive
-semi-definite tangent, so Newton always finds a descent direction. ``A_hat`` is the material's own tangent at the
-diagonal ``F`` (not divided differences): nothing divides 0 by 0 when ``s0 = s1``.
+**The definiteness fix** (Teran, Sifakis, Irving, Fedkiw 2005). For an isotropic material ``A(F)`` is ``A_hat =
+A(diag(s))`` rotated by ``U``, ``V``, block diagonal in ``(dF_00, dF_11 | dF_01, dF_10)``: a *stretch* block (the
+Hessian in the singular values) and a *twist/flip* block ``[[b, c], [c, b]]`` with eigenvalues ``(psi0 - psi1)/(s0 -
+s1)`` and ``(psi0 + psi1)/(s0 + s1)``, ``psi_i = dPsi/ds_i``. Clamping each block's eigenvalues and rotating back
+gives the closest positive semi-definite tangent. ``A_hat`` is the material's own tangent (no 0/0 at ``s0 = s1``).
 """
 
 from __future__ import annotations
@@ -36,10 +27,8 @@ def _rotation(angle) -> np.ndarray:
 
 
 def rotation_preserving_svd(F):
-    """``F = U diag(s) V^T`` with ``U``, ``V`` rotations and ``s[0] >= |s[1]|``; ``s[1] < 0`` iff ``J < 0``.
-
-    ``F`` is shaped ``[2, 2, *rest]``; returns ``U [2, 2, *rest]``, ``s [2, *rest]``, ``V [2, 2, *rest]``.
-    """
+    """``(U [2, 2, *rest], s [2, *rest], V [2, 2, *rest])`` with ``F = U diag(s) V^T``, ``U``, ``V`` rotations,
+    ``s[0] >= |s[1]|``; ``s[1] < 0`` iff ``J < 0``."""
     F = np.asarray(F, dtype=float)
     if F.shape[:2] != (2, 2):
         raise ParameterError("F", f"F must be shaped [2, 2, ...], got {F.shape}")
@@ -58,17 +47,6 @@ def diagonal(s) -> np.ndarray:
     return out
 
 
-def _project_sym2(a, b, d, floor):
-    """Clamp the eigenvalues of the symmetric 2x2 blocks ``[[a, b], [b, d]]`` at ``floor`` (closed form)."""
-    mean, rad = 0.5 * (a + d), np.hypot(0.5 * (a - d), b)
-    lam_hi, lam_lo = mean + rad, mean - rad
-    # unit eigenvector of lam_hi: (cos t, sin t) with t = atan2(2b, a - d) / 2 (well defined; rad = 0 -> any)
-    t = 0.5 * np.arctan2(2.0 * b, a - d)
-    c, s = np.cos(t), np.sin(t)
-    hi, lo = np.maximum(lam_hi, floor), np.maximum(lam_lo, floor)
-    return hi * c * c + lo * s * s, (hi - lo) * c * s, hi * s * s + lo * c * c
-
-
 def eigen_projection(A, floor: float = 0.0):
     """Clamp the eigenvalues of each 4x4 tangent ``A [2,2,2,2,*rest]`` at ``floor`` numerically: the closed form's
     reference, and the fallback for materials not isotropic (fibers) or not frame indifferent (linear)."""
@@ -81,29 +59,19 @@ def eigen_projection(A, floor: float = 0.0):
     return np.moveaxis(P, 0, -1).reshape((2, 2, 2, 2) + rest)
 
 
-def _rotation_invariant(material) -> bool:
-    return (type(material) in (NeoHookean, TaylorNeoHookean, StableNeoHookean, Corotated)
-            or bool(getattr(material, "rotation_invariant", False)))
-
-
 def projected_tangent(material, F, floor: float = 0.0):
-    """The positive semi-definite projection of ``material.tangent(F)`` (Teran et al. 2005), ``[2, 2, 2, 2, *rest]``:
-    eigenvalues below ``floor`` are raised to it, the others kept. Closed form in diagonal space for the isotropic,
-    frame-indifferent models (Neo-Hookean family, corotated), else :func:`eigen_projection`.
-    """
-    if not _rotation_invariant(material):
+    """``material.tangent(F)`` with eigenvalues below ``floor`` raised to it (Teran et al. 2005): in diagonal space
+    for the isotropic, frame-indifferent models, else by :func:`eigen_projection`."""
+    if not (type(material) in (NeoHookean, TaylorNeoHookean, StableNeoHookean, Corotated)
+            or getattr(material, "rotation_invariant", False)):
         return eigen_projection(material.tangent(F), floor)
     U, s, V = rotation_preserving_svd(F)
     return _rotate_back(U, V, _project_diagonal_blocks(np.asarray(material.tangent(diagonal(s)), dtype=float), floor))
 
 
 def _rotate_back(U, V, A_hat):
-    """``A_ijkl = U_ia V_jb U_kc V_ld A_hat_abcd`` for a diagonal-space tangent of the block form above.
-
-    With ``E_ab = u_a v_b^T`` (the columns of ``U``, ``V``) this is ``sum A_hat[ab, cd] E_ab (x) E_cd``, ``A_hat``
-    coupling only ``{00, 11}`` and ``{01, 10}``: four outer products of 2x2 fields instead of a five-operand
-    contraction (measured about 25x faster at 8k elements).
-    """
+    """``A_ijkl = U_ia V_jb U_kc V_ld A_hat_abcd`` for the block form above, as ``sum A_hat[ab, cd] E_ab (x) E_cd``
+    with ``E_ab = u_a v_b^T``: outer products of 2x2 fields, about 25x faster than the five-operand contraction."""
     E = {(a, b): U[:, a][:, None] * V[:, b][None, :] for a in range(2) for b in range(2)}
     out = 0.0
     for (p, q) in (((0, 0), (1, 1)), ((0, 1), (1, 0))):
@@ -114,24 +82,25 @@ def _rotate_back(U, V, A_hat):
 
 
 def _project_diagonal_blocks(A, floor):
-    """Clamp the eigenvalues of a diagonal-space tangent's two 2x2 blocks at ``floor``."""
+    """Clamp the eigenvalues of a diagonal-space tangent's two symmetric 2x2 blocks ``[[a, b], [b, d]]`` at ``floor``
+    (closed form): the stretch block over (dF00, dF11), the twist/flip block over (dF01, dF10)."""
     out = np.zeros_like(A)
-    # the stretch block over (dF00, dF11), the twist/flip block over (dF01, dF10) (equal diagonal if isotropic)
     for (i, j), (k, l) in (((0, 0), (1, 1)), ((0, 1), (1, 0))):
-        a, b, d = _project_sym2(A[i, j, i, j], 0.5 * (A[i, j, k, l] + A[k, l, i, j]), A[k, l, k, l], floor)
-        out[i, j, i, j], out[i, j, k, l], out[k, l, i, j], out[k, l, k, l] = a, b, b, d
+        a, b, d = A[i, j, i, j], 0.5 * (A[i, j, k, l] + A[k, l, i, j]), A[k, l, k, l]
+        mean, rad = 0.5 * (a + d), np.hypot(0.5 * (a - d), b)
+        t = 0.5 * np.arctan2(2.0 * b, a - d)  # the larger eigenvalue's eigenvector is (cos t, sin t)
+        c, s = np.cos(t), np.sin(t)
+        hi, lo = np.maximum(mean + rad, floor), np.maximum(mean - rad, floor)
+        out[i, j, i, j], out[k, l, k, l] = hi * c * c + lo * s * s, hi * s * s + lo * c * c
+        out[i, j, k, l] = out[k, l, i, j] = (hi - lo) * c * s
     return out
 
 
 class ProjectedTangent:
-    """A material whose tangent is the positive semi-definite projection of another's.
-
-    Energy and stress are the wrapped material's: the same equilibrium, only the search direction changes (always
-    downhill). ``adaptive=True`` projects only when Newton needs it: ``tangent`` is then the exact one (quadratic
-    convergence where the Hessian is positive definite, as it usually is away from inversion) and ``safe_tangent`` the
-    projection, for when the exact direction is not downhill. Clamping in every step costs Newton its quadratic
-    convergence: about 7 Newton steps a frame instead of 2 on chapter 8's drag (stable neo-Hookean).
-    """
+    """A material whose tangent is the positive semi-definite projection of another's (energy and stress, hence the
+    equilibrium, are the wrapped material's). Projecting in every step costs Newton its quadratic convergence (about
+    7 steps a frame instead of 2 on chapter 8's drag); ``adaptive=True`` keeps the exact ``tangent`` and offers the
+    projection as ``safe_tangent``, for when the exact direction is not downhill."""
 
     def __init__(self, material, floor: float = 0.0, adaptive: bool = False):
         self.material = material
@@ -159,36 +128,21 @@ class ProjectedTangent:
 
 
 class ITFClamped:
-    """An isotropic material made invertible after Irving, Teran and Fedkiw (2004/2006).
+    """The ``ln J`` :class:`~tissuefem.engine.materials.NeoHookean` made invertible after Irving, Teran and Fedkiw
+    (2004/2006). In diagonal space ``Psi(F) = Psi_hat(s)`` (rotation-preserving SVD, ``s1 < 0`` inverted) and
+    ``P = U diag(psi) V^T``, ``psi_i = dPsi_hat/ds_i``; below the ``threshold`` ``c`` (``0 < c < 1``) the base model
+    is *extrapolated*:
 
-    In diagonal space ``Psi(F) = Psi_hat(s)`` (rotation-preserving SVD ``F = U diag(s) V^T``, ``s1 < 0`` for an
-    inverted element) and ``P = U diag(psi) V^T``, ``psi_i = dPsi_hat/ds_i``. Below the compression threshold ``c``
-    the base model is *extrapolated* from the threshold:
+    * ``s1 >= c``: the base model itself;
+    * ``s1 < c <= s0``: ``Psi(s0, c) + psi_1(s0, c) d1 + k/2 d1^2``, ``d_i = s_i - c``;
+    * ``s0 < c``: ``Psi + psi_0 d0 + psi_1 d1 + Psi_01 d0 d1 + k/2 (d0^2 + d1^2)`` from ``(c, c)``.
 
-    * ``s1 >= c`` (the usual case): the base model itself.
-    * ``s1 < c <= s0`` (one direction crushed, flat or inverted): first-order in ``d1 = s1 - c`` from ``(s0, c)``
-      plus a spring, ``Psi(s0, c) + psi_1(s0, c) d1 + k/2 d1^2``.
-    * ``s0 < c`` (both crushed, down to ``F = 0``): the bilinear expansion from ``(c, c)``,
-      ``Psi + psi_0 d0 + psi_1 d1 + Psi_01 d0 d1 + k/2 (d0^2 + d1^2)``.
-
-    Each piece is the previous one extended in one more variable, so the energy is C1 across the thresholds and the
-    stress is its exact gradient: the energy line search stays valid (ITF's original clamps ``P_hat`` directly, with
-    the same finite push-back but no consistent energy). The restoring force grows only linearly with the depth of
-    inversion (spring ``k``), so an element crushed to a point or turned inside out is still pushed back, and ``F = 0``
-    is not an equilibrium.
-
-    ``project=True`` (the default) projects the tangent to be positive semi-definite (where ``s0 + s1 = 0`` the energy
-    has a kink of unbounded curvature); ``project=False`` gives the exact Hessian away from the kink (for
-    ``s1 < c <= s0`` with the base model's third derivative by a central difference of its tangent).
-
-    Only the ``ln J`` :class:`~tissuefem.engine.materials.NeoHookean`: a stretched element (``s0`` large) with ``s1``
-    below the threshold feels ``psi_1(s0, c) > 0`` (it wants ``s1 ~ 1/s0``), and the spring bounds the energy below
-    only while ``psi_1^2 / (2k)`` grows slower than ``Psi(s0, c)``: ``psi_1 ~ ln s0`` for ``ln J``, ``~ s0^2`` or
-    faster for the polynomial volumetric terms (which are finite through inversion anyway). For the same reason, where
-    the physical answer has ``s1 < c`` (nearly incompressible, stretched beyond ``1/c``) the clamped model departs
-    from the base model.
-
-    ``threshold`` is ``c``, ``0 < c < 1``; ``stiffness`` the spring ``k > 0`` (default ``d2Psi/ds1^2(c, c)``).
+    Each piece extends the previous one, so the energy is C1 and the stress its exact gradient (ITF's original clamps
+    ``P_hat`` with no consistent energy), and the spring ``stiffness`` ``k`` (default ``d2Psi/ds1^2(c, c)``) pushes
+    back even an element crushed to a point. ``project`` (default) makes the tangent positive semi-definite (the energy
+    has a kink at ``s0 + s1 = 0``); else it is the exact Hessian (a central difference for the third derivative). Only
+    ``ln J``: the spring bounds the energy below only while ``psi_1(s0, c)`` grows slower than ``sqrt(Psi)``; the
+    polynomial models do not, and need no clamping. Where the physical answer has ``s1 < c`` the model departs from it.
     """
 
     rotation_invariant = True
@@ -196,11 +150,9 @@ class ITFClamped:
 
     def __init__(self, material, threshold: float = 0.3, stiffness: float | None = None, project: bool = True):
         if type(material) is not NeoHookean:
-            raise ParameterError(
-                "material", f"material must be the ln J NeoHookean model, got {material!r}: the first-order "
-                "extension is bounded below only while the threshold stress psi_1(s0, c) grows slower than sqrt(Psi) "
-                "as s0 grows (ln J does; the polynomial volumetric terms of the Taylor and stable models and of "
-                "corotated do not, and those models need no clamping: they are finite through inversion)")
+            raise ParameterError("material", f"material must be the ln J NeoHookean model, got {material!r}: "
+                                 "the other models are finite through inversion (and their extension is not "
+                                 "bounded below)")
         c = check_real("threshold", threshold, 0.0, 1.0, lo_open=True, hi_open=True)
         self.base, self.threshold, self.project = material, c, bool(project)
         self.lam, self.mu = material.lam, material.mu
@@ -209,8 +161,8 @@ class ITFClamped:
         self._psi_cc = float(np.asarray(material.energy(D)).ravel()[0])
         self._g_cc = float(np.asarray(material.stress(D))[0, 0, 0])
         self._h01_cc = float(A[0, 0, 1, 1, 0])
-        self.stiffness = check_real("stiffness", A[1, 1, 1, 1, 0] if stiffness is None else stiffness, 0.0,
-                                        lo_open=True)
+        k = A[1, 1, 1, 1, 0] if stiffness is None else stiffness
+        self.stiffness = check_real("stiffness", k, 0.0, lo_open=True)
         self.name = f"ITF-clamped {material.name}"
 
     def __repr__(self):

@@ -1,12 +1,9 @@
 """Linear solver backends behind one small interface, and the policy that decides when to factorize.
 
-Every Newton step solves ``A dx = b`` with ``A`` the condensed tangent (for backward Euler ``M + dt^2 K``: symmetric,
-and positive definite away from buckling); beyond a couple of thousand triangles this solve, not assembly, decides the
-frame rate. A backend has ``factorize(A)``, returning an object whose ``solve(b)`` may be called any number of times,
-and ``backend(A, b) -> x``: :class:`SuperLU` (the default), :class:`Pardiso` (MKL, ``pip install tissuefem[pardiso]``),
-:class:`ReusedFactorization` (a kept factorization as the preconditioner of :func:`pcg`) and :class:`PreconditionedCG`
-(no factorization); :func:`make` builds one by name. Newton calls a :class:`LinearSolver`, which condenses the tangent
-to its free dofs (:class:`Condenser`) and decides when to factorize.
+Every Newton step solves ``A dx = b``, ``A`` the condensed tangent (symmetric; backward Euler's ``M + dt^2 K``); beyond
+a few thousand triangles this solve decides the frame rate. A backend has ``factorize(A)`` (an object with ``solve(b)``)
+and ``backend(A, b) -> x``; :func:`make` builds one by name. Newton calls a :class:`LinearSolver`, which condenses the
+tangent to its free dofs (:class:`Condenser`) and decides when to factorize.
 """
 
 from __future__ import annotations
@@ -73,13 +70,9 @@ class _LUFactor:
 
 
 class SuperLU(_Direct):
-    """SciPy's SuperLU with the column ``ordering`` ``"MMD_AT_PLUS_A"`` (default), ``"COLAMD"`` (SciPy's default),
-    ``"MMD_ATA"`` or ``"NATURAL"``; ``symmetric``: SuperLU's symmetric mode, by default on for the first only.
-
-    The minimum-degree ordering of ``A + A^T`` in symmetric mode (diagonal pivots) halves COLAMD's fill and factorizes
-    1.5-2.5x faster (23 ms against 43 ms at 8k triangles; 173 ms without symmetric mode). If the diagonal pivots fail
-    (a zero pivot, or a poor first residual) it refactorizes with partial pivoting.
-    """
+    """SciPy's SuperLU with the column ``ordering`` (one of ``_ORDERINGS``; SciPy's default is ``"COLAMD"``) and, by
+    default for ``"MMD_AT_PLUS_A"`` only, ``symmetric`` mode (diagonal pivots): half COLAMD's fill, 1.5-2.5x faster
+    (23 ms against 43 ms at 8k triangles). A zero pivot or a poor first residual refactorizes with partial pivoting."""
 
     def __init__(self, ordering: str = "MMD_AT_PLUS_A", symmetric: bool | None = None):
         if ordering not in _ORDERINGS:
@@ -119,11 +112,8 @@ class _PardisoFactor:
 
 
 class Pardiso(_Direct):
-    """MKL PARDISO via the optional ``pypardiso`` package (real nonsymmetric mode, as pypardiso sets it).
-
-    Each :meth:`factorize` uses a fresh pypardiso solver, so a kept factorization is never silently replaced
-    (pypardiso otherwise reuses the factorization of the last matrix it saw when called with the same one).
-    """
+    """MKL PARDISO via the optional ``pypardiso`` package (real nonsymmetric mode). Each :meth:`factorize` uses a fresh
+    pypardiso solver, so a kept factorization is never silently replaced by pypardiso's own reuse."""
 
     name = "pardiso"
 
@@ -154,14 +144,11 @@ class PCGResult:
     negative_curvature: bool = False
 
 
-def pcg(A, b, precondition=None, *, x0=None, atol: float = 0.0, rtol: float = 1e-8, max_iterations: int = 200,
-        should_stop=None) -> PCGResult:
+def pcg(A, b, precondition=None, *, x0=None, atol: float = 0.0, rtol: float = 1e-8,
+        max_iterations: int = 200) -> PCGResult:
     """Preconditioned conjugate gradients for a symmetric ``A``; ``precondition(r)`` applies an approximate inverse.
-
-    Stops when ``||b - A x|| <= max(atol, rtol ||b||)``, after ``max_iterations``, when ``should_stop()`` says so
-    (a time budget), or on *negative curvature* (``p^T A p <= 0`` for a search direction ``p``: ``A`` is not positive
-    definite; ``x`` is then the last iterate, which for ``x0 = 0`` is still a descent direction).
-    """
+    Stops when ``||b - A x|| <= max(atol, rtol ||b||)``, after ``max_iterations``, or on *negative curvature*
+    (``p^T A p <= 0``: ``A`` is not positive definite; ``x`` is the last iterate, for ``x0 = 0`` still downhill)."""
     b = np.asarray(b, dtype=float)
     x = np.zeros_like(b) if x0 is None else np.array(x0, dtype=float, copy=True)
     r = b - A @ x if x0 is not None else b.copy()
@@ -183,7 +170,7 @@ def pcg(A, b, precondition=None, *, x0=None, atol: float = 0.0, rtol: float = 1e
         x += alpha * p
         r -= alpha * Ap
         rnorm = float(np.linalg.norm(r))
-        if not np.isfinite(rnorm) or rnorm <= target or (should_stop is not None and should_stop()):
+        if not np.isfinite(rnorm) or rnorm <= target:
             return PCGResult(x, k, rnorm <= target, rnorm)
         z = precondition(r) if precondition is not None else r
         rz_new = float(r @ z)
@@ -203,18 +190,12 @@ class SolveInfo:
 
 
 class ReusedFactorization:
-    """Conjugate gradients preconditioned by a kept factorization, refreshed when it stops paying.
-
-    The tangent changes slowly along a Newton solve and from frame to frame, so a few CG iterations (one
-    back-substitution each, ~1 ms at 8k triangles) replace a factorization (~20 ms). ``direct`` is the backend that
-    factorizes (default :class:`SuperLU`). A solve needing more than ``refresh_after`` CG iterations marks the
-    factorization stale (the *next* solve refactorizes); one reaching ``max_iterations`` refactorizes and solves
-    directly. ``background``: a solve needing more than ``background_after`` iterations starts a factorization in a
-    thread on the second core (SuperLU releases the interpreter), adopted by the first solve after it has finished;
-    iteration counts then depend on the machine's timing, so it is off by default.
-
-    ``solve(A, b, atol=..., rtol=...)`` returns ``(x, SolveInfo)``, ``backend(A, b)`` ``x`` alone; ``factorizations``
-    (in the foreground), ``background_factorizations`` and ``cg_iterations`` count."""
+    """Conjugate gradients preconditioned by a kept factorization of the ``direct`` backend (default :class:`SuperLU`):
+    the tangent changes slowly, so a few CG iterations (~1 ms each at 8k triangles) replace a factorization (~20 ms).
+    Beyond ``refresh_after`` iterations the *next* solve refactorizes; at ``max_iterations`` this one does.
+    ``background``: beyond ``background_after`` iterations a thread on the second core refactorizes, adopted once
+    finished (iteration counts then depend on timing). ``solve`` returns ``(x, SolveInfo)``; ``factorizations``,
+    ``background_factorizations`` and ``cg_iterations`` count."""
 
     def __init__(self, direct=None, refresh_after: int = 15, max_iterations: int = 40, background: bool = False,
                  background_after: int = 3):
@@ -261,8 +242,8 @@ class ReusedFactorization:
         x = self._factor.solve(b)
         return x, SolveInfo(0, True, bool(np.all(np.isfinite(x))), float(np.linalg.norm(b - A @ x)), reason)
 
-    def solve(self, A, b, *, atol: float = 0.0, rtol: float = 1e-10, refactorize: bool = False,
-              should_stop=None) -> tuple[np.ndarray, SolveInfo]:
+    def solve(self, A, b, *, atol: float = 0.0, rtol: float = 1e-10,
+              refactorize: bool = False) -> tuple[np.ndarray, SolveInfo]:
         A, b = _square(A), _rhs(b, A.shape[0])
         if refactorize:
             return self._refactorize(A, b, "forced")
@@ -274,8 +255,7 @@ class ReusedFactorization:
             self._adopt()
         if self._stale and not self.background:
             return self._refactorize(A, b, "stale")
-        result = pcg(A, b, self._factor.solve, atol=atol, rtol=rtol, max_iterations=self.max_iterations,
-                     should_stop=should_stop)
+        result = pcg(A, b, self._factor.solve, atol=atol, rtol=rtol, max_iterations=self.max_iterations)
         self.cg_iterations += result.iterations
         if result.negative_curvature:
             return self._refactorize(A, b, "negative-curvature")
@@ -310,14 +290,10 @@ class _CGFactor:
 
 
 class PreconditionedCG(_Direct):
-    """Conjugate gradients with a preconditioner built for each matrix (by ``factorize``): ``"jacobi"``, the inverse
-    of the diagonal (free, and weak: the iteration count grows like ``1/h`` here); ``"ilu"``, SciPy's incomplete LU
-    (``spilu``, ``drop_tol``), cheaper than a factorization and much stronger; ``"none"``, plain CG.
-
-    A solve stops at ``rtol`` times the right-hand side's norm or after ``max_iterations`` (default
-    ``max(200, 2 n)``); the factor's ``iterations`` counts CG iterations and ``converged`` says whether every solve
-    reached ``rtol``. An unconverged solve still returns its iterate: Newton checks that it is a descent direction.
-    """
+    """Conjugate gradients with a preconditioner built by ``factorize``: ``"jacobi"`` (the inverse diagonal: free, weak,
+    iterations grow like ``1/h``), ``"ilu"`` (SciPy's ``spilu`` with ``drop_tol``: much stronger) or ``"none"``.
+    A solve stops at ``rtol ||b||`` or after ``max_iterations`` (default ``max(200, 2 n)``) and returns its iterate
+    anyway (Newton checks it is downhill); the factor counts ``iterations`` and whether every solve ``converged``."""
 
     _KINDS = ("jacobi", "ilu", "none")
 
@@ -369,12 +345,8 @@ def make(name: str = "superlu"):
 # --- condensation and the policy Newton uses ------------------------------------------------------
 
 class Condenser:
-    """The free-free block of a sparse matrix: ``K[free][:, free]``, fast for a fixed pattern.
-
-    Matrices assembled into one fixed pattern share their ``indptr``/``indices`` arrays; for those the block is a
-    gather of the data array through a map computed once per pattern and set of free dofs (a few are kept: each grab
-    makes a new set). Any other matrix is sliced.
-    """
+    """The free-free block ``K[free][:, free]`` of a sparse matrix. For a fixed (read-only) pattern it is a gather of
+    the data array through a map computed once per pattern and set of free dofs (the last ``keep`` are kept)."""
 
     def __init__(self, keep: int = 8):
         self.keep = int(keep)
@@ -411,37 +383,25 @@ class LinearInfo:
 
 
 class LinearSolver:
-    """How Newton solves ``A dx = b``: which backend, and when to factorize. ``method`` is one of:
-
-    * ``"direct"``: a fresh :class:`SuperLU` factorization for every solve: exact Newton;
-    * a backend name of :func:`make`: that backend, afresh for every solve;
-    * ``"reuse"`` or ``"reuse-<backend>"``: conjugate gradients preconditioned by a kept factorization
-      (:class:`ReusedFactorization`), refreshed when CG slows down;
-    * ``"reuse-background"``: the same with SuperLU, refreshed on the second core while the frames go on;
-    * ``"constant"`` or ``"constant-<backend>"``: a kept factorization used as it is, without even assembling the
-      tangent again -- exact when the tangent is constant (linear elasticity, springs): one back-substitution;
-    * a backend object (with ``factorize``) or a :class:`ReusedFactorization`.
-
-    A kept factorization is dropped when the free dofs or the pattern change, or by :meth:`invalidate`.
-    """
+    """How Newton solves ``A dx = b``: which backend, and when to factorize. ``method`` is one of ``"direct"`` (a fresh
+    :class:`SuperLU` factorization per solve: exact Newton); a backend name of :func:`make` (that backend, afresh);
+    ``"reuse"``, ``"reuse-<backend>"`` or ``"reuse-background"`` (:class:`ReusedFactorization`); ``"constant"`` or
+    ``"constant-<backend>"`` (a kept factorization used as it is, without assembling the tangent again: exact for a
+    constant tangent); or a backend object. A kept factorization is dropped when the free dofs or the pattern change,
+    or by :meth:`invalidate`."""
 
     def __init__(self, method="reuse"):
         self.method, self.constant = method, False
         if isinstance(method, str):
-            if method == "direct":
-                self.backend = SuperLU()
-            elif method in ("reuse", "constant"):
-                self.backend = ReusedFactorization(SuperLU()) if method == "reuse" else SuperLU()
-                self.constant = method == "constant"
-            elif method == "reuse-background":
-                self.backend = ReusedFactorization(SuperLU(), background=True)
-            elif method.startswith("reuse-"):
-                self.backend = ReusedFactorization(make(method[len("reuse-"):]))
-            elif method.startswith("constant-"):
-                self.backend = make(method[len("constant-"):])
-                self.constant = True
-            elif method in BACKENDS or method == "auto":
-                self.backend = make(method)
+            kind, _, base = method.partition("-")
+            if method == "direct" or method in BACKENDS or method == "auto":
+                self.backend = SuperLU() if method == "direct" else make(method)
+            elif kind in ("reuse", "constant"):
+                background = method == "reuse-background"
+                direct = SuperLU() if method in ("reuse", "constant") or background else make(base)
+                reuse = kind == "reuse"
+                self.backend = ReusedFactorization(direct, background=background) if reuse else direct
+                self.constant = kind == "constant"
             else:
                 raise ParameterError("linear_solver", "linear_solver must be 'direct', 'reuse', 'constant', "
                                      f"'reuse-<backend>', 'constant-<backend>' or a backend "
@@ -487,30 +447,24 @@ class LinearSolver:
         try:
             if self.constant:
                 if self._factor is None:
-                    self._factor = self.backend.factorize(A)
-                    info.factorizations = 1
-                    self.factorizations += 1
-                return np.asarray(self._factor.solve(b), dtype=float), info
-            if isinstance(self.backend, ReusedFactorization):
+                    self._factor, info.factorizations = self.backend.factorize(A), 1
+                dx = np.asarray(self._factor.solve(b), dtype=float)
+            elif isinstance(self.backend, ReusedFactorization):
                 dx, done = self.backend.solve(A, b, atol=atol, rtol=0.0)
                 info.iterations, info.factorizations = done.iterations, int(done.factorized)
-                self.factorizations += info.factorizations
-                if not (np.all(np.isfinite(dx)) and b @ dx > 0) and not done.factorized:
-                    # CG with an old factorization found no descent direction: try a fresh one
-                    dx, done = self.backend.solve(A, b, refactorize=True)
+                if not (np.all(np.isfinite(dx)) and b @ dx > 0) and not done.factorized:  # no descent
+                    dx, _ = self.backend.solve(A, b, refactorize=True)
                     info.factorizations += 1
-                    self.factorizations += 1
-                return dx, info
-            factor = self.backend.factorize(A)
-            dx = np.asarray(factor.solve(b), dtype=float)
-            if hasattr(factor, "iterations"):  # an iterative backend factorizes nothing
-                info.iterations = int(factor.iterations)
             else:
-                info.factorizations = 1
-                self.factorizations += 1
-            return dx, info
+                factor = self.backend.factorize(A)
+                dx = np.asarray(factor.solve(b), dtype=float)
+                iterative = hasattr(factor, "iterations")  # an iterative backend factorizes nothing
+                info.iterations = int(factor.iterations) if iterative else 0
+                info.factorizations = 0 if iterative else 1
         except (RuntimeError, ValueError, np.linalg.LinAlgError, ZeroDivisionError):
-            return None, info
+            dx = None
+        self.factorizations += info.factorizations
+        return dx, info
 
     def __repr__(self):
         return f"LinearSolver({self.method!r})"

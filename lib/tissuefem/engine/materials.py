@@ -1,19 +1,13 @@
 """Two-dimensional hyperelastic materials (plane strain).
 
-Every material maps ``F[i, j] = d phi_i / d X_j``, a 2x2 matrix or a field of them shaped ``[2, 2, *rest]`` (scikit-fem
-hands us ``[2, 2, elements, quadrature points]``), to ``energy(F)`` ``Psi`` (shape ``rest``), ``stress(F)``
-``P = dPsi/dF`` (shape of ``F``) and ``tangent(F)`` ``A[i, j, k, l] = dP_ij / dF_kl`` (shape ``(2, 2, 2, 2) + rest``).
+A material maps ``F[i, j] = d phi_i / d X_j`` shaped ``[2, 2, *rest]`` to ``energy(F)`` ``Psi`` (shape ``rest``),
+``stress(F)`` ``P = dPsi/dF`` and ``tangent(F)`` ``A[i, j, k, l] = dP_ij / dF_kl`` (shape ``(2, 2, 2, 2) + rest``).
 
-Derivations (checked by finite differences in ``tests/engine/test_materials.py``). In 2D ``J = F00 F11 - F01 F10``,
-so ``dJ/dF = cof F = J F^-T = [[F11, -F10], [-F01, F00]]``, and ``cof F`` is *linear* in ``F``:
-``d(cof F)_ij / dF_kl = e_ik e_jl =: H_ijkl`` with the 2D permutation symbol ``e_01 = 1, e_10 = -1``. Hence any
-volumetric energy ``h(J)`` has ``P = h'(J) cof F`` and ``A = h''(J) cof F (x) cof F + h'(J) H``. The term
-``mu/2 (F:F - 2)`` has ``P = mu F`` and ``A = mu I4`` (``I4_ijkl = d_ik d_jl``); the Neo-Hookean family below is
-``mu/2 (F:F - 2) + h(J)`` for three choices of ``h``.
-
-At ``F = I``, ``H_ijkl = d_ij d_kl - d_il d_jk``, so a model with ``h'(1) = -mu`` and ``h''(1) = lam + mu`` linearises
-to the linear-elastic tangent ``lam d_ij d_kl + mu (d_ik d_jl + d_il d_jk)``: each model reduces to linear elasticity
-with the same ``(lam, mu)``.
+Derivations (checked by finite differences in the tests): ``dJ/dF = cof F = J F^-T = [[F11, -F10], [-F01, F00]]`` is
+*linear* in ``F``, ``d(cof F)_ij / dF_kl = e_ik e_jl =: H_ijkl`` (``e_01 = 1, e_10 = -1``), so a volumetric energy
+``h(J)`` has ``P = h'(J) cof F`` and ``A = h''(J) cof F (x) cof F + h'(J) H``; ``mu/2 (F:F - 2)`` has ``P = mu F``,
+``A = mu I4`` (``I4_ijkl = d_ik d_jl``). At ``F = I``, ``H_ijkl = d_ij d_kl - d_il d_jk``, so ``h'(1) = -mu`` and
+``h''(1) = lam + mu`` make a model linearise to linear elasticity ``lam d_ij d_kl + mu (d_ik d_jl + d_il d_jk)``.
 """
 
 from __future__ import annotations
@@ -79,8 +73,7 @@ _HCOF = np.einsum("ik,jl->ijkl", _PERM, _PERM)  # H_ijkl = e_ik e_jl = d(cof F)_
 
 
 class Material(LameMaterial):
-    """Base class: a 2D hyperelastic material with Lamé parameters ``lam`` and ``mu`` (checked by
-    :func:`tissuefem.engine.parameters.check_lame`); subclasses implement ``energy``, ``stress`` and ``tangent``."""
+    """Base class: a 2D hyperelastic material with Lamé parameters ``lam`` and ``mu``."""
 
     #: Only linear elasticity has a meaningful plane-stress reduction by a modified lam.
     _plane_stress_ok = False
@@ -98,13 +91,9 @@ class Material(LameMaterial):
 
 
 class LinearElastic(Material):
-    """Small-strain linear elasticity (the notes' first model).
-
-    ``eps = (F + F^T)/2 - I``, ``Psi = mu eps:eps + lam/2 tr(eps)^2``. Since
-    ``d eps_ab / dF_ij = (d_ai d_bj + d_aj d_bi)/2`` and ``eps`` is symmetric, ``P = 2 mu eps + lam tr(eps) I`` and
-    ``A = lam d_ij d_kl + mu (d_ik d_jl + d_il d_jk)`` (constant). Not frame indifferent (a pure rotation has
-    ``eps != 0``): small deformations only. Finite for every F.
-    """
+    """Small-strain linear elasticity (the notes' first model): ``eps = (F + F^T)/2 - I``,
+    ``Psi = mu eps:eps + lam/2 tr(eps)^2``, ``P = 2 mu eps + lam tr(eps) I``, ``A = lam d_ij d_kl + mu (d_ik d_jl +
+    d_il d_jk)``. Not frame indifferent (a rotation has ``eps != 0``): small deformations only."""
 
     name = "linear"
     _plane_stress_ok = True
@@ -132,9 +121,7 @@ class LinearElastic(Material):
 # --- the Neo-Hookean family: mu/2 (F:F - 2) + h(J) --------------------------------
 
 class _NeoHookeanFamily(Material):
-    """``Psi = mu/2 (F:F - 2) + h(J)``, ``h(1) = 0``: ``P = mu F + h'(J) cof F`` and
-    ``A = mu I4 + h''(J) cof F (x) cof F + h'(J) H`` (module docstring). Subclasses give ``_h(J) = (h, h', h'')``.
-    """
+    """``Psi = mu/2 (F:F - 2) + h(J)``, ``h(1) = 0`` (module docstring); subclasses give ``_h(J) = (h, h', h'')``."""
 
     def _h(self, J):
         raise NotImplementedError
@@ -158,15 +145,10 @@ class _NeoHookeanFamily(Material):
 
 
 class NeoHookean(_NeoHookeanFamily):
-    """The notes' Neo-Hookean model with ``ln J``.
-
-    ``Psi = mu/2 (F:F - 2) - mu ln J + lam/2 (ln J)^2``, i.e. ``h(J) = -mu ln J + lam/2 (ln J)^2``,
-    ``h' = (lam ln J - mu)/J`` and ``h'' = (lam + mu - lam ln J)/J^2``. With ``cof F / J = F^-T`` this is the notes'
-    ``P = mu F + (lam ln J - mu) F^-T``. At ``J = 1``: ``h' = -mu``, ``h'' = lam + mu``, so the small-strain limit is
-    linear elasticity. The notes print ``F_ij F_ji = tr(F F)`` in the energy, which is not frame indifferent
-    (``tr(R R) = 2 cos 2 theta``); their stress ``mu F + ...`` derives from ``F:F``, used here. Undefined for
-    ``J <= 0``: NaN there, without a warning, so a solver can detect inversion.
-    """
+    """The notes' Neo-Hookean model: ``h(J) = -mu ln J + lam/2 (ln J)^2``, ``h' = (lam ln J - mu)/J``,
+    ``h'' = (lam + mu - lam ln J)/J^2``, i.e. the notes' ``P = mu F + (lam ln J - mu) F^-T``. Erratum: the notes print
+    ``F_ij F_ji = tr(F F)`` in the energy, not frame indifferent; their stress derives from ``F:F``, used here.
+    NaN (without a warning) for ``J <= 0``, so a solver can detect inversion."""
 
     name = "neo-Hookean"
     inversion_safe = False
@@ -184,15 +166,11 @@ class NeoHookean(_NeoHookeanFamily):
 
 
 class TaylorNeoHookean(_NeoHookeanFamily):
-    """Neo-Hookean with ``ln J`` replaced by its cubic Taylor polynomial (the notes' robust variant).
-
-    ``r(J) = (J-1) - (J-1)^2/2 + (J-1)^3/3`` (:func:`tissuefem.engine.materials1d.taylor_log`),
-    ``Psi = mu/2 (F:F - 2) - mu r(J) + lam/2 r(J)^2``. So ``h = -mu r + lam/2 r^2``, ``h' = (lam r - mu) r'`` and
-    ``h'' = lam r'^2 + (lam r - mu) r''``: ``P = mu F + (lam r(J) - mu) r'(J) cof F`` with
-    ``cof F = [[F22, -F21], [-F12, F11]]`` (1-based; the notes print the adjugate ``[[F22, -F12], [-F21, F11]]``,
-    which fails the finite-difference check). ``r(1) = 0``, ``r'(1) = 1``, ``r''(1) = -1`` reproduce the Neo-Hookean
-    values at ``J = 1``: linear elasticity in the small-strain limit. Finite for every F.
-    """
+    """Neo-Hookean with ``ln J`` replaced by its cubic Taylor polynomial ``r(J)`` (the notes' robust variant,
+    :func:`~tissuefem.engine.materials1d.taylor_log`): ``h = -mu r + lam/2 r^2``, ``h' = (lam r - mu) r'``,
+    ``h'' = lam r'^2 + (lam r - mu) r''``, so ``P = mu F + (lam r(J) - mu) r'(J) cof F`` with
+    ``cof F = [[F22, -F21], [-F12, F11]]`` (1-based). Erratum: the notes print the adjugate ``[[F22, -F12], [-F21,
+    F11]]``, which fails the finite-difference check. Finite for every F."""
 
     name = "neo-Hookean (cubic r(J))"
 
@@ -203,15 +181,10 @@ class TaylorNeoHookean(_NeoHookeanFamily):
 
 
 class StableNeoHookean(_NeoHookeanFamily):
-    """Stable Neo-Hookean (Smith, de Goes, Kim, ACM TOG 37(2), 2018), 2D form without the log term.
-
-    ``Psi = mu/2 (F:F - 2) + lam_s/2 (J - alpha)^2 - mu^2 / (2 lam_s)`` with ``lam_s = lam + mu`` and
-    ``alpha = 1 + mu / lam_s``; the constant makes ``Psi(I) = 0`` (the paper's has ``Psi(I) = mu^2 / (2 lam_s)``).
-    ``h' = lam_s (J - alpha)``, ``h'' = lam_s``: ``P = mu F + lam_s (J - alpha) cof F``. At ``J = 1``, ``h'(1) = -mu``
-    (rest is stress free: that fixes alpha) and ``h''(1) = lam_s = lam + mu`` (what linearises to linear elasticity with
-    ``(lam, mu)``, module docstring: that fixes lam_s). ``lam_s > 0`` since ``lam > -2 mu / 3``. Finite for every F, no
-    log.
-    """
+    """Stable Neo-Hookean (Smith, de Goes, Kim, ACM TOG 37(2), 2018), 2D, without the log term:
+    ``Psi = mu/2 (F:F - 2) + lam_s/2 (J - alpha)^2 - mu^2 / (2 lam_s)``, ``P = mu F + lam_s (J - alpha) cof F``.
+    ``h'(1) = -mu`` (rest is stress free) fixes ``alpha = 1 + mu / lam_s``, ``h''(1) = lam + mu`` (module docstring)
+    fixes ``lam_s = lam + mu > 0``; the constant makes ``Psi(I) = 0`` (the paper's is ``mu^2 / (2 lam_s)``)."""
 
     name = "stable neo-Hookean"
 
@@ -227,22 +200,14 @@ class StableNeoHookean(_NeoHookeanFamily):
         return h, self.lam_s * d, np.full(J.shape, self.lam_s)
 
 
-#: Below this ``rho = tr S`` the polar rotation is taken as ``R = I`` (see :func:`_polar_rotation`): the
-#: ``sqrt`` of the smallest normal double (~1.5e-154), above which ``1/rho`` is finite and full precision.
+#: Below this ``rho = tr S`` the polar rotation is ``R = I`` (:func:`_polar_rotation`): ``1/rho`` is finite above.
 _RHO_MIN = math.sqrt(np.finfo(float).tiny)
 
 
 def _polar_rotation(F):
-    """The 2D polar rotation of ``F = R S`` as ``(c, s, rho)``: ``R = [[c, -s], [s, c]]``.
-
-    ``R`` maximises ``tr(R^T F) = c (F00 + F11) + s (F10 - F01)`` over rotations, so
-    ``theta = atan2(F10 - F01, F00 + F11)`` and the maximum is ``rho = tr S = hypot(F00 + F11, F10 - F01)``.
-    Stationarity in theta is exactly ``S = R^T F`` symmetric, for every F (also J <= 0, where S is indefinite).
-
-    At ``rho = 0`` the angle is undefined, and near it the rotation turns at a rate ``1/rho`` (the tangent's
-    ``R' (x) R' / rho``). Below :data:`_RHO_MIN` ``1/rho`` overflows (``inf * 0 = NaN``) and ``atan2`` loses precision:
-    there energy, stress and tangent all take ``R = I``, consistently (the energy jumps by at most ``4 mu _RHO_MIN``).
-    """
+    """The 2D polar rotation of ``F = R S`` as ``(R, c, s, rho)``, ``R = [[c, -s], [s, c]]``: ``R`` maximises
+    ``tr(R^T F)``, so ``theta = atan2(F10 - F01, F00 + F11)`` and ``rho = tr S = hypot(F00 + F11, F10 - F01)`` (for
+    every F, also J <= 0). Below :data:`_RHO_MIN` energy, stress and tangent all take ``R = I``."""
     x, y = F[0, 0] + F[1, 1], F[1, 0] - F[0, 1]
     rho, theta = np.hypot(x, y), np.arctan2(y, x)
     c, s = np.cos(theta), np.sin(theta)
@@ -250,48 +215,32 @@ def _polar_rotation(F):
     if np.any(collapsed):
         c = np.where(collapsed, 1.0, c)
         s = np.where(collapsed, 0.0, s)
-    return c, s, rho
+    return np.array([[c, -s], [s, c]]), c, s, rho
 
 
 class Corotated(Material):
-    """Fixed corotated elasticity (Stomakhin, Howes, Schroeder, Teran, SCA 2012).
-
-    ``Psi = mu ||F - R||_F^2 + lam/2 (J - 1)^2`` with ``R`` the rotation of the polar decomposition ``F = R S`` (closed
-    form in 2D, :func:`_polar_rotation`).
-
-    Stress: ``d||F - R||^2 = 2 (F - R):dF - 2 (F - R):dR`` and ``(F - R):dR = (S - I):(R^T dR) = 0`` (symmetric against
-    skew), so ``P = 2 mu (F - R) + lam (J - 1) cof F``. Tangent: ``R`` depends on F only through ``theta``,
-    ``dR = R' dtheta`` with ``R' = dR/dtheta = [[-s, -c], [c, -s]]``. From ``theta = atan2(y, x)``,
-    ``dtheta = (x dy - y dx)/rho^2`` with ``dx/dF = I``, ``dy/dF = [[0, -1], [1, 0]]``, which simplifies to
-    ``dtheta/dF = R'/rho``. Hence ``dR_ij/dF_kl = R'_ij R'_kl / rho`` and
+    """Fixed corotated elasticity (Stomakhin, Howes, Schroeder, Teran, SCA 2012):
+    ``Psi = mu ||F - R||_F^2 + lam/2 (J - 1)^2``, ``R`` the polar rotation (:func:`_polar_rotation`).
+    ``(F - R):dR = (S - I):(R^T dR) = 0`` (symmetric against skew), so ``P = 2 mu (F - R) + lam (J - 1) cof F``; with
+    ``dtheta/dF = R'/rho``, ``R' = dR/dtheta = [[-s, -c], [c, -s]]``, the tangent (at ``F = I`` the linear one) is
 
         A = 2 mu (I4 - R' (x) R' / rho) + lam cof F (x) cof F + lam (J - 1) H.
-
-    At ``F = I``: ``rho = 2``, ``R' = [[0, -1], [1, 0]]`` and ``I4 - R'(x)R'/2 = (I4 + I4^T)/2``, so ``A`` is the
-    linear-elastic tangent. Finite for every finite F (near ``rho = 0``, :func:`_polar_rotation`).
     """
 
     name = "corotated"
 
-    def _parts(self, F):
-        c, s, rho = _polar_rotation(F)
-        R = np.array([[c, -s], [s, c]])
-        return R, c, s, rho
-
     def energy(self, F):
         F = _as_F(F)
-        R, _, _, _ = self._parts(F)
-        D = F - R
+        D = F - _polar_rotation(F)[0]
         return self.mu * np.einsum("ij...,ij...->...", D, D) + 0.5 * self.lam * (det2(F) - 1.0) ** 2
 
     def stress(self, F):
         F = _as_F(F)
-        R, _, _, _ = self._parts(F)
-        return 2.0 * self.mu * (F - R) + self.lam * (det2(F) - 1.0) * cofactor2(F)
+        return 2.0 * self.mu * (F - _polar_rotation(F)[0]) + self.lam * (det2(F) - 1.0) * cofactor2(F)
 
     def tangent(self, F):
         F = _as_F(F)
-        _, c, s, rho = self._parts(F)
+        _, c, s, rho = _polar_rotation(F)
         Rp = np.array([[-s, -c], [c, -s]])
         inv_rho = np.zeros(rho.shape)
         np.divide(1.0, rho, out=inv_rho, where=rho >= _RHO_MIN)  # R = I (constant) below it
@@ -327,9 +276,8 @@ def _check_Fg(F, g):
 
 
 def fiber_invariant(F, g):
-    """``I4 = g^T F^T F g = |F g|^2``, the squared stretch of the unit fibre ``g`` ``(2, ...)`` (broadcasting against
-    ``F.shape[2:]``); a float for one ``F``. The ``fiber_*`` functions check their arguments; the ``*_term`` kernels
-    (which assembly calls on every element) do not. Formulas: :class:`FiberReinforced`."""
+    """``I4 = |F g|^2``, the squared stretch of the unit fibre ``g`` ``(2, ...)``; a float for one ``F``. The
+    ``fiber_*`` functions check their arguments, the ``*_term`` kernels (assembly's) do not."""
     F, g = _check_Fg(F, g)
     I4 = _fiber_kinematics(F, g)[1]
     return float(I4) if I4.ndim == 0 else I4
@@ -373,25 +321,15 @@ def fiber_tangent_term(F, g, k):
 
 
 class FiberReinforced(Material):
-    """An isotropic base material plus a fibre term (the notes' ``Psi_iso + Psi_fiber(g^T F^T F g)``).
+    """An isotropic base material plus a fibre term (the notes' ``Psi_iso + Psi_fiber(g^T F^T F g)``):
 
-    With ``I4 = g^T F^T F g = |F g|^2``, the squared stretch of the unit fibre ``g`` (a material direction),
+        Psi = Psi_base(F) + k/8 (I4 - 1)^2,   I4 = |F g|^2,  a = F g,
+        P_fiber = k/2 (I4 - 1) a (x) g,   A_fiber_ijkl = k a_i g_j a_k g_l + k/2 (I4 - 1) d_ik g_j g_l.
 
-        Psi = Psi_base(F) + k/8 (I4 - 1)^2,
-
-    scaled so that ``k`` *is* the extra small-strain modulus along the fibre: with ``F = I + grad u``,
-    ``I4 - 1 ~ 2 eps_ff`` (``eps_ff = g.eps.g``), so the fibre energy is ``~ k/2 eps_ff^2``, the 1D form ``E/2 eps^2``
-    with modulus k (:meth:`fiber_modulus`). Derivatives, with ``a = F g`` (``dI4/dF = 2 a (x) g``):
-
-        P_fiber = k/2 (I4 - 1) a (x) g,
-        A_fiber_ijkl = k a_i g_j a_k g_l + k/2 (I4 - 1) d_ik g_j g_l.
-
-    At ``F = I``, ``A_fiber = k g (x) g (x) g (x) g``, so ``A_ffff`` gains exactly k. The fibre term resists compression
-    as well as stretch (no tension-only switch).
-
-    ``base`` is any :class:`Material` (another ``FiberReinforced`` adds a second family), ``stiffness`` is ``k >= 0``,
-    ``fibers`` the directions (normalised here) ``(2,)``, ``(2, n_elements)`` or ``(2, n_elements, n_points)``,
-    aligned with the *leading* axes of ``F.shape[2:]``.
+    ``I4 - 1 ~ 2 eps_ff`` for small strain, so ``k`` *is* the modulus added along the fibre (:meth:`fiber_modulus`);
+    it resists compression as well as stretch. ``base``: any :class:`Material` (a ``FiberReinforced`` adds a second
+    family); ``stiffness`` ``k >= 0``; ``fibers`` (normalised here) ``(2,)``, ``(2, n_elements)`` or ``(2, n_elements,
+    n_points)``, aligned with the *leading* axes of ``F.shape[2:]``.
     """
 
     def __init__(self, base: Material, stiffness, fibers):

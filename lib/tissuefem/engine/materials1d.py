@@ -1,17 +1,12 @@
-"""One-dimensional hyperelastic materials (chapters 1 and 2).
+"""One-dimensional hyperelastic materials (chapters 1 and 2): ``F = J = 1 + du/dX``; ``Psi(F)``, ``P = dPsi/dF`` and
+``dP/dF`` on arrays of any shape (checked by finite differences in the tests).
 
-In 1D ``F = dphi/dX = 1 + du/dX`` and ``J = F``. Each material gives ``Psi(F)``, ``P = dPsi/dF`` and ``dP/dF``,
-vectorised over arrays of any shape (scikit-fem hands us ``F`` as ``[elements, quadrature points]``). Derivations
-(checked by finite differences in the tests):
-
-* Linear: with ``eps = F - 1`` the notes' ``mu eps_ij eps_ij + lam/2 eps_kk^2`` is ``(mu + lam/2) eps^2``, so
-  ``P = (2 mu + lam) eps``. The notes print the modulus as ``(2 mu - lam)``: a sign slip (the bar would get *softer*
-  as lam grows, and negative for lam > 2 mu).
-* Neo-Hookean (log J): ``Psi = mu/2 (F^2 - 1) - mu ln F + lam/2 (ln F)^2`` (``Psi(1) = 0``; the 2D energy's constant
-  holds the dimension), ``P = mu F + (lam ln F - mu) / F`` (the notes' formula), ``dP/dF = mu + (mu + lam (1 - ln F))
-  / F^2``, which is ``2 mu + lam`` at ``F = 1``.
-* Cubic Taylor ``r(J)`` of ``ln`` about 1 (the notes' inversion-robust variant, Figure 7): ``P = mu F + (lam r - mu)
-  r'``, ``dP/dF = mu + lam r'^2 + (lam r - mu) r''``.
+* Linear: ``eps = F - 1``, the notes' ``mu eps_ij eps_ij + lam/2 eps_kk^2`` is ``(mu + lam/2) eps^2``, so
+  ``P = (2 mu + lam) eps``. Erratum: the notes print the modulus ``(2 mu - lam)`` (negative for lam > 2 mu).
+* Neo-Hookean: ``Psi = mu/2 (F^2 - 1) - mu ln F + lam/2 (ln F)^2``, ``P = mu F + (lam ln F - mu) / F`` (the notes'),
+  ``dP/dF = mu + (mu + lam (1 - ln F)) / F^2`` (``2 mu + lam`` at ``F = 1``).
+* Cubic Taylor ``r(J)`` of ``ln`` about 1 (the notes' robust variant, Figure 7): ``P = mu F + (lam r - mu) r'``,
+  ``dP/dF = mu + lam r'^2 + (lam r - mu) r''``.
 """
 
 from __future__ import annotations

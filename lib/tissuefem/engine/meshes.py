@@ -1,12 +1,8 @@
 """The 2D domains the chapters use, as scikit-fem triangle meshes, and the one mesh validator (:func:`check_mesh`).
 
-Every generator returns a :class:`skfem.MeshTri` that is deterministic, counter-clockwise (built with ``sort_t=False``:
-scikit-fem's default sorts the vertex indices, which makes the orientation arbitrary) and named on the boundary
-(``mesh.boundaries[name]``, ready for ``basis.get_dofs(name)``). Structured meshes number their nodes row by row:
-node ``j (nx + 1) + i`` sits at column ``i`` and row ``j``.
-
-Limits, checked before anything is allocated: :data:`MAX_TRIANGLES`, :data:`SIZE_RANGE` (lengths),
-:data:`MAX_ASPECT`, :data:`COORDINATE_MAX`.
+Every generator returns a deterministic, counter-clockwise :class:`skfem.MeshTri` (``sort_t=False``: scikit-fem's
+sorting makes the orientation arbitrary) with named boundaries (``mesh.boundaries[name]``). Structured meshes number
+nodes row by row: node ``j (nx + 1) + i`` at column ``i``, row ``j``. The limits below are checked before allocating.
 """
 
 from __future__ import annotations
@@ -75,8 +71,7 @@ def edge_lengths(mesh) -> np.ndarray:
 
 
 def mesh_size(mesh) -> float:
-    """The element size ``h`` of stability limits and convergence rates: the shortest edge (the side of
-    a square cell of :func:`rectangle`)."""
+    """The element size ``h`` of stability limits and convergence rates: the shortest edge."""
     return float(edge_lengths(mesh).min())
 
 
@@ -94,10 +89,8 @@ def signed_areas(mesh) -> np.ndarray:
 
 
 def folded_triangles(p, t) -> np.ndarray:
-    """Pairs of triangles that overlap across their shared edge, shape ``(2, n_pairs)``: both third vertices on the
-    same side of it (whatever the vertex order). Third vertices at the same point are not a fold but two copies of one
-    triangle, each carrying part of its material (a cut through elements makes them at a crack tip): not reported.
-    """
+    """Pairs of triangles ``(2, n_pairs)`` overlapping across their shared edge (both third vertices on one side of
+    it), except copies of one triangle (third vertices at one point: a cut through elements makes them)."""
     p = np.asarray(p, dtype=float)
     key, owner, opposite = _edge_table(np.asarray(t, dtype=np.int64))
     same = np.flatnonzero((key[0, 1:] == key[0, :-1]) & (key[1, 1:] == key[1, :-1]))
@@ -125,16 +118,12 @@ def _edge_table(t: np.ndarray):
 def check_mesh(p, t, name: str = "mesh", *, unused_nodes: str = "refuse", cut: bool = False):
     """Check that ``(p, t)`` is a valid 2D triangle mesh; return ``(p, t)`` as float64 ``(2, n)`` and int64 ``(3, m)``.
 
-    Refused, with a :class:`ParameterError` (field and message start ``name``) listing the offending items: ``p`` not
-    a real ``(2, n)`` array, ``t`` not an integer ``(3, m)`` array (never rounded); no triangle or more than
-    :data:`MAX_TRIANGLES`; node indices outside ``0..n-1``; coordinates not finite or beyond ``+-COORDINATE_MAX``; a
-    mesh smaller than ``SIZE_RANGE[0]``; **unused nodes** (without stiffness or mass every linear system is singular,
-    far from the cause; not dropped, since renumbering would change node indices given elsewhere:
-    ``unused_nodes="ignore"`` lets a file reader report in the file's numbers first); an edge in three triangles (a
-    "fin"); duplicated, degenerate (``|2 area| <= DEGENERATE_TOL * longest_edge^2``) and folded triangles.
-
-    ``cut=True`` (the assemblers) accepts what cutting through elements makes next to a crack tip, fins and
-    overlapping copies of a triangle, and any number of triangles. The orientation is free (scikit-fem sorts nodes).
+    Refused, with a :class:`ParameterError` naming ``name`` and the offending items: ``p`` not a real ``(2, n)``
+    array, ``t`` not an integer ``(3, m)`` array; no triangle or more than :data:`MAX_TRIANGLES`; node indices out of
+    range; coordinates not finite or beyond ``+-COORDINATE_MAX``; a mesh smaller than ``SIZE_RANGE[0]``; **unused
+    nodes** (every linear system would be singular; ``unused_nodes="ignore"`` lets a file reader report in its own
+    numbers first); an edge in three triangles; duplicated, degenerate and folded triangles. ``cut=True`` (the
+    assemblers) accepts what a cut through elements makes (fins, copies of a triangle) and any number of triangles.
     """
     def refuse(message):
         raise ParameterError(name, f"{name}: {message}")
@@ -175,8 +164,23 @@ def check_mesh(p, t, name: str = "mesh", *, unused_nodes: str = "refuse", cut: b
     repeated = np.flatnonzero((tri[0] == tri[1]) | (tri[1] == tri[2]))
     if repeated.size:
         refuse(f"triangles {index_list(repeated)} use the same node twice")
-    if not cut:
-        _refuse_fins_and_copies(tri, t_arr, n, refuse)
+    if not cut:  # an edge in three or more triangles, a triangle listed twice
+        key, owner, _ = _edge_table(t_arr)
+        same = (key[0, 1:] == key[0, :-1]) & (key[1, 1:] == key[1, :-1])
+        fins = np.flatnonzero(same[1:] & same[:-1])  # three equal keys in a row: start index fins + 0
+        if fins.size:
+            a, b = int(key[0, fins[0]]), int(key[1, fins[0]])
+            sharing = owner[(key[0] == a) & (key[1] == b)]
+            count = np.unique(key[0, fins] * np.int64(n) + key[1, fins]).size
+            refuse(f"edge ({a}, {b}) is shared by {sharing.size} triangles {sorted(sharing.tolist())} (a 2D "
+                   f"mesh allows at most 2; a duplicated triangle?); {count} such edge(s) in all")
+        order = np.lexsort(tri[::-1])
+        tri_sorted = tri[:, order]
+        dup = np.flatnonzero((tri_sorted[:, 1:] == tri_sorted[:, :-1]).all(axis=0))
+        if dup.size:
+            i = int(dup[0])
+            refuse(f"triangles {int(order[i])} and {int(order[i + 1])} are the same triangle "
+                   f"{tuple(int(v) for v in tri_sorted[:, i])}; {dup.size} duplicate(s) in all")
     x = p_arr[:, t_arr]
     d1, d2, d3 = x[:, 1] - x[:, 0], x[:, 2] - x[:, 0], x[:, 2] - x[:, 1]
     det = d1[0] * d2[1] - d1[1] * d2[0]
@@ -192,32 +196,12 @@ def check_mesh(p, t, name: str = "mesh", *, unused_nodes: str = "refuse", cut: b
     return p_arr, t_arr
 
 
-def _refuse_fins_and_copies(tri, t, n, refuse) -> None:
-    """Refuse an edge in three or more triangles and a triangle listed twice (``tri``: ``t`` sorted per column)."""
-    key, owner, _ = _edge_table(t)
-    same = (key[0, 1:] == key[0, :-1]) & (key[1, 1:] == key[1, :-1])
-    fins = np.flatnonzero(same[1:] & same[:-1])  # three equal keys in a row: start index fins + 0
-    if fins.size:
-        a, b = int(key[0, fins[0]]), int(key[1, fins[0]])
-        sharing = owner[(key[0] == a) & (key[1] == b)]
-        count = np.unique(key[0, fins] * np.int64(n) + key[1, fins]).size
-        refuse(f"edge ({a}, {b}) is shared by {sharing.size} triangles {sorted(sharing.tolist())} (a 2D mesh allows "
-               f"at most 2; a duplicated triangle?); {count} such edge(s) in all")
-    order = np.lexsort(tri[::-1])
-    tri_sorted = tri[:, order]
-    dup = np.flatnonzero((tri_sorted[:, 1:] == tri_sorted[:, :-1]).all(axis=0))
-    if dup.size:
-        i = int(dup[0])
-        refuse(f"triangles {int(order[i])} and {int(order[i + 1])} are the same triangle "
-               f"{tuple(int(v) for v in tri_sorted[:, i])}; {dup.size} duplicate(s) in all")
-
-
 # --- structured rectangle --------------------------------------------------
 
-def _structured_triangles(nx: int, ny: int, diagonal: str) -> np.ndarray:
-    """Connectivity (3, 2 nx ny) of a structured grid of (nx + 1) x (ny + 1) nodes: cell (i, j) (corners sw, se, ne,
-    nw) gives the counter-clockwise triangles ``2 (j nx + i)`` and ``2 (j nx + i) + 1``, cut sw-ne (``"right"``), se-nw
-    (``"left"``), or sw-ne where ``i + j`` is even and se-nw elsewhere (``"alternate"``: no preferred direction)."""
+def _structured_mesh(x: np.ndarray, y: np.ndarray, nx: int, ny: int, diagonal: str) -> MeshTri:
+    """The grid of (nx + 1) x (ny + 1) nodes at ``(x, y)``: cell (i, j) gives the counter-clockwise triangles
+    ``2 (j nx + i)`` and ``2 (j nx + i) + 1``, cut sw-ne (``"right"``), se-nw (``"left"``), or sw-ne where ``i + j``
+    is even, se-nw elsewhere (``"alternate"``)."""
     i, j = (a.ravel() for a in np.meshgrid(np.arange(nx), np.arange(ny), indexing="xy"))  # cells row by row
     sw = j * (nx + 1) + i
     se, nw, ne = sw + 1, sw + nx + 1, sw + nx + 2
@@ -227,11 +211,7 @@ def _structured_triangles(nx: int, ny: int, diagonal: str) -> np.ndarray:
     second = np.where(cut_sw_ne, np.stack([sw, ne, nw]), np.stack([se, ne, nw]))
     t = np.empty((3, 2 * i.size), dtype=np.int64)
     t[:, 0::2], t[:, 1::2] = first, second
-    return t
-
-
-def _structured_mesh(x: np.ndarray, y: np.ndarray, nx: int, ny: int, diagonal: str) -> MeshTri:
-    return MeshTri(np.vstack([x.ravel(), y.ravel()]), _structured_triangles(nx, ny, diagonal), sort_t=False)
+    return MeshTri(np.vstack([x.ravel(), y.ravel()]), t, sort_t=False)
 
 
 def rectangle(width=1.0, height=1.0, nx=10, ny=10, diagonal="alternate") -> MeshTri:
@@ -253,9 +233,8 @@ def rectangle(width=1.0, height=1.0, nx=10, ny=10, diagonal="alternate") -> Mesh
 
 
 def _grid_for(n_triangles: int, width: float, height: float) -> tuple[int, int]:
-    """(nx, ny) with 2 nx ny closest to n_triangles (within a factor 1.5, at most :data:`MAX_TRIANGLES`) and cells
-    as square as possible: ``nx ~ sqrt(n/2 * aspect)``, capped at ``n/2`` (``ny`` cannot drop below 1, so a strip wider
-    than ``n/2`` would exceed the request by orders of magnitude): such a strip's cells get elongated instead."""
+    """(nx, ny) with 2 nx ny closest to n_triangles (at most :data:`MAX_TRIANGLES`) and cells as square as possible,
+    ``nx ~ sqrt(n/2 * aspect)`` capped at ``n/2`` (a thinner strip gets elongated cells, not more triangles)."""
     aspect = width / height
     half = max(1, n_triangles // 2)
     nx0 = min(half, max(1, round(math.sqrt(n_triangles / 2.0 * aspect))))
@@ -274,8 +253,7 @@ def _grid_for(n_triangles: int, width: float, height: float) -> tuple[int, int]:
 
 
 def mesh_with_about(n_triangles, width=1.0, height=1.0, diagonal="alternate") -> MeshTri:
-    """A :func:`rectangle` of ``width x height`` with about ``n_triangles`` (at most :data:`MAX_TRIANGLES`) triangles,
-    cells close to square; the count is within a factor 1.5 of the request, also for thin strips."""
+    """A :func:`rectangle` with about ``n_triangles`` triangles (within a factor 1.5), cells close to square."""
     n_triangles = check_count("n_triangles", n_triangles, 1, MAX_TRIANGLES)
     width, height = _size("width", width), _size("height", height)
     _check_aspect("width / height", width / height)
@@ -293,8 +271,8 @@ def flap(width=2.0, height=1.0, n_triangles=2000, diagonal="alternate") -> MeshT
 # --- fusiform (spindle-shaped) muscle ---------------------------------------
 
 def fusiform_width(x, length=4.0, max_width=1.0, tendon_width=0.25):
-    """``(w, dw/dx)`` of the fusiform muscle's width ``w(x) = tendon_width + (max_width - tendon_width)
-    sin^2(pi x / length)``: smooth, with ``w' = 0`` at the tendons (no kink) and in the middle; the shape of ``x``."""
+    """``(w, dw/dx)`` of the width ``w(x) = tendon_width + (max_width - tendon_width) sin^2(pi x / length)`` (smooth,
+    ``w' = 0`` at the tendons and in the middle)."""
     x, k = np.asarray(x, dtype=float), math.pi / length
     s, c = np.sin(k * x), np.cos(k * x)
     return tendon_width + (max_width - tendon_width) * s * s, (max_width - tendon_width) * 2.0 * s * c * k
@@ -314,17 +292,10 @@ def _check_fusiform(length, max_width, tendon_width):
 
 
 def fusiform_muscle(length=4.0, max_width=1.0, tendon_width=0.25, nx=40, ny=8, diagonal="alternate") -> MeshTri:
-    """A spindle-shaped (fusiform) muscle belly between two tendons: ``0 <= x <= length``, ``|y| <= w(x) / 2``
-    (:func:`fusiform_width`).
-
-    It is the image of a structured grid on ``(xi, eta) in [0, length] x [-1/2, 1/2]`` under
-    ``(xi, eta) -> (xi, eta w(xi))``, whose Jacobian ``w(xi) > 0`` keeps the triangles counter-clockwise. The grid
-    lines ``eta = const`` become the curves ``y = eta w(x)`` running tendon to tendon: the natural fiber directions
-    (:func:`fusiform_fiber_field`). With ``ny`` even the mesh is its own mirror image about the x-axis.
-
-    Named boundaries: ``"left_tendon"`` (x = 0), ``"right_tendon"`` (x = length), ``"top"`` and ``"bottom"`` (the
-    curved sides).
-    """
+    """A spindle-shaped (fusiform) muscle belly ``0 <= x <= length``, ``|y| <= w(x) / 2`` (:func:`fusiform_width`):
+    the image of a grid on ``[0, length] x [-1/2, 1/2]`` under ``(xi, eta) -> (xi, eta w(xi))`` (Jacobian ``w > 0``),
+    whose lines ``y = eta w(x)`` are the natural fibers (:func:`fusiform_fiber_field`). Boundaries ``"left_tendon"``,
+    ``"right_tendon"``, ``"top"``, ``"bottom"``."""
     length, max_width, tendon_width = _check_fusiform(length, max_width, tendon_width)
     nx, ny = _check_grid(nx, ny, diagonal)
     XI, ETA = np.meshgrid(np.linspace(0.0, length, nx + 1), np.linspace(-0.5, 0.5, ny + 1), indexing="xy")
@@ -342,8 +313,8 @@ def fusiform_muscle(length=4.0, max_width=1.0, tendon_width=0.25, nx=40, ny=8, d
 
 
 def fusiform_fiber_direction(points, length=4.0, max_width=1.0, tendon_width=0.25) -> np.ndarray:
-    """Unit fiber direction of the fusiform muscle at ``points`` ``(2, ...)`` (``x`` from the left tendon): the curve
-    ``y = eta w(x)`` through ``(x, y)`` has ``eta = y / w(x)`` and tangent ``(1, eta w'(x))``, returned normalised."""
+    """Unit fiber direction at ``points`` ``(2, ...)`` (``x`` from the left tendon): the curve ``y = eta w(x)`` through
+    the point has ``eta = y / w(x)`` and tangent ``(1, eta w'(x))``."""
     length, max_width, tendon_width = _check_fusiform(length, max_width, tendon_width)
     pts = check_real_array("points", points)
     if pts.ndim < 1 or pts.shape[0] != 2:
@@ -357,9 +328,8 @@ def fusiform_fiber_direction(points, length=4.0, max_width=1.0, tendon_width=0.2
 
 
 def fusiform_fiber_field(mesh, length=None, max_width=None, tendon_width=None) -> np.ndarray:
-    """Unit fiber directions (2, n_elements) of a :func:`fusiform_muscle` mesh, :func:`fusiform_fiber_direction` at
-    each centroid. ``length``, ``max_width``, ``tendon_width`` left as ``None`` are read off the mesh (its x-extent,
-    y-extent, and the y-extent of the left tendon's nodes): exact for meshes from :func:`fusiform_muscle`."""
+    """Unit fiber directions (2, n_elements) of a :func:`fusiform_muscle` mesh at the centroids; the sizes left
+    ``None`` are read off the mesh (x-extent, y-extent, y-extent of the left tendon's nodes)."""
     p, t = np.asarray(mesh.p, dtype=float), np.asarray(mesh.t)
     if p.ndim != 2 or p.shape[0] != 2 or t.ndim != 2 or t.shape[0] != 3:
         raise ParameterError("mesh", "mesh must be a 2D triangle mesh (p shaped (2, n), t shaped (3, n))")
@@ -378,11 +348,9 @@ def fusiform_fiber_field(mesh, length=None, max_width=None, tendon_width=None) -
 
 @dataclass(frozen=True, eq=False, kw_only=True)
 class MeshMap:
-    """A new ``mesh`` and the maps back to the old one after a topology change (a cut, an excision): what a model
-    needs to carry its terms, handles and state across. ``parent`` ``(n_new_nodes,)``: the old node of each new node
-    (after an excision: the surviving old nodes, increasing); ``elements`` ``(n_new_elements,)``: the old element of
-    each new element; ``n_old_nodes``, ``n_old_elements``: the old sizes; ``weights`` ``(n_new_elements,)``: the share
-    of its triangle's area each new element's material fills (a cut through elements), or None (whole)."""
+    """A new ``mesh`` and the maps back to the old one after a cut or an excision: ``parent``, the old node of each
+    new node; ``elements``, the old element of each new element; the old sizes; ``weights``, the share of its
+    triangle's area each new element's material fills (a cut through elements), or None."""
 
     mesh: MeshTri
     parent: np.ndarray
@@ -392,22 +360,20 @@ class MeshMap:
     weights: np.ndarray | None = None
 
     def contact_surface(self):
-        """The contact surface of the new body where the operation knows it better than the mesh's boundary
-        (a cut through elements: where the material ends), else ``None`` (the boundary is the surface)."""
+        """The new contact surface where the operation knows it better than the boundary (a cut through elements),
+        else ``None``."""
         return None
 
     def transfer(self, values) -> np.ndarray:
-        """Per-node values of the old mesh, shape ``(..., n_old_nodes)``, on the new mesh (a new array,
-        ``(..., n_new_nodes)``): a copy starts with the position, displacement or velocity of its parent."""
+        """Per-node values ``(..., n_old_nodes)`` on the new mesh (a copy starts with its parent's)."""
         return _last_axis(values, self.n_old_nodes, "one entry per old node")[..., self.parent]
 
     def transfer_elements(self, values) -> np.ndarray:
-        """Per-element values of the old mesh, shape ``(..., n_old_elements)``, on the new mesh."""
+        """Per-element values ``(..., n_old_elements)`` on the new mesh."""
         return _last_axis(values, self.n_old_elements, "one entry per old element")[..., self.elements]
 
     def transfer_dofs(self, values) -> np.ndarray:
-        """A vector P1 field in scikit-fem's dof order (node ``n``: dofs ``2 n, 2 n + 1``), ``(..., 2 n_old_nodes)``,
-        on the new mesh."""
+        """A vector P1 field ``(..., 2 n_old_nodes)`` (node ``n``: dofs ``2 n, 2 n + 1``) on the new mesh."""
         v = _last_axis(values, 2 * self.n_old_nodes, "two dofs per old node")
         pairs = v.reshape(v.shape[:-1] + (self.n_old_nodes, 2))
         return pairs[..., self.parent, :].reshape(v.shape[:-1] + (2 * self.parent.size,))

@@ -1,20 +1,17 @@
 """The one minimiser: Newton's method with an energy line search, safeguards, and an optional time budget.
 
-Every solve in tissuefem -- a 1D bar, a load step, a backward-Euler step, a real-time frame -- is a call of
-:func:`newton`: the notes' iteration ("1D elasticity") ``dq/du (u^k) du = -q(u^k)``, ``u^{k+1} = u^k + du`` for the
-residual ``q``. When ``q`` is the gradient of an energy ``E`` (here always: the incremental potential of
-:mod:`tissuefem.engine.stepping`) the safeguards make every step safe:
+Every solve in tissuefem is a call of :func:`newton`, the notes' iteration ``dq/du (u^k) du = -q(u^k)``,
+``u^{k+1} = u^k + du``, with safeguards for when ``q`` is the gradient of an energy ``E``:
 
-* **line search** ``"energy"``: backtracking (Armijo) on ``E``, so an accepted iterate is finite and never worse than
-  the last (at round-off, a step that still lowers the residual is accepted instead); ``"finite"`` only halves until
-  the residual is finite; ``None`` is the notes' plain iteration.
-* **descent**: under the energy line search the direction must point downhill (``q . du < 0``); else the linear
-  solver refactorizes, then the tangent is shifted by ``tau I`` with growing ``tau``, at last steepest descent.
-* **step cap** ``max_step`` and **admissible steps** ``step_limit`` (self-contact), applied before the line search, so
-  no trial point lies beyond them; a **time budget** measured by ``clock``.
+* **line search** ``"energy"``: Armijo backtracking on ``E`` (at round-off, a step that lowers the residual is
+  accepted); ``"finite"`` halves until the residual is finite; ``None`` is the notes' plain iteration.
+* **descent**: under the energy line search a direction that is not downhill (``q . du >= 0``) makes the linear
+  solver refactorize, then the tangent is shifted by ``tau I`` with growing ``tau``, at last steepest descent.
+* **step cap** ``max_step`` and **admissible steps** ``step_limit`` (self-contact) before the line search; a **time
+  budget** measured by ``clock``.
 
-Prescribed dofs are held at their ``x0`` values; a numerical failure never escapes as an exception or a NaN state: it
-is a ``status`` of the result, whose ``x`` is the last accepted iterate.
+A numerical failure never escapes as an exception or a NaN state: it is the result's ``status``, its ``x`` the last
+accepted iterate.
 """
 
 from __future__ import annotations
@@ -256,20 +253,14 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
            budget: float = math.inf, start: float | None = None, energy0: float | None = None,
            energy_floor: float = 0.0, max_halvings: int = 30,
            step_limit: Callable[[np.ndarray, np.ndarray], float] | None = None) -> NewtonResult:
-    """Minimise ``energy`` (or find a zero of ``gradient``) over the ``free`` dofs by Newton's method.
-
-    ``x0`` ``(n,)`` is the start (dofs not ``free``, a mask or indices, are held); ``gradient(x) -> (n,)`` the residual
-    ``q``, ``hessian(x)`` its sparse Jacobian, ``energy(x)`` ``E`` with ``q = dE/dx`` (``energy0 = E(x0)`` if known).
-
-    Converged when ``||q_free|| <= max(atol + rtol max(||q_free(x0)||, reference_norm), floor)``: ``reference_norm`` is
-    the size of the load balanced when ``x0`` is already a good guess (a tiny start residual would ask for more than
-    round-off allows), ``floor`` the residual's round-off level; energy changes below ``energy_floor`` are not trusted.
-
-    ``max_iterations``, ``max_step`` (largest change of one dof per iteration) and ``max_halvings`` cap the work;
-    ``linear`` is the linear-solve policy (default: a fresh direct factorization each iteration); ``safe_hessian(x)``,
-    a positive semi-definite Hessian (a projected tangent), is tried before the diagonal shift. ``budget`` seconds are
-    measured by ``clock`` from ``start`` (default: now). ``step_limit(x, dx)`` is the admissible fraction in ``[0, 1]``
-    of ``dx``; a step with none ends the solve as ``"blocked"``.
+    """Minimise ``energy`` (or zero ``gradient``, ``q``) over the ``free`` dofs (a mask or indices; the others keep
+    their ``x0`` values); ``hessian(x)``: the sparse Jacobian of ``q``; ``energy0 = E(x0)`` if known. Converged when
+    ``||q_free|| <= max(atol + rtol max(||q_free(x0)||, reference_norm), floor)``: ``reference_norm`` the size of the
+    balanced load (for a good ``x0``), ``floor`` the round-off level; energy changes below ``energy_floor`` are not
+    trusted. ``max_step`` caps one dof's change per iteration; ``linear``: the linear-solve policy (default: a fresh
+    direct factorization); ``safe_hessian(x)``: a positive semi-definite Hessian tried before the shift; ``budget``
+    seconds by ``clock`` from ``start`` (default: now); ``step_limit(x, dx)``: the admissible fraction of ``dx``
+    (none: ``"blocked"``).
     """
     x, max_step, max_iterations, max_halvings, budget = _checked(
         x0, {"gradient": gradient, "hessian": hessian, "energy": energy, "clock": clock, "safe_hessian": safe_hessian},
@@ -308,7 +299,10 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
         A = linear.matrix(lambda: hessian(x), mask)
         if k >= 1 and out_of_time():
             return result("budget", k)
-        dx_free, info = linear.solve(A, rhs, atol=_forcing(rnorm, r0, target))
+        # inexact Newton: an iterative solve may stop at eta ||q||, eta = min(1e-3, ||q|| / ||q0||) (quadratic
+        # convergence stays), never below a third of the target
+        eta = min(1e-3, rnorm / r0) if r0 > 0 else 1e-3
+        dx_free, info = linear.solve(A, rhs, atol=max(eta * rnorm, 0.3 * target))
         stats["linear"] += info.iterations
         stats["factorizations"] += info.factorizations
         dx_free, shift = _descent(dx_free, A, rhs, x, mask, hessian, safe_hessian, linear, line_search, stats)
@@ -338,10 +332,3 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
         history.append(NewtonIteration(k, rnorm, step_norm, alpha, E, shift, info.iterations))
         x, g, rnorm = x_new, g_new, rn_new
     return result("max-iterations", max_iterations)  # pragma: no cover - the loop returns
-
-
-def _forcing(rnorm, r0, target):
-    """Inexact Newton: the absolute residual an iterative linear solve must reach, shrinking with the residual
-    (``rnorm / r0``, capped at 1e-3: convergence stays quadratic), never below a third of the target."""
-    eta = min(1e-3, rnorm / r0) if r0 > 0 else 1e-3
-    return max(eta * rnorm, 0.3 * target)

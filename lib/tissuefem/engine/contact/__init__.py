@@ -1,11 +1,10 @@
 """Self-contact of the boundary: surfaces that touch, press, slide, and never pass through each other.
 
 :class:`Contact` (:mod:`.term`) is a term of the incremental potential whose Hessian couples nodes no element couples
-(two lips of a wound), *which* changing as the body moves: the model's pattern is rebuilt (~4 ms at 8k triangles) only
-when a pair appears that it lacks (:meth:`Contact.covers`). Newton's line search and the stepper's warm start take at
-most :meth:`Contact.max_step` of a step, so no state on the far side of a surface is reached; handles dragging tissue
-through tissue are obeyed and the crossings counted (:meth:`Contact.begin_step`). The pieces: :mod:`.surface`,
-:mod:`.barrier`, :mod:`.candidates` (signed gaps; which pairs may touch), :mod:`.collision` (times of impact).
+(two lips of a wound); the model's pattern is rebuilt only when a pair appears that it lacks (:meth:`Contact.covers`).
+Newton and the stepper take at most :meth:`Contact.max_step` of a step, so no state beyond a surface is reached;
+handles dragging tissue through tissue are obeyed and the crossings counted (:meth:`Contact.begin_step`). The pieces:
+:mod:`.surface`, :mod:`.barrier`, :mod:`.candidates` (signed gaps, pairs), :mod:`.collision` (times of impact).
 References:
 
 .. [1] M. Li et al., *Incremental Potential Contact: intersection- and inversion-free, large-deformation dynamics*,

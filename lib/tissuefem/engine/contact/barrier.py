@@ -1,24 +1,21 @@
 """The one-sided barrier on signed gaps, and the derivatives of a gap with respect to its points.
 
-Incremental Potential Contact (IPC) [1] puts a barrier ``-(d - d^)^2 ln(d / d^)`` on the unsigned distance ``0 < d <
-d^`` of a point to a segment: surfaces never touch. But a wound's lips *coincide* the moment it is cut, and a closed
-wound must stay closed without force. So the gap ``sigma`` is *signed* (negative behind the surface) and the barrier
-acts on the inside, IPC's barrier moved inward by ``d^`` (the "thickness" of codimensional IPC [2], opposite sign):
+IPC [1] puts a barrier ``-(d - d^)^2 ln(d / d^)`` on the unsigned distance ``0 < d < d^``: surfaces never touch. But
+a wound's lips *coincide* when cut, and a closed wound must stay closed without force, so the gap ``sigma`` is
+*signed* (negative behind the surface) and the barrier acts inside, IPC's moved inward by ``d^`` (codimensional IPC's
+"thickness" [2], opposite sign):
 
     E = kappa * sum_(points p) sum_(stretches of surface near p) l_p d^ beta(1 + (sigma + o_p) / d^),
     beta(zeta) = -(zeta - 1)^2 ln(zeta)   for 0 < zeta < 1,   beta = 0 for zeta >= 1,
 
-with ``o_p`` the point's rest offset (:mod:`.candidates`) and ``l_p`` its share of the surface length at rest, so
-``kappa`` is a pressure (``kappa |beta'(1 - delta / d^)|`` at an overlap ``delta``, ``kappa`` at ``delta = 0.46 d^``).
-``beta``, ``beta'``, ``beta''`` vanish at ``zeta = 1`` (lips that touch feel nothing) and ``beta -> infinity`` as
-``zeta -> 0``. Not a penalty with a no-crossing check: Newton would push a point against the collision detection's
-limit step after step (each cut to 0.8 of the way, never converging); a barrier turns the minimiser back on its own.
-With the force ``-kappa l_p beta'(zeta) dsigma/dy`` on the points, the Hessian is
+``o_p`` the point's rest offset (:mod:`.candidates`), ``l_p`` its share of the rest surface length, so ``kappa`` is a
+pressure (reached at an overlap of ``0.46 d^``). ``beta``, ``beta'``, ``beta''`` vanish at ``zeta = 1`` (touching lips
+feel nothing). A barrier, not a penalty with a no-crossing check, which would push a point against the collision
+limit step after step without converging. With ``y`` the points, the Hessian is
 
     d2E/dy2 = kappa l_p [ beta''(zeta) / d^ (dsigma/dy)(dsigma/dy)^T  +  beta'(zeta) d2sigma/dy2 ],
 
-with ``beta'' >= 0``, ``beta' <= 0`` and ``d2sigma/dy2`` (the turning of the normal) indefinite: the *safe* Hessian
-(the minimiser's fallback) keeps the first, positive semi-definite part. (References: :mod:`tissuefem.engine.contact`.)
+``beta'' >= 0``, ``beta' <= 0``, ``d2sigma/dy2`` indefinite: the *safe* Hessian keeps the first part.
 """
 
 import numpy as np

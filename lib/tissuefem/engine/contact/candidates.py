@@ -1,26 +1,21 @@
 """Which (point, segment) pairs may touch: their signed gaps, the neighbourhoods left out, owners, the Verlet list.
 
-With ``e = y_b - y_a``, ``w = y_p - y_a`` and ``t = w . e / |e|^2``, the gap of a point ``p`` to a segment ``(a, b)``
-is, for ``0 < t < 1``, ``sigma = cross(w, e) / |e|`` (the distance to the line, signed by the outward normal); else
-the distance ``|y_p - y_v|`` to that end ``v``, negative when ``(y_p - y_v) . n_v < 0`` with the corner's
-*pseudonormal* ``n_v`` (the mean of its segments' normals): the signed distance to a polygon [3]. Of each run of
-segments within ``d^`` of a point only the nearest, its *owner*, counts: the gap stays continuous where the nearest
-feature changes, a point in a convex corner is counted once, and slivers of a cut are handled like any segment. It
-jumps (rare, open: the line search stops there) where the pseudonormal's sign flips.
+With ``e = y_b - y_a``, ``w = y_p - y_a``, ``t = w . e / |e|^2``, the gap of a point ``p`` to a segment ``(a, b)`` is
+``sigma = cross(w, e) / |e|`` for ``0 < t < 1``; else the distance to that end ``v``, negative when
+``(y_p - y_v) . n_v < 0`` with ``n_v`` the corner's *pseudonormal* (the mean of its segments' normals): the signed
+distance to a polygon [3]. Of each run of segments within ``d^`` of a point only the nearest, its *owner*, counts, so
+the gap stays continuous where the nearest feature changes (it jumps, rarely, where a pseudonormal's sign flips).
 
-A point is not paired with segments less than ``2 d^`` from it along the surface at rest (nor their neighbours), else
-a cut's lip, a chain of pieces shorter than ``d^``, would touch itself once it bends. The walk stops at a corner that
-turned back into the material at rest (a crack tip), where each lip's first point is paired with the other's first
-segment (a *hinge*) while the corner turns by over 90 degrees: a crack pressed shut up to its tip does not overlap.
-Coinciding lips are at ``sigma = 0``: in contact, without force. Where the surface lies closer than ``d^`` to itself at
-rest, a point's wall is moved by its depth there, its *rest offset* ``o_p`` (one per point: the energy stays
-continuous). A pair whose point is behind its wall when a step *starts* (and not near the segment's neighbours, along
-which it may slide into its ownership) is ignored until the step ends: the far side of a thin body, or tissue a handle
-dragged through tissue.
+A point is not paired with segments less than ``2 d^`` from it along the rest surface, else a cut's lip would touch
+itself once it bends; the walk stops at a crack tip (a corner turned back into the material), where each lip's first
+point is paired with the other's first segment (a *hinge*) while the corner turns by over 90 degrees. Coinciding lips
+are at ``sigma = 0``: in contact, without force. Where the surface lies closer than ``d^`` to itself at rest, a
+point's wall is moved by its *rest offset* ``o_p``. A pair whose point is behind its wall when a step *starts* is
+ignored until the step ends (the far side of a thin body, tissue dragged through tissue).
 
-The broad phase is a Verlet list [4] of the pairs closer than ``reach + skin`` (from a k-d tree of the points and the
-segments' midpoints), valid while the points move less than ``skin / 2`` *relative to each other* (a rigid drag
-refreshes nothing). A pair's *key* is ``p * n_segments + s``; lists are sorted by it. (References: the package.)
+The broad phase is a Verlet list [4] of the pairs closer than ``reach + skin`` (a k-d tree of the points and the
+segments' midpoints), valid while the points move less than ``skin / 2`` relative to each other. A pair's *key* is
+``p * n_segments + s``; lists are sorted by it.
 """
 
 import numpy as np

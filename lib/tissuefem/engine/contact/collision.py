@@ -1,11 +1,10 @@
 """Continuous collision detection: how far a step may go before a point reaches a wall.
 
-The barrier is infinite only in the skin: a long step could carry a point past it, where the energy is zero again.
-With the points moving linearly, ``y(tau) = y0 + tau dy``, a point's time of impact is the first ``tau`` in ``[0, 1]``
-at which it reaches a *wall* of a segment that owns it then: the segment's line moved inward by ``d^``, ``cross(w(tau),
-e(tau)) = -d^ |e(tau)|`` (squared: a quartic, solved only for the pairs a conservative quadratic bound flags), or the
-circle of radius ``d^`` round an end, ``|y_p(tau) - y_v(tau)|^2 = d^2``. A step is cut to :data:`SAFETY` of the
-earliest, IPC's safety factor [1] (:mod:`tissuefem.engine.contact`).
+A long step could carry a point past the skin, where the barrier is zero again. With ``y(tau) = y0 + tau dy``, a
+point's time of impact is the first ``tau`` in ``[0, 1]`` at which it reaches a *wall* of a segment owning it then:
+the line moved inward by ``d^``, ``cross(w, e) = -d^ |e|`` (squared: a quartic, solved where a quadratic bound says
+it may be reached), or the circle ``|y_p - y_v| = d^`` round an end. A step is cut to :data:`SAFETY` of the earliest
+(IPC's safety factor [1], :mod:`tissuefem.engine.contact`).
 """
 
 import numpy as np

@@ -1,10 +1,9 @@
 """The contact surface: points that are fixed linear combinations of nodes, and the segments between them.
 
-A boundary node is a point of one node with weight 1; a point on the lip of a cut through an element
-(:mod:`tissuefem.surgery.element_cuts`) the barycentric combination of the nodes of the element copy that carries that
-lip. A segment ``(a, b)`` has the material on its *left* (counter-clockwise round it), so its outward normal is the
-tangent turned clockwise, ``n = (e_y, -e_x) / |e|`` with ``e = y_b - y_a``. The vector helpers (on coordinates stored
-as (2, ...) arrays) are shared by the other contact modules.
+A boundary node is a point of one node with weight 1; a point on the lip of a cut through an element the barycentric
+combination of the element copy's nodes (:mod:`tissuefem.surgery.element_cuts`). A segment ``(a, b)`` has the material
+on its *left*, so its outward normal is ``n = (e_y, -e_x) / |e|``, ``e = y_b - y_a``. The vector helpers (on (2, ...)
+coordinate arrays) serve the other contact modules.
 """
 
 import numpy as np
@@ -36,15 +35,13 @@ def _refused(field, message) -> ParameterError:
 
 
 class ContactSurface:
-    """Points (linear combinations of nodes) and the segments between them, material on each segment's left.
-
-    Point ``i`` is ``sum_j weights[i, j] * x[:, nodes[i, j]]`` (``nodes``, ``weights`` shaped (n_points, k), unused
-    slots weighing 0); ``segments`` (2, n_segments) are the points ``(a, b)`` of each segment; ``wound`` flags those on
-    a wound's lips. ``next`` / ``previous``: the segment that starts where this one ends (ends where it starts), -1 if
-    none or several; ``neighbourhood`` (n_segments, 4): its ends and its neighbours' far ends; ``hinge_points``,
-    ``hinge_segments``, ``hinge_corner``: at each corner (``hinge_corner`` the segment ending there), the far end of
-    each segment against the other (at a crack tip: one lip's first point against the other's first segment).
-    """
+    """Points and the segments between them, material on each segment's left. Point ``i`` is
+    ``sum_j weights[i, j] * x[:, nodes[i, j]]`` (``nodes``, ``weights`` (n_points, k), unused slots weighing 0);
+    ``segments`` (2, n_segments): the points ``(a, b)`` of each; ``wound`` flags those on a wound's lips. ``next`` /
+    ``previous``: the segment starting where this one ends (ending where it starts), -1 if none or several;
+    ``neighbourhood`` (n_segments, 4): its ends and its neighbours' far ends; ``hinge_points``, ``hinge_segments``,
+    ``hinge_corner``: at each corner (``hinge_corner`` the segment ending there), each segment's far end against the
+    other segment."""
 
     def __init__(self, nodes, weights, segments, n_nodes, wound=None):
         self.n_nodes = check_count("contact.surface.n_nodes", n_nodes)

@@ -12,13 +12,10 @@ from .surface import ContactSurface, segment_distance
 
 
 class Contact(Term):
-    """Self-contact of a :class:`ContactSurface`: a one-sided barrier in the skin behind it.
-
-    ``X`` (2, n_nodes): the reference node positions; ``distance``: ``d^``, the depth of the skin in which pressure
-    builds up (the largest overlap allowed), at most half the median segment length; ``stiffness``: ``kappa``, a
-    pressure (at an overlap of about ``0.46 d^``); ``skin``: the Verlet list's margin (default: the median segment
-    length). ``pairs``: the :class:`~.candidates.CandidatePairs`; ``offset``: the points' rest offsets.
-    """
+    """Self-contact of a :class:`ContactSurface` at the reference node positions ``X`` (2, n_nodes): a one-sided
+    barrier in the skin behind it. ``distance``: ``d^``, the skin's depth (the largest overlap), at most half the
+    median segment length; ``stiffness``: ``kappa``, a pressure; ``skin``: the Verlet list's margin (default: the
+    median segment length). ``pairs``: the :class:`~.candidates.CandidatePairs`; ``offset``: the rest offsets."""
 
     name = "contact"
     has_safe_hessian = True
@@ -58,9 +55,8 @@ class Contact(Term):
         self._coupled = self._covered = np.zeros(0, dtype=np.int64)
 
     def remap(self, meshmap) -> "Contact":
-        """This contact on the new mesh of a :class:`~tissuefem.engine.meshes.MeshMap` (a cut, an excision): the same
-        distance, stiffness and skin setting (a default skin is again the new surface's median segment length), on
-        the surface the change knows (``meshmap.contact_surface()``), else on the new mesh's boundary."""
+        """This contact (same settings) on the new mesh of a :class:`~tissuefem.engine.meshes.MeshMap`, on the
+        surface the change knows (``meshmap.contact_surface()``), else on the new mesh's boundary."""
         if not isinstance(meshmap, MeshMap):
             raise ParameterError("meshmap", f"meshmap must be a MeshMap, got {type(meshmap).__name__}")
         surface = meshmap.contact_surface() or ContactSurface.from_mesh(meshmap.mesh)
@@ -181,9 +177,8 @@ class Contact(Term):
         return bool(np.all(self._covered[at] == keys))
 
     def begin_step(self, u, previous=None) -> int:
-        """Start a step at ``u``; returns how many points are through the surface: those the handles' motion from
-        ``previous`` carried through a wall, while they stay behind it (less than the segment's length deep: farther,
-        the sign of a gap says nothing)."""
+        """Start a step at ``u``; returns how many points the handles' motion from ``previous`` carried through a
+        wall and that stay behind it (less than the segment's length deep: farther, a gap's sign says nothing)."""
         Y = self._points(u)
         self.pairs.start_step(Y)
         through_p, through_s = self._through
