@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from skfem import MeshTri
 
-from ..engine.assembly import check_weights
+from ..engine.parameters import ParameterError, check_weights, show
 
 __all__ = ["EPS", "FULL_TOUCH", "WHOLE", "Region", "mesh_arrays", "node_positions", "check_points",
            "pair_keys", "element_edges", "new_mesh", "carry_names", "polygon_contains", "cross", "snap", "edges_of",
@@ -65,16 +65,13 @@ def check_points(name: str, value, min_points: int) -> np.ndarray:
     try:
         a = np.asarray(value)
     except (TypeError, ValueError):
-        raise ValueError(f"{name} must be an array of points shaped (k, 2), got {value!r}") from None
+        a = np.asarray(None)  # ragged: refused below
     if a.dtype.kind not in "iuf":
-        raise ValueError(f"{name} must be an array of real points shaped (k, 2), got dtype {a.dtype}")
+        raise ParameterError(name, f"{name} must be an array of real points shaped (k, 2), got {show(value)}")
     a = a.astype(float)
-    if a.ndim != 2 or a.shape[1] != 2:
-        raise ValueError(f"{name} must be an array of points shaped (k, 2), got shape {a.shape}")
-    if a.shape[0] < min_points:
-        raise ValueError(f"{name} needs at least {min_points} points, got {a.shape[0]}")
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"{name} must be finite, got NaN or inf in {a.tolist()}")
+    if a.ndim != 2 or a.shape[1] != 2 or a.shape[0] < min_points or not np.all(np.isfinite(a)):
+        raise ParameterError(name, f"{name} must be at least {min_points} finite points shaped (k, 2), "
+                                   f"got {show(value)} (shape {a.shape})")
     return a
 
 

@@ -148,11 +148,13 @@ def duplicate_along_edges(t, n_nodes, edges):
 
 
 # --- pieces, picking nodes ---
-def connected_components(t, n_nodes):
-    """The pieces of a mesh ``t (3, m)`` with ``n_nodes`` nodes: ``(n_pieces, labels (n_nodes,))``, the pieces numbered
-    in the order of their lowest node (a node used by no triangle is a piece of its own)."""
+def connected_components(t, n_nodes, links=None):
+    """The pieces of a mesh ``t (3, m)`` with ``n_nodes`` nodes, joined also by the node pairs ``links (2, k)``:
+    ``(n_pieces, labels (n_nodes,))``, numbered in the order of their lowest node (an unused node is a piece)."""
     t, n_nodes = _triangles(t, n_nodes)
     rows, cols = np.concatenate([t[0], t[1]]), np.concatenate([t[1], t[2]])  # two edges of each triangle suffice
+    if links is not None:
+        rows, cols = np.concatenate([rows, links[0]]), np.concatenate([cols, links[1]])
     graph = sp.coo_matrix((np.ones(rows.size), (rows, cols)), shape=(n_nodes, n_nodes))
     n, labels = csgraph.connected_components(graph, directed=False)
     return int(n), labels.astype(np.int64)
