@@ -1,52 +1,41 @@
 """Cutting through elements: the virtual node algorithm in 2D.
 
-:func:`~tissuefem.surgery.topology.incise` snaps a stroke to mesh edges, so the wound is jagged and depends on the
-mesh. Here the stroke is followed exactly, without remeshing, by the *virtual node algorithm* of Molino, Bao and Fedkiw
-[1]_: every triangle the cut separates is duplicated, one copy per piece of its material; every copy keeps the
-triangle's reference geometry (hence its P1 shape functions) and carries only the material of its piece; vertices whose
-material a copy does not hold become extra ("virtual") nodes.
+:func:`~tissuefem.surgery.topology.incise` snaps a stroke to mesh edges: the wound is jagged and depends on the mesh.
+Here the stroke is followed exactly, without remeshing, by the *virtual node algorithm* of Molino, Bao and Fedkiw
+[1]_: every triangle the cut separates is duplicated, one copy per piece of its material; each copy keeps the
+triangle's reference geometry (hence its P1 shape functions) and carries only its piece; vertices whose material a
+copy does not hold become extra ("virtual") nodes.
 
-The construction in 2D
-----------------------
-1. **Where the stroke lies.** The stroke is drawn on the deformed tissue. The P1 map of a triangle is affine, so each
-   segment ``a -> b`` is clipped against each triangle in barycentric coordinates, keeping the ``s`` with
-   ``lambda_i(a) + s (lambda_i(b) - lambda_i(a)) >= 0``. First, a stroke passing within 1e-6 of an edge length of a
-   node is moved onto it, once for the whole mesh, so that neighbouring triangles never disagree about that node.
-2. **The material of an element** is a :class:`Region`: the polygon it fills, its *slits* and *severed* edge parts; its
-   weight (the polygon's share of the triangle) is what :class:`~tissuefem.engine.assembly.P1Assembler` integrates.
-3. **Splitting an element.** The region's boundary, its slits and the new pieces of the stroke form a planar graph.
-   Dangling edges (a crack ending in the material) are pruned and kept as slits; the faces of what remains are the
-   pieces of material: ``k`` faces give ``k`` copies of the element, each with one face as its region.
-4. **Nodes.** Two elements on the two sides of a mesh edge are *joined* where the parts of the edge their regions touch
-   (less what is severed) overlap over a positive length; joined elements share the edge's two nodes. The nodes of the
-   new mesh are the classes of corners (element, vertex) under these joins: a copy whose material lies away from a
-   vertex gets a virtual node there, shared with every copy on its side of the cut it is joined to. A cut along a mesh
-   edge needs no split: severing the edge stops the join.
-5. **The crack tip.** The triangle holding the end of a crack is one piece of material, so (as in [1]_) it is not
-   duplicated: the crack in it is a slit, and the two copies it enters through, both joined to it, differ only at their
-   third vertex. The crack closes within one element of the drawn tip, the resolution of P1 with virtual nodes
-   (phantom-node methods [3]_ make the same choice).
-6. **No slivers.** A piece lighter than ``min_weight`` is merged into its neighbour across the cut and the parts of the
-   triangle's edges that bounded it are severed instead: the cut's topology is snapped onto the element's edges (by
-   less than the sliver's width), while the :class:`Wound` stays where the stroke was drawn.
-7. **One element per set of nodes.** Copies of one triangle with the same three nodes hold connected material (e.g. the
-   corners outside a V-shaped crack): they are one element, whose region may have several polygons.
+1. **Where the stroke lies.** The stroke is drawn on the deformed tissue; the P1 map of a triangle is affine, so each
+   segment ``a -> b`` is clipped in barycentric coordinates, keeping ``lambda_i(a) + s (lambda_i(b) - lambda_i(a))
+   >= 0``. A stroke within 1e-6 edge lengths of a node is first moved onto it, so that neighbours agree about it.
+2. **The material of an element** is a :class:`Region`: the polygon it fills, its *slits* and *severed* edge parts;
+   its weight (the polygon's share of the triangle) is what :class:`~tissuefem.engine.assembly.P1Assembler`
+   integrates.
+3. **Splitting.** The region's boundary, its slits and the stroke's new pieces form a planar graph; dangling edges (a
+   crack ending in the material) are pruned and kept as slits; its ``k`` faces are ``k`` copies of the element.
+4. **Nodes.** Two elements across a mesh edge are *joined* where the parts of the edge their regions touch (less what
+   is severed) overlap over a positive length; joined elements share the edge's nodes. The new nodes are the classes
+   of corners (element, vertex) under these joins. A cut along a mesh edge needs no split: severing stops the join.
+5. **The crack tip.** The triangle holding the end of a crack is one piece, so (as in [1]_) it is not duplicated: the
+   crack in it is a slit. The crack closes within one element of the drawn tip, the resolution of P1 with virtual
+   nodes (phantom-node methods [3]_ make the same choice).
+6. **No slivers.** A piece lighter than ``min_weight`` is merged into its neighbour across the cut and the parts of
+   the triangle's edges that bounded it are severed instead (the :class:`Wound` stays where the stroke was drawn).
+7. **One element per set of nodes.** Copies of one triangle with the same three nodes (e.g. the corners outside a
+   V-shaped crack) are one element, whose region may have several polygons.
 
-Cuts through vertices and along edges need no special case: the clipping keeps pieces on a triangle's edge and drops
-pieces of zero length; this generalisation of [1]_ is that of Wang et al. [2]_.
+Cuts through vertices and along edges need no special case (the generalisation of Wang et al. [2]_). Uncut elements
+and old nodes keep their index and vertex order; the first piece of a cut element keeps its index, the other pieces
+and the virtual nodes are appended. Nodal masses from the material areas (:func:`lumped_mass`) carry mass and
+momentum over exactly.
 
-References
-----------
 .. [1] N. Molino, Z. Bao, R. Fedkiw, *A virtual node algorithm for changing mesh topology during simulation*, ACM
    Transactions on Graphics 23(3) (SIGGRAPH 2004), 385-392.
 .. [2] Y. Wang, C. Jiang, C. Schroeder, J. Teran, *An adaptive virtual node algorithm with robust mesh cutting*,
    Symposium on Computer Animation 2014.
 .. [3] J.-H. Song, P. M. A. Areias, T. Belytschko, *A method for dynamic crack and shear band propagation with phantom
    nodes*, International Journal for Numerical Methods in Engineering 67 (2006), 868-893.
-
-Uncut elements and old nodes keep their index (and vertex order); the first piece of a cut element keeps its index, the
-other pieces and the virtual nodes are appended. Nodal masses from the material areas (:func:`lumped_mass`) carry mass
-and momentum over exactly.
 """
 
 from __future__ import annotations

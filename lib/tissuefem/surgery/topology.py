@@ -1,11 +1,10 @@
 """Mesh topology operations for virtual surgery: cutting along mesh edges (:func:`incise`, built from
 :func:`cut_path` and :func:`duplicate_along_edges`) and removing tissue (:func:`excise`).
 
-A cut along mesh edges duplicates every node on the cut as often as the cut separates its neighbourhood; a defect
-deletes whole triangles. Both return a new mesh as a :class:`MeshEdit` (``parent``: new node -> old node, ``elements``:
-new element -> old element), so that a per-node field ``u`` carries over as ``u[..., parent]``. The new meshes keep
-every element's vertex order (scikit-fem's re-sorting would reorder exactly the triangles along the wound, whose copies
-get the highest indices) and their named boundaries.
+A cut duplicates every node on it as often as it separates the node's neighbourhood; an excision deletes whole
+triangles. Both return a :class:`MeshEdit` (``parent``: new node -> old node, ``elements``: new element -> old), so
+that a per-node field ``u`` carries over as ``u[..., parent]``; the new meshes keep every element's vertex order
+(scikit-fem's re-sorting would reorder the triangles along the wound) and their named boundaries.
 """
 
 from __future__ import annotations
@@ -67,18 +66,16 @@ def _triangles(t, n_nodes):
 def duplicate_along_edges(t, n_nodes, edges):
     """Duplicate nodes so that the given edges open: the core of a cut.
 
-    ``t`` (3, m) are the triangles (not modified) of a mesh with ``n_nodes`` nodes; ``edges`` (2, k) the node pairs to
-    open, in either order, each an edge of some triangle (repeats are fine; ``k = 0`` changes nothing). Returns
-    ``(new_t, parent)``: ``new_t`` (3, m) int64 keeps the triangles and their vertex order, only the indices of
-    duplicated nodes change; ``parent`` (n_nodes + n_copies,) is ``i`` for the old nodes, and the copies are appended
-    (``n_nodes, n_nodes + 1, ...``) pointing to the node they copy.
+    ``t`` (3, m): the triangles (not modified) of a mesh with ``n_nodes`` nodes; ``edges`` (2, k): the node pairs to
+    open, each an edge of some triangle (in either order, repeats allowed). Returns ``(new_t, parent)``: ``new_t``
+    (3, m) keeps the triangles and their vertex order with the copies' indices; ``parent`` (n_nodes + n_copies,) maps
+    every node (the copies appended) to the old node.
 
-    The triangles round a node ``v`` on a cut edge fall into *fans*, linked where two share an uncut edge ``(v, x)``;
-    each fan is one side of the wound. Where ``j`` cut edges meet, an interior node's ring breaks into ``j`` fans, a
-    boundary node's into ``j + 1``: the middle of a cut through gets one copy, the tip of a crack none (a crack is
-    closed at its tips), and a single interior edge opens nothing. The fan holding the lowest triangle keeps the node;
-    the others get new nodes in the order (node, lowest triangle of the fan). All fans are found at once, as the
-    connected components of the graph of the cut nodes' *corners* (triangle, vertex) linked across uncut edges.
+    The triangles round a node on a cut fall into *fans* linked across uncut edges, one per side of the wound: where
+    ``j`` cut edges meet, an interior node's ring breaks into ``j`` fans, a boundary node's into ``j + 1`` (the tip of
+    a crack stays closed; a single interior edge opens nothing). The fan with the lowest triangle keeps the node, the
+    others get new nodes in the order (node, lowest triangle). The fans are the connected components of the graph of
+    the cut nodes' *corners* (triangle, vertex) linked across uncut edges.
     """
     t, n_nodes = _triangles(t, n_nodes)
     m = t.shape[1]
@@ -187,9 +184,9 @@ def _segment_distance(px, py, ax, ay, bx, by):
 
 
 def _boundary_snap(x, t, bfacets, end, towards):
-    """The boundary node where a polyline from ``end`` towards ``towards`` enters the body, if ``end`` lies outside or
-    within half a facet of the boundary ``bfacets`` (2, nb) (else ``None``): the nearer end of the first facet crossed,
-    or the boundary node nearest to ``end``."""
+    """If ``end`` lies outside or within half a facet of the boundary ``bfacets`` (2, nb), the boundary node where a
+    polyline from it towards ``towards`` enters the body (the nearer end of the first facet crossed, or the boundary
+    node nearest to ``end``); else ``None``."""
     A, B = x[:, bfacets[0]], x[:, bfacets[1]]
     dist = _segment_distance(end[0], end[1], A[0], A[1], B[0], B[1])
     nearest = int(np.argmin(dist))
@@ -222,16 +219,14 @@ def _boundary_snap(x, t, bfacets, end, towards):
 
 
 def cut_path(mesh, polyline, positions=None) -> np.ndarray:
-    """The path of mesh nodes that follows a drawn ``polyline`` (k, 2), k >= 2.
+    """The path of mesh nodes (int64) that follows a ``polyline`` (k, 2), k >= 2, drawn at ``positions``.
 
-    The polyline is drawn where the nodes are now, ``positions`` (2, n_nodes) (default ``mesh.p``). Returns node
-    indices (int64); consecutive entries are the ends of a mesh edge, or two copies of one material point (crossing an
-    old wound). Each polyline vertex snaps to the nearest node; an *endpoint* outside the body (or within about half an
-    edge of its boundary) snaps to the boundary node where its segment crosses the boundary, so a stroke across the
-    body cuts it through. Between snapped nodes the path is a shortest path (Dijkstra) over the mesh edges, each
-    costing ``length * (1 + 10 d / h)`` (``d`` the mean distance of its nodes from the drawn segment, ``h`` the median
-    edge length): it hugs the line within about one element. ``ValueError`` for a bad polyline, one that collapses
-    to a single node, or one that joins two unconnected pieces.
+    Consecutive nodes are the ends of a mesh edge, or two copies of one point (crossing an old wound). Each vertex of
+    the polyline snaps to the nearest node; an *end* outside the body (or within half an edge of its boundary) snaps to
+    the boundary node where it enters, so a stroke across the body cuts it through. Between them runs a shortest path
+    (Dijkstra) over the mesh edges, each costing ``length * (1 + 10 d / h)`` (``d``: the mean distance of its nodes
+    from the drawn segment, ``h``: the median edge length): it hugs the line within about one element. ``ValueError``
+    for a bad polyline, one that collapses to a single node, or one that joins two unconnected pieces.
     """
     pts = check_points("polyline", polyline, 2)
     p, t = mesh_arrays(mesh)
@@ -307,14 +302,10 @@ def _opened(mesh, parent, interior_keys, n_old) -> np.ndarray:
 
 
 def incise(mesh, polyline, positions=None) -> MeshEdit:
-    """Cut ``mesh`` (not modified) along a drawn polyline.
-
-    The polyline becomes a path of mesh edges (:func:`cut_path`), opened by duplicating nodes
-    (:func:`duplicate_along_edges`); a stroke that ends inside the body leaves a crack whose tip stays closed. Returns
-    a :class:`MeshEdit` in the reference configuration (``p`` is ``mesh.p[:, parent]``) whose ``elements`` is
-    ``arange(m)``; the two faces of the wound are named ``"cut"``. ``ValueError`` for a bad polyline, or one that
-    opens no edge (it runs along the boundary, or is a single edge inside the body).
-    """
+    """Cut ``mesh`` (not modified) along the path of mesh edges (:func:`cut_path`) of a drawn polyline, opened by
+    :func:`duplicate_along_edges` (a crack's tip stays closed). Returns a :class:`MeshEdit` (reference coordinates,
+    ``elements`` is ``arange(m)``) whose wound's faces are named ``"cut"``. ``ValueError`` for a bad polyline, or one
+    that opens no edge (along the boundary, or a single edge inside the body)."""
     p, t = mesh_arrays(mesh)
     n = p.shape[1]
     path = cut_path(mesh, polyline, positions)
@@ -340,14 +331,10 @@ def incise(mesh, polyline, positions=None) -> MeshEdit:
 
 
 def excise(mesh, region, positions=None) -> MeshEdit:
-    """Remove the triangles of ``mesh`` (not modified) whose centroid lies in ``region`` (a defect).
-
-    ``region`` is a polygon (k, 2), k >= 3 (even-odd rule), or a function ``centroids (2, m) -> bool (m,)``, True for
-    the triangles to remove; the centroids are taken at ``positions`` (2, n_nodes) (default ``mesh.p``). Returns a
-    :class:`MeshEdit`: unused nodes are dropped and the rest keep their order (``parent`` is increasing), the surviving
-    triangles keep theirs, and the rim of the hole is named ``"defect"``. ``ValueError`` if ``region`` is not a valid
-    polygon or mask, or selects no element or every element.
-    """
+    """Remove the triangles of ``mesh`` (not modified) whose centroid (at ``positions``) lies in ``region``: a polygon
+    (k, 2), k >= 3 (even-odd rule), or a function ``centroids (2, m) -> bool (m,)``. Returns a :class:`MeshEdit`:
+    unused nodes dropped, the rest and the triangles kept in order, the rim named ``"defect"``. ``ValueError`` for a
+    bad polygon or mask, or one that selects no element or every element."""
     p, t = mesh_arrays(mesh)
     x = node_positions(mesh, positions)
     m = t.shape[1]
