@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..engine.meshes import mean_edge_length
 from ..engine.parameters import check_count, check_positive, string
 from .scene import Scene
 from .simulation import Simulation
@@ -135,7 +136,7 @@ def _close_flap(scene, *, in_flap, motion, edges, method, tighten_frames, settle
     snapshots = {"cut": _snapshot(sim)}
     mesh = sim.mesh
     flap = in_flap(_material_points(sim))
-    edge = float(np.mean(np.hypot(*(mesh.p[:, mesh.facets[0]] - mesh.p[:, mesh.facets[1]]))))
+    edge = mean_edge_length(mesh)
     if not np.any(flap):
         raise ValueError("the flap holds no triangle: make the mesh finer or the flap larger")
     if method == "edges":

@@ -20,7 +20,7 @@ from ..engine.effects import EFFECTS, factory
 from ..engine.meshes import MeshMap
 from ..engine.model import Handle, Model, region_nodes
 from ..engine.parameters import (PENALTY_MAX, RADIUS_RANGE, ParameterError, check_count, check_reach, check_vector,
-                                 number, penalty)
+                                 number, penalty, string)
 from ..engine.realtime import RealtimeSolver
 from ..engine.terms import Sutures
 from . import element_cuts, topology
@@ -303,7 +303,7 @@ class Simulation:
         (``method="elements"``, :func:`~tissuefem.surgery.element_cuts.cut_through`) or snapped to mesh edges
         (``"edges"``, :func:`~tissuefem.surgery.topology.incise`). Each copy of a node keeps its displacement and
         velocity. Returns the edit (a :class:`~tissuefem.engine.meshes.MeshMap`)."""
-        operation = _operation("incisions", method)
+        operation = _OPERATIONS["incisions"][string("method", method, _OPERATIONS["incisions"])]
         points = check_points("polyline", polyline, 2)
         for i, q in enumerate(points):
             self._point(f"polyline[{i}]", q)
@@ -314,7 +314,7 @@ class Simulation:
         (``method="elements"``) or the triangles whose centroid lies inside (``"edges"``), or a mask on centroids."""
         if callable(region):
             return self._apply_edit(topology.excise, region, "region")
-        operation = _operation("excisions", method)
+        operation = _OPERATIONS["excisions"][string("method", method, _OPERATIONS["excisions"])]
         region = check_points("region", region, 3)
         for i, q in enumerate(region):
             self._point(f"region[{i}]", q)
@@ -586,13 +586,6 @@ def _point_end(mesh, x, point, weights, regions):
 #: the operation of each method of an excision and an incision
 _OPERATIONS = {"excisions": {"elements": element_cuts.excise_through, "edges": topology.excise},
                "incisions": {"elements": element_cuts.cut_through, "edges": topology.incise}}
-
-
-def _operation(kind, method):
-    operation = _OPERATIONS[kind].get(method) if isinstance(method, str) else None
-    if operation is None:
-        raise ValueError(f"method must be 'elements' or 'edges', got {method!r:.100}")
-    return operation
 
 
 def _end_key(nodes, weights):

@@ -16,6 +16,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import csgraph
 
+from ..engine.contact.surface import segment_distance
 from ..engine.meshes import MeshMap
 from ..engine.parameters import ParameterError, check_bounded_vector, check_count, check_real, check_real_array
 from .geometry import (carry_names, check_points, cross, mesh_arrays, new_mesh, node_positions, pair_keys,
@@ -175,20 +176,12 @@ def nodes_near(positions, point, radius):
 
 
 # --- the path of a cut ---
-def _segment_distance(px, py, ax, ay, bx, by):
-    """Distance from points (px, py) to segments (a, b); broadcasts."""
-    dx, dy = bx - ax, by - ay
-    L2 = dx * dx + dy * dy
-    s = np.clip(((px - ax) * dx + (py - ay) * dy) / np.where(L2 > 0.0, L2, 1.0), 0.0, 1.0)
-    return np.hypot(px - ax - s * dx, py - ay - s * dy)
-
-
 def _boundary_snap(x, t, bfacets, end, towards):
     """If ``end`` lies outside or within half a facet of the boundary ``bfacets`` (2, nb), the boundary node where a
     polyline from it towards ``towards`` enters the body (the nearer end of the first facet crossed, or the boundary
     node nearest to ``end``); else ``None``."""
     A, B = x[:, bfacets[0]], x[:, bfacets[1]]
-    dist = _segment_distance(end[0], end[1], A[0], A[1], B[0], B[1])
+    dist = segment_distance(end[:, None], A, B)
     nearest = int(np.argmin(dist))
     length = np.hypot(*(B[:, nearest] - A[:, nearest]))
     # inside (or on) a triangle where its three sub-areas at ``end`` have the sign of the whole (either orientation)
@@ -267,7 +260,7 @@ def cut_path(mesh, polyline, positions=None) -> np.ndarray:
         if src == dst:
             continue
         (ax, ay), (bx, by) = pts[k], pts[k + 1]
-        d = _segment_distance(x[0], x[1], ax, ay, bx, by)
+        d = segment_distance(x, pts[k][:, None], pts[k + 1][:, None])
         cost = length * (1.0 + _HUG * 0.5 * (d[ends[0]] + d[ends[1]]) / h)
         # a floor keeps zero-length links (copies at the same place) in the graph
         cost = np.maximum(cost, 1e-12 * h)
