@@ -188,23 +188,13 @@ def advancement_flap(*, width=4.0, height=2.0, n_triangles=3000, defect=(1.2, 0.
                      contact=False) -> FlapResult:
     """Excise a rectangular defect, cut an advancement flap beside it, pull it in, and report the tension.
 
-    Parameters
-    ----------
-    width, height, n_triangles
-        The skin patch ``[0, width] x [0, height]``, held on all four outer edges.
-    defect
-        ``(x, y, w, h)``: the defect's lower-left corner and size.
-    flap_length
-        How far the two incisions run from the defect's right edge (the flap is ``h`` wide, attached at its far end).
-        Longer flaps stretch less: the classic advancement-flap trade-off.
-    tighten_frames, settle_frames
-        Frames over which the stitches are tightened from slack to closed (each solved to tolerance), then frames
-        run after that.
-    method
-        ``"elements"`` (default): the defect and the incisions are cut through the elements along the drawn lines, with
-        stitches on the wound's edges about one per mesh edge length. ``"edges"``: the defect is the triangles whose
-        centroids fall inside it, the incisions snap to mesh edges and the stitches tie wound nodes (the jagged,
-        mesh-dependent version, to compare).
+    The skin patch ``[0, width] x [0, height]`` (``n_triangles``) is held on its four outer edges; ``defect`` ``(x, y,
+    w, h)`` is the defect's lower-left corner and size; the two incisions run ``flap_length`` from its right edge (the
+    flap is ``h`` wide, attached at its far end: longer flaps stretch less, the classic trade-off). The stitches are
+    tightened from slack to closed over ``tighten_frames`` (each solved to tolerance), then ``settle_frames`` run.
+    ``method="elements"`` cuts through the elements along the drawn lines, with stitches on the wound's edges about
+    one per mesh edge length; ``"edges"`` removes the triangles whose centroids fall in the defect, snaps the incisions
+    to mesh edges and ties wound nodes (the jagged, mesh-dependent version, to compare).
     """
     method = string("method", method, ("elements", "edges"))
     x0, y0, w, h = (float(v) for v in defect)

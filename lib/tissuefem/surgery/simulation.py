@@ -34,18 +34,10 @@ __all__ = ["Simulation", "Stitches"]
 class Simulation:
     """A scene, built and running: frames, and the surgical operations between them.
 
-    Parameters
-    ----------
-    scene : Scene
-    clock
-        Seconds (default :func:`time.perf_counter`); tests pass a fake clock.
-    linear_solver
-        Overrides the scene's ``solver.linear_solver``.
-    constant_tangent
-        Run a quadratic model with the ``"constant"`` linear solver (one factorization per set of held dofs);
-        ``False`` forces the general Newton loop (to measure what the shortcut saves).
-    order, intorder
-        The model's elements (cuts and excisions need P1) and quadrature degree.
+    ``clock``: seconds (tests pass a fake one); ``linear_solver`` overrides the scene's; ``constant_tangent``: run a
+    quadratic model with the ``"constant"`` linear solver (one factorization per set of held dofs; ``False`` forces
+    the general Newton loop, to measure what that saves); ``order``, ``intorder``: the model's elements (cuts and
+    excisions need P1) and quadrature degree.
     """
 
     def __init__(self, scene: Scene, *, clock=time.perf_counter, linear_solver=None, constant_tangent=True,

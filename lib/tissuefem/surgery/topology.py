@@ -39,8 +39,9 @@ class MeshEdit(MeshMap):
     cut_edges: np.ndarray
 
 
-def _index_array(name: str, value, rows: int) -> np.ndarray:
-    """``value`` as an int64 array shaped ``(rows, k)``; integral floats are accepted."""
+def _node_indices(name: str, value, rows: int, n_nodes: int) -> np.ndarray:
+    """``value`` as an int64 array shaped ``(rows, k)`` of node indices in ``[0, n_nodes)`` (integral floats, e.g.
+    read from a text file, are accepted)."""
     try:
         a = np.asarray(value)
     except Exception as exc:  # ragged lists and the like
@@ -49,19 +50,15 @@ def _index_array(name: str, value, rows: int) -> np.ndarray:
         raise ValueError(f"{name} must be an integer array shaped ({rows}, k), got shape {a.shape}")
     if a.size == 0:
         return np.zeros((rows, a.shape[1]), dtype=np.int64)
-    if a.dtype.kind not in "iuf":
-        raise ValueError(f"{name} must hold integer node indices, got dtype {a.dtype}")
-    if a.dtype.kind == "f" and not (np.all(np.isfinite(a)) and np.all(a == np.round(a))):  # e.g. read from a text file
-        raise ValueError(f"{name} must hold integer node indices, got non-integral values")
-    return a.astype(np.int64)
-
-
-def _triangles(t, n_nodes):
-    """Checked ``(t (3, m) int64, n_nodes)``: every index in ``t`` is a node."""
-    n_nodes, t = check_count("n_nodes", n_nodes, 0), _index_array("t", t, 3)
-    if t.size and (t.min() < 0 or t.max() >= n_nodes):
-        raise ValueError(f"t must hold node indices in [0, n_nodes) = [0, {n_nodes}), got range [{t.min()}, {t.max()}]")
-    return t, n_nodes
+    if a.dtype.kind not in "iuf" or (a.dtype.kind == "f"
+                                     and not (np.all(np.isfinite(a)) and np.all(a == np.round(a)))):
+        raise ValueError(f"{name} must hold integer node indices, got {a.dtype} values")
+    a = a.astype(np.int64)
+    if a.min() < 0 or a.max() >= n_nodes:
+        bad = int(np.flatnonzero(((a < 0) | (a >= n_nodes)).any(axis=0))[0])
+        raise ValueError(f"{name} must hold node indices in [0, n_nodes) = [0, {n_nodes}), got column {bad} = "
+                         f"{a[:, bad].tolist()}")
+    return a
 
 
 def duplicate_along_edges(t, n_nodes, edges):
@@ -78,16 +75,12 @@ def duplicate_along_edges(t, n_nodes, edges):
     others get new nodes in the order (node, lowest triangle). The fans are the connected components of the graph of
     the cut nodes' *corners* (triangle, vertex) linked across uncut edges.
     """
-    t, n_nodes = _triangles(t, n_nodes)
+    n_nodes = check_count("n_nodes", n_nodes, 0)
+    t, edges = _node_indices("t", t, 3, n_nodes), _node_indices("edges", edges, 2, n_nodes)
     m = t.shape[1]
-    edges = _index_array("edges", edges, 2)
     parent = np.arange(n_nodes, dtype=np.int64)
     if edges.shape[1] == 0:
         return t.copy(), parent
-    if edges.min() < 0 or edges.max() >= n_nodes:
-        bad = int(np.flatnonzero((edges < 0).any(axis=0) | (edges >= n_nodes).any(axis=0))[0])
-        raise ValueError(f"edges: column {bad} = ({edges[0, bad]}, {edges[1, bad]}) is out of the node range "
-                         f"[0, {n_nodes})")
 
     flat = t.ravel()  # corner -> node: corner i m + e is vertex i of triangle e
     ci = np.arange(3 * m, dtype=np.int64)
@@ -149,7 +142,8 @@ def duplicate_along_edges(t, n_nodes, edges):
 def connected_components(t, n_nodes, links=None):
     """The pieces of a mesh ``t (3, m)`` with ``n_nodes`` nodes, joined also by the node pairs ``links (2, k)``:
     ``(n_pieces, labels (n_nodes,))``, numbered in the order of their lowest node (an unused node is a piece)."""
-    t, n_nodes = _triangles(t, n_nodes)
+    n_nodes = check_count("n_nodes", n_nodes, 0)
+    t = _node_indices("t", t, 3, n_nodes)
     rows, cols = np.concatenate([t[0], t[1]]), np.concatenate([t[1], t[2]])  # two edges of each triangle suffice
     if links is not None:
         rows, cols = np.concatenate([rows, links[0]]), np.concatenate([cols, links[1]])
