@@ -59,9 +59,8 @@ __all__ = ["Region", "Wound", "ElementCut", "cut_through", "excise_through", "Pi
 
 #: A stroke closer than this (times the median edge length) to a node is moved onto it (step 1 above).
 _NODE_SNAP = 1e-6
-#: Default smallest share of its triangle a piece may carry (``min_weight``). A corner piece's share is the product
-#: of the fractions of the two edges it cuts off, so this snaps a cut passing within about 3 % of an element of a
-#: vertex; copies this light still give a well-conditioned tangent.
+#: Default smallest share of its triangle a piece may carry (``min_weight``): a corner piece's share is the product of
+#: the fractions of the edges it cuts off, so this snaps a cut within about 3 % of a vertex (still well-conditioned).
 MIN_WEIGHT = 1e-3
 
 _P, _S, _C = 0, 1, 2  # the kinds of edge of an element's planar graph: region boundary, old slit, new cut
@@ -512,16 +511,12 @@ def _one_element_per_nodes(arr, ids, faces, triples):
 
 
 def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_weight=MIN_WEIGHT) -> ElementCut:
-    """Cut ``mesh`` (not modified) along a drawn polyline through its elements (the virtual node algorithm).
-
-    ``polyline`` (k, 2), k >= 2, is drawn where the nodes are now, ``positions`` (2, n_nodes) (default ``mesh.p``);
-    triangles collapsed to a segment there are not cut. It may end inside the body (a crack), on its boundary or
-    outside it. A mesh cut before passes its ``weights`` (n_elements,) (default 1) and ``regions`` (or ``regions``
-    alone: the weights follow); :meth:`ElementCut.cut` passes both. No piece may carry less than ``min_weight`` in
-    [0, 0.5) of its triangle (step 6). Named boundaries go to the facets whose material touched them, subdomains to
-    every copy. ``ValueError`` for bad arguments, or a stroke that changes nothing (it meets no material, or only runs
-    along the body's boundary or an existing wound).
-    """
+    """Cut ``mesh`` (not modified) through its elements along a ``polyline`` (k, 2), k >= 2 (the virtual node
+    algorithm), drawn at ``positions`` (default ``mesh.p``; triangles collapsed there are not cut); it may end inside
+    the body (a crack). A mesh cut before passes its ``weights`` and ``regions`` (:meth:`ElementCut.cut` does). No
+    piece carries less than ``min_weight`` in [0, 0.5) of its triangle (step 6). Named boundaries go to the facets
+    whose material touched them, subdomains to every copy. ``ValueError`` for bad arguments, or a stroke that changes
+    nothing (it meets no material, or runs only along the boundary or an existing wound)."""
     p, t = mesh_arrays(mesh)
     n, m = p.shape[1], t.shape[1]
     x = node_positions(mesh, positions)
@@ -615,15 +610,12 @@ def _number_nodes(t, n, key, side, affected, piece_ids, touched):
     for k, e, kk, s in zip(sel_k.tolist(), sel_e.tolist(), key[sel_k, sel_e].tolist(), side[sel_k, sel_e].tolist()):
         sides.setdefault(kk, ([], []))[0 if s > 0 else 1].append((e, k))
 
-    uf = {}
+    uf = {}  # union-find of the joined corners (provisional id, local vertex): a root is its class's least corner
 
     def find(c):
-        root = c
-        while uf.get(root, root) != root:
-            root = uf[root]
-        while uf.get(c, c) != root:
-            uf[c], c = root, uf[c]
-        return root
+        while uf.get(c, c) != c:
+            c = uf[c]
+        return c
 
     def along(pid, k, forward):  # touched intervals, run from the edge's lower node to its higher
         iv = touched.get(pid, FULL_TOUCH)[k]
@@ -864,10 +856,9 @@ FIRM_WEIGHT = 0.25
 
 
 def firm_anchor(mesh, element, barycentric, positions=None, weights=None, regions=None, firm=FIRM_WEIGHT):
-    """``(element, barycentric)`` of a point of the material, moved to an element carrying at least ``firm`` of its
-    triangle. A stitch pulling at a thin sliver would stretch it (its virtual nodes hold almost nothing) instead of the
-    tissue: the point goes to the firm neighbour (sharing a node) whose material lies nearest, by that element's P1
-    map extended to it (barycentric coordinates may be slightly negative)."""
+    """``(element, barycentric)`` of a point of the material, moved to a neighbour (sharing a node) carrying at least
+    ``firm`` of its triangle whose material lies nearest, by its P1 map extended (barycentric coordinates may be
+    slightly negative): a stitch pulling at a sliver would stretch it (its virtual nodes hold almost nothing)."""
     p, t = mesh_arrays(mesh)
     w = element_weights(weights, t.shape[1])
     best, best_d = (element, np.asarray(barycentric, dtype=float)), math.inf
