@@ -610,7 +610,7 @@ def _number_nodes(t, n, key, side, affected, piece_ids, touched):
     for k, e, kk, s in zip(sel_k.tolist(), sel_e.tolist(), key[sel_k, sel_e].tolist(), side[sel_k, sel_e].tolist()):
         sides.setdefault(kk, ([], []))[0 if s > 0 else 1].append((e, k))
 
-    uf = {}  # union-find of the joined corners (provisional id, local vertex): a root is its class's least corner
+    uf = {}  # union-find of the joined corners; a root is the least corner of its class
 
     def find(c):
         while uf.get(c, c) != c:

@@ -51,8 +51,8 @@ def node_positions(mesh, positions) -> np.ndarray:
         return p
     x = check_real_array("positions", positions)
     if x.shape != p.shape or not np.all(np.isfinite(x)):
-        raise ParameterError("positions", f"positions must be finite and shaped (2, n_nodes) = {p.shape}, got "
-                                          f"shape {x.shape}")
+        raise ParameterError("positions", f"positions must be finite and shaped (2, n_nodes) = {p.shape}, "
+                                          f"got shape {x.shape}")
     return x
 
 

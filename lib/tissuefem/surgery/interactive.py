@@ -47,10 +47,8 @@ _VIEWS: weakref.WeakSet = weakref.WeakSet()
 
 
 def _cell_origin():
-    """Which notebook cell is running, and which run of it: ``(cell, execution count)``, or ``None``.
-
-    The cell is the id the front-end sends with each execution (JupyterLab and nbclient do), else its source.
-    """
+    """Which notebook cell is running, and which run of it: ``(cell, execution count)``, or ``None``; the cell is the
+    id the front-end sends with each execution (JupyterLab and nbclient do), else its source."""
     shell = get_ipython()
     if shell is None:
         return None

@@ -19,8 +19,8 @@ from ..engine import meshes
 from ..engine.effects import EFFECTS, factory
 from ..engine.meshes import MeshMap
 from ..engine.model import Handle, Model, region_nodes
-from ..engine.parameters import (PENALTY_MAX, RADIUS_RANGE, ParameterError, check_count, check_reach, check_vector,
-                                 number, penalty, string)
+from ..engine.parameters import (PENALTY_MAX, RADIUS_RANGE, ParameterError, check_count, check_reach,
+                                 check_vector, number, penalty, string)
 from ..engine.realtime import RealtimeSolver
 from ..engine.terms import Sutures
 from . import element_cuts, topology
@@ -155,8 +155,8 @@ class Simulation:
         r = number(field, radius, positive=True)
         lo, hi = RADIUS_RANGE[0] * self.model.size, RADIUS_RANGE[1] * self.model.size
         if not lo <= r <= hi:
-            raise ParameterError(field, f"{field} = {r:g} must lie within [{RADIUS_RANGE[0]:g}, {RADIUS_RANGE[1]:g}] "
-                                        f"domain sizes, i.e. [{lo:g}, {hi:g}]")
+            raise ParameterError(field, f"{field} = {r:g} must lie within [{RADIUS_RANGE[0]:g}, "
+                                        f"{RADIUS_RANGE[1]:g}] domain sizes, i.e. [{lo:g}, {hi:g}]")
         return r
 
     @property
@@ -518,7 +518,7 @@ def _loose_elements(mesh, parent, stitch_elements, handles):
     or none are held). ``parent`` maps its nodes to the mesh of the ``handles``; ``stitch_elements`` ``(2, k)``: the
     elements of the stitches' ends on ``mesh``."""
     t = mesh.t
-    links = None if stitch_elements is None else t[0, stitch_elements]  # a stitch joins the pieces of its ends
+    links = None if stitch_elements is None else t[0, stitch_elements]  # a stitch joins its ends' pieces
     _, labels = topology.connected_components(t, mesh.nvertices, links)
     held = np.zeros(labels.max() + 1, dtype=bool)
     for h in handles:

@@ -56,8 +56,8 @@ def _node_indices(name: str, value, rows: int, n_nodes: int) -> np.ndarray:
     a = a.astype(np.int64)
     if a.min() < 0 or a.max() >= n_nodes:
         bad = int(np.flatnonzero(((a < 0) | (a >= n_nodes)).any(axis=0))[0])
-        raise ValueError(f"{name} must hold node indices in [0, n_nodes) = [0, {n_nodes}), got column {bad} = "
-                         f"{a[:, bad].tolist()}")
+        raise ValueError(f"{name} must hold node indices in [0, n_nodes) = [0, {n_nodes}), got column "
+                         f"{bad} = {a[:, bad].tolist()}")
     return a
 
 

@@ -158,10 +158,8 @@ class LayeredFigure(Figure):
 
 
 class MeshDrawing:
-    """The triangles in ``ax`` as two compound paths, faces and edges, whose vertex arrays are rewritten in place.
-
-    The axis limits are fixed: the reference bounding box of ``mesh`` with a margin (dragged tissue stays in view).
-    """
+    """The triangles in ``ax`` as two compound paths, faces and edges, whose vertex arrays are rewritten in place;
+    fixed axis limits: the reference bounding box of ``mesh`` with a margin (dragged tissue stays in view)."""
 
     def __init__(self, ax, mesh):
         X = np.asarray(mesh.p, dtype=float)
