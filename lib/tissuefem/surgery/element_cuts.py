@@ -1,52 +1,41 @@
 """Cutting through elements: the virtual node algorithm in 2D.
 
-:func:`~tissuefem.surgery.topology.incise` snaps a stroke to mesh edges, so the wound is jagged and depends on the
-mesh. Here the stroke is followed exactly, without remeshing, by the *virtual node algorithm* of Molino, Bao and Fedkiw
-[1]_: every triangle the cut separates is duplicated, one copy per piece of its material; every copy keeps the
-triangle's reference geometry (hence its P1 shape functions) and carries only the material of its piece; vertices whose
-material a copy does not hold become extra ("virtual") nodes.
+:func:`~tissuefem.surgery.topology.incise` snaps a stroke to mesh edges: the wound is jagged and depends on the mesh.
+Here the stroke is followed exactly, without remeshing, by the *virtual node algorithm* of Molino, Bao and Fedkiw
+[1]_: every triangle the cut separates is duplicated, one copy per piece of its material; each copy keeps the
+triangle's reference geometry (hence its P1 shape functions) and carries only its piece; vertices whose material a
+copy does not hold become extra ("virtual") nodes.
 
-The construction in 2D
-----------------------
-1. **Where the stroke lies.** The stroke is drawn on the deformed tissue. The P1 map of a triangle is affine, so each
-   segment ``a -> b`` is clipped against each triangle in barycentric coordinates, keeping the ``s`` with
-   ``lambda_i(a) + s (lambda_i(b) - lambda_i(a)) >= 0``. First, a stroke passing within 1e-6 of an edge length of a
-   node is moved onto it, once for the whole mesh, so that neighbouring triangles never disagree about that node.
-2. **The material of an element** is a :class:`Region`: the polygon it fills, its *slits* and *severed* edge parts; its
-   weight (the polygon's share of the triangle) is what :class:`~tissuefem.engine.assembly.P1Assembler` integrates.
-3. **Splitting an element.** The region's boundary, its slits and the new pieces of the stroke form a planar graph.
-   Dangling edges (a crack ending in the material) are pruned and kept as slits; the faces of what remains are the
-   pieces of material: ``k`` faces give ``k`` copies of the element, each with one face as its region.
-4. **Nodes.** Two elements on the two sides of a mesh edge are *joined* where the parts of the edge their regions touch
-   (less what is severed) overlap over a positive length; joined elements share the edge's two nodes. The nodes of the
-   new mesh are the classes of corners (element, vertex) under these joins: a copy whose material lies away from a
-   vertex gets a virtual node there, shared with every copy on its side of the cut it is joined to. A cut along a mesh
-   edge needs no split: severing the edge stops the join.
-5. **The crack tip.** The triangle holding the end of a crack is one piece of material, so (as in [1]_) it is not
-   duplicated: the crack in it is a slit, and the two copies it enters through, both joined to it, differ only at their
-   third vertex. The crack closes within one element of the drawn tip, the resolution of P1 with virtual nodes
-   (phantom-node methods [3]_ make the same choice).
-6. **No slivers.** A piece lighter than ``min_weight`` is merged into its neighbour across the cut and the parts of the
-   triangle's edges that bounded it are severed instead: the cut's topology is snapped onto the element's edges (by
-   less than the sliver's width), while the :class:`Wound` stays where the stroke was drawn.
-7. **One element per set of nodes.** Copies of one triangle with the same three nodes hold connected material (e.g. the
-   corners outside a V-shaped crack): they are one element, whose region may have several polygons.
+1. **Where the stroke lies.** The stroke is drawn on the deformed tissue; the P1 map of a triangle is affine, so each
+   segment ``a -> b`` is clipped in barycentric coordinates, keeping ``lambda_i(a) + s (lambda_i(b) - lambda_i(a))
+   >= 0``. A stroke within 1e-6 edge lengths of a node is first moved onto it, so that neighbours agree about it.
+2. **The material of an element** is a :class:`Region`: the polygon it fills, its *slits* and *severed* edge parts;
+   its weight (the polygon's share of the triangle) is what :class:`~tissuefem.engine.assembly.P1Assembler`
+   integrates.
+3. **Splitting.** The region's boundary, its slits and the stroke's new pieces form a planar graph; dangling edges (a
+   crack ending in the material) are pruned and kept as slits; its ``k`` faces are ``k`` copies of the element.
+4. **Nodes.** Two elements across a mesh edge are *joined* where the parts of the edge their regions touch (less what
+   is severed) overlap over a positive length; joined elements share the edge's nodes. The new nodes are the classes
+   of corners (element, vertex) under these joins. A cut along a mesh edge needs no split: severing stops the join.
+5. **The crack tip.** The triangle holding the end of a crack is one piece, so (as in [1]_) it is not duplicated: the
+   crack in it is a slit. The crack closes within one element of the drawn tip, the resolution of P1 with virtual
+   nodes (phantom-node methods [3]_ make the same choice).
+6. **No slivers.** A piece lighter than ``min_weight`` is merged into its neighbour across the cut and the parts of
+   the triangle's edges that bounded it are severed instead (the :class:`Wound` stays where the stroke was drawn).
+7. **One element per set of nodes.** Copies of one triangle with the same three nodes (e.g. the corners outside a
+   V-shaped crack) are one element, whose region may have several polygons.
 
-Cuts through vertices and along edges need no special case: the clipping keeps pieces on a triangle's edge and drops
-pieces of zero length; this generalisation of [1]_ is that of Wang et al. [2]_.
+Cuts through vertices and along edges need no special case (the generalisation of Wang et al. [2]_). Uncut elements
+and old nodes keep their index and vertex order; the first piece of a cut element keeps its index, the other pieces
+and the virtual nodes are appended. Nodal masses from the material areas (:func:`lumped_mass`) carry mass and
+momentum over exactly.
 
-References
-----------
 .. [1] N. Molino, Z. Bao, R. Fedkiw, *A virtual node algorithm for changing mesh topology during simulation*, ACM
    Transactions on Graphics 23(3) (SIGGRAPH 2004), 385-392.
 .. [2] Y. Wang, C. Jiang, C. Schroeder, J. Teran, *An adaptive virtual node algorithm with robust mesh cutting*,
    Symposium on Computer Animation 2014.
 .. [3] J.-H. Song, P. M. A. Areias, T. Belytschko, *A method for dynamic crack and shear band propagation with phantom
    nodes*, International Journal for Numerical Methods in Engineering 67 (2006), 868-893.
-
-Uncut elements and old nodes keep their index (and vertex order); the first piece of a cut element keeps its index, the
-other pieces and the virtual nodes are appended. Nodal masses from the material areas (:func:`lumped_mass`) carry mass
-and momentum over exactly.
 """
 
 from __future__ import annotations
@@ -70,9 +59,8 @@ __all__ = ["Region", "Wound", "ElementCut", "cut_through", "excise_through", "Pi
 
 #: A stroke closer than this (times the median edge length) to a node is moved onto it (step 1 above).
 _NODE_SNAP = 1e-6
-#: Default smallest share of its triangle a piece may carry (``min_weight``). A corner piece's share is the product
-#: of the fractions of the two edges it cuts off, so this snaps a cut passing within about 3 % of an element of a
-#: vertex; copies this light still give a well-conditioned tangent.
+#: Default smallest share of its triangle a piece may carry (``min_weight``): a corner piece's share is the product of
+#: the fractions of the edges it cuts off, so this snaps a cut within about 3 % of a vertex (still well-conditioned).
 MIN_WEIGHT = 1e-3
 
 _P, _S, _C = 0, 1, 2  # the kinds of edge of an element's planar graph: region boundary, old slit, new cut
@@ -523,16 +511,12 @@ def _one_element_per_nodes(arr, ids, faces, triples):
 
 
 def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_weight=MIN_WEIGHT) -> ElementCut:
-    """Cut ``mesh`` (not modified) along a drawn polyline through its elements (the virtual node algorithm).
-
-    ``polyline`` (k, 2), k >= 2, is drawn where the nodes are now, ``positions`` (2, n_nodes) (default ``mesh.p``);
-    triangles collapsed to a segment there are not cut. It may end inside the body (a crack), on its boundary or
-    outside it. A mesh cut before passes its ``weights`` (n_elements,) (default 1) and ``regions`` (or ``regions``
-    alone: the weights follow); :meth:`ElementCut.cut` passes both. No piece may carry less than ``min_weight`` in
-    [0, 0.5) of its triangle (step 6). Named boundaries go to the facets whose material touched them, subdomains to
-    every copy. ``ValueError`` for bad arguments, or a stroke that changes nothing (it meets no material, or only runs
-    along the body's boundary or an existing wound).
-    """
+    """Cut ``mesh`` (not modified) through its elements along a ``polyline`` (k, 2), k >= 2 (the virtual node
+    algorithm), drawn at ``positions`` (default ``mesh.p``; triangles collapsed there are not cut); it may end inside
+    the body (a crack). A mesh cut before passes its ``weights`` and ``regions`` (:meth:`ElementCut.cut` does). No
+    piece carries less than ``min_weight`` in [0, 0.5) of its triangle (step 6). Named boundaries go to the facets
+    whose material touched them, subdomains to every copy. ``ValueError`` for bad arguments, or a stroke that changes
+    nothing (it meets no material, or runs only along the boundary or an existing wound)."""
     p, t = mesh_arrays(mesh)
     n, m = p.shape[1], t.shape[1]
     x = node_positions(mesh, positions)
@@ -626,15 +610,12 @@ def _number_nodes(t, n, key, side, affected, piece_ids, touched):
     for k, e, kk, s in zip(sel_k.tolist(), sel_e.tolist(), key[sel_k, sel_e].tolist(), side[sel_k, sel_e].tolist()):
         sides.setdefault(kk, ([], []))[0 if s > 0 else 1].append((e, k))
 
-    uf = {}
+    uf = {}  # union-find of the joined corners; a root is the least corner of its class
 
     def find(c):
-        root = c
-        while uf.get(root, root) != root:
-            root = uf[root]
-        while uf.get(c, c) != root:
-            uf[c], c = root, uf[c]
-        return root
+        while uf.get(c, c) != c:
+            c = uf[c]
+        return c
 
     def along(pid, k, forward):  # touched intervals, run from the edge's lower node to its higher
         iv = touched.get(pid, FULL_TOUCH)[k]
@@ -875,10 +856,9 @@ FIRM_WEIGHT = 0.25
 
 
 def firm_anchor(mesh, element, barycentric, positions=None, weights=None, regions=None, firm=FIRM_WEIGHT):
-    """``(element, barycentric)`` of a point of the material, moved to an element carrying at least ``firm`` of its
-    triangle. A stitch pulling at a thin sliver would stretch it (its virtual nodes hold almost nothing) instead of the
-    tissue: the point goes to the firm neighbour (sharing a node) whose material lies nearest, by that element's P1
-    map extended to it (barycentric coordinates may be slightly negative)."""
+    """``(element, barycentric)`` of a point of the material, moved to a neighbour (sharing a node) carrying at least
+    ``firm`` of its triangle whose material lies nearest, by its P1 map extended (barycentric coordinates may be
+    slightly negative): a stitch pulling at a sliver would stretch it (its virtual nodes hold almost nothing)."""
     p, t = mesh_arrays(mesh)
     w = element_weights(weights, t.shape[1])
     best, best_d = (element, np.asarray(barycentric, dtype=float)), math.inf

@@ -1,20 +1,16 @@
 """Local flaps: close a defect with a flap of neighbouring skin, and see the tension it leaves.
 
 After Sifakis, Hellrung, Teran, Oliker and Cutting, "Local flaps: a real-time finite element based solution to the
-plastic surgery defect puzzle" (2009). Excising a lesion leaves a defect too wide to pull shut; instead a *flap* of
-nearby skin is cut on three sides, moved (advanced or rotated) into the defect and sutured to the wound's edges. Which
-design leaves the least tension in the skin is what such a simulator answers before the operation.
-
-:func:`advancement_flap` runs the procedure on a patch of skin held on its outer edges:
+plastic surgery defect puzzle" (2009). A defect too wide to pull shut is closed by a *flap* of nearby skin, cut on three
+sides, moved (advanced or rotated) into it and sutured; which design leaves the least tension is what such a simulator
+answers before the operation. :func:`advancement_flap`, on a patch of skin held on its outer edges:
 
 1. **excise** a rectangular defect;
-2. **cut** the flap: two parallel incisions continuing the defect's top and bottom edges (the flap stays attached at
-   its far end, its *base*);
-3. **suture**: each point on the flap's wound edges is paired with where the planned motion (a translation by the
-   defect's width) takes it (:func:`pair_by_motion`, any rigid motion); the slack stitches are tightened over several
-   quasistatic frames;
-4. **report** the tension left: the largest principal Cauchy stress of every element, its maximum and area-weighted
-   mean, the stitch forces and the gaps.
+2. **cut** two incisions continuing the defect's top and bottom edges (the flap stays attached at its far end);
+3. **suture** each point of the flap's wound edges to where the planned motion takes it (:func:`pair_by_motion`,
+   :func:`stitch_points`), tightening the slack stitches over several quasistatic frames;
+4. **report** the tension left: the largest principal Cauchy stress per element, its maximum, 95th percentile and
+   area-weighted mean, the stitch forces and the gaps.
 """
 
 from __future__ import annotations
@@ -23,7 +19,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..engine.parameters import check_count
+from ..engine.meshes import mean_edge_length
+from ..engine.parameters import check_count, check_positive, string
 from .scene import Scene
 from .simulation import Simulation
 
@@ -67,12 +64,9 @@ def wound_nodes(mesh, names=("cut", "defect")) -> np.ndarray:
 
 
 def pair_by_motion(mesh, positions, flap_elements, motion, tolerance) -> np.ndarray:
-    """Stitches for moving a flap by ``motion``: node pairs ``(2, k)``, flap node first.
-
-    A wound node belongs to the flap when all its triangles are flap triangles (``flap_elements``, a boolean mask); the
-    two copies of a node on a cut fall on different sides. Each flap wound node is moved by ``motion``
-    (``(2, n) -> (2, n)``) and paired with the nearest non-flap wound node within ``tolerance``.
-    """
+    """Stitches for moving a flap by ``motion`` (``(2, n) -> (2, n)``): node pairs ``(2, k)``, flap node first. A
+    wound node is on the flap when all its triangles are (``flap_elements``, a mask); each is moved by ``motion`` and
+    paired with the nearest other wound node within ``tolerance``."""
     wound = wound_nodes(mesh)
     t = mesh.t
     on_flap = np.zeros(mesh.nvertices, dtype=bool)
@@ -96,8 +90,7 @@ def _weighted_percentile(values, weights, q) -> float:
 
 
 def _snapshot(sim):
-    """The tissue as drawn: the drawn points and triangles of its material (see ``Simulation.picture``), and the
-    element of each drawn triangle (to colour it by a per-element value)."""
+    """The tissue as drawn (``Simulation.picture``): drawn points, triangles, and the element of each triangle."""
     return sim.picture.points(sim.positions()).copy(), sim.picture.triangles.copy(), sim.picture.element.copy()
 
 
@@ -112,13 +105,10 @@ def _material_points(sim) -> np.ndarray:
 
 
 def stitch_points(samples, normals, motion, offset) -> np.ndarray:
-    """Stitches for a flap cut through elements: point pairs ``(k, 2, 2)``, flap point first.
-
-    ``samples`` ``(k, 2)`` on the flap's wound edges, with unit ``normals`` ``(k, 2)`` into the flap, are paired with
-    the points ``motion`` takes them to (on the bed's wound edge). Both ends are moved by ``offset`` into their own
-    side's material (into the flap; into the bed, away from where the flap arrives), so that each is attached to the
-    right lip where two lips touch.
-    """
+    """Stitches for a flap cut through elements: point pairs ``(k, 2, 2)``, flap point first. ``samples`` ``(k, 2)``
+    on the flap's wound edges, with unit ``normals`` ``(k, 2)`` into the flap, are paired with where ``motion`` takes
+    them; both ends are moved by ``offset`` into their own side (into the flap; into the bed, away from where the flap
+    arrives), so that each is attached to the right lip where two lips touch."""
     samples = np.asarray(samples, dtype=float)
     normals = np.asarray(normals, dtype=float)
     target = np.asarray(motion(samples.T), dtype=float).T
@@ -136,24 +126,24 @@ def _along(a, b, spacing) -> np.ndarray:
     return a + s[:, None] * (b - a)
 
 
-def _close_flap(scene, *, in_flap, motion, samples, normals, method, tighten_frames, settle_frames,
-                suture_stiffness, clock) -> FlapResult:
-    """Build the cut scene, stitch the flap to the bed by ``motion``, tighten, and report the tension."""
+def _close_flap(scene, *, in_flap, motion, edges, method, tighten_frames, settle_frames, suture_stiffness,
+                clock) -> FlapResult:
+    """Build the cut scene, stitch the flap to the bed by ``motion``, tighten, and report the tension;
+    ``edges(spacing)``: points on the flap's wound edges and their normals into the flap (:func:`stitch_points`)."""
     tighten_frames = check_count("tighten_frames", tighten_frames)
     settle_frames = check_count("settle_frames", settle_frames, 0)
-    options = {} if clock is None else {"clock": clock}
-    sim = Simulation(scene, **options)
+    sim = Simulation(scene, **({} if clock is None else {"clock": clock}))
     snapshots = {"cut": _snapshot(sim)}
     mesh = sim.mesh
     flap = in_flap(_material_points(sim))
-    edge = float(np.mean(np.hypot(*(mesh.p[:, mesh.facets[0]] - mesh.p[:, mesh.facets[1]]))))
+    edge = mean_edge_length(mesh)
     if not np.any(flap):
         raise ValueError("the flap holds no triangle: make the mesh finer or the flap larger")
     if method == "edges":
         pairs = pair_by_motion(mesh, sim.positions(), flap, motion, 0.5 * edge)
         stitches = pairs.shape[1]
     else:
-        pairs = stitch_points(samples(edge), normals(edge), motion, 1e-2 * edge)
+        pairs = stitch_points(*edges(edge), motion, 1e-2 * edge)
         stitches = pairs.shape[0]
     sim.suture(pairs, stiffness=suture_stiffness, tightness=0.0)
     initial_gap = float(sim.suture_gaps().max())
@@ -192,40 +182,23 @@ def _patch_scene(name, description, patch, material, method, excisions, incision
                  effects=effects, solver={"budget": 1e9, "rtol": 1e-6, "max_iterations": 100})
 
 
-def _method(method) -> str:
-    if method not in ("elements", "edges"):
-        raise ValueError(f"method must be 'elements' or 'edges', got {method!r}")
-    return method
-
-
 def advancement_flap(*, width=4.0, height=2.0, n_triangles=3000, defect=(1.2, 0.7, 0.6, 0.6), flap_length=1.5,
                      model="stable-neo-hookean", youngs_modulus=1000.0, poisson_ratio=0.3, tighten_frames=10,
                      settle_frames=0, suture_stiffness=None, clock=None, method="elements",
                      contact=False) -> FlapResult:
     """Excise a rectangular defect, cut an advancement flap beside it, pull it in, and report the tension.
 
-    Parameters
-    ----------
-    width, height, n_triangles
-        The skin patch ``[0, width] x [0, height]``, held on all four outer edges.
-    defect
-        ``(x, y, w, h)``: the defect's lower-left corner and size.
-    flap_length
-        How far the two incisions run from the defect's right edge (the flap is ``h`` wide, attached at its far end).
-        Longer flaps stretch less: the classic advancement-flap trade-off.
-    tighten_frames, settle_frames
-        Frames over which the stitches are tightened from slack to closed, and frames run after that (each tightening
-        frame is solved to tolerance, so extra frames only report).
-    method
-        ``"elements"`` (default): the defect and the incisions are cut through the elements along the drawn lines, with
-        stitches on the wound's edges about one per mesh edge length. ``"edges"``: the defect is the triangles whose
-        centroids fall inside it, the incisions snap to mesh edges and the stitches tie wound nodes (the jagged,
-        mesh-dependent version, to compare).
+    The skin patch ``[0, width] x [0, height]`` (``n_triangles``) is held on its four outer edges; ``defect`` ``(x, y,
+    w, h)`` is the defect's lower-left corner and size; the two incisions run ``flap_length`` from its right edge (the
+    flap is ``h`` wide, attached at its far end: longer flaps stretch less, the classic trade-off). The stitches are
+    tightened from slack to closed over ``tighten_frames`` (each solved to tolerance), then ``settle_frames`` run.
+    ``method="elements"`` cuts through the elements along the drawn lines, with stitches on the wound's edges about
+    one per mesh edge length; ``"edges"`` removes the triangles whose centroids fall in the defect, snaps the incisions
+    to mesh edges and ties wound nodes (the jagged, mesh-dependent version, to compare).
     """
-    method = _method(method)
+    method = string("method", method, ("elements", "edges"))
     x0, y0, w, h = (float(v) for v in defect)
-    if not (np.isfinite(flap_length) and flap_length > 0):
-        raise ValueError(f"flap_length must be finite and > 0, got {flap_length!r}")
+    flap_length = check_positive("flap_length", flap_length)
     if not (w > 0 and h > 0 and 0 < x0 and x0 + w + flap_length < width and 0 < y0 and y0 + h < height):
         raise ValueError(f"defect {defect!r} and flap_length {flap_length!r} must fit inside the {width} x {height} "
                          "patch, with skin on every side")
@@ -240,17 +213,14 @@ def advancement_flap(*, width=4.0, height=2.0, n_triangles=3000, defect=(1.2, 0.
     def in_flap(c):
         return (c[0] > x1) & (c[0] < tip) & (c[1] > y0) & (c[1] < y1)
 
-    def samples(spacing):  # the flap's leading edge, then its top and bottom edges
-        return np.vstack([_along((x1, y0), (x1, y1), spacing), _along((x1, y1), (tip, y1), spacing),
-                          _along((x1, y0), (tip, y0), spacing)])
+    def edges(spacing):  # the flap's leading edge, then its top and bottom edges
+        sides = (((x1, y0), (x1, y1), (1.0, 0.0)), ((x1, y1), (tip, y1), (0.0, -1.0)),
+                 ((x1, y0), (tip, y0), (0.0, 1.0)))
+        points = [_along(a, b, spacing) for a, b, _ in sides]
+        return np.vstack(points), np.repeat([n for _, _, n in sides], [len(q) for q in points], axis=0)
 
-    def normals(spacing):
-        counts = [len(_along(a, b, spacing)) for a, b in (((x1, y0), (x1, y1)), ((x1, y1), (tip, y1)),
-                                                          ((x1, y0), (tip, y0)))]
-        return np.repeat([[1.0, 0.0], [0.0, -1.0], [0.0, 1.0]], counts, axis=0)
-
-    return _close_flap(scene, in_flap=in_flap, motion=lambda X: X - np.array([[w], [0.0]]), samples=samples,
-                       normals=normals, method=method, tighten_frames=tighten_frames, settle_frames=settle_frames,
+    return _close_flap(scene, in_flap=in_flap, motion=lambda X: X - np.array([[w], [0.0]]), edges=edges,
+                       method=method, tighten_frames=tighten_frames, settle_frames=settle_frames,
                        suture_stiffness=suture_stiffness, clock=clock)
 
 
@@ -268,7 +238,7 @@ def rotation_flap(*, width=4.0, height=3.0, n_triangles=3000, pivot=(1.5, 1.5), 
     less tension: the rotation flap's rule of thumb (an arc several times the defect's width). ``method`` and
     ``contact`` as in :func:`advancement_flap`.
     """
-    method = _method(method)
+    method = string("method", method, ("elements", "edges"))
     px, py = (float(v) for v in pivot)
     r = float(radius)
     a1 = np.deg2rad(60.0)
@@ -297,34 +267,28 @@ def rotation_flap(*, width=4.0, height=3.0, n_triangles=3000, pivot=(1.5, 1.5), 
                          (width, height, n_triangles), (model, youngs_modulus, poisson_ratio), method,
                          [defect.tolist()], [arc(a1, a0, n_arc).tolist()], contact)
 
-    def motion(X):  # the flap fans out: each radius turns in proportion to its angle from the base
+    def polar(X, tol):  # distance from the pivot, and angle from a0 on (the flap and the defect lie there)
         d = np.asarray(X, float) - np.array([[px], [py]])
         ang = np.arctan2(d[1], d[0])
-        ang = np.where(ang < a0 - 1e-9, ang + 2 * np.pi, ang)
+        return np.hypot(d[0], d[1]), np.where(ang < a0 - tol, ang + 2 * np.pi, ang)
+
+    def motion(X):  # the flap fans out: each radius turns in proportion to its angle from the base
+        rho, ang = polar(X, 1e-9)
         turned = ang + alpha * np.clip((ang - a0) / (a1 - a0), 0.0, 1.0)
-        rho = np.hypot(d[0], d[1])
         return np.array([[px], [py]]) + rho * np.stack([np.cos(turned), np.sin(turned)])
 
     def in_flap(X):
-        d = np.asarray(X, float) - np.array([[px], [py]])
-        ang = np.arctan2(d[1], d[0])
-        ang = np.where(ang < a0 - 1e-12, ang + 2 * np.pi, ang)
-        return (np.hypot(d[0], d[1]) < r) & (ang > a0) & (ang < a1)
+        rho, ang = polar(X, 1e-12)
+        return (rho < r) & (ang > a0) & (ang < a1)
 
-    def parts(spacing):  # (the leading edge, its normals, the rim, its normals)
+    def edges(spacing):  # the leading edge, then the rim
         lead = _along((px, py), (px + r * np.cos(a1), py + r * np.sin(a1)), spacing)
         n = max(1, int(round(r * (a1 - a0) / spacing)))
         ang = a1 - (np.arange(n) + 0.5) / n * (a1 - a0)
         rim = np.stack([px + r * np.cos(ang), py + r * np.sin(ang)], axis=1)
-        return (lead, np.repeat([[np.sin(a1), -np.cos(a1)]], len(lead), axis=0),
-                rim, -np.stack([np.cos(ang), np.sin(ang)], axis=1))
+        return np.vstack([lead, rim]), np.vstack([np.repeat([[np.sin(a1), -np.cos(a1)]], len(lead), axis=0),
+                                                  -np.stack([np.cos(ang), np.sin(ang)], axis=1)])
 
-    def samples(spacing):
-        return np.vstack(parts(spacing)[0::2])
-
-    def normals(spacing):
-        return np.vstack(parts(spacing)[1::2])
-
-    return _close_flap(scene, in_flap=in_flap, motion=motion, samples=samples, normals=normals, method=method,
+    return _close_flap(scene, in_flap=in_flap, motion=motion, edges=edges, method=method,
                        tighten_frames=tighten_frames, settle_frames=settle_frames,
                        suture_stiffness=suture_stiffness, clock=clock)

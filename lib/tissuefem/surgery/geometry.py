@@ -2,9 +2,9 @@
 and inputs, edges keyed by node pair, a triangle's local coordinates, and the material of an element cut through.
 
 Local coordinates are ``(xi, eta) = (lambda_1, lambda_2)``: vertex 0 at ``(0, 0)``, 1 at ``(1, 0)``, 2 at ``(0, 1)``;
-local edge ``k`` runs from vertex ``k`` to ``k + 1``. Points closer than :data:`EPS` are one point. Intervals are sorted
-lists ``[(lo, hi), ...]`` of an edge's parameter. The local helpers work on plain floats: on the tiny graphs of one
-triangle, numpy's per-call cost would dominate.
+local edge ``k`` runs from vertex ``k`` to ``k + 1``. Points closer than :data:`EPS` are one point; intervals are
+sorted lists ``[(lo, hi), ...]`` of an edge's parameter. The local helpers work on plain floats (on one triangle's
+tiny graphs numpy's per-call cost would dominate).
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from skfem import MeshTri
 
-from ..engine.assembly import check_weights
+from ..engine.parameters import ParameterError, check_real_array, check_weights, show
 
 __all__ = ["EPS", "FULL_TOUCH", "WHOLE", "Region", "mesh_arrays", "node_positions", "check_points",
            "pair_keys", "element_edges", "new_mesh", "carry_names", "polygon_contains", "cross", "snap", "edges_of",
@@ -49,14 +49,10 @@ def node_positions(mesh, positions) -> np.ndarray:
     p, _ = mesh_arrays(mesh)
     if positions is None:
         return p
-    try:
-        x = np.asarray(positions, dtype=float)
-    except (TypeError, ValueError):
-        raise ValueError("positions must be a float array shaped (2, n_nodes)") from None
-    if x.shape != p.shape:
-        raise ValueError(f"positions must be shaped (2, n_nodes) = {p.shape}, got {x.shape}")
-    if not np.all(np.isfinite(x)):
-        raise ValueError("positions must be finite (got NaN or inf)")
+    x = check_real_array("positions", positions)
+    if x.shape != p.shape or not np.all(np.isfinite(x)):
+        raise ParameterError("positions", f"positions must be finite and shaped (2, n_nodes) = {p.shape}, "
+                                          f"got shape {x.shape}")
     return x
 
 
@@ -65,16 +61,13 @@ def check_points(name: str, value, min_points: int) -> np.ndarray:
     try:
         a = np.asarray(value)
     except (TypeError, ValueError):
-        raise ValueError(f"{name} must be an array of points shaped (k, 2), got {value!r}") from None
+        a = np.asarray(None)  # ragged: refused below
     if a.dtype.kind not in "iuf":
-        raise ValueError(f"{name} must be an array of real points shaped (k, 2), got dtype {a.dtype}")
+        raise ParameterError(name, f"{name} must be an array of real points shaped (k, 2), got {show(value)}")
     a = a.astype(float)
-    if a.ndim != 2 or a.shape[1] != 2:
-        raise ValueError(f"{name} must be an array of points shaped (k, 2), got shape {a.shape}")
-    if a.shape[0] < min_points:
-        raise ValueError(f"{name} needs at least {min_points} points, got {a.shape[0]}")
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"{name} must be finite, got NaN or inf in {a.tolist()}")
+    if a.ndim != 2 or a.shape[1] != 2 or a.shape[0] < min_points or not np.all(np.isfinite(a)):
+        raise ParameterError(name, f"{name} must be at least {min_points} finite points shaped (k, 2), "
+                                   f"got {show(value)} (shape {a.shape})")
     return a
 
 
@@ -101,12 +94,9 @@ def new_mesh(p, t) -> MeshTri:
 
 
 def carry_names(old, new, parent, elements, touches=None, name=None, opened=None) -> MeshTri:
-    """``new`` with the named boundaries and subdomains of ``old`` carried across an edit.
-
-    A facet keeps a name if its nodes' parents formed a facet of that name (and, with ``touches`` (bool (3,
-    n_new_elements)), if some element's material touches it); names are never dropped. The facets ``opened`` (bool
-    per facet) join the set ``name`` (a second cut adds to ``"cut"``). Subdomains go to every copy (``elements``).
-    """
+    """``new`` with the named boundaries and subdomains of ``old`` carried across an edit: a facet keeps a name if its
+    nodes' parents formed a facet of that name (and, with ``touches`` (bool (3, n_new_elements)), some element's
+    material touches it); the facets ``opened`` (bool per facet) join the set ``name``; subdomains go to every copy."""
     n_old = old.p.shape[1]
     names = {}
     if old.boundaries:

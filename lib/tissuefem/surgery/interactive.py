@@ -1,29 +1,17 @@
 """Operate on a running simulation with the mouse: drag the tissue and cut it, in any matplotlib figure.
 
-A :class:`SurgeryView` puts a :class:`tissuefem.surgery.simulation.Simulation` in a matplotlib ``Axes`` and
-turns mouse events into the simulation's input, the *input* step of the notes' frame loop (read the user,
-solve, render, every 1/30 s):
+A :class:`SurgeryView` draws a :class:`~tissuefem.surgery.simulation.Simulation` in a matplotlib ``Axes`` and turns
+mouse events into its input, the *input* step of the notes' frame loop (read the user, solve, render, every 1/30 s).
+In **drag** mode (the default) a left-button press grabs the nodes within ``radius`` of the pointer, moving drags them
+and letting go releases them; in **cut** mode a stroke becomes an incision when the button is released. The mode
+buttons, the key ``c`` and ``view.mode = "cut"`` switch modes.
 
-* **drag** mode (the default): a left-button press on the tissue grabs the nodes within ``radius`` of the
-  pointer (:meth:`Simulation.grab`), moving the mouse with the button held drags them
-  (:meth:`Simulation.drag`), and letting go releases them;
-* **cut** mode: a left-button stroke draws a polyline, which becomes an incision (:meth:`Simulation.cut`)
-  when the button is released; the drawing is rebuilt for the new topology.
-
-The mode buttons, the key ``c`` (once the figure has the keyboard) and ``view.mode = "cut"`` switch modes.
-A timer of the canvas runs one frame every ``interval_ms`` (:meth:`SurgeryView.step`), but only on an
-interactive canvas (``%matplotlib widget``, a Qt or Tk window); on Agg or the inline backend code calls
-:meth:`~SurgeryView.step` (and :meth:`~SurgeryView.draw` to time the drawing), so the same cells run in a
-browser with the mouse and headless in the tests. Mouse events only change the state: while the timer runs,
-its next frame draws it (on a browser canvas, ipympl, the timer sends the picture itself, unasked; Qt and Tk
-coalesce redraw requests). How a frame is drawn within the 33 ms budget: :mod:`.view_drawing`.
-
-**One live view per simulation and per notebook cell.** A new view of the same simulation stops the old
-one; re-running the cell that made a view closes the old view (its timer would keep stepping otherwise).
-
-:func:`synthetic_mouse` and :func:`synthetic_key` send a made-up event through the canvas's callbacks, as a
-backend would: a notebook shows a drag or a cut without a mouse, and the tests check it. Nothing here needs
-ipympl or ipywidgets; with them the view shows buttons for the mode and the timer (:meth:`SurgeryView.widget`).
+A timer runs one frame every ``interval_ms``, on an interactive canvas only (``%matplotlib widget``, Qt, Tk); on Agg or
+inline, code calls :meth:`~SurgeryView.step` (and :meth:`~SurgeryView.draw`), so the same cells run in a browser and
+headless in the tests. Events only change the state; the next frame draws it (:mod:`.view_drawing`: within the 33 ms
+budget). One live view per simulation and per notebook cell: a new view of the same simulation stops the old one, and
+re-running a cell closes the view it made. :func:`synthetic_mouse` and :func:`synthetic_key` send made-up events
+through the canvas, as a backend would: a notebook shows a drag or a cut without a mouse, and the tests check it.
 """
 
 from __future__ import annotations
@@ -44,7 +32,7 @@ from matplotlib.backend_bases import KeyEvent, MouseButton, MouseEvent
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 
 from ..engine.meshes import mean_edge_length
-from ..engine.parameters import ParameterError, check_count, check_positive
+from ..engine.parameters import ParameterError, check_count, check_positive, string
 from .view_drawing import KEYFRAME_S, LayeredFigure, MeshDrawing, Readout, is_gui, is_interactive, view_axes
 
 __all__ = ["SurgeryView", "MODES", "synthetic_mouse", "synthetic_key", "mean_edge_length"]
@@ -59,10 +47,8 @@ _VIEWS: weakref.WeakSet = weakref.WeakSet()
 
 
 def _cell_origin():
-    """Which notebook cell is running, and which run of it: ``(cell, execution count)``, or ``None``.
-
-    The cell is the id the front-end sends with each execution (JupyterLab and nbclient do), else its source.
-    """
+    """Which notebook cell is running, and which run of it: ``(cell, execution count)``, or ``None``; the cell is the
+    id the front-end sends with each execution (JupyterLab and nbclient do), else its source."""
     shell = get_ipython()
     if shell is None:
         return None
@@ -82,11 +68,8 @@ def _cell_origin():
 
 
 def _one_at_a_time(method):
-    """Run ``method`` holding the view's lock: a frame, an event and a draw never interleave.
-
-    A kernel may handle a widget's messages on another thread than the timer's loop (ipykernel 7 routes a
-    comm's messages to the subshell that last used it): a cut could otherwise rebuild the mesh mid-frame.
-    """
+    """Run ``method`` holding the view's lock: a frame, an event and a draw never interleave (a kernel may handle a
+    widget's messages on another thread than the timer's: a cut could otherwise rebuild the mesh mid-frame)."""
 
     @functools.wraps(method)
     def locked(self, *args, **kwargs):
@@ -97,14 +80,12 @@ def _one_at_a_time(method):
 
 
 class Gestures:
-    """A view's mouse and keyboard mapped to the simulation's operations (``grab``, ``drag``, ``release``, ``cut``).
+    """A view's mouse and keyboard mapped to the simulation's ``grab``, ``drag``, ``release`` and ``cut``.
 
-    Press and motion events outside the axes are ignored, and clicks while the toolbar's pan or zoom tool
-    is active; a release anywhere ends the current grab or stroke, so a handle never stays stuck to a mouse
-    that left the axes. A grab made in code (a :func:`synthetic_mouse` press) is not carried on by the real
-    mouse moving, nor a real grab by made-up moves; a real press replaces it. A ``ValueError`` raised by
-    the simulation is shown as the view's message instead of propagating. The key ``c`` toggles the mode; it
-    is also the toolbar's default "back" key, which only matters after zooming.
+    Presses and moves outside the axes, or while the toolbar pans or zooms, are ignored; a release anywhere ends the
+    grab or stroke (a handle never sticks to a mouse that left). A grab made in code is not carried on by the real
+    mouse, nor a real one by made-up moves. A ``ValueError`` of the simulation becomes the view's message. The key
+    ``c`` toggles the mode (it is also the toolbar's "back" key, which matters only after zooming).
     """
 
     def __init__(self, view):
@@ -207,44 +188,32 @@ class Gestures:
 
 
 class SurgeryView:
-    """A simulation drawn in a matplotlib ``Axes``, operated on with the mouse.
+    """A simulation drawn in a matplotlib ``Axes``, operated on with the mouse (:class:`Gestures`).
 
     Parameters
     ----------
     sim : tissuefem.surgery.simulation.Simulation
-        The running simulation (anything with ``mesh``, ``positions``, ``picture``, ``frame``, ``grab``,
-        ``drag``, ``release`` and ``cut``).
+        Or anything with ``mesh``, ``positions``, ``picture``, ``frame``, ``grab``, ``drag``, ``release``, ``cut``.
     ax : matplotlib.axes.Axes, optional
-        Where to draw; default the view's own figure (7 x 4.5 inches, made with pyplot: under
-        ``%matplotlib widget`` the interactive widget), which redraws only the moving layer per frame.
-        In an ``ax`` of your own figure every redraw draws the whole figure.
+        Default: the view's own figure (:func:`~.view_drawing.view_axes`), which redraws only the moving layer per
+        frame; an ``ax`` of your own figure redraws the whole figure.
     radius : float, optional
         A press grabs the nodes within this distance of the pointer; default twice the mean edge length.
     interval_ms : int, default 33
-        Milliseconds between timer frames (33 ms: the notes' 30 frames per second).
+        Milliseconds between timer frames (the notes' 30 frames per second).
     autostart : bool, default True
-        Start the timer as soon as the view is on screen: at once in a GUI window (Qt, Tk), when displayed
-        in Jupyter; never by itself on a non-interactive canvas (Agg, inline).
+        Start the timer once the view is on screen (a GUI window at once, Jupyter when displayed; never on Agg).
 
     Attributes
     ----------
     frame_times, draw_times : list of float
-        Milliseconds of every frame run through :meth:`step` (``report.elapsed``); of each drawn picture of the
-        view's own figure (the last few hundred), until the picture is done: on a browser canvas, sent.
+        Milliseconds of every frame run by :meth:`step`; of each picture drawn (on a browser canvas, until sent).
     last_report : FrameReport or None
     message : str
-        The last message (a failed cut, a rejected drag), or ``""``; shown under the axes, at most two lines.
-    mesh_faces, mesh_edges : matplotlib.patches.PathPatch
-        The triangles (one compound path each, :class:`~.view_drawing.MeshDrawing`).
-    stroke_artist, target_artist : matplotlib.lines.Line2D
-        The cut stroke being drawn; the drag target (at the mouse).
-    status_text, message_text : matplotlib.text.Text
-        The readout above the axes and the message under them (:class:`~.view_drawing.Readout`).
-
-    Notes
-    -----
-    The mouse and the keyboard are read by :class:`Gestures` (``view.gestures``). A ``ValueError`` raised by
-    the simulation in an event handler or a timer frame is shown as the message instead of propagating.
+        The last message (a failed cut, a rejected drag, a failed frame), or ``""``; shown under the axes.
+    mesh_faces, mesh_edges, stroke_artist, target_artist, status_text, message_text
+        The artists: the triangles (:class:`~.view_drawing.MeshDrawing`), the stroke being drawn and the drag
+        target, the readout above the axes and the message under them (:class:`~.view_drawing.Readout`).
 
     Examples
     --------
@@ -318,9 +287,7 @@ class SurgeryView:
     @mode.setter
     @_one_at_a_time
     def mode(self, value):
-        if value not in MODES:
-            raise ParameterError("mode", f"mode must be one of {MODES}, got {value!r}")
-        if value == self.gestures.mode:
+        if string("mode", value, MODES) == self.gestures.mode:
             return
         self.gestures.drop()
         self.gestures.mode = value
@@ -372,12 +339,8 @@ class SurgeryView:
 
     @_one_at_a_time
     def draw(self) -> float | None:
-        """Render the picture now, off-screen, and return how long it took (ms; ``None`` if not timed).
-
-        For frames that code steps (the timer draws its own): it renders into the canvas's buffer and sends or
-        paints nothing, so unlike the live readout on a browser canvas it leaves out the encoding. Timed in the
-        view's own figure only.
-        """
+        """Render the picture now, off-screen (nothing sent or painted), for frames that code steps; returns how
+        long it took (ms; timed in the view's own figure only, else ``None``)."""
         n = len(self.draw_times)
         if isinstance(self.canvas, FigureCanvasAgg):
             self.readout.offscreen = True
@@ -401,10 +364,8 @@ class SurgeryView:
         self._request_draw()
 
     def _request_draw(self, now=False) -> None:
-        # while the timer runs, its next frame asks for the picture (now=True); otherwise ask the canvas now.
-        # A non-interactive canvas draws when it is saved or shown: drawing it here would only cost time.
-        # An interactive one coalesces: Qt and Tk draw once per pass of their loop; a browser canvas
-        # (ipympl) asks for a picture only when it has shown the last one.
+        # while the timer runs, its next frame asks (now=True); a non-interactive canvas draws when saved or shown;
+        # an interactive one coalesces requests (ipympl asks for a picture only when it has shown the last one)
         if self.interactive and (now or not self._running):
             self.canvas.draw_idle()
 
@@ -465,9 +426,8 @@ class SurgeryView:
         if not self.readout.sends:
             self._request_draw(now=True)
             return
-        # A browser canvas: send the picture now, saving the page's round trip of asking for it (a message to
-        # the kernel and two kernel status changes per frame). The page drops difference pictures that come
-        # faster than it decodes them: every KEYFRAME_S seconds a whole one repairs what they left behind.
+        # a browser canvas: send the picture now, saving the page's round trip of asking for it; the page drops
+        # difference pictures that come faster than it decodes them: every KEYFRAME_S s a whole one repairs that
         now = time.perf_counter()
         if now - self._keyframe_at >= KEYFRAME_S and hasattr(self.canvas, "_force_full"):
             self.canvas._force_full = True  # WebAgg's flag for a whole picture (as after a page refresh)
@@ -559,13 +519,9 @@ def _data_to_pixels(ax, point, transform=None):
 
 
 def synthetic_mouse(view, kind, point, button=1):
-    """Send a made-up mouse event at the data point ``point`` through the canvas, as a backend would.
-
-    ``kind``: ``"press"``, ``"move"`` (with the button held, if it was pressed) or ``"release"``;
-    ``point``: ``(x, y)`` in data coordinates of ``view.ax`` (a point outside the axes gives an event outside
-    them); ``button``: of a press or release (1 = left). Returns the
-    :class:`~matplotlib.backend_bases.MouseEvent` after every handler connected to the canvas has seen it.
-    """
+    """Send a made-up mouse event ``kind`` (``"press"``, ``"move"`` or ``"release"``) at ``point`` ``(x, y)`` (data
+    coordinates of ``view.ax``) through the canvas, as a backend would; ``button``: of a press or release (1 = left).
+    Returns the :class:`~matplotlib.backend_bases.MouseEvent` after every handler has seen it."""
     if not isinstance(view, SurgeryView):
         raise ParameterError("view", f"view must be a SurgeryView, got {type(view).__name__}")
     if kind not in _MOUSE_EVENTS:
@@ -581,10 +537,8 @@ def synthetic_mouse(view, kind, point, button=1):
 
 
 def synthetic_key(view, key, point=None):
-    """Send a made-up key press (e.g. ``"c"``) through the canvas, the pointer at ``point`` (default: the axes' centre).
-
-    Returns the :class:`matplotlib.backend_bases.KeyEvent` after the handlers have seen it.
-    """
+    """Send a made-up key press (e.g. ``"c"``) through the canvas, the pointer at ``point`` (default: the axes'
+    centre); returns the :class:`~matplotlib.backend_bases.KeyEvent` after the handlers have seen it."""
     if not isinstance(view, SurgeryView):
         raise ParameterError("view", f"view must be a SurgeryView, got {type(view).__name__}")
     if not isinstance(key, str) or not key:

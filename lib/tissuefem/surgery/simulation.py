@@ -1,17 +1,10 @@
 """The running simulation: a scene built, stepped frame by frame, and operated on between frames.
 
-:class:`Simulation` builds a :class:`~tissuefem.surgery.scene.Scene` (mesh, the model of exactly the
-named effects, the scene's excisions and incisions, then the real-time solver) and offers the
-virtual-surgery operations between frames: :meth:`~Simulation.grab`/:meth:`~Simulation.drag`/
-:meth:`~Simulation.release`, :meth:`~Simulation.add_probe`, :meth:`~Simulation.cut`,
-:meth:`~Simulation.excise` and :meth:`~Simulation.suture`. A probe or a suture is a term added to the
-running model; a topology change (cut, excision) carries the model, its terms, handles and state to
-the new mesh (:meth:`~tissuefem.engine.model.Model.remapped`); nothing is lost.
-
-A handle's *target* is a displacement everywhere (:meth:`frame`, :meth:`move_handle`,
-:meth:`~tissuefem.engine.model.Handle.move`, :meth:`~tissuefem.engine.model.Model.set_targets`): a
-translation ``(dx, dy)`` of the held reference points, or a map ``X -> x``. :meth:`drag` takes the
-pointer's position and sets the target to its offset from the grab point.
+:class:`Simulation` builds a :class:`~tissuefem.surgery.scene.Scene` (mesh, the model of its named effects, its
+excisions and incisions, the real-time solver) and offers the operations between frames: grab, drag, release, probe,
+cut, excise and suture. A probe or a suture is a term added to the model; a cut or an excision carries the model, its
+terms, handles and state to the new mesh (:meth:`~tissuefem.engine.model.Model.remapped`). A handle's *target* is a
+displacement everywhere: a translation ``(dx, dy)`` of the held reference points, or a map ``X -> x``.
 """
 
 from __future__ import annotations
@@ -21,17 +14,17 @@ import dataclasses
 import time
 
 import numpy as np
-import scipy.sparse as sp
-from scipy.sparse.csgraph import connected_components
 
 from ..engine import meshes
 from ..engine.effects import EFFECTS, factory
 from ..engine.meshes import MeshMap
 from ..engine.model import Handle, Model, region_nodes
-from ..engine.parameters import PENALTY_MAX, RADIUS_RANGE, check_count, check_reach, check_vector, number, penalty
+from ..engine.parameters import (PENALTY_MAX, RADIUS_RANGE, ParameterError, check_count, check_reach,
+                                 check_vector, number, penalty, string)
 from ..engine.realtime import RealtimeSolver
 from ..engine.terms import Sutures
 from . import element_cuts, topology
+from .geometry import check_points
 from .scene import Scene
 from .surfaces import contact_surface
 
@@ -41,18 +34,10 @@ __all__ = ["Simulation", "Stitches"]
 class Simulation:
     """A scene, built and running: frames, and the surgical operations between them.
 
-    Parameters
-    ----------
-    scene : Scene
-    clock
-        Seconds (default :func:`time.perf_counter`); tests pass a fake clock.
-    linear_solver
-        Overrides the scene's ``solver.linear_solver``.
-    constant_tangent
-        Run a quadratic model with the ``"constant"`` linear solver (one factorization per set of held dofs);
-        ``False`` forces the general Newton loop (to measure what the shortcut saves).
-    order, intorder
-        The model's elements (cuts and excisions need P1) and quadrature degree.
+    ``clock``: seconds (tests pass a fake one); ``linear_solver`` overrides the scene's; ``constant_tangent``: run a
+    quadratic model with the ``"constant"`` linear solver (one factorization per set of held dofs; ``False`` forces
+    the general Newton loop, to measure what that saves); ``order``, ``intorder``: the model's elements (cuts and
+    excisions need P1) and quadrature degree.
     """
 
     def __init__(self, scene: Scene, *, clock=time.perf_counter, linear_solver=None, constant_tangent=True,
@@ -130,16 +115,14 @@ class Simulation:
                 h.target = target
             raise
 
-    def _check_held(self, handles):
-        """A quasistatic scene must keep at least one handle (or the body floats and K is singular)."""
+    def _check_held(self, handles):  # a quasistatic scene without a handle floats: K is singular
         if not self.dynamic and not handles:
             raise ValueError("handles: a quasistatic scene needs at least one handle; this change would leave none")
 
     # ------------------------------------------------------------------ frames
     @property
     def terms(self) -> list[str]:
-        """The terms the model evaluates (inertia, elastic, fibres, probes, sutures, loads), with the
-        inversion handling wrapped around the elastic term named after it."""
+        """The terms the model evaluates, with the inversion handling named after the elastic term it wraps."""
         names = self.model.term_names
         if "inversion" in self.scene.effects:  # the elastic term's material is wrapped, not a term of its own
             i = names.index("elastic") + 1
@@ -152,10 +135,8 @@ class Simulation:
     time = property(lambda self: self.solver.time, doc="Simulated seconds so far.")
 
     def frame(self, targets=None):
-        """One frame. ``targets``: ``{handle name: translation (dx, dy) or map}`` (others keep theirs).
-
-        All or nothing: a refused target (or anything raised before the commit) changes nothing.
-        """
+        """One frame. ``targets``: ``{handle name: translation (dx, dy) or map}`` (others keep theirs); a refused
+        target changes nothing."""
         if targets is not None and not isinstance(targets, dict):
             raise ValueError(f"targets must be a dict {{handle name: target}}, got {targets!r}")
         return self.solver.frame(targets or None)
@@ -170,12 +151,17 @@ class Simulation:
         return check_reach(field, check_vector(field, point), self.model.middle, self.model.size)
 
     def _radius(self, field, radius) -> float:
-        return _check_radius(field, radius, self.model.size)
+        """A radius within ``RADIUS_RANGE`` domain sizes: what a penalty ``~ 1 / r^2`` can be computed for."""
+        r = number(field, radius, positive=True)
+        lo, hi = RADIUS_RANGE[0] * self.model.size, RADIUS_RANGE[1] * self.model.size
+        if not lo <= r <= hi:
+            raise ParameterError(field, f"{field} = {r:g} must lie within [{RADIUS_RANGE[0]:g}, "
+                                        f"{RADIUS_RANGE[1]:g}] domain sizes, i.e. [{lo:g}, {hi:g}]")
+        return r
 
     @property
     def picture(self):
-        """What to draw (:class:`~tissuefem.surgery.element_cuts.Picture`): the triangles, and for elements cut
-        through, the material they carry (built once per mesh)."""
+        """What to draw (:class:`~tissuefem.surgery.element_cuts.Picture`, built once per mesh)."""
         if getattr(self, "_picture", (None,))[0] is not self.mesh:
             self._picture = (self.mesh, element_cuts.picture(self.mesh, self._regions))
         return self._picture[1]
@@ -200,11 +186,8 @@ class Simulation:
 
     # ------------------------------------------------------------------ handles: pull and drag
     def grab(self, point, radius=None) -> str:
-        """Grab the nodes within ``radius`` of ``point`` (deformed coordinates); returns the handle's name.
-
-        The nodes stay where they are until :meth:`drag` moves them by the pointer's offset from the grab
-        point. Default radius: 1.5 mean edge lengths.
-        """
+        """Grab the nodes within ``radius`` (default 1.5 mean edge lengths) of ``point`` (deformed coordinates);
+        returns the handle's name. The nodes stay put until :meth:`drag` moves the pointer."""
         radius = 1.5 * meshes.mean_edge_length(self.mesh) if radius is None else self._radius("radius", radius)
         point = self._point("point", point)
         if self.order != 1:
@@ -238,11 +221,8 @@ class Simulation:
         self.model.handle(name).move(target)
 
     def release(self, name) -> None:
-        """Let go of a handle: its nodes are free from the next frame on.
-
-        A quasistatic scene lifts out a piece that nothing holds any more (no equilibrium), as after a cut
-        (see `_drop_loose_pieces`); a dynamic scene keeps it: it falls.
-        """
+        """Let go of a handle. A quasistatic scene lifts out a piece nothing holds any more (it has no equilibrium,
+        see `_drop_loose_pieces`); a dynamic scene keeps it: it falls."""
         handle = self.model.handle(name)
         self._check_held([h for h in self.model.handles if h is not handle])
         if self.dynamic:
@@ -259,10 +239,8 @@ class Simulation:
 
     # ------------------------------------------------------------------ probe
     def add_probe(self, center, radius, stiffness=None, _field="probe"):
-        """Press a rigid disc (a tool tip) into the tissue; returns its label for :meth:`move_probe`.
-
-        Default stiffness ``100 E / radius``: the penetration stays near 1 % of the radius under a moderate
-        pressure."""
+        """Press a rigid disc (a tool tip) into the tissue; returns its label for :meth:`move_probe`. Default
+        stiffness ``100 E / radius``: the penetration stays near 1 % of the radius under a moderate pressure."""
         center = self._point(f"{_field}.center", center).tolist()
         radius = self._radius(f"{_field}.radius", radius)  # in domain sizes: the default stiffness stays finite
         if stiffness is None:
@@ -313,52 +291,41 @@ class Simulation:
         return edit
 
     def cut(self, polyline, method="elements"):
-        """Incise along ``polyline`` (points in deformed coordinates, as drawn on the tissue now).
-
-        ``method="elements"`` (default) cuts through the elements along the stroke (the virtual node
-        algorithm, :func:`~tissuefem.surgery.element_cuts.cut_through`); ``"edges"`` snaps it to mesh edges
-        (:func:`~tissuefem.surgery.topology.incise`: jagged, kept to compare). Each copy of a node keeps its
-        displacement and velocity. Returns the edit (a :class:`~tissuefem.engine.meshes.MeshMap`).
-        """
-        operation = _operation("incisions", method)
-        points = _polyline(polyline)
+        """Incise along ``polyline`` (deformed coordinates, as drawn on the tissue now): through the elements
+        (``method="elements"``, :func:`~tissuefem.surgery.element_cuts.cut_through`) or snapped to mesh edges
+        (``"edges"``, :func:`~tissuefem.surgery.topology.incise`). Each copy of a node keeps its displacement and
+        velocity. Returns the edit (a :class:`~tissuefem.engine.meshes.MeshMap`)."""
+        operation = _OPERATIONS["incisions"][string("method", method, _OPERATIONS["incisions"])]
+        points = check_points("polyline", polyline, 2)
         for i, q in enumerate(points):
             self._point(f"polyline[{i}]", q)
         return self._apply_edit(operation, points, "polyline")
 
     def excise(self, region, method="elements"):
-        """Remove the tissue inside ``region``: a polygon in *reference* coordinates, or a mask on centroids.
-
-        A polygon is cut out along its outline through the elements (``method="elements"``, default) or
-        by removing the triangles whose centroid lies inside (``"edges"``, as does a mask).
-        """
+        """Remove the tissue inside ``region``, a polygon in *reference* coordinates cut out along its outline
+        (``method="elements"``) or the triangles whose centroid lies inside (``"edges"``), or a mask on centroids."""
         if callable(region):
             return self._apply_edit(topology.excise, region, "region")
-        operation = _operation("excisions", method)
-        region = _polyline(region, minimum=3, field="region")
+        operation = _OPERATIONS["excisions"][string("method", method, _OPERATIONS["excisions"])]
+        region = check_points("region", region, 3)
         for i, q in enumerate(region):
             self._point(f"region[{i}]", q)
         return self._apply_edit(operation, region, "region")
 
     # ------------------------------------------------------------------ sutures
     def suture(self, pairs, stiffness=None, tightness=1.0, _field="sutures"):
-        """Tie pairs of points together with stiff springs.
+        """Tie pairs of points together with stiff springs (default stiffness 100 E per unit thickness).
 
-        ``pairs``: point pairs ``[[[x1, y1], [x2, y2]], ...]`` in deformed coordinates, or node index pairs
-        as an integer array ``(2, k)``. A point moves with the element it lies in (so a stitch can sit on a
-        wound cut through elements); a point off the tissue is attached to the nearest node. The springs
-        start slack and are tightened to ``tightness`` (1: the points are pulled together). Default
-        stiffness: 100 x Young's modulus (per unit thickness). Returns the node of each end that carries
-        most of it, ``(2, k)``.
+        ``pairs``: point pairs ``[[[x1, y1], [x2, y2]], ...]`` in deformed coordinates (each moves with the element
+        it lies in; off the tissue, with the nearest node), or node index pairs ``(2, k)``. The springs start slack
+        and are tightened to ``tightness`` (1: closed). Returns the node carrying most of each end, ``(2, k)``.
         """
         E = self.scene.material["youngs_modulus"]
         k = 100.0 * E if stiffness is None else penalty(f"{_field}.stiffness", stiffness, positive=True)
         spec = _new_stitches(self.mesh, self.positions(), pairs, k, _field, self._point, self.model.weights,
                              self._regions)
         k_new = spec["stiffness"].size
-        tightness = number(f"{_field}.tightness", tightness, nonnegative=True)
-        if tightness > 1:
-            raise ValueError(f"{_field}.tightness must be in [0, 1], got {tightness!r}")
+        tightness = number(f"{_field}.tightness", tightness, lo=0.0, hi=1.0)
         old = self.model.sutures
         if old is not None:  # the old stitches keep their gap when placed and their tightness
             spec = {key: np.concatenate([value, spec[key]], axis=1 if key == "barycentric" else -1)
@@ -371,10 +338,7 @@ class Simulation:
         return self.model.sutures.pairs[:, -k_new:]
 
     def tighten(self, fraction, stitches=None) -> None:
-        """Tighten sutures: each keeps ``(1 - fraction)`` of its gap when placed as slack (1: closed).
-
-        ``stitches``: indices of the stitches to tighten (default: all).
-        """
+        """Tighten the ``stitches`` (indices, default all): each keeps ``1 - fraction`` of its gap when placed."""
         if self.model.sutures is None:
             raise ValueError("tighten: there are no sutures")
         self.model.sutures.tighten(fraction, stitches)
@@ -436,23 +400,6 @@ class _Carried(MeshMap):
         return contact_surface(self.mesh, self.weights, self.regions)
 
 
-@dataclasses.dataclass(frozen=True)
-class _Kept:
-    """The elements that stay after lifting out loose pieces (``elements[new] = old``), as an edit shows them."""
-
-    elements: np.ndarray
-
-
-def _check_radius(field, radius, size) -> float:
-    """A radius within ``RADIUS_RANGE`` domain sizes: what a penalty ``~ 1 / r^2`` can be computed for."""
-    r = number(field, radius, positive=True)
-    lo, hi = RADIUS_RANGE[0] * size, RADIUS_RANGE[1] * size
-    if not lo <= r <= hi:
-        raise ValueError(f"{field} = {r:g} must lie within [{RADIUS_RANGE[0]:g}, {RADIUS_RANGE[1]:g}] domain "
-                         f"sizes, i.e. [{lo:g}, {hi:g}]")
-    return r
-
-
 def _scene_model(scene, material, order, intorder) -> Model:
     """The model of a scene on its mesh: its handles, and a term for every effect of the registry it names
     (probes and sutures are placed afterwards, by the simulation's operations)."""
@@ -504,11 +451,12 @@ def _carried(edit, model, regions, keep_loose):
     if not keep_loose:
         stitches = model.sutures
         ends = None if stitches is None else Stitches.carry(stitches.ends_spec(), edit, regions)
-        edit, kept, pieces = _drop_loose_pieces(edit, None if ends is None else ends["elements"], model.handles)
-        if kept is not None:  # the elements that stay, of those the edit made
+        edit, lift, pieces = _drop_loose_pieces(edit, None if ends is None else ends["elements"], model.handles)
+        if lift is not None:  # the elements that stay, of those the edit made
+            kept = lift.elements
             weights = None if weights is None else weights[kept]
             regions = {int(new): regions[int(old)] for new, old in enumerate(kept.tolist()) if int(old) in regions}
-            stages.append((_Kept(kept), regions))
+            stages.append((lift, regions))
     carried = _Carried(mesh=edit.mesh, parent=edit.parent, elements=edit.elements, n_old_nodes=edit.n_old_nodes,
                        n_old_elements=edit.n_old_elements, weights=weights, regions=regions, stages=tuple(stages))
     return edit, carried, pieces
@@ -552,14 +500,9 @@ def _new_stitches(mesh, x, pairs, k, field, check_point, weights, regions) -> di
 
 
 def _drop_loose_pieces(edit, stitch_elements, handles):
-    """Quasistatic scenes: remove pieces that nothing holds (no handle, no suture to a held piece).
-
-    Such a piece has no equilibrium (a singular stiffness matrix; under a load it would run away), so
-    it is lifted out, as a surgeon lifts out what was cut free. ``stitch_elements`` ``(2, k)``: the
-    elements of the stitches' ends on ``edit``'s mesh; ``handles``: on the mesh before the edit. Returns
-    ``(edit, kept, pieces)``: the edit with the pieces removed, which of its elements stay (``None`` when
-    nothing was removed) and how many pieces went.
-    """
+    """Quasistatic scenes: lift out the pieces nothing holds (no handle, no suture to a held piece), which have no
+    equilibrium, as a surgeon lifts out what was cut free. Returns ``(edit, lift, pieces)``: the edit with them
+    removed, the excision of its mesh that lifts them out (``None``: nothing to lift) and how many pieces went."""
     loose, pieces = _loose_elements(edit.mesh, edit.parent, stitch_elements, handles)
     if not pieces:
         return edit, None, 0  # nothing to drop (or nothing held at all: _check_held reports it)
@@ -567,23 +510,16 @@ def _drop_loose_pieces(edit, stitch_elements, handles):
     merged = dataclasses.replace(second, parent=edit.parent[second.parent], elements=edit.elements[second.elements],
                                  cut_edges=edit.cut_edges, n_old_nodes=edit.n_old_nodes,
                                  n_old_elements=edit.n_old_elements)
-    return merged, second.elements, pieces
+    return merged, second, pieces
 
 
 def _loose_elements(mesh, parent, stitch_elements, handles):
-    """``(loose, pieces)``: which elements of ``mesh`` lie in pieces that nothing holds, and how many pieces.
-
-    ``parent`` maps its nodes to the mesh of the ``handles``; ``stitch_elements`` are the elements of the
-    stitches' ends on ``mesh``. ``pieces`` is 0 when every piece is held -- or none is (then
-    :meth:`Simulation._check_held` has the say).
-    """
-    t, n = mesh.t, mesh.nvertices
-    rows, cols = list(t), list(t[[1, 2, 0]])  # the three edges of every triangle
-    if stitch_elements is not None:  # a stitch joins the pieces of its two ends
-        rows.append(t[0, stitch_elements[0]])
-        cols.append(t[0, stitch_elements[1]])
-    r, c = np.concatenate(rows), np.concatenate(cols)
-    _, labels = connected_components(sp.coo_matrix((np.ones(r.size), (r, c)), shape=(n, n)), directed=False)
+    """``(loose, pieces)``: which elements of ``mesh`` lie in pieces nothing holds, and how many pieces (0 when all
+    or none are held). ``parent`` maps its nodes to the mesh of the ``handles``; ``stitch_elements`` ``(2, k)``: the
+    elements of the stitches' ends on ``mesh``."""
+    t = mesh.t
+    links = None if stitch_elements is None else t[0, stitch_elements]  # a stitch joins its ends' pieces
+    _, labels = topology.connected_components(t, mesh.nvertices, links)
     held = np.zeros(labels.max() + 1, dtype=bool)
     for h in handles:
         moved = h.remap(parent)
@@ -644,13 +580,6 @@ _OPERATIONS = {"excisions": {"elements": element_cuts.excise_through, "edges": t
                "incisions": {"elements": element_cuts.cut_through, "edges": topology.incise}}
 
 
-def _operation(kind, method):
-    operation = _OPERATIONS[kind].get(method) if isinstance(method, str) else None
-    if operation is None:
-        raise ValueError(f"method must be 'elements' or 'edges', got {method!r:.100}")
-    return operation
-
-
 def _end_key(nodes, weights):
     """A stitch end as ``{node: weight}`` (weights rounded), to tell two ends at the same point of the same nodes."""
     out = {}
@@ -658,18 +587,3 @@ def _end_key(nodes, weights):
         if w > 1e-12:
             out[q] = out.get(q, 0.0) + round(w, 9)
     return out
-
-
-def _polyline(points, minimum=2, field="polyline"):
-    try:
-        arr = np.asarray(points)
-    except (TypeError, ValueError):
-        raise ValueError(f"{field} must be a list of points [x, y], got {points!r}") from None
-    if arr.dtype.kind not in "iuf":  # strings, booleans, objects; complex points would lose their imaginary part
-        raise ValueError(f"{field} must be a list of real points [x, y], got {points!r}")
-    arr = arr.astype(float)
-    if arr.ndim != 2 or arr.shape[1] != 2 or arr.shape[0] < minimum:
-        raise ValueError(f"{field} must be at least {minimum} points shaped (k, 2), got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{field} contains non-finite coordinates")
-    return arr

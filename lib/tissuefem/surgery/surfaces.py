@@ -1,12 +1,10 @@
 """The contact surface of a cut body: where its material ends, outer boundary and wound lips alike.
 
 For a plain mesh, and after :func:`~tissuefem.surgery.topology.incise`, that is the mesh's boundary. After
-:func:`~tissuefem.surgery.element_cuts.cut_through` the copies of a cut triangle share its full edges, each filling only
-part of it, so :func:`contact_surface` follows the material instead: of its polygon sides (material on the left), a side
-*inside* the triangle is a wound's lip, always surface; a side *on* a triangle's edge is surface except where material
-of an element across that edge is joined to it (same nodes, same part of the edge touched, not severed by a cut along
-it). The ends of the pieces are barycentric combinations of an element's nodes; the same combination seen from two
-elements is one point, so the pieces join into closed loops.
+:func:`~tissuefem.surgery.element_cuts.cut_through` it follows the material's polygon sides (material on the left): a
+side *inside* a triangle is a wound's lip; a side *on* a triangle's edge is surface except where material across that
+edge is joined to it (same nodes, same part of the edge touched, not severed). The ends are barycentric combinations
+of an element's nodes; the same combination seen from two elements is one point, so the pieces close into loops.
 """
 
 from __future__ import annotations

@@ -1,11 +1,10 @@
 """Mesh topology operations for virtual surgery: cutting along mesh edges (:func:`incise`, built from
 :func:`cut_path` and :func:`duplicate_along_edges`) and removing tissue (:func:`excise`).
 
-A cut along mesh edges duplicates every node on the cut as often as the cut separates its neighbourhood; a defect
-deletes whole triangles. Both return a new mesh as a :class:`MeshEdit` (``parent``: new node -> old node, ``elements``:
-new element -> old element), so that a per-node field ``u`` carries over as ``u[..., parent]``. The new meshes keep
-every element's vertex order (scikit-fem's re-sorting would reorder exactly the triangles along the wound, whose copies
-get the highest indices) and their named boundaries.
+A cut duplicates every node on it as often as it separates the node's neighbourhood; an excision deletes whole
+triangles. Both return a :class:`MeshEdit` (``parent``: new node -> old node, ``elements``: new element -> old), so
+that a per-node field ``u`` carries over as ``u[..., parent]``; the new meshes keep every element's vertex order
+(scikit-fem's re-sorting would reorder the triangles along the wound) and their named boundaries.
 """
 
 from __future__ import annotations
@@ -17,6 +16,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import csgraph
 
+from ..engine.contact.surface import segment_distance
 from ..engine.meshes import MeshMap
 from ..engine.parameters import ParameterError, check_bounded_vector, check_count, check_real, check_real_array
 from .geometry import (carry_names, check_points, cross, mesh_arrays, new_mesh, node_positions, pair_keys,
@@ -39,8 +39,9 @@ class MeshEdit(MeshMap):
     cut_edges: np.ndarray
 
 
-def _index_array(name: str, value, rows: int) -> np.ndarray:
-    """``value`` as an int64 array shaped ``(rows, k)``; integral floats are accepted."""
+def _node_indices(name: str, value, rows: int, n_nodes: int) -> np.ndarray:
+    """``value`` as an int64 array shaped ``(rows, k)`` of node indices in ``[0, n_nodes)`` (integral floats, e.g.
+    read from a text file, are accepted)."""
     try:
         a = np.asarray(value)
     except Exception as exc:  # ragged lists and the like
@@ -49,47 +50,37 @@ def _index_array(name: str, value, rows: int) -> np.ndarray:
         raise ValueError(f"{name} must be an integer array shaped ({rows}, k), got shape {a.shape}")
     if a.size == 0:
         return np.zeros((rows, a.shape[1]), dtype=np.int64)
-    if a.dtype.kind not in "iuf":
-        raise ValueError(f"{name} must hold integer node indices, got dtype {a.dtype}")
-    if a.dtype.kind == "f" and not (np.all(np.isfinite(a)) and np.all(a == np.round(a))):  # e.g. read from a text file
-        raise ValueError(f"{name} must hold integer node indices, got non-integral values")
-    return a.astype(np.int64)
-
-
-def _triangles(t, n_nodes):
-    """Checked ``(t (3, m) int64, n_nodes)``: every index in ``t`` is a node."""
-    n_nodes, t = check_count("n_nodes", n_nodes, 0), _index_array("t", t, 3)
-    if t.size and (t.min() < 0 or t.max() >= n_nodes):
-        raise ValueError(f"t must hold node indices in [0, n_nodes) = [0, {n_nodes}), got range [{t.min()}, {t.max()}]")
-    return t, n_nodes
+    if a.dtype.kind not in "iuf" or (a.dtype.kind == "f"
+                                     and not (np.all(np.isfinite(a)) and np.all(a == np.round(a)))):
+        raise ValueError(f"{name} must hold integer node indices, got {a.dtype} values")
+    a = a.astype(np.int64)
+    if a.min() < 0 or a.max() >= n_nodes:
+        bad = int(np.flatnonzero(((a < 0) | (a >= n_nodes)).any(axis=0))[0])
+        raise ValueError(f"{name} must hold node indices in [0, n_nodes) = [0, {n_nodes}), got column "
+                         f"{bad} = {a[:, bad].tolist()}")
+    return a
 
 
 def duplicate_along_edges(t, n_nodes, edges):
     """Duplicate nodes so that the given edges open: the core of a cut.
 
-    ``t`` (3, m) are the triangles (not modified) of a mesh with ``n_nodes`` nodes; ``edges`` (2, k) the node pairs to
-    open, in either order, each an edge of some triangle (repeats are fine; ``k = 0`` changes nothing). Returns
-    ``(new_t, parent)``: ``new_t`` (3, m) int64 keeps the triangles and their vertex order, only the indices of
-    duplicated nodes change; ``parent`` (n_nodes + n_copies,) is ``i`` for the old nodes, and the copies are appended
-    (``n_nodes, n_nodes + 1, ...``) pointing to the node they copy.
+    ``t`` (3, m): the triangles (not modified) of a mesh with ``n_nodes`` nodes; ``edges`` (2, k): the node pairs to
+    open, each an edge of some triangle (in either order, repeats allowed). Returns ``(new_t, parent)``: ``new_t``
+    (3, m) keeps the triangles and their vertex order with the copies' indices; ``parent`` (n_nodes + n_copies,) maps
+    every node (the copies appended) to the old node.
 
-    The triangles round a node ``v`` on a cut edge fall into *fans*, linked where two share an uncut edge ``(v, x)``;
-    each fan is one side of the wound. Where ``j`` cut edges meet, an interior node's ring breaks into ``j`` fans, a
-    boundary node's into ``j + 1``: the middle of a cut through gets one copy, the tip of a crack none (a crack is
-    closed at its tips), and a single interior edge opens nothing. The fan holding the lowest triangle keeps the node;
-    the others get new nodes in the order (node, lowest triangle of the fan). All fans are found at once, as the
-    connected components of the graph of the cut nodes' *corners* (triangle, vertex) linked across uncut edges.
+    The triangles round a node on a cut fall into *fans* linked across uncut edges, one per side of the wound: where
+    ``j`` cut edges meet, an interior node's ring breaks into ``j`` fans, a boundary node's into ``j + 1`` (the tip of
+    a crack stays closed; a single interior edge opens nothing). The fan with the lowest triangle keeps the node, the
+    others get new nodes in the order (node, lowest triangle). The fans are the connected components of the graph of
+    the cut nodes' *corners* (triangle, vertex) linked across uncut edges.
     """
-    t, n_nodes = _triangles(t, n_nodes)
+    n_nodes = check_count("n_nodes", n_nodes, 0)
+    t, edges = _node_indices("t", t, 3, n_nodes), _node_indices("edges", edges, 2, n_nodes)
     m = t.shape[1]
-    edges = _index_array("edges", edges, 2)
     parent = np.arange(n_nodes, dtype=np.int64)
     if edges.shape[1] == 0:
         return t.copy(), parent
-    if edges.min() < 0 or edges.max() >= n_nodes:
-        bad = int(np.flatnonzero((edges < 0).any(axis=0) | (edges >= n_nodes).any(axis=0))[0])
-        raise ValueError(f"edges: column {bad} = ({edges[0, bad]}, {edges[1, bad]}) is out of the node range "
-                         f"[0, {n_nodes})")
 
     flat = t.ravel()  # corner -> node: corner i m + e is vertex i of triangle e
     ci = np.arange(3 * m, dtype=np.int64)
@@ -148,11 +139,14 @@ def duplicate_along_edges(t, n_nodes, edges):
 
 
 # --- pieces, picking nodes ---
-def connected_components(t, n_nodes):
-    """The pieces of a mesh ``t (3, m)`` with ``n_nodes`` nodes: ``(n_pieces, labels (n_nodes,))``, the pieces numbered
-    in the order of their lowest node (a node used by no triangle is a piece of its own)."""
-    t, n_nodes = _triangles(t, n_nodes)
+def connected_components(t, n_nodes, links=None):
+    """The pieces of a mesh ``t (3, m)`` with ``n_nodes`` nodes, joined also by the node pairs ``links (2, k)``:
+    ``(n_pieces, labels (n_nodes,))``, numbered in the order of their lowest node (an unused node is a piece)."""
+    n_nodes = check_count("n_nodes", n_nodes, 0)
+    t = _node_indices("t", t, 3, n_nodes)
     rows, cols = np.concatenate([t[0], t[1]]), np.concatenate([t[1], t[2]])  # two edges of each triangle suffice
+    if links is not None:
+        rows, cols = np.concatenate([rows, links[0]]), np.concatenate([cols, links[1]])
     graph = sp.coo_matrix((np.ones(rows.size), (rows, cols)), shape=(n_nodes, n_nodes))
     n, labels = csgraph.connected_components(graph, directed=False)
     return int(n), labels.astype(np.int64)
@@ -176,20 +170,12 @@ def nodes_near(positions, point, radius):
 
 
 # --- the path of a cut ---
-def _segment_distance(px, py, ax, ay, bx, by):
-    """Distance from points (px, py) to segments (a, b); broadcasts."""
-    dx, dy = bx - ax, by - ay
-    L2 = dx * dx + dy * dy
-    s = np.clip(((px - ax) * dx + (py - ay) * dy) / np.where(L2 > 0.0, L2, 1.0), 0.0, 1.0)
-    return np.hypot(px - ax - s * dx, py - ay - s * dy)
-
-
 def _boundary_snap(x, t, bfacets, end, towards):
-    """The boundary node where a polyline from ``end`` towards ``towards`` enters the body, if ``end`` lies outside or
-    within half a facet of the boundary ``bfacets`` (2, nb) (else ``None``): the nearer end of the first facet crossed,
-    or the boundary node nearest to ``end``."""
+    """If ``end`` lies outside or within half a facet of the boundary ``bfacets`` (2, nb), the boundary node where a
+    polyline from it towards ``towards`` enters the body (the nearer end of the first facet crossed, or the boundary
+    node nearest to ``end``); else ``None``."""
     A, B = x[:, bfacets[0]], x[:, bfacets[1]]
-    dist = _segment_distance(end[0], end[1], A[0], A[1], B[0], B[1])
+    dist = segment_distance(end[:, None], A, B)
     nearest = int(np.argmin(dist))
     length = np.hypot(*(B[:, nearest] - A[:, nearest]))
     # inside (or on) a triangle where its three sub-areas at ``end`` have the sign of the whole (either orientation)
@@ -220,16 +206,14 @@ def _boundary_snap(x, t, bfacets, end, towards):
 
 
 def cut_path(mesh, polyline, positions=None) -> np.ndarray:
-    """The path of mesh nodes that follows a drawn ``polyline`` (k, 2), k >= 2.
+    """The path of mesh nodes (int64) that follows a ``polyline`` (k, 2), k >= 2, drawn at ``positions``.
 
-    The polyline is drawn where the nodes are now, ``positions`` (2, n_nodes) (default ``mesh.p``). Returns node
-    indices (int64); consecutive entries are the ends of a mesh edge, or two copies of one material point (crossing an
-    old wound). Each polyline vertex snaps to the nearest node; an *endpoint* outside the body (or within about half an
-    edge of its boundary) snaps to the boundary node where its segment crosses the boundary, so a stroke across the
-    body cuts it through. Between snapped nodes the path is a shortest path (Dijkstra) over the mesh edges, each
-    costing ``length * (1 + 10 d / h)`` (``d`` the mean distance of its nodes from the drawn segment, ``h`` the median
-    edge length): it hugs the line within about one element. ``ValueError`` for a bad polyline, one that collapses
-    to a single node, or one that joins two unconnected pieces.
+    Consecutive nodes are the ends of a mesh edge, or two copies of one point (crossing an old wound). Each vertex of
+    the polyline snaps to the nearest node; an *end* outside the body (or within half an edge of its boundary) snaps to
+    the boundary node where it enters, so a stroke across the body cuts it through. Between them runs a shortest path
+    (Dijkstra) over the mesh edges, each costing ``length * (1 + 10 d / h)`` (``d``: the mean distance of its nodes
+    from the drawn segment, ``h``: the median edge length): it hugs the line within about one element. ``ValueError``
+    for a bad polyline, one that collapses to a single node, or one that joins two unconnected pieces.
     """
     pts = check_points("polyline", polyline, 2)
     p, t = mesh_arrays(mesh)
@@ -270,7 +254,7 @@ def cut_path(mesh, polyline, positions=None) -> np.ndarray:
         if src == dst:
             continue
         (ax, ay), (bx, by) = pts[k], pts[k + 1]
-        d = _segment_distance(x[0], x[1], ax, ay, bx, by)
+        d = segment_distance(x, pts[k][:, None], pts[k + 1][:, None])
         cost = length * (1.0 + _HUG * 0.5 * (d[ends[0]] + d[ends[1]]) / h)
         # a floor keeps zero-length links (copies at the same place) in the graph
         cost = np.maximum(cost, 1e-12 * h)
@@ -305,14 +289,10 @@ def _opened(mesh, parent, interior_keys, n_old) -> np.ndarray:
 
 
 def incise(mesh, polyline, positions=None) -> MeshEdit:
-    """Cut ``mesh`` (not modified) along a drawn polyline.
-
-    The polyline becomes a path of mesh edges (:func:`cut_path`), opened by duplicating nodes
-    (:func:`duplicate_along_edges`); a stroke that ends inside the body leaves a crack whose tip stays closed. Returns
-    a :class:`MeshEdit` in the reference configuration (``p`` is ``mesh.p[:, parent]``) whose ``elements`` is
-    ``arange(m)``; the two faces of the wound are named ``"cut"``. ``ValueError`` for a bad polyline, or one that
-    opens no edge (it runs along the boundary, or is a single edge inside the body).
-    """
+    """Cut ``mesh`` (not modified) along the path of mesh edges (:func:`cut_path`) of a drawn polyline, opened by
+    :func:`duplicate_along_edges` (a crack's tip stays closed). Returns a :class:`MeshEdit` (reference coordinates,
+    ``elements`` is ``arange(m)``) whose wound's faces are named ``"cut"``. ``ValueError`` for a bad polyline, or one
+    that opens no edge (along the boundary, or a single edge inside the body)."""
     p, t = mesh_arrays(mesh)
     n = p.shape[1]
     path = cut_path(mesh, polyline, positions)
@@ -338,14 +318,10 @@ def incise(mesh, polyline, positions=None) -> MeshEdit:
 
 
 def excise(mesh, region, positions=None) -> MeshEdit:
-    """Remove the triangles of ``mesh`` (not modified) whose centroid lies in ``region`` (a defect).
-
-    ``region`` is a polygon (k, 2), k >= 3 (even-odd rule), or a function ``centroids (2, m) -> bool (m,)``, True for
-    the triangles to remove; the centroids are taken at ``positions`` (2, n_nodes) (default ``mesh.p``). Returns a
-    :class:`MeshEdit`: unused nodes are dropped and the rest keep their order (``parent`` is increasing), the surviving
-    triangles keep theirs, and the rim of the hole is named ``"defect"``. ``ValueError`` if ``region`` is not a valid
-    polygon or mask, or selects no element or every element.
-    """
+    """Remove the triangles of ``mesh`` (not modified) whose centroid (at ``positions``) lies in ``region``: a polygon
+    (k, 2), k >= 3 (even-odd rule), or a function ``centroids (2, m) -> bool (m,)``. Returns a :class:`MeshEdit`:
+    unused nodes dropped, the rest and the triangles kept in order, the rim named ``"defect"``. ``ValueError`` for a
+    bad polygon or mask, or one that selects no element or every element."""
     p, t = mesh_arrays(mesh)
     x = node_positions(mesh, positions)
     m = t.shape[1]

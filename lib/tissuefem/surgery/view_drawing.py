@@ -1,12 +1,10 @@
 """What a :class:`~tissuefem.surgery.interactive.SurgeryView` draws, and how it keeps within the frame budget.
 
-The readout above the axes shows the step *and* the draw against the 33 ms budget, and the frames drawn per
-second. The view's own figure (:func:`view_axes`) has its axes in a fixed place (no layout engine runs per
-frame) and is a :class:`LayeredFigure`: it draws what does not move (axes, ticks, labels) once and keeps that
-picture; per frame it restores it and draws only the moving layer: the triangles (:class:`MeshDrawing`: one
-compound path for the faces and one for the edges, whose vertex arrays are rewritten in place), the drag target
-and the cut stroke. The two lines of text (:class:`Readout`) change at a readable pace (a new message at once);
-messages go to a fixed place under the axes, cut to two lines, so they never move the axes.
+The view's own figure (:func:`view_axes`) has its axes in a fixed place (no layout engine per frame) and is a
+:class:`LayeredFigure`: it keeps the picture of what does not move (axes, ticks, labels) and per frame draws only the
+moving layer over it: the triangles (:class:`MeshDrawing`: two compound paths whose vertex arrays are rewritten in
+place), the drag target and the cut stroke. The :class:`Readout` above the axes shows the step *and* the draw against
+the 33 ms budget and the frames drawn per second, at a readable pace; messages go under the axes, cut to two lines.
 """
 
 from __future__ import annotations
@@ -32,19 +30,14 @@ from ..engine.constants import FRAME_BUDGET
 __all__ = ["LayeredFigure", "MeshDrawing", "Readout", "view_axes", "is_interactive", "is_gui", "FIGSIZE",
            "AXES_RECT", "MESSAGE_LINES", "KEYFRAME_S"]
 
-#: the size of a view's own figure, inches
-FIGSIZE = (7.0, 4.5)
-#: where the axes sit in a view's own figure (left, bottom, width, height; figure fractions): room
-#: above for the readout, below for the tick labels and two lines of message
+FIGSIZE = (7.0, 4.5)  #: the size of a view's own figure, inches
+#: where its axes sit (left, bottom, width, height; figure fractions): room above for the readout, below for the tick
+#: labels and the message
 AXES_RECT = (0.08, 0.15, 0.9, 0.77)
-#: font size (points) of the readout and the message
-TEXT_SIZE = 8
-#: lines of a message at most (a longer one is cut, its full text stays in ``view.message``)
-MESSAGE_LINES = 2
-#: drawn frames kept for the frame rate and the draw times
-KEEP = 600
-#: seconds between whole pictures pushed to a browser canvas (the others are differences)
-KEYFRAME_S = 0.5
+TEXT_SIZE = 8  #: font size (points) of the readout and the message
+MESSAGE_LINES = 2  #: lines of a message at most (its full text stays in ``view.message``)
+KEEP = 600  #: drawn frames kept for the frame rate and the draw times
+KEYFRAME_S = 0.5  #: seconds between whole pictures pushed to a browser canvas (the others are differences)
 
 
 def is_gui(canvas) -> bool:
@@ -53,21 +46,15 @@ def is_gui(canvas) -> bool:
 
 
 def is_interactive(canvas) -> bool:
-    """Whether ``canvas`` belongs to an interactive backend: one whose timers fire and that redraws on screen.
-
-    A GUI toolkit names its framework; a browser backend (ipympl, WebAgg) has a working timer; Agg and the
-    inline backend have only the base timer, which never fires.
-    """
+    """Whether ``canvas``'s timers fire and it redraws on screen: a GUI toolkit, or a browser backend (ipympl,
+    WebAgg) with a working timer; Agg and inline have only the base timer, which never fires."""
     return is_gui(canvas) or type(canvas.new_timer()) is not TimerBase
 
 
 def view_axes():
-    """The axes of a view's own figure: a :class:`LayeredFigure` of ``FIGSIZE``, made with pyplot.
-
-    Under ``plt.ioff()`` pyplot does not show the figure by itself at the end of the cell: the view is shown
-    once, with its buttons, by ``display(view)``. A non-interactive figure leaves pyplot's list at once, so the
-    inline backend never shows a frozen copy of it later.
-    """
+    """The axes of a view's own figure: a :class:`LayeredFigure` of ``FIGSIZE``, made with pyplot (under ``ioff``:
+    ``display(view)`` shows it once, with its buttons; a non-interactive one leaves pyplot's list, so the inline
+    backend never shows a frozen copy later)."""
     was_interactive = matplotlib.is_interactive()
     with plt.ioff():
         fig = plt.figure(figsize=FIGSIZE, FigureClass=LayeredFigure)
@@ -84,12 +71,11 @@ def view_axes():
 class LayeredFigure(Figure):
     """A figure that draws what does not move once and, per frame, only its moving layer over it.
 
-    Three levels: the *background* (axes, ticks, labels), drawn in full only when the figure is stale or
-    the renderer is new (size, resolution); the *slow* layer (the readout and the message), drawn over it
-    and kept with it, when one of its artists changed and at most every ``slow_interval`` seconds unless
-    :meth:`refresh_slow` asks for it at once (text glyph by glyph costs more than a frame of triangles);
-    and the *layer* (triangles, target, stroke), drawn over the kept picture at every draw. ``savefig``
-    always draws everything. Each :class:`Readout` in ``readouts`` is told when a draw starts and ends.
+    Three levels: the *background* (axes, ticks, labels), drawn only when the figure is stale or the renderer new;
+    the *slow* layer (readout, message), drawn over it and kept with it when it changed, at most every
+    ``slow_interval`` s unless :meth:`refresh_slow` asks (text costs more than a frame of triangles); and the *layer*
+    (triangles, target, stroke), drawn over the kept picture at every draw. ``savefig`` draws everything. Each
+    :class:`Readout` in ``readouts`` is told when a draw starts and ends.
     """
 
     slow_interval = 0.25
@@ -172,10 +158,8 @@ class LayeredFigure(Figure):
 
 
 class MeshDrawing:
-    """The triangles in ``ax`` as two compound paths, faces and edges, whose vertex arrays are rewritten in place.
-
-    The axis limits are fixed: the reference bounding box of ``mesh`` with a margin (dragged tissue stays in view).
-    """
+    """The triangles in ``ax`` as two compound paths, faces and edges, whose vertex arrays are rewritten in place;
+    fixed axis limits: the reference bounding box of ``mesh`` with a margin (dragged tissue stays in view)."""
 
     def __init__(self, ax, mesh):
         X = np.asarray(mesh.p, dtype=float)
@@ -242,13 +226,10 @@ def _ms(value) -> str:
 class Readout:
     """A view's two lines of text and its timings.
 
-    The readout above the axes (mode, frame, step + draw against the budget, frames drawn per second, the
-    solver's status) and the message: in the view's own figure at its foot (under the tick labels), in axes of
-    your own inside them; both left out of any layout, so they never move the axes. ``on_draw`` is called when
-    a draw starts (the readout then shows the last finished draw).
-
-    On a browser canvas (ipympl, WebAgg), which sends each encoded picture to every listener in
-    ``manager.web_sockets``, the readout listens too (:meth:`send_binary`): a draw's time includes the encoding.
+    The readout above the axes (mode, frame, step + draw against the budget, frames per second, the solver's status)
+    and the message (at the figure's foot, or inside axes of your own); both out of any layout, so they never move
+    the axes. ``on_draw`` is called when a draw starts. On a browser canvas, which sends each picture to every
+    listener in ``manager.web_sockets``, the readout listens too (:meth:`send_binary`): a draw's time includes it.
     """
 
     def __init__(self, ax, own_figure, on_draw):
@@ -307,8 +288,7 @@ class Readout:
         """The message wrapped to the width it has, at most two lines (a longer one ends in ' ...')."""
         if not message:
             return ""
-        # the message starts 5 % into the view's own figure (and may run to 1 % before its edge), or
-        # 1 % into axes of your own (to 2 % before their edge)
+        # from 5 % into the view's own figure to 1 % before its edge, or 1 % to 98 % of axes of your own
         fraction = 0.94 if self.own_figure else 0.97 * self.ax.get_position().width
         sample = "0" * 40
         prop = self.message_text.get_fontproperties()
