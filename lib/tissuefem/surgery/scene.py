@@ -353,29 +353,45 @@ def _check_nesting(data, limit=MAX_NESTING):
         stack.extend((c, depth + 1) for c in children if isinstance(c, (dict, list, tuple)))
 
 
-# brackets in the text of a scene, outside strings and comments: their depth is checked before parsing, so a
-# deeply nested file never reaches the parsers' recursion
+# brackets and dots in the text of a scene, outside strings and comments, are checked before parsing: a deeply
+# nested file never reaches the parsers' recursion, nor a long dotted key tomllib (its memory grows as parts^2)
 _SKIP_TOML = re.compile(r'"""(?:[^"\\]|\\.|"(?!""))*"""|\'\'\'.*?\'\'\'|"(?:[^"\\\n]|\\.)*"|\'[^\'\n]*\'|#[^\n]*',
                         re.S)
 _SKIP_JSON = re.compile(r'"(?:[^"\\]|\\.)*"', re.S)
+#: what ends a TOML key path (a number or a date between them has at most one dot)
+_KEY_ENDS = [ord(c) for c in "=\n,[]{}"]
 
 
 def _check_text_nesting(text, kind):
-    """Refuse a text whose brackets nest deeper than :data:`MAX_NESTING`, naming the line (before any parsing)."""
+    """Refuse a text whose brackets nest deeper than :data:`MAX_NESTING`, or (TOML) a dotted key path of more parts
+    (JSON's key paths are its brackets), naming the line; a linear scan before any parsing."""
     codes = np.frombuffer(text.encode("utf-32-le", "surrogatepass"), dtype="<u4")
     step = np.zeros(codes.size, dtype=np.int8)
     step[(codes == ord("[")) | (codes == ord("{"))] = 1
     step[(codes == ord("]")) | (codes == ord("}"))] = -1
-    if not step.any():
+    dots = codes == ord(".") if kind == "TOML" else np.zeros(codes.size, dtype=bool)
+    if not step.any() and not dots.any():
         return
+    outside = np.ones(codes.size, dtype=bool)
     for m in (_SKIP_TOML if kind == "TOML" else _SKIP_JSON).finditer(text):
-        step[m.start():m.end()] = 0
+        outside[m.start():m.end()] = False
+    step[~outside] = 0
     depth = np.cumsum(step, dtype=np.int64)
     too_deep = np.flatnonzero(depth > MAX_NESTING)
     if too_deep.size:
         line = text.count("\n", 0, int(too_deep[0])) + 1
         raise ValueError(f"scene: its {kind} nests deeper than {MAX_NESTING} levels "
                          f"(line {line}); a scene needs at most 7")
+    at = np.flatnonzero(dots & outside)
+    if at.size:
+        key = np.searchsorted(np.flatnonzero(np.isin(codes, _KEY_ENDS) & outside), at)  # the key path of each dot
+        parts = np.bincount(key) + 1
+        if parts.max() > MAX_NESTING:
+            first = int(np.flatnonzero(parts > MAX_NESTING)[0])
+            line = text.count("\n", 0, int(at[np.searchsorted(key, first)])) + 1
+            raise ParameterError("scene", f"scene: a key path of {parts[first]} parts (line {line}) is longer than "
+                                          f"the limit of {MAX_NESTING} (nested deeper than {MAX_NESTING} levels; "
+                                          "a scene needs at most 7)")
 
 
 # --- TOML output (the subset scenes use: tables, arrays of tables, numbers, strings, arrays) ---------------------
