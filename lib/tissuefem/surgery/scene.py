@@ -27,16 +27,14 @@ import skfem
 from skfem.io.meshio import from_meshio
 
 from ..engine import meshes
-from ..engine.materials import MATERIALS
-from ..engine.materials import material as make_material
 from ..engine.constants import FRAME_BUDGET, TISSUE_DENSITY, TISSUE_E, TISSUE_NU
+from ..engine.effects import EFFECTS as EFFECTS_REGISTRY
 from ..engine.inversion import ITFClamped, ProjectedTangent
 from ..engine.linsolve import LinearSolver
-from ..engine.effects import EFFECTS as EFFECTS_REGISTRY
-from ..engine.parameters import (FAR, count_list, is_sequence, number, points, require, show, string, table,
-                                 vector)
-from ..engine.parameters import (DENSITY_RANGE, RADIUS_RANGE, REACH, YOUNGS_MODULUS_RANGE, ParameterError,
-                                 check_poisson_ratio)
+from ..engine.materials import MATERIALS, material as make_material
+from ..engine.parameters import (DENSITY_RANGE, FAR, RADIUS_RANGE, REACH, YOUNGS_MODULUS_RANGE, ParameterError,
+                                 check_poisson_ratio, count_list, is_sequence, number, points, require, show,
+                                 string, table, vector)
 
 __all__ = ["Scene", "EFFECTS", "SHAPES", "EXAMPLE_TOML", "demo_scene", "flap_scene", "flap_path", "read_mesh"]
 
@@ -49,13 +47,21 @@ EFFECTS = ("inertia", "gravity", "fibers", "inversion", "handles", "tractions", 
 #: the order in which a scene's effects are checked (and written)
 _ORDER = ["inertia", "gravity", "fibers", "inversion", "contact", "handles", "tractions", "probes", "excisions",
           "incisions", "sutures"]
-#: the domains a scene may use ("file": a 2D triangle mesh read through meshio)
-SHAPES = ("rectangle", "flap", "fusiform", "file")
+#: each domain's fields and their defaults ("file": a 2D triangle mesh read through meshio)
+_DOMAINS = {"rectangle": {"width": 1.0, "height": 1.0, "triangles": 800},
+            "flap": {"width": 2.0, "height": 1.0, "triangles": 800},
+            "fusiform": {"length": 4.0, "max_width": 1.0, "tendon_width": 0.25, "nx": 40, "ny": 8},
+            "file": {"path": None, "scale": 1.0}}
+SHAPES = tuple(_DOMAINS)
 #: the list-valued effects of the scene's own (each entry is a table); the registry's say whether they are
 _LISTS = ("handles", "excisions", "incisions")
 
 # --- limits (the table in docs/scenes.md): triangles, lengths (and ``domain.scale``), aspect ratio either way round
 MAX_TRIANGLES, SIZE_RANGE, MAX_ASPECT = meshes.MAX_TRIANGLES, meshes.SIZE_RANGE, meshes.MAX_ASPECT
+#: the integer fields of the domains and their largest values; the ratios whose aspect is limited
+_COUNTS = {"triangles": MAX_TRIANGLES, "nx": MAX_TRIANGLES // 2, "ny": MAX_TRIANGLES // 2}
+_ASPECTS = {"rectangle": [("width", "height")], "flap": [("width", "height")],
+            "fusiform": [("length", "max_width"), ("max_width", "tendon_width")]}
 THRESHOLD_RANGE = (0.01, 0.99)
 BUDGET_RANGE = (1e-6, 1e9)
 RTOL_RANGE = (1e-14, 0.5)
@@ -115,48 +121,33 @@ def _within(field, value, bounds):
     return number(field, value, lo=bounds[0], hi=bounds[1])
 
 
-def _length(field, value):
-    return _within(field, value, SIZE_RANGE)
-
-
-def _aspect(field, ratio):
-    if not 1.0 / MAX_ASPECT <= ratio <= MAX_ASPECT:
-        raise ValueError(f"{field} = {ratio:g}: the aspect ratio must lie within [1/{MAX_ASPECT:g}, {MAX_ASPECT:g}]")
-
-
 def _check_domain(d):
     d = table("domain", d)
     shape = string("domain.shape", d.get("shape", "rectangle"), SHAPES)
+    table("domain", d, ("shape", *_DOMAINS[shape]))
+    if shape == "file" and "path" not in d:
+        raise ValueError("domain.path: a 'file' domain needs the path of a mesh file (gmsh .msh, .vtk, ...)")
     out = {"shape": shape}
-    if shape in ("rectangle", "flap"):
-        table("domain", d, ("shape", "width", "height", "triangles"))
-        out["width"] = _length("domain.width", d.get("width", 2.0 if shape == "flap" else 1.0))
-        out["height"] = _length("domain.height", d.get("height", 1.0))
-        _aspect("domain.width / domain.height", out["width"] / out["height"])
-        out["triangles"] = number("domain.triangles", d.get("triangles", 800), integer=True, lo=1, hi=MAX_TRIANGLES)
-    elif shape == "fusiform":
-        table("domain", d, ("shape", "length", "max_width", "tendon_width", "nx", "ny"))
-        out["length"] = _length("domain.length", d.get("length", 4.0))
-        out["max_width"] = _length("domain.max_width", d.get("max_width", 1.0))
-        out["tendon_width"] = _length("domain.tendon_width", d.get("tendon_width", 0.25))
-        if out["tendon_width"] > out["max_width"]:
-            raise ValueError(f"domain.tendon_width must not exceed domain.max_width (the belly is widest in the "
-                             f"middle), got {out['tendon_width']!r} > {out['max_width']!r}")
-        _aspect("domain.length / domain.max_width", out["length"] / out["max_width"])
-        _aspect("domain.max_width / domain.tendon_width", out["max_width"] / out["tendon_width"])
-        out["nx"] = number("domain.nx", d.get("nx", 40), integer=True, lo=1, hi=MAX_TRIANGLES // 2)
-        out["ny"] = number("domain.ny", d.get("ny", 8), integer=True, lo=1, hi=MAX_TRIANGLES // 2)
-        if 2 * out["nx"] * out["ny"] > MAX_TRIANGLES:
-            raise ValueError(f"domain.nx, domain.ny: {out['nx']} x {out['ny']} cells make "
-                             f"{2 * out['nx'] * out['ny']} triangles, more than {MAX_TRIANGLES}")
-    else:
-        table("domain", d, ("shape", "path", "scale"))
-        if "path" not in d:
-            raise ValueError("domain.path: a 'file' domain needs the path of a mesh file (gmsh .msh, .vtk, ...)")
-        out["path"] = string("domain.path", d["path"], nonempty=True)
-        if "\0" in out["path"]:
+    for key, default in _DOMAINS[shape].items():
+        field, value = f"domain.{key}", d.get(key, default)
+        if key in _COUNTS:
+            out[key] = number(field, value, integer=True, lo=1, hi=_COUNTS[key])
+        elif key != "path":
+            out[key] = _within(field, value, SIZE_RANGE)
+        elif "\0" in string(field, value, nonempty=True):
             raise ValueError("domain.path must not contain a NUL character")
-        out["scale"] = _length("domain.scale", d.get("scale", 1.0))
+        else:
+            out[key] = value
+    if shape == "fusiform" and out["tendon_width"] > out["max_width"]:
+        raise ValueError(f"domain.tendon_width must not exceed domain.max_width (the belly is widest in the "
+                         f"middle), got {out['tendon_width']!r} > {out['max_width']!r}")
+    for a, b in _ASPECTS.get(shape, ()):
+        if not 1.0 / MAX_ASPECT <= out[a] / out[b] <= MAX_ASPECT:
+            raise ValueError(f"domain.{a} / domain.{b} = {out[a] / out[b]:g}: the aspect ratio must lie within "
+                             f"[1/{MAX_ASPECT:g}, {MAX_ASPECT:g}]")
+    if shape == "fusiform" and 2 * out["nx"] * out["ny"] > MAX_TRIANGLES:
+        raise ValueError(f"domain.nx, domain.ny: {out['nx']} x {out['ny']} cells make "
+                         f"{2 * out['nx'] * out['ny']} triangles, more than {MAX_TRIANGLES}")
     return out
 
 
@@ -189,8 +180,7 @@ def _check_region(field, r):
         return string(field, r, nonempty=True)
     r = table(field, r)
     if "box" in r:
-        table(field, r, ("box",))
-        box = r["box"]
+        box = table(field, r, ("box",))["box"]
         if not is_sequence(box) or len(box) != 4:
             raise ValueError(f"{field}.box must be [xmin, ymin, xmax, ymax], got {show(box)}")
         box = [number(f"{field}.box[{i}]", b, lo=-FAR, hi=FAR) for i, b in enumerate(box)]
@@ -202,8 +192,7 @@ def _check_region(field, r):
         return {"near": vector(f"{field}.near", r["near"]),
                 "radius": _within(f"{field}.radius", r.get("radius", 0.05), (MIN_RADIUS * SIZE_RANGE[0], FAR))}
     if "nodes" in r:
-        table(field, r, ("nodes",))
-        nodes = count_list(f"{field}.nodes", r["nodes"], "node indices", MAX_NODES)
+        nodes = count_list(f"{field}.nodes", table(field, r, ("nodes",))["nodes"], "node indices", MAX_NODES)
         return {"nodes": [number(f"{field}.nodes[{i}]", n, integer=True, lo=0, hi=MAX_NODES - 1)
                           for i, n in enumerate(nodes)]}
     raise ValueError(f"{field} must be a boundary name or a table with 'box', 'near' (+ 'radius') or 'nodes', "
@@ -221,8 +210,8 @@ def _check_entry(kind, i, e):
     if kind == "handles":
         e = table(field, e, ("name", "region", "target"))
         if "region" not in e:
-            raise ParameterError(f"{field}.region", f"{field}.region: missing (a boundary name, a box or a point "
-                                                    "with radius)")
+            raise ParameterError(f"{field}.region", f"{field}.region: missing (a boundary name, a box or a "
+                                                    "point with radius)")
         return {"name": string(f"{field}.name", e.get("name", f"handle{i}")),
                 "region": _check_region(f"{field}.region", e["region"]),
                 "target": vector(f"{field}.target", e.get("target", [0.0, 0.0]))}
@@ -235,13 +224,13 @@ def _check_entry(kind, i, e):
 def _check_inversion(e):
     e = table("effects.inversion", e, ("method", "threshold"))
     method = string("effects.inversion.method", e.get("method", "projected"), ("itf", "projected"))
-    out = {"method": method}
-    if method == "itf":
-        out["threshold"] = _within("effects.inversion.threshold", e.get("threshold", 0.3), THRESHOLD_RANGE)
-    elif "threshold" in e:
-        raise ParameterError("effects.inversion.threshold", "effects.inversion.threshold: only the 'itf' method has "
-                                                            "a threshold")
-    return out
+    if method == "projected" and "threshold" in e:
+        raise ParameterError("effects.inversion.threshold", "effects.inversion.threshold: only the 'itf' method "
+                                                            "has a threshold")
+    if method == "projected":
+        return {"method": method}
+    return {"method": method,
+            "threshold": _within("effects.inversion.threshold", e.get("threshold", 0.3), THRESHOLD_RANGE)}
 
 
 def _check_effects(effects):
@@ -253,22 +242,18 @@ def _check_effects(effects):
         raise ParameterError("effects", f"effects: unknown effect(s) [{', '.join(sorted(show(k) for k in unknown))}]; "
                                         f"known effects: {known}")
     out = {}
-    for kind in _ORDER + [k for k in known if k not in _ORDER]:
-        if kind not in effects:
-            continue
+    for kind in [k for k in dict.fromkeys(_ORDER + known) if k in effects]:
+        field, entries = f"effects.{kind}", effects[kind]
         if kind == "inversion":
-            out[kind] = _check_inversion(effects[kind])
+            out[kind] = _check_inversion(entries)
         elif not _listed(kind):
-            out[kind] = EFFECTS_REGISTRY[kind].check(f"effects.{kind}", effects[kind])
+            out[kind] = EFFECTS_REGISTRY[kind].check(field, entries)
         else:
-            entries = effects[kind]
-            if isinstance(entries, dict):
-                entries = [entries]
+            entries = [entries] if isinstance(entries, dict) else entries
             if not is_sequence(entries):
-                raise ParameterError(f"effects.{kind}", f"effects.{kind} must be a list of tables, got {show(entries)}")
+                raise ParameterError(field, f"{field} must be a list of tables, got {show(entries)}")
             if len(entries) > MAX_ENTRIES:
-                raise ParameterError(f"effects.{kind}", f"effects.{kind}: at most {MAX_ENTRIES} entries, got "
-                                                        f"{len(entries)}")
+                raise ParameterError(field, f"{field}: at most {MAX_ENTRIES} entries, got {len(entries)}")
             if len(entries):  # an empty list is the same as leaving the effect out
                 out[kind] = [_check_entry(kind, i, e) for i, e in enumerate(entries)]
     names = [h["name"] for h in out.get("handles", [])]
@@ -781,7 +766,7 @@ def read_mesh(path, scale=1.0, notes=None):
     Nodes in no triangle (gmsh writes geometry points, such as an arc's centre, as nodes) are dropped and
     the rest renumbered in their order; a note saying so is appended to ``notes`` (a list) if given.
     """
-    scale = _length("domain.scale", scale)
+    scale = _within("domain.scale", scale, SIZE_RANGE)
     mesh, dropped = _read_mesh(path, scale)
     if dropped.size and notes is not None:
         notes.append(_dropped_note(Path(path).name, dropped))
