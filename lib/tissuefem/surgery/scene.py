@@ -224,13 +224,13 @@ def _check_entry(kind, i, e):
 def _check_inversion(e):
     e = table("effects.inversion", e, ("method", "threshold"))
     method = string("effects.inversion.method", e.get("method", "projected"), ("itf", "projected"))
-    if method == "projected" and "threshold" in e:
+    if method == "itf":
+        return {"method": method, "threshold": _within("effects.inversion.threshold", e.get("threshold", 0.3),
+                                                       THRESHOLD_RANGE)}
+    if "threshold" in e:
         raise ParameterError("effects.inversion.threshold", "effects.inversion.threshold: only the 'itf' method "
                                                             "has a threshold")
-    if method == "projected":
-        return {"method": method}
-    return {"method": method,
-            "threshold": _within("effects.inversion.threshold", e.get("threshold", 0.3), THRESHOLD_RANGE)}
+    return {"method": method}
 
 
 def _check_effects(effects):
@@ -262,24 +262,18 @@ def _check_effects(effects):
     return out
 
 
-def _linear_solver(value):
-    name = string("solver.linear_solver", value)
-    try:
-        LinearSolver(name)
-    except ValueError as err:
-        raise ValueError(f"solver.linear_solver: {err}") from None
-    return name
-
-
 def _check_solver(s):
     s = table("solver", s, ("budget", "rtol", "linear_solver", "max_iterations"))
-    return {
-        "budget": _within("solver.budget", s.get("budget", FRAME_BUDGET), BUDGET_RANGE),
-        "rtol": _within("solver.rtol", s.get("rtol", 1e-6), RTOL_RANGE),
-        "linear_solver": _linear_solver(s.get("linear_solver", "reuse")),
-        "max_iterations": number("solver.max_iterations", s.get("max_iterations", 50), integer=True, lo=1,
-                                  hi=MAX_ITERATIONS),
-    }
+    out = {"budget": _within("solver.budget", s.get("budget", FRAME_BUDGET), BUDGET_RANGE),
+           "rtol": _within("solver.rtol", s.get("rtol", 1e-6), RTOL_RANGE),
+           "linear_solver": string("solver.linear_solver", s.get("linear_solver", "reuse"))}
+    try:
+        LinearSolver(out["linear_solver"])
+    except ValueError as err:
+        raise ValueError(f"solver.linear_solver: {err}") from None
+    out["max_iterations"] = number("solver.max_iterations", s.get("max_iterations", 50), integer=True, lo=1,
+                                   hi=MAX_ITERATIONS)
+    return out
 
 
 def _check_reach(effects, box, where=""):
@@ -427,12 +421,16 @@ def _toml(data) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _scene_path(path, argument="path") -> Path:
+def _path(path, argument="path", what="a file") -> Path:
     if isinstance(path, bytes) or not isinstance(path, (str, os.PathLike)):
-        raise ValueError(f"{argument} must be a file path (str or pathlib.Path), got {show(path)}")
+        raise ValueError(f"{argument} must be {what} path (str or pathlib.Path), got {show(path)}")
     if "\0" in os.fspath(path):
         raise ValueError(f"{argument} must not contain a NUL character")
-    path = Path(path)
+    return Path(path)
+
+
+def _scene_path(path) -> Path:
+    path = _path(path)
     if path.suffix not in (".toml", ".json"):
         raise ValueError(f"scene file must end in .toml or .json, got {path.name!r}")
     return path
@@ -456,9 +454,7 @@ class Scene:
         box = _domain_box(self.domain)
         if box is not None:
             _check_reach(self.effects, box)
-        if base_dir is not None and (isinstance(base_dir, bytes) or not isinstance(base_dir, (str, os.PathLike))):
-            raise ValueError(f"base_dir must be a folder path (str or pathlib.Path), got {show(base_dir)}")
-        self.base_dir = None if base_dir is None else Path(base_dir)
+        self.base_dir = None if base_dir is None else _path(base_dir, "base_dir", "a folder")
         self.notes = []
 
     # ------------------------------------------------------------------ constructors and output
@@ -477,9 +473,7 @@ class Scene:
         out = {"name": self.name}
         if self.description:
             out["description"] = self.description
-        out.update(domain=copy.deepcopy(self.domain), material=copy.deepcopy(self.material),
-                   effects=copy.deepcopy(self.effects), solver=copy.deepcopy(self.solver))
-        return out
+        return out | {key: copy.deepcopy(getattr(self, key)) for key in ("domain", "material", "effects", "solver")}
 
     @classmethod
     def from_toml(cls, text, base_dir=None) -> "Scene":
@@ -542,8 +536,7 @@ class Scene:
         path = _scene_path(path)
         toml = path.suffix == ".toml"
         text = self.to_toml() if toml else self.to_json()
-        again = (Scene.from_toml if toml else Scene.from_json)(text)
-        if again != self:
+        if (Scene.from_toml if toml else Scene.from_json)(text) != self:
             raise ValueError("scene: the written text would not read back as the same scene (please report this)")
         temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
         try:
@@ -591,16 +584,13 @@ class Scene:
     def build_material(self):
         m = self.material
         mat = make_material(m["model"], m["youngs_modulus"], m["poisson_ratio"])
-        inv = self.effects.get("inversion")
-        if inv is not None:
-            if inv["method"] == "itf":
-                if m["model"] != "neo-hookean":
-                    raise ValueError("effects.inversion.method: 'itf' clamps the ln J model only "
-                                     f"(material.model = 'neo-hookean'), got {m['model']!r}; use 'projected'")
-                mat = ITFClamped(mat, threshold=inv["threshold"])
-            else:
-                mat = ProjectedTangent(mat, adaptive=True)
-        return mat
+        inv = self.effects.get("inversion", {})
+        if inv.get("method") == "itf" and m["model"] != "neo-hookean":
+            raise ValueError("effects.inversion.method: 'itf' clamps the ln J model only "
+                             f"(material.model = 'neo-hookean'), got {m['model']!r}; use 'projected'")
+        if inv.get("method") == "itf":
+            return ITFClamped(mat, threshold=inv["threshold"])
+        return ProjectedTangent(mat, adaptive=True) if inv else mat
 
 
 # --- mesh files --------------------------------------------------------------------------------------------------
@@ -609,38 +599,22 @@ class Scene:
 _CELLS_ALLOWED = ("triangle", "line", "vertex")
 
 
-@contextlib.contextmanager
-def _quiet():
-    """Keep a mesh reader's own printing and logging off the terminal (its failures become our ValueError)."""
-    sink = io.StringIO()
-    previous = logging.root.manager.disable
+def _quietly(path, read, *args):
+    """``read(*args)`` with a mesh reader's printing and logging kept off the terminal. Its failure, even the
+    ``sys.exit(1)`` meshio calls on a file it cannot read, becomes a ``ValueError`` naming ``domain.path``
+    (KeyboardInterrupt and GeneratorExit are left alone)."""
+    sink, previous = io.StringIO(), logging.root.manager.disable
     logging.disable(logging.CRITICAL)
     try:
         with contextlib.redirect_stdout(sink), contextlib.redirect_stderr(sink):
-            yield sink
+            return read(*args)
+    except (Exception, SystemExit) as err:
+        said = " ".join((str(err) if not isinstance(err, SystemExit) else "").split())
+        said = (said or " ".join(sink.getvalue().split()) or type(err).__name__).replace(str(path), path.name)
+        said = said[:300] + " ..." if len(said) > 300 else said
+        raise ValueError(f"domain.path: could not read {path.name!r} as a mesh: {said}") from None
     finally:
         logging.disable(previous)
-
-
-def _reader_failure(path, err, sink) -> ValueError:
-    name = path.name
-    said = " ".join((str(err) if not isinstance(err, SystemExit) else "").split())
-    if not said:  # meshio reports on the console and calls sys.exit(1)
-        said = " ".join(sink.getvalue().split()) or type(err).__name__
-    said = said.replace(str(path), name)
-    if len(said) > 300:
-        said = said[:300] + " ..."
-    return ValueError(f"domain.path: could not read {name!r} as a mesh: {said}")
-
-
-def _meshio_read(path):
-    with _quiet() as sink:
-        try:
-            return meshio.read(str(path))
-        # meshio ends the process with sys.exit(1) on a file it cannot read: SystemExit is caught here (and
-        # any other failure of the reader); KeyboardInterrupt and GeneratorExit are left alone.
-        except (Exception, SystemExit) as err:
-            raise _reader_failure(path, err, sink) from None
 
 
 def _read_mesh(path, scale):
@@ -658,7 +632,7 @@ def _read_mesh(path, scale):
     if size > MAX_MESH_FILE_BYTES:
         raise ValueError(f"domain.path: {name!r} has {size} bytes, more than the {MAX_MESH_FILE_BYTES} a mesh file "
                          "may have")
-    m = _meshio_read(path)
+    m = _quietly(path, meshio.read, str(path))
     counts = collections.Counter()
     for block in m.cells:
         counts[block.type] += len(block.data)
@@ -689,11 +663,7 @@ def _read_mesh(path, scale):
     p = np.array(points[:, :2].T, dtype=np.float64) * scale
     p, t = meshes.check_mesh(p, t, name=f"domain.path: {name!r} (0-based node numbers, after scaling)",
                              unused_nodes="ignore")
-    try:
-        with _quiet() as sink:
-            named = from_meshio(m)  # boundaries from physical line groups or cell sets
-    except (Exception, SystemExit) as err:
-        raise _reader_failure(path, err, sink) from None
+    named = _quietly(path, from_meshio, m)  # boundaries from physical line groups or cell sets
     mesh = skfem.MeshTri(p, t)  # the mesh as checked above (scaled, z dropped), triangles sorted as scikit-fem does
     boundaries = {label: _facet_index(mesh, np.asarray(named.facets)[:, np.asarray(facets)])
                   for label, facets in (named.boundaries or {}).items()}
@@ -758,14 +728,11 @@ def _dropped_note(path, dropped) -> str:
 
 
 def read_mesh(path, scale=1.0, notes=None):
-    """A 2D triangle mesh from a file meshio reads (gmsh ``.msh``, ``.vtk``, ...), coordinates times ``scale``.
-
-    Physical line groups become named boundaries. Anything but 3-node triangles (with lines and vertices), points
-    off ``z = 0``, a file over the size limits, a mesh that fails :func:`~tissuefem.engine.meshes.check_mesh` and a
-    failing reader (even by ``sys.exit``, as meshio does) raise a ``ValueError`` naming ``domain.path``.
-    Nodes in no triangle (gmsh writes geometry points, such as an arc's centre, as nodes) are dropped and
-    the rest renumbered in their order; a note saying so is appended to ``notes`` (a list) if given.
-    """
+    """A 2D triangle mesh from a file meshio reads (gmsh ``.msh``, ``.vtk``, ...), coordinates times ``scale``;
+    physical line groups become named boundaries. Anything but 3-node triangles (with lines and vertices) in
+    ``z = 0`` within the size limits that pass :func:`~tissuefem.engine.meshes.check_mesh` raises a ``ValueError``
+    naming ``domain.path``. Nodes in no triangle (gmsh writes an arc's centre as a node) are dropped, the rest
+    renumbered in their order, and a note saying so is appended to ``notes`` (a list) if given."""
     scale = _within("domain.scale", scale, SIZE_RANGE)
     mesh, dropped = _read_mesh(path, scale)
     if dropped.size and notes is not None:
@@ -791,13 +758,10 @@ def flap_path(t) -> np.ndarray:
 
 def flap_scene(n_triangles: int = 8000, model: str = "neo-hookean", dynamic: bool = True, rtol: float = 1e-6,
                linear_solver: str = "reuse") -> Scene:
-    """The standard scene of the benchmarks and chapters 7-9: a tissue flap pulled by its right edge.
-
-    The flap ``[0, 2] x [0, 1]`` (E = 1000, nu = 0.3, rho0 = 1, plane strain) of about ``n_triangles``, its
-    left edge ``fixed``, its right edge a ``handle`` that :func:`flap_path` carries along a slow loop;
-    backward Euler with ``dt = 1/30`` (``dynamic=False``: quasistatic); every frame solved to ``rtol`` with
-    no wall-clock budget (a benchmark measures the frame, the real-time loop sets a budget).
-    """
+    """The standard scene of the benchmarks and chapters 7-9: the flap ``[0, 2] x [0, 1]`` (E = 1000, nu = 0.3,
+    rho0 = 1, plane strain) of about ``n_triangles``, its left edge ``fixed``, its right edge a ``handle`` that
+    :func:`flap_path` carries along a slow loop; backward Euler with ``dt = 1/30`` (``dynamic=False``: quasistatic);
+    every frame solved to ``rtol`` with no wall-clock budget (the real-time loop sets one)."""
     effects = {"handles": [{"name": "fixed", "region": "fixed"}, {"name": "handle", "region": "handle"}]}
     if dynamic:
         effects["inertia"] = {"time_step": FRAME_BUDGET}
