@@ -41,12 +41,10 @@ __all__ = ["Scene", "EFFECTS", "SHAPES", "EXAMPLE_TOML", "demo_scene", "flap_sce
 #: How a cut or an excision meets the mesh: through the elements (:mod:`~tissuefem.surgery.element_cuts`), or
 #: snapped to the mesh's edges (:mod:`~tissuefem.surgery.topology`: jagged, mesh-dependent; kept to compare)
 CUT_METHODS = ("elements", "edges")
-#: the effects a scene may name: the registry's and the scene's own (inversion, handles, excisions, incisions)
-EFFECTS = ("inertia", "gravity", "fibers", "inversion", "handles", "tractions", "probes", "excisions",
-           "incisions", "sutures", "contact")
-#: the order in which a scene's effects are checked (and written)
-_ORDER = ["inertia", "gravity", "fibers", "inversion", "contact", "handles", "tractions", "probes", "excisions",
-          "incisions", "sutures"]
+#: the effects a scene may name: the registry's and the scene's own (inversion, handles, excisions, incisions), in
+#: the order in which they are checked and written
+EFFECTS = ("inertia", "gravity", "fibers", "inversion", "contact", "handles", "tractions", "probes", "excisions",
+           "incisions", "sutures")
 #: each domain's fields and their defaults ("file": a 2D triangle mesh read through meshio)
 _DOMAINS = {"rectangle": {"width": 1.0, "height": 1.0, "triangles": 800},
             "flap": {"width": 2.0, "height": 1.0, "triangles": 800},
@@ -242,7 +240,7 @@ def _check_effects(effects):
         raise ParameterError("effects", f"effects: unknown effect(s) [{', '.join(sorted(show(k) for k in unknown))}]; "
                                         f"known effects: {known}")
     out = {}
-    for kind in [k for k in dict.fromkeys(_ORDER + known) if k in effects]:
+    for kind in [k for k in known if k in effects]:
         field, entries = f"effects.{kind}", effects[kind]
         if kind == "inversion":
             out[kind] = _check_inversion(entries)
@@ -294,8 +292,7 @@ def _check_reach(effects, box, where=""):
                              f"[{MIN_RADIUS * size:g}, {far:g}]{where}")
 
     for i, h in enumerate(effects.get("handles", [])):
-        field = f"effects.handles[{i}]"
-        region = h["region"]
+        field, region = f"effects.handles[{i}]", h["region"]
         if isinstance(region, dict) and "box" in region:
             point(f"{field}.region.box[0:2]", region["box"][:2])
             point(f"{field}.region.box[2:4]", region["box"][2:])
