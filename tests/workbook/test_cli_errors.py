@@ -1,7 +1,7 @@
 """The command line refuses bad arguments with one line on stderr naming the argument, and exit status 2.
 
-Every case runs through :func:`~tissuefem.workbook.cli.main` (an uncaught exception would fail the test); two run
-as ``python -m tissuefem`` processes too (each costs the package's import time, so not all of them).
+Every case runs through :func:`~tissuefem.workbook.cli.main` (an uncaught exception would fail the test);
+two run as ``python -m tissuefem`` processes too (each costs the package's import time, so not all of them).
 """
 
 import subprocess

@@ -32,19 +32,19 @@ from ..engine.effects import EFFECTS as EFFECTS_REGISTRY
 from ..engine.inversion import ITFClamped, ProjectedTangent
 from ..engine.linsolve import LinearSolver
 from ..engine.materials import MATERIALS, material as make_material
-from ..engine.parameters import (DENSITY_RANGE, FAR, RADIUS_RANGE, REACH, YOUNGS_MODULUS_RANGE, ParameterError,
-                                 check_poisson_ratio, count_list, is_sequence, number, points, require, show,
-                                 string, table, vector)
+from ..engine.parameters import (DENSITY_RANGE, FAR, RADIUS_RANGE, REACH, YOUNGS_MODULUS_RANGE,
+                                 ParameterError, check_poisson_ratio, count_list, is_sequence, number, points,
+                                 require, show, string, table, vector)
 
 __all__ = ["Scene", "EFFECTS", "SHAPES", "EXAMPLE_TOML", "demo_scene", "flap_scene", "flap_path", "read_mesh"]
 
 #: How a cut or an excision meets the mesh: through the elements (:mod:`~tissuefem.surgery.element_cuts`), or
 #: snapped to the mesh's edges (:mod:`~tissuefem.surgery.topology`: jagged, mesh-dependent; kept to compare)
 CUT_METHODS = ("elements", "edges")
-#: the effects a scene may name: the registry's and the scene's own (inversion, handles, excisions, incisions), in
-#: the order in which they are checked and written
-EFFECTS = ("inertia", "gravity", "fibers", "inversion", "contact", "handles", "tractions", "probes", "excisions",
-           "incisions", "sutures")
+#: the effects a scene may name, the registry's and the scene's own (inversion, handles, excisions,
+#: incisions), in the order in which they are checked and written
+EFFECTS = ("inertia", "gravity", "fibers", "inversion", "contact", "handles", "tractions", "probes",
+           "excisions", "incisions", "sutures")
 #: each domain's fields and their defaults ("file": a 2D triangle mesh read through meshio)
 _DOMAINS = {"rectangle": {"width": 1.0, "height": 1.0, "triangles": 800},
             "flap": {"width": 2.0, "height": 1.0, "triangles": 800},
@@ -141,8 +141,8 @@ def _check_domain(d):
                          f"middle), got {out['tendon_width']!r} > {out['max_width']!r}")
     for a, b in _ASPECTS.get(shape, ()):
         if not 1.0 / MAX_ASPECT <= out[a] / out[b] <= MAX_ASPECT:
-            raise ValueError(f"domain.{a} / domain.{b} = {out[a] / out[b]:g}: the aspect ratio must lie within "
-                             f"[1/{MAX_ASPECT:g}, {MAX_ASPECT:g}]")
+            raise ValueError(f"domain.{a} / domain.{b} = {out[a] / out[b]:g}: the aspect ratio must lie "
+                             f"within [1/{MAX_ASPECT:g}, {MAX_ASPECT:g}]")
     if shape == "fusiform" and 2 * out["nx"] * out["ny"] > MAX_TRIANGLES:
         raise ValueError(f"domain.nx, domain.ny: {out['nx']} x {out['ny']} cells make "
                          f"{2 * out['nx'] * out['ny']} triangles, more than {MAX_TRIANGLES}")
@@ -226,8 +226,8 @@ def _check_inversion(e):
         return {"method": method, "threshold": _within("effects.inversion.threshold", e.get("threshold", 0.3),
                                                        THRESHOLD_RANGE)}
     if "threshold" in e:
-        raise ParameterError("effects.inversion.threshold", "effects.inversion.threshold: only the 'itf' method "
-                                                            "has a threshold")
+        raise ParameterError("effects.inversion.threshold",
+                             "effects.inversion.threshold: only the 'itf' method has a threshold")
     return {"method": method}
 
 
@@ -330,7 +330,8 @@ def _check_nesting(data, limit=MAX_NESTING):
 
 
 # brackets and dots in the text of a scene, outside strings and comments, are checked before parsing: a deeply
-# nested file never reaches the parsers' recursion, nor a long dotted key tomllib (its memory grows as parts^2)
+# nested file never reaches the parsers' recursion, nor a long dotted key tomllib (whose memory grows as the
+# square of its parts)
 _SKIP_TOML = re.compile(r'"""(?:[^"\\]|\\.|"(?!""))*"""|\'\'\'.*?\'\'\'|"(?:[^"\\\n]|\\.)*"|\'[^\'\n]*\'|#[^\n]*',
                         re.S)
 _SKIP_JSON = re.compile(r'"(?:[^"\\]|\\.)*"', re.S)
@@ -339,8 +340,8 @@ _KEY_ENDS = [ord(c) for c in "=\n,[]{}"]
 
 
 def _check_text_nesting(text, kind):
-    """Refuse a text whose brackets nest deeper than :data:`MAX_NESTING`, or (TOML) a dotted key path of more parts
-    (JSON's key paths are its brackets), naming the line; a linear scan before any parsing."""
+    """Refuse a text whose brackets nest deeper than :data:`MAX_NESTING`, or (TOML) a dotted key path of more
+    parts (JSON's key paths are its brackets), naming the line; a linear scan before any parsing."""
     codes = np.frombuffer(text.encode("utf-32-le", "surrogatepass"), dtype="<u4")
     step = np.zeros(codes.size, dtype=np.int8)
     step[(codes == ord("[")) | (codes == ord("{"))] = 1
@@ -360,14 +361,14 @@ def _check_text_nesting(text, kind):
                          f"(line {line}); a scene needs at most 7")
     at = np.flatnonzero(dots & outside)
     if at.size:
-        key = np.searchsorted(np.flatnonzero(np.isin(codes, _KEY_ENDS) & outside), at)  # the key path of each dot
+        key = np.searchsorted(np.flatnonzero(np.isin(codes, _KEY_ENDS) & outside), at)  # each dot's key path
         parts = np.bincount(key) + 1
         if parts.max() > MAX_NESTING:
             first = int(np.flatnonzero(parts > MAX_NESTING)[0])
             line = text.count("\n", 0, int(at[np.searchsorted(key, first)])) + 1
-            raise ParameterError("scene", f"scene: a key path of {parts[first]} parts (line {line}) is longer than "
-                                          f"the limit of {MAX_NESTING} (nested deeper than {MAX_NESTING} levels; "
-                                          "a scene needs at most 7)")
+            raise ParameterError("scene", f"scene: a key path of {parts[first]} parts (line {line}) is "
+                                          f"longer than the limit of {MAX_NESTING} (nested deeper than "
+                                          f"{MAX_NESTING} levels; a scene needs at most 7)")
 
 
 # --- TOML output (the subset scenes use: tables, arrays of tables, numbers, strings, arrays) ---------------------
@@ -470,7 +471,7 @@ class Scene:
         out = {"name": self.name}
         if self.description:
             out["description"] = self.description
-        return out | {key: copy.deepcopy(getattr(self, key)) for key in ("domain", "material", "effects", "solver")}
+        return out | {k: copy.deepcopy(getattr(self, k)) for k in ("domain", "material", "effects", "solver")}
 
     @classmethod
     def from_toml(cls, text, base_dir=None) -> "Scene":
@@ -725,11 +726,11 @@ def _dropped_note(path, dropped) -> str:
 
 
 def read_mesh(path, scale=1.0, notes=None):
-    """A 2D triangle mesh from a file meshio reads (gmsh ``.msh``, ``.vtk``, ...), coordinates times ``scale``;
-    physical line groups become named boundaries. Anything but 3-node triangles (with lines and vertices) in
-    ``z = 0`` within the size limits that pass :func:`~tissuefem.engine.meshes.check_mesh` raises a ``ValueError``
-    naming ``domain.path``. Nodes in no triangle (gmsh writes an arc's centre as a node) are dropped, the rest
-    renumbered in their order, and a note saying so is appended to ``notes`` (a list) if given."""
+    """A 2D triangle mesh from a file meshio reads (gmsh ``.msh``, ``.vtk``, ...), coordinates times
+    ``scale``; physical line groups become named boundaries. Anything but 3-node triangles (with lines and
+    vertices) in ``z = 0``, within the size limits, that pass :func:`~tissuefem.engine.meshes.check_mesh`
+    raises a ``ValueError`` naming ``domain.path``. Nodes in no triangle (gmsh writes an arc's centre as a
+    node) are dropped, the rest renumbered in their order, and a note saying so appended to ``notes``."""
     scale = _within("domain.scale", scale, SIZE_RANGE)
     mesh, dropped = _read_mesh(path, scale)
     if dropped.size and notes is not None:
@@ -755,10 +756,10 @@ def flap_path(t) -> np.ndarray:
 
 def flap_scene(n_triangles: int = 8000, model: str = "neo-hookean", dynamic: bool = True, rtol: float = 1e-6,
                linear_solver: str = "reuse") -> Scene:
-    """The standard scene of the benchmarks and chapters 7-9: the flap ``[0, 2] x [0, 1]`` (E = 1000, nu = 0.3,
-    rho0 = 1, plane strain) of about ``n_triangles``, its left edge ``fixed``, its right edge a ``handle`` that
-    :func:`flap_path` carries along a slow loop; backward Euler with ``dt = 1/30`` (``dynamic=False``: quasistatic);
-    every frame solved to ``rtol`` with no wall-clock budget (the real-time loop sets one)."""
+    """The standard scene of the benchmarks and chapters 7-9: the flap ``[0, 2] x [0, 1]`` (E = 1000,
+    nu = 0.3, rho0 = 1, plane strain) of about ``n_triangles``, its left edge ``fixed``, its right edge a
+    ``handle`` that :func:`flap_path` carries along a slow loop; backward Euler with ``dt = 1/30``
+    (``dynamic=False``: quasistatic); every frame solved to ``rtol`` with no wall-clock budget."""
     effects = {"handles": [{"name": "fixed", "region": "fixed"}, {"name": "handle", "region": "handle"}]}
     if dynamic:
         effects["inertia"] = {"time_step": FRAME_BUDGET}
