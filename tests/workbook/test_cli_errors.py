@@ -23,6 +23,7 @@ def _cases(tmp_path):
         (["bench", "assembly", "--sizes", "0"], "--sizes"),
         (["bench", "assembly", "--sizes", "-5"], "--sizes"),
         (["bench", "assembly", "--sizes", "many"], "--sizes"),
+        (["bench", "assembly", "--sizes", "9" * 5000], "--sizes"),
         (["bench", "assembly", "--repeats", "0"], "--repeats"),
         (["bench", "assembly", "--out", str(a_file / "table.json")], "--out"),
         (["bench", "realtime", "--frames", "0"], "--frames"),

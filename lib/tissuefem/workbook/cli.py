@@ -72,13 +72,10 @@ def _checked(check):
 
 
 def _count(name, lo, hi):
-    """An argparse ``type``: an integer in ``[lo, hi]``."""
+    """An argparse ``type``: an integer in ``[lo, hi]`` (other text, and numbers of 30 digits or more, are refused
+    by ``check_count`` as text)."""
     def check(text):
-        try:
-            value = int(text)
-        except ValueError:
-            raise ParameterError(name, f"{name} must be an integer, got {text!r}") from None
-        return check_count(name, value, lo, hi)
+        return check_count(name, int(text) if text.lstrip("+-").isdecimal() and len(text) < 30 else text, lo, hi)
     return _checked(check)
 
 
