@@ -274,3 +274,21 @@ def test_the_scene_command_checks_and_runs(tmp_path, capsys):
     bad.write_text(EXAMPLE_TOML.replace("poisson_ratio = 0.3", "poisson_ratio = 0.7"))
     assert main(["scene", str(bad), "--check"]) == 2
     assert "material.poisson_ratio" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("key", [".".join(["x"] * 100_000), ".".join(['"a"'] * 100_000),
+                                 "[" + " . ".join(["'b'"] * 30_000) + "]\nx"],
+                         ids=["bare", "quoted", "header"])
+def test_a_long_dotted_key_is_refused_quickly_before_parsing(key):
+    """tomllib's memory grows with the square of a key path's parts: the text is scanned first."""
+    import time
+
+    start = time.perf_counter()
+    with pytest.raises(ValueError, match=r"scene: a key path of (100000|30000) parts \(line \d\) is "
+                                         r"longer than the limit of 16") as refused:
+        Scene.from_toml(f"name = 'long'\n{key} = 1\n")
+    assert time.perf_counter() - start < 1.0
+    assert refused.value.field == "scene"
+    dotted = EXAMPLE_TOML.replace("[effects.inertia]\ntime_step", "[effects]\ninertia . 'time_step'")
+    # dots in numbers, strings and short keys pass
+    assert Scene.from_toml(dotted) == Scene.from_toml(EXAMPLE_TOML)

@@ -27,35 +27,39 @@ import skfem
 from skfem.io.meshio import from_meshio
 
 from ..engine import meshes
-from ..engine.materials import MATERIALS
-from ..engine.materials import material as make_material
 from ..engine.constants import FRAME_BUDGET, TISSUE_DENSITY, TISSUE_E, TISSUE_NU
+from ..engine.effects import EFFECTS as EFFECTS_REGISTRY
 from ..engine.inversion import ITFClamped, ProjectedTangent
 from ..engine.linsolve import LinearSolver
-from ..engine.effects import EFFECTS as EFFECTS_REGISTRY
-from ..engine.parameters import (FAR, count_list, is_sequence, number, points, require, show, string, table,
-                                 vector)
-from ..engine.parameters import (DENSITY_RANGE, RADIUS_RANGE, REACH, YOUNGS_MODULUS_RANGE, ParameterError,
-                                 check_poisson_ratio)
+from ..engine.materials import MATERIALS, material as make_material
+from ..engine.parameters import (DENSITY_RANGE, FAR, RADIUS_RANGE, REACH, YOUNGS_MODULUS_RANGE,
+                                 ParameterError, check_poisson_ratio, count_list, is_sequence, number, points,
+                                 require, show, string, table, vector)
 
 __all__ = ["Scene", "EFFECTS", "SHAPES", "EXAMPLE_TOML", "demo_scene", "flap_scene", "flap_path", "read_mesh"]
 
 #: How a cut or an excision meets the mesh: through the elements (:mod:`~tissuefem.surgery.element_cuts`), or
 #: snapped to the mesh's edges (:mod:`~tissuefem.surgery.topology`: jagged, mesh-dependent; kept to compare)
 CUT_METHODS = ("elements", "edges")
-#: the effects a scene may name: the registry's and the scene's own (inversion, handles, excisions, incisions)
-EFFECTS = ("inertia", "gravity", "fibers", "inversion", "handles", "tractions", "probes", "excisions",
-           "incisions", "sutures", "contact")
-#: the order in which a scene's effects are checked (and written)
-_ORDER = ["inertia", "gravity", "fibers", "inversion", "contact", "handles", "tractions", "probes", "excisions",
-          "incisions", "sutures"]
-#: the domains a scene may use ("file": a 2D triangle mesh read through meshio)
-SHAPES = ("rectangle", "flap", "fusiform", "file")
+#: the effects a scene may name, the registry's and the scene's own (inversion, handles, excisions,
+#: incisions), in the order in which they are checked and written
+EFFECTS = ("inertia", "gravity", "fibers", "inversion", "contact", "handles", "tractions", "probes",
+           "excisions", "incisions", "sutures")
+#: each domain's fields and their defaults ("file": a 2D triangle mesh read through meshio)
+_DOMAINS = {"rectangle": {"width": 1.0, "height": 1.0, "triangles": 800},
+            "flap": {"width": 2.0, "height": 1.0, "triangles": 800},
+            "fusiform": {"length": 4.0, "max_width": 1.0, "tendon_width": 0.25, "nx": 40, "ny": 8},
+            "file": {"path": None, "scale": 1.0}}
+SHAPES = tuple(_DOMAINS)
 #: the list-valued effects of the scene's own (each entry is a table); the registry's say whether they are
 _LISTS = ("handles", "excisions", "incisions")
 
 # --- limits (the table in docs/scenes.md): triangles, lengths (and ``domain.scale``), aspect ratio either way round
 MAX_TRIANGLES, SIZE_RANGE, MAX_ASPECT = meshes.MAX_TRIANGLES, meshes.SIZE_RANGE, meshes.MAX_ASPECT
+#: the integer fields of the domains and their largest values; the ratios whose aspect is limited
+_COUNTS = {"triangles": MAX_TRIANGLES, "nx": MAX_TRIANGLES // 2, "ny": MAX_TRIANGLES // 2}
+_ASPECTS = {"rectangle": [("width", "height")], "flap": [("width", "height")],
+            "fusiform": [("length", "max_width"), ("max_width", "tendon_width")]}
 THRESHOLD_RANGE = (0.01, 0.99)
 BUDGET_RANGE = (1e-6, 1e9)
 RTOL_RANGE = (1e-14, 0.5)
@@ -115,48 +119,33 @@ def _within(field, value, bounds):
     return number(field, value, lo=bounds[0], hi=bounds[1])
 
 
-def _length(field, value):
-    return _within(field, value, SIZE_RANGE)
-
-
-def _aspect(field, ratio):
-    if not 1.0 / MAX_ASPECT <= ratio <= MAX_ASPECT:
-        raise ValueError(f"{field} = {ratio:g}: the aspect ratio must lie within [1/{MAX_ASPECT:g}, {MAX_ASPECT:g}]")
-
-
 def _check_domain(d):
     d = table("domain", d)
     shape = string("domain.shape", d.get("shape", "rectangle"), SHAPES)
+    table("domain", d, ("shape", *_DOMAINS[shape]))
+    if shape == "file" and "path" not in d:
+        raise ValueError("domain.path: a 'file' domain needs the path of a mesh file (gmsh .msh, .vtk, ...)")
     out = {"shape": shape}
-    if shape in ("rectangle", "flap"):
-        table("domain", d, ("shape", "width", "height", "triangles"))
-        out["width"] = _length("domain.width", d.get("width", 2.0 if shape == "flap" else 1.0))
-        out["height"] = _length("domain.height", d.get("height", 1.0))
-        _aspect("domain.width / domain.height", out["width"] / out["height"])
-        out["triangles"] = number("domain.triangles", d.get("triangles", 800), integer=True, lo=1, hi=MAX_TRIANGLES)
-    elif shape == "fusiform":
-        table("domain", d, ("shape", "length", "max_width", "tendon_width", "nx", "ny"))
-        out["length"] = _length("domain.length", d.get("length", 4.0))
-        out["max_width"] = _length("domain.max_width", d.get("max_width", 1.0))
-        out["tendon_width"] = _length("domain.tendon_width", d.get("tendon_width", 0.25))
-        if out["tendon_width"] > out["max_width"]:
-            raise ValueError(f"domain.tendon_width must not exceed domain.max_width (the belly is widest in the "
-                             f"middle), got {out['tendon_width']!r} > {out['max_width']!r}")
-        _aspect("domain.length / domain.max_width", out["length"] / out["max_width"])
-        _aspect("domain.max_width / domain.tendon_width", out["max_width"] / out["tendon_width"])
-        out["nx"] = number("domain.nx", d.get("nx", 40), integer=True, lo=1, hi=MAX_TRIANGLES // 2)
-        out["ny"] = number("domain.ny", d.get("ny", 8), integer=True, lo=1, hi=MAX_TRIANGLES // 2)
-        if 2 * out["nx"] * out["ny"] > MAX_TRIANGLES:
-            raise ValueError(f"domain.nx, domain.ny: {out['nx']} x {out['ny']} cells make "
-                             f"{2 * out['nx'] * out['ny']} triangles, more than {MAX_TRIANGLES}")
-    else:
-        table("domain", d, ("shape", "path", "scale"))
-        if "path" not in d:
-            raise ValueError("domain.path: a 'file' domain needs the path of a mesh file (gmsh .msh, .vtk, ...)")
-        out["path"] = string("domain.path", d["path"], nonempty=True)
-        if "\0" in out["path"]:
+    for key, default in _DOMAINS[shape].items():
+        field, value = f"domain.{key}", d.get(key, default)
+        if key in _COUNTS:
+            out[key] = number(field, value, integer=True, lo=1, hi=_COUNTS[key])
+        elif key != "path":
+            out[key] = _within(field, value, SIZE_RANGE)
+        elif "\0" in string(field, value, nonempty=True):
             raise ValueError("domain.path must not contain a NUL character")
-        out["scale"] = _length("domain.scale", d.get("scale", 1.0))
+        else:
+            out[key] = value
+    if shape == "fusiform" and out["tendon_width"] > out["max_width"]:
+        raise ValueError(f"domain.tendon_width must not exceed domain.max_width (the belly is widest in the "
+                         f"middle), got {out['tendon_width']!r} > {out['max_width']!r}")
+    for a, b in _ASPECTS.get(shape, ()):
+        if not 1.0 / MAX_ASPECT <= out[a] / out[b] <= MAX_ASPECT:
+            raise ValueError(f"domain.{a} / domain.{b} = {out[a] / out[b]:g}: the aspect ratio must lie "
+                             f"within [1/{MAX_ASPECT:g}, {MAX_ASPECT:g}]")
+    if shape == "fusiform" and 2 * out["nx"] * out["ny"] > MAX_TRIANGLES:
+        raise ValueError(f"domain.nx, domain.ny: {out['nx']} x {out['ny']} cells make "
+                         f"{2 * out['nx'] * out['ny']} triangles, more than {MAX_TRIANGLES}")
     return out
 
 
@@ -189,8 +178,7 @@ def _check_region(field, r):
         return string(field, r, nonempty=True)
     r = table(field, r)
     if "box" in r:
-        table(field, r, ("box",))
-        box = r["box"]
+        box = table(field, r, ("box",))["box"]
         if not is_sequence(box) or len(box) != 4:
             raise ValueError(f"{field}.box must be [xmin, ymin, xmax, ymax], got {show(box)}")
         box = [number(f"{field}.box[{i}]", b, lo=-FAR, hi=FAR) for i, b in enumerate(box)]
@@ -202,8 +190,7 @@ def _check_region(field, r):
         return {"near": vector(f"{field}.near", r["near"]),
                 "radius": _within(f"{field}.radius", r.get("radius", 0.05), (MIN_RADIUS * SIZE_RANGE[0], FAR))}
     if "nodes" in r:
-        table(field, r, ("nodes",))
-        nodes = count_list(f"{field}.nodes", r["nodes"], "node indices", MAX_NODES)
+        nodes = count_list(f"{field}.nodes", table(field, r, ("nodes",))["nodes"], "node indices", MAX_NODES)
         return {"nodes": [number(f"{field}.nodes[{i}]", n, integer=True, lo=0, hi=MAX_NODES - 1)
                           for i, n in enumerate(nodes)]}
     raise ValueError(f"{field} must be a boundary name or a table with 'box', 'near' (+ 'radius') or 'nodes', "
@@ -221,8 +208,8 @@ def _check_entry(kind, i, e):
     if kind == "handles":
         e = table(field, e, ("name", "region", "target"))
         if "region" not in e:
-            raise ParameterError(f"{field}.region", f"{field}.region: missing (a boundary name, a box or a point "
-                                                    "with radius)")
+            raise ParameterError(f"{field}.region", f"{field}.region: missing (a boundary name, a box or a "
+                                                    "point with radius)")
         return {"name": string(f"{field}.name", e.get("name", f"handle{i}")),
                 "region": _check_region(f"{field}.region", e["region"]),
                 "target": vector(f"{field}.target", e.get("target", [0.0, 0.0]))}
@@ -235,13 +222,13 @@ def _check_entry(kind, i, e):
 def _check_inversion(e):
     e = table("effects.inversion", e, ("method", "threshold"))
     method = string("effects.inversion.method", e.get("method", "projected"), ("itf", "projected"))
-    out = {"method": method}
     if method == "itf":
-        out["threshold"] = _within("effects.inversion.threshold", e.get("threshold", 0.3), THRESHOLD_RANGE)
-    elif "threshold" in e:
-        raise ParameterError("effects.inversion.threshold", "effects.inversion.threshold: only the 'itf' method has "
-                                                            "a threshold")
-    return out
+        return {"method": method, "threshold": _within("effects.inversion.threshold", e.get("threshold", 0.3),
+                                                       THRESHOLD_RANGE)}
+    if "threshold" in e:
+        raise ParameterError("effects.inversion.threshold",
+                             "effects.inversion.threshold: only the 'itf' method has a threshold")
+    return {"method": method}
 
 
 def _check_effects(effects):
@@ -253,22 +240,18 @@ def _check_effects(effects):
         raise ParameterError("effects", f"effects: unknown effect(s) [{', '.join(sorted(show(k) for k in unknown))}]; "
                                         f"known effects: {known}")
     out = {}
-    for kind in _ORDER + [k for k in known if k not in _ORDER]:
-        if kind not in effects:
-            continue
+    for kind in [k for k in known if k in effects]:
+        field, entries = f"effects.{kind}", effects[kind]
         if kind == "inversion":
-            out[kind] = _check_inversion(effects[kind])
+            out[kind] = _check_inversion(entries)
         elif not _listed(kind):
-            out[kind] = EFFECTS_REGISTRY[kind].check(f"effects.{kind}", effects[kind])
+            out[kind] = EFFECTS_REGISTRY[kind].check(field, entries)
         else:
-            entries = effects[kind]
-            if isinstance(entries, dict):
-                entries = [entries]
+            entries = [entries] if isinstance(entries, dict) else entries
             if not is_sequence(entries):
-                raise ParameterError(f"effects.{kind}", f"effects.{kind} must be a list of tables, got {show(entries)}")
+                raise ParameterError(field, f"{field} must be a list of tables, got {show(entries)}")
             if len(entries) > MAX_ENTRIES:
-                raise ParameterError(f"effects.{kind}", f"effects.{kind}: at most {MAX_ENTRIES} entries, got "
-                                                        f"{len(entries)}")
+                raise ParameterError(field, f"{field}: at most {MAX_ENTRIES} entries, got {len(entries)}")
             if len(entries):  # an empty list is the same as leaving the effect out
                 out[kind] = [_check_entry(kind, i, e) for i, e in enumerate(entries)]
     names = [h["name"] for h in out.get("handles", [])]
@@ -277,24 +260,18 @@ def _check_effects(effects):
     return out
 
 
-def _linear_solver(value):
-    name = string("solver.linear_solver", value)
-    try:
-        LinearSolver(name)
-    except ValueError as err:
-        raise ValueError(f"solver.linear_solver: {err}") from None
-    return name
-
-
 def _check_solver(s):
     s = table("solver", s, ("budget", "rtol", "linear_solver", "max_iterations"))
-    return {
-        "budget": _within("solver.budget", s.get("budget", FRAME_BUDGET), BUDGET_RANGE),
-        "rtol": _within("solver.rtol", s.get("rtol", 1e-6), RTOL_RANGE),
-        "linear_solver": _linear_solver(s.get("linear_solver", "reuse")),
-        "max_iterations": number("solver.max_iterations", s.get("max_iterations", 50), integer=True, lo=1,
-                                  hi=MAX_ITERATIONS),
-    }
+    out = {"budget": _within("solver.budget", s.get("budget", FRAME_BUDGET), BUDGET_RANGE),
+           "rtol": _within("solver.rtol", s.get("rtol", 1e-6), RTOL_RANGE),
+           "linear_solver": string("solver.linear_solver", s.get("linear_solver", "reuse"))}
+    try:
+        LinearSolver(out["linear_solver"])
+    except ValueError as err:
+        raise ValueError(f"solver.linear_solver: {err}") from None
+    out["max_iterations"] = number("solver.max_iterations", s.get("max_iterations", 50), integer=True, lo=1,
+                                   hi=MAX_ITERATIONS)
+    return out
 
 
 def _check_reach(effects, box, where=""):
@@ -315,8 +292,7 @@ def _check_reach(effects, box, where=""):
                              f"[{MIN_RADIUS * size:g}, {far:g}]{where}")
 
     for i, h in enumerate(effects.get("handles", [])):
-        field = f"effects.handles[{i}]"
-        region = h["region"]
+        field, region = f"effects.handles[{i}]", h["region"]
         if isinstance(region, dict) and "box" in region:
             point(f"{field}.region.box[0:2]", region["box"][:2])
             point(f"{field}.region.box[2:4]", region["box"][2:])
@@ -353,29 +329,46 @@ def _check_nesting(data, limit=MAX_NESTING):
         stack.extend((c, depth + 1) for c in children if isinstance(c, (dict, list, tuple)))
 
 
-# brackets in the text of a scene, outside strings and comments: their depth is checked before parsing, so a
-# deeply nested file never reaches the parsers' recursion
+# brackets and dots in the text of a scene, outside strings and comments, are checked before parsing: a deeply
+# nested file never reaches the parsers' recursion, nor a long dotted key tomllib (whose memory grows as the
+# square of its parts)
 _SKIP_TOML = re.compile(r'"""(?:[^"\\]|\\.|"(?!""))*"""|\'\'\'.*?\'\'\'|"(?:[^"\\\n]|\\.)*"|\'[^\'\n]*\'|#[^\n]*',
                         re.S)
 _SKIP_JSON = re.compile(r'"(?:[^"\\]|\\.)*"', re.S)
+#: what ends a TOML key path (a number or a date between them has at most one dot)
+_KEY_ENDS = [ord(c) for c in "=\n,[]{}"]
 
 
 def _check_text_nesting(text, kind):
-    """Refuse a text whose brackets nest deeper than :data:`MAX_NESTING`, naming the line (before any parsing)."""
+    """Refuse a text whose brackets nest deeper than :data:`MAX_NESTING`, or (TOML) a dotted key path of more
+    parts (JSON's key paths are its brackets), naming the line; a linear scan before any parsing."""
     codes = np.frombuffer(text.encode("utf-32-le", "surrogatepass"), dtype="<u4")
     step = np.zeros(codes.size, dtype=np.int8)
     step[(codes == ord("[")) | (codes == ord("{"))] = 1
     step[(codes == ord("]")) | (codes == ord("}"))] = -1
-    if not step.any():
+    dots = codes == ord(".") if kind == "TOML" else np.zeros(codes.size, dtype=bool)
+    if not step.any() and not dots.any():
         return
+    outside = np.ones(codes.size, dtype=bool)
     for m in (_SKIP_TOML if kind == "TOML" else _SKIP_JSON).finditer(text):
-        step[m.start():m.end()] = 0
+        outside[m.start():m.end()] = False
+    step[~outside] = 0
     depth = np.cumsum(step, dtype=np.int64)
     too_deep = np.flatnonzero(depth > MAX_NESTING)
     if too_deep.size:
         line = text.count("\n", 0, int(too_deep[0])) + 1
         raise ValueError(f"scene: its {kind} nests deeper than {MAX_NESTING} levels "
                          f"(line {line}); a scene needs at most 7")
+    at = np.flatnonzero(dots & outside)
+    if at.size:
+        key = np.searchsorted(np.flatnonzero(np.isin(codes, _KEY_ENDS) & outside), at)  # each dot's key path
+        parts = np.bincount(key) + 1
+        if parts.max() > MAX_NESTING:
+            first = int(np.flatnonzero(parts > MAX_NESTING)[0])
+            line = text.count("\n", 0, int(at[np.searchsorted(key, first)])) + 1
+            raise ParameterError("scene", f"scene: a key path of {parts[first]} parts (line {line}) is "
+                                          f"longer than the limit of {MAX_NESTING} (nested deeper than "
+                                          f"{MAX_NESTING} levels; a scene needs at most 7)")
 
 
 # --- TOML output (the subset scenes use: tables, arrays of tables, numbers, strings, arrays) ---------------------
@@ -426,12 +419,16 @@ def _toml(data) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _scene_path(path, argument="path") -> Path:
+def _path(path, argument="path", what="a file") -> Path:
     if isinstance(path, bytes) or not isinstance(path, (str, os.PathLike)):
-        raise ValueError(f"{argument} must be a file path (str or pathlib.Path), got {show(path)}")
+        raise ValueError(f"{argument} must be {what} path (str or pathlib.Path), got {show(path)}")
     if "\0" in os.fspath(path):
         raise ValueError(f"{argument} must not contain a NUL character")
-    path = Path(path)
+    return Path(path)
+
+
+def _scene_path(path) -> Path:
+    path = _path(path)
     if path.suffix not in (".toml", ".json"):
         raise ValueError(f"scene file must end in .toml or .json, got {path.name!r}")
     return path
@@ -455,9 +452,7 @@ class Scene:
         box = _domain_box(self.domain)
         if box is not None:
             _check_reach(self.effects, box)
-        if base_dir is not None and (isinstance(base_dir, bytes) or not isinstance(base_dir, (str, os.PathLike))):
-            raise ValueError(f"base_dir must be a folder path (str or pathlib.Path), got {show(base_dir)}")
-        self.base_dir = None if base_dir is None else Path(base_dir)
+        self.base_dir = None if base_dir is None else _path(base_dir, "base_dir", "a folder")
         self.notes = []
 
     # ------------------------------------------------------------------ constructors and output
@@ -476,9 +471,7 @@ class Scene:
         out = {"name": self.name}
         if self.description:
             out["description"] = self.description
-        out.update(domain=copy.deepcopy(self.domain), material=copy.deepcopy(self.material),
-                   effects=copy.deepcopy(self.effects), solver=copy.deepcopy(self.solver))
-        return out
+        return out | {k: copy.deepcopy(getattr(self, k)) for k in ("domain", "material", "effects", "solver")}
 
     @classmethod
     def from_toml(cls, text, base_dir=None) -> "Scene":
@@ -541,8 +534,7 @@ class Scene:
         path = _scene_path(path)
         toml = path.suffix == ".toml"
         text = self.to_toml() if toml else self.to_json()
-        again = (Scene.from_toml if toml else Scene.from_json)(text)
-        if again != self:
+        if (Scene.from_toml if toml else Scene.from_json)(text) != self:
             raise ValueError("scene: the written text would not read back as the same scene (please report this)")
         temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
         try:
@@ -590,16 +582,13 @@ class Scene:
     def build_material(self):
         m = self.material
         mat = make_material(m["model"], m["youngs_modulus"], m["poisson_ratio"])
-        inv = self.effects.get("inversion")
-        if inv is not None:
-            if inv["method"] == "itf":
-                if m["model"] != "neo-hookean":
-                    raise ValueError("effects.inversion.method: 'itf' clamps the ln J model only "
-                                     f"(material.model = 'neo-hookean'), got {m['model']!r}; use 'projected'")
-                mat = ITFClamped(mat, threshold=inv["threshold"])
-            else:
-                mat = ProjectedTangent(mat, adaptive=True)
-        return mat
+        inv = self.effects.get("inversion", {})
+        if inv.get("method") == "itf" and m["model"] != "neo-hookean":
+            raise ValueError("effects.inversion.method: 'itf' clamps the ln J model only "
+                             f"(material.model = 'neo-hookean'), got {m['model']!r}; use 'projected'")
+        if inv.get("method") == "itf":
+            return ITFClamped(mat, threshold=inv["threshold"])
+        return ProjectedTangent(mat, adaptive=True) if inv else mat
 
 
 # --- mesh files --------------------------------------------------------------------------------------------------
@@ -608,38 +597,22 @@ class Scene:
 _CELLS_ALLOWED = ("triangle", "line", "vertex")
 
 
-@contextlib.contextmanager
-def _quiet():
-    """Keep a mesh reader's own printing and logging off the terminal (its failures become our ValueError)."""
-    sink = io.StringIO()
-    previous = logging.root.manager.disable
+def _quietly(path, read, *args):
+    """``read(*args)`` with a mesh reader's printing and logging kept off the terminal. Its failure, even the
+    ``sys.exit(1)`` meshio calls on a file it cannot read, becomes a ``ValueError`` naming ``domain.path``
+    (KeyboardInterrupt and GeneratorExit are left alone)."""
+    sink, previous = io.StringIO(), logging.root.manager.disable
     logging.disable(logging.CRITICAL)
     try:
         with contextlib.redirect_stdout(sink), contextlib.redirect_stderr(sink):
-            yield sink
+            return read(*args)
+    except (Exception, SystemExit) as err:
+        said = " ".join((str(err) if not isinstance(err, SystemExit) else "").split())
+        said = (said or " ".join(sink.getvalue().split()) or type(err).__name__).replace(str(path), path.name)
+        said = said[:300] + " ..." if len(said) > 300 else said
+        raise ValueError(f"domain.path: could not read {path.name!r} as a mesh: {said}") from None
     finally:
         logging.disable(previous)
-
-
-def _reader_failure(path, err, sink) -> ValueError:
-    name = path.name
-    said = " ".join((str(err) if not isinstance(err, SystemExit) else "").split())
-    if not said:  # meshio reports on the console and calls sys.exit(1)
-        said = " ".join(sink.getvalue().split()) or type(err).__name__
-    said = said.replace(str(path), name)
-    if len(said) > 300:
-        said = said[:300] + " ..."
-    return ValueError(f"domain.path: could not read {name!r} as a mesh: {said}")
-
-
-def _meshio_read(path):
-    with _quiet() as sink:
-        try:
-            return meshio.read(str(path))
-        # meshio ends the process with sys.exit(1) on a file it cannot read: SystemExit is caught here (and
-        # any other failure of the reader); KeyboardInterrupt and GeneratorExit are left alone.
-        except (Exception, SystemExit) as err:
-            raise _reader_failure(path, err, sink) from None
 
 
 def _read_mesh(path, scale):
@@ -657,7 +630,7 @@ def _read_mesh(path, scale):
     if size > MAX_MESH_FILE_BYTES:
         raise ValueError(f"domain.path: {name!r} has {size} bytes, more than the {MAX_MESH_FILE_BYTES} a mesh file "
                          "may have")
-    m = _meshio_read(path)
+    m = _quietly(path, meshio.read, str(path))
     counts = collections.Counter()
     for block in m.cells:
         counts[block.type] += len(block.data)
@@ -688,11 +661,7 @@ def _read_mesh(path, scale):
     p = np.array(points[:, :2].T, dtype=np.float64) * scale
     p, t = meshes.check_mesh(p, t, name=f"domain.path: {name!r} (0-based node numbers, after scaling)",
                              unused_nodes="ignore")
-    try:
-        with _quiet() as sink:
-            named = from_meshio(m)  # boundaries from physical line groups or cell sets
-    except (Exception, SystemExit) as err:
-        raise _reader_failure(path, err, sink) from None
+    named = _quietly(path, from_meshio, m)  # boundaries from physical line groups or cell sets
     mesh = skfem.MeshTri(p, t)  # the mesh as checked above (scaled, z dropped), triangles sorted as scikit-fem does
     boundaries = {label: _facet_index(mesh, np.asarray(named.facets)[:, np.asarray(facets)])
                   for label, facets in (named.boundaries or {}).items()}
@@ -757,15 +726,12 @@ def _dropped_note(path, dropped) -> str:
 
 
 def read_mesh(path, scale=1.0, notes=None):
-    """A 2D triangle mesh from a file meshio reads (gmsh ``.msh``, ``.vtk``, ...), coordinates times ``scale``.
-
-    Physical line groups become named boundaries. Anything but 3-node triangles (with lines and vertices), points
-    off ``z = 0``, a file over the size limits, a mesh that fails :func:`~tissuefem.engine.meshes.check_mesh` and a
-    failing reader (even by ``sys.exit``, as meshio does) raise a ``ValueError`` naming ``domain.path``.
-    Nodes in no triangle (gmsh writes geometry points, such as an arc's centre, as nodes) are dropped and
-    the rest renumbered in their order; a note saying so is appended to ``notes`` (a list) if given.
-    """
-    scale = _length("domain.scale", scale)
+    """A 2D triangle mesh from a file meshio reads (gmsh ``.msh``, ``.vtk``, ...), coordinates times
+    ``scale``; physical line groups become named boundaries. Anything but 3-node triangles (with lines and
+    vertices) in ``z = 0``, within the size limits, that pass :func:`~tissuefem.engine.meshes.check_mesh`
+    raises a ``ValueError`` naming ``domain.path``. Nodes in no triangle (gmsh writes an arc's centre as a
+    node) are dropped, the rest renumbered in their order, and a note saying so appended to ``notes``."""
+    scale = _within("domain.scale", scale, SIZE_RANGE)
     mesh, dropped = _read_mesh(path, scale)
     if dropped.size and notes is not None:
         notes.append(_dropped_note(Path(path).name, dropped))
@@ -790,13 +756,10 @@ def flap_path(t) -> np.ndarray:
 
 def flap_scene(n_triangles: int = 8000, model: str = "neo-hookean", dynamic: bool = True, rtol: float = 1e-6,
                linear_solver: str = "reuse") -> Scene:
-    """The standard scene of the benchmarks and chapters 7-9: a tissue flap pulled by its right edge.
-
-    The flap ``[0, 2] x [0, 1]`` (E = 1000, nu = 0.3, rho0 = 1, plane strain) of about ``n_triangles``, its
-    left edge ``fixed``, its right edge a ``handle`` that :func:`flap_path` carries along a slow loop;
-    backward Euler with ``dt = 1/30`` (``dynamic=False``: quasistatic); every frame solved to ``rtol`` with
-    no wall-clock budget (a benchmark measures the frame, the real-time loop sets a budget).
-    """
+    """The standard scene of the benchmarks and chapters 7-9: the flap ``[0, 2] x [0, 1]`` (E = 1000,
+    nu = 0.3, rho0 = 1, plane strain) of about ``n_triangles``, its left edge ``fixed``, its right edge a
+    ``handle`` that :func:`flap_path` carries along a slow loop; backward Euler with ``dt = 1/30``
+    (``dynamic=False``: quasistatic); every frame solved to ``rtol`` with no wall-clock budget."""
     effects = {"handles": [{"name": "fixed", "region": "fixed"}, {"name": "handle", "region": "handle"}]}
     if dynamic:
         effects["inertia"] = {"time_step": FRAME_BUDGET}

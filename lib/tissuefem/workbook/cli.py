@@ -9,6 +9,8 @@
 * ``scene``    check a scene file and run it (``scene scenes/incision.toml``);
 * ``grade``    grade your own exercise answers (chapters/exercises) with pytest;
 * ``list``     list the figures and chapters.
+
+A refused argument is answered with one line on stderr naming it, and exit status 2, before any work starts.
 """
 
 from __future__ import annotations
@@ -24,6 +26,8 @@ from pathlib import Path
 import matplotlib
 import numpy as np
 
+from ..engine.linsolve import LinearSolver
+from ..engine.meshes import MAX_TRIANGLES
 from ..engine.parameters import ParameterError, check_count
 from ..surgery.scene import Scene
 from ..surgery.simulation import Simulation
@@ -50,6 +54,66 @@ def project_root() -> Path:
     raise SystemExit("cannot find the workbook's chapters/ folder: run this from the workbook's root folder")
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse, but a refused argument is one line on stderr (exit status 2), without the usage text."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {' '.join(message.split())}\n")
+
+
+def _checked(check):
+    """An argparse ``type``: ``check(text)``'s value; its :class:`ParameterError` becomes argparse's error."""
+    def parse(text):
+        try:
+            return check(text)
+        except ParameterError as err:
+            raise argparse.ArgumentTypeError(str(err)) from None
+    return parse
+
+
+def _count(name, lo, hi):
+    """An argparse ``type``: an integer in ``[lo, hi]`` (other text, and numbers of 30 digits or more, are refused
+    by ``check_count`` as text)."""
+    def check(text):
+        return check_count(name, int(text) if text.lstrip("+-").isdecimal() and len(text) < 30 else text, lo, hi)
+    return _checked(check)
+
+
+def _folder(name, what=""):
+    """An argparse ``type``: an existing folder."""
+    def check(text):
+        if not Path(text).is_dir():
+            raise ParameterError(name, f"{text} is not a folder{what}")
+        return text
+    return _checked(check)
+
+
+@_checked
+def _figure(name):
+    if name not in figures.FIGURES:
+        raise ParameterError("only", f"unknown figure {name!r} (see `list`)")
+    return name
+
+
+@_checked
+def _linear_solver(name):
+    LinearSolver(name)  # refuses an unknown name or a backend that is not installed
+    return name
+
+
+def _check_out(path, folder=True) -> None:
+    """Refuse an output path below a regular file, or a file where a folder goes (and the other way round)."""
+    path = Path(path)
+    try:
+        below = next((p for p in path.parents if p.exists() and not p.is_dir()), None)
+        if below is not None:
+            raise ParameterError("out", f"{path} lies below {below}, which is not a folder")
+        if path.exists() and path.is_dir() != folder:
+            raise ParameterError("out", f"{path} is {'not a folder' if folder else 'a folder, not a file'}")
+    except OSError as err:
+        raise ParameterError("out", f"{path} cannot be used: {err.strerror or err}") from None
+
+
 def _figures(names, out, note: bool) -> None:
     """Regenerate figures (a note when this matplotlib would change the committed ones' text)."""
     matplotlib.use("Agg")
@@ -59,6 +123,8 @@ def _figures(names, out, note: bool) -> None:
 
 
 def cmd_figures(args) -> int:
+    if args.out:
+        _check_out(args.out)
     _figures(args.only or None, Path(args.out) if args.out else project_root() / "figures", not args.out)
     return 0
 
@@ -66,6 +132,12 @@ def cmd_figures(args) -> int:
 def cmd_build(args) -> int:
     start = time.perf_counter()
     root = project_root()
+    names = [p.name for p in chapter_paths(root / "chapters")]
+    for wanted in args.chapters or []:
+        if not any(wanted in name for name in names):
+            raise ParameterError("chapters", f"no chapter file name contains {wanted!r} (see `list`)")
+    if args.out:
+        _check_out(args.out)
     if not args.skip_figures:
         _figures(None, root / "figures", True)
     executed = Path(args.out) if args.out else root / "build" / "chapters"
@@ -80,12 +152,19 @@ def cmd_build(args) -> int:
 def cmd_book(args) -> int:
     root = project_root()
     out = Path(args.out) if args.out else root / "build" / "book"
+    _check_out(out)
     build_book(root / "chapters", Path(args.executed) if args.executed else root / "build" / "chapters", out)
     print(f"the workbook's website: {out / 'index.html'} (copy the folder to any web server)")
     return 0
 
 
 def cmd_bench(args) -> int:
+    if args.which == "scenes" and args.sizes:
+        if len(args.sizes) > 1:
+            raise ParameterError("sizes", f"bench scenes takes one size, got {len(args.sizes)}")
+        check_count("sizes", args.sizes[0], 50, MAX_TRIANGLES)  # the scenes' variants need 50 triangles
+    if args.out:
+        _check_out(args.out, folder=args.which != "assembly")
     matplotlib.use("Agg")
     if args.which == "assembly":
         sizes = tuple(args.sizes) if args.sizes else (2000, 8000, 32000)
@@ -119,10 +198,7 @@ def cmd_grade(args) -> int:
     root = project_root()
     env = dict(os.environ, TISSUEFEM_GRADE="instructor" if args.instructor else "student")
     if args.exercises:
-        folder = Path(args.exercises).resolve()
-        if not folder.is_dir():
-            raise SystemExit(f"--exercises: {args.exercises} is not a folder (it should hold ch01.py ... ch09.py)")
-        env["TISSUEFEM_EXERCISES"] = str(folder)
+        env["TISSUEFEM_EXERCISES"] = str(Path(args.exercises).resolve())
     tests = sorted((root / "tests" / "chapters").glob("test_exercises*.py"))
     if args.chapter:
         # only the files that grade this chapter: quicker to collect
@@ -147,7 +223,7 @@ def cmd_scene(args) -> int:
     """Check a scene file and run it: one line per frame (``--verbose``), then a summary. A scene that cannot
     be read or built is answered with one line on stderr and exit status 2, never a traceback.
     """
-    frames = check_count("frames", args.frames, 1, 1_000_000)
+    frames = args.frames
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
@@ -190,11 +266,11 @@ def cmd_list(args) -> int:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m tissuefem", description=__doc__.splitlines()[0])
+    parser = _Parser(prog="python -m tissuefem", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("figures", help="regenerate every lecture figure into figures/")
-    p.add_argument("--only", nargs="+", metavar="NAME", help="only these figures (see `list`)")
+    p.add_argument("--only", nargs="+", metavar="NAME", type=_figure, help="only these figures (see `list`)")
     p.add_argument("--out", help="output folder (default: figures/)")
     p.set_defaults(func=cmd_figures)
 
@@ -206,17 +282,22 @@ def main(argv=None) -> int:
     p.set_defaults(func=cmd_build)
 
     p = sub.add_parser("book", help="write the workbook's website from the executed chapters")
-    p.add_argument("--executed", help="folder of executed notebooks (default: build/chapters/)")
+    p.add_argument("--executed", type=_folder("executed"),
+                   help="folder of executed notebooks (default: build/chapters/)")
     p.add_argument("--out", help="folder for the website (default: build/book/)")
     p.set_defaults(func=cmd_book)
 
     p = sub.add_parser("bench", help="run a benchmark and print its table")
     p.add_argument("which", choices=["assembly", "realtime", "scenes", "accuracy"])
-    p.add_argument("--sizes", type=int, nargs="+", help="approximate triangle counts")
-    p.add_argument("--repeats", type=int, default=5, help="assembly: timed repetitions")
-    p.add_argument("--frames", type=int, default=90, help="realtime: frames of the scripted drag")
-    p.add_argument("--baseline-frames", type=int, default=10, help="realtime: frames of the ex43-way baseline")
-    p.add_argument("--linear", default="reuse-background",
+    p.add_argument("--sizes", type=_count("sizes", 1, MAX_TRIANGLES), nargs="+",
+                   help=f"approximate triangle counts (at most {MAX_TRIANGLES})")
+    p.add_argument("--repeats", type=_count("repeats", 1, 1000), default=5,
+                   help="assembly, scenes: timed repetitions")
+    p.add_argument("--frames", type=_count("frames", 1, 1_000_000), default=90,
+                   help="realtime: frames of the scripted drag")
+    p.add_argument("--baseline-frames", type=_count("baseline_frames", 0, 1_000_000), default=10,
+                   help="realtime: frames of the ex43-way baseline")
+    p.add_argument("--linear", default="reuse-background", type=_linear_solver,
                    help="realtime: linear solver (reuse-background, reuse, reuse-pardiso, direct, superlu, "
                         "superlu-colamd, pardiso)")
     p.add_argument("--plan", default="full", choices=["full", "reduced", "tiny"],
@@ -226,7 +307,8 @@ def main(argv=None) -> int:
 
     p = sub.add_parser("scene", help="check a scene file (TOML or JSON) and run it for some frames")
     p.add_argument("path", help="the scene file, e.g. scenes/incision.toml")
-    p.add_argument("--frames", type=int, default=30, help="frames to run (default 30, at most 1000000)")
+    p.add_argument("--frames", type=_count("frames", 1, 1_000_000), default=30,
+                   help="frames to run (default 30, at most 1000000)")
     p.add_argument("--check", action="store_true", help="only check and build the scene")
     p.add_argument("--verbose", "-v", action="store_true", help="one line per frame")
     p.set_defaults(func=cmd_scene)
@@ -236,6 +318,7 @@ def main(argv=None) -> int:
     p.add_argument("--instructor", action="store_true",
                    help="refuse any answer that imports or runs tissuefem (the reference implementation)")
     p.add_argument("--exercises", metavar="DIR",
+                   type=_folder("exercises", " (it should hold ch01.py ... ch09.py)"),
                    help="grade the chNN.py files in DIR (e.g. a student's submission) instead of chapters/exercises")
     p.set_defaults(func=cmd_grade)
 
