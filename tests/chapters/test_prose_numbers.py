@@ -1,0 +1,251 @@
+"""Every number a chapter's prose states is bound to something that checks it.
+
+A reviewer keeps finding sentences that a chapter's own outputs contradict ("10-25x faster" beside a table of
+21-28x). The cause is that nothing ties the prose to the run. This test reads the Markdown cells of every
+committed chapter (no execution: it is fast) and fails on a number in the prose that is none of:
+
+* **not a statement at all**: inside ``$math$``, a code span or a fenced block, a link target, a heading's or a
+  list's own numbering, a reference to a chapter, section, figure, exercise, erratum or cited work;
+* **produced by the run**: a sentence that reports a computed number is written by a code cell
+  (``display(Markdown(f"..."))``), so it is not in a Markdown cell and cannot drift;
+* **recomputed by a named test**: a test docstring anywhere under ``tests/`` quotes (between double quotes,
+  ``...`` for an elision) a piece of the sentence that contains the number;
+* **declared** in :data:`DECLARED` below: an input (E = 1000, a mesh size), a definition (the 33 ms budget), a
+  citation of a published figure, or a number a named test checks in other words ("checked-by <test>").
+
+A declaration whose quote is no longer in its chapter fails too (it would otherwise hide the next drift), and
+so does a "checked-by" naming a test that does not exist.
+"""
+
+from __future__ import annotations
+
+import ast
+import functools
+import json
+import re
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+CHAPTERS = ROOT / "chapters"
+TESTS = ROOT / "tests"
+
+KINDS = ("input", "definition", "citation", "checked-by", "recorded")
+
+#: (chapter stem, numbers as the prose writes them, kind, a short quote of the sentence containing them).
+#: Several numbers of one quote are separated by " / "; ``kind`` is one of :data:`KINDS`; "checked-by" is
+#: followed by ``tests/<file>.py::<test>``, "recorded" by where the recording lives (a recorded run of a named
+#: machine, quoted as data).
+DECLARED: list[tuple[str, str, str, str]] = [
+    ("ch01_linear_1d", "1 / 0", "definition", "is 1 at the last node and 0 elsewhere"),
+    ("ch01_linear_1d", "2 / 1 / 3", "checked-by tests/engine/test_oned.py::test_convergence_rates",
+     "The observed rates are 2 and 1 for P1, and 3 and 2 for P2"),
+    ("ch05_fibers", "45", "input", "At 45° the strip shears between its clamps"),
+    ("ch06a_inversion", "1", "definition", "1 everywhere for a one-to-one map"),
+]
+
+# --- reading the prose ------------------------------------------------------------------------------------
+
+_SPACE = "\u00a0\u2009\u202f"
+#: a number as prose writes it: 3, 0.41, 1 200 (thin or plain space between thousands), 32,550, -1.4, 4 %, 21–28
+NUMBER = re.compile(rf"(?<![\w.\-−/^])[-−]?\d{{1,3}}(?:[ {_SPACE},]\d{{3}})*(?:\.\d+)?(?![\w]|\.\d)")
+#: spelled numbers that state a ratio ("ten times finer", "a thousand times stiffer"; not "twice", which mostly
+#: counts an action: "integrating twice", "reached twice")
+WORD_RATIO = re.compile(r"\b(?:(?:two|three|four|five|six|seven|eight|nine|ten|eleven|twelve|twenty|"
+                        r"fifty|hundred|thousand|million)(?:[- ]fold| times))\b", re.I)
+
+_REFERENCE_WORDS = (r"chapters?|ch\.|sections?|figures?|fig\.|exercises?|errat(?:um|a)|references?|refs?\.|"
+                    r"parts?|eqs?\.|equations?|goals?|items?|pages?|cells?|sittings?|appendix")
+#: "chapter 8a", "chapters 3 and 4", "§1, §2 and §4", "exercise 6.1", "Figure 1", "reference [3]"
+REFERENCE = re.compile(rf"(?:\b(?:{_REFERENCE_WORDS})|§)\s*(?:\d+[a-z]?(?:\.\d+)*[a-z]?"
+                       rf"(?:\s*(?:,|and|or|to|–|-)\s*§?\d+[a-z]?(?:\.\d+)*[a-z]?)*)", re.I)
+EXEMPT_PATTERNS = [
+    re.compile(r"```.*?```", re.S),                 # fenced code
+    re.compile(r"<!--.*?-->", re.S),                # comments
+    re.compile(r"\$\$.*?\$\$", re.S),               # display math
+    re.compile(r"\$[^$\n]*\$"),                     # inline math
+    re.compile(r"`[^`\n]*`"),                       # code spans
+    re.compile(r"\]\([^)\s]*\)"),                   # link targets
+    re.compile(r"\[\d+(?:[,–-]\s*\d+)*\]"),        # numbered citations [3]
+    re.compile(r"^\s*#+\s*\d+[a-z]?(?:\.\d+)*\.?", re.M),  # a heading's own number
+    re.compile(r"^\s*(?:\d+[.)]|[-*+])\s", re.M),   # list markers
+    re.compile(r"\*\*\d+\.\d+\*\*"),                # exercise labels **6.1**
+    REFERENCE,
+    re.compile(r"\bch\d\d[a-z]?\w*"),              # file names ch07_..., fig_ch10_...
+    re.compile(r"\b[A-Z][\w.]*(?:\s+et al\.)?,?\s*\(?(?:19|20)\d\d\)?"),  # author or venue with its year
+    re.compile(r"\d+\s*[×x]\s*\d+(?:\s*[×x]\s*\d+)?"),  # sizes: a 64 × 32 grid, a 2×2 matrix (inputs)
+    re.compile(r"Time:?\**\s*about\s+\d+\s*min"),  # the time a chapter states (the syllabus reads it)
+    # suggestions and exercise lists: their numbers are inputs the reader is invited to change
+    re.compile(r"^#+\s*(?:What to try|Exercises)\b.*?(?=^#+\s|\Z)", re.S | re.M),
+    # the frame budget, a definition of the whole workbook: 33 ms, 30 frames per second, a frame time of 1/30 s
+    re.compile(r"\b33\s*ms\b|\b30 frames (?:per|a) second\b|\b1/30(?:\s*s)?\b"),
+    # the index convention: formulas count from 1, code from 0
+    re.compile(r"\*\*(?:Index convention|Counting indices)[^*]*\*\*.*?(?=\n\s*\n|\Z)", re.S),
+]
+
+
+def normalize(text: str) -> str:
+    """Compare quotes and sentences without Markdown emphasis, math dollars, odd spaces or case."""
+    text = re.sub(rf"[*`$_{_SPACE}]", " ", text).replace("−", "-").replace("–", "-").replace("—", "-")
+    return re.sub(r"\s+", " ", text).strip().casefold()
+
+
+def number_key(number: str) -> str:
+    """``"1 200"`` and ``"1200"``, ``"-1.4"`` and ``"−1.4"`` alike; a spelled ratio in lower case."""
+    if not number[:1].isdigit() and number[:1] not in "-−":
+        return number.casefold()
+    return re.sub(rf"[ {_SPACE},]", "", number).replace("−", "-").lstrip("-")
+
+
+def _blank(match) -> str:
+    return re.sub(r"[^\n]", " ", match.group(0))
+
+
+def sentences(markdown: str):
+    """The sentences of a Markdown cell, each as ``(text, stated)``: ``stated`` is the text with everything exempt
+    blanked out (same length, so positions agree)."""
+    stated = markdown
+    for pattern in EXEMPT_PATTERNS:
+        stated = pattern.sub(_blank, stated)
+    start = 0
+    ends = [m.end() for m in re.finditer(r"(?<=[.!?:])\s+(?=[*_(\"“]*[A-Z§])|\n\s*\n|\n(?=\s*(?:[-*+]|\d+\.)\s)|"
+                                         r"\n(?=\s*\|)|\|\s*\n", markdown)]
+    for end in [*ends, len(markdown)]:
+        if markdown[start:end].strip():
+            yield markdown[start:end], stated[start:end]
+        start = end
+
+
+def stated_numbers(stated: str) -> list[str]:
+    return [m.group(0).strip() for m in NUMBER.finditer(stated)] + [m.group(0) for m in WORD_RATIO.finditer(stated)]
+
+
+def chapter_markdown(path: Path) -> list[str]:
+    nb = json.loads(path.read_text(encoding="utf-8"))
+    return ["".join(c["source"]) if isinstance(c["source"], list) else c["source"]
+            for c in nb["cells"] if c["cell_type"] == "markdown"]
+
+
+# --- what checks a number ---------------------------------------------------------------------------------
+
+@functools.lru_cache(maxsize=1)
+def test_docstrings() -> dict[str, str]:
+    """``{"tests/x.py::test_y": docstring}`` of every test function under ``tests/``."""
+    found = {}
+    for path in sorted(TESTS.rglob("test_*.py")):
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        for node in ast.walk(tree):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)) and node.name.startswith("test"):
+                doc = ast.get_docstring(node)
+                if doc:
+                    found[f"{path.relative_to(ROOT).as_posix()}::{node.name}"] = doc
+    return found
+
+
+test_docstrings.__test__ = False  # a helper, not a test
+
+
+def quoted_pieces(docstring: str) -> list[str]:
+    """The pieces a docstring quotes: text between double quotes, split at ``...`` elisions."""
+    pieces = []
+    for quote in re.findall(r"[\"“]{1,2}(.+?)[\"”]{1,2}(?=[\s,.;:)\-]|$)", docstring, re.S):
+        pieces += [p for p in map(normalize, re.split(r"\.\.\.|…", quote)) if len(p) >= 8]
+    return pieces
+
+
+def unbound_numbers(paths=None, declared=None, docstrings=None) -> list[str]:
+    """One line per number of the prose that nothing binds: chapter, number and sentence."""
+    declared = DECLARED if declared is None else declared
+    docstrings = dict(test_docstrings()) if docstrings is None else docstrings
+    pieces = [p for doc in docstrings.values() for p in quoted_pieces(doc)]
+    problems = []
+    for path in paths or sorted(CHAPTERS.glob("ch*.ipynb")):
+        mine = [(number_key(n), normalize(q)) for stem, ns, _, q in declared if stem == path.stem
+                for n in ns.split(" / ")]
+        for cell in chapter_markdown(path):
+            for text, stated in sentences(cell):
+                numbers = stated_numbers(stated)
+                if not numbers:
+                    continue
+                sentence = normalize(text)
+                for number in numbers:
+                    key = number_key(number)
+                    if any(q in sentence for k, q in mine if k == key.casefold() or k == key):
+                        continue
+                    if any(p in sentence and re.search(rf"(?<![\d.]){re.escape(key)}(?![\d])", number_key(p))
+                           for p in pieces):
+                        continue
+                    if not key[0].isdigit() and any(p in sentence and key.casefold() in p for p in pieces):
+                        continue
+                    problems.append(f"{path.stem}: {number!r} in \"{' '.join(text.split())[:200]}\"")
+    return problems
+
+
+#: Chapters whose prose still holds unbound numbers, each waiting for its sentences to be generated by the run,
+#: quoted by a test or declared. The test of such a chapter is an expected failure, strict: once a chapter is
+#: bound its entry must go, and no other chapter can join the list unnoticed.
+PENDING = {
+    "ch03_kinematics_linear_2d", "ch04_neo_hookean_2d", "ch06b_inversion_robust", "ch07_time_stepping",
+    "ch08a_virtual_surgery", "ch08b_virtual_surgery", "ch09_accuracy_cost", "ch10_cutting_contact",
+}
+
+# --- the tests --------------------------------------------------------------------------------------------
+
+CHAPTER_PATHS = sorted(CHAPTERS.glob("ch*.ipynb"))
+
+
+@pytest.mark.parametrize("path", [pytest.param(p, marks=pytest.mark.xfail(
+    strict=True, reason="numbers of this chapter's prose not yet bound")) if p.stem in PENDING else p
+    for p in CHAPTER_PATHS], ids=[p.stem for p in CHAPTER_PATHS])
+def test_every_number_of_the_prose_is_bound(path):
+    problems = unbound_numbers([path])
+    assert not problems, (
+        f"{len(problems)} number(s) of {path.name}'s prose report something that nothing checks: write the "
+        "sentence from the run (display(Markdown(f\"...\"))), quote it in the docstring of the test that "
+        "recomputes it, or declare it in tests/chapters/test_prose_numbers.py::DECLARED (input, definition, "
+        "citation, checked-by <test>):\n  " + "\n  ".join(problems))
+
+
+def test_declarations_are_current():
+    stems = {p.stem: p for p in CHAPTER_PATHS}
+    docstrings = test_docstrings()
+    stale = []
+    for stem, numbers, kind, quote in DECLARED:
+        head = kind.split()[0]
+        if stem not in stems:
+            stale.append(f"{stem}: no such chapter")
+            continue
+        number = numbers
+        if head not in KINDS:
+            stale.append(f"{stem} {number!r}: kind {kind!r} is none of {KINDS}")
+        if head == "checked-by" and kind.split()[-1] not in docstrings and not _test_exists(kind.split()[-1]):
+            stale.append(f"{stem} {number!r}: {kind.split()[-1]} does not exist")
+        text = normalize(" ".join(chapter_markdown(stems[stem])))
+        if normalize(quote) not in text:
+            stale.append(f"{stem} {number!r}: the quote \"{quote}\" is no longer in the chapter")
+        for number in numbers.split(" / "):
+            if number_key(number) not in number_key(normalize(quote)).replace("-", ""):
+                stale.append(f"{stem} {number!r}: the quote \"{quote}\" does not contain the number")
+    assert not stale, "stale declarations in DECLARED:\n  " + "\n  ".join(stale)
+
+
+def _test_exists(ref: str) -> bool:
+    file, _, name = ref.partition("::")
+    path = ROOT / file
+    return path.exists() and re.search(rf"^\s*def {re.escape(name)}\b", path.read_text(), re.M) is not None
+
+
+# --- the checker checks what it should ------------------------------------------------------------------------
+
+def test_the_checker_catches_a_computed_number_and_exempts_the_rest(tmp_path):
+    nb = {"cells": [{"cell_type": "markdown", "source": (
+        "## 5. Costs\n\nAs chapter 4 showed (see §3 and exercise 6.1), $E = 1000$ and `n=8`.\n"
+        "1. The solver is 10–25× faster here.\n\nThat is ten times finer.")}], "metadata": {}}
+    path = tmp_path / "ch99_demo.ipynb"
+    path.write_text(json.dumps(nb))
+    found = unbound_numbers([path], declared=[], docstrings={})
+    assert [line.split(":", 1)[1].split(" in ")[0].strip() for line in found] == ["'10'", "'25'", "'ten times'"]
+    found = unbound_numbers([path], declared=[("ch99_demo", "10", "input", "10–25× faster")],
+                            docstrings={"t::test_x": '"That is ten times finer".'})
+    assert [line.split(":", 1)[1].split(" in ")[0].strip() for line in found] == ["'25'"]
