@@ -63,7 +63,7 @@ from tissuefem.workbook.tables import markdown_table
 
 # %%
 crack = crack_runs()
-fig_ch10_cut_through(runs=crack)
+display(fig_ch10_cut_through(runs=crack))
 rows = [{"cut": method, "triangles": n, "elements": sim.mesh.nelements, "opening": crack_opening(sim, edit)}
         for (method, n), (sim, edit) in crack.items()]
 display(Markdown(markdown_table(rows, [("cut", "cut", "{}"), ("triangles", "triangles", "{}"),
@@ -104,7 +104,7 @@ display(Markdown(markdown_table(rows, [("cut", "cut", "{}"), ("triangles", "tria
 # is snapped onto the triangle's edges there; the drawn wound stays where it was drawn.
 
 # %%
-fig_ch10_virtual_nodes()
+display(fig_ch10_virtual_nodes())
 
 mesh = rectangle(2.0, 1.0, 4, 2)
 cut = cut_through(mesh, [[0.62, 1.1], [0.9, 0.6], [1.05, 0.35]])
@@ -215,7 +215,7 @@ for name, procedure in (("advancement", advancement_flap), ("rotation", rotation
     for method in ("edges", "elements"):
         for n in (1500, 3000):
             flaps[(name, method, n)] = procedure(n_triangles=n, tighten_frames=8, method=method)
-fig_ch10_flaps(runs=flaps)
+display(fig_ch10_flaps(runs=flaps))
 rows = [{"flap": name, "cut": method, "triangles": n, "stitches": r.stitches, "flap_tension": r.flap_tension,
          "p95": r.p95_tension, "gap": r.max_gap} for (name, method, n), r in flaps.items()]
 display(Markdown(markdown_table(rows, [("flap", "flap", "{}"), ("cut", "cut", "{}"), ("triangles", "triangles", "{}"),

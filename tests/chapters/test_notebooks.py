@@ -37,4 +37,8 @@ def test_notebook_matches_its_text_twin(path):
 @pytest.mark.notebook
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
 def test_notebook_executes(path, tmp_path):
-    execute_notebook(path, tmp_path / path.name)
+    from test_figures_shown import missing_figures
+
+    nb = execute_notebook(path, tmp_path / path.name)
+    missing = missing_figures(nb)
+    assert not missing, f"{path.name} executed, but figures it draws are not shown:\n  " + "\n  ".join(missing)
