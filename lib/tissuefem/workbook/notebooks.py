@@ -5,6 +5,7 @@ Executed copies go to a build folder, so the committed chapters stay free of out
 
 from __future__ import annotations
 
+import os
 import re
 import time
 from pathlib import Path
@@ -31,14 +32,17 @@ def execute_notebook(src, dst=None, timeout: int = 900, kernel_name: str = "pyth
     """Run every cell of ``src`` in a fresh kernel (working directory: the notebook's folder).
 
     Returns the executed notebook; writes it to ``dst`` when given. A failing cell raises
-    ``nbclient.exceptions.CellExecutionError`` naming the cell.
+    ``nbclient.exceptions.CellExecutionError`` naming the cell. The kernel talks over local sockets (IPC)
+    where the system has them: over TCP it would warn, once per chapter, that the traffic is unencrypted.
     """
     import nbformat
     from nbclient import NotebookClient
+    from traitlets.config import Config
 
     src = Path(src)
     nb = nbformat.read(src, as_version=4)
-    NotebookClient(nb, timeout=timeout, kernel_name=kernel_name,
+    config = Config({"KernelManager": {"transport": "ipc"}}) if os.name == "posix" else Config()
+    NotebookClient(nb, timeout=timeout, kernel_name=kernel_name, config=config,
                    resources={"metadata": {"path": str(src.parent)}}).execute()
     if dst is not None:
         dst = Path(dst)
