@@ -43,6 +43,10 @@ DECLARED: list[tuple[str, str, str, str]] = [
      "The observed rates are 2 and 1 for P1, and 3 and 2 for P2"),
     ("ch05_fibers", "45", "input", "At 45° the strip shears between its clamps"),
     ("ch06a_inversion", "1", "definition", "1 everywhere for a one-to-one map"),
+    ("ch10_cutting_contact", "1 200 / 2 600", "input", "meshed with 1 200 and with 2 600 triangles"),
+    ("ch10_cutting_contact", "0.1", "definition", "Slivers (a piece holding less than 0.1 % of its triangle)"),
+    ("ch10_cutting_contact", "0.8", "definition", "and takes at most 0.8 of it, as IPC does"),
+    ("ch10_cutting_contact", "20", "input", "or tightened in 20 smaller steps"),
 ]
 
 # --- reading the prose ------------------------------------------------------------------------------------
@@ -187,7 +191,7 @@ def unbound_numbers(paths=None, declared=None, docstrings=None) -> list[str]:
 #: bound its entry must go, and no other chapter can join the list unnoticed.
 PENDING = {
     "ch03_kinematics_linear_2d", "ch04_neo_hookean_2d", "ch06b_inversion_robust", "ch07_time_stepping",
-    "ch08a_virtual_surgery", "ch08b_virtual_surgery", "ch09_accuracy_cost", "ch10_cutting_contact",
+    "ch08a_virtual_surgery", "ch08b_virtual_surgery", "ch09_accuracy_cost",
 }
 
 # --- the tests --------------------------------------------------------------------------------------------
@@ -225,7 +229,9 @@ def test_declarations_are_current():
         if normalize(quote) not in text:
             stale.append(f"{stem} {number!r}: the quote \"{quote}\" is no longer in the chapter")
         for number in numbers.split(" / "):
-            if number_key(number) not in number_key(normalize(quote)).replace("-", ""):
+            key = number_key(number)
+            if (key.replace(" ", "") if key[0].isdigit() else key) not in (
+                    re.sub(r"[ ,]", "", normalize(quote)) if key[0].isdigit() else normalize(quote)):
                 stale.append(f"{stem} {number!r}: the quote \"{quote}\" does not contain the number")
     assert not stale, "stale declarations in DECLARED:\n  " + "\n  ".join(stale)
 
