@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import os
 import re
+import tempfile
 import time
 from pathlib import Path
 
@@ -41,9 +42,12 @@ def execute_notebook(src, dst=None, timeout: int = 900, kernel_name: str = "pyth
 
     src = Path(src)
     nb = nbformat.read(src, as_version=4)
-    config = Config({"KernelManager": {"transport": "ipc"}}) if os.name == "posix" else Config()
-    NotebookClient(nb, timeout=timeout, kernel_name=kernel_name, config=config,
-                   resources={"metadata": {"path": str(src.parent)}}).execute()
+    with tempfile.TemporaryDirectory(prefix="tissuefem-kernel-") as sockets:
+        # the socket files' absolute prefix: the kernel runs in the chapter's folder, the client here
+        config = (Config({"KernelManager": {"transport": "ipc", "ip": os.path.join(sockets, "kernel")}})
+                  if os.name == "posix" else Config())
+        NotebookClient(nb, timeout=timeout, kernel_name=kernel_name, config=config,
+                       resources={"metadata": {"path": str(src.parent)}}).execute()
     if dst is not None:
         dst = Path(dst)
         dst.parent.mkdir(parents=True, exist_ok=True)
