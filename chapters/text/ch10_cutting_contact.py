@@ -72,7 +72,7 @@ display(Markdown(markdown_table(rows, [("cut", "cut", "{}"), ("triangles", "tria
 opening = {(method, n): row["opening"] for (method, n), row in zip(crack, rows)}
 small, large = sorted({n for _, n in crack})
 change = {method: abs(opening[(method, large)] / opening[(method, small)] - 1) for method in ("edges", "elements")}
-display(Markdown(f"From {small:,} to {large:,} triangles the opening at the mouth changes by {100 * change['edges']:.1f} % "
+display(Markdown(f"From {small} to {large} triangles the opening at the mouth changes by {100 * change['edges']:.1f} % "
                  f"when the cut is snapped to edges, by {100 * change['elements']:.2f} % when it is cut through "
                  "the elements."))
 
