@@ -25,7 +25,7 @@
 # 4. Measure how the error falls as the mesh is refined, P1 against P2 — and what each costs in
 #    time against the 33 ms of a frame. This is the workbook's first data on *what accuracy costs*.
 #
-# *Time: about 40 min to read and run, and five exercises.*
+# *Time: about 45 min to read and run, and five exercises.*
 #
 # *Reading:* the notes' "Elasticity and constitutive modeling" (Neo-Hookean part) and
 # "Equilibrium and weak form".

@@ -22,7 +22,7 @@
 # 3. say what each effect costs per frame, and why a linear scene costs almost nothing;
 # 4. operate on the tissue with the mouse.
 #
-# *Time: about 40 min to read and run.* The second sitting of chapter 8: it uses the scenes, the sheet and
+# *Time: about 45 min to read and run.* The second sitting of chapter 8: it uses the scenes, the sheet and
 # the cuts of chapter 8a.
 #
 # *Reading:* the loop of the notes' "Time stepping" section. The procedure of section 1 follows Sifakis,
