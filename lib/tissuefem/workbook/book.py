@@ -50,7 +50,11 @@ MathJax.Hub.Config({
   tex2jax: {inlineMath: [['$', '$'], ['\\(', '\\)']], displayMath: [['$$', '$$'], ['\\[', '\\]']],
             processEscapes: true, processEnvironments: true},
   TeX: {equationNumbers: {autoNumber: "AMS", useLabelIds: true}},
-  messageStyle: "none", CommonHTML: {linebreaks: {automatic: true}}
+  messageStyle: "none", CommonHTML: {linebreaks: {automatic: true}},
+  // the copy in the site ships the STIX-Web fonts only: without this, MathJax looks for its TeX fonts
+  // and fails on some symbols (a prime, h'(J))
+  "HTML-CSS": {availableFonts: ["STIX-Web"], preferredFont: "STIX-Web", webFont: "STIX-Web", imageFont: null,
+               linebreaks: {automatic: true}}
 });
 </script>
 <script async src="{{ resources.book_mathjax_url }}"></script>
