@@ -86,8 +86,8 @@ def test_ch08_the_probe_leaves_the_same_penetration_on_every_mesh():
 
 
 def test_ch08_stiffer_probes_leave_less_penetration_and_cost_newton_steps():
-    """"Ten times the stiffness leaves about a third of the penetration (for k >= 1e6) and costs Newton steps:
-    from 4 or 5 per frame at k = 1e4 to 11 to 17 at 1e8"."""
+    """"Ten times the stiffness leaves about a third of the penetration (for k ... and costs Newton steps: from 4
+    or 5 per frame at k = ... to 11 to 17 at" (chapter 8a; k from 1e4 to 1e8)."""
     from tissuefem.workbook.procedures import probe_indentation
 
     runs = {k: probe_indentation(1200, stiffness=k) for k in (1e4, 1e6, 1e7, 1e8)}
