@@ -26,3 +26,15 @@ def test_ch06b_the_log_model_crush_stops_before_flat_and_recovers():
         crushed = run["frames"][-2] - mesh.p  # the positions after the last step of the crush
         J = det2(P1Assembler(mesh).deformation_gradient(crushed.T.reshape(-1)))
         assert J.min() > 0, name
+
+
+def test_ch09_the_block_converges_below_rate_2():
+    """Chapter 9: "On the block the error falls steadily with the mesh, at a rate below 2 because of the
+    corners, and the cost grows about in proportion to the triangles"."""
+    from tissuefem.workbook.bench.accuracy_cost import recorded_results
+    from tissuefem.workbook.measure import fitted_exponent
+
+    rows = [r for r in recorded_results()["knobs"] if r["benchmark"] == "block" and r["knob"] == "mesh"]
+    h = [r["triangles"] ** -0.5 for r in rows]
+    assert 1.3 < fitted_exponent(h, [r["error"] for r in rows]) < 2.0
+    assert 0.8 < fitted_exponent([r["triangles"] for r in rows], [r["ms_median"] for r in rows]) < 1.2
