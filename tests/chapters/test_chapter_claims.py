@@ -51,8 +51,8 @@ def test_ch06b_the_crush_in_frames_folds_instead_of_inverting():
 
 def test_ch07_explicit_steps_per_frame():
     """"About 3 steps per frame on the coarsest mesh and about 48 on the finest: the step count doubles with
-    each halving of h" and "from about 12 steps per frame at nu = 0.3 to about 130 at nu = 0.499, on the same
-    mesh: at 64 x 32 cells that would be some five hundred steps per frame"."""
+    each halving of h" and "From about 12 steps per frame at ... to about 130 at ... on the same mesh: at
+    64 × 32 cells that would be some five hundred steps per frame" (nu = 0.3 and 0.499)."""
     from tissuefem import FRAME_BUDGET, Handle, Model, StableNeoHookean, critical_time_step, rectangle
     from tissuefem.workbook.figures.dynamics import CFL_SIZES
     from tissuefem.workbook.timestepping import cfl_study
