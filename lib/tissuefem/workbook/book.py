@@ -19,6 +19,7 @@ from itertools import takewhile
 from pathlib import Path
 from urllib.parse import unquote, urlsplit
 
+import jupyter_server_mathjax
 import nbformat
 from jinja2 import DictLoader
 from nbconvert import HTMLExporter
@@ -297,11 +298,6 @@ def _markdown_notebook(title: str, cells: list[str]) -> nbformat.NotebookNode:
 
 def mathjax_source() -> Path:
     """The MathJax files that install with the project (``jupyter-server-mathjax``): the site copies them."""
-    try:
-        import jupyter_server_mathjax
-    except ImportError as error:
-        raise RuntimeError("the book typesets formulas with the MathJax of the package jupyter-server-mathjax, a "
-                           "dependency of tissuefem: pip install jupyter-server-mathjax") from error
     static = Path(jupyter_server_mathjax.__file__).parent / "static"
     if not (static / "MathJax.js").is_file():
         raise RuntimeError(f"jupyter-server-mathjax has no MathJax.js in {static}: reinstall it")

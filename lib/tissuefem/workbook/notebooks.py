@@ -11,6 +11,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from traitlets.config import Config
+
 #: A chapter's file name: ``chNN_name.ipynb``, or ``chNNa_name.ipynb``, ``chNNb_...`` for the parts of a
 #: chapter split into sittings.
 CHAPTER_NAME = re.compile(r"ch(\d\d)([a-z]?)_\w+\.ipynb")
@@ -38,7 +40,6 @@ def execute_notebook(src, dst=None, timeout: int = 900, kernel_name: str = "pyth
     """
     import nbformat
     from nbclient import NotebookClient
-    from traitlets.config import Config
 
     src = Path(src)
     nb = nbformat.read(src, as_version=4)
