@@ -24,7 +24,7 @@ import nbformat
 from jinja2 import DictLoader
 from nbconvert import HTMLExporter
 
-from .notebooks import chapter_label, chapter_paths
+from .notebooks import chapter_label, chapter_paths, missing_figures
 
 #: reading speed for the chapters' prose: technical text with equations, about half that of plain prose
 WORDS_PER_MINUTE = 100
@@ -402,6 +402,8 @@ def build_book(chapters_dir, executed_dir, outdir, readme=None, exercises_dir=No
             progress(f"[book] {path}")
 
     for c in chapters:
+        for line in missing_figures(c.notebook) if c.executed else []:
+            links.warnings.append(f"{c.page}: {line}: the page shows no picture where the text describes one")
         note = "" if c.executed else (
             '<div class="book-note">This chapter has not been executed, so its outputs are missing: '
             "run <code>python -m tissuefem build</code>.</div>")
