@@ -10,8 +10,13 @@ committed chapter (no execution: it is fast) and fails on a number in the prose 
   (``display(Markdown(f"..."))``), so it is not in a Markdown cell and cannot drift;
 * **recomputed by a named test**: a test docstring anywhere under ``tests/`` quotes (between double quotes,
   ``...`` for an elision) a piece of the sentence that contains the number;
-* **declared** in :data:`DECLARED` below: an input (E = 1000, a mesh size), a definition (the 33 ms budget), a
-  citation of a published figure, or a number a named test checks in other words ("checked-by <test>").
+* **declared** in :data:`DECLARED` below: an input (E = 1000, a mesh size), a definition (a solver's cap, a
+  tolerance), a citation of a published figure, a reference the automatic rules miss (a table's "section"
+  column), a number of a recorded run quoted as data ("recorded ...", saying where and on which machine), or a
+  number a named test checks in other words ("checked-by tests/<file>.py::<test>").
+
+Numbers inside ``$math$`` are exempt wholesale: a computed number written as math (a residual history
+``$22 \to 1 \to \dots$``) escapes this check, so write such a sentence from the run.
 
 A declaration whose quote is no longer in its chapter fails too (it would otherwise hide the next drift), and
 so does a "checked-by" naming a test that does not exist.
