@@ -15,8 +15,8 @@ committed chapter (no execution: it is fast) and fails on a number in the prose 
   column), a number of a recorded run quoted as data ("recorded ...", saying where and on which machine), or a
   number a named test checks in other words ("checked-by tests/<file>.py::<test>").
 
-Numbers inside ``$math$`` are exempt wholesale: a computed number written as math (a residual history
-``$22 \to 1 \to \dots$``) escapes this check, so write such a sentence from the run.
+Numbers inside ``$math$`` are exempt wholesale: a computed number written as math (a residual history as a
+chain of arrows) escapes this check, so write such a sentence from the run.
 
 A declaration whose quote is no longer in its chapter fails too (it would otherwise hide the next drift), and
 so does a "checked-by" naming a test that does not exist.
