@@ -300,10 +300,10 @@ fig_ch06_itf_energy()
 # back $\partial\hat\Psi/\partial s_2$ at a few points of the middle panel:
 
 # %%
-s1_values = np.array([0.7, 0.5, 0.3, 0.0, -0.5])
-F_line = np.zeros((2, 2, s1_values.size))
-F_line[0, 0], F_line[1, 1] = 1.0, s1_values             # F = diag(1, s1)
-print(f"{'s1':>25s}" + "".join(f"{v:9.1f}" for v in s1_values))
+s2_values = np.array([0.7, 0.5, 0.3, 0.0, -0.5])
+F_line = np.zeros((2, 2, s2_values.size))
+F_line[0, 0], F_line[1, 1] = 1.0, s2_values             # F = diag(1, s2): s1 = 1 stays, s2 is squeezed
+print(f"{'s2':>25s}" + "".join(f"{v:9.1f}" for v in s2_values))
 for name, material in models.items():
     push = material.stress(F_line)[1, 1]
     print(f"{name:>25s}" + "".join(f"{v:9.0f}" for v in push))

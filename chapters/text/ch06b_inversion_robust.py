@@ -300,8 +300,8 @@ print(f"({time.perf_counter() - start:.1f} s)")
 # elements along the bottom edge have $\mathbf F \ne 0$, feel a force, and pull the rest along. A block with
 # every node on one point would be in equilibrium under those two models (zero stress in every element).
 #
-# **Nearly incompressible tissue** ($\nu = 0.499$) makes the volumetric term a thousand times stiffer than the
-# shear term. Release from the point collapse again:
+# **Nearly incompressible tissue** ($\nu = 0.499$) makes the volumetric term about five hundred times stiffer
+# than the shear term ($\lambda/\mu = 2\nu/(1 - 2\nu) = 499$, chapter 3's table). Release from the point collapse again:
 
 # %%
 stiff = inversion_models(E, 0.499)

@@ -51,8 +51,8 @@ def test_ch06b_the_crush_in_frames_folds_instead_of_inverting():
 
 def test_ch07_explicit_steps_per_frame():
     """"About 3 steps per frame on the coarsest mesh and about 48 on the finest: the step count doubles with
-    each halving of h" and "from about 12 steps per frame at nu = 0.3 to about 130 at nu = 0.499, on the same
-    mesh: at 64 x 32 cells that would be some five hundred steps per frame"."""
+    each halving of h" and "From about 12 steps per frame at ... to about 130 at ... on the same mesh: at
+    64 × 32 cells that would be some five hundred steps per frame" (nu = 0.3 and 0.499)."""
     from tissuefem import FRAME_BUDGET, Handle, Model, StableNeoHookean, critical_time_step, rectangle
     from tissuefem.workbook.figures.dynamics import CFL_SIZES
     from tissuefem.workbook.timestepping import cfl_study
@@ -86,8 +86,8 @@ def test_ch08_the_probe_leaves_the_same_penetration_on_every_mesh():
 
 
 def test_ch08_stiffer_probes_leave_less_penetration_and_cost_newton_steps():
-    """"Ten times the stiffness leaves about a third of the penetration (for k >= 1e6) and costs Newton steps:
-    from 4 or 5 per frame at k = 1e4 to 11 to 17 at 1e8"."""
+    """"Ten times the stiffness leaves about a third of the penetration (for k ... and costs Newton steps: from 4
+    or 5 per frame at k = ... to 11 to 17 at" (chapter 8a; k from 1e4 to 1e8)."""
     from tissuefem.workbook.procedures import probe_indentation
 
     runs = {k: probe_indentation(1200, stiffness=k) for k in (1e4, 1e6, 1e7, 1e8)}

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import pytest
 
-from tissuefem.workbook.notebooks import chapter_paths, execute_notebook
+from tissuefem.workbook.notebooks import chapter_paths, execute_notebook, missing_figures
 
 CHAPTERS = Path(__file__).resolve().parents[2] / "chapters"
 NOTEBOOKS = chapter_paths(CHAPTERS)
@@ -37,4 +37,6 @@ def test_notebook_matches_its_text_twin(path):
 @pytest.mark.notebook
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
 def test_notebook_executes(path, tmp_path):
-    execute_notebook(path, tmp_path / path.name)
+    nb = execute_notebook(path, tmp_path / path.name)
+    missing = missing_figures(nb)
+    assert not missing, f"{path.name} executed, but figures it draws are not shown:\n  " + "\n  ".join(missing)

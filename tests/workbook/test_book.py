@@ -118,9 +118,31 @@ def test_chapter_pages_show_outputs_math_figures_and_navigation(site):
     assert "https://scikit-fem.readthedocs.io/" in alpha
     # the math stays readable TeX in the page; MathJax typesets it when it can load
     assert "$a + b$" in alpha and "mathjax" in alpha.lower()
+    # the site's own copy of MathJax typesets it, offline
+    assert 'src="../mathjax/MathJax.js?config=' in alpha and (book / "mathjax" / "MathJax.js").is_file()
     # previous / next
     assert "Chapter 2 — Beta →" in alpha and "← Chapter 1 — Alpha" in beta
     assert "42" in beta
+
+
+def test_the_site_loads_no_script_from_the_network(site):
+    """An offline student sees typeset formulas: every script of every page is a file of the site."""
+    _, book, _, _ = site
+    for page in book.rglob("*.html"):
+        text = page.read_text()
+        remote = re.findall(r"<script[^>]*\ssrc=[\"']?(?:https?:)?//[^\"'\s>]+", text, re.I)
+        assert not remote, f"{page.relative_to(book)} loads scripts from the network: {remote}"
+        assert "MathJax.js?config=" in text, f"{page.relative_to(book)} loads no MathJax"
+
+
+def test_executing_a_chapter_logs_no_kernel_warning(tmp_path, capfd):
+    """The build log carries no "Kernel is running over TCP without encryption" per chapter."""
+    path = tmp_path / "ch01_quiet.ipynb"
+    nbformat.write(_notebook(["print(6 * 7)"]), path)
+    nb = execute_notebook(path, timeout=120)
+    assert nb.cells[0].outputs[0]["text"] == "42\n"
+    out, err = capfd.readouterr()
+    assert "without encryption" not in out + err
 
 
 def test_index_has_the_syllabus_and_the_errata_page_the_readme_errata(site):

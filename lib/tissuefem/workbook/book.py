@@ -1,7 +1,7 @@
 """The workbook as a static website: ``python -m tissuefem book`` (and the last step of ``build``).
 
 Each chapter becomes one HTML page (nbconvert's HTML exporter, from its executed copy in ``build/chapters/``,
-outputs embedded, MathJax when online) linked to its neighbours, the contents and the errata. The index page is
+outputs embedded, formulas typeset by a copy of MathJax in the site: no network needed) linked to its neighbours, the contents and the errata. The index page is
 the syllabus: each chapter's goals (from its first cell) and time (stated there, :func:`stated_minutes`, or
 estimated, :func:`estimate_minutes`); a chapter in sittings (``chNNa_*``, ``chNNb_*``) shows as "6a", "6b".
 Every link is relative: copy the folder to any web server, or open ``index.html`` from disk.
@@ -19,11 +19,12 @@ from itertools import takewhile
 from pathlib import Path
 from urllib.parse import unquote, urlsplit
 
+import jupyter_server_mathjax
 import nbformat
 from jinja2 import DictLoader
 from nbconvert import HTMLExporter
 
-from .notebooks import chapter_label, chapter_paths
+from .notebooks import chapter_label, chapter_paths, missing_figures
 
 #: reading speed for the chapters' prose: technical text with equations, about half that of plain prose
 WORDS_PER_MINUTE = 100
@@ -34,9 +35,15 @@ MINUTES_PER_EXERCISE = 20
 
 ERRATA_HEADING = "Errata to the lecture notes"
 
+#: where the site keeps its copy of MathJax (2.7, from the ``jupyter-server-mathjax`` package), and the
+#: configuration it loads: TeX and AMS macros, HTML-CSS output with its web fonts, in safe mode
+MATHJAX_DIR = "mathjax"
+MATHJAX_CONFIG = "TeX-AMS-MML_HTMLorMML-full,Safe"
+
 _TEMPLATE = r"""
 {%- extends 'lab/index.html.j2' -%}
 {%- block html_head_js_requirejs -%}{%- endblock html_head_js_requirejs -%}
+{%- block jupyter_widgets -%}{%- endblock jupyter_widgets -%}
 {%- block html_head_js_mermaidjs -%}{%- endblock html_head_js_mermaidjs -%}
 {%- block html_head_js_mathjax -%}
 <script type="text/x-mathjax-config">
@@ -44,10 +51,14 @@ MathJax.Hub.Config({
   tex2jax: {inlineMath: [['$', '$'], ['\\(', '\\)']], displayMath: [['$$', '$$'], ['\\[', '\\]']],
             processEscapes: true, processEnvironments: true},
   TeX: {equationNumbers: {autoNumber: "AMS", useLabelIds: true}},
-  messageStyle: "none", CommonHTML: {linebreaks: {automatic: true}}
+  messageStyle: "none", CommonHTML: {linebreaks: {automatic: true}},
+  // the copy in the site ships the STIX-Web fonts only: without this, MathJax looks for its TeX fonts
+  // and fails on some symbols (a prime, h'(J))
+  "HTML-CSS": {availableFonts: ["STIX-Web"], preferredFont: "STIX-Web", webFont: "STIX-Web", imageFont: null,
+               linebreaks: {automatic: true}}
 });
 </script>
-<script async src="{{ resources.mathjax_url }}"></script>
+<script async src="{{ resources.book_mathjax_url }}"></script>
 {%- endblock html_head_js_mathjax -%}
 {% block extra_css %}
 <style type="text/css">
@@ -251,8 +262,9 @@ class _Links:
             return value  # absolute, data:, mailto:, in-page anchors
         fragment = f"#{parts.fragment}" if parts.fragment else ""
         here = os.path.dirname(page) or "."
-        if os.path.normpath(os.path.join(here, unquote(parts.path))).replace(os.sep, "/") in self.site_pages:
-            return value  # already a page of the site (the syllabus, the navigation)
+        in_site = os.path.normpath(os.path.join(here, unquote(parts.path))).replace(os.sep, "/")
+        if in_site in self.site_pages or in_site.startswith(f"{MATHJAX_DIR}/"):
+            return value  # already a page of the site (the syllabus, the navigation) or its copy of MathJax
         target = (source_dir / unquote(parts.path)).resolve()
 
         def rel(site_path):
@@ -284,8 +296,29 @@ def _markdown_notebook(title: str, cells: list[str]) -> nbformat.NotebookNode:
     return nb
 
 
+def mathjax_source() -> Path:
+    """The MathJax files that install with the project (``jupyter-server-mathjax``): the site copies them."""
+    static = Path(jupyter_server_mathjax.__file__).parent / "static"
+    if not (static / "MathJax.js").is_file():
+        raise RuntimeError(f"jupyter-server-mathjax has no MathJax.js in {static}: reinstall it")
+    return static
+
+
+def _copy_mathjax(outdir: Path) -> None:
+    """Copy MathJax into the site, without the translations other than English (the pages never load them)."""
+    source = mathjax_source()
+    shutil.copytree(source, outdir / MATHJAX_DIR, ignore=lambda folder, names: [
+        n for n in names if Path(folder) == source / "localization" and n != "en"])
+
+
+def _mathjax_url(page: str) -> str:
+    here = os.path.dirname(page) or "."
+    return os.path.relpath(f"{MATHJAX_DIR}/MathJax.js", here).replace(os.sep, "/") + f"?config={MATHJAX_CONFIG}"
+
+
 def _render(exporter, nb, page, chapters, links, source_dir, note="") -> str:
     resources = {"metadata": {"name": Path(page).stem, "path": str(source_dir)}, "book_note": note,
+                 "book_mathjax_url": _mathjax_url(page),
                  "book_nav_top": _nav(page, chapters, "top"), "book_nav_bottom": _nav(page, chapters, "bottom")}
     body, _ = exporter.from_notebook_node(nb, resources=resources)
     return links(body, page, source_dir)
@@ -356,6 +389,7 @@ def build_book(chapters_dir, executed_dir, outdir, readme=None, exercises_dir=No
     if outdir.exists():
         shutil.rmtree(outdir)
     (outdir / "chapters").mkdir(parents=True)
+    _copy_mathjax(outdir)
     exporter = _exporter()
     links = _Links(root, outdir, {c.source.name: c.page for c in chapters}, readme)
     written = []
@@ -368,6 +402,8 @@ def build_book(chapters_dir, executed_dir, outdir, readme=None, exercises_dir=No
             progress(f"[book] {path}")
 
     for c in chapters:
+        for line in missing_figures(c.notebook) if c.executed else []:
+            links.warnings.append(f"{c.page}: {line}: the page shows no picture where the text describes one")
         note = "" if c.executed else (
             '<div class="book-note">This chapter has not been executed, so its outputs are missing: '
             "run <code>python -m tissuefem build</code>.</div>")

@@ -1,0 +1,45 @@
+"""The sentences that read a recorded table of a chapter, checked against that table.
+
+A chapter that quotes a recorded run shows it as a Markdown table; the sentence beside it must say what the
+table says. These tests read the committed chapter (no execution) and recompute the sentence's numbers.
+"""
+
+import json
+import re
+from pathlib import Path
+
+CHAPTERS = Path(__file__).resolve().parents[2] / "chapters"
+
+
+def markdown_tables(path: Path) -> list[list[dict]]:
+    """Every Markdown table of a chapter: a list of rows, each ``{header: cell text}``."""
+    nb = json.loads(path.read_text(encoding="utf-8"))
+    tables = []
+    for cell in nb["cells"]:
+        if cell["cell_type"] != "markdown":
+            continue
+        text = "".join(cell["source"]) if isinstance(cell["source"], list) else cell["source"]
+        for block in re.findall(r"(?:^\|.*\|[ \t]*\n?)+", text, re.M):
+            lines = [ln.strip().strip("|") for ln in block.strip().splitlines()]
+            header = [h.strip() for h in lines[0].split("|")]
+            tables.append([dict(zip(header, (c.strip() for c in ln.split("|")))) for ln in lines[2:]])
+    return tables
+
+
+def number(cell: str) -> float:
+    """The leading number of a table cell: ``"1 280"`` -> 1280, ``"57% (the rest ...)"`` -> 57."""
+    return float(re.match(r"[\d \u2009]+(?:\.\d+)?", cell).group(0).replace(" ", "").replace("\u2009", ""))
+
+
+def test_ch07_the_benchmark_reading_matches_its_table():
+    """Chapter 7, section 5: "Up to 16k triangles a converged frame fits the 33 ms budget (the median does;
+    at 8k the slowest 5 % of frames do too), 21–28× faster than the ex43 way"."""
+    table = next(t for t in markdown_tables(CHAPTERS / "ch07_time_stepping.ipynb")
+                 if "ex43 way ms/frame" in t[0])
+    rows = {number(r["triangles"]): r for r in table}
+    speedup = [number(r["ex43 way ms/frame"]) / number(r["median ms/frame"]) for r in table]
+    stated = re.search(r"(\d+)–(\d+)× faster than the ex43 way", (CHAPTERS / "text" / "ch07_time_stepping.py").read_text())
+    assert stated and (round(min(speedup)), round(max(speedup))) == tuple(map(int, stated.groups()))
+    assert all(number(r["median ms/frame"]) < 33 for n, r in rows.items() if n <= 16_000)
+    assert number(rows[32_040]["median ms/frame"]) > 33
+    assert number(rows[8_004]["p95 ms"]) < 33 < number(rows[16_000]["p95 ms"])
