@@ -18,13 +18,10 @@ import logging
 import math
 import os
 import re
-import tomllib
 from pathlib import Path
 
-import meshio
 import numpy as np
 import skfem
-from skfem.io.meshio import from_meshio
 
 from ..engine import meshes
 from ..engine.constants import FRAME_BUDGET, TISSUE_DENSITY, TISSUE_E, TISSUE_NU
@@ -475,6 +472,8 @@ class Scene:
 
     @classmethod
     def from_toml(cls, text, base_dir=None) -> "Scene":
+        import tomllib  # deferred: only scene text needs it
+
         return cls._parse(tomllib.loads, "TOML", text, base_dir)
 
     @classmethod
@@ -630,6 +629,9 @@ def _read_mesh(path, scale):
     if size > MAX_MESH_FILE_BYTES:
         raise ValueError(f"domain.path: {name!r} has {size} bytes, more than the {MAX_MESH_FILE_BYTES} a mesh file "
                          "may have")
+    import meshio  # deferred: only mesh files need it, and it is slow to import
+    from skfem.io.meshio import from_meshio
+
     m = _quietly(path, meshio.read, str(path))
     counts = collections.Counter()
     for block in m.cells:

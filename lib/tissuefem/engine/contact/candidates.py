@@ -19,7 +19,6 @@ segments' midpoints), valid while the points move less than ``skin / 2`` relativ
 """
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from .surface import cross, dot, segment_distance
 
@@ -121,6 +120,8 @@ class CandidatePairs:
             return np.zeros(0, dtype=np.intp), np.zeros(0, dtype=np.intp)
         ya, yb = Y[:, seg[0]], Y[:, seg[1]]
         radius = 0.5 * np.hypot(*(yb - ya)) + reach
+        from scipy.spatial import cKDTree  # deferred: only contact needs it, and it is slow to import
+
         tree = cKDTree(Y.T)
         mid = (0.5 * (ya + yb)).T
         rows, k = np.arange(n_seg), min(8, Y.shape[1])
