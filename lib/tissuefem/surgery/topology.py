@@ -18,7 +18,8 @@ from scipy.sparse import csgraph
 
 from ..engine.contact.surface import segment_distance
 from ..engine.meshes import MeshMap
-from ..engine.parameters import ParameterError, check_bounded_vector, check_count, check_real, check_real_array
+from ..engine.parameters import (ParameterError, check_bounded_vector, check_count, check_indices, check_real,
+                                 check_real_array, show)
 from .geometry import (carry_names, check_points, cross, mesh_arrays, new_mesh, node_positions, pair_keys,
                        polygon_contains)
 
@@ -41,24 +42,16 @@ class MeshEdit(MeshMap):
 
 def _node_indices(name: str, value, rows: int, n_nodes: int) -> np.ndarray:
     """``value`` as an int64 array shaped ``(rows, k)`` of node indices in ``[0, n_nodes)`` (integral floats, e.g.
-    read from a text file, are accepted)."""
+    read from a text file, are accepted): the shape is checked here, the indices by ``check_indices``."""
     try:
         a = np.asarray(value)
-    except Exception as exc:  # ragged lists and the like
-        raise ValueError(f"{name} must be an integer array shaped ({rows}, k): {exc}") from None
+    except (TypeError, ValueError):  # ragged lists
+        a = np.asarray(None)
     if a.ndim != 2 or a.shape[0] != rows:
-        raise ValueError(f"{name} must be an integer array shaped ({rows}, k), got shape {a.shape}")
-    if a.size == 0:
-        return np.zeros((rows, a.shape[1]), dtype=np.int64)
-    if a.dtype.kind not in "iuf" or (a.dtype.kind == "f"
-                                     and not (np.all(np.isfinite(a)) and np.all(a == np.round(a)))):
-        raise ValueError(f"{name} must hold integer node indices, got {a.dtype} values")
-    a = a.astype(np.int64)
-    if a.min() < 0 or a.max() >= n_nodes:
-        bad = int(np.flatnonzero(((a < 0) | (a >= n_nodes)).any(axis=0))[0])
-        raise ValueError(f"{name} must hold node indices in [0, n_nodes) = [0, {n_nodes}), got column "
-                         f"{bad} = {a[:, bad].tolist()}")
-    return a
+        raise ParameterError(name, f"{name} must be an integer array shaped ({rows}, k), got {show(value)}")
+    if a.dtype.kind == "f" and np.all(np.isfinite(a)) and np.all(a == np.round(a)):
+        a = a.astype(np.int64)
+    return check_indices(name, a.ravel(), n_nodes, "node indices").reshape(a.shape).astype(np.int64)
 
 
 def duplicate_along_edges(t, n_nodes, edges):
