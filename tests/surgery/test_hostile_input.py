@@ -507,8 +507,9 @@ def test_invalid_toml_is_one_value_error(text):
     ('name = "x"\n[material]\nmodel = ' + "[" * 17 + "]" * 17, Scene.from_toml),
 ])
 def test_deep_nesting_is_refused_before_parsing(text, reader):
-    with pytest.raises(ValueError, match="nests deeper than 16 levels"):
+    with pytest.raises(ValueError, match="nests deeper than 16 levels") as refused:
         reader(text)
+    assert refused.value.field == "scene"
 
 
 def test_deep_nesting_without_brackets_or_from_python_is_refused():

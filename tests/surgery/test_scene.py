@@ -279,16 +279,20 @@ def test_the_scene_command_checks_and_runs(tmp_path, capsys):
 @pytest.mark.parametrize("key", [".".join(["x"] * 100_000), ".".join(['"a"'] * 100_000),
                                  "[" + " . ".join(["'b'"] * 30_000) + "]\nx"],
                          ids=["bare", "quoted", "header"])
-def test_a_long_dotted_key_is_refused_quickly_before_parsing(key):
-    """tomllib's memory grows with the square of a key path's parts: the text is scanned first."""
-    import time
+def test_a_long_dotted_key_is_refused_before_parsing(key, monkeypatch):
+    """tomllib's memory grows with the square of a key path's parts: the text is scanned first, and the parser
+    never sees it."""
+    import tomllib
 
-    start = time.perf_counter()
+    def parser_reached(text):
+        raise AssertionError("the TOML parser was given a key path over the limit")
+
+    monkeypatch.setattr(tomllib, "loads", parser_reached)
     with pytest.raises(ValueError, match=r"scene: a key path of (100000|30000) parts \(line \d\) is "
                                          r"longer than the limit of 16") as refused:
         Scene.from_toml(f"name = 'long'\n{key} = 1\n")
-    assert time.perf_counter() - start < 1.0
     assert refused.value.field == "scene"
+    monkeypatch.undo()
     dotted = EXAMPLE_TOML.replace("[effects.inertia]\ntime_step", "[effects]\ninertia . 'time_step'")
     # dots in numbers, strings and short keys pass
     assert Scene.from_toml(dotted) == Scene.from_toml(EXAMPLE_TOML)

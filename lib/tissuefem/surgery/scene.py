@@ -354,8 +354,8 @@ def _check_text_nesting(text, kind):
     too_deep = np.flatnonzero(depth > MAX_NESTING)
     if too_deep.size:
         line = text.count("\n", 0, int(too_deep[0])) + 1
-        raise ValueError(f"scene: its {kind} nests deeper than {MAX_NESTING} levels "
-                         f"(line {line}); a scene needs at most 7")
+        raise ParameterError("scene", f"scene: its {kind} nests deeper than {MAX_NESTING} levels "
+                                      f"(line {line}); a scene needs at most 7")
     at = np.flatnonzero(dots & outside)
     if at.size:
         key = np.searchsorted(np.flatnonzero(np.isin(codes, _KEY_ENDS) & outside), at)  # each dot's key path
