@@ -3,7 +3,8 @@
 Each chapter becomes one HTML page (nbconvert's HTML exporter, from its executed copy in ``build/chapters/``,
 outputs embedded, formulas typeset by a copy of MathJax in the site: no network needed) linked to its
 neighbours, the contents and the errata. The index page is the syllabus: each chapter's goals (from its first
-cell) and time (stated there, :func:`stated_minutes`, or estimated, :func:`estimate_minutes`); a chapter in sittings (``chNNa_*``, ``chNNb_*``) shows as "6a", "6b".
+cell) and time (stated there, :func:`stated_minutes`, or estimated, :func:`estimate_minutes`); a chapter in
+sittings (``chNNa_*``, ``chNNb_*``) shows as "6a", "6b".
 Every link is relative: copy the folder to any web server, or open ``index.html`` from disk.
 """
 
