@@ -444,12 +444,13 @@ def test_layered_draw_restores_the_background_and_draws_only_the_moving_layer(ow
 
 def test_text_is_redrawn_at_a_readable_pace_but_a_message_at_once(own):
     fig = own.fig
+    fig.slow_interval = 1e9  # a pace no busy machine can reach: the test does not depend on the clock
     own.draw()
     slow = fig.slow_draws
     for _ in range(3):
         own.step()  # new numbers in the readout ...
         own.draw()
-    assert fig.slow_draws == slow  # ... shown after slow_interval (0.25 s), not at every frame
+    assert fig.slow_draws == slow  # ... shown after slow_interval (0.25 s by default), not at every frame
     own._show("something went wrong")
     own.draw()
     assert fig.slow_draws == slow + 1  # a new message shows at the next draw
