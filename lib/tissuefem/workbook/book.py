@@ -26,6 +26,7 @@ import nbformat
 from jinja2 import DictLoader
 from nbconvert import HTMLExporter
 
+from .bench.accuracy_cost import format_knob_table, recorded_results
 from .notebooks import chapter_label, chapter_paths, missing_figures
 
 #: reading speed for the chapters' prose: technical text with equations, about half that of plain prose
@@ -373,8 +374,6 @@ def appendix_cells() -> list[str]:
     """The appendix page's Markdown cells: every setting of the study chapter 9 reads (the recorded run the
     package ships, :func:`~tissuefem.workbook.bench.accuracy_cost.recorded_results`), one table per benchmark
     and knob, the baseline marked."""
-    from .bench.accuracy_cost import format_knob_table, recorded_results  # the study is read only here
-
     results = recorded_results()
     machine = results["machine"]
     chapter = f"chapters/{APPENDIX_CHAPTER}.html"
