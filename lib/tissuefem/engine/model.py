@@ -540,14 +540,15 @@ class Model(Holding):
         return model, tuple(None if s is None else meshmap.transfer_dofs(s) for s in state)
 
     def unheld_nodes(self) -> np.ndarray:
-        """The nodes (sorted) of the pieces no handle holds: pieces of the mesh, joined by the couplings of the terms
-        (sutures), with no held node (in a quasistatic model their stiffness matrix is singular)."""
+        """The mesh vertices (sorted) of the pieces no handle holds: the pieces of the model's sparsity pattern (the
+        mesh, joined by the couplings of the terms: sutures) with no held dof (in a quasistatic model their stiffness
+        matrix is singular)."""
         graph = self.pattern.csr(np.ones(self.pattern.nnz))
         _, labels = csgraph.connected_components(graph, directed=False)
         held = np.zeros(labels.max() + 1, dtype=bool)
         for h in self.handles:
-            held[labels[2 * h.nodes]] = True
-        return np.unique(np.flatnonzero(~held[labels]) // 2)
+            held[labels[h._dofs]] = True
+        return np.flatnonzero(~held[labels[self.basis.nodal_dofs[0]]])
 
     def terms_of(self, kind) -> list:
         return [t for t in self.terms if isinstance(t, kind)]
