@@ -15,8 +15,9 @@ from .surface import ContactSurface, segment_distance
 class Contact(Term):
     """Self-contact of a :class:`ContactSurface` at the reference node positions ``X`` (2, n_nodes): a one-sided
     barrier in the skin behind it. ``distance``: ``d^``, the skin's depth (the largest overlap), at most half the
-    median segment length; ``stiffness``: ``kappa``, a pressure; ``skin``: the Verlet list's margin (default: the
-    median segment length). ``pairs``: the :class:`~.candidates.CandidatePairs`; ``offset``: the rest offsets."""
+    median segment length; ``stiffness``: ``kappa``, a pressure (at most 1e16; a model allows 1e4 Young's moduli);
+    ``skin``: the Verlet list's margin (default: the median segment length). ``pairs``: the
+    :class:`~.candidates.CandidatePairs`; ``offset``: the rest offsets."""
 
     name = "contact"
     has_safe_hessian = True
@@ -34,8 +35,8 @@ class Contact(Term):
         self.X, self.n_nodes, self.surface = X, X.shape[1], surface
         self.distance = check_real("contact.distance", distance, 0.0, lo_open=True)
         # (against the material's Young's modulus where the model is built: parameters.check_contact_stiffness)
-        self.stiffness = check_real("contact.stiffness", stiffness, 0.0, CONTACT_STIFFNESS_MAX * YOUNGS_MODULUS_RANGE[1],
-                                    lo_open=True)
+        stiffest = CONTACT_STIFFNESS_MAX * YOUNGS_MODULUS_RANGE[1]
+        self.stiffness = check_real("contact.stiffness", stiffness, 0.0, stiffest, lo_open=True)
         Y, (a, b) = surface.positions(X), surface.segments
         self.rest_length = np.hypot(*(Y[:, b] - Y[:, a]))
         if np.any(self.rest_length <= 1e-12 * max(1.0, float(np.ptp(X)))):
