@@ -87,3 +87,27 @@ def test_the_virtual_node_title_counts_what_chapter_10_prints():
     assert cut_pieces(cut) == printed == (6, 1)
     title = figures.FIGURES["fig_ch10_virtual_nodes"]().axes[1].get_title()
     assert f"into {printed[0]} copies" in title and f"{printed[1]} whole triangle at the crack tip" in title
+
+
+def test_labels_of_crowded_points_do_not_overlap():
+    """The chapter 9 Pareto figure's labels: points closer than a label's width get labels that overlap neither
+    each other nor the points, and stay inside the axes."""
+    from matplotlib.figure import Figure
+    from matplotlib.text import Text
+
+    from tissuefem.workbook.figures.tradeoffs import place_labels
+
+    fig = Figure(figsize=(4.0, 3.0))
+    ax = fig.subplots()
+    x = np.array([10.0, 10.5, 11.0, 11.5, 30.0, 31.0])
+    y = np.full_like(x, 0.09)
+    ax.loglog(x, y, "o")
+    ax.set(xlim=(1, 300), ylim=(0.03, 0.1))
+    drawn = place_labels(ax, [(a, b, f"label {k}", "k") for k, (a, b) in enumerate(zip(x, y))], list(zip(x, y)))
+    fig.draw_without_rendering()
+    boxes = [Text.get_window_extent(t) for t in drawn]  # the words, without the leader line
+    frame = ax.get_window_extent()
+    for i, a in enumerate(boxes):
+        assert frame.x0 <= a.x0 and a.x1 <= frame.x1 and frame.y0 <= a.y0 and a.y1 <= frame.y1
+        for b in boxes[i + 1:]:
+            assert not a.overlaps(b), (a, b)

@@ -104,7 +104,8 @@ def plot_pareto(results, path=None, annotate=True) -> Figure:
             handles.setdefault(label, h)
     fig.legend(list(handles.values()), list(handles), fontsize=7.5, loc="outside right upper")
     for ax in axes:
-        place_labels(ax, labels[ax], marked[ax])
+        if labels[ax]:
+            place_labels(ax, labels[ax], marked[ax])
     save(fig, path)
     return fig
 
