@@ -81,11 +81,13 @@ def move_along(view, start, end, steps=4):
 
 # ------------------------------------------------------------------ a light face
 def test_import_tissuefem_loads_neither_pyplot_nor_ipython():
-    """The view is imported where it is used: the package itself loads no drawing or notebook machinery."""
+    """The view is imported where it is used: the package loads no drawing or notebook machinery, not even once
+    every name of its face has been resolved (``import tissuefem`` alone loads none of its modules: see
+    ``tests/test_architecture.py``)."""
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(Path(tissuefem.__file__).parents[1]),
                                                        os.environ.get("PYTHONPATH", "")]))
     heavy = {'matplotlib.pyplot', 'IPython', 'meshio', 'scipy.spatial', 'tomllib'}  # loaded where they are used
-    code = f"import sys, tissuefem; print(sorted({heavy!r} & set(sys.modules)))"
+    code = f"import sys, tissuefem; from tissuefem import *; print(sorted({heavy!r} & set(sys.modules)))"
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
     assert out.stdout.split() == ["[]"]
     assert "SurgeryView" not in tissuefem.__all__ and not hasattr(tissuefem, "SurgeryView")
