@@ -41,7 +41,7 @@ from .model import Model
 from .parameters import (ParameterError, call_user, check_count, check_indices, check_real, check_real_array,
                          check_time_step)
 
-__all__ = ["Stepper", "StepReport", "Undone", "StaticResult", "solve"]
+__all__ = ["Stepper", "StepReport", "Undone", "StaticResult", "solve", "accuracy_summary"]
 
 #: The residual's round-off level, relative to the body's force scale (see :func:`_roundoff_floors`).
 _ROUNDOFF = 1e-13
@@ -156,13 +156,34 @@ class StepReport:
         rest = [f"handles {undone.handles:.0%} short"] if undone.handles > 0.0 else []
         rest += [] if self.committed else ["state kept"]
         return " | ".join([head, f"rel. residual {self.relative_residual:.1e}", f"dE {-self.energy_decrease:.1e}",
-                           f"min J {self.min_J:.3g}", f"{self.inverted} inverted", *rest])
+                           f"min J {self.min_J:.3f}", f"{self.inverted} inverted", *rest])
 
     def __repr__(self):
         crossed = f", {self.crossed} points through the surface" if self.crossed else ""
         return (f"StepReport(step {self.step}, {self.status}, {self.newton_iterations} Newton, "
                 f"residual {self.residual_norm:.3g} (from {self.initial_residual:.3g}), {1e3 * self.elapsed:.1f} ms"
                 f"{crossed})")
+
+
+def accuracy_summary(reports) -> dict:
+    """The accuracy of a run of steps (frames), for a benchmark's columns: ``relative_residual`` (the median),
+    ``converged`` (the share that converged), ``min_J`` (the smallest), ``inverted`` (the most in one step),
+    ``undone`` (how many left something undone), ``steps`` and ``undone_reasons`` (what they left, sorted)."""
+    reports = list(reports)
+    reasons = set()
+    for r in reports:
+        undone = r.undone
+        reasons |= {undone.stopped} - {None}
+        reasons |= {"handles short"} if undone.handles > 0.0 else set()
+        reasons |= set() if undone.committed else {"state kept"}
+    if not reports:
+        return {"relative_residual": math.nan, "converged": math.nan, "min_J": math.nan, "inverted": 0,
+                "undone": 0, "steps": 0, "undone_reasons": []}
+    return {"relative_residual": float(np.median([r.relative_residual for r in reports])),
+            "converged": float(np.mean([r.converged for r in reports])),
+            "min_J": float(min(r.min_J for r in reports)), "inverted": int(max(r.inverted for r in reports)),
+            "undone": int(sum(bool(r.undone) for r in reports)), "steps": len(reports),
+            "undone_reasons": sorted(reasons)}
 
 
 def jacobian_extremes(model: Model, x) -> tuple[float, int]:
