@@ -485,7 +485,16 @@ def test_timings_and_the_readout_show_step_and_draw(own):
     own._update_text()
     text = own.status_text.get_text()
     assert f"draw {own.draw_times[-1]:4.1f}" in text and "/ 33 ms" in text and "fps" in text
-    assert "\n" not in text
+    # two lines: the frame's numbers, then its own accuracy
+    numbers, accuracy = text.split("\n")
+    assert "fps" in numbers and accuracy == own.last_report.accuracy
+    assert accuracy.startswith("converged | rel. residual") and "min J" in accuracy and "inverted" in accuracy
+
+
+def test_the_readout_has_one_line_until_the_first_frame(view):
+    assert "\n" not in view.status_text.get_text()
+    report = view.step()
+    assert view.status_text.get_text().splitlines()[1] == report.accuracy
 
 
 def test_draw_in_axes_of_your_own_is_not_timed(view):

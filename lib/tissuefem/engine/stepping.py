@@ -101,7 +101,7 @@ class StepReport:
     crossed: int = 0  # surface points found through the surface when the step started (self-contact)
     min_J: float = math.nan  # the smallest J = det F at x (over elements, or quadrature points)
     inverted: int = 0  # elements with J <= 0 at x (at any of their points)
-    reference_norm: float = 0.0  # the residual scale of the tolerance besides ||g(x0)|| (a linearised start's)
+    residual_scale: float = 0.0  # what the tolerance is relative to (see relative_residual)
 
     contact_status = property(lambda self: "crossed" if self.crossed else "clear",
                               doc="``crossed``: the step started with surface points through the surface.")
@@ -126,11 +126,11 @@ class StepReport:
 
     @property
     def relative_residual(self) -> float:
-        """``||g(x)||`` over the scale its tolerance is relative to, ``max(||g(x0)||, reference_norm)``: a converged
-        step has it ``<= rtol`` (unless ``atol`` or round-off set the target). A quasistatic step's linearised start
-        counts from the load it balances, so this is not the Newton solve's own ratio ``||g(x)|| / ||g(x0)||``."""
-        scale = max(self.newton.initial_residual, self.reference_norm)
-        return self.residual_norm / scale if scale > 0 else 0.0
+        """``||g(x)||`` over ``residual_scale``, the residual the tolerance is relative to: the largest of
+        ``||g(x0)||``, the load a quasistatic step's linearised start balances, and the round-off level over
+        ``rtol``. A step converged if it is ``<= rtol`` (with ``atol = 0``). Not the Newton solve's own ratio
+        ``||g(x)|| / ||g(x0)||``, which a good start or a body at rest (``g(x0)`` at round-off) makes large."""
+        return self.residual_norm / self.residual_scale if self.residual_scale > 0 else 0.0
 
     @property
     def energy_decrease(self) -> float:
@@ -168,7 +168,8 @@ class StepReport:
 def accuracy_summary(reports) -> dict:
     """The accuracy of a run of steps (frames), for a benchmark's columns: ``relative_residual`` (the median),
     ``converged`` (the share that converged), ``min_J`` (the smallest), ``inverted`` (the most in one step),
-    ``undone`` (how many left something undone), ``steps`` and ``undone_reasons`` (what they left, sorted)."""
+    ``undone`` (how many left something undone), ``steps`` and ``undone_reasons`` (what they left, sorted).
+    ``reports``: step reports, or anything with their ``relative_residual, converged, min_J, inverted, undone``."""
     reports = list(reports)
     reasons = set()
     for r in reports:
@@ -429,7 +430,8 @@ class Stepper:
             self.u = result.x
             self.steps += 1
         self.last_report = StepReport(result, self.steps, self.time, elapsed, self._budget, fraction, which,
-                                       bool(commit), crossed, min_J, inverted, load_norm)
+                                       bool(commit), crossed, min_J, inverted,
+                                       max(result.initial_residual, load_norm, self.floor / self.rtol))
         return self.last_report
 
     frame = step
