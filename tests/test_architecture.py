@@ -165,7 +165,8 @@ def test_every_name_of_the_face_resolves_and_is_listed():
     namespace = {}
     exec("from tissuefem import *", namespace)
     assert names <= set(namespace)
-    from tissuefem import Model, Simulation, solve  # noqa: F401  (the form the chapters use)
+    from tissuefem import Model, Simulation, solve  # the form the chapters use
+    assert (Model, Simulation, solve) == (tissuefem.Model, tissuefem.Simulation, tissuefem.solve)
 
 
 def test_an_unknown_name_is_an_attribute_error():
