@@ -81,11 +81,13 @@ def move_along(view, start, end, steps=4):
 
 # ------------------------------------------------------------------ a light face
 def test_import_tissuefem_loads_neither_pyplot_nor_ipython():
-    """The view is imported where it is used: the package itself loads no drawing or notebook machinery."""
+    """The view is imported where it is used: the package loads no drawing or notebook machinery, not even once
+    every name of its face has been resolved (``import tissuefem`` alone loads none of its modules: see
+    ``tests/test_architecture.py``)."""
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(Path(tissuefem.__file__).parents[1]),
                                                        os.environ.get("PYTHONPATH", "")]))
     heavy = {'matplotlib.pyplot', 'IPython', 'meshio', 'scipy.spatial', 'tomllib'}  # loaded where they are used
-    code = f"import sys, tissuefem; print(sorted({heavy!r} & set(sys.modules)))"
+    code = f"import sys, tissuefem; from tissuefem import *; print(sorted({heavy!r} & set(sys.modules)))"
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
     assert out.stdout.split() == ["[]"]
     assert "SurgeryView" not in tissuefem.__all__ and not hasattr(tissuefem, "SurgeryView")
@@ -484,7 +486,16 @@ def test_timings_and_the_readout_show_step_and_draw(own):
     own._update_text()
     text = own.status_text.get_text()
     assert f"draw {own.draw_times[-1]:4.1f}" in text and "/ 33 ms" in text and "fps" in text
-    assert "\n" not in text
+    # two lines: the frame's numbers, then its own accuracy
+    numbers, accuracy = text.split("\n")
+    assert "fps" in numbers and accuracy == own.last_report.accuracy
+    assert accuracy.startswith("converged | rel. residual") and "min J" in accuracy and "inverted" in accuracy
+
+
+def test_the_readout_has_one_line_until_the_first_frame(view):
+    assert "\n" not in view.status_text.get_text()
+    report = view.step()
+    assert view.status_text.get_text().splitlines()[1] == report.accuracy
 
 
 def test_draw_in_axes_of_your_own_is_not_timed(view):

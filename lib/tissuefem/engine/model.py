@@ -23,6 +23,7 @@ from .assembly import make_assembler
 from .constants import TISSUE_DENSITY
 from .contact import Contact
 from .effects import as_terms, keyword_terms
+from .materials import det2
 from .meshes import index_list
 from .parameters import (REACH, ParameterError, call_user, check_bounded_vector, check_count, check_density,
                          check_indices, check_real, check_real_array, check_vector, is_sequence)
@@ -678,6 +679,11 @@ class Model(Holding):
         """``F = I + grad u``: ``[2, 2, n_elements]`` for P1, ``[2, 2, n_elements, n_points]`` otherwise."""
         return self.assembler.deformation_gradient(self._check_u(u))
 
+    def jacobian(self, u) -> np.ndarray:
+        """``J = det F``, the ratio of deformed to rest area: ``(n_elements,)`` for P1, ``(n_elements, n_points)``
+        otherwise. ``J <= 0``: the element is inverted (or flat) there."""
+        return det2(self.deformation_gradient(u))
+
     def stress(self, u) -> np.ndarray:
         """First Piola-Kirchhoff stress of every element (or quadrature point): the element terms' P summed."""
         F = self.deformation_gradient(u)
@@ -687,7 +693,7 @@ class Model(Holding):
         """Cauchy stress ``sigma = P F^T / J``: the force per unit *deformed* area (see chapter 3)."""
         F = self.deformation_gradient(u)
         P = np.broadcast_to(self._density.stress(F), F.shape)
-        J = F[0, 0] * F[1, 1] - F[0, 1] * F[1, 0]
+        J = det2(F)
         with np.errstate(divide="ignore", invalid="ignore"):
             return np.einsum("ik...,jk...->ij...", P, F) / J
 
