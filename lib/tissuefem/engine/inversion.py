@@ -161,6 +161,15 @@ class ITFClamped:
     has a kink at ``s0 + s1 = 0``); else it is the exact Hessian (a central difference for the third derivative). Only
     ``ln J``: the spring bounds the energy below only while ``psi_1(s0, c)`` grows slower than ``sqrt(Psi)``; the
     polynomial models do not, and need no clamping. Where the physical answer has ``s1 < c`` the model departs from it.
+
+    **In d dimensions** (3D tetrahedra; the 2D pieces above are its ``d = 2`` case, kept in closed form) the clamped
+    values ``C = {i : s_i < c}`` are a suffix of the sorted ``s``; with ``s^ = s`` clamped to ``c`` on ``C`` and
+    ``d_i = s_i - c`` on ``C`` (0 elsewhere) the extension is the expansion to first order in each clamped value::
+
+        Psi(s) = Psi(s^) + sum_i psi_i(s^) d_i + sum_(i<j) Psi_ij(s^) d_i d_j + k/2 sum_i d_i^2.
+
+    It is C1 across every threshold because the ``ln J`` energy's mixed derivatives in three distinct values vanish
+    (``Psi_ij = lam/(s_i s_j)``); the default ``k`` is ``d2Psi/ds^2`` at ``s = (c, ..., c)`` of that dimension.
     """
 
     rotation_invariant = True
@@ -181,6 +190,9 @@ class ITFClamped:
         self._h01_cc = float(A[0, 0, 1, 1, 0])
         k = A[1, 1, 1, 1, 0] if stiffness is None else stiffness
         self.stiffness = check_real("stiffness", k, 0.0, lo_open=True)
+        #: the spring stiffness by dimension: the given one, else d2Psi/ds^2 at (c, ..., c)
+        self.stiffnesses = {2: self.stiffness, 3: self.stiffness if stiffness is not None else check_real(
+            "stiffness", material.tangent(diagonal(np.full((3, 1), c)))[2, 2, 2, 2, 0], 0.0, lo_open=True)}
         self.name = f"ITF-clamped {material.name}"
 
     def __repr__(self):
@@ -198,8 +210,79 @@ class ITFClamped:
         D = diagonal(np.stack(np.broadcast_arrays(s0, s1)))  # s1 may be the threshold c
         return np.asarray(getattr(self.base, what)(D), dtype=float)
 
+    # --- d dimensions: the first-order expansion in the clamped values (class docstring) ---------------------------
+
+    def _expansion(self, s):
+        """``(s, mask C, s^, d, k, psi^, H^)`` for ``s [d, *rest]``: the clamped copy ``s^``, ``d = s - c`` on ``C`` (0
+        elsewhere), the base model's gradient ``psi^ [d, *rest]`` and Hessian ``H^ [d, d, *rest]`` at ``diag(s^)``."""
+        s = np.asarray(s, dtype=float)
+        dim, c = s.shape[0], self.threshold
+        clamped = s < c
+        s_hat = np.where(clamped, c, s)
+        dd = np.where(clamped, s - c, 0.0)
+        D = diagonal(s_hat)
+        P, A = np.asarray(self.base.stress(D), dtype=float), np.asarray(self.base.tangent(D), dtype=float)
+        psi = np.stack([P[i, i] for i in range(dim)])
+        H = np.stack([np.stack([A[i, i, j, j] for j in range(dim)]) for i in range(dim)])
+        return s, clamped, s_hat, dd, self.stiffnesses[dim], psi, H
+
+    def _energy_d(self, s):
+        s, _, s_hat, dd, k, psi, H = self._expansion(s)
+        out = np.asarray(self.base.energy(diagonal(s_hat)), dtype=float) + np.einsum("i...,i...->...", psi, dd)
+        for i in range(s.shape[0]):
+            for j in range(i + 1, s.shape[0]):
+                out = out + H[i, j] * dd[i] * dd[j]
+        return out + 0.5 * k * np.einsum("i...,i...->...", dd, dd)
+
+    def _gradient_d(self, s):
+        s, _, _, dd, k, psi, H = self._expansion(s)
+        off = H * (1.0 - np.eye(s.shape[0])).reshape((s.shape[0],) * 2 + (1,) * (s.ndim - 1))
+        return psi + np.einsum("ij...,j...->i...", off, dd) + k * dd
+
+    def _tangent_d(self, s):
+        """The exact diagonal-space tangent: the base model's where nothing is clamped, else the Hessian of the
+        expansion (``k`` on clamped diagonals, ``Psi_jj + sum_i dPsi_ji/ds_j d_i`` on free ones, the third derivative
+        by a central difference) with the twist/flip blocks ``(psi_a -+ psi_b)/(s_a -+ s_b)`` from the gradient."""
+        s = np.asarray(s, dtype=float)
+        dim, rest = s.shape[0], s.shape[1:]
+        sub = s[-1] < self.threshold  # something clamped (the smallest value first)
+        A = np.zeros((dim,) * 4 + rest)
+        if (~sub).any():
+            A[..., ~sub] = np.asarray(self.base.tangent(diagonal(s[:, ~sub])), dtype=float)
+        if not sub.any():
+            return A
+        s = s[:, sub]
+        s, clamped, s_hat, dd, k, _, H = self._expansion(s)
+        g = self._gradient_d(s)
+        Ht = H.copy()
+        for j in range(dim):
+            step = 1e-6 * np.maximum(1.0, s_hat[j])
+            lo, hi = s_hat.copy(), s_hat.copy()
+            lo[j], hi[j] = lo[j] - step, hi[j] + step
+            A_hi, A_lo = self.base.tangent(diagonal(hi)), self.base.tangent(diagonal(lo))
+            for i in range(dim):
+                if i != j:
+                    Ht[j, j] = Ht[j, j] + (A_hi[j, j, i, i] - A_lo[j, j, i, i]) / (2 * step) * dd[i]
+            Ht[j, j] = np.where(clamped[j], k, Ht[j, j])
+        B = np.zeros((dim,) * 4 + s.shape[1:])
+        for i in range(dim):
+            for j in range(dim):
+                B[i, i, j, j] = Ht[i, j]
+        for a in range(dim):
+            for b in range(a + 1, dim):
+                gap, total = s[a] - s[b], s[a] + s[b]
+                limit = 0.5 * (Ht[a, a] + Ht[b, b]) - Ht[a, b]  # (psi_a - psi_b)/(s_a - s_b) as s_a -> s_b
+                twist = np.where(gap > 1e-9, (g[a] - g[b]) / np.where(gap > 1e-9, gap, 1.0), limit)
+                flip = (g[a] + g[b]) / np.maximum(total, 1e-9)  # s_a + s_b >= 0; the energy has a kink at 0
+                B[a, b, a, b] = B[b, a, b, a] = 0.5 * (twist + flip)
+                B[a, b, b, a] = B[b, a, a, b] = 0.5 * (twist - flip)
+        A[..., sub] = B
+        return A
+
     def diagonal_energy(self, s) -> np.ndarray:
-        """``Psi_hat(s)`` for signed singular values ``s [2, *rest]`` (``s0 >= |s1|``)."""
+        """``Psi_hat(s)`` for signed singular values ``s [d, *rest]`` (``s0 >= ... >= |s_(d-1)|``)."""
+        if np.shape(s)[0] != 2:
+            return self._energy_d(s)
         s, normal, one, both = self._regions(s)
         c, k = self.threshold, self.stiffness
         out = np.empty(s.shape[1:])
@@ -216,7 +299,9 @@ class ITFClamped:
         return out
 
     def diagonal_gradient(self, s) -> np.ndarray:
-        """``psi_i = dPsi_hat/ds_i``, shape ``[2, *rest]``."""
+        """``psi_i = dPsi_hat/ds_i``, shape ``[d, *rest]``."""
+        if np.shape(s)[0] != 2:
+            return self._gradient_d(s)
         s, normal, one, both = self._regions(s)
         c, k = self.threshold, self.stiffness
         out = np.empty(s.shape)
@@ -236,7 +321,9 @@ class ITFClamped:
         return out
 
     def diagonal_tangent(self, s) -> np.ndarray:
-        """The exact tangent ``A_hat = A(diag(s))`` in diagonal space, ``[2, 2, 2, 2, *rest]``."""
+        """The exact tangent ``A_hat = A(diag(s))`` in diagonal space, ``[d, d, d, d, *rest]``."""
+        if np.shape(s)[0] != 2:
+            return self._tangent_d(s)
         s, normal, one, both = self._regions(s)
         c, k = self.threshold, self.stiffness
         rest = s.shape[1:]
@@ -269,13 +356,14 @@ class ITFClamped:
         A[0, 1, 1, 0][sub] = A[1, 0, 0, 1][sub] = 0.5 * (twist - flip)
         return A
 
-    # the material interface (F shaped [2, 2, *rest], also a single 2x2)
+    # the material interface (F shaped [d, d, *rest], also a single d x d matrix)
     @staticmethod
     def _field(F):
         F = np.asarray(F, dtype=float)
-        if F.shape[:2] != (2, 2):
-            raise ParameterError("F", f"F must be shaped [2, 2, ...], got {F.shape}")
-        return F.reshape((2, 2, -1)), F.shape[2:]
+        if F.ndim < 2 or F.shape[0] != F.shape[1] or F.shape[0] not in (2, 3):
+            raise ParameterError("F", f"F must be shaped [d, d, ...] with d = 2 or 3, got {F.shape}")
+        d = F.shape[0]
+        return F.reshape((d, d, -1)), F.shape[2:]
 
     def energy(self, F):
         F, rest = self._field(F)
@@ -286,7 +374,7 @@ class ITFClamped:
         F, rest = self._field(F)
         U, s, V = rotation_preserving_svd(F)
         psi = self.diagonal_gradient(s)
-        return np.einsum("ia...,a...,ja...->ij...", U, psi, V).reshape((2, 2) + rest)
+        return np.einsum("ia...,a...,ja...->ij...", U, psi, V).reshape(F.shape[:2] + rest)
 
     def tangent(self, F):
         F, rest = self._field(F)
@@ -294,5 +382,8 @@ class ITFClamped:
         A = self.diagonal_tangent(s)
         if self.project:
             A = _project_diagonal_blocks(A, 0.0)
-        A = np.einsum("ia...,jb...,kc...,ld...,abcd...->ijkl...", U, V, U, V, A, optimize=True)
-        return A.reshape((2, 2, 2, 2) + rest)
+        if F.shape[0] == 2:
+            A = np.einsum("ia...,jb...,kc...,ld...,abcd...->ijkl...", U, V, U, V, A, optimize=True)
+        else:
+            A = _rotate_back(U, V, A)  # block diagonal in diagonal space
+        return A.reshape(F.shape[:2] * 2 + rest)
