@@ -280,7 +280,8 @@ class NeoHookean(_NeoHookeanFamily):
     """The notes' Neo-Hookean model: ``h(J) = -mu ln J + lam/2 (ln J)^2``, ``h' = (lam ln J - mu)/J``,
     ``h'' = (lam + mu - lam ln J)/J^2``, i.e. the notes' ``P = mu F + (lam ln J - mu) F^-T``. Erratum: the notes print
     ``F_ij F_ji = tr(F F)`` in the energy, not frame indifferent; their stress derives from ``F:F``, used here.
-    NaN (without a warning) for ``J <= 0``, so a solver can detect inversion."""
+    In 3D the same ``h`` with ``mu/2 (F:F - 3)``. NaN (without a warning) for ``J <= 0``, so a solver can detect
+    inversion."""
 
     name = "neo-Hookean"
     inversion_safe = False
