@@ -417,17 +417,21 @@ def _toml(data) -> str:
 
 
 def _path(path, argument="path", what="a file") -> Path:
-    if isinstance(path, bytes) or not isinstance(path, (str, os.PathLike)):
-        raise ValueError(f"{argument} must be {what} path (str or pathlib.Path), got {show(path)}")
-    if "\0" in os.fspath(path):
-        raise ValueError(f"{argument} must not contain a NUL character")
-    return Path(path)
+    """``path`` as a Path if it is a str or an ``os.PathLike`` naming text (not bytes, not empty, no NUL)."""
+    text = os.fspath(path) if isinstance(path, os.PathLike) else path
+    if not isinstance(text, str):
+        raise ParameterError(argument, f"{argument} must be {what} path (str or pathlib.Path), got {show(path)}")
+    if not text.strip():
+        raise ParameterError(argument, f"{argument} must not be empty")
+    if "\0" in text:
+        raise ParameterError(argument, f"{argument} must not contain a NUL character")
+    return Path(text)
 
 
 def _scene_path(path) -> Path:
-    path = _path(path)
+    path = _path(path, "path", "a scene file")
     if path.suffix not in (".toml", ".json"):
-        raise ValueError(f"scene file must end in .toml or .json, got {path.name!r}")
+        raise ParameterError("path", f"path: a scene file must end in .toml or .json, got {path.name!r}")
     return path
 
 
@@ -511,19 +515,21 @@ class Scene:
     def load(cls, path) -> "Scene":
         """Read a scene from a ``.toml`` or ``.json`` file (UTF-8, at most :data:`MAX_SCENE_BYTES`)."""
         path = _scene_path(path)
-        if path.exists() and not path.is_file():  # a folder, a pipe or a device (a pipe would block the read)
-            raise ValueError(f"scene file {str(path)!r} is not a regular file")
         try:
+            if path.exists() and not path.is_file():  # a folder, a pipe or a device (a pipe would block the read)
+                raise ParameterError("path", f"path: scene file {str(path)!r} is not a regular file")
             with open(path, "rb") as f:
                 data = f.read(MAX_SCENE_BYTES + 1)
-        except OSError as err:
-            raise ValueError(f"scene file {str(path)!r} cannot be read: {err.strerror or err}") from None
+        except OSError as err:  # missing, unreadable, a name too long for the system
+            raise ParameterError("path", f"path: scene file {str(path)!r} cannot be read: "
+                                         f"{err.strerror or err}") from None
         if len(data) > MAX_SCENE_BYTES:
-            raise ValueError(f"scene file {str(path)!r} is larger than {MAX_SCENE_BYTES} bytes")
+            raise ParameterError("path", f"path: scene file {str(path)!r} is larger than {MAX_SCENE_BYTES} bytes")
         try:
             text = data.decode("utf-8-sig")  # an editor's byte-order mark is harmless
         except UnicodeDecodeError as err:
-            raise ValueError(f"scene file {str(path)!r} is not UTF-8 text (byte {err.start})") from None
+            raise ParameterError("path", f"path: scene file {str(path)!r} is not UTF-8 text (byte "
+                                         f"{err.start})") from None
         reader = cls.from_toml if path.suffix == ".toml" else cls.from_json
         return reader(text, base_dir=path.parent)
 
@@ -537,12 +543,16 @@ class Scene:
             raise ValueError("scene: the written text would not read back as the same scene (please report this)")
         temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
         try:
+            if path.exists() and not path.is_file():  # a folder (os.replace would refuse it less clearly)
+                raise ParameterError("path", f"path: {str(path)!r} is not a regular file, so no scene is written "
+                                             "there")
             temporary.write_text(text, encoding="utf-8")
             os.replace(temporary, path)
-        except OSError as err:
+        except OSError as err:  # a missing folder, no permission, a name too long for the system
             with contextlib.suppress(OSError):
                 temporary.unlink()
-            raise ValueError(f"scene file {str(path)!r} cannot be written: {err.strerror or err}") from None
+            raise ParameterError("path", f"path: scene file {str(path)!r} cannot be written: "
+                                         f"{err.strerror or err}") from None
 
     def __eq__(self, other):
         return isinstance(other, Scene) and self.to_dict() == other.to_dict()
@@ -596,9 +606,14 @@ class Scene:
 _CELLS_ALLOWED = ("triangle", "line", "vertex")
 
 
+def _mesh_error(message) -> ParameterError:
+    """The refusal of a mesh file: a ``ParameterError`` naming ``domain.path`` (the file a scene names)."""
+    return ParameterError("domain.path", f"domain.path: {message}")
+
+
 def _quietly(path, read, *args):
     """``read(*args)`` with a mesh reader's printing and logging kept off the terminal. Its failure, even the
-    ``sys.exit(1)`` meshio calls on a file it cannot read, becomes a ``ValueError`` naming ``domain.path``
+    ``sys.exit(1)`` meshio calls on a file it cannot read, becomes a ``ParameterError`` naming ``domain.path``
     (KeyboardInterrupt and GeneratorExit are left alone)."""
     sink, previous = io.StringIO(), logging.root.manager.disable
     logging.disable(logging.CRITICAL)
@@ -609,7 +624,7 @@ def _quietly(path, read, *args):
         said = " ".join((str(err) if not isinstance(err, SystemExit) else "").split())
         said = (said or " ".join(sink.getvalue().split()) or type(err).__name__).replace(str(path), path.name)
         said = said[:300] + " ..." if len(said) > 300 else said
-        raise ValueError(f"domain.path: could not read {path.name!r} as a mesh: {said}") from None
+        raise _mesh_error(f"could not read {path.name!r} as a mesh: {said}") from None
     finally:
         logging.disable(previous)
 
@@ -620,14 +635,14 @@ def _read_mesh(path, scale):
     name = path.name
     try:
         if not path.exists():
-            raise ValueError(f"domain.path: no mesh file {name!r} (looked in the scene's folder)")
+            raise _mesh_error(f"no mesh file {name!r} (looked in the scene's folder)")
         if not path.is_file():
-            raise ValueError(f"domain.path: {name!r} is not a regular file")
+            raise _mesh_error(f"{name!r} is not a regular file")
         size = path.stat().st_size
     except OSError as err:
-        raise ValueError(f"domain.path: {name!r} cannot be read: {err.strerror or err}") from None
+        raise _mesh_error(f"{name!r} cannot be read: {err.strerror or err}") from None
     if size > MAX_MESH_FILE_BYTES:
-        raise ValueError(f"domain.path: {name!r} has {size} bytes, more than the {MAX_MESH_FILE_BYTES} a mesh file "
+        raise _mesh_error(f"{name!r} has {size} bytes, more than the {MAX_MESH_FILE_BYTES} a mesh file "
                          "may have")
     import meshio  # deferred: only mesh files need it, and it is slow to import
     from skfem.io.meshio import from_meshio
@@ -640,26 +655,26 @@ def _read_mesh(path, scale):
     foreign = sorted(set(counts) - set(_CELLS_ALLOWED))
     if foreign or counts.get("triangle", 0) == 0:
         why = f"cells of type {foreign} are not 3-node triangles" if foreign else "it has no triangles"
-        raise ValueError(f"domain.path: {name!r} holds {holds} cells: {why}; only 2D meshes of 3-node triangles "
+        raise _mesh_error(f"{name!r} holds {holds} cells: {why}; only 2D meshes of 3-node triangles "
                          "are read (lines and vertices may come with them, naming boundaries)")
     if counts["triangle"] > MAX_TRIANGLES:
-        raise ValueError(f"domain.path: {name!r} holds {counts['triangle']} triangles, more than {MAX_TRIANGLES}")
+        raise _mesh_error(f"{name!r} holds {counts['triangle']} triangles, more than {MAX_TRIANGLES}")
     points = np.asarray(m.points)
     if points.dtype.kind not in "iuf" or points.ndim != 2 or points.shape[1] not in (2, 3) or points.shape[0] == 0:
-        raise ValueError(f"domain.path: {name!r} holds points of shape {points.shape} and dtype {points.dtype}; "
+        raise _mesh_error(f"{name!r} holds points of shape {points.shape} and dtype {points.dtype}; "
                          "expected 2D (or planar 3D) coordinates")
     bad = np.flatnonzero(~np.isfinite(points).all(axis=1))
     if bad.size:
-        raise ValueError(f"domain.path: {name!r}: nodes {meshes.index_list(bad)} have non-finite coordinates")
+        raise _mesh_error(f"{name!r}: nodes {meshes.index_list(bad)} have non-finite coordinates")
     if points.shape[1] == 3:
         off = np.flatnonzero(points[:, 2] != 0)
         if off.size:
-            raise ValueError(f"domain.path: {name!r} is not planar: nodes {meshes.index_list(off)} (0-based) have a "
+            raise _mesh_error(f"{name!r} is not planar: nodes {meshes.index_list(off)} (0-based) have a "
                              f"third coordinate other than 0 (up to |z| = {np.abs(points[off, 2]).max():g}); only 2D "
                              "meshes are read, never flattened")
     t = np.concatenate([np.asarray(b.data).T for b in m.cells if b.type == "triangle"], axis=1)
     if t.dtype.kind not in "iu":
-        raise ValueError(f"domain.path: {name!r} holds triangles with non-integer node numbers ({t.dtype})")
+        raise _mesh_error(f"{name!r} holds triangles with non-integer node numbers ({t.dtype})")
     p = np.array(points[:, :2].T, dtype=np.float64) * scale
     p, t = meshes.check_mesh(p, t, name=f"domain.path: {name!r} (0-based node numbers, after scaling)",
                              unused_nodes="ignore")
@@ -689,7 +704,7 @@ def _facet_index(mesh, pairs) -> np.ndarray:
     at = np.minimum(np.searchsorted(keys, wanted, sorter=order), keys.size - 1)
     found = order[at]
     if not np.array_equal(keys[found], wanted):
-        raise ValueError("domain.path: a named boundary of the file lies on no edge of its triangles")
+        raise _mesh_error("a named boundary of the file lies on no edge of its triangles")
     return found
 
 
@@ -706,7 +721,7 @@ def _skfem_boundaries(m, t, mesh):
             continue
         flags = np.concatenate([np.asarray(data[i]).ravel() for i in triangle_blocks]).astype(np.int64)
         if flags.size != t.shape[1]:
-            raise ValueError(f"domain.path: the boundary {parts[2]!r} of the file does not match its triangles")
+            raise _mesh_error(f"the boundary {parts[2]!r} of the file does not match its triangles")
         pairs = [t[local[k]][:, (flags >> k) & 1 == 1] for k in range(local.shape[0])]
         out[parts[2]] = np.sort(_facet_index(mesh, np.concatenate(pairs, axis=1)))
     return out
@@ -731,12 +746,16 @@ def read_mesh(path, scale=1.0, notes=None):
     """A 2D triangle mesh from a file meshio reads (gmsh ``.msh``, ``.vtk``, ...), coordinates times
     ``scale``; physical line groups become named boundaries. Anything but 3-node triangles (with lines and
     vertices) in ``z = 0``, within the size limits, that pass :func:`~tissuefem.engine.meshes.check_mesh`
-    raises a ``ValueError`` naming ``domain.path``. Nodes in no triangle (gmsh writes an arc's centre as a
+    raises a :class:`~tissuefem.engine.parameters.ParameterError` naming ``domain.path`` (``path``, ``scale`` or
+    ``notes`` for an argument of the wrong kind). Nodes in no triangle (gmsh writes an arc's centre as a
     node) are dropped, the rest renumbered in their order, and a note saying so appended to ``notes``."""
-    scale = _within("domain.scale", scale, SIZE_RANGE)
+    path = _path(path, "path", "a mesh file")
+    scale = _within("scale", scale, SIZE_RANGE)
+    if notes is not None and not isinstance(notes, list):
+        raise ParameterError("notes", f"notes must be a list (the notes are appended to it) or None, got {show(notes)}")
     mesh, dropped = _read_mesh(path, scale)
     if dropped.size and notes is not None:
-        notes.append(_dropped_note(Path(path).name, dropped))
+        notes.append(_dropped_note(path.name, dropped))
     return mesh
 
 
