@@ -110,8 +110,10 @@ def _check_out(path, folder=True) -> None:
             raise ParameterError("out", f"{path} lies below {below}, which is not a folder")
         if path.exists() and path.is_dir() != folder:
             raise ParameterError("out", f"{path} is {'not a folder' if folder else 'a folder, not a file'}")
-    except OSError as err:
-        raise ParameterError("out", f"{path} cannot be used: {err.strerror or err}") from None
+    except (OSError, ValueError) as err:  # ValueError: a NUL character, which no file name can hold
+        if isinstance(err, ParameterError):
+            raise
+        raise ParameterError("out", f"{path} cannot be used: {getattr(err, 'strerror', None) or err}") from None
 
 
 def _figures(names, out, note: bool) -> None:
@@ -329,6 +331,6 @@ def main(argv=None) -> int:
     try:
         return int(args.func(args) or 0)
     except ParameterError as err:  # a refused option value: name the option, as argparse does for its own checks
-        if not hasattr(args, err.field):
-            raise
-        sub.choices[args.command].error(f"argument --{err.field.replace('_', '-')}: {err}")
+        if hasattr(args, err.field):
+            sub.choices[args.command].error(f"argument --{err.field.replace('_', '-')}: {err}")
+        sub.choices[args.command].error(str(err))  # refused further in: still one line, and no traceback
