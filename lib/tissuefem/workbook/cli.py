@@ -215,10 +215,11 @@ def _one_line(path, err) -> str:
     """An error as the single line the ``scene`` command prints: ``PATH: message``, the path once.
 
     A :class:`~tissuefem.engine.parameters.ParameterError` is about a field inside the file (its message names
-    the field), so the path goes in front; an error about the file itself may already name it.
+    the field), so the path goes in front; an error about the file itself (``field == "path"``) may already name it.
     """
     message = " ".join(str(err).split()) or type(err).__name__
-    return f"{path}: {message}" if isinstance(err, ParameterError) or str(path) not in message else message
+    about_a_field = isinstance(err, ParameterError) and err.field != "path"
+    return f"{path}: {message}" if about_a_field or str(path) not in message else message
 
 
 def cmd_scene(args) -> int:
