@@ -22,7 +22,7 @@ from hypothesis import strategies as st
 from tissuefem.surgery.scene import demo_scene
 from tissuefem.workbook import cli
 
-SETTINGS = settings(max_examples=40, deadline=None, derandomize=True, database=None,
+SETTINGS = settings(max_examples=60, deadline=None, derandomize=True, database=None,
                     suppress_health_check=[HealthCheck.too_slow])
 
 # the runners that do real work, each replaced by a stand-in returning what the command expects of it
