@@ -47,9 +47,9 @@ import numpy as np
 
 from ..engine.meshes import signed_areas
 from ..engine.parameters import check_real
-from .geometry import (EPS, FULL_TOUCH, WHOLE, Region, carry_names, check_points, check_regions, cross, crossings,
-                       edge_intervals, edge_param, edge_point, edges_of, element_edges, element_weights, mesh_arrays,
-                       merge_intervals, new_mesh, node_positions, overlaps, polygon_area, polygon_contains,
+from .geometry import (EPS, FULL_TOUCH, WHOLE, Region, carry_names, check_points, check_regions, clip_to_body, cross,
+                       crossings, edge_intervals, edge_param, edge_point, edges_of, element_edges, element_weights,
+                       mesh_arrays, merge_intervals, new_mesh, node_positions, overlaps, polygon_area, polygon_contains,
                        region_touch, reversed_intervals, snap, subtract_intervals, winding)
 from .surfaces import contact_surface
 from .topology import MeshEdit, excise
@@ -523,8 +523,13 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
     pts = check_points("polyline", polyline, 2)
     min_weight = check_real("min_weight", min_weight, 0.0, 0.5, hi_open=True)
     regions, w = check_regions(regions, weights, m)
-    # the stroke in each triangle (stroke parameters back on the drawn polyline) and what it does to the material
+    # the stroke in each triangle (stroke parameters back on the drawn polyline) and what it does to the material;
+    # first clipped to the body, so that a far-reaching stroke is followed as precisely as a short one
+    pts, clipped = clip_to_body(pts, x, t)
+    if pts.shape[0] < 2:
+        raise ValueError("polyline changes nothing: it meets no material (it passes outside the body)")
     snapped, drawn = _through_nearby_nodes(x, t, pts)
+    drawn = np.interp(drawn, np.arange(clipped.size), clipped)
     pieces, orientation = _stroke_pieces(x, t, snapped)
     vertex = np.arange(drawn.size)
     key, side = element_edges(p, t)
@@ -690,6 +695,10 @@ def excise_through(mesh, polygon, positions=None, weights=None, regions=None, mi
     closed = np.vstack([pts, pts[:1]]) if np.any(pts[0] != pts[-1]) else pts
     if closed.shape[0] < 4:
         raise ValueError("polygon must have at least 3 distinct points")
+    # what it encloses in the body, outlined within reach of the body (a far corner costs the rim no precision)
+    closed = clip_to_body(closed, node_positions(mesh, positions), mesh_arrays(mesh)[1], closed=True)[0]
+    if closed.shape[0] < 4:
+        raise ValueError("polygon encloses no material: it lies outside the body")
     first = cut_through(mesh, closed, positions, weights=weights, regions=regions, min_weight=min_weight)
     m = first.mesh.t.shape[1]
     # where each element's material is now (the stroke was drawn there): a point inside its material, carried by the

@@ -18,11 +18,11 @@ from skfem import MeshTri
 
 from ..engine.parameters import ParameterError, check_real_array, check_weights, show
 
-__all__ = ["EPS", "FULL_TOUCH", "WHOLE", "Region", "mesh_arrays", "node_positions", "check_points",
-           "pair_keys", "element_edges", "new_mesh", "carry_names", "polygon_contains", "cross", "snap", "edges_of",
-           "edge_param", "edge_point", "winding", "polygon_area", "crossings", "merge_intervals", "subtract_intervals",
-           "intersect_intervals", "overlaps", "reversed_intervals", "edge_intervals", "region_sides", "region_touch",
-           "element_weights", "check_regions"]
+__all__ = ["EPS", "FULL_TOUCH", "WHOLE", "CLIP_MARGIN", "Region", "mesh_arrays", "node_positions", "check_points",
+           "pair_keys", "element_edges", "new_mesh", "carry_names", "polygon_contains", "clip_to_body", "cross", "snap",
+           "edges_of", "edge_param", "edge_point", "winding", "polygon_area", "crossings", "merge_intervals",
+           "subtract_intervals", "intersect_intervals", "overlaps", "reversed_intervals", "edge_intervals",
+           "region_sides", "region_touch", "element_weights", "check_regions"]
 
 #: Tolerance in local coordinates: points closer than this are one point, a point this close to an edge is on it.
 EPS = 1e-9
@@ -125,6 +125,54 @@ def polygon_contains(polygon, points) -> np.ndarray:
         above0, above1 = y0 >= ty, y1 >= ty
         inside ^= (above0 != above1) & (((y1 - ty) * (x0 - x1) >= (x1 - tx) * (y0 - y1)) == above1)
     return inside
+
+
+#: A stroke is clipped to the body's bounding box grown by this many body sizes on every side (:func:`clip_to_body`)
+CLIP_MARGIN = 1.0
+
+
+def _side_crossing(a, b, axis, bound):
+    """Where the segment ``a -> b`` (points ``(x, y, parameter)``, one on each side of ``axis = bound``) crosses it:
+    exactly on the line, the other coordinate and the parameter interpolated from the nearer end (so that a far end
+    costs the crossing no precision), with halved differences (no overflow near the largest floats)."""
+    run = 0.5 * b[axis] - 0.5 * a[axis]
+    f = (0.5 * bound - 0.5 * a[axis]) / run  # from a
+    g = (0.5 * b[axis] - 0.5 * bound) / run  # from b
+    out = [0.0, 0.0, 0.0]
+    out[axis] = bound
+    for i in (1 - axis, 2):
+        out[i] = (a[i] + 2.0 * f * (0.5 * b[i] - 0.5 * a[i]) if f <= g
+                  else b[i] - 2.0 * g * (0.5 * b[i] - 0.5 * a[i]))
+    return tuple(out)
+
+
+def clip_to_body(points, x, t, closed=False):
+    """The polyline ``points`` (k, 2) (a polygon if ``closed``) clipped to the bounding box of the triangles ``t`` at
+    node positions ``x``, grown by :data:`CLIP_MARGIN` body sizes: ``(points (k', 2), parameter (k',))``, each point's
+    place on the drawn polyline (segment index plus fraction). A part outside the box meets no material: it is
+    replaced by a path along the box's sides (an open polyline's outer ends are dropped), so that however far a
+    stroke reaches, it is cut where it lies in the body as precisely as a short one (a polygon keeps what it encloses
+    in the box). Nothing is left when the stroke misses the box."""
+    corners = x[:, np.asarray(t).ravel()]
+    lo, hi = corners.min(axis=1), corners.max(axis=1)
+    grow = CLIP_MARGIN * float((hi - lo).max())
+    pts = [(float(px), float(py), float(i)) for i, (px, py) in enumerate(np.asarray(points, dtype=float))]
+    if closed and len(pts) > 1 and pts[0][:2] == pts[-1][:2]:
+        pts.pop()  # the closing point: the ring wraps around
+    for axis, bound, sign in ((0, lo[0] - grow, -1.0), (0, hi[0] + grow, 1.0), (1, lo[1] - grow, -1.0),
+                              (1, hi[1] + grow, 1.0)):
+        inside = [sign * (q[axis] - bound) <= 0.0 for q in pts]
+        out = []
+        for i, q in enumerate(pts):
+            if (i > 0 or closed) and inside[i - 1] != inside[i]:
+                out.append(_side_crossing(pts[i - 1], q, axis, bound))
+            if inside[i]:
+                out.append(q)
+        pts = out
+    if closed and pts:
+        pts.append(pts[0])
+    a = np.array(pts, dtype=float).reshape(-1, 3)
+    return a[:, :2].copy(), a[:, 2].copy()
 
 
 # --- a triangle's local coordinates ---
@@ -337,10 +385,16 @@ def region_sides(region):
 
 
 def region_touch(region: Region):
-    """The parts of each local edge the region's material touches, less what is severed."""
-    touched = edge_intervals(region_sides(region))
-    severed = edge_intervals(region.severed)
-    return [subtract_intervals(touched[k], severed[k]) for k in range(3)]
+    """The parts of each local edge the region's material touches, less what is severed (a tuple of three interval
+    lists, not to be modified). A region does not change: this is worked out once and kept with it, so that a cut costs
+    what it touches, not what was cut before."""
+    touch = region.__dict__.get("_touch")
+    if touch is None:
+        touched = edge_intervals(region_sides(region))
+        severed = edge_intervals(region.severed)
+        touch = tuple(subtract_intervals(touched[k], severed[k]) for k in range(3))
+        object.__setattr__(region, "_touch", touch)
+    return touch
 
 
 def element_weights(weights, m) -> np.ndarray:
