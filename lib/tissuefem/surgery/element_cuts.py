@@ -73,7 +73,7 @@ class _Arrangement:
     not recorded)."""
 
     def __init__(self, region: Region, cuts, open_edge, min_weight):
-        self.verts = []
+        self.verts, self.cells = [], {}  # the graph's points; the grid cells of 2 EPS holding them
         self.min_weight = min_weight
         polys = [[tuple(v) for v in poly] for poly in region.polygons]
         self.old_severed = edge_intervals(region.severed)
@@ -83,18 +83,22 @@ class _Arrangement:
         segs += [(tuple(a), tuple(b), _S, None) for a, b in region.slits]
         segs += [(a, b, _C, (s0, s1)) for s0, s1, a, b in cuts]
         splits = [[(0.0, self._vertex(a)), (1.0, self._vertex(b))] for a, b, _, _ in segs]
-        for i in range(len(segs)):
-            pi, qi, ki, _ = segs[i]
-            for j in range(i + 1, len(segs)):
-                pj, qj, kj, _ = segs[j]
-                if ki == _P and kj == _P:
-                    continue  # the polygons are simple and apart: their edges meet at vertices only
-                for s, u in crossings(pi, qi, pj, qj):
-                    # the point from the older segment, so region boundaries stay where they were
-                    a, b, f = (pj, qj, u) if kj < ki else (pi, qi, s)
-                    v = self._vertex(snap(a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1])))
-                    splits[i].append((s, v))
-                    splits[j].append((u, v))
+        # only segments whose boxes meet can cross (the pairs in the same order as a double loop): a long wavy stroke
+        # makes many pieces in one triangle, and all pairs of them would cost their square
+        ends = np.array([(a[0], a[1], b[0], b[1]) for a, b, _, _ in segs]).reshape(-1, 4)
+        lo = np.minimum(ends[:, :2], ends[:, 2:]) - 2.0 * EPS
+        hi = np.maximum(ends[:, :2], ends[:, 2:]) + 2.0 * EPS
+        boundary = np.array([kind == _P for _, _, kind, _ in segs])
+        meet = ((lo[:, None, :] <= hi[None, :, :]) & (lo[None, :, :] <= hi[:, None, :])).all(axis=2)
+        meet &= ~(boundary[:, None] & boundary[None, :])  # the polygons are simple and apart: they meet at vertices
+        for i, j in zip(*np.nonzero(np.triu(meet, 1))):
+            (pi, qi, ki, _), (pj, qj, kj, _) = segs[i], segs[j]
+            for s, u in crossings(pi, qi, pj, qj):
+                # the point from the older segment, so region boundaries stay where they were
+                a, b, f = (pj, qj, u) if kj < ki else (pi, qi, s)
+                v = self._vertex(snap(a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1])))
+                splits[i].append((s, v))
+                splits[j].append((u, v))
 
         self.graph = {}  # (u, v) with u < v -> kind
         cut_edges = []  # (u, v, stroke_u, stroke_v) in the direction of the stroke
@@ -138,11 +142,16 @@ class _Arrangement:
         self._settle()
 
     def _vertex(self, pt) -> int:
+        """The first vertex within EPS of ``pt`` (found among those in the neighbouring cells of a 2 EPS grid), or a new
+        one."""
         x, y = pt
-        for i, (vx, vy) in enumerate(self.verts):
-            if abs(vx - x) <= EPS and abs(vy - y) <= EPS:
-                return i
+        cx, cy = math.floor(x / (2.0 * EPS)), math.floor(y / (2.0 * EPS))
+        near = [i for dx in (-1, 0, 1) for dy in (-1, 0, 1) for i in self.cells.get((cx + dx, cy + dy), ())
+                if abs(self.verts[i][0] - x) <= EPS and abs(self.verts[i][1] - y) <= EPS]
+        if near:
+            return min(near)
         self.verts.append((float(x), float(y)))
+        self.cells.setdefault((cx, cy), []).append(len(self.verts) - 1)
         return len(self.verts) - 1
 
     def _edge_of(self, u, v):
