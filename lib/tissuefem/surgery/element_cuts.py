@@ -524,8 +524,10 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
     algorithm), drawn at ``positions`` (default ``mesh.p``; triangles collapsed there are not cut); it may end inside
     the body (a crack). A mesh cut before passes its ``weights`` and ``regions`` (:meth:`ElementCut.cut` does). No
     piece carries less than ``min_weight`` in [0, 0.5) of its triangle (step 6). Named boundaries go to the facets
-    whose material touched them, subdomains to every copy. ``ValueError`` for bad arguments, or a stroke that changes
-    nothing (it meets no material, or runs only along the boundary or an existing wound)."""
+    whose material touched them, subdomains to every copy. The stroke is first clipped to the body's bounding box grown
+    by one body size (:func:`~.geometry.clip_to_body`): however far it reaches, it cuts where it crosses the body, as a
+    short one would. ``ValueError`` for bad arguments, or a stroke that changes nothing (it meets no material, or runs
+    only along the boundary or an existing wound)."""
     p, t = mesh_arrays(mesh)
     n, m = p.shape[1], t.shape[1]
     x = node_positions(mesh, positions)
@@ -698,7 +700,8 @@ def _wound(p, t, arrangements, element_of_face, orientation, new_t):
 # --- removing what a closed cut encloses ---
 def excise_through(mesh, polygon, positions=None, weights=None, regions=None, min_weight=MIN_WEIGHT) -> ElementCut:
     """Cut along a closed ``polygon`` through the elements (:func:`cut_through`) and remove the material inside it, so
-    that the rim follows the drawn outline (not the centroids, as :func:`~tissuefem.surgery.topology.excise` does).
+    that the rim follows the drawn outline (not the centroids, as :func:`~tissuefem.surgery.topology.excise` does); a
+    far-reaching polygon is first clipped to the body (what it encloses there is kept).
     Returns an :class:`ElementCut` that maps to ``mesh`` as it was; its ``wound`` holds the rim's records."""
     pts = check_points("polygon", polygon, 3)
     closed = np.vstack([pts, pts[:1]]) if np.any(pts[0] != pts[-1]) else pts
