@@ -154,6 +154,8 @@ def clip_to_body(points, x, t, closed=False):
     stroke reaches, it is cut where it lies in the body as precisely as a short one (a polygon keeps what it encloses
     in the box). Nothing is left when the stroke misses the box."""
     corners = x[:, np.asarray(t).ravel()]
+    if corners.size == 0:  # no triangle: nothing to meet
+        return np.zeros((0, 2)), np.zeros(0)
     lo, hi = corners.min(axis=1), corners.max(axis=1)
     grow = CLIP_MARGIN * float((hi - lo).max())
     pts = [(float(px), float(py), float(i)) for i, (px, py) in enumerate(np.asarray(points, dtype=float))]
