@@ -3,7 +3,7 @@
 A far-reaching stroke is clipped to the body (its bounding box grown by one body size) before it is followed, so a
 stroke drawn to 1e300 cuts exactly as one drawn just past the edge: two pieces, never a partial cut, never a false
 "meets no material". Every count limit of a scene (docs/scenes.md) is built here at its maximum, each within a stated
-time on a 2-core machine; together they take well under a minute there. A cut costs what it touches: the parts of
+time on a 2-core machine; together they take under a minute there, busy. A cut costs what it touches: the parts of
 the element edges that the material of an element cut before still touches are worked out once, not at every cut.
 """
 
@@ -136,7 +136,7 @@ rng = np.random.default_rng(7)
 
 @pytest.mark.slow
 def test_the_most_incisions_build_within_30_s():
-    """100 incisions (the limit) of a 400-triangle sheet: about 3 s on a 2-core machine; stated: under 30 s."""
+    """100 incisions (the limit) of a 400-triangle sheet: about 6 s on a busy 2-core machine; stated: under 30 s."""
     n = LIMITS["incisions"]
     xy = np.column_stack([rng.uniform(0.1, 1.9, n), rng.uniform(0.1, 0.8, n)])
     sim = built_within(30, {"incisions": [{"path": [[x, y], [x + 0.03, y + 0.08]]} for x, y in xy.tolist()]})
@@ -171,7 +171,7 @@ def test_the_longest_path_and_polygon_build_within_30_s():
 
 
 def test_the_most_handles_build_within_30_s():
-    """1000 handles (the limit for handles and any registered list): about 1 s; stated: under 30 s."""
+    """1000 handles (the limit for handles and any registered list): under 1 s; stated: under 30 s."""
     n = scene_module.MAX_ENTRIES
     handles = [{"name": f"h{i}", "region": "left", "target": [0.0, 0.001 * (i % 3)]} for i in range(n)]
     sim = built_within(30, {"handles": handles})
@@ -191,7 +191,7 @@ def test_the_most_probes_tractions_and_sutures_build_within_30_s():
 
 @pytest.mark.slow
 def test_the_longest_suture_builds_within_30_s():
-    """One suture of 10 000 pairs (``MAX_POINTS``, the limit): about 4 s; stated: under 30 s."""
+    """One suture of 10 000 pairs (``MAX_POINTS``, the limit): about 9 s; stated: under 30 s."""
     x = 0.1 + 1.8 * np.arange(MAX_POINTS) / MAX_POINTS
     pairs = np.stack([np.column_stack([x, np.full_like(x, 0.5)]), np.column_stack([x, np.full_like(x, 0.52)])],
                      axis=1).tolist()
