@@ -197,3 +197,12 @@ def test_the_longest_suture_builds_within_30_s():
                      axis=1).tolist()
     sim = built_within(30, {"sutures": [{"pairs": pairs, "tightness": 0.5}]})
     assert len(sim.scene.effects["sutures"][0]["pairs"]) == MAX_POINTS
+
+
+@pytest.mark.slow
+def test_the_largest_domain_builds_within_60_s():
+    """200 000 triangles (``MAX_TRIANGLES``, the limit), under gravity: about 15 s with its first frame on a busy
+    2-core machine; stated: under 60 s."""
+    n = scene_module.MAX_TRIANGLES
+    sim = built_within(60, {"gravity": {"acceleration": [0.0, -9.81]}}, triangles=n)
+    assert 0.99 * n <= sim.mesh.t.shape[1] <= n
