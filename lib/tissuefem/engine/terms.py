@@ -29,9 +29,9 @@ from skfem import FacetBasis, LinearForm, asm
 
 from .materials import (FiberReinforced, Material, check_fiber_stiffness, fiber_energy_term, fiber_stress_term,
                         fiber_tangent_term)
-from .parameters import (FORCE_MAX, PENALTY_MAX, RADIUS_RANGE, REACH, ParameterError, check_bounded_vector,
-                         check_density, check_indices, check_reach, check_real, check_real_array,
-                         check_time_step, check_vector)
+from .parameters import (FORCE_MAX, RADIUS_RANGE, REACH, YOUNGS_MODULUS_RANGE, ParameterError, check_bounded_vector,
+                         check_density, check_indices, check_penalty_stiffness, check_reach, check_real,
+                         check_real_array, check_time_step, check_vector)
 
 __all__ = ["Term", "ElementTerm", "Elastic", "Fibers", "Inertia", "Load", "Probe", "Sutures", "traction_vector",
            "SummedDensity", "extent", "boundary_lengths"]
@@ -361,7 +361,8 @@ class Probe(Term):
             raise ValueError(f"probe.radius = {r:g} must lie within [{RADIUS_RANGE[0]:g}, {RADIUS_RANGE[1]:g}] "
                              f"domain sizes, i.e. [{lo:g}, {hi:g}]")
         self.radius = r
-        self.stiffness = check_real("probe.stiffness", stiffness, 0.0, PENALTY_MAX)
+        # against the stiffest material: the model checks it against its own (effects.youngs_modulus)
+        self.stiffness = check_penalty_stiffness("probe.stiffness", stiffness, YOUNGS_MODULUS_RANGE[1], r)
         # g^3 / (6 delta): a smoothing length far below the radius would overflow the energy
         self.smoothing = check_real("probe.smoothing", smoothing, 1e-6, 1.0)
         self.delta = self.smoothing * self.radius
@@ -486,8 +487,11 @@ class Sutures(Term):
         except ValueError:
             raise ValueError(f"sutures.stiffness must be one number or one per stitch ({k_count}), "
                              f"got shape {k.shape}") from None
-        if not np.all(np.isfinite(k) & (k > 0) & (k <= PENALTY_MAX)):
-            raise ValueError(f"sutures.stiffness must be finite, > 0 and <= {PENALTY_MAX:g}, got {stiffness!r:.200}")
+        # the first NaN, infinite or non-positive one, else the stiffest, against the stiffest material (a model
+        # checks it against its own: effects.youngs_modulus)
+        worst = k[~(np.isfinite(k) & (k > 0))]
+        check_penalty_stiffness("sutures.stiffness", worst[0] if worst.size else k.max(), YOUNGS_MODULUS_RANGE[1],
+                                positive=True)
         self.k = k
         gaps = check_real_array("sutures.gaps", gaps)
         reach = REACH * extent(X)[1]

@@ -34,13 +34,17 @@ FULL_TOUCH = [[(0.0, 1.0)], [(0.0, 1.0)], [(0.0, 1.0)]]
 def mesh_arrays(mesh):
     """``(p (2, n) float, t (3, m) int64)`` of a 2D triangle mesh, checked."""
     try:
-        p = np.asarray(mesh.p, dtype=float)
-        t = np.asarray(mesh.t, dtype=np.int64)
+        p, t = check_real_array("mesh.p", mesh.p), np.asarray(mesh.t)
     except AttributeError:
-        raise ValueError(f"mesh must be a skfem.MeshTri, got {type(mesh).__name__}") from None
+        raise ParameterError("mesh", f"mesh must be a skfem.MeshTri, got {type(mesh).__name__}") from None
+    except ParameterError as err:
+        raise ParameterError("mesh", f"mesh must be a triangle mesh of real coordinates: {err}") from None
+    if t.dtype.kind not in "iu":
+        raise ParameterError("mesh", f"mesh must be a triangle mesh whose t holds node indices, got dtype {t.dtype}")
+    t = t.astype(np.int64)
     if p.ndim != 2 or p.shape[0] != 2 or t.ndim != 2 or t.shape[0] != 3:
-        raise ValueError(f"mesh must be a 2D triangle mesh (p shaped (2, n), t shaped (3, m)), "
-                         f"got p {p.shape} and t {t.shape}")
+        raise ParameterError("mesh", f"mesh must be a 2D triangle mesh (p shaped (2, n), t shaped (3, m)), "
+                                     f"got p {p.shape} and t {t.shape}")
     return p, t
 
 
@@ -320,9 +324,9 @@ def edge_intervals(segments):
 
 # --- the material of an element ---
 def _segments(name, value) -> np.ndarray:
-    a = np.zeros((0, 2, 2)) if value is None else np.asarray(value, dtype=float)
+    a = np.zeros((0, 2, 2)) if value is None else check_real_array(name, value)
     if a.size and (a.ndim != 3 or a.shape[1:] != (2, 2) or not np.all(np.isfinite(a))):
-        raise ValueError(f"{name} must be finite segments shaped (k, 2, 2), got shape {a.shape}")
+        raise ParameterError(name, f"{name} must be finite segments shaped (k, 2, 2), got shape {a.shape}")
     return a if a.size else np.zeros((0, 2, 2))
 
 
@@ -343,21 +347,23 @@ class Region:
         polys = (polys,) if isinstance(polys, np.ndarray) and polys.ndim == 2 else polys  # one polygon
         out, weight = [], 0.0
         for i, poly in enumerate(polys):
-            poly = np.asarray(poly, dtype=float)
             name = f"Region.polygons[{i}]"
+            poly = check_real_array(name, poly)
             if poly.ndim != 2 or poly.shape[1] != 2 or poly.shape[0] < 3 or not np.all(np.isfinite(poly)):
-                raise ValueError(f"{name} must be at least 3 finite points shaped (k, 2), got shape {poly.shape}")
+                raise ParameterError(name, f"{name} must be at least 3 finite points shaped (k, 2), got shape "
+                                           f"{poly.shape}")
             if not ((poly >= -EPS).all() and (poly.sum(axis=1) <= 1.0 + EPS).all()):
-                raise ValueError(f"{name} must lie in the unit triangle (xi, eta >= 0, xi + eta <= 1)")
+                raise ParameterError(name, f"{name} must lie in the unit triangle (xi, eta >= 0, xi + eta <= 1)")
             area = 2.0 * polygon_area(poly.tolist())
             if not area > 0.0:
-                raise ValueError(f"{name} must be counter-clockwise with a positive area")
+                raise ParameterError(name, f"{name} must be counter-clockwise with a positive area")
             out.append(poly)
             weight += area
         if not out:
-            raise ValueError("Region.polygons must hold at least one polygon")
+            raise ParameterError("Region.polygons", "Region.polygons must hold at least one polygon")
         if weight > 1.0 + 1e-9:
-            raise ValueError(f"Region.polygons cover {weight:.6g} times the triangle: they must not overlap")
+            raise ParameterError("Region.polygons", f"Region.polygons cover {weight:.6g} times the triangle: they "
+                                                    "must not overlap")
         object.__setattr__(self, "polygons", tuple(out))
         object.__setattr__(self, "slits", _segments("Region.slits", self.slits))
         object.__setattr__(self, "severed", _segments("Region.severed", self.severed))
@@ -408,13 +414,13 @@ def check_regions(regions, weights, m):
     """Checked ``(regions, weights)`` of ``m`` elements: the weights follow from the regions, or must agree."""
     regions = {} if regions is None else regions
     if not isinstance(regions, dict):
-        raise ValueError(f"regions must be a dict element -> Region, got {type(regions).__name__}")
+        raise ParameterError("regions", f"regions must be a dict element -> Region, got {type(regions).__name__}")
     out = {}
     for e, r in regions.items():
-        if isinstance(e, bool) or not isinstance(e, numbers.Integral) or not 0 <= int(e) < m:
-            raise ValueError(f"regions: key {e!r} is not an element index in [0, {m})")
+        if isinstance(e, (bool, np.bool_)) or not isinstance(e, numbers.Integral) or not 0 <= int(e) < m:
+            raise ParameterError("regions", f"regions: key {show(e)} is not an element index in [0, {m})")
         if not isinstance(r, Region):
-            raise ValueError(f"regions[{e}] must be a Region, got {type(r).__name__}")
+            raise ParameterError(f"regions[{e}]", f"regions[{e}] must be a Region, got {type(r).__name__}")
         out[int(e)] = r
     implied = np.ones(m)
     for e, r in out.items():
@@ -426,5 +432,6 @@ def check_regions(regions, weights, m):
     if bad.size:
         e = int(bad[0])
         hint = "" if e in out else " (an element cut through before needs its region: pass regions=previous.regions)"
-        raise ValueError(f"weights[{e}] = {w[e]!r} does not match the material of its region ({implied[e]!r}){hint}")
+        raise ParameterError("weights", f"weights[{e}] = {w[e]!r} does not match the material of its region "
+                                        f"({implied[e]!r}){hint}")
     return out, w
