@@ -34,7 +34,7 @@ from .parameters import (FORCE_MAX, RADIUS_RANGE, REACH, YOUNGS_MODULUS_RANGE, P
                          check_real_array, check_time_step, check_vector)
 
 __all__ = ["Term", "ElementTerm", "Elastic", "Fibers", "Inertia", "Load", "Probe", "Sutures", "traction_vector",
-           "SummedDensity", "extent", "boundary_lengths"]
+           "SummedDensity", "extent", "boundary_lengths", "surface_lengths"]
 
 
 class Term:
@@ -306,6 +306,30 @@ def boundary_lengths(mesh) -> np.ndarray:
     return np.bincount(facets.ravel(), weights=np.concatenate([half, half]), minlength=mesh.nvertices)
 
 
+def surface_lengths(meshmap) -> np.ndarray:
+    """Each node's share of the material's surface after a topology change ``meshmap`` (a probe's weights): the
+    length of where the material ends (``meshmap.contact_surface()``, else the mesh's
+    boundary: :func:`boundary_lengths`), each point's half of its segments shared among its nodes by its weights. A
+    mesh cut through elements has boundary facets that are partly or wholly phantom (a copy of a triangle holds only
+    its piece): only their material parts count. A node without material at its place (a virtual node,
+    ``meshmap.material``) carries nothing, its place being beyond the lip, where the tool may press the other piece:
+    a point's share goes to its nodes with material (the total is the surface's length)."""
+    mesh, material = meshmap.mesh, meshmap.material
+    surface = meshmap.contact_surface()
+    if surface is None:
+        return boundary_lengths(mesh) if material is None else np.where(material, boundary_lengths(mesh), 0.0)
+    # a point's share goes to its nodes with material (by its weights among them): the surface's length is kept
+    weights = surface.weights if material is None else surface.weights * material[surface.nodes]
+    total = weights.sum(axis=1, keepdims=True)
+    weights = np.divide(weights, total, out=np.zeros_like(weights), where=total > 0)
+    ends = surface.segment_positions(np.asarray(mesh.p, dtype=float))  # (segment, end, xy), reference
+    half = 0.5 * np.hypot(*(ends[:, 1] - ends[:, 0]).T)  # half of each segment to each of its ends
+    out = np.zeros(mesh.nvertices)
+    for end in surface.segments:
+        np.add.at(out, surface.nodes[end].ravel(), (weights[end] * half[:, None]).ravel())
+    return out
+
+
 def traction_vector(basis, boundary, traction) -> np.ndarray:
     """``f_(a,i) = int_boundary N_a t_i dS`` for a constant traction ``t`` (force per unit reference length)."""
     t = check_bounded_vector(f"tractions[{boundary!r}]", traction, FORCE_MAX)
@@ -329,8 +353,9 @@ def traction_vector(basis, boundary, traction) -> np.ndarray:
 class Probe(Term):
     """A rigid disc (a tool tip) of centre ``c`` and radius ``R`` pressed into the tissue's surface.
 
-    A penalty pressure on each *boundary* node ``a``, weighted by its share ``l_a`` of the boundary's length,
-    at the penetration ``g_a = R - d_a``, ``d_a = |x_a - c|``:
+    A penalty pressure on each *boundary* node ``a``, weighted by its share ``l_a`` of the boundary's length (of the
+    material's surface on a mesh cut through elements: :func:`surface_lengths`), at the penetration
+    ``g_a = R - d_a``, ``d_a = |x_a - c|``:
 
         E = sum_a k l_a h(g_a),   h(g) = g^3 / (6 delta)             (0 < g < delta),
                                   h(g) = g^2/2 - delta g/2 + delta^2/6  (g >= delta),
@@ -369,8 +394,9 @@ class Probe(Term):
         self.label = label
 
     def remap(self, meshmap):
-        return Probe(np.asarray(meshmap.mesh.p, dtype=float), boundary_lengths(meshmap.mesh), self.center, self.radius,
-                     self.stiffness, self.label, self.smoothing)
+        # the remapped model's surface weights (surface_lengths: the material's parts of the boundary facets)
+        return lambda model: Probe(model.X, model.boundary_lengths, self.center, self.radius, self.stiffness,
+                                   self.label, self.smoothing)
 
     def move(self, center) -> None:
         """Move the tool to ``center`` (within ``REACH`` domain sizes of the domain's centre); a refusal keeps it."""
