@@ -205,7 +205,7 @@ def check_penalty_stiffness(name: str, stiffness, modulus, radius=None, *, posit
     ``hi = PENALTY_STIFFNESS_MAX * modulus / radius`` (a probe: a pressure per unit penetration) or
     ``PENALTY_STIFFNESS_MAX * modulus`` (a suture: a force per unit length), ``modulus`` the material's Young's
     modulus. Stiffer buys nothing visible (at the bound a probe pressed with a pressure of ``modulus`` sinks a
-    millionth of its radius, a closed suture stretches a millionth of what an elastic strain of 1 would) and the
+    millionth of its radius, a suture pulled with a force of ``modulus`` stretches by 1e-6) and the
     penalty's energy swamps the elastic energy's round-off: the line search cannot see the tissue any more, and from
     about ``1e11 modulus / radius`` (probes) or ``1e16 modulus`` (sutures) nodes are thrown across the scene while
     the frames still report convergence."""
