@@ -35,7 +35,8 @@ from ..engine.meshes import mean_edge_length
 from ..engine.parameters import ParameterError, check_count, check_positive, string
 from .view_drawing import KEYFRAME_S, LayeredFigure, MeshDrawing, Readout, is_gui, is_interactive, view_axes
 
-__all__ = ["SurgeryView", "MODES", "synthetic_mouse", "synthetic_key", "mean_edge_length"]
+__all__ = ["SurgeryView", "Gestures", "MouseGestures", "MODES", "take_over", "let_go", "synthetic_mouse", "synthetic_key",
+           "mean_edge_length"]
 
 #: the interaction modes of a :class:`SurgeryView`
 MODES = ("drag", "cut")
@@ -67,6 +68,26 @@ def _cell_origin():
     return None if cell is None else (cell, getattr(shell, "execution_count", None))
 
 
+def take_over(view) -> None:
+    """Make ``view`` the live view of its simulation and of its notebook cell: a view of the same simulation stops
+    (disconnected, saying why), one that the same cell made in an earlier run closes (its output is gone). Every
+    kind of view registers here (``sim``, ``closed``, ``disconnect()``, ``close()``; :meth:`SurgeryView.disconnect`
+    and the browser view's leave the registry themselves)."""
+    view._origin = _cell_origin()
+    for old in [v for v in _VIEWS if not v.closed]:
+        if old.sim is view.sim:
+            old.disconnect()
+            old._show("stopped: a newer view drives this simulation")
+        elif view._origin and old._origin and old._origin[0] == view._origin[0] and old._origin != view._origin:
+            old.close()  # its cell was run again: its output is gone
+    _VIEWS.add(view)
+
+
+def let_go(view) -> None:
+    """``view`` is no longer live (disconnected): it leaves the registry of :func:`take_over`."""
+    _VIEWS.discard(view)
+
+
 def _one_at_a_time(method):
     """Run ``method`` holding the view's lock: a frame, an event and a draw never interleave (a kernel may handle a
     widget's messages on another thread than the timer's: a cut could otherwise rebuild the mesh mid-frame)."""
@@ -80,77 +101,74 @@ def _one_at_a_time(method):
 
 
 class Gestures:
-    """A view's mouse and keyboard mapped to the simulation's ``grab``, ``drag``, ``release`` and ``cut``.
+    """A view's pointer input mapped to the simulation's ``grab``, ``drag``, ``release`` and ``cut``: one home for
+    every view (the matplotlib figure's :class:`MouseGestures`, the browser-drawn view of :mod:`.widget`).
 
-    Presses and moves outside the axes, or while the toolbar pans or zooms, are ignored; a release anywhere ends the
-    grab or stroke (a handle never sticks to a mouse that left). A grab made in code is not carried on by the real
-    mouse, nor a real one by made-up moves. A ``ValueError`` of the simulation becomes the view's message. The key
-    ``c`` toggles the mode (it is also the toolbar's "back" key, which matters only after zooming).
+    :meth:`press`, :meth:`move` and :meth:`release` take points in the view's data (world) coordinates. ``real``
+    says whether the input came from a person (a browser or GUI event) or from code: a grab made in code is not
+    carried on by the real pointer, nor a real one by made-up moves. A ``ValueError`` of the simulation becomes the
+    view's message. The view provides ``radius``, ``stroke_spacing``, ``message`` and the hooks ``_changed``,
+    ``_request_draw``, ``_show`` and ``_refresh``; :meth:`tools_changed` is told when the drag target or the stroke
+    moved (``target``: the point the grab follows, or ``None``; ``stroke``: the points drawn so far, or ``None``).
     """
 
     def __init__(self, view):
-        self.view, self.sim, self.ax, self._lock = view, view.sim, view.ax, view._lock
-        self.mode, self.handle, self.stroke = "drag", None, None  # the grabbed handle's name; the stroke being drawn
+        self.view, self.sim, self._lock = view, view.sim, view._lock
+        self.mode, self.handle, self.stroke, self.target = "drag", None, None, None
         self.real_press = False  # whether the grab or stroke began with a real press (a GUI event) or in code
-        (self.stroke_artist,) = self.ax.plot([], [], "-", color="k", lw=1.2, zorder=3)
-        (self.target_artist,) = self.ax.plot([], [], "o", ms=7, mfc="none", mec="tab:blue", mew=1.5, zorder=3)
 
-    def _point(self, event):
-        if event.inaxes is not self.ax or event.xdata is None or event.ydata is None:
-            return None
-        return np.array([event.xdata, event.ydata], dtype=float)
+    def tools_changed(self) -> None:
+        """The drag target or the stroke changed (a view that draws them redraws them)."""
 
     @_one_at_a_time
-    def on_press(self, event):
-        point = self._point(event)
-        if point is None or event.button != MouseButton.LEFT or self.ax.get_navigate_mode() is not None:
-            return
+    def press(self, point, real=True) -> None:
+        """A press at ``point``: in drag mode grab the tissue there, in cut mode start a stroke."""
+        point = np.asarray(point, dtype=float)
         self.view.message = ""
-        self.real_press = event.guiEvent is not None
+        self.real_press = bool(real)
         if self.mode == "drag":
             self.end_grab()
             try:
                 self.handle = self.sim.grab(point, self.view.radius)
             except ValueError:
                 return  # no tissue under the pointer: nothing to grab
-            self.target_artist.set_data([point[0]], [point[1]])
+            self.target = point
         else:
             self.stroke = [point]
-            self.stroke_artist.set_data([point[0]], [point[1]])
+        self.tools_changed()
         self.view._changed()
 
     @_one_at_a_time
-    def on_motion(self, event):
-        point = self._point(event)
-        # a real mouse moving (no button held) does not carry on a grab that code made, nor code a real one
-        if point is None or (self.handle is None and self.stroke is None) or (
-                event.guiEvent is not None) != self.real_press:
+    def move(self, point, real=True) -> None:
+        """The pointer moved to ``point``: drag the grabbed handle there, or extend the stroke."""
+        if (self.handle is None and self.stroke is None) or bool(real) != self.real_press:
             return
+        point = np.asarray(point, dtype=float)
         if self.handle is not None:
             try:
                 self.sim.drag(self.handle, point)
             except ValueError as exc:
                 self.view._show(f"drag rejected: {exc}")
                 return
-            self.target_artist.set_data([point[0]], [point[1]])
+            self.target = point
         else:
             if np.linalg.norm(point - self.stroke[-1]) < self.view.stroke_spacing:
                 return
             self.stroke.append(point)
-            self.stroke_artist.set_data(*np.array(self.stroke).T)
+        self.tools_changed()
         self.view._request_draw()
 
     @_one_at_a_time
-    def on_release(self, event):
-        if event.button not in (None, MouseButton.LEFT):
-            return
+    def release(self, point=None) -> None:
+        """The button was let go (at ``point``, or outside the view: ``None``): end the grab, or cut along the
+        stroke."""
         if self.handle is not None:
             self.end_grab()
             self.view._changed()
         elif self.stroke is not None:
-            point, stroke = self._point(event), self.stroke
-            if point is not None and np.linalg.norm(point - stroke[-1]) > 0:
-                stroke.append(point)
+            stroke = self.stroke
+            if point is not None and np.linalg.norm(np.asarray(point, dtype=float) - stroke[-1]) > 0:
+                stroke.append(np.asarray(point, dtype=float))
             self.drop()
             stroke = np.array(stroke)
             distinct = stroke[np.r_[True, np.any(np.diff(stroke, axis=0) != 0, axis=1)]]
@@ -165,16 +183,11 @@ class Gestures:
             self.view.message = ""
             self.view._refresh()
 
-    @_one_at_a_time
-    def on_key(self, event):
-        if event.inaxes in (None, self.ax) and event.key == "c":
-            self.view.mode = "drag" if self.mode == "cut" else "cut"
-
     def end_grab(self) -> None:
         """Release the grabbed handle, if any."""
         if self.handle is not None:
-            handle, self.handle = self.handle, None
-            self.target_artist.set_data([], [])
+            handle, self.handle, self.target = self.handle, None, None
+            self.tools_changed()
             try:
                 self.sim.release(handle)
             except ValueError as exc:
@@ -184,7 +197,56 @@ class Gestures:
         """End a grab and drop a stroke in progress."""
         self.end_grab()
         self.stroke = None
-        self.stroke_artist.set_data([], [])
+        self.tools_changed()
+
+
+class MouseGestures(Gestures):
+    """:class:`Gestures` from a matplotlib figure's mouse and keyboard, the target and stroke drawn in its axes.
+
+    Presses and moves outside the axes, or while the toolbar pans or zooms, are ignored; a release anywhere ends the
+    grab or stroke (a handle never sticks to a mouse that left). The key ``c`` toggles the mode (it is also the
+    toolbar's "back" key, which matters only after zooming).
+    """
+
+    def __init__(self, view):
+        super().__init__(view)
+        self.ax = view.ax
+        (self.stroke_artist,) = self.ax.plot([], [], "-", color="k", lw=1.2, zorder=3)
+        (self.target_artist,) = self.ax.plot([], [], "o", ms=7, mfc="none", mec="tab:blue", mew=1.5, zorder=3)
+
+    def tools_changed(self) -> None:
+        target = [] if self.target is None else [self.target]
+        self.target_artist.set_data([p[0] for p in target], [p[1] for p in target])
+        stroke = self.stroke or []
+        self.stroke_artist.set_data([p[0] for p in stroke], [p[1] for p in stroke])
+
+    def _point(self, event):
+        if event.inaxes is not self.ax or event.xdata is None or event.ydata is None:
+            return None
+        return np.array([event.xdata, event.ydata], dtype=float)
+
+    @_one_at_a_time
+    def on_press(self, event):
+        point = self._point(event)
+        if point is None or event.button != MouseButton.LEFT or self.ax.get_navigate_mode() is not None:
+            return
+        self.press(point, real=event.guiEvent is not None)
+
+    @_one_at_a_time
+    def on_motion(self, event):
+        point = self._point(event)
+        if point is not None:
+            self.move(point, real=event.guiEvent is not None)
+
+    @_one_at_a_time
+    def on_release(self, event):
+        if event.button in (None, MouseButton.LEFT):
+            self.release(self._point(event))
+
+    @_one_at_a_time
+    def on_key(self, event):
+        if event.inaxes in (None, self.ax) and event.key == "c":
+            self.view.mode = "drag" if self.mode == "cut" else "cut"
 
 
 class SurgeryView:
@@ -250,7 +312,7 @@ class SurgeryView:
 
         self.drawing = MeshDrawing(self.ax, sim.mesh)
         self.mesh_faces, self.mesh_edges = self.drawing.faces, self.drawing.edges
-        self.gestures = Gestures(self)
+        self.gestures = MouseGestures(self)
         self.stroke_artist, self.target_artist = self.gestures.stroke_artist, self.gestures.target_artist
         self.readout = Readout(self.ax, self.owns_figure, self._update_text)
         self.status_text, self.message_text = self.readout.status_text, self.readout.message_text
@@ -267,14 +329,7 @@ class SurgeryView:
                     "button_release_event": g.on_release, "key_press_event": g.on_key,
                     "close_event": lambda event: self.disconnect()}
         self._cids = [self.canvas.mpl_connect(name, handler) for name, handler in handlers.items()]
-        self._origin = _cell_origin()
-        for old in [view for view in _VIEWS if not view.closed]:
-            if old.sim is self.sim:
-                old.disconnect()
-                old._show("stopped: a newer view drives this simulation")
-            elif self._origin and old._origin and old._origin[0] == self._origin[0] and old._origin != self._origin:
-                old.close()  # its cell was run again: its output is gone
-        _VIEWS.add(self)
+        take_over(self)
         if self.autostart and is_gui(self.canvas):
             self.start()  # a GUI window is on screen as soon as it is shown; a notebook view starts when displayed
 
@@ -446,7 +501,7 @@ class SurgeryView:
         for w in (self._widgets or ())[:2]:
             w.disabled = True
         self.closed = True
-        _VIEWS.discard(self)
+        let_go(self)
 
     def close(self) -> None:
         """Disconnect, and close the view's own figure (its widget and its place in pyplot's list)."""
