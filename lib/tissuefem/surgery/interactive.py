@@ -35,8 +35,8 @@ from ..engine.meshes import mean_edge_length
 from ..engine.parameters import ParameterError, check_count, check_positive, string
 from .view_drawing import KEYFRAME_S, LayeredFigure, MeshDrawing, Readout, is_gui, is_interactive, view_axes
 
-__all__ = ["SurgeryView", "Gestures", "MouseGestures", "MODES", "take_over", "let_go", "synthetic_mouse", "synthetic_key",
-           "mean_edge_length"]
+__all__ = ["SurgeryView", "Gestures", "MouseGestures", "MODES", "take_over", "let_go", "synthetic_mouse",
+           "synthetic_key", "mean_edge_length"]
 
 #: the interaction modes of a :class:`SurgeryView`
 MODES = ("drag", "cut")
