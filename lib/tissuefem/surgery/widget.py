@@ -223,7 +223,8 @@ class BrowserView:
         """One message of the page: ``{"event": "pointer", "kind": "down" | "move" | "up", "x": .., "y": ..,
         "inside": bool}`` (world coordinates), as the widget's message handler passes it on."""
         if not isinstance(content, dict) or content.get("event") != "pointer":
-            raise ParameterError("content", f"a message must be a dict with event 'pointer', got {content!r}")
+            raise ParameterError("content", "content (a message of the page) must be a dict with event 'pointer', "
+                                            f"got {content!r}")
         kind = string("kind", content.get("kind"), POINTER_KINDS)
         point = check_vector("point", [content.get("x"), content.get("y")])
         if kind == "down":

@@ -94,7 +94,8 @@ function render({ model, el }) {
   }
 
   function showMode() {
-    for (const [mode, b] of Object.entries(buttons)) b.style.fontWeight = model.get("mode") === mode ? "bold" : "normal";
+    const current = model.get("mode");
+    for (const [mode, b] of Object.entries(buttons)) b.style.fontWeight = current === mode ? "bold" : "normal";
     canvas.style.cursor = model.get("mode") === "cut" ? "crosshair" : "grab";
   }
 
