@@ -12,8 +12,9 @@
 //   readout, message, mode ("drag" or "cut"), width, height (CSS pixels)
 // Pointer messages to the kernel: {event: "pointer", kind: "down" | "move" | "up", x, y, inside}.
 // A picture is painted with requestAnimationFrame only when something new arrived: nothing runs at rest. The canvas
-// carries the paint count (data-painted) and the world-to-pixel map (data-view: [scale, ox, oy], CSS pixels:
-// px = ox + scale * x, py = oy - scale * y) for tests and benchmarks.
+// carries the paint count (data-painted), the world-to-pixel map (data-view: [scale, ox, oy], CSS pixels of its
+// content box: px = ox + scale * x, py = oy - scale * y) and, as canvas.tissuefem.log, the last paints' times and
+// drag targets, for tests and benchmarks.
 
 const FILL = "#ffe4e1"; // matplotlib's "mistyrose", the matplotlib view's fill
 const EDGE = "#b22222"; // "firebrick"
@@ -79,6 +80,8 @@ function render({ model, el }) {
   const state = {positions: null, triangles: null, edges: null, colors: null, stroke: null};
   let painted = 0, pending = false, paintTimes = [];
   let map = [1, 0, 0];
+  const log = [];
+  canvas.tissuefem = {log: log};
 
   function load(name) {
     const v = model.get(name);
@@ -184,6 +187,9 @@ function render({ model, el }) {
     painted++;
     canvas.dataset.painted = String(painted);
     const now = performance.now();
+    // the last paints, [time, target x, target y], for a test or benchmark to time the pointer against
+    log.push([now, target && target.length >= 2 ? target[0] : null, target && target.length >= 2 ? target[1] : null]);
+    if (log.length > 2000) log.splice(0, 1000);
     paintTimes.push(now);
     while (paintTimes.length && paintTimes[0] < now - 1000) paintTimes.shift();
     showReadout();
@@ -197,8 +203,8 @@ function render({ model, el }) {
   function world(event) {
     const r = canvas.getBoundingClientRect();
     const [s, ox, oy] = map;
-    const cx = event.clientX - r.left, cy = event.clientY - r.top;
-    const inside = cx >= 0 && cy >= 0 && cx <= r.width && cy <= r.height;
+    const cx = event.clientX - r.left - canvas.clientLeft, cy = event.clientY - r.top - canvas.clientTop;
+    const inside = cx >= 0 && cy >= 0 && cx <= canvas.clientWidth && cy <= canvas.clientHeight;
     return {x: (cx - ox) / s, y: (oy - cy) / s, inside: inside};
   }
 
