@@ -12,7 +12,7 @@ from tissuefem.engine.parameters import ParameterError
 from tissuefem.surgery.interactive import Gestures
 from tissuefem.surgery.scene import Scene
 from tissuefem.surgery.simulation import Simulation
-from tissuefem.surgery.widget import REST_FRAMES, STATIC, BrowserView, TissueWidget
+from tissuefem.surgery.widget import REST_FRAMES, STATIC, BrowserView, TissueWidget, outline
 
 SHEET = {
     "domain": {"shape": "rectangle", "width": 2.0, "height": 1.0, "triangles": 400},
@@ -58,6 +58,7 @@ def test_the_widget_holds_the_mesh_as_binary_arrays(view):
     assert a["positions"].dtype == np.float32 and a["positions"].shape == (pic.triangles.max() + 1, 2)
     assert a["triangles"].dtype == np.int32 and a["triangles"].shape == (pic.triangles.shape[1], 3)
     assert a["edges"].shape == (pic.edges.shape[1], 2)
+    assert 0 < np.count_nonzero(a["outline"] >= 0) < len(a["positions"]), "the boundary loops, to fill"
     assert np.allclose(a["positions"], view.sim.positions().T, atol=1e-6)
     assert view.widget.dim == 2 and isinstance(view.widget.positions, bytes)
 
@@ -210,3 +211,31 @@ def test_start_needs_an_event_loop(view):
     with pytest.raises(RuntimeError, match="event loop"):
         view.start()
     assert "BrowserView" in repr(view)
+
+
+def _loops_area(loops, x):
+    area, loop = 0.0, []
+    for i in list(loops) + [-1]:
+        if i >= 0:
+            loop.append(i)
+            continue
+        if loop:
+            p = x[:, loop]
+            area += 0.5 * float(np.sum(p[0] * np.roll(p[1], -1) - np.roll(p[0], -1) * p[1]))
+        loop = []
+    return area
+
+
+@pytest.mark.parametrize("method", ["elements", "edges"])
+def test_the_outline_encloses_what_the_triangles_cover(method):
+    sim = Simulation(Scene.from_dict(SHEET))
+    sim.cut([[1.0, 1.3], [1.0, 0.4]], method=method)
+    pic = sim.picture
+    x = pic.points(sim.mesh.p)
+    loops = outline(pic.triangles, x)
+    assert loops[-1] == -1 and loops.dtype == np.int32
+    a, b, c = (x[:, pic.triangles[k]] for k in range(3))
+    covered = float(np.sum(np.abs((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])))) / 2
+    assert _loops_area(loops, x) == pytest.approx(covered, rel=1e-9)
+    assert covered == pytest.approx(2.0, rel=1e-9)
+    assert np.count_nonzero(loops >= 0) < pic.triangles.shape[1], "far fewer points than the triangles'"

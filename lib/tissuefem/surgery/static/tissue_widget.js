@@ -6,6 +6,8 @@
 //   positions    float32 bytes, (n_points, dim) row-major: sent every frame the tissue moved
 //   triangles    int32 bytes, (n_triangles, 3): sent only when the topology changes (a cut)
 //   edges        int32 bytes, (n_edges, 2): the lines drawn over the faces, sent with the triangles
+//   outline      int32 bytes: the boundary loops of point indices, each ended by -1; filled (nonzero rule) instead
+//                of every triangle when there are no colours (far cheaper to rasterise without a GPU)
 //   colors       float32 bytes, one value per triangle, or empty (one fill colour); mapped over color_range
 //   bounds       [xmin, xmax, ymin, ymax]: the world box shown (equal aspect, centred)
 //   target       [x, y] of the drag target, or []; stroke: float32 bytes (k, 2) of the cut stroke being drawn
@@ -13,8 +15,8 @@
 // Pointer messages to the kernel: {event: "pointer", kind: "down" | "move" | "up", x, y, inside}.
 // A picture is painted with requestAnimationFrame only when something new arrived: nothing runs at rest. The canvas
 // carries the paint count (data-painted), the world-to-pixel map (data-view: [scale, ox, oy], CSS pixels of its
-// content box: px = ox + scale * x, py = oy - scale * y) and, as canvas.tissuefem.log, the last paints' times and
-// drag targets, for tests and benchmarks.
+// content box: px = ox + scale * x, py = oy - scale * y) and, as canvas.tissuefem.log, the last paints' times,
+// drag targets and milliseconds spent, for tests and benchmarks.
 
 const FILL = "#ffe4e1"; // matplotlib's "mistyrose", the matplotlib view's fill
 const EDGE = "#b22222"; // "firebrick"
@@ -77,7 +79,7 @@ function render({ model, el }) {
   el.appendChild(root);
   const ctx = canvas.getContext("2d");
 
-  const state = {positions: null, triangles: null, edges: null, colors: null, stroke: null};
+  const state = {positions: null, triangles: null, edges: null, outline: null, colors: null, stroke: null};
   let painted = 0, pending = false, paintTimes = [];
   let map = [1, 0, 0];
   const log = [];
@@ -85,10 +87,10 @@ function render({ model, el }) {
 
   function load(name) {
     const v = model.get(name);
-    if (name === "triangles" || name === "edges") state[name] = ints(v);
+    if (name === "triangles" || name === "edges" || name === "outline") state[name] = ints(v);
     else state[name] = floats(v);
   }
-  for (const name of ["positions", "triangles", "edges", "colors", "stroke"]) load(name);
+  for (const name of ["positions", "triangles", "edges", "outline", "colors", "stroke"]) load(name);
 
   function setMode(mode) {
     if (model.get("mode") === mode) return;
@@ -128,6 +130,7 @@ function render({ model, el }) {
 
   function paint() {
     pending = false;
+    const started = performance.now();
     const w = model.get("width"), h = model.get("height");
     const [s, ox, oy] = map;
     const dim = model.get("dim") || 2;
@@ -140,8 +143,24 @@ function render({ model, el }) {
       const nt = t.length / 3;
       const colored = c && c.length === nt;
       const [lo, hi] = model.get("color_range");
+      const o = state.outline;
       const paths = colored ? Array.from({length: BINS}, () => new Path2D()) : [new Path2D()];
-      for (let k = 0; k < nt; k++) {
+      // no colours: fill the boundary loops; else every triangle (no closePath: a fill closes each one, and
+      // thousands of closePath calls cost far more than the fill)
+      if (!colored && o && o.length > 0) {
+        let first = true;
+        for (let k = 0; k < o.length; k++) {
+          const a = o[k];
+          if (a < 0 || a >= n) {
+            first = true;
+            continue;
+          }
+          if (first) paths[0].moveTo(px(a), py(a));
+          else paths[0].lineTo(px(a), py(a));
+          first = false;
+        }
+      }
+      else for (let k = 0; k < nt; k++) {
         const a = t[3 * k], b = t[3 * k + 1], d = t[3 * k + 2];
         if (a >= n || b >= n || d >= n) continue; // a frame between new triangles and their positions
         let bin = 0;
@@ -150,7 +169,6 @@ function render({ model, el }) {
         p.moveTo(px(a), py(a));
         p.lineTo(px(b), py(b));
         p.lineTo(px(d), py(d));
-        p.closePath();
       }
       paths.forEach((p, k) => {
         ctx.fillStyle = colored ? binColor(k) : FILL;
@@ -188,7 +206,8 @@ function render({ model, el }) {
     canvas.dataset.painted = String(painted);
     const now = performance.now();
     // the last paints, [time, target x, target y], for a test or benchmark to time the pointer against
-    log.push([now, target && target.length >= 2 ? target[0] : null, target && target.length >= 2 ? target[1] : null]);
+    const shown = target && target.length >= 2;
+    log.push([now, shown ? target[0] : null, shown ? target[1] : null, now - started]);
     if (log.length > 2000) log.splice(0, 1000);
     paintTimes.push(now);
     while (paintTimes.length && paintTimes[0] < now - 1000) paintTimes.shift();
@@ -246,7 +265,7 @@ function render({ model, el }) {
       handlers.push([event, handler]);
     }
   }
-  for (const name of ["positions", "triangles", "edges", "colors", "stroke"]) {
+  for (const name of ["positions", "triangles", "edges", "outline", "colors", "stroke"]) {
     on([name], () => {
       load(name);
       request();
