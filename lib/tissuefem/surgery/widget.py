@@ -50,7 +50,8 @@ class TissueWidget(anywidget.AnyWidget):
     ``positions``: float32 bytes ``(n_points, dim)``; ``triangles``: int32 bytes ``(n_triangles, 3)``; ``edges``:
     int32 bytes ``(n_edges, 2)``; ``colors``: float32 bytes, one value per triangle mapped over ``color_range``, or
     empty (one fill colour); ``bounds``: the world box shown; ``target``: ``[x, y]`` or ``[]``; ``stroke``: float32
-    bytes ``(k, 2)``; ``outline``: int32 bytes, boundary loops of point indices each ended by ``-1``. The page sends ``{"event": "pointer", "kind": "down" | "move" | "up", "x", "y", "inside"}``.
+    bytes ``(k, 2)``; ``outline``: int32 bytes, boundary loops of point indices each ended by ``-1``. The page
+    sends ``{"event": "pointer", "kind": "down" | "move" | "up", "x", "y", "inside"}``.
     """
 
     _esm = STATIC / "tissue_widget.js"
