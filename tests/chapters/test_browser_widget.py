@@ -59,6 +59,17 @@ return {view: JSON.parse(c.dataset.view), w: c.clientWidth, h: c.clientHeight, p
 """
 
 
+POINTER_TIMES = r"""
+if (!window.__tf_pointer) {
+  window.__tf_pointer = [];
+  window.addEventListener('pointermove', () => {
+    window.__tf_pointer.push(performance.now());
+    if (window.__tf_pointer.length > 5000) window.__tf_pointer.splice(0, 2500);
+  }, true);
+}
+"""
+
+
 def widget_missing() -> str | None:
     reason = browser_missing()
     if reason:
@@ -240,13 +251,15 @@ def measure(driver, lab, triangles, seconds=3.0, probes=12, seed=8):
                 "kernel_step_median_ms": None if not steps else round(median(steps), 1),
                 "page_paint_median_ms": None if not paint_ms else round(median(paint_ms), 1)}
 
-    # latency probes: the button held, jump to a new point after a random wait, find the first paint showing it
+    # latency probes: the button held, jump to a new point after a random wait, find the first paint showing it;
+    # pointer moves are timed as they reach the page (the widget prevents the mouse events that would follow them)
+    driver.execute_script(POINTER_TIMES)
     latencies, missed = [], 0
     for k in range(probes):
         time.sleep(rng.uniform(0.1, 0.3))
         point = (centre[0] + (0.2 if k % 2 else 0.05), centre[1] + 0.04 * ((k % 3) - 1))
         actions(driver).move_to_element_with_offset(canvas.element, *canvas.offset(point)).perform()
-        moved = driver.execute_script("return window.__tf.moves[window.__tf.moves.length - 1][0];")
+        moved = driver.execute_script("return window.__tf_pointer[window.__tf_pointer.length - 1];")
         shown = None
         deadline = time.monotonic() + 3.0
         while shown is None and time.monotonic() < deadline:
