@@ -35,8 +35,8 @@ from ..engine.meshes import mean_edge_length
 from ..engine.parameters import ParameterError, check_count, check_positive, string
 from .view_drawing import KEYFRAME_S, LayeredFigure, MeshDrawing, Readout, is_gui, is_interactive, view_axes
 
-__all__ = ["SurgeryView", "Gestures", "MouseGestures", "MODES", "take_over", "let_go", "synthetic_mouse",
-           "synthetic_key", "mean_edge_length"]
+__all__ = ["SurgeryView", "Gestures", "MouseGestures", "MODES", "take_over", "let_go", "one_at_a_time",
+           "synthetic_mouse", "synthetic_key", "mean_edge_length"]
 
 #: the interaction modes of a :class:`SurgeryView`
 MODES = ("drag", "cut")
@@ -88,7 +88,7 @@ def let_go(view) -> None:
     _VIEWS.discard(view)
 
 
-def _one_at_a_time(method):
+def one_at_a_time(method):
     """Run ``method`` holding the view's lock: a frame, an event and a draw never interleave (a kernel may handle a
     widget's messages on another thread than the timer's: a cut could otherwise rebuild the mesh mid-frame)."""
 
@@ -120,7 +120,7 @@ class Gestures:
     def tools_changed(self) -> None:
         """The drag target or the stroke changed (a view that draws them redraws them)."""
 
-    @_one_at_a_time
+    @one_at_a_time
     def press(self, point, real=True) -> None:
         """A press at ``point``: in drag mode grab the tissue there, in cut mode start a stroke."""
         point = np.asarray(point, dtype=float)
@@ -138,7 +138,7 @@ class Gestures:
         self.tools_changed()
         self.view._changed()
 
-    @_one_at_a_time
+    @one_at_a_time
     def move(self, point, real=True) -> None:
         """The pointer moved to ``point``: drag the grabbed handle there, or extend the stroke."""
         if (self.handle is None and self.stroke is None) or bool(real) != self.real_press:
@@ -158,7 +158,7 @@ class Gestures:
         self.tools_changed()
         self.view._request_draw()
 
-    @_one_at_a_time
+    @one_at_a_time
     def release(self, point=None) -> None:
         """The button was let go (at ``point``, or outside the view: ``None``): end the grab, or cut along the
         stroke."""
@@ -225,25 +225,25 @@ class MouseGestures(Gestures):
             return None
         return np.array([event.xdata, event.ydata], dtype=float)
 
-    @_one_at_a_time
+    @one_at_a_time
     def on_press(self, event):
         point = self._point(event)
         if point is None or event.button != MouseButton.LEFT or self.ax.get_navigate_mode() is not None:
             return
         self.press(point, real=event.guiEvent is not None)
 
-    @_one_at_a_time
+    @one_at_a_time
     def on_motion(self, event):
         point = self._point(event)
         if point is not None:
             self.move(point, real=event.guiEvent is not None)
 
-    @_one_at_a_time
+    @one_at_a_time
     def on_release(self, event):
         if event.button in (None, MouseButton.LEFT):
             self.release(self._point(event))
 
-    @_one_at_a_time
+    @one_at_a_time
     def on_key(self, event):
         if event.inaxes in (None, self.ax) and event.key == "c":
             self.view.mode = "drag" if self.mode == "cut" else "cut"
@@ -340,7 +340,7 @@ class SurgeryView:
         return self.gestures.mode
 
     @mode.setter
-    @_one_at_a_time
+    @one_at_a_time
     def mode(self, value):
         if string("mode", value, MODES) == self.gestures.mode:
             return
@@ -370,7 +370,7 @@ class SurgeryView:
         return self.drawing.triangles()
 
     # ------------------------------------------------------------------ frames, drawing and the timer
-    @_one_at_a_time
+    @one_at_a_time
     def step(self):
         """Run one frame (``sim.frame()``), record its time and request a redraw; returns the frame's report."""
         report = self.last_report = self.sim.frame()
@@ -392,7 +392,7 @@ class SurgeryView:
         self._follow()
         self._changed()
 
-    @_one_at_a_time
+    @one_at_a_time
     def draw(self) -> float | None:
         """Render the picture now, off-screen (nothing sent or painted), for frames that code steps; returns how
         long it took (ms; timed in the view's own figure only, else ``None``)."""
@@ -467,7 +467,7 @@ class SurgeryView:
         """Whether the timer is running."""
         return self._running
 
-    @_one_at_a_time
+    @one_at_a_time
     def _on_timer(self):
         if self.closed:  # a stop handed to the loop has not arrived yet
             return
@@ -489,7 +489,7 @@ class SurgeryView:
             self._keyframe_at = now
         self.canvas.draw()
 
-    @_one_at_a_time
+    @one_at_a_time
     def disconnect(self) -> None:
         """Stop the timer and detach every event handler (the figure stays as it is)."""
         self.stop()

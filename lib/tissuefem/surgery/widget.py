@@ -26,7 +26,7 @@ import numpy as np
 
 from ..engine.meshes import mean_edge_length
 from ..engine.parameters import ParameterError, check_count, check_positive, check_vector, string
-from .interactive import MODES, Gestures, let_go, take_over
+from .interactive import MODES, Gestures, let_go, one_at_a_time, take_over
 
 try:
     import anywidget
@@ -144,15 +144,6 @@ def _area_ratios(points, triangles, reference) -> np.ndarray:
     return areas(points) / np.where(ref == 0, 1.0, ref)
 
 
-def _locked(method):
-    def run(self, *args, **kwargs):
-        with self._lock:
-            return method(self, *args, **kwargs)
-
-    run.__name__, run.__doc__ = method.__name__, method.__doc__
-    return run
-
-
 class BrowserView:
     """A simulation drawn in the page by a :class:`TissueWidget`, operated on with the pointer.
 
@@ -207,6 +198,7 @@ class BrowserView:
         self.pushes = self.topology_pushes = 0
         self._mesh, self._picture, self._reference, self._x = None, None, None, None
         self._quiet, self._dirty, self._readout_at, self._text_key = 0, True, -math.inf, None
+        self._tools_stale = False  # the target or the stroke changed since they were sent
         self._task, self._wake, self._loop, self._loop_thread = None, None, None, None
 
         self.widget = TissueWidget(bounds=[float(b) for b in bounds], width=check_count("width", width),
@@ -226,7 +218,7 @@ class BrowserView:
         return self.gestures.mode
 
     @mode.setter
-    @_locked
+    @one_at_a_time
     def mode(self, value):
         if string("mode", value, MODES) == self.gestures.mode:
             return
@@ -297,7 +289,7 @@ class BrowserView:
         self._changed()
 
     # ------------------------------------------------------------------ frames and what is sent
-    @_locked
+    @one_at_a_time
     def step(self):
         """Run one frame (``sim.frame()``) and send the new positions (if any point moved); returns the report."""
         self._dirty = False
@@ -338,8 +330,6 @@ class BrowserView:
 
     def _colors(self, points):
         return None if self.color is None else _area_ratios(points, self._picture.triangles, self._reference)
-
-    _tools_stale = False
 
     def _send_tools(self) -> None:
         g = self.gestures
@@ -419,7 +409,7 @@ class BrowserView:
                 self._dirty = False
             await asyncio.sleep(max(0.0, interval - (time.perf_counter() - started)))
 
-    @_locked
+    @one_at_a_time
     def disconnect(self) -> None:
         """Stop the loop and let go of the grab; the widget stays on the page."""
         self.stop()
