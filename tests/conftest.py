@@ -21,6 +21,7 @@ import grading
 ACTIVE = grading.MODE in grading.STUDENT_MODES
 _outcomes: dict[tuple, list[str]] = {}
 _rows: list[tuple] = []
+_refused: set[tuple] = set()  # the exercises refused in instructor mode
 
 
 @pytest.hookimpl(tryfirst=True)
@@ -136,20 +137,15 @@ def pytest_runtest_makereport(item, call):
     _outcomes.setdefault(key, []).append(report.outcome)
     if report.failed and call.excinfo is not None:
         _rows.append(_row(item, key[2], call.excinfo.value))
+        if isinstance(call.excinfo.value, grading.Refused):
+            _refused.add(key)
 
 
-def _merge_refusals(rows):
-    """One line per exercise for a refusal: it is the same for every check of the exercise."""
-    merged, counts = [], {}
-    for row in rows:
-        key = (row[0], row[4])
-        if row[4].startswith("REFUSED") and key in counts:
-            counts[key] += 1
-            continue
-        counts[key] = 1
-        merged.append(row)
-    return [(r[0], f"{counts[(r[0], r[4])]} checks" if counts[(r[0], r[4])] > 1 else r[1], r[2], r[3], r[4])
-            for r in merged]
+def _refusal_rows(rows):
+    """A refusal is of the whole function, not of one check: its row says how many checks it stops."""
+    checks = {key[2]: len(results) for key, results in _outcomes.items()}
+    return [(r[0], f"all {checks[r[0]]} checks", r[2], r[3], r[4]) if r[4].startswith("REFUSED") else r
+            for r in rows]
 
 
 def _clip(text, width):
@@ -172,11 +168,13 @@ def pytest_terminal_summary(terminalreporter, exitstatus, config):
             continue
         failed, passed = results.count("failed"), results.count("passed")
         verdict = "all passed" if failed == 0 and passed == len(results) else f"{failed} failed"
+        if key in _refused:
+            verdict = "refused (uses tissuefem)"
         tr.write_line(f"  {key[2]:{width}s}  {passed}/{len(results)} checks passed  {verdict}",
                       red=failed > 0, green=failed == 0)
     if untouched:
         tr.write_line(f"  not attempted yet: {', '.join(untouched)}")
-    rows = _merge_refusals(_rows)
+    rows = _refusal_rows(_rows)
     if rows:
         widths = [min(max(len(r[i]) for r in rows), cap) for i, cap in enumerate((28, CHECK_WIDTH + 30, 18, 18))]
         widths = [max(w, len(h)) for w, h in zip(widths, ("exercise", "check", "expected", "got"))]

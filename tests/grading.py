@@ -4,8 +4,9 @@
 
 * ``all`` (default): the library's reference answer and the student's file;
 * ``student``: only the student's file (``python -m tissuefem grade``);
-* ``instructor``: only the student's file, and an answer that imports or runs the
-  library (the reference implementation) is refused (``python -m tissuefem grade --instructor``);
+* ``instructor``: only the student's file, and a function that imports, runs or uses the
+  library (the reference implementation) is refused, once, while the stubs beside it stay
+  "not attempted" (``python -m tissuefem grade --instructor``);
 * ``library``: only the reference answer.
 
 ``TISSUEFEM_EXERCISES`` names another folder of ``chNN.py`` files to grade (a
@@ -19,6 +20,7 @@ prints one line per failed check from it.
 
 from __future__ import annotations
 
+import __future__
 import ast
 import importlib.util
 import math
@@ -43,6 +45,10 @@ if MODE not in MODES:
 STUDENT_MODES = ("student", "instructor")
 
 _modules = {}
+#: instructor mode, per chapter: (a refusal of the whole file or None, {name: refusal})
+_refusals = {}
+#: instructor mode: the functions already refused, {(chapter, name): message}
+_refused = {}
 
 
 # --- wrong answers and their diagnosis ------------------------------------------------------------
@@ -210,15 +216,7 @@ def _student_module(chapter):
         spec = importlib.util.spec_from_file_location(f"student_{chapter}", path)
         module = importlib.util.module_from_spec(spec)
         if MODE == "instructor":
-            _refuse_static(chapter)
-            try:
-                _, calls, _ = _watched(spec.loader.exec_module, module)
-            except _Raised as raised:
-                calls = raised.calls
-                if not calls:
-                    raise raised.error from None
-            if calls:
-                raise Refused(f"REFUSED: {path.name} runs the library's code when it is loaded ({calls[0]})")
+            _refusals[chapter] = _load_watched(module, path)
         else:
             spec.loader.exec_module(module)  # a syntax error in the student's file fails loudly here
         _modules[chapter] = module
@@ -226,7 +224,11 @@ def _student_module(chapter):
 
 
 class StudentAnswer:
-    """The student's function ``chapter.name``; skips the test while it is still a stub."""
+    """The student's function ``chapter.name``; skips the test while it is still a stub.
+
+    In instructor mode a function that imports or runs the library is refused by its first
+    check; its other checks are skipped as refused, and the stubs beside it stay "not attempted".
+    """
 
     def __init__(self, chapter, name):
         self.chapter, self.name = chapter, name
@@ -235,26 +237,40 @@ class StudentAnswer:
         return f"StudentAnswer({self.chapter}.{self.name})"
 
     def __call__(self, *args, **kwargs):
-        func = getattr(_student_module(self.chapter), self.name)
+        module = _student_module(self.chapter)
         if MODE == "instructor":
-            try:
-                result, calls, tampered = _watched(func, *args, **kwargs)
-            except _Raised as raised:
-                calls, tampered, error = raised.calls, raised.tampered, raised.error
-                if not calls and not tampered:
-                    if isinstance(error, NotImplementedError):
-                        pytest.skip(f"{self.chapter}.{self.name} not attempted yet")
-                    raise error from None
-            if tampered:
-                raise Refused(f"REFUSED: {self.chapter}.{self.name} switched off the grader's watch (sys.setprofile)")
-            if calls:
-                raise Refused(f"REFUSED: {self.chapter}.{self.name} runs the library's code when called "
-                              f"({calls[0]}): compute the answer yourself")
-            return result
+            return self._call_watched(module, *args, **kwargs)
+        func = getattr(module, self.name)
         try:
             return func(*args, **kwargs)
         except NotImplementedError:
             pytest.skip(f"{self.chapter}.{self.name} not attempted yet (the stub raises NotImplementedError)")
+
+    def _refuse(self, message):
+        key = (self.chapter, self.name)
+        if key in _refused:
+            pytest.skip(f"{self.chapter}.{self.name} refused by an earlier check")
+        _refused[key] = message
+        raise Refused(message)
+
+    def _call_watched(self, module, *args, **kwargs):
+        whole, reasons = _refusals[self.chapter]
+        if whole or self.name in reasons:
+            self._refuse(f"REFUSED: {whole or reasons[self.name]}")
+        try:
+            result, calls, tampered = _watched(getattr(module, self.name), *args, **kwargs)
+        except _Raised as raised:
+            calls, tampered, error = raised.calls, raised.tampered, raised.error
+            if not calls and not tampered:
+                if isinstance(error, NotImplementedError):
+                    pytest.skip(f"{self.chapter}.{self.name} not attempted yet")
+                raise error from None
+        if tampered:
+            self._refuse(f"REFUSED: {self.chapter}.{self.name} switched off the grader's watch (sys.setprofile)")
+        if calls:
+            self._refuse(f"REFUSED: {self.chapter}.{self.name} runs the library's code when called "
+                         f"({calls[0]}): compute the answer yourself")
+        return result
 
 
 def implementations(chapter, name, reference):
@@ -292,25 +308,16 @@ def _docstring_nodes(tree):
     return nodes
 
 
-def library_use(source, filename="<answer>"):
-    """Where ``source`` imports or reaches for the library, read from its syntax tree.
-
-    Returns messages such as ``"line 3: imports tissuefem (from tissuefem.engine import
-    materials1d)"``; empty when nothing is found. Catches import statements, importlib /
-    ``__import__`` / runpy with the package's name or a computed name, ``sys.modules``,
-    ``exec``/``eval``, a peek at the caller's frames, and any other string naming the package.
-    What this cannot see (a name assembled at run time) the watch during the call catches.
-    """
-    tree = ast.parse(source, filename)
-    lines = source.splitlines()
+def _findings(tree, lines):
+    """``[(line, message)]``: where the syntax tree imports or reaches for the library."""
     docstrings = _docstring_nodes(tree)
     found = []
 
     def report(node, why):
-        if any(f.startswith(f"line {node.lineno}:") for f in found):
+        if any(line == node.lineno for line, _ in found):
             return  # one finding per line is enough
         code = lines[node.lineno - 1].strip() if 0 < node.lineno <= len(lines) else ""
-        found.append(f"line {node.lineno}: {why} ({code if len(code) <= 60 else code[:59] + '…'})")
+        found.append((node.lineno, f"line {node.lineno}: {why} ({code if len(code) <= 60 else code[:59] + '…'})"))
 
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
@@ -342,15 +349,93 @@ def library_use(source, filename="<answer>"):
                 report(node, "looks at the caller's frames or the interpreter's objects (the grader's own imports)")
         elif isinstance(node, ast.Constant) and id(node) not in docstrings and _names_library(node.value):
             report(node, f"names the {LIBRARY} package in a string")
-    return found
+    return sorted(found)
 
 
-def _refuse_static(chapter):
-    path = _student_path(chapter)
-    found = library_use(path.read_text(), str(path))
-    if found:
-        more = f" (and {len(found) - 1} more)" if len(found) > 1 else ""
-        raise Refused(f"REFUSED: {path.name} {found[0]}{more}; use numpy, scipy and scikit-fem, not {LIBRARY}")
+def library_use(source, filename="<answer>"):
+    """Where ``source`` imports or reaches for the library, read from its syntax tree.
+
+    Returns messages such as ``"line 3: imports tissuefem (from tissuefem.engine import
+    materials1d)"``; empty when nothing is found. Catches import statements, importlib /
+    ``__import__`` / runpy with the package's name or a computed name, ``sys.modules``,
+    ``exec``/``eval``, a peek at the caller's frames, and any other string naming the package.
+    What this cannot see (a name assembled at run time) the watch during the call catches.
+    """
+    return [message for _, message in _findings(ast.parse(source, filename), source.splitlines())]
+
+
+def _bound_names(statement):
+    """The module-level names a top-level statement binds, or None when it cannot be told
+    (``from x import *``). Names local to the functions it defines are not counted."""
+    names, stack = set(), [statement]
+    while stack:
+        node = stack.pop()
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+            names.add(node.name)
+            stack.extend(node.decorator_list)
+            continue
+        if isinstance(node, (ast.Import, ast.ImportFrom)):
+            for alias in node.names:
+                if alias.name == "*":
+                    return None
+                names.add((alias.asname or alias.name).split(".")[0])
+        elif isinstance(node, ast.Name) and isinstance(node.ctx, (ast.Store, ast.Del)):
+            names.add(node.id)
+        stack.extend(ast.iter_child_nodes(node))
+    return names
+
+
+def _used_names(statement):
+    return {node.id for node in ast.walk(statement) if isinstance(node, ast.Name) and isinstance(node.ctx, ast.Load)}
+
+
+def _load_watched(module, path):
+    """Load the student's file statement by statement under the watch; say what is refused.
+
+    Returns ``(whole, reasons)``: ``whole`` refuses the whole file (a top-level statement that
+    reaches the library without binding a name a function could be blamed for), ``reasons``
+    maps each module-level name that imports, runs or uses the library (directly, or through
+    another such name: a helper, a module alias, a precomputed table) to its refusal. The
+    other functions, stubs included, are graded as in the student mode.
+    """
+    source = path.read_text()
+    tree = ast.parse(source, str(path))  # a syntax error in the student's file fails loudly here
+    found = _findings(tree, source.splitlines())
+    whole, reasons, flags = None, {}, 0
+    statements = []
+    for statement in tree.body:
+        bound = _bound_names(statement)
+        own = [m for line, m in found if statement.lineno <= line <= statement.end_lineno]
+        if isinstance(statement, ast.ImportFrom) and statement.module == "__future__":
+            for alias in statement.names:
+                flags |= getattr(__future__, alias.name).compiler_flag
+        code = compile(ast.Module([statement], type_ignores=[]), str(path), "exec", flags=flags, dont_inherit=True)
+        try:
+            _, calls, _ = _watched(exec, code, module.__dict__)
+        except _Raised as raised:
+            if not raised.calls:
+                raise raised.error from None
+            calls = raised.calls
+        if calls:
+            own.append(f"line {statement.lineno}: runs the library's code when the file is loaded ({calls[0]})")
+        if own and not bound:
+            whole = whole or f"{path.name} {own[0]}"
+        for name in bound or ():
+            if own:
+                reasons.setdefault(name, f"{path.name} {own[0]}")
+        statements.append((bound, _used_names(statement)))
+    changed = True
+    while changed:  # a name that uses a refused name is refused too
+        changed = False
+        for bound, used in statements:
+            via = sorted(used & reasons.keys())
+            for name in (bound or set()) - reasons.keys() if via else ():
+                reasons[name] = f"{reasons[via[0]]}, used by {name} through {via[0]}"
+                changed = True
+    if whole:
+        whole = f"{whole}; use numpy, scipy and scikit-fem, not {LIBRARY}"
+    return whole, {name: f"{message}; use numpy, scipy and scikit-fem, not {LIBRARY}"
+                   for name, message in reasons.items()}
 
 
 class _Raised(Exception):

@@ -6,6 +6,9 @@ breaks the layering fails here, not in a reviewer's head.
 """
 
 import ast
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -130,3 +133,45 @@ def test_no_private_name_is_imported_from_another_module(module):
                if isinstance(node, ast.ImportFrom) and (node.level > 0 or (node.module or "").startswith("tissuefem"))
                for alias in node.names if alias.name.startswith("_")]
     assert not private, f"{module} imports private names: {private}"
+
+
+# ------------------------------------------------------------------ the package's face
+def _fresh_python(code):
+    """``code``'s printed output in a new interpreter that imports this package (not an installed copy)."""
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(PACKAGE.parent), os.environ.get("PYTHONPATH", "")]))
+    return subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout
+
+
+def test_import_tissuefem_loads_none_of_its_modules_until_a_name_is_used():
+    """The face is lazy (PEP 562): ``import tissuefem`` costs no numpy, scipy or scikit-fem; the first use of a name
+    imports that name's module (and what it needs), nothing more."""
+    code = ("import sys, tissuefem\n"
+            "heavy = ('tissuefem.', 'skfem', 'scipy.sparse', 'scipy.linalg', 'scipy.optimize', 'matplotlib')\n"
+            "print(sorted(m for m in sys.modules if m.startswith(heavy)))\n"
+            "tissuefem.Bar1D\n"
+            "print('tissuefem.engine.bar1d' in sys.modules, 'tissuefem.surgery' in sys.modules)")
+    assert _fresh_python(code).split("\n")[:2] == ["[]", "True False"]
+
+
+def test_every_name_of_the_face_resolves_and_is_listed():
+    names = set(tissuefem.__all__)
+    assert len(names) == len(tissuefem.__all__), "a name is listed twice"
+    for name in tissuefem.__all__:
+        value = getattr(tissuefem, name)
+        assert value is not None, name
+        if name != "__version__" and hasattr(value, "__module__") and not isinstance(value, type(tissuefem)):
+            assert value.__module__.startswith("tissuefem."), (name, value.__module__)
+    assert names <= set(dir(tissuefem))
+    namespace = {}
+    exec("from tissuefem import *", namespace)
+    assert names <= set(namespace)
+    from tissuefem import Model, Simulation, solve  # the form the chapters use
+    assert (Model, Simulation, solve) == (tissuefem.Model, tissuefem.Simulation, tissuefem.solve)
+
+
+def test_an_unknown_name_is_an_attribute_error():
+    with pytest.raises(AttributeError, match="SurgeryView"):
+        tissuefem.SurgeryView
+    with pytest.raises(ImportError):
+        exec("from tissuefem import NoSuchThing", {})
+    assert tissuefem.engine.__name__ == "tissuefem.engine"  # the layers stay reachable as attributes

@@ -212,6 +212,10 @@ for b in ("flap", "block"):
 #
 # ## 4. Knob by knob
 #
+# This section reads each knob's curve; the tables of every setting, both benchmarks, are the book's appendix,
+# [chapter 9, knob by knob](../appendix_ch09_knobs.html) (`python -m tissuefem book` writes it). In this
+# notebook, `show(rows_of("block", "newton_cap"))` prints one knob's table, `show(rows_of("flap"))` a benchmark's.
+#
 # **Mesh size and element order.** On the block the error falls steadily with the mesh, at a rate below 2
 # because of the corners, and the cost grows about in proportion to the triangles. P2 reaches a given error
 # with fewer unknowns than P1 but pays more per unknown; what counts is the time to reach an error:
@@ -224,16 +228,20 @@ print(f"block, P1: error ~ h^{fitted_exponent(h, [r['error'] for r in block_p1])
 for target in (2e-4, 1e-4, 6e-5):
     t1, t2 = (cost_at_error([r["ms_median"] for r in rs], [r["error"] for r in rs], target) for rs in (block_p1, block_p2))
     print(f"to reach {target:.0e}: P1 {t1:5.1f} ms, P2 {t2:5.1f} ms per frame: P2 {t1 / t2:.1f} times cheaper")
-show(rows_of("flap", "mesh") + rows_of("flap", "P2"))
+for knob in ("mesh", "P2"):
+    errors = [r["error"] for r in rows_of("flap", knob)]
+    triangles = [r["triangles"] for r in rows_of("flap", knob)]
+    print(f"flap, {knob}: error from {min(errors):.3e} to {max(errors):.3e} over {min(triangles)} to {max(triangles)} "
+          "triangles")
 
 # %% [markdown]
 # On the block P2 is cheaper than P1 for the same error, and more so the smaller the error: about 1.7 times
 # at $2\cdot 10^{-4}$, 2.3 times at $10^{-4}$, 2.6 times at $6\cdot 10^{-5}$. On the flap, in striking contrast, the
 # mesh curves are nearly flat: from 500 to 32 000 triangles, P1 or P2, the error moves by a few per cent.
-# Something else dominates it. (Two flap rows show what a busy machine does to a timing: 16 000 P1 triangles
-# took longer per frame than 32 000, and 4 000 P2 triangles far longer than the trend; other work ran on the
-# shared machine while they were measured. Timings are one run's; the errors are reproducible, and exact to
-# within the reference's own error of section 2.)
+# Something else dominates it. (Two flap rows of the appendix's tables show what a busy machine does to a
+# timing: 16 000 P1 triangles took longer per frame than 32 000, and 4 000 P2 triangles far longer than the
+# trend; other work ran on the shared machine while they were measured. Timings are one run's; the errors are
+# reproducible, and trustworthy to within the reference's own error estimated in section 2.)
 #
 # **The time step.** That something is backward Euler's numerical damping (chapter 7): at $\Delta t = 1/30$ s it
 # takes the energy out of the flap's vibrations within a few frames, while the reference keeps them. Only
@@ -241,7 +249,10 @@ show(rows_of("flap", "mesh") + rows_of("flap", "P2"))
 # down, each halving of $\Delta t$ by a factor of about 1.7 at twice the cost:
 
 # %%
-show(rows_of("flap", "time_step"))
+steps = rows_of("flap", "time_step")
+for a, b in zip(steps, steps[1:]):
+    print(f"{a['value']} -> {b['value']} substeps: error / {a['error'] / b['error']:.2f}, "
+          f"time x {b['ms_median'] / a['ms_median']:.2f}")
 
 # %% [markdown]
 # **Quadrature and the linear solver** change nothing that matters. The P2 errors with quadrature of degree
@@ -278,17 +289,14 @@ display(Markdown(
 # a reference, a setting's error is the sum of every error it makes, and a small one hides under a large one.
 # The block, with its large strain, shows the modelling error plainly. Choose the material for the tissue and
 # the strains you expect, not from a front on which another error dominates.
-
-# %%
-show(rows_of("block", "material") + rows_of("block", "newton_tolerance") + rows_of("block", "newton_cap"))
-
-# %% [markdown]
+#
 # **Newton's tolerance and a cap on its steps.** On the block a quasistatic frame starts with its linearised
 # step (chapter 4), which counts as one Newton step. A tolerance of $10^{-3}$ or looser is already met after
 # it, and so is a cap of one step: those settings stop there and leave 20 % more error (2.1e-4 against
 # 1.8e-4). One Newton step after the start reaches the discretisation error, and anything tighter buys
 # nothing but cost. The column `from_baseline` of the study's CSV says the same directly: how far each
 # setting's answer lies from the baseline's.
+#
 #
 # On the flap, a cap of one Newton step per frame shows an error that differs from the converged one only in
 # the fourth digit; in this workbook's earlier recording, with the drag that starts abruptly, it showed an
@@ -361,7 +369,8 @@ if over:
              "from the converged run, far below the time-step error of section 4. What they cost in time is "
              "not: a frame that overruns its budget is a dropped frame on the screen.")
 display(Markdown(text))
-#
+
+# %% [markdown]
 # ## 7. Your own run, and recommendations
 #
 # Timings are one machine's. The **reduced** plan runs the same study on smaller meshes with fewer settings

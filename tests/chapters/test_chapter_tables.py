@@ -18,11 +18,17 @@ def markdown_tables(path: Path) -> list[list[dict]]:
     for cell in nb["cells"]:
         if cell["cell_type"] != "markdown":
             continue
-        text = "".join(cell["source"]) if isinstance(cell["source"], list) else cell["source"]
-        for block in re.findall(r"(?:^\|.*\|[ \t]*\n?)+", text, re.M):
-            lines = [ln.strip().strip("|") for ln in block.strip().splitlines()]
-            header = [h.strip() for h in lines[0].split("|")]
-            tables.append([dict(zip(header, (c.strip() for c in ln.split("|")))) for ln in lines[2:]])
+        tables += tables_in("".join(cell["source"]) if isinstance(cell["source"], list) else cell["source"])
+    return tables
+
+
+def tables_in(text: str) -> list[list[dict]]:
+    """The Markdown tables of a text, each a list of rows ``{header: cell text}``."""
+    tables = []
+    for block in re.findall(r"(?:^\|.*\|[ \t]*\n?)+", text, re.M):
+        lines = [ln.strip().strip("|") for ln in block.strip().splitlines()]
+        header = [h.strip() for h in lines[0].split("|")]
+        tables.append([dict(zip(header, (c.strip() for c in ln.split("|")))) for ln in lines[2:]])
     return tables
 
 
@@ -43,3 +49,24 @@ def test_ch07_the_benchmark_reading_matches_its_table():
     assert all(number(r["median ms/frame"]) < 33 for n, r in rows.items() if n <= 16_000)
     assert number(rows[32_040]["median ms/frame"]) > 33
     assert number(rows[8_004]["p95 ms"]) < 33 < number(rows[16_000]["p95 ms"])
+
+
+def test_ch09_knob_tables_are_the_books_appendix():
+    """Chapter 9 keeps the reading of each knob and links to the book's appendix for the tables: the appendix
+    holds one table per benchmark and knob, every setting of the recorded study once, the baseline marked; the
+    chapter prints no knob table but the settings on the Pareto fronts."""
+    from tissuefem.workbook.bench.accuracy_cost import recorded_results
+    from tissuefem.workbook.book import APPENDIX_PAGE, appendix_cells
+
+    text = (CHAPTERS / "text" / "ch09_accuracy_cost.py").read_text()
+    assert f"](../{APPENDIX_PAGE})" in text
+    code = [ln.strip() for ln in text.splitlines() if not ln.lstrip().startswith("#")]
+    assert [ln for ln in code if ln.startswith("show(")] == ["show([sel[i] for i in front])"]
+    knobs = recorded_results()["knobs"]
+    tables = tables_in("\n\n".join(appendix_cells()))
+    assert len(tables) == len({(r["benchmark"], r["knob"]) for r in knobs})
+    rows = [row for table in tables for row in table]
+    assert sorted((r["benchmark"], r["knob"], r["value"].removesuffix(" (baseline)")) for r in rows) == \
+        sorted((r["benchmark"], r["knob"], str(r["value"])) for r in knobs)
+    assert sum(r["value"].endswith("(baseline)") for r in rows) == sum(r["baseline"] for r in knobs)
+    assert all(len({(r["benchmark"], r["knob"]) for r in table}) == 1 for table in tables)

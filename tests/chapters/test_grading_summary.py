@@ -183,10 +183,11 @@ def test_instructor_mode_refuses_answers_that_import_or_run_the_library_and_acce
     files = {"ch01.py": CH01_IMPORTS_LIBRARY, "ch02.py": CH02_BORROWS_THE_STRESS}
     code, out = _grade(tmp_path / "instructor", files, "--instructor")
     assert code == 1, out
-    # read from the syntax tree: one line per exercise, for all of its checks
-    for label, n in (("1.1 linear_modulus_1d", 4), ("1.2 assemble_stiffness_1d", 4)):
-        rows = _lines_with(out, label, "REFUSED: ch01.py line 2: imports from tissuefem")
-        assert len(rows) == 1 and f"{n} checks" in rows[0], out
+    # read from the syntax tree: one line per function, for all of its checks, naming its own import
+    for label, line, n in (("1.1 linear_modulus_1d", 2, 4), ("1.2 assemble_stiffness_1d", 3, 4)):
+        rows = _lines_with(out, label, f"REFUSED: ch01.py line {line}: imports from tissuefem")
+        assert len(rows) == 1 and f"all {n} checks" in rows[0], out
+        assert _lines_with(out, label, f"0/{n} checks passed", "refused"), out
     # seen while it runs
     rows = _lines_with(out, "2.1 neo_hookean_stress_1d", "REFUSED", "runs the library's code when called",
                        "tissuefem/workbook/answers.py:neo_hookean_stress_1d")
@@ -194,8 +195,68 @@ def test_instructor_mode_refuses_answers_that_import_or_run_the_library_and_acce
     # the student's own work passes: the watch sees numpy, not the library
     assert _lines_with(out, "2.2 neo_hookean_tangent_1d", "4/4 checks passed"), out
     assert _lines_with(out, "2.3 newton_step_1d", "3/3 checks passed"), out
-    assert "failed checks (12)" in out
+    # one failure per refused function, not one per check
+    assert "failed checks (3)" in out
     # the student mode does not look: there the borrowed answers pass
     code, out = _grade(tmp_path / "student", files)
     assert code == 0 and "REFUSED" not in out, out
     assert _lines_with(out, "1.1 linear_modulus_1d", "4/4 checks passed"), out
+
+
+# Chapter 1: the library imported at the top under another name and used by one function; the
+# other function is still the untouched stub.
+CH01_ONE_CHEAT_AT_THE_TOP = """
+import numpy as np
+import tissuefem.workbook.answers as reference
+
+SCALE = 1.0
+
+
+def linear_modulus_1d(lam, mu):
+    return SCALE * reference.linear_modulus_1d(lam, mu)
+
+
+def assemble_stiffness_1d(nodes, modulus):
+    raise NotImplementedError("Exercise 1.2")
+"""
+
+# Chapter 2: the stress imports the answer inside its body, through a helper; the tangent and
+# the Newton step are the untouched stubs.
+CH02_ONE_CHEAT_BESIDE_STUBS = """
+import numpy as np
+
+
+def _answer():
+    from tissuefem.workbook.answers import neo_hookean_stress_1d
+    return neo_hookean_stress_1d
+
+
+def neo_hookean_stress_1d(F, lam, mu):
+    return _answer()(F, lam, mu)
+
+
+def neo_hookean_tangent_1d(F, lam, mu):
+    raise NotImplementedError("Exercise 2.2")
+
+
+def newton_step_1d(nodes, u, lam, mu, traction):
+    raise NotImplementedError("Exercise 2.3")
+"""
+
+
+def test_instructor_mode_refuses_only_the_function_that_uses_the_library(tmp_path):
+    files = {"ch01.py": CH01_ONE_CHEAT_AT_THE_TOP, "ch02.py": CH02_ONE_CHEAT_BESIDE_STUBS}
+    code, out = _grade(tmp_path, files, "--instructor")
+    assert code == 1, out
+    # exactly one failure for each cheat, whatever the number of its checks
+    assert "failed checks (2)" in out, out
+    assert "2 failed" in out.splitlines()[-1], out
+    rows = _lines_with(out, "1.1 linear_modulus_1d", "all 4 checks",
+                       "REFUSED: ch01.py line 3: imports tissuefem", "used by linear_modulus_1d through reference")
+    assert len(rows) == 1, out
+    rows = _lines_with(out, "2.1 neo_hookean_stress_1d", "all 4 checks", "REFUSED: ch02.py line 6: imports from",
+                       "used by neo_hookean_stress_1d through _answer")
+    assert len(rows) == 1, out
+    # the stubs beside the cheats are not attempted, not refused
+    assert "not attempted yet: 1.2, 2.2, 2.3" in out, out
+    assert not _lines_with(out, "1.2 assemble_stiffness_1d", "REFUSED"), out

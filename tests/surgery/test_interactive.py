@@ -81,11 +81,13 @@ def move_along(view, start, end, steps=4):
 
 # ------------------------------------------------------------------ a light face
 def test_import_tissuefem_loads_neither_pyplot_nor_ipython():
-    """The view is imported where it is used: the package itself loads no drawing or notebook machinery."""
+    """The view is imported where it is used: the package loads no drawing or notebook machinery, not even once
+    every name of its face has been resolved (``import tissuefem`` alone loads none of its modules: see
+    ``tests/test_architecture.py``)."""
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(Path(tissuefem.__file__).parents[1]),
                                                        os.environ.get("PYTHONPATH", "")]))
     heavy = {'matplotlib.pyplot', 'IPython', 'meshio', 'scipy.spatial', 'tomllib'}  # loaded where they are used
-    code = f"import sys, tissuefem; print(sorted({heavy!r} & set(sys.modules)))"
+    code = f"import sys, tissuefem; from tissuefem import *; print(sorted({heavy!r} & set(sys.modules)))"
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
     assert out.stdout.split() == ["[]"]
     assert "SurgeryView" not in tissuefem.__all__ and not hasattr(tissuefem, "SurgeryView")
@@ -444,12 +446,13 @@ def test_layered_draw_restores_the_background_and_draws_only_the_moving_layer(ow
 
 def test_text_is_redrawn_at_a_readable_pace_but_a_message_at_once(own):
     fig = own.fig
+    fig.slow_interval = 1e9  # a pace no busy machine can reach: the test does not depend on the clock
     own.draw()
     slow = fig.slow_draws
     for _ in range(3):
         own.step()  # new numbers in the readout ...
         own.draw()
-    assert fig.slow_draws == slow  # ... shown after slow_interval (0.25 s), not at every frame
+    assert fig.slow_draws == slow  # ... shown after slow_interval (0.25 s by default), not at every frame
     own._show("something went wrong")
     own.draw()
     assert fig.slow_draws == slow + 1  # a new message shows at the next draw
@@ -483,7 +486,16 @@ def test_timings_and_the_readout_show_step_and_draw(own):
     own._update_text()
     text = own.status_text.get_text()
     assert f"draw {own.draw_times[-1]:4.1f}" in text and "/ 33 ms" in text and "fps" in text
-    assert "\n" not in text
+    # two lines: the frame's numbers, then its own accuracy
+    numbers, accuracy = text.split("\n")
+    assert "fps" in numbers and accuracy == own.last_report.accuracy
+    assert accuracy.startswith("converged | rel. residual") and "min J" in accuracy and "inverted" in accuracy
+
+
+def test_the_readout_has_one_line_until_the_first_frame(view):
+    assert "\n" not in view.status_text.get_text()
+    report = view.step()
+    assert view.status_text.get_text().splitlines()[1] == report.accuracy
 
 
 def test_draw_in_axes_of_your_own_is_not_timed(view):

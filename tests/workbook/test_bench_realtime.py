@@ -31,6 +31,17 @@ def test_tiny_benchmark_writes_json_and_csv(tmp_path):
     assert len(table) == 2 and "fast_median_ms" in table[0] and "fast_ms" not in table[0]
     text = format_realtime_table(rows)
     assert text.count("\n") == 3 and "speedup" in text
+    # beside the times, the frames' own accuracy
+    for title in ("median rel. residual", "converged", "min J", "inverted", "in budget: min J",
+                  "in budget: inverted", "in budget: left undone"):
+        assert f"| {title} |" in text.splitlines()[0]
+    for row in rows:
+        assert row["fast_converged"] == 1.0 and row["fast_residual"] <= 1e-6
+        assert row["fast_min_J"] > 0 and row["fast_inverted"] == 0 and row["fast_undone"] == "0/4"
+        assert 0 < row["budget_min_J"] and row["budget_inverted"] == 0
+        done, frames = row["budget_undone"].split(" ")[0].split("/")
+        assert frames == "2" and 0 <= int(done) <= 2
+        assert row["budget_undone"] == "0/2" or "(" in row["budget_undone"]  # what was left, named
 
 
 def test_the_ex43_way_and_the_realtime_solver_take_the_same_steps():
@@ -57,4 +68,5 @@ def test_cli_runs_the_realtime_benchmark(tmp_path, capsys):
     assert (tmp_path / "realtime.json").exists()
     # the command line draws the benchmark's figure from its results (the benchmark itself never draws)
     assert (tmp_path / "realtime.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    assert "median [ms]" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "median [ms]" in out and "min J" in out and "in budget: left undone" in out

@@ -23,9 +23,10 @@ import numpy as np
 from . import meshes
 from .constants import FRAME_BUDGET
 from .contact import Contact, ContactSurface
-from .parameters import (ACCELERATION_MAX, FAR, FIBER_STIFFNESS_RANGE, FORCE_MAX, RADIUS_RANGE, TIME_STEP_RANGE,
-                         MAX_POINTS, ParameterError, check_bounded_vector, count_list, number, penalty, points,
-                         require, string, table, vector)
+from .parameters import (ACCELERATION_MAX, CONTACT_STIFFNESS_MAX, FAR, FIBER_STIFFNESS_RANGE, FORCE_MAX, RADIUS_RANGE,
+                         TIME_STEP_RANGE, YOUNGS_MODULUS_RANGE, MAX_POINTS, ParameterError, check_bounded_vector,
+                         check_contact_stiffness, count_list, number, penalty, points, require, string, table,
+                         vector)
 from .terms import Fibers, Inertia, Load, Probe, Sutures, Term, traction_vector
 
 __all__ = ["Effect", "EFFECTS", "register", "factory", "keyword_terms", "SkinContact", "median_segment"]
@@ -243,7 +244,8 @@ def _check_contact(field, e):
     if "distance" in e:
         out["distance"] = number(f"{field}.distance", e["distance"], positive=True, hi=FAR)
     if "stiffness" in e:
-        out["stiffness"] = penalty(f"{field}.stiffness", e["stiffness"], positive=True)
+        out["stiffness"] = number(f"{field}.stiffness", e["stiffness"], positive=True,
+                                  hi=CONTACT_STIFFNESS_MAX * YOUNGS_MODULUS_RANGE[1])  # against E: when built
     return out
 
 
@@ -256,6 +258,8 @@ def _contact(model, p, scene):
         table("contact", p, ("distance", "stiffness", "surface", "skin"))
         require("contact", p, ("distance", "stiffness"))
         surface = ContactSurface.from_mesh(model.mesh) if p.get("surface") is None else p["surface"]
+        lam, mu = model.material.lam, model.material.mu
+        check_contact_stiffness("contact.stiffness", p["stiffness"], mu * (3.0 * lam + 2.0 * mu) / (lam + mu))
         return Contact(model.X, surface, p["distance"], p["stiffness"], p.get("skin"))
     surface = ContactSurface.from_mesh(model.mesh)
     default, median = "distance" not in p, median_segment(surface, model.X)
@@ -265,6 +269,7 @@ def _contact(model, p, scene):
                                                  f"median segment length ({0.5 * median:g}): the skin is a thin layer "
                                                  "of the surface")
     stiffness = p.get("stiffness", CONTACT_STIFFNESS * scene.material["youngs_modulus"])
+    check_contact_stiffness("contact.stiffness", stiffness, scene.material["youngs_modulus"])
     return SkinContact(model.X, surface, distance, stiffness, default=default)
 
 

@@ -350,7 +350,9 @@ def fusiform_fiber_field(mesh, length=None, max_width=None, tendon_width=None) -
 class MeshMap:
     """A new ``mesh`` and the maps back to the old one after a cut or an excision: ``parent``, the old node of each
     new node; ``elements``, the old element of each new element; the old sizes; ``weights``, the share of its
-    triangle's area each new element's material fills (a cut through elements), or None."""
+    triangle's area each new element's material fills (a cut through elements), or None; ``material``, per new node
+    whether the copy has material at its place (a virtual node of a cut through elements has none, so it holds
+    nothing: :meth:`~tissuefem.engine.model.Handle.remap`), or None: every node has."""
 
     mesh: MeshTri
     parent: np.ndarray
@@ -358,6 +360,7 @@ class MeshMap:
     n_old_nodes: int
     n_old_elements: int
     weights: np.ndarray | None = None
+    material: np.ndarray | None = None
 
     def contact_surface(self):
         """The new contact surface where the operation knows it better than the boundary (a cut through elements),

@@ -17,11 +17,14 @@ import itertools
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.sparse import csgraph
 
 from .assembly import make_assembler
 from .constants import TISSUE_DENSITY
 from .contact import Contact
 from .effects import as_terms, keyword_terms
+from .materials import det2
+from .meshes import index_list
 from .parameters import (REACH, ParameterError, call_user, check_bounded_vector, check_count, check_density,
                          check_indices, check_real, check_real_array, check_vector, is_sequence)
 from .terms import (Elastic, ElementTerm, Inertia, Load, Probe, SummedDensity, Sutures, Term,
@@ -152,15 +155,23 @@ class Handle:
         """Set a new target (a translation or a map): user input enters here, checked; a refusal keeps the old."""
         self.target = _check_target(target, self._points, f"handle {self.name!r} target", self._reach)
 
-    def remap(self, parent) -> "Handle | None":
+    def remap(self, parent, material=None) -> "Handle | None":
         """The same handle on a mesh whose node ``i`` comes from old node ``parent[i]`` (a cut or an excision): every
-        copy of a held node is held, with its parent's base displacement; ``None`` if none survives."""
+        copy of a held node that has material at its place (``material[i]``, bools; ``None``: all have) is held, with
+        its parent's base displacement; ``None`` if none survives. A virtual node (a copy in cut elements none of
+        which has material at that corner) holds nothing: the piece it belongs to was cut free of the handle."""
         if self.nodes is None:
             raise ValueError("remap: the handle is not part of a model yet")
         parent = np.asarray(parent, dtype=np.intp)
         where = np.full(max(int(parent.max(initial=0)), int(self.nodes.max())) + 1, -1, dtype=np.intp)
         where[self.nodes] = np.arange(self.nodes.size)
         index = where[parent]
+        if material is not None:
+            material = np.asarray(material)
+            if material.dtype != bool or material.shape != parent.shape:
+                raise ParameterError("material", f"material must be one bool per new node, shape {parent.shape}, "
+                                                 f"got dtype {material.dtype} and shape {material.shape}")
+            index = np.where(material, index, -1)
         new_nodes = np.flatnonzero(index >= 0)
         if new_nodes.size == 0:
             return None
@@ -508,16 +519,37 @@ class Model(Holding):
     def remapped(self, meshmap, state=()) -> tuple["Model", tuple]:
         """This model on the mesh of a topology change (a :class:`~tissuefem.engine.meshes.MeshMap`: a cut or an
         excision), and ``state`` (dof vectors; ``None`` stays ``None``), each copy of a node taking its parent's
-        values. Terms are carried by their ``remap`` (dropped if nothing survives), handles by :meth:`Handle.remap`;
-        the elastic term is the new model's own, with the weights of ``meshmap``. P1 only."""
+        values. Terms are carried by their ``remap`` (dropped if nothing survives), handles by :meth:`Handle.remap`
+        (the copies with material at their place, ``meshmap.material``); the elastic term is the new model's own, with
+        the weights of ``meshmap``. P1 only."""
         if self.order != 1:
             raise ParameterError("order", "remapped: a topology change needs P1 elements (order=1)")
         carried = [t.remap(meshmap) for t in self.terms if not isinstance(t, Elastic)]
-        handles = [m for m in (h.remap(meshmap.parent) for h in self.handles) if m is not None]
+        handles = [m for m in (h.remap(meshmap.parent, meshmap.material) for h in self.handles) if m is not None]
         model = Model(meshmap.mesh, self.material, order=1, intorder=self.intorder, assembly=self.assembly,
                       density=self.density, weights=meshmap.weights, handles=handles,
                       terms=[t for t in carried if t is not None])
+        if self.handles and not model.dynamic:  # a quasistatic body needs a hold on every piece
+            if not model.handles:
+                raise ParameterError("handles", "remapped: a quasistatic model needs at least one handle; this change "
+                                                "leaves none (a dynamic model would let the body fall)")
+            free = model.unheld_nodes()
+            if free.size:
+                raise ParameterError("handles", f"remapped: this change leaves nodes {index_list(free)} in pieces no "
+                                                "handle holds, which have no quasistatic equilibrium; remove them "
+                                                "(an excision) or make the model dynamic")
         return model, tuple(None if s is None else meshmap.transfer_dofs(s) for s in state)
+
+    def unheld_nodes(self) -> np.ndarray:
+        """The mesh vertices (sorted) of the pieces no handle holds: the pieces of the model's sparsity pattern (the
+        mesh, joined by the couplings of the terms: sutures) with no held dof (in a quasistatic model their stiffness
+        matrix is singular)."""
+        graph = self.pattern.csr(np.ones(self.pattern.nnz))
+        _, labels = csgraph.connected_components(graph, directed=False)
+        held = np.zeros(labels.max() + 1, dtype=bool)
+        for h in self.handles:
+            held[labels[h._dofs]] = True
+        return np.flatnonzero(~held[labels[self.basis.nodal_dofs[0]]])
 
     def terms_of(self, kind) -> list:
         return [t for t in self.terms if isinstance(t, kind)]
@@ -647,6 +679,11 @@ class Model(Holding):
         """``F = I + grad u``: ``[2, 2, n_elements]`` for P1, ``[2, 2, n_elements, n_points]`` otherwise."""
         return self.assembler.deformation_gradient(self._check_u(u))
 
+    def jacobian(self, u) -> np.ndarray:
+        """``J = det F``, the ratio of deformed to rest area: ``(n_elements,)`` for P1, ``(n_elements, n_points)``
+        otherwise. ``J <= 0``: the element is inverted (or flat) there."""
+        return det2(self.deformation_gradient(u))
+
     def stress(self, u) -> np.ndarray:
         """First Piola-Kirchhoff stress of every element (or quadrature point): the element terms' P summed."""
         F = self.deformation_gradient(u)
@@ -656,7 +693,7 @@ class Model(Holding):
         """Cauchy stress ``sigma = P F^T / J``: the force per unit *deformed* area (see chapter 3)."""
         F = self.deformation_gradient(u)
         P = np.broadcast_to(self._density.stress(F), F.shape)
-        J = F[0, 0] * F[1, 1] - F[0, 1] * F[1, 0]
+        J = det2(F)
         with np.errstate(divide="ignore", invalid="ignore"):
             return np.einsum("ik...,jk...->ij...", P, F) / J
 

@@ -20,9 +20,10 @@ __all__ = [
     "ParameterError", "lame_parameters", "check_young_poisson", "check_poisson_ratio", "check_lame", "check_real",
     "check_real_number", "check_count", "check_positive", "call_user", "check_vector", "check_bounded_vector",
     "check_real_array", "check_indices", "check_reach", "check_weights", "check_fiber_stiffness",
-    "check_time_step", "check_density",
+    "check_time_step", "check_density", "check_contact_stiffness",
     "YOUNGS_MODULUS_RANGE", "POISSON_RATIO_RANGE", "LAME_MAX", "SHEAR_MODULUS_MIN", "TIME_STEP_RANGE",
-    "DENSITY_RANGE", "ACCELERATION_MAX", "FORCE_MAX", "PENALTY_MAX", "REACH", "RADIUS_RANGE",
+    "DENSITY_RANGE", "ACCELERATION_MAX", "FORCE_MAX", "PENALTY_MAX", "CONTACT_STIFFNESS_MAX", "REACH",
+    "RADIUS_RANGE",
     # a scene's tables: each refusal names the field (``effects.probes[0].radius``)
     "show", "number", "is_sequence", "vector", "points", "table", "require", "string", "count_list", "penalty",
     "FAR", "MAX_POINTS", "MAX_STRING", "FIBER_STIFFNESS_RANGE",
@@ -37,6 +38,8 @@ DENSITY_RANGE = (1e-6, 1e6)  #: densities (mass per unit reference area)
 ACCELERATION_MAX = 1e6  #: the largest component of a gravitational acceleration
 FORCE_MAX = 1e12  #: the largest component of a body force (per unit area) or a traction (per unit length)
 PENALTY_MAX = 1e40  #: the largest penalty stiffness of a probe or a suture
+#: the stiffest self-contact, in Young's moduli (:func:`check_contact_stiffness` says why)
+CONTACT_STIFFNESS_MAX = 1e4
 REACH = 1e3  #: points and displacements lie within ``REACH`` domain sizes (of the domain's centre, for points)
 RADIUS_RANGE = (1e-6, 1e3)  #: radii (probes, grabs), in domain sizes
 
@@ -175,6 +178,20 @@ def check_time_step(dt, name: str = "dt") -> float:
 def check_density(rho, name: str = "density") -> float:
     """A density (mass per unit reference area) within :data:`DENSITY_RANGE`."""
     return check_real(name, rho, *DENSITY_RANGE)
+
+
+def check_contact_stiffness(name: str, stiffness, modulus) -> float:
+    """A self-contact stiffness (a pressure) in ``(0, CONTACT_STIFFNESS_MAX * modulus]``, ``modulus`` the material's
+    Young's modulus. Stiffer buys nothing visible (at a pressure of ``modulus`` a point sinks under 1 % of the skin's
+    depth at the bound) and the barrier's energy swamps the elastic energy's round-off: the line search cannot see
+    the tissue any more, frames stop converging, and from about ``1e16`` moduli nodes are thrown across the scene."""
+    hi = CONTACT_STIFFNESS_MAX * modulus
+    value = check_real_number(name, stiffness)
+    if not (math.isfinite(value) and 0.0 < value <= hi):
+        raise ParameterError(name, f"{name} must be in (0, {hi:g}] ({CONTACT_STIFFNESS_MAX:g} times Young's modulus "
+                                   f"{modulus:g}: stiffer, the contact's energy hides the elastic energy in "
+                                   f"round-off and the solver throws nodes), got {show(stiffness)}")
+    return value
 
 
 def check_bounded_vector(name: str, value, bound: float) -> np.ndarray:

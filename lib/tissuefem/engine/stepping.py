@@ -19,7 +19,10 @@ notes' ``q`` of "Time stepping", with the README's errata), without inertia the 
    :class:`~.linsolve.LinearSolver` reuses a factorization across iterations *and* steps;
 4. **commit**: a converged iterate becomes ``u^{n+1}`` (``v^{n+1} = (u^{n+1} - u^n)/dt``). An unconverged step
    keeps the state, or with ``anytime=True`` (the real-time loop) commits the last accepted iterate (finite,
-   no higher in energy than the start).
+   no higher in energy than the start);
+5. **report**: every :class:`StepReport` says how far its result is from the solution it promises: the relative
+   residual, the energy decrease, whether it converged, the smallest ``J = det F`` and the number of inverted
+   elements, and what it left undone (:class:`Undone`); :attr:`StepReport.accuracy` puts them on one line.
 
 :func:`solve`: the quasistatic solve of chapters 3 to 6, load steps ramping the loads and the handles.
 """
@@ -38,7 +41,7 @@ from .model import Model
 from .parameters import (ParameterError, call_user, check_count, check_indices, check_real, check_real_array,
                          check_time_step)
 
-__all__ = ["Stepper", "StepReport", "StaticResult", "solve"]
+__all__ = ["Stepper", "StepReport", "Undone", "StaticResult", "solve", "accuracy_summary"]
 
 #: The residual's round-off level, relative to the body's force scale (see :func:`_roundoff_floors`).
 _ROUNDOFF = 1e-13
@@ -47,9 +50,45 @@ MAX_ITERATIONS = 100_000
 MAX_LOAD_STEPS = 100_000
 
 
+@dataclass(frozen=True)
+class Undone:
+    """What a step (frame) left for the ones after it; false when nothing. ``stopped``: why Newton stopped short of
+    its tolerance (a status of :data:`~.minimize.STATUSES`; ``None``: it converged), after ``newton_steps`` at
+    ``relative_residual``; ``handles``: the share of the handles' motion not made (``1 - handle_fraction``);
+    ``committed``: False when the state was kept (an offline step that failed)."""
+
+    stopped: str | None = None
+    newton_steps: int = 0
+    relative_residual: float = 0.0
+    handles: float = 0.0
+    committed: bool = True
+
+    def __bool__(self):
+        return self.stopped is not None or self.handles > 0.0 or not self.committed
+
+    def __str__(self):
+        if not self:
+            return "nothing"
+        parts = []
+        if self.stopped is not None:
+            parts.append(f"stopped ({self.stopped}) after {self.newton_steps} Newton steps at relative residual "
+                         f"{self.relative_residual:.1e}")
+        if self.handles > 0.0:
+            parts.append(f"handles {self.handles:.0%} short")
+        if not self.committed:
+            parts.append("state kept")
+        return "; ".join(parts)
+
+
 @dataclass
 class StepReport:
-    """What one step (or real-time frame) did: the one report type of every solve of a model."""
+    """What one step (or real-time frame) did: the one report type of every solve of a model.
+
+    Its accuracy, measured at the result ``x`` (the new state if committed): :attr:`converged`,
+    :attr:`relative_residual`, :attr:`energy_decrease`, ``min_J`` (the smallest ``det F`` over the elements'
+    points) and ``inverted`` (elements with ``J <= 0`` somewhere), :attr:`undone`; :attr:`accuracy` is all of
+    them on one line.
+    """
 
     newton: NewtonResult
     step: int  # step (frame) number after this one, from 1; unchanged when nothing was committed
@@ -60,13 +99,16 @@ class StepReport:
     warm_start: str = "previous"  # "accelerating", "inertial", "linearised" or "previous"
     committed: bool = True  # whether the state moved to the result
     crossed: int = 0  # surface points found through the surface when the step started (self-contact)
+    min_J: float = math.nan  # the smallest J = det F at x (over elements, or quadrature points)
+    inverted: int = 0  # elements with J <= 0 at x (at any of their points)
+    residual_scale: float = 0.0  # what the tolerance is relative to (see relative_residual)
 
     contact_status = property(lambda self: "crossed" if self.crossed else "clear",
                               doc="``crossed``: the step started with surface points through the surface.")
 
     #: the Newton solve's results, passed on (``x``: the last accepted iterate, the new state if committed)
     FORWARDED = ("x", "converged", "status", "linear_iterations", "factorizations", "residual_norm",
-                 "initial_residual", "relative_residual", "energy", "start_energy", "line_search_cuts",
+                 "initial_residual", "energy", "start_energy", "line_search_cuts",
                  "history", "energies", "residual_norms", "table")
 
     def __getattr__(self, name):
@@ -82,11 +124,78 @@ class StepReport:
     iterations = newton_iterations
     frame = property(lambda self: self.step)
 
+    @property
+    def relative_residual(self) -> float:
+        """``||g(x)||`` over ``residual_scale``, the residual the tolerance is relative to: the largest of
+        ``||g(x0)||``, the load a quasistatic step's linearised start balances, and the round-off level over
+        ``rtol``. A step converged if it is ``<= rtol`` (with ``atol = 0``). Not the Newton solve's own ratio
+        ``||g(x)|| / ||g(x0)||``, which a good start or a body at rest (``g(x0)`` at round-off) makes large."""
+        return self.residual_norm / self.residual_scale if self.residual_scale > 0 else 0.0
+
+    @property
+    def energy_decrease(self) -> float:
+        """``E(x0) - E(x)``: how much the solve lowered the step's potential from its warm start (``>= 0`` under the
+        energy line search); NaN when an energy is unknown."""
+        start, end = self.newton.start_energy, self.newton.energy
+        return math.nan if start is None or end is None else float(start) - float(end)
+
+    @property
+    def undone(self) -> Undone:
+        """What this step left for the next ones (:class:`Undone`; false when nothing)."""
+        stopped = None if self.converged else self.status
+        return Undone(stopped, self.newton_iterations, self.relative_residual, 1.0 - self.handle_fraction,
+                      self.committed)
+
+    @property
+    def accuracy(self) -> str:
+        """The step's accuracy on one line: converged (or why and after how many Newton steps it stopped), the
+        relative residual, the energy decrease ``dE = E(x) - E(x0)``, the smallest J, the inverted elements, and
+        what else was left undone (the handles' motion, a kept state)."""
+        undone = self.undone
+        head = "converged" if self.converged else f"{self.status} after {self.newton_iterations} Newton"
+        rest = [f"handles {undone.handles:.0%} short"] if undone.handles > 0.0 else []
+        rest += [] if self.committed else ["state kept"]
+        return " | ".join([head, f"rel. residual {self.relative_residual:.1e}", f"dE {-self.energy_decrease:.1e}",
+                           f"min J {self.min_J:.3f}", f"{self.inverted} inverted", *rest])
+
     def __repr__(self):
         crossed = f", {self.crossed} points through the surface" if self.crossed else ""
         return (f"StepReport(step {self.step}, {self.status}, {self.newton_iterations} Newton, "
                 f"residual {self.residual_norm:.3g} (from {self.initial_residual:.3g}), {1e3 * self.elapsed:.1f} ms"
                 f"{crossed})")
+
+
+def accuracy_summary(reports) -> dict:
+    """The accuracy of a run of steps (frames), for a benchmark's columns: ``relative_residual`` (the median),
+    ``converged`` (the share that converged), ``min_J`` (the smallest), ``inverted`` (the most in one step),
+    ``undone`` (how many left something undone), ``steps`` and ``undone_reasons`` (what they left, sorted).
+    ``reports``: step reports, or anything with their ``relative_residual, converged, min_J, inverted, undone``."""
+    reports = list(reports)
+    reasons = set()
+    for r in reports:
+        undone = r.undone
+        reasons |= {undone.stopped} - {None}
+        reasons |= {"handles short"} if undone.handles > 0.0 else set()
+        reasons |= set() if undone.committed else {"state kept"}
+    if not reports:
+        return {"relative_residual": math.nan, "converged": math.nan, "min_J": math.nan, "inverted": 0,
+                "undone": 0, "steps": 0, "undone_reasons": []}
+    return {"relative_residual": float(np.median([r.relative_residual for r in reports])),
+            "converged": float(np.mean([r.converged for r in reports])),
+            "min_J": float(min(r.min_J for r in reports)), "inverted": int(max(r.inverted for r in reports)),
+            "undone": int(sum(bool(r.undone) for r in reports)), "steps": len(reports),
+            "undone_reasons": sorted(reasons)}
+
+
+def jacobian_extremes(model: Model, x) -> tuple[float, int]:
+    """``(min_J, inverted)`` at ``x``: the smallest ``J = det F`` and the number of elements with ``J <= 0`` (or
+    not finite) at any of their points."""
+    with np.errstate(all="ignore"):
+        J = model.jacobian(x)
+    bad = ~(J > 0.0)
+    if J.ndim > 1:
+        bad = bad.any(axis=tuple(range(1, J.ndim)))
+    return float(np.min(J)) if J.size else math.nan, int(np.count_nonzero(bad))
 
 
 def _positive(name, value, allow_inf=False) -> float:
@@ -311,6 +420,7 @@ class Stepper:
             model.end_step()
         result.factorizations += pre
         commit = result.converged or (self.anytime and np.all(np.isfinite(result.x)))
+        min_J, inverted = jacobian_extremes(model, result.x)  # the report's accuracy, timed with the step
         elapsed = self._clock() - start  # read before the commit: nothing after it can raise
         if commit:
             if dt is not None:
@@ -320,7 +430,8 @@ class Stepper:
             self.u = result.x
             self.steps += 1
         self.last_report = StepReport(result, self.steps, self.time, elapsed, self._budget, fraction, which,
-                                       bool(commit), crossed)
+                                       bool(commit), crossed, min_J, inverted,
+                                       max(result.initial_residual, load_norm, self.floor / self.rtol))
         return self.last_report
 
     frame = step

@@ -55,7 +55,7 @@ from .surfaces import contact_surface
 from .topology import MeshEdit, excise
 
 __all__ = ["Region", "Wound", "ElementCut", "cut_through", "excise_through", "Picture", "picture", "locate",
-           "firm_anchor", "carry_points", "lumped_mass", "material_areas"]
+           "firm_anchor", "carry_points", "lumped_mass", "material_areas", "node_material"]
 
 #: A stroke closer than this (times the median edge length) to a node is moved onto it (step 1 above).
 _NODE_SNAP = 1e-6
@@ -464,6 +464,24 @@ class ElementCut(MeshEdit):
                            min_weight=min_weight)
 
 
+def node_material(mesh, regions) -> np.ndarray | None:
+    """Whether each node of a mesh cut through its elements (material ``regions``) has material at its place: some
+    element at it is whole or holds its material at that corner. A *virtual* node (every element at it has its
+    material elsewhere) has none, and holds nothing (:attr:`~tissuefem.engine.meshes.MeshMap.material`). ``None``
+    when no element is cut: every node has."""
+    if not regions:
+        return None
+    p, t = mesh_arrays(mesh)
+    at_corner = np.ones(t.shape, dtype=bool)  # (3, m): has the element material at each of its corners
+    corners = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+    for e, region in regions.items():
+        vertices = np.concatenate(region.polygons)  # a corner in the material is a vertex of its polygon
+        at_corner[:, e] = (np.abs(vertices[None, :, :] - corners[:, None, :]) <= EPS).all(axis=2).any(axis=1)
+    material = np.zeros(p.shape[1], dtype=bool)
+    material[t[at_corner]] = True
+    return material
+
+
 def material_areas(mesh, weights=None) -> np.ndarray:
     """Reference area of every element's material: triangle area times weight, shape (n_elements,)."""
     _, t = mesh_arrays(mesh)
@@ -594,7 +612,8 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
         touches[:, e] = [bool(iv) for iv in touch]
     cut_mesh = carry_names(mesh, new_mesh(p[:, parent], new_t), parent, elements, touches)
     return ElementCut(mesh=cut_mesh, parent=parent, elements=elements, cut_edges=cut_edges, n_old_nodes=n,
-                      n_old_elements=m, weights=new_w, regions=new_regions, wound=wound)
+                      n_old_elements=m, weights=new_w, regions=new_regions, wound=wound,
+                      material=node_material(cut_mesh, new_regions))
 
 
 def _number_nodes(t, n, key, side, affected, piece_ids, touched):
@@ -720,7 +739,8 @@ def excise_through(mesh, polygon, positions=None, weights=None, regions=None, mi
     regions = {new: first.regions[old] for new, old in enumerate(keep.tolist()) if old in first.regions}
     return ElementCut(mesh=second.mesh, parent=first.parent[second.parent], elements=first.elements[keep],
                       cut_edges=first.cut_edges, n_old_nodes=first.n_old_nodes, n_old_elements=first.n_old_elements,
-                      weights=first.weights[keep], regions=regions, wound=wound)
+                      weights=first.weights[keep], regions=regions, wound=wound,
+                      material=node_material(second.mesh, regions))
 
 
 # --- what to draw ---

@@ -408,7 +408,13 @@ class SurgeryView:
         return self.draw_times[-1] if len(self.draw_times) > n else None
 
     def _update_text(self) -> None:
+        """The readout: the frame's numbers, and under them its accuracy (``StepReport.accuracy``: converged, the
+        relative residual, the energy decrease, the smallest J, the inverted elements, what was left undone)."""
         self.readout.update(self.gestures.mode, self.message, self.last_report, getattr(self.sim, "frames", 0))
+        accuracy = getattr(self.last_report, "accuracy", None)
+        if accuracy:
+            numbers = self.status_text.get_text().split("\n")[0]
+            self.status_text.set_text(f"{numbers}\n{accuracy}")
 
     def _show(self, message: str) -> None:
         self.message = message

@@ -447,18 +447,22 @@ def _carried(edit, model, regions, keep_loose):
     the model is carried by (the material's weights and regions after it, the stages of its stitches) and how
     many pieces were lifted out."""
     weights, regions = _material_after(edit, model.weights, regions)
+    material = element_cuts.node_material(edit.mesh, regions)  # the virtual nodes hold nothing
     stages, pieces = [(edit, regions)], 0
     if not keep_loose:
         stitches = model.sutures
         ends = None if stitches is None else Stitches.carry(stitches.ends_spec(), edit, regions)
-        edit, lift, pieces = _drop_loose_pieces(edit, None if ends is None else ends["elements"], model.handles)
-        if lift is not None:  # the elements that stay, of those the edit made
+        edit, lift, pieces = _drop_loose_pieces(edit, None if ends is None else ends["elements"], model.handles,
+                                                material)
+        if lift is not None:  # the elements that stay, of those the edit made (a kept node keeps all of them)
             kept = lift.elements
             weights = None if weights is None else weights[kept]
             regions = {int(new): regions[int(old)] for new, old in enumerate(kept.tolist()) if int(old) in regions}
+            material = None if material is None else material[lift.parent]
             stages.append((lift, regions))
     carried = _Carried(mesh=edit.mesh, parent=edit.parent, elements=edit.elements, n_old_nodes=edit.n_old_nodes,
-                       n_old_elements=edit.n_old_elements, weights=weights, regions=regions, stages=tuple(stages))
+                       n_old_elements=edit.n_old_elements, weights=weights, material=material, regions=regions,
+                       stages=tuple(stages))
     return edit, carried, pieces
 
 
@@ -499,11 +503,12 @@ def _new_stitches(mesh, x, pairs, k, field, check_point, weights, regions) -> di
             "gaps": (at[0] - at[1])[:, keep], "tightness": np.zeros(int(keep.sum()))}
 
 
-def _drop_loose_pieces(edit, stitch_elements, handles):
-    """Quasistatic scenes: lift out the pieces nothing holds (no handle, no suture to a held piece), which have no
-    equilibrium, as a surgeon lifts out what was cut free. Returns ``(edit, lift, pieces)``: the edit with them
-    removed, the excision of its mesh that lifts them out (``None``: nothing to lift) and how many pieces went."""
-    loose, pieces = _loose_elements(edit.mesh, edit.parent, stitch_elements, handles)
+def _drop_loose_pieces(edit, stitch_elements, handles, material=None):
+    """Quasistatic scenes: lift out the pieces nothing holds (no handle at a node with material there, no suture to a
+    held piece), which have no equilibrium, as a surgeon lifts out what was cut free. Returns ``(edit, lift,
+    pieces)``: the edit with them removed, the excision of its mesh that lifts them out (``None``: nothing to lift)
+    and how many pieces went."""
+    loose, pieces = _loose_elements(edit.mesh, edit.parent, stitch_elements, handles, material)
     if not pieces:
         return edit, None, 0  # nothing to drop (or nothing held at all: _check_held reports it)
     second = topology.excise(edit.mesh, lambda centroids: loose.copy())
@@ -513,18 +518,22 @@ def _drop_loose_pieces(edit, stitch_elements, handles):
     return merged, second, pieces
 
 
-def _loose_elements(mesh, parent, stitch_elements, handles):
+def _loose_elements(mesh, parent, stitch_elements, handles, material=None):
     """``(loose, pieces)``: which elements of ``mesh`` lie in pieces nothing holds, and how many pieces (0 when all
-    or none are held). ``parent`` maps its nodes to the mesh of the ``handles``; ``stitch_elements`` ``(2, k)``: the
-    elements of the stitches' ends on ``mesh``."""
+    or none are held; a piece held at a single node is not). ``parent`` maps its nodes to the mesh of the
+    ``handles``, ``material`` tells the nodes with material at their place (:meth:`Handle.remap`);
+    ``stitch_elements`` ``(2, k)``: the elements of the stitches' ends on ``mesh``."""
     t = mesh.t
     links = None if stitch_elements is None else t[0, stitch_elements]  # a stitch joins its ends' pieces
     _, labels = topology.connected_components(t, mesh.nvertices, links)
-    held = np.zeros(labels.max() + 1, dtype=bool)
+    places = [np.zeros((2, 0), dtype=np.int64)]  # (piece, old node) of every held node
     for h in handles:
-        moved = h.remap(parent)
+        moved = h.remap(parent, material)
         if moved is not None:
-            held[labels[moved.nodes]] = True
+            places.append(np.stack([labels[moved.nodes], np.asarray(parent)[moved.nodes]]))
+    pinned = np.unique(np.hstack(places), axis=1)[0]
+    # a piece held at one point only (a cut ending on the handle's node) turns freely about it: no equilibrium either
+    held = np.bincount(pinned, minlength=labels.max() + 1) >= 2
     loose = ~held[labels[t[0]]]
     if not np.any(loose) or np.all(loose):
         return np.zeros(t.shape[1], dtype=bool), 0

@@ -10,8 +10,10 @@ of an element's nodes; the same combination seen from two elements is one point,
 from __future__ import annotations
 
 import numpy as np
+from skfem import MeshTri
 
 from ..engine.contact import ContactSurface
+from ..engine.parameters import ParameterError
 from .geometry import (FULL_TOUCH, check_regions, edge_intervals, edge_point, edges_of, element_edges,
                        intersect_intervals, mesh_arrays, merge_intervals, pair_keys, region_sides, region_touch,
                        reversed_intervals, subtract_intervals)
@@ -26,6 +28,8 @@ def contact_surface(mesh, weights=None, regions=None) -> ContactSurface:
     """The surface of the material of ``mesh`` with the ``weights`` and ``regions`` of a cut through elements (without
     them: the mesh's boundary), material on the left of each segment; the wound's lips are flagged (sides inside a
     triangle, severed parts of edges, facets named ``"cut"``)."""
+    if not isinstance(mesh, MeshTri):
+        raise ParameterError("mesh", f"mesh must be a triangle mesh (skfem.MeshTri), got {type(mesh).__name__}")
     p, t = mesh_arrays(mesh)
     n, m = p.shape[1], t.shape[1]
     regions, _ = check_regions(regions, weights, m)

@@ -4,7 +4,8 @@ Each chapter becomes one HTML page (nbconvert's HTML exporter, from its executed
 outputs embedded, formulas typeset by a copy of MathJax in the site: no network needed) linked to its
 neighbours, the contents and the errata. The index page is the syllabus: each chapter's goals (from its first
 cell) and time (stated there, :func:`stated_minutes`, or estimated, :func:`estimate_minutes`); a chapter in
-sittings (``chNNa_*``, ``chNNb_*``) shows as "6a", "6b".
+sittings (``chNNa_*``, ``chNNb_*``) shows as "6a", "6b". With chapter 9 comes an appendix page: the tables of
+its recorded study, knob by knob (:func:`appendix_cells`), which the chapter links to instead of printing.
 Every link is relative: copy the folder to any web server, or open ``index.html`` from disk.
 """
 
@@ -25,6 +26,7 @@ import nbformat
 from jinja2 import DictLoader
 from nbconvert import HTMLExporter
 
+from .bench.accuracy_cost import format_knob_table, recorded_results
 from .notebooks import chapter_label, chapter_paths, missing_figures
 
 #: reading speed for the chapters' prose: technical text with equations, about half that of plain prose
@@ -35,6 +37,12 @@ MINUTES_PER_CODE_LINE = 0.2
 MINUTES_PER_EXERCISE = 20
 
 ERRATA_HEADING = "Errata to the lecture notes"
+
+#: the book's appendix: every setting of chapter 9's recorded study in tables, knob by knob (the chapter keeps
+#: the Pareto reading, the verification and the recommendations; it links here)
+APPENDIX_PAGE = "appendix_ch09_knobs.html"
+APPENDIX_TITLE = "Appendix: chapter 9, knob by knob"
+APPENDIX_CHAPTER = "ch09_accuracy_cost"
 
 #: where the site keeps its copy of MathJax (2.7, from the ``jupyter-server-mathjax`` package), and the
 #: configuration it loads: TeX and AMS macros, HTML-CSS output with its web fonts, in safe mode
@@ -243,7 +251,8 @@ class _Links:
 
     def __init__(self, root: Path, outdir: Path, chapter_pages: dict[str, str], readme: Path):
         self.root, self.outdir, self.chapter_pages, self.readme = root, outdir, chapter_pages, readme
-        self.site_pages = {"index.html", "errata.html", *chapter_pages.values()}
+        appendix = {APPENDIX_PAGE} if f"{APPENDIX_CHAPTER}.ipynb" in chapter_pages else set()
+        self.site_pages = {"index.html", "errata.html", *appendix, *chapter_pages.values()}
         self.warnings: list[str] = []
 
     def __call__(self, page_html: str, page: str, source_dir: Path) -> str:
@@ -351,7 +360,42 @@ def syllabus_cells(chapters: list[Chapter], intro: str) -> list[str]:
         parts.append(f"### {c.label or i}. [{c.title}]({c.page})\n\n*About {c.minutes} min"
                      + (f", and {c.exercises} exercise{'s' if c.exercises != 1 else ''}*" if c.exercises else "*")
                      + f"\n\nBy the end of this chapter you can\n\n{goals}{status}")
+    if _has_appendix(chapters):
+        parts.append(f"## Appendix\n\n[{APPENDIX_TITLE}]({APPENDIX_PAGE}): every setting of chapter 9's recorded "
+                     "study, one table per benchmark and knob, for reference after the chapter.")
     return parts
+
+
+def _has_appendix(chapters: list[Chapter]) -> bool:
+    return any(c.source.stem == APPENDIX_CHAPTER for c in chapters)
+
+
+def appendix_cells() -> list[str]:
+    """The appendix page's Markdown cells: every setting of the study chapter 9 reads (the recorded run the
+    package ships, :func:`~tissuefem.workbook.bench.accuracy_cost.recorded_results`), one table per benchmark
+    and knob, the baseline marked."""
+    results = recorded_results()
+    machine = results["machine"]
+    chapter = f"chapters/{APPENDIX_CHAPTER}.html"
+    cells = [f"# {APPENDIX_TITLE}",
+             f"The tables behind [chapter 9]({chapter})'s Pareto plots: the recorded study (plan "
+             f"'{results['plan_name']}', {len(results['knobs'])} settings, {results['seconds'] / 60:.0f} minutes "
+             f"on {machine['cpu_count']} cores; python {machine['python']}, numpy {machine['numpy']}, scipy "
+             f"{machine['scipy']}, scikit-fem {machine['scikit-fem']}). Each row is the baseline with one knob "
+             "changed: *ms/frame* is the median wall time of a frame in that one run, *Newton/frame* the mean "
+             "number of Newton iterations, *rel. L2 error* the largest relative $L^2$ distance to the reference "
+             "over the run's checkpoints (chapter 9, sections 1 and 2). The errors are reproducible; the timings "
+             "are one machine's, some taken while other work ran on it: compare them within a table, and read "
+             "the chapter for what they mean."]
+    for benchmark in dict.fromkeys(r["benchmark"] for r in results["knobs"]):
+        rows = [r for r in results["knobs"] if r["benchmark"] == benchmark]
+        tables = [f"## The {benchmark}"]
+        for knob in dict.fromkeys(r["knob"] for r in rows):
+            marked = [dict(r, value=f"{r['value']} (baseline)") if r["baseline"] else r
+                      for r in rows if r["knob"] == knob]
+            tables.append(f"### {benchmark}: {knob}\n\n{format_knob_table(marked)}")
+        cells.append("\n\n".join(tables))
+    return cells
 
 
 # --- the site -----------------------------------------------------------------------------------
@@ -415,6 +459,9 @@ def build_book(chapters_dir, executed_dir, outdir, readme=None, exercises_dir=No
     errata = _markdown_notebook(ERRATA_HEADING, [f"# {ERRATA_HEADING}\n\n"
                                                  + readme_section(readme_text, ERRATA_HEADING)])
     write("errata.html", _render(exporter, errata, "errata.html", chapters, links, root))
+    if _has_appendix(chapters):
+        appendix = _markdown_notebook(APPENDIX_TITLE, appendix_cells())
+        write(APPENDIX_PAGE, _render(exporter, appendix, APPENDIX_PAGE, chapters, links, root))
     if progress:
         for warning in links.warnings:
             progress(f"[book] warning: {warning}")

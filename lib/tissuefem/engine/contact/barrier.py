@@ -20,11 +20,13 @@ limit step after step without converging. With ``y`` the points, the Hessian is
 
 import numpy as np
 
+from ..parameters import check_real_array
+
 
 def barrier(zeta):
     """``(beta, beta', beta'')`` at ``zeta``: ``-(zeta - 1)^2 ln(zeta)`` on ``(0, 1)``, zero from 1 on (all three
     vanish at 1: the barrier starts twice differentiably; the caller never passes ``zeta <= 0``)."""
-    z = np.asarray(zeta, dtype=float)
+    z = check_real_array("zeta", zeta)
     inside = (z > 0.0) & (z < 1.0)
     zz = np.where(inside, z, 1.0)
     log, m = np.log(zz), zz - 1.0

@@ -9,7 +9,7 @@ coordinate arrays) serve the other contact modules.
 import numpy as np
 from skfem import MeshTri
 
-from ..parameters import ParameterError, check_count, check_real_array
+from ..parameters import ParameterError, check_count, check_real_array, show
 
 
 def cross(u, v):
@@ -29,6 +29,13 @@ def segment_distance(y, ya, yb):
     return np.hypot(*(w - t * e))
 
 
+def _array(field, value) -> np.ndarray:
+    try:
+        return np.asarray(value)
+    except (TypeError, ValueError):  # ragged lists
+        raise _refused(field, f" must be a rectangular array, got {show(value)}") from None
+
+
 def _refused(field, message) -> ParameterError:
     name = f"contact.surface.{field}"
     return ParameterError(name, name + message)
@@ -45,7 +52,7 @@ class ContactSurface:
 
     def __init__(self, nodes, weights, segments, n_nodes, wound=None):
         self.n_nodes = check_count("contact.surface.n_nodes", n_nodes)
-        nodes = np.asarray(nodes)
+        nodes = _array("nodes", nodes)
         nodes = nodes[:, None] if nodes.ndim == 1 else nodes
         if nodes.ndim != 2 or nodes.shape[1] < 1 or nodes.size and (not np.issubdtype(nodes.dtype, np.integer)
                                                                     or nodes.min() < 0 or nodes.max() >= self.n_nodes):
@@ -55,7 +62,7 @@ class ContactSurface:
         weights = weights[:, None] if weights.ndim == 1 else weights
         if weights.shape != nodes.shape or not np.all(np.isfinite(weights)):
             raise _refused("weights", f" must be finite and shaped like the nodes {nodes.shape}, got {weights!r}")
-        segments, n_points = np.asarray(segments), nodes.shape[0]
+        segments, n_points = _array("segments", segments), nodes.shape[0]
         if segments.ndim != 2 or segments.shape[0] != 2 or segments.size and (
                 not np.issubdtype(segments.dtype, np.integer) or segments.min() < 0 or segments.max() >= n_points):
             raise _refused("segments", f" must be point indices in 0..{n_points - 1} shaped (2, n_segments), got "
@@ -65,9 +72,10 @@ class ContactSurface:
         self.nodes, self.weights, self.segments = nodes.astype(np.intp), weights, segments.astype(np.intp)
         self._plain = nodes.shape[1] == 1 and bool(np.all(weights == 1.0))  # every point a node
         self.n_points, self.n_segments = n_points, n_seg = nodes.shape[0], self.segments.shape[1]
-        self.wound = np.zeros(n_seg, dtype=bool) if wound is None else np.asarray(wound, dtype=bool)
-        if self.wound.shape != (n_seg,):
-            raise _refused("wound", f" must be one bool per segment ({n_seg}), got {self.wound.shape}")
+        self.wound = np.zeros(n_seg, dtype=bool) if wound is None else _array("wound", wound)
+        if self.wound.shape != (n_seg,) or (n_seg and self.wound.dtype.kind not in "biu"):
+            raise _refused("wound", f" must be one bool per segment ({n_seg}), got {show(wound)}")
+        self.wound = self.wound.astype(bool)
         # the loops: the segment leaving each segment's end (unique, or none)
         a, b = self.segments
         leaving, arriving = np.full(n_points, -1, dtype=np.intp), np.full(n_points, -1, dtype=np.intp)
@@ -104,7 +112,9 @@ class ContactSurface:
 
     def positions(self, x) -> np.ndarray:
         """The points at node positions ``x`` (2, n_nodes): shape (2, n_points)."""
-        x = np.asarray(x)
+        x = check_real_array("x", x)
+        if x.ndim != 2 or x.shape[0] != 2 or x.shape[1] != self.n_nodes:
+            raise ParameterError("x", f"x must be node positions shaped (2, {self.n_nodes}), got shape {x.shape}")
         if self._plain:
             return x[:, self.nodes[:, 0]]
         y = self.weights[:, 0] * x[:, self.nodes[:, 0]]

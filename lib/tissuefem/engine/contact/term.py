@@ -3,7 +3,8 @@
 import numpy as np
 
 from ..meshes import MeshMap
-from ..parameters import ParameterError, check_real
+from ..parameters import (CONTACT_STIFFNESS_MAX, YOUNGS_MODULUS_RANGE, ParameterError, check_real,
+                          check_real_array)
 from ..terms import Term
 from .barrier import barrier, gap_derivatives
 from .candidates import CandidatePairs
@@ -14,8 +15,9 @@ from .surface import ContactSurface, segment_distance
 class Contact(Term):
     """Self-contact of a :class:`ContactSurface` at the reference node positions ``X`` (2, n_nodes): a one-sided
     barrier in the skin behind it. ``distance``: ``d^``, the skin's depth (the largest overlap), at most half the
-    median segment length; ``stiffness``: ``kappa``, a pressure; ``skin``: the Verlet list's margin (default: the
-    median segment length). ``pairs``: the :class:`~.candidates.CandidatePairs`; ``offset``: the rest offsets."""
+    median segment length; ``stiffness``: ``kappa``, a pressure (at most 1e16; a model allows 1e4 Young's moduli);
+    ``skin``: the Verlet list's margin (default: the median segment length). ``pairs``: the
+    :class:`~.candidates.CandidatePairs`; ``offset``: the rest offsets."""
 
     name = "contact"
     has_safe_hessian = True
@@ -24,13 +26,17 @@ class Contact(Term):
         if not isinstance(surface, ContactSurface):
             raise ParameterError("contact.surface",
                                  f"contact.surface must be a ContactSurface, got {type(surface).__name__}")
-        X = np.asarray(X, dtype=float)
-        if X.ndim != 2 or X.shape[0] != 2 or X.shape[1] != surface.n_nodes:
+        X = check_real_array("X", X)
+        if X.ndim != 2 or X.shape[0] != 2 or not np.all(np.isfinite(X)):
+            raise ParameterError("X", f"X must be finite node positions shaped (2, n_nodes), got shape {X.shape}")
+        if X.shape[1] != surface.n_nodes:
             raise ParameterError("contact.surface", f"contact.surface combines {surface.n_nodes} nodes but the mesh "
-                                                    f"has {X.shape[-1] if X.ndim == 2 else '?'}")
+                                                    f"has {X.shape[1]}")
         self.X, self.n_nodes, self.surface = X, X.shape[1], surface
         self.distance = check_real("contact.distance", distance, 0.0, lo_open=True)
-        self.stiffness = check_real("contact.stiffness", stiffness, 0.0, lo_open=True)
+        # (against the material's Young's modulus where the model is built: parameters.check_contact_stiffness)
+        stiffest = CONTACT_STIFFNESS_MAX * YOUNGS_MODULUS_RANGE[1]
+        self.stiffness = check_real("contact.stiffness", stiffness, 0.0, stiffest, lo_open=True)
         Y, (a, b) = surface.positions(X), surface.segments
         self.rest_length = np.hypot(*(Y[:, b] - Y[:, a]))
         if np.any(self.rest_length <= 1e-12 * max(1.0, float(np.ptp(X)))):
@@ -65,8 +71,13 @@ class Contact(Term):
     def describe(self):
         return f"contact: {self.surface.n_segments} segments, d^ = {self.distance:g}, kappa = {self.stiffness:g}"
 
-    def _points(self, u) -> np.ndarray:
-        return self.surface.positions(self.X + np.asarray(u)[: 2 * self.n_nodes].reshape(-1, 2).T)
+    def _points(self, u, name="u") -> np.ndarray:
+        u = np.asarray(u)
+        if u.ndim != 1 or u.size < 2 * self.n_nodes or u.dtype.kind not in "iuf":
+            u = check_real_array(name, u)  # names what is not a real array
+            raise ParameterError(name, f"{name} must be a displacement vector of at least {2 * self.n_nodes} real "
+                                       f"numbers, got shape {u.shape}")
+        return self.surface.positions(self.X + u[: 2 * self.n_nodes].reshape(-1, 2).T)
 
     def _evaluate(self, u):
         """The active pairs at ``u``, cached by the points: their point ``p``, segment ``s``, ``keys``, ``rows`` (in
@@ -183,7 +194,7 @@ class Contact(Term):
         self.pairs.start_step(Y)
         through_p, through_s = self._through
         if previous is not None:
-            p, s = crossings(self.pairs, self._points(previous), Y)
+            p, s = crossings(self.pairs, self._points(previous, "previous"), Y)
             through_p, through_s = np.concatenate([through_p, p]), np.concatenate([through_s, s])
         if through_p.size:
             _, _, sigma = self.pairs.classify(lambda i: Y[:, i], through_p, through_s)
@@ -202,7 +213,10 @@ class Contact(Term):
     def max_step(self, u, du) -> float:
         """The largest fraction of the step ``u -> u + du`` free of crossings (:func:`~.collision.step_fraction`)."""
         Y0 = self._points(u)
-        return step_fraction(self.pairs, Y0, self._points(np.asarray(u) + np.asarray(du)) - Y0)
+        du = np.asarray(du)
+        if du.shape != np.shape(u):
+            raise ParameterError("du", f"du must be shaped like u {np.shape(u)}, got {du.shape}")
+        return step_fraction(self.pairs, Y0, self._points(np.asarray(u) + du, "du") - Y0)
 
     def active_pairs(self, u) -> np.ndarray:
         """The (point, segment) pairs in contact at ``u``: shape (2, m)."""

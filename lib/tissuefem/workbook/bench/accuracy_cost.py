@@ -26,7 +26,7 @@ from ...engine.meshes import flap
 from ...engine.model import Handle, Model
 from ...engine.parameters import check_count, check_real, string
 from ...engine.realtime import RealtimeSolver
-from ...engine.stepping import solve
+from ...engine.stepping import accuracy_summary, solve
 from ...surgery.scene import Scene, flap_path, flap_scene
 from ...surgery.simulation import Simulation
 from ..verification import beam_problem_tip, manufactured_convergence
@@ -197,7 +197,7 @@ def _drive(solver, benchmark: str, frames: int, substeps: int, checkpoints=(), d
     :func:`run_setting`."""
     fields = ("newton_iterations", "linear_iterations", "factorizations", "converged", "relative_residual",
               "handle_fraction")
-    states, ms, records = {}, [], []
+    states, ms, records, accuracy = {}, [], [], []
     for f in range(1, frames + 1):
         spent = 0.0
         for s in range(1, substeps + 1):
@@ -206,6 +206,7 @@ def _drive(solver, benchmark: str, frames: int, substeps: int, checkpoints=(), d
             report = solver.frame({"handle": target})
             spent += report.elapsed
             records.append([getattr(report, k) for k in fields])  # not the report: it holds the state
+            accuracy.append(_Accuracy(report))
         ms.append(1e3 * spent)
         if f in checkpoints:
             states[f] = solver.u.copy()
@@ -222,7 +223,19 @@ def _drive(solver, benchmark: str, frames: int, substeps: int, checkpoints=(), d
         "handle_fraction_min": float(np.min(each["handle_fraction"])),
         "finite": bool(np.all(np.isfinite(solver.u))),
     }
+    # each frame's own accuracy: the smallest J, the most inverted elements, the frames that left work undone
+    summary = accuracy_summary(accuracy)
+    stats.update({"min_J": summary["min_J"], "inverted": summary["inverted"], "undone_frames": summary["undone"],
+                  "undone_reasons": summary["undone_reasons"]})
     return states, stats
+
+
+class _Accuracy:
+    """A frame report's accuracy without its state (a run keeps thousands of frames)."""
+
+    def __init__(self, report):
+        self.relative_residual, self.converged = report.relative_residual, report.converged
+        self.min_J, self.inverted, self.undone = report.min_J, report.inverted, report.undone
 
 
 def _reference_model(benchmark: str, triangles: int, grading: float, substeps: int = 1) -> Model:
@@ -396,7 +409,7 @@ def knob_sweep(benchmark: str, plan: dict, reference, knobs=None, progress=None)
             if progress:
                 progress(f"  {benchmark:5s} {knob:16s} {str(value):18s} "
                          f"{row.get('ms_median', float('nan')):8.1f} ms/frame  error {row['error']:.2e}"
-                         + (f"  FAILED: {row['failed']}" if row["failed"] else ""))
+                         + (f"  FAILED: {row['failed']}" if row["failed"] else f"  {_accuracy_text(row)}"))
     return rows
 
 
@@ -446,13 +459,15 @@ def budget_residual(sizes, frames: int, solvers=("reuse",), budget: float = FRAM
             M = _l2_gram(model)
             rows.append({"solver": solver, "triangles": int(model.mesh.t.shape[1]), "dofs": int(model.n_dofs),
                          "budget_ms": 1e3 * budget, "converged_share": stats["converged_share"],
-                         "residual_median": stats["residual_median"], "ms_median": stats["ms_median"],
+                         "residual_median": stats["residual_median"], "min_J": stats["min_J"],
+                         "inverted": stats["inverted"], "undone_frames": stats["undone_frames"],
+                         "ms_median": stats["ms_median"],
                          "ms_p95": stats["ms_p95"],
                          "state_error": _relative_same_mesh(M, states[frames], converged_states[frames])})
             if progress:
                 r = rows[-1]
-                progress(f"  budget {solver:8s} {r['triangles']:6d} triangles  converged {r['converged_share']:.0%}  "
-                         f"median residual {r['residual_median']:.1e}  state error {r['state_error']:.1e}")
+                progress(f"  budget {solver:8s} {r['triangles']:6d} triangles  {r['ms_median']:8.1f} ms/frame  "
+                         f"{_accuracy_text(r)}  state error {r['state_error']:.1e}")
     return rows
 
 
@@ -597,7 +612,15 @@ def recorded_results() -> dict:
 
 _TABLE = [("benchmark", "benchmark", "{}"), ("knob", "knob", "{}"), ("value", "value", "{}"),
           ("triangles", "triangles", "{:d}"), ("dofs", "dofs", "{:d}"), ("ms_median", "ms/frame", "{:.1f}"),
-          ("newton", "Newton/frame", "{:.2f}"), ("error", "rel. L2 error", "{:.2e}")]
+          ("newton", "Newton/frame", "{:.2f}"), ("error", "rel. L2 error", "{:.2e}"),
+          ("converged_share", "converged", "{:.0%}"), ("residual_median", "median rel. residual", "{:.1e}"),
+          ("min_J", "min J", "{:.3f}"), ("inverted", "inverted", "{:d}")]
+
+
+def _accuracy_text(row) -> str:
+    """A run's accuracy as its frames reported it, for a progress line."""
+    return (f"converged {row['converged_share']:.0%}  median rel. residual {row['residual_median']:.1e}  "
+            f"min J {row['min_J']:.3f}  {row['inverted']} inverted  {row['undone_frames']} frames left work undone")
 
 
 def format_knob_table(rows) -> str:

@@ -2,7 +2,10 @@
 
 The standard flap scene, per mesh size: its real-time solver unbudgeted (**fast**) and with the 1/30 s budget
 (**budgeted**), scikit-fem's hyperelasticity example's way (:func:`ex43_frames`) and a frame's floor
-(:func:`frame_floor`). Compare columns of one run (``docs/benchmarks.md``).
+(:func:`frame_floor`). Beside the times, each way's accuracy as its frames report it
+(:func:`~tissuefem.engine.stepping.accuracy_summary`): the median relative residual, the share converged, the
+smallest ``J`` and the most inverted elements, and for budgeted frames what they left undone. Compare columns of
+one run (``docs/benchmarks.md``).
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ from ...engine.constants import FRAME_BUDGET, TISSUE_DENSITY, TISSUE_E, TISSUE_N
 from ...engine.forms import residual_form, tangent_form
 from ...engine.linsolve import LinearSolver
 from ...engine.parameters import check_count
+from ...engine.stepping import accuracy_summary
 from ...surgery.scene import flap_path, flap_scene
 from ...surgery.simulation import Simulation
 from ..measure import median_time
@@ -115,9 +119,21 @@ _TABLE = [
     ("fast_cg", "CG/frame", "{:.1f}"), ("fast_factorizations", "factorizations", "{:d}"),
     ("floor_ms", "floor [ms]", "{:.1f}"), ("frame_over_floor", "frame / floor", "{:.1f}x"),
     ("ex43_median_ms", "ex43 way [ms]", "{:.0f}"), ("ex43_newton", "ex43 Newton/frame", "{:.2f}"),
+    ("fast_residual", "median rel. residual", "{:.1e}"), ("fast_converged", "converged", "{:.0%}"),
+    ("fast_min_J", "min J", "{:.3f}"), ("fast_inverted", "inverted", "{:d}"),
     ("speedup", "speedup", "{:.1f}x"), ("budget_converged", "in budget: converged", "{:.0%}"),
-    ("budget_residual", "in budget: median rel. residual", "{:.1e}"),
+    ("budget_residual", "in budget: median rel. residual", "{:.1e}"), ("budget_min_J", "in budget: min J", "{:.3f}"),
+    ("budget_inverted", "in budget: inverted", "{:d}"), ("budget_undone", "in budget: left undone", "{}"),
 ]
+
+
+def _accuracy_columns(prefix: str, reports) -> dict:
+    """The accuracy of a run of frames as the row's ``<prefix>_...`` columns (``left undone``: how many frames of
+    how many left work to later ones, and what)."""
+    a = accuracy_summary(reports)
+    undone = f"{a['undone']}/{a['steps']}" + (f" ({', '.join(a['undone_reasons'])})" if a["undone"] else "")
+    return {f"{prefix}_residual": a["relative_residual"], f"{prefix}_converged": a["converged"],
+            f"{prefix}_min_J": a["min_J"], f"{prefix}_inverted": a["inverted"], f"{prefix}_undone": undone}
 
 
 def format_realtime_table(rows) -> str:
@@ -153,7 +169,8 @@ def realtime_benchmark(sizes=(2000, 8000, 16000, 32000), frames: int = 90, basel
                "fast_cg": float(np.mean([r.linear_iterations for r in reports])),
                "fast_factorizations": int(sum(r.factorizations for r in reports)),
                "fast_all_converged": bool(all(r.converged for r in reports)), "fast_ms": ms.tolist(),
-               **floor, "frame_over_floor": float(np.median(ms)) / floor["floor_ms"]}
+               **floor, "frame_over_floor": float(np.median(ms)) / floor["floor_ms"],
+               **_accuracy_columns("fast", reports)}
         if baseline_frames:
             base_ms, base_its, u_base = ex43_frames(flap_simulation(n).model, min(baseline_frames, frames))
             same = ms[: base_ms.size]
@@ -164,13 +181,13 @@ def realtime_benchmark(sizes=(2000, 8000, 16000, 32000), frames: int = 90, basel
                         "max_state_difference": float(np.max(np.abs(fast_u - u_base))), "ex43_ms": base_ms.tolist()})
         if budget_frames:
             _, budgeted = _fast_frames(n, budget_frames, budget=FRAME_BUDGET, linear_solver=linear_solver)
-            row.update({"budget_ms": FRAME_BUDGET * 1e3,
-                        "budget_converged": float(np.mean([r.converged for r in budgeted])),
-                        "budget_residual": float(np.median([r.relative_residual for r in budgeted])),
+            row.update({"budget_ms": FRAME_BUDGET * 1e3, **_accuracy_columns("budget", budgeted),
                         "budget_p95_ms": float(np.percentile([1e3 * r.elapsed for r in budgeted], 95))})
         rows.append(row)
         say(f"  median {row['fast_median_ms']:.1f} ms/frame ({row['fast_fps']:.0f} fps), "
-            f"{row['fast_newton']:.2f} Newton/frame, {row['frame_over_floor']:.1f}x the floor"
+            f"{row['fast_newton']:.2f} Newton/frame, {row['frame_over_floor']:.1f}x the floor; median rel. residual "
+            f"{row['fast_residual']:.1e}, {row['fast_converged']:.0%} converged, min J {row['fast_min_J']:.3f}, "
+            f"{row['fast_inverted']} inverted"
             + (f"; ex43 way {row['ex43_median_ms']:.0f} ms ({row['speedup']:.1f}x)" if baseline_frames else ""))
 
     say(format_realtime_table(rows))

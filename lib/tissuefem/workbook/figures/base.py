@@ -14,8 +14,10 @@ import numpy as np
 from matplotlib.animation import FuncAnimation, PillowWriter
 from matplotlib.figure import Figure
 
+from ...engine.constants import TISSUE_E
+
 __all__ = ["lecture_figure", "save", "shown", "at_least", "whole_pixels", "matplotlib_note", "ANIMATION_MIN_WIDTH",
-           "animation_figure", "save_animation", "frame_axes"]
+           "animation_figure", "save_animation", "frame_axes", "stress_label", "STRESS_UNITS"]
 
 #: the resolution of every saved figure
 DPI = 110
@@ -29,6 +31,16 @@ FIGURES_MATPLOTLIB = "3.11"
 #: significant digits of the data a figure draws: round-off (another numpy, BLAS or processor) changes a
 #: later digit, which drawn unrounded could move a line by a fraction of a pixel and change the PNG's bytes.
 SHOWN_DIGITS = 3
+
+
+#: what a stress axis or colour bar says of its unit: the models are dimensionless, a stress is a number in
+#: the units Young's modulus is given in (the tissue's E, :data:`~tissuefem.engine.constants.TISSUE_E`)
+STRESS_UNITS = f"same units as E = {TISSUE_E:g}"
+
+
+def stress_label(what: str, units: str = STRESS_UNITS, sep: str = " ") -> str:
+    """An axis or colour-bar label for a stress: ``what``, then its unit (``sep="\\n"``: on a line of its own)."""
+    return f"{what}{sep}({units})"
 
 
 def lecture_figure(func: Callable) -> Callable:

@@ -13,10 +13,11 @@ from ...surgery.element_cuts import picture as element_picture
 from ...surgery.surfaces import contact_surface
 from ..procedures import (CRACK, CRACK_MESHES, FLAP_MESHES, VIRTUAL_NODES_STROKE, crack_opening, crack_runs,
                           flap_comparison, fold_run, overlap_area, pressed_cut_run, virtual_nodes_run)
-from .base import frame_axes, lecture_figure, shown
+from .base import frame_axes, lecture_figure, shown, stress_label
 from .surgery import TENSION_CMAP, tension_colorbar, tension_norm
 
-__all__ = ["fig_ch10_virtual_nodes", "fig_ch10_cut_through", "fig_ch10_flaps", "fig_ch10_contact", "draw_picture"]
+__all__ = ["fig_ch10_virtual_nodes", "fig_ch10_cut_through", "fig_ch10_flaps", "fig_ch10_contact", "draw_picture",
+           "cut_pieces", "content_window"]
 
 
 def draw_picture(ax, sim, values=None, norm=None, *, color="0.88", lw=0.2, outline=True):
@@ -34,6 +35,14 @@ def draw_picture(ax, sim, values=None, norm=None, *, color="0.88", lw=0.2, outli
         segments = x[:, picture.edges].transpose(2, 1, 0)
         ax.add_collection(LineCollection(segments, colors=[(0.0, 0.0, 0.0, 0.3)], linewidths=lw))
     return coll
+
+
+def cut_pieces(cut) -> tuple[int, int]:
+    """``(copies, whole)``: of the elements a cut through elements touches (``cut.regions``), the copies that
+    hold part of a triangle (weight < 1) and the triangles left whole (the crack tip's, where the stroke ends)."""
+    touched = np.array(sorted(cut.regions), dtype=int)
+    partial = cut.weights[touched] < 1
+    return int(partial.sum()), int((~partial).sum())
 
 
 @lecture_figure
@@ -64,9 +73,12 @@ def fig_ch10_virtual_nodes() -> Figure:
     ax.plot(*shown(x[:, ~real]), "o", mfc="white", mec="C0", ms=6, mew=1.3,
             label=f"virtual nodes ({int((~real).sum())})")
     frame_axes(ax, (-0.1, 2.25), (-0.12, 1.15))
-    ax.legend(fontsize=7.5, loc="lower right")
-    ax.set_title(f"(b) cut, pulled open: {cut.size} elements hold part of a triangle "
-                 f"({sim.mesh.nelements - t_old.shape[1]} copies)", fontsize=9)
+    # below the axes: inside, the legend would hide a node
+    ax.legend(fontsize=7.5, loc="upper center", bbox_to_anchor=(0.5, 0.0), ncols=2, frameon=False)
+    copies, whole = cut_pieces(edit)
+    split = len(np.unique(edit.elements[cut[edit.weights[cut] < 1]]))
+    ax.set_title(f"(b) cut, pulled open: {split} triangles split into {copies} copies that each hold part "
+                 f"of one;\n{whole} whole triangle{'s' if whole != 1 else ''} at the crack tip", fontsize=9)
     fig.suptitle("Chapter 10: the virtual node algorithm, up close", fontsize=10)
     return fig
 
@@ -129,7 +141,7 @@ def fig_ch10_flaps(runs=None) -> Figure:
             ax.plot(pos, shown(p95), "k_", ms=14, mew=2)
         ax.plot([], [], "k_", ms=10, mew=2, label="95th percentile, patch")
         ax.set_xticks(np.arange(len(FLAP_MESHES)), [f"{n} triangles" for n in FLAP_MESHES], fontsize=8)
-        ax.set_ylabel("tension", fontsize=8)
+        ax.set_ylabel(stress_label("tension"), fontsize=8)
         ax.tick_params(labelsize=7.5)
         top = max(max(r.flap_tension, r.p95_tension) for (f, _, _), r in runs.items() if f == name)
         ax.set_ylim(0.0, 1.45 * top)
@@ -143,17 +155,29 @@ def fig_ch10_flaps(runs=None) -> Figure:
     return fig
 
 
+def content_window(positions, margin=0.04):
+    """``(xlim, ylim)`` around every node of ``positions`` (a list of ``[2, nodes]`` arrays), with a ``margin``
+    of the larger side, rounded outwards to 0.01 (a round-off in the positions moves no limit)."""
+    x = np.concatenate([np.asarray(p, dtype=float) for p in positions], axis=1)
+    pad = margin * float(np.max(np.ptp(x, axis=1)))
+    return tuple((float(np.floor((x[d].min() - pad) * 100) / 100), float(np.ceil((x[d].max() + pad) * 100) / 100))
+                 for d in range(2))
+
+
 @lecture_figure
 def fig_ch10_contact() -> Figure:
     """Chapter 10: self-contact: a strip folded onto itself (:func:`~tissuefem.workbook.procedures.fold_run`)
     and a crack pressed shut (:func:`~tissuefem.workbook.procedures.pressed_cut_run`), without and with
     contact."""
-    fig = Figure(figsize=(12.0, 6.2), layout="constrained")
-    axes = fig.subplots(2, 2, height_ratios=[0.8, 1.0])
-    windows = [((0.5, 2.2), (-0.15, 0.45)), ((0.45, 1.65), (0.1, 1.15))]
-    for i, run in enumerate((fold_run, pressed_cut_run)):
-        for j, contact in enumerate((False, True)):
-            mesh, regions, model, u = run(contact)
+    runs = [[run(contact) for contact in (False, True)] for run in (fold_run, pressed_cut_run)]
+    # one window a row, around the whole body in both its panels: nothing leaves the axes
+    windows = [content_window([model.positions(u) for _, _, model, u in row]) for row in runs]
+    fig = Figure(figsize=(12.0, 6.6), layout="constrained")
+    axes = fig.subplots(2, 2, height_ratios=[max(0.4, (y[1] - y[0]) / (x[1] - x[0])) for x, y in windows])
+    for i, row in enumerate(runs):
+        window = windows[i]
+        for j, (mesh, regions, model, u) in enumerate(row):
+            contact = j == 1
             x = model.positions(u)
             picture = element_picture(mesh, regions)
             points = shown(picture.points(x))
@@ -165,7 +189,7 @@ def fig_ch10_contact() -> Figure:
             y = shown(surface.positions(x))
             a, b = surface.segments
             ax.add_collection(LineCollection(np.stack([y[:, a].T, y[:, b].T], axis=1), colors="k", linewidths=0.6))
-            frame_axes(ax, *windows[i])
+            frame_axes(ax, *window)
             overlap = overlap_area(picture, x)
             what = ("a strip folded onto itself", "a crack pressed shut, sheared")[i]
             state = "with contact" if contact else "no contact"

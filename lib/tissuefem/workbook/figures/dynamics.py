@@ -194,7 +194,7 @@ STATE_ROUND_OFF = 1e-12
 def fig_ch07_budget_residual(rows=None) -> Figure:
     """Chapter 7: residual and state error left when a frame stops after 1, 2 or 3 Newton steps, by mesh size."""
     rows = capped_runs() if rows is None else rows
-    fig = Figure(figsize=(9.0, 3.8), layout="constrained")
+    fig = Figure(figsize=(9.0, 4.1), layout="constrained")
     ax_r, ax_e = fig.subplots(1, 2)
     for cap, marker in zip(CAPS, "os^"):
         sel = [r for r in rows if r["cap"] == cap]
@@ -215,5 +215,6 @@ def fig_ch07_budget_residual(rows=None) -> Figure:
     for ax in (ax_r, ax_e):
         ax.grid(True, which="both", alpha=0.3)
         ax.xaxis.set_minor_formatter(NullFormatter())
-        ax.legend(fontsize=8, loc="center right")
+    # one legend for both panels, below them: inside, it would lie over the curves
+    fig.legend(*ax_r.get_legend_handles_labels(), fontsize=8, loc="outside lower center", ncols=len(CAPS))
     return fig

@@ -6,7 +6,7 @@ import numpy as np
 from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 
-from .base import frame_axes, lecture_figure
+from .base import frame_axes, lecture_figure, stress_label
 from ...engine.meshes import fusiform_fiber_field, fusiform_muscle, fusiform_width
 from ..fibers import (K_FIBER, block_pull, confined_pull, fiber_direction, muscle_pull, predicted_confined_modulus)
 
@@ -88,7 +88,7 @@ def fig_ch05_along_vs_across() -> Figure:
     top.suptitle("the strip at stretch 1.3 (dashed: rest shape; red: deformed fibers $\\mathbf{F}\\mathbf{g}$)",
                  fontsize=9)
     ax_curve.set(xlabel="stretch (pulled length / rest length)",
-                 ylabel="pulling force / rest height  (average $P_{11}$)",
+                 ylabel=stress_label("force / rest height: mean $P_{11}$"),
                  title="tensile test: clamped ends, free sides")
     ax_curve.grid(alpha=0.3)
     ax_curve.legend(fontsize=8)
@@ -105,7 +105,8 @@ def fig_ch05_along_vs_across() -> Figure:
     ax_mod.annotate("", xy=(2.0, iso + K_FIBER), xytext=(2.0, iso),
                     arrowprops=dict(arrowstyle="<->", color="0.2", lw=1))
     ax_mod.text(5.0, iso + 0.2 * K_FIBER, f"along − across\n= $k$ = {K_FIBER:g}", fontsize=9, va="center")
-    ax_mod.set(xlabel="fiber angle $\\theta$ to the pull (degrees)", ylabel="confined modulus $P_{11}/\\varepsilon$",
+    ax_mod.set(xlabel="fiber angle $\\theta$ to the pull (degrees)",
+               ylabel=stress_label("confined modulus $P_{11}/\\varepsilon$"),
                title="small strain: $\\mathbf{F} = \\mathrm{diag}(1 + \\varepsilon, 1)$ on the boundary",
                xticks=angles)
     ax_mod.grid(alpha=0.3)

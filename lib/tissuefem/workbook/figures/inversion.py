@@ -12,7 +12,7 @@ from matplotlib.patches import Patch
 from ...engine.constants import TISSUE_E, TISSUE_NU
 from ...engine.inversion import diagonal
 from ..hardcases import block, crush_and_release_runs, element_jacobians, inversion_models
-from .base import at_least, frame_axes, lecture_figure
+from .base import at_least, frame_axes, lecture_figure, stress_label
 
 #: fill colours of a triangle that keeps its orientation (J > 0) and of an inverted or flat one (J <= 0)
 UPRIGHT_COLOR, INVERTED_COLOR = "#6baed6", "#d6604d"
@@ -115,7 +115,8 @@ def fig_ch06_itf_energy() -> Figure:
         ax.set(xlim=(s1[0], s1[-1]), xlabel="signed singular value $s_2$ (with $s_1 = 1$)")
         ax.grid(alpha=0.3)
     ax_e.set(ylim=(-500, 12000), ylabel="$\\hat\\Psi(1, s_2)$", title="energy along $s_2$")
-    ax_p.set(ylim=(-20000, 6000), ylabel="$\\partial\\hat\\Psi/\\partial s_2$", title="its slope: the push back")
+    ax_p.set(ylim=(-20000, 6000), ylabel=stress_label("$\\partial\\hat\\Psi/\\partial s_2$"),
+             title="its slope: the push back")
     ax_e.legend(fontsize=7.5, loc="upper right")
     ax_t.axvspan(0.0, c, color="C1", alpha=0.08)
     ax_t.axvline(1.0, color="k", lw=0.6, ls="--")

@@ -16,7 +16,7 @@ from ...engine.meshes import rectangle
 from ..hardcases import twice_signed_areas
 from ..studies import (BLOCK_HANDLE, RECORDED_COST_ACCURACY, bending_gradient, bending_map, rigid_rotation_response,
                        rotated_block, rotation, stretched_block)
-from .base import at_least, lecture_figure, shown
+from .base import at_least, lecture_figure, shown, stress_label
 
 #: one frame at 30 frames per second, in milliseconds
 FRAME_BUDGET_MS = 1e3 * FRAME_BUDGET
@@ -166,7 +166,7 @@ def fig_ch03_rotation_stress() -> Figure:
               label="$2(\\lambda+\\mu)(1-\\cos\\theta)^2$")
     ax_e.set(xlabel="rotation angle $\\theta$ [degrees]", ylabel="energy density $\\Psi(\\mathbf{R}_\\theta)$",
              title="energy of a rigid rotation")
-    ax_p.set(xlabel="rotation angle $\\theta$ [degrees]", ylabel="$|\\mathbf{P}(\\mathbf{R}_\\theta)|$",
+    ax_p.set(xlabel="rotation angle $\\theta$ [degrees]", ylabel=stress_label("$|\\mathbf{P}(\\mathbf{R}_\\theta)|$"),
              title="stress of a rigid rotation")
     for ax in (ax_e, ax_p):
         ax.set_xticks(np.arange(0, 181, 30))

@@ -8,7 +8,7 @@ from matplotlib.figure import Figure
 from ...engine.constants import TISSUE_E, TISSUE_NU
 from ...engine.materials1d import Linear1D, NeoHookean1D, TaylorNeoHookean1D
 from ..oned import convergence_study, newton_histories
-from .base import lecture_figure, shown
+from .base import lecture_figure, shown, stress_label
 
 
 @lecture_figure
@@ -67,7 +67,7 @@ def fig07_neo_hookean_1d() -> Figure:
         ax.axhline(0.0, color="k", lw=0.6)
         ax.set(xlabel="$J = F$", xlim=(J[0], J[-1]))
     ax_e.set(ylim=(-200, 4500), ylabel="energy density $\\Psi$", title="energy")
-    ax_s.set(ylim=(-11000, 3000), ylabel="stress $P = d\\Psi/dF$", title="first Piola-Kirchhoff stress")
+    ax_s.set(ylim=(-11000, 3000), ylabel=stress_label("stress $P = d\\Psi/dF$"), title="first Piola-Kirchhoff stress")
     ax_e.legend(fontsize=8, loc="upper right")
     fig.suptitle(f"Notes' Figure 7: 1D Neo-Hookean, E = {TISSUE_E:g}, nu = {TISSUE_NU:g}")
     return fig

@@ -15,7 +15,7 @@ from matplotlib.patches import Circle
 
 from ...engine.constants import FRAME_BUDGET as FRAME_DT, TISSUE_E, TISSUE_NU  # FRAME_DT: one frame, 1/30 s
 from ..procedures import INCISION_PULL, flap_runs, incision_run, probe_run, two_pieces_run
-from .base import animation_figure, at_least, frame_axes, lecture_figure, save_animation
+from .base import animation_figure, at_least, frame_axes, lecture_figure, save_animation, stress_label
 
 #: the colour map of the tension (largest principal Cauchy stress); centred at zero
 TENSION_CMAP = "RdBu_r"
@@ -56,7 +56,11 @@ def draw_wound(ax, mesh, x, names=("cut", "defect"), **kwargs):
     return ax.add_collection(LineCollection(segments, **options))
 
 
-def tension_colorbar(fig, norm, axes, label="tension: largest principal Cauchy stress", **kwargs):
+#: the tension colour bar's label, its unit on a second line
+TENSION_LABEL = stress_label("tension: largest principal Cauchy stress", sep="\n")
+
+
+def tension_colorbar(fig, norm, axes, label=TENSION_LABEL, **kwargs):
     bar = fig.colorbar(ScalarMappable(norm=norm, cmap=TENSION_CMAP), ax=axes, extend="both", **kwargs)
     bar.set_label(label, fontsize=8)
     bar.ax.tick_params(labelsize=7)
@@ -274,7 +278,8 @@ def fig_ch08_flap(runs=None) -> Figure:
     for L in lengths:
         ax.annotate(f"{runs[L].stitches} stitches", (L, runs[L].flap_tension), xytext=(0, 8),
                     textcoords="offset points", ha="center", fontsize=7)
-    ax.set(xlabel="flap length", ylabel="tension", xticks=lengths, xlim=(lengths[0] - 0.25, lengths[-1] + 0.25),
+    ax.set(xlabel="flap length", ylabel=stress_label("tension"), xticks=lengths,
+           xlim=(lengths[0] - 0.25, lengths[-1] + 0.25),
            ylim=(0.0, 1.25 * max(runs[L].flap_tension for L in lengths)))
     ax.set_title("(c) longer flap, less tension", fontsize=9)
     ax.grid(alpha=0.3)

@@ -8,8 +8,9 @@ import math
 
 import numpy as np
 from matplotlib.figure import Figure
+from matplotlib.ticker import NullFormatter
 
-from .base import lecture_figure, save
+from .base import lecture_figure, save, shown
 from ...engine.constants import FRAME_BUDGET
 from ..verification import manufactured_convergence
 from ..bench.accuracy_cost import recorded_results
@@ -28,6 +29,9 @@ KNOB_STYLE = {
     "time_step": ("tab:pink", "<", "time step: dt = (1/30) / substeps (flap)"),
     "linear_solver": ("tab:gray", "X", "linear solver"),
 }
+
+#: the colours of P1 and P2 in the verification figure
+ORDER_COLORS = ("tab:blue", "tab:red")
 
 SOLVER_LABELS = {
     "reuse": "CG + reused SuperLU (default)",
@@ -64,8 +68,11 @@ def plot_pareto(results, path=None, annotate=True) -> Figure:
     budget = results.get("frame_budget_ms", 1e3 * FRAME_BUDGET)
     titles = {"flap": "Flap scene: backward Euler, dt = 1/30, the drag eased in",
               "block": "Quasistatic block: stretched and sheared in frames"}
+    labels = {ax: [] for ax in axes}
+    marked = {}
     for ax, b in zip(axes, benchmarks):
         sel = [r for r in rows if r["benchmark"] == b and _finite(r)]
+        marked[ax] = [(r["ms_median"], r["error"]) for r in sel]
         for knob, (color, marker, label) in KNOB_STYLE.items():
             pts = [r for r in sel if r["knob"] == knob]
             if not pts:
@@ -74,9 +81,7 @@ def plot_pareto(results, path=None, annotate=True) -> Figure:
                       ls="-" if knob in ("mesh", "P2", "quadrature", "newton_tolerance", "newton_cap", "time_step")
                       else "none", lw=1.2, ms=6, alpha=0.9, label=label)
             if annotate and knob in ("material", "linear_solver", "newton_cap", "time_step"):
-                for r in pts:
-                    ax.annotate(_short(r["value"]), (r["ms_median"], r["error"]), textcoords="offset points",
-                                xytext=(4, 3), fontsize=6.5, color=color)
+                labels[ax] += [(r["ms_median"], r["error"], _short(r["value"]), color) for r in pts]
         front = pareto_front([r["ms_median"] for r in sel], [r["error"] for r in sel], rtol=ERROR_RESOLUTION)
         if front.size:
             fc = [sel[i]["ms_median"] for i in front]
@@ -98,8 +103,61 @@ def plot_pareto(results, path=None, annotate=True) -> Figure:
         for h, label in zip(*ax.get_legend_handles_labels()):
             handles.setdefault(label, h)
     fig.legend(list(handles.values()), list(handles), fontsize=7.5, loc="outside right upper")
+    for ax in axes:
+        if labels[ax]:
+            place_labels(ax, labels[ax], marked[ax])
     save(fig, path)
     return fig
+
+
+#: the gap between a point and its label, and between labels [points]
+LABEL_GAP = 3.0
+
+
+def place_labels(ax, labels, points=(), fontsize=6.5) -> list:
+    """Write each ``(x, y, text, colour)`` of ``labels`` beside its point where it overlaps no other label,
+    no point of ``points`` and no text already in the axes, and stays inside them: right of the point first,
+    then further up or down (joined to its point by a thin line), then on the left. Call it when everything
+    else is drawn: it lays the figure out to know where the points land. Returns the annotations."""
+    fig = ax.get_figure()
+    fig.draw_without_rendering()
+    to_points = 72.0 / fig.dpi
+    x0, y0, x1, y1 = (v * to_points for v in ax.get_window_extent().extents)
+    taken = [tuple(v * to_points for v in t.get_window_extent().extents) for t in ax.texts]
+    marker = 4.0
+    for px, py in ax.transData.transform(np.asarray(points, dtype=float).reshape(-1, 2)) * to_points:
+        taken.append((px - marker, py - marker, px + marker, py + marker))
+    height = 1.15 * fontsize
+    steps = [LABEL_GAP] + [s * (height + LABEL_GAP) for k in range(1, 9) for s in (k, -k)]
+    drawn = []
+    for x, y, text, color in sorted(labels, key=lambda item: (item[0], item[1])):
+        px, py = ax.transData.transform((x, y)) * to_points
+        width = 0.7 * fontsize * len(text)  # a generous average letter: capitals are wide
+        choice = None
+        for dx in (marker, -marker - width):
+            for dy in steps:
+                lo_y = py + dy if dy > 0 else py + dy - height
+                box = (px + dx, lo_y, px + dx + width, lo_y + height)
+                inside = box[0] >= x0 and box[2] <= x1 and box[1] >= y0 and box[3] <= y1
+                padded = (box[0] - LABEL_GAP, box[1] - 1.0, box[2] + LABEL_GAP, box[3] + 1.0)
+                if inside and not any(_overlap(padded, other) for other in taken):
+                    choice = (box, dx, lo_y - py, abs(dy) > LABEL_GAP)
+                    break
+            if choice:
+                break
+        if choice is None:  # nowhere free: beside the point, as before
+            choice = ((px + marker, py, px + marker + width, py + height), marker, LABEL_GAP, False)
+        box, dx, dy, far = choice
+        taken.append(box)
+        leader = dict(arrowstyle="-", lw=0.5, color=color, alpha=0.8, shrinkA=0.5, shrinkB=2.5) if far else None
+        drawn.append(ax.annotate(text, (x, y), xytext=(dx, dy), textcoords="offset points", fontsize=fontsize,
+                                 color=color, ha="left", va="bottom", arrowprops=leader))
+    return drawn
+
+
+def _overlap(a, b) -> bool:
+    """Whether two boxes ``(x0, y0, x1, y1)`` overlap."""
+    return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
 
 
 def plot_scaling(results, path=None) -> Figure:
@@ -179,21 +237,39 @@ def fig_ch09_verification(rows=None) -> Figure:
     rows = manufactured_convergence() if rows is None else rows
     fig = Figure(figsize=(6.4, 4.6), layout="constrained")
     ax = fig.subplots()
-    colors = {"neo-hookean": "tab:blue", "stable-neo-hookean": "tab:orange", "corotated": "tab:green"}
+    models = list(dict.fromkeys(r["model"] for r in rows))
+    orders = sorted({r["order"] for r in rows})
+    # the models' errors agree to about 1 %: one colour per order, one marker per model, drawn from large and
+    # open to small and filled so that every model stays visible on the others
+    marks = [("o", 10, "none"), ("s", 6.5, "none"), ("^", 4, None)]
     for r in rows:
-        ax.loglog(r["h"], r["errors"], "o-" if r["order"] == 1 else "s--", color=colors.get(r["model"], "k"),
-                  label=f"{r['model']}, P{r['order']}: rate {r['fitted_rate']:.2f}")
-    for order in (1, 2):
+        k = models.index(r["model"])
+        marker, size, face = marks[k % len(marks)]
+        color = ORDER_COLORS[orders.index(r["order"]) % len(ORDER_COLORS)]
+        ax.loglog(r["h"], shown(r["errors"]), marker=marker, ms=size, mfc=face if face else color, mec=color,
+                  mew=1.2, color=color, ls="-" if k == 0 else "none", lw=1.2, zorder=3)
+    for i, order in enumerate(orders):
         sel = [r for r in rows if r["order"] == order]
-        if sel:
-            h = np.array(sel[0]["h"])
-            e0 = sel[0]["errors"][0] * 1.6  # the slope line a little above the first curve
-            ax.loglog(h, e0 * (h / h[0]) ** (order + 1), color="0.5", lw=1, ls=":")
-            ax.text(h[-1], e0 * (h[-1] / h[0]) ** (order + 1), f" slope {order + 1}", fontsize=8, color="0.4")
+        color = ORDER_COLORS[i % len(ORDER_COLORS)]
+        h = np.array(sel[0]["h"])
+        e0 = sel[0]["errors"][0] * 2.0  # the slope line above the curve, ending at its coarsest mesh
+        ax.loglog(h, shown(e0 * (h / h[0]) ** (order + 1)), color="0.5", lw=1, ls=":")
+        ax.text(h[0], e0, f"slope {order + 1}  ", fontsize=8, color="0.4", ha="right", va="bottom")
+    for k, model in enumerate(models):
+        marker, size, face = marks[k % len(marks)]
+        ax.plot([], [], marker=marker, ms=size, mfc=face if face else "0.3", mec="0.3", mew=1.2, ls="none",
+                label=model)
+    for i, order in enumerate(orders):
+        rates = ", ".join(f"{r['fitted_rate']:.2f}" for r in rows if r["order"] == order)
+        ax.plot([], [], color=ORDER_COLORS[i % len(ORDER_COLORS)], lw=1.2, label=f"P{order}: rates {rates}")
+    ticks = sorted({h for r in rows for h in r["h"]})
+    ax.set_xticks(ticks, [f"1/{round(1 / h)}" if h < 1 else f"{h:g}" for h in ticks])
+    ax.xaxis.set_minor_formatter(NullFormatter())
+    ax.set_xlim(ticks[0] / 1.6, ticks[-1] * 1.6)
     ax.set(xlabel="h (cell size)", ylabel="relative L2 error vs exact solution",
            title="Manufactured solution (bent arch + its body force)")
     ax.grid(True, which="both", alpha=0.25)
-    ax.legend(fontsize=7.5)
+    ax.legend(fontsize=7.5, loc="lower right", title="models; rates in their order", title_fontsize=7.5)
     return fig
 
 
