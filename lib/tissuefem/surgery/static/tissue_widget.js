@@ -12,13 +12,15 @@
 //   bounds       [xmin, xmax, ymin, ymax]: the world box shown (equal aspect, centred)
 //   target       [x, y] of the drag target, or []; stroke: float32 bytes (k, 2) of the cut stroke being drawn
 //   readout, message, mode ("drag" or "cut"), width, height (CSS pixels)
+//   running      whether the kernel's frame loop runs: the run button shows "pause" (running) or "run" (paused)
+//   disabled     a view that stopped: the buttons and the pointer do nothing
 // Pointer messages to the kernel: {event: "pointer", kind: "down" | "move" | "up", x, y, inside}.
 // A picture is painted with requestAnimationFrame only when something new arrived: nothing runs at rest. The canvas
 // carries the paint count (data-painted), the world-to-pixel map (data-view: [scale, ox, oy], CSS pixels of its
 // content box: px = ox + scale * x, py = oy - scale * y) and, as canvas.tissuefem.log, the last paints' times,
 // drag targets and milliseconds spent, for tests and benchmarks.
 
-const FILL = "#ffe4e1"; // matplotlib's "mistyrose", the matplotlib view's fill
+const FILL = "#ffe4e1"; // matplotlib's "mistyrose", as the static snapshot
 const EDGE = "#b22222"; // "firebrick"
 const TARGET = "#1f77b4"; // "tab:blue"
 
@@ -65,8 +67,17 @@ function render({ model, el }) {
     bar.appendChild(b);
     buttons[mode] = b;
   }
+  const run = document.createElement("button");
+  run.className = "tissuefem-run";
+  run.style.cssText = "font:12px monospace;padding:1px 8px;min-width:7em;";
+  run.addEventListener("click", () => {
+    model.set("running", !model.get("running"));
+    model.save_changes();
+  });
+  bar.appendChild(run);
   const readout = document.createElement("span");
   readout.className = "tissuefem-readout";
+  readout.style.whiteSpace = "pre";
   bar.appendChild(readout);
   const canvas = document.createElement("canvas");
   canvas.className = "tissuefem-canvas";
@@ -102,6 +113,17 @@ function render({ model, el }) {
     const current = model.get("mode");
     for (const [mode, b] of Object.entries(buttons)) b.style.fontWeight = current === mode ? "bold" : "normal";
     canvas.style.cursor = model.get("mode") === "cut" ? "crosshair" : "grab";
+  }
+
+  function showRunning() {
+    // a different symbol and word in each state: what a click does next
+    const running = model.get("running");
+    run.textContent = running ? "\u23F8 pause" : "\u25B6 run";
+    run.title = running ? "pause the frames" : "run a frame every 33 ms while something changes";
+    run.dataset.running = running ? "1" : "0";
+    const off = model.get("disabled");
+    for (const b of [run, ...Object.values(buttons)]) b.disabled = off;
+    canvas.style.opacity = off ? "0.6" : "1";
   }
 
   function size() {
@@ -216,7 +238,9 @@ function render({ model, el }) {
 
   function showReadout() {
     // the kernel's line, and the pictures painted in the last second (counted here: nothing sent for it)
-    readout.textContent = `${model.get("readout")} | ${paintTimes.length} painted/s`;
+    const lines = model.get("readout").split("\n");
+    lines[0] += ` | ${paintTimes.length} painted/s`;
+    readout.textContent = lines.join("\n");
   }
 
   function world(event) {
@@ -233,7 +257,7 @@ function render({ model, el }) {
     model.send({event: "pointer", kind: kind, x: p.x, y: p.y, inside: p.inside});
   }
   const onDown = (event) => {
-    if (event.button !== 0) return;
+    if (event.button !== 0 || model.get("disabled")) return;
     down = true;
     canvas.setPointerCapture(event.pointerId);
     root.focus({preventScroll: true});
@@ -249,7 +273,7 @@ function render({ model, el }) {
     send("up", event);
   };
   const onKey = (event) => {
-    if (event.key === "c") setMode(model.get("mode") === "cut" ? "drag" : "cut");
+    if (event.key === "c" && !model.get("disabled")) setMode(model.get("mode") === "cut" ? "drag" : "cut");
   };
   canvas.addEventListener("pointerdown", onDown);
   canvas.addEventListener("pointermove", onMove);
@@ -282,6 +306,7 @@ function render({ model, el }) {
     request();
   });
   on(["mode"], showMode);
+  on(["running", "disabled"], showRunning);
   on(["readout"], showReadout);
   on(["message"], () => {
     message.textContent = model.get("message");
@@ -290,6 +315,7 @@ function render({ model, el }) {
   size();
   fit();
   showMode();
+  showRunning();
   message.textContent = model.get("message");
   request();
   return () => {
