@@ -28,6 +28,8 @@ import weakref
 
 import numpy as np
 from IPython import get_ipython
+from matplotlib.collections import PolyCollection
+from matplotlib.figure import Figure
 
 from ..engine.meshes import mean_edge_length
 from ..engine.parameters import ParameterError, check_count, check_positive, check_vector, string
@@ -608,9 +610,6 @@ def snapshot(view, ax=None):
     into ``ax`` if given; returns the figure."""
     if not isinstance(view, SurgeryView):
         raise ParameterError("view", f"view must be a SurgeryView, got {type(view).__name__}")
-    from matplotlib.collections import PolyCollection
-    from matplotlib.figure import Figure
-
     fig = Figure(figsize=(7.0, 4.5), layout="constrained") if ax is None else ax.figure
     ax = fig.add_subplot() if ax is None else ax
     a = view.widget.arrays()
