@@ -1,6 +1,7 @@
-"""The browser-drawn view (tissuefem.surgery.widget) in JupyterLab in headless Chromium, with real mouse actions.
+"""The live view (tissuefem.surgery.interactive, drawn by tissuefem.surgery.widget) in JupyterLab in headless
+Chromium, with real mouse actions; its helpers serve ``test_browser.py`` (chapter 8's own cells) too.
 
-A notebook made here shows a :class:`~tissuefem.surgery.widget.BrowserView` of chapter 8's sheet; the test drags
+A notebook made here shows a :class:`~tissuefem.surgery.interactive.SurgeryView` of chapter 8's sheet; the test drags
 the tissue on the widget's canvas and checks that it moved (the positions in the kernel) and that the page painted
 frames (the canvas's own counter), then cuts it with a stroke. Without Chromium, chromium-driver or anywidget it
 skips, saying what to install.
@@ -39,10 +40,10 @@ CHAPTER_TRIANGLES = 2000
 
 VIEW_CELL = """\
 from tissuefem import Simulation, demo_scene
-from tissuefem.surgery.widget import BrowserView
+from tissuefem.surgery.interactive import SurgeryView
 
 sim = Simulation(demo_scene(n_triangles={triangles}))
-view = BrowserView(sim)
+view = SurgeryView(sim)
 view
 """
 
@@ -84,7 +85,7 @@ def widget_missing() -> str | None:
 def notebook(triangles):
     nb = nbformat.v4.new_notebook()
     nb.cells = [nbformat.v4.new_code_cell(VIEW_CELL.format(triangles=int(triangles)))]
-    nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3", "language": "python"}
+    nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3 (ipykernel)", "language": "python"}
     return nb
 
 
