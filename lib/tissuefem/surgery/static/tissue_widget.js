@@ -238,6 +238,8 @@ function render({ model, el }) {
 
   function showReadout() {
     // the kernel's line, and the pictures painted in the last second (counted here: nothing sent for it)
+    const now = performance.now(); // a paused or resting view paints nothing: its count falls to 0
+    while (paintTimes.length && paintTimes[0] < now - 1000) paintTimes.shift();
     const lines = model.get("readout").split("\n");
     lines[0] += ` | ${paintTimes.length} painted/s`;
     readout.textContent = lines.join("\n");
