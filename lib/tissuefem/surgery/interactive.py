@@ -74,8 +74,8 @@ def _cell_origin():
 
 def take_over(view) -> None:
     """Make ``view`` the live view of its simulation and of its notebook cell: a view of the same simulation stops
-    (disconnected, saying why), one that the same cell made in an earlier run closes (its output is gone); (``sim``, ``closed``, ``disconnect()``, ``close()``; :meth:`SurgeryView.disconnect`
-    and the browser view's leave the registry themselves)."""
+    (disconnected, saying why), one that the same cell made in an earlier run closes (its output is gone).
+    :meth:`SurgeryView.disconnect` leaves the registry (:func:`let_go`)."""
     view._origin = _cell_origin()
     for old in [v for v in _VIEWS if not v.closed]:
         if old.sim is view.sim:
@@ -92,8 +92,8 @@ def let_go(view) -> None:
 
 
 def one_at_a_time(method):
-    """Run ``method`` holding the view's lock: a frame, an event and a draw never interleave (a kernel may handle a
-    widget's messages on another thread than the timer's: a cut could otherwise rebuild the mesh mid-frame)."""
+    """Run ``method`` holding the view's lock: a frame and an event never interleave (a kernel may handle a
+    widget's messages on another thread than the frame loop's: a cut could otherwise rebuild the mesh mid-frame)."""
 
     @functools.wraps(method)
     def locked(self, *args, **kwargs):
