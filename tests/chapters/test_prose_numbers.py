@@ -110,8 +110,6 @@ DECLARED: list[tuple[str, str, str, str]] = [
     ("ch09_accuracy_cost", "8 000", "input", "P1 on about 8 000 triangles, Neo-Hookean"),
     ("ch09_accuracy_cost", "2 / 3", "reference", "even P2 converges at a rate below 2 there instead of 3 (chapter 4)"),
     ("ch09_accuracy_cost", "48 / 12", "citation", "length 48, depth 12, a parabolic shear load"),
-    ("ch09_accuracy_cost", "2.00 / 2.99", "checked-by tests/workbook/test_bench_accuracy_cost.py::test_nonlinear_models_converge_at_the_expected_rates",
-     "All three models converge at 2.00 (P1) and 2.99 (P2)"),
     ("ch09_accuracy_cost", "four times", "definition", "with steps two and four times larger"),
     ("ch09_accuracy_cost", "500", "input", "the flap on 500 triangles, five frames"),
     ("ch09_accuracy_cost", "0.8 / 0.3 / 0.4", "checked-by tests/workbook/test_bench_accuracy_cost.py::test_backward_euler_converges_slowly_after_an_abrupt_start",

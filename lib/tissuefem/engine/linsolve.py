@@ -8,8 +8,10 @@ tangent to its free dofs (:class:`Condenser`) and decides when to factorize.
 
 from __future__ import annotations
 
+import atexit
 import importlib.util
 import threading
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -189,13 +191,31 @@ class SolveInfo:
     reason: str = ""  # why it refactorized ("first", "shape", "stale", "cg-failed", "negative-curvature", "forced")
 
 
+def _join_all(threads) -> None:
+    """Wait for each background factorization in ``threads`` (a list, emptied) to finish."""
+    while threads:
+        thread = threads.pop()
+        if thread is not threading.current_thread():
+            thread.join()
+
+
+@atexit.register
+def _join_at_exit() -> None:
+    """The last word at exit: no refactorization thread runs while the interpreter tears numpy and the BLAS down."""
+    for thread in threading.enumerate():
+        if thread.name == "tissuefem-refactorize" and thread is not threading.current_thread():
+            thread.join()
+
+
 class ReusedFactorization:
     """Conjugate gradients preconditioned by a kept factorization of the ``direct`` backend (default :class:`SuperLU`):
     the tangent changes slowly, so a few CG iterations (~1 ms each at 8k triangles) replace a factorization (~20 ms).
     Beyond ``refresh_after`` iterations the *next* solve refactorizes; at ``max_iterations`` this one does.
     ``background``: beyond ``background_after`` iterations a thread on the second core refactorizes, adopted once
     finished (iteration counts then depend on timing). ``solve`` returns ``(x, SolveInfo)``; ``factorizations``,
-    ``background_factorizations`` and ``cg_iterations`` count."""
+    ``background_factorizations`` and ``cg_iterations`` count. A background factorization is never abandoned
+    half-way (a process that ends under one can crash in the BLAS): :meth:`close` (or leaving a ``with`` block)
+    waits for it, and so do dropping the solver and the interpreter's exit."""
 
     def __init__(self, direct=None, refresh_after: int = 15, max_iterations: int = 40, background: bool = False,
                  background_after: int = 3):
@@ -207,8 +227,22 @@ class ReusedFactorization:
         self.background = bool(background)
         self.background_after = int(background_after)
         self.name = f"cg+reused-{self.direct.name}" + ("+background" if self.background else "")
+        self._threads = []  # background factorizations started and not yet joined (shared with the finalizer)
         self.invalidate()  # no factorization yet; _pending: (thread, result box) of a background factorization
         self.factorizations = self.background_factorizations = self.cg_iterations = 0
+        weakref.finalize(self, _join_all, self._threads)  # a dropped solver waits for its work, and so does exit
+
+    def close(self) -> None:
+        """Wait for any background factorization to finish (it is not adopted) and forget the kept factorization.
+        The solver stays usable: its next solve factorizes afresh."""
+        _join_all(self._threads)
+        self.invalidate()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
 
     def invalidate(self) -> None:
         self._factor, self._shape, self._stale, self._pending = None, None, False, None
@@ -225,16 +259,18 @@ class ReusedFactorization:
     def _refresh_in_background(self, A) -> None:
         if self._pending is not None:
             return
-        A, box = A.copy(), {"shape": A.shape}
+        A, box, factorize = A.copy(), {"shape": A.shape}, self.direct.factorize
 
-        def work():
+        def work():  # holds no reference to the solver, which may be dropped while this runs
             try:
-                box["factor"] = self.direct.factorize(A)
+                box["factor"] = factorize(A)
             except Exception:  # a failed refresh only means the old factorization stays
                 box["factor"] = None
-        thread = threading.Thread(target=work, name="tissuefem-refactorize", daemon=True)
-        self._pending = (thread, box)
+        # not a daemon: the interpreter's exit waits for it, and so do close() and the finalizer
+        thread = threading.Thread(target=work, name="tissuefem-refactorize", daemon=False)
         thread.start()
+        self._threads[:] = [t for t in self._threads if t.is_alive()] + [thread]
+        self._pending = (thread, box)
 
     def _refactorize(self, A, b, reason) -> tuple[np.ndarray, SolveInfo]:
         self._factor, self._shape, self._stale = self.direct.factorize(A), A.shape, False
@@ -421,6 +457,20 @@ class LinearSolver:
     def name(self) -> str:
         name = getattr(self.backend, "name", type(self.backend).__name__)
         return f"constant-{name}" if self.constant else name
+
+    def close(self) -> None:
+        """Wait for the backend's background work, if any (see :meth:`ReusedFactorization.close`), and forget
+        any kept factorization; the solver stays usable."""
+        close = getattr(self.backend, "close", None)
+        if callable(close):
+            close()
+        self.invalidate()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
 
     def invalidate(self) -> None:
         """Forget any kept factorization (the matrix is about to change in a way the keys do not see)."""

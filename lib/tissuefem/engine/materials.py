@@ -315,6 +315,9 @@ def fiber_stress_term(F, g, k):
 
 def fiber_tangent_term(F, g, k):
     a, I4 = _fiber_kinematics(F, g)
+    # g's trailing axes align with the right end of F's (as in the energy and the stress): one direction (2,)
+    # serves every F; spread it over I4's shape so that the d_ik g_j g_l term multiplies point by point
+    g = np.broadcast_to(g.reshape(g.shape[:1] + (1,) * (I4.ndim - g.ndim + 1) + g.shape[1:]), g.shape[:1] + I4.shape)
     ag = np.einsum("i...,j...->ij...", a, g)
     gg = np.einsum("j...,l...->jl...", g, g)
     return k * _outer(ag, ag) + 0.5 * k * (I4 - 1.0) * np.einsum("ik,jl...->ijkl...", _DELTA, gg)

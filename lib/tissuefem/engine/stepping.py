@@ -54,7 +54,7 @@ MAX_LOAD_STEPS = 100_000
 class Undone:
     """What a step (frame) left for the ones after it; false when nothing. ``stopped``: why Newton stopped short of
     its tolerance (a status of :data:`~.minimize.STATUSES`; ``None``: it converged), after ``newton_steps`` at
-    ``relative_residual``; ``handles``: the share of the handles' motion not made (``1 - handle_fraction``);
+    ``relative_residual`` (the step's :attr:`StepReport.scaled_residual`); ``handles``: the share of the handles' motion not made (``1 - handle_fraction``);
     ``committed``: False when the state was kept (an offline step that failed)."""
 
     stopped: str | None = None
@@ -85,7 +85,7 @@ class StepReport:
     """What one step (or real-time frame) did: the one report type of every solve of a model.
 
     Its accuracy, measured at the result ``x`` (the new state if committed): :attr:`converged`,
-    :attr:`relative_residual`, :attr:`energy_decrease`, ``min_J`` (the smallest ``det F`` over the elements'
+    :attr:`scaled_residual`, :attr:`energy_decrease`, ``min_J`` (the smallest ``det F`` over the elements'
     points) and ``inverted`` (elements with ``J <= 0`` somewhere), :attr:`undone`; :attr:`accuracy` is all of
     them on one line.
     """
@@ -101,14 +101,14 @@ class StepReport:
     crossed: int = 0  # surface points found through the surface when the step started (self-contact)
     min_J: float = math.nan  # the smallest J = det F at x (over elements, or quadrature points)
     inverted: int = 0  # elements with J <= 0 at x (at any of their points)
-    residual_scale: float = 0.0  # what the tolerance is relative to (see relative_residual)
+    residual_scale: float = 0.0  # what the tolerance is relative to (see scaled_residual)
 
     contact_status = property(lambda self: "crossed" if self.crossed else "clear",
                               doc="``crossed``: the step started with surface points through the surface.")
 
     #: the Newton solve's results, passed on (``x``: the last accepted iterate, the new state if committed)
     FORWARDED = ("x", "converged", "status", "linear_iterations", "factorizations", "residual_norm",
-                 "initial_residual", "energy", "start_energy", "line_search_cuts",
+                 "initial_residual", "relative_residual", "energy", "start_energy", "line_search_cuts",
                  "history", "energies", "residual_norms", "table")
 
     def __getattr__(self, name):
@@ -125,11 +125,12 @@ class StepReport:
     frame = property(lambda self: self.step)
 
     @property
-    def relative_residual(self) -> float:
+    def scaled_residual(self) -> float:
         """``||g(x)||`` over ``residual_scale``, the residual the tolerance is relative to: the largest of
         ``||g(x0)||``, the load a quasistatic step's linearised start balances, and the round-off level over
         ``rtol``. A step converged if it is ``<= rtol`` (with ``atol = 0``). Not the Newton solve's own ratio
-        ``||g(x)|| / ||g(x0)||``, which a good start or a body at rest (``g(x0)`` at round-off) makes large."""
+        :attr:`relative_residual` ``||g(x)|| / ||g(x0)||``, which a good start or a body at rest (``g(x0)`` at
+        round-off) makes large."""
         return self.residual_norm / self.residual_scale if self.residual_scale > 0 else 0.0
 
     @property
@@ -143,7 +144,7 @@ class StepReport:
     def undone(self) -> Undone:
         """What this step left for the next ones (:class:`Undone`; false when nothing)."""
         stopped = None if self.converged else self.status
-        return Undone(stopped, self.newton_iterations, self.relative_residual, 1.0 - self.handle_fraction,
+        return Undone(stopped, self.newton_iterations, self.scaled_residual, 1.0 - self.handle_fraction,
                       self.committed)
 
     @property
@@ -155,7 +156,7 @@ class StepReport:
         head = "converged" if self.converged else f"{self.status} after {self.newton_iterations} Newton"
         rest = [f"handles {undone.handles:.0%} short"] if undone.handles > 0.0 else []
         rest += [] if self.committed else ["state kept"]
-        return " | ".join([head, f"rel. residual {self.relative_residual:.1e}", f"dE {-self.energy_decrease:.1e}",
+        return " | ".join([head, f"rel. residual {self.scaled_residual:.1e}", f"dE {-self.energy_decrease:.1e}",
                            f"min J {self.min_J:.3f}", f"{self.inverted} inverted", *rest])
 
     def __repr__(self):
@@ -166,10 +167,10 @@ class StepReport:
 
 
 def accuracy_summary(reports) -> dict:
-    """The accuracy of a run of steps (frames), for a benchmark's columns: ``relative_residual`` (the median),
+    """The accuracy of a run of steps (frames), for a benchmark's columns: ``scaled_residual`` (the median),
     ``converged`` (the share that converged), ``min_J`` (the smallest), ``inverted`` (the most in one step),
     ``undone`` (how many left something undone), ``steps`` and ``undone_reasons`` (what they left, sorted).
-    ``reports``: step reports, or anything with their ``relative_residual, converged, min_J, inverted, undone``."""
+    ``reports``: step reports, or anything with their ``scaled_residual, converged, min_J, inverted, undone``."""
     reports = list(reports)
     reasons = set()
     for r in reports:
@@ -178,9 +179,9 @@ def accuracy_summary(reports) -> dict:
         reasons |= {"handles short"} if undone.handles > 0.0 else set()
         reasons |= set() if undone.committed else {"state kept"}
     if not reports:
-        return {"relative_residual": math.nan, "converged": math.nan, "min_J": math.nan, "inverted": 0,
+        return {"scaled_residual": math.nan, "converged": math.nan, "min_J": math.nan, "inverted": 0,
                 "undone": 0, "steps": 0, "undone_reasons": []}
-    return {"relative_residual": float(np.median([r.relative_residual for r in reports])),
+    return {"scaled_residual": float(np.median([r.scaled_residual for r in reports])),
             "converged": float(np.mean([r.converged for r in reports])),
             "min_J": float(min(r.min_J for r in reports)), "inverted": int(max(r.inverted for r in reports)),
             "undone": int(sum(bool(r.undone) for r in reports)), "steps": len(reports),

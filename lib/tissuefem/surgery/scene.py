@@ -121,7 +121,8 @@ def _check_domain(d):
     shape = string("domain.shape", d.get("shape", "rectangle"), SHAPES)
     table("domain", d, ("shape", *_DOMAINS[shape]))
     if shape == "file" and "path" not in d:
-        raise ValueError("domain.path: a 'file' domain needs the path of a mesh file (gmsh .msh, .vtk, ...)")
+        raise ParameterError("domain.path",
+                             "domain.path: a 'file' domain needs the path of a mesh file (gmsh .msh, .vtk, ...)")
     out = {"shape": shape}
     for key, default in _DOMAINS[shape].items():
         field, value = f"domain.{key}", d.get(key, default)
@@ -130,19 +131,22 @@ def _check_domain(d):
         elif key != "path":
             out[key] = _within(field, value, SIZE_RANGE)
         elif "\0" in string(field, value, nonempty=True):
-            raise ValueError("domain.path must not contain a NUL character")
+            raise ParameterError("domain.path", "domain.path must not contain a NUL character")
         else:
             out[key] = value
     if shape == "fusiform" and out["tendon_width"] > out["max_width"]:
-        raise ValueError(f"domain.tendon_width must not exceed domain.max_width (the belly is widest in the "
-                         f"middle), got {out['tendon_width']!r} > {out['max_width']!r}")
+        raise ParameterError("domain.tendon_width",
+                             f"domain.tendon_width must not exceed domain.max_width (the belly is widest in the "
+                             f"middle), got {out['tendon_width']!r} > {out['max_width']!r}")
     for a, b in _ASPECTS.get(shape, ()):
         if not 1.0 / MAX_ASPECT <= out[a] / out[b] <= MAX_ASPECT:
-            raise ValueError(f"domain.{a} / domain.{b} = {out[a] / out[b]:g}: the aspect ratio must lie "
-                             f"within [1/{MAX_ASPECT:g}, {MAX_ASPECT:g}]")
+            raise ParameterError(f"domain.{a}",
+                                 f"domain.{a} / domain.{b} = {out[a] / out[b]:g}: the aspect ratio must lie "
+                                 f"within [1/{MAX_ASPECT:g}, {MAX_ASPECT:g}]")
     if shape == "fusiform" and 2 * out["nx"] * out["ny"] > MAX_TRIANGLES:
-        raise ValueError(f"domain.nx, domain.ny: {out['nx']} x {out['ny']} cells make "
-                         f"{2 * out['nx'] * out['ny']} triangles, more than {MAX_TRIANGLES}")
+        raise ParameterError("domain.nx",
+                             f"domain.nx, domain.ny: {out['nx']} x {out['ny']} cells make "
+                             f"{2 * out['nx'] * out['ny']} triangles, more than {MAX_TRIANGLES}")
     return out
 
 
@@ -157,8 +161,9 @@ def _domain_box(domain):
 
 def _check_material(m):
     if m is None:
-        raise ValueError("material: missing; a scene needs a [material] table with model, youngs_modulus, "
-                         "poisson_ratio")
+        raise ParameterError("material",
+                             "material: missing; a scene needs a [material] table with model, youngs_modulus, "
+                             "poisson_ratio")
     m = table("material", m, ("model", "youngs_modulus", "poisson_ratio", "density"))
     require("material", m, ("model", "youngs_modulus", "poisson_ratio"))
     return {
@@ -177,10 +182,10 @@ def _check_region(field, r):
     if "box" in r:
         box = table(field, r, ("box",))["box"]
         if not is_sequence(box) or len(box) != 4:
-            raise ValueError(f"{field}.box must be [xmin, ymin, xmax, ymax], got {show(box)}")
+            raise ParameterError(f"{field}.box", f"{field}.box must be [xmin, ymin, xmax, ymax], got {show(box)}")
         box = [number(f"{field}.box[{i}]", b, lo=-FAR, hi=FAR) for i, b in enumerate(box)]
         if box[0] > box[2] or box[1] > box[3]:
-            raise ValueError(f"{field}.box must have xmin <= xmax and ymin <= ymax, got {box}")
+            raise ParameterError(f"{field}.box", f"{field}.box must have xmin <= xmax and ymin <= ymax, got {box}")
         return {"box": box}
     if "near" in r:
         table(field, r, ("near", "radius"))
@@ -190,8 +195,9 @@ def _check_region(field, r):
         nodes = count_list(f"{field}.nodes", table(field, r, ("nodes",))["nodes"], "node indices", MAX_NODES)
         return {"nodes": [number(f"{field}.nodes[{i}]", n, integer=True, lo=0, hi=MAX_NODES - 1)
                           for i, n in enumerate(nodes)]}
-    raise ValueError(f"{field} must be a boundary name or a table with 'box', 'near' (+ 'radius') or 'nodes', "
-                     f"got {show(r)}")
+    raise ParameterError(field,
+                         f"{field} must be a boundary name or a table with 'box', 'near' (+ 'radius') or 'nodes', "
+                         f"got {show(r)}")
 
 
 def _listed(kind) -> bool:
@@ -265,7 +271,7 @@ def _check_solver(s):
     try:
         LinearSolver(out["linear_solver"])
     except ValueError as err:
-        raise ValueError(f"solver.linear_solver: {err}") from None
+        raise ParameterError("solver.linear_solver", f"solver.linear_solver: {err}") from None
     out["max_iterations"] = number("solver.max_iterations", s.get("max_iterations", 50), integer=True, lo=1,
                                    hi=MAX_ITERATIONS)
     return out
@@ -280,13 +286,15 @@ def _check_reach(effects, box, where=""):
 
     def point(field, p):
         if abs(p[0] - cx) > far or abs(p[1] - cy) > far:
-            raise ValueError(f"{field} = {p} lies farther than {REACH:g} domain sizes ({far:g}) from the domain's "
-                             f"centre ({cx:g}, {cy:g}){where}")
+            raise ParameterError(field,
+                                 f"{field} = {p} lies farther than {REACH:g} domain sizes ({far:g}) from the domain's "
+                                 f"centre ({cx:g}, {cy:g}){where}")
 
     def radius(field, r):
         if not MIN_RADIUS * size <= r <= far:
-            raise ValueError(f"{field} = {r:g} must lie within [{MIN_RADIUS:g}, {REACH:g}] domain sizes, i.e. "
-                             f"[{MIN_RADIUS * size:g}, {far:g}]{where}")
+            raise ParameterError(field,
+                                 f"{field} = {r:g} must lie within [{MIN_RADIUS:g}, {REACH:g}] domain sizes, i.e. "
+                                 f"[{MIN_RADIUS * size:g}, {far:g}]{where}")
 
     for i, h in enumerate(effects.get("handles", [])):
         field, region = f"effects.handles[{i}]", h["region"]
@@ -297,8 +305,9 @@ def _check_reach(effects, box, where=""):
             point(f"{field}.region.near", region["near"])
             radius(f"{field}.region.radius", region["radius"])
         if max(abs(h["target"][0]), abs(h["target"][1])) > far:
-            raise ValueError(f"{field}.target = {h['target']}: a displacement larger than {REACH:g} domain sizes "
-                             f"({far:g}){where}")
+            raise ParameterError(f"{field}.target",
+                                 f"{field}.target = {h['target']}: a displacement larger than {REACH:g} domain sizes "
+                                 f"({far:g}){where}")
     for i, p in enumerate(effects.get("probes", [])):
         point(f"effects.probes[{i}].center", p["center"])
         radius(f"effects.probes[{i}].radius", p["radius"])
@@ -318,7 +327,7 @@ def _check_nesting(data, limit=MAX_NESTING):
     while stack:
         obj, depth = stack.pop()
         if depth > limit:
-            raise ValueError(f"scene: nested deeper than {limit} levels (a scene needs at most 7)")
+            raise ParameterError("scene", f"scene: nested deeper than {limit} levels (a scene needs at most 7)")
         if id(obj) in seen:  # shared or cyclic structures from Python are walked once
             continue
         seen.add(id(obj))
@@ -417,17 +426,21 @@ def _toml(data) -> str:
 
 
 def _path(path, argument="path", what="a file") -> Path:
-    if isinstance(path, bytes) or not isinstance(path, (str, os.PathLike)):
-        raise ValueError(f"{argument} must be {what} path (str or pathlib.Path), got {show(path)}")
-    if "\0" in os.fspath(path):
-        raise ValueError(f"{argument} must not contain a NUL character")
-    return Path(path)
+    """``path`` as a Path if it is a str or an ``os.PathLike`` naming text (not bytes, not empty, no NUL)."""
+    text = os.fspath(path) if isinstance(path, os.PathLike) else path
+    if not isinstance(text, str):
+        raise ParameterError(argument, f"{argument} must be {what} path (str or pathlib.Path), got {show(path)}")
+    if not text.strip():
+        raise ParameterError(argument, f"{argument} must not be empty")
+    if "\0" in text:
+        raise ParameterError(argument, f"{argument} must not contain a NUL character")
+    return Path(text)
 
 
 def _scene_path(path) -> Path:
-    path = _path(path)
+    path = _path(path, "path", "a scene file")
     if path.suffix not in (".toml", ".json"):
-        raise ValueError(f"scene file must end in .toml or .json, got {path.name!r}")
+        raise ParameterError("path", f"path: a scene file must end in .toml or .json, got {path.name!r}")
     return path
 
 
@@ -460,7 +473,8 @@ class Scene:
         table("scene", data, ("name", "description", "domain", "material", "effects", "solver"))
         for key in ("domain", "material", "effects", "solver"):
             if key in data and data[key] is None:
-                raise ValueError(f"{key} must be a table (a dict), got None (leave {key} out for the defaults)")
+                raise ParameterError(key,
+                                     f"{key} must be a table (a dict), got None (leave {key} out for the defaults)")
         # the checks build new containers throughout, so the scene shares nothing with ``data``
         return cls(**data, base_dir=base_dir)
 
@@ -486,19 +500,20 @@ class Scene:
             try:
                 text = bytes(text).decode("utf-8")
             except UnicodeDecodeError as err:
-                raise ValueError(f"scene: not UTF-8 text (byte {err.start})") from None
+                raise ParameterError("scene", f"scene: not UTF-8 text (byte {err.start})") from None
         if not isinstance(text, str):
-            raise ValueError(f"scene: the {kind} text must be a string, got {show(text)}")
+            raise ParameterError("scene", f"scene: the {kind} text must be a string, got {show(text)}")
         if len(text) > MAX_SCENE_BYTES:
-            raise ValueError(f"scene: {len(text)} characters, more than the {MAX_SCENE_BYTES} a scene may have")
+            raise ParameterError("scene",
+                                 f"scene: {len(text)} characters, more than the {MAX_SCENE_BYTES} a scene may have")
         _check_text_nesting(text, kind)
         try:
             data = loads(text)
         except RecursionError:  # not reached after the bracket check; kept as the last line of defence
-            raise ValueError(f"scene: its {kind} nests too deeply to parse") from None
+            raise ParameterError("scene", f"scene: its {kind} nests too deeply to parse") from None
         except ValueError as err:  # TOMLDecodeError, JSONDecodeError, an integer of too many digits
             message = " ".join(str(err).split())
-            raise ValueError(f"scene: not valid {kind}: {message}") from None
+            raise ParameterError("scene", f"scene: not valid {kind}: {message}") from None
         return cls.from_dict(data, base_dir)
 
     def to_toml(self) -> str:
@@ -511,19 +526,21 @@ class Scene:
     def load(cls, path) -> "Scene":
         """Read a scene from a ``.toml`` or ``.json`` file (UTF-8, at most :data:`MAX_SCENE_BYTES`)."""
         path = _scene_path(path)
-        if path.exists() and not path.is_file():  # a folder, a pipe or a device (a pipe would block the read)
-            raise ValueError(f"scene file {str(path)!r} is not a regular file")
         try:
+            if path.exists() and not path.is_file():  # a folder, a pipe or a device (a pipe would block the read)
+                raise ParameterError("path", f"path: scene file {str(path)!r} is not a regular file")
             with open(path, "rb") as f:
                 data = f.read(MAX_SCENE_BYTES + 1)
-        except OSError as err:
-            raise ValueError(f"scene file {str(path)!r} cannot be read: {err.strerror or err}") from None
+        except OSError as err:  # missing, unreadable, a name too long for the system
+            raise ParameterError("path", f"path: scene file {str(path)!r} cannot be read: "
+                                         f"{err.strerror or err}") from None
         if len(data) > MAX_SCENE_BYTES:
-            raise ValueError(f"scene file {str(path)!r} is larger than {MAX_SCENE_BYTES} bytes")
+            raise ParameterError("path", f"path: scene file {str(path)!r} is larger than {MAX_SCENE_BYTES} bytes")
         try:
             text = data.decode("utf-8-sig")  # an editor's byte-order mark is harmless
         except UnicodeDecodeError as err:
-            raise ValueError(f"scene file {str(path)!r} is not UTF-8 text (byte {err.start})") from None
+            raise ParameterError("path", f"path: scene file {str(path)!r} is not UTF-8 text (byte "
+                                         f"{err.start})") from None
         reader = cls.from_toml if path.suffix == ".toml" else cls.from_json
         return reader(text, base_dir=path.parent)
 
@@ -534,15 +551,20 @@ class Scene:
         toml = path.suffix == ".toml"
         text = self.to_toml() if toml else self.to_json()
         if (Scene.from_toml if toml else Scene.from_json)(text) != self:
-            raise ValueError("scene: the written text would not read back as the same scene (please report this)")
+            raise ParameterError("scene",
+                                 "scene: the written text would not read back as the same scene (please report this)")
         temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
         try:
+            if path.exists() and not path.is_file():  # a folder (os.replace would refuse it less clearly)
+                raise ParameterError("path", f"path: {str(path)!r} is not a regular file, so no scene is written "
+                                             "there")
             temporary.write_text(text, encoding="utf-8")
             os.replace(temporary, path)
-        except OSError as err:
+        except OSError as err:  # a missing folder, no permission, a name too long for the system
             with contextlib.suppress(OSError):
                 temporary.unlink()
-            raise ValueError(f"scene file {str(path)!r} cannot be written: {err.strerror or err}") from None
+            raise ParameterError("path", f"path: scene file {str(path)!r} cannot be written: "
+                                         f"{err.strerror or err}") from None
 
     def __eq__(self, other):
         return isinstance(other, Scene) and self.to_dict() == other.to_dict()
@@ -572,9 +594,10 @@ class Scene:
         if dropped.size:
             for i, h in enumerate(self.effects.get("handles", [])):
                 if isinstance(h["region"], dict) and "nodes" in h["region"]:
-                    raise ValueError(f"effects.handles[{i}].region.nodes: the mesh file has nodes in no triangle, "
-                                     "which are dropped and the rest renumbered, so node indices would point at "
-                                     "other nodes; select the nodes with a box or near a point instead")
+                    raise ParameterError(f"effects.handles[{i}].region.nodes",
+                                         f"effects.handles[{i}].region.nodes: the mesh file has nodes in no triangle, "
+                                         "which are dropped and the rest renumbered, so node indices would point at "
+                                         "other nodes; select the nodes with a box or near a point instead")
             self.notes.append(_dropped_note(d["path"], dropped))
         return mesh
 
@@ -583,8 +606,9 @@ class Scene:
         mat = make_material(m["model"], m["youngs_modulus"], m["poisson_ratio"])
         inv = self.effects.get("inversion", {})
         if inv.get("method") == "itf" and m["model"] != "neo-hookean":
-            raise ValueError("effects.inversion.method: 'itf' clamps the ln J model only "
-                             f"(material.model = 'neo-hookean'), got {m['model']!r}; use 'projected'")
+            raise ParameterError("effects.inversion.method",
+                                 "effects.inversion.method: 'itf' clamps the ln J model only "
+                                 f"(material.model = 'neo-hookean'), got {m['model']!r}; use 'projected'")
         if inv.get("method") == "itf":
             return ITFClamped(mat, threshold=inv["threshold"])
         return ProjectedTangent(mat, adaptive=True) if inv else mat
@@ -596,9 +620,23 @@ class Scene:
 _CELLS_ALLOWED = ("triangle", "line", "vertex")
 
 
+def _mesh_error(message) -> ParameterError:
+    """The refusal of a mesh file: a ``ParameterError`` naming ``domain.path`` (the file a scene names)."""
+    return ParameterError("domain.path", f"domain.path: {message}")
+
+
+def _check_file_mesh(p, t, name, unused_nodes="refuse"):
+    """:func:`~tissuefem.engine.meshes.check_mesh` of a file's mesh; a refusal names ``domain.path`` as its field
+    (check_mesh's field is the whole ``name``, which says which file and how its nodes are numbered)."""
+    try:
+        return meshes.check_mesh(p, t, name=name, unused_nodes=unused_nodes)
+    except ParameterError as err:
+        raise ParameterError("domain.path", str(err)) from None
+
+
 def _quietly(path, read, *args):
     """``read(*args)`` with a mesh reader's printing and logging kept off the terminal. Its failure, even the
-    ``sys.exit(1)`` meshio calls on a file it cannot read, becomes a ``ValueError`` naming ``domain.path``
+    ``sys.exit(1)`` meshio calls on a file it cannot read, becomes a ``ParameterError`` naming ``domain.path``
     (KeyboardInterrupt and GeneratorExit are left alone)."""
     sink, previous = io.StringIO(), logging.root.manager.disable
     logging.disable(logging.CRITICAL)
@@ -609,7 +647,7 @@ def _quietly(path, read, *args):
         said = " ".join((str(err) if not isinstance(err, SystemExit) else "").split())
         said = (said or " ".join(sink.getvalue().split()) or type(err).__name__).replace(str(path), path.name)
         said = said[:300] + " ..." if len(said) > 300 else said
-        raise ValueError(f"domain.path: could not read {path.name!r} as a mesh: {said}") from None
+        raise _mesh_error(f"could not read {path.name!r} as a mesh: {said}") from None
     finally:
         logging.disable(previous)
 
@@ -620,14 +658,14 @@ def _read_mesh(path, scale):
     name = path.name
     try:
         if not path.exists():
-            raise ValueError(f"domain.path: no mesh file {name!r} (looked in the scene's folder)")
+            raise _mesh_error(f"no mesh file {name!r} (looked in the scene's folder)")
         if not path.is_file():
-            raise ValueError(f"domain.path: {name!r} is not a regular file")
+            raise _mesh_error(f"{name!r} is not a regular file")
         size = path.stat().st_size
     except OSError as err:
-        raise ValueError(f"domain.path: {name!r} cannot be read: {err.strerror or err}") from None
+        raise _mesh_error(f"{name!r} cannot be read: {err.strerror or err}") from None
     if size > MAX_MESH_FILE_BYTES:
-        raise ValueError(f"domain.path: {name!r} has {size} bytes, more than the {MAX_MESH_FILE_BYTES} a mesh file "
+        raise _mesh_error(f"{name!r} has {size} bytes, more than the {MAX_MESH_FILE_BYTES} a mesh file "
                          "may have")
     import meshio  # deferred: only mesh files need it, and it is slow to import
     from skfem.io.meshio import from_meshio
@@ -640,29 +678,28 @@ def _read_mesh(path, scale):
     foreign = sorted(set(counts) - set(_CELLS_ALLOWED))
     if foreign or counts.get("triangle", 0) == 0:
         why = f"cells of type {foreign} are not 3-node triangles" if foreign else "it has no triangles"
-        raise ValueError(f"domain.path: {name!r} holds {holds} cells: {why}; only 2D meshes of 3-node triangles "
+        raise _mesh_error(f"{name!r} holds {holds} cells: {why}; only 2D meshes of 3-node triangles "
                          "are read (lines and vertices may come with them, naming boundaries)")
     if counts["triangle"] > MAX_TRIANGLES:
-        raise ValueError(f"domain.path: {name!r} holds {counts['triangle']} triangles, more than {MAX_TRIANGLES}")
+        raise _mesh_error(f"{name!r} holds {counts['triangle']} triangles, more than {MAX_TRIANGLES}")
     points = np.asarray(m.points)
     if points.dtype.kind not in "iuf" or points.ndim != 2 or points.shape[1] not in (2, 3) or points.shape[0] == 0:
-        raise ValueError(f"domain.path: {name!r} holds points of shape {points.shape} and dtype {points.dtype}; "
+        raise _mesh_error(f"{name!r} holds points of shape {points.shape} and dtype {points.dtype}; "
                          "expected 2D (or planar 3D) coordinates")
     bad = np.flatnonzero(~np.isfinite(points).all(axis=1))
     if bad.size:
-        raise ValueError(f"domain.path: {name!r}: nodes {meshes.index_list(bad)} have non-finite coordinates")
+        raise _mesh_error(f"{name!r}: nodes {meshes.index_list(bad)} have non-finite coordinates")
     if points.shape[1] == 3:
         off = np.flatnonzero(points[:, 2] != 0)
         if off.size:
-            raise ValueError(f"domain.path: {name!r} is not planar: nodes {meshes.index_list(off)} (0-based) have a "
+            raise _mesh_error(f"{name!r} is not planar: nodes {meshes.index_list(off)} (0-based) have a "
                              f"third coordinate other than 0 (up to |z| = {np.abs(points[off, 2]).max():g}); only 2D "
                              "meshes are read, never flattened")
     t = np.concatenate([np.asarray(b.data).T for b in m.cells if b.type == "triangle"], axis=1)
     if t.dtype.kind not in "iu":
-        raise ValueError(f"domain.path: {name!r} holds triangles with non-integer node numbers ({t.dtype})")
+        raise _mesh_error(f"{name!r} holds triangles with non-integer node numbers ({t.dtype})")
     p = np.array(points[:, :2].T, dtype=np.float64) * scale
-    p, t = meshes.check_mesh(p, t, name=f"domain.path: {name!r} (0-based node numbers, after scaling)",
-                             unused_nodes="ignore")
+    p, t = _check_file_mesh(p, t, f"domain.path: {name!r} (0-based node numbers, after scaling)", "ignore")
     named = _quietly(path, from_meshio, m)  # boundaries from physical line groups or cell sets
     mesh = skfem.MeshTri(p, t)  # the mesh as checked above (scaled, z dropped), triangles sorted as scikit-fem does
     boundaries = {label: _facet_index(mesh, np.asarray(named.facets)[:, np.asarray(facets)])
@@ -674,7 +711,7 @@ def _read_mesh(path, scale):
     dropped = np.flatnonzero(~used)
     if dropped.size:
         mesh = _drop_nodes(mesh, used)
-    meshes.check_mesh(mesh.p, mesh.t, name=f"domain.path: {name!r}")
+    _check_file_mesh(mesh.p, mesh.t, f"domain.path: {name!r}")
     return mesh, dropped
 
 
@@ -689,7 +726,7 @@ def _facet_index(mesh, pairs) -> np.ndarray:
     at = np.minimum(np.searchsorted(keys, wanted, sorter=order), keys.size - 1)
     found = order[at]
     if not np.array_equal(keys[found], wanted):
-        raise ValueError("domain.path: a named boundary of the file lies on no edge of its triangles")
+        raise _mesh_error("a named boundary of the file lies on no edge of its triangles")
     return found
 
 
@@ -706,7 +743,7 @@ def _skfem_boundaries(m, t, mesh):
             continue
         flags = np.concatenate([np.asarray(data[i]).ravel() for i in triangle_blocks]).astype(np.int64)
         if flags.size != t.shape[1]:
-            raise ValueError(f"domain.path: the boundary {parts[2]!r} of the file does not match its triangles")
+            raise _mesh_error(f"the boundary {parts[2]!r} of the file does not match its triangles")
         pairs = [t[local[k]][:, (flags >> k) & 1 == 1] for k in range(local.shape[0])]
         out[parts[2]] = np.sort(_facet_index(mesh, np.concatenate(pairs, axis=1)))
     return out
@@ -731,12 +768,16 @@ def read_mesh(path, scale=1.0, notes=None):
     """A 2D triangle mesh from a file meshio reads (gmsh ``.msh``, ``.vtk``, ...), coordinates times
     ``scale``; physical line groups become named boundaries. Anything but 3-node triangles (with lines and
     vertices) in ``z = 0``, within the size limits, that pass :func:`~tissuefem.engine.meshes.check_mesh`
-    raises a ``ValueError`` naming ``domain.path``. Nodes in no triangle (gmsh writes an arc's centre as a
+    raises a :class:`~tissuefem.engine.parameters.ParameterError` naming ``domain.path`` (``path``, ``scale`` or
+    ``notes`` for an argument of the wrong kind). Nodes in no triangle (gmsh writes an arc's centre as a
     node) are dropped, the rest renumbered in their order, and a note saying so appended to ``notes``."""
-    scale = _within("domain.scale", scale, SIZE_RANGE)
+    path = _path(path, "path", "a mesh file")
+    scale = _within("scale", scale, SIZE_RANGE)
+    if notes is not None and not isinstance(notes, list):
+        raise ParameterError("notes", f"notes must be a list (the notes are appended to it) or None, got {show(notes)}")
     mesh, dropped = _read_mesh(path, scale)
     if dropped.size and notes is not None:
-        notes.append(_dropped_note(Path(path).name, dropped))
+        notes.append(_dropped_note(path.name, dropped))
     return mesh
 
 

@@ -232,7 +232,8 @@ class Simulation:
             self.model.remove_handle(name)
             stitches = self.model.sutures
             loose, pieces = _loose_elements(self.mesh, np.arange(self.mesh.nvertices),
-                                            None if stitches is None else stitches.elements, self.model.handles)
+                                            None if stitches is None else stitches.elements, self.model.handles,
+                                            every_piece_loose=f"release({name!r})")
             if pieces:
                 self._apply_edit(topology.excise, lambda centroids: loose.copy(), f"release({name!r})")
                 self.removed_pieces += pieces
@@ -519,11 +520,12 @@ def _drop_loose_pieces(edit, stitch_elements, handles, material=None):
     return merged, second, pieces
 
 
-def _loose_elements(mesh, parent, stitch_elements, handles, material=None):
+def _loose_elements(mesh, parent, stitch_elements, handles, material=None, every_piece_loose=None):
     """``(loose, pieces)``: which elements of ``mesh`` lie in pieces nothing holds, and how many pieces (0 when all
     or none are held; a piece held at a single node is not). ``parent`` maps its nodes to the mesh of the
     ``handles``, ``material`` tells the nodes with material at their place (:meth:`Handle.remap`);
-    ``stitch_elements`` ``(2, k)``: the elements of the stitches' ends on ``mesh``."""
+    ``stitch_elements`` ``(2, k)``: the elements of the stitches' ends on ``mesh``. ``every_piece_loose``: the name
+    of a change to refuse (``ParameterError`` naming ``handles``) when it leaves no piece held at two nodes."""
     t = mesh.t
     links = None if stitch_elements is None else t[0, stitch_elements]  # a stitch joins its ends' pieces
     _, labels = topology.connected_components(t, mesh.nvertices, links)
@@ -536,6 +538,9 @@ def _loose_elements(mesh, parent, stitch_elements, handles, material=None):
     # a piece held at one point only (a cut ending on the handle's node) turns freely about it: no equilibrium either
     held = np.bincount(pinned, minlength=labels.max() + 1) >= 2
     loose = ~held[labels[t[0]]]
+    if every_piece_loose is not None and np.all(loose):
+        raise ParameterError("handles", f"handles: {every_piece_loose} would leave no piece held at two nodes or more; "
+                                        "a quasistatic body held at one point turns freely (no equilibrium)")
     if not np.any(loose) or np.all(loose):
         return np.zeros(t.shape[1], dtype=bool), 0
     return loose, int(np.unique(labels[t[0]][loose]).size)

@@ -110,8 +110,10 @@ def _check_out(path, folder=True) -> None:
             raise ParameterError("out", f"{path} lies below {below}, which is not a folder")
         if path.exists() and path.is_dir() != folder:
             raise ParameterError("out", f"{path} is {'not a folder' if folder else 'a folder, not a file'}")
-    except OSError as err:
-        raise ParameterError("out", f"{path} cannot be used: {err.strerror or err}") from None
+    except (OSError, ValueError) as err:  # ValueError: a NUL character, which no file name can hold
+        if isinstance(err, ParameterError):
+            raise
+        raise ParameterError("out", f"{path} cannot be used: {getattr(err, 'strerror', None) or err}") from None
 
 
 def _figures(names, out, note: bool) -> None:
@@ -213,10 +215,11 @@ def _one_line(path, err) -> str:
     """An error as the single line the ``scene`` command prints: ``PATH: message``, the path once.
 
     A :class:`~tissuefem.engine.parameters.ParameterError` is about a field inside the file (its message names
-    the field), so the path goes in front; an error about the file itself may already name it.
+    the field), so the path goes in front; an error about the file itself (``field == "path"``) may already name it.
     """
     message = " ".join(str(err).split()) or type(err).__name__
-    return f"{path}: {message}" if isinstance(err, ParameterError) or str(path) not in message else message
+    about_a_field = isinstance(err, ParameterError) and err.field != "path"
+    return f"{path}: {message}" if about_a_field or str(path) not in message else message
 
 
 def cmd_scene(args) -> int:
@@ -329,6 +332,6 @@ def main(argv=None) -> int:
     try:
         return int(args.func(args) or 0)
     except ParameterError as err:  # a refused option value: name the option, as argparse does for its own checks
-        if not hasattr(args, err.field):
-            raise
-        sub.choices[args.command].error(f"argument --{err.field.replace('_', '-')}: {err}")
+        if hasattr(args, err.field):
+            sub.choices[args.command].error(f"argument --{err.field.replace('_', '-')}: {err}")
+        sub.choices[args.command].error(str(err))  # refused further in: still one line, and no traceback

@@ -234,7 +234,7 @@ class _Accuracy:
     """A frame report's accuracy without its state (a run keeps thousands of frames)."""
 
     def __init__(self, report):
-        self.relative_residual, self.converged = report.relative_residual, report.converged
+        self.scaled_residual, self.converged = report.scaled_residual, report.converged
         self.min_J, self.inverted, self.undone = report.min_J, report.inverted, report.undone
 
 

@@ -132,7 +132,7 @@ def _accuracy_columns(prefix: str, reports) -> dict:
     how many left work to later ones, and what)."""
     a = accuracy_summary(reports)
     undone = f"{a['undone']}/{a['steps']}" + (f" ({', '.join(a['undone_reasons'])})" if a["undone"] else "")
-    return {f"{prefix}_residual": a["relative_residual"], f"{prefix}_converged": a["converged"],
+    return {f"{prefix}_residual": a["scaled_residual"], f"{prefix}_converged": a["converged"],
             f"{prefix}_min_J": a["min_J"], f"{prefix}_inverted": a["inverted"], f"{prefix}_undone": undone}
 
 
