@@ -205,8 +205,8 @@ print("one evaluation of each term of 'everything' (energy + force + Hessian), m
 # canvas says whether the view is *running*, *at rest* or *paused*, and shows each frame's step time and its
 # solver status, with the pictures the page painted in the last second; under it, the frame's accuracy.
 # Messages (a failed cut, a drag while paused) appear under the canvas. Without a browser (a headless run)
-# nothing runs by itself and code calls `view.step()`. The widget needs anywidget
-# (`pip install "tissuefem[interactive]"`); the same cells run headless.
+# nothing runs by itself and code calls `view.step()`. The widget (anywidget, installed with tissuefem) draws
+# in the browser; the same cells run headless.
 #
 # Running the next cell again replaces the view (the old one stops: no hidden loop keeps stepping a simulation
 # you no longer see).

@@ -78,7 +78,7 @@ def widget_missing() -> str | None:
     try:
         import anywidget  # noqa: F401
     except ImportError:
-        return "anywidget is not installed: pip install 'tissuefem[interactive]'"
+        return "anywidget is not installed: pip install anywidget"
     return None
 
 

@@ -21,7 +21,7 @@ try:
     import anywidget
     import traitlets
 except ImportError as exc:  # an optional extra
-    raise ImportError("tissuefem.surgery.widget needs anywidget (pip install 'tissuefem[interactive]')") from exc
+    raise ImportError("tissuefem.surgery.widget needs anywidget (pip install anywidget)") from exc
 
 __all__ = ["TissueWidget", "outline", "STATIC"]
 
