@@ -279,7 +279,8 @@ class Simulation:
             edit = _edit(operation, self.mesh, argument, self.positions() if running else None, self.model.weights,
                          self._regions)
         except ValueError as err:
-            raise ValueError(f"{field}: {err}") from None
+            text = str(err)  # named once: a message that starts with the field's name says it already
+            raise ParameterError(field, text if text.startswith(field) else f"{field}: {text}") from None
         with self._transaction():
             edit, carried, pieces = _carried(edit, self.model, self._regions, keep_loose=self.dynamic)
             self.removed_pieces += pieces
