@@ -28,7 +28,7 @@
 #    solver leaves unfinished;
 # 5. choose settings for a lecture demo, an interactive simulator and a validation run.
 #
-# *Time: about 55 min to read and run, and three exercises.*
+# *Time: about 60 min to read and run, and three exercises.*
 #
 # Every chapter so far added a capability. This one adds none: it puts numbers on the notes' qualitative
 # advice (finer meshes are more accurate, Newton converges quadratically, backward Euler is stable for any
