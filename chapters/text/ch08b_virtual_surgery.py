@@ -140,12 +140,12 @@ for i in largest:
     print(f"tension {result.tension[i]:7.1f} at ({centres[i][0]:.2f}, {centres[i][1]:.2f}): {distance:.2f} from {name}")
 
 # %%
-distance, name = nearest_feature(centres[largest[0]])
+near = [nearest_feature(centres[i]) for i in largest]
 display(Markdown(
-    f"The maximum, {result.tension[largest[0]]:.0f}, sits at {name} ({distance:.2f} away, a triangle's size); the "
-    f"{len(largest)} largest lie within {max(nearest_feature(centres[i])[0] for i in largest):.2f} of the defect's "
-    "corners and the incisions' ends, which are singular like a crack tip. The percentile and the means are the "
-    "numbers to compare between designs."))
+    f"The maximum, {result.tension[largest[0]]:.0f}, sits at {near[0][1]} (the triangle's centre {near[0][0]:.2f} "
+    f"from it), and the {len(largest)} largest tensions all lie within {max(d for d, _ in near):.2f} of "
+    + " or ".join(sorted({name for _, name in near})) + ". The ends of cuts and the corners of a defect are singular "
+    "like a crack tip; the percentile and the means are the numbers to compare between designs."))
 
 # %% [markdown]
 # The figure draws the
