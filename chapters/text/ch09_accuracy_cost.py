@@ -125,8 +125,8 @@ p1_factors = [a / b for a, b in zip(beam_errors[1], beam_errors[1][1:])]
 display(Markdown(
     "P1 elements are stiff in bending: each halving of $h$ divides the error by "
     f"{', '.join(f'{x:.1f}' for x in p1_factors)}, approaching four, the second order of P1's error. P2 "
-    "represents the quadratic part of the bending field exactly and lands on the published value to "
-    f"{max(beam_errors[2]):.0e} or better (relative)."))
+    "represents the quadratic part of the bending field exactly and lands on the published value to a relative "
+    f"{beam_errors[2][-1]:.0e} on its finest mesh ({beam_errors[2][0]:.0e} on its coarsest)."))
 
 # %% [markdown]
 #
@@ -341,11 +341,11 @@ for drag in ("jump", "eased"):
 # damping, and the unfinished step keeps a little of the motion that the damping takes away. Two errors of
 # opposite sign cancel a little; the capped run does not solve its equations better (it is $10^{-3}$ away from
 # them). With the eased drag the cap's change is nearly at right angles to the error (cosine about 0.1), and
-# the two errors nearly agree:
+# the two errors nearly agree.
 
 # %%
 display(Markdown(
-    f"capped {x['error_capped']:.4e} against converged {x['error_converged']:.4e}, "
+    f"The capped run's error is {x['error_capped']:.4e} against the converged {x['error_converged']:.4e}, "
     f"{100 * abs(x['error_capped'] / x['error_converged'] - 1):.1f} % apart. So the lower error was a coincidence "
     "of two errors, not a better method, and a cap is no accuracy knob."))
 
