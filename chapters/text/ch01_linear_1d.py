@@ -149,7 +149,7 @@ ax.legend();
 rows = convergence_study(orders=(1, 2), ns=(4, 8, 16, 32, 64))
 print(f"{'order':>5} {'n':>4} {'L2 error':>11} {'rate':>5} {'H1 error':>11} {'rate':>5}")
 for r in rows:
-    print(f"{r['order']:>5} {r['n']:>4} {r['L2']:11.3e} {r['rate_L2']:5.2f} {r['H1']:11.3e} {r['rate_H1']:5.2f}")
+    print(f"{r['order']:>5} {r['n']:>4} {r['L2']:11.3e} {r['rate_L2']:5.2f} {r['H1']:11.3e} {r['rate_H1']:5.2f}".replace("nan", "  -"))
 
 # %%
 fig_ch01_convergence()

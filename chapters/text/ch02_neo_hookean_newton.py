@@ -31,6 +31,7 @@
 # %matplotlib inline
 import numpy as np
 import matplotlib.pyplot as plt
+from IPython.display import Markdown, display
 
 from tissuefem import Bar1D, NeoHookean1D, TaylorNeoHookean1D, Traction, lame_parameters
 
@@ -113,8 +114,8 @@ print("largest |K - K_fd| / |K| =", np.abs(K - K_fd).max() / np.abs(K).max())
 # Starting from $u^0$, repeat: solve $\frac{\partial q}{\partial u}(u^k)\,\Delta u = -q(u^k)$ on
 # the free nodes and set $u^{k+1} = u^k + \Delta u$. Near the solution the residual should be
 # roughly *squared* at every step: the last column, $\|q_{k+1}\|/\|q_k\|^2$, settles to a
-# constant — that is quadratic convergence. (Once the residual reaches round-off, around
-# $10^{-12}$ here, it cannot fall further and the ratio of the last row means nothing.)
+# constant — that is quadratic convergence, until the residual reaches round-off (what that means for
+# the last ratio is written below the table).
 #
 # The bar is fixed at $X = 0$ and pulled by a traction $T$ at $X = 1$. Then $P \equiv T$
 # everywhere, so $F$ is the uniform root of $P(F) = T$: a closed form to compare with.
@@ -128,6 +129,13 @@ F_exact = uniform_bar_stretch(neo, T)
 print(f"\nclosed form: F = {F_exact:.12f};  largest nodal error {np.abs(u - (F_exact - 1) * bar.nodes).max():.2e}")
 
 # %%
+norms = results[0].residual_norms()
+display(Markdown(
+    f"The last ratio printed (row {len(norms) - 2}, {norms[-1] / norms[-2] ** 2:.1e}) means nothing: that step took "
+    f"the residual down to round-off, {norms[-1]:.1e} here, which cannot fall further, so the ratio measures "
+    f"round-off over the square of a small residual. The last row ({len(norms) - 1}) has no ratio at all."))
+
+# %%
 fig_ch02_newton()
 
 # %% [markdown]
@@ -139,16 +147,22 @@ fig_ch02_newton()
 # load; in compression it stiffens sharply, and a large push needs ramping:
 
 # %%
+failed = []
 for steps in (1, 2, 4, 8):
     u, results = bar.solve_nonlinear(neo, right=Traction(-3000.0), load_steps=steps)
     its = [r.iterations for r in results]
     print(f"{steps} load step(s): Newton iterations per step {its}, "
           f"status of the last step: {results[-1].status}")
+    failed += [] if results[-1].converged else [steps]
+
+# %%
+display(Markdown(f"With {' and '.join(map(str, failed))} load step(s) the push fails; with more it converges."
+                 if failed else "Every number of load steps converges."))
 
 # %% [markdown]
 # ## 5. Strong compression: the logarithm of a non-positive $J$
 #
-# Why did one step fail at $T = -3000$? Take $T = -1500$. A solution exists — $P(F) \to -\infty$ as $F \to 0^+$,
+# Why did too few steps fail at $T = -3000$? Take $T = -1500$. A solution exists — $P(F) \to -\infty$ as $F \to 0^+$,
 # so some $F \in (0, 1)$ balances any compression — but the very first Newton step from rest is
 # the *linear* prediction $F = 1 + T/(2\mu + \lambda)$:
 
@@ -185,7 +199,7 @@ ax.legend(fontsize=8);
 # %% [markdown]
 # Three ways out, each used later in the workbook:
 # 1. **Load stepping** keeps each Newton step small.
-# 2. **A safeguarded step** (here: halve $\Delta u$ until the residual is finite; chapter 6 uses
+# 2. **A safeguarded step** (here: halve $\Delta u$ until the residual is finite; chapters 4 and 6 use
 #    a line search on the energy).
 # 3. **A model that is defined through inversion**: replace $\ln J$ by its cubic Taylor
 #    polynomial $r(J)$ about $J = 1$ — the notes' Figure 7, below.
@@ -212,6 +226,10 @@ fig07_neo_hookean_1d()
 
 # %%
 fig05_admissible_maps()
+
+# %% [markdown]
+# (In the admissible panel $\phi(X) = X^2$ marks $X = 0$ in red: there $\phi'(0) = 0$, at the end point only.
+# Inside the bar $\phi' > 0$, so the map touches the bound at one point without folding anything.)
 
 # %% [markdown]
 # ## What to try

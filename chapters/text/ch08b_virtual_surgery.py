@@ -34,6 +34,8 @@
 
 # %%
 # %matplotlib inline
+import inspect
+
 import numpy as np
 import matplotlib.pyplot as plt
 from IPython.display import Markdown, display
@@ -113,14 +115,40 @@ print(f"stitch forces k|x_a - x_b - g|: {np.array2string(forces, precision=1)}")
 #    and the gaps still open.
 
 # %%
-result = advancement_flap(n_triangles=2000, flap_length=1.2, tighten_frames=6, method="edges")
+flap_length = 1.2
+result = advancement_flap(n_triangles=2000, flap_length=flap_length, tighten_frames=6, method="edges")
 print(result.summary())
 print("Newton steps per tightening frame:", [r.newton_iterations for r in result.reports])
 print("boundaries of the final mesh:", sorted(result.simulation.mesh.boundaries), "| terms:", result.simulation.terms)
 
+# %%
+# where the largest tensions sit: each triangle's centre (reference coordinates) against the procedure's corners
+x0, y0, w, h = inspect.signature(advancement_flap).parameters["defect"].default
+features = {"a corner of the defect": [(x0, y0), (x0 + w, y0), (x0 + w, y0 + h), (x0, y0 + h)],
+            "an end of an incision": [(x0 + w + flap_length, y0), (x0 + w + flap_length, y0 + h)]}
+mesh = result.simulation.mesh
+centres = mesh.p[:, mesh.t].mean(axis=1).T
+
+
+def nearest_feature(point):
+    return min((np.hypot(*(np.array(corner) - point)), name) for name, corners in features.items() for corner in corners)
+
+
+largest = np.argsort(result.tension)[::-1][:6]
+for i in largest:
+    distance, name = nearest_feature(centres[i])
+    print(f"tension {result.tension[i]:7.1f} at ({centres[i][0]:.2f}, {centres[i][1]:.2f}): {distance:.2f} from {name}")
+
+# %%
+near = [nearest_feature(centres[i]) for i in largest]
+display(Markdown(
+    f"The maximum, {result.tension[largest[0]]:.0f}, sits at {near[0][1]} (the triangle's centre {near[0][0]:.2f} "
+    f"from it), and the {len(largest)} largest tensions all lie within {max(d for d, _ in near):.2f} of "
+    + " or ".join(sorted({name for _, name in near})) + ". The ends of cuts and the corners of a defect are singular "
+    "like a crack tip; the percentile and the means are the numbers to compare between designs."))
+
 # %% [markdown]
-# The maximum sits at the corners of the defect and the ends of the incisions, which are singular like a
-# crack tip; the percentile and the means are the numbers to compare between designs. The figure draws the
+# The figure draws the
 # procedure and compares three flap lengths: a longer flap spreads the same advance over more skin, so the
 # flap is stretched less (at the price of longer incisions).
 
@@ -139,7 +167,9 @@ fig_ch08_flap()
 # times. Each variant's time is the median of its three runs, with their range; its difference from the base
 # is taken within each run, and it is a *cost* (or a saving) only where every run's difference is larger,
 # in the same direction, than the spread of the base's own three runs. Otherwise the table says "noise" and
-# shows the range: a difference smaller than the spread of repeats is not a measurement.
+# shows the range: a difference smaller than the spread of repeats is not a measurement. One slow run of the
+# base widens that spread for every row, so a row whose runs all differ in the same direction, but by less,
+# says so ("saves in every run" or "costs in every run", within the noise) instead of a plain "noise".
 
 # %%
 runs = [effects_benchmark(n_triangles=1000, frames=8, out=None, progress=None) for _ in range(3)]
@@ -152,6 +182,8 @@ def cost_cell(differences, spread):
         return f"+{mid:.1f} (+{low:.1f} to +{high:.1f})"
     if high < -spread:
         return f"saves {-mid:.1f} ({-high:.1f} to {-low:.1f})"
+    if high < 0 or low > 0:
+        return f"noise, but {'saves' if high < 0 else 'costs'} in every run ({low:+.1f} to {high:+.1f})"
     return f"noise ({low:+.1f} to {high:+.1f})"
 
 
@@ -180,7 +212,8 @@ print("one evaluation of each term of 'everything' (energy + force + Hessian), m
 # - **inertia** adds the mass matrix and, here, slightly *more* Newton steps per frame (2.00 for the
 #   quasistatic base, 2.38 with inertia): a quasistatic frame starts from the linearised step, which already
 #   follows the handle, and one Newton step finishes it; a dynamic frame starts from a prediction of the
-#   motion (chapter 7), which now and then needs a second step;
+#   motion (chapter 7) and takes two Newton steps after it, and three in the first frames, before the
+#   prediction has a motion to follow;
 # - the **probe** costs little to evaluate (the last line) but adds Newton steps, as section 4 of chapter 8a
 #   showed;
 # - the **projected tangent** (inversion handling, chapter 6b) costs nothing on this gentle drag: it is

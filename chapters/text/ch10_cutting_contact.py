@@ -16,8 +16,6 @@
 # %% [markdown]
 # # Chapter 10 — Cutting through elements, and wound edges that touch
 #
-# *Time:* about 50 minutes (reading and running; the exercises take longer).
-#
 # **Goals.** By the end of this chapter you can
 # 1. say why a cut snapped to mesh edges gives an answer that depends on the mesh, and measure it;
 # 2. describe the *virtual node algorithm*: how a triangle the scalpel crosses becomes copies that each
@@ -25,6 +23,8 @@
 # 3. check a cut against a closed form (Griffith's crack) and against conservation of mass and momentum;
 # 4. stitch points of a wound that lies inside elements, and redo chapter 8b's flap and a rotation flap;
 # 5. keep the lips of a wound from passing through each other with a contact energy.
+#
+# *Time: about 50 min to read and run, and four exercises.*
 #
 # *Reading:* the notes' introduction (reconstructive surgery, their Figure 1 and reference [3]); N. Molino,
 # Z. Bao and R. Fedkiw, *A virtual node algorithm for changing mesh topology during simulation*, SIGGRAPH
@@ -379,7 +379,7 @@ for name, procedure in (("advancement", advancement_flap), ("rotation", rotation
 #
 # ## Exercises
 #
-# In `chapters/exercises/ch10.py`, graded by `python -m tissuefem grade ch10`:
+# In `exercises/ch10.py`, graded by `python -m tissuefem grade ch10`:
 #
 # - **10.1** Clip a straight stroke to a triangle with barycentric coordinates (step 1 of the algorithm).
 # - **10.2** The area shares of the two pieces of a triangle cut by a line: the copies' weights.

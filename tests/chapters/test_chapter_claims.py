@@ -110,6 +110,19 @@ def test_ch08_effects_table_newton_counts():
     assert newton["+ inversion"] == newton["base"]
 
 
+def test_ch08b_a_dynamic_frame_takes_two_newton_steps_after_the_first_frames():
+    """Chapter 8b: with inertia "a dynamic frame starts from a prediction of the motion (chapter 7) and takes two
+    Newton steps after it, and three in the first frames", on the effects table's drag (1000 triangles, 8 frames)."""
+    from tissuefem import Scene, Simulation
+    from tissuefem.workbook.bench.scenes import variants
+    from tissuefem.workbook.timestepping import flap_drag
+
+    data, options = next((d, o) for name, d, o in variants(1000) if name == "+ inertia")
+    counts = [r.newton_iterations for r in flap_drag(Simulation(Scene.from_dict(data), **options), 8)]
+    first = counts.index(2)
+    assert 0 < first <= 3 and set(counts[:first]) == {3} and set(counts[first:]) == {2}, counts
+
+
 def test_every_test_the_readme_and_docs_cite_exists():
     """The errata list and the docs cite tests as evidence (``tests/engine/test_x.py::test_y``): each must still be there."""
     import re

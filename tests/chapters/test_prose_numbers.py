@@ -112,10 +112,6 @@ DECLARED: list[tuple[str, str, str, str]] = [
     ("ch09_accuracy_cost", "48 / 12", "citation", "length 48, depth 12, a parabolic shear load"),
     ("ch09_accuracy_cost", "four times", "definition", "with steps two and four times larger"),
     ("ch09_accuracy_cost", "500", "input", "the flap on 500 triangles, five frames"),
-    ("ch09_accuracy_cost", "0.8 / 0.3 / 0.4", "checked-by tests/workbook/test_bench_accuracy_cost.py::test_backward_euler_converges_slowly_after_an_abrupt_start",
-     "shrink by only about 0.8 per halving (an order of about 0.3 to 0.4)"),
-    ("ch09_accuracy_cost", "0.5", "checked-by tests/workbook/test_bench_accuracy_cost.py::test_backward_euler_converges_slowly_after_an_abrupt_start",
-     "the ratio approaches 0.5"),
     ("ch09_accuracy_cost", "1", "definition", "Errors that agree to 1 % are treated as equal"),
     *[("ch09_accuracy_cost", ratio, "checked-by tests/workbook/test_bench_accuracy_cost.py::"
        "test_the_recorded_study_supports_what_chapter_9_says", f"{ratio} times at") for ratio in ("1.7", "2.3", "2.6")],

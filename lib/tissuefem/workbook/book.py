@@ -26,7 +26,7 @@ import nbformat
 from jinja2 import DictLoader
 from nbconvert import HTMLExporter
 
-from .bench.accuracy_cost import format_knob_table, recorded_results
+from .bench.accuracy_cost import RESIDUAL_COLUMN_NOTE, format_knob_table, recorded_results
 from .notebooks import chapter_label, chapter_paths, missing_figures
 
 #: reading speed for the chapters' prose: technical text with equations, about half that of plain prose
@@ -384,9 +384,10 @@ def appendix_cells() -> list[str]:
              f"{machine['scipy']}, scikit-fem {machine['scikit-fem']}). Each row is the baseline with one knob "
              "changed: *ms/frame* is the median wall time of a frame in that one run, *Newton/frame* the mean "
              "number of Newton iterations, *rel. L2 error* the largest relative $L^2$ distance to the reference "
-             "over the run's checkpoints (chapter 9, sections 1 and 2). The errors are reproducible; the timings "
-             "are one machine's, some taken while other work ran on it: compare them within a table, and read "
-             "the chapter for what they mean."]
+             "over the run's checkpoints (chapter 9, sections 1 and 2), *converged* the share of frames that met "
+             "the Newton tolerance. The errors are reproducible; the timings are one machine's, some taken while "
+             "other work ran on it: compare them within a table, and read the chapter for what they mean.",
+             RESIDUAL_COLUMN_NOTE]
     for benchmark in dict.fromkeys(r["benchmark"] for r in results["knobs"]):
         rows = [r for r in results["knobs"] if r["benchmark"] == benchmark]
         tables = [f"## The {benchmark}"]

@@ -217,6 +217,8 @@ def _drive(solver, benchmark: str, frames: int, substeps: int, checkpoints=(), d
         "newton": float(np.sum(each["newton_iterations"]) / frames),
         "linear_iterations": float(np.sum(each["linear_iterations"]) / frames),
         "factorizations": int(np.sum(each["factorizations"])), "converged_share": float(np.mean(each["converged"])),
+        # Newton's own ratio ||g|| / ||g(start)||: a frame whose start is already good shows it large (up to 1)
+        # and still converged, judged on the residual over the larger load scale (scaled_residual)
         "residual_median": float(np.median(each["relative_residual"])),
         # the smallest share of its motion a handle made in one frame (< 1: a frame could not move it all the
         # way without inverting elements, and the real-time solver kept the state valid instead)
@@ -225,7 +227,8 @@ def _drive(solver, benchmark: str, frames: int, substeps: int, checkpoints=(), d
     }
     # each frame's own accuracy: the smallest J, the most inverted elements, the frames that left work undone
     summary = accuracy_summary(accuracy)
-    stats.update({"min_J": summary["min_J"], "inverted": summary["inverted"], "undone_frames": summary["undone"],
+    stats.update({"scaled_residual_median": summary["scaled_residual"],
+                  "min_J": summary["min_J"], "inverted": summary["inverted"], "undone_frames": summary["undone"],
                   "undone_reasons": summary["undone_reasons"]})
     return states, stats
 
@@ -610,16 +613,26 @@ def recorded_results() -> dict:
     return read_results(Path(__file__).parents[1] / "data" / "accuracy_study.json")
 
 
+#: what the knob tables' residual column means, for the pages that print them (chapter 9, its appendix)
+RESIDUAL_COLUMN_NOTE = (
+    "*median residual / start residual* is the median over the frames of Newton's own ratio: the residual a "
+    "frame ended with over the residual it started from. It is not what convergence is judged on. A frame has "
+    "converged when its residual is at most the tolerance times the larger of its start residual and, for a "
+    "quasistatic frame, the load its linearised start balances. The block's frames start from that linearised "
+    "step, whose residual is already small against the load, so a converged block frame shows a ratio near "
+    "$10^{-3}$, or 1 when the start alone met the tolerance and no Newton step followed. On the flap the start "
+    "residual sets the scale, and the ratio lies below the tolerance.")
+
 _TABLE = [("benchmark", "benchmark", "{}"), ("knob", "knob", "{}"), ("value", "value", "{}"),
           ("triangles", "triangles", "{:d}"), ("dofs", "dofs", "{:d}"), ("ms_median", "ms/frame", "{:.1f}"),
           ("newton", "Newton/frame", "{:.2f}"), ("error", "rel. L2 error", "{:.2e}"),
-          ("converged_share", "converged", "{:.0%}"), ("residual_median", "median rel. residual", "{:.1e}"),
+          ("converged_share", "converged", "{:.0%}"), ("residual_median", "median residual / start residual", "{:.1e}"),
           ("min_J", "min J", "{:.3f}"), ("inverted", "inverted", "{:d}")]
 
 
 def _accuracy_text(row) -> str:
     """A run's accuracy as its frames reported it, for a progress line."""
-    return (f"converged {row['converged_share']:.0%}  median rel. residual {row['residual_median']:.1e}  "
+    return (f"converged {row['converged_share']:.0%}  median residual / start residual {row['residual_median']:.1e}  "
             f"min J {row['min_J']:.3f}  {row['inverted']} inverted  {row['undone_frames']} frames left work undone")
 
 
