@@ -8,7 +8,9 @@ Every solve in tissuefem is a call of :func:`newton`, the notes' iteration ``dq/
 * **descent**: under the energy line search a direction that is not downhill (``q . du >= 0``) makes the linear
   solver refactorize, then the tangent is shifted by ``tau I`` with growing ``tau``, at last steepest descent.
 * **step cap** ``max_step`` and **admissible steps** ``step_limit`` (self-contact) before the line search; a **time
-  budget** measured by ``clock``.
+  budget** measured by ``clock``: no piece of work (an assembly, a solve, a factorization) starts unless its cost,
+  learned by the linear solver (:class:`~.linsolve.Deadline`), says it ends in time; only the first iteration's
+  short pieces always run.
 
 A numerical failure never escapes as an exception or a NaN state: it is the result's ``status``, its ``x`` the last
 accepted iterate.
@@ -23,7 +25,7 @@ from typing import Callable
 import numpy as np
 import scipy.sparse as sp
 
-from .linsolve import LinearSolver, SuperLU
+from .linsolve import Deadline, LinearSolver, SuperLU
 from .parameters import ParameterError, check_count, check_real, check_real_array, check_real_number
 
 __all__ = ["newton", "NewtonResult", "NewtonIteration", "STATUSES"]
@@ -71,6 +73,8 @@ class NewtonResult:
     linear_iterations: int = 0
     factorizations: int = 0
     history: list[NewtonIteration] = field(default_factory=list)
+    skipped: list[str] = field(default_factory=list)  # work not started for the budget (kinds of linsolve.WORK)
+    unestimated: list[str] = field(default_factory=list)  # work started under a budget with no cost estimate yet
 
     @property
     def line_search_cuts(self) -> int:
@@ -259,8 +263,9 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
     balanced load (for a good ``x0``), ``floor`` the round-off level; energy changes below ``energy_floor`` are not
     trusted. ``max_step`` caps one dof's change per iteration; ``linear``: the linear-solve policy (default: a fresh
     direct factorization); ``safe_hessian(x)``: a positive semi-definite Hessian tried before the shift; ``budget``
-    seconds by ``clock`` from ``start`` (default: now); ``step_limit(x, dx)``: the admissible fraction of ``dx``
-    (none: ``"blocked"``).
+    seconds by ``clock`` from ``start`` (default: now): a piece of work starts only if ``linear.costs`` says it ends
+    in time (the first iteration's assembly and its cheapest solve always run; what was not started is the result's
+    ``skipped``); ``step_limit(x, dx)``: the admissible fraction of ``dx`` (none: ``"blocked"``).
     """
     x, max_step, max_iterations, max_halvings, budget = _checked(
         x0, {"gradient": gradient, "hessian": hessian, "energy": energy, "clock": clock, "safe_hessian": safe_hessian},
@@ -271,9 +276,9 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
     timed = clock is not None and budget < math.inf
     if timed and start is None:
         start = clock()
-
-    def out_of_time():  # the budget: no new assembly or solve once it is spent (the first iteration always runs)
-        return timed and clock() - start >= budget
+    # the budget: a piece of work starts only if its learned cost says it ends in time (see linsolve.Deadline)
+    ours = isinstance(linear, LinearSolver)  # another object with matrix and solve is called as before
+    deadline = Deadline(clock, start + budget if timed else math.inf, linear.costs if ours else None)
     history: list[NewtonIteration] = []
     g = np.asarray(gradient(x), dtype=float)
     rnorm = r0 = float(np.linalg.norm(g[mask]))
@@ -284,7 +289,8 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
 
     def result(status, k):
         return NewtonResult(x, status == "converged", status, k, rnorm, r0, target, E, E_start,
-                            stats["linear"], stats["factorizations"], history)
+                            stats["linear"], stats["factorizations"], history, list(deadline.skipped),
+                            list(deadline.unestimated))
     if not np.isfinite(rnorm):
         return result("non-finite", 0)
     for k in range(max_iterations + 1):
@@ -292,19 +298,28 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
             return result("converged", k)
         if k == max_iterations:
             return result("max-iterations", k)
-        if k >= 1 and out_of_time():
+        deadline.first = k == 0
+        # the tangent's free block (unless the policy keeps a factorization), if it and the least solve fit
+        least, assembles = (linear.least_work(), linear.assembles(mask)) if ours else ((), True)
+        if not deadline.fits(*(("assembly",) if assembles else ()), *least):
+            deadline.skip("assembly" if assembles else least[0])
             return result("budget", k)
         rhs = -g[mask]
-        # the tangent's free block (unless the policy keeps a factorization), then, budget permitting, the solve
-        A = linear.matrix(lambda: hessian(x), mask)
-        if k >= 1 and out_of_time():
-            return result("budget", k)
+        timing = {"deadline": deadline} if ours else {}
+        A = linear.matrix(lambda: hessian(x), mask, **timing)
         # inexact Newton: an iterative solve may stop at eta ||q||, eta = min(1e-3, ||q|| / ||q0||) (quadratic
-        # convergence stays), never below a third of the target
+        # convergence stays), never below a third of the target; the solve starts only what fits
         eta = min(1e-3, rnorm / r0) if r0 > 0 else 1e-3
-        dx_free, info = linear.solve(A, rhs, atol=max(eta * rnorm, 0.3 * target))
+        dx_free, info = linear.solve(A, rhs, atol=max(eta * rnorm, 0.3 * target), **timing)
         stats["linear"] += info.iterations
         stats["factorizations"] += info.factorizations
+        if getattr(info, "skipped", ""):
+            return result("budget", k)
+        usable = dx_free is not None and np.all(np.isfinite(dx_free)) and (line_search != "energy" or
+                                                                         rhs @ dx_free > 0)
+        if not usable and line_search == "energy" and not deadline.fits("factorization"):
+            deadline.skip("factorization")  # the safeguards below factorize a shifted tangent
+            return result("budget", k)
         dx_free, shift = _descent(dx_free, A, rhs, x, mask, hessian, safe_hessian, linear, line_search, stats)
         if dx_free is None:
             return result("singular", k)
