@@ -142,9 +142,9 @@ class Pardiso(_Direct):
 # --- a frame's deadline and the cost of its pieces of work ---------------------------------------
 
 #: The pieces of a frame's work whose cost (seconds each) a :class:`LinearSolver` learns, in ``costs``.
-WORK = ("assembly", "factorization", "back-substitution", "cg-iteration", "linearised")
+WORK = ("assembly", "factorization", "back-substitution", "cg-iteration")
 #: Pieces that may take many times a frame: never started in a frame without an estimate that they fit.
-_LONG = frozenset({"factorization", "linearised"})
+_LONG = frozenset({"factorization"})
 #: The weight of the newest measurement in a cost estimate (an exponential moving average).
 _LEARNING = 0.5
 
