@@ -610,9 +610,10 @@ class LinearSolver:
         return Deadline(clock, end, self.costs, first)
 
     def least_work(self) -> tuple[str, ...]:
-        """The pieces the next solve needs at the least (what must fit before its tangent is worth assembling)."""
+        """The pieces the next solve needs at the least (what must fit before its tangent is worth assembling; a
+        missing constant factorization may be made in the background, from the tangent)."""
         if self.constant:
-            return ("back-substitution",) if self._factor is not None else ("factorization", "back-substitution")
+            return ("back-substitution",)
         if isinstance(self.backend, ReusedFactorization):
             return ("cg-iteration",)
         return ("factorization", "back-substitution")

@@ -301,8 +301,9 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
         deadline.first = k == 0
         # the tangent's free block (unless the policy keeps a factorization), if it and the least solve fit
         least, assembles = (linear.least_work(), linear.assembles(mask)) if ours else ((), True)
-        if not deadline.fits(*(("assembly",) if assembles else ()), *least):
-            deadline.skip("assembly" if assembles else least[0])
+        needed = (("assembly",) if assembles else ()) + tuple(least)
+        if needed and not deadline.fits(*needed):
+            deadline.skip(max(needed, key=lambda kind: deadline.costs.get(kind) or 0.0))  # the costliest
             return result("budget", k)
         rhs = -g[mask]
         timing = {"deadline": deadline} if ours else {}
