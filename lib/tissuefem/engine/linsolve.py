@@ -142,7 +142,7 @@ class Pardiso(_Direct):
 # --- a frame's deadline and the cost of its pieces of work ---------------------------------------
 
 #: The pieces of a frame's work whose cost (seconds each) a :class:`LinearSolver` learns, in ``costs``.
-WORK = ("assembly", "factorization", "back-substitution", "cg-iteration")
+WORK = ("assembly", "factorization", "back-substitution", "cg-iteration", "line-search", "report")
 #: Pieces that may take many times a frame: never started in a frame without an estimate that they fit.
 _LONG = frozenset({"factorization"})
 #: The weight of the newest measurement in a cost estimate (an exponential moving average).
@@ -422,8 +422,10 @@ class ReusedFactorization:
         if result.negative_curvature:
             return self._refactorize(A, b, "negative-curvature", deadline)
         if not result.converged and result.iterations >= self.max_iterations:
-            return self._refactorize(A, b, "cg-failed", deadline)
-        if self.background and result.iterations > self.background_after:
+            if deadline.fits("factorization", "back-substitution"):
+                return self._refactorize(A, b, "cg-failed", deadline)
+            self._work.start(self.direct.factorize, A, A.shape)  # meanwhile CG's iterate is the answer
+        elif self.background and result.iterations > self.background_after:
             self._work.start(self.direct.factorize, A, A.shape)
         elif result.iterations > self.refresh_after:
             self._stale = True

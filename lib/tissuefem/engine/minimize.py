@@ -301,7 +301,7 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
         deadline.first = k == 0
         # the tangent's free block (unless the policy keeps a factorization), if it and the least solve fit
         least, assembles = (linear.least_work(), linear.assembles(mask)) if ours else ((), True)
-        needed = (("assembly",) if assembles else ()) + tuple(least)
+        needed = (("assembly",) if assembles else ()) + tuple(least) + ("line-search",)
         if needed and not deadline.fits(*needed):
             deadline.skip(max(needed, key=lambda kind: deadline.costs.get(kind) or 0.0))  # the costliest
             return result("budget", k)
@@ -330,6 +330,7 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
         slope = -float(rhs @ dx_free)  # dE/dalpha at alpha = 0
         if E is not None:
             e_scale = max(e_scale, abs(E), abs(slope))
+        t0 = deadline.clock()
         step = _line_search(x, dx, E, slope, rnorm, mask, gradient, energy, line_search, max_halvings,
                             max(_ENERGY_ROUNDOFF * e_scale, energy_floor))
         if step is None:
@@ -337,6 +338,7 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
         alpha, x_new, g_new, E_new = step
         if g_new is None:
             g_new = np.asarray(gradient(x_new), dtype=float)
+        deadline.record("line-search", deadline.clock() - t0)  # its energies and the new gradient
         rn_new, step_norm = float(np.linalg.norm(g_new[mask])), float(np.linalg.norm(alpha * dx))
         if not np.isfinite(rn_new):
             history.append(NewtonIteration(k, rnorm, step_norm, alpha, None, shift, info.iterations))

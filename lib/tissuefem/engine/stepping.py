@@ -407,7 +407,9 @@ class Stepper:
         try:
             if inertia is not None:
                 inertia.x_tilde = self.u + dt * self.v
-            deadline = self.linear.deadline(self._clock, start + self._budget)
+            # the budget less what the report's check of J is expected to take after the solve
+            budget = max(self._budget - (self.linear.costs.get("report") or 0.0), 1e-9 * self._budget)
+            deadline = self.linear.deadline(self._clock, start + budget)
             x0, E0, fraction, which, load_norm, pre, crossed = self._warm_start(fixed, values, free, deadline)
             if fraction < 1.0 and not self.anytime:
                 # the targets cannot be reached without leaving the valid (finite-energy) states: an offline
@@ -420,7 +422,7 @@ class Stepper:
                     x0, model.gradient, model.hessian, energy=model.energy, free=free, line_search=self.line_search,
                     rtol=self.rtol, atol=self.atol, reference_norm=load_norm, floor=self.floor,
                     max_iterations=self.max_iterations - (which == "linearised"), max_step=self.max_step,
-                    linear=self.linear, clock=self._clock, budget=self._budget, start=start, energy0=E0,
+                    linear=self.linear, clock=self._clock, budget=budget, start=start, energy0=E0,
                     energy_floor=self.energy_floor, step_limit=model.step_limit,
                     safe_hessian=(lambda x: model.hessian(x, safe=True)) if model.has_safe_hessian else None)
         finally:
@@ -431,7 +433,7 @@ class Stepper:
         result.skipped[:0] = [k for k in deadline.skipped if k not in result.skipped]
         result.unestimated[:0] = [k for k in deadline.unestimated if k not in result.unestimated]
         commit = result.converged or (self.anytime and np.all(np.isfinite(result.x)))
-        min_J, inverted = jacobian_extremes(model, result.x)  # the report's accuracy, timed with the step
+        min_J, inverted = deadline.timed("report", jacobian_extremes, model, result.x)  # timed with the step
         elapsed = self._clock() - start  # read before the commit: nothing after it can raise
         if commit:
             if dt is not None:
