@@ -425,7 +425,8 @@ class ReusedFactorization:
             if deadline.fits("factorization", "back-substitution"):
                 return self._refactorize(A, b, "cg-failed", deadline)
             self._work.start(self.direct.factorize, A, A.shape)  # meanwhile CG's iterate is the answer
-        elif self.background and result.iterations > self.background_after:
+        elif (self.background and result.iterations > self.background_after) or (
+                limit < self.max_iterations and not result.converged):  # cut short by the deadline: refresh too
             self._work.start(self.direct.factorize, A, A.shape)
         elif result.iterations > self.refresh_after:
             self._stale = True
