@@ -387,7 +387,8 @@ class ReusedFactorization:
             self._work.start(self.direct.factorize, A, A.shape)  # adopted by a later solve
             deadline.skip("factorization")
             return None, SolveInfo(0, False, False, math.inf, reason, "factorization")
-        self._factor, self._shape, self._stale = deadline.timed("factorization", self.direct.factorize, A), A.shape, False
+        factor = deadline.timed("factorization", self.direct.factorize, A)
+        self._factor, self._shape, self._stale = factor, A.shape, False
         self.factorizations += 1
         x = deadline.timed("back-substitution", self._factor.solve, b)
         return x, SolveInfo(0, True, bool(np.all(np.isfinite(x))), float(np.linalg.norm(b - A @ x)), reason)
@@ -649,7 +650,8 @@ class LinearSolver:
 
     def assembles(self, mask) -> bool:
         """Whether :meth:`matrix` for ``mask`` would assemble (not when a kept constant factorization fits)."""
-        return not (self.constant and self._factor is not None and self._key == (mask.size, np.packbits(mask).tobytes()))
+        kept = self.constant and self._factor is not None
+        return not (kept and self._key == (mask.size, np.packbits(mask).tobytes()))
 
     def matrix(self, assemble, mask, force=False, deadline: Deadline | None = None):
         """The free-free block of ``assemble()`` -- or ``None`` when a kept constant factorization makes the
