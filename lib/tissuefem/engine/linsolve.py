@@ -421,7 +421,10 @@ class ReusedFactorization:
         deadline.record("cg-iteration", deadline.clock() - t0, result.iterations)
         self.cg_iterations += result.iterations
         if result.negative_curvature:
-            return self._refactorize(A, b, "negative-curvature", deadline)
+            if deadline.fits("factorization", "back-substitution"):
+                return self._refactorize(A, b, "negative-curvature", deadline)
+            self._work.start(self.direct.factorize, A, A.shape)  # meanwhile CG's iterate (Newton checks it)
+            return result.x, SolveInfo(result.iterations, False, False, result.residual_norm, "negative-curvature")
         if not result.converged and result.iterations >= self.max_iterations:
             if deadline.fits("factorization", "back-substitution"):
                 return self._refactorize(A, b, "cg-failed", deadline)
@@ -680,8 +683,7 @@ class LinearSolver:
                 info.iterations, info.factorizations, info.skipped = done.iterations, int(done.factorized), done.skipped
                 if dx is not None and not (np.all(np.isfinite(dx)) and b @ dx > 0) and not done.factorized:
                     dx, again = self.backend.solve(A, b, refactorize=True, deadline=deadline)  # no descent
-                    info.factorizations += int(again.factorized)
-                    info.skipped = again.skipped
+                    info.factorizations += int(again.factorized)  # (skipped: no direction, Newton finds one)
             elif not deadline.fits("factorization", "back-substitution"):
                 dx, info.skipped = None, "factorization"
                 deadline.skip("factorization")

@@ -184,6 +184,16 @@ def _shifted_direction(A, rhs, shifts=None):
     return rhs / (1e3 * scale), math.inf, factorizations
 
 
+def _scaled_steepest_descent(A, rhs):
+    """``rhs`` over the tangent's diagonal (its magnitude; a downhill direction that factorizes nothing), or None
+    without a finite tangent."""
+    if A is None or not np.all(np.isfinite(A.data)):
+        return None
+    d = np.abs(A.diagonal())
+    d[~(d > 0)] = float(np.max(d, initial=0.0)) or 1.0
+    return rhs / d
+
+
 def _descent(dx_free, A, rhs, x, mask, hessian, safe_hessian, linear, line_search, stats):
     """``(dx_free, shift)``: the Newton step if usable (and downhill under the energy line search), else the safe
     Hessian's, a shifted tangent's, steepest descent; ``(None, 0)``: no usable step and no energy to descend."""
@@ -319,9 +329,13 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
         usable = dx_free is not None and np.all(np.isfinite(dx_free)) and (line_search != "energy" or
                                                                          rhs @ dx_free > 0)
         if not usable and line_search == "energy" and not deadline.fits("factorization"):
-            deadline.skip("factorization")  # the safeguards below factorize a shifted tangent
-            return result("budget", k)
-        dx_free, shift = _descent(dx_free, A, rhs, x, mask, hessian, safe_hessian, linear, line_search, stats)
+            # the safeguards of _descent factorize (shifted) tangents, which does not fit: a scaled steepest descent
+            deadline.skip("factorization")
+            dx_free, shift = _scaled_steepest_descent(A, rhs), math.inf
+            if dx_free is None:
+                return result("budget", k)
+        else:
+            dx_free, shift = _descent(dx_free, A, rhs, x, mask, hessian, safe_hessian, linear, line_search, stats)
         if dx_free is None:
             return result("singular", k)
         dx, dx_free = _bounded_step(x, dx_free, mask, max_step, step_limit)
