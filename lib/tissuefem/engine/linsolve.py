@@ -153,9 +153,10 @@ class Deadline:
     """A frame's deadline ``end`` (seconds by ``clock``; ``math.inf``: none) and the cost estimates ``costs`` (a dict
     ``kind -> seconds`` for the kinds of :data:`WORK`, learned by :meth:`record` from every measured piece, with or
     without a deadline). :meth:`fits` says whether pieces can finish before ``end``; a piece without an estimate yet
-    fits (the first frame ever runs its work to learn its cost) and is noted in ``unestimated``. ``first``: the
-    frame's first Newton iteration, whose short pieces (an assembly, a back-substitution, a CG iteration) always run
-    so every frame makes progress. What a frame did not start is noted in ``skipped``."""
+    fits while time is left (the first frame ever runs its work to learn its cost) and is noted in ``unestimated``.
+    ``first``: the frame's first Newton iteration, whose short pieces (an assembly, a back-substitution, a CG
+    iteration, a line search) always run so every frame makes progress; its long ones (a factorization) only if they
+    fit or were never measured. What a frame did not start is noted in ``skipped``."""
 
     def __init__(self, clock=None, end: float = math.inf, costs: dict | None = None, first: bool = False):
         self.clock = time.perf_counter if clock is None else clock
