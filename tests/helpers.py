@@ -61,20 +61,38 @@ def rotation(theta):
     return np.array([[c, -s], [s, c]])
 
 
+def rotation3(rng, shape):
+    """Random rotations ``[3, 3, *shape]``, uniform on SO(3) (from normalised Gaussian quaternions)."""
+    q = rng.normal(size=(4,) + tuple(shape))
+    w, x, y, z = q / np.linalg.norm(q, axis=0)
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+
+
 def matmul(A, B):
-    """Products of fields of 2x2 matrices ``[2, 2, ...]``."""
+    """Products of fields of d x d matrices ``[d, d, ...]``."""
     return np.einsum("ij...,jk...->ik...", A, B)
 
 
-def random_F(kind, seed=0, shape=(30, 3)):
-    """Fields of F shaped ``[2, 2, *shape]``: ``"positive"`` (J > 0), ``"inverted"`` (J < 0, down to about -4),
-    ``"singular"`` (J = 0), built as ``U diag(s1, s2) V^T`` with rotations U, V; or the named states ``"rest"``,
-    ``"stretched"``, ``"sheared"`` (the same F everywhere). Inverted samples keep ``s1 - |s2| >= 0.2``: the corotated
-    rotation is singular where the signed singular values sum to 0 (a measure-zero set, tested apart)."""
-    named = {"rest": np.eye(2), "stretched": np.diag([1.3, 0.85]), "sheared": np.array([[1.0, 0.4], [0.0, 1.0]])}
+#: the named states of :func:`random_F` in 2D and 3D
+NAMED_F = {2: {"rest": np.eye(2), "stretched": np.diag([1.3, 0.85]), "sheared": np.array([[1.0, 0.4], [0.0, 1.0]])},
+           3: {"rest": np.eye(3), "stretched": np.diag([1.3, 0.85, 1.1]),
+               "sheared": np.array([[1.0, 0.4, 0.0], [0.0, 1.0, -0.3], [0.0, 0.0, 1.0]])}}
+
+
+def random_F(kind, seed=0, shape=(30, 3), dim=2):
+    """Fields of F shaped ``[d, d, *shape]`` (``d = dim``, 2 or 3): ``"positive"`` (J > 0), ``"inverted"`` (J < 0,
+    down to about -4 in 2D), ``"singular"`` (J = 0), built as ``U diag(s) V^T`` with rotations U, V; or the named
+    states ``"rest"``, ``"stretched"``, ``"sheared"`` (the same F everywhere). Inverted samples keep every sum of two
+    signed singular values ``>= 0.2``: the corotated rotation is singular where one is 0 (a measure-zero set, tested
+    apart)."""
+    named = NAMED_F[dim]
     if kind in named:
-        return np.broadcast_to(named[kind].reshape(2, 2, 1, 1), (2, 2) + shape).copy()
+        return np.broadcast_to(named[kind].reshape(dim, dim, 1, 1), (dim, dim) + shape).copy()
     rng = np.random.default_rng(seed)
+    if dim == 3:
+        return _random_F3(kind, rng, shape)
     U = rotation(rng.uniform(-np.pi, np.pi, shape))
     V = rotation(rng.uniform(-np.pi, np.pi, shape))
     if kind == "positive":
@@ -89,21 +107,35 @@ def random_F(kind, seed=0, shape=(30, 3)):
     return matmul(matmul(U, np.array([[s1, z], [z, s2]])), V.swapaxes(0, 1))
 
 
+def _random_F3(kind, rng, shape):
+    U, V = rotation3(rng, shape), rotation3(rng, shape)
+    if kind == "positive":
+        s = np.exp(rng.normal(0.0, 0.3, (3,) + shape))
+    elif kind == "inverted":
+        s = np.stack([rng.uniform(1.2, 2.0, shape), rng.uniform(1.2, 2.0, shape), -rng.uniform(0.1, 1.0, shape)])
+    elif kind == "singular":
+        s = np.stack([rng.uniform(0.5, 2.0, shape), rng.uniform(0.5, 2.0, shape), np.zeros(shape)])
+    else:
+        raise ValueError(kind)
+    return np.einsum("ia...,a...,ja...->ij...", U, s, V)
+
+
 def fd_derivative(f, F, h=H):
-    """Central differences of ``f`` with respect to ``F`` (a 2x2 matrix or a field ``[2, 2, ...]``), one entry
+    """Central differences of ``f`` with respect to ``F`` (a d x d matrix or a field ``[d, d, ...]``), one entry
     ``F[k, l]`` at a time: ``out[..., k, l, *rest] = (f(F + h e_kl) - f(F - h e_kl)) / 2h``, where ``...`` are the
-    leading axes of ``f``'s value (none for an energy, ``(2, 2)`` for a stress) and ``rest`` are ``F.shape[2:]``."""
+    leading axes of ``f``'s value (none for an energy, ``(d, d)`` for a stress) and ``rest`` are ``F.shape[2:]``."""
     F = np.asarray(F)
+    dim = F.shape[0]
     rest = F.shape[2:]
     out = None
-    for k in range(2):
-        for l in range(2):
+    for k in range(dim):
+        for l in range(dim):
             dF = np.zeros(F.shape)
             dF[k, l] = h
             d = (f(F + dF) - f(F - dF)) / (2.0 * h)
             if out is None:
                 lead = np.shape(d)[:np.ndim(d) - len(rest)]
-                out = np.empty(lead + (2, 2) + rest)
+                out = np.empty(lead + (dim, dim) + rest)
             out[(slice(None),) * len(lead) + (k, l)] = d
     return out
 

@@ -8,7 +8,7 @@
 #       format_version: '1.3'
 #       jupytext_version: 1.19.6
 #   kernelspec:
-#     display_name: Python 3
+#     display_name: Python 3 (ipykernel)
 #     language: python
 #     name: python3
 # ---
@@ -192,49 +192,38 @@ print("one evaluation of each term of 'everything' (energy + force + Hessian), m
 # %% [markdown]
 # ## 3. With the mouse
 #
-# `tissuefem.surgery.interactive.SurgeryView` draws a running simulation in a matplotlib figure and turns mouse events
-# into the operations above: in **drag** mode a press grabs the tissue under the pointer, moving drags it,
-# releasing lets go; in **cut** mode a stroke becomes an incision when the button is released. The **mode**
-# buttons above the figure switch the two (so does the key **c**, once a click into the figure has given it
-# the keyboard). A timer runs one frame every 33 ms, but only on an interactive canvas: in Jupyter that needs
-# ipympl (`pip install "tissuefem[interactive]"`, then this cell switches to `%matplotlib widget`). On any
-# other backend (the inline one, or a headless run) nothing runs by itself and code calls `view.step()`.
+# `tissuefem.surgery.interactive.SurgeryView` runs a simulation and draws it in the browser: each frame the
+# kernel sends the deformed node positions to the page as a binary array (the triangles only when a cut changes
+# them), and the page draws them on a canvas; the kernel draws no pictures. The mouse goes the other way and
+# becomes the operations above: in **drag** mode a press grabs the tissue under the pointer, moving drags it,
+# releasing lets go; in **cut** mode a stroke becomes an incision when the button is released. The **drag** and
+# **cut** buttons above the canvas switch the two (so does the key **c**, once a click into the canvas has given
+# it the keyboard); the **run** / **pause** button starts and stops the frames.
 #
-# The 33 ms of a frame must pay for the picture too, so the readout above the axes shows both: the **step**
-# (the simulation's frame) **+ the draw** against the budget, and the frames drawn per second. A redraw costs
-# a few milliseconds because the view draws what does not move (axes, ticks, labels) once and per frame only
-# the moving layer over it: the triangles as two paths whose vertex arrays are overwritten in place, the drag
-# target, the stroke. Messages (a failed cut) appear in a fixed place under the axes and never move them.
-# Measured in JupyterLab with Chromium on the 2-core reference machine (the browser test records it in
-# `bench-results/interactive_browser.json`): about 30 frames drawn per second at rest, 24–25 while
-# dragging, and a median of 82 ms (at most 132 ms) from a mouse move to the picture that shows it; the
-# kernel's step takes about 7 ms and its draw about 19 ms of each frame. On a machine busy with other
-# work the drag rate fell to 12–21 frames a second.
+# While it runs, the view steps one frame every 33 ms as long as something changes (the mouse, or the tissue
+# still swinging) and rests otherwise: a still sheet costs no frames and sends nothing. The readout above the
+# canvas says whether the view is *running*, *at rest* or *paused*, and shows each frame's step time and its
+# solver status, with the pictures the page painted in the last second; under it, the frame's accuracy.
+# Messages (a failed cut, a drag while paused) appear under the canvas. Without a browser (a headless run)
+# nothing runs by itself and code calls `view.step()`. The widget (anywidget, installed with tissuefem) draws
+# in the browser; the same cells run headless.
 #
-# This section comes last because it may switch the notebook's plotting backend. Running the next cell again
-# replaces the view (the old one stops: no hidden timer keeps stepping a simulation you no longer see).
+# Running the next cell again replaces the view (the old one stops: no hidden loop keeps stepping a simulation
+# you no longer see).
 
 # %%
-try:
-    import ipympl  # noqa: F401  (pip install "tissuefem[interactive]")
-    get_ipython().run_line_magic("matplotlib", "widget")
-    INTERACTIVE = True
-except ImportError:
-    get_ipython().run_line_magic("matplotlib", "inline")
-    INTERACTIVE = False
-from tissuefem.surgery.interactive import SurgeryView, synthetic_key, synthetic_mouse
+from tissuefem.surgery.interactive import SurgeryView, snapshot, synthetic_key, synthetic_mouse
 
 sim = Simulation(demo_scene(n_triangles=2000))
 view = SurgeryView(sim, autostart=False)
-print("interactive canvas:", view.interactive, "| mode:", view.mode)
+print(repr(view))
 
 # %% [markdown]
-# What the mouse would do, sent as made-up events through the same canvas callbacks (so this runs headless
-# too): grab the right edge, drag it down and out over 15 frames and let go; press **c** and, while the sheet
-# swings back, draw a stroke from above it down to below its middle; press **c** again, grab the right edge
-# and pull the wound open. Each frame is also drawn (`view.draw()`), as the timer would, to time the picture.
-# The cell ends with `view`, which shows the view: on ipympl the live figure with its buttons, once; elsewhere
-# a picture.
+# What the mouse would do, sent as made-up messages through the view's own message handler (so this runs
+# headless too): grab the right edge, drag it down and out over 15 frames and let go; press **c** and, while
+# the sheet swings back, draw a stroke from above it down to below its middle; press **c** again, grab the right
+# edge, pull the wound open, and let go at the end, so that no scripted grab holds the sheet when you take over.
+# The cell ends with `view`, which shows the live view (its picture is the last frame sent).
 
 # %%
 def stroke(view, points):
@@ -244,29 +233,25 @@ def stroke(view, points):
     synthetic_mouse(view, "release", points[-1])
 
 
-def frame(view):
-    view.step()
-    view.draw()
-
-
 events = {}
 synthetic_mouse(view, "press", (1.97, 0.5))                       # drag mode: grab ...
 for k in range(1, 16):
     synthetic_mouse(view, "move", (1.97 + 0.02 * k, 0.5 - 0.02 * k))   # ... drag ...
-    frame(view)
+    view.step()
 synthetic_mouse(view, "release", (2.27, 0.2))                     # ... let go
 synthetic_key(view, "c")                                          # cut mode
 stroke(view, [(1.0, 1.35), (1.0, 1.1), (1.0, 0.85), (1.0, 0.6), (1.0, 0.4)])
 events["cut"] = len(view.frame_times)
 print(f"after the stroke: {view.sim.mesh.nvertices} nodes, {sim.pieces()} piece(s), message {view.message!r}")
 for _ in range(5):
-    frame(view)
+    view.step()
 synthetic_key(view, "c")                                          # back to drag mode
 synthetic_mouse(view, "press", (1.97, 0.5))
 events["grab"] = len(view.frame_times)
 for k in range(1, 21):
     synthetic_mouse(view, "move", (1.97 + 0.015 * k, 0.5 - 0.01 * k))
-    frame(view)
+    view.step()
+synthetic_mouse(view, "release", (2.27, 0.3))                     # let go: the sheet is yours
 print(f"mode {view.mode}; handles {list(sim.handles)}; frames {sim.frames}")
 view
 
@@ -274,16 +259,15 @@ view
 # The wound gapes where the sheet is pulled. (Run your own drags and you may see the two lips of a wound slide
 # *over* each other: this scene has no self-contact term, so nothing stops the tissue from passing through
 # itself. Chapter 10 adds one, `effects.contact` in a scene; its rows in the effects table above show what it
-# costs.) The time of each frame, the step and the draw stacked, against the 33 ms of a frame:
+# costs.) The same state as a static figure (`snapshot(view)`, for a page without the live view), and the time
+# of each frame's step against the 33 ms of a frame:
 
 # %%
 steps = np.array(view.frame_times)
-draws = np.array(view.draw_times[:len(steps)])  # one draw per frame above (the page may have asked for more since)
-fig, ax = plt.subplots(figsize=(6.5, 2.8), layout="constrained")
+fig, (ax_view, ax) = plt.subplots(1, 2, figsize=(11, 3.2), layout="constrained", width_ratios=[1, 1.3])
+snapshot(view, ax_view)
 frames = np.arange(len(steps))
 ax.bar(frames, steps, width=0.8, color="C0", label="step (sim.frame)")
-if len(draws) == len(steps):
-    ax.bar(frames, draws, width=0.8, bottom=steps, color="C1", label="draw")
 ax.axhline(1e3 * FRAME_BUDGET, color="C3", lw=1, label="33 ms (1/30 s)")
 for name, at in events.items():
     ax.axvline(at - 0.5, color="0.5", ls=":", lw=1)
@@ -292,20 +276,17 @@ ax.set(xlabel="frame", ylabel="ms", title=f"{sim.mesh.nelements} triangles, dyna
        ylim=(0, None))
 ax.legend(fontsize=8, loc="upper right")
 ax.grid(alpha=0.3, axis="y")
-timing = view.timings()
-print(f"medians: step {timing['step_ms']:.1f} ms + draw {timing['draw_ms']:.1f} ms "
-      f"= {timing['total_ms']:.1f} ms of {timing['budget_ms']:.0f} ms")
+print(f"median step {np.median(steps):.1f} ms of {1e3 * FRAME_BUDGET:.0f} ms")
 
 # %% [markdown]
-# The first draw costs more: it draws the axes and ticks once, for all the frames after it. In the browser a
-# draw also encodes the picture as PNG for the page, which costs a few milliseconds more than here.
+# None of a frame's 33 ms goes to drawing in the kernel: the browser draws the picture, in its own process.
 #
-# With ipympl, the next cell starts the timer: the view above comes alive. Drag the tissue with the mouse,
-# click **cut** and cut it, and watch the readout. (`view.stop()` or the **run** button stops it.)
+# The next cell runs the view: the picture above comes alive. Drag the tissue with the mouse, click **cut** and
+# cut it, and watch the readout. The **pause** button (or `view.stop()`) pauses it; a drag while paused moves
+# the marker, not the tissue, and the view says so.
 
 # %%
-if INTERACTIVE:
-    view.start()
+view.start()
 
 # %% [markdown]
 # ## What to try

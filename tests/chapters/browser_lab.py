@@ -1,14 +1,14 @@
 """JupyterLab in headless Chromium, driven through chromium-driver by selenium.
 
-The machinery of ``test_browser.py``: start a JupyterLab server on 127.0.0.1
+The machinery of the browser tests: start a JupyterLab server on 127.0.0.1
 (a free port, a random token, a temporary root folder, its own settings and
 runtime folders, no browser of its own), open a notebook in Debian's Chromium,
 run it, execute code in its kernel, and read what the page shows. Everything
 waits on conditions with a deadline and is shut down by the context managers,
 whatever happens in between.
 
-Nothing here is specific to tissuefem except the JavaScript that counts the
-frames an ipympl canvas paints (see :data:`FRAME_HOOK`).
+Nothing here is specific to tissuefem: what a page paints is counted by the
+tests themselves (the view's canvas carries its own counter).
 """
 
 from __future__ import annotations
@@ -52,8 +52,7 @@ def browser_missing() -> str | None:
     if missing:
         return f"{' and '.join(missing)} not found: {INSTALL_HINT}"
     for module, hint in (("selenium", "pip install selenium (in the 'test' extra)"),
-                         ("jupyterlab", "pip install jupyterlab"),
-                         ("ipympl", "pip install 'tissuefem[interactive]'")):
+                         ("jupyterlab", "pip install jupyterlab")):
         try:
             __import__(module)
         except ImportError:
@@ -244,56 +243,8 @@ def start_chromium(workdir):
     service = Service(executable_path=shutil.which("chromedriver"), log_output=str(Path(workdir) / "chromedriver.log"))
     driver = webdriver.Chrome(service=service, options=options)
     driver.set_script_timeout(120)
-    # the frame counter goes in before any of JupyterLab's scripts run
-    driver.execute_cdp_cmd("Page.addScriptToEvaluateOnNewDocument", {"source": FRAME_HOOK})
     return driver
 
-
-#: Counts what reaches the screen: every drawImage onto the canvas marked as watched (ipympl paints
-#: each frame it receives with one drawImage onto its visible canvas) is timed, and while a probe is
-#: armed, the probe's pixel box is searched for the probe's colour to time when a mouse move shows up.
-#: Mouse moves are timed too (capturing listener, before the page's own handlers).
-FRAME_HOOK = r"""
-(() => {
-  const tf = window.__tf = {canvas: null, paints: [], moves: [], probe: null};
-  window.addEventListener('mousemove', (e) => {
-    tf.moves.push([performance.now(), e.clientX, e.clientY]);
-    if (tf.moves.length > 5000) tf.moves.splice(0, 2500);
-  }, true);
-  // what the page spends per picture it receives: ipympl re-encodes its whole picture (toDataURL) for each
-  const encode = HTMLCanvasElement.prototype.toDataURL;
-  tf.encode_ms = [];
-  HTMLCanvasElement.prototype.toDataURL = function (...args) {
-    const t0 = performance.now();
-    const out = encode.apply(this, args);
-    tf.encode_ms.push(performance.now() - t0);
-    if (tf.encode_ms.length > 5000) tf.encode_ms.splice(0, 2500);
-    return out;
-  };
-  const draw = CanvasRenderingContext2D.prototype.drawImage;
-  CanvasRenderingContext2D.prototype.drawImage = function (...args) {
-    const out = draw.apply(this, args);
-    if (tf.canvas !== null && this.canvas === tf.canvas) {
-      const now = performance.now();
-      tf.paints.push(now);
-      const p = tf.probe;
-      if (p !== null && p.shown === null) {
-        const d = this.getImageData(p.x - p.r, p.y - p.r, 2 * p.r + 1, 2 * p.r + 1).data;
-        let hits = 0;
-        const near = (i, k) => Math.abs(d[i + k] - p.rgb[k]) < 40;
-        for (let i = 0; i < d.length; i += 4) {
-          if (near(i, 0) && near(i, 1) && near(i, 2)) hits++;
-        }
-        if (hits >= p.min) {
-          p.shown = now;
-          if (p.resolve) { const resolve = p.resolve; p.resolve = null; resolve(now); }
-        }
-      }
-    }
-    return out;
-  };
-})();
-"""
 
 #: Runs ``code`` in the kernel of the current notebook; resolves to its stdout and any error.
 KERNEL_EXECUTE = r"""
@@ -310,7 +261,8 @@ future.onIOPub = (msg) => {
 future.done.then(() => done({out: out, err: err}), (e) => done({out: out, err: String(e)}));
 """
 
-#: The state of the open notebook: is its kernel there, how many code cells ran, which errors they show.
+#: The state of the open notebook: is its kernel there, has it unsaved changes (``dirty``), how many code cells
+#: ran, which errors they show.
 NOTEBOOK_STATE = r"""
 const app = window.jupyterapp;
 if (!app || !app.shell) return null;
@@ -327,18 +279,9 @@ for (const c of cells) {
   }
 }
 return {kernel: kernel ? kernel.status : null, ready: panel.sessionContext.isReady,
+        dirty: panel.context ? panel.context.model.dirty : null,
         cells: cells.length, executed: cells.filter((c) => c.model.executionCount !== null).length,
         errors: errors};
-"""
-
-
-#: Resolves when the armed probe has shown (its paint time) or after arguments[0] ms (null): no polling.
-PROBE_SHOWN = r"""
-const [timeout, done] = [arguments[0], arguments[arguments.length - 1]];
-const p = window.__tf.probe;
-if (p.shown !== null) { done(p.shown); return; }
-p.resolve = done;
-setTimeout(() => { if (p.resolve) { p.resolve = null; done(null); } }, timeout);
 """
 
 

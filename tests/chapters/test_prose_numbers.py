@@ -106,13 +106,6 @@ DECLARED: list[tuple[str, str, str, str]] = [
      "test_ch08_effects_table_newton_counts", "(2.00 for the quasistatic base, 2.38 with inertia)"),
     ("ch08b_virtual_surgery", "0.00", "recorded by the earlier version of the table",
      "before it was counted, these rows read 0.00"),
-    ("ch08b_virtual_surgery", "2", "definition", "Measured in JupyterLab with Chromium on the 2-core reference machine"),
-    ("ch08b_virtual_surgery", "30 / 24 / 25 / 82 / 132 / 7 / 19", "recorded by the browser test "
-     "(bench-results/interactive_browser.json) on the 2-core reference machine",
-     "about 30 frames drawn per second at rest, 24–25 while dragging, and a median of 82 ms (at most 132 ms) from a "
-     "mouse move to the picture that shows it; the kernel's step takes about 7 ms and its draw about 19 ms"),
-    ("ch08b_virtual_surgery", "12 / 21", "recorded by the browser test on a busy machine",
-     "the drag rate fell to 12–21 frames a second"),
     ("ch08b_virtual_surgery", "15", "input", "drag it down and out over 15 frames and let go"),
     ("ch09_accuracy_cost", "8 000", "input", "P1 on about 8 000 triangles, Neo-Hookean"),
     ("ch09_accuracy_cost", "2 / 3", "reference", "even P2 converges at a rate below 2 there instead of 3 (chapter 4)"),

@@ -2,7 +2,8 @@
 
 Each material's stress must be the derivative of its energy and its tangent the
 derivative of its stress, checked by central differences at rest, stretched,
-sheared, at random states, and through inversion where the model allows it.
+sheared, at random states, and through inversion where the model allows it, in
+2D (triangles) and 3D (tetrahedra).
 Each term of a model (elastic with every material, P1 and P2, fibres, inertia,
 loads, probe, sutures, contact) and the whole model must have the gradient of its energy
 and the Hessian of its gradient, checked along random directions. A new material
@@ -17,7 +18,7 @@ import pytest
 from tissuefem import (Corotated, FiberReinforced, Handle, ITFClamped, LinearElastic, Model, NeoHookean, ProjectedTangent,
                        StableNeoHookean, Stepper, TaylorNeoHookean, rectangle)
 from tissuefem.engine.materials import MATERIALS as ENGINE_MATERIALS
-from tissuefem.engine.materials import det2
+from tissuefem.engine.materials import det
 from tissuefem.engine.meshes import mean_edge_length
 from tissuefem.engine.terms import Elastic, Fibers, Inertia, Load, Probe, Sutures
 from tissuefem.surgery.element_cuts import cut_through
@@ -27,7 +28,8 @@ from tissuefem.surgery.topology import incise
 from helpers import H, fd_stress, fd_tangent, random_F
 
 LAM, MU = 1.7, 0.6
-NEL, NQP = 30, 3  # random F fields are shaped [2, 2, NEL, NQP], like scikit-fem's
+NEL, NQP = 30, 3  # random F fields are shaped [d, d, NEL, NQP], like scikit-fem's
+DIMS = [2, 3]
 RTOL = 1e-6
 
 
@@ -47,34 +49,41 @@ def assert_close_per_sample(exact, approx, ncomp_axes, rtol=RTOL):
 
 # --- the material table --------------------------------------------------------------------------------------------
 
-def _fibers(shape, seed=7):
-    return _rng(seed).normal(size=(2,) + shape)
+def _fibers(shape, seed=7, dim=2):
+    return _rng(seed).normal(size=(dim,) + shape)
 
 
+# each entry builds the material for F of dimension ``dim`` (only the fibres depend on it)
 MATERIALS = {
-    **{name: (lambda cls=cls: cls(LAM, MU)) for name, cls in ENGINE_MATERIALS.items()},  # every isotropic model
-    "itf-clamped (exact tangent)": lambda: ITFClamped(NeoHookean(LAM, MU), project=False),
-    "neo-hookean+fibers(uniform)": lambda: FiberReinforced(NeoHookean(LAM, MU), 2.5, [1.0, 2.0]),
-    "stable+fibers(per element)": lambda: FiberReinforced(StableNeoHookean(LAM, MU), 2.5, _fibers((NEL,))),
-    "corotated+fibers(per point)": lambda: FiberReinforced(Corotated(LAM, MU), 2.5, _fibers((NEL, NQP))),
-    "taylor+fibers(uniform)": lambda: FiberReinforced(TaylorNeoHookean(LAM, MU), 2.5, [0.3, -1.0]),
+    **{name: (lambda dim, cls=cls: cls(LAM, MU)) for name, cls in ENGINE_MATERIALS.items()},  # every isotropic model
+    "itf-clamped (exact tangent)": lambda dim: ITFClamped(NeoHookean(LAM, MU), project=False),
+    "neo-hookean+fibers(uniform)": lambda dim: FiberReinforced(NeoHookean(LAM, MU), 2.5, [1.0, 2.0, -0.7][:dim]),
+    "stable+fibers(per element)": lambda dim: FiberReinforced(StableNeoHookean(LAM, MU), 2.5,
+                                                              _fibers((NEL,), dim=dim)),
+    "corotated+fibers(per point)": lambda dim: FiberReinforced(Corotated(LAM, MU), 2.5, _fibers((NEL, NQP), dim=dim)),
+    "taylor+fibers(uniform)": lambda dim: FiberReinforced(TaylorNeoHookean(LAM, MU), 2.5, [0.3, -1.0, 0.4][:dim]),
+    "linear+fibers(per element)": lambda dim: FiberReinforced(LinearElastic(LAM, MU), 2.5, _fibers((NEL,), dim=dim)),
 }
 #: wrappers whose tangent is deliberately not the stress's derivative (a PSD projection): stress only
-STRESS_ONLY = {"projected stable": lambda: ProjectedTangent(StableNeoHookean(LAM, MU)),
-               "itf-clamped (projected tangent)": lambda: ITFClamped(NeoHookean(LAM, MU))}
+STRESS_ONLY = {"projected stable": lambda dim: ProjectedTangent(StableNeoHookean(LAM, MU)),
+               "projected corotated+fibers": lambda dim: ProjectedTangent(
+                   FiberReinforced(Corotated(LAM, MU), 2.5, _fibers((NEL,), dim=dim))),
+               "itf-clamped (projected tangent)": lambda dim: ITFClamped(NeoHookean(LAM, MU))}
 STATES = ["rest", "stretched", "sheared", "positive"]
 
 
+@pytest.mark.parametrize("dim", DIMS)
 @pytest.mark.parametrize("state", STATES + ["inverted", "singular"])
 @pytest.mark.parametrize("name", list(MATERIALS) + list(STRESS_ONLY))
-def test_material_stress_and_tangent_are_derivatives(name, state):
-    m = {**MATERIALS, **STRESS_ONLY}[name]()
+def test_material_stress_and_tangent_are_derivatives(name, state, dim):
+    m = {**MATERIALS, **STRESS_ONLY}[name](dim)
     if state in ("inverted", "singular"):
         if not m.inversion_safe:
             pytest.skip(f"{name} is undefined at J <= 0 (by design: NaN, so a solver can tell)")
-    F = random_F(state, seed=hash(state) % 97)
+    F = random_F(state, seed=hash(state) % 97, dim=dim)
+    assert F.shape == (dim, dim, NEL, NQP)
     if state == "inverted":
-        assert np.all(det2(F) < -0.01)
+        assert np.all(det(F) < -0.01)
     assert np.all(np.isfinite(m.energy(F)))
     assert_close_per_sample(m.stress(F), fd_stress(m, F), 2)
     if name not in STRESS_ONLY:
@@ -83,16 +92,17 @@ def test_material_stress_and_tangent_are_derivatives(name, state):
         if itf:
             # the clamped energy is C1: its tangent jumps where a singular value crosses the threshold, so the
             # difference quotient is compared only at samples away from it
-            s = np.linalg.svd(np.moveaxis(F.reshape(2, 2, -1), -1, 0), compute_uv=False)
+            s = np.linalg.svd(np.moveaxis(F.reshape(dim, dim, -1), -1, 0), compute_uv=False)
             away = np.all(np.abs(s - m.threshold) > 1e-3, axis=1)
-            A, A_fd = A.reshape(2, 2, 2, 2, -1)[..., away], A_fd.reshape(2, 2, 2, 2, -1)[..., away]
+            A, A_fd = A.reshape((dim,) * 4 + (-1,))[..., away], A_fd.reshape((dim,) * 4 + (-1,))[..., away]
         assert_close_per_sample(A, A_fd, 4, rtol=2e-5 if itf else RTOL)
 
 
+@pytest.mark.parametrize("dim", DIMS)
 @pytest.mark.parametrize("name", list(MATERIALS) + list(STRESS_ONLY))
-def test_material_rest_is_energy_and_stress_free(name):
-    m = {**MATERIALS, **STRESS_ONLY}[name]()
-    F = random_F("rest")
+def test_material_rest_is_energy_and_stress_free(name, dim):
+    m = {**MATERIALS, **STRESS_ONLY}[name](dim)
+    F = random_F("rest", dim=dim)
     np.testing.assert_allclose(m.energy(F), 0.0, atol=1e-12)
     np.testing.assert_allclose(m.stress(F), 0.0, atol=1e-12)
 

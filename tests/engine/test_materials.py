@@ -113,8 +113,11 @@ def test_shapes_and_batch_consistency(make, rest):
 
 
 def test_bad_F_shape():
+    for bad in (np.eye(4), np.zeros((2, 3)), np.zeros((3, 2, 5)), np.zeros(3)):
+        with pytest.raises(ValueError, match="F must be shaped"):
+            NeoHookean(LAM, MU).energy(bad)
     with pytest.raises(ValueError, match="F must be shaped"):
-        NeoHookean(LAM, MU).energy(np.eye(3))
+        det2(np.eye(3))  # the 2x2 closed forms stay 2x2
 
 
 def test_tensor_helpers():
@@ -365,8 +368,8 @@ def test_fiber_broadcasting_per_element_and_per_point():
         [np.inf, 0.0],
         [0.0, 0.0],
         np.zeros((2, 4)),
-        [1.0, 0.0, 0.0],
-        np.ones((3, 4)),
+        [1.0, 0.0, 0.0, 0.0],
+        np.ones((4, 4)),
         np.ones((2, 2, 2, 2)),
         "x",
     ],
@@ -374,6 +377,15 @@ def test_fiber_broadcasting_per_element_and_per_point():
 def test_fiber_validation(fibers):
     with pytest.raises(ValueError, match="fibers"):
         FiberReinforced(NeoHookean(LAM, MU), 1.0, fibers)
+
+
+@pytest.mark.parametrize("fibers, dim", [([1.0, 0.0, 0.0], 2), (np.ones((3, NEL)), 2), ([1.0, 0.0], 3)])
+def test_fibers_of_another_dimension_than_F_are_refused_naming_fibers(fibers, dim):
+    m = FiberReinforced(NeoHookean(LAM, MU), 1.0, fibers)  # 2D and 3D fibres are both fibres
+    F = np.broadcast_to(np.eye(dim)[:, :, None, None], (dim, dim, NEL, NQP))
+    for what in ("energy", "stress", "tangent"):
+        with pytest.raises(ValueError, match="fibers"):
+            getattr(m, what)(F)
 
 
 @pytest.mark.parametrize("stiffness", [-1.0, np.nan, np.inf, "stiff"])

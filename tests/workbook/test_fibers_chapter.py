@@ -103,7 +103,7 @@ def test_bad_input_is_rejected_with_the_argument_named():
     with pytest.raises(ValueError, match="g must be unit"):
         materials.fiber_invariant(np.eye(2), [2.0, 0.0])
     with pytest.raises(ValueError, match="F must be shaped"):
-        materials.fiber_stress(np.eye(3), [1.0, 0.0], 1.0)
+        materials.fiber_stress(np.eye(4), [1.0, 0.0], 1.0)  # 2x2 and 3x3 are valid
     with pytest.raises(ValueError, match="k \\(fiber modulus\\)"):
         materials.fiber_stress(np.eye(2), [1.0, 0.0], -1.0)
     with pytest.raises(ValueError, match="angle_deg"):

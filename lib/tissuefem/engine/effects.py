@@ -25,11 +25,12 @@ from .constants import FRAME_BUDGET
 from .contact import Contact, ContactSurface
 from .parameters import (ACCELERATION_MAX, CONTACT_STIFFNESS_MAX, FAR, FIBER_STIFFNESS_RANGE, FORCE_MAX, RADIUS_RANGE,
                          TIME_STEP_RANGE, YOUNGS_MODULUS_RANGE, MAX_POINTS, ParameterError, check_bounded_vector,
-                         check_contact_stiffness, count_list, number, penalty, points, require, string, table,
+                         check_contact_stiffness, check_penalty_stiffness, count_list, number, penalty, points, require, string, table,
                          vector)
 from .terms import Fibers, Inertia, Load, Probe, Sutures, Term, traction_vector
 
-__all__ = ["Effect", "EFFECTS", "register", "factory", "keyword_terms", "SkinContact", "median_segment"]
+__all__ = ["Effect", "EFFECTS", "register", "factory", "keyword_terms", "SkinContact", "median_segment",
+           "youngs_modulus"]
 
 # --------------------------------------------------------------------------------------------- the registry
 
@@ -165,6 +166,17 @@ register("fibers", _check_fibers, _fibers)
 
 # probes and sutures (placed by the simulation) ---------------------------------------------------------------
 
+def youngs_modulus(model, scene=None) -> float:
+    """The Young's modulus penalties are measured in: the ``scene``'s, else that of the model's Lamé parameters
+    (``mu (3 lam + 2 mu) / (lam + mu)``), else (a material without them) the largest accepted."""
+    if scene is not None:
+        return scene.material["youngs_modulus"]
+    lam, mu = getattr(model.material, "lam", None), getattr(model.material, "mu", None)
+    if lam is None or mu is None:
+        return YOUNGS_MODULUS_RANGE[1]
+    return mu * (3.0 * lam + 2.0 * mu) / (lam + mu)
+
+
 def _check_probe(field, e):
     e = table(field, e, ("center", "radius", "stiffness"))
     require(field, e, ("center", "radius"))
@@ -175,14 +187,17 @@ def _check_probe(field, e):
     return out
 
 
-def _probes(model, entries, scene):
-    """Rigid discs; default stiffness ``100 E / radius`` (penetration near 1 % of the radius at moderate pressure)."""
+def _probes(model, entries, scene, first=0):
+    """Rigid discs; default stiffness ``100 E / radius`` (penetration near 1 % of the radius at moderate pressure);
+    ``first``: the index of the first entry (in refusals)."""
     out = []
-    for p in entries:
+    for i, p in enumerate(entries, first):
         p = dict(p)
         if scene is not None and p.get("stiffness") is None:
             p["stiffness"] = 100.0 * scene.material["youngs_modulus"] / p["radius"]
-        out.append(Probe(model.X, model.boundary_lengths, **p))
+        probe = Probe(model.X, model.boundary_lengths, **p)
+        check_penalty_stiffness(f"probes[{i}].stiffness", probe.stiffness, youngs_modulus(model, scene), probe.radius)
+        out.append(probe)
     return out
 
 
@@ -199,8 +214,10 @@ def _check_suture(field, e):
 
 def _sutures(model, spec, scene):
     """Stitches given by their ends' nodes: ``pairs`` ``(2, k)`` or, with ``coefficients``, ``(2, c, k)``."""
-    return Sutures(model.X, spec["pairs"], spec["stiffness"], spec["gaps"], spec.get("tightness", 0.0),
-                   coefficients=spec.get("coefficients"))
+    sutures = Sutures(model.X, spec["pairs"], spec["stiffness"], spec["gaps"], spec.get("tightness", 0.0),
+                      coefficients=spec.get("coefficients"))
+    check_penalty_stiffness("sutures.stiffness", sutures.k.max(), youngs_modulus(model, scene), positive=True)
+    return sutures
 
 
 register("probes", _check_probe, _probes, listed=True, placed=True)
@@ -258,8 +275,7 @@ def _contact(model, p, scene):
         table("contact", p, ("distance", "stiffness", "surface", "skin"))
         require("contact", p, ("distance", "stiffness"))
         surface = ContactSurface.from_mesh(model.mesh) if p.get("surface") is None else p["surface"]
-        lam, mu = model.material.lam, model.material.mu
-        check_contact_stiffness("contact.stiffness", p["stiffness"], mu * (3.0 * lam + 2.0 * mu) / (lam + mu))
+        check_contact_stiffness("contact.stiffness", p["stiffness"], youngs_modulus(model))
         return Contact(model.X, surface, p["distance"], p["stiffness"], p.get("skin"))
     surface = ContactSurface.from_mesh(model.mesh)
     default, median = "distance" not in p, median_segment(surface, model.X)
@@ -335,7 +351,7 @@ def keyword_terms(*, dt=None, mass="lumped", gravity=None, body_force=None, trac
         out.append(factory("inertia", {"time_step": dt, "mass": mass}))
     for i, spec in enumerate(probes):
         out.append(lambda model, i=i, spec=spec: _probes(
-            model, [_keys(f"probes[{i}]", spec, ("center", "radius", "stiffness"), ("label", "smoothing"))], None))
+            model, [_keys(f"probes[{i}]", spec, ("center", "radius", "stiffness"), ("label", "smoothing"))], None, i))
     if sutures is not None:
         out.append(lambda model: _sutures(model, _keys("sutures", sutures, ("pairs", "stiffness", "gaps"),
                                                        ("tightness", "coefficients")), None))

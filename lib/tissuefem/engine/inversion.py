@@ -1,62 +1,51 @@
-"""Inversion-robust building blocks: the rotation-preserving SVD and the definiteness fix.
+"""Inversion-robust building blocks: the rotation-preserving SVD and the definiteness fix, in 2D and 3D.
 
-**Rotation-preserving SVD** (Irving, Teran, Fedkiw 2004/2006): ``F = U diag(s0, s1) V^T`` with ``U``, ``V`` proper
-rotations and ``s0 >= |s1|``, the reflection moved onto ``s1``, which carries the sign of ``J``. In 2D, with
-``E = (F00 + F11)/2``, ``H = (F10 - F01)/2``, ``Fa = (F00 - F11)/2``, ``Ga = (F10 + F01)/2`` (similarity and
-anti-similarity parts), ``Q = hypot(E, H)``, ``R = hypot(Fa, Ga)``: ``s0 = Q + R``, ``s1 = Q - R`` (``s0 s1 = J``),
-``U = rot((a1 + a2)/2)``, ``V = rot((a1 - a2)/2)`` with ``a1 = atan2(Ga, Fa)``, ``a2 = atan2(H, E)``. No branch,
-finite for every F.
+**Rotation-preserving SVD** (Irving, Teran, Fedkiw, "Invertible finite elements for robust simulation of large
+deformation", SCA 2004): ``F = U diag(s) V^T`` with ``U``, ``V`` proper rotations and ``s0 >= ... >= |s_(d-1)|``,
+the reflection moved onto the smallest value, which carries the sign of ``J``. It lives with the materials
+(:func:`tissuefem.engine.materials.rotation_preserving_svd`: the 3D corotated model needs its polar rotation ``U
+V^T``) and is used here: a closed form in 2D, LAPACK's SVD with the signs fixed in 3D.
 
-**The definiteness fix** (Teran, Sifakis, Irving, Fedkiw 2005). For an isotropic material ``A(F)`` is ``A_hat =
-A(diag(s))`` rotated by ``U``, ``V``, block diagonal in ``(dF_00, dF_11 | dF_01, dF_10)``: a *stretch* block (the
-Hessian in the singular values) and a *twist/flip* block ``[[b, c], [c, b]]`` with eigenvalues ``(psi0 - psi1)/(s0 -
-s1)`` and ``(psi0 + psi1)/(s0 + s1)``, ``psi_i = dPsi/ds_i``. Clamping each block's eigenvalues and rotating back
-gives the closest positive semi-definite tangent. ``A_hat`` is the material's own tangent (no 0/0 at ``s0 = s1``).
+**The definiteness fix** (Teran, Sifakis, Irving, Fedkiw, "Robust quasistatic finite elements and flesh simulation",
+SCA 2005). For an isotropic material ``A(F)`` is ``A_hat = A(diag(s))`` rotated by ``U``, ``V``, block diagonal: a
+*stretch* block over ``(dF_00, ..., dF_(d-1)(d-1))`` (the Hessian in the singular values, 2x2 or 3x3) and for each
+pair ``a < b`` a *twist/flip* block ``[[b, c], [c, b]]`` over ``(dF_ab, dF_ba)`` with eigenvalues ``(psi_a - psi_b)/
+(s_a - s_b)`` and ``(psi_a + psi_b)/(s_a + s_b)``, ``psi_i = dPsi/ds_i`` (one pair in 2D, three in 3D). Clamping each
+block's eigenvalues and rotating back gives the closest positive semi-definite tangent. ``A_hat`` is the material's
+own tangent (no 0/0 at ``s_a = s_b``).
 """
 
 from __future__ import annotations
 
 import numpy as np
-from .materials import Corotated, NeoHookean, StableNeoHookean, TaylorNeoHookean
+from .materials import Corotated, NeoHookean, StableNeoHookean, TaylorNeoHookean, rotation_preserving_svd
 from .parameters import ParameterError, check_real
 
-
-def _rotation(angle) -> np.ndarray:
-    c, s = np.cos(angle), np.sin(angle)
-    return np.array([[c, -s], [s, c]])
-
-
-def rotation_preserving_svd(F):
-    """``(U [2, 2, *rest], s [2, *rest], V [2, 2, *rest])`` with ``F = U diag(s) V^T``, ``U``, ``V`` rotations,
-    ``s[0] >= |s[1]|``; ``s[1] < 0`` iff ``J < 0``."""
-    F = np.asarray(F, dtype=float)
-    if F.shape[:2] != (2, 2):
-        raise ParameterError("F", f"F must be shaped [2, 2, ...], got {F.shape}")
-    E, H = 0.5 * (F[0, 0] + F[1, 1]), 0.5 * (F[1, 0] - F[0, 1])
-    Fa, Ga = 0.5 * (F[0, 0] - F[1, 1]), 0.5 * (F[1, 0] + F[0, 1])
-    Q, R = np.hypot(E, H), np.hypot(Fa, Ga)
-    a1, a2 = np.arctan2(Ga, Fa), np.arctan2(H, E)
-    return _rotation(0.5 * (a2 + a1)), np.array([Q + R, Q - R]), _rotation(0.5 * (a1 - a2))
+__all__ = ["rotation_preserving_svd", "diagonal", "eigen_projection", "projected_tangent", "ProjectedTangent",
+           "ITFClamped"]
 
 
 def diagonal(s) -> np.ndarray:
-    """``diag(s)`` for ``s [2, *rest]`` as ``[2, 2, *rest]``."""
+    """``diag(s)`` for ``s [d, *rest]`` as ``[d, d, *rest]``."""
     s = np.asarray(s, dtype=float)
-    out = np.zeros((2, 2) + s.shape[1:])
-    out[0, 0], out[1, 1] = s[0], s[1]
+    d = s.shape[0]
+    out = np.zeros((d, d) + s.shape[1:])
+    for a in range(d):
+        out[a, a] = s[a]
     return out
 
 
 def eigen_projection(A, floor: float = 0.0):
-    """Clamp the eigenvalues of each 4x4 tangent ``A [2,2,2,2,*rest]`` at ``floor`` numerically: the closed form's
-    reference, and the fallback for materials not isotropic (fibers) or not frame indifferent (linear)."""
+    """Clamp the eigenvalues of each ``d^2 x d^2`` tangent ``A [d,d,d,d,*rest]`` at ``floor`` numerically: the closed
+    form's reference, and the fallback for materials not isotropic (fibers) or not frame indifferent (linear)."""
     A = np.asarray(A, dtype=float)
+    d = A.shape[0]
     rest = A.shape[4:]
-    M = np.moveaxis(A.reshape((4, 4, -1)), -1, 0)
+    M = np.moveaxis(A.reshape((d * d, d * d, -1)), -1, 0)
     M = 0.5 * (M + np.swapaxes(M, 1, 2))
     w, Q = np.linalg.eigh(M)
     P = np.einsum("nab,nb,ncb->nac", Q, np.maximum(w, floor), Q)
-    return np.moveaxis(P, 0, -1).reshape((2, 2, 2, 2) + rest)
+    return np.moveaxis(P, 0, -1).reshape((d, d, d, d) + rest)
 
 
 def projected_tangent(material, F, floor: float = 0.0):
@@ -69,30 +58,59 @@ def projected_tangent(material, F, floor: float = 0.0):
     return _rotate_back(U, V, _project_diagonal_blocks(np.asarray(material.tangent(diagonal(s)), dtype=float), floor))
 
 
+def _blocks(d):
+    """The index pairs ``(i, j)`` of the diagonal-space blocks: the stretch block ``(0, 0), ..., (d-1, d-1)``, then a
+    twist/flip block ``(a, b), (b, a)`` for each pair ``a < b``."""
+    return [tuple((a, a) for a in range(d))] + [((a, b), (b, a)) for a in range(d) for b in range(a + 1, d)]
+
+
 def _rotate_back(U, V, A_hat):
     """``A_ijkl = U_ia V_jb U_kc V_ld A_hat_abcd`` for the block form above, as ``sum A_hat[ab, cd] E_ab (x) E_cd``
-    with ``E_ab = u_a v_b^T``: outer products of 2x2 fields, about 25x faster than the five-operand contraction."""
-    E = {(a, b): U[:, a][:, None] * V[:, b][None, :] for a in range(2) for b in range(2)}
+    over the blocks, with ``E_ab = u_a v_b^T``: outer products of d x d fields, about 25x faster (2D) than the
+    five-operand contraction."""
+    d = U.shape[0]
+    E = {(a, b): U[:, a][:, None] * V[:, b][None, :] for a in range(d) for b in range(d)}
     out = 0.0
-    for (p, q) in (((0, 0), (1, 1)), ((0, 1), (1, 0))):
-        Wp = A_hat[p + p] * E[p] + A_hat[p + q] * E[q]
-        Wq = A_hat[q + p] * E[p] + A_hat[q + q] * E[q]
-        out = out + E[p][:, :, None, None] * Wp[None, None] + E[q][:, :, None, None] * Wq[None, None]
+    for block in _blocks(d):
+        W = [sum((A_hat[p + q] * E[q] for q in block[1:]), A_hat[p + block[0]] * E[block[0]]) for p in block]
+        for p, Wp in zip(block, W):
+            out = out + E[p][:, :, None, None] * Wp[None, None]
     return out
 
 
+def _clamp_pair(a, b, d, floor):
+    """The eigenvalues of symmetric 2x2 blocks ``[[a, b], [b, d]]`` clamped at ``floor`` (closed form): the new
+    ``(a, d, b)``."""
+    mean, rad = 0.5 * (a + d), np.hypot(0.5 * (a - d), b)
+    t = 0.5 * np.arctan2(2.0 * b, a - d)  # the larger eigenvalue's eigenvector is (cos t, sin t)
+    c, s = np.cos(t), np.sin(t)
+    hi, lo = np.maximum(mean + rad, floor), np.maximum(mean - rad, floor)
+    return hi * c * c + lo * s * s, hi * s * s + lo * c * c, (hi - lo) * c * s
+
+
 def _project_diagonal_blocks(A, floor):
-    """Clamp the eigenvalues of a diagonal-space tangent's two symmetric 2x2 blocks ``[[a, b], [b, d]]`` at ``floor``
-    (closed form): the stretch block over (dF00, dF11), the twist/flip block over (dF01, dF10)."""
+    """Clamp the eigenvalues of a diagonal-space tangent's symmetric blocks at ``floor``: every 2x2 block ``[[a, b],
+    [b, d]]`` in closed form (the stretch block over (dF00, dF11) in 2D, each twist/flip block over (dF_ab, dF_ba)),
+    the 3D stretch block over (dF00, dF11, dF22) numerically."""
     out = np.zeros_like(A)
-    for (i, j), (k, l) in (((0, 0), (1, 1)), ((0, 1), (1, 0))):
-        a, b, d = A[i, j, i, j], 0.5 * (A[i, j, k, l] + A[k, l, i, j]), A[k, l, k, l]
-        mean, rad = 0.5 * (a + d), np.hypot(0.5 * (a - d), b)
-        t = 0.5 * np.arctan2(2.0 * b, a - d)  # the larger eigenvalue's eigenvector is (cos t, sin t)
-        c, s = np.cos(t), np.sin(t)
-        hi, lo = np.maximum(mean + rad, floor), np.maximum(mean - rad, floor)
-        out[i, j, i, j], out[k, l, k, l] = hi * c * c + lo * s * s, hi * s * s + lo * c * c
-        out[i, j, k, l] = out[k, l, i, j] = (hi - lo) * c * s
+    for block in _blocks(A.shape[0]):
+        if len(block) == 2:
+            (i, j), (k, l) = block
+            a, b, d = A[i, j, i, j], 0.5 * (A[i, j, k, l] + A[k, l, i, j]), A[k, l, k, l]
+            out[i, j, i, j], out[k, l, k, l], out[i, j, k, l] = _clamp_pair(a, b, d, floor)
+            out[k, l, i, j] = out[i, j, k, l]
+        else:
+            S = np.stack([np.stack([A[p + q] for q in block]) for p in block])  # [3, 3, *rest]
+            rest = S.shape[2:]
+            M = np.moveaxis(S.reshape((3, 3, -1)), -1, 0)
+            ok = np.all(np.isfinite(M), axis=(1, 2))  # a NaN sample (ln J inverted) stays NaN
+            w, Q = np.linalg.eigh(0.5 * (M[ok] + np.swapaxes(M[ok], 1, 2)))
+            M = np.full(M.shape, np.nan)
+            M[ok] = np.einsum("nab,nb,ncb->nac", Q, np.maximum(w, floor), Q)
+            S = np.moveaxis(M, 0, -1).reshape((3, 3) + rest)
+            for x, p in enumerate(block):
+                for y, q in enumerate(block):
+                    out[p + q] = S[x, y]
     return out
 
 
@@ -143,6 +161,15 @@ class ITFClamped:
     has a kink at ``s0 + s1 = 0``); else it is the exact Hessian (a central difference for the third derivative). Only
     ``ln J``: the spring bounds the energy below only while ``psi_1(s0, c)`` grows slower than ``sqrt(Psi)``; the
     polynomial models do not, and need no clamping. Where the physical answer has ``s1 < c`` the model departs from it.
+
+    **In d dimensions** (3D tetrahedra; the 2D pieces above are its ``d = 2`` case, kept in closed form) the clamped
+    values ``C = {i : s_i < c}`` are a suffix of the sorted ``s``; with ``s^ = s`` clamped to ``c`` on ``C`` and
+    ``d_i = s_i - c`` on ``C`` (0 elsewhere) the extension is the expansion to first order in each clamped value::
+
+        Psi(s) = Psi(s^) + sum_i psi_i(s^) d_i + sum_(i<j) Psi_ij(s^) d_i d_j + k/2 sum_i d_i^2.
+
+    It is C1 across every threshold because the ``ln J`` energy's mixed derivatives in three distinct values vanish
+    (``Psi_ij = lam/(s_i s_j)``); the default ``k`` is ``d2Psi/ds^2`` at ``s = (c, ..., c)`` of that dimension.
     """
 
     rotation_invariant = True
@@ -163,6 +190,9 @@ class ITFClamped:
         self._h01_cc = float(A[0, 0, 1, 1, 0])
         k = A[1, 1, 1, 1, 0] if stiffness is None else stiffness
         self.stiffness = check_real("stiffness", k, 0.0, lo_open=True)
+        #: the spring stiffness by dimension: the given one, else d2Psi/ds^2 at (c, ..., c)
+        self.stiffnesses = {2: self.stiffness, 3: self.stiffness if stiffness is not None else check_real(
+            "stiffness", material.tangent(diagonal(np.full((3, 1), c)))[2, 2, 2, 2, 0], 0.0, lo_open=True)}
         self.name = f"ITF-clamped {material.name}"
 
     def __repr__(self):
@@ -180,8 +210,79 @@ class ITFClamped:
         D = diagonal(np.stack(np.broadcast_arrays(s0, s1)))  # s1 may be the threshold c
         return np.asarray(getattr(self.base, what)(D), dtype=float)
 
+    # --- d dimensions: the first-order expansion in the clamped values (class docstring) ---------------------------
+
+    def _expansion(self, s):
+        """``(s, mask C, s^, d, k, psi^, H^)`` for ``s [d, *rest]``: the clamped copy ``s^``, ``d = s - c`` on ``C`` (0
+        elsewhere), the base model's gradient ``psi^ [d, *rest]`` and Hessian ``H^ [d, d, *rest]`` at ``diag(s^)``."""
+        s = np.asarray(s, dtype=float)
+        dim, c = s.shape[0], self.threshold
+        clamped = s < c
+        s_hat = np.where(clamped, c, s)
+        dd = np.where(clamped, s - c, 0.0)
+        D = diagonal(s_hat)
+        P, A = np.asarray(self.base.stress(D), dtype=float), np.asarray(self.base.tangent(D), dtype=float)
+        psi = np.stack([P[i, i] for i in range(dim)])
+        H = np.stack([np.stack([A[i, i, j, j] for j in range(dim)]) for i in range(dim)])
+        return s, clamped, s_hat, dd, self.stiffnesses[dim], psi, H
+
+    def _energy_d(self, s):
+        s, _, s_hat, dd, k, psi, H = self._expansion(s)
+        out = np.asarray(self.base.energy(diagonal(s_hat)), dtype=float) + np.einsum("i...,i...->...", psi, dd)
+        for i in range(s.shape[0]):
+            for j in range(i + 1, s.shape[0]):
+                out = out + H[i, j] * dd[i] * dd[j]
+        return out + 0.5 * k * np.einsum("i...,i...->...", dd, dd)
+
+    def _gradient_d(self, s):
+        s, _, _, dd, k, psi, H = self._expansion(s)
+        off = H * (1.0 - np.eye(s.shape[0])).reshape((s.shape[0],) * 2 + (1,) * (s.ndim - 1))
+        return psi + np.einsum("ij...,j...->i...", off, dd) + k * dd
+
+    def _tangent_d(self, s):
+        """The exact diagonal-space tangent: the base model's where nothing is clamped, else the Hessian of the
+        expansion (``k`` on clamped diagonals, ``Psi_jj + sum_i dPsi_ji/ds_j d_i`` on free ones, the third derivative
+        by a central difference) with the twist/flip blocks ``(psi_a -+ psi_b)/(s_a -+ s_b)`` from the gradient."""
+        s = np.asarray(s, dtype=float)
+        dim, rest = s.shape[0], s.shape[1:]
+        sub = s[-1] < self.threshold  # something clamped (the smallest value first)
+        A = np.zeros((dim,) * 4 + rest)
+        if (~sub).any():
+            A[..., ~sub] = np.asarray(self.base.tangent(diagonal(s[:, ~sub])), dtype=float)
+        if not sub.any():
+            return A
+        s = s[:, sub]
+        s, clamped, s_hat, dd, k, _, H = self._expansion(s)
+        g = self._gradient_d(s)
+        Ht = H.copy()
+        for j in range(dim):
+            step = 1e-6 * np.maximum(1.0, s_hat[j])
+            lo, hi = s_hat.copy(), s_hat.copy()
+            lo[j], hi[j] = lo[j] - step, hi[j] + step
+            A_hi, A_lo = self.base.tangent(diagonal(hi)), self.base.tangent(diagonal(lo))
+            for i in range(dim):
+                if i != j:
+                    Ht[j, j] = Ht[j, j] + (A_hi[j, j, i, i] - A_lo[j, j, i, i]) / (2 * step) * dd[i]
+            Ht[j, j] = np.where(clamped[j], k, Ht[j, j])
+        B = np.zeros((dim,) * 4 + s.shape[1:])
+        for i in range(dim):
+            for j in range(dim):
+                B[i, i, j, j] = Ht[i, j]
+        for a in range(dim):
+            for b in range(a + 1, dim):
+                gap, total = s[a] - s[b], s[a] + s[b]
+                limit = 0.5 * (Ht[a, a] + Ht[b, b]) - Ht[a, b]  # (psi_a - psi_b)/(s_a - s_b) as s_a -> s_b
+                twist = np.where(gap > 1e-9, (g[a] - g[b]) / np.where(gap > 1e-9, gap, 1.0), limit)
+                flip = (g[a] + g[b]) / np.maximum(total, 1e-9)  # s_a + s_b >= 0; the energy has a kink at 0
+                B[a, b, a, b] = B[b, a, b, a] = 0.5 * (twist + flip)
+                B[a, b, b, a] = B[b, a, a, b] = 0.5 * (twist - flip)
+        A[..., sub] = B
+        return A
+
     def diagonal_energy(self, s) -> np.ndarray:
-        """``Psi_hat(s)`` for signed singular values ``s [2, *rest]`` (``s0 >= |s1|``)."""
+        """``Psi_hat(s)`` for signed singular values ``s [d, *rest]`` (``s0 >= ... >= |s_(d-1)|``)."""
+        if np.shape(s)[0] != 2:
+            return self._energy_d(s)
         s, normal, one, both = self._regions(s)
         c, k = self.threshold, self.stiffness
         out = np.empty(s.shape[1:])
@@ -198,7 +299,9 @@ class ITFClamped:
         return out
 
     def diagonal_gradient(self, s) -> np.ndarray:
-        """``psi_i = dPsi_hat/ds_i``, shape ``[2, *rest]``."""
+        """``psi_i = dPsi_hat/ds_i``, shape ``[d, *rest]``."""
+        if np.shape(s)[0] != 2:
+            return self._gradient_d(s)
         s, normal, one, both = self._regions(s)
         c, k = self.threshold, self.stiffness
         out = np.empty(s.shape)
@@ -218,7 +321,9 @@ class ITFClamped:
         return out
 
     def diagonal_tangent(self, s) -> np.ndarray:
-        """The exact tangent ``A_hat = A(diag(s))`` in diagonal space, ``[2, 2, 2, 2, *rest]``."""
+        """The exact tangent ``A_hat = A(diag(s))`` in diagonal space, ``[d, d, d, d, *rest]``."""
+        if np.shape(s)[0] != 2:
+            return self._tangent_d(s)
         s, normal, one, both = self._regions(s)
         c, k = self.threshold, self.stiffness
         rest = s.shape[1:]
@@ -251,13 +356,14 @@ class ITFClamped:
         A[0, 1, 1, 0][sub] = A[1, 0, 0, 1][sub] = 0.5 * (twist - flip)
         return A
 
-    # the material interface (F shaped [2, 2, *rest], also a single 2x2)
+    # the material interface (F shaped [d, d, *rest], also a single d x d matrix)
     @staticmethod
     def _field(F):
         F = np.asarray(F, dtype=float)
-        if F.shape[:2] != (2, 2):
-            raise ParameterError("F", f"F must be shaped [2, 2, ...], got {F.shape}")
-        return F.reshape((2, 2, -1)), F.shape[2:]
+        if F.ndim < 2 or F.shape[0] != F.shape[1] or F.shape[0] not in (2, 3):
+            raise ParameterError("F", f"F must be shaped [d, d, ...] with d = 2 or 3, got {F.shape}")
+        d = F.shape[0]
+        return F.reshape((d, d, -1)), F.shape[2:]
 
     def energy(self, F):
         F, rest = self._field(F)
@@ -268,7 +374,7 @@ class ITFClamped:
         F, rest = self._field(F)
         U, s, V = rotation_preserving_svd(F)
         psi = self.diagonal_gradient(s)
-        return np.einsum("ia...,a...,ja...->ij...", U, psi, V).reshape((2, 2) + rest)
+        return np.einsum("ia...,a...,ja...->ij...", U, psi, V).reshape(F.shape[:2] + rest)
 
     def tangent(self, F):
         F, rest = self._field(F)
@@ -276,5 +382,8 @@ class ITFClamped:
         A = self.diagonal_tangent(s)
         if self.project:
             A = _project_diagonal_blocks(A, 0.0)
-        A = np.einsum("ia...,jb...,kc...,ld...,abcd...->ijkl...", U, V, U, V, A, optimize=True)
-        return A.reshape((2, 2, 2, 2) + rest)
+        if F.shape[0] == 2:
+            A = np.einsum("ia...,jb...,kc...,ld...,abcd...->ijkl...", U, V, U, V, A, optimize=True)
+        else:
+            A = _rotate_back(U, V, A)  # block diagonal in diagonal space
+        return A.reshape(F.shape[:2] * 2 + rest)

@@ -1,13 +1,17 @@
-"""Two-dimensional hyperelastic materials (plane strain).
+"""Hyperelastic materials in two (plane strain) and three dimensions.
 
-A material maps ``F[i, j] = d phi_i / d X_j`` shaped ``[2, 2, *rest]`` to ``energy(F)`` ``Psi`` (shape ``rest``),
-``stress(F)`` ``P = dPsi/dF`` and ``tangent(F)`` ``A[i, j, k, l] = dP_ij / dF_kl`` (shape ``(2, 2, 2, 2) + rest``).
+A material maps ``F[i, j] = d phi_i / d X_j`` shaped ``[d, d, *rest]`` (``d`` = 2 or 3, read from ``F.shape[0]``) to
+``energy(F)`` ``Psi`` (shape ``rest``), ``stress(F)`` ``P = dPsi/dF`` and ``tangent(F)`` ``A[i, j, k, l] = dP_ij /
+dF_kl`` (shape ``(d, d, d, d) + rest``). One code path serves both dimensions; where a closed form differs (the
+determinant, the cofactor, the polar rotation), one function holds the 2x2 and the 3x3 form.
 
-Derivations (checked by finite differences in the tests): ``dJ/dF = cof F = J F^-T = [[F11, -F10], [-F01, F00]]`` is
-*linear* in ``F``, ``d(cof F)_ij / dF_kl = e_ik e_jl =: H_ijkl`` (``e_01 = 1, e_10 = -1``), so a volumetric energy
-``h(J)`` has ``P = h'(J) cof F`` and ``A = h''(J) cof F (x) cof F + h'(J) H``; ``mu/2 (F:F - 2)`` has ``P = mu F``,
-``A = mu I4`` (``I4_ijkl = d_ik d_jl``). At ``F = I``, ``H_ijkl = d_ij d_kl - d_il d_jk``, so ``h'(1) = -mu`` and
-``h''(1) = lam + mu`` make a model linearise to linear elasticity ``lam d_ij d_kl + mu (d_ik d_jl + d_il d_jk)``.
+Derivations (checked by finite differences in the tests): ``dJ/dF = cof F = J F^-T`` (in 2D ``[[F11, -F10], [-F01,
+F00]]``, in 3D ``cof F_ij = 1/2 e_imn e_jpq F_mp F_nq``) and ``d(cof F)_ij / dF_kl =: H_ijkl`` (in 2D the constant
+``e_ik e_jl``, ``e_01 = 1, e_10 = -1``; in 3D ``e_ikm e_jln F_mn``, linear in ``F``), so a volumetric energy ``h(J)``
+has ``P = h'(J) cof F`` and ``A = h''(J) cof F (x) cof F + h'(J) H``; ``mu/2 (F:F - d)`` has ``P = mu F``, ``A = mu
+I4`` (``I4_ijkl = d_ik d_jl``). At ``F = I``, ``H_ijkl = d_ij d_kl - d_il d_jk`` in both dimensions, so ``h'(1) =
+-mu`` and ``h''(1) = lam + mu`` make a model linearise to linear elasticity ``lam d_ij d_kl + mu (d_ik d_jl + d_il
+d_jk)`` whatever ``d``.
 """
 
 from __future__ import annotations
@@ -20,15 +24,26 @@ from .materials1d import LameMaterial, safe_log, taylor_log, taylor_log_prime, t
 from .parameters import ParameterError, check_fiber_stiffness, check_real_array, lame_parameters
 
 __all__ = [
-    "det2", "cofactor2", "inv2", "Material", "LinearElastic", "NeoHookean", "TaylorNeoHookean", "StableNeoHookean",
+    "det", "cofactor", "inverse", "cofactor_derivative", "det2", "cofactor2", "inv2", "rotation_preserving_svd",
+    "Material", "LinearElastic", "NeoHookean", "TaylorNeoHookean", "StableNeoHookean",
     "Corotated", "FiberReinforced", "fiber_invariant", "fiber_energy", "fiber_stress", "fiber_tangent",
     "check_fiber_stiffness", "MATERIALS", "material",
 ]
 
+#: The dimensions a field of matrices may have: triangles (2) and tetrahedra (3).
+DIMENSIONS = (2, 3)
 
-# --- 2x2 tensor helpers ---------------------------------------------------------
+
+# --- tensor helpers for fields of d x d matrices ---------------------------------------
 
 def _as_F(F) -> np.ndarray:
+    F = check_real_array("F", F)
+    if F.ndim < 2 or F.shape[0] != F.shape[1] or F.shape[0] not in DIMENSIONS:
+        raise ParameterError("F", f"F must be shaped [d, d, ...] with d = 2 or 3, got shape {F.shape}")
+    return F
+
+
+def _as_F2(F) -> np.ndarray:
     F = check_real_array("F", F)
     if F.ndim < 2 or F.shape[:2] != (2, 2):
         raise ParameterError("F", f"F must be shaped [2, 2, ...], got shape {F.shape}")
@@ -37,43 +52,157 @@ def _as_F(F) -> np.ndarray:
 
 def det2(F):
     """``J = det F = F00 F11 - F01 F10`` for ``F`` shaped ``[2, 2, ...]``; shape ``F.shape[2:]``."""
-    F = _as_F(F)
+    F = _as_F2(F)
     return F[0, 0] * F[1, 1] - F[0, 1] * F[1, 0]
 
 
 def cofactor2(F):
     """The cofactor ``cof F = dJ/dF = J F^-T = [[F11, -F10], [-F01, F00]]``; shape ``F.shape``. Defined for every
     ``F`` (also singular ones): the inversion-safe models use it rather than ``F^-T``."""
-    F = _as_F(F)
+    F = _as_F2(F)
     return np.array([[F[1, 1], -F[1, 0]], [-F[0, 1], F[0, 0]]])
 
 
 def inv2(F):
     """``F^-1 = (cof F)^T / J`` for ``F`` shaped ``[2, 2, ...]`` (singular ``F``: ``inf``/``NaN``, numpy's warning)."""
-    F = _as_F(F)
+    F = _as_F2(F)
     return cofactor2(F).swapaxes(0, 1) / det2(F)
 
 
+def _cofactor3(F) -> np.ndarray:
+    """``cof F_ij = F_(i+1)(j+1) F_(i+2)(j+2) - F_(i+1)(j+2) F_(i+2)(j+1)`` (indices mod 3) for ``[3, 3, ...]``."""
+    return np.array([[F[(i + 1) % 3, (j + 1) % 3] * F[(i + 2) % 3, (j + 2) % 3]
+                      - F[(i + 1) % 3, (j + 2) % 3] * F[(i + 2) % 3, (j + 1) % 3] for j in range(3)]
+                     for i in range(3)])
+
+
+def det(F):
+    """``J = det F`` for ``F`` shaped ``[d, d, ...]``, ``d`` = 2 (:func:`det2`) or 3 (``J = F_0j (cof F)_0j``)."""
+    F = _as_F(F)
+    if F.shape[0] == 2:
+        return det2(F)
+    C = _cofactor3(F)
+    return F[0, 0] * C[0, 0] + F[0, 1] * C[0, 1] + F[0, 2] * C[0, 2]
+
+
+def cofactor(F):
+    """``cof F = dJ/dF = J F^-T``, shape ``F.shape`` (:func:`cofactor2` in 2D, ``1/2 e_imn e_jpq F_mp F_nq`` in 3D);
+    defined for every ``F``, also singular ones."""
+    F = _as_F(F)
+    return cofactor2(F) if F.shape[0] == 2 else _cofactor3(F)
+
+
+def inverse(F):
+    """``F^-1 = (cof F)^T / J`` for ``F`` shaped ``[d, d, ...]`` (singular ``F``: ``inf``/``NaN``, numpy's warning)."""
+    F = _as_F(F)
+    return inv2(F) if F.shape[0] == 2 else cofactor(F).swapaxes(0, 1) / det(F)
+
+
 def _outer(a, b) -> np.ndarray:
-    """``(a (x) b)_ijkl = a_ij b_kl`` for fields of 2x2 matrices."""
+    """``(a (x) b)_ijkl = a_ij b_kl`` for fields of d x d matrices."""
     return np.einsum("ij...,kl...->ijkl...", a, b)
 
 
 def _constant4(T, rest) -> np.ndarray:
-    """A constant tensor (the (2, 2) identity, a (2, 2, 2, 2) tangent) broadcast to ``T.shape + rest``."""
+    """A constant tensor (the (d, d) identity, a (d, d, d, d) tangent) broadcast to ``T.shape + rest``."""
     return np.broadcast_to(T.reshape(T.shape + (1,) * len(rest)), T.shape + tuple(rest))
 
 
-_DELTA = np.eye(2)
-_PERM = np.array([[0.0, 1.0], [-1.0, 0.0]])  # 2D permutation symbol e_ij
-_I4 = np.einsum("ik,jl->ijkl", _DELTA, _DELTA)  # d_ik d_jl = dF/dF
-_I4T = np.einsum("il,jk->ijkl", _DELTA, _DELTA)  # d_il d_jk = dF^T/dF
-_IXI = np.einsum("ij,kl->ijkl", _DELTA, _DELTA)  # d_ij d_kl
-_HCOF = np.einsum("ik,jl->ijkl", _PERM, _PERM)  # H_ijkl = e_ik e_jl = d(cof F)_ij / dF_kl (constant)
+def _levi_civita(d) -> np.ndarray:
+    """The permutation symbol ``e_ij`` (d = 2) or ``e_ijk`` (d = 3)."""
+    e = np.zeros((d,) * d)
+    if d == 2:
+        e[0, 1], e[1, 0] = 1.0, -1.0
+    else:
+        for i, j, k in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
+            e[i, j, k], e[i, k, j] = 1.0, -1.0
+    return e
+
+
+def _tensors(d) -> dict:
+    """The constant tensors of dimension ``d``: ``delta``; ``I4 = d_ik d_jl = dF/dF``; ``I4T = d_il d_jk = dF^T/dF``;
+    ``IXI = d_ij d_kl``; ``perm``, the permutation symbol."""
+    delta = np.eye(d)
+    return {"delta": delta, "I4": np.einsum("ik,jl->ijkl", delta, delta),
+            "I4T": np.einsum("il,jk->ijkl", delta, delta), "IXI": np.einsum("ij,kl->ijkl", delta, delta),
+            "perm": _levi_civita(d)}
+
+
+_TENSORS = {d: _tensors(d) for d in DIMENSIONS}
+_HCOF2 = np.einsum("ik,jl->ijkl", _TENSORS[2]["perm"], _TENSORS[2]["perm"])  # 2D: e_ik e_jl, constant
+
+
+def cofactor_derivative(F):
+    """``H_ijkl = d(cof F)_ij / dF_kl``, shape ``(d, d, d, d) + rest``: the constant ``e_ik e_jl`` broadcast (2D) or
+    ``e_ikm e_jln F_mn`` (3D)."""
+    F = _as_F(F)
+    if F.shape[0] == 2:
+        return _constant4(_HCOF2, F.shape[2:])
+    e = _TENSORS[3]["perm"]
+    return np.einsum("ikm,jln,mn...->ijkl...", e, e, F)
+
+
+def _trace(M) -> np.ndarray:
+    """``tr M`` of a field ``[d, d, ...]``, summed in index order (in 2D ``M00 + M11``)."""
+    t = M[0, 0]
+    for i in range(1, M.shape[0]):
+        t = t + M[i, i]
+    return t
+
+
+# --- the rotation-preserving SVD ------------------------------------------------------
+
+def _rotation2(angle) -> np.ndarray:
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[c, -s], [s, c]])
+
+
+def _svd2(F):
+    """The 2D closed form (no branch, finite for every ``F``): ``E = (F00 + F11)/2``, ``H = (F10 - F01)/2``, ``Fa =
+    (F00 - F11)/2``, ``Ga = (F10 + F01)/2`` (similarity and anti-similarity parts), ``Q = hypot(E, H)``, ``R =
+    hypot(Fa, Ga)``: ``s0 = Q + R``, ``s1 = Q - R`` (``s0 s1 = J``), ``U = rot((a1 + a2)/2)``, ``V = rot((a1 -
+    a2)/2)`` with ``a1 = atan2(Ga, Fa)``, ``a2 = atan2(H, E)``."""
+    E, H = 0.5 * (F[0, 0] + F[1, 1]), 0.5 * (F[1, 0] - F[0, 1])
+    Fa, Ga = 0.5 * (F[0, 0] - F[1, 1]), 0.5 * (F[1, 0] + F[0, 1])
+    Q, R = np.hypot(E, H), np.hypot(Fa, Ga)
+    a1, a2 = np.arctan2(Ga, Fa), np.arctan2(H, E)
+    return _rotation2(0.5 * (a2 + a1)), np.array([Q + R, Q - R]), _rotation2(0.5 * (a1 - a2))
+
+
+def _svd3(F):
+    """3D: LAPACK's SVD per sample (orthogonal ``U``, ``V``, ``s0 >= s1 >= s2 >= 0``; robust for repeated and zero
+    singular values), then each reflection moved onto the smallest value: ``det U = -1`` flips ``U``'s last column
+    and ``s2``, ``det V = -1`` flips ``V``'s and ``s2`` again, so ``F`` is unchanged, ``U``, ``V`` are rotations and
+    ``sign s2 = sign J``. Samples with a non-finite entry give NaN."""
+    rest = F.shape[2:]
+    M = np.moveaxis(F.reshape((3, 3, -1)), -1, 0)
+    n = M.shape[0]
+    U, s, Vt = np.full((n, 3, 3), np.nan), np.full((n, 3), np.nan), np.full((n, 3, 3), np.nan)
+    ok = np.all(np.isfinite(M), axis=(1, 2))
+    if ok.any():
+        u, w, vt = np.linalg.svd(M[ok])
+        flip_u, flip_v = np.linalg.det(u) < 0, np.linalg.det(vt) < 0
+        u[flip_u, :, 2] *= -1.0
+        vt[flip_v, 2, :] *= -1.0
+        w[:, 2] *= np.where(flip_u != flip_v, -1.0, 1.0)
+        U[ok], s[ok], Vt[ok] = u, w, vt
+    return (np.moveaxis(U, 0, -1).reshape((3, 3) + rest), np.moveaxis(s, 0, -1).reshape((3,) + rest),
+            np.moveaxis(Vt.swapaxes(1, 2), 0, -1).reshape((3, 3) + rest))
+
+
+def rotation_preserving_svd(F):
+    """``(U [d, d, *rest], s [d, *rest], V [d, d, *rest])`` with ``F = U diag(s) V^T``, ``U``, ``V`` proper rotations
+    and ``s0 >= ... >= |s_(d-1)|``: the reflection moved onto the smallest value, which carries the sign of ``J``
+    (Irving, Teran, Fedkiw, "Invertible finite elements for robust simulation of large deformation", SCA 2004). 2D
+    in closed form, 3D from LAPACK's SVD with the signs fixed."""
+    F = np.asarray(F, dtype=float)
+    if F.ndim < 2 or F.shape[0] != F.shape[1] or F.shape[0] not in DIMENSIONS:
+        raise ParameterError("F", f"F must be shaped [d, d, ...] with d = 2 or 3, got {F.shape}")
+    return _svd2(F) if F.shape[0] == 2 else _svd3(F)
 
 
 class Material(LameMaterial):
-    """Base class: a 2D hyperelastic material with Lamé parameters ``lam`` and ``mu``."""
+    """Base class: a hyperelastic material (2D plane strain or 3D, from ``F``) with Lamé parameters ``lam``, ``mu``."""
 
     #: Only linear elasticity has a meaningful plane-stress reduction by a modified lam.
     _plane_stress_ok = False
@@ -91,7 +220,7 @@ class Material(LameMaterial):
 
 
 class LinearElastic(Material):
-    """Small-strain linear elasticity (the notes' first model): ``eps = (F + F^T)/2 - I``,
+    """Small-strain linear elasticity (the notes' first model), any ``d``: ``eps = (F + F^T)/2 - I``,
     ``Psi = mu eps:eps + lam/2 tr(eps)^2``, ``P = 2 mu eps + lam tr(eps) I``, ``A = lam d_ij d_kl + mu (d_ik d_jl +
     d_il d_jk)``. Not frame indifferent (a rotation has ``eps != 0``): small deformations only."""
 
@@ -99,56 +228,60 @@ class LinearElastic(Material):
     _plane_stress_ok = True
 
     def _strain(self, F):
-        return 0.5 * (F + F.swapaxes(0, 1)) - _constant4(_DELTA, F.shape[2:])
+        return 0.5 * (F + F.swapaxes(0, 1)) - _constant4(_TENSORS[F.shape[0]]["delta"], F.shape[2:])
 
     def energy(self, F):
         eps = self._strain(_as_F(F))
-        tr = eps[0, 0] + eps[1, 1]
+        tr = _trace(eps)
         return self.mu * np.einsum("ij...,ij...->...", eps, eps) + 0.5 * self.lam * tr**2
 
     def stress(self, F):
         F = _as_F(F)
         eps = self._strain(F)
-        tr = eps[0, 0] + eps[1, 1]
-        return 2.0 * self.mu * eps + self.lam * tr * _constant4(_DELTA, F.shape[2:])
+        tr = _trace(eps)
+        return 2.0 * self.mu * eps + self.lam * tr * _constant4(_TENSORS[F.shape[0]]["delta"], F.shape[2:])
 
     def tangent(self, F):
         F = _as_F(F)
-        A = self.lam * _IXI + self.mu * (_I4 + _I4T)
+        T = _TENSORS[F.shape[0]]
+        A = self.lam * T["IXI"] + self.mu * (T["I4"] + T["I4T"])
         return np.array(_constant4(A, F.shape[2:]))
 
 
-# --- the Neo-Hookean family: mu/2 (F:F - 2) + h(J) --------------------------------
+# --- the Neo-Hookean family: mu/2 (F:F - d) + h(J) --------------------------------
 
 class _NeoHookeanFamily(Material):
-    """``Psi = mu/2 (F:F - 2) + h(J)``, ``h(1) = 0`` (module docstring); subclasses give ``_h(J) = (h, h', h'')``."""
+    """``Psi = mu/2 (F:F - d) + h(J)``, ``h(1) = 0`` (module docstring); subclasses give ``_h(J) = (h, h', h'')``.
+    ``h'(1) = -mu`` and ``h''(1) = lam + mu`` in every dimension, so one ``h`` serves triangles and tetrahedra."""
 
     def _h(self, J):
         raise NotImplementedError
 
     def energy(self, F):
         F = _as_F(F)
-        h, _, _ = self._h(det2(F))
-        return 0.5 * self.mu * (np.einsum("ij...,ij...->...", F, F) - 2.0) + h
+        h, _, _ = self._h(det(F))
+        return 0.5 * self.mu * (np.einsum("ij...,ij...->...", F, F) - float(F.shape[0])) + h
 
     def stress(self, F):
         F = _as_F(F)
-        _, h1, _ = self._h(det2(F))
-        return self.mu * F + h1 * cofactor2(F)
+        _, h1, _ = self._h(det(F))
+        return self.mu * F + h1 * cofactor(F)
 
     def tangent(self, F):
         F = _as_F(F)
-        _, h1, h2 = self._h(det2(F))
-        C = cofactor2(F)
+        _, h1, h2 = self._h(det(F))
+        C = cofactor(F)
         rest = F.shape[2:]
-        return self.mu * _constant4(_I4, rest) + h2 * _outer(C, C) + h1 * _constant4(_HCOF, rest)
+        return (self.mu * _constant4(_TENSORS[F.shape[0]]["I4"], rest) + h2 * _outer(C, C)
+                + h1 * cofactor_derivative(F))
 
 
 class NeoHookean(_NeoHookeanFamily):
     """The notes' Neo-Hookean model: ``h(J) = -mu ln J + lam/2 (ln J)^2``, ``h' = (lam ln J - mu)/J``,
     ``h'' = (lam + mu - lam ln J)/J^2``, i.e. the notes' ``P = mu F + (lam ln J - mu) F^-T``. Erratum: the notes print
     ``F_ij F_ji = tr(F F)`` in the energy, not frame indifferent; their stress derives from ``F:F``, used here.
-    NaN (without a warning) for ``J <= 0``, so a solver can detect inversion."""
+    In 3D the same ``h`` with ``mu/2 (F:F - 3)``. NaN (without a warning) for ``J <= 0``, so a solver can detect
+    inversion."""
 
     name = "neo-Hookean"
     inversion_safe = False
@@ -181,10 +314,13 @@ class TaylorNeoHookean(_NeoHookeanFamily):
 
 
 class StableNeoHookean(_NeoHookeanFamily):
-    """Stable Neo-Hookean (Smith, de Goes, Kim, ACM TOG 37(2), 2018), 2D, without the log term:
-    ``Psi = mu/2 (F:F - 2) + lam_s/2 (J - alpha)^2 - mu^2 / (2 lam_s)``, ``P = mu F + lam_s (J - alpha) cof F``.
-    ``h'(1) = -mu`` (rest is stress free) fixes ``alpha = 1 + mu / lam_s``, ``h''(1) = lam + mu`` (module docstring)
-    fixes ``lam_s = lam + mu > 0``; the constant makes ``Psi(I) = 0`` (the paper's is ``mu^2 / (2 lam_s)``)."""
+    """Stable Neo-Hookean (Smith, de Goes, Kim, "Stable Neo-Hookean flesh simulation", ACM TOG 37(2), 2018), without
+    the paper's ``-mu/2 ln(I_C + 1)`` term, in ``d`` dimensions:
+    ``Psi = mu/2 (F:F - d) + lam_s/2 (J - alpha)^2 - mu^2 / (2 lam_s)``, ``P = mu F + lam_s (J - alpha) cof F``.
+    At rest ``P(I) = (mu + lam_s (1 - alpha)) I``, so the paper's rest-stability condition ``P(I) = 0`` (``h'(1) =
+    -mu``) fixes ``alpha = 1 + mu / lam_s`` in 2D and 3D alike, and ``h''(1) = lam + mu`` (module docstring) fixes
+    ``lam_s = lam + mu > 0``; the constant makes ``Psi(I) = 0`` (the paper's is ``mu^2 / (2 lam_s)``). (The paper's
+    3D ``alpha = 1 + 3 mu / (4 lam)`` and its remapped Lamé parameters come from the log term, absent here.)"""
 
     name = "stable neo-Hookean"
 
@@ -200,7 +336,8 @@ class StableNeoHookean(_NeoHookeanFamily):
         return h, self.lam_s * d, np.full(J.shape, self.lam_s)
 
 
-#: Below this ``rho = tr S`` the polar rotation is ``R = I`` (:func:`_polar_rotation`): ``1/rho`` is finite above.
+#: Below this ``rho = tr S`` (2D) the polar rotation is ``R = I`` (:func:`_polar_rotation`): ``1/rho`` is finite
+#: above; in 3D a pair of signed singular values summing to less has no rotation stiffness (its ``1/(s_a + s_b)``).
 _RHO_MIN = math.sqrt(np.finfo(float).tiny)
 
 
@@ -218,37 +355,64 @@ def _polar_rotation(F):
     return np.array([[c, -s], [s, c]]), c, s, rho
 
 
-class Corotated(Material):
-    """Fixed corotated elasticity (Stomakhin, Howes, Schroeder, Teran, SCA 2012):
-    ``Psi = mu ||F - R||_F^2 + lam/2 (J - 1)^2``, ``R`` the polar rotation (:func:`_polar_rotation`).
-    ``(F - R):dR = (S - I):(R^T dR) = 0`` (symmetric against skew), so ``P = 2 mu (F - R) + lam (J - 1) cof F``; with
-    ``dtheta/dF = R'/rho``, ``R' = dR/dtheta = [[-s, -c], [c, -s]]``, the tangent (at ``F = I`` the linear one) is
+def _rotation_derivative3(F):
+    """3D: ``(R, dR/dF)`` of the polar rotation ``R = U V^T`` (:func:`rotation_preserving_svd`). With ``M = U^T dF V``,
+    ``dR = U W V^T``, ``W`` skew with ``W_ab = (M_ab - M_ba) / (s_a + s_b)``, i.e. ``dR/dF = sum_(a<b) 2/(s_a + s_b)
+    T_ab (x) T_ab``, ``T_ab = (u_a v_b^T - u_b v_a^T)/sqrt 2`` (in 2D this is ``R' (x) R' / rho``). A pair with
+    ``s_a + s_b`` below :data:`_RHO_MIN` contributes nothing (the rotation is undefined there, as in 2D)."""
+    U, s, V = rotation_preserving_svd(F)
+    R = np.einsum("ia...,ja...->ij...", U, V)
+    dR = np.zeros((3, 3) + F.shape)
+    for a, b in ((0, 1), (0, 2), (1, 2)):
+        T = (U[:, a][:, None] * V[:, b][None, :] - U[:, b][:, None] * V[:, a][None, :]) / math.sqrt(2.0)
+        total = s[a] + s[b]
+        weight = np.zeros(total.shape)
+        np.divide(2.0, total, out=weight, where=total >= _RHO_MIN)
+        dR = dR + weight * _outer(T, T)
+    return R, dR
 
-        A = 2 mu (I4 - R' (x) R' / rho) + lam cof F (x) cof F + lam (J - 1) H.
+
+class Corotated(Material):
+    """Fixed corotated elasticity (Stomakhin, Howes, Schroeder, Teran, "Energetically consistent invertible
+    elasticity", SCA 2012): ``Psi = mu ||F - R||_F^2 + lam/2 (J - 1)^2``, ``R`` the polar rotation (2D:
+    :func:`_polar_rotation`; 3D: ``U V^T`` of the rotation-preserving SVD). ``(F - R):dR = (S - I):(R^T dR) = 0``
+    (symmetric against skew), so ``P = 2 mu (F - R) + lam (J - 1) cof F`` and, in 2D with ``dtheta/dF = R'/rho``,
+    ``R' = dR/dtheta = [[-s, -c], [c, -s]]`` (3D: :func:`_rotation_derivative3`), the tangent (at ``F = I`` the
+    linear one) is
+
+        A = 2 mu (I4 - dR/dF) + lam cof F (x) cof F + lam (J - 1) H,   dR/dF = R' (x) R' / rho in 2D.
     """
 
     name = "corotated"
 
+    @staticmethod
+    def _rotation(F):
+        return _polar_rotation(F)[0] if F.shape[0] == 2 else _rotation_derivative3(F)[0]
+
     def energy(self, F):
         F = _as_F(F)
-        D = F - _polar_rotation(F)[0]
-        return self.mu * np.einsum("ij...,ij...->...", D, D) + 0.5 * self.lam * (det2(F) - 1.0) ** 2
+        D = F - self._rotation(F)
+        return self.mu * np.einsum("ij...,ij...->...", D, D) + 0.5 * self.lam * (det(F) - 1.0) ** 2
 
     def stress(self, F):
         F = _as_F(F)
-        return 2.0 * self.mu * (F - _polar_rotation(F)[0]) + self.lam * (det2(F) - 1.0) * cofactor2(F)
+        return 2.0 * self.mu * (F - self._rotation(F)) + self.lam * (det(F) - 1.0) * cofactor(F)
 
     def tangent(self, F):
         F = _as_F(F)
-        _, c, s, rho = _polar_rotation(F)
-        Rp = np.array([[-s, -c], [c, -s]])
-        inv_rho = np.zeros(rho.shape)
-        np.divide(1.0, rho, out=inv_rho, where=rho >= _RHO_MIN)  # R = I (constant) below it
-        C = cofactor2(F)
-        J = det2(F)
         rest = F.shape[2:]
-        return (2.0 * self.mu * (_constant4(_I4, rest) - inv_rho * _outer(Rp, Rp)) + self.lam * _outer(C, C)
-                + self.lam * (J - 1.0) * _constant4(_HCOF, rest))
+        if F.shape[0] == 2:
+            _, c, s, rho = _polar_rotation(F)
+            Rp = np.array([[-s, -c], [c, -s]])
+            inv_rho = np.zeros(rho.shape)
+            np.divide(1.0, rho, out=inv_rho, where=rho >= _RHO_MIN)  # R = I (constant) below it
+            dR = inv_rho * _outer(Rp, Rp)
+        else:
+            dR = _rotation_derivative3(F)[1]
+        C = cofactor(F)
+        J = det(F)
+        return (2.0 * self.mu * (_constant4(_TENSORS[F.shape[0]]["I4"], rest) - dR) + self.lam * _outer(C, C)
+                + self.lam * (J - 1.0) * cofactor_derivative(F))
 
 
 # --- anisotropy: a fibre term -------------------------------------------------------
@@ -256,15 +420,21 @@ class Corotated(Material):
 _UNIT_TOL = 1e-6
 
 
+def _length(g) -> np.ndarray:
+    """``|g|`` of vectors ``g`` ``(d, ...)``: ``hypot`` in 2D, the square root of the sum of squares in 3D."""
+    return np.hypot(g[0], g[1]) if g.shape[0] == 2 else np.sqrt(np.einsum("i...,i...->...", g, g))
+
+
 def _check_Fg(F, g):
-    """``F`` shaped ``[2, 2, ...]`` and unit fibres ``g`` ``(2, ...)`` broadcasting against it, both finite."""
+    """``F`` shaped ``[d, d, ...]`` and unit fibres ``g`` ``(d, ...)`` broadcasting against it, both finite."""
     F = _as_F(F)
-    g = check_real_array("g (an array of 2D unit vectors)", g)  # complex g is refused, never truncated
-    if g.ndim < 1 or g.shape[0] != 2:
-        raise ParameterError("g", f"g must be shaped (2, ...), got shape {g.shape}")
+    d = F.shape[0]
+    g = check_real_array(f"g (an array of {d}D unit vectors)", g)  # complex g is refused, never truncated
+    if g.ndim < 1 or g.shape[0] != d:
+        raise ParameterError("g", f"g must be shaped ({d}, ...) for F of shape {F.shape}, got shape {g.shape}")
     if not (np.all(np.isfinite(F)) and np.all(np.isfinite(g))):
         raise ParameterError("F", "F and g must be finite")
-    norm = np.hypot(g[0], g[1])
+    norm = _length(g)
     if np.any(np.abs(norm - 1.0) > _UNIT_TOL):
         raise ParameterError("g", f"g must be unit fiber directions (|g| = 1 within {_UNIT_TOL:g}); got lengths "
                                   f"between {norm.min():.6g} and {norm.max():.6g}: normalise g first")
@@ -276,7 +446,7 @@ def _check_Fg(F, g):
 
 
 def fiber_invariant(F, g):
-    """``I4 = |F g|^2``, the squared stretch of the unit fibre ``g`` ``(2, ...)``; a float for one ``F``. The
+    """``I4 = |F g|^2``, the squared stretch of the unit fibre ``g`` ``(d, ...)``; a float for one ``F``. The
     ``fiber_*`` functions check their arguments, the ``*_term`` kernels (assembly's) do not."""
     F, g = _check_Fg(F, g)
     I4 = _fiber_kinematics(F, g)[1]
@@ -320,7 +490,8 @@ def fiber_tangent_term(F, g, k):
     g = np.broadcast_to(g.reshape(g.shape[:1] + (1,) * (I4.ndim - g.ndim + 1) + g.shape[1:]), g.shape[:1] + I4.shape)
     ag = np.einsum("i...,j...->ij...", a, g)
     gg = np.einsum("j...,l...->jl...", g, g)
-    return k * _outer(ag, ag) + 0.5 * k * (I4 - 1.0) * np.einsum("ik,jl...->ijkl...", _DELTA, gg)
+    delta = _TENSORS[F.shape[0]]["delta"]
+    return k * _outer(ag, ag) + 0.5 * k * (I4 - 1.0) * np.einsum("ik,jl...->ijkl...", delta, gg)
 
 
 class FiberReinforced(Material):
@@ -331,27 +502,29 @@ class FiberReinforced(Material):
 
     ``I4 - 1 ~ 2 eps_ff`` for small strain, so ``k`` *is* the modulus added along the fibre (:meth:`fiber_modulus`);
     it resists compression as well as stretch. ``base``: any :class:`Material` (a ``FiberReinforced`` adds a second
-    family); ``stiffness`` ``k >= 0``; ``fibers`` (normalised here) ``(2,)``, ``(2, n_elements)`` or ``(2, n_elements,
-    n_points)``, aligned with the *leading* axes of ``F.shape[2:]``.
+    family); ``stiffness`` ``k >= 0``; ``fibers`` (normalised here) ``(d,)``, ``(d, n_elements)`` or ``(d, n_elements,
+    n_points)``, ``d`` = 2 or 3 the dimension of ``F``, aligned with the *leading* axes of ``F.shape[2:]``.
     """
 
     def __init__(self, base: Material, stiffness, fibers):
         if not isinstance(base, Material):
             raise ParameterError("base", f"base must be a Material instance, got {base!r}")
         self.base, self.stiffness = base, check_fiber_stiffness(stiffness, "stiffness")
-        self.fibers = self._check_fibers(fibers)
+        self.fibers = self._check_fibers(fibers, DIMENSIONS)
         self.lam, self.mu, self.inversion_safe = base.lam, base.mu, base.inversion_safe
         self.name = f"{base.name} + fibers"
 
     @staticmethod
-    def _check_fibers(fibers) -> np.ndarray:
-        g = np.array(check_real_array("fibers (an array of 2D vectors)", fibers))
-        if g.ndim not in (1, 2, 3) or g.shape[0] != 2:
-            raise ParameterError("fibers", "fibers must be shaped (2,), (2, n_elements) or (2, n_elements, "
-                                           f"n_points), got shape {g.shape}")
+    def _check_fibers(fibers, dimensions=(2,)) -> np.ndarray:
+        """``fibers`` normalised, shaped ``(d, ...)`` with ``d`` in ``dimensions`` (the model's terms: 2D so far)."""
+        g = np.array(check_real_array("fibers (an array of vectors)", fibers))
+        if g.ndim not in (1, 2, 3) or g.shape[0] not in dimensions:
+            d = " or ".join(str(d) for d in dimensions)
+            raise ParameterError("fibers", "fibers must be shaped (d,), (d, n_elements) or (d, n_elements, "
+                                           f"n_points) with d = {d}, got shape {g.shape}")
         if not np.all(np.isfinite(g)):
             raise ParameterError("fibers", "fibers contains non-finite entries")
-        norm = np.hypot(g[0], g[1])
+        norm = _length(g)
         if not np.all(norm > 0.0):
             raise ParameterError("fibers", "fibers contains zero-length vectors (a fibre needs a direction)")
         return g / norm
@@ -366,9 +539,12 @@ class FiberReinforced(Material):
         """The small-strain stiffness added along the fibre, ``g_i g_j g_k g_l (A - A_base)_ijkl`` at ``F = I``: k."""
         return self.stiffness
 
-    def _g(self, rest) -> np.ndarray:
+    def _g(self, F) -> np.ndarray:
         """Fibres shaped to broadcast against ``F.shape[2:] = rest`` (aligned on the leading axes)."""
-        g, rest = self.fibers, tuple(rest)
+        g, rest = self.fibers, tuple(F.shape[2:])
+        if g.shape[0] != F.shape[0]:
+            raise ParameterError("fibers", f"fibers are {g.shape[0]}D vectors but F is {F.shape[0]}D "
+                                           f"(shape {F.shape})")
         extra = len(rest) - (g.ndim - 1)
         try:
             ok = extra >= 0 and np.broadcast_shapes(g.shape[1:] + (1,) * extra, rest) == rest
@@ -380,15 +556,15 @@ class FiberReinforced(Material):
 
     def energy(self, F):
         F = _as_F(F)
-        return self.base.energy(F) + fiber_energy_term(F, self._g(F.shape[2:]), self.stiffness)
+        return self.base.energy(F) + fiber_energy_term(F, self._g(F), self.stiffness)
 
     def stress(self, F):
         F = _as_F(F)
-        return self.base.stress(F) + fiber_stress_term(F, self._g(F.shape[2:]), self.stiffness)
+        return self.base.stress(F) + fiber_stress_term(F, self._g(F), self.stiffness)
 
     def tangent(self, F):
         F = _as_F(F)
-        return self.base.tangent(F) + fiber_tangent_term(F, self._g(F.shape[2:]), self.stiffness)
+        return self.base.tangent(F) + fiber_tangent_term(F, self._g(F), self.stiffness)
 
     def __repr__(self):
         return f"FiberReinforced({self.base!r}, stiffness={self.stiffness:g}, fibers of shape {self.fibers.shape})"

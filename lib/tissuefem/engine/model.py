@@ -28,7 +28,7 @@ from .meshes import index_list
 from .parameters import (REACH, ParameterError, call_user, check_bounded_vector, check_count, check_density,
                          check_indices, check_real, check_real_array, check_vector, is_sequence)
 from .terms import (Elastic, ElementTerm, Inertia, Load, Probe, SummedDensity, Sutures, Term,
-                    boundary_lengths, extent)
+                    boundary_lengths, extent, surface_lengths)
 
 __all__ = ["Model", "Handle", "Pattern", "region_nodes"]
 
@@ -425,7 +425,8 @@ class Model(Holding):
 
     def __init__(self, mesh, material, *, order: int = 1, intorder: int | None = None, assembly: str = "fast",
                  terms=(), handles=(), density=TISSUE_DENSITY, weights=None, dt=None, mass: str = "lumped",
-                 gravity=None, body_force=None, tractions=None, fibers=None, probes=(), sutures=None, contact=None):
+                 gravity=None, body_force=None, tractions=None, fibers=None, probes=(), sutures=None, contact=None,
+                 _meshmap=None):
         order = check_count("order", order, 1, 2)
         try:
             handles = list(handles)
@@ -454,7 +455,7 @@ class Model(Holding):
         if order == 2:
             self.component[self.basis.facet_dofs] = [[0], [1]]
         self.dof_points = np.asarray(self.basis.doflocs, dtype=float)
-        self.boundary_lengths = boundary_lengths(mesh)  # a probe's surface weights
+        self._meshmap, self._boundary_lengths = _meshmap, None  # a probe's surface weights, when first asked for
         elastic = Elastic(self.assembler, material)
         _check_material_at_rest(self.assembler, material)
         self.terms = [elastic]
@@ -468,6 +469,17 @@ class Model(Holding):
         self.handles: list[Handle] = []
         for h in handles:
             self.add_handle(h)
+
+    @property
+    def boundary_lengths(self) -> np.ndarray:
+        """A probe's surface weights: each node's share of the boundary's length; after a topology change, of the
+        material's surface (:func:`~tissuefem.engine.terms.surface_lengths`: no phantom part of a facet of an element
+        cut through counts)."""
+        if self._boundary_lengths is None:
+            m = self._meshmap
+            self._boundary_lengths = boundary_lengths(self.mesh) if m is None else surface_lengths(m)
+            self._meshmap = None  # not kept alive any longer
+        return self._boundary_lengths
 
     # ------------------------------------------------------------------ terms and pattern
     def _build(self):
@@ -528,7 +540,7 @@ class Model(Holding):
         handles = [m for m in (h.remap(meshmap.parent, meshmap.material) for h in self.handles) if m is not None]
         model = Model(meshmap.mesh, self.material, order=1, intorder=self.intorder, assembly=self.assembly,
                       density=self.density, weights=meshmap.weights, handles=handles,
-                      terms=[t for t in carried if t is not None])
+                      terms=[t for t in carried if t is not None], _meshmap=meshmap)
         if self.handles and not model.dynamic:  # a quasistatic body needs a hold on every piece
             if not model.handles:
                 raise ParameterError("handles", "remapped: a quasistatic model needs at least one handle; this change "

@@ -20,9 +20,10 @@ __all__ = [
     "ParameterError", "lame_parameters", "check_young_poisson", "check_poisson_ratio", "check_lame", "check_real",
     "check_real_number", "check_count", "check_positive", "call_user", "check_vector", "check_bounded_vector",
     "check_real_array", "check_indices", "check_reach", "check_weights", "check_fiber_stiffness",
-    "check_time_step", "check_density", "check_contact_stiffness",
+    "check_time_step", "check_density", "check_contact_stiffness", "check_penalty_stiffness",
     "YOUNGS_MODULUS_RANGE", "POISSON_RATIO_RANGE", "LAME_MAX", "SHEAR_MODULUS_MIN", "TIME_STEP_RANGE",
-    "DENSITY_RANGE", "ACCELERATION_MAX", "FORCE_MAX", "PENALTY_MAX", "CONTACT_STIFFNESS_MAX", "REACH",
+    "DENSITY_RANGE", "ACCELERATION_MAX", "FORCE_MAX", "PENALTY_MAX", "PENALTY_STIFFNESS_MAX",
+    "CONTACT_STIFFNESS_MAX", "REACH",
     "RADIUS_RANGE",
     # a scene's tables: each refusal names the field (``effects.probes[0].radius``)
     "show", "number", "is_sequence", "vector", "points", "table", "require", "string", "count_list", "penalty",
@@ -37,7 +38,12 @@ TIME_STEP_RANGE = (1e-6, 10.0)  #: time steps, in seconds
 DENSITY_RANGE = (1e-6, 1e6)  #: densities (mass per unit reference area)
 ACCELERATION_MAX = 1e6  #: the largest component of a gravitational acceleration
 FORCE_MAX = 1e12  #: the largest component of a body force (per unit area) or a traction (per unit length)
-PENALTY_MAX = 1e40  #: the largest penalty stiffness of a probe or a suture
+#: the largest penalty stiffness of a probe or a suture in a scene's table, before Young's modulus is known (when
+#: the model is built, :func:`check_penalty_stiffness` caps it relative to Young's modulus)
+PENALTY_MAX = 1e40
+#: the stiffest probe, in Young's moduli per unit of its radius, and the stiffest suture, in Young's moduli: 1e4 times
+#: their defaults (``100 E / radius``, ``100 E``; :func:`check_penalty_stiffness` says why)
+PENALTY_STIFFNESS_MAX = 1e6
 #: the stiffest self-contact, in Young's moduli (:func:`check_contact_stiffness` says why)
 CONTACT_STIFFNESS_MAX = 1e4
 REACH = 1e3  #: points and displacements lie within ``REACH`` domain sizes (of the domain's centre, for points)
@@ -191,6 +197,25 @@ def check_contact_stiffness(name: str, stiffness, modulus) -> float:
         raise ParameterError(name, f"{name} must be in (0, {hi:g}] ({CONTACT_STIFFNESS_MAX:g} times Young's modulus "
                                    f"{modulus:g}: stiffer, the contact's energy hides the elastic energy in "
                                    f"round-off and the solver throws nodes), got {show(stiffness)}")
+    return value
+
+
+def check_penalty_stiffness(name: str, stiffness, modulus, radius=None, *, positive: bool = False) -> float:
+    """A probe's (``radius`` given) or a suture's penalty stiffness in ``[0, hi]`` (``(0, hi]`` if ``positive``):
+    ``hi = PENALTY_STIFFNESS_MAX * modulus / radius`` (a probe: a pressure per unit penetration) or
+    ``PENALTY_STIFFNESS_MAX * modulus`` (a suture: a force per unit length), ``modulus`` the material's Young's
+    modulus. Stiffer buys nothing visible (at the bound a probe pressed with a pressure of ``modulus`` sinks a
+    millionth of its radius, a suture pulled with a force of ``modulus`` stretches by 1e-6) and the
+    penalty's energy swamps the elastic energy's round-off: the line search cannot see the tissue any more, and from
+    about ``1e11 modulus / radius`` (probes) or ``1e16 modulus`` (sutures) nodes are thrown across the scene while
+    the frames still report convergence."""
+    hi = PENALTY_STIFFNESS_MAX * modulus / (1.0 if radius is None else radius)
+    value = check_real_number(name, stiffness)
+    if not (math.isfinite(value) and (0.0 < value if positive else 0.0 <= value) and value <= hi):
+        unit = f"Young's modulus {modulus:g}" + ("" if radius is None else f" per radius {radius:g}")
+        raise ParameterError(name, f"{name} must be in {'(' if positive else '['}0, {hi:g}] "
+                                   f"({PENALTY_STIFFNESS_MAX:g} times {unit}: stiffer, the penalty's energy hides the "
+                                   f"elastic energy in round-off and the solver throws nodes), got {show(stiffness)}")
     return value
 
 

@@ -29,12 +29,12 @@ from skfem import FacetBasis, LinearForm, asm
 
 from .materials import (FiberReinforced, Material, check_fiber_stiffness, fiber_energy_term, fiber_stress_term,
                         fiber_tangent_term)
-from .parameters import (FORCE_MAX, PENALTY_MAX, RADIUS_RANGE, REACH, ParameterError, check_bounded_vector,
-                         check_density, check_indices, check_reach, check_real, check_real_array,
-                         check_time_step, check_vector)
+from .parameters import (FORCE_MAX, RADIUS_RANGE, REACH, YOUNGS_MODULUS_RANGE, ParameterError, check_bounded_vector,
+                         check_density, check_indices, check_penalty_stiffness, check_reach, check_real,
+                         check_real_array, check_time_step, check_vector)
 
 __all__ = ["Term", "ElementTerm", "Elastic", "Fibers", "Inertia", "Load", "Probe", "Sutures", "traction_vector",
-           "SummedDensity", "extent", "boundary_lengths"]
+           "SummedDensity", "extent", "boundary_lengths", "surface_lengths"]
 
 
 class Term:
@@ -306,6 +306,30 @@ def boundary_lengths(mesh) -> np.ndarray:
     return np.bincount(facets.ravel(), weights=np.concatenate([half, half]), minlength=mesh.nvertices)
 
 
+def surface_lengths(meshmap) -> np.ndarray:
+    """Each node's share of the material's surface after a topology change ``meshmap`` (a probe's weights): the
+    length of where the material ends (``meshmap.contact_surface()``, else the mesh's
+    boundary: :func:`boundary_lengths`), each point's half of its segments shared among its nodes by its weights. A
+    mesh cut through elements has boundary facets that are partly or wholly phantom (a copy of a triangle holds only
+    its piece): only their material parts count. A node without material at its place (a virtual node,
+    ``meshmap.material``) carries nothing, its place being beyond the lip, where the tool may press the other piece:
+    a point's share goes to its nodes with material (the total is the surface's length)."""
+    mesh, material = meshmap.mesh, meshmap.material
+    surface = meshmap.contact_surface()
+    if surface is None:
+        return boundary_lengths(mesh) if material is None else np.where(material, boundary_lengths(mesh), 0.0)
+    # a point's share goes to its nodes with material (by its weights among them): the surface's length is kept
+    weights = surface.weights if material is None else surface.weights * material[surface.nodes]
+    total = weights.sum(axis=1, keepdims=True)
+    weights = np.divide(weights, total, out=np.zeros_like(weights), where=total > 0)
+    ends = surface.segment_positions(np.asarray(mesh.p, dtype=float))  # (segment, end, xy), reference
+    half = 0.5 * np.hypot(*(ends[:, 1] - ends[:, 0]).T)  # half of each segment to each of its ends
+    out = np.zeros(mesh.nvertices)
+    for end in surface.segments:
+        np.add.at(out, surface.nodes[end].ravel(), (weights[end] * half[:, None]).ravel())
+    return out
+
+
 def traction_vector(basis, boundary, traction) -> np.ndarray:
     """``f_(a,i) = int_boundary N_a t_i dS`` for a constant traction ``t`` (force per unit reference length)."""
     t = check_bounded_vector(f"tractions[{boundary!r}]", traction, FORCE_MAX)
@@ -329,8 +353,9 @@ def traction_vector(basis, boundary, traction) -> np.ndarray:
 class Probe(Term):
     """A rigid disc (a tool tip) of centre ``c`` and radius ``R`` pressed into the tissue's surface.
 
-    A penalty pressure on each *boundary* node ``a``, weighted by its share ``l_a`` of the boundary's length,
-    at the penetration ``g_a = R - d_a``, ``d_a = |x_a - c|``:
+    A penalty pressure on each *boundary* node ``a``, weighted by its share ``l_a`` of the boundary's length (of the
+    material's surface on a mesh cut through elements: :func:`surface_lengths`), at the penetration
+    ``g_a = R - d_a``, ``d_a = |x_a - c|``:
 
         E = sum_a k l_a h(g_a),   h(g) = g^3 / (6 delta)             (0 < g < delta),
                                   h(g) = g^2/2 - delta g/2 + delta^2/6  (g >= delta),
@@ -361,15 +386,17 @@ class Probe(Term):
             raise ValueError(f"probe.radius = {r:g} must lie within [{RADIUS_RANGE[0]:g}, {RADIUS_RANGE[1]:g}] "
                              f"domain sizes, i.e. [{lo:g}, {hi:g}]")
         self.radius = r
-        self.stiffness = check_real("probe.stiffness", stiffness, 0.0, PENALTY_MAX)
+        # against the stiffest material: the model checks it against its own (effects.youngs_modulus)
+        self.stiffness = check_penalty_stiffness("probe.stiffness", stiffness, YOUNGS_MODULUS_RANGE[1], r)
         # g^3 / (6 delta): a smoothing length far below the radius would overflow the energy
         self.smoothing = check_real("probe.smoothing", smoothing, 1e-6, 1.0)
         self.delta = self.smoothing * self.radius
         self.label = label
 
     def remap(self, meshmap):
-        return Probe(np.asarray(meshmap.mesh.p, dtype=float), boundary_lengths(meshmap.mesh), self.center, self.radius,
-                     self.stiffness, self.label, self.smoothing)
+        # the remapped model's surface weights (surface_lengths: the material's parts of the boundary facets)
+        return lambda model: Probe(model.X, model.boundary_lengths, self.center, self.radius, self.stiffness,
+                                   self.label, self.smoothing)
 
     def move(self, center) -> None:
         """Move the tool to ``center`` (within ``REACH`` domain sizes of the domain's centre); a refusal keeps it."""
@@ -486,8 +513,11 @@ class Sutures(Term):
         except ValueError:
             raise ValueError(f"sutures.stiffness must be one number or one per stitch ({k_count}), "
                              f"got shape {k.shape}") from None
-        if not np.all(np.isfinite(k) & (k > 0) & (k <= PENALTY_MAX)):
-            raise ValueError(f"sutures.stiffness must be finite, > 0 and <= {PENALTY_MAX:g}, got {stiffness!r:.200}")
+        # the first NaN, infinite or non-positive one, else the stiffest, against the stiffest material (a model
+        # checks it against its own: effects.youngs_modulus)
+        worst = k[~(np.isfinite(k) & (k > 0))]
+        check_penalty_stiffness("sutures.stiffness", worst[0] if worst.size else k.max(), YOUNGS_MODULUS_RANGE[1],
+                                positive=True)
         self.k = k
         gaps = check_real_array("sutures.gaps", gaps)
         reach = REACH * extent(X)[1]

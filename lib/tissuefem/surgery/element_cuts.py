@@ -47,9 +47,9 @@ import numpy as np
 
 from ..engine.meshes import signed_areas
 from ..engine.parameters import check_real
-from .geometry import (EPS, FULL_TOUCH, WHOLE, Region, carry_names, check_points, check_regions, cross, crossings,
-                       edge_intervals, edge_param, edge_point, edges_of, element_edges, element_weights, mesh_arrays,
-                       merge_intervals, new_mesh, node_positions, overlaps, polygon_area, polygon_contains,
+from .geometry import (EPS, FULL_TOUCH, WHOLE, Region, carry_names, check_points, check_regions, clip_to_body, cross,
+                       crossings, edge_intervals, edge_param, edge_point, edges_of, element_edges, element_weights,
+                       mesh_arrays, merge_intervals, new_mesh, node_positions, overlaps, polygon_area, polygon_contains,
                        region_touch, reversed_intervals, snap, subtract_intervals, winding)
 from .surfaces import contact_surface
 from .topology import MeshEdit, excise
@@ -73,7 +73,7 @@ class _Arrangement:
     not recorded)."""
 
     def __init__(self, region: Region, cuts, open_edge, min_weight):
-        self.verts = []
+        self.verts, self.cells = [], {}  # the graph's points; the grid cells of 2 EPS holding them
         self.min_weight = min_weight
         polys = [[tuple(v) for v in poly] for poly in region.polygons]
         self.old_severed = edge_intervals(region.severed)
@@ -83,18 +83,22 @@ class _Arrangement:
         segs += [(tuple(a), tuple(b), _S, None) for a, b in region.slits]
         segs += [(a, b, _C, (s0, s1)) for s0, s1, a, b in cuts]
         splits = [[(0.0, self._vertex(a)), (1.0, self._vertex(b))] for a, b, _, _ in segs]
-        for i in range(len(segs)):
-            pi, qi, ki, _ = segs[i]
-            for j in range(i + 1, len(segs)):
-                pj, qj, kj, _ = segs[j]
-                if ki == _P and kj == _P:
-                    continue  # the polygons are simple and apart: their edges meet at vertices only
-                for s, u in crossings(pi, qi, pj, qj):
-                    # the point from the older segment, so region boundaries stay where they were
-                    a, b, f = (pj, qj, u) if kj < ki else (pi, qi, s)
-                    v = self._vertex(snap(a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1])))
-                    splits[i].append((s, v))
-                    splits[j].append((u, v))
+        # only segments whose boxes meet can cross (the pairs in the same order as a double loop): a long wavy stroke
+        # makes many pieces in one triangle, and all pairs of them would cost their square
+        ends = np.array([(a[0], a[1], b[0], b[1]) for a, b, _, _ in segs]).reshape(-1, 4)
+        lo = np.minimum(ends[:, :2], ends[:, 2:]) - 2.0 * EPS
+        hi = np.maximum(ends[:, :2], ends[:, 2:]) + 2.0 * EPS
+        boundary = np.array([kind == _P for _, _, kind, _ in segs])
+        meet = ((lo[:, None, :] <= hi[None, :, :]) & (lo[None, :, :] <= hi[:, None, :])).all(axis=2)
+        meet &= ~(boundary[:, None] & boundary[None, :])  # the polygons are simple and apart: they meet at vertices
+        for i, j in zip(*np.nonzero(np.triu(meet, 1))):
+            (pi, qi, ki, _), (pj, qj, kj, _) = segs[i], segs[j]
+            for s, u in crossings(pi, qi, pj, qj):
+                # the point from the older segment, so region boundaries stay where they were
+                a, b, f = (pj, qj, u) if kj < ki else (pi, qi, s)
+                v = self._vertex(snap(a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1])))
+                splits[i].append((s, v))
+                splits[j].append((u, v))
 
         self.graph = {}  # (u, v) with u < v -> kind
         cut_edges = []  # (u, v, stroke_u, stroke_v) in the direction of the stroke
@@ -138,11 +142,16 @@ class _Arrangement:
         self._settle()
 
     def _vertex(self, pt) -> int:
+        """The first vertex within EPS of ``pt`` (found among those in the neighbouring cells of a 2 EPS grid), or a new
+        one."""
         x, y = pt
-        for i, (vx, vy) in enumerate(self.verts):
-            if abs(vx - x) <= EPS and abs(vy - y) <= EPS:
-                return i
+        cx, cy = math.floor(x / (2.0 * EPS)), math.floor(y / (2.0 * EPS))
+        near = [i for dx in (-1, 0, 1) for dy in (-1, 0, 1) for i in self.cells.get((cx + dx, cy + dy), ())
+                if abs(self.verts[i][0] - x) <= EPS and abs(self.verts[i][1] - y) <= EPS]
+        if near:
+            return min(near)
         self.verts.append((float(x), float(y)))
+        self.cells.setdefault((cx, cy), []).append(len(self.verts) - 1)
         return len(self.verts) - 1
 
     def _edge_of(self, u, v):
@@ -533,16 +542,23 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
     algorithm), drawn at ``positions`` (default ``mesh.p``; triangles collapsed there are not cut); it may end inside
     the body (a crack). A mesh cut before passes its ``weights`` and ``regions`` (:meth:`ElementCut.cut` does). No
     piece carries less than ``min_weight`` in [0, 0.5) of its triangle (step 6). Named boundaries go to the facets
-    whose material touched them, subdomains to every copy. ``ValueError`` for bad arguments, or a stroke that changes
-    nothing (it meets no material, or runs only along the boundary or an existing wound)."""
+    whose material touched them, subdomains to every copy. The stroke is first clipped to the body's bounding box grown
+    by one body size (:func:`~.geometry.clip_to_body`): however far it reaches, it cuts where it crosses the body, as a
+    short one would. ``ValueError`` for bad arguments, or a stroke that changes nothing (it meets no material, or runs
+    only along the boundary or an existing wound)."""
     p, t = mesh_arrays(mesh)
     n, m = p.shape[1], t.shape[1]
     x = node_positions(mesh, positions)
     pts = check_points("polyline", polyline, 2)
     min_weight = check_real("min_weight", min_weight, 0.0, 0.5, hi_open=True)
     regions, w = check_regions(regions, weights, m)
-    # the stroke in each triangle (stroke parameters back on the drawn polyline) and what it does to the material
+    # the stroke in each triangle (stroke parameters back on the drawn polyline) and what it does to the material;
+    # first clipped to the body, so that a far-reaching stroke is followed as precisely as a short one
+    pts, clipped = clip_to_body(pts, x, t)
+    if pts.shape[0] < 2:
+        raise ValueError("polyline changes nothing: it meets no material (it passes outside the body)")
     snapped, drawn = _through_nearby_nodes(x, t, pts)
+    drawn = np.interp(drawn, np.arange(clipped.size), clipped)
     pieces, orientation = _stroke_pieces(x, t, snapped)
     vertex = np.arange(drawn.size)
     key, side = element_edges(p, t)
@@ -703,12 +719,17 @@ def _wound(p, t, arrangements, element_of_face, orientation, new_t):
 # --- removing what a closed cut encloses ---
 def excise_through(mesh, polygon, positions=None, weights=None, regions=None, min_weight=MIN_WEIGHT) -> ElementCut:
     """Cut along a closed ``polygon`` through the elements (:func:`cut_through`) and remove the material inside it, so
-    that the rim follows the drawn outline (not the centroids, as :func:`~tissuefem.surgery.topology.excise` does).
+    that the rim follows the drawn outline (not the centroids, as :func:`~tissuefem.surgery.topology.excise` does); a
+    far-reaching polygon is first clipped to the body (what it encloses there is kept).
     Returns an :class:`ElementCut` that maps to ``mesh`` as it was; its ``wound`` holds the rim's records."""
     pts = check_points("polygon", polygon, 3)
     closed = np.vstack([pts, pts[:1]]) if np.any(pts[0] != pts[-1]) else pts
     if closed.shape[0] < 4:
         raise ValueError("polygon must have at least 3 distinct points")
+    # what it encloses in the body, outlined within reach of the body (a far corner costs the rim no precision)
+    closed = clip_to_body(closed, node_positions(mesh, positions), mesh_arrays(mesh)[1], closed=True)[0]
+    if closed.shape[0] < 4:
+        raise ValueError("polygon encloses no material: it lies outside the body")
     first = cut_through(mesh, closed, positions, weights=weights, regions=regions, min_weight=min_weight)
     m = first.mesh.t.shape[1]
     # where each element's material is now (the stroke was drawn there): a point inside its material, carried by the

@@ -18,11 +18,11 @@ from skfem import MeshTri
 
 from ..engine.parameters import ParameterError, check_real_array, check_weights, show
 
-__all__ = ["EPS", "FULL_TOUCH", "WHOLE", "Region", "mesh_arrays", "node_positions", "check_points",
-           "pair_keys", "element_edges", "new_mesh", "carry_names", "polygon_contains", "cross", "snap", "edges_of",
-           "edge_param", "edge_point", "winding", "polygon_area", "crossings", "merge_intervals", "subtract_intervals",
-           "intersect_intervals", "overlaps", "reversed_intervals", "edge_intervals", "region_sides", "region_touch",
-           "element_weights", "check_regions"]
+__all__ = ["EPS", "FULL_TOUCH", "WHOLE", "CLIP_MARGIN", "Region", "mesh_arrays", "node_positions", "check_points",
+           "pair_keys", "element_edges", "new_mesh", "carry_names", "polygon_contains", "clip_to_body", "cross", "snap",
+           "edges_of", "edge_param", "edge_point", "winding", "polygon_area", "crossings", "merge_intervals",
+           "subtract_intervals", "intersect_intervals", "overlaps", "reversed_intervals", "edge_intervals",
+           "region_sides", "region_touch", "element_weights", "check_regions"]
 
 #: Tolerance in local coordinates: points closer than this are one point, a point this close to an edge is on it.
 EPS = 1e-9
@@ -34,13 +34,17 @@ FULL_TOUCH = [[(0.0, 1.0)], [(0.0, 1.0)], [(0.0, 1.0)]]
 def mesh_arrays(mesh):
     """``(p (2, n) float, t (3, m) int64)`` of a 2D triangle mesh, checked."""
     try:
-        p = np.asarray(mesh.p, dtype=float)
-        t = np.asarray(mesh.t, dtype=np.int64)
+        p, t = check_real_array("mesh.p", mesh.p), np.asarray(mesh.t)
     except AttributeError:
-        raise ValueError(f"mesh must be a skfem.MeshTri, got {type(mesh).__name__}") from None
+        raise ParameterError("mesh", f"mesh must be a skfem.MeshTri, got {type(mesh).__name__}") from None
+    except ParameterError as err:
+        raise ParameterError("mesh", f"mesh must be a triangle mesh of real coordinates: {err}") from None
+    if t.dtype.kind not in "iu":
+        raise ParameterError("mesh", f"mesh must be a triangle mesh whose t holds node indices, got dtype {t.dtype}")
+    t = t.astype(np.int64)
     if p.ndim != 2 or p.shape[0] != 2 or t.ndim != 2 or t.shape[0] != 3:
-        raise ValueError(f"mesh must be a 2D triangle mesh (p shaped (2, n), t shaped (3, m)), "
-                         f"got p {p.shape} and t {t.shape}")
+        raise ParameterError("mesh", f"mesh must be a 2D triangle mesh (p shaped (2, n), t shaped (3, m)), "
+                                     f"got p {p.shape} and t {t.shape}")
     return p, t
 
 
@@ -125,6 +129,56 @@ def polygon_contains(polygon, points) -> np.ndarray:
         above0, above1 = y0 >= ty, y1 >= ty
         inside ^= (above0 != above1) & (((y1 - ty) * (x0 - x1) >= (x1 - tx) * (y0 - y1)) == above1)
     return inside
+
+
+#: A stroke is clipped to the body's bounding box grown by this many body sizes on every side (:func:`clip_to_body`)
+CLIP_MARGIN = 1.0
+
+
+def _side_crossing(a, b, axis, bound):
+    """Where the segment ``a -> b`` (points ``(x, y, parameter)``, one on each side of ``axis = bound``) crosses it:
+    exactly on the line, the other coordinate and the parameter interpolated from the nearer end (so that a far end
+    costs the crossing no precision), with halved differences (no overflow near the largest floats)."""
+    run = 0.5 * b[axis] - 0.5 * a[axis]
+    f = (0.5 * bound - 0.5 * a[axis]) / run  # from a
+    g = (0.5 * b[axis] - 0.5 * bound) / run  # from b
+    out = [0.0, 0.0, 0.0]
+    out[axis] = bound
+    for i in (1 - axis, 2):
+        out[i] = (a[i] + 2.0 * f * (0.5 * b[i] - 0.5 * a[i]) if f <= g
+                  else b[i] - 2.0 * g * (0.5 * b[i] - 0.5 * a[i]))
+    return tuple(out)
+
+
+def clip_to_body(points, x, t, closed=False):
+    """The polyline ``points`` (k, 2) (a polygon if ``closed``) clipped to the bounding box of the triangles ``t`` at
+    node positions ``x``, grown by :data:`CLIP_MARGIN` body sizes: ``(points (k', 2), parameter (k',))``, each point's
+    place on the drawn polyline (segment index plus fraction). A part outside the box meets no material: it is
+    replaced by a path along the box's sides (an open polyline's outer ends are dropped), so that however far a
+    stroke reaches, it is cut where it lies in the body as precisely as a short one (a polygon keeps what it encloses
+    in the box). Nothing is left when the stroke misses the box."""
+    corners = x[:, np.asarray(t).ravel()]
+    if corners.size == 0:  # no triangle: nothing to meet
+        return np.zeros((0, 2)), np.zeros(0)
+    lo, hi = corners.min(axis=1), corners.max(axis=1)
+    grow = CLIP_MARGIN * float((hi - lo).max())
+    pts = [(float(px), float(py), float(i)) for i, (px, py) in enumerate(np.asarray(points, dtype=float))]
+    if closed and len(pts) > 1 and pts[0][:2] == pts[-1][:2]:
+        pts.pop()  # the closing point: the ring wraps around
+    for axis, bound, sign in ((0, lo[0] - grow, -1.0), (0, hi[0] + grow, 1.0), (1, lo[1] - grow, -1.0),
+                              (1, hi[1] + grow, 1.0)):
+        inside = [sign * (q[axis] - bound) <= 0.0 for q in pts]
+        out = []
+        for i, q in enumerate(pts):
+            if (i > 0 or closed) and inside[i - 1] != inside[i]:
+                out.append(_side_crossing(pts[i - 1], q, axis, bound))
+            if inside[i]:
+                out.append(q)
+        pts = out
+    if closed and pts:
+        pts.append(pts[0])
+    a = np.array(pts, dtype=float).reshape(-1, 3)
+    return a[:, :2].copy(), a[:, 2].copy()
 
 
 # --- a triangle's local coordinates ---
@@ -270,9 +324,9 @@ def edge_intervals(segments):
 
 # --- the material of an element ---
 def _segments(name, value) -> np.ndarray:
-    a = np.zeros((0, 2, 2)) if value is None else np.asarray(value, dtype=float)
+    a = np.zeros((0, 2, 2)) if value is None else check_real_array(name, value)
     if a.size and (a.ndim != 3 or a.shape[1:] != (2, 2) or not np.all(np.isfinite(a))):
-        raise ValueError(f"{name} must be finite segments shaped (k, 2, 2), got shape {a.shape}")
+        raise ParameterError(name, f"{name} must be finite segments shaped (k, 2, 2), got shape {a.shape}")
     return a if a.size else np.zeros((0, 2, 2))
 
 
@@ -293,21 +347,23 @@ class Region:
         polys = (polys,) if isinstance(polys, np.ndarray) and polys.ndim == 2 else polys  # one polygon
         out, weight = [], 0.0
         for i, poly in enumerate(polys):
-            poly = np.asarray(poly, dtype=float)
             name = f"Region.polygons[{i}]"
+            poly = check_real_array(name, poly)
             if poly.ndim != 2 or poly.shape[1] != 2 or poly.shape[0] < 3 or not np.all(np.isfinite(poly)):
-                raise ValueError(f"{name} must be at least 3 finite points shaped (k, 2), got shape {poly.shape}")
+                raise ParameterError(name, f"{name} must be at least 3 finite points shaped (k, 2), got shape "
+                                           f"{poly.shape}")
             if not ((poly >= -EPS).all() and (poly.sum(axis=1) <= 1.0 + EPS).all()):
-                raise ValueError(f"{name} must lie in the unit triangle (xi, eta >= 0, xi + eta <= 1)")
+                raise ParameterError(name, f"{name} must lie in the unit triangle (xi, eta >= 0, xi + eta <= 1)")
             area = 2.0 * polygon_area(poly.tolist())
             if not area > 0.0:
-                raise ValueError(f"{name} must be counter-clockwise with a positive area")
+                raise ParameterError(name, f"{name} must be counter-clockwise with a positive area")
             out.append(poly)
             weight += area
         if not out:
-            raise ValueError("Region.polygons must hold at least one polygon")
+            raise ParameterError("Region.polygons", "Region.polygons must hold at least one polygon")
         if weight > 1.0 + 1e-9:
-            raise ValueError(f"Region.polygons cover {weight:.6g} times the triangle: they must not overlap")
+            raise ParameterError("Region.polygons", f"Region.polygons cover {weight:.6g} times the triangle: they "
+                                                    "must not overlap")
         object.__setattr__(self, "polygons", tuple(out))
         object.__setattr__(self, "slits", _segments("Region.slits", self.slits))
         object.__setattr__(self, "severed", _segments("Region.severed", self.severed))
@@ -337,10 +393,16 @@ def region_sides(region):
 
 
 def region_touch(region: Region):
-    """The parts of each local edge the region's material touches, less what is severed."""
-    touched = edge_intervals(region_sides(region))
-    severed = edge_intervals(region.severed)
-    return [subtract_intervals(touched[k], severed[k]) for k in range(3)]
+    """The parts of each local edge the region's material touches, less what is severed (a tuple of three interval
+    lists, not to be modified). A region does not change: this is worked out once and kept with it, so that a cut costs
+    what it touches, not what was cut before."""
+    touch = region.__dict__.get("_touch")
+    if touch is None:
+        touched = edge_intervals(region_sides(region))
+        severed = edge_intervals(region.severed)
+        touch = tuple(subtract_intervals(touched[k], severed[k]) for k in range(3))
+        object.__setattr__(region, "_touch", touch)
+    return touch
 
 
 def element_weights(weights, m) -> np.ndarray:
@@ -352,13 +414,13 @@ def check_regions(regions, weights, m):
     """Checked ``(regions, weights)`` of ``m`` elements: the weights follow from the regions, or must agree."""
     regions = {} if regions is None else regions
     if not isinstance(regions, dict):
-        raise ValueError(f"regions must be a dict element -> Region, got {type(regions).__name__}")
+        raise ParameterError("regions", f"regions must be a dict element -> Region, got {type(regions).__name__}")
     out = {}
     for e, r in regions.items():
-        if isinstance(e, bool) or not isinstance(e, numbers.Integral) or not 0 <= int(e) < m:
-            raise ValueError(f"regions: key {e!r} is not an element index in [0, {m})")
+        if isinstance(e, (bool, np.bool_)) or not isinstance(e, numbers.Integral) or not 0 <= int(e) < m:
+            raise ParameterError("regions", f"regions: key {show(e)} is not an element index in [0, {m})")
         if not isinstance(r, Region):
-            raise ValueError(f"regions[{e}] must be a Region, got {type(r).__name__}")
+            raise ParameterError(f"regions[{e}]", f"regions[{e}] must be a Region, got {type(r).__name__}")
         out[int(e)] = r
     implied = np.ones(m)
     for e, r in out.items():
@@ -370,5 +432,6 @@ def check_regions(regions, weights, m):
     if bad.size:
         e = int(bad[0])
         hint = "" if e in out else " (an element cut through before needs its region: pass regions=previous.regions)"
-        raise ValueError(f"weights[{e}] = {w[e]!r} does not match the material of its region ({implied[e]!r}){hint}")
+        raise ParameterError("weights", f"weights[{e}] = {w[e]!r} does not match the material of its region "
+                                        f"({implied[e]!r}){hint}")
     return out, w

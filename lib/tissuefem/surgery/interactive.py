@@ -1,46 +1,51 @@
-"""Operate on a running simulation with the mouse: drag the tissue and cut it, in any matplotlib figure.
+"""Operate on a running simulation with the mouse, in the browser: drag the tissue and cut it.
 
-A :class:`SurgeryView` draws a :class:`~tissuefem.surgery.simulation.Simulation` in a matplotlib ``Axes`` and turns
-mouse events into its input, the *input* step of the notes' frame loop (read the user, solve, render, every 1/30 s).
-In **drag** mode (the default) a left-button press grabs the nodes within ``radius`` of the pointer, moving drags them
-and letting go releases them; in **cut** mode a stroke becomes an incision when the button is released. The mode
-buttons, the key ``c`` and ``view.mode = "cut"`` switch modes.
+A :class:`SurgeryView` runs a :class:`~tissuefem.surgery.simulation.Simulation` and draws it in the page through a
+:class:`~tissuefem.surgery.widget.TissueWidget`: the kernel sends the deformed node positions as binary arrays (the
+triangles only when a cut changes them) and the browser draws them; nothing is rasterised in the kernel. In **drag**
+mode (the default) a press grabs the nodes within ``radius`` of the pointer, moving drags them and letting go releases
+them; in **cut** mode a stroke becomes an incision when the button is released. The page's buttons, its key ``c`` and
+``view.mode = "cut"`` switch modes; its run/pause button, :meth:`~SurgeryView.start` and :meth:`~SurgeryView.stop`
+run and pause the frames.
 
-A timer runs one frame every ``interval_ms``, on an interactive canvas only (``%matplotlib widget``, Qt, Tk); on Agg or
-inline, code calls :meth:`~SurgeryView.step` (and :meth:`~SurgeryView.draw`), so the same cells run in a browser and
-headless in the tests. Events only change the state; the next frame draws it (:mod:`.view_drawing`: within the 33 ms
-budget). One live view per simulation and per notebook cell: a new view of the same simulation stops the old one, and
-re-running a cell closes the view it made. :func:`synthetic_mouse` and :func:`synthetic_key` send made-up events
-through the canvas, as a backend would: a notebook shows a drag or a cut without a mouse, and the tests check it.
+The frame loop is an asyncio task in the kernel: a frame every ``interval_ms`` while something changes (input, or
+the tissue still moving); at rest it waits without running or sending anything. Without a running event loop
+(headless, in the tests) code calls :meth:`~SurgeryView.step`; :func:`synthetic_mouse` and :func:`synthetic_key`
+send made-up input through the same message handler as the page's, so a notebook shows a drag or a cut without a
+mouse. One live view per simulation and per notebook cell: a new view of the same simulation stops the old one,
+and re-running a cell closes the view it made. :func:`snapshot` draws the current state as a static matplotlib
+figure.
 """
 
 from __future__ import annotations
 
 import asyncio
-import base64
 import functools
-import io
 import math
 import threading
 import time
 import weakref
 
-import matplotlib.pyplot as plt
 import numpy as np
 from IPython import get_ipython
-from matplotlib.backend_bases import KeyEvent, MouseButton, MouseEvent
-from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.collections import PolyCollection
+from matplotlib.figure import Figure
 
 from ..engine.meshes import mean_edge_length
-from ..engine.parameters import ParameterError, check_count, check_positive, string
-from .view_drawing import KEYFRAME_S, LayeredFigure, MeshDrawing, Readout, is_gui, is_interactive, view_axes
+from ..engine.parameters import ParameterError, check_count, check_positive, check_vector, string
+from .widget import TissueWidget, outline
 
-__all__ = ["SurgeryView", "MODES", "synthetic_mouse", "synthetic_key", "mean_edge_length"]
+__all__ = ["SurgeryView", "Gestures", "MODES", "REST_FRAMES", "take_over", "let_go", "one_at_a_time",
+           "synthetic_mouse", "synthetic_key", "snapshot"]
 
 #: the interaction modes of a :class:`SurgeryView`
 MODES = ("drag", "cut")
-
-_MOUSE_EVENTS = {"press": "button_press_event", "move": "motion_notify_event", "release": "button_release_event"}
+#: frames in a row in which no drawn point moved more than ``rest_tolerance`` before the loop rests
+REST_FRAMES = 5
+READOUT_S = 0.25  #: seconds between readout lines sent while frames run (a new mode, state or message goes at once)
+POINTER_KINDS = ("down", "move", "up")
+_MOUSE_KINDS = {"press": "down", "move": "move", "release": "up"}
+PAUSED_DRAG = "paused: the tissue follows once the view runs (the run button, or view.start())"
 
 #: every view not yet disconnected, to stop the one a new view replaces
 _VIEWS: weakref.WeakSet = weakref.WeakSet()
@@ -67,9 +72,28 @@ def _cell_origin():
     return None if cell is None else (cell, getattr(shell, "execution_count", None))
 
 
-def _one_at_a_time(method):
-    """Run ``method`` holding the view's lock: a frame, an event and a draw never interleave (a kernel may handle a
-    widget's messages on another thread than the timer's: a cut could otherwise rebuild the mesh mid-frame)."""
+def take_over(view) -> None:
+    """Make ``view`` the live view of its simulation and of its notebook cell: a view of the same simulation stops
+    (disconnected, saying why), one that the same cell made in an earlier run closes (its output is gone).
+    :meth:`SurgeryView.disconnect` leaves the registry (:func:`let_go`)."""
+    view._origin = _cell_origin()
+    for old in [v for v in _VIEWS if not v.closed]:
+        if old.sim is view.sim:
+            old.disconnect()
+            old._show("stopped: a newer view drives this simulation")
+        elif view._origin and old._origin and old._origin[0] == view._origin[0] and old._origin != view._origin:
+            old.close()  # its cell was run again: its output is gone
+    _VIEWS.add(view)
+
+
+def let_go(view) -> None:
+    """``view`` is no longer live (disconnected): it leaves the registry of :func:`take_over`."""
+    _VIEWS.discard(view)
+
+
+def one_at_a_time(method):
+    """Run ``method`` holding the view's lock: a frame and an event never interleave (a kernel may handle a
+    widget's messages on another thread than the frame loop's: a cut could otherwise rebuild the mesh mid-frame)."""
 
     @functools.wraps(method)
     def locked(self, *args, **kwargs):
@@ -80,77 +104,74 @@ def _one_at_a_time(method):
 
 
 class Gestures:
-    """A view's mouse and keyboard mapped to the simulation's ``grab``, ``drag``, ``release`` and ``cut``.
+    """A view's pointer input mapped to the simulation's ``grab``, ``drag``, ``release`` and ``cut``.
 
-    Presses and moves outside the axes, or while the toolbar pans or zooms, are ignored; a release anywhere ends the
-    grab or stroke (a handle never sticks to a mouse that left). A grab made in code is not carried on by the real
-    mouse, nor a real one by made-up moves. A ``ValueError`` of the simulation becomes the view's message. The key
-    ``c`` toggles the mode (it is also the toolbar's "back" key, which matters only after zooming).
+    :meth:`press`, :meth:`move` and :meth:`release` take points in world coordinates. ``real`` says whether the
+    input came from a person (the page's pointer) or from code (:func:`synthetic_mouse`): a grab made in code is
+    not carried on by the real pointer, nor a real one by made-up moves. A ``ValueError`` of the simulation becomes the
+    view's message. The view provides ``radius``, ``stroke_spacing``, ``message`` and the hooks ``_changed``,
+    ``_request_draw``, ``_show``, ``_refresh`` and ``_tools_changed`` (the drag target or the stroke moved:
+    ``target``, the point the grab follows, or ``None``; ``stroke``, the points drawn so far, or ``None``).
     """
 
     def __init__(self, view):
-        self.view, self.sim, self.ax, self._lock = view, view.sim, view.ax, view._lock
-        self.mode, self.handle, self.stroke = "drag", None, None  # the grabbed handle's name; the stroke being drawn
+        self.view, self.sim, self._lock = view, view.sim, view._lock
+        self.mode, self.handle, self.stroke, self.target = "drag", None, None, None
         self.real_press = False  # whether the grab or stroke began with a real press (a GUI event) or in code
-        (self.stroke_artist,) = self.ax.plot([], [], "-", color="k", lw=1.2, zorder=3)
-        (self.target_artist,) = self.ax.plot([], [], "o", ms=7, mfc="none", mec="tab:blue", mew=1.5, zorder=3)
 
-    def _point(self, event):
-        if event.inaxes is not self.ax or event.xdata is None or event.ydata is None:
-            return None
-        return np.array([event.xdata, event.ydata], dtype=float)
+    def tools_changed(self) -> None:
+        """The drag target or the stroke changed: the view sends them."""
+        self.view._tools_changed()
 
-    @_one_at_a_time
-    def on_press(self, event):
-        point = self._point(event)
-        if point is None or event.button != MouseButton.LEFT or self.ax.get_navigate_mode() is not None:
-            return
+    @one_at_a_time
+    def press(self, point, real=True) -> None:
+        """A press at ``point``: in drag mode grab the tissue there, in cut mode start a stroke."""
+        point = np.asarray(point, dtype=float)
         self.view.message = ""
-        self.real_press = event.guiEvent is not None
+        self.real_press = bool(real)
         if self.mode == "drag":
             self.end_grab()
             try:
                 self.handle = self.sim.grab(point, self.view.radius)
             except ValueError:
                 return  # no tissue under the pointer: nothing to grab
-            self.target_artist.set_data([point[0]], [point[1]])
+            self.target = point
         else:
             self.stroke = [point]
-            self.stroke_artist.set_data([point[0]], [point[1]])
+        self.tools_changed()
         self.view._changed()
 
-    @_one_at_a_time
-    def on_motion(self, event):
-        point = self._point(event)
-        # a real mouse moving (no button held) does not carry on a grab that code made, nor code a real one
-        if point is None or (self.handle is None and self.stroke is None) or (
-                event.guiEvent is not None) != self.real_press:
+    @one_at_a_time
+    def move(self, point, real=True) -> None:
+        """The pointer moved to ``point``: drag the grabbed handle there, or extend the stroke."""
+        if (self.handle is None and self.stroke is None) or bool(real) != self.real_press:
             return
+        point = np.asarray(point, dtype=float)
         if self.handle is not None:
             try:
                 self.sim.drag(self.handle, point)
             except ValueError as exc:
                 self.view._show(f"drag rejected: {exc}")
                 return
-            self.target_artist.set_data([point[0]], [point[1]])
+            self.target = point
         else:
             if np.linalg.norm(point - self.stroke[-1]) < self.view.stroke_spacing:
                 return
             self.stroke.append(point)
-            self.stroke_artist.set_data(*np.array(self.stroke).T)
+        self.tools_changed()
         self.view._request_draw()
 
-    @_one_at_a_time
-    def on_release(self, event):
-        if event.button not in (None, MouseButton.LEFT):
-            return
+    @one_at_a_time
+    def release(self, point=None) -> None:
+        """The button was let go (at ``point``, or outside the view: ``None``): end the grab, or cut along the
+        stroke."""
         if self.handle is not None:
             self.end_grab()
             self.view._changed()
         elif self.stroke is not None:
-            point, stroke = self._point(event), self.stroke
-            if point is not None and np.linalg.norm(point - stroke[-1]) > 0:
-                stroke.append(point)
+            stroke = self.stroke
+            if point is not None and np.linalg.norm(np.asarray(point, dtype=float) - stroke[-1]) > 0:
+                stroke.append(np.asarray(point, dtype=float))
             self.drop()
             stroke = np.array(stroke)
             distinct = stroke[np.r_[True, np.any(np.diff(stroke, axis=0) != 0, axis=1)]]
@@ -165,16 +186,11 @@ class Gestures:
             self.view.message = ""
             self.view._refresh()
 
-    @_one_at_a_time
-    def on_key(self, event):
-        if event.inaxes in (None, self.ax) and event.key == "c":
-            self.view.mode = "drag" if self.mode == "cut" else "cut"
-
     def end_grab(self) -> None:
         """Release the grabbed handle, if any."""
         if self.handle is not None:
-            handle, self.handle = self.handle, None
-            self.target_artist.set_data([], [])
+            handle, self.handle, self.target = self.handle, None, None
+            self.tools_changed()
             try:
                 self.sim.release(handle)
             except ValueError as exc:
@@ -184,116 +200,115 @@ class Gestures:
         """End a grab and drop a stroke in progress."""
         self.end_grab()
         self.stroke = None
-        self.stroke_artist.set_data([], [])
+        self.tools_changed()
 
 
 class SurgeryView:
-    """A simulation drawn in a matplotlib ``Axes``, operated on with the mouse (:class:`Gestures`).
+    """A simulation drawn in the page by a :class:`~tissuefem.surgery.widget.TissueWidget`, operated on with the
+    pointer (:class:`Gestures`).
 
     Parameters
     ----------
     sim : tissuefem.surgery.simulation.Simulation
         Or anything with ``mesh``, ``positions``, ``picture``, ``frame``, ``grab``, ``drag``, ``release``, ``cut``.
-    ax : matplotlib.axes.Axes, optional
-        Default: the view's own figure (:func:`~.view_drawing.view_axes`), which redraws only the moving layer per
-        frame; an ``ax`` of your own figure redraws the whole figure.
     radius : float, optional
         A press grabs the nodes within this distance of the pointer; default twice the mean edge length.
     interval_ms : int, default 33
-        Milliseconds between timer frames (the notes' 30 frames per second).
+        Milliseconds between frames while something changes (the notes' 30 frames per second).
+    color : {None, "J"}
+        One fill colour, or each triangle coloured by its area change ``J`` (blue shrunk, red stretched).
     autostart : bool, default True
-        Start the timer once the view is on screen (a GUI window at once, Jupyter when displayed; never on Agg).
+        Start the frame loop when the view is displayed (in a kernel with a running event loop).
+    rest_tolerance : float, optional
+        A frame in which no drawn point moved farther than this (world units) is quiet; after ``REST_FRAMES`` quiet
+        frames without input the loop rests. Default: a thousandth of the shown box.
+    width, height : int
+        The canvas, CSS pixels.
 
     Attributes
     ----------
-    frame_times, draw_times : list of float
-        Milliseconds of every frame run by :meth:`step`; of each picture drawn (on a browser canvas, until sent).
+    widget : TissueWidget
+    gestures : Gestures
+    frame_times : list of float
+        Milliseconds of every frame run by :meth:`step`.
     last_report : FrameReport or None
+    pushes, topology_pushes : int
+        Positions sent (frames the tissue moved), topologies sent (the first and one per cut).
     message : str
-        The last message (a failed cut, a rejected drag, a failed frame), or ``""``; shown under the axes.
-    mesh_faces, mesh_edges, stroke_artist, target_artist, status_text, message_text
-        The artists: the triangles (:class:`~.view_drawing.MeshDrawing`), the stroke being drawn and the drag
-        target, the readout above the axes and the message under them (:class:`~.view_drawing.Readout`).
+        The last message (a failed cut, a rejected drag, a paused view, a failed frame), or ``""``.
 
     Examples
     --------
     >>> from tissuefem.surgery.scene import demo_scene
     >>> from tissuefem.surgery.simulation import Simulation
     >>> view = SurgeryView(Simulation(demo_scene(n_triangles=400)), autostart=False)
-    >>> _ = synthetic_mouse(view, "press", (1.95, 0.5))   # grab the right edge
-    >>> _ = synthetic_mouse(view, "move", (2.2, 0.7))     # drag it
-    >>> report = view.step()                              # one frame: the tissue follows
-    >>> _ = synthetic_mouse(view, "release", (2.2, 0.7))
+    >>> synthetic_mouse(view, "press", (1.95, 0.5))   # grab the right edge
+    >>> synthetic_mouse(view, "move", (2.2, 0.7))     # drag it
+    >>> report = view.step()                          # one frame: the tissue follows
+    >>> synthetic_mouse(view, "release", (2.2, 0.7))
     """
 
-    def __init__(self, sim, ax=None, radius=None, interval_ms=33, autostart=True):
-        missing = [m for m in ("mesh", "positions", "frame", "grab", "drag", "release", "cut") if not hasattr(sim, m)]
+    def __init__(self, sim, radius=None, interval_ms=33, color=None, autostart=True, rest_tolerance=None,
+                 width=700, height=450):
+        missing = [m for m in ("mesh", "positions", "picture", "frame", "grab", "drag", "release", "cut")
+                   if not hasattr(sim, m)]
         if missing:
             raise ParameterError("sim", "sim must be a tissuefem.surgery.simulation.Simulation; "
                                         f"{type(sim).__name__} has no {missing}")
+        self.sim = sim
         self.radius = check_positive("radius", 2.0 * mean_edge_length(sim.mesh) if radius is None else radius)
         self.interval_ms = check_count("interval_ms", interval_ms)
-        self.sim, self.autostart, self.owns_figure = sim, bool(autostart), ax is None
-        self.ax = view_axes() if ax is None else ax
-        self.fig, self.canvas = self.ax.figure, self.ax.figure.canvas
-        self.interactive = is_interactive(self.canvas)
-        self._lock = self.fig.lock if isinstance(self.fig, LayeredFigure) else threading.RLock()
-        # the loop (and its thread) that runs the timer: a start or stop asked from elsewhere goes there
-        try:
-            self._loop = asyncio.get_running_loop()
-        except RuntimeError:
-            self._loop = None
-        self._loop_thread = threading.get_ident()
-        self.last_report, self.message, self.closed = None, "", False
+        self.color = None if color is None else string("color", color, ("J",))
+        self.autostart = bool(autostart)
         self.stroke_spacing = 0.25 * mean_edge_length(sim.mesh)
-        self._timer, self._running, self._widgets, self._box, self._keyframe_at = None, False, None, None, -math.inf
+        X = np.asarray(sim.mesh.p, dtype=float)
+        lo, hi = X.min(axis=1), X.max(axis=1)
+        margin = 0.3 * float(np.max(hi - lo))
+        bounds = [lo[0] - margin, hi[0] + margin, lo[1] - margin, hi[1] + margin]
+        self.rest_tolerance = (1e-3 * max(bounds[1] - bounds[0], bounds[3] - bounds[2]) if rest_tolerance is None
+                               else check_positive("rest_tolerance", rest_tolerance))
+        width, height = check_count("width", width), check_count("height", height)
+        self._lock = threading.RLock()
+        self.message, self.closed, self.last_report = "", False, None
+        self.frame_times: list[float] = []
+        self.pushes = self.topology_pushes = 0
+        self._mesh, self._picture, self._reference, self._x = None, None, None, None
+        self._quiet, self._dirty, self._readout_at, self._text_key = 0, True, -math.inf, None
+        self._tools_stale = False  # the target or the stroke changed since they were sent
+        self._task, self._wake, self._loop, self._loop_thread = None, None, None, None
 
-        self.drawing = MeshDrawing(self.ax, sim.mesh)
-        self.mesh_faces, self.mesh_edges = self.drawing.faces, self.drawing.edges
+        self.widget = TissueWidget(bounds=[float(b) for b in bounds], width=width, height=height)
         self.gestures = Gestures(self)
-        self.stroke_artist, self.target_artist = self.gestures.stroke_artist, self.gestures.target_artist
-        self.readout = Readout(self.ax, self.owns_figure, self._update_text)
-        self.status_text, self.message_text = self.readout.status_text, self.readout.message_text
-        self.frame_times, self.draw_times = self.readout.frame_times, self.readout.draw_times
-        if isinstance(self.fig, LayeredFigure):
-            self.fig.animate([self.mesh_faces, self.mesh_edges, self.stroke_artist, self.target_artist],
-                             [self.status_text, self.message_text], self.readout)
-        self._mesh = None  # the mesh drawn
+        self.widget.on_msg(self._on_msg)
+        self.widget.observe(self._on_mode, names="mode")
+        self.widget.observe(self._on_running, names="running")
         self._follow()
-        self._update_text()
-
-        g = self.gestures
-        handlers = {"button_press_event": g.on_press, "motion_notify_event": g.on_motion,
-                    "button_release_event": g.on_release, "key_press_event": g.on_key,
-                    "close_event": lambda event: self.disconnect()}
-        self._cids = [self.canvas.mpl_connect(name, handler) for name, handler in handlers.items()]
-        self._origin = _cell_origin()
-        for old in [view for view in _VIEWS if not view.closed]:
-            if old.sim is self.sim:
-                old.disconnect()
-                old._show("stopped: a newer view drives this simulation")
-            elif self._origin and old._origin and old._origin[0] == self._origin[0] and old._origin != self._origin:
-                old.close()  # its cell was run again: its output is gone
-        _VIEWS.add(self)
-        if self.autostart and is_gui(self.canvas):
-            self.start()  # a GUI window is on screen as soon as it is shown; a notebook view starts when displayed
+        self._update_text(force=True)
+        take_over(self)
 
     # ------------------------------------------------------------------ mode and state
     @property
     def mode(self) -> str:
-        """``"drag"`` or ``"cut"``. Switching ends a grab (released) or drops a stroke in progress."""
+        """``"drag"`` or ``"cut"`` (the page's buttons and key ``c`` set it too). Switching ends a grab or drops a
+        stroke in progress."""
         return self.gestures.mode
 
     @mode.setter
-    @_one_at_a_time
+    @one_at_a_time
     def mode(self, value):
         if string("mode", value, MODES) == self.gestures.mode:
             return
         self.gestures.drop()
         self.gestures.mode = value
-        if self._widgets is not None and self._widgets[0].value != value:
-            self._widgets[0].value = value
+        self.widget.mode = value
         self._changed()
+
+    def _on_mode(self, change):
+        try:
+            self.mode = change["new"]
+        except ValueError as exc:
+            self.widget.mode = self.gestures.mode
+            self._show(str(exc))
 
     @property
     def grabbed(self):
@@ -306,252 +321,305 @@ class SurgeryView:
         return None if self.gestures.stroke is None else np.array(self.gestures.stroke)
 
     @property
-    def drawn_positions(self) -> np.ndarray:
-        """The node positions ``(2, n_nodes)`` the triangles are drawn at (set by the last frame)."""
-        return self.drawing.x
+    def frames(self) -> int:
+        """Frames the simulation has run."""
+        return int(getattr(self.sim, "frames", 0))
 
-    def triangles(self) -> np.ndarray:
-        """The drawn triangles' corners ``(n_triangles, 3, 2)``, as the faces' path holds them."""
-        return self.drawing.triangles()
+    @property
+    def running(self) -> bool:
+        """Whether the frame loop runs (resting or not); ``False``: paused."""
+        return self._task is not None and not self._task.done()
 
-    # ------------------------------------------------------------------ frames, drawing and the timer
-    @_one_at_a_time
-    def step(self):
-        """Run one frame (``sim.frame()``), record its time and request a redraw; returns the frame's report."""
-        report = self.last_report = self.sim.frame()
-        self.frame_times.append(1e3 * float(report.elapsed))
-        self._refresh()
-        return report
+    @property
+    def resting(self) -> bool:
+        """Whether the loop has nothing to do: no input since the last frame and the tissue still."""
+        return not self._dirty and self._quiet >= REST_FRAMES
 
-    def _follow(self) -> None:
-        """The simulation's node positions into the drawing (new paths only for a new mesh: after a cut)."""
-        x = np.asarray(self.sim.positions(), dtype=float)
-        if self.sim.mesh is not self._mesh or x.shape != self.drawing.x.shape:
-            self._mesh = self.sim.mesh
-            self.drawing.rebuild(self.sim.picture, x)  # the triangles, or for elements cut through their material
+    # ------------------------------------------------------------------ input
+    def handle_message(self, content, real=True) -> None:
+        """One message of the page: ``{"event": "pointer", "kind": "down" | "move" | "up", "x": .., "y": ..,
+        "inside": bool}`` (world coordinates), as the widget's message handler passes it on, or ``{"event": "key",
+        "key": "c"}``. ``real=False``: made up by code (:func:`synthetic_mouse`). A disconnected view ignores it."""
+        if not isinstance(content, dict) or content.get("event") not in ("pointer", "key"):
+            raise ParameterError("content", "content (a message of the page) must be a dict with event 'pointer' "
+                                            f"or 'key', got {content!r}")
+        if content["event"] == "key":
+            key = content.get("key")
+            if not isinstance(key, str) or not key:
+                raise ParameterError("key", f"key must be a non-empty string such as 'c', got {key!r}")
+            if key == "c" and not self.closed:
+                self.mode = "drag" if self.mode == "cut" else "cut"
+            return
+        kind = string("kind", content.get("kind"), POINTER_KINDS)
+        point = check_vector("point", [content.get("x"), content.get("y")])
+        if self.closed:
+            return
+        if kind == "down":
+            self.gestures.press(point, real=real)
+            if real and self.grabbed is not None and not self.running:
+                self._show(PAUSED_DRAG)  # the marker would move and the tissue not: say why
+        elif kind == "move":
+            self.gestures.move(point, real=real)
         else:
-            self.drawing.fill(x)
+            self.gestures.release(point if content.get("inside", True) else None)
 
-    def _refresh(self) -> None:
-        """After a frame or a topology change: new vertex data, then a redraw."""
-        self._follow()
-        self._changed()
+    def _on_msg(self, widget, content, buffers):
+        try:
+            self.handle_message(content)
+        except ValueError as exc:
+            self._show(f"message ignored: {exc}")
 
-    @_one_at_a_time
-    def draw(self) -> float | None:
-        """Render the picture now, off-screen (nothing sent or painted), for frames that code steps; returns how
-        long it took (ms; timed in the view's own figure only, else ``None``)."""
-        n = len(self.draw_times)
-        if isinstance(self.canvas, FigureCanvasAgg):
-            self.readout.offscreen = True
-            try:
-                FigureCanvasAgg.draw(self.canvas)
-            finally:
-                self.readout.offscreen = False
-        else:
-            self.canvas.draw()
-        return self.draw_times[-1] if len(self.draw_times) > n else None
+    # the hooks Gestures calls
+    def _changed(self) -> None:
+        self._update_text()
+        self._request_draw()
 
-    def _update_text(self) -> None:
-        """The readout: the frame's numbers, and under them its accuracy (``StepReport.accuracy``: converged, the
-        relative residual, the energy decrease, the smallest J, the inverted elements, what was left undone)."""
-        self.readout.update(self.gestures.mode, self.message, self.last_report, getattr(self.sim, "frames", 0))
-        accuracy = getattr(self.last_report, "accuracy", None)
-        if accuracy:
-            numbers = self.status_text.get_text().split("\n")[0]
-            self.status_text.set_text(f"{numbers}\n{accuracy}")
+    def _request_draw(self) -> None:
+        self._dirty = True
+        self._poke()
 
     def _show(self, message: str) -> None:
         self.message = message
         self._changed()
 
-    def _changed(self) -> None:
+    def _refresh(self) -> None:
+        self._follow()
+        self._changed()
+
+    def _tools_changed(self) -> None:
+        self._tools_stale = True
+        if not self.running:
+            self._send_tools()  # no frame will come to take them along
+
+    # ------------------------------------------------------------------ frames and what is sent
+    @one_at_a_time
+    def step(self):
+        """Run one frame (``sim.frame()``) and send the new positions (if any point moved); returns the report."""
+        self._dirty = False
+        report = self.last_report = self.sim.frame()
+        self.frame_times.append(1e3 * float(report.elapsed))
+        self._follow()
         self._update_text()
-        self._request_draw()
+        return report
 
-    def _request_draw(self, now=False) -> None:
-        # while the timer runs, its next frame asks (now=True); a non-interactive canvas draws when saved or shown;
-        # an interactive one coalesces requests (ipympl asks for a picture only when it has shown the last one)
-        if self.interactive and (now or not self._running):
-            self.canvas.draw_idle()
+    def _follow(self) -> None:
+        """The simulation's positions into the widget: with new triangles after a topology change."""
+        x = np.asarray(self.sim.positions(), dtype=float)
+        if self.sim.mesh is not self._mesh or self._x is None or x.shape != self._x.shape:
+            self._mesh, self._picture = self.sim.mesh, self.sim.picture
+            self._reference = self._picture.points(np.asarray(self._mesh.p, dtype=float))
+            points = self._picture.points(x)
+            self.widget.show_mesh(points.T, self._picture.triangles.T, self._picture.edges.T, self._colors(points),
+                                  outline(self._picture.triangles, self._reference))
+            self._x, self._quiet = x, 0
+            self.topology_pushes += 1
+            self.pushes += 1
+            self._send_tools()
+            return
+        moved = float(np.max(np.abs(x - self._x))) if x.size else 0.0
+        self._quiet = self._quiet + 1 if moved <= self.rest_tolerance else 0
+        if moved == 0.0 and not self._tools_stale:
+            return  # the same picture: nothing to send
+        self._x = x
+        points = self._picture.points(x)
+        with self.widget.hold_sync():
+            if moved > 0.0:
+                colors = self._colors(points)
+                if colors is not None:
+                    self.widget.colors = colors.astype(np.float32).tobytes()
+                self.widget.positions = np.ascontiguousarray(points.T, dtype=np.float32).tobytes()
+                self.pushes += 1
+            self._send_tools()
 
-    def timings(self, last=None) -> dict:
-        """Medians of the step and the draw (ms), their sum, and the frames drawn per second (of the ``last`` ones)."""
-        return self.readout.timings(self.last_report, last)
+    def _colors(self, points):
+        return None if self.color is None else _area_ratios(points, self._picture.triangles, self._reference)
 
-    def frames_per_second(self, window=1.0) -> float | None:
-        """Pictures drawn per second over the last ``window`` seconds (``None`` before two draws)."""
-        return self.readout.frames_per_second(window)
+    def _send_tools(self) -> None:
+        g = self.gestures
+        self.widget.target = [] if g.target is None else [float(v) for v in g.target]
+        self.widget.stroke = b"" if not g.stroke else np.asarray(g.stroke, dtype=np.float32).tobytes()
+        self._tools_stale = False
 
-    def _elsewhere(self, method) -> bool:
-        """Hand ``method`` to the timer's loop if called from another thread (a button's message, say)."""
-        if self._loop is not None and threading.get_ident() != self._loop_thread and not self._loop.is_closed():
-            self._loop.call_soon_threadsafe(method)
-            return True
-        return False
+    def readout(self) -> str:
+        """The readout: mode, running / paused / at rest / stopped, frame, the step's time and its status; under
+        it the frame's accuracy (``StepReport.accuracy``: converged, the relative residual, the energy decrease,
+        the smallest J, the inverted elements, what was left undone)."""
+        report = self.last_report
+        frame = self.frames if report is None else int(report.frame)
+        step = "--" if report is None else f"{1e3 * float(report.elapsed):4.1f}"
+        status = "ready" if report is None else str(report.status)
+        state = ("stopped" if self.closed else "paused" if not self.running
+                 else "at rest" if self.resting else "running")
+        line = f"{self.gestures.mode:4s} | {state} | frame {frame:5d} | step {step} ms | {status}"
+        accuracy = getattr(report, "accuracy", None)  # converged, the residual, the smallest J, the inverted ...
+        return f"{line}\n{accuracy}" if accuracy else line
+
+    def _update_text(self, force=False) -> None:
+        key = (self.gestures.mode, self.message, self.running, self.closed)
+        now = time.perf_counter()
+        if force or key != self._text_key or now - self._readout_at >= READOUT_S:
+            with self.widget.hold_sync():
+                self.widget.readout = self.readout()
+                self.widget.message = self.message
+            self._text_key, self._readout_at = key, now
+
+    # ------------------------------------------------------------------ the frame loop: run and pause
+    def _poke(self) -> None:
+        """Wake the resting loop (from any thread)."""
+        wake, loop = self._wake, self._loop
+        if wake is None or loop is None or loop.is_closed():
+            return
+        if threading.get_ident() == self._loop_thread:
+            wake.set()
+        else:
+            loop.call_soon_threadsafe(wake.set)
 
     def start(self) -> None:
-        """Start the timer that calls :meth:`step` every ``interval_ms`` (on any canvas, when called)."""
-        if self._elsewhere(self.start):
-            return
+        """Run: start the frame loop on the running event loop (a Jupyter kernel's); it rests when nothing
+        changes."""
         if self.closed:
             raise ValueError("this view is disconnected (replaced or closed): make a new SurgeryView")
-        if self._timer is None:
-            self._timer = self.canvas.new_timer(interval=self.interval_ms)
-            self._timer.add_callback(self._on_timer)
-        if not self._running:
-            self._timer.start()
-            self._running = True
-            self._sync_widgets()
+        if self.running:
+            return
+        try:
+            loop = asyncio.get_running_loop()
+        except RuntimeError:
+            raise RuntimeError("SurgeryView.start needs a running event loop (a Jupyter kernel's); "
+                               "without one, call view.step()") from None
+        self._loop, self._loop_thread, self._wake = loop, threading.get_ident(), asyncio.Event()
+        self._task = loop.create_task(self._run())
+        if self.message == PAUSED_DRAG:
+            self.message = ""
+        self._dirty = True  # a first frame, then rest if nothing changes
+        self.widget.running = True
+        self._update_text(force=True)
 
     def stop(self) -> None:
-        """Stop the timer (a frame in progress finishes)."""
-        if self._elsewhere(self.stop):
+        """Pause: stop the frame loop (a frame in progress finishes); :meth:`start` runs it again."""
+        task, self._task = self._task, None
+        if task is not None and not task.done():
+            if self._loop is not None and threading.get_ident() != self._loop_thread:
+                self._loop.call_soon_threadsafe(task.cancel)
+            else:
+                task.cancel()
+        self.widget.running = False
+        self._update_text(force=True)
+
+    def _on_running(self, change):
+        """The page's run/pause button."""
+        if change["new"] == self.running:
             return
-        if self._timer is not None and self._running:
-            self._timer.stop()
-        self._running = False
-        self._sync_widgets()
-
-    @property
-    def running(self) -> bool:
-        """Whether the timer is running."""
-        return self._running
-
-    @_one_at_a_time
-    def _on_timer(self):
-        if self.closed:  # a stop handed to the loop has not arrived yet
+        if not change["new"]:
+            self.stop()
             return
         try:
-            self.step()
-        except ValueError as exc:
-            self._show(f"frame failed: {exc}")
-        except Exception:
-            self.stop()  # one traceback, not thirty a second
-            raise
-        if not self.readout.sends:
-            self._request_draw(now=True)
-            return
-        # a browser canvas: send the picture now, saving the page's round trip of asking for it; the page drops
-        # difference pictures that come faster than it decodes them: every KEYFRAME_S s a whole one repairs that
-        now = time.perf_counter()
-        if now - self._keyframe_at >= KEYFRAME_S and hasattr(self.canvas, "_force_full"):
-            self.canvas._force_full = True  # WebAgg's flag for a whole picture (as after a page refresh)
-            self._keyframe_at = now
-        self.canvas.draw()
+            self.start()
+        except (RuntimeError, ValueError) as exc:
+            self.widget.running = False
+            self._show(str(exc))
 
-    @_one_at_a_time
+    async def _run(self) -> None:
+        interval = self.interval_ms / 1e3
+        while not self.closed:
+            if self.resting and not self._tools_stale:
+                self._update_text(force=True)  # the last frame's line, "at rest"
+                self._wake.clear()
+                await self._wake.wait()  # nothing runs until input arrives
+                continue
+            started = time.perf_counter()
+            try:
+                if self.resting:
+                    with self._lock:
+                        self._follow()  # only the target or the stroke moved
+                else:
+                    self.step()
+            except ValueError as exc:
+                self._show(f"frame failed: {exc}")
+                self._quiet = REST_FRAMES  # no retry until new input
+                self._dirty = False
+            except Exception:
+                self.stop()  # one traceback, not thirty a second
+                raise
+            await asyncio.sleep(max(0.0, interval - (time.perf_counter() - started)))
+
+    @one_at_a_time
     def disconnect(self) -> None:
-        """Stop the timer and detach every event handler (the figure stays as it is)."""
+        """Stop the loop and let go of the grab; the widget stays on the page, its buttons off."""
         self.stop()
         self.gestures.end_grab()
-        for cid in self._cids:
-            self.canvas.mpl_disconnect(cid)
-        self._cids = []
-        self.readout.stop_listening()
-        for w in (self._widgets or ())[:2]:
-            w.disabled = True
         self.closed = True
-        _VIEWS.discard(self)
+        self.widget.disabled = True
+        self._update_text(force=True)
+        let_go(self)
 
     def close(self) -> None:
-        """Disconnect, and close the view's own figure (its widget and its place in pyplot's list)."""
+        """Disconnect and close the widget."""
         self.disconnect()
-        if self.owns_figure:
-            plt.close(self.fig)
-
-    # ------------------------------------------------------------------ showing it (Jupyter)
-    def controls(self):
-        """Buttons for the mode and the timer (needs ipywidgets), as one ``HBox``."""
-        try:
-            import ipywidgets as widgets
-        except ImportError:
-            raise ImportError("SurgeryView.controls needs ipywidgets (pip install 'tissuefem[interactive]'); "
-                              "without it, press 'c' or set view.mode") from None
-        if self._widgets is None:
-            mode = widgets.ToggleButtons(options=list(MODES), value=self.mode,
-                                         tooltips=["drag the tissue", "draw a stroke to cut along"],
-                                         style={"button_width": "5em"})
-            run = widgets.ToggleButton(value=self._running, description="run", icon="play",
-                                       tooltip="run a frame every interval_ms", layout={"width": "6em"})
-            mode.observe(lambda change: setattr(self, "mode", change["new"]), names="value")
-            run.observe(lambda change: self.start() if change["new"] else self.stop(), names="value")
-            mode.disabled = run.disabled = self.closed
-            self._widgets = (mode, run, widgets.HBox([mode, run]))
-        return self._widgets[2]
-
-    def _sync_widgets(self) -> None:
-        if self._widgets is not None and self._widgets[1].value != self._running:
-            self._widgets[1].value = self._running
-
-    def widget(self):
-        """The view as one widget, its buttons above the live figure; ``None`` unless the canvas is ipympl's."""
-        try:
-            import ipywidgets as widgets
-        except ImportError:
-            return None
-        if not isinstance(self.canvas, widgets.DOMWidget):
-            return None
-        if self._box is None:
-            self._box = widgets.VBox([self.controls(), self.canvas])
-        return self._box
+        self.widget.close()
 
     def _repr_mimebundle_(self, include=None, exclude=None):
-        """Jupyter shows the live widget (buttons and figure) once, or on a static backend the picture."""
-        box = self.widget()
-        if box is not None:
-            if self.autostart and not self.closed and self.interactive:
+        if self.autostart and not self.closed:
+            try:
                 self.start()
-            return box._repr_mimebundle_(include=include, exclude=exclude)
-        with io.BytesIO() as png:
-            self.fig.savefig(png, format="png")
-            data = base64.b64encode(png.getvalue()).decode("ascii")
-        return {"image/png": data, "text/plain": repr(self)}
+            except RuntimeError:
+                pass  # no event loop: code steps the view
+        bundle = self.widget._repr_mimebundle_(include=include, exclude=exclude)
+        data = bundle[0] if isinstance(bundle, tuple) else bundle
+        data["text/plain"] = repr(self)
+        return bundle
 
     def __repr__(self):
-        state = "closed" if self.closed else ("running" if self._running else "stopped")
-        return f"<SurgeryView {self.mode}, {state}, frame {int(getattr(self.sim, 'frames', 0))}>"
+        state = "closed" if self.closed else ("running" if self.running else "paused")
+        return f"<SurgeryView {self.mode}, {state}, frame {self.frames}>"
 
 
-# ------------------------------------------------------------------ made-up events
-def _data_to_pixels(ax, point, transform=None):
-    """Pixels of ``point`` as the next draw places it: the axes box after its equal aspect is applied."""
-    fig = ax.figure
-    was_stale, box = fig.stale, ax.get_position().bounds
-    ax.apply_aspect()
-    if not was_stale and ax.get_position().bounds == box:
-        fig.stale = False  # nothing moved: the figure's kept picture is still right
-    return (ax.transData if transform is None else transform).transform(point)
+def _area_ratios(points, triangles, reference) -> np.ndarray:
+    """Deformed over reference area of each drawn triangle (for P1: the element's ``J``)."""
+    def areas(p):
+        a, b, c = (p[:, triangles[k]] for k in range(3))
+        return 0.5 * ((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]))
+
+    ref = areas(reference)
+    return areas(points) / np.where(ref == 0, 1.0, ref)
 
 
-def synthetic_mouse(view, kind, point, button=1):
-    """Send a made-up mouse event ``kind`` (``"press"``, ``"move"`` or ``"release"``) at ``point`` ``(x, y)`` (data
-    coordinates of ``view.ax``) through the canvas, as a backend would; ``button``: of a press or release (1 = left).
-    Returns the :class:`~matplotlib.backend_bases.MouseEvent` after every handler has seen it."""
+# ------------------------------------------------------------------ made-up input
+def synthetic_mouse(view, kind, point) -> None:
+    """Send a made-up pointer event ``kind`` (``"press"``, ``"move"`` or ``"release"``) at ``point`` ``(x, y)``
+    (world coordinates) through the view's message handler, as the page would (but marked as code's input)."""
     if not isinstance(view, SurgeryView):
         raise ParameterError("view", f"view must be a SurgeryView, got {type(view).__name__}")
-    if kind not in _MOUSE_EVENTS:
-        raise ParameterError("kind", f"kind must be one of {tuple(_MOUSE_EVENTS)}, got {kind!r}")
-    p = np.asarray(point, dtype=float)
-    if p.shape != (2,) or not np.all(np.isfinite(p)):
-        raise ParameterError("point", f"point must be a finite (x, y) pair in data coordinates, got {point!r}")
-    x, y = _data_to_pixels(view.ax, p)
-    name = _MOUSE_EVENTS[kind]
-    event = MouseEvent(name, view.canvas, x, y, button=None if kind == "move" else MouseButton(button))
-    view.canvas.callbacks.process(name, event)
-    return event
+    if kind not in _MOUSE_KINDS:
+        raise ParameterError("kind", f"kind must be one of {tuple(_MOUSE_KINDS)}, got {kind!r}")
+    x, y = check_vector("point", point)
+    view.handle_message({"event": "pointer", "kind": _MOUSE_KINDS[kind], "x": float(x), "y": float(y)},
+                        real=False)
 
 
-def synthetic_key(view, key, point=None):
-    """Send a made-up key press (e.g. ``"c"``) through the canvas, the pointer at ``point`` (default: the axes'
-    centre); returns the :class:`~matplotlib.backend_bases.KeyEvent` after the handlers have seen it."""
+def synthetic_key(view, key) -> None:
+    """Send a made-up key press (``"c"`` toggles the mode; other keys do nothing) through the view's message
+    handler."""
     if not isinstance(view, SurgeryView):
         raise ParameterError("view", f"view must be a SurgeryView, got {type(view).__name__}")
-    if not isinstance(key, str) or not key:
-        raise ParameterError("key", f"key must be a non-empty string such as 'c', got {key!r}")
-    ax = view.ax
-    x, y = (_data_to_pixels(ax, (0.5, 0.5), ax.transAxes) if point is None
-            else _data_to_pixels(ax, np.asarray(point, dtype=float)))
-    event = KeyEvent("key_press_event", view.canvas, key, x, y)
-    view.canvas.callbacks.process("key_press_event", event)
-    return event
+    view.handle_message({"event": "key", "key": key}, real=False)
+
+
+def snapshot(view, ax=None):
+    """The view's current picture as a static matplotlib figure (for a page without widgets, a book, a report):
+    the triangles at the positions last sent, the drag target and the stroke, titled with the readout. Draws
+    into ``ax`` if given; returns the figure."""
+    if not isinstance(view, SurgeryView):
+        raise ParameterError("view", f"view must be a SurgeryView, got {type(view).__name__}")
+    fig = Figure(figsize=(7.0, 4.5), layout="constrained") if ax is None else ax.figure
+    ax = fig.add_subplot() if ax is None else ax
+    a = view.widget.arrays()
+    x0, x1, y0, y1 = view.widget.bounds
+    ax.add_collection(PolyCollection(a["positions"][a["triangles"], :2], facecolor="mistyrose",
+                                     edgecolor="firebrick", linewidth=0.3))
+    if len(a["stroke"]):
+        ax.plot(a["stroke"][:, 0], a["stroke"][:, 1], "-", color="k", lw=1.2)
+    if view.widget.target:
+        ax.plot(*view.widget.target, "o", ms=7, mfc="none", mec="tab:blue", mew=1.5)
+    ax.set(xlim=(x0, x1), ylim=(y0, y1), aspect="equal")
+    ax.set_title(view.widget.readout, fontsize=8, family="monospace", loc="left")
+    return fig

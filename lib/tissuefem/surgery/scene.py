@@ -63,8 +63,14 @@ RTOL_RANGE = (1e-14, 0.5)
 MAX_ITERATIONS = 1000
 #: points and displacements lie within REACH domain sizes of the centre; radii within MIN_RADIUS and REACH sizes
 MIN_RADIUS = RADIUS_RANGE[0]
-#: entries of one list-valued effect; points of a polygon or path, pairs of a suture
+#: entries of one list-valued effect (handles, and an effect registered later); each limit is one that a test builds
+#: at its maximum within a stated time (docs/scenes.md): what is accepted can also be computed
 MAX_ENTRIES = 1000
+#: the lower limits of the effects whose every entry rebuilds the model: an incision or an excision re-meshes and
+#: rebuilds it (a cost in proportion to the mesh), a probe or a suture adds a term to it, a traction assembles a load
+ENTRY_LIMITS = {"incisions": 100, "excisions": 100, "probes": 100, "sutures": 100, "tractions": 100}
+#: points of an incision's path or an excision's polygon (a suture's pairs: ``MAX_POINTS``)
+MAX_STROKE_POINTS = 1000
 #: node indices lie below this (a mesh of MAX_TRIANGLES triangles has fewer nodes)
 MAX_NODES = 3 * MAX_TRIANGLES
 #: nesting of a scene's tables and arrays (a valid scene needs 7)
@@ -218,7 +224,7 @@ def _check_entry(kind, i, e):
                 "target": vector(f"{field}.target", e.get("target", [0.0, 0.0]))}
     key, least = ("polygon", 3) if kind == "excisions" else ("path", 2)
     e = table(field, e, (key, "method"))
-    return {key: points(f"{field}.{key}", e.get(key), least),
+    return {key: points(f"{field}.{key}", e.get(key), least, MAX_STROKE_POINTS),
             "method": string(f"{field}.method", e.get("method", "elements"), CUT_METHODS)}
 
 
@@ -253,8 +259,9 @@ def _check_effects(effects):
             entries = [entries] if isinstance(entries, dict) else entries
             if not is_sequence(entries):
                 raise ParameterError(field, f"{field} must be a list of tables, got {show(entries)}")
-            if len(entries) > MAX_ENTRIES:
-                raise ParameterError(field, f"{field}: at most {MAX_ENTRIES} entries, got {len(entries)}")
+            limit = ENTRY_LIMITS.get(kind, MAX_ENTRIES)
+            if len(entries) > limit:
+                raise ParameterError(field, f"{field}: at most {limit} entries, got {len(entries)}")
             if len(entries):  # an empty list is the same as leaving the effect out
                 out[kind] = [_check_entry(kind, i, e) for i, e in enumerate(entries)]
     names = [h["name"] for h in out.get("handles", [])]

@@ -19,8 +19,8 @@ from ..engine import meshes
 from ..engine.effects import EFFECTS, factory
 from ..engine.meshes import MeshMap
 from ..engine.model import Handle, Model, region_nodes
-from ..engine.parameters import (PENALTY_MAX, RADIUS_RANGE, ParameterError, check_count, check_reach,
-                                 check_vector, number, penalty, string)
+from ..engine.parameters import (PENALTY_MAX, RADIUS_RANGE, ParameterError, check_count, check_penalty_stiffness,
+                                 check_reach, check_vector, number, string)
 from ..engine.realtime import RealtimeSolver
 from ..engine.terms import Sutures
 from . import element_cuts, topology
@@ -244,11 +244,11 @@ class Simulation:
         stiffness ``100 E / radius``: the penetration stays near 1 % of the radius under a moderate pressure."""
         center = self._point(f"{_field}.center", center).tolist()
         radius = self._radius(f"{_field}.radius", radius)  # in domain sizes: the default stiffness stays finite
+        E = self.scene.material["youngs_modulus"]
         if stiffness is None:
-            E = self.scene.material["youngs_modulus"]
             stiffness = number(f"{_field}.stiffness (default 100 E / radius)", 100.0 * E / radius, hi=PENALTY_MAX)
         else:
-            stiffness = penalty(f"{_field}.stiffness", stiffness)
+            stiffness = check_penalty_stiffness(f"{_field}.stiffness", stiffness, E, radius)
         label = f"probe{self._probe_count + 1}"
         spec = dict(center=center, radius=radius, stiffness=stiffness, label=label)
         with self._transaction():
@@ -279,7 +279,8 @@ class Simulation:
             edit = _edit(operation, self.mesh, argument, self.positions() if running else None, self.model.weights,
                          self._regions)
         except ValueError as err:
-            raise ValueError(f"{field}: {err}") from None
+            text = str(err)  # named once: a message that starts with the field's name says it already
+            raise ParameterError(field, text if text.startswith(field) else f"{field}: {text}") from None
         with self._transaction():
             edit, carried, pieces = _carried(edit, self.model, self._regions, keep_loose=self.dynamic)
             self.removed_pieces += pieces
@@ -322,7 +323,8 @@ class Simulation:
         and are tightened to ``tightness`` (1: closed). Returns the node carrying most of each end, ``(2, k)``.
         """
         E = self.scene.material["youngs_modulus"]
-        k = 100.0 * E if stiffness is None else penalty(f"{_field}.stiffness", stiffness, positive=True)
+        k = 100.0 * E if stiffness is None else check_penalty_stiffness(f"{_field}.stiffness", stiffness, E,
+                                                                        positive=True)
         spec = _new_stitches(self.mesh, self.positions(), pairs, k, _field, self._point, self.model.weights,
                              self._regions)
         k_new = spec["stiffness"].size

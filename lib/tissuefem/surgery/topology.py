@@ -20,8 +20,8 @@ from ..engine.contact.surface import segment_distance
 from ..engine.meshes import MeshMap
 from ..engine.parameters import (ParameterError, check_bounded_vector, check_count, check_indices, check_real,
                                  check_real_array, show)
-from .geometry import (carry_names, check_points, cross, mesh_arrays, new_mesh, node_positions, pair_keys,
-                       polygon_contains)
+from .geometry import (carry_names, check_points, clip_to_body, cross, mesh_arrays, new_mesh, node_positions,
+                       pair_keys, polygon_contains)
 
 __all__ = ["MeshEdit", "duplicate_along_edges", "cut_path", "incise", "excise", "connected_components", "nodes_near"]
 
@@ -205,12 +205,17 @@ def cut_path(mesh, polyline, positions=None) -> np.ndarray:
     the polyline snaps to the nearest node; an *end* outside the body (or within half an edge of its boundary) snaps to
     the boundary node where it enters, so a stroke across the body cuts it through. Between them runs a shortest path
     (Dijkstra) over the mesh edges, each costing ``length * (1 + 10 d / h)`` (``d``: the mean distance of its nodes
-    from the drawn segment, ``h``: the median edge length): it hugs the line within about one element. ``ValueError``
-    for a bad polyline, one that collapses to a single node, or one that joins two unconnected pieces.
+    from the drawn segment, ``h``: the median edge length): it hugs the line within about one element. The polyline is
+    first clipped to the body (:func:`~.geometry.clip_to_body`): however far it reaches, it takes the path a short
+    one would. ``ValueError`` for a bad polyline, one that misses the body, collapses to a single node, or joins two
+    unconnected pieces.
     """
     pts = check_points("polyline", polyline, 2)
     p, t = mesh_arrays(mesh)
     x = node_positions(mesh, positions)
+    pts = clip_to_body(pts, x, t)[0]
+    if pts.shape[0] < 2:
+        raise ParameterError("polyline", "polyline meets no material: it passes outside the body")
     n = p.shape[1]
     facets = np.asarray(mesh.facets, dtype=np.int64)
     bfacets = facets[:, np.asarray(mesh.boundary_facets(), dtype=np.int64)]
@@ -310,11 +315,18 @@ def incise(mesh, polyline, positions=None) -> MeshEdit:
                     elements=elements, cut_edges=cut_edges, n_old_nodes=n, n_old_elements=t.shape[1])
 
 
+def _has_area(poly) -> bool:
+    """Whether the polygon ``poly`` (k, 2) encloses an area beyond round-off of its size."""
+    area = 0.5 * (poly[:, 0] @ np.roll(poly[:, 1], -1) - poly[:, 1] @ np.roll(poly[:, 0], -1))
+    return abs(area) > 1e-12 * np.ptp(poly, axis=0).max() ** 2
+
+
 def excise(mesh, region, positions=None) -> MeshEdit:
     """Remove the triangles of ``mesh`` (not modified) whose centroid (at ``positions``) lies in ``region``: a polygon
-    (k, 2), k >= 3 (even-odd rule), or a function ``centroids (2, m) -> bool (m,)``. Returns a :class:`MeshEdit`:
-    unused nodes dropped, the rest and the triangles kept in order, the rim named ``"defect"``. ``ValueError`` for a
-    bad polygon or mask, or one that selects no element or every element."""
+    (k, 2), k >= 3 (even-odd rule; first clipped to the body, :func:`~.geometry.clip_to_body`, so that however far
+    it reaches it selects what a near one would), or a function ``centroids (2, m) -> bool (m,)``. Returns a
+    :class:`MeshEdit`: unused nodes dropped, the rest and the triangles kept in order, the rim named ``"defect"``.
+    ``ValueError`` for a bad polygon or mask, or one that selects no element or every element."""
     p, t = mesh_arrays(mesh)
     x = node_positions(mesh, positions)
     m = t.shape[1]
@@ -328,10 +340,14 @@ def excise(mesh, region, positions=None) -> MeshEdit:
             raise ValueError(f"region, as a function of the centroids (2, m), must return a bool array shaped "
                              f"({m},), got dtype {remove.dtype} shape {remove.shape}")
     else:
-        poly = check_points("region", region, 3)
-        area = 0.5 * (poly[:, 0] @ np.roll(poly[:, 1], -1) - poly[:, 1] @ np.roll(poly[:, 0], -1))
-        if not abs(area) > 1e-12 * np.ptp(poly, axis=0).max() ** 2:
-            raise ValueError(f"region must be a polygon with non-zero area, got {poly.tolist()}")
+        drawn = check_points("region", region, 3)
+        # clipped to the body: in the body's units, far corners neither overflow nor make a thin polygon look flat
+        poly = clip_to_body(drawn, x, t, closed=True)[0]
+        if poly.shape[0] < 4 or not _has_area(poly):  # the ring closes on its first point
+            if not _has_area(drawn / max(float(np.abs(drawn).max()), 1e-300)):  # scaled: no overflow
+                raise ParameterError("region", f"region must be a polygon with non-zero area, got "
+                                               f"{show(drawn.tolist())}")
+            raise ParameterError("region", "region selects no element: the polygon lies outside the body")
         remove = polygon_contains(poly, centroids.T)
     if not remove.any():
         raise ValueError("region selects no element (no triangle centroid lies inside it)")
