@@ -1,6 +1,7 @@
 """The real-time-budget solver, driven by a fake clock (deterministic: no test here measures speed)."""
 
 import math
+import threading
 
 import numpy as np
 import pytest
@@ -30,7 +31,8 @@ class ClockedSuperLU(linsolve.SuperLU):
         self.clock, self.factor_cost, self.solve_cost = clock, factor_cost, solve_cost
 
     def factorize(self, A):
-        self.clock.now += self.factor_cost
+        if threading.current_thread() is threading.main_thread():  # work off the frame costs the frame nothing
+            self.clock.now += self.factor_cost
         factor = super().factorize(A)
         clock, cost = self.clock, self.solve_cost
 
@@ -105,8 +107,8 @@ def test_never_overruns_by_more_than_one_linear_solve(budget):
         # the largest single piece of work this frame: one linear solve, or one (fake) assembly
         allowed = max(frame_costs + [0.002])
         assert report.elapsed <= budget + allowed + 1e-12
-        if report.status == "budget":
-            assert report.elapsed >= budget
+        if report.status == "budget":  # it stopped because its next pieces (an assembly, a CG step) did not fit
+            assert report.elapsed + 0.002 + 0.001 > budget - 1e-12
     if budget <= 0.012:  # less than a factorization plus a few solves: some frames must stop on the budget
         assert "budget" in statuses
 

@@ -4,13 +4,19 @@ Every Newton step solves ``A dx = b``, ``A`` the condensed tangent (symmetric; b
 a few thousand triangles this solve decides the frame rate. A backend has ``factorize(A)`` (an object with ``solve(b)``)
 and ``backend(A, b) -> x``; :func:`make` builds one by name. Newton calls a :class:`LinearSolver`, which condenses the
 tangent to its free dofs (:class:`Condenser`) and decides when to factorize.
+
+Under a frame's deadline (:class:`Deadline`) a solver starts no piece of work that its learned cost says cannot
+finish in time: a factorization that does not fit runs on another thread (the second core) while the frame goes on
+with the old one, or the frame stops and commits what it has.
 """
 
 from __future__ import annotations
 
 import atexit
 import importlib.util
+import math
 import threading
+import time
 import weakref
 from dataclasses import dataclass
 
@@ -21,7 +27,7 @@ import scipy.sparse.linalg as spla
 from .parameters import ParameterError, check_count, check_real
 
 __all__ = ["LinearSolver", "LinearInfo", "Condenser", "SuperLU", "Pardiso", "ReusedFactorization", "PreconditionedCG",
-           "SolveInfo", "PCGResult", "pcg", "available", "make", "BACKENDS"]
+           "SolveInfo", "PCGResult", "pcg", "available", "make", "BACKENDS", "Deadline", "WORK", "start_thread"]
 
 _ORDERINGS = ("MMD_AT_PLUS_A", "COLAMD", "MMD_ATA", "NATURAL")
 
@@ -133,6 +139,114 @@ class Pardiso(_Direct):
         return _PardisoFactor(solver, A)
 
 
+# --- a frame's deadline and the cost of its pieces of work ---------------------------------------
+
+#: The pieces of a frame's work whose cost (seconds each) a :class:`LinearSolver` learns, in ``costs``.
+WORK = ("assembly", "factorization", "back-substitution", "cg-iteration", "line-search", "report")
+#: Pieces that may take many times a frame: never started in a frame without an estimate that they fit.
+_LONG = frozenset({"factorization"})
+#: The weight of the newest measurement in a cost estimate (an exponential moving average).
+_LEARNING = 0.5
+
+
+class Deadline:
+    """A frame's deadline ``end`` (seconds by ``clock``; ``math.inf``: none) and the cost estimates ``costs`` (a dict
+    ``kind -> seconds`` for the kinds of :data:`WORK`, learned by :meth:`record` from every measured piece, with or
+    without a deadline). :meth:`fits` says whether pieces can finish before ``end``; a piece without an estimate yet
+    fits while time is left (the first frame ever runs its work to learn its cost) and is noted in ``unestimated``.
+    ``first``: the frame's first Newton iteration, whose short pieces (an assembly, a back-substitution, a CG
+    iteration, a line search) always run so every frame makes progress; its long ones (a factorization) only if they
+    fit or were never measured. What a frame did not start is noted in ``skipped``."""
+
+    def __init__(self, clock=None, end: float = math.inf, costs: dict | None = None, first: bool = False):
+        self.clock = time.perf_counter if clock is None else clock
+        self.end, self.first = float(end), bool(first)
+        self.costs = {} if costs is None else costs
+        self.skipped, self.unestimated = [], []
+
+    @property
+    def limited(self) -> bool:
+        return self.end < math.inf
+
+    def fits(self, *kinds: str) -> bool:
+        """Whether one piece of each of ``kinds`` can finish before the deadline (always without one)."""
+        if not self.limited:
+            return True
+        unknown = [k for k in kinds if self.costs.get(k) is None]
+        self.unestimated += [k for k in unknown if k not in self.unestimated]
+        if self.first and all(k not in _LONG or k in unknown for k in kinds):
+            return True  # the first iteration's short pieces, and long ones never measured (the first frame)
+        now = self.clock()
+        return now < self.end and now + sum(self.costs.get(k) or 0.0 for k in kinds) <= self.end
+
+    def room(self, kind: str) -> int | None:
+        """How many pieces of ``kind`` fit before the deadline (``None``: no limit, or no estimate yet)."""
+        estimate = self.costs.get(kind)
+        if not self.limited or not estimate:
+            return None
+        left = self.end - self.clock()
+        return max(int(left / estimate), 0) if left > 0 else 0
+
+    def skip(self, kind: str) -> None:
+        """Note that a piece of ``kind`` was not started (it did not fit)."""
+        if kind not in self.skipped:
+            self.skipped.append(kind)
+
+    def record(self, kind: str, seconds: float, count: int = 1) -> None:
+        """Learn from ``count`` pieces of ``kind`` that took ``seconds`` together."""
+        if count > 0 and math.isfinite(seconds) and seconds >= 0.0:
+            each, old = seconds / count, self.costs.get(kind)
+            self.costs[kind] = each if old is None else (1.0 - _LEARNING) * old + _LEARNING * each
+
+    def timed(self, kind: str, work, *args):
+        """``work(*args)``, its duration learned as one piece of ``kind``."""
+        t0 = self.clock()
+        out = work(*args)
+        self.record(kind, self.clock() - t0)
+        return out
+
+
+def start_thread(work):
+    """Run ``work()`` on a new thread (the default way a background factorization starts); the thread (with
+    ``is_alive`` and ``join``). Not a daemon: the interpreter's exit waits for it."""
+    thread = threading.Thread(target=work, name="tissuefem-refactorize", daemon=False)
+    thread.start()
+    return thread
+
+
+class _Background:
+    """One factorization at a time off the frame: :meth:`start` hands ``factorize(A)`` to ``launch`` (default
+    :func:`start_thread`; a test passes one it controls), :meth:`take` gives a finished one made for ``key``.
+    ``threads``: every started job not known finished, for waiting (shared with a finalizer)."""
+
+    def __init__(self, launch, threads):
+        self.launch, self.threads, self.pending = launch, threads, None
+
+    def start(self, factorize, A, key) -> bool:
+        """Start a factorization of ``A`` unless one is under way; whether one was started."""
+        if self.pending is not None:
+            return False
+        A, box = A.copy(), {}
+
+        def work():  # holds no reference to the solver, which may be dropped while this runs
+            try:
+                box["factor"] = factorize(A)
+            except Exception:  # a failed factorization only means the old one stays
+                box["factor"] = None
+        job = (self.launch or start_thread)(work)
+        self.threads[:] = [t for t in self.threads if t.is_alive()] + [job]
+        self.pending = (job, box, key)
+        return True
+
+    def take(self, key):
+        """A finished factorization made for ``key`` (forgotten if made for another), or ``None``."""
+        if self.pending is None or self.pending[0].is_alive():
+            return None
+        _, box, made_for = self.pending
+        self.pending = None
+        return box.get("factor") if made_for == key else None
+
+
 # --- conjugate gradients ------------------------------------------------------------------------
 
 @dataclass
@@ -189,6 +303,7 @@ class SolveInfo:
     converged: bool
     residual_norm: float  # ||b - A x||
     reason: str = ""  # why it refactorized ("first", "shape", "stale", "cg-failed", "negative-curvature", "forced")
+    skipped: str = ""  # a piece of work not started for the deadline (then no solution: x is None)
 
 
 def _join_all(threads) -> None:
@@ -213,24 +328,33 @@ class ReusedFactorization:
     Beyond ``refresh_after`` iterations the *next* solve refactorizes; at ``max_iterations`` this one does.
     ``background``: beyond ``background_after`` iterations a thread on the second core refactorizes, adopted once
     finished (iteration counts then depend on timing). ``solve`` returns ``(x, SolveInfo)``; ``factorizations``,
-    ``background_factorizations`` and ``cg_iterations`` count. A background factorization is never abandoned
-    half-way (a process that ends under one can crash in the BLAS): :meth:`close` (or leaving a ``with`` block)
-    waits for it, and so do dropping the solver and the interpreter's exit."""
+    ``background_factorizations`` and ``cg_iterations`` count. Under a ``deadline`` (:class:`Deadline`) a
+    factorization that does not fit is started in the background whatever ``background`` says, and CG runs the
+    iterations that fit with the old factorization (no factorization yet: the solve returns ``None``).
+    ``launch(work)``: how background work starts (default :func:`start_thread`). A background factorization is never
+    abandoned half-way (a process that ends under one can crash in the BLAS): :meth:`close` (or leaving a ``with``
+    block) waits for it, and so do dropping the solver and the interpreter's exit."""
 
     def __init__(self, direct=None, refresh_after: int = 15, max_iterations: int = 40, background: bool = False,
-                 background_after: int = 3):
+                 background_after: int = 3, launch=None):
         self.refresh_after = check_count("refresh_after", refresh_after)
         self.max_iterations = check_count("max_iterations", max_iterations)
         self.direct = direct if direct is not None else SuperLU()
         if not callable(getattr(self.direct, "factorize", None)):
             raise ParameterError("direct", f"direct must be a backend with a factorize method, got {direct!r}")
+        if launch is not None and not callable(launch):
+            raise ParameterError("launch", f"launch must be a callable starting background work, got {launch!r}")
         self.background = bool(background)
         self.background_after = int(background_after)
         self.name = f"cg+reused-{self.direct.name}" + ("+background" if self.background else "")
         self._threads = []  # background factorizations started and not yet joined (shared with the finalizer)
-        self.invalidate()  # no factorization yet; _pending: (thread, result box) of a background factorization
+        self._work = _Background(launch, self._threads)
+        self.invalidate()  # no factorization yet
         self.factorizations = self.background_factorizations = self.cg_iterations = 0
         weakref.finalize(self, _join_all, self._threads)  # a dropped solver waits for its work, and so does exit
+
+    launch = property(lambda self: self._work.launch, lambda self, value: setattr(self._work, "launch", value),
+                      doc="How background work starts: ``launch(work)`` returns a job with ``is_alive`` and ``join``.")
 
     def close(self) -> None:
         """Wait for any background factorization to finish (it is not adopted) and forget the kept factorization.
@@ -245,60 +369,70 @@ class ReusedFactorization:
         self.close()
 
     def invalidate(self) -> None:
-        self._factor, self._shape, self._stale, self._pending = None, None, False, None
+        self._factor, self._shape, self._stale, self._work.pending = None, None, False, None
 
-    def _adopt(self) -> None:
-        """Take a finished background factorization (one of the current shape) as the preconditioner."""
-        if self._pending is None or self._pending[0].is_alive():
-            return
-        box, self._pending = self._pending[1], None
-        if box.get("factor") is not None and box["shape"] == self._shape:
-            self._factor, self._stale = box["factor"], False
+    @property
+    def refreshing(self) -> bool:
+        """Whether a background factorization is under way or waiting to be adopted."""
+        return self._work.pending is not None
+
+    def _adopt(self, shape) -> None:
+        """Take a finished background factorization (one of ``shape``) as the preconditioner."""
+        factor = self._work.take(shape)
+        if factor is not None:
+            self._factor, self._shape, self._stale = factor, shape, False
             self.background_factorizations += 1
 
-    def _refresh_in_background(self, A) -> None:
-        if self._pending is not None:
-            return
-        A, box, factorize = A.copy(), {"shape": A.shape}, self.direct.factorize
-
-        def work():  # holds no reference to the solver, which may be dropped while this runs
-            try:
-                box["factor"] = factorize(A)
-            except Exception:  # a failed refresh only means the old factorization stays
-                box["factor"] = None
-        # not a daemon: the interpreter's exit waits for it, and so do close() and the finalizer
-        thread = threading.Thread(target=work, name="tissuefem-refactorize", daemon=False)
-        thread.start()
-        self._threads[:] = [t for t in self._threads if t.is_alive()] + [thread]
-        self._pending = (thread, box)
-
-    def _refactorize(self, A, b, reason) -> tuple[np.ndarray, SolveInfo]:
-        self._factor, self._shape, self._stale = self.direct.factorize(A), A.shape, False
+    def _refactorize(self, A, b, reason, deadline) -> tuple[np.ndarray | None, SolveInfo]:
+        if not deadline.fits("factorization", "back-substitution"):
+            self._work.start(self.direct.factorize, A, A.shape)  # adopted by a later solve
+            deadline.skip("factorization")
+            return None, SolveInfo(0, False, False, math.inf, reason, "factorization")
+        factor = deadline.timed("factorization", self.direct.factorize, A)
+        self._factor, self._shape, self._stale = factor, A.shape, False
         self.factorizations += 1
-        x = self._factor.solve(b)
+        x = deadline.timed("back-substitution", self._factor.solve, b)
         return x, SolveInfo(0, True, bool(np.all(np.isfinite(x))), float(np.linalg.norm(b - A @ x)), reason)
 
-    def solve(self, A, b, *, atol: float = 0.0, rtol: float = 1e-10,
-              refactorize: bool = False) -> tuple[np.ndarray, SolveInfo]:
+    def solve(self, A, b, *, atol: float = 0.0, rtol: float = 1e-10, refactorize: bool = False,
+              deadline: Deadline | None = None) -> tuple[np.ndarray | None, SolveInfo]:
         A, b = _square(A), _rhs(b, A.shape[0])
+        deadline = Deadline() if deadline is None else deadline
+        self._adopt(A.shape)
         if refactorize:
-            return self._refactorize(A, b, "forced")
+            return self._refactorize(A, b, "forced", deadline)
         if self._factor is None:
-            return self._refactorize(A, b, "first")
+            return self._refactorize(A, b, "first", deadline)
         if self._shape != A.shape:
-            return self._refactorize(A, b, "shape")
-        if self.background:
-            self._adopt()
+            return self._refactorize(A, b, "shape", deadline)
         if self._stale and not self.background:
-            return self._refactorize(A, b, "stale")
-        result = pcg(A, b, self._factor.solve, atol=atol, rtol=rtol, max_iterations=self.max_iterations)
+            if deadline.fits("factorization", "back-substitution"):
+                return self._refactorize(A, b, "stale", deadline)
+            self._work.start(self.direct.factorize, A, A.shape)  # meanwhile the old one preconditions
+        limit, room = self.max_iterations, deadline.room("cg-iteration")
+        if room is not None:
+            limit = min(limit, max(room, int(deadline.first)))
+        elif not deadline.fits("cg-iteration"):
+            limit = 0
+        if limit == 0:
+            deadline.skip("cg-iteration")
+            return None, SolveInfo(0, False, False, math.inf, "", "cg-iteration")
+        t0 = deadline.clock()
+        result = pcg(A, b, self._factor.solve, atol=atol, rtol=rtol, max_iterations=limit)
+        deadline.record("cg-iteration", deadline.clock() - t0, result.iterations)
         self.cg_iterations += result.iterations
         if result.negative_curvature:
-            return self._refactorize(A, b, "negative-curvature")
+            if deadline.fits("factorization", "back-substitution"):
+                return self._refactorize(A, b, "negative-curvature", deadline)
+            self._work.start(self.direct.factorize, A, A.shape)  # meanwhile CG's iterate (Newton checks it)
+            return result.x, SolveInfo(result.iterations, False, False, result.residual_norm, "negative-curvature")
         if not result.converged and result.iterations >= self.max_iterations:
-            return self._refactorize(A, b, "cg-failed")
-        if self.background and result.iterations > self.background_after:
-            self._refresh_in_background(A)
+            if deadline.fits("factorization", "back-substitution"):
+                return self._refactorize(A, b, "cg-failed", deadline)
+            self._work.start(self.direct.factorize, A, A.shape)  # meanwhile CG's iterate is the answer
+        elif (self.background and result.iterations > self.background_after) or (
+                limit < self.max_iterations and not result.converged):  # cut short by the deadline: refresh too
+            self._work.start(self.direct.factorize, A, A.shape)
         elif result.iterations > self.refresh_after:
             self._stale = True
         return result.x, SolveInfo(result.iterations, False, result.converged, result.residual_norm)
@@ -416,6 +550,7 @@ class LinearInfo:
 
     iterations: int = 0  # conjugate-gradient iterations
     factorizations: int = 0  # new factorizations computed
+    skipped: str = ""  # a piece of work not started for the deadline ("factorization", "cg-iteration", ...)
 
 
 class LinearSolver:
@@ -424,9 +559,15 @@ class LinearSolver:
     ``"reuse"``, ``"reuse-<backend>"`` or ``"reuse-background"`` (:class:`ReusedFactorization`); ``"constant"`` or
     ``"constant-<backend>"`` (a kept factorization used as it is, without assembling the tangent again: exact for a
     constant tangent); or a backend object. A kept factorization is dropped when the free dofs or the pattern change,
-    or by :meth:`invalidate`."""
+    or by :meth:`invalidate`.
 
-    def __init__(self, method="reuse"):
+    ``costs``: what each piece of work (:data:`WORK`) took lately, in seconds (learned from every solve given a
+    :class:`Deadline`, see :meth:`deadline`). Under a deadline a solve starts nothing that does not fit: a kept
+    factorization that is due (``"reuse..."``, ``"constant..."``) is made in the background (``launch``, default
+    :func:`start_thread`) and the solve goes on with the old one or returns ``None``; a solver that factorizes
+    afresh each solve (``"direct"``, a backend name) returns ``None``; :attr:`LinearInfo.skipped` says what."""
+
+    def __init__(self, method="reuse", *, launch=None):
         self.method, self.constant = method, False
         if isinstance(method, str):
             kind, _, base = method.partition("-")
@@ -436,7 +577,7 @@ class LinearSolver:
                 background = method == "reuse-background"
                 direct = SuperLU() if method in ("reuse", "constant") or background else make(base)
                 reuse = kind == "reuse"
-                self.backend = ReusedFactorization(direct, background=background) if reuse else direct
+                self.backend = ReusedFactorization(direct, background=background, launch=launch) if reuse else direct
                 self.constant = kind == "constant"
             else:
                 raise ParameterError("linear_solver", "linear_solver must be 'direct', 'reuse', 'constant', "
@@ -449,9 +590,41 @@ class LinearSolver:
         if self.constant and not callable(getattr(self.backend, "factorize", None)):
             raise ParameterError("linear_solver", f"linear_solver {method!r}: a constant tangent needs a direct "
                                                   "backend")
+        if launch is not None and not callable(launch):
+            raise ParameterError("launch", f"launch must be a callable starting background work, got {launch!r}")
         self.condense = Condenser()
         self._factor, self._key = None, None
+        self._threads = []  # a constant factorization made in the background (see _Background)
+        self._work = _Background(launch, self._threads)
+        weakref.finalize(self, _join_all, self._threads)
         self.factorizations = 0
+        self.costs = {}
+
+    @property
+    def launch(self):
+        """How background work starts: ``launch(work)`` returns a job with ``is_alive`` and ``join``."""
+        return self._work.launch
+
+    @launch.setter
+    def launch(self, value):
+        if value is not None and not callable(value):
+            raise ParameterError("launch", f"launch must be a callable starting background work, got {value!r}")
+        self._work.launch = value
+        if isinstance(self.backend, ReusedFactorization):
+            self.backend.launch = value
+
+    def deadline(self, clock=None, end: float = math.inf, first: bool = False) -> Deadline:
+        """A :class:`Deadline` at ``end`` on ``clock`` with this solver's cost estimates (learned by its solves)."""
+        return Deadline(clock, end, self.costs, first)
+
+    def least_work(self) -> tuple[str, ...]:
+        """The pieces the next solve needs at the least (what must fit before its tangent is worth assembling; a
+        missing constant factorization may be made in the background, from the tangent)."""
+        if self.constant:
+            return ("back-substitution",)
+        if isinstance(self.backend, ReusedFactorization):
+            return ("cg-iteration",)
+        return ("factorization", "back-substitution")
 
     @property
     def name(self) -> str:
@@ -464,6 +637,7 @@ class LinearSolver:
         close = getattr(self.backend, "close", None)
         if callable(close):
             close()
+        _join_all(self._threads)
         self.invalidate()
 
     def __enter__(self):
@@ -474,13 +648,18 @@ class LinearSolver:
 
     def invalidate(self) -> None:
         """Forget any kept factorization (the matrix is about to change in a way the keys do not see)."""
-        self._factor, self._key = None, None
+        self._factor, self._key, self._work.pending = None, None, None
         if isinstance(self.backend, ReusedFactorization):
             self.backend.invalidate()
 
-    def matrix(self, assemble, mask, force=False):
+    def assembles(self, mask) -> bool:
+        """Whether :meth:`matrix` for ``mask`` would assemble (not when a kept constant factorization fits)."""
+        kept = self.constant and self._factor is not None
+        return not (kept and self._key == (mask.size, np.packbits(mask).tobytes()))
+
+    def matrix(self, assemble, mask, force=False, deadline: Deadline | None = None):
         """The free-free block of ``assemble()`` -- or ``None`` when a kept constant factorization makes the
-        tangent unnecessary (``force`` assembles it anyway)."""
+        tangent unnecessary (``force`` assembles it anyway); ``deadline``: learns the assembly's cost."""
         key = (mask.size, np.packbits(mask).tobytes())
         if key != self._key:  # another set of unknowns: a kept factorization does not fit
             if self._key is not None:
@@ -488,33 +667,55 @@ class LinearSolver:
             self._key = key
         if self.constant and self._factor is not None and not force:
             return None
-        return self.condense(assemble(), mask)
+        K = assemble() if deadline is None else deadline.timed("assembly", assemble)
+        return self.condense(K, mask)
 
-    def solve(self, A, b, *, atol: float = 0.0):
-        """``(dx, LinearInfo)`` for ``A dx = b`` (``dx = None``: the solve failed); ``A`` is ``None`` only for a kept
-        constant factorization. ``atol``: where an iterative solve may stop (inexact Newton)."""
+    def solve(self, A, b, *, atol: float = 0.0, deadline: Deadline | None = None):
+        """``(dx, LinearInfo)`` for ``A dx = b`` (``dx = None``: the solve failed, or under ``deadline`` did not
+        fit: ``info.skipped``); ``A`` is ``None`` only for a kept constant factorization. ``atol``: where an
+        iterative solve may stop (inexact Newton)."""
         info = LinearInfo()
+        deadline = self.deadline() if deadline is None else deadline
         try:
             if self.constant:
-                if self._factor is None:
-                    self._factor, info.factorizations = self.backend.factorize(A), 1
-                dx = np.asarray(self._factor.solve(b), dtype=float)
+                dx = self._constant_solve(A, b, deadline, info)
             elif isinstance(self.backend, ReusedFactorization):
-                dx, done = self.backend.solve(A, b, atol=atol, rtol=0.0)
-                info.iterations, info.factorizations = done.iterations, int(done.factorized)
-                if not (np.all(np.isfinite(dx)) and b @ dx > 0) and not done.factorized:  # no descent
-                    dx, _ = self.backend.solve(A, b, refactorize=True)
-                    info.factorizations += 1
+                dx, done = self.backend.solve(A, b, atol=atol, rtol=0.0, deadline=deadline)
+                info.iterations, info.factorizations, info.skipped = done.iterations, int(done.factorized), done.skipped
+                if dx is not None and not (np.all(np.isfinite(dx)) and b @ dx > 0) and not done.factorized:
+                    dx, again = self.backend.solve(A, b, refactorize=True, deadline=deadline)  # no descent
+                    info.factorizations += int(again.factorized)  # (skipped: no direction, Newton finds one)
+            elif not deadline.fits("factorization", "back-substitution"):
+                dx, info.skipped = None, "factorization"
+                deadline.skip("factorization")
             else:
-                factor = self.backend.factorize(A)
-                dx = np.asarray(factor.solve(b), dtype=float)
+                factor = deadline.timed("factorization", self.backend.factorize, A)
                 iterative = hasattr(factor, "iterations")  # an iterative backend factorizes nothing
+                dx = np.asarray(deadline.timed("cg-iteration" if iterative else "back-substitution", factor.solve, b),
+                                dtype=float)
                 info.iterations = int(factor.iterations) if iterative else 0
                 info.factorizations = 0 if iterative else 1
         except (RuntimeError, ValueError, np.linalg.LinAlgError, ZeroDivisionError):
             dx = None
         self.factorizations += info.factorizations
         return dx, info
+
+    def _constant_solve(self, A, b, deadline, info):
+        """A kept factorization's solve; a missing one is made now if it fits, else in the background."""
+        if self._factor is None:
+            self._factor = self._work.take((self._key, A.shape))
+        if self._factor is None:
+            if not deadline.fits("factorization", "back-substitution"):
+                self._work.start(self.backend.factorize, A, (self._key, A.shape))  # taken by a later solve
+                deadline.skip("factorization")
+                info.skipped = "factorization"
+                return None
+            self._factor, info.factorizations = deadline.timed("factorization", self.backend.factorize, A), 1
+        elif not deadline.fits("back-substitution"):
+            deadline.skip("back-substitution")
+            info.skipped = "back-substitution"
+            return None
+        return np.asarray(deadline.timed("back-substitution", self._factor.solve, b), dtype=float)
 
     def __repr__(self):
         return f"LinearSolver({self.method!r})"

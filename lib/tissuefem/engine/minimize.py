@@ -8,7 +8,9 @@ Every solve in tissuefem is a call of :func:`newton`, the notes' iteration ``dq/
 * **descent**: under the energy line search a direction that is not downhill (``q . du >= 0``) makes the linear
   solver refactorize, then the tangent is shifted by ``tau I`` with growing ``tau``, at last steepest descent.
 * **step cap** ``max_step`` and **admissible steps** ``step_limit`` (self-contact) before the line search; a **time
-  budget** measured by ``clock``.
+  budget** measured by ``clock``: no piece of work (an assembly, a solve, a factorization) starts unless its cost,
+  learned by the linear solver (:class:`~.linsolve.Deadline`), says it ends in time; only the first iteration's
+  short pieces always run.
 
 A numerical failure never escapes as an exception or a NaN state: it is the result's ``status``, its ``x`` the last
 accepted iterate.
@@ -23,7 +25,7 @@ from typing import Callable
 import numpy as np
 import scipy.sparse as sp
 
-from .linsolve import LinearSolver, SuperLU
+from .linsolve import Deadline, LinearSolver, SuperLU
 from .parameters import ParameterError, check_count, check_real, check_real_array, check_real_number
 
 __all__ = ["newton", "NewtonResult", "NewtonIteration", "STATUSES"]
@@ -71,6 +73,8 @@ class NewtonResult:
     linear_iterations: int = 0
     factorizations: int = 0
     history: list[NewtonIteration] = field(default_factory=list)
+    skipped: list[str] = field(default_factory=list)  # work not started for the budget (kinds of linsolve.WORK)
+    unestimated: list[str] = field(default_factory=list)  # work started under a budget with no cost estimate yet
 
     @property
     def line_search_cuts(self) -> int:
@@ -180,6 +184,16 @@ def _shifted_direction(A, rhs, shifts=None):
     return rhs / (1e3 * scale), math.inf, factorizations
 
 
+def _scaled_steepest_descent(A, rhs):
+    """``rhs`` over the tangent's diagonal (its magnitude; a downhill direction that factorizes nothing), or None
+    without a finite tangent."""
+    if A is None or not np.all(np.isfinite(A.data)):
+        return None
+    d = np.abs(A.diagonal())
+    d[~(d > 0)] = float(np.max(d, initial=0.0)) or 1.0
+    return rhs / d
+
+
 def _descent(dx_free, A, rhs, x, mask, hessian, safe_hessian, linear, line_search, stats):
     """``(dx_free, shift)``: the Newton step if usable (and downhill under the energy line search), else the safe
     Hessian's, a shifted tangent's, steepest descent; ``(None, 0)``: no usable step and no energy to descend."""
@@ -259,8 +273,9 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
     balanced load (for a good ``x0``), ``floor`` the round-off level; energy changes below ``energy_floor`` are not
     trusted. ``max_step`` caps one dof's change per iteration; ``linear``: the linear-solve policy (default: a fresh
     direct factorization); ``safe_hessian(x)``: a positive semi-definite Hessian tried before the shift; ``budget``
-    seconds by ``clock`` from ``start`` (default: now); ``step_limit(x, dx)``: the admissible fraction of ``dx``
-    (none: ``"blocked"``).
+    seconds by ``clock`` from ``start`` (default: now): a piece of work starts only if ``linear.costs`` says it ends
+    in time (the first iteration's assembly and its cheapest solve always run; what was not started is the result's
+    ``skipped``); ``step_limit(x, dx)``: the admissible fraction of ``dx`` (none: ``"blocked"``).
     """
     x, max_step, max_iterations, max_halvings, budget = _checked(
         x0, {"gradient": gradient, "hessian": hessian, "energy": energy, "clock": clock, "safe_hessian": safe_hessian},
@@ -271,9 +286,9 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
     timed = clock is not None and budget < math.inf
     if timed and start is None:
         start = clock()
-
-    def out_of_time():  # the budget: no new assembly or solve once it is spent (the first iteration always runs)
-        return timed and clock() - start >= budget
+    # the budget: a piece of work starts only if its learned cost says it ends in time (see linsolve.Deadline)
+    ours = isinstance(linear, LinearSolver)  # another object with matrix and solve is called as before
+    deadline = Deadline(clock, start + budget if timed else math.inf, linear.costs if ours else None)
     history: list[NewtonIteration] = []
     g = np.asarray(gradient(x), dtype=float)
     rnorm = r0 = float(np.linalg.norm(g[mask]))
@@ -284,7 +299,8 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
 
     def result(status, k):
         return NewtonResult(x, status == "converged", status, k, rnorm, r0, target, E, E_start,
-                            stats["linear"], stats["factorizations"], history)
+                            stats["linear"], stats["factorizations"], history, list(deadline.skipped),
+                            list(deadline.unestimated))
     if not np.isfinite(rnorm):
         return result("non-finite", 0)
     for k in range(max_iterations + 1):
@@ -292,20 +308,34 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
             return result("converged", k)
         if k == max_iterations:
             return result("max-iterations", k)
-        if k >= 1 and out_of_time():
+        deadline.first = k == 0
+        # the tangent's free block (unless the policy keeps a factorization), if it and the least solve fit
+        least, assembles = (linear.least_work(), linear.assembles(mask)) if ours else ((), True)
+        needed = (("assembly",) if assembles else ()) + tuple(least) + ("line-search",)
+        if needed and not deadline.fits(*needed):
+            deadline.skip(max(needed, key=lambda kind: deadline.costs.get(kind) or 0.0))  # the costliest
             return result("budget", k)
         rhs = -g[mask]
-        # the tangent's free block (unless the policy keeps a factorization), then, budget permitting, the solve
-        A = linear.matrix(lambda: hessian(x), mask)
-        if k >= 1 and out_of_time():
-            return result("budget", k)
+        timing = {"deadline": deadline} if ours else {}
+        A = linear.matrix(lambda: hessian(x), mask, **timing)
         # inexact Newton: an iterative solve may stop at eta ||q||, eta = min(1e-3, ||q|| / ||q0||) (quadratic
-        # convergence stays), never below a third of the target
+        # convergence stays), never below a third of the target; the solve starts only what fits
         eta = min(1e-3, rnorm / r0) if r0 > 0 else 1e-3
-        dx_free, info = linear.solve(A, rhs, atol=max(eta * rnorm, 0.3 * target))
+        dx_free, info = linear.solve(A, rhs, atol=max(eta * rnorm, 0.3 * target), **timing)
         stats["linear"] += info.iterations
         stats["factorizations"] += info.factorizations
-        dx_free, shift = _descent(dx_free, A, rhs, x, mask, hessian, safe_hessian, linear, line_search, stats)
+        if getattr(info, "skipped", ""):
+            return result("budget", k)
+        usable = dx_free is not None and np.all(np.isfinite(dx_free)) and (line_search != "energy" or
+                                                                         rhs @ dx_free > 0)
+        if not usable and line_search == "energy" and not deadline.fits("factorization"):
+            # the safeguards of _descent factorize (shifted) tangents, which does not fit: a scaled steepest descent
+            deadline.skip("factorization")
+            dx_free, shift = _scaled_steepest_descent(A, rhs), math.inf
+            if dx_free is None:
+                return result("budget", k)
+        else:
+            dx_free, shift = _descent(dx_free, A, rhs, x, mask, hessian, safe_hessian, linear, line_search, stats)
         if dx_free is None:
             return result("singular", k)
         dx, dx_free = _bounded_step(x, dx_free, mask, max_step, step_limit)
@@ -314,6 +344,7 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
         slope = -float(rhs @ dx_free)  # dE/dalpha at alpha = 0
         if E is not None:
             e_scale = max(e_scale, abs(E), abs(slope))
+        t0 = deadline.clock()
         step = _line_search(x, dx, E, slope, rnorm, mask, gradient, energy, line_search, max_halvings,
                             max(_ENERGY_ROUNDOFF * e_scale, energy_floor))
         if step is None:
@@ -321,6 +352,7 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
         alpha, x_new, g_new, E_new = step
         if g_new is None:
             g_new = np.asarray(gradient(x_new), dtype=float)
+        deadline.record("line-search", deadline.clock() - t0)  # its energies and the new gradient
         rn_new, step_norm = float(np.linalg.norm(g_new[mask])), float(np.linalg.norm(alpha * dx))
         if not np.isfinite(rn_new):
             history.append(NewtonIteration(k, rnorm, step_norm, alpha, None, shift, info.iterations))

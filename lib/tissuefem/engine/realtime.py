@@ -1,9 +1,14 @@
 """The real-time loop: one step per drawn frame within a wall-clock budget (the notes' interactive simulator).
 
-:meth:`RealtimeSolver.frame` stops its Newton solve when the frame's budget (:data:`.constants.FRAME_BUDGET`)
-is spent -- the clock is read before each assembly and linear solve, so a frame overruns by at most one solve
--- and commits the last accepted iterate (*anytime*, see :mod:`.stepping`); the residual left carries into the
-next frame. The clock is a parameter, so tests use a fake one.
+:meth:`RealtimeSolver.frame` keeps the frame's budget (:data:`.constants.FRAME_BUDGET`) with every linear solver
+of :data:`LINEAR_SOLVERS`: before each piece of work (an assembly, a factorization, a back-substitution, a CG
+iteration) it reads the clock and starts the piece only if the piece's cost, learned from its last runs
+(``solver.costs``), says it ends in time. A factorization that does not fit runs in the background (the second
+core) while the frame goes on with the old one as CG's preconditioner, or the frame stops; then it commits the last
+accepted iterate (*anytime*, see :mod:`.stepping`) and the residual left carries into the next frame. Only the first
+frame ever, with no cost learned yet, runs its work whatever it costs (its report's ``unestimated`` says so); the
+first Newton iteration's short pieces always run, so every frame makes progress. What a frame did not start is its
+report's ``skipped``. The clock is a parameter, so tests use a fake one.
 """
 
 from __future__ import annotations
@@ -13,7 +18,12 @@ import time
 from .constants import FRAME_BUDGET
 from .stepping import Stepper
 
-__all__ = ["RealtimeSolver", "FRAME_BUDGET"]
+__all__ = ["RealtimeSolver", "FRAME_BUDGET", "LINEAR_SOLVERS"]
+
+#: The linear solvers the real-time loop offers (``"constant"``: a quadratic model's; those with ``pardiso`` need
+#: the optional ``pypardiso``).
+LINEAR_SOLVERS = ("reuse-background", "reuse", "reuse-pardiso", "direct", "superlu", "superlu-colamd", "pardiso",
+                  "constant")
 
 
 class RealtimeSolver(Stepper):

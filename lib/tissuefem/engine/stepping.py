@@ -55,13 +55,15 @@ class Undone:
     """What a step (frame) left for the ones after it; false when nothing. ``stopped``: why Newton stopped short of
     its tolerance (a status of :data:`~.minimize.STATUSES`; ``None``: it converged), after ``newton_steps`` at
     ``relative_residual`` (the step's :attr:`StepReport.scaled_residual`); ``handles``: the share of the handles' motion not made (``1 - handle_fraction``);
-    ``committed``: False when the state was kept (an offline step that failed)."""
+    ``committed``: False when the state was kept (an offline step that failed); ``skipped``: the pieces of work a
+    budgeted step did not start because they would not have ended in time (kinds of :data:`.linsolve.WORK`)."""
 
     stopped: str | None = None
     newton_steps: int = 0
     relative_residual: float = 0.0
     handles: float = 0.0
     committed: bool = True
+    skipped: tuple = ()
 
     def __bool__(self):
         return self.stopped is not None or self.handles > 0.0 or not self.committed
@@ -109,7 +111,7 @@ class StepReport:
     #: the Newton solve's results, passed on (``x``: the last accepted iterate, the new state if committed)
     FORWARDED = ("x", "converged", "status", "linear_iterations", "factorizations", "residual_norm",
                  "initial_residual", "relative_residual", "energy", "start_energy", "line_search_cuts",
-                 "history", "energies", "residual_norms", "table")
+                 "history", "energies", "residual_norms", "table", "skipped", "unestimated")
 
     def __getattr__(self, name):
         if name in StepReport.FORWARDED:
@@ -145,17 +147,20 @@ class StepReport:
         """What this step left for the next ones (:class:`Undone`; false when nothing)."""
         stopped = None if self.converged else self.status
         return Undone(stopped, self.newton_iterations, self.scaled_residual, 1.0 - self.handle_fraction,
-                      self.committed)
+                      self.committed, tuple(self.newton.skipped))
 
     @property
     def accuracy(self) -> str:
         """The step's accuracy on one line: converged (or why and after how many Newton steps it stopped), the
         relative residual, the energy decrease ``dE = E(x) - E(x0)``, the smallest J, the inverted elements, and
-        what else was left undone (the handles' motion, a kept state)."""
+        what else was left undone (the handles' motion, a kept state), and under a budget the work not started
+        (``skipped``) or started with no cost estimate yet (``unestimated``: the first frame's)."""
         undone = self.undone
         head = "converged" if self.converged else f"{self.status} after {self.newton_iterations} Newton"
         rest = [f"handles {undone.handles:.0%} short"] if undone.handles > 0.0 else []
         rest += [] if self.committed else ["state kept"]
+        rest += [f"skipped {', '.join(undone.skipped)}"] if undone.skipped else []
+        rest += [f"unestimated {', '.join(self.newton.unestimated)}"] if self.newton.unestimated else []
         return " | ".join([head, f"rel. residual {self.scaled_residual:.1e}", f"dE {-self.energy_decrease:.1e}",
                            f"min J {self.min_J:.3f}", f"{self.inverted} inverted", *rest])
 
@@ -311,6 +316,8 @@ class Stepper:
 
     frames = property(lambda self: self.steps)
     linear_solver_name = property(lambda self: self.linear.name)
+    costs = property(lambda self: self.linear.costs, doc="The learned seconds of each piece of a step's work "
+                                                         "(:attr:`.linsolve.LinearSolver.costs`).")
 
     def _checked_state(self, u, v) -> tuple[np.ndarray, np.ndarray]:
         n = self.model.n_dofs
@@ -400,7 +407,10 @@ class Stepper:
         try:
             if inertia is not None:
                 inertia.x_tilde = self.u + dt * self.v
-            x0, E0, fraction, which, load_norm, pre, crossed = self._warm_start(fixed, values, free)
+            # the budget less what the report's check of J is expected to take after the solve
+            budget = max(self._budget - (self.linear.costs.get("report") or 0.0), 1e-9 * self._budget)
+            deadline = self.linear.deadline(self._clock, start + budget)
+            x0, E0, fraction, which, load_norm, pre, crossed = self._warm_start(fixed, values, free, deadline)
             if fraction < 1.0 and not self.anytime:
                 # the targets cannot be reached without leaving the valid (finite-energy) states: an offline
                 # step fails at once (the real-time loop goes part of the way and carries the rest over)
@@ -412,7 +422,7 @@ class Stepper:
                     x0, model.gradient, model.hessian, energy=model.energy, free=free, line_search=self.line_search,
                     rtol=self.rtol, atol=self.atol, reference_norm=load_norm, floor=self.floor,
                     max_iterations=self.max_iterations - (which == "linearised"), max_step=self.max_step,
-                    linear=self.linear, clock=self._clock, budget=self._budget, start=start, energy0=E0,
+                    linear=self.linear, clock=self._clock, budget=budget, start=start, energy0=E0,
                     energy_floor=self.energy_floor, step_limit=model.step_limit,
                     safe_hessian=(lambda x: model.hessian(x, safe=True)) if model.has_safe_hessian else None)
         finally:
@@ -420,8 +430,10 @@ class Stepper:
                 term.scale = 1.0
             model.end_step()
         result.factorizations += pre
+        result.skipped[:0] = [k for k in deadline.skipped if k not in result.skipped]
+        result.unestimated[:0] = [k for k in deadline.unestimated if k not in result.unestimated]
         commit = result.converged or (self.anytime and np.all(np.isfinite(result.x)))
-        min_J, inverted = jacobian_extremes(model, result.x)  # the report's accuracy, timed with the step
+        min_J, inverted = deadline.timed("report", jacobian_extremes, model, result.x)  # timed with the step
         elapsed = self._clock() - start  # read before the commit: nothing after it can raise
         if commit:
             if dt is not None:
@@ -441,7 +453,7 @@ class Stepper:
         """One step per entry of ``targets_per_step``; the reports."""
         return [self.step(t) for t in targets_per_step]
 
-    def _warm_start(self, fixed, values, free):
+    def _warm_start(self, fixed, values, free, deadline):
         """``(x0, E0, handle_fraction, name, load_norm, factorizations, crossed)``: step 2 of the module docstring.
 
         With self-contact the reference is the state with only the handles moved (``Model.begin_step``).
@@ -453,7 +465,12 @@ class Stepper:
         dynamic = model.inertia is not None
         linearised, load_norm, factorizations = None, 0.0, 0
         if not dynamic and np.any(values != previous):
-            linearised, load_norm, factorizations = self._linearised_increment(fixed, free, values - previous)
+            # an assembly and a solve, if they fit (the solve itself starts no factorization that does not)
+            if deadline.fits("assembly", *self.linear.least_work()):
+                linearised, load_norm, factorizations = self._linearised_increment(fixed, free, values - previous,
+                                                                                   deadline)
+            else:
+                deadline.skip("assembly")
         x_tilde = model.inertia.x_tilde if dynamic else None
         accelerating = None  # constant acceleration: the best guess along a smooth drag
         if dynamic and self.v_previous is not None:
@@ -495,10 +512,10 @@ class Stepper:
             E = model.energy(x)
         return x, E, 0.0, "previous", load_norm, factorizations, crossed
 
-    def _linearised_increment(self, fixed, free, du_fixed):
+    def _linearised_increment(self, fixed, free, du_fixed, deadline):
         """``(dx, load_norm, factorizations)``: the first-order response of every dof to moving the held ones
         by ``du_fixed``, from the previous state: ``K_ff dx_f = -g_f(u) - K_fc dx_c``. ``dx`` is ``None`` when
-        it cannot be had (a singular or non-finite tangent)."""
+        it cannot be had (a singular or non-finite tangent, or a solve that does not fit the ``deadline``)."""
         model = self.model
         dx = np.zeros(model.n_dofs)
         dx[fixed] = du_fixed
@@ -508,15 +525,15 @@ class Stepper:
                     # a quadratic energy: g(u) + K dx is g(u + dx) exactly, and the constant K is assembled only
                     # when the kept factorization is to be made
                     rhs = -model.gradient(self.u + dx)[free]
-                    A = self.linear.matrix(lambda: _finite_hessian(model.hessian(self.u)), free)
+                    A = self.linear.matrix(lambda: _finite_hessian(model.hessian(self.u)), free, deadline=deadline)
                 else:
-                    K = _finite_hessian(model.hessian(self.u))
+                    K = _finite_hessian(deadline.timed("assembly", model.hessian, self.u))
                     rhs = -model.gradient(self.u)[free] - (K @ dx)[free]
                     A = self.linear.matrix(lambda: K, free)
             load_norm = float(np.linalg.norm(rhs))
             if not math.isfinite(load_norm):  # a non-finite entry, or a norm that overflows: no prediction
                 return None, 0.0, 0
-            dx_free, info = self.linear.solve(A, rhs, atol=1e-3 * load_norm)
+            dx_free, info = self.linear.solve(A, rhs, atol=1e-3 * load_norm, deadline=deadline)
         except (RuntimeError, ValueError, np.linalg.LinAlgError, ZeroDivisionError):
             return None, 0.0, 0
         if dx_free is None or not np.all(np.isfinite(dx_free)):
