@@ -253,10 +253,13 @@ fig_ch07_released_flap()
 #    `ValueError` and the state is untouched);
 # 2. **warm start**: the lowest-energy of $\tilde{\mathbf u}$, $\mathbf u^m$ and a constant-acceleration
 #    prediction, with the handles moved;
-# 3. **solve**: Newton on $E$ with the energy line search, until the residual is below `rtol` times the
-#    first one *or the budget is spent*. The clock is read before each tangent assembly and before each
-#    linear solve; nothing new starts after the budget, so a frame overruns by at most one piece of work
-#    in progress. The first step always runs, so every frame makes progress;
+# 3. **solve**: Newton on $E$ with the energy line search, until the residual is below `rtol` times its
+#    scale (the first residual, or the load a linearised start balances if that is larger) *or the budget
+#    is spent*. The solver learns what each piece of work costs (an assembly, a factorization, a
+#    back-substitution, a CG iteration, a line search) from its last runs, and starts a piece only if it
+#    fits in what is left of the budget; a factorization that does not fit runs on the other core while
+#    the frame goes on with the old one as a preconditioner. The first step's short pieces always run, so
+#    every frame makes progress (and the very first frame, with nothing learned yet, runs whatever it costs);
 # 4. **commit**: the last accepted iterate becomes $\mathbf u^{m+1}$, converged or not. It passed the
 #    line search, so it is finite and $E(\mathbf u^{m+1}) \le E(\text{start})$ — the solver is *anytime*.
 #    What is left of the residual carries into the next frame's warm start.
