@@ -84,8 +84,8 @@ def test_a_model_carries_its_terms_handles_and_state_across_a_cut():
     edit = cut_through(mesh, [[1.0, -0.1], [1.0, 0.6]], model.positions(stepper.u))
     new, (u, v) = model.remapped(edit, (stepper.u, stepper.v))
     # the cut adds the ghost penalty that holds its pieces' virtual nodes (engine.terms.GhostPenalty)
-    assert new.term_names == ["inertia", "elastic", "ghost penalty"] + model.term_names[2:]
-    assert model.term_names[:2] == ["inertia", "elastic"] and [h.name for h in new.handles] == ["handle0", "pull"]
+    assert [name for name in new.term_names if name != "ghost penalty"] == model.term_names
+    assert "ghost penalty" in new.term_names and [h.name for h in new.handles] == ["handle0", "pull"]
     assert u.shape == (new.n_dofs,) and np.array_equal(new.positions(u)[:, : mesh.nvertices], model.positions(stepper.u))
     after = Stepper(new)
     after.set_state(u, v)

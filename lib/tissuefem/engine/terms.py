@@ -163,7 +163,7 @@ class GhostPenalty(Term):
 
     name = "ghost penalty"
     quadratic = True
-    rank = 1
+    rank = 4  # after the element terms and the tools (probes, sutures), before the others
 
     def __init__(self, mesh, weights, modulus, gamma=GHOST_PENALTY, light=GHOST_WEIGHT):
         self.gamma = check_real("ghost_penalty.gamma", gamma, 0.0)
