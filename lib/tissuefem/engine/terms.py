@@ -3,17 +3,18 @@
 The whole engine minimises one energy (the *incremental potential*; see :mod:`tissuefem.engine.stepping`). A
 :class:`~tissuefem.engine.model.Model` is the sum of exactly the terms it was built with:
 
-================  ===========================================================  ==========
-term              energy                                                       Hessian
-================  ===========================================================  ==========
-:class:`Elastic`  ``sum_e A_e Psi(F_e)``, the material's stored energy         assembled
-:class:`Fibers`   ``sum_e A_e k/8 (|F_e g_e|^2 - 1)^2`` (chapter 5)             assembled
-:class:`Inertia`  ``1/(2 dt^2) (x - x~)^T M (x - x~)``, backward Euler          constant
-:class:`Load`     ``-f . u``: gravity, a body force, tractions                  zero
-:class:`Probe`    a rigid disc pressed into the tissue (a contact penalty)      per node
-:class:`Sutures`  zero-length springs tying pairs of nodes                      constant
-``Contact``       self-contact of the surface, see :mod:`.contact`             per pair
-================  ===========================================================  ==========
+=====================  ===========================================================  ==========
+term                   energy                                                       Hessian
+=====================  ===========================================================  ==========
+:class:`Elastic`       ``sum_e A_e Psi(F_e)``, the material's stored energy         assembled
+:class:`Fibers`        ``sum_e A_e k/8 (|F_e g_e|^2 - 1)^2`` (chapter 5)             assembled
+:class:`Inertia`       ``1/(2 dt^2) (x - x~)^T M (x - x~)``, backward Euler          constant
+:class:`Load`          ``-f . u``: gravity, a body force, tractions                  zero
+:class:`Probe`         a rigid disc pressed into the tissue (a contact penalty)      per node
+:class:`Sutures`       zero-length springs tying pairs of nodes                      constant
+:class:`GhostPenalty`  jumps of ``grad u`` at the pieces of elements cut through    constant
+``Contact``            self-contact of the surface, see :mod:`.contact`             per pair
+=====================  ===========================================================  ==========
 
 Inertia carries ``1/dt^2`` so that the gradient of ``W(u) - f.u + Inertia(u)`` is exactly the notes' residual
 ``q = M (u - u~)/dt^2 + f_int(u) - f_ext`` (with the README's errata): a force, as in a quasistatic step. The
