@@ -155,9 +155,17 @@ def test_a_rigid_motion_costs_nothing_and_an_uncut_mesh_has_no_penalty():
     u = (R @ X + np.array([[0.3], [-0.7]]) - X).T.ravel()
     assert abs(ghost.energy(u)) < 1e-12 * MU and np.abs(ghost.gradient(u)).max() < 1e-10 * MU
     assert abs(model.energy(u)) < 1e-9 * MU
-    # a non-linear field is penalised (the jump of the gradient across an edge of a piece)
+    # a non-linear field is penalised (the jump of the gradient across an edge of a piece); the gradient and the
+    # Hessian in the model's pattern are the energy's derivatives
     bent = (0.1 * X[0] ** 2 * np.array([[0.0], [1.0]])).T.ravel()
     assert ghost.energy(bent) > 0.0
+    v = np.random.default_rng(0).standard_normal(bent.size)
+    eps = 1e-6
+    slope = (ghost.energy(bent + eps * v) - ghost.energy(bent - eps * v)) / (2 * eps)
+    assert slope == pytest.approx(ghost.gradient(bent) @ v, rel=1e-6)
+    data = model.pattern.zeros()
+    ghost.add_hessian(bent, data)
+    assert np.allclose(model.pattern.csr(data) @ v, ghost.gradient(v), rtol=1e-12, atol=1e-9 * MU)
     # nothing cut, nothing added: the uncut model's terms are as they were
     assert Model(rectangle(2.0, 1.0, 8, 4), MATERIAL).term_names == ["elastic"]
     assert Model(rectangle(2.0, 1.0, 8, 4), MATERIAL, weights=np.ones(64)).term_names == ["elastic"]
