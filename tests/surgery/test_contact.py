@@ -488,9 +488,6 @@ def test_a_wound_cut_in_a_running_simulation_is_part_of_the_contact_surface():
 
 # ------------------------------------------------------------------------------------------------ sliding lips
 
-@pytest.mark.xfail(strict=True, reason="open: a corner's pseudonormal sign flips (a point outside the cone of a "
-                                       "corner whose other segment is in its own neighbourhood; a lip folded "
-                                       "through 180 degrees): the energy jumps and the line search stops there")
 def test_an_advancement_flap_cut_through_elements_slides_its_lips_and_converges_in_every_frame():
     from tissuefem.surgery.flaps import advancement_flap
     result = advancement_flap(method="elements", contact=True, tighten_frames=20, n_triangles=1500,

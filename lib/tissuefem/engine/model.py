@@ -27,7 +27,7 @@ from .materials import det2
 from .meshes import index_list
 from .parameters import (REACH, ParameterError, call_user, check_bounded_vector, check_count, check_density,
                          check_indices, check_real, check_real_array, check_vector, is_sequence)
-from .terms import (Elastic, ElementTerm, Inertia, Load, Probe, SummedDensity, Sutures, Term,
+from .terms import (Elastic, ElementTerm, GhostPenalty, Inertia, Load, Probe, SummedDensity, Sutures, Term,
                     boundary_lengths, extent, surface_lengths)
 
 __all__ = ["Model", "Handle", "Pattern", "region_nodes"]
@@ -459,6 +459,9 @@ class Model(Holding):
         elastic = Elastic(self.assembler, material)
         _check_material_at_rest(self.assembler, material)
         self.terms = [elastic]
+        ghost = GhostPenalty.of(mesh, weights, material) if order == 1 else None  # thin pieces of a cut
+        if ghost is not None:
+            self.terms.append(ghost)
         for t in made + terms:
             for term in as_terms(t if isinstance(t, Term) else t(self)):
                 if not isinstance(term, Term):

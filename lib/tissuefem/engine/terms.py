@@ -3,17 +3,18 @@
 The whole engine minimises one energy (the *incremental potential*; see :mod:`tissuefem.engine.stepping`). A
 :class:`~tissuefem.engine.model.Model` is the sum of exactly the terms it was built with:
 
-================  ===========================================================  ==========
-term              energy                                                       Hessian
-================  ===========================================================  ==========
-:class:`Elastic`  ``sum_e A_e Psi(F_e)``, the material's stored energy         assembled
-:class:`Fibers`   ``sum_e A_e k/8 (|F_e g_e|^2 - 1)^2`` (chapter 5)             assembled
-:class:`Inertia`  ``1/(2 dt^2) (x - x~)^T M (x - x~)``, backward Euler          constant
-:class:`Load`     ``-f . u``: gravity, a body force, tractions                  zero
-:class:`Probe`    a rigid disc pressed into the tissue (a contact penalty)      per node
-:class:`Sutures`  zero-length springs tying pairs of nodes                      constant
-``Contact``       self-contact of the surface, see :mod:`.contact`             per pair
-================  ===========================================================  ==========
+=====================  ===========================================================  ==========
+term                   energy                                                       Hessian
+=====================  ===========================================================  ==========
+:class:`Elastic`       ``sum_e A_e Psi(F_e)``, the material's stored energy         assembled
+:class:`Fibers`        ``sum_e A_e k/8 (|F_e g_e|^2 - 1)^2`` (chapter 5)             assembled
+:class:`Inertia`       ``1/(2 dt^2) (x - x~)^T M (x - x~)``, backward Euler          constant
+:class:`Load`          ``-f . u``: gravity, a body force, tractions                  zero
+:class:`Probe`         a rigid disc pressed into the tissue (a contact penalty)      per node
+:class:`Sutures`       zero-length springs tying pairs of nodes                      constant
+:class:`GhostPenalty`  jumps of ``grad u`` at the pieces of elements cut through    constant
+``Contact``            self-contact of the surface, see :mod:`.contact`             per pair
+=====================  ===========================================================  ==========
 
 Inertia carries ``1/dt^2`` so that the gradient of ``W(u) - f.u + Inertia(u)`` is exactly the notes' residual
 ``q = M (u - u~)/dt^2 + f_int(u) - f_ext`` (with the README's errata): a force, as in a quasistatic step. The
@@ -25,16 +26,18 @@ from __future__ import annotations
 import numbers
 
 import numpy as np
+import scipy.sparse as sp
 from skfem import FacetBasis, LinearForm, asm
 
 from .materials import (FiberReinforced, Material, check_fiber_stiffness, fiber_energy_term, fiber_stress_term,
                         fiber_tangent_term)
 from .parameters import (FORCE_MAX, RADIUS_RANGE, REACH, YOUNGS_MODULUS_RANGE, ParameterError, check_bounded_vector,
                          check_density, check_indices, check_penalty_stiffness, check_reach, check_real,
-                         check_real_array, check_time_step, check_vector)
+                         check_real_array, check_time_step, check_vector, check_weights)
 
-__all__ = ["Term", "ElementTerm", "Elastic", "Fibers", "Inertia", "Load", "Probe", "Sutures", "traction_vector",
-           "SummedDensity", "extent", "boundary_lengths", "surface_lengths"]
+__all__ = ["Term", "ElementTerm", "Elastic", "GhostPenalty", "GHOST_WEIGHT", "GHOST_PENALTY", "Fibers", "Inertia",
+           "Load", "Probe", "Sutures", "traction_vector", "SummedDensity", "extent", "boundary_lengths",
+           "surface_lengths"]
 
 
 class Term:
@@ -129,6 +132,114 @@ class Elastic(ElementTerm):
 
     def describe(self):
         return f"elastic: {getattr(self.material, 'name', type(self.material).__name__)}"
+
+
+#: The pieces of triangles cut through that get a ghost penalty (:class:`GhostPenalty`): those lighter than this share
+#: of their triangle (1: every piece, as Burman's penalty acts on every face of a cut element)
+GHOST_WEIGHT = 1.0
+#: The ghost penalty's factor ``gamma``, times the material's shear modulus at rest
+GHOST_PENALTY = 0.1
+
+
+class GhostPenalty(Term):
+    """The ghost penalty of a mesh cut through its elements: ``E = 1/2 sum_(e, f) c_ef |grad u_e - grad u_f|^2`` over
+    the pairs of a piece ``e`` (weight below ``light``) and an element ``f`` sharing an edge (both its nodes) with it,
+    not a copy of the same triangle; ``c_ef = gamma mu (A_e + A_f)`` (the whole triangles' areas).
+
+    A piece of a triangle holds its virtual nodes with a stiffness proportional to its weight, but a load on its lip (a
+    stitch, a grab, contact) reaches them with the lip point's barycentric coefficients: a thin piece's virtual nodes
+    move far more than the real nodes round them, the spikes at crack tips and the crumpling lips. The penalty ties
+    each piece's deformation gradient to its neighbour's across their shared edge, as the ghost penalty of Burman [1]_
+    does across the faces of cut elements (Hansbo and Hansbo [2]_ for the cut element method; the virtual nodes of
+    Molino, Bao and Fedkiw: :mod:`tissuefem.surgery.element_cuts`). It is zero for every linear displacement field
+    (the patch test holds) and every rigid motion (``grad u = R - I`` in both elements), vanishes as the mesh is
+    refined (a smooth field's gradient jumps by ``O(h)``), and is absent where no element is cut. ``mesh``: the cut
+    mesh (P1); ``weights``: its elements' weights; ``modulus``: ``mu`` (a pressure); ``pairs`` (2, m): the element
+    pairs tied; ``K``: the constant Hessian.
+
+    .. [1] E. Burman, *Ghost penalty*, Comptes Rendus Mathematique 348(21-22) (2010), 1217-1220.
+    .. [2] A. Hansbo, P. Hansbo, *A finite element method for the simulation of strong and weak discontinuities in
+       solid mechanics*, Computer Methods in Applied Mechanics and Engineering 193 (2004), 3523-3540.
+    """
+
+    name = "ghost penalty"
+    quadratic = True
+    rank = 4  # after the element terms and the tools (probes, sutures), before the others
+
+    def __init__(self, mesh, weights, modulus, gamma=GHOST_PENALTY, light=GHOST_WEIGHT):
+        self.gamma = check_real("ghost_penalty.gamma", gamma, 0.0)
+        self.modulus = check_real("ghost_penalty.modulus", modulus, 0.0, YOUNGS_MODULUS_RANGE[1])
+        light = check_real("ghost_penalty.light", light, 0.0, 1.0)
+        p, t = np.asarray(mesh.p, dtype=float), np.asarray(mesh.t, dtype=np.intp)
+        self.n_nodes, m = p.shape[1], t.shape[1]
+        w = check_weights(weights, m)
+        x = p[:, t]  # (2, 3, m)
+        d1, d2 = x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]
+        det = d1[0] * d2[1] - d1[1] * d2[0]
+        G = np.empty((3, 2, m))  # dN_a/dX_j of each element (whole triangle: a piece keeps its shape functions)
+        G[1, 0], G[1, 1] = d2[1] / det, -d2[0] / det
+        G[2, 0], G[2, 1] = -d1[1] / det, d1[0] / det
+        G[0] = -G[1] - G[2]
+        area, centre = 0.5 * np.abs(det), x.mean(axis=1)
+        # the elements on each edge (its two nodes): those sharing an edge with a light one
+        keys = np.sort(np.stack([t, np.roll(t, -1, axis=0)]), axis=0)
+        keys = (keys[0] * self.n_nodes + keys[1]).ravel()  # (3 m,): local edge k of element e at k * m + e
+        order = np.argsort(keys, kind="stable")
+        sorted_keys, owner = keys[order], order % m
+        found = set()
+        for e in np.flatnonzero(w < light).tolist():
+            for k in keys[[e, m + e, 2 * m + e]].tolist():
+                lo, hi = np.searchsorted(sorted_keys, k), np.searchsorted(sorted_keys, k, side="right")
+                for f in owner[lo:hi].tolist():
+                    if f != e and not np.allclose(centre[:, f], centre[:, e], rtol=0.0, atol=1e-12 * np.sqrt(area[e])):
+                        found.add((min(e, f), max(e, f)))  # (a copy of the same triangle lies across the cut)
+        self.pairs = np.array(sorted(found), dtype=np.intp).reshape(-1, 2).T
+        e, f = self.pairs
+        nodes = np.concatenate([t[:, e], t[:, f]])  # (6, n_pairs): e's nodes, then f's
+        g = np.concatenate([G[:, :, e], -G[:, :, f]])  # (6, 2, n_pairs): grad u_e - grad u_f = sum_a u_a g_a^T
+        block = (self.gamma * self.modulus * (area[e] + area[f])) * np.einsum("ajp,bjp->abp", g, g)  # (6, 6, n_pairs)
+        rows = np.repeat(nodes[:, None, :], 6, axis=1)
+        cols = np.repeat(nodes[None, :, :], 6, axis=0)
+        self._rows = np.concatenate([2 * rows.ravel() + i for i in range(2)])
+        self._cols = np.concatenate([2 * cols.ravel() + i for i in range(2)])
+        self._values = np.concatenate([block.ravel(), block.ravel()])
+        n = 2 * self.n_nodes
+        self.K = sp.csr_matrix((self._values, (self._rows, self._cols)), shape=(n, n))
+
+    @classmethod
+    def of(cls, mesh, weights, material) -> "GhostPenalty | None":
+        """The ghost penalty of a cut ``mesh`` with ``weights`` and ``material`` (its shear modulus at rest: the
+        tangent's ``A_0101`` at ``F = I``), or ``None`` where no element is light."""
+        if weights is None or not np.any(np.asarray(weights) < GHOST_WEIGHT):
+            return None
+        A = np.asarray(material.tangent(np.eye(2)[:, :, None]), dtype=float)
+        ghost = cls(mesh, weights, float(A.reshape(2, 2, 2, 2, -1)[0, 1, 0, 1].mean()))
+        return ghost if ghost.pairs.shape[1] else None
+
+    def energy(self, u):
+        v = np.asarray(u)[: 2 * self.n_nodes]
+        return 0.5 * float(v @ (self.K @ v))
+
+    def gradient(self, u):
+        g = np.zeros(np.asarray(u).size)
+        g[: 2 * self.n_nodes] = self.K @ np.asarray(u)[: 2 * self.n_nodes]
+        return g
+
+    def couplings(self):
+        return self._rows, self._cols
+
+    def bind(self, pattern):
+        super().bind(pattern)
+        self._positions = pattern.positions(self._rows, self._cols)
+
+    def add_hessian(self, u, data, safe=False):
+        np.add.at(data, self._positions, self._values)
+
+    def remap(self, meshmap):
+        return None  # the new model makes its own from its weights
+
+    def describe(self):
+        return f"ghost penalty: {self.pairs.shape[1]} pairs of elements, gamma = {self.gamma:g}"
 
 
 class _FiberDensity(Material):

@@ -22,6 +22,10 @@ copy does not hold become extra ("virtual") nodes.
    nodes (phantom-node methods [3]_ make the same choice).
 6. **No slivers.** A piece lighter than ``min_weight`` is merged into its neighbour across the cut and the parts of
    the triangle's edges that bounded it are severed instead (the :class:`Wound` stays where the stroke was drawn).
+   A light piece that stays holds its virtual nodes with a stiffness proportional to its weight, while a stitch, a
+   grab or contact on its lip pulls them with the lip point's barycentric coefficients: the model on a cut mesh adds
+   a ghost penalty [4]_ (:class:`~tissuefem.engine.terms.GhostPenalty`) that ties each piece's deformation gradient
+   to its neighbours', so that neither spikes nor crumpling lips appear, at any mesh size.
 7. **One element per set of nodes.** Copies of one triangle with the same three nodes (e.g. the corners outside a
    V-shaped crack) are one element, whose region may have several polygons.
 
@@ -36,6 +40,7 @@ momentum over exactly.
    Symposium on Computer Animation 2014.
 .. [3] J.-H. Song, P. M. A. Areias, T. Belytschko, *A method for dynamic crack and shear band propagation with phantom
    nodes*, International Journal for Numerical Methods in Engineering 67 (2006), 868-893.
+.. [4] E. Burman, *Ghost penalty*, Comptes Rendus Mathematique 348(21-22) (2010), 1217-1220.
 """
 
 from __future__ import annotations

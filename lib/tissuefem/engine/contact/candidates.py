@@ -4,7 +4,12 @@ With ``e = y_b - y_a``, ``w = y_p - y_a``, ``t = w . e / |e|^2``, the gap of a p
 ``sigma = cross(w, e) / |e|`` for ``0 < t < 1``; else the distance to that end ``v``, negative when
 ``(y_p - y_v) . n_v < 0`` with ``n_v`` the corner's *pseudonormal* (the mean of its segments' normals): the signed
 distance to a polygon [3]. Of each run of segments within ``d^`` of a point only the nearest, its *owner*, counts, so
-the gap stays continuous where the nearest feature changes (it jumps, rarely, where a pseudonormal's sign flips).
+the gap stays continuous where the nearest feature changes. That sign holds where the corner is the nearest feature of
+the surface; a point nearer to a segment next to ``s`` that lies in its own neighbourhood (below: never paired with
+it, one of its own segments aside) has that stretch as its nearest feature, and ``s`` does not press it (the gap is
+taken as ``+distance``). Without this rule a lip crumpled or folded through 180 degrees flips a corner's sign next to
+the point's own stretch, where the gap is small: the energy jumps there and Newton's line search stops (the gap can
+still jump where the point lies equally near both, rarely).
 
 A point is not paired with segments less than ``2 d^`` from it along the rest surface, else a cut's lip would touch
 itself once it bends; the walk stops at a crack tip (a corner turned back into the material), where each lip's first
@@ -160,7 +165,21 @@ class CandidatePairs:
             distance = np.where(kind == 1, np.abs(g), np.where(kind == 2, r_a, r_b))
             sigma = np.where(kind == 1, g, np.where(kind == 2, np.where(side_a < 0, -r_a, r_a),
                                                     np.where(side_b < 0, -r_b, r_b)))
+            sigma = np.where((sigma < 0) & self._held(at, p, s, distance), distance, sigma)
         return kind, distance, sigma
+
+    def _held(self, at, p, s, distance):
+        """Which points ``p`` lie nearer than ``distance`` to a neighbour of their segment ``s`` that is in their own
+        neighbourhood (never paired with them), not one of their own segments: that stretch of surface is their
+        nearest feature, so ``s`` does not press them."""
+        seg, held = self.surface.segments, np.zeros(p.size, dtype=bool)
+        for neighbour in (self.surface.previous[s], self.surface.next[s]):
+            nb = np.maximum(neighbour, 0)
+            mine = ((neighbour >= 0) & np.any(self.excluded[nb] == p[:, None], axis=1)
+                    & (seg[0, nb] != p) & (seg[1, nb] != p))
+            if np.any(mine):
+                held |= mine & (segment_distance(at(p), at(seg[0, nb]), at(seg[1, nb])) < distance)
+        return held
 
     def owners(self, p, s, keys, distance):
         """Which of the pairs own their point: the nearest segment of each run of consecutive segments that are all
