@@ -108,6 +108,14 @@ display(Markdown(f"From {small} to {large} triangles the opening at the mouth ch
 #
 # Slivers (a piece holding less than 0.1 % of its triangle) are merged into their neighbour and the cut
 # is snapped onto the triangle's edges there; the drawn wound stays where it was drawn.
+#
+# A thin piece that is kept holds its virtual nodes with as little stiffness as it has material, and a
+# pull on its lip (a grab, a stitch, contact) reaches them through the point's weights: they would fly
+# out as spikes. The model therefore adds a *ghost penalty* (E. Burman, *Ghost penalty*, C. R. Acad. Sci.
+# Paris 2010) between each copy that holds part of a triangle and each element beside it across an edge,
+# $$E_{\text{ghost}} = \tfrac{\gamma\,\mu}{2}\,(A_e + A_f)\,\lvert\nabla\mathbf u_e - \nabla\mathbf u_f\rvert^2,$$
+# with $\mu$ the shear modulus and $\gamma$ a small constant. It is zero for any linear displacement (a
+# patch test still passes) and any rigid motion, shrinks with the mesh, and an uncut mesh has none.
 
 # %%
 display(fig_ch10_virtual_nodes())
