@@ -11,13 +11,14 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from skfem import MeshTri
+from skfem import MeshTet, MeshTri
 
 from .parameters import ParameterError, check_count, check_real, check_real_array
 
 __all__ = [
     "edge_lengths", "mesh_size", "mean_edge_length", "rectangle", "mesh_with_about", "fusiform_muscle",
     "fusiform_width", "fusiform_fiber_direction", "fusiform_fiber_field", "flap", "signed_areas", "check_mesh",
+    "box", "signed_volumes",
     "index_list", "MeshMap",
 ]
 
@@ -64,8 +65,11 @@ def index_list(idx, limit=10) -> str:
 
 
 def edge_lengths(mesh) -> np.ndarray:
-    """The length of every edge (facet) of the mesh, in reference coordinates."""
+    """The length of every edge of the mesh (a facet in 2D), in reference coordinates."""
     p = np.asarray(mesh.p, dtype=float)
+    if p.shape[0] == 3:
+        d = p[:, mesh.edges[1]] - p[:, mesh.edges[0]]
+        return np.sqrt(np.sum(d * d, axis=0))
     d = p[:, mesh.facets[1]] - p[:, mesh.facets[0]]
     return np.hypot(d[0], d[1])
 
@@ -116,7 +120,8 @@ def _edge_table(t: np.ndarray):
 
 
 def check_mesh(p, t, name: str = "mesh", *, unused_nodes: str = "refuse", cut: bool = False):
-    """Check that ``(p, t)`` is a valid 2D triangle mesh; return ``(p, t)`` as float64 ``(2, n)`` and int64 ``(3, m)``.
+    """Check that ``(p, t)`` is a valid triangle mesh (or tetrahedron mesh: ``p`` ``(3, n)``, ``t`` ``(4, m)``); return
+    ``(p, t)`` as float64 ``(d, n)`` and int64 ``(d + 1, m)``.
 
     Refused, with a :class:`ParameterError` naming ``name`` and the offending items: ``p`` not a real ``(2, n)``
     array, ``t`` not an integer ``(3, m)`` array; no triangle or more than :data:`MAX_TRIANGLES`; node indices out of
@@ -124,6 +129,8 @@ def check_mesh(p, t, name: str = "mesh", *, unused_nodes: str = "refuse", cut: b
     nodes** (every linear system would be singular; ``unused_nodes="ignore"`` lets a file reader report in its own
     numbers first); an edge in three triangles; duplicated, degenerate and folded triangles. ``cut=True`` (the
     assemblers) accepts what a cut through elements makes (fins, copies of a triangle) and any number of triangles.
+    Tetrahedra: the same checks on the arrays, then a face in three tetrahedra, duplicated, degenerate (zero-volume)
+    and inverted (negative-volume, the vertices not right-handed) tetrahedra are refused.
     """
     def refuse(message):
         raise ParameterError(name, f"{name}: {message}")
@@ -131,10 +138,15 @@ def check_mesh(p, t, name: str = "mesh", *, unused_nodes: str = "refuse", cut: b
         p_arr, t_arr = np.asarray(p), np.asarray(t)
     except (TypeError, ValueError):
         refuse("p and t must be rectangular arrays (p shaped (2, n), t shaped (3, m))")
-    if p_arr.dtype.kind not in "iuf" or p_arr.ndim != 2 or p_arr.shape[0] != 2:
-        refuse(f"p must be a real array shaped (2, n_nodes), got dtype {p_arr.dtype} and shape {p_arr.shape}")
-    if t_arr.dtype.kind not in "iu" or t_arr.ndim != 2 or t_arr.shape[0] != 3:
-        refuse(f"t must be an integer array shaped (3, n_triangles), got dtype {t_arr.dtype} and shape {t_arr.shape}")
+    if p_arr.dtype.kind not in "iuf" or p_arr.ndim != 2 or p_arr.shape[0] not in (2, 3):
+        refuse(f"p must be a real array shaped (2, n_nodes) or (3, n_nodes), got dtype {p_arr.dtype} and shape "
+               f"{p_arr.shape}")
+    dim = p_arr.shape[0]
+    if t_arr.dtype.kind not in "iu" or t_arr.ndim != 2 or t_arr.shape[0] != dim + 1:
+        what = "(3, n_triangles)" if dim == 2 else "(4, n_tetrahedra) for 3D nodes"
+        refuse(f"t must be an integer array shaped {what}, got dtype {t_arr.dtype} and shape {t_arr.shape}")
+    if dim == 3:
+        return _check_tets(p_arr, t_arr, refuse, unused_nodes, cut)
     n, m = p_arr.shape[1], t_arr.shape[1]
     if m == 0:
         refuse("has no triangles")
@@ -194,6 +206,108 @@ def check_mesh(p, t, name: str = "mesh", *, unused_nodes: str = "refuse", cut: b
         refuse(f"inverted triangles (folded over a neighbour across a shared edge): pairs {pairs}; a rest mesh "
                "must not overlap itself")
     return p_arr, t_arr
+
+
+def signed_volumes(mesh) -> np.ndarray:
+    """Signed volume of every tetrahedron of ``mesh`` (positive = vertices 1, 2, 3 right-handed about vertex 0)."""
+    return _tet_volumes(np.asarray(mesh.p, dtype=float), np.asarray(mesh.t))
+
+
+def _tet_volumes(p, t) -> np.ndarray:
+    x = p[:, t]
+    d1, d2, d3 = x[:, 1] - x[:, 0], x[:, 2] - x[:, 0], x[:, 3] - x[:, 0]
+    return (d1[0] * (d2[1] * d3[2] - d2[2] * d3[1]) - d1[1] * (d2[0] * d3[2] - d2[2] * d3[0])
+            + d1[2] * (d2[0] * d3[1] - d2[1] * d3[0])) / 6.0
+
+
+def _check_tets(p_arr, t_arr, refuse, unused_nodes, cut):
+    """The rest of :func:`check_mesh` for tetrahedra (``p`` ``(3, n)``, ``t`` ``(4, m)`` of the right types)."""
+    n, m = p_arr.shape[1], t_arr.shape[1]
+    if m == 0:
+        refuse("has no tetrahedra")
+    if m > MAX_TRIANGLES and not cut:
+        refuse(f"has {m} tetrahedra, more than the {MAX_TRIANGLES} allowed")
+    if t_arr.min() < 0 or t_arr.max() >= n:
+        refuse(f"tetrahedra {index_list(np.flatnonzero(((t_arr < 0) | (t_arr >= n)).any(axis=0)))} refer to nodes "
+               f"outside 0..{n - 1}")
+    p_arr, t_arr = np.array(p_arr, dtype=np.float64), np.array(t_arr, dtype=np.int64)
+    bad = np.flatnonzero(~np.isfinite(p_arr).all(axis=0))
+    if bad.size:
+        refuse(f"non-finite coordinates at nodes {index_list(bad)}")
+    bad = np.flatnonzero((np.abs(p_arr) > COORDINATE_MAX).any(axis=0))
+    if bad.size:
+        refuse(f"nodes {index_list(bad)} lie beyond the coordinate limit +-{COORDINATE_MAX:g}")
+    if unused_nodes not in ("refuse", "ignore"):
+        raise ParameterError("unused_nodes", f"unused_nodes must be 'refuse' or 'ignore', got {unused_nodes!r}")
+    used = np.zeros(n, dtype=bool)
+    used[t_arr.ravel()] = True
+    if unused_nodes == "refuse" and not used.all():
+        refuse(f"nodes {index_list(np.flatnonzero(~used))} belong to no tetrahedron (an unused node has no stiffness "
+               "and no mass); remove them and renumber")
+    extent = float(np.ptp(p_arr[:, used], axis=1).max())
+    if extent < SIZE_RANGE[0]:
+        refuse(f"spans only {extent:g} (the largest side of its bounding box must be at least {SIZE_RANGE[0]:g})")
+    tet = np.sort(t_arr, axis=0)
+    repeated = np.flatnonzero((tet[1:] == tet[:-1]).any(axis=0))
+    if repeated.size:
+        refuse(f"tetrahedra {index_list(repeated)} use the same node twice")
+    if not cut:
+        faces = np.sort(np.concatenate([t_arr[[1, 2, 3]], t_arr[[0, 2, 3]], t_arr[[0, 1, 3]], t_arr[[0, 1, 2]]],
+                                       axis=1), axis=0)
+        _, counts = np.unique(faces, axis=1, return_counts=True)
+        if np.any(counts > 2):
+            refuse(f"{int(np.sum(counts > 2))} face(s) shared by three or more tetrahedra (a 3D mesh allows at most "
+                   "2; a duplicated tetrahedron?)")
+    x = p_arr[:, t_arr]
+    edges = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)]
+    h = np.sqrt(np.max([((x[:, j] - x[:, i]) ** 2).sum(0) for i, j in edges], axis=0))
+    vol = _tet_volumes(p_arr, t_arr)
+    degenerate = np.flatnonzero(~(np.abs(6.0 * vol) > DEGENERATE_TOL * h**3))
+    if degenerate.size:
+        refuse(f"zero-volume (degenerate) tetrahedra {index_list(degenerate)}")
+    inverted = np.flatnonzero(vol < 0)
+    if inverted.size and not cut:
+        refuse(f"inverted tetrahedra {index_list(inverted)} (negative volume: vertices 1, 2, 3 must be right-handed "
+               "about vertex 0)")
+    return p_arr, t_arr
+
+
+# --- box of tetrahedra ------------------------------------------------------
+
+#: The six tetrahedra of a cube ``(x, y, z) in {0, 1}^3`` (corner ``c = x + 2 y + 4 z``) around its diagonal 0-7,
+#: each positively oriented: neighbouring cubes share their faces' diagonals without mirroring.
+_CUBE_TETS = np.array([[0, 1, 3, 7], [0, 3, 2, 7], [0, 2, 6, 7], [0, 6, 4, 7], [0, 4, 5, 7], [0, 5, 1, 7]]).T
+
+
+def box(lx=1.0, ly=1.0, lz=1.0, nx=4, ny=4, nz=4) -> MeshTet:
+    """Structured tetrahedral mesh of ``[0, lx] x [0, ly] x [0, lz]``: ``nx ny nz`` cells of six positively oriented
+    tetrahedra each. Node ``i + (nx + 1) (j + (ny + 1) k)`` at column ``i``, row ``j``, layer ``k``. Named boundaries:
+    ``"left"`` (x = 0), ``"right"`` (x = lx), ``"bottom"`` (y = 0), ``"top"`` (y = ly), ``"back"`` (z = 0),
+    ``"front"`` (z = lz)."""
+    lx, ly, lz = _size("lx", lx), _size("ly", ly), _size("lz", lz)
+    for label, ratio in (("lx / ly", lx / ly), ("ly / lz", ly / lz), ("lx / lz", lx / lz)):
+        _check_aspect(label, ratio)
+    counts = [check_count(k, v, 1, MAX_TRIANGLES // 6) for k, v in (("nx", nx), ("ny", ny), ("nz", nz))]
+    nx, ny, nz = counts
+    if 6 * nx * ny * nz > MAX_TRIANGLES:
+        raise ParameterError("nx", f"nx, ny, nz: {nx} x {ny} x {nz} cells give {6 * nx * ny * nz} tetrahedra, more "
+                                   f"than the {MAX_TRIANGLES} a generated domain may have")
+    X, Y, Z = np.meshgrid(np.linspace(0.0, lx, nx + 1), np.linspace(0.0, ly, ny + 1), np.linspace(0.0, lz, nz + 1),
+                          indexing="ij")
+    p = np.vstack([X.ravel(order="F"), Y.ravel(order="F"), Z.ravel(order="F")])
+    i, j, k = (a.ravel(order="F") for a in np.meshgrid(np.arange(nx), np.arange(ny), np.arange(nz), indexing="ij"))
+    corner = np.array([i + (nx + 1) * (j + (ny + 1) * k) + dx + (nx + 1) * (dy + (ny + 1) * dz)
+                       for dz in (0, 1) for dy in (0, 1) for dx in (0, 1)])  # (8, cells), c = dx + 2 dy + 4 dz
+    t = corner[_CUBE_TETS].reshape(4, -1, order="F")  # cell by cell, six tetrahedra each
+    tol = 1e-9
+    return MeshTet(p, t, sort_t=False).with_boundaries({
+        "left": lambda m: np.abs(m[0]) < tol * lx,
+        "right": lambda m: np.abs(m[0] - lx) < tol * lx,
+        "bottom": lambda m: np.abs(m[1]) < tol * ly,
+        "top": lambda m: np.abs(m[1] - ly) < tol * ly,
+        "back": lambda m: np.abs(m[2]) < tol * lz,
+        "front": lambda m: np.abs(m[2] - lz) < tol * lz,
+    })
 
 
 # --- structured rectangle --------------------------------------------------
