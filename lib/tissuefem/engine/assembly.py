@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
-from skfem import Basis, ElementTriP1, ElementTriP2, ElementVector, asm
+from skfem import Basis, ElementTetP1, ElementTetP2, ElementTriP1, ElementTriP2, ElementVector, asm
 
 from .forms import energy_form, residual_form, tangent_form
 from .meshes import check_mesh
@@ -80,65 +80,58 @@ class P1Assembler(_FixedPattern):
     def __init__(self, mesh, material=None, weights=None):
         p, t = _mesh_arrays(mesh)
         self.mesh, self.material = mesh, material
+        self.dim = dim = p.shape[0]  # 2: triangles, 3: tetrahedra
+        self.n_vertices = nv = dim + 1  # vertices per element
         self.n_nodes, self.n_elements = p.shape[1], t.shape[1]
-        self.n_dofs = 2 * self.n_nodes
-        # geometry: orientation, areas, gradients (element-last layout)
-        x = p[:, t]  # (2, 3, nel)
-        det = (x[0, 1] - x[0, 0]) * (x[1, 2] - x[1, 0]) - (x[0, 2] - x[0, 0]) * (x[1, 1] - x[1, 0])
-        flipped = np.flatnonzero(det < 0)
-        if flipped.size:  # swap the 2nd and 3rd vertex of clockwise triangles
-            t = t.copy()
-            t[1:, flipped] = t[2:0:-1, flipped]
-            x = p[:, t]
-        d1, d2 = x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]
-        det = d1[0] * d2[1] - d1[1] * d2[0]  # twice the (now positive) area
-        self.t, self.flipped, self.areas = t, flipped, 0.5 * det
+        self.n_dofs = dim * self.n_nodes
+        # geometry: orientation, areas (volumes), gradients (element-last layout)
+        if dim == 2:
+            t, flipped, self.areas, G = _triangle_geometry(p, t)
+        else:
+            t, flipped, self.areas, G = _tetrahedron_geometry(p, t)
+        self.t, self.flipped = t, flipped
         self.t.setflags(write=False)
-        if weights is not None:  # a part of a triangle integrates over that part: its area shrinks, its gradients not
+        if weights is not None:  # a part of an element integrates over that part: its area shrinks, its gradients not
             self.areas = self.areas * check_weights(weights, t.shape[1])
-        # G[a, j, e] = dN_a/dX_j: rows of the inverse of the Jacobian [d1 d2]
-        G = np.empty((3, 2, self.n_elements))
-        G[1, 0], G[1, 1] = d2[1] / det, -d2[0] / det
-        G[2, 0], G[2, 1] = -d1[1] / det, d1[0] / det
-        G[0] = -G[1] - G[2]
         self._G, self._GA = G, G * self.areas  # and the area-weighted gradients
 
-        # The dof pattern is the node-adjacency pattern in 2x2 blocks (np.unique sorts 9 node pairs per triangle):
-        # dof row 2p+i starts at 4 nptr[p] + 2 i deg(p), and node column r of row p holds dof columns 2r, 2r+1.
+        # The dof pattern is the node-adjacency pattern in d x d blocks (np.unique sorts (d+1)^2 node pairs per
+        # element): dof row d p + i starts at d^2 nptr[p] + d i deg(p), and node column r of row p holds dof columns
+        # d r ... d r + d - 1.
         nel, n, nn = self.n_elements, self.n_dofs, self.n_nodes
-        dofs = (2 * t[:, None, :] + np.arange(2)[None, :, None]).reshape(6, nel)  # row 2a+i
+        dofs = (dim * t[:, None, :] + np.arange(dim)[None, :, None]).reshape(nv * dim, nel)  # row d a + i
         self.element_dofs = dofs
         self.element_dofs.setflags(write=False)
-        node_rows = np.broadcast_to(t[:, None, :], (3, 3, nel))
-        node_cols = np.broadcast_to(t[None, :, :], (3, 3, nel))
+        node_rows = np.broadcast_to(t[:, None, :], (nv, nv, nel))
+        node_cols = np.broadcast_to(t[None, :, :], (nv, nv, nel))
         keys, slot = np.unique((node_rows * nn + node_cols).ravel(), return_inverse=True)
-        slot = slot.reshape(3, 3, nel)
+        slot = slot.reshape(nv, nv, nel)
         deg = np.bincount(keys // nn, minlength=nn)
         nptr = np.concatenate([[0], np.cumsum(deg)])
-        self.nnz = 4 * keys.size
+        self.nnz = dim * dim * keys.size
         index_dtype = np.int32 if max(self.nnz, n) < np.iinfo(np.int32).max else np.int64
         row_nodes, col_nodes = keys // nn, keys % nn
-        # indices: for each node row p, row 2p and row 2p+1 both list 2q, 2q+1 for its q's
-        start = 4 * nptr[:-1]  # first data slot of dof row 2p
+        # indices: for each node row p, rows d p ... d p + d - 1 all list d q ... d q + d - 1 for its q's
+        start = dim * dim * nptr[:-1]  # first data slot of dof row d p
         local = np.arange(keys.size) - nptr[row_nodes]  # rank of q within node row p
         indices = np.empty(self.nnz, dtype=np.int64)
-        for i in range(2):
-            for k in range(2):
-                indices[start[row_nodes] + 2 * i * deg[row_nodes] + 2 * local + k] = 2 * col_nodes + k
+        for i in range(dim):
+            for k in range(dim):
+                indices[start[row_nodes] + dim * i * deg[row_nodes] + dim * local + k] = dim * col_nodes + k
         self.indices = indices.astype(index_dtype)
         self.indptr = np.empty(n + 1, dtype=index_dtype)
-        self.indptr[0:-1:2] = start
-        self.indptr[1::2] = start + 2 * deg
+        for i in range(dim):
+            self.indptr[i:-1:dim] = start + dim * i * deg
         self.indptr[-1] = self.nnz
         self.indices.setflags(write=False)
         self.indptr.setflags(write=False)
-        # scatter[a, i, b, k, e]: slot of local entry (2a+i, 2b+k) of element e
+        # scatter[a, i, b, k, e]: slot of local entry (d a + i, d b + k) of element e
         p_node = t[:, None, :]  # row node of local pair (a, b)
-        base = 4 * nptr[p_node] + 2 * (slot - nptr[p_node])  # (3, 3, nel): dof row 2p, column 2q
+        base = dim * dim * nptr[p_node] + dim * (slot - nptr[p_node])  # (nv, nv, nel): dof row d p, column d q
         d = deg[p_node]
-        i = np.arange(2)[None, :, None, None, None]
-        k = np.arange(2)[None, None, None, :, None]
-        scatter = base[:, None, :, None, :] + 2 * i * d[:, None, :, None, :] + k  # (3, 2, 3, 2, nel)
+        i = np.arange(dim)[None, :, None, None, None]
+        k = np.arange(dim)[None, None, None, :, None]
+        scatter = base[:, None, :, None, :] + dim * i * d[:, None, :, None, :] + k  # (nv, d, nv, d, nel)
         self._scatter = np.ascontiguousarray(scatter).reshape(-1).astype(np.intp)
         self._dofs_flat = dofs.reshape(-1).astype(np.intp)
 
@@ -154,6 +147,9 @@ class P1Assembler(_FixedPattern):
                 raise ParameterError("material", "material has per-quadrature-point fibers of shape "
                                      f"{shape}; the P1 path has one point per element: give fibers shaped "
                                      "(2, n_elements) (e.g. the normalised average over the points) or (2,)")
+            if self.dim == 3 and shape:
+                raise ParameterError("material", "material has fibers: fibre-reinforced materials are 2D only for "
+                                     "now, the mesh has tetrahedra")
             if len(shape) == 2 and shape[1] != self.n_elements:
                 raise ParameterError("material", f"material has per-element fibers of shape {shape}, but the "
                                      f"mesh has {self.n_elements} elements: expected (2, {self.n_elements})")
@@ -161,32 +157,33 @@ class P1Assembler(_FixedPattern):
         return m
 
     def _residual_from_F(self, m, F) -> np.ndarray:
-        P = np.broadcast_to(m.stress(F), (2, 2, self.n_elements))
-        r_loc = np.einsum("ije,aje->aie", P, self._GA)  # (3, 2, nel): row 2a+i
+        P = np.broadcast_to(m.stress(F), (self.dim, self.dim, self.n_elements))
+        r_loc = np.einsum("ije,aje->aie", P, self._GA)  # (d + 1, d, nel): row d a + i
         return np.bincount(self._dofs_flat, weights=r_loc.reshape(-1), minlength=self.n_dofs)
 
     def _tangent_from_F(self, m, F):
-        A = np.broadcast_to(m.tangent(F), (2, 2, 2, 2, self.n_elements))
-        K_loc = np.einsum("ijkle,aje,ble->aibke", A, self._GA, self._G)  # rows 2a+i, cols 2b+k
+        A = np.broadcast_to(m.tangent(F), (self.dim,) * 4 + (self.n_elements,))
+        K_loc = np.einsum("ijkle,aje,ble->aibke", A, self._GA, self._G)  # rows d a + i, cols d b + k
         data = np.bincount(self._scatter, weights=K_loc.reshape(-1), minlength=self.nnz)
         return self.csr(data)
 
     @property
     def grads(self) -> np.ndarray:
-        """``(n_elements, 3, 2)``: ``grads[e, a, j] = dN_a/dX_j`` (a view, do not modify)."""
+        """``(n_elements, d + 1, d)``: ``grads[e, a, j] = dN_a/dX_j`` (a view, do not modify)."""
         return self._G.transpose(2, 0, 1)
 
     @property
     def scatter(self) -> np.ndarray:
-        """``(6, 6, n_elements)``: CSR data position of each local matrix entry."""
-        return self._scatter.reshape(6, 6, self.n_elements)
+        """``(d (d + 1), d (d + 1), n_elements)``: CSR data position of each local matrix entry."""
+        size = self.dim * self.n_vertices
+        return self._scatter.reshape(size, size, self.n_elements)
 
     def deformation_gradient(self, u) -> np.ndarray:
-        """``F = I + grad u`` of every element, shaped ``[2, 2, n_elements]``."""
-        ue = self._check_u(u)[self.element_dofs].reshape(3, 2, self.n_elements)  # ue[a, i, e]
+        """``F = I + grad u`` of every element, shaped ``[d, d, n_elements]``."""
+        ue = self._check_u(u)[self.element_dofs].reshape(self.n_vertices, self.dim, self.n_elements)  # ue[a, i, e]
         F = np.einsum("aie,aje->ije", ue, self._G)
-        F[0, 0] += 1.0
-        F[1, 1] += 1.0
+        for i in range(self.dim):
+            F[i, i] += 1.0
         return F
 
     def energy(self, u, material=None) -> float:
@@ -209,46 +206,108 @@ class P1Assembler(_FixedPattern):
 
     def mass(self, density, lumped: bool = True) -> np.ndarray:
         """The mass matrix ``M_(a,i)(b,k) = int rho0 N_a N_b d_ik dX`` as data on this pattern: per element
-        ``rho0 A_e (1 + d_ab) / 12``, lumped ``rho0 A_e / 3`` per vertex (the row sum), ``A_e`` the material area."""
+        ``rho0 A_e (1 + d_ab) / 12``, lumped ``rho0 A_e / 3`` per vertex (the row sum), ``A_e`` the material area; on
+        tetrahedra ``rho0 V_e (1 + d_ab) / 20`` and ``rho0 V_e / 4``."""
         rho = check_density(density)
         data = np.zeros(self.nnz)
+        nv, dim = self.n_vertices, self.dim
         if lumped:
-            node_mass = np.bincount(self.t.ravel(), weights=np.tile(rho * self.areas / 3.0, 3), minlength=self.n_nodes)
-            data[self.diagonal] = np.repeat(node_mass, 2)
+            node_mass = np.bincount(self.t.ravel(), weights=np.tile(rho * self.areas / float(nv), nv),
+                                    minlength=self.n_nodes)
+            data[self.diagonal] = np.repeat(node_mass, dim)
             return data
-        local = (np.ones((3, 3)) + np.eye(3)) / 12.0  # int N_a N_b / A on a triangle
-        M_loc = np.einsum("ab,ik,e->aibke", local, np.eye(2), rho * self.areas)
+        local = (np.ones((nv, nv)) + np.eye(nv)) / float((dim + 1) * (dim + 2))  # int N_a N_b / A (12 or 20)
+        M_loc = np.einsum("ab,ik,e->aibke", local, np.eye(dim), rho * self.areas)
         return np.bincount(self._scatter, weights=M_loc.reshape(-1), minlength=self.nnz)
 
     def body_force(self, b) -> np.ndarray:
-        """``f_(a,i) = int N_a b_i dX`` for a constant body force ``b`` (force per unit reference area)."""
-        b = np.asarray(b, dtype=float)
-        share = np.bincount(self.t.ravel(), weights=np.tile(self.areas / 3.0, 3), minlength=self.n_nodes)
+        """``f_(a,i) = int N_a b_i dX`` for a constant body force ``b`` (force per unit reference area or volume)."""
+        b = check_body_force(b, self.dim)
+        nv = self.n_vertices
+        share = np.bincount(self.t.ravel(), weights=np.tile(self.areas / float(nv), nv), minlength=self.n_nodes)
         return (share[:, None] * b[None, :]).ravel()
 
     def __repr__(self):
-        return (f"P1Assembler({self.n_elements} triangles, {self.n_nodes} nodes, {self.n_dofs} dofs, "
+        return (f"P1Assembler({self.n_elements} {_ELEMENT_NAMES[self.dim]}, {self.n_nodes} nodes, {self.n_dofs} dofs, "
                 f"nnz={self.nnz}, material={self.material!r})")
 
 
+_ELEMENT_NAMES = {2: "triangles", 3: "tetrahedra"}
+
+
+def check_body_force(b, dim) -> np.ndarray:
+    """A constant body force (or acceleration) as a float vector of the mesh's dimension ``dim``."""
+    b = np.asarray(b, dtype=float)
+    if b.shape != (dim,):
+        raise ParameterError("body_force", f"body_force must be a vector of {dim} components (the mesh's dimension), "
+                                           f"got shape {b.shape}")
+    return b
+
+
+def _triangle_geometry(p, t):
+    """``(t, flipped, areas, G)`` of triangles: counter-clockwise copy of ``t``, the reoriented ones, areas and the
+    gradients ``G[a, j, e] = dN_a/dX_j``."""
+    x = p[:, t]  # (2, 3, nel)
+    det = (x[0, 1] - x[0, 0]) * (x[1, 2] - x[1, 0]) - (x[0, 2] - x[0, 0]) * (x[1, 1] - x[1, 0])
+    flipped = np.flatnonzero(det < 0)
+    if flipped.size:  # swap the 2nd and 3rd vertex of clockwise triangles
+        t = t.copy()
+        t[1:, flipped] = t[2:0:-1, flipped]
+        x = p[:, t]
+    d1, d2 = x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]
+    det = d1[0] * d2[1] - d1[1] * d2[0]  # twice the (now positive) area
+    # G[a, j, e] = dN_a/dX_j: rows of the inverse of the Jacobian [d1 d2]
+    G = np.empty((3, 2, t.shape[1]))
+    G[1, 0], G[1, 1] = d2[1] / det, -d2[0] / det
+    G[2, 0], G[2, 1] = -d1[1] / det, d1[0] / det
+    G[0] = -G[1] - G[2]
+    return t, flipped, 0.5 * det, G
+
+
+def _tetrahedron_geometry(p, t):
+    """:func:`_triangle_geometry` for tetrahedra: negatively oriented ones get their 3rd and 4th vertex swapped, the
+    volumes ``det J / 6`` and ``G`` the rows of ``J^-1``, ``J = [d1 d2 d3]`` (edges from vertex 0)."""
+    x = p[:, t]  # (3, 4, nel)
+    J = np.stack([x[:, 1] - x[:, 0], x[:, 2] - x[:, 0], x[:, 3] - x[:, 0]], axis=1)  # J[i, c] = (d_c)_i
+    det = np.einsum("ie,ie->e", J[:, 0], np.cross(J[:, 1], J[:, 2], axis=0))
+    flipped = np.flatnonzero(det < 0)
+    if flipped.size:
+        t = t.copy()
+        t[2:, flipped] = t[3:1:-1, flipped]
+        x = p[:, t]
+        J = np.stack([x[:, 1] - x[:, 0], x[:, 2] - x[:, 0], x[:, 3] - x[:, 0]], axis=1)
+        det = np.einsum("ie,ie->e", J[:, 0], np.cross(J[:, 1], J[:, 2], axis=0))
+    # row c of J^-1 is (d_{c+1} x d_{c+2}) / det: dN_{c+1}/dX
+    G = np.empty((4, 3, t.shape[1]))
+    for c in range(3):
+        G[c + 1] = np.cross(J[:, (c + 1) % 3], J[:, (c + 2) % 3], axis=0) / det
+    G[0] = -G[1] - G[2] - G[3]
+    return t, flipped, det / 6.0, G
+
+
 def _mesh_arrays(mesh):
-    """``(p, t)`` of a straight-sided scikit-fem triangle mesh, checked by :func:`~tissuefem.engine.meshes.check_mesh`
-    with ``cut=True``."""
+    """``(p, t)`` of a straight-sided scikit-fem triangle or tetrahedron mesh, checked by
+    :func:`~tissuefem.engine.meshes.check_mesh` with ``cut=True``."""
     if not (hasattr(mesh, "p") and hasattr(mesh, "t")):
-        raise ParameterError("mesh", f"mesh must be a scikit-fem MeshTri (with p and t), got {type(mesh).__name__}")
+        raise ParameterError("mesh", f"mesh must be a scikit-fem MeshTri or MeshTet (with p and t), got "
+                                     f"{type(mesh).__name__}")
     if getattr(mesh, "affine", True) is False:
-        raise ParameterError("mesh", "mesh must be a straight-sided linear (P1) triangle mesh, got a curved/high-order "
-                                     "mesh")
+        raise ParameterError("mesh", "mesh must be a straight-sided linear (P1) triangle or tetrahedron mesh, got a "
+                                     "curved/high-order mesh")
     return check_mesh(mesh.p, mesh.t, cut=True)
 
 
 def vector_basis(mesh, order: int = 1, intorder: int | None = None) -> Basis:
-    """scikit-fem's ``Basis(mesh, ElementVector(ElementTriP<order>()), intorder)`` (default degree ``2 order``): node
-    ``a`` has dofs ``2a, 2a + 1``, then come the P2 edge midpoints, every assembler's layout."""
+    """scikit-fem's ``Basis(mesh, ElementVector(ElementTriP<order>()), intorder)`` (``ElementTetP<order>`` on
+    tetrahedra; default degree ``2 order``): node ``a`` has dofs ``d a ... d a + d - 1``, then come the P2 edge
+    midpoints, every assembler's layout."""
     if order not in (1, 2):
         raise ParameterError("order", f"order must be 1 or 2, got {order!r}")
     intorder = check_count("intorder", 2 * order if intorder is None else intorder, 1, 19)
-    element = ElementVector(ElementTriP1() if order == 1 else ElementTriP2())
+    if np.shape(mesh.p)[0] == 3:
+        element = ElementVector(ElementTetP1() if order == 1 else ElementTetP2())
+    else:
+        element = ElementVector(ElementTriP1() if order == 1 else ElementTriP2())
     return Basis(mesh, element, intorder=intorder)
 
 
@@ -261,20 +320,21 @@ class QuadratureAssembler(_FixedPattern):
         if not isinstance(getattr(basis, "elem", None), ElementVector):
             raise ParameterError("basis", f"basis must be a scikit-fem Basis with an ElementVector element, got "
                                           f"{basis!r}")
-        _mesh_arrays(basis.mesh)
+        p, _ = _mesh_arrays(basis.mesh)
         self.basis, self.material = basis, material
-        self.n_local = nloc = len(basis.basis) // 2
+        self.dim = dim = p.shape[0]
+        self.n_local = nloc = len(basis.basis) // dim
         self.n_elements = basis.mesh.nelements
         # grad N_a and N_a: component 0 of the vector function N_a e_0
-        self._G = np.array([basis.basis[2 * a][0].grad[0] for a in range(nloc)])  # (nloc, 2, nel, nq)
-        self._N = np.array([np.asarray(basis.basis[2 * a][0])[0] for a in range(nloc)])  # (nloc, nel, nq)
+        self._G = np.array([basis.basis[dim * a][0].grad[0] for a in range(nloc)])  # (nloc, d, nel, nq)
+        self._N = np.array([np.asarray(basis.basis[dim * a][0])[0] for a in range(nloc)])  # (nloc, nel, nq)
         self._dx = basis.dx if weights is None else basis.dx * check_weights(weights, self.n_elements)[:, None]
         self._GW = self._G * self._dx
-        dofs = np.asarray(basis.element_dofs, dtype=np.int64)  # (2 nloc, nel), row 2 a + i
+        dofs = np.asarray(basis.element_dofs, dtype=np.int64)  # (d nloc, nel), row d a + i
         nel, n = dofs.shape[1], basis.N
         self.n_dofs, self._dofs, self._dofs_flat = n, dofs, dofs.reshape(-1)
-        rows = np.broadcast_to(dofs[:, None, :], (2 * nloc, 2 * nloc, nel)).reshape(-1)
-        cols = np.broadcast_to(dofs[None, :, :], (2 * nloc, 2 * nloc, nel)).reshape(-1)
+        rows = np.broadcast_to(dofs[:, None, :], (dim * nloc, dim * nloc, nel)).reshape(-1)
+        cols = np.broadcast_to(dofs[None, :, :], (dim * nloc, dim * nloc, nel)).reshape(-1)
         keys, inverse = np.unique(rows * n + cols, return_inverse=True)
         self.nnz = keys.size
         index_dtype = np.int32 if max(self.nnz, n) < np.iinfo(np.int32).max else np.int64
@@ -285,11 +345,11 @@ class QuadratureAssembler(_FixedPattern):
         self._scatter = inverse.reshape(-1)
 
     def deformation_gradient(self, u) -> np.ndarray:
-        """``F = I + grad u`` at every element and quadrature point, shaped ``[2, 2, nel, nq]``."""
-        ue = self._check_u(u)[self._dofs].reshape(self.n_local, 2, -1)
+        """``F = I + grad u`` at every element and quadrature point, shaped ``[d, d, nel, nq]``."""
+        ue = self._check_u(u)[self._dofs].reshape(self.n_local, self.dim, -1)
         F = np.einsum("aie,ajeq->ijeq", ue, self._G)
-        F[0, 0] += 1.0
-        F[1, 1] += 1.0
+        for i in range(self.dim):
+            F[i, i] += 1.0
         return F
 
     def energy(self, u, material=None) -> float:
@@ -314,7 +374,7 @@ class QuadratureAssembler(_FixedPattern):
         some dof would get no mass, as the vertices of P2 triangles do)."""
         rho = check_density(density)
         NN = np.einsum("aeq,beq,eq->abe", self._N, self._N, rho * self._dx)
-        M_loc = np.einsum("abe,ik->aibke", NN, np.eye(2))
+        M_loc = np.einsum("abe,ik->aibke", NN, np.eye(self.dim))
         data = np.bincount(self._scatter, weights=M_loc.reshape(-1), minlength=self.nnz)
         if not lumped:
             return data
@@ -328,13 +388,13 @@ class QuadratureAssembler(_FixedPattern):
 
     def body_force(self, b) -> np.ndarray:
         """``f_(a,i) = int N_a b_i dX`` for a constant body force ``b``."""
-        b = np.asarray(b, dtype=float)
+        b = check_body_force(b, self.dim)
         share = np.einsum("aeq,eq->ae", self._N, self._dx)  # (nloc, nel)
         f = np.einsum("ae,i->aie", share, b)
         return np.bincount(self._dofs_flat, weights=f.reshape(-1), minlength=self.n_dofs)
 
     def __repr__(self):
-        return f"{type(self).__name__}({self.n_elements} triangles, {self.n_dofs} dofs, nnz={self.nnz})"
+        return f"{type(self).__name__}({self.n_elements} {_ELEMENT_NAMES[self.dim]}, {self.n_dofs} dofs, nnz={self.nnz})"
 
 
 class FormsAssembler(QuadratureAssembler):

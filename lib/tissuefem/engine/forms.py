@@ -35,9 +35,9 @@ __all__ = ["deformation_gradient", "residual_form", "tangent_form", "energy_form
 
 
 def deformation_gradient(u) -> np.ndarray:
-    """``F = I + grad u`` for an interpolated displacement field; shape ``[2, 2, elements, points]``."""
+    """``F = I + grad u`` for an interpolated displacement field; shape ``[d, d, elements, points]``."""
     grad_u = grad(u)
-    return eye(np.ones_like(grad_u[0, 0]), 2) + grad_u
+    return eye(np.ones_like(grad_u[0, 0]), grad_u.shape[0]) + grad_u
 
 
 def residual_form(material: Material) -> LinearForm:
