@@ -105,7 +105,7 @@ def test_handles_move_and_the_last_one_wins():
     (lambda m, mat: Model(m, mat, handles=[Handle("left")], body_force=(np.nan, 0)), "body_force"),
     (lambda m, mat: Model(m, mat, order=3, handles=[Handle("left")]), "order"),
     (lambda m, mat: Handle("left", (np.inf, 0.0)), "finite"),
-    (lambda m, mat: Handle("left", (1.0, 2.0, 3.0)), "shape"),
+    (lambda m, mat: Model(m, mat, handles=[Handle("left", (1.0, 2.0, 3.0))]), "shape"),  # a 3D target, 2D mesh
     (lambda m, mat: Model(m, mat, handles=[Handle(np.array([0, 10_000]))]), "node indices"),
     (lambda m, mat: solve(Model(m, mat, handles=[Handle("left")]), load_steps=0), "load_steps"),
     (lambda m, mat: solve(Model(m, mat, handles=[Handle("left")], dt=0.1)), "dt"),

@@ -16,6 +16,10 @@ Node ``n`` has dofs ``(2 n, 2 n + 1)``, scikit-fem's order for ``ElementVector(E
 (scikit-fem sorts vertices) are reoriented in the copy ``self.t``. Measured at 8k triangles: ``np.bincount`` scatters
 in ~0.45 ms (``np.add.at`` ~0.57, sort + ``reduceat`` ~2); a plain ``einsum`` on element-last arrays takes ~0.6 ms
 (``optimize=True`` is ten times slower).
+
+The same code runs on tetrahedra (:class:`skfem.MeshTet`), the dimension ``d`` read from the mesh: ``F`` is ``d x d``,
+node ``n`` has dofs ``d n ... d n + d - 1``, ``A_e`` is the element's volume and the gradients are the rows of the
+inverse Jacobian of each element. Only the geometry (orientation, measure, gradients) has a formula per element kind.
 """
 
 from __future__ import annotations
@@ -146,13 +150,11 @@ class P1Assembler(_FixedPattern):
             if len(shape) == 3:
                 raise ParameterError("material", "material has per-quadrature-point fibers of shape "
                                      f"{shape}; the P1 path has one point per element: give fibers shaped "
-                                     "(2, n_elements) (e.g. the normalised average over the points) or (2,)")
-            if self.dim == 3 and shape:
-                raise ParameterError("material", "material has fibers: fibre-reinforced materials are 2D only for "
-                                     "now, the mesh has tetrahedra")
+                                     f"({self.dim}, n_elements) (e.g. the normalised average over the points) or "
+                                     f"({self.dim},)")
             if len(shape) == 2 and shape[1] != self.n_elements:
                 raise ParameterError("material", f"material has per-element fibers of shape {shape}, but the "
-                                     f"mesh has {self.n_elements} elements: expected (2, {self.n_elements})")
+                                     f"mesh has {self.n_elements} elements: expected ({self.dim}, {self.n_elements})")
             level = getattr(level, "base", None)
         return m
 

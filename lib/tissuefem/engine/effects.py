@@ -27,7 +27,7 @@ from .parameters import (ACCELERATION_MAX, CONTACT_STIFFNESS_MAX, FAR, FIBER_STI
                          TIME_STEP_RANGE, YOUNGS_MODULUS_RANGE, MAX_POINTS, ParameterError, check_bounded_vector,
                          check_contact_stiffness, check_penalty_stiffness, count_list, number, penalty, points, require, string, table,
                          vector)
-from .terms import Fibers, Inertia, Load, Probe, Sutures, Term, traction_vector
+from .terms import Fibers, Inertia, Load, Probe, Sutures, Term, refuse_3d, traction_vector
 
 __all__ = ["Effect", "EFFECTS", "register", "factory", "keyword_terms", "SkinContact", "median_segment",
            "youngs_modulus"]
@@ -101,12 +101,12 @@ def _check_gravity(field, e):
 
 
 def _gravity(model, p, scene):
-    g = check_bounded_vector("gravity", p["acceleration"], ACCELERATION_MAX)
+    g = check_bounded_vector("gravity", p["acceleration"], ACCELERATION_MAX, model.dim)
     return _body_load(model, "gravity", lambda m: m.density * g)
 
 
 def _body_force(model, p, scene):
-    b = check_bounded_vector("body_force", p["force"], FORCE_MAX)
+    b = check_bounded_vector("body_force", p["force"], FORCE_MAX, model.dim)
     return _body_load(model, "body force", lambda m: b)
 
 
@@ -190,6 +190,7 @@ def _check_probe(field, e):
 def _probes(model, entries, scene, first=0):
     """Rigid discs; default stiffness ``100 E / radius`` (penetration near 1 % of the radius at moderate pressure);
     ``first``: the index of the first entry (in refusals)."""
+    refuse_3d("probe", model.X)
     out = []
     for i, p in enumerate(entries, first):
         p = dict(p)
@@ -269,6 +270,7 @@ def _check_contact(field, e):
 def _contact(model, p, scene):
     """A scene's contact: the mesh's boundary, a skin of a quarter of its median segment and Young's modulus as the
     stiffness unless given. A model's ``contact`` keyword: ``distance, stiffness[, surface, skin]``, all given."""
+    refuse_3d("contact", model.X)
     if scene is None:
         if not isinstance(p, dict):
             raise ParameterError("contact", f"contact must be a dict (distance, stiffness[, surface, skin]), got {p!r}")

@@ -1,4 +1,5 @@
-"""The 2D domains the chapters use, as scikit-fem triangle meshes, and the one mesh validator (:func:`check_mesh`).
+"""The 2D domains the chapters use, as scikit-fem triangle meshes, a box of tetrahedra (:func:`box`) for 3D, and the
+one mesh validator (:func:`check_mesh`, triangles and tetrahedra).
 
 Every generator returns a deterministic, counter-clockwise :class:`skfem.MeshTri` (``sort_t=False``: scikit-fem's
 sorting makes the orientation arbitrary) with named boundaries (``mesh.boundaries[name]``). Structured meshes number

@@ -23,7 +23,7 @@ from .assembly import make_assembler
 from .constants import TISSUE_DENSITY
 from .contact import Contact
 from .effects import as_terms, keyword_terms
-from .materials import det2
+from .materials import det
 from .meshes import index_list
 from .parameters import (REACH, ParameterError, call_user, check_bounded_vector, check_count, check_density,
                          check_indices, check_real, check_real_array, check_vector, is_sequence)
@@ -48,10 +48,11 @@ def _selected(field, mask, points) -> np.ndarray:
 
 def region_nodes(mesh, region, field: str = "region") -> np.ndarray:
     """The mesh nodes (sorted indices) a region selects, ``ValueError`` naming ``field`` if none: a boundary
-    name (``"left"``), a ``mask(X) -> bool`` on the reference coordinates ``(2, n_nodes)``, a box
-    ``{"box": [x0, y0, x1, y1]}``, a disc ``{"near": [x, y], "radius": r}``, ``{"nodes": [...]}``, indices."""
+    name (``"left"``), a ``mask(X) -> bool`` on the reference coordinates ``(d, n_nodes)``, a box
+    ``{"box": [x0, y0, x1, y1]}``, a disc ``{"near": [x, y], "radius": r}``, ``{"nodes": [...]}``, indices. On a
+    tetrahedron mesh a box is ``[x0, y0, z0, x1, y1, z1]`` and a ball ``{"near": [x, y, z], "radius": r}``."""
     p = np.asarray(mesh.p, dtype=float)
-    n = p.shape[1]
+    dim, n = p.shape
     if isinstance(region, str):
         if mesh.boundaries is None or region not in mesh.boundaries:
             names = sorted(mesh.boundaries) if mesh.boundaries else []
@@ -61,17 +62,24 @@ def region_nodes(mesh, region, field: str = "region") -> np.ndarray:
         nodes = _selected(field, region, p)
     elif isinstance(region, dict) and "box" in region:
         box = region["box"]
-        if not is_sequence(box) or len(box) != 4:
-            raise ParameterError(f"{field}.box", f"{field}.box must be [x0, y0, x1, y1], got {box!r:.200}")
-        x0, y0, x1, y1 = (check_real(f"{field}.box[{i}]", b) for i, b in enumerate(box))
+        if not is_sequence(box) or len(box) != 2 * dim:
+            corners = "[x0, y0, x1, y1]" if dim == 2 else "[x0, y0, z0, x1, y1, z1]"
+            raise ParameterError(f"{field}.box", f"{field}.box must be {corners}, got {box!r:.200}")
+        bounds = [check_real(f"{field}.box[{i}]", b) for i, b in enumerate(box)]
         tol = 1e-9 * max(1.0, float(np.ptp(p)))
-        nodes = np.flatnonzero((p[0] >= x0 - tol) & (p[0] <= x1 + tol) & (p[1] >= y0 - tol) & (p[1] <= y1 + tol))
+        inside = np.ones(n, dtype=bool)
+        for i in range(dim):
+            inside &= (p[i] >= bounds[i] - tol) & (p[i] <= bounds[dim + i] + tol)
+        nodes = np.flatnonzero(inside)
     elif isinstance(region, dict) and "near" in region:
         if "radius" not in region:
             raise ValueError(f"{field}: a disc {{'near': [x, y], 'radius': r}} needs its radius")
-        centre = check_bounded_vector(f"{field}.near", region["near"], np.inf)
+        centre = check_bounded_vector(f"{field}.near", region["near"], np.inf, dim)
         radius = check_real(f"{field}.radius", region["radius"], 0.0, None)
-        d = np.hypot(p[0] - centre[0], p[1] - centre[1])
+        if dim == 2:
+            d = np.hypot(p[0] - centre[0], p[1] - centre[1])
+        else:
+            d = np.sqrt(np.sum((p - centre[:, None]) ** 2, axis=0))
         nodes = np.flatnonzero(d <= radius * (1 + 1e-9))
     else:
         raw = region["nodes"] if isinstance(region, dict) and "nodes" in region else region
@@ -81,9 +89,17 @@ def region_nodes(mesh, region, field: str = "region") -> np.ndarray:
         nodes = np.unique(check_indices(field, raw, n, "node indices"))
     if nodes.size == 0:
         lo, hi = p.min(axis=1), p.max(axis=1)
-        raise ValueError(f"{field}: selects no node of the mesh (it lies outside the domain, which spans "
-                         f"x {lo[0]:g}..{hi[0]:g}, y {lo[1]:g}..{hi[1]:g})")
+        spans = ", ".join(f"{c} {lo[i]:g}..{hi[i]:g}" for i, c in enumerate("xyz"[:dim]))
+        raise ValueError(f"{field}: selects no node of the mesh (it lies outside the domain, which spans {spans})")
     return nodes.astype(np.intp)
+
+
+def _dimension(mesh) -> int:
+    """The dimension of a mesh's points (2: triangles, 3: tetrahedra), refused by name otherwise."""
+    shape = np.shape(getattr(mesh, "p", None))
+    if len(shape) != 2 or shape[0] not in (2, 3):
+        raise ParameterError("mesh", f"mesh must be a scikit-fem MeshTri or MeshTet, got {type(mesh).__name__}")
+    return int(shape[0])
 
 
 # ------------------------------------------------------------------------------------------------ handles
@@ -99,19 +115,22 @@ def _map_positions(target, points, field) -> np.ndarray:
 
 
 def _check_target(target, points=None, field="target", reach=None):
-    """A checked target: a finite translation ``(2,)`` or a map finite at ``points``; with ``reach`` (``REACH``
-    domain sizes) its displacement may not exceed it in either component."""
+    """A checked target: a finite translation ``(d,)`` (``d`` the points' dimension; without points 2 or 3) or a map
+    finite at ``points``; with ``reach`` (``REACH`` domain sizes) its displacement may not exceed it in any
+    component."""
     if callable(target):
         if points is not None:
             x = _map_positions(target, points, field)
             if reach is not None and np.any(np.abs(x - points) > reach):
                 raise ValueError(f"{field}: the map moves points by more than {REACH:g} domain sizes ({reach:g})")
         return target
+    size = points.shape[0] if points is not None else 3 if is_sequence(target) and len(target) == 3 else 2
     try:
-        t = check_vector(field, target)
+        t = check_vector(field, target, size)
     except ParameterError:
-        raise ParameterError(field, f"{field} must be a translation (dx, dy) of finite real numbers, "
-                                    f"shape (2,), or a callable, got {target!r:.100}") from None
+        xy = "(dx, dy)" if size == 2 else "(dx, dy, dz)"
+        raise ParameterError(field, f"{field} must be a translation {xy} of finite real numbers, "
+                                    f"shape ({size},), or a callable, got {target!r:.100}") from None
     if reach is not None and np.any(np.abs(t) > reach):
         raise ValueError(f"{field} = {t.tolist()}: a displacement larger than {REACH:g} domain sizes ({reach:g})")
     return t
@@ -120,13 +139,13 @@ def _check_target(target, points=None, field="target", reach=None):
 class Handle:
     """Material points held at prescribed positions (a fixed edge, a pulled edge, a user's grab).
 
-    ``region``: anything :func:`region_nodes` takes. ``target``: a translation ``(dx, dy)`` (default: fixed)
-    or a map ``phi(X) -> x``, ``(2, n) -> (2, n)``. ``base`` (a grab, of node indices): the nodes'
+    ``region``: anything :func:`region_nodes` takes. ``target``: a translation ``(dx, dy)`` (``(dx, dy, dz)`` on
+    tetrahedra; default: fixed) or a map ``phi(X) -> x``, ``(d, n) -> (d, n)``. ``base`` (a grab, of node indices): the nodes'
     displacement ``(2, n_nodes)`` when grabbed; they are held at ``base + (phi(X) - X)``. ``name``: to find it
     by (else the model names it); ``anchor``: the point grabbed (a drag moves it by the mouse's offset).
     """
 
-    def __init__(self, region, target=(0.0, 0.0), *, base=None, name=None, anchor=None):
+    def __init__(self, region, target=None, *, base=None, name=None, anchor=None):
         if not (isinstance(region, (str, dict)) or callable(region)):
             arr = np.asarray(region)
             if arr.ndim != 1 or arr.size == 0 or not np.issubdtype(arr.dtype, np.integer) or arr.min() < 0:
@@ -137,19 +156,23 @@ class Handle:
             raise ValueError(f"name must be a string (or None: the model names the handle), got {name!r}")
         self.region = region
         self.name = name
-        self.anchor = None if anchor is None else check_vector("anchor", anchor)
+        self.anchor = None if anchor is None else check_vector(
+            "anchor", anchor, 3 if is_sequence(anchor) and len(anchor) == 3 else 2)
         self.base = None
         if base is not None:
             if isinstance(region, (str, dict)) or callable(region):
                 raise ValueError("base: a handle with a base displacement must be given node indices as its region")
             base = np.asarray(base, dtype=float)
-            if base.shape != (2, region.size) or not np.all(np.isfinite(base)):
-                raise ValueError(f"base must be finite and shaped (2, {region.size}), got shape {base.shape}")
+            if base.ndim != 2 or base.shape[0] not in (2, 3) or base.shape[1] != region.size \
+                    or not np.all(np.isfinite(base)):
+                raise ValueError(f"base must be finite and shaped (2, {region.size}) ((3, {region.size}) on "
+                                 f"tetrahedra), got shape {base.shape}")
             self.base = base
         self.nodes = None  # set when a model takes the handle
         self._points = None  # reference positions of its dofs' points (2, n), set by the model
         self._reach = None  # the largest displacement a target may prescribe, set by the model
-        self.target = _check_target(target)
+        self._fixed = target is None  # held where it is: zeros of the mesh's dimension when a model takes it
+        self.target = _check_target((0.0, 0.0) if target is None else target)
 
     def move(self, target) -> None:
         """Set a new target (a translation or a map): user input enters here, checked; a refusal keeps the old."""
@@ -177,7 +200,7 @@ class Handle:
             return None
         base = None if self.base is None else self.base[:, index[new_nodes]]
         h = Handle(new_nodes, base=base, name=self.name, anchor=self.anchor)
-        h.target = self.target
+        h.target, h._fixed = self.target, self._fixed
         h.nodes = new_nodes  # its region is these nodes: known before any model takes it
         h._reach = self._reach
         return h
@@ -192,7 +215,7 @@ class Handle:
 class Pattern:
     """The model's fixed CSR sparsity pattern: the assembler's, widened by the terms' couplings. ``base_positions``
     maps the assembler's entries into it (``None``: the same); ``node_block[i, j, a]`` is the position of the entry
-    (``2a + i``, ``2a + j``) of vertex ``a``'s diagonal block."""
+    (``d a + i``, ``d a + j``) of vertex ``a``'s diagonal block (``d`` the mesh's dimension)."""
 
     def __init__(self, assembler, n_vertices, couplings=()):
         n = assembler.n_dofs
@@ -230,10 +253,11 @@ class Pattern:
             self.base_positions = np.arange(base_keys.size) + shift
         self.nnz = self._keys.size
         nodes = np.arange(n_vertices, dtype=np.int64)
-        self.node_block = np.empty((2, 2, n_vertices), dtype=np.intp)
-        for i in range(2):
-            for j in range(2):
-                self.node_block[i, j] = self.positions((2 * nodes + i), (2 * nodes + j))
+        d = getattr(assembler, "dim", 2)
+        self.node_block = np.empty((d, d, n_vertices), dtype=np.intp)
+        for i in range(d):
+            for j in range(d):
+                self.node_block[i, j] = self.positions((d * nodes + i), (d * nodes + j))
 
     def positions(self, rows, cols) -> np.ndarray:
         """Positions in the data array of the entries ``(rows, cols)`` (which must be in the pattern)."""
@@ -267,7 +291,7 @@ def _check_material_at_rest(assembler, material) -> None:
     wrong object is refused where it enters rather than in the middle of a step."""
     F = assembler.deformation_gradient(np.zeros(assembler.n_dofs))
     rest = F.shape[2:]
-    expected = {"energy": rest, "stress": F.shape, "tangent": (2, 2) + F.shape}
+    expected = {"energy": rest, "stress": F.shape, "tangent": F.shape[:2] + F.shape}
     for method, shape in expected.items():
         with np.errstate(all="ignore"):
             value = np.asarray(call_user("material", f"{method}(F) at rest", getattr(material, method), F))
@@ -291,8 +315,14 @@ class Holding:
     def _handle_dofs(self, h: Handle, nodes) -> tuple[np.ndarray, np.ndarray]:
         """The dofs a handle holding ``nodes`` holds, and each dof's node's index in ``nodes`` (-1: P2 edge dofs)."""
         dofs = [self.basis.nodal_dofs[:, nodes].ravel()]
-        owner = [np.tile(np.arange(nodes.size), 2)]
-        if self.order == 2:
+        owner = [np.tile(np.arange(nodes.size), self.dim)]
+        if self.order == 2 and self.dim == 3:  # P2 tetrahedra: the mid-edge dofs of the edges whose ends are held
+            held = np.zeros(self.mesh.nvertices, dtype=bool)
+            held[nodes] = True
+            edges = np.flatnonzero(held[self.mesh.edges[0]] & held[self.mesh.edges[1]])
+            dofs.append(self.basis.edge_dofs[:, edges].ravel())
+            owner.append(np.full(3 * edges.size, -1))
+        elif self.order == 2:
             mesh = self.mesh
             if isinstance(h.region, str):
                 edges = np.asarray(mesh.boundaries[h.region])
@@ -313,8 +343,9 @@ class Holding:
             raise ValueError(f"handles must be Handle objects, got {handle!r}")
         field = f"handle {handle.name!r} region" if handle.name else "handle region"
         nodes = region_nodes(self.mesh, handle.region, field)
-        if handle.base is not None and handle.base.shape[1] != nodes.size:
-            raise ValueError(f"handle {handle.name!r}: base has {handle.base.shape[1]} columns for {nodes.size} nodes")
+        if handle.base is not None and handle.base.shape != (self.dim, nodes.size):
+            raise ValueError(f"handle {handle.name!r}: base has shape {handle.base.shape}, expected "
+                             f"({self.dim}, {nodes.size}) (the mesh's dimension, one column per node)")
         if handle.base is not None and self.order != 1:
             raise ValueError("handles with a base displacement (grabs) need order=1")
         names = {h.name for h in self.handles}
@@ -327,7 +358,14 @@ class Holding:
         dofs, owner = self._handle_dofs(handle, nodes)
         points = self.dof_points[:, dofs]
         reach = REACH * self.size
-        _check_target(handle.target, points, f"handle {name!r} target", reach)
+        target = handle.target
+        if getattr(handle, "_fixed", False) and not callable(target) and target.size != self.dim and not target.any():
+            target = np.zeros(self.dim)  # made without a target: held where it is, in the mesh's dimension
+        _check_target(target, points, f"handle {name!r} target", reach)
+        if handle.anchor is not None and handle.anchor.size != self.dim:
+            raise ParameterError("anchor", f"handle {name!r}: anchor must have {self.dim} coordinates (the mesh's "
+                                           f"dimension), got {handle.anchor.size}")
+        handle.target = target
         handle.name, handle.nodes, handle._reach = name, nodes, reach
         handle._points, handle._dofs, handle._owner = points, dofs, owner
         self.handles.append(handle)
@@ -398,18 +436,20 @@ class Holding:
         return unique.astype(np.intp), values[::-1][first_in_reversed]
 
     def reaction(self, u, handle) -> np.ndarray:
-        """The resultant force ``(f1, f2)`` the handle exerts on the body at ``u`` (at equilibrium, what a
-        haptic device would render): the sum of ``f_int - f_ext`` over the handle's dofs, per component."""
+        """The resultant force ``(f1, f2)`` (``(f1, f2, f3)`` in 3D) the handle exerts on the body at ``u`` (at
+        equilibrium, what a haptic device would render): the sum of ``f_int - f_ext`` over the handle's dofs, per
+        component."""
         h = handle if isinstance(handle, Handle) else self.handle(handle)
         q = self.internal_force(u) - self.external
         dofs = np.unique(h._dofs)
-        return np.array([q[dofs[self.component[dofs] == i]].sum() for i in range(2)])
+        return np.array([q[dofs[self.component[dofs] == i]].sum() for i in range(self.dim)])
 
 
 class Model(Holding):
     """A hyperelastic body (mesh, displacement basis, material) and exactly the terms acting on it.
 
-    ``mesh``: a ``skfem.MeshTri`` of straight triangles (degenerate or folded ones are refused); ``material``:
+    ``mesh``: a ``skfem.MeshTri`` of straight triangles (degenerate or folded ones are refused) or a
+    ``skfem.MeshTet`` (3D: elastic, inertia, loads and handles; the other effects and cuts refuse it); ``material``:
     the :class:`~tissuefem.engine.terms.Elastic` term's (:mod:`.materials`, :mod:`.inversion`); ``order``: P1
     or P2, ``intorder``: the quadrature degree (default ``2 order``), ``assembly``: ``"fast"`` or ``"forms"``
     (the readable reference); ``terms``: more :class:`~tissuefem.engine.terms.Term` objects or factories
@@ -417,8 +457,8 @@ class Model(Holding):
     per unit reference area; ``weights``: per-element material fractions (elements cut through).
 
     Shorthands for the common terms (:mod:`.effects`): ``dt`` (s) with ``mass`` ``"lumped"`` or
-    ``"consistent"`` (backward Euler; without: quasistatic); ``gravity`` ``(gx, gy)``; ``body_force`` ``(bx,
-    by)`` per unit area; ``tractions`` ``{boundary: (tx, ty)}`` per unit length; ``fibers`` ``(stiffness,
+    ``"consistent"`` (backward Euler; without: quasistatic); ``gravity`` ``(gx, gy)`` (``(gx, gy, gz)`` in 3D);
+    ``body_force`` ``(bx, by)`` per unit area (volume); ``tractions`` ``{boundary: (tx, ty)}`` per unit length; ``fibers`` ``(stiffness,
     directions)``; ``probes``: dicts ``center, radius, stiffness[, label, smoothing]``; ``sutures``: ``pairs,
     stiffness, gaps[, tightness, coefficients]``; ``contact``: ``distance, stiffness[, surface, skin]``.
     """
@@ -439,10 +479,14 @@ class Model(Holding):
         made = keyword_terms(dt=dt, mass=mass, gravity=gravity, body_force=body_force, tractions=tractions,
                              fibers=fibers, probes=probes, sutures=sutures, contact=contact)
         self.mesh, self.order, self.intorder, self.assembly, self.weights = mesh, order, intorder, assembly, weights
+        self.dim = dim = _dimension(mesh)
+        if dim == 3 and weights is not None:
+            raise ParameterError("weights", "weights: cuts through elements are 2D only for now; the mesh has "
+                                            "tetrahedra")
         self.basis, self.assembler = make_assembler(mesh, order=order, intorder=intorder, assembly=assembly,
                                                     weights=weights)
         n = self.basis.N
-        if not np.array_equal(self.basis.nodal_dofs, np.arange(2 * mesh.nvertices).reshape(-1, 2).T):
+        if not np.array_equal(self.basis.nodal_dofs, np.arange(dim * mesh.nvertices).reshape(-1, dim).T):
             raise RuntimeError("unexpected dof numbering of the vector basis")
         self.n_dofs = n
         self.X = np.asarray(mesh.p, dtype=float)
@@ -451,9 +495,10 @@ class Model(Holding):
         self.material = material
         # which component each dof carries, and where it sits
         self.component = np.empty(n, dtype=np.intp)
-        self.component[self.basis.nodal_dofs] = [[0], [1]]
+        self.component[self.basis.nodal_dofs] = np.arange(dim)[:, None]
         if order == 2:
-            self.component[self.basis.facet_dofs] = [[0], [1]]
+            mid = self.basis.facet_dofs if dim == 2 else self.basis.edge_dofs  # P2's mid-edge dofs
+            self.component[mid] = np.arange(dim)[:, None]
         self.dof_points = np.asarray(self.basis.doflocs, dtype=float)
         self._meshmap, self._boundary_lengths = _meshmap, None  # a probe's surface weights, when first asked for
         elastic = Elastic(self.assembler, material)
@@ -539,6 +584,8 @@ class Model(Holding):
         the weights of ``meshmap``. P1 only."""
         if self.order != 1:
             raise ParameterError("order", "remapped: a topology change needs P1 elements (order=1)")
+        if self.dim != 2:
+            raise ParameterError("mesh", "remapped: cuts and excisions are 2D only for now; the mesh has tetrahedra")
         carried = [t.remap(meshmap) for t in self.terms if not isinstance(t, Elastic)]
         handles = [m for m in (h.remap(meshmap.parent, meshmap.material) for h in self.handles) if m is not None]
         model = Model(meshmap.mesh, self.material, order=1, intorder=self.intorder, assembly=self.assembly,
@@ -676,11 +723,11 @@ class Model(Holding):
         return np.zeros(self.n_dofs)
 
     def nodal_displacement(self, u) -> np.ndarray:
-        """Displacement at the mesh vertices ``(2, n_vertices)``."""
+        """Displacement at the mesh vertices ``(d, n_vertices)``."""
         return np.asarray(u)[self.basis.nodal_dofs]
 
     def positions(self, u) -> np.ndarray:
-        """Deformed vertex positions ``x = X + u`` ``(2, n_vertices)``."""
+        """Deformed vertex positions ``x = X + u`` ``(d, n_vertices)``."""
         return self.X + self.nodal_displacement(u)
 
     deformed_positions = positions
@@ -691,13 +738,13 @@ class Model(Holding):
         return a if a is not None else np.asarray(self.assembler._dx.sum(axis=1))
 
     def deformation_gradient(self, u) -> np.ndarray:
-        """``F = I + grad u``: ``[2, 2, n_elements]`` for P1, ``[2, 2, n_elements, n_points]`` otherwise."""
+        """``F = I + grad u``: ``[d, d, n_elements]`` for P1, ``[d, d, n_elements, n_points]`` otherwise."""
         return self.assembler.deformation_gradient(self._check_u(u))
 
     def jacobian(self, u) -> np.ndarray:
-        """``J = det F``, the ratio of deformed to rest area: ``(n_elements,)`` for P1, ``(n_elements, n_points)``
-        otherwise. ``J <= 0``: the element is inverted (or flat) there."""
-        return det2(self.deformation_gradient(u))
+        """``J = det F``, the ratio of deformed to rest area (volume): ``(n_elements,)`` for P1, ``(n_elements,
+        n_points)`` otherwise. ``J <= 0``: the element is inverted (or flat) there."""
+        return det(self.deformation_gradient(u))
 
     def stress(self, u) -> np.ndarray:
         """First Piola-Kirchhoff stress of every element (or quadrature point): the element terms' P summed."""
@@ -708,21 +755,25 @@ class Model(Holding):
         """Cauchy stress ``sigma = P F^T / J``: the force per unit *deformed* area (see chapter 3)."""
         F = self.deformation_gradient(u)
         P = np.broadcast_to(self._density.stress(F), F.shape)
-        J = det2(F)
+        J = det(F)
         with np.errstate(divide="ignore", invalid="ignore"):
             return np.einsum("ik...,jk...->ij...", P, F) / J
 
     def tension(self, u) -> np.ndarray:
         """The largest principal Cauchy stress of every element (positive = pulled apart)."""
         s = self.cauchy_stress(u)
+        if self.dim == 3:  # the largest eigenvalue of the symmetric part
+            sym = 0.5 * (s + s.swapaxes(0, 1))
+            return np.linalg.eigvalsh(np.moveaxis(sym, (0, 1), (-2, -1)))[..., -1]
         mean = 0.5 * (s[0, 0] + s[1, 1])
         radius = np.hypot(0.5 * (s[0, 0] - s[1, 1]), 0.5 * (s[0, 1] + s[1, 0]))
         return mean + radius
 
     def total_mass(self) -> float:
-        """``rho0`` times the material area."""
+        """``rho0`` times the material area (volume)."""
         return self.density * float(self.element_areas().sum())
 
     def __repr__(self):
-        return (f"Model({self.mesh.nelements} triangles, P{self.order}, {self.n_dofs} dofs, "
+        kind = "triangles" if self.dim == 2 else "tetrahedra"
+        return (f"Model({self.mesh.nelements} {kind}, P{self.order}, {self.n_dofs} dofs, "
                 f"terms {self.term_names}, {len(self.handles)} handles)")

@@ -123,17 +123,18 @@ def call_user(field: str, what: str, function, *args):
         raise ParameterError(field, f"{field}: the {what} raised {type(err).__name__}: {err}") from None
 
 
-def check_vector(name, value) -> np.ndarray:
-    """A finite vector ``(x, y)`` of real numbers, or a ``ValueError`` naming ``name``."""
+def check_vector(name, value, size: int = 2) -> np.ndarray:
+    """A finite vector ``(x, y)`` (``size=3``: ``(x, y, z)``) of real numbers, or a ``ValueError`` naming ``name``."""
+    xy = "(x, y)" if size == 2 else "(x, y, z)"
     try:
         v = np.asarray(value)
     except (TypeError, ValueError):
-        raise ParameterError(name, f"{name} must be a finite vector (x, y), got {value!r}") from None
+        raise ParameterError(name, f"{name} must be a finite vector {xy}, got {value!r}") from None
     if v.dtype.kind not in "iuf":  # strings, booleans, objects; complex would lose its imaginary part
-        raise ParameterError(name, f"{name} must be a finite vector (x, y) of real numbers, got {value!r}")
+        raise ParameterError(name, f"{name} must be a finite vector {xy} of real numbers, got {value!r}")
     v = v.astype(float)
-    if v.shape != (2,) or not np.all(np.isfinite(v)):
-        raise ParameterError(name, f"{name} must be a finite vector (x, y), got {value!r}")
+    if v.shape != (size,) or not np.all(np.isfinite(v)):
+        raise ParameterError(name, f"{name} must be a finite vector {xy}, got {value!r}")
     return v
 
 
@@ -219,11 +220,13 @@ def check_penalty_stiffness(name: str, stiffness, modulus, radius=None, *, posit
     return value
 
 
-def check_bounded_vector(name: str, value, bound: float) -> np.ndarray:
-    """A vector ``(x, y)`` of real numbers each within ``+-bound``, else a ``ValueError`` naming ``name`` (refused
-    like :func:`check_real`: bools, strings, complex numbers, NaN, infinities, and vectors of another shape)."""
-    if not is_sequence(value) or len(value) != 2:
-        raise ParameterError(name, f"{name} must be a vector (x, y) of two real numbers, got {show(value)}")
+def check_bounded_vector(name: str, value, bound: float, size: int = 2) -> np.ndarray:
+    """A vector ``(x, y)`` (``size=3``: ``(x, y, z)``) of real numbers each within ``+-bound``, else a ``ValueError``
+    naming ``name`` (refused like :func:`check_real`: bools, strings, complex numbers, NaN, infinities, and vectors of
+    another shape)."""
+    if not is_sequence(value) or len(value) != size:
+        what = "(x, y) of two" if size == 2 else "(x, y, z) of three"
+        raise ParameterError(name, f"{name} must be a vector {what} real numbers, got {show(value)}")
     return np.array([check_real(f"{name}[{i}]", v, -bound, bound) for i, v in enumerate(value)])
 
 

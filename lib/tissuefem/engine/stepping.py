@@ -236,15 +236,16 @@ def _roundoff_floors(model: Model) -> tuple[float, float]:
     ``|A(I)| sqrt(A_e)`` summed at the nodes (``|grad N| ~ 1/h``), is thousands of times that error and far
     below any tolerance asked for; the energy's is ``_ROUNDOFF`` times the sum of ``|A(I)| A_e``.
     """
-    F = np.eye(2).reshape(2, 2, 1)
+    d = model.X.shape[0]
+    F = np.eye(d).reshape(d, d, 1)
     with np.errstate(all="ignore"):
         A = np.asarray(model._density.tangent(F))
     modulus = float(np.nanmax(np.abs(A))) if np.any(np.isfinite(A)) else 1.0
     areas = model.element_areas()
     per_element = modulus * np.sqrt(areas)
     t = model.mesh.t
-    nodal = np.bincount(t.ravel(), weights=np.tile(per_element, 3), minlength=model.mesh.nvertices)
-    return _ROUNDOFF * math.sqrt(2.0) * float(np.linalg.norm(nodal)), _ROUNDOFF * modulus * float(areas.sum())
+    nodal = np.bincount(t.ravel(), weights=np.tile(per_element, t.shape[0]), minlength=model.mesh.nvertices)
+    return _ROUNDOFF * math.sqrt(float(d)) * float(np.linalg.norm(nodal)), _ROUNDOFF * modulus * float(areas.sum())
 
 
 class Stepper:
@@ -351,7 +352,7 @@ class Stepper:
 
     def momentum(self) -> np.ndarray:
         inertia = self.model.inertia
-        return np.zeros(2) if inertia is None else inertia.momentum(self.v)
+        return np.zeros(self.model.X.shape[0]) if inertia is None else inertia.momentum(self.v)
 
     def total_energy(self) -> float:
         """Kinetic plus stored energy minus the work potential of the constant loads."""

@@ -36,7 +36,7 @@ from .parameters import (FORCE_MAX, RADIUS_RANGE, REACH, YOUNGS_MODULUS_RANGE, P
                          check_real_array, check_time_step, check_vector, check_weights)
 
 __all__ = ["Term", "ElementTerm", "Elastic", "GhostPenalty", "GHOST_WEIGHT", "GHOST_PENALTY", "Fibers", "Inertia",
-           "Load", "Probe", "Sutures", "traction_vector", "SummedDensity", "extent", "boundary_lengths",
+           "Load", "Probe", "Sutures", "traction_vector", "SummedDensity", "extent", "refuse_3d", "boundary_lengths",
            "surface_lengths"]
 
 
@@ -273,6 +273,8 @@ class Fibers(ElementTerm):
     name = "fibers"
 
     def __init__(self, assembler, stiffness, directions):
+        if getattr(assembler, "dim", 2) != 2:
+            raise ParameterError("fibers", "fibers: fibre directions are 2D only for now; the mesh has tetrahedra")
         super().__init__(assembler)
         self.stiffness = check_fiber_stiffness(stiffness, "fibers.stiffness")
         nel = assembler.n_elements
@@ -360,8 +362,8 @@ class Inertia(Term):
         return 0.5 * float(v @ self.matvec(v))
 
     def momentum(self, v) -> np.ndarray:
-        p = self.matvec(v)
-        return np.array([p[0::2].sum(), p[1::2].sum()])
+        p, d = self.matvec(v), getattr(self.assembler, "dim", 2)
+        return np.array([p[i::d].sum() for i in range(d)])
 
     def describe(self):
         return f"inertia: dt = {self.dt:g}, {self.mass_kind} mass, rho0 = {self.density:g}"
@@ -403,6 +405,14 @@ class Load(Term):
         return lambda model: Load(self.name, self.make(model), self.make)
 
 
+def refuse_3d(effect: str, X) -> None:
+    """A :class:`ParameterError` naming ``effect`` if the points ``X`` are 3D: the effects still 2D only (probes,
+    sutures, fibres, contact, cuts) refuse a tetrahedron mesh where they enter."""
+    if np.shape(X)[0] != 2:
+        raise ParameterError(effect, f"{effect}: this effect is 2D only for now; the mesh has tetrahedra (points "
+                                     f"shaped {np.shape(X)})")
+
+
 def extent(X) -> tuple[np.ndarray, float]:
     """The centre of the bounding box of the points ``X`` ``(2, n)`` and its larger side (the domain's size)."""
     lo, hi = X.min(axis=1), X.max(axis=1)
@@ -442,9 +452,10 @@ def surface_lengths(meshmap) -> np.ndarray:
 
 
 def traction_vector(basis, boundary, traction) -> np.ndarray:
-    """``f_(a,i) = int_boundary N_a t_i dS`` for a constant traction ``t`` (force per unit reference length)."""
-    t = check_bounded_vector(f"tractions[{boundary!r}]", traction, FORCE_MAX)
+    """``f_(a,i) = int_boundary N_a t_i dS`` for a constant traction ``t`` (force per unit reference length, or
+    area on tetrahedra)."""
     mesh = basis.mesh
+    t = check_bounded_vector(f"tractions[{boundary!r}]", traction, FORCE_MAX, mesh.p.shape[0])
     if mesh.boundaries is None or boundary not in mesh.boundaries:
         names = sorted(mesh.boundaries) if mesh.boundaries else []
         raise ParameterError("tractions", f"tractions: {boundary!r} is not a boundary of the mesh; boundaries: {names}")
@@ -456,6 +467,8 @@ def traction_vector(basis, boundary, traction) -> np.ndarray:
 
     @LinearForm
     def traction_form(v, w):
+        if t.size == 3:
+            return t[0] * v[0] + t[1] * v[1] + t[2] * v[2]
         return t[0] * v[0] + t[1] * v[1]
 
     return asm(traction_form, fb)
@@ -484,6 +497,7 @@ class Probe(Term):
     has_safe_hessian = True  # the normal part of the Hessian is positive semi-definite
 
     def __init__(self, X, boundary_lengths, center, radius, stiffness, label=None, smoothing=0.02):
+        refuse_3d("probe", X)
         self.X = X
         self.n_nodes = X.shape[1]
         self.length = np.asarray(boundary_lengths, dtype=float)
@@ -591,6 +605,7 @@ class Sutures(Term):
     rank = 3
 
     def __init__(self, X, pairs, stiffness, gaps, tightness=0.0, coefficients=None):
+        refuse_3d("sutures", X)
         self.X = X
         self.n_nodes = X.shape[1]
         try:
