@@ -19,6 +19,10 @@ term                   energy                                                   
 Inertia carries ``1/dt^2`` so that the gradient of ``W(u) - f.u + Inertia(u)`` is exactly the notes' residual
 ``q = M (u - u~)/dt^2 + f_int(u) - f_ext`` (with the README's errata): a force, as in a quasistatic step. The
 chapters' ``E = 1/2 |u - u~|_M^2 + dt^2 [W - f.u]`` is this potential times ``dt^2``: the same minimiser.
+
+On a tetrahedron mesh the elastic term, inertia and the loads work unchanged (the dimension comes from the mesh);
+fibres, probes, sutures, contact and the ghost penalty of cuts are 2D only for now and refuse it by name
+(:func:`refuse_3d`).
 """
 
 from __future__ import annotations
