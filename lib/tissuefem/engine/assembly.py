@@ -396,7 +396,8 @@ class QuadratureAssembler(_FixedPattern):
         return np.bincount(self._dofs_flat, weights=f.reshape(-1), minlength=self.n_dofs)
 
     def __repr__(self):
-        return f"{type(self).__name__}({self.n_elements} {_ELEMENT_NAMES[self.dim]}, {self.n_dofs} dofs, nnz={self.nnz})"
+        return (f"{type(self).__name__}({self.n_elements} {_ELEMENT_NAMES[self.dim]}, {self.n_dofs} dofs, "
+                f"nnz={self.nnz})")
 
 
 class FormsAssembler(QuadratureAssembler):

@@ -140,9 +140,10 @@ class Handle:
     """Material points held at prescribed positions (a fixed edge, a pulled edge, a user's grab).
 
     ``region``: anything :func:`region_nodes` takes. ``target``: a translation ``(dx, dy)`` (``(dx, dy, dz)`` on
-    tetrahedra; default: fixed) or a map ``phi(X) -> x``, ``(d, n) -> (d, n)``. ``base`` (a grab, of node indices): the nodes'
-    displacement ``(2, n_nodes)`` when grabbed; they are held at ``base + (phi(X) - X)``. ``name``: to find it
-    by (else the model names it); ``anchor``: the point grabbed (a drag moves it by the mouse's offset).
+    tetrahedra, its size checked when a model takes the handle; default: fixed) or a map ``phi(X) -> x``, ``(d, n)
+    -> (d, n)``. ``base`` (a grab, of node indices): the nodes' displacement ``(d, n_nodes)`` when grabbed; they are
+    held at ``base + (phi(X) - X)``. ``name``: to find it by (else the model names it); ``anchor``: the point
+    grabbed (a drag moves it by the mouse's offset).
     """
 
     def __init__(self, region, target=None, *, base=None, name=None, anchor=None):
@@ -458,9 +459,10 @@ class Model(Holding):
 
     Shorthands for the common terms (:mod:`.effects`): ``dt`` (s) with ``mass`` ``"lumped"`` or
     ``"consistent"`` (backward Euler; without: quasistatic); ``gravity`` ``(gx, gy)`` (``(gx, gy, gz)`` in 3D);
-    ``body_force`` ``(bx, by)`` per unit area (volume); ``tractions`` ``{boundary: (tx, ty)}`` per unit length; ``fibers`` ``(stiffness,
-    directions)``; ``probes``: dicts ``center, radius, stiffness[, label, smoothing]``; ``sutures``: ``pairs,
-    stiffness, gaps[, tightness, coefficients]``; ``contact``: ``distance, stiffness[, surface, skin]``.
+    ``body_force`` ``(bx, by)`` per unit area (volume); ``tractions`` ``{boundary: (tx, ty)}`` per unit length
+    (area); ``fibers`` ``(stiffness, directions)``; ``probes``: dicts ``center, radius, stiffness[, label,
+    smoothing]``; ``sutures``: ``pairs, stiffness, gaps[, tightness, coefficients]``; ``contact``: ``distance,
+    stiffness[, surface, skin]``.
     """
 
     def __init__(self, mesh, material, *, order: int = 1, intorder: int | None = None, assembly: str = "fast",
