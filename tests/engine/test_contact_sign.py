@@ -45,10 +45,15 @@ def star_polygons(draw):
     gaps = np.array(draw(st.lists(st.floats(0.2, 1.0), min_size=n, max_size=n)))
     angles = draw(st.floats(0.0, 2 * np.pi)) + 2 * np.pi * np.cumsum(gaps) / gaps.sum()
     radii = np.array(draw(st.lists(st.floats(0.2, 1.0), min_size=n, max_size=n)))
-    return np.stack([radii * np.cos(angles), radii * np.sin(angles)], axis=1)
+    poly = np.stack([radii * np.cos(angles), radii * np.sin(angles)], axis=1)
+    # no straight corner (three vertices in a line, e.g. a flat triangle, has no inside to test)
+    e1, e2 = poly - np.roll(poly, 1, axis=0), np.roll(poly, -1, axis=0) - poly
+    turn = np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]) / (np.hypot(*e1.T) * np.hypot(*e2.T))
+    assume(turn.min() > 0.05)
+    return poly
 
 
-@settings(max_examples=300, deadline=None)
+@settings(max_examples=300, deadline=None, derandomize=True, database=None)
 @given(star_polygons(), st.booleans(), st.floats(-1.2, 1.2), st.floats(-1.2, 1.2))
 def test_the_gap_is_negative_exactly_inside_the_material(poly, hole, x, y):
     q = np.array([x, y])
@@ -59,7 +64,7 @@ def test_the_gap_is_negative_exactly_inside_the_material(poly, hole, x, y):
     assert (signs[0] < 0) == inside
 
 
-@settings(max_examples=100, deadline=None)
+@settings(max_examples=100, deadline=None, derandomize=True, database=None)
 @given(star_polygons(), st.integers(0, 11), st.floats(0.01, 0.5), st.booleans())
 def test_points_on_a_corners_bisector_take_the_pseudonormals_sign(poly, corner, r, hole):
     # equally near both segments of a corner: the tie gives one answer, the right one

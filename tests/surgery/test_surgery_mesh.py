@@ -13,13 +13,13 @@ from hypothesis import strategies as st
 from skfem import Basis, ElementTriP1, ElementVector, MeshTri
 
 from tissuefem.engine.meshes import mesh_with_about, rectangle, signed_areas
+from tissuefem.engine.model import region_nodes
 from tissuefem.surgery.topology import (
     connected_components,
     cut_path,
     duplicate_along_edges,
     excise,
     incise,
-    nodes_near,
 )
 
 ACROSS = [[0.5, -0.2], [0.5, 1.2]]  # a vertical stroke across the unit square
@@ -188,7 +188,7 @@ def test_crossing_cuts_make_four_pieces():
         edges.append(np.stack([path[:-1], path[1:]]))
     new_t, parent = duplicate_along_edges(mesh.t, mesh.p.shape[1], np.concatenate(edges, axis=1))
     assert connected_components(new_t, parent.size)[0] == 4
-    centre = int(nodes_near(mesh.p, [0.5, 0.5], 1e-9)[0])
+    centre = int(region_nodes(mesh, {"near": [0.5, 0.5], "radius": 1e-9})[0])
     assert np.count_nonzero(parent == centre) == 4
     # 4 ends on the boundary and 2 x 6 inner path nodes get one copy each, the centre three
     assert parent.size == mesh.p.shape[1] + 4 + 12 + 3
@@ -252,7 +252,7 @@ def test_path_follows_a_bent_stroke():
     pts = mesh.p[:, path]
     d = np.minimum(_distance_to_line(pts, stroke[0], stroke[1]), _distance_to_line(pts, stroke[1], stroke[2]))
     assert d.max() <= 1.0 / 16
-    assert path[0] == nodes_near(mesh.p, [0.125, 0.125], 1e-9)[0]
+    assert path[0] == region_nodes(mesh, {"near": [0.125, 0.125], "radius": 1e-9})[0]
 
 
 def test_cut_drawn_on_the_deformed_tissue_goes_where_it_was_drawn():
@@ -395,18 +395,18 @@ def test_bad_edges_are_rejected():
         cut_path(mesh, ACROSS, positions=np.zeros((2, 3)))
 
 
-def test_nodes_near_and_its_errors():
+def test_nodes_near_a_point_and_the_errors():
     mesh = rectangle(1.0, 1.0, 4, 4)
-    np.testing.assert_array_equal(nodes_near(mesh.p, [0.5, 0.5], 0.25), [7, 11, 12, 13, 17])
-    np.testing.assert_array_equal(nodes_near(mesh.p, [0.0, 0.0], 0.0), [0])
-    with pytest.raises(ValueError, match=r"radius=0\.1 of point=\(0\.1, 0\.1\)"):
-        nodes_near(mesh.p, [0.1, 0.1], 0.1)
+    np.testing.assert_array_equal(region_nodes(mesh, {"near": [0.5, 0.5], "radius": 0.25}), [7, 11, 12, 13, 17])
+    np.testing.assert_array_equal(region_nodes(mesh, {"near": [0.0, 0.0], "radius": 0.0}), [0])
+    with pytest.raises(ValueError, match="region"):
+        region_nodes(mesh, {"near": [0.1, 0.1], "radius": 0.1})
     for radius in (-1.0, np.nan, np.inf, "big"):
         with pytest.raises(ValueError, match="radius"):
-            nodes_near(mesh.p, [0.5, 0.5], radius)
+            region_nodes(mesh, {"near": [0.5, 0.5], "radius": radius})
     for point in ([0.5], [np.nan, 0.5], "centre"):
-        with pytest.raises(ValueError, match="point"):
-            nodes_near(mesh.p, point, 0.1)
+        with pytest.raises(ValueError, match="near"):
+            region_nodes(mesh, {"near": point, "radius": 0.1})
 
 
 # --- the core duplication on hand-made meshes ----------------------------------------------------

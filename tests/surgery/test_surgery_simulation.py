@@ -366,3 +366,24 @@ def test_new_stitches_do_not_tighten_the_old_ones():
     assert np.allclose(sim.model.sutures.tightness, [0.5, 0.25])
     sim.tighten(1.0)
     assert np.allclose(sim.model.sutures.tightness, [1.0, 1.0])
+
+
+def test_a_cut_keeps_the_learned_costs_so_the_next_budgeted_frame_is_estimated():
+    """After a cut (a new model and solver) the costs the frames learned carry over: the first frame after the cut
+    plans with them (nothing 'unestimated'), as a probe added to the running model does."""
+    from tissuefem.surgery.scene import Scene, demo_scene
+
+    ticks = iter(range(10**9))
+    scene = demo_scene(400).to_dict()
+    scene["solver"]["budget"] = 1.0
+    sim = Simulation(Scene.from_dict(scene), clock=lambda: next(ticks) * 1e-5)  # a slow clock: never runs out
+    name = sim.grab([2.0, 0.5])
+    for f in range(3):
+        sim.frame({name: (0.02 * (f + 1), 0.0)})  # frames that work (a still body converges at its start)
+    learned = dict(sim.solver.costs)
+    assert {"assembly", "line-search"} <= set(learned)
+    sim.cut([[0.6, -0.1], [0.6, 0.5]])
+    assert sim.solver.costs == learned
+    assert not sim.frame({name: (0.08, 0.0)}).unestimated
+    sim.add_probe([1.0, 1.1], 0.2)
+    assert not sim.frame({name: (0.1, 0.0)}).unestimated

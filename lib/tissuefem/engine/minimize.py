@@ -259,6 +259,18 @@ def _line_search(x, dx, E, slope, rnorm, mask, gradient, energy, line_search, ma
     return None
 
 
+def _direction(dx_free, A, rhs, x, mask, hessian, safe_hessian, linear, line_search, stats, deadline):
+    """``(dx_free, shift)``: the descent direction from the linear solve's ``dx_free`` (``dx_free`` None: singular),
+    by :func:`_descent`; ``None`` when only its safeguards (factorizations of shifted tangents) would give one and a
+    factorization does not fit the budget, and a scaled steepest descent gives none either."""
+    usable = dx_free is not None and np.all(np.isfinite(dx_free)) and (line_search != "energy" or rhs @ dx_free > 0)
+    if not usable and line_search == "energy" and not deadline.fits("factorization"):
+        deadline.skip("factorization")
+        dx_free = _scaled_steepest_descent(A, rhs)
+        return None if dx_free is None else (dx_free, math.inf)
+    return _descent(dx_free, A, rhs, x, mask, hessian, safe_hessian, linear, line_search, stats)
+
+
 def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[np.ndarray], sp.spmatrix], *,
            energy: Callable[[np.ndarray], float] | None = None, free=None, line_search: str | None = "energy",
            rtol: float = 1e-10, atol: float = 0.0, reference_norm: float = 0.0, floor: float = 0.0,
@@ -326,16 +338,10 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
         stats["factorizations"] += info.factorizations
         if getattr(info, "skipped", ""):
             return result("budget", k)
-        usable = dx_free is not None and np.all(np.isfinite(dx_free)) and (line_search != "energy" or
-                                                                         rhs @ dx_free > 0)
-        if not usable and line_search == "energy" and not deadline.fits("factorization"):
-            # the safeguards of _descent factorize (shifted) tangents, which does not fit: a scaled steepest descent
-            deadline.skip("factorization")
-            dx_free, shift = _scaled_steepest_descent(A, rhs), math.inf
-            if dx_free is None:
-                return result("budget", k)
-        else:
-            dx_free, shift = _descent(dx_free, A, rhs, x, mask, hessian, safe_hessian, linear, line_search, stats)
+        found = _direction(dx_free, A, rhs, x, mask, hessian, safe_hessian, linear, line_search, stats, deadline)
+        if found is None:
+            return result("budget", k)
+        dx_free, shift = found
         if dx_free is None:
             return result("singular", k)
         dx, dx_free = _bounded_step(x, dx_free, mask, max_step, step_limit)
@@ -350,8 +356,7 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
         if step is None:
             return result("line-search-failed", k)
         alpha, x_new, g_new, E_new = step
-        if g_new is None:
-            g_new = np.asarray(gradient(x_new), dtype=float)
+        g_new = np.asarray(gradient(x_new), dtype=float) if g_new is None else g_new
         deadline.record("line-search", deadline.clock() - t0)  # its energies and the new gradient
         rn_new, step_norm = float(np.linalg.norm(g_new[mask])), float(np.linalg.norm(alpha * dx))
         if not np.isfinite(rn_new):

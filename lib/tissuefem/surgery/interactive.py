@@ -487,7 +487,7 @@ class SurgeryView:
             raise RuntimeError("SurgeryView.start needs a running event loop (a Jupyter kernel's); "
                                "without one, call view.step()") from None
         self._loop, self._loop_thread, self._wake = loop, threading.get_ident(), asyncio.Event()
-        self._task = loop.create_task(self._run())
+        self._task = loop.create_task(_frame_loop(self))
         if self.message == PAUSED_DRAG:
             self.message = ""
         self._dirty = True  # a first frame, then rest if nothing changes
@@ -518,30 +518,6 @@ class SurgeryView:
             self.widget.running = False
             self._show(str(exc))
 
-    async def _run(self) -> None:
-        interval = self.interval_ms / 1e3
-        while not self.closed:
-            if self.resting and not self._tools_stale:
-                self._update_text(force=True)  # the last frame's line, "at rest"
-                self._wake.clear()
-                await self._wake.wait()  # nothing runs until input arrives
-                continue
-            started = time.perf_counter()
-            try:
-                if self.resting:
-                    with self._lock:
-                        self._follow()  # only the target or the stroke moved
-                else:
-                    self.step()
-            except ValueError as exc:
-                self._show(f"frame failed: {exc}")
-                self._quiet = REST_FRAMES  # no retry until new input
-                self._dirty = False
-            except Exception:
-                self.stop()  # one traceback, not thirty a second
-                raise
-            await asyncio.sleep(max(0.0, interval - (time.perf_counter() - started)))
-
     @one_at_a_time
     def disconnect(self) -> None:
         """Stop the loop and let go of the grab; the widget stays on the page, its buttons off."""
@@ -571,6 +547,33 @@ class SurgeryView:
     def __repr__(self):
         state = "closed" if self.closed else ("running" if self.running else "paused")
         return f"<SurgeryView {self.mode}, {state}, frame {self.frames}>"
+
+
+async def _frame_loop(view) -> None:
+    """The view's frame loop (a task on the kernel's event loop): a frame every ``interval_ms`` while anything
+    moves, then asleep until input arrives; a refused frame is a message, any other error stops the loop."""
+    interval = view.interval_ms / 1e3
+    while not view.closed:
+        if view.resting and not view._tools_stale:
+            view._update_text(force=True)  # the last frame's line, "at rest"
+            view._wake.clear()
+            await view._wake.wait()  # nothing runs until input arrives
+            continue
+        started = time.perf_counter()
+        try:
+            if view.resting:
+                with view._lock:
+                    view._follow()  # only the target or the stroke moved
+            else:
+                view.step()
+        except ValueError as exc:
+            view._show(f"frame failed: {exc}")
+            view._quiet = REST_FRAMES  # no retry until new input
+            view._dirty = False
+        except Exception:
+            view.stop()  # one traceback, not thirty a second
+            raise
+        await asyncio.sleep(max(0.0, interval - (time.perf_counter() - started)))
 
 
 def _area_ratios(points, triangles, reference) -> np.ndarray:

@@ -91,6 +91,7 @@ class Simulation:
                                      clock=self.clock, max_iterations=settings["max_iterations"])
         if old is not None:
             _carry_state(old, self.solver, state)
+            self.solver.costs.update(old.costs)  # what the work cost lately: the next frame keeps its budget
 
     def _set_terms(self, terms) -> None:
         """The running model with ``terms`` (a probe or stitches added or removed), and a solver for it."""

@@ -9,7 +9,6 @@ that a per-node field ``u`` carries over as ``u[..., parent]``; the new meshes k
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -18,12 +17,11 @@ from scipy.sparse import csgraph
 
 from ..engine.contact.surface import segment_distance
 from ..engine.meshes import MeshMap
-from ..engine.parameters import (ParameterError, check_bounded_vector, check_count, check_indices, check_real,
-                                 check_real_array, show)
+from ..engine.parameters import ParameterError, check_count, check_indices, show
 from .geometry import (carry_names, check_points, clip_to_body, cross, mesh_arrays, new_mesh, node_positions,
                        pair_keys, polygon_contains)
 
-__all__ = ["MeshEdit", "duplicate_along_edges", "cut_path", "incise", "excise", "connected_components", "nodes_near"]
+__all__ = ["MeshEdit", "duplicate_along_edges", "cut_path", "incise", "excise", "connected_components"]
 
 #: An edge costs ``length * (1 + _HUG * d / h)`` in :func:`cut_path`: large enough that a detour of one edge length
 #: away from the line costs more than several edges along it.
@@ -143,23 +141,6 @@ def connected_components(t, n_nodes, links=None):
     graph = sp.coo_matrix((np.ones(rows.size), (rows, cols)), shape=(n_nodes, n_nodes))
     n, labels = csgraph.connected_components(graph, directed=False)
     return int(n), labels.astype(np.int64)
-
-
-def nodes_near(positions, point, radius):
-    """Indices (increasing) of the nodes at ``positions`` (2, n_nodes) within ``radius`` (finite, >= 0, a node at
-    exactly ``radius`` counts) of ``point`` (2,); ``ValueError`` if no node is that close, or for bad arguments."""
-    x = check_real_array("positions", positions)
-    if x.ndim != 2 or x.shape[0] != 2:
-        raise ParameterError("positions", f"positions must be shaped (2, n_nodes), got {x.shape}")
-    c = check_bounded_vector("point", point, math.inf)
-    radius = check_real("radius", radius, 0.0)
-    d = np.hypot(x[0] - c[0], x[1] - c[1])
-    found = np.flatnonzero(d <= radius)
-    if found.size == 0:
-        nearest = float(np.nanmin(d)) if d.size else math.inf
-        raise ValueError(f"no node within radius={radius!r} of point=({c[0]:g}, {c[1]:g}); "
-                         f"the nearest is {nearest:.3g} away")
-    return found
 
 
 # --- the path of a cut ---

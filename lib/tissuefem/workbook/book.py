@@ -15,19 +15,20 @@ import html
 import os
 import re
 import shutil
+import importlib.util
 from dataclasses import dataclass
 from datetime import datetime
 from itertools import takewhile
 from pathlib import Path
+from typing import TYPE_CHECKING
 from urllib.parse import unquote, urlsplit
-
-import jupyter_server_mathjax
-import nbformat
-from jinja2 import DictLoader
-from nbconvert import HTMLExporter
 
 from .bench.accuracy_cost import RESIDUAL_COLUMN_NOTE, format_knob_table, recorded_results
 from .notebooks import chapter_label, chapter_paths, missing_figures
+
+if TYPE_CHECKING:  # nbconvert, nbformat and their templates load where a page is written: the command line starts fast
+    import nbformat
+    from nbconvert import HTMLExporter
 
 #: reading speed for the chapters' prose: technical text with equations, about half that of plain prose
 WORDS_PER_MINUTE = 100
@@ -220,6 +221,9 @@ def readme_intro(readme_text: str) -> str:
 # --- writing pages ------------------------------------------------------------------------------
 
 def _exporter() -> HTMLExporter:
+    from jinja2 import DictLoader
+    from nbconvert import HTMLExporter
+
     exporter = HTMLExporter(template_name="lab", extra_loaders=[DictLoader({"book.html.j2": _TEMPLATE})],
                             template_file="book.html.j2")
     exporter.exclude_input_prompt = True
@@ -300,6 +304,8 @@ class _Links:
 
 
 def _markdown_notebook(title: str, cells: list[str]) -> nbformat.NotebookNode:
+    import nbformat
+
     nb = nbformat.v4.new_notebook()
     nb.metadata["title"] = title
     nb.cells = [nbformat.v4.new_markdown_cell(text) for text in cells]
@@ -308,7 +314,10 @@ def _markdown_notebook(title: str, cells: list[str]) -> nbformat.NotebookNode:
 
 def mathjax_source() -> Path:
     """The MathJax files that install with the project (``jupyter-server-mathjax``): the site copies them."""
-    static = Path(jupyter_server_mathjax.__file__).parent / "static"
+    spec = importlib.util.find_spec("jupyter_server_mathjax")  # where it is, without starting its server extension
+    if spec is None or not spec.submodule_search_locations:
+        raise RuntimeError("jupyter-server-mathjax is not installed: pip install jupyter-server-mathjax")
+    static = Path(list(spec.submodule_search_locations)[0]) / "static"
     if not (static / "MathJax.js").is_file():
         raise RuntimeError(f"jupyter-server-mathjax has no MathJax.js in {static}: reinstall it")
     return static
@@ -417,6 +426,8 @@ def build_book(chapters_dir, executed_dir, outdir, readme=None, exercises_dir=No
     sources = chapter_paths(chapters_dir)
     if not sources:
         raise ValueError(f"no chapter notebooks chNN_*.ipynb in {chapters_dir}")
+
+    import nbformat
 
     chapters = []
     for source in sources:
