@@ -25,8 +25,8 @@ from .constants import FRAME_BUDGET
 from .contact import Contact, ContactSurface
 from .parameters import (ACCELERATION_MAX, CONTACT_STIFFNESS_MAX, FAR, FIBER_STIFFNESS_RANGE, FORCE_MAX, RADIUS_RANGE,
                          TIME_STEP_RANGE, YOUNGS_MODULUS_RANGE, MAX_POINTS, ParameterError, check_bounded_vector,
-                         check_contact_stiffness, check_penalty_stiffness, count_list, number, penalty, points, require, string, table,
-                         vector)
+                         check_contact_stiffness, check_penalty_stiffness, count_list, number, penalty, points, require,
+                         string, table, vector)
 from .terms import Fibers, Inertia, Load, Probe, Sutures, Term, refuse_3d, traction_vector
 
 __all__ = ["Effect", "EFFECTS", "register", "factory", "keyword_terms", "SkinContact", "median_segment",

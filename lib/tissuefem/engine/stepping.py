@@ -54,7 +54,8 @@ MAX_LOAD_STEPS = 100_000
 class Undone:
     """What a step (frame) left for the ones after it; false when nothing. ``stopped``: why Newton stopped short of
     its tolerance (a status of :data:`~.minimize.STATUSES`; ``None``: it converged), after ``newton_steps`` at
-    ``relative_residual`` (the step's :attr:`StepReport.scaled_residual`); ``handles``: the share of the handles' motion not made (``1 - handle_fraction``);
+    ``relative_residual`` (the step's :attr:`StepReport.scaled_residual`); ``handles``: the share of the handles'
+    motion not made (``1 - handle_fraction``);
     ``committed``: False when the state was kept (an offline step that failed); ``skipped``: the pieces of work a
     budgeted step did not start because they would not have ended in time (kinds of :data:`.linsolve.WORK`)."""
 
