@@ -146,15 +146,14 @@ def check_mesh(p, t, name: str = "mesh", *, unused_nodes: str = "refuse", cut: b
     if t_arr.dtype.kind not in "iu" or t_arr.ndim != 2 or t_arr.shape[0] != dim + 1:
         what = "(3, n_triangles)" if dim == 2 else "(4, n_tetrahedra) for 3D nodes"
         refuse(f"t must be an integer array shaped {what}, got dtype {t_arr.dtype} and shape {t_arr.shape}")
-    if dim == 3:
-        return _check_tets(p_arr, t_arr, refuse, unused_nodes, cut)
+    noun, nouns = ("triangle", "triangles") if dim == 2 else ("tetrahedron", "tetrahedra")
     n, m = p_arr.shape[1], t_arr.shape[1]
     if m == 0:
-        refuse("has no triangles")
+        refuse(f"has no {nouns}")
     if m > MAX_TRIANGLES and not cut:
-        refuse(f"has {m} triangles, more than the {MAX_TRIANGLES} allowed")
+        refuse(f"has {m} {nouns}, more than the {MAX_TRIANGLES} allowed")
     if t_arr.min() < 0 or t_arr.max() >= n:
-        refuse(f"triangles {index_list(np.flatnonzero(((t_arr < 0) | (t_arr >= n)).any(axis=0)))} refer to nodes "
+        refuse(f"{nouns} {index_list(np.flatnonzero(((t_arr < 0) | (t_arr >= n)).any(axis=0)))} refer to nodes "
                f"outside 0..{n - 1}")
     p_arr, t_arr = np.array(p_arr, dtype=np.float64), np.array(t_arr, dtype=np.int64)
     bad = np.flatnonzero(~np.isfinite(p_arr).all(axis=0))
@@ -168,15 +167,17 @@ def check_mesh(p, t, name: str = "mesh", *, unused_nodes: str = "refuse", cut: b
     used = np.zeros(n, dtype=bool)
     used[t_arr.ravel()] = True
     if unused_nodes == "refuse" and not used.all():
-        refuse(f"nodes {index_list(np.flatnonzero(~used))} belong to no triangle (an unused node has no stiffness "
+        refuse(f"nodes {index_list(np.flatnonzero(~used))} belong to no {noun} (an unused node has no stiffness "
                "and no mass); remove them and renumber")
     extent = float(np.ptp(p_arr[:, used], axis=1).max())
     if extent < SIZE_RANGE[0]:
         refuse(f"spans only {extent:g} (the largest side of its bounding box must be at least {SIZE_RANGE[0]:g})")
     tri = np.sort(t_arr, axis=0)
-    repeated = np.flatnonzero((tri[0] == tri[1]) | (tri[1] == tri[2]))
+    repeated = np.flatnonzero((tri[1:] == tri[:-1]).any(axis=0))
     if repeated.size:
-        refuse(f"triangles {index_list(repeated)} use the same node twice")
+        refuse(f"{nouns} {index_list(repeated)} use the same node twice")
+    if dim == 3:
+        return _check_tet_shapes(p_arr, t_arr, refuse, cut)
     if not cut:  # an edge in three or more triangles, a triangle listed twice
         key, owner, _ = _edge_table(t_arr)
         same = (key[0, 1:] == key[0, :-1]) & (key[1, 1:] == key[1, :-1])
@@ -221,37 +222,9 @@ def _tet_volumes(p, t) -> np.ndarray:
             + d1[2] * (d2[0] * d3[1] - d2[1] * d3[0])) / 6.0
 
 
-def _check_tets(p_arr, t_arr, refuse, unused_nodes, cut):
-    """The rest of :func:`check_mesh` for tetrahedra (``p`` ``(3, n)``, ``t`` ``(4, m)`` of the right types)."""
-    n, m = p_arr.shape[1], t_arr.shape[1]
-    if m == 0:
-        refuse("has no tetrahedra")
-    if m > MAX_TRIANGLES and not cut:
-        refuse(f"has {m} tetrahedra, more than the {MAX_TRIANGLES} allowed")
-    if t_arr.min() < 0 or t_arr.max() >= n:
-        refuse(f"tetrahedra {index_list(np.flatnonzero(((t_arr < 0) | (t_arr >= n)).any(axis=0)))} refer to nodes "
-               f"outside 0..{n - 1}")
-    p_arr, t_arr = np.array(p_arr, dtype=np.float64), np.array(t_arr, dtype=np.int64)
-    bad = np.flatnonzero(~np.isfinite(p_arr).all(axis=0))
-    if bad.size:
-        refuse(f"non-finite coordinates at nodes {index_list(bad)}")
-    bad = np.flatnonzero((np.abs(p_arr) > COORDINATE_MAX).any(axis=0))
-    if bad.size:
-        refuse(f"nodes {index_list(bad)} lie beyond the coordinate limit +-{COORDINATE_MAX:g}")
-    if unused_nodes not in ("refuse", "ignore"):
-        raise ParameterError("unused_nodes", f"unused_nodes must be 'refuse' or 'ignore', got {unused_nodes!r}")
-    used = np.zeros(n, dtype=bool)
-    used[t_arr.ravel()] = True
-    if unused_nodes == "refuse" and not used.all():
-        refuse(f"nodes {index_list(np.flatnonzero(~used))} belong to no tetrahedron (an unused node has no stiffness "
-               "and no mass); remove them and renumber")
-    extent = float(np.ptp(p_arr[:, used], axis=1).max())
-    if extent < SIZE_RANGE[0]:
-        refuse(f"spans only {extent:g} (the largest side of its bounding box must be at least {SIZE_RANGE[0]:g})")
-    tet = np.sort(t_arr, axis=0)
-    repeated = np.flatnonzero((tet[1:] == tet[:-1]).any(axis=0))
-    if repeated.size:
-        refuse(f"tetrahedra {index_list(repeated)} use the same node twice")
+def _check_tet_shapes(p_arr, t_arr, refuse, cut):
+    """The rest of :func:`check_mesh` for tetrahedra (arrays checked): a face in three tetrahedra, degenerate and
+    inverted tetrahedra."""
     if not cut:
         faces = np.sort(np.concatenate([t_arr[[1, 2, 3]], t_arr[[0, 2, 3]], t_arr[[0, 1, 3]], t_arr[[0, 1, 2]]],
                                        axis=1), axis=0)
