@@ -34,7 +34,6 @@ import math
 import os
 import platform
 import random
-import sys
 import tempfile
 import time
 from pathlib import Path
@@ -44,7 +43,8 @@ import pytest
 
 from browser_lab import JupyterLab, kernel_execute, kernel_json, notebook_state, open_notebook, run_all_cells, \
     start_chromium, wait_for
-from test_browser_widget import FIND_CANVAS, POINTER_TIMES, Canvas, actions, drag, median, release, widget_missing
+from test_browser_widget import (FIND_CANVAS, POINTER_TIMES, Canvas, actions, drag, median, release, reported_failure,
+                                 widget_missing)
 
 pytestmark = pytest.mark.browser
 
@@ -140,12 +140,7 @@ def drag_session(driver, seed=8):
     loop = [grab] + [(centre[0] + 0.2 * math.cos(a), centre[1] + 0.2 * math.sin(a))
                      for a in [2 * math.pi * k / 150 for k in range(151)]]
     painted0, page0 = canvas.painted(), driver.execute_script("return performance.now();")
-    drag(driver, canvas, loop[:30], 0.02)
-    for k in range(30, len(loop), 30):  # the button stays held; short chains keep chromedriver's calls short
-        chain = actions(driver)
-        for p in loop[k:k + 30]:
-            chain.move_to_element_with_offset(canvas.element, *canvas.offset(p)).pause(0.02)
-        chain.perform()
+    drag(driver, canvas, loop, 0.02, chunk=30)
     page1 = driver.execute_script("return performance.now();")
     out["drag_painted_per_second"] = 1e3 * (canvas.painted() - painted0) / (page1 - page0)
     out["grabbed_while_dragging"] = kernel_json(driver, "view.grabbed is not None")
@@ -265,7 +260,7 @@ def run_session(workdir, chapter=CHAPTER):
     with JupyterLab(workdir) as lab:
         nbformat.write(interactive_section(chapter), lab.root / "interactive.ipynb")
         driver = start_chromium(workdir)
-        try:
+        with reported_failure(driver, lab, workdir):
             open_notebook(driver, lab, "interactive.ipynb")
             time.sleep(1.0)  # anything JupyterLab rewrites on opening has happened by now
             opened = {"dirty": notebook_state(driver)["dirty"], "metadata": driver.execute_script(METADATA),
@@ -275,15 +270,6 @@ def run_session(workdir, chapter=CHAPTER):
             result["opened"] = opened
             driver.save_screenshot(str(workdir / "after.png"))
             return result
-        except BaseException:
-            try:
-                driver.save_screenshot(str(workdir / "failure.png"))
-            except Exception:
-                pass
-            print("JupyterLab log:\n" + lab.log_tail(), file=sys.stderr)
-            raise
-        finally:
-            driver.quit()
 
 
 # --------------------------------------------------------------------------- the test

@@ -18,6 +18,7 @@ that took the move), and the CPU the kernel uses at rest (after the tissue settl
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
 import os
@@ -130,12 +131,33 @@ def settle(driver, timeout=60):
     wait_for(lambda: kernel_json(driver, "bool(view.resting)"), timeout, "the tissue to come to rest")
 
 
-def drag(driver, canvas, points, pause):
-    """Press at the first point, move through the others (``pause`` s apart), keep the button held."""
+def drag(driver, canvas, points, pause, chunk=None):
+    """Press at the first point, move through the others (``pause`` s apart), keep the button held. ``chunk``: send
+    the moves in chains of that many (the button stays held; short chains keep chromedriver's calls short)."""
+    chunk = chunk or len(points)
     chain = actions(driver).move_to_element_with_offset(canvas.element, *canvas.offset(points[0])).click_and_hold()
-    for p in points[1:]:
+    for k, p in enumerate(points[1:], start=1):
+        if k % chunk == 0:
+            chain.perform()
+            chain = actions(driver)
         chain.move_to_element_with_offset(canvas.element, *canvas.offset(p)).pause(pause)
     chain.perform()
+
+
+@contextlib.contextmanager
+def reported_failure(driver, lab, folder):
+    """On any failure: a screenshot into ``folder`` and the JupyterLab log on stderr; the browser quits either way."""
+    try:
+        yield
+    except BaseException:
+        try:
+            driver.save_screenshot(str(Path(folder) / "failure.png"))
+        except Exception:
+            pass
+        print("JupyterLab log:\n" + lab.log_tail(), file=sys.stderr)
+        raise
+    finally:
+        driver.quit()
 
 
 def release(driver):
@@ -162,7 +184,7 @@ def test_the_browser_view_drags_and_cuts_in_jupyterlab(tmp_path):
         pytest.skip(reason)
     with JupyterLab(tmp_path) as lab:
         driver = start_chromium(tmp_path)
-        try:
+        with reported_failure(driver, lab, tmp_path):
             canvas = open_view(driver, lab, 800)
             settle(driver)
             before = kernel_json(driver, "dict(x=float(sim.positions()[0].max()), frames=int(sim.frames), "
@@ -203,15 +225,6 @@ def test_the_browser_view_drags_and_cuts_in_jupyterlab(tmp_path):
             assert after["topology"] == 2, "the topology was sent twice: at the start and after the cut"
             assert after["frames"] > before["frames"]
             driver.save_screenshot(str(tmp_path / "after.png"))
-        except BaseException:
-            try:
-                driver.save_screenshot(str(tmp_path / "failure.png"))
-            except Exception:
-                pass
-            print("JupyterLab log:\n" + lab.log_tail(), file=sys.stderr)
-            raise
-        finally:
-            driver.quit()
 
 
 # --------------------------------------------------------------------------- the benchmark
@@ -236,12 +249,7 @@ def measure(driver, lab, triangles, seconds=3.0, probes=12, seed=8):
                        for k in range(n)]
     painted0, page0 = canvas.painted(), driver.execute_script("return performance.now();")
     cpu0 = cpu_seconds(kernel)
-    drag(driver, canvas, path[:25], 0.016)
-    for k in range(25, len(path), 25):  # the button stays held; short chains keep chromedriver's calls short
-        chain = actions(driver)
-        for p in path[k:k + 25]:
-            chain.move_to_element_with_offset(canvas.element, *canvas.offset(p)).pause(0.016)
-        chain.perform()
+    drag(driver, canvas, path, 0.016, chunk=25)
     page1 = driver.execute_script("return performance.now();")
     painted1, cpu1 = canvas.painted(), cpu_seconds(kernel)
     steps = kernel_json(driver, "[float(t) for t in view.frame_times][-200:]")
