@@ -5,9 +5,10 @@ derivative of its stress, checked by central differences at rest, stretched,
 sheared, at random states, and through inversion where the model allows it, in
 2D (triangles) and 3D (tetrahedra).
 Each term of a model (elastic with every material, P1 and P2, fibres, inertia,
-loads, probe, sutures, contact) and the whole model must have the gradient of its energy
+loads, probe, sutures, contact, ghost penalty) and the whole model must have the gradient of its energy
 and the Hessian of its gradient, checked along random directions, on triangles and on
-a random-ish box of tetrahedra (every term but self-contact, which is 2D only). A new
+a random-ish box of tetrahedra (every term but self-contact and the ghost penalty of cuts,
+which are 2D only). A new
 material or term is added to the table, not given its own copy of these checks.
 """
 
@@ -23,7 +24,7 @@ from tissuefem import (Corotated, FiberReinforced, Handle, ITFClamped, LinearEla
 from tissuefem.engine.materials import MATERIALS as ENGINE_MATERIALS
 from tissuefem.engine.materials import det
 from tissuefem.engine.meshes import box, mean_edge_length, signed_volumes
-from tissuefem.engine.terms import Elastic, Fibers, Inertia, Load, Probe, Sutures
+from tissuefem.engine.terms import Elastic, Fibers, GhostPenalty, Inertia, Load, Probe, Sutures
 from tissuefem.surgery.element_cuts import cut_through
 from tissuefem.surgery.surfaces import contact_surface
 from tissuefem.surgery.topology import incise
@@ -252,6 +253,16 @@ def test_the_probe_gradient_and_hessian_are_exact_and_its_safe_hessian_is_the_po
     probe.add_hessian(u, data, safe=True)
     eig = np.linalg.eigvalsh(model.pattern.csr(data).toarray())
     assert eig.min() > -1e-9 * eig.max() and eig.max() > 0  # the safe Hessian: positive semi-definite
+
+
+@pytest.mark.parametrize("state", STATES)
+def test_the_ghost_penalty_of_a_cut_has_exact_derivatives(state):
+    """The ghost penalty of the pieces of elements cut through (2D only, as cuts are)."""
+    cut = cut_through(rectangle(1.0, 1.0, 6, 6), [[0.33, 1.1], [0.61, 0.25]])
+    model = Model(cut.mesh, StableNeoHookean(100.0, 60.0), weights=cut.weights, handles=[Handle("left")])
+    ghosts = model.terms_of(GhostPenalty)
+    assert ghosts
+    _check_term(ghosts[0], _state(model, state))
 
 
 def _pressed_wound(kind, order=1):
