@@ -5,11 +5,11 @@ derivative of its stress, checked by central differences at rest, stretched,
 sheared, at random states, and through inversion where the model allows it, in
 2D (triangles) and 3D (tetrahedra).
 Each term of a model (elastic with every material, P1 and P2, fibres, inertia,
-loads, probe, sutures, contact, ghost penalty) and the whole model must have the gradient of its energy
-and the Hessian of its gradient, checked along random directions, on triangles and on
-a random-ish box of tetrahedra (every term but self-contact and the ghost penalty of cuts,
-which are 2D only). A new
-material or term is added to the table, not given its own copy of these checks.
+loads, probe, sutures, contact, the ghost penalty of cuts) and the whole model must
+have the gradient of its energy and the Hessian of its gradient, checked along random
+directions, on triangles and on a random-ish box of tetrahedra (every term but
+self-contact and the ghost penalty, which are 2D only). A new material or term is
+added to the table, not given its own copy of these checks.
 """
 
 from __future__ import annotations
