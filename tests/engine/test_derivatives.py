@@ -133,7 +133,7 @@ TOOLS = {
     2: dict(probe=dict(center=[0.52, 1.22], radius=0.3, stiffness=1e3), depth=0.03, elements=[[2, 30], [9, 17]],
             coefficients=[[[0.2, 0.5], [0.3, 0.25], [0.5, 0.25]], [[0.6, 0.1], [0.1, 0.1], [0.3, 0.8]]],
             gaps=[[0.1, -0.2], [0.05, 0.3]], gravity=(0.2, -9.81), traction=(3.0, -1.0), body_force=(0.5, 0.1)),
-    3: dict(probe=dict(center=[0.45, 2.4, 0.55], radius=1.5, stiffness=1e3), depth=0.1, elements=[[2, 30], [9, 17]],
+    3: dict(probe=dict(center=[0.45, 2.4, 0.55], radius=1.5, stiffness=1e3), depth=0.25, elements=[[2, 30], [9, 17]],
             coefficients=[[[0.2, 0.5], [0.3, 0.25], [0.4, 0.1], [0.1, 0.15]],
                           [[0.6, 0.1], [0.1, 0.1], [0.2, 0.5], [0.1, 0.3]]],
             gaps=[[0.1, -0.2], [0.05, 0.3], [0.02, -0.1]], gravity=(0.2, -9.81, 0.3), traction=(3.0, -1.0, 0.5),
