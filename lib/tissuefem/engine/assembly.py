@@ -31,6 +31,7 @@ from skfem import Basis, ElementTetP1, ElementTetP2, ElementTriP1, ElementTriP2,
 from .forms import energy_form, residual_form, tangent_form
 from .meshes import check_mesh
 from .parameters import ParameterError, check_count, check_density, check_weights
+from .vectors import dot
 
 __all__ = ["P1Assembler", "QuadratureAssembler", "FormsAssembler", "make_assembler", "vector_basis", "check_weights"]
 
@@ -191,7 +192,7 @@ class P1Assembler(_FixedPattern):
     def energy(self, u, material=None) -> float:
         """Stored energy ``sum_e A_e Psi(F_e)`` (NaN if the material is NaN somewhere, e.g. log J at J <= 0)."""
         psi = self._material(material).energy(self.deformation_gradient(u))
-        return float(np.dot(self.areas, np.broadcast_to(psi, (self.n_elements,))))
+        return dot(self.areas, np.broadcast_to(psi, (self.n_elements,)))
 
     def residual(self, u, material=None) -> np.ndarray:
         """Internal force vector ``(n_dofs,)``, the gradient of :meth:`energy`."""

@@ -25,6 +25,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from .parameters import ParameterError, check_count, check_real
+from .vectors import dot, norm
 
 __all__ = ["LinearSolver", "LinearInfo", "Condenser", "SuperLU", "Pardiso", "ReusedFactorization", "PreconditionedCG",
            "SolveInfo", "PCGResult", "pcg", "available", "make", "BACKENDS", "Deadline", "WORK", "start_thread"]
@@ -268,15 +269,15 @@ def pcg(A, b, precondition=None, *, x0=None, atol: float = 0.0, rtol: float = 1e
     b = np.asarray(b, dtype=float)
     x = np.zeros_like(b) if x0 is None else np.array(x0, dtype=float, copy=True)
     r = b - A @ x if x0 is not None else b.copy()
-    target = max(float(atol), float(rtol) * float(np.linalg.norm(b)))
-    rnorm = float(np.linalg.norm(r))
+    target = max(float(atol), float(rtol) * norm(b))
+    rnorm = norm(r)
     if rnorm <= target:
         return PCGResult(x, 0, True, rnorm)
     z = precondition(r) if precondition is not None else r.copy()
-    p, rz = z.copy(), float(r @ z)
+    p, rz = z.copy(), dot(r, z)
     for k in range(1, int(max_iterations) + 1):
         Ap = A @ p
-        curvature = float(p @ Ap)
+        curvature = dot(p, Ap)
         if not (curvature > 0.0) or not (rz > 0.0):
             if k == 1 and x0 is None:
                 # no step taken yet: the preconditioned residual is the best safe guess
@@ -285,11 +286,11 @@ def pcg(A, b, precondition=None, *, x0=None, atol: float = 0.0, rtol: float = 1e
         alpha = rz / curvature
         x += alpha * p
         r -= alpha * Ap
-        rnorm = float(np.linalg.norm(r))
+        rnorm = norm(r)
         if not np.isfinite(rnorm) or rnorm <= target:
             return PCGResult(x, k, rnorm <= target, rnorm)
         z = precondition(r) if precondition is not None else r
-        rz_new = float(r @ z)
+        rz_new = dot(r, z)
         p, rz = z + (rz_new / rz) * p, rz_new
     return PCGResult(x, int(max_iterations), False, rnorm)
 
@@ -682,7 +683,7 @@ class LinearSolver:
             elif isinstance(self.backend, ReusedFactorization):
                 dx, done = self.backend.solve(A, b, atol=atol, rtol=0.0, deadline=deadline)
                 info.iterations, info.factorizations, info.skipped = done.iterations, int(done.factorized), done.skipped
-                if dx is not None and not (np.all(np.isfinite(dx)) and b @ dx > 0) and not done.factorized:
+                if dx is not None and not (np.all(np.isfinite(dx)) and dot(b, dx) > 0) and not done.factorized:
                     dx, again = self.backend.solve(A, b, refactorize=True, deadline=deadline)  # no descent
                     info.factorizations += int(again.factorized)  # (skipped: no direction, Newton finds one)
             elif not deadline.fits("factorization", "back-substitution"):

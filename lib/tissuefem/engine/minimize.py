@@ -27,6 +27,7 @@ import scipy.sparse as sp
 
 from .linsolve import Deadline, LinearSolver, SuperLU
 from .parameters import ParameterError, check_count, check_real, check_real_array, check_real_number
+from .vectors import dot, norm
 
 __all__ = ["newton", "NewtonResult", "NewtonIteration", "STATUSES"]
 
@@ -177,7 +178,7 @@ def _shifted_direction(A, rhs, shifts=None):
             except (RuntimeError, ValueError):
                 continue
             factorizations += 1
-            if np.all(np.isfinite(dx)) and rhs @ dx > 0:
+            if np.all(np.isfinite(dx)) and dot(rhs, dx) > 0:
                 return dx, float(tau), factorizations
     if shifts is not None:
         return None, math.inf, factorizations
@@ -197,7 +198,7 @@ def _scaled_steepest_descent(A, rhs):
 def _descent(dx_free, A, rhs, x, mask, hessian, safe_hessian, linear, line_search, stats):
     """``(dx_free, shift)``: the Newton step if usable (and downhill under the energy line search), else the safe
     Hessian's, a shifted tangent's, steepest descent; ``(None, 0)``: no usable step and no energy to descend."""
-    if dx_free is not None and np.all(np.isfinite(dx_free)) and (line_search != "energy" or rhs @ dx_free > 0):
+    if dx_free is not None and np.all(np.isfinite(dx_free)) and (line_search != "energy" or dot(rhs, dx_free) > 0):
         return dx_free, 0.0
     if line_search != "energy":
         return None, 0.0
@@ -253,7 +254,7 @@ def _line_search(x, dx, E, slope, rnorm, mask, gradient, energy, line_search, ma
                     return alpha, x_new, None, E_new
                 if E_new - E <= tolerance:
                     g_new = np.asarray(gradient(x_new), dtype=float)
-                    if np.linalg.norm(g_new[mask]) < rnorm:
+                    if norm(g_new[mask]) < rnorm:
                         return alpha, x_new, g_new, E_new
         alpha *= 0.5
     return None
@@ -263,7 +264,7 @@ def _direction(dx_free, A, rhs, x, mask, hessian, safe_hessian, linear, line_sea
     """``(dx_free, shift)``: the descent direction from the linear solve's ``dx_free`` (``dx_free`` None: singular),
     by :func:`_descent`; ``None`` when only its safeguards (factorizations of shifted tangents) would give one and a
     factorization does not fit the budget, and a scaled steepest descent gives none either."""
-    usable = dx_free is not None and np.all(np.isfinite(dx_free)) and (line_search != "energy" or rhs @ dx_free > 0)
+    usable = dx_free is not None and np.all(np.isfinite(dx_free)) and (line_search != "energy" or dot(rhs, dx_free) > 0)
     if not usable and line_search == "energy" and not deadline.fits("factorization"):
         deadline.skip("factorization")
         dx_free = _scaled_steepest_descent(A, rhs)
@@ -303,7 +304,7 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
     deadline = Deadline(clock, start + budget if timed else math.inf, linear.costs if ours else None)
     history: list[NewtonIteration] = []
     g = np.asarray(gradient(x), dtype=float)
-    rnorm = r0 = float(np.linalg.norm(g[mask]))
+    rnorm = r0 = norm(g[mask])
     E = None if energy is None else float(energy(x)) if energy0 is None else float(energy0)
     E_start, e_scale = E, abs(E) if E is not None else 0.0
     target = max(atol + rtol * max(r0, float(reference_norm)), float(floor))
@@ -347,7 +348,7 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
         dx, dx_free = _bounded_step(x, dx_free, mask, max_step, step_limit)
         if dx is None:
             return result("blocked", k)
-        slope = -float(rhs @ dx_free)  # dE/dalpha at alpha = 0
+        slope = -dot(rhs, dx_free)  # dE/dalpha at alpha = 0
         if E is not None:
             e_scale = max(e_scale, abs(E), abs(slope))
         t0 = deadline.clock()
@@ -358,7 +359,7 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
         alpha, x_new, g_new, E_new = step
         g_new = np.asarray(gradient(x_new), dtype=float) if g_new is None else g_new
         deadline.record("line-search", deadline.clock() - t0)  # its energies and the new gradient
-        rn_new, step_norm = float(np.linalg.norm(g_new[mask])), float(np.linalg.norm(alpha * dx))
+        rn_new, step_norm = norm(g_new[mask]), norm(alpha * dx)
         if not np.isfinite(rn_new):
             history.append(NewtonIteration(k, rnorm, step_norm, alpha, None, shift, info.iterations))
             return result("non-finite", k + 1)

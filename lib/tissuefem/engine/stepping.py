@@ -40,6 +40,7 @@ from .minimize import NewtonResult, newton
 from .model import Model
 from .parameters import (ParameterError, call_user, check_count, check_indices, check_real, check_real_array,
                          check_time_step)
+from .vectors import norm
 
 __all__ = ["Stepper", "StepReport", "Undone", "StaticResult", "solve", "accuracy_summary"]
 
@@ -417,7 +418,7 @@ class Stepper:
                 # the targets cannot be reached without leaving the valid (finite-energy) states: an offline
                 # step fails at once (the real-time loop goes part of the way and carries the rest over)
                 g = model.gradient(self.u)
-                r = float(np.linalg.norm(g[free])) if np.all(np.isfinite(g)) else math.inf
+                r = norm(g[free]) if np.all(np.isfinite(g)) else math.inf
                 result, pre = NewtonResult(self.u.copy(), False, "non-finite", 0, r, r, 0.0, E0, E0), 0
             else:
                 result = newton(
@@ -532,7 +533,7 @@ class Stepper:
                     K = _finite_hessian(deadline.timed("assembly", model.hessian, self.u))
                     rhs = -model.gradient(self.u)[free] - (K @ dx)[free]
                     A = self.linear.matrix(lambda: K, free)
-            load_norm = float(np.linalg.norm(rhs))
+            load_norm = norm(rhs)
             if not math.isfinite(load_norm):  # a non-finite entry, or a norm that overflows: no prediction
                 return None, 0.0, 0
             dx_free, info = self.linear.solve(A, rhs, atol=1e-3 * load_norm, deadline=deadline)

@@ -37,6 +37,7 @@ from .materials import (DIMENSIONS, FiberReinforced, Material, check_fiber_stiff
 from .parameters import (FORCE_MAX, RADIUS_RANGE, REACH, YOUNGS_MODULUS_RANGE, ParameterError, check_bounded_vector,
                          check_density, check_indices, check_penalty_stiffness, check_reach, check_real,
                          check_real_array, check_time_step, check_vector, check_weights)
+from .vectors import dot
 
 __all__ = ["Term", "ElementTerm", "Elastic", "GhostPenalty", "GHOST_WEIGHT", "GHOST_PENALTY", "Fibers", "Inertia",
            "Load", "Probe", "Sutures", "traction_vector", "SummedDensity", "extent", "refuse_3d", "boundary_lengths",
@@ -353,7 +354,7 @@ class Inertia(Term):
 
     def energy(self, u):
         d = u - self.x_tilde
-        return 0.5 * float(d @ self.matvec(d)) / self.dt**2
+        return 0.5 * dot(d, self.matvec(d)) / self.dt**2
 
     def gradient(self, u):
         return self.matvec(u - self.x_tilde) / self.dt**2
@@ -362,7 +363,7 @@ class Inertia(Term):
         self.pattern.add_base(data, self.mass_data / self.dt**2)
 
     def kinetic_energy(self, v) -> float:
-        return 0.5 * float(v @ self.matvec(v))
+        return 0.5 * dot(v, self.matvec(v))
 
     def momentum(self, v) -> np.ndarray:
         p, d = self.matvec(v), getattr(self.assembler, "dim", 2)
@@ -391,7 +392,7 @@ class Load(Term):
         self.scale = 1.0
 
     def energy(self, u):
-        return -self.scale * float(self.vector @ u)
+        return -self.scale * dot(self.vector, u)
 
     def gradient(self, u):
         return -self.scale * self.vector
