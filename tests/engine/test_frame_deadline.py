@@ -53,15 +53,18 @@ class Costly:
 
 
 class Job:
-    def __init__(self, work, clock, frame):
-        self.work, self.clock, self.frame, self.done = work, clock, frame, False
+    """Work off the frame; ``counted``: its time moves the clock (a whole step's, whose costs the solver learns),
+    else not (a factorization: the second core's time is not the frame's)."""
+
+    def __init__(self, work, clock, frame, counted=False):
+        self.work, self.clock, self.frame, self.done, self.counted = work, clock, frame, False, counted
 
     def is_alive(self):
         return not self.done
 
     def join(self):
         if not self.done:
-            self.clock.on = False  # the second core's time is not the frame's
+            self.clock.on = self.counted
             try:
                 self.work()
             finally:
@@ -74,12 +77,16 @@ class Launcher:
     def __init__(self, clock, synchronous=False):
         self.clock, self.synchronous, self.jobs, self.frame = clock, synchronous, [], 0
 
-    def __call__(self, work):
-        job = Job(work, self.clock, self.frame)
+    def __call__(self, work, counted=False):
+        job = Job(work, self.clock, self.frame, counted)
         self.jobs.append(job)
         if self.synchronous:
             job.join()
         return job
+
+    def step(self, work):
+        """Launch a whole step off the frame (its pieces' costs are learned on the clock)."""
+        return self(work, counted=True)
 
     def finish(self, frames_old=0):
         """Finish the jobs started at least ``frames_old`` frames ago."""
@@ -115,7 +122,8 @@ def realtime(m, name, *, factor_cost, budget=BUDGET, synchronous=False, eager=Fa
         return inner(u, *args, **kw)
 
     m.hessian = costly_assembly
-    return RealtimeSolver(m, budget=budget, clock=clock, linear_solver=linear, rtol=1e-8), clock, launcher
+    return (RealtimeSolver(m, budget=budget, clock=clock, linear_solver=linear, rtol=1e-8, launch=launcher.step),
+            clock, launcher)
 
 
 def path(t):
@@ -143,12 +151,16 @@ def test_no_budgeted_frame_overruns_when_a_factorization_costs_three_frames(name
     assert "| unestimated " in first.accuracy and "factorization" in first.accuracy.split("| unestimated ")[1]
     for r in later:  # every later frame: within the budget but for one back-substitution
         assert r.elapsed <= BUDGET + BACK_SUBSTITUTION + 1e-12, (r, r.skipped)
-        assert "factorization" not in r.unestimated and r.committed
+        assert "factorization" not in r.unestimated and (r.committed or r.off_frame == "running")
     costs = rt.costs
     assert costs["factorization"] == pytest.approx(3 * BUDGET) and costs["assembly"] == pytest.approx(ASSEMBLY)
-    if name in AFRESH:  # a factorization each solve that never fits: the frames stop at once and say why
-        assert all(r.status == "budget" and "factorization" in r.skipped and r.newton.iterations == 0 for r in later)
-        assert all("skipped factorization" in r.accuracy for r in later)
+    if name in AFRESH:  # a factorization each solve: one Newton iteration never fits, so each step runs off the
+        # frame (the frames show the last state meanwhile) and a frame after it commits it, converged
+        assert all(r.off_frame in ("running", "finished") for r in later)
+        assert all("off the frame" in r.accuracy for r in later)
+        finished = [r for r in later if r.off_frame == "finished"]
+        assert len(finished) >= len(later) // 5 and all(r.committed and r.converged for r in finished)
+        assert all(not r.committed for r in later if r.off_frame == "running")
     elif name.startswith("reuse"):
         backend = rt.linear.backend
         assert backend.background_factorizations >= 1 and backend.factorizations == 1

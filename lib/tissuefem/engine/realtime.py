@@ -9,14 +9,27 @@ accepted iterate (*anytime*, see :mod:`.stepping`) and the residual left carries
 frame ever, with no cost learned yet, runs its work whatever it costs (its report's ``unestimated`` says so); the
 first Newton iteration's short pieces always run, so every frame makes progress. What a frame did not start is its
 report's ``skipped``. The clock is a parameter, so tests use a fake one.
+
+**A step too long for a frame runs off it.** When the learned costs say that even one Newton iteration (an
+assembly, the least solve, a line search and the report's check of J) does not fit the budget, the frame does not
+start the step: it hands the whole step, unbudgeted, to a worker thread (numpy and scipy leave the interpreter's
+lock in the heavy parts) and returns at once with the last committed state; its report's ``off_frame`` is
+``"running"``. The frames after it return at once too, until one finds the step finished and commits it
+(``off_frame == "finished"``). Simulated time then advances slower than real time: one step of ``dt`` per so many
+frames. The handles' targets given meanwhile are kept for the next step; whatever changes the model or the state
+first waits for the running step (:meth:`~.stepping.Stepper.settle`).
 """
 
 from __future__ import annotations
 
+import math
 import time
 
 from .constants import FRAME_BUDGET
-from .stepping import Stepper
+from .linsolve import start_thread
+from .minimize import NewtonResult
+from .parameters import ParameterError
+from .stepping import Stepper, StepReport
 
 __all__ = ["RealtimeSolver", "FRAME_BUDGET", "LINEAR_SOLVERS"]
 
@@ -29,11 +42,71 @@ LINEAR_SOLVERS = ("reuse-background", "reuse", "reuse-pardiso", "direct", "super
 class RealtimeSolver(Stepper):
     """A :class:`~tissuefem.engine.stepping.Stepper` with a frame's defaults: ``budget = 1/30`` s, ``rtol =
     1e-6``, ``anytime = True``, the linear solver ``"constant"`` (one factorization per set of held dofs) for
-    a quadratic model, else ``"reuse"`` (a kept factorization as CG's preconditioner)."""
+    a quadratic model, else ``"reuse"`` (a kept factorization as CG's preconditioner). ``launch(work)``: how a
+    step too long for a frame starts off it, returning a job with ``is_alive`` and ``join`` (a test passes one it
+    controls; default: the linear solver's ``launch``, else :func:`.linsolve.start_thread`); ``off_frame=False``:
+    every step on the frame, however long (each frame then does at least its first Newton iteration)."""
 
     def __init__(self, model, *, budget: float = FRAME_BUDGET, rtol: float = 1e-6, linear_solver=None,
-                 clock=time.perf_counter, anytime: bool = True, **options):
+                 clock=time.perf_counter, anytime: bool = True, launch=None, off_frame: bool = True, **options):
         if linear_solver is None:
             linear_solver = "constant" if getattr(model, "quadratic", False) else "reuse"
+        if launch is not None and not callable(launch):
+            raise ParameterError("launch", f"launch must be a callable starting a step off the frame, got {launch!r}")
         super().__init__(model, budget=budget, rtol=rtol, linear_solver=linear_solver, clock=clock,
                          anytime=anytime, **options)
+        if not isinstance(off_frame, bool):
+            raise ParameterError("off_frame", f"off_frame must be True or False, got {off_frame!r}")
+        self.launch, self.off_frame = launch, off_frame
+
+    @property
+    def running(self) -> bool:
+        """Whether a step runs off the frame (started and not yet committed)."""
+        return self._running is not None
+
+    def too_long(self) -> bool:
+        """Whether the learned costs say one Newton iteration does not fit a frame (never before they are
+        learned: the first frame learns them)."""
+        if not (self.off_frame and math.isfinite(self.budget)):
+            return False
+        kinds = ("assembly", *self.linear.least_work(), "line-search", "report")
+        costs = [self.costs.get(kind) for kind in kinds]
+        return None not in costs and sum(costs) > self.budget
+
+    def step(self, targets=None, *, prescribed=None, load: float = 1.0) -> StepReport:
+        """One frame (see the module docstring): a step within the budget, or one started, still running or
+        committed off the frame. ``prescribed`` and ``load`` (load stepping) always step on the frame."""
+        start = self._clock()
+        if self._running is not None:
+            job, box = self._running
+            self.model.set_targets(targets)  # checked, all or nothing; the next step reads them
+            if job.is_alive():
+                return self._running_report(start)
+            self.settle()
+            seconds, report = self.last_report.elapsed, self.last_report
+            report.elapsed, report.off_frame, report.off_frame_seconds = self._clock() - start, "finished", seconds
+            return report
+        if prescribed is not None or load != 1.0 or not self.too_long():
+            return super().step(targets, prescribed=prescribed, load=load)
+        self.model.set_targets(targets)
+        box = {}
+
+        def work():  # the whole step, unbudgeted; committed by a later frame (settle)
+            try:
+                box["report"] = self._attempt(None, None, 1.0, budget=math.inf)
+            except BaseException as err:  # handed to the frame that settles
+                box["error"] = err
+        self._running = ((self.launch or self.linear.launch or start_thread)(work), box)
+        return self._running_report(start)
+
+    frame = step
+
+    def _running_report(self, start) -> StepReport:
+        """The report of a frame that shows the last committed state while a step runs off the frame."""
+        last, u = self.last_report, self.u
+        residual, energy = (last.residual_norm, last.energy) if last is not None else (math.nan, None)
+        result = NewtonResult(u, False, "budget", 0, residual, residual, 0.0, energy, energy)
+        scale = last.residual_scale if last is not None else 0.0
+        min_J, inverted = (last.min_J, last.inverted) if last is not None else (math.nan, 0)
+        return StepReport(result, self.steps, self.time, self._clock() - start, self._budget, 1.0, "previous",
+                          False, 0, min_J, inverted, scale, off_frame="running")

@@ -106,6 +106,11 @@ class StepReport:
     min_J: float = math.nan  # the smallest J = det F at x (over elements, or quadrature points)
     inverted: int = 0  # elements with J <= 0 at x (at any of their points)
     residual_scale: float = 0.0  # what the tolerance is relative to (see scaled_residual)
+    #: the real-time loop's step too long for a frame (:class:`~.realtime.RealtimeSolver`): ``"running"``, it runs
+    #: off the frame and this frame shows the last committed state (its accuracy is that state's, from the step
+    #: before); ``"finished"``, this frame committed a step that ran off the frame for ``off_frame_seconds``
+    off_frame: str = ""
+    off_frame_seconds: float = 0.0
 
     contact_status = property(lambda self: "crossed" if self.crossed else "clear",
                               doc="``crossed``: the step started with surface points through the surface.")
@@ -163,6 +168,8 @@ class StepReport:
         rest += [] if self.committed else ["state kept"]
         rest += [f"skipped {', '.join(undone.skipped)}"] if undone.skipped else []
         rest += [f"unestimated {', '.join(self.newton.unestimated)}"] if self.newton.unestimated else []
+        rest += [] if not self.off_frame else ["step running off the frame"] if self.off_frame == "running" else [
+            f"step ran off the frame ({self.off_frame_seconds:.2f} s)"]
         return " | ".join([head, f"rel. residual {self.scaled_residual:.1e}", f"dE {-self.energy_decrease:.1e}",
                            f"min J {self.min_J:.3f}", f"{self.inverted} inverted", *rest])
 
@@ -291,6 +298,7 @@ class Stepper:
         self.time = 0.0
         self.steps = 0
         self.last_report: StepReport | None = None
+        self._running = None  # a step running off the frame: (job, box), see settle
 
     @property
     def dt(self):
@@ -304,6 +312,7 @@ class Stepper:
         if inertia is None or value is None:
             raise ValueError("dt cannot switch between quasistatic (None) and dynamic steps; build another model")
         dt = check_time_step(value)
+        self.settle()
         if dt != inertia.dt:
             inertia.dt = dt
             self.linear.invalidate()  # M / dt^2 changed the Newton matrix
@@ -332,6 +341,7 @@ class Stepper:
 
     def reset(self, u=None, v=None) -> None:
         """Set the state (default: rest); checked, nothing changes on a refusal."""
+        self.settle()
         self.u, self.v = self._checked_state(u, v)
         self.v_previous = None
 
@@ -345,6 +355,7 @@ class Stepper:
                 raise ValueError("a quasistatic stepper has no velocity: v_previous must be None")
         t = check_real("time_", time_)
         steps = check_count("steps", steps, 0)
+        self.settle()
         self.u, self.v, self.v_previous = u, v, v_previous
         self.time, self.steps = t, steps
 
@@ -366,6 +377,36 @@ class Stepper:
         stepping, ``prescribed``: ``(dofs, values)`` held instead of the handles', ``load``: the loads' factor
         in ``[0, 1]``. All or nothing: whatever is refused or raised before the commit leaves the state, the
         targets and the model as they were."""
+        self.settle()
+        return self._commit(self._attempt(targets, prescribed, load))
+
+    def settle(self) -> None:
+        """Wait for a step running off the frame (:class:`~.realtime.RealtimeSolver`), if any, and commit it (its
+        error, if it failed, is raised here: the state stays). Whatever changes the model or the state calls this
+        first; a step started later sees the change."""
+        running, self._running = self._running, None
+        if running is None:
+            return
+        job, box = running
+        job.join()
+        if "error" in box:
+            raise box["error"]
+        self._commit(box["report"])
+
+    def _commit(self, report: StepReport) -> StepReport:
+        """Make ``report``'s result the state if it says so (nothing here can raise); the report."""
+        if report.committed:
+            if self.dt is not None:
+                self.v_previous = self.v
+                self.v = (report.x - self.u) / self.dt
+            self.u, self.time, self.steps = report.x, report.time, report.step
+        self.last_report = report
+        return report
+
+    def _attempt(self, targets, prescribed, load, budget=None) -> StepReport:
+        """Steps 1 to 3 and 5 of the module docstring, without the commit: the report (``committed``: whether
+        :meth:`_commit` makes its result the state); ``budget``: seconds, default the stepper's. All or nothing: an
+        error puts back the targets."""
         model = self.model
         load = check_real("load", load, 0.0, 1.0)
         if prescribed is not None:
@@ -375,7 +416,7 @@ class Stepper:
         saved_targets = [(h, h.target) for h in model.handles]
         saved_x_tilde = None if inertia is None else inertia.x_tilde
         try:
-            return self._step(targets, prescribed, load, start)
+            return self._step(targets, prescribed, load, start, self._budget if budget is None else budget)
         except BaseException:
             for h, target in saved_targets:
                 h.target = target
@@ -391,7 +432,7 @@ class Stepper:
         fixed = check_indices("prescribed dofs", fixed, self.model.n_dofs)
         return fixed, _state_vector("prescribed values", values, fixed.size)
 
-    def _step(self, targets, prescribed, load, start) -> StepReport:
+    def _step(self, targets, prescribed, load, start, step_budget) -> StepReport:
         model = self.model
         model.set_targets(targets)
         fixed, values = model.prescribed() if prescribed is None else prescribed
@@ -411,7 +452,7 @@ class Stepper:
             if inertia is not None:
                 inertia.x_tilde = self.u + dt * self.v
             # the budget less what the report's check of J is expected to take after the solve
-            budget = max(self._budget - (self.linear.costs.get("report") or 0.0), 1e-9 * self._budget)
+            budget = max(step_budget - (self.linear.costs.get("report") or 0.0), 1e-9 * step_budget)
             deadline = self.linear.deadline(self._clock, start + budget)
             x0, E0, fraction, which, load_norm, pre, crossed = self._warm_start(fixed, values, free, deadline)
             if fraction < 1.0 and not self.anytime:
@@ -437,18 +478,10 @@ class Stepper:
         result.unestimated[:0] = [k for k in deadline.unestimated if k not in result.unestimated]
         commit = result.converged or (self.anytime and np.all(np.isfinite(result.x)))
         min_J, inverted = deadline.timed("report", jacobian_extremes, model, result.x)  # timed with the step
-        elapsed = self._clock() - start  # read before the commit: nothing after it can raise
-        if commit:
-            if dt is not None:
-                self.v_previous = self.v
-                self.v = (result.x - self.u) / dt
-                self.time += dt
-            self.u = result.x
-            self.steps += 1
-        self.last_report = StepReport(result, self.steps, self.time, elapsed, self._budget, fraction, which,
-                                       bool(commit), crossed, min_J, inverted,
-                                       max(result.initial_residual, load_norm, self.floor / self.rtol))
-        return self.last_report
+        elapsed = self._clock() - start
+        return StepReport(result, self.steps + bool(commit), self.time + (dt if commit and dt is not None else 0.0),
+                          elapsed, step_budget, fraction, which, bool(commit), crossed, min_J, inverted,
+                          max(result.initial_residual, load_norm, self.floor / self.rtol))
 
     frame = step
 

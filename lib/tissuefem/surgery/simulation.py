@@ -91,6 +91,7 @@ class Simulation:
                                      clock=self.clock, max_iterations=settings["max_iterations"])
         if old is not None:
             _carry_state(old, self.solver, state)
+            self.solver.launch = old.launch
             self.solver.costs.update(old.costs)  # what the work cost lately: the next frame keeps its budget
 
     def _set_terms(self, terms) -> None:
@@ -100,7 +101,10 @@ class Simulation:
 
     @contextlib.contextmanager
     def _transaction(self):
-        """Apply a change completely or not at all: on any error, everything is put back as it was."""
+        """Apply a change completely or not at all: on any error, everything is put back as it was. A step running
+        off the frame is committed first (the change must not happen under it)."""
+        if self.solver is not None:
+            self.solver.settle()
         model, solver, terms = self.model, self.solver, list(self.model.terms)
         saved = (self._grab_count, self._probe_count, self.removed_pieces, self._regions)
         handles = [(h, h.target) for h in model.handles]
@@ -194,6 +198,7 @@ class Simulation:
         point = self._point("point", point)
         if self.order != 1:
             raise ValueError("grab: grabbing needs P1 elements (order=1)")
+        self.solver.settle()  # a new handle changes the model: not under a running step
         x = self.positions()
         nodes = np.flatnonzero(np.hypot(x[0] - point[0], x[1] - point[1]) <= radius)
         if nodes.size == 0:
@@ -228,6 +233,7 @@ class Simulation:
         handle = self.model.handle(name)
         self._check_held([h for h in self.model.handles if h is not handle])
         if self.dynamic:
+            self.solver.settle()
             self.model.remove_handle(name)
             return
         with self._transaction():
@@ -265,8 +271,11 @@ class Simulation:
         raise ValueError(f"no probe named {label!r:.100}; probes: {[p.label for p in self.model.probes]}")
 
     def move_probe(self, label, center) -> None:
-        """Move the probe ``label`` to ``center`` (checked; a refusal keeps it where it was)."""
-        self._probe(label).move(self._point("center", center))
+        """Move the probe ``label`` to ``center`` (checked; a refusal keeps it where it was). The probe is part of
+        the energy: a step running off the frame is committed first."""
+        probe, center = self._probe(label), self._point("center", center)
+        self.solver.settle()
+        probe.move(center)
 
     def remove_probe(self, label) -> None:
         probe = self._probe(label)
@@ -346,6 +355,7 @@ class Simulation:
         """Tighten the ``stitches`` (indices, default all): each keeps ``1 - fraction`` of its gap when placed."""
         if self.model.sutures is None:
             raise ValueError("tighten: there are no sutures")
+        self.solver.settle()
         self.model.sutures.tighten(fraction, stitches)
 
     def suture_gaps(self) -> np.ndarray:
