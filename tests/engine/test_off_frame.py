@@ -1,0 +1,197 @@
+"""A step too long for a frame runs off it: with every linear solver the real-time loop offers, a frame whose one
+Newton iteration (by the learned costs) does not fit the budget hands the whole step to a worker and returns at
+once; a later frame commits the finished step. All on a fake clock: the assembly moves it by a set cost, and the
+worker runs when the test says."""
+
+import math
+
+import numpy as np
+import pytest
+
+from tissuefem import Handle, LinearElastic, LinearSolver, Model, NeoHookean, RealtimeSolver, flap
+from tissuefem.engine import linsolve
+from tissuefem.engine.realtime import LINEAR_SOLVERS
+
+BUDGET = 1 / 30
+SOLVERS = [name for name in LINEAR_SOLVERS if "pardiso" not in name or linsolve.available("pardiso")]
+
+
+class Clock:
+    def __init__(self):
+        self.now = 0.0
+
+    def __call__(self):
+        return self.now
+
+
+class Job:
+    """A worker the test runs: ``join`` runs the work (on the fake clock, which its pieces move)."""
+
+    def __init__(self, work):
+        self.work, self.done = work, False
+
+    def is_alive(self):
+        return not self.done
+
+    def join(self):
+        if not self.done:
+            self.done = True
+            self.work()
+
+
+class Launcher:
+    def __init__(self):
+        self.jobs = []
+
+    def __call__(self, work):
+        self.jobs.append(Job(work))
+        return self.jobs[-1]
+
+    def finish(self):
+        for job in self.jobs:
+            job.join()
+
+    def running(self):
+        return sum(job.is_alive() for job in self.jobs)
+
+
+def model(name, dt=1 / 30):
+    material = LinearElastic.from_young(1000.0, 0.3) if name == "constant" else NeoHookean.from_young(1000.0, 0.3)
+    return Model(flap(n_triangles=200), material, handles=[Handle("fixed"), Handle("handle")], dt=dt)
+
+
+def realtime(name, assembly_cost, budget=BUDGET, dt=1 / 30):
+    """A real-time solver of ``name`` on a fake clock whose tangent assembly costs ``assembly_cost`` seconds."""
+    clock, launcher, m = Clock(), Launcher(), model(name, dt)
+    inner = m.hessian
+
+    def costly_assembly(u, *args, **kw):
+        clock.now += assembly_cost
+        return inner(u, *args, **kw)
+
+    m.hessian = costly_assembly
+    rt = RealtimeSolver(m, budget=budget, clock=clock, linear_solver=LinearSolver(name, launch=launcher), rtol=1e-8,
+                        launch=launcher)
+    return rt, clock, launcher
+
+
+TARGET = np.array([0.3, 0.2])
+
+
+@pytest.mark.parametrize("name", SOLVERS)
+def test_a_step_too_long_for_a_frame_runs_off_it_and_a_later_frame_commits_it(name):
+    rt, clock, launcher = realtime(name, assembly_cost=2 * BUDGET)
+    first = rt.frame({1: TARGET})  # no cost learned yet: the first frame runs on the frame and learns
+    assert first.off_frame == "" and first.committed and "assembly" in first.unestimated
+    rt.linear.invalidate()  # (a kept constant factorization needs no assembly: as if another set were held)
+    assert rt.too_long()  # one assembly alone is two frames
+    steps, u, v, v_previous, t = rt.steps, rt.u.copy(), rt.v.copy(), rt.v_previous, rt.time
+    waiting = [rt.frame({1: TARGET}) for _ in range(3)]  # the first launches the step, the others find it running
+    assert len(launcher.jobs) == 1 and rt.running
+    for r in waiting:  # no work on the frame: the last committed state, shown at once
+        assert r.off_frame == "running" and not r.committed and r.elapsed == 0.0
+        assert r.step == steps and "step running off the frame" in r.accuracy
+    assert np.array_equal(rt.u, u) and rt.steps == steps
+    launcher.finish()
+    done = rt.frame({1: TARGET})
+    assert done.off_frame == "finished" and done.committed and done.converged and done.elapsed == 0.0
+    assert done.off_frame_seconds >= 2 * BUDGET and "ran off the frame" in done.accuracy
+    assert rt.steps == steps + 1 and not rt.running and not np.array_equal(rt.u, u)
+    # the step was unbudgeted: the same state as an unbudgeted solver's from the same start
+    reference = RealtimeSolver(model(name), budget=math.inf, linear_solver=name, rtol=1e-8)
+    reference.set_state(u, v, v_previous=v_previous, time_=t, steps=steps)
+    expected = reference.frame({1: TARGET})
+    assert expected.converged
+    scale = float(np.max(np.abs(expected.x)))
+    np.testing.assert_allclose(rt.u, expected.x, atol=1e-6 * scale)
+
+
+@pytest.mark.parametrize("name", SOLVERS)
+def test_no_frame_after_the_first_overruns_while_steps_run_off_it(name):
+    rt, clock, launcher = realtime(name, assembly_cost=2 * BUDGET)
+    reports = []
+    for f in range(30):
+        if name == "constant":
+            rt.linear.invalidate()  # each step assembles and factorizes (as if the held set changed each time)
+        reports.append(rt.frame({1: TARGET * min(1.0, (f + 1) / 10)}))
+        if f % 3 == 2:
+            launcher.finish()  # the worker takes three frames for one step
+        assert np.all(np.isfinite(rt.u)) and np.all(np.isfinite(rt.v))
+    assert all(r.elapsed <= BUDGET for r in reports[1:])
+    committed = [r for r in reports[1:] if r.committed]
+    assert len(committed) >= 8 and all(r.off_frame == "finished" and r.converged for r in committed)
+    assert rt.steps == 1 + len(committed)  # simulated time runs slower than the frames: a step per ~3 frames
+    assert rt.time == pytest.approx(rt.steps / 30)
+
+
+def test_targets_given_while_a_step_runs_are_the_next_steps():
+    rt, clock, launcher = realtime("reuse", assembly_cost=2 * BUDGET, dt=None)
+    rt.frame({1: TARGET})
+    assert rt.frame({1: TARGET}).off_frame == "running"
+    with pytest.raises(ValueError):
+        rt.frame({7: TARGET})  # refused at once, by name: the running step and the targets stay
+    assert rt.running and np.array_equal(rt.model.handles[1].target, TARGET)
+    rt.frame({1: 2 * TARGET})  # kept for the next step
+    launcher.finish()
+    assert rt.frame().off_frame == "finished"
+    assert rt.frame().off_frame == "running"  # the next step, towards the new target
+    launcher.finish()
+    assert rt.frame().off_frame == "finished"
+    fixed, values = rt.model.prescribed()  # the handles where the new target puts them
+    assert np.allclose(rt.u[fixed], values) and np.any(values)
+    rt.model.handles[1].move(TARGET)
+    assert not np.allclose(rt.u[fixed], rt.model.prescribed()[1])
+
+
+def test_a_failed_step_off_the_frame_keeps_the_state_and_raises_when_settled():
+    rt, clock, launcher = realtime("reuse", assembly_cost=2 * BUDGET)
+    rt.frame({1: TARGET})
+    u, v, steps, t = rt.u.copy(), rt.v.copy(), rt.steps, rt.time
+    inner = rt.model.gradient
+    rt.model.gradient = lambda x: (_ for _ in ()).throw(RuntimeError("the gradient failed"))
+    assert rt.frame({1: 2 * TARGET}).off_frame == "running"
+    launcher.finish()
+    rt.model.gradient = inner
+    with pytest.raises(RuntimeError, match="gradient failed"):
+        rt.frame()
+    assert np.array_equal(rt.u, u) and np.array_equal(rt.v, v) and (rt.steps, rt.time) == (steps, t)
+    assert not rt.running
+    assert rt.frame().off_frame == "running"  # and the loop goes on
+    launcher.finish()
+    assert rt.frame().committed
+
+
+def test_changing_the_state_waits_for_the_running_step():
+    rt, clock, launcher = realtime("reuse", assembly_cost=2 * BUDGET)
+    rt.frame({1: TARGET})
+    rt.frame({1: TARGET})
+    assert rt.running and launcher.running() == 1
+    rt.reset()  # commits the running step first (its worker is joined), then sets the state
+    assert not rt.running and launcher.running() == 0 and rt.steps == 2
+    assert not np.any(rt.u)
+
+
+def test_off_frame_false_keeps_every_step_on_the_frame():
+    rt, clock, launcher = realtime("reuse", assembly_cost=2 * BUDGET)
+    rt.off_frame = False
+    reports = [rt.frame({1: TARGET}) for _ in range(3)]
+    assert all(r.off_frame == "" and r.committed for r in reports) and not launcher.jobs
+    with pytest.raises(ValueError, match="off_frame"):
+        RealtimeSolver(model("reuse"), off_frame="yes")
+    with pytest.raises(ValueError, match="launch"):
+        RealtimeSolver(model("reuse"), launch=3)
+
+
+def test_a_simulation_change_commits_the_running_step_first():
+    from tissuefem import Simulation, demo_scene
+
+    sim = Simulation(demo_scene())
+    launcher = Launcher()
+    sim.solver.launch = launcher
+    sim.frame()  # learns the costs
+    sim.solver.costs["assembly"] = 10.0  # as if one assembly took ten seconds: every step leaves the frame
+    assert sim.frame().off_frame == "running" and sim.solver.running
+    frames = sim.frames
+    sim.add_probe((0.5, 0.5), 0.1)  # a change of the model: the step is committed first, then the probe added
+    assert launcher.running() == 0 and not sim.solver.running and sim.frames == frames + 1
+    assert sim.solver.launch is launcher  # carried to the new solver
