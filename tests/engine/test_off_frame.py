@@ -11,6 +11,7 @@ import pytest
 from tissuefem import Handle, LinearElastic, LinearSolver, Model, NeoHookean, RealtimeSolver, flap
 from tissuefem.engine import linsolve
 from tissuefem.engine.realtime import LINEAR_SOLVERS
+from tissuefem.engine.stepping import accuracy_summary
 
 BUDGET = 1 / 30
 SOLVERS = [name for name in LINEAR_SOLVERS if "pardiso" not in name or linsolve.available("pardiso")]
@@ -122,6 +123,7 @@ def test_no_frame_after_the_first_overruns_while_steps_run_off_it(name):
     assert len(committed) >= 8 and all(r.off_frame == "finished" and r.converged for r in committed)
     assert rt.steps == 1 + len(committed)  # simulated time runs slower than the frames: a step per ~3 frames
     assert rt.time == pytest.approx(rt.steps / 30)
+    assert "step off the frame" in accuracy_summary(reports)["undone_reasons"]
 
 
 def test_targets_given_while_a_step_runs_are_the_next_steps():

@@ -161,7 +161,8 @@ class StepReport:
         """The step's accuracy on one line: converged (or why and after how many Newton steps it stopped), the
         relative residual, the energy decrease ``dE = E(x) - E(x0)``, the smallest J, the inverted elements, and
         what else was left undone (the handles' motion, a kept state), and under a budget the work not started
-        (``skipped``) or started with no cost estimate yet (``unestimated``: the first frame's)."""
+        (``skipped``) or started with no cost estimate yet (``unestimated``: the first frame's), and a step running
+        (or that ran) off the frame (:attr:`off_frame`)."""
         undone = self.undone
         head = "converged" if self.converged else f"{self.status} after {self.newton_iterations} Newton"
         rest = [f"handles {undone.handles:.0%} short"] if undone.handles > 0.0 else []
@@ -183,7 +184,8 @@ class StepReport:
 def accuracy_summary(reports) -> dict:
     """The accuracy of a run of steps (frames), for a benchmark's columns: ``scaled_residual`` (the median),
     ``converged`` (the share that converged), ``min_J`` (the smallest), ``inverted`` (the most in one step),
-    ``undone`` (how many left something undone), ``steps`` and ``undone_reasons`` (what they left, sorted).
+    ``undone`` (how many left something undone), ``steps`` and ``undone_reasons`` (what they left, sorted; a
+    frame showing the last state while its step runs off the frame: ``"step off the frame"``).
     ``reports``: step reports, or anything with their ``scaled_residual, converged, min_J, inverted, undone``."""
     reports = list(reports)
     reasons = set()
@@ -191,7 +193,8 @@ def accuracy_summary(reports) -> dict:
         undone = r.undone
         reasons |= {undone.stopped} - {None}
         reasons |= {"handles short"} if undone.handles > 0.0 else set()
-        reasons |= set() if undone.committed else {"state kept"}
+        running = getattr(r, "off_frame", "") == "running"
+        reasons |= {"step off the frame"} if running else set() if undone.committed else {"state kept"}
     if not reports:
         return {"scaled_residual": math.nan, "converged": math.nan, "min_J": math.nan, "inverted": 0,
                 "undone": 0, "steps": 0, "undone_reasons": []}
