@@ -197,3 +197,40 @@ def test_a_simulation_change_commits_the_running_step_first():
     sim.add_probe((0.5, 0.5), 0.1)  # a change of the model: the step is committed first, then the probe added
     assert launcher.running() == 0 and not sim.solver.running and sim.frames == frames + 1
     assert sim.solver.launch is launcher  # carried to the new solver
+
+
+class SlowSolves:
+    """A direct backend whose back-substitutions cost ``cost`` fake seconds (factorizations nothing)."""
+
+    def __init__(self, inner, clock, cost):
+        self.inner, self.clock, self.cost, self.name = inner, clock, cost, inner.name
+
+    def factorize(self, A):
+        factor, clock, cost = self.inner.factorize(A), self.clock, self.cost
+
+        class Factor:
+            def solve(self, b):
+                clock.now += cost
+                return factor.solve(b)
+        return Factor()
+
+
+@pytest.mark.parametrize("name", SOLVERS)
+def test_a_back_substitution_longer_than_a_frame_sends_the_second_frame_off_it(name):
+    # the first frame factorizes and back-substitutes (no CG iteration learned yet): a CG iteration costs at
+    # least its preconditioner's back-substitution, so the second frame does not start one on the frame
+    rt, clock, launcher = realtime(name, assembly_cost=0.001)
+    backend = rt.linear.backend
+    if isinstance(backend, linsolve.ReusedFactorization):
+        backend.direct = SlowSolves(backend.direct, clock, 2 * BUDGET)
+    else:
+        rt.linear.backend = SlowSolves(backend, clock, 2 * BUDGET)
+    first = rt.frame({1: TARGET})
+    assert first.elapsed >= 2 * BUDGET and "cg-iteration" not in rt.costs
+    reports = []
+    for f in range(12):
+        reports.append(rt.frame({1: TARGET}))
+        if f % 3 == 2:
+            launcher.finish()
+    assert all(r.elapsed <= BUDGET for r in reports)
+    assert reports[0].off_frame == "running" and any(r.off_frame == "finished" and r.converged for r in reports)

@@ -68,8 +68,9 @@ class RealtimeSolver(Stepper):
 
     def too_long(self) -> bool:
         """Whether the learned costs say one Newton iteration (an assembly, the least solve, a line search, the
-        report's check of J) does not fit a frame; a piece not learned yet counts nothing (the first frame ever
-        learns them all on the frame)."""
+        report's check of J) does not fit a frame. A piece not learned yet counts nothing (the first frame ever
+        learns them on the frame), but a CG iteration at least its preconditioner's back-substitution (the first
+        frame factorizes and back-substitutes: no CG iteration yet)."""
         if not (self.off_frame and math.isfinite(self.budget)):
             return False
         fixed, _ = self.model.prescribed()
@@ -77,7 +78,9 @@ class RealtimeSolver(Stepper):
         free[fixed] = False
         kinds = (*(("assembly",) if self.linear.assembles(free) else ()), *self.linear.least_work(), "line-search",
                  "report")
-        return sum(self.costs.get(kind) or 0.0 for kind in kinds) > self.budget
+        costs = dict(self.costs)
+        costs.setdefault("cg-iteration", costs.get("back-substitution"))
+        return sum(costs.get(kind) or 0.0 for kind in kinds) > self.budget
 
     def step(self, targets=None, *, prescribed=None, load: float = 1.0) -> StepReport:
         """One frame (see the module docstring): a step within the budget, or one started, still running or
