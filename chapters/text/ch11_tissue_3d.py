@@ -1,0 +1,360 @@
+# ---
+# jupyter:
+#   jupytext:
+#     formats: ipynb,text//py:percent
+#     text_representation:
+#       extension: .py
+#       format_name: percent
+#       format_version: '1.3'
+#       jupytext_version: 1.19.6
+#   kernelspec:
+#     display_name: Python 3 (ipykernel)
+#     language: python
+#     name: python3
+# ---
+
+# %% [markdown]
+# # Chapter 11 — Tissue in 3D: tetrahedra, a twisted bar, a crushed cube, a released slab
+#
+# **Goals.** By the end of this chapter you can
+# 1. compute $\mathbf F$, $J$ and the cofactor of a tetrahedron, and say what changes from 2D: volumes for
+#    areas, cross products in the cofactor, a third singular value that carries the inversion;
+# 2. say how the tetrahedral ITF of Irving, Teran and Fedkiw splits the diagonal-space tangent into a stretch
+#    block and three twist/flip blocks, and project it;
+# 3. stretch and twist a Neo-Hookean bar and read $J$ and the stress on its surface;
+# 4. crush a cube past flat and let it go with chapter 6's four models, and tell an inverted tetrahedron from
+#    a folded mesh;
+# 5. let a slab go under backward Euler, and drag a 3D body in real time.
+#
+# *Time: about 50 min to read and run, and two exercises.* Nothing here is new code: the library's engine
+# takes a mesh of tetrahedra through the same classes as the triangles of chapters 3 to 8.
+#
+# *Reading:* Irving, Teran and Fedkiw, *Invertible finite elements for robust simulation of large
+# deformation* (SCA 2004), and *Tetrahedral and hexahedral invertible finite elements* (Graphical Models,
+# 2006); Sifakis and Barbič, *FEM simulation of 3D deformable solids* (SIGGRAPH 2012 course). The notes work
+# in 2D throughout; every formula of theirs we use has a 3D twin derived here.
+#
+# **Index convention.** As everywhere (chapter 3): $F_{ij} = \partial\phi_i/\partial X_j$, formulas count from
+# 1 and code from 0; the body's $y$ is up (the crush pushes along $-y$), and node $a$ has dofs $3a$, $3a+1$,
+# $3a+2$.
+
+# %%
+# %matplotlib inline
+import math
+import time
+
+import numpy as np
+from IPython.display import Markdown, display
+
+from tissuefem import (TISSUE_E, TISSUE_NU, Handle, Model, NeoHookean, StableNeoHookean, TaylorNeoHookean,
+                       lame_parameters, projected_tangent, rotation_preserving_svd)
+from tissuefem.engine.materials import cofactor, cofactor_derivative, det
+from tissuefem.engine.meshes import box, signed_volumes
+from tissuefem.workbook.figures.tissue3d import (cube, fig_ch11_crush_release, fig_ch11_released_slab,
+                                                 fig_ch11_twist, slab_run)
+from tissuefem.workbook.hardcases import cover_counts, crush_and_release_runs, edge_matrices, element_jacobians
+from tissuefem.workbook.tables import markdown_table
+from tissuefem.workbook.tissue3d import realtime_drag, twisted_bar
+
+E, nu = TISSUE_E, TISSUE_NU
+lam, mu = lame_parameters(E, nu)          # in 3D the Lamé formulas need no plane-strain reading
+print(f"E = {E:g}, nu = {nu:g}:  lam = {lam:.2f}, mu = {mu:.2f}")
+
+# %% [markdown]
+# ## 1. The 3 × 3 kinematics: what changes from 2D
+#
+# A P1 element in 3D is a tetrahedron: four nodes, and a map $\phi$ that is affine inside it, so
+# $\mathbf F$ is one constant $3\times 3$ matrix per element. The map carries each edge vector
+# $\mathbf X_a - \mathbf X_0$ to $\mathbf x_a - \mathbf x_0$ ($a = 1, 2, 3$); with the edges as the columns of
+# $\mathbf D_m$ (rest) and $\mathbf D_s$ (deformed), $\mathbf F\mathbf D_m = \mathbf D_s$, hence
+#
+# $$\mathbf F = \mathbf D_s\,\mathbf D_m^{-1}, \qquad J = \det\mathbf F = \frac{\det\mathbf D_s}{\det\mathbf D_m}
+#   = \frac{\text{signed volume after}}{\text{signed volume before}}$$
+#
+# (a tetrahedron's volume is $\det\mathbf D/6$; in 2D it was a triangle's area, $\det\mathbf D/2$). Exercise 11.1
+# asks for this $\mathbf F$.
+#
+# **The cofactor.** $\partial J/\partial\mathbf F = \operatorname{cof}\mathbf F = J\,\mathbf F^{-T}$ as in 2D, and it
+# is defined for every $\mathbf F$, singular ones too. In 2D it was a rearrangement of $\mathbf F$'s entries,
+# linear in $\mathbf F$. In 3D its columns are **cross products** of $\mathbf F$'s columns $\mathbf f_j$:
+#
+# $$\operatorname{cof}\mathbf F = \big[\,\mathbf f_2\times\mathbf f_3 \;\big|\; \mathbf f_3\times\mathbf f_1 \;\big|\;
+#   \mathbf f_1\times\mathbf f_2\,\big],$$
+#
+# which is Nanson's formula $\mathbf n\,da = \operatorname{cof}\mathbf F\,\mathbf N\,dA$ column by column: the
+# material square spanned by $\mathbf E_2, \mathbf E_3$ becomes the parallelogram spanned by $\mathbf f_2,
+# \mathbf f_3$. It is *quadratic* in $\mathbf F$, so its derivative
+# $\partial(\operatorname{cof}\mathbf F)_{ij}/\partial F_{kl} = e_{ikm}\,e_{jln}\,F_{mn}$ is no longer a constant: every
+# tangent that contains $\partial^2 J/\partial\mathbf F^2$ (Neo-Hookean's, the Taylor and stable variants') has a
+# term that changes with $\mathbf F$. A cube of six tetrahedra under a random affine map checks all of it:
+
+# %%
+one_cube = box(1.0, 1.0, 1.0, 1, 1, 1)             # 6 tetrahedra around the diagonal
+rng = np.random.default_rng(11)
+A = np.eye(3) + 0.3 * rng.standard_normal((3, 3))  # an affine map x = A X + c
+x = A @ one_cube.p + np.array([[0.5], [-0.2], [1.0]])
+Ds, Dm = edge_matrices(one_cube, x), edge_matrices(one_cube, one_cube.p)
+F_each = np.array([Ds[:, :, e] @ np.linalg.inv(Dm[:, :, e]) for e in range(one_cube.t.shape[1])])
+moved = box(1.0, 1.0, 1.0, 1, 1, 1)
+moved.p[:] = x                                     # the same tetrahedra at the deformed positions
+cross = np.column_stack([np.cross(A[:, 1], A[:, 2]), np.cross(A[:, 2], A[:, 0]), np.cross(A[:, 0], A[:, 1])])
+h = 1e-6
+dJ = np.array([[(det(A + h * np.eye(3)[:, [k]] @ np.eye(3)[[l]]) - det(A - h * np.eye(3)[:, [k]] @ np.eye(3)[[l]]))
+                / (2 * h) for l in range(3)] for k in range(3)])
+print(f"F of the {len(F_each)} tetrahedra: all equal to A within {np.abs(F_each - A).max():.1e}")
+print(f"det A = {det(A):.4f};  signed volumes after / before: {np.round(signed_volumes(moved) / signed_volumes(one_cube), 4)}")
+print(f"cof A against the cross products of A's columns: {np.abs(cofactor(A) - cross).max():.1e};  "
+      f"against J A^-T: {np.abs(cofactor(A) - det(A) * np.linalg.inv(A).T).max():.1e}")
+print(f"dJ/dF by central differences against cof A: {np.abs(dJ - cofactor(A)).max():.1e}")
+H_rest, H_A = cofactor_derivative(np.eye(3)), cofactor_derivative(A)
+print(f"d(cof F)/dF at F = I and at F = A differ by up to {np.abs(H_A - H_rest).max():.2f} (in 2D: 0, a constant)")
+
+# %% [markdown]
+# **The rotation-preserving SVD in 3D.** Chapter 6a's SVD $\mathbf F = \mathbf U\,\operatorname{diag}(\mathbf s)\,
+# \mathbf V^T$ with rotations $\mathbf U$, $\mathbf V$ works the same way with three singular values: a reflection
+# in $\mathbf U$ or $\mathbf V$ (determinant $-1$) is moved onto the *smallest* one, so only $s_3$ can be negative
+# and $s_1 s_2 s_3 = J$. The library takes LAPACK's SVD and fixes the signs (in 2D it had a closed form).
+#
+# **The tetrahedral ITF.** Irving, Teran and Fedkiw extend the energy below a threshold $c$ in each singular
+# value, as in chapter 6a; what the third dimension changes is the tangent. In diagonal space it splits into
+#
+# - the **stretch** block over $(dF_{11}, dF_{22}, dF_{33})$: the $3\times 3$ Hessian of $\hat\Psi(s_1, s_2, s_3)$;
+# - one **twist/flip** block over $(dF_{ij}, dF_{ji})$ for each pair $i < j$, three of them, with eigenvalues
+#   $\dfrac{\psi_i - \psi_j}{s_i - s_j}$ (twist) and $\dfrac{\psi_i + \psi_j}{s_i + s_j}$ (flip).
+#
+# Clamping each block's negative eigenvalues (the $2\times 2$ ones in closed form, the stretch block
+# numerically) and rotating back gives the projected tangent of chapter 6b. An inverted $\mathbf F$, before and
+# after:
+
+# %%
+def rotation(axis, angle):
+    k = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
+    K = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    return np.eye(3) + math.sin(angle) * K + (1.0 - math.cos(angle)) * K @ K
+
+
+F_inv = rotation([1, 2, 0], 0.4) @ np.diag([1.2, 0.9, -0.4]) @ rotation([0, 1, 1], -0.7).T   # s3 < 0: inverted
+U, s, V = rotation_preserving_svd(F_inv)
+print(f"s = {s.round(3)}, det U = {np.linalg.det(U):.0f}, det V = {np.linalg.det(V):.0f}, "
+      f"s1 s2 s3 = {np.prod(s):.4f} = J = {det(F_inv):.4f}")
+for base in (TaylorNeoHookean(lam, mu), StableNeoHookean(lam, mu)):
+    before = np.linalg.eigvalsh(base.tangent(F_inv).reshape(9, 9))
+    after = np.linalg.eigvalsh(projected_tangent(base, F_inv).reshape(9, 9))
+    psi = np.diag(base.stress(np.diag(s)))                       # psi_i = dPsi/ds_i
+    pairs = [(i, j) for i in range(3) for j in range(i + 1, 3)]
+    blocks = ",  ".join(f"({i + 1}{j + 1}) twist {(psi[i] - psi[j]) / (s[i] - s[j]):.0f} "
+                        f"flip {(psi[i] + psi[j]) / (s[i] + s[j]):.0f}" for i, j in pairs)
+    print(f"{base.name}:")
+    print(f"   eigenvalues of the tangent   : {before.round(0) + 0.0}")
+    print(f"   after the projection         : {after.round(0) + 0.0}")
+    print(f"   the three pairs: {blocks}")
+
+# %% [markdown]
+# As in 2D, the negative eigenvalues become zero and the others stay; each pair's twist and flip values are
+# among the exact tangent's eigenvalues. With an inversion carried by $s_3$, the flip values of the pairs that
+# contain it ($(13)$ and $(23)$) are the ones a compressive $\psi_3$ can make negative.
+#
+# ## 2. A Neo-Hookean bar, stretched and twisted
+#
+# A bar of tetrahedra is held at its left face; its right face is turned about the bar's axis and pulled along it,
+# in equal load steps (`tissuefem.workbook.tissue3d.twisted_bar`). A turn must be followed in steps: each
+# step starts Newton from the last state, the right face's nodes moved by the rotation itself. (Chapter 4's `solve`
+# ramps a handle's *displacement* along a straight line, which for a turn would shrink the face half-way.)
+
+# %%
+start = time.perf_counter()
+twist = twisted_bar()                                   # 90 degrees and 20 % of the length, in 6 steps
+J_twist = twist.model.jacobian(twist.u)
+display(Markdown(markdown_table(
+    [{"angle": a, "newton": r.newton_iterations, "force": f} for a, r, f in zip(twist.angles, twist.reports,
+                                                                                twist.axial_force)],
+    [("angle", "turned by (degrees)", "{:.0f}"), ("newton", "Newton iterations", "{:d}"),
+     ("force", "axial force on the right face", "{:.1f}")])))
+display(Markdown(
+    f"The bar has {twist.model.mesh.t.shape[1]} tetrahedra and {twist.model.n_dofs} unknowns; the {len(twist.angles)} "
+    f"steps took {time.perf_counter() - start:.1f} s. At the end $J$ runs from {J_twist.min():.3f} to "
+    f"{J_twist.max():.3f}: the volume changes by at most {100 * np.abs(J_twist - 1).max():.0f} %, "
+    f"although the surface turns by {twist.angles[-1]:.0f}°."))
+
+# %%
+fig_ch11_twist(result=twist)
+
+# %% [markdown]
+# The colours show where the bar works: $J$ moves away from 1 along the edges of the bar, where a twist
+# shears the most, and the largest principal stress gathers at the corners of the held and turned faces. A
+# twist is a shear that grows with the distance from the axis; the bar's centre line is barely strained.
+#
+# **A 3D effect: the Poynting effect.** Twist a rubber bar and it wants to get *longer*; held at both ends, it
+# pushes on its holders instead. The same bar turned without a pull:
+
+# %%
+pure = twisted_bar(stretch=0.0)
+forces = ", ".join(f"{f:.2f}" for f in pure.axial_force)
+sign = "pushes on" if pure.axial_force[-1] < 0 else "pulls on"
+display(Markdown(
+    f"Axial force on the right face after each step of the pure twist: {forces}. It grows about with the square "
+    f"of the angle (ratio of the last to the first: {pure.axial_force[-1] / pure.axial_force[0]:.0f}, with "
+    f"{len(pure.angles)} steps) and its sign says the bar **{sign}** its holders."))
+
+# %% [markdown]
+# Linear elasticity has no such force (a twist is a pure shear, and linear shear does not change lengths): it is
+# second order in the angle, one of the effects a 2D model cannot show.
+#
+# ## 3. The cube crushed past flat and released: chapter 6b in 3D
+#
+# Chapter 6b's experiment (`tissuefem.workbook.hardcases.crush_and_release`) takes tetrahedra as it takes
+# triangles: the unit cube (`block(3, dim=3)`, `cube()` here), bottom face held, top face pushed down in the same
+# steps to flat and past it, then let go; the four models of chapter 6a.
+
+# %%
+mesh = cube()
+start = time.perf_counter()
+runs = crush_and_release_runs(E, nu, mesh)
+seconds = time.perf_counter() - start
+rows = []
+for name, run in runs.items():
+    deepest = run["frames"][-2]                     # the last crush state that converged
+    failed = [f"{0.1 * (k + 1):.1f}: {r.status}" for k, r in enumerate(run["crush"]) if not r.converged]
+    rows.append({"model": name, "depth": run["crushed"], "inverted": int((element_jacobians(mesh, deepest) <= 1e-12).sum()),
+                 "folded": int((cover_counts(mesh, deepest) > 1).sum()), "failed": ", ".join(failed) or "none",
+                 "iterations": run["iterations"], "release": run["released"].status,
+                 "rest": run["released"].rest_error})
+display(Markdown(f"{mesh.t.shape[1]} tetrahedra, four crushes and releases in {seconds:.1f} s:\n\n" + markdown_table(rows, [
+    ("model", "model", "{}"), ("failed", "failed crush step", "{}"), ("release", "release", "{}"),
+    ("depth", "depth reached", "{:.1f}"), ("inverted", "J <= 0 there", "{:d}"),
+    ("folded", "centroids covered twice there", "{:d}"), ("iterations", "Newton iterations", "{:d}"),
+    ("rest", "rest error", "{:.2g}")], text_columns=3)))
+
+# %%
+fig_ch11_crush_release(runs=runs)
+
+# %%
+def reading(name):
+    """One sentence per model, from its run."""
+    run, row = runs[name], next(r for r in rows if r["model"] == name)
+    back = run["released"].converged and run["released"].rest_error < 1e-6
+    how = (f"reaches {row['depth']:.1f}" + (" (flat or beyond)" if row["depth"] >= 1.0 - 1e-9 else
+                                            f", then its next step fails ({run['crush'][-1].status})"))
+    state = (f"{row['inverted']} tetrahedra inverted and {row['folded']} centroids covered twice at that depth")
+    end = "comes back to rest" if back else f"does not come back (rest error {row['rest']:.2g})"
+    return f"- **{name}** {how}, with {state}; released, it {end}."
+
+
+display(Markdown("\n".join(reading(name) for name in runs)))
+
+# %% [markdown]
+# Compare with chapter 6b's square. The models' promises are the same in 3D: the $\ln J$ model stops where an
+# element would reach $J \le 0$ (its energy is NaN there); the other three get past it without a NaN. The
+# columns "J <= 0 there" and "centroids covered twice there" tell the two kinds of "inversion" apart, as in
+# chapter 6b: an inverted tetrahedron (turned inside out, what the ITF construction handles), or a mesh of upright
+# tetrahedra lying over itself (a fold, which no element-by-element repair can see). A cube has more ways
+# to get out of the way than a square (its sides bulge in two directions), and the figure shows how each
+# model used them.
+#
+# ## 4. A released body: backward Euler in 3D
+#
+# Chapter 7's flap as a slab of tetrahedra (`released_flap` with `nz` cells across a depth): lifted at its right
+# face, held at its left face and let go, one backward-Euler step per frame of 1/30 s (`backward_euler_run`,
+# unchanged: a step is the minimisation of the incremental potential, whatever the element).
+
+# %%
+start = time.perf_counter()
+slab = slab_run()
+model_slab, times, energies, states = slab
+J_min = min(float(model_slab.jacobian(u).min()) for u in states)
+display(Markdown(
+    f"{len(states) - 1} steps of backward Euler on {model_slab.mesh.t.shape[1]} tetrahedra ({model_slab.n_dofs} "
+    f"unknowns) in {time.perf_counter() - start:.1f} s. After {times[-1]:.2f} s the total energy is "
+    f"{energies[-1] / energies[0]:.3f} of its start: the numerical damping of chapter 7, unchanged by the third "
+    f"dimension. The smallest $J$ of the whole motion is {J_min:.3f}."))
+
+# %%
+fig_ch11_released_slab(run=slab)
+
+# %% [markdown]
+# The motion as an animation (`python -m tissuefem figures --only fig_ch11_released_slab` writes it beside the
+# filmstrip), the faces coloured by $J$:
+#
+# ![The slab let go under backward Euler, one step per frame of 1/30 s, coloured by J](../figures/fig_ch11_released_slab.gif)
+#
+# ## 5. Real time in 3D: a drag
+#
+# The notes' loop of chapter 7 (`RealtimeSolver`, a budget of 1/30 s per frame, anytime commits) needs nothing
+# new for tetrahedra. A slab held at its left face; the nodes near one corner of its right face are grabbed and
+# moved up, across and back, one frame per 1/30 s of the path (`tissuefem.workbook.tissue3d.realtime_drag`):
+
+# %%
+drag = realtime_drag()
+reports = drag["reports"]
+ms = np.array([1000 * r.elapsed for r in reports])
+newton = np.array([r.newton_iterations for r in reports])
+converged = np.mean([r.converged for r in reports])
+display(Markdown(
+    f"{len(reports)} frames on {drag['model'].mesh.t.shape[1]} tetrahedra ({drag['model'].n_dofs} unknowns, "
+    f"{drag['grab'].size} nodes grabbed): median {np.median(ms):.1f} ms per frame, slowest {ms.max():.1f} ms "
+    f"(the first, which factorizes), {newton.mean():.2f} Newton iterations per frame on average, "
+    f"{100 * converged:.0f} % of the frames converged within the budget."))
+
+# %% [markdown]
+# A 3D body of this size fits the budget with room to spare. The cost grows faster than in 2D, though: a
+# tetrahedron mesh with $n$ nodes along each side has $n^3$ nodes, and a node has more neighbours (a
+# factorization fills in more), so the sizes chapter 9 found for triangles do not carry over.
+#
+# ## What to try
+# Each suggestion comes with a few lines that run on their own in a new cell; change the numbers
+# and run them again.
+#
+# - Twist the bar further, a half turn and more. Where does the smallest $J$ go, and how many Newton
+#   iterations does a step take?
+#
+# ```python
+# from tissuefem.workbook.tissue3d import twisted_bar
+#
+# for angle in (180.0, 270.0):
+#     run = twisted_bar(angle=angle, stretch=0.0, steps=12)
+#     J = run.model.jacobian(run.u)
+#     print(f"{angle:.0f} degrees: converged {run.converged}, J from {J.min():.3f} to {J.max():.3f}, "
+#           f"Newton iterations per step {[r.newton_iterations for r in run.reports]}")
+# ```
+#
+# - Crush the cube with a nearly incompressible material. Which models still get past flat?
+#
+# ```python
+# from tissuefem.workbook.hardcases import block, crush_and_release, inversion_models
+#
+# for name, material in inversion_models(1000.0, 0.45).items():
+#     run = crush_and_release(material, block(2, dim=3), depth=1.2, steps=6)
+#     print(f"{name}: crushed to {run['crushed']:.1f}, released {run['released'].status}, "
+#           f"rest error {run['released'].rest_error:.2g}")
+# ```
+#
+# - Release the cube from chapter 6a's violent start states, now in 3D.
+#
+# ```python
+# from tissuefem.workbook.hardcases import block, inversion_models, release, start_states
+#
+# mesh = block(2, dim=3)
+# material = inversion_models()["stable neo-Hookean"]
+# for state, x_start in start_states(mesh).items():
+#     r = release(mesh, material, x_start)
+#     print(f"{state}: {r.status}, rest error {r.rest_error:.2g}")
+# ```
+#
+# - Drag faster, or on a finer slab, or with half the budget: when do frames stop converging?
+#
+# ```python
+# from tissuefem.workbook.tissue3d import realtime_drag
+#
+# run = realtime_drag(cells=(12, 3, 3), budget=1 / 60)
+# print(f"converged frames: {sum(r.converged for r in run['reports'])} of {len(run['reports'])}; "
+#       f"Newton iterations {[r.newton_iterations for r in run['reports']][:10]} ...")
+# ```
+#
+# ## Exercises
+# In `chapters/exercises/ch11.py`; grade them with `python -m tissuefem grade ch11`.
+#
+# - **11.1** The deformation gradient of one tetrahedron from its four vertices, before and after: the 3D twin
+#   of exercise 3.2. Check that $\det\mathbf F$ is the ratio of signed volumes, negative for an inverted one.
+# - **11.2** The 3D Neo-Hookean stress $\mathbf P = \mu\mathbf F + (\lambda\ln J - \mu)\,\mathbf F^{-T}$ from its
+#   energy $\Psi = \frac{\mu}{2}(\mathbf F:\mathbf F - 3) - \mu\ln J + \frac{\lambda}{2}(\ln J)^2$; the grader
+#   compares it with central differences of the energy.
