@@ -139,6 +139,7 @@ DECLARED: list[tuple[str, str, str, str]] = [
     ("ch10_cutting_contact", "0.1", "definition", "Slivers (a piece holding less than 0.1 % of its triangle)"),
     ("ch10_cutting_contact", "0.8", "definition", "and takes at most 0.8 of it, as IPC does"),
     ("ch10_cutting_contact", "20", "input", "or tightened in 20 smaller steps"),
+    ("ch11_tissue_3d", "0", "reference", 'columns "J <= 0 there" and "centroids covered twice there"'),
 ]
 
 # --- reading the prose ------------------------------------------------------------------------------------

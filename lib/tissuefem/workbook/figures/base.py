@@ -155,9 +155,10 @@ def surface_verts(mesh, x, faces=None) -> np.ndarray:
     return x[:, faces].transpose(2, 1, 0)
 
 
-def body_axes(ax, xlim, ylim, zlim, elev: float = 22.0, azim: float = -58.0) -> None:
-    """A 3D axes for a body of tetrahedra: the body's x, z, y limits (y up), equal scales, a fixed view, no axes."""
+def body_axes(ax, xlim, ylim, zlim, elev: float = 22.0, azim: float = -58.0, zoom: float = 1.0) -> None:
+    """A 3D axes for a body of tetrahedra: the body's x, z, y limits (y up), equal scales, a fixed view, no axes;
+    ``zoom`` enlarges the drawing within the axes."""
     ax.set(xlim=xlim, ylim=zlim, zlim=ylim)
-    ax.set_box_aspect((xlim[1] - xlim[0], zlim[1] - zlim[0], ylim[1] - ylim[0]))
+    ax.set_box_aspect((xlim[1] - xlim[0], zlim[1] - zlim[0], ylim[1] - ylim[0]), zoom=zoom)
     ax.view_init(elev=elev, azim=azim)
     ax.set_axis_off()

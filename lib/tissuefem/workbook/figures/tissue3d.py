@@ -66,7 +66,7 @@ def fig_ch11_twist(result=None) -> Figure:
     J = shown(model.jacobian(u))
     tension = shown(model.tension(u))
     limits = _limits([x, model.X])
-    fig = Figure(figsize=(12.0, 4.6), layout="constrained")
+    fig = Figure(figsize=(12.0, 4.2), layout="constrained")
     axes = [fig.add_subplot(1, 2, k + 1, projection="3d") for k in range(2)]
     spread = max(float(np.max(np.abs(J - 1.0))), 1e-3)
     J_norm = TwoSlopeNorm(vcenter=1.0, vmin=1.0 - spread, vmax=1.0 + spread)
@@ -75,7 +75,7 @@ def fig_ch11_twist(result=None) -> Figure:
                                           (axes[1], tension, STRESS_CMAP, S_norm,
                                            stress_label("largest principal Cauchy stress", sep="\n"))):
         draw_body(ax, model.mesh, x, values, cmap, norm)
-        body_axes(ax, *limits, elev=24.0, azim=-62.0)
+        body_axes(ax, *limits, elev=24.0, azim=-62.0, zoom=1.1)
         fig.colorbar(ScalarMappable(norm=norm, cmap=cmap), ax=ax, shrink=0.6, pad=0.0, label=label)
     axes[0].set_title(f"coloured by J: from {J.min():.3f} to {J.max():.3f}", fontsize=9.5)
     axes[1].set_title(f"coloured by the largest principal stress: up to {tension.max():.0f}", fontsize=9.5)
@@ -153,7 +153,8 @@ def write_slab_animation(gif_path, model, states, dt: float, norm, dpi: int = 10
     body_axes(ax, *limits, elev=18.0, azim=-64.0)
     faces, _ = boundary_faces(model.mesh)
     body = Poly3DCollection(surface_verts(model.mesh, model.positions(states[0]), faces),
-                            facecolors=_J_colors(model, states[0], norm), edgecolors="0.2", linewidths=0.3)
+                            facecolors=_J_colors(model, states[0], norm), edgecolors="0.2", linewidths=0.3,
+                            antialiaseds=False)  # few colours per frame keep the GIF small
     ax.add_collection3d(body)
     title = fig.text(0.5, 0.94, "", ha="center", va="center", fontsize=13)
 
@@ -185,7 +186,7 @@ def fig_ch11_released_slab(path=None, run=None) -> Figure:
     for col, k in enumerate(SLAB_FILMSTRIP):
         ax = fig.add_subplot(grid[0, col], projection="3d")
         draw_body(ax, mesh, model.positions(states[k]), model.jacobian(states[k]), J_CMAP, norm, linewidth=0.2)
-        body_axes(ax, *limits, elev=18.0, azim=-64.0)
+        body_axes(ax, *limits, elev=18.0, azim=-64.0, zoom=1.3)
         ax.set_title(f"t = {times[k]:.2f} s" + (" (let go)" if k == 0 else ""), fontsize=8.5)
     ax = fig.add_subplot(grid[1, :])
     ax.plot(times, shown(tip_y), "o-", color="C0", ms=3, lw=1.2, label="right face's mean displacement $u_y$")
