@@ -46,8 +46,8 @@ import time
 import numpy as np
 from IPython.display import Markdown, display
 
-from tissuefem import (TISSUE_E, TISSUE_NU, Handle, Model, NeoHookean, StableNeoHookean, TaylorNeoHookean,
-                       lame_parameters, projected_tangent, rotation_preserving_svd)
+from tissuefem import (FRAME_BUDGET, TISSUE_E, TISSUE_NU, StableNeoHookean, TaylorNeoHookean, lame_parameters,
+                       projected_tangent, rotation_preserving_svd)
 from tissuefem.engine.materials import cofactor, cofactor_derivative, det
 from tissuefem.engine.meshes import box, signed_volumes
 from tissuefem.workbook.figures.tissue3d import (cube, fig_ch11_crush_release, fig_ch11_released_slab,
@@ -157,11 +157,17 @@ for base in (TaylorNeoHookean(lam, mu), StableNeoHookean(lam, mu)):
     print(f"   eigenvalues of the tangent   : {before.round(0) + 0.0}")
     print(f"   after the projection         : {after.round(0) + 0.0}")
     print(f"   the three pairs: {blocks}")
+    values = {(i, j): {"twist": (psi[i] - psi[j]) / (s[i] - s[j]), "flip": (psi[i] + psi[j]) / (s[i] + s[j])}
+              for i, j in pairs}
+    negative = [f"({i + 1}{j + 1}) {kind}" for (i, j), v in values.items() for kind in v if v[kind] < 0]
+    print(f"   negative blocks: {', '.join(negative)}")
 
 # %% [markdown]
 # As in 2D, the negative eigenvalues become zero and the others stay; each pair's twist and flip values are
-# among the exact tangent's eigenvalues. With an inversion carried by $s_3$, the flip values of the pairs that
-# contain it ($(13)$ and $(23)$) are the ones a compressive $\psi_3$ can make negative.
+# among the exact tangent's eigenvalues. The inversion is carried by $s_3 < 0$, so the flips of the pairs that
+# contain it, $(13)$ and $(23)$, divide by $s_i + s_3$, a sum shrunk by the negative $s_3$; where their
+# numerators turn negative (a compressive $\psi_3$ of the inverted direction outweighs $\psi_i$) they are the
+# directions Newton would climb without the projection. The lines "negative blocks" name them for both models.
 #
 # ## 2. A Neo-Hookean bar, stretched and twisted
 #
@@ -227,11 +233,13 @@ rows = []
 for name, run in runs.items():
     deepest = run["frames"][-2]                     # the last crush state that converged
     failed = [f"{0.1 * (k + 1):.1f}: {r.status}" for k, r in enumerate(run["crush"]) if not r.converged]
-    rows.append({"model": name, "depth": run["crushed"], "inverted": int((element_jacobians(mesh, deepest) <= 1e-12).sum()),
+    rows.append({"model": name, "depth": run["crushed"],
+                 "inverted": int((element_jacobians(mesh, deepest) <= 1e-12).sum()),
                  "folded": int((cover_counts(mesh, deepest) > 1).sum()), "failed": ", ".join(failed) or "none",
                  "iterations": run["iterations"], "release": run["released"].status,
                  "rest": run["released"].rest_error})
-display(Markdown(f"{mesh.t.shape[1]} tetrahedra, four crushes and releases in {seconds:.1f} s:\n\n" + markdown_table(rows, [
+display(Markdown(f"{mesh.t.shape[1]} tetrahedra, four crushes and releases in {seconds:.1f} s:\n\n"
+                 + markdown_table(rows, [
     ("model", "model", "{}"), ("failed", "failed crush step", "{}"), ("release", "release", "{}"),
     ("depth", "depth reached", "{:.1f}"), ("inverted", "J <= 0 there", "{:d}"),
     ("folded", "centroids covered twice there", "{:d}"), ("iterations", "Newton iterations", "{:d}"),
@@ -333,13 +341,13 @@ newton = np.array([r.newton_iterations for r in reports])
 converged = np.mean([r.converged for r in reports])
 display(Markdown(
     f"{len(reports)} frames on {drag['model'].mesh.t.shape[1]} tetrahedra ({drag['model'].n_dofs} unknowns, "
-    f"{drag['grab'].size} nodes grabbed): median {np.median(ms):.1f} ms per frame, slowest {ms.max():.1f} ms "
-    f"(the first, which factorizes), {newton.mean():.2f} Newton iterations per frame on average, "
+    f"{drag['grab'].size} nodes grabbed): median {np.median(ms):.1f} ms per frame, "
+    f"{100 * np.median(ms) / (1000 * FRAME_BUDGET):.0f} % of the budget; slowest {ms.max():.1f} ms (frame "
+    f"{int(np.argmax(ms)) + 1}); {newton.mean():.2f} Newton iterations per frame on average; "
     f"{100 * converged:.0f} % of the frames converged within the budget."))
 
 # %% [markdown]
-# A 3D body of this size fits the budget with room to spare. The cost grows faster than in 2D, though: a
-# tetrahedron mesh with $n$ nodes along each side has $n^3$ nodes, and a node has more neighbours (a
+# The cost of a 3D frame grows faster with the mesh than in 2D: a tetrahedron mesh with $n$ nodes along each side has $n^3$ nodes, and a node has more neighbours (a
 # factorization fills in more), so the sizes chapter 9 found for triangles do not carry over.
 #
 # ## What to try

@@ -65,7 +65,8 @@ def _tetrahedra():
 TETS = _tetrahedra()
 
 
-@pytest.mark.parametrize("answer", implementations("ch11", "deformation_gradient_tet", answers.deformation_gradient_tet))
+@pytest.mark.parametrize("answer", implementations("ch11", "deformation_gradient_tet",
+                                                   answers.deformation_gradient_tet))
 @pytest.mark.parametrize("name", list(TETS))
 def test_ex11_1_deformation_gradient_tet(answer, name):
     X, x = TETS[name]
@@ -80,7 +81,8 @@ def test_ex11_1_deformation_gradient_tet(answer, name):
                  slips=slips)
 
 
-@pytest.mark.parametrize("answer", implementations("ch11", "deformation_gradient_tet", answers.deformation_gradient_tet))
+@pytest.mark.parametrize("answer", implementations("ch11", "deformation_gradient_tet",
+                                                   answers.deformation_gradient_tet))
 def test_ex11_1_det_F_is_the_volume_ratio_and_carries_the_inversion(answer):
     for name, (X, x) in TETS.items():
         F = np.asarray(answer(X.copy(), x.copy()), dtype=float)

@@ -142,3 +142,16 @@ def test_chapter_11_figure_is_deterministic(name, tmp_path):
             assert im.n_frames == SLAB_FRAMES
             assert im.size[0] >= ANIMATION_MIN_WIDTH
         assert len(data) < 1_500_000
+
+
+def test_the_cube_pushed_past_flat_both_inverts_and_folds():
+    """Chapter 11, section 3: "A cube pushed past flat has both at once where the square of chapter 6b only
+    folded": the stable model's cube at the full depth has tetrahedra with J <= 0 and centroids covered twice."""
+    from tissuefem.workbook.figures.tissue3d import cube
+
+    mesh = cube()
+    run = crush_and_release(inversion_models()["stable neo-Hookean"], mesh)
+    assert run["crushed"] == pytest.approx(1.3)
+    deepest = run["frames"][-2]
+    assert (element_jacobians(mesh, deepest) <= 1e-12).sum() > 0
+    assert (cover_counts(mesh, deepest) > 1).sum() > 0

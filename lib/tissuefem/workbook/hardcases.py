@@ -31,8 +31,9 @@ RELEASE_OPTIONS = {"atol": 1e-7, "rtol": 1e-12, "max_step": 0.5, "max_iterations
 
 
 def inversion_models(E: float = TISSUE_E, nu: float = TISSUE_NU) -> dict:
-    """Chapter 6's models (plane strain; on tetrahedra the same Lamé parameters are the 3D ones): ``ln J`` Neo-Hookean (NaN once inverted), the notes' cubic Taylor
-    variant and stable Neo-Hookean with the projected tangent (Teran et al. 2005), ITF-clamped ``ln J``."""
+    """Chapter 6's models (plane strain; on tetrahedra the same Lamé parameters are the 3D ones): ``ln J``
+    Neo-Hookean (NaN once inverted), the notes' cubic Taylor variant and stable Neo-Hookean with the projected
+    tangent (Teran et al. 2005), ITF-clamped ``ln J``."""
     lam, mu = lame_parameters(E, nu, "strain")
     return {
         "neo-Hookean (ln J)": NeoHookean(lam, mu),
