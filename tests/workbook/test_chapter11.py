@@ -155,3 +155,18 @@ def test_the_cube_pushed_past_flat_both_inverts_and_folds():
     deepest = run["frames"][-2]
     assert (element_jacobians(mesh, deepest) <= 1e-12).sum() > 0
     assert (cover_counts(mesh, deepest) > 1).sum() > 0
+
+
+def test_the_probe_presses_the_3d_block_and_is_pushed_back():
+    """The ball of :func:`probe_and_drag` (unhurried: a fake clock): every frame converges, the ball touches only
+    once pressed, is pushed up while it presses, and leaves a penetration far below its radius."""
+    from tissuefem.workbook.tissue3d import probe_and_drag
+
+    run = probe_and_drag(frames=9, budget=10.0, clock=lambda: 0.0)
+    rows = run["rows"]
+    assert all(r["converged"] for r in rows)
+    assert rows[0]["penetration"] == 0.0 and np.all(rows[0]["force"] == 0.0)  # the ball has not reached the top yet
+    pressing = [r for r in rows if r["penetration"] > 0]
+    assert pressing and all(r["force"][1] > 0 for r in pressing)
+    assert max(r["penetration"] for r in rows) < 0.05 * run["simulation"].model.probes[0].radius
+    assert run["simulation"].model.dim == 3

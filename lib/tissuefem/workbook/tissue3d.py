@@ -1,5 +1,6 @@
 """The studies of chapter 11 (tissue in 3D): a Neo-Hookean bar of tetrahedra stretched and twisted by its end
-faces (:func:`twisted_bar`), and a real-time drag of a slab's corner (:func:`realtime_drag`). Chapter 6's crush
+faces (:func:`twisted_bar`), a real-time drag of a slab's corner (:func:`realtime_drag`), and a 3D scene grabbed,
+dragged and probed between frames (:func:`probe_and_drag`). Chapter 6's crush
 and release (:mod:`~tissuefem.workbook.hardcases`, ``block(dim=3)``) and chapter 7's released flap
 (:func:`~tissuefem.workbook.timestepping.released_flap` with ``nz``) take tetrahedra as they are."""
 
@@ -17,8 +18,11 @@ from ..engine.model import Handle, Model
 from ..engine.parameters import lame_parameters
 from ..engine.realtime import RealtimeSolver
 from ..engine.stepping import Stepper
+from ..surgery.scene import Scene
+from ..surgery.simulation import Simulation
 
-__all__ = ["BAR", "TwistResult", "twist_map", "twisted_bar", "drag_path", "realtime_drag"]
+__all__ = ["BAR", "TwistResult", "twist_map", "twisted_bar", "drag_path", "realtime_drag", "PROBE_SCENE",
+           "probe_and_drag"]
 
 #: the bar of the twist: ``(length, width, height)`` and its cells along each
 BAR = {"size": (2.0, 0.6, 0.6), "cells": (10, 3, 3)}
@@ -100,3 +104,44 @@ def realtime_drag(material=None, frames: int = 30, budget: float = FRAME_BUDGET,
         reports.append(solver.frame({"grab": drag_path(f * FRAME_BUDGET)}))
         positions.append(model.positions(solver.u))
     return {"model": model, "reports": reports, "positions": positions, "grab": grab.nodes}
+
+
+#: the scene of :func:`probe_and_drag`: a block of tetrahedra held on its bottom face, quasistatic frames
+PROBE_SCENE = {
+    "name": "probed block",
+    "domain": {"shape": "block", "lx": 2.0, "ly": 0.6, "lz": 0.6, "nx": 10, "ny": 3, "nz": 3},
+    "material": {"model": "stable-neo-hookean", "youngs_modulus": TISSUE_E, "poisson_ratio": TISSUE_NU},
+    "effects": {"handles": [{"name": "base", "region": "bottom"}]},
+}
+
+
+def probe_and_drag(frames: int = 30, radius: float = 0.2, depth: float = 0.12, slide: float = 0.3,
+                   stiffness: float | None = None, budget: float = FRAME_BUDGET, clock=None) -> dict:
+    """The scene :data:`PROBE_SCENE` in real-time frames of ``budget`` seconds: a ball of ``radius`` pressed into
+    the top face to ``depth`` over the first third of the frames and then slid along it by ``slide`` (penalty
+    ``stiffness``, default the scene's: 100 E / radius), while the top right
+    front corner is grabbed and dragged up and out (:meth:`~tissuefem.surgery.simulation.Simulation.grab`,
+    ``drag``, ``add_probe``, ``move_probe`` between frames). ``rows``: per frame the milliseconds, Newton
+    iterations, convergence, the force on the ball ``(3,)`` (the sum of the contact forces on the body, opposite)
+    and the penetration left; ``simulation``."""
+    data = {**PROBE_SCENE, "solver": {"budget": budget}}
+    sim = Simulation(Scene.from_dict(data)) if clock is None else Simulation(Scene.from_dict(data), clock=clock)
+    top = PROBE_SCENE["domain"]["ly"]
+    mid = 0.5 * PROBE_SCENE["domain"]["lz"]
+    corner = np.array([PROBE_SCENE["domain"]["lx"], top, PROBE_SCENE["domain"]["lz"]])
+    grab = sim.grab(corner.tolist(), radius=0.25)
+    ball = sim.add_probe([0.5, top + radius, mid], radius, stiffness)
+    press = max(1, frames // 3)
+    rows = []
+    for f in range(1, frames + 1):
+        s = min(f / press, 1.0)
+        x_ball = 0.5 + slide * max(0.0, (f - press) / max(1, frames - press))
+        sim.move_probe(ball, [x_ball, top + radius - depth * s, mid])
+        sim.drag(grab, (corner + np.array([0.0, 0.25, 0.2]) * min(f / frames * 1.5, 1.0)).tolist())
+        report = sim.frame()
+        probe = sim.model.probes[0]
+        force = probe.gradient(sim.u).reshape(-1, sim.model.dim).sum(axis=0)  # on the ball: minus the body's
+        rows.append({"frame": f, "ms": 1000.0 * report.elapsed, "newton": report.newton_iterations,
+                     "converged": bool(report.converged), "force": force, "penetration": probe.penetration(sim.u),
+                     "ball": x_ball})
+    return {"rows": rows, "simulation": sim, "grab": grab, "ball": ball}
