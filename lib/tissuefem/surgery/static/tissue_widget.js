@@ -22,7 +22,8 @@
 // milliseconds spent, for tests and benchmarks. 2D: the canvas (class tissuefem-canvas) carries the world-to-pixel
 // map (data-view: [scale, ox, oy], CSS pixels of its content box: px = ox + scale * x, py = oy - scale * y).
 // 3D: the canvas (class tissuefem-canvas3d) carries the positions received (data-received) and the camera
-// (data-camera), and canvas.tissuefem.project(x, y, z) gives a world point's CSS pixels in its content box.
+// (data-camera); canvas.tissuefem.project(x, y, z) gives a world point's CSS pixels in its content box and
+// canvas.tissuefem.camera() the camera's eye and its forward, right and up directions (f, r, u).
 // In 3D a left drag on the body grabs it at the surface point under the pointer (the nearest triangle the pointer's
 // ray hits, at the positions shown) and moves that point in the plane through it facing the camera; a right drag, a
 // shift+drag or a left drag beside the body turns the camera around the box's centre; the wheel zooms.
@@ -514,6 +515,7 @@ function render3d({ model, el }) {
     return [c.w / 2 * (1 + dot(d, c.r) / (z * c.tx)), c.h / 2 * (1 - dot(d, c.u) / (z * c.ty))];
   }
   canvas.tissuefem.project = (x, y, z) => project([x, y, z]);
+  canvas.tissuefem.camera = () => frame();
 
   function ray(event, c) {
     const rect = canvas.getBoundingClientRect();
