@@ -118,8 +118,8 @@ def open_view(driver, lab, cells):
     return canvas
 
 
-GRABBED_MOVE = ("float(__import__('numpy').abs(sim.positions()[:, sim.handles[view.grabbed].region]"
-                " - sim.mesh.p[:, sim.handles[view.grabbed].region]).max())")
+GRABBED_MOVE = ("float(__import__('numpy').abs(sim.positions()[:, sim.handles[view.grabbed].nodes]"
+                " - sim.mesh.p[:, sim.handles[view.grabbed].nodes]).max())")
 
 
 # --------------------------------------------------------------------------- the test

@@ -391,7 +391,7 @@ varying vec3 v_color;
 void main() {
   gl_Position = u_matrix * vec4(a_position, 1.0);
   float lambert = abs(dot(a_normal, u_light));
-  v_color = mix(a_color * (0.45 + 0.55 * lambert), a_color, u_flat);
+  v_color = mix(a_color * (0.5 + 0.5 * lambert), a_color, u_flat);
 }`;
 
 const FRAGMENT_SHADER = `
@@ -475,7 +475,7 @@ function render3d({ model, el }) {
     const lo = [b[0], b[2], b.length >= 6 ? b[4] : 0], hi = [b[1], b[3], b.length >= 6 ? b[5] : 0];
     camera.centre = lo.map((v, i) => 0.5 * (v + hi[i]));
     camera.radius = 0.5 * Math.hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]) || 1;
-    camera.distance = camera.radius / Math.sin(camera.fov / 2);
+    camera.distance = 0.8 * camera.radius / Math.sin(camera.fov / 2); // the box's margins may leave the picture
     showCamera();
   }
 
