@@ -421,6 +421,210 @@ function hexRGB(hex) {
   return [1, 3, 5].map((i) => parseInt(hex.slice(i, i + 2), 16) / 255);
 }
 
+// A camera turning around the centre of a box: yaw about the y axis, pitch above the x-z plane, at a distance.
+// frame(w, h) gives its eye, forward f, right r and up u and the half-widths tx, ty of the view at unit distance:
+// the pixel at CSS (cx, cy) of a w x h picture looks along f + (2 cx / w - 1) tx r + (1 - 2 cy / h) ty u.
+class Orbit {
+  constructor() {
+    this.yaw = 0.5;
+    this.pitch = 0.4;
+    this.distance = 1;
+    this.radius = 1;
+    this.centre = [0, 0, 0];
+    this.fov = 35 * Math.PI / 180; // vertical
+  }
+
+  fit(b) {
+    // [xmin, xmax, ymin, ymax, zmin, zmax]: its bounding sphere nearly fills the picture (the box has margins)
+    const lo = [b[0], b[2], b.length >= 6 ? b[4] : 0], hi = [b[1], b[3], b.length >= 6 ? b[5] : 0];
+    this.centre = lo.map((v, i) => 0.5 * (v + hi[i]));
+    this.radius = 0.5 * Math.hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]) || 1;
+    this.distance = 0.8 * this.radius / Math.sin(this.fov / 2);
+  }
+
+  turn(yaw, pitch) {
+    this.yaw = yaw;
+    this.pitch = Math.max(-1.5, Math.min(1.5, pitch));
+  }
+
+  zoom(factor) {
+    this.distance = Math.max(0.3 * this.radius, Math.min(30 * this.radius, this.distance * factor));
+  }
+
+  describe() {
+    return {yaw: this.yaw, pitch: this.pitch, distance: this.distance};
+  }
+
+  frame(w, h) {
+    const {yaw, pitch, distance, centre} = this;
+    const eye = along(centre, distance, [Math.cos(pitch) * Math.sin(yaw), Math.sin(pitch),
+      Math.cos(pitch) * Math.cos(yaw)]);
+    const f = unit(sub(centre, eye)), r = unit(cross(f, [0, 1, 0])), u = cross(r, f);
+    const ty = Math.tan(this.fov / 2), tx = ty * w / h;
+    return {eye, f, r, u, tx, ty, w, h};
+  }
+
+  matrix(c) {
+    // perspective times the view, column-major, for the frame c
+    const near = Math.max(1e-3 * this.distance, this.distance - 3 * this.radius);
+    const far = this.distance + 3 * this.radius;
+    const {eye, f, r, u, tx, ty} = c;
+    const a = (far + near) / (near - far), b = (2 * far * near) / (near - far);
+    const rows = [[r[0] / tx, r[1] / tx, r[2] / tx, -dot(r, eye) / tx],
+      [u[0] / ty, u[1] / ty, u[2] / ty, -dot(u, eye) / ty],
+      [-a * f[0], -a * f[1], -a * f[2], a * dot(f, eye) + b],
+      [f[0], f[1], f[2], -dot(f, eye)]];
+    const m = new Float32Array(16);
+    for (let i = 0; i < 4; i++) for (let j = 0; j < 4; j++) m[4 * j + i] = rows[i][j];
+    return m;
+  }
+}
+
+// a world point's CSS pixels in the frame c
+function project(p, c) {
+  const d = sub(p, c.eye), z = dot(d, c.f);
+  return [c.w / 2 * (1 + dot(d, c.r) / (z * c.tx)), c.h / 2 * (1 - dot(d, c.u) / (z * c.ty))];
+}
+
+// the ray of the pixel at CSS (cx, cy) in the frame c
+function ray(c, cx, cy) {
+  const sx = (2 * cx / c.w - 1) * c.tx, sy = (1 - 2 * cy / c.h) * c.ty;
+  return {origin: c.eye, direction: along(along(c.f, sx, c.r), sy, c.u)};
+}
+
+// the nearest point where the ray meets a triangle (Moller-Trumbore on every one; points x: float32 (n, 3)), or null
+function pick(x, t, line) {
+  const n = x ? x.length / 3 : 0, point = (i) => [x[3 * i], x[3 * i + 1], x[3 * i + 2]];
+  let best = Infinity;
+  for (let k = 0; k < t.length; k += 3) {
+    if (t[k] >= n || t[k + 1] >= n || t[k + 2] >= n) continue;
+    const a = point(t[k]), e1 = sub(point(t[k + 1]), a), e2 = sub(point(t[k + 2]), a);
+    const p = cross(line.direction, e2), det = dot(e1, p);
+    if (Math.abs(det) < 1e-14) continue;
+    const s = sub(line.origin, a), u = dot(s, p) / det;
+    if (u < 0 || u > 1) continue;
+    const q = cross(s, e1), v = dot(line.direction, q) / det;
+    if (v < 0 || u + v > 1) continue;
+    const distance = dot(e2, q) / det;
+    if (distance > 0 && distance < best) best = distance;
+  }
+  return best < Infinity ? along(line.origin, best, line.direction) : null;
+}
+
+// The surface drawn with WebGL: faces flat-shaded (one vertex per corner, with the face's normal and colour) and
+// lit from near the camera on both sides, their edges drawn over them. recolor() after new triangles, colours or
+// colour range; draw(...) each picture.
+function surfacePainter(gl) {
+  const prog = program(gl);
+  const loc = {position: gl.getAttribLocation(prog, "a_position"), normal: gl.getAttribLocation(prog, "a_normal"),
+    color: gl.getAttribLocation(prog, "a_color"), matrix: gl.getUniformLocation(prog, "u_matrix"),
+    light: gl.getUniformLocation(prog, "u_light"), flat: gl.getUniformLocation(prog, "u_flat")};
+  const buffers = {position: gl.createBuffer(), normal: gl.createBuffer(), color: gl.createBuffer(),
+    edges: gl.createBuffer()};
+  let P = new Float32Array(0), N = new Float32Array(0), E = new Float32Array(0), stale = true;
+
+  function colour(nt, c, range) {
+    const colored = c && c.length === nt, [lo, hi] = range;
+    const fill = hexRGB(FILL), rgb = new Float32Array(9 * nt);
+    const table = Array.from({length: BINS}, (_, k) => binRGB(k).map((v) => v / 255));
+    for (let k = 0; k < nt; k++) {
+      const col = colored ? table[binOf(c[k], lo, hi)] : fill;
+      for (let j = 0; j < 3; j++) rgb.set(col, 9 * k + 3 * j);
+    }
+    gl.bindBuffer(gl.ARRAY_BUFFER, buffers.color);
+    gl.bufferData(gl.ARRAY_BUFFER, rgb, gl.STATIC_DRAW);
+    stale = false;
+  }
+
+  function corners(x, t, e) {
+    const nt = t.length / 3, n = x.length / 3, point = (i) => [x[3 * i], x[3 * i + 1], x[3 * i + 2]];
+    if (P.length !== 9 * nt) [P, N] = [new Float32Array(9 * nt), new Float32Array(9 * nt)];
+    if (E.length !== 3 * e.length) E = new Float32Array(3 * e.length);
+    for (let k = 0; k < nt; k++) {
+      const a = t[3 * k], b = t[3 * k + 1], d = t[3 * k + 2];
+      if (a >= n || b >= n || d >= n) { // a frame between new triangles and their positions: not drawn
+        P.fill(0, 9 * k, 9 * k + 9);
+        continue;
+      }
+      const pa = point(a), pb = point(b), pd = point(d), normal = unit(cross(sub(pb, pa), sub(pd, pa)));
+      P.set(pa, 9 * k);
+      P.set(pb, 9 * k + 3);
+      P.set(pd, 9 * k + 6);
+      for (let j = 0; j < 3; j++) N.set(normal, 9 * k + 3 * j);
+    }
+    for (let k = 0; k < e.length; k += 2) {
+      if (e[k] >= n || e[k + 1] >= n) E.fill(0, 3 * k, 3 * k + 6);
+      else {
+        E.set(point(e[k]), 3 * k);
+        E.set(point(e[k + 1]), 3 * k + 3);
+      }
+    }
+  }
+
+  function attribute(location, buffer, data) {
+    gl.bindBuffer(gl.ARRAY_BUFFER, buffer);
+    if (data) gl.bufferData(gl.ARRAY_BUFFER, data, gl.DYNAMIC_DRAW);
+    gl.enableVertexAttribArray(location);
+    gl.vertexAttribPointer(location, 3, gl.FLOAT, false, 0, 0);
+  }
+
+  function draw(x, t, e, c, range, matrix, light) {
+    gl.viewport(0, 0, gl.canvas.width, gl.canvas.height);
+    gl.clearColor(1, 1, 1, 1);
+    gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
+    gl.enable(gl.DEPTH_TEST);
+    if (!x || x.length < 3 || t.length === 0) return;
+    if (stale) colour(t.length / 3, c, range);
+    corners(x, t, e);
+    gl.useProgram(prog);
+    gl.uniformMatrix4fv(loc.matrix, false, matrix);
+    gl.uniform3fv(loc.light, light);
+    attribute(loc.position, buffers.position, P);
+    attribute(loc.normal, buffers.normal, N);
+    attribute(loc.color, buffers.color, null);
+    gl.uniform1f(loc.flat, 0);
+    gl.enable(gl.POLYGON_OFFSET_FILL); // the edges drawn after the faces stay in front of them
+    gl.polygonOffset(1, 1);
+    gl.drawArrays(gl.TRIANGLES, 0, t.length);
+    gl.disable(gl.POLYGON_OFFSET_FILL);
+    if (E.length > 0) {
+      attribute(loc.position, buffers.edges, E);
+      gl.disableVertexAttribArray(loc.normal);
+      gl.disableVertexAttribArray(loc.color);
+      gl.vertexAttrib3f(loc.normal, 0, 0, 1);
+      gl.vertexAttrib3fv(loc.color, hexRGB(EDGE));
+      gl.uniform1f(loc.flat, 1);
+      gl.drawArrays(gl.LINES, 0, E.length / 3);
+    }
+  }
+
+  return {draw, recolor: () => { stale = true; }};
+}
+
+// the cut stroke (float32 (k, 3)) and the drag target ([x, y, z] or []), projected, on the 2D context over the picture
+function drawTools(ctx, c, stroke, target) {
+  ctx.clearRect(0, 0, c.w, c.h);
+  if (stroke && stroke.length >= 6) {
+    ctx.beginPath();
+    for (let k = 0; k + 2 < stroke.length; k += 3) {
+      const [px, py] = project([stroke[k], stroke[k + 1], stroke[k + 2]], c);
+      if (k === 0) ctx.moveTo(px, py);
+      else ctx.lineTo(px, py);
+    }
+    ctx.strokeStyle = "#000";
+    ctx.lineWidth = 1.5;
+    ctx.stroke();
+  }
+  if (target && target.length >= 3) {
+    const [px, py] = project(target, c);
+    ctx.beginPath();
+    ctx.arc(px, py, 5, 0, 2 * Math.PI);
+    ctx.strokeStyle = TARGET;
+    ctx.lineWidth = 2;
+    ctx.stroke();
+  }
+}
+
 function render3d({ model, el }) {
   const box = document.createElement("div");
   box.style.cssText = "position:relative;line-height:0;";
@@ -438,23 +642,17 @@ function render3d({ model, el }) {
       "draws it as a static figure)";
     return view.cleanup;
   }
-  const prog = program(gl);
-  const loc = {position: gl.getAttribLocation(prog, "a_position"), normal: gl.getAttribLocation(prog, "a_normal"),
-    color: gl.getAttribLocation(prog, "a_color"), matrix: gl.getUniformLocation(prog, "u_matrix"),
-    light: gl.getUniformLocation(prog, "u_light"), flat: gl.getUniformLocation(prog, "u_flat")};
-  const buffers = {position: gl.createBuffer(), normal: gl.createBuffer(), color: gl.createBuffer(),
-    edges: gl.createBuffer()};
-
+  const painter = surfacePainter(gl), camera = new Orbit();
   const state = {positions: null, triangles: null, edges: null, colors: null, stroke: null};
-  let faces = {position: new Float32Array(0), normal: new Float32Array(0), edges: new Float32Array(0)};
-  let colorsStale = true, received = 0;
-  // the camera turns around the box's centre: yaw about the y axis, pitch above the x-z plane
-  const camera = {yaw: 0.5, pitch: 0.4, distance: 1, radius: 1, centre: [0, 0, 0], fov: 35 * Math.PI / 180};
+  let received = 0;
+  const frame = () => camera.frame(model.get("width"), model.get("height"));
+  canvas.tissuefem.project = (x, y, z) => project([x, y, z], frame());
+  canvas.tissuefem.camera = frame;
 
   function load(name) {
     const v = model.get(name);
     state[name] = name === "triangles" || name === "edges" ? ints(v) : floats(v);
-    if (name === "triangles" || name === "colors") colorsStale = true;
+    if (name === "triangles" || name === "colors") painter.recolor();
     if (name === "positions") canvas.dataset.received = String(++received);
   }
   for (const name of ["positions", "triangles", "edges", "colors", "stroke"]) load(name);
@@ -470,235 +668,54 @@ function render3d({ model, el }) {
     ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
   }
 
-  function fit() {
-    const b = model.get("bounds");
-    const lo = [b[0], b[2], b.length >= 6 ? b[4] : 0], hi = [b[1], b[3], b.length >= 6 ? b[5] : 0];
-    camera.centre = lo.map((v, i) => 0.5 * (v + hi[i]));
-    camera.radius = 0.5 * Math.hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]) || 1;
-    camera.distance = 0.8 * camera.radius / Math.sin(camera.fov / 2); // the box's margins may leave the picture
-    showCamera();
-  }
-
-  function showCamera() {
-    canvas.dataset.camera = JSON.stringify({yaw: camera.yaw, pitch: camera.pitch, distance: camera.distance});
-  }
-
-  // the camera's frame: its eye, forward f, right r and up u; the pixel at CSS (cx, cy) looks along
-  // f + (2 cx / w - 1) tx r + (1 - 2 cy / h) ty u
-  function frame() {
-    const {yaw, pitch, distance, centre, fov} = camera;
-    const eye = along(centre, distance, [Math.cos(pitch) * Math.sin(yaw), Math.sin(pitch),
-      Math.cos(pitch) * Math.cos(yaw)]);
-    const f = unit(sub(centre, eye)), r = unit(cross(f, [0, 1, 0])), u = cross(r, f);
-    const w = model.get("width"), h = model.get("height");
-    const ty = Math.tan(fov / 2), tx = ty * w / h;
-    return {eye, f, r, u, tx, ty, w, h};
-  }
-
-  function matrix(c) {
-    // perspective times the view, column-major
-    const near = Math.max(1e-3 * camera.distance, camera.distance - 3 * camera.radius);
-    const far = camera.distance + 3 * camera.radius;
-    const {eye, f, r, u, tx, ty} = c;
-    const a = (far + near) / (near - far), b = (2 * far * near) / (near - far);
-    const rows = [[r[0] / tx, r[1] / tx, r[2] / tx, -dot(r, eye) / tx],
-      [u[0] / ty, u[1] / ty, u[2] / ty, -dot(u, eye) / ty],
-      [-a * f[0], -a * f[1], -a * f[2], a * dot(f, eye) + b],
-      [f[0], f[1], f[2], -dot(f, eye)]];
-    const m = new Float32Array(16);
-    for (let i = 0; i < 4; i++) for (let j = 0; j < 4; j++) m[4 * j + i] = rows[i][j];
-    return m;
-  }
-
-  function project(p, c = frame()) {
-    const d = sub(p, c.eye), z = dot(d, c.f);
-    return [c.w / 2 * (1 + dot(d, c.r) / (z * c.tx)), c.h / 2 * (1 - dot(d, c.u) / (z * c.ty))];
-  }
-  canvas.tissuefem.project = (x, y, z) => project([x, y, z]);
-  canvas.tissuefem.camera = () => frame();
-
-  function ray(event, c) {
-    const rect = canvas.getBoundingClientRect();
-    const cx = event.clientX - rect.left - canvas.clientLeft, cy = event.clientY - rect.top - canvas.clientTop;
-    const inside = cx >= 0 && cy >= 0 && cx <= canvas.clientWidth && cy <= canvas.clientHeight;
-    const sx = (2 * cx / c.w - 1) * c.tx, sy = (1 - 2 * cy / c.h) * c.ty;
-    return {origin: c.eye, direction: along(along(c.f, sx, c.r), sy, c.u), inside};
-  }
-
-  function point(i) {
-    const x = state.positions;
-    return [x[3 * i], x[3 * i + 1], x[3 * i + 2]];
-  }
-
-  // the nearest surface point the ray hits (Moller-Trumbore on every triangle, at the positions shown), or null
-  function pick(line) {
-    const t = state.triangles, n = state.positions ? state.positions.length / 3 : 0;
-    let best = Infinity;
-    for (let k = 0; k < t.length; k += 3) {
-      if (t[k] >= n || t[k + 1] >= n || t[k + 2] >= n) continue;
-      const a = point(t[k]), e1 = sub(point(t[k + 1]), a), e2 = sub(point(t[k + 2]), a);
-      const p = cross(line.direction, e2), det = dot(e1, p);
-      if (Math.abs(det) < 1e-14) continue;
-      const s = sub(line.origin, a), u = dot(s, p) / det;
-      if (u < 0 || u > 1) continue;
-      const q = cross(s, e1), v = dot(line.direction, q) / det;
-      if (v < 0 || u + v > 1) continue;
-      const along_ = dot(e2, q) / det;
-      if (along_ > 0 && along_ < best) best = along_;
-    }
-    return best < Infinity ? along(line.origin, best, line.direction) : null;
-  }
-
-  function rebuild() {
-    // one vertex per corner of every face (flat shading: the face's normal and colour at its three corners)
-    const t = state.triangles, nt = t.length / 3, e = state.edges;
-    if (faces.position.length !== 9 * nt) {
-      faces.position = new Float32Array(9 * nt);
-      faces.normal = new Float32Array(9 * nt);
-      colorsStale = true;
-    }
-    if (faces.edges.length !== 3 * e.length) faces.edges = new Float32Array(3 * e.length);
-    if (colorsStale) {
-      const c = state.colors, colored = c && c.length === nt, [lo, hi] = model.get("color_range");
-      const fill = hexRGB(FILL), rgb = new Float32Array(9 * nt);
-      const table = Array.from({length: BINS}, (_, k) => binRGB(k).map((v) => v / 255));
-      for (let k = 0; k < nt; k++) {
-        const col = colored ? table[binOf(c[k], lo, hi)] : fill;
-        for (let j = 0; j < 3; j++) rgb.set(col, 9 * k + 3 * j);
-      }
-      gl.bindBuffer(gl.ARRAY_BUFFER, buffers.color);
-      gl.bufferData(gl.ARRAY_BUFFER, rgb, gl.STATIC_DRAW);
-      colorsStale = false;
-    }
-    const x = state.positions, n = x.length / 3, P = faces.position, N = faces.normal;
-    for (let k = 0; k < nt; k++) {
-      const a = t[3 * k], b = t[3 * k + 1], d = t[3 * k + 2];
-      if (a >= n || b >= n || d >= n) { // a frame between new triangles and their positions: not drawn
-        P.fill(0, 9 * k, 9 * k + 9);
-        continue;
-      }
-      const pa = point(a), pb = point(b), pd = point(d), normal = unit(cross(sub(pb, pa), sub(pd, pa)));
-      P.set(pa, 9 * k);
-      P.set(pb, 9 * k + 3);
-      P.set(pd, 9 * k + 6);
-      for (let j = 0; j < 3; j++) N.set(normal, 9 * k + 3 * j);
-    }
-    const E = faces.edges;
-    for (let k = 0; k < e.length; k += 2) {
-      const a = e[k], b = e[k + 1];
-      if (a >= n || b >= n) {
-        E.fill(0, 3 * k, 3 * k + 6);
-        continue;
-      }
-      E.set(point(a), 3 * k);
-      E.set(point(b), 3 * k + 3);
-    }
-    return nt;
-  }
-
-  function attribute(location, buffer) {
-    gl.bindBuffer(gl.ARRAY_BUFFER, buffer);
-    gl.enableVertexAttribArray(location);
-    gl.vertexAttribPointer(location, 3, gl.FLOAT, false, 0, 0);
+  function moved() {
+    canvas.dataset.camera = JSON.stringify(camera.describe());
+    view.request();
   }
 
   function paint() {
-    const c = frame();
-    gl.viewport(0, 0, canvas.width, canvas.height);
-    gl.clearColor(1, 1, 1, 1);
-    gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
-    gl.enable(gl.DEPTH_TEST);
-    gl.useProgram(prog);
-    gl.uniformMatrix4fv(loc.matrix, false, matrix(c));
-    gl.uniform3fv(loc.light, unit(along(along(c.f, -0.5, c.u), 0.3, c.r)));
-    const x = state.positions, t = state.triangles;
-    if (x && x.length >= 3 && t.length > 0) {
-      const nt = rebuild();
-      gl.bindBuffer(gl.ARRAY_BUFFER, buffers.position);
-      gl.bufferData(gl.ARRAY_BUFFER, faces.position, gl.DYNAMIC_DRAW);
-      gl.bindBuffer(gl.ARRAY_BUFFER, buffers.normal);
-      gl.bufferData(gl.ARRAY_BUFFER, faces.normal, gl.DYNAMIC_DRAW);
-      attribute(loc.position, buffers.position);
-      attribute(loc.normal, buffers.normal);
-      attribute(loc.color, buffers.color);
-      gl.uniform1f(loc.flat, 0);
-      gl.enable(gl.POLYGON_OFFSET_FILL); // the edges drawn after the faces stay in front of them
-      gl.polygonOffset(1, 1);
-      gl.drawArrays(gl.TRIANGLES, 0, 3 * nt);
-      gl.disable(gl.POLYGON_OFFSET_FILL);
-      if (faces.edges.length > 0) {
-        gl.bindBuffer(gl.ARRAY_BUFFER, buffers.edges);
-        gl.bufferData(gl.ARRAY_BUFFER, faces.edges, gl.DYNAMIC_DRAW);
-        attribute(loc.position, buffers.edges);
-        gl.disableVertexAttribArray(loc.normal);
-        gl.disableVertexAttribArray(loc.color);
-        gl.vertexAttrib3f(loc.normal, 0, 0, 1);
-        gl.vertexAttrib3fv(loc.color, hexRGB(EDGE));
-        gl.uniform1f(loc.flat, 1);
-        gl.drawArrays(gl.LINES, 0, faces.edges.length / 3);
-      }
-    }
-    // over the picture: the cut stroke and the drag target, projected
-    ctx.clearRect(0, 0, c.w, c.h);
-    const st = state.stroke;
-    if (st && st.length >= 6) {
-      ctx.beginPath();
-      for (let k = 0; k + 2 < st.length; k += 3) {
-        const [px, py] = project([st[k], st[k + 1], st[k + 2]], c);
-        if (k === 0) ctx.moveTo(px, py);
-        else ctx.lineTo(px, py);
-      }
-      ctx.strokeStyle = "#000";
-      ctx.lineWidth = 1.5;
-      ctx.stroke();
-    }
+    const c = frame(), light = unit(along(along(c.f, -0.5, c.u), 0.3, c.r)); // from the camera, above, left
+    painter.draw(state.positions, state.triangles, state.edges, state.colors, model.get("color_range"),
+      camera.matrix(c), light);
     const target = model.get("target");
-    if (target && target.length >= 3) {
-      const [px, py] = project(target, c);
-      ctx.beginPath();
-      ctx.arc(px, py, 5, 0, 2 * Math.PI);
-      ctx.strokeStyle = TARGET;
-      ctx.lineWidth = 2;
-      ctx.stroke();
-    }
+    drawTools(ctx, c, state.stroke, target);
     return target;
   }
 
   // the pointer: grab (a left press on the body) or turn the camera (right, shift+left, or left beside the body)
   let gesture = null;
-  function send(kind, p, inside) {
-    model.send({event: "pointer", kind: kind, x: p[0], y: p[1], z: p[2], inside: inside});
+  function pointer(event, c) {
+    const rect = canvas.getBoundingClientRect();
+    const cx = event.clientX - rect.left - canvas.clientLeft, cy = event.clientY - rect.top - canvas.clientTop;
+    const inside = cx >= 0 && cy >= 0 && cx <= canvas.clientWidth && cy <= canvas.clientHeight;
+    return {...ray(c, cx, cy), inside};
   }
   function inPlane(event, g) {
     // where the pointer's ray meets the plane through the grabbed point facing the camera (as it was at the press)
-    const r = ray(event, g.frame), along_ = dot(sub(g.point, r.origin), g.frame.f) / dot(r.direction, g.frame.f);
-    return {point: along(r.origin, along_, r.direction), inside: r.inside};
+    const r = pointer(event, g.frame), s = dot(sub(g.point, r.origin), g.frame.f) / dot(r.direction, g.frame.f);
+    return {point: along(r.origin, s, r.direction), inside: r.inside};
+  }
+  function send(kind, p, inside) {
+    model.send({event: "pointer", kind: kind, x: p[0], y: p[1], z: p[2], inside: inside});
   }
   const onDown = (event) => {
     if (event.button !== 0 && event.button !== 2) return;
     canvas.setPointerCapture(event.pointerId);
     view.root.focus({preventScroll: true});
     event.preventDefault();
-    const c = frame();
-    const hit = event.button === 0 && !event.shiftKey && !model.get("disabled") ? pick(ray(event, c)) : null;
-    if (hit) {
-      gesture = {kind: "grab", button: event.button, point: hit, frame: c};
-      send("down", hit, true);
-    } else {
-      gesture = {kind: "turn", button: event.button, x: event.clientX, y: event.clientY, yaw: camera.yaw,
-        pitch: camera.pitch};
-    }
+    const c = frame(), grab = event.button === 0 && !event.shiftKey && !model.get("disabled");
+    const hit = grab ? pick(state.positions, state.triangles, pointer(event, c)) : null;
+    gesture = hit ? {kind: "grab", button: event.button, point: hit, frame: c}
+      : {kind: "turn", button: event.button, x: event.clientX, y: event.clientY, yaw: camera.yaw, pitch: camera.pitch};
+    if (hit) send("down", hit, true);
   };
   const onMove = (event) => {
     if (!gesture) return;
-    if (gesture.kind === "grab") {
-      send("move", inPlane(event, gesture).point, true);
-      return;
+    if (gesture.kind === "grab") send("move", inPlane(event, gesture).point, true);
+    else {
+      camera.turn(gesture.yaw - 0.01 * (event.clientX - gesture.x), gesture.pitch + 0.01 * (event.clientY - gesture.y));
+      moved();
     }
-    camera.yaw = gesture.yaw - 0.01 * (event.clientX - gesture.x);
-    camera.pitch = Math.max(-1.5, Math.min(1.5, gesture.pitch + 0.01 * (event.clientY - gesture.y)));
-    showCamera();
-    view.request();
   };
   const onUp = (event) => {
     if (!gesture || event.button !== gesture.button) return;
@@ -709,19 +726,16 @@ function render3d({ model, el }) {
       send("up", p.point, p.inside);
     }
   };
-  const onWheel = (event) => {
-    event.preventDefault();
-    const r = camera.radius;
-    camera.distance = Math.max(0.3 * r, Math.min(30 * r, camera.distance * Math.exp(0.001 * event.deltaY)));
-    showCamera();
-    view.request();
-  };
   canvas.addEventListener("pointerdown", onDown);
   canvas.addEventListener("pointermove", onMove);
   canvas.addEventListener("pointerup", onUp);
   canvas.addEventListener("pointercancel", onUp);
   canvas.addEventListener("contextmenu", (event) => event.preventDefault());
-  canvas.addEventListener("wheel", onWheel, {passive: false});
+  canvas.addEventListener("wheel", (event) => {
+    event.preventDefault();
+    camera.zoom(Math.exp(0.001 * event.deltaY));
+    moved();
+  }, {passive: false});
 
   const { on, request } = view;
   for (const name of ["positions", "triangles", "edges", "colors", "stroke"]) {
@@ -732,12 +746,12 @@ function render3d({ model, el }) {
   }
   on(["target"], request);
   on(["color_range"], () => {
-    colorsStale = true;
+    painter.recolor();
     request();
   });
   on(["bounds"], () => {
-    fit();
-    request();
+    camera.fit(model.get("bounds"));
+    moved();
   });
   on(["width", "height"], () => {
     size();
@@ -745,7 +759,8 @@ function render3d({ model, el }) {
   });
 
   size();
-  fit();
+  camera.fit(model.get("bounds"));
+  canvas.dataset.camera = JSON.stringify(camera.describe());
   view.start(paint);
   return view.cleanup;
 }
