@@ -22,6 +22,7 @@ import logging
 import math
 import os
 import re
+import types
 from pathlib import Path
 
 import numpy as np
@@ -671,7 +672,7 @@ class Scene:
         if d["shape"] == "block":
             return meshes.box(d["lx"], d["ly"], d["lz"], d["nx"], d["ny"], d["nz"])
         path = Path(d["path"]) if self.base_dir is None else self.base_dir / d["path"]
-        mesh, dropped = _read_mesh(path, d["scale"])
+        mesh, dropped, flipped = _read_mesh(path, d["scale"])
         where = f", the mesh read from {d['path']!r}"
         _check_2d_only(self.effects, mesh.p.shape[0], where)
         _check_reach(self.effects, mesh.p.min(axis=1), mesh.p.max(axis=1), f" ({where[2:]})")
@@ -683,7 +684,7 @@ class Scene:
                                          f"effects.handles[{i}].region.nodes: the mesh file has nodes in no {noun}, "
                                          "which are dropped and the rest renumbered, so node indices would point at "
                                          "other nodes; select the nodes with a box or near a point instead")
-            self.notes.append(_dropped_note(d["path"], dropped, noun))
+        self.notes.extend(_file_notes(d["path"], mesh, dropped, flipped))
         return mesh
 
     def build_material(self):
@@ -701,8 +702,9 @@ class Scene:
 
 # --- mesh files --------------------------------------------------------------------------------------------------
 
-#: the cells a mesh file may hold: 3-node triangles, and lines and vertices (boundary and point groups)
-_CELLS_ALLOWED = ("triangle", "line", "vertex")
+#: the cells a mesh file may hold: 3-node triangles or 4-node tetrahedra, and cells of lower dimension (groups: a
+#: tetrahedron mesh's triangles, lines, vertices)
+_CELLS_ALLOWED = ("tetra", "triangle", "line", "vertex")
 
 
 def _mesh_error(message) -> ParameterError:
@@ -738,7 +740,8 @@ def _quietly(path, read, *args):
 
 
 def _read_mesh(path, scale):
-    """``(mesh, dropped)``: the mesh of a file and the file's node indices that no triangle used (dropped)."""
+    """``(mesh, dropped, flipped)``: the mesh of a file, the file's node indices that no element used (dropped) and
+    the indices of its tetrahedra listed left-handed (reoriented)."""
     path = Path(path)
     name = path.name
     try:
@@ -761,76 +764,101 @@ def _read_mesh(path, scale):
         counts[block.type] += len(block.data)
     holds = ", ".join(f"{n} {kind}" for kind, n in sorted(counts.items())) or "no cells at all"
     foreign = sorted(set(counts) - set(_CELLS_ALLOWED))
-    if foreign or counts.get("triangle", 0) == 0:
-        why = f"cells of type {foreign} are not 3-node triangles" if foreign else "it has no triangles"
-        raise _mesh_error(f"{name!r} holds {holds} cells: {why}; only 2D meshes of 3-node triangles "
-                         "are read (lines and vertices may come with them, naming boundaries)")
-    if counts["triangle"] > MAX_TRIANGLES:
-        raise _mesh_error(f"{name!r} holds {counts['triangle']} triangles, more than {MAX_TRIANGLES}")
+    kind = "tetra" if counts.get("tetra", 0) else "triangle"
+    if foreign or counts.get(kind, 0) == 0:
+        why = (f"cells of type {foreign} are neither 3-node triangles nor 4-node tetrahedra" if foreign
+               else "it has no triangles and no tetrahedra")
+        raise _mesh_error(f"{name!r} holds {holds} cells: {why}; only meshes of 3-node triangles (2D) or 4-node "
+                         "tetrahedra (3D) are read (cells of lower dimension may come with them, naming groups)")
+    dim, nouns = (3, "tetrahedra") if kind == "tetra" else (2, "triangles")
+    if counts[kind] > MAX_TRIANGLES:
+        raise _mesh_error(f"{name!r} holds {counts[kind]} {nouns}, more than {MAX_TRIANGLES}")
     points = np.asarray(m.points)
-    if points.dtype.kind not in "iuf" or points.ndim != 2 or points.shape[1] not in (2, 3) or points.shape[0] == 0:
-        raise _mesh_error(f"{name!r} holds points of shape {points.shape} and dtype {points.dtype}; "
-                         "expected 2D (or planar 3D) coordinates")
+    if points.dtype.kind not in "iuf" or points.ndim != 2 or points.shape[1] not in (dim, 3) or points.shape[0] == 0:
+        expected = "3D coordinates" if dim == 3 else "2D (or planar 3D) coordinates"
+        raise _mesh_error(f"{name!r} holds {nouns} and points of shape {points.shape} and dtype {points.dtype}; "
+                         f"expected {expected}")
     bad = np.flatnonzero(~np.isfinite(points).all(axis=1))
     if bad.size:
         raise _mesh_error(f"{name!r}: nodes {meshes.index_list(bad)} have non-finite coordinates")
-    if points.shape[1] == 3:
+    if dim == 2 and points.shape[1] == 3:
         off = np.flatnonzero(points[:, 2] != 0)
         if off.size:
             raise _mesh_error(f"{name!r} is not planar: nodes {meshes.index_list(off)} (0-based) have a "
-                             f"third coordinate other than 0 (up to |z| = {np.abs(points[off, 2]).max():g}); only 2D "
-                             "meshes are read, never flattened")
-    t = np.concatenate([np.asarray(b.data).T for b in m.cells if b.type == "triangle"], axis=1)
-    if t.dtype.kind not in "iu":
-        raise _mesh_error(f"{name!r} holds triangles with non-integer node numbers ({t.dtype})")
-    p = np.array(points[:, :2].T, dtype=np.float64) * scale
-    p, t = _check_file_mesh(p, t, f"domain.path: {name!r} (0-based node numbers, after scaling)", "ignore")
-    named = _quietly(path, from_meshio, m)  # boundaries from physical line groups or cell sets
-    mesh = skfem.MeshTri(p, t)  # the mesh as checked above (scaled, z dropped), triangles sorted as scikit-fem does
-    boundaries = {label: _facet_index(mesh, np.asarray(named.facets)[:, np.asarray(facets)])
-                  for label, facets in (named.boundaries or {}).items()}
-    boundaries.update(_skfem_boundaries(m, t, mesh))
-    mesh = skfem.MeshTri(mesh.p, mesh.t, _boundaries=boundaries or None, _subdomains=named.subdomains)
+                             f"third coordinate other than 0 (up to |z| = {np.abs(points[off, 2]).max():g}); a mesh "
+                             "of triangles is read as 2D, never flattened (a 3D body is a mesh of tetrahedra)")
+    written = np.concatenate([np.asarray(b.data).T for b in m.cells if b.type == kind], axis=1)
+    if written.dtype.kind not in "iu":
+        raise _mesh_error(f"{name!r} holds {nouns} with non-integer node numbers ({written.dtype})")
+    p = np.array(points[:, :dim].T, dtype=np.float64) * scale
+    t, flipped = written, np.zeros(0, dtype=np.int64)
+    if dim == 3 and written.min() >= 0 and written.max() < p.shape[1]:
+        # a file's vertex order is a convention (gmsh's tetrahedra are right-handed, a sorted one's are not):
+        # a left-handed tetrahedron is the same tetrahedron with two vertices swapped; overlaps are refused below
+        flipped = np.flatnonzero(meshes.signed_volumes(types.SimpleNamespace(p=p, t=written)) < 0)
+        t = written.copy()
+        t[1, flipped], t[2, flipped] = written[2, flipped], written[1, flipped]
+    what = f"domain.path: {name!r} (0-based node numbers, after scaling)"
+    p, t = _check_file_mesh(p, t, what, "ignore")
+    named = _quietly(path, from_meshio, m)  # boundaries from physical groups or cell sets
+    mesh = _new_mesh(p, t)  # as checked above (scaled, a 2D file's z dropped; triangles sorted as scikit-fem does)
+    try:
+        boundaries = {label: _facet_index(mesh, np.asarray(named.facets)[:, np.asarray(facets)])
+                      for label, facets in (named.boundaries or {}).items()}
+        boundaries.update(_skfem_boundaries(m, kind, written, mesh))
+    except ParameterError as err:  # said of the file: named here
+        raise _mesh_error(f"{name!r}: {str(err).removeprefix('domain.path: ')}") from None
+    mesh = _new_mesh(mesh.p, mesh.t, _boundaries=boundaries or None, _subdomains=named.subdomains)
     used = np.zeros(p.shape[1], dtype=bool)
     used[t.ravel()] = True
     dropped = np.flatnonzero(~used)
     if dropped.size:
         mesh = _drop_nodes(mesh, used)
     _check_file_mesh(mesh.p, mesh.t, f"domain.path: {name!r}")
-    return mesh, dropped
+    return mesh, dropped, flipped
 
 
-def _facet_index(mesh, pairs) -> np.ndarray:
-    """Indices of the facets of ``mesh`` with the node pairs ``pairs`` (2, k), in that order."""
-    n = np.int64(mesh.nvertices)
+def _new_mesh(p, t, **options):
+    """A scikit-fem mesh of the points' dimension: triangles sorted as scikit-fem does (their orientation is
+    arbitrary), tetrahedra as given (right-handed)."""
+    if np.shape(p)[0] == 3:
+        return skfem.MeshTet(p, t, sort_t=False, **options)
+    return skfem.MeshTri(p, t, **options)
+
+
+def _facet_index(mesh, nodes) -> np.ndarray:
+    """Indices of the facets of ``mesh`` with the nodes ``nodes`` (``(2, k)`` edges, ``(3, k)`` triangles), in that
+    order."""
     facets = np.sort(np.asarray(mesh.facets, dtype=np.int64), axis=0)
-    keys = facets[0] * n + facets[1]
-    order = np.argsort(keys)
-    pairs = np.sort(np.asarray(pairs, dtype=np.int64).reshape(2, -1), axis=0)
-    wanted = pairs[0] * n + pairs[1]
-    at = np.minimum(np.searchsorted(keys, wanted, sorter=order), keys.size - 1)
-    found = order[at]
-    if not np.array_equal(keys[found], wanted):
-        raise _mesh_error("a named boundary of the file lies on no edge of its triangles")
+    rows = facets.shape[0]
+    wanted = np.sort(np.asarray(nodes, dtype=np.int64).reshape(rows, -1), axis=0)
+    _, label = np.unique(np.concatenate([facets, wanted], axis=1), axis=1, return_inverse=True)
+    label = np.asarray(label).ravel()
+    owner = np.full(label.max(initial=-1) + 1, -1, dtype=np.int64)
+    owner[label[:facets.shape[1]]] = np.arange(facets.shape[1])
+    found = owner[label[facets.shape[1]:]]
+    if np.any(found < 0):
+        raise _mesh_error("a named boundary of the file lies on no facet of its elements (an edge of its triangles, "
+                          "a face of its tetrahedra)")
     return found
 
 
-def _skfem_boundaries(m, t, mesh):
-    """Boundaries scikit-fem wrote into the file (``skfem:b:NAME`` cell data), as facet indices of ``mesh``:
-    bit flags of each triangle's local edges in the node order *as written*, decoded here in that order
-    (scikit-fem's reader sorts the nodes first, which picks other edges of counter-clockwise triangles)."""
-    local = np.asarray(skfem.refdom.RefTri.facets)  # local edge k joins nodes local[k] of the triangle
-    triangle_blocks = [i for i, b in enumerate(m.cells) if b.type == "triangle"]
+def _skfem_boundaries(m, kind, t, mesh):
+    """Boundaries scikit-fem wrote into the file (``skfem:b:NAME`` cell data), as facet indices of ``mesh``: bit
+    flags of each element's local facets in the node order ``t`` *as written*, decoded here in that order
+    (scikit-fem's reader sorts the nodes first, which picks other facets of elements not written sorted)."""
+    local = np.asarray((skfem.refdom.RefTet if kind == "tetra" else skfem.refdom.RefTri).facets)
+    blocks = [i for i, b in enumerate(m.cells) if b.type == kind]
     out = {}
     for key, data in (m.cell_data or {}).items():
         parts = key.split(":")
         if len(parts) != 3 or parts[:2] != ["skfem", "b"]:
             continue
-        flags = np.concatenate([np.asarray(data[i]).ravel() for i in triangle_blocks]).astype(np.int64)
+        flags = np.concatenate([np.asarray(data[i]).ravel() for i in blocks]).astype(np.int64)
         if flags.size != t.shape[1]:
-            raise _mesh_error(f"the boundary {parts[2]!r} of the file does not match its triangles")
-        pairs = [t[local[k]][:, (flags >> k) & 1 == 1] for k in range(local.shape[0])]
-        out[parts[2]] = np.sort(_facet_index(mesh, np.concatenate(pairs, axis=1)))
+            raise _mesh_error(f"the boundary {parts[2]!r} of the file does not match its elements")
+        nodes = [t[local[k]][:, (flags >> k) & 1 == 1] for k in range(local.shape[0])]
+        out[parts[2]] = np.sort(_facet_index(mesh, np.concatenate(nodes, axis=1)))
     return out
 
 
@@ -838,10 +866,10 @@ def _drop_nodes(mesh, used):
     """The mesh without the unused nodes (the rest renumbered in their order); boundaries mapped by their nodes."""
     new_index = np.full(used.size, -1, dtype=np.int64)
     new_index[used] = np.arange(int(used.sum()))
-    plain = skfem.MeshTri(np.ascontiguousarray(mesh.p[:, used]), new_index[np.asarray(mesh.t)])
+    plain = _new_mesh(np.ascontiguousarray(mesh.p[:, used]), new_index[np.asarray(mesh.t)])
     boundaries = {label: _facet_index(plain, new_index[np.asarray(mesh.facets)[:, np.asarray(facets)]])
                   for label, facets in (mesh.boundaries or {}).items()}
-    return skfem.MeshTri(plain.p, plain.t, _boundaries=boundaries or None, _subdomains=mesh.subdomains)
+    return _new_mesh(plain.p, plain.t, _boundaries=boundaries or None, _subdomains=mesh.subdomains)
 
 
 #: what a mesh of each dimension is made of, in notes and refusals
@@ -853,20 +881,33 @@ def _dropped_note(path, dropped, noun="triangle") -> str:
             f"(0-based {meshes.index_list(dropped)}); the other nodes were renumbered in their order")
 
 
+def _flipped_note(path, flipped) -> str:
+    return (f"domain.path: {path!r}: {flipped.size} tetrahedra listed with left-handed vertices (0-based "
+            f"{meshes.index_list(flipped)}) were reoriented by swapping two vertices (the same tetrahedra)")
+
+
+def _file_notes(path, mesh, dropped, flipped) -> list:
+    """What reading a mesh file changed: its reoriented tetrahedra, its dropped nodes."""
+    notes = [_flipped_note(path, flipped)] if flipped.size else []
+    return notes + ([_dropped_note(path, dropped, _ELEMENT_NOUN[mesh.p.shape[0]])] if dropped.size else [])
+
+
 def read_mesh(path, scale=1.0, notes=None):
-    """A 2D triangle mesh from a file meshio reads (gmsh ``.msh``, ``.vtk``, ...), coordinates times
-    ``scale``; physical line groups become named boundaries. Anything but 3-node triangles (with lines and
-    vertices) in ``z = 0``, within the size limits, that pass :func:`~tissuefem.engine.meshes.check_mesh`
-    raises a :class:`~tissuefem.engine.parameters.ParameterError` naming ``domain.path`` (``path``, ``scale`` or
-    ``notes`` for an argument of the wrong kind). Nodes in no triangle (gmsh writes an arc's centre as a
-    node) are dropped, the rest renumbered in their order, and a note saying so appended to ``notes``."""
+    """A mesh from a file meshio reads (gmsh ``.msh``, ``.vtu``, ``.vtk``, ...), coordinates times ``scale``: 2D
+    from 3-node triangles in ``z = 0`` (a :class:`skfem.MeshTri`), 3D from 4-node tetrahedra (a
+    :class:`skfem.MeshTet`; the triangles of such a file are its surface); physical groups of the facets (lines, the
+    tetrahedra's triangles) become named boundaries. Other cells, and meshes beyond the size limits or that do not
+    pass :func:`~tissuefem.engine.meshes.check_mesh`, raise a :class:`~tissuefem.engine.parameters.ParameterError`
+    naming ``domain.path`` and the file (``path``, ``scale`` or ``notes`` for an argument of the wrong kind). Nodes
+    in no element (gmsh writes an arc's centre as a node) are dropped and the rest renumbered in their order;
+    tetrahedra listed left-handed are reoriented; a note saying so is appended to ``notes``."""
     path = _path(path, "path", "a mesh file")
     scale = _within("scale", scale, SIZE_RANGE)
     if notes is not None and not isinstance(notes, list):
         raise ParameterError("notes", f"notes must be a list (the notes are appended to it) or None, got {show(notes)}")
-    mesh, dropped = _read_mesh(path, scale)
-    if dropped.size and notes is not None:
-        notes.append(_dropped_note(path.name, dropped))
+    mesh, dropped, flipped = _read_mesh(path, scale)
+    if notes is not None:
+        notes.extend(_file_notes(path.name, mesh, dropped, flipped))
     return mesh
 
 
