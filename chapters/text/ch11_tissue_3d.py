@@ -381,6 +381,45 @@ display(Markdown(
 # has $n^3$ nodes, and a node has more neighbours (a factorization fills in more), so the sizes chapter 9 found
 # for triangles do not carry over.
 #
+# **With the mouse.** Chapter 8b's live view, `tissuefem.surgery.interactive.SurgeryView`, takes a body of
+# tetrahedra too: the page draws its surface with WebGL, lit, coloured here by $J$ (blue shrunk, red stretched), and
+# a drag with the shift key held turns the camera instead of grabbing. A press grabs the nodes near the surface
+# point under the pointer, and dragging moves them in the plane that faces the camera. Without a browser (a
+# headless run, as in the tests) nothing runs by itself: the cell sends made-up pointer events through the view's
+# own message handler, a grab on the top face near the free end dragged up and towards you, steps the frames, and
+# lets go. The cell ends with `view`, the live view; take over with the mouse.
+
+# %%
+from tissuefem import Scene, Simulation
+from tissuefem.surgery.interactive import SurgeryView, snapshot, synthetic_mouse
+
+live = Simulation(Scene.from_dict({
+    "name": "live block",
+    "domain": {"shape": "block", "lx": 2.0, "ly": 1.0, "lz": 1.0, "nx": 10, "ny": 5, "nz": 5},
+    "material": {"model": "stable-neo-hookean", "youngs_modulus": 3000.0, "poisson_ratio": 0.3},
+    "effects": {"inertia": {"time_step": 1.0 / 30.0}, "handles": [{"name": "fixed", "region": "left"}]},
+}))
+view = SurgeryView(live, color="J", autostart=False)
+synthetic_mouse(view, "press", (1.9, 1.0, 0.5))                 # on the top face, near the free end
+for k in range(1, 16):
+    synthetic_mouse(view, "move", (1.9, 1.0 + 0.03 * k, 0.5 + 0.02 * k))
+    view.step()
+synthetic_mouse(view, "release", (1.9, 1.45, 0.8))              # let go: the block swings back
+for _ in range(10):
+    view.step()
+display(Markdown(
+    f"{live.mesh.nelements} tetrahedra ({live.model.n_dofs} unknowns), {len(view.frame_times)} frames stepped: "
+    f"median {np.median(view.frame_times):.1f} ms per frame, slowest {max(view.frame_times):.1f} ms; "
+    f"{view.pushes} pictures sent to the page; message {view.message or 'none'}."))
+view
+
+# %% [markdown]
+# The same state as a static picture (`snapshot(view)`), for a page without the live view, such as the book:
+
+# %%
+snapshot(view)
+
+# %% [markdown]
 # ## What to try
 # Each suggestion comes with a few lines that run on their own in a new cell; change the numbers
 # and run them again.
