@@ -370,7 +370,7 @@ probe = sim_probe.model.probes[0]
 display(Markdown(
     f"{len(rows_probe)} frames on {sim_probe.mesh.nelements} tetrahedra; every third frame above. The ball "
     f"(radius {probe.radius:g}, penalty {probe.stiffness:.3g}) is pushed back with up to "
-    f"{max(float(r['force'][1]) for r in rows_probe):.1f} (units of E times area) while it presses; the "
+    f"{max(float(r['force'][1]) for r in rows_probe):.1f} (in the units of E times an area) while it presses; the "
     f"penetration it leaves stays below {max(float(r['penetration']) for r in rows_probe):.4f}, "
     f"{100 * max(float(r['penetration']) for r in rows_probe) / probe.radius:.1f} % of its radius. "
     f"{sum(r['converged'] for r in rows_probe)} of {len(rows_probe)} frames converged within the budget; the "
@@ -395,7 +395,7 @@ from tissuefem.surgery.interactive import SurgeryView, snapshot, synthetic_mouse
 
 live = Simulation(Scene.from_dict({
     "name": "live block",
-    "domain": {"shape": "block", "lx": 2.0, "ly": 1.0, "lz": 1.0, "nx": 10, "ny": 5, "nz": 5},
+    "domain": {"shape": "block", "lx": 2.0, "ly": 1.0, "lz": 1.0, "nx": 8, "ny": 4, "nz": 4},
     "material": {"model": "stable-neo-hookean", "youngs_modulus": 3000.0, "poisson_ratio": 0.3},
     "effects": {"inertia": {"time_step": 1.0 / 30.0}, "handles": [{"name": "fixed", "region": "left"}]},
 }))
