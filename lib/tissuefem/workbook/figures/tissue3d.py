@@ -150,7 +150,7 @@ def write_slab_animation(gif_path, model, states, dt: float, norm, dpi: int = 10
     fig = Figure(figsize=(6.8, 4.8))
     ax = fig.add_axes([0.0, 0.0, 1.0, 0.9], projection="3d")
     limits = _limits([model.positions(u) for u in states])
-    body_axes(ax, *limits, elev=18.0, azim=-64.0)
+    body_axes(ax, *limits, elev=18.0, azim=-64.0, zoom=1.2)
     faces, _ = boundary_faces(model.mesh)
     body = Poly3DCollection(surface_verts(model.mesh, model.positions(states[0]), faces),
                             facecolors=_J_colors(model, states[0], norm), edgecolors="0.2", linewidths=0.3,
