@@ -27,8 +27,8 @@ SETTINGS = settings(max_examples=60, deadline=None, derandomize=True, database=N
 
 # the runners that do real work, each replaced by a stand-in returning what the command expects of it
 _STAND_INS = {"_figures": None, "build_chapters": None, "build_book": None, "assembly_benchmark": None,
-              "realtime_benchmark": [], "effects_benchmark": None, "accuracy_study": {}, "plot_realtime": None,
-              "plot_pareto": None, "plot_scaling": None, "plot_budget": None}
+              "realtime_benchmark": [], "solver_comparison": [], "effects_benchmark": None, "accuracy_study": {},
+              "plot_realtime": None, "plot_pareto": None, "plot_scaling": None, "plot_budget": None}
 
 
 def _subcommands():

@@ -24,9 +24,10 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from .parameters import ParameterError, check_count, check_real
+from .parameters import ParameterError, check_count, check_real, check_real_array
 
-__all__ = ["LinearSolver", "LinearInfo", "Condenser", "SuperLU", "Pardiso", "ReusedFactorization", "PreconditionedCG",
+__all__ = ["LinearSolver", "LinearInfo", "Condenser", "SuperLU", "Pardiso", "Cholmod", "ReusedFactorization",
+           "PreconditionedCG", "rigid_body_modes", "OPTIONAL",
            "SolveInfo", "PCGResult", "pcg", "available", "make", "BACKENDS", "Deadline", "WORK", "start_thread"]
 
 _ORDERINGS = ("MMD_AT_PLUS_A", "COLAMD", "MMD_ATA", "NATURAL")
@@ -76,6 +77,11 @@ class _LUFactor:
             self._A = None
         return x
 
+    @property
+    def nnz(self) -> int:
+        """Stored entries of the factors ``L + U`` (the fill-in: compare with the matrix's ``nnz``)."""
+        return int(self._lu.L.nnz + self._lu.U.nnz)
+
 
 class SuperLU(_Direct):
     """SciPy's SuperLU with the column ``ordering`` (one of ``_ORDERINGS``; SciPy's default is ``"COLAMD"``) and, by
@@ -103,11 +109,24 @@ class SuperLU(_Direct):
         return f"SuperLU(ordering={self.ordering!r}, symmetric={self.symmetric})"
 
 
+#: The optional packages some backends need: ``backend name -> (module, pip extra)``.
+OPTIONAL = {"pardiso": ("pypardiso", "pardiso"), "cholmod": ("sksparse", "cholmod"), "cg-amg": ("pyamg", "amg")}
+
+
 def available(name: str) -> bool:
-    """Whether the backend ``name`` can be used here (PARDISO needs the optional ``pypardiso``)."""
-    if name == "pardiso":
-        return importlib.util.find_spec("pypardiso") is not None
+    """Whether the backend ``name`` can be used here (``"pardiso"``, ``"cholmod"`` and ``"cg-amg"`` need an
+    optional package: :data:`OPTIONAL`)."""
+    if name in OPTIONAL:
+        return importlib.util.find_spec(OPTIONAL[name][0]) is not None
     return name in BACKENDS
+
+
+def _require(name: str) -> None:
+    """Refuse, naming the optional package to install, a backend whose package is missing."""
+    if not available(name):
+        module, extra = OPTIONAL[name]
+        raise ParameterError("linear_solver", f"linear solver {name!r} needs the optional package {module} "
+                                              f"(pip install 'tissuefem[{extra}]'); use 'superlu' instead")
 
 
 class _PardisoFactor:
@@ -118,6 +137,11 @@ class _PardisoFactor:
         # pypardiso re-checks that A is the matrix it factorized and only then back-substitutes
         return np.asarray(self._solver.solve(self._A, np.asarray(b, dtype=float)), dtype=float)
 
+    @property
+    def nnz(self) -> int:
+        """Stored entries of the factors (PARDISO reports them in its parameter 18)."""
+        return int(self._solver.iparm[17])
+
 
 class Pardiso(_Direct):
     """MKL PARDISO via the optional ``pypardiso`` package (real nonsymmetric mode). Each :meth:`factorize` uses a fresh
@@ -126,9 +150,7 @@ class Pardiso(_Direct):
     name = "pardiso"
 
     def __init__(self):
-        if not available("pardiso"):
-            raise ParameterError("linear_solver", "linear solver 'pardiso' needs the optional package pypardiso "
-                                                  "(pip install 'tissuefem[pardiso]'); use 'superlu' instead")
+        _require("pardiso")
         import pypardiso
         self._module = pypardiso
 
@@ -137,6 +159,41 @@ class Pardiso(_Direct):
         solver.set_statistical_info_off()
         solver.factorize(A)
         return _PardisoFactor(solver, A)
+
+
+class _CholeskyFactor:
+    def __init__(self, factor, n):
+        self._factor, self.n = factor, n
+
+    def solve(self, b) -> np.ndarray:
+        return np.asarray(self._factor(np.asarray(b, dtype=float)), dtype=float).reshape(-1)
+
+    @property
+    def nnz(self) -> int:
+        """Stored entries of ``L`` (the fill-in: compare with the matrix's lower triangle)."""
+        return int(self._factor.L().nnz)
+
+
+class Cholmod(_Direct):
+    """SuiteSparse CHOLMOD's supernodal Cholesky ``A = L L^T`` (its ordering: AMD, or METIS's nested dissection
+    where that fills less) via the optional ``scikit-sparse`` package. For a symmetric positive definite ``A``,
+    as backward Euler's ``M / dt^2 + K`` is unless the tissue is compressed far: then (not positive definite)
+    :class:`SuperLU` factorizes it instead. In 3D its fill is several times SuperLU's (``bench realtime
+    --dim 3 --compare``)."""
+
+    name = "cholmod"
+
+    def __init__(self):
+        _require("cholmod")
+        from sksparse.cholmod import cholesky
+        self._cholesky = cholesky
+
+    def factorize(self, A):
+        A = sp.csc_matrix(_square(A))
+        try:
+            return _CholeskyFactor(self._cholesky(A), A.shape[0])
+        except Exception:  # sksparse's CholmodNotPositiveDefiniteError and kin: an indefinite tangent
+            return SuperLU().factorize(A)
 
 
 # --- a frame's deadline and the cost of its pieces of work ---------------------------------------
@@ -383,7 +440,7 @@ class ReusedFactorization:
             self._factor, self._shape, self._stale = factor, shape, False
             self.background_factorizations += 1
 
-    def _refactorize(self, A, b, reason, deadline) -> tuple[np.ndarray | None, SolveInfo]:
+    def _refactorize(self, A, b, reason, deadline, atol=0.0) -> tuple[np.ndarray | None, SolveInfo]:
         if not deadline.fits("factorization", "back-substitution"):
             self._work.start(self.direct.factorize, A, A.shape)  # adopted by a later solve
             deadline.skip("factorization")
@@ -391,8 +448,20 @@ class ReusedFactorization:
         factor = deadline.timed("factorization", self.direct.factorize, A)
         self._factor, self._shape, self._stale = factor, A.shape, False
         self.factorizations += 1
+        if getattr(self._factor, "precondition", None) is not None:  # an approximate inverse (multigrid): CG
+            t0 = deadline.clock()
+            result = pcg(A, b, self._precondition, atol=atol, rtol=1e-10, max_iterations=self.max_iterations)
+            deadline.record("cg-iteration", deadline.clock() - t0, result.iterations)
+            self.cg_iterations += result.iterations
+            return result.x, SolveInfo(result.iterations, True, result.converged, result.residual_norm, reason)
         x = deadline.timed("back-substitution", self._factor.solve, b)
         return x, SolveInfo(0, True, bool(np.all(np.isfinite(x))), float(np.linalg.norm(b - A @ x)), reason)
+
+    @property
+    def _precondition(self):
+        """What CG applies: the kept factor's ``precondition`` if it has one (an iterative backend's), else its
+        solve."""
+        return getattr(self._factor, "precondition", None) or self._factor.solve
 
     def solve(self, A, b, *, atol: float = 0.0, rtol: float = 1e-10, refactorize: bool = False,
               deadline: Deadline | None = None) -> tuple[np.ndarray | None, SolveInfo]:
@@ -402,12 +471,12 @@ class ReusedFactorization:
         if refactorize:
             return self._refactorize(A, b, "forced", deadline)
         if self._factor is None:
-            return self._refactorize(A, b, "first", deadline)
+            return self._refactorize(A, b, "first", deadline, atol)
         if self._shape != A.shape:
-            return self._refactorize(A, b, "shape", deadline)
+            return self._refactorize(A, b, "shape", deadline, atol)
         if self._stale and not self.background:
             if deadline.fits("factorization", "back-substitution"):
-                return self._refactorize(A, b, "stale", deadline)
+                return self._refactorize(A, b, "stale", deadline, atol)
             self._work.start(self.direct.factorize, A, A.shape)  # meanwhile the old one preconditions
         limit, room = self.max_iterations, deadline.room("cg-iteration")
         if room is not None:
@@ -418,17 +487,17 @@ class ReusedFactorization:
             deadline.skip("cg-iteration")
             return None, SolveInfo(0, False, False, math.inf, "", "cg-iteration")
         t0 = deadline.clock()
-        result = pcg(A, b, self._factor.solve, atol=atol, rtol=rtol, max_iterations=limit)
+        result = pcg(A, b, self._precondition, atol=atol, rtol=rtol, max_iterations=limit)
         deadline.record("cg-iteration", deadline.clock() - t0, result.iterations)
         self.cg_iterations += result.iterations
         if result.negative_curvature:
             if deadline.fits("factorization", "back-substitution"):
-                return self._refactorize(A, b, "negative-curvature", deadline)
+                return self._refactorize(A, b, "negative-curvature", deadline, atol)
             self._work.start(self.direct.factorize, A, A.shape)  # meanwhile CG's iterate (Newton checks it)
             return result.x, SolveInfo(result.iterations, False, False, result.residual_norm, "negative-curvature")
         if not result.converged and result.iterations >= self.max_iterations:
             if deadline.fits("factorization", "back-substitution"):
-                return self._refactorize(A, b, "cg-failed", deadline)
+                return self._refactorize(A, b, "cg-failed", deadline, atol)
             self._work.start(self.direct.factorize, A, A.shape)  # meanwhile CG's iterate is the answer
         elif (self.background and result.iterations > self.background_after) or (
                 limit < self.max_iterations and not result.converged):  # cut short by the deadline: refresh too
@@ -446,39 +515,93 @@ class ReusedFactorization:
 
 
 class _CGFactor:
-    def __init__(self, A, precondition, rtol, max_iterations):
-        self._A, self._precondition = A, precondition
+    def __init__(self, A, precondition, rtol, max_iterations, nnz=None):
+        self._A, self.precondition = A, precondition  # precondition(r): what CG with a kept "factor" applies
         self.rtol, self.max_iterations = rtol, max_iterations
         self.iterations, self.converged = 0, True  # over all solves with this matrix
+        self.nnz = nnz  # stored entries of the preconditioner (AMG: every level's matrix), if it has any
 
     def solve(self, b) -> np.ndarray:
-        result = pcg(self._A, _rhs(b, self._A.shape[0]), self._precondition, rtol=self.rtol,
+        result = pcg(self._A, _rhs(b, self._A.shape[0]), self.precondition, rtol=self.rtol,
                      max_iterations=self.max_iterations)
         self.iterations += result.iterations
         self.converged = self.converged and result.converged
         return result.x
 
 
+def rigid_body_modes(X) -> np.ndarray:
+    """The rigid motions of the nodes ``X`` (shape ``(d, n)``) as dof vectors, node by node (``u[d i + c]``): the
+    columns of a ``(d n, 3)`` array in 2D (two translations, a rotation) or ``(d n, 6)`` in 3D (three and three),
+    each rotation about the centroid. Smoothed aggregation keeps them exactly on every level (its near-nullspace),
+    which elasticity needs."""
+    X = np.asarray(X, dtype=float)
+    d, n = X.shape
+    if d not in (2, 3):
+        raise ParameterError("X", f"X must have shape (2, n) or (3, n), got {X.shape}")
+    Y = X - X.mean(axis=1, keepdims=True)
+    columns = [np.eye(d)[c][:, None] * np.ones((1, n)) for c in range(d)]
+    axes = [(0, 1)] if d == 2 else [(0, 1), (1, 2), (2, 0)]
+    for a, b in axes:  # the rotation in the (a, b) plane: u_a = -y_b, u_b = y_a
+        r = np.zeros((d, n))
+        r[a], r[b] = -Y[b], Y[a]
+        columns.append(r)
+    return np.stack([c.T.ravel() for c in columns], axis=1)
+
+
 class PreconditionedCG(_Direct):
     """Conjugate gradients with a preconditioner built by ``factorize``: ``"jacobi"`` (the inverse diagonal: free, weak,
-    iterations grow like ``1/h``), ``"ilu"`` (SciPy's ``spilu`` with ``drop_tol``: much stronger) or ``"none"``.
-    A solve stops at ``rtol ||b||`` or after ``max_iterations`` (default ``max(200, 2 n)``) and returns its iterate
-    anyway (Newton checks it is downhill); the factor counts ``iterations`` and whether every solve ``converged``."""
+    iterations grow like ``1/h``), ``"ilu"`` (SciPy's ``spilu`` with ``drop_tol``: much stronger), ``"amg"`` (one
+    V-cycle of smoothed-aggregation multigrid, the optional ``pyamg``; ``near_nullspace``: the rigid-body modes of
+    the matrix's dofs, :func:`rigid_body_modes`, which elasticity needs: without them only the constant) or
+    ``"none"``. A solve stops at ``rtol ||b||`` or after ``max_iterations`` (default ``max(200, 2 n)``) and returns
+    its iterate anyway (Newton checks it is downhill); the factor counts ``iterations`` and whether every solve
+    ``converged``. Kept by :class:`ReusedFactorization` (``"reuse-cg-amg"``), the factor's preconditioner alone is
+    CG's: the multigrid hierarchy is the kept "factorization"."""
 
-    _KINDS = ("jacobi", "ilu", "none")
+    _KINDS = ("jacobi", "ilu", "amg", "none")
 
     def __init__(self, preconditioner: str = "jacobi", rtol: float = 1e-8, max_iterations: int | None = None,
-                 drop_tol: float = 1e-4):
+                 drop_tol: float = 1e-4, near_nullspace=None):
         if preconditioner not in self._KINDS:
             raise ParameterError("preconditioner", f"preconditioner must be one of {self._KINDS}, got "
                                                    f"{preconditioner!r}")
+        if preconditioner == "amg":
+            _require("cg-amg")
         self.preconditioner, self.rtol = preconditioner, check_real("rtol", rtol, 0, 1, lo_open=True, hi_open=True)
         self.max_iterations = None if max_iterations is None else check_count("max_iterations", max_iterations)
         self.drop_tol = check_real("drop_tol", drop_tol, 0, lo_open=True)
+        self.near_nullspace = near_nullspace
         self.name = "cg" if preconditioner == "none" else f"cg-{preconditioner}"
+
+    @property
+    def near_nullspace(self):
+        """``(n, k)`` vectors multigrid keeps exactly (``None``: the constant); checked against the matrix."""
+        return self._near_nullspace
+
+    @near_nullspace.setter
+    def near_nullspace(self, B):
+        if B is not None:
+            B = check_real_array("near_nullspace", B)
+            if B.ndim != 2 or not np.all(np.isfinite(B)):
+                raise ParameterError("near_nullspace", f"near_nullspace must be a finite (n, k) array, got shape "
+                                                       f"{B.shape}")
+        self._near_nullspace = B
+
+    def _multigrid(self, A):
+        import pyamg
+        B = self._near_nullspace
+        if B is not None and B.shape[0] != A.shape[0]:
+            raise ParameterError("near_nullspace", f"near_nullspace has {B.shape[0]} rows for a matrix of "
+                                                   f"{A.shape[0]} unknowns")
+        block = {3: 2, 6: 3}.get(B.shape[1], 1) if B is not None else 1
+        M = A.tobsr(blocksize=(block, block)) if block > 1 and A.shape[0] % block == 0 else A
+        hierarchy = pyamg.smoothed_aggregation_solver(M, B=B, symmetry="symmetric", max_coarse=300)
+        cycle = hierarchy.aspreconditioner(cycle="V")
+        return (lambda r: cycle.matvec(r)), int(sum(level.A.nnz for level in hierarchy.levels))
 
     def factorize(self, A) -> _CGFactor:
         A = sp.csr_matrix(_square(A))
+        nnz = None
         if self.preconditioner == "jacobi":
             d = A.diagonal()
             if not np.all(d > 0):
@@ -486,24 +609,28 @@ class PreconditionedCG(_Direct):
             inv = 1.0 / d
             precondition = lambda r: inv * r  # noqa: E731
         elif self.preconditioner == "ilu":
-            precondition = spla.spilu(sp.csc_matrix(A), drop_tol=self.drop_tol, fill_factor=10.0).solve
+            ilu = spla.spilu(sp.csc_matrix(A), drop_tol=self.drop_tol, fill_factor=10.0)
+            precondition, nnz = ilu.solve, int(ilu.L.nnz + ilu.U.nnz)
+        elif self.preconditioner == "amg":
+            precondition, nnz = self._multigrid(A)
         else:
             precondition = None
         limit = self.max_iterations or max(200, 2 * A.shape[0])
-        return _CGFactor(A, precondition, self.rtol, limit)
+        return _CGFactor(A, precondition, self.rtol, limit, nnz)
 
     def __repr__(self):
         return f"PreconditionedCG(preconditioner={self.preconditioner!r}, rtol={self.rtol})"
 
 
 BACKENDS = {"superlu": lambda: SuperLU("MMD_AT_PLUS_A"), "superlu-colamd": lambda: SuperLU("COLAMD"),
-            "pardiso": Pardiso, "cg-jacobi": lambda: PreconditionedCG("jacobi"),
-            "cg-ilu": lambda: PreconditionedCG("ilu"), "cg": lambda: PreconditionedCG("none")}
+            "pardiso": Pardiso, "cholmod": Cholmod, "cg-jacobi": lambda: PreconditionedCG("jacobi"),
+            "cg-ilu": lambda: PreconditionedCG("ilu"), "cg-amg": lambda: PreconditionedCG("amg"),
+            "cg": lambda: PreconditionedCG("none")}
 
 
 def make(name: str = "superlu"):
-    """A backend by name: ``"superlu"``, ``"superlu-colamd"``, ``"pardiso"``, ``"auto"`` (direct), or
-    ``"cg-jacobi"``, ``"cg-ilu"``, ``"cg"`` (iterative, :class:`PreconditionedCG`)."""
+    """A backend by name: ``"superlu"``, ``"superlu-colamd"``, ``"pardiso"``, ``"cholmod"``, ``"auto"`` (direct), or
+    ``"cg-jacobi"``, ``"cg-ilu"``, ``"cg-amg"``, ``"cg"`` (iterative, :class:`PreconditionedCG`)."""
     if name == "auto":
         name = "pardiso" if available("pardiso") else "superlu"
     if name not in BACKENDS:
@@ -556,7 +683,8 @@ class LinearInfo:
 class LinearSolver:
     """How Newton solves ``A dx = b``: which backend, and when to factorize. ``method`` is one of ``"direct"`` (a fresh
     :class:`SuperLU` factorization per solve: exact Newton); a backend name of :func:`make` (that backend, afresh);
-    ``"reuse"``, ``"reuse-<backend>"`` or ``"reuse-background"`` (:class:`ReusedFactorization`); ``"constant"`` or
+    ``"reuse"``, ``"reuse-<backend>"`` (:class:`ReusedFactorization`), ``"reuse-background"`` or
+    ``"reuse-background-<backend>"`` (the same, refreshed on the second core); ``"constant"`` or
     ``"constant-<backend>"`` (a kept factorization used as it is, without assembling the tangent again: exact for a
     constant tangent); or a backend object. A kept factorization is dropped when the free dofs or the pattern change,
     or by :meth:`invalidate`.
@@ -574,8 +702,10 @@ class LinearSolver:
             if method == "direct" or method in BACKENDS or method == "auto":
                 self.backend = SuperLU() if method == "direct" else make(method)
             elif kind in ("reuse", "constant"):
-                background = method == "reuse-background"
-                direct = SuperLU() if method in ("reuse", "constant") or background else make(base)
+                background = kind == "reuse" and (base == "background" or base.startswith("background-"))
+                if background:  # "reuse-background" (SuperLU) or "reuse-background-<backend>"
+                    base = base[len("background-"):]
+                direct = SuperLU() if method in ("reuse", "constant", "reuse-background") else make(base)
                 reuse = kind == "reuse"
                 self.backend = ReusedFactorization(direct, background=background, launch=launch) if reuse else direct
                 self.constant = kind == "constant"
@@ -599,6 +729,27 @@ class LinearSolver:
         weakref.finalize(self, _join_all, self._threads)
         self.factorizations = 0
         self.costs = {}
+        self._modes = None  # the body's rigid motions, for a multigrid preconditioner (use_rigid_modes)
+
+    @property
+    def factorizing(self):
+        """The backend whose factorization (or preconditioner) this solver keeps or makes: a reused one's
+        ``direct``, else the backend itself."""
+        return self.backend.direct if isinstance(self.backend, ReusedFactorization) else self.backend
+
+    def use_rigid_modes(self, modes) -> None:
+        """Give a multigrid preconditioner (``"cg-amg"``, which has a ``near_nullspace``) the body's rigid
+        motions ``modes``, shape ``(n_dofs, k)`` (:func:`rigid_body_modes`): each set of free dofs passes on its
+        rows. Other backends need none: nothing changes."""
+        if not hasattr(self.factorizing, "near_nullspace"):
+            return
+        modes = check_real_array("modes", modes)
+        if modes.ndim != 2 or not np.all(np.isfinite(modes)):
+            raise ParameterError("modes", f"modes must be a finite (n_dofs, k) array, got shape {modes.shape}")
+        self._modes = modes
+        if self._key is not None:  # the next matrix passes them on (a kept preconditioner is made anew)
+            self.invalidate()
+            self._key = None
 
     @property
     def launch(self):
@@ -665,6 +816,8 @@ class LinearSolver:
             if self._key is not None:
                 self.invalidate()
             self._key = key
+            if self._modes is not None and self._modes.shape[0] == mask.size:
+                self.factorizing.near_nullspace = self._modes[mask]
         if self.constant and self._factor is not None and not force:
             return None
         K = assemble() if deadline is None else deadline.timed("assembly", assemble)
