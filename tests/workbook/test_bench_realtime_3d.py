@@ -24,7 +24,7 @@ def test_tiny_3d_benchmark_has_the_2d_columns_and_converges(tmp_path):
         assert row["fast_all_converged"] and row["fast_converged"] == 1.0 and row["fast_residual"] <= 1e-6
         assert row["fast_min_J"] > 0 and row["fast_inverted"] == 0 and row["fast_undone"] == "0/3"
         assert row["fast_p95_ms"] <= row["fast_p99_ms"] <= max(row["fast_ms"])
-        assert row["factor_nnz"] >= row["matrix_nnz"] > 0  # a factorization fills in
+        assert 2 * row["factor_nnz"] >= row["matrix_nnz"] > 0  # the factors hold at least a triangle of K
         assert "ex43_median_ms" not in row  # no ex43 way by default in 3D
     record = json.loads((tmp_path / "realtime3d.json").read_text())
     assert record["benchmark"] == "realtime3d" and record["scene"]["dim"] == 3

@@ -16,7 +16,7 @@ from __future__ import annotations
 import time
 
 from .constants import FRAME_BUDGET
-from .linsolve import rigid_body_modes
+from .linsolve import available, rigid_body_modes
 from .stepping import Stepper
 
 __all__ = ["RealtimeSolver", "FRAME_BUDGET", "LINEAR_SOLVERS", "default_linear_solver"]
@@ -30,12 +30,16 @@ LINEAR_SOLVERS = ("reuse-background", "reuse", "reuse-pardiso", "direct", "super
 def default_linear_solver(model) -> str:
     """The real-time default for ``model``: ``"constant"`` (one factorization per set of held dofs) for a
     quadratic model; else in 2D ``"reuse"`` (CG preconditioned by a kept SuperLU factorization) and in 3D
-    ``"reuse-background"`` (the same, refreshed on the second core: in 3D a factorization costs many frames;
-    ``docs/benchmarks.md``, *Real time in 3D*)."""
+    ``"reuse-background-cholmod"`` (CG preconditioned by a kept CHOLMOD Cholesky factorization, refreshed on the
+    second core: in 3D a factorization costs many frames and CHOLMOD's fills in less than half SuperLU's) where
+    the optional ``scikit-sparse`` is installed, else ``"reuse-background"`` (the same with SuperLU);
+    ``docs/benchmarks.md``, *Real time in 3D*."""
     if getattr(model, "quadratic", False):
         return "constant"
     X = getattr(model, "X", None)  # not a model: the stepper refuses it by name
-    return "reuse" if X is None or X.shape[0] == 2 else "reuse-background"
+    if X is None or X.shape[0] == 2:
+        return "reuse"
+    return "reuse-background-cholmod" if available("cholmod") else "reuse-background"
 
 
 class RealtimeSolver(Stepper):

@@ -383,8 +383,8 @@ def solver_comparison(n: int = 19000, approaches=APPROACHES, frames: int = 60, r
     n, frames, rounds = check_count("n", n), check_count("frames", frames), check_count("rounds", rounds)
     names = [a for a in approaches if _usable(a)]
     if not names:
-        raise ParameterError("approaches", f"none of {list(approaches)} runs here (their optional packages are "
-                                           "missing)")
+        raise ParameterError("approaches", f"approaches: none of {list(approaches)} runs here (unknown, or their "
+                                           "optional packages are missing)")
     say = progress if progress is not None else (lambda *_: None)
     runs = {a: [] for a in names}
     loads = []
