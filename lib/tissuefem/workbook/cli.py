@@ -5,7 +5,7 @@
   the sources stay clean) and write the workbook's website into ``build/book/``;
 * ``book``     write the website from the executed copies already in ``build/chapters/``;
 * ``bench``    benchmarks (``bench assembly``, ``bench realtime``, ``bench scenes``,
-  ``bench accuracy``: the accuracy/time study of chapter 9);
+  ``bench accuracy``: the accuracy/time study of chapter 9, ``bench haptic``: the tool's force at 1 kHz);
 * ``scene``    check a scene file and run it (``scene scenes/incision.toml``);
 * ``grade``    grade your own exercise answers (chapters/exercises) with pytest;
 * ``list``     list the figures and chapters.
@@ -34,6 +34,7 @@ from ..surgery.simulation import Simulation
 from . import figures
 from .bench.accuracy_cost import accuracy_study
 from .bench.assembly import assembly_benchmark
+from .bench.haptic import haptic_benchmark
 from .bench.realtime import realtime_benchmark
 from .bench.scenes import effects_benchmark
 from .book import build_book
@@ -161,9 +162,9 @@ def cmd_book(args) -> int:
 
 
 def cmd_bench(args) -> int:
-    if args.which == "scenes" and args.sizes:
+    if args.which in ("scenes", "haptic") and args.sizes:
         if len(args.sizes) > 1:
-            raise ParameterError("sizes", f"bench scenes takes one size, got {len(args.sizes)}")
+            raise ParameterError("sizes", f"bench {args.which} takes one size, got {len(args.sizes)}")
         check_count("sizes", args.sizes[0], 50, MAX_TRIANGLES)  # the scenes' variants need 50 triangles
     if args.out:
         _check_out(args.out, folder=args.which != "assembly")
@@ -182,6 +183,9 @@ def cmd_bench(args) -> int:
         size = args.sizes[0] if args.sizes else 8000
         effects_benchmark(n_triangles=size, frames=min(args.frames, 90), repeats=args.repeats,
                           out=args.out or "bench-results")
+    elif args.which == "haptic":
+        haptic_benchmark(n_triangles=args.sizes[0] if args.sizes else 8000, frames=args.frames,
+                         linear_solver=args.linear, out=args.out or "bench-results")
     elif args.which == "accuracy":
         out = Path(args.out or "bench-results")
         results = accuracy_study(plan=args.plan, out=out)
@@ -291,13 +295,13 @@ def main(argv=None) -> int:
     p.set_defaults(func=cmd_book)
 
     p = sub.add_parser("bench", help="run a benchmark and print its table")
-    p.add_argument("which", choices=["assembly", "realtime", "scenes", "accuracy"])
+    p.add_argument("which", choices=["assembly", "realtime", "scenes", "accuracy", "haptic"])
     p.add_argument("--sizes", type=_count("sizes", 1, MAX_TRIANGLES), nargs="+",
                    help=f"approximate triangle counts (at most {MAX_TRIANGLES})")
     p.add_argument("--repeats", type=_count("repeats", 1, 1000), default=5,
                    help="assembly, scenes: timed repetitions")
     p.add_argument("--frames", type=_count("frames", 1, 1_000_000), default=90,
-                   help="realtime: frames of the scripted drag")
+                   help="realtime, haptic: frames of the scripted drag")
     p.add_argument("--baseline-frames", type=_count("baseline_frames", 0, 1_000_000), default=10,
                    help="realtime: frames of the ex43-way baseline")
     p.add_argument("--linear", default="reuse-background", type=_linear_solver,
@@ -305,7 +309,8 @@ def main(argv=None) -> int:
                         "superlu-colamd, pardiso)")
     p.add_argument("--plan", default="full", choices=["full", "reduced", "tiny"],
                    help="accuracy: the sweep (full: several minutes; reduced: chapter 9's; tiny: seconds)")
-    p.add_argument("--out", help="assembly: a JSON file; realtime, scenes, accuracy: a folder (default bench-results/)")
+    p.add_argument("--out", help="assembly: a JSON file; realtime, scenes, accuracy, haptic: a folder "
+                                 "(default bench-results/)")
     p.set_defaults(func=cmd_bench)
 
     p = sub.add_parser("scene", help="check a scene file (TOML or JSON) and run it for some frames")
