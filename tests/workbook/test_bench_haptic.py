@@ -55,6 +55,14 @@ def test_the_loop_updates_while_active_and_stops():
     assert not loop.thread.is_alive()
     assert len(loop.update_seconds) > 0
     np.testing.assert_allclose(loop.last_force, [1.5, 0.5])
+    # a position the model refuses (a device's glitch) keeps the last force and the loop running
+    positions = iter([np.array([0.5, 0.5])] + [np.array([np.nan, 0.0])] * 1_000_000)
+    with HapticLoop(lambda: model, lambda: next(positions), rate=2000.0) as loop:
+        loop.active.set()
+        time.sleep(0.02)
+        loop.active.clear()
+    assert loop.refused > 0 and len(loop.update_seconds) > loop.refused
+    np.testing.assert_allclose(loop.last_force, [1.5, 0.5])
 
 
 @pytest.mark.parametrize("argv", [["bench", "haptic", "--sizes", "200", "300"], ["bench", "haptic", "--sizes", "20"]])

@@ -99,13 +99,14 @@ def haptic_path(n_triangles: int = 8000, frames: int = 30, substeps: int = 4, wa
 class HapticLoop:
     """A thread that evaluates ``model()``'s force at ``position()`` ``rate`` times a second while ``active`` is set
     (a device's loop): each update's seconds in ``update_seconds``, the seconds it was active in ``active_seconds``,
-    and the ticks it fell behind by a whole period or more in ``missed`` (skipped, as a device would)."""
+    and the ticks it fell behind by a whole period or more in ``missed`` (skipped, as a device would); a position the
+    model refuses keeps the last force (counted in ``refused``)."""
 
     def __init__(self, model, position, rate: float = 1000.0, clock=time.perf_counter):
         self.model, self.position, self.clock = model, position, clock
         self.period = 1.0 / check_real("rate", rate, 1.0, 1e6)
         self.active, self.stop = threading.Event(), threading.Event()
-        self.update_seconds, self.active_seconds, self.missed = [], 0.0, 0
+        self.update_seconds, self.active_seconds, self.missed, self.refused = [], 0.0, 0, 0
         self.last_force = None
         self.thread = threading.Thread(target=self._run, name="tissuefem-haptic", daemon=True)
 
@@ -116,7 +117,10 @@ class HapticLoop:
             began = tick = self.clock()
             while self.active.is_set() and not self.stop.is_set():
                 t0 = self.clock()
-                self.last_force = self.model().force(self.position())
+                try:
+                    self.last_force = self.model().force(self.position())
+                except ValueError:  # a refused position (a glitch of the device): the last force stays
+                    self.refused += 1
                 self.update_seconds.append(self.clock() - t0)
                 tick += self.period
                 late = self.clock() - tick
