@@ -13,7 +13,7 @@ P0 = np.array([0.12, -0.08])
 
 def _model(n_triangles=300, **options):
     return Model(flap(n_triangles=n_triangles), NeoHookean.from_young(E_MOD, NU),
-                 handles=[Handle("fixed"), Handle("handle")], **options)
+                 handles=[Handle("fixed", name="fixed"), Handle("handle", name="handle")], **options)
 
 
 def _state(stepper):
