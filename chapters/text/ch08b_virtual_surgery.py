@@ -23,7 +23,7 @@
 # 4. operate on the tissue with the mouse;
 # 5. give a haptic device the tool's force at 1 kHz from a reduced model of the last frame.
 #
-# *Time: about 55 min to read and run.* The second sitting of chapter 8: it uses the scenes, the sheet and
+# *Time: about 60 min to read and run.* The second sitting of chapter 8: it uses the scenes, the sheet and
 # the cuts of chapter 8a.
 #
 # *Reading:* the loop of the notes' "Time stepping" section. The procedure of section 1 follows Sifakis,
@@ -356,8 +356,9 @@ view.start()
 #
 # the **Schur complement** of the tool's unknowns: the tool's stiffness seen through the body. For a grabbed edge
 # whose dofs $t$ follow the translation ($\mathbf u_t = \mathbf B\mathbf p$), with $\mathbf K$ the Hessian of the
-# stored energy, it is $\mathbf S = \mathbf B^T\mathbf K_{tt}\mathbf B - (\mathbf K_{ft}\mathbf B)^T\,
-# \mathbf H_{ff}^{-1}\,\mathbf H_{ft}\mathbf B$; for a probe, whose force depends on the contact nodes'
+# stored energy, it is
+# $\mathbf S = \mathbf B^T\mathbf K_{tt}\mathbf B - (\mathbf K_{ft}\mathbf B)^T\,\mathbf H_{ff}^{-1}\,\mathbf H_{ft}\mathbf B$;
+# for a probe, whose force depends on the contact nodes'
 # $\mathbf x_a - \mathbf c$ only, $\mathbf S = \sum_a \mathbf P_a - \mathbf P^T\mathbf H_{ff}^{-1}\mathbf P$ with
 # $\mathbf P_a$ the probe's Hessian block at node $a$. Each column of $\mathbf H_{ff}^{-1}(\dots)$ is one solve
 # with the real-time solver's own kept factorization (a few CG iterations preconditioned by it): two solves per
