@@ -402,7 +402,8 @@ display(Markdown(
     f"{np.median(run['hold_error']):.1e} (at most {np.max(run['hold_error']):.1e}): "
     f"{np.median(run['hold_error']) / np.median(run['haptic_error']):.0f} times less error, for an update of "
     f"{1e6 * np.median(update):.0f} µs. At each frame the force still jumps, by {np.median(run['jump_relative']):.1e} "
-    "of its size (median): the body moved on during the frame, which the model of the frame before cannot know."))
+    f"of its size (median), {np.median(run['jump_relative']) / np.median(run['hold_error']):.1f} times the held "
+    "force's median error: the body moved on during the frame, which the model of the frame before cannot know."))
 
 # %% [markdown]
 # The figure draws that run: the force of the edge on the body, each frame's reduced model carried on to the next
@@ -422,7 +423,9 @@ fig_ch08_haptic_force(run=run)
 #   one it leaves still pushes (too stiff while withdrawing);
 # - **the body's own motion**: in a dynamic scene the tissue moves on between frames even when the tool stands
 #   still; the reduced model keeps the body where its frame left it, and the next frame's force differs by the
-#   jump printed above;
+#   jump printed above. In this dynamic scene that jump is what the hand would feel most. A better model adds the
+#   drift of the next frame: the linearised next step with the tool held still, one more solve with the same
+#   factorization (the force's change over a frame, spread over the frame's updates);
 # - **topology**: a cut or a stitch between frames changes the body; the model of the frame before is stale
 #   until the next frame rebuilds it.
 #
