@@ -38,8 +38,8 @@ def fig_ch08_haptic_force(run=None) -> Figure:
     ax_force.legend(fontsize=7.5, ncols=3, loc="best")
     ax_force.grid(alpha=0.3)
     ax_force.set_title(f"the pulled edge of the standard flap, {run['triangles']} triangles: {substeps} positions "
-                       "between frames (1/30 s apart)\nthe reduced model is rebuilt at each frame, and steps back there: the body "
-                       "moved on during the frame, which the frame before cannot know", fontsize=9)
+                       "between frames (1/30 s apart)\nthe reduced model is rebuilt at each frame, and steps back "
+                       "there: the body moved on during the frame, which the frame before cannot know", fontsize=9)
     ax_error.semilogy(t, shown(run["haptic_error"], floor=1e-12), color="C2", lw=1.4, marker=".", ms=3,
                       label=f"reduced model (median {np.median(run['haptic_error']):.1e})")
     ax_error.semilogy(t, shown(run["hold_error"], floor=1e-12), color="0.45", lw=1.0, ls="--",
