@@ -188,9 +188,8 @@ def _check_probe(field, e):
 
 
 def _probes(model, entries, scene, first=0):
-    """Rigid discs; default stiffness ``100 E / radius`` (penetration near 1 % of the radius at moderate pressure);
-    ``first``: the index of the first entry (in refusals)."""
-    refuse_3d("probe", model.X)
+    """Rigid discs (balls on tetrahedra); default stiffness ``100 E / radius`` (penetration near 1 % of the radius at
+    moderate pressure); ``first``: the index of the first entry (in refusals)."""
     out = []
     for i, p in enumerate(entries, first):
         p = dict(p)

@@ -159,7 +159,7 @@ def check_reach(name, point, middle, size) -> np.ndarray:
     far = REACH * size
     if np.any(np.abs(np.asarray(point) - middle) > far):
         raise ParameterError(name, f"{name} = {np.asarray(point).tolist()} lies farther than {REACH:g} domain sizes "
-                                   f"({far:g}) from the domain's centre ({middle[0]:g}, {middle[1]:g})")
+                                   f"({far:g}) from the domain's centre ({', '.join(f'{c:g}' for c in middle)})")
     return point
 
 

@@ -148,8 +148,9 @@ class Simulation:
         return [self.frame(targets) for _ in range(frames)]
 
     def _point(self, field, point) -> np.ndarray:
-        """A finite point within ``REACH`` domain sizes of the domain's centre (the model's reference box)."""
-        return check_reach(field, check_vector(field, point), self.model.middle, self.model.size)
+        """A finite point of the mesh's dimension within ``REACH`` domain sizes of the domain's centre (the model's
+        reference box)."""
+        return check_reach(field, check_vector(field, point, self.model.dim), self.model.middle, self.model.size)
 
     def _radius(self, field, radius) -> float:
         """A radius within ``RADIUS_RANGE`` domain sizes: what a penalty ``~ 1 / r^2`` can be computed for."""
@@ -356,8 +357,8 @@ class Simulation:
 
 class Stitches(Sutures):
     """Sutures whose ends are points of the material: an element and barycentric weights per end,
-    ``elements`` ``(2, k)`` and ``barycentric`` ``(2, k, 3)``, so that a cut carries each end to the copy
-    of its element that holds it (:func:`~tissuefem.surgery.element_cuts.carry_points`)."""
+    ``elements`` ``(2, k)`` and ``barycentric`` ``(2, k, 3)`` (``(2, k, 4)`` on tetrahedra), so that a cut carries each
+    end to the copy of its element that holds it (:func:`~tissuefem.surgery.element_cuts.carry_points`)."""
 
     def __init__(self, mesh, elements, barycentric, stiffness, gaps, tightness):
         t = np.asarray(mesh.t)
@@ -472,8 +473,9 @@ def _carried(edit, model, regions, keep_loose):
 
 def _new_stitches(mesh, x, pairs, k, field, check_point, weights, regions) -> dict:
     """The stitches of :meth:`Simulation.suture`: each end an element and barycentric weights, ``elements``
-    ``(2, k)``, ``barycentric`` ``(2, k, 3)``, with their ``gaps`` at the positions ``x`` (pairs that tie a
-    point to itself are left out); ``check_point(field, point)`` refuses points out of reach."""
+    ``(2, k)``, ``barycentric`` ``(2, k, 3)`` (``(2, k, 4)`` on tetrahedra), with their ``gaps`` at the positions ``x``
+    (pairs that tie a point to itself are left out); ``check_point(field, point)`` refuses points out of reach. On
+    tetrahedra the ends are nodes: finding the element at a point is 2D only for now."""
     try:
         arr = np.asarray(pairs)
     except (TypeError, ValueError):
@@ -486,6 +488,9 @@ def _new_stitches(mesh, x, pairs, k, field, check_point, weights, regions) -> di
             raise ValueError(f"{field}.pairs: node indices must be in 0..{mesh.nvertices - 1}")
         ends = [[_node_end(mesh, int(q)) for q in nodes[s]] for s in range(2)]
     else:
+        if x.shape[0] != 2:
+            raise ParameterError(f"{field}.pairs", f"{field}.pairs: stitches at points are 2D only for now (the mesh "
+                                                   "has tetrahedra); give node index pairs shaped (2, k)")
         if arr.dtype.kind not in "iuf":  # booleans, strings, complex numbers: not points
             raise ValueError(f"{field}.pairs must be real point pairs shaped (k, 2, 2), got dtype {arr.dtype}")
         arr = arr.astype(float)
@@ -496,8 +501,8 @@ def _new_stitches(mesh, x, pairs, k, field, check_point, weights, regions) -> di
                 check_point(f"{field}.pairs[{j}][{i}]", q)
         ends = [[_point_end(mesh, x, q[s], weights, regions) for q in arr] for s in range(2)]
     elements = np.array([[e for e, _ in side] for side in ends], dtype=np.int64).reshape(2, -1)
-    bary = np.array([[w for _, w in side] for side in ends], dtype=float).reshape(2, -1, 3)
-    at = np.einsum("skc,iskc->sik", bary, x[:, t[:, elements].transpose(1, 2, 0)])  # (2 ends, 2, k)
+    bary = np.array([[w for _, w in side] for side in ends], dtype=float).reshape(2, -1, t.shape[0])
+    at = np.einsum("skc,iskc->sik", bary, x[:, t[:, elements].transpose(1, 2, 0)])  # (2 ends, d, k)
     same = np.array([_end_key(t[:, elements[0, j]], bary[0, j]) == _end_key(t[:, elements[1, j]], bary[1, j])
                      for j in range(elements.shape[1])], dtype=bool)
     if np.all(same):
@@ -578,7 +583,7 @@ def _node_end(mesh, node):
     corner, element = np.nonzero(np.asarray(mesh.t) == node)
     if element.size == 0:
         raise ValueError(f"node {node} belongs to no element")
-    w = np.zeros(3)
+    w = np.zeros(np.shape(mesh.t)[0])  # a triangle's 3 corners, a tetrahedron's 4
     w[corner[0]] = 1.0
     return int(element[0]), w
 

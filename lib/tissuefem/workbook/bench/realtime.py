@@ -28,9 +28,10 @@ from ...surgery.simulation import Simulation
 from ..measure import median_time
 from ..tables import markdown_table
 from ..timestepping import flap_drag
-from .common import check_sizes, machine_info, write_csv, write_json
+from .common import check_sizes, machine_info, median_rows, recorded, write_csv, write_json
 
-__all__ = ["realtime_benchmark", "ex43_frames", "format_realtime_table", "flap_simulation", "frame_floor"]
+__all__ = ["realtime_benchmark", "ex43_frames", "format_realtime_table", "flap_simulation", "frame_floor",
+           "recorded_realtime", "recorded_realtime_table"]
 
 RTOL_FLAP = 1e-6
 
@@ -139,9 +140,32 @@ def _accuracy_columns(prefix: str, reports) -> dict:
             f"{prefix}_min_J": a["min_J"], f"{prefix}_inverted": a["inverted"], f"{prefix}_undone": undone}
 
 
+#: the recorded table's columns (docs/benchmarks.md and chapter 7 print it): times, work, accuracy, the budgeted run
+_RECORDED = [
+    ("triangles", "triangles", "{:d}"), ("fast_median_ms", "median ms/frame", "{:.1f}"), ("fast_p95_ms", "p95 ms", "{:.1f}"),
+    ("fast_newton", "Newton/frame", "{:.2f}"), ("fast_cg", "CG/frame", "{:.1f}"), ("floor_ms", "floor ms", "{:.1f}"),
+    ("frame_over_floor", "frame / floor", "{:.1f}x"), ("ex43_median_ms", "ex43 way ms/frame", "{:.0f}"),
+    ("fast_converged", "converged", "{:.0%}"), ("budget_converged", "budgeted: converged", "{:.0%}"),
+    ("budget_p95_ms", "budgeted: p95 ms", "{:.0f}"), ("budget_p99_ms", "budgeted: p99 ms", "{:.0f}"),
+    ("budget_residual", "budgeted: median residual", "{:.0e}"),
+]
+
+
 def format_realtime_table(rows) -> str:
     """The benchmark rows as a Markdown table."""
     return markdown_table(rows, _TABLE)
+
+
+def recorded_realtime() -> tuple[list[dict], dict]:
+    """The recorded run shipped with the package: its rounds joined (:func:`~.common.median_rows`: medians over the
+    rounds) and the record (``rounds``: each round's machine, with its load average at the start, and rows)."""
+    record = recorded("realtime")
+    return median_rows([r["rows"] for r in record["rounds"]], "triangles"), record
+
+
+def recorded_realtime_table() -> str:
+    """The recorded run as the Markdown table docs/benchmarks.md and chapter 7 show (medians over the rounds)."""
+    return markdown_table(recorded_realtime()[0], _RECORDED)
 
 
 def realtime_benchmark(sizes=(2000, 8000, 16000, 32000), frames: int = 90, baseline_frames: int = 10,
@@ -154,6 +178,7 @@ def realtime_benchmark(sizes=(2000, 8000, 16000, 32000), frames: int = 90, basel
     baseline_frames = check_count("baseline_frames", baseline_frames, 0)
     budget_frames = check_count("budget_frames", budget_frames, 0)
     say = progress if progress is not None else (lambda *_: None)
+    machine = machine_info()  # at the start: the load average says how quiet the machine was
 
     # one untimed pass at the largest size warms the allocator up (see the assembly benchmark)
     _fast_frames(max(sizes), 3, linear_solver=linear_solver)
@@ -205,7 +230,7 @@ def realtime_benchmark(sizes=(2000, 8000, 16000, 32000), frames: int = 90, basel
                             "rtol": RTOL_FLAP, "domain": "[0, 2] x [0, 1], left edge fixed, right edge on flap_path"},
                   "settings": {"sizes": sizes, "frames": frames, "baseline_frames": baseline_frames,
                                "budget_frames": budget_frames, "linear_solver": linear_solver},
-                  "machine": machine_info(), "rows": rows}
+                  "machine": machine, "rows": rows}
         written = [write_json(Path(out) / "realtime.json", record), write_csv(Path(out) / "realtime.csv", rows)]
         say("wrote " + ", ".join(str(w) for w in written))
     return rows

@@ -18,9 +18,10 @@ from ...surgery.simulation import Simulation
 from ..measure import median_time
 from ..tables import markdown_table
 from ..timestepping import flap_drag
-from .common import machine_info, write_csv, write_json
+from .common import machine_info, median_rows, recorded, write_csv, write_json
 
-__all__ = ["effects_benchmark", "variants", "format_effects_table", "term_costs", "cut_costs"]
+__all__ = ["effects_benchmark", "variants", "format_effects_table", "term_costs", "cut_costs", "recorded_effects",
+           "recorded_effects_table"]
 
 
 def _base(n_triangles):
@@ -115,10 +116,35 @@ def format_effects_table(rows) -> str:
     return markdown_table([{**r, "terms": ", ".join(r["terms"])} for r in rows], _TABLE, text_columns=2)
 
 
+def recorded_effects() -> tuple[list[dict], dict]:
+    """The recorded run shipped with the package: its rounds joined (medians over the rounds, see
+    :func:`~.common.median_rows`), each row with ``over_base`` (its median over the base's, in each round) and
+    ``over_base_text`` (the median ratio and the rounds' range: the spread between rounds is the noise), and the
+    record."""
+    record = recorded("scenes")
+    rounds = [[{**r, "over_base": r["median_ms"] / rows[0]["median_ms"]} for r in rows]
+              for rows in (rd["rows"] for rd in record["rounds"])]
+    rows = median_rows(rounds, "variant")
+    for r in rows:
+        lo, hi = r.get("over_base_range", (r["over_base"], r["over_base"]))
+        r["over_base_text"] = f"{r['over_base']:.2f} ({lo:.2f}–{hi:.2f})" if hi > lo else f"{r['over_base']:.2f}"
+        r["terms"] = ", ".join(r["terms"])
+    return rows, record
+
+
+def recorded_effects_table() -> str:
+    """The recorded run as the Markdown table docs/benchmarks.md shows."""
+    columns = [("variant", "variant", "{}"), ("terms", "terms", "{}"), ("median_ms", "median ms/frame", "{:.1f}"),
+               ("p95_ms", "p95 ms", "{:.1f}"), ("newton", "Newton/frame", "{:.2f}"),
+               ("over_base_text", "over the base (rounds' range)", "{}")]
+    return markdown_table(recorded_effects()[0], columns, text_columns=2)
+
+
 def effects_benchmark(n_triangles=8000, frames=30, repeats=5, out=None, progress=print) -> dict:
     """Run every variant; return ``{"rows": [...], "terms": {...}}`` and write JSON/CSV under ``out``."""
     n_triangles, frames = check_count("n_triangles", n_triangles, 50), check_count("frames", frames)
     say = progress or (lambda *a, **k: None)
+    machine = machine_info()  # at the start: the load average says how quiet the machine was
     rows, base, everything = [], None, None
     for name, data, options in variants(n_triangles):
         sim, ms, newton = _run(data, options, frames)
@@ -140,7 +166,7 @@ def effects_benchmark(n_triangles=8000, frames=30, repeats=5, out=None, progress
     record = {"benchmark": "scenes", "description": __doc__.strip().splitlines()[0],
               "settings": {"n_triangles": int(n_triangles), "frames": int(frames), "repeats": int(repeats),
                            "scene": "flap_scene (stable neo-Hookean), handle on flap_path"},
-              "machine": machine_info(), "rows": rows, "term_ms": terms, "cut_ms": cuts}
+              "machine": machine, "rows": rows, "term_ms": terms, "cut_ms": cuts}
     if out is not None:
         written = [write_json(Path(out) / "scenes.json", record),
                    write_csv(Path(out) / "scenes.csv", [{**r, "terms": " + ".join(r["terms"])} for r in rows])]
