@@ -324,21 +324,13 @@ from tissuefem.workbook.bench.common import recorded
 
 browser = recorded("browser_view")
 print(f"recorded {browser['date']}, 1-minute load average before the session's benchmarks {browser['load_before']:.2f}")
-for run in browser["rounds"]:
+for run in browser["rounds"]:  # at rest: nothing painted or sent
     for r in run["results"]:
         d, lat = r["dragging"], r["latency"]
         print(f"  {r['mesh']['triangles']:5d} triangles: {d['painted_per_second']:4.1f} pictures/s while dragging, "
               f"step {d['kernel_step_median_ms']:4.1f} ms, paint {d['page_paint_median_ms']:.1f} ms; mouse to picture "
               f"{lat['median_ms']:.0f} ms median, {lat['p95_ms']:.0f} ms p95; at rest {r['at_rest']['painted']} pictures, "
               f"kernel {r['at_rest']['cpu_percent_of_a_core']:.1f} % of a core")
-results = [r for run in browser["rounds"] for r in run["results"]]
-fps = [r["dragging"]["painted_per_second"] for r in results]
-latency = [r["latency"]["median_ms"] for r in results]
-display(Markdown(
-    f"The page paints {min(fps):.0f}–{max(fps):.0f} pictures a second while dragging "
-    + ("(at least the 30 a frame rate of 1/30 s calls for)" if min(fps) >= 30 else "(a little under the 30 a frame rate of 1/30 s calls for)")
-    + f", and a picture follows the mouse after {min(latency):.0f}–{max(latency):.0f} ms (median). At rest nothing "
-    "is painted or sent, and the kernel idles."))
 
 # %% [markdown]
 # The next cell runs the view: the picture above comes alive. Drag the tissue with the mouse, click **cut** and
@@ -351,11 +343,9 @@ view.start()
 # %% [markdown]
 # ## 4. The tool's force at haptic rate
 #
-# A haptic device, a stylus on a motorised arm, plays the tool's force back to the hand. What the hand feels is
-# less a force than how the force changes as it moves: a stiffness. The device renders it by sampling, over and
-# over: read the position, compute the force, drive the motors. Between two samples the force stays as it was,
-# so the spring the hand presses against is a staircase, and every step of it is energy the device adds or takes
-# away. A stiff contact sampled slowly feels soft and mushy, or it starts to buzz: the loop is no longer stable.
+# A haptic device, a stylus on a motorised arm, plays the tool's force back to the hand by sampling: read the
+# position, compute the force, drive the motors. Between two samples the force stays as it was, a staircase whose
+# every step is energy the device adds or takes away: a stiff contact sampled slowly feels mushy, or buzzes.
 # The faster the loop, the stiffer the contact it renders stably, and haptic force loops run near 1 kHz while the
 # deformation runs at 30 to 100 frames a second: **multirate** haptics. Our scenes run 30 frames a second; held
 # for a whole frame, each frame's force would reach the hand as a step every 33 ms.
@@ -364,8 +354,8 @@ view.start()
 # from a linear elastic model of 6,500 tetrahedra whose responses were precomputed: the force of a contact is a
 # superposition of stored responses to unit displacements of the surface nodes. The price is the model: linear
 # elasticity (small strains, no large rotations) and a mesh fixed in advance, which no cut may change without a
-# new precomputation. Barbič and James (2005) reduced a nonlinear (St Venant-Kirchhoff) model to a few
-# deformation modes, fast enough for haptics, again on a fixed shape. Here the body changes every frame (cuts,
+# new precomputation. Barbič and James (2005) reduced a nonlinear model to a few deformation modes, again on a
+# fixed shape. Here the body changes every frame (cuts,
 # stitches, a nonlinear material), so nothing is precomputed once and for all: after each frame the body is
 # reduced to the tool alone, and that small model serves the force loop until the next frame.
 #
@@ -451,15 +441,12 @@ fig_ch08_haptic_force(run=run)
 #   still; the reduced model keeps the body where its frame left it, and the next frame's force differs by the
 #   jump printed above. In this dynamic scene that jump is what the hand would feel most. A better model adds the
 #   drift of the next frame: the linearised next step with the tool held still, one more solve with the same
-#   factorization (the force's change over a frame, spread over the frame's updates);
+#   factorization;
 # - **topology**: a cut or a stitch between frames changes the body; the model of the frame before is stale
 #   until the next frame rebuilds it.
 #
-# The full benchmark, `python -m tissuefem bench haptic`, runs the standard flap scene of chapter 7 with a
-# thread that updates the force at 1 kHz beside the frames, and reports the updates per second, the time per
-# update, each frame's time with and without the loop, and the force error along the drag
-# (`docs/benchmarks.md`). In Python the loop shares the interpreter with the frames, so it must be scheduled
-# often (`sys.setswitchinterval`); a device driver would run it in its own process, or in C.
+# `python -m tissuefem bench haptic` runs the standard flap of chapter 7 with a thread updating the force at
+# 1 kHz beside the frames (`docs/benchmarks.md`).
 
 # %% [markdown]
 # ## What to try

@@ -102,7 +102,7 @@ DECLARED: list[tuple[str, str, str, str]] = [
      "haptic force loops run near 1 kHz while the deformation runs at 30 to 100 frames a second"),
     ("ch08b_virtual_surgery", "7 / 6,500", "citation",
      "rendered force feedback within 7 ms from a linear elastic model of 6,500 tetrahedra"),
-    ("ch08b_virtual_surgery", "1", "definition", "a thread that updates the force at 1 kHz beside the frames"),
+    ("ch08b_virtual_surgery", "1", "definition", "with a thread updating the force at 1 kHz beside the frames"),
     ("ch08b_virtual_surgery", "2", "definition", "two runs on the 2-core reference machine"),
     ("ch09_accuracy_cost", "8 000", "input", "P1 on about 8 000 triangles, Neo-Hookean"),
     ("ch09_accuracy_cost", "2 / 3", "reference", "even P2 converges at a rate below 2 there instead of 3 (chapter 4)"),
