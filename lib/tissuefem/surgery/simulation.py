@@ -22,7 +22,7 @@ from ..engine.model import Handle, Model, region_nodes
 from ..engine.parameters import (PENALTY_MAX, RADIUS_RANGE, ParameterError, check_count, check_penalty_stiffness,
                                  check_reach, check_vector, number, string)
 from ..engine.realtime import RealtimeSolver
-from ..engine.terms import Sutures
+from ..engine.terms import Sutures, refuse_3d
 from . import element_cuts, topology
 from .geometry import check_points
 from .scene import Scene
@@ -195,14 +195,16 @@ class Simulation:
         if self.order != 1:
             raise ValueError("grab: grabbing needs P1 elements (order=1)")
         x = self.positions()
-        nodes = np.flatnonzero(np.hypot(x[0] - point[0], x[1] - point[1]) <= radius)
+        gap = x - point[:, None]
+        distance = np.hypot(*gap) if gap.shape[0] == 2 else np.sqrt(np.sum(gap * gap, axis=0))
+        nodes = np.flatnonzero(distance <= radius)
         if nodes.size == 0:
             raise ValueError(f"point {point.tolist()}: no tissue within radius {radius:g}")
         names = set(self.handles)
         count = self._grab_count + 1
         while f"grab{count}" in names:  # never replace a scene's handle of the same name
             count += 1
-        u = self.solver.u.reshape(-1, 2).T
+        u = self.solver.u.reshape(-1, self.model.dim).T
         self.model.add_handle(Handle(nodes, base=u[:, nodes].copy(), name=f"grab{count}", anchor=point))
         self._grab_count = count
         return f"grab{count}"
@@ -211,7 +213,7 @@ class Simulation:
         """Move the pointer of a grab to ``point``: the handle's target becomes the offset from its grab point."""
         h = self.model.handle(name)
         point = self._point("point", point)
-        h.move(point - (np.zeros(2) if h.anchor is None else h.anchor))
+        h.move(point - (np.zeros_like(point) if h.anchor is None else h.anchor))
 
     def handle_offset(self, name) -> np.ndarray:
         """The handle's target if it is a translation (a copy), else ``None``."""
@@ -299,6 +301,7 @@ class Simulation:
         (``method="elements"``, :func:`~tissuefem.surgery.element_cuts.cut_through`) or snapped to mesh edges
         (``"edges"``, :func:`~tissuefem.surgery.topology.incise`). Each copy of a node keeps its displacement and
         velocity. Returns the edit (a :class:`~tissuefem.engine.meshes.MeshMap`)."""
+        refuse_3d("cut", self.model.X)  # cuts are 2D only for now
         operation = _OPERATIONS["incisions"][string("method", method, _OPERATIONS["incisions"])]
         points = check_points("polyline", polyline, 2)
         for i, q in enumerate(points):
@@ -308,6 +311,7 @@ class Simulation:
     def excise(self, region, method="elements"):
         """Remove the tissue inside ``region``, a polygon in *reference* coordinates cut out along its outline
         (``method="elements"``) or the triangles whose centroid lies inside (``"edges"``), or a mask on centroids."""
+        refuse_3d("excise", self.model.X)  # excisions are 2D only for now
         if callable(region):
             return self._apply_edit(topology.excise, region, "region")
         operation = _OPERATIONS["excisions"][string("method", method, _OPERATIONS["excisions"])]
@@ -412,7 +416,7 @@ def _scene_model(scene, material, order, intorder) -> Model:
     handles = []
     for i, h in enumerate(scene.effects.get("handles", [])):
         nodes = region_nodes(mesh, h["region"], f"effects.handles[{i}].region")
-        handles.append(Handle(nodes, h["target"], name=h["name"]))
+        handles.append(Handle(nodes, h.get("target"), name=h["name"]))  # none given: held where it is
     if not handles and not scene.dynamic:
         raise ValueError("effects.handles: a quasistatic scene needs at least one handle (e.g. a fixed edge), "
                          "or the body floats freely")

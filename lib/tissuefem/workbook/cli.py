@@ -245,7 +245,8 @@ def cmd_scene(args) -> int:
             return 2
     for w in caught:
         print(f"{args.path}: warning: {' '.join(str(w.message).split())}", file=sys.stderr)
-    print(f"{scene.name}: {sim.mesh.nelements} triangles, terms {sim.terms}, handles {list(sim.handles)}")
+    noun = "triangles" if sim.model.dim == 2 else "tetrahedra"
+    print(f"{scene.name}: {sim.mesh.nelements} {noun}, terms {sim.terms}, handles {list(sim.handles)}")
     for note in scene.notes:
         print(f"note: {note}")
     if args.check:
