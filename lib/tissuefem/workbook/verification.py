@@ -77,7 +77,9 @@ def beam_problem_tip(nx: int, ny: int, order: int = 2, *, nz: int | None = None,
     def traction(v, w):
         sxx = -load * (length - w.x[0]) * w.x[1] / I
         sxy = load / (2.0 * I) * (depth**2 / 4.0 - w.x[1] ** 2)
-        t = [sxx * w.n[0] + sxy * w.n[1], sxy * w.n[0]] + [nu * sxx * w.n[2]] * (dim - 2)  # sigma n
+        t = [sxx * w.n[0] + sxy * w.n[1], sxy * w.n[0]]  # sigma n
+        if dim == 3:
+            t.append(nu * sxx * w.n[2])
         return sum(t[i] * v[i] for i in range(dim))
 
     model.add_term(Load("end shear" if dim == 2 else "end shear and faces' sigma_zz", asm(traction, facets)))
@@ -172,7 +174,7 @@ def manufactured_error(material, n: int, order: int, load_steps: int = 4, dim: i
 
 
 #: the default mesh sizes ``n`` (``h = 1/n``) of :func:`manufactured_convergence`, by dimension and order
-MANUFACTURED_SIZES = {2: {1: (4, 8, 16, 32), 2: (2, 4, 8, 16)}, 3: {1: (2, 4, 8, 16), 2: (1, 2, 4, 8)}}
+MANUFACTURED_SIZES = {2: {1: (4, 8, 16, 32), 2: (2, 4, 8, 16)}, 3: {1: (2, 4, 8), 2: (1, 2, 4)}}
 
 
 def manufactured_convergence(models=("neo-hookean", "stable-neo-hookean", "corotated"), sizes=None,
