@@ -1,6 +1,6 @@
 """Chapter 9 figures: what accuracy costs in time, drawn from the results of
 :func:`~tissuefem.workbook.bench.accuracy_cost.accuracy_study` (the lecture figures: the recorded full study);
-the verified reference's mesh convergence (chapter 9 on triangles, chapter 11 on tetrahedra); and the plot of
+the verified reference's mesh convergence (:func:`plot_convergence`, also chapter 11's on tetrahedra); and the plot of
 ``bench realtime``'s results."""
 
 from __future__ import annotations
@@ -237,14 +237,6 @@ def fig_ch09_verification(rows=None) -> Figure:
     """Chapter 9: the reference verified -- nonlinear mesh convergence at rates 2 (P1) and 3 (P2)."""
     return plot_convergence(manufactured_convergence() if rows is None else rows,
                             "Manufactured solution (bent arch + its body force)")
-
-
-@lecture_figure
-def fig_ch11_convergence(rows=None) -> Figure:
-    """Chapter 11: the 3D reference verified -- nonlinear mesh convergence on tetrahedra at rates 2 (P1) and 3
-    (P2), three models (:func:`~tissuefem.workbook.verification.manufactured_convergence` with ``dim=3``)."""
-    return plot_convergence(manufactured_convergence(dim=3) if rows is None else rows,
-                            "Manufactured solution on tetrahedra (twisted arch + its body force)")
 
 
 def plot_convergence(rows, title) -> Figure:
