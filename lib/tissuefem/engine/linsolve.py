@@ -360,7 +360,8 @@ class UpdatedFactorization:
 
         (A0 + U C U^T)^-1 r = z - W (I + C W[S])^-1 C z[S],   z = A0^-1 r       (Woodbury).
 
-    The couplings of ``S`` to the other unknowns are left to CG. :meth:`solve` is that approximate inverse."""
+    The couplings of ``S`` to the other unknowns are left to CG; an update that would make the matrix indefinite is
+    not made (CG is to find that negative curvature). :meth:`solve` is that approximate inverse."""
 
     def __init__(self, factor, A, rank: int = 64, threshold: float = 0.5):
         A = sp.csr_matrix(A)
@@ -407,7 +408,12 @@ class UpdatedFactorization:
             self._back_substitutions(missing)
         W = np.column_stack([self._columns[q] for q in S.tolist()])
         C = change[S][:, S].toarray()
-        lu = sla.lu_factor(np.eye(S.size) + C @ W[S])
+        G = W[S]  # (A0^-1)[S, S]: A0 + U C U^T is positive definite iff G + G C G is
+        try:
+            np.linalg.cholesky(0.5 * (G + G.T) + G @ C @ G.T)
+        except np.linalg.LinAlgError:
+            return int(missing.size)  # an indefinite update (CG is to see that negative curvature): none
+        lu = sla.lu_factor(np.eye(S.size) + C @ G)
         if not np.all(np.isfinite(lu[0])) or np.any(np.abs(np.diag(lu[0])) < 1e-12):
             return int(missing.size)  # (nearly) singular: the factorization alone
         self._update = (S, W, C, lu)
@@ -482,8 +488,6 @@ class ReusedFactorization:
         self.refresh_after = check_count("refresh_after", refresh_after)
         self.max_iterations = check_count("max_iterations", max_iterations)
         self.direct = direct if direct is not None else SuperLU()
-        if not callable(getattr(self.direct, "factorize", None)):
-            raise ParameterError("direct", f"direct must be a backend with a factorize method, got {direct!r}")
         if launch is not None and not callable(launch):
             raise ParameterError("launch", f"launch must be a callable starting background work, got {launch!r}")
         self.background = bool(background)
@@ -505,8 +509,20 @@ class ReusedFactorization:
     @update_rank.setter
     def update_rank(self, value):
         self._update_rank = check_count("update_rank", value, 0)
+        self._factorize = functools.partial(_factorize_kept, self._direct, self._update_rank)
+
+    @property
+    def direct(self):
+        """The direct backend whose factorizations are kept (may be replaced between solves)."""
+        return self._direct
+
+    @direct.setter
+    def direct(self, value):
+        if not callable(getattr(value, "factorize", None)):
+            raise ParameterError("direct", f"direct must be a backend with a factorize method, got {value!r}")
+        self._direct = value
         # how a kept factorization is made (a function of the matrix only: a background job holds no solver)
-        self._factorize = functools.partial(_factorize_kept, self.direct, self._update_rank)
+        self._factorize = functools.partial(_factorize_kept, value, getattr(self, "_update_rank", 0))
 
     launch = property(lambda self: self._work.launch, lambda self, value: setattr(self._work, "launch", value),
                       doc="How background work starts: ``launch(work)`` returns a job with ``is_alive`` and ``join``.")
