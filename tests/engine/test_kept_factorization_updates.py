@@ -207,3 +207,17 @@ def test_a_linear_solver_carries_its_factorization_to_a_model_with_copied_dofs()
     assert not linsolve.LinearSolver("direct").carry(old, new_parent)  # nothing kept to carry into
     with pytest.raises(ParameterError, match="parent"):
         linsolve.LinearSolver("reuse").carry(old, np.full(n + 3, n + 5))
+
+
+def test_a_linear_solver_carries_its_factorization_as_it_is_to_the_same_dofs():
+    n = 30
+    old = linsolve.LinearSolver("reuse")
+    mask = np.ones(n, dtype=bool)
+    A = old.matrix(lambda: _laplacian(n), mask)
+    old.solve(A, np.ones(n))
+    new = linsolve.LinearSolver("reuse")
+    assert new.carry(old, np.arange(n))
+    A_new = new.matrix(lambda: _penalized(n, [3], 10.0), mask)
+    assert not new.backend.provisional
+    x, info = new.solve(A_new, np.ones(n), atol=1e-10)
+    assert info.factorizations == 0 and np.allclose(A_new @ x, np.ones(n), atol=1e-9)

@@ -1,5 +1,6 @@
-"""After a cut the frame goes on with the old factorization, extended to the new nodes, while a fresh one is
-made off the frame: the frames converge to the same states as when the cut factorizes afresh."""
+"""After a cut (``keep_factorization``) the frame goes on with the old factorization, extended to the new nodes,
+while a fresh one is made off the frame; a probe added keeps the factorization: the frames converge to the same
+states as when the new model is factorized afresh."""
 
 import numpy as np
 import pytest
@@ -15,7 +16,7 @@ def _sim(keep, linear_solver="reuse-background", probe=False):
     scene = Scene(domain={"shape": "rectangle", "width": 2.0, "height": 1.0, "triangles": 600},
                   material={"model": "stable-neo-hookean", "youngs_modulus": 1000.0, "poisson_ratio": 0.3},
                   effects=effects, solver={"budget": 1e9, "rtol": 1e-8, "linear_solver": linear_solver})
-    return Simulation(scene, keep_factorization=keep)
+    return Simulation(scene) if keep is None else Simulation(scene, keep_factorization=keep)
 
 
 def _drag(sim, frames, start=0):
@@ -40,16 +41,27 @@ def test_a_cut_frame_reaches_the_state_of_a_fresh_factorization(linear_solver, m
     assert first[True].newton.factorizations == 0  # the new one preconditions with the old factorization
 
 
-def test_a_probe_added_to_a_running_model_reaches_the_same_state():
+def test_a_probe_added_to_a_running_model_keeps_the_factorization_and_reaches_the_same_state():
     states = []
     for keep in (False, True):
-        sim = _sim(keep)
+        sim = _sim(False)
         _drag(sim, 2)
         sim.add_probe([1.4, 1.08], 0.15)
+        assert sim.solver.linear.backend.provisional is False
+        if not keep:
+            sim.solver.linear.invalidate()  # the path before: a fresh factorization for the new model
         assert all(r.converged for r in _drag(sim, 2, start=2))
         states.append(sim.u.copy())
         sim.solver.linear.close()
     assert np.abs(states[1] - states[0]).max() < 1e-5 * np.abs(states[0]).max()
+
+
+def test_a_cut_factorizes_afresh_by_default():
+    sim = _sim(None)
+    _drag(sim, 2)
+    sim.cut([[1.0, 1.2], [1.1, 0.45]])
+    assert _drag(sim, 1, start=2)[0].newton.factorizations >= 1
+    sim.solver.linear.close()
 
 
 def test_the_low_rank_update_gives_the_same_probe_frames():

@@ -543,12 +543,12 @@ class ReusedFactorization:
         self._factor, self._shape, self._stale, self._work.pending = None, None, False, None
         self._provisional = False
 
-    def provide(self, factor, shape) -> None:
+    def provide(self, factor, shape, fresh: bool = True) -> None:
         """Precondition with ``factor`` (an approximate inverse of matrices of ``shape``, e.g. an
-        :class:`ExtendedFactorization` after a cut) until a fresh factorization, started off the frame by the next
-        solve whatever ``background`` says, is adopted."""
+        :class:`ExtendedFactorization` after a cut). ``fresh``: until a fresh factorization, started off the frame
+        by the next solve whatever ``background`` says, is adopted; else it is kept as if made here."""
         self.invalidate()
-        self._factor, self._shape, self._provisional = factor, tuple(shape), True
+        self._factor, self._shape, self._provisional = factor, tuple(shape), bool(fresh)
 
     @property
     def provisional(self) -> bool:
@@ -909,8 +909,11 @@ class LinearSolver:
         if self._carried is not None:  # the first tangent after a cut: the old factorization, extended
             factor, parent, n_old = self._carried
             self._carried = None
-            if parent.size == mask.size:
-                self.backend.provide(ExtendedFactorization(factor, parent[mask], n_old, A), A.shape)
+            parent = parent[mask] if parent.size == mask.size else None
+            if parent is not None and parent.size == n_old and np.array_equal(parent, np.arange(n_old)):
+                self.backend.provide(factor, A.shape, fresh=False)  # the same unknowns: kept as it is
+            elif parent is not None:
+                self.backend.provide(ExtendedFactorization(factor, parent, n_old, A), A.shape)
         return A
 
     def solve(self, A, b, *, atol: float = 0.0, deadline: Deadline | None = None):

@@ -37,13 +37,15 @@ class Simulation:
     ``clock``: seconds (tests pass a fake one); ``linear_solver`` overrides the scene's; ``constant_tangent``: run a
     quadratic model with the ``"constant"`` linear solver (one factorization per set of held dofs; ``False`` forces
     the general Newton loop, to measure what that saves); ``order``, ``intorder``: the model's elements (cuts and
-    excisions need P1) and quadrature degree. ``keep_factorization``: after a cut, an excision or a change of terms,
-    the first frame is preconditioned by the old factorization (extended to the new nodes) while a fresh one is
-    made off the frame (``"reuse..."`` linear solvers; ``False``: factorize afresh, to measure what that saves).
+    excisions need P1) and quadrature degree. A probe or sutures added or removed keep the running factorization
+    (``"reuse..."`` linear solvers: CG's preconditioner until it is refreshed). ``keep_factorization``: after a cut
+    or an excision too, the frames are preconditioned by the old factorization extended to the new nodes while a
+    fresh one is made off the frame; off by default: measured, it pays only where a second core is free
+    (docs/benchmarks.md, "Effect costs: what was tried").
     """
 
     def __init__(self, scene: Scene, *, clock=time.perf_counter, linear_solver=None, constant_tangent=True,
-                 order: int = 1, intorder: int | None = None, keep_factorization: bool = True):
+                 order: int = 1, intorder: int | None = None, keep_factorization: bool = False):
         if not isinstance(scene, Scene):
             raise ValueError(f"scene must be a Scene, got {scene!r}")
         self.scene, self.clock = scene, clock
@@ -96,9 +98,9 @@ class Simulation:
         if old is not None:
             _carry_state(old, self.solver, state)
             self.solver.costs.update(old.costs)  # what the work cost lately: the next frame keeps its budget
-            if parent is None and old.model.n_dofs == model.n_dofs:
-                parent = np.arange(model.n_dofs)
-            if self._keep_factorization and parent is not None:
+            if parent is None and old.model.n_dofs == model.n_dofs:  # the same dofs: the factorization fits
+                self.solver.linear.carry(old.linear, np.arange(model.n_dofs))
+            elif self._keep_factorization and parent is not None:
                 self.solver.linear.carry(old.linear, parent)
 
     def _set_terms(self, terms) -> None:
