@@ -123,7 +123,7 @@ def test_update_rank_is_checked():
     solver = linsolve.ReusedFactorization()
     with pytest.raises(ParameterError, match="update_rank"):
         solver.update_rank = 1.5
-    assert solver.update_rank == 64
+    assert solver.update_rank == 0
 
 
 class _Later:

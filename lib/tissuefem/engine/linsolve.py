@@ -480,11 +480,12 @@ class ReusedFactorization:
     abandoned half-way (a process that ends under one can crash in the BLAS): :meth:`close` (or leaving a ``with``
     block) waits for it, and so do dropping the solver and the interpreter's exit. ``update_rank``: a kept
     factorization is made exact again, before each solve, on up to that many unknowns where the matrix changed most
-    (:class:`UpdatedFactorization`; 0: never); ``update_solves`` counts the back-substitutions that took. After a
+    (:class:`UpdatedFactorization`; 0, the default: never; measured on the probe scene it did not lower CG's
+    iterations, see docs/benchmarks.md); ``update_solves`` counts the back-substitutions that took. After a
     cut, :meth:`provide` gives a preconditioner to start from while a fresh factorization is made off the frame."""
 
     def __init__(self, direct=None, refresh_after: int = 15, max_iterations: int = 40, background: bool = False,
-                 background_after: int = 3, launch=None, update_rank: int = 64):
+                 background_after: int = 3, launch=None, update_rank: int = 0):
         self.refresh_after = check_count("refresh_after", refresh_after)
         self.max_iterations = check_count("max_iterations", max_iterations)
         self.direct = direct if direct is not None else SuperLU()
