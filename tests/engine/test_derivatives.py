@@ -5,12 +5,16 @@ derivative of its stress, checked by central differences at rest, stretched,
 sheared, at random states, and through inversion where the model allows it, in
 2D (triangles) and 3D (tetrahedra).
 Each term of a model (elastic with every material, P1 and P2, fibres, inertia,
-loads, probe, sutures, contact) and the whole model must have the gradient of its energy
-and the Hessian of its gradient, checked along random directions. A new material
-or term is added to the table, not given its own copy of these checks.
+loads, probe, sutures, contact, the ghost penalty of cuts) and the whole model must
+have the gradient of its energy and the Hessian of its gradient, checked along random
+directions, on triangles and on a random-ish box of tetrahedra (every term but
+self-contact and the ghost penalty, which are 2D only). A new material or term is
+added to the table, not given its own copy of these checks.
 """
 
 from __future__ import annotations
+
+import dataclasses
 
 import numpy as np
 import pytest
@@ -19,8 +23,8 @@ from tissuefem import (Corotated, FiberReinforced, Handle, ITFClamped, LinearEla
                        StableNeoHookean, Stepper, TaylorNeoHookean, rectangle)
 from tissuefem.engine.materials import MATERIALS as ENGINE_MATERIALS
 from tissuefem.engine.materials import det
-from tissuefem.engine.meshes import mean_edge_length
-from tissuefem.engine.terms import Elastic, Fibers, Inertia, Load, Probe, Sutures
+from tissuefem.engine.meshes import box, mean_edge_length, signed_volumes
+from tissuefem.engine.terms import Elastic, Fibers, GhostPenalty, Inertia, Load, Probe, Sutures
 from tissuefem.surgery.element_cuts import cut_through
 from tissuefem.surgery.surfaces import contact_surface
 from tissuefem.surgery.topology import incise
@@ -109,30 +113,53 @@ def test_material_rest_is_energy_and_stress_free(name, dim):
 
 # --- the term table ------------------------------------------------------------------------------------------------
 
-def _mesh():
-    return rectangle(1.0, 1.0, 4, 4)
+def _mesh(dim=2):
+    """A 4 x 4 square of triangles, or a random-ish 2 x 2 x 2 box of tetrahedra: its nodes moved at random within
+    the faces they lie on (the named boundaries stay planar)."""
+    if dim == 2:
+        return rectangle(1.0, 1.0, 4, 4)
+    mesh = box(1.0, 1.0, 1.0, 2, 2, 2)
+    p = np.asarray(mesh.p, dtype=float)
+    inner = (p > 1e-9) & (p < 1.0 - 1e-9)  # a coordinate moves only where the node lies on no face across it
+    mesh = dataclasses.replace(mesh, doflocs=p + inner * _rng(2).uniform(-0.06, 0.06, p.shape))
+    assert np.all(signed_volumes(mesh) > 0)
+    return mesh
 
 
-def _model(terms="elastic", material=None, order=1):
+#: the tools of the table in each dimension: a probe pressed into the top (a disc; a ball touching several nodes of
+#: the top face of the box), and stitches with ends inside elements (barycentric weights of a triangle's 3 corners, a
+#: tetrahedron's 4)
+TOOLS = {
+    2: dict(probe=dict(center=[0.52, 1.22], radius=0.3, stiffness=1e3), depth=0.03, elements=[[2, 30], [9, 17]],
+            coefficients=[[[0.2, 0.5], [0.3, 0.25], [0.5, 0.25]], [[0.6, 0.1], [0.1, 0.1], [0.3, 0.8]]],
+            gaps=[[0.1, -0.2], [0.05, 0.3]], gravity=(0.2, -9.81), traction=(3.0, -1.0), body_force=(0.5, 0.1)),
+    3: dict(probe=dict(center=[0.45, 2.4, 0.55], radius=1.5, stiffness=1e3), depth=0.25, elements=[[2, 30], [9, 17]],
+            coefficients=[[[0.2, 0.5], [0.3, 0.25], [0.4, 0.1], [0.1, 0.15]],
+                          [[0.6, 0.1], [0.1, 0.1], [0.2, 0.5], [0.1, 0.3]]],
+            gaps=[[0.1, -0.2], [0.05, 0.3], [0.02, -0.1]], gravity=(0.2, -9.81, 0.3), traction=(3.0, -1.0, 0.5),
+            body_force=(0.5, 0.1, -0.2)),
+}
+
+
+def _model(terms="elastic", material=None, order=1, dim=2):
     """A small model with the named effect(s) on top of the elastic term; ``u`` a displacement in the
     given state."""
-    mesh = _mesh()
+    mesh = _mesh(dim)
     X = mesh.p
+    tools = TOOLS[dim]
     pairs = np.array([[0, 3], [24, 20]])
     options = {
-        "fibers": dict(fibers=(50.0, _fibers((mesh.nelements,), seed=3))),
+        "fibers": dict(fibers=(50.0, _fibers((mesh.nelements,), seed=3, dim=dim))),
         "inertia": dict(dt=0.05, density=1.3, mass="consistent"),
         "inertia-lumped": dict(dt=0.05, density=1.3, mass="lumped"),
-        "loads": dict(gravity=(0.2, -9.81), tractions={"right": (3.0, -1.0)}, body_force=(0.5, 0.1)),
+        "loads": dict(gravity=tools["gravity"], tractions={"right": tools["traction"]}, body_force=tools["body_force"]),
         "sutures": dict(sutures={"pairs": pairs, "stiffness": 40.0, "gaps": X[:, pairs[0]] - X[:, pairs[1]],
                                  "tightness": 0.3}),
-        "probe": dict(probes=[dict(center=[0.52, 1.22], radius=0.3, stiffness=1e3)]),  # pressed into the top
+        "probe": dict(probes=[tools["probe"]]),  # pressed into the top
         # stitches whose ends lie inside elements (on a wound cut through them): barycentric weights
-        "sutures-embedded": dict(sutures={"pairs": np.stack([mesh.t[:, [2, 30]], mesh.t[:, [9, 17]]]),
-                                          "coefficients": np.array([[[0.2, 0.5], [0.3, 0.25], [0.5, 0.25]],
-                                                                    [[0.6, 0.1], [0.1, 0.1], [0.3, 0.8]]]),
-                                          "stiffness": [40.0, 70.0], "gaps": [[0.1, -0.2], [0.05, 0.3]],
-                                          "tightness": 0.4}),
+        "sutures-embedded": dict(sutures={"pairs": np.stack([mesh.t[:, e] for e in tools["elements"]]),
+                                          "coefficients": np.array(tools["coefficients"]),
+                                          "stiffness": [40.0, 70.0], "gaps": tools["gaps"], "tightness": 0.4}),
     }
     kw = {}
     for t in terms.split("+"):
@@ -146,12 +173,15 @@ def _model(terms="elastic", material=None, order=1):
 
 def _state(model, state, seed=5):
     X = model.dof_points
-    maps = {"rest": np.eye(2), "stretched": np.diag([1.3, 0.85]), "sheared": np.array([[1.0, 0.4], [0.0, 1.0]])}
+    dim = X.shape[0]
+    maps = {"rest": np.eye(dim), "stretched": np.diag([1.3, 0.85, 1.1][:dim]),
+            "sheared": np.array([[1.0, 0.4, 0.0], [0.0, 1.0, 0.2], [0.0, 0.0, 1.0]])[:dim, :dim]}
     if state in maps:
         x = maps[state] @ X
     else:  # a smooth random deformation (J > 0 at every quadrature point, P2 included)
-        a, b = _rng(seed).uniform(-1.0, 1.0, (2, 2))
-        x = X + 0.08 * np.stack([np.sin(a[0] * 3 * X[0] + a[1] * 3 * X[1]), np.cos(b[0] * 3 * X[0] + b[1] * 3 * X[1])])
+        a = _rng(seed).uniform(-1.0, 1.0, (dim, dim))
+        phase = [sum(a[i, j] * 3 * X[j] for j in range(dim)) for i in range(dim)]
+        x = X + 0.08 * np.stack([(np.sin, np.cos, np.sin)[i](phase[i]) for i in range(dim)])
     d = x - X
     return d[model.component, np.arange(model.n_dofs)]
 
@@ -190,14 +220,15 @@ TERMS = {
 }
 
 
+@pytest.mark.parametrize("dim", DIMS)
 @pytest.mark.parametrize("state", STATES)
 @pytest.mark.parametrize("order", [1, 2])
 @pytest.mark.parametrize("name", list(TERMS))
-def test_term_gradient_and_hessian_are_derivatives(name, order, state):
+def test_term_gradient_and_hessian_are_derivatives(name, order, state, dim):
     effect, kind, material = TERMS[name]
     if order == 2 and effect in ("inertia-lumped",):
         pytest.skip("row-sum lumping gives P2 vertices no mass (refused)")
-    model = _model(effect, material, order)
+    model = _model(effect, material, order, dim)
     u = _state(model, state)
     terms = [t for t in model.terms if isinstance(t, kind)]
     assert terms, name
@@ -205,19 +236,33 @@ def test_term_gradient_and_hessian_are_derivatives(name, order, state):
         _check_term(term, u)
 
 
+@pytest.mark.parametrize("dim", DIMS)
 @pytest.mark.parametrize("state", STATES)
-def test_the_probe_gradient_and_hessian_are_exact_and_its_safe_hessian_is_the_positive_part(state):
-    model = _model("probe")
+def test_the_probe_gradient_and_hessian_are_exact_and_its_safe_hessian_is_the_positive_part(state, dim):
+    model = _model("probe", dim=dim)
     u = _state(model, state)
     probe = model.probes[0]
     top = float(model.positions(u)[1].max())
-    probe.move((0.52, top + probe.radius - 0.03))  # pressed 0.03 into the deformed top edge
-    assert probe._contact(u)[0].size > 0  # the probe touches something
+    center = probe.center.copy()
+    center[1] = top + probe.radius - TOOLS[dim]["depth"]
+    probe.move(center)  # pressed into the deformed top edge (face)
+    inside = probe._contact(u)[0]
+    assert inside.size > (0 if dim == 2 else 1)  # the probe touches something (a ball: several nodes of the face)
     _check_term(probe, u)
     data = model.pattern.zeros()
     probe.add_hessian(u, data, safe=True)
     eig = np.linalg.eigvalsh(model.pattern.csr(data).toarray())
     assert eig.min() > -1e-9 * eig.max() and eig.max() > 0  # the safe Hessian: positive semi-definite
+
+
+@pytest.mark.parametrize("state", STATES)
+def test_the_ghost_penalty_of_a_cut_has_exact_derivatives(state):
+    """The ghost penalty of the pieces of elements cut through (2D only, as cuts are)."""
+    cut = cut_through(rectangle(1.0, 1.0, 6, 6), [[0.33, 1.1], [0.61, 0.25]])
+    model = Model(cut.mesh, StableNeoHookean(100.0, 60.0), weights=cut.weights, handles=[Handle("left")])
+    ghosts = model.terms_of(GhostPenalty)
+    assert ghosts
+    _check_term(ghosts[0], _state(model, state))
 
 
 def _pressed_wound(kind, order=1):
@@ -263,10 +308,12 @@ def test_the_contact_gradient_and_hessian_are_exact_and_its_safe_hessian_is_posi
     assert 1 in kinds and (kind == "elements" or order == 2 or kinds & {2, 3})
 
 
+@pytest.mark.parametrize("dim", DIMS)
 @pytest.mark.parametrize("state", STATES)
-def test_the_whole_model_energy_gradient_hessian(state):
-    model = _model("fibers+inertia+loads+sutures")
-    assert model.term_names == ["inertia", "elastic", "fibers", "sutures", "gravity", "body force", "tractions"]
+def test_the_whole_model_energy_gradient_hessian(state, dim):
+    model = _model("fibers+inertia+loads+sutures+probe", dim=dim)
+    assert model.term_names == ["inertia", "elastic", "fibers", "probe", "sutures", "gravity", "body force",
+                                "tractions"]
     u = _state(model, state)
     rng = _rng(4)
     K, g = model.hessian(u), model.gradient(u)
@@ -280,13 +327,15 @@ def test_the_whole_model_energy_gradient_hessian(state):
     assert model.energy(u) == pytest.approx(sum(t.energy(u) for t in model.terms))
 
 
-def test_sutures_widen_the_pattern_and_the_elastic_part_lands_where_it_belongs():
-    model = _model("fibers+sutures")
+@pytest.mark.parametrize("dim", DIMS)
+def test_sutures_widen_the_pattern_and_the_elastic_part_lands_where_it_belongs(dim):
+    model = _model("fibers+sutures", dim=dim)
     u = _state(model, "random")
     assert model.pattern.nnz > model.assembler.nnz
     a, b = model.sutures.pairs[:, 0]
     K = model.hessian(u).toarray()
-    assert K[2 * a, 2 * b] != 0  # the stitch couples two nodes of no common element
+    # the stitch couples two nodes of no common element, in every component
+    assert all(K[dim * a + i, dim * b + i] != 0 for i in range(dim))
     elastic = model.assembler.csr(
         model.assembler.tangent(u, model.terms[0].density).data + model.assembler.tangent(u, model.terms[1].density).data
     ).toarray()

@@ -254,14 +254,8 @@ def test_quasistatic_p2_with_a_traction():
 
 def test_effects_still_2d_only_refuse_a_tetrahedron_mesh(small):
     m = NeoHookean(LAM, MU)
-    with pytest.raises(ParameterError, match="probe.*2D only"):
-        Model(small, m, probes=[{"center": (0.5, 0.5, 0.5), "radius": 0.1, "stiffness": 10.0}])
-    with pytest.raises(ParameterError, match="sutures.*2D only"):
-        Model(small, m, sutures={"pairs": [[0], [1]], "stiffness": 1.0, "gaps": np.zeros((2, 1))})
     with pytest.raises(ParameterError, match="contact.*2D only"):
         Model(small, m, contact={"distance": 0.01, "stiffness": 1.0})
-    with pytest.raises(ParameterError, match="fibers.*2D only"):
-        Model(small, m, fibers=(1.0, [1.0, 0.0, 0.0]))
     with pytest.raises(ParameterError, match="cuts.*2D only"):
         Model(small, m, weights=np.ones(small.nelements))
     with pytest.raises(ParameterError, match="gravity"):

@@ -27,7 +27,7 @@ __all__ = [
     "det", "cofactor", "inverse", "cofactor_derivative", "det2", "cofactor2", "inv2", "rotation_preserving_svd",
     "Material", "LinearElastic", "NeoHookean", "TaylorNeoHookean", "StableNeoHookean",
     "Corotated", "FiberReinforced", "fiber_invariant", "fiber_energy", "fiber_stress", "fiber_tangent",
-    "check_fiber_stiffness", "MATERIALS", "material",
+    "check_fiber_stiffness", "vector_length", "MATERIALS", "material",
 ]
 
 #: The dimensions a field of matrices may have: triangles (2) and tetrahedra (3).
@@ -420,8 +420,9 @@ class Corotated(Material):
 _UNIT_TOL = 1e-6
 
 
-def _length(g) -> np.ndarray:
-    """``|g|`` of vectors ``g`` ``(d, ...)``: ``hypot`` in 2D, the square root of the sum of squares in 3D."""
+def vector_length(g) -> np.ndarray:
+    """``|g|`` of vectors ``g`` ``(d, ...)``: ``hypot`` in 2D, the square root of the sum of squares in 3D (the one
+    length of the engine's vectors: fibres, a probe's distances, stitches)."""
     return np.hypot(g[0], g[1]) if g.shape[0] == 2 else np.sqrt(np.einsum("i...,i...->...", g, g))
 
 
@@ -434,7 +435,7 @@ def _check_Fg(F, g):
         raise ParameterError("g", f"g must be shaped ({d}, ...) for F of shape {F.shape}, got shape {g.shape}")
     if not (np.all(np.isfinite(F)) and np.all(np.isfinite(g))):
         raise ParameterError("F", "F and g must be finite")
-    norm = _length(g)
+    norm = vector_length(g)
     if np.any(np.abs(norm - 1.0) > _UNIT_TOL):
         raise ParameterError("g", f"g must be unit fiber directions (|g| = 1 within {_UNIT_TOL:g}); got lengths "
                                   f"between {norm.min():.6g} and {norm.max():.6g}: normalise g first")
@@ -516,7 +517,7 @@ class FiberReinforced(Material):
 
     @staticmethod
     def _check_fibers(fibers, dimensions=(2,)) -> np.ndarray:
-        """``fibers`` normalised, shaped ``(d, ...)`` with ``d`` in ``dimensions`` (the model's terms: 2D so far)."""
+        """``fibers`` normalised, shaped ``(d, ...)`` with ``d`` in ``dimensions``."""
         g = np.array(check_real_array("fibers (an array of vectors)", fibers))
         if g.ndim not in (1, 2, 3) or g.shape[0] not in dimensions:
             d = " or ".join(str(d) for d in dimensions)
@@ -524,7 +525,7 @@ class FiberReinforced(Material):
                                            f"n_points) with d = {d}, got shape {g.shape}")
         if not np.all(np.isfinite(g)):
             raise ParameterError("fibers", "fibers contains non-finite entries")
-        norm = _length(g)
+        norm = vector_length(g)
         if not np.all(norm > 0.0):
             raise ParameterError("fibers", "fibers contains zero-length vectors (a fibre needs a direction)")
         return g / norm

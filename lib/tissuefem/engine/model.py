@@ -450,7 +450,7 @@ class Model(Holding):
     """A hyperelastic body (mesh, displacement basis, material) and exactly the terms acting on it.
 
     ``mesh``: a ``skfem.MeshTri`` of straight triangles (degenerate or folded ones are refused) or a
-    ``skfem.MeshTet`` (3D: elastic, inertia, loads and handles; the other effects and cuts refuse it); ``material``:
+    ``skfem.MeshTet`` (3D: every term but self-contact, which refuses it, as do cuts); ``material``:
     the :class:`~tissuefem.engine.terms.Elastic` term's (:mod:`.materials`, :mod:`.inversion`); ``order``: P1
     or P2, ``intorder``: the quadrature degree (default ``2 order``), ``assembly``: ``"fast"`` or ``"forms"``
     (the readable reference); ``terms``: more :class:`~tissuefem.engine.terms.Term` objects or factories
@@ -522,9 +522,9 @@ class Model(Holding):
 
     @property
     def boundary_lengths(self) -> np.ndarray:
-        """A probe's surface weights: each node's share of the boundary's length; after a topology change, of the
-        material's surface (:func:`~tissuefem.engine.terms.surface_lengths`: no phantom part of a facet of an element
-        cut through counts)."""
+        """A probe's surface weights: each node's share of the boundary's length (area on tetrahedra); after a
+        topology change, of the material's surface (:func:`~tissuefem.engine.terms.surface_lengths`: no phantom part of
+        a facet of an element cut through counts)."""
         if self._boundary_lengths is None:
             m = self._meshmap
             self._boundary_lengths = boundary_lengths(self.mesh) if m is None else surface_lengths(m)

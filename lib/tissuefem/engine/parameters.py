@@ -159,7 +159,7 @@ def check_reach(name, point, middle, size) -> np.ndarray:
     far = REACH * size
     if np.any(np.abs(np.asarray(point) - middle) > far):
         raise ParameterError(name, f"{name} = {np.asarray(point).tolist()} lies farther than {REACH:g} domain sizes "
-                                   f"({far:g}) from the domain's centre ({middle[0]:g}, {middle[1]:g})")
+                                   f"({far:g}) from the domain's centre ({', '.join(f'{c:g}' for c in middle)})")
     return point
 
 
@@ -329,8 +329,9 @@ def is_sequence(value) -> bool:
 
 
 def vector(field, value, bound=FAR) -> list:
-    if not is_sequence(value) or len(value) != 2:
-        raise ParameterError(field, f"{field} must be a vector [x, y], got {show(value)}")
+    """A scene's vector: ``[x, y]`` or ``[x, y, z]`` (the scene checks it against its mesh's dimension)."""
+    if not is_sequence(value) or len(value) not in (2, 3):
+        raise ParameterError(field, f"{field} must be a vector [x, y] (3D: [x, y, z]), got {show(value)}")
     return [number(f"{field}[{i}]", c, lo=-bound, hi=bound) for i, c in enumerate(value)]
 
 

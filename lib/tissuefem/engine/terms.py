@@ -10,8 +10,8 @@ term                   energy                                                   
 :class:`Fibers`        ``sum_e A_e k/8 (|F_e g_e|^2 - 1)^2`` (chapter 5)             assembled
 :class:`Inertia`       ``1/(2 dt^2) (x - x~)^T M (x - x~)``, backward Euler          constant
 :class:`Load`          ``-f . u``: gravity, a body force, tractions                  zero
-:class:`Probe`         a rigid disc pressed into the tissue (a contact penalty)      per node
-:class:`Sutures`       zero-length springs tying pairs of nodes                      constant
+:class:`Probe`         a rigid disc (a ball in 3D) pressed into the tissue           per node
+:class:`Sutures`       zero-length springs tying pairs of points                     constant
 :class:`GhostPenalty`  jumps of ``grad u`` at the pieces of elements cut through    constant
 ``Contact``            self-contact of the surface, see :mod:`.contact`             per pair
 =====================  ===========================================================  ==========
@@ -20,9 +20,8 @@ Inertia carries ``1/dt^2`` so that the gradient of ``W(u) - f.u + Inertia(u)`` i
 ``q = M (u - u~)/dt^2 + f_int(u) - f_ext`` (with the README's errata): a force, as in a quasistatic step. The
 chapters' ``E = 1/2 |u - u~|_M^2 + dt^2 [W - f.u]`` is this potential times ``dt^2``: the same minimiser.
 
-On a tetrahedron mesh the elastic term, inertia and the loads work unchanged (the dimension comes from the mesh);
-fibres, probes, sutures, contact and the ghost penalty of cuts are 2D only for now and refuse it by name
-(:func:`refuse_3d`).
+Every term reads the dimension from the mesh (triangles or tetrahedra: one code path); only self-contact and the
+ghost penalty of cuts are 2D only for now, and refuse a tetrahedron mesh by name (:func:`refuse_3d`).
 """
 
 from __future__ import annotations
@@ -33,8 +32,8 @@ import numpy as np
 import scipy.sparse as sp
 from skfem import FacetBasis, LinearForm, asm
 
-from .materials import (FiberReinforced, Material, check_fiber_stiffness, fiber_energy_term, fiber_stress_term,
-                        fiber_tangent_term)
+from .materials import (DIMENSIONS, FiberReinforced, Material, check_fiber_stiffness, fiber_energy_term,
+                        fiber_stress_term, fiber_tangent_term, vector_length)
 from .parameters import (FORCE_MAX, RADIUS_RANGE, REACH, YOUNGS_MODULUS_RANGE, ParameterError, check_bounded_vector,
                          check_density, check_indices, check_penalty_stiffness, check_reach, check_real,
                          check_real_array, check_time_step, check_vector, check_weights)
@@ -171,6 +170,7 @@ class GhostPenalty(Term):
     rank = 4  # after the element terms and the tools (probes, sutures), before the others
 
     def __init__(self, mesh, weights, modulus, gamma=GHOST_PENALTY, light=GHOST_WEIGHT):
+        refuse_3d("ghost penalty", mesh.p)  # cuts through elements are 2D only for now
         self.gamma = check_real("ghost_penalty.gamma", gamma, 0.0)
         self.modulus = check_real("ghost_penalty.modulus", modulus, 0.0, YOUNGS_MODULUS_RANGE[1])
         light = check_real("ghost_penalty.light", light, 0.0, 1.0)
@@ -253,11 +253,11 @@ class _FiberDensity(Material):
 
     def __init__(self, stiffness, fibers):
         self.lam = self.mu = 0.0
-        self.fibers = FiberReinforced._check_fibers(fibers)  # normalised, shape-checked
+        self.fibers = FiberReinforced._check_fibers(fibers, DIMENSIONS)  # normalised, shape-checked
         self.stiffness = float(stiffness)
 
     def _g(self, F):
-        g = self.fibers  # (2, n_elements): aligned with F's element axis, broadcast over points
+        g = self.fibers  # (d, n_elements): aligned with F's element axis, broadcast over points
         return g.reshape(g.shape + (1,) * (F.ndim - 2 - (g.ndim - 1)))
 
     def energy(self, F):
@@ -272,21 +272,20 @@ class _FiberDensity(Material):
 
 class Fibers(ElementTerm):
     """The fibre energy ``k/8 (I4 - 1)^2``, ``I4 = |F g|^2`` (chapter 5), on any material: ``k >= 0`` is the
-    extra small-strain modulus along ``directions``, ``(2,)`` or ``(2, n_elements)`` (normalised here)."""
+    extra small-strain modulus along ``directions``, ``(d,)`` or ``(d, n_elements)`` (normalised here), ``d`` the
+    mesh's dimension (2: triangles, 3: tetrahedra)."""
 
     name = "fibers"
 
     def __init__(self, assembler, stiffness, directions):
-        if getattr(assembler, "dim", 2) != 2:
-            raise ParameterError("fibers", "fibers: fibre directions are 2D only for now; the mesh has tetrahedra")
         super().__init__(assembler)
         self.stiffness = check_fiber_stiffness(stiffness, "fibers.stiffness")
-        nel = assembler.n_elements
-        g = check_real_array("fibers.direction (an array of 2D vectors)", directions)  # complex is refused, not cut
-        if g.ndim == 1 and g.shape == (2,):
-            g = np.repeat(g.reshape(2, 1), nel, axis=1)
-        if g.shape != (2, nel):
-            raise ValueError(f"fibers.direction must be shaped (2,) or (2, n_elements={nel}), got {g.shape}")
+        nel, d = assembler.n_elements, getattr(assembler, "dim", 2)
+        g = check_real_array(f"fibers.direction (an array of {d}D vectors)", directions)  # complex is refused, not cut
+        if g.ndim == 1 and g.shape == (d,):
+            g = np.repeat(g.reshape(d, 1), nel, axis=1)
+        if g.shape != (d, nel):
+            raise ValueError(f"fibers.direction must be shaped ({d},) or ({d}, n_elements={nel}), got {g.shape}")
         self.given = g  # as given (a remap carries these, so the normalisation is done once, as at the start)
         self.density = _FiberDensity(self.stiffness, g)
         self.directions = self.density.fibers
@@ -410,25 +409,32 @@ class Load(Term):
 
 
 def refuse_3d(effect: str, X) -> None:
-    """A :class:`ParameterError` naming ``effect`` if the points ``X`` are 3D: the effects still 2D only (probes,
-    sutures, fibres, contact, cuts) refuse a tetrahedron mesh where they enter."""
+    """A :class:`ParameterError` naming ``effect`` if the points ``X`` are 3D: the effects still 2D only (self-contact,
+    cuts and their ghost penalty) refuse a tetrahedron mesh where they enter."""
     if np.shape(X)[0] != 2:
         raise ParameterError(effect, f"{effect}: this effect is 2D only for now; the mesh has tetrahedra (points "
                                      f"shaped {np.shape(X)})")
 
 
 def extent(X) -> tuple[np.ndarray, float]:
-    """The centre of the bounding box of the points ``X`` ``(2, n)`` and its larger side (the domain's size)."""
+    """The centre of the bounding box of the points ``X`` ``(d, n)`` and its largest side (the domain's size)."""
     lo, hi = X.min(axis=1), X.max(axis=1)
     return 0.5 * (lo + hi), float(np.max(hi - lo))
 
 
 def boundary_lengths(mesh) -> np.ndarray:
-    """Each vertex's share of the boundary's length: half of every boundary edge it ends (0 inside)."""
-    facets = mesh.facets[:, mesh.boundary_facets()]
-    d = mesh.p[:, facets[1]] - mesh.p[:, facets[0]]
-    half = 0.5 * np.hypot(d[0], d[1])
-    return np.bincount(facets.ravel(), weights=np.concatenate([half, half]), minlength=mesh.nvertices)
+    """Each vertex's share of the boundary's measure (a probe's weights): its length on triangles, half of every
+    boundary edge to each of its ends; its area on tetrahedra, a third of every boundary triangle to each of its
+    corners (0 inside)."""
+    p = np.asarray(mesh.p, dtype=float)
+    facets = mesh.facets[:, mesh.boundary_facets()]  # (d, n_facets): a facet's d corners
+    d1 = p[:, facets[1]] - p[:, facets[0]]
+    if p.shape[0] == 2:
+        measure = vector_length(d1)
+    else:  # a triangle's area: half the length of the cross product of two of its sides
+        measure = 0.5 * vector_length(np.cross(d1, p[:, facets[2]] - p[:, facets[0]], axis=0))
+    share = measure / facets.shape[0]  # a half (the exact 0.5 * length of 2D) or a third to each corner
+    return np.bincount(facets.ravel(), weights=np.tile(share, facets.shape[0]), minlength=mesh.nvertices)
 
 
 def surface_lengths(meshmap) -> np.ndarray:
@@ -479,11 +485,12 @@ def traction_vector(basis, boundary, traction) -> np.ndarray:
 
 
 class Probe(Term):
-    """A rigid disc (a tool tip) of centre ``c`` and radius ``R`` pressed into the tissue's surface.
+    """A rigid disc (a tool tip; a ball on tetrahedra) of centre ``c`` and radius ``R`` pressed into the tissue's
+    surface.
 
-    A penalty pressure on each *boundary* node ``a``, weighted by its share ``l_a`` of the boundary's length (of the
-    material's surface on a mesh cut through elements: :func:`surface_lengths`), at the penetration
-    ``g_a = R - d_a``, ``d_a = |x_a - c|``:
+    A penalty pressure on each *boundary* node ``a``, weighted by its share ``l_a`` of the boundary's length (its
+    area on tetrahedra: :func:`boundary_lengths`; of the material's surface on a mesh cut through elements:
+    :func:`surface_lengths`), at the penetration ``g_a = R - d_a``, ``d_a = |x_a - c|``:
 
         E = sum_a k l_a h(g_a),   h(g) = g^3 / (6 delta)             (0 < g < delta),
                                   h(g) = g^2/2 - delta g/2 + delta^2/6  (g >= delta),
@@ -491,9 +498,9 @@ class Probe(Term):
     ``h = 0`` outside. ``k`` is a pressure per unit penetration, so the penetration does not depend on the
     element size; ``h`` is C2 (smoothed over ``delta``, a small fraction of ``R``), so the Newton matrix does
     not jump as nodes enter or leave. With ``n_a = (x_a - c) / d_a`` the force is ``k l_a h'(g) n_a`` and the
-    Hessian ``k l_a [h''(g) n n^T - h'(g)/d (I - n n^T)]``; its tangential part (the disc's curvature) is
-    negative and of order ``g / R``: the *safe* Hessian (``safe=True``, the minimiser's fallback) keeps only
-    the normal part.
+    Hessian ``k l_a [h''(g) n n^T - h'(g)/d (I - n n^T)]`` (``d x d`` blocks, ``d`` the mesh's dimension); its
+    tangential part (the disc's curvature) is negative and of order ``g / R``: the *safe* Hessian (``safe=True``,
+    the minimiser's fallback) keeps only the normal part.
     """
 
     name = "probe"
@@ -501,9 +508,8 @@ class Probe(Term):
     has_safe_hessian = True  # the normal part of the Hessian is positive semi-definite
 
     def __init__(self, X, boundary_lengths, center, radius, stiffness, label=None, smoothing=0.02):
-        refuse_3d("probe", X)
         self.X = X
-        self.n_nodes = X.shape[1]
+        self.dim, self.n_nodes = X.shape
         self.length = np.asarray(boundary_lengths, dtype=float)
         self.surface = np.flatnonzero(self.length > 0)
         self._middle, self._size = extent(X)
@@ -528,23 +534,26 @@ class Probe(Term):
                                    self.label, self.smoothing)
 
     def move(self, center) -> None:
-        """Move the tool to ``center`` (within ``REACH`` domain sizes of the domain's centre); a refusal keeps it."""
-        self.center = check_reach("probe center", check_vector("probe center", center), self._middle, self._size)
+        """Move the tool to ``center`` (a point of the mesh's dimension, within ``REACH`` domain sizes of the domain's
+        centre); a refusal keeps it."""
+        self.center = check_reach("probe center", check_vector("probe center", center, self.dim), self._middle,
+                                  self._size)
 
     def describe(self):
-        return f"probe: disc r = {self.radius:g} at ({self.center[0]:g}, {self.center[1]:g}), k = {self.stiffness:g}"
+        shape, at = "disc" if self.dim == 2 else "ball", ", ".join(f"{c:g}" for c in self.center)
+        return f"probe: {shape} r = {self.radius:g} at ({at}), k = {self.stiffness:g}"
 
     def _contact(self, u):
         """The surface nodes inside the disc: ``(nodes, penetration g, outward normals n, distances d)``."""
-        nodes = self.surface
-        x = self.X[:, nodes] + u[: 2 * self.n_nodes].reshape(-1, 2).T[:, nodes]
+        nodes, d = self.surface, self.dim
+        x = self.X[:, nodes] + u[: d * self.n_nodes].reshape(-1, d).T[:, nodes]
         d_vec = x - self.center[:, None]
-        d = np.hypot(d_vec[0], d_vec[1])
-        inside = d < self.radius
-        dd = d[inside]
+        distance = vector_length(d_vec)
+        inside = distance < self.radius
+        dd = distance[inside]
         safe = np.maximum(dd, 1e-12 * self.radius)
         n = d_vec[:, inside] / safe
-        n[:, dd < 1e-12 * self.radius] = np.array([[0.0], [1.0]])  # at the very centre: push up
+        n[:, dd < 1e-12 * self.radius] = np.eye(d)[:, [1]]  # at the very centre: push up (+y)
         return nodes[inside], self.radius - dd, n, safe
 
     def _h(self, g):
@@ -564,13 +573,13 @@ class Probe(Term):
         nodes, g, n, _ = self._contact(u)
         out = np.zeros(u.size)
         f = -self.stiffness * self.length[nodes] * self._h(g)[1] * n  # dE/dx
-        out[2 * nodes] = f[0]
-        out[2 * nodes + 1] = f[1]
+        for i in range(self.dim):
+            out[self.dim * nodes + i] = f[i]
         return out
 
     def forces(self, u) -> np.ndarray:
-        """The contact force on every node ``(2, n_nodes)`` (zero off the disc)."""
-        return -self.gradient(u)[: 2 * self.n_nodes].reshape(-1, 2).T
+        """The contact force on every node ``(d, n_nodes)`` (zero off the disc)."""
+        return -self.gradient(u)[: self.dim * self.n_nodes].reshape(-1, self.dim).T
 
     def penetration(self, u) -> float:
         """The deepest any surface node is inside the disc (0 when none is)."""
@@ -584,8 +593,8 @@ class Probe(Term):
         _, h1, h2 = self._h(g)
         w = self.stiffness * self.length[nodes]
         normal, tangential = w * h2, (0.0 if safe else -w * h1 / d)
-        for i in range(2):
-            for j in range(2):
+        for i in range(self.dim):
+            for j in range(self.dim):
                 nn = n[i] * n[j]
                 block = normal * nn + tangential * ((i == j) - nn)
                 np.add.at(data, self.pattern.node_block[i, j, nodes], block)
@@ -599,9 +608,9 @@ class Sutures(Term):
     ``tighten(s)`` sets ``g = (1 - s) g_0``, ``s = 1`` closes the wound. The Hessian ``k D^T D`` (``D``: nodes
     to gap) is constant and couples the ends' nodes (a widened pattern). ``k``: force per unit length.
 
-    ``X`` ``(2, n_nodes)``; ``pairs`` ``(2, k)`` node pairs or, with ``coefficients`` ``(2, c, k)`` (each
-    end's weights, adding up to 1), each end's ``c`` nodes; ``stiffness`` one number or ``(k,)``; ``gaps``
-    ``(2, k)``.
+    ``X`` ``(d, n_nodes)`` (``d``: 2 on triangles, 3 on tetrahedra); ``pairs`` ``(2, k)`` node pairs or, with
+    ``coefficients`` ``(2, c, k)`` (each end's weights, adding up to 1: 3 in a triangle, 4 in a tetrahedron),
+    each end's ``c`` nodes; ``stiffness`` one number or ``(k,)``; ``gaps`` ``(d, k)``.
     """
 
     name = "sutures"
@@ -609,9 +618,8 @@ class Sutures(Term):
     rank = 3
 
     def __init__(self, X, pairs, stiffness, gaps, tightness=0.0, coefficients=None):
-        refuse_3d("sutures", X)
         self.X = X
-        self.n_nodes = X.shape[1]
+        self.dim, self.n_nodes = X.shape
         try:
             pairs = np.asarray(pairs)
         except (TypeError, ValueError):  # ragged lists
@@ -651,9 +659,9 @@ class Sutures(Term):
         self.k = k
         gaps = check_real_array("sutures.gaps", gaps)
         reach = REACH * extent(X)[1]
-        if gaps.shape != (2, k_count) or not np.all(np.abs(gaps) <= reach):
+        if gaps.shape != (self.dim, k_count) or not np.all(np.abs(gaps) <= reach):
             raise ValueError(f"sutures.gaps must be finite, within {REACH:g} domain sizes ({reach:g}) and shaped "
-                             f"{(2, k_count)}, got shape {gaps.shape}")
+                             f"{(self.dim, k_count)}, got shape {gaps.shape}")
         self.gap0 = gaps
         self.tightness = np.zeros(k_count)
         self.slack = self.gap0.copy()
@@ -693,8 +701,8 @@ class Sutures(Term):
                        self.tightness[keep], coefficients=self.coefficients[..., keep])
 
     def ends(self, u) -> np.ndarray:
-        """Where the two ends of every stitch are: shape (2 ends, 2 coordinates, k)."""
-        x = self.X + u[: 2 * self.n_nodes].reshape(-1, 2).T
+        """Where the two ends of every stitch are: shape (2 ends, d coordinates, k)."""
+        x = self.X + u[: self.dim * self.n_nodes].reshape(-1, self.dim).T
         return np.einsum("sck,iksc->sik", self.coefficients, x[:, self.nodes.transpose(2, 0, 1)])
 
     def _gap(self, u):
@@ -703,24 +711,24 @@ class Sutures(Term):
 
     def energy(self, u):
         e = self._gap(u)
-        return 0.5 * float(np.sum(self.k * (e[0] ** 2 + e[1] ** 2)))
+        return 0.5 * float(np.sum(self.k * np.sum(e**2, axis=0)))
 
     def gradient(self, u):
-        e = self.k * self._gap(u)  # (2, k): the spring force on end a (minus on end b)
+        e = self.k * self._gap(u)  # (d, k): the spring force on end a (minus on end b)
         signed = self.coefficients * np.array([1.0, -1.0])[:, None, None]  # (2, c, k)
         g = np.zeros(u.size)
-        for i in range(2):
-            np.add.at(g, 2 * self.nodes.ravel() + i, (signed * e[i]).ravel())
+        for i in range(self.dim):
+            np.add.at(g, self.dim * self.nodes.ravel() + i, (signed * e[i]).ravel())
         return g
 
     def distances(self, u) -> np.ndarray:  # how far apart the two ends of each stitch are
         a, b = self.ends(u)
-        return np.hypot(*(a - b))
+        return vector_length(a - b)
 
     def forces(self, u) -> np.ndarray:
         """The tension ``k |x_a - x_b - g|`` in each stitch."""
         e = self._gap(u)
-        return self.k * np.hypot(e[0], e[1])
+        return self.k * vector_length(e)
 
     def _triplets(self):
         # D maps node displacements to the gap: +w on end a's nodes, -w on end b's; the Hessian is k D^T D
@@ -729,9 +737,9 @@ class Sutures(Term):
         p = np.repeat(nodes[:, None, :], nodes.shape[0], axis=1)  # rows (2c, 2c, k)
         q = np.repeat(nodes[None, :, :], nodes.shape[0], axis=0)
         w = signed[:, None, :] * signed[None, :, :] * self.k
-        rows = np.concatenate([2 * p.ravel() + i for i in range(2)])
-        cols = np.concatenate([2 * q.ravel() + i for i in range(2)])
-        return rows, cols, np.concatenate([w.ravel(), w.ravel()])
+        rows = np.concatenate([self.dim * p.ravel() + i for i in range(self.dim)])
+        cols = np.concatenate([self.dim * q.ravel() + i for i in range(self.dim)])
+        return rows, cols, np.tile(w.ravel(), self.dim)
 
     def couplings(self):
         return self._triplets()[:2]

@@ -22,7 +22,7 @@ from ..engine.model import Handle, Model, region_nodes
 from ..engine.parameters import (PENALTY_MAX, RADIUS_RANGE, ParameterError, check_count, check_penalty_stiffness,
                                  check_reach, check_vector, number, string)
 from ..engine.realtime import RealtimeSolver
-from ..engine.terms import Sutures
+from ..engine.terms import Sutures, refuse_3d
 from . import element_cuts, topology
 from .geometry import check_points
 from .scene import Scene
@@ -37,16 +37,21 @@ class Simulation:
     ``clock``: seconds (tests pass a fake one); ``linear_solver`` overrides the scene's; ``constant_tangent``: run a
     quadratic model with the ``"constant"`` linear solver (one factorization per set of held dofs; ``False`` forces
     the general Newton loop, to measure what that saves); ``order``, ``intorder``: the model's elements (cuts and
-    excisions need P1) and quadrature degree.
+    excisions need P1) and quadrature degree. A probe or sutures added or removed keep the running factorization
+    (``"reuse..."`` linear solvers: CG's preconditioner until it is refreshed). ``keep_factorization``: after a cut
+    or an excision too, the frames are preconditioned by the old factorization extended to the new nodes while a
+    fresh one is made off the frame; off by default: measured, it pays only where a second core is free
+    (docs/benchmarks.md, "Effect costs: what was tried").
     """
 
     def __init__(self, scene: Scene, *, clock=time.perf_counter, linear_solver=None, constant_tangent=True,
-                 order: int = 1, intorder: int | None = None):
+                 order: int = 1, intorder: int | None = None, keep_factorization: bool = False):
         if not isinstance(scene, Scene):
             raise ValueError(f"scene must be a Scene, got {scene!r}")
         self.scene, self.clock = scene, clock
         self._linear_choice = linear_solver or scene.solver["linear_solver"]
         self._constant_tangent = bool(constant_tangent)
+        self._keep_factorization = bool(keep_factorization)
         self.material = scene.build_material()
         self.model = _scene_model(scene, self.material, order, intorder)
         self._grab_count = self._probe_count = 0
@@ -80,8 +85,9 @@ class Simulation:
         """The handles holding the tissue, by name (the model owns them)."""
         return {h.name: h for h in self.model.handles}
 
-    def _new_solver(self, state=None) -> None:
-        """A real-time solver for the model, with the running one's state (or ``state``: ``u, v, v_previous``)."""
+    def _new_solver(self, state=None, parent=None) -> None:
+        """A real-time solver for the model, with the running one's state (or ``state``: ``u, v, v_previous``) and
+        its kept factorization (``parent``: the old dof of each new dof; ``None``: the same dofs)."""
         model, settings, old, choice = self.model, self.scene.solver, self.solver, self._linear_choice
         if model.quadratic and self._constant_tangent and isinstance(choice, str):
             # a constant Hessian: one factorization per held set is exact (with the named direct backend)
@@ -92,6 +98,10 @@ class Simulation:
         if old is not None:
             _carry_state(old, self.solver, state)
             self.solver.costs.update(old.costs)  # what the work cost lately: the next frame keeps its budget
+            if parent is None and old.model.n_dofs == model.n_dofs:  # the same dofs: the factorization fits
+                self.solver.linear.carry(old.linear, np.arange(model.n_dofs))
+            elif self._keep_factorization and parent is not None:
+                self.solver.linear.carry(old.linear, parent)
 
     def _set_terms(self, terms) -> None:
         """The running model with ``terms`` (a probe or stitches added or removed), and a solver for it."""
@@ -148,8 +158,9 @@ class Simulation:
         return [self.frame(targets) for _ in range(frames)]
 
     def _point(self, field, point) -> np.ndarray:
-        """A finite point within ``REACH`` domain sizes of the domain's centre (the model's reference box)."""
-        return check_reach(field, check_vector(field, point), self.model.middle, self.model.size)
+        """A finite point of the mesh's dimension within ``REACH`` domain sizes of the domain's centre (the model's
+        reference box)."""
+        return check_reach(field, check_vector(field, point, self.model.dim), self.model.middle, self.model.size)
 
     def _radius(self, field, radius) -> float:
         """A radius within ``RADIUS_RANGE`` domain sizes: what a penalty ``~ 1 / r^2`` can be computed for."""
@@ -194,14 +205,16 @@ class Simulation:
         if self.order != 1:
             raise ValueError("grab: grabbing needs P1 elements (order=1)")
         x = self.positions()
-        nodes = np.flatnonzero(np.hypot(x[0] - point[0], x[1] - point[1]) <= radius)
+        gap = x - point[:, None]
+        distance = np.hypot(*gap) if gap.shape[0] == 2 else np.sqrt(np.sum(gap * gap, axis=0))
+        nodes = np.flatnonzero(distance <= radius)
         if nodes.size == 0:
             raise ValueError(f"point {point.tolist()}: no tissue within radius {radius:g}")
         names = set(self.handles)
         count = self._grab_count + 1
         while f"grab{count}" in names:  # never replace a scene's handle of the same name
             count += 1
-        u = self.solver.u.reshape(-1, 2).T
+        u = self.solver.u.reshape(-1, self.model.dim).T
         self.model.add_handle(Handle(nodes, base=u[:, nodes].copy(), name=f"grab{count}", anchor=point))
         self._grab_count = count
         return f"grab{count}"
@@ -210,7 +223,7 @@ class Simulation:
         """Move the pointer of a grab to ``point``: the handle's target becomes the offset from its grab point."""
         h = self.model.handle(name)
         point = self._point("point", point)
-        h.move(point - (np.zeros(2) if h.anchor is None else h.anchor))
+        h.move(point - (np.zeros_like(point) if h.anchor is None else h.anchor))
 
     def handle_offset(self, name) -> np.ndarray:
         """The handle's target if it is a translation (a copy), else ``None``."""
@@ -290,7 +303,7 @@ class Simulation:
             self._check_held(model.handles)
             self.model, self._regions = model, carried.regions
             if running:
-                self._new_solver(state)
+                self._new_solver(state, carried.transfer_dofs(np.arange(2 * carried.n_old_nodes)))
         return edit
 
     def cut(self, polyline, method="elements"):
@@ -298,6 +311,7 @@ class Simulation:
         (``method="elements"``, :func:`~tissuefem.surgery.element_cuts.cut_through`) or snapped to mesh edges
         (``"edges"``, :func:`~tissuefem.surgery.topology.incise`). Each copy of a node keeps its displacement and
         velocity. Returns the edit (a :class:`~tissuefem.engine.meshes.MeshMap`)."""
+        refuse_3d("cut", self.model.X)  # cuts are 2D only for now
         operation = _OPERATIONS["incisions"][string("method", method, _OPERATIONS["incisions"])]
         points = check_points("polyline", polyline, 2)
         for i, q in enumerate(points):
@@ -307,6 +321,7 @@ class Simulation:
     def excise(self, region, method="elements"):
         """Remove the tissue inside ``region``, a polygon in *reference* coordinates cut out along its outline
         (``method="elements"``) or the triangles whose centroid lies inside (``"edges"``), or a mask on centroids."""
+        refuse_3d("excise", self.model.X)  # excisions are 2D only for now
         if callable(region):
             return self._apply_edit(topology.excise, region, "region")
         operation = _OPERATIONS["excisions"][string("method", method, _OPERATIONS["excisions"])]
@@ -356,8 +371,8 @@ class Simulation:
 
 class Stitches(Sutures):
     """Sutures whose ends are points of the material: an element and barycentric weights per end,
-    ``elements`` ``(2, k)`` and ``barycentric`` ``(2, k, 3)``, so that a cut carries each end to the copy
-    of its element that holds it (:func:`~tissuefem.surgery.element_cuts.carry_points`)."""
+    ``elements`` ``(2, k)`` and ``barycentric`` ``(2, k, 3)`` (``(2, k, 4)`` on tetrahedra), so that a cut carries each
+    end to the copy of its element that holds it (:func:`~tissuefem.surgery.element_cuts.carry_points`)."""
 
     def __init__(self, mesh, elements, barycentric, stiffness, gaps, tightness):
         t = np.asarray(mesh.t)
@@ -411,7 +426,7 @@ def _scene_model(scene, material, order, intorder) -> Model:
     handles = []
     for i, h in enumerate(scene.effects.get("handles", [])):
         nodes = region_nodes(mesh, h["region"], f"effects.handles[{i}].region")
-        handles.append(Handle(nodes, h["target"], name=h["name"]))
+        handles.append(Handle(nodes, h.get("target"), name=h["name"]))  # none given: held where it is
     if not handles and not scene.dynamic:
         raise ValueError("effects.handles: a quasistatic scene needs at least one handle (e.g. a fixed edge), "
                          "or the body floats freely")
@@ -472,8 +487,9 @@ def _carried(edit, model, regions, keep_loose):
 
 def _new_stitches(mesh, x, pairs, k, field, check_point, weights, regions) -> dict:
     """The stitches of :meth:`Simulation.suture`: each end an element and barycentric weights, ``elements``
-    ``(2, k)``, ``barycentric`` ``(2, k, 3)``, with their ``gaps`` at the positions ``x`` (pairs that tie a
-    point to itself are left out); ``check_point(field, point)`` refuses points out of reach."""
+    ``(2, k)``, ``barycentric`` ``(2, k, 3)`` (``(2, k, 4)`` on tetrahedra), with their ``gaps`` at the positions ``x``
+    (pairs that tie a point to itself are left out); ``check_point(field, point)`` refuses points out of reach. On
+    tetrahedra the ends are nodes: finding the element at a point is 2D only for now."""
     try:
         arr = np.asarray(pairs)
     except (TypeError, ValueError):
@@ -486,6 +502,9 @@ def _new_stitches(mesh, x, pairs, k, field, check_point, weights, regions) -> di
             raise ValueError(f"{field}.pairs: node indices must be in 0..{mesh.nvertices - 1}")
         ends = [[_node_end(mesh, int(q)) for q in nodes[s]] for s in range(2)]
     else:
+        if x.shape[0] != 2:
+            raise ParameterError(f"{field}.pairs", f"{field}.pairs: stitches at points are 2D only for now (the mesh "
+                                                   "has tetrahedra); give node index pairs shaped (2, k)")
         if arr.dtype.kind not in "iuf":  # booleans, strings, complex numbers: not points
             raise ValueError(f"{field}.pairs must be real point pairs shaped (k, 2, 2), got dtype {arr.dtype}")
         arr = arr.astype(float)
@@ -496,8 +515,8 @@ def _new_stitches(mesh, x, pairs, k, field, check_point, weights, regions) -> di
                 check_point(f"{field}.pairs[{j}][{i}]", q)
         ends = [[_point_end(mesh, x, q[s], weights, regions) for q in arr] for s in range(2)]
     elements = np.array([[e for e, _ in side] for side in ends], dtype=np.int64).reshape(2, -1)
-    bary = np.array([[w for _, w in side] for side in ends], dtype=float).reshape(2, -1, 3)
-    at = np.einsum("skc,iskc->sik", bary, x[:, t[:, elements].transpose(1, 2, 0)])  # (2 ends, 2, k)
+    bary = np.array([[w for _, w in side] for side in ends], dtype=float).reshape(2, -1, t.shape[0])
+    at = np.einsum("skc,iskc->sik", bary, x[:, t[:, elements].transpose(1, 2, 0)])  # (2 ends, d, k)
     same = np.array([_end_key(t[:, elements[0, j]], bary[0, j]) == _end_key(t[:, elements[1, j]], bary[1, j])
                      for j in range(elements.shape[1])], dtype=bool)
     if np.all(same):
@@ -578,7 +597,7 @@ def _node_end(mesh, node):
     corner, element = np.nonzero(np.asarray(mesh.t) == node)
     if element.size == 0:
         raise ValueError(f"node {node} belongs to no element")
-    w = np.zeros(3)
+    w = np.zeros(np.shape(mesh.t)[0])  # a triangle's 3 corners, a tetrahedron's 4
     w[corner[0]] = 1.0
     return int(element[0]), w
 

@@ -5,7 +5,8 @@
   the sources stay clean) and write the workbook's website into ``build/book/``;
 * ``book``     write the website from the executed copies already in ``build/chapters/``;
 * ``bench``    benchmarks (``bench assembly``, ``bench realtime`` (``--dim 3``: the 3D block, ``--compare``: the
-  linear solvers side by side), ``bench scenes``, ``bench accuracy``: the accuracy/time study of chapter 9);
+  linear solvers side by side), ``bench scenes``, ``bench accuracy``: the accuracy/time study of chapter 9,
+  ``bench haptic``: the tool's force at 1 kHz);
 * ``scene``    check a scene file and run it (``scene scenes/incision.toml``);
 * ``grade``    grade your own exercise answers (chapters/exercises) with pytest;
 * ``list``     list the figures and chapters.
@@ -34,6 +35,7 @@ from ..surgery.simulation import Simulation
 from . import figures
 from .bench.accuracy_cost import accuracy_study
 from .bench.assembly import assembly_benchmark
+from .bench.haptic import haptic_benchmark
 from .bench.realtime import realtime_benchmark, solver_comparison
 from .bench.scenes import effects_benchmark
 from .book import build_book
@@ -161,7 +163,7 @@ def cmd_book(args) -> int:
 
 
 def cmd_bench(args) -> int:
-    if (args.which == "scenes" or (args.which == "realtime" and args.compare)) and args.sizes:
+    if (args.which in ("scenes", "haptic") or (args.which == "realtime" and args.compare)) and args.sizes:
         if len(args.sizes) > 1:
             which = "realtime --compare" if args.which == "realtime" else args.which
             raise ParameterError("sizes", f"bench {which} takes one size, got {len(args.sizes)}")
@@ -187,6 +189,9 @@ def cmd_bench(args) -> int:
         size = args.sizes[0] if args.sizes else 8000
         effects_benchmark(n_triangles=size, frames=min(args.frames, 90), repeats=args.repeats,
                           out=args.out or "bench-results")
+    elif args.which == "haptic":
+        haptic_benchmark(n_triangles=args.sizes[0] if args.sizes else 8000, frames=args.frames,
+                         linear_solver=args.linear or "reuse-background", out=args.out or "bench-results")
     elif args.which == "accuracy":
         out = Path(args.out or "bench-results")
         results = accuracy_study(plan=args.plan, out=out)
@@ -246,7 +251,8 @@ def cmd_scene(args) -> int:
             return 2
     for w in caught:
         print(f"{args.path}: warning: {' '.join(str(w.message).split())}", file=sys.stderr)
-    print(f"{scene.name}: {sim.mesh.nelements} triangles, terms {sim.terms}, handles {list(sim.handles)}")
+    noun = "triangles" if sim.model.dim == 2 else "tetrahedra"
+    print(f"{scene.name}: {sim.mesh.nelements} {noun}, terms {sim.terms}, handles {list(sim.handles)}")
     for note in scene.notes:
         print(f"note: {note}")
     if args.check:
@@ -296,13 +302,13 @@ def main(argv=None) -> int:
     p.set_defaults(func=cmd_book)
 
     p = sub.add_parser("bench", help="run a benchmark and print its table")
-    p.add_argument("which", choices=["assembly", "realtime", "scenes", "accuracy"])
+    p.add_argument("which", choices=["assembly", "realtime", "scenes", "accuracy", "haptic"])
     p.add_argument("--sizes", type=_count("sizes", 1, MAX_TRIANGLES), nargs="+",
                    help=f"approximate triangle counts, with --dim 3 tetrahedra (at most {MAX_TRIANGLES})")
     p.add_argument("--repeats", type=_count("repeats", 1, 1000), default=5,
                    help="assembly, scenes: timed repetitions")
     p.add_argument("--frames", type=_count("frames", 1, 1_000_000), default=90,
-                   help="realtime: frames of the scripted drag")
+                   help="realtime, haptic: frames of the scripted drag")
     p.add_argument("--baseline-frames", type=_count("baseline_frames", 0, 1_000_000),
                    help="realtime: frames of the ex43-way baseline (default 10 in 2D, 0 in 3D)")
     p.add_argument("--linear", type=_linear_solver,
@@ -317,7 +323,8 @@ def main(argv=None) -> int:
                         "factorization, back-substitution, fill-in, assembly and the frames")
     p.add_argument("--plan", default="full", choices=["full", "reduced", "tiny"],
                    help="accuracy: the sweep (full: several minutes; reduced: chapter 9's; tiny: seconds)")
-    p.add_argument("--out", help="assembly: a JSON file; realtime, scenes, accuracy: a folder (default bench-results/)")
+    p.add_argument("--out", help="assembly: a JSON file; realtime, scenes, accuracy, haptic: a folder "
+                                 "(default bench-results/)")
     p.set_defaults(func=cmd_bench)
 
     p = sub.add_parser("scene", help="check a scene file (TOML or JSON) and run it for some frames")

@@ -38,11 +38,11 @@ from ...surgery.simulation import Simulation
 from ..measure import median_time
 from ..tables import markdown_table
 from ..timestepping import flap_drag
-from .common import check_sizes, machine_info, write_csv, write_json
+from .common import check_sizes, machine_info, median_rows, recorded, write_csv, write_json
 
 __all__ = ["realtime_benchmark", "ex43_frames", "format_realtime_table", "flap_simulation", "frame_floor",
            "block_simulation", "block_path", "block_drag", "BlockSimulation", "SCENES", "solver_comparison",
-           "format_comparison_table"]
+           "format_comparison_table", "recorded_realtime", "recorded_realtime_table"]
 
 RTOL_FLAP = 1e-6
 #: the 3D block's edges ``(L, W, H)``: a bar twice as long as it is wide and high (cells of the same shape)
@@ -246,11 +246,34 @@ def _accuracy_columns(prefix: str, reports) -> dict:
             f"{prefix}_min_J": a["min_J"], f"{prefix}_inverted": a["inverted"], f"{prefix}_undone": undone}
 
 
+#: the recorded table's columns (docs/benchmarks.md and chapter 7 print it): times, work, accuracy, the budgeted run
+_RECORDED = [
+    ("triangles", "triangles", "{:d}"), ("fast_median_ms", "median ms/frame", "{:.1f}"), ("fast_p95_ms", "p95 ms", "{:.1f}"),
+    ("fast_newton", "Newton/frame", "{:.2f}"), ("fast_cg", "CG/frame", "{:.1f}"), ("floor_ms", "floor ms", "{:.1f}"),
+    ("frame_over_floor", "frame / floor", "{:.1f}x"), ("ex43_median_ms", "ex43 way ms/frame", "{:.0f}"),
+    ("fast_converged", "converged", "{:.0%}"), ("budget_converged", "budgeted: converged", "{:.0%}"),
+    ("budget_p95_ms", "budgeted: p95 ms", "{:.0f}"), ("budget_p99_ms", "budgeted: p99 ms", "{:.0f}"),
+    ("budget_residual", "budgeted: median residual", "{:.0e}"),
+]
+
+
 def format_realtime_table(rows) -> str:
     """The benchmark rows as a Markdown table (its first column the rows' element count: triangles or
     tetrahedra)."""
     elements = "tetrahedra" if rows and "tetrahedra" in rows[0] else "triangles"
     return markdown_table(rows, [(elements, elements, "{:d}"), *_COLUMNS])
+
+
+def recorded_realtime() -> tuple[list[dict], dict]:
+    """The recorded run shipped with the package: its rounds joined (:func:`~.common.median_rows`: medians over the
+    rounds) and the record (``rounds``: each round's machine, with its load average at the start, and rows)."""
+    record = recorded("realtime")
+    return median_rows([r["rows"] for r in record["rounds"]], "triangles"), record
+
+
+def recorded_realtime_table() -> str:
+    """The recorded run as the Markdown table docs/benchmarks.md and chapter 7 show (medians over the rounds)."""
+    return markdown_table(recorded_realtime()[0], _RECORDED)
 
 
 def _frames_row(sim, reports) -> dict:
@@ -281,6 +304,7 @@ def realtime_benchmark(sizes=None, frames: int = 90, baseline_frames: int | None
     budget_frames = check_count("budget_frames", budget_frames, 0)
     linear_solver = scene.linear_solver if linear_solver is None else linear_solver
     say = progress if progress is not None else (lambda *_: None)
+    machine = machine_info()  # at the start: the load average says how quiet the machine was
 
     # one untimed pass at the largest size warms the allocator up (see the assembly benchmark)
     _fast_frames(scene, max(sizes), 3, linear_solver=linear_solver)
@@ -324,7 +348,7 @@ def realtime_benchmark(sizes=None, frames: int = 90, baseline_frames: int | None
                             "rtol": RTOL_FLAP, "domain": scene.domain},
                   "settings": {"sizes": sizes, "frames": frames, "baseline_frames": baseline_frames,
                                "budget_frames": budget_frames, "linear_solver": rows[0]["linear_solver"]},
-                  "machine": machine_info(), "rows": rows}
+                  "machine": machine, "rows": rows}
         written = [write_json(Path(out) / f"{scene.name}.json", record),
                    write_csv(Path(out) / f"{scene.name}.csv", rows)]
         say("wrote " + ", ".join(str(w) for w in written))
