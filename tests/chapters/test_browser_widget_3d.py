@@ -11,9 +11,10 @@ Run as a script, it is the 3D view's benchmark (nothing asserted)::
 
     python tests/chapters/test_browser_widget_3d.py [--cells 7 9] [--out FILE]
 
-For each block (``2 n x n x n`` cells of six tetrahedra): frames painted per second while the mouse turns the camera
-(the page alone: what WebGL draws), and while it drags the body (each picture waits for the kernel's frame:
-positions received per second), the kernel's step and the page's paint (medians).
+For each block (``2 n x n x n`` cells of six tetrahedra): frames painted per second while the wheel zooms the camera
+every animation frame (events made in the page: what WebGL draws, whatever the driver's pace), while the mouse turns
+the camera (the driver's pointer moves: the page alone), and while it drags the body (each picture waits for the
+kernel's frame: positions received per second); the kernel's step and the page's paint (medians).
 """
 
 from __future__ import annotations
@@ -165,6 +166,25 @@ def test_the_3d_view_grabs_and_drags_a_block_in_jupyterlab(tmp_path):
 
 
 # --------------------------------------------------------------------------- the benchmark
+#: Zooms the camera in and out with a wheel event every animation frame for ``seconds`` (in the page, no driver in
+#: between); resolves to the pictures painted and the milliseconds spent.
+ZOOMING = r"""
+const [c, seconds, done] = [arguments[0], arguments[1], arguments[arguments.length - 1]];
+const painted = Number(c.dataset.painted), started = performance.now();
+let k = 0;
+function step() {
+  const now = performance.now();
+  if (now - started > 1e3 * seconds) {
+    done({painted: Number(c.dataset.painted) - painted, ms: now - started});
+    return;
+  }
+  c.dispatchEvent(new WheelEvent('wheel', {deltaY: k++ % 40 < 20 ? 20 : -20, bubbles: true, cancelable: true}));
+  requestAnimationFrame(step);
+}
+requestAnimationFrame(step);
+"""
+
+
 class Pixels:
     """A canvas for :func:`drag` whose points are already offsets from its centre (CSS pixels)."""
 
@@ -192,6 +212,9 @@ def measure(driver, lab, cells, seconds=4.0):
     turning = {"seconds": round((page1 - page0) / 1e3, 2),
                "painted_per_second": round(1e3 * (canvas.painted() - painted0) / (page1 - page0), 1),
                "page_paint_median_ms": round(median([e[3] for e in canvas.log() if page0 <= e[0] <= page1]), 2)}
+    zoom = driver.execute_async_script(ZOOMING, canvas.element, seconds)
+    zooming = {"seconds": round(zoom["ms"] / 1e3, 2),
+               "painted_per_second": round(1e3 * zoom["painted"] / zoom["ms"], 1)}
     canvas = Canvas3D(driver, canvas.element)  # projections of the camera as it is now
     kernel = descendants(kernel_json(driver, "__import__('os').getpid()"))
     circle = [(0.15 - 0.15 * math.cos(k / 20), 0.15 * math.sin(k / 20)) for k in range(n)]
@@ -214,7 +237,7 @@ def measure(driver, lab, cells, seconds=4.0):
                 "kernel_cpu_percent_of_a_core": round(100 * (cpu1 - cpu0) / span, 1),
                 "kernel_step_median_ms": None if not steps else round(median(steps), 1),
                 "page_paint_median_ms": None if not paint_ms else round(median(paint_ms), 2)}
-    return {"mesh": mesh, "turning_the_camera": turning, "dragging": dragging}
+    return {"mesh": mesh, "zooming_in_the_page": zooming, "turning_the_camera": turning, "dragging": dragging}
 
 
 def run_benchmark(workdir, sizes):

@@ -173,3 +173,11 @@ def test_the_stroke_has_the_widget_dimension():
     w.show_mesh(np.zeros((3, 3)), [[0, 1, 2]])
     w.stroke = np.arange(6, dtype=np.float32).tobytes()
     assert w.arrays()["stroke"].shape == (2, 3)
+
+
+def test_a_stroke_on_a_3d_view_says_cuts_are_2d_only(view3d):
+    view3d.mode = "cut"
+    for kind, point in [("press", (1.0, 1.0, 0.5)), ("move", (1.0, 0.5, 0.5)), ("release", (1.0, 0.0, 0.5))]:
+        synthetic_mouse(view3d, kind, point)
+    assert view3d.message.startswith("cut failed") and "2D" in view3d.message
+    assert view3d.sim.mesh.nelements == 6 * 4 * 2 * 2 and view3d.stroke is None

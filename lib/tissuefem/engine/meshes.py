@@ -300,7 +300,7 @@ def box(lx=1.0, ly=1.0, lz=1.0, nx=4, ny=4, nz=4) -> MeshTet:
     i, j, k = (a.ravel(order="F") for a in np.meshgrid(np.arange(nx), np.arange(ny), np.arange(nz), indexing="ij"))
     corner = np.array([i + (nx + 1) * (j + (ny + 1) * k) + dx + (nx + 1) * (dy + (ny + 1) * dz)
                        for dz in (0, 1) for dy in (0, 1) for dx in (0, 1)])  # (8, cells), c = dx + 2 dy + 4 dz
-    t = corner[_CUBE_TETS].reshape(4, -1, order="F")  # cell by cell, six tetrahedra each
+    t = np.ascontiguousarray(corner[_CUBE_TETS].reshape(4, -1, order="F"))  # cell by cell, six tetrahedra each
     tol = 1e-9
     return MeshTet(p, t, sort_t=False).with_boundaries({
         "left": lambda m: np.abs(m[0]) < tol * lx,

@@ -555,7 +555,8 @@ class SurgeryView:
 
 async def _frame_loop(view) -> None:
     """The view's frame loop (a task on the kernel's event loop): a frame every ``interval_ms`` while anything
-    moves, then asleep until input arrives; a refused frame is a message, any other error stops the loop."""
+    moves, sooner when input arrives (but not within half an interval of the last), then asleep until input
+    arrives; a refused frame is a message, any other error stops the loop."""
     interval = view.interval_ms / 1e3
     while not view.closed:
         if view.resting and not view._tools_stale:
@@ -564,6 +565,7 @@ async def _frame_loop(view) -> None:
             await view._wake.wait()  # nothing runs until input arrives
             continue
         started = time.perf_counter()
+        view._wake.clear()  # input from now on brings the next frame forward
         try:
             if view.resting:
                 with view._lock:
@@ -577,7 +579,12 @@ async def _frame_loop(view) -> None:
         except Exception:
             view.stop()  # one traceback, not thirty a second
             raise
-        await asyncio.sleep(max(0.0, interval - (time.perf_counter() - started)))
+        await asyncio.sleep(max(0.0, interval / 2 - (time.perf_counter() - started)))
+        if not view._wake.is_set():
+            try:  # the rest of the interval, unless the pointer moves first
+                await asyncio.wait_for(view._wake.wait(), max(0.0, interval - (time.perf_counter() - started)))
+            except asyncio.TimeoutError:
+                pass
 
 
 def shown_box(points) -> tuple[int, list[float]]:

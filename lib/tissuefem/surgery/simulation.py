@@ -37,16 +37,21 @@ class Simulation:
     ``clock``: seconds (tests pass a fake one); ``linear_solver`` overrides the scene's; ``constant_tangent``: run a
     quadratic model with the ``"constant"`` linear solver (one factorization per set of held dofs; ``False`` forces
     the general Newton loop, to measure what that saves); ``order``, ``intorder``: the model's elements (cuts and
-    excisions need P1) and quadrature degree.
+    excisions need P1) and quadrature degree. A probe or sutures added or removed keep the running factorization
+    (``"reuse..."`` linear solvers: CG's preconditioner until it is refreshed). ``keep_factorization``: after a cut
+    or an excision too, the frames are preconditioned by the old factorization extended to the new nodes while a
+    fresh one is made off the frame; off by default: measured, it pays only where a second core is free
+    (docs/benchmarks.md, "Effect costs: what was tried").
     """
 
     def __init__(self, scene: Scene, *, clock=time.perf_counter, linear_solver=None, constant_tangent=True,
-                 order: int = 1, intorder: int | None = None):
+                 order: int = 1, intorder: int | None = None, keep_factorization: bool = False):
         if not isinstance(scene, Scene):
             raise ValueError(f"scene must be a Scene, got {scene!r}")
         self.scene, self.clock = scene, clock
         self._linear_choice = linear_solver or scene.solver["linear_solver"]
         self._constant_tangent = bool(constant_tangent)
+        self._keep_factorization = bool(keep_factorization)
         self.material = scene.build_material()
         self.model = _scene_model(scene, self.material, order, intorder)
         self._grab_count = self._probe_count = 0
@@ -80,8 +85,9 @@ class Simulation:
         """The handles holding the tissue, by name (the model owns them)."""
         return {h.name: h for h in self.model.handles}
 
-    def _new_solver(self, state=None) -> None:
-        """A real-time solver for the model, with the running one's state (or ``state``: ``u, v, v_previous``)."""
+    def _new_solver(self, state=None, parent=None) -> None:
+        """A real-time solver for the model, with the running one's state (or ``state``: ``u, v, v_previous``) and
+        its kept factorization (``parent``: the old dof of each new dof; ``None``: the same dofs)."""
         model, settings, old, choice = self.model, self.scene.solver, self.solver, self._linear_choice
         if model.quadratic and self._constant_tangent and isinstance(choice, str):
             # a constant Hessian: one factorization per held set is exact (with the named direct backend)
@@ -92,6 +98,10 @@ class Simulation:
         if old is not None:
             _carry_state(old, self.solver, state)
             self.solver.costs.update(old.costs)  # what the work cost lately: the next frame keeps its budget
+            if parent is None and old.model.n_dofs == model.n_dofs:  # the same dofs: the factorization fits
+                self.solver.linear.carry(old.linear, np.arange(model.n_dofs))
+            elif self._keep_factorization and parent is not None:
+                self.solver.linear.carry(old.linear, parent)
 
     def _set_terms(self, terms) -> None:
         """The running model with ``terms`` (a probe or stitches added or removed), and a solver for it."""
@@ -293,7 +303,7 @@ class Simulation:
             self._check_held(model.handles)
             self.model, self._regions = model, carried.regions
             if running:
-                self._new_solver(state)
+                self._new_solver(state, carried.transfer_dofs(np.arange(2 * carried.n_old_nodes)))
         return edit
 
     def cut(self, polyline, method="elements"):

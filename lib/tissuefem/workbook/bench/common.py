@@ -16,7 +16,10 @@ import numpy as np
 
 from ...engine.parameters import ParameterError, check_count
 
-__all__ = ["machine_info", "check_sizes", "write_json", "write_csv", "load_results"]
+__all__ = ["machine_info", "check_sizes", "write_json", "write_csv", "load_results", "recorded", "median_rows"]
+
+#: the recorded runs shipped with the package (chapters and docs/benchmarks.md print from them)
+DATA = Path(__file__).parents[1] / "data"
 
 
 def _version(dist: str) -> str:
@@ -27,7 +30,8 @@ def _version(dist: str) -> str:
 
 
 def machine_info() -> dict:
-    """Platform, Python and library versions and the CPU count, for the benchmark record."""
+    """Platform, Python and library versions, the CPU count and the load average (1, 5 and 15 minutes: how busy the
+    machine was when the run started; a quiet 2-core machine shows well under 1), for the benchmark record."""
     return {
         "platform": platform.platform(),
         "machine": platform.machine(),
@@ -37,6 +41,7 @@ def machine_info() -> dict:
         "scipy": _version("scipy"),
         "scikit-fem": _version("scikit-fem"),
         "cpu_count": os.cpu_count(),
+        "load_average": [round(x, 2) for x in os.getloadavg()],
     }
 
 
@@ -104,3 +109,26 @@ def load_results(path) -> dict:
             return json.load(fh)
     except json.JSONDecodeError as err:
         raise ValueError(f"{path.name}: not a benchmark record ({err})") from None
+
+
+def recorded(name: str) -> dict:
+    """A recorded run shipped with the package (``data/<name>.json``)."""
+    return load_results(DATA / f"{name}.json")
+
+
+def median_rows(rounds, key: str) -> list[dict]:
+    """The rows of several rounds of one benchmark joined on ``key`` (in the first round's order): each number
+    the median over the rounds, with ``<column>_range`` its ``(min, max)`` where they differ; other values from the
+    first round."""
+    out = []
+    for row in rounds[0]:
+        same = [r for rows in rounds for r in rows if r[key] == row[key]]
+        joined = dict(row)
+        for column, value in row.items():
+            values = [r.get(column) for r in same]
+            numbers = all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values)
+            if column != key and numbers and len(set(values)) > 1:
+                joined[column] = float(np.median(values))
+                joined[f"{column}_range"] = (float(min(values)), float(max(values)))
+        out.append(joined)
+    return out

@@ -18,9 +18,10 @@ from ...surgery.simulation import Simulation
 from ..measure import median_time
 from ..tables import markdown_table
 from ..timestepping import flap_drag
-from .common import machine_info, write_csv, write_json
+from .common import machine_info, median_rows, recorded, write_csv, write_json
 
-__all__ = ["effects_benchmark", "variants", "format_effects_table", "term_costs", "cut_costs"]
+__all__ = ["effects_benchmark", "variants", "format_effects_table", "term_costs", "cut_costs", "cut_frame_costs",
+           "probe_costs", "recorded_effects", "recorded_effects_table"]
 
 
 def _base(n_triangles):
@@ -92,6 +93,58 @@ def cut_costs(n_triangles, repeats=3) -> dict:
     return out
 
 
+def cut_frame_costs(n_triangles, repeats=5, frames_before=3) -> dict:
+    """The frame in which a cut happens (the cut, then the next frame of the drag), with the old factorization kept
+    as the preconditioner (``keep_factorization``) and with a fresh one made on the frame: runs of the two
+    alternate. ``{"kept" | "fresh": {"cut_ms", "frame_ms", "total_ms": medians, "spread_ms": (min, max) of the
+    total, "thread_ms": median CPU time of the frame's thread over the cut and the frame (what a busy machine
+    adds is not in it, nor the fresh factorization on the other thread), "factorizations": on the frame, mean}}``."""
+    repeats = check_count("repeats", repeats)
+    runs = {"kept": [], "fresh": []}
+    for _ in range(repeats):
+        for name, keep in (("kept", True), ("fresh", False)):
+            sim = Simulation(Scene.from_dict(_base(n_triangles)), keep_factorization=keep)
+            flap_drag(sim, frames_before)
+            start, cpu = time.perf_counter(), time.thread_time()
+            sim.cut(CUT["path"], method=CUT["method"])
+            cut = time.perf_counter() - start
+            report = flap_drag(sim, 1, start=frames_before)[0]
+            cpu = time.thread_time() - cpu
+            runs[name].append((1e3 * cut, 1e3 * report.elapsed, report.newton.factorizations, 1e3 * cpu))
+            sim.solver.linear.close()  # the fresh factorization under way ends before the next run
+    out = {}
+    for name, rows in runs.items():
+        cut, frame, factorizations, cpu = (np.array(column, dtype=float) for column in zip(*rows))
+        total = cut + frame
+        out[name] = {"cut_ms": float(np.median(cut)), "frame_ms": float(np.median(frame)),
+                     "total_ms": float(np.median(total)), "spread_ms": (float(total.min()), float(total.max())),
+                     "thread_ms": float(np.median(cpu)), "factorizations": float(np.mean(factorizations))}
+    return out
+
+
+def probe_costs(n_triangles, frames=30, repeats=3, ranks=(0, 64)) -> dict:
+    """The probe variant with each ``update_rank`` of the kept factorization (runs alternate): ``{rank: {"ms":
+    median ms/frame, "newton", "cg", "updates": per frame, means}}``; ``cg``: CG iterations (one back-substitution
+    each), ``updates``: back-substitutions of the low-rank updates."""
+    repeats = check_count("repeats", repeats)
+    data = _base(n_triangles)
+    data["effects"]["probes"] = [PROBE]
+    runs = {rank: [] for rank in ranks}
+    for _ in range(repeats):
+        for rank in ranks:
+            sim = Simulation(Scene.from_dict(data))
+            backend = sim.solver.linear.backend
+            backend.update_rank = rank
+            reports = flap_drag(sim, frames)
+            runs[rank].append((np.median([1e3 * r.elapsed for r in reports]),
+                               np.mean([r.newton_iterations for r in reports]),
+                               np.mean([r.newton.linear_iterations for r in reports]),
+                               backend.update_solves / frames))
+            sim.solver.linear.close()
+    return {rank: dict(zip(("ms", "newton", "cg", "updates"), (float(np.median(c)) for c in zip(*rows))))
+            for rank, rows in runs.items()}
+
+
 def term_costs(sim, repeats=5) -> dict:
     """Median ms to evaluate each term's energy, force and Hessian once, at the simulation's state."""
     u, model, costs = sim.u, sim.model, {}
@@ -115,10 +168,35 @@ def format_effects_table(rows) -> str:
     return markdown_table([{**r, "terms": ", ".join(r["terms"])} for r in rows], _TABLE, text_columns=2)
 
 
+def recorded_effects() -> tuple[list[dict], dict]:
+    """The recorded run shipped with the package: its rounds joined (medians over the rounds, see
+    :func:`~.common.median_rows`), each row with ``over_base`` (its median over the base's, in each round) and
+    ``over_base_text`` (the median ratio and the rounds' range: the spread between rounds is the noise), and the
+    record."""
+    record = recorded("scenes")
+    rounds = [[{**r, "over_base": r["median_ms"] / rows[0]["median_ms"]} for r in rows]
+              for rows in (rd["rows"] for rd in record["rounds"])]
+    rows = median_rows(rounds, "variant")
+    for r in rows:
+        lo, hi = r.get("over_base_range", (r["over_base"], r["over_base"]))
+        r["over_base_text"] = f"{r['over_base']:.2f} ({lo:.2f}–{hi:.2f})" if hi > lo else f"{r['over_base']:.2f}"
+        r["terms"] = ", ".join(r["terms"])
+    return rows, record
+
+
+def recorded_effects_table() -> str:
+    """The recorded run as the Markdown table docs/benchmarks.md shows."""
+    columns = [("variant", "variant", "{}"), ("terms", "terms", "{}"), ("median_ms", "median ms/frame", "{:.1f}"),
+               ("p95_ms", "p95 ms", "{:.1f}"), ("newton", "Newton/frame", "{:.2f}"),
+               ("over_base_text", "over the base (rounds' range)", "{}")]
+    return markdown_table(recorded_effects()[0], columns, text_columns=2)
+
+
 def effects_benchmark(n_triangles=8000, frames=30, repeats=5, out=None, progress=print) -> dict:
     """Run every variant; return ``{"rows": [...], "terms": {...}}`` and write JSON/CSV under ``out``."""
     n_triangles, frames = check_count("n_triangles", n_triangles, 50), check_count("frames", frames)
     say = progress or (lambda *a, **k: None)
+    machine = machine_info()  # at the start: the load average says how quiet the machine was
     rows, base, everything = [], None, None
     for name, data, options in variants(n_triangles):
         sim, ms, newton = _run(data, options, frames)
@@ -140,7 +218,7 @@ def effects_benchmark(n_triangles=8000, frames=30, repeats=5, out=None, progress
     record = {"benchmark": "scenes", "description": __doc__.strip().splitlines()[0],
               "settings": {"n_triangles": int(n_triangles), "frames": int(frames), "repeats": int(repeats),
                            "scene": "flap_scene (stable neo-Hookean), handle on flap_path"},
-              "machine": machine_info(), "rows": rows, "term_ms": terms, "cut_ms": cuts}
+              "machine": machine, "rows": rows, "term_ms": terms, "cut_ms": cuts}
     if out is not None:
         written = [write_json(Path(out) / "scenes.json", record),
                    write_csv(Path(out) / "scenes.csv", [{**r, "terms": " + ".join(r["terms"])} for r in rows])]

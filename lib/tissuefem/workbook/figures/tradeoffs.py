@@ -1,6 +1,7 @@
 """Chapter 9 figures: what accuracy costs in time, drawn from the results of
 :func:`~tissuefem.workbook.bench.accuracy_cost.accuracy_study` (the lecture figures: the recorded full study);
-and the plot of ``bench realtime``'s results."""
+the verified reference's mesh convergence (:func:`plot_convergence`, also chapter 11's on tetrahedra); and the plot of
+``bench realtime``'s results."""
 
 from __future__ import annotations
 
@@ -187,10 +188,11 @@ def plot_scaling(results, path=None) -> Figure:
 
 
 def plot_budget(results, path=None) -> Figure:
-    """Residual left and share of frames converged when the budgeted solver spends its 33 ms, by mesh size."""
+    """Residual left, share of frames converged and the frames' times when the budgeted solver spends its 33 ms,
+    by mesh size."""
     rows = results["budget"]
-    fig = Figure(figsize=(10.0, 4.0), layout="constrained")
-    ax_r, ax_c = fig.subplots(1, 2)
+    fig = Figure(figsize=(14.0, 4.0), layout="constrained")
+    ax_r, ax_c, ax_t = fig.subplots(1, 3)
     for solver, marker in zip(dict.fromkeys(r["solver"] for r in rows), "osD^"):
         sel = [r for r in rows if r["solver"] == solver]
         tri = [r["triangles"] for r in sel]
@@ -199,6 +201,8 @@ def plot_budget(results, path=None) -> Figure:
         ax_r.loglog(tri, [max(r["state_error"], 1e-16) for r in sel], marker + ":", alpha=0.7,
                     label=label + ": state error")
         ax_c.semilogx(tri, [100 * r["converged_share"] for r in sel], marker + "-", label=label)
+        ax_t.loglog(tri, [r["ms_median"] for r in sel], marker + "-", label=label + ": median")
+        ax_t.loglog(tri, [r["ms_p95"] for r in sel], marker + ":", label=label + ": 95th percentile")
     ax_r.axhline(1e-6, color="k", ls="--", lw=1)
     ax_r.text(rows[0]["triangles"], 1.6e-6, "converged: rtol = 1e-6", fontsize=8)
     ax_r.set(xlabel="triangles", ylabel="median |residual| / |first residual| at frame end;\n"
@@ -206,7 +210,9 @@ def plot_budget(results, path=None) -> Figure:
              title=f"What is left when {rows[0]['budget_ms']:.0f} ms are spent")
     ax_c.set(xlabel="triangles", ylabel="frames converged within the budget [%]", ylim=(-5, 105),
              title="Frames that converge in budget")
-    for ax in (ax_r, ax_c):
+    ax_t.axhline(rows[0]["budget_ms"], color="C3", ls="--", lw=1, label=f"budget {rows[0]['budget_ms']:.0f} ms")
+    ax_t.set(xlabel="triangles", ylabel="ms per budgeted frame (real clock)", title="What the frames took")
+    for ax in (ax_r, ax_c, ax_t):
         ax.grid(True, which="both", alpha=0.25)
         ax.legend(fontsize=7.5)
     save(fig, path)
@@ -234,7 +240,13 @@ def fig_ch09_budget(results=None) -> Figure:
 @lecture_figure
 def fig_ch09_verification(rows=None) -> Figure:
     """Chapter 9: the reference verified -- nonlinear mesh convergence at rates 2 (P1) and 3 (P2)."""
-    rows = manufactured_convergence() if rows is None else rows
+    return plot_convergence(manufactured_convergence() if rows is None else rows,
+                            "Manufactured solution (bent arch + its body force)")
+
+
+def plot_convergence(rows, title) -> Figure:
+    """Relative L2 errors against the cell size ``h`` of :func:`~tissuefem.workbook.verification.
+    manufactured_convergence`'s rows: one colour per order, one marker per model, the slopes ``order + 1``."""
     fig = Figure(figsize=(6.4, 4.6), layout="constrained")
     ax = fig.subplots()
     models = list(dict.fromkeys(r["model"] for r in rows))
@@ -266,8 +278,7 @@ def fig_ch09_verification(rows=None) -> Figure:
     ax.set_xticks(ticks, [f"1/{round(1 / h)}" if h < 1 else f"{h:g}" for h in ticks])
     ax.xaxis.set_minor_formatter(NullFormatter())
     ax.set_xlim(ticks[0] / 1.6, ticks[-1] * 1.6)
-    ax.set(xlabel="h (cell size)", ylabel="relative L2 error vs exact solution",
-           title="Manufactured solution (bent arch + its body force)")
+    ax.set(xlabel="h (cell size)", ylabel="relative L2 error vs exact solution", title=title)
     ax.grid(True, which="both", alpha=0.25)
     ax.legend(fontsize=7.5, loc="lower right", title="models; rates in their order", title_fontsize=7.5)
     return fig
