@@ -340,7 +340,7 @@ def main(argv=None) -> int:
     p.add_argument("--instructor", action="store_true",
                    help="refuse any answer that imports or runs tissuefem (the reference implementation)")
     p.add_argument("--exercises", metavar="DIR",
-                   type=_folder("exercises", " (it should hold ch01.py ... ch09.py)"),
+                   type=_folder("exercises", " (it should hold ch01.py ... ch11.py)"),
                    help="grade the chNN.py files in DIR (e.g. a student's submission) instead of chapters/exercises")
     p.set_defaults(func=cmd_grade)
 
