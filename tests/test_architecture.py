@@ -18,7 +18,7 @@ import tissuefem
 PACKAGE = Path(tissuefem.__file__).parent
 LAYERS = {"engine": 0, "surgery": 1, "workbook": 2}
 #: third-party modules that are optional (extras) and so may be imported where they are used
-OPTIONAL = {"pypardiso", "ipywidgets", "nbclient", "nbformat", "matplotlib.pyplot", "selenium"}
+OPTIONAL = {"pypardiso", "sksparse", "pyamg", "ipywidgets", "nbclient", "nbformat", "matplotlib.pyplot", "selenium"}
 #: heavy third-party modules that one path needs, imported there so that ``import tissuefem`` stays light
 #: (mesh files: meshio; scene text: tomllib; contact's broad phase: scipy.spatial; the book's pages: nbconvert, jinja2)
 DEFERRED = {"meshio", "skfem.io.meshio", "tomllib", "scipy.spatial", "nbconvert", "jinja2"}

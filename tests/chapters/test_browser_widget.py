@@ -83,9 +83,10 @@ def widget_missing() -> str | None:
     return None
 
 
-def notebook(triangles):
+def notebook(source):
+    """A notebook of one code cell, ``source``, with a Python 3 kernel."""
     nb = nbformat.v4.new_notebook()
-    nb.cells = [nbformat.v4.new_code_cell(VIEW_CELL.format(triangles=int(triangles)))]
+    nb.cells = [nbformat.v4.new_code_cell(source)]
     nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3 (ipykernel)", "language": "python"}
     return nb
 
@@ -117,7 +118,7 @@ def actions(driver):
 
 
 def open_view(driver, lab, triangles):
-    nbformat.write(notebook(triangles), lab.root / "widget.ipynb")
+    nbformat.write(notebook(VIEW_CELL.format(triangles=int(triangles))), lab.root / "widget.ipynb")
     open_notebook(driver, lab, "widget.ipynb")
     run_all_cells(driver)
     element = wait_for(lambda: driver.execute_script(FIND_CANVAS), 60, "the widget's canvas in the page")

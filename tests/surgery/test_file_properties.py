@@ -284,6 +284,7 @@ def test_any_mesh_file_gives_a_valid_mesh_or_a_parameter_error_naming_domain_pat
     except ParameterError as err:
         assert err.field == "domain.path" and "\n" not in str(err), str(err)
         return
-    check_mesh(back.p, back.t)  # no unused nodes, counter-clockwise, finite, within the limits
+    check_mesh(back.p, back.t)  # no unused nodes, not folded, finite, within the limits
     assert np.all(np.isfinite(back.p)) and back.nelements >= 1
-    assert len(notes) == (back.nvertices < len(mesh.points))  # a dropped node is said
+    # a dropped node is said (and a tetrahedron read the other way round, when a tetra cell made it 3D)
+    assert sum("dropped" in note for note in notes) == (back.nvertices < len(mesh.points)) and len(notes) <= 2

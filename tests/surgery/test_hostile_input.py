@@ -120,8 +120,11 @@ def _write_meshes(folder: Path) -> dict:
         cube = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]])
         square = np.array([[0, 0], [1, 0], [1, 1], [0, 1.0]])
         written = {
-            "tetra.vtk": (meshio.Mesh(cube, [("tetra", [[0, 1, 2, 3]])]), "tetra"),
-            "mixed.vtk": (meshio.Mesh(cube, [("triangle", [[0, 1, 2]]), ("tetra", [[0, 1, 2, 3]])]), "tetra"),
+            "flat_tetra.vtk": (meshio.Mesh(cube * [1, 1, 0], [("tetra", [[0, 1, 2, 3]])]), "zero-volume"),
+            "twice_tetra.vtk": (meshio.Mesh(cube, [("triangle", [[0, 1, 2]]), ("tetra", [[0, 1, 2, 3], [0, 1, 3, 2]])]),
+                                "folded"),
+            "hexahedron.vtk": (meshio.Mesh(np.vstack([cube, cube + 1]), [("hexahedron", [list(range(8))])]),
+                               "hexahedron"),
             "quad.vtk": (meshio.Mesh(square, [("quad", [[0, 1, 2, 3]])]), "quad"),
             "lines.vtk": (meshio.Mesh(square, [("line", [[0, 1], [1, 2]])]), "no triangles"),
             "quadratic.vtk": (meshio.Mesh(np.vstack([square, [[0.5, 0], [0.5, 0.5], [0, 0.5]]]),
@@ -701,7 +704,7 @@ def _bad_scene_files(folder: Path, bad_meshes) -> list[Path]:
     scene_file("deep.toml", "a = " + "[" * 200_000 + "]" * 200_000)
     scene_file("invalid.toml", EXAMPLE_TOML.replace("youngs_modulus = 1000.0", "youngs_modulus = 1e154"))
     scene_file("huge_int.toml", EXAMPLE_TOML.replace("triangles = 800", "triangles = 1" + "0" * 400))
-    for mesh in ("empty.vtk", "tetra.vtk", "corrupt.msh", "tilted.vtk"):
+    for mesh in ("empty.vtk", "flat_tetra.vtk", "corrupt.msh", "tilted.vtk"):
         scene_file(f"mesh_{mesh}.toml", f'[domain]\nshape = "file"\npath = "{(mesh_folder / mesh).as_posix()}"\n'
                                         '[material]\nmodel = "linear"\nyoungs_modulus = 1.0\npoisson_ratio = 0.3\n'
                                         '[[effects.handles]]\nregion = "left"\n')

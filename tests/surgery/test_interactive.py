@@ -2,6 +2,7 @@
 arrays follow, nothing is sent at rest, the frame loop runs and pauses, and one view lives per simulation and cell."""
 
 import asyncio
+import time
 import os
 import subprocess
 import sys
@@ -504,3 +505,26 @@ def test_the_snapshot_draws_what_the_page_was_sent(view):
     assert ax.get_title(loc="left") == view.widget.readout
     assert ax.lines[-1].get_xdata()[0] == pytest.approx(2.2)  # the drag target
     synthetic_mouse(view, "release", (2.2, 0.6))
+
+
+def test_a_pointer_move_brings_the_next_frame_forward():
+    """While the loop runs, a frame waits at most an interval, but a pointer move ends the wait (after half an
+    interval): the picture follows the mouse without waiting out the interval. The interval here is 10 s; the
+    frame after the move comes after half of it (5 s), long before the 10 s."""
+    async def session():
+        v = SurgeryView(make_sim(), interval_ms=10_000)
+        pointer(v, "down", 1.95, 0.5)
+        v.start()
+        for _ in range(500):  # the first frame runs at once
+            await asyncio.sleep(0.01)
+            if v.sim.frames:
+                break
+        first, frames = time.perf_counter(), v.sim.frames
+        pointer(v, "move", 2.2, 0.5)
+        while v.sim.frames == frames and time.perf_counter() - first < 9.0:
+            await asyncio.sleep(0.05)
+        assert v.sim.frames > frames, "the move brought the frame forward (the interval is 10 s)"
+        pointer(v, "up", 2.2, 0.5)
+        v.close()
+
+    asyncio.run(session())

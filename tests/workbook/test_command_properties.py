@@ -27,8 +27,8 @@ SETTINGS = settings(max_examples=60, deadline=None, derandomize=True, database=N
 
 # the runners that do real work, each replaced by a stand-in returning what the command expects of it
 _STAND_INS = {"_figures": None, "build_chapters": None, "build_book": None, "assembly_benchmark": None,
-              "realtime_benchmark": [], "effects_benchmark": None, "accuracy_study": {}, "plot_realtime": None,
-              "plot_pareto": None, "plot_scaling": None, "plot_budget": None}
+              "realtime_benchmark": [], "solver_comparison": [], "effects_benchmark": None, "accuracy_study": {}, "haptic_benchmark": {},
+              "plot_realtime": None, "plot_pareto": None, "plot_scaling": None, "plot_budget": None}
 
 
 def _subcommands():
@@ -55,7 +55,7 @@ _HELP = ("-h", "--help")  # help is status 0 at once: among the options, but not
 _OWN = {name: [o for o in options if o not in _HELP] for name, options in SUBCOMMANDS.items()}
 ALL_OPTIONS = sorted({o for options in _OWN.values() for o in options}) + ["--nope", "-x", "--", "--help"]
 #: each subcommand's positional argument, right or wrong
-_POSITIONAL = {"bench": ["assembly", "realtime", "scenes", "accuracy", "nope"],
+_POSITIONAL = {"bench": ["assembly", "realtime", "scenes", "accuracy", "haptic", "nope"],
                "scene": ["@good.toml", "@junk.toml", "@nan.json", "@missing", "@a_folder", "@folder.toml"],
                "grade": ["ch01", "ch99", "-1"]}
 

@@ -1,10 +1,17 @@
-"""The study's tools: the Pareto front, fitted exponents, and the verified linear reference (chapter 9)."""
+"""The study's tools: the Pareto front, fitted exponents, and the verified linear and nonlinear reference in 2D
+(chapter 9) and 3D (chapter 11)."""
 
 import numpy as np
 import pytest
 
-from tissuefem.workbook.verification import beam_exact, beam_problem_tip
+from tissuefem import NeoHookean
+from tissuefem.engine.constants import TISSUE_E, TISSUE_NU
+from tissuefem.workbook import figures
 from tissuefem.workbook.measure import best_within_budget, cost_at_error, fitted_exponent, pareto_front
+from tissuefem.workbook.studies import bending_map
+from tissuefem.workbook.verification import (beam_convergence, beam_exact, beam_problem_tip, manufactured_body_force,
+                                             manufactured_convergence, manufactured_error, manufactured_gradient,
+                                             manufactured_map)
 
 
 def test_pareto_front_on_a_hand_made_example():
@@ -101,3 +108,65 @@ def test_the_linear_chain_converges_to_the_reference():
     assert p2[-1] < 2e-5 and p2[0] > p2[1] > p2[2]
     p1 = [abs(beam_problem_tip(4 * n, n, order=1)[0] / 0.0089 - 1) for n in (2, 4, 8)]
     assert fitted_exponent([1 / 2, 1 / 4, 1 / 8], p1) == pytest.approx(2.0, abs=0.35)  # P1: O(h^2) in displacement
+
+
+# --- 3D: the same chain on tetrahedra --------------------------------------------------------------------------------
+
+def test_the_plane_strain_beam_is_an_exact_3d_state_with_sigma_zz_on_its_faces():
+    """With E' = E / (1 - nu^2), nu' = nu / (1 - nu) and u_z = 0, beam_exact has the stated stresses in 3D Hooke's
+    law, and sigma_zz = nu sigma_xx: what beam_problem_tip puts on the faces z = const."""
+    Ep, nup = E / (1 - NU**2), NU / (1 - NU)
+    lam, mu = E * NU / ((1 + NU) * (1 - 2 * NU)), E / (2 * (1 + NU))
+    I, h = D**3 / 12, 1e-5
+    for x, y in [(5.0, 2.0), (20.0, -4.5), (40.0, 0.3)]:
+        G = np.zeros((3, 3))
+        for j, e in enumerate(([h, 0.0], [0.0, h])):
+            G[:2, j] = (beam_exact([[x + e[0]], [y + e[1]]], E=Ep, nu=nup)
+                        - beam_exact([[x - e[0]], [y - e[1]]], E=Ep, nu=nup))[:, 0] / (2 * h)
+        eps = 0.5 * (G + G.T)
+        s = lam * np.trace(eps) * np.eye(3) + 2 * mu * eps
+        assert s[0, 0] == pytest.approx(-P * (L - x) * y / I, rel=1e-5)
+        assert s[0, 1] == pytest.approx(P / (2 * I) * (D**2 / 4 - y**2), rel=1e-5)
+        assert abs(s[1, 1]) < 1e-3 and abs(s[0, 2]) < 1e-9 and abs(s[1, 2]) < 1e-9
+        assert s[2, 2] == pytest.approx(NU * s[0, 0], rel=1e-5)
+
+
+def test_the_3d_cantilever_reproduces_the_closed_form_tip_deflection():
+    """P2 tetrahedra on 8 x 2 x 1 cells within 3e-4 of the closed form (2.5e-4); refined, the error falls."""
+    Ep, nup, I = E / (1 - NU**2), NU / (1 - NU), D**3 / 12
+    computed, exact = beam_problem_tip(8, 2, order=2, nz=1)
+    assert exact == pytest.approx(P * L**3 / (3 * Ep * I) + (4 + 5 * nup) * P * D**2 * L / (24 * Ep * I), rel=1e-12)
+    assert exact == pytest.approx(8.138e-3, rel=1e-12)
+    assert computed == pytest.approx(exact, rel=3e-4)
+    errors = [r["relative_error"] for r in beam_convergence((1, 2, 4))]
+    assert errors[0] > errors[1] > errors[2] and errors[2] < 5e-5
+
+
+def test_the_3d_manufactured_map_and_its_gradient():
+    X = np.random.default_rng(0).uniform([0.0, 0.0, 0.0], [2.0, 1.0, 1.0], size=(40, 3)).T
+    F, h = manufactured_gradient(X), 1e-6
+    for j in range(3):
+        e = np.zeros((3, 1))
+        e[j] = h
+        assert np.allclose(F[:, j], (manufactured_map(X + e) - manufactured_map(X - e)) / (2 * h), rtol=0, atol=1e-8)
+    assert np.all(np.linalg.det(np.moveaxis(F, (0, 1), (-2, -1))) > 0.5)  # orientation kept everywhere
+    assert np.array_equal(manufactured_map(X[:2]), bending_map(X[:2]))  # in 2D: chapter 3's arch
+    b = manufactured_body_force(NeoHookean.from_young(TISSUE_E, TISSUE_NU), X)
+    assert b.shape == X.shape and np.all(np.isfinite(b)) and np.abs(b).max() > 0
+
+
+def test_nonlinear_mesh_convergence_on_tetrahedra_at_the_expected_rates():
+    """Relative L2 displacement errors: P1 ~ h^2, P2 ~ h^3 (measured 2.00 and 3.00; docs/benchmarks.md)."""
+    rows = manufactured_convergence(models=("neo-hookean",), dim=3)  # the default sizes: P1 n = 2, 4, 8; P2 1, 2, 4
+    rates = {r["order"]: r["fitted_rate"] for r in rows}
+    assert 1.8 <= rates[1] <= 2.2 and 2.7 <= rates[2] <= 3.3, rates
+    assert all(r["dim"] == 3 and r["errors"][0] > r["errors"][-1] for r in rows)
+    with pytest.raises(ValueError, match="dim"):
+        manufactured_error(NeoHookean(1.0, 1.0), 2, 1, dim=4)
+
+
+def test_the_chapter_11_convergence_figure_draws_given_rows():
+    rows = [{"model": "neo-hookean", "order": o, "dim": 3, "h": [0.5, 0.25], "errors": [e, e / 2 ** (o + 1)],
+             "fitted_rate": o + 1.0} for o, e in ((1, 1e-2), (2, 1e-3))]
+    fig = figures.FIGURES["fig_ch11_convergence"](rows=rows)
+    assert "tetrahedra" in fig.axes[0].get_title()

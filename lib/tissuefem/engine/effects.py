@@ -29,8 +29,8 @@ from .parameters import (ACCELERATION_MAX, CONTACT_STIFFNESS_MAX, FAR, FIBER_STI
                          string, table, vector)
 from .terms import Fibers, Inertia, Load, Probe, Sutures, Term, refuse_3d, traction_vector
 
-__all__ = ["Effect", "EFFECTS", "register", "factory", "keyword_terms", "SkinContact", "median_segment",
-           "youngs_modulus"]
+__all__ = ["Effect", "EFFECTS", "GRAVITY_DOWN", "register", "factory", "keyword_terms", "SkinContact",
+           "median_segment", "youngs_modulus"]
 
 # --------------------------------------------------------------------------------------------- the registry
 
@@ -95,13 +95,18 @@ def _body_load(model, name, per_area):
     return Load(name, make(model), make)
 
 
+#: gravity's default acceleration: 9.81 down the y axis (its first two components on a 2D mesh)
+GRAVITY_DOWN = (0.0, -9.81, 0.0)
+
+
 def _check_gravity(field, e):
     e = table(field, e, ("acceleration",))
-    return {"acceleration": vector(f"{field}.acceleration", e.get("acceleration", [0.0, -9.81]), ACCELERATION_MAX)}
+    return {"acceleration": vector(f"{field}.acceleration", e.get("acceleration", list(GRAVITY_DOWN[:2])),
+                                   ACCELERATION_MAX)}
 
 
 def _gravity(model, p, scene):
-    g = check_bounded_vector("gravity", p["acceleration"], ACCELERATION_MAX, model.dim)
+    g = check_bounded_vector("gravity", p.get("acceleration", GRAVITY_DOWN[:model.dim]), ACCELERATION_MAX, model.dim)
     return _body_load(model, "gravity", lambda m: m.density * g)
 
 
@@ -146,7 +151,7 @@ def _check_fibers(field, e):
         string(f"{field}.direction", direction, ("fusiform",))
     else:
         direction = vector(f"{field}.direction", direction)
-        if direction == [0.0, 0.0]:
+        if not any(direction):
             raise ParameterError(f"{field}.direction", f"{field}.direction must not be zero")
     return {"stiffness": number(f"{field}.stiffness", e["stiffness"], nonnegative=True, hi=FIBER_STIFFNESS_RANGE[1]),
             "direction": direction}

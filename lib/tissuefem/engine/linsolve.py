@@ -13,6 +13,7 @@ with the old one, or the frame stops and commits what it has.
 from __future__ import annotations
 
 import atexit
+import functools
 import importlib.util
 import math
 import threading
@@ -21,14 +22,16 @@ import weakref
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from .parameters import ParameterError, check_count, check_real
+from .parameters import ParameterError, check_count, check_real, check_real_array
 from .vectors import dot, norm
 
-__all__ = ["LinearSolver", "LinearInfo", "Condenser", "SuperLU", "Pardiso", "ReusedFactorization", "PreconditionedCG",
-           "SolveInfo", "PCGResult", "pcg", "available", "make", "BACKENDS", "Deadline", "WORK", "start_thread"]
+__all__ = ["LinearSolver", "LinearInfo", "Condenser", "SuperLU", "Pardiso", "Cholmod", "ReusedFactorization",
+           "PreconditionedCG", "rigid_body_modes", "OPTIONAL", "SolveInfo", "PCGResult", "pcg", "available", "make",
+           "BACKENDS", "Deadline", "WORK", "start_thread", "ExtendedFactorization", "UpdatedFactorization"]
 
 _ORDERINGS = ("MMD_AT_PLUS_A", "COLAMD", "MMD_ATA", "NATURAL")
 
@@ -77,6 +80,11 @@ class _LUFactor:
             self._A = None
         return x
 
+    @property
+    def nnz(self) -> int:
+        """Stored entries of the factors ``L + U`` (the fill-in: compare with the matrix's ``nnz``)."""
+        return int(self._lu.L.nnz + self._lu.U.nnz)
+
 
 class SuperLU(_Direct):
     """SciPy's SuperLU with the column ``ordering`` (one of ``_ORDERINGS``; SciPy's default is ``"COLAMD"``) and, by
@@ -104,11 +112,24 @@ class SuperLU(_Direct):
         return f"SuperLU(ordering={self.ordering!r}, symmetric={self.symmetric})"
 
 
+#: The optional packages some backends need: ``backend name -> (module, pip extra)``.
+OPTIONAL = {"pardiso": ("pypardiso", "pardiso"), "cholmod": ("sksparse", "cholmod"), "cg-amg": ("pyamg", "amg")}
+
+
 def available(name: str) -> bool:
-    """Whether the backend ``name`` can be used here (PARDISO needs the optional ``pypardiso``)."""
-    if name == "pardiso":
-        return importlib.util.find_spec("pypardiso") is not None
+    """Whether the backend ``name`` can be used here (``"pardiso"``, ``"cholmod"`` and ``"cg-amg"`` need an
+    optional package: :data:`OPTIONAL`)."""
+    if name in OPTIONAL:
+        return importlib.util.find_spec(OPTIONAL[name][0]) is not None
     return name in BACKENDS
+
+
+def _require(name: str) -> None:
+    """Refuse, naming the optional package to install, a backend whose package is missing."""
+    if not available(name):
+        module, extra = OPTIONAL[name]
+        raise ParameterError("linear_solver", f"linear solver {name!r} needs the optional package {module} "
+                                              f"(pip install 'tissuefem[{extra}]'); use 'superlu' instead")
 
 
 class _PardisoFactor:
@@ -119,6 +140,11 @@ class _PardisoFactor:
         # pypardiso re-checks that A is the matrix it factorized and only then back-substitutes
         return np.asarray(self._solver.solve(self._A, np.asarray(b, dtype=float)), dtype=float)
 
+    @property
+    def nnz(self) -> int:
+        """Stored entries of the factors (PARDISO reports them in its parameter 18)."""
+        return int(self._solver.iparm[17])
+
 
 class Pardiso(_Direct):
     """MKL PARDISO via the optional ``pypardiso`` package (real nonsymmetric mode). Each :meth:`factorize` uses a fresh
@@ -127,9 +153,7 @@ class Pardiso(_Direct):
     name = "pardiso"
 
     def __init__(self):
-        if not available("pardiso"):
-            raise ParameterError("linear_solver", "linear solver 'pardiso' needs the optional package pypardiso "
-                                                  "(pip install 'tissuefem[pardiso]'); use 'superlu' instead")
+        _require("pardiso")
         import pypardiso
         self._module = pypardiso
 
@@ -138,6 +162,41 @@ class Pardiso(_Direct):
         solver.set_statistical_info_off()
         solver.factorize(A)
         return _PardisoFactor(solver, A)
+
+
+class _CholeskyFactor:
+    def __init__(self, factor, n):
+        self._factor, self.n = factor, n
+
+    def solve(self, b) -> np.ndarray:
+        return np.asarray(self._factor(np.asarray(b, dtype=float)), dtype=float).reshape(-1)
+
+    @property
+    def nnz(self) -> int:
+        """Stored entries of ``L`` (the fill-in: compare with the matrix's lower triangle)."""
+        return int(self._factor.L().nnz)
+
+
+class Cholmod(_Direct):
+    """SuiteSparse CHOLMOD's supernodal Cholesky ``A = L L^T`` (its ordering: AMD, or METIS's nested dissection
+    where that fills less) via the optional ``scikit-sparse`` package. For a symmetric positive definite ``A``,
+    as backward Euler's ``M / dt^2 + K`` is unless the tissue is compressed far: then (not positive definite)
+    :class:`SuperLU` factorizes it instead. In 3D its fill is several times SuperLU's (``bench realtime
+    --dim 3 --compare``)."""
+
+    name = "cholmod"
+
+    def __init__(self):
+        _require("cholmod")
+        from sksparse.cholmod import cholesky
+        self._cholesky = cholesky
+
+    def factorize(self, A):
+        A = sp.csc_matrix(_square(A))
+        try:
+            return _CholeskyFactor(self._cholesky(A), A.shape[0])
+        except Exception:  # sksparse's CholmodNotPositiveDefiniteError and kin: an indefinite tangent
+            return SuperLU().factorize(A)
 
 
 # --- a frame's deadline and the cost of its pieces of work ---------------------------------------
@@ -295,6 +354,148 @@ def pcg(A, b, precondition=None, *, x0=None, atol: float = 0.0, rtol: float = 1e
     return PCGResult(x, int(max_iterations), False, rnorm)
 
 
+class ExtendedFactorization:
+    """A kept factorization ``factor`` of an old matrix, extended to a new matrix ``A`` whose unknowns come from the
+    old ones (after a cut each copy of a node comes from its parent): an approximate inverse for CG while a fresh
+    factorization of ``A`` is made off the frame. ``parent``: for each unknown of ``A``, the old unknown it comes
+    from (``-1``: none). Two levels, applied one after the other and back (symmetric):
+
+        z = C r,   z += L (r - A z),   z += C (r - A z),      C = P F^-1 P^T,   L = R^T A[s, s]^-1 R.
+
+    ``P`` gives each unknown its parent's value (``P^T`` sums the residual of the copies onto their parent), so
+    ``C`` solves for the motions that keep the copies together (for a cut along edges ``P^T A P`` is the old
+    matrix); ``s`` are the unknowns that are not their parent's only copy (the lips of a cut, and unknowns without
+    a parent) and those within ``rings`` couplings of them, where ``L`` solves ``A`` exactly (a small sparse
+    factorization): the motions that open the cut. Two back-substitutions of ``F`` per application."""
+
+    def __init__(self, factor, parent, n_old: int, A, rings: int = 3):
+        parent = np.asarray(parent, dtype=np.intp)
+        A = sp.csr_matrix(_square(A))
+        n = A.shape[0]
+        if parent.shape != (n,) or (parent.size and (parent.max() >= n_old or parent.min() < -1)):
+            raise ParameterError("parent", f"parent must give one old unknown in -1..{n_old - 1} per unknown "
+                                           f"({n}), got shape {parent.shape}")
+        rings = check_count("rings", rings, 0)
+        self.factor, self.n, self.n_old, self._A = factor, n, int(n_old), A
+        mapped = np.flatnonzero(parent >= 0)
+        self._mapped, self._parent = mapped, parent[mapped]
+        copies = np.bincount(self._parent, minlength=self.n_old)
+        split = np.ones(n, dtype=bool)
+        split[mapped] = copies[self._parent] > 1
+        self._local = None
+        if split.any():
+            graph = sp.csr_matrix((np.ones(A.nnz, dtype=np.int8), A.indices, A.indptr), shape=A.shape)
+            for _ in range(rings):
+                split = split | (graph @ split.astype(np.int8) > 0)
+            s = np.flatnonzero(split)
+            self._local = (s, A[s], spla.splu(sp.csc_matrix(A[s][:, s])))
+
+    def _coarse(self, r) -> np.ndarray:
+        z = np.zeros(self.n)
+        if self._mapped.size:
+            z[self._mapped] = self.factor.solve(np.bincount(self._parent, weights=r[self._mapped],
+                                                            minlength=self.n_old))[self._parent]
+        return z
+
+    def solve(self, r) -> np.ndarray:
+        r = np.asarray(r, dtype=float)
+        z = self._coarse(r)
+        if self._local is None:
+            return z
+        s, rows, lu = self._local
+        z[s] += lu.solve(r[s] - rows @ z)
+        return z + self._coarse(r - self._A @ z)
+
+
+class UpdatedFactorization:
+    """A factorization ``factor`` of the matrix ``A0``, kept with it, and made exact again for a later matrix ``A`` of
+    the same pattern on the unknowns where it changed most (:meth:`update`): where a stiff penalty came or went (a
+    probe's contact, self-contact), a change of low rank that a kept factorization lacks and CG pays for with one
+    iteration per changed unknown. For the set ``S`` of at most ``rank`` unknowns whose diagonal changed by more
+    than ``threshold`` of its old value, ``C = (A - A0)[S, S]``, ``U`` the columns of the identity at ``S`` and
+    ``W = A0^-1 U`` (one back-substitution per unknown, kept for as long as the factorization),
+
+        (A0 + U C U^T)^-1 r = z - W (I + C W[S])^-1 C z[S],   z = A0^-1 r       (Woodbury).
+
+    The couplings of ``S`` to the other unknowns are left to CG; an update that would make the matrix indefinite is
+    not made (CG is to find that negative curvature). :meth:`solve` is that approximate inverse."""
+
+    def __init__(self, factor, A, rank: int = 64, threshold: float = 0.5):
+        A = sp.csr_matrix(A)
+        self.factor, self.n = factor, A.shape[0]
+        self.rank, self.threshold = int(rank), float(threshold)
+        self._indptr, self._indices, self._data = A.indptr, A.indices, A.data.copy()
+        self._diagonal = np.abs(A.diagonal())
+        self._columns = {}  # unknown -> A0^-1 e_unknown
+        self._update = None  # (S, W, C, LU of I + C W[S]) for the last update, or None: the factorization alone
+
+    def _back_substitutions(self, unknowns) -> None:
+        E = np.zeros((self.n, unknowns.size))
+        E[unknowns, np.arange(unknowns.size)] = 1.0
+        try:
+            W = np.asarray(self.factor.solve(E), dtype=float)
+        except (ValueError, RuntimeError):
+            W = None
+        if W is None or W.shape != E.shape:  # a backend that solves one right-hand side at a time
+            W = np.column_stack([self.factor.solve(E[:, k]) for k in range(unknowns.size)])
+        for k, q in enumerate(unknowns.tolist()):
+            self._columns[q] = W[:, k]
+
+    def update(self, A, limit: int | None = None) -> int:
+        """Correct for ``A`` (new back-substitutions: at most ``limit``); how many back-substitutions it made."""
+        self._update = None
+        same = (A.shape == (self.n, self.n) and A.nnz == self._data.size
+                and (A.indices is self._indices or np.array_equal(A.indices, self._indices))
+                and (A.indptr is self._indptr or np.array_equal(A.indptr, self._indptr)))
+        if self.rank <= 0 or not same:
+            return 0
+        change = sp.csr_matrix((A.data - self._data, self._indices, self._indptr), shape=A.shape)
+        grown = np.abs(change.diagonal())
+        S = np.flatnonzero(grown > self.threshold * self._diagonal)
+        if S.size > self.rank:
+            S = S[np.argsort(-grown[S] / np.maximum(self._diagonal[S], 1e-300))[: self.rank]]
+        missing = np.array([q for q in S.tolist() if q not in self._columns], dtype=np.intp)
+        if limit is not None and missing.size > limit:
+            S = np.setdiff1d(S, missing[limit:])
+            missing = missing[:limit]
+        S = np.sort(S)
+        if S.size == 0:
+            return 0
+        if missing.size:
+            self._back_substitutions(missing)
+        W = np.column_stack([self._columns[q] for q in S.tolist()])
+        C = change[S][:, S].toarray()
+        G = W[S]  # (A0^-1)[S, S]: A0 + U C U^T is positive definite iff G + G C G is
+        try:
+            np.linalg.cholesky(0.5 * (G + G.T) + G @ C @ G.T)
+        except np.linalg.LinAlgError:
+            return int(missing.size)  # an indefinite update (CG is to see that negative curvature): none
+        lu = sla.lu_factor(np.eye(S.size) + C @ G)
+        if not np.all(np.isfinite(lu[0])) or np.any(np.abs(np.diag(lu[0])) < 1e-12):
+            return int(missing.size)  # (nearly) singular: the factorization alone
+        self._update = (S, W, C, lu)
+        return int(missing.size)
+
+    @property
+    def updated(self) -> int:
+        """How many unknowns the last :meth:`update` corrected (0: none)."""
+        return 0 if self._update is None else int(self._update[0].size)
+
+    def solve(self, r) -> np.ndarray:
+        z = np.asarray(self.factor.solve(r), dtype=float)
+        if self._update is None:
+            return z
+        S, W, C, lu = self._update
+        return z - W @ sla.lu_solve(lu, C @ z[S])
+
+
+def _factorize_kept(direct, rank, A):
+    """``direct``'s factorization of ``A``, kept with ``A`` for low-rank updates (``rank`` 0: none)."""
+    factor = direct.factorize(A)
+    exact = not hasattr(factor, "iterations")  # an iterative "factorization" is no fixed inverse to update
+    return UpdatedFactorization(factor, A, rank) if rank > 0 and exact else factor
+
+
 @dataclass
 class SolveInfo:
     """What one solve of :class:`ReusedFactorization` did."""
@@ -334,25 +535,52 @@ class ReusedFactorization:
     iterations that fit with the old factorization (no factorization yet: the solve returns ``None``).
     ``launch(work)``: how background work starts (default :func:`start_thread`). A background factorization is never
     abandoned half-way (a process that ends under one can crash in the BLAS): :meth:`close` (or leaving a ``with``
-    block) waits for it, and so do dropping the solver and the interpreter's exit."""
+    block) waits for it, and so do dropping the solver and the interpreter's exit. ``update_rank``: a kept
+    factorization is made exact again, before each solve, on up to that many unknowns where the matrix changed most
+    (:class:`UpdatedFactorization`; 0, the default: never; measured on the probe scene it did not lower CG's
+    iterations, see docs/benchmarks.md); ``update_solves`` counts the back-substitutions that took. After a
+    cut, :meth:`provide` gives a preconditioner to start from while a fresh factorization is made off the frame."""
 
     def __init__(self, direct=None, refresh_after: int = 15, max_iterations: int = 40, background: bool = False,
-                 background_after: int = 3, launch=None):
+                 background_after: int = 3, launch=None, update_rank: int = 0):
         self.refresh_after = check_count("refresh_after", refresh_after)
         self.max_iterations = check_count("max_iterations", max_iterations)
         self.direct = direct if direct is not None else SuperLU()
-        if not callable(getattr(self.direct, "factorize", None)):
-            raise ParameterError("direct", f"direct must be a backend with a factorize method, got {direct!r}")
         if launch is not None and not callable(launch):
             raise ParameterError("launch", f"launch must be a callable starting background work, got {launch!r}")
         self.background = bool(background)
         self.background_after = int(background_after)
+        self.update_rank = update_rank
         self.name = f"cg+reused-{self.direct.name}" + ("+background" if self.background else "")
         self._threads = []  # background factorizations started and not yet joined (shared with the finalizer)
         self._work = _Background(launch, self._threads)
         self.invalidate()  # no factorization yet
-        self.factorizations = self.background_factorizations = self.cg_iterations = 0
+        self.factorizations = self.background_factorizations = self.cg_iterations = self.update_solves = 0
         weakref.finalize(self, _join_all, self._threads)  # a dropped solver waits for its work, and so does exit
+
+    @property
+    def update_rank(self) -> int:
+        """On how many unknowns at most a kept factorization is made exact again before a solve (0: none); set
+        between solves, it applies from the next factorization."""
+        return self._update_rank
+
+    @update_rank.setter
+    def update_rank(self, value):
+        self._update_rank = check_count("update_rank", value, 0)
+        self._factorize = functools.partial(_factorize_kept, self._direct, self._update_rank)
+
+    @property
+    def direct(self):
+        """The direct backend whose factorizations are kept (may be replaced between solves)."""
+        return self._direct
+
+    @direct.setter
+    def direct(self, value):
+        if not callable(getattr(value, "factorize", None)):
+            raise ParameterError("direct", f"direct must be a backend with a factorize method, got {value!r}")
+        self._direct = value
+        # how a kept factorization is made (a function of the matrix only: a background job holds no solver)
+        self._factorize = functools.partial(_factorize_kept, value, getattr(self, "_update_rank", 0))
 
     launch = property(lambda self: self._work.launch, lambda self, value: setattr(self._work, "launch", value),
                       doc="How background work starts: ``launch(work)`` returns a job with ``is_alive`` and ``join``.")
@@ -371,6 +599,19 @@ class ReusedFactorization:
 
     def invalidate(self) -> None:
         self._factor, self._shape, self._stale, self._work.pending = None, None, False, None
+        self._provisional = False
+
+    def provide(self, factor, shape, fresh: bool = True) -> None:
+        """Precondition with ``factor`` (an approximate inverse of matrices of ``shape``, e.g. an
+        :class:`ExtendedFactorization` after a cut). ``fresh``: until a fresh factorization, started off the frame
+        by the next solve whatever ``background`` says, is adopted; else it is kept as if made here."""
+        self.invalidate()
+        self._factor, self._shape, self._provisional = factor, tuple(shape), bool(fresh)
+
+    @property
+    def provisional(self) -> bool:
+        """Whether the preconditioner is a provided one (:meth:`provide`) still waiting for a fresh factorization."""
+        return self._provisional
 
     @property
     def refreshing(self) -> bool:
@@ -381,19 +622,43 @@ class ReusedFactorization:
         """Take a finished background factorization (one of ``shape``) as the preconditioner."""
         factor = self._work.take(shape)
         if factor is not None:
-            self._factor, self._shape, self._stale = factor, shape, False
+            self._factor, self._shape, self._stale, self._provisional = factor, shape, False, False
             self.background_factorizations += 1
 
-    def _refactorize(self, A, b, reason, deadline) -> tuple[np.ndarray | None, SolveInfo]:
-        if not deadline.fits("factorization", "back-substitution"):
-            self._work.start(self.direct.factorize, A, A.shape)  # adopted by a later solve
-            deadline.skip("factorization")
-            return None, SolveInfo(0, False, False, math.inf, reason, "factorization")
-        factor = deadline.timed("factorization", self.direct.factorize, A)
-        self._factor, self._shape, self._stale = factor, A.shape, False
-        self.factorizations += 1
+    def _wait_for_fresh(self, A, b, reason, deadline) -> tuple[np.ndarray | None, SolveInfo]:
+        """A provided preconditioner that CG could not do with: wait for the fresh factorization under way (it
+        costs no more than one made now, which fits), else make one now; then back-substitute."""
+        job = self._work.pending[0] if self._work.pending is not None else None
+        if job is not None:
+            job.join()
+            self._adopt(A.shape)
+        if self._provisional:  # nothing under way, or it failed
+            return self._refactorize(A, b, reason, deadline)
         x = deadline.timed("back-substitution", self._factor.solve, b)
         return x, SolveInfo(0, True, bool(np.all(np.isfinite(x))), float(np.linalg.norm(b - A @ x)), reason)
+
+    def _refactorize(self, A, b, reason, deadline, atol=0.0) -> tuple[np.ndarray | None, SolveInfo]:
+        if not deadline.fits("factorization", "back-substitution"):
+            self._work.start(self._factorize, A, A.shape)  # adopted by a later solve
+            deadline.skip("factorization")
+            return None, SolveInfo(0, False, False, math.inf, reason, "factorization")
+        factor = deadline.timed("factorization", self._factorize, A)
+        self._factor, self._shape, self._stale, self._provisional = factor, A.shape, False, False
+        self.factorizations += 1
+        if getattr(self._factor, "precondition", None) is not None:  # an approximate inverse (multigrid): CG
+            t0 = deadline.clock()
+            result = pcg(A, b, self._precondition, atol=atol, rtol=1e-10, max_iterations=self.max_iterations)
+            deadline.record("cg-iteration", deadline.clock() - t0, result.iterations)
+            self.cg_iterations += result.iterations
+            return result.x, SolveInfo(result.iterations, True, result.converged, result.residual_norm, reason)
+        x = deadline.timed("back-substitution", self._factor.solve, b)
+        return x, SolveInfo(0, True, bool(np.all(np.isfinite(x))), float(np.linalg.norm(b - A @ x)), reason)
+
+    @property
+    def _precondition(self):
+        """What CG applies: the kept factor's ``precondition`` if it has one (an iterative backend's), else its
+        solve."""
+        return getattr(self._factor, "precondition", None) or self._factor.solve
 
     def solve(self, A, b, *, atol: float = 0.0, rtol: float = 1e-10, refactorize: bool = False,
               deadline: Deadline | None = None) -> tuple[np.ndarray | None, SolveInfo]:
@@ -403,13 +668,15 @@ class ReusedFactorization:
         if refactorize:
             return self._refactorize(A, b, "forced", deadline)
         if self._factor is None:
-            return self._refactorize(A, b, "first", deadline)
+            return self._refactorize(A, b, "first", deadline, atol)
         if self._shape != A.shape:
-            return self._refactorize(A, b, "shape", deadline)
+            return self._refactorize(A, b, "shape", deadline, atol)
+        if self._provisional and self._work.pending is None:
+            self._work.start(self._factorize, A, A.shape)  # a fresh one off the frame; the provided one meanwhile
         if self._stale and not self.background:
             if deadline.fits("factorization", "back-substitution"):
-                return self._refactorize(A, b, "stale", deadline)
-            self._work.start(self.direct.factorize, A, A.shape)  # meanwhile the old one preconditions
+                return self._refactorize(A, b, "stale", deadline, atol)
+            self._work.start(self._factorize, A, A.shape)  # meanwhile the old one preconditions
         limit, room = self.max_iterations, deadline.room("cg-iteration")
         if room is not None:
             limit = min(limit, max(room, int(deadline.first)))
@@ -418,23 +685,30 @@ class ReusedFactorization:
         if limit == 0:
             deadline.skip("cg-iteration")
             return None, SolveInfo(0, False, False, math.inf, "", "cg-iteration")
+        if isinstance(self._factor, UpdatedFactorization):  # made exact again where the matrix changed most
+            made = self._factor.update(A, limit=deadline.room("back-substitution"))
+            self.update_solves += made
         t0 = deadline.clock()
-        result = pcg(A, b, self._factor.solve, atol=atol, rtol=rtol, max_iterations=limit)
+        result = pcg(A, b, self._precondition, atol=atol, rtol=rtol, max_iterations=limit)
         deadline.record("cg-iteration", deadline.clock() - t0, result.iterations)
         self.cg_iterations += result.iterations
         if result.negative_curvature:
             if deadline.fits("factorization", "back-substitution"):
-                return self._refactorize(A, b, "negative-curvature", deadline)
-            self._work.start(self.direct.factorize, A, A.shape)  # meanwhile CG's iterate (Newton checks it)
+                if self._provisional:
+                    return self._wait_for_fresh(A, b, "negative-curvature", deadline)
+                return self._refactorize(A, b, "negative-curvature", deadline, atol)
+            self._work.start(self._factorize, A, A.shape)  # meanwhile CG's iterate (Newton checks it)
             return result.x, SolveInfo(result.iterations, False, False, result.residual_norm, "negative-curvature")
         if not result.converged and result.iterations >= self.max_iterations:
             if deadline.fits("factorization", "back-substitution"):
-                return self._refactorize(A, b, "cg-failed", deadline)
-            self._work.start(self.direct.factorize, A, A.shape)  # meanwhile CG's iterate is the answer
+                if self._provisional:
+                    return self._wait_for_fresh(A, b, "cg-failed", deadline)
+                return self._refactorize(A, b, "cg-failed", deadline, atol)
+            self._work.start(self._factorize, A, A.shape)  # meanwhile CG's iterate is the answer
         elif (self.background and result.iterations > self.background_after) or (
                 limit < self.max_iterations and not result.converged):  # cut short by the deadline: refresh too
-            self._work.start(self.direct.factorize, A, A.shape)
-        elif result.iterations > self.refresh_after:
+            self._work.start(self._factorize, A, A.shape)
+        elif result.iterations > self.refresh_after and not self._provisional:  # (a fresh one is under way)
             self._stale = True
         return result.x, SolveInfo(result.iterations, False, result.converged, result.residual_norm)
 
@@ -447,39 +721,93 @@ class ReusedFactorization:
 
 
 class _CGFactor:
-    def __init__(self, A, precondition, rtol, max_iterations):
-        self._A, self._precondition = A, precondition
+    def __init__(self, A, precondition, rtol, max_iterations, nnz=None):
+        self._A, self.precondition = A, precondition  # precondition(r): what CG with a kept "factor" applies
         self.rtol, self.max_iterations = rtol, max_iterations
         self.iterations, self.converged = 0, True  # over all solves with this matrix
+        self.nnz = nnz  # stored entries of the preconditioner (AMG: every level's matrix), if it has any
 
     def solve(self, b) -> np.ndarray:
-        result = pcg(self._A, _rhs(b, self._A.shape[0]), self._precondition, rtol=self.rtol,
+        result = pcg(self._A, _rhs(b, self._A.shape[0]), self.precondition, rtol=self.rtol,
                      max_iterations=self.max_iterations)
         self.iterations += result.iterations
         self.converged = self.converged and result.converged
         return result.x
 
 
+def rigid_body_modes(X) -> np.ndarray:
+    """The rigid motions of the nodes ``X`` (shape ``(d, n)``) as dof vectors, node by node (``u[d i + c]``): the
+    columns of a ``(d n, 3)`` array in 2D (two translations, a rotation) or ``(d n, 6)`` in 3D (three and three),
+    each rotation about the centroid. Smoothed aggregation keeps them exactly on every level (its near-nullspace),
+    which elasticity needs."""
+    X = np.asarray(X, dtype=float)
+    d, n = X.shape
+    if d not in (2, 3):
+        raise ParameterError("X", f"X must have shape (2, n) or (3, n), got {X.shape}")
+    Y = X - X.mean(axis=1, keepdims=True)
+    columns = [np.eye(d)[c][:, None] * np.ones((1, n)) for c in range(d)]
+    axes = [(0, 1)] if d == 2 else [(0, 1), (1, 2), (2, 0)]
+    for a, b in axes:  # the rotation in the (a, b) plane: u_a = -y_b, u_b = y_a
+        r = np.zeros((d, n))
+        r[a], r[b] = -Y[b], Y[a]
+        columns.append(r)
+    return np.stack([c.T.ravel() for c in columns], axis=1)
+
+
 class PreconditionedCG(_Direct):
     """Conjugate gradients with a preconditioner built by ``factorize``: ``"jacobi"`` (the inverse diagonal: free, weak,
-    iterations grow like ``1/h``), ``"ilu"`` (SciPy's ``spilu`` with ``drop_tol``: much stronger) or ``"none"``.
-    A solve stops at ``rtol ||b||`` or after ``max_iterations`` (default ``max(200, 2 n)``) and returns its iterate
-    anyway (Newton checks it is downhill); the factor counts ``iterations`` and whether every solve ``converged``."""
+    iterations grow like ``1/h``), ``"ilu"`` (SciPy's ``spilu`` with ``drop_tol``: much stronger), ``"amg"`` (one
+    V-cycle of smoothed-aggregation multigrid, the optional ``pyamg``; ``near_nullspace``: the rigid-body modes of
+    the matrix's dofs, :func:`rigid_body_modes`, which elasticity needs: without them only the constant) or
+    ``"none"``. A solve stops at ``rtol ||b||`` or after ``max_iterations`` (default ``max(200, 2 n)``) and returns
+    its iterate anyway (Newton checks it is downhill); the factor counts ``iterations`` and whether every solve
+    ``converged``. Kept by :class:`ReusedFactorization` (``"reuse-cg-amg"``), the factor's preconditioner alone is
+    CG's: the multigrid hierarchy is the kept "factorization"."""
 
-    _KINDS = ("jacobi", "ilu", "none")
+    _KINDS = ("jacobi", "ilu", "amg", "none")
 
     def __init__(self, preconditioner: str = "jacobi", rtol: float = 1e-8, max_iterations: int | None = None,
-                 drop_tol: float = 1e-4):
+                 drop_tol: float = 1e-4, near_nullspace=None):
         if preconditioner not in self._KINDS:
             raise ParameterError("preconditioner", f"preconditioner must be one of {self._KINDS}, got "
                                                    f"{preconditioner!r}")
+        if preconditioner == "amg":
+            _require("cg-amg")
         self.preconditioner, self.rtol = preconditioner, check_real("rtol", rtol, 0, 1, lo_open=True, hi_open=True)
         self.max_iterations = None if max_iterations is None else check_count("max_iterations", max_iterations)
         self.drop_tol = check_real("drop_tol", drop_tol, 0, lo_open=True)
+        self.near_nullspace = near_nullspace
         self.name = "cg" if preconditioner == "none" else f"cg-{preconditioner}"
+
+    @property
+    def near_nullspace(self):
+        """``(n, k)`` vectors multigrid keeps exactly (``None``: the constant); checked against the matrix."""
+        return self._near_nullspace
+
+    @near_nullspace.setter
+    def near_nullspace(self, B):
+        if B is not None:
+            B = check_real_array("near_nullspace", B)
+            if B.ndim != 2 or not np.all(np.isfinite(B)):
+                raise ParameterError("near_nullspace", f"near_nullspace must be a finite (n, k) array, got shape "
+                                                       f"{B.shape}")
+        self._near_nullspace = B
+
+    def _multigrid(self, A):
+        import pyamg
+        B = self._near_nullspace
+        if B is not None and B.shape[0] != A.shape[0]:
+            raise ParameterError("near_nullspace", f"near_nullspace has {B.shape[0]} rows for a matrix of "
+                                                   f"{A.shape[0]} unknowns")
+        block = {3: 2, 6: 3}.get(B.shape[1], 1) if B is not None else 1
+        M = A.tobsr(blocksize=(block, block)) if block > 1 and A.shape[0] % block == 0 else A
+        hierarchy = pyamg.smoothed_aggregation_solver(M, B=B, symmetry="symmetric", max_coarse=300)
+        cycle = hierarchy.aspreconditioner(cycle="V")
+        return (lambda r: cycle.matvec(r)), int(sum(level.A.nnz for level in hierarchy.levels))
 
     def factorize(self, A) -> _CGFactor:
         A = sp.csr_matrix(_square(A))
+        nnz = None
         if self.preconditioner == "jacobi":
             d = A.diagonal()
             if not np.all(d > 0):
@@ -487,24 +815,28 @@ class PreconditionedCG(_Direct):
             inv = 1.0 / d
             precondition = lambda r: inv * r  # noqa: E731
         elif self.preconditioner == "ilu":
-            precondition = spla.spilu(sp.csc_matrix(A), drop_tol=self.drop_tol, fill_factor=10.0).solve
+            ilu = spla.spilu(sp.csc_matrix(A), drop_tol=self.drop_tol, fill_factor=10.0)
+            precondition, nnz = ilu.solve, int(ilu.L.nnz + ilu.U.nnz)
+        elif self.preconditioner == "amg":
+            precondition, nnz = self._multigrid(A)
         else:
             precondition = None
         limit = self.max_iterations or max(200, 2 * A.shape[0])
-        return _CGFactor(A, precondition, self.rtol, limit)
+        return _CGFactor(A, precondition, self.rtol, limit, nnz)
 
     def __repr__(self):
         return f"PreconditionedCG(preconditioner={self.preconditioner!r}, rtol={self.rtol})"
 
 
 BACKENDS = {"superlu": lambda: SuperLU("MMD_AT_PLUS_A"), "superlu-colamd": lambda: SuperLU("COLAMD"),
-            "pardiso": Pardiso, "cg-jacobi": lambda: PreconditionedCG("jacobi"),
-            "cg-ilu": lambda: PreconditionedCG("ilu"), "cg": lambda: PreconditionedCG("none")}
+            "pardiso": Pardiso, "cholmod": Cholmod, "cg-jacobi": lambda: PreconditionedCG("jacobi"),
+            "cg-ilu": lambda: PreconditionedCG("ilu"), "cg-amg": lambda: PreconditionedCG("amg"),
+            "cg": lambda: PreconditionedCG("none")}
 
 
 def make(name: str = "superlu"):
-    """A backend by name: ``"superlu"``, ``"superlu-colamd"``, ``"pardiso"``, ``"auto"`` (direct), or
-    ``"cg-jacobi"``, ``"cg-ilu"``, ``"cg"`` (iterative, :class:`PreconditionedCG`)."""
+    """A backend by name: ``"superlu"``, ``"superlu-colamd"``, ``"pardiso"``, ``"cholmod"``, ``"auto"`` (direct), or
+    ``"cg-jacobi"``, ``"cg-ilu"``, ``"cg-amg"``, ``"cg"`` (iterative, :class:`PreconditionedCG`)."""
     if name == "auto":
         name = "pardiso" if available("pardiso") else "superlu"
     if name not in BACKENDS:
@@ -557,7 +889,8 @@ class LinearInfo:
 class LinearSolver:
     """How Newton solves ``A dx = b``: which backend, and when to factorize. ``method`` is one of ``"direct"`` (a fresh
     :class:`SuperLU` factorization per solve: exact Newton); a backend name of :func:`make` (that backend, afresh);
-    ``"reuse"``, ``"reuse-<backend>"`` or ``"reuse-background"`` (:class:`ReusedFactorization`); ``"constant"`` or
+    ``"reuse"``, ``"reuse-<backend>"`` (:class:`ReusedFactorization`), ``"reuse-background"`` or
+    ``"reuse-background-<backend>"`` (the same, refreshed on the second core); ``"constant"`` or
     ``"constant-<backend>"`` (a kept factorization used as it is, without assembling the tangent again: exact for a
     constant tangent); or a backend object. A kept factorization is dropped when the free dofs or the pattern change,
     or by :meth:`invalidate`.
@@ -575,8 +908,10 @@ class LinearSolver:
             if method == "direct" or method in BACKENDS or method == "auto":
                 self.backend = SuperLU() if method == "direct" else make(method)
             elif kind in ("reuse", "constant"):
-                background = method == "reuse-background"
-                direct = SuperLU() if method in ("reuse", "constant") or background else make(base)
+                background = kind == "reuse" and (base == "background" or base.startswith("background-"))
+                if background:  # "reuse-background" (SuperLU) or "reuse-background-<backend>"
+                    base = base[len("background-"):]
+                direct = SuperLU() if method in ("reuse", "constant", "reuse-background") else make(base)
                 reuse = kind == "reuse"
                 self.backend = ReusedFactorization(direct, background=background, launch=launch) if reuse else direct
                 self.constant = kind == "constant"
@@ -594,12 +929,33 @@ class LinearSolver:
         if launch is not None and not callable(launch):
             raise ParameterError("launch", f"launch must be a callable starting background work, got {launch!r}")
         self.condense = Condenser()
-        self._factor, self._key = None, None
+        self._factor, self._key, self._carried = None, None, None
         self._threads = []  # a constant factorization made in the background (see _Background)
         self._work = _Background(launch, self._threads)
         weakref.finalize(self, _join_all, self._threads)
         self.factorizations = 0
         self.costs = {}
+        self._modes = None  # the body's rigid motions, for a multigrid preconditioner (use_rigid_modes)
+
+    @property
+    def factorizing(self):
+        """The backend whose factorization (or preconditioner) this solver keeps or makes: a reused one's
+        ``direct``, else the backend itself."""
+        return self.backend.direct if isinstance(self.backend, ReusedFactorization) else self.backend
+
+    def use_rigid_modes(self, modes) -> None:
+        """Give a multigrid preconditioner (``"cg-amg"``, which has a ``near_nullspace``) the body's rigid
+        motions ``modes``, shape ``(n_dofs, k)`` (:func:`rigid_body_modes`): each set of free dofs passes on its
+        rows. Other backends need none: nothing changes."""
+        if not hasattr(self.factorizing, "near_nullspace"):
+            return
+        modes = check_real_array("modes", modes)
+        if modes.ndim != 2 or not np.all(np.isfinite(modes)):
+            raise ParameterError("modes", f"modes must be a finite (n_dofs, k) array, got shape {modes.shape}")
+        self._modes = modes
+        if self._key is not None:  # the next matrix passes them on (a kept preconditioner is made anew)
+            self.invalidate()
+            self._key = None
 
     @property
     def launch(self):
@@ -649,9 +1005,41 @@ class LinearSolver:
 
     def invalidate(self) -> None:
         """Forget any kept factorization (the matrix is about to change in a way the keys do not see)."""
-        self._factor, self._key, self._work.pending = None, None, None
+        self._factor, self._key, self._work.pending, self._carried = None, None, None, None
         if isinstance(self.backend, ReusedFactorization):
             self.backend.invalidate()
+
+    def carry(self, old: "LinearSolver", parent) -> bool:
+        """Start from ``old``'s kept factorization, on a model whose dofs come from ``old``'s (``parent``: the old
+        dof of each new dof, after a cut or an excision): the first tangent is preconditioned by it, extended to the
+        new dofs (:class:`ExtendedFactorization`), while a fresh factorization is made off the frame. Whether there
+        was one to carry (only a ``"reuse..."`` solver keeps one, for one set of free dofs)."""
+        if not isinstance(old, LinearSolver):
+            raise ParameterError("old", f"old must be a LinearSolver, got {type(old).__name__}")
+        reused = isinstance(self.backend, ReusedFactorization) and isinstance(old.backend, ReusedFactorization)
+        if reused:
+            old.backend._adopt(old.backend._shape)  # a background factorization ended meanwhile: the fresher one
+            # its unfinished work is waited for when this solver goes, not when the old one is dropped (now)
+            self.backend._threads.extend(old.backend._threads)
+            old.backend._threads.clear()
+        factor = old.backend._factor if reused else None
+        if factor is None or old._key is None:
+            return False
+        size, bits = old._key
+        mask = np.unpackbits(np.frombuffer(bits, dtype=np.uint8), count=size).astype(bool)
+        n_old = int(mask.sum())
+        if old.backend._shape != (n_old, n_old):
+            return False
+        parent = np.asarray(parent)
+        if parent.ndim != 1 or not np.issubdtype(parent.dtype, np.integer) or (
+                parent.size and (parent.min() < 0 or parent.max() >= size)):
+            raise ParameterError("parent", f"parent must give an old dof in 0..{size - 1} per new dof, got "
+                                           f"{parent.dtype} shaped {parent.shape}")
+        index = np.full(size, -1, dtype=np.intp)
+        index[mask] = np.arange(n_old)
+        self.invalidate()
+        self._carried = (factor, index[parent], n_old)
+        return True
 
     def assembles(self, mask) -> bool:
         """Whether :meth:`matrix` for ``mask`` would assemble (not when a kept constant factorization fits)."""
@@ -666,10 +1054,21 @@ class LinearSolver:
             if self._key is not None:
                 self.invalidate()
             self._key = key
+            if self._modes is not None and self._modes.shape[0] == mask.size:
+                self.factorizing.near_nullspace = self._modes[mask]
         if self.constant and self._factor is not None and not force:
             return None
         K = assemble() if deadline is None else deadline.timed("assembly", assemble)
-        return self.condense(K, mask)
+        A = self.condense(K, mask)
+        if self._carried is not None:  # the first tangent after a cut: the old factorization, extended
+            factor, parent, n_old = self._carried
+            self._carried = None
+            parent = parent[mask] if parent.size == mask.size else None
+            if parent is not None and parent.size == n_old and np.array_equal(parent, np.arange(n_old)):
+                self.backend.provide(factor, A.shape, fresh=False)  # the same unknowns: kept as it is
+            elif parent is not None:
+                self.backend.provide(ExtendedFactorization(factor, parent, n_old, A), A.shape)
+        return A
 
     def solve(self, A, b, *, atol: float = 0.0, deadline: Deadline | None = None):
         """``(dx, LinearInfo)`` for ``A dx = b`` (``dx = None``: the solve failed, or under ``deadline`` did not

@@ -19,7 +19,7 @@ from .parameters import ParameterError, check_count, check_real, check_real_arra
 __all__ = [
     "edge_lengths", "mesh_size", "mean_edge_length", "rectangle", "mesh_with_about", "fusiform_muscle",
     "fusiform_width", "fusiform_fiber_direction", "fusiform_fiber_field", "flap", "signed_areas", "check_mesh",
-    "box", "signed_volumes",
+    "box", "signed_volumes", "folded_tetrahedra",
     "index_list", "MeshMap",
 ]
 
@@ -130,8 +130,9 @@ def check_mesh(p, t, name: str = "mesh", *, unused_nodes: str = "refuse", cut: b
     nodes** (every linear system would be singular; ``unused_nodes="ignore"`` lets a file reader report in its own
     numbers first); an edge in three triangles; duplicated, degenerate and folded triangles. ``cut=True`` (the
     assemblers) accepts what a cut through elements makes (fins, copies of a triangle) and any number of triangles.
-    Tetrahedra: the same checks on the arrays, then a face in three tetrahedra, duplicated, degenerate (zero-volume)
-    and inverted (negative-volume, the vertices not right-handed) tetrahedra are refused.
+    Tetrahedra: the same checks on the arrays, then a face in three tetrahedra, duplicated, degenerate (zero-volume),
+    inverted (negative-volume, the vertices not right-handed) and folded (overlapping a neighbour across a face)
+    tetrahedra are refused.
     """
     def refuse(message):
         raise ParameterError(name, f"{name}: {message}")
@@ -243,7 +244,34 @@ def _check_tet_shapes(p_arr, t_arr, refuse, cut):
     if inverted.size and not cut:
         refuse(f"inverted tetrahedra {index_list(inverted)} (negative volume: vertices 1, 2, 3 must be right-handed "
                "about vertex 0)")
+    folded = folded_tetrahedra(p_arr, t_arr) if not cut else np.zeros((2, 0))
+    if folded.size:
+        pairs = ", ".join(f"({i}, {j})" for i, j in folded.T[:10]) + (" ..." if folded.shape[1] > 10 else "")
+        refuse(f"folded tetrahedra (overlapping a neighbour across a shared face): pairs {pairs}; a rest mesh must "
+               "not overlap itself")
     return p_arr, t_arr
+
+
+def folded_tetrahedra(p, t) -> np.ndarray:
+    """Pairs of tetrahedra ``(2, n_pairs)`` overlapping across their shared face (both fourth vertices on one side
+    of it): the 3D :func:`folded_triangles`."""
+    p, t = np.asarray(p, dtype=float), np.asarray(t, dtype=np.int64)
+    local = np.array([[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]])  # face k is opposite vertex k
+    key = np.sort(np.concatenate([t[row] for row in local], axis=1), axis=0)
+    opposite = np.concatenate([t[k] for k in range(4)])
+    owner = np.tile(np.arange(t.shape[1]), 4)
+    order = np.lexsort(key[::-1])
+    key, opposite, owner = key[:, order], opposite[order], owner[order]
+    same = np.flatnonzero((key[:, 1:] == key[:, :-1]).all(axis=0))
+    if same.size == 0:
+        return np.zeros((2, 0), dtype=np.int64)
+    a, b, c = p[:, key[0, same]], p[:, key[1, same]], p[:, key[2, same]]
+    normal = np.cross((b - a).T, (c - a).T).T
+
+    def side(o):
+        return np.sum(normal * (p[:, o] - a), axis=0)
+    bad = same[side(opposite[same]) * side(opposite[same + 1]) > 0]
+    return np.stack([owner[bad], owner[bad + 1]])
 
 
 # --- box of tetrahedra ------------------------------------------------------
@@ -272,7 +300,7 @@ def box(lx=1.0, ly=1.0, lz=1.0, nx=4, ny=4, nz=4) -> MeshTet:
     i, j, k = (a.ravel(order="F") for a in np.meshgrid(np.arange(nx), np.arange(ny), np.arange(nz), indexing="ij"))
     corner = np.array([i + (nx + 1) * (j + (ny + 1) * k) + dx + (nx + 1) * (dy + (ny + 1) * dz)
                        for dz in (0, 1) for dy in (0, 1) for dx in (0, 1)])  # (8, cells), c = dx + 2 dy + 4 dz
-    t = corner[_CUBE_TETS].reshape(4, -1, order="F")  # cell by cell, six tetrahedra each
+    t = np.ascontiguousarray(corner[_CUBE_TETS].reshape(4, -1, order="F"))  # cell by cell, six tetrahedra each
     tol = 1e-9
     return MeshTet(p, t, sort_t=False).with_boundaries({
         "left": lambda m: np.abs(m[0]) < tol * lx,

@@ -329,8 +329,9 @@ def is_sequence(value) -> bool:
 
 
 def vector(field, value, bound=FAR) -> list:
-    if not is_sequence(value) or len(value) != 2:
-        raise ParameterError(field, f"{field} must be a vector [x, y], got {show(value)}")
+    """A scene's vector: ``[x, y]`` or ``[x, y, z]`` (the scene checks it against its mesh's dimension)."""
+    if not is_sequence(value) or len(value) not in (2, 3):
+        raise ParameterError(field, f"{field} must be a vector [x, y] (3D: [x, y, z]), got {show(value)}")
     return [number(f"{field}[{i}]", c, lo=-bound, hi=bound) for i, c in enumerate(value)]
 
 

@@ -28,12 +28,12 @@ import time
 import numpy as np
 
 from .constants import FRAME_BUDGET
-from .linsolve import start_thread
+from .linsolve import available, rigid_body_modes, start_thread
 from .minimize import NewtonResult
 from .parameters import ParameterError
 from .stepping import Stepper, StepReport
 
-__all__ = ["RealtimeSolver", "FRAME_BUDGET", "LINEAR_SOLVERS"]
+__all__ = ["RealtimeSolver", "FRAME_BUDGET", "LINEAR_SOLVERS", "default_linear_solver"]
 
 #: The linear solvers the real-time loop offers (``"constant"``: a quadratic model's; those with ``pardiso`` need
 #: the optional ``pypardiso``).
@@ -41,10 +41,25 @@ LINEAR_SOLVERS = ("reuse-background", "reuse", "reuse-pardiso", "direct", "super
                   "constant")
 
 
+def default_linear_solver(model) -> str:
+    """The real-time default for ``model``: ``"constant"`` (one factorization per set of held dofs) for a
+    quadratic model; else in 2D ``"reuse"`` (CG preconditioned by a kept SuperLU factorization) and in 3D
+    ``"reuse-background-cholmod"`` (CG preconditioned by a kept CHOLMOD Cholesky factorization, refreshed on the
+    second core: in 3D a factorization costs many frames and CHOLMOD's fills in less than half SuperLU's) where
+    the optional ``scikit-sparse`` is installed, else ``"reuse-background"`` (the same with SuperLU);
+    ``docs/benchmarks.md``, *Real time in 3D*."""
+    if getattr(model, "quadratic", False):
+        return "constant"
+    X = getattr(model, "X", None)  # not a model: the stepper refuses it by name
+    if X is None or X.shape[0] == 2:
+        return "reuse"
+    return "reuse-background-cholmod" if available("cholmod") else "reuse-background"
+
+
 class RealtimeSolver(Stepper):
     """A :class:`~tissuefem.engine.stepping.Stepper` with a frame's defaults: ``budget = 1/30`` s, ``rtol =
-    1e-6``, ``anytime = True``, the linear solver ``"constant"`` (one factorization per set of held dofs) for
-    a quadratic model, else ``"reuse"`` (a kept factorization as CG's preconditioner). ``launch(work)``: how a
+    1e-6``, ``anytime = True``, the linear solver :func:`default_linear_solver` (by the model's dimension;
+    a multigrid preconditioner, ``"...cg-amg"``, is given the body's rigid motions). ``launch(work)``: how a
     step too long for a frame starts off it, returning a job with ``is_alive`` and ``join`` (a test passes one it
     controls; default: the linear solver's ``launch``, else :func:`.linsolve.start_thread`); ``off_frame=False``:
     every step on the frame, however long (each frame then does at least its first Newton iteration)."""
@@ -52,11 +67,13 @@ class RealtimeSolver(Stepper):
     def __init__(self, model, *, budget: float = FRAME_BUDGET, rtol: float = 1e-6, linear_solver=None,
                  clock=time.perf_counter, anytime: bool = True, launch=None, off_frame: bool = True, **options):
         if linear_solver is None:
-            linear_solver = "constant" if getattr(model, "quadratic", False) else "reuse"
+            linear_solver = default_linear_solver(model)
         if launch is not None and not callable(launch):
             raise ParameterError("launch", f"launch must be a callable starting a step off the frame, got {launch!r}")
         super().__init__(model, budget=budget, rtol=rtol, linear_solver=linear_solver, clock=clock,
                          anytime=anytime, **options)
+        if hasattr(self.linear.factorizing, "near_nullspace") and model.n_dofs == model.X.size:
+            self.linear.use_rigid_modes(rigid_body_modes(model.X))
         if not isinstance(off_frame, bool):
             raise ParameterError("off_frame", f"off_frame must be True or False, got {off_frame!r}")
         self.launch, self.off_frame = launch, off_frame

@@ -790,7 +790,10 @@ class Picture:
 
 
 def picture(mesh, regions=None) -> Picture:
-    """The :class:`Picture` of ``mesh`` with the material ``regions`` of a cut through elements."""
+    """The :class:`Picture` of ``mesh`` with the material ``regions`` of a cut through elements; of a tetrahedral
+    mesh, its surface (:func:`surface`)."""
+    if np.shape(mesh.t)[0] == 4:
+        return surface(mesh)
     p, t = mesh_arrays(mesh)
     n, m = p.shape[1], t.shape[1]
     regions = {} if regions is None else regions
@@ -825,6 +828,27 @@ def picture(mesh, regions=None) -> Picture:
         pt_coef.append(np.vstack([1.0 - local[:, 0] - local[:, 1], local[:, 0], local[:, 1]]))
     return Picture(np.hstack(pt_nodes), np.hstack(pt_coef), np.hstack(tris), np.concatenate(tri_el),
                    np.hstack(edges), False)
+
+
+def surface(mesh) -> Picture:
+    """The :class:`Picture` of a tetrahedral mesh: its boundary faces, each turned to face outwards (its corners
+    counter-clockwise seen from outside) and drawn with the tetrahedron it bounds as its ``element``; the lines are
+    the faces' edges. The drawn points are the nodes (``points(x) is x``, ``(3, n)``)."""
+    p, t = np.asarray(mesh.p, dtype=float), np.asarray(mesh.t, dtype=np.int64)
+    n = p.shape[1]
+    boundary = np.asarray(mesh.boundary_facets(), dtype=np.int64)
+    faces = np.asarray(mesh.facets, dtype=np.int64)[:, boundary]
+    element = np.asarray(mesh.f2t, dtype=np.int64)[0, boundary]
+    # the tetrahedron's fourth corner lies behind an outward face
+    opposite = t[:, element].sum(axis=0) - faces.sum(axis=0)
+    a, b, c, d = (p[:, k] for k in (faces[0], faces[1], faces[2], opposite))
+    inward = np.einsum("ik,ik->k", np.cross(b - a, c - a, axis=0), d - a) > 0
+    faces[1:, inward] = faces[2:0:-1, inward]
+    pairs = np.vstack([faces.ravel(), np.roll(faces, -1, axis=0).ravel()])
+    edges = np.unique(np.sort(pairs, axis=0), axis=1)
+    nodes = np.vstack([np.arange(n), np.zeros(n, np.int64), np.zeros(n, np.int64)])
+    coefficients = np.vstack([np.ones(n), np.zeros(n), np.zeros(n)])
+    return Picture(nodes, coefficients, faces, element, edges, True)
 
 
 def _triangulate(poly) -> list:

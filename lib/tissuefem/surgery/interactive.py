@@ -8,6 +8,10 @@ them; in **cut** mode a stroke becomes an incision when the button is released. 
 ``view.mode = "cut"`` switch modes; its run/pause button, :meth:`~SurgeryView.start` and :meth:`~SurgeryView.stop`
 run and pause the frames.
 
+The same view runs a 3D simulation (a tetrahedral mesh): the page draws its surface with WebGL, lit, from a camera
+that a right drag, a shift+drag or a drag beside the body turns and the wheel zooms; a press on the body grabs the
+surface point under the pointer, which then moves in the plane through it facing the camera (the messages carry z).
+
 The frame loop is an asyncio task in the kernel: a frame every ``interval_ms`` while something changes (input, or
 the tissue still moving); at rest it waits without running or sending anything. Without a running event loop
 (headless, in the tests) code calls :meth:`~SurgeryView.step`; :func:`synthetic_mouse` and :func:`synthetic_key`
@@ -30,13 +34,14 @@ import numpy as np
 from IPython import get_ipython
 from matplotlib.collections import PolyCollection
 from matplotlib.figure import Figure
+from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
 from ..engine.meshes import mean_edge_length
 from ..engine.parameters import ParameterError, check_count, check_positive, check_vector, string
 from .widget import TissueWidget, outline
 
 __all__ = ["SurgeryView", "Gestures", "MODES", "REST_FRAMES", "take_over", "let_go", "one_at_a_time",
-           "synthetic_mouse", "synthetic_key", "snapshot"]
+           "synthetic_mouse", "synthetic_key", "snapshot", "shown_box", "element_j"]
 
 #: the interaction modes of a :class:`SurgeryView`
 MODES = ("drag", "cut")
@@ -216,7 +221,8 @@ class SurgeryView:
     interval_ms : int, default 33
         Milliseconds between frames while something changes (the notes' 30 frames per second).
     color : {None, "J"}
-        One fill colour, or each triangle coloured by its area change ``J`` (blue shrunk, red stretched).
+        One fill colour, or each triangle coloured by its element's ``J`` (area change; volume change in 3D: blue
+        shrunk, red stretched).
     autostart : bool, default True
         Start the frame loop when the view is displayed (in a kernel with a running event loop).
     rest_tolerance : float, optional
@@ -261,23 +267,20 @@ class SurgeryView:
         self.color = None if color is None else string("color", color, ("J",))
         self.autostart = bool(autostart)
         self.stroke_spacing = 0.25 * mean_edge_length(sim.mesh)
-        X = np.asarray(sim.mesh.p, dtype=float)
-        lo, hi = X.min(axis=1), X.max(axis=1)
-        margin = 0.3 * float(np.max(hi - lo))
-        bounds = [lo[0] - margin, hi[0] + margin, lo[1] - margin, hi[1] + margin]
-        self.rest_tolerance = (1e-3 * max(bounds[1] - bounds[0], bounds[3] - bounds[2]) if rest_tolerance is None
+        self.dim, bounds = shown_box(sim.mesh.p)  # 2 or 3, and the box the page shows
+        self.rest_tolerance = (1e-3 * float(np.max(np.diff(bounds)[::2])) if rest_tolerance is None
                                else check_positive("rest_tolerance", rest_tolerance))
         width, height = check_count("width", width), check_count("height", height)
         self._lock = threading.RLock()
         self.message, self.closed, self.last_report = "", False, None
         self.frame_times: list[float] = []
         self.pushes = self.topology_pushes = 0
-        self._mesh, self._picture, self._reference, self._x = None, None, None, None
+        self._mesh, self._picture, self._x = None, None, None
         self._quiet, self._dirty, self._readout_at, self._text_key = 0, True, -math.inf, None
         self._tools_stale = False  # the target or the stroke changed since they were sent
         self._task, self._wake, self._loop, self._loop_thread = None, None, None, None
 
-        self.widget = TissueWidget(bounds=[float(b) for b in bounds], width=width, height=height)
+        self.widget = TissueWidget(bounds=bounds, width=width, height=height)
         self.gestures = Gestures(self)
         self.widget.on_msg(self._on_msg)
         self.widget.observe(self._on_mode, names="mode")
@@ -317,7 +320,7 @@ class SurgeryView:
 
     @property
     def stroke(self):
-        """The cut stroke being drawn, ``(k, 2)``, or ``None``."""
+        """The cut stroke being drawn, ``(k, dim)``, or ``None``."""
         return None if self.gestures.stroke is None else np.array(self.gestures.stroke)
 
     @property
@@ -338,8 +341,9 @@ class SurgeryView:
     # ------------------------------------------------------------------ input
     def handle_message(self, content, real=True) -> None:
         """One message of the page: ``{"event": "pointer", "kind": "down" | "move" | "up", "x": .., "y": ..,
-        "inside": bool}`` (world coordinates), as the widget's message handler passes it on, or ``{"event": "key",
-        "key": "c"}``. ``real=False``: made up by code (:func:`synthetic_mouse`). A disconnected view ignores it."""
+        "inside": bool}`` (world coordinates; in 3D ``"z"`` too), as the widget's message handler passes it on, or
+        ``{"event": "key", "key": "c"}``. ``real=False``: made up by code (:func:`synthetic_mouse`). A disconnected
+        view ignores it."""
         if not isinstance(content, dict) or content.get("event") not in ("pointer", "key"):
             raise ParameterError("content", "content (a message of the page) must be a dict with event 'pointer' "
                                             f"or 'key', got {content!r}")
@@ -351,7 +355,7 @@ class SurgeryView:
                 self.mode = "drag" if self.mode == "cut" else "cut"
             return
         kind = string("kind", content.get("kind"), POINTER_KINDS)
-        point = check_vector("point", [content.get("x"), content.get("y")])
+        point = check_vector("point", [content.get(k) for k in "xyz"[:self.dim]], self.dim)
         if self.closed:
             return
         if kind == "down":
@@ -407,10 +411,10 @@ class SurgeryView:
         x = np.asarray(self.sim.positions(), dtype=float)
         if self.sim.mesh is not self._mesh or self._x is None or x.shape != self._x.shape:
             self._mesh, self._picture = self.sim.mesh, self.sim.picture
-            self._reference = self._picture.points(np.asarray(self._mesh.p, dtype=float))
-            points = self._picture.points(x)
-            self.widget.show_mesh(points.T, self._picture.triangles.T, self._picture.edges.T, self._colors(points),
-                                  outline(self._picture.triangles, self._reference))
+            points, loops = self._picture.points(x), None
+            if self.dim == 2:  # the boundary loops, filled when there are no colours
+                loops = outline(self._picture.triangles, self._picture.points(np.asarray(self._mesh.p, dtype=float)))
+            self.widget.show_mesh(points.T, self._picture.triangles.T, self._picture.edges.T, self._colors(), loops)
             self._x, self._quiet = x, 0
             self.topology_pushes += 1
             self.pushes += 1
@@ -424,15 +428,15 @@ class SurgeryView:
         points = self._picture.points(x)
         with self.widget.hold_sync():
             if moved > 0.0:
-                colors = self._colors(points)
+                colors = self._colors()
                 if colors is not None:
                     self.widget.colors = colors.astype(np.float32).tobytes()
                 self.widget.positions = np.ascontiguousarray(points.T, dtype=np.float32).tobytes()
                 self.pushes += 1
             self._send_tools()
 
-    def _colors(self, points):
-        return None if self.color is None else _area_ratios(points, self._picture.triangles, self._reference)
+    def _colors(self):
+        return None if self.color is None else element_j(self.sim, self._picture)
 
     def _send_tools(self) -> None:
         g = self.gestures
@@ -551,7 +555,8 @@ class SurgeryView:
 
 async def _frame_loop(view) -> None:
     """The view's frame loop (a task on the kernel's event loop): a frame every ``interval_ms`` while anything
-    moves, then asleep until input arrives; a refused frame is a message, any other error stops the loop."""
+    moves, sooner when input arrives (but not within half an interval of the last), then asleep until input
+    arrives; a refused frame is a message, any other error stops the loop."""
     interval = view.interval_ms / 1e3
     while not view.closed:
         if view.resting and not view._tools_stale:
@@ -560,6 +565,7 @@ async def _frame_loop(view) -> None:
             await view._wake.wait()  # nothing runs until input arrives
             continue
         started = time.perf_counter()
+        view._wake.clear()  # input from now on brings the next frame forward
         try:
             if view.resting:
                 with view._lock:
@@ -573,29 +579,41 @@ async def _frame_loop(view) -> None:
         except Exception:
             view.stop()  # one traceback, not thirty a second
             raise
-        await asyncio.sleep(max(0.0, interval - (time.perf_counter() - started)))
+        await asyncio.sleep(max(0.0, interval / 2 - (time.perf_counter() - started)))
+        if not view._wake.is_set():
+            try:  # the rest of the interval, unless the pointer moves first
+                await asyncio.wait_for(view._wake.wait(), max(0.0, interval - (time.perf_counter() - started)))
+            except asyncio.TimeoutError:
+                pass
 
 
-def _area_ratios(points, triangles, reference) -> np.ndarray:
-    """Deformed over reference area of each drawn triangle (for P1: the element's ``J``)."""
-    def areas(p):
-        a, b, c = (p[:, triangles[k]] for k in range(3))
-        return 0.5 * ((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]))
+def shown_box(points) -> tuple[int, list[float]]:
+    """The dimension of the points ``(d, n)`` and the box a view shows, ``[xmin, xmax, ymin, ymax]`` (3D: and
+    ``zmin, zmax``): the points' box grown on every side by 0.3 of its largest side."""
+    X = np.asarray(points, dtype=float)
+    lo, hi = X.min(axis=1), X.max(axis=1)
+    margin = 0.3 * float(np.max(hi - lo))
+    return X.shape[0], [float(v) for v in np.column_stack([lo - margin, hi + margin]).ravel()]
 
-    ref = areas(reference)
-    return areas(points) / np.where(ref == 0, 1.0, ref)
+
+def element_j(sim, picture) -> np.ndarray:
+    """``J = det F`` of the element of each drawn triangle (``picture.element``): its area change, in 3D the volume
+    change of the tetrahedron a surface face bounds (P2: the mean over the element's points)."""
+    J = np.asarray(sim.model.jacobian(sim.u), dtype=float)
+    return J.reshape(len(J), -1).mean(axis=1)[picture.element]
 
 
 # ------------------------------------------------------------------ made-up input
 def synthetic_mouse(view, kind, point) -> None:
     """Send a made-up pointer event ``kind`` (``"press"``, ``"move"`` or ``"release"``) at ``point`` ``(x, y)``
-    (world coordinates) through the view's message handler, as the page would (but marked as code's input)."""
+    (3D: ``(x, y, z)``; world coordinates) through the view's message handler, as the page would (but marked as
+    code's input)."""
     if not isinstance(view, SurgeryView):
         raise ParameterError("view", f"view must be a SurgeryView, got {type(view).__name__}")
     if kind not in _MOUSE_KINDS:
         raise ParameterError("kind", f"kind must be one of {tuple(_MOUSE_KINDS)}, got {kind!r}")
-    x, y = check_vector("point", point)
-    view.handle_message({"event": "pointer", "kind": _MOUSE_KINDS[kind], "x": float(x), "y": float(y)},
+    point = check_vector("point", point, view.dim)
+    view.handle_message({"event": "pointer", "kind": _MOUSE_KINDS[kind], **dict(zip("xyz", map(float, point)))},
                         real=False)
 
 
@@ -609,20 +627,27 @@ def synthetic_key(view, key) -> None:
 
 def snapshot(view, ax=None):
     """The view's current picture as a static matplotlib figure (for a page without widgets, a book, a report):
-    the triangles at the positions last sent, the drag target and the stroke, titled with the readout. Draws
-    into ``ax`` if given; returns the figure."""
+    the triangles at the positions last sent (3D: the surface, on 3D axes), the drag target and the stroke, titled
+    with the readout. Draws into ``ax`` if given (3D: axes with ``projection="3d"``); returns the figure."""
     if not isinstance(view, SurgeryView):
         raise ParameterError("view", f"view must be a SurgeryView, got {type(view).__name__}")
+    three = view.dim == 3
+    if ax is not None and three != hasattr(ax, "zaxis"):
+        raise ParameterError("ax", f"ax must be {'3D axes' if three else 'flat axes'} for a {view.dim}D view")
     fig = Figure(figsize=(7.0, 4.5), layout="constrained") if ax is None else ax.figure
-    ax = fig.add_subplot() if ax is None else ax
+    ax = fig.add_subplot(projection="3d" if three else None) if ax is None else ax
     a = view.widget.arrays()
-    x0, x1, y0, y1 = view.widget.bounds
-    ax.add_collection(PolyCollection(a["positions"][a["triangles"], :2], facecolor="mistyrose",
-                                     edgecolor="firebrick", linewidth=0.3))
+    style = dict(facecolor="mistyrose", edgecolor="firebrick", linewidth=0.3)
+    faces = a["positions"][a["triangles"]]
+    if three:
+        ax.add_collection3d(Poly3DCollection(faces, **style))
+    else:
+        ax.add_collection(PolyCollection(faces, **style))
     if len(a["stroke"]):
-        ax.plot(a["stroke"][:, 0], a["stroke"][:, 1], "-", color="k", lw=1.2)
+        ax.plot(*a["stroke"].T, "-", color="k", lw=1.2)
     if view.widget.target:
-        ax.plot(*view.widget.target, "o", ms=7, mfc="none", mec="tab:blue", mew=1.5)
-    ax.set(xlim=(x0, x1), ylim=(y0, y1), aspect="equal")
+        ax.plot(*np.asarray(view.widget.target)[:, None], "o", ms=7, mfc="none", mec="tab:blue", mew=1.5)
+    b = view.widget.bounds
+    ax.set(**{f"{c}lim": (b[2 * k], b[2 * k + 1]) for k, c in enumerate("xyz"[:view.dim])}, aspect="equal")
     ax.set_title(view.widget.readout, fontsize=8, family="monospace", loc="left")
     return fig

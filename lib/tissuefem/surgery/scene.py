@@ -5,6 +5,10 @@ A scene names a domain, a material and the *effects* it calls for (a nested dict
 the effects that become terms; the scene's own are ``inversion``, ``handles``, ``excisions`` and ``incisions``.
 docs/scenes.md lists every field and its range; an invalid scene raises a ``ParameterError`` naming the field
 (``effects.handles[1].region``). A ``file`` domain's size-dependent limits are checked when its mesh is read.
+
+A scene is 2D (triangles) or 3D (tetrahedra: the ``block`` domain, or a file of tetrahedra): one set of fields
+for both, whose points and vectors have the domain's dimension (``[x, y]`` or ``[x, y, z]``). The effects still
+2D only (:data:`TWO_D_ONLY`: cuts and self-contact) are refused by name in a 3D scene.
 """
 
 from __future__ import annotations
@@ -18,6 +22,7 @@ import logging
 import math
 import os
 import re
+import types
 from pathlib import Path
 
 import numpy as np
@@ -25,7 +30,7 @@ import skfem
 
 from ..engine import meshes
 from ..engine.constants import FRAME_BUDGET, TISSUE_DENSITY, TISSUE_E, TISSUE_NU
-from ..engine.effects import EFFECTS as EFFECTS_REGISTRY
+from ..engine.effects import EFFECTS as EFFECTS_REGISTRY, GRAVITY_DOWN
 from ..engine.inversion import ITFClamped, ProjectedTangent
 from ..engine.linsolve import LinearSolver
 from ..engine.materials import MATERIALS, material as make_material
@@ -33,7 +38,8 @@ from ..engine.parameters import (DENSITY_RANGE, FAR, RADIUS_RANGE, REACH, YOUNGS
                                  ParameterError, check_poisson_ratio, count_list, is_sequence, number, points,
                                  require, show, string, table, vector)
 
-__all__ = ["Scene", "EFFECTS", "SHAPES", "EXAMPLE_TOML", "demo_scene", "flap_scene", "flap_path", "read_mesh"]
+__all__ = ["Scene", "EFFECTS", "SHAPES", "TWO_D_ONLY", "EXAMPLE_TOML", "demo_scene", "flap_scene", "flap_path",
+           "read_mesh"]
 
 #: How a cut or an excision meets the mesh: through the elements (:mod:`~tissuefem.surgery.element_cuts`), or
 #: snapped to the mesh's edges (:mod:`~tissuefem.surgery.topology`: jagged, mesh-dependent; kept to compare)
@@ -42,21 +48,30 @@ CUT_METHODS = ("elements", "edges")
 #: incisions), in the order in which they are checked and written
 EFFECTS = ("inertia", "gravity", "fibers", "inversion", "contact", "handles", "tractions", "probes",
            "excisions", "incisions", "sutures")
-#: each domain's fields and their defaults ("file": a 2D triangle mesh read through meshio)
+#: each domain's fields and their defaults ("block": a box of tetrahedra, :func:`~tissuefem.engine.meshes.box`;
+#: "file": a mesh of triangles or tetrahedra read through meshio)
 _DOMAINS = {"rectangle": {"width": 1.0, "height": 1.0, "triangles": 800},
             "flap": {"width": 2.0, "height": 1.0, "triangles": 800},
             "fusiform": {"length": 4.0, "max_width": 1.0, "tendon_width": 0.25, "nx": 40, "ny": 8},
+            "block": {"lx": 1.0, "ly": 1.0, "lz": 1.0, "nx": 4, "ny": 4, "nz": 4},
             "file": {"path": None, "scale": 1.0}}
 SHAPES = tuple(_DOMAINS)
+#: the dimension of each domain's mesh (a file's: that of its cells, known once read)
+_DIMENSIONS = {"block": 3, "file": None}
+#: the effects a 3D scene cannot name yet (the engine's are 2D only), and what they are called in the refusal
+TWO_D_ONLY = {"excisions": "cuts (excisions)", "incisions": "cuts (incisions)", "contact": "self-contact"}
 #: the list-valued effects of the scene's own (each entry is a table); the registry's say whether they are
 _LISTS = ("handles", "excisions", "incisions")
 
 # --- limits (the table in docs/scenes.md): triangles, lengths (and ``domain.scale``), aspect ratio either way round
 MAX_TRIANGLES, SIZE_RANGE, MAX_ASPECT = meshes.MAX_TRIANGLES, meshes.SIZE_RANGE, meshes.MAX_ASPECT
 #: the integer fields of the domains and their largest values; the ratios whose aspect is limited
-_COUNTS = {"triangles": MAX_TRIANGLES, "nx": MAX_TRIANGLES // 2, "ny": MAX_TRIANGLES // 2}
+_COUNTS = {"triangles": MAX_TRIANGLES, "nx": MAX_TRIANGLES // 2, "ny": MAX_TRIANGLES // 2, "nz": MAX_TRIANGLES // 6}
 _ASPECTS = {"rectangle": [("width", "height")], "flap": [("width", "height")],
-            "fusiform": [("length", "max_width"), ("max_width", "tendon_width")]}
+            "fusiform": [("length", "max_width"), ("max_width", "tendon_width")],
+            "block": [("lx", "ly"), ("ly", "lz"), ("lx", "lz")]}
+#: elements per cell of the grid domains (a block's cell is six tetrahedra)
+_PER_CELL = {"fusiform": 2, "block": 6}
 THRESHOLD_RANGE = (0.01, 0.99)
 BUDGET_RANGE = (1e-6, 1e9)
 RTOL_RANGE = (1e-14, 0.5)
@@ -149,19 +164,31 @@ def _check_domain(d):
             raise ParameterError(f"domain.{a}",
                                  f"domain.{a} / domain.{b} = {out[a] / out[b]:g}: the aspect ratio must lie "
                                  f"within [1/{MAX_ASPECT:g}, {MAX_ASPECT:g}]")
-    if shape == "fusiform" and 2 * out["nx"] * out["ny"] > MAX_TRIANGLES:
-        raise ParameterError("domain.nx",
-                             f"domain.nx, domain.ny: {out['nx']} x {out['ny']} cells make "
-                             f"{2 * out['nx'] * out['ny']} triangles, more than {MAX_TRIANGLES}")
+    if shape in _PER_CELL:
+        axes = [k for k in ("nx", "ny", "nz") if k in out]
+        elements = _PER_CELL[shape] * math.prod(out[k] for k in axes)
+        if elements > MAX_TRIANGLES:
+            noun = "tetrahedra" if shape == "block" else "triangles"
+            raise ParameterError("domain.nx",
+                                 f"{', '.join(f'domain.{k}' for k in axes)}: {' x '.join(str(out[k]) for k in axes)} "
+                                 f"cells make {elements} {noun}, more than {MAX_TRIANGLES}")
     return out
 
 
+def _domain_dimension(domain):
+    """The dimension of the domain's mesh: 2, 3, or ``None`` for a file (known once read)."""
+    return _DIMENSIONS.get(domain["shape"], 2)
+
+
 def _domain_box(domain):
-    """The bounding box ``(x0, y0, x1, y1)`` of a generated domain (``None`` for a file: known once read)."""
+    """The bounding box ``(lower corner, upper corner)`` of a generated domain (``None`` for a file: known once
+    read)."""
     if domain["shape"] in ("rectangle", "flap"):
-        return 0.0, 0.0, domain["width"], domain["height"]
+        return [0.0, 0.0], [domain["width"], domain["height"]]
     if domain["shape"] == "fusiform":
-        return 0.0, -0.5 * domain["max_width"], domain["length"], 0.5 * domain["max_width"]
+        return [0.0, -0.5 * domain["max_width"]], [domain["length"], 0.5 * domain["max_width"]]
+    if domain["shape"] == "block":
+        return [0.0, 0.0, 0.0], [domain["lx"], domain["ly"], domain["lz"]]
     return None
 
 
@@ -187,11 +214,14 @@ def _check_region(field, r):
     r = table(field, r)
     if "box" in r:
         box = table(field, r, ("box",))["box"]
-        if not is_sequence(box) or len(box) != 4:
-            raise ParameterError(f"{field}.box", f"{field}.box must be [xmin, ymin, xmax, ymax], got {show(box)}")
+        if not is_sequence(box) or len(box) not in (4, 6):
+            raise ParameterError(f"{field}.box", f"{field}.box must be [xmin, ymin, xmax, ymax] (3D: [xmin, ymin, "
+                                                 f"zmin, xmax, ymax, zmax]), got {show(box)}")
         box = [number(f"{field}.box[{i}]", b, lo=-FAR, hi=FAR) for i, b in enumerate(box)]
-        if box[0] > box[2] or box[1] > box[3]:
-            raise ParameterError(f"{field}.box", f"{field}.box must have xmin <= xmax and ymin <= ymax, got {box}")
+        d = len(box) // 2
+        if any(box[i] > box[d + i] for i in range(d)):
+            order = " and ".join(f"{c}min <= {c}max" for c in "xyz"[:d])
+            raise ParameterError(f"{field}.box", f"{field}.box must have {order}, got {box}")
         return {"box": box}
     if "near" in r:
         table(field, r, ("near", "radius"))
@@ -210,7 +240,7 @@ def _listed(kind) -> bool:
     return kind in _LISTS or (kind in EFFECTS_REGISTRY and EFFECTS_REGISTRY[kind].listed)
 
 
-def _check_entry(kind, i, e):
+def _check_entry(kind, i, e, dim):
     field = f"effects.{kind}[{i}]"
     if kind in EFFECTS_REGISTRY:
         return EFFECTS_REGISTRY[kind].check(field, e)
@@ -219,9 +249,11 @@ def _check_entry(kind, i, e):
         if "region" not in e:
             raise ParameterError(f"{field}.region", f"{field}.region: missing (a boundary name, a box or a "
                                                     "point with radius)")
-        return {"name": string(f"{field}.name", e.get("name", f"handle{i}")),
-                "region": _check_region(f"{field}.region", e["region"]),
-                "target": vector(f"{field}.target", e.get("target", [0.0, 0.0]))}
+        out = {"name": string(f"{field}.name", e.get("name", f"handle{i}")),
+               "region": _check_region(f"{field}.region", e["region"])}
+        if "target" in e or dim is not None:  # a file's handle without a target: held, in the mesh's dimension
+            out["target"] = vector(f"{field}.target", e.get("target", [0.0] * (dim or 2)))
+        return out
     key, least = ("polygon", 3) if kind == "excisions" else ("path", 2)
     e = table(field, e, (key, "method"))
     return {key: points(f"{field}.{key}", e.get(key), least, MAX_STROKE_POINTS),
@@ -240,7 +272,9 @@ def _check_inversion(e):
     return {"method": method}
 
 
-def _check_effects(effects):
+def _check_effects(effects, dim=2):
+    """The checked effects of a scene of dimension ``dim`` (``None``: a file's, known once read): defaults that are
+    vectors take that dimension (a file's are left out and taken in the mesh's when it is read)."""
     effects = table("effects", effects)
     # the scene's own and the registry's (the engine's and any registered since)
     known = list(EFFECTS) + [k for k, e in EFFECTS_REGISTRY.items() if e.check is not None and k not in EFFECTS]
@@ -255,6 +289,11 @@ def _check_effects(effects):
             out[kind] = _check_inversion(entries)
         elif not _listed(kind):
             out[kind] = EFFECTS_REGISTRY[kind].check(field, entries)
+            if kind == "gravity" and isinstance(entries, dict) and "acceleration" not in entries:
+                if dim is None:  # taken in the mesh's dimension when it is read
+                    del out[kind]["acceleration"]
+                else:
+                    out[kind]["acceleration"] = list(GRAVITY_DOWN[:dim])
         else:
             entries = [entries] if isinstance(entries, dict) else entries
             if not is_sequence(entries):
@@ -263,7 +302,7 @@ def _check_effects(effects):
             if len(entries) > limit:
                 raise ParameterError(field, f"{field}: at most {limit} entries, got {len(entries)}")
             if len(entries):  # an empty list is the same as leaving the effect out
-                out[kind] = [_check_entry(kind, i, e) for i, e in enumerate(entries)]
+                out[kind] = [_check_entry(kind, i, e, dim) for i, e in enumerate(entries)]
     names = [h["name"] for h in out.get("handles", [])]
     if len(set(names)) != len(names):
         raise ParameterError("effects.handles", f"effects.handles: names must be unique, got {show(names)}")
@@ -284,18 +323,36 @@ def _check_solver(s):
     return out
 
 
-def _check_reach(effects, box, where=""):
-    """Points, displacements and radii against the domain size ``L``: within ``REACH L``, radii ``>= MIN_RADIUS L``."""
-    x0, y0, x1, y1 = box
-    size = max(x1 - x0, y1 - y0)
-    cx, cy = 0.5 * (x0 + x1), 0.5 * (y0 + y1)
+def _check_2d_only(effects, dim, where=""):
+    """Refuse, naming the effect, what a 3D scene cannot have yet (:data:`TWO_D_ONLY`)."""
+    if dim != 3:
+        return
+    for kind, what in TWO_D_ONLY.items():
+        if kind in effects:
+            raise ParameterError(f"effects.{kind}", f"effects.{kind}: {what} are 2D only for now, and this scene "
+                                                    f"is 3D (tetrahedra{where}); leave effects.{kind} out")
+
+
+def _check_reach(effects, lo, hi, where=""):
+    """Points and vectors against the domain, the box ``lo``-``hi`` of size ``L`` (its longest side): each has the
+    domain's dimension; points and displacements lie within ``REACH L`` of its centre, radii ``>= MIN_RADIUS L``."""
+    lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
+    dim = lo.size
+    size = float(np.max(hi - lo))
+    centre = 0.5 * (lo + hi)
     far = REACH * size
 
+    def sized(field, v, n=dim):
+        if len(v) != n:
+            raise ParameterError(field, f"{field} = {v} has {len(v)} components, but the domain is {dim}D{where}: "
+                                        f"it needs {n}")
+
     def point(field, p):
-        if abs(p[0] - cx) > far or abs(p[1] - cy) > far:
+        sized(field, p)
+        if np.any(np.abs(np.asarray(p) - centre) > far):
             raise ParameterError(field,
                                  f"{field} = {p} lies farther than {REACH:g} domain sizes ({far:g}) from the domain's "
-                                 f"centre ({cx:g}, {cy:g}){where}")
+                                 f"centre ({', '.join(f'{c:g}' for c in centre)}){where}")
 
     def radius(field, r):
         if not MIN_RADIUS * size <= r <= far:
@@ -306,15 +363,24 @@ def _check_reach(effects, box, where=""):
     for i, h in enumerate(effects.get("handles", [])):
         field, region = f"effects.handles[{i}]", h["region"]
         if isinstance(region, dict) and "box" in region:
-            point(f"{field}.region.box[0:2]", region["box"][:2])
-            point(f"{field}.region.box[2:4]", region["box"][2:])
+            sized(f"{field}.region.box", region["box"], 2 * dim)
+            point(f"{field}.region.box[0:{dim}]", region["box"][:dim])
+            point(f"{field}.region.box[{dim}:{2 * dim}]", region["box"][dim:])
         elif isinstance(region, dict) and "near" in region:
             point(f"{field}.region.near", region["near"])
             radius(f"{field}.region.radius", region["radius"])
-        if max(abs(h["target"][0]), abs(h["target"][1])) > far:
-            raise ParameterError(f"{field}.target",
-                                 f"{field}.target = {h['target']}: a displacement larger than {REACH:g} domain sizes "
-                                 f"({far:g}){where}")
+        if "target" in h:
+            sized(f"{field}.target", h["target"])
+            if max(abs(c) for c in h["target"]) > far:
+                raise ParameterError(f"{field}.target",
+                                     f"{field}.target = {h['target']}: a displacement larger than {REACH:g} domain "
+                                     f"sizes ({far:g}){where}")
+    if "acceleration" in effects.get("gravity", {}):
+        sized("effects.gravity.acceleration", effects["gravity"]["acceleration"])
+    if isinstance(effects.get("fibers", {}).get("direction"), list):
+        sized("effects.fibers.direction", effects["fibers"]["direction"])
+    for i, t in enumerate(effects.get("tractions", [])):
+        sized(f"effects.tractions[{i}].traction", t["traction"])
     for i, p in enumerate(effects.get("probes", [])):
         point(f"effects.probes[{i}].center", p["center"])
         radius(f"effects.probes[{i}].radius", p["radius"])
@@ -464,11 +530,14 @@ class Scene:
         self.description = string("description", description)
         self.domain = _check_domain(domain if domain is not None else {"shape": "rectangle"})
         self.material = _check_material(material)
-        self.effects = _check_effects(effects if effects is not None else {})
+        dim = _domain_dimension(self.domain)
+        self.effects = _check_effects(effects if effects is not None else {}, dim)
         self.solver = _check_solver(solver if solver is not None else {})
+        where = f", domain.shape = {self.domain['shape']!r}"
+        _check_2d_only(self.effects, dim, where)
         box = _domain_box(self.domain)
         if box is not None:
-            _check_reach(self.effects, box)
+            _check_reach(self.effects, *box)
         self.base_dir = None if base_dir is None else _path(base_dir, "base_dir", "a folder")
         self.notes = []
 
@@ -584,8 +653,14 @@ class Scene:
     def dynamic(self) -> bool:
         return "inertia" in self.effects
 
+    @property
+    def dim(self):
+        """The dimension of the scene's mesh: 2 (triangles), 3 (tetrahedra), or ``None`` for a file not read yet."""
+        return _domain_dimension(self.domain)
+
     def build_mesh(self):
-        """The domain's mesh. For a ``file`` domain, the scene's points and radii are checked against its size here."""
+        """The domain's mesh. For a ``file`` domain, the scene's points and radii are checked against its size here,
+        and its effects against its dimension."""
         d = self.domain
         self.notes = []
         if d["shape"] == "rectangle":
@@ -594,18 +669,22 @@ class Scene:
             return meshes.flap(d["width"], d["height"], d["triangles"])
         if d["shape"] == "fusiform":
             return meshes.fusiform_muscle(d["length"], d["max_width"], d["tendon_width"], d["nx"], d["ny"])
+        if d["shape"] == "block":
+            return meshes.box(d["lx"], d["ly"], d["lz"], d["nx"], d["ny"], d["nz"])
         path = Path(d["path"]) if self.base_dir is None else self.base_dir / d["path"]
-        mesh, dropped = _read_mesh(path, d["scale"])
-        lo, hi = mesh.p.min(axis=1), mesh.p.max(axis=1)
-        _check_reach(self.effects, (lo[0], lo[1], hi[0], hi[1]), f" (the mesh read from {d['path']!r})")
+        mesh, dropped, flipped = _read_mesh(path, d["scale"])
+        where = f", the mesh read from {d['path']!r}"
+        _check_2d_only(self.effects, mesh.p.shape[0], where)
+        _check_reach(self.effects, mesh.p.min(axis=1), mesh.p.max(axis=1), f" ({where[2:]})")
         if dropped.size:
+            noun = _ELEMENT_NOUN[mesh.p.shape[0]]
             for i, h in enumerate(self.effects.get("handles", [])):
                 if isinstance(h["region"], dict) and "nodes" in h["region"]:
                     raise ParameterError(f"effects.handles[{i}].region.nodes",
-                                         f"effects.handles[{i}].region.nodes: the mesh file has nodes in no triangle, "
+                                         f"effects.handles[{i}].region.nodes: the mesh file has nodes in no {noun}, "
                                          "which are dropped and the rest renumbered, so node indices would point at "
                                          "other nodes; select the nodes with a box or near a point instead")
-            self.notes.append(_dropped_note(d["path"], dropped))
+        self.notes.extend(_file_notes(d["path"], mesh, dropped, flipped))
         return mesh
 
     def build_material(self):
@@ -623,8 +702,9 @@ class Scene:
 
 # --- mesh files --------------------------------------------------------------------------------------------------
 
-#: the cells a mesh file may hold: 3-node triangles, and lines and vertices (boundary and point groups)
-_CELLS_ALLOWED = ("triangle", "line", "vertex")
+#: the cells a mesh file may hold: 3-node triangles or 4-node tetrahedra, and cells of lower dimension (groups: a
+#: tetrahedron mesh's triangles, lines, vertices)
+_CELLS_ALLOWED = ("tetra", "triangle", "line", "vertex")
 
 
 def _mesh_error(message) -> ParameterError:
@@ -660,7 +740,8 @@ def _quietly(path, read, *args):
 
 
 def _read_mesh(path, scale):
-    """``(mesh, dropped)``: the mesh of a file and the file's node indices that no triangle used (dropped)."""
+    """``(mesh, dropped, flipped)``: the mesh of a file, the file's node indices that no element used (dropped) and
+    the indices of its tetrahedra listed left-handed (reoriented)."""
     path = Path(path)
     name = path.name
     try:
@@ -683,76 +764,101 @@ def _read_mesh(path, scale):
         counts[block.type] += len(block.data)
     holds = ", ".join(f"{n} {kind}" for kind, n in sorted(counts.items())) or "no cells at all"
     foreign = sorted(set(counts) - set(_CELLS_ALLOWED))
-    if foreign or counts.get("triangle", 0) == 0:
-        why = f"cells of type {foreign} are not 3-node triangles" if foreign else "it has no triangles"
-        raise _mesh_error(f"{name!r} holds {holds} cells: {why}; only 2D meshes of 3-node triangles "
-                         "are read (lines and vertices may come with them, naming boundaries)")
-    if counts["triangle"] > MAX_TRIANGLES:
-        raise _mesh_error(f"{name!r} holds {counts['triangle']} triangles, more than {MAX_TRIANGLES}")
+    kind = "tetra" if counts.get("tetra", 0) else "triangle"
+    if foreign or counts.get(kind, 0) == 0:
+        why = (f"cells of type {foreign} are neither 3-node triangles nor 4-node tetrahedra" if foreign
+               else "it has no triangles and no tetrahedra")
+        raise _mesh_error(f"{name!r} holds {holds} cells: {why}; only meshes of 3-node triangles (2D) or 4-node "
+                         "tetrahedra (3D) are read (cells of lower dimension may come with them, naming groups)")
+    dim, nouns = (3, "tetrahedra") if kind == "tetra" else (2, "triangles")
+    if counts[kind] > MAX_TRIANGLES:
+        raise _mesh_error(f"{name!r} holds {counts[kind]} {nouns}, more than {MAX_TRIANGLES}")
     points = np.asarray(m.points)
-    if points.dtype.kind not in "iuf" or points.ndim != 2 or points.shape[1] not in (2, 3) or points.shape[0] == 0:
-        raise _mesh_error(f"{name!r} holds points of shape {points.shape} and dtype {points.dtype}; "
-                         "expected 2D (or planar 3D) coordinates")
+    if points.dtype.kind not in "iuf" or points.ndim != 2 or points.shape[1] not in (dim, 3) or points.shape[0] == 0:
+        expected = "3D coordinates" if dim == 3 else "2D (or planar 3D) coordinates"
+        raise _mesh_error(f"{name!r} holds {nouns} and points of shape {points.shape} and dtype {points.dtype}; "
+                         f"expected {expected}")
     bad = np.flatnonzero(~np.isfinite(points).all(axis=1))
     if bad.size:
         raise _mesh_error(f"{name!r}: nodes {meshes.index_list(bad)} have non-finite coordinates")
-    if points.shape[1] == 3:
+    if dim == 2 and points.shape[1] == 3:
         off = np.flatnonzero(points[:, 2] != 0)
         if off.size:
             raise _mesh_error(f"{name!r} is not planar: nodes {meshes.index_list(off)} (0-based) have a "
-                             f"third coordinate other than 0 (up to |z| = {np.abs(points[off, 2]).max():g}); only 2D "
-                             "meshes are read, never flattened")
-    t = np.concatenate([np.asarray(b.data).T for b in m.cells if b.type == "triangle"], axis=1)
-    if t.dtype.kind not in "iu":
-        raise _mesh_error(f"{name!r} holds triangles with non-integer node numbers ({t.dtype})")
-    p = np.array(points[:, :2].T, dtype=np.float64) * scale
-    p, t = _check_file_mesh(p, t, f"domain.path: {name!r} (0-based node numbers, after scaling)", "ignore")
-    named = _quietly(path, from_meshio, m)  # boundaries from physical line groups or cell sets
-    mesh = skfem.MeshTri(p, t)  # the mesh as checked above (scaled, z dropped), triangles sorted as scikit-fem does
-    boundaries = {label: _facet_index(mesh, np.asarray(named.facets)[:, np.asarray(facets)])
-                  for label, facets in (named.boundaries or {}).items()}
-    boundaries.update(_skfem_boundaries(m, t, mesh))
-    mesh = skfem.MeshTri(mesh.p, mesh.t, _boundaries=boundaries or None, _subdomains=named.subdomains)
+                             f"third coordinate other than 0 (up to |z| = {np.abs(points[off, 2]).max():g}); a mesh "
+                             "of triangles is read as 2D, never flattened (a 3D body is a mesh of tetrahedra)")
+    written = np.concatenate([np.asarray(b.data).T for b in m.cells if b.type == kind], axis=1)
+    if written.dtype.kind not in "iu":
+        raise _mesh_error(f"{name!r} holds {nouns} with non-integer node numbers ({written.dtype})")
+    p = np.array(points[:, :dim].T, dtype=np.float64) * scale
+    t, flipped = written, np.zeros(0, dtype=np.int64)
+    if dim == 3 and written.min() >= 0 and written.max() < p.shape[1]:
+        # a file's vertex order is a convention (gmsh's tetrahedra are right-handed, a sorted one's are not):
+        # a left-handed tetrahedron is the same tetrahedron with two vertices swapped; overlaps are refused below
+        flipped = np.flatnonzero(meshes.signed_volumes(types.SimpleNamespace(p=p, t=written)) < 0)
+        t = written.copy()
+        t[1, flipped], t[2, flipped] = written[2, flipped], written[1, flipped]
+    what = f"domain.path: {name!r} (0-based node numbers, after scaling)"
+    p, t = _check_file_mesh(p, t, what, "ignore")
+    named = _quietly(path, from_meshio, m)  # boundaries from physical groups or cell sets
+    mesh = _new_mesh(p, t)  # as checked above (scaled, a 2D file's z dropped; triangles sorted as scikit-fem does)
+    try:
+        boundaries = {label: _facet_index(mesh, np.asarray(named.facets)[:, np.asarray(facets)])
+                      for label, facets in (named.boundaries or {}).items()}
+        boundaries.update(_skfem_boundaries(m, kind, written, mesh))
+    except ParameterError as err:  # said of the file: named here
+        raise _mesh_error(f"{name!r}: {str(err).removeprefix('domain.path: ')}") from None
+    mesh = _new_mesh(mesh.p, mesh.t, _boundaries=boundaries or None, _subdomains=named.subdomains)
     used = np.zeros(p.shape[1], dtype=bool)
     used[t.ravel()] = True
     dropped = np.flatnonzero(~used)
     if dropped.size:
         mesh = _drop_nodes(mesh, used)
     _check_file_mesh(mesh.p, mesh.t, f"domain.path: {name!r}")
-    return mesh, dropped
+    return mesh, dropped, flipped
 
 
-def _facet_index(mesh, pairs) -> np.ndarray:
-    """Indices of the facets of ``mesh`` with the node pairs ``pairs`` (2, k), in that order."""
-    n = np.int64(mesh.nvertices)
+def _new_mesh(p, t, **options):
+    """A scikit-fem mesh of the points' dimension: triangles sorted as scikit-fem does (their orientation is
+    arbitrary), tetrahedra as given (right-handed)."""
+    if np.shape(p)[0] == 3:
+        return skfem.MeshTet(p, t, sort_t=False, **options)
+    return skfem.MeshTri(p, t, **options)
+
+
+def _facet_index(mesh, nodes) -> np.ndarray:
+    """Indices of the facets of ``mesh`` with the nodes ``nodes`` (``(2, k)`` edges, ``(3, k)`` triangles), in that
+    order."""
     facets = np.sort(np.asarray(mesh.facets, dtype=np.int64), axis=0)
-    keys = facets[0] * n + facets[1]
-    order = np.argsort(keys)
-    pairs = np.sort(np.asarray(pairs, dtype=np.int64).reshape(2, -1), axis=0)
-    wanted = pairs[0] * n + pairs[1]
-    at = np.minimum(np.searchsorted(keys, wanted, sorter=order), keys.size - 1)
-    found = order[at]
-    if not np.array_equal(keys[found], wanted):
-        raise _mesh_error("a named boundary of the file lies on no edge of its triangles")
+    rows = facets.shape[0]
+    wanted = np.sort(np.asarray(nodes, dtype=np.int64).reshape(rows, -1), axis=0)
+    _, label = np.unique(np.concatenate([facets, wanted], axis=1), axis=1, return_inverse=True)
+    label = np.asarray(label).ravel()
+    owner = np.full(label.max(initial=-1) + 1, -1, dtype=np.int64)
+    owner[label[:facets.shape[1]]] = np.arange(facets.shape[1])
+    found = owner[label[facets.shape[1]:]]
+    if np.any(found < 0):
+        raise _mesh_error("a named boundary of the file lies on no facet of its elements (an edge of its triangles, "
+                          "a face of its tetrahedra)")
     return found
 
 
-def _skfem_boundaries(m, t, mesh):
-    """Boundaries scikit-fem wrote into the file (``skfem:b:NAME`` cell data), as facet indices of ``mesh``:
-    bit flags of each triangle's local edges in the node order *as written*, decoded here in that order
-    (scikit-fem's reader sorts the nodes first, which picks other edges of counter-clockwise triangles)."""
-    local = np.asarray(skfem.refdom.RefTri.facets)  # local edge k joins nodes local[k] of the triangle
-    triangle_blocks = [i for i, b in enumerate(m.cells) if b.type == "triangle"]
+def _skfem_boundaries(m, kind, t, mesh):
+    """Boundaries scikit-fem wrote into the file (``skfem:b:NAME`` cell data), as facet indices of ``mesh``: bit
+    flags of each element's local facets in the node order ``t`` *as written*, decoded here in that order
+    (scikit-fem's reader sorts the nodes first, which picks other facets of elements not written sorted)."""
+    local = np.asarray((skfem.refdom.RefTet if kind == "tetra" else skfem.refdom.RefTri).facets)
+    blocks = [i for i, b in enumerate(m.cells) if b.type == kind]
     out = {}
     for key, data in (m.cell_data or {}).items():
         parts = key.split(":")
         if len(parts) != 3 or parts[:2] != ["skfem", "b"]:
             continue
-        flags = np.concatenate([np.asarray(data[i]).ravel() for i in triangle_blocks]).astype(np.int64)
+        flags = np.concatenate([np.asarray(data[i]).ravel() for i in blocks]).astype(np.int64)
         if flags.size != t.shape[1]:
-            raise _mesh_error(f"the boundary {parts[2]!r} of the file does not match its triangles")
-        pairs = [t[local[k]][:, (flags >> k) & 1 == 1] for k in range(local.shape[0])]
-        out[parts[2]] = np.sort(_facet_index(mesh, np.concatenate(pairs, axis=1)))
+            raise _mesh_error(f"the boundary {parts[2]!r} of the file does not match its elements")
+        nodes = [t[local[k]][:, (flags >> k) & 1 == 1] for k in range(local.shape[0])]
+        out[parts[2]] = np.sort(_facet_index(mesh, np.concatenate(nodes, axis=1)))
     return out
 
 
@@ -760,31 +866,48 @@ def _drop_nodes(mesh, used):
     """The mesh without the unused nodes (the rest renumbered in their order); boundaries mapped by their nodes."""
     new_index = np.full(used.size, -1, dtype=np.int64)
     new_index[used] = np.arange(int(used.sum()))
-    plain = skfem.MeshTri(np.ascontiguousarray(mesh.p[:, used]), new_index[np.asarray(mesh.t)])
+    plain = _new_mesh(np.ascontiguousarray(mesh.p[:, used]), new_index[np.asarray(mesh.t)])
     boundaries = {label: _facet_index(plain, new_index[np.asarray(mesh.facets)[:, np.asarray(facets)]])
                   for label, facets in (mesh.boundaries or {}).items()}
-    return skfem.MeshTri(plain.p, plain.t, _boundaries=boundaries or None, _subdomains=mesh.subdomains)
+    return _new_mesh(plain.p, plain.t, _boundaries=boundaries or None, _subdomains=mesh.subdomains)
 
 
-def _dropped_note(path, dropped) -> str:
-    return (f"domain.path: {path!r}: dropped {dropped.size} node(s) that belong to no triangle "
+#: what a mesh of each dimension is made of, in notes and refusals
+_ELEMENT_NOUN = {2: "triangle", 3: "tetrahedron"}
+
+
+def _dropped_note(path, dropped, noun="triangle") -> str:
+    return (f"domain.path: {path!r}: dropped {dropped.size} node(s) that belong to no {noun} "
             f"(0-based {meshes.index_list(dropped)}); the other nodes were renumbered in their order")
 
 
+def _flipped_note(path, flipped) -> str:
+    return (f"domain.path: {path!r}: {flipped.size} tetrahedra listed with left-handed vertices (0-based "
+            f"{meshes.index_list(flipped)}) were reoriented by swapping two vertices (the same tetrahedra)")
+
+
+def _file_notes(path, mesh, dropped, flipped) -> list:
+    """What reading a mesh file changed: its reoriented tetrahedra, its dropped nodes."""
+    notes = [_flipped_note(path, flipped)] if flipped.size else []
+    return notes + ([_dropped_note(path, dropped, _ELEMENT_NOUN[mesh.p.shape[0]])] if dropped.size else [])
+
+
 def read_mesh(path, scale=1.0, notes=None):
-    """A 2D triangle mesh from a file meshio reads (gmsh ``.msh``, ``.vtk``, ...), coordinates times
-    ``scale``; physical line groups become named boundaries. Anything but 3-node triangles (with lines and
-    vertices) in ``z = 0``, within the size limits, that pass :func:`~tissuefem.engine.meshes.check_mesh`
-    raises a :class:`~tissuefem.engine.parameters.ParameterError` naming ``domain.path`` (``path``, ``scale`` or
-    ``notes`` for an argument of the wrong kind). Nodes in no triangle (gmsh writes an arc's centre as a
-    node) are dropped, the rest renumbered in their order, and a note saying so appended to ``notes``."""
+    """A mesh from a file meshio reads (gmsh ``.msh``, ``.vtu``, ``.vtk``, ...), coordinates times ``scale``: 2D
+    from 3-node triangles in ``z = 0`` (a :class:`skfem.MeshTri`), 3D from 4-node tetrahedra (a
+    :class:`skfem.MeshTet`; the triangles of such a file are its surface); physical groups of the facets (lines, the
+    tetrahedra's triangles) become named boundaries. Other cells, and meshes beyond the size limits or that do not
+    pass :func:`~tissuefem.engine.meshes.check_mesh`, raise a :class:`~tissuefem.engine.parameters.ParameterError`
+    naming ``domain.path`` and the file (``path``, ``scale`` or ``notes`` for an argument of the wrong kind). Nodes
+    in no element (gmsh writes an arc's centre as a node) are dropped and the rest renumbered in their order;
+    tetrahedra listed left-handed are reoriented; a note saying so is appended to ``notes``."""
     path = _path(path, "path", "a mesh file")
     scale = _within("scale", scale, SIZE_RANGE)
     if notes is not None and not isinstance(notes, list):
         raise ParameterError("notes", f"notes must be a list (the notes are appended to it) or None, got {show(notes)}")
-    mesh, dropped = _read_mesh(path, scale)
-    if dropped.size and notes is not None:
-        notes.append(_dropped_note(path.name, dropped))
+    mesh, dropped, flipped = _read_mesh(path, scale)
+    if notes is not None:
+        notes.extend(_file_notes(path.name, mesh, dropped, flipped))
     return mesh
 
 

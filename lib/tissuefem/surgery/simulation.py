@@ -22,7 +22,7 @@ from ..engine.model import Handle, Model, region_nodes
 from ..engine.parameters import (PENALTY_MAX, RADIUS_RANGE, ParameterError, check_count, check_penalty_stiffness,
                                  check_reach, check_vector, number, string)
 from ..engine.realtime import RealtimeSolver
-from ..engine.terms import Sutures
+from ..engine.terms import Sutures, refuse_3d
 from . import element_cuts, topology
 from .geometry import check_points
 from .scene import Scene
@@ -37,16 +37,21 @@ class Simulation:
     ``clock``: seconds (tests pass a fake one); ``linear_solver`` overrides the scene's; ``constant_tangent``: run a
     quadratic model with the ``"constant"`` linear solver (one factorization per set of held dofs; ``False`` forces
     the general Newton loop, to measure what that saves); ``order``, ``intorder``: the model's elements (cuts and
-    excisions need P1) and quadrature degree.
+    excisions need P1) and quadrature degree. A probe or sutures added or removed keep the running factorization
+    (``"reuse..."`` linear solvers: CG's preconditioner until it is refreshed). ``keep_factorization``: after a cut
+    or an excision too, the frames are preconditioned by the old factorization extended to the new nodes while a
+    fresh one is made off the frame; off by default: measured, it pays only where a second core is free
+    (docs/benchmarks.md, "Effect costs: what was tried").
     """
 
     def __init__(self, scene: Scene, *, clock=time.perf_counter, linear_solver=None, constant_tangent=True,
-                 order: int = 1, intorder: int | None = None):
+                 order: int = 1, intorder: int | None = None, keep_factorization: bool = False):
         if not isinstance(scene, Scene):
             raise ValueError(f"scene must be a Scene, got {scene!r}")
         self.scene, self.clock = scene, clock
         self._linear_choice = linear_solver or scene.solver["linear_solver"]
         self._constant_tangent = bool(constant_tangent)
+        self._keep_factorization = bool(keep_factorization)
         self.material = scene.build_material()
         self.model = _scene_model(scene, self.material, order, intorder)
         self._grab_count = self._probe_count = 0
@@ -80,8 +85,9 @@ class Simulation:
         """The handles holding the tissue, by name (the model owns them)."""
         return {h.name: h for h in self.model.handles}
 
-    def _new_solver(self, state=None) -> None:
-        """A real-time solver for the model, with the running one's state (or ``state``: ``u, v, v_previous``)."""
+    def _new_solver(self, state=None, parent=None) -> None:
+        """A real-time solver for the model, with the running one's state (or ``state``: ``u, v, v_previous``) and
+        its kept factorization (``parent``: the old dof of each new dof; ``None``: the same dofs)."""
         model, settings, old, choice = self.model, self.scene.solver, self.solver, self._linear_choice
         if model.quadratic and self._constant_tangent and isinstance(choice, str):
             # a constant Hessian: one factorization per held set is exact (with the named direct backend)
@@ -93,6 +99,10 @@ class Simulation:
             _carry_state(old, self.solver, state)
             self.solver.launch = old.launch
             self.solver.costs.update(old.costs)  # what the work cost lately: the next frame keeps its budget
+            if parent is None and old.model.n_dofs == model.n_dofs:  # the same dofs: the factorization fits
+                self.solver.linear.carry(old.linear, np.arange(model.n_dofs))
+            elif self._keep_factorization and parent is not None:
+                self.solver.linear.carry(old.linear, parent)
 
     def _set_terms(self, terms) -> None:
         """The running model with ``terms`` (a probe or stitches added or removed), and a solver for it."""
@@ -200,14 +210,16 @@ class Simulation:
             raise ValueError("grab: grabbing needs P1 elements (order=1)")
         self.solver.settle()  # a new handle changes the model: not under a running step
         x = self.positions()
-        nodes = np.flatnonzero(np.hypot(x[0] - point[0], x[1] - point[1]) <= radius)
+        gap = x - point[:, None]
+        distance = np.hypot(*gap) if gap.shape[0] == 2 else np.sqrt(np.sum(gap * gap, axis=0))
+        nodes = np.flatnonzero(distance <= radius)
         if nodes.size == 0:
             raise ValueError(f"point {point.tolist()}: no tissue within radius {radius:g}")
         names = set(self.handles)
         count = self._grab_count + 1
         while f"grab{count}" in names:  # never replace a scene's handle of the same name
             count += 1
-        u = self.solver.u.reshape(-1, 2).T
+        u = self.solver.u.reshape(-1, self.model.dim).T
         self.model.add_handle(Handle(nodes, base=u[:, nodes].copy(), name=f"grab{count}", anchor=point))
         self._grab_count = count
         return f"grab{count}"
@@ -216,7 +228,7 @@ class Simulation:
         """Move the pointer of a grab to ``point``: the handle's target becomes the offset from its grab point."""
         h = self.model.handle(name)
         point = self._point("point", point)
-        h.move(point - (np.zeros(2) if h.anchor is None else h.anchor))
+        h.move(point - (np.zeros_like(point) if h.anchor is None else h.anchor))
 
     def handle_offset(self, name) -> np.ndarray:
         """The handle's target if it is a translation (a copy), else ``None``."""
@@ -300,7 +312,7 @@ class Simulation:
             self._check_held(model.handles)
             self.model, self._regions = model, carried.regions
             if running:
-                self._new_solver(state)
+                self._new_solver(state, carried.transfer_dofs(np.arange(2 * carried.n_old_nodes)))
         return edit
 
     def cut(self, polyline, method="elements"):
@@ -308,6 +320,7 @@ class Simulation:
         (``method="elements"``, :func:`~tissuefem.surgery.element_cuts.cut_through`) or snapped to mesh edges
         (``"edges"``, :func:`~tissuefem.surgery.topology.incise`). Each copy of a node keeps its displacement and
         velocity. Returns the edit (a :class:`~tissuefem.engine.meshes.MeshMap`)."""
+        refuse_3d("cut", self.model.X)  # cuts are 2D only for now
         operation = _OPERATIONS["incisions"][string("method", method, _OPERATIONS["incisions"])]
         points = check_points("polyline", polyline, 2)
         for i, q in enumerate(points):
@@ -317,6 +330,7 @@ class Simulation:
     def excise(self, region, method="elements"):
         """Remove the tissue inside ``region``, a polygon in *reference* coordinates cut out along its outline
         (``method="elements"``) or the triangles whose centroid lies inside (``"edges"``), or a mask on centroids."""
+        refuse_3d("excise", self.model.X)  # excisions are 2D only for now
         if callable(region):
             return self._apply_edit(topology.excise, region, "region")
         operation = _OPERATIONS["excisions"][string("method", method, _OPERATIONS["excisions"])]
@@ -422,7 +436,7 @@ def _scene_model(scene, material, order, intorder) -> Model:
     handles = []
     for i, h in enumerate(scene.effects.get("handles", [])):
         nodes = region_nodes(mesh, h["region"], f"effects.handles[{i}].region")
-        handles.append(Handle(nodes, h["target"], name=h["name"]))
+        handles.append(Handle(nodes, h.get("target"), name=h["name"]))  # none given: held where it is
     if not handles and not scene.dynamic:
         raise ValueError("effects.handles: a quasistatic scene needs at least one handle (e.g. a fixed edge), "
                          "or the body floats freely")

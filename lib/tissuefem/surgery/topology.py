@@ -131,11 +131,12 @@ def duplicate_along_edges(t, n_nodes, edges):
 
 # --- pieces, picking nodes ---
 def connected_components(t, n_nodes, links=None):
-    """The pieces of a mesh ``t (3, m)`` with ``n_nodes`` nodes, joined also by the node pairs ``links (2, k)``:
-    ``(n_pieces, labels (n_nodes,))``, numbered in the order of their lowest node (an unused node is a piece)."""
+    """The pieces of a mesh ``t (3, m)`` (tetrahedra: ``(4, m)``) with ``n_nodes`` nodes, joined also by the node
+    pairs ``links (2, k)``: ``(n_pieces, labels (n_nodes,))``, numbered in the order of their lowest node (an unused
+    node is a piece)."""
     n_nodes = check_count("n_nodes", n_nodes, 0)
-    t = _node_indices("t", t, 3, n_nodes)
-    rows, cols = np.concatenate([t[0], t[1]]), np.concatenate([t[1], t[2]])  # two edges of each triangle suffice
+    t = _node_indices("t", t, 4 if isinstance(t, np.ndarray) and t.ndim == 2 and t.shape[0] == 4 else 3, n_nodes)
+    rows, cols = t[:-1].ravel(), t[1:].ravel()  # a chain through the corners of each element suffices
     if links is not None:
         rows, cols = np.concatenate([rows, links[0]]), np.concatenate([cols, links[1]])
     graph = sp.coo_matrix((np.ones(rows.size), (rows, cols)), shape=(n_nodes, n_nodes))

@@ -5,8 +5,9 @@
 binary arrays, the drag target and the cut stroke over them, the mode and run/pause buttons and a readout line.
 The positions (float32) are sent each frame the tissue moved, the triangles (int32) only when the topology changes
 (a cut); the page paints with ``requestAnimationFrame`` only when something arrived. The pointer comes back as
-messages in world coordinates. Positions carry their dimension (``dim``), so a 3D view can send its surface
-triangles the same way. :class:`~tissuefem.surgery.interactive.SurgeryView` runs a simulation through it.
+messages in world coordinates. Positions carry their dimension (``dim``): with ``dim = 3`` the page draws the
+triangles (a surface) with WebGL, lit, from a camera the mouse turns, and a press picks the surface point under the
+pointer. :class:`~tissuefem.surgery.interactive.SurgeryView` runs a simulation through it.
 """
 
 from __future__ import annotations
@@ -34,11 +35,11 @@ class TissueWidget(anywidget.AnyWidget):
 
     ``positions``: float32 bytes ``(n_points, dim)``; ``triangles``: int32 bytes ``(n_triangles, 3)``; ``edges``:
     int32 bytes ``(n_edges, 2)``; ``colors``: float32 bytes, one value per triangle mapped over ``color_range``, or
-    empty (one fill colour); ``bounds``: the world box shown; ``target``: ``[x, y]`` or ``[]``; ``stroke``: float32
-    bytes ``(k, 2)``; ``outline``: int32 bytes, boundary loops of point indices each ended by ``-1``; ``mode`` and
-    ``running``: set by the page's buttons (and the key ``c``) as well; ``disabled``: the buttons and the pointer
-    off (a view that stopped). The page sends ``{"event": "pointer", "kind": "down" | "move" | "up", "x", "y",
-    "inside"}``.
+    empty (one fill colour); ``bounds``: the world box shown (``[xmin, xmax, ymin, ymax]``, 3D: and ``zmin, zmax``);
+    ``target``: ``[x, y]`` (3D: ``[x, y, z]``) or ``[]``; ``stroke``: float32 bytes ``(k, dim)``; ``outline``: int32
+    bytes, boundary loops of point indices each ended by ``-1`` (2D); ``mode`` and ``running``: set by the page's
+    buttons (and the key ``c``) as well; ``disabled``: the buttons and the pointer off (a view that stopped). The page
+    sends ``{"event": "pointer", "kind": "down" | "move" | "up", "x", "y", "inside"}`` (3D: and ``"z"``).
     """
 
     _esm = STATIC / "tissue_widget.js"
@@ -86,7 +87,7 @@ class TissueWidget(anywidget.AnyWidget):
                 "edges": np.frombuffer(self.edges, np.int32).reshape(-1, 2),
                 "colors": np.frombuffer(self.colors, np.float32),
                 "outline": np.frombuffer(self.outline, np.int32),
-                "stroke": np.frombuffer(self.stroke, np.float32).reshape(-1, 2)}
+                "stroke": np.frombuffer(self.stroke, np.float32).reshape(-1, self.dim)}
 
 
 def outline(triangles, reference) -> np.ndarray:

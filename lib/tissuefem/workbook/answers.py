@@ -34,6 +34,7 @@ __all__ = [
     "backward_euler_residual", "budgeted_newton",
     "duplicate_cut_nodes", "scene_file_text",
     "pareto_front", "observed_rates", "best_within_budget",
+    "deformation_gradient_tet", "neo_hookean_stress_3d",
 ]
 
 
@@ -84,12 +85,15 @@ def lame_from_young(E, nu, plane: str = "strain") -> tuple[float, float]:
 
 
 def _p1_gradients(X):
-    """Area and shape-function gradients ``(3, 2)`` of one linear triangle with vertices ``X`` ``(2, 3)``."""
+    """Area (volume) and shape-function gradients ``(d + 1, d)`` of one linear triangle with vertices ``X`` ``(2,
+    3)``, or of one linear tetrahedron with vertices ``X`` ``(3, 4)``."""
     Dm = X[:, 1:] - X[:, :1]
-    if abs(np.linalg.det(Dm)) <= 1e-14 * max(1.0, float(np.abs(Dm).max()) ** 2):
-        raise ValueError("X_nodes is a degenerate (zero-area) triangle")
-    grad12 = np.linalg.inv(Dm)  # row a-1 is grad N_a for a = 1, 2 (since N_a(X_b) = d_ab)
-    return 0.5 * abs(np.linalg.det(Dm)), np.vstack([-grad12.sum(axis=0), grad12])
+    d = Dm.shape[0]
+    if abs(np.linalg.det(Dm)) <= 1e-14 * max(1.0, float(np.abs(Dm).max()) ** d):
+        raise ValueError("X_nodes is a degenerate (zero-area) triangle" if d == 2 else
+                         "X_nodes is a degenerate (zero-volume) tetrahedron")
+    grads = np.linalg.inv(Dm)  # row a-1 is grad N_a for a = 1 ... d (since N_a(X_b) = d_ab)
+    return abs(np.linalg.det(Dm)) / (2.0 if d == 2 else 6.0), np.vstack([-grads.sum(axis=0), grads])
 
 
 def deformation_gradient_p1(X_nodes, x_nodes) -> np.ndarray:
@@ -283,3 +287,16 @@ def skin_energy(sigma, distance, stiffness, length):
     b0, b1, _ = barrier(zeta)
     scale = float(stiffness) * float(length)
     return scale * float(distance) * float(b0), scale * float(b1)
+
+
+def deformation_gradient_tet(X_nodes, x_nodes) -> np.ndarray:
+    """Exercise 11.1: ``F[i, j] = dx_i/dX_j`` of one linear tetrahedron: ``F = sum_a x_a (grad N_a)^T`` (= ``D_s
+    D_m^-1``, the edge vectors)."""
+    X, x = _shaped("X_nodes", X_nodes, (3, 4)), _shaped("x_nodes", x_nodes, (3, 4))
+    _, grads = _p1_gradients(X)
+    return x @ grads
+
+
+def neo_hookean_stress_3d(F, lam, mu) -> np.ndarray:
+    """Exercise 11.2: ``P = mu F + (lam ln J - mu) F^-T`` for one 3x3 ``F``."""
+    return NeoHookean(lam, mu).stress(_shaped("F", F, (3, 3)))

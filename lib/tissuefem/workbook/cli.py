@@ -4,8 +4,9 @@
 * ``build``    regenerate the figures, execute every chapter headless (copies in ``build/chapters/``;
   the sources stay clean) and write the workbook's website into ``build/book/``;
 * ``book``     write the website from the executed copies already in ``build/chapters/``;
-* ``bench``    benchmarks (``bench assembly``, ``bench realtime``, ``bench scenes``,
-  ``bench accuracy``: the accuracy/time study of chapter 9);
+* ``bench``    benchmarks (``bench assembly``, ``bench realtime`` (``--dim 3``: the 3D block, ``--compare``: the
+  linear solvers side by side), ``bench scenes``, ``bench accuracy``: the accuracy/time study of chapter 9,
+  ``bench haptic``: the tool's force at 1 kHz);
 * ``scene``    check a scene file and run it (``scene scenes/incision.toml``);
 * ``grade``    grade your own exercise answers (chapters/exercises) with pytest;
 * ``list``     list the figures and chapters.
@@ -34,7 +35,8 @@ from ..surgery.simulation import Simulation
 from . import figures
 from .bench.accuracy_cost import accuracy_study
 from .bench.assembly import assembly_benchmark
-from .bench.realtime import realtime_benchmark
+from .bench.haptic import haptic_benchmark
+from .bench.realtime import realtime_benchmark, solver_comparison
 from .bench.scenes import effects_benchmark
 from .book import build_book
 from .figures.tradeoffs import plot_budget, plot_pareto, plot_realtime, plot_scaling
@@ -161,9 +163,10 @@ def cmd_book(args) -> int:
 
 
 def cmd_bench(args) -> int:
-    if args.which == "scenes" and args.sizes:
+    if (args.which in ("scenes", "haptic") or (args.which == "realtime" and args.compare)) and args.sizes:
         if len(args.sizes) > 1:
-            raise ParameterError("sizes", f"bench scenes takes one size, got {len(args.sizes)}")
+            which = "realtime --compare" if args.which == "realtime" else args.which
+            raise ParameterError("sizes", f"bench {which} takes one size, got {len(args.sizes)}")
         check_count("sizes", args.sizes[0], 50, MAX_TRIANGLES)  # the scenes' variants need 50 triangles
     if args.out:
         _check_out(args.out, folder=args.which != "assembly")
@@ -172,16 +175,23 @@ def cmd_bench(args) -> int:
         sizes = tuple(args.sizes) if args.sizes else (2000, 8000, 32000)
         assembly_benchmark(sizes=sizes, repeats=args.repeats, out=args.out)
     elif args.which == "realtime":
-        sizes = tuple(args.sizes) if args.sizes else (2000, 8000, 16000, 32000)
         out = Path(args.out or "bench-results")
-        rows = realtime_benchmark(sizes=sizes, frames=args.frames, baseline_frames=args.baseline_frames,
-                                  linear_solver=args.linear, out=out)
-        plot_realtime(rows, out / "realtime.png")
-        print(f"wrote {out / 'realtime.png'}")
+        if args.compare:
+            solver_comparison(n=args.sizes[0] if args.sizes else 19000, frames=args.frames, dim=args.dim, out=out)
+            return 0
+        rows = realtime_benchmark(sizes=tuple(args.sizes) if args.sizes else None, frames=args.frames,
+                                  baseline_frames=args.baseline_frames, linear_solver=args.linear, out=out,
+                                  dim=args.dim)
+        if args.dim == 2:
+            plot_realtime(rows, out / "realtime.png")
+            print(f"wrote {out / 'realtime.png'}")
     elif args.which == "scenes":
         size = args.sizes[0] if args.sizes else 8000
         effects_benchmark(n_triangles=size, frames=min(args.frames, 90), repeats=args.repeats,
                           out=args.out or "bench-results")
+    elif args.which == "haptic":
+        haptic_benchmark(n_triangles=args.sizes[0] if args.sizes else 8000, frames=args.frames,
+                         linear_solver=args.linear or "reuse-background", out=args.out or "bench-results")
     elif args.which == "accuracy":
         out = Path(args.out or "bench-results")
         results = accuracy_study(plan=args.plan, out=out)
@@ -241,7 +251,8 @@ def cmd_scene(args) -> int:
             return 2
     for w in caught:
         print(f"{args.path}: warning: {' '.join(str(w.message).split())}", file=sys.stderr)
-    print(f"{scene.name}: {sim.mesh.nelements} triangles, terms {sim.terms}, handles {list(sim.handles)}")
+    noun = "triangles" if sim.model.dim == 2 else "tetrahedra"
+    print(f"{scene.name}: {sim.mesh.nelements} {noun}, terms {sim.terms}, handles {list(sim.handles)}")
     for note in scene.notes:
         print(f"note: {note}")
     if args.check:
@@ -291,21 +302,29 @@ def main(argv=None) -> int:
     p.set_defaults(func=cmd_book)
 
     p = sub.add_parser("bench", help="run a benchmark and print its table")
-    p.add_argument("which", choices=["assembly", "realtime", "scenes", "accuracy"])
+    p.add_argument("which", choices=["assembly", "realtime", "scenes", "accuracy", "haptic"])
     p.add_argument("--sizes", type=_count("sizes", 1, MAX_TRIANGLES), nargs="+",
-                   help=f"approximate triangle counts (at most {MAX_TRIANGLES})")
+                   help=f"approximate triangle counts, with --dim 3 tetrahedra (at most {MAX_TRIANGLES})")
     p.add_argument("--repeats", type=_count("repeats", 1, 1000), default=5,
                    help="assembly, scenes: timed repetitions")
     p.add_argument("--frames", type=_count("frames", 1, 1_000_000), default=90,
-                   help="realtime: frames of the scripted drag")
-    p.add_argument("--baseline-frames", type=_count("baseline_frames", 0, 1_000_000), default=10,
-                   help="realtime: frames of the ex43-way baseline")
-    p.add_argument("--linear", default="reuse-background", type=_linear_solver,
-                   help="realtime: linear solver (reuse-background, reuse, reuse-pardiso, direct, superlu, "
-                        "superlu-colamd, pardiso)")
+                   help="realtime, haptic: frames of the scripted drag")
+    p.add_argument("--baseline-frames", type=_count("baseline_frames", 0, 1_000_000),
+                   help="realtime: frames of the ex43-way baseline (default 10 in 2D, 0 in 3D)")
+    p.add_argument("--linear", type=_linear_solver,
+                   help="realtime: linear solver (default reuse-background in 2D, the real-time solver's own in "
+                        "3D; reuse, reuse-pardiso, direct, superlu, superlu-colamd, pardiso, or "
+                        "reuse-background-<backend> with cholmod, pardiso, cg-amg)")
+    p.add_argument("--dim", type=int, choices=[2, 3], default=2,
+                   help="realtime: 2 (the flap; sizes in triangles) or 3 (a block held on one face, dragged by "
+                        "the opposite one; sizes in tetrahedra, default 5000 19000 40000 100000)")
+    p.add_argument("--compare", action="store_true",
+                   help="realtime: one size (default 19000) with each linear solver in turn, alternating: "
+                        "factorization, back-substitution, fill-in, assembly and the frames")
     p.add_argument("--plan", default="full", choices=["full", "reduced", "tiny"],
                    help="accuracy: the sweep (full: several minutes; reduced: chapter 9's; tiny: seconds)")
-    p.add_argument("--out", help="assembly: a JSON file; realtime, scenes, accuracy: a folder (default bench-results/)")
+    p.add_argument("--out", help="assembly: a JSON file; realtime, scenes, accuracy, haptic: a folder "
+                                 "(default bench-results/)")
     p.set_defaults(func=cmd_bench)
 
     p = sub.add_parser("scene", help="check a scene file (TOML or JSON) and run it for some frames")
@@ -321,7 +340,7 @@ def main(argv=None) -> int:
     p.add_argument("--instructor", action="store_true",
                    help="refuse any answer that imports or runs tissuefem (the reference implementation)")
     p.add_argument("--exercises", metavar="DIR",
-                   type=_folder("exercises", " (it should hold ch01.py ... ch09.py)"),
+                   type=_folder("exercises", " (it should hold ch01.py ... ch11.py)"),
                    help="grade the chNN.py files in DIR (e.g. a student's submission) instead of chapters/exercises")
     p.set_defaults(func=cmd_grade)
 

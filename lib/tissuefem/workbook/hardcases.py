@@ -1,7 +1,8 @@
 """The hard cases of chapter 6: a small block put in a violent state (crushed, collapsed, mirrored, stretched,
 dragged) and *released* (a few nodes held, equilibrium solved for), measured against its rest shape. Newton's
 steps are capped (``max_step``) so the iterates creep downhill instead of jumping into a fold. The models:
-:func:`inversion_models`."""
+:func:`inversion_models`. Every function takes a mesh of triangles or of tetrahedra (chapter 11's cube:
+``block(dim=3)``): the moves are along y, the held nodes those of the bottom (y = 0)."""
 
 from __future__ import annotations
 
@@ -12,7 +13,8 @@ import numpy as np
 
 from ..engine.inversion import ITFClamped, ProjectedTangent
 from ..engine.materials import NeoHookean, StableNeoHookean, TaylorNeoHookean
-from ..engine.meshes import rectangle
+from ..engine.materials import det
+from ..engine.meshes import box, rectangle
 from ..engine.constants import TISSUE_E, TISSUE_NU
 from ..engine.parameters import lame_parameters
 from ..engine.model import Handle, Model
@@ -20,7 +22,7 @@ from ..engine.realtime import RealtimeSolver
 from ..engine.stepping import solve
 
 __all__ = ["inversion_models", "block", "start_states", "ReleaseResult", "release", "crush_and_release",
-           "crush_and_release_runs", "crush_in_frames", "twice_signed_areas", "element_jacobians",
+           "crush_and_release_runs", "crush_in_frames", "twice_signed_areas", "edge_matrices", "element_jacobians",
            "cover_counts", "drag_through", "RELEASE_OPTIONS"]
 
 #: Newton options of a release solve: absolute residual tolerance (the start residual is huge,
@@ -29,8 +31,9 @@ RELEASE_OPTIONS = {"atol": 1e-7, "rtol": 1e-12, "max_step": 0.5, "max_iterations
 
 
 def inversion_models(E: float = TISSUE_E, nu: float = TISSUE_NU) -> dict:
-    """Chapter 6's models (plane strain): ``ln J`` Neo-Hookean (NaN once inverted), the notes' cubic Taylor
-    variant and stable Neo-Hookean with the projected tangent (Teran et al. 2005), ITF-clamped ``ln J``."""
+    """Chapter 6's models (plane strain; on tetrahedra the same Lamé parameters are the 3D ones): ``ln J``
+    Neo-Hookean (NaN once inverted), the notes' cubic Taylor variant and stable Neo-Hookean with the projected
+    tangent (Teran et al. 2005), ITF-clamped ``ln J``."""
     lam, mu = lame_parameters(E, nu, "strain")
     return {
         "neo-Hookean (ln J)": NeoHookean(lam, mu),
@@ -40,21 +43,34 @@ def inversion_models(E: float = TISSUE_E, nu: float = TISSUE_NU) -> dict:
     }
 
 
-def block(n: int = 6):
-    """The unit block ``[0, 1]^2`` with ``n x n`` cells (``2 n^2`` triangles)."""
-    return rectangle(1.0, 1.0, n, n)
+def block(n: int = 6, dim: int = 2):
+    """The unit block ``[0, 1]^2`` with ``n x n`` cells (``2 n^2`` triangles), or with ``dim=3`` the unit cube
+    ``[0, 1]^3`` with ``n x n x n`` cells (``6 n^3`` tetrahedra)."""
+    if dim not in (2, 3):
+        raise ValueError(f"dim must be 2 (a square of triangles) or 3 (a cube of tetrahedra), got {dim!r}")
+    return rectangle(1.0, 1.0, n, n) if dim == 2 else box(1.0, 1.0, 1.0, n, n, n)
+
+
+def _down(mesh, depth: float) -> tuple:
+    """The translation ``depth`` down (along -y) in the mesh's dimension."""
+    return (0.0, -float(depth)) + (0.0,) * (mesh.p.shape[0] - 2)
 
 
 def start_states(mesh) -> dict:
     """Deformed node positions ``(2, n_nodes)`` of the violent start states, by name."""
     X = np.asarray(mesh.p, dtype=float)
     centre = X.mean(axis=1, keepdims=True)
+
+    def scaled(*factors):  # each coordinate times its factor
+        return np.asarray(factors, dtype=float)[:, None] * X
+
+    rest = (1.0,) * (X.shape[0] - 2)
     return {
-        "mirrored": np.stack([X[0], -X[1]]),  # every element inverted (reflected about y = 0)
+        "mirrored": scaled(1.0, -1.0, *rest),  # every element inverted (reflected about y = 0)
         "collapsed to a point": np.broadcast_to(centre, X.shape).copy(),
-        "collapsed to a line": np.stack([X[0], np.zeros_like(X[1])]),
-        "stretched 10x": np.stack([10.0 * X[0], X[1]]),
-        "crushed past flat": np.stack([X[0], -0.3 * X[1]]),
+        "collapsed to a line": scaled(1.0, *(0.0,) * (X.shape[0] - 1)),  # onto the x axis
+        "stretched 10x": scaled(10.0, 1.0, *rest),
+        "crushed past flat": scaled(1.0, -0.3, *rest),
     }
 
 
@@ -111,7 +127,7 @@ def release(mesh, material, x_start, held=None, **newton_options) -> ReleaseResu
 
 
 def crush_and_release(material, mesh=None, depth: float = 1.3, steps: int = 13, **newton_options) -> dict:
-    """Push the top edge down by ``depth`` (1 = flat) in ``steps`` solves, bottom fixed, then release:
+    """Push the top edge (face) down by ``depth`` (1 = flat) in ``steps`` solves, bottom fixed, then release:
     ``frames`` (positions, the released shape last), ``crush`` (the results), ``released``, ``crushed`` (the
     depth reached), ``iterations``, ``cuts``, ``final_energy``."""
     mesh = block() if mesh is None else mesh
@@ -122,7 +138,7 @@ def crush_and_release(material, mesh=None, depth: float = 1.3, steps: int = 13, 
     u = model.zeros()
     frames, crush, reached = [X.copy()], [], 0.0
     for d in np.linspace(0.0, depth, steps + 1)[1:]:
-        top.move((0.0, -d))
+        top.move(_down(mesh, d))
         result = solve(model, u0=u, **options)
         crush.append(result)
         if not result.converged:
@@ -150,7 +166,7 @@ def drag_through(material, mesh=None, depth: float = 1.6, steps: int = 16, **new
     u = model.zeros()
     positions, drag, failed = [], [], 0
     for d in np.linspace(0.0, depth, steps + 1)[1:]:
-        handle.move((0.0, -d))
+        handle.move(_down(mesh, d))
         result = solve(model, u0=u, **options)
         drag.append(result)
         failed += not result.converged
@@ -172,12 +188,12 @@ def crush_in_frames(material, mesh=None, depth: float = 1.3, steps: int = 13, ex
     solver = RealtimeSolver(model, budget=math.inf, rtol=rtol, max_iterations=max_iterations)
     frames = 0
     for d in np.linspace(0.0, depth, steps + 1)[1:]:
-        report = solver.frame({"top": (0.0, -float(d))})
+        report = solver.frame({"top": _down(mesh, d)})
         frames += 1
     for _ in range(extra_frames):
         if report.converged:
             break
-        report = solver.frame({"top": (0.0, -float(depth))})
+        report = solver.frame({"top": _down(mesh, depth)})
         frames += 1
     x = model.positions(solver.u)
     top = np.flatnonzero(np.isclose(X[1], X[1].max()))
@@ -193,27 +209,40 @@ def twice_signed_areas(mesh, x) -> np.ndarray:
     return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
 
 
+def edge_matrices(mesh, x) -> np.ndarray:
+    """The edge vectors ``x_k - x_0`` (``k = 1 ... d``) of every element with its nodes at ``x`` ``(d, n_nodes)``, as
+    the columns of ``(d, d, n_elements)``: with ``x = X`` the rest shape's ``D_m``, and then ``F = D_s D_m^-1``."""
+    corners = np.asarray(x, dtype=float)[:, mesh.t]  # (d, d + 1, n_elements)
+    return corners[:, 1:] - corners[:, :1]
+
+
 def element_jacobians(mesh, x) -> np.ndarray:
-    """``J = det F`` of every P1 triangle with its nodes at ``x``: the ratio of signed areas."""
-    return twice_signed_areas(mesh, x) / twice_signed_areas(mesh, mesh.p)
+    """``J = det F`` of every P1 triangle (tetrahedron) with its nodes at ``x``: the ratio of signed areas (volumes),
+    ``det D_s / det D_m`` (:func:`edge_matrices`)."""
+    return det(edge_matrices(mesh, x)) / det(edge_matrices(mesh, mesh.p))
 
 
 def cover_counts(mesh, x, tol: float = 1e-9) -> np.ndarray:
-    """How many deformed triangles contain each deformed triangle's centroid: above 1 the mesh lies over
-    itself, even with every ``J > 0`` (``tol``: shared edges count once; cost ``n_elements^2``)."""
+    """How many deformed triangles (tetrahedra) contain each deformed element's centroid: above 1 the mesh lies
+    over itself, even with every ``J > 0``. Inside means every barycentric coordinate above ``tol`` (shared faces
+    count once); they come from Cramer's rule, a ratio of signed areas (volumes). Cost ``d n_elements^2``."""
     x = np.asarray(x, dtype=float)
-    a, b, c = (x[:, mesh.t[k]] for k in range(3))  # corners, each (2, n_elements)
-    point = ((a + b + c) / 3.0)[:, :, None]  # the centroids, against every triangle: [.., point, triangle]
-
-    def side(p, q, r):
-        return (q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])
-
-    area = side(a, b, c)[None, :]
-    ok = np.abs(area) > 0.0
-    area = np.where(ok, area, 1.0)
-    a, b, c = a[:, None, :], b[:, None, :], c[:, None, :]
-    inside = ok & (side(b, c, point) / area > tol) & (side(c, a, point) / area > tol) & (side(a, b, point) / area > tol)
-    return inside.sum(axis=1)
+    D = edge_matrices(mesh, x)  # (d, d, n_elements)
+    d, n = D.shape[0], D.shape[2]
+    corners = x[:, mesh.t]
+    offset = corners.mean(axis=1)[:, :, None] - corners[:, 0][:, None, :]  # centroid - x_0: [.., point, element]
+    volume = det(D)
+    ok = np.abs(volume) > 0.0
+    volume = np.where(ok, volume, 1.0)
+    inside = np.broadcast_to(ok, (n, n))
+    rest = 1.0
+    for k in range(d):  # coordinate k + 1: column k of D replaced by the offset
+        Dk = np.broadcast_to(D[:, :, None, :], (d, d, n, n)).copy()
+        Dk[:, k] = offset
+        coordinate = det(Dk) / volume
+        inside = inside & (coordinate > tol)
+        rest = rest - coordinate
+    return (inside & (rest > tol)).sum(axis=1)
 
 
 def crush_and_release_runs(E: float = TISSUE_E, nu: float = TISSUE_NU, mesh=None) -> dict:

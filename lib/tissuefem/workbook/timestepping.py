@@ -11,7 +11,7 @@ import numpy as np
 from ..engine.constants import FRAME_BUDGET, TISSUE_DENSITY, TISSUE_E, TISSUE_NU
 from ..engine.explicit import SymplecticEuler, critical_time_step, largest_stable_dt, wave_speed
 from ..engine.materials import StableNeoHookean
-from ..engine.meshes import mesh_size, rectangle
+from ..engine.meshes import box, mesh_size, rectangle
 from ..engine.model import Handle, Model
 from ..engine.parameters import lame_parameters
 from ..engine.stepping import Stepper, solve
@@ -70,12 +70,14 @@ def cfl_study(sizes=(4, 8, 16, 32), *, E: float = TISSUE_E, nu: float = TISSUE_N
     return study
 
 
-def released_flap(material=None, nx: int = 8, ny: int = 4, lift: float = LIFT):
+def released_flap(material=None, nx: int = 8, ny: int = 4, lift: float = LIFT, nz: int | None = None,
+                  depth: float = 0.5):
     """``(model, u0)``: chapter 7's ``2 x 1`` flap (``nx x ny`` cells) with its right edge lifted by ``lift``
-    (``u0``), ``model`` holding only its left edge: stepping it from ``u0`` at rest lets it go."""
+    (``u0``), ``model`` holding only its left edge: stepping it from ``u0`` at rest lets it go. With ``nz`` cells
+    across a ``depth``, the same flap as a slab of tetrahedra (chapter 11), its right face lifted."""
     material = StableNeoHookean(*lame_parameters(TISSUE_E, TISSUE_NU, "strain")) if material is None else material
-    mesh = rectangle(2.0, 1.0, nx, ny)
-    pulled = Model(mesh, material, handles=[Handle("left"), Handle("right", (0.0, lift))])
+    mesh = rectangle(2.0, 1.0, nx, ny) if nz is None else box(2.0, 1.0, depth, nx, ny, nz)
+    pulled = Model(mesh, material, handles=[Handle("left"), Handle("right", (0.0, lift) + (0.0,) * (nz is not None))])
     result = solve(pulled, load_steps=2)
     if not result.converged:
         raise RuntimeError(f"the flap could not be lifted by {lift}: {result.status}")

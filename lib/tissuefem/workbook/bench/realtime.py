@@ -1,17 +1,23 @@
-"""Frame-rate benchmark of the standard scene: the real-time solver against the scikit-fem ex43 way.
+"""Frame-rate benchmark of the standard scenes: the real-time solver against the scikit-fem ex43 way.
 
-The standard flap scene, per mesh size: its real-time solver unbudgeted (**fast**) and with the 1/30 s budget
+One scene per dimension (:data:`SCENES`): in 2D the standard flap (its left edge held, its right edge dragged
+along :func:`flap_path`), in 3D the block (:func:`block_simulation`: held on its ``x = 0`` face, its ``x = L``
+face dragged along :func:`block_path`); both backward Euler with ``dt = 1/30``, every frame converged to a
+relative residual of 1e-6. Per mesh size: the real-time solver unbudgeted (**fast**) and with the 1/30 s budget
 (**budgeted**), scikit-fem's hyperelasticity example's way (:func:`ex43_frames`) and a frame's floor
 (:func:`frame_floor`). Beside the times, each way's accuracy as its frames report it
 (:func:`~tissuefem.engine.stepping.accuracy_summary`): the median relative residual, the share converged, the
 smallest ``J`` and the most inverted elements, and for budgeted frames their 95th and 99th percentile times, what
-they left undone and the largest residual an unconverged one committed. Compare columns of one run
-(``docs/benchmarks.md``).
+they left undone and the largest residual an unconverged one committed. :func:`solver_comparison` runs one scene
+with several linear solvers, alternating, and measures what limits each (factorization, back-substitution,
+fill-in, assembly). Compare columns of one run (``docs/benchmarks.md``).
 """
 
 from __future__ import annotations
 
+import math
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -21,7 +27,11 @@ from skfem import BilinearForm, asm, condense, solve
 from ...engine.constants import FRAME_BUDGET, TISSUE_DENSITY, TISSUE_E, TISSUE_NU
 from ...engine.forms import residual_form, tangent_form
 from ...engine.linsolve import LinearSolver
-from ...engine.parameters import check_count
+from ...engine.materials import NeoHookean
+from ...engine.meshes import box
+from ...engine.model import Handle, Model
+from ...engine.parameters import ParameterError, check_count, lame_parameters
+from ...engine.realtime import RealtimeSolver
 from ...engine.stepping import accuracy_summary
 from ...surgery.scene import flap_path, flap_scene
 from ...surgery.simulation import Simulation
@@ -31,9 +41,12 @@ from ..timestepping import flap_drag
 from .common import check_sizes, machine_info, median_rows, recorded, write_csv, write_json
 
 __all__ = ["realtime_benchmark", "ex43_frames", "format_realtime_table", "flap_simulation", "frame_floor",
-           "recorded_realtime", "recorded_realtime_table"]
+           "block_simulation", "block_path", "block_drag", "BlockSimulation", "SCENES", "solver_comparison",
+           "format_comparison_table", "recorded_realtime", "recorded_realtime_table"]
 
 RTOL_FLAP = 1e-6
+#: the 3D block's edges ``(L, W, H)``: a bar twice as long as it is wide and high (cells of the same shape)
+BLOCK = (2.0, 1.0, 1.0)
 
 
 def flap_simulation(n_triangles: int, linear_solver: str = "reuse") -> Simulation:
@@ -41,18 +54,100 @@ def flap_simulation(n_triangles: int, linear_solver: str = "reuse") -> Simulatio
     return Simulation(flap_scene(n_triangles, rtol=RTOL_FLAP, linear_solver=linear_solver))
 
 
+def block_path(t) -> np.ndarray:
+    """The 3D block's scripted drag: its ``x = L`` face's displacement at time ``t`` (a slow loop out of the
+    face's plane, period 4-8 s: :func:`flap_path`'s with a third component)."""
+    t = float(t)
+    return np.array([0.3 * math.sin(math.pi * t / 2.0), 0.4 * math.sin(math.pi * t / 4.0),
+                     0.2 * (1.0 - math.cos(math.pi * t / 4.0))])
+
+
+def _block_cells(n_tetrahedra: int) -> tuple[int, int, int]:
+    """Cells ``(nx, ny, nz)`` of about ``n_tetrahedra`` tetrahedra (six a cell) on :data:`BLOCK`, near-cubic."""
+    m = max(1, round((n_tetrahedra / (6.0 * BLOCK[0] / BLOCK[1])) ** (1.0 / 3.0)))
+    return max(1, round(n_tetrahedra / (6.0 * m * m))), m, m
+
+
+class BlockSimulation:
+    """The 3D block scene, built: its ``model`` and real-time ``solver`` (no budget: every frame converges), read
+    as the benchmark reads a 2D :class:`~tissuefem.surgery.simulation.Simulation` (``mesh``, ``u``, ``frame``)."""
+
+    def __init__(self, model: Model, solver: RealtimeSolver):
+        self.model, self.solver = model, solver
+
+    mesh = property(lambda self: self.model.mesh)
+    u = property(lambda self: self.solver.u)
+
+    def frame(self, targets=None):
+        """One frame: the handles to ``targets`` (``{"grab": displacement}``), solved; its report."""
+        return self.solver.step(targets)
+
+
+def block_simulation(n_tetrahedra: int, linear_solver=None) -> BlockSimulation:
+    """The 3D block ``[0, 2] x [0, 1] x [0, 1]`` of about ``n_tetrahedra`` (Neo-Hookean, E = 1000, nu = 0.3,
+    rho0 = 1): its ``x = 0`` face held (``"held"``), its ``x = 2`` face a handle (``"grab"``) that
+    :func:`block_path` carries; backward Euler with ``dt = 1/30``, every frame solved to 1e-6 with no wall-clock
+    budget. ``linear_solver``: the real-time solver's default for a 3D model unless given."""
+    n_tetrahedra = check_count("n_tetrahedra", n_tetrahedra, 6)
+    mesh = box(*BLOCK, *_block_cells(n_tetrahedra))
+    model = Model(mesh, NeoHookean(*lame_parameters(TISSUE_E, TISSUE_NU)), dt=FRAME_BUDGET, density=TISSUE_DENSITY,
+                  handles=[Handle("left", name="held"), Handle("right", (0.0, 0.0, 0.0), name="grab")])
+    return BlockSimulation(model, RealtimeSolver(model, budget=1e9, rtol=RTOL_FLAP, linear_solver=linear_solver))
+
+
+def block_drag(sim, frames: int, start: int = 0) -> list:
+    """Frames ``start + 1 ... start + frames`` of the block's drag (``"grab"`` on :func:`block_path`): their
+    reports."""
+    return [sim.frame({"grab": block_path((f + 1) * FRAME_BUDGET)}) for f in range(start, start + frames)]
+
+
+@dataclass(frozen=True)
+class BenchScene:
+    """One dimension's scene of the benchmark: how to build it (``build(n, linear_solver)``) and drag it
+    (``drag(sim, frames)``), its handle's path (``path(t)``, for the ex43 way), what its size counts
+    (``elements``), its default sizes, linear solver and ex43 frames, and the record's name and description."""
+
+    dim: int
+    elements: str
+    build: object
+    drag: object
+    path: object
+    sizes: tuple
+    linear_solver: object
+    baseline_frames: int
+    name: str
+    domain: str
+
+
+SCENES = {
+    2: BenchScene(2, "triangles", flap_simulation, flap_drag, flap_path, (2000, 8000, 16000, 32000),
+                  "reuse-background", 10, "realtime",
+                  "[0, 2] x [0, 1], left edge fixed, right edge on flap_path"),
+    3: BenchScene(3, "tetrahedra", block_simulation, block_drag, block_path, (5000, 19000, 40000, 100000),
+                  None, 0, "realtime3d",
+                  "[0, 2] x [0, 1] x [0, 1], x = 0 face fixed, x = 2 face on block_path"),
+}
+
+
+def _scene(dim) -> BenchScene:
+    if dim not in SCENES:
+        raise ParameterError("dim", f"dim must be one of {sorted(SCENES)}, got {dim!r}")
+    return SCENES[dim]
+
+
 def ex43_frames(model, n_frames: int, dt: float = FRAME_BUDGET, rtol: float = RTOL_FLAP, density=TISSUE_DENSITY,
-                lumped: bool = True):
+                lumped: bool = True, path=flap_path):
     """``(ms per frame, Newton iterations per frame, u)`` of ``n_frames`` the ex43 way (``asm``, ``condense``,
-    ``solve`` every iteration; the mass lumped by default) on ``model``, its second handle on
-    :func:`flap_path`."""
+    ``solve`` every iteration; the mass lumped by default) on ``model``, its second handle on ``path``
+    (:func:`flap_path`; in 3D :func:`block_path`)."""
     basis = model.basis
     grab = model.handles[1]
     K_form, r_form = tangent_form(model.material), residual_form(model.material)
+    d = model.X.shape[0]
 
     @BilinearForm
     def mass(u, v, w):
-        return density * (u[0] * v[0] + u[1] * v[1])
+        return density * sum(u[i] * v[i] for i in range(d))
 
     M = asm(mass, basis)
     if lumped:
@@ -60,7 +155,7 @@ def ex43_frames(model, n_frames: int, dt: float = FRAME_BUDGET, rtol: float = RT
     u, v = basis.zeros(), basis.zeros()
     times, iterations = [], []
     for f in range(n_frames):
-        grab.move(flap_path((f + 1) * dt))
+        grab.move(path((f + 1) * dt))
         t0 = time.perf_counter()
         fixed, values = model.prescribed()
         u_tilde = u + dt * v
@@ -93,22 +188,22 @@ def ex43_frames(model, n_frames: int, dt: float = FRAME_BUDGET, rtol: float = RT
     return np.array(times), np.array(iterations), u
 
 
-def _fast_frames(n_triangles, n_frames, budget=None, linear_solver="reuse"):
-    sim = flap_simulation(n_triangles, linear_solver)
+def _fast_frames(scene: BenchScene, n, n_frames, budget=None, linear_solver="reuse"):
+    sim = scene.build(n, linear_solver)
     if budget is not None:
         sim.solver.budget = budget
-    return sim, flap_drag(sim, n_frames)
+    return sim, scene.drag(sim, n_frames)
 
 
-def _paced_frames(n_triangles, n_frames, linear_solver):
+def _paced_frames(scene: BenchScene, n, n_frames, linear_solver):
     """Budgeted frames at the display's rate: each starts one budget after the one before (a step too long for a
     frame runs off it meanwhile, see :class:`~tissuefem.engine.realtime.RealtimeSolver`); the simulation (its steps
     committed by the end) and the frames' reports."""
-    sim = flap_simulation(n_triangles, linear_solver)
+    sim = scene.build(n, linear_solver)
     sim.solver.budget = FRAME_BUDGET
     reports, due = [], time.perf_counter()
     for f in range(n_frames):
-        reports.append(sim.frame({"handle": flap_path((f + 1) * FRAME_BUDGET)}))
+        reports += scene.drag(sim, 1, start=f)
         due += FRAME_BUDGET
         time.sleep(max(due - time.perf_counter(), 0.0))
     sim.solver.settle()
@@ -117,22 +212,33 @@ def _paced_frames(n_triangles, n_frames, linear_solver):
 
 def frame_floor(sim, repeats: int = 9) -> dict:
     """Median ms of a tangent assembly and of one back-substitution at the simulation's state: their sum, the
-    least a frame costs (``floor_ms``)."""
+    least a frame costs (``floor_ms``). The back-substitution is with the backend the simulation's solver keeps
+    (for a multigrid preconditioner: one application of it). Also one factorization's ms
+    (``factorization_ms``), the stored entries of the factors (``factor_nnz``; a multigrid hierarchy's: every
+    level's matrix) and of the free block of the tangent (``matrix_nnz``)."""
     model, u = sim.model, sim.u
     fixed, _ = model.prescribed()
     free = np.ones(model.n_dofs, dtype=bool)
     free[fixed] = False
-    linear = LinearSolver("constant")
+    backend = sim.solver.linear.factorizing
     rhs = -model.gradient(u)[free]
-    linear.solve(linear.matrix(lambda: model.hessian(u), free), rhs)  # factorize once, untimed
+    A = sim.solver.linear.condense(model.hessian(u), free)
+    t0 = time.perf_counter()
+    factor = backend.factorize(A)
+    factorization = 1e3 * (time.perf_counter() - t0)
+    apply = getattr(factor, "precondition", None) or factor.solve
+    apply(rhs)  # a first solve may check its residual: untimed
     a = median_time(lambda: model.hessian(u), repeats)
-    b = median_time(lambda: linear.solve(None, rhs), repeats)
-    return {"assembly_ms": a, "back_substitution_ms": b, "floor_ms": a + b}
+    b = median_time(lambda: apply(rhs), repeats)
+    nnz = getattr(factor, "nnz", None)
+    return {"assembly_ms": a, "back_substitution_ms": b, "floor_ms": a + b, "factorization_ms": factorization,
+            "factor_nnz": None if nnz is None else int(nnz), "matrix_nnz": int(A.nnz)}
 
 
-_TABLE = [
-    ("triangles", "triangles", "{:d}"), ("dofs", "dofs", "{:d}"), ("fast_median_ms", "median [ms]", "{:.1f}"),
-    ("fast_p95_ms", "p95 [ms]", "{:.1f}"), ("fast_fps", "fps", "{:.0f}"), ("fast_newton", "Newton/frame", "{:.2f}"),
+_COLUMNS = [
+    ("dofs", "dofs", "{:d}"), ("fast_median_ms", "median [ms]", "{:.1f}"),
+    ("fast_p95_ms", "p95 [ms]", "{:.1f}"), ("fast_p99_ms", "p99 [ms]", "{:.1f}"), ("fast_fps", "fps", "{:.0f}"),
+    ("fast_newton", "Newton/frame", "{:.2f}"),
     ("fast_cg", "CG/frame", "{:.1f}"), ("fast_factorizations", "factorizations", "{:d}"),
     ("floor_ms", "floor [ms]", "{:.1f}"), ("frame_over_floor", "frame / floor", "{:.1f}x"),
     ("ex43_median_ms", "ex43 way [ms]", "{:.0f}"), ("ex43_newton", "ex43 Newton/frame", "{:.2f}"),
@@ -169,8 +275,10 @@ _RECORDED = [
 
 
 def format_realtime_table(rows) -> str:
-    """The benchmark rows as a Markdown table."""
-    return markdown_table(rows, _TABLE)
+    """The benchmark rows as a Markdown table (its first column the rows' element count: triangles or
+    tetrahedra)."""
+    elements = "tetrahedra" if rows and "tetrahedra" in rows[0] else "triangles"
+    return markdown_table(rows, [(elements, elements, "{:d}"), *_COLUMNS])
 
 
 def recorded_realtime() -> tuple[list[dict], dict]:
@@ -185,47 +293,57 @@ def recorded_realtime_table() -> str:
     return markdown_table(recorded_realtime()[0], _RECORDED)
 
 
-def realtime_benchmark(sizes=(2000, 8000, 16000, 32000), frames: int = 90, baseline_frames: int = 10,
-                       budget_frames: int = 60, linear_solver: str = "reuse-background", out=None,
-                       progress=print) -> list[dict]:
-    """Run the benchmark; return one dict per size (and write JSON and CSV into ``out``); ``baseline_frames =
-    0`` skips the ex43 way."""
-    sizes = check_sizes(sizes)
+def _frames_row(sim, reports) -> dict:
+    """The columns of a run of unbudgeted frames (``fast_...``) with the floor at its end state."""
+    ms = np.array([1e3 * r.elapsed for r in reports])
+    floor = frame_floor(sim)
+    return {"dofs": int(sim.model.n_dofs), "frames": len(reports), "linear_solver": sim.solver.linear_solver_name,
+            "fast_median_ms": float(np.median(ms)), "fast_p95_ms": float(np.percentile(ms, 95)),
+            "fast_p99_ms": float(np.percentile(ms, 99)), "fast_fps": float(1e3 / np.median(ms)),
+            "fast_newton": float(np.mean([r.newton_iterations for r in reports])),
+            "fast_cg": float(np.mean([r.linear_iterations for r in reports])),
+            "fast_factorizations": int(sum(r.factorizations for r in reports)),
+            "fast_all_converged": bool(all(r.converged for r in reports)), "fast_ms": ms.tolist(),
+            **floor, "frame_over_floor": float(np.median(ms)) / floor["floor_ms"],
+            **_accuracy_columns("fast", reports)}
+
+
+def realtime_benchmark(sizes=None, frames: int = 90, baseline_frames: int | None = None, budget_frames: int = 60,
+                       linear_solver=None, out=None, progress=print, dim: int = 2) -> list[dict]:
+    """Run the benchmark of the ``dim``-dimensional scene (:data:`SCENES`); return one dict per size (and write
+    JSON and CSV into ``out``: ``realtime.*`` in 2D, ``realtime3d.*`` in 3D). ``sizes`` (triangles or tetrahedra),
+    ``baseline_frames`` (``0`` skips the ex43 way) and ``linear_solver`` default to the scene's."""
+    scene = _scene(dim)
+    sizes = check_sizes(scene.sizes if sizes is None else sizes)
     frames = check_count("frames", frames, 1)
-    baseline_frames = check_count("baseline_frames", baseline_frames, 0)
+    baseline_frames = check_count("baseline_frames", scene.baseline_frames if baseline_frames is None
+                                  else baseline_frames, 0)
     budget_frames = check_count("budget_frames", budget_frames, 0)
+    linear_solver = scene.linear_solver if linear_solver is None else linear_solver
     say = progress if progress is not None else (lambda *_: None)
     machine = machine_info()  # at the start: the load average says how quiet the machine was
 
     # one untimed pass at the largest size warms the allocator up (see the assembly benchmark)
-    _fast_frames(max(sizes), 3, linear_solver=linear_solver)
+    _fast_frames(scene, max(sizes), 3, linear_solver=linear_solver)
 
     rows = []
     for n in sizes:
-        sim, reports = _fast_frames(n, frames, linear_solver=linear_solver)
+        sim, reports = _fast_frames(scene, n, frames, linear_solver=linear_solver)
         nel = sim.mesh.t.shape[1]
-        say(f"realtime benchmark: {nel} triangles, {sim.model.n_dofs} dofs ...")
-        ms = np.array([1e3 * r.elapsed for r in reports])
-        floor = frame_floor(sim)
-        row = {"triangles": int(nel), "dofs": int(sim.model.n_dofs), "frames": frames,
-               "linear_solver": sim.solver.linear_solver_name, "fast_median_ms": float(np.median(ms)),
-               "fast_p95_ms": float(np.percentile(ms, 95)), "fast_fps": float(1e3 / np.median(ms)),
-               "fast_newton": float(np.mean([r.newton_iterations for r in reports])),
-               "fast_cg": float(np.mean([r.linear_iterations for r in reports])),
-               "fast_factorizations": int(sum(r.factorizations for r in reports)),
-               "fast_all_converged": bool(all(r.converged for r in reports)), "fast_ms": ms.tolist(),
-               **floor, "frame_over_floor": float(np.median(ms)) / floor["floor_ms"],
-               **_accuracy_columns("fast", reports)}
+        say(f"realtime benchmark: {nel} {scene.elements}, {sim.model.n_dofs} dofs ...")
+        row = {scene.elements: int(nel), **_frames_row(sim, reports)}
+        ms = np.asarray(row["fast_ms"])
         if baseline_frames:
-            base_ms, base_its, u_base = ex43_frames(flap_simulation(n).model, min(baseline_frames, frames))
+            base_ms, base_its, u_base = ex43_frames(scene.build(n).model, min(baseline_frames, frames),
+                                                    path=scene.path)
             same = ms[: base_ms.size]
-            fast_u = _fast_frames(n, base_ms.size, linear_solver=linear_solver)[0].u
+            fast_u = _fast_frames(scene, n, base_ms.size, linear_solver=linear_solver)[0].u
             row.update({"ex43_frames": int(base_ms.size), "ex43_median_ms": float(np.median(base_ms)),
                         "ex43_newton": float(np.mean(base_its)), "fast_median_same_frames_ms": float(np.median(same)),
                         "speedup": float(np.median(base_ms) / np.median(same)),
                         "max_state_difference": float(np.max(np.abs(fast_u - u_base))), "ex43_ms": base_ms.tolist()})
         if budget_frames:
-            paced, budgeted = _paced_frames(n, budget_frames, linear_solver)
+            paced, budgeted = _paced_frames(scene, n, budget_frames, linear_solver)
             budget_ms = [1e3 * r.elapsed for r in budgeted]
             # the residuals committed unconverged (a frame showing the last state while a step runs off the frame
             # commits nothing)
@@ -238,20 +356,113 @@ def realtime_benchmark(sizes=(2000, 8000, 16000, 32000), frames: int = 90, basel
                         "budget_off_frame": sum(r.off_frame == "running" for r in budgeted),
                         "budget_steps": int(paced.frames)})
         rows.append(row)
-        say(f"  median {row['fast_median_ms']:.1f} ms/frame ({row['fast_fps']:.0f} fps), "
-            f"{row['fast_newton']:.2f} Newton/frame, {row['frame_over_floor']:.1f}x the floor; median rel. residual "
-            f"{row['fast_residual']:.1e}, {row['fast_converged']:.0%} converged, min J {row['fast_min_J']:.3f}, "
-            f"{row['fast_inverted']} inverted"
+        say(f"  median {row['fast_median_ms']:.1f} ms/frame ({row['fast_fps']:.0f} fps), p95 {row['fast_p95_ms']:.1f}"
+            f" ms, {row['fast_newton']:.2f} Newton/frame, {row['frame_over_floor']:.1f}x the floor; median rel. "
+            f"residual {row['fast_residual']:.1e}, {row['fast_converged']:.0%} converged, min J "
+            f"{row['fast_min_J']:.3f}, {row['fast_inverted']} inverted"
             + (f"; ex43 way {row['ex43_median_ms']:.0f} ms ({row['speedup']:.1f}x)" if baseline_frames else ""))
 
     say(format_realtime_table(rows))
     if out is not None:
-        record = {"benchmark": "realtime", "description": __doc__.strip().splitlines()[0],
-                  "scene": {"E": TISSUE_E, "nu": TISSUE_NU, "rho0": TISSUE_DENSITY, "dt": FRAME_BUDGET,
-                            "rtol": RTOL_FLAP, "domain": "[0, 2] x [0, 1], left edge fixed, right edge on flap_path"},
+        record = {"benchmark": scene.name, "description": __doc__.strip().splitlines()[0],
+                  "scene": {"dim": dim, "E": TISSUE_E, "nu": TISSUE_NU, "rho0": TISSUE_DENSITY, "dt": FRAME_BUDGET,
+                            "rtol": RTOL_FLAP, "domain": scene.domain},
                   "settings": {"sizes": sizes, "frames": frames, "baseline_frames": baseline_frames,
-                               "budget_frames": budget_frames, "linear_solver": linear_solver},
+                               "budget_frames": budget_frames, "linear_solver": rows[0]["linear_solver"]},
                   "machine": machine, "rows": rows}
-        written = [write_json(Path(out) / "realtime.json", record), write_csv(Path(out) / "realtime.csv", rows)]
+        written = [write_json(Path(out) / f"{scene.name}.json", record),
+                   write_csv(Path(out) / f"{scene.name}.csv", rows)]
+        say("wrote " + ", ".join(str(w) for w in written))
+    return rows
+
+
+# --- linear solvers compared on one scene ----------------------------------------------------------------------
+
+#: The approaches :func:`solver_comparison` runs by default (those whose optional package is missing are left
+#: out): the kept SuperLU factorization refreshed in the frame (``reuse``) and in the background, CHOLMOD and
+#: PARDISO kept and refreshed in the background, and smoothed-aggregation multigrid with the rigid-body modes
+#: as CG's kept preconditioner.
+APPROACHES = ("reuse", "reuse-background", "reuse-background-cholmod", "reuse-background-pardiso",
+              "reuse-background-cg-amg")
+
+
+def _usable(name: str) -> bool:
+    """Whether the approach ``name`` runs here (a known linear solver, its optional package installed)."""
+    try:
+        LinearSolver(name)
+    except ParameterError:
+        return False
+    return True
+
+
+_COMPARISON = [("linear_solver", "linear solver", "{}"), ("fast_median_ms", "median [ms]", "{:.1f}"),
+               ("fast_p95_ms", "p95 [ms]", "{:.1f}"), ("fast_newton", "Newton/frame", "{:.2f}"),
+               ("fast_cg", "CG/frame", "{:.1f}"), ("fast_factorizations", "factorizations", "{:d}"),
+               ("factorization_ms", "factorization [ms]", "{:.0f}"),
+               ("back_substitution_ms", "back-substitution [ms]", "{:.1f}"),
+               ("assembly_ms", "assembly [ms]", "{:.1f}"), ("fill", "nnz(factors) / nnz(K)", "{:.1f}"),
+               ("floor_ms", "floor [ms]", "{:.1f}"), ("frame_over_floor", "frame / floor", "{:.1f}x"),
+               ("fast_converged", "converged", "{:.0%}")]
+
+
+def format_comparison_table(rows) -> str:
+    """:func:`solver_comparison`'s rows (one per approach) as a Markdown table."""
+    return markdown_table(rows, _COMPARISON, text_columns=1)
+
+
+def _load() -> list[float] | None:
+    """The machine's load averages (1, 5, 15 minutes), where the system tells them."""
+    try:
+        return [float(x) for x in Path("/proc/loadavg").read_text().split()[:3]]
+    except (OSError, ValueError):
+        return None
+
+
+def solver_comparison(n: int = 19000, approaches=APPROACHES, frames: int = 60, rounds: int = 2, dim: int = 3,
+                      out=None, progress=print) -> list[dict]:
+    """Run the ``dim``-dimensional scene at size ``n`` with each linear solver of ``approaches`` (those that run
+    here), ``rounds`` times, alternating (so a busy machine weighs on each alike); one row per approach: the
+    medians over rounds of each round's columns (as :func:`realtime_benchmark`'s, with the factorization's ms and
+    the fill ``nnz(factors) / nnz(K)``), each round's median and the machine's load before each."""
+    scene = _scene(dim)
+    n, frames, rounds = check_count("n", n), check_count("frames", frames), check_count("rounds", rounds)
+    names = [a for a in approaches if _usable(a)]
+    if not names:
+        raise ParameterError("approaches", f"approaches: none of {list(approaches)} runs here (unknown, or their "
+                                           "optional packages are missing)")
+    say = progress if progress is not None else (lambda *_: None)
+    runs = {a: [] for a in names}
+    loads = []
+    for r in range(rounds):
+        for a in names:
+            loads.append(_load())
+            sim, reports = _fast_frames(scene, n, frames, linear_solver=a)
+            row = {scene.elements: int(sim.mesh.t.shape[1]), **_frames_row(sim, reports)}
+            sim.solver.linear.close()
+            runs[a].append(row)
+            say(f"round {r + 1}, {a}: median {row['fast_median_ms']:.1f} ms, p95 {row['fast_p95_ms']:.1f} ms, "
+                f"{row['fast_newton']:.2f} Newton and {row['fast_cg']:.1f} CG a frame, factorization "
+                f"{row['factorization_ms']:.0f} ms, back-substitution {row['back_substitution_ms']:.1f} ms")
+    rows = []
+    for a in names:
+        first = runs[a][0]
+        row = {k: v for k, v in first.items() if not isinstance(v, (int, float)) or isinstance(v, bool)}
+        for k, v in first.items():
+            if isinstance(v, (int, float)) and not isinstance(v, bool):
+                values = [run[k] for run in runs[a] if run.get(k) is not None]
+                row[k] = type(v)(np.median(values)) if values else None
+        row["approach"] = a
+        row["fill"] = row["factor_nnz"] / row["matrix_nnz"] if row.get("factor_nnz") else None
+        row["round_medians_ms"] = [run["fast_median_ms"] for run in runs[a]]
+        row["round_p95_ms"] = [run["fast_p95_ms"] for run in runs[a]]
+        rows.append(row)
+    say(format_comparison_table(rows))
+    if out is not None:
+        record = {"benchmark": f"{scene.name}-solvers", "description": solver_comparison.__doc__.split(".")[0],
+                  "scene": {"dim": dim, "domain": scene.domain, "rtol": RTOL_FLAP, "dt": FRAME_BUDGET},
+                  "settings": {"n": n, "frames": frames, "rounds": rounds, "approaches": names},
+                  "load_before_each_run": loads, "machine": machine_info(), "rows": rows}
+        written = [write_json(Path(out) / f"{scene.name}_solvers.json", record),
+                   write_csv(Path(out) / f"{scene.name}_solvers.csv", rows)]
         say("wrote " + ", ".join(str(w) for w in written))
     return rows

@@ -20,8 +20,8 @@ from ..tables import markdown_table
 from ..timestepping import flap_drag
 from .common import machine_info, median_rows, recorded, write_csv, write_json
 
-__all__ = ["effects_benchmark", "variants", "format_effects_table", "term_costs", "cut_costs", "recorded_effects",
-           "recorded_effects_table"]
+__all__ = ["effects_benchmark", "variants", "format_effects_table", "term_costs", "cut_costs", "cut_frame_costs",
+           "probe_costs", "recorded_effects", "recorded_effects_table"]
 
 
 def _base(n_triangles):
@@ -91,6 +91,58 @@ def cut_costs(n_triangles, repeats=3) -> dict:
             times.append(1e3 * (time.perf_counter() - start))
         out[f"through {method}"] = float(np.median(times))
     return out
+
+
+def cut_frame_costs(n_triangles, repeats=5, frames_before=3) -> dict:
+    """The frame in which a cut happens (the cut, then the next frame of the drag), with the old factorization kept
+    as the preconditioner (``keep_factorization``) and with a fresh one made on the frame: runs of the two
+    alternate. ``{"kept" | "fresh": {"cut_ms", "frame_ms", "total_ms": medians, "spread_ms": (min, max) of the
+    total, "thread_ms": median CPU time of the frame's thread over the cut and the frame (what a busy machine
+    adds is not in it, nor the fresh factorization on the other thread), "factorizations": on the frame, mean}}``."""
+    repeats = check_count("repeats", repeats)
+    runs = {"kept": [], "fresh": []}
+    for _ in range(repeats):
+        for name, keep in (("kept", True), ("fresh", False)):
+            sim = Simulation(Scene.from_dict(_base(n_triangles)), keep_factorization=keep)
+            flap_drag(sim, frames_before)
+            start, cpu = time.perf_counter(), time.thread_time()
+            sim.cut(CUT["path"], method=CUT["method"])
+            cut = time.perf_counter() - start
+            report = flap_drag(sim, 1, start=frames_before)[0]
+            cpu = time.thread_time() - cpu
+            runs[name].append((1e3 * cut, 1e3 * report.elapsed, report.newton.factorizations, 1e3 * cpu))
+            sim.solver.linear.close()  # the fresh factorization under way ends before the next run
+    out = {}
+    for name, rows in runs.items():
+        cut, frame, factorizations, cpu = (np.array(column, dtype=float) for column in zip(*rows))
+        total = cut + frame
+        out[name] = {"cut_ms": float(np.median(cut)), "frame_ms": float(np.median(frame)),
+                     "total_ms": float(np.median(total)), "spread_ms": (float(total.min()), float(total.max())),
+                     "thread_ms": float(np.median(cpu)), "factorizations": float(np.mean(factorizations))}
+    return out
+
+
+def probe_costs(n_triangles, frames=30, repeats=3, ranks=(0, 64)) -> dict:
+    """The probe variant with each ``update_rank`` of the kept factorization (runs alternate): ``{rank: {"ms":
+    median ms/frame, "newton", "cg", "updates": per frame, means}}``; ``cg``: CG iterations (one back-substitution
+    each), ``updates``: back-substitutions of the low-rank updates."""
+    repeats = check_count("repeats", repeats)
+    data = _base(n_triangles)
+    data["effects"]["probes"] = [PROBE]
+    runs = {rank: [] for rank in ranks}
+    for _ in range(repeats):
+        for rank in ranks:
+            sim = Simulation(Scene.from_dict(data))
+            backend = sim.solver.linear.backend
+            backend.update_rank = rank
+            reports = flap_drag(sim, frames)
+            runs[rank].append((np.median([1e3 * r.elapsed for r in reports]),
+                               np.mean([r.newton_iterations for r in reports]),
+                               np.mean([r.newton.linear_iterations for r in reports]),
+                               backend.update_solves / frames))
+            sim.solver.linear.close()
+    return {rank: dict(zip(("ms", "newton", "cg", "updates"), (float(np.median(c)) for c in zip(*rows))))
+            for rank, rows in runs.items()}
 
 
 def term_costs(sim, repeats=5) -> dict:

@@ -7,7 +7,8 @@ import time
 from pathlib import Path
 from typing import Callable
 
-from . import cutting, dynamics, fibers, inversion, kinematics, oned, surgery, tradeoffs
+from . import (cutting, dynamics, fibers, haptics, inversion, kinematics, oned, surgery, tissue3d, tradeoffs,
+               verification3d)
 from .base import lecture_figure, matplotlib_note, save
 
 __all__ = ["FIGURES", "generate", "lecture_figure", "matplotlib_note", "save"]
@@ -15,7 +16,8 @@ __all__ = ["FIGURES", "generate", "lecture_figure", "matplotlib_note", "save"]
 #: every lecture figure by name, chapter by chapter
 FIGURES: dict[str, Callable] = {
     name: func
-    for module in (oned, kinematics, fibers, inversion, dynamics, surgery, tradeoffs, cutting)
+    for module in (oned, kinematics, fibers, inversion, dynamics, surgery, haptics, tradeoffs, cutting, tissue3d,
+                   verification3d)
     for name, func in vars(module).items()
     if getattr(func, "lecture_figure", False) and getattr(func, "__module__", None) == module.__name__
 }

@@ -17,7 +17,8 @@ from matplotlib.figure import Figure
 from ...engine.constants import TISSUE_E
 
 __all__ = ["lecture_figure", "save", "shown", "at_least", "whole_pixels", "matplotlib_note", "ANIMATION_MIN_WIDTH",
-           "animation_figure", "save_animation", "frame_axes", "stress_label", "STRESS_UNITS"]
+           "animation_figure", "save_animation", "frame_axes", "stress_label", "STRESS_UNITS", "boundary_faces",
+           "surface_verts", "body_axes"]
 
 #: the resolution of every saved figure
 DPI = 110
@@ -135,3 +136,29 @@ def save_animation(fig: Figure, update: Callable, frames: int, gif_path, dt: flo
     animation = FuncAnimation(fig, update, frames=frames, interval=1000 * dt, blit=False, repeat=False)
     animation.save(gif_path, writer=PillowWriter(fps=round(1 / dt)), dpi=dpi)
     return gif_path
+
+
+# --- bodies of tetrahedra -------------------------------------------------------------------------------------------
+
+def boundary_faces(mesh) -> tuple[np.ndarray, np.ndarray]:
+    """``(faces, elements)`` of a tetrahedron mesh: the node triples of its boundary triangles ``(3, n_faces)``
+    and the tetrahedron each belongs to ``(n_faces,)``: all a drawing of the body sees."""
+    facets = mesh.boundary_facets()
+    return np.asarray(mesh.facets[:, facets]), np.asarray(mesh.f2t[0, facets])
+
+
+def surface_verts(mesh, x, faces=None) -> np.ndarray:
+    """The boundary triangles of a body with its nodes at ``x`` ``(3, n_nodes)`` as drawn: ``(n_faces, 3, 3)``,
+    the body's y (up in the chapters) on the plot's vertical axis, its z across; rounded to what a figure shows."""
+    faces = boundary_faces(mesh)[0] if faces is None else faces
+    x = shown(np.asarray(x, dtype=float)[[0, 2, 1]], digits=5)
+    return x[:, faces].transpose(2, 1, 0)
+
+
+def body_axes(ax, xlim, ylim, zlim, elev: float = 22.0, azim: float = -58.0, zoom: float = 1.0) -> None:
+    """A 3D axes for a body of tetrahedra: the body's x, z, y limits (y up), equal scales, a fixed view, no axes;
+    ``zoom`` enlarges the drawing within the axes."""
+    ax.set(xlim=xlim, ylim=zlim, zlim=ylim)
+    ax.set_box_aspect((xlim[1] - xlim[0], zlim[1] - zlim[0], ylim[1] - ylim[0]), zoom=zoom)
+    ax.view_init(elev=elev, azim=azim)
+    ax.set_axis_off()

@@ -8,11 +8,12 @@ from matplotlib.collections import PolyCollection
 from matplotlib.colors import to_rgba
 from matplotlib.figure import Figure
 from matplotlib.patches import Patch
+from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
 from ...engine.constants import TISSUE_E, TISSUE_NU
 from ...engine.inversion import diagonal
 from ..hardcases import block, crush_and_release_runs, element_jacobians, inversion_models
-from .base import at_least, frame_axes, lecture_figure, stress_label
+from .base import at_least, boundary_faces, frame_axes, lecture_figure, stress_label, surface_verts
 
 #: fill colours of a triangle that keeps its orientation (J > 0) and of an inverted or flat one (J <= 0)
 UPRIGHT_COLOR, INVERTED_COLOR = "#6baed6", "#d6604d"
@@ -24,9 +25,18 @@ MODEL_COLORS = ("C0", "C2", "C1", "C3")
 
 def draw_state(ax, mesh, x, *, J=None, alpha: float = 1.0, tol: float = 1e-12) -> int:
     """Draw the mesh with nodes at ``x``, translucent (overlaps show darker): upright triangles blue, ``J <=
-    0`` red, on top (``J``: another state's, per element; ``alpha`` fades all). Returns the red count."""
+    0`` red, on top (``J``: another state's, per element; ``alpha`` fades all). Returns the red count. A mesh of
+    tetrahedra is drawn by its boundary faces on a 3D axes (:func:`~.base.body_axes`), opaque, a face red when its
+    tetrahedron has ``J <= 0``; the count is of all tetrahedra, the hidden ones too."""
     J = element_jacobians(mesh, x) if J is None else np.asarray(J, dtype=float)
     bad = J <= tol
+    if mesh.p.shape[0] == 3:
+        faces, elements = boundary_faces(mesh)
+        colors = np.where(bad[elements], INVERTED_COLOR, UPRIGHT_COLOR)
+        ax.add_collection3d(Poly3DCollection(surface_verts(mesh, x, faces), linewidths=0.3,
+                                             facecolors=[to_rgba(c, alpha) for c in colors],
+                                             edgecolors=to_rgba("0.25", alpha)))
+        return int(bad.sum())
     verts = np.asarray(x, dtype=float)[:, mesh.t].transpose(2, 1, 0)  # (n_elements, 3, 2)
     for mask, color in ((~bad, UPRIGHT_COLOR), (bad, INVERTED_COLOR)):
         if mask.any():

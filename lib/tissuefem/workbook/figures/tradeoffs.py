@@ -1,6 +1,7 @@
 """Chapter 9 figures: what accuracy costs in time, drawn from the results of
 :func:`~tissuefem.workbook.bench.accuracy_cost.accuracy_study` (the lecture figures: the recorded full study);
-and the plot of ``bench realtime``'s results."""
+the verified reference's mesh convergence (:func:`plot_convergence`, also chapter 11's on tetrahedra); and the plot of
+``bench realtime``'s results."""
 
 from __future__ import annotations
 
@@ -239,7 +240,13 @@ def fig_ch09_budget(results=None) -> Figure:
 @lecture_figure
 def fig_ch09_verification(rows=None) -> Figure:
     """Chapter 9: the reference verified -- nonlinear mesh convergence at rates 2 (P1) and 3 (P2)."""
-    rows = manufactured_convergence() if rows is None else rows
+    return plot_convergence(manufactured_convergence() if rows is None else rows,
+                            "Manufactured solution (bent arch + its body force)")
+
+
+def plot_convergence(rows, title) -> Figure:
+    """Relative L2 errors against the cell size ``h`` of :func:`~tissuefem.workbook.verification.
+    manufactured_convergence`'s rows: one colour per order, one marker per model, the slopes ``order + 1``."""
     fig = Figure(figsize=(6.4, 4.6), layout="constrained")
     ax = fig.subplots()
     models = list(dict.fromkeys(r["model"] for r in rows))
@@ -271,8 +278,7 @@ def fig_ch09_verification(rows=None) -> Figure:
     ax.set_xticks(ticks, [f"1/{round(1 / h)}" if h < 1 else f"{h:g}" for h in ticks])
     ax.xaxis.set_minor_formatter(NullFormatter())
     ax.set_xlim(ticks[0] / 1.6, ticks[-1] * 1.6)
-    ax.set(xlabel="h (cell size)", ylabel="relative L2 error vs exact solution",
-           title="Manufactured solution (bent arch + its body force)")
+    ax.set(xlabel="h (cell size)", ylabel="relative L2 error vs exact solution", title=title)
     ax.grid(True, which="both", alpha=0.25)
     ax.legend(fontsize=7.5, loc="lower right", title="models; rates in their order", title_fontsize=7.5)
     return fig
