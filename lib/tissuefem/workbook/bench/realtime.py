@@ -70,13 +70,15 @@ def _block_cells(n_tetrahedra: int) -> tuple[int, int, int]:
 
 class BlockSimulation:
     """The 3D block scene, built: its ``model`` and real-time ``solver`` (no budget: every frame converges), read
-    as the benchmark reads a 2D :class:`~tissuefem.surgery.simulation.Simulation` (``mesh``, ``u``, ``frame``)."""
+    as the benchmark reads a 2D :class:`~tissuefem.surgery.simulation.Simulation` (``mesh``, ``u``, ``frames``,
+    ``frame``)."""
 
     def __init__(self, model: Model, solver: RealtimeSolver):
         self.model, self.solver = model, solver
 
     mesh = property(lambda self: self.model.mesh)
     u = property(lambda self: self.solver.u)
+    frames = property(lambda self: self.solver.steps)
 
     def frame(self, targets=None):
         """One frame: the handles to ``targets`` (``{"grab": displacement}``), solved; its report."""
