@@ -19,9 +19,9 @@ from ...engine.materials import NeoHookean
 from ...engine.meshes import mesh_with_about
 from ..measure import median_time
 from ..tables import markdown_table
-from .common import check_sizes, machine_info, write_json
+from .common import check_sizes, machine_info, median_rows, recorded, write_json
 
-__all__ = ["assembly_benchmark", "format_table"]
+__all__ = ["assembly_benchmark", "format_table", "recorded_assembly_table"]
 
 _COLUMNS = [
     ("triangles", "triangles", "{:d}"), ("dofs", "dofs", "{:d}"), ("ref_tangent_ms", "ref K [ms]", "{:.1f}"),
@@ -31,6 +31,19 @@ _COLUMNS = [
     ("setup_ms", "fast setup [ms]", "{:.1f}"), ("splu_colamd_ms", "SuperLU COLAMD [ms]", "{:.1f}"),
     ("splu_mmd_ms", "SuperLU MMD_AT_PLUS_A [ms]", "{:.1f}"), ("rel_diff_tangent", "rel. diff K", "{:.1e}"),
 ]
+
+
+#: the recorded table's columns (docs/benchmarks.md prints it)
+_RECORDED = [("triangles", "triangles", "{:d}"), ("ref_tangent_ms", "scikit-fem `BilinearForm` ms", "{:.1f}"),
+             ("fast_tangent_ms", "fast P1 path ms", "{:.2f}"), ("speedup_tangent", "speed-up", "{:.0f}x"),
+             ("splu_colamd_ms", "SuperLU COLAMD ms", "{:.1f}"), ("splu_mmd_ms", "SuperLU MMD_AT_PLUS_A ms", "{:.1f}")]
+
+
+def recorded_assembly_table() -> str:
+    """The recorded run shipped with the package (``data/assembly.json``, its rounds' medians) as the Markdown
+    table docs/benchmarks.md shows: the tangent's assembly and its factorization."""
+    record = recorded("assembly")
+    return markdown_table(median_rows([r["rows"] for r in record["rounds"]], "triangles"), _RECORDED)
 
 
 def format_table(rows) -> str:
@@ -47,6 +60,7 @@ def assembly_benchmark(sizes=(2000, 8000, 32000), repeats=5, material=None, out=
     if material is None:
         material = NeoHookean.from_young(TISSUE_E, TISSUE_NU)
     say = progress if progress is not None else (lambda *_: None)
+    machine = machine_info()  # at the start: the load average says how quiet the machine was
 
     K_form, r_form = tangent_form(material), residual_form(material)
 
@@ -106,5 +120,5 @@ def assembly_benchmark(sizes=(2000, 8000, 32000), repeats=5, material=None, out=
                            "factorization of the tangent with the left edge fixed. Times in ms, medians after one "
                            "warm-up.",
             "settings": {"sizes": sizes, "repeats": repeats, "material": repr(material)},
-            "machine": machine_info(), "rows": rows})
+            "machine": machine, "rows": rows})
     return rows
