@@ -444,20 +444,28 @@ display(Markdown(recorded_realtime_table()))
 
 # %%
 fit = [r for r in rows if r["fast_median_ms"] <= 1e3 * FRAME_BUDGET]
-over = [r for r in rows if r["budget_p99_ms"] > 1.15e3 * FRAME_BUDGET]
 speedups = [r["speedup"] for r in rows]
 display(Markdown(
     f"Up to {fit[-1]['triangles']:,} triangles a converged frame fits the 33 ms budget (the median does), "
     f"{min(speedups):.0f}–{max(speedups):.0f}× faster than the ex43 way, the more the larger the mesh. A frame costs "
     f"{min(r['frame_over_floor'] for r in rows):.1f}–{max(r['frame_over_floor'] for r in rows):.1f} floors: about "
     f"{rows[1]['fast_newton']:.0f} tangent assemblies and {rows[1]['fast_cg']:.0f} back-substitutions inside CG, which decide "
-    "the frame time beyond ~10k triangles. "
-    + (f"With the budget, frames keep to it up to {[r for r in rows if r not in over][-1]['triangles']:,} triangles "
-       f"(99th percentile {[r for r in rows if r not in over][-1]['budget_p99_ms']:.0f} ms); from "
-       f"{over[0]['triangles']:,} on they overrun it (99th percentile {over[0]['budget_p99_ms']:.0f} ms, "
-       f"{max(r['budget_p99_ms'] for r in over):.0f} ms at {over[-1]['triangles']:,}): a Newton step once started runs "
-       "to its end, and at these sizes one step costs more than a frame. Chapter 9 §6 measures what the unfinished "
-       "frames leave." if over else "With the budget, every size keeps to it (99th percentile within 1.15 budgets).")))
+    "the frame time beyond ~10k triangles."))
+
+# %%
+frames = record["rounds"][0]["settings"]["budget_frames"]
+missed = [r for r in rows if r["budget_p99_after_first_ms"] > 1.15e3 * FRAME_BUDGET]
+off = [r for r in rows if r["budget_steps"] < frames]
+display(Markdown(
+    f"With the budget (the frames paced at 30 a second), the first frame learns what each piece of work costs and "
+    f"runs whatever it costs ({rows[-1]['budget_first_ms']:.0f} ms at {rows[-1]['triangles']:,} triangles). After it, "
+    f"the 99th percentile of the frames stays within 1.15 budgets at {len(rows) - len(missed)} of the {len(rows)} sizes"
+    + "".join(f" (not at {r['triangles']:,} triangles: {r['budget_p99_after_first_ms']:.0f} ms)" for r in missed) + ". "
+    + (f"From {off[0]['triangles']:,} triangles on, one Newton iteration does not fit a frame: the step runs off the "
+       "frame, on the second core, and the frames show the last committed state until it is done, so the picture "
+       f"keeps its rate and the simulation slows down: {off[-1]['budget_steps']:.0f} steps in {frames} frames at "
+       f"{off[-1]['triangles']:,} triangles. " if off else "")
+    + "Chapter 9 §6 measures what the unfinished frames leave."))
 
 # %% [markdown]
 # (The ex43 way needed one safeguard: at 32k plain Newton ends in NaN in the first frame, so a step with a
