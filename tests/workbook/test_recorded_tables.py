@@ -69,3 +69,23 @@ def browser_table() -> str:
 
 def test_the_page_shows_the_recorded_browser_runs():
     assert browser_table() in DOC.read_text(encoding="utf-8")
+
+
+def realtime3d_table() -> str:
+    from tissuefem.workbook.tables import markdown_table
+    rows = recorded("realtime3d")["rounds"][0]["rows"]
+    return markdown_table(rows, [("tetrahedra", "tetrahedra", "{:d}"), ("dofs", "dofs", "{:d}"),
+                                 ("fast_median_ms", "median ms", "{:.1f}"), ("fast_p95_ms", "p95 ms", "{:.1f}"),
+                                 ("fast_newton", "Newton/frame", "{:.2f}"), ("fast_cg", "CG/frame", "{:.1f}"),
+                                 ("assembly_ms", "assembly ms", "{:.1f}"),
+                                 ("back_substitution_ms", "back-substitution ms", "{:.2f}"),
+                                 ("floor_ms", "floor ms", "{:.1f}"), ("fast_converged", "converged", "{:.0%}")])
+
+
+def test_the_page_shows_the_recorded_3d_run():
+    assert realtime3d_table() in DOC.read_text(encoding="utf-8")
+
+
+def test_the_page_shows_the_recorded_haptic_run():
+    from tissuefem.workbook.bench.haptic import format_haptic_table
+    assert format_haptic_table(recorded("haptic")["rounds"][0]["rows"]) in DOC.read_text(encoding="utf-8")
