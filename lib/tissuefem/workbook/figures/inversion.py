@@ -81,8 +81,9 @@ def fig06_crush_release(runs=None) -> Figure:
         released = run["released"]
         ax = row[-1]
         draw_state(ax, mesh, frames[-1])
-        ax.text(0.5, 0.02, f"{released.status}, rest error {at_least(released.rest_error)}",
-                transform=ax.transAxes, ha="center", va="bottom", fontsize=7)
+        ax.text(0.5, 0.02, f"{released.status},\nrest error {at_least(released.rest_error)}",
+                transform=ax.transAxes, ha="center", va="bottom", fontsize=7,
+                bbox=dict(boxstyle="round,pad=0.15", fc="white", ec="none", alpha=0.85))
         for ax in row:
             ax.plot(xlim, [bottom, bottom], color="k", lw=1.6)  # the held bottom edge
             frame_axes(ax, xlim, ylim)
