@@ -144,6 +144,21 @@ def write_flap_animation(gif_path, problem, states, dt: float, dpi: int = 100) -
     return save_animation(fig, update, len(states), gif_path, dt, dpi)
 
 
+def release_history(ax, times, y, energy_ratio, marked, label, ylabel) -> None:
+    """The lower panel of a released body's filmstrip: a displacement ``y`` over ``times`` (the ``marked`` frames
+    as squares) and, on a second axis, the total energy over its initial value."""
+    ax.plot(times, y, "o-", color="C0", ms=3, lw=1.2, label=label)
+    ax.plot(times[list(marked)], y[list(marked)], "s", color="C3", ms=6, label="frames shown above")
+    ax.axhline(0.0, color="k", lw=0.6)
+    ax2 = ax.twinx()
+    ax2.plot(times, energy_ratio, color="C2", lw=1.0, ls="--", label="total energy / initial")
+    ax2.set(ylim=(0.0, 1.05), ylabel="$E(t)/E(0)$")
+    ax.set(xlabel="time $t$ (s), one backward-Euler step per frame", ylabel=ylabel, xlim=(0.0, times[-1]))
+    ax.grid(alpha=0.3)
+    (h1, l1), (h2, l2) = ax.get_legend_handles_labels(), ax2.get_legend_handles_labels()
+    ax.legend(h1 + h2, l1 + l2, fontsize=8, loc="upper right")
+
+
 @lecture_figure
 def fig_ch07_released_flap(path=None) -> Figure:
     """Chapter 7: the flap let go, backward Euler at 1/30 s, as a filmstrip with the tip's displacement: the
@@ -164,20 +179,9 @@ def fig_ch07_released_flap(path=None) -> Figure:
         ax.plot([0.0, 0.0], [0.0, 1.0], color="k", lw=2.0)
         frame_axes(ax, xlim, ylim)
         ax.set_title(f"t = {times[k]:.2f} s" + (" (let go)" if k == 0 else ""), fontsize=8.5)
-    ax = fig.add_subplot(grid[1, :])
     tip_y = np.array([u[tip_dof] for u in states])
-    ax.plot(times, tip_y, "o-", color="C0", ms=3, lw=1.2, label="tip displacement $u_y$ (right edge, middle)")
-    ax.plot(times[list(FILMSTRIP_FRAMES)], tip_y[list(FILMSTRIP_FRAMES)], "s", color="C3", ms=6,
-            label="frames shown above")
-    ax.axhline(0.0, color="k", lw=0.6)
-    ax2 = ax.twinx()
-    ax2.plot(times, energies / energies[0], color="C2", lw=1.0, ls="--", label="total energy / initial")
-    ax2.set(ylim=(0.0, 1.05), ylabel="$E(t)/E(0)$")
-    ax.set(xlabel="time $t$ (s), one backward-Euler step per frame", ylabel="tip $u_y$",
-           xlim=(0.0, times[-1]))
-    ax.grid(alpha=0.3)
-    (h1, l1), (h2, l2) = ax.get_legend_handles_labels(), ax2.get_legend_handles_labels()
-    ax.legend(h1 + h2, l1 + l2, fontsize=8, loc="upper right")
+    release_history(fig.add_subplot(grid[1, :]), times, tip_y, energies / energies[0], FILMSTRIP_FRAMES,
+                    "tip displacement $u_y$ (right edge, middle)", "tip $u_y$")
     fig.suptitle(f"Chapter 7: the flap let go, backward Euler at $\\Delta t$ = 1/30 s "
                  f"(stable neo-Hookean, E = {TISSUE_E:g}, ν = {TISSUE_NU:g}, $\\rho_0$ = 1, left edge held)",
                  fontsize=10)

@@ -20,6 +20,7 @@ from ..timestepping import backward_euler_run, released_flap
 from ..tissue3d import twisted_bar
 from .base import (at_least, body_axes, boundary_faces, lecture_figure, save_animation, shown, stress_label,
                    surface_verts)
+from .dynamics import release_history
 from .inversion import CRUSH_COLUMNS, INVERTED_COLOR, UPRIGHT_COLOR, draw_state, frame_depths
 
 #: cells along each side of the crushed cube (``6 n^3`` tetrahedra)
@@ -188,19 +189,8 @@ def fig_ch11_released_slab(path=None, run=None) -> Figure:
         draw_body(ax, mesh, model.positions(states[k]), model.jacobian(states[k]), J_CMAP, norm, linewidth=0.2)
         body_axes(ax, *limits, elev=18.0, azim=-64.0, zoom=1.3)
         ax.set_title(f"t = {times[k]:.2f} s" + (" (let go)" if k == 0 else ""), fontsize=8.5)
-    ax = fig.add_subplot(grid[1, :])
-    ax.plot(times, shown(tip_y), "o-", color="C0", ms=3, lw=1.2, label="right face's mean displacement $u_y$")
-    ax.plot(times[list(SLAB_FILMSTRIP)], shown(tip_y[list(SLAB_FILMSTRIP)]), "s", color="C3", ms=6,
-            label="frames shown above")
-    ax.axhline(0.0, color="k", lw=0.6)
-    ax2 = ax.twinx()
-    ax2.plot(times, shown(energies / energies[0]), color="C2", lw=1.0, ls="--", label="total energy / initial")
-    ax2.set(ylim=(0.0, 1.05), ylabel="$E(t)/E(0)$")
-    ax.set(xlabel="time $t$ (s), one backward-Euler step per frame", ylabel="right face $u_y$",
-           xlim=(0.0, times[-1]))
-    ax.grid(alpha=0.3)
-    (h1, l1), (h2, l2) = ax.get_legend_handles_labels(), ax2.get_legend_handles_labels()
-    ax.legend(h1 + h2, l1 + l2, fontsize=8, loc="upper right")
+    release_history(fig.add_subplot(grid[1, :]), times, shown(tip_y), shown(energies / energies[0]), SLAB_FILMSTRIP,
+                    "right face's mean displacement $u_y$", "right face $u_y$")
     fig.colorbar(ScalarMappable(norm=norm, cmap=J_CMAP), ax=fig.axes[:n], shrink=0.8, label="$J$")
     fig.suptitle(f"Chapter 11: the slab let go, backward Euler at $\\Delta t$ = 1/30 s ({mesh.t.shape[1]} "
                  f"tetrahedra, stable neo-Hookean, E = {TISSUE_E:g}, ν = {TISSUE_NU:g}, $\\rho_0$ = 1, left face "
