@@ -1,6 +1,6 @@
 """Helpers shared by the tests of every layer: a chapter figure registered, documented, a PNG, byte-identical to
-the committed file; random deformation gradients, central finite differences of a function of ``F``, and the
-isotropic materials."""
+the committed file; random deformation gradients, central finite differences of a function of ``F``, the
+isotropic materials, and work launched off the frame that runs when the test says (:class:`Launcher`)."""
 
 import hashlib
 from pathlib import Path
@@ -148,3 +148,36 @@ def fd_stress(m, F, h=H):
 def fd_tangent(m, F, h=H):
     """The tangent of material ``m`` by central differences of its stress."""
     return fd_derivative(m.stress, F, h)
+
+
+class Job:
+    """Work launched off the frame that the test runs: ``join`` runs it, once."""
+
+    def __init__(self, work):
+        self.work, self.done = work, False
+
+    def is_alive(self):
+        return not self.done
+
+    def join(self):
+        if not self.done:
+            self.done = True
+            self.work()
+
+
+class Launcher:
+    """A ``launch`` for the engine's background work: it starts nothing; ``finish`` (or a job's ``join``) runs it."""
+
+    def __init__(self):
+        self.jobs = []
+
+    def __call__(self, work):
+        self.jobs.append(Job(work))
+        return self.jobs[-1]
+
+    def finish(self):
+        for job in self.jobs:
+            job.join()
+
+    def running(self):
+        return sum(job.is_alive() for job in self.jobs)

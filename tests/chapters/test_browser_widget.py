@@ -297,34 +297,40 @@ def measure(driver, lab, triangles, seconds=3.0, probes=12, seed=8):
     return {"mesh": nodes, "at_rest": rest, "dragging": dragging, "latency": latency, "at_rest_after_drag": rest_after}
 
 
-def run_benchmark(workdir, sizes):
+def run_benchmark(workdir, sizes, measure=measure, name="browser-drawn view (tissuefem.surgery.widget) in JupyterLab "
+                  "+ headless Chromium", prefix="t") -> dict:
+    """``measure(driver, lab, size)`` for each size, each in its own JupyterLab and browser; the record with the
+    machine's load."""
     results = []
-    for triangles in sizes:
-        folder = Path(workdir) / f"t{triangles}"
+    for size in sizes:
+        folder = Path(workdir) / f"{prefix}{size}"
         folder.mkdir(parents=True, exist_ok=True)
         with JupyterLab(folder) as lab:
             driver = start_chromium(folder)
-            try:
-                results.append(measure(driver, lab, triangles))
-            finally:
-                driver.quit()
-    return {"benchmark": "browser-drawn view (tissuefem.surgery.widget) in JupyterLab + headless Chromium",
-            "load_average_1_5_15_min": list(os.getloadavg()), "cpus": os.cpu_count(), "results": results}
+            with reported_failure(driver, lab, folder):
+                results.append(measure(driver, lab, size))
+    return {"benchmark": name, "load_average_1_5_15_min": list(os.getloadavg()), "cpus": os.cpu_count(),
+            "results": results}
 
 
-if __name__ == "__main__":
-    parser = argparse.ArgumentParser(description="measure the browser-drawn view in JupyterLab + Chromium")
-    parser.add_argument("--triangles", type=int, nargs="+", default=[CHAPTER_TRIANGLES, 8000],
-                        help="mesh sizes (default: chapter 8's 2000 and 8000)")
+def benchmark_main(description, option, default, help, **run) -> None:
+    """The command line of a browser benchmark: the sizes ``--<option>``, ``--out`` a JSON file; prints the record."""
+    parser = argparse.ArgumentParser(description=description)
+    parser.add_argument(f"--{option}", type=int, nargs="+", default=default, help=help)
     parser.add_argument("--out", type=Path, help="a JSON file to write")
     args = parser.parse_args()
     reason = widget_missing()
     if reason:
         raise SystemExit(reason)
     with tempfile.TemporaryDirectory() as folder:
-        record = run_benchmark(folder, args.triangles)
+        record = run_benchmark(folder, getattr(args, option), **run)
     text = json.dumps(record, indent=2)
     if args.out:
         args.out.parent.mkdir(parents=True, exist_ok=True)
         args.out.write_text(text)
     print(text)
+
+
+if __name__ == "__main__":
+    benchmark_main("measure the browser-drawn view in JupyterLab + Chromium", "triangles", [CHAPTER_TRIANGLES, 8000],
+                   "mesh sizes (default: chapter 8's 2000 and 8000)")

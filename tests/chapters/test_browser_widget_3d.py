@@ -19,21 +19,16 @@ kernel's frame: positions received per second); the kernel's step and the page's
 
 from __future__ import annotations
 
-import argparse
-import json
 import math
-import os
-import tempfile
 import time
-from pathlib import Path
 
 import nbformat
 import pytest
 
 from browser_lab import (JupyterLab, cpu_seconds, descendants, kernel_json, open_notebook, run_all_cells,
                          start_chromium, wait_for)
-from test_browser_widget import (Canvas, actions, drag, median, notebook, release, reported_failure, settle,
-                                 widget_missing)
+from test_browser_widget import (Canvas, actions, benchmark_main, drag, median, notebook, release, reported_failure,
+                                 settle, widget_missing)
 
 pytestmark = pytest.mark.browser
 
@@ -240,32 +235,8 @@ def measure(driver, lab, cells, seconds=4.0):
     return {"mesh": mesh, "zooming_in_the_page": zooming, "turning_the_camera": turning, "dragging": dragging}
 
 
-def run_benchmark(workdir, sizes):
-    results = []
-    for cells in sizes:
-        folder = Path(workdir) / f"n{cells}"
-        folder.mkdir(parents=True, exist_ok=True)
-        with JupyterLab(folder) as lab:
-            driver = start_chromium(folder)
-            with reported_failure(driver, lab, folder):
-                results.append(measure(driver, lab, cells))
-    return {"benchmark": "3D view (WebGL path of tissuefem.surgery.widget) in JupyterLab + headless Chromium",
-            "load_average_1_5_15_min": list(os.getloadavg()), "cpus": os.cpu_count(), "results": results}
-
-
 if __name__ == "__main__":
-    parser = argparse.ArgumentParser(description="measure the 3D view in JupyterLab + Chromium")
-    parser.add_argument("--cells", type=int, nargs="+", default=[CHAPTER_CELLS],
-                        help=f"cells across the block, 2 n x n x n (default: the chapter's {CHAPTER_CELLS})")
-    parser.add_argument("--out", type=Path, help="a JSON file to write")
-    args = parser.parse_args()
-    reason = widget_missing()
-    if reason:
-        raise SystemExit(reason)
-    with tempfile.TemporaryDirectory() as folder:
-        record = run_benchmark(folder, args.cells)
-    text = json.dumps(record, indent=2)
-    if args.out:
-        args.out.parent.mkdir(parents=True, exist_ok=True)
-        args.out.write_text(text)
-    print(text)
+    benchmark_main("measure the 3D view in JupyterLab + Chromium", "cells", [CHAPTER_CELLS],
+                   f"cells across the block, 2 n x n x n (default: the chapter's {CHAPTER_CELLS})", measure=measure,
+                   name="3D view (WebGL path of tissuefem.surgery.widget) in JupyterLab + headless Chromium",
+                   prefix="n")

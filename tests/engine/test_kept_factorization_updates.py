@@ -9,6 +9,8 @@ import scipy.sparse as sp
 from tissuefem.engine import linsolve
 from tissuefem.engine.parameters import ParameterError
 
+from helpers import Launcher
+
 
 def _laplacian(n, shift=0.5):
     """A symmetric positive definite matrix (a 1D Laplacian plus a shift)."""
@@ -126,36 +128,11 @@ def test_update_rank_is_checked():
     assert solver.update_rank == 0
 
 
-class _Later:
-    """A launch that runs nothing until told: ``run()`` does the started work."""
-
-    def __init__(self):
-        self.jobs = []
-
-    def __call__(self, work):
-        job = _Job(work)
-        self.jobs.append(job)
-        return job
-
-
-class _Job:
-    def __init__(self, work):
-        self.work, self.done = work, False
-
-    def is_alive(self):
-        return not self.done
-
-    def join(self):
-        if not self.done:
-            self.work()
-            self.done = True
-
-
 def test_a_provided_preconditioner_is_used_while_a_fresh_factorization_is_made_off_the_frame():
     n = 40
     old = linsolve.SuperLU().factorize(_laplacian(n))
     B, parent = _split_chain(n, 19)
-    launch = _Later()
+    launch = Launcher()
     solver = linsolve.ReusedFactorization(launch=launch)
     solver.provide(linsolve.ExtendedFactorization(old, parent, n, B), B.shape)
     assert solver.provisional
@@ -172,7 +149,7 @@ def test_a_provided_preconditioner_is_used_while_a_fresh_factorization_is_made_o
 def test_a_provided_preconditioner_that_cg_cannot_do_with_waits_for_the_fresh_one():
     n = 40
     B, parent = _split_chain(n, 19)
-    launch = _Later()
+    launch = Launcher()
     solver = linsolve.ReusedFactorization(launch=launch, max_iterations=1)
     solver.provide(linsolve.ExtendedFactorization(linsolve.SuperLU().factorize(_laplacian(n)), parent, n, B),
                    B.shape)

@@ -13,6 +13,8 @@ from tissuefem.engine import linsolve
 from tissuefem.engine.realtime import LINEAR_SOLVERS
 from tissuefem.engine.stepping import accuracy_summary
 
+from helpers import Launcher
+
 BUDGET = 1 / 30
 SOLVERS = [name for name in LINEAR_SOLVERS if "pardiso" not in name or linsolve.available("pardiso")]
 
@@ -23,37 +25,6 @@ class Clock:
 
     def __call__(self):
         return self.now
-
-
-class Job:
-    """A worker the test runs: ``join`` runs the work (on the fake clock, which its pieces move)."""
-
-    def __init__(self, work):
-        self.work, self.done = work, False
-
-    def is_alive(self):
-        return not self.done
-
-    def join(self):
-        if not self.done:
-            self.done = True
-            self.work()
-
-
-class Launcher:
-    def __init__(self):
-        self.jobs = []
-
-    def __call__(self, work):
-        self.jobs.append(Job(work))
-        return self.jobs[-1]
-
-    def finish(self):
-        for job in self.jobs:
-            job.join()
-
-    def running(self):
-        return sum(job.is_alive() for job in self.jobs)
 
 
 def model(name, dt=1 / 30):
