@@ -127,7 +127,7 @@ class HapticLoop:
         self.active.set()
 
     def pause(self) -> None:
-        """No tick due from now on runs."""
+        """No tick due from now on runs (those due before, late, still do)."""
         if self.active.is_set():
             self.paused_at = self.clock()
             self.active.clear()
@@ -147,8 +147,9 @@ class HapticLoop:
                 self.sleep(wait)
             while self.clock() < tick:
                 self.sleep(0)  # lets the frames' thread run until the tick is due
-            if not self.active.is_set() or self.stop.is_set() or self.resumed_at != began:
-                break
+            if self.stop.is_set() or self.resumed_at != began or (not self.active.is_set() and
+                                                                   tick >= self.paused_at):
+                break  # (a tick due before the pause still runs)
             t0 = self.clock()
             self.lateness.append(t0 - tick)
             try:
