@@ -3,8 +3,8 @@
 After each frame the grabbed edge's reduced model (:func:`~tissuefem.engine.haptics.tool_model`: its force and its
 stiffness seen through the body) is built; between frames a second thread updates the force from it at ``rate``
 updates per second, as a haptic device's loop would, while the frames go on at their normal (unbudgeted) rate.
-:func:`haptic_benchmark` times it: updates per second, the time per update, and each frame's time with and without
-the loop, paired (two copies of the scene stepped alternately, the loop running only beside the second).
+:func:`haptic_benchmark` times it: updates per second, the time per update, how late the ticks ran, and each frame's
+time with and without the loop, paired (two copies of the scene stepped alternately, the loop running only beside the second).
 :func:`haptic_path` measures the force's error along the scripted drag (:func:`~tissuefem.surgery.scene.flap_path`)
 at tool positions between frames, against the converged frame at the same tool position (the frame taken again from
 its start, with the edge there), and against holding the frame's force until the next one.
