@@ -2,6 +2,7 @@
 arrays follow, nothing is sent at rest, the frame loop runs and pauses, and one view lives per simulation and cell."""
 
 import asyncio
+import dataclasses
 import time
 import os
 import subprocess
@@ -528,3 +529,19 @@ def test_a_pointer_move_brings_the_next_frame_forward():
         v.close()
 
     asyncio.run(session())
+
+
+def test_a_step_running_off_the_frame_keeps_the_loop_from_resting():
+    """Frames that show the last committed state while a step runs off the frame (nothing moves) are not quiet:
+    the loop goes on to the frame that commits the step, then rests as usual."""
+    view = SurgeryView(make_sim(), autostart=False)
+    report = view.step()
+    running = dataclasses.replace(report, off_frame="running")
+    view.sim.frame = lambda: running
+    for _ in range(2 * REST_FRAMES):
+        view.step()
+    assert not view.resting
+    view.sim.frame = lambda: report
+    for _ in range(REST_FRAMES):
+        view.step()
+    assert view.resting

@@ -403,6 +403,8 @@ class SurgeryView:
         report = self.last_report = self.sim.frame()
         self.frame_times.append(1e3 * float(report.elapsed))
         self._follow()
+        if getattr(report, "off_frame", "") == "running":
+            self._quiet = 0  # a step runs off the frame: the frame that commits it is to come
         self._update_text()
         return report
 
