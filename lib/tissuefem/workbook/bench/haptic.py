@@ -4,7 +4,7 @@ After each frame the grabbed edge's reduced model (:func:`~tissuefem.engine.hapt
 stiffness seen through the body) is built; between frames a second thread updates the force from it at ``rate``
 updates per second, as a haptic device's loop would, while the frames go on at their normal (unbudgeted) rate.
 :func:`haptic_benchmark` times it: updates per second, the time per update, how late the ticks ran, and each frame's
-time with and without the loop, paired (two copies of the scene stepped alternately, the loop running only beside the second).
+time with and without the loop, paired (two copies of the scene stepped alternately, the loop beside the second).
 :func:`haptic_path` measures the force's error along the scripted drag (:func:`~tissuefem.surgery.scene.flap_path`)
 at tool positions between frames, against the converged frame at the same tool position (the frame taken again from
 its start, with the edge there), and against holding the frame's force until the next one.
@@ -98,12 +98,11 @@ def haptic_path(n_triangles: int = 8000, frames: int = 30, substeps: int = 4, wa
 
 class HapticLoop:
     """A thread that evaluates ``model()``'s force at ``position()`` ``rate`` times a second between :meth:`resume`
-    and :meth:`pause` (a device's loop). Its ticks are due at the absolute times ``resumed + k / rate``, so nothing
-    drifts: the thread sleeps until ``SPIN`` seconds before a tick, then yields the interpreter until it is due (a
-    sleep alone overshoots by about 0.1 ms); a tick that comes late (the frames held the interpreter) runs at once,
-    none is dropped. Each update's seconds in ``update_seconds``, each tick's lateness (its start less the time it was
-    due) in ``lateness``, the seconds from resume to pause in ``active_seconds``, the ticks late by a whole period or
-    more in :attr:`missed`; a position the model refuses keeps the last force (counted in ``refused``)."""
+    and :meth:`pause` (a device's loop), its ticks due at ``resumed + k / rate`` (nothing drifts): it sleeps until
+    ``SPIN`` s before a tick (a sleep overshoots by about 0.1 ms), then yields until the tick is due; a late tick runs
+    at once, none is dropped. Each update's seconds in ``update_seconds``, each tick's start less its due time in
+    ``lateness``, the seconds from resume to pause in ``active_seconds``; a position the model refuses keeps the last
+    force (counted in ``refused``)."""
 
     #: seconds before a tick at which the loop stops sleeping and yields until the tick is due
     SPIN = 2e-4
@@ -115,11 +114,6 @@ class HapticLoop:
         self.update_seconds, self.lateness, self.active_seconds, self.refused = [], [], 0.0, 0
         self.last_force, self.resumed_at, self.paused_at = None, 0.0, 0.0
         self.thread = threading.Thread(target=self._run, name="tissuefem-haptic", daemon=True)
-
-    @property
-    def missed(self) -> int:
-        """Ticks that started a whole period or more after they were due (run late, not dropped)."""
-        return int(np.count_nonzero(np.asarray(self.lateness) >= self.period))
 
     def resume(self) -> None:
         """Tick from now on: the first tick is due at once."""
@@ -240,7 +234,7 @@ def haptic_benchmark(n_triangles: int = 8000, frames: int = 60, rate: float = 10
            "updates": len(update_us),
            "updates_per_second": len(update_us) / loop.active_seconds if loop.active_seconds > 0 else float("nan"),
            "update_median_us": float(np.median(update_us)), "update_p95_us": float(np.percentile(update_us, 95)),
-           "update_max_us": float(np.max(update_us)), "missed_ticks": int(loop.missed),
+           "update_max_us": float(np.max(update_us)), "missed_ticks": int(np.sum(late_us >= 1e6 * loop.period)),
            **{f"late_{name}_us": float(np.percentile(late_us, q)) for name, q in (("median", 50), ("p95", 95),
                                                                                    ("max", 100))},
            "frame_plain_median_ms": float(np.median(plain_ms)), "frame_haptic_median_ms": float(np.median(haptic_ms)),
