@@ -24,7 +24,7 @@ from ...engine.linsolve import LinearSolver, available
 from ...engine.materials import MATERIALS, material as make_material
 from ...engine.meshes import flap
 from ...engine.model import Handle, Model
-from ...engine.parameters import check_count, check_real, string
+from ...engine.parameters import check_count, check_real, require, string
 from ...engine.realtime import RealtimeSolver
 from ...engine.stepping import accuracy_summary, solve
 from ...surgery.scene import Scene, flap_path, flap_scene
@@ -32,7 +32,7 @@ from ...surgery.simulation import Simulation
 from ..verification import beam_problem_tip, manufactured_convergence
 from ..measure import fitted_exponent, pareto_front, relative_l2_error
 from ..tables import markdown_table
-from .common import load_results, machine_info, write_csv, write_json
+from .common import DATA, load_results, machine_info, write_csv, write_json
 
 __all__ = [
     "Setting", "KNOBS", "PLANS", "BLOCK_TARGET", "EASE_IN", "REFERENCE_GRADING", "eased_flap_path", "graded_flap",
@@ -356,8 +356,7 @@ def _relative_same_mesh(M, u, u_ref) -> float:
 
 def _errors(problem, states, reference) -> list[float]:
     """Relative ``L2`` errors at the reference's checkpoints, in order (``problem`` on its own mesh)."""
-    ref_problem, ref_states = reference[0], reference[1]
-    return [relative_l2_error(problem, states[f], ref_problem, ref_states[f]) for f in sorted(ref_states)]
+    return [relative_l2_error(problem, states[f], reference[0], reference[1][f]) for f in sorted(reference[1])]
 
 
 # --- the sweeps ------------------------------------------------------------------------------------
@@ -467,8 +466,7 @@ def budget_residual(sizes, frames: int, solvers=("reuse",), budget: float = FRAM
                          "budget_ms": 1e3 * budget, "converged_share": stats["converged_share"],
                          "residual_median": stats["residual_median"], "min_J": stats["min_J"],
                          "inverted": stats["inverted"], "undone_frames": stats["undone_frames"],
-                         "ms_median": stats["ms_median"],
-                         "ms_p95": stats["ms_p95"],
+                         "ms_median": stats["ms_median"], "ms_p95": stats["ms_p95"],
                          "state_error": _relative_same_mesh(M, states[frames], converged_states[frames])})
             if progress:
                 r = rows[-1]
@@ -525,16 +523,11 @@ def capped_newton_experiment(triangles: int = 500, frames: int = 5, drag: str = 
 # --- the whole study -------------------------------------------------------------------------------
 
 def _plan(plan) -> tuple[str, dict]:
-    if isinstance(plan, str):
-        if plan not in PLANS:
-            raise ValueError(f"plan must be one of {sorted(PLANS)} or a dict, got {plan!r}")
-        return plan, PLANS[plan]
+    """``(name, plan)`` of a plan given by its name in :data:`PLANS` or as a dict."""
     if isinstance(plan, dict):
-        missing = {"base_triangles", "frames", "checkpoints", "block_frames", "reference", "knobs"} - set(plan)
-        if missing:
-            raise ValueError(f"plan is missing {sorted(missing)}")
+        require("plan", plan, ("base_triangles", "frames", "checkpoints", "block_frames", "reference", "knobs"))
         return "custom", plan
-    raise ValueError(f"plan must be a name ({sorted(PLANS)}) or a dict, got {plan!r}")
+    return string("plan", plan, PLANS), PLANS[plan]
 
 
 def accuracy_study(plan="full", benchmarks=BENCHMARKS, knobs=None, scaling: bool = True, budget: bool = True,
@@ -613,7 +606,7 @@ def read_results(path) -> dict:
 
 def recorded_results() -> dict:
     """The full study as recorded on the reference machine (shipped with the package; chapter 9 reads it)."""
-    return read_results(Path(__file__).parents[1] / "data" / "accuracy_study.json")
+    return read_results(DATA / "accuracy_study.json")
 
 
 #: what the knob tables' residual column means, for the pages that print them (chapter 9, its appendix)

@@ -16,7 +16,8 @@ import numpy as np
 
 from ...engine.parameters import ParameterError, check_count
 
-__all__ = ["machine_info", "check_sizes", "write_json", "write_csv", "load_results", "recorded", "median_rows"]
+__all__ = ["machine_info", "load_average", "check_sizes", "write_json", "write_csv", "load_results", "recorded",
+           "median_rows"]
 
 #: the recorded runs shipped with the package (chapters and docs/benchmarks.md print from them)
 DATA = Path(__file__).parents[1] / "data"
@@ -29,20 +30,17 @@ def _version(dist: str) -> str:
         return "unknown"
 
 
+def load_average() -> list[float]:
+    """The load average over 1, 5 and 15 minutes: how busy the machine is (a quiet 2-core machine: well under 1)."""
+    return [round(x, 2) for x in os.getloadavg()]
+
+
 def machine_info() -> dict:
-    """Platform, Python and library versions, the CPU count and the load average (1, 5 and 15 minutes: how busy the
-    machine was when the run started; a quiet 2-core machine shows well under 1), for the benchmark record."""
-    return {
-        "platform": platform.platform(),
-        "machine": platform.machine(),
-        "processor": platform.processor(),
-        "python": sys.version.split()[0],
-        "numpy": np.__version__,
-        "scipy": _version("scipy"),
-        "scikit-fem": _version("scikit-fem"),
-        "cpu_count": os.cpu_count(),
-        "load_average": [round(x, 2) for x in os.getloadavg()],
-    }
+    """Platform, Python and library versions, the CPU count and the :func:`load_average` when the run started,
+    for the benchmark record."""
+    return {"platform": platform.platform(), "machine": platform.machine(), "processor": platform.processor(),
+            "python": sys.version.split()[0], "numpy": np.__version__, "scipy": _version("scipy"),
+            "scikit-fem": _version("scikit-fem"), "cpu_count": os.cpu_count(), "load_average": load_average()}
 
 
 def check_sizes(sizes):

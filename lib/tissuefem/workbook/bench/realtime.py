@@ -38,7 +38,7 @@ from ...surgery.simulation import Simulation
 from ..measure import median_time
 from ..tables import markdown_table
 from ..timestepping import flap_drag
-from .common import check_sizes, machine_info, median_rows, recorded, write_csv, write_json
+from .common import check_sizes, load_average, machine_info, median_rows, recorded, write_csv, write_json
 
 __all__ = ["realtime_benchmark", "ex43_frames", "format_realtime_table", "flap_simulation", "frame_floor",
            "block_simulation", "block_path", "block_drag", "BlockSimulation", "SCENES", "solver_comparison",
@@ -137,23 +137,19 @@ def _scene(dim) -> BenchScene:
     return SCENES[dim]
 
 
-def ex43_frames(model, n_frames: int, dt: float = FRAME_BUDGET, rtol: float = RTOL_FLAP, density=TISSUE_DENSITY,
-                lumped: bool = True, path=flap_path):
+def ex43_frames(model, n_frames: int, rtol: float = RTOL_FLAP, path=flap_path):
     """``(ms per frame, Newton iterations per frame, u)`` of ``n_frames`` the ex43 way (``asm``, ``condense``,
-    ``solve`` every iteration; the mass lumped by default) on ``model``, its second handle on ``path``
+    ``solve`` every iteration; the mass lumped, ``dt = 1/30``) on ``model``, its second handle on ``path``
     (:func:`flap_path`; in 3D :func:`block_path`)."""
-    basis = model.basis
-    grab = model.handles[1]
+    basis, grab, dt = model.basis, model.handles[1], FRAME_BUDGET
     K_form, r_form = tangent_form(model.material), residual_form(model.material)
     d = model.X.shape[0]
 
     @BilinearForm
     def mass(u, v, w):
-        return density * sum(u[i] * v[i] for i in range(d))
+        return TISSUE_DENSITY * sum(u[i] * v[i] for i in range(d))
 
-    M = asm(mass, basis)
-    if lumped:
-        M = sp.diags(np.asarray(M.sum(axis=1)).ravel()).tocsr()
+    M = sp.diags(np.asarray(asm(mass, basis).sum(axis=1)).ravel()).tocsr()
     u, v = basis.zeros(), basis.zeros()
     times, iterations = [], []
     for f in range(n_frames):
@@ -190,10 +186,8 @@ def ex43_frames(model, n_frames: int, dt: float = FRAME_BUDGET, rtol: float = RT
     return np.array(times), np.array(iterations), u
 
 
-def _fast_frames(scene: BenchScene, n, n_frames, budget=None, linear_solver="reuse"):
+def _fast_frames(scene: BenchScene, n, n_frames, linear_solver="reuse"):
     sim = scene.build(n, linear_solver)
-    if budget is not None:
-        sim.solver.budget = budget
     return sim, scene.drag(sim, n_frames)
 
 
@@ -418,14 +412,6 @@ def format_comparison_table(rows) -> str:
     return markdown_table(rows, _COMPARISON, text_columns=1)
 
 
-def _load() -> list[float] | None:
-    """The machine's load averages (1, 5, 15 minutes), where the system tells them."""
-    try:
-        return [float(x) for x in Path("/proc/loadavg").read_text().split()[:3]]
-    except (OSError, ValueError):
-        return None
-
-
 def solver_comparison(n: int = 19000, approaches=APPROACHES, frames: int = 60, rounds: int = 2, dim: int = 3,
                       out=None, progress=print) -> list[dict]:
     """Run the ``dim``-dimensional scene at size ``n`` with each linear solver of ``approaches`` (those that run
@@ -443,7 +429,7 @@ def solver_comparison(n: int = 19000, approaches=APPROACHES, frames: int = 60, r
     loads = []
     for r in range(rounds):
         for a in names:
-            loads.append(_load())
+            loads.append(load_average())
             sim, reports = _fast_frames(scene, n, frames, linear_solver=a)
             row = {scene.elements: int(sim.mesh.t.shape[1]), **_frames_row(sim, reports)}
             sim.solver.linear.close()
@@ -453,12 +439,10 @@ def solver_comparison(n: int = 19000, approaches=APPROACHES, frames: int = 60, r
                 f"{row['factorization_ms']:.0f} ms, back-substitution {row['back_substitution_ms']:.1f} ms")
     rows = []
     for a in names:
-        first = runs[a][0]
-        row = {k: v for k, v in first.items() if not isinstance(v, (int, float)) or isinstance(v, bool)}
-        for k, v in first.items():
+        row = dict(runs[a][0])
+        for k, v in runs[a][0].items():
             if isinstance(v, (int, float)) and not isinstance(v, bool):
-                values = [run[k] for run in runs[a] if run.get(k) is not None]
-                row[k] = type(v)(np.median(values)) if values else None
+                row[k] = type(v)(np.median([run[k] for run in runs[a] if run.get(k) is not None]))
         row["approach"] = a
         row["fill"] = row["factor_nnz"] / row["matrix_nnz"] if row.get("factor_nnz") else None
         row["round_medians_ms"] = [run["fast_median_ms"] for run in runs[a]]
