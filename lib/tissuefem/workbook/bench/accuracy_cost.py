@@ -16,6 +16,7 @@ import math
 import time
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -195,12 +196,15 @@ def run_setting(benchmark: str, setting: Setting, frames: int, checkpoints=(), b
     return sim.model, states, stats
 
 
+#: what a run keeps of each frame's report (not the report: it holds the state, and a run has thousands)
+_KEPT = ("newton_iterations", "linear_iterations", "factorizations", "converged", "relative_residual",
+         "handle_fraction", "scaled_residual", "min_J", "inverted", "undone")
+
+
 def _drive(solver, benchmark: str, frames: int, substeps: int, checkpoints=(), drag=None):
     """Run ``frames`` displayed frames of ``substeps`` solver frames each; ``(states, stats)`` as in
     :func:`run_setting`."""
-    fields = ("newton_iterations", "linear_iterations", "factorizations", "converged", "relative_residual",
-              "handle_fraction")
-    states, ms, records, accuracy = {}, [], [], []
+    states, ms, kept = {}, [], []
     for f in range(1, frames + 1):
         spent = 0.0
         for s in range(1, substeps + 1):
@@ -208,12 +212,11 @@ def _drive(solver, benchmark: str, frames: int, substeps: int, checkpoints=(), d
                       else np.array(BLOCK_TARGET) * f / frames)
             report = solver.frame({"handle": target})
             spent += report.elapsed
-            records.append([getattr(report, k) for k in fields])  # not the report: it holds the state
-            accuracy.append(_Accuracy(report))
+            kept.append(SimpleNamespace(**{k: getattr(report, k) for k in _KEPT}))
         ms.append(1e3 * spent)
         if f in checkpoints:
             states[f] = solver.u.copy()
-    each = {k: [r[i] for r in records] for i, k in enumerate(fields)}
+    each = {k: [getattr(r, k) for r in kept] for k in _KEPT}
     stats = {
         "ms": ms, "ms_median": float(np.median(ms)), "ms_p95": float(np.percentile(ms, 95)),
         # per displayed frame (all substeps)
@@ -229,19 +232,11 @@ def _drive(solver, benchmark: str, frames: int, substeps: int, checkpoints=(), d
         "finite": bool(np.all(np.isfinite(solver.u))),
     }
     # each frame's own accuracy: the smallest J, the most inverted elements, the frames that left work undone
-    summary = accuracy_summary(accuracy)
+    summary = accuracy_summary(kept)
     stats.update({"scaled_residual_median": summary["scaled_residual"],
                   "min_J": summary["min_J"], "inverted": summary["inverted"], "undone_frames": summary["undone"],
                   "undone_reasons": summary["undone_reasons"]})
     return states, stats
-
-
-class _Accuracy:
-    """A frame report's accuracy without its state (a run keeps thousands of frames)."""
-
-    def __init__(self, report):
-        self.scaled_residual, self.converged = report.scaled_residual, report.converged
-        self.min_J, self.inverted, self.undone = report.min_J, report.inverted, report.undone
 
 
 def _reference_model(benchmark: str, triangles: int, grading: float, substeps: int = 1) -> Model:

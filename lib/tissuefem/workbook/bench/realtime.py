@@ -1,16 +1,12 @@
 """Frame-rate benchmark of the standard scenes: the real-time solver against the scikit-fem ex43 way.
 
-One scene per dimension (:data:`SCENES`): in 2D the standard flap (its left edge held, its right edge dragged
-along :func:`flap_path`), in 3D the block (:func:`block_simulation`: held on its ``x = 0`` face, its ``x = L``
-face dragged along :func:`block_path`); both backward Euler with ``dt = 1/30``, every frame converged to a
-relative residual of 1e-6. Per mesh size: the real-time solver unbudgeted (**fast**) and with the 1/30 s budget
-(**budgeted**), scikit-fem's hyperelasticity example's way (:func:`ex43_frames`) and a frame's floor
-(:func:`frame_floor`). Beside the times, each way's accuracy as its frames report it
-(:func:`~tissuefem.engine.stepping.accuracy_summary`): the median relative residual, the share converged, the
-smallest ``J`` and the most inverted elements, and for budgeted frames their 95th and 99th percentile times, what
-they left undone and the largest residual an unconverged one committed. :func:`solver_comparison` runs one scene
-with several linear solvers, alternating, and measures what limits each (factorization, back-substitution,
-fill-in, assembly). Compare columns of one run (``docs/benchmarks.md``).
+One scene per dimension (:data:`SCENES`): the 2D flap dragged along :func:`flap_path`, the 3D block
+(:func:`block_simulation`) along :func:`block_path`; backward Euler with ``dt = 1/30``, every frame converged to
+a relative residual of 1e-6. Per mesh size: the real-time solver unbudgeted (**fast**) and with the 1/30 s
+budget (**budgeted**), scikit-fem's hyperelasticity example's way (:func:`ex43_frames`) and a frame's floor
+(:func:`frame_floor`); beside the times, each way's accuracy as its frames report it
+(:func:`~tissuefem.engine.stepping.accuracy_summary`). :func:`solver_comparison` runs one scene with several
+linear solvers, alternating, and measures what limits each. Compare columns of one run (``docs/benchmarks.md``).
 """
 
 from __future__ import annotations
@@ -69,9 +65,8 @@ def _block_cells(n_tetrahedra: int) -> tuple[int, int, int]:
 
 
 class BlockSimulation:
-    """The 3D block scene, built: its ``model`` and real-time ``solver`` (no budget: every frame converges), read
-    as the benchmark reads a 2D :class:`~tissuefem.surgery.simulation.Simulation` (``mesh``, ``u``, ``frames``,
-    ``frame``)."""
+    """The 3D block's ``model`` and real-time ``solver``, read as the benchmark reads a 2D
+    :class:`~tissuefem.surgery.simulation.Simulation` (``mesh``, ``u``, ``frames``, ``frame``)."""
 
     def __init__(self, model: Model, solver: RealtimeSolver):
         self.model, self.solver = model, solver
@@ -98,8 +93,7 @@ def block_simulation(n_tetrahedra: int, linear_solver=None) -> BlockSimulation:
 
 
 def block_drag(sim, frames: int, start: int = 0) -> list:
-    """Frames ``start + 1 ... start + frames`` of the block's drag (``"grab"`` on :func:`block_path`): their
-    reports."""
+    """The reports of frames ``start + 1 ... start + frames`` of the block's drag along :func:`block_path`."""
     return [sim.frame({"grab": block_path((f + 1) * FRAME_BUDGET)}) for f in range(start, start + frames)]
 
 
@@ -213,14 +207,11 @@ def frame_floor(sim, repeats: int = 9) -> dict:
     (``factorization_ms``), the stored entries of the factors (``factor_nnz``; a multigrid hierarchy's: every
     level's matrix) and of the free block of the tangent (``matrix_nnz``)."""
     model, u = sim.model, sim.u
-    fixed, _ = model.prescribed()
-    free = np.ones(model.n_dofs, dtype=bool)
-    free[fixed] = False
-    backend = sim.solver.linear.factorizing
+    free = np.isin(np.arange(model.n_dofs), model.prescribed()[0], invert=True)
     rhs = -model.gradient(u)[free]
     A = sim.solver.linear.condense(model.hessian(u), free)
     t0 = time.perf_counter()
-    factor = backend.factorize(A)
+    factor = sim.solver.linear.factorizing.factorize(A)
     factorization = 1e3 * (time.perf_counter() - t0)
     apply = getattr(factor, "precondition", None) or factor.solve
     apply(rhs)  # a first solve may check its residual: untimed
@@ -272,8 +263,7 @@ _RECORDED = [
 
 
 def format_realtime_table(rows) -> str:
-    """The benchmark rows as a Markdown table (its first column the rows' element count: triangles or
-    tetrahedra)."""
+    """The benchmark rows as a Markdown table (the first column: triangles or tetrahedra)."""
     elements = "tetrahedra" if rows and "tetrahedra" in rows[0] else "triangles"
     return markdown_table(rows, [(elements, elements, "{:d}"), *_COLUMNS])
 
