@@ -71,8 +71,6 @@ def graded_flap(n_triangles: int, grading: float = REFERENCE_GRADING):
     -> 0.5 (2 x)^grading`` on its lower half, symmetrically above: cells shrink towards the corners, where the
     solution is singular (``grading = 1``: uniform)."""
     mesh = flap(n_triangles=int(n_triangles))
-    if grading == 1:
-        return mesh
     width, height = mesh.p[0].max(), mesh.p[1].max()
     p = np.vstack([width * _graded(mesh.p[0] / width, grading), height * _graded(mesh.p[1] / height, grading)])
     return replace(mesh, doflocs=p)
@@ -105,10 +103,20 @@ class Setting:
         return self
 
 
-#: The knobs and, for each, the label of the setting it changes. Values come from the plan.
-KNOBS = {"mesh": "triangles", "P2": "triangles", "quadrature": "intorder", "material": "material",
-         "newton_tolerance": "rtol", "newton_cap": "max_iterations", "time_step": "substeps",
-         "linear_solver": "linear_solver"}
+#: The knobs and what each ``value`` changes in the baseline (the plan gives the values, and the quadrature
+#: knob's mesh).
+_CHANGES = {
+    "mesh": lambda value, plan: {"triangles": int(value)},
+    "P2": lambda value, plan: {"triangles": int(value), "order": 2},
+    "quadrature": lambda value, plan: {"triangles": int(plan["knobs"]["quadrature_triangles"]), "order": 2,
+                                       "intorder": int(value)},
+    "material": lambda value, plan: {"material": value},
+    "newton_tolerance": lambda value, plan: {"rtol": float(value)},
+    "newton_cap": lambda value, plan: {"max_iterations": int(value), "rtol": 1e-12},
+    "time_step": lambda value, plan: {"substeps": int(value)},
+    "linear_solver": lambda value, plan: {"linear_solver": value},
+}
+KNOBS = tuple(_CHANGES)
 
 _MATERIALS = ("linear", "corotated", "neo-hookean", "stable-neo-hookean", "taylor-neo-hookean")
 _SOLVERS = ("reuse", "direct", "superlu-colamd", "cg-ilu", "cg-jacobi", "pardiso", "reuse-pardiso")
@@ -356,41 +364,20 @@ def _errors(problem, states, reference) -> list[float]:
 
 # --- the sweeps ------------------------------------------------------------------------------------
 
-#: What each knob's ``value`` changes in the baseline (``plan`` gives the quadrature knob's mesh).
-_CHANGES = {
-    "mesh": lambda value, plan: {"triangles": int(value)},
-    "P2": lambda value, plan: {"triangles": int(value), "order": 2},
-    "quadrature": lambda value, plan: {"triangles": int(plan["knobs"]["quadrature_triangles"]), "order": 2,
-                                       "intorder": int(value)},
-    "material": lambda value, plan: {"material": value},
-    "newton_tolerance": lambda value, plan: {"rtol": float(value)},
-    "newton_cap": lambda value, plan: {"max_iterations": int(value), "rtol": 1e-12},
-    "time_step": lambda value, plan: {"substeps": int(value)},
-    "linear_solver": lambda value, plan: {"linear_solver": value},
-}
-
-
-def _knob_settings(knob: str, plan: dict, base: Setting):
-    for value in plan["knobs"].get(knob, ()):
-        if knob not in _CHANGES:
-            raise ValueError(f"unknown knob {knob!r}; knobs: {sorted(KNOBS)}")
-        yield value, replace(base, **_CHANGES[knob](value, plan))
-
-
-def knob_sweep(benchmark: str, plan: dict, reference, knobs=None, progress=None) -> list[dict]:
+def knob_sweep(benchmark: str, plan: dict, reference, progress=None) -> list[dict]:
     """One row per (knob, value) of ``plan``: the setting, its cost, its error and ``from_baseline``; a
     setting this machine cannot run is skipped, a failed one has ``error = nan``."""
-    knobs = list(KNOBS) if knobs is None else list(knobs)
     frames = plan["frames"] if benchmark == "flap" else plan["block_frames"]
     checkpoints = _checkpoints(benchmark, frames, plan["checkpoints"])
     base = Setting(triangles=int(plan["base_triangles"]))
     # the baseline once more, to measure how far each setting moves the answer from it
     baseline = run_setting(benchmark, base, frames, checkpoints)
     rows = []
-    for knob in knobs:
+    for knob in KNOBS:
         if knob == "time_step" and benchmark == "block":
             continue
-        for value, setting in _knob_settings(knob, plan, base):
+        for value in plan["knobs"].get(knob, ()):
+            setting = replace(base, **_CHANGES[knob](value, plan))
             if not _runnable(setting.linear_solver):
                 continue
             row = {"benchmark": benchmark, "knob": knob, "value": value, **asdict(setting),
@@ -525,7 +512,7 @@ def _plan(plan) -> tuple[str, dict]:
     return string("plan", plan, PLANS), PLANS[plan]
 
 
-def accuracy_study(plan="full", benchmarks=BENCHMARKS, knobs=None, scaling: bool = True, budget: bool = True,
+def accuracy_study(plan="full", benchmarks=BENCHMARKS, scaling: bool = True, budget: bool = True,
                    verification: bool = True, out=None, progress=print) -> dict:
     """Run the study and return (and write into the folder ``out``) its results: ``machine``, ``plan``,
     ``references``, ``knobs``, ``pareto`` (per benchmark, the front's rows), ``scaling``, ``budget``,
@@ -544,7 +531,7 @@ def accuracy_study(plan="full", benchmarks=BENCHMARKS, knobs=None, scaling: bool
         reference = reference_run(b, plan, progress=say, check=verification)
         results["references"][b] = reference[2]
         say(f"{b}: sweeping the knobs")
-        rows = knob_sweep(b, plan, reference, knobs=knobs, progress=say)
+        rows = knob_sweep(b, plan, reference, progress=say)
         offset = len(results["knobs"])
         results["knobs"] += rows
         front = pareto_front([r.get("ms_median", float("nan")) for r in rows], [r["error"] for r in rows])
@@ -594,7 +581,7 @@ def read_results(path) -> dict:
     results = load_results(path)
     for row in results.get("knobs", []) + results.get("scaling", {}).get("rows", []) + results.get("budget", []):
         for k, v in row.items():
-            if v is None and k not in ("intorder",):
+            if v is None and k != "intorder":
                 row[k] = float("nan")
     return results
 
