@@ -141,8 +141,7 @@ def _execution_seconds(nb) -> float:
         start, end = timing.get("iopub.execute_input"), timing.get("shell.execute_reply")
         if start and end:
             try:
-                total += (datetime.fromisoformat(end.replace("Z", "+00:00"))
-                          - datetime.fromisoformat(start.replace("Z", "+00:00"))).total_seconds()
+                total += (datetime.fromisoformat(end) - datetime.fromisoformat(start)).total_seconds()
             except ValueError:
                 pass
     return total

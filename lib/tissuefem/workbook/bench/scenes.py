@@ -71,12 +71,6 @@ def variants(n_triangles):
     return out
 
 
-def _run(data, options, frames):
-    sim = Simulation(Scene.from_dict(data), **options)
-    reports = flap_drag(sim, frames)
-    return sim, np.array([1e3 * r.elapsed for r in reports]), np.array([r.newton_iterations for r in reports])
-
-
 def cut_costs(n_triangles, repeats=3) -> dict:
     """Median ms of one cut during the drag (the edit, new model and solver), through elements and edges."""
     out = {}
@@ -172,19 +166,19 @@ def effects_benchmark(n_triangles=8000, frames=30, repeats=5, out=None, progress
     n_triangles, frames = check_count("n_triangles", n_triangles, 50), check_count("frames", frames)
     say = progress or (lambda *a, **k: None)
     machine = machine_info()  # at the start: the load average says how quiet the machine was
-    rows, base, everything = [], None, None
+    rows = []
     for name, data, options in variants(n_triangles):
-        sim, ms, newton = _run(data, options, frames)
+        sim = Simulation(Scene.from_dict(data), **options)
+        reports = flap_drag(sim, frames)
+        ms, newton = np.array([1e3 * r.elapsed for r in reports]), np.array([r.newton_iterations for r in reports])
         median = float(np.median(ms))
-        if base is None:
-            base = median
+        base = rows[0]["median_ms"] if rows else median
         rows.append({"variant": name, "terms": sim.terms, "solver": sim.solver.linear_solver_name,
                      "median_ms": median, "p95_ms": float(np.percentile(ms, 95)), "newton": float(np.mean(newton)),
                      "cost_ms": median - base, "within_budget": float(np.mean(ms <= 1e3 * FRAME_BUDGET)),
                      "ms": ms.tolist()})
         say(f"{name:40s} {median:7.1f} ms/frame  {np.mean(newton):.2f} Newton/frame  terms {sim.terms}")
-        everything = sim
-    terms = term_costs(everything, repeats)
+    terms = term_costs(sim, repeats)  # the last variant: everything
     cuts = cut_costs(n_triangles, repeats)
     say("one cut while dragging (the edit, a new model and solver), ms: "
         + ", ".join(f"{k} {v:.1f}" for k, v in cuts.items()))
