@@ -72,8 +72,7 @@ def _checked(check):
 
 
 def _count(name, lo, hi):
-    """An argparse ``type``: an integer in ``[lo, hi]`` (other text, and numbers of 30 digits or more, are refused
-    by ``check_count`` as text)."""
+    """An argparse ``type``: an integer in ``[lo, hi]`` (other text and 30-digit numbers refused as text)."""
     def check(text):
         return check_count(name, int(text) if text.lstrip("+-").isdecimal() and len(text) < 30 else text, lo, hi)
     return _checked(check)

@@ -210,8 +210,7 @@ _KEPT = ("newton_iterations", "linear_iterations", "factorizations", "converged"
 
 
 def _drive(solver, benchmark: str, frames: int, substeps: int, checkpoints=(), drag=None):
-    """Run ``frames`` displayed frames of ``substeps`` solver frames each; ``(states, stats)`` as in
-    :func:`run_setting`."""
+    """``frames`` displayed frames of ``substeps`` solver frames each: ``(states, stats)`` (:func:`run_setting`)."""
     states, ms, kept = {}, [], []
     for f in range(1, frames + 1):
         spent = 0.0
@@ -305,8 +304,7 @@ def reference_run(benchmark: str, plan: dict, progress=None, check: bool = True)
     """``(problem, states, info)``: P2, Newton to ``1e-10``, on ``plan["reference"]``'s ``triangles`` (block:
     ``block_triangles``) and ``grading``, the flap as ``2 u(dt/2s) - u(dt/s)`` (``s = substeps``). With
     ``check``, ``info`` holds its error estimate (:func:`_estimate`) in space from 1/4 and 1/16 of the
-    triangles (``space_*``), for the flap in time from 2 and 4 times larger steps (``time_*``), and their sum.
-    """
+    triangles (``space_*``), for the flap in time from 2 and 4 times larger steps (``time_*``), and their sum."""
     ref = plan["reference"]
     frames = plan["frames"] if benchmark == "flap" else plan["block_frames"]
     checkpoints = _checkpoints(benchmark, frames, plan["checkpoints"])

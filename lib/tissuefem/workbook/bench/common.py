@@ -31,14 +31,12 @@ def _version(dist: str) -> str:
 
 
 def load_average() -> list[float]:
-    """The load average over 1, 5 and 15 minutes: how busy the machine is (a quiet 2-core machine: well
-    under 1)."""
+    """The load average over 1, 5 and 15 minutes (a quiet 2-core machine: well under 1)."""
     return [round(x, 2) for x in os.getloadavg()]
 
 
 def machine_info() -> dict:
-    """Platform, Python and library versions, the CPU count and the :func:`load_average` when the run
-    started, for the benchmark record."""
+    """The benchmark record's machine: platform, versions, CPU count and :func:`load_average` at the start."""
     return {"platform": platform.platform(), "machine": platform.machine(),
             "processor": platform.processor(), "python": sys.version.split()[0],
             "numpy": np.__version__, "scipy": _version("scipy"), "scikit-fem": _version("scikit-fem"),
@@ -46,8 +44,7 @@ def machine_info() -> dict:
 
 
 def check_sizes(sizes) -> list[int]:
-    """The mesh sizes (a non-empty list or tuple) as positive ints, or a
-    :class:`~tissuefem.engine.parameters.ParameterError`."""
+    """The mesh sizes (a non-empty list or tuple) as positive ints."""
     return [check_count("sizes", s) for s in count_list("sizes", sizes, "mesh sizes", math.inf)]
 
 

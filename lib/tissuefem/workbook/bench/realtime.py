@@ -65,8 +65,7 @@ def _block_cells(n_tetrahedra: int) -> tuple[int, int, int]:
 
 
 class BlockSimulation:
-    """The 3D block's ``model`` and real-time ``solver``, read as the benchmark reads a 2D
-    :class:`~tissuefem.surgery.simulation.Simulation` (``mesh``, ``u``, ``frames``, ``frame``)."""
+    """The 3D block's ``model`` and ``solver``, read like a :class:`~tissuefem.surgery.simulation.Simulation`."""
 
     def __init__(self, model: Model, solver: RealtimeSolver):
         self.model, self.solver = model, solver
