@@ -1,38 +1,33 @@
 """Cutting through elements: the virtual node algorithm in 2D.
 
-:func:`~tissuefem.surgery.topology.incise` snaps a stroke to mesh edges: the wound is jagged and depends on the mesh.
-Here the stroke is followed exactly, without remeshing, by the *virtual node algorithm* of Molino, Bao and Fedkiw
-[1]_: every triangle the cut separates is duplicated, one copy per piece of its material; each copy keeps the
+:func:`~tissuefem.surgery.topology.incise` snaps a stroke to mesh edges, so the wound is jagged and depends on the
+mesh. Here the stroke is followed exactly, without remeshing, by the *virtual node algorithm* of Molino, Bao and
+Fedkiw [1]_: every triangle the cut separates is duplicated, one copy per piece of its material; each copy keeps the
 triangle's reference geometry (hence its P1 shape functions) and carries only its piece; vertices whose material a
 copy does not hold become extra ("virtual") nodes.
 
-1. **Where the stroke lies.** The stroke is drawn on the deformed tissue; the P1 map of a triangle is affine, so each
-   segment ``a -> b`` is clipped in barycentric coordinates, keeping ``lambda_i(a) + s (lambda_i(b) - lambda_i(a))
-   >= 0``. A stroke within 1e-6 edge lengths of a node is first moved onto it, so that neighbours agree about it.
-2. **The material of an element** is a :class:`Region`: the polygon it fills, its *slits* and *severed* edge parts;
-   its weight (the polygon's share of the triangle) is what :class:`~tissuefem.engine.assembly.P1Assembler`
-   integrates.
+1. **Where the stroke lies.** The P1 map of a triangle is affine, so each segment ``a -> b`` of the stroke (drawn on
+   the deformed tissue) is clipped in barycentric coordinates, keeping ``lambda_i(a) + s (lambda_i(b) -
+   lambda_i(a)) >= 0``. A stroke within 1e-6 edge lengths of a node is first moved onto it.
+2. **The material of an element** is a :class:`Region`: its polygon, *slits* and *severed* edge parts; its weight
+   (the polygon's share of the triangle) is what :class:`~tissuefem.engine.assembly.P1Assembler` integrates.
 3. **Splitting.** The region's boundary, its slits and the stroke's new pieces form a planar graph; dangling edges (a
-   crack ending in the material) are pruned and kept as slits; its ``k`` faces are ``k`` copies of the element.
+   crack ending in the material) are kept as slits; its ``k`` faces are ``k`` copies of the element.
 4. **Nodes.** Two elements across a mesh edge are *joined* where the parts of the edge their regions touch (less what
    is severed) overlap over a positive length; joined elements share the edge's nodes. The new nodes are the classes
    of corners (element, vertex) under these joins. A cut along a mesh edge needs no split: severing stops the join.
 5. **The crack tip.** The triangle holding the end of a crack is one piece, so (as in [1]_) it is not duplicated: the
-   crack in it is a slit. The crack closes within one element of the drawn tip, the resolution of P1 with virtual
-   nodes (phantom-node methods [3]_ make the same choice).
+   crack closes within one element of the drawn tip (phantom-node methods [3]_ make the same choice).
 6. **No slivers.** A piece lighter than ``min_weight`` is merged into its neighbour across the cut and the parts of
-   the triangle's edges that bounded it are severed instead (the :class:`Wound` stays where the stroke was drawn).
-   A light piece that stays holds its virtual nodes with a stiffness proportional to its weight, while a stitch, a
-   grab or contact on its lip pulls them with the lip point's barycentric coefficients: the model on a cut mesh adds
-   a ghost penalty [4]_ (:class:`~tissuefem.engine.terms.GhostPenalty`) that ties each piece's deformation gradient
-   to its neighbours', so that neither spikes nor crumpling lips appear, at any mesh size.
+   the triangle's edges that bounded it are severed instead (the :class:`Wound` stays where it was drawn). A light
+   piece that stays is tied to its neighbours by a ghost penalty [4]_ (:class:`~tissuefem.engine.terms.GhostPenalty`)
+   on the model, so that neither spikes nor crumpling lips appear.
 7. **One element per set of nodes.** Copies of one triangle with the same three nodes (e.g. the corners outside a
    V-shaped crack) are one element, whose region may have several polygons.
 
-Cuts through vertices and along edges need no special case (the generalisation of Wang et al. [2]_). Uncut elements
-and old nodes keep their index and vertex order; the first piece of a cut element keeps its index, the other pieces
-and the virtual nodes are appended. Nodal masses from the material areas (:func:`lumped_mass`) carry mass and
-momentum over exactly.
+Cuts through vertices and along edges need no special case (Wang et al. [2]_). Uncut elements and old nodes keep
+their index and vertex order; the other pieces and the virtual nodes are appended. Nodal masses from the material
+areas (:func:`lumped_mass`) carry mass and momentum over exactly.
 
 .. [1] N. Molino, Z. Bao, R. Fedkiw, *A virtual node algorithm for changing mesh topology during simulation*, ACM
    Transactions on Graphics 23(3) (SIGGRAPH 2004), 385-392.
@@ -890,15 +885,14 @@ def _region_distance(region, xi) -> float:
     return best
 
 
-def locate(mesh, point, positions=None, regions=None, candidates=None, reach=1e-3):
+def locate(mesh, point, positions=None, regions=None, reach=1e-3):
     """``(element, barycentric (3,))`` of the material holding ``point`` (deformed coordinates) or nearest to it, or
     ``None`` if none is within ``reach`` (in local coordinates: a fraction of a triangle's size); a point just off the
-    material (in an open wound) extends the element's P1 map. ``candidates`` restricts the search."""
+    material (in an open wound) extends the element's P1 map."""
     p, t = mesh_arrays(mesh)
     x = node_positions(mesh, positions)
     q = np.asarray(point, dtype=float)
-    elements = np.arange(t.shape[1]) if candidates is None else np.asarray(candidates, dtype=np.int64)
-    a, b, c = (x[:, t[k, elements]] for k in range(3))
+    a, b, c = (x[:, t[k]] for k in range(3))
     d1, d2 = b - a, c - a
     det = d1[0] * d2[1] - d1[1] * d2[0]
     ok = np.abs(det) > 0
@@ -910,12 +904,11 @@ def locate(mesh, point, positions=None, regions=None, candidates=None, reach=1e-
     regions = {} if regions is None else regions
     order = np.argsort(outside, kind="stable")
     best, best_d = None, math.inf
-    for i in order.tolist():
-        if outside[i] > reach or outside[i] >= best_d:
+    for e in order.tolist():
+        if outside[e] > reach or outside[e] >= best_d:
             break
-        e = int(elements[i])
-        local = np.array([xi[i], eta[i]])
-        d = outside[i] + (_region_distance(regions[e], local) if e in regions else 0.0)
+        local = np.array([xi[e], eta[e]])
+        d = outside[e] + (_region_distance(regions[e], local) if e in regions else 0.0)
         if d < best_d:
             best, best_d = (e, np.array([1.0 - local.sum(), local[0], local[1]])), d
     return None if best is None or best_d > reach else best
@@ -925,19 +918,19 @@ def locate(mesh, point, positions=None, regions=None, candidates=None, reach=1e-
 FIRM_WEIGHT = 0.25
 
 
-def firm_anchor(mesh, element, barycentric, positions=None, weights=None, regions=None, firm=FIRM_WEIGHT):
+def firm_anchor(mesh, element, barycentric, positions=None, weights=None, regions=None):
     """``(element, barycentric)`` of a point of the material, moved to a neighbour (sharing a node) carrying at least
-    ``firm`` of its triangle whose material lies nearest, by its P1 map extended (barycentric coordinates may be
+    :data:`FIRM_WEIGHT` of its triangle whose material lies nearest, by its P1 map extended (barycentric coordinates may be
     slightly negative): a stitch pulling at a sliver would stretch it (its virtual nodes hold almost nothing)."""
     p, t = mesh_arrays(mesh)
     w = element_weights(weights, t.shape[1])
     best, best_d = (element, np.asarray(barycentric, dtype=float)), math.inf
-    if w[element] >= firm:
+    if w[element] >= FIRM_WEIGHT:
         return best
     x = node_positions(mesh, positions)
     point = x[:, t[:, element]] @ best[1]
     regions = {} if regions is None else regions
-    for e in np.flatnonzero(np.isin(t, t[:, element]).any(axis=0) & (w >= firm)).tolist():  # the firm neighbours
+    for e in np.flatnonzero(np.isin(t, t[:, element]).any(axis=0) & (w >= FIRM_WEIGHT)).tolist():  # the firm neighbours
         a, b, c = x[:, t[0, e]], x[:, t[1, e]], x[:, t[2, e]]
         J = np.column_stack([b - a, c - a])
         if abs(np.linalg.det(J)) <= 0:

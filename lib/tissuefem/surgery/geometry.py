@@ -348,10 +348,7 @@ class Region:
         out, weight = [], 0.0
         for i, poly in enumerate(polys):
             name = f"Region.polygons[{i}]"
-            poly = check_real_array(name, poly)
-            if poly.ndim != 2 or poly.shape[1] != 2 or poly.shape[0] < 3 or not np.all(np.isfinite(poly)):
-                raise ParameterError(name, f"{name} must be at least 3 finite points shaped (k, 2), got shape "
-                                           f"{poly.shape}")
+            poly = check_points(name, poly, 3)
             if not ((poly >= -EPS).all() and (poly.sum(axis=1) <= 1.0 + EPS).all()):
                 raise ParameterError(name, f"{name} must lie in the unit triangle (xi, eta >= 0, xi + eta <= 1)")
             area = 2.0 * polygon_area(poly.tolist())

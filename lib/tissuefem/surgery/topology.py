@@ -201,32 +201,21 @@ def cut_path(mesh, polyline, positions=None) -> np.ndarray:
     n = p.shape[1]
     facets = np.asarray(mesh.facets, dtype=np.int64)
     bfacets = facets[:, np.asarray(mesh.boundary_facets(), dtype=np.int64)]
-    # the graph the path runs on: the mesh edges (facets first) plus links between copies of one material point
+    # the graph the path runs on: the mesh edges (facets first) plus links from every copy of a material point to
+    # its lowest node (the nodes sorted by place, then index)
     used = np.unique(t)
-    ends = [facets]
-    if used.size:
-        _, group = np.unique(p[:, used].T, axis=0, return_inverse=True)
-        group = group.ravel()
-        order = np.lexsort((used, group))
-        g, u = group[order], used[order]
-        first = np.r_[0, np.flatnonzero(g[1:] != g[:-1]) + 1]
-        head = np.repeat(u[first], np.diff(np.r_[first, g.size]))
-        twin = head != u
-        ends.append(np.stack([head[twin], u[twin]]))
-    ends = np.concatenate(ends, axis=1)
+    _, first, group = np.unique(p[:, used].T, axis=0, return_index=True, return_inverse=True)
+    order = np.lexsort((used, group.ravel()))
+    head, copy = used[first][group.ravel()][order], used[order]
+    ends = np.concatenate([facets, np.stack([head[head != copy], copy[head != copy]])], axis=1)
     length = np.hypot(*(x[:, ends[0]] - x[:, ends[1]]))
-    h = float(np.median(length[: facets.shape[1]])) if facets.shape[1] else 1.0
-    h = h if h > 0.0 else 1.0
+    h = float(np.median(length[: facets.shape[1]])) or 1.0
     # every polyline vertex snaps to the nearest node, an end possibly to the boundary (and then the path ends there)
-    snapped, at_boundary = [], [False, False]  # did the first, the last end snap to the boundary?
-    for k, q in enumerate(pts):
-        node = None
-        if bfacets.size and (k == 0 or k == len(pts) - 1):
-            node = _boundary_snap(x, t, bfacets, q, pts[1] if k == 0 else pts[-2])
-            at_boundary[0 if k == 0 else 1] = node is not None
-        if node is None:
-            node = int(used[np.argmin(np.hypot(x[0, used] - q[0], x[1, used] - q[1]))])
-        snapped.append(node)
+    snapped = [int(used[np.argmin(np.hypot(x[0, used] - q[0], x[1, used] - q[1]))]) for q in pts]
+    at_boundary = [_boundary_snap(x, t, bfacets, pts[0], pts[1]), _boundary_snap(x, t, bfacets, pts[-1], pts[-2])]
+    for i, node in zip((0, -1), at_boundary):
+        if node is not None:
+            snapped[i] = node
 
     path = [snapped[0]]
     for k in range(len(pts) - 1):
@@ -252,9 +241,9 @@ def cut_path(mesh, polyline, positions=None) -> np.ndarray:
     # an end snapped to the boundary may reach it at a neighbouring boundary node and walk along the boundary to the
     # snapped one: such steps open nothing, the cut ends where it first meets the boundary
     on_boundary = set(pair_keys(bfacets, n).tolist())
-    while at_boundary[0] and len(path) > 2 and min(path[:2]) * n + max(path[:2]) in on_boundary:
+    while at_boundary[0] is not None and len(path) > 2 and min(path[:2]) * n + max(path[:2]) in on_boundary:
         path.pop(0)
-    while at_boundary[1] and len(path) > 2 and min(path[-2:]) * n + max(path[-2:]) in on_boundary:
+    while at_boundary[1] is not None and len(path) > 2 and min(path[-2:]) * n + max(path[-2:]) in on_boundary:
         path.pop()
     if len(path) < 2:
         raise ValueError(f"polyline collapses to the single node {path[0]}: draw a longer stroke "
