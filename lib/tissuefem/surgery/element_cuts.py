@@ -118,27 +118,21 @@ class _Arrangement:
                         self.graph[key] = kind
         self.slits = []  # (u, v) edges of cracks that do not separate
         self.wound = []  # ("inner", u, v, t0, t1) or ("edge", u, v, t0, t1, k)
-        self.changed = False
         for u, v, t0, t1 in cut_edges:
-            key = _key(u, v)
-            kind = self.graph.get(key)
-            if kind == _P:
+            kind = self.graph.get(_key(u, v))
+            if kind == _P:  # severs an edge of the triangle with an element across (else: an old wound, the boundary)
                 k = self._edge_of(u, v)
                 if k is not None and open_edge[k]:
                     self.new_severed[k].append(self._interval(k, u, v))
                     self.wound.append(("edge", u, v, t0, t1, k))
-                    self.changed = True
-                continue  # along an old wound, or along the body's boundary: nothing to do
-            if kind == _S:
+            elif kind == _S:
                 self.wound.append(("inner", u, v, t0, t1))
-                continue
-            if self._edge_of(u, v) is not None:
-                continue  # on the triangle's edge where this copy has no material
-            if sum(winding(_mid(self.verts[u], self.verts[v]), poly) for poly in polys) == 0:
-                continue  # outside this copy's material
-            self.graph[key] = _C
-            self.wound.append(("inner", u, v, t0, t1))
-            self.changed = True
+            # a new cut, unless on the triangle's edge where this copy has no material or outside its material
+            elif self._edge_of(u, v) is None and sum(winding(_mid(self.verts[u], self.verts[v]), poly)
+                                                     for poly in polys) != 0:
+                self.graph[_key(u, v)] = _C
+                self.wound.append(("inner", u, v, t0, t1))
+        self.changed = _C in self.graph.values() or any(rec[0] == "edge" for rec in self.wound)
         self._settle()
 
     def _vertex(self, pt) -> int:
@@ -311,21 +305,17 @@ class _Arrangement:
         """One record per side of each new wound piece: (face, side (+1: the face is left of the stroke), stroke0,
         stroke1, a, b, opened); a piece along the triangle's edge has one side here, the other in the element across."""
         out = []
-        for rec in self.wound:
-            kind, u, v, t0, t1 = rec[:5]
+        for kind, u, v, t0, t1, *_ in self.wound:
             a, b = self.verts[u], self.verts[v]
-            if kind == "edge":
+            if kind == "edge":  # the side that has material here
                 left = self.face_of.get((u, v), -1)
-                out.append((left, 1, t0, t1, a, b, True) if left >= 0
-                           else (self.face_of[(v, u)], -1, t0, t1, a, b, True))
-                continue
-            if _key(u, v) in self.graph:
-                left, right = self.face_of[(u, v)], self.face_of[(v, u)]
+                sides = [(left, 1)] if left >= 0 else [(self.face_of[(v, u)], -1)]
+            elif _key(u, v) in self.graph:
+                sides = [(self.face_of[(u, v)], 1), (self.face_of[(v, u)], -1)]
             else:  # a slit, or a cut snapped away from a sliver: material on both sides
-                left = right = self.locate(_mid(a, b))
-            opened = left != right
-            out.append((left, 1, t0, t1, a, b, opened))
-            out.append((right, -1, t0, t1, a, b, opened))
+                sides = [(self.locate(_mid(a, b)), 1), (self.locate(_mid(a, b)), -1)]
+            opened = kind == "edge" or sides[0][0] != sides[1][0]
+            out += [(f, side, t0, t1, a, b, opened) for f, side in sides]
         return out
 
 
@@ -467,11 +457,6 @@ class ElementCut(MeshEdit):
         """The contact surface of the cut body: where its material ends (:func:`~.surfaces.contact_surface`)."""
         return contact_surface(self.mesh, self.weights, self.regions)
 
-    def cut(self, polyline, positions=None, min_weight=MIN_WEIGHT) -> "ElementCut":
-        """Cut this result's mesh again (its weights and regions carried): :func:`cut_through`."""
-        return cut_through(self.mesh, polyline, positions, weights=self.weights, regions=self.regions,
-                           min_weight=min_weight)
-
 
 def node_material(mesh, regions) -> np.ndarray | None:
     """Whether each node of a mesh cut through its elements (material ``regions``) has material at its place: some
@@ -539,21 +524,18 @@ def _one_element_per_nodes(arr, ids, faces, triples):
 
 def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_weight=MIN_WEIGHT) -> ElementCut:
     """Cut ``mesh`` (not modified) through its elements along a ``polyline`` (k, 2), k >= 2 (the virtual node
-    algorithm), drawn at ``positions`` (default ``mesh.p``; triangles collapsed there are not cut); it may end inside
-    the body (a crack). A mesh cut before passes its ``weights`` and ``regions`` (:meth:`ElementCut.cut` does). No
-    piece carries less than ``min_weight`` in [0, 0.5) of its triangle (step 6). Named boundaries go to the facets
-    whose material touched them, subdomains to every copy. The stroke is first clipped to the body's bounding box grown
-    by one body size (:func:`~.geometry.clip_to_body`): however far it reaches, it cuts where it crosses the body, as a
-    short one would. ``ValueError`` for bad arguments, or a stroke that changes nothing (it meets no material, or runs
-    only along the boundary or an existing wound)."""
+    algorithm), drawn at ``positions`` (default ``mesh.p``; triangles collapsed there are not cut) and first clipped to
+    the body (:func:`~.geometry.clip_to_body`); it may end inside the body (a crack). A mesh cut before passes its
+    ``weights`` and ``regions``. No piece carries less than ``min_weight`` in [0, 0.5) of its triangle (step 6). Named
+    boundaries go to the facets whose material touched them, subdomains to every copy. ``ValueError`` for bad
+    arguments, or a stroke that changes nothing (it meets no material, or runs only along the boundary or a wound)."""
     p, t = mesh_arrays(mesh)
     n, m = p.shape[1], t.shape[1]
     x = node_positions(mesh, positions)
     pts = check_points("polyline", polyline, 2)
     min_weight = check_real("min_weight", min_weight, 0.0, 0.5, hi_open=True)
     regions, w = check_regions(regions, weights, m)
-    # the stroke in each triangle (stroke parameters back on the drawn polyline) and what it does to the material;
-    # first clipped to the body, so that a far-reaching stroke is followed as precisely as a short one
+    # the stroke in each triangle (stroke parameters back on the drawn polyline) and what it does to the material
     pts, clipped = clip_to_body(pts, x, t)
     if pts.shape[0] < 2:
         raise ValueError("polyline changes nothing: it meets no material (it passes outside the body)")
@@ -920,8 +902,8 @@ FIRM_WEIGHT = 0.25
 
 def firm_anchor(mesh, element, barycentric, positions=None, weights=None, regions=None):
     """``(element, barycentric)`` of a point of the material, moved to a neighbour (sharing a node) carrying at least
-    :data:`FIRM_WEIGHT` of its triangle whose material lies nearest, by its P1 map extended (barycentric coordinates may be
-    slightly negative): a stitch pulling at a sliver would stretch it (its virtual nodes hold almost nothing)."""
+    :data:`FIRM_WEIGHT` of its triangle whose material lies nearest, by its P1 map extended (barycentric coordinates
+    may be slightly negative): a stitch pulling at a sliver would stretch it (its virtual nodes hold almost nothing)."""
     p, t = mesh_arrays(mesh)
     w = element_weights(weights, t.shape[1])
     best, best_d = (element, np.asarray(barycentric, dtype=float)), math.inf
@@ -947,15 +929,12 @@ def carry_points(edit, elements, barycentric, regions=None):
     where it was removed: of the copies of its element, the one whose material (``regions`` of the new mesh) holds it
     (a cut keeps local coordinates)."""
     elements = np.asarray(elements, dtype=np.int64)
-    bary = np.asarray(barycentric, dtype=float)
     copies = {}
     for new, old in enumerate(np.asarray(edit.elements).tolist()):
         copies.setdefault(old, []).append(new)
     regions = {} if regions is None else regions
     out = np.full(elements.shape, -1, dtype=np.int64)
-    for j, (e, w) in enumerate(zip(elements.tolist(), bary)):
-        options = copies.get(e, [])
-        if options:
-            dist = [(_region_distance(regions[c], w[1:]) if c in regions else 0.0) for c in options]
-            out[j] = options[int(np.argmin(dist))]
+    for j, (e, w) in enumerate(zip(elements.tolist(), np.asarray(barycentric, dtype=float))):
+        if e in copies:  # the first copy nearest to the point
+            out[j] = min(copies[e], key=lambda c: _region_distance(regions[c], w[1:]) if c in regions else 0.0)
     return out

@@ -18,12 +18,6 @@ from skfem import MeshTri
 
 from ..engine.parameters import ParameterError, check_real_array, check_weights, show
 
-__all__ = ["EPS", "FULL_TOUCH", "WHOLE", "CLIP_MARGIN", "Region", "mesh_arrays", "node_positions", "check_points",
-           "pair_keys", "element_edges", "new_mesh", "carry_names", "polygon_contains", "clip_to_body", "cross", "snap",
-           "edges_of", "edge_param", "edge_point", "winding", "polygon_area", "crossings", "merge_intervals",
-           "subtract_intervals", "intersect_intervals", "overlaps", "reversed_intervals", "edge_intervals",
-           "region_sides", "region_touch", "element_weights", "check_regions"]
-
 #: Tolerance in local coordinates: points closer than this are one point, a point this close to an edge is on it.
 EPS = 1e-9
 #: The touched intervals of a whole element: all of its three edges.

@@ -184,13 +184,12 @@ def cut_path(mesh, polyline, positions=None) -> np.ndarray:
     """The path of mesh nodes (int64) that follows a ``polyline`` (k, 2), k >= 2, drawn at ``positions``.
 
     Consecutive nodes are the ends of a mesh edge, or two copies of one point (crossing an old wound). Each vertex of
-    the polyline snaps to the nearest node; an *end* outside the body (or within half an edge of its boundary) snaps to
-    the boundary node where it enters, so a stroke across the body cuts it through. Between them runs a shortest path
-    (Dijkstra) over the mesh edges, each costing ``length * (1 + 10 d / h)`` (``d``: the mean distance of its nodes
-    from the drawn segment, ``h``: the median edge length): it hugs the line within about one element. The polyline is
-    first clipped to the body (:func:`~.geometry.clip_to_body`): however far it reaches, it takes the path a short
-    one would. ``ValueError`` for a bad polyline, one that misses the body, collapses to a single node, or joins two
-    unconnected pieces.
+    the polyline (first clipped to the body, :func:`~.geometry.clip_to_body`) snaps to the nearest node; an *end*
+    outside the body (or within half an edge of its boundary) snaps to the boundary node where it enters, so a stroke
+    across the body cuts it through. Between them runs a shortest path (Dijkstra) over the mesh edges, each costing
+    ``length * (1 + 10 d / h)`` (``d``: the mean distance of its nodes from the drawn segment, ``h``: the median edge
+    length): it hugs the line within about one element. ``ValueError`` for a bad polyline, one that misses the body,
+    collapses to a single node, or joins two unconnected pieces.
     """
     pts = check_points("polyline", polyline, 2)
     p, t = mesh_arrays(mesh)
@@ -294,10 +293,10 @@ def _has_area(poly) -> bool:
 
 def excise(mesh, region, positions=None) -> MeshEdit:
     """Remove the triangles of ``mesh`` (not modified) whose centroid (at ``positions``) lies in ``region``: a polygon
-    (k, 2), k >= 3 (even-odd rule; first clipped to the body, :func:`~.geometry.clip_to_body`, so that however far
-    it reaches it selects what a near one would), or a function ``centroids (2, m) -> bool (m,)``. Returns a
-    :class:`MeshEdit`: unused nodes dropped, the rest and the triangles kept in order, the rim named ``"defect"``.
-    ``ValueError`` for a bad polygon or mask, or one that selects no element or every element."""
+    (k, 2), k >= 3 (even-odd rule; first clipped to the body, :func:`~.geometry.clip_to_body`), or a function
+    ``centroids (2, m) -> bool (m,)``. Returns a :class:`MeshEdit`: unused nodes dropped, the rest and the triangles
+    kept in order, the rim named ``"defect"``. ``ValueError`` for a bad polygon or mask, or one that selects no element
+    or every element."""
     p, t = mesh_arrays(mesh)
     x = node_positions(mesh, positions)
     m = t.shape[1]
