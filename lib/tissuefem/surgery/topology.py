@@ -15,11 +15,11 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import csgraph
 
-from ..engine.contact.surface import segment_distance
+from ..engine.contact.surface import cross, segment_distance
 from ..engine.meshes import MeshMap
 from ..engine.parameters import ParameterError, check_count, check_indices, show
-from .geometry import (carry_names, check_points, clip_to_body, cross, mesh_arrays, new_mesh, node_positions,
-                       pair_keys, polygon_contains)
+from .geometry import (carry_names, check_points, clip_to_body, mesh_arrays, new_mesh, node_positions, pair_keys,
+                       polygon_contains)
 
 __all__ = ["MeshEdit", "duplicate_along_edges", "cut_path", "incise", "excise", "connected_components"]
 
@@ -155,21 +155,19 @@ def _boundary_snap(x, t, bfacets, end, towards):
     length = np.hypot(*(B[:, nearest] - A[:, nearest]))
     # inside (or on) a triangle where its three sub-areas at ``end`` have the sign of the whole (either orientation)
     a, b, c, q = x[:, t[0]], x[:, t[1]], x[:, t[2]], end[:, None]
-    area = cross(b[0] - a[0], b[1] - a[1], c[0] - a[0], c[1] - a[1])
-    s1 = cross(b[0] - q[0], b[1] - q[1], c[0] - q[0], c[1] - q[1])
-    s2 = cross(q[0] - a[0], q[1] - a[1], c[0] - a[0], c[1] - a[1])
-    s3 = cross(b[0] - a[0], b[1] - a[1], q[0] - a[0], q[1] - a[1])
+    area = cross(b - a, c - a)
     tol, sign = 1e-12 * np.abs(area), np.sign(area)
-    outside = not np.any((sign * s1 >= -tol) & (sign * s2 >= -tol) & (sign * s3 >= -tol) & (area != 0.0))
+    outside = not np.any((sign * cross(b - q, c - q) >= -tol) & (sign * cross(q - a, c - a) >= -tol)
+                         & (sign * cross(b - a, q - a) >= -tol) & (area != 0.0))
     if not outside and dist[nearest] >= _NEAR_BOUNDARY * length:
         return None
     if outside:  # where does end -> towards cross the boundary first?
         d, e = towards - end, B - A
-        denom = d[0] * e[1] - d[1] * e[0]
+        denom = cross(d, e)
         w = A - end[:, None]
         with np.errstate(divide="ignore", invalid="ignore"):
-            s = (w[0] * e[1] - w[1] * e[0]) / denom  # along the polyline
-            r = (w[0] * d[1] - w[1] * d[0]) / denom  # along the facet
+            s = cross(w, e) / denom  # along the polyline
+            r = cross(w, d) / denom  # along the facet
         hit = (denom != 0.0) & (s >= 0.0) & (s <= 1.0) & (r >= 0.0) & (r <= 1.0)
         if np.any(hit):
             f = np.flatnonzero(hit)[np.argmin(s[hit])]
