@@ -335,6 +335,8 @@ class Region:
     slits: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 2)))
     #: (r, 2, 2): parts of the triangle's edges cut off from the element across
     severed: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 2)))
+    #: the share of the triangle's area the material fills (twice the polygons' area), worked out from them
+    weight: float = field(init=False)
 
     def __post_init__(self):
         polys = self.polygons
@@ -358,20 +360,15 @@ class Region:
         object.__setattr__(self, "polygons", tuple(out))
         object.__setattr__(self, "slits", _segments("Region.slits", self.slits))
         object.__setattr__(self, "severed", _segments("Region.severed", self.severed))
-        object.__setattr__(self, "_weight", weight)
+        object.__setattr__(self, "weight", weight)
 
     @classmethod
     def unchecked(cls, polygons, slits, severed, weight):
         """A region the cut built itself (valid by construction): no checks, no copies."""
         region = object.__new__(cls)
-        for name, value in (("polygons", polygons), ("slits", slits), ("severed", severed), ("_weight", weight)):
+        for name, value in (("polygons", polygons), ("slits", slits), ("severed", severed), ("weight", weight)):
             object.__setattr__(region, name, value)
         return region
-
-    @property
-    def weight(self) -> float:
-        """The share of the triangle's area the material fills (twice the polygons' area)."""
-        return self._weight
 
 
 #: The material of a whole element.
