@@ -165,28 +165,23 @@ class _Arrangement:
         stack = [u for u, nb in adj.items() if len(nb) == 1]
         while stack:
             u = stack.pop()
-            if len(adj.get(u, ())) != 1:
+            if len(adj[u]) != 1:
                 continue
             (v,) = adj[u]
-            key = _key(u, v)
-            self.slits.append(key)
-            del self.graph[key]
+            self.slits.append(_key(u, v))
+            del self.graph[_key(u, v)]
             adj[u].discard(v)
             adj[v].discard(u)
             if len(adj[v]) == 1:
                 stack.append(v)
-        # components without a boundary edge: closed loops of cuts inside the material
-        label = {}
-        for start in adj:
-            if start in label or not adj[start]:
-                continue
-            label[start], todo = start, [start]
-            while todo:
-                for v in adj[todo.pop()] - label.keys():
-                    label[v] = start
-                    todo.append(v)
-        keep = {label[u] for (u, v), kind in self.graph.items() if kind == _P}
-        for key in [k for k in self.graph if label[k[0]] not in keep]:
+        # what the region's boundary does not reach: closed loops of cuts inside the material
+        reached = {u for key, kind in self.graph.items() if kind == _P for u in key}
+        todo = list(reached)
+        while todo:
+            for v in adj[todo.pop()] - reached:
+                reached.add(v)
+                todo.append(v)
+        for key in [k for k in self.graph if k[0] not in reached]:
             self.slits.append(key)
             del self.graph[key]
 
@@ -387,8 +382,8 @@ def _stroke_pieces(x, t, pts):
         a, b = pts[j], pts[j + 1]
         if np.hypot(*(b - a)) == 0.0:
             continue
-        cand = np.flatnonzero(usable & (lo[0] <= max(a[0], b[0]) + pad) & (hi[0] >= min(a[0], b[0]) - pad)
-                              & (lo[1] <= max(a[1], b[1]) + pad) & (hi[1] >= min(a[1], b[1]) - pad))
+        cand = np.flatnonzero(usable & (lo <= np.maximum(a, b)[:, None] + pad).all(axis=0)
+                              & (hi >= np.minimum(a, b)[:, None] - pad).all(axis=0))
         if cand.size == 0:
             continue
         e1, e2, dt = d1[:, cand], d2[:, cand], det[cand]
