@@ -432,11 +432,6 @@ class Wound:
             raise ValueError(f"x must be node positions of the new mesh shaped (2, n_nodes), got {x.shape}")
         return np.einsum("kea,ika->kei", self.barycentric, x[:, self.nodes])  # corners (2, k, 3)
 
-    def length(self) -> float:
-        """Length of the wound in the reference configuration (each piece counted once, not per side)."""
-        d = self.reference[:, 1] - self.reference[:, 0]
-        return 0.5 * float(np.hypot(d[:, 0], d[:, 1]).sum())
-
 
 @dataclass(frozen=True, eq=False, kw_only=True)
 class ElementCut(MeshEdit):
@@ -782,16 +777,14 @@ def picture(mesh, regions=None) -> Picture:
     pt_nodes, pt_coef = [nodes], [coefficients]
     tris, tri_el, edges = [tw], [np.flatnonzero(whole)], [pairs]
     count = n
-    for e in sorted(regions):
-        region = regions[e]
+    for e, region in sorted(regions.items()):
         for poly in region.polygons:
-            k = poly.shape[0]
             tri = np.asarray(_triangulate(poly), dtype=np.int64).reshape(-1, 3).T + count
             tris.append(tri)
             tri_el.append(np.full(tri.shape[1], e, dtype=np.int64))
-            ring = np.arange(k) + count
+            ring = np.arange(len(poly)) + count
             edges.append(np.vstack([ring, np.roll(ring, -1)]))
-            count += k
+            count += len(poly)
         for _ in region.slits:  # a crack that ends inside the element: drawn as a line
             edges.append(np.array([[count], [count + 1]]))
             count += 2

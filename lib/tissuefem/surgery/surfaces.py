@@ -15,14 +15,11 @@ from skfem import MeshTri
 from ..engine.contact import ContactSurface
 from ..engine.meshes import signed_areas
 from ..engine.parameters import ParameterError
-from .geometry import (FULL_TOUCH, check_regions, edge_intervals, edge_point, edges_of, element_edges,
+from .geometry import (EPS, FULL_TOUCH, check_regions, edge_intervals, edge_point, edges_of, element_edges,
                        intersect_intervals, mesh_arrays, merge_intervals, pair_keys, region_sides, region_touch,
                        reversed_intervals, subtract_intervals)
 
 __all__ = ["contact_surface"]
-
-#: weights closer than this are one point (the same crossing of an edge seen from two elements)
-_SAME = 1e-9
 
 
 def contact_surface(mesh, weights=None, regions=None) -> ContactSurface:
@@ -95,13 +92,13 @@ def _assemble(pieces, t, area, n) -> ContactSurface:
     nodes, weights = np.take_along_axis(nodes, order, axis=1), np.take_along_axis(weights, order, axis=1)
     nodes = np.where(weights > 0, nodes, nodes[:, :1])
     used = weights > 0
-    # merge the same combination seen from several elements (the weights agree to round-off)
+    # merge the same combination seen from several elements (the weights agree within EPS, as local coordinates do)
     count = used.sum(axis=1)
     tag = np.where(used, nodes, -1)
     order = np.lexsort((weights[:, 2], weights[:, 1], weights[:, 0], tag[:, 2], tag[:, 1], tag[:, 0], count))
     new = np.ones(order.size, dtype=bool)
     new[1:] = (tag[order[1:]] != tag[order[:-1]]).any(axis=1)
-    new[1:] |= np.abs(weights[order[1:]] - weights[order[:-1]]).max(axis=1) > _SAME
+    new[1:] |= np.abs(weights[order[1:]] - weights[order[:-1]]).max(axis=1) > EPS
     point = np.empty(order.size, dtype=np.intp)
     point[order] = np.cumsum(new) - 1
     first = np.full(int(new.sum()), -1, dtype=np.intp)  # the first row of every point
