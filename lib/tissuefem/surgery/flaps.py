@@ -248,8 +248,8 @@ def rotation_flap(*, width=4.0, height=3.0, n_triangles=3000, pivot=(1.5, 1.5), 
         a = np.linspace(start, stop, n)
         return np.stack([px + r * np.cos(a), py + r * np.sin(a)], axis=1)
 
-    if not (np.all(arc(a0, a1 + alpha, 400) > 0) and np.all(arc(a0, a1 + alpha, 400) < [width, height])
-            and 0 < px < width and 0 < py < height):
+    ring = arc(a0, a1 + alpha, 400)
+    if not (np.all(ring > 0) and np.all(ring < [width, height]) and 0 < px < width and 0 < py < height):
         raise ValueError(f"the flap and the defect (radius {radius!r} about {pivot!r}) must fit inside the "
                          f"{width} x {height} patch, with skin on every side")
     edge_guess = np.sqrt(2.0 * width * height / max(int(n_triangles), 1))
