@@ -1,0 +1,109 @@
+"""Smoothed aggregation (rigid-body modes as near-nullspace) against the kept factorization, on `bench scenes`.
+
+The base, the probe and the "everything" variants of `tissuefem.workbook.bench.scenes.variants` at 8k triangles,
+each run with the default linear solver ("reuse-background": CG preconditioned by a kept SuperLU factorization,
+refreshed on the second core) and with CG preconditioned by one V-cycle of a kept smoothed-aggregation hierarchy
+(pyamg), given the body's rigid motions as near-nullspace and refreshed the same way, the two alternating in one
+process. The library's "reuse-background-cg-amg" solves its coarsest level by a pseudo-inverse, made at the first
+V-cycle on the frame's thread (0.6-4 s per hierarchy for 360 unknowns on the busy machine, the BLAS's two threads
+fighting the other work); here the coarsest level is a sparse LU made with the hierarchy, off the frame. Per run:
+the median wall ms of a frame, the median CPU ms of the frame's thread (time.thread_time), Newton steps, CG
+iterations (one back-substitution or one V-cycle each) and factorizations (or hierarchies) on the frame, per
+frame; and the floor at the end state (one assembly and one back-substitution or V-cycle).
+
+    python docs/experiments/amg_effects.py [n_triangles] [frames] [repeats]
+"""
+
+import sys
+import time
+
+import numpy as np
+
+from tissuefem.engine.linsolve import LinearSolver, ReusedFactorization
+from tissuefem.surgery.scene import Scene
+from tissuefem.surgery.simulation import Simulation
+from tissuefem.workbook.bench.realtime import frame_floor
+from tissuefem.workbook.bench.scenes import variants
+from tissuefem.workbook.timestepping import flap_drag
+
+
+
+class Multigrid:
+    """A backend for ReusedFactorization: "factorizing" builds a smoothed-aggregation hierarchy with the rigid
+    motions of the free dofs (set by the real-time solver) as near-nullspace; CG applies one V-cycle."""
+
+    name = "sa-amg"
+
+    def __init__(self):
+        self.near_nullspace = None
+
+    def factorize(self, A):
+        import pyamg
+        B = self.near_nullspace
+        M = A.tobsr(blocksize=(2, 2)) if A.shape[0] % 2 == 0 else A
+        levels = pyamg.smoothed_aggregation_solver(M, B=B, symmetry="symmetric", max_coarse=300,
+                                                   coarse_solver="splu")
+        cycle = levels.aspreconditioner(cycle="V")
+        cycle.matvec(np.ones(A.shape[0]))  # the coarse LU is made here, with the hierarchy
+        return Cycle(cycle)
+
+
+class Cycle:
+    def __init__(self, cycle):
+        self.precondition = self.solve = cycle.matvec
+
+
+SOLVERS = {"kept SuperLU": lambda: "reuse-background",
+           "AMG (rigid modes)": lambda: LinearSolver(ReusedFactorization(Multigrid(), background=True))}
+VARIANTS = ("base: stable neo-Hookean, quasistatic", "+ probe", "everything")
+
+
+def load():
+    with open("/proc/loadavg") as f:
+        return float(f.read().split()[0])
+
+
+def run(data, options, solver, frames):
+    sim = Simulation(Scene.from_dict(data), linear_solver=solver(), **options)
+    wall, cpu, newton, cg, fac = [], [], [], [], []
+    for f in range(frames):
+        t = time.thread_time()
+        report = flap_drag(sim, 1, start=f)[0]
+        cpu.append(1e3 * (time.thread_time() - t))
+        wall.append(1e3 * report.elapsed)
+        newton.append(report.newton_iterations)
+        cg.append(report.newton.linear_iterations)
+        fac.append(report.newton.factorizations)
+    floor = frame_floor(sim)["floor_ms"]
+    sim.solver.linear.close()
+    return {"wall": np.median(wall), "cpu": np.median(cpu), "newton": np.mean(newton), "cg": np.mean(cg),
+            "fac": np.mean(fac), "floor": floor, "over_floor": np.median(wall) / floor,
+            "cpu_over_floor": np.median(cpu) / floor}
+
+
+def main(n_triangles=8000, frames=30, repeats=3):
+    runs = {(v, s): [] for v in VARIANTS for s in SOLVERS}
+    loads = [load()]
+    chosen = [(name, data, options) for name, data, options in variants(n_triangles) if name in VARIANTS]
+    for r in range(repeats):
+        for name, data, options in chosen:
+            order = list(SOLVERS.items()) if r % 2 == 0 else list(SOLVERS.items())[::-1]  # alternate who goes first
+            for label, solver in order:
+                runs[name, label].append(run(data, options, solver, frames))
+                loads.append(load())
+                print(f"round {r + 1} {name[:12]:12s} {label:18s} " + " ".join(
+                    f"{k} {v:.2f}" for k, v in runs[name, label][-1].items()), flush=True)
+    print(f"\n1-minute load average during the runs: {min(loads):.1f}-{max(loads):.1f}")
+    print("| variant | preconditioner | median ms/frame (runs' range) | frame thread CPU ms | Newton/frame | "
+          "CG iterations/frame | factorizations/frame | floor ms | frame / floor (CPU / floor) |")
+    print("|---|---|---:|---:|---:|---:|---:|---:|---:|")
+    for (name, label), rows in runs.items():
+        med = {k: float(np.median([row[k] for row in rows])) for k in rows[0]}
+        lo, hi = min(row["wall"] for row in rows), max(row["wall"] for row in rows)
+        print(f"| {name.split(':')[0]} | {label} | {med['wall']:.1f} ({lo:.1f}-{hi:.1f}) | {med['cpu']:.1f} | "
+              f"{med['newton']:.2f} | {med['cg']:.1f} | {med['fac']:.2f} | {med['floor']:.1f} | "
+              f"{med['over_floor']:.1f}x ({med['cpu_over_floor']:.1f}x) |")
+
+
+if __name__ == "__main__":
+    main(*(int(a) for a in sys.argv[1:]))
