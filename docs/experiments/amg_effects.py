@@ -27,7 +27,6 @@ from tissuefem.workbook.bench.scenes import variants
 from tissuefem.workbook.timestepping import flap_drag
 
 
-
 class Multigrid:
     """A backend for ReusedFactorization: "factorizing" builds a smoothed-aggregation hierarchy with the rigid
     motions of the free dofs (set by the real-time solver) as near-nullspace; CG applies one V-cycle."""
