@@ -34,7 +34,7 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 from tissuefem.engine import meshes
-from tissuefem.engine.materials import MATERIALS, Corotated, FiberReinforced, NeoHookean, cofactor2, det2
+from tissuefem.engine.materials import MATERIALS, Corotated, FiberReinforced, NeoHookean, cofactor, det2
 from tissuefem.engine.meshes import MAX_TRIANGLES, check_mesh, mesh_with_about, rectangle
 from tissuefem.engine.parameters import check_count, check_lame, check_real, check_young_poisson
 from tissuefem.surgery import scene as scene_module
@@ -632,7 +632,7 @@ def test_bad_F_is_a_value_error_naming_F(F, name, what):
 def test_integer_F_is_still_accepted():
     m = NeoHookean(1.0, 1.0)
     assert m.energy(np.eye(2, dtype=np.int32)) == 0.0
-    assert np.allclose(cofactor2([[1, 2], [3, 4]]), [[4, -3], [-2, 1]])
+    assert np.allclose(cofactor([[1, 2], [3, 4]]), [[4, -3], [-2, 1]])
 
 
 # ---------------------------------------------------------------------------------------------------------------

@@ -32,8 +32,7 @@ import numpy as np
 import scipy.sparse as sp
 from skfem import FacetBasis, LinearForm, asm
 
-from .materials import (DIMENSIONS, FiberReinforced, Material, check_fiber_stiffness, fiber_energy_term,
-                        fiber_stress_term, fiber_tangent_term, vector_length)
+from .materials import FiberFamily, check_fiber_stiffness, vector_length
 from .parameters import (FORCE_MAX, RADIUS_RANGE, REACH, YOUNGS_MODULUS_RANGE, ParameterError, check_bounded_vector,
                          check_density, check_indices, check_penalty_stiffness, check_reach, check_real,
                          check_real_array, check_time_step, check_vector, check_weights)
@@ -247,30 +246,6 @@ class GhostPenalty(Term):
         return f"ghost penalty: {self.pairs.shape[1]} pairs of elements, gamma = {self.gamma:g}"
 
 
-class _FiberDensity(Material):
-    """Only the fibre part ``k/8 (I4 - 1)^2`` of :class:`~tissuefem.engine.materials.FiberReinforced`."""
-
-    name = "fibers"
-
-    def __init__(self, stiffness, fibers):
-        self.lam = self.mu = 0.0
-        self.fibers = FiberReinforced._check_fibers(fibers, DIMENSIONS)  # normalised, shape-checked
-        self.stiffness = float(stiffness)
-
-    def _g(self, F):
-        g = self.fibers  # (d, n_elements): aligned with F's element axis, broadcast over points
-        return g.reshape(g.shape + (1,) * (F.ndim - 2 - (g.ndim - 1)))
-
-    def energy(self, F):
-        return fiber_energy_term(F, self._g(F), self.stiffness)
-
-    def stress(self, F):
-        return fiber_stress_term(F, self._g(F), self.stiffness)
-
-    def tangent(self, F):
-        return fiber_tangent_term(F, self._g(F), self.stiffness)
-
-
 class Fibers(ElementTerm):
     """The fibre energy ``k/8 (I4 - 1)^2``, ``I4 = |F g|^2`` (chapter 5), on any material: ``k >= 0`` is the
     extra small-strain modulus along ``directions``, ``(d,)`` or ``(d, n_elements)`` (normalised here), ``d`` the
@@ -288,7 +263,7 @@ class Fibers(ElementTerm):
         if g.shape != (d, nel):
             raise ValueError(f"fibers.direction must be shaped ({d},) or ({d}, n_elements={nel}), got {g.shape}")
         self.given = g  # as given (a remap carries these, so the normalisation is done once, as at the start)
-        self.density = _FiberDensity(self.stiffness, g)
+        self.density = FiberFamily(self.stiffness, g)
         self.directions = self.density.fibers
 
     def remap(self, meshmap):
