@@ -116,8 +116,7 @@ def _body_force(model, p, scene):
 
 
 def _check_traction(field, e):
-    e = table(field, e, ("boundary", "traction"))
-    require(field, e, ("boundary", "traction"))
+    e = require(field, table(field, e, ("boundary", "traction")), ("boundary", "traction"))
     return {"boundary": string(f"{field}.boundary", e["boundary"], nonempty=True),
             "traction": vector(f"{field}.traction", e["traction"], FORCE_MAX)}
 
@@ -144,8 +143,7 @@ register("tractions", _check_traction, _tractions, listed=True)
 # fibres ------------------------------------------------------------------------------------------------------
 
 def _check_fibers(field, e):
-    e = table(field, e, ("stiffness", "direction"))
-    require(field, e, ("stiffness",))
+    e = require(field, table(field, e, ("stiffness", "direction")), ("stiffness",))
     direction = e.get("direction", [1.0, 0.0])
     if isinstance(direction, str):
         string(f"{field}.direction", direction, ("fusiform",))
@@ -183,8 +181,7 @@ def youngs_modulus(model, scene=None) -> float:
 
 
 def _check_probe(field, e):
-    e = table(field, e, ("center", "radius", "stiffness"))
-    require(field, e, ("center", "radius"))
+    e = require(field, table(field, e, ("center", "radius", "stiffness")), ("center", "radius"))
     out = {"center": vector(f"{field}.center", e["center"]),
            "radius": number(f"{field}.radius", e["radius"], lo=RADIUS_RANGE[0] * meshes.SIZE_RANGE[0], hi=FAR)}
     if "stiffness" in e:
@@ -278,7 +275,7 @@ def _contact(model, p, scene):
     if scene is None:
         if not isinstance(p, dict):
             raise ParameterError("contact", f"contact must be a dict (distance, stiffness[, surface, skin]), got {p!r}")
-        table("contact", p, ("distance", "stiffness", "surface", "skin"))
+        p = table("contact", p, ("distance", "stiffness", "surface", "skin"))
         require("contact", p, ("distance", "stiffness"))
         surface = ContactSurface.from_mesh(model.mesh) if p.get("surface") is None else p["surface"]
         check_contact_stiffness("contact.stiffness", p["stiffness"], youngs_modulus(model))
@@ -327,16 +324,8 @@ def _named_tractions(tractions) -> list:
 
 
 def _keys(field, spec, required, optional=()) -> dict:
-    """``spec`` is a dict with the ``required`` keys and no others than those and ``optional``."""
-    if not isinstance(spec, dict):
-        raise ParameterError(field, f"{field} must be a dict with keys {', '.join(required + optional)}, got {spec!r}")
-    missing = [k for k in required if k not in spec]
-    unknown = [k for k in spec if k not in required + optional]
-    if missing or unknown:
-        raise ParameterError(field, f"{field}: " + "; ".join(
-            ([f"missing {', '.join(map(str, missing))}"] if missing else [])
-            + ([f"unknown keys {unknown!r} (allowed: {', '.join(required + optional)})"] if unknown else [])))
-    return spec
+    """``spec``: a dict with the ``required`` keys and no others than those and ``optional``."""
+    return require(field, table(field, spec, required + optional), required)
 
 
 def keyword_terms(*, dt=None, mass="lumped", gravity=None, body_force=None, tractions=None, fibers=None, probes=(),

@@ -161,9 +161,9 @@ class ITFClamped:
     ``ln J``: the spring bounds the energy below only while ``psi_1(s0, c)`` grows slower than ``sqrt(Psi)``; the
     polynomial models do not, and need no clamping. Where the physical answer has ``s1 < c`` the model departs from it.
 
-    **In d dimensions** (the 2D pieces above are its ``d = 2`` case; the 2D energy keeps their closed form, gradient
-    and tangent come from the expansion in every dimension) the clamped values ``C = {i : s_i < c}`` are a suffix of the sorted ``s``; with ``s^ = s`` clamped to ``c`` on ``C`` and
-    ``d_i = s_i - c`` on ``C`` (0 elsewhere) the extension is the expansion to first order in each clamped value::
+    **In d dimensions** (the 2D pieces above are its ``d = 2`` case; the 2D energy keeps their closed form) the
+    clamped values ``C = {i : s_i < c}`` are a suffix of the sorted ``s``; with ``s^ = s`` clamped to ``c`` on ``C``
+    and ``d_i = s_i - c`` on ``C`` (0 elsewhere) the extension is the expansion to first order in each clamped value::
 
         Psi(s) = Psi(s^) + sum_i psi_i(s^) d_i + sum_(i<j) Psi_ij(s^) d_i d_j + k/2 sum_i d_i^2.
 

@@ -353,10 +353,12 @@ def table(field, value, allowed=None) -> dict:
     return value
 
 
-def require(field, value, keys) -> None:
+def require(field, value, keys) -> dict:
+    """``value`` (a table) if it has every key of ``keys``."""
     for key in keys:
         if key not in value:
             raise ParameterError(f"{field}.{key}", f"{field}.{key}: missing")
+    return value
 
 
 def string(field, value, choices=None, *, nonempty=False) -> str:

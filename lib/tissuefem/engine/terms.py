@@ -202,11 +202,7 @@ class GhostPenalty(Term):
         nodes = np.concatenate([t[:, e], t[:, f]])  # (6, n_pairs): e's nodes, then f's
         g = np.concatenate([G[:, :, e], -G[:, :, f]])  # (6, 2, n_pairs): grad u_e - grad u_f = sum_a u_a g_a^T
         block = (self.gamma * self.modulus * (area[e] + area[f])) * np.einsum("ajp,bjp->abp", g, g)  # (6, 6, n_pairs)
-        rows = np.repeat(nodes[:, None, :], 6, axis=1)
-        cols = np.repeat(nodes[None, :, :], 6, axis=0)
-        self._rows = np.concatenate([2 * rows.ravel() + i for i in range(2)])
-        self._cols = np.concatenate([2 * cols.ravel() + i for i in range(2)])
-        self._values = np.concatenate([block.ravel(), block.ravel()])
+        self._rows, self._cols, self._values = node_blocks(nodes, block, 2)
         n = 2 * self.n_nodes
         self.K = sp.csr_matrix((self._values, (self._rows, self._cols)), shape=(n, n))
 
@@ -275,32 +271,27 @@ class Fibers(ElementTerm):
 
 class SummedDensity:
     """The sum of energy densities evaluated on one ``F`` (one assembly pass for all element terms); with
-    ``safe``, each density's positive semi-definite tangent where it offers one (the safe Hessian)."""
+    ``safe``, each density's positive semi-definite ``safe_tangent`` where it offers one (the safe Hessian)."""
 
     def __init__(self, densities, safe=False):
         self.densities, self.safe = list(densities), safe
         self.name = " + ".join(getattr(d, "name", "?") for d in self.densities)
 
     def _sum(self, method, F):
-        out = method(self.densities[0], F)
-        for d in self.densities[1:]:
-            out = out + method(d, F)
+        out = None
+        for d in self.densities:
+            value = getattr(d, method, d.tangent)(F)  # the tangent where a density has no safe one
+            out = value if out is None else out + value
         return out
 
     def energy(self, F):
-        return self._sum(lambda d, F: d.energy(F), F)
+        return self._sum("energy", F)
 
     def stress(self, F):
-        return self._sum(lambda d, F: d.stress(F), F)
+        return self._sum("stress", F)
 
     def tangent(self, F):
-        return self._sum(safe_tangent if self.safe else lambda d, F: d.tangent(F), F)
-
-
-def safe_tangent(density, F):
-    """A density's positive semi-definite tangent where it offers one (else its tangent)."""
-    safe = getattr(density, "safe_tangent", None)
-    return safe(F) if safe is not None else density.tangent(F)
+        return self._sum("safe_tangent" if self.safe else "tangent", F)
 
 
 class Inertia(Term):
@@ -384,6 +375,16 @@ class Load(Term):
         return lambda model: Load(self.name, self.make(model), self.make)
 
 
+def node_blocks(nodes, block, dim) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The Hessian entries ``(rows, cols, values)`` of ``block[a, b, p]`` ``(m, m, n)``, the coupling of the nodes
+    ``nodes[a, p]`` and ``nodes[b, p]`` ``(m, n)``, in each of the ``dim`` components alike."""
+    m = nodes.shape[0]
+    rows = np.repeat(nodes[:, None, :], m, axis=1).ravel()
+    cols = np.repeat(nodes[None, :, :], m, axis=0).ravel()
+    return (np.concatenate([dim * rows + i for i in range(dim)]), np.concatenate([dim * cols + i for i in range(dim)]),
+            np.tile(block.ravel(), dim))
+
+
 def refuse_3d(effect: str, X) -> None:
     """A :class:`ParameterError` naming ``effect`` if the points ``X`` are 3D: the effects still 2D only (self-contact,
     cuts and their ghost penalty) refuse a tetrahedron mesh where they enter."""
@@ -453,9 +454,7 @@ def traction_vector(basis, boundary, traction) -> np.ndarray:
 
     @LinearForm
     def traction_form(v, w):
-        if t.size == 3:
-            return t[0] * v[0] + t[1] * v[1] + t[2] * v[2]
-        return t[0] * v[0] + t[1] * v[1]
+        return sum(t[i] * v[i] for i in range(t.size))
 
     return asm(traction_form, fb)
 
@@ -548,9 +547,7 @@ class Probe(Term):
     def gradient(self, u):
         nodes, g, n, _ = self._contact(u)
         out = np.zeros(u.size)
-        f = -self.stiffness * self.length[nodes] * self._h(g)[1] * n  # dE/dx
-        for i in range(self.dim):
-            out[self.dim * nodes + i] = f[i]
+        out.reshape(-1, self.dim)[nodes] = (-self.stiffness * self.length[nodes] * self._h(g)[1] * n).T  # dE/dx
         return out
 
     def forces(self, u) -> np.ndarray:
@@ -708,14 +705,9 @@ class Sutures(Term):
 
     def _triplets(self):
         # D maps node displacements to the gap: +w on end a's nodes, -w on end b's; the Hessian is k D^T D
-        nodes = self.nodes.reshape(-1, self.k.size)  # (2c, k)
-        signed = (self.coefficients * np.array([1.0, -1.0])[:, None, None]).reshape(-1, self.k.size)
-        p = np.repeat(nodes[:, None, :], nodes.shape[0], axis=1)  # rows (2c, 2c, k)
-        q = np.repeat(nodes[None, :, :], nodes.shape[0], axis=0)
+        signed = (self.coefficients * np.array([1.0, -1.0])[:, None, None]).reshape(-1, self.k.size)  # (2c, k)
         w = signed[:, None, :] * signed[None, :, :] * self.k
-        rows = np.concatenate([self.dim * p.ravel() + i for i in range(self.dim)])
-        cols = np.concatenate([self.dim * q.ravel() + i for i in range(self.dim)])
-        return rows, cols, np.tile(w.ravel(), self.dim)
+        return node_blocks(self.nodes.reshape(-1, self.k.size), w, self.dim)
 
     def couplings(self):
         return self._triplets()[:2]
