@@ -25,8 +25,8 @@ from .constants import FRAME_BUDGET
 from .contact import Contact, ContactSurface
 from .parameters import (ACCELERATION_MAX, CONTACT_STIFFNESS_MAX, FAR, FIBER_STIFFNESS_RANGE, FORCE_MAX, RADIUS_RANGE,
                          TIME_STEP_RANGE, YOUNGS_MODULUS_RANGE, MAX_POINTS, ParameterError, check_bounded_vector,
-                         check_contact_stiffness, check_penalty_stiffness, count_list, number, penalty, points, require,
-                         string, table, vector)
+                         check_contact_stiffness, check_list, check_penalty_stiffness, count_list, number, penalty,
+                         points, require, string, table, vector)
 from .terms import Fibers, Inertia, Load, Probe, Sutures, Term, refuse_3d, traction_vector
 
 __all__ = ["Effect", "EFFECTS", "GRAVITY_DOWN", "register", "factory", "keyword_terms", "SkinContact",
@@ -297,13 +297,6 @@ register("contact", _check_contact, _contact)
 
 # --------------------------------------------------------------------------------------------- model keywords
 
-def _entries(field, value, what) -> list:
-    try:
-        return list(value)
-    except TypeError:
-        raise ParameterError(field, f"{field} must be a sequence of {what}, got {value!r}") from None
-
-
 def _named_tractions(tractions) -> list:
     bad = ParameterError("tractions", f"tractions must be {{boundary: (tx, ty)}} or [(boundary, (tx, ty)), ...], "
                                       f"got {tractions!r:.200}")
@@ -332,7 +325,7 @@ def keyword_terms(*, dt=None, mass="lumped", gravity=None, body_force=None, trac
                   sutures=None, contact=None) -> list:
     """The factories of a model's keywords (:class:`~tissuefem.engine.model.Model`) in build order; each checks its
     keyword when called."""
-    probes = _entries("probes", probes, "dicts (center, radius, stiffness[, label])")
+    probes = check_list("probes", probes, "dicts (center, radius, stiffness[, label])")
 
     def fibers_term(model):
         try:

@@ -23,10 +23,10 @@ from .assembly import make_assembler
 from .constants import TISSUE_DENSITY
 from .contact import Contact
 from .effects import as_terms, keyword_terms
-from .materials import det
+from .materials import det, vector_length
 from .meshes import index_list
 from .parameters import (REACH, ParameterError, call_user, check_bounded_vector, check_count, check_density,
-                         check_indices, check_real, check_real_array, check_vector, is_sequence)
+                         check_indices, check_list, check_real, check_real_array, check_vector, is_sequence)
 from .terms import (Elastic, ElementTerm, GhostPenalty, Inertia, Load, Probe, SummedDensity, Sutures, Term,
                     boundary_lengths, extent, surface_lengths)
 
@@ -76,11 +76,7 @@ def region_nodes(mesh, region, field: str = "region") -> np.ndarray:
             raise ValueError(f"{field}: a disc {{'near': [x, y], 'radius': r}} needs its radius")
         centre = check_bounded_vector(f"{field}.near", region["near"], np.inf, dim)
         radius = check_real(f"{field}.radius", region["radius"], 0.0, None)
-        if dim == 2:
-            d = np.hypot(p[0] - centre[0], p[1] - centre[1])
-        else:
-            d = np.sqrt(np.sum((p - centre[:, None]) ** 2, axis=0))
-        nodes = np.flatnonzero(d <= radius * (1 + 1e-9))
+        nodes = np.flatnonzero(vector_length(p - centre[:, None]) <= radius * (1 + 1e-9))
     else:
         raw = region["nodes"] if isinstance(region, dict) and "nodes" in region else region
         if isinstance(raw, dict):
@@ -92,14 +88,6 @@ def region_nodes(mesh, region, field: str = "region") -> np.ndarray:
         spans = ", ".join(f"{c} {lo[i]:g}..{hi[i]:g}" for i, c in enumerate("xyz"[:dim]))
         raise ValueError(f"{field}: selects no node of the mesh (it lies outside the domain, which spans {spans})")
     return nodes.astype(np.intp)
-
-
-def _dimension(mesh) -> int:
-    """The dimension of a mesh's points (2: triangles, 3: tetrahedra), refused by name otherwise."""
-    shape = np.shape(getattr(mesh, "p", None))
-    if len(shape) != 2 or shape[0] not in (2, 3):
-        raise ParameterError("mesh", f"mesh must be a scikit-fem MeshTri or MeshTet, got {type(mesh).__name__}")
-    return int(shape[0])
 
 
 # ------------------------------------------------------------------------------------------------ handles
@@ -219,16 +207,12 @@ class Pattern:
     (``d a + i``, ``d a + j``) of vertex ``a``'s diagonal block (``d`` the mesh's dimension)."""
 
     def __init__(self, assembler, n_vertices, couplings=()):
-        n = assembler.n_dofs
-        self.n = n
-        extra = [(np.asarray(r, dtype=np.int64), np.asarray(c, dtype=np.int64)) for r, c in couplings]
-        base_rows = np.repeat(np.arange(n, dtype=np.int64), np.diff(assembler.indptr))
-        base_keys = base_rows * n + assembler.indices
+        n = self.n = assembler.n_dofs
+        base_keys = np.repeat(np.arange(n, dtype=np.int64), np.diff(assembler.indptr)) * n + assembler.indices
         new = np.zeros(0, dtype=np.int64)
-        if extra:
-            new = np.unique(np.concatenate([r * n + c for r, c in extra]))
-            if np.any(np.diff(base_keys) <= 0):  # pragma: no cover - the assemblers' patterns are sorted
-                base_keys = np.sort(base_keys)
+        if couplings:  # (the assemblers' patterns are sorted)
+            new = np.unique(np.concatenate([np.asarray(r, dtype=np.int64) * n + np.asarray(c, dtype=np.int64)
+                                            for r, c in couplings]))
             at = np.minimum(np.searchsorted(base_keys, new), base_keys.size - 1)
             new = new[base_keys[at] != new]  # only the couplings the mesh does not have already
         if new.size == 0:
@@ -253,12 +237,9 @@ class Pattern:
             shift = np.cumsum(np.bincount(inserted, minlength=base_keys.size + 1))[: base_keys.size]
             self.base_positions = np.arange(base_keys.size) + shift
         self.nnz = self._keys.size
-        nodes = np.arange(n_vertices, dtype=np.int64)
-        d = getattr(assembler, "dim", 2)
-        self.node_block = np.empty((d, d, n_vertices), dtype=np.intp)
-        for i in range(d):
-            for j in range(d):
-                self.node_block[i, j] = self.positions((d * nodes + i), (d * nodes + j))
+        nodes, d = np.arange(n_vertices, dtype=np.int64), getattr(assembler, "dim", 2)
+        i, j = np.indices((d, d))[..., None]
+        self.node_block = self.positions(d * nodes + i, d * nodes + j)
 
     def positions(self, rows, cols) -> np.ndarray:
         """Positions in the data array of the entries ``(rows, cols)`` (which must be in the pattern)."""
@@ -470,18 +451,13 @@ class Model(Holding):
                  gravity=None, body_force=None, tractions=None, fibers=None, probes=(), sutures=None, contact=None,
                  _meshmap=None):
         order = check_count("order", order, 1, 2)
-        try:
-            handles = list(handles)
-        except TypeError:
-            raise ValueError(f"handles must be a sequence of Handle objects, got {handles!r}") from None
-        try:
-            terms = list(terms)
-        except TypeError:
-            raise ParameterError("terms", f"terms must be a sequence of terms, got {terms!r}") from None
+        handles, terms = check_list("handles", handles, "Handle objects"), check_list("terms", terms, "terms")
         made = keyword_terms(dt=dt, mass=mass, gravity=gravity, body_force=body_force, tractions=tractions,
                              fibers=fibers, probes=probes, sutures=sutures, contact=contact)
         self.mesh, self.order, self.intorder, self.assembly, self.weights = mesh, order, intorder, assembly, weights
-        self.dim = dim = _dimension(mesh)
+        if len(np.shape(getattr(mesh, "p", None))) != 2 or np.shape(mesh.p)[0] not in (2, 3):
+            raise ParameterError("mesh", f"mesh must be a scikit-fem MeshTri or MeshTet, got {type(mesh).__name__}")
+        self.dim = dim = mesh.p.shape[0]
         if dim == 3 and weights is not None:
             raise ParameterError("weights", "weights: cuts through elements are 2D only for now; the mesh has "
                                             "tetrahedra")

@@ -18,7 +18,7 @@ import numpy as np
 
 __all__ = [
     "ParameterError", "lame_parameters", "check_young_poisson", "check_poisson_ratio", "check_lame", "check_real",
-    "check_real_number", "check_count", "check_positive", "call_user", "check_vector", "check_bounded_vector",
+    "check_real_number", "check_count", "check_positive", "call_user", "check_list", "check_vector", "check_bounded_vector",
     "check_real_array", "check_indices", "check_reach", "check_weights", "check_fiber_stiffness",
     "check_time_step", "check_density", "check_contact_stiffness", "check_penalty_stiffness",
     "YOUNGS_MODULUS_RANGE", "POISSON_RATIO_RANGE", "LAME_MAX", "SHEAR_MODULUS_MIN", "TIME_STEP_RANGE",
@@ -121,6 +121,14 @@ def call_user(field: str, what: str, function, *args):
         return function(*args)
     except Exception as err:  # a user's callable may raise anything: a refusal, not a crash
         raise ParameterError(field, f"{field}: the {what} raised {type(err).__name__}: {err}") from None
+
+
+def check_list(name: str, value, what: str) -> list:
+    """``list(value)``, else a ``ParameterError`` naming ``name``: ``value`` must be a sequence of ``what``."""
+    try:
+        return list(value)
+    except TypeError:
+        raise ParameterError(name, f"{name} must be a sequence of {what}, got {show(value)}") from None
 
 
 def check_vector(name, value, size: int = 2) -> np.ndarray:
