@@ -143,8 +143,7 @@ class Handle:
             region = np.unique(arr).astype(np.intp)
         if name is not None and not isinstance(name, str):
             raise ValueError(f"name must be a string (or None: the model names the handle), got {name!r}")
-        self.region = region
-        self.name = name
+        self.region, self.name = region, name
         self.anchor = None if anchor is None else check_vector(
             "anchor", anchor, 3 if is_sequence(anchor) and len(anchor) == 3 else 2)
         self.base = None
@@ -189,9 +188,8 @@ class Handle:
             return None
         base = None if self.base is None else self.base[:, index[new_nodes]]
         h = Handle(new_nodes, base=base, name=self.name, anchor=self.anchor)
-        h.target, h._fixed = self.target, self._fixed
+        h.target, h._fixed, h._reach = self.target, self._fixed, self._reach
         h.nodes = new_nodes  # its region is these nodes: known before any model takes it
-        h._reach = self._reach
         return h
 
     def __repr__(self):
@@ -463,10 +461,9 @@ class Model(Holding):
                                             "tetrahedra")
         self.basis, self.assembler = make_assembler(mesh, order=order, intorder=intorder, assembly=assembly,
                                                     weights=weights)
-        n = self.basis.N
+        self.n_dofs = n = self.basis.N
         if not np.array_equal(self.basis.nodal_dofs, np.arange(dim * mesh.nvertices).reshape(-1, dim).T):
             raise RuntimeError("unexpected dof numbering of the vector basis")
-        self.n_dofs = n
         self.X = np.asarray(mesh.p, dtype=float)
         self.middle, self.size = extent(self.X)  # the domain's centre and size L (what "reach" is measured in)
         self.density = check_density(density)
@@ -481,10 +478,8 @@ class Model(Holding):
         self._meshmap, self._boundary_lengths = _meshmap, None  # a probe's surface weights, when first asked for
         elastic = Elastic(self.assembler, material)
         _check_material_at_rest(self.assembler, material)
-        self.terms = [elastic]
-        ghost = GhostPenalty.of(mesh, weights, material) if order == 1 else None  # thin pieces of a cut
-        if ghost is not None:
-            self.terms.append(ghost)
+        # the ghost penalty ties the thin pieces of a cut to their neighbours
+        self.terms = [elastic] + as_terms(GhostPenalty.of(mesh, weights, material) if order == 1 else None)
         for t in made + terms:
             for term in as_terms(t if isinstance(t, Term) else t(self)):
                 if not isinstance(term, Term):
@@ -538,8 +533,6 @@ class Model(Holding):
 
     def add_term(self, term: Term) -> None:
         """Add a term (a probe, sutures ...); the pattern is widened if the term needs it. All or nothing."""
-        if not isinstance(term, Term):
-            raise ValueError(f"term must be a Term, got {term!r}")
         self.set_terms(self.terms + [term])
 
     def remove_term(self, term: Term) -> None:
@@ -550,8 +543,8 @@ class Model(Holding):
 
     def replace_term(self, old: Term, new: Term) -> None:
         """Put ``new`` where ``old`` was (more stitches in one sutures term). All or nothing."""
-        if not isinstance(new, Term) or not any(t is old for t in self.terms):
-            raise ValueError(f"replace_term: the model holds no term {old!r}, or {new!r} is no Term")
+        if not any(t is old for t in self.terms):
+            raise ValueError(f"replace_term: the model holds no term {old!r}")
         self.set_terms([new if t is old else t for t in self.terms])
 
     def remapped(self, meshmap, state=()) -> tuple["Model", tuple]:
