@@ -296,25 +296,23 @@ class Holding:
         """The dofs a handle holding ``nodes`` holds, and each dof's node's index in ``nodes`` (-1: P2 edge dofs)."""
         dofs = [self.basis.nodal_dofs[:, nodes].ravel()]
         owner = [np.tile(np.arange(nodes.size), self.dim)]
-        if self.order == 2 and self.dim == 3:  # P2 tetrahedra: the mid-edge dofs of the edges whose ends are held
-            held = np.zeros(self.mesh.nvertices, dtype=bool)
-            held[nodes] = True
-            edges = np.flatnonzero(held[self.mesh.edges[0]] & held[self.mesh.edges[1]])
-            dofs.append(self.basis.edge_dofs[:, edges].ravel())
-            owner.append(np.full(3 * edges.size, -1))
-        elif self.order == 2:
+        if self.order == 2:  # P2: the mid-edge dofs of the held edges (the facets of triangles)
             mesh = self.mesh
-            if isinstance(h.region, str):
-                edges = np.asarray(mesh.boundaries[h.region])
-            elif callable(h.region):
-                mid = 0.5 * (self.X[:, mesh.facets[0]] + self.X[:, mesh.facets[1]])
-                edges = _selected(f"handle {h.name!r} region", h.region, mid)
+            if self.dim == 2:
+                ends, mid_dofs = mesh.facets, self.basis.facet_dofs
             else:
+                ends, mid_dofs = mesh.edges, self.basis.edge_dofs
+            if self.dim == 2 and isinstance(h.region, str):
+                edges = np.asarray(mesh.boundaries[h.region])
+            elif self.dim == 2 and callable(h.region):
+                mid = 0.5 * (self.X[:, ends[0]] + self.X[:, ends[1]])
+                edges = _selected(f"handle {h.name!r} region", h.region, mid)
+            else:  # the edges whose ends are both held
                 held = np.zeros(mesh.nvertices, dtype=bool)
                 held[nodes] = True
-                edges = np.flatnonzero(held[mesh.facets[0]] & held[mesh.facets[1]])
-            dofs.append(self.basis.facet_dofs[:, edges].ravel())
-            owner.append(np.full(2 * edges.size, -1))
+                edges = np.flatnonzero(held[ends[0]] & held[ends[1]])
+            dofs.append(mid_dofs[:, edges].ravel())
+            owner.append(np.full(self.dim * edges.size, -1))
         return np.concatenate(dofs), np.concatenate(owner)
 
     def add_handle(self, handle: Handle) -> Handle:

@@ -17,14 +17,12 @@ import reprlib
 import numpy as np
 
 __all__ = [
-    "ParameterError", "lame_parameters", "check_poisson_ratio", "check_lame", "check_real",
-    "check_real_number", "check_count", "check_positive", "call_user", "check_list", "check_vector", "check_bounded_vector",
-    "check_real_array", "check_indices", "check_reach", "check_weights", "check_fiber_stiffness",
-    "check_time_step", "check_density", "check_contact_stiffness", "check_penalty_stiffness",
-    "YOUNGS_MODULUS_RANGE", "POISSON_RATIO_RANGE", "LAME_MAX", "SHEAR_MODULUS_MIN", "TIME_STEP_RANGE",
-    "DENSITY_RANGE", "ACCELERATION_MAX", "FORCE_MAX", "PENALTY_MAX", "PENALTY_STIFFNESS_MAX",
-    "CONTACT_STIFFNESS_MAX", "REACH",
-    "RADIUS_RANGE",
+    "ParameterError", "lame_parameters", "check_poisson_ratio", "check_lame", "check_real", "check_real_number",
+    "check_count", "check_positive", "call_user", "check_list", "check_vector", "check_bounded_vector",
+    "check_real_array", "check_indices", "check_reach", "check_weights", "check_fiber_stiffness", "check_time_step",
+    "check_density", "check_contact_stiffness", "check_penalty_stiffness", "YOUNGS_MODULUS_RANGE",
+    "POISSON_RATIO_RANGE", "LAME_MAX", "SHEAR_MODULUS_MIN", "TIME_STEP_RANGE", "DENSITY_RANGE", "ACCELERATION_MAX",
+    "FORCE_MAX", "PENALTY_MAX", "PENALTY_STIFFNESS_MAX", "CONTACT_STIFFNESS_MAX", "REACH", "RADIUS_RANGE",
     # a scene's tables: each refusal names the field (``effects.probes[0].radius``)
     "show", "number", "is_sequence", "vector", "points", "table", "require", "string", "count_list", "penalty",
     "FAR", "MAX_POINTS", "MAX_STRING", "FIBER_STIFFNESS_RANGE",

@@ -38,9 +38,9 @@ from .parameters import (FORCE_MAX, RADIUS_RANGE, REACH, YOUNGS_MODULUS_RANGE, P
                          check_real_array, check_time_step, check_vector, check_weights)
 from .vectors import dot
 
-__all__ = ["Term", "ElementTerm", "Elastic", "GhostPenalty", "GHOST_WEIGHT", "GHOST_PENALTY", "Fibers", "Inertia",
-           "Load", "Probe", "Sutures", "traction_vector", "SummedDensity", "extent", "refuse_3d", "boundary_lengths",
-           "surface_lengths"]
+__all__ = ["Term", "ElementTerm", "ConstantHessian", "Elastic", "GhostPenalty", "GHOST_WEIGHT", "GHOST_PENALTY",
+           "Fibers", "Inertia", "Load", "Probe", "Sutures", "traction_vector", "SummedDensity", "extent", "refuse_3d",
+           "boundary_lengths", "surface_lengths", "node_blocks"]
 
 
 class Term:
@@ -137,6 +137,27 @@ class Elastic(ElementTerm):
         return f"elastic: {getattr(self.material, 'name', type(self.material).__name__)}"
 
 
+class ConstantHessian(Term):
+    """A quadratic term whose Hessian is the constant entries ``entries() -> (rows, cols, values)``, which may
+    couple dofs the mesh does not (sutures: the model widens its pattern)."""
+
+    quadratic = True
+
+    def entries(self):
+        raise NotImplementedError
+
+    def couplings(self):
+        return self.entries()[:2]
+
+    def bind(self, pattern):
+        super().bind(pattern)
+        rows, cols, self._values = self.entries()
+        self._positions = pattern.positions(rows, cols)
+
+    def add_hessian(self, u, data, safe=False):
+        np.add.at(data, self._positions, self._values)
+
+
 #: The pieces of triangles cut through that get a ghost penalty (:class:`GhostPenalty`): those lighter than this share
 #: of their triangle (1: every piece, as Burman's penalty acts on every face of a cut element)
 GHOST_WEIGHT = 1.0
@@ -144,7 +165,7 @@ GHOST_WEIGHT = 1.0
 GHOST_PENALTY = 0.1
 
 
-class GhostPenalty(Term):
+class GhostPenalty(ConstantHessian):
     """The ghost penalty of a mesh cut through its elements: ``E = 1/2 sum_(e, f) c_ef |grad u_e - grad u_f|^2`` over
     the pairs of a piece ``e`` (weight below ``light``) and an element ``f`` sharing an edge (both its nodes) with it,
     not a copy of the same triangle; ``c_ef = gamma mu (A_e + A_f)`` (the whole triangles' areas).
@@ -166,7 +187,6 @@ class GhostPenalty(Term):
     """
 
     name = "ghost penalty"
-    quadratic = True
     rank = 4  # after the element terms and the tools (probes, sutures), before the others
 
     def __init__(self, mesh, weights, modulus, gamma=GHOST_PENALTY, light=GHOST_WEIGHT):
@@ -225,15 +245,8 @@ class GhostPenalty(Term):
         g[: 2 * self.n_nodes] = self.K @ np.asarray(u)[: 2 * self.n_nodes]
         return g
 
-    def couplings(self):
-        return self._rows, self._cols
-
-    def bind(self, pattern):
-        super().bind(pattern)
-        self._positions = pattern.positions(self._rows, self._cols)
-
-    def add_hessian(self, u, data, safe=False):
-        np.add.at(data, self._positions, self._values)
+    def entries(self):
+        return self._rows, self._cols, self._values
 
     def remap(self, meshmap):
         return None  # the new model makes its own from its weights
@@ -573,7 +586,7 @@ class Probe(Term):
                 np.add.at(data, self.pattern.node_block[i, j, nodes], block)
 
 
-class Sutures(Term):
+class Sutures(ConstantHessian):
     """Stiff springs that tie pairs of points together: ``E = sum_s k/2 |x_a - x_b - g_s|^2``.
 
     An end is a node, or a point inside an element that moves with its nodes, ``x_a = sum_c w_c x_{n_c}``
@@ -587,7 +600,6 @@ class Sutures(Term):
     """
 
     name = "sutures"
-    quadratic = True
     rank = 3
 
     def __init__(self, X, pairs, stiffness, gaps, tightness=0.0, coefficients=None):
@@ -613,8 +625,7 @@ class Sutures(Term):
                     or not np.allclose(coef.sum(axis=1), 1.0, atol=1e-9):
                 raise ValueError(f"sutures.coefficients must be barycentric weights shaped {nodes.shape} "
                                  "(each end's weights in [-10, 10], adding up to 1)")
-        self.nodes = nodes.astype(np.intp)
-        self.coefficients = coef
+        self.nodes, self.coefficients = nodes.astype(np.intp), coef
         k_count = nodes.shape[-1]
         #: node pairs (2, k): each end's node of largest weight (the node itself for node-to-node stitches)
         self.pairs = np.take_along_axis(self.nodes, np.argmax(coef, axis=1)[:, None, :], axis=1)[:, 0, :]
@@ -635,10 +646,8 @@ class Sutures(Term):
         if gaps.shape != (self.dim, k_count) or not np.all(np.abs(gaps) <= reach):
             raise ValueError(f"sutures.gaps must be finite, within {REACH:g} domain sizes ({reach:g}) and shaped "
                              f"{(self.dim, k_count)}, got shape {gaps.shape}")
-        self.gap0 = gaps
-        self.tightness = np.zeros(k_count)
-        self.slack = self.gap0.copy()
-        self.tighten(tightness)
+        self.gap0, self.tightness = gaps, np.zeros(k_count)
+        self.tighten(tightness)  # sets the slack
 
     def tighten(self, fraction, stitches=None) -> None:
         """Set the tightness (0 slack ... 1 closed) of all stitches or of the ``stitches`` (indices):
@@ -703,19 +712,8 @@ class Sutures(Term):
         e = self._gap(u)
         return self.k * vector_length(e)
 
-    def _triplets(self):
+    def entries(self):
         # D maps node displacements to the gap: +w on end a's nodes, -w on end b's; the Hessian is k D^T D
         signed = (self.coefficients * np.array([1.0, -1.0])[:, None, None]).reshape(-1, self.k.size)  # (2c, k)
         w = signed[:, None, :] * signed[None, :, :] * self.k
         return node_blocks(self.nodes.reshape(-1, self.k.size), w, self.dim)
-
-    def couplings(self):
-        return self._triplets()[:2]
-
-    def bind(self, pattern):
-        super().bind(pattern)
-        rows, cols, self._values = self._triplets()
-        self._positions = pattern.positions(rows, cols)
-
-    def add_hessian(self, u, data, safe=False):
-        np.add.at(data, self._positions, self._values)
