@@ -374,11 +374,7 @@ class Holding:
         if isinstance(targets, dict):
             items = list(targets.items())
         else:
-            try:
-                seq = list(targets)
-            except TypeError:
-                raise ValueError("targets must be a dict, a sequence (one per handle) or None, "
-                                 f"got {targets!r}") from None
+            seq = check_list("targets", targets, "targets, one per handle (or a dict, or None)")
             if len(seq) != len(self.handles):
                 raise ValueError(f"targets has {len(seq)} entries but the model has {len(self.handles)} handles")
             items = list(enumerate(seq))
@@ -390,9 +386,8 @@ class Holding:
                 h = self.handle(key)
             except ValueError as err:
                 raise ValueError(f"targets: {err}") from None
-            if target is None:
-                continue
-            checked.append((h, _check_target(target, h._points, f"targets[{key!r}]", h._reach)))
+            if target is not None:
+                checked.append((h, _check_target(target, h._points, f"targets[{key!r}]", h._reach)))
         for h, target in checked:
             h.target = target
 

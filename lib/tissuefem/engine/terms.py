@@ -35,7 +35,7 @@ from skfem import FacetBasis, LinearForm, asm
 from .materials import FiberFamily, check_fiber_stiffness, vector_length
 from .parameters import (FORCE_MAX, RADIUS_RANGE, REACH, YOUNGS_MODULUS_RANGE, ParameterError, check_bounded_vector,
                          check_density, check_indices, check_penalty_stiffness, check_reach, check_real,
-                         check_real_array, check_time_step, check_vector, check_weights)
+                         check_real_array, check_time_step, check_vector, check_weights, string)
 from .vectors import dot
 
 __all__ = ["Term", "ElementTerm", "ConstantHessian", "Elastic", "GhostPenalty", "GHOST_WEIGHT", "GHOST_PENALTY",
@@ -316,13 +316,10 @@ class Inertia(Term):
     rank = 0
 
     def __init__(self, assembler, dt, density, mass="lumped"):
-        if not isinstance(mass, str) or mass not in ("lumped", "consistent"):
-            raise ValueError(f"mass must be 'lumped' or 'consistent', got {mass!r}")
+        self.mass_kind = string("mass", mass, ("lumped", "consistent"))
         self.dt = check_time_step(dt)  # dt^2 divides the mass: a closed range, neither end open
         self.density = check_density(density)
-        self.lumped = mass == "lumped"
-        self.mass_kind = mass
-        self.assembler = assembler
+        self.assembler, self.lumped = assembler, mass == "lumped"
         self.mass_data = assembler.mass(self.density, lumped=self.lumped)
         self.M = assembler.csr(self.mass_data)
         self._diagonal = self.M.diagonal() if self.lumped else None
