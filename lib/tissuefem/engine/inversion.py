@@ -26,10 +26,8 @@ __all__ = ["rotation_preserving_svd", "diagonal", "eigen_projection", "projected
 def diagonal(s) -> np.ndarray:
     """``diag(s)`` for ``s [d, *rest]`` as ``[d, d, *rest]``."""
     s = np.asarray(s, dtype=float)
-    d = s.shape[0]
-    out = np.zeros((d, d) + s.shape[1:])
-    for a in range(d):
-        out[a, a] = s[a]
+    out = np.zeros(s.shape[:1] + s.shape)
+    out[np.arange(s.shape[0]), np.arange(s.shape[0])] = s
     return out
 
 

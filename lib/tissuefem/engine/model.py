@@ -65,12 +65,10 @@ def region_nodes(mesh, region, field: str = "region") -> np.ndarray:
         if not is_sequence(box) or len(box) != 2 * dim:
             corners = "[x0, y0, x1, y1]" if dim == 2 else "[x0, y0, z0, x1, y1, z1]"
             raise ParameterError(f"{field}.box", f"{field}.box must be {corners}, got {box!r:.200}")
-        bounds = [check_real(f"{field}.box[{i}]", b) for i, b in enumerate(box)]
+        bounds = np.array([check_real(f"{field}.box[{i}]", b) for i, b in enumerate(box)])[:, None]
         tol = 1e-9 * max(1.0, float(np.ptp(p)))
-        inside = np.ones(n, dtype=bool)
-        for i in range(dim):
-            inside &= (p[i] >= bounds[i] - tol) & (p[i] <= bounds[dim + i] + tol)
-        nodes = np.flatnonzero(inside)
+        inside = (p >= bounds[:dim] - tol) & (p <= bounds[dim:] + tol)
+        nodes = np.flatnonzero(inside.all(axis=0))
     elif isinstance(region, dict) and "near" in region:
         if "radius" not in region:
             raise ValueError(f"{field}: a disc {{'near': [x, y], 'radius': r}} needs its radius")
