@@ -196,10 +196,6 @@ class ITFClamped:
         return (f"ITFClamped({self.base!r}, threshold={self.threshold:g}, stiffness={self.stiffness:g}, "
                 f"project={self.project})")
 
-    def _base_at(self, s0, s1, what):
-        D = diagonal(np.stack(np.broadcast_arrays(s0, s1)))  # s1 may be the threshold c
-        return np.asarray(getattr(self.base, what)(D), dtype=float)
-
     def _expansion(self, s):
         """``(s, mask C, s^, d, k, psi^, H^)`` for ``s [d, *rest]``: the clamped copy ``s^``, ``d = s - c`` on ``C`` (0
         elsewhere), the base model's gradient ``psi^ [d, *rest]`` and Hessian ``H^ [d, d, *rest]`` at ``diag(s^)``."""
@@ -214,34 +210,18 @@ class ITFClamped:
         H = np.stack([np.stack([A[i, i, j, j] for j in range(dim)]) for i in range(dim)])
         return s, clamped, s_hat, dd, self.stiffnesses[dim], psi, H
 
-    def _energy_d(self, s):
-        """The expansion of the class docstring in any dimension (2D keeps its closed form, for its floats)."""
+    def diagonal_energy(self, s) -> np.ndarray:
+        """``Psi_hat(s)`` for signed singular values ``s [d, *rest]`` (``s0 >= ... >= |s_(d-1)|``): the expansion of
+        the class docstring; in 2D the doubly clamped piece in its closed form (whose floats the chapters record)."""
         s, _, s_hat, dd, k, psi, H = self._expansion(s)
         out = np.asarray(self.base.energy(diagonal(s_hat)), dtype=float) + np.einsum("i...,i...->...", psi, dd)
         for i in range(s.shape[0]):
             for j in range(i + 1, s.shape[0]):
                 out = out + H[i, j] * dd[i] * dd[j]
-        return out + 0.5 * k * np.einsum("i...,i...->...", dd, dd)
-
-    def diagonal_energy(self, s) -> np.ndarray:
-        """``Psi_hat(s)`` for signed singular values ``s [d, *rest]`` (``s0 >= ... >= |s_(d-1)|``); in 2D the three
-        pieces of the class docstring in closed form."""
-        if np.shape(s)[0] != 2:
-            return self._energy_d(s)
-        s = np.asarray(s, dtype=float)
-        c, k = self.threshold, self.stiffness
-        both = s[0] < c
-        one = (s[1] < c) & ~both
-        normal = ~(one | both)
-        out = np.empty(s.shape[1:])
-        if normal.any():
-            out[normal] = self._base_at(s[0][normal], s[1][normal], "energy")
-        if one.any():
-            s0, d1 = s[0][one], s[1][one] - c
-            P = self._base_at(s0, c, "stress")
-            out[one] = self._base_at(s0, c, "energy") + P[1, 1] * d1 + 0.5 * k * d1**2
-        if both.any():
-            d0, d1 = s[0][both] - c, s[1][both] - c
+        out = np.asarray(out + 0.5 * k * np.einsum("i...,i...->...", dd, dd))
+        if s.shape[0] == 2:
+            both = s[0] < self.threshold
+            d0, d1 = dd[0][both], dd[1][both]
             out[both] = (self._psi_cc + self._g_cc * (d0 + d1) + self._h01_cc * d0 * d1
                          + 0.5 * k * (d0**2 + d1**2))
         return out
