@@ -789,21 +789,21 @@ def _read_mesh(path, scale):
     what = f"domain.path: {name!r} (0-based node numbers, after scaling)"
     p, t = _check_file_mesh(p, t, what, "ignore")
     named = _quietly(path, from_meshio, m)  # boundaries from physical groups or cell sets
-    mesh = _new_mesh(p, t)  # as checked above (scaled, a 2D file's z dropped; triangles sorted as scikit-fem does)
+    used = np.zeros(p.shape[1], dtype=bool)
+    used[t.ravel()] = True
+    new_index = np.full(used.size, -1, dtype=np.int64)  # the nodes in no element dropped, the rest renumbered
+    new_index[used] = np.arange(int(used.sum()))
+    # as checked above (scaled, a 2D file's z dropped; triangles sorted as scikit-fem does)
+    mesh = _new_mesh(np.ascontiguousarray(p[:, used]), new_index[t])
     try:
-        boundaries = {label: _facet_index(mesh, np.asarray(named.facets)[:, np.asarray(facets)])
+        boundaries = {label: _facet_index(mesh, new_index[np.asarray(named.facets)[:, np.asarray(facets)]])
                       for label, facets in (named.boundaries or {}).items()}
-        boundaries.update(_skfem_boundaries(m, kind, written, mesh))
+        boundaries.update(_skfem_boundaries(m, kind, new_index[written], mesh))
     except ParameterError as err:  # said of the file: named here
         raise _mesh_error(f"{name!r}: {str(err).removeprefix('domain.path: ')}") from None
     mesh = _new_mesh(mesh.p, mesh.t, _boundaries=boundaries or None, _subdomains=named.subdomains)
-    used = np.zeros(p.shape[1], dtype=bool)
-    used[t.ravel()] = True
-    dropped = np.flatnonzero(~used)
-    if dropped.size:
-        mesh = _drop_nodes(mesh, used)
     _check_file_mesh(mesh.p, mesh.t, f"domain.path: {name!r}")
-    return mesh, dropped, flipped
+    return mesh, np.flatnonzero(~used), flipped
 
 
 def _new_mesh(p, t, **options):
@@ -848,16 +848,6 @@ def _skfem_boundaries(m, kind, t, mesh):
         nodes = [t[local[k]][:, (flags >> k) & 1 == 1] for k in range(local.shape[0])]
         out[parts[2]] = np.sort(_facet_index(mesh, np.concatenate(nodes, axis=1)))
     return out
-
-
-def _drop_nodes(mesh, used):
-    """The mesh without the unused nodes (the rest renumbered in their order); boundaries mapped by their nodes."""
-    new_index = np.full(used.size, -1, dtype=np.int64)
-    new_index[used] = np.arange(int(used.sum()))
-    plain = _new_mesh(np.ascontiguousarray(mesh.p[:, used]), new_index[np.asarray(mesh.t)])
-    boundaries = {label: _facet_index(plain, new_index[np.asarray(mesh.facets)[:, np.asarray(facets)]])
-                  for label, facets in (mesh.boundaries or {}).items()}
-    return _new_mesh(plain.p, plain.t, _boundaries=boundaries or None, _subdomains=mesh.subdomains)
 
 
 #: what a mesh of each dimension is made of, in notes and refusals
