@@ -397,8 +397,6 @@ def test_bad_contact_input_is_refused_by_name():
         with pytest.raises(ParameterError, match="mesh must be a triangle mesh") as refused:
             ContactSurface.from_mesh(bad)
         assert refused.value.field == "mesh"
-    with pytest.raises(ParameterError, match="wound_boundary"):
-        ContactSurface.from_mesh(mesh, wound_boundary=["cut"])
     with pytest.raises(ParameterError, match=r"contact\.surface must be a ContactSurface") as refused:
         Contact(X, "boundary", 0.01, 1.0)
     assert refused.value.field == "contact.surface"
