@@ -132,6 +132,12 @@ def _require(name: str) -> None:
                                               f"(pip install 'tissuefem[{extra}]'); use 'superlu' instead")
 
 
+def _check_launch(launch):
+    if launch is not None and not callable(launch):
+        raise ParameterError("launch", f"launch must be a callable starting background work, got {launch!r}")
+    return launch
+
+
 class _PardisoFactor:
     def __init__(self, solver, A):
         self._solver, self._A, self.n = solver, A, A.shape[0]
@@ -365,17 +371,16 @@ class ExtendedFactorization:
     ``P`` gives each unknown its parent's value (``P^T`` sums the residual of the copies onto their parent), so
     ``C`` solves for the motions that keep the copies together (for a cut along edges ``P^T A P`` is the old
     matrix); ``s`` are the unknowns that are not their parent's only copy (the lips of a cut, and unknowns without
-    a parent) and those within ``rings`` couplings of them, where ``L`` solves ``A`` exactly (a small sparse
+    a parent) and those within three couplings of them, where ``L`` solves ``A`` exactly (a small sparse
     factorization): the motions that open the cut. Two back-substitutions of ``F`` per application."""
 
-    def __init__(self, factor, parent, n_old: int, A, rings: int = 3):
+    def __init__(self, factor, parent, n_old: int, A):
         parent = np.asarray(parent, dtype=np.intp)
         A = sp.csr_matrix(_square(A))
         n = A.shape[0]
         if parent.shape != (n,) or (parent.size and (parent.max() >= n_old or parent.min() < -1)):
             raise ParameterError("parent", f"parent must give one old unknown in -1..{n_old - 1} per unknown "
                                            f"({n}), got shape {parent.shape}")
-        rings = check_count("rings", rings, 0)
         self.factor, self.n, self.n_old, self._A = factor, n, int(n_old), A
         mapped = np.flatnonzero(parent >= 0)
         self._mapped, self._parent = mapped, parent[mapped]
@@ -385,7 +390,7 @@ class ExtendedFactorization:
         self._local = None
         if split.any():
             graph = sp.csr_matrix((np.ones(A.nnz, dtype=np.int8), A.indices, A.indptr), shape=A.shape)
-            for _ in range(rings):
+            for _ in range(3):
                 split = split | (graph @ split.astype(np.int8) > 0)
             s = np.flatnonzero(split)
             self._local = (s, A[s], spla.splu(sp.csc_matrix(A[s][:, s])))
@@ -546,14 +551,12 @@ class ReusedFactorization:
         self.refresh_after = check_count("refresh_after", refresh_after)
         self.max_iterations = check_count("max_iterations", max_iterations)
         self.direct = direct if direct is not None else SuperLU()
-        if launch is not None and not callable(launch):
-            raise ParameterError("launch", f"launch must be a callable starting background work, got {launch!r}")
         self.background = bool(background)
         self.background_after = int(background_after)
         self.update_rank = update_rank
         self.name = f"cg+reused-{self.direct.name}" + ("+background" if self.background else "")
         self._threads = []  # background factorizations started and not yet joined (shared with the finalizer)
-        self._work = _Background(launch, self._threads)
+        self._work = _Background(_check_launch(launch), self._threads)
         self.invalidate()  # no factorization yet
         self.factorizations = self.background_factorizations = self.cg_iterations = self.update_solves = 0
         weakref.finalize(self, _join_all, self._threads)  # a dropped solver waits for its work, and so does exit
@@ -567,7 +570,6 @@ class ReusedFactorization:
     @update_rank.setter
     def update_rank(self, value):
         self._update_rank = check_count("update_rank", value, 0)
-        self._factorize = functools.partial(_factorize_kept, self._direct, self._update_rank)
 
     @property
     def direct(self):
@@ -579,11 +581,20 @@ class ReusedFactorization:
         if not callable(getattr(value, "factorize", None)):
             raise ParameterError("direct", f"direct must be a backend with a factorize method, got {value!r}")
         self._direct = value
-        # how a kept factorization is made (a function of the matrix only: a background job holds no solver)
-        self._factorize = functools.partial(_factorize_kept, value, getattr(self, "_update_rank", 0))
 
-    launch = property(lambda self: self._work.launch, lambda self, value: setattr(self._work, "launch", value),
-                      doc="How background work starts: ``launch(work)`` returns a job with ``is_alive`` and ``join``.")
+    @property
+    def _factorize(self):
+        """How a kept factorization is made: a function of the matrix only (a background job holds no solver)."""
+        return functools.partial(_factorize_kept, self._direct, self._update_rank)
+
+    @property
+    def launch(self):
+        """How background work starts: ``launch(work)`` returns a job with ``is_alive`` and ``join``."""
+        return self._work.launch
+
+    @launch.setter
+    def launch(self, value):
+        self._work.launch = _check_launch(value)
 
     def close(self) -> None:
         """Wait for any background factorization to finish (it is not adopted) and forget the kept factorization.
@@ -613,11 +624,6 @@ class ReusedFactorization:
         """Whether the preconditioner is a provided one (:meth:`provide`) still waiting for a fresh factorization."""
         return self._provisional
 
-    @property
-    def refreshing(self) -> bool:
-        """Whether a background factorization is under way or waiting to be adopted."""
-        return self._work.pending is not None
-
     def _adopt(self, shape) -> None:
         """Take a finished background factorization (one of ``shape``) as the preconditioner."""
         factor = self._work.take(shape)
@@ -634,8 +640,7 @@ class ReusedFactorization:
             self._adopt(A.shape)
         if self._provisional:  # nothing under way, or it failed
             return self._refactorize(A, b, reason, deadline)
-        x = deadline.timed("back-substitution", self._factor.solve, b)
-        return x, SolveInfo(0, True, bool(np.all(np.isfinite(x))), float(np.linalg.norm(b - A @ x)), reason)
+        return self._back_substitution(A, b, reason, deadline)
 
     def _refactorize(self, A, b, reason, deadline, atol=0.0) -> tuple[np.ndarray | None, SolveInfo]:
         if not deadline.fits("factorization", "back-substitution"):
@@ -651,6 +656,9 @@ class ReusedFactorization:
             deadline.record("cg-iteration", deadline.clock() - t0, result.iterations)
             self.cg_iterations += result.iterations
             return result.x, SolveInfo(result.iterations, True, result.converged, result.residual_norm, reason)
+        return self._back_substitution(A, b, reason, deadline)
+
+    def _back_substitution(self, A, b, reason, deadline) -> tuple[np.ndarray, SolveInfo]:
         x = deadline.timed("back-substitution", self._factor.solve, b)
         return x, SolveInfo(0, True, bool(np.all(np.isfinite(x))), float(np.linalg.norm(b - A @ x)), reason)
 
@@ -692,19 +700,16 @@ class ReusedFactorization:
         result = pcg(A, b, self._precondition, atol=atol, rtol=rtol, max_iterations=limit)
         deadline.record("cg-iteration", deadline.clock() - t0, result.iterations)
         self.cg_iterations += result.iterations
-        if result.negative_curvature:
-            if deadline.fits("factorization", "back-substitution"):
-                if self._provisional:
-                    return self._wait_for_fresh(A, b, "negative-curvature", deadline)
-                return self._refactorize(A, b, "negative-curvature", deadline, atol)
-            self._work.start(self._factorize, A, A.shape)  # meanwhile CG's iterate (Newton checks it)
-            return result.x, SolveInfo(result.iterations, False, False, result.residual_norm, "negative-curvature")
-        if not result.converged and result.iterations >= self.max_iterations:
-            if deadline.fits("factorization", "back-substitution"):
-                if self._provisional:
-                    return self._wait_for_fresh(A, b, "cg-failed", deadline)
-                return self._refactorize(A, b, "cg-failed", deadline, atol)
-            self._work.start(self._factorize, A, A.shape)  # meanwhile CG's iterate is the answer
+        failed = "negative-curvature" if result.negative_curvature else (
+            "cg-failed" if not result.converged and result.iterations >= self.max_iterations else "")
+        if failed and deadline.fits("factorization", "back-substitution"):
+            if self._provisional:
+                return self._wait_for_fresh(A, b, failed, deadline)
+            return self._refactorize(A, b, failed, deadline, atol)
+        if failed:  # meanwhile CG's iterate is the answer (Newton checks it is downhill)
+            self._work.start(self._factorize, A, A.shape)
+            if result.negative_curvature:
+                return result.x, SolveInfo(result.iterations, False, False, result.residual_norm, failed)
         elif (self.background and result.iterations > self.background_after) or (
                 limit < self.max_iterations and not result.converged):  # cut short by the deadline: refresh too
             self._work.start(self._factorize, A, A.shape)
@@ -733,6 +738,13 @@ class _CGFactor:
         self.iterations += result.iterations
         self.converged = self.converged and result.converged
         return result.x
+
+
+def _check_modes(name, B) -> np.ndarray:
+    B = check_real_array(name, B)
+    if B.ndim != 2 or not np.all(np.isfinite(B)):
+        raise ParameterError(name, f"{name} must be a finite (n, k) array, got shape {B.shape}")
+    return B
 
 
 def rigid_body_modes(X) -> np.ndarray:
@@ -786,12 +798,7 @@ class PreconditionedCG(_Direct):
 
     @near_nullspace.setter
     def near_nullspace(self, B):
-        if B is not None:
-            B = check_real_array("near_nullspace", B)
-            if B.ndim != 2 or not np.all(np.isfinite(B)):
-                raise ParameterError("near_nullspace", f"near_nullspace must be a finite (n, k) array, got shape "
-                                                       f"{B.shape}")
-        self._near_nullspace = B
+        self._near_nullspace = None if B is None else _check_modes("near_nullspace", B)
 
     def _multigrid(self, A):
         import pyamg
@@ -849,10 +856,9 @@ def make(name: str = "superlu"):
 
 class Condenser:
     """The free-free block ``K[free][:, free]`` of a sparse matrix. For a fixed (read-only) pattern it is a gather of
-    the data array through a map computed once per pattern and set of free dofs (the last ``keep`` are kept)."""
+    the data array through a map computed once per pattern and set of free dofs (the last eight are kept)."""
 
-    def __init__(self, keep: int = 8):
-        self.keep = int(keep)
+    def __init__(self):
         self._maps = {}
 
     def __call__(self, K, mask) -> sp.csr_matrix:
@@ -865,7 +871,7 @@ class Condenser:
         key = (K.indptr.ctypes.data, K.indices.ctypes.data, K.shape, np.packbits(mask).tobytes())
         entry = self._maps.get(key)
         if entry is None:
-            if len(self._maps) >= self.keep:
+            if len(self._maps) >= 8:
                 self._maps.clear()
             numbered = sp.csr_matrix((np.arange(1, K.nnz + 1, dtype=float), K.indices, K.indptr), shape=K.shape)
             block = numbered[mask][:, mask]
@@ -908,13 +914,13 @@ class LinearSolver:
             if method == "direct" or method in BACKENDS or method == "auto":
                 self.backend = SuperLU() if method == "direct" else make(method)
             elif kind in ("reuse", "constant"):
-                background = kind == "reuse" and (base == "background" or base.startswith("background-"))
-                if background:  # "reuse-background" (SuperLU) or "reuse-background-<backend>"
-                    base = base[len("background-"):]
+                # "reuse-background" (SuperLU) or "reuse-background-<backend>"
+                background = kind == "reuse" and base.partition("-")[0] == "background"
+                base = base[len("background-"):] if background else base
                 direct = SuperLU() if method in ("reuse", "constant", "reuse-background") else make(base)
-                reuse = kind == "reuse"
-                self.backend = ReusedFactorization(direct, background=background, launch=launch) if reuse else direct
                 self.constant = kind == "constant"
+                self.backend = direct if self.constant else ReusedFactorization(direct, background=background,
+                                                                                launch=launch)
             else:
                 raise ParameterError("linear_solver", "linear_solver must be 'direct', 'reuse', 'constant', "
                                      f"'reuse-<backend>', 'constant-<backend>' or a backend "
@@ -926,12 +932,10 @@ class LinearSolver:
         if self.constant and not callable(getattr(self.backend, "factorize", None)):
             raise ParameterError("linear_solver", f"linear_solver {method!r}: a constant tangent needs a direct "
                                                   "backend")
-        if launch is not None and not callable(launch):
-            raise ParameterError("launch", f"launch must be a callable starting background work, got {launch!r}")
         self.condense = Condenser()
         self._factor, self._key, self._carried = None, None, None
         self._threads = []  # a constant factorization made in the background (see _Background)
-        self._work = _Background(launch, self._threads)
+        self._work = _Background(_check_launch(launch), self._threads)
         weakref.finalize(self, _join_all, self._threads)
         self.factorizations = 0
         self.costs = {}
@@ -949,10 +953,7 @@ class LinearSolver:
         rows. Other backends need none: nothing changes."""
         if not hasattr(self.factorizing, "near_nullspace"):
             return
-        modes = check_real_array("modes", modes)
-        if modes.ndim != 2 or not np.all(np.isfinite(modes)):
-            raise ParameterError("modes", f"modes must be a finite (n_dofs, k) array, got shape {modes.shape}")
-        self._modes = modes
+        self._modes = _check_modes("modes", modes)
         if self._key is not None:  # the next matrix passes them on (a kept preconditioner is made anew)
             self.invalidate()
             self._key = None
@@ -964,9 +965,7 @@ class LinearSolver:
 
     @launch.setter
     def launch(self, value):
-        if value is not None and not callable(value):
-            raise ParameterError("launch", f"launch must be a callable starting background work, got {value!r}")
-        self._work.launch = value
+        self._work.launch = _check_launch(value)
         if isinstance(self.backend, ReusedFactorization):
             self.backend.launch = value
 
