@@ -90,11 +90,8 @@ class P1Assembler(_FixedPattern):
         self.n_nodes, self.n_elements = p.shape[1], t.shape[1]
         self.n_dofs = dim * self.n_nodes
         # geometry: orientation, areas (volumes), gradients (element-last layout)
-        if dim == 2:
-            t, flipped, self.areas, G = _triangle_geometry(p, t)
-        else:
-            t, flipped, self.areas, G = _tetrahedron_geometry(p, t)
-        self.t, self.flipped = t, flipped
+        t, self.flipped, self.areas, G = (_triangle_geometry if dim == 2 else _tetrahedron_geometry)(p, t)
+        self.t = t
         self.t.setflags(write=False)
         if weights is not None:  # a part of an element integrates over that part: its area shrinks, its gradients not
             self.areas = self.areas * check_weights(weights, t.shape[1])
@@ -140,8 +137,7 @@ class P1Assembler(_FixedPattern):
         """``F = I + grad u`` of every element, shaped ``[d, d, n_elements]``."""
         ue = self._check_u(u)[self.element_dofs].reshape(self.n_vertices, self.dim, self.n_elements)  # ue[a, i, e]
         F = np.einsum("aie,aje->ije", ue, self._G)
-        for i in range(self.dim):
-            F[i, i] += 1.0
+        F[range(self.dim), range(self.dim)] += 1.0
         return F
 
     def energy(self, u, material=None) -> float:
@@ -340,8 +336,7 @@ class QuadratureAssembler(_FixedPattern):
         """``F = I + grad u`` at every element and quadrature point, shaped ``[d, d, nel, nq]``."""
         ue = self._check_u(u)[self._dofs].reshape(self.n_local, self.dim, -1)
         F = np.einsum("aie,ajeq->ijeq", ue, self._G)
-        for i in range(self.dim):
-            F[i, i] += 1.0
+        F[range(self.dim), range(self.dim)] += 1.0
         return F
 
     def energy(self, u, material=None) -> float:
