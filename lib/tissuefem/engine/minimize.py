@@ -271,8 +271,9 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
            rtol: float = 1e-10, atol: float = 0.0, reference_norm: float = 0.0, floor: float = 0.0,
            max_iterations: int = 30, max_step: float | None = None, linear: LinearSolver | None = None,
            safe_hessian: Callable[[np.ndarray], sp.spmatrix] | None = None, clock: Callable[[], float] | None = None,
-           budget: float = math.inf, start: float | None = None, energy0: float | None = None, energy_floor: float = 0.0,
-           step_limit: Callable[[np.ndarray, np.ndarray], float] | None = None) -> NewtonResult:
+           budget: float = math.inf, start: float | None = None, energy0: float | None = None,
+           energy_floor: float = 0.0, step_limit: Callable[[np.ndarray, np.ndarray], float] | None = None,
+           ) -> NewtonResult:
     """Minimise ``energy`` (or zero ``gradient``, ``q``) over the ``free`` dofs (a mask or indices; the others keep
     their ``x0`` values); ``hessian(x)``: the sparse Jacobian of ``q``; ``energy0 = E(x0)`` if known. Converged when
     ``||q_free|| <= max(atol + rtol max(||q_free(x0)||, reference_norm), floor)``: ``reference_norm`` the size of the
