@@ -12,7 +12,6 @@ with the old one, or the frame stops and commits what it has.
 
 from __future__ import annotations
 
-import atexit
 import functools
 import importlib.util
 import math
@@ -518,14 +517,6 @@ def _join_all(threads) -> None:
     while threads:
         thread = threads.pop()
         if thread is not threading.current_thread():
-            thread.join()
-
-
-@atexit.register
-def _join_at_exit() -> None:
-    """The last word at exit: no refactorization thread runs while the interpreter tears numpy and the BLAS down."""
-    for thread in threading.enumerate():
-        if thread.name == "tissuefem-refactorize" and thread is not threading.current_thread():
             thread.join()
 
 
