@@ -520,7 +520,39 @@ def _join_all(threads) -> None:
             thread.join()
 
 
-class ReusedFactorization:
+class _OffFrame:
+    """A solver that makes factorizations off the frame (``launch(work)`` starts one, default :func:`start_thread`).
+    Its unfinished work is waited for by :meth:`close` (or leaving a ``with`` block), when the solver is dropped
+    and at the interpreter's exit: a process that ends under a factorization can crash in the BLAS."""
+
+    def __init__(self, launch):
+        self._threads = []  # background factorizations started and not yet joined (shared with the finalizer)
+        self._work = _Background(_check_launch(launch), self._threads)
+        weakref.finalize(self, _join_all, self._threads)
+
+    @property
+    def launch(self):
+        """How background work starts: ``launch(work)`` returns a job with ``is_alive`` and ``join``."""
+        return self._work.launch
+
+    @launch.setter
+    def launch(self, value):
+        self._work.launch = _check_launch(value)
+
+    def close(self) -> None:
+        """Wait for any background factorization to finish (it is not adopted) and forget the kept factorization.
+        The solver stays usable: its next solve factorizes afresh."""
+        _join_all(self._threads)
+        self.invalidate()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+class ReusedFactorization(_OffFrame):
     """Conjugate gradients preconditioned by a kept factorization of the ``direct`` backend (default :class:`SuperLU`):
     the tangent changes slowly, so a few CG iterations (~1 ms each at 8k triangles) replace a factorization (~20 ms).
     Beyond ``refresh_after`` iterations the *next* solve refactorizes; at ``max_iterations`` this one does.
@@ -529,13 +561,12 @@ class ReusedFactorization:
     ``background_factorizations`` and ``cg_iterations`` count. Under a ``deadline`` (:class:`Deadline`) a
     factorization that does not fit is started in the background whatever ``background`` says, and CG runs the
     iterations that fit with the old factorization (no factorization yet: the solve returns ``None``).
-    ``launch(work)``: how background work starts (default :func:`start_thread`). A background factorization is never
-    abandoned half-way (a process that ends under one can crash in the BLAS): :meth:`close` (or leaving a ``with``
-    block) waits for it, and so do dropping the solver and the interpreter's exit. ``update_rank``: a kept
-    factorization is made exact again, before each solve, on up to that many unknowns where the matrix changed most
-    (:class:`UpdatedFactorization`; 0, the default: never; measured on the probe scene it did not lower CG's
-    iterations, see docs/benchmarks.md); ``update_solves`` counts the back-substitutions that took. After a
-    cut, :meth:`provide` gives a preconditioner to start from while a fresh factorization is made off the frame."""
+    ``launch(work)``: how background work starts; :meth:`close` waits for it, and so do dropping the solver and exit.
+    ``update_rank``: a kept factorization is made exact again, before each solve, on up to that many unknowns where
+    the matrix changed most (:class:`UpdatedFactorization`; 0, the default: never; measured on the probe scene it did
+    not lower CG's iterations, see docs/benchmarks.md); ``update_solves`` counts the back-substitutions that took.
+    After a cut, :meth:`provide` gives a preconditioner to start from while a fresh factorization is made off the
+    frame."""
 
     def __init__(self, direct=None, refresh_after: int = 15, max_iterations: int = 40, background: bool = False,
                  background_after: int = 3, launch=None, update_rank: int = 0):
@@ -546,11 +577,9 @@ class ReusedFactorization:
         self.background_after = int(background_after)
         self.update_rank = update_rank
         self.name = f"cg+reused-{self.direct.name}" + ("+background" if self.background else "")
-        self._threads = []  # background factorizations started and not yet joined (shared with the finalizer)
-        self._work = _Background(_check_launch(launch), self._threads)
+        super().__init__(launch)
         self.invalidate()  # no factorization yet
         self.factorizations = self.background_factorizations = self.cg_iterations = self.update_solves = 0
-        weakref.finalize(self, _join_all, self._threads)  # a dropped solver waits for its work, and so does exit
 
     @property
     def update_rank(self) -> int:
@@ -577,27 +606,6 @@ class ReusedFactorization:
     def _factorize(self):
         """How a kept factorization is made: a function of the matrix only (a background job holds no solver)."""
         return functools.partial(_factorize_kept, self._direct, self._update_rank)
-
-    @property
-    def launch(self):
-        """How background work starts: ``launch(work)`` returns a job with ``is_alive`` and ``join``."""
-        return self._work.launch
-
-    @launch.setter
-    def launch(self, value):
-        self._work.launch = _check_launch(value)
-
-    def close(self) -> None:
-        """Wait for any background factorization to finish (it is not adopted) and forget the kept factorization.
-        The solver stays usable: its next solve factorizes afresh."""
-        _join_all(self._threads)
-        self.invalidate()
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.close()
 
     def invalidate(self) -> None:
         self._factor, self._shape, self._stale, self._work.pending = None, None, False, None
@@ -883,7 +891,7 @@ class LinearInfo:
     skipped: str = ""  # a piece of work not started for the deadline ("factorization", "cg-iteration", ...)
 
 
-class LinearSolver:
+class LinearSolver(_OffFrame):
     """How Newton solves ``A dx = b``: which backend, and when to factorize. ``method`` is one of ``"direct"`` (a fresh
     :class:`SuperLU` factorization per solve: exact Newton); a backend name of :func:`make` (that backend, afresh);
     ``"reuse"``, ``"reuse-<backend>"`` (:class:`ReusedFactorization`), ``"reuse-background"`` or
@@ -925,9 +933,7 @@ class LinearSolver:
                                                   "backend")
         self.condense = Condenser()
         self._factor, self._key, self._carried = None, None, None
-        self._threads = []  # a constant factorization made in the background (see _Background)
-        self._work = _Background(_check_launch(launch), self._threads)
-        weakref.finalize(self, _join_all, self._threads)
+        super().__init__(launch)  # a constant factorization is made in the background
         self.factorizations = 0
         self.costs = {}
         self._modes = None  # the body's rigid motions, for a multigrid preconditioner (use_rigid_modes)
@@ -949,12 +955,7 @@ class LinearSolver:
             self.invalidate()
             self._key = None
 
-    @property
-    def launch(self):
-        """How background work starts: ``launch(work)`` returns a job with ``is_alive`` and ``join``."""
-        return self._work.launch
-
-    @launch.setter
+    @_OffFrame.launch.setter
     def launch(self, value):
         self._work.launch = _check_launch(value)
         if isinstance(self.backend, ReusedFactorization):
@@ -979,19 +980,11 @@ class LinearSolver:
         return f"constant-{name}" if self.constant else name
 
     def close(self) -> None:
-        """Wait for the backend's background work, if any (see :meth:`ReusedFactorization.close`), and forget
-        any kept factorization; the solver stays usable."""
+        """Wait for the backend's background work too, if any (see :meth:`ReusedFactorization.close`)."""
         close = getattr(self.backend, "close", None)
         if callable(close):
             close()
-        _join_all(self._threads)
-        self.invalidate()
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.close()
+        super().close()
 
     def invalidate(self) -> None:
         """Forget any kept factorization (the matrix is about to change in a way the keys do not see)."""
