@@ -26,7 +26,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .linsolve import Deadline, LinearSolver, SuperLU
-from .parameters import ParameterError, check_count, check_real, check_real_array, check_real_number
+from .parameters import ParameterError, check_count, check_indices, check_real, check_real_array, check_real_number
 from .vectors import dot, norm
 
 __all__ = ["newton", "NewtonResult", "NewtonIteration", "STATUSES"]
@@ -110,26 +110,21 @@ class NewtonResult:
 
 
 def _free_mask(n, free) -> np.ndarray:
+    """``free`` (a boolean mask of shape ``(n,)``, dof indices, or None: all) as a new boolean mask."""
     if free is None:
         return np.ones(n, dtype=bool)
     try:
-        free = np.asarray(free)
-    except (TypeError, ValueError):  # ragged lists
-        raise ParameterError("free", f"free must be a boolean mask of shape ({n},) or dof indices, got "
-                                     f"{free!r:.100}") from None
-    if free.dtype == bool:
-        if free.shape != (n,):
-            raise ParameterError("free", f"free must be a boolean mask of shape ({n},) or dof indices, got shape "
-                                         f"{free.shape}")
-        return free.copy()
-    if free.ndim != 1 or not (free.size == 0 or free.dtype.kind in "iu"):
-        raise ParameterError("free", f"free must be a boolean mask of shape ({n},) or integer dof indices, got "
-                                     f"dtype {free.dtype} and shape {free.shape}")
-    if free.size and (free.min() < 0 or free.max() >= n):
-        raise ParameterError("free", f"free: dof indices must be in 0..{n - 1}")
-    mask = np.zeros(n, dtype=bool)
-    mask[free.astype(np.intp)] = True
-    return mask
+        is_mask = np.asarray(free).dtype == bool
+    except (TypeError, ValueError):  # ragged lists: refused by check_indices
+        is_mask = False
+    if not is_mask:
+        mask = np.zeros(n, dtype=bool)
+        mask[check_indices("free", free, n, "dof indices")] = True
+        return mask
+    if np.shape(free) != (n,):
+        raise ParameterError("free", f"free must be a boolean mask of shape ({n},) or dof indices, got shape "
+                                     f"{np.shape(free)}")
+    return np.array(free, dtype=bool)
 
 
 def _checked(x0, callables, line_search, linear, optional_reals, max_step, max_iterations, budget, tolerances):
