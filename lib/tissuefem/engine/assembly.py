@@ -30,7 +30,7 @@ from skfem import Basis, ElementTetP1, ElementTetP2, ElementTriP1, ElementTriP2,
 
 from .forms import energy_form, residual_form, tangent_form
 from .meshes import check_mesh
-from .parameters import ParameterError, check_count, check_density, check_weights
+from .parameters import ParameterError, check_count, check_density, check_vector, check_weights
 from .vectors import dot
 
 __all__ = ["P1Assembler", "QuadratureAssembler", "FormsAssembler", "make_assembler", "vector_basis", "check_weights"]
@@ -176,7 +176,7 @@ class P1Assembler(_FixedPattern):
 
     def body_force(self, b) -> np.ndarray:
         """``f_(a,i) = int N_a b_i dX`` for a constant body force ``b`` (force per unit reference area or volume)."""
-        b = check_body_force(b, self.dim)
+        b = check_vector("body_force", b, self.dim)
         nv = self.n_vertices
         share = np.bincount(self.t.ravel(), weights=np.tile(self.areas / float(nv), nv), minlength=self.n_nodes)
         return (share[:, None] * b[None, :]).ravel()
@@ -187,15 +187,6 @@ class P1Assembler(_FixedPattern):
 
 
 _ELEMENT_NAMES = {2: "triangles", 3: "tetrahedra"}
-
-
-def check_body_force(b, dim) -> np.ndarray:
-    """A constant body force (or acceleration) as a float vector of the mesh's dimension ``dim``."""
-    b = np.asarray(b, dtype=float)
-    if b.shape != (dim,):
-        raise ParameterError("body_force", f"body_force must be a vector of {dim} components (the mesh's dimension), "
-                                           f"got shape {b.shape}")
-    return b
 
 
 def _block_pattern(t, n_nodes: int, dim: int):
@@ -375,7 +366,7 @@ class QuadratureAssembler(_FixedPattern):
 
     def body_force(self, b) -> np.ndarray:
         """``f_(a,i) = int N_a b_i dX`` for a constant body force ``b``."""
-        b = check_body_force(b, self.dim)
+        b = check_vector("body_force", b, self.dim)
         share = np.einsum("aeq,eq->ae", self._N, self._dx)  # (nloc, nel)
         f = np.einsum("ae,i->aie", share, b)
         return np.bincount(self._dofs_flat, weights=f.reshape(-1), minlength=self.n_dofs)

@@ -25,7 +25,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from .parameters import ParameterError, check_count, check_real, check_real_array
+from .parameters import ParameterError, check_count, check_indices, check_real, check_real_array
 from .vectors import dot, norm
 
 __all__ = ["LinearSolver", "LinearInfo", "Condenser", "SuperLU", "Pardiso", "Cholmod", "ReusedFactorization",
@@ -1013,11 +1013,7 @@ class LinearSolver(_OffFrame):
         n_old = int(mask.sum())
         if old.backend._shape != (n_old, n_old):
             return False
-        parent = np.asarray(parent)
-        if parent.ndim != 1 or not np.issubdtype(parent.dtype, np.integer) or (
-                parent.size and (parent.min() < 0 or parent.max() >= size)):
-            raise ParameterError("parent", f"parent must give an old dof in 0..{size - 1} per new dof, got "
-                                           f"{parent.dtype} shaped {parent.shape}")
+        parent = check_indices("parent", parent, size, "old dofs (one per new dof)")
         index = np.full(size, -1, dtype=np.intp)
         index[mask] = np.arange(n_old)
         self.invalidate()
