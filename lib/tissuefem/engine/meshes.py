@@ -273,8 +273,7 @@ def box(lx=1.0, ly=1.0, lz=1.0, nx=4, ny=4, nz=4) -> MeshTet:
     lx, ly, lz = _size("lx", lx), _size("ly", ly), _size("lz", lz)
     for label, ratio in (("lx / ly", lx / ly), ("ly / lz", ly / lz), ("lx / lz", lx / lz)):
         _check_aspect(label, ratio)
-    counts = [check_count(k, v, 1, MAX_TRIANGLES // 6) for k, v in (("nx", nx), ("ny", ny), ("nz", nz))]
-    nx, ny, nz = counts
+    nx, ny, nz = (check_count(k, v, 1, MAX_TRIANGLES // 6) for k, v in (("nx", nx), ("ny", ny), ("nz", nz)))
     if 6 * nx * ny * nz > MAX_TRIANGLES:
         raise ParameterError("nx", f"nx, ny, nz: {nx} x {ny} x {nz} cells give {6 * nx * ny * nz} tetrahedra, more "
                                    f"than the {MAX_TRIANGLES} a generated domain may have")
@@ -430,11 +429,9 @@ def fusiform_fiber_direction(points, length=4.0, max_width=1.0, tendon_width=0.2
 def fusiform_fiber_field(mesh, length=None, max_width=None, tendon_width=None) -> np.ndarray:
     """Unit fiber directions (2, n_elements) of a :func:`fusiform_muscle` mesh at the centroids; the sizes left
     ``None`` are read off the mesh (x-extent, y-extent, y-extent of the left tendon's nodes)."""
-    p, t = np.asarray(mesh.p, dtype=float), np.asarray(mesh.t)
-    if p.ndim != 2 or p.shape[0] != 2 or t.ndim != 2 or t.shape[0] != 3:
+    p, t = check_mesh(mesh.p, mesh.t, cut=True)  # what an assembler accepts
+    if p.shape[0] != 2:
         raise ParameterError("mesh", "mesh must be a 2D triangle mesh (p shaped (2, n), t shaped (3, n))")
-    if not np.all(np.isfinite(p)):
-        raise ParameterError("mesh", "mesh has non-finite node coordinates")
     x0 = p[0].min()
     length = p[0].max() - x0 if length is None else length
     max_width = 2.0 * np.abs(p[1]).max() if max_width is None else max_width
