@@ -325,14 +325,13 @@ class PCGResult:
     negative_curvature: bool = False
 
 
-def pcg(A, b, precondition=None, *, x0=None, atol: float = 0.0, rtol: float = 1e-8,
-        max_iterations: int = 200) -> PCGResult:
-    """Preconditioned conjugate gradients for a symmetric ``A``; ``precondition(r)`` applies an approximate inverse.
-    Stops when ``||b - A x|| <= max(atol, rtol ||b||)``, after ``max_iterations``, or on *negative curvature*
-    (``p^T A p <= 0``: ``A`` is not positive definite; ``x`` is the last iterate, for ``x0 = 0`` still downhill)."""
+def pcg(A, b, precondition=None, *, atol: float = 0.0, rtol: float = 1e-8, max_iterations: int = 200) -> PCGResult:
+    """Preconditioned conjugate gradients for a symmetric ``A`` from ``x = 0``; ``precondition(r)`` applies an
+    approximate inverse. Stops when ``||b - A x|| <= max(atol, rtol ||b||)``, after ``max_iterations``, or on
+    *negative curvature* (``p^T A p <= 0``: ``A`` is not positive definite; ``x`` is the last iterate, still
+    downhill)."""
     b = np.asarray(b, dtype=float)
-    x = np.zeros_like(b) if x0 is None else np.array(x0, dtype=float, copy=True)
-    r = b - A @ x if x0 is not None else b.copy()
+    x, r = np.zeros_like(b), b.copy()
     target = max(float(atol), float(rtol) * norm(b))
     rnorm = norm(r)
     if rnorm <= target:
@@ -343,8 +342,7 @@ def pcg(A, b, precondition=None, *, x0=None, atol: float = 0.0, rtol: float = 1e
         Ap = A @ p
         curvature = dot(p, Ap)
         if not (curvature > 0.0) or not (rz > 0.0):
-            if k == 1 and x0 is None:
-                # no step taken yet: the preconditioned residual is the best safe guess
+            if k == 1:  # no step taken yet: the preconditioned residual is the best safe guess
                 x = z if rz > 0.0 else r.copy()
             return PCGResult(x, k - 1, False, rnorm, negative_curvature=True)
         alpha = rz / curvature
