@@ -677,7 +677,7 @@ def _real_vector_of_another_size(value, n) -> bool:
 
 _NEWTON_ARGUMENTS = ["x0", "gradient", "hessian", "energy", "free", "line_search", "rtol", "atol", "reference_norm",
                      "floor", "max_iterations", "max_step", "linear", "safe_hessian", "clock", "budget", "start",
-                     "energy0", "energy_floor", "max_halvings"]
+                     "energy0", "energy_floor"]
 
 
 @PROPERTY
