@@ -17,13 +17,12 @@ from ..engine.model import Handle, Model
 from ..engine.parameters import check_count as _count, check_real
 from ..engine.stepping import StaticResult, solve
 from .measure import median_time, relative_l2_error
-from .tables import markdown_table, text_table
+from .tables import markdown_table
 
 __all__ = [
     "rotation", "bending_map", "bending_gradient", "displacement_from_map", "rigid_rotation_response",
     "rotated_block", "BLOCK_HANDLE", "block_model", "stretched_block", "handle_force", "newton_iteration_time",
-    "cost_accuracy_study",
-    "format_cost_accuracy", "cost_accuracy_markdown", "RECORDED_COST_ACCURACY",
+    "cost_accuracy_study", "cost_accuracy_markdown", "RECORDED_COST_ACCURACY",
 ]
 
 
@@ -229,11 +228,6 @@ _TABLE = [("order", "P", "{:d}"), ("n", "n", "{:d}"), ("triangles", "triangles",
 def cost_accuracy_markdown(rows) -> str:
     """The rows of :func:`cost_accuracy_study` as a Markdown table (for a notebook to render)."""
     return markdown_table(rows, _TABLE)
-
-
-def format_cost_accuracy(rows) -> str:
-    """The rows of :func:`cost_accuracy_study` as a plain-text table."""
-    return text_table(rows, _TABLE)
 
 
 #: One recorded run of :func:`cost_accuracy_study` (``data/cost_accuracy.json``) for the deterministic lecture
