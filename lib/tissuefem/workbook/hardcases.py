@@ -22,8 +22,8 @@ from ..engine.realtime import RealtimeSolver
 from ..engine.stepping import solve
 
 __all__ = ["inversion_models", "block", "start_states", "ReleaseResult", "release", "crush_and_release",
-           "crush_and_release_runs", "crush_in_frames", "twice_signed_areas", "edge_matrices", "element_jacobians",
-           "cover_counts", "drag_through", "RELEASE_OPTIONS"]
+           "crush_and_release_runs", "crush_in_frames", "edge_matrices", "element_jacobians", "cover_counts",
+           "drag_through", "RELEASE_OPTIONS"]
 
 #: Newton options of a release solve: absolute residual tolerance (the start residual is huge,
 #: so a relative one would stop early), a step cap and room for the creeping iterations.
@@ -201,12 +201,6 @@ def crush_in_frames(material, mesh=None, depth: float = 1.3, steps: int = 13, ex
     return {"x": x, "reached": float(X[1, top].mean() - x[1, top].mean()), "converged": bool(report.converged),
             "frames": frames, "inverted": int(np.sum(J <= 1e-12)), "folded": int(np.sum(cover_counts(mesh, x) > 1)),
             "released": release(mesh, material, x, held=_bottom(mesh))}
-
-
-def twice_signed_areas(mesh, x) -> np.ndarray:
-    """Twice the signed area of each triangle, nodes at ``x`` ``(2, n_nodes)`` (> 0: anticlockwise)."""
-    a, b, c = (np.asarray(x, dtype=float)[:, mesh.t[k]] for k in range(3))
-    return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
 
 
 def edge_matrices(mesh, x) -> np.ndarray:
