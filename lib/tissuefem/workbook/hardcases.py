@@ -83,7 +83,6 @@ class ReleaseResult:
     status: str
     iterations: int
     cuts: int  # line-search halvings
-    shifted: int  # iterations whose tangent had to be shifted to give a descent direction
     energies: np.ndarray  # total energy after each accepted step
     start_energy: float
     rest_error: float  # ||x - X|| / ||X|| over all nodes
@@ -120,8 +119,7 @@ def release(mesh, material, x_start, held=None, **newton_options) -> ReleaseResu
     newton, u = result.steps[-1], result.u
     return ReleaseResult(
         u=u, converged=result.converged, status=result.status, iterations=result.newton_iterations,
-        cuts=newton.line_search_cuts, shifted=sum(1 for h in newton.history if h.shift > 0),
-        energies=newton.energies, start_energy=float(start_energy),
+        cuts=newton.line_search_cuts, energies=newton.energies, start_energy=float(start_energy),
         rest_error=float(np.linalg.norm(model.positions(u) - X) / np.linalg.norm(X)),
         finite=bool(np.all(np.isfinite(u))), history=newton.history)
 

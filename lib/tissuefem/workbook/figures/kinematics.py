@@ -204,7 +204,7 @@ def fig_ch04_block() -> Figure:
     J = det F and by Psi."""
     problem, u = stretched_block()
     F = problem.deformation_gradient(u)
-    J = F[0, 0] * F[1, 1] - F[0, 1] * F[1, 0]
+    J = det(F)
     psi = problem.material.energy(F)
     x = problem.deformed_positions(u)
     tri = Triangulation(x[0], x[1], problem.mesh.t.T)
