@@ -131,8 +131,7 @@ def block_model(n: int = 8, order: int = 1, material: Material | None = None, ha
     fixed, right edge moved by ``handle``; Neo-Hookean (E = 1000, nu = 0.3) by default; ``assembly="forms"``:
     the readable scikit-fem forms (slow)."""
     n = _count("n", n)
-    if material is None:
-        material = NeoHookean.from_young(TISSUE_E, TISSUE_NU)
+    material = NeoHookean.from_young(TISSUE_E, TISSUE_NU) if material is None else material
     mesh = rectangle(width, height, max(1, round(n * width / height)), n)
     return Model(mesh, material, order=order, assembly=assembly,
                  handles=[Handle("left", name="left"), Handle("right", handle, name="right")])
@@ -185,8 +184,7 @@ def cost_accuracy_study(p1_sizes=(2, 4, 8, 16), p2_sizes=(1, 2, 4, 8), reference
     if max(p1_sizes + p2_sizes, default=0) >= reference_size:
         raise ValueError(f"reference_size ({reference_size}) must exceed every size of the sweep "
                          f"(largest {max(p1_sizes + p2_sizes)})")
-    if material is None:
-        material = NeoHookean.from_young(TISSUE_E, TISSUE_NU)
+    material = NeoHookean.from_young(TISSUE_E, TISSUE_NU) if material is None else material
 
     reference = block_model(reference_size, 2, material, handle)
     ref = solve(reference, load_steps=load_steps)

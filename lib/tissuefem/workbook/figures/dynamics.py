@@ -83,7 +83,6 @@ def fig_ch07_energy() -> Figure:
     dt_crit = critical_time_step(problem)
     fig = Figure(figsize=(13.0, 4.4), layout="constrained")
     ax, ax_z, ax_u = fig.subplots(1, 3, width_ratios=[1.5, 1, 0.9])
-    e0 = None
     for dt, color in zip(BE_STEPS, ("C0", "C1", "C2")):
         t, e = backward_euler_run(problem, u0, dt, int(round(ENERGY_T_END / dt)))
         e0 = e[0]
