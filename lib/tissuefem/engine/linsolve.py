@@ -805,8 +805,12 @@ class PreconditionedCG(_Direct):
                                                    f"{A.shape[0]} unknowns")
         block = {3: 2, 6: 3}.get(B.shape[1], 1) if B is not None else 1
         M = A.tobsr(blocksize=(block, block)) if block > 1 and A.shape[0] % block == 0 else A
-        hierarchy = pyamg.smoothed_aggregation_solver(M, B=B, symmetry="symmetric", max_coarse=300)
+        # the coarsest level by a sparse LU (pyamg's default, a dense pseudo-inverse, costs seconds with busy BLAS
+        # threads); pyamg makes it at the first V-cycle, so one is run here, with the hierarchy (off the frame)
+        hierarchy = pyamg.smoothed_aggregation_solver(M, B=B, symmetry="symmetric", max_coarse=300,
+                                                      coarse_solver="splu")
         cycle = hierarchy.aspreconditioner(cycle="V")
+        cycle.matvec(np.zeros(A.shape[0]))
         return (lambda r: cycle.matvec(r)), int(sum(level.A.nnz for level in hierarchy.levels))
 
     def factorize(self, A) -> _CGFactor:
