@@ -3,10 +3,10 @@
 The base, the probe and the "everything" variants of `tissuefem.workbook.bench.scenes.variants` at 8k triangles,
 each run with the default linear solver ("reuse-background": CG preconditioned by a kept SuperLU factorization,
 refreshed on the second core) and with CG preconditioned by one V-cycle of a kept smoothed-aggregation hierarchy
-(pyamg), given the body's rigid motions as near-nullspace and refreshed the same way, the two alternating in one
-process. The library's "reuse-background-cg-amg" solves its coarsest level by a pseudo-inverse, made at the first
-V-cycle on the frame's thread (0.6-4 s per hierarchy for 360 unknowns on the busy machine, the BLAS's two threads
-fighting the other work); here the coarsest level is a sparse LU made with the hierarchy, off the frame. Per run:
+(pyamg; the library's "reuse-background-cg-amg"), given the body's rigid motions as near-nullspace and refreshed
+the same way, the two alternating in one process. Its coarsest level is a sparse LU made with the hierarchy, off
+the frame (pyamg's default, a pseudo-inverse made at the first V-cycle on the frame's thread, cost 0.6-4 s per
+hierarchy for 360 unknowns on the busy machine, the BLAS's two threads fighting the other work). Per run:
 the median wall ms of a frame, the median CPU ms of the frame's thread (time.thread_time), Newton steps, CG
 iterations (one back-substitution or one V-cycle each) and factorizations (or hierarchies) on the frame, per
 frame; and, in CPU ms at the end state, the floor's pieces (one assembly, one back-substitution or V-cycle) and
@@ -20,40 +20,13 @@ import time
 
 import numpy as np
 
-from tissuefem.engine.linsolve import LinearSolver, ReusedFactorization
 from tissuefem.surgery.scene import Scene
 from tissuefem.surgery.simulation import Simulation
 from tissuefem.workbook.bench.scenes import variants
 from tissuefem.workbook.timestepping import flap_drag
 
 
-class Multigrid:
-    """A backend for ReusedFactorization: "factorizing" builds a smoothed-aggregation hierarchy with the rigid
-    motions of the free dofs (set by the real-time solver) as near-nullspace; CG applies one V-cycle."""
-
-    name = "sa-amg"
-
-    def __init__(self):
-        self.near_nullspace = None
-
-    def factorize(self, A):
-        import pyamg
-        B = self.near_nullspace
-        M = A.tobsr(blocksize=(2, 2)) if A.shape[0] % 2 == 0 else A
-        levels = pyamg.smoothed_aggregation_solver(M, B=B, symmetry="symmetric", max_coarse=300,
-                                                   coarse_solver="splu")
-        cycle = levels.aspreconditioner(cycle="V")
-        cycle.matvec(np.ones(A.shape[0]))  # the coarse LU is made here, with the hierarchy
-        return Cycle(cycle)
-
-
-class Cycle:
-    def __init__(self, cycle):
-        self.precondition = self.solve = cycle.matvec
-
-
-SOLVERS = {"kept SuperLU": lambda: "reuse-background",
-           "AMG (rigid modes)": lambda: LinearSolver(ReusedFactorization(Multigrid(), background=True))}
+SOLVERS = {"kept SuperLU": "reuse-background", "AMG (rigid modes)": "reuse-background-cg-amg"}
 VARIANTS = ("base: stable neo-Hookean, quasistatic", "+ probe", "everything")
 
 
@@ -63,7 +36,7 @@ def load():
 
 
 def run(data, options, solver, frames):
-    sim = Simulation(Scene.from_dict(data), linear_solver=solver(), **options)
+    sim = Simulation(Scene.from_dict(data), linear_solver=solver, **options)
     wall, cpu, newton, cg, fac = [], [], [], [], []
     for f in range(frames):
         cg0 = sim.solver.linear.backend.cg_iterations  # all of the frame's solves, the linearised start's too

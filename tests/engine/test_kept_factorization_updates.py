@@ -1,6 +1,10 @@
 """A kept factorization carried across a change of the matrix: extended to new unknowns after a cut
-(:class:`ExtendedFactorization`), made exact again where a stiff penalty came or went
-(:class:`UpdatedFactorization`). Both only precondition CG: the converged answers are the direct solver's."""
+(:class:`ExtendedFactorization`), and, in the experiment docs/experiments/woodbury_probe.py (not in the package: it
+did not pay), made exact again where a stiff penalty came or went. Both only precondition CG: the converged answers
+are the direct solver's."""
+
+import importlib.util
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -10,6 +14,17 @@ from tissuefem.engine import linsolve
 from tissuefem.engine.parameters import ParameterError
 
 from helpers import Launcher
+
+EXPERIMENT = Path(__file__).resolve().parents[2] / "docs" / "experiments" / "woodbury_probe.py"
+
+
+@pytest.fixture(scope="module")
+def woodbury():
+    """The experiment's script as a module (its runs are not started)."""
+    spec = importlib.util.spec_from_file_location("woodbury_probe", EXPERIMENT)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
 def _laplacian(n, shift=0.5):
@@ -70,10 +85,10 @@ def _penalized(n, nodes, k):
     return A.tocsr()
 
 
-def test_a_low_rank_update_is_exact_where_only_a_few_diagonal_entries_changed():
+def test_a_low_rank_update_is_exact_where_only_a_few_diagonal_entries_changed(woodbury):
     n = 60
     A0 = _laplacian(n)
-    kept = linsolve.UpdatedFactorization(linsolve.SuperLU().factorize(A0), A0, rank=8)
+    kept = woodbury.UpdatedFactorization(linsolve.SuperLU().factorize(A0), A0, rank=8)
     A = _penalized(n, [10, 11, 12, 40], 1e3)  # a stiff penalty at four unknowns
     assert kept.update(A) == 4 and kept.updated == 4
     r = np.random.default_rng(3).normal(size=n)
@@ -86,46 +101,37 @@ def test_a_low_rank_update_is_exact_where_only_a_few_diagonal_entries_changed():
     assert np.allclose(kept.solve(r), sp.linalg.spsolve(A_off.tocsc(), r), rtol=1e-10, atol=1e-12)
 
 
-def test_a_low_rank_update_keeps_to_its_rank_and_its_limit_and_skips_another_pattern():
+def test_a_low_rank_update_keeps_to_its_rank_and_its_limit_and_skips_another_pattern(woodbury):
     n = 60
     A0 = _laplacian(n)
-    kept = linsolve.UpdatedFactorization(linsolve.SuperLU().factorize(A0), A0, rank=3)
+    kept = woodbury.UpdatedFactorization(linsolve.SuperLU().factorize(A0), A0, rank=3)
     A = _penalized(n, [5, 6, 7, 8, 9], 1e3)
     assert kept.update(A) == 3 and kept.updated == 3
-    kept = linsolve.UpdatedFactorization(linsolve.SuperLU().factorize(A0), A0, rank=8)
+    kept = woodbury.UpdatedFactorization(linsolve.SuperLU().factorize(A0), A0, rank=8)
     assert kept.update(A, limit=2) == 2 and kept.updated == 2
     wider = (A0 + sp.eye(n, k=5) + sp.eye(n, k=-5)).tocsr()
     assert kept.update(wider) == 0 and kept.updated == 0
 
 
-def test_reuse_with_and_without_updates_converges_to_the_same_answers():
+def test_reuse_with_and_without_updates_hooked_in_converges_to_the_same_answers(woodbury):
     n = 80
-    rng = np.random.default_rng(4)
-    answers = {}
+    b = np.random.default_rng(4).normal(size=(4, n))
+    answers, library = {}, (dict(vars(linsolve.ReusedFactorization)), linsolve.pcg)
     for rank in (0, 16):
-        solver = linsolve.ReusedFactorization(update_rank=rank)
-        xs, iterations = [], 0
-        for step, nodes in enumerate(([], [20, 21], [21, 22, 23], [50])):
-            A = _penalized(n, nodes, 500.0) * (1.0 + 0.01 * step)
-            b = rng.normal(size=n) if rank == 0 else answers["b"][step]
-            answers.setdefault("b", []).append(b) if rank == 0 else None
-            x, info = solver.solve(A, b, rtol=1e-12)
-            assert info.converged
-            xs.append(x)
-            iterations += info.iterations
-        answers[rank] = (xs, iterations)
+        woodbury.COUNT["updates"] = 0
+        with woodbury.updates(rank):
+            solver = linsolve.ReusedFactorization()
+            xs, iterations = [], 0
+            for step, nodes in enumerate(([], [20, 21], [21, 22, 23], [50])):
+                x, info = solver.solve(_penalized(n, nodes, 500.0) * (1.0 + 0.01 * step), b[step], rtol=1e-12)
+                assert info.converged
+                xs.append(x)
+                iterations += info.iterations
+        answers[rank] = (xs, iterations, woodbury.COUNT["updates"])
     for x0, x1 in zip(answers[0][0], answers[16][0]):
         assert np.allclose(x0, x1, rtol=1e-8, atol=1e-10)
-    assert answers[16][1] < answers[0][1]
-
-
-def test_update_rank_is_checked():
-    with pytest.raises(ParameterError, match="update_rank"):
-        linsolve.ReusedFactorization(update_rank=-1)
-    solver = linsolve.ReusedFactorization()
-    with pytest.raises(ParameterError, match="update_rank"):
-        solver.update_rank = 1.5
-    assert solver.update_rank == 0
+    assert answers[16][1] < answers[0][1] and answers[16][2] > 0 == answers[0][2]
+    assert (dict(vars(linsolve.ReusedFactorization)), linsolve.pcg) == library  # the library is restored
 
 
 def test_a_provided_preconditioner_is_used_while_a_fresh_factorization_is_made_off_the_frame():

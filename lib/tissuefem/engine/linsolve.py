@@ -12,7 +12,6 @@ with the old one, or the frame stops and commits what it has.
 
 from __future__ import annotations
 
-import functools
 import importlib.util
 import math
 import threading
@@ -21,7 +20,6 @@ import weakref
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
@@ -30,7 +28,7 @@ from .vectors import dot, norm
 
 __all__ = ["LinearSolver", "LinearInfo", "Condenser", "SuperLU", "Pardiso", "Cholmod", "ReusedFactorization",
            "PreconditionedCG", "rigid_body_modes", "OPTIONAL", "SolveInfo", "PCGResult", "pcg", "available", "make",
-           "BACKENDS", "Deadline", "WORK", "start_thread", "ExtendedFactorization", "UpdatedFactorization"]
+           "BACKENDS", "Deadline", "WORK", "start_thread", "ExtendedFactorization"]
 
 _ORDERINGS = ("MMD_AT_PLUS_A", "COLAMD", "MMD_ATA", "NATURAL")
 
@@ -409,95 +407,6 @@ class ExtendedFactorization:
         return z + self._coarse(r - self._A @ z)
 
 
-class UpdatedFactorization:
-    """A factorization ``factor`` of the matrix ``A0``, kept with it, and made exact again for a later matrix ``A`` of
-    the same pattern on the unknowns where it changed most (:meth:`update`): where a stiff penalty came or went (a
-    probe's contact, self-contact), a change of low rank that a kept factorization lacks and CG pays for with one
-    iteration per changed unknown. For the set ``S`` of at most ``rank`` unknowns whose diagonal changed by more
-    than ``threshold`` of its old value, ``C = (A - A0)[S, S]``, ``U`` the columns of the identity at ``S`` and
-    ``W = A0^-1 U`` (one back-substitution per unknown, kept for as long as the factorization),
-
-        (A0 + U C U^T)^-1 r = z - W (I + C W[S])^-1 C z[S],   z = A0^-1 r       (Woodbury).
-
-    The couplings of ``S`` to the other unknowns are left to CG; an update that would make the matrix indefinite is
-    not made (CG is to find that negative curvature). :meth:`solve` is that approximate inverse."""
-
-    def __init__(self, factor, A, rank: int = 64, threshold: float = 0.5):
-        A = sp.csr_matrix(A)
-        self.factor, self.n = factor, A.shape[0]
-        self.rank, self.threshold = int(rank), float(threshold)
-        self._indptr, self._indices, self._data = A.indptr, A.indices, A.data.copy()
-        self._diagonal = np.abs(A.diagonal())
-        self._columns = {}  # unknown -> A0^-1 e_unknown
-        self._update = None  # (S, W, C, LU of I + C W[S]) for the last update, or None: the factorization alone
-
-    def _back_substitutions(self, unknowns) -> None:
-        E = np.zeros((self.n, unknowns.size))
-        E[unknowns, np.arange(unknowns.size)] = 1.0
-        try:
-            W = np.asarray(self.factor.solve(E), dtype=float)
-        except (ValueError, RuntimeError):
-            W = None
-        if W is None or W.shape != E.shape:  # a backend that solves one right-hand side at a time
-            W = np.column_stack([self.factor.solve(E[:, k]) for k in range(unknowns.size)])
-        for k, q in enumerate(unknowns.tolist()):
-            self._columns[q] = W[:, k]
-
-    def update(self, A, limit: int | None = None) -> int:
-        """Correct for ``A`` (new back-substitutions: at most ``limit``); how many back-substitutions it made."""
-        self._update = None
-        same = (A.shape == (self.n, self.n) and A.nnz == self._data.size
-                and (A.indices is self._indices or np.array_equal(A.indices, self._indices))
-                and (A.indptr is self._indptr or np.array_equal(A.indptr, self._indptr)))
-        if self.rank <= 0 or not same:
-            return 0
-        change = sp.csr_matrix((A.data - self._data, self._indices, self._indptr), shape=A.shape)
-        grown = np.abs(change.diagonal())
-        S = np.flatnonzero(grown > self.threshold * self._diagonal)
-        if S.size > self.rank:
-            S = S[np.argsort(-grown[S] / np.maximum(self._diagonal[S], 1e-300))[: self.rank]]
-        missing = np.array([q for q in S.tolist() if q not in self._columns], dtype=np.intp)
-        if limit is not None and missing.size > limit:
-            S = np.setdiff1d(S, missing[limit:])
-            missing = missing[:limit]
-        S = np.sort(S)
-        if S.size == 0:
-            return 0
-        if missing.size:
-            self._back_substitutions(missing)
-        W = np.column_stack([self._columns[q] for q in S.tolist()])
-        C = change[S][:, S].toarray()
-        G = W[S]  # (A0^-1)[S, S]: A0 + U C U^T is positive definite iff G + G C G is
-        try:
-            np.linalg.cholesky(0.5 * (G + G.T) + G @ C @ G.T)
-        except np.linalg.LinAlgError:
-            return int(missing.size)  # an indefinite update (CG is to see that negative curvature): none
-        lu = sla.lu_factor(np.eye(S.size) + C @ G)
-        if not np.all(np.isfinite(lu[0])) or np.any(np.abs(np.diag(lu[0])) < 1e-12):
-            return int(missing.size)  # (nearly) singular: the factorization alone
-        self._update = (S, W, C, lu)
-        return int(missing.size)
-
-    @property
-    def updated(self) -> int:
-        """How many unknowns the last :meth:`update` corrected (0: none)."""
-        return 0 if self._update is None else int(self._update[0].size)
-
-    def solve(self, r) -> np.ndarray:
-        z = np.asarray(self.factor.solve(r), dtype=float)
-        if self._update is None:
-            return z
-        S, W, C, lu = self._update
-        return z - W @ sla.lu_solve(lu, C @ z[S])
-
-
-def _factorize_kept(direct, rank, A):
-    """``direct``'s factorization of ``A``, kept with ``A`` for low-rank updates (``rank`` 0: none)."""
-    factor = direct.factorize(A)
-    exact = not hasattr(factor, "iterations")  # an iterative "factorization" is no fixed inverse to update
-    return UpdatedFactorization(factor, A, rank) if rank > 0 and exact else factor
-
-
 @dataclass
 class SolveInfo:
     """What one solve of :class:`ReusedFactorization` did."""
@@ -560,34 +469,20 @@ class ReusedFactorization(_OffFrame):
     factorization that does not fit is started in the background whatever ``background`` says, and CG runs the
     iterations that fit with the old factorization (no factorization yet: the solve returns ``None``).
     ``launch(work)``: how background work starts; :meth:`close` waits for it, and so do dropping the solver and exit.
-    ``update_rank``: a kept factorization is made exact again, before each solve, on up to that many unknowns where
-    the matrix changed most (:class:`UpdatedFactorization`; 0, the default: never; measured on the probe scene it did
-    not lower CG's iterations, see docs/benchmarks.md); ``update_solves`` counts the back-substitutions that took.
     After a cut, :meth:`provide` gives a preconditioner to start from while a fresh factorization is made off the
     frame."""
 
     def __init__(self, direct=None, refresh_after: int = 15, max_iterations: int = 40, background: bool = False,
-                 background_after: int = 3, launch=None, update_rank: int = 0):
+                 background_after: int = 3, launch=None):
         self.refresh_after = check_count("refresh_after", refresh_after)
         self.max_iterations = check_count("max_iterations", max_iterations)
         self.direct = direct if direct is not None else SuperLU()
         self.background = bool(background)
         self.background_after = int(background_after)
-        self.update_rank = update_rank
         self.name = f"cg+reused-{self.direct.name}" + ("+background" if self.background else "")
         super().__init__(launch)
         self.invalidate()  # no factorization yet
-        self.factorizations = self.background_factorizations = self.cg_iterations = self.update_solves = 0
-
-    @property
-    def update_rank(self) -> int:
-        """On how many unknowns at most a kept factorization is made exact again before a solve (0: none); set
-        between solves, it applies from the next factorization."""
-        return self._update_rank
-
-    @update_rank.setter
-    def update_rank(self, value):
-        self._update_rank = check_count("update_rank", value, 0)
+        self.factorizations = self.background_factorizations = self.cg_iterations = 0
 
     @property
     def direct(self):
@@ -603,7 +498,7 @@ class ReusedFactorization(_OffFrame):
     @property
     def _factorize(self):
         """How a kept factorization is made: a function of the matrix only (a background job holds no solver)."""
-        return functools.partial(_factorize_kept, self._direct, self._update_rank)
+        return self._direct.factorize
 
     def invalidate(self) -> None:
         self._factor, self._shape, self._stale, self._work.pending = None, None, False, None
@@ -690,9 +585,6 @@ class ReusedFactorization(_OffFrame):
         if limit == 0:
             deadline.skip("cg-iteration")
             return None, SolveInfo(0, False, False, math.inf, "", "cg-iteration")
-        if isinstance(self._factor, UpdatedFactorization):  # made exact again where the matrix changed most
-            made = self._factor.update(A, limit=deadline.room("back-substitution"))
-            self.update_solves += made
         t0 = deadline.clock()
         result = pcg(A, b, self._precondition, atol=atol, rtol=rtol, max_iterations=limit)
         deadline.record("cg-iteration", deadline.clock() - t0, result.iterations)
@@ -805,8 +697,12 @@ class PreconditionedCG(_Direct):
                                                    f"{A.shape[0]} unknowns")
         block = {3: 2, 6: 3}.get(B.shape[1], 1) if B is not None else 1
         M = A.tobsr(blocksize=(block, block)) if block > 1 and A.shape[0] % block == 0 else A
-        hierarchy = pyamg.smoothed_aggregation_solver(M, B=B, symmetry="symmetric", max_coarse=300)
+        # the coarsest level by a sparse LU (pyamg's default, a dense pseudo-inverse, costs seconds with busy BLAS
+        # threads); pyamg makes it at the first V-cycle, so one is run here, with the hierarchy (off the frame)
+        hierarchy = pyamg.smoothed_aggregation_solver(M, B=B, symmetry="symmetric", max_coarse=300,
+                                                      coarse_solver="splu")
         cycle = hierarchy.aspreconditioner(cycle="V")
+        cycle.matvec(np.zeros(A.shape[0]))
         return (lambda r: cycle.matvec(r)), int(sum(level.A.nnz for level in hierarchy.levels))
 
     def factorize(self, A) -> _CGFactor:
