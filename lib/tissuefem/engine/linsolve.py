@@ -207,6 +207,9 @@ WORK = ("assembly", "factorization", "back-substitution", "cg-iteration", "line-
 _LONG = frozenset({"factorization"})
 #: The weight of the newest measurement in a cost estimate (an exponential moving average).
 _LEARNING = 0.5
+#: How many times slower a frame's pieces run while a factorization runs on the second core (they share the memory
+#: bandwidth and the caches), until learned: ``costs["contention"]``.
+_CONTENTION = 2.0
 
 
 class Deadline:
@@ -214,19 +217,28 @@ class Deadline:
     ``kind -> seconds`` for the kinds of :data:`WORK`, learned by :meth:`record` from every measured piece, with or
     without a deadline). :meth:`fits` says whether pieces can finish before ``end``; a piece without an estimate yet
     fits while time is left (the first frame ever runs its work to learn its cost) and is noted in ``unestimated``.
-    ``first``: the frame's first Newton iteration, whose short pieces (an assembly, a back-substitution, a CG
-    iteration, a line search) always run so every frame makes progress; its long ones (a factorization) only if they
-    fit or were never measured. What a frame did not start is noted in ``skipped``."""
+    ``busy()``: whether a factorization runs on the second core; meanwhile every piece is expected to take
+    ``costs["contention"]`` times its cost (a factor learned from the pieces measured then, at first
+    :data:`_CONTENTION`). ``first``: the frame's first Newton iteration, whose short pieces (an assembly, a
+    back-substitution, a CG iteration, a line search) then run whatever they cost (a stepper that wants progress on
+    every frame, see :func:`.minimize.newton`'s ``progress``); its long ones (a factorization) only if they fit or
+    were never measured. What a frame did not start is noted in ``skipped``."""
 
-    def __init__(self, clock=None, end: float = math.inf, costs: dict | None = None, first: bool = False):
+    def __init__(self, clock=None, end: float = math.inf, costs: dict | None = None, first: bool = False, busy=None):
         self.clock = time.perf_counter if clock is None else clock
         self.end, self.first = float(end), bool(first)
         self.costs = {} if costs is None else costs
+        self.busy = busy or (lambda: False)
         self.skipped, self.unestimated = [], []
 
     @property
     def limited(self) -> bool:
         return self.end < math.inf
+
+    def cost(self, kind: str) -> float | None:
+        """The expected seconds of one piece of ``kind`` now (``None``: no estimate yet)."""
+        seconds = self.costs.get(kind)
+        return seconds * self.costs.get("contention", _CONTENTION) if seconds and self.busy() else seconds
 
     def fits(self, *kinds: str) -> bool:
         """Whether one piece of each of ``kinds`` can finish before the deadline (always without one)."""
@@ -237,11 +249,11 @@ class Deadline:
         if self.first and all(k not in _LONG or k in unknown for k in kinds):
             return True  # the first iteration's short pieces, and long ones never measured (the first frame)
         now = self.clock()
-        return now < self.end and now + sum(self.costs.get(k) or 0.0 for k in kinds) <= self.end
+        return now < self.end and now + sum(self.cost(k) or 0.0 for k in kinds) <= self.end
 
     def room(self, kind: str) -> int | None:
         """How many pieces of ``kind`` fit before the deadline (``None``: no limit, or no estimate yet)."""
-        estimate = self.costs.get(kind)
+        estimate = self.cost(kind)
         if not self.limited or not estimate:
             return None
         left = self.end - self.clock()
@@ -253,9 +265,12 @@ class Deadline:
             self.skipped.append(kind)
 
     def record(self, kind: str, seconds: float, count: int = 1) -> None:
-        """Learn from ``count`` pieces of ``kind`` that took ``seconds`` together."""
+        """Learn from ``count`` pieces of ``kind`` that took ``seconds`` together (while :meth:`busy`: by how much
+        they were slower than their cost, the contention factor)."""
         if count > 0 and math.isfinite(seconds) and seconds >= 0.0:
             each, old = seconds / count, self.costs.get(kind)
+            if old and self.busy():
+                kind, each, old = "contention", max(each / old, 1.0), self.costs.get("contention", _CONTENTION)
             self.costs[kind] = each if old is None else (1.0 - _LEARNING) * old + _LEARNING * each
 
     def timed(self, kind: str, work, *args):
@@ -971,8 +986,18 @@ class LinearSolver:
             self.backend.launch = value
 
     def deadline(self, clock=None, end: float = math.inf, first: bool = False) -> Deadline:
-        """A :class:`Deadline` at ``end`` on ``clock`` with this solver's cost estimates (learned by its solves)."""
-        return Deadline(clock, end, self.costs, first)
+        """A :class:`Deadline` at ``end`` on ``clock`` with this solver's cost estimates (learned by its solves), busy
+        while :meth:`busy`."""
+        return Deadline(clock, end, self.costs, first, self.busy)
+
+    def busy(self) -> bool:
+        """Whether a factorization runs off the frame (on the second core) now."""
+        return any(job.is_alive() for job in (*self._threads, *getattr(self.backend, "_threads", ())))
+
+    @property
+    def refreshing(self) -> bool:
+        """Whether a factorization is being made off the frame, or is made and waits to be taken by a solve."""
+        return self._work.pending is not None or getattr(self.backend, "refreshing", False)
 
     def least_work(self) -> tuple[str, ...]:
         """The pieces the next solve needs at the least (what must fit before its tangent is worth assembling; a
