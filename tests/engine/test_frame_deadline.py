@@ -324,8 +324,8 @@ def test_a_deadline_counts_pieces_slower_while_a_factorization_runs_and_learns_b
     now, busy, costs = [0.0], [False], {"assembly": 0.01}
     deadline = linsolve.Deadline(lambda: now[0], 0.033, costs, busy=lambda: busy[0])
     assert deadline.fits("assembly", "assembly", "assembly")
-    busy[0] = True  # at first twice as long: two fit, not three
-    assert deadline.fits("assembly", "assembly") and not deadline.fits("assembly", "assembly", "assembly")
+    busy[0] = True  # at first twice as long: one fits, not two
+    assert deadline.fits("assembly") and not deadline.fits("assembly", "assembly")
     deadline.record("assembly", 0.04)  # four times its cost: the contention factor is learned, not the cost
     assert costs["assembly"] == 0.01 and costs["contention"] == pytest.approx(3.0)
     assert deadline.room("assembly") == 1
