@@ -253,15 +253,16 @@ def test_a_deadline_learns_costs_and_says_what_fits():
 # --- the first frame of a large model, and contention with the second core ------------------------------------
 
 def large(monkeypatch):
-    """As if the test's model were larger than a size whose first step surely fits a frame."""
-    monkeypatch.setattr(realtime_module, "FIRST_ON_FRAME", 100)
+    """As if the test's model were larger than a size whose first step surely fits a frame (its first step is
+    predicted to cost 100 frames)."""
+    monkeypatch.setattr(realtime_module, "FIRST_STEP_COST", 100 * BUDGET / model().n_dofs)
 
 
 @pytest.mark.parametrize("name", SOLVERS)
 def test_the_first_frame_of_a_large_model_does_not_overrun(name, monkeypatch):
     large(monkeypatch)
     m = model(material=LinearElastic.from_young(1000.0, 0.3) if name == "constant" else None)
-    assert m.n_dofs > realtime_module.FIRST_ON_FRAME
+    assert m.n_dofs * realtime_module.FIRST_STEP_COST > BUDGET
     rt, clock, launcher = realtime(m, name, factor_cost=3 * BUDGET)
     first = frame(rt, launcher, path(2 / 30))  # nothing learned: the step runs off the frame, where it learns
     assert first.off_frame == "running" and first.elapsed <= BUDGET and not first.committed
@@ -331,3 +332,10 @@ def test_a_deadline_counts_pieces_slower_while_a_factorization_runs_and_learns_b
     assert deadline.room("assembly") == 1
     busy[0] = False
     assert deadline.room("assembly") == 3
+
+
+def test_an_unbudgeted_first_step_of_a_large_model_stays_on_the_frame(monkeypatch):
+    large(monkeypatch)
+    rt, clock, launcher = realtime(model(), "reuse", factor_cost=BUDGET / 8, budget=1e9)  # (a scene's "none")
+    first = frame(rt, launcher, path(2 / 30))
+    assert first.off_frame == "" and first.converged and not launcher.jobs

@@ -11,9 +11,9 @@ pieces run slower (they share the memory): each is then counted at its cost time
 from the pieces measured meanwhile (``solver.costs["contention"]``). What a frame did not start is its report's
 ``skipped``. The clock is a parameter, so tests use a fake one.
 
-**The first step learns the costs.** With nothing learned yet, a model of at most :data:`FIRST_ON_FRAME` dofs
-runs its first step on the frame whatever it costs (its report's ``unestimated`` says so); a larger one runs it off
-the frame (below), and its pieces' costs are learned there.
+**The first step learns the costs.** With nothing learned yet, the first step is predicted to cost
+:data:`FIRST_STEP_COST` seconds per dof: if that fits the budget it runs on the frame (its report's
+``unestimated`` says so), else off the frame (below), and its pieces' costs are learned there.
 
 **A step too long for a frame runs off it.** When the learned costs say that even one Newton iteration (an
 assembly, the least solve, a line search and the report's check of J) does not fit the budget, the frame does not
@@ -40,11 +40,12 @@ from .minimize import NewtonResult
 from .parameters import ParameterError
 from .stepping import Stepper, StepReport
 
-__all__ = ["RealtimeSolver", "FRAME_BUDGET", "LINEAR_SOLVERS", "FIRST_ON_FRAME", "default_linear_solver"]
+__all__ = ["RealtimeSolver", "FRAME_BUDGET", "LINEAR_SOLVERS", "FIRST_STEP_COST", "default_linear_solver"]
 
-#: The most dofs whose first step, with no cost learned yet, runs on the frame: a size whose first step surely fits
-#: a frame (on the machine of docs/benchmarks.md 2k triangles, 2116 dofs, took 12 ms, 8k triangles 39 ms).
-FIRST_ON_FRAME = 3000
+#: What a first step (nothing learned yet: it factorizes) is predicted to cost, seconds per dof: about twice what it
+#: took on the machine of docs/benchmarks.md (3.5 to 7.5 us per dof from 2k to 128k triangles), so that a frame
+#: holds the first step of up to 3000 dofs.
+FIRST_STEP_COST = FRAME_BUDGET / 3000
 
 #: The linear solvers the real-time loop offers (``"constant"``: a quadratic model's; those with ``pardiso`` need
 #: the optional ``pypardiso``).
@@ -98,8 +99,8 @@ class RealtimeSolver(Stepper):
         return self._running is not None
 
     def too_long(self) -> bool:
-        """Whether the next step goes off the frame: with nothing learned yet, on a model of more than
-        :data:`FIRST_ON_FRAME` dofs; after a frame that could not start its first Newton iteration and waits for no
+        """Whether the next step goes off the frame: with nothing learned yet, when its predicted cost
+        (:data:`FIRST_STEP_COST` per dof) exceeds the budget; after a frame that could not start its first Newton iteration and waits for no
         factorization (so that every step makes progress); and when the learned costs say one Newton iteration (an
         assembly, the least solve, a line search, the report's check of J) does not fit a frame, a CG iteration
         costing at least its preconditioner's back-substitution (the first frame factorizes and back-substitutes:
@@ -107,7 +108,7 @@ class RealtimeSolver(Stepper):
         if not (self.off_frame and math.isfinite(self.budget)):
             return False
         if not self.costs:
-            return self.model.n_dofs > FIRST_ON_FRAME
+            return self.model.n_dofs * FIRST_STEP_COST > self.budget
         last = self.last_report
         if (last is not None and last.status == "budget" and last.newton_iterations == 0 and not last.off_frame
                 and not self.linear.refreshing):
