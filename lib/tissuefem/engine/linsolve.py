@@ -207,9 +207,6 @@ WORK = ("assembly", "factorization", "back-substitution", "cg-iteration", "line-
 _LONG = frozenset({"factorization"})
 #: The weight of the newest measurement in a cost estimate (an exponential moving average).
 _LEARNING = 0.5
-#: How many times slower a frame's pieces run while a factorization runs on the second core (they share the memory
-#: bandwidth and the caches), until learned: ``costs["contention"]``.
-_CONTENTION = 2.0
 
 
 class Deadline:
@@ -217,9 +214,10 @@ class Deadline:
     ``kind -> seconds`` for the kinds of :data:`WORK`, learned by :meth:`record` from every measured piece, with or
     without a deadline). :meth:`fits` says whether pieces can finish before ``end``; a piece without an estimate yet
     fits while time is left (the first frame ever runs its work to learn its cost) and is noted in ``unestimated``.
-    ``busy()``: whether a factorization runs on the second core; meanwhile every piece is expected to take
-    ``costs["contention"]`` times its cost (a factor learned from the pieces measured then, at first
-    :data:`_CONTENTION`). ``first``: the frame's first Newton iteration, whose short pieces (an assembly, a
+    ``busy()``: whether a factorization runs on the second core; meanwhile each piece is expected to take its cost
+    plus a wait, ``costs["contention"]`` seconds (the frame's thread waits for the interpreter's lock and the memory
+    the factorization holds: measured, a fixed 15-20 ms a piece at 8k triangles), learned from the pieces measured
+    then (what they took beyond their cost; until learned, a piece's own cost again). ``first``: the frame's first Newton iteration, whose short pieces (an assembly, a
     back-substitution, a CG iteration, a line search) then run whatever they cost (a stepper that wants progress on
     every frame, see :func:`.minimize.newton`'s ``progress``); its long ones (a factorization) only if they fit or
     were never measured. What a frame did not start is noted in ``skipped``."""
@@ -238,7 +236,7 @@ class Deadline:
     def cost(self, kind: str) -> float | None:
         """The expected seconds of one piece of ``kind`` now (``None``: no estimate yet)."""
         seconds = self.costs.get(kind)
-        return seconds * self.costs.get("contention", _CONTENTION) if seconds and self.busy() else seconds
+        return seconds + self.costs.get("contention", seconds) if seconds and self.busy() else seconds
 
     def fits(self, *kinds: str) -> bool:
         """Whether one piece of each of ``kinds`` can finish before the deadline (always without one)."""
@@ -253,10 +251,10 @@ class Deadline:
 
     def room(self, kind: str) -> int | None:
         """How many pieces of ``kind`` fit before the deadline (``None``: no limit, or no estimate yet)."""
-        estimate = self.cost(kind)
+        estimate = self.costs.get(kind)
         if not self.limited or not estimate:
             return None
-        left = self.end - self.clock()
+        left = self.end - self.clock() - (self.cost(kind) - estimate)  # less the wait for the second core's work
         return max(int(left / estimate), 0) if left > 0 else 0
 
     def skip(self, kind: str) -> None:
@@ -265,12 +263,12 @@ class Deadline:
             self.skipped.append(kind)
 
     def record(self, kind: str, seconds: float, count: int = 1) -> None:
-        """Learn from ``count`` pieces of ``kind`` that took ``seconds`` together (while :meth:`busy`: by how much
-        they were slower than their cost, the contention factor)."""
+        """Learn from ``count`` pieces of ``kind`` that took ``seconds`` together (while :meth:`busy`: what they took
+        beyond their cost, the wait)."""
         if count > 0 and math.isfinite(seconds) and seconds >= 0.0:
             each, old = seconds / count, self.costs.get(kind)
             if old and self.busy():
-                kind, each, old = "contention", max(each / old, 1.0), self.costs.get("contention", _CONTENTION)
+                kind, each, old = "contention", max(seconds - count * old, 0.0), self.costs.get("contention")
             self.costs[kind] = each if old is None else (1.0 - _LEARNING) * old + _LEARNING * each
 
     def timed(self, kind: str, work, *args):

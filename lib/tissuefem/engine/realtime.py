@@ -7,8 +7,8 @@ iteration) it reads the clock and starts the piece only if the piece's cost, lea
 core) while the frame goes on with the old one as CG's preconditioner, or the frame stops; then it commits the last
 accepted iterate (*anytime*, see :mod:`.stepping`; its warm start if not even the first Newton iteration fitted)
 and the residual left carries into the next frame. While a factorization runs on the second core the frame's own
-pieces run slower (they share the memory): each is then counted at its cost times a contention factor, learned
-from the pieces measured meanwhile (``solver.costs["contention"]``). What a frame did not start is its report's
+pieces run slower (they wait for the interpreter's lock and share the memory): each is then counted at its cost
+plus a wait, learned from the pieces measured meanwhile (``solver.costs["contention"]``, seconds). What a frame did not start is its report's
 ``skipped``. The clock is a parameter, so tests use a fake one.
 
 **The first step learns the costs.** With nothing learned yet, the first step is predicted to cost
