@@ -217,7 +217,7 @@ class Deadline:
     ``busy()``: whether a factorization runs on the second core; meanwhile each piece is expected to take its cost
     plus a wait, ``costs["contention"]`` seconds (the frame's thread waits for the interpreter's lock and the memory
     the factorization holds: measured, a fixed 15-20 ms a piece at 8k triangles), learned from the pieces measured
-    then (what they took beyond their cost; until learned, a piece's own cost again). ``first``: the frame's first Newton iteration, whose short pieces (an assembly, a
+    then (what they took beyond their cost, a longer wait at once; until learned, a piece's own cost again). ``first``: the frame's first Newton iteration, whose short pieces (an assembly, a
     back-substitution, a CG iteration, a line search) then run whatever they cost (a stepper that wants progress on
     every frame, see :func:`.minimize.newton`'s ``progress``); its long ones (a factorization) only if they fit or
     were never measured. What a frame did not start is noted in ``skipped``."""
@@ -267,8 +267,9 @@ class Deadline:
         beyond their cost, the wait)."""
         if count > 0 and math.isfinite(seconds) and seconds >= 0.0:
             each, old = seconds / count, self.costs.get(kind)
-            if old and self.busy():
+            if old and self.busy():  # the wait, learned by its peaks (a longer one at once: frames keep a p99)
                 kind, each, old = "contention", max(seconds - count * old, 0.0), self.costs.get("contention")
+                old = None if old is not None and each > old else old
             self.costs[kind] = each if old is None else (1.0 - _LEARNING) * old + _LEARNING * each
 
     def timed(self, kind: str, work, *args):

@@ -352,6 +352,9 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
         dx, dx_free = _bounded_step(x, dx_free, mask, max_step, step_limit)
         if dx is None:
             return result("blocked", k)
+        if not deadline.fits("line-search"):  # (the solve may have started work on the second core: a wait)
+            deadline.skip("line-search")
+            return result("budget", k)
         slope = -dot(rhs, dx_free)  # dE/dalpha at alpha = 0
         if E is not None:
             e_scale = max(e_scale, abs(E), abs(slope))
