@@ -12,7 +12,9 @@ Run as a script, it is the view's benchmark (nothing asserted)::
 
 For each mesh: frames painted per second while the mouse drags continuously, the latency from a mouse move to the
 first paint that shows it (the drag target at the new point, which the kernel sends with the positions of the frame
-that took the move), and the CPU the kernel uses at rest (after the tissue settled and the mouse let go).
+that took the move), and the CPU the kernel uses at rest (after the tissue settled and the mouse let go). With the
+drag and the latency: the view's frames and the steps committed in them (fewer when steps ran off the frame: the
+target then moves ahead of the tissue, and the latency is the target's).
 """
 
 from __future__ import annotations
@@ -70,6 +72,15 @@ if (!window.__tf_pointer) {
   }, true);
 }
 """
+
+
+#: the view's frames and the steps the simulation committed: fewer steps than frames when steps ran off the frame
+#: (a frame then shows the last committed state, and the drag target moves ahead of the tissue)
+FRAME_COUNTS = "[len(view.frame_times), int(sim.frames)]"
+
+
+def frames_and_steps(before, after) -> dict:
+    return {"frames": after[0] - before[0], "steps_committed": after[1] - before[1]}
 
 
 def widget_missing() -> str | None:
@@ -249,22 +260,23 @@ def measure(driver, lab, triangles, seconds=3.0, probes=12, seed=8):
     path = [centre] + [(centre[0] + 0.15 - 0.15 * math.cos(k / 20), centre[1] + 0.15 * math.sin(k / 20))
                        for k in range(n)]
     painted0, page0 = canvas.painted(), driver.execute_script("return performance.now();")
-    cpu0 = cpu_seconds(kernel)
+    cpu0, counts0 = cpu_seconds(kernel), kernel_json(driver, FRAME_COUNTS)
     drag(driver, canvas, path, 0.016, chunk=25)
     page1 = driver.execute_script("return performance.now();")
-    painted1, cpu1 = canvas.painted(), cpu_seconds(kernel)
+    painted1, cpu1, counts1 = canvas.painted(), cpu_seconds(kernel), kernel_json(driver, FRAME_COUNTS)
     steps = kernel_json(driver, "[float(t) for t in view.frame_times][-200:]")
     paint_ms = [entry[3] for entry in canvas.log() if page0 <= entry[0] <= page1]
     dragging = {"painted_per_second": round(1e3 * (painted1 - painted0) / (page1 - page0), 1),
                 "seconds": round((page1 - page0) / 1e3, 2),
                 "kernel_cpu_percent_of_a_core": round(100 * (cpu1 - cpu0) / ((page1 - page0) / 1e3), 1),
                 "kernel_step_median_ms": None if not steps else round(median(steps), 1),
-                "page_paint_median_ms": None if not paint_ms else round(median(paint_ms), 1)}
+                "page_paint_median_ms": None if not paint_ms else round(median(paint_ms), 1),
+                **frames_and_steps(counts0, counts1)}
 
     # latency probes: the button held, jump to a new point after a random wait, find the first paint showing it;
     # pointer moves are timed as they reach the page (the widget prevents the mouse events that would follow them)
     driver.execute_script(POINTER_TIMES)
-    latencies, missed = [], 0
+    latencies, missed, counts0 = [], 0, kernel_json(driver, FRAME_COUNTS)
     for k in range(probes):
         time.sleep(rng.uniform(0.1, 0.3))
         point = (centre[0] + (0.2 if k % 2 else 0.05), centre[1] + 0.04 * ((k % 3) - 1))
@@ -285,7 +297,8 @@ def measure(driver, lab, triangles, seconds=3.0, probes=12, seed=8):
     release(driver)
     latency = {"median_ms": None if not latencies else round(median(latencies), 1),
                "p95_ms": None if not latencies else round(percentile(latencies, 95), 1),
-               "shown": len(latencies), "missed": missed}
+               "shown": len(latencies), "missed": missed,
+               **frames_and_steps(counts0, kernel_json(driver, FRAME_COUNTS))}
 
     # after the drag: the tissue settles, then rests again
     settle(driver)

@@ -340,6 +340,6 @@ def test_sutures_widen_the_pattern_and_the_elastic_part_lands_where_it_belongs(d
         model.assembler.tangent(u, model.terms[0].density).data + model.assembler.tangent(u, model.terms[1].density).data
     ).toarray()
     S = np.zeros_like(K)
-    rows, cols, vals = model.sutures._triplets()
+    rows, cols, vals = model.sutures.entries()
     np.add.at(S, (rows, cols), vals)
     np.testing.assert_allclose(K, elastic + S, atol=1e-12 * np.abs(K).max())

@@ -493,9 +493,9 @@ def test_tighten_refuses_stitch_indices_that_are_not_integers_in_range(stitches)
      "sutures.pairs"),
     (lambda: Model(MESH, MAT, sutures=dict(pairs=[[0, 1], [3]], stiffness=1.0, gaps=[[0.0], [0.0]])),
      "sutures.pairs"),
-    (lambda: Model(MESH, MAT, sutures=dict(pairs=[[0], [3]], stiffness=1.0)), "sutures: missing gaps"),
+    (lambda: Model(MESH, MAT, sutures=dict(pairs=[[0], [3]], stiffness=1.0)), "sutures.gaps: missing"),
     (lambda: Model(MESH, MAT, sutures=5), "sutures"),
-    (lambda: Model(MESH, MAT, probes=[dict(center=(1, 1), radius=0.1)]), r"probes\[0\]: missing stiffness"),
+    (lambda: Model(MESH, MAT, probes=[dict(center=(1, 1), radius=0.1)]), r"probes\[0\].stiffness: missing"),
     (lambda: Model(MESH, MAT, probes=[dict(center=(1, 1), radius=0.1, stiffness=1.0, depth=2)]),
      r"probes\[0\]: unknown"),
     (lambda: Model(MESH, MAT, probes=5), "probes"),
@@ -677,7 +677,7 @@ def _real_vector_of_another_size(value, n) -> bool:
 
 _NEWTON_ARGUMENTS = ["x0", "gradient", "hessian", "energy", "free", "line_search", "rtol", "atol", "reference_norm",
                      "floor", "max_iterations", "max_step", "linear", "safe_hessian", "clock", "budget", "start",
-                     "energy0", "energy_floor", "max_halvings"]
+                     "energy0", "energy_floor"]
 
 
 @PROPERTY

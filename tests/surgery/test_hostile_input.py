@@ -34,9 +34,9 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 from tissuefem.engine import meshes
-from tissuefem.engine.materials import MATERIALS, Corotated, FiberReinforced, NeoHookean, cofactor2, det2
+from tissuefem.engine.materials import MATERIALS, Corotated, FiberReinforced, NeoHookean, cofactor, det2
 from tissuefem.engine.meshes import MAX_TRIANGLES, check_mesh, mesh_with_about, rectangle
-from tissuefem.engine.parameters import check_count, check_lame, check_real, check_young_poisson
+from tissuefem.engine.parameters import check_count, check_lame, check_real, lame_parameters
 from tissuefem.surgery import scene as scene_module
 from tissuefem.surgery.scene import EXAMPLE_TOML, Scene, read_mesh
 from tissuefem.surgery.simulation import Simulation
@@ -401,13 +401,13 @@ def test_the_full_scene_is_valid_and_builds():
 
 
 @pytest.mark.parametrize("call, name", [
-    (lambda: check_young_poisson(True, 0.3), "E"),
-    (lambda: check_young_poisson("1000", 0.3), "E"),
-    (lambda: check_young_poisson(10**400, 0.3), "E"),
-    (lambda: check_young_poisson(1e154, 0.3), "E"),
-    (lambda: check_young_poisson(1000.0, True), "nu"),
-    (lambda: check_young_poisson(1000.0, 1j), "nu"),
-    (lambda: check_young_poisson(1.0, -0.9999999999999999), "nu .* too close to -1"),
+    (lambda: lame_parameters(True, 0.3), "E"),
+    (lambda: lame_parameters("1000", 0.3), "E"),
+    (lambda: lame_parameters(10**400, 0.3), "E"),
+    (lambda: lame_parameters(1e154, 0.3), "E"),
+    (lambda: lame_parameters(1000.0, True), "nu"),
+    (lambda: lame_parameters(1000.0, 1j), "nu"),
+    (lambda: lame_parameters(1.0, -0.9999999999999999), "nu .* too close to -1"),
     (lambda: NeoHookean.from_young(1e12, 0.4999999999), "nu .* too close to 0.5"),
     (lambda: check_lame(1.0, 1e31), "mu"),
     (lambda: check_lame(np.inf, 1.0), "lam"),
@@ -632,7 +632,7 @@ def test_bad_F_is_a_value_error_naming_F(F, name, what):
 def test_integer_F_is_still_accepted():
     m = NeoHookean(1.0, 1.0)
     assert m.energy(np.eye(2, dtype=np.int32)) == 0.0
-    assert np.allclose(cofactor2([[1, 2], [3, 4]]), [[4, -3], [-2, 1]])
+    assert np.allclose(cofactor([[1, 2], [3, 4]]), [[4, -3], [-2, 1]])
 
 
 # ---------------------------------------------------------------------------------------------------------------

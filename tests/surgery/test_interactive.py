@@ -2,6 +2,7 @@
 arrays follow, nothing is sent at rest, the frame loop runs and pauses, and one view lives per simulation and cell."""
 
 import asyncio
+import dataclasses
 import time
 import os
 import subprocess
@@ -130,7 +131,7 @@ def test_drag_grabs_moves_the_handle_and_the_tissue_follows(view):
     assert name is not None and view.widget.target == pytest.approx(grab_at)
     for s in np.linspace(0.0, 1.0, 5)[1:]:
         synthetic_mouse(view, "move", (1 - s) * grab_at + s * mouse)
-    np.testing.assert_allclose(sim.handle_offset(name), mouse - grab_at, atol=1e-9)
+    np.testing.assert_allclose(sim.handles[name].target, mouse - grab_at, atol=1e-9)
     assert view.widget.target == pytest.approx(mouse)  # the marker follows the pointer
     for _ in range(3):
         report = view.step()
@@ -168,11 +169,11 @@ def test_the_real_pointer_does_not_carry_on_a_grab_made_in_code(view):
     synthetic_mouse(view, "press", (1.9, 0.5))  # a grab made by code
     name = view.grabbed
     pointer(view, "move", 0.5, -0.4)  # a real move: not the code's grab
-    np.testing.assert_allclose(sim.handle_offset(name), 0.0, atol=1e-12)
+    np.testing.assert_allclose(sim.handles[name].target, 0.0, atol=1e-12)
     pointer(view, "down", 1.95, 0.5)  # a real press replaces it
     assert view.grabbed not in (None, name) and name not in sim.handles
     pointer(view, "move", 2.1, 0.6)
-    np.testing.assert_allclose(sim.handle_offset(view.grabbed), (0.15, 0.1), atol=1e-9)
+    np.testing.assert_allclose(sim.handles[view.grabbed].target, (0.15, 0.1), atol=1e-9)
 
 
 # ------------------------------------------------------------------ paused: it says so (a student met a silent one)
@@ -528,3 +529,19 @@ def test_a_pointer_move_brings_the_next_frame_forward():
         v.close()
 
     asyncio.run(session())
+
+
+def test_a_step_running_off_the_frame_keeps_the_loop_from_resting():
+    """Frames that show the last committed state while a step runs off the frame (nothing moves) are not quiet:
+    the loop goes on to the frame that commits the step, then rests as usual."""
+    view = SurgeryView(make_sim(), autostart=False)
+    report = view.step()
+    running = dataclasses.replace(report, off_frame="running")
+    view.sim.frame = lambda: running
+    for _ in range(2 * REST_FRAMES):
+        view.step()
+    assert not view.resting
+    view.sim.frame = lambda: report
+    for _ in range(REST_FRAMES):
+        view.step()
+    assert view.resting

@@ -169,8 +169,8 @@ def test_an_absent_effect_is_never_evaluated(monkeypatch):
     def forbidden(*args, **kwargs):
         raise AssertionError("an absent effect was evaluated")
 
-    for name in ("fiber_energy_term", "fiber_stress_term", "fiber_tangent_term"):
-        monkeypatch.setattr(terms_module, name, forbidden)
+    for name in ("energy", "stress", "tangent"):
+        monkeypatch.setattr(terms_module.FiberFamily, name, forbidden)
     monkeypatch.setattr(terms_module.Probe, "_contact", forbidden)
     monkeypatch.setattr(terms_module.Sutures, "_gap", forbidden)
     monkeypatch.setattr(effects_module, "traction_vector", forbidden)  # no traction

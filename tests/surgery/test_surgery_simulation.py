@@ -50,7 +50,7 @@ def test_grab_drag_release():
     name = sim.grab([2.0, 0.5], radius=0.15)
     nodes = sim.handles[name].nodes
     sim.drag(name, [2.3, 0.7])
-    assert np.allclose(sim.handle_offset(name), [0.3, 0.2])
+    assert np.allclose(sim.handles[name].target, [0.3, 0.2])
     sim.frame()
     assert np.allclose(sim.positions()[:, nodes], sim.model.X[:, nodes] + [[0.3], [0.2]])
     sim.release(name)
@@ -305,7 +305,7 @@ def test_a_scene_handle_can_be_dragged_after_a_cut():
     sim = make(dynamic=False, handles=[{"name": "fixed", "region": "left"}, {"name": "pull", "region": "right"}])
     sim.cut([[1.0, 1.2], [1.0, 0.5]])
     sim.drag("pull", [0.2, 0.0])
-    assert np.allclose(sim.handle_offset("pull"), [0.2, 0.0])
+    assert np.allclose(sim.handles["pull"].target, [0.2, 0.0])
     sim.frame()
     assert_valid(sim)
 
@@ -337,7 +337,7 @@ def test_a_bad_handle_map_is_refused_when_set():
     sim = make(dynamic=False, handles=[{"name": "fixed", "region": "left"}, {"name": "pull", "region": "right"}])
     with pytest.raises(ValueError, match="non-finite"):
         sim.move_handle("pull", lambda X: X * np.nan)
-    assert np.allclose(sim.handle_offset("pull"), [0.0, 0.0])
+    assert np.allclose(sim.handles["pull"].target, [0.0, 0.0])
     sim.frame()
 
 

@@ -22,7 +22,7 @@ def test_tiny_benchmark_writes_json_and_csv(tmp_path):
     assert row["triangles"] == record["rows"][0]["triangles"] and row["frames"] == 3
     assert len(row["frame_plain_ms"]) == len(row["frame_haptic_ms"]) == len(row["build_ms"]) == 3
     assert row["updates"] > 0 and row["updates_per_second"] > 0 and row["update_median_us"] > 0
-    assert row["missed_ticks"] >= 0
+    assert row["missed_ticks"] >= 0 and 0 <= row["late_median_us"] <= row["late_p95_us"] <= row["late_max_us"]
     assert 0 <= row["haptic_error_median"] <= row["haptic_error_max"]
     assert len(saved["path"]["time"]) == 2 * 2
     with open(tmp_path / "haptic.csv", newline="") as fh:
@@ -49,20 +49,58 @@ def test_the_reduced_force_follows_the_converged_frames_far_better_than_the_held
 def test_the_loop_updates_while_active_and_stops():
     model = ToolModel("handle", "handle", np.zeros(2), np.array([1.0, 0.0]), np.eye(2), 1)
     with HapticLoop(lambda: model, lambda: np.array([0.5, 0.5]), rate=2000.0) as loop:
-        loop.active.set()
+        loop.resume()
         time.sleep(0.05)
-        loop.active.clear()
+        loop.pause()
     assert not loop.thread.is_alive()
-    assert len(loop.update_seconds) > 0
+    assert len(loop.update_seconds) == len(loop.lateness) > 0 and loop.active_seconds > 0
     np.testing.assert_allclose(loop.last_force, [1.5, 0.5])
     # a position the model refuses (a device's glitch) keeps the last force and the loop running
     positions = iter([np.array([0.5, 0.5])] + [np.array([np.nan, 0.0])] * 1_000_000)
     with HapticLoop(lambda: model, lambda: next(positions), rate=2000.0) as loop:
-        loop.active.set()
+        loop.resume()
         time.sleep(0.02)
-        loop.active.clear()
+        loop.pause()
     assert loop.refused > 0 and len(loop.update_seconds) > loop.refused
     np.testing.assert_allclose(loop.last_force, [1.5, 0.5])
+
+
+class FakeClock:
+    """Time that passes only when the loop sleeps (``sleep(0)``: a yield, 10 µs) or an update says so."""
+
+    def __init__(self):
+        self.now = 100.0
+
+    def __call__(self):
+        return self.now
+
+    def sleep(self, seconds):
+        assert seconds >= 0
+        self.now += max(seconds, 1e-5)
+
+
+def test_a_late_tick_runs_at_once_and_the_ticks_keep_their_times():
+    clock, model = FakeClock(), ToolModel("handle", "handle", np.zeros(2), np.zeros(2), np.eye(2), 1)
+    loop = HapticLoop(lambda: model, lambda: position(), rate=1000.0, clock=clock, sleep=clock.sleep)
+
+    def position():  # each update takes 0.1 ms, the fourth 3.5 ms (the frames held the interpreter); pause after ten
+        clock.now += 3.5e-3 if len(loop.lateness) == 4 else 1e-4
+        if len(loop.lateness) == 10:
+            loop.pause()
+        return np.zeros(2)
+
+    loop.resume()
+    began = clock.now
+    loop.ticking()
+    late = np.array(loop.lateness)
+    assert late.shape == (10,) and loop.refused == 0
+    # the next three were due while the fourth ran: run at once, late by 2.5, 1.6 and 0.7 ms, none dropped
+    np.testing.assert_allclose(late[4:7], [2.5e-3, 1.6e-3, 0.7e-3], atol=1e-9)
+    assert np.sum(late >= loop.period) == 2  # missed: late by a period or more
+    # the others start on time (within a yield): the schedule did not drift behind the late ones
+    assert np.all(np.delete(late, [4, 5, 6]) < 2e-5)
+    np.testing.assert_allclose(loop.active_seconds, clock.now - began, atol=1.1e-3)
+    assert len(loop.update_seconds) / loop.active_seconds >= 1000.0
 
 
 @pytest.mark.parametrize("argv", [["bench", "haptic", "--sizes", "200", "300"], ["bench", "haptic", "--sizes", "20"]])

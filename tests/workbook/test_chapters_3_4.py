@@ -24,9 +24,9 @@ from tissuefem.workbook.studies import (
     bending_gradient,
     bending_map,
     block_model,
+    cost_accuracy_markdown,
     cost_accuracy_study,
     displacement_from_map,
-    format_cost_accuracy,
     handle_force,
     rigid_rotation_response,
     rotated_block,
@@ -221,8 +221,8 @@ def _check_rows(rows, p1_sizes, p2_sizes):
 def test_cost_accuracy_study_on_a_tiny_sweep():
     rows = cost_accuracy_study(p1_sizes=(2, 4, 8), p2_sizes=(1, 2, 4), reference_size=16, repeats=1)
     _check_rows(rows, (2, 4, 8), (1, 2, 4))
-    table = format_cost_accuracy(rows).splitlines()
-    assert len(table) == 1 + len(rows) and "L2 error" in table[0] and "solve [ms]" in table[0]
+    table = cost_accuracy_markdown(rows).splitlines()
+    assert len(table) == 2 + len(rows) and "L2 error" in table[0] and "solve [ms]" in table[0]
 
 
 def test_recorded_run_is_well_formed():

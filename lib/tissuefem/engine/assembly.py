@@ -30,7 +30,7 @@ from skfem import Basis, ElementTetP1, ElementTetP2, ElementTriP1, ElementTriP2,
 
 from .forms import energy_form, residual_form, tangent_form
 from .meshes import check_mesh
-from .parameters import ParameterError, check_count, check_density, check_weights
+from .parameters import ParameterError, check_count, check_density, check_vector, check_weights
 from .vectors import dot
 
 __all__ = ["P1Assembler", "QuadratureAssembler", "FormsAssembler", "make_assembler", "vector_basis", "check_weights"]
@@ -90,55 +90,18 @@ class P1Assembler(_FixedPattern):
         self.n_nodes, self.n_elements = p.shape[1], t.shape[1]
         self.n_dofs = dim * self.n_nodes
         # geometry: orientation, areas (volumes), gradients (element-last layout)
-        if dim == 2:
-            t, flipped, self.areas, G = _triangle_geometry(p, t)
-        else:
-            t, flipped, self.areas, G = _tetrahedron_geometry(p, t)
-        self.t, self.flipped = t, flipped
+        t, self.flipped, self.areas, G = (_triangle_geometry if dim == 2 else _tetrahedron_geometry)(p, t)
+        self.t = t
         self.t.setflags(write=False)
         if weights is not None:  # a part of an element integrates over that part: its area shrinks, its gradients not
             self.areas = self.areas * check_weights(weights, t.shape[1])
         self._G, self._GA = G, G * self.areas  # and the area-weighted gradients
-
-        # The dof pattern is the node-adjacency pattern in d x d blocks (np.unique sorts (d+1)^2 node pairs per
-        # element): dof row d p + i starts at d^2 nptr[p] + d i deg(p), and node column r of row p holds dof columns
-        # d r ... d r + d - 1.
-        nel, n, nn = self.n_elements, self.n_dofs, self.n_nodes
-        dofs = (dim * t[:, None, :] + np.arange(dim)[None, :, None]).reshape(nv * dim, nel)  # row d a + i
+        dofs = (dim * t[:, None, :] + np.arange(dim)[None, :, None]).reshape(nv * dim, -1)  # row d a + i
         self.element_dofs = dofs
         self.element_dofs.setflags(write=False)
-        node_rows = np.broadcast_to(t[:, None, :], (nv, nv, nel))
-        node_cols = np.broadcast_to(t[None, :, :], (nv, nv, nel))
-        keys, slot = np.unique((node_rows * nn + node_cols).ravel(), return_inverse=True)
-        slot = slot.reshape(nv, nv, nel)
-        deg = np.bincount(keys // nn, minlength=nn)
-        nptr = np.concatenate([[0], np.cumsum(deg)])
-        self.nnz = dim * dim * keys.size
-        index_dtype = np.int32 if max(self.nnz, n) < np.iinfo(np.int32).max else np.int64
-        row_nodes, col_nodes = keys // nn, keys % nn
-        # indices: for each node row p, rows d p ... d p + d - 1 all list d q ... d q + d - 1 for its q's
-        start = dim * dim * nptr[:-1]  # first data slot of dof row d p
-        local = np.arange(keys.size) - nptr[row_nodes]  # rank of q within node row p
-        indices = np.empty(self.nnz, dtype=np.int64)
-        for i in range(dim):
-            for k in range(dim):
-                indices[start[row_nodes] + dim * i * deg[row_nodes] + dim * local + k] = dim * col_nodes + k
-        self.indices = indices.astype(index_dtype)
-        self.indptr = np.empty(n + 1, dtype=index_dtype)
-        for i in range(dim):
-            self.indptr[i:-1:dim] = start + dim * i * deg
-        self.indptr[-1] = self.nnz
-        self.indices.setflags(write=False)
-        self.indptr.setflags(write=False)
-        # scatter[a, i, b, k, e]: slot of local entry (d a + i, d b + k) of element e
-        p_node = t[:, None, :]  # row node of local pair (a, b)
-        base = dim * dim * nptr[p_node] + dim * (slot - nptr[p_node])  # (nv, nv, nel): dof row d p, column d q
-        d = deg[p_node]
-        i = np.arange(dim)[None, :, None, None, None]
-        k = np.arange(dim)[None, None, None, :, None]
-        scatter = base[:, None, :, None, :] + dim * i * d[:, None, :, None, :] + k  # (nv, d, nv, d, nel)
-        self._scatter = np.ascontiguousarray(scatter).reshape(-1).astype(np.intp)
         self._dofs_flat = dofs.reshape(-1).astype(np.intp)
+        self.indptr, self.indices, self._scatter = _block_pattern(t, self.n_nodes, dim)
+        self.nnz = self.indices.size
 
     def _material(self, material):
         m = super()._material(material)
@@ -170,23 +133,11 @@ class P1Assembler(_FixedPattern):
         data = np.bincount(self._scatter, weights=K_loc.reshape(-1), minlength=self.nnz)
         return self.csr(data)
 
-    @property
-    def grads(self) -> np.ndarray:
-        """``(n_elements, d + 1, d)``: ``grads[e, a, j] = dN_a/dX_j`` (a view, do not modify)."""
-        return self._G.transpose(2, 0, 1)
-
-    @property
-    def scatter(self) -> np.ndarray:
-        """``(d (d + 1), d (d + 1), n_elements)``: CSR data position of each local matrix entry."""
-        size = self.dim * self.n_vertices
-        return self._scatter.reshape(size, size, self.n_elements)
-
     def deformation_gradient(self, u) -> np.ndarray:
         """``F = I + grad u`` of every element, shaped ``[d, d, n_elements]``."""
         ue = self._check_u(u)[self.element_dofs].reshape(self.n_vertices, self.dim, self.n_elements)  # ue[a, i, e]
         F = np.einsum("aie,aje->ije", ue, self._G)
-        for i in range(self.dim):
-            F[i, i] += 1.0
+        F[range(self.dim), range(self.dim)] += 1.0
         return F
 
     def energy(self, u, material=None) -> float:
@@ -225,7 +176,7 @@ class P1Assembler(_FixedPattern):
 
     def body_force(self, b) -> np.ndarray:
         """``f_(a,i) = int N_a b_i dX`` for a constant body force ``b`` (force per unit reference area or volume)."""
-        b = check_body_force(b, self.dim)
+        b = check_vector("body_force", b, self.dim)
         nv = self.n_vertices
         share = np.bincount(self.t.ravel(), weights=np.tile(self.areas / float(nv), nv), minlength=self.n_nodes)
         return (share[:, None] * b[None, :]).ravel()
@@ -238,13 +189,44 @@ class P1Assembler(_FixedPattern):
 _ELEMENT_NAMES = {2: "triangles", 3: "tetrahedra"}
 
 
-def check_body_force(b, dim) -> np.ndarray:
-    """A constant body force (or acceleration) as a float vector of the mesh's dimension ``dim``."""
-    b = np.asarray(b, dtype=float)
-    if b.shape != (dim,):
-        raise ParameterError("body_force", f"body_force must be a vector of {dim} components (the mesh's dimension), "
-                                           f"got shape {b.shape}")
-    return b
+def _block_pattern(t, n_nodes: int, dim: int):
+    """``(indptr, indices, scatter)``: the fixed CSR pattern (read-only) of elements whose local node ``a`` (row
+    ``a`` of ``t``) has the dofs ``d t[a] ... d t[a] + d - 1``, and the data slot of each local entry
+    ``(d a + i, d b + k)``, flat in the order ``[a, i, b, k, e]``. It is the node-adjacency pattern in ``d x d``
+    blocks (``np.unique`` sorts the node pairs of each element): dof row ``d p + i`` starts at
+    ``d^2 nptr[p] + d i deg(p)``, and node column ``r`` of row ``p`` holds dof columns ``d r ... d r + d - 1``."""
+    nv, nel = t.shape
+    nn, n = n_nodes, dim * n_nodes
+    node_rows = np.broadcast_to(t[:, None, :], (nv, nv, nel))
+    node_cols = np.broadcast_to(t[None, :, :], (nv, nv, nel))
+    keys, slot = np.unique((node_rows * nn + node_cols).ravel(), return_inverse=True)
+    slot = slot.reshape(nv, nv, nel)
+    deg = np.bincount(keys // nn, minlength=nn)
+    nptr = np.concatenate([[0], np.cumsum(deg)])
+    nnz = dim * dim * keys.size
+    index_dtype = np.int32 if max(nnz, n) < np.iinfo(np.int32).max else np.int64
+    row_nodes, col_nodes = keys // nn, keys % nn
+    # indices: for each node row p, rows d p ... d p + d - 1 all list d q ... d q + d - 1 for its q's
+    start = dim * dim * nptr[:-1]  # first data slot of dof row d p
+    local = np.arange(keys.size) - nptr[row_nodes]  # rank of q within node row p
+    indices = np.empty(nnz, dtype=np.int64)
+    for i in range(dim):
+        for k in range(dim):
+            indices[start[row_nodes] + dim * i * deg[row_nodes] + dim * local + k] = dim * col_nodes + k
+    indices = indices.astype(index_dtype)
+    indptr = np.empty(n + 1, dtype=index_dtype)
+    for i in range(dim):
+        indptr[i:-1:dim] = start + dim * i * deg
+    indptr[-1] = nnz
+    indices.setflags(write=False)
+    indptr.setflags(write=False)
+    p_node = t[:, None, :]  # row node of local pair (a, b)
+    base = dim * dim * nptr[p_node] + dim * (slot - nptr[p_node])  # (nv, nv, nel): dof row d p, column d q
+    d = deg[p_node]
+    i = np.arange(dim)[None, :, None, None, None]
+    k = np.arange(dim)[None, None, None, :, None]
+    scatter = base[:, None, :, None, :] + dim * i * d[:, None, :, None, :] + k  # (nv, d, nv, d, nel)
+    return indptr, indices, np.ascontiguousarray(scatter).reshape(-1).astype(np.intp)
 
 
 def _triangle_geometry(p, t):
@@ -333,26 +315,19 @@ class QuadratureAssembler(_FixedPattern):
         self._N = np.array([np.asarray(basis.basis[dim * a][0])[0] for a in range(nloc)])  # (nloc, nel, nq)
         self._dx = basis.dx if weights is None else basis.dx * check_weights(weights, self.n_elements)[:, None]
         self._GW = self._G * self._dx
-        dofs = np.asarray(basis.element_dofs, dtype=np.int64)  # (d nloc, nel), row d a + i
-        nel, n = dofs.shape[1], basis.N
-        self.n_dofs, self._dofs, self._dofs_flat = n, dofs, dofs.reshape(-1)
-        rows = np.broadcast_to(dofs[:, None, :], (dim * nloc, dim * nloc, nel)).reshape(-1)
-        cols = np.broadcast_to(dofs[None, :, :], (dim * nloc, dim * nloc, nel)).reshape(-1)
-        keys, inverse = np.unique(rows * n + cols, return_inverse=True)
-        self.nnz = keys.size
-        index_dtype = np.int32 if max(self.nnz, n) < np.iinfo(np.int32).max else np.int64
-        self.indices = (keys % n).astype(index_dtype)
-        self.indptr = np.concatenate([[0], np.cumsum(np.bincount(keys // n, minlength=n))]).astype(index_dtype)
-        self.indices.setflags(write=False)
-        self.indptr.setflags(write=False)
-        self._scatter = inverse.reshape(-1)
+        dofs = np.asarray(basis.element_dofs, dtype=np.int64)  # (d nloc, nel), row d a + i: d N_a + i
+        self.n_dofs, self._dofs, self._dofs_flat = basis.N, dofs, dofs.reshape(-1)
+        nodes = dofs[::dim] // dim
+        if not np.array_equal(dofs, (dim * nodes[:, None] + np.arange(dim)[:, None]).reshape(dofs.shape)):
+            raise ParameterError("basis", "basis must number its dofs node by node, as vector_basis does")
+        self.indptr, self.indices, self._scatter = _block_pattern(nodes, basis.N // dim, dim)
+        self.nnz = self.indices.size
 
     def deformation_gradient(self, u) -> np.ndarray:
         """``F = I + grad u`` at every element and quadrature point, shaped ``[d, d, nel, nq]``."""
         ue = self._check_u(u)[self._dofs].reshape(self.n_local, self.dim, -1)
         F = np.einsum("aie,ajeq->ijeq", ue, self._G)
-        for i in range(self.dim):
-            F[i, i] += 1.0
+        F[range(self.dim), range(self.dim)] += 1.0
         return F
 
     def energy(self, u, material=None) -> float:
@@ -391,7 +366,7 @@ class QuadratureAssembler(_FixedPattern):
 
     def body_force(self, b) -> np.ndarray:
         """``f_(a,i) = int N_a b_i dX`` for a constant body force ``b``."""
-        b = check_body_force(b, self.dim)
+        b = check_vector("body_force", b, self.dim)
         share = np.einsum("aeq,eq->ae", self._N, self._dx)  # (nloc, nel)
         f = np.einsum("ae,i->aie", share, b)
         return np.bincount(self._dofs_flat, weights=f.reshape(-1), minlength=self.n_dofs)

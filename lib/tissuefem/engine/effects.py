@@ -25,8 +25,8 @@ from .constants import FRAME_BUDGET
 from .contact import Contact, ContactSurface
 from .parameters import (ACCELERATION_MAX, CONTACT_STIFFNESS_MAX, FAR, FIBER_STIFFNESS_RANGE, FORCE_MAX, RADIUS_RANGE,
                          TIME_STEP_RANGE, YOUNGS_MODULUS_RANGE, MAX_POINTS, ParameterError, check_bounded_vector,
-                         check_contact_stiffness, check_penalty_stiffness, count_list, number, penalty, points, require,
-                         string, table, vector)
+                         check_contact_stiffness, check_list, check_penalty_stiffness, count_list, number, penalty,
+                         points, require, string, table, vector)
 from .terms import Fibers, Inertia, Load, Probe, Sutures, Term, refuse_3d, traction_vector
 
 __all__ = ["Effect", "EFFECTS", "GRAVITY_DOWN", "register", "factory", "keyword_terms", "SkinContact",
@@ -116,8 +116,7 @@ def _body_force(model, p, scene):
 
 
 def _check_traction(field, e):
-    e = table(field, e, ("boundary", "traction"))
-    require(field, e, ("boundary", "traction"))
+    e = require(field, table(field, e, ("boundary", "traction")), ("boundary", "traction"))
     return {"boundary": string(f"{field}.boundary", e["boundary"], nonempty=True),
             "traction": vector(f"{field}.traction", e["traction"], FORCE_MAX)}
 
@@ -144,8 +143,7 @@ register("tractions", _check_traction, _tractions, listed=True)
 # fibres ------------------------------------------------------------------------------------------------------
 
 def _check_fibers(field, e):
-    e = table(field, e, ("stiffness", "direction"))
-    require(field, e, ("stiffness",))
+    e = require(field, table(field, e, ("stiffness", "direction")), ("stiffness",))
     direction = e.get("direction", [1.0, 0.0])
     if isinstance(direction, str):
         string(f"{field}.direction", direction, ("fusiform",))
@@ -183,8 +181,7 @@ def youngs_modulus(model, scene=None) -> float:
 
 
 def _check_probe(field, e):
-    e = table(field, e, ("center", "radius", "stiffness"))
-    require(field, e, ("center", "radius"))
+    e = require(field, table(field, e, ("center", "radius", "stiffness")), ("center", "radius"))
     out = {"center": vector(f"{field}.center", e["center"]),
            "radius": number(f"{field}.radius", e["radius"], lo=RADIUS_RANGE[0] * meshes.SIZE_RANGE[0], hi=FAR)}
     if "stiffness" in e:
@@ -278,7 +275,7 @@ def _contact(model, p, scene):
     if scene is None:
         if not isinstance(p, dict):
             raise ParameterError("contact", f"contact must be a dict (distance, stiffness[, surface, skin]), got {p!r}")
-        table("contact", p, ("distance", "stiffness", "surface", "skin"))
+        p = table("contact", p, ("distance", "stiffness", "surface", "skin"))
         require("contact", p, ("distance", "stiffness"))
         surface = ContactSurface.from_mesh(model.mesh) if p.get("surface") is None else p["surface"]
         check_contact_stiffness("contact.stiffness", p["stiffness"], youngs_modulus(model))
@@ -300,13 +297,6 @@ register("contact", _check_contact, _contact)
 
 # --------------------------------------------------------------------------------------------- model keywords
 
-def _entries(field, value, what) -> list:
-    try:
-        return list(value)
-    except TypeError:
-        raise ParameterError(field, f"{field} must be a sequence of {what}, got {value!r}") from None
-
-
 def _named_tractions(tractions) -> list:
     bad = ParameterError("tractions", f"tractions must be {{boundary: (tx, ty)}} or [(boundary, (tx, ty)), ...], "
                                       f"got {tractions!r:.200}")
@@ -327,23 +317,15 @@ def _named_tractions(tractions) -> list:
 
 
 def _keys(field, spec, required, optional=()) -> dict:
-    """``spec`` is a dict with the ``required`` keys and no others than those and ``optional``."""
-    if not isinstance(spec, dict):
-        raise ParameterError(field, f"{field} must be a dict with keys {', '.join(required + optional)}, got {spec!r}")
-    missing = [k for k in required if k not in spec]
-    unknown = [k for k in spec if k not in required + optional]
-    if missing or unknown:
-        raise ParameterError(field, f"{field}: " + "; ".join(
-            ([f"missing {', '.join(map(str, missing))}"] if missing else [])
-            + ([f"unknown keys {unknown!r} (allowed: {', '.join(required + optional)})"] if unknown else [])))
-    return spec
+    """``spec``: a dict with the ``required`` keys and no others than those and ``optional``."""
+    return require(field, table(field, spec, required + optional), required)
 
 
 def keyword_terms(*, dt=None, mass="lumped", gravity=None, body_force=None, tractions=None, fibers=None, probes=(),
                   sutures=None, contact=None) -> list:
     """The factories of a model's keywords (:class:`~tissuefem.engine.model.Model`) in build order; each checks its
     keyword when called."""
-    probes = _entries("probes", probes, "dicts (center, radius, stiffness[, label])")
+    probes = check_list("probes", probes, "dicts (center, radius, stiffness[, label])")
 
     def fibers_term(model):
         try:

@@ -55,9 +55,7 @@ def _check_model(model):
 
 
 def _free_dofs(n: int, fixed) -> np.ndarray:
-    free = np.ones(n, dtype=bool)
-    free[fixed] = False
-    return np.flatnonzero(free)
+    return np.setdiff1d(np.arange(n), fixed)
 
 
 class SymplecticEuler:

@@ -1,10 +1,8 @@
 """Inversion-robust building blocks: the rotation-preserving SVD and the definiteness fix, in 2D and 3D.
 
-**Rotation-preserving SVD** (Irving, Teran, Fedkiw, "Invertible finite elements for robust simulation of large
-deformation", SCA 2004): ``F = U diag(s) V^T`` with ``U``, ``V`` proper rotations and ``s0 >= ... >= |s_(d-1)|``,
-the reflection moved onto the smallest value, which carries the sign of ``J``. It lives with the materials
-(:func:`tissuefem.engine.materials.rotation_preserving_svd`: the 3D corotated model needs its polar rotation ``U
-V^T``) and is used here: a closed form in 2D, LAPACK's SVD with the signs fixed in 3D.
+**Rotation-preserving SVD** (:func:`tissuefem.engine.materials.rotation_preserving_svd`, with the materials: the 3D
+corotated model needs its polar rotation ``U V^T``): ``F = U diag(s) V^T``, ``U``, ``V`` proper rotations, the sign of
+``J`` carried by the smallest singular value.
 
 **The definiteness fix** (Teran, Sifakis, Irving, Fedkiw, "Robust quasistatic finite elements and flesh simulation",
 SCA 2005). For an isotropic material ``A(F)`` is ``A_hat = A(diag(s))`` rotated by ``U``, ``V``, block diagonal: a
@@ -28,10 +26,18 @@ __all__ = ["rotation_preserving_svd", "diagonal", "eigen_projection", "projected
 def diagonal(s) -> np.ndarray:
     """``diag(s)`` for ``s [d, *rest]`` as ``[d, d, *rest]``."""
     s = np.asarray(s, dtype=float)
-    d = s.shape[0]
-    out = np.zeros((d, d) + s.shape[1:])
-    for a in range(d):
-        out[a, a] = s[a]
+    out = np.zeros(s.shape[:1] + s.shape)
+    out[np.arange(s.shape[0]), np.arange(s.shape[0])] = s
+    return out
+
+
+def _clamp_eigenvalues(M, floor):
+    """Symmetric matrices ``M`` ``(n, k, k)`` (symmetrised first) with their eigenvalues raised to ``floor``; a
+    sample with a non-finite entry (``ln J`` inverted) gives NaN."""
+    ok = np.all(np.isfinite(M), axis=(1, 2))
+    w, Q = np.linalg.eigh(0.5 * (M[ok] + np.swapaxes(M[ok], 1, 2)))
+    out = np.full(M.shape, np.nan)
+    out[ok] = np.einsum("nab,nb,ncb->nac", Q, np.maximum(w, floor), Q)
     return out
 
 
@@ -39,12 +45,8 @@ def eigen_projection(A, floor: float = 0.0):
     """Clamp the eigenvalues of each ``d^2 x d^2`` tangent ``A [d,d,d,d,*rest]`` at ``floor`` numerically: the closed
     form's reference, and the fallback for materials not isotropic (fibers) or not frame indifferent (linear)."""
     A = np.asarray(A, dtype=float)
-    d = A.shape[0]
-    rest = A.shape[4:]
-    M = np.moveaxis(A.reshape((d * d, d * d, -1)), -1, 0)
-    M = 0.5 * (M + np.swapaxes(M, 1, 2))
-    w, Q = np.linalg.eigh(M)
-    P = np.einsum("nab,nb,ncb->nac", Q, np.maximum(w, floor), Q)
+    d, rest = A.shape[0], A.shape[4:]
+    P = _clamp_eigenvalues(np.moveaxis(A.reshape((d * d, d * d, -1)), -1, 0), floor)
     return np.moveaxis(P, 0, -1).reshape((d, d, d, d) + rest)
 
 
@@ -101,13 +103,8 @@ def _project_diagonal_blocks(A, floor):
             out[k, l, i, j] = out[i, j, k, l]
         else:
             S = np.stack([np.stack([A[p + q] for q in block]) for p in block])  # [3, 3, *rest]
-            rest = S.shape[2:]
-            M = np.moveaxis(S.reshape((3, 3, -1)), -1, 0)
-            ok = np.all(np.isfinite(M), axis=(1, 2))  # a NaN sample (ln J inverted) stays NaN
-            w, Q = np.linalg.eigh(0.5 * (M[ok] + np.swapaxes(M[ok], 1, 2)))
-            M = np.full(M.shape, np.nan)
-            M[ok] = np.einsum("nab,nb,ncb->nac", Q, np.maximum(w, floor), Q)
-            S = np.moveaxis(M, 0, -1).reshape((3, 3) + rest)
+            M = _clamp_eigenvalues(np.moveaxis(S.reshape((3, 3, -1)), -1, 0), floor)
+            S = np.moveaxis(M, 0, -1).reshape(S.shape)
             for x, p in enumerate(block):
                 for y, q in enumerate(block):
                     out[p + q] = S[x, y]
@@ -162,9 +159,9 @@ class ITFClamped:
     ``ln J``: the spring bounds the energy below only while ``psi_1(s0, c)`` grows slower than ``sqrt(Psi)``; the
     polynomial models do not, and need no clamping. Where the physical answer has ``s1 < c`` the model departs from it.
 
-    **In d dimensions** (3D tetrahedra; the 2D pieces above are its ``d = 2`` case, kept in closed form) the clamped
-    values ``C = {i : s_i < c}`` are a suffix of the sorted ``s``; with ``s^ = s`` clamped to ``c`` on ``C`` and
-    ``d_i = s_i - c`` on ``C`` (0 elsewhere) the extension is the expansion to first order in each clamped value::
+    **In d dimensions** (the 2D pieces above are its ``d = 2`` case; the 2D energy keeps their closed form) the
+    clamped values ``C = {i : s_i < c}`` are a suffix of the sorted ``s``; with ``s^ = s`` clamped to ``c`` on ``C``
+    and ``d_i = s_i - c`` on ``C`` (0 elsewhere) the extension is the expansion to first order in each clamped value::
 
         Psi(s) = Psi(s^) + sum_i psi_i(s^) d_i + sum_(i<j) Psi_ij(s^) d_i d_j + k/2 sum_i d_i^2.
 
@@ -199,19 +196,6 @@ class ITFClamped:
         return (f"ITFClamped({self.base!r}, threshold={self.threshold:g}, stiffness={self.stiffness:g}, "
                 f"project={self.project})")
 
-    def _regions(self, s):
-        """``s`` as floats and where it is ``(normal, one, both)``: no, one or both singular values below ``c``."""
-        s = np.asarray(s, dtype=float)
-        both = s[0] < self.threshold
-        one = (s[1] < self.threshold) & ~both
-        return s, ~(one | both), one, both
-
-    def _base_at(self, s0, s1, what):
-        D = diagonal(np.stack(np.broadcast_arrays(s0, s1)))  # s1 may be the threshold c
-        return np.asarray(getattr(self.base, what)(D), dtype=float)
-
-    # --- d dimensions: the first-order expansion in the clamped values (class docstring) ---------------------------
-
     def _expansion(self, s):
         """``(s, mask C, s^, d, k, psi^, H^)`` for ``s [d, *rest]``: the clamped copy ``s^``, ``d = s - c`` on ``C`` (0
         elsewhere), the base model's gradient ``psi^ [d, *rest]`` and Hessian ``H^ [d, d, *rest]`` at ``diag(s^)``."""
@@ -226,23 +210,33 @@ class ITFClamped:
         H = np.stack([np.stack([A[i, i, j, j] for j in range(dim)]) for i in range(dim)])
         return s, clamped, s_hat, dd, self.stiffnesses[dim], psi, H
 
-    def _energy_d(self, s):
+    def diagonal_energy(self, s) -> np.ndarray:
+        """``Psi_hat(s)`` for signed singular values ``s [d, *rest]`` (``s0 >= ... >= |s_(d-1)|``): the expansion of
+        the class docstring; in 2D the doubly clamped piece in its closed form (whose floats the chapters record)."""
         s, _, s_hat, dd, k, psi, H = self._expansion(s)
         out = np.asarray(self.base.energy(diagonal(s_hat)), dtype=float) + np.einsum("i...,i...->...", psi, dd)
         for i in range(s.shape[0]):
             for j in range(i + 1, s.shape[0]):
                 out = out + H[i, j] * dd[i] * dd[j]
-        return out + 0.5 * k * np.einsum("i...,i...->...", dd, dd)
+        out = np.asarray(out + 0.5 * k * np.einsum("i...,i...->...", dd, dd))
+        if s.shape[0] == 2:
+            both = s[0] < self.threshold
+            d0, d1 = dd[0][both], dd[1][both]
+            out[both] = (self._psi_cc + self._g_cc * (d0 + d1) + self._h01_cc * d0 * d1
+                         + 0.5 * k * (d0**2 + d1**2))
+        return out
 
-    def _gradient_d(self, s):
+    def diagonal_gradient(self, s) -> np.ndarray:
+        """``psi_i = dPsi_hat/ds_i``, shape ``[d, *rest]``."""
         s, _, _, dd, k, psi, H = self._expansion(s)
         off = H * (1.0 - np.eye(s.shape[0])).reshape((s.shape[0],) * 2 + (1,) * (s.ndim - 1))
         return psi + np.einsum("ij...,j...->i...", off, dd) + k * dd
 
-    def _tangent_d(self, s):
-        """The exact diagonal-space tangent: the base model's where nothing is clamped, else the Hessian of the
-        expansion (``k`` on clamped diagonals, ``Psi_jj + sum_i dPsi_ji/ds_j d_i`` on free ones, the third derivative
-        by a central difference) with the twist/flip blocks ``(psi_a -+ psi_b)/(s_a -+ s_b)`` from the gradient."""
+    def diagonal_tangent(self, s) -> np.ndarray:
+        """The exact tangent ``A_hat = A(diag(s))`` in diagonal space, ``[d, d, d, d, *rest]``: the base model's where
+        nothing is clamped, else the Hessian of the expansion (``k`` on clamped diagonals, ``Psi_jj + sum_i
+        dPsi_ji/ds_j d_i`` on free ones, the third derivative by a central difference) with the twist/flip blocks
+        ``(psi_a -+ psi_b)/(s_a -+ s_b)`` from the gradient."""
         s = np.asarray(s, dtype=float)
         dim, rest = s.shape[0], s.shape[1:]
         sub = s[-1] < self.threshold  # something clamped (the smallest value first)
@@ -251,9 +245,8 @@ class ITFClamped:
             A[..., ~sub] = np.asarray(self.base.tangent(diagonal(s[:, ~sub])), dtype=float)
         if not sub.any():
             return A
-        s = s[:, sub]
-        s, clamped, s_hat, dd, k, _, H = self._expansion(s)
-        g = self._gradient_d(s)
+        s, clamped, s_hat, dd, k, _, H = self._expansion(s[:, sub])
+        g = self.diagonal_gradient(s)
         Ht = H.copy()
         for j in range(dim):
             step = 1e-6 * np.maximum(1.0, s_hat[j])
@@ -277,83 +270,6 @@ class ITFClamped:
                 B[a, b, a, b] = B[b, a, b, a] = 0.5 * (twist + flip)
                 B[a, b, b, a] = B[b, a, a, b] = 0.5 * (twist - flip)
         A[..., sub] = B
-        return A
-
-    def diagonal_energy(self, s) -> np.ndarray:
-        """``Psi_hat(s)`` for signed singular values ``s [d, *rest]`` (``s0 >= ... >= |s_(d-1)|``)."""
-        if np.shape(s)[0] != 2:
-            return self._energy_d(s)
-        s, normal, one, both = self._regions(s)
-        c, k = self.threshold, self.stiffness
-        out = np.empty(s.shape[1:])
-        if normal.any():
-            out[normal] = self._base_at(s[0][normal], s[1][normal], "energy")
-        if one.any():
-            s0, d1 = s[0][one], s[1][one] - c
-            P = self._base_at(s0, c, "stress")
-            out[one] = self._base_at(s0, c, "energy") + P[1, 1] * d1 + 0.5 * k * d1**2
-        if both.any():
-            d0, d1 = s[0][both] - c, s[1][both] - c
-            out[both] = (self._psi_cc + self._g_cc * (d0 + d1) + self._h01_cc * d0 * d1
-                         + 0.5 * k * (d0**2 + d1**2))
-        return out
-
-    def diagonal_gradient(self, s) -> np.ndarray:
-        """``psi_i = dPsi_hat/ds_i``, shape ``[d, *rest]``."""
-        if np.shape(s)[0] != 2:
-            return self._gradient_d(s)
-        s, normal, one, both = self._regions(s)
-        c, k = self.threshold, self.stiffness
-        out = np.empty(s.shape)
-        if normal.any():
-            P = self._base_at(s[0][normal], s[1][normal], "stress")
-            out[0][normal], out[1][normal] = P[0, 0], P[1, 1]
-        if one.any():
-            s0, d1 = s[0][one], s[1][one] - c
-            P = self._base_at(s0, c, "stress")
-            A = self._base_at(s0, c, "tangent")
-            out[0][one] = P[0, 0] + A[0, 0, 1, 1] * d1
-            out[1][one] = P[1, 1] + k * d1
-        if both.any():
-            d0, d1 = s[0][both] - c, s[1][both] - c
-            out[0][both] = self._g_cc + self._h01_cc * d1 + k * d0
-            out[1][both] = self._g_cc + self._h01_cc * d0 + k * d1
-        return out
-
-    def diagonal_tangent(self, s) -> np.ndarray:
-        """The exact tangent ``A_hat = A(diag(s))`` in diagonal space, ``[d, d, d, d, *rest]``."""
-        if np.shape(s)[0] != 2:
-            return self._tangent_d(s)
-        s, normal, one, both = self._regions(s)
-        c, k = self.threshold, self.stiffness
-        rest = s.shape[1:]
-        A = np.zeros((2, 2, 2, 2) + rest)
-        if normal.any():
-            A[..., normal] = self._base_at(s[0][normal], s[1][normal], "tangent")
-        sub = ~normal  # extrapolated
-        if not sub.any():
-            return A
-        h00, h01, h11 = (np.empty(rest) for _ in range(3))
-        if one.any():
-            s0, d1 = s[0][one], s[1][one] - c
-            At = self._base_at(s0, c, "tangent")
-            step = 1e-6 * np.maximum(1.0, s0)
-            third = (self._base_at(s0 + step, c, "tangent")[0, 0, 1, 1]
-                     - self._base_at(s0 - step, c, "tangent")[0, 0, 1, 1]) / (2 * step)
-            h00[one], h01[one], h11[one] = At[0, 0, 0, 0] + third * d1, At[0, 0, 1, 1], k
-        h00[both], h01[both], h11[both] = k, self._h01_cc, k
-        psi = self.diagonal_gradient(s)
-        s0, s1, p0, p1 = s[0][sub], s[1][sub], psi[0][sub], psi[1][sub]
-        # twist (psi0 - psi1)/(s0 - s1): in the doubly clamped region it is exactly k - Psi_01(c, c)
-        gap = s0 - s1
-        twist = np.where(gap > 1e-9, (p0 - p1) / np.where(gap > 1e-9, gap, 1.0), k - self._h01_cc)
-        # flip (psi0 + psi1)/(s0 + s1): s0 + s1 = 2|similarity part| >= 0; the energy has a kink at 0
-        total = s0 + s1
-        flip = (p0 + p1) / np.maximum(total, 1e-9)
-        A[0, 0, 0, 0][sub], A[1, 1, 1, 1][sub] = h00[sub], h11[sub]
-        A[0, 0, 1, 1][sub] = A[1, 1, 0, 0][sub] = h01[sub]
-        A[0, 1, 0, 1][sub] = A[1, 0, 1, 0][sub] = 0.5 * (twist + flip)
-        A[0, 1, 1, 0][sub] = A[1, 0, 0, 1][sub] = 0.5 * (twist - flip)
         return A
 
     # the material interface (F shaped [d, d, *rest], also a single d x d matrix)

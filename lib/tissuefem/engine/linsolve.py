@@ -12,7 +12,6 @@ with the old one, or the frame stops and commits what it has.
 
 from __future__ import annotations
 
-import atexit
 import functools
 import importlib.util
 import math
@@ -26,7 +25,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from .parameters import ParameterError, check_count, check_real, check_real_array
+from .parameters import ParameterError, check_count, check_indices, check_real, check_real_array
 from .vectors import dot, norm
 
 __all__ = ["LinearSolver", "LinearInfo", "Condenser", "SuperLU", "Pardiso", "Cholmod", "ReusedFactorization",
@@ -130,6 +129,12 @@ def _require(name: str) -> None:
         module, extra = OPTIONAL[name]
         raise ParameterError("linear_solver", f"linear solver {name!r} needs the optional package {module} "
                                               f"(pip install 'tissuefem[{extra}]'); use 'superlu' instead")
+
+
+def _check_launch(launch):
+    if launch is not None and not callable(launch):
+        raise ParameterError("launch", f"launch must be a callable starting background work, got {launch!r}")
+    return launch
 
 
 class _PardisoFactor:
@@ -334,14 +339,13 @@ class PCGResult:
     negative_curvature: bool = False
 
 
-def pcg(A, b, precondition=None, *, x0=None, atol: float = 0.0, rtol: float = 1e-8,
-        max_iterations: int = 200) -> PCGResult:
-    """Preconditioned conjugate gradients for a symmetric ``A``; ``precondition(r)`` applies an approximate inverse.
-    Stops when ``||b - A x|| <= max(atol, rtol ||b||)``, after ``max_iterations``, or on *negative curvature*
-    (``p^T A p <= 0``: ``A`` is not positive definite; ``x`` is the last iterate, for ``x0 = 0`` still downhill)."""
+def pcg(A, b, precondition=None, *, atol: float = 0.0, rtol: float = 1e-8, max_iterations: int = 200) -> PCGResult:
+    """Preconditioned conjugate gradients for a symmetric ``A`` from ``x = 0``; ``precondition(r)`` applies an
+    approximate inverse. Stops when ``||b - A x|| <= max(atol, rtol ||b||)``, after ``max_iterations``, or on
+    *negative curvature* (``p^T A p <= 0``: ``A`` is not positive definite; ``x`` is the last iterate, still
+    downhill)."""
     b = np.asarray(b, dtype=float)
-    x = np.zeros_like(b) if x0 is None else np.array(x0, dtype=float, copy=True)
-    r = b - A @ x if x0 is not None else b.copy()
+    x, r = np.zeros_like(b), b.copy()
     target = max(float(atol), float(rtol) * norm(b))
     rnorm = norm(r)
     if rnorm <= target:
@@ -352,8 +356,7 @@ def pcg(A, b, precondition=None, *, x0=None, atol: float = 0.0, rtol: float = 1e
         Ap = A @ p
         curvature = dot(p, Ap)
         if not (curvature > 0.0) or not (rz > 0.0):
-            if k == 1 and x0 is None:
-                # no step taken yet: the preconditioned residual is the best safe guess
+            if k == 1:  # no step taken yet: the preconditioned residual is the best safe guess
                 x = z if rz > 0.0 else r.copy()
             return PCGResult(x, k - 1, False, rnorm, negative_curvature=True)
         alpha = rz / curvature
@@ -379,17 +382,16 @@ class ExtendedFactorization:
     ``P`` gives each unknown its parent's value (``P^T`` sums the residual of the copies onto their parent), so
     ``C`` solves for the motions that keep the copies together (for a cut along edges ``P^T A P`` is the old
     matrix); ``s`` are the unknowns that are not their parent's only copy (the lips of a cut, and unknowns without
-    a parent) and those within ``rings`` couplings of them, where ``L`` solves ``A`` exactly (a small sparse
+    a parent) and those within three couplings of them, where ``L`` solves ``A`` exactly (a small sparse
     factorization): the motions that open the cut. Two back-substitutions of ``F`` per application."""
 
-    def __init__(self, factor, parent, n_old: int, A, rings: int = 3):
+    def __init__(self, factor, parent, n_old: int, A):
         parent = np.asarray(parent, dtype=np.intp)
         A = sp.csr_matrix(_square(A))
         n = A.shape[0]
         if parent.shape != (n,) or (parent.size and (parent.max() >= n_old or parent.min() < -1)):
             raise ParameterError("parent", f"parent must give one old unknown in -1..{n_old - 1} per unknown "
                                            f"({n}), got shape {parent.shape}")
-        rings = check_count("rings", rings, 0)
         self.factor, self.n, self.n_old, self._A = factor, n, int(n_old), A
         mapped = np.flatnonzero(parent >= 0)
         self._mapped, self._parent = mapped, parent[mapped]
@@ -399,7 +401,7 @@ class ExtendedFactorization:
         self._local = None
         if split.any():
             graph = sp.csr_matrix((np.ones(A.nnz, dtype=np.int8), A.indices, A.indptr), shape=A.shape)
-            for _ in range(rings):
+            for _ in range(3):
                 split = split | (graph @ split.astype(np.int8) > 0)
             s = np.flatnonzero(split)
             self._local = (s, A[s], spla.splu(sp.csc_matrix(A[s][:, s])))
@@ -530,74 +532,24 @@ def _join_all(threads) -> None:
             thread.join()
 
 
-@atexit.register
-def _join_at_exit() -> None:
-    """The last word at exit: no refactorization thread runs while the interpreter tears numpy and the BLAS down."""
-    for thread in threading.enumerate():
-        if thread.name == "tissuefem-refactorize" and thread is not threading.current_thread():
-            thread.join()
+class _OffFrame:
+    """A solver that makes factorizations off the frame (``launch(work)`` starts one, default :func:`start_thread`).
+    Its unfinished work is waited for by :meth:`close` (or leaving a ``with`` block), when the solver is dropped
+    and at the interpreter's exit: a process that ends under a factorization can crash in the BLAS."""
 
-
-class ReusedFactorization:
-    """Conjugate gradients preconditioned by a kept factorization of the ``direct`` backend (default :class:`SuperLU`):
-    the tangent changes slowly, so a few CG iterations (~1 ms each at 8k triangles) replace a factorization (~20 ms).
-    Beyond ``refresh_after`` iterations the *next* solve refactorizes; at ``max_iterations`` this one does.
-    ``background``: beyond ``background_after`` iterations a thread on the second core refactorizes, adopted once
-    finished (iteration counts then depend on timing). ``solve`` returns ``(x, SolveInfo)``; ``factorizations``,
-    ``background_factorizations`` and ``cg_iterations`` count. Under a ``deadline`` (:class:`Deadline`) a
-    factorization that does not fit is started in the background whatever ``background`` says, and CG runs the
-    iterations that fit with the old factorization (no factorization yet: the solve returns ``None``).
-    ``launch(work)``: how background work starts (default :func:`start_thread`). A background factorization is never
-    abandoned half-way (a process that ends under one can crash in the BLAS): :meth:`close` (or leaving a ``with``
-    block) waits for it, and so do dropping the solver and the interpreter's exit. ``update_rank``: a kept
-    factorization is made exact again, before each solve, on up to that many unknowns where the matrix changed most
-    (:class:`UpdatedFactorization`; 0, the default: never; measured on the probe scene it did not lower CG's
-    iterations, see docs/benchmarks.md); ``update_solves`` counts the back-substitutions that took. After a
-    cut, :meth:`provide` gives a preconditioner to start from while a fresh factorization is made off the frame."""
-
-    def __init__(self, direct=None, refresh_after: int = 15, max_iterations: int = 40, background: bool = False,
-                 background_after: int = 3, launch=None, update_rank: int = 0):
-        self.refresh_after = check_count("refresh_after", refresh_after)
-        self.max_iterations = check_count("max_iterations", max_iterations)
-        self.direct = direct if direct is not None else SuperLU()
-        if launch is not None and not callable(launch):
-            raise ParameterError("launch", f"launch must be a callable starting background work, got {launch!r}")
-        self.background = bool(background)
-        self.background_after = int(background_after)
-        self.update_rank = update_rank
-        self.name = f"cg+reused-{self.direct.name}" + ("+background" if self.background else "")
+    def __init__(self, launch):
         self._threads = []  # background factorizations started and not yet joined (shared with the finalizer)
-        self._work = _Background(launch, self._threads)
-        self.invalidate()  # no factorization yet
-        self.factorizations = self.background_factorizations = self.cg_iterations = self.update_solves = 0
-        weakref.finalize(self, _join_all, self._threads)  # a dropped solver waits for its work, and so does exit
+        self._work = _Background(_check_launch(launch), self._threads)
+        weakref.finalize(self, _join_all, self._threads)
 
     @property
-    def update_rank(self) -> int:
-        """On how many unknowns at most a kept factorization is made exact again before a solve (0: none); set
-        between solves, it applies from the next factorization."""
-        return self._update_rank
+    def launch(self):
+        """How background work starts: ``launch(work)`` returns a job with ``is_alive`` and ``join``."""
+        return self._work.launch
 
-    @update_rank.setter
-    def update_rank(self, value):
-        self._update_rank = check_count("update_rank", value, 0)
-        self._factorize = functools.partial(_factorize_kept, self._direct, self._update_rank)
-
-    @property
-    def direct(self):
-        """The direct backend whose factorizations are kept (may be replaced between solves)."""
-        return self._direct
-
-    @direct.setter
-    def direct(self, value):
-        if not callable(getattr(value, "factorize", None)):
-            raise ParameterError("direct", f"direct must be a backend with a factorize method, got {value!r}")
-        self._direct = value
-        # how a kept factorization is made (a function of the matrix only: a background job holds no solver)
-        self._factorize = functools.partial(_factorize_kept, value, getattr(self, "_update_rank", 0))
-
-    launch = property(lambda self: self._work.launch, lambda self, value: setattr(self._work, "launch", value),
-                      doc="How background work starts: ``launch(work)`` returns a job with ``is_alive`` and ``join``.")
+    @launch.setter
+    def launch(self, value):
+        self._work.launch = _check_launch(value)
 
     def close(self) -> None:
         """Wait for any background factorization to finish (it is not adopted) and forget the kept factorization.
@@ -610,6 +562,62 @@ class ReusedFactorization:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+class ReusedFactorization(_OffFrame):
+    """Conjugate gradients preconditioned by a kept factorization of the ``direct`` backend (default :class:`SuperLU`):
+    the tangent changes slowly, so a few CG iterations (~1 ms each at 8k triangles) replace a factorization (~20 ms).
+    Beyond ``refresh_after`` iterations the *next* solve refactorizes; at ``max_iterations`` this one does.
+    ``background``: beyond ``background_after`` iterations a thread on the second core refactorizes, adopted once
+    finished (iteration counts then depend on timing). ``solve`` returns ``(x, SolveInfo)``; ``factorizations``,
+    ``background_factorizations`` and ``cg_iterations`` count. Under a ``deadline`` (:class:`Deadline`) a
+    factorization that does not fit is started in the background whatever ``background`` says, and CG runs the
+    iterations that fit with the old factorization (no factorization yet: the solve returns ``None``).
+    ``launch(work)``: how background work starts; :meth:`close` waits for it, and so do dropping the solver and exit.
+    ``update_rank``: a kept factorization is made exact again, before each solve, on up to that many unknowns where
+    the matrix changed most (:class:`UpdatedFactorization`; 0, the default: never; measured on the probe scene it did
+    not lower CG's iterations, see docs/benchmarks.md); ``update_solves`` counts the back-substitutions that took.
+    After a cut, :meth:`provide` gives a preconditioner to start from while a fresh factorization is made off the
+    frame."""
+
+    def __init__(self, direct=None, refresh_after: int = 15, max_iterations: int = 40, background: bool = False,
+                 background_after: int = 3, launch=None, update_rank: int = 0):
+        self.refresh_after = check_count("refresh_after", refresh_after)
+        self.max_iterations = check_count("max_iterations", max_iterations)
+        self.direct = direct if direct is not None else SuperLU()
+        self.background = bool(background)
+        self.background_after = int(background_after)
+        self.update_rank = update_rank
+        self.name = f"cg+reused-{self.direct.name}" + ("+background" if self.background else "")
+        super().__init__(launch)
+        self.invalidate()  # no factorization yet
+        self.factorizations = self.background_factorizations = self.cg_iterations = self.update_solves = 0
+
+    @property
+    def update_rank(self) -> int:
+        """On how many unknowns at most a kept factorization is made exact again before a solve (0: none); set
+        between solves, it applies from the next factorization."""
+        return self._update_rank
+
+    @update_rank.setter
+    def update_rank(self, value):
+        self._update_rank = check_count("update_rank", value, 0)
+
+    @property
+    def direct(self):
+        """The direct backend whose factorizations are kept (may be replaced between solves)."""
+        return self._direct
+
+    @direct.setter
+    def direct(self, value):
+        if not callable(getattr(value, "factorize", None)):
+            raise ParameterError("direct", f"direct must be a backend with a factorize method, got {value!r}")
+        self._direct = value
+
+    @property
+    def _factorize(self):
+        """How a kept factorization is made: a function of the matrix only (a background job holds no solver)."""
+        return functools.partial(_factorize_kept, self._direct, self._update_rank)
 
     def invalidate(self) -> None:
         self._factor, self._shape, self._stale, self._work.pending = None, None, False, None
@@ -627,11 +635,6 @@ class ReusedFactorization:
         """Whether the preconditioner is a provided one (:meth:`provide`) still waiting for a fresh factorization."""
         return self._provisional
 
-    @property
-    def refreshing(self) -> bool:
-        """Whether a background factorization is under way or waiting to be adopted."""
-        return self._work.pending is not None
-
     def _adopt(self, shape) -> None:
         """Take a finished background factorization (one of ``shape``) as the preconditioner."""
         factor = self._work.take(shape)
@@ -648,8 +651,7 @@ class ReusedFactorization:
             self._adopt(A.shape)
         if self._provisional:  # nothing under way, or it failed
             return self._refactorize(A, b, reason, deadline)
-        x = deadline.timed("back-substitution", self._factor.solve, b)
-        return x, SolveInfo(0, True, bool(np.all(np.isfinite(x))), float(np.linalg.norm(b - A @ x)), reason)
+        return self._back_substitution(A, b, reason, deadline)
 
     def _refactorize(self, A, b, reason, deadline, atol=0.0) -> tuple[np.ndarray | None, SolveInfo]:
         if not deadline.fits("factorization", "back-substitution"):
@@ -665,6 +667,9 @@ class ReusedFactorization:
             deadline.record("cg-iteration", deadline.clock() - t0, result.iterations)
             self.cg_iterations += result.iterations
             return result.x, SolveInfo(result.iterations, True, result.converged, result.residual_norm, reason)
+        return self._back_substitution(A, b, reason, deadline)
+
+    def _back_substitution(self, A, b, reason, deadline) -> tuple[np.ndarray, SolveInfo]:
         x = deadline.timed("back-substitution", self._factor.solve, b)
         return x, SolveInfo(0, True, bool(np.all(np.isfinite(x))), float(np.linalg.norm(b - A @ x)), reason)
 
@@ -706,19 +711,16 @@ class ReusedFactorization:
         result = pcg(A, b, self._precondition, atol=atol, rtol=rtol, max_iterations=limit)
         deadline.record("cg-iteration", deadline.clock() - t0, result.iterations)
         self.cg_iterations += result.iterations
-        if result.negative_curvature:
-            if deadline.fits("factorization", "back-substitution"):
-                if self._provisional:
-                    return self._wait_for_fresh(A, b, "negative-curvature", deadline)
-                return self._refactorize(A, b, "negative-curvature", deadline, atol)
-            self._work.start(self._factorize, A, A.shape)  # meanwhile CG's iterate (Newton checks it)
-            return result.x, SolveInfo(result.iterations, False, False, result.residual_norm, "negative-curvature")
-        if not result.converged and result.iterations >= self.max_iterations:
-            if deadline.fits("factorization", "back-substitution"):
-                if self._provisional:
-                    return self._wait_for_fresh(A, b, "cg-failed", deadline)
-                return self._refactorize(A, b, "cg-failed", deadline, atol)
-            self._work.start(self._factorize, A, A.shape)  # meanwhile CG's iterate is the answer
+        failed = "negative-curvature" if result.negative_curvature else (
+            "cg-failed" if not result.converged and result.iterations >= self.max_iterations else "")
+        if failed and deadline.fits("factorization", "back-substitution"):
+            if self._provisional:
+                return self._wait_for_fresh(A, b, failed, deadline)
+            return self._refactorize(A, b, failed, deadline, atol)
+        if failed:  # meanwhile CG's iterate is the answer (Newton checks it is downhill)
+            self._work.start(self._factorize, A, A.shape)
+            if result.negative_curvature:
+                return result.x, SolveInfo(result.iterations, False, False, result.residual_norm, failed)
         elif (self.background and result.iterations > self.background_after) or (
                 limit < self.max_iterations and not result.converged):  # cut short by the deadline: refresh too
             self._work.start(self._factorize, A, A.shape)
@@ -747,6 +749,13 @@ class _CGFactor:
         self.iterations += result.iterations
         self.converged = self.converged and result.converged
         return result.x
+
+
+def _check_modes(name, B) -> np.ndarray:
+    B = check_real_array(name, B)
+    if B.ndim != 2 or not np.all(np.isfinite(B)):
+        raise ParameterError(name, f"{name} must be a finite (n, k) array, got shape {B.shape}")
+    return B
 
 
 def rigid_body_modes(X) -> np.ndarray:
@@ -800,12 +809,7 @@ class PreconditionedCG(_Direct):
 
     @near_nullspace.setter
     def near_nullspace(self, B):
-        if B is not None:
-            B = check_real_array("near_nullspace", B)
-            if B.ndim != 2 or not np.all(np.isfinite(B)):
-                raise ParameterError("near_nullspace", f"near_nullspace must be a finite (n, k) array, got shape "
-                                                       f"{B.shape}")
-        self._near_nullspace = B
+        self._near_nullspace = None if B is None else _check_modes("near_nullspace", B)
 
     def _multigrid(self, A):
         import pyamg
@@ -863,10 +867,9 @@ def make(name: str = "superlu"):
 
 class Condenser:
     """The free-free block ``K[free][:, free]`` of a sparse matrix. For a fixed (read-only) pattern it is a gather of
-    the data array through a map computed once per pattern and set of free dofs (the last ``keep`` are kept)."""
+    the data array through a map computed once per pattern and set of free dofs (the last eight are kept)."""
 
-    def __init__(self, keep: int = 8):
-        self.keep = int(keep)
+    def __init__(self):
         self._maps = {}
 
     def __call__(self, K, mask) -> sp.csr_matrix:
@@ -879,7 +882,7 @@ class Condenser:
         key = (K.indptr.ctypes.data, K.indices.ctypes.data, K.shape, np.packbits(mask).tobytes())
         entry = self._maps.get(key)
         if entry is None:
-            if len(self._maps) >= self.keep:
+            if len(self._maps) >= 8:
                 self._maps.clear()
             numbered = sp.csr_matrix((np.arange(1, K.nnz + 1, dtype=float), K.indices, K.indptr), shape=K.shape)
             block = numbered[mask][:, mask]
@@ -900,7 +903,7 @@ class LinearInfo:
     skipped: str = ""  # a piece of work not started for the deadline ("factorization", "cg-iteration", ...)
 
 
-class LinearSolver:
+class LinearSolver(_OffFrame):
     """How Newton solves ``A dx = b``: which backend, and when to factorize. ``method`` is one of ``"direct"`` (a fresh
     :class:`SuperLU` factorization per solve: exact Newton); a backend name of :func:`make` (that backend, afresh);
     ``"reuse"``, ``"reuse-<backend>"`` (:class:`ReusedFactorization`), ``"reuse-background"`` or
@@ -922,13 +925,13 @@ class LinearSolver:
             if method == "direct" or method in BACKENDS or method == "auto":
                 self.backend = SuperLU() if method == "direct" else make(method)
             elif kind in ("reuse", "constant"):
-                background = kind == "reuse" and (base == "background" or base.startswith("background-"))
-                if background:  # "reuse-background" (SuperLU) or "reuse-background-<backend>"
-                    base = base[len("background-"):]
+                # "reuse-background" (SuperLU) or "reuse-background-<backend>"
+                background = kind == "reuse" and base.partition("-")[0] == "background"
+                base = base[len("background-"):] if background else base
                 direct = SuperLU() if method in ("reuse", "constant", "reuse-background") else make(base)
-                reuse = kind == "reuse"
-                self.backend = ReusedFactorization(direct, background=background, launch=launch) if reuse else direct
                 self.constant = kind == "constant"
+                self.backend = direct if self.constant else ReusedFactorization(direct, background=background,
+                                                                                launch=launch)
             else:
                 raise ParameterError("linear_solver", "linear_solver must be 'direct', 'reuse', 'constant', "
                                      f"'reuse-<backend>', 'constant-<backend>' or a backend "
@@ -940,13 +943,9 @@ class LinearSolver:
         if self.constant and not callable(getattr(self.backend, "factorize", None)):
             raise ParameterError("linear_solver", f"linear_solver {method!r}: a constant tangent needs a direct "
                                                   "backend")
-        if launch is not None and not callable(launch):
-            raise ParameterError("launch", f"launch must be a callable starting background work, got {launch!r}")
         self.condense = Condenser()
         self._factor, self._key, self._carried = None, None, None
-        self._threads = []  # a constant factorization made in the background (see _Background)
-        self._work = _Background(launch, self._threads)
-        weakref.finalize(self, _join_all, self._threads)
+        super().__init__(launch)  # a constant factorization is made in the background
         self.factorizations = 0
         self.costs = {}
         self._modes = None  # the body's rigid motions, for a multigrid preconditioner (use_rigid_modes)
@@ -963,24 +962,14 @@ class LinearSolver:
         rows. Other backends need none: nothing changes."""
         if not hasattr(self.factorizing, "near_nullspace"):
             return
-        modes = check_real_array("modes", modes)
-        if modes.ndim != 2 or not np.all(np.isfinite(modes)):
-            raise ParameterError("modes", f"modes must be a finite (n_dofs, k) array, got shape {modes.shape}")
-        self._modes = modes
+        self._modes = _check_modes("modes", modes)
         if self._key is not None:  # the next matrix passes them on (a kept preconditioner is made anew)
             self.invalidate()
             self._key = None
 
-    @property
-    def launch(self):
-        """How background work starts: ``launch(work)`` returns a job with ``is_alive`` and ``join``."""
-        return self._work.launch
-
-    @launch.setter
+    @_OffFrame.launch.setter
     def launch(self, value):
-        if value is not None and not callable(value):
-            raise ParameterError("launch", f"launch must be a callable starting background work, got {value!r}")
-        self._work.launch = value
+        self._work.launch = _check_launch(value)
         if isinstance(self.backend, ReusedFactorization):
             self.backend.launch = value
 
@@ -1013,19 +1002,11 @@ class LinearSolver:
         return f"constant-{name}" if self.constant else name
 
     def close(self) -> None:
-        """Wait for the backend's background work, if any (see :meth:`ReusedFactorization.close`), and forget
-        any kept factorization; the solver stays usable."""
+        """Wait for the backend's background work too, if any (see :meth:`ReusedFactorization.close`)."""
         close = getattr(self.backend, "close", None)
         if callable(close):
             close()
-        _join_all(self._threads)
-        self.invalidate()
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.close()
+        super().close()
 
     def invalidate(self) -> None:
         """Forget any kept factorization (the matrix is about to change in a way the keys do not see)."""
@@ -1054,11 +1035,7 @@ class LinearSolver:
         n_old = int(mask.sum())
         if old.backend._shape != (n_old, n_old):
             return False
-        parent = np.asarray(parent)
-        if parent.ndim != 1 or not np.issubdtype(parent.dtype, np.integer) or (
-                parent.size and (parent.min() < 0 or parent.max() >= size)):
-            raise ParameterError("parent", f"parent must give an old dof in 0..{size - 1} per new dof, got "
-                                           f"{parent.dtype} shaped {parent.shape}")
+        parent = check_indices("parent", parent, size, "old dofs (one per new dof)")
         index = np.full(size, -1, dtype=np.intp)
         index[mask] = np.arange(n_old)
         self.invalidate()

@@ -24,9 +24,9 @@ from .materials1d import LameMaterial, safe_log, taylor_log, taylor_log_prime, t
 from .parameters import ParameterError, check_fiber_stiffness, check_real_array, lame_parameters
 
 __all__ = [
-    "det", "cofactor", "inverse", "cofactor_derivative", "det2", "cofactor2", "inv2", "rotation_preserving_svd",
+    "det", "cofactor", "inverse", "cofactor_derivative", "det2", "rotation_preserving_svd",
     "Material", "LinearElastic", "NeoHookean", "TaylorNeoHookean", "StableNeoHookean",
-    "Corotated", "FiberReinforced", "fiber_invariant", "fiber_energy", "fiber_stress", "fiber_tangent",
+    "Corotated", "FiberFamily", "FiberReinforced", "fiber_invariant", "fiber_energy", "fiber_stress", "fiber_tangent",
     "check_fiber_stiffness", "vector_length", "MATERIALS", "material",
 ]
 
@@ -43,30 +43,12 @@ def _as_F(F) -> np.ndarray:
     return F
 
 
-def _as_F2(F) -> np.ndarray:
-    F = check_real_array("F", F)
-    if F.ndim < 2 or F.shape[:2] != (2, 2):
-        raise ParameterError("F", f"F must be shaped [2, 2, ...], got shape {F.shape}")
-    return F
-
-
 def det2(F):
     """``J = det F = F00 F11 - F01 F10`` for ``F`` shaped ``[2, 2, ...]``; shape ``F.shape[2:]``."""
-    F = _as_F2(F)
+    F = _as_F(F)
+    if F.shape[0] != 2:
+        raise ParameterError("F", f"F must be shaped [2, 2, ...], got shape {F.shape}")
     return F[0, 0] * F[1, 1] - F[0, 1] * F[1, 0]
-
-
-def cofactor2(F):
-    """The cofactor ``cof F = dJ/dF = J F^-T = [[F11, -F10], [-F01, F00]]``; shape ``F.shape``. Defined for every
-    ``F`` (also singular ones): the inversion-safe models use it rather than ``F^-T``."""
-    F = _as_F2(F)
-    return np.array([[F[1, 1], -F[1, 0]], [-F[0, 1], F[0, 0]]])
-
-
-def inv2(F):
-    """``F^-1 = (cof F)^T / J`` for ``F`` shaped ``[2, 2, ...]`` (singular ``F``: ``inf``/``NaN``, numpy's warning)."""
-    F = _as_F2(F)
-    return cofactor2(F).swapaxes(0, 1) / det2(F)
 
 
 def _cofactor3(F) -> np.ndarray:
@@ -86,16 +68,15 @@ def det(F):
 
 
 def cofactor(F):
-    """``cof F = dJ/dF = J F^-T``, shape ``F.shape`` (:func:`cofactor2` in 2D, ``1/2 e_imn e_jpq F_mp F_nq`` in 3D);
-    defined for every ``F``, also singular ones."""
+    """``cof F = dJ/dF = J F^-T``, shape ``F.shape``: ``[[F11, -F10], [-F01, F00]]`` in 2D, ``1/2 e_imn e_jpq F_mp
+    F_nq`` in 3D. Defined for every ``F``, also singular ones: the inversion-safe models use it rather than ``F^-T``."""
     F = _as_F(F)
-    return cofactor2(F) if F.shape[0] == 2 else _cofactor3(F)
+    return np.array([[F[1, 1], -F[1, 0]], [-F[0, 1], F[0, 0]]]) if F.shape[0] == 2 else _cofactor3(F)
 
 
 def inverse(F):
     """``F^-1 = (cof F)^T / J`` for ``F`` shaped ``[d, d, ...]`` (singular ``F``: ``inf``/``NaN``, numpy's warning)."""
-    F = _as_F(F)
-    return inv2(F) if F.shape[0] == 2 else cofactor(F).swapaxes(0, 1) / det(F)
+    return cofactor(F).swapaxes(0, 1) / det(F)
 
 
 def _outer(a, b) -> np.ndarray:
@@ -195,9 +176,7 @@ def rotation_preserving_svd(F):
     and ``s0 >= ... >= |s_(d-1)|``: the reflection moved onto the smallest value, which carries the sign of ``J``
     (Irving, Teran, Fedkiw, "Invertible finite elements for robust simulation of large deformation", SCA 2004). 2D
     in closed form, 3D from LAPACK's SVD with the signs fixed."""
-    F = np.asarray(F, dtype=float)
-    if F.ndim < 2 or F.shape[0] != F.shape[1] or F.shape[0] not in DIMENSIONS:
-        raise ParameterError("F", f"F must be shaped [d, d, ...] with d = 2 or 3, got {F.shape}")
+    F = _as_F(F)
     return _svd2(F) if F.shape[0] == 2 else _svd3(F)
 
 
@@ -495,40 +474,75 @@ def fiber_tangent_term(F, g, k):
     return k * _outer(ag, ag) + 0.5 * k * (I4 - 1.0) * np.einsum("ik,jl...->ijkl...", delta, gg)
 
 
+class FiberFamily(Material):
+    """One family of fibres alone, ``Psi = k/8 (I4 - 1)^2`` (the :class:`~tissuefem.engine.terms.Fibers` term's
+    density, and the fibre part of :class:`FiberReinforced`): ``stiffness`` ``k >= 0``; ``fibers`` (normalised here)
+    ``(d,)``, ``(d, n_elements)`` or ``(d, n_elements, n_points)``, ``d`` = 2 or 3 the dimension of ``F``, aligned
+    with the *leading* axes of ``F.shape[2:]``."""
+
+    name = "fibers"
+
+    def __init__(self, stiffness, fibers):
+        self.lam = self.mu = 0.0
+        self.stiffness = check_fiber_stiffness(stiffness, "stiffness")
+        g = np.array(check_real_array("fibers (an array of vectors)", fibers))
+        if g.ndim not in (1, 2, 3) or g.shape[0] not in DIMENSIONS:
+            raise ParameterError("fibers", "fibers must be shaped (d,), (d, n_elements) or (d, n_elements, "
+                                           f"n_points) with d = 2 or 3, got shape {g.shape}")
+        if not np.all(np.isfinite(g)):
+            raise ParameterError("fibers", "fibers contains non-finite entries")
+        norm = vector_length(g)
+        if not np.all(norm > 0.0):
+            raise ParameterError("fibers", "fibers contains zero-length vectors (a fibre needs a direction)")
+        self.fibers = g / norm
+
+    def _g(self, F) -> np.ndarray:
+        """Fibres shaped to broadcast against ``F.shape[2:] = rest`` (aligned on the leading axes; one ``F`` at rest
+        ``(d, d, 1)`` takes every element's fibre)."""
+        g, rest = self.fibers, tuple(F.shape[2:])
+        if g.shape[0] != F.shape[0]:
+            raise ParameterError("fibers", f"fibers are {g.shape[0]}D vectors but F is {F.shape[0]}D "
+                                           f"(shape {F.shape})")
+        extra = len(rest) - (g.ndim - 1)
+        try:
+            np.broadcast_shapes(g.shape[1:] + (1,) * max(extra, 0), rest)
+        except ValueError:
+            extra = -1
+        if extra < 0:
+            raise ParameterError("fibers", f"fibers of shape {g.shape} do not match F with trailing shape {rest}")
+        return g.reshape(g.shape + (1,) * extra)
+
+    def energy(self, F):
+        F = _as_F(F)
+        return fiber_energy_term(F, self._g(F), self.stiffness)
+
+    def stress(self, F):
+        F = _as_F(F)
+        return fiber_stress_term(F, self._g(F), self.stiffness)
+
+    def tangent(self, F):
+        F = _as_F(F)
+        return fiber_tangent_term(F, self._g(F), self.stiffness)
+
+
 class FiberReinforced(Material):
     """An isotropic base material plus a fibre term (the notes' ``Psi_iso + Psi_fiber(g^T F^T F g)``):
 
         Psi = Psi_base(F) + k/8 (I4 - 1)^2,   I4 = |F g|^2,  a = F g,
         P_fiber = k/2 (I4 - 1) a (x) g,   A_fiber_ijkl = k a_i g_j a_k g_l + k/2 (I4 - 1) d_ik g_j g_l.
 
-    ``I4 - 1 ~ 2 eps_ff`` for small strain, so ``k`` *is* the modulus added along the fibre (:meth:`fiber_modulus`);
-    it resists compression as well as stretch. ``base``: any :class:`Material` (a ``FiberReinforced`` adds a second
-    family); ``stiffness`` ``k >= 0``; ``fibers`` (normalised here) ``(d,)``, ``(d, n_elements)`` or ``(d, n_elements,
-    n_points)``, ``d`` = 2 or 3 the dimension of ``F``, aligned with the *leading* axes of ``F.shape[2:]``.
+    ``I4 - 1 ~ 2 eps_ff`` for small strain, so ``k`` *is* the modulus added along the fibre; it resists compression
+    as well as stretch. ``base``: any :class:`Material` (a ``FiberReinforced`` adds a second family); ``stiffness``
+    and ``fibers``: those of :class:`FiberFamily`.
     """
 
     def __init__(self, base: Material, stiffness, fibers):
         if not isinstance(base, Material):
             raise ParameterError("base", f"base must be a Material instance, got {base!r}")
-        self.base, self.stiffness = base, check_fiber_stiffness(stiffness, "stiffness")
-        self.fibers = self._check_fibers(fibers, DIMENSIONS)
+        self.base, self.family = base, FiberFamily(stiffness, fibers)
+        self.stiffness, self.fibers = self.family.stiffness, self.family.fibers
         self.lam, self.mu, self.inversion_safe = base.lam, base.mu, base.inversion_safe
         self.name = f"{base.name} + fibers"
-
-    @staticmethod
-    def _check_fibers(fibers, dimensions=(2,)) -> np.ndarray:
-        """``fibers`` normalised, shaped ``(d, ...)`` with ``d`` in ``dimensions``."""
-        g = np.array(check_real_array("fibers (an array of vectors)", fibers))
-        if g.ndim not in (1, 2, 3) or g.shape[0] not in dimensions:
-            d = " or ".join(str(d) for d in dimensions)
-            raise ParameterError("fibers", "fibers must be shaped (d,), (d, n_elements) or (d, n_elements, "
-                                           f"n_points) with d = {d}, got shape {g.shape}")
-        if not np.all(np.isfinite(g)):
-            raise ParameterError("fibers", "fibers contains non-finite entries")
-        norm = vector_length(g)
-        if not np.all(norm > 0.0):
-            raise ParameterError("fibers", "fibers contains zero-length vectors (a fibre needs a direction)")
-        return g / norm
 
     @classmethod
     def from_young(cls, E, nu, plane: str = "strain", *, stiffness, fibers, base="neo-hookean"):
@@ -536,36 +550,17 @@ class FiberReinforced(Material):
         base_cls = _lookup(base) if isinstance(base, str) else base
         return cls(base_cls.from_young(E, nu, plane), stiffness, fibers)
 
-    def fiber_modulus(self) -> float:
-        """The small-strain stiffness added along the fibre, ``g_i g_j g_k g_l (A - A_base)_ijkl`` at ``F = I``: k."""
-        return self.stiffness
-
-    def _g(self, F) -> np.ndarray:
-        """Fibres shaped to broadcast against ``F.shape[2:] = rest`` (aligned on the leading axes)."""
-        g, rest = self.fibers, tuple(F.shape[2:])
-        if g.shape[0] != F.shape[0]:
-            raise ParameterError("fibers", f"fibers are {g.shape[0]}D vectors but F is {F.shape[0]}D "
-                                           f"(shape {F.shape})")
-        extra = len(rest) - (g.ndim - 1)
-        try:
-            ok = extra >= 0 and np.broadcast_shapes(g.shape[1:] + (1,) * extra, rest) == rest
-        except ValueError:
-            ok = False
-        if not ok:
-            raise ParameterError("fibers", f"fibers of shape {g.shape} do not match F with trailing shape {rest}")
-        return g.reshape(g.shape + (1,) * extra)
-
     def energy(self, F):
         F = _as_F(F)
-        return self.base.energy(F) + fiber_energy_term(F, self._g(F), self.stiffness)
+        return self.base.energy(F) + self.family.energy(F)
 
     def stress(self, F):
         F = _as_F(F)
-        return self.base.stress(F) + fiber_stress_term(F, self._g(F), self.stiffness)
+        return self.base.stress(F) + self.family.stress(F)
 
     def tangent(self, F):
         F = _as_F(F)
-        return self.base.tangent(F) + fiber_tangent_term(F, self._g(F), self.stiffness)
+        return self.base.tangent(F) + self.family.tangent(F)
 
     def __repr__(self):
         return f"FiberReinforced({self.base!r}, stiffness={self.stiffness:g}, fibers of shape {self.fibers.shape})"

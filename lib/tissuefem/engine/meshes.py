@@ -19,8 +19,7 @@ from .parameters import ParameterError, check_count, check_real, check_real_arra
 __all__ = [
     "edge_lengths", "mesh_size", "mean_edge_length", "rectangle", "mesh_with_about", "fusiform_muscle",
     "fusiform_width", "fusiform_fiber_direction", "fusiform_fiber_field", "flap", "signed_areas", "check_mesh",
-    "box", "signed_volumes", "folded_tetrahedra",
-    "index_list", "MeshMap",
+    "box", "signed_volumes", "index_list", "MeshMap",
 ]
 
 #: The most triangles a generated domain (and a mesh passed to :func:`check_mesh`) may have.
@@ -93,31 +92,40 @@ def signed_areas(mesh) -> np.ndarray:
     return 0.5 * ((b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1]))
 
 
-def folded_triangles(p, t) -> np.ndarray:
-    """Pairs of triangles ``(2, n_pairs)`` overlapping across their shared edge (both third vertices on one side of
-    it), except copies of one triangle (third vertices at one point: a cut through elements makes them)."""
-    p = np.asarray(p, dtype=float)
-    key, owner, opposite = _edge_table(np.asarray(t, dtype=np.int64))
-    same = np.flatnonzero((key[0, 1:] == key[0, :-1]) & (key[1, 1:] == key[1, :-1]))
-    if same.size == 0:
-        return np.zeros((2, 0), dtype=np.int64)
-    a, b = p[:, key[0, same]], p[:, key[1, same]]
+#: The facets of an element by local vertex: a triangle's edges, a tetrahedron's faces (face k opposite vertex k).
+_FACETS = {3: ([0, 1], [1, 2], [2, 0]), 4: ([1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2])}
+
+
+def _facets(t: np.ndarray):
+    """Every facet of every element, sorted: the keys ``(d, (d + 1) m)`` (nodes ascending), the element owning each
+    and the vertex opposite it."""
+    facets, nv = _FACETS[t.shape[0]], t.shape[0]
+    key = np.sort(np.concatenate([t[f] for f in facets], axis=1), axis=0)
+    opposite = np.concatenate([t[nv * (nv - 1) // 2 - sum(f)] for f in facets])
+    order = np.lexsort(key[::-1])
+    return key[:, order], np.tile(np.arange(t.shape[1]), nv)[order], opposite[order]
+
+
+def _folded(p, t, copies: bool) -> np.ndarray:
+    """Pairs of elements ``(2, n_pairs)`` overlapping across their shared facet (both opposite vertices on one side
+    of it, by the sign of the facet's normal times the vertex); ``copies``: except copies of one element (opposite
+    vertices at one point: a cut through triangles makes them)."""
+    key, owner, opposite = _facets(t)
+    same = np.flatnonzero((key[:, 1:] == key[:, :-1]).all(axis=0))
+    a = p[:, key[0, same]]
+    edges = [p[:, key[j, same]] - a for j in range(1, key.shape[0])]
+    normal = np.stack([-edges[0][1], edges[0][0]]) if len(edges) == 1 else np.cross(*edges, axis=0)
 
     def side(o):
-        c = p[:, o]
-        return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
-    s1, s2 = side(opposite[same]), side(opposite[same + 1])
-    copies = (p[:, opposite[same]] == p[:, opposite[same + 1]]).all(axis=0)
-    bad = same[(s1 * s2 > 0) & ~copies]
-    return np.stack([owner[bad], owner[bad + 1]])
+        return np.sum(normal * (p[:, o] - a), axis=0)
+    bad = side(opposite[same]) * side(opposite[same + 1]) > 0
+    if copies:
+        bad &= ~(p[:, opposite[same]] == p[:, opposite[same + 1]]).all(axis=0)
+    return np.stack([owner[same[bad]], owner[same[bad] + 1]])
 
 
-def _edge_table(t: np.ndarray):
-    """Every edge of every triangle, sorted: keys ``(2, 3m)`` (smaller node first), the owning triangles and the
-    vertex opposite each edge."""
-    key = np.sort(np.concatenate([t[[0, 1]], t[[1, 2]], t[[2, 0]]], axis=1), axis=0)
-    order = np.lexsort((key[1], key[0]))
-    return key[:, order], np.tile(np.arange(t.shape[1]), 3)[order], np.concatenate([t[2], t[0], t[1]])[order]
+def _pairs(folded) -> str:
+    return ", ".join(f"({i}, {j})" for i, j in folded.T[:10]) + (" ..." if folded.shape[1] > 10 else "")
 
 
 def check_mesh(p, t, name: str = "mesh", *, unused_nodes: str = "refuse", cut: bool = False):
@@ -180,7 +188,7 @@ def check_mesh(p, t, name: str = "mesh", *, unused_nodes: str = "refuse", cut: b
     if dim == 3:
         return _check_tet_shapes(p_arr, t_arr, refuse, cut)
     if not cut:  # an edge in three or more triangles, a triangle listed twice
-        key, owner, _ = _edge_table(t_arr)
+        key, owner, _ = _facets(t_arr)
         same = (key[0, 1:] == key[0, :-1]) & (key[1, 1:] == key[1, :-1])
         fins = np.flatnonzero(same[1:] & same[:-1])  # three equal keys in a row: start index fins + 0
         if fins.size:
@@ -203,11 +211,10 @@ def check_mesh(p, t, name: str = "mesh", *, unused_nodes: str = "refuse", cut: b
     degenerate = np.flatnonzero(~(np.abs(det) > DEGENERATE_TOL * h2))
     if degenerate.size:
         refuse(f"zero-area (degenerate) triangles {index_list(degenerate)}")
-    folded = folded_triangles(p_arr, t_arr)
+    folded = _folded(p_arr, t_arr, copies=True)
     if folded.size:
-        pairs = ", ".join(f"({i}, {j})" for i, j in folded.T[:10]) + (" ..." if folded.shape[1] > 10 else "")
-        refuse(f"inverted triangles (folded over a neighbour across a shared edge): pairs {pairs}; a rest mesh "
-               "must not overlap itself")
+        refuse(f"inverted triangles (folded over a neighbour across a shared edge): pairs {_pairs(folded)}; a rest "
+               "mesh must not overlap itself")
     return p_arr, t_arr
 
 
@@ -244,34 +251,11 @@ def _check_tet_shapes(p_arr, t_arr, refuse, cut):
     if inverted.size and not cut:
         refuse(f"inverted tetrahedra {index_list(inverted)} (negative volume: vertices 1, 2, 3 must be right-handed "
                "about vertex 0)")
-    folded = folded_tetrahedra(p_arr, t_arr) if not cut else np.zeros((2, 0))
+    folded = _folded(p_arr, t_arr, copies=False) if not cut else np.zeros((2, 0))
     if folded.size:
-        pairs = ", ".join(f"({i}, {j})" for i, j in folded.T[:10]) + (" ..." if folded.shape[1] > 10 else "")
-        refuse(f"folded tetrahedra (overlapping a neighbour across a shared face): pairs {pairs}; a rest mesh must "
-               "not overlap itself")
+        refuse(f"folded tetrahedra (overlapping a neighbour across a shared face): pairs {_pairs(folded)}; a rest "
+               "mesh must not overlap itself")
     return p_arr, t_arr
-
-
-def folded_tetrahedra(p, t) -> np.ndarray:
-    """Pairs of tetrahedra ``(2, n_pairs)`` overlapping across their shared face (both fourth vertices on one side
-    of it): the 3D :func:`folded_triangles`."""
-    p, t = np.asarray(p, dtype=float), np.asarray(t, dtype=np.int64)
-    local = np.array([[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]])  # face k is opposite vertex k
-    key = np.sort(np.concatenate([t[row] for row in local], axis=1), axis=0)
-    opposite = np.concatenate([t[k] for k in range(4)])
-    owner = np.tile(np.arange(t.shape[1]), 4)
-    order = np.lexsort(key[::-1])
-    key, opposite, owner = key[:, order], opposite[order], owner[order]
-    same = np.flatnonzero((key[:, 1:] == key[:, :-1]).all(axis=0))
-    if same.size == 0:
-        return np.zeros((2, 0), dtype=np.int64)
-    a, b, c = p[:, key[0, same]], p[:, key[1, same]], p[:, key[2, same]]
-    normal = np.cross((b - a).T, (c - a).T).T
-
-    def side(o):
-        return np.sum(normal * (p[:, o] - a), axis=0)
-    bad = same[side(opposite[same]) * side(opposite[same + 1]) > 0]
-    return np.stack([owner[bad], owner[bad + 1]])
 
 
 # --- box of tetrahedra ------------------------------------------------------
@@ -289,8 +273,7 @@ def box(lx=1.0, ly=1.0, lz=1.0, nx=4, ny=4, nz=4) -> MeshTet:
     lx, ly, lz = _size("lx", lx), _size("ly", ly), _size("lz", lz)
     for label, ratio in (("lx / ly", lx / ly), ("ly / lz", ly / lz), ("lx / lz", lx / lz)):
         _check_aspect(label, ratio)
-    counts = [check_count(k, v, 1, MAX_TRIANGLES // 6) for k, v in (("nx", nx), ("ny", ny), ("nz", nz))]
-    nx, ny, nz = counts
+    nx, ny, nz = (check_count(k, v, 1, MAX_TRIANGLES // 6) for k, v in (("nx", nx), ("ny", ny), ("nz", nz)))
     if 6 * nx * ny * nz > MAX_TRIANGLES:
         raise ParameterError("nx", f"nx, ny, nz: {nx} x {ny} x {nz} cells give {6 * nx * ny * nz} tetrahedra, more "
                                    f"than the {MAX_TRIANGLES} a generated domain may have")
@@ -446,11 +429,9 @@ def fusiform_fiber_direction(points, length=4.0, max_width=1.0, tendon_width=0.2
 def fusiform_fiber_field(mesh, length=None, max_width=None, tendon_width=None) -> np.ndarray:
     """Unit fiber directions (2, n_elements) of a :func:`fusiform_muscle` mesh at the centroids; the sizes left
     ``None`` are read off the mesh (x-extent, y-extent, y-extent of the left tendon's nodes)."""
-    p, t = np.asarray(mesh.p, dtype=float), np.asarray(mesh.t)
-    if p.ndim != 2 or p.shape[0] != 2 or t.ndim != 2 or t.shape[0] != 3:
+    p, t = check_mesh(mesh.p, mesh.t, cut=True)  # what an assembler accepts
+    if p.shape[0] != 2:
         raise ParameterError("mesh", "mesh must be a 2D triangle mesh (p shaped (2, n), t shaped (3, n))")
-    if not np.all(np.isfinite(p)):
-        raise ParameterError("mesh", "mesh has non-finite node coordinates")
     x0 = p[0].min()
     length = p[0].max() - x0 if length is None else length
     max_width = 2.0 * np.abs(p[1]).max() if max_width is None else max_width

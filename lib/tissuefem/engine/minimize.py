@@ -26,7 +26,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .linsolve import Deadline, LinearSolver, SuperLU
-from .parameters import ParameterError, check_count, check_real, check_real_array, check_real_number
+from .parameters import ParameterError, check_count, check_indices, check_real, check_real_array, check_real_number
 from .vectors import dot, norm
 
 __all__ = ["newton", "NewtonResult", "NewtonIteration", "STATUSES"]
@@ -38,6 +38,8 @@ STATUSES = ("converged", "budget", "max-iterations", "line-search-failed", "non-
 _ARMIJO = 1e-4
 #: Energy differences below this fraction of the solve's energy scale are round-off.
 _ENERGY_ROUNDOFF = 1e-11
+#: The most halvings of one step in the line search.
+_MAX_HALVINGS = 30
 
 
 @dataclass
@@ -108,31 +110,25 @@ class NewtonResult:
 
 
 def _free_mask(n, free) -> np.ndarray:
+    """``free`` (a boolean mask of shape ``(n,)``, dof indices, or None: all) as a new boolean mask."""
     if free is None:
         return np.ones(n, dtype=bool)
     try:
-        free = np.asarray(free)
-    except (TypeError, ValueError):  # ragged lists
-        raise ParameterError("free", f"free must be a boolean mask of shape ({n},) or dof indices, got "
-                                     f"{free!r:.100}") from None
-    if free.dtype == bool:
-        if free.shape != (n,):
-            raise ParameterError("free", f"free must be a boolean mask of shape ({n},) or dof indices, got shape "
-                                         f"{free.shape}")
-        return free.copy()
-    if free.ndim != 1 or not (free.size == 0 or free.dtype.kind in "iu"):
-        raise ParameterError("free", f"free must be a boolean mask of shape ({n},) or integer dof indices, got "
-                                     f"dtype {free.dtype} and shape {free.shape}")
-    if free.size and (free.min() < 0 or free.max() >= n):
-        raise ParameterError("free", f"free: dof indices must be in 0..{n - 1}")
-    mask = np.zeros(n, dtype=bool)
-    mask[free.astype(np.intp)] = True
-    return mask
+        is_mask = np.asarray(free).dtype == bool
+    except (TypeError, ValueError):  # ragged lists: refused by check_indices
+        is_mask = False
+    if not is_mask:
+        mask = np.zeros(n, dtype=bool)
+        mask[check_indices("free", free, n, "dof indices")] = True
+        return mask
+    if np.shape(free) != (n,):
+        raise ParameterError("free", f"free must be a boolean mask of shape ({n},) or dof indices, got shape "
+                                     f"{np.shape(free)}")
+    return np.array(free, dtype=bool)
 
 
-def _checked(x0, callables, line_search, linear, optional_reals, max_step, max_iterations, max_halvings, budget,
-             tolerances):
-    """:func:`newton`'s arguments checked: ``(x, max_step, max_iterations, max_halvings, budget)``, ``x`` a copy.
+def _checked(x0, callables, line_search, linear, optional_reals, max_step, max_iterations, budget, tolerances):
+    """:func:`newton`'s arguments checked: ``(x, max_step, max_iterations, budget)``, ``x`` a copy.
     ``optional_reals`` may be None, NaN or infinite (they are results)."""
     x = np.array(check_real_array("x0", x0), dtype=float, copy=True)  # complex, strings, objects: refused by name
     if x.ndim != 1:
@@ -151,7 +147,6 @@ def _checked(x0, callables, line_search, linear, optional_reals, max_step, max_i
     for name, value in tolerances.items():
         check_real(name, value, 0.0, None)
     max_iterations = check_count("max_iterations", max_iterations, 0)
-    max_halvings = check_count("max_halvings", max_halvings, 0, 1074)  # 2^-1074: the smallest double
     if not (isinstance(budget, (float, np.floating)) and budget == math.inf):
         budget = check_real("budget", budget, 0.0, None, lo_open=True)
     for name, value in optional_reals.items():
@@ -160,7 +155,7 @@ def _checked(x0, callables, line_search, linear, optional_reals, max_step, max_i
     if linear is not None and not all(callable(getattr(linear, m, None)) for m in ("matrix", "solve")):
         raise ParameterError("linear", f"linear must be a LinearSolver (with matrix and solve methods) or None, got "
                                        f"{linear!r}")
-    return x, max_step, max_iterations, max_halvings, budget
+    return x, max_step, max_iterations, budget
 
 
 def _shifted_direction(A, rhs, shifts=None):
@@ -195,13 +190,19 @@ def _scaled_steepest_descent(A, rhs):
     return rhs / d
 
 
-def _descent(dx_free, A, rhs, x, mask, hessian, safe_hessian, linear, line_search, stats):
-    """``(dx_free, shift)``: the Newton step if usable (and downhill under the energy line search), else the safe
-    Hessian's, a shifted tangent's, steepest descent; ``(None, 0)``: no usable step and no energy to descend."""
+def _direction(dx_free, A, rhs, x, mask, hessian, safe_hessian, linear, line_search, stats, deadline):
+    """``(dx_free, shift)``: the linear solve's Newton step ``dx_free`` if usable (and downhill under the energy line
+    search), else the safe Hessian's, a shifted tangent's, steepest descent; ``(None, 0)``: no usable step and no
+    energy to descend. When a factorization (of the safeguards) does not fit the budget: a scaled steepest descent,
+    or ``None``."""
     if dx_free is not None and np.all(np.isfinite(dx_free)) and (line_search != "energy" or dot(rhs, dx_free) > 0):
         return dx_free, 0.0
     if line_search != "energy":
         return None, 0.0
+    if not deadline.fits("factorization"):
+        deadline.skip("factorization")
+        dx_free = _scaled_steepest_descent(A, rhs)
+        return None if dx_free is None else (dx_free, math.inf)
     if safe_hessian is not None:
         A = linear.condense(safe_hessian(x), mask)
         dx_free, shift, fac = _shifted_direction(A, rhs, shifts=(0.0,))
@@ -234,12 +235,12 @@ def _bounded_step(x, dx_free, mask, max_step, step_limit):
     return dx, dx_free
 
 
-def _line_search(x, dx, E, slope, rnorm, mask, gradient, energy, line_search, max_halvings, tolerance):
+def _line_search(x, dx, E, slope, rnorm, mask, gradient, energy, line_search, tolerance):
     """Halve ``alpha`` from 1 until the step is accepted (``line_search`` None: at once; ``"finite"``: a finite
     residual; ``"energy"``: Armijo's decrease of ``E``, or within ``tolerance`` of ``E`` a residual below ``rnorm``):
     ``(alpha, x_new, g_new or None, E_new or None)``, or None."""
     alpha = 1.0
-    for _ in range(max_halvings + 1):
+    for _ in range(_MAX_HALVINGS + 1):
         x_new = x + alpha * dx
         if line_search is None:
             return alpha, x_new, None, None
@@ -260,26 +261,14 @@ def _line_search(x, dx, E, slope, rnorm, mask, gradient, energy, line_search, ma
     return None
 
 
-def _direction(dx_free, A, rhs, x, mask, hessian, safe_hessian, linear, line_search, stats, deadline):
-    """``(dx_free, shift)``: the descent direction from the linear solve's ``dx_free`` (``dx_free`` None: singular),
-    by :func:`_descent`; ``None`` when only its safeguards (factorizations of shifted tangents) would give one and a
-    factorization does not fit the budget, and a scaled steepest descent gives none either."""
-    usable = dx_free is not None and np.all(np.isfinite(dx_free)) and (line_search != "energy" or dot(rhs, dx_free) > 0)
-    if not usable and line_search == "energy" and not deadline.fits("factorization"):
-        deadline.skip("factorization")
-        dx_free = _scaled_steepest_descent(A, rhs)
-        return None if dx_free is None else (dx_free, math.inf)
-    return _descent(dx_free, A, rhs, x, mask, hessian, safe_hessian, linear, line_search, stats)
-
-
 def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[np.ndarray], sp.spmatrix], *,
            energy: Callable[[np.ndarray], float] | None = None, free=None, line_search: str | None = "energy",
            rtol: float = 1e-10, atol: float = 0.0, reference_norm: float = 0.0, floor: float = 0.0,
            max_iterations: int = 30, max_step: float | None = None, linear: LinearSolver | None = None,
            safe_hessian: Callable[[np.ndarray], sp.spmatrix] | None = None, clock: Callable[[], float] | None = None,
            budget: float = math.inf, start: float | None = None, energy0: float | None = None,
-           energy_floor: float = 0.0, max_halvings: int = 30,
-           step_limit: Callable[[np.ndarray, np.ndarray], float] | None = None, progress: bool = True) -> NewtonResult:
+           energy_floor: float = 0.0, step_limit: Callable[[np.ndarray, np.ndarray], float] | None = None,
+           progress: bool = True) -> NewtonResult:
     """Minimise ``energy`` (or zero ``gradient``, ``q``) over the ``free`` dofs (a mask or indices; the others keep
     their ``x0`` values); ``hessian(x)``: the sparse Jacobian of ``q``; ``energy0 = E(x0)`` if known. Converged when
     ``||q_free|| <= max(atol + rtol max(||q_free(x0)||, reference_norm), floor)``: ``reference_norm`` the size of the
@@ -291,9 +280,9 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
     fit too; what was not started is the result's ``skipped``); ``step_limit(x, dx)``: the admissible fraction of
     ``dx`` (none: ``"blocked"``).
     """
-    x, max_step, max_iterations, max_halvings, budget = _checked(
+    x, max_step, max_iterations, budget = _checked(
         x0, {"gradient": gradient, "hessian": hessian, "energy": energy, "clock": clock, "safe_hessian": safe_hessian},
-        line_search, linear, {"start": start, "energy0": energy0}, max_step, max_iterations, max_halvings, budget,
+        line_search, linear, {"start": start, "energy0": energy0}, max_step, max_iterations, budget,
         {"rtol": rtol, "atol": atol, "floor": floor, "reference_norm": reference_norm, "energy_floor": energy_floor})
     if not isinstance(progress, (bool, np.bool_)):
         raise ParameterError("progress", f"progress must be True or False, got {progress!r}")
@@ -359,7 +348,7 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
         if E is not None:
             e_scale = max(e_scale, abs(E), abs(slope))
         t0 = deadline.clock()
-        step = _line_search(x, dx, E, slope, rnorm, mask, gradient, energy, line_search, max_halvings,
+        step = _line_search(x, dx, E, slope, rnorm, mask, gradient, energy, line_search,
                             max(_ENERGY_ROUNDOFF * e_scale, energy_floor))
         if step is None:
             return result("line-search-failed", k)

@@ -23,10 +23,10 @@ from .assembly import make_assembler
 from .constants import TISSUE_DENSITY
 from .contact import Contact
 from .effects import as_terms, keyword_terms
-from .materials import det
+from .materials import det, vector_length
 from .meshes import index_list
 from .parameters import (REACH, ParameterError, call_user, check_bounded_vector, check_count, check_density,
-                         check_indices, check_real, check_real_array, check_vector, is_sequence)
+                         check_indices, check_list, check_real, check_real_array, check_vector, is_sequence)
 from .terms import (Elastic, ElementTerm, GhostPenalty, Inertia, Load, Probe, SummedDensity, Sutures, Term,
                     boundary_lengths, extent, surface_lengths)
 
@@ -65,22 +65,16 @@ def region_nodes(mesh, region, field: str = "region") -> np.ndarray:
         if not is_sequence(box) or len(box) != 2 * dim:
             corners = "[x0, y0, x1, y1]" if dim == 2 else "[x0, y0, z0, x1, y1, z1]"
             raise ParameterError(f"{field}.box", f"{field}.box must be {corners}, got {box!r:.200}")
-        bounds = [check_real(f"{field}.box[{i}]", b) for i, b in enumerate(box)]
+        bounds = np.array([check_real(f"{field}.box[{i}]", b) for i, b in enumerate(box)])[:, None]
         tol = 1e-9 * max(1.0, float(np.ptp(p)))
-        inside = np.ones(n, dtype=bool)
-        for i in range(dim):
-            inside &= (p[i] >= bounds[i] - tol) & (p[i] <= bounds[dim + i] + tol)
-        nodes = np.flatnonzero(inside)
+        inside = (p >= bounds[:dim] - tol) & (p <= bounds[dim:] + tol)
+        nodes = np.flatnonzero(inside.all(axis=0))
     elif isinstance(region, dict) and "near" in region:
         if "radius" not in region:
             raise ValueError(f"{field}: a disc {{'near': [x, y], 'radius': r}} needs its radius")
         centre = check_bounded_vector(f"{field}.near", region["near"], np.inf, dim)
         radius = check_real(f"{field}.radius", region["radius"], 0.0, None)
-        if dim == 2:
-            d = np.hypot(p[0] - centre[0], p[1] - centre[1])
-        else:
-            d = np.sqrt(np.sum((p - centre[:, None]) ** 2, axis=0))
-        nodes = np.flatnonzero(d <= radius * (1 + 1e-9))
+        nodes = np.flatnonzero(vector_length(p - centre[:, None]) <= radius * (1 + 1e-9))
     else:
         raw = region["nodes"] if isinstance(region, dict) and "nodes" in region else region
         if isinstance(raw, dict):
@@ -92,14 +86,6 @@ def region_nodes(mesh, region, field: str = "region") -> np.ndarray:
         spans = ", ".join(f"{c} {lo[i]:g}..{hi[i]:g}" for i, c in enumerate("xyz"[:dim]))
         raise ValueError(f"{field}: selects no node of the mesh (it lies outside the domain, which spans {spans})")
     return nodes.astype(np.intp)
-
-
-def _dimension(mesh) -> int:
-    """The dimension of a mesh's points (2: triangles, 3: tetrahedra), refused by name otherwise."""
-    shape = np.shape(getattr(mesh, "p", None))
-    if len(shape) != 2 or shape[0] not in (2, 3):
-        raise ParameterError("mesh", f"mesh must be a scikit-fem MeshTri or MeshTet, got {type(mesh).__name__}")
-    return int(shape[0])
 
 
 # ------------------------------------------------------------------------------------------------ handles
@@ -155,8 +141,7 @@ class Handle:
             region = np.unique(arr).astype(np.intp)
         if name is not None and not isinstance(name, str):
             raise ValueError(f"name must be a string (or None: the model names the handle), got {name!r}")
-        self.region = region
-        self.name = name
+        self.region, self.name = region, name
         self.anchor = None if anchor is None else check_vector(
             "anchor", anchor, 3 if is_sequence(anchor) and len(anchor) == 3 else 2)
         self.base = None
@@ -201,9 +186,8 @@ class Handle:
             return None
         base = None if self.base is None else self.base[:, index[new_nodes]]
         h = Handle(new_nodes, base=base, name=self.name, anchor=self.anchor)
-        h.target, h._fixed = self.target, self._fixed
+        h.target, h._fixed, h._reach = self.target, self._fixed, self._reach
         h.nodes = new_nodes  # its region is these nodes: known before any model takes it
-        h._reach = self._reach
         return h
 
     def __repr__(self):
@@ -219,16 +203,12 @@ class Pattern:
     (``d a + i``, ``d a + j``) of vertex ``a``'s diagonal block (``d`` the mesh's dimension)."""
 
     def __init__(self, assembler, n_vertices, couplings=()):
-        n = assembler.n_dofs
-        self.n = n
-        extra = [(np.asarray(r, dtype=np.int64), np.asarray(c, dtype=np.int64)) for r, c in couplings]
-        base_rows = np.repeat(np.arange(n, dtype=np.int64), np.diff(assembler.indptr))
-        base_keys = base_rows * n + assembler.indices
+        n = self.n = assembler.n_dofs
+        base_keys = np.repeat(np.arange(n, dtype=np.int64), np.diff(assembler.indptr)) * n + assembler.indices
         new = np.zeros(0, dtype=np.int64)
-        if extra:
-            new = np.unique(np.concatenate([r * n + c for r, c in extra]))
-            if np.any(np.diff(base_keys) <= 0):  # pragma: no cover - the assemblers' patterns are sorted
-                base_keys = np.sort(base_keys)
+        if couplings:  # (the assemblers' patterns are sorted)
+            new = np.unique(np.concatenate([np.asarray(r, dtype=np.int64) * n + np.asarray(c, dtype=np.int64)
+                                            for r, c in couplings]))
             at = np.minimum(np.searchsorted(base_keys, new), base_keys.size - 1)
             new = new[base_keys[at] != new]  # only the couplings the mesh does not have already
         if new.size == 0:
@@ -253,12 +233,9 @@ class Pattern:
             shift = np.cumsum(np.bincount(inserted, minlength=base_keys.size + 1))[: base_keys.size]
             self.base_positions = np.arange(base_keys.size) + shift
         self.nnz = self._keys.size
-        nodes = np.arange(n_vertices, dtype=np.int64)
-        d = getattr(assembler, "dim", 2)
-        self.node_block = np.empty((d, d, n_vertices), dtype=np.intp)
-        for i in range(d):
-            for j in range(d):
-                self.node_block[i, j] = self.positions((d * nodes + i), (d * nodes + j))
+        nodes, d = np.arange(n_vertices, dtype=np.int64), getattr(assembler, "dim", 2)
+        i, j = np.indices((d, d))[..., None]
+        self.node_block = self.positions(d * nodes + i, d * nodes + j)
 
     def positions(self, rows, cols) -> np.ndarray:
         """Positions in the data array of the entries ``(rows, cols)`` (which must be in the pattern)."""
@@ -317,25 +294,23 @@ class Holding:
         """The dofs a handle holding ``nodes`` holds, and each dof's node's index in ``nodes`` (-1: P2 edge dofs)."""
         dofs = [self.basis.nodal_dofs[:, nodes].ravel()]
         owner = [np.tile(np.arange(nodes.size), self.dim)]
-        if self.order == 2 and self.dim == 3:  # P2 tetrahedra: the mid-edge dofs of the edges whose ends are held
-            held = np.zeros(self.mesh.nvertices, dtype=bool)
-            held[nodes] = True
-            edges = np.flatnonzero(held[self.mesh.edges[0]] & held[self.mesh.edges[1]])
-            dofs.append(self.basis.edge_dofs[:, edges].ravel())
-            owner.append(np.full(3 * edges.size, -1))
-        elif self.order == 2:
+        if self.order == 2:  # P2: the mid-edge dofs of the held edges (the facets of triangles)
             mesh = self.mesh
-            if isinstance(h.region, str):
-                edges = np.asarray(mesh.boundaries[h.region])
-            elif callable(h.region):
-                mid = 0.5 * (self.X[:, mesh.facets[0]] + self.X[:, mesh.facets[1]])
-                edges = _selected(f"handle {h.name!r} region", h.region, mid)
+            if self.dim == 2:
+                ends, mid_dofs = mesh.facets, self.basis.facet_dofs
             else:
+                ends, mid_dofs = mesh.edges, self.basis.edge_dofs
+            if self.dim == 2 and isinstance(h.region, str):
+                edges = np.asarray(mesh.boundaries[h.region])
+            elif self.dim == 2 and callable(h.region):
+                mid = 0.5 * (self.X[:, ends[0]] + self.X[:, ends[1]])
+                edges = _selected(f"handle {h.name!r} region", h.region, mid)
+            else:  # the edges whose ends are both held
                 held = np.zeros(mesh.nvertices, dtype=bool)
                 held[nodes] = True
-                edges = np.flatnonzero(held[mesh.facets[0]] & held[mesh.facets[1]])
-            dofs.append(self.basis.facet_dofs[:, edges].ravel())
-            owner.append(np.full(2 * edges.size, -1))
+                edges = np.flatnonzero(held[ends[0]] & held[ends[1]])
+            dofs.append(mid_dofs[:, edges].ravel())
+            owner.append(np.full(self.dim * edges.size, -1))
         return np.concatenate(dofs), np.concatenate(owner)
 
     def add_handle(self, handle: Handle) -> Handle:
@@ -397,11 +372,7 @@ class Holding:
         if isinstance(targets, dict):
             items = list(targets.items())
         else:
-            try:
-                seq = list(targets)
-            except TypeError:
-                raise ValueError("targets must be a dict, a sequence (one per handle) or None, "
-                                 f"got {targets!r}") from None
+            seq = check_list("targets", targets, "targets, one per handle (or a dict, or None)")
             if len(seq) != len(self.handles):
                 raise ValueError(f"targets has {len(seq)} entries but the model has {len(self.handles)} handles")
             items = list(enumerate(seq))
@@ -413,9 +384,8 @@ class Holding:
                 h = self.handle(key)
             except ValueError as err:
                 raise ValueError(f"targets: {err}") from None
-            if target is None:
-                continue
-            checked.append((h, _check_target(target, h._points, f"targets[{key!r}]", h._reach)))
+            if target is not None:
+                checked.append((h, _check_target(target, h._points, f"targets[{key!r}]", h._reach)))
         for h, target in checked:
             h.target = target
 
@@ -470,27 +440,21 @@ class Model(Holding):
                  gravity=None, body_force=None, tractions=None, fibers=None, probes=(), sutures=None, contact=None,
                  _meshmap=None):
         order = check_count("order", order, 1, 2)
-        try:
-            handles = list(handles)
-        except TypeError:
-            raise ValueError(f"handles must be a sequence of Handle objects, got {handles!r}") from None
-        try:
-            terms = list(terms)
-        except TypeError:
-            raise ParameterError("terms", f"terms must be a sequence of terms, got {terms!r}") from None
+        handles, terms = check_list("handles", handles, "Handle objects"), check_list("terms", terms, "terms")
         made = keyword_terms(dt=dt, mass=mass, gravity=gravity, body_force=body_force, tractions=tractions,
                              fibers=fibers, probes=probes, sutures=sutures, contact=contact)
         self.mesh, self.order, self.intorder, self.assembly, self.weights = mesh, order, intorder, assembly, weights
-        self.dim = dim = _dimension(mesh)
+        if len(np.shape(getattr(mesh, "p", None))) != 2 or np.shape(mesh.p)[0] not in (2, 3):
+            raise ParameterError("mesh", f"mesh must be a scikit-fem MeshTri or MeshTet, got {type(mesh).__name__}")
+        self.dim = dim = mesh.p.shape[0]
         if dim == 3 and weights is not None:
             raise ParameterError("weights", "weights: cuts through elements are 2D only for now; the mesh has "
                                             "tetrahedra")
         self.basis, self.assembler = make_assembler(mesh, order=order, intorder=intorder, assembly=assembly,
                                                     weights=weights)
-        n = self.basis.N
+        self.n_dofs = n = self.basis.N
         if not np.array_equal(self.basis.nodal_dofs, np.arange(dim * mesh.nvertices).reshape(-1, dim).T):
             raise RuntimeError("unexpected dof numbering of the vector basis")
-        self.n_dofs = n
         self.X = np.asarray(mesh.p, dtype=float)
         self.middle, self.size = extent(self.X)  # the domain's centre and size L (what "reach" is measured in)
         self.density = check_density(density)
@@ -505,10 +469,8 @@ class Model(Holding):
         self._meshmap, self._boundary_lengths = _meshmap, None  # a probe's surface weights, when first asked for
         elastic = Elastic(self.assembler, material)
         _check_material_at_rest(self.assembler, material)
-        self.terms = [elastic]
-        ghost = GhostPenalty.of(mesh, weights, material) if order == 1 else None  # thin pieces of a cut
-        if ghost is not None:
-            self.terms.append(ghost)
+        # the ghost penalty ties the thin pieces of a cut to their neighbours
+        self.terms = [elastic] + as_terms(GhostPenalty.of(mesh, weights, material) if order == 1 else None)
         for t in made + terms:
             for term in as_terms(t if isinstance(t, Term) else t(self)):
                 if not isinstance(term, Term):
@@ -562,8 +524,6 @@ class Model(Holding):
 
     def add_term(self, term: Term) -> None:
         """Add a term (a probe, sutures ...); the pattern is widened if the term needs it. All or nothing."""
-        if not isinstance(term, Term):
-            raise ValueError(f"term must be a Term, got {term!r}")
         self.set_terms(self.terms + [term])
 
     def remove_term(self, term: Term) -> None:
@@ -574,8 +534,8 @@ class Model(Holding):
 
     def replace_term(self, old: Term, new: Term) -> None:
         """Put ``new`` where ``old`` was (more stitches in one sutures term). All or nothing."""
-        if not isinstance(new, Term) or not any(t is old for t in self.terms):
-            raise ValueError(f"replace_term: the model holds no term {old!r}, or {new!r} is no Term")
+        if not any(t is old for t in self.terms):
+            raise ValueError(f"replace_term: the model holds no term {old!r}")
         self.set_terms([new if t is old else t for t in self.terms])
 
     def remapped(self, meshmap, state=()) -> tuple["Model", tuple]:

@@ -17,14 +17,12 @@ import reprlib
 import numpy as np
 
 __all__ = [
-    "ParameterError", "lame_parameters", "check_young_poisson", "check_poisson_ratio", "check_lame", "check_real",
-    "check_real_number", "check_count", "check_positive", "call_user", "check_vector", "check_bounded_vector",
-    "check_real_array", "check_indices", "check_reach", "check_weights", "check_fiber_stiffness",
-    "check_time_step", "check_density", "check_contact_stiffness", "check_penalty_stiffness",
-    "YOUNGS_MODULUS_RANGE", "POISSON_RATIO_RANGE", "LAME_MAX", "SHEAR_MODULUS_MIN", "TIME_STEP_RANGE",
-    "DENSITY_RANGE", "ACCELERATION_MAX", "FORCE_MAX", "PENALTY_MAX", "PENALTY_STIFFNESS_MAX",
-    "CONTACT_STIFFNESS_MAX", "REACH",
-    "RADIUS_RANGE",
+    "ParameterError", "lame_parameters", "check_poisson_ratio", "check_lame", "check_real", "check_real_number",
+    "check_count", "check_positive", "call_user", "check_list", "check_vector", "check_bounded_vector",
+    "check_real_array", "check_indices", "check_reach", "check_weights", "check_fiber_stiffness", "check_time_step",
+    "check_density", "check_contact_stiffness", "check_penalty_stiffness", "YOUNGS_MODULUS_RANGE",
+    "POISSON_RATIO_RANGE", "LAME_MAX", "SHEAR_MODULUS_MIN", "TIME_STEP_RANGE", "DENSITY_RANGE", "ACCELERATION_MAX",
+    "FORCE_MAX", "PENALTY_MAX", "PENALTY_STIFFNESS_MAX", "CONTACT_STIFFNESS_MAX", "REACH", "RADIUS_RANGE",
     # a scene's tables: each refusal names the field (``effects.probes[0].radius``)
     "show", "number", "is_sequence", "vector", "points", "table", "require", "string", "count_list", "penalty",
     "FAR", "MAX_POINTS", "MAX_STRING", "FIBER_STIFFNESS_RANGE",
@@ -123,6 +121,14 @@ def call_user(field: str, what: str, function, *args):
         raise ParameterError(field, f"{field}: the {what} raised {type(err).__name__}: {err}") from None
 
 
+def check_list(name: str, value, what: str) -> list:
+    """``list(value)``, else a ``ParameterError`` naming ``name``: ``value`` must be a sequence of ``what``."""
+    try:
+        return list(value)
+    except TypeError:
+        raise ParameterError(name, f"{name} must be a sequence of {what}, got {show(value)}") from None
+
+
 def check_vector(name, value, size: int = 2) -> np.ndarray:
     """A finite vector ``(x, y)`` (``size=3``: ``(x, y, z)``) of real numbers, or a ``ValueError`` naming ``name``."""
     xy = "(x, y)" if size == 2 else "(x, y, z)"
@@ -187,18 +193,22 @@ def check_density(rho, name: str = "density") -> float:
     return check_real(name, rho, *DENSITY_RANGE)
 
 
+def _check_stiffness(name, stiffness, hi, times, what, positive) -> float:
+    value = check_real_number(name, stiffness)
+    if not (math.isfinite(value) and (0.0 < value if positive else 0.0 <= value) and value <= hi):
+        raise ParameterError(name, f"{name} must be in {'(' if positive else '['}0, {hi:g}] ({times}: stiffer, the "
+                                   f"{what}'s energy hides the elastic energy in round-off and the solver throws "
+                                   f"nodes), got {show(stiffness)}")
+    return value
+
+
 def check_contact_stiffness(name: str, stiffness, modulus) -> float:
     """A self-contact stiffness (a pressure) in ``(0, CONTACT_STIFFNESS_MAX * modulus]``, ``modulus`` the material's
     Young's modulus. Stiffer buys nothing visible (at a pressure of ``modulus`` a point sinks under 1 % of the skin's
     depth at the bound) and the barrier's energy swamps the elastic energy's round-off: the line search cannot see
     the tissue any more, frames stop converging, and from about ``1e16`` moduli nodes are thrown across the scene."""
-    hi = CONTACT_STIFFNESS_MAX * modulus
-    value = check_real_number(name, stiffness)
-    if not (math.isfinite(value) and 0.0 < value <= hi):
-        raise ParameterError(name, f"{name} must be in (0, {hi:g}] ({CONTACT_STIFFNESS_MAX:g} times Young's modulus "
-                                   f"{modulus:g}: stiffer, the contact's energy hides the elastic energy in "
-                                   f"round-off and the solver throws nodes), got {show(stiffness)}")
-    return value
+    return _check_stiffness(name, stiffness, CONTACT_STIFFNESS_MAX * modulus,
+                            f"{CONTACT_STIFFNESS_MAX:g} times Young's modulus {modulus:g}", "contact", True)
 
 
 def check_penalty_stiffness(name: str, stiffness, modulus, radius=None, *, positive: bool = False) -> float:
@@ -210,14 +220,9 @@ def check_penalty_stiffness(name: str, stiffness, modulus, radius=None, *, posit
     penalty's energy swamps the elastic energy's round-off: the line search cannot see the tissue any more, and from
     about ``1e11 modulus / radius`` (probes) or ``1e16 modulus`` (sutures) nodes are thrown across the scene while
     the frames still report convergence."""
-    hi = PENALTY_STIFFNESS_MAX * modulus / (1.0 if radius is None else radius)
-    value = check_real_number(name, stiffness)
-    if not (math.isfinite(value) and (0.0 < value if positive else 0.0 <= value) and value <= hi):
-        unit = f"Young's modulus {modulus:g}" + ("" if radius is None else f" per radius {radius:g}")
-        raise ParameterError(name, f"{name} must be in {'(' if positive else '['}0, {hi:g}] "
-                                   f"({PENALTY_STIFFNESS_MAX:g} times {unit}: stiffer, the penalty's energy hides the "
-                                   f"elastic energy in round-off and the solver throws nodes), got {show(stiffness)}")
-    return value
+    unit = f"Young's modulus {modulus:g}" + ("" if radius is None else f" per radius {radius:g}")
+    return _check_stiffness(name, stiffness, PENALTY_STIFFNESS_MAX * modulus / (1.0 if radius is None else radius),
+                            f"{PENALTY_STIFFNESS_MAX:g} times {unit}", "penalty", positive)
 
 
 def check_bounded_vector(name: str, value, bound: float, size: int = 2) -> np.ndarray:
@@ -241,21 +246,16 @@ def check_poisson_ratio(nu, name: str = "nu (Poisson's ratio)") -> float:
     return nu
 
 
-def check_young_poisson(E, nu) -> tuple[float, float]:
-    """Validate Young's modulus and Poisson's ratio (:data:`YOUNGS_MODULUS_RANGE`, :data:`POISSON_RATIO_RANGE`)."""
-    E = check_real("E (Young's modulus)", E, *YOUNGS_MODULUS_RANGE)
-    return E, check_poisson_ratio(nu)
-
-
 def lame_parameters(E, nu, plane: str = "strain") -> tuple[float, float]:
-    """Lamé parameters ``(lam, mu)`` from Young's modulus and Poisson's ratio (:func:`check_young_poisson`).
+    """Lamé parameters ``(lam, mu)`` from Young's modulus and Poisson's ratio (:data:`YOUNGS_MODULUS_RANGE`,
+    :func:`check_poisson_ratio`).
 
     ``lam = E nu / ((1 + nu)(1 - 2 nu))``, ``mu = E / (2 (1 + nu))`` (the notes' formula, Young's modulus written K):
     plane strain in 2D; ``plane="stress"`` gives ``lam* = 2 lam mu / (lam + 2 mu)`` (linear elasticity of thin
     sheets). ``-1 < nu < 0.5`` (the notes say "between 0 and 1/2"; auxetic ``nu < 0`` is admissible too); ``nu -> 0.5``
     makes ``lam`` blow up: nearly incompressible.
     """
-    E, nu = check_young_poisson(E, nu)
+    E, nu = check_real("E (Young's modulus)", E, *YOUNGS_MODULUS_RANGE), check_poisson_ratio(nu)
     lam, mu = E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu)), E / (2.0 * (1.0 + nu))
     if plane == "strain":
         return lam, mu
@@ -353,10 +353,12 @@ def table(field, value, allowed=None) -> dict:
     return value
 
 
-def require(field, value, keys) -> None:
+def require(field, value, keys) -> dict:
+    """``value`` (a table) if it has every key of ``keys``."""
     for key in keys:
         if key not in value:
             raise ParameterError(f"{field}.{key}", f"{field}.{key}: missing")
+    return value
 
 
 def string(field, value, choices=None, *, nonempty=False) -> str:

@@ -32,16 +32,15 @@ import numpy as np
 import scipy.sparse as sp
 from skfem import FacetBasis, LinearForm, asm
 
-from .materials import (DIMENSIONS, FiberReinforced, Material, check_fiber_stiffness, fiber_energy_term,
-                        fiber_stress_term, fiber_tangent_term, vector_length)
+from .materials import FiberFamily, check_fiber_stiffness, vector_length
 from .parameters import (FORCE_MAX, RADIUS_RANGE, REACH, YOUNGS_MODULUS_RANGE, ParameterError, check_bounded_vector,
                          check_density, check_indices, check_penalty_stiffness, check_reach, check_real,
-                         check_real_array, check_time_step, check_vector, check_weights)
+                         check_real_array, check_time_step, check_vector, check_weights, string)
 from .vectors import dot
 
-__all__ = ["Term", "ElementTerm", "Elastic", "GhostPenalty", "GHOST_WEIGHT", "GHOST_PENALTY", "Fibers", "Inertia",
-           "Load", "Probe", "Sutures", "traction_vector", "SummedDensity", "extent", "refuse_3d", "boundary_lengths",
-           "surface_lengths"]
+__all__ = ["Term", "ElementTerm", "ConstantHessian", "Elastic", "GhostPenalty", "GHOST_WEIGHT", "GHOST_PENALTY",
+           "Fibers", "Inertia", "Load", "Probe", "Sutures", "traction_vector", "SummedDensity", "extent", "refuse_3d",
+           "boundary_lengths", "surface_lengths", "node_blocks"]
 
 
 class Term:
@@ -138,6 +137,27 @@ class Elastic(ElementTerm):
         return f"elastic: {getattr(self.material, 'name', type(self.material).__name__)}"
 
 
+class ConstantHessian(Term):
+    """A quadratic term whose Hessian is the constant entries ``entries() -> (rows, cols, values)``, which may
+    couple dofs the mesh does not (sutures: the model widens its pattern)."""
+
+    quadratic = True
+
+    def entries(self):
+        raise NotImplementedError
+
+    def couplings(self):
+        return self.entries()[:2]
+
+    def bind(self, pattern):
+        super().bind(pattern)
+        rows, cols, self._values = self.entries()
+        self._positions = pattern.positions(rows, cols)
+
+    def add_hessian(self, u, data, safe=False):
+        np.add.at(data, self._positions, self._values)
+
+
 #: The pieces of triangles cut through that get a ghost penalty (:class:`GhostPenalty`): those lighter than this share
 #: of their triangle (1: every piece, as Burman's penalty acts on every face of a cut element)
 GHOST_WEIGHT = 1.0
@@ -145,7 +165,7 @@ GHOST_WEIGHT = 1.0
 GHOST_PENALTY = 0.1
 
 
-class GhostPenalty(Term):
+class GhostPenalty(ConstantHessian):
     """The ghost penalty of a mesh cut through its elements: ``E = 1/2 sum_(e, f) c_ef |grad u_e - grad u_f|^2`` over
     the pairs of a piece ``e`` (weight below ``light``) and an element ``f`` sharing an edge (both its nodes) with it,
     not a copy of the same triangle; ``c_ef = gamma mu (A_e + A_f)`` (the whole triangles' areas).
@@ -167,7 +187,6 @@ class GhostPenalty(Term):
     """
 
     name = "ghost penalty"
-    quadratic = True
     rank = 4  # after the element terms and the tools (probes, sutures), before the others
 
     def __init__(self, mesh, weights, modulus, gamma=GHOST_PENALTY, light=GHOST_WEIGHT):
@@ -203,11 +222,7 @@ class GhostPenalty(Term):
         nodes = np.concatenate([t[:, e], t[:, f]])  # (6, n_pairs): e's nodes, then f's
         g = np.concatenate([G[:, :, e], -G[:, :, f]])  # (6, 2, n_pairs): grad u_e - grad u_f = sum_a u_a g_a^T
         block = (self.gamma * self.modulus * (area[e] + area[f])) * np.einsum("ajp,bjp->abp", g, g)  # (6, 6, n_pairs)
-        rows = np.repeat(nodes[:, None, :], 6, axis=1)
-        cols = np.repeat(nodes[None, :, :], 6, axis=0)
-        self._rows = np.concatenate([2 * rows.ravel() + i for i in range(2)])
-        self._cols = np.concatenate([2 * cols.ravel() + i for i in range(2)])
-        self._values = np.concatenate([block.ravel(), block.ravel()])
+        self._rows, self._cols, self._values = node_blocks(nodes, block, 2)
         n = 2 * self.n_nodes
         self.K = sp.csr_matrix((self._values, (self._rows, self._cols)), shape=(n, n))
 
@@ -230,45 +245,14 @@ class GhostPenalty(Term):
         g[: 2 * self.n_nodes] = self.K @ np.asarray(u)[: 2 * self.n_nodes]
         return g
 
-    def couplings(self):
-        return self._rows, self._cols
-
-    def bind(self, pattern):
-        super().bind(pattern)
-        self._positions = pattern.positions(self._rows, self._cols)
-
-    def add_hessian(self, u, data, safe=False):
-        np.add.at(data, self._positions, self._values)
+    def entries(self):
+        return self._rows, self._cols, self._values
 
     def remap(self, meshmap):
         return None  # the new model makes its own from its weights
 
     def describe(self):
         return f"ghost penalty: {self.pairs.shape[1]} pairs of elements, gamma = {self.gamma:g}"
-
-
-class _FiberDensity(Material):
-    """Only the fibre part ``k/8 (I4 - 1)^2`` of :class:`~tissuefem.engine.materials.FiberReinforced`."""
-
-    name = "fibers"
-
-    def __init__(self, stiffness, fibers):
-        self.lam = self.mu = 0.0
-        self.fibers = FiberReinforced._check_fibers(fibers, DIMENSIONS)  # normalised, shape-checked
-        self.stiffness = float(stiffness)
-
-    def _g(self, F):
-        g = self.fibers  # (d, n_elements): aligned with F's element axis, broadcast over points
-        return g.reshape(g.shape + (1,) * (F.ndim - 2 - (g.ndim - 1)))
-
-    def energy(self, F):
-        return fiber_energy_term(F, self._g(F), self.stiffness)
-
-    def stress(self, F):
-        return fiber_stress_term(F, self._g(F), self.stiffness)
-
-    def tangent(self, F):
-        return fiber_tangent_term(F, self._g(F), self.stiffness)
 
 
 class Fibers(ElementTerm):
@@ -288,7 +272,7 @@ class Fibers(ElementTerm):
         if g.shape != (d, nel):
             raise ValueError(f"fibers.direction must be shaped ({d},) or ({d}, n_elements={nel}), got {g.shape}")
         self.given = g  # as given (a remap carries these, so the normalisation is done once, as at the start)
-        self.density = _FiberDensity(self.stiffness, g)
+        self.density = FiberFamily(self.stiffness, g)
         self.directions = self.density.fibers
 
     def remap(self, meshmap):
@@ -300,32 +284,27 @@ class Fibers(ElementTerm):
 
 class SummedDensity:
     """The sum of energy densities evaluated on one ``F`` (one assembly pass for all element terms); with
-    ``safe``, each density's positive semi-definite tangent where it offers one (the safe Hessian)."""
+    ``safe``, each density's positive semi-definite ``safe_tangent`` where it offers one (the safe Hessian)."""
 
     def __init__(self, densities, safe=False):
         self.densities, self.safe = list(densities), safe
         self.name = " + ".join(getattr(d, "name", "?") for d in self.densities)
 
     def _sum(self, method, F):
-        out = method(self.densities[0], F)
-        for d in self.densities[1:]:
-            out = out + method(d, F)
+        out = None
+        for d in self.densities:
+            value = getattr(d, method, d.tangent)(F)  # the tangent where a density has no safe one
+            out = value if out is None else out + value
         return out
 
     def energy(self, F):
-        return self._sum(lambda d, F: d.energy(F), F)
+        return self._sum("energy", F)
 
     def stress(self, F):
-        return self._sum(lambda d, F: d.stress(F), F)
+        return self._sum("stress", F)
 
     def tangent(self, F):
-        return self._sum(safe_tangent if self.safe else lambda d, F: d.tangent(F), F)
-
-
-def safe_tangent(density, F):
-    """A density's positive semi-definite tangent where it offers one (else its tangent)."""
-    safe = getattr(density, "safe_tangent", None)
-    return safe(F) if safe is not None else density.tangent(F)
+        return self._sum("safe_tangent" if self.safe else "tangent", F)
 
 
 class Inertia(Term):
@@ -337,13 +316,10 @@ class Inertia(Term):
     rank = 0
 
     def __init__(self, assembler, dt, density, mass="lumped"):
-        if not isinstance(mass, str) or mass not in ("lumped", "consistent"):
-            raise ValueError(f"mass must be 'lumped' or 'consistent', got {mass!r}")
+        self.mass_kind = string("mass", mass, ("lumped", "consistent"))
         self.dt = check_time_step(dt)  # dt^2 divides the mass: a closed range, neither end open
         self.density = check_density(density)
-        self.lumped = mass == "lumped"
-        self.mass_kind = mass
-        self.assembler = assembler
+        self.assembler, self.lumped = assembler, mass == "lumped"
         self.mass_data = assembler.mass(self.density, lumped=self.lumped)
         self.M = assembler.csr(self.mass_data)
         self._diagonal = self.M.diagonal() if self.lumped else None
@@ -407,6 +383,16 @@ class Load(Term):
         if self.make is None:
             return super().remap(meshmap)
         return lambda model: Load(self.name, self.make(model), self.make)
+
+
+def node_blocks(nodes, block, dim) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The Hessian entries ``(rows, cols, values)`` of ``block[a, b, p]`` ``(m, m, n)``, the coupling of the nodes
+    ``nodes[a, p]`` and ``nodes[b, p]`` ``(m, n)``, in each of the ``dim`` components alike."""
+    m = nodes.shape[0]
+    rows = np.repeat(nodes[:, None, :], m, axis=1).ravel()
+    cols = np.repeat(nodes[None, :, :], m, axis=0).ravel()
+    return (np.concatenate([dim * rows + i for i in range(dim)]), np.concatenate([dim * cols + i for i in range(dim)]),
+            np.tile(block.ravel(), dim))
 
 
 def refuse_3d(effect: str, X) -> None:
@@ -478,9 +464,7 @@ def traction_vector(basis, boundary, traction) -> np.ndarray:
 
     @LinearForm
     def traction_form(v, w):
-        if t.size == 3:
-            return t[0] * v[0] + t[1] * v[1] + t[2] * v[2]
-        return t[0] * v[0] + t[1] * v[1]
+        return sum(t[i] * v[i] for i in range(t.size))
 
     return asm(traction_form, fb)
 
@@ -573,9 +557,7 @@ class Probe(Term):
     def gradient(self, u):
         nodes, g, n, _ = self._contact(u)
         out = np.zeros(u.size)
-        f = -self.stiffness * self.length[nodes] * self._h(g)[1] * n  # dE/dx
-        for i in range(self.dim):
-            out[self.dim * nodes + i] = f[i]
+        out.reshape(-1, self.dim)[nodes] = (-self.stiffness * self.length[nodes] * self._h(g)[1] * n).T  # dE/dx
         return out
 
     def forces(self, u) -> np.ndarray:
@@ -601,7 +583,7 @@ class Probe(Term):
                 np.add.at(data, self.pattern.node_block[i, j, nodes], block)
 
 
-class Sutures(Term):
+class Sutures(ConstantHessian):
     """Stiff springs that tie pairs of points together: ``E = sum_s k/2 |x_a - x_b - g_s|^2``.
 
     An end is a node, or a point inside an element that moves with its nodes, ``x_a = sum_c w_c x_{n_c}``
@@ -615,7 +597,6 @@ class Sutures(Term):
     """
 
     name = "sutures"
-    quadratic = True
     rank = 3
 
     def __init__(self, X, pairs, stiffness, gaps, tightness=0.0, coefficients=None):
@@ -641,8 +622,7 @@ class Sutures(Term):
                     or not np.allclose(coef.sum(axis=1), 1.0, atol=1e-9):
                 raise ValueError(f"sutures.coefficients must be barycentric weights shaped {nodes.shape} "
                                  "(each end's weights in [-10, 10], adding up to 1)")
-        self.nodes = nodes.astype(np.intp)
-        self.coefficients = coef
+        self.nodes, self.coefficients = nodes.astype(np.intp), coef
         k_count = nodes.shape[-1]
         #: node pairs (2, k): each end's node of largest weight (the node itself for node-to-node stitches)
         self.pairs = np.take_along_axis(self.nodes, np.argmax(coef, axis=1)[:, None, :], axis=1)[:, 0, :]
@@ -663,10 +643,8 @@ class Sutures(Term):
         if gaps.shape != (self.dim, k_count) or not np.all(np.abs(gaps) <= reach):
             raise ValueError(f"sutures.gaps must be finite, within {REACH:g} domain sizes ({reach:g}) and shaped "
                              f"{(self.dim, k_count)}, got shape {gaps.shape}")
-        self.gap0 = gaps
-        self.tightness = np.zeros(k_count)
-        self.slack = self.gap0.copy()
-        self.tighten(tightness)
+        self.gap0, self.tightness = gaps, np.zeros(k_count)
+        self.tighten(tightness)  # sets the slack
 
     def tighten(self, fraction, stitches=None) -> None:
         """Set the tightness (0 slack ... 1 closed) of all stitches or of the ``stitches`` (indices):
@@ -731,24 +709,8 @@ class Sutures(Term):
         e = self._gap(u)
         return self.k * vector_length(e)
 
-    def _triplets(self):
+    def entries(self):
         # D maps node displacements to the gap: +w on end a's nodes, -w on end b's; the Hessian is k D^T D
-        nodes = self.nodes.reshape(-1, self.k.size)  # (2c, k)
-        signed = (self.coefficients * np.array([1.0, -1.0])[:, None, None]).reshape(-1, self.k.size)
-        p = np.repeat(nodes[:, None, :], nodes.shape[0], axis=1)  # rows (2c, 2c, k)
-        q = np.repeat(nodes[None, :, :], nodes.shape[0], axis=0)
+        signed = (self.coefficients * np.array([1.0, -1.0])[:, None, None]).reshape(-1, self.k.size)  # (2c, k)
         w = signed[:, None, :] * signed[None, :, :] * self.k
-        rows = np.concatenate([self.dim * p.ravel() + i for i in range(self.dim)])
-        cols = np.concatenate([self.dim * q.ravel() + i for i in range(self.dim)])
-        return rows, cols, np.tile(w.ravel(), self.dim)
-
-    def couplings(self):
-        return self._triplets()[:2]
-
-    def bind(self, pattern):
-        super().bind(pattern)
-        rows, cols, self._values = self._triplets()
-        self._positions = pattern.positions(rows, cols)
-
-    def add_hessian(self, u, data, safe=False):
-        np.add.at(data, self._positions, self._values)
+        return node_blocks(self.nodes.reshape(-1, self.k.size), w, self.dim)

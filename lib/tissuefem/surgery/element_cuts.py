@@ -1,38 +1,33 @@
 """Cutting through elements: the virtual node algorithm in 2D.
 
-:func:`~tissuefem.surgery.topology.incise` snaps a stroke to mesh edges: the wound is jagged and depends on the mesh.
-Here the stroke is followed exactly, without remeshing, by the *virtual node algorithm* of Molino, Bao and Fedkiw
-[1]_: every triangle the cut separates is duplicated, one copy per piece of its material; each copy keeps the
+:func:`~tissuefem.surgery.topology.incise` snaps a stroke to mesh edges, so the wound is jagged and depends on the
+mesh. Here the stroke is followed exactly, without remeshing, by the *virtual node algorithm* of Molino, Bao and
+Fedkiw [1]_: every triangle the cut separates is duplicated, one copy per piece of its material; each copy keeps the
 triangle's reference geometry (hence its P1 shape functions) and carries only its piece; vertices whose material a
 copy does not hold become extra ("virtual") nodes.
 
-1. **Where the stroke lies.** The stroke is drawn on the deformed tissue; the P1 map of a triangle is affine, so each
-   segment ``a -> b`` is clipped in barycentric coordinates, keeping ``lambda_i(a) + s (lambda_i(b) - lambda_i(a))
-   >= 0``. A stroke within 1e-6 edge lengths of a node is first moved onto it, so that neighbours agree about it.
-2. **The material of an element** is a :class:`Region`: the polygon it fills, its *slits* and *severed* edge parts;
-   its weight (the polygon's share of the triangle) is what :class:`~tissuefem.engine.assembly.P1Assembler`
-   integrates.
+1. **Where the stroke lies.** The P1 map of a triangle is affine, so each segment ``a -> b`` of the stroke (drawn on
+   the deformed tissue) is clipped in barycentric coordinates, keeping ``lambda_i(a) + s (lambda_i(b) -
+   lambda_i(a)) >= 0``. A stroke within 1e-6 edge lengths of a node is first moved onto it.
+2. **The material of an element** is a :class:`Region`: its polygon, *slits* and *severed* edge parts; its weight
+   (the polygon's share of the triangle) is what :class:`~tissuefem.engine.assembly.P1Assembler` integrates.
 3. **Splitting.** The region's boundary, its slits and the stroke's new pieces form a planar graph; dangling edges (a
-   crack ending in the material) are pruned and kept as slits; its ``k`` faces are ``k`` copies of the element.
+   crack ending in the material) are kept as slits; its ``k`` faces are ``k`` copies of the element.
 4. **Nodes.** Two elements across a mesh edge are *joined* where the parts of the edge their regions touch (less what
    is severed) overlap over a positive length; joined elements share the edge's nodes. The new nodes are the classes
    of corners (element, vertex) under these joins. A cut along a mesh edge needs no split: severing stops the join.
 5. **The crack tip.** The triangle holding the end of a crack is one piece, so (as in [1]_) it is not duplicated: the
-   crack in it is a slit. The crack closes within one element of the drawn tip, the resolution of P1 with virtual
-   nodes (phantom-node methods [3]_ make the same choice).
+   crack closes within one element of the drawn tip (phantom-node methods [3]_ make the same choice).
 6. **No slivers.** A piece lighter than ``min_weight`` is merged into its neighbour across the cut and the parts of
-   the triangle's edges that bounded it are severed instead (the :class:`Wound` stays where the stroke was drawn).
-   A light piece that stays holds its virtual nodes with a stiffness proportional to its weight, while a stitch, a
-   grab or contact on its lip pulls them with the lip point's barycentric coefficients: the model on a cut mesh adds
-   a ghost penalty [4]_ (:class:`~tissuefem.engine.terms.GhostPenalty`) that ties each piece's deformation gradient
-   to its neighbours', so that neither spikes nor crumpling lips appear, at any mesh size.
+   the triangle's edges that bounded it are severed instead (the :class:`Wound` stays where it was drawn). A light
+   piece that stays is tied to its neighbours by a ghost penalty [4]_ (:class:`~tissuefem.engine.terms.GhostPenalty`)
+   on the model, so that neither spikes nor crumpling lips appear.
 7. **One element per set of nodes.** Copies of one triangle with the same three nodes (e.g. the corners outside a
    V-shaped crack) are one element, whose region may have several polygons.
 
-Cuts through vertices and along edges need no special case (the generalisation of Wang et al. [2]_). Uncut elements
-and old nodes keep their index and vertex order; the first piece of a cut element keeps its index, the other pieces
-and the virtual nodes are appended. Nodal masses from the material areas (:func:`lumped_mass`) carry mass and
-momentum over exactly.
+Cuts through vertices and along edges need no special case (Wang et al. [2]_). Uncut elements and old nodes keep
+their index and vertex order; the other pieces and the virtual nodes are appended. Nodal masses from the material
+areas (:func:`lumped_mass`) carry mass and momentum over exactly.
 
 .. [1] N. Molino, Z. Bao, R. Fedkiw, *A virtual node algorithm for changing mesh topology during simulation*, ACM
    Transactions on Graphics 23(3) (SIGGRAPH 2004), 385-392.
@@ -123,27 +118,21 @@ class _Arrangement:
                         self.graph[key] = kind
         self.slits = []  # (u, v) edges of cracks that do not separate
         self.wound = []  # ("inner", u, v, t0, t1) or ("edge", u, v, t0, t1, k)
-        self.changed = False
         for u, v, t0, t1 in cut_edges:
-            key = _key(u, v)
-            kind = self.graph.get(key)
-            if kind == _P:
+            kind = self.graph.get(_key(u, v))
+            if kind == _P:  # severs an edge of the triangle with an element across (else: an old wound, the boundary)
                 k = self._edge_of(u, v)
                 if k is not None and open_edge[k]:
                     self.new_severed[k].append(self._interval(k, u, v))
                     self.wound.append(("edge", u, v, t0, t1, k))
-                    self.changed = True
-                continue  # along an old wound, or along the body's boundary: nothing to do
-            if kind == _S:
+            elif kind == _S:
                 self.wound.append(("inner", u, v, t0, t1))
-                continue
-            if self._edge_of(u, v) is not None:
-                continue  # on the triangle's edge where this copy has no material
-            if sum(winding(_mid(self.verts[u], self.verts[v]), poly) for poly in polys) == 0:
-                continue  # outside this copy's material
-            self.graph[key] = _C
-            self.wound.append(("inner", u, v, t0, t1))
-            self.changed = True
+            # a new cut, unless on the triangle's edge where this copy has no material or outside its material
+            elif self._edge_of(u, v) is None and sum(winding(_mid(self.verts[u], self.verts[v]), poly)
+                                                     for poly in polys) != 0:
+                self.graph[_key(u, v)] = _C
+                self.wound.append(("inner", u, v, t0, t1))
+        self.changed = _C in self.graph.values() or any(rec[0] == "edge" for rec in self.wound)
         self._settle()
 
     def _vertex(self, pt) -> int:
@@ -176,28 +165,23 @@ class _Arrangement:
         stack = [u for u, nb in adj.items() if len(nb) == 1]
         while stack:
             u = stack.pop()
-            if len(adj.get(u, ())) != 1:
+            if len(adj[u]) != 1:
                 continue
             (v,) = adj[u]
-            key = _key(u, v)
-            self.slits.append(key)
-            del self.graph[key]
+            self.slits.append(_key(u, v))
+            del self.graph[_key(u, v)]
             adj[u].discard(v)
             adj[v].discard(u)
             if len(adj[v]) == 1:
                 stack.append(v)
-        # components without a boundary edge: closed loops of cuts inside the material
-        label = {}
-        for start in adj:
-            if start in label or not adj[start]:
-                continue
-            label[start], todo = start, [start]
-            while todo:
-                for v in adj[todo.pop()] - label.keys():
-                    label[v] = start
-                    todo.append(v)
-        keep = {label[u] for (u, v), kind in self.graph.items() if kind == _P}
-        for key in [k for k in self.graph if label[k[0]] not in keep]:
+        # what the region's boundary does not reach: closed loops of cuts inside the material
+        reached = {u for key, kind in self.graph.items() if kind == _P for u in key}
+        todo = list(reached)
+        while todo:
+            for v in adj[todo.pop()] - reached:
+                reached.add(v)
+                todo.append(v)
+        for key in [k for k in self.graph if k[0] not in reached]:
             self.slits.append(key)
             del self.graph[key]
 
@@ -316,21 +300,17 @@ class _Arrangement:
         """One record per side of each new wound piece: (face, side (+1: the face is left of the stroke), stroke0,
         stroke1, a, b, opened); a piece along the triangle's edge has one side here, the other in the element across."""
         out = []
-        for rec in self.wound:
-            kind, u, v, t0, t1 = rec[:5]
+        for kind, u, v, t0, t1, *_ in self.wound:
             a, b = self.verts[u], self.verts[v]
-            if kind == "edge":
+            if kind == "edge":  # the side that has material here
                 left = self.face_of.get((u, v), -1)
-                out.append((left, 1, t0, t1, a, b, True) if left >= 0
-                           else (self.face_of[(v, u)], -1, t0, t1, a, b, True))
-                continue
-            if _key(u, v) in self.graph:
-                left, right = self.face_of[(u, v)], self.face_of[(v, u)]
+                sides = [(left, 1)] if left >= 0 else [(self.face_of[(v, u)], -1)]
+            elif _key(u, v) in self.graph:
+                sides = [(self.face_of[(u, v)], 1), (self.face_of[(v, u)], -1)]
             else:  # a slit, or a cut snapped away from a sliver: material on both sides
-                left = right = self.locate(_mid(a, b))
-            opened = left != right
-            out.append((left, 1, t0, t1, a, b, opened))
-            out.append((right, -1, t0, t1, a, b, opened))
+                sides = [(self.locate(_mid(a, b)), 1), (self.locate(_mid(a, b)), -1)]
+            opened = kind == "edge" or sides[0][0] != sides[1][0]
+            out += [(f, side, t0, t1, a, b, opened) for f, side in sides]
         return out
 
 
@@ -402,8 +382,8 @@ def _stroke_pieces(x, t, pts):
         a, b = pts[j], pts[j + 1]
         if np.hypot(*(b - a)) == 0.0:
             continue
-        cand = np.flatnonzero(usable & (lo[0] <= max(a[0], b[0]) + pad) & (hi[0] >= min(a[0], b[0]) - pad)
-                              & (lo[1] <= max(a[1], b[1]) + pad) & (hi[1] >= min(a[1], b[1]) - pad))
+        cand = np.flatnonzero(usable & (lo <= np.maximum(a, b)[:, None] + pad).all(axis=0)
+                              & (hi >= np.minimum(a, b)[:, None] - pad).all(axis=0))
         if cand.size == 0:
             continue
         e1, e2, dt = d1[:, cand], d2[:, cand], det[cand]
@@ -452,11 +432,6 @@ class Wound:
             raise ValueError(f"x must be node positions of the new mesh shaped (2, n_nodes), got {x.shape}")
         return np.einsum("kea,ika->kei", self.barycentric, x[:, self.nodes])  # corners (2, k, 3)
 
-    def length(self) -> float:
-        """Length of the wound in the reference configuration (each piece counted once, not per side)."""
-        d = self.reference[:, 1] - self.reference[:, 0]
-        return 0.5 * float(np.hypot(d[:, 0], d[:, 1]).sum())
-
 
 @dataclass(frozen=True, eq=False, kw_only=True)
 class ElementCut(MeshEdit):
@@ -471,11 +446,6 @@ class ElementCut(MeshEdit):
     def contact_surface(self):
         """The contact surface of the cut body: where its material ends (:func:`~.surfaces.contact_surface`)."""
         return contact_surface(self.mesh, self.weights, self.regions)
-
-    def cut(self, polyline, positions=None, min_weight=MIN_WEIGHT) -> "ElementCut":
-        """Cut this result's mesh again (its weights and regions carried): :func:`cut_through`."""
-        return cut_through(self.mesh, polyline, positions, weights=self.weights, regions=self.regions,
-                           min_weight=min_weight)
 
 
 def node_material(mesh, regions) -> np.ndarray | None:
@@ -544,21 +514,18 @@ def _one_element_per_nodes(arr, ids, faces, triples):
 
 def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_weight=MIN_WEIGHT) -> ElementCut:
     """Cut ``mesh`` (not modified) through its elements along a ``polyline`` (k, 2), k >= 2 (the virtual node
-    algorithm), drawn at ``positions`` (default ``mesh.p``; triangles collapsed there are not cut); it may end inside
-    the body (a crack). A mesh cut before passes its ``weights`` and ``regions`` (:meth:`ElementCut.cut` does). No
-    piece carries less than ``min_weight`` in [0, 0.5) of its triangle (step 6). Named boundaries go to the facets
-    whose material touched them, subdomains to every copy. The stroke is first clipped to the body's bounding box grown
-    by one body size (:func:`~.geometry.clip_to_body`): however far it reaches, it cuts where it crosses the body, as a
-    short one would. ``ValueError`` for bad arguments, or a stroke that changes nothing (it meets no material, or runs
-    only along the boundary or an existing wound)."""
+    algorithm), drawn at ``positions`` (default ``mesh.p``; triangles collapsed there are not cut) and first clipped to
+    the body (:func:`~.geometry.clip_to_body`); it may end inside the body (a crack). A mesh cut before passes its
+    ``weights`` and ``regions``. No piece carries less than ``min_weight`` in [0, 0.5) of its triangle (step 6). Named
+    boundaries go to the facets whose material touched them, subdomains to every copy. ``ValueError`` for bad
+    arguments, or a stroke that changes nothing (it meets no material, or runs only along the boundary or a wound)."""
     p, t = mesh_arrays(mesh)
     n, m = p.shape[1], t.shape[1]
     x = node_positions(mesh, positions)
     pts = check_points("polyline", polyline, 2)
     min_weight = check_real("min_weight", min_weight, 0.0, 0.5, hi_open=True)
     regions, w = check_regions(regions, weights, m)
-    # the stroke in each triangle (stroke parameters back on the drawn polyline) and what it does to the material;
-    # first clipped to the body, so that a far-reaching stroke is followed as precisely as a short one
+    # the stroke in each triangle (stroke parameters back on the drawn polyline) and what it does to the material
     pts, clipped = clip_to_body(pts, x, t)
     if pts.shape[0] < 2:
         raise ValueError("polyline changes nothing: it meets no material (it passes outside the body)")
@@ -810,16 +777,14 @@ def picture(mesh, regions=None) -> Picture:
     pt_nodes, pt_coef = [nodes], [coefficients]
     tris, tri_el, edges = [tw], [np.flatnonzero(whole)], [pairs]
     count = n
-    for e in sorted(regions):
-        region = regions[e]
+    for e, region in sorted(regions.items()):
         for poly in region.polygons:
-            k = poly.shape[0]
             tri = np.asarray(_triangulate(poly), dtype=np.int64).reshape(-1, 3).T + count
             tris.append(tri)
             tri_el.append(np.full(tri.shape[1], e, dtype=np.int64))
-            ring = np.arange(k) + count
+            ring = np.arange(len(poly)) + count
             edges.append(np.vstack([ring, np.roll(ring, -1)]))
-            count += k
+            count += len(poly)
         for _ in region.slits:  # a crack that ends inside the element: drawn as a line
             edges.append(np.array([[count], [count + 1]]))
             count += 2
@@ -890,15 +855,14 @@ def _region_distance(region, xi) -> float:
     return best
 
 
-def locate(mesh, point, positions=None, regions=None, candidates=None, reach=1e-3):
+def locate(mesh, point, positions=None, regions=None, reach=1e-3):
     """``(element, barycentric (3,))`` of the material holding ``point`` (deformed coordinates) or nearest to it, or
     ``None`` if none is within ``reach`` (in local coordinates: a fraction of a triangle's size); a point just off the
-    material (in an open wound) extends the element's P1 map. ``candidates`` restricts the search."""
+    material (in an open wound) extends the element's P1 map."""
     p, t = mesh_arrays(mesh)
     x = node_positions(mesh, positions)
     q = np.asarray(point, dtype=float)
-    elements = np.arange(t.shape[1]) if candidates is None else np.asarray(candidates, dtype=np.int64)
-    a, b, c = (x[:, t[k, elements]] for k in range(3))
+    a, b, c = (x[:, t[k]] for k in range(3))
     d1, d2 = b - a, c - a
     det = d1[0] * d2[1] - d1[1] * d2[0]
     ok = np.abs(det) > 0
@@ -910,12 +874,11 @@ def locate(mesh, point, positions=None, regions=None, candidates=None, reach=1e-
     regions = {} if regions is None else regions
     order = np.argsort(outside, kind="stable")
     best, best_d = None, math.inf
-    for i in order.tolist():
-        if outside[i] > reach or outside[i] >= best_d:
+    for e in order.tolist():
+        if outside[e] > reach or outside[e] >= best_d:
             break
-        e = int(elements[i])
-        local = np.array([xi[i], eta[i]])
-        d = outside[i] + (_region_distance(regions[e], local) if e in regions else 0.0)
+        local = np.array([xi[e], eta[e]])
+        d = outside[e] + (_region_distance(regions[e], local) if e in regions else 0.0)
         if d < best_d:
             best, best_d = (e, np.array([1.0 - local.sum(), local[0], local[1]])), d
     return None if best is None or best_d > reach else best
@@ -925,19 +888,19 @@ def locate(mesh, point, positions=None, regions=None, candidates=None, reach=1e-
 FIRM_WEIGHT = 0.25
 
 
-def firm_anchor(mesh, element, barycentric, positions=None, weights=None, regions=None, firm=FIRM_WEIGHT):
+def firm_anchor(mesh, element, barycentric, positions=None, weights=None, regions=None):
     """``(element, barycentric)`` of a point of the material, moved to a neighbour (sharing a node) carrying at least
-    ``firm`` of its triangle whose material lies nearest, by its P1 map extended (barycentric coordinates may be
-    slightly negative): a stitch pulling at a sliver would stretch it (its virtual nodes hold almost nothing)."""
+    :data:`FIRM_WEIGHT` of its triangle whose material lies nearest, by its P1 map extended (barycentric coordinates
+    may be slightly negative): a stitch pulling at a sliver would stretch it (its virtual nodes hold almost nothing)."""
     p, t = mesh_arrays(mesh)
     w = element_weights(weights, t.shape[1])
     best, best_d = (element, np.asarray(barycentric, dtype=float)), math.inf
-    if w[element] >= firm:
+    if w[element] >= FIRM_WEIGHT:
         return best
     x = node_positions(mesh, positions)
     point = x[:, t[:, element]] @ best[1]
     regions = {} if regions is None else regions
-    for e in np.flatnonzero(np.isin(t, t[:, element]).any(axis=0) & (w >= firm)).tolist():  # the firm neighbours
+    for e in np.flatnonzero(np.isin(t, t[:, element]).any(axis=0) & (w >= FIRM_WEIGHT)).tolist():  # the firm neighbours
         a, b, c = x[:, t[0, e]], x[:, t[1, e]], x[:, t[2, e]]
         J = np.column_stack([b - a, c - a])
         if abs(np.linalg.det(J)) <= 0:
@@ -954,15 +917,12 @@ def carry_points(edit, elements, barycentric, regions=None):
     where it was removed: of the copies of its element, the one whose material (``regions`` of the new mesh) holds it
     (a cut keeps local coordinates)."""
     elements = np.asarray(elements, dtype=np.int64)
-    bary = np.asarray(barycentric, dtype=float)
     copies = {}
     for new, old in enumerate(np.asarray(edit.elements).tolist()):
         copies.setdefault(old, []).append(new)
     regions = {} if regions is None else regions
     out = np.full(elements.shape, -1, dtype=np.int64)
-    for j, (e, w) in enumerate(zip(elements.tolist(), bary)):
-        options = copies.get(e, [])
-        if options:
-            dist = [(_region_distance(regions[c], w[1:]) if c in regions else 0.0) for c in options]
-            out[j] = options[int(np.argmin(dist))]
+    for j, (e, w) in enumerate(zip(elements.tolist(), np.asarray(barycentric, dtype=float))):
+        if e in copies:  # the first copy nearest to the point
+            out[j] = min(copies[e], key=lambda c: _region_distance(regions[c], w[1:]) if c in regions else 0.0)
     return out

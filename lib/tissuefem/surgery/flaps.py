@@ -55,12 +55,11 @@ class FlapResult:
                 f"largest stitch force {self.suture_forces.max(initial=0.0):.4g}")
 
 
-def wound_nodes(mesh, names=("cut", "defect")) -> np.ndarray:
-    """Nodes on the wound: the boundary facets a cut or an excision created."""
-    facets = [mesh.boundaries[n] for n in names if mesh.boundaries is not None and n in mesh.boundaries]
-    if not facets:
-        return np.zeros(0, dtype=np.intp)
-    return np.unique(mesh.facets[:, np.concatenate(facets)])
+def wound_nodes(mesh) -> np.ndarray:
+    """Nodes on the wound: the boundary facets a cut (``"cut"``) or an excision (``"defect"``) created."""
+    named = mesh.boundaries or {}
+    facets = [named[name] for name in ("cut", "defect") if name in named]
+    return np.unique(mesh.facets[:, np.concatenate(facets)]) if facets else np.zeros(0, dtype=np.intp)
 
 
 def pair_by_motion(mesh, positions, flap_elements, motion, tolerance) -> np.ndarray:
@@ -68,12 +67,10 @@ def pair_by_motion(mesh, positions, flap_elements, motion, tolerance) -> np.ndar
     wound node is on the flap when all its triangles are (``flap_elements``, a mask); each is moved by ``motion`` and
     paired with the nearest other wound node within ``tolerance``."""
     wound = wound_nodes(mesh)
-    t = mesh.t
     on_flap = np.zeros(mesh.nvertices, dtype=bool)
-    on_flap[t.ravel()] = True  # a node of some triangle, and of flap triangles only
-    on_flap[t[:, ~np.asarray(flap_elements, dtype=bool)].ravel()] = False
-    flap_nodes = wound[on_flap[wound]]
-    others = wound[~on_flap[wound]]
+    on_flap[mesh.t.ravel()] = True  # a node of some triangle, and of flap triangles only
+    on_flap[mesh.t[:, ~np.asarray(flap_elements, dtype=bool)].ravel()] = False
+    flap_nodes, others = wound[on_flap[wound]], wound[~on_flap[wound]]
     if flap_nodes.size == 0 or others.size == 0:
         raise ValueError("flap: no wound nodes on the flap or around it; cut the flap before suturing")
     moved = np.asarray(motion(positions[:, flap_nodes]), dtype=float)
@@ -134,13 +131,12 @@ def _close_flap(scene, *, in_flap, motion, edges, method, tighten_frames, settle
     settle_frames = check_count("settle_frames", settle_frames, 0)
     sim = Simulation(scene, **({} if clock is None else {"clock": clock}))
     snapshots = {"cut": _snapshot(sim)}
-    mesh = sim.mesh
     flap = in_flap(_material_points(sim))
-    edge = mean_edge_length(mesh)
+    edge = mean_edge_length(sim.mesh)
     if not np.any(flap):
         raise ValueError("the flap holds no triangle: make the mesh finer or the flap larger")
     if method == "edges":
-        pairs = pair_by_motion(mesh, sim.positions(), flap, motion, 0.5 * edge)
+        pairs = pair_by_motion(sim.mesh, sim.positions(), flap, motion, 0.5 * edge)
         stitches = pairs.shape[1]
     else:
         pairs = stitch_points(*edges(edge), motion, 1e-2 * edge)
@@ -247,16 +243,15 @@ def rotation_flap(*, width=4.0, height=3.0, n_triangles=3000, pivot=(1.5, 1.5), 
     if not (0 < alpha < np.pi / 2 and 0 < a1 - a0 < 1.5 * np.pi and r > 0):
         raise ValueError(f"defect_angle must be in (0, 90) and flap_angle in (0, 270) degrees, radius > 0; got "
                          f"{defect_angle!r}, {flap_angle!r}, {radius!r}")
-    ring = np.linspace(a0, a1 + alpha, 400)
-    if not (np.all(px + r * np.cos(ring) > 0) and np.all(px + r * np.cos(ring) < width) and 0 < px < width
-            and np.all(py + r * np.sin(ring) > 0) and np.all(py + r * np.sin(ring) < height) and 0 < py < height):
-        raise ValueError(f"the flap and the defect (radius {radius!r} about {pivot!r}) must fit inside the "
-                         f"{width} x {height} patch, with skin on every side")
 
-    def arc(start, stop, n):
+    def arc(start, stop, n):  # n points (n, 2) on the circle, from angle start to stop
         a = np.linspace(start, stop, n)
         return np.stack([px + r * np.cos(a), py + r * np.sin(a)], axis=1)
 
+    ring = arc(a0, a1 + alpha, 400)
+    if not (np.all(ring > 0) and np.all(ring < [width, height]) and 0 < px < width and 0 < py < height):
+        raise ValueError(f"the flap and the defect (radius {radius!r} about {pivot!r}) must fit inside the "
+                         f"{width} x {height} patch, with skin on every side")
     edge_guess = np.sqrt(2.0 * width * height / max(int(n_triangles), 1))
     # the arcs as polylines with chords a quarter of an edge long: they stray from the circle by
     # (h/4)^2 / (8 r), far less than the offset by which a stitch's ends are put on their own side

@@ -18,12 +18,6 @@ from skfem import MeshTri
 
 from ..engine.parameters import ParameterError, check_real_array, check_weights, show
 
-__all__ = ["EPS", "FULL_TOUCH", "WHOLE", "CLIP_MARGIN", "Region", "mesh_arrays", "node_positions", "check_points",
-           "pair_keys", "element_edges", "new_mesh", "carry_names", "polygon_contains", "clip_to_body", "cross", "snap",
-           "edges_of", "edge_param", "edge_point", "winding", "polygon_area", "crossings", "merge_intervals",
-           "subtract_intervals", "intersect_intervals", "overlaps", "reversed_intervals", "edge_intervals",
-           "region_sides", "region_touch", "element_weights", "check_regions"]
-
 #: Tolerance in local coordinates: points closer than this are one point, a point this close to an edge is on it.
 EPS = 1e-9
 #: The touched intervals of a whole element: all of its three edges.
@@ -341,6 +335,8 @@ class Region:
     slits: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 2)))
     #: (r, 2, 2): parts of the triangle's edges cut off from the element across
     severed: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 2)))
+    #: the share of the triangle's area the material fills (twice the polygons' area), worked out from them
+    weight: float = field(init=False)
 
     def __post_init__(self):
         polys = self.polygons
@@ -348,10 +344,7 @@ class Region:
         out, weight = [], 0.0
         for i, poly in enumerate(polys):
             name = f"Region.polygons[{i}]"
-            poly = check_real_array(name, poly)
-            if poly.ndim != 2 or poly.shape[1] != 2 or poly.shape[0] < 3 or not np.all(np.isfinite(poly)):
-                raise ParameterError(name, f"{name} must be at least 3 finite points shaped (k, 2), got shape "
-                                           f"{poly.shape}")
+            poly = check_points(name, poly, 3)
             if not ((poly >= -EPS).all() and (poly.sum(axis=1) <= 1.0 + EPS).all()):
                 raise ParameterError(name, f"{name} must lie in the unit triangle (xi, eta >= 0, xi + eta <= 1)")
             area = 2.0 * polygon_area(poly.tolist())
@@ -367,20 +360,15 @@ class Region:
         object.__setattr__(self, "polygons", tuple(out))
         object.__setattr__(self, "slits", _segments("Region.slits", self.slits))
         object.__setattr__(self, "severed", _segments("Region.severed", self.severed))
-        object.__setattr__(self, "_weight", weight)
+        object.__setattr__(self, "weight", weight)
 
     @classmethod
     def unchecked(cls, polygons, slits, severed, weight):
         """A region the cut built itself (valid by construction): no checks, no copies."""
         region = object.__new__(cls)
-        for name, value in (("polygons", polygons), ("slits", slits), ("severed", severed), ("_weight", weight)):
+        for name, value in (("polygons", polygons), ("slits", slits), ("severed", severed), ("weight", weight)):
             object.__setattr__(region, name, value)
         return region
-
-    @property
-    def weight(self) -> float:
-        """The share of the triangle's area the material fills (twice the polygons' area)."""
-        return self._weight
 
 
 #: The material of a whole element.

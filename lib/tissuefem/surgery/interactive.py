@@ -403,6 +403,8 @@ class SurgeryView:
         report = self.last_report = self.sim.frame()
         self.frame_times.append(1e3 * float(report.elapsed))
         self._follow()
+        if getattr(report, "off_frame", "") == "running":
+            self._quiet = 0  # a step runs off the frame: the frame that commits it is to come
         self._update_text()
         return report
 
@@ -554,17 +556,22 @@ class SurgeryView:
 
 
 async def _frame_loop(view) -> None:
-    """The view's frame loop (a task on the kernel's event loop): a frame every ``interval_ms`` while anything
-    moves, sooner when input arrives (but not within half an interval of the last), then asleep until input
-    arrives; a refused frame is a message, any other error stops the loop."""
+    """The view's frame loop (a task on the kernel's event loop): while anything moves, a frame every
+    ``interval_ms`` against absolute times (a frame that starts late is made up for by up to a quarter of an interval
+    in the wait before the next, so the event loop's wake-up delays do not add up), sooner when input arrives (but
+    not within half an interval of the last), then asleep until input arrives, when a frame starts at once; a refused
+    frame is a message, any other error stops the loop."""
     interval = view.interval_ms / 1e3
+    due = math.inf  # when the next frame is due (infinite: whenever it starts)
     while not view.closed:
         if view.resting and not view._tools_stale:
             view._update_text(force=True)  # the last frame's line, "at rest"
             view._wake.clear()
             await view._wake.wait()  # nothing runs until input arrives
+            due = math.inf
             continue
         started = time.perf_counter()
+        due = min(started, max(due, started - interval / 4)) + interval  # the next frame's time
         view._wake.clear()  # input from now on brings the next frame forward
         try:
             if view.resting:
@@ -579,10 +586,10 @@ async def _frame_loop(view) -> None:
         except Exception:
             view.stop()  # one traceback, not thirty a second
             raise
-        await asyncio.sleep(max(0.0, interval / 2 - (time.perf_counter() - started)))
+        await asyncio.sleep(max(0.0, started + interval / 2 - time.perf_counter()))
         if not view._wake.is_set():
             try:  # the rest of the interval, unless the pointer moves first
-                await asyncio.wait_for(view._wake.wait(), max(0.0, interval - (time.perf_counter() - started)))
+                await asyncio.wait_for(view._wake.wait(), max(0.0, due - time.perf_counter()))
             except asyncio.TimeoutError:
                 pass
 

@@ -56,8 +56,6 @@ _DOMAINS = {"rectangle": {"width": 1.0, "height": 1.0, "triangles": 800},
             "block": {"lx": 1.0, "ly": 1.0, "lz": 1.0, "nx": 4, "ny": 4, "nz": 4},
             "file": {"path": None, "scale": 1.0}}
 SHAPES = tuple(_DOMAINS)
-#: the dimension of each domain's mesh (a file's: that of its cells, known once read)
-_DIMENSIONS = {"block": 3, "file": None}
 #: the effects a 3D scene cannot name yet (the engine's are 2D only), and what they are called in the refusal
 TWO_D_ONLY = {"excisions": "cuts (excisions)", "incisions": "cuts (incisions)", "contact": "self-contact"}
 #: the list-valued effects of the scene's own (each entry is a table); the registry's say whether they are
@@ -175,14 +173,8 @@ def _check_domain(d):
     return out
 
 
-def _domain_dimension(domain):
-    """The dimension of the domain's mesh: 2, 3, or ``None`` for a file (known once read)."""
-    return _DIMENSIONS.get(domain["shape"], 2)
-
-
 def _domain_box(domain):
-    """The bounding box ``(lower corner, upper corner)`` of a generated domain (``None`` for a file: known once
-    read)."""
+    """The bounding box ``(lower corner, upper corner)`` of a generated domain (``None`` for a file)."""
     if domain["shape"] in ("rectangle", "flap"):
         return [0.0, 0.0], [domain["width"], domain["height"]]
     if domain["shape"] == "fusiform":
@@ -530,11 +522,9 @@ class Scene:
         self.description = string("description", description)
         self.domain = _check_domain(domain if domain is not None else {"shape": "rectangle"})
         self.material = _check_material(material)
-        dim = _domain_dimension(self.domain)
-        self.effects = _check_effects(effects if effects is not None else {}, dim)
+        self.effects = _check_effects(effects if effects is not None else {}, self.dim)
         self.solver = _check_solver(solver if solver is not None else {})
-        where = f", domain.shape = {self.domain['shape']!r}"
-        _check_2d_only(self.effects, dim, where)
+        _check_2d_only(self.effects, self.dim, f", domain.shape = {self.domain['shape']!r}")
         box = _domain_box(self.domain)
         if box is not None:
             _check_reach(self.effects, *box)
@@ -585,8 +575,6 @@ class Scene:
         _check_text_nesting(text, kind)
         try:
             data = loads(text)
-        except RecursionError:  # not reached after the bracket check; kept as the last line of defence
-            raise ParameterError("scene", f"scene: its {kind} nests too deeply to parse") from None
         except ValueError as err:  # TOMLDecodeError, JSONDecodeError, an integer of too many digits
             message = " ".join(str(err).split())
             raise ParameterError("scene", f"scene: not valid {kind}: {message}") from None
@@ -656,7 +644,7 @@ class Scene:
     @property
     def dim(self):
         """The dimension of the scene's mesh: 2 (triangles), 3 (tetrahedra), or ``None`` for a file not read yet."""
-        return _domain_dimension(self.domain)
+        return {"block": 3, "file": None}.get(self.domain["shape"], 2)
 
     def build_mesh(self):
         """The domain's mesh. For a ``file`` domain, the scene's points and radii are checked against its size here,
@@ -801,21 +789,21 @@ def _read_mesh(path, scale):
     what = f"domain.path: {name!r} (0-based node numbers, after scaling)"
     p, t = _check_file_mesh(p, t, what, "ignore")
     named = _quietly(path, from_meshio, m)  # boundaries from physical groups or cell sets
-    mesh = _new_mesh(p, t)  # as checked above (scaled, a 2D file's z dropped; triangles sorted as scikit-fem does)
+    used = np.zeros(p.shape[1], dtype=bool)
+    used[t.ravel()] = True
+    new_index = np.full(used.size, -1, dtype=np.int64)  # the nodes in no element dropped, the rest renumbered
+    new_index[used] = np.arange(int(used.sum()))
+    # as checked above (scaled, a 2D file's z dropped; triangles sorted as scikit-fem does)
+    mesh = _new_mesh(np.ascontiguousarray(p[:, used]), new_index[t])
     try:
-        boundaries = {label: _facet_index(mesh, np.asarray(named.facets)[:, np.asarray(facets)])
+        boundaries = {label: _facet_index(mesh, new_index[np.asarray(named.facets)[:, np.asarray(facets)]])
                       for label, facets in (named.boundaries or {}).items()}
-        boundaries.update(_skfem_boundaries(m, kind, written, mesh))
+        boundaries.update(_skfem_boundaries(m, kind, new_index[written], mesh))
     except ParameterError as err:  # said of the file: named here
         raise _mesh_error(f"{name!r}: {str(err).removeprefix('domain.path: ')}") from None
     mesh = _new_mesh(mesh.p, mesh.t, _boundaries=boundaries or None, _subdomains=named.subdomains)
-    used = np.zeros(p.shape[1], dtype=bool)
-    used[t.ravel()] = True
-    dropped = np.flatnonzero(~used)
-    if dropped.size:
-        mesh = _drop_nodes(mesh, used)
     _check_file_mesh(mesh.p, mesh.t, f"domain.path: {name!r}")
-    return mesh, dropped, flipped
+    return mesh, np.flatnonzero(~used), flipped
 
 
 def _new_mesh(p, t, **options):
@@ -862,34 +850,21 @@ def _skfem_boundaries(m, kind, t, mesh):
     return out
 
 
-def _drop_nodes(mesh, used):
-    """The mesh without the unused nodes (the rest renumbered in their order); boundaries mapped by their nodes."""
-    new_index = np.full(used.size, -1, dtype=np.int64)
-    new_index[used] = np.arange(int(used.sum()))
-    plain = _new_mesh(np.ascontiguousarray(mesh.p[:, used]), new_index[np.asarray(mesh.t)])
-    boundaries = {label: _facet_index(plain, new_index[np.asarray(mesh.facets)[:, np.asarray(facets)]])
-                  for label, facets in (mesh.boundaries or {}).items()}
-    return _new_mesh(plain.p, plain.t, _boundaries=boundaries or None, _subdomains=mesh.subdomains)
-
-
 #: what a mesh of each dimension is made of, in notes and refusals
 _ELEMENT_NOUN = {2: "triangle", 3: "tetrahedron"}
 
 
-def _dropped_note(path, dropped, noun="triangle") -> str:
-    return (f"domain.path: {path!r}: dropped {dropped.size} node(s) that belong to no {noun} "
-            f"(0-based {meshes.index_list(dropped)}); the other nodes were renumbered in their order")
-
-
-def _flipped_note(path, flipped) -> str:
-    return (f"domain.path: {path!r}: {flipped.size} tetrahedra listed with left-handed vertices (0-based "
-            f"{meshes.index_list(flipped)}) were reoriented by swapping two vertices (the same tetrahedra)")
-
-
 def _file_notes(path, mesh, dropped, flipped) -> list:
     """What reading a mesh file changed: its reoriented tetrahedra, its dropped nodes."""
-    notes = [_flipped_note(path, flipped)] if flipped.size else []
-    return notes + ([_dropped_note(path, dropped, _ELEMENT_NOUN[mesh.p.shape[0]])] if dropped.size else [])
+    notes = []
+    if flipped.size:
+        notes.append(f"domain.path: {path!r}: {flipped.size} tetrahedra listed with left-handed vertices (0-based "
+                     f"{meshes.index_list(flipped)}) were reoriented by swapping two vertices (the same tetrahedra)")
+    if dropped.size:
+        notes.append(f"domain.path: {path!r}: dropped {dropped.size} node(s) that belong to no "
+                     f"{_ELEMENT_NOUN[mesh.p.shape[0]]} (0-based {meshes.index_list(dropped)}); the other nodes "
+                     "were renumbered in their order")
+    return notes
 
 
 def read_mesh(path, scale=1.0, notes=None):

@@ -230,11 +230,6 @@ class Simulation:
         point = self._point("point", point)
         h.move(point - (np.zeros_like(point) if h.anchor is None else h.anchor))
 
-    def handle_offset(self, name) -> np.ndarray:
-        """The handle's target if it is a translation (a copy), else ``None``."""
-        t = self.model.handle(name).target
-        return None if callable(t) else t.copy()
-
     def move_handle(self, name, target) -> None:
         """Set a handle's target (a translation or a map), checked; takes effect at the next frame."""
         self.model.handle(name).move(target)

@@ -13,15 +13,13 @@ import numpy as np
 from skfem import MeshTri
 
 from ..engine.contact import ContactSurface
+from ..engine.meshes import signed_areas
 from ..engine.parameters import ParameterError
-from .geometry import (FULL_TOUCH, check_regions, edge_intervals, edge_point, edges_of, element_edges,
+from .geometry import (EPS, FULL_TOUCH, check_regions, edge_intervals, edge_point, edges_of, element_edges,
                        intersect_intervals, mesh_arrays, merge_intervals, pair_keys, region_sides, region_touch,
                        reversed_intervals, subtract_intervals)
 
 __all__ = ["contact_surface"]
-
-#: weights closer than this are one point (the same crossing of an edge seen from two elements)
-_SAME = 1e-9
 
 
 def contact_surface(mesh, weights=None, regions=None) -> ContactSurface:
@@ -42,17 +40,13 @@ def contact_surface(mesh, weights=None, regions=None) -> ContactSurface:
     by_key = {}
     for i in order.tolist():
         by_key.setdefault(int(flat_key[i]), []).append(i)
-    cut_facets = set()
-    if mesh.boundaries and "cut" in mesh.boundaries:
-        facets = np.asarray(mesh.facets)[:, np.asarray(mesh.boundaries["cut"], dtype=np.intp)]
-        cut_facets = set(pair_keys(facets, n).tolist())
+    cut = np.asarray((mesh.boundaries or {}).get("cut", []), dtype=np.intp)
+    cut_facets = set(pair_keys(np.asarray(mesh.facets)[:, cut], n).tolist())
 
     def touch(e):  # (touched by the material, touched and joinable: not severed) per local edge
         r = regions.get(e)
         return (FULL_TOUCH, FULL_TOUCH) if r is None else (edge_intervals(region_sides(r)), region_touch(r))
 
-    det = ((p[0, t[1]] - p[0, t[0]]) * (p[1, t[2]] - p[1, t[0]])
-           - (p[0, t[2]] - p[0, t[0]]) * (p[1, t[1]] - p[1, t[0]]))
     pieces = []  # (element, local point a, local point b, wound?) with the material on the left in local coordinates
     for e in range(m):
         for k in range(3):
@@ -61,7 +55,7 @@ def contact_surface(mesh, weights=None, regions=None) -> ContactSurface:
             if e not in regions and all(i % m not in regions for i in across):
                 if across:
                     continue  # two whole elements share this edge: inside the material
-                touched, joined = [(0.0, 1.0)], []
+                touched, joinable, joined = [(0.0, 1.0)], [(0.0, 1.0)], []
             else:
                 touched, joinable = (iv[k] for iv in touch(e))
                 reach = []
@@ -72,19 +66,18 @@ def contact_surface(mesh, weights=None, regions=None) -> ContactSurface:
                         f_iv = reversed_intervals(f_iv)
                     reach += f_iv
                 joined = intersect_intervals(joinable, merge_intervals(reach))
-            wound = kk in cut_facets
-            for lo, hi in subtract_intervals(touched, joined):
-                severed = bool(subtract_intervals([(lo, hi)], touch(e)[1][k])) if e in regions else False
-                pieces.append((e, edge_point(k, lo), edge_point(k, hi), wound or severed))
+            for lo, hi in subtract_intervals(touched, joined):  # a lip where it is on a wound or severed
+                severed = bool(subtract_intervals([(lo, hi)], joinable))
+                pieces.append((e, edge_point(k, lo), edge_point(k, hi), kk in cut_facets or severed))
     for e, r in regions.items():
         for a, b in region_sides(r):
             if set(edges_of(a)) & set(edges_of(b)):
                 continue  # on an edge of the triangle: done above
             pieces.append((e, (float(a[0]), float(a[1])), (float(b[0]), float(b[1])), True))
-    return _assemble(pieces, t, det, n)
+    return _assemble(pieces, t, signed_areas(mesh), n)
 
 
-def _assemble(pieces, t, det, n) -> ContactSurface:
+def _assemble(pieces, t, area, n) -> ContactSurface:
     """Points (merged where two elements see the same combination of nodes) and oriented segments."""
     element = np.array([e for e, _, _, _ in pieces])
     local = np.array([end for _, a, b, _ in pieces for end in (a, b)], dtype=float)  # per piece end
@@ -99,20 +92,20 @@ def _assemble(pieces, t, det, n) -> ContactSurface:
     nodes, weights = np.take_along_axis(nodes, order, axis=1), np.take_along_axis(weights, order, axis=1)
     nodes = np.where(weights > 0, nodes, nodes[:, :1])
     used = weights > 0
-    # merge the same combination seen from several elements (the weights agree to round-off)
+    # merge the same combination seen from several elements (the weights agree within EPS, as local coordinates do)
     count = used.sum(axis=1)
     tag = np.where(used, nodes, -1)
     order = np.lexsort((weights[:, 2], weights[:, 1], weights[:, 0], tag[:, 2], tag[:, 1], tag[:, 0], count))
     new = np.ones(order.size, dtype=bool)
     new[1:] = (tag[order[1:]] != tag[order[:-1]]).any(axis=1)
-    new[1:] |= np.abs(weights[order[1:]] - weights[order[:-1]]).max(axis=1) > _SAME
+    new[1:] |= np.abs(weights[order[1:]] - weights[order[:-1]]).max(axis=1) > EPS
     point = np.empty(order.size, dtype=np.intp)
     point[order] = np.cumsum(new) - 1
     first = np.full(int(new.sum()), -1, dtype=np.intp)  # the first row of every point
     first[point[::-1]] = np.arange(order.size)[::-1]
     width = int(count.max(initial=1))
     ends = point.reshape(-1, 2).T  # (2, pieces)
-    segments = np.where(det[element] < 0, ends[::-1], ends)  # a clockwise triangle mirrors "left"
+    segments = np.where(area[element] < 0, ends[::-1], ends)  # a clockwise triangle mirrors "left"
     keep = segments[0] != segments[1]
     wound = np.array([w for _, _, _, w in pieces], dtype=bool)
     return ContactSurface(nodes[first, :width], weights[first, :width], segments[:, keep], n, wound=wound[keep])

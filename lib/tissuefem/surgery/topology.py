@@ -15,11 +15,11 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import csgraph
 
-from ..engine.contact.surface import segment_distance
+from ..engine.contact.surface import cross, segment_distance
 from ..engine.meshes import MeshMap
 from ..engine.parameters import ParameterError, check_count, check_indices, show
-from .geometry import (carry_names, check_points, clip_to_body, cross, mesh_arrays, new_mesh, node_positions,
-                       pair_keys, polygon_contains)
+from .geometry import (carry_names, check_points, clip_to_body, mesh_arrays, new_mesh, node_positions, pair_keys,
+                       polygon_contains)
 
 __all__ = ["MeshEdit", "duplicate_along_edges", "cut_path", "incise", "excise", "connected_components"]
 
@@ -155,21 +155,19 @@ def _boundary_snap(x, t, bfacets, end, towards):
     length = np.hypot(*(B[:, nearest] - A[:, nearest]))
     # inside (or on) a triangle where its three sub-areas at ``end`` have the sign of the whole (either orientation)
     a, b, c, q = x[:, t[0]], x[:, t[1]], x[:, t[2]], end[:, None]
-    area = cross(b[0] - a[0], b[1] - a[1], c[0] - a[0], c[1] - a[1])
-    s1 = cross(b[0] - q[0], b[1] - q[1], c[0] - q[0], c[1] - q[1])
-    s2 = cross(q[0] - a[0], q[1] - a[1], c[0] - a[0], c[1] - a[1])
-    s3 = cross(b[0] - a[0], b[1] - a[1], q[0] - a[0], q[1] - a[1])
+    area = cross(b - a, c - a)
     tol, sign = 1e-12 * np.abs(area), np.sign(area)
-    outside = not np.any((sign * s1 >= -tol) & (sign * s2 >= -tol) & (sign * s3 >= -tol) & (area != 0.0))
+    outside = not np.any((sign * cross(b - q, c - q) >= -tol) & (sign * cross(q - a, c - a) >= -tol)
+                         & (sign * cross(b - a, q - a) >= -tol) & (area != 0.0))
     if not outside and dist[nearest] >= _NEAR_BOUNDARY * length:
         return None
     if outside:  # where does end -> towards cross the boundary first?
         d, e = towards - end, B - A
-        denom = d[0] * e[1] - d[1] * e[0]
+        denom = cross(d, e)
         w = A - end[:, None]
         with np.errstate(divide="ignore", invalid="ignore"):
-            s = (w[0] * e[1] - w[1] * e[0]) / denom  # along the polyline
-            r = (w[0] * d[1] - w[1] * d[0]) / denom  # along the facet
+            s = cross(w, e) / denom  # along the polyline
+            r = cross(w, d) / denom  # along the facet
         hit = (denom != 0.0) & (s >= 0.0) & (s <= 1.0) & (r >= 0.0) & (r <= 1.0)
         if np.any(hit):
             f = np.flatnonzero(hit)[np.argmin(s[hit])]
@@ -184,13 +182,12 @@ def cut_path(mesh, polyline, positions=None) -> np.ndarray:
     """The path of mesh nodes (int64) that follows a ``polyline`` (k, 2), k >= 2, drawn at ``positions``.
 
     Consecutive nodes are the ends of a mesh edge, or two copies of one point (crossing an old wound). Each vertex of
-    the polyline snaps to the nearest node; an *end* outside the body (or within half an edge of its boundary) snaps to
-    the boundary node where it enters, so a stroke across the body cuts it through. Between them runs a shortest path
-    (Dijkstra) over the mesh edges, each costing ``length * (1 + 10 d / h)`` (``d``: the mean distance of its nodes
-    from the drawn segment, ``h``: the median edge length): it hugs the line within about one element. The polyline is
-    first clipped to the body (:func:`~.geometry.clip_to_body`): however far it reaches, it takes the path a short
-    one would. ``ValueError`` for a bad polyline, one that misses the body, collapses to a single node, or joins two
-    unconnected pieces.
+    the polyline (first clipped to the body, :func:`~.geometry.clip_to_body`) snaps to the nearest node; an *end*
+    outside the body (or within half an edge of its boundary) snaps to the boundary node where it enters, so a stroke
+    across the body cuts it through. Between them runs a shortest path (Dijkstra) over the mesh edges, each costing
+    ``length * (1 + 10 d / h)`` (``d``: the mean distance of its nodes from the drawn segment, ``h``: the median edge
+    length): it hugs the line within about one element. ``ValueError`` for a bad polyline, one that misses the body,
+    collapses to a single node, or joins two unconnected pieces.
     """
     pts = check_points("polyline", polyline, 2)
     p, t = mesh_arrays(mesh)
@@ -201,32 +198,21 @@ def cut_path(mesh, polyline, positions=None) -> np.ndarray:
     n = p.shape[1]
     facets = np.asarray(mesh.facets, dtype=np.int64)
     bfacets = facets[:, np.asarray(mesh.boundary_facets(), dtype=np.int64)]
-    # the graph the path runs on: the mesh edges (facets first) plus links between copies of one material point
+    # the graph the path runs on: the mesh edges (facets first) plus links from every copy of a material point to
+    # its lowest node (the nodes sorted by place, then index)
     used = np.unique(t)
-    ends = [facets]
-    if used.size:
-        _, group = np.unique(p[:, used].T, axis=0, return_inverse=True)
-        group = group.ravel()
-        order = np.lexsort((used, group))
-        g, u = group[order], used[order]
-        first = np.r_[0, np.flatnonzero(g[1:] != g[:-1]) + 1]
-        head = np.repeat(u[first], np.diff(np.r_[first, g.size]))
-        twin = head != u
-        ends.append(np.stack([head[twin], u[twin]]))
-    ends = np.concatenate(ends, axis=1)
+    _, first, group = np.unique(p[:, used].T, axis=0, return_index=True, return_inverse=True)
+    order = np.lexsort((used, group.ravel()))
+    head, copy = used[first][group.ravel()][order], used[order]
+    ends = np.concatenate([facets, np.stack([head[head != copy], copy[head != copy]])], axis=1)
     length = np.hypot(*(x[:, ends[0]] - x[:, ends[1]]))
-    h = float(np.median(length[: facets.shape[1]])) if facets.shape[1] else 1.0
-    h = h if h > 0.0 else 1.0
+    h = float(np.median(length[: facets.shape[1]])) or 1.0
     # every polyline vertex snaps to the nearest node, an end possibly to the boundary (and then the path ends there)
-    snapped, at_boundary = [], [False, False]  # did the first, the last end snap to the boundary?
-    for k, q in enumerate(pts):
-        node = None
-        if bfacets.size and (k == 0 or k == len(pts) - 1):
-            node = _boundary_snap(x, t, bfacets, q, pts[1] if k == 0 else pts[-2])
-            at_boundary[0 if k == 0 else 1] = node is not None
-        if node is None:
-            node = int(used[np.argmin(np.hypot(x[0, used] - q[0], x[1, used] - q[1]))])
-        snapped.append(node)
+    snapped = [int(used[np.argmin(np.hypot(x[0, used] - q[0], x[1, used] - q[1]))]) for q in pts]
+    at_boundary = [_boundary_snap(x, t, bfacets, pts[0], pts[1]), _boundary_snap(x, t, bfacets, pts[-1], pts[-2])]
+    for i, node in zip((0, -1), at_boundary):
+        if node is not None:
+            snapped[i] = node
 
     path = [snapped[0]]
     for k in range(len(pts) - 1):
@@ -252,9 +238,9 @@ def cut_path(mesh, polyline, positions=None) -> np.ndarray:
     # an end snapped to the boundary may reach it at a neighbouring boundary node and walk along the boundary to the
     # snapped one: such steps open nothing, the cut ends where it first meets the boundary
     on_boundary = set(pair_keys(bfacets, n).tolist())
-    while at_boundary[0] and len(path) > 2 and min(path[:2]) * n + max(path[:2]) in on_boundary:
+    while at_boundary[0] is not None and len(path) > 2 and min(path[:2]) * n + max(path[:2]) in on_boundary:
         path.pop(0)
-    while at_boundary[1] and len(path) > 2 and min(path[-2:]) * n + max(path[-2:]) in on_boundary:
+    while at_boundary[1] is not None and len(path) > 2 and min(path[-2:]) * n + max(path[-2:]) in on_boundary:
         path.pop()
     if len(path) < 2:
         raise ValueError(f"polyline collapses to the single node {path[0]}: draw a longer stroke "
@@ -305,10 +291,10 @@ def _has_area(poly) -> bool:
 
 def excise(mesh, region, positions=None) -> MeshEdit:
     """Remove the triangles of ``mesh`` (not modified) whose centroid (at ``positions``) lies in ``region``: a polygon
-    (k, 2), k >= 3 (even-odd rule; first clipped to the body, :func:`~.geometry.clip_to_body`, so that however far
-    it reaches it selects what a near one would), or a function ``centroids (2, m) -> bool (m,)``. Returns a
-    :class:`MeshEdit`: unused nodes dropped, the rest and the triangles kept in order, the rim named ``"defect"``.
-    ``ValueError`` for a bad polygon or mask, or one that selects no element or every element."""
+    (k, 2), k >= 3 (even-odd rule; first clipped to the body, :func:`~.geometry.clip_to_body`), or a function
+    ``centroids (2, m) -> bool (m,)``. Returns a :class:`MeshEdit`: unused nodes dropped, the rest and the triangles
+    kept in order, the rim named ``"defect"``. ``ValueError`` for a bad polygon or mask, or one that selects no element
+    or every element."""
     p, t = mesh_arrays(mesh)
     x = node_positions(mesh, positions)
     m = t.shape[1]

@@ -18,6 +18,7 @@ from ..engine.materials import LinearElastic, NeoHookean, TaylorNeoHookean, fibe
 from ..engine.materials1d import NeoHookean1D, taylor_log as _r, taylor_log_prime as _r_prime
 from ..engine.minimize import newton
 from ..engine.parameters import lame_parameters
+from ..surgery.geometry import polygon_area
 from ..surgery.scene import Scene
 from ..surgery.topology import duplicate_along_edges
 from .fibers import fiber_modulus_gain
@@ -96,11 +97,15 @@ def _p1_gradients(X):
     return abs(np.linalg.det(Dm)) / (2.0 if d == 2 else 6.0), np.vstack([-grads.sum(axis=0), grads])
 
 
+def _deformation_gradient(X_nodes, x_nodes, d):
+    """``F = sum_a x_a (grad N_a)^T`` of one linear triangle (``d = 2``) or tetrahedron (``d = 3``)."""
+    X, x = _shaped("X_nodes", X_nodes, (d, d + 1)), _shaped("x_nodes", x_nodes, (d, d + 1))
+    return x @ _p1_gradients(X)[1]
+
+
 def deformation_gradient_p1(X_nodes, x_nodes) -> np.ndarray:
     """Exercise 3.2: ``F[i, j] = dx_i/dX_j`` of one linear triangle: ``F = sum_a x_a (grad N_a)^T``."""
-    X, x = _shaped("X_nodes", X_nodes, (2, 3)), _shaped("x_nodes", x_nodes, (2, 3))
-    _, grads = _p1_gradients(X)
-    return x @ grads
+    return _deformation_gradient(X_nodes, x_nodes, 2)
 
 
 def linear_elastic_stress_2d(F, lam, mu) -> np.ndarray:
@@ -265,11 +270,7 @@ def piece_shares(triangle, point, direction):
             kept.append(q + sq / (sq - sr) * (r - q))
     if len(kept) < 3:
         return 0.0, 1.0
-    K = np.array(kept)
-    area = 0.5 * abs(np.dot(K[:, 0], np.roll(K[:, 1], -1)) - np.dot(K[:, 1], np.roll(K[:, 0], -1)))
-    e1, e2 = T[1] - T[0], T[2] - T[0]
-    whole = 0.5 * abs(e1[0] * e2[1] - e1[1] * e2[0])
-    left = float(min(1.0, area / whole))
+    left = float(min(1.0, abs(polygon_area(kept)) / abs(polygon_area(list(T)))))
     return left, 1.0 - left
 
 
@@ -292,9 +293,7 @@ def skin_energy(sigma, distance, stiffness, length):
 def deformation_gradient_tet(X_nodes, x_nodes) -> np.ndarray:
     """Exercise 11.1: ``F[i, j] = dx_i/dX_j`` of one linear tetrahedron: ``F = sum_a x_a (grad N_a)^T`` (= ``D_s
     D_m^-1``, the edge vectors)."""
-    X, x = _shaped("X_nodes", X_nodes, (3, 4)), _shaped("x_nodes", x_nodes, (3, 4))
-    _, grads = _p1_gradients(X)
-    return x @ grads
+    return _deformation_gradient(X_nodes, x_nodes, 3)
 
 
 def neo_hookean_stress_3d(F, lam, mu) -> np.ndarray:

@@ -104,7 +104,7 @@ class Chapter:
     goals: str
     minutes: int
     exercises: int
-    label: str = ""
+    label: str
 
     @property
     def page(self) -> str:
@@ -125,8 +125,7 @@ def chapter_title(nb, fallback: str) -> str:
 
 def chapter_goals(nb) -> str:
     """The ``**Goals.** ...`` paragraph of a chapter's first cell without its label, else the first paragraph
-    after the title (Markdown).
-    """
+    after the title (Markdown)."""
     paragraphs = [p for p in map(str.strip, re.split(r"\n\s*\n", _first_cell_text(nb))) if p and not p.startswith("#")]
     for p in paragraphs:
         if re.match(r"\**\s*Goals?\b", p):
@@ -142,8 +141,7 @@ def _execution_seconds(nb) -> float:
         start, end = timing.get("iopub.execute_input"), timing.get("shell.execute_reply")
         if start and end:
             try:
-                total += (datetime.fromisoformat(end.replace("Z", "+00:00"))
-                          - datetime.fromisoformat(start.replace("Z", "+00:00"))).total_seconds()
+                total += (datetime.fromisoformat(end) - datetime.fromisoformat(start)).total_seconds()
             except ValueError:
                 pass
     return total
@@ -161,8 +159,7 @@ _TRY = re.compile(r"^## What to try\b.*?(?=^## |\Z)", re.S | re.M)
 
 def reading_load(nb) -> tuple[int, int]:
     """``(words, code_lines)`` of a chapter: fenced code in Markdown counts as code, and the "What to try" section
-    is left out (like the exercises, it is for after the sitting).
-    """
+    is left out (like the exercises, it is for after the sitting)."""
     words = code_lines = 0
     for c in nb.cells:
         if c.cell_type == "markdown":
@@ -191,8 +188,7 @@ def stated_minutes(nb) -> int | None:
 
 def chapter_exercises(nb) -> list[str] | None:
     """The exercises a chapter's "Exercises" section lists (``**6.1**``, ...), or ``None`` without one (the
-    syllabus then counts the stubs of its exercise file).
-    """
+    syllabus then counts the stubs of its exercise file)."""
     text = "\n\n".join(c.source for c in nb.cells if c.cell_type == "markdown")
     m = re.search(r"^## Exercises.*?(?=^## |\Z)", text, re.S | re.M)
     return re.findall(r"\*\*(\d+\.\d+)\*\*", m.group(0)) if m else None
@@ -247,7 +243,8 @@ def _nav(page: str, chapters: list[Chapter], where: str) -> str:
     return f'<nav class="book {where}">{left}<span class="middle">{middle}</span>{right}</nav>'
 
 
-_ATTR = re.compile(r'(\s(?:href|src)=)(?:(")([^"]*)"|(\')([^\']*)\')')
+#: an ``href`` or ``src`` attribute: its ``prefix``, its quote and its value
+_ATTR = re.compile(r'(\s(?:href|src)=)(["\'])(.*?)\2', re.S)
 
 
 class _Links:
@@ -261,8 +258,7 @@ class _Links:
 
     def __call__(self, page_html: str, page: str, source_dir: Path) -> str:
         def fix(match):
-            prefix = match.group(1)
-            quote, value = (match.group(2), match.group(3)) if match.group(2) else (match.group(4), match.group(5))
+            prefix, quote, value = match.groups()
             new = self._target(value, page, source_dir)
             if new is None:
                 return ""  # an attribute that would lead nowhere is dropped; the link text stays
@@ -312,20 +308,15 @@ def _markdown_notebook(title: str, cells: list[str]) -> nbformat.NotebookNode:
     return nb
 
 
-def mathjax_source() -> Path:
-    """The MathJax files that install with the project (``jupyter-server-mathjax``): the site copies them."""
+def _copy_mathjax(outdir: Path) -> None:
+    """Copy the MathJax that installs with the project (``jupyter-server-mathjax``) into the site, without the
+    translations other than English (the pages never load them)."""
     spec = importlib.util.find_spec("jupyter_server_mathjax")  # where it is, without starting its server extension
     if spec is None or not spec.submodule_search_locations:
         raise RuntimeError("jupyter-server-mathjax is not installed: pip install jupyter-server-mathjax")
-    static = Path(list(spec.submodule_search_locations)[0]) / "static"
-    if not (static / "MathJax.js").is_file():
-        raise RuntimeError(f"jupyter-server-mathjax has no MathJax.js in {static}: reinstall it")
-    return static
-
-
-def _copy_mathjax(outdir: Path) -> None:
-    """Copy MathJax into the site, without the translations other than English (the pages never load them)."""
-    source = mathjax_source()
+    source = Path(list(spec.submodule_search_locations)[0]) / "static"
+    if not (source / "MathJax.js").is_file():
+        raise RuntimeError(f"jupyter-server-mathjax has no MathJax.js in {source}: reinstall it")
     shutil.copytree(source, outdir / MATHJAX_DIR, ignore=lambda folder, names: [
         n for n in names if Path(folder) == source / "localization" and n != "en"])
 
@@ -347,11 +338,11 @@ def syllabus_cells(chapters: list[Chapter], intro: str) -> list[str]:
     """The index page's Markdown cells: the README's opening, a table of times, each chapter's goals."""
     rows = ["| | chapter | reading and running | exercises | in all |", "|---:|---|---:|---:|---:|"]
     total = 0
-    for i, c in enumerate(chapters, 1):
+    for c in chapters:
         practice = c.exercises * MINUTES_PER_EXERCISE
         total += c.minutes + practice
         ex = f"{c.exercises} × {MINUTES_PER_EXERCISE} min" if c.exercises else "—"
-        rows.append(f"| {c.label or i} | [{c.title}]({c.page}) | {c.minutes} min | {ex} | {c.minutes + practice} min |")
+        rows.append(f"| {c.label} | [{c.title}]({c.page}) | {c.minutes} min | {ex} | {c.minutes + practice} min |")
     parts = [
         intro,
         "## Syllabus",
@@ -362,11 +353,11 @@ def syllabus_cells(chapters: list[Chapter], intro: str) -> list[str]:
         "The [errata](errata.html) list the slips found in the lecture notes.",
         "\n".join(rows),
     ]
-    for i, c in enumerate(chapters, 1):
+    for c in chapters:
         # drop the goals' own lead-in "By the end of this chapter you can" (said once here)
         goals = re.sub(r"^By the end of this chapter you can\s*\n", "", c.goals).strip()
         status = "" if c.executed else "\n\n*(This chapter's outputs are missing from the site: it was not executed.)*"
-        parts.append(f"### {c.label or i}. [{c.title}]({c.page})\n\n*About {c.minutes} min"
+        parts.append(f"### {c.label}. [{c.title}]({c.page})\n\n*About {c.minutes} min"
                      + (f", and {c.exercises} exercise{'s' if c.exercises != 1 else ''}*" if c.exercises else "*")
                      + f"\n\nBy the end of this chapter you can\n\n{goals}{status}")
     if _has_appendix(chapters):
@@ -410,18 +401,14 @@ def appendix_cells() -> list[str]:
 
 # --- the site -----------------------------------------------------------------------------------
 
-def build_book(chapters_dir, executed_dir, outdir, readme=None, exercises_dir=None, progress=print) -> list[Path]:
-    """Write the static site into ``outdir``; returns the pages written.
-
-    A chapter without an executed copy in ``executed_dir`` is shown without outputs, with a note; ``readme``
-    (default: beside ``chapters_dir``) gives the index page's opening and the errata, ``exercises_dir`` (default
-    ``chapters_dir/exercises``) the exercise counts. Relative links go to a chapter's page, the errata page or a
-    copy of the linked workbook file.
-    """
+def build_book(chapters_dir, executed_dir, outdir, progress=print) -> list[Path]:
+    """Write the static site into ``outdir``; returns the pages written. A chapter without an executed copy in
+    ``executed_dir`` is shown without outputs, with a note; the README beside ``chapters_dir`` gives the index
+    page's opening and the errata, ``chapters_dir/exercises`` the exercise counts. Relative links go to a
+    chapter's page, the errata page or a copy of the linked workbook file."""
     chapters_dir, executed_dir, outdir = Path(chapters_dir), Path(executed_dir), Path(outdir)
     root = chapters_dir.resolve().parent
-    readme = Path(readme) if readme else root / "README.md"
-    exercises_dir = Path(exercises_dir) if exercises_dir else chapters_dir / "exercises"
+    readme, exercises_dir = root / "README.md", chapters_dir / "exercises"
     readme_text = readme.read_text(encoding="utf-8")
     sources = chapter_paths(chapters_dir)
     if not sources:

@@ -44,9 +44,7 @@ from .notebooks import build_chapters, chapter_paths
 
 
 def project_root() -> Path:
-    """The workbook folder: the current directory if it holds ``chapters/``, else the checkout this package
-    was installed from.
-    """
+    """The workbook folder: the current directory if it holds ``chapters/``, else the package's checkout."""
     cwd = Path.cwd()
     if (cwd / "chapters").is_dir():
         return cwd
@@ -74,8 +72,7 @@ def _checked(check):
 
 
 def _count(name, lo, hi):
-    """An argparse ``type``: an integer in ``[lo, hi]`` (other text, and numbers of 30 digits or more, are refused
-    by ``check_count`` as text)."""
+    """An argparse ``type``: an integer in ``[lo, hi]`` (other text and 30-digit numbers refused as text)."""
     def check(text):
         return check_count(name, int(text) if text.lstrip("+-").isdecimal() and len(text) < 30 else text, lo, hi)
     return _checked(check)
@@ -171,11 +168,11 @@ def cmd_bench(args) -> int:
     if args.out:
         _check_out(args.out, folder=args.which != "assembly")
     matplotlib.use("Agg")
+    out = Path(args.out or "bench-results")  # a folder; the assembly benchmark writes one file, if asked
     if args.which == "assembly":
         sizes = tuple(args.sizes) if args.sizes else (2000, 8000, 32000)
         assembly_benchmark(sizes=sizes, repeats=args.repeats, out=args.out)
     elif args.which == "realtime":
-        out = Path(args.out or "bench-results")
         if args.compare:
             solver_comparison(n=args.sizes[0] if args.sizes else 19000, frames=args.frames, dim=args.dim, out=out)
             return 0
@@ -187,21 +184,17 @@ def cmd_bench(args) -> int:
             print(f"wrote {out / 'realtime.png'}")
     elif args.which == "scenes":
         size = args.sizes[0] if args.sizes else 8000
-        effects_benchmark(n_triangles=size, frames=min(args.frames, 90), repeats=args.repeats,
-                          out=args.out or "bench-results")
+        effects_benchmark(n_triangles=size, frames=min(args.frames, 90), repeats=args.repeats, out=out)
     elif args.which == "haptic":
         haptic_benchmark(n_triangles=args.sizes[0] if args.sizes else 8000, frames=args.frames,
-                         linear_solver=args.linear or "reuse-background", out=args.out or "bench-results")
-    elif args.which == "accuracy":
-        out = Path(args.out or "bench-results")
+                         linear_solver=args.linear or "reuse-background", out=out)
+    else:  # accuracy
         results = accuracy_study(plan=args.plan, out=out)
         for plot, stem, key in ((plot_pareto, "pareto", "knobs"), (plot_scaling, "scaling", "scaling"),
                                 (plot_budget, "budget", "budget")):
             if results.get(key):
                 plot(results, out / f"accuracy_{stem}.png")
                 print(f"wrote {out / f'accuracy_{stem}.png'}")
-    else:
-        raise SystemExit(f"unknown benchmark {args.which!r}")
     return 0
 
 
@@ -222,11 +215,8 @@ def cmd_grade(args) -> int:
 
 
 def _one_line(path, err) -> str:
-    """An error as the single line the ``scene`` command prints: ``PATH: message``, the path once.
-
-    A :class:`~tissuefem.engine.parameters.ParameterError` is about a field inside the file (its message names
-    the field), so the path goes in front; an error about the file itself (``field == "path"``) may already name it.
-    """
+    """An error as the single line the ``scene`` command prints: ``PATH: message``, the path once (an error about
+    a field inside the file names the field, one about the file itself may already name the path)."""
     message = " ".join(str(err).split()) or type(err).__name__
     about_a_field = isinstance(err, ParameterError) and err.field != "path"
     return f"{path}: {message}" if about_a_field or str(path) not in message else message
@@ -234,8 +224,7 @@ def _one_line(path, err) -> str:
 
 def cmd_scene(args) -> int:
     """Check a scene file and run it: one line per frame (``--verbose``), then a summary. A scene that cannot
-    be read or built is answered with one line on stderr and exit status 2, never a traceback.
-    """
+    be read or built is answered with one line on stderr and exit status 2, never a traceback."""
     frames = args.frames
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")

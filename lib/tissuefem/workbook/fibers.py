@@ -75,17 +75,10 @@ class PullResult:
     def nominal_stress(self) -> np.ndarray:
         return self.forces / self.edge_length
 
-    @property
-    def material(self) -> Material:
-        return self.model.material
 
-
-def _model(mesh, base, handles, angle_deg, stiffness, fibers=None) -> Model:
-    """The pulled body: the matrix material plus, with a fibre angle or field, the fibre term."""
-    if angle_deg is None and fibers is None:
-        return Model(mesh, base, handles=handles)
-    g = fiber_direction(angle_deg) if fibers is None else fibers
-    return Model(mesh, base, handles=handles, fibers=(check_fiber_stiffness(stiffness), g))
+def _fiber_term(stiffness, angle_deg):
+    """The model's ``fibers``: ``(k, g)`` at ``angle_deg``, or ``None`` (no fibers) for ``None``."""
+    return None if angle_deg is None else (check_fiber_stiffness(stiffness), fiber_direction(angle_deg))
 
 
 def _check_stretches(stretches) -> np.ndarray:
@@ -117,12 +110,8 @@ def confined_pull(angle_deg, strain, *, stiffness=K_FIBER, base=None, n=4, rtol=
     base = _default_base(base)
     strains = _check_stretches(1.0 + np.atleast_1d(np.asarray(strain, dtype=float))) - 1.0
     mesh = rectangle(1.0, 1.0, n, n)
-
-    def on_boundary(X):
-        return np.isclose(X[0], 0.0) | np.isclose(X[0], 1.0) | np.isclose(X[1], 0.0) | np.isclose(X[1], 1.0)
-
-    handle = Handle(on_boundary)
-    model = _model(mesh, base, [handle], angle_deg, stiffness)
+    handle = Handle(mesh.boundary_nodes())
+    model = Model(mesh, base, handles=[handle], fibers=_fiber_term(stiffness, angle_deg))
 
     def uniaxial_strain(s):
         return lambda X: np.vstack([s * X[0], X[1]])
@@ -171,7 +160,7 @@ def block_pull(angle_deg, stretches, *, stiffness=K_FIBER, base=None, width=2.0,
     stretches = _check_stretches(stretches)
     mesh = rectangle(width, height, nx, ny)
     pulled = Handle("right")
-    model = _model(mesh, base, [Handle("left"), pulled], angle_deg, stiffness)
+    model = Model(mesh, base, handles=[Handle("left"), pulled], fibers=_fiber_term(stiffness, angle_deg))
     return _ramp(model, pulled, lambda s: ((s - 1.0) * width, 0.0), stretches, "right", height, rtol)
 
 
@@ -185,11 +174,9 @@ def muscle_pull(stretches, *, stiffness=K_FIBER, base=None, with_fibers=True, fi
     mesh = fusiform_muscle() if mesh is None else mesh
     x0, length = mesh.p[0].min(), np.ptp(mesh.p[0])
     tendon = mesh.p[1, np.isclose(mesh.p[0], x0 + length)]
-    if not with_fibers:
-        fibers = None
-    elif fibers is None:
-        fibers = fusiform_fiber_field(mesh)
+    if with_fibers:
+        fibers = (check_fiber_stiffness(stiffness), fusiform_fiber_field(mesh) if fibers is None else fibers)
     pulled = Handle("right_tendon")
-    model = _model(mesh, base, [Handle("left_tendon"), pulled], None, stiffness, fibers)
+    model = Model(mesh, base, handles=[Handle("left_tendon"), pulled], fibers=fibers if with_fibers else None)
     return _ramp(model, pulled, lambda s: ((s - 1.0) * length, 0.0), stretches, "right_tendon",
                  float(np.ptp(tendon)), rtol)

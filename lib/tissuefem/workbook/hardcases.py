@@ -22,8 +22,8 @@ from ..engine.realtime import RealtimeSolver
 from ..engine.stepping import solve
 
 __all__ = ["inversion_models", "block", "start_states", "ReleaseResult", "release", "crush_and_release",
-           "crush_and_release_runs", "crush_in_frames", "twice_signed_areas", "edge_matrices", "element_jacobians",
-           "cover_counts", "drag_through", "RELEASE_OPTIONS"]
+           "crush_and_release_runs", "crush_in_frames", "edge_matrices", "element_jacobians", "cover_counts",
+           "drag_through", "RELEASE_OPTIONS"]
 
 #: Newton options of a release solve: absolute residual tolerance (the start residual is huge,
 #: so a relative one would stop early), a step cap and room for the creeping iterations.
@@ -83,7 +83,6 @@ class ReleaseResult:
     status: str
     iterations: int
     cuts: int  # line-search halvings
-    shifted: int  # iterations whose tangent had to be shifted to give a descent direction
     energies: np.ndarray  # total energy after each accepted step
     start_energy: float
     rest_error: float  # ||x - X|| / ||X|| over all nodes
@@ -120,8 +119,7 @@ def release(mesh, material, x_start, held=None, **newton_options) -> ReleaseResu
     newton, u = result.steps[-1], result.u
     return ReleaseResult(
         u=u, converged=result.converged, status=result.status, iterations=result.newton_iterations,
-        cuts=newton.line_search_cuts, shifted=sum(1 for h in newton.history if h.shift > 0),
-        energies=newton.energies, start_energy=float(start_energy),
+        cuts=newton.line_search_cuts, energies=newton.energies, start_energy=float(start_energy),
         rest_error=float(np.linalg.norm(model.positions(u) - X) / np.linalg.norm(X)),
         finite=bool(np.all(np.isfinite(u))), history=newton.history)
 
@@ -201,12 +199,6 @@ def crush_in_frames(material, mesh=None, depth: float = 1.3, steps: int = 13, ex
     return {"x": x, "reached": float(X[1, top].mean() - x[1, top].mean()), "converged": bool(report.converged),
             "frames": frames, "inverted": int(np.sum(J <= 1e-12)), "folded": int(np.sum(cover_counts(mesh, x) > 1)),
             "released": release(mesh, material, x, held=_bottom(mesh))}
-
-
-def twice_signed_areas(mesh, x) -> np.ndarray:
-    """Twice the signed area of each triangle, nodes at ``x`` ``(2, n_nodes)`` (> 0: anticlockwise)."""
-    a, b, c = (np.asarray(x, dtype=float)[:, mesh.t[k]] for k in range(3))
-    return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
 
 
 def edge_matrices(mesh, x) -> np.ndarray:

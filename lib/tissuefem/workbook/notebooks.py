@@ -32,13 +32,11 @@ def chapter_label(path) -> str:
     return f"{int(m.group(1))}{m.group(2)}"
 
 
-def execute_notebook(src, dst=None, timeout: int = 900, kernel_name: str = "python3"):
-    """Run every cell of ``src`` in a fresh kernel (working directory: the notebook's folder).
-
-    Returns the executed notebook; writes it to ``dst`` when given. A failing cell raises
+def execute_notebook(src, dst=None, timeout: int = 900):
+    """Run every cell of ``src`` in a fresh Python kernel (working directory: the notebook's folder); return the
+    executed notebook and write it to ``dst`` when given. A failing cell raises
     ``nbclient.exceptions.CellExecutionError`` naming the cell. The kernel talks over local sockets (IPC)
-    where the system has them: over TCP it would warn, once per chapter, that the traffic is unencrypted.
-    """
+    where the system has them: over TCP it would warn, once per chapter, that the traffic is unencrypted."""
     import nbformat
     from nbclient import NotebookClient
 
@@ -48,7 +46,7 @@ def execute_notebook(src, dst=None, timeout: int = 900, kernel_name: str = "pyth
         # the socket files' absolute prefix: the kernel runs in the chapter's folder, the client here
         config = (Config({"KernelManager": {"transport": "ipc", "ip": os.path.join(sockets, "kernel")}})
                   if os.name == "posix" else Config())
-        NotebookClient(nb, timeout=timeout, kernel_name=kernel_name, config=config,
+        NotebookClient(nb, timeout=timeout, kernel_name="python3", config=config,
                        resources={"metadata": {"path": str(src.parent)}}).execute()
     if dst is not None:
         dst = Path(dst)
@@ -57,7 +55,7 @@ def execute_notebook(src, dst=None, timeout: int = 900, kernel_name: str = "pyth
     return nb
 
 
-def build_chapters(chapters_dir, outdir, names=None, progress=print) -> list[Path]:
+def build_chapters(chapters_dir, outdir, names=None) -> list[Path]:
     """Execute the chapters (all, or those whose file name contains one of ``names``)."""
     paths = chapter_paths(chapters_dir)
     if names:
@@ -67,14 +65,12 @@ def build_chapters(chapters_dir, outdir, names=None, progress=print) -> list[Pat
     done, start = [], time.perf_counter()
     for i, path in enumerate(paths, 1):
         t0 = time.perf_counter()
-        if progress:
-            progress(f"[chapter {i}/{len(paths)}] executing {path.name} ...")
+        print(f"[chapter {i}/{len(paths)}] executing {path.name} ...")
         dst = Path(outdir) / path.name
         execute_notebook(path, dst)
         done.append(dst)
-        if progress:
-            progress(f"[chapter {i}/{len(paths)}] {path.name} -> {dst}  ({time.perf_counter() - t0:.1f} s, "
-                     f"total {time.perf_counter() - start:.1f} s)")
+        print(f"[chapter {i}/{len(paths)}] {path.name} -> {dst}  ({time.perf_counter() - t0:.1f} s, "
+              f"total {time.perf_counter() - start:.1f} s)")
     return done
 
 

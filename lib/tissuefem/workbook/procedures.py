@@ -19,6 +19,7 @@ from ..surgery.scene import Scene
 from ..surgery.simulation import Simulation
 from ..surgery.surfaces import contact_surface
 from ..surgery.topology import connected_components
+from .studies import rotation
 
 __all__ = ["still_clock", "sheet_scene", "still_simulation", "check_frame", "pulled_sheet", "incision_run",
            "two_pieces_run", "probe_run", "probe_indentation", "flap_runs", "crack_runs", "virtual_nodes_run",
@@ -255,8 +256,7 @@ def fold_run(contact: bool):
     centre = np.array([[1.8], [0.25]])
 
     def fold(theta, drop):
-        R = np.array([[np.cos(theta), -np.sin(theta)], [np.sin(theta), np.cos(theta)]])
-        return lambda P: centre + R @ (P - centre) - np.array([[0.0], [drop]])
+        return lambda P: centre + rotation(theta) @ (P - centre) - np.array([[0.0], [drop]])
 
     path = ([(th, 0.0) for th in np.linspace(0, np.pi, 13)[1:]] + [(np.pi, d) for d in np.linspace(0, 0.29, 5)[1:]]
             + [(np.pi, d) for d in np.linspace(0.29, 0.33, 9)[1:]])

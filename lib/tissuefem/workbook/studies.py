@@ -17,13 +17,12 @@ from ..engine.model import Handle, Model
 from ..engine.parameters import check_count as _count, check_real
 from ..engine.stepping import StaticResult, solve
 from .measure import median_time, relative_l2_error
-from .tables import markdown_table, text_table
+from .tables import markdown_table
 
 __all__ = [
     "rotation", "bending_map", "bending_gradient", "displacement_from_map", "rigid_rotation_response",
     "rotated_block", "BLOCK_HANDLE", "block_model", "stretched_block", "handle_force", "newton_iteration_time",
-    "cost_accuracy_study",
-    "format_cost_accuracy", "cost_accuracy_markdown", "RECORDED_COST_ACCURACY",
+    "cost_accuracy_study", "cost_accuracy_markdown", "RECORDED_COST_ACCURACY",
 ]
 
 
@@ -132,8 +131,7 @@ def block_model(n: int = 8, order: int = 1, material: Material | None = None, ha
     fixed, right edge moved by ``handle``; Neo-Hookean (E = 1000, nu = 0.3) by default; ``assembly="forms"``:
     the readable scikit-fem forms (slow)."""
     n = _count("n", n)
-    if material is None:
-        material = NeoHookean.from_young(TISSUE_E, TISSUE_NU)
+    material = NeoHookean.from_young(TISSUE_E, TISSUE_NU) if material is None else material
     mesh = rectangle(width, height, max(1, round(n * width / height)), n)
     return Model(mesh, material, order=order, assembly=assembly,
                  handles=[Handle("left", name="left"), Handle("right", handle, name="right")])
@@ -186,8 +184,7 @@ def cost_accuracy_study(p1_sizes=(2, 4, 8, 16), p2_sizes=(1, 2, 4, 8), reference
     if max(p1_sizes + p2_sizes, default=0) >= reference_size:
         raise ValueError(f"reference_size ({reference_size}) must exceed every size of the sweep "
                          f"(largest {max(p1_sizes + p2_sizes)})")
-    if material is None:
-        material = NeoHookean.from_young(TISSUE_E, TISSUE_NU)
+    material = NeoHookean.from_young(TISSUE_E, TISSUE_NU) if material is None else material
 
     reference = block_model(reference_size, 2, material, handle)
     ref = solve(reference, load_steps=load_steps)
@@ -229,11 +226,6 @@ _TABLE = [("order", "P", "{:d}"), ("n", "n", "{:d}"), ("triangles", "triangles",
 def cost_accuracy_markdown(rows) -> str:
     """The rows of :func:`cost_accuracy_study` as a Markdown table (for a notebook to render)."""
     return markdown_table(rows, _TABLE)
-
-
-def format_cost_accuracy(rows) -> str:
-    """The rows of :func:`cost_accuracy_study` as a plain-text table."""
-    return text_table(rows, _TABLE)
 
 
 #: One recorded run of :func:`cost_accuracy_study` (``data/cost_accuracy.json``) for the deterministic lecture

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["cell_text", "markdown_table", "text_table"]
+__all__ = ["cell_text", "markdown_table"]
 
 
 def cell_text(value, fmt: str) -> str:
@@ -21,11 +21,3 @@ def markdown_table(rows, columns, text_columns: int = 0) -> str:
         lines.append("| " + " | ".join(cell_text(row.get(key), fmt) for key, _, fmt in columns) + " |")
     return "\n".join(lines)
 
-
-def text_table(rows, columns, min_width: int = 9) -> str:
-    """Rows as a plain-text table, every column right-aligned and at least ``min_width`` wide."""
-    widths = [max(len(title), min_width) for _, title, _ in columns]
-    lines = ["  ".join(f"{title:>{w}}" for (_, title, _), w in zip(columns, widths))]
-    for row in rows:
-        lines.append("  ".join(f"{cell_text(row.get(key), fmt):>{w}}" for (key, _, fmt), w in zip(columns, widths)))
-    return "\n".join(lines)

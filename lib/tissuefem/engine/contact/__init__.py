@@ -16,8 +16,7 @@ References:
 """
 
 from .barrier import barrier
-from .collision import SAFETY
 from .surface import ContactSurface
 from .term import Contact
 
-__all__ = ["ContactSurface", "Contact", "barrier", "SAFETY"]
+__all__ = ["ContactSurface", "Contact", "barrier"]

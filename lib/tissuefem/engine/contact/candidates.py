@@ -165,21 +165,8 @@ class CandidatePairs:
             distance = np.where(kind == 1, np.abs(g), np.where(kind == 2, r_a, r_b))
             sigma = np.where(kind == 1, g, np.where(kind == 2, np.where(side_a < 0, -r_a, r_a),
                                                     np.where(side_b < 0, -r_b, r_b)))
-            sigma = np.where((sigma < 0) & self._held(at, p, s, distance), distance, sigma)
+            sigma = np.where((sigma < 0) & self.neighbour_nearer(at, p, s, distance, own=True), distance, sigma)
         return kind, distance, sigma
-
-    def _held(self, at, p, s, distance):
-        """Which points ``p`` lie nearer than ``distance`` to a neighbour of their segment ``s`` that is in their own
-        neighbourhood (never paired with them), not one of their own segments: that stretch of surface is their
-        nearest feature, so ``s`` does not press them."""
-        seg, held = self.surface.segments, np.zeros(p.size, dtype=bool)
-        for neighbour in (self.surface.previous[s], self.surface.next[s]):
-            nb = np.maximum(neighbour, 0)
-            mine = ((neighbour >= 0) & np.any(self.excluded[nb] == p[:, None], axis=1)
-                    & (seg[0, nb] != p) & (seg[1, nb] != p))
-            if np.any(mine):
-                held |= mine & (segment_distance(at(p), at(seg[0, nb]), at(seg[1, nb])) < distance)
-        return held
 
     def owners(self, p, s, keys, distance):
         """Which of the pairs own their point: the nearest segment of each run of consecutive segments that are all
@@ -214,15 +201,19 @@ class CandidatePairs:
         owner[order] = best_k == k
         return owner
 
-    def neighbour_nearer(self, at, p, s, check, depth):
-        """Where ``check``: whether a neighbour of segment ``s`` (not excluded for ``p``) is nearer the point than
-        ``depth``. ``at(i, rows)``: the coordinates (2, len(rows)) of the points ``i`` of the pairs ``rows``."""
+    def neighbour_nearer(self, at, p, s, depth, check=True, own=False):
+        """Which points ``p`` (where ``check``) lie nearer than ``depth`` to a neighbour of their segment ``s``: one
+        they may meet (not excluded for ``p``), or with ``own`` one in their own neighbourhood that is not one of
+        their own segments (that stretch is then their nearest feature, so ``s`` does not press them). ``at(i)``:
+        the coordinates (2, m) of the points ``i`` of each pair."""
         seg, near = self.surface.segments, np.zeros(p.size, dtype=bool)
         for neighbour in (self.surface.previous[s], self.surface.next[s]):
             nb = np.maximum(neighbour, 0)
-            i = np.flatnonzero(check & (neighbour >= 0) & np.all(self.excluded[nb] != p[:, None], axis=1))
-            if i.size:
-                near[i] |= segment_distance(at(p[i], i), at(seg[0, nb[i]], i), at(seg[1, nb[i]], i)) < depth[i]
+            excluded = np.any(self.excluded[nb] == p[:, None], axis=1)
+            fits = excluded & (seg[0, nb] != p) & (seg[1, nb] != p) if own else ~excluded
+            fits &= check & (neighbour >= 0)
+            if np.any(fits):
+                near |= fits & (segment_distance(at(p), at(seg[0, nb]), at(seg[1, nb])) < depth)
         return near
 
     def deep_at_start(self, p, s) -> np.ndarray:
@@ -232,7 +223,7 @@ class CandidatePairs:
         Y = self.step_start
         _, _, sigma = self.classify(lambda i: Y[:, i], p, s)
         deep = sigma <= -self.skins[p]
-        return deep & ~self.neighbour_nearer(lambda i, rows: Y[:, i], p, s, deep, self.skins[p])
+        return deep & ~self.neighbour_nearer(lambda i: Y[:, i], p, s, self.skins[p], deep)
 
     def refresh(self, Y) -> None:
         """Rebuild the list at the points ``Y``, keeping the positions found for pairs that stay in it."""

@@ -66,13 +66,13 @@ def times_of_impact(pairs, Y0, dY, p, s) -> np.ndarray:
     if not found:
         return out
     k, tau, wall = (np.array(column) for column in zip(*found))
-    def at(i, rows=slice(None)):  # the points i of the candidates rows at their time
-        return Y0[:, i] + tau[rows] * dY[:, i]
+    def at(i):  # the points i of each candidate at its time
+        return Y0[:, i] + tau * dY[:, i]
     kind, _, sigma = pairs.classify(at, p[k], s[k])
     hit = (kind == wall) & (sigma < 0)
     # the segment owns the point there unless a neighbour (one it may meet) is nearer than d; one through the wall's
     # own corner lies at d exactly, and does not count
-    hit &= ~pairs.neighbour_nearer(at, p[k], s[k], hit, (1.0 - 1e-9) * d[k])
+    hit &= ~pairs.neighbour_nearer(at, p[k], s[k], (1.0 - 1e-9) * d[k], hit)
     np.minimum.at(out, k[hit], tau[hit])
     return out
 

@@ -92,13 +92,11 @@ class ContactSurface:
         self.hinge_points, self.hinge_segments, self.hinge_corner = hinge_p[keep], hinge_s[keep], corner[keep]
 
     @classmethod
-    def from_mesh(cls, mesh, wound_boundary="cut") -> "ContactSurface":
+    def from_mesh(cls, mesh) -> "ContactSurface":
         """The boundary of a triangle mesh: a point per boundary node, a segment per boundary facet (with the lips of
-        a :func:`~tissuefem.surgery.topology.incise` cut), flagged as wound on the facets named ``wound_boundary``."""
+        a :func:`~tissuefem.surgery.topology.incise` cut), flagged as wound on the facets named ``"cut"``."""
         if not isinstance(mesh, MeshTri):
             raise ParameterError("mesh", f"mesh must be a triangle mesh (skfem.MeshTri), got {type(mesh).__name__}")
-        if not isinstance(wound_boundary, str):
-            raise ParameterError("wound_boundary", f"wound_boundary must be a boundary's name, got {wound_boundary!r}")
         p, facets = np.asarray(mesh.p, dtype=float), np.asarray(mesh.boundary_facets(), dtype=np.intp)
         pairs = np.asarray(mesh.facets, dtype=np.intp)[:, facets]
         t = np.asarray(mesh.t, dtype=np.intp)[:, np.asarray(mesh.f2t, dtype=np.intp)[0, facets]]
@@ -106,8 +104,8 @@ class ContactSurface:
         left = cross(p[:, pairs[1]] - p[:, pairs[0]], p[:, third] - p[:, pairs[0]]) > 0
         nodes, segments = np.unique(np.where(left, pairs, pairs[::-1]), return_inverse=True)  # material on the left
         wound = None
-        if mesh.boundaries and wound_boundary in mesh.boundaries:
-            wound = np.isin(facets, np.asarray(mesh.boundaries[wound_boundary]))
+        if mesh.boundaries and "cut" in mesh.boundaries:
+            wound = np.isin(facets, np.asarray(mesh.boundaries["cut"]))
         return cls(nodes[:, None], np.ones((nodes.size, 1)), segments.reshape(2, -1), p.shape[1], wound=wound)
 
     def positions(self, x) -> np.ndarray:

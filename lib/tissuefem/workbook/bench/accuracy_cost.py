@@ -16,6 +16,7 @@ import math
 import time
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -24,7 +25,7 @@ from ...engine.linsolve import LinearSolver, available
 from ...engine.materials import MATERIALS, material as make_material
 from ...engine.meshes import flap
 from ...engine.model import Handle, Model
-from ...engine.parameters import check_count, check_real, string
+from ...engine.parameters import check_count, check_real, require, string
 from ...engine.realtime import RealtimeSolver
 from ...engine.stepping import accuracy_summary, solve
 from ...surgery.scene import Scene, flap_path, flap_scene
@@ -32,7 +33,7 @@ from ...surgery.simulation import Simulation
 from ..verification import beam_problem_tip, manufactured_convergence
 from ..measure import fitted_exponent, pareto_front, relative_l2_error
 from ..tables import markdown_table
-from .common import load_results, machine_info, write_csv, write_json
+from .common import DATA, load_results, machine_info, write_csv, write_json
 
 __all__ = [
     "Setting", "KNOBS", "PLANS", "BLOCK_TARGET", "EASE_IN", "REFERENCE_GRADING", "eased_flap_path", "graded_flap",
@@ -70,8 +71,6 @@ def graded_flap(n_triangles: int, grading: float = REFERENCE_GRADING):
     -> 0.5 (2 x)^grading`` on its lower half, symmetrically above: cells shrink towards the corners, where the
     solution is singular (``grading = 1``: uniform)."""
     mesh = flap(n_triangles=int(n_triangles))
-    if grading == 1:
-        return mesh
     width, height = mesh.p[0].max(), mesh.p[1].max()
     p = np.vstack([width * _graded(mesh.p[0] / width, grading), height * _graded(mesh.p[1] / height, grading)])
     return replace(mesh, doflocs=p)
@@ -104,10 +103,20 @@ class Setting:
         return self
 
 
-#: The knobs and, for each, the label of the setting it changes. Values come from the plan.
-KNOBS = {"mesh": "triangles", "P2": "triangles", "quadrature": "intorder", "material": "material",
-         "newton_tolerance": "rtol", "newton_cap": "max_iterations", "time_step": "substeps",
-         "linear_solver": "linear_solver"}
+#: The knobs and what each ``value`` changes in the baseline (the plan gives the values, and the quadrature
+#: knob's mesh).
+_CHANGES = {
+    "mesh": lambda value, plan: {"triangles": int(value)},
+    "P2": lambda value, plan: {"triangles": int(value), "order": 2},
+    "quadrature": lambda value, plan: {"triangles": int(plan["knobs"]["quadrature_triangles"]), "order": 2,
+                                       "intorder": int(value)},
+    "material": lambda value, plan: {"material": value},
+    "newton_tolerance": lambda value, plan: {"rtol": float(value)},
+    "newton_cap": lambda value, plan: {"max_iterations": int(value), "rtol": 1e-12},
+    "time_step": lambda value, plan: {"substeps": int(value)},
+    "linear_solver": lambda value, plan: {"linear_solver": value},
+}
+KNOBS = tuple(_CHANGES)
 
 _MATERIALS = ("linear", "corotated", "neo-hookean", "stable-neo-hookean", "taylor-neo-hookean")
 _SOLVERS = ("reuse", "direct", "superlu-colamd", "cg-ilu", "cg-jacobi", "pardiso", "reuse-pardiso")
@@ -195,12 +204,14 @@ def run_setting(benchmark: str, setting: Setting, frames: int, checkpoints=(), b
     return sim.model, states, stats
 
 
+#: what a run keeps of each frame's report (not the report: it holds the state, and a run has thousands)
+_KEPT = ("newton_iterations", "linear_iterations", "factorizations", "converged", "relative_residual",
+         "handle_fraction", "scaled_residual", "min_J", "inverted", "undone")
+
+
 def _drive(solver, benchmark: str, frames: int, substeps: int, checkpoints=(), drag=None):
-    """Run ``frames`` displayed frames of ``substeps`` solver frames each; ``(states, stats)`` as in
-    :func:`run_setting`."""
-    fields = ("newton_iterations", "linear_iterations", "factorizations", "converged", "relative_residual",
-              "handle_fraction")
-    states, ms, records, accuracy = {}, [], [], []
+    """``frames`` displayed frames of ``substeps`` solver frames each: ``(states, stats)`` (:func:`run_setting`)."""
+    states, ms, kept = {}, [], []
     for f in range(1, frames + 1):
         spent = 0.0
         for s in range(1, substeps + 1):
@@ -208,12 +219,11 @@ def _drive(solver, benchmark: str, frames: int, substeps: int, checkpoints=(), d
                       else np.array(BLOCK_TARGET) * f / frames)
             report = solver.frame({"handle": target})
             spent += report.elapsed
-            records.append([getattr(report, k) for k in fields])  # not the report: it holds the state
-            accuracy.append(_Accuracy(report))
+            kept.append(SimpleNamespace(**{k: getattr(report, k) for k in _KEPT}))
         ms.append(1e3 * spent)
         if f in checkpoints:
             states[f] = solver.u.copy()
-    each = {k: [r[i] for r in records] for i, k in enumerate(fields)}
+    each = {k: [getattr(r, k) for r in kept] for k in _KEPT}
     stats = {
         "ms": ms, "ms_median": float(np.median(ms)), "ms_p95": float(np.percentile(ms, 95)),
         # per displayed frame (all substeps)
@@ -229,19 +239,11 @@ def _drive(solver, benchmark: str, frames: int, substeps: int, checkpoints=(), d
         "finite": bool(np.all(np.isfinite(solver.u))),
     }
     # each frame's own accuracy: the smallest J, the most inverted elements, the frames that left work undone
-    summary = accuracy_summary(accuracy)
+    summary = accuracy_summary(kept)
     stats.update({"scaled_residual_median": summary["scaled_residual"],
                   "min_J": summary["min_J"], "inverted": summary["inverted"], "undone_frames": summary["undone"],
                   "undone_reasons": summary["undone_reasons"]})
     return states, stats
-
-
-class _Accuracy:
-    """A frame report's accuracy without its state (a run keeps thousands of frames)."""
-
-    def __init__(self, report):
-        self.scaled_residual, self.converged = report.scaled_residual, report.converged
-        self.min_J, self.inverted, self.undone = report.min_J, report.inverted, report.undone
 
 
 def _reference_model(benchmark: str, triangles: int, grading: float, substeps: int = 1) -> Model:
@@ -302,8 +304,7 @@ def reference_run(benchmark: str, plan: dict, progress=None, check: bool = True)
     """``(problem, states, info)``: P2, Newton to ``1e-10``, on ``plan["reference"]``'s ``triangles`` (block:
     ``block_triangles``) and ``grading``, the flap as ``2 u(dt/2s) - u(dt/s)`` (``s = substeps``). With
     ``check``, ``info`` holds its error estimate (:func:`_estimate`) in space from 1/4 and 1/16 of the
-    triangles (``space_*``), for the flap in time from 2 and 4 times larger steps (``time_*``), and their sum.
-    """
+    triangles (``space_*``), for the flap in time from 2 and 4 times larger steps (``time_*``), and their sum."""
     ref = plan["reference"]
     frames = plan["frames"] if benchmark == "flap" else plan["block_frames"]
     checkpoints = _checkpoints(benchmark, frames, plan["checkpoints"])
@@ -356,47 +357,25 @@ def _relative_same_mesh(M, u, u_ref) -> float:
 
 def _errors(problem, states, reference) -> list[float]:
     """Relative ``L2`` errors at the reference's checkpoints, in order (``problem`` on its own mesh)."""
-    ref_problem, ref_states = reference[0], reference[1]
-    return [relative_l2_error(problem, states[f], ref_problem, ref_states[f]) for f in sorted(ref_states)]
+    return [relative_l2_error(problem, states[f], reference[0], reference[1][f]) for f in sorted(reference[1])]
 
 
 # --- the sweeps ------------------------------------------------------------------------------------
 
-#: What each knob's ``value`` changes in the baseline (``plan`` gives the quadrature knob's mesh).
-_CHANGES = {
-    "mesh": lambda value, plan: {"triangles": int(value)},
-    "P2": lambda value, plan: {"triangles": int(value), "order": 2},
-    "quadrature": lambda value, plan: {"triangles": int(plan["knobs"]["quadrature_triangles"]), "order": 2,
-                                       "intorder": int(value)},
-    "material": lambda value, plan: {"material": value},
-    "newton_tolerance": lambda value, plan: {"rtol": float(value)},
-    "newton_cap": lambda value, plan: {"max_iterations": int(value), "rtol": 1e-12},
-    "time_step": lambda value, plan: {"substeps": int(value)},
-    "linear_solver": lambda value, plan: {"linear_solver": value},
-}
-
-
-def _knob_settings(knob: str, plan: dict, base: Setting):
-    for value in plan["knobs"].get(knob, ()):
-        if knob not in _CHANGES:
-            raise ValueError(f"unknown knob {knob!r}; knobs: {sorted(KNOBS)}")
-        yield value, replace(base, **_CHANGES[knob](value, plan))
-
-
-def knob_sweep(benchmark: str, plan: dict, reference, knobs=None, progress=None) -> list[dict]:
+def knob_sweep(benchmark: str, plan: dict, reference, progress=None) -> list[dict]:
     """One row per (knob, value) of ``plan``: the setting, its cost, its error and ``from_baseline``; a
     setting this machine cannot run is skipped, a failed one has ``error = nan``."""
-    knobs = list(KNOBS) if knobs is None else list(knobs)
     frames = plan["frames"] if benchmark == "flap" else plan["block_frames"]
     checkpoints = _checkpoints(benchmark, frames, plan["checkpoints"])
     base = Setting(triangles=int(plan["base_triangles"]))
     # the baseline once more, to measure how far each setting moves the answer from it
     baseline = run_setting(benchmark, base, frames, checkpoints)
     rows = []
-    for knob in knobs:
+    for knob in KNOBS:
         if knob == "time_step" and benchmark == "block":
             continue
-        for value, setting in _knob_settings(knob, plan, base):
+        for value in plan["knobs"].get(knob, ()):
+            setting = replace(base, **_CHANGES[knob](value, plan))
             if not _runnable(setting.linear_solver):
                 continue
             row = {"benchmark": benchmark, "knob": knob, "value": value, **asdict(setting),
@@ -467,8 +446,7 @@ def budget_residual(sizes, frames: int, solvers=("reuse",), budget: float = FRAM
                          "budget_ms": 1e3 * budget, "converged_share": stats["converged_share"],
                          "residual_median": stats["residual_median"], "min_J": stats["min_J"],
                          "inverted": stats["inverted"], "undone_frames": stats["undone_frames"],
-                         "ms_median": stats["ms_median"],
-                         "ms_p95": stats["ms_p95"],
+                         "ms_median": stats["ms_median"], "ms_p95": stats["ms_p95"],
                          "state_error": _relative_same_mesh(M, states[frames], converged_states[frames])})
             if progress:
                 r = rows[-1]
@@ -525,19 +503,14 @@ def capped_newton_experiment(triangles: int = 500, frames: int = 5, drag: str = 
 # --- the whole study -------------------------------------------------------------------------------
 
 def _plan(plan) -> tuple[str, dict]:
-    if isinstance(plan, str):
-        if plan not in PLANS:
-            raise ValueError(f"plan must be one of {sorted(PLANS)} or a dict, got {plan!r}")
-        return plan, PLANS[plan]
+    """``(name, plan)`` of a plan given by its name in :data:`PLANS` or as a dict."""
     if isinstance(plan, dict):
-        missing = {"base_triangles", "frames", "checkpoints", "block_frames", "reference", "knobs"} - set(plan)
-        if missing:
-            raise ValueError(f"plan is missing {sorted(missing)}")
+        require("plan", plan, ("base_triangles", "frames", "checkpoints", "block_frames", "reference", "knobs"))
         return "custom", plan
-    raise ValueError(f"plan must be a name ({sorted(PLANS)}) or a dict, got {plan!r}")
+    return string("plan", plan, PLANS), PLANS[plan]
 
 
-def accuracy_study(plan="full", benchmarks=BENCHMARKS, knobs=None, scaling: bool = True, budget: bool = True,
+def accuracy_study(plan="full", benchmarks=BENCHMARKS, scaling: bool = True, budget: bool = True,
                    verification: bool = True, out=None, progress=print) -> dict:
     """Run the study and return (and write into the folder ``out``) its results: ``machine``, ``plan``,
     ``references``, ``knobs``, ``pareto`` (per benchmark, the front's rows), ``scaling``, ``budget``,
@@ -556,7 +529,7 @@ def accuracy_study(plan="full", benchmarks=BENCHMARKS, knobs=None, scaling: bool
         reference = reference_run(b, plan, progress=say, check=verification)
         results["references"][b] = reference[2]
         say(f"{b}: sweeping the knobs")
-        rows = knob_sweep(b, plan, reference, knobs=knobs, progress=say)
+        rows = knob_sweep(b, plan, reference, progress=say)
         offset = len(results["knobs"])
         results["knobs"] += rows
         front = pareto_front([r.get("ms_median", float("nan")) for r in rows], [r["error"] for r in rows])
@@ -606,14 +579,14 @@ def read_results(path) -> dict:
     results = load_results(path)
     for row in results.get("knobs", []) + results.get("scaling", {}).get("rows", []) + results.get("budget", []):
         for k, v in row.items():
-            if v is None and k not in ("intorder",):
+            if v is None and k != "intorder":
                 row[k] = float("nan")
     return results
 
 
 def recorded_results() -> dict:
     """The full study as recorded on the reference machine (shipped with the package; chapter 9 reads it)."""
-    return read_results(Path(__file__).parents[1] / "data" / "accuracy_study.json")
+    return read_results(DATA / "accuracy_study.json")
 
 
 #: what the knob tables' residual column means, for the pages that print them (chapter 9, its appendix)

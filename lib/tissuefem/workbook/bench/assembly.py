@@ -51,14 +51,13 @@ def format_table(rows) -> str:
     return markdown_table(rows, _COLUMNS)
 
 
-def assembly_benchmark(sizes=(2000, 8000, 32000), repeats=5, material=None, out=None, progress=print) -> list[dict]:
+def assembly_benchmark(sizes=(2000, 8000, 32000), repeats=5, out=None, progress=print) -> list[dict]:
     """Time the reference against the fast assembly on unit squares of about ``sizes`` triangles; one dict per
     size: median ms of each path (``ref_*``, ``fast_*``), ``speedup``, the fast path's ``setup_ms``, SuperLU
     times and ``rel_diff_*`` (the paths' relative difference). ``out``: a JSON path."""
     sizes = check_sizes(sizes)
     repeats = check_count("repeats", repeats)
-    if material is None:
-        material = NeoHookean.from_young(TISSUE_E, TISSUE_NU)
+    material = NeoHookean.from_young(TISSUE_E, TISSUE_NU)
     say = progress if progress is not None else (lambda *_: None)
     machine = machine_info()  # at the start: the load average says how quiet the machine was
 

@@ -14,9 +14,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ...engine.parameters import ParameterError, check_count
+from ...engine.parameters import check_count, count_list
 
-__all__ = ["machine_info", "check_sizes", "write_json", "write_csv", "load_results", "recorded", "median_rows"]
+__all__ = ["machine_info", "load_average", "check_sizes", "write_json", "write_csv", "load_results",
+           "recorded", "median_rows"]
 
 #: the recorded runs shipped with the package (chapters and docs/benchmarks.md print from them)
 DATA = Path(__file__).parents[1] / "data"
@@ -29,31 +30,22 @@ def _version(dist: str) -> str:
         return "unknown"
 
 
+def load_average() -> list[float]:
+    """The load average over 1, 5 and 15 minutes (a quiet 2-core machine: well under 1)."""
+    return [round(x, 2) for x in os.getloadavg()]
+
+
 def machine_info() -> dict:
-    """Platform, Python and library versions, the CPU count and the load average (1, 5 and 15 minutes: how busy the
-    machine was when the run started; a quiet 2-core machine shows well under 1), for the benchmark record."""
-    return {
-        "platform": platform.platform(),
-        "machine": platform.machine(),
-        "processor": platform.processor(),
-        "python": sys.version.split()[0],
-        "numpy": np.__version__,
-        "scipy": _version("scipy"),
-        "scikit-fem": _version("scikit-fem"),
-        "cpu_count": os.cpu_count(),
-        "load_average": [round(x, 2) for x in os.getloadavg()],
-    }
+    """The benchmark record's machine: platform, versions, CPU count and :func:`load_average` at the start."""
+    return {"platform": platform.platform(), "machine": platform.machine(),
+            "processor": platform.processor(), "python": sys.version.split()[0],
+            "numpy": np.__version__, "scipy": _version("scipy"), "scikit-fem": _version("scikit-fem"),
+            "cpu_count": os.cpu_count(), "load_average": load_average()}
 
 
-def check_sizes(sizes):
-    """The mesh sizes as a list of positive ints, or a :class:`~tissuefem.engine.parameters.ParameterError`."""
-    try:
-        sizes = list(sizes)
-    except TypeError:
-        raise ParameterError("sizes", f"sizes must be a sequence of positive integers, got {sizes!r}") from None
-    if not sizes:
-        raise ParameterError("sizes", "sizes must contain at least one mesh size")
-    return [check_count("sizes", s) for s in sizes]
+def check_sizes(sizes) -> list[int]:
+    """The mesh sizes (a non-empty list or tuple) as positive ints."""
+    return [check_count("sizes", s) for s in count_list("sizes", sizes, "mesh sizes", math.inf)]
 
 
 def _json_ready(x):

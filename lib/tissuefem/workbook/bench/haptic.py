@@ -3,8 +3,8 @@
 After each frame the grabbed edge's reduced model (:func:`~tissuefem.engine.haptics.tool_model`: its force and its
 stiffness seen through the body) is built; between frames a second thread updates the force from it at ``rate``
 updates per second, as a haptic device's loop would, while the frames go on at their normal (unbudgeted) rate.
-:func:`haptic_benchmark` times it: updates per second, the time per update, and each frame's time with and without
-the loop, paired (two copies of the scene stepped alternately, the loop running only beside the second).
+:func:`haptic_benchmark` times it: updates per second, the time per update, how late the ticks ran, and each frame's
+time with and without the loop, paired (two copies of the scene stepped alternately, the loop beside the second).
 :func:`haptic_path` measures the force's error along the scripted drag (:func:`~tissuefem.surgery.scene.flap_path`)
 at tool positions between frames, against the converged frame at the same tool position (the frame taken again from
 its start, with the edge there), and against holding the frame's force until the next one.
@@ -97,48 +97,70 @@ def haptic_path(n_triangles: int = 8000, frames: int = 30, substeps: int = 4, wa
 
 
 class HapticLoop:
-    """A thread that evaluates ``model()``'s force at ``position()`` ``rate`` times a second while ``active`` is set
-    (a device's loop): each update's seconds in ``update_seconds``, the seconds it was active in ``active_seconds``,
-    and the ticks it fell behind by a whole period or more in ``missed`` (skipped, as a device would); a position the
-    model refuses keeps the last force (counted in ``refused``)."""
+    """A thread that evaluates ``model()``'s force at ``position()`` ``rate`` times a second between :meth:`resume`
+    and :meth:`pause` (a device's loop), its ticks due at ``resumed + k / rate`` (nothing drifts): it sleeps until
+    ``SPIN`` s before a tick (a sleep overshoots by about 0.1 ms), then yields until the tick is due; a late tick runs
+    at once, none is dropped. Each update's seconds in ``update_seconds``, each tick's start less its due time in
+    ``lateness``, the seconds from resume to pause in ``active_seconds``; a position the model refuses keeps the last
+    force (counted in ``refused``)."""
 
-    def __init__(self, model, position, rate: float = 1000.0, clock=time.perf_counter):
-        self.model, self.position, self.clock = model, position, clock
+    #: seconds before a tick at which the loop stops sleeping and yields until the tick is due
+    SPIN = 2e-4
+
+    def __init__(self, model, position, rate: float = 1000.0, clock=time.perf_counter, sleep=time.sleep):
+        self.model, self.position, self.clock, self.sleep = model, position, clock, sleep
         self.period = 1.0 / check_real("rate", rate, 1.0, 1e6)
         self.active, self.stop = threading.Event(), threading.Event()
-        self.update_seconds, self.active_seconds, self.missed, self.refused = [], 0.0, 0, 0
-        self.last_force = None
+        self.update_seconds, self.lateness, self.active_seconds, self.refused = [], [], 0.0, 0
+        self.last_force, self.resumed_at, self.paused_at = None, 0.0, 0.0
         self.thread = threading.Thread(target=self._run, name="tissuefem-haptic", daemon=True)
+
+    def resume(self) -> None:
+        """Tick from now on: the first tick is due at once."""
+        self.resumed_at = self.clock()
+        self.active.set()
+
+    def pause(self) -> None:
+        """No tick due from now on runs (those due before, late, still do)."""
+        if self.active.is_set():
+            self.paused_at = self.clock()
+            self.active.clear()
 
     def _run(self):
         while not self.stop.is_set():
-            if not self.active.wait(0.01):
-                continue
-            began = tick = self.clock()
-            while self.active.is_set() and not self.stop.is_set():
-                t0 = self.clock()
-                try:
-                    self.last_force = self.model().force(self.position())
-                except ValueError:  # a refused position (a glitch of the device): the last force stays
-                    self.refused += 1
-                self.update_seconds.append(self.clock() - t0)
-                tick += self.period
-                late = self.clock() - tick
-                if late >= self.period:  # behind by whole periods: skip them (a device renders the next tick)
-                    skipped = int(late / self.period)
-                    self.missed += skipped
-                    tick += skipped * self.period
-                wait = tick - self.clock()
-                if wait > 0:
-                    time.sleep(wait)
-            self.active_seconds += self.clock() - began
+            if self.active.wait(0.01):
+                self.ticking()
+
+    def ticking(self) -> None:
+        """Run the ticks due from :meth:`resume` until :meth:`pause` (on the loop's thread)."""
+        began = tick = self.resumed_at
+        ticks = 0
+        while True:
+            wait = tick - self.clock() - self.SPIN
+            if wait > 0:
+                self.sleep(wait)
+            while self.clock() < tick:
+                self.sleep(0)  # lets the frames' thread run until the tick is due
+            if self.stop.is_set() or self.resumed_at != began or (not self.active.is_set() and
+                                                                   tick >= self.paused_at):
+                break  # (a tick due before the pause still runs)
+            t0 = self.clock()
+            self.lateness.append(t0 - tick)
+            try:
+                self.last_force = self.model().force(self.position())
+            except ValueError:  # a refused position (a glitch of the device): the last force stays
+                self.refused += 1
+            self.update_seconds.append(self.clock() - t0)
+            ticks += 1
+            tick = began + ticks * self.period
+        self.active_seconds += max(self.paused_at - began, 0.0)
 
     def __enter__(self):
         self.thread.start()
         return self
 
     def __exit__(self, *exc):
-        self.active.clear()
+        self.pause()
         self.stop.set()
         self.thread.join()
 
@@ -164,7 +186,7 @@ def _timed_frames(n_triangles, frames, rate, linear_solver, say):
                 t0 = time.perf_counter()
                 plain.frame(target)
                 plain_ms.append(1e3 * (time.perf_counter() - t0))
-                loop.active.set()
+                loop.resume()
                 t0 = time.perf_counter()
                 haptic.frame(target)
                 t1 = time.perf_counter()
@@ -172,7 +194,7 @@ def _timed_frames(n_triangles, frames, rate, linear_solver, say):
                 current["t"], current["start"] = k * FRAME_BUDGET, time.perf_counter()
                 haptic_ms.append(1e3 * (t1 - t0))
                 build_ms.append(1e3 * (current["start"] - t1))
-                loop.active.clear()
+                loop.pause()
     finally:
         sys.setswitchinterval(switch)
     say(f"  {len(loop.update_seconds)} force updates in {loop.active_seconds:.2f} s beside {frames} frames")
@@ -205,14 +227,16 @@ def haptic_benchmark(n_triangles: int = 8000, frames: int = 60, rate: float = 10
     say = progress if progress is not None else (lambda *_: None)
     say(f"haptic benchmark: about {n_triangles} triangles, the force loop at {rate:g} updates/s ...")
     sim, plain_ms, haptic_ms, build_ms, loop = _timed_frames(n_triangles, frames, rate, linear_solver, say)
-    update_us = 1e6 * np.array(loop.update_seconds)
+    update_us, late_us = 1e6 * np.array(loop.update_seconds), 1e6 * np.array(loop.lateness)
     path = haptic_path(n_triangles, path_frames, substeps, linear_solver=linear_solver.removesuffix("-background"))
     ratio = (haptic_ms + build_ms) / plain_ms
     row = {"triangles": int(sim.mesh.nelements), "dofs": int(sim.model.n_dofs), "frames": frames, "rate": rate,
            "updates": len(update_us),
            "updates_per_second": len(update_us) / loop.active_seconds if loop.active_seconds > 0 else float("nan"),
            "update_median_us": float(np.median(update_us)), "update_p95_us": float(np.percentile(update_us, 95)),
-           "update_max_us": float(np.max(update_us)), "missed_ticks": int(loop.missed),
+           "update_max_us": float(np.max(update_us)), "missed_ticks": int(np.sum(late_us >= 1e6 * loop.period)),
+           **{f"late_{name}_us": float(np.percentile(late_us, q)) for name, q in (("median", 50), ("p95", 95),
+                                                                                   ("max", 100))},
            "frame_plain_median_ms": float(np.median(plain_ms)), "frame_haptic_median_ms": float(np.median(haptic_ms)),
            "build_median_ms": float(np.median(build_ms)), "paired_ratio_median": float(np.median(ratio)),
            "path_frames": path["frames"], "substeps": path["substeps"],
@@ -222,7 +246,9 @@ def haptic_benchmark(n_triangles: int = 8000, frames: int = 60, rate: float = 10
            "hold_error_max": float(np.max(path["hold_error"])),
            "jump_relative_median": float(np.median(path["jump_relative"])) if path["jump"].size else float("nan"),
            "frame_plain_ms": plain_ms.tolist(), "frame_haptic_ms": haptic_ms.tolist(), "build_ms": build_ms.tolist()}
-    say(f"  {row['updates_per_second']:.0f} updates/s, median {row['update_median_us']:.1f} µs per update; frames "
+    say(f"  {row['updates_per_second']:.0f} updates/s, median {row['update_median_us']:.1f} µs per update; ticks "
+        f"late by {row['late_median_us']:.0f} µs median, {row['late_p95_us']:.0f} p95, {row['late_max_us']:.0f} max "
+        f"({row['missed_ticks']} by a period or more, run late, none dropped); frames "
         f"{row['frame_plain_median_ms']:.1f} ms alone, {row['frame_haptic_median_ms']:.1f} ms beside the loop "
         f"+ {row['build_median_ms']:.1f} ms for the reduced model; force error median "
         f"{row['haptic_error_median']:.1e}, max {row['haptic_error_max']:.1e} (held: {row['hold_error_median']:.1e}, "

@@ -1,16 +1,12 @@
 """Frame-rate benchmark of the standard scenes: the real-time solver against the scikit-fem ex43 way.
 
-One scene per dimension (:data:`SCENES`): in 2D the standard flap (its left edge held, its right edge dragged
-along :func:`flap_path`), in 3D the block (:func:`block_simulation`: held on its ``x = 0`` face, its ``x = L``
-face dragged along :func:`block_path`); both backward Euler with ``dt = 1/30``, every frame converged to a
-relative residual of 1e-6. Per mesh size: the real-time solver unbudgeted (**fast**) and with the 1/30 s budget
-(**budgeted**), scikit-fem's hyperelasticity example's way (:func:`ex43_frames`) and a frame's floor
-(:func:`frame_floor`). Beside the times, each way's accuracy as its frames report it
-(:func:`~tissuefem.engine.stepping.accuracy_summary`): the median relative residual, the share converged, the
-smallest ``J`` and the most inverted elements, and for budgeted frames their 95th and 99th percentile times, what
-they left undone and the largest residual an unconverged one committed. :func:`solver_comparison` runs one scene
-with several linear solvers, alternating, and measures what limits each (factorization, back-substitution,
-fill-in, assembly). Compare columns of one run (``docs/benchmarks.md``).
+One scene per dimension (:data:`SCENES`): the 2D flap dragged along :func:`flap_path`, the 3D block
+(:func:`block_simulation`) along :func:`block_path`; backward Euler with ``dt = 1/30``, every frame converged to
+a relative residual of 1e-6. Per mesh size: the real-time solver unbudgeted (**fast**) and with the 1/30 s
+budget (**budgeted**), scikit-fem's hyperelasticity example's way (:func:`ex43_frames`) and a frame's floor
+(:func:`frame_floor`); beside the times, each way's accuracy as its frames report it
+(:func:`~tissuefem.engine.stepping.accuracy_summary`). :func:`solver_comparison` runs one scene with several
+linear solvers, alternating, and measures what limits each. Compare columns of one run (``docs/benchmarks.md``).
 """
 
 from __future__ import annotations
@@ -38,7 +34,7 @@ from ...surgery.simulation import Simulation
 from ..measure import median_time
 from ..tables import markdown_table
 from ..timestepping import flap_drag
-from .common import check_sizes, machine_info, median_rows, recorded, write_csv, write_json
+from .common import check_sizes, load_average, machine_info, median_rows, recorded, write_csv, write_json
 
 __all__ = ["realtime_benchmark", "ex43_frames", "format_realtime_table", "flap_simulation", "frame_floor",
            "block_simulation", "block_path", "block_drag", "BlockSimulation", "SCENES", "solver_comparison",
@@ -69,9 +65,7 @@ def _block_cells(n_tetrahedra: int) -> tuple[int, int, int]:
 
 
 class BlockSimulation:
-    """The 3D block scene, built: its ``model`` and real-time ``solver`` (no budget: every frame converges), read
-    as the benchmark reads a 2D :class:`~tissuefem.surgery.simulation.Simulation` (``mesh``, ``u``, ``frames``,
-    ``frame``)."""
+    """The 3D block's ``model`` and ``solver``, read like a :class:`~tissuefem.surgery.simulation.Simulation`."""
 
     def __init__(self, model: Model, solver: RealtimeSolver):
         self.model, self.solver = model, solver
@@ -98,8 +92,7 @@ def block_simulation(n_tetrahedra: int, linear_solver=None) -> BlockSimulation:
 
 
 def block_drag(sim, frames: int, start: int = 0) -> list:
-    """Frames ``start + 1 ... start + frames`` of the block's drag (``"grab"`` on :func:`block_path`): their
-    reports."""
+    """The reports of frames ``start + 1 ... start + frames`` of the block's drag along :func:`block_path`."""
     return [sim.frame({"grab": block_path((f + 1) * FRAME_BUDGET)}) for f in range(start, start + frames)]
 
 
@@ -137,23 +130,19 @@ def _scene(dim) -> BenchScene:
     return SCENES[dim]
 
 
-def ex43_frames(model, n_frames: int, dt: float = FRAME_BUDGET, rtol: float = RTOL_FLAP, density=TISSUE_DENSITY,
-                lumped: bool = True, path=flap_path):
+def ex43_frames(model, n_frames: int, rtol: float = RTOL_FLAP, path=flap_path):
     """``(ms per frame, Newton iterations per frame, u)`` of ``n_frames`` the ex43 way (``asm``, ``condense``,
-    ``solve`` every iteration; the mass lumped by default) on ``model``, its second handle on ``path``
+    ``solve`` every iteration; the mass lumped, ``dt = 1/30``) on ``model``, its second handle on ``path``
     (:func:`flap_path`; in 3D :func:`block_path`)."""
-    basis = model.basis
-    grab = model.handles[1]
+    basis, grab, dt = model.basis, model.handles[1], FRAME_BUDGET
     K_form, r_form = tangent_form(model.material), residual_form(model.material)
     d = model.X.shape[0]
 
     @BilinearForm
     def mass(u, v, w):
-        return density * sum(u[i] * v[i] for i in range(d))
+        return TISSUE_DENSITY * sum(u[i] * v[i] for i in range(d))
 
-    M = asm(mass, basis)
-    if lumped:
-        M = sp.diags(np.asarray(M.sum(axis=1)).ravel()).tocsr()
+    M = sp.diags(np.asarray(asm(mass, basis).sum(axis=1)).ravel()).tocsr()
     u, v = basis.zeros(), basis.zeros()
     times, iterations = [], []
     for f in range(n_frames):
@@ -190,10 +179,8 @@ def ex43_frames(model, n_frames: int, dt: float = FRAME_BUDGET, rtol: float = RT
     return np.array(times), np.array(iterations), u
 
 
-def _fast_frames(scene: BenchScene, n, n_frames, budget=None, linear_solver="reuse"):
+def _fast_frames(scene: BenchScene, n, n_frames, linear_solver="reuse"):
     sim = scene.build(n, linear_solver)
-    if budget is not None:
-        sim.solver.budget = budget
     return sim, scene.drag(sim, n_frames)
 
 
@@ -219,14 +206,11 @@ def frame_floor(sim, repeats: int = 9) -> dict:
     (``factorization_ms``), the stored entries of the factors (``factor_nnz``; a multigrid hierarchy's: every
     level's matrix) and of the free block of the tangent (``matrix_nnz``)."""
     model, u = sim.model, sim.u
-    fixed, _ = model.prescribed()
-    free = np.ones(model.n_dofs, dtype=bool)
-    free[fixed] = False
-    backend = sim.solver.linear.factorizing
+    free = np.isin(np.arange(model.n_dofs), model.prescribed()[0], invert=True)
     rhs = -model.gradient(u)[free]
     A = sim.solver.linear.condense(model.hessian(u), free)
     t0 = time.perf_counter()
-    factor = backend.factorize(A)
+    factor = sim.solver.linear.factorizing.factorize(A)
     factorization = 1e3 * (time.perf_counter() - t0)
     apply = getattr(factor, "precondition", None) or factor.solve
     apply(rhs)  # a first solve may check its residual: untimed
@@ -278,8 +262,7 @@ _RECORDED = [
 
 
 def format_realtime_table(rows) -> str:
-    """The benchmark rows as a Markdown table (its first column the rows' element count: triangles or
-    tetrahedra)."""
+    """The benchmark rows as a Markdown table (the first column: triangles or tetrahedra)."""
     elements = "tetrahedra" if rows and "tetrahedra" in rows[0] else "triangles"
     return markdown_table(rows, [(elements, elements, "{:d}"), *_COLUMNS])
 
@@ -418,14 +401,6 @@ def format_comparison_table(rows) -> str:
     return markdown_table(rows, _COMPARISON, text_columns=1)
 
 
-def _load() -> list[float] | None:
-    """The machine's load averages (1, 5, 15 minutes), where the system tells them."""
-    try:
-        return [float(x) for x in Path("/proc/loadavg").read_text().split()[:3]]
-    except (OSError, ValueError):
-        return None
-
-
 def solver_comparison(n: int = 19000, approaches=APPROACHES, frames: int = 60, rounds: int = 2, dim: int = 3,
                       out=None, progress=print) -> list[dict]:
     """Run the ``dim``-dimensional scene at size ``n`` with each linear solver of ``approaches`` (those that run
@@ -443,7 +418,7 @@ def solver_comparison(n: int = 19000, approaches=APPROACHES, frames: int = 60, r
     loads = []
     for r in range(rounds):
         for a in names:
-            loads.append(_load())
+            loads.append(load_average())
             sim, reports = _fast_frames(scene, n, frames, linear_solver=a)
             row = {scene.elements: int(sim.mesh.t.shape[1]), **_frames_row(sim, reports)}
             sim.solver.linear.close()
@@ -453,12 +428,10 @@ def solver_comparison(n: int = 19000, approaches=APPROACHES, frames: int = 60, r
                 f"{row['factorization_ms']:.0f} ms, back-substitution {row['back_substitution_ms']:.1f} ms")
     rows = []
     for a in names:
-        first = runs[a][0]
-        row = {k: v for k, v in first.items() if not isinstance(v, (int, float)) or isinstance(v, bool)}
-        for k, v in first.items():
+        row = dict(runs[a][0])
+        for k, v in runs[a][0].items():
             if isinstance(v, (int, float)) and not isinstance(v, bool):
-                values = [run[k] for run in runs[a] if run.get(k) is not None]
-                row[k] = type(v)(np.median(values)) if values else None
+                row[k] = type(v)(np.median([run[k] for run in runs[a] if run.get(k) is not None]))
         row["approach"] = a
         row["fill"] = row["factor_nnz"] / row["matrix_nnz"] if row.get("factor_nnz") else None
         row["round_medians_ms"] = [run["fast_median_ms"] for run in runs[a]]

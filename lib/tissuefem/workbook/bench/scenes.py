@@ -21,12 +21,11 @@ from ..timestepping import flap_drag
 from .common import machine_info, median_rows, recorded, write_csv, write_json
 
 __all__ = ["effects_benchmark", "variants", "format_effects_table", "term_costs", "cut_costs", "cut_frame_costs",
-           "probe_costs", "recorded_effects", "recorded_effects_table"]
+           "recorded_effects", "recorded_effects_table"]
 
 
 def _base(n_triangles):
-    """The quasistatic base: the standard flap in stable neo-Hookean, factorization refreshed in the
-    background."""
+    """The quasistatic base: the standard flap in stable neo-Hookean, factorized in the background."""
     return flap_scene(n_triangles, model="stable-neo-hookean", dynamic=False,
                       linear_solver="reuse-background").to_dict()
 
@@ -70,12 +69,6 @@ def variants(n_triangles):
                        "probes": [PROBE], "sutures": [SUTURES], "inversion": {"method": "projected"},
                        "contact": {}})
     return out
-
-
-def _run(data, options, frames):
-    sim = Simulation(Scene.from_dict(data), **options)
-    reports = flap_drag(sim, frames)
-    return sim, np.array([1e3 * r.elapsed for r in reports]), np.array([r.newton_iterations for r in reports])
 
 
 def cut_costs(n_triangles, repeats=3) -> dict:
@@ -122,29 +115,6 @@ def cut_frame_costs(n_triangles, repeats=5, frames_before=3) -> dict:
     return out
 
 
-def probe_costs(n_triangles, frames=30, repeats=3, ranks=(0, 64)) -> dict:
-    """The probe variant with each ``update_rank`` of the kept factorization (runs alternate): ``{rank: {"ms":
-    median ms/frame, "newton", "cg", "updates": per frame, means}}``; ``cg``: CG iterations (one back-substitution
-    each), ``updates``: back-substitutions of the low-rank updates."""
-    repeats = check_count("repeats", repeats)
-    data = _base(n_triangles)
-    data["effects"]["probes"] = [PROBE]
-    runs = {rank: [] for rank in ranks}
-    for _ in range(repeats):
-        for rank in ranks:
-            sim = Simulation(Scene.from_dict(data))
-            backend = sim.solver.linear.backend
-            backend.update_rank = rank
-            reports = flap_drag(sim, frames)
-            runs[rank].append((np.median([1e3 * r.elapsed for r in reports]),
-                               np.mean([r.newton_iterations for r in reports]),
-                               np.mean([r.newton.linear_iterations for r in reports]),
-                               backend.update_solves / frames))
-            sim.solver.linear.close()
-    return {rank: dict(zip(("ms", "newton", "cg", "updates"), (float(np.median(c)) for c in zip(*rows))))
-            for rank, rows in runs.items()}
-
-
 def term_costs(sim, repeats=5) -> dict:
     """Median ms to evaluate each term's energy, force and Hessian once, at the simulation's state."""
     u, model, costs = sim.u, sim.model, {}
@@ -161,6 +131,8 @@ def term_costs(sim, repeats=5) -> dict:
 _TABLE = [("variant", "variant", "{}"), ("terms", "terms", "{}"), ("median_ms", "median ms/frame", "{:.1f}"),
           ("p95_ms", "p95 ms", "{:.1f}"), ("newton", "Newton/frame", "{:.2f}"),
           ("cost_ms", "cost vs base (ms)", "{:+.1f}")]
+#: the recorded table: the last column the ratio to the base, with the rounds' range
+_RECORDED = _TABLE[:-1] + [("over_base_text", "over the base (rounds' range)", "{}")]
 
 
 def format_effects_table(rows) -> str:
@@ -186,10 +158,7 @@ def recorded_effects() -> tuple[list[dict], dict]:
 
 def recorded_effects_table() -> str:
     """The recorded run as the Markdown table docs/benchmarks.md shows."""
-    columns = [("variant", "variant", "{}"), ("terms", "terms", "{}"), ("median_ms", "median ms/frame", "{:.1f}"),
-               ("p95_ms", "p95 ms", "{:.1f}"), ("newton", "Newton/frame", "{:.2f}"),
-               ("over_base_text", "over the base (rounds' range)", "{}")]
-    return markdown_table(recorded_effects()[0], columns, text_columns=2)
+    return markdown_table(recorded_effects()[0], _RECORDED, text_columns=2)
 
 
 def effects_benchmark(n_triangles=8000, frames=30, repeats=5, out=None, progress=print) -> dict:
@@ -197,19 +166,19 @@ def effects_benchmark(n_triangles=8000, frames=30, repeats=5, out=None, progress
     n_triangles, frames = check_count("n_triangles", n_triangles, 50), check_count("frames", frames)
     say = progress or (lambda *a, **k: None)
     machine = machine_info()  # at the start: the load average says how quiet the machine was
-    rows, base, everything = [], None, None
+    rows = []
     for name, data, options in variants(n_triangles):
-        sim, ms, newton = _run(data, options, frames)
+        sim = Simulation(Scene.from_dict(data), **options)
+        reports = flap_drag(sim, frames)
+        ms, newton = np.array([1e3 * r.elapsed for r in reports]), np.array([r.newton_iterations for r in reports])
         median = float(np.median(ms))
-        if base is None:
-            base = median
+        base = rows[0]["median_ms"] if rows else median
         rows.append({"variant": name, "terms": sim.terms, "solver": sim.solver.linear_solver_name,
                      "median_ms": median, "p95_ms": float(np.percentile(ms, 95)), "newton": float(np.mean(newton)),
                      "cost_ms": median - base, "within_budget": float(np.mean(ms <= 1e3 * FRAME_BUDGET)),
                      "ms": ms.tolist()})
         say(f"{name:40s} {median:7.1f} ms/frame  {np.mean(newton):.2f} Newton/frame  terms {sim.terms}")
-        everything = sim
-    terms = term_costs(everything, repeats)
+    terms = term_costs(sim, repeats)  # the last variant: everything
     cuts = cut_costs(n_triangles, repeats)
     say("one cut while dragging (the edit, a new model and solver), ms: "
         + ", ".join(f"{k} {v:.1f}" for k, v in cuts.items()))

@@ -34,7 +34,7 @@ FILMSTRIP_FRAMES = (0, 3, 6, 10, 16, 25, 49)
 def fig_ch07_cfl(study=None) -> Figure:
     """Chapter 7: symplectic Euler's largest stable step (bisection) and its estimate ``2 / omega_max``
     against h, fitted by ``dt = C h^p`` (CFL: ``p = 1``); right: the Courant number ``c dt / h``."""
-    study = cfl_study(CFL_SIZES, E=TISSUE_E, nu=TISSUE_NU) if study is None else study
+    study = cfl_study(CFL_SIZES) if study is None else study
     h = np.array([r["h"] for r in study])
     measured = shown([r["dt_measured"] for r in study])  # bisection and ARPACK: the last digits vary
     estimate = shown([r["dt_estimate"] for r in study])
@@ -83,7 +83,6 @@ def fig_ch07_energy() -> Figure:
     dt_crit = critical_time_step(problem)
     fig = Figure(figsize=(13.0, 4.4), layout="constrained")
     ax, ax_z, ax_u = fig.subplots(1, 3, width_ratios=[1.5, 1, 0.9])
-    e0 = None
     for dt, color in zip(BE_STEPS, ("C0", "C1", "C2")):
         t, e = backward_euler_run(problem, u0, dt, int(round(ENERGY_T_END / dt)))
         e0 = e[0]
@@ -195,9 +194,9 @@ STATE_ROUND_OFF = 1e-12
 
 
 @lecture_figure
-def fig_ch07_budget_residual(rows=None) -> Figure:
+def fig_ch07_budget_residual() -> Figure:
     """Chapter 7: residual and state error left when a frame stops after 1, 2 or 3 Newton steps, by mesh size."""
-    rows = capped_runs() if rows is None else rows
+    rows = capped_runs()
     fig = Figure(figsize=(9.0, 4.1), layout="constrained")
     ax_r, ax_e = fig.subplots(1, 2)
     for cap, marker in zip(CAPS, "os^"):

@@ -11,9 +11,9 @@ from matplotlib.patches import FancyArrowPatch
 from matplotlib.tri import Triangulation
 
 from ...engine.constants import FRAME_BUDGET, TISSUE_E, TISSUE_NU
-from ...engine.materials import LinearElastic, NeoHookean
+from ...engine.materials import LinearElastic, NeoHookean, det
 from ...engine.meshes import rectangle
-from ..hardcases import twice_signed_areas
+from ..hardcases import edge_matrices
 from ..studies import (BLOCK_HANDLE, RECORDED_COST_ACCURACY, bending_gradient, bending_map, rigid_rotation_response,
                        rotated_block, rotation, stretched_block)
 from .base import at_least, lecture_figure, shown, stress_label
@@ -181,7 +181,7 @@ def fig_ch03_rotation_stress() -> Figure:
         x = np.round(problem.deformed_positions(result.u), 4)  # drawn to 1e-4: round-off moves no line
         loop = x[:, _boundary_loop(8, 8)]
         tri = Triangulation(x[0], x[1], problem.mesh.t.T)
-        ratio = float(0.5 * np.sum(twice_signed_areas(problem.mesh, problem.deformed_positions(result.u))))
+        ratio = float(0.5 * np.sum(det(edge_matrices(problem.mesh, problem.deformed_positions(result.u)))))
         energy = abs(problem.stored_energy(result.u))
         ax_b.fill(loop[0], loop[1], color=color, alpha=0.15, lw=0)
         ax_b.triplot(tri, color=color, lw=0.3, alpha=0.6)
@@ -204,7 +204,7 @@ def fig_ch04_block() -> Figure:
     J = det F and by Psi."""
     problem, u = stretched_block()
     F = problem.deformation_gradient(u)
-    J = F[0, 0] * F[1, 1] - F[0, 1] * F[1, 0]
+    J = det(F)
     psi = problem.material.energy(F)
     x = problem.deformed_positions(u)
     tri = Triangulation(x[0], x[1], problem.mesh.t.T)

@@ -240,10 +240,10 @@ def stitch_arcs(a, b, bulge=0.18, n=12) -> np.ndarray:
 
 
 @lecture_figure
-def fig_ch08_flap(runs=None) -> Figure:
+def fig_ch08_flap() -> Figure:
     """Chapter 8: an advancement flap closes a 0.6 x 0.6 defect (after Sifakis et al. 2009): (a) cut, stitches
     planned, (b) sutured, coloured by tension, (c) the mean tension for three flap lengths."""
-    runs = flap_runs() if runs is None else runs
+    runs = flap_runs()
     result = runs[FLAP_SHOWN]
     sim = result.simulation
     mesh = sim.mesh

@@ -220,21 +220,21 @@ def plot_budget(results, path=None) -> Figure:
 
 
 @lecture_figure
-def fig_ch09_pareto(results=None) -> Figure:
+def fig_ch09_pareto() -> Figure:
     """Chapter 9: error against ms per frame for every knob, flap and quasistatic block (recorded full study)."""
-    return plot_pareto(recorded_results() if results is None else results)
+    return plot_pareto(recorded_results())
 
 
 @lecture_figure
-def fig_ch09_scaling(results=None) -> Figure:
+def fig_ch09_scaling() -> Figure:
     """Chapter 9: ms per frame against mesh size per linear solver, with fitted growth exponents (recorded)."""
-    return plot_scaling(recorded_results() if results is None else results)
+    return plot_scaling(recorded_results())
 
 
 @lecture_figure
-def fig_ch09_budget(results=None) -> Figure:
+def fig_ch09_budget() -> Figure:
     """Chapter 9: residual and converged share left by the 33 ms budget, by mesh size (recorded)."""
-    return plot_budget(recorded_results() if results is None else results)
+    return plot_budget(recorded_results())
 
 
 @lecture_figure
