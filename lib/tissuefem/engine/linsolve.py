@@ -551,6 +551,11 @@ class _OffFrame:
     def launch(self, value):
         self._work.launch = _check_launch(value)
 
+    @property
+    def refreshing(self) -> bool:
+        """Whether a factorization is being made off the frame, or is made and waits to be taken by a solve."""
+        return self._work.pending is not None
+
     def close(self) -> None:
         """Wait for any background factorization to finish (it is not adopted) and forget the kept factorization.
         The solver stays usable: its next solve factorizes afresh."""
@@ -984,7 +989,7 @@ class LinearSolver(_OffFrame):
 
     @property
     def refreshing(self) -> bool:
-        """Whether a factorization is being made off the frame, or is made and waits to be taken by a solve."""
+        """Whether a factorization is being made off the frame (here or by the backend), or waits to be taken."""
         return self._work.pending is not None or getattr(self.backend, "refreshing", False)
 
     def least_work(self) -> tuple[str, ...]:
