@@ -5,10 +5,15 @@ of :data:`LINEAR_SOLVERS`: before each piece of work (an assembly, a factorizati
 iteration) it reads the clock and starts the piece only if the piece's cost, learned from its last runs
 (``solver.costs``), says it ends in time. A factorization that does not fit runs in the background (the second
 core) while the frame goes on with the old one as CG's preconditioner, or the frame stops; then it commits the last
-accepted iterate (*anytime*, see :mod:`.stepping`) and the residual left carries into the next frame. Only the first
-frame ever, with no cost learned yet, runs its work whatever it costs (its report's ``unestimated`` says so); the
-first Newton iteration's short pieces always run, so every frame makes progress. What a frame did not start is its
-report's ``skipped``. The clock is a parameter, so tests use a fake one.
+accepted iterate (*anytime*, see :mod:`.stepping`; its warm start if not even the first Newton iteration fitted)
+and the residual left carries into the next frame. While a factorization runs on the second core the frame's own
+pieces run slower (they wait for the interpreter's lock and share the memory): each is then counted at its cost
+plus a wait, learned from the pieces measured meanwhile (``solver.costs["contention"]``, seconds). What a frame did not start is its report's
+``skipped``. The clock is a parameter, so tests use a fake one.
+
+**The first step learns the costs.** With nothing learned yet, the first step is predicted to cost
+:data:`FIRST_STEP_COST` seconds per dof: if that fits the budget it runs on the frame (its report's
+``unestimated`` says so), else off the frame (below), and its pieces' costs are learned there.
 
 **A step too long for a frame runs off it.** When the learned costs say that even one Newton iteration (an
 assembly, the least solve, a line search and the report's check of J) does not fit the budget, the frame does not
@@ -17,7 +22,9 @@ lock in the heavy parts) and returns at once with the last committed state; its 
 ``"running"``. The frames after it return at once too, until one finds the step finished and commits it
 (``off_frame == "finished"``). Simulated time then advances slower than real time: one step of ``dt`` per so many
 frames. The handles' targets given meanwhile are kept for the next step; whatever changes the model or the state
-first waits for the running step (:meth:`~.stepping.Stepper.settle`).
+first waits for the running step (:meth:`~.stepping.Stepper.settle`). So that every step makes progress, a step
+goes off the frame too after a frame that could not start its first Newton iteration and waits for no
+factorization (:meth:`too_long`).
 """
 
 from __future__ import annotations
@@ -33,7 +40,12 @@ from .minimize import NewtonResult
 from .parameters import ParameterError
 from .stepping import Stepper, StepReport
 
-__all__ = ["RealtimeSolver", "FRAME_BUDGET", "LINEAR_SOLVERS", "default_linear_solver"]
+__all__ = ["RealtimeSolver", "FRAME_BUDGET", "LINEAR_SOLVERS", "FIRST_STEP_COST", "default_linear_solver"]
+
+#: What a first step (nothing learned yet: it factorizes) is predicted to cost, seconds per dof: about twice what it
+#: took on the machine of docs/benchmarks.md (3.5 to 7.5 us per dof from 2k to 128k triangles), so that a frame
+#: holds the first step of up to 3000 dofs.
+FIRST_STEP_COST = FRAME_BUDGET / 3000
 
 #: The linear solvers the real-time loop offers (``"constant"``: a quadratic model's; those with ``pardiso`` need
 #: the optional ``pypardiso``).
@@ -62,7 +74,7 @@ class RealtimeSolver(Stepper):
     a multigrid preconditioner, ``"...cg-amg"``, is given the body's rigid motions). ``launch(work)``: how a
     step too long for a frame starts off it, returning a job with ``is_alive`` and ``join`` (a test passes one it
     controls; default: the linear solver's ``launch``, else :func:`.linsolve.start_thread`); ``off_frame=False``:
-    every step on the frame, however long (each frame then does at least its first Newton iteration)."""
+    every step on the frame, however long (each frame then does at least its first Newton iteration: ``progress``)."""
 
     def __init__(self, model, *, budget: float = FRAME_BUDGET, rtol: float = 1e-6, linear_solver=None,
                  clock=time.perf_counter, anytime: bool = True, launch=None, off_frame: bool = True, **options):
@@ -78,18 +90,29 @@ class RealtimeSolver(Stepper):
             raise ParameterError("off_frame", f"off_frame must be True or False, got {off_frame!r}")
         self.launch, self.off_frame = launch, off_frame
 
+    progress = property(lambda self: not self.off_frame, doc="Whether a frame's first Newton iteration runs whatever "
+                        "it costs (with ``off_frame=False``); else only if it fits, like every piece.")
+
     @property
     def running(self) -> bool:
         """Whether a step runs off the frame (started and not yet committed)."""
         return self._running is not None
 
     def too_long(self) -> bool:
-        """Whether the learned costs say one Newton iteration (an assembly, the least solve, a line search, the
-        report's check of J) does not fit a frame. A piece not learned yet counts nothing (the first frame ever
-        learns them on the frame), but a CG iteration at least its preconditioner's back-substitution (the first
-        frame factorizes and back-substitutes: no CG iteration yet)."""
+        """Whether the next step goes off the frame: with nothing learned yet, when its predicted cost
+        (:data:`FIRST_STEP_COST` per dof) exceeds the budget; after a frame that could not start its first Newton iteration and waits for no
+        factorization (so that every step makes progress); and when the learned costs say one Newton iteration (an
+        assembly, the least solve, a line search, the report's check of J) does not fit a frame, a CG iteration
+        costing at least its preconditioner's back-substitution (the first frame factorizes and back-substitutes:
+        no CG iteration yet)."""
         if not (self.off_frame and math.isfinite(self.budget)):
             return False
+        if not self.costs:
+            return self.model.n_dofs * FIRST_STEP_COST > self.budget
+        last = self.last_report
+        if (last is not None and last.status == "budget" and last.newton_iterations == 0 and not last.off_frame
+                and not self.linear.refreshing):
+            return True
         fixed, _ = self.model.prescribed()
         free = np.ones(self.model.n_dofs, dtype=bool)
         free[fixed] = False

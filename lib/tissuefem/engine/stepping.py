@@ -271,6 +271,11 @@ class Stepper:
     (the real-time loop) instead of keeping the old state.
     """
 
+    #: whether a budgeted step's first Newton iteration runs its short pieces whatever they cost (every step makes
+    #: progress; the real-time loop runs them only if they fit, see :class:`~.realtime.RealtimeSolver`, but for the
+    #: first step ever, which learns their costs)
+    progress = True
+
     def __init__(self, model: Model, *, linear_solver="reuse", rtol: float = 1e-6, atol: float = 0.0,
                  max_iterations: int = 50, line_search: str = "energy", max_step: float | None = None,
                  budget: float = math.inf, clock=time.perf_counter, anytime: bool = False):
@@ -454,6 +459,8 @@ class Stepper:
         try:
             if inertia is not None:
                 inertia.x_tilde = self.u + dt * self.v
+            # the first step ever (nothing learned) runs its first iteration whatever it costs, to learn
+            progress = self.progress or not self.linear.costs
             # the budget less what the report's check of J is expected to take after the solve
             budget = max(step_budget - (self.linear.costs.get("report") or 0.0), 1e-9 * step_budget)
             deadline = self.linear.deadline(self._clock, start + budget)
@@ -470,7 +477,7 @@ class Stepper:
                     rtol=self.rtol, atol=self.atol, reference_norm=load_norm, floor=self.floor,
                     max_iterations=self.max_iterations - (which == "linearised"), max_step=self.max_step,
                     linear=self.linear, clock=self._clock, budget=budget, start=start, energy0=E0,
-                    energy_floor=self.energy_floor, step_limit=model.step_limit,
+                    energy_floor=self.energy_floor, step_limit=model.step_limit, progress=progress,
                     safe_hessian=(lambda x: model.hessian(x, safe=True)) if model.has_safe_hessian else None)
         finally:
             for term in loads:
