@@ -160,11 +160,13 @@ def test_no_budgeted_frame_overruns_when_a_factorization_costs_three_frames(name
     costs = rt.costs
     assert costs["factorization"] == pytest.approx(3 * BUDGET) and costs["assembly"] == pytest.approx(ASSEMBLY)
     if name in AFRESH:  # a factorization each solve: one Newton iteration never fits, so each step runs off the
-        # frame (the frames show the last state meanwhile) and a frame after it commits it, converged
+        # frame (the frames show the last state meanwhile) and a frame after it commits it, within its own budget
+        # (converged or not: its residual says how far)
         assert all(r.off_frame in ("running", "finished") for r in later)
         assert all("off the frame" in r.accuracy for r in later)
         finished = [r for r in later if r.off_frame == "finished"]
-        assert len(finished) >= len(later) // 5 and all(r.committed and r.converged for r in finished)
+        assert len(finished) >= len(later) // 5 and all(r.committed and r.newton_iterations >= 1 for r in finished)
+        assert all(r.off_frame_seconds <= r.budget + 1e-9 and r.residual_norm < r.initial_residual for r in finished)
         assert all(not r.committed for r in later if r.off_frame == "running")
     elif name.startswith("reuse"):
         backend = rt.linear.backend
@@ -276,8 +278,9 @@ def test_the_first_frame_of_a_large_model_does_not_overrun(name, monkeypatch):
         launcher.finish(frames_old=3)
         assert np.all(np.isfinite(rt.u))
     assert all(r.elapsed <= BUDGET + BACK_SUBSTITUTION + 1e-12 for r in reports)
-    assert not any(r.unestimated for r in reports)  # every piece on a frame had its cost learned
-    assert reports[1].off_frame == "running" and any(r.off_frame == "finished" and r.converged for r in reports)
+    # every piece on a frame had its cost learned (a step off the frame learns them: its report may list some)
+    assert not any(r.unestimated for r in reports if r.off_frame != "finished")
+    assert reports[1].off_frame == "running" and any(r.off_frame == "finished" and r.committed for r in reports)
     assert rt.costs["factorization"] == pytest.approx(3 * BUDGET) and rt.steps >= 3
 
 

@@ -170,7 +170,7 @@ class StepReport:
         rest += [f"skipped {', '.join(undone.skipped)}"] if undone.skipped else []
         rest += [f"unestimated {', '.join(self.newton.unestimated)}"] if self.newton.unestimated else []
         rest += [] if not self.off_frame else ["step running off the frame"] if self.off_frame == "running" else [
-            f"step ran off the frame ({self.off_frame_seconds:.2f} s)"]
+            f"step ran off the frame ({self.off_frame_seconds:.2f} s: simulated time slower than real time)"]
         return " | ".join([head, f"rel. residual {self.scaled_residual:.1e}", f"dE {-self.energy_decrease:.1e}",
                            f"min J {self.min_J:.3f}", f"{self.inverted} inverted", *rest])
 
@@ -411,10 +411,10 @@ class Stepper:
         self.last_report = report
         return report
 
-    def _attempt(self, targets, prescribed, load, budget=None) -> StepReport:
+    def _attempt(self, targets, prescribed, load, budget=None, progress=None) -> StepReport:
         """Steps 1 to 3 and 5 of the module docstring, without the commit: the report (``committed``: whether
-        :meth:`_commit` makes its result the state); ``budget``: seconds, default the stepper's. All or nothing: an
-        error puts back the targets."""
+        :meth:`_commit` makes its result the state); ``budget``: seconds, default the stepper's; ``progress``: default
+        :attr:`progress`. All or nothing: an error puts back the targets."""
         model = self.model
         load = check_real("load", load, 0.0, 1.0)
         if prescribed is not None:
@@ -424,7 +424,8 @@ class Stepper:
         saved_targets = [(h, h.target) for h in model.handles]
         saved_x_tilde = None if inertia is None else inertia.x_tilde
         try:
-            return self._step(targets, prescribed, load, start, self._budget if budget is None else budget)
+            return self._step(targets, prescribed, load, start, self._budget if budget is None else budget,
+                              self.progress if progress is None else progress)
         except BaseException:
             for h, target in saved_targets:
                 h.target = target
@@ -440,7 +441,7 @@ class Stepper:
         fixed = check_indices("prescribed dofs", fixed, self.model.n_dofs)
         return fixed, _state_vector("prescribed values", values, fixed.size)
 
-    def _step(self, targets, prescribed, load, start, step_budget) -> StepReport:
+    def _step(self, targets, prescribed, load, start, step_budget, progress) -> StepReport:
         model = self.model
         model.set_targets(targets)
         fixed, values = model.prescribed() if prescribed is None else prescribed
@@ -460,7 +461,7 @@ class Stepper:
             if inertia is not None:
                 inertia.x_tilde = self.u + dt * self.v
             # the first step ever (nothing learned) runs its first iteration whatever it costs, to learn
-            progress = self.progress or not self.linear.costs
+            progress = progress or not self.linear.costs
             # the budget less what the report's check of J is expected to take after the solve
             budget = max(step_budget - (self.linear.costs.get("report") or 0.0), 1e-9 * step_budget)
             deadline = self.linear.deadline(self._clock, start + budget)
