@@ -9,7 +9,6 @@ import pytest
 
 from tissuefem import Handle, LinearElastic, LinearSolver, Model, NeoHookean, RealtimeSolver, flap
 from tissuefem.engine import linsolve
-from tissuefem.engine import realtime as realtime_module
 from tissuefem.engine.realtime import LINEAR_SOLVERS
 
 BUDGET = 1 / 30
@@ -20,21 +19,17 @@ AFRESH = [name for name in SOLVERS if not name.startswith(("reuse", "constant"))
 
 
 class Clock:
-    """Fake seconds: only the simulated work moves them, and work done off the frame (``on`` False) does not;
-    ``wait()``: what a piece of work (what is spent between two readings of the clock) waits first (contention with
-    work on the second core)."""
+    """Fake seconds: only the simulated work moves them, and work done off the frame (``on`` False) does not."""
 
     def __init__(self):
-        self.now, self.on, self.wait, self.read = 0.0, True, lambda: 0.0, False
+        self.now, self.on = 0.0, True
 
     def __call__(self):
-        self.read = True
         return self.now
 
     def spend(self, seconds):
         if self.on:
-            self.now += seconds + (self.wait() if self.read else 0.0)
-            self.read = False
+            self.now += seconds
 
 
 class CostlyFactor:
@@ -160,13 +155,11 @@ def test_no_budgeted_frame_overruns_when_a_factorization_costs_three_frames(name
     costs = rt.costs
     assert costs["factorization"] == pytest.approx(3 * BUDGET) and costs["assembly"] == pytest.approx(ASSEMBLY)
     if name in AFRESH:  # a factorization each solve: one Newton iteration never fits, so each step runs off the
-        # frame (the frames show the last state meanwhile) and a frame after it commits it, within its own budget
-        # (converged or not: its residual says how far)
+        # frame (the frames show the last state meanwhile) and a frame after it commits it, converged
         assert all(r.off_frame in ("running", "finished") for r in later)
         assert all("off the frame" in r.accuracy for r in later)
         finished = [r for r in later if r.off_frame == "finished"]
-        assert len(finished) >= len(later) // 5 and all(r.committed and r.newton_iterations >= 1 for r in finished)
-        assert all(r.off_frame_seconds <= r.budget + 1e-9 and r.residual_norm < r.initial_residual for r in finished)
+        assert len(finished) >= len(later) // 5 and all(r.committed and r.converged for r in finished)
         assert all(not r.committed for r in later if r.off_frame == "running")
     elif name.startswith("reuse"):
         backend = rt.linear.backend
@@ -253,95 +246,3 @@ def test_a_deadline_learns_costs_and_says_what_fits():
     now[0] = 2.0
     assert deadline.fits("assembly", "cg-iteration") and not deadline.fits("factorization")
     assert linsolve.Deadline(lambda: now[0]).fits("factorization")  # no deadline: everything fits
-
-
-# --- the first frame of a large model, and contention with the second core ------------------------------------
-
-def large(monkeypatch):
-    """As if the test's model were larger than a size whose first step surely fits a frame (its first step is
-    predicted to cost 100 frames)."""
-    monkeypatch.setattr(realtime_module, "FIRST_STEP_COST", 100 * BUDGET / model().n_dofs)
-
-
-@pytest.mark.parametrize("name", SOLVERS)
-def test_the_first_frame_of_a_large_model_does_not_overrun(name, monkeypatch):
-    large(monkeypatch)
-    m = model(material=LinearElastic.from_young(1000.0, 0.3) if name == "constant" else None)
-    assert m.n_dofs * realtime_module.FIRST_STEP_COST > BUDGET
-    rt, clock, launcher = realtime(m, name, factor_cost=3 * BUDGET)
-    first = frame(rt, launcher, path(2 / 30))  # nothing learned: the step runs off the frame, where it learns
-    assert first.off_frame == "running" and first.elapsed <= BUDGET and not first.committed
-    assert not first.unestimated and rt.steps == 0
-    reports = [first]
-    for f in range(1, 30):
-        reports.append(frame(rt, launcher, path(2 * (f + 1) / 30)))
-        launcher.finish(frames_old=3)
-        assert np.all(np.isfinite(rt.u))
-    assert all(r.elapsed <= BUDGET + BACK_SUBSTITUTION + 1e-12 for r in reports)
-    # every piece on a frame had its cost learned (a step off the frame learns them: its report may list some)
-    assert not any(r.unestimated for r in reports if r.off_frame != "finished")
-    assert reports[1].off_frame == "running" and any(r.off_frame == "finished" and r.committed for r in reports)
-    assert rt.costs["factorization"] == pytest.approx(3 * BUDGET) and rt.steps >= 3
-
-
-def test_a_failed_first_step_off_the_frame_keeps_the_state(monkeypatch):
-    large(monkeypatch)
-    rt, clock, launcher = realtime(model(), "reuse", factor_cost=BUDGET / 8)
-    inner = rt.model.gradient
-    rt.model.gradient = lambda x: (_ for _ in ()).throw(RuntimeError("the gradient failed"))
-    assert frame(rt, launcher, path(2 / 30)).off_frame == "running"
-    launcher.finish()
-    rt.model.gradient = inner
-    with pytest.raises(RuntimeError, match="gradient failed"):
-        frame(rt, launcher, path(4 / 30))
-    assert not np.any(rt.u) and not np.any(rt.v) and (rt.steps, rt.time) == (0, 0.0) and not rt.running
-    assert frame(rt, launcher, path(4 / 30)).off_frame == "running"  # still nothing learned: off the frame again
-    launcher.finish()
-    assert frame(rt, launcher, path(6 / 30)).committed and rt.steps == 1
-
-
-WAIT = 0.004  # what a piece of the frame's work waits while a factorization runs on the second core
-
-
-@pytest.mark.parametrize("name", SOLVERS)
-def test_under_contention_no_frame_starts_a_piece_that_does_not_fit(name):
-    m = model(material=LinearElastic.from_young(1000.0, 0.3) if name == "constant" else None)
-    rt, clock, launcher = realtime(m, name, factor_cost=3 * BUDGET, eager=True)
-    clock.wait = lambda: WAIT if any(job.is_alive() and not job.counted for job in launcher.jobs) else 0.0
-    reports, busy, learned = [], [], []
-    for f in range(40):
-        if name == "constant" and f % 8 == 4:
-            rt.linear.invalidate()  # as when another set of dofs is held: a factorization in the background
-        busy.append(rt.linear.busy())
-        learned.append(rt.costs.get("contention", 0.0) >= 0.9 * WAIT)
-        reports.append(frame(rt, launcher, path(2 * (f + 1) / 30)))
-        launcher.finish(frames_old=3)
-        assert np.all(np.isfinite(rt.u)) and np.all(np.isfinite(rt.v))
-    later = reports[1:]
-    if name not in AFRESH:  # (a factorization each solve: every step runs off the frame, nothing in the background)
-        assert any(busy[1:]) and rt.costs["contention"] == pytest.approx(WAIT, rel=0.2)  # learned beside one
-    # the issue's criterion (1.15 times the budget) while the wait is learned; once learned, within the budget
-    # but for one back-substitution
-    assert all(r.elapsed <= 1.15 * BUDGET for r in later), [round(r.elapsed / BUDGET, 2) for r in later]
-    assert all(r.elapsed <= BUDGET + BACK_SUBSTITUTION + 1e-12 for r, ok in zip(later, learned[1:]) if ok)
-    assert rt.steps >= 10  # and the frames make progress
-
-
-def test_a_deadline_counts_a_wait_per_piece_while_a_factorization_runs_and_learns_it():
-    now, busy, costs = [0.0], [False], {"assembly": 0.01}
-    deadline = linsolve.Deadline(lambda: now[0], 0.033, costs, busy=lambda: busy[0])
-    assert deadline.fits("assembly", "assembly", "assembly")
-    busy[0] = True  # at first a piece waits its own cost again: one fits, not two
-    assert deadline.fits("assembly") and not deadline.fits("assembly", "assembly")
-    deadline.record("assembly", 0.025)  # 15 ms beyond its cost: the wait is learned, not the cost
-    assert costs["assembly"] == 0.01 and costs["contention"] == pytest.approx(0.015)
-    assert deadline.room("assembly") == 1  # (33 ms less the wait: 18 ms)
-    busy[0] = False
-    assert deadline.room("assembly") == 3
-
-
-def test_an_unbudgeted_first_step_of_a_large_model_stays_on_the_frame(monkeypatch):
-    large(monkeypatch)
-    rt, clock, launcher = realtime(model(), "reuse", factor_cost=BUDGET / 8, budget=1e9)  # (a scene's "none")
-    first = frame(rt, launcher, path(2 / 30))
-    assert first.off_frame == "" and first.converged and not launcher.jobs

@@ -92,8 +92,7 @@ def test_the_floor_stops_a_solve_at_round_off():
 def test_bad_settings_are_refused_by_name():
     args = (np.array([1.0]), lambda x: x, lambda x: sp.identity(1))
     for kw, name in (({"line_search": "wolfe"}, "line_search"), ({"rtol": -1.0}, "rtol"), ({"rtol": np.nan}, "rtol"),
-                     ({"max_iterations": -1}, "max_iterations"), ({"max_iterations": 2.5}, "max_iterations"),
-                     ({"progress": "yes"}, "progress")):
+                     ({"max_iterations": -1}, "max_iterations"), ({"max_iterations": 2.5}, "max_iterations")):
         with pytest.raises(ValueError, match=name):
             newton(*args, **{"line_search": None, **kw})
     with pytest.raises(ValueError, match="energy"):

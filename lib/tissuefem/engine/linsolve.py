@@ -217,29 +217,19 @@ class Deadline:
     ``kind -> seconds`` for the kinds of :data:`WORK`, learned by :meth:`record` from every measured piece, with or
     without a deadline). :meth:`fits` says whether pieces can finish before ``end``; a piece without an estimate yet
     fits while time is left (the first frame ever runs its work to learn its cost) and is noted in ``unestimated``.
-    ``busy()``: whether a factorization runs on the second core; meanwhile each piece is expected to take its cost
-    plus a wait, ``costs["contention"]`` seconds (the frame's thread waits for the interpreter's lock and the memory
-    the factorization holds: measured, a fixed 15-20 ms a piece at 8k triangles), learned from the pieces measured
-    then (what they took beyond their cost, a longer wait at once; until learned, a piece's own cost again). ``first``: the frame's first Newton iteration, whose short pieces (an assembly, a
-    back-substitution, a CG iteration, a line search) then run whatever they cost (a stepper that wants progress on
-    every frame, see :func:`.minimize.newton`'s ``progress``); its long ones (a factorization) only if they fit or
-    were never measured. What a frame did not start is noted in ``skipped``."""
+    ``first``: the frame's first Newton iteration, whose short pieces (an assembly, a back-substitution, a CG
+    iteration, a line search) always run so every frame makes progress; its long ones (a factorization) only if they
+    fit or were never measured. What a frame did not start is noted in ``skipped``."""
 
-    def __init__(self, clock=None, end: float = math.inf, costs: dict | None = None, first: bool = False, busy=None):
+    def __init__(self, clock=None, end: float = math.inf, costs: dict | None = None, first: bool = False):
         self.clock = time.perf_counter if clock is None else clock
         self.end, self.first = float(end), bool(first)
         self.costs = {} if costs is None else costs
-        self.busy = busy or (lambda: False)
         self.skipped, self.unestimated = [], []
 
     @property
     def limited(self) -> bool:
         return self.end < math.inf
-
-    def cost(self, kind: str) -> float | None:
-        """The expected seconds of one piece of ``kind`` now (``None``: no estimate yet)."""
-        seconds = self.costs.get(kind)
-        return seconds + self.costs.get("contention", seconds) if seconds and self.busy() else seconds
 
     def fits(self, *kinds: str) -> bool:
         """Whether one piece of each of ``kinds`` can finish before the deadline (always without one)."""
@@ -250,14 +240,14 @@ class Deadline:
         if self.first and all(k not in _LONG or k in unknown for k in kinds):
             return True  # the first iteration's short pieces, and long ones never measured (the first frame)
         now = self.clock()
-        return now < self.end and now + sum(self.cost(k) or 0.0 for k in kinds) <= self.end
+        return now < self.end and now + sum(self.costs.get(k) or 0.0 for k in kinds) <= self.end
 
     def room(self, kind: str) -> int | None:
         """How many pieces of ``kind`` fit before the deadline (``None``: no limit, or no estimate yet)."""
         estimate = self.costs.get(kind)
         if not self.limited or not estimate:
             return None
-        left = self.end - self.clock() - (self.cost(kind) - estimate)  # less the wait for the second core's work
+        left = self.end - self.clock()
         return max(int(left / estimate), 0) if left > 0 else 0
 
     def skip(self, kind: str) -> None:
@@ -266,13 +256,9 @@ class Deadline:
             self.skipped.append(kind)
 
     def record(self, kind: str, seconds: float, count: int = 1) -> None:
-        """Learn from ``count`` pieces of ``kind`` that took ``seconds`` together (while :meth:`busy`: what they took
-        beyond their cost, the wait)."""
+        """Learn from ``count`` pieces of ``kind`` that took ``seconds`` together."""
         if count > 0 and math.isfinite(seconds) and seconds >= 0.0:
             each, old = seconds / count, self.costs.get(kind)
-            if old and self.busy():  # the wait, learned by its peaks (a longer one at once: frames keep a p99)
-                kind, each, old = "contention", max(seconds - count * old, 0.0), self.costs.get("contention")
-                old = None if old is not None and each > old else old
             self.costs[kind] = each if old is None else (1.0 - _LEARNING) * old + _LEARNING * each
 
     def timed(self, kind: str, work, *args):
@@ -459,11 +445,6 @@ class _OffFrame:
     @launch.setter
     def launch(self, value):
         self._work.launch = _check_launch(value)
-
-    @property
-    def refreshing(self) -> bool:
-        """Whether a factorization is being made off the frame, or is made and waits to be taken by a solve."""
-        return self._work.pending is not None
 
     def close(self) -> None:
         """Wait for any background factorization to finish (it is not adopted) and forget the kept factorization.
@@ -875,18 +856,8 @@ class LinearSolver(_OffFrame):
             self.backend.launch = value
 
     def deadline(self, clock=None, end: float = math.inf, first: bool = False) -> Deadline:
-        """A :class:`Deadline` at ``end`` on ``clock`` with this solver's cost estimates (learned by its solves), busy
-        while :meth:`busy`."""
-        return Deadline(clock, end, self.costs, first, self.busy)
-
-    def busy(self) -> bool:
-        """Whether a factorization runs off the frame (on the second core) now."""
-        return any(job.is_alive() for job in (*self._threads, *getattr(self.backend, "_threads", ())))
-
-    @property
-    def refreshing(self) -> bool:
-        """Whether a factorization is being made off the frame (here or by the backend), or waits to be taken."""
-        return self._work.pending is not None or getattr(self.backend, "refreshing", False)
+        """A :class:`Deadline` at ``end`` on ``clock`` with this solver's cost estimates (learned by its solves)."""
+        return Deadline(clock, end, self.costs, first)
 
     def least_work(self) -> tuple[str, ...]:
         """The pieces the next solve needs at the least (what must fit before its tangent is worth assembling; a

@@ -9,8 +9,8 @@ Every solve in tissuefem is a call of :func:`newton`, the notes' iteration ``dq/
   solver refactorize, then the tangent is shifted by ``tau I`` with growing ``tau``, at last steepest descent.
 * **step cap** ``max_step`` and **admissible steps** ``step_limit`` (self-contact) before the line search; a **time
   budget** measured by ``clock``: no piece of work (an assembly, a solve, a factorization) starts unless its cost,
-  learned by the linear solver (:class:`~.linsolve.Deadline`), says it ends in time; with ``progress`` the first
-  iteration's short pieces always run.
+  learned by the linear solver (:class:`~.linsolve.Deadline`), says it ends in time; only the first iteration's
+  short pieces always run.
 
 A numerical failure never escapes as an exception or a NaN state: it is the result's ``status``, its ``x`` the last
 accepted iterate.
@@ -268,7 +268,7 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
            safe_hessian: Callable[[np.ndarray], sp.spmatrix] | None = None, clock: Callable[[], float] | None = None,
            budget: float = math.inf, start: float | None = None, energy0: float | None = None,
            energy_floor: float = 0.0, step_limit: Callable[[np.ndarray, np.ndarray], float] | None = None,
-           progress: bool = True) -> NewtonResult:
+           ) -> NewtonResult:
     """Minimise ``energy`` (or zero ``gradient``, ``q``) over the ``free`` dofs (a mask or indices; the others keep
     their ``x0`` values); ``hessian(x)``: the sparse Jacobian of ``q``; ``energy0 = E(x0)`` if known. Converged when
     ``||q_free|| <= max(atol + rtol max(||q_free(x0)||, reference_norm), floor)``: ``reference_norm`` the size of the
@@ -276,16 +276,13 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
     trusted. ``max_step`` caps one dof's change per iteration; ``linear``: the linear-solve policy (default: a fresh
     direct factorization); ``safe_hessian(x)``: a positive semi-definite Hessian tried before the shift; ``budget``
     seconds by ``clock`` from ``start`` (default: now): a piece of work starts only if ``linear.costs`` says it ends
-    in time (with ``progress`` the first iteration's assembly and its cheapest solve always run, else only if they
-    fit too; what was not started is the result's ``skipped``); ``step_limit(x, dx)``: the admissible fraction of
-    ``dx`` (none: ``"blocked"``).
+    in time (the first iteration's assembly and its cheapest solve always run; what was not started is the result's
+    ``skipped``); ``step_limit(x, dx)``: the admissible fraction of ``dx`` (none: ``"blocked"``).
     """
     x, max_step, max_iterations, budget = _checked(
         x0, {"gradient": gradient, "hessian": hessian, "energy": energy, "clock": clock, "safe_hessian": safe_hessian},
         line_search, linear, {"start": start, "energy0": energy0}, max_step, max_iterations, budget,
         {"rtol": rtol, "atol": atol, "floor": floor, "reference_norm": reference_norm, "energy_floor": energy_floor})
-    if not isinstance(progress, (bool, np.bool_)):
-        raise ParameterError("progress", f"progress must be True or False, got {progress!r}")
     mask = _free_mask(x.size, free)
     linear = LinearSolver("direct") if linear is None else linear
     timed = clock is not None and budget < math.inf
@@ -293,8 +290,7 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
         start = clock()
     # the budget: a piece of work starts only if its learned cost says it ends in time (see linsolve.Deadline)
     ours = isinstance(linear, LinearSolver)  # another object with matrix and solve is called as before
-    end = start + budget if timed else math.inf
-    deadline = linear.deadline(clock, end) if ours else Deadline(clock, end)
+    deadline = Deadline(clock, start + budget if timed else math.inf, linear.costs if ours else None)
     history: list[NewtonIteration] = []
     g = np.asarray(gradient(x), dtype=float)
     rnorm = r0 = norm(g[mask])
@@ -314,7 +310,7 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
             return result("converged", k)
         if k == max_iterations:
             return result("max-iterations", k)
-        deadline.first = progress and k == 0
+        deadline.first = k == 0
         # the tangent's free block (unless the policy keeps a factorization), if it and the least solve fit
         least, assembles = (linear.least_work(), linear.assembles(mask)) if ours else ((), True)
         needed = (("assembly",) if assembles else ()) + tuple(least) + ("line-search",)
@@ -341,9 +337,6 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
         dx, dx_free = _bounded_step(x, dx_free, mask, max_step, step_limit)
         if dx is None:
             return result("blocked", k)
-        if not deadline.fits("line-search"):  # (the solve may have started work on the second core: a wait)
-            deadline.skip("line-search")
-            return result("budget", k)
         slope = -dot(rhs, dx_free)  # dE/dalpha at alpha = 0
         if E is not None:
             e_scale = max(e_scale, abs(E), abs(slope))

@@ -5,28 +5,19 @@ of :data:`LINEAR_SOLVERS`: before each piece of work (an assembly, a factorizati
 iteration) it reads the clock and starts the piece only if the piece's cost, learned from its last runs
 (``solver.costs``), says it ends in time. A factorization that does not fit runs in the background (the second
 core) while the frame goes on with the old one as CG's preconditioner, or the frame stops; then it commits the last
-accepted iterate (*anytime*, see :mod:`.stepping`; its warm start if not even the first Newton iteration fitted)
-and the residual left carries into the next frame. While a factorization runs on the second core the frame's own
-pieces run slower (they wait for the interpreter's lock and share the memory): each is then counted at its cost
-plus a wait, learned from the pieces measured meanwhile (``solver.costs["contention"]``, seconds). What a frame did not start is its report's
-``skipped``. The clock is a parameter, so tests use a fake one.
-
-**The first step learns the costs.** With nothing learned yet, the first step is predicted to cost
-:data:`FIRST_STEP_COST` seconds per dof: if that fits the budget it runs on the frame (its report's
-``unestimated`` says so), else off the frame (below), and its pieces' costs are learned there.
+accepted iterate (*anytime*, see :mod:`.stepping`) and the residual left carries into the next frame. Only the first
+frame ever, with no cost learned yet, runs its work whatever it costs (its report's ``unestimated`` says so); the
+first Newton iteration's short pieces always run, so every frame makes progress. What a frame did not start is its
+report's ``skipped``. The clock is a parameter, so tests use a fake one.
 
 **A step too long for a frame runs off it.** When the learned costs say that even one Newton iteration (an
 assembly, the least solve, a line search and the report's check of J) does not fit the budget, the frame does not
-start the step: it hands the whole step to a worker thread (numpy and scipy leave the interpreter's lock in the
-heavy parts) and returns at once with the last committed state; its report's ``off_frame`` is ``"running"``. The
-step there has a budget of its own (:meth:`off_frame_budget`: a few frames) and commits, like a frame, its last
-accepted iterate if it did not converge by then (its report's residual says how far it is), so that the next step
-starts. The frames after it return at once too, until one finds the step finished and commits it
+start the step: it hands the whole step, unbudgeted, to a worker thread (numpy and scipy leave the interpreter's
+lock in the heavy parts) and returns at once with the last committed state; its report's ``off_frame`` is
+``"running"``. The frames after it return at once too, until one finds the step finished and commits it
 (``off_frame == "finished"``). Simulated time then advances slower than real time: one step of ``dt`` per so many
-frames (the report's ``off_frame_seconds`` says how long the step took). The handles' targets given meanwhile are kept for the next step; whatever changes the model or the state
-first waits for the running step (:meth:`~.stepping.Stepper.settle`). So that every step makes progress, a step
-goes off the frame too after a frame that could not start its first Newton iteration and waits for no
-factorization (:meth:`too_long`).
+frames. The handles' targets given meanwhile are kept for the next step; whatever changes the model or the state
+first waits for the running step (:meth:`~.stepping.Stepper.settle`).
 """
 
 from __future__ import annotations
@@ -42,20 +33,7 @@ from .minimize import NewtonResult
 from .parameters import ParameterError
 from .stepping import Stepper, StepReport
 
-__all__ = ["RealtimeSolver", "FRAME_BUDGET", "LINEAR_SOLVERS", "FIRST_STEP_COST", "OFF_FRAME_FRAMES",
-           "default_linear_solver"]
-
-#: What a first step (nothing learned yet: it factorizes) is predicted to cost, seconds per dof: about twice what it
-#: took on the machine of docs/benchmarks.md (3.5 to 7.5 us per dof from 2k to 128k triangles), so that a frame
-#: holds the first step of up to 3000 dofs.
-FIRST_STEP_COST = FRAME_BUDGET / 3000
-
-#: A step that runs off the frame may take this many frames' budgets (or, if more, twice a Newton iteration's learned
-#: cost: :meth:`RealtimeSolver.off_frame_budget`). Solved to convergence, such a step of a large model took many
-#: frames (measured, 11 Newton iterations and 1.4 s at 32k triangles), and the loop committed one step in 60 frames;
-#: with four, a step commits what it reached after a few Newton iterations, simulated time runs at most about four
-#: times slower than real time, and the residual left carries into the next step, as a frame's does.
-OFF_FRAME_FRAMES = 4
+__all__ = ["RealtimeSolver", "FRAME_BUDGET", "LINEAR_SOLVERS", "default_linear_solver"]
 
 #: The linear solvers the real-time loop offers (``"constant"``: a quadratic model's; those with ``pardiso`` need
 #: the optional ``pypardiso``).
@@ -84,7 +62,7 @@ class RealtimeSolver(Stepper):
     a multigrid preconditioner, ``"...cg-amg"``, is given the body's rigid motions). ``launch(work)``: how a
     step too long for a frame starts off it, returning a job with ``is_alive`` and ``join`` (a test passes one it
     controls; default: the linear solver's ``launch``, else :func:`.linsolve.start_thread`); ``off_frame=False``:
-    every step on the frame, however long (each frame then does at least its first Newton iteration: ``progress``)."""
+    every step on the frame, however long (each frame then does at least its first Newton iteration)."""
 
     def __init__(self, model, *, budget: float = FRAME_BUDGET, rtol: float = 1e-6, linear_solver=None,
                  clock=time.perf_counter, anytime: bool = True, launch=None, off_frame: bool = True, **options):
@@ -100,43 +78,18 @@ class RealtimeSolver(Stepper):
             raise ParameterError("off_frame", f"off_frame must be True or False, got {off_frame!r}")
         self.launch, self.off_frame = launch, off_frame
 
-    progress = property(lambda self: not self.off_frame, doc="Whether a frame's first Newton iteration runs whatever "
-                        "it costs (with ``off_frame=False``); else only if it fits, like every piece.")
-
     @property
     def running(self) -> bool:
         """Whether a step runs off the frame (started and not yet committed)."""
         return self._running is not None
 
     def too_long(self) -> bool:
-        """Whether the next step goes off the frame: with nothing learned yet, when its predicted cost
-        (:data:`FIRST_STEP_COST` per dof) exceeds the budget; after a frame that could not start its first Newton iteration and waits for no
-        factorization (so that every step makes progress); and when the learned costs say one Newton iteration (an
-        assembly, the least solve, a line search, the report's check of J) does not fit a frame, a CG iteration
-        costing at least its preconditioner's back-substitution (the first frame factorizes and back-substitutes:
-        no CG iteration yet)."""
+        """Whether the learned costs say one Newton iteration (an assembly, the least solve, a line search, the
+        report's check of J) does not fit a frame. A piece not learned yet counts nothing (the first frame ever
+        learns them on the frame), but a CG iteration at least its preconditioner's back-substitution (the first
+        frame factorizes and back-substitutes: no CG iteration yet)."""
         if not (self.off_frame and math.isfinite(self.budget)):
             return False
-        if not self.costs:
-            return self.model.n_dofs * FIRST_STEP_COST > self.budget
-        last = self.last_report
-        if (last is not None and last.status == "budget" and last.newton_iterations == 0 and not last.off_frame
-                and not self.linear.refreshing):
-            return True
-        return self._iteration_cost() > self.budget
-
-    def off_frame_budget(self) -> float:
-        """The budget of a step that runs off the frame, seconds: :data:`OFF_FRAME_FRAMES` frames' budgets, or twice
-        what one Newton iteration is learned to cost (see :meth:`too_long`) if that is more. Four frames keep
-        simulated time within about four times real time; twice an iteration leaves room for the warm start and a
-        first iteration whose factorization (a direct solver's) starts only if it fits. Its first Newton iteration's
-        short pieces run whatever they cost, so every step makes progress."""
-        return max(OFF_FRAME_FRAMES * self.budget, 2.0 * self._iteration_cost())
-
-    def _iteration_cost(self) -> float:
-        """One Newton iteration's learned seconds: an assembly (unless a kept constant factorization makes it
-        unnecessary), the least solve, a line search and the report's check of J; a CG iteration costing at least its
-        preconditioner's back-substitution."""
         fixed, _ = self.model.prescribed()
         free = np.ones(self.model.n_dofs, dtype=bool)
         free[fixed] = False
@@ -144,7 +97,7 @@ class RealtimeSolver(Stepper):
                  "report")
         costs = dict(self.costs)
         costs.setdefault("cg-iteration", costs.get("back-substitution"))
-        return sum(costs.get(kind) or 0.0 for kind in kinds)
+        return sum(costs.get(kind) or 0.0 for kind in kinds) > self.budget
 
     def step(self, targets=None, *, prescribed=None, load: float = 1.0) -> StepReport:
         """One frame (see the module docstring): a step within the budget, or one started, still running or
@@ -162,11 +115,11 @@ class RealtimeSolver(Stepper):
         if prescribed is not None or load != 1.0 or not self.too_long():
             return super().step(targets, prescribed=prescribed, load=load)
         self.model.set_targets(targets)
-        box, budget = {}, self.off_frame_budget()
+        box = {}
 
-        def work():  # the whole step, on a budget of its own, progress made; committed by a later frame (settle)
+        def work():  # the whole step, unbudgeted; committed by a later frame (settle)
             try:
-                box["report"] = self._attempt(None, None, 1.0, budget=budget, progress=True)
+                box["report"] = self._attempt(None, None, 1.0, budget=math.inf)
             except BaseException as err:  # handed to the frame that settles
                 box["error"] = err
         self._running = ((self.launch or self.linear.launch or start_thread)(work), box)

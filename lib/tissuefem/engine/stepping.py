@@ -170,7 +170,7 @@ class StepReport:
         rest += [f"skipped {', '.join(undone.skipped)}"] if undone.skipped else []
         rest += [f"unestimated {', '.join(self.newton.unestimated)}"] if self.newton.unestimated else []
         rest += [] if not self.off_frame else ["step running off the frame"] if self.off_frame == "running" else [
-            f"step ran off the frame ({self.off_frame_seconds:.2f} s: simulated time slower than real time)"]
+            f"step ran off the frame ({self.off_frame_seconds:.2f} s)"]
         return " | ".join([head, f"rel. residual {self.scaled_residual:.1e}", f"dE {-self.energy_decrease:.1e}",
                            f"min J {self.min_J:.3f}", f"{self.inverted} inverted", *rest])
 
@@ -270,11 +270,6 @@ class Stepper:
     ``clock`` (any callable returning seconds). ``anytime``: commit the last accepted iterate of an unconverged step
     (the real-time loop) instead of keeping the old state.
     """
-
-    #: whether a budgeted step's first Newton iteration runs its short pieces whatever they cost (every step makes
-    #: progress; the real-time loop runs them only if they fit, see :class:`~.realtime.RealtimeSolver`, but for the
-    #: first step ever, which learns their costs)
-    progress = True
 
     def __init__(self, model: Model, *, linear_solver="reuse", rtol: float = 1e-6, atol: float = 0.0,
                  max_iterations: int = 50, line_search: str = "energy", max_step: float | None = None,
@@ -411,10 +406,10 @@ class Stepper:
         self.last_report = report
         return report
 
-    def _attempt(self, targets, prescribed, load, budget=None, progress=None) -> StepReport:
+    def _attempt(self, targets, prescribed, load, budget=None) -> StepReport:
         """Steps 1 to 3 and 5 of the module docstring, without the commit: the report (``committed``: whether
-        :meth:`_commit` makes its result the state); ``budget``: seconds, default the stepper's; ``progress``: default
-        :attr:`progress`. All or nothing: an error puts back the targets."""
+        :meth:`_commit` makes its result the state); ``budget``: seconds, default the stepper's. All or nothing: an
+        error puts back the targets."""
         model = self.model
         load = check_real("load", load, 0.0, 1.0)
         if prescribed is not None:
@@ -424,8 +419,7 @@ class Stepper:
         saved_targets = [(h, h.target) for h in model.handles]
         saved_x_tilde = None if inertia is None else inertia.x_tilde
         try:
-            return self._step(targets, prescribed, load, start, self._budget if budget is None else budget,
-                              self.progress if progress is None else progress)
+            return self._step(targets, prescribed, load, start, self._budget if budget is None else budget)
         except BaseException:
             for h, target in saved_targets:
                 h.target = target
@@ -441,7 +435,7 @@ class Stepper:
         fixed = check_indices("prescribed dofs", fixed, self.model.n_dofs)
         return fixed, _state_vector("prescribed values", values, fixed.size)
 
-    def _step(self, targets, prescribed, load, start, step_budget, progress) -> StepReport:
+    def _step(self, targets, prescribed, load, start, step_budget) -> StepReport:
         model = self.model
         model.set_targets(targets)
         fixed, values = model.prescribed() if prescribed is None else prescribed
@@ -460,8 +454,6 @@ class Stepper:
         try:
             if inertia is not None:
                 inertia.x_tilde = self.u + dt * self.v
-            # the first step ever (nothing learned) runs its first iteration whatever it costs, to learn
-            progress = progress or not self.linear.costs
             # the budget less what the report's check of J is expected to take after the solve
             budget = max(step_budget - (self.linear.costs.get("report") or 0.0), 1e-9 * step_budget)
             deadline = self.linear.deadline(self._clock, start + budget)
@@ -478,7 +470,7 @@ class Stepper:
                     rtol=self.rtol, atol=self.atol, reference_norm=load_norm, floor=self.floor,
                     max_iterations=self.max_iterations - (which == "linearised"), max_step=self.max_step,
                     linear=self.linear, clock=self._clock, budget=budget, start=start, energy0=E0,
-                    energy_floor=self.energy_floor, step_limit=model.step_limit, progress=progress,
+                    energy_floor=self.energy_floor, step_limit=model.step_limit,
                     safe_hessian=(lambda x: model.hessian(x, safe=True)) if model.has_safe_hessian else None)
         finally:
             for term in loads:
