@@ -22,17 +22,13 @@ import numpy as np
 
 from tissuefem.surgery.scene import Scene
 from tissuefem.surgery.simulation import Simulation
+from tissuefem.workbook.bench.common import load_average
 from tissuefem.workbook.bench.scenes import variants
 from tissuefem.workbook.timestepping import flap_drag
 
 
 SOLVERS = {"kept SuperLU": "reuse-background", "AMG (rigid modes)": "reuse-background-cg-amg"}
 VARIANTS = ("base: stable neo-Hookean, quasistatic", "+ probe", "everything")
-
-
-def load():
-    with open("/proc/loadavg") as f:
-        return float(f.read().split()[0])
 
 
 def run(data, options, solver, frames):
@@ -80,14 +76,14 @@ def floor(sim):
 
 def main(n_triangles=8000, frames=30, repeats=3):
     runs = {(v, s): [] for v in VARIANTS for s in SOLVERS}
-    loads = [load()]
+    loads = [load_average()[0]]
     chosen = [(name, data, options) for name, data, options in variants(n_triangles) if name in VARIANTS]
     for r in range(repeats):
         for name, data, options in chosen:
             order = list(SOLVERS.items()) if r % 2 == 0 else list(SOLVERS.items())[::-1]  # alternate who goes first
             for label, solver in order:
                 runs[name, label].append(run(data, options, solver, frames))
-                loads.append(load())
+                loads.append(load_average()[0])
                 print(f"round {r + 1} {name[:12]:12s} {label:18s} " + " ".join(
                     f"{k} {v:.2f}" for k, v in runs[name, label][-1].items()), flush=True)
     print(f"\n1-minute load average during the runs: {min(loads):.1f}-{max(loads):.1f}")

@@ -22,6 +22,7 @@ import tissuefem.engine.stepping as stepping
 from tissuefem.engine.minimize import NewtonResult, newton
 from tissuefem.surgery.scene import Scene
 from tissuefem.surgery.simulation import Simulation
+from tissuefem.workbook.bench.common import load_average
 from tissuefem.workbook.bench.scenes import variants
 from tissuefem.workbook.timestepping import flap_drag
 
@@ -123,15 +124,10 @@ def run(data, way, frames):
             "back": back.mean(), "over_target": over.max(), "converged": conv.mean()}, sim.u.copy()
 
 
-def load():
-    with open("/proc/loadavg") as f:
-        return float(f.read().split()[0])
-
-
 def main(n_triangles=8000, frames=20, repeats=3):
     chosen = [(n, d) for n, d, o in variants(n_triangles) if n in ("base: stable neo-Hookean, quasistatic",
                                                                      "+ probe")]
-    runs, loads = {(n, w): [] for n, _ in chosen for w in WAYS}, [load()]
+    runs, loads = {(n, w): [] for n, _ in chosen for w in WAYS}, [load_average()[0]]
     for r in range(repeats):
         for name, data in chosen:
             ways = list(WAYS) if r % 2 == 0 else list(WAYS)[::-1]
@@ -139,7 +135,7 @@ def main(n_triangles=8000, frames=20, repeats=3):
             for way in ways:
                 row, ends[way] = run(data, way, frames)
                 runs[name, way].append(row)
-                loads.append(load())
+                loads.append(load_average()[0])
             reference = ends["Newton (today)"]
             for way in ways:
                 runs[name, way][-1]["state"] = np.abs(ends[way] - reference).max() / np.abs(reference).max()
