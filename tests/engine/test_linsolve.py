@@ -49,6 +49,28 @@ def test_symmetric_mode_falls_back_to_pivoting_on_a_zero_diagonal():
     np.testing.assert_allclose(x, [2.0, 1.0])
 
 
+def test_refactorizations_of_one_pattern_keep_its_ordering_and_match_a_fresh_factorization():
+    """The second and later factorizations of one sparsity pattern reuse the first one's ordering (SuperLU then
+    orders nothing: the work that holds the interpreter's lock); the answers and the fill are a fresh one's, and the
+    caller's matrix is not touched."""
+    backend = linsolve.SuperLU()
+    A0, b = system(stretch=0.1)
+    for i, shift in enumerate((0.0, 1e-2, 1.0, 0.0)):  # one pattern (the diagonal is stored), other values
+        A = (A0 + shift * sp.diags(np.linspace(1.0, 2.0, A0.shape[0]))).tocsr()
+        before = (A.data.copy(), A.indices.copy(), A.indptr.copy())
+        kept, fresh = backend.factorize(A), linsolve.SuperLU().factorize(A)
+        np.testing.assert_allclose(kept.solve(b), fresh.solve(b), rtol=1e-10, atol=1e-13)
+        assert kept.nnz == fresh.nnz
+        assert (kept._order is not None) == (i > 0)  # made in the kept ordering, and no fallback to pivoting
+        for array, copy in zip((A.data, A.indices, A.indptr), before):
+            np.testing.assert_array_equal(array, copy)
+    ordering = backend._kept
+    assert ordering is not None and ordering.matches(sp.csc_matrix(A))
+    B, c = system(n_triangles=200)  # another pattern: a new ordering
+    np.testing.assert_allclose(B @ backend.factorize(B).solve(c), c, rtol=0, atol=1e-10 * np.linalg.norm(c))
+    assert backend._kept is not ordering
+
+
 def test_bad_input_is_rejected():
     A, b = system()
     with pytest.raises(ValueError, match="ordering"):

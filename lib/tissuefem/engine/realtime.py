@@ -6,18 +6,26 @@ iteration) it reads the clock and starts the piece only if the piece's cost, lea
 (``solver.costs``), says it ends in time. A factorization that does not fit runs in the background (the second
 core) while the frame goes on with the old one as CG's preconditioner, or the frame stops; then it commits the last
 accepted iterate (*anytime*, see :mod:`.stepping`) and the residual left carries into the next frame. Only the first
-frame ever, with no cost learned yet, runs its work whatever it costs (its report's ``unestimated`` says so); the
-first Newton iteration's short pieces always run, so every frame makes progress. What a frame did not start is its
+step ever, with no cost learned yet, runs its work whatever it costs, on the frame if it is predicted to fit (below),
+else off it (its report's ``unestimated`` says so); the first Newton iteration's short pieces always run, so every
+frame makes progress. What a frame did not start is its
 report's ``skipped``. The clock is a parameter, so tests use a fake one.
+
+**The first step is predicted.** With nothing learned yet, the first step is predicted to cost
+:data:`FIRST_STEP_COST` seconds per dof: if that fits the budget it runs on the frame and learns the costs (its
+report's ``unestimated`` says so), else it runs off the frame (below) and learns them there.
 
 **A step too long for a frame runs off it.** When the learned costs say that even one Newton iteration (an
 assembly, the least solve, a line search and the report's check of J) does not fit the budget, the frame does not
-start the step: it hands the whole step, unbudgeted, to a worker thread (numpy and scipy leave the interpreter's
-lock in the heavy parts) and returns at once with the last committed state; its report's ``off_frame`` is
-``"running"``. The frames after it return at once too, until one finds the step finished and commits it
+start the step: it hands the step to a worker thread (numpy and scipy leave the interpreter's lock in the heavy
+parts) and returns at once with the last committed state; its report's ``off_frame`` is ``"running"``. The step
+there has a budget of its own (:meth:`RealtimeSolver.off_frame_budget`: a few frames) and commits, like a frame,
+its last accepted iterate if it did not converge by then (its report's residual says how far it is), so that the
+next step starts. The frames after it return at once too, until one finds the step finished and commits it
 (``off_frame == "finished"``). Simulated time then advances slower than real time: one step of ``dt`` per so many
-frames. The handles' targets given meanwhile are kept for the next step; whatever changes the model or the state
-first waits for the running step (:meth:`~.stepping.Stepper.settle`).
+frames (the report's ``off_frame_seconds`` says how long the step took). The handles' targets given meanwhile are
+kept for the next step; whatever changes the model or the state first waits for the running step
+(:meth:`~.stepping.Stepper.settle`).
 """
 
 from __future__ import annotations
@@ -33,7 +41,20 @@ from .minimize import NewtonResult
 from .parameters import ParameterError
 from .stepping import Stepper, StepReport
 
-__all__ = ["RealtimeSolver", "FRAME_BUDGET", "LINEAR_SOLVERS", "default_linear_solver"]
+__all__ = ["RealtimeSolver", "FRAME_BUDGET", "LINEAR_SOLVERS", "FIRST_STEP_COST", "OFF_FRAME_FRAMES",
+           "default_linear_solver"]
+
+#: What a first step (nothing learned yet: it factorizes) is predicted to cost, seconds per dof: about twice what it
+#: took on the machine of docs/benchmarks.md (3.5 to 7.5 us per dof from 2k to 128k triangles), so that a frame
+#: holds the first step of up to 3000 dofs.
+FIRST_STEP_COST = FRAME_BUDGET / 3000
+
+#: A step that runs off the frame may take this many frames' budgets (or, if more, twice a Newton iteration's learned
+#: cost: :meth:`RealtimeSolver.off_frame_budget`). Solved to convergence, such a step of a large model took many
+#: frames (measured, 11 Newton iterations and 1.4 s at 32k triangles), and the loop committed one step in 60 frames;
+#: with four, a step commits what it reached after a few Newton iterations, simulated time runs at most about four
+#: times slower than real time, and the residual left carries into the next step, as a frame's does.
+OFF_FRAME_FRAMES = 4
 
 #: The linear solvers the real-time loop offers (``"constant"``: a quadratic model's; those with ``pardiso`` need
 #: the optional ``pypardiso``).
@@ -84,12 +105,28 @@ class RealtimeSolver(Stepper):
         return self._running is not None
 
     def too_long(self) -> bool:
-        """Whether the learned costs say one Newton iteration (an assembly, the least solve, a line search, the
-        report's check of J) does not fit a frame. A piece not learned yet counts nothing (the first frame ever
-        learns them on the frame), but a CG iteration at least its preconditioner's back-substitution (the first
-        frame factorizes and back-substitutes: no CG iteration yet)."""
+        """Whether the next step goes off the frame: with nothing learned yet, when its predicted cost
+        (:data:`FIRST_STEP_COST` per dof) exceeds the budget; else when the learned costs say one Newton iteration
+        (an assembly, the least solve, a line search, the report's check of J) does not fit a frame, a CG iteration
+        costing at least its preconditioner's back-substitution (the first frame factorizes and back-substitutes:
+        no CG iteration yet)."""
         if not (self.off_frame and math.isfinite(self.budget)):
             return False
+        if not self.costs:
+            return self.model.n_dofs * FIRST_STEP_COST > self.budget
+        return self._iteration_cost() > self.budget
+
+    def off_frame_budget(self) -> float:
+        """The budget of a step that runs off the frame, seconds: :data:`OFF_FRAME_FRAMES` frames' budgets, or twice
+        what one Newton iteration is learned to cost (see :meth:`too_long`) if that is more. Four frames keep
+        simulated time within about four times real time; twice an iteration leaves room for the warm start and a
+        first iteration. Like a frame's, its first Newton iteration always runs, so every step makes progress."""
+        return max(OFF_FRAME_FRAMES * self.budget, 2.0 * self._iteration_cost())
+
+    def _iteration_cost(self) -> float:
+        """One Newton iteration's learned seconds: an assembly (unless a kept constant factorization makes it
+        unnecessary), the least solve, a line search and the report's check of J; a CG iteration costing at least its
+        preconditioner's back-substitution."""
         fixed, _ = self.model.prescribed()
         free = np.ones(self.model.n_dofs, dtype=bool)
         free[fixed] = False
@@ -97,7 +134,7 @@ class RealtimeSolver(Stepper):
                  "report")
         costs = dict(self.costs)
         costs.setdefault("cg-iteration", costs.get("back-substitution"))
-        return sum(costs.get(kind) or 0.0 for kind in kinds) > self.budget
+        return sum(costs.get(kind) or 0.0 for kind in kinds)
 
     def step(self, targets=None, *, prescribed=None, load: float = 1.0) -> StepReport:
         """One frame (see the module docstring): a step within the budget, or one started, still running or
@@ -115,11 +152,11 @@ class RealtimeSolver(Stepper):
         if prescribed is not None or load != 1.0 or not self.too_long():
             return super().step(targets, prescribed=prescribed, load=load)
         self.model.set_targets(targets)
-        box = {}
+        box, budget = {}, self.off_frame_budget()
 
-        def work():  # the whole step, unbudgeted; committed by a later frame (settle)
+        def work():  # the whole step, on a budget of its own; committed by a later frame (settle)
             try:
-                box["report"] = self._attempt(None, None, 1.0, budget=math.inf)
+                box["report"] = self._attempt(None, None, 1.0, budget=budget)
             except BaseException as err:  # handed to the frame that settles
                 box["error"] = err
         self._running = ((self.launch or self.linear.launch or start_thread)(work), box)

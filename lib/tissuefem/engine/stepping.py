@@ -170,7 +170,7 @@ class StepReport:
         rest += [f"skipped {', '.join(undone.skipped)}"] if undone.skipped else []
         rest += [f"unestimated {', '.join(self.newton.unestimated)}"] if self.newton.unestimated else []
         rest += [] if not self.off_frame else ["step running off the frame"] if self.off_frame == "running" else [
-            f"step ran off the frame ({self.off_frame_seconds:.2f} s)"]
+            f"step ran off the frame ({self.off_frame_seconds:.2f} s: simulated time slower than real time)"]
         return " | ".join([head, f"rel. residual {self.scaled_residual:.1e}", f"dE {-self.energy_decrease:.1e}",
                            f"min J {self.min_J:.3f}", f"{self.inverted} inverted", *rest])
 
