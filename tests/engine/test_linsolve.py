@@ -106,6 +106,40 @@ def test_pcg_solves_spd_systems_and_detects_negative_curvature():
     assert out.negative_curvature and not out.converged
 
 
+def test_pcg_asks_before_every_iteration_but_the_first_whether_another_fits():
+    A, b = system()
+    asked = []
+
+    def another():  # a deadline that has room for three iterations
+        asked.append(len(asked))
+        return len(asked) < 3
+
+    out = linsolve.pcg(A, b, rtol=1e-12, max_iterations=100, another=another)
+    assert out.iterations == 3 and not out.converged and len(asked) == 3
+    full = linsolve.pcg(A, b, rtol=1e-12, max_iterations=3)
+    np.testing.assert_array_equal(out.x, full.x)  # the same iterate as three iterations asked for
+    assert linsolve.pcg(A, b, rtol=1e-12, max_iterations=100, another=lambda: False).iterations == 1
+
+
+def test_a_solve_cut_short_by_its_deadline_overruns_by_one_cg_iteration_at_most():
+    """CG iterations slower than learned (as beside a factorization on the second core) stop at the deadline."""
+    A, b = system(stretch=0.3)
+    now = [0.0]
+    solver = linsolve.ReusedFactorization(max_iterations=40)
+    solver.solve(system()[0], b)  # a factorization of the unstretched matrix: CG needs many iterations now
+    precondition = solver._precondition
+
+    def slow(r):  # each iteration takes 3 ms where 1 ms was learned
+        now[0] += 0.003
+        return precondition(r)
+
+    solver._factor = type("Slow", (), {"solve": staticmethod(slow)})()
+    deadline = linsolve.Deadline(lambda: now[0], 0.02, {"cg-iteration": 0.001, "factorization": 1.0})
+    x, info = solver.solve(A, b, rtol=1e-14, deadline=deadline)
+    assert not info.converged and 0 < info.iterations < 20  # learned: 20 would fit
+    assert now[0] <= 0.02 + 0.003 + 1e-12
+
+
 def test_reused_factorization_uses_cg_on_a_nearby_matrix_and_refreshes_when_slow():
     A0, b = system(stretch=0.0)
     A1, _ = system(stretch=0.02)  # the tangent a little later

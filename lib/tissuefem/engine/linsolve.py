@@ -367,11 +367,13 @@ class PCGResult:
     negative_curvature: bool = False
 
 
-def pcg(A, b, precondition=None, *, atol: float = 0.0, rtol: float = 1e-8, max_iterations: int = 200) -> PCGResult:
+def pcg(A, b, precondition=None, *, atol: float = 0.0, rtol: float = 1e-8, max_iterations: int = 200,
+        another=None) -> PCGResult:
     """Preconditioned conjugate gradients for a symmetric ``A`` from ``x = 0``; ``precondition(r)`` applies an
-    approximate inverse. Stops when ``||b - A x|| <= max(atol, rtol ||b||)``, after ``max_iterations``, or on
+    approximate inverse. Stops when ``||b - A x|| <= max(atol, rtol ||b||)``, after ``max_iterations``, on
     *negative curvature* (``p^T A p <= 0``: ``A`` is not positive definite; ``x`` is the last iterate, still
-    downhill)."""
+    downhill), or when ``another()``, asked before every iteration but the first, says no (a frame's deadline: an
+    iteration that runs slower than learned does not carry the ones after it past the deadline)."""
     b = np.asarray(b, dtype=float)
     x, r = np.zeros_like(b), b.copy()
     target = max(float(atol), float(rtol) * norm(b))
@@ -381,6 +383,8 @@ def pcg(A, b, precondition=None, *, atol: float = 0.0, rtol: float = 1e-8, max_i
     z = precondition(r) if precondition is not None else r.copy()
     p, rz = z.copy(), dot(r, z)
     for k in range(1, int(max_iterations) + 1):
+        if k > 1 and another is not None and not another():
+            return PCGResult(x, k - 1, False, rnorm)
         Ap = A @ p
         curvature = dot(p, Ap)
         if not (curvature > 0.0) or not (rz > 0.0):
@@ -630,7 +634,8 @@ class ReusedFactorization(_OffFrame):
             deadline.skip("cg-iteration")
             return None, SolveInfo(0, False, False, math.inf, "", "cg-iteration")
         t0 = deadline.clock()
-        result = pcg(A, b, self._precondition, atol=atol, rtol=rtol, max_iterations=limit)
+        another = (lambda: deadline.room("cg-iteration") != 0) if deadline.limited else None
+        result = pcg(A, b, self._precondition, atol=atol, rtol=rtol, max_iterations=limit, another=another)
         deadline.record("cg-iteration", deadline.clock() - t0, result.iterations)
         self.cg_iterations += result.iterations
         failed = "negative-curvature" if result.negative_curvature else (
@@ -644,7 +649,8 @@ class ReusedFactorization(_OffFrame):
             if result.negative_curvature:
                 return result.x, SolveInfo(result.iterations, False, False, result.residual_norm, failed)
         elif (self.background and result.iterations > self.background_after) or (
-                limit < self.max_iterations and not result.converged):  # cut short by the deadline: refresh too
+                (limit < self.max_iterations or result.iterations < limit) and not result.converged):  # cut short
+            # by the deadline: refresh too
             self._work.start(self._factorize, A, A.shape)
         elif result.iterations > self.refresh_after and not self._provisional:  # (a fresh one is under way)
             self._stale = True
