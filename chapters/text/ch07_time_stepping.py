@@ -258,8 +258,12 @@ fig_ch07_released_flap()
 #    is spent*. The solver learns what each piece of work costs (an assembly, a factorization, a
 #    back-substitution, a CG iteration, a line search) from its last runs, and starts a piece only if it
 #    fits in what is left of the budget; a factorization that does not fit runs on the other core while
-#    the frame goes on with the old one as a preconditioner. The first step's short pieces always run, so
-#    every frame makes progress (and the very first frame, with nothing learned yet, runs whatever it costs);
+#    the frame goes on with the old one as a preconditioner, and CG asks before each iteration whether
+#    another fits. The first Newton iteration's short pieces always run, so every frame makes progress. A
+#    step of which not even one Newton iteration fits a frame (by the learned costs; the very first step,
+#    with nothing learned, by a cost predicted per dof) runs off the frame, on a budget of its own of a few
+#    frames, and a later frame commits it; simulated time then runs slower than real time. With
+#    `off_frame=False` every step stays on the frame;
 # 4. **commit**: the last accepted iterate becomes $\mathbf u^{m+1}$, converged or not. It passed the
 #    line search, so it is finite and $E(\mathbf u^{m+1}) \le E(\text{start})$ — the solver is *anytime*.
 #    What is left of the residual carries into the next frame's warm start.
