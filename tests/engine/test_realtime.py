@@ -125,7 +125,8 @@ def test_never_overruns_by_more_than_one_linear_solve(budget):
         # the largest single piece of work this frame: one linear solve, or one (fake) assembly
         allowed = max(frame_costs + [0.002])
         assert report.elapsed <= budget + allowed + 1e-12
-        if report.status == "budget":  # it stopped because its next pieces (an assembly, a CG step) did not fit
+        if report.status == "budget" and not report.off_frame:  # it stopped because its next pieces (an
+            # assembly, a CG step) did not fit (a frame whose step runs off it shows the last state at once)
             assert report.elapsed + 0.002 + 0.001 > budget - 1e-12
     if budget <= 0.012:  # less than a factorization plus a few solves: some frames must stop on the budget
         assert "budget" in statuses

@@ -248,8 +248,9 @@ class Cholmod(_Direct):
 
 # --- a frame's deadline and the cost of its pieces of work ---------------------------------------
 
-#: The pieces of a frame's work whose cost (seconds each) a :class:`LinearSolver` learns, in ``costs``.
-WORK = ("assembly", "factorization", "back-substitution", "cg-iteration", "line-search", "report")
+#: The pieces of a frame's work whose cost (seconds each) a :class:`LinearSolver` learns, in ``costs`` (``"start"``:
+#: all a step does before its first Newton iteration, its warm start's energies and the first gradient).
+WORK = ("start", "assembly", "factorization", "back-substitution", "cg-iteration", "line-search", "report")
 #: Pieces that may take many times a frame: never started in a frame without an estimate that they fit.
 _LONG = frozenset({"factorization"})
 #: The weight of the newest measurement in a cost estimate (an exponential moving average).

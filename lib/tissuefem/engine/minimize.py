@@ -268,7 +268,7 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
            safe_hessian: Callable[[np.ndarray], sp.spmatrix] | None = None, clock: Callable[[], float] | None = None,
            budget: float = math.inf, start: float | None = None, energy0: float | None = None,
            energy_floor: float = 0.0, step_limit: Callable[[np.ndarray, np.ndarray], float] | None = None,
-           ) -> NewtonResult:
+           learned: float = 0.0) -> NewtonResult:
     """Minimise ``energy`` (or zero ``gradient``, ``q``) over the ``free`` dofs (a mask or indices; the others keep
     their ``x0`` values); ``hessian(x)``: the sparse Jacobian of ``q``; ``energy0 = E(x0)`` if known. Converged when
     ``||q_free|| <= max(atol + rtol max(||q_free(x0)||, reference_norm), floor)``: ``reference_norm`` the size of the
@@ -277,11 +277,11 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
     direct factorization); ``safe_hessian(x)``: a positive semi-definite Hessian tried before the shift; ``budget``
     seconds by ``clock`` from ``start`` (default: now): a piece of work starts only if ``linear.costs`` says it ends
     in time (the first iteration's assembly and its cheapest solve always run; what was not started is the result's
-    ``skipped``); ``step_limit(x, dx)``: the admissible fraction of ``dx`` (none: ``"blocked"``).
-    """
+    ``skipped``); the time from ``start`` to the first iteration, less ``learned`` seconds (pieces learned on their
+    own), is learned as the ``"start"`` piece; ``step_limit(x, dx)``: the admissible fraction of ``dx``."""
     x, max_step, max_iterations, budget = _checked(
         x0, {"gradient": gradient, "hessian": hessian, "energy": energy, "clock": clock, "safe_hessian": safe_hessian},
-        line_search, linear, {"start": start, "energy0": energy0}, max_step, max_iterations, budget,
+        line_search, linear, {"start": start, "energy0": energy0, "learned": learned}, max_step, max_iterations, budget,
         {"rtol": rtol, "atol": atol, "floor": floor, "reference_norm": reference_norm, "energy_floor": energy_floor})
     mask = _free_mask(x.size, free)
     linear = LinearSolver("direct") if linear is None else linear
@@ -296,6 +296,8 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
     rnorm = r0 = norm(g[mask])
     E = None if energy is None else float(energy(x)) if energy0 is None else float(energy0)
     E_start, e_scale = E, abs(E) if E is not None else 0.0
+    if clock is not None and start is not None:  # all before the first iteration (a stepper's warm start too)
+        deadline.record("start", max(clock() - start - float(learned), 0.0))
     target = max(atol + rtol * max(r0, float(reference_norm)), float(floor))
     stats = {"linear": 0, "factorizations": 0}
 

@@ -15,9 +15,9 @@ report's ``skipped``. The clock is a parameter, so tests use a fake one.
 :data:`FIRST_STEP_COST` seconds per dof: if that fits the budget it runs on the frame and learns the costs (its
 report's ``unestimated`` says so), else it runs off the frame (below) and learns them there.
 
-**A step too long for a frame runs off it.** When the learned costs say that even one Newton iteration (an
-assembly, the least solve, a line search and the report's check of J) does not fit the budget, the frame does not
-start the step: it hands the step to a worker thread (numpy and scipy leave the interpreter's lock in the heavy
+**A step too long for a frame runs off it.** When the learned costs say that a step's start (its warm start) and
+one Newton iteration (an assembly, the least solve, a line search and the report's check of J), which a frame always
+runs, take more than :data:`FIRST_ITERATION_SHARE` of the budget, the frame does not start the step: it hands the step to a worker thread (numpy and scipy leave the interpreter's lock in the heavy
 parts) and returns at once with the last committed state; its report's ``off_frame`` is ``"running"``. The step
 there has a budget of its own (:meth:`RealtimeSolver.off_frame_budget`: a few frames) and commits, like a frame,
 its last accepted iterate if it did not converge by then (its report's residual says how far it is), so that the
@@ -41,13 +41,18 @@ from .minimize import NewtonResult
 from .parameters import ParameterError
 from .stepping import Stepper, StepReport
 
-__all__ = ["RealtimeSolver", "FRAME_BUDGET", "LINEAR_SOLVERS", "FIRST_STEP_COST", "OFF_FRAME_FRAMES",
-           "default_linear_solver"]
+__all__ = ["RealtimeSolver", "FRAME_BUDGET", "LINEAR_SOLVERS", "FIRST_STEP_COST", "FIRST_ITERATION_SHARE",
+           "OFF_FRAME_FRAMES", "default_linear_solver"]
 
 #: What a first step (nothing learned yet: it factorizes) is predicted to cost, seconds per dof: about twice what it
 #: took on the machine of docs/benchmarks.md (3.5 to 7.5 us per dof from 2k to 128k triangles), so that a frame
 #: holds the first step of up to 3000 dofs.
 FIRST_STEP_COST = FRAME_BUDGET / 3000
+
+#: The share of the budget a step's start and first Newton iteration may be learned to take for the step to run on
+#: the frame (they always run there: the rest of the budget is room for their spread; beyond it the step runs off the
+#: frame).
+FIRST_ITERATION_SHARE = 0.8
 
 #: A step that runs off the frame may take this many frames' budgets (or, if more, twice a Newton iteration's learned
 #: cost: :meth:`RealtimeSolver.off_frame_budget`). Solved to convergence, such a step of a large model took many
@@ -106,15 +111,13 @@ class RealtimeSolver(Stepper):
 
     def too_long(self) -> bool:
         """Whether the next step goes off the frame: with nothing learned yet, when its predicted cost
-        (:data:`FIRST_STEP_COST` per dof) exceeds the budget; else when the learned costs say one Newton iteration
-        (an assembly, the least solve, a line search, the report's check of J) does not fit a frame, a CG iteration
-        costing at least its preconditioner's back-substitution (the first frame factorizes and back-substitutes:
-        no CG iteration yet)."""
+        (:data:`FIRST_STEP_COST` per dof) exceeds the budget; else when the learned costs say the step's start and
+        one Newton iteration (:meth:`_iteration_cost`) take more than :data:`FIRST_ITERATION_SHARE` of it."""
         if not (self.off_frame and math.isfinite(self.budget)):
             return False
         if not self.costs:
             return self.model.n_dofs * FIRST_STEP_COST > self.budget
-        return self._iteration_cost() > self.budget
+        return self._iteration_cost() > FIRST_ITERATION_SHARE * self.budget
 
     def off_frame_budget(self) -> float:
         """The budget of a step that runs off the frame, seconds: :data:`OFF_FRAME_FRAMES` frames' budgets, or twice
@@ -124,14 +127,15 @@ class RealtimeSolver(Stepper):
         return max(OFF_FRAME_FRAMES * self.budget, 2.0 * self._iteration_cost())
 
     def _iteration_cost(self) -> float:
-        """One Newton iteration's learned seconds: an assembly (unless a kept constant factorization makes it
-        unnecessary), the least solve, a line search and the report's check of J; a CG iteration costing at least its
-        preconditioner's back-substitution."""
+        """A step's learned seconds up to its first Newton iteration's end: its start (the warm start's energies and
+        the first gradient), an assembly (unless a kept constant factorization makes it unnecessary), the least
+        solve, a line search and the report's check of J; a CG iteration costing at least its preconditioner's
+        back-substitution."""
         fixed, _ = self.model.prescribed()
         free = np.ones(self.model.n_dofs, dtype=bool)
         free[fixed] = False
-        kinds = (*(("assembly",) if self.linear.assembles(free) else ()), *self.linear.least_work(), "line-search",
-                 "report")
+        kinds = ("start", *(("assembly",) if self.linear.assembles(free) else ()), *self.linear.least_work(),
+                 "line-search", "report")
         costs = dict(self.costs)
         costs.setdefault("cg-iteration", costs.get("back-substitution"))
         return sum(costs.get(kind) or 0.0 for kind in kinds)

@@ -457,7 +457,7 @@ class Stepper:
             # the budget less what the report's check of J is expected to take after the solve
             budget = max(step_budget - (self.linear.costs.get("report") or 0.0), 1e-9 * step_budget)
             deadline = self.linear.deadline(self._clock, start + budget)
-            x0, E0, fraction, which, load_norm, pre, crossed = self._warm_start(fixed, values, free, deadline)
+            x0, E0, fraction, which, load_norm, pre, crossed, learned = self._warm_start(fixed, values, free, deadline)
             if fraction < 1.0 and not self.anytime:
                 # the targets cannot be reached without leaving the valid (finite-energy) states: an offline
                 # step fails at once (the real-time loop goes part of the way and carries the rest over)
@@ -470,7 +470,7 @@ class Stepper:
                     rtol=self.rtol, atol=self.atol, reference_norm=load_norm, floor=self.floor,
                     max_iterations=self.max_iterations - (which == "linearised"), max_step=self.max_step,
                     linear=self.linear, clock=self._clock, budget=budget, start=start, energy0=E0,
-                    energy_floor=self.energy_floor, step_limit=model.step_limit,
+                    energy_floor=self.energy_floor, step_limit=model.step_limit, learned=learned,
                     safe_hessian=(lambda x: model.hessian(x, safe=True)) if model.has_safe_hessian else None)
         finally:
             for term in loads:
@@ -493,7 +493,8 @@ class Stepper:
         return [self.step(t) for t in targets_per_step]
 
     def _warm_start(self, fixed, values, free, deadline):
-        """``(x0, E0, handle_fraction, name, load_norm, factorizations, crossed)``: step 2 of the module docstring.
+        """``(x0, E0, handle_fraction, name, load_norm, factorizations, crossed, learned)``: step 2 of the module
+        docstring; ``learned``: the seconds of its linearised increment, whose pieces the solver learns on their own.
 
         With self-contact the reference is the state with only the handles moved (``Model.begin_step``).
         """
@@ -502,12 +503,14 @@ class Stepper:
         crossed = 0
         previous = u[fixed]
         dynamic = model.inertia is not None
-        linearised, load_norm, factorizations = None, 0.0, 0
+        linearised, load_norm, factorizations, learned = None, 0.0, 0, 0.0
         if not dynamic and np.any(values != previous):
             # an assembly and a solve, if they fit (the solve itself starts no factorization that does not)
             if deadline.fits("assembly", *self.linear.least_work()):
+                t0 = self._clock()
                 linearised, load_norm, factorizations = self._linearised_increment(fixed, free, values - previous,
                                                                                    deadline)
+                learned = self._clock() - t0
             else:
                 deadline.skip("assembly")
         x_tilde = model.inertia.x_tilde if dynamic else None
@@ -543,13 +546,13 @@ class Stepper:
                     if exact:
                         break
             if best is not None:
-                return best[0], best[1], fraction, best[2], load_norm, factorizations, crossed
+                return best[0], best[1], fraction, best[2], load_norm, factorizations, crossed, learned
         x = u.copy()  # the handles cannot move at all without leaving the valid states: stay
         if model.notes_steps:
             crossed = model.begin_step(x, u)
         with np.errstate(all="ignore"):
             E = model.energy(x)
-        return x, E, 0.0, "previous", load_norm, factorizations, crossed
+        return x, E, 0.0, "previous", load_norm, factorizations, crossed, learned
 
     def _linearised_increment(self, fixed, free, du_fixed, deadline):
         """``(dx, load_norm, factorizations)``: the first-order response of every dof to moving the held ones
