@@ -247,3 +247,27 @@ def test_where_steps_fit_the_frame_budgeted_and_unbudgeted_frames_agree():
         assert a.off_frame == "" and a.converged and b.converged and a.elapsed <= BUDGET
         np.testing.assert_allclose(rt.u, free.u, atol=1e-9 * max(1.0, float(np.max(np.abs(free.u)))))
     assert not launcher.jobs and not rt.too_long()
+
+
+@pytest.mark.parametrize("energy_cost, off", [(0.001, False), (0.005, True)])
+def test_a_warm_start_that_leaves_too_little_room_sends_the_step_off_the_frame(energy_cost, off):
+    # the assembly costs 10 ms and each energy evaluation energy_cost (the solves nothing): the warm start weighs
+    # three starts, the line search one more, so the start and one Newton iteration are learned to cost about 10 ms
+    # and 4 energies: 14 ms (fits 0.8 of the budget, 26.7 ms) or 30 ms (does not)
+    rt, clock, launcher = realtime("reuse", assembly_cost=0.010)
+    inner = rt.model.energy
+
+    def costly_energy(u, *args, **kw):
+        clock.now += energy_cost
+        return inner(u, *args, **kw)
+
+    rt.model.energy = costly_energy
+    for f in range(4):  # the first frames learn the costs (a step off the frame is finished at once)
+        rt.frame({1: TARGET * (f + 1) / 8})
+        launcher.finish()
+    assert rt.costs["start"] >= 2 * energy_cost  # (two or three starts weighed)
+    assert rt.too_long() == off
+    report = rt.frame({1: TARGET * 5 / 8})
+    assert (report.off_frame == "running") == off
+    if not off:
+        assert report.committed and report.elapsed <= BUDGET
