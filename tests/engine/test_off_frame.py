@@ -1,6 +1,6 @@
-"""A step too long for a frame runs off it: with every linear solver the real-time loop offers, a frame whose one
-Newton iteration (by the learned costs) does not fit the budget hands the whole step to a worker and returns at
-once; a later frame commits the finished step. All on a fake clock: the assembly moves it by a set cost, and the
+"""A step too long for a frame runs off it: with every linear solver the real-time loop offers, a frame whose step
+start and first Newton iteration (by the learned costs; the first step by its predicted cost) take too much of the
+budget hands the step to a worker, on a budget of its own, and returns at once; a later frame commits the step. All on a fake clock: the assembly moves it by a set cost, and the
 worker runs when the test says."""
 
 import math
