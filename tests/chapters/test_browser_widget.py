@@ -83,6 +83,14 @@ def frames_and_steps(before, after) -> dict:
     return {"frames": after[0] - before[0], "steps_committed": after[1] - before[1]}
 
 
+def imported_from(driver) -> str:
+    """Where the notebook's kernel imported tissuefem from: relative to the tree holding this test if inside it
+    (measured code is this tree's), else the full path (another copy, e.g. an installed one)."""
+    path = Path(kernel_json(driver, "__import__('tissuefem').__file__")).resolve()
+    tree = Path(__file__).resolve().parents[2]
+    return str(path.relative_to(tree)) if path.is_relative_to(tree) else str(path)
+
+
 def widget_missing() -> str | None:
     reason = browser_missing()
     if reason:
@@ -118,8 +126,13 @@ class Canvas:
     def painted(self) -> int:
         return int(self.driver.execute_script("return Number(arguments[0].dataset.painted);", self.element))
 
-    def log(self):
-        return self.driver.execute_script("return arguments[0].tissuefem.log.slice();", self.element)
+    def log(self, since=None):
+        """The page's log of paints (``[time, target x, target y, ms]``), those from ``since`` on (page ms) if
+        given: a poll copies only the few new ones (copying the whole log each time loads the page it measures)."""
+        if since is None:
+            return self.driver.execute_script("return arguments[0].tissuefem.log.slice();", self.element)
+        return self.driver.execute_script("return arguments[0].tissuefem.log.filter((e) => e[0] >= arguments[1]);",
+                                          self.element, since)
 
 
 def actions(driver):
@@ -286,7 +299,7 @@ def measure(driver, lab, triangles, seconds=3.0, probes=12, seed=8):
         deadline = time.monotonic() + 3.0
         while shown is None and time.monotonic() < deadline:
             time.sleep(0.02)
-            for t, x, y, _ in canvas.log():
+            for t, x, y, *_ in canvas.log(since=moved):
                 if t >= moved and x is not None and abs(x - point[0]) < 0.01 and abs(y - point[1]) < 0.01:
                     shown = t
                     break
@@ -307,7 +320,8 @@ def measure(driver, lab, triangles, seconds=3.0, probes=12, seed=8):
     rest_after = {"cpu_percent_of_a_core": round(100 * (cpu_seconds(kernel) - cpu0) / (time.monotonic() - t0), 2),
                   "painted": canvas.painted() - painted0}
     nodes = kernel_json(driver, "dict(nodes=int(sim.mesh.nvertices), triangles=int(sim.mesh.nelements))")
-    return {"mesh": nodes, "at_rest": rest, "dragging": dragging, "latency": latency, "at_rest_after_drag": rest_after}
+    return {"mesh": nodes, "tissuefem": imported_from(driver), "at_rest": rest, "dragging": dragging, "latency": latency,
+            "at_rest_after_drag": rest_after}
 
 
 def run_benchmark(workdir, sizes, measure=measure, name="browser-drawn view (tissuefem.surgery.widget) in JupyterLab "
