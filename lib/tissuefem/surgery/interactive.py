@@ -562,13 +562,13 @@ class Pacing:
     The frames are due on a grid ``interval`` apart (:attr:`due`). Input may start a frame early, from
     :attr:`earliest` on: up to ``EARLY`` of an interval before it is due, never within ``MIN_GAP`` of an interval of
     the last one; the grid goes on from where it was (an early frame does not make the next one earlier). A frame that
-    starts late is made up for in the wait before the next, up to ``MADE_UP`` of an interval (beyond that the grid
-    moves on: a long step is not followed by a burst). :meth:`rest`: the next frame (after input) starts a new grid.
+    starts late is made up for in the waits after it, up to ``MADE_UP`` of an interval (beyond that the grid moves
+    on: a stall is not followed by a burst). :meth:`rest`: the next frame (after input) starts a new grid.
     """
 
     EARLY = 0.5
     MIN_GAP = 0.5
-    MADE_UP = 0.5
+    MADE_UP = 1.0
 
     def __init__(self, interval):
         self.interval = check_positive("interval", interval)
