@@ -331,19 +331,21 @@ def measure(driver, lab, triangles, seconds=3.0, probes=12, seed=8):
 
 
 def run_benchmark(workdir, sizes, measure=measure, name="browser-drawn view (tissuefem.surgery.widget) in JupyterLab "
-                  "+ headless Chromium", prefix="t") -> dict:
+                  "+ headless Chromium", prefix="t", nodelay=False) -> dict:
     """``measure(driver, lab, size)`` for each size, each in its own JupyterLab and browser; the record with the
-    machine's load."""
+    machine's load. ``nodelay``: the server's kernel websockets without Nagle's algorithm (``JupyterLab``)."""
     results = []
     for size in sizes:
         folder = Path(workdir) / f"{prefix}{size}"
         folder.mkdir(parents=True, exist_ok=True)
-        with JupyterLab(folder) as lab:
+        with JupyterLab(folder, nodelay=nodelay) as lab:
             driver = start_chromium(folder)
             with reported_failure(driver, lab, folder):
                 results.append(measure(driver, lab, size))
-    return {"benchmark": name, "load_average_1_5_15_min": list(os.getloadavg()), "cpus": os.cpu_count(),
-            "results": results}
+    record = {"benchmark": name, "load_average_1_5_15_min": list(os.getloadavg()), "cpus": os.cpu_count()}
+    if nodelay:
+        record["server"] = "kernel websockets with TCP_NODELAY (not Jupyter Server's default)"
+    return {**record, "results": results}
 
 
 def benchmark_main(description, option, default, help, **run) -> None:
@@ -351,12 +353,14 @@ def benchmark_main(description, option, default, help, **run) -> None:
     parser = argparse.ArgumentParser(description=description)
     parser.add_argument(f"--{option}", type=int, nargs="+", default=default, help=help)
     parser.add_argument("--out", type=Path, help="a JSON file to write")
+    parser.add_argument("--nodelay", action="store_true",
+                        help="the server's kernel websockets without Nagle's algorithm (not Jupyter Server's default)")
     args = parser.parse_args()
     reason = widget_missing()
     if reason:
         raise SystemExit(reason)
     with tempfile.TemporaryDirectory() as folder:
-        record = run_benchmark(folder, getattr(args, option), **run)
+        record = run_benchmark(folder, getattr(args, option), nodelay=args.nodelay, **run)
     text = json.dumps(record, indent=2)
     if args.out:
         args.out.parent.mkdir(parents=True, exist_ok=True)
