@@ -34,8 +34,8 @@ from pathlib import Path
 import nbformat
 import pytest
 
-from browser_lab import (JupyterLab, browser_missing, cpu_seconds, descendants, kernel_json, open_notebook,
-                         run_all_cells, start_chromium, wait_for)
+from browser_lab import (JupyterLab, browser_missing, cpu_seconds, descendants, kernel_execute, kernel_json,
+                         open_notebook, run_all_cells, start_chromium, wait_for)
 
 pytestmark = pytest.mark.browser
 
@@ -220,6 +220,13 @@ def test_the_browser_view_drags_and_cuts_in_jupyterlab(tmp_path):
             time.sleep(0.5)
             assert kernel_json(driver, "view.pushes") == before["pushes"]
             assert canvas.painted() == painted0, "nothing is painted at rest"
+            # two frames sent back to back: each is painted (the newer does not replace the older unpainted)
+            kernel_execute(driver, "_x = view.widget.positions\nview.widget.positions = bytes(len(_x))\n"
+                                   "view.widget.positions = _x")
+            wait_for(lambda: canvas.painted() >= painted0 + 2, 20, "the page to paint both frames")
+            time.sleep(0.3)
+            assert canvas.painted() == painted0 + 2, "one picture a frame"
+            painted0 = canvas.painted()
             path = [(1.95 + 0.03 * k, 0.5 - 0.02 * k) for k in range(11)]
             drag(driver, canvas, path, 0.05)
             wait_for(lambda: kernel_json(driver, "float(sim.positions()[0].max())") > before["x"] + 0.1, 30,
