@@ -10,7 +10,8 @@ Run as a script, it is the view's benchmark (nothing asserted)::
 
     python tests/chapters/test_browser_widget.py [--triangles 2000 8000] [--out FILE]
 
-For each mesh: frames painted per second while the mouse drags continuously, the latency from a mouse move to the
+For each mesh: frames painted per second while the mouse drags continuously (over the whole drag, and from its first
+picture on: the time before it is the driver's and the press's), the latency from a mouse move to the
 first paint that shows it (the drag target at the new point, which the kernel sends with the positions of the frame
 that took the move), and the CPU the kernel uses at rest (after the tissue settled and the mouse let go). With the
 drag and the latency: the view's frames and the steps committed in them (fewer when steps ran off the frame: the
@@ -33,8 +34,8 @@ from pathlib import Path
 import nbformat
 import pytest
 
-from browser_lab import (JupyterLab, browser_missing, cpu_seconds, descendants, kernel_json, open_notebook,
-                         run_all_cells, start_chromium, wait_for)
+from browser_lab import (JupyterLab, browser_missing, cpu_seconds, descendants, kernel_execute, kernel_json,
+                         open_notebook, run_all_cells, start_chromium, wait_for)
 
 pytestmark = pytest.mark.browser
 
@@ -83,6 +84,14 @@ def frames_and_steps(before, after) -> dict:
     return {"frames": after[0] - before[0], "steps_committed": after[1] - before[1]}
 
 
+def imported_from(driver) -> str:
+    """Where the notebook's kernel imported tissuefem from: relative to the tree holding this test if inside it
+    (measured code is this tree's), else the full path (another copy, e.g. an installed one)."""
+    path = Path(kernel_json(driver, "__import__('tissuefem').__file__")).resolve()
+    tree = Path(__file__).resolve().parents[2]
+    return str(path.relative_to(tree)) if path.is_relative_to(tree) else str(path)
+
+
 def widget_missing() -> str | None:
     reason = browser_missing()
     if reason:
@@ -118,8 +127,13 @@ class Canvas:
     def painted(self) -> int:
         return int(self.driver.execute_script("return Number(arguments[0].dataset.painted);", self.element))
 
-    def log(self):
-        return self.driver.execute_script("return arguments[0].tissuefem.log.slice();", self.element)
+    def log(self, since=None):
+        """The page's log of paints (``[time, target x, target y, ms]``), those from ``since`` on (page ms) if
+        given: a poll copies only the few new ones (copying the whole log each time loads the page it measures)."""
+        if since is None:
+            return self.driver.execute_script("return arguments[0].tissuefem.log.slice();", self.element)
+        return self.driver.execute_script("return arguments[0].tissuefem.log.filter((e) => e[0] >= arguments[1]);",
+                                          self.element, since)
 
 
 def actions(driver):
@@ -206,6 +220,13 @@ def test_the_browser_view_drags_and_cuts_in_jupyterlab(tmp_path):
             time.sleep(0.5)
             assert kernel_json(driver, "view.pushes") == before["pushes"]
             assert canvas.painted() == painted0, "nothing is painted at rest"
+            # two frames sent back to back: each is painted (the newer does not replace the older unpainted)
+            kernel_execute(driver, "_x = view.widget.positions\nview.widget.positions = bytes(len(_x))\n"
+                                   "view.widget.positions = _x")
+            wait_for(lambda: canvas.painted() >= painted0 + 2, 20, "the page to paint both frames")
+            time.sleep(0.3)
+            assert canvas.painted() == painted0 + 2, "one picture a frame"
+            painted0 = canvas.painted()
             path = [(1.95 + 0.03 * k, 0.5 - 0.02 * k) for k in range(11)]
             drag(driver, canvas, path, 0.05)
             wait_for(lambda: kernel_json(driver, "float(sim.positions()[0].max())") > before["x"] + 0.1, 30,
@@ -265,8 +286,13 @@ def measure(driver, lab, triangles, seconds=3.0, probes=12, seed=8):
     page1 = driver.execute_script("return performance.now();")
     painted1, cpu1, counts1 = canvas.painted(), cpu_seconds(kernel), kernel_json(driver, FRAME_COUNTS)
     steps = kernel_json(driver, "[float(t) for t in view.frame_times][-200:]")
-    paint_ms = [entry[3] for entry in canvas.log() if page0 <= entry[0] <= page1]
+    paints = [entry for entry in canvas.log() if page0 <= entry[0] <= page1]
+    paint_ms = [entry[3] for entry in paints]
+    first = paints[0][0] if paints else page1  # the drag's first picture (the press reached the page before it)
     dragging = {"painted_per_second": round(1e3 * (painted1 - painted0) / (page1 - page0), 1),
+                "painted_per_second_from_the_first_picture": None if len(paints) < 2 else
+                round(1e3 * (len(paints) - 1) / (page1 - first), 1),
+                "first_picture_ms": round(first - page0, 1),
                 "seconds": round((page1 - page0) / 1e3, 2),
                 "kernel_cpu_percent_of_a_core": round(100 * (cpu1 - cpu0) / ((page1 - page0) / 1e3), 1),
                 "kernel_step_median_ms": None if not steps else round(median(steps), 1),
@@ -286,7 +312,7 @@ def measure(driver, lab, triangles, seconds=3.0, probes=12, seed=8):
         deadline = time.monotonic() + 3.0
         while shown is None and time.monotonic() < deadline:
             time.sleep(0.02)
-            for t, x, y, _ in canvas.log():
+            for t, x, y, *_ in canvas.log(since=moved):
                 if t >= moved and x is not None and abs(x - point[0]) < 0.01 and abs(y - point[1]) < 0.01:
                     shown = t
                     break
@@ -307,23 +333,26 @@ def measure(driver, lab, triangles, seconds=3.0, probes=12, seed=8):
     rest_after = {"cpu_percent_of_a_core": round(100 * (cpu_seconds(kernel) - cpu0) / (time.monotonic() - t0), 2),
                   "painted": canvas.painted() - painted0}
     nodes = kernel_json(driver, "dict(nodes=int(sim.mesh.nvertices), triangles=int(sim.mesh.nelements))")
-    return {"mesh": nodes, "at_rest": rest, "dragging": dragging, "latency": latency, "at_rest_after_drag": rest_after}
+    return {"mesh": nodes, "tissuefem": imported_from(driver), "at_rest": rest, "dragging": dragging, "latency": latency,
+            "at_rest_after_drag": rest_after}
 
 
 def run_benchmark(workdir, sizes, measure=measure, name="browser-drawn view (tissuefem.surgery.widget) in JupyterLab "
-                  "+ headless Chromium", prefix="t") -> dict:
+                  "+ headless Chromium", prefix="t", nodelay=False) -> dict:
     """``measure(driver, lab, size)`` for each size, each in its own JupyterLab and browser; the record with the
-    machine's load."""
+    machine's load. ``nodelay``: the server's kernel websockets without Nagle's algorithm (``JupyterLab``)."""
     results = []
     for size in sizes:
         folder = Path(workdir) / f"{prefix}{size}"
         folder.mkdir(parents=True, exist_ok=True)
-        with JupyterLab(folder) as lab:
+        with JupyterLab(folder, nodelay=nodelay) as lab:
             driver = start_chromium(folder)
             with reported_failure(driver, lab, folder):
                 results.append(measure(driver, lab, size))
-    return {"benchmark": name, "load_average_1_5_15_min": list(os.getloadavg()), "cpus": os.cpu_count(),
-            "results": results}
+    record = {"benchmark": name, "load_average_1_5_15_min": list(os.getloadavg()), "cpus": os.cpu_count()}
+    if nodelay:
+        record["server"] = "kernel websockets with TCP_NODELAY (not Jupyter Server's default)"
+    return {**record, "results": results}
 
 
 def benchmark_main(description, option, default, help, **run) -> None:
@@ -331,12 +360,14 @@ def benchmark_main(description, option, default, help, **run) -> None:
     parser = argparse.ArgumentParser(description=description)
     parser.add_argument(f"--{option}", type=int, nargs="+", default=default, help=help)
     parser.add_argument("--out", type=Path, help="a JSON file to write")
+    parser.add_argument("--nodelay", action="store_true",
+                        help="the server's kernel websockets without Nagle's algorithm (not Jupyter Server's default)")
     args = parser.parse_args()
     reason = widget_missing()
     if reason:
         raise SystemExit(reason)
     with tempfile.TemporaryDirectory() as folder:
-        record = run_benchmark(folder, getattr(args, option), **run)
+        record = run_benchmark(folder, getattr(args, option), nodelay=args.nodelay, **run)
     text = json.dumps(record, indent=2)
     if args.out:
         args.out.parent.mkdir(parents=True, exist_ok=True)

@@ -18,7 +18,7 @@ pytest.importorskip("anywidget")
 import tissuefem
 from tissuefem.engine.parameters import ParameterError
 from tissuefem.surgery import interactive
-from tissuefem.surgery.interactive import (MODES, PAUSED_DRAG, REST_FRAMES, Gestures, SurgeryView, snapshot,
+from tissuefem.surgery.interactive import (MODES, PAUSED_DRAG, REST_FRAMES, Gestures, Pacing, SurgeryView, snapshot,
                                            synthetic_key, synthetic_mouse)
 from tissuefem.engine.meshes import mean_edge_length
 from tissuefem.surgery.scene import Scene
@@ -527,6 +527,73 @@ def test_a_pointer_move_brings_the_next_frame_forward():
         assert v.sim.frames > frames, "the move brought the frame forward (the interval is 10 s)"
         pointer(v, "up", 2.2, 0.5)
         v.close()
+
+    asyncio.run(session())
+
+
+def test_pacing_without_input_keeps_the_grid_and_makes_up_for_a_late_frame():
+    """Frames due every interval on a grid of absolute times; one that starts late is made up for in the waits
+    after it, up to an interval (beyond that the grid moves on: no burst after a stall), never two frames closer
+    than half an interval."""
+    pacing = Pacing(10.0)
+    pacing.start(0.0)  # the first frame: the grid starts there
+    assert (pacing.due, pacing.earliest) == (10.0, 5.0)
+    pacing.start(13.0)  # 3 late
+    assert pacing.due == 20.0, "made up for: the next frame is due on the grid"
+    pacing.start(28.0)  # 8 late (after a long step, say)
+    assert pacing.due == 30.0 and pacing.earliest == 33.0, "on the grid, but half an interval after this frame"
+    pacing.start(33.0)
+    assert pacing.due == 40.0, "made up for"
+    pacing.start(65.0)  # 25 late: more than an interval
+    assert (pacing.due, pacing.earliest) == (65.0, 70.0), "an interval made up for (the grid moved on by the rest)"
+    pacing.start(70.0)
+    assert pacing.due == 75.0
+    pacing.rest()
+    assert pacing.due is None and pacing.earliest == -np.inf, "after a rest input starts a frame at once"
+    pacing.start(100.0)
+    assert pacing.due == 110.0
+
+
+def test_pacing_input_starts_a_frame_early_but_keeps_one_frame_per_interval():
+    """Input may start a frame half an interval before it is due, but the grid goes on from where it was: with
+    input all the time the frames still come one per interval (the simulation's time keeps pace with the clock)."""
+    pacing = Pacing(10.0)
+    pacing.start(0.0)
+    starts = [0.0]
+    for _ in range(100):  # input always waiting: every frame starts as early as allowed
+        starts.append(pacing.earliest)
+        pacing.start(pacing.earliest)
+    assert starts[1] == 5.0, "the first frame after the one that woke the loop: half an interval on"
+    assert np.min(np.diff(starts)) >= 5.0
+    assert starts[-1] >= 10.0 * 100 - 5.0, "one frame per interval on average"
+
+
+def test_a_refused_pacing_interval_names_it():
+    with pytest.raises(ParameterError, match="interval"):
+        Pacing(0.0)
+
+
+def test_continuous_input_does_not_run_frames_faster_than_the_interval():
+    """The page's pointer moves come far more often than frames: the loop still runs one frame per interval (a
+    step per frame: faster would run the simulation ahead of the clock). Counted against an upper bound."""
+    async def session():
+        v = SurgeryView(make_sim(), interval_ms=50)
+        pointer(v, "down", 1.95, 0.5)
+        v.start()
+        for _ in range(500):  # the first frame
+            await asyncio.sleep(0.01)
+            if v.sim.frames:
+                break
+        first, frames = time.perf_counter(), v.sim.frames
+        k = 0
+        while time.perf_counter() - first < 0.6:
+            k += 1
+            pointer(v, "move", 1.95 + 0.001 * (k % 50), 0.5)
+            await asyncio.sleep(0.005)
+        elapsed, ran = time.perf_counter() - first, v.sim.frames - frames
+        pointer(v, "up", 1.95, 0.5)
+        v.close()
+        assert ran <= elapsed / 0.05 + 2, f"{ran} frames in {elapsed:.2f} s at one per 50 ms"
 
     asyncio.run(session())
 

@@ -40,7 +40,7 @@ from ..engine.meshes import mean_edge_length
 from ..engine.parameters import ParameterError, check_count, check_positive, check_vector, string
 from .widget import TissueWidget, outline
 
-__all__ = ["SurgeryView", "Gestures", "MODES", "REST_FRAMES", "take_over", "let_go", "one_at_a_time",
+__all__ = ["SurgeryView", "Gestures", "Pacing", "MODES", "REST_FRAMES", "take_over", "let_go", "one_at_a_time",
            "synthetic_mouse", "synthetic_key", "snapshot", "shown_box", "element_j"]
 
 #: the interaction modes of a :class:`SurgeryView`
@@ -555,24 +555,53 @@ class SurgeryView:
         return f"<SurgeryView {self.mode}, {state}, frame {self.frames}>"
 
 
+class Pacing:
+    """When the frame loop's frames start, in seconds of a clock: one frame per ``interval`` on average while
+    anything changes, so that simulated time (a step per frame) does not run ahead of real time.
+
+    The frames are due on a grid ``interval`` apart (:attr:`due`). Input may start a frame early, from
+    :attr:`earliest` on: up to ``EARLY`` of an interval before it is due, never within ``MIN_GAP`` of an interval of
+    the last one; the grid goes on from where it was (an early frame does not make the next one earlier). A frame that
+    starts late is made up for in the waits after it, up to ``MADE_UP`` of an interval (beyond that the grid moves
+    on: a stall is not followed by a burst). :meth:`rest`: the next frame (after input) starts a new grid.
+    """
+
+    EARLY = 0.5
+    MIN_GAP = 0.5
+    MADE_UP = 1.0
+
+    def __init__(self, interval):
+        self.interval = check_positive("interval", interval)
+        self.due = None  # when the next frame is due (None: at once)
+        self.earliest = -math.inf  # the earliest it may start, when input arrives
+
+    def start(self, now) -> None:
+        """A frame starts at ``now``: when the next is due, and how early input may start it."""
+        i = self.interval
+        self.due = now + i if self.due is None else max(self.due + i, now + i - self.MADE_UP * i)
+        self.earliest = max(self.due - self.EARLY * i, now + self.MIN_GAP * i)
+
+    def rest(self) -> None:
+        """The loop rests: input then starts a frame at once, and a new grid."""
+        self.due, self.earliest = None, -math.inf
+
+
 async def _frame_loop(view) -> None:
     """The view's frame loop (a task on the kernel's event loop): while anything moves, a frame every
-    ``interval_ms`` against absolute times (a frame that starts late is made up for by up to a quarter of an interval
-    in the wait before the next, so the event loop's wake-up delays do not add up), sooner when input arrives (but
-    not within half an interval of the last), then asleep until input arrives, when a frame starts at once; a refused
-    frame is a message, any other error stops the loop."""
-    interval = view.interval_ms / 1e3
-    due = math.inf  # when the next frame is due (infinite: whenever it starts)
+    ``interval_ms`` (:class:`Pacing`: on a grid of absolute times, a late frame made up for, up to an interval, in
+    the waits after it, input starting a frame early but the grid unchanged, so that frames keep one step per
+    interval on average), then asleep until input arrives, when a frame starts at once; a refused frame is a message, any other
+    error stops the loop."""
+    pacing = Pacing(view.interval_ms / 1e3)
     while not view.closed:
         if view.resting and not view._tools_stale:
             view._update_text(force=True)  # the last frame's line, "at rest"
             view._wake.clear()
             await view._wake.wait()  # nothing runs until input arrives
-            due = math.inf
+            pacing.rest()
             continue
-        started = time.perf_counter()
-        due = min(started, max(due, started - interval / 4)) + interval  # the next frame's time
-        view._wake.clear()  # input from now on brings the next frame forward
+        pacing.start(time.perf_counter())
+        view._wake.clear()  # input from now on may start the next frame early
         try:
             if view.resting:
                 with view._lock:
@@ -586,10 +615,10 @@ async def _frame_loop(view) -> None:
         except Exception:
             view.stop()  # one traceback, not thirty a second
             raise
-        await asyncio.sleep(max(0.0, started + interval / 2 - time.perf_counter()))
+        await asyncio.sleep(max(0.0, pacing.earliest - time.perf_counter()))
         if not view._wake.is_set():
-            try:  # the rest of the interval, unless the pointer moves first
-                await asyncio.wait_for(view._wake.wait(), max(0.0, due - time.perf_counter()))
+            try:  # the rest of the interval, unless input arrives first
+                await asyncio.wait_for(view._wake.wait(), max(0.0, pacing.due - time.perf_counter()))
             except asyncio.TimeoutError:
                 pass
 

@@ -17,7 +17,10 @@
 //   running      whether the kernel's frame loop runs: the run button shows "pause" (running) or "run" (paused)
 //   disabled     a view that stopped: the buttons and the pointer do nothing
 // Pointer messages to the kernel: {event: "pointer", kind: "down" | "move" | "up", x, y, inside} (3D: and z).
-// A picture is painted with requestAnimationFrame only when something new arrived: nothing runs at rest. The canvas
+// A picture is painted with requestAnimationFrame only when something new arrived: nothing runs at rest. What one
+// message of the kernel brings (a frame: positions, target, ...) is one picture: pictures wait in a short queue and
+// each animation frame paints the oldest, so two frames arriving between two animation frames are both painted (one
+// animation frame apart) rather than the newer replacing the older. The canvas
 // carries the paint count (data-painted) and, as canvas.tissuefem.log, the last paints' times, drag targets and
 // milliseconds spent, for tests and benchmarks. 2D: the canvas (class tissuefem-canvas) carries the world-to-pixel
 // map (data-view: [scale, ox, oy], CSS pixels of its content box: px = ox + scale * x, py = oy - scale * y).
@@ -50,6 +53,8 @@ function ints(value) {
 
 // a diverging map around the middle of the range: blue (shrunk) - white - red (stretched), in 32 bins
 const BINS = 32;
+// pictures that may wait to be painted: the next animation frame's and a newer one
+const QUEUED = 2;
 function binRGB(k) {
   const t = (k + 0.5) / BINS; // 0..1
   const a = Math.abs(2 * t - 1);
@@ -105,7 +110,9 @@ function shell(model, el, canvas, surface) {
   root.append(bar, surface, message);
   el.appendChild(root);
 
-  let painted = 0, pending = false, paintTimes = [], paintBody = () => null;
+  // the pictures waiting to be painted (each what paintBody draws: the arrays and the target of one message)
+  let painted = 0, scheduled = false, committing = false, queue = [], paintTimes = [];
+  let paintBody = () => null, picture = () => null, shownText = null;
   const log = [];
   canvas.tissuefem = {log: log};
 
@@ -132,17 +139,35 @@ function shell(model, el, canvas, surface) {
     surface.style.opacity = off ? "0.6" : "1";
   }
 
+  // something changed: once the message's changes are all in (a microtask later), its picture joins the queue
   function request() {
-    if (!pending) {
-      pending = true;
+    if (!committing) {
+      committing = true;
+      queueMicrotask(commit);
+    }
+  }
+
+  function commit() {
+    committing = false;
+    const next = picture(), last = queue[queue.length - 1];
+    if (last && Object.keys(next).every((k) => next[k] === last[k])) queue[queue.length - 1] = next; // nothing new
+    else queue.push(next);
+    if (queue.length > QUEUED) queue.splice(0, queue.length - QUEUED); // the page falls behind: the oldest go
+    if (!scheduled) {
+      scheduled = true;
       requestAnimationFrame(paint);
     }
   }
 
   function paint() {
-    pending = false;
+    scheduled = false;
+    if (queue.length === 0) return;
     const started = performance.now();
-    const target = paintBody();
+    const target = paintBody(queue.shift());
+    if (queue.length > 0) {
+      scheduled = true;
+      requestAnimationFrame(paint); // the next picture at the next animation frame
+    }
     painted++;
     canvas.dataset.painted = String(painted);
     const now = performance.now();
@@ -163,7 +188,8 @@ function shell(model, el, canvas, surface) {
     while (paintTimes.length && paintTimes[0] < now - 1000) paintTimes.shift();
     const lines = model.get("readout").split("\n");
     lines[0] += ` | ${paintTimes.length} painted/s`;
-    readout.textContent = lines.join("\n");
+    const text = lines.join("\n");
+    if (text !== shownText) readout.textContent = shownText = text; // the page lays out again only on a change
   }
 
   const onKey = (event) => {
@@ -186,8 +212,10 @@ function shell(model, el, canvas, surface) {
     message.textContent = model.get("message");
   });
 
-  function start(body) {
+  // body(p) draws the picture p (what state() gave when it was queued) and returns the drag target it shows
+  function start(body, state) {
     paintBody = body;
+    picture = state;
     showMode();
     showRunning();
     message.textContent = model.get("message");
@@ -238,11 +266,14 @@ function render2d({ model, el }) {
     canvas.dataset.view = JSON.stringify(map);
   }
 
-  function paint() {
+  // what one picture shows: the arrays as they arrived with it, and the target
+  const picture = () => ({...state, target: model.get("target")});
+
+  function paint(p) {
     const w = model.get("width"), h = model.get("height");
     const [s, ox, oy] = map;
     const dim = model.get("dim") || 2;
-    const x = state.positions, t = state.triangles, e = state.edges, c = state.colors;
+    const x = p.positions, t = p.triangles, e = p.edges, c = p.colors;
     ctx.clearRect(0, 0, w, h);
     const n = x ? x.length / dim : 0;
     if (n > 0 && t.length > 0) {
@@ -251,7 +282,7 @@ function render2d({ model, el }) {
       const nt = t.length / 3;
       const colored = c && c.length === nt;
       const [lo, hi] = model.get("color_range");
-      const o = state.outline;
+      const o = p.outline;
       const paths = colored ? Array.from({length: BINS}, () => new Path2D()) : [new Path2D()];
       // no colours: fill the boundary loops; else every triangle (no closePath: a fill closes each one, and
       // thousands of closePath calls cost far more than the fill)
@@ -271,14 +302,14 @@ function render2d({ model, el }) {
       else for (let k = 0; k < nt; k++) {
         const a = t[3 * k], b = t[3 * k + 1], d = t[3 * k + 2];
         if (a >= n || b >= n || d >= n) continue; // a frame between new triangles and their positions
-        const p = paths[colored ? binOf(c[k], lo, hi) : 0];
-        p.moveTo(px(a), py(a));
-        p.lineTo(px(b), py(b));
-        p.lineTo(px(d), py(d));
+        const path = paths[colored ? binOf(c[k], lo, hi) : 0];
+        path.moveTo(px(a), py(a));
+        path.lineTo(px(b), py(b));
+        path.lineTo(px(d), py(d));
       }
-      paths.forEach((p, k) => {
+      paths.forEach((path, k) => {
         ctx.fillStyle = colored ? binColor(k) : FILL;
-        ctx.fill(p);
+        ctx.fill(path);
       });
       const lines = new Path2D();
       for (let k = 0; k < e.length; k += 2) {
@@ -291,7 +322,7 @@ function render2d({ model, el }) {
       ctx.lineWidth = 0.5;
       ctx.stroke(lines);
     }
-    const st = state.stroke;
+    const st = p.stroke;
     if (st && st.length >= 2) {
       ctx.beginPath();
       ctx.moveTo(ox + s * st[0], oy - s * st[1]);
@@ -300,7 +331,7 @@ function render2d({ model, el }) {
       ctx.lineWidth = 1.5;
       ctx.stroke();
     }
-    const target = model.get("target");
+    const target = p.target;
     if (target && target.length >= 2) {
       ctx.beginPath();
       ctx.arc(ox + s * target[0], oy - s * target[1], 5, 0, 2 * Math.PI);
@@ -365,7 +396,7 @@ function render2d({ model, el }) {
 
   size();
   fit();
-  view.start(paint);
+  view.start(paint, picture);
   return view.cleanup;
 }
 
@@ -512,8 +543,9 @@ function pick(x, t, line) {
 }
 
 // The surface drawn with WebGL: faces flat-shaded (one vertex per corner, with the face's normal and colour) and
-// lit from near the camera on both sides, their edges drawn over them. recolor() after new triangles, colours or
-// colour range; draw(...) each picture.
+// lit from near the camera on both sides, their edges drawn over them. The colours are computed again when a
+// picture brings other triangles or colours than the last coloured one, and after recolor() (a new colour range);
+// draw(...) each picture.
 function surfacePainter(gl) {
   const prog = program(gl);
   const loc = {position: gl.getAttribLocation(prog, "a_position"), normal: gl.getAttribLocation(prog, "a_normal"),
@@ -522,6 +554,7 @@ function surfacePainter(gl) {
   const buffers = {position: gl.createBuffer(), normal: gl.createBuffer(), color: gl.createBuffer(),
     edges: gl.createBuffer()};
   let P = new Float32Array(0), N = new Float32Array(0), E = new Float32Array(0), stale = true;
+  let coloured = [null, null]; // the triangles and colours the colour buffer was made from
 
   function colour(nt, c, range) {
     const colored = c && c.length === nt, [lo, hi] = range;
@@ -574,7 +607,10 @@ function surfacePainter(gl) {
     gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
     gl.enable(gl.DEPTH_TEST);
     if (!x || x.length < 3 || t.length === 0) return;
-    if (stale) colour(t.length / 3, c, range);
+    if (stale || coloured[0] !== t || coloured[1] !== c) {
+      colour(t.length / 3, c, range);
+      coloured = [t, c];
+    }
     corners(x, t, e);
     gl.useProgram(prog);
     gl.uniformMatrix4fv(loc.matrix, false, matrix);
@@ -652,7 +688,6 @@ function render3d({ model, el }) {
   function load(name) {
     const v = model.get(name);
     state[name] = name === "triangles" || name === "edges" ? ints(v) : floats(v);
-    if (name === "triangles" || name === "colors") painter.recolor();
     if (name === "positions") canvas.dataset.received = String(++received);
   }
   for (const name of ["positions", "triangles", "edges", "colors", "stroke"]) load(name);
@@ -673,13 +708,14 @@ function render3d({ model, el }) {
     view.request();
   }
 
-  function paint() {
+  // what one picture shows: the arrays as they arrived with it, and the target (the camera: as it is when painted)
+  const picture = () => ({...state, target: model.get("target")});
+
+  function paint(p) {
     const c = frame(), light = unit(along(along(c.f, -0.5, c.u), 0.3, c.r)); // from the camera, above, left
-    painter.draw(state.positions, state.triangles, state.edges, state.colors, model.get("color_range"),
-      camera.matrix(c), light);
-    const target = model.get("target");
-    drawTools(ctx, c, state.stroke, target);
-    return target;
+    painter.draw(p.positions, p.triangles, p.edges, p.colors, model.get("color_range"), camera.matrix(c), light);
+    drawTools(ctx, c, p.stroke, p.target);
+    return p.target;
   }
 
   // the pointer: grab (a left press on the body) or turn the camera (right, shift+left, or left beside the body)
@@ -761,7 +797,7 @@ function render3d({ model, el }) {
   size();
   camera.fit(model.get("bounds"));
   canvas.dataset.camera = JSON.stringify(camera.describe());
-  view.start(paint);
+  view.start(paint, picture);
   return view.cleanup;
 }
 
