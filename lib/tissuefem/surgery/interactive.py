@@ -48,6 +48,9 @@ MODES = ("drag", "cut")
 #: frames in a row in which no drawn point moved more than ``rest_tolerance`` before the loop rests
 REST_FRAMES = 5
 READOUT_S = 0.25  #: seconds between readout lines sent while frames run (a new mode, state or message goes at once)
+#: the share of the view's frame interval its step may take (the rest: sending and drawing the picture): the
+#: simulation's solver runs the view's frames on this budget if its own is longer
+STEP_SHARE = 0.6
 POINTER_KINDS = ("down", "move", "up")
 _MOUSE_KINDS = {"press": "down", "move": "move", "release": "up"}
 PAUSED_DRAG = "paused: the tissue follows once the view runs (the run button, or view.start())"
@@ -398,9 +401,18 @@ class SurgeryView:
     # ------------------------------------------------------------------ frames and what is sent
     @one_at_a_time
     def step(self):
-        """Run one frame (``sim.frame()``) and send the new positions (if any point moved); returns the report."""
+        """Run one frame (``sim.frame()``, its step on :data:`STEP_SHARE` of the interval at most) and send the new
+        positions (if any point moved); returns the report."""
         self._dirty = False
-        report = self.last_report = self.sim.frame()
+        solver = getattr(self.sim, "solver", None)
+        budget = getattr(solver, "budget", None)
+        if budget is not None:  # the step leaves the rest of the interval to the picture (STEP_SHARE)
+            solver.budget = min(budget, STEP_SHARE * self.interval_ms / 1e3)
+        try:
+            report = self.last_report = self.sim.frame()
+        finally:
+            if budget is not None:
+                solver.budget = budget
         self.frame_times.append(1e3 * float(report.elapsed))
         self._follow()
         if getattr(report, "off_frame", "") == "running":
