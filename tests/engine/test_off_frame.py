@@ -271,3 +271,21 @@ def test_a_warm_start_that_leaves_too_little_room_sends_the_step_off_the_frame(e
     assert (report.off_frame == "running") == off
     if not off:
         assert report.committed and report.elapsed <= BUDGET
+
+
+@pytest.mark.parametrize("assembly_cost, back", [(0.010, True), (0.015, False)])
+def test_costs_learned_off_the_frame_count_slowed_down_for_the_frame(assembly_cost, back, monkeypatch):
+    # a model whose first step is predicted too long for the frame: it runs off it and learns the costs there
+    monkeypatch.setattr(realtime_module, "FIRST_STEP_COST", 100 * BUDGET / model("reuse").n_dofs)
+    rt, clock, launcher = realtime("reuse", assembly_cost=assembly_cost)
+    assert rt.frame({1: TARGET}).off_frame == "running"
+    launcher.finish()
+    assert rt.frame({1: TARGET}).off_frame == "finished"
+    assert rt.off_costs["assembly"] == pytest.approx(assembly_cost) and not rt.costs
+    # one Newton iteration costs about one assembly here: 10 ms twice fits 0.8 of the budget (26.7 ms), 15 ms not
+    assert rt.too_long() == (not back)
+    report = rt.frame({1: TARGET})
+    assert (report.off_frame == "") == back
+    if back:  # on the frame, its pieces start from the costs off it, slowed down, and learn their own
+        assert report.committed and report.elapsed <= BUDGET
+        assert assembly_cost <= rt.costs["assembly"] < realtime_module.OFF_FRAME_SLOWDOWN * assembly_cost

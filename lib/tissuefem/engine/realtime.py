@@ -42,7 +42,7 @@ from .parameters import ParameterError
 from .stepping import Stepper, StepReport
 
 __all__ = ["RealtimeSolver", "FRAME_BUDGET", "LINEAR_SOLVERS", "FIRST_STEP_COST", "FIRST_ITERATION_SHARE",
-           "OFF_FRAME_FRAMES", "default_linear_solver"]
+           "OFF_FRAME_SLOWDOWN", "OFF_FRAME_FRAMES", "default_linear_solver"]
 
 #: What a first step (nothing learned yet: it factorizes) is predicted to cost, seconds per dof: about twice what it
 #: took on the machine of docs/benchmarks.md (3.5 to 7.5 us per dof from 2k to 128k triangles), so that a frame
@@ -53,6 +53,13 @@ FIRST_STEP_COST = FRAME_BUDGET / 3000
 #: the frame (they always run there: the rest of the budget is room for their spread; beyond it the step runs off the
 #: frame).
 FIRST_ITERATION_SHARE = 0.8
+
+#: How many times its cost off the frame a piece of work is expected to take on it. Off the frame a step runs beside
+#: nothing (the frames only wait for it); on the frame, beside a factorization on the second core, which on a 2-core
+#: machine whose cores share one physical core slows the frame's work down (docs/benchmarks.md). Costs learned off
+#: the frame count this many times when they decide whether a step fits the frame; they never replace costs learned
+#: on it, so a size that once did not fit stays off the frame.
+OFF_FRAME_SLOWDOWN = 2.0
 
 #: A step that runs off the frame may take this many frames' budgets (or, if more, twice a Newton iteration's learned
 #: cost: :meth:`RealtimeSolver.off_frame_budget`). Solved to convergence, such a step of a large model took many
@@ -103,6 +110,7 @@ class RealtimeSolver(Stepper):
         if not isinstance(off_frame, bool):
             raise ParameterError("off_frame", f"off_frame must be True or False, got {off_frame!r}")
         self.launch, self.off_frame = launch, off_frame
+        self.off_costs = {}  # the pieces' costs learned by steps off the frame (see too_long)
 
     @property
     def running(self) -> bool:
@@ -111,22 +119,26 @@ class RealtimeSolver(Stepper):
 
     def too_long(self) -> bool:
         """Whether the next step goes off the frame: with nothing learned yet, when its predicted cost
-        (:data:`FIRST_STEP_COST` per dof) exceeds the budget; else when the learned costs say the step's start and
+        (:data:`FIRST_STEP_COST` per dof) exceeds the budget; else when the costs learned on the frame (``costs``),
+        or if none those learned off it (``off_costs``) :data:`OFF_FRAME_SLOWDOWN` times, say the step's start and
         one Newton iteration (:meth:`_iteration_cost`) take more than :data:`FIRST_ITERATION_SHARE` of it."""
         if not (self.off_frame and math.isfinite(self.budget)):
             return False
-        if not self.costs:
-            return self.model.n_dofs * FIRST_STEP_COST > self.budget
-        return self._iteration_cost() > FIRST_ITERATION_SHARE * self.budget
+        share = FIRST_ITERATION_SHARE * self.budget
+        if self.costs:
+            return self._iteration_cost(self.costs) > share
+        if self.off_costs:
+            return OFF_FRAME_SLOWDOWN * self._iteration_cost(self.off_costs) > share
+        return self.model.n_dofs * FIRST_STEP_COST > self.budget
 
     def off_frame_budget(self) -> float:
         """The budget of a step that runs off the frame, seconds: :data:`OFF_FRAME_FRAMES` frames' budgets, or twice
         what one Newton iteration is learned to cost (see :meth:`too_long`) if that is more. Four frames keep
         simulated time within about four times real time; twice an iteration leaves room for the warm start and a
         first iteration. Like a frame's, its first Newton iteration always runs, so every step makes progress."""
-        return max(OFF_FRAME_FRAMES * self.budget, 2.0 * self._iteration_cost())
+        return max(OFF_FRAME_FRAMES * self.budget, 2.0 * self._iteration_cost(self.off_costs or self.costs))
 
-    def _iteration_cost(self) -> float:
+    def _iteration_cost(self, costs) -> float:
         """A step's learned seconds up to its first Newton iteration's end: its start (the warm start's energies and
         the first gradient), an assembly (unless a kept constant factorization makes it unnecessary), the least
         solve, a line search and the report's check of J; a CG iteration costing at least its preconditioner's
@@ -136,7 +148,7 @@ class RealtimeSolver(Stepper):
         free[fixed] = False
         kinds = ("start", *(("assembly",) if self.linear.assembles(free) else ()), *self.linear.least_work(),
                  "line-search", "report")
-        costs = dict(self.costs)
+        costs = dict(costs)
         costs.setdefault("cg-iteration", costs.get("back-substitution"))
         return sum(costs.get(kind) or 0.0 for kind in kinds)
 
@@ -154,15 +166,22 @@ class RealtimeSolver(Stepper):
             report.elapsed, report.off_frame, report.off_frame_seconds = self._clock() - start, "finished", seconds
             return report
         if prescribed is not None or load != 1.0 or not self.too_long():
+            if not self.costs:  # the first step on the frame after steps off it: their costs, slowed down
+                self.costs.update({kind: OFF_FRAME_SLOWDOWN * cost for kind, cost in self.off_costs.items()})
             return super().step(targets, prescribed=prescribed, load=load)
         self.model.set_targets(targets)
         box, budget = {}, self.off_frame_budget()
 
         def work():  # the whole step, on a budget of its own; committed by a later frame (settle)
+            if not self.off_costs:  # the frame's costs to start from (they are higher, if anything)
+                self.off_costs.update(self.linear.costs)
+            costs, self.linear.costs = self.linear.costs, self.off_costs  # its pieces learn the costs off the frame
             try:
                 box["report"] = self._attempt(None, None, 1.0, budget=budget)
             except BaseException as err:  # handed to the frame that settles
                 box["error"] = err
+            finally:
+                self.linear.costs = costs
         self._running = ((self.launch or self.linear.launch or start_thread)(work), box)
         return self._running_report(start)
 

@@ -24,6 +24,7 @@ figure.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import functools
 import math
 import threading
@@ -78,6 +79,20 @@ def _cell_origin():
         history = getattr(getattr(shell, "history_manager", None), "input_hist_raw", None)
         cell = "source:" + history[-1] if history else None
     return None if cell is None else (cell, getattr(shell, "execution_count", None))
+
+
+@contextlib.contextmanager
+def step_budget(sim, seconds):
+    """Within: the simulation's solver (if it has a ``budget``) steps on at most ``seconds``; after: its own."""
+    solver = getattr(sim, "solver", None)
+    budget = getattr(solver, "budget", None)
+    if budget is not None:
+        solver.budget = min(budget, seconds)
+    try:
+        yield
+    finally:
+        if budget is not None:
+            solver.budget = budget
 
 
 def take_over(view) -> None:
@@ -404,15 +419,8 @@ class SurgeryView:
         """Run one frame (``sim.frame()``, its step on :data:`STEP_SHARE` of the interval at most) and send the new
         positions (if any point moved); returns the report."""
         self._dirty = False
-        solver = getattr(self.sim, "solver", None)
-        budget = getattr(solver, "budget", None)
-        if budget is not None:  # the step leaves the rest of the interval to the picture (STEP_SHARE)
-            solver.budget = min(budget, STEP_SHARE * self.interval_ms / 1e3)
-        try:
+        with step_budget(self.sim, STEP_SHARE * self.interval_ms / 1e3):  # the rest: sending and drawing
             report = self.last_report = self.sim.frame()
-        finally:
-            if budget is not None:
-                solver.budget = budget
         self.frame_times.append(1e3 * float(report.elapsed))
         self._follow()
         if getattr(report, "off_frame", "") == "running":
