@@ -41,7 +41,8 @@ from ..engine.meshes import mean_edge_length
 from ..engine.parameters import ParameterError, check_count, check_positive, check_vector, string
 from .widget import TissueWidget, outline
 
-__all__ = ["SurgeryView", "Gestures", "Pacing", "MODES", "REST_FRAMES", "take_over", "let_go", "one_at_a_time",
+__all__ = ["SurgeryView", "Gestures", "Pacing", "MODES", "REST_FRAMES", "STEP_SHARE", "step_budget", "take_over", "let_go",
+           "one_at_a_time",
            "synthetic_mouse", "synthetic_key", "snapshot", "shown_box", "element_j"]
 
 #: the interaction modes of a :class:`SurgeryView`
