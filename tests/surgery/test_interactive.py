@@ -599,8 +599,8 @@ def test_continuous_input_does_not_run_frames_faster_than_the_interval():
 
 
 def test_a_step_running_off_the_frame_keeps_the_loop_from_resting():
-    """Frames that show the last committed state while a step runs off the frame (nothing moves) are not quiet:
-    the loop goes on to the frame that commits the step, then rests as usual."""
+    """Frames that show the last committed state while a step runs off the frame (nothing moves) are not counted as
+    quiet: the loop goes on to the frame that commits the step, then rests as usual."""
     view = SurgeryView(make_sim(), autostart=False)
     report = view.step()
     running = dataclasses.replace(report, off_frame="running")
@@ -612,6 +612,16 @@ def test_a_step_running_off_the_frame_keeps_the_loop_from_resting():
     for _ in range(REST_FRAMES):
         view.step()
     assert view.resting
+    # every step off the frame (a frame shows it running, the next commits it): a still tissue rests all the same
+    view = SurgeryView(make_sim(), autostart=False)
+    report = view.step()
+    frames = iter([dataclasses.replace(report, off_frame=kind) for kind in ("running", "finished") * 2 * REST_FRAMES])
+    view.sim.frame = lambda: next(frames)
+    for f in range(4 * REST_FRAMES):
+        view.step()
+        if view.resting:
+            break
+    assert view.resting and view.last_report.off_frame == "finished"
 
 
 def test_a_view_frame_steps_on_its_share_of_the_interval_and_leaves_the_solver_as_it_was():

@@ -423,9 +423,10 @@ class SurgeryView:
         with step_budget(self.sim, STEP_SHARE * self.interval_ms / 1e3):  # the rest: sending and drawing
             report = self.last_report = self.sim.frame()
         self.frame_times.append(1e3 * float(report.elapsed))
+        quiet = self._quiet
         self._follow()
-        if getattr(report, "off_frame", "") == "running":
-            self._quiet = 0  # a step runs off the frame: the frame that commits it is to come
+        if getattr(report, "off_frame", "") == "running":  # not counted, and no rest before the committing frame
+            self._quiet = min(quiet, REST_FRAMES - 1)
         self._update_text()
         return report
 
