@@ -623,15 +623,3 @@ def test_a_step_running_off_the_frame_keeps_the_loop_from_resting():
             break
     assert view.resting and view.last_report.off_frame == "finished"
 
-
-def test_a_view_frame_steps_on_its_share_of_the_interval_and_leaves_the_solver_as_it_was():
-    """The step leaves the rest of the interval to sending and drawing the picture."""
-    sim = Simulation(Scene.from_dict(SHEET))
-    view = SurgeryView(sim, autostart=False, interval_ms=50)
-    own, seen, inner = sim.solver.budget, [], sim.frame
-    sim.frame = lambda *a, **k: (seen.append(sim.solver.budget), inner(*a, **k))[1]
-    view.step()
-    assert seen == [pytest.approx(interactive.STEP_SHARE * 0.05)] and sim.solver.budget == own
-    sim.solver.budget = 0.01  # a shorter budget of the simulation's own is kept
-    view.step()
-    assert seen[-1] == 0.01 and sim.solver.budget == 0.01

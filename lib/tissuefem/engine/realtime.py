@@ -56,10 +56,11 @@ FIRST_ITERATION_SHARE = 0.8
 
 #: How many times its cost off the frame a piece of work is expected to take on it. Off the frame a step runs beside
 #: nothing (the frames only wait for it); on the frame, beside a factorization on the second core, which on a 2-core
-#: machine whose cores share one physical core slows the frame's work down (docs/benchmarks.md). Costs learned off
-#: the frame count this many times when they decide whether a step fits the frame; they never replace costs learned
-#: on it, so a size that once did not fit stays off the frame.
-OFF_FRAME_SLOWDOWN = 2.0
+#: machine whose cores share one physical core slows the frame's work down. Costs learned off the frame count this
+#: many times when they decide whether the step after one off the frame fits the frame, so that the loop does not
+#: come back only to overrun the frame and leave again: at 16k triangles a factor of 2 brought it back, and its
+#: frames then took up to 45 ms (docs/benchmarks.md).
+OFF_FRAME_SLOWDOWN = 3.0
 
 #: A step that runs off the frame may take this many frames' budgets (or, if more, twice a Newton iteration's learned
 #: cost: :meth:`RealtimeSolver.off_frame_budget`). Solved to convergence, such a step of a large model took many
@@ -120,15 +121,16 @@ class RealtimeSolver(Stepper):
     def too_long(self) -> bool:
         """Whether the next step goes off the frame: with nothing learned yet, when its predicted cost
         (:data:`FIRST_STEP_COST` per dof) exceeds the budget; else when the costs learned on the frame (``costs``),
-        or if none those learned off it (``off_costs``) :data:`OFF_FRAME_SLOWDOWN` times, say the step's start and
-        one Newton iteration (:meth:`_iteration_cost`) take more than :data:`FIRST_ITERATION_SHARE` of it."""
+        or, after a step off the frame, those learned off it (``off_costs``) :data:`OFF_FRAME_SLOWDOWN` times, say
+        the step's start and one Newton iteration (:meth:`_iteration_cost`) take more than
+        :data:`FIRST_ITERATION_SHARE` of it."""
         if not (self.off_frame and math.isfinite(self.budget)):
             return False
-        share = FIRST_ITERATION_SHARE * self.budget
+        share, last = FIRST_ITERATION_SHARE * self.budget, self.last_report
+        if self.off_costs and (not self.costs or (last is not None and last.off_frame)):
+            return OFF_FRAME_SLOWDOWN * self._iteration_cost(self.off_costs) > share
         if self.costs:
             return self._iteration_cost(self.costs) > share
-        if self.off_costs:
-            return OFF_FRAME_SLOWDOWN * self._iteration_cost(self.off_costs) > share
         return self.model.n_dofs * FIRST_STEP_COST > self.budget
 
     def off_frame_budget(self) -> float:

@@ -24,7 +24,6 @@ figure.
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import functools
 import math
 import threading
@@ -41,8 +40,7 @@ from ..engine.meshes import mean_edge_length
 from ..engine.parameters import ParameterError, check_count, check_positive, check_vector, string
 from .widget import TissueWidget, outline
 
-__all__ = ["SurgeryView", "Gestures", "Pacing", "MODES", "REST_FRAMES", "STEP_SHARE", "step_budget", "take_over", "let_go",
-           "one_at_a_time",
+__all__ = ["SurgeryView", "Gestures", "Pacing", "MODES", "REST_FRAMES", "take_over", "let_go", "one_at_a_time",
            "synthetic_mouse", "synthetic_key", "snapshot", "shown_box", "element_j"]
 
 #: the interaction modes of a :class:`SurgeryView`
@@ -50,9 +48,6 @@ MODES = ("drag", "cut")
 #: frames in a row in which no drawn point moved more than ``rest_tolerance`` before the loop rests
 REST_FRAMES = 5
 READOUT_S = 0.25  #: seconds between readout lines sent while frames run (a new mode, state or message goes at once)
-#: the share of the view's frame interval its step may take (the rest: sending and drawing the picture): the
-#: simulation's solver runs the view's frames on this budget if its own is longer
-STEP_SHARE = 0.6
 POINTER_KINDS = ("down", "move", "up")
 _MOUSE_KINDS = {"press": "down", "move": "move", "release": "up"}
 PAUSED_DRAG = "paused: the tissue follows once the view runs (the run button, or view.start())"
@@ -80,20 +75,6 @@ def _cell_origin():
         history = getattr(getattr(shell, "history_manager", None), "input_hist_raw", None)
         cell = "source:" + history[-1] if history else None
     return None if cell is None else (cell, getattr(shell, "execution_count", None))
-
-
-@contextlib.contextmanager
-def step_budget(sim, seconds):
-    """Within: the simulation's solver (if it has a ``budget``) steps on at most ``seconds``; after: its own."""
-    solver = getattr(sim, "solver", None)
-    budget = getattr(solver, "budget", None)
-    if budget is not None:
-        solver.budget = min(budget, seconds)
-    try:
-        yield
-    finally:
-        if budget is not None:
-            solver.budget = budget
 
 
 def take_over(view) -> None:
@@ -417,11 +398,9 @@ class SurgeryView:
     # ------------------------------------------------------------------ frames and what is sent
     @one_at_a_time
     def step(self):
-        """Run one frame (``sim.frame()``, its step on :data:`STEP_SHARE` of the interval at most) and send the new
-        positions (if any point moved); returns the report."""
+        """Run one frame (``sim.frame()``) and send the new positions (if any point moved); returns the report."""
         self._dirty = False
-        with step_budget(self.sim, STEP_SHARE * self.interval_ms / 1e3):  # the rest: sending and drawing
-            report = self.last_report = self.sim.frame()
+        report = self.last_report = self.sim.frame()
         self.frame_times.append(1e3 * float(report.elapsed))
         quiet = self._quiet
         self._follow()
