@@ -8,8 +8,8 @@ core) while the frame goes on with the old one as CG's preconditioner, or the fr
 accepted iterate (*anytime*, see :mod:`.stepping`) and the residual left carries into the next frame. Only the first
 step ever, with no cost learned yet, runs its work whatever it costs, on the frame if it is predicted to fit (below),
 else off it (its report's ``unestimated`` says so); the first Newton iteration's short pieces always run, so every
-frame makes progress. What a frame did not start is its
-report's ``skipped``. The clock is a parameter, so tests use a fake one.
+frame makes progress. What a frame did not start is its report's ``skipped``. The clock is a parameter, so tests use
+a fake one.
 
 **The first step is predicted.** With nothing learned yet, the first step is predicted to cost
 :data:`FIRST_STEP_COST` seconds per dof: if that fits the budget it runs on the frame and learns the costs (its
@@ -17,8 +17,9 @@ report's ``unestimated`` says so), else it runs off the frame (below) and learns
 
 **A step too long for a frame runs off it.** When the learned costs say that a step's start (its warm start) and
 one Newton iteration (an assembly, the least solve, a line search and the report's check of J), which a frame always
-runs, take more than :data:`FIRST_ITERATION_SHARE` of the budget, the frame does not start the step: it hands the step to a worker thread (numpy and scipy leave the interpreter's lock in the heavy
-parts) and returns at once with the last committed state; its report's ``off_frame`` is ``"running"``. The step
+runs, take more than :data:`FIRST_ITERATION_SHARE` of the budget, the frame does not start the step: it hands the
+step to a worker thread (numpy and scipy leave the interpreter's lock in the heavy parts) and returns at once with
+the last committed state; its report's ``off_frame`` is ``"running"``. The step
 there has a budget of its own (:meth:`RealtimeSolver.off_frame_budget`: a few frames) and commits, like a frame,
 its last accepted iterate if it did not converge by then (its report's residual says how far it is), so that the
 next step starts. The frames after it return at once too, until one finds the step finished and commits it
@@ -65,8 +66,9 @@ OFF_FRAME_SLOWDOWN = 3.0
 #: A step that runs off the frame may take this many frames' budgets (or, if more, twice a Newton iteration's learned
 #: cost: :meth:`RealtimeSolver.off_frame_budget`). Solved to convergence, such a step of a large model took many
 #: frames (measured, 11 Newton iterations and 1.4 s at 32k triangles), and the loop committed one step in 60 frames;
-#: with four, a step commits what it reached after a few Newton iterations, simulated time runs at most about four
-#: times slower than real time, and the residual left carries into the next step, as a frame's does.
+#: with four, a step commits what it reached after a few Newton iterations (at least one), and the residual left
+#: carries into the next step, as a frame's does. Simulated time then runs four times slower than real time, or more
+#: where one iteration takes longer (docs/benchmarks.md: one step in about twelve frames at 128k triangles).
 OFF_FRAME_FRAMES = 4
 
 #: The linear solvers the real-time loop offers (``"constant"``: a quadratic model's; those with ``pardiso`` need
