@@ -78,40 +78,22 @@ def wait_for(condition, timeout, what, interval=0.1):
         time.sleep(interval)
 
 
-#: A Jupyter server configuration (Python) that turns Nagle's algorithm off on the kernels' websockets (Tornado's
-#: ``set_nodelay``), which Jupyter Server leaves on: a small message to the page then waits for the page's TCP
-#: acknowledgement of the one before it, which the page may hold back (delayed ACK) for tens of milliseconds.
-NODELAY_CONFIG = """\
-from jupyter_server.services.kernels.websocket import KernelWebsocketHandler
-
-_open = KernelWebsocketHandler.open
-
-
-async def _open_without_nagle(self, *args, **kwargs):
-    self.set_nodelay(True)
-    return await _open(self, *args, **kwargs)
-
-
-KernelWebsocketHandler.open = _open_without_nagle
-"""
-
-
 class JupyterLab:
     """A JupyterLab server on 127.0.0.1 with its own folders under ``workdir``; a context manager.
 
     The notebooks to open go into ``workdir / "notebooks"`` (the server's root).
     The server's log is kept in ``workdir / "jupyterlab.log"`` and quoted when
-    it fails to start. ``nodelay=True``: the kernels' websockets send at once
-    (:data:`NODELAY_CONFIG`); by default the server is as installed.
+    it fails to start. The server is as installed, with tissuefem's extension :mod:`tissuefem.surgery.nodelay`;
+    ``nagle=True`` disables it (the kernels' websockets as Jupyter Server leaves them, with Nagle's algorithm).
     """
 
-    def __init__(self, workdir, startup_timeout=90.0, nodelay=False):
+    def __init__(self, workdir, startup_timeout=90.0, nagle=False):
         self.workdir = Path(workdir)
-        self.nodelay = bool(nodelay)
         self.root = self.workdir / "notebooks"
         self.port = free_port()
         self.token = os.urandom(16).hex()
         self.startup_timeout = startup_timeout
+        self.nagle = bool(nagle)
         self.process = None
         self._log = None
 
@@ -143,10 +125,11 @@ class JupyterLab:
                          ("IPYTHONDIR", "ipython")):
             env[var] = str(self.workdir / sub)
         env["MPLBACKEND"] = "agg"  # the notebook chooses its own backend; nothing may open a window
-        if self.nodelay:
+        if self.nagle:  # the lab's own configuration folder comes before the environment's
             config = self.workdir / "config"
             config.mkdir(parents=True, exist_ok=True)
-            (config / "jupyter_server_config.py").write_text(NODELAY_CONFIG)
+            off = {"ServerApp": {"jpserver_extensions": {"tissuefem.surgery.nodelay": False}}}
+            (config / "jupyter_server_config.json").write_text(json.dumps(off))
         settings = self._settings()
         cmd = [
             sys.executable, "-m", "jupyterlab",

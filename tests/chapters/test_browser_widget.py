@@ -216,6 +216,8 @@ def test_the_browser_view_drags_and_cuts_in_jupyterlab(tmp_path):
             before = kernel_json(driver, "dict(x=float(sim.positions()[0].max()), frames=int(sim.frames), "
                                          "nodes=int(sim.mesh.nvertices), pushes=view.pushes)")
             painted0 = canvas.painted()
+            log = (tmp_path / "jupyterlab.log").read_text(errors="replace")
+            assert "without Nagle's delay" in log, "the installed package enables tissuefem.surgery.nodelay"
             # at rest nothing is sent and nothing painted
             time.sleep(0.5)
             assert kernel_json(driver, "view.pushes") == before["pushes"]
@@ -338,21 +340,22 @@ def measure(driver, lab, triangles, seconds=3.0, probes=12, seed=8):
 
 
 def run_benchmark(workdir, sizes, measure=measure, name="browser-drawn view (tissuefem.surgery.widget) in JupyterLab "
-                  "+ headless Chromium", prefix="t", nodelay=False) -> dict:
+                  "+ headless Chromium", prefix="t", nagle=False) -> dict:
     """``measure(driver, lab, size)`` for each size, each in its own JupyterLab and browser; the record with the
-    machine's load. ``nodelay``: the server's kernel websockets without Nagle's algorithm (``JupyterLab``)."""
+    machine's load, and whether the server sent without Nagle's delay (:mod:`tissuefem.surgery.nodelay` loaded;
+    ``nagle=True`` disables it)."""
     results = []
     for size in sizes:
         folder = Path(workdir) / f"{prefix}{size}"
         folder.mkdir(parents=True, exist_ok=True)
-        with JupyterLab(folder, nodelay=nodelay) as lab:
+        with JupyterLab(folder, nagle=nagle) as lab:
             driver = start_chromium(folder)
             with reported_failure(driver, lab, folder):
                 results.append(measure(driver, lab, size))
-    record = {"benchmark": name, "load_average_1_5_15_min": list(os.getloadavg()), "cpus": os.cpu_count()}
-    if nodelay:
-        record["server"] = "kernel websockets with TCP_NODELAY (not Jupyter Server's default)"
-    return {**record, "results": results}
+            nodelay = "without Nagle's delay" in (folder / "jupyterlab.log").read_text(errors="replace")
+    return {"benchmark": name, "load_average_1_5_15_min": list(os.getloadavg()), "cpus": os.cpu_count(),
+            "kernel_websockets": "without Nagle's delay" if nodelay else "Jupyter Server's default (Nagle on)",
+            "results": results}
 
 
 def benchmark_main(description, option, default, help, **run) -> None:
@@ -360,14 +363,14 @@ def benchmark_main(description, option, default, help, **run) -> None:
     parser = argparse.ArgumentParser(description=description)
     parser.add_argument(f"--{option}", type=int, nargs="+", default=default, help=help)
     parser.add_argument("--out", type=Path, help="a JSON file to write")
-    parser.add_argument("--nodelay", action="store_true",
-                        help="the server's kernel websockets without Nagle's algorithm (not Jupyter Server's default)")
+    parser.add_argument("--nagle", action="store_true",
+                        help="disable tissuefem's Jupyter Server extension (kernel websockets with Nagle's algorithm)")
     args = parser.parse_args()
     reason = widget_missing()
     if reason:
         raise SystemExit(reason)
     with tempfile.TemporaryDirectory() as folder:
-        record = run_benchmark(folder, getattr(args, option), nodelay=args.nodelay, **run)
+        record = run_benchmark(folder, getattr(args, option), nagle=args.nagle, **run)
     text = json.dumps(record, indent=2)
     if args.out:
         args.out.parent.mkdir(parents=True, exist_ok=True)

@@ -218,8 +218,9 @@ class SurgeryView:
         Or anything with ``mesh``, ``positions``, ``picture``, ``frame``, ``grab``, ``drag``, ``release``, ``cut``.
     radius : float, optional
         A press grabs the nodes within this distance of the pointer; default twice the mean edge length.
-    interval_ms : int, default 33
-        Milliseconds between frames while something changes (the notes' 30 frames per second).
+    interval_ms : int, default 32
+        Milliseconds between frames while something changes: a little more than the notes' 30 frames per second
+        (at 33 ms the kernel could send at most 30.3 a second, and one late frame put it under 30).
     color : {None, "J"}
         One fill colour, or each triangle coloured by its element's ``J`` (area change; volume change in 3D: blue
         shrunk, red stretched).
@@ -254,7 +255,7 @@ class SurgeryView:
     >>> synthetic_mouse(view, "release", (2.2, 0.7))
     """
 
-    def __init__(self, sim, radius=None, interval_ms=33, color=None, autostart=True, rest_tolerance=None,
+    def __init__(self, sim, radius=None, interval_ms=32, color=None, autostart=True, rest_tolerance=None,
                  width=700, height=450):
         missing = [m for m in ("mesh", "positions", "picture", "frame", "grab", "drag", "release", "cut")
                    if not hasattr(sim, m)]
@@ -558,7 +559,7 @@ class SurgeryView:
 
 class Pacing:
     """When the frame loop's frames start, in seconds of a clock: one frame per ``interval`` on average while
-    anything changes, so that simulated time (a step per frame) does not run ahead of real time.
+    anything changes, so that simulated time (a step per frame) keeps pace with real time.
 
     The frames are due on a grid ``interval`` apart (:attr:`due`). Input may start a frame early, from
     :attr:`earliest` on: up to ``EARLY`` of an interval before it is due, never within ``MIN_GAP`` of an interval of

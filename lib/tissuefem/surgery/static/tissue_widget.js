@@ -132,7 +132,7 @@ function shell(model, el, canvas, surface) {
     // a different symbol and word in each state: what a click does next
     const running = model.get("running");
     run.textContent = running ? "\u23F8 pause" : "\u25B6 run";
-    run.title = running ? "pause the frames" : "run a frame every 33 ms while something changes";
+    run.title = running ? "pause the frames" : "run the frames (about 30 a second) while something changes";
     run.dataset.running = running ? "1" : "0";
     const off = model.get("disabled");
     for (const b of [run, ...Object.values(buttons)]) b.disabled = off;
