@@ -57,12 +57,14 @@ def test_recorded_rows_carry_what_the_chapters_print():
 
 def browser_table() -> str:
     from tissuefem.workbook.tables import markdown_table
-    rows = [{"run": i + 1, "triangles": r["mesh"]["triangles"], "fps": r["dragging"]["painted_per_second"],
+    rows = [{"run": i + 1, "nagle": "on" if run.get("kernel_websockets", "").startswith("Jupyter") else "off",
+             "triangles": r["mesh"]["triangles"], "fps": r["dragging"]["painted_per_second"],
              "fps_first": r["dragging"]["painted_per_second_from_the_first_picture"],
              "step": r["dragging"]["kernel_step_median_ms"], "median": r["latency"]["median_ms"],
              "p95": r["latency"]["p95_ms"], "rest": r["at_rest"]["cpu_percent_of_a_core"]}
             for i, run in enumerate(recorded("browser_view")["rounds"]) for r in run["results"]]
-    return markdown_table(rows, [("run", "run", "{:d}"), ("triangles", "triangles", "{:d}"),
+    return markdown_table(rows, [("run", "run", "{:d}"), ("nagle", "Nagle on the kernel websocket", "{}"),
+                                 ("triangles", "triangles", "{:d}"),
                                  ("fps", "pictures/s dragging", "{:.1f}"),
                                  ("fps_first", "pictures/s from the first picture", "{:.1f}"),
                                  ("step", "kernel step ms", "{:.1f}"),
