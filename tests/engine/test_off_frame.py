@@ -136,6 +136,24 @@ def test_a_failed_step_off_the_frame_keeps_the_state_and_raises_when_settled():
     assert rt.frame().committed
 
 
+def test_a_failed_step_off_the_frame_keeps_the_targets_given_while_it_ran():
+    rt, clock, launcher = realtime("reuse", assembly_cost=2 * BUDGET)
+    rt.frame({1: TARGET})
+    inner = rt.model.gradient
+
+    def failing(x):  # a frame moves the handle while the step runs, then the step fails
+        rt.model.set_targets({1: 3 * TARGET})
+        raise RuntimeError("the gradient failed")
+
+    rt.model.gradient = failing
+    assert rt.frame({1: 2 * TARGET}).off_frame == "running"
+    launcher.finish()
+    rt.model.gradient = inner
+    with pytest.raises(RuntimeError, match="gradient failed"):
+        rt.frame()
+    assert np.array_equal(rt.model.handles[1].target, 3 * TARGET), "the newest target, not the failed step's"
+
+
 def test_changing_the_state_waits_for_the_running_step():
     rt, clock, launcher = realtime("reuse", assembly_cost=2 * BUDGET)
     rt.frame({1: TARGET})

@@ -409,14 +409,15 @@ class Stepper:
     def _attempt(self, targets, prescribed, load, budget=None) -> StepReport:
         """Steps 1 to 3 and 5 of the module docstring, without the commit: the report (``committed``: whether
         :meth:`_commit` makes its result the state); ``budget``: seconds, default the stepper's. All or nothing: an
-        error puts back the targets."""
+        error puts back the targets this step was given (a step given none, as one off the frame, leaves the handles'
+        targets alone: frames may have moved them while it ran)."""
         model = self.model
         load = check_real("load", load, 0.0, 1.0)
         if prescribed is not None:
             prescribed = self._check_prescribed(prescribed)
         start = self._clock()
         inertia = model.inertia
-        saved_targets = [(h, h.target) for h in model.handles]
+        saved_targets = [] if targets is None else [(h, h.target) for h in model.handles]
         saved_x_tilde = None if inertia is None else inertia.x_tilde
         try:
             return self._step(targets, prescribed, load, start, self._budget if budget is None else budget)
