@@ -234,7 +234,7 @@ print("one evaluation of each term of 'everything' (energy + force + Hessian), m
 # **cut** buttons above the canvas switch the two (so does the key **c**, once a click into the canvas has given
 # it the keyboard); the **run** / **pause** button starts and stops the frames.
 #
-# While it runs, the view steps one frame every 32 ms (a little more than 30 frames a second) as long as something
+# While it runs, the view steps one frame every 32 ms (just over 30 frames a second) as long as something
 # changes (the mouse, or the tissue still swinging) and rests otherwise: a still sheet costs no frames and sends nothing. The readout above the
 # canvas says whether the view is *running*, *at rest* or *paused*, and shows each frame's step time and its
 # solver status, with the pictures the page painted in the last second; under it, the frame's accuracy.
@@ -317,18 +317,16 @@ print(f"median step {np.median(steps):.1f} ms of {1e3 * FRAME_BUDGET:.0f} ms")
 # How fast does the picture follow the mouse? `python tests/chapters/test_browser_widget.py` measures it with
 # real pointer input in JupyterLab and Chromium: pictures painted per second while dragging, the time from a
 # pointer move to the picture that shows it, and what the kernel does at rest. Installing tissuefem enables a
-# small Jupyter Server extension (`tissuefem.surgery.nodelay`) that sends each kernel message to the page at
-# once: by default the server's socket holds a small message back until the page acknowledges the one before
-# (Nagle's algorithm). The package ships runs on the 2-core reference machine with nothing else running, as
-# installed and with the extension disabled; each names what its server did:
+# Jupyter Server extension (`tissuefem.surgery.nodelay`) that sends kernel messages to the page without Nagle's
+# delay. The package ships runs on the 2-core reference machine with nothing else running, with and without it:
 
 # %%
 from tissuefem.workbook.bench.common import recorded
 
 browser = recorded("browser_view")
 print(f"recorded {browser['date']}, 1-minute load average before the session's benchmarks {browser['load_before']:.2f}")
-for run in browser["rounds"]:  # at rest: nothing painted or sent
-    print(f"kernel websockets: {run.get('kernel_websockets', 'Jupyter Server default (Nagle on)')}")
+for run in browser["rounds"]:  # at rest: nothing painted or sent; the server's socket with or without Nagle
+    print(run.get("kernel_websockets", "Jupyter Server's default (Nagle on)"))
     for r in run["results"]:
         d, lat = r["dragging"], r["latency"]
         print(f"  {r['mesh']['triangles']:5d} triangles: {d['painted_per_second']:4.1f} pictures/s while dragging, "
