@@ -56,6 +56,9 @@ _DOMAINS = {"rectangle": {"width": 1.0, "height": 1.0, "triangles": 800},
             "block": {"lx": 1.0, "ly": 1.0, "lz": 1.0, "nx": 4, "ny": 4, "nz": 4},
             "file": {"path": None, "scale": 1.0}}
 SHAPES = tuple(_DOMAINS)
+#: the generator of each domain's mesh (a file's is read: :func:`read_mesh`)
+_MESHERS = {"rectangle": meshes.mesh_with_about, "flap": meshes.flap, "fusiform": meshes.fusiform_muscle,
+            "block": meshes.box}
 #: the effects a 3D scene cannot name yet (the engine's are 2D only), and what they are called in the refusal
 TWO_D_ONLY = {"excisions": "cuts (excisions)", "incisions": "cuts (incisions)", "contact": "self-contact"}
 #: the list-valued effects of the scene's own (each entry is a table); the registry's say whether they are
@@ -286,15 +289,10 @@ def _check_effects(effects, dim=2):
                     del out[kind]["acceleration"]
                 else:
                     out[kind]["acceleration"] = list(GRAVITY_DOWN[:dim])
-        else:
-            entries = [entries] if isinstance(entries, dict) else entries
-            if not is_sequence(entries):
-                raise ParameterError(field, f"{field} must be a list of tables, got {show(entries)}")
-            limit = ENTRY_LIMITS.get(kind, MAX_ENTRIES)
-            if len(entries) > limit:
-                raise ParameterError(field, f"{field}: at most {limit} entries, got {len(entries)}")
-            if len(entries):  # an empty list is the same as leaving the effect out
-                out[kind] = [_check_entry(kind, i, e, dim) for i, e in enumerate(entries)]
+        elif not (is_sequence(entries) and len(entries) == 0):  # an empty list is the same as leaving it out
+            entries = count_list(field, [entries] if isinstance(entries, dict) else entries, "entries",
+                                 ENTRY_LIMITS.get(kind, MAX_ENTRIES))
+            out[kind] = [_check_entry(kind, i, e, dim) for i, e in enumerate(entries)]
     names = [h["name"] for h in out.get("handles", [])]
     if len(set(names)) != len(names):
         raise ParameterError("effects.handles", f"effects.handles: names must be unique, got {show(names)}")
@@ -590,23 +588,21 @@ class Scene:
     def load(cls, path) -> "Scene":
         """Read a scene from a ``.toml`` or ``.json`` file (UTF-8, at most :data:`MAX_SCENE_BYTES`)."""
         path = _scene_path(path)
+        file = f"path: scene file {str(path)!r}"
         try:
             if path.exists() and not path.is_file():  # a folder, a pipe or a device (a pipe would block the read)
-                raise ParameterError("path", f"path: scene file {str(path)!r} is not a regular file")
+                raise ParameterError("path", f"{file} is not a regular file")
             with open(path, "rb") as f:
                 data = f.read(MAX_SCENE_BYTES + 1)
         except OSError as err:  # missing, unreadable, a name too long for the system
-            raise ParameterError("path", f"path: scene file {str(path)!r} cannot be read: "
-                                         f"{err.strerror or err}") from None
+            raise ParameterError("path", f"{file} cannot be read: {err.strerror or err}") from None
         if len(data) > MAX_SCENE_BYTES:
-            raise ParameterError("path", f"path: scene file {str(path)!r} is larger than {MAX_SCENE_BYTES} bytes")
+            raise ParameterError("path", f"{file} is larger than {MAX_SCENE_BYTES} bytes")
         try:
             text = data.decode("utf-8-sig")  # an editor's byte-order mark is harmless
         except UnicodeDecodeError as err:
-            raise ParameterError("path", f"path: scene file {str(path)!r} is not UTF-8 text (byte "
-                                         f"{err.start})") from None
-        reader = cls.from_toml if path.suffix == ".toml" else cls.from_json
-        return reader(text, base_dir=path.parent)
+            raise ParameterError("path", f"{file} is not UTF-8 text (byte {err.start})") from None
+        return (cls.from_toml if path.suffix == ".toml" else cls.from_json)(text, base_dir=path.parent)
 
     def save(self, path) -> None:
         """Write the scene to a ``.toml`` or ``.json`` file that :meth:`load` reads back as this very scene (checked
@@ -620,8 +616,7 @@ class Scene:
         temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
         try:
             if path.exists() and not path.is_file():  # a folder (os.replace would refuse it less clearly)
-                raise ParameterError("path", f"path: {str(path)!r} is not a regular file, so no scene is written "
-                                             "there")
+                raise ParameterError("path", f"path: {str(path)!r} is not a regular file, so no scene is written there")
             temporary.write_text(text, encoding="utf-8")
             os.replace(temporary, path)
         except OSError as err:  # a missing folder, no permission, a name too long for the system
@@ -651,14 +646,9 @@ class Scene:
         and its effects against its dimension."""
         d = self.domain
         self.notes = []
-        if d["shape"] == "rectangle":
-            return meshes.mesh_with_about(d["triangles"], d["width"], d["height"])
-        if d["shape"] == "flap":
-            return meshes.flap(d["width"], d["height"], d["triangles"])
-        if d["shape"] == "fusiform":
-            return meshes.fusiform_muscle(d["length"], d["max_width"], d["tendon_width"], d["nx"], d["ny"])
-        if d["shape"] == "block":
-            return meshes.box(d["lx"], d["ly"], d["lz"], d["nx"], d["ny"], d["nz"])
+        if d["shape"] in _MESHERS:  # each generator takes the domain's fields by name ("triangles": n_triangles)
+            return _MESHERS[d["shape"]](**{("n_triangles" if k == "triangles" else k): v
+                                           for k, v in d.items() if k != "shape"})
         path = Path(d["path"]) if self.base_dir is None else self.base_dir / d["path"]
         mesh, dropped, flipped = _read_mesh(path, d["scale"])
         where = f", the mesh read from {d['path']!r}"
