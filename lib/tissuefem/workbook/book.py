@@ -18,7 +18,6 @@ import shutil
 import importlib.util
 from dataclasses import dataclass
 from datetime import datetime
-from itertools import takewhile
 from pathlib import Path
 from typing import TYPE_CHECKING
 from urllib.parse import unquote, urlsplit
@@ -154,7 +153,13 @@ def _lines(text: str) -> int:
     return len([ln for ln in text.splitlines() if ln.strip()])
 
 
-_TRY = re.compile(r"^## What to try\b.*?(?=^## |\Z)", re.S | re.M)
+def _section(heading: str) -> re.Pattern:
+    """A Markdown section: the line ``## heading`` (a regular expression) and its body, group 1, up to the next
+    ``## ``."""
+    return re.compile(rf"^## {heading}\n?(.*?)(?=^## |\Z)", re.S | re.M)
+
+
+_TRY = _section(r"What to try\b.*?$")
 
 
 def reading_load(nb) -> tuple[int, int]:
@@ -190,7 +195,7 @@ def chapter_exercises(nb) -> list[str] | None:
     """The exercises a chapter's "Exercises" section lists (``**6.1**``, ...), or ``None`` without one (the
     syllabus then counts the stubs of its exercise file)."""
     text = "\n\n".join(c.source for c in nb.cells if c.cell_type == "markdown")
-    m = re.search(r"^## Exercises.*?(?=^## |\Z)", text, re.S | re.M)
+    m = _section(r"Exercises.*?$").search(text)
     return re.findall(r"\*\*(\d+\.\d+)\*\*", m.group(0)) if m else None
 
 
@@ -201,16 +206,15 @@ def count_exercises(exercise_file: Path) -> int:
 
 def readme_section(readme_text: str, heading: str) -> str:
     """The body of the ``## heading`` section of a Markdown file, up to the next ``## ``."""
-    lines = readme_text.splitlines()
-    for i, line in enumerate(lines):
-        if line.startswith("## ") and line[3:].strip() == heading:
-            return "\n".join(takewhile(lambda rest: not rest.startswith("## "), lines[i + 1:])).strip()
-    raise ValueError(f"the README has no section '## {heading}'")
+    m = _section(rf"[ \t]*{re.escape(heading)}[ \t]*$").search(readme_text)
+    if m is None:
+        raise ValueError(f"the README has no section '## {heading}'")
+    return m.group(1).strip()
 
 
 def readme_intro(readme_text: str) -> str:
     """The README's opening: everything between its title and its first ``## `` section."""
-    lines = takewhile(lambda line: not line.startswith("## "), readme_text.splitlines())
+    lines = re.split(r"^## ", readme_text, maxsplit=1, flags=re.M)[0].splitlines()
     return "\n".join(line for line in lines if not line.startswith("# ")).strip()
 
 
@@ -227,9 +231,13 @@ def _exporter() -> HTMLExporter:
     return exporter
 
 
+def _href(page: str, target: str) -> str:
+    """The relative link from the site's ``page`` to its file ``target`` (both paths from the site's root)."""
+    return os.path.relpath(target, os.path.dirname(page) or ".").replace(os.sep, "/")
+
+
 def _link(page: str, target: str, text: str) -> str:
-    href = os.path.relpath(target, os.path.dirname(page) or ".").replace(os.sep, "/")
-    return f'<a href="{html.escape(href)}">{text}</a>'
+    return f'<a href="{html.escape(_href(page, target))}">{text}</a>'
 
 
 def _nav(page: str, chapters: list[Chapter], where: str) -> str:
@@ -259,10 +267,8 @@ class _Links:
     def __call__(self, page_html: str, page: str, source_dir: Path) -> str:
         def fix(match):
             prefix, quote, value = match.groups()
-            new = self._target(value, page, source_dir)
-            if new is None:
-                return ""  # an attribute that would lead nowhere is dropped; the link text stays
-            return f"{prefix}{quote}{new}{quote}"
+            new = self._target(value, page, source_dir)  # None: the attribute is dropped, the link text stays
+            return "" if new is None else f"{prefix}{quote}{new}{quote}"
 
         return _ATTR.sub(fix, page_html)
 
@@ -271,32 +277,24 @@ class _Links:
         if parts.scheme or parts.netloc or value.startswith(("#", "/")) or not parts.path:
             return value  # absolute, data:, mailto:, in-page anchors
         fragment = f"#{parts.fragment}" if parts.fragment else ""
-        here = os.path.dirname(page) or "."
-        in_site = os.path.normpath(os.path.join(here, unquote(parts.path))).replace(os.sep, "/")
+        in_site = os.path.normpath(os.path.join(os.path.dirname(page), unquote(parts.path))).replace(os.sep, "/")
         if in_site in self.site_pages or in_site.startswith(f"{MATHJAX_DIR}/"):
             return value  # already a page of the site (the syllabus, the navigation) or its copy of MathJax
         target = (source_dir / unquote(parts.path)).resolve()
-
-        def rel(site_path):
-            return html.escape(os.path.relpath(site_path, here).replace(os.sep, "/") + fragment)
-
         if target.suffix == ".ipynb" and target.name in self.chapter_pages:
-            return rel(self.chapter_pages[target.name])
-        if target == self.readme.resolve():
-            errata = "errata" in parts.fragment.lower()
-            return html.escape(os.path.relpath("errata.html" if errata else "index.html", here)
-                               .replace(os.sep, "/") + ("" if errata else fragment))
-        try:
-            inside = target.relative_to(self.root.resolve())
-        except ValueError:
-            inside = None
-        if inside is None or not target.is_file():
+            site_path = self.chapter_pages[target.name]
+        elif target == self.readme.resolve() and "errata" in parts.fragment.lower():
+            site_path, fragment = "errata.html", ""  # the README's errata have a page, the rest is the index page's
+        elif target == self.readme.resolve():
+            site_path = "index.html"
+        elif target.is_relative_to(self.root.resolve()) and target.is_file():
+            site_path = target.relative_to(self.root.resolve()).as_posix()
+            (self.outdir / site_path).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(target, self.outdir / site_path)
+        else:
             self.warnings.append(f"{page}: link to {value} leads to no file of the workbook; link removed")
             return None
-        copy = self.outdir / inside
-        copy.parent.mkdir(parents=True, exist_ok=True)
-        shutil.copyfile(target, copy)
-        return rel(inside.as_posix())
+        return html.escape(_href(page, site_path) + fragment)
 
 
 def _markdown_notebook(title: str, cells: list[str]) -> nbformat.NotebookNode:
@@ -319,19 +317,6 @@ def _copy_mathjax(outdir: Path) -> None:
         raise RuntimeError(f"jupyter-server-mathjax has no MathJax.js in {source}: reinstall it")
     shutil.copytree(source, outdir / MATHJAX_DIR, ignore=lambda folder, names: [
         n for n in names if Path(folder) == source / "localization" and n != "en"])
-
-
-def _mathjax_url(page: str) -> str:
-    here = os.path.dirname(page) or "."
-    return os.path.relpath(f"{MATHJAX_DIR}/MathJax.js", here).replace(os.sep, "/") + f"?config={MATHJAX_CONFIG}"
-
-
-def _render(exporter, nb, page, chapters, links, source_dir, note="") -> str:
-    resources = {"metadata": {"name": Path(page).stem, "path": str(source_dir)}, "book_note": note,
-                 "book_mathjax_url": _mathjax_url(page),
-                 "book_nav_top": _nav(page, chapters, "top"), "book_nav_bottom": _nav(page, chapters, "bottom")}
-    body, _ = exporter.from_notebook_node(nb, resources=resources)
-    return links(body, page, source_dir)
 
 
 def syllabus_cells(chapters: list[Chapter], intro: str) -> list[str]:
@@ -438,29 +423,29 @@ def build_book(chapters_dir, executed_dir, outdir, progress=print) -> list[Path]
     links = _Links(root, outdir, {c.source.name: c.page for c in chapters}, readme)
     written = []
 
-    def write(page, text):
-        path = outdir / page
-        path.write_text(text, encoding="utf-8")
-        written.append(path)
+    def write(page, nb, source_dir=root, note=""):
+        """Write a page of the site: the notebook ``nb`` with the navigation, its links made the site's."""
+        resources = {"metadata": {"name": Path(page).stem, "path": str(source_dir)}, "book_note": note,
+                     "book_mathjax_url": f"{_href(page, f'{MATHJAX_DIR}/MathJax.js')}?config={MATHJAX_CONFIG}",
+                     "book_nav_top": _nav(page, chapters, "top"), "book_nav_bottom": _nav(page, chapters, "bottom")}
+        written.append(outdir / page)
+        written[-1].write_text(links(exporter.from_notebook_node(nb, resources=resources)[0], page, source_dir),
+                               encoding="utf-8")
         if progress:
-            progress(f"[book] {path}")
+            progress(f"[book] {written[-1]}")
 
     for c in chapters:
         for line in missing_figures(c.notebook) if c.executed else []:
             links.warnings.append(f"{c.page}: {line}: the page shows no picture where the text describes one")
-        note = "" if c.executed else (
+        write(c.page, c.notebook, chapters_dir.resolve(), "" if c.executed else (
             '<div class="book-note">This chapter has not been executed, so its outputs are missing: '
-            "run <code>python -m tissuefem build</code>.</div>")
-        write(c.page, _render(exporter, c.notebook, c.page, chapters, links, chapters_dir.resolve(), note))
-    index = _markdown_notebook("tissuefem: the workbook", ["# tissuefem: the workbook"]
-                               + syllabus_cells(chapters, readme_intro(readme_text)))
-    write("index.html", _render(exporter, index, "index.html", chapters, links, root))
-    errata = _markdown_notebook(ERRATA_HEADING, [f"# {ERRATA_HEADING}\n\n"
-                                                 + readme_section(readme_text, ERRATA_HEADING)])
-    write("errata.html", _render(exporter, errata, "errata.html", chapters, links, root))
+            "run <code>python -m tissuefem build</code>.</div>"))
+    write("index.html", _markdown_notebook("tissuefem: the workbook", ["# tissuefem: the workbook"]
+                                           + syllabus_cells(chapters, readme_intro(readme_text))))
+    write("errata.html", _markdown_notebook(ERRATA_HEADING, [f"# {ERRATA_HEADING}\n\n"
+                                                             + readme_section(readme_text, ERRATA_HEADING)]))
     if _has_appendix(chapters):
-        appendix = _markdown_notebook(APPENDIX_TITLE, appendix_cells())
-        write(APPENDIX_PAGE, _render(exporter, appendix, APPENDIX_PAGE, chapters, links, root))
+        write(APPENDIX_PAGE, _markdown_notebook(APPENDIX_TITLE, appendix_cells()))
     if progress:
         for warning in links.warnings:
             progress(f"[book] warning: {warning}")

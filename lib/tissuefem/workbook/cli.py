@@ -45,12 +45,9 @@ from .notebooks import build_chapters, chapter_paths
 
 def project_root() -> Path:
     """The workbook folder: the current directory if it holds ``chapters/``, else the package's checkout."""
-    cwd = Path.cwd()
-    if (cwd / "chapters").is_dir():
-        return cwd
-    here = Path(__file__).resolve().parents[3]
-    if (here / "chapters").is_dir():
-        return here
+    for root in (Path.cwd(), Path(__file__).resolve().parents[3]):
+        if (root / "chapters").is_dir():
+            return root
     raise SystemExit("cannot find the workbook's chapters/ folder: run this from the workbook's root folder")
 
 
@@ -105,14 +102,13 @@ def _check_out(path, folder=True) -> None:
     path = Path(path)
     try:
         below = next((p for p in path.parents if p.exists() and not p.is_dir()), None)
-        if below is not None:
-            raise ParameterError("out", f"{path} lies below {below}, which is not a folder")
-        if path.exists() and path.is_dir() != folder:
-            raise ParameterError("out", f"{path} is {'not a folder' if folder else 'a folder, not a file'}")
+        clash = path.exists() and path.is_dir() != folder
     except (OSError, ValueError) as err:  # ValueError: a NUL character, which no file name can hold
-        if isinstance(err, ParameterError):
-            raise
         raise ParameterError("out", f"{path} cannot be used: {getattr(err, 'strerror', None) or err}") from None
+    if below is not None:
+        raise ParameterError("out", f"{path} lies below {below}, which is not a folder")
+    if clash:
+        raise ParameterError("out", f"{path} is {'not a folder' if folder else 'a folder, not a file'}")
 
 
 def _figures(names, out, note: bool) -> None:
