@@ -442,36 +442,21 @@ def _check_text_nesting(text, kind):
 
 # --- TOML output (the subset scenes use: tables, arrays of tables, numbers, strings, arrays) ---------------------
 
-# a TOML basic string escapes '"', '\' and the control characters; all else (also beyond the BMP) is written as
-# itself (JSON's surrogate-pair escapes are not valid TOML)
-_TOML_ESCAPE = re.compile(r'["\\\x00-\x1f\x7f]')
-_TOML_SHORT = {'"': '\\"', "\\": "\\\\", "\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f", "\r": "\\r"}
-
-
-def _toml_string(s: str) -> str:
-    return '"' + _TOML_ESCAPE.sub(lambda m: _TOML_SHORT.get(m.group(), f"\\u{ord(m.group()):04X}"), s) + '"'
-
-
 def _toml_key(k) -> str:
-    return k if re.fullmatch(r"[A-Za-z0-9_-]+", k) else _toml_string(k)
+    return k if re.fullmatch(r"[A-Za-z0-9_-]+", k) else _toml_value(k)
 
 
-def _toml_value(v):
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, (int, np.integer)):
-        return str(int(v))
-    if isinstance(v, (float, np.floating)):
-        if not math.isfinite(v):
-            raise ValueError(f"cannot write the non-finite number {v!r} to a scene file")
-        return repr(float(v))  # shortest round-tripping form
-    if isinstance(v, str):
-        return _toml_string(v)
-    if isinstance(v, (list, tuple)):
-        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+def _toml_value(v) -> str:
+    """``v`` as a TOML value: a table inline, an array, or a number, boolean or string, which JSON writes as TOML
+    does (shortest round-tripping floats; strings escaped alike but for DEL, which TOML escapes too)."""
     if isinstance(v, dict):
         return "{ " + ", ".join(f"{_toml_key(k)} = {_toml_value(x)}" for k, x in v.items()) + " }"
-    raise ValueError(f"cannot write {show(v)} to TOML")
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    if not isinstance(v, (bool, int, float, str, np.integer, np.floating)):
+        raise ValueError(f"cannot write {show(v)} to TOML")
+    # a non-finite number raises ValueError; ensure_ascii=False: no surrogate pairs, which TOML does not know
+    return json.dumps(v, ensure_ascii=False, allow_nan=False, default=lambda x: x.item()).replace("\x7f", "\\u007f")
 
 
 def _toml(data) -> str:
