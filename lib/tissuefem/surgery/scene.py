@@ -545,12 +545,7 @@ class Scene:
 
     @classmethod
     def _parse(cls, loads, kind, text, base_dir):
-        if isinstance(text, (bytes, bytearray)):
-            try:
-                text = bytes(text).decode("utf-8")
-            except UnicodeDecodeError as err:
-                raise ParameterError("scene", f"scene: not UTF-8 text (byte {err.start})") from None
-        if not isinstance(text, str):
+        if not isinstance(text, str):  # a file's bytes are decoded by load
             raise ParameterError("scene", f"scene: the {kind} text must be a string, got {show(text)}")
         if len(text) > MAX_SCENE_BYTES:
             raise ParameterError("scene",

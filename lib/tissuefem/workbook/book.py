@@ -11,6 +11,7 @@ Every link is relative: copy the folder to any web server, or open ``index.html`
 
 from __future__ import annotations
 
+import contextlib
 import html
 import os
 import re
@@ -137,12 +138,9 @@ def _execution_seconds(nb) -> float:
     total = 0.0
     for cell in nb.cells:
         timing = cell.get("metadata", {}).get("execution", {})
-        start, end = timing.get("iopub.execute_input"), timing.get("shell.execute_reply")
-        if start and end:
-            try:
-                total += (datetime.fromisoformat(end) - datetime.fromisoformat(start)).total_seconds()
-            except ValueError:
-                pass
+        with contextlib.suppress(KeyError, TypeError, ValueError):  # a cell not run, or its times not recorded
+            total += (datetime.fromisoformat(timing["shell.execute_reply"])
+                      - datetime.fromisoformat(timing["iopub.execute_input"])).total_seconds()
     return total
 
 
