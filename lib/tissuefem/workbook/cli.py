@@ -98,7 +98,10 @@ def _linear_solver(name):
 
 
 def _check_out(path, folder=True) -> None:
-    """Refuse an output path below a regular file, or a file where a folder goes (and the other way round)."""
+    """Refuse an output path below a regular file, or a file where a folder goes (and the other way round); none
+    given (the default place) passes."""
+    if not path:
+        return
     path = Path(path)
     try:
         below = next((p for p in path.parents if p.exists() and not p.is_dir()), None)
@@ -120,8 +123,7 @@ def _figures(names, out, note: bool) -> None:
 
 
 def cmd_figures(args) -> int:
-    if args.out:
-        _check_out(args.out)
+    _check_out(args.out)
     _figures(args.only or None, Path(args.out) if args.out else project_root() / "figures", not args.out)
     return 0
 
@@ -133,8 +135,7 @@ def cmd_build(args) -> int:
     for wanted in args.chapters or []:
         if not any(wanted in name for name in names):
             raise ParameterError("chapters", f"no chapter file name contains {wanted!r} (see `list`)")
-    if args.out:
-        _check_out(args.out)
+    _check_out(args.out)
     if not args.skip_figures:
         _figures(None, root / "figures", True)
     executed = Path(args.out) if args.out else root / "build" / "chapters"
@@ -161,8 +162,7 @@ def cmd_bench(args) -> int:
             which = "realtime --compare" if args.which == "realtime" else args.which
             raise ParameterError("sizes", f"bench {which} takes one size, got {len(args.sizes)}")
         check_count("sizes", args.sizes[0], 50, MAX_TRIANGLES)  # the scenes' variants need 50 triangles
-    if args.out:
-        _check_out(args.out, folder=args.which != "assembly")
+    _check_out(args.out, folder=args.which != "assembly")
     matplotlib.use("Agg")
     out = Path(args.out or "bench-results")  # a folder; the assembly benchmark writes one file, if asked
     if args.which == "assembly":
