@@ -759,12 +759,11 @@ def _read_mesh(path, scale):
     what = f"domain.path: {name!r} (0-based node numbers, after scaling)"
     p, t = _check_file_mesh(p, t, what, "ignore")
     named = _quietly(path, from_meshio, m)  # boundaries from physical groups or cell sets
-    used = np.zeros(p.shape[1], dtype=bool)
-    used[t.ravel()] = True
-    new_index = np.full(used.size, -1, dtype=np.int64)  # the nodes in no element dropped, the rest renumbered
-    new_index[used] = np.arange(int(used.sum()))
+    kept = np.unique(t)  # the nodes in no element dropped, the rest renumbered in their order
+    new_index = np.full(p.shape[1], -1, dtype=np.int64)
+    new_index[kept] = np.arange(kept.size)
     # as checked above (scaled, a 2D file's z dropped; triangles sorted as scikit-fem does)
-    mesh = _new_mesh(np.ascontiguousarray(p[:, used]), new_index[t])
+    mesh = _new_mesh(np.ascontiguousarray(p[:, kept]), new_index[t])
     try:
         boundaries = {label: _facet_index(mesh, new_index[np.asarray(named.facets)[:, np.asarray(facets)]])
                       for label, facets in (named.boundaries or {}).items()}
@@ -773,7 +772,7 @@ def _read_mesh(path, scale):
         raise _mesh_error(f"{name!r}: {str(err).removeprefix('domain.path: ')}") from None
     mesh = _new_mesh(mesh.p, mesh.t, _boundaries=boundaries or None, _subdomains=named.subdomains)
     _check_file_mesh(mesh.p, mesh.t, f"domain.path: {name!r}")
-    return mesh, np.flatnonzero(~used), flipped
+    return mesh, np.flatnonzero(new_index < 0), flipped
 
 
 def _new_mesh(p, t, **options):

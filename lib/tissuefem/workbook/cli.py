@@ -4,9 +4,8 @@
 * ``build``    regenerate the figures, execute every chapter headless (copies in ``build/chapters/``;
   the sources stay clean) and write the workbook's website into ``build/book/``;
 * ``book``     write the website from the executed copies already in ``build/chapters/``;
-* ``bench``    benchmarks (``bench assembly``, ``bench realtime`` (``--dim 3``: the 3D block, ``--compare``: the
-  linear solvers side by side), ``bench scenes``, ``bench accuracy``: the accuracy/time study of chapter 9,
-  ``bench haptic``: the tool's force at 1 kHz);
+* ``bench``    a benchmark: ``assembly``, ``realtime`` (``--dim 3``: the 3D block, ``--compare``: the linear
+  solvers side by side), ``scenes``, ``accuracy`` (chapter 9's study), ``haptic`` (the tool's force at 1 kHz);
 * ``scene``    check a scene file and run it (``scene scenes/incision.toml``);
 * ``grade``    grade your own exercise answers (chapters/exercises) with pytest;
 * ``list``     list the figures and chapters.
