@@ -864,7 +864,6 @@ class LinearSolver(_OffFrame):
         self._modes = _check_modes("modes", modes)
         if self._key is not None:  # the next matrix passes them on (a kept preconditioner is made anew)
             self.invalidate()
-            self._key = None
 
     @_OffFrame.launch.setter
     def launch(self, value):
