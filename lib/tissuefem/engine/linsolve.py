@@ -33,11 +33,11 @@ __all__ = ["LinearSolver", "LinearInfo", "Condenser", "SuperLU", "Pardiso", "Cho
 _ORDERINGS = ("MMD_AT_PLUS_A", "COLAMD", "MMD_ATA", "NATURAL")
 
 
-def _square(A, what="A") -> sp.csr_matrix:
+def _square(A) -> sp.csr_matrix:
     if not sp.issparse(A):
-        raise ParameterError(what, f"{what} must be a scipy sparse matrix, got {type(A).__name__}")
+        raise ParameterError("A", f"A must be a scipy sparse matrix, got {type(A).__name__}")
     if A.ndim != 2 or A.shape[0] != A.shape[1]:
-        raise ParameterError(what, f"{what} must be square, got shape {A.shape}")
+        raise ParameterError("A", f"A must be square, got shape {A.shape}")
     return A
 
 
@@ -63,20 +63,17 @@ class _Direct:
 
 
 class _LUFactor:
-    def __init__(self, lu, n, A=None, ordering=None, order=None):
-        self._lu, self.n, self._order = lu, n, order  # ``order``: the kept ordering the factors were made in
+    def __init__(self, lu, A=None, ordering=None, order=None):
+        self._lu, self._order = lu, order  # ``order``: the kept ordering the factors were made in
         self._A, self._ordering = A, ordering  # kept only for a symmetric-mode factorization (see solve)
-
-    def _solve(self, b) -> np.ndarray:
-        if self._order is None:
-            return self._lu.solve(b)
-        x = np.empty_like(b)
-        x[self._order] = self._lu.solve(b[self._order])
-        return x
 
     def solve(self, b) -> np.ndarray:
         b = np.asarray(b, dtype=float)
-        x = self._solve(b)
+        if self._order is None:
+            x = self._lu.solve(b)
+        else:
+            x = np.empty_like(b)
+            x[self._order] = self._lu.solve(b[self._order])
         if self._A is not None:  # diagonal pivots may lose accuracy on an indefinite matrix: check the residual once
             if not np.all(np.isfinite(x)) or np.linalg.norm(self._A @ x - b) > 1e-8 * np.linalg.norm(b):
                 self._lu, self._order = spla.splu(self._A, permc_spec=self._ordering), None
@@ -116,18 +113,17 @@ class _KeptOrdering:
 
 
 class SuperLU(_Direct):
-    """SciPy's SuperLU with the column ``ordering`` (one of ``_ORDERINGS``; SciPy's default is ``"COLAMD"``) and, by
-    default for ``"MMD_AT_PLUS_A"`` only, ``symmetric`` mode (diagonal pivots): half COLAMD's fill, 1.5-2.5x faster
-    (23 ms against 43 ms at 8k triangles). A zero pivot or a poor first residual refactorizes with partial pivoting.
-    In symmetric mode the ordering of the last sparsity pattern is kept (:class:`_KeptOrdering`): a real-time loop
-    refactorizes one pattern over and over, on the second core, and the frame's thread no longer waits for it."""
+    """SciPy's SuperLU with the column ``ordering`` (one of ``_ORDERINGS``; SciPy's default is ``"COLAMD"``), for
+    ``"MMD_AT_PLUS_A"`` in ``symmetric`` mode (diagonal pivots): half COLAMD's fill, 1.5-2.5x faster (23 ms against
+    43 ms at 8k triangles). A zero pivot or a poor first residual refactorizes with partial pivoting. In symmetric
+    mode the ordering of the last sparsity pattern is kept (:class:`_KeptOrdering`): a real-time loop refactorizes
+    one pattern over and over, on the second core, and the frame's thread no longer waits for it."""
 
-    def __init__(self, ordering: str = "MMD_AT_PLUS_A", symmetric: bool | None = None):
+    def __init__(self, ordering: str = "MMD_AT_PLUS_A"):
         if ordering not in _ORDERINGS:
             raise ParameterError("ordering", f"ordering must be one of {_ORDERINGS}, got {ordering!r}")
-        self.ordering = ordering
-        self.symmetric = (ordering == "MMD_AT_PLUS_A") if symmetric is None else bool(symmetric)
-        self.name = "superlu" if ordering == "MMD_AT_PLUS_A" else f"superlu-{ordering.lower()}"
+        self.ordering, self.symmetric = ordering, ordering == "MMD_AT_PLUS_A"
+        self.name = "superlu" if self.symmetric else f"superlu-{ordering.lower()}"
         self._kept = None
 
     def factorize(self, A) -> _LUFactor:
@@ -140,17 +136,17 @@ class SuperLU(_Direct):
             kept = self._kept  # read once: a background thread may replace it meanwhile
             try:
                 if kept is not None and kept.matches(A):
-                    lu = spla.splu(kept.permute(A), permc_spec="NATURAL", **symmetric)
-                    return _LUFactor(lu, A.shape[0], A, self.ordering, kept.order)
+                    return _LUFactor(spla.splu(kept.permute(A), permc_spec="NATURAL", **symmetric), A, self.ordering,
+                                     kept.order)
                 lu = spla.splu(A, permc_spec=self.ordering, **symmetric)
                 self._kept = _KeptOrdering(A, lu)
-                return _LUFactor(lu, A.shape[0], A, self.ordering)
+                return _LUFactor(lu, A, self.ordering)
             except RuntimeError:
                 pass  # a zero diagonal pivot: fall back to partial pivoting below
-        return _LUFactor(spla.splu(A, permc_spec=self.ordering), A.shape[0])
+        return _LUFactor(spla.splu(A, permc_spec=self.ordering))
 
     def __repr__(self):
-        return f"SuperLU(ordering={self.ordering!r}, symmetric={self.symmetric})"
+        return f"SuperLU(ordering={self.ordering!r})"
 
 
 #: The optional packages some backends need: ``backend name -> (module, pip extra)``.
@@ -173,24 +169,18 @@ def _require(name: str) -> None:
                                               f"(pip install 'tissuefem[{extra}]'); use 'superlu' instead")
 
 
-def _check_launch(launch):
-    if launch is not None and not callable(launch):
-        raise ParameterError("launch", f"launch must be a callable starting background work, got {launch!r}")
-    return launch
+class _Factor:
+    """An optional package's factorization: ``solve(b)``, and ``nnz``, its factors' stored entries (``entries()``)."""
 
-
-class _PardisoFactor:
-    def __init__(self, solver, A):
-        self._solver, self._A, self.n = solver, A, A.shape[0]
+    def __init__(self, solve, entries):
+        self._solve, self._entries = solve, entries
 
     def solve(self, b) -> np.ndarray:
-        # pypardiso re-checks that A is the matrix it factorized and only then back-substitutes
-        return np.asarray(self._solver.solve(self._A, np.asarray(b, dtype=float)), dtype=float)
+        return np.asarray(self._solve(np.asarray(b, dtype=float)), dtype=float).reshape(-1)
 
     @property
     def nnz(self) -> int:
-        """Stored entries of the factors (PARDISO reports them in its parameter 18)."""
-        return int(self._solver.iparm[17])
+        return int(self._entries())
 
 
 class Pardiso(_Direct):
@@ -204,24 +194,13 @@ class Pardiso(_Direct):
         import pypardiso
         self._module = pypardiso
 
-    def factorize(self, A) -> _PardisoFactor:
+    def factorize(self, A) -> _Factor:
         A, solver = sp.csr_matrix(_square(A)), self._module.PyPardisoSolver()
         solver.set_statistical_info_off()
         solver.factorize(A)
-        return _PardisoFactor(solver, A)
-
-
-class _CholeskyFactor:
-    def __init__(self, factor, n):
-        self._factor, self.n = factor, n
-
-    def solve(self, b) -> np.ndarray:
-        return np.asarray(self._factor(np.asarray(b, dtype=float)), dtype=float).reshape(-1)
-
-    @property
-    def nnz(self) -> int:
-        """Stored entries of ``L`` (the fill-in: compare with the matrix's lower triangle)."""
-        return int(self._factor.L().nnz)
+        # pypardiso re-checks that A is the matrix it factorized and only then back-substitutes; PARDISO reports
+        # the factors' stored entries in its parameter 18
+        return _Factor(lambda b: solver.solve(A, b), lambda: solver.iparm[17])
 
 
 class Cholmod(_Direct):
@@ -241,7 +220,8 @@ class Cholmod(_Direct):
     def factorize(self, A):
         A = sp.csc_matrix(_square(A))
         try:
-            return _CholeskyFactor(self._cholesky(A), A.shape[0])
+            factor = self._cholesky(A)
+            return _Factor(factor, lambda: factor.L().nnz)  # the fill-in: compare with the matrix's lower triangle
         except Exception:  # sksparse's CholmodNotPositiveDefiniteError and kin: an indefinite tangent
             return SuperLU().factorize(A)
 
@@ -320,39 +300,6 @@ def start_thread(work):
     thread = threading.Thread(target=work, name="tissuefem-refactorize", daemon=False)
     thread.start()
     return thread
-
-
-class _Background:
-    """One factorization at a time off the frame: :meth:`start` hands ``factorize(A)`` to ``launch`` (default
-    :func:`start_thread`; a test passes one it controls), :meth:`take` gives a finished one made for ``key``.
-    ``threads``: every started job not known finished, for waiting (shared with a finalizer)."""
-
-    def __init__(self, launch, threads):
-        self.launch, self.threads, self.pending = launch, threads, None
-
-    def start(self, factorize, A, key) -> bool:
-        """Start a factorization of ``A`` unless one is under way; whether one was started."""
-        if self.pending is not None:
-            return False
-        A, box = A.copy(), {}
-
-        def work():  # holds no reference to the solver, which may be dropped while this runs
-            try:
-                box["factor"] = factorize(A)
-            except Exception:  # a failed factorization only means the old one stays
-                box["factor"] = None
-        job = (self.launch or start_thread)(work)
-        self.threads[:] = [t for t in self.threads if t.is_alive()] + [job]
-        self.pending = (job, box, key)
-        return True
-
-    def take(self, key):
-        """A finished factorization made for ``key`` (forgotten if made for another), or ``None``."""
-        if self.pending is None or self.pending[0].is_alive():
-            return None
-        _, box, made_for = self.pending
-        self.pending = None
-        return box.get("factor") if made_for == key else None
 
 
 # --- conjugate gradients ------------------------------------------------------------------------
@@ -477,23 +424,50 @@ def _join_all(threads) -> None:
 
 
 class _OffFrame:
-    """A solver that makes factorizations off the frame (``launch(work)`` starts one, default :func:`start_thread`).
-    Its unfinished work is waited for by :meth:`close` (or leaving a ``with`` block), when the solver is dropped
-    and at the interpreter's exit: a process that ends under a factorization can crash in the BLAS."""
+    """A solver that makes one factorization at a time off the frame: :meth:`_start` hands ``factorize(A)`` to
+    ``launch(work)`` (default :func:`start_thread`; a test passes one it controls), :meth:`_take` gives a finished one
+    made for ``key``. Its unfinished work is waited for by :meth:`close` (or leaving a ``with`` block), when the solver
+    is dropped and at the interpreter's exit: a process that ends under a factorization can crash in the BLAS."""
 
     def __init__(self, launch):
+        _OffFrame.launch.fset(self, launch)  # not a subclass's setter: a backend object given keeps its own
+        self._pending = None  # the job under way, its result's box and its key
         self._threads = []  # background factorizations started and not yet joined (shared with the finalizer)
-        self._work = _Background(_check_launch(launch), self._threads)
         weakref.finalize(self, _join_all, self._threads)
 
     @property
     def launch(self):
         """How background work starts: ``launch(work)`` returns a job with ``is_alive`` and ``join``."""
-        return self._work.launch
+        return self._launch
 
     @launch.setter
     def launch(self, value):
-        self._work.launch = _check_launch(value)
+        if value is not None and not callable(value):
+            raise ParameterError("launch", f"launch must be a callable starting background work, got {value!r}")
+        self._launch = value
+
+    def _start(self, factorize, A, key) -> None:
+        """Start a factorization of ``A`` off the frame, unless one is under way."""
+        if self._pending is not None:
+            return
+        A, box = A.copy(), {}
+
+        def work():  # holds no reference to the solver, which may be dropped while this runs
+            try:
+                box["factor"] = factorize(A)
+            except Exception:  # a failed factorization only means the old one stays
+                box["factor"] = None
+        job = (self._launch or start_thread)(work)
+        self._threads[:] = [t for t in self._threads if t.is_alive()] + [job]
+        self._pending = (job, box, key)
+
+    def _take(self, key):
+        """A finished factorization made for ``key`` (forgotten if made for another), or ``None``."""
+        if self._pending is None or self._pending[0].is_alive():
+            return None
+        _, box, made_for = self._pending
+        self._pending = None
+        return box.get("factor") if made_for == key else None
 
     def close(self) -> None:
         """Wait for any background factorization to finish (it is not adopted) and forget the kept factorization.
@@ -516,18 +490,15 @@ class ReusedFactorization(_OffFrame):
     finished (iteration counts then depend on timing). ``solve`` returns ``(x, SolveInfo)``; ``factorizations``,
     ``background_factorizations`` and ``cg_iterations`` count. Under a ``deadline`` (:class:`Deadline`) a
     factorization that does not fit is started in the background whatever ``background`` says, and CG runs the
-    iterations that fit with the old factorization (no factorization yet: the solve returns ``None``).
-    ``launch(work)``: how background work starts; :meth:`close` waits for it, and so do dropping the solver and exit.
-    After a cut, :meth:`provide` gives a preconditioner to start from while a fresh factorization is made off the
-    frame."""
+    iterations that fit with the old factorization (no factorization yet: the solve returns ``None``). After a cut,
+    :meth:`provide` gives a preconditioner to start from while a fresh factorization is made off the frame."""
 
     def __init__(self, direct=None, refresh_after: int = 15, max_iterations: int = 40, background: bool = False,
                  background_after: int = 3, launch=None):
         self.refresh_after = check_count("refresh_after", refresh_after)
         self.max_iterations = check_count("max_iterations", max_iterations)
         self.direct = direct if direct is not None else SuperLU()
-        self.background = bool(background)
-        self.background_after = int(background_after)
+        self.background, self.background_after = bool(background), int(background_after)
         self.name = f"cg+reused-{self.direct.name}" + ("+background" if self.background else "")
         super().__init__(launch)
         self.invalidate()  # no factorization yet
@@ -544,21 +515,27 @@ class ReusedFactorization(_OffFrame):
             raise ParameterError("direct", f"direct must be a backend with a factorize method, got {value!r}")
         self._direct = value
 
+    def _keep(self, factor, shape, provisional: bool = False) -> None:
+        self._factor, self._shape, self._stale, self._provisional = factor, shape, False, provisional
+
     @property
     def _factorize(self):
         """How a kept factorization is made: a function of the matrix only (a background job holds no solver)."""
         return self._direct.factorize
 
+    def _start_fresh(self, A) -> None:
+        self._start(self._factorize, A, A.shape)
+
     def invalidate(self) -> None:
-        self._factor, self._shape, self._stale, self._work.pending = None, None, False, None
-        self._provisional = False
+        self._keep(None, None)
+        self._pending = None
 
     def provide(self, factor, shape, fresh: bool = True) -> None:
         """Precondition with ``factor`` (an approximate inverse of matrices of ``shape``, e.g. an
         :class:`ExtendedFactorization` after a cut). ``fresh``: until a fresh factorization, started off the frame
         by the next solve whatever ``background`` says, is adopted; else it is kept as if made here."""
         self.invalidate()
-        self._factor, self._shape, self._provisional = factor, tuple(shape), bool(fresh)
+        self._keep(factor, tuple(shape), bool(fresh))
 
     @property
     def provisional(self) -> bool:
@@ -567,17 +544,16 @@ class ReusedFactorization(_OffFrame):
 
     def _adopt(self, shape) -> None:
         """Take a finished background factorization (one of ``shape``) as the preconditioner."""
-        factor = self._work.take(shape)
+        factor = self._take(shape)
         if factor is not None:
-            self._factor, self._shape, self._stale, self._provisional = factor, shape, False, False
+            self._keep(factor, shape)
             self.background_factorizations += 1
 
     def _wait_for_fresh(self, A, b, reason, deadline) -> tuple[np.ndarray | None, SolveInfo]:
         """A provided preconditioner that CG could not do with: wait for the fresh factorization under way (it
         costs no more than one made now, which fits), else make one now; then back-substitute."""
-        job = self._work.pending[0] if self._work.pending is not None else None
-        if job is not None:
-            job.join()
+        if self._pending is not None:
+            self._pending[0].join()
             self._adopt(A.shape)
         if self._provisional:  # nothing under way, or it failed
             return self._refactorize(A, b, reason, deadline)
@@ -585,17 +561,13 @@ class ReusedFactorization(_OffFrame):
 
     def _refactorize(self, A, b, reason, deadline, atol=0.0) -> tuple[np.ndarray | None, SolveInfo]:
         if not deadline.fits("factorization", "back-substitution"):
-            self._work.start(self._factorize, A, A.shape)  # adopted by a later solve
+            self._start_fresh(A)  # adopted by a later solve
             deadline.skip("factorization")
             return None, SolveInfo(0, False, False, math.inf, reason, "factorization")
-        factor = deadline.timed("factorization", self._factorize, A)
-        self._factor, self._shape, self._stale, self._provisional = factor, A.shape, False, False
+        self._keep(deadline.timed("factorization", self._factorize, A), A.shape)
         self.factorizations += 1
         if getattr(self._factor, "precondition", None) is not None:  # an approximate inverse (multigrid): CG
-            t0 = deadline.clock()
-            result = pcg(A, b, self._precondition, atol=atol, rtol=1e-10, max_iterations=self.max_iterations)
-            deadline.record("cg-iteration", deadline.clock() - t0, result.iterations)
-            self.cg_iterations += result.iterations
+            result = self._cg(A, b, deadline, atol=atol, rtol=1e-10, max_iterations=self.max_iterations)
             return result.x, SolveInfo(result.iterations, True, result.converged, result.residual_norm, reason)
         return self._back_substitution(A, b, reason, deadline)
 
@@ -605,9 +577,16 @@ class ReusedFactorization(_OffFrame):
 
     @property
     def _precondition(self):
-        """What CG applies: the kept factor's ``precondition`` if it has one (an iterative backend's), else its
-        solve."""
+        """What CG applies: the kept factor's ``precondition`` (an iterative backend's) if it has one, else solve."""
         return getattr(self._factor, "precondition", None) or self._factor.solve
+
+    def _cg(self, A, b, deadline, **options) -> PCGResult:
+        """:func:`pcg` preconditioned by the kept factor; its iterations counted, their cost learned."""
+        t0 = deadline.clock()
+        result = pcg(A, b, self._precondition, **options)
+        deadline.record("cg-iteration", deadline.clock() - t0, result.iterations)
+        self.cg_iterations += result.iterations
+        return result
 
     def solve(self, A, b, *, atol: float = 0.0, rtol: float = 1e-10, refactorize: bool = False,
               deadline: Deadline | None = None) -> tuple[np.ndarray | None, SolveInfo]:
@@ -616,16 +595,14 @@ class ReusedFactorization(_OffFrame):
         self._adopt(A.shape)
         if refactorize:
             return self._refactorize(A, b, "forced", deadline)
-        if self._factor is None:
-            return self._refactorize(A, b, "first", deadline, atol)
-        if self._shape != A.shape:
-            return self._refactorize(A, b, "shape", deadline, atol)
-        if self._provisional and self._work.pending is None:
-            self._work.start(self._factorize, A, A.shape)  # a fresh one off the frame; the provided one meanwhile
+        if self._factor is None or self._shape != A.shape:
+            return self._refactorize(A, b, "first" if self._factor is None else "shape", deadline, atol)
+        if self._provisional and self._pending is None:
+            self._start_fresh(A)  # a fresh one off the frame; the provided one meanwhile
         if self._stale and not self.background:
             if deadline.fits("factorization", "back-substitution"):
                 return self._refactorize(A, b, "stale", deadline, atol)
-            self._work.start(self._factorize, A, A.shape)  # meanwhile the old one preconditions
+            self._start_fresh(A)  # meanwhile the old one preconditions
         limit, room = self.max_iterations, deadline.room("cg-iteration")
         if room is not None:
             limit = min(limit, max(room, int(deadline.first)))
@@ -634,11 +611,8 @@ class ReusedFactorization(_OffFrame):
         if limit == 0:
             deadline.skip("cg-iteration")
             return None, SolveInfo(0, False, False, math.inf, "", "cg-iteration")
-        t0 = deadline.clock()
         another = (lambda: deadline.room("cg-iteration") != 0) if deadline.limited else None
-        result = pcg(A, b, self._precondition, atol=atol, rtol=rtol, max_iterations=limit, another=another)
-        deadline.record("cg-iteration", deadline.clock() - t0, result.iterations)
-        self.cg_iterations += result.iterations
+        result = self._cg(A, b, deadline, atol=atol, rtol=rtol, max_iterations=limit, another=another)
         failed = "negative-curvature" if result.negative_curvature else (
             "cg-failed" if not result.converged and result.iterations >= self.max_iterations else "")
         if failed and deadline.fits("factorization", "back-substitution"):
@@ -646,13 +620,12 @@ class ReusedFactorization(_OffFrame):
                 return self._wait_for_fresh(A, b, failed, deadline)
             return self._refactorize(A, b, failed, deadline, atol)
         if failed:  # meanwhile CG's iterate is the answer (Newton checks it is downhill)
-            self._work.start(self._factorize, A, A.shape)
+            self._start_fresh(A)
             if result.negative_curvature:
                 return result.x, SolveInfo(result.iterations, False, False, result.residual_norm, failed)
         elif (self.background and result.iterations > self.background_after) or (
                 (limit < self.max_iterations or result.iterations < limit) and not result.converged):  # cut short
-            # by the deadline: refresh too
-            self._work.start(self._factorize, A, A.shape)
+            self._start_fresh(A)  # by the deadline: refresh too
         elif result.iterations > self.refresh_after and not self._provisional:  # (a fresh one is under way)
             self._stale = True
         return result.x, SolveInfo(result.iterations, False, result.converged, result.residual_norm)
@@ -697,18 +670,17 @@ def rigid_body_modes(X) -> np.ndarray:
     if d not in (2, 3):
         raise ParameterError("X", f"X must have shape (2, n) or (3, n), got {X.shape}")
     Y = X - X.mean(axis=1, keepdims=True)
-    columns = [np.eye(d)[c][:, None] * np.ones((1, n)) for c in range(d)]
-    axes = [(0, 1)] if d == 2 else [(0, 1), (1, 2), (2, 0)]
-    for a, b in axes:  # the rotation in the (a, b) plane: u_a = -y_b, u_b = y_a
-        r = np.zeros((d, n))
-        r[a], r[b] = -Y[b], Y[a]
-        columns.append(r)
-    return np.stack([c.T.ravel() for c in columns], axis=1)
+    planes = [(0, 1)] if d == 2 else [(0, 1), (1, 2), (2, 0)]
+    modes = np.zeros((n, d, d + len(planes)))
+    modes[:, range(d), range(d)] = 1.0  # the translations
+    for k, (a, b) in enumerate(planes, start=d):  # the rotation in the (a, b) plane: u_a = -y_b, u_b = y_a
+        modes[:, a, k], modes[:, b, k] = -Y[b], Y[a]
+    return modes.reshape(d * n, -1)
 
 
 class PreconditionedCG(_Direct):
     """Conjugate gradients with a preconditioner built by ``factorize``: ``"jacobi"`` (the inverse diagonal: free, weak,
-    iterations grow like ``1/h``), ``"ilu"`` (SciPy's ``spilu`` with ``drop_tol``: much stronger), ``"amg"`` (one
+    iterations grow like ``1/h``), ``"ilu"`` (SciPy's ``spilu``: much stronger), ``"amg"`` (one
     V-cycle of smoothed-aggregation multigrid, the optional ``pyamg``; ``near_nullspace``: the rigid-body modes of
     the matrix's dofs, :func:`rigid_body_modes`, which elasticity needs: without them only the constant) or
     ``"none"``. A solve stops at ``rtol ||b||`` or after ``max_iterations`` (default ``max(200, 2 n)``) and returns
@@ -717,9 +689,10 @@ class PreconditionedCG(_Direct):
     CG's: the multigrid hierarchy is the kept "factorization"."""
 
     _KINDS = ("jacobi", "ilu", "amg", "none")
+    _DROP_TOL = 1e-4  # ILU's: entries below it (relative) are dropped
 
     def __init__(self, preconditioner: str = "jacobi", rtol: float = 1e-8, max_iterations: int | None = None,
-                 drop_tol: float = 1e-4, near_nullspace=None):
+                 near_nullspace=None):
         if preconditioner not in self._KINDS:
             raise ParameterError("preconditioner", f"preconditioner must be one of {self._KINDS}, got "
                                                    f"{preconditioner!r}")
@@ -727,7 +700,6 @@ class PreconditionedCG(_Direct):
             _require("cg-amg")
         self.preconditioner, self.rtol = preconditioner, check_real("rtol", rtol, 0, 1, lo_open=True, hi_open=True)
         self.max_iterations = None if max_iterations is None else check_count("max_iterations", max_iterations)
-        self.drop_tol = check_real("drop_tol", drop_tol, 0, lo_open=True)
         self.near_nullspace = near_nullspace
         self.name = "cg" if preconditioner == "none" else f"cg-{preconditioner}"
 
@@ -766,7 +738,7 @@ class PreconditionedCG(_Direct):
             inv = 1.0 / d
             precondition = lambda r: inv * r  # noqa: E731
         elif self.preconditioner == "ilu":
-            ilu = spla.spilu(sp.csc_matrix(A), drop_tol=self.drop_tol, fill_factor=10.0)
+            ilu = spla.spilu(sp.csc_matrix(A), drop_tol=self._DROP_TOL, fill_factor=10.0)
             precondition, nnz = ilu.solve, int(ilu.L.nnz + ilu.U.nnz)
         elif self.preconditioner == "amg":
             precondition, nnz = self._multigrid(A)
@@ -837,45 +809,39 @@ class LinearInfo:
 
 
 class LinearSolver(_OffFrame):
-    """How Newton solves ``A dx = b``: which backend, and when to factorize. ``method`` is one of ``"direct"`` (a fresh
+    """How Newton solves ``A dx = b``: which backend, and when to factorize. ``method``: ``"direct"`` (a fresh
     :class:`SuperLU` factorization per solve: exact Newton); a backend name of :func:`make` (that backend, afresh);
-    ``"reuse"``, ``"reuse-<backend>"`` (:class:`ReusedFactorization`), ``"reuse-background"`` or
-    ``"reuse-background-<backend>"`` (the same, refreshed on the second core); ``"constant"`` or
-    ``"constant-<backend>"`` (a kept factorization used as it is, without assembling the tangent again: exact for a
-    constant tangent); or a backend object. A kept factorization is dropped when the free dofs or the pattern change,
-    or by :meth:`invalidate`.
+    ``"reuse"``, ``"reuse-<backend>"`` (:class:`ReusedFactorization`), ``"reuse-background[-<backend>]"`` (the same,
+    refreshed on the second core); ``"constant[-<backend>]"`` (a kept factorization used as it is, without
+    assembling the tangent again: exact for a constant tangent); or a backend object. A kept factorization is dropped
+    when the free dofs or the pattern change, or by :meth:`invalidate`.
 
-    ``costs``: what each piece of work (:data:`WORK`) took lately, in seconds (learned from every solve given a
-    :class:`Deadline`, see :meth:`deadline`). Under a deadline a solve starts nothing that does not fit: a kept
-    factorization that is due (``"reuse..."``, ``"constant..."``) is made in the background (``launch``, default
-    :func:`start_thread`) and the solve goes on with the old one or returns ``None``; a solver that factorizes
-    afresh each solve (``"direct"``, a backend name) returns ``None``; :attr:`LinearInfo.skipped` says what."""
+    ``costs``: what each piece of work (:data:`WORK`) took lately, in seconds, learned by every solve (see
+    :meth:`deadline`). Under a :class:`Deadline` a solve starts nothing that does not fit: a kept factorization that
+    is due is made in the background (``launch``) while the solve goes on with the old one or returns ``None``; a
+    solver that factorizes afresh each solve returns ``None``; :attr:`LinearInfo.skipped` says what."""
 
     def __init__(self, method="reuse", *, launch=None):
-        self.method, self.constant = method, False
+        self.method, self.constant, backend = method, False, method
         if isinstance(method, str):
             kind, _, base = method.partition("-")
-            if method == "direct" or method in BACKENDS or method == "auto":
-                self.backend = SuperLU() if method == "direct" else make(method)
-            elif kind in ("reuse", "constant"):
-                # "reuse-background" (SuperLU) or "reuse-background-<backend>"
-                background = kind == "reuse" and base.partition("-")[0] == "background"
-                base = base[len("background-"):] if background else base
-                direct = SuperLU() if method in ("reuse", "constant", "reuse-background") else make(base)
-                self.constant = kind == "constant"
-                self.backend = direct if self.constant else ReusedFactorization(direct, background=background,
-                                                                                launch=launch)
-            else:
+            reused = kind in ("reuse", "constant")
+            if not reused and method not in ("direct", "auto", *BACKENDS):
                 raise ParameterError("linear_solver", "linear_solver must be 'direct', 'reuse', 'constant', "
                                      f"'reuse-<backend>', 'constant-<backend>' or a backend "
                                      f"({', '.join(sorted(BACKENDS))}), got {method!r}")
-        elif isinstance(method, ReusedFactorization) or callable(getattr(method, "factorize", None)):
-            self.backend = method
-        else:
+            background = kind == "reuse" and base.partition("-")[0] == "background"  # "reuse-background[-<backend>]"
+            base = base[len("background-"):] if background else base
+            if method in ("direct", "reuse", "constant", "reuse-background"):
+                backend = SuperLU()
+            else:
+                backend = make(base if reused else method)
+            self.constant = kind == "constant"
+            if kind == "reuse":
+                backend = ReusedFactorization(backend, background=background, launch=launch)
+        elif not (isinstance(method, ReusedFactorization) or callable(getattr(method, "factorize", None))):
             raise ParameterError("linear_solver", f"linear_solver must be a name or a backend object, got {method!r}")
-        if self.constant and not callable(getattr(self.backend, "factorize", None)):
-            raise ParameterError("linear_solver", f"linear_solver {method!r}: a constant tangent needs a direct "
-                                                  "backend")
+        self.backend = backend  # a "constant..." one is made by make: it has the factorize a constant one needs
         self.condense = Condenser()
         self._factor, self._key, self._carried = None, None, None
         super().__init__(launch)  # a constant factorization is made in the background
@@ -898,11 +864,10 @@ class LinearSolver(_OffFrame):
         self._modes = _check_modes("modes", modes)
         if self._key is not None:  # the next matrix passes them on (a kept preconditioner is made anew)
             self.invalidate()
-            self._key = None
 
     @_OffFrame.launch.setter
     def launch(self, value):
-        self._work.launch = _check_launch(value)
+        _OffFrame.launch.fset(self, value)
         if isinstance(self.backend, ReusedFactorization):
             self.backend.launch = value
 
@@ -933,7 +898,7 @@ class LinearSolver(_OffFrame):
 
     def invalidate(self) -> None:
         """Forget any kept factorization (the matrix is about to change in a way the keys do not see)."""
-        self._factor, self._key, self._work.pending, self._carried = None, None, None, None
+        self._factor, self._key, self._pending, self._carried = None, None, None, None
         if isinstance(self.backend, ReusedFactorization):
             self.backend.invalidate()
 
@@ -944,13 +909,13 @@ class LinearSolver(_OffFrame):
         was one to carry (only a ``"reuse..."`` solver keeps one, for one set of free dofs)."""
         if not isinstance(old, LinearSolver):
             raise ParameterError("old", f"old must be a LinearSolver, got {type(old).__name__}")
-        reused = isinstance(self.backend, ReusedFactorization) and isinstance(old.backend, ReusedFactorization)
-        if reused:
-            old.backend._adopt(old.backend._shape)  # a background factorization ended meanwhile: the fresher one
-            # its unfinished work is waited for when this solver goes, not when the old one is dropped (now)
-            self.backend._threads.extend(old.backend._threads)
-            old.backend._threads.clear()
-        factor = old.backend._factor if reused else None
+        if not (isinstance(self.backend, ReusedFactorization) and isinstance(old.backend, ReusedFactorization)):
+            return False
+        old.backend._adopt(old.backend._shape)  # a background factorization ended meanwhile: the fresher one
+        # its unfinished work is waited for when this solver goes, not when the old one is dropped (now)
+        self.backend._threads.extend(old.backend._threads)
+        old.backend._threads.clear()
+        factor = old.backend._factor
         if factor is None or old._key is None:
             return False
         size, bits = old._key
@@ -1027,10 +992,10 @@ class LinearSolver(_OffFrame):
     def _constant_solve(self, A, b, deadline, info):
         """A kept factorization's solve; a missing one is made now if it fits, else in the background."""
         if self._factor is None:
-            self._factor = self._work.take((self._key, A.shape))
+            self._factor = self._take((self._key, A.shape))
         if self._factor is None:
             if not deadline.fits("factorization", "back-substitution"):
-                self._work.start(self.backend.factorize, A, (self._key, A.shape))  # taken by a later solve
+                self._start(self.backend.factorize, A, (self._key, A.shape))  # taken by a later solve
                 deadline.skip("factorization")
                 info.skipped = "factorization"
                 return None
