@@ -205,23 +205,22 @@ def frame_floor(sim, repeats: int = 9) -> dict:
             "factor_nnz": None if nnz is None else int(nnz), "matrix_nnz": int(A.nnz)}
 
 
-_COLUMNS = [
-    ("dofs", "dofs", "{:d}"), ("fast_median_ms", "median [ms]", "{:.1f}"),
-    ("fast_p95_ms", "p95 [ms]", "{:.1f}"), ("fast_p99_ms", "p99 [ms]", "{:.1f}"), ("fast_fps", "fps", "{:.0f}"),
-    ("fast_newton", "Newton/frame", "{:.2f}"),
-    ("fast_cg", "CG/frame", "{:.1f}"), ("fast_factorizations", "factorizations", "{:d}"),
-    ("floor_ms", "floor [ms]", "{:.1f}"), ("frame_over_floor", "frame / floor", "{:.1f}x"),
-    ("ex43_median_ms", "ex43 way [ms]", "{:.0f}"), ("ex43_newton", "ex43 Newton/frame", "{:.2f}"),
-    ("fast_residual", "median rel. residual", "{:.1e}"), ("fast_converged", "converged", "{:.0%}"),
-    ("fast_min_J", "min J", "{:.3f}"), ("fast_inverted", "inverted", "{:d}"),
-    ("speedup", "speedup", "{:.1f}x"), ("budget_converged", "in budget: converged", "{:.0%}"),
-    ("budget_residual", "in budget: median rel. residual", "{:.1e}"), ("budget_min_J", "in budget: min J", "{:.3f}"),
-    ("budget_inverted", "in budget: inverted", "{:d}"), ("budget_undone", "in budget: left undone", "{}"),
-    ("budget_p95_ms", "in budget: p95 [ms]", "{:.1f}"), ("budget_p99_ms", "in budget: p99 [ms]", "{:.1f}"),
-    ("budget_unconverged_residual", "in budget: worst unconverged rel. residual", "{:.1e}"),
-    ("budget_off_frame", "in budget: frames with a step off the frame", "{:d}"),
-    ("budget_steps", "in budget: steps committed", "{:d}"),
-]
+_COLUMNS = [("dofs", "dofs", "{:d}"), ("fast_median_ms", "median [ms]", "{:.1f}"),
+            ("fast_p95_ms", "p95 [ms]", "{:.1f}"), ("fast_p99_ms", "p99 [ms]", "{:.1f}"), ("fast_fps", "fps", "{:.0f}"),
+            ("fast_newton", "Newton/frame", "{:.2f}"), ("fast_cg", "CG/frame", "{:.1f}"),
+            ("fast_factorizations", "factorizations", "{:d}"), ("floor_ms", "floor [ms]", "{:.1f}"),
+            ("frame_over_floor", "frame / floor", "{:.1f}x"), ("ex43_median_ms", "ex43 way [ms]", "{:.0f}"),
+            ("ex43_newton", "ex43 Newton/frame", "{:.2f}"), ("fast_residual", "median rel. residual", "{:.1e}"),
+            ("fast_converged", "converged", "{:.0%}"), ("fast_min_J", "min J", "{:.3f}"),
+            ("fast_inverted", "inverted", "{:d}"), ("speedup", "speedup", "{:.1f}x"),
+            ("budget_converged", "in budget: converged", "{:.0%}"),
+            ("budget_residual", "in budget: median rel. residual", "{:.1e}"),
+            ("budget_min_J", "in budget: min J", "{:.3f}"), ("budget_inverted", "in budget: inverted", "{:d}"),
+            ("budget_undone", "in budget: left undone", "{}"), ("budget_p95_ms", "in budget: p95 [ms]", "{:.1f}"),
+            ("budget_p99_ms", "in budget: p99 [ms]", "{:.1f}"),
+            ("budget_unconverged_residual", "in budget: worst unconverged rel. residual", "{:.1e}"),
+            ("budget_off_frame", "in budget: frames with a step off the frame", "{:d}"),
+            ("budget_steps", "in budget: steps committed", "{:d}")]
 
 
 def _accuracy_columns(prefix: str, reports) -> dict:
@@ -234,15 +233,15 @@ def _accuracy_columns(prefix: str, reports) -> dict:
 
 
 #: the recorded table's columns (docs/benchmarks.md and chapter 7 print it): times, work, accuracy, the budgeted run
-_RECORDED = [
-    ("triangles", "triangles", "{:d}"), ("fast_median_ms", "median ms/frame", "{:.1f}"), ("fast_p95_ms", "p95 ms", "{:.1f}"),
-    ("fast_newton", "Newton/frame", "{:.2f}"), ("fast_cg", "CG/frame", "{:.1f}"), ("floor_ms", "floor ms", "{:.1f}"),
-    ("frame_over_floor", "frame / floor", "{:.1f}x"), ("ex43_median_ms", "ex43 way ms/frame", "{:.0f}"),
-    ("fast_converged", "converged", "{:.0%}"), ("budget_converged", "budgeted: converged", "{:.0%}"),
-    ("budget_p99_ms", "budgeted: p99 ms", "{:.0f}"), ("budget_first_ms", "budgeted: first frame ms", "{:.0f}"),
-    ("budget_p99_after_first_ms", "budgeted: p99 ms after the first", "{:.0f}"),
-    ("budget_steps", "budgeted: steps in 60 frames", "{:.0f}"), ("budget_residual", "budgeted: median residual", "{:.0e}"),
-]
+_RECORDED = [("triangles", "triangles", "{:d}"), ("fast_median_ms", "median ms/frame", "{:.1f}"),
+             ("fast_p95_ms", "p95 ms", "{:.1f}"), ("fast_newton", "Newton/frame", "{:.2f}"),
+             ("fast_cg", "CG/frame", "{:.1f}"), ("floor_ms", "floor ms", "{:.1f}"),
+             ("frame_over_floor", "frame / floor", "{:.1f}x"), ("ex43_median_ms", "ex43 way ms/frame", "{:.0f}"),
+             ("fast_converged", "converged", "{:.0%}"), ("budget_converged", "budgeted: converged", "{:.0%}"),
+             ("budget_p99_ms", "budgeted: p99 ms", "{:.0f}"), ("budget_first_ms", "budgeted: first frame ms", "{:.0f}"),
+             ("budget_p99_after_first_ms", "budgeted: p99 ms after the first", "{:.0f}"),
+             ("budget_steps", "budgeted: steps in 60 frames", "{:.0f}"),
+             ("budget_residual", "budgeted: median residual", "{:.0e}")]
 
 
 def format_realtime_table(rows) -> str:
@@ -374,10 +373,9 @@ _COMPARISON = [("linear_solver", "linear solver", "{}"), ("fast_median_ms", "med
                ("fast_p95_ms", "p95 [ms]", "{:.1f}"), ("fast_newton", "Newton/frame", "{:.2f}"),
                ("fast_cg", "CG/frame", "{:.1f}"), ("fast_factorizations", "factorizations", "{:d}"),
                ("factorization_ms", "factorization [ms]", "{:.0f}"),
-               ("back_substitution_ms", "back-substitution [ms]", "{:.1f}"),
-               ("assembly_ms", "assembly [ms]", "{:.1f}"), ("fill", "nnz(factors) / nnz(K)", "{:.1f}"),
-               ("floor_ms", "floor [ms]", "{:.1f}"), ("frame_over_floor", "frame / floor", "{:.1f}x"),
-               ("fast_converged", "converged", "{:.0%}")]
+               ("back_substitution_ms", "back-substitution [ms]", "{:.1f}"), ("assembly_ms", "assembly [ms]", "{:.1f}"),
+               ("fill", "nnz(factors) / nnz(K)", "{:.1f}"), ("floor_ms", "floor [ms]", "{:.1f}"),
+               ("frame_over_floor", "frame / floor", "{:.1f}x"), ("fast_converged", "converged", "{:.0%}")]
 
 
 def format_comparison_table(rows) -> str:
