@@ -222,7 +222,9 @@ def _drive(solver, benchmark: str, frames: int, substeps: int, checkpoints=(), d
         if f in checkpoints:
             states[f] = solver.u.copy()
     each = {k: [getattr(r, k) for r in kept] for k in _KEPT}
-    stats = {
+    # each frame's own accuracy: the smallest J, the most inverted elements, the frames that left work undone
+    summary = accuracy_summary(kept)
+    return states, {
         "ms": ms, "ms_median": float(np.median(ms)), "ms_p95": float(np.percentile(ms, 95)),
         # per displayed frame (all substeps)
         "newton": float(np.sum(each["newton_iterations"]) / frames),
@@ -234,14 +236,10 @@ def _drive(solver, benchmark: str, frames: int, substeps: int, checkpoints=(), d
         # the smallest share of its motion a handle made in one frame (< 1: a frame could not move it all the
         # way without inverting elements, and the real-time solver kept the state valid instead)
         "handle_fraction_min": float(np.min(each["handle_fraction"])),
-        "finite": bool(np.all(np.isfinite(solver.u))),
+        "finite": bool(np.all(np.isfinite(solver.u))), "scaled_residual_median": summary["scaled_residual"],
+        "min_J": summary["min_J"], "inverted": summary["inverted"], "undone_frames": summary["undone"],
+        "undone_reasons": summary["undone_reasons"],
     }
-    # each frame's own accuracy: the smallest J, the most inverted elements, the frames that left work undone
-    summary = accuracy_summary(kept)
-    stats.update({"scaled_residual_median": summary["scaled_residual"],
-                  "min_J": summary["min_J"], "inverted": summary["inverted"], "undone_frames": summary["undone"],
-                  "undone_reasons": summary["undone_reasons"]})
-    return states, stats
 
 
 def _reference_model(benchmark: str, triangles: int, grading: float, substeps: int = 1) -> Model:
@@ -551,19 +549,14 @@ def write_results(results: dict, out) -> list[Path]:
     versions = {c: machine.get(c, "") for c in ("python", "numpy", "scipy", "scikit-fem", "platform")}
     tables = {"knobs": results.get("knobs", []), "scaling": results.get("scaling", {}).get("rows", []),
               "budget": results.get("budget", [])}
-    for table, rows in tables.items():
-        if rows:
-            paths.append(write_csv(out / f"accuracy_{table}.csv", rows, versions))
-    return paths
+    return paths + [write_csv(out / f"accuracy_{table}.csv", rows, versions) for table, rows in tables.items() if rows]
 
 
 def read_results(path) -> dict:
     """Read an ``accuracy.json`` written by :func:`write_results` (JSON nulls become NaN in number fields)."""
     results = load_results(path)
     for row in results.get("knobs", []) + results.get("scaling", {}).get("rows", []) + results.get("budget", []):
-        for k, v in row.items():
-            if v is None and k != "intorder":
-                row[k] = float("nan")
+        row.update({k: float("nan") for k, v in row.items() if v is None and k != "intorder"})
     return results
 
 
