@@ -61,9 +61,7 @@ def eased_flap_path(t) -> np.ndarray:
 def _graded(xi, grading: float) -> np.ndarray:
     """``[0, 1] -> [0, 1]``, symmetric, with slope ``~ (distance to the nearer end)^(grading - 1)`` at the ends."""
     xi = np.asarray(xi, dtype=float)
-    low = 0.5 * (2.0 * np.minimum(xi, 0.5)) ** grading
-    high = 1.0 - 0.5 * (2.0 * (1.0 - np.maximum(xi, 0.5))) ** grading
-    return np.where(xi <= 0.5, low, high)
+    return np.where(xi <= 0.5, 0.5 * (2.0 * xi) ** grading, 1.0 - 0.5 * (2.0 * (1.0 - xi)) ** grading)
 
 
 def graded_flap(n_triangles: int, grading: float = REFERENCE_GRADING):
@@ -224,7 +222,9 @@ def _drive(solver, benchmark: str, frames: int, substeps: int, checkpoints=(), d
         if f in checkpoints:
             states[f] = solver.u.copy()
     each = {k: [getattr(r, k) for r in kept] for k in _KEPT}
-    stats = {
+    # each frame's own accuracy: the smallest J, the most inverted elements, the frames that left work undone
+    summary = accuracy_summary(kept)
+    return states, {
         "ms": ms, "ms_median": float(np.median(ms)), "ms_p95": float(np.percentile(ms, 95)),
         # per displayed frame (all substeps)
         "newton": float(np.sum(each["newton_iterations"]) / frames),
@@ -236,14 +236,10 @@ def _drive(solver, benchmark: str, frames: int, substeps: int, checkpoints=(), d
         # the smallest share of its motion a handle made in one frame (< 1: a frame could not move it all the
         # way without inverting elements, and the real-time solver kept the state valid instead)
         "handle_fraction_min": float(np.min(each["handle_fraction"])),
-        "finite": bool(np.all(np.isfinite(solver.u))),
+        "finite": bool(np.all(np.isfinite(solver.u))), "scaled_residual_median": summary["scaled_residual"],
+        "min_J": summary["min_J"], "inverted": summary["inverted"], "undone_frames": summary["undone"],
+        "undone_reasons": summary["undone_reasons"],
     }
-    # each frame's own accuracy: the smallest J, the most inverted elements, the frames that left work undone
-    summary = accuracy_summary(kept)
-    stats.update({"scaled_residual_median": summary["scaled_residual"],
-                  "min_J": summary["min_J"], "inverted": summary["inverted"], "undone_frames": summary["undone"],
-                  "undone_reasons": summary["undone_reasons"]})
-    return states, stats
 
 
 def _reference_model(benchmark: str, triangles: int, grading: float, substeps: int = 1) -> Model:
@@ -398,29 +394,28 @@ def knob_sweep(benchmark: str, plan: dict, reference, progress=None) -> list[dic
     return rows
 
 
+def _solver_settings(solvers, sizes, largest=None) -> list[tuple[str, Setting]]:
+    """``(solver, Setting)`` for each linear solver that runs here and each size up to its ``largest``."""
+    return [(solver, Setting(triangles=int(n), linear_solver=solver)) for solver in solvers if _runnable(solver)
+            for n in sizes if n <= (largest or {}).get(solver, math.inf)]
+
+
 def solver_scaling(sizes, solvers, frames: int, largest=None, progress=None) -> dict:
     """Time per frame of the flap against mesh size per linear solver (``largest``: a slow solver's largest
     size): ``{"rows", "exponents"}`` with ``ms ~ C triangles^p`` fitted where the solver ran."""
-    largest = largest or {}
     rows = []
-    for solver in solvers:
-        if not _runnable(solver):
+    for solver, setting in _solver_settings(solvers, sizes, largest):
+        try:
+            model, _, stats = run_setting("flap", setting, frames)
+        except (ValueError, RuntimeError) as err:
+            rows.append({"solver": solver, "triangles": setting.triangles, "ms_median": float("nan"),
+                         "failed": str(err)})
             continue
-        for n in sizes:
-            if n > largest.get(solver, math.inf):
-                continue
-            setting = Setting(triangles=int(n), linear_solver=solver)
-            try:
-                model, _, stats = run_setting("flap", setting, frames)
-            except (ValueError, RuntimeError) as err:
-                rows.append({"solver": solver, "triangles": int(n), "ms_median": float("nan"), "failed": str(err)})
-                continue
-            kept = ("ms_median", "ms_p95", "newton", "linear_iterations", "factorizations")
-            rows.append({"solver": solver, "triangles": int(model.mesh.t.shape[1]), "dofs": int(model.n_dofs),
-                         **{k: stats[k] for k in kept}, "failed": ""})
-            if progress:
-                progress(f"  scaling {solver:15s} {rows[-1]['triangles']:6d} triangles  "
-                         f"{stats['ms_median']:8.1f} ms/frame")
+        kept = ("ms_median", "ms_p95", "newton", "linear_iterations", "factorizations")
+        rows.append({"solver": solver, "triangles": int(model.mesh.t.shape[1]), "dofs": int(model.n_dofs),
+                     **{k: stats[k] for k in kept}, "failed": ""})
+        if progress:
+            progress(f"  scaling {solver:15s} {rows[-1]['triangles']:6d} triangles  {stats['ms_median']:8.1f} ms/frame")
     exponents = {}
     for solver in dict.fromkeys(r["solver"] for r in rows):
         sel = [r for r in rows if r["solver"] == solver and np.isfinite(r["ms_median"]) and r["ms_median"] > 0]
@@ -434,24 +429,17 @@ def budget_residual(sizes, frames: int, solvers=("reuse",), budget: float = FRAM
     """What the budgeted solver leaves on the flap by mesh size and solver: frames converged, median
     end-of-frame residual, final state's distance from a converged run."""
     rows = []
-    for solver in solvers:
-        if not _runnable(solver):
-            continue
-        for n in sizes:
-            setting = Setting(triangles=int(n), linear_solver=solver)
-            model, states, stats = run_setting("flap", setting, frames, (frames,), budget=budget, clock=clock)
-            _, converged_states, _ = run_setting("flap", setting, frames, (frames,))
-            M = _l2_gram(model)
-            rows.append({"solver": solver, "triangles": int(model.mesh.t.shape[1]), "dofs": int(model.n_dofs),
-                         "budget_ms": 1e3 * budget, "converged_share": stats["converged_share"],
-                         "residual_median": stats["residual_median"], "min_J": stats["min_J"],
-                         "inverted": stats["inverted"], "undone_frames": stats["undone_frames"],
-                         "ms_median": stats["ms_median"], "ms_p95": stats["ms_p95"],
-                         "state_error": _relative_same_mesh(M, states[frames], converged_states[frames])})
-            if progress:
-                r = rows[-1]
-                progress(f"  budget {solver:8s} {r['triangles']:6d} triangles  {r['ms_median']:8.1f} ms/frame  "
-                         f"{_accuracy_text(r)}  state error {r['state_error']:.1e}")
+    for solver, setting in _solver_settings(solvers, sizes):
+        model, states, stats = run_setting("flap", setting, frames, (frames,), budget=budget, clock=clock)
+        _, converged_states, _ = run_setting("flap", setting, frames, (frames,))
+        kept = ("converged_share", "residual_median", "min_J", "inverted", "undone_frames", "ms_median", "ms_p95")
+        rows.append({"solver": solver, "triangles": int(model.mesh.t.shape[1]), "dofs": int(model.n_dofs),
+                     "budget_ms": 1e3 * budget, **{k: stats[k] for k in kept},
+                     "state_error": _relative_same_mesh(_l2_gram(model), states[frames], converged_states[frames])})
+        if progress:
+            r = rows[-1]
+            progress(f"  budget {solver:8s} {r['triangles']:6d} triangles  {r['ms_median']:8.1f} ms/frame  "
+                     f"{_accuracy_text(r)}  state error {r['state_error']:.1e}")
     return rows
 
 
@@ -478,26 +466,19 @@ def capped_newton_experiment(triangles: int = 500, frames: int = 5, drag: str = 
     u(dt/2s) - u(dt/s)`` on the same mesh (``s = reference_substeps``). At the last frame: both errors, how
     far the cap moved the state (``capped_moved``) and the ``L2`` ``cosine`` of that move with the converged
     run's error (positive: towards the reference)."""
-    path = _drag_path(drag)
-    cps = (frames,)
-    runs = {}
-    for name, setting in (("converged", Setting(triangles=triangles, rtol=1e-10)),
-                          ("capped", Setting(triangles=triangles, max_iterations=1, rtol=1e-12)),
-                          ("coarse", Setting(triangles=triangles, rtol=1e-10, substeps=reference_substeps)),
-                          ("fine", Setting(triangles=triangles, rtol=1e-10, substeps=2 * reference_substeps))):
-        model, states, _ = run_setting("flap", setting, frames, cps, drag=path)
-        runs[name] = states[frames]
-    M = _l2_gram(model)
-    reference = 2.0 * runs["fine"] - runs["coarse"]
-    moved, error = runs["capped"] - runs["converged"], reference - runs["converged"]
-    norm = math.sqrt(reference @ (M @ reference))
-    return {
-        "drag": drag, "triangles": int(model.mesh.t.shape[1]), "frames": frames,
-        "error_converged": _relative_same_mesh(M, runs["converged"], reference),
-        "error_capped": _relative_same_mesh(M, runs["capped"], reference),
-        "capped_moved": float(math.sqrt(moved @ (M @ moved)) / norm),
-        "cosine": float(moved @ (M @ error) / math.sqrt((moved @ (M @ moved)) * (error @ (M @ error)))),
-    }
+    runs = {name: run_setting("flap", Setting(triangles=triangles, **options), frames, (frames,), drag=_drag_path(drag))
+            for name, options in (("converged", {"rtol": 1e-10}), ("capped", {"max_iterations": 1, "rtol": 1e-12}),
+                                  ("coarse", {"rtol": 1e-10, "substeps": reference_substeps}),
+                                  ("fine", {"rtol": 1e-10, "substeps": 2 * reference_substeps}))}
+    model, M = runs["fine"][0], _l2_gram(runs["fine"][0])
+    converged, capped, coarse, fine = (runs[name][1][frames] for name in runs)
+    reference = 2.0 * fine - coarse
+    moved, error = capped - converged, reference - converged
+    return {"drag": drag, "triangles": int(model.mesh.t.shape[1]), "frames": frames,
+            "error_converged": _relative_same_mesh(M, converged, reference),
+            "error_capped": _relative_same_mesh(M, capped, reference),
+            "capped_moved": float(math.sqrt((moved @ (M @ moved)) / (reference @ (M @ reference)))),
+            "cosine": float(moved @ (M @ error) / math.sqrt((moved @ (M @ moved)) * (error @ (M @ error))))}
 
 
 # --- the whole study -------------------------------------------------------------------------------
@@ -568,19 +549,14 @@ def write_results(results: dict, out) -> list[Path]:
     versions = {c: machine.get(c, "") for c in ("python", "numpy", "scipy", "scikit-fem", "platform")}
     tables = {"knobs": results.get("knobs", []), "scaling": results.get("scaling", {}).get("rows", []),
               "budget": results.get("budget", [])}
-    for table, rows in tables.items():
-        if rows:
-            paths.append(write_csv(out / f"accuracy_{table}.csv", rows, versions))
-    return paths
+    return paths + [write_csv(out / f"accuracy_{table}.csv", rows, versions) for table, rows in tables.items() if rows]
 
 
 def read_results(path) -> dict:
     """Read an ``accuracy.json`` written by :func:`write_results` (JSON nulls become NaN in number fields)."""
     results = load_results(path)
     for row in results.get("knobs", []) + results.get("scaling", {}).get("rows", []) + results.get("budget", []):
-        for k, v in row.items():
-            if v is None and k != "intorder":
-                row[k] = float("nan")
+        row.update({k: float("nan") for k, v in row.items() if v is None and k != "intorder"})
     return results
 
 

@@ -23,14 +23,12 @@ from .common import check_sizes, machine_info, median_rows, recorded, write_json
 
 __all__ = ["assembly_benchmark", "format_table", "recorded_assembly_table"]
 
-_COLUMNS = [
-    ("triangles", "triangles", "{:d}"), ("dofs", "dofs", "{:d}"), ("ref_tangent_ms", "ref K [ms]", "{:.1f}"),
-    ("ref_residual_ms", "ref r [ms]", "{:.1f}"), ("fast_tangent_ms", "fast K [ms]", "{:.2f}"),
-    ("fast_residual_ms", "fast r [ms]", "{:.2f}"), ("fast_both_ms", "fast r+K [ms]", "{:.2f}"),
-    ("speedup_tangent", "speedup K", "{:.0f}x"), ("speedup", "speedup r+K", "{:.0f}x"),
-    ("setup_ms", "fast setup [ms]", "{:.1f}"), ("splu_colamd_ms", "SuperLU COLAMD [ms]", "{:.1f}"),
-    ("splu_mmd_ms", "SuperLU MMD_AT_PLUS_A [ms]", "{:.1f}"), ("rel_diff_tangent", "rel. diff K", "{:.1e}"),
-]
+_COLUMNS = [("triangles", "triangles", "{:d}"), ("dofs", "dofs", "{:d}"), ("ref_tangent_ms", "ref K [ms]", "{:.1f}"),
+            ("ref_residual_ms", "ref r [ms]", "{:.1f}"), ("fast_tangent_ms", "fast K [ms]", "{:.2f}"),
+            ("fast_residual_ms", "fast r [ms]", "{:.2f}"), ("fast_both_ms", "fast r+K [ms]", "{:.2f}"),
+            ("speedup_tangent", "speedup K", "{:.0f}x"), ("speedup", "speedup r+K", "{:.0f}x"),
+            ("setup_ms", "fast setup [ms]", "{:.1f}"), ("splu_colamd_ms", "SuperLU COLAMD [ms]", "{:.1f}"),
+            ("splu_mmd_ms", "SuperLU MMD_AT_PLUS_A [ms]", "{:.1f}"), ("rel_diff_tangent", "rel. diff K", "{:.1e}")]
 
 
 #: the recorded table's columns (docs/benchmarks.md prints it)
@@ -99,10 +97,8 @@ def assembly_benchmark(sizes=(2000, 8000, 32000), repeats=5, out=None, progress=
             ("splu_colamd_ms", lambda: spla.splu(Kc, permc_spec="COLAMD")),
             ("splu_mmd_ms", lambda: spla.splu(Kc, permc_spec="MMD_AT_PLUS_A")))}
         row = {"triangles": int(mesh.t.shape[1]), "nodes": int(mesh.p.shape[1]), "dofs": int(basis.N),
-               "nnz": int(fast.nnz), **{k: ms[k] for k in list(ms)[:5]},
-               "speedup_tangent": ms["ref_tangent_ms"] / ms["fast_tangent_ms"],
+               "nnz": int(fast.nnz), **ms, "speedup_tangent": ms["ref_tangent_ms"] / ms["fast_tangent_ms"],
                "speedup": (ms["ref_tangent_ms"] + ms["ref_residual_ms"]) / ms["fast_both_ms"], "setup_ms": setup_ms,
-               "splu_colamd_ms": ms["splu_colamd_ms"], "splu_mmd_ms": ms["splu_mmd_ms"],
                "rel_diff_tangent": float(spla.norm(K1 - K0) / spla.norm(K0)),
                "rel_diff_residual": float(np.linalg.norm(r1 - r0) / np.linalg.norm(r0))}
         rows.append(row)

@@ -9,10 +9,11 @@ import math
 import os
 import platform
 import sys
-from importlib import metadata
 from pathlib import Path
 
 import numpy as np
+import scipy
+import skfem
 
 from ...engine.parameters import check_count, count_list
 
@@ -21,13 +22,6 @@ __all__ = ["machine_info", "load_average", "check_sizes", "write_json", "write_c
 
 #: the recorded runs shipped with the package (chapters and docs/benchmarks.md print from them)
 DATA = Path(__file__).parents[1] / "data"
-
-
-def _version(dist: str) -> str:
-    try:
-        return metadata.version(dist)
-    except metadata.PackageNotFoundError:
-        return "unknown"
 
 
 def load_average() -> list[float]:
@@ -39,7 +33,7 @@ def machine_info() -> dict:
     """The benchmark record's machine: platform, versions, CPU count and :func:`load_average` at the start."""
     return {"platform": platform.platform(), "machine": platform.machine(),
             "processor": platform.processor(), "python": sys.version.split()[0],
-            "numpy": np.__version__, "scipy": _version("scipy"), "scikit-fem": _version("scikit-fem"),
+            "numpy": np.__version__, "scipy": scipy.__version__, "scikit-fem": skfem.__version__,
             "cpu_count": os.cpu_count(), "load_average": load_average()}
 
 
@@ -49,19 +43,13 @@ def check_sizes(sizes) -> list[int]:
 
 
 def _json_ready(x):
+    if isinstance(x, (np.ndarray, np.generic)):
+        x = x.tolist()
     if isinstance(x, dict):
         return {str(k): _json_ready(v) for k, v in x.items()}
     if isinstance(x, (list, tuple)):
         return [_json_ready(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return _json_ready(x.tolist())
-    if isinstance(x, (np.integer,)):
-        return int(x)
-    if isinstance(x, (np.floating, float)):
-        return float(x) if math.isfinite(x) else None
-    if isinstance(x, (np.bool_,)):
-        return bool(x)
-    return x
+    return None if isinstance(x, float) and not math.isfinite(x) else x
 
 
 def write_json(path, record) -> Path:

@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 from skfem import BilinearForm, asm, condense, solve
+from skfem.helpers import dot
 
 from ...engine.constants import FRAME_BUDGET, TISSUE_DENSITY, TISSUE_E, TISSUE_NU
 from ...engine.forms import residual_form, tangent_form
@@ -58,12 +59,6 @@ def block_path(t) -> np.ndarray:
                      0.2 * (1.0 - math.cos(math.pi * t / 4.0))])
 
 
-def _block_cells(n_tetrahedra: int) -> tuple[int, int, int]:
-    """Cells ``(nx, ny, nz)`` of about ``n_tetrahedra`` tetrahedra (six a cell) on :data:`BLOCK`, near-cubic."""
-    m = max(1, round((n_tetrahedra / (6.0 * BLOCK[0] / BLOCK[1])) ** (1.0 / 3.0)))
-    return max(1, round(n_tetrahedra / (6.0 * m * m))), m, m
-
-
 class BlockSimulation:
     """The 3D block's ``model`` and ``solver``, read like a :class:`~tissuefem.surgery.simulation.Simulation`."""
 
@@ -85,7 +80,8 @@ def block_simulation(n_tetrahedra: int, linear_solver=None) -> BlockSimulation:
     :func:`block_path` carries; backward Euler with ``dt = 1/30``, every frame solved to 1e-6 with no wall-clock
     budget. ``linear_solver``: the real-time solver's default for a 3D model unless given."""
     n_tetrahedra = check_count("n_tetrahedra", n_tetrahedra, 6)
-    mesh = box(*BLOCK, *_block_cells(n_tetrahedra))
+    m = max(1, round((n_tetrahedra / (6.0 * BLOCK[0] / BLOCK[1])) ** (1.0 / 3.0)))  # near-cubic cells, six tets each
+    mesh = box(*BLOCK, max(1, round(n_tetrahedra / (6.0 * m * m))), m, m)
     model = Model(mesh, NeoHookean(*lame_parameters(TISSUE_E, TISSUE_NU)), dt=FRAME_BUDGET, density=TISSUE_DENSITY,
                   handles=[Handle("left", name="held"), Handle("right", (0.0, 0.0, 0.0), name="grab")])
     return BlockSimulation(model, RealtimeSolver(model, budget=1e9, rtol=RTOL_FLAP, linear_solver=linear_solver))
@@ -124,24 +120,13 @@ SCENES = {
 }
 
 
-def _scene(dim) -> BenchScene:
-    if dim not in SCENES:
-        raise ParameterError("dim", f"dim must be one of {sorted(SCENES)}, got {dim!r}")
-    return SCENES[dim]
-
-
 def ex43_frames(model, n_frames: int, rtol: float = RTOL_FLAP, path=flap_path):
     """``(ms per frame, Newton iterations per frame, u)`` of ``n_frames`` the ex43 way (``asm``, ``condense``,
     ``solve`` every iteration; the mass lumped, ``dt = 1/30``) on ``model``, its second handle on ``path``
     (:func:`flap_path`; in 3D :func:`block_path`)."""
     basis, grab, dt = model.basis, model.handles[1], FRAME_BUDGET
     K_form, r_form = tangent_form(model.material), residual_form(model.material)
-    d = model.X.shape[0]
-
-    @BilinearForm
-    def mass(u, v, w):
-        return TISSUE_DENSITY * sum(u[i] * v[i] for i in range(d))
-
+    mass = BilinearForm(lambda u, v, w: TISSUE_DENSITY * dot(u, v))
     M = sp.diags(np.asarray(asm(mass, basis).sum(axis=1)).ravel()).tocsr()
     u, v = basis.zeros(), basis.zeros()
     times, iterations = [], []
@@ -200,11 +185,10 @@ def _paced_frames(scene: BenchScene, n, n_frames, linear_solver):
 
 
 def frame_floor(sim, repeats: int = 9) -> dict:
-    """Median ms of a tangent assembly and of one back-substitution at the simulation's state: their sum, the
-    least a frame costs (``floor_ms``). The back-substitution is with the backend the simulation's solver keeps
-    (for a multigrid preconditioner: one application of it). Also one factorization's ms
-    (``factorization_ms``), the stored entries of the factors (``factor_nnz``; a multigrid hierarchy's: every
-    level's matrix) and of the free block of the tangent (``matrix_nnz``)."""
+    """Median ms of a tangent assembly and of one back-substitution (by the backend the simulation's solver keeps;
+    multigrid: one application) at the simulation's state: their sum ``floor_ms`` is the least a frame costs. Also
+    one factorization's ms (``factorization_ms``), the stored entries of the factors (``factor_nnz``; multigrid:
+    every level's matrix) and of the tangent's free block (``matrix_nnz``)."""
     model, u = sim.model, sim.u
     free = np.isin(np.arange(model.n_dofs), model.prescribed()[0], invert=True)
     rhs = -model.gradient(u)[free]
@@ -221,23 +205,22 @@ def frame_floor(sim, repeats: int = 9) -> dict:
             "factor_nnz": None if nnz is None else int(nnz), "matrix_nnz": int(A.nnz)}
 
 
-_COLUMNS = [
-    ("dofs", "dofs", "{:d}"), ("fast_median_ms", "median [ms]", "{:.1f}"),
-    ("fast_p95_ms", "p95 [ms]", "{:.1f}"), ("fast_p99_ms", "p99 [ms]", "{:.1f}"), ("fast_fps", "fps", "{:.0f}"),
-    ("fast_newton", "Newton/frame", "{:.2f}"),
-    ("fast_cg", "CG/frame", "{:.1f}"), ("fast_factorizations", "factorizations", "{:d}"),
-    ("floor_ms", "floor [ms]", "{:.1f}"), ("frame_over_floor", "frame / floor", "{:.1f}x"),
-    ("ex43_median_ms", "ex43 way [ms]", "{:.0f}"), ("ex43_newton", "ex43 Newton/frame", "{:.2f}"),
-    ("fast_residual", "median rel. residual", "{:.1e}"), ("fast_converged", "converged", "{:.0%}"),
-    ("fast_min_J", "min J", "{:.3f}"), ("fast_inverted", "inverted", "{:d}"),
-    ("speedup", "speedup", "{:.1f}x"), ("budget_converged", "in budget: converged", "{:.0%}"),
-    ("budget_residual", "in budget: median rel. residual", "{:.1e}"), ("budget_min_J", "in budget: min J", "{:.3f}"),
-    ("budget_inverted", "in budget: inverted", "{:d}"), ("budget_undone", "in budget: left undone", "{}"),
-    ("budget_p95_ms", "in budget: p95 [ms]", "{:.1f}"), ("budget_p99_ms", "in budget: p99 [ms]", "{:.1f}"),
-    ("budget_unconverged_residual", "in budget: worst unconverged rel. residual", "{:.1e}"),
-    ("budget_off_frame", "in budget: frames with a step off the frame", "{:d}"),
-    ("budget_steps", "in budget: steps committed", "{:d}"),
-]
+_COLUMNS = [("dofs", "dofs", "{:d}"), ("fast_median_ms", "median [ms]", "{:.1f}"),
+            ("fast_p95_ms", "p95 [ms]", "{:.1f}"), ("fast_p99_ms", "p99 [ms]", "{:.1f}"), ("fast_fps", "fps", "{:.0f}"),
+            ("fast_newton", "Newton/frame", "{:.2f}"), ("fast_cg", "CG/frame", "{:.1f}"),
+            ("fast_factorizations", "factorizations", "{:d}"), ("floor_ms", "floor [ms]", "{:.1f}"),
+            ("frame_over_floor", "frame / floor", "{:.1f}x"), ("ex43_median_ms", "ex43 way [ms]", "{:.0f}"),
+            ("ex43_newton", "ex43 Newton/frame", "{:.2f}"), ("fast_residual", "median rel. residual", "{:.1e}"),
+            ("fast_converged", "converged", "{:.0%}"), ("fast_min_J", "min J", "{:.3f}"),
+            ("fast_inverted", "inverted", "{:d}"), ("speedup", "speedup", "{:.1f}x"),
+            ("budget_converged", "in budget: converged", "{:.0%}"),
+            ("budget_residual", "in budget: median rel. residual", "{:.1e}"),
+            ("budget_min_J", "in budget: min J", "{:.3f}"), ("budget_inverted", "in budget: inverted", "{:d}"),
+            ("budget_undone", "in budget: left undone", "{}"), ("budget_p95_ms", "in budget: p95 [ms]", "{:.1f}"),
+            ("budget_p99_ms", "in budget: p99 [ms]", "{:.1f}"),
+            ("budget_unconverged_residual", "in budget: worst unconverged rel. residual", "{:.1e}"),
+            ("budget_off_frame", "in budget: frames with a step off the frame", "{:d}"),
+            ("budget_steps", "in budget: steps committed", "{:d}")]
 
 
 def _accuracy_columns(prefix: str, reports) -> dict:
@@ -250,15 +233,15 @@ def _accuracy_columns(prefix: str, reports) -> dict:
 
 
 #: the recorded table's columns (docs/benchmarks.md and chapter 7 print it): times, work, accuracy, the budgeted run
-_RECORDED = [
-    ("triangles", "triangles", "{:d}"), ("fast_median_ms", "median ms/frame", "{:.1f}"), ("fast_p95_ms", "p95 ms", "{:.1f}"),
-    ("fast_newton", "Newton/frame", "{:.2f}"), ("fast_cg", "CG/frame", "{:.1f}"), ("floor_ms", "floor ms", "{:.1f}"),
-    ("frame_over_floor", "frame / floor", "{:.1f}x"), ("ex43_median_ms", "ex43 way ms/frame", "{:.0f}"),
-    ("fast_converged", "converged", "{:.0%}"), ("budget_converged", "budgeted: converged", "{:.0%}"),
-    ("budget_p99_ms", "budgeted: p99 ms", "{:.0f}"), ("budget_first_ms", "budgeted: first frame ms", "{:.0f}"),
-    ("budget_p99_after_first_ms", "budgeted: p99 ms after the first", "{:.0f}"),
-    ("budget_steps", "budgeted: steps in 60 frames", "{:.0f}"), ("budget_residual", "budgeted: median residual", "{:.0e}"),
-]
+_RECORDED = [("triangles", "triangles", "{:d}"), ("fast_median_ms", "median ms/frame", "{:.1f}"),
+             ("fast_p95_ms", "p95 ms", "{:.1f}"), ("fast_newton", "Newton/frame", "{:.2f}"),
+             ("fast_cg", "CG/frame", "{:.1f}"), ("floor_ms", "floor ms", "{:.1f}"),
+             ("frame_over_floor", "frame / floor", "{:.1f}x"), ("ex43_median_ms", "ex43 way ms/frame", "{:.0f}"),
+             ("fast_converged", "converged", "{:.0%}"), ("budget_converged", "budgeted: converged", "{:.0%}"),
+             ("budget_p99_ms", "budgeted: p99 ms", "{:.0f}"), ("budget_first_ms", "budgeted: first frame ms", "{:.0f}"),
+             ("budget_p99_after_first_ms", "budgeted: p99 ms after the first", "{:.0f}"),
+             ("budget_steps", "budgeted: steps in 60 frames", "{:.0f}"),
+             ("budget_residual", "budgeted: median residual", "{:.0e}")]
 
 
 def format_realtime_table(rows) -> str:
@@ -304,7 +287,7 @@ def realtime_benchmark(sizes=None, frames: int = 90, baseline_frames: int | None
     """Run the benchmark of the ``dim``-dimensional scene (:data:`SCENES`); return one dict per size (and write
     JSON and CSV into ``out``: ``realtime.*`` in 2D, ``realtime3d.*`` in 3D). ``sizes`` (triangles or tetrahedra),
     ``baseline_frames`` (``0`` skips the ex43 way) and ``linear_solver`` default to the scene's."""
-    scene = _scene(dim)
+    scene = SCENES[check_count("dim", dim, 2, 3)]
     sizes = check_sizes(scene.sizes if sizes is None else sizes)
     frames = check_count("frames", frames, 1)
     baseline_frames = check_count("baseline_frames", scene.baseline_frames if baseline_frames is None
@@ -390,10 +373,9 @@ _COMPARISON = [("linear_solver", "linear solver", "{}"), ("fast_median_ms", "med
                ("fast_p95_ms", "p95 [ms]", "{:.1f}"), ("fast_newton", "Newton/frame", "{:.2f}"),
                ("fast_cg", "CG/frame", "{:.1f}"), ("fast_factorizations", "factorizations", "{:d}"),
                ("factorization_ms", "factorization [ms]", "{:.0f}"),
-               ("back_substitution_ms", "back-substitution [ms]", "{:.1f}"),
-               ("assembly_ms", "assembly [ms]", "{:.1f}"), ("fill", "nnz(factors) / nnz(K)", "{:.1f}"),
-               ("floor_ms", "floor [ms]", "{:.1f}"), ("frame_over_floor", "frame / floor", "{:.1f}x"),
-               ("fast_converged", "converged", "{:.0%}")]
+               ("back_substitution_ms", "back-substitution [ms]", "{:.1f}"), ("assembly_ms", "assembly [ms]", "{:.1f}"),
+               ("fill", "nnz(factors) / nnz(K)", "{:.1f}"), ("floor_ms", "floor [ms]", "{:.1f}"),
+               ("frame_over_floor", "frame / floor", "{:.1f}x"), ("fast_converged", "converged", "{:.0%}")]
 
 
 def format_comparison_table(rows) -> str:
@@ -407,7 +389,7 @@ def solver_comparison(n: int = 19000, approaches=APPROACHES, frames: int = 60, r
     here), ``rounds`` times, alternating (so a busy machine weighs on each alike); one row per approach: the
     medians over rounds of each round's columns (as :func:`realtime_benchmark`'s, with the factorization's ms and
     the fill ``nnz(factors) / nnz(K)``), each round's median and the machine's load before each."""
-    scene = _scene(dim)
+    scene = SCENES[check_count("dim", dim, 2, 3)]
     n, frames, rounds = check_count("n", n), check_count("frames", frames), check_count("rounds", rounds)
     names = [a for a in approaches if _usable(a)]
     if not names:
@@ -427,16 +409,12 @@ def solver_comparison(n: int = 19000, approaches=APPROACHES, frames: int = 60, r
                 f"{row['fast_newton']:.2f} Newton and {row['fast_cg']:.1f} CG a frame, factorization "
                 f"{row['factorization_ms']:.0f} ms, back-substitution {row['back_substitution_ms']:.1f} ms")
     rows = []
-    for a in names:
-        row = dict(runs[a][0])
-        for k, v in runs[a][0].items():
-            if isinstance(v, (int, float)) and not isinstance(v, bool):
-                row[k] = type(v)(np.median([run[k] for run in runs[a] if run.get(k) is not None]))
-        row["approach"] = a
-        row["fill"] = row["factor_nnz"] / row["matrix_nnz"] if row.get("factor_nnz") else None
-        row["round_medians_ms"] = [run["fast_median_ms"] for run in runs[a]]
-        row["round_p95_ms"] = [run["fast_p95_ms"] for run in runs[a]]
-        rows.append(row)
+    for a, each in runs.items():
+        row = {**each[0], **{k: type(v)(np.median([run[k] for run in each if run.get(k) is not None]))
+                             for k, v in each[0].items() if isinstance(v, (int, float)) and not isinstance(v, bool)}}
+        rows.append({**row, "approach": a, "fill": row["factor_nnz"] / row["matrix_nnz"] if row["factor_nnz"] else None,
+                     "round_medians_ms": [run["fast_median_ms"] for run in each],
+                     "round_p95_ms": [run["fast_p95_ms"] for run in each]})
     say(format_comparison_table(rows))
     if out is not None:
         record = {"benchmark": f"{scene.name}-solvers", "description": solver_comparison.__doc__.split(".")[0],

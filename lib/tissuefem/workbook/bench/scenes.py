@@ -71,19 +71,20 @@ def variants(n_triangles):
     return out
 
 
+def _cut_while_dragging(n_triangles, frames_before, method=CUT["method"], **options):
+    """A new simulation of the base dragged ``frames_before`` frames, then cut along :data:`CUT`: ``(sim, the cut's
+    ms, its ms of the thread's CPU time)``."""
+    sim = Simulation(Scene.from_dict(_base(n_triangles)), **options)
+    flap_drag(sim, frames_before)
+    start, cpu = time.perf_counter(), time.thread_time()
+    sim.cut(CUT["path"], method=method)
+    return sim, 1e3 * (time.perf_counter() - start), 1e3 * (time.thread_time() - cpu)
+
+
 def cut_costs(n_triangles, repeats=3) -> dict:
     """Median ms of one cut during the drag (the edit, new model and solver), through elements and edges."""
-    out = {}
-    for method in ("elements", "edges"):
-        times = []
-        for _ in range(int(repeats)):
-            sim = Simulation(Scene.from_dict(_base(n_triangles)))
-            flap_drag(sim, 3)
-            start = time.perf_counter()
-            sim.cut(CUT["path"], method=method)
-            times.append(1e3 * (time.perf_counter() - start))
-        out[f"through {method}"] = float(np.median(times))
-    return out
+    return {f"through {method}": float(np.median([_cut_while_dragging(n_triangles, 3, method)[1]
+                                                  for _ in range(int(repeats))])) for method in ("elements", "edges")}
 
 
 def cut_frame_costs(n_triangles, repeats=5, frames_before=3) -> dict:
@@ -96,14 +97,11 @@ def cut_frame_costs(n_triangles, repeats=5, frames_before=3) -> dict:
     runs = {"kept": [], "fresh": []}
     for _ in range(repeats):
         for name, keep in (("kept", True), ("fresh", False)):
-            sim = Simulation(Scene.from_dict(_base(n_triangles)), keep_factorization=keep)
-            flap_drag(sim, frames_before)
-            start, cpu = time.perf_counter(), time.thread_time()
-            sim.cut(CUT["path"], method=CUT["method"])
-            cut = time.perf_counter() - start
+            sim, cut, cut_cpu = _cut_while_dragging(n_triangles, frames_before, keep_factorization=keep)
+            cpu = time.thread_time()
             report = flap_drag(sim, 1, start=frames_before)[0]
-            cpu = time.thread_time() - cpu
-            runs[name].append((1e3 * cut, 1e3 * report.elapsed, report.newton.factorizations, 1e3 * cpu))
+            cpu = cut_cpu + 1e3 * (time.thread_time() - cpu)
+            runs[name].append((cut, 1e3 * report.elapsed, report.newton.factorizations, cpu))
             sim.solver.linear.close()  # the fresh factorization under way ends before the next run
     out = {}
     for name, rows in runs.items():

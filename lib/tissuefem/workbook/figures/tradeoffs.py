@@ -55,11 +55,10 @@ def _short(value) -> str:
 
 
 def _finite(r) -> bool:
-    e, c = r.get("error"), r.get("ms_median")
-    return e is not None and c is not None and math.isfinite(e) and math.isfinite(c) and e > 0 and c > 0
+    return all(v is not None and math.isfinite(v) and v > 0 for v in (r.get("error"), r.get("ms_median")))
 
 
-def plot_pareto(results, path=None, annotate=True) -> Figure:
+def plot_pareto(results, path=None) -> Figure:
     """Error against ms per frame for every knob's settings, one panel per benchmark, with the baseline
     (star), the Pareto front (grey; resolution :data:`ERROR_RESOLUTION`) and the budget line."""
     rows = results["knobs"]
@@ -79,14 +78,12 @@ def plot_pareto(results, path=None, annotate=True) -> Figure:
             if not pts:
                 continue
             ax.loglog([r["ms_median"] for r in pts], [r["error"] for r in pts], marker=marker, color=color,
-                      ls="-" if knob in ("mesh", "P2", "quadrature", "newton_tolerance", "newton_cap", "time_step")
-                      else "none", lw=1.2, ms=6, alpha=0.9, label=label)
-            if annotate and knob in ("material", "linear_solver", "newton_cap", "time_step"):
+                      ls="none" if knob in ("material", "linear_solver") else "-", lw=1.2, ms=6, alpha=0.9, label=label)
+            if knob in ("material", "linear_solver", "newton_cap", "time_step"):
                 labels[ax] += [(r["ms_median"], r["error"], _short(r["value"]), color) for r in pts]
         front = pareto_front([r["ms_median"] for r in sel], [r["error"] for r in sel], rtol=ERROR_RESOLUTION)
         if front.size:
-            fc = [sel[i]["ms_median"] for i in front]
-            fe = [sel[i]["error"] for i in front]
+            fc, fe = [sel[i]["ms_median"] for i in front], [sel[i]["error"] for i in front]
             ax.step(fc + [fc[-1] * 3], fe + [fe[-1]], where="post", color="0.6", lw=3, alpha=0.35, zorder=0,
                     label="Pareto front")
         base = [r for r in sel if r.get("baseline")]
