@@ -9,8 +9,8 @@ copy does not hold become extra ("virtual") nodes.
 1. **Where the stroke lies.** The P1 map of a triangle is affine, so each segment ``a -> b`` of the stroke (drawn on
    the deformed tissue) is clipped in barycentric coordinates, keeping ``lambda_i(a) + s (lambda_i(b) -
    lambda_i(a)) >= 0``. A stroke within 1e-6 edge lengths of a node is first moved onto it.
-2. **The material of an element** is a :class:`Region`: its polygon, *slits* and *severed* edge parts; its weight
-   (the polygon's share of the triangle) is what :class:`~tissuefem.engine.assembly.P1Assembler` integrates.
+2. **The material of an element** is a :class:`Region` (polygons, *slits*, *severed* edge parts); its weight, the
+   polygons' share of the triangle, is what :class:`~tissuefem.engine.assembly.P1Assembler` integrates.
 3. **Splitting.** The region's boundary, its slits and the stroke's new pieces form a planar graph; dangling edges (a
    crack ending in the material) are kept as slits; its ``k`` faces are ``k`` copies of the element.
 4. **Nodes.** Two elements across a mesh edge are *joined* where the parts of the edge their regions touch (less what
@@ -19,9 +19,8 @@ copy does not hold become extra ("virtual") nodes.
 5. **The crack tip.** The triangle holding the end of a crack is one piece, so (as in [1]_) it is not duplicated: the
    crack closes within one element of the drawn tip (phantom-node methods [3]_ make the same choice).
 6. **No slivers.** A piece lighter than ``min_weight`` is merged into its neighbour across the cut and the parts of
-   the triangle's edges that bounded it are severed instead (the :class:`Wound` stays where it was drawn). A light
-   piece that stays is tied to its neighbours by a ghost penalty [4]_ (:class:`~tissuefem.engine.terms.GhostPenalty`)
-   on the model, so that neither spikes nor crumpling lips appear.
+   the triangle's edges that bounded it are severed instead. A light piece that stays is tied to its neighbours by a
+   ghost penalty [4]_ (:class:`~tissuefem.engine.terms.GhostPenalty`), so that neither spikes nor crumpling lips appear.
 7. **One element per set of nodes.** Copies of one triangle with the same three nodes (e.g. the corners outside a
    V-shaped crack) are one element, whose region may have several polygons.
 
@@ -49,7 +48,7 @@ from ..engine.meshes import signed_areas
 from ..engine.parameters import check_real
 from .geometry import (EPS, FULL_TOUCH, WHOLE, Region, carry_names, check_points, check_regions, clip_to_body, cross,
                        crossings, edge_intervals, edge_param, edge_point, edges_of, element_edges, element_weights,
-                       mesh_arrays, merge_intervals, new_mesh, node_positions, overlaps, polygon_area, polygon_contains,
+                       mesh_arrays, merge_intervals, node_positions, overlaps, polygon_area, polygon_contains,
                        region_touch, reversed_intervals, snap, subtract_intervals, winding)
 from .surfaces import contact_surface
 from .topology import MeshEdit, excise
@@ -598,7 +597,7 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
     touches = np.ones((3, elements.size), dtype=bool)  # which local edges each element's material touches
     for e, touch in new_touch.items():
         touches[:, e] = [bool(iv) for iv in touch]
-    cut_mesh = carry_names(mesh, new_mesh(p[:, parent], new_t), parent, elements, touches)
+    cut_mesh = carry_names(mesh, new_t, parent, elements, touches)
     return ElementCut(mesh=cut_mesh, parent=parent, elements=elements, cut_edges=cut_edges, n_old_nodes=n,
                       n_old_elements=m, weights=new_w, regions=new_regions, wound=wound,
                       material=node_material(cut_mesh, new_regions))

@@ -85,28 +85,29 @@ def element_edges(p, t):
     return lo * n + hi, np.where(s > 0, 1, -1)
 
 
-def new_mesh(p, t) -> MeshTri:
-    """A MeshTri that keeps every triangle's vertex order, from C-ordered copies (scikit-fem would copy the Fortran
-    order fancy indexing leaves, with a warning on large meshes)."""
-    return MeshTri(np.ascontiguousarray(p), np.ascontiguousarray(t), sort_t=False)
-
-
-def carry_names(old, new, parent, elements, touches=None, name=None, opened=None) -> MeshTri:
-    """``new`` with the named boundaries and subdomains of ``old`` carried across an edit: a facet keeps a name if its
-    nodes' parents formed a facet of that name (and, with ``touches`` (bool (3, n_new_elements)), some element's
-    material touches it); the facets ``opened`` (bool per facet) join the set ``name``; subdomains go to every copy."""
+def carry_names(old, new_t, parent, elements, touches=None, name=None) -> MeshTri:
+    """The mesh of the triangles ``new_t`` on the copies ``parent`` of the nodes of ``old`` (every triangle's vertex
+    order kept: C-ordered copies, as scikit-fem would copy the Fortran order fancy indexing leaves, with a warning),
+    with the named boundaries and subdomains of ``old`` carried across the edit: a facet keeps a name if its nodes'
+    parents formed a facet of that name (and, with ``touches`` (bool (3, n_new_elements)), some element's material
+    touches it); the facets the edit opened (inside ``old``, on the boundary now) join the set ``name``; subdomains go
+    to every copy."""
     n_old = old.p.shape[1]
+    new = MeshTri(np.ascontiguousarray(np.asarray(old.p, dtype=float)[:, parent]), np.ascontiguousarray(new_t),
+                  sort_t=False)
+    parent_keys = pair_keys(parent[np.asarray(new.facets, dtype=np.int64)], n_old)
+    old_facets = np.asarray(old.facets, dtype=np.int64)
     names = {}
     if old.boundaries:
         t2f = np.asarray(new.t2f)  # row k: the facet of local edge k (scikit-fem's edge order)
-        parent_keys = pair_keys(parent[np.asarray(new.facets, dtype=np.int64)], n_old)
-        old_facets = np.asarray(old.facets, dtype=np.int64)
         hit = np.unique(t2f if touches is None else t2f[touches])
         for label, facets in old.boundaries.items():
             old_keys = pair_keys(old_facets[:, np.asarray(facets, dtype=np.int64)], n_old)
             names[label] = hit[np.isin(parent_keys[hit], old_keys)].astype(np.int32)
     if name is not None:
-        names[name] = np.union1d(names.get(name, np.zeros(0, dtype=np.int32)), np.flatnonzero(opened)).astype(np.int32)
+        inside = pair_keys(old_facets[:, np.asarray(old.f2t)[1] >= 0], n_old)
+        opened = np.flatnonzero((np.asarray(new.f2t)[1] < 0) & np.isin(parent_keys, inside))
+        names[name] = np.union1d(names.get(name, np.zeros(0, dtype=np.int32)), opened).astype(np.int32)
     out = new.with_boundaries(names) if names else new
     if old.subdomains:
         out = out.with_subdomains({label: np.flatnonzero(np.isin(elements, np.asarray(els))).astype(np.int32)

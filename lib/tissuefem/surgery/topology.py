@@ -17,8 +17,8 @@ from scipy.sparse import csgraph
 
 from ..engine.contact.surface import cross, segment_distance
 from ..engine.meshes import MeshMap
-from ..engine.parameters import ParameterError, check_count, check_indices, show
-from .geometry import (carry_names, check_points, clip_to_body, mesh_arrays, new_mesh, node_positions, pair_keys,
+from ..engine.parameters import ParameterError, call_user, check_count, check_indices, show
+from .geometry import (carry_names, check_points, clip_to_body, mesh_arrays, node_positions, pair_keys, polygon_area,
                        polygon_contains)
 
 __all__ = ["MeshEdit", "duplicate_along_edges", "cut_path", "incise", "excise", "connected_components"]
@@ -248,12 +248,6 @@ def cut_path(mesh, polyline, positions=None) -> np.ndarray:
     return np.asarray(path, dtype=np.int64)
 
 
-def _opened(mesh, parent, interior_keys, n_old) -> np.ndarray:
-    """Boundary facets of the new ``mesh`` whose parent pair was an interior edge of the old mesh."""
-    new_keys = pair_keys(parent[np.asarray(mesh.facets, dtype=np.int64)], n_old)
-    return (np.asarray(mesh.f2t)[1] < 0) & np.isin(new_keys, interior_keys)
-
-
 def incise(mesh, polyline, positions=None) -> MeshEdit:
     """Cut ``mesh`` (not modified) along the path of mesh edges (:func:`cut_path`) of a drawn polyline, opened by
     :func:`duplicate_along_edges` (a crack's tip stays closed). Returns a :class:`MeshEdit` (reference coordinates,
@@ -267,26 +261,22 @@ def incise(mesh, polyline, positions=None) -> MeshEdit:
     # steps between copies of one point (crossing an old wound) are not edges; edges on the boundary are already open
     pairs = pairs[:, np.isin(pair_keys(pairs, n), interior_keys)]
     new_t, parent = duplicate_along_edges(t, n, pairs)
-    plain = new_mesh(p[:, parent], new_t)
-    wound = _opened(plain, parent, interior_keys, n)
-
+    elements = np.arange(t.shape[1], dtype=np.int64)
+    cut = carry_names(mesh, new_t, parent, elements, name="cut")
     # the path's edges that actually opened, once each, in the order of the path
-    opened_keys = pair_keys(parent[np.asarray(plain.facets, dtype=np.int64)[:, wound]], n)
+    opened_keys = pair_keys(parent[np.asarray(cut.facets, dtype=np.int64)[:, cut.boundaries["cut"]]], n)
     keys = pair_keys(pairs, n)
     first = np.sort(np.unique(keys, return_index=True)[1])
     cut_edges = pairs[:, first[np.isin(keys[first], opened_keys)]]
     if cut_edges.shape[1] == 0:
         raise ValueError(f"polyline opens no edge: its path {path.tolist()} runs along the boundary or is a single "
                          f"interior edge (a crack needs at least one node strictly inside it)")
-    elements = np.arange(t.shape[1], dtype=np.int64)
-    return MeshEdit(mesh=carry_names(mesh, plain, parent, elements, name="cut", opened=wound), parent=parent,
-                    elements=elements, cut_edges=cut_edges, n_old_nodes=n, n_old_elements=t.shape[1])
+    return MeshEdit(mesh=cut, parent=parent, elements=elements, cut_edges=cut_edges, n_old_nodes=n, n_old_elements=t.shape[1])
 
 
 def _has_area(poly) -> bool:
     """Whether the polygon ``poly`` (k, 2) encloses an area beyond round-off of its size."""
-    area = 0.5 * (poly[:, 0] @ np.roll(poly[:, 1], -1) - poly[:, 1] @ np.roll(poly[:, 0], -1))
-    return abs(area) > 1e-12 * np.ptp(poly, axis=0).max() ** 2
+    return abs(polygon_area(poly.tolist())) > 1e-12 * np.ptp(poly, axis=0).max() ** 2
 
 
 def excise(mesh, region, positions=None) -> MeshEdit:
@@ -300,10 +290,7 @@ def excise(mesh, region, positions=None) -> MeshEdit:
     m = t.shape[1]
     centroids = x[:, t].mean(axis=1)
     if callable(region):
-        try:
-            remove = np.asarray(region(centroids.copy()))
-        except Exception as err:  # the user's function may raise anything: a refusal by name, not a crash
-            raise ValueError(f"region (a function of the centroids) raised {type(err).__name__}: {err}") from None
+        remove = np.asarray(call_user("region", "function of the centroids", region, centroids.copy()))
         if remove.shape != (m,) or remove.dtype != bool:
             raise ValueError(f"region, as a function of the centroids (2, m), must return a bool array shaped "
                              f"({m},), got dtype {remove.dtype} shape {remove.shape}")
@@ -324,9 +311,5 @@ def excise(mesh, region, positions=None) -> MeshEdit:
     elements = np.flatnonzero(~remove).astype(np.int64)
     parent, new_t = np.unique(t[:, elements], return_inverse=True)  # increasing: the old order, compacted
     new_t = new_t.reshape(3, -1).astype(np.int64)
-    n = p.shape[1]
-    interior_keys = pair_keys(np.asarray(mesh.facets, dtype=np.int64)[:, np.asarray(mesh.f2t)[1] >= 0], n)
-    plain = new_mesh(p[:, parent], new_t)
-    rim = _opened(plain, parent, interior_keys, n)
-    return MeshEdit(mesh=carry_names(mesh, plain, parent, elements, name="defect", opened=rim), parent=parent,
-                    elements=elements, cut_edges=np.zeros((2, 0), dtype=np.int64), n_old_nodes=n, n_old_elements=m)
+    return MeshEdit(mesh=carry_names(mesh, new_t, parent, elements, name="defect"), parent=parent, elements=elements,
+                    cut_edges=np.zeros((2, 0), dtype=np.int64), n_old_nodes=p.shape[1], n_old_elements=m)
