@@ -34,12 +34,9 @@ def contact_surface(mesh, weights=None, regions=None) -> ContactSurface:
     if not regions:
         return ContactSurface.from_mesh(mesh)
     key, side = element_edges(p, t)  # edge k of element e: nodes t[k], t[k+1]; side of the edge e lies on
-    # which elements lie across each element edge: the same node pair, the other side
-    flat_key, flat_side = key.ravel(), side.ravel()
-    order = np.lexsort((flat_side, flat_key))
-    by_key = {}
-    for i in order.tolist():
-        by_key.setdefault(int(flat_key[i]), []).append(i)
+    by_edge = {}  # (node pair, side) -> the (local edge, element) there
+    for i, edge in enumerate(zip(key.ravel().tolist(), side.ravel().tolist())):
+        by_edge.setdefault(edge, []).append(divmod(i, m))
     cut = np.asarray((mesh.boundaries or {}).get("cut", []), dtype=np.intp)
     cut_facets = set(pair_keys(np.asarray(mesh.facets)[:, cut], n).tolist())
 
@@ -51,21 +48,15 @@ def contact_surface(mesh, weights=None, regions=None) -> ContactSurface:
     for e in range(m):
         for k in range(3):
             kk = int(key[k, e])
-            across = [i for i in by_key[kk] if flat_side[i] != side[k, e]]
-            if e not in regions and all(i % m not in regions for i in across):
-                if across:
-                    continue  # two whole elements share this edge: inside the material
-                touched, joinable, joined = [(0.0, 1.0)], [(0.0, 1.0)], []
-            else:
-                touched, joinable = (iv[k] for iv in touch(e))
-                reach = []
-                for i in across:
-                    l, f = divmod(i, m)
-                    f_iv = touch(f)[1][l]
-                    if int(t[l, f]) != int(t[k, e]):  # the edge runs the other way in f
-                        f_iv = reversed_intervals(f_iv)
-                    reach += f_iv
-                joined = intersect_intervals(joinable, merge_intervals(reach))
+            across = by_edge.get((kk, -int(side[k, e])), [])  # the same node pair, the other side
+            if across and e not in regions and all(f not in regions for _, f in across):
+                continue  # two whole elements share this edge: inside the material
+            touched, joinable = (iv[k] for iv in touch(e))
+            reach = []
+            for l, f in across:
+                f_iv = touch(f)[1][l]
+                reach += f_iv if int(t[l, f]) == int(t[k, e]) else reversed_intervals(f_iv)  # f runs it the other way
+            joined = intersect_intervals(joinable, merge_intervals(reach))
             for lo, hi in subtract_intervals(touched, joined):  # a lip where it is on a wound or severed
                 severed = bool(subtract_intervals([(lo, hi)], joinable))
                 pieces.append((e, edge_point(k, lo), edge_point(k, hi), kk in cut_facets or severed))
