@@ -40,14 +40,14 @@ areas (:func:`lumped_mass`) carry mass and momentum over exactly.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
 from ..engine.meshes import signed_areas
 from ..engine.parameters import check_real
 from .geometry import (EPS, FULL_TOUCH, WHOLE, Region, carry_names, check_points, check_regions, clip_to_body, cross,
-                       crossings, edge_intervals, edge_param, edge_point, edges_of, element_edges, element_weights,
+                       crossings, edge_intervals, edge_point, edges_of, element_edges, element_weights,
                        mesh_arrays, merge_intervals, node_positions, overlaps, polygon_area, polygon_contains,
                        region_touch, reversed_intervals, snap, subtract_intervals, winding)
 from .surfaces import contact_surface
@@ -75,8 +75,7 @@ class _Arrangement:
         self.verts, self.cells = [], {}  # the graph's points; the grid cells of 2 EPS holding them
         self.min_weight = min_weight
         polys = [[tuple(v) for v in poly] for poly in region.polygons]
-        self.old_severed = edge_intervals(region.severed)
-        self.new_severed = [[], [], []]
+        self.severed = list(region.severed)  # segments on the triangle's edges, cut off from the element across
 
         segs = [(poly[i], poly[(i + 1) % len(poly)], _P, None) for poly in polys for i in range(len(poly))]
         segs += [(tuple(a), tuple(b), _S, None) for a, b in region.slits]
@@ -122,7 +121,7 @@ class _Arrangement:
             if kind == _P:  # severs an edge of the triangle with an element across (else: an old wound, the boundary)
                 k = self._edge_of(u, v)
                 if k is not None and open_edge[k]:
-                    self.new_severed[k].append(self._interval(k, u, v))
+                    self.severed.append((self.verts[u], self.verts[v]))
                     self.wound.append(("edge", u, v, t0, t1, k))
             elif kind == _S:
                 self.wound.append(("inner", u, v, t0, t1))
@@ -150,10 +149,6 @@ class _Arrangement:
     def _edge_of(self, u, v):
         both = set(edges_of(self.verts[u])) & set(edges_of(self.verts[v]))
         return min(both) if both else None
-
-    def _interval(self, k, u, v):
-        s, e = edge_param(k, self.verts[u]), edge_param(k, self.verts[v])
-        return min(s, e), max(s, e)
 
     def _prune(self):
         """Move dangling cut edges (and cut loops that touch no boundary) to the slits."""
@@ -244,9 +239,7 @@ class _Arrangement:
             for u, v in self.faces[f]["edges"]:
                 key = _key(u, v)
                 if self.graph[key] == _P:
-                    k = self._edge_of(u, v)
-                    if k is not None:
-                        self.new_severed[k].append(self._interval(k, u, v))
+                    self.severed.append((self.verts[u], self.verts[v]))  # (one inside the triangle severs nothing)
                 elif self.face_of[(v, u)] == g:
                     del self.graph[key]  # dropped, not kept as a slit: the cut moved to the edges
 
@@ -271,20 +264,14 @@ class _Arrangement:
 
     def face_regions(self):
         """For every face: (Region, its touched intervals per local edge, whole?)."""
-        severed = [merge_intervals(self.old_severed[k] + self.new_severed[k]) for k in range(3)]
+        severed = edge_intervals(self.severed)
         slit_pts = [(self.verts[u], self.verts[v]) for u, v in self.slits]
         slit_face = [self.locate(_mid(a, b)) for a, b in slit_pts]
         out = []
         for i, f in enumerate(self.faces):
             pts = _simplify(f["points"])
-            touched = [[], [], []]
-            for (u, v) in f["edges"]:
-                if self.graph[_key(u, v)] != _P:
-                    continue
-                k = self._edge_of(u, v)
-                if k is not None:
-                    touched[k].append(self._interval(k, u, v))
-            touched = [merge_intervals(iv) for iv in touched]
+            touched = edge_intervals([(self.verts[u], self.verts[v]) for u, v in f["edges"]
+                                      if self.graph[_key(u, v)] == _P])
             cut_off = [(edge_point(k, a), edge_point(k, b)) for k in range(3)
                        for a, b in subtract_intervals(touched[k], subtract_intervals(touched[k], severed[k]))]
             touched = [subtract_intervals(touched[k], severed[k]) for k in range(3)]
@@ -366,9 +353,10 @@ def _through_nearby_nodes(x, t, pts):
     return np.array(out), np.array(param)
 
 
-def _stroke_pieces(x, t, pts):
-    """Pieces of the stroke in each triangle as drawn (collapsed triangles skipped): ``(pieces, orientation)``, with
-    ``pieces`` {element: [(stroke0, stroke1, a, b)]} (ends in local coordinates) and the sign of each drawn area."""
+def _stroke_pieces(x, t, pts, drawn):
+    """Pieces of the stroke ``pts`` in each triangle as drawn (collapsed triangles skipped): ``(pieces,
+    orientation)``, with ``pieces`` {element: [(stroke0, stroke1, a, b)]} (ends in local coordinates, and on the drawn
+    polyline, where ``drawn`` puts the points of ``pts``) and the sign of each drawn area."""
     X = x[:, t]  # (2, 3, m)
     x0, d1, d2 = X[:, 0], X[:, 1] - X[:, 0], X[:, 2] - X[:, 0]
     det = d1[0] * d2[1] - d1[1] * d2[0]
@@ -407,7 +395,8 @@ def _stroke_pieces(x, t, pts):
             pa_c, pb_c = snap(float(pa[0, c]), float(pa[1, c])), snap(float(pb[0, c]), float(pb[1, c]))
             if math.hypot(pb_c[0] - pa_c[0], pb_c[1] - pa_c[1]) <= EPS:
                 continue
-            pieces.setdefault(int(cand[c]), []).append((j + float(s_lo[c]), j + float(s_hi[c]), pa_c, pb_c))
+            s0, s1 = np.interp([j + float(s_lo[c]), j + float(s_hi[c])], np.arange(drawn.size), drawn)
+            pieces.setdefault(int(cand[c]), []).append((float(s0), float(s1), pa_c, pb_c))
     return pieces, np.sign(det)
 
 
@@ -530,17 +519,14 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
         raise ValueError("polyline changes nothing: it meets no material (it passes outside the body)")
     snapped, drawn = _through_nearby_nodes(x, t, pts)
     drawn = np.interp(drawn, np.arange(clipped.size), clipped)
-    pieces, orientation = _stroke_pieces(x, t, snapped)
-    vertex = np.arange(drawn.size)
+    pieces, orientation = _stroke_pieces(x, t, snapped, drawn)
     key, side = element_edges(p, t)
     flat_key, flat_side = key.ravel(), side.ravel()
     # an element edge has an element across when some element has the same node pair on the other side
     has_across = np.isin(flat_key * 2 + (flat_side > 0), flat_key * 2 + (flat_side < 0)).reshape(3, m)
     arrangements = {}
     for e in sorted(pieces):
-        cuts = [(float(np.interp(s0, vertex, drawn)), float(np.interp(s1, vertex, drawn)), a, b)
-                for s0, s1, a, b in pieces[e]]
-        arr = _Arrangement(regions.get(e, WHOLE), cuts, has_across[:, e], min_weight)
+        arr = _Arrangement(regions.get(e, WHOLE), pieces[e], has_across[:, e], min_weight)
         if arr.changed:
             arrangements[e] = arr
     if not arrangements:
@@ -722,17 +708,14 @@ def excise_through(mesh, polygon, positions=None, weights=None, regions=None, mi
     keep = second.elements
     new_of = np.full(m, -1, dtype=np.int64)  # the wound records of the surviving elements, renumbered
     new_of[keep] = np.arange(keep.size)
-    w = first.wound
-    stay = new_of[w.element] >= 0
-    element = new_of[w.element[stay]]
-    wound = Wound(element=element, side=w.side[stay], barycentric=w.barycentric[stay],
-                  nodes=np.asarray(second.mesh.t)[:, element].T.copy(), reference=w.reference[stay],
-                  stroke=w.stroke[stay], opened=w.opened[stay])
+    stay = new_of[first.wound.element] >= 0
+    wound = {f.name: getattr(first.wound, f.name)[stay] for f in fields(Wound)}
+    wound["element"] = new_of[wound["element"]]
+    wound["nodes"] = np.asarray(second.mesh.t)[:, wound["element"]].T.copy()
     regions = {new: first.regions[old] for new, old in enumerate(keep.tolist()) if old in first.regions}
-    return ElementCut(mesh=second.mesh, parent=first.parent[second.parent], elements=first.elements[keep],
-                      cut_edges=first.cut_edges, n_old_nodes=first.n_old_nodes, n_old_elements=first.n_old_elements,
-                      weights=first.weights[keep], regions=regions, wound=wound,
-                      material=node_material(second.mesh, regions))
+    return replace(first, mesh=second.mesh, parent=first.parent[second.parent], elements=first.elements[keep],
+                   weights=first.weights[keep], regions=regions, wound=Wound(**wound),
+                   material=node_material(second.mesh, regions))
 
 
 # --- what to draw ---

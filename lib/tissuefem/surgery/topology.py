@@ -23,8 +23,7 @@ from .geometry import (carry_names, check_points, clip_to_body, mesh_arrays, nod
 
 __all__ = ["MeshEdit", "duplicate_along_edges", "cut_path", "incise", "excise", "connected_components"]
 
-#: An edge costs ``length * (1 + _HUG * d / h)`` in :func:`cut_path`: large enough that a detour of one edge length
-#: away from the line costs more than several edges along it.
+#: The 10 in an edge's cost in :func:`cut_path`: a detour of one edge length away costs more than several edges along it
 _HUG = 10.0
 #: An end of the polyline this close to the boundary (in lengths of the nearest boundary facet) is on it.
 _NEAR_BOUNDARY = 0.5
@@ -53,18 +52,15 @@ def _node_indices(name: str, value, rows: int, n_nodes: int) -> np.ndarray:
 
 
 def duplicate_along_edges(t, n_nodes, edges):
-    """Duplicate nodes so that the given edges open: the core of a cut.
+    """Duplicate nodes so that the ``edges`` (2, k) (node pairs of triangle edges, either order, repeats allowed) of
+    the triangles ``t`` (3, m, not modified) on ``n_nodes`` nodes open: the core of a cut. Returns ``(new_t, parent)``:
+    the triangles in their vertex order with the copies' indices, and the old node of every node (copies appended).
 
-    ``t`` (3, m): the triangles (not modified) of a mesh with ``n_nodes`` nodes; ``edges`` (2, k): the node pairs to
-    open, each an edge of some triangle (in either order, repeats allowed). Returns ``(new_t, parent)``: ``new_t``
-    (3, m) keeps the triangles and their vertex order with the copies' indices; ``parent`` (n_nodes + n_copies,) maps
-    every node (the copies appended) to the old node.
-
-    The triangles round a node on a cut fall into *fans* linked across uncut edges, one per side of the wound: where
-    ``j`` cut edges meet, an interior node's ring breaks into ``j`` fans, a boundary node's into ``j + 1`` (the tip of
-    a crack stays closed; a single interior edge opens nothing). The fan with the lowest triangle keeps the node, the
-    others get new nodes in the order (node, lowest triangle). The fans are the connected components of the graph of
-    the cut nodes' *corners* (triangle, vertex) linked across uncut edges.
+    The triangles round a node on a cut fall into *fans*, the connected components of its corners (triangle, vertex)
+    linked across uncut edges, one per side of the wound: where ``j`` cut edges meet, an interior node's ring breaks
+    into ``j`` fans, a boundary node's into ``j + 1`` (a crack's tip stays closed; a single interior edge opens
+    nothing). The fan with the lowest triangle keeps the node, the others get new nodes in the order (node, lowest
+    triangle).
     """
     n_nodes = check_count("n_nodes", n_nodes, 0)
     t, edges = _node_indices("t", t, 3, n_nodes), _node_indices("edges", edges, 2, n_nodes)
@@ -179,15 +175,15 @@ def _boundary_snap(x, t, bfacets, end, towards):
 
 
 def cut_path(mesh, polyline, positions=None) -> np.ndarray:
-    """The path of mesh nodes (int64) that follows a ``polyline`` (k, 2), k >= 2, drawn at ``positions``.
+    """The path of mesh nodes (int64) that follows a ``polyline`` (k, 2), k >= 2, drawn at ``positions``: consecutive
+    nodes are the ends of a mesh edge, or two copies of one point (crossing an old wound).
 
-    Consecutive nodes are the ends of a mesh edge, or two copies of one point (crossing an old wound). Each vertex of
-    the polyline (first clipped to the body, :func:`~.geometry.clip_to_body`) snaps to the nearest node; an *end*
-    outside the body (or within half an edge of its boundary) snaps to the boundary node where it enters, so a stroke
-    across the body cuts it through. Between them runs a shortest path (Dijkstra) over the mesh edges, each costing
-    ``length * (1 + 10 d / h)`` (``d``: the mean distance of its nodes from the drawn segment, ``h``: the median edge
-    length): it hugs the line within about one element. ``ValueError`` for a bad polyline, one that misses the body,
-    collapses to a single node, or joins two unconnected pieces.
+    Each vertex of the polyline (first clipped to the body, :func:`~.geometry.clip_to_body`) snaps to the nearest
+    node; an *end* outside the body (or within half an edge of its boundary) to the boundary node where it enters, so
+    a stroke across the body cuts it through. Between them runs a shortest path (Dijkstra) over the mesh edges, each
+    costing ``length * (1 + 10 d / h)`` (``d``: the mean distance of its nodes from the drawn segment, ``h``: the
+    median edge length): it hugs the line within about one element. ``ValueError`` for a bad polyline, one that misses
+    the body, collapses to a single node, or joins two unconnected pieces.
     """
     pts = check_points("polyline", polyline, 2)
     p, t = mesh_arrays(mesh)
@@ -271,7 +267,8 @@ def incise(mesh, polyline, positions=None) -> MeshEdit:
     if cut_edges.shape[1] == 0:
         raise ValueError(f"polyline opens no edge: its path {path.tolist()} runs along the boundary or is a single "
                          f"interior edge (a crack needs at least one node strictly inside it)")
-    return MeshEdit(mesh=cut, parent=parent, elements=elements, cut_edges=cut_edges, n_old_nodes=n, n_old_elements=t.shape[1])
+    return MeshEdit(mesh=cut, parent=parent, elements=elements, cut_edges=cut_edges, n_old_nodes=n,
+                    n_old_elements=t.shape[1])
 
 
 def _has_area(poly) -> bool:
