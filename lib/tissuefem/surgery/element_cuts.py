@@ -48,7 +48,7 @@ from ..engine.meshes import signed_areas
 from ..engine.parameters import check_real
 from .geometry import (EPS, FULL_TOUCH, WHOLE, Region, carry_names, check_points, check_regions, clip_to_body, cross,
                        crossings, edge_intervals, edge_point, edges_of, element_edges, element_weights,
-                       mesh_arrays, merge_intervals, node_positions, overlaps, polygon_area, polygon_contains,
+                       mesh_arrays, node_positions, overlaps, polygon_area, polygon_contains,
                        region_touch, reversed_intervals, snap, subtract_intervals, winding)
 from .surfaces import contact_surface
 from .topology import MeshEdit, excise
@@ -472,7 +472,7 @@ def lumped_mass(mesh, weights=None, density=1.0) -> np.ndarray:
 # --- the cut ---
 def _one_element_per_nodes(arr, ids, faces, triples):
     """Copies of one triangle with the same three nodes (``triples``) as one element (step 7): its elements
-    ``[(provisional id, Region, touched, whole, area)]`` and ``{face: provisional id}``."""
+    ``[(provisional id, Region, whole, area)]`` and ``{face: provisional id}``."""
     by_triple = {}
     for i, nodes in enumerate(triples):
         by_triple.setdefault(nodes, []).append(i)
@@ -488,14 +488,13 @@ def _one_element_per_nodes(arr, ids, faces, triples):
         members = sorted({new_of[i] for i in g})
         area = sum(arr.faces[f]["area"] for f in members)
         if len(members) == 1:
-            region, touch, whole = faces[members[0]]
+            region, _, whole = faces[members[0]]
         else:
             region = Region.unchecked(tuple(faces[f][0].polygons[0] for f in members),
                                       np.concatenate([faces[f][0].slits for f in members]),
                                       np.concatenate([faces[f][0].severed for f in members]), 2.0 * area)
-            touch = [merge_intervals([iv for f in members for iv in faces[f][1][k]]) for k in range(3)]
             whole = False
-        out.append((ids[min(g)], region, touch, whole, area))
+        out.append((ids[min(g)], region, whole, area))
         pid_of_face.update({f: ids[min(g)] for f in members})
     return out, pid_of_face
 
@@ -565,24 +564,23 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
     new_t = np.concatenate([t, np.empty((3, elements.size - m), dtype=np.int64)], axis=1)
     new_w = np.concatenate([w, np.empty(elements.size - m)])
     new_regions = {e: r for e, r in regions.items() if e not in arrangements}
-    new_touch = {e: touched[e] for e in new_regions}
     for e in fan.tolist():
         if e not in arrangements:
             new_t[:, e] = triple(e, e)
     for e in affected.tolist():
-        total = sum(r[4] for r in final_faces[e])
-        for pid, region, touch, whole, area in final_faces[e]:
+        total = sum(r[3] for r in final_faces[e])
+        for pid, region, whole, area in final_faces[e]:
             E = final_id[pid]
             new_t[:, E] = triple(pid, e)
             new_w[E] = w[e] * area / total
             if not whole:
-                new_regions[E], new_touch[E] = region, touch
+                new_regions[E] = region
     parent = np.concatenate([np.arange(n, dtype=np.int64), np.asarray(new_parent, dtype=np.int64)])
     element_of_face = {e: {f: final_id[pid] for f, pid in faces.items()} for e, faces in pid_of_face.items()}
     wound, cut_edges = _wound(p, t, arrangements, element_of_face, orientation, new_t)
     touches = np.ones((3, elements.size), dtype=bool)  # which local edges each element's material touches
-    for e, touch in new_touch.items():
-        touches[:, e] = [bool(iv) for iv in touch]
+    for e, region in new_regions.items():
+        touches[:, e] = [bool(iv) for iv in region_touch(region)]
     cut_mesh = carry_names(mesh, new_t, parent, elements, touches)
     return ElementCut(mesh=cut_mesh, parent=parent, elements=elements, cut_edges=cut_edges, n_old_nodes=n,
                       n_old_elements=m, weights=new_w, regions=new_regions, wound=wound,
@@ -598,9 +596,11 @@ def _number_nodes(t, n, key, side, affected, piece_ids, touched):
     fan = np.flatnonzero(at_hub[t].any(axis=0))
     sel_k, sel_e = np.nonzero(at_hub[t[:, fan]] | at_hub[np.roll(t, -1, axis=0)[:, fan]])
     sel_e = fan[sel_e]
-    sides = {}  # edge key -> (elements on its + side, on its - side), as (element, local edge)
+    sides = {}  # edge key -> (elements on its + side, on its - side), as (element, local edge, forward?, corners)
     for k, e, kk, s in zip(sel_k.tolist(), sel_e.tolist(), key[sel_k, sel_e].tolist(), side[sel_k, sel_e].tolist()):
-        sides.setdefault(kk, ([], []))[0 if s > 0 else 1].append((e, k))
+        forward = t[k, e] == kk // n  # the local edge runs from the lower node to the higher
+        corners = (k, (k + 1) % 3) if forward else ((k + 1) % 3, k)  # the local vertices at the lower, higher node
+        sides.setdefault(kk, ([], []))[0 if s > 0 else 1].append((e, k, forward, corners))
 
     uf = {}  # union-find of the joined corners; a root is the least corner of its class
 
@@ -614,21 +614,16 @@ def _number_nodes(t, n, key, side, affected, piece_ids, touched):
         return iv if forward else reversed_intervals(iv)
 
     for kk, (plus, minus) in sides.items():
-        a_node, b_node = divmod(kk, n)
-        for e, k in plus:
-            e_fwd = t[k, e] == a_node
-            e_a, e_b = (k, (k + 1) % 3) if e_fwd else ((k + 1) % 3, k)
-            for f, l in minus:
-                f_fwd = t[l, f] == a_node
-                f_a, f_b = (l, (l + 1) % 3) if f_fwd else ((l + 1) % 3, l)
+        for e, k, e_fwd, e_corners in plus:
+            for f, l, f_fwd, f_corners in minus:
                 for pe in piece_ids.get(e, (e,)):
                     te = along(pe, k, e_fwd)
                     for pf in piece_ids.get(f, (f,)):
                         if not overlaps(te, along(pf, l, f_fwd)):
                             continue
-                        for node, ce, cf in ((a_node, (pe, e_a), (pf, f_a)), (b_node, (pe, e_b), (pf, f_b))):
+                        for node, ce, cf in zip(divmod(kk, n), e_corners, f_corners):
                             if at_hub[node]:
-                                r1, r2 = find(ce), find(cf)
+                                r1, r2 = find((pe, ce)), find((pf, cf))
                                 if r1 != r2:
                                     uf[max(r1, r2)] = min(r1, r2)
 

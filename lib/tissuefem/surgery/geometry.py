@@ -340,10 +340,8 @@ class Region:
     weight: float = field(init=False)
 
     def __post_init__(self):
-        polys = self.polygons
-        polys = (polys,) if isinstance(polys, np.ndarray) and polys.ndim == 2 else polys  # one polygon
         out, weight = [], 0.0
-        for i, poly in enumerate(polys):
+        for i, poly in enumerate(self.polygons):
             name = f"Region.polygons[{i}]"
             poly = check_points(name, poly, 3)
             if not ((poly >= -EPS).all() and (poly.sum(axis=1) <= 1.0 + EPS).all()):
