@@ -263,7 +263,7 @@ class _Arrangement:
         return next((i for i, f in enumerate(self.faces) if winding(pt, f["points"]) != 0), -1)
 
     def face_regions(self):
-        """For every face: (Region, its touched intervals per local edge, whole?)."""
+        """For every face: (Region, whole?)."""
         severed = edge_intervals(self.severed)
         slit_pts = [(self.verts[u], self.verts[v]) for u, v in self.slits]
         slit_face = [self.locate(_mid(a, b)) for a, b in slit_pts]
@@ -274,12 +274,11 @@ class _Arrangement:
                                       if self.graph[_key(u, v)] == _P])
             cut_off = [(edge_point(k, a), edge_point(k, b)) for k in range(3)
                        for a, b in subtract_intervals(touched[k], subtract_intervals(touched[k], severed[k]))]
-            touched = [subtract_intervals(touched[k], severed[k]) for k in range(3)]
             slits = [s for s, g in zip(slit_pts, slit_face) if g == i]
             region = Region.unchecked((np.array(pts),), np.array(slits, dtype=float).reshape(-1, 2, 2),
                                      np.array(cut_off, dtype=float).reshape(-1, 2, 2), 2.0 * f["area"])
             whole = len(pts) == 3 and not slits and not cut_off and abs(2.0 * f["area"] - 1.0) <= EPS
-            out.append((region, touched, whole))
+            out.append((region, whole))
         return out
 
     def wound_faces(self):
@@ -488,7 +487,7 @@ def _one_element_per_nodes(arr, ids, faces, triples):
         members = sorted({new_of[i] for i in g})
         area = sum(arr.faces[f]["area"] for f in members)
         if len(members) == 1:
-            region, _, whole = faces[members[0]]
+            region, whole = faces[members[0]]
         else:
             region = Region.unchecked(tuple(faces[f][0].polygons[0] for f in members),
                                       np.concatenate([faces[f][0].slits for f in members]),
@@ -536,11 +535,11 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
     # provisional pieces: face 0 of a cut element keeps its index, the others are numbered from m
     faces_of = {e: arrangements[e].face_regions() for e in arrangements}
     piece_ids = {}  # element -> provisional ids of its faces
-    touched = {}  # provisional id -> touched intervals per local edge
+    touched = {}  # provisional id -> the parts of each local edge its material touches
     for e in affected.tolist():
         first = m + sum(len(ids) - 1 for ids in piece_ids.values())
         piece_ids[e] = [e] + list(range(first, first + len(faces_of[e]) - 1))
-        touched.update({pid: face[1] for pid, face in zip(piece_ids[e], faces_of[e])})
+        touched.update({pid: region_touch(region) for pid, (region, _) in zip(piece_ids[e], faces_of[e])})
     for e in regions:  # elements cut before (their material touches only parts of their edges)
         touched.setdefault(e, region_touch(regions[e]))
     node_of, new_parent, fan = _number_nodes(t, n, key, side, affected, piece_ids, touched)

@@ -55,14 +55,8 @@ def node_positions(mesh, positions) -> np.ndarray:
 
 
 def check_points(name: str, value, min_points: int) -> np.ndarray:
-    """A finite float array shaped (k, 2) with k >= min_points (real numbers: complex points are refused, not cut)."""
-    try:
-        a = np.asarray(value)
-    except (TypeError, ValueError):
-        a = np.asarray(None)  # ragged: refused below
-    if a.dtype.kind not in "iuf":
-        raise ParameterError(name, f"{name} must be an array of real points shaped (k, 2), got {show(value)}")
-    a = a.astype(float)
+    """A finite float array (a copy) shaped (k, 2) with k >= min_points (complex points are refused, not cut)."""
+    a = np.array(check_real_array(name, value))
     if a.ndim != 2 or a.shape[1] != 2 or a.shape[0] < min_points or not np.all(np.isfinite(a)):
         raise ParameterError(name, f"{name} must be at least {min_points} finite points shaped (k, 2), "
                                    f"got {show(value)} (shape {a.shape})")
