@@ -471,7 +471,7 @@ def lumped_mass(mesh, weights=None, density=1.0) -> np.ndarray:
 # --- the cut ---
 def _one_element_per_nodes(arr, ids, faces, triples):
     """Copies of one triangle with the same three nodes (``triples``) as one element (step 7): its elements
-    ``[(provisional id, Region, whole, area)]`` and ``{face: provisional id}``."""
+    ``[(provisional id, Region, whole, area)]`` (by provisional id) and ``{face: provisional id}``."""
     by_triple = {}
     for i, nodes in enumerate(triples):
         by_triple.setdefault(nodes, []).append(i)
@@ -547,18 +547,17 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
     def triple(pid, e):
         return tuple(node_of.get((pid, lv), int(t[lv, e])) for lv in range(3))
 
-    final_faces, pid_of_face = {}, {}  # element -> its new elements; element -> {face: provisional id}
-    for e in affected.tolist():
-        final_faces[e], pid_of_face[e] = _one_element_per_nodes(arrangements[e], piece_ids[e], faces_of[e],
-                                                                [triple(pid, e) for pid in piece_ids[e]])
-
-    # the new elements: old indices for the first piece, the others appended
+    # the new elements: the first piece (lowest provisional id) keeps the old index, the others are appended
+    final_faces, element_of_face = {}, {}  # element -> its new elements; element -> {face: new element}
     final_id, elements = {}, list(range(m))
     for e in affected.tolist():
-        for i, (pid, *_) in enumerate(sorted(final_faces[e], key=lambda r: r[0])):
+        final_faces[e], pid_of_face = _one_element_per_nodes(arrangements[e], piece_ids[e], faces_of[e],
+                                                             [triple(pid, e) for pid in piece_ids[e]])
+        for i, (pid, *_) in enumerate(final_faces[e]):  # in the order of their provisional ids
             final_id[pid] = e if i == 0 else len(elements)
             if i:
                 elements.append(e)
+        element_of_face[e] = {f: final_id[pid] for f, pid in pid_of_face.items()}
     elements = np.asarray(elements, dtype=np.int64)
     new_t = np.concatenate([t, np.empty((3, elements.size - m), dtype=np.int64)], axis=1)
     new_w = np.concatenate([w, np.empty(elements.size - m)])
@@ -575,7 +574,6 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
             if not whole:
                 new_regions[E] = region
     parent = np.concatenate([np.arange(n, dtype=np.int64), np.asarray(new_parent, dtype=np.int64)])
-    element_of_face = {e: {f: final_id[pid] for f, pid in faces.items()} for e, faces in pid_of_face.items()}
     wound, cut_edges = _wound(p, t, arrangements, element_of_face, orientation, new_t)
     touches = np.ones((3, elements.size), dtype=bool)  # which local edges each element's material touches
     for e, region in new_regions.items():

@@ -80,13 +80,13 @@ def element_edges(p, t):
 
 
 def carry_names(old, new_t, parent, elements, touches=None, name=None) -> MeshTri:
-    """The mesh of the triangles ``new_t`` on the copies ``parent`` of the nodes of ``old`` (every triangle's vertex
-    order kept: C-ordered copies, as scikit-fem would copy the Fortran order fancy indexing leaves, with a warning),
-    with the named boundaries and subdomains of ``old`` carried across the edit: a facet keeps a name if its nodes'
-    parents formed a facet of that name (and, with ``touches`` (bool (3, n_new_elements)), some element's material
-    touches it); the facets the edit opened (inside ``old``, on the boundary now) join the set ``name``; subdomains go
-    to every copy."""
+    """The mesh of the triangles ``new_t`` (vertex order kept) on the copies ``parent`` of the nodes of ``old``, with
+    the named boundaries and subdomains of ``old`` carried across the edit: a facet keeps a name if its nodes' parents
+    formed a facet of that name (and, with ``touches`` (bool (3, n_new_elements)), some element's material touches
+    it); the facets the edit opened (inside ``old``, on the boundary now) join the set ``name``; subdomains go to every
+    copy."""
     n_old = old.p.shape[1]
+    # C-ordered copies: scikit-fem would copy the Fortran order fancy indexing leaves, with a warning on large meshes
     new = MeshTri(np.ascontiguousarray(np.asarray(old.p, dtype=float)[:, parent]), np.ascontiguousarray(new_t),
                   sort_t=False)
     parent_keys = pair_keys(parent[np.asarray(new.facets, dtype=np.int64)], n_old)
