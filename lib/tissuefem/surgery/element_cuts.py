@@ -47,9 +47,9 @@ import numpy as np
 from ..engine.meshes import signed_areas
 from ..engine.parameters import check_real
 from .geometry import (EPS, FULL_TOUCH, WHOLE, Region, carry_names, check_points, check_regions, clip_to_body, cross,
-                       crossings, edge_intervals, edge_point, edges_of, element_edges, element_weights,
-                       mesh_arrays, node_positions, overlaps, polygon_area, polygon_contains,
-                       region_touch, reversed_intervals, snap, subtract_intervals, winding)
+                       crossings, edge_intervals, edge_point, edges_of, element_edges, element_weights, mesh_arrays,
+                       node_positions, overlaps, polygon_area, polygon_contains, reversed_intervals, snap,
+                       subtract_intervals, winding)
 from .surfaces import contact_surface
 from .topology import MeshEdit, excise
 
@@ -539,9 +539,9 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
     for e in affected.tolist():
         first = m + sum(len(ids) - 1 for ids in piece_ids.values())
         piece_ids[e] = [e] + list(range(first, first + len(faces_of[e]) - 1))
-        touched.update({pid: region_touch(region) for pid, (region, _) in zip(piece_ids[e], faces_of[e])})
+        touched.update({pid: region.touch for pid, (region, _) in zip(piece_ids[e], faces_of[e])})
     for e in regions:  # elements cut before (their material touches only parts of their edges)
-        touched.setdefault(e, region_touch(regions[e]))
+        touched.setdefault(e, regions[e].touch)
     node_of, new_parent, fan = _number_nodes(t, n, key, side, affected, piece_ids, touched)
 
     def triple(pid, e):
@@ -577,7 +577,7 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
     wound, cut_edges = _wound(p, t, arrangements, element_of_face, orientation, new_t)
     touches = np.ones((3, elements.size), dtype=bool)  # which local edges each element's material touches
     for e, region in new_regions.items():
-        touches[:, e] = [bool(iv) for iv in region_touch(region)]
+        touches[:, e] = [bool(iv) for iv in region.touch]
     cut_mesh = carry_names(mesh, new_t, parent, elements, touches)
     return ElementCut(mesh=cut_mesh, parent=parent, elements=elements, cut_edges=cut_edges, n_old_nodes=n,
                       n_old_elements=m, weights=new_w, regions=new_regions, wound=wound,

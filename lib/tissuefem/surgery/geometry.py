@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 import numbers
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 from skfem import MeshTri
@@ -359,31 +360,24 @@ class Region:
     def unchecked(cls, polygons, slits, severed, weight):
         """A region the cut built itself (valid by construction): no checks, no copies."""
         region = object.__new__(cls)
-        for name, value in (("polygons", polygons), ("slits", slits), ("severed", severed), ("weight", weight)):
-            object.__setattr__(region, name, value)
+        region.__dict__.update(polygons=polygons, slits=slits, severed=severed, weight=weight)
         return region
+
+    def sides(self) -> np.ndarray:
+        """The polygons' sides (k, 2, 2), counter-clockwise (material on the left)."""
+        return np.concatenate([np.stack([poly, np.roll(poly, -1, axis=0)], axis=1) for poly in self.polygons])
+
+    @cached_property
+    def touch(self) -> tuple:
+        """The parts of each local edge the material touches, less what is severed (three interval lists, not to be
+        modified). A region does not change: this is worked out once, so that a cut costs what it touches, not what
+        was cut before."""
+        touched, severed = edge_intervals(self.sides()), edge_intervals(self.severed)
+        return tuple(subtract_intervals(touched[k], severed[k]) for k in range(3))
 
 
 #: The material of a whole element.
 WHOLE = Region((np.array([(0.0, 0.0), (1.0, 0.0), (0.0, 1.0)]),))
-
-
-def region_sides(region):
-    """The region's polygon sides (k, 2, 2), counter-clockwise (material on the left)."""
-    return np.concatenate([np.stack([poly, np.roll(poly, -1, axis=0)], axis=1) for poly in region.polygons])
-
-
-def region_touch(region: Region):
-    """The parts of each local edge the region's material touches, less what is severed (a tuple of three interval
-    lists, not to be modified). A region does not change: this is worked out once and kept with it, so that a cut costs
-    what it touches, not what was cut before."""
-    touch = region.__dict__.get("_touch")
-    if touch is None:
-        touched = edge_intervals(region_sides(region))
-        severed = edge_intervals(region.severed)
-        touch = tuple(subtract_intervals(touched[k], severed[k]) for k in range(3))
-        object.__setattr__(region, "_touch", touch)
-    return touch
 
 
 def element_weights(weights, m) -> np.ndarray:

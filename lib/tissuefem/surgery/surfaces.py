@@ -16,8 +16,8 @@ from ..engine.contact import ContactSurface
 from ..engine.meshes import signed_areas
 from ..engine.parameters import ParameterError
 from .geometry import (EPS, FULL_TOUCH, check_regions, edge_intervals, edge_point, edges_of, element_edges,
-                       intersect_intervals, mesh_arrays, merge_intervals, pair_keys, region_sides, region_touch,
-                       reversed_intervals, subtract_intervals)
+                       intersect_intervals, mesh_arrays, merge_intervals, pair_keys, reversed_intervals,
+                       subtract_intervals)
 
 __all__ = ["contact_surface"]
 
@@ -42,7 +42,7 @@ def contact_surface(mesh, weights=None, regions=None) -> ContactSurface:
 
     def touch(e):  # (touched by the material, touched and joinable: not severed) per local edge
         r = regions.get(e)
-        return (FULL_TOUCH, FULL_TOUCH) if r is None else (edge_intervals(region_sides(r)), region_touch(r))
+        return (FULL_TOUCH, FULL_TOUCH) if r is None else (edge_intervals(r.sides()), r.touch)
 
     pieces = []  # (element, local point a, local point b, wound?) with the material on the left in local coordinates
     for e in range(m):
@@ -61,7 +61,7 @@ def contact_surface(mesh, weights=None, regions=None) -> ContactSurface:
                 severed = bool(subtract_intervals([(lo, hi)], joinable))
                 pieces.append((e, edge_point(k, lo), edge_point(k, hi), kk in cut_facets or severed))
     for e, r in regions.items():
-        for a, b in region_sides(r):
+        for a, b in r.sides():
             if set(edges_of(a)) & set(edges_of(b)):
                 continue  # on an edge of the triangle: done above
             pieces.append((e, (float(a[0]), float(a[1])), (float(b[0]), float(b[1])), True))
