@@ -46,7 +46,7 @@ import numpy as np
 
 from ..engine.meshes import signed_areas
 from ..engine.parameters import check_real
-from .geometry import (EPS, FULL_TOUCH, WHOLE, Region, carry_names, check_points, check_regions, clip_to_body, cross,
+from .geometry import (EPS, WHOLE, Region, carry_names, check_points, check_regions, clip_to_body, cross,
                        crossings, edge_intervals, edge_point, edges_of, element_edges, element_weights, mesh_arrays,
                        node_positions, overlaps, polygon_area, polygon_contains, reversed_intervals, snap,
                        subtract_intervals, winding)
@@ -607,7 +607,7 @@ def _number_nodes(t, n, key, side, affected, piece_ids, touched):
         return c
 
     def along(pid, k, forward):  # touched intervals, run from the edge's lower node to its higher
-        iv = touched.get(pid, FULL_TOUCH)[k]
+        iv = touched.get(pid, WHOLE.touch)[k]
         return iv if forward else reversed_intervals(iv)
 
     for kk, (plus, minus) in sides.items():

@@ -21,8 +21,6 @@ from ..engine.parameters import ParameterError, check_real_array, check_weights,
 
 #: Tolerance in local coordinates: points closer than this are one point, a point this close to an edge is on it.
 EPS = 1e-9
-#: The touched intervals of a whole element: all of its three edges.
-FULL_TOUCH = [[(0.0, 1.0)], [(0.0, 1.0)], [(0.0, 1.0)]]
 
 
 # --- meshes and inputs ---

@@ -15,7 +15,7 @@ from skfem import MeshTri
 from ..engine.contact import ContactSurface
 from ..engine.meshes import signed_areas
 from ..engine.parameters import ParameterError
-from .geometry import (EPS, FULL_TOUCH, check_regions, edge_intervals, edge_point, edges_of, element_edges,
+from .geometry import (EPS, WHOLE, check_regions, edge_intervals, edge_point, edges_of, element_edges,
                        intersect_intervals, mesh_arrays, merge_intervals, pair_keys, reversed_intervals,
                        subtract_intervals)
 
@@ -42,7 +42,7 @@ def contact_surface(mesh, weights=None, regions=None) -> ContactSurface:
 
     def touch(e):  # (touched by the material, touched and joinable: not severed) per local edge
         r = regions.get(e)
-        return (FULL_TOUCH, FULL_TOUCH) if r is None else (edge_intervals(r.sides()), r.touch)
+        return (WHOLE.touch, WHOLE.touch) if r is None else (edge_intervals(r.sides()), r.touch)
 
     pieces = []  # (element, local point a, local point b, wound?) with the material on the left in local coordinates
     for e in range(m):
