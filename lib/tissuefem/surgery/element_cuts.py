@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields, replace
+from itertools import groupby
 
 import numpy as np
 
@@ -101,11 +102,7 @@ class _Arrangement:
         self.graph = {}  # (u, v) with u < v -> kind
         cut_edges = []  # (u, v, stroke_u, stroke_v) in the direction of the stroke
         for (a, b, kind, strokes), sp in zip(segs, splits):
-            sp.sort()
-            chain = [sp[0]]
-            for s, v in sp[1:]:
-                if v != chain[-1][1]:
-                    chain.append((s, v))
+            chain = [next(run) for _, run in groupby(sorted(sp), key=lambda sv: sv[1])]  # repeated vertices once
             for (s0, u), (s1, v) in zip(chain[:-1], chain[1:]):
                 if kind == _C:
                     t0, t1 = strokes
