@@ -655,10 +655,8 @@ def _wound(p, t, arrangements, element_of_face, orientation, new_t):
     wound = Wound(element=element, side=column(2, np.int64), barycentric=bary, nodes=new_t[:, element].T.copy(),
                   reference=np.einsum("kea,iak->kei", bary, p[:, t[:, column(1, np.int64)]]),
                   stroke=column(4, float).reshape(-1, 2), opened=column(5, bool))
-    first = {}
-    for order, a, b in sorted(along):
-        first.setdefault((a, b), order)
-    cut_edges = np.asarray(sorted(first, key=first.get), dtype=np.int64).reshape(-1, 2).T
+    passed = dict.fromkeys((a, b) for _, a, b in sorted(along))  # each edge once, in the order the stroke ran along it
+    cut_edges = np.asarray(list(passed), dtype=np.int64).reshape(-1, 2).T
     return wound, cut_edges
 
 
