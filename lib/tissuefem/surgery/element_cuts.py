@@ -212,11 +212,9 @@ class _Arrangement:
             island = next((f for f in self.faces if all(self.graph[_key(u, v)] != _P
                                                          for u, v in f["edges"])), None)
             if island is not None:
-                for u, v in island["edges"]:
-                    key = _key(u, v)
-                    if key in self.graph:
-                        self.slits.append(key)
-                        del self.graph[key]
+                for key in dict.fromkeys(_key(u, v) for u, v in island["edges"]):  # each edge once
+                    self.slits.append(key)
+                    del self.graph[key]
                 continue
             weights = [2.0 * f["area"] for f in self.faces]
             if len(self.faces) < 2 or min(weights) >= self.min_weight:

@@ -349,10 +349,8 @@ class Region:
         if weight > 1.0 + 1e-9:
             raise ParameterError("Region.polygons", f"Region.polygons cover {weight:.6g} times the triangle: they "
                                                     "must not overlap")
-        object.__setattr__(self, "polygons", tuple(out))
-        object.__setattr__(self, "slits", _segments("Region.slits", self.slits))
-        object.__setattr__(self, "severed", _segments("Region.severed", self.severed))
-        object.__setattr__(self, "weight", weight)
+        self.__dict__.update(polygons=tuple(out), slits=_segments("Region.slits", self.slits),
+                             severed=_segments("Region.severed", self.severed), weight=weight)
 
     @classmethod
     def unchecked(cls, polygons, slits, severed, weight):
@@ -396,8 +394,7 @@ def check_regions(regions, weights, m):
             raise ParameterError(f"regions[{e}]", f"regions[{e}] must be a Region, got {type(r).__name__}")
         out[int(e)] = r
     implied = np.ones(m)
-    for e, r in out.items():
-        implied[e] = r.weight
+    implied[list(out)] = [r.weight for r in out.values()]
     if weights is None:
         return out, implied
     w = element_weights(weights, m)
