@@ -49,7 +49,7 @@ from ..engine.meshes import signed_areas
 from ..engine.parameters import check_real
 from .geometry import (EPS, WHOLE, Region, carry_names, check_points, check_regions, clip_to_body, cross,
                        crossings, edge_intervals, edge_point, edges_of, element_edges, element_weights, mesh_arrays,
-                       node_positions, overlaps, polygon_area, polygon_contains, reversed_intervals, snap,
+                       new_mesh, node_positions, overlaps, polygon_area, polygon_contains, reversed_intervals, snap,
                        subtract_intervals, winding)
 from .surfaces import contact_surface
 from .topology import MeshEdit, excise
@@ -271,7 +271,8 @@ class _Arrangement:
                        for a, b in subtract_intervals(touched[k], subtract_intervals(touched[k], severed[k]))]
             slits = [s for s, g in zip(slit_pts, slit_face) if g == i]
             region = Region.unchecked((np.array(pts),), np.array(slits, dtype=float).reshape(-1, 2, 2),
-                                     np.array(cut_off, dtype=float).reshape(-1, 2, 2), 2.0 * f["area"])
+                                     np.array(cut_off, dtype=float).reshape(-1, 2, 2), 2.0 * f["area"],
+                                     tuple(subtract_intervals(touched[k], severed[k]) for k in range(3)))
             whole = len(pts) == 3 and not slits and not cut_off and abs(2.0 * f["area"] - 1.0) <= EPS
             out.append((region, whole))
         return out
@@ -573,7 +574,7 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
     touches = np.ones((3, elements.size), dtype=bool)  # which local edges each element's material touches
     for e, region in new_regions.items():
         touches[:, e] = [bool(iv) for iv in region.touch]
-    cut_mesh = carry_names(mesh, new_t, parent, elements, touches)
+    cut_mesh = carry_names(mesh, new_mesh(p[:, parent], new_t), parent, elements, touches)
     return ElementCut(mesh=cut_mesh, parent=parent, elements=elements, cut_edges=cut_edges, n_old_nodes=n,
                       n_old_elements=m, weights=new_w, regions=new_regions, wound=wound,
                       material=node_material(cut_mesh, new_regions))

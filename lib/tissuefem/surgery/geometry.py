@@ -78,16 +78,18 @@ def element_edges(p, t):
     return lo * n + hi, np.where(s > 0, 1, -1)
 
 
-def carry_names(old, new_t, parent, elements, touches=None, name=None) -> MeshTri:
-    """The mesh of the triangles ``new_t`` (vertex order kept) on the copies ``parent`` of the nodes of ``old``, with
-    the named boundaries and subdomains of ``old`` carried across the edit: a facet keeps a name if its nodes' parents
-    formed a facet of that name (and, with ``touches`` (bool (3, n_new_elements)), some element's material touches
-    it); the facets the edit opened (inside ``old``, on the boundary now) join the set ``name``; subdomains go to every
-    copy."""
+def new_mesh(p, t) -> MeshTri:
+    """A MeshTri that keeps every triangle's vertex order, from C-ordered copies (scikit-fem would copy the Fortran
+    order fancy indexing leaves, with a warning on large meshes)."""
+    return MeshTri(np.ascontiguousarray(p), np.ascontiguousarray(t), sort_t=False)
+
+
+def carry_names(old, new, parent, elements, touches=None, name=None) -> MeshTri:
+    """``new`` with the named boundaries and subdomains of ``old`` carried across an edit: a facet keeps a name if its
+    nodes' parents formed a facet of that name (and, with ``touches`` (bool (3, n_new_elements)), some element's
+    material touches it); the facets the edit opened (inside ``old``, on the boundary now) join the set ``name``;
+    subdomains go to every copy."""
     n_old = old.p.shape[1]
-    # C-ordered copies: scikit-fem would copy the Fortran order fancy indexing leaves, with a warning on large meshes
-    new = MeshTri(np.ascontiguousarray(np.asarray(old.p, dtype=float)[:, parent]), np.ascontiguousarray(new_t),
-                  sort_t=False)
     parent_keys = pair_keys(parent[np.asarray(new.facets, dtype=np.int64)], n_old)
     old_facets = np.asarray(old.facets, dtype=np.int64)
     names = {}
@@ -353,10 +355,12 @@ class Region:
                              severed=_segments("Region.severed", self.severed), weight=weight)
 
     @classmethod
-    def unchecked(cls, polygons, slits, severed, weight):
-        """A region the cut built itself (valid by construction): no checks, no copies."""
+    def unchecked(cls, polygons, slits, severed, weight, touch=None):
+        """A region the cut built itself (valid by construction): no checks, no copies; its :attr:`touch` if known."""
         region = object.__new__(cls)
         region.__dict__.update(polygons=polygons, slits=slits, severed=severed, weight=weight)
+        if touch is not None:
+            region.__dict__["touch"] = touch  # where the cached property keeps it
         return region
 
     def sides(self) -> np.ndarray:

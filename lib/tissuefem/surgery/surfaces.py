@@ -34,9 +34,12 @@ def contact_surface(mesh, weights=None, regions=None) -> ContactSurface:
     if not regions:
         return ContactSurface.from_mesh(mesh)
     key, side = element_edges(p, t)  # edge k of element e: nodes t[k], t[k+1]; side of the edge e lies on
-    by_edge = {}  # (node pair, side) -> the (local edge, element) there
-    for i, edge in enumerate(zip(key.ravel().tolist(), side.ravel().tolist())):
-        by_edge.setdefault(edge, []).append(divmod(i, m))
+    # the node pair and the side as one number; the edges there by flat index k m + e (plain numbers: few objects)
+    here, there = (key * 2 + (side > 0)).ravel().tolist(), (key * 2 + (side < 0)).ravel().tolist()
+    by_edge = {}
+    for i, edge in enumerate(here):
+        by_edge.setdefault(edge, []).append(i)
+    key = key.tolist()
     cut = np.asarray((mesh.boundaries or {}).get("cut", []), dtype=np.intp)
     cut_facets = set(pair_keys(np.asarray(mesh.facets)[:, cut], n).tolist())
 
@@ -47,13 +50,13 @@ def contact_surface(mesh, weights=None, regions=None) -> ContactSurface:
     pieces = []  # (element, local point a, local point b, wound?) with the material on the left in local coordinates
     for e in range(m):
         for k in range(3):
-            kk = int(key[k, e])
-            across = by_edge.get((kk, -int(side[k, e])), [])  # the same node pair, the other side
-            if across and e not in regions and all(f not in regions for _, f in across):
+            kk = key[k][e]
+            across = by_edge.get(there[k * m + e], ())  # the same node pair, the other side
+            if across and e not in regions and all(i % m not in regions for i in across):
                 continue  # two whole elements share this edge: inside the material
             touched, joinable = (iv[k] for iv in touch(e))
             reach = []
-            for l, f in across:
+            for l, f in (divmod(i, m) for i in across):
                 f_iv = touch(f)[1][l]
                 reach += f_iv if int(t[l, f]) == int(t[k, e]) else reversed_intervals(f_iv)  # f runs it the other way
             joined = intersect_intervals(joinable, merge_intervals(reach))

@@ -18,8 +18,8 @@ from scipy.sparse import csgraph
 from ..engine.contact.surface import cross, segment_distance
 from ..engine.meshes import MeshMap
 from ..engine.parameters import ParameterError, call_user, check_count, check_indices, show
-from .geometry import (carry_names, check_points, clip_to_body, mesh_arrays, node_positions, pair_keys, polygon_area,
-                       polygon_contains)
+from .geometry import (carry_names, check_points, clip_to_body, mesh_arrays, new_mesh, node_positions, pair_keys,
+                       polygon_area, polygon_contains)
 
 __all__ = ["MeshEdit", "duplicate_along_edges", "cut_path", "incise", "excise", "connected_components"]
 
@@ -258,9 +258,10 @@ def incise(mesh, polyline, positions=None) -> MeshEdit:
     pairs = pairs[:, np.isin(pair_keys(pairs, n), interior_keys)]
     new_t, parent = duplicate_along_edges(t, n, pairs)
     elements = np.arange(t.shape[1], dtype=np.int64)
-    cut = carry_names(mesh, new_t, parent, elements, name="cut")
-    # the path's edges that actually opened, once each, in the order of the path
-    opened_keys = pair_keys(parent[np.asarray(cut.facets, dtype=np.int64)[:, cut.boundaries["cut"]]], n)
+    plain = new_mesh(p[:, parent], new_t)
+    cut = carry_names(mesh, plain, parent, elements, name="cut")
+    # the path's edges that actually opened, once each, in the order of the path (plain and cut share their facets)
+    opened_keys = pair_keys(parent[np.asarray(plain.facets, dtype=np.int64)[:, cut.boundaries["cut"]]], n)
     keys = pair_keys(pairs, n)
     first = np.sort(np.unique(keys, return_index=True)[1])
     cut_edges = pairs[:, first[np.isin(keys[first], opened_keys)]]
@@ -308,5 +309,6 @@ def excise(mesh, region, positions=None) -> MeshEdit:
     elements = np.flatnonzero(~remove).astype(np.int64)
     parent, new_t = np.unique(t[:, elements], return_inverse=True)  # increasing: the old order, compacted
     new_t = new_t.reshape(3, -1).astype(np.int64)
-    return MeshEdit(mesh=carry_names(mesh, new_t, parent, elements, name="defect"), parent=parent, elements=elements,
-                    cut_edges=np.zeros((2, 0), dtype=np.int64), n_old_nodes=p.shape[1], n_old_elements=m)
+    defect = carry_names(mesh, new_mesh(p[:, parent], new_t), parent, elements, name="defect")
+    return MeshEdit(mesh=defect, parent=parent, elements=elements, cut_edges=np.zeros((2, 0), dtype=np.int64),
+                    n_old_nodes=p.shape[1], n_old_elements=m)
