@@ -9,8 +9,8 @@ copy does not hold become extra ("virtual") nodes.
 1. **Where the stroke lies.** The P1 map of a triangle is affine, so each segment ``a -> b`` of the stroke (drawn on
    the deformed tissue) is clipped in barycentric coordinates, keeping ``lambda_i(a) + s (lambda_i(b) -
    lambda_i(a)) >= 0``. A stroke within 1e-6 edge lengths of a node is first moved onto it.
-2. **The material of an element** is a :class:`Region`: its polygon, *slits* and *severed* edge parts; its weight
-   (the polygon's share of the triangle) is what :class:`~tissuefem.engine.assembly.P1Assembler` integrates.
+2. **The material of an element** is a :class:`Region` (polygons, *slits*, *severed* edge parts); its weight, the
+   polygons' share of the triangle, is what :class:`~tissuefem.engine.assembly.P1Assembler` integrates.
 3. **Splitting.** The region's boundary, its slits and the stroke's new pieces form a planar graph; dangling edges (a
    crack ending in the material) are kept as slits; its ``k`` faces are ``k`` copies of the element.
 4. **Nodes.** Two elements across a mesh edge are *joined* where the parts of the edge their regions touch (less what
@@ -19,9 +19,8 @@ copy does not hold become extra ("virtual") nodes.
 5. **The crack tip.** The triangle holding the end of a crack is one piece, so (as in [1]_) it is not duplicated: the
    crack closes within one element of the drawn tip (phantom-node methods [3]_ make the same choice).
 6. **No slivers.** A piece lighter than ``min_weight`` is merged into its neighbour across the cut and the parts of
-   the triangle's edges that bounded it are severed instead (the :class:`Wound` stays where it was drawn). A light
-   piece that stays is tied to its neighbours by a ghost penalty [4]_ (:class:`~tissuefem.engine.terms.GhostPenalty`)
-   on the model, so that neither spikes nor crumpling lips appear.
+   the triangle's edges that bounded it are severed instead. A light piece that stays is tied to its neighbours by a
+   ghost penalty [4]_ (:class:`~tissuefem.engine.terms.GhostPenalty`), so that neither spikes nor crumpling lips appear.
 7. **One element per set of nodes.** Copies of one triangle with the same three nodes (e.g. the corners outside a
    V-shaped crack) are one element, whose region may have several polygons.
 
@@ -41,16 +40,17 @@ areas (:func:`lumped_mass`) carry mass and momentum over exactly.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields, replace
+from itertools import groupby
 
 import numpy as np
 
 from ..engine.meshes import signed_areas
 from ..engine.parameters import check_real
-from .geometry import (EPS, FULL_TOUCH, WHOLE, Region, carry_names, check_points, check_regions, clip_to_body, cross,
-                       crossings, edge_intervals, edge_param, edge_point, edges_of, element_edges, element_weights,
-                       mesh_arrays, merge_intervals, new_mesh, node_positions, overlaps, polygon_area, polygon_contains,
-                       region_touch, reversed_intervals, snap, subtract_intervals, winding)
+from .geometry import (EPS, WHOLE, Region, carry_names, check_points, check_regions, clip_to_body, cross,
+                       crossings, edge_intervals, edge_point, edges_of, element_edges, element_weights, mesh_arrays,
+                       new_mesh, node_positions, overlaps, polygon_area, polygon_contains, reversed_intervals, snap,
+                       subtract_intervals, winding)
 from .surfaces import contact_surface
 from .topology import MeshEdit, excise
 
@@ -76,8 +76,7 @@ class _Arrangement:
         self.verts, self.cells = [], {}  # the graph's points; the grid cells of 2 EPS holding them
         self.min_weight = min_weight
         polys = [[tuple(v) for v in poly] for poly in region.polygons]
-        self.old_severed = edge_intervals(region.severed)
-        self.new_severed = [[], [], []]
+        self.severed = list(region.severed)  # segments on the triangle's edges, cut off from the element across
 
         segs = [(poly[i], poly[(i + 1) % len(poly)], _P, None) for poly in polys for i in range(len(poly))]
         segs += [(tuple(a), tuple(b), _S, None) for a, b in region.slits]
@@ -103,11 +102,7 @@ class _Arrangement:
         self.graph = {}  # (u, v) with u < v -> kind
         cut_edges = []  # (u, v, stroke_u, stroke_v) in the direction of the stroke
         for (a, b, kind, strokes), sp in zip(segs, splits):
-            sp.sort()
-            chain = [sp[0]]
-            for s, v in sp[1:]:
-                if v != chain[-1][1]:
-                    chain.append((s, v))
+            chain = [next(run) for _, run in groupby(sorted(sp), key=lambda sv: sv[1])]  # repeated vertices once
             for (s0, u), (s1, v) in zip(chain[:-1], chain[1:]):
                 if kind == _C:
                     t0, t1 = strokes
@@ -123,7 +118,7 @@ class _Arrangement:
             if kind == _P:  # severs an edge of the triangle with an element across (else: an old wound, the boundary)
                 k = self._edge_of(u, v)
                 if k is not None and open_edge[k]:
-                    self.new_severed[k].append(self._interval(k, u, v))
+                    self.severed.append((self.verts[u], self.verts[v]))
                     self.wound.append(("edge", u, v, t0, t1, k))
             elif kind == _S:
                 self.wound.append(("inner", u, v, t0, t1))
@@ -151,10 +146,6 @@ class _Arrangement:
     def _edge_of(self, u, v):
         both = set(edges_of(self.verts[u])) & set(edges_of(self.verts[v]))
         return min(both) if both else None
-
-    def _interval(self, k, u, v):
-        s, e = edge_param(k, self.verts[u]), edge_param(k, self.verts[v])
-        return min(s, e), max(s, e)
 
     def _prune(self):
         """Move dangling cut edges (and cut loops that touch no boundary) to the slits."""
@@ -221,11 +212,9 @@ class _Arrangement:
             island = next((f for f in self.faces if all(self.graph[_key(u, v)] != _P
                                                          for u, v in f["edges"])), None)
             if island is not None:
-                for u, v in island["edges"]:
-                    key = _key(u, v)
-                    if key in self.graph:
-                        self.slits.append(key)
-                        del self.graph[key]
+                for key in dict.fromkeys(_key(u, v) for u, v in island["edges"]):  # each edge once
+                    self.slits.append(key)
+                    del self.graph[key]
                 continue
             weights = [2.0 * f["area"] for f in self.faces]
             if len(self.faces) < 2 or min(weights) >= self.min_weight:
@@ -245,9 +234,7 @@ class _Arrangement:
             for u, v in self.faces[f]["edges"]:
                 key = _key(u, v)
                 if self.graph[key] == _P:
-                    k = self._edge_of(u, v)
-                    if k is not None:
-                        self.new_severed[k].append(self._interval(k, u, v))
+                    self.severed.append((self.verts[u], self.verts[v]))  # (one inside the triangle severs nothing)
                 elif self.face_of[(v, u)] == g:
                     del self.graph[key]  # dropped, not kept as a slit: the cut moved to the edges
 
@@ -271,29 +258,23 @@ class _Arrangement:
         return next((i for i, f in enumerate(self.faces) if winding(pt, f["points"]) != 0), -1)
 
     def face_regions(self):
-        """For every face: (Region, its touched intervals per local edge, whole?)."""
-        severed = [merge_intervals(self.old_severed[k] + self.new_severed[k]) for k in range(3)]
+        """For every face: (Region, whole?)."""
+        severed = edge_intervals(self.severed)
         slit_pts = [(self.verts[u], self.verts[v]) for u, v in self.slits]
         slit_face = [self.locate(_mid(a, b)) for a, b in slit_pts]
         out = []
         for i, f in enumerate(self.faces):
             pts = _simplify(f["points"])
-            touched = [[], [], []]
-            for (u, v) in f["edges"]:
-                if self.graph[_key(u, v)] != _P:
-                    continue
-                k = self._edge_of(u, v)
-                if k is not None:
-                    touched[k].append(self._interval(k, u, v))
-            touched = [merge_intervals(iv) for iv in touched]
+            touched = edge_intervals([(self.verts[u], self.verts[v]) for u, v in f["edges"]
+                                      if self.graph[_key(u, v)] == _P])
             cut_off = [(edge_point(k, a), edge_point(k, b)) for k in range(3)
                        for a, b in subtract_intervals(touched[k], subtract_intervals(touched[k], severed[k]))]
-            touched = [subtract_intervals(touched[k], severed[k]) for k in range(3)]
             slits = [s for s, g in zip(slit_pts, slit_face) if g == i]
             region = Region.unchecked((np.array(pts),), np.array(slits, dtype=float).reshape(-1, 2, 2),
-                                     np.array(cut_off, dtype=float).reshape(-1, 2, 2), 2.0 * f["area"])
+                                     np.array(cut_off, dtype=float).reshape(-1, 2, 2), 2.0 * f["area"],
+                                     tuple(subtract_intervals(touched[k], severed[k]) for k in range(3)))
             whole = len(pts) == 3 and not slits and not cut_off and abs(2.0 * f["area"] - 1.0) <= EPS
-            out.append((region, touched, whole))
+            out.append((region, whole))
         return out
 
     def wound_faces(self):
@@ -367,9 +348,10 @@ def _through_nearby_nodes(x, t, pts):
     return np.array(out), np.array(param)
 
 
-def _stroke_pieces(x, t, pts):
-    """Pieces of the stroke in each triangle as drawn (collapsed triangles skipped): ``(pieces, orientation)``, with
-    ``pieces`` {element: [(stroke0, stroke1, a, b)]} (ends in local coordinates) and the sign of each drawn area."""
+def _stroke_pieces(x, t, pts, drawn):
+    """Pieces of the stroke ``pts`` in each triangle as drawn (collapsed triangles skipped): ``(pieces,
+    orientation)``, with ``pieces`` {element: [(stroke0, stroke1, a, b)]} (ends in local coordinates, and on the drawn
+    polyline, where ``drawn`` puts the points of ``pts``) and the sign of each drawn area."""
     X = x[:, t]  # (2, 3, m)
     x0, d1, d2 = X[:, 0], X[:, 1] - X[:, 0], X[:, 2] - X[:, 0]
     det = d1[0] * d2[1] - d1[1] * d2[0]
@@ -408,7 +390,8 @@ def _stroke_pieces(x, t, pts):
             pa_c, pb_c = snap(float(pa[0, c]), float(pa[1, c])), snap(float(pb[0, c]), float(pb[1, c]))
             if math.hypot(pb_c[0] - pa_c[0], pb_c[1] - pa_c[1]) <= EPS:
                 continue
-            pieces.setdefault(int(cand[c]), []).append((j + float(s_lo[c]), j + float(s_hi[c]), pa_c, pb_c))
+            s0, s1 = np.interp([j + float(s_lo[c]), j + float(s_hi[c])], np.arange(drawn.size), drawn)
+            pieces.setdefault(int(cand[c]), []).append((float(s0), float(s1), pa_c, pb_c))
     return pieces, np.sign(det)
 
 
@@ -484,7 +467,7 @@ def lumped_mass(mesh, weights=None, density=1.0) -> np.ndarray:
 # --- the cut ---
 def _one_element_per_nodes(arr, ids, faces, triples):
     """Copies of one triangle with the same three nodes (``triples``) as one element (step 7): its elements
-    ``[(provisional id, Region, touched, whole, area)]`` and ``{face: provisional id}``."""
+    ``[(provisional id, Region, whole, area)]`` (by provisional id) and ``{face: provisional id}``."""
     by_triple = {}
     for i, nodes in enumerate(triples):
         by_triple.setdefault(nodes, []).append(i)
@@ -500,14 +483,13 @@ def _one_element_per_nodes(arr, ids, faces, triples):
         members = sorted({new_of[i] for i in g})
         area = sum(arr.faces[f]["area"] for f in members)
         if len(members) == 1:
-            region, touch, whole = faces[members[0]]
+            region, whole = faces[members[0]]
         else:
             region = Region.unchecked(tuple(faces[f][0].polygons[0] for f in members),
                                       np.concatenate([faces[f][0].slits for f in members]),
                                       np.concatenate([faces[f][0].severed for f in members]), 2.0 * area)
-            touch = [merge_intervals([iv for f in members for iv in faces[f][1][k]]) for k in range(3)]
             whole = False
-        out.append((ids[min(g)], region, touch, whole, area))
+        out.append((ids[min(g)], region, whole, area))
         pid_of_face.update({f: ids[min(g)] for f in members})
     return out, pid_of_face
 
@@ -531,17 +513,14 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
         raise ValueError("polyline changes nothing: it meets no material (it passes outside the body)")
     snapped, drawn = _through_nearby_nodes(x, t, pts)
     drawn = np.interp(drawn, np.arange(clipped.size), clipped)
-    pieces, orientation = _stroke_pieces(x, t, snapped)
-    vertex = np.arange(drawn.size)
+    pieces, orientation = _stroke_pieces(x, t, snapped, drawn)
     key, side = element_edges(p, t)
     flat_key, flat_side = key.ravel(), side.ravel()
     # an element edge has an element across when some element has the same node pair on the other side
     has_across = np.isin(flat_key * 2 + (flat_side > 0), flat_key * 2 + (flat_side < 0)).reshape(3, m)
     arrangements = {}
     for e in sorted(pieces):
-        cuts = [(float(np.interp(s0, vertex, drawn)), float(np.interp(s1, vertex, drawn)), a, b)
-                for s0, s1, a, b in pieces[e]]
-        arr = _Arrangement(regions.get(e, WHOLE), cuts, has_across[:, e], min_weight)
+        arr = _Arrangement(regions.get(e, WHOLE), pieces[e], has_across[:, e], min_weight)
         if arr.changed:
             arrangements[e] = arr
     if not arrangements:
@@ -552,52 +531,49 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
     # provisional pieces: face 0 of a cut element keeps its index, the others are numbered from m
     faces_of = {e: arrangements[e].face_regions() for e in arrangements}
     piece_ids = {}  # element -> provisional ids of its faces
-    touched = {}  # provisional id -> touched intervals per local edge
+    touched = {}  # provisional id -> the parts of each local edge its material touches
     for e in affected.tolist():
         first = m + sum(len(ids) - 1 for ids in piece_ids.values())
         piece_ids[e] = [e] + list(range(first, first + len(faces_of[e]) - 1))
-        touched.update({pid: face[1] for pid, face in zip(piece_ids[e], faces_of[e])})
+        touched.update({pid: region.touch for pid, (region, _) in zip(piece_ids[e], faces_of[e])})
     for e in regions:  # elements cut before (their material touches only parts of their edges)
-        touched.setdefault(e, region_touch(regions[e]))
+        touched.setdefault(e, regions[e].touch)
     node_of, new_parent, fan = _number_nodes(t, n, key, side, affected, piece_ids, touched)
 
     def triple(pid, e):
         return tuple(node_of.get((pid, lv), int(t[lv, e])) for lv in range(3))
 
-    final_faces, pid_of_face = {}, {}  # element -> its new elements; element -> {face: provisional id}
-    for e in affected.tolist():
-        final_faces[e], pid_of_face[e] = _one_element_per_nodes(arrangements[e], piece_ids[e], faces_of[e],
-                                                                [triple(pid, e) for pid in piece_ids[e]])
-
-    # the new elements: old indices for the first piece, the others appended
+    # the new elements: the first piece (lowest provisional id) keeps the old index, the others are appended
+    final_faces, element_of_face = {}, {}  # element -> its new elements; element -> {face: new element}
     final_id, elements = {}, list(range(m))
     for e in affected.tolist():
-        for i, (pid, *_) in enumerate(sorted(final_faces[e], key=lambda r: r[0])):
+        final_faces[e], pid_of_face = _one_element_per_nodes(arrangements[e], piece_ids[e], faces_of[e],
+                                                             [triple(pid, e) for pid in piece_ids[e]])
+        for i, (pid, *_) in enumerate(final_faces[e]):  # in the order of their provisional ids
             final_id[pid] = e if i == 0 else len(elements)
             if i:
                 elements.append(e)
+        element_of_face[e] = {f: final_id[pid] for f, pid in pid_of_face.items()}
     elements = np.asarray(elements, dtype=np.int64)
     new_t = np.concatenate([t, np.empty((3, elements.size - m), dtype=np.int64)], axis=1)
     new_w = np.concatenate([w, np.empty(elements.size - m)])
     new_regions = {e: r for e, r in regions.items() if e not in arrangements}
-    new_touch = {e: touched[e] for e in new_regions}
     for e in fan.tolist():
         if e not in arrangements:
             new_t[:, e] = triple(e, e)
     for e in affected.tolist():
-        total = sum(r[4] for r in final_faces[e])
-        for pid, region, touch, whole, area in final_faces[e]:
+        total = sum(r[3] for r in final_faces[e])
+        for pid, region, whole, area in final_faces[e]:
             E = final_id[pid]
             new_t[:, E] = triple(pid, e)
             new_w[E] = w[e] * area / total
             if not whole:
-                new_regions[E], new_touch[E] = region, touch
+                new_regions[E] = region
     parent = np.concatenate([np.arange(n, dtype=np.int64), np.asarray(new_parent, dtype=np.int64)])
-    element_of_face = {e: {f: final_id[pid] for f, pid in faces.items()} for e, faces in pid_of_face.items()}
     wound, cut_edges = _wound(p, t, arrangements, element_of_face, orientation, new_t)
     touches = np.ones((3, elements.size), dtype=bool)  # which local edges each element's material touches
-    for e, touch in new_touch.items():
-        touches[:, e] = [bool(iv) for iv in touch]
+    for e, region in new_regions.items():
+        touches[:, e] = [bool(iv) for iv in region.touch]
     cut_mesh = carry_names(mesh, new_mesh(p[:, parent], new_t), parent, elements, touches)
     return ElementCut(mesh=cut_mesh, parent=parent, elements=elements, cut_edges=cut_edges, n_old_nodes=n,
                       n_old_elements=m, weights=new_w, regions=new_regions, wound=wound,
@@ -613,9 +589,11 @@ def _number_nodes(t, n, key, side, affected, piece_ids, touched):
     fan = np.flatnonzero(at_hub[t].any(axis=0))
     sel_k, sel_e = np.nonzero(at_hub[t[:, fan]] | at_hub[np.roll(t, -1, axis=0)[:, fan]])
     sel_e = fan[sel_e]
-    sides = {}  # edge key -> (elements on its + side, on its - side), as (element, local edge)
+    sides = {}  # edge key -> (elements on its + side, on its - side), as (element, local edge, forward?, corners)
     for k, e, kk, s in zip(sel_k.tolist(), sel_e.tolist(), key[sel_k, sel_e].tolist(), side[sel_k, sel_e].tolist()):
-        sides.setdefault(kk, ([], []))[0 if s > 0 else 1].append((e, k))
+        forward = t[k, e] == kk // n  # the local edge runs from the lower node to the higher
+        corners = (k, (k + 1) % 3) if forward else ((k + 1) % 3, k)  # the local vertices at the lower, higher node
+        sides.setdefault(kk, ([], []))[0 if s > 0 else 1].append((e, k, forward, corners))
 
     uf = {}  # union-find of the joined corners; a root is the least corner of its class
 
@@ -625,25 +603,20 @@ def _number_nodes(t, n, key, side, affected, piece_ids, touched):
         return c
 
     def along(pid, k, forward):  # touched intervals, run from the edge's lower node to its higher
-        iv = touched.get(pid, FULL_TOUCH)[k]
+        iv = touched.get(pid, WHOLE.touch)[k]
         return iv if forward else reversed_intervals(iv)
 
     for kk, (plus, minus) in sides.items():
-        a_node, b_node = divmod(kk, n)
-        for e, k in plus:
-            e_fwd = t[k, e] == a_node
-            e_a, e_b = (k, (k + 1) % 3) if e_fwd else ((k + 1) % 3, k)
-            for f, l in minus:
-                f_fwd = t[l, f] == a_node
-                f_a, f_b = (l, (l + 1) % 3) if f_fwd else ((l + 1) % 3, l)
+        for e, k, e_fwd, e_corners in plus:
+            for f, l, f_fwd, f_corners in minus:
                 for pe in piece_ids.get(e, (e,)):
                     te = along(pe, k, e_fwd)
                     for pf in piece_ids.get(f, (f,)):
                         if not overlaps(te, along(pf, l, f_fwd)):
                             continue
-                        for node, ce, cf in ((a_node, (pe, e_a), (pf, f_a)), (b_node, (pe, e_b), (pf, f_b))):
+                        for node, ce, cf in zip(divmod(kk, n), e_corners, f_corners):
                             if at_hub[node]:
-                                r1, r2 = find(ce), find(cf)
+                                r1, r2 = find((pe, ce)), find((pf, cf))
                                 if r1 != r2:
                                     uf[max(r1, r2)] = min(r1, r2)
 
@@ -681,10 +654,8 @@ def _wound(p, t, arrangements, element_of_face, orientation, new_t):
     wound = Wound(element=element, side=column(2, np.int64), barycentric=bary, nodes=new_t[:, element].T.copy(),
                   reference=np.einsum("kea,iak->kei", bary, p[:, t[:, column(1, np.int64)]]),
                   stroke=column(4, float).reshape(-1, 2), opened=column(5, bool))
-    first = {}
-    for order, a, b in sorted(along):
-        first.setdefault((a, b), order)
-    cut_edges = np.asarray(sorted(first, key=first.get), dtype=np.int64).reshape(-1, 2).T
+    passed = dict.fromkeys((a, b) for _, a, b in sorted(along))  # each edge once, in the order the stroke ran along it
+    cut_edges = np.asarray(list(passed), dtype=np.int64).reshape(-1, 2).T
     return wound, cut_edges
 
 
@@ -723,17 +694,14 @@ def excise_through(mesh, polygon, positions=None, weights=None, regions=None, mi
     keep = second.elements
     new_of = np.full(m, -1, dtype=np.int64)  # the wound records of the surviving elements, renumbered
     new_of[keep] = np.arange(keep.size)
-    w = first.wound
-    stay = new_of[w.element] >= 0
-    element = new_of[w.element[stay]]
-    wound = Wound(element=element, side=w.side[stay], barycentric=w.barycentric[stay],
-                  nodes=np.asarray(second.mesh.t)[:, element].T.copy(), reference=w.reference[stay],
-                  stroke=w.stroke[stay], opened=w.opened[stay])
+    stay = new_of[first.wound.element] >= 0
+    wound = {f.name: getattr(first.wound, f.name)[stay] for f in fields(Wound)}
+    wound["element"] = new_of[wound["element"]]
+    wound["nodes"] = np.asarray(second.mesh.t)[:, wound["element"]].T.copy()
     regions = {new: first.regions[old] for new, old in enumerate(keep.tolist()) if old in first.regions}
-    return ElementCut(mesh=second.mesh, parent=first.parent[second.parent], elements=first.elements[keep],
-                      cut_edges=first.cut_edges, n_old_nodes=first.n_old_nodes, n_old_elements=first.n_old_elements,
-                      weights=first.weights[keep], regions=regions, wound=wound,
-                      material=node_material(second.mesh, regions))
+    return replace(first, mesh=second.mesh, parent=first.parent[second.parent], elements=first.elements[keep],
+                   weights=first.weights[keep], regions=regions, wound=Wound(**wound),
+                   material=node_material(second.mesh, regions))
 
 
 # --- what to draw ---

@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 import numbers
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 from skfem import MeshTri
@@ -20,8 +21,6 @@ from ..engine.parameters import ParameterError, check_real_array, check_weights,
 
 #: Tolerance in local coordinates: points closer than this are one point, a point this close to an edge is on it.
 EPS = 1e-9
-#: The touched intervals of a whole element: all of its three edges.
-FULL_TOUCH = [[(0.0, 1.0)], [(0.0, 1.0)], [(0.0, 1.0)]]
 
 
 # --- meshes and inputs ---
@@ -55,14 +54,8 @@ def node_positions(mesh, positions) -> np.ndarray:
 
 
 def check_points(name: str, value, min_points: int) -> np.ndarray:
-    """A finite float array shaped (k, 2) with k >= min_points (real numbers: complex points are refused, not cut)."""
-    try:
-        a = np.asarray(value)
-    except (TypeError, ValueError):
-        a = np.asarray(None)  # ragged: refused below
-    if a.dtype.kind not in "iuf":
-        raise ParameterError(name, f"{name} must be an array of real points shaped (k, 2), got {show(value)}")
-    a = a.astype(float)
+    """A finite float array (a copy) shaped (k, 2) with k >= min_points (complex points are refused, not cut)."""
+    a = np.array(check_real_array(name, value))
     if a.ndim != 2 or a.shape[1] != 2 or a.shape[0] < min_points or not np.all(np.isfinite(a)):
         raise ParameterError(name, f"{name} must be at least {min_points} finite points shaped (k, 2), "
                                    f"got {show(value)} (shape {a.shape})")
@@ -91,22 +84,25 @@ def new_mesh(p, t) -> MeshTri:
     return MeshTri(np.ascontiguousarray(p), np.ascontiguousarray(t), sort_t=False)
 
 
-def carry_names(old, new, parent, elements, touches=None, name=None, opened=None) -> MeshTri:
+def carry_names(old, new, parent, elements, touches=None, name=None) -> MeshTri:
     """``new`` with the named boundaries and subdomains of ``old`` carried across an edit: a facet keeps a name if its
     nodes' parents formed a facet of that name (and, with ``touches`` (bool (3, n_new_elements)), some element's
-    material touches it); the facets ``opened`` (bool per facet) join the set ``name``; subdomains go to every copy."""
+    material touches it); the facets the edit opened (inside ``old``, on the boundary now) join the set ``name``;
+    subdomains go to every copy."""
     n_old = old.p.shape[1]
+    parent_keys = pair_keys(parent[np.asarray(new.facets, dtype=np.int64)], n_old)
+    old_facets = np.asarray(old.facets, dtype=np.int64)
     names = {}
     if old.boundaries:
         t2f = np.asarray(new.t2f)  # row k: the facet of local edge k (scikit-fem's edge order)
-        parent_keys = pair_keys(parent[np.asarray(new.facets, dtype=np.int64)], n_old)
-        old_facets = np.asarray(old.facets, dtype=np.int64)
         hit = np.unique(t2f if touches is None else t2f[touches])
         for label, facets in old.boundaries.items():
             old_keys = pair_keys(old_facets[:, np.asarray(facets, dtype=np.int64)], n_old)
             names[label] = hit[np.isin(parent_keys[hit], old_keys)].astype(np.int32)
     if name is not None:
-        names[name] = np.union1d(names.get(name, np.zeros(0, dtype=np.int32)), np.flatnonzero(opened)).astype(np.int32)
+        inside = pair_keys(old_facets[:, np.asarray(old.f2t)[1] >= 0], n_old)
+        opened = np.flatnonzero((np.asarray(new.f2t)[1] < 0) & np.isin(parent_keys, inside))
+        names[name] = np.union1d(names.get(name, np.zeros(0, dtype=np.int32)), opened).astype(np.int32)
     out = new.with_boundaries(names) if names else new
     if old.subdomains:
         out = out.with_subdomains({label: np.flatnonzero(np.isin(elements, np.asarray(els))).astype(np.int32)
@@ -339,10 +335,8 @@ class Region:
     weight: float = field(init=False)
 
     def __post_init__(self):
-        polys = self.polygons
-        polys = (polys,) if isinstance(polys, np.ndarray) and polys.ndim == 2 else polys  # one polygon
         out, weight = [], 0.0
-        for i, poly in enumerate(polys):
+        for i, poly in enumerate(self.polygons):
             name = f"Region.polygons[{i}]"
             poly = check_points(name, poly, 3)
             if not ((poly >= -EPS).all() and (poly.sum(axis=1) <= 1.0 + EPS).all()):
@@ -357,40 +351,33 @@ class Region:
         if weight > 1.0 + 1e-9:
             raise ParameterError("Region.polygons", f"Region.polygons cover {weight:.6g} times the triangle: they "
                                                     "must not overlap")
-        object.__setattr__(self, "polygons", tuple(out))
-        object.__setattr__(self, "slits", _segments("Region.slits", self.slits))
-        object.__setattr__(self, "severed", _segments("Region.severed", self.severed))
-        object.__setattr__(self, "weight", weight)
+        self.__dict__.update(polygons=tuple(out), slits=_segments("Region.slits", self.slits),
+                             severed=_segments("Region.severed", self.severed), weight=weight)
 
     @classmethod
-    def unchecked(cls, polygons, slits, severed, weight):
-        """A region the cut built itself (valid by construction): no checks, no copies."""
+    def unchecked(cls, polygons, slits, severed, weight, touch=None):
+        """A region the cut built itself (valid by construction): no checks, no copies; its :attr:`touch` if known."""
         region = object.__new__(cls)
-        for name, value in (("polygons", polygons), ("slits", slits), ("severed", severed), ("weight", weight)):
-            object.__setattr__(region, name, value)
+        region.__dict__.update(polygons=polygons, slits=slits, severed=severed, weight=weight)
+        if touch is not None:
+            region.__dict__["touch"] = touch  # where the cached property keeps it
         return region
+
+    def sides(self) -> np.ndarray:
+        """The polygons' sides (k, 2, 2), counter-clockwise (material on the left)."""
+        return np.concatenate([np.stack([poly, np.roll(poly, -1, axis=0)], axis=1) for poly in self.polygons])
+
+    @cached_property
+    def touch(self) -> tuple:
+        """The parts of each local edge the material touches, less what is severed (three interval lists, not to be
+        modified). A region does not change: this is worked out once, so that a cut costs what it touches, not what
+        was cut before."""
+        touched, severed = edge_intervals(self.sides()), edge_intervals(self.severed)
+        return tuple(subtract_intervals(touched[k], severed[k]) for k in range(3))
 
 
 #: The material of a whole element.
 WHOLE = Region((np.array([(0.0, 0.0), (1.0, 0.0), (0.0, 1.0)]),))
-
-
-def region_sides(region):
-    """The region's polygon sides (k, 2, 2), counter-clockwise (material on the left)."""
-    return np.concatenate([np.stack([poly, np.roll(poly, -1, axis=0)], axis=1) for poly in region.polygons])
-
-
-def region_touch(region: Region):
-    """The parts of each local edge the region's material touches, less what is severed (a tuple of three interval
-    lists, not to be modified). A region does not change: this is worked out once and kept with it, so that a cut costs
-    what it touches, not what was cut before."""
-    touch = region.__dict__.get("_touch")
-    if touch is None:
-        touched = edge_intervals(region_sides(region))
-        severed = edge_intervals(region.severed)
-        touch = tuple(subtract_intervals(touched[k], severed[k]) for k in range(3))
-        object.__setattr__(region, "_touch", touch)
-    return touch
 
 
 def element_weights(weights, m) -> np.ndarray:
@@ -411,8 +398,7 @@ def check_regions(regions, weights, m):
             raise ParameterError(f"regions[{e}]", f"regions[{e}] must be a Region, got {type(r).__name__}")
         out[int(e)] = r
     implied = np.ones(m)
-    for e, r in out.items():
-        implied[e] = r.weight
+    implied[list(out)] = [r.weight for r in out.values()]
     if weights is None:
         return out, implied
     w = element_weights(weights, m)

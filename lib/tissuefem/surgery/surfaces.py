@@ -15,9 +15,9 @@ from skfem import MeshTri
 from ..engine.contact import ContactSurface
 from ..engine.meshes import signed_areas
 from ..engine.parameters import ParameterError
-from .geometry import (EPS, FULL_TOUCH, check_regions, edge_intervals, edge_point, edges_of, element_edges,
-                       intersect_intervals, mesh_arrays, merge_intervals, pair_keys, region_sides, region_touch,
-                       reversed_intervals, subtract_intervals)
+from .geometry import (EPS, WHOLE, check_regions, edge_intervals, edge_point, edges_of, element_edges,
+                       intersect_intervals, mesh_arrays, merge_intervals, pair_keys, reversed_intervals,
+                       subtract_intervals)
 
 __all__ = ["contact_surface"]
 
@@ -34,43 +34,37 @@ def contact_surface(mesh, weights=None, regions=None) -> ContactSurface:
     if not regions:
         return ContactSurface.from_mesh(mesh)
     key, side = element_edges(p, t)  # edge k of element e: nodes t[k], t[k+1]; side of the edge e lies on
-    # which elements lie across each element edge: the same node pair, the other side
-    flat_key, flat_side = key.ravel(), side.ravel()
-    order = np.lexsort((flat_side, flat_key))
-    by_key = {}
-    for i in order.tolist():
-        by_key.setdefault(int(flat_key[i]), []).append(i)
+    # the node pair and the side as one number; the edges there by flat index k m + e (plain numbers: few objects)
+    here, there = (key * 2 + (side > 0)).ravel().tolist(), (key * 2 + (side < 0)).ravel().tolist()
+    by_edge = {}
+    for i, edge in enumerate(here):
+        by_edge.setdefault(edge, []).append(i)
+    key = key.tolist()
     cut = np.asarray((mesh.boundaries or {}).get("cut", []), dtype=np.intp)
     cut_facets = set(pair_keys(np.asarray(mesh.facets)[:, cut], n).tolist())
 
     def touch(e):  # (touched by the material, touched and joinable: not severed) per local edge
         r = regions.get(e)
-        return (FULL_TOUCH, FULL_TOUCH) if r is None else (edge_intervals(region_sides(r)), region_touch(r))
+        return (WHOLE.touch, WHOLE.touch) if r is None else (edge_intervals(r.sides()), r.touch)
 
     pieces = []  # (element, local point a, local point b, wound?) with the material on the left in local coordinates
     for e in range(m):
         for k in range(3):
-            kk = int(key[k, e])
-            across = [i for i in by_key[kk] if flat_side[i] != side[k, e]]
-            if e not in regions and all(i % m not in regions for i in across):
-                if across:
-                    continue  # two whole elements share this edge: inside the material
-                touched, joinable, joined = [(0.0, 1.0)], [(0.0, 1.0)], []
-            else:
-                touched, joinable = (iv[k] for iv in touch(e))
-                reach = []
-                for i in across:
-                    l, f = divmod(i, m)
-                    f_iv = touch(f)[1][l]
-                    if int(t[l, f]) != int(t[k, e]):  # the edge runs the other way in f
-                        f_iv = reversed_intervals(f_iv)
-                    reach += f_iv
-                joined = intersect_intervals(joinable, merge_intervals(reach))
+            kk = key[k][e]
+            across = by_edge.get(there[k * m + e], ())  # the same node pair, the other side
+            if across and e not in regions and all(i % m not in regions for i in across):
+                continue  # two whole elements share this edge: inside the material
+            touched, joinable = (iv[k] for iv in touch(e))
+            reach = []
+            for l, f in (divmod(i, m) for i in across):
+                f_iv = touch(f)[1][l]
+                reach += f_iv if int(t[l, f]) == int(t[k, e]) else reversed_intervals(f_iv)  # f runs it the other way
+            joined = intersect_intervals(joinable, merge_intervals(reach))
             for lo, hi in subtract_intervals(touched, joined):  # a lip where it is on a wound or severed
                 severed = bool(subtract_intervals([(lo, hi)], joinable))
                 pieces.append((e, edge_point(k, lo), edge_point(k, hi), kk in cut_facets or severed))
     for e, r in regions.items():
-        for a, b in region_sides(r):
+        for a, b in r.sides():
             if set(edges_of(a)) & set(edges_of(b)):
                 continue  # on an edge of the triangle: done above
             pieces.append((e, (float(a[0]), float(a[1])), (float(b[0]), float(b[1])), True))

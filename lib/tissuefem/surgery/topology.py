@@ -17,14 +17,13 @@ from scipy.sparse import csgraph
 
 from ..engine.contact.surface import cross, segment_distance
 from ..engine.meshes import MeshMap
-from ..engine.parameters import ParameterError, check_count, check_indices, show
+from ..engine.parameters import ParameterError, call_user, check_count, check_indices, show
 from .geometry import (carry_names, check_points, clip_to_body, mesh_arrays, new_mesh, node_positions, pair_keys,
-                       polygon_contains)
+                       polygon_area, polygon_contains)
 
 __all__ = ["MeshEdit", "duplicate_along_edges", "cut_path", "incise", "excise", "connected_components"]
 
-#: An edge costs ``length * (1 + _HUG * d / h)`` in :func:`cut_path`: large enough that a detour of one edge length
-#: away from the line costs more than several edges along it.
+#: The 10 in an edge's cost in :func:`cut_path`: a detour of one edge length away costs more than several edges along it
 _HUG = 10.0
 #: An end of the polyline this close to the boundary (in lengths of the nearest boundary facet) is on it.
 _NEAR_BOUNDARY = 0.5
@@ -53,18 +52,15 @@ def _node_indices(name: str, value, rows: int, n_nodes: int) -> np.ndarray:
 
 
 def duplicate_along_edges(t, n_nodes, edges):
-    """Duplicate nodes so that the given edges open: the core of a cut.
+    """Duplicate nodes so that the ``edges`` (2, k) (node pairs of triangle edges, either order, repeats allowed) of
+    the triangles ``t`` (3, m, not modified) on ``n_nodes`` nodes open: the core of a cut. Returns ``(new_t, parent)``:
+    the triangles in their vertex order with the copies' indices, and the old node of every node (copies appended).
 
-    ``t`` (3, m): the triangles (not modified) of a mesh with ``n_nodes`` nodes; ``edges`` (2, k): the node pairs to
-    open, each an edge of some triangle (in either order, repeats allowed). Returns ``(new_t, parent)``: ``new_t``
-    (3, m) keeps the triangles and their vertex order with the copies' indices; ``parent`` (n_nodes + n_copies,) maps
-    every node (the copies appended) to the old node.
-
-    The triangles round a node on a cut fall into *fans* linked across uncut edges, one per side of the wound: where
-    ``j`` cut edges meet, an interior node's ring breaks into ``j`` fans, a boundary node's into ``j + 1`` (the tip of
-    a crack stays closed; a single interior edge opens nothing). The fan with the lowest triangle keeps the node, the
-    others get new nodes in the order (node, lowest triangle). The fans are the connected components of the graph of
-    the cut nodes' *corners* (triangle, vertex) linked across uncut edges.
+    The triangles round a node on a cut fall into *fans*, the connected components of its corners (triangle, vertex)
+    linked across uncut edges, one per side of the wound: where ``j`` cut edges meet, an interior node's ring breaks
+    into ``j`` fans, a boundary node's into ``j + 1`` (a crack's tip stays closed; a single interior edge opens
+    nothing). The fan with the lowest triangle keeps the node, the others get new nodes in the order (node, lowest
+    triangle).
     """
     n_nodes = check_count("n_nodes", n_nodes, 0)
     t, edges = _node_indices("t", t, 3, n_nodes), _node_indices("edges", edges, 2, n_nodes)
@@ -179,15 +175,15 @@ def _boundary_snap(x, t, bfacets, end, towards):
 
 
 def cut_path(mesh, polyline, positions=None) -> np.ndarray:
-    """The path of mesh nodes (int64) that follows a ``polyline`` (k, 2), k >= 2, drawn at ``positions``.
+    """The path of mesh nodes (int64) that follows a ``polyline`` (k, 2), k >= 2, drawn at ``positions``: consecutive
+    nodes are the ends of a mesh edge, or two copies of one point (crossing an old wound).
 
-    Consecutive nodes are the ends of a mesh edge, or two copies of one point (crossing an old wound). Each vertex of
-    the polyline (first clipped to the body, :func:`~.geometry.clip_to_body`) snaps to the nearest node; an *end*
-    outside the body (or within half an edge of its boundary) snaps to the boundary node where it enters, so a stroke
-    across the body cuts it through. Between them runs a shortest path (Dijkstra) over the mesh edges, each costing
-    ``length * (1 + 10 d / h)`` (``d``: the mean distance of its nodes from the drawn segment, ``h``: the median edge
-    length): it hugs the line within about one element. ``ValueError`` for a bad polyline, one that misses the body,
-    collapses to a single node, or joins two unconnected pieces.
+    Each vertex of the polyline (first clipped to the body, :func:`~.geometry.clip_to_body`) snaps to the nearest
+    node; an *end* outside the body (or within half an edge of its boundary) to the boundary node where it enters, so
+    a stroke across the body cuts it through. Between them runs a shortest path (Dijkstra) over the mesh edges, each
+    costing ``length * (1 + 10 d / h)`` (``d``: the mean distance of its nodes from the drawn segment, ``h``: the
+    median edge length): it hugs the line within about one element. ``ValueError`` for a bad polyline, one that misses
+    the body, collapses to a single node, or joins two unconnected pieces.
     """
     pts = check_points("polyline", polyline, 2)
     p, t = mesh_arrays(mesh)
@@ -248,12 +244,6 @@ def cut_path(mesh, polyline, positions=None) -> np.ndarray:
     return np.asarray(path, dtype=np.int64)
 
 
-def _opened(mesh, parent, interior_keys, n_old) -> np.ndarray:
-    """Boundary facets of the new ``mesh`` whose parent pair was an interior edge of the old mesh."""
-    new_keys = pair_keys(parent[np.asarray(mesh.facets, dtype=np.int64)], n_old)
-    return (np.asarray(mesh.f2t)[1] < 0) & np.isin(new_keys, interior_keys)
-
-
 def incise(mesh, polyline, positions=None) -> MeshEdit:
     """Cut ``mesh`` (not modified) along the path of mesh edges (:func:`cut_path`) of a drawn polyline, opened by
     :func:`duplicate_along_edges` (a crack's tip stays closed). Returns a :class:`MeshEdit` (reference coordinates,
@@ -267,26 +257,24 @@ def incise(mesh, polyline, positions=None) -> MeshEdit:
     # steps between copies of one point (crossing an old wound) are not edges; edges on the boundary are already open
     pairs = pairs[:, np.isin(pair_keys(pairs, n), interior_keys)]
     new_t, parent = duplicate_along_edges(t, n, pairs)
+    elements = np.arange(t.shape[1], dtype=np.int64)
     plain = new_mesh(p[:, parent], new_t)
-    wound = _opened(plain, parent, interior_keys, n)
-
-    # the path's edges that actually opened, once each, in the order of the path
-    opened_keys = pair_keys(parent[np.asarray(plain.facets, dtype=np.int64)[:, wound]], n)
+    cut = carry_names(mesh, plain, parent, elements, name="cut")
+    # the path's edges that actually opened, once each, in the order of the path (plain and cut share their facets)
+    opened_keys = pair_keys(parent[np.asarray(plain.facets, dtype=np.int64)[:, cut.boundaries["cut"]]], n)
     keys = pair_keys(pairs, n)
     first = np.sort(np.unique(keys, return_index=True)[1])
     cut_edges = pairs[:, first[np.isin(keys[first], opened_keys)]]
     if cut_edges.shape[1] == 0:
         raise ValueError(f"polyline opens no edge: its path {path.tolist()} runs along the boundary or is a single "
                          f"interior edge (a crack needs at least one node strictly inside it)")
-    elements = np.arange(t.shape[1], dtype=np.int64)
-    return MeshEdit(mesh=carry_names(mesh, plain, parent, elements, name="cut", opened=wound), parent=parent,
-                    elements=elements, cut_edges=cut_edges, n_old_nodes=n, n_old_elements=t.shape[1])
+    return MeshEdit(mesh=cut, parent=parent, elements=elements, cut_edges=cut_edges, n_old_nodes=n,
+                    n_old_elements=t.shape[1])
 
 
 def _has_area(poly) -> bool:
     """Whether the polygon ``poly`` (k, 2) encloses an area beyond round-off of its size."""
-    area = 0.5 * (poly[:, 0] @ np.roll(poly[:, 1], -1) - poly[:, 1] @ np.roll(poly[:, 0], -1))
-    return abs(area) > 1e-12 * np.ptp(poly, axis=0).max() ** 2
+    return abs(polygon_area(poly.tolist())) > 1e-12 * np.ptp(poly, axis=0).max() ** 2
 
 
 def excise(mesh, region, positions=None) -> MeshEdit:
@@ -300,10 +288,7 @@ def excise(mesh, region, positions=None) -> MeshEdit:
     m = t.shape[1]
     centroids = x[:, t].mean(axis=1)
     if callable(region):
-        try:
-            remove = np.asarray(region(centroids.copy()))
-        except Exception as err:  # the user's function may raise anything: a refusal by name, not a crash
-            raise ValueError(f"region (a function of the centroids) raised {type(err).__name__}: {err}") from None
+        remove = np.asarray(call_user("region", "function of the centroids", region, centroids.copy()))
         if remove.shape != (m,) or remove.dtype != bool:
             raise ValueError(f"region, as a function of the centroids (2, m), must return a bool array shaped "
                              f"({m},), got dtype {remove.dtype} shape {remove.shape}")
@@ -324,9 +309,6 @@ def excise(mesh, region, positions=None) -> MeshEdit:
     elements = np.flatnonzero(~remove).astype(np.int64)
     parent, new_t = np.unique(t[:, elements], return_inverse=True)  # increasing: the old order, compacted
     new_t = new_t.reshape(3, -1).astype(np.int64)
-    n = p.shape[1]
-    interior_keys = pair_keys(np.asarray(mesh.facets, dtype=np.int64)[:, np.asarray(mesh.f2t)[1] >= 0], n)
-    plain = new_mesh(p[:, parent], new_t)
-    rim = _opened(plain, parent, interior_keys, n)
-    return MeshEdit(mesh=carry_names(mesh, plain, parent, elements, name="defect", opened=rim), parent=parent,
-                    elements=elements, cut_edges=np.zeros((2, 0), dtype=np.int64), n_old_nodes=n, n_old_elements=m)
+    defect = carry_names(mesh, new_mesh(p[:, parent], new_t), parent, elements, name="defect")
+    return MeshEdit(mesh=defect, parent=parent, elements=elements, cut_edges=np.zeros((2, 0), dtype=np.int64),
+                    n_old_nodes=p.shape[1], n_old_elements=m)
