@@ -590,10 +590,8 @@ class Pacing:
 
 async def _frame_loop(view) -> None:
     """The view's frame loop (a task on the kernel's event loop): while anything moves, a frame every
-    ``interval_ms`` (:class:`Pacing`: on a grid of absolute times, a late frame made up for, up to an interval, in
-    the waits after it, input starting a frame early but the grid unchanged, so that frames keep one step per
-    interval on average), then asleep until input arrives, when a frame starts at once; a refused frame is a message, any other
-    error stops the loop."""
+    ``interval_ms`` (:class:`Pacing`), then asleep until input arrives, when a frame starts at once; a refused
+    frame is a message, any other error stops the loop."""
     pacing = Pacing(view.interval_ms / 1e3)
     while not view.closed:
         if view.resting and not view._tools_stale:
