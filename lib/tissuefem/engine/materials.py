@@ -16,6 +16,7 @@ d_jk)`` whatever ``d``.
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -89,24 +90,15 @@ def _constant4(T, rest) -> np.ndarray:
     return np.broadcast_to(T.reshape(T.shape + (1,) * len(rest)), T.shape + tuple(rest))
 
 
-def _levi_civita(d) -> np.ndarray:
-    """The permutation symbol ``e_ij`` (d = 2) or ``e_ijk`` (d = 3)."""
-    e = np.zeros((d,) * d)
-    if d == 2:
-        e[0, 1], e[1, 0] = 1.0, -1.0
-    else:
-        for i, j, k in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
-            e[i, j, k], e[i, k, j] = 1.0, -1.0
-    return e
-
-
 def _tensors(d) -> dict:
     """The constant tensors of dimension ``d``: ``delta``; ``I4 = d_ik d_jl = dF/dF``; ``I4T = d_il d_jk = dF^T/dF``;
-    ``IXI = d_ij d_kl``; ``perm``, the permutation symbol."""
-    delta = np.eye(d)
+    ``IXI = d_ij d_kl``; ``perm``, the permutation symbol ``e_ij`` (d = 2) or ``e_ijk`` (d = 3): the sign of each
+    permutation of the indices (-1 to the number of inversions), 0 for a repeated index."""
+    delta, perm = np.eye(d), np.zeros((d,) * d)
+    for p in itertools.permutations(range(d)):
+        perm[p] = (-1.0) ** sum(a > b for a, b in itertools.combinations(p, 2))
     return {"delta": delta, "I4": np.einsum("ik,jl->ijkl", delta, delta),
-            "I4T": np.einsum("il,jk->ijkl", delta, delta), "IXI": np.einsum("ij,kl->ijkl", delta, delta),
-            "perm": _levi_civita(d)}
+            "I4T": np.einsum("il,jk->ijkl", delta, delta), "IXI": np.einsum("ij,kl->ijkl", delta, delta), "perm": perm}
 
 
 _TENSORS = {d: _tensors(d) for d in DIMENSIONS}
@@ -121,14 +113,6 @@ def cofactor_derivative(F):
         return _constant4(_HCOF2, F.shape[2:])
     e = _TENSORS[3]["perm"]
     return np.einsum("ikm,jln,mn...->ijkl...", e, e, F)
-
-
-def _trace(M) -> np.ndarray:
-    """``tr M`` of a field ``[d, d, ...]``, summed in index order (in 2D ``M00 + M11``)."""
-    t = M[0, 0]
-    for i in range(1, M.shape[0]):
-        t = t + M[i, i]
-    return t
 
 
 # --- the rotation-preserving SVD ------------------------------------------------------
@@ -211,13 +195,13 @@ class LinearElastic(Material):
 
     def energy(self, F):
         eps = self._strain(_as_F(F))
-        tr = _trace(eps)
+        tr = np.trace(eps)
         return self.mu * np.einsum("ij...,ij...->...", eps, eps) + 0.5 * self.lam * tr**2
 
     def stress(self, F):
         F = _as_F(F)
         eps = self._strain(F)
-        tr = _trace(eps)
+        tr = np.trace(eps)
         return 2.0 * self.mu * eps + self.lam * tr * _constant4(_TENSORS[F.shape[0]]["delta"], F.shape[2:])
 
     def tangent(self, F):
