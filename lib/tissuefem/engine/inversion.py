@@ -32,22 +32,23 @@ def diagonal(s) -> np.ndarray:
 
 
 def _clamp_eigenvalues(M, floor):
-    """Symmetric matrices ``M`` ``(n, k, k)`` (symmetrised first) with their eigenvalues raised to ``floor``; a
+    """Symmetric matrices ``M`` ``[k, k, *rest]`` (symmetrised first) with their eigenvalues raised to ``floor``; a
     sample with a non-finite entry (``ln J`` inverted) gives NaN."""
+    k, rest = M.shape[0], M.shape[2:]
+    M = np.moveaxis(M.reshape((k, k, -1)), -1, 0)
     ok = np.all(np.isfinite(M), axis=(1, 2))
     w, Q = np.linalg.eigh(0.5 * (M[ok] + np.swapaxes(M[ok], 1, 2)))
     out = np.full(M.shape, np.nan)
     out[ok] = np.einsum("nab,nb,ncb->nac", Q, np.maximum(w, floor), Q)
-    return out
+    return np.moveaxis(out, 0, -1).reshape((k, k) + rest)
 
 
 def eigen_projection(A, floor: float = 0.0):
     """Clamp the eigenvalues of each ``d^2 x d^2`` tangent ``A [d,d,d,d,*rest]`` at ``floor`` numerically: the closed
     form's reference, and the fallback for materials not isotropic (fibers) or not frame indifferent (linear)."""
     A = np.asarray(A, dtype=float)
-    d, rest = A.shape[0], A.shape[4:]
-    P = _clamp_eigenvalues(np.moveaxis(A.reshape((d * d, d * d, -1)), -1, 0), floor)
-    return np.moveaxis(P, 0, -1).reshape((d, d, d, d) + rest)
+    d = A.shape[0]
+    return _clamp_eigenvalues(A.reshape((d * d, d * d) + A.shape[4:]), floor).reshape(A.shape)
 
 
 def projected_tangent(material, F, floor: float = 0.0):
@@ -102,9 +103,7 @@ def _project_diagonal_blocks(A, floor):
             out[i, j, i, j], out[k, l, k, l], out[i, j, k, l] = _clamp_pair(a, b, d, floor)
             out[k, l, i, j] = out[i, j, k, l]
         else:
-            S = np.stack([np.stack([A[p + q] for q in block]) for p in block])  # [3, 3, *rest]
-            M = _clamp_eigenvalues(np.moveaxis(S.reshape((3, 3, -1)), -1, 0), floor)
-            S = np.moveaxis(M, 0, -1).reshape(S.shape)
+            S = _clamp_eigenvalues(np.stack([np.stack([A[p + q] for q in block]) for p in block]), floor)
             for x, p in enumerate(block):
                 for y, q in enumerate(block):
                     out[p + q] = S[x, y]
@@ -185,11 +184,10 @@ class ITFClamped:
         self._psi_cc = float(np.asarray(material.energy(D)).ravel()[0])
         self._g_cc = float(np.asarray(material.stress(D))[0, 0, 0])
         self._h01_cc = float(A[0, 0, 1, 1, 0])
-        k = A[1, 1, 1, 1, 0] if stiffness is None else stiffness
-        self.stiffness = check_real("stiffness", k, 0.0, lo_open=True)
         #: the spring stiffness by dimension: the given one, else d2Psi/ds^2 at (c, ..., c)
-        self.stiffnesses = {2: self.stiffness, 3: self.stiffness if stiffness is not None else check_real(
-            "stiffness", material.tangent(diagonal(np.full((3, 1), c)))[2, 2, 2, 2, 0], 0.0, lo_open=True)}
+        self.stiffnesses = {d: check_real("stiffness", stiffness if stiffness is not None else material.tangent(
+            diagonal(np.full((d, 1), c)))[d - 1, d - 1, d - 1, d - 1, 0], 0.0, lo_open=True) for d in (2, 3)}
+        self.stiffness = self.stiffnesses[2]
         self.name = f"ITF-clamped {material.name}"
 
     def __repr__(self):
@@ -258,9 +256,8 @@ class ITFClamped:
                     Ht[j, j] = Ht[j, j] + (A_hi[j, j, i, i] - A_lo[j, j, i, i]) / (2 * step) * dd[i]
             Ht[j, j] = np.where(clamped[j], k, Ht[j, j])
         B = np.zeros((dim,) * 4 + s.shape[1:])
-        for i in range(dim):
-            for j in range(dim):
-                B[i, i, j, j] = Ht[i, j]
+        i = np.arange(dim)[:, None]
+        B[i, i, i.T, i.T] = Ht  # B_iijj = Ht_ij
         for a in range(dim):
             for b in range(a + 1, dim):
                 gap, total = s[a] - s[b], s[a] + s[b]

@@ -21,7 +21,7 @@ import math
 
 import numpy as np
 
-from .materials1d import LameMaterial, safe_log, taylor_log, taylor_log_prime, taylor_log_second
+from .materials1d import LameMaterial, NeoHookean1D, TaylorNeoHookean1D
 from .parameters import ParameterError, check_fiber_stiffness, check_real_array, lame_parameters
 
 __all__ = [
@@ -214,25 +214,23 @@ class LinearElastic(Material):
 # --- the Neo-Hookean family: mu/2 (F:F - d) + h(J) --------------------------------
 
 class _NeoHookeanFamily(Material):
-    """``Psi = mu/2 (F:F - d) + h(J)``, ``h(1) = 0`` (module docstring); subclasses give ``_h(J) = (h, h', h'')``.
-    ``h'(1) = -mu`` and ``h''(1) = lam + mu`` in every dimension, so one ``h`` serves triangles and tetrahedra."""
-
-    def _h(self, J):
-        raise NotImplementedError
+    """``Psi = mu/2 (F:F - d) + h(J)``, ``h(1) = 0`` (module docstring); a subclass gives ``volumetric(J) = (h, h',
+    h'')``. ``h'(1) = -mu`` and ``h''(1) = lam + mu`` in every dimension, so one ``h`` serves triangles and tetrahedra
+    (and the 1D bar: :class:`~tissuefem.engine.materials1d.VolumetricFamily1D`)."""
 
     def energy(self, F):
         F = _as_F(F)
-        h, _, _ = self._h(det(F))
+        h, _, _ = self.volumetric(det(F))
         return 0.5 * self.mu * (np.einsum("ij...,ij...->...", F, F) - float(F.shape[0])) + h
 
     def stress(self, F):
         F = _as_F(F)
-        _, h1, _ = self._h(det(F))
+        _, h1, _ = self.volumetric(det(F))
         return self.mu * F + h1 * cofactor(F)
 
     def tangent(self, F):
         F = _as_F(F)
-        _, h1, h2 = self._h(det(F))
+        _, h1, h2 = self.volumetric(det(F))
         C = cofactor(F)
         rest = F.shape[2:]
         return (self.mu * _constant4(_TENSORS[F.shape[0]]["I4"], rest) + h2 * _outer(C, C)
@@ -249,16 +247,7 @@ class NeoHookean(_NeoHookeanFamily):
     name = "neo-Hookean"
     inversion_safe = False
 
-    def _h(self, J):
-        J = np.asarray(J, dtype=float)
-        lnJ = safe_log(J)
-        invJ = np.full(J.shape, np.nan)
-        np.divide(1.0, J, out=invJ, where=J > 0)
-        lam, mu = self.lam, self.mu
-        h = -mu * lnJ + 0.5 * lam * lnJ**2
-        h1 = (lam * lnJ - mu) * invJ
-        h2 = (lam + mu - lam * lnJ) * invJ**2
-        return h, h1, h2
+    volumetric = NeoHookean1D.volumetric
 
 
 class TaylorNeoHookean(_NeoHookeanFamily):
@@ -270,10 +259,7 @@ class TaylorNeoHookean(_NeoHookeanFamily):
 
     name = "neo-Hookean (cubic r(J))"
 
-    def _h(self, J):
-        r, r1, r2 = taylor_log(J), taylor_log_prime(J), taylor_log_second(J)
-        lam, mu = self.lam, self.mu
-        return -mu * r + 0.5 * lam * r**2, (lam * r - mu) * r1, lam * r1**2 + (lam * r - mu) * r2
+    volumetric = TaylorNeoHookean1D.volumetric
 
 
 class StableNeoHookean(_NeoHookeanFamily):
@@ -292,7 +278,7 @@ class StableNeoHookean(_NeoHookeanFamily):
         self.lam_s = self.lam + self.mu
         self.alpha = 1.0 + self.mu / self.lam_s
 
-    def _h(self, J):
+    def volumetric(self, J):
         J = np.asarray(J, dtype=float)
         d = J - self.alpha
         h = 0.5 * self.lam_s * d**2 - 0.5 * self.mu**2 / self.lam_s

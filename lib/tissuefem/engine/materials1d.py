@@ -94,45 +94,45 @@ class Linear1D(Material1D):
         return np.full(np.shape(F), self.modulus)
 
 
-class NeoHookean1D(Material1D):
-    """The notes' Neo-Hookean model in 1D, with ``ln J``. Undefined (NaN) for ``F <= 0``."""
+class VolumetricFamily1D(Material1D):
+    """``Psi = mu/2 (F^2 - 1) + h(J)`` with ``J = F``: ``P = mu F + h'(F)``, ``dP/dF = mu + h''(F)``. A subclass gives
+    ``volumetric(J) = (h, h', h'')``, the term the 2D and 3D models add to ``mu/2 (F:F - d)`` unchanged."""
+
+    def energy(self, F):
+        F = np.asarray(F, dtype=float)
+        return 0.5 * self.mu * (F**2 - 1.0) + self.volumetric(F)[0]
+
+    def stress(self, F):
+        F = np.asarray(F, dtype=float)
+        return self.mu * F + self.volumetric(F)[1]
+
+    def tangent(self, F):
+        return self.mu + self.volumetric(np.asarray(F, dtype=float))[2]
+
+
+class NeoHookean1D(VolumetricFamily1D):
+    """The notes' Neo-Hookean model in 1D: ``h(J) = -mu ln J + lam/2 (ln J)^2``, ``h' = (lam ln J - mu)/J``, ``h'' =
+    (lam + mu - lam ln J)/J^2``. Undefined (NaN, without a warning) for ``J <= 0``, so a solver can detect inversion."""
 
     name = "neo-Hookean (ln J)"
     inversion_safe = False
 
-    def energy(self, F):
-        F = np.asarray(F, dtype=float)
-        lnF = safe_log(F)
-        return 0.5 * self.mu * (F**2 - 1.0) - self.mu * lnF + 0.5 * self.lam * lnF**2
-
-    def stress(self, F):
-        F = np.asarray(F, dtype=float)
-        lnF = safe_log(F)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            return self.mu * F + (self.lam * lnF - self.mu) / F
-
-    def tangent(self, F):
-        F = np.asarray(F, dtype=float)
-        lnF = safe_log(F)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            return self.mu + (self.mu + self.lam * (1.0 - lnF)) / F**2
+    def volumetric(self, J):
+        J = np.asarray(J, dtype=float)
+        lnJ = safe_log(J)
+        invJ = np.full(J.shape, np.nan)
+        np.divide(1.0, J, out=invJ, where=J > 0)
+        lam, mu = self.lam, self.mu
+        return -mu * lnJ + 0.5 * lam * lnJ**2, (lam * lnJ - mu) * invJ, (lam + mu - lam * lnJ) * invJ**2
 
 
-class TaylorNeoHookean1D(Material1D):
-    """Neo-Hookean with ``ln J`` replaced by its cubic Taylor polynomial ``r(J)``: finite for all F."""
+class TaylorNeoHookean1D(VolumetricFamily1D):
+    """Neo-Hookean with ``ln J`` replaced by its cubic Taylor polynomial ``r(J)``: ``h = -mu r + lam/2 r^2``, ``h' =
+    (lam r - mu) r'``, ``h'' = lam r'^2 + (lam r - mu) r''``; finite for all F."""
 
     name = "neo-Hookean (cubic r(J))"
 
-    def energy(self, F):
-        F = np.asarray(F, dtype=float)
-        r = taylor_log(F)
-        return 0.5 * self.mu * (F**2 - 1.0) - self.mu * r + 0.5 * self.lam * r**2
-
-    def stress(self, F):
-        F = np.asarray(F, dtype=float)
-        return self.mu * F + (self.lam * taylor_log(F) - self.mu) * taylor_log_prime(F)
-
-    def tangent(self, F):
-        F = np.asarray(F, dtype=float)
-        r, r1, r2 = taylor_log(F), taylor_log_prime(F), taylor_log_second(F)
-        return self.mu + self.lam * r1**2 + (self.lam * r - self.mu) * r2
+    def volumetric(self, J):
+        r, r1, r2 = taylor_log(J), taylor_log_prime(J), taylor_log_second(J)
+        lam, mu = self.lam, self.mu
+        return -mu * r + 0.5 * lam * r**2, (lam * r - mu) * r1, lam * r1**2 + (lam * r - mu) * r2
