@@ -459,11 +459,9 @@ class FiberFamily(Material):
         if g.ndim not in (1, 2, 3) or g.shape[0] not in DIMENSIONS:
             raise ParameterError("fibers", "fibers must be shaped (d,), (d, n_elements) or (d, n_elements, "
                                            f"n_points) with d = 2 or 3, got shape {g.shape}")
-        if not np.all(np.isfinite(g)):
-            raise ParameterError("fibers", "fibers contains non-finite entries")
         norm = vector_length(g)
-        if not np.all(norm > 0.0):
-            raise ParameterError("fibers", "fibers contains zero-length vectors (a fibre needs a direction)")
+        if not (np.all(np.isfinite(g)) and np.all(norm > 0.0)):
+            raise ParameterError("fibers", "fibers must be finite vectors, none zero-length (a fibre needs a direction)")
         self.fibers = g / norm
 
     def _g(self, F) -> np.ndarray:
@@ -474,11 +472,7 @@ class FiberFamily(Material):
             raise ParameterError("fibers", f"fibers are {g.shape[0]}D vectors but F is {F.shape[0]}D "
                                            f"(shape {F.shape})")
         extra = len(rest) - (g.ndim - 1)
-        try:
-            np.broadcast_shapes(g.shape[1:] + (1,) * max(extra, 0), rest)
-        except ValueError:
-            extra = -1
-        if extra < 0:
+        if extra < 0 or any(a != b and 1 not in (a, b) for a, b in zip(g.shape[1:], rest)):
             raise ParameterError("fibers", f"fibers of shape {g.shape} do not match F with trailing shape {rest}")
         return g.reshape(g.shape + (1,) * extra)
 

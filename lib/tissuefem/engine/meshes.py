@@ -307,15 +307,10 @@ def _grid_for(n_triangles: int, width: float, height: float) -> tuple[int, int]:
     aspect = width / height
     half = max(1, n_triangles // 2)
     nx0 = min(half, max(1, round(math.sqrt(n_triangles / 2.0 * aspect))))
-    best = None
-    for nx in range(max(1, nx0 - 2), min(half, nx0 + 2) + 1):
-        ny = max(1, round(n_triangles / (2.0 * nx)))
-        # within the cap first, then closeness of the count, then how square the cells are
-        key = (2 * nx * ny > MAX_TRIANGLES, abs(2 * nx * ny - n_triangles),
-               abs(math.log((width / nx) / (height / ny))))
-        if best is None or key < best[0]:
-            best = (key, nx, ny)
-    nx, ny = best[1], best[2]
+    grids = [(nx, max(1, round(n_triangles / (2.0 * nx)))) for nx in range(max(1, nx0 - 2), min(half, nx0 + 2) + 1)]
+    # within the cap first, then closeness of the count, then how square the cells are (then the fewest columns)
+    _, _, _, nx, ny = min((2 * nx * ny > MAX_TRIANGLES, abs(2 * nx * ny - n_triangles),
+                           abs(math.log((width / nx) / (height / ny))), nx, ny) for nx, ny in grids)
     if 2 * nx * ny > MAX_TRIANGLES:  # rounding up overshot the cap: round down instead
         ny = max(1, n_triangles // (2 * nx))
     return nx, ny
@@ -382,10 +377,9 @@ def fusiform_fiber_direction(points, length=4.0, max_width=1.0, tendon_width=0.2
     the point has ``eta = y / w(x)`` and tangent ``(1, eta w'(x))``."""
     length, max_width, tendon_width = _check_fusiform(length, max_width, tendon_width)
     pts = check_real_array("points", points)
-    if pts.ndim < 1 or pts.shape[0] != 2:
-        raise ParameterError("points", f"points must be shaped (2, ...), got shape {pts.shape}")
-    if not np.all(np.abs(pts) <= COORDINATE_MAX):
-        raise ParameterError("points", f"points must be finite and within the coordinate limit +-{COORDINATE_MAX:g}")
+    if pts.ndim < 1 or pts.shape[0] != 2 or not np.all(np.abs(pts) <= COORDINATE_MAX):
+        raise ParameterError("points", f"points must be shaped (2, ...), finite and within the coordinate limit "
+                                       f"+-{COORDINATE_MAX:g}, got shape {pts.shape}")
     w, dw = fusiform_width(pts[0], length, max_width, tendon_width)
     eta = pts[1] / w
     a = np.stack([np.ones_like(eta), eta * dw])
