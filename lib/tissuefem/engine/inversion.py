@@ -1,8 +1,7 @@
 """Inversion-robust building blocks: the rotation-preserving SVD and the definiteness fix, in 2D and 3D.
 
-**Rotation-preserving SVD** (:func:`tissuefem.engine.materials.rotation_preserving_svd`, with the materials: the 3D
-corotated model needs its polar rotation ``U V^T``): ``F = U diag(s) V^T``, ``U``, ``V`` proper rotations, the sign of
-``J`` carried by the smallest singular value.
+**Rotation-preserving SVD** (:func:`tissuefem.engine.materials.rotation_preserving_svd`, with the 3D corotated model
+that needs it): ``F = U diag(s) V^T``, ``U``, ``V`` proper rotations, the sign of ``J`` on the smallest singular value.
 
 **The definiteness fix** (Teran, Sifakis, Irving, Fedkiw, "Robust quasistatic finite elements and flesh simulation",
 SCA 2005). For an isotropic material ``A(F)`` is ``A_hat = A(diag(s))`` rotated by ``U``, ``V``, block diagonal: a
@@ -62,8 +61,7 @@ def projected_tangent(material, F, floor: float = 0.0):
 
 
 def _blocks(d):
-    """The index pairs ``(i, j)`` of the diagonal-space blocks: the stretch block ``(0, 0), ..., (d-1, d-1)``, then a
-    twist/flip block ``(a, b), (b, a)`` for each pair ``a < b``."""
+    """The index pairs ``(i, j)`` of the diagonal-space blocks (module docstring): stretch, then twist/flip ones."""
     return [tuple((a, a) for a in range(d))] + [((a, b), (b, a)) for a in range(d) for b in range(a + 1, d)]
 
 
@@ -92,9 +90,8 @@ def _clamp_pair(a, b, d, floor):
 
 
 def _project_diagonal_blocks(A, floor):
-    """Clamp the eigenvalues of a diagonal-space tangent's symmetric blocks at ``floor``: every 2x2 block ``[[a, b],
-    [b, d]]`` in closed form (the stretch block over (dF00, dF11) in 2D, each twist/flip block over (dF_ab, dF_ba)),
-    the 3D stretch block over (dF00, dF11, dF22) numerically."""
+    """Clamp the eigenvalues of a diagonal-space tangent's symmetric blocks at ``floor``: every 2x2 block in closed
+    form (:func:`_clamp_pair`), the 3D stretch block numerically."""
     out = np.zeros_like(A)
     for block in _blocks(A.shape[0]):
         if len(block) == 2:

@@ -43,7 +43,8 @@ def safe_log(F):
 
 
 class LameMaterial:
-    """The base of the 1D and the 2D materials: Lamé parameters ``lam``, ``mu`` (checked) and the three maps."""
+    """The base of the 1D, 2D and 3D materials: Lamé parameters ``lam``, ``mu`` (checked); a subclass gives the three
+    maps ``energy(F)`` ``Psi``, ``stress(F)`` ``P = dPsi/dF`` and ``tangent(F)`` ``dP/dF``."""
 
     name = "material"
     #: True when energy, stress and tangent are finite for every F, including J <= 0.
@@ -51,15 +52,6 @@ class LameMaterial:
 
     def __init__(self, lam, mu):
         self.lam, self.mu = check_lame(lam, mu)
-
-    def energy(self, F):
-        raise NotImplementedError
-
-    def stress(self, F):
-        raise NotImplementedError
-
-    def tangent(self, F):
-        raise NotImplementedError
 
     def __repr__(self):
         return f"{type(self).__name__}(lam={self.lam:g}, mu={self.mu:g})"
