@@ -386,18 +386,15 @@ def fusiform_fiber_direction(points, length=4.0, max_width=1.0, tendon_width=0.2
     return a / np.hypot(a[0], a[1])
 
 
-def fusiform_fiber_field(mesh, length=None, max_width=None, tendon_width=None) -> np.ndarray:
-    """Unit fiber directions (2, n_elements) of a :func:`fusiform_muscle` mesh at the centroids; the sizes left
-    ``None`` are read off the mesh (x-extent, y-extent, y-extent of the left tendon's nodes)."""
+def fusiform_fiber_field(mesh) -> np.ndarray:
+    """Unit fiber directions (2, n_elements) of a :func:`fusiform_muscle` mesh at the centroids, its sizes read off
+    the mesh (length: the x-extent, max_width: the y-extent, tendon_width: the y-extent of the left tendon's nodes)."""
     p, t = check_mesh(mesh.p, mesh.t, cut=True)  # what an assembler accepts
     if p.shape[0] != 2:
         raise ParameterError("mesh", "mesh must be a 2D triangle mesh (p shaped (2, n), t shaped (3, n))")
     x0 = p[0].min()
-    length = p[0].max() - x0 if length is None else length
-    max_width = 2.0 * np.abs(p[1]).max() if max_width is None else max_width
-    if tendon_width is None:
-        at_left = np.abs(p[0] - x0) <= 1e-9 * max(abs(float(length)), 1e-300)
-        tendon_width = 2.0 * np.abs(p[1, at_left]).max()
+    length, max_width = p[0].max() - x0, 2.0 * np.abs(p[1]).max()
+    tendon_width = 2.0 * np.abs(p[1, np.abs(p[0] - x0) <= 1e-9 * max(float(length), 1e-300)]).max()
     centroid = p[:, t].mean(axis=1)
     centroid[0] -= x0
     return fusiform_fiber_direction(centroid, length, max_width, tendon_width)

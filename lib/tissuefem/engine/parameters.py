@@ -181,14 +181,14 @@ def check_fiber_stiffness(k, name: str = "k") -> float:
     return check_real(f"{name} (fiber modulus)", k, 0.0, LAME_MAX)
 
 
-def check_time_step(dt, name: str = "dt") -> float:
+def check_time_step(dt) -> float:
     """A time step in seconds within :data:`TIME_STEP_RANGE`."""
-    return check_real(f"{name} (time step)", dt, *TIME_STEP_RANGE)
+    return check_real("dt (time step)", dt, *TIME_STEP_RANGE)
 
 
-def check_density(rho, name: str = "density") -> float:
+def check_density(rho) -> float:
     """A density (mass per unit reference area) within :data:`DENSITY_RANGE`."""
-    return check_real(name, rho, *DENSITY_RANGE)
+    return check_real("density", rho, *DENSITY_RANGE)
 
 
 def _check_stiffness(name, stiffness, hi, times, what, positive) -> float:
