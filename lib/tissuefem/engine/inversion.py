@@ -15,7 +15,7 @@ own tangent (no 0/0 at ``s_a = s_b``).
 from __future__ import annotations
 
 import numpy as np
-from .materials import Corotated, NeoHookean, StableNeoHookean, TaylorNeoHookean, rotation_preserving_svd
+from .materials import Corotated, NeoHookean, StableNeoHookean, TaylorNeoHookean, check_F, rotation_preserving_svd
 from .parameters import ParameterError, check_real
 
 __all__ = ["rotation_preserving_svd", "diagonal", "eigen_projection", "projected_tangent", "ProjectedTangent",
@@ -269,11 +269,8 @@ class ITFClamped:
     # the material interface (F shaped [d, d, *rest], also a single d x d matrix)
     @staticmethod
     def _field(F):
-        F = np.asarray(F, dtype=float)
-        if F.ndim < 2 or F.shape[0] != F.shape[1] or F.shape[0] not in (2, 3):
-            raise ParameterError("F", f"F must be shaped [d, d, ...] with d = 2 or 3, got {F.shape}")
-        d = F.shape[0]
-        return F.reshape((d, d, -1)), F.shape[2:]
+        F = check_F(F)
+        return F.reshape(F.shape[:2] + (-1,)), F.shape[2:]
 
     def energy(self, F):
         F, rest = self._field(F)

@@ -28,7 +28,7 @@ __all__ = [
     "det", "cofactor", "inverse", "cofactor_derivative", "det2", "rotation_preserving_svd",
     "Material", "LinearElastic", "NeoHookean", "TaylorNeoHookean", "StableNeoHookean",
     "Corotated", "FiberFamily", "FiberReinforced", "fiber_invariant", "fiber_energy", "fiber_stress", "fiber_tangent",
-    "check_fiber_stiffness", "vector_length", "MATERIALS", "material",
+    "check_fiber_stiffness", "vector_length", "MATERIALS", "material", "check_F",
 ]
 
 #: The dimensions a field of matrices may have: triangles (2) and tetrahedra (3).
@@ -37,7 +37,8 @@ DIMENSIONS = (2, 3)
 
 # --- tensor helpers for fields of d x d matrices ---------------------------------------
 
-def _as_F(F) -> np.ndarray:
+def check_F(F) -> np.ndarray:
+    """``F`` as a float field of matrices ``[d, d, ...]``, ``d`` = 2 or 3, else a ``ParameterError``."""
     F = check_real_array("F", F)
     if F.ndim < 2 or F.shape[0] != F.shape[1] or F.shape[0] not in DIMENSIONS:
         raise ParameterError("F", f"F must be shaped [d, d, ...] with d = 2 or 3, got shape {F.shape}")
@@ -46,7 +47,7 @@ def _as_F(F) -> np.ndarray:
 
 def det2(F):
     """``J = det F = F00 F11 - F01 F10`` for ``F`` shaped ``[2, 2, ...]``; shape ``F.shape[2:]``."""
-    F = _as_F(F)
+    F = check_F(F)
     if F.shape[0] != 2:
         raise ParameterError("F", f"F must be shaped [2, 2, ...], got shape {F.shape}")
     return F[0, 0] * F[1, 1] - F[0, 1] * F[1, 0]
@@ -61,7 +62,7 @@ def _cofactor3(F) -> np.ndarray:
 
 def det(F):
     """``J = det F`` for ``F`` shaped ``[d, d, ...]``, ``d`` = 2 (:func:`det2`) or 3 (``J = F_0j (cof F)_0j``)."""
-    F = _as_F(F)
+    F = check_F(F)
     if F.shape[0] == 2:
         return det2(F)
     C = _cofactor3(F)
@@ -71,7 +72,7 @@ def det(F):
 def cofactor(F):
     """``cof F = dJ/dF = J F^-T``, shape ``F.shape``: ``[[F11, -F10], [-F01, F00]]`` in 2D, ``1/2 e_imn e_jpq F_mp
     F_nq`` in 3D. Defined for every ``F``, also singular ones: the inversion-safe models use it rather than ``F^-T``."""
-    F = _as_F(F)
+    F = check_F(F)
     return np.array([[F[1, 1], -F[1, 0]], [-F[0, 1], F[0, 0]]]) if F.shape[0] == 2 else _cofactor3(F)
 
 
@@ -108,7 +109,7 @@ _HCOF2 = np.einsum("ik,jl->ijkl", _TENSORS[2]["perm"], _TENSORS[2]["perm"])  # 2
 def cofactor_derivative(F):
     """``H_ijkl = d(cof F)_ij / dF_kl``, shape ``(d, d, d, d) + rest``: the constant ``e_ik e_jl`` broadcast (2D) or
     ``e_ikm e_jln F_mn`` (3D)."""
-    F = _as_F(F)
+    F = check_F(F)
     if F.shape[0] == 2:
         return _constant4(_HCOF2, F.shape[2:])
     e = _TENSORS[3]["perm"]
@@ -160,7 +161,7 @@ def rotation_preserving_svd(F):
     and ``s0 >= ... >= |s_(d-1)|``: the reflection moved onto the smallest value, which carries the sign of ``J``
     (Irving, Teran, Fedkiw, "Invertible finite elements for robust simulation of large deformation", SCA 2004). 2D
     in closed form, 3D from LAPACK's SVD with the signs fixed."""
-    F = _as_F(F)
+    F = check_F(F)
     return _svd2(F) if F.shape[0] == 2 else _svd3(F)
 
 
@@ -194,18 +195,18 @@ class LinearElastic(Material):
         return 0.5 * (F + F.swapaxes(0, 1)) - _constant4(_TENSORS[F.shape[0]]["delta"], F.shape[2:])
 
     def energy(self, F):
-        eps = self._strain(_as_F(F))
+        eps = self._strain(check_F(F))
         tr = np.trace(eps)
         return self.mu * np.einsum("ij...,ij...->...", eps, eps) + 0.5 * self.lam * tr**2
 
     def stress(self, F):
-        F = _as_F(F)
+        F = check_F(F)
         eps = self._strain(F)
         tr = np.trace(eps)
         return 2.0 * self.mu * eps + self.lam * tr * _constant4(_TENSORS[F.shape[0]]["delta"], F.shape[2:])
 
     def tangent(self, F):
-        F = _as_F(F)
+        F = check_F(F)
         T = _TENSORS[F.shape[0]]
         A = self.lam * T["IXI"] + self.mu * (T["I4"] + T["I4T"])
         return np.array(_constant4(A, F.shape[2:]))
@@ -219,17 +220,17 @@ class _NeoHookeanFamily(Material):
     (and the 1D bar: :class:`~tissuefem.engine.materials1d.VolumetricFamily1D`)."""
 
     def energy(self, F):
-        F = _as_F(F)
+        F = check_F(F)
         h, _, _ = self.volumetric(det(F))
         return 0.5 * self.mu * (np.einsum("ij...,ij...->...", F, F) - float(F.shape[0])) + h
 
     def stress(self, F):
-        F = _as_F(F)
+        F = check_F(F)
         _, h1, _ = self.volumetric(det(F))
         return self.mu * F + h1 * cofactor(F)
 
     def tangent(self, F):
-        F = _as_F(F)
+        F = check_F(F)
         _, h1, h2 = self.volumetric(det(F))
         C = cofactor(F)
         rest = F.shape[2:]
@@ -339,16 +340,16 @@ class Corotated(Material):
         return _polar_rotation(F)[0] if F.shape[0] == 2 else _rotation_derivative3(F)[0]
 
     def energy(self, F):
-        F = _as_F(F)
+        F = check_F(F)
         D = F - self._rotation(F)
         return self.mu * np.einsum("ij...,ij...->...", D, D) + 0.5 * self.lam * (det(F) - 1.0) ** 2
 
     def stress(self, F):
-        F = _as_F(F)
+        F = check_F(F)
         return 2.0 * self.mu * (F - self._rotation(F)) + self.lam * (det(F) - 1.0) * cofactor(F)
 
     def tangent(self, F):
-        F = _as_F(F)
+        F = check_F(F)
         rest = F.shape[2:]
         if F.shape[0] == 2:
             _, c, s, rho = _polar_rotation(F)
@@ -377,7 +378,7 @@ def vector_length(g) -> np.ndarray:
 
 def _check_Fg(F, g):
     """``F`` shaped ``[d, d, ...]`` and unit fibres ``g`` ``(d, ...)`` broadcasting against it, both finite."""
-    F = _as_F(F)
+    F = check_F(F)
     d = F.shape[0]
     g = check_real_array(f"g (an array of {d}D unit vectors)", g)  # complex g is refused, never truncated
     if g.ndim < 1 or g.shape[0] != d:
@@ -461,7 +462,7 @@ class FiberFamily(Material):
                                            f"n_points) with d = 2 or 3, got shape {g.shape}")
         norm = vector_length(g)
         if not (np.all(np.isfinite(g)) and np.all(norm > 0.0)):
-            raise ParameterError("fibers", "fibers must be finite vectors, none zero-length (a fibre needs a direction)")
+            raise ParameterError("fibers", "fibers must be finite, none zero-length (a fibre needs a direction)")
         self.fibers = g / norm
 
     def _g(self, F) -> np.ndarray:
@@ -477,15 +478,15 @@ class FiberFamily(Material):
         return g.reshape(g.shape + (1,) * extra)
 
     def energy(self, F):
-        F = _as_F(F)
+        F = check_F(F)
         return fiber_energy_term(F, self._g(F), self.stiffness)
 
     def stress(self, F):
-        F = _as_F(F)
+        F = check_F(F)
         return fiber_stress_term(F, self._g(F), self.stiffness)
 
     def tangent(self, F):
-        F = _as_F(F)
+        F = check_F(F)
         return fiber_tangent_term(F, self._g(F), self.stiffness)
 
 
@@ -515,15 +516,12 @@ class FiberReinforced(Material):
         return cls(base_cls.from_young(E, nu, plane), stiffness, fibers)
 
     def energy(self, F):
-        F = _as_F(F)
         return self.base.energy(F) + self.family.energy(F)
 
     def stress(self, F):
-        F = _as_F(F)
         return self.base.stress(F) + self.family.stress(F)
 
     def tangent(self, F):
-        F = _as_F(F)
         return self.base.tangent(F) + self.family.tangent(F)
 
     def __repr__(self):

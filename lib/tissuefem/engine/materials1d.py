@@ -28,12 +28,6 @@ def taylor_log_prime(J):
     return 1.0 - d + d**2
 
 
-def taylor_log_second(J):
-    """``r''(J) = -1 + 2 (J-1)``."""
-    d = np.asarray(J, dtype=float) - 1.0
-    return -1.0 + 2.0 * d
-
-
 def safe_log(F):
     """``ln F`` where ``F > 0``, NaN elsewhere without a warning: NaN, not an exception, lets a solver report it."""
     F = np.asarray(F, dtype=float)
@@ -125,6 +119,6 @@ class TaylorNeoHookean1D(VolumetricFamily1D):
     name = "neo-Hookean (cubic r(J))"
 
     def volumetric(self, J):
-        r, r1, r2 = taylor_log(J), taylor_log_prime(J), taylor_log_second(J)
+        r, r1, r2 = taylor_log(J), taylor_log_prime(J), -1.0 + 2.0 * (np.asarray(J, dtype=float) - 1.0)  # r''(J)
         lam, mu = self.lam, self.mu
         return -mu * r + 0.5 * lam * r**2, (lam * r - mu) * r1, lam * r1**2 + (lam * r - mu) * r2
