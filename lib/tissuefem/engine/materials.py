@@ -297,12 +297,11 @@ def _polar_rotation(F):
     every F, also J <= 0). Below :data:`_RHO_MIN` energy, stress and tangent all take ``R = I``."""
     x, y = F[0, 0] + F[1, 1], F[1, 0] - F[0, 1]
     rho, theta = np.hypot(x, y), np.arctan2(y, x)
-    c, s = np.cos(theta), np.sin(theta)
     collapsed = rho < _RHO_MIN
     if np.any(collapsed):
-        c = np.where(collapsed, 1.0, c)
-        s = np.where(collapsed, 0.0, s)
-    return np.array([[c, -s], [s, c]]), c, s, rho
+        theta = np.where(collapsed, 0.0, theta)
+    R = _rotation2(theta)
+    return R, R[0, 0], R[1, 0], rho
 
 
 def _rotation_derivative3(F):
