@@ -85,14 +85,9 @@ class Bar1D:
     def __init__(self, a: float = 0.0, b: float = 1.0, n: int = 10, order: int = 1, nodes=None):
         if nodes is not None:
             nodes = check_real_array("nodes", nodes)
-            if nodes.ndim != 1 or nodes.size < 2:
-                raise ParameterError("nodes", f"nodes must be a 1D array of at least 2 coordinates, got shape "
-                                              f"{nodes.shape}")
-            if not np.all(np.isfinite(nodes)):
-                raise ParameterError("nodes", "nodes contains non-finite coordinates")
-            if np.any(np.diff(nodes) <= 0):
-                raise ParameterError("nodes", "nodes must be strictly increasing (an element of zero or negative "
-                                              "length)")
+            if nodes.ndim != 1 or nodes.size < 2 or not np.all(np.isfinite(nodes)) or np.any(np.diff(nodes) <= 0):
+                raise ParameterError("nodes", "nodes must be a 1D array of at least 2 finite, strictly increasing "
+                                              f"coordinates (no element of zero or negative length), got {nodes!r}")
             mesh = MeshLine(nodes)
         else:
             if not check_real("a", a) < check_real("b", b):
@@ -137,24 +132,21 @@ class Bar1D:
             g[self.dof_b] += right.value
         return g
 
-    def _dirichlet(self, left, right):
-        fixed, values = [], []
-        for dof, cond in ((self.dof_a, left), (self.dof_b, right)):
-            if isinstance(cond, Displacement):
-                fixed.append(dof)
-                values.append(cond.value)
+    def _loads(self, f, left, right):
+        """``(fixed dofs, their values, F_ext + g)`` of the end conditions and the body force ``f``."""
+        ends = ((self.dof_a, _as_end(left, "left")), (self.dof_b, _as_end(right, "right")))
+        fixed = [(dof, end.value) for dof, end in ends if isinstance(end, Displacement)]
         if not fixed:
             raise ParameterError("left", "at least one end needs a Displacement condition: with tractions at both "
                                          "ends the bar can translate freely and the stiffness matrix is singular")
-        return np.array(fixed, dtype=int), np.array(values, dtype=float)
+        return (np.array([dof for dof, _ in fixed], dtype=int), np.array([v for _, v in fixed], dtype=float),
+                self.body_force(f) + self.boundary_term(left, right))
 
     def solve_linear(self, modulus: float, f=0.0, left=Displacement(0.0), right=Traction(0.0)) -> np.ndarray:
         """Solve ``A u = F_ext + g`` with the given end conditions; returns the dof vector ``u``."""
         check_real("modulus", modulus, 0.0, lo_open=True)
-        left, right = _as_end(left, "left"), _as_end(right, "right")
-        fixed, values = self._dirichlet(left, right)
+        fixed, values, rhs = self._loads(f, left, right)
         A = self.stiffness(modulus)
-        rhs = self.body_force(f) + self.boundary_term(left, right)
         u = np.zeros(self.ndofs)
         u[fixed] = values
         free = np.setdiff1d(np.arange(self.ndofs), fixed)
@@ -174,22 +166,18 @@ class Bar1D:
         """``int Psi(F(u)) dX``."""
         return float(asm(nonlinear_forms(material)[2], self.basis, u=self.basis.interpolate(u)))
 
-    def residual(self, u, material, f=0.0, left=Displacement(0.0), right=Traction(0.0), load=1.0):
-        """The notes' ``q(u) = int N' P dX - F_ext - g`` with loads scaled by ``load``."""
-        external = self.body_force(f) + self.boundary_term(left, right)
-        return self.internal_force(u, material) - load * external
+    def residual(self, u, material, f=0.0, left=Displacement(0.0), right=Traction(0.0)):
+        """The notes' ``q(u) = int N' P dX - F_ext - g``."""
+        return self.internal_force(u, material) - (self.body_force(f) + self.boundary_term(left, right))
 
     def solve_nonlinear(self, material: Material1D, f=0.0, left=Displacement(0.0), right=Traction(0.0),
-                        load_steps: int = 1, u0=None, **newton_options) -> tuple[np.ndarray, list[NewtonResult]]:
-        """Load stepping + Newton: ramp the loads (and prescribed displacements) over ``load_steps``; returns the final
-        displacement and each step's Newton result, stopping at the last converged state if a step fails."""
-        left, right = _as_end(left, "left"), _as_end(right, "right")
+                        load_steps: int = 1, **newton_options) -> tuple[np.ndarray, list[NewtonResult]]:
+        """Load stepping + Newton from ``u = 0``: ramp the loads (and prescribed displacements) over ``load_steps``;
+        returns the final displacement and each step's Newton result, stopping at the last converged state if a step
+        fails."""
         load_steps = check_count("load_steps", load_steps)
-        fixed, values = self._dirichlet(left, right)
-        external = self.body_force(f) + self.boundary_term(left, right)
-        u = np.zeros(self.ndofs) if u0 is None else np.array(u0, dtype=float, copy=True)
-        if u.shape != (self.ndofs,):
-            raise ParameterError("u0", f"u0 must have shape ({self.ndofs},), got {u.shape}")
+        fixed, values, external = self._loads(f, left, right)
+        u = np.zeros(self.ndofs)
         newton_options.setdefault("line_search", None)  # the notes' plain iteration (chapter 2 adds safeguards)
         newton_options.setdefault("atol", 1e-12)
         free = np.ones(self.ndofs, dtype=bool)

@@ -1,8 +1,7 @@
 """Inversion-robust building blocks: the rotation-preserving SVD and the definiteness fix, in 2D and 3D.
 
-**Rotation-preserving SVD** (:func:`tissuefem.engine.materials.rotation_preserving_svd`, with the materials: the 3D
-corotated model needs its polar rotation ``U V^T``): ``F = U diag(s) V^T``, ``U``, ``V`` proper rotations, the sign of
-``J`` carried by the smallest singular value.
+**Rotation-preserving SVD** (:func:`tissuefem.engine.materials.rotation_preserving_svd`, with the 3D corotated model
+that needs it): ``F = U diag(s) V^T``, ``U``, ``V`` proper rotations, the sign of ``J`` on the smallest singular value.
 
 **The definiteness fix** (Teran, Sifakis, Irving, Fedkiw, "Robust quasistatic finite elements and flesh simulation",
 SCA 2005). For an isotropic material ``A(F)`` is ``A_hat = A(diag(s))`` rotated by ``U``, ``V``, block diagonal: a
@@ -16,7 +15,7 @@ own tangent (no 0/0 at ``s_a = s_b``).
 from __future__ import annotations
 
 import numpy as np
-from .materials import Corotated, NeoHookean, StableNeoHookean, TaylorNeoHookean, rotation_preserving_svd
+from .materials import Corotated, NeoHookean, StableNeoHookean, TaylorNeoHookean, check_F, rotation_preserving_svd
 from .parameters import ParameterError, check_real
 
 __all__ = ["rotation_preserving_svd", "diagonal", "eigen_projection", "projected_tangent", "ProjectedTangent",
@@ -32,22 +31,23 @@ def diagonal(s) -> np.ndarray:
 
 
 def _clamp_eigenvalues(M, floor):
-    """Symmetric matrices ``M`` ``(n, k, k)`` (symmetrised first) with their eigenvalues raised to ``floor``; a
+    """Symmetric matrices ``M`` ``[k, k, *rest]`` (symmetrised first) with their eigenvalues raised to ``floor``; a
     sample with a non-finite entry (``ln J`` inverted) gives NaN."""
+    k, rest = M.shape[0], M.shape[2:]
+    M = np.moveaxis(M.reshape((k, k, -1)), -1, 0)
     ok = np.all(np.isfinite(M), axis=(1, 2))
     w, Q = np.linalg.eigh(0.5 * (M[ok] + np.swapaxes(M[ok], 1, 2)))
     out = np.full(M.shape, np.nan)
     out[ok] = np.einsum("nab,nb,ncb->nac", Q, np.maximum(w, floor), Q)
-    return out
+    return np.moveaxis(out, 0, -1).reshape((k, k) + rest)
 
 
 def eigen_projection(A, floor: float = 0.0):
     """Clamp the eigenvalues of each ``d^2 x d^2`` tangent ``A [d,d,d,d,*rest]`` at ``floor`` numerically: the closed
     form's reference, and the fallback for materials not isotropic (fibers) or not frame indifferent (linear)."""
     A = np.asarray(A, dtype=float)
-    d, rest = A.shape[0], A.shape[4:]
-    P = _clamp_eigenvalues(np.moveaxis(A.reshape((d * d, d * d, -1)), -1, 0), floor)
-    return np.moveaxis(P, 0, -1).reshape((d, d, d, d) + rest)
+    d = A.shape[0]
+    return _clamp_eigenvalues(A.reshape((d * d, d * d) + A.shape[4:]), floor).reshape(A.shape)
 
 
 def projected_tangent(material, F, floor: float = 0.0):
@@ -61,8 +61,7 @@ def projected_tangent(material, F, floor: float = 0.0):
 
 
 def _blocks(d):
-    """The index pairs ``(i, j)`` of the diagonal-space blocks: the stretch block ``(0, 0), ..., (d-1, d-1)``, then a
-    twist/flip block ``(a, b), (b, a)`` for each pair ``a < b``."""
+    """The index pairs ``(i, j)`` of the diagonal-space blocks (module docstring): stretch, then twist/flip ones."""
     return [tuple((a, a) for a in range(d))] + [((a, b), (b, a)) for a in range(d) for b in range(a + 1, d)]
 
 
@@ -91,9 +90,8 @@ def _clamp_pair(a, b, d, floor):
 
 
 def _project_diagonal_blocks(A, floor):
-    """Clamp the eigenvalues of a diagonal-space tangent's symmetric blocks at ``floor``: every 2x2 block ``[[a, b],
-    [b, d]]`` in closed form (the stretch block over (dF00, dF11) in 2D, each twist/flip block over (dF_ab, dF_ba)),
-    the 3D stretch block over (dF00, dF11, dF22) numerically."""
+    """Clamp the eigenvalues of a diagonal-space tangent's symmetric blocks at ``floor``: every 2x2 block in closed
+    form (:func:`_clamp_pair`), the 3D stretch block numerically."""
     out = np.zeros_like(A)
     for block in _blocks(A.shape[0]):
         if len(block) == 2:
@@ -102,9 +100,7 @@ def _project_diagonal_blocks(A, floor):
             out[i, j, i, j], out[k, l, k, l], out[i, j, k, l] = _clamp_pair(a, b, d, floor)
             out[k, l, i, j] = out[i, j, k, l]
         else:
-            S = np.stack([np.stack([A[p + q] for q in block]) for p in block])  # [3, 3, *rest]
-            M = _clamp_eigenvalues(np.moveaxis(S.reshape((3, 3, -1)), -1, 0), floor)
-            S = np.moveaxis(M, 0, -1).reshape(S.shape)
+            S = _clamp_eigenvalues(np.stack([np.stack([A[p + q] for q in block]) for p in block]), floor)
             for x, p in enumerate(block):
                 for y, q in enumerate(block):
                     out[p + q] = S[x, y]
@@ -185,11 +181,10 @@ class ITFClamped:
         self._psi_cc = float(np.asarray(material.energy(D)).ravel()[0])
         self._g_cc = float(np.asarray(material.stress(D))[0, 0, 0])
         self._h01_cc = float(A[0, 0, 1, 1, 0])
-        k = A[1, 1, 1, 1, 0] if stiffness is None else stiffness
-        self.stiffness = check_real("stiffness", k, 0.0, lo_open=True)
         #: the spring stiffness by dimension: the given one, else d2Psi/ds^2 at (c, ..., c)
-        self.stiffnesses = {2: self.stiffness, 3: self.stiffness if stiffness is not None else check_real(
-            "stiffness", material.tangent(diagonal(np.full((3, 1), c)))[2, 2, 2, 2, 0], 0.0, lo_open=True)}
+        self.stiffnesses = {d: check_real("stiffness", stiffness if stiffness is not None else material.tangent(
+            diagonal(np.full((d, 1), c)))[d - 1, d - 1, d - 1, d - 1, 0], 0.0, lo_open=True) for d in (2, 3)}
+        self.stiffness = self.stiffnesses[2]
         self.name = f"ITF-clamped {material.name}"
 
     def __repr__(self):
@@ -258,9 +253,8 @@ class ITFClamped:
                     Ht[j, j] = Ht[j, j] + (A_hi[j, j, i, i] - A_lo[j, j, i, i]) / (2 * step) * dd[i]
             Ht[j, j] = np.where(clamped[j], k, Ht[j, j])
         B = np.zeros((dim,) * 4 + s.shape[1:])
-        for i in range(dim):
-            for j in range(dim):
-                B[i, i, j, j] = Ht[i, j]
+        i = np.arange(dim)[:, None]
+        B[i, i, i.T, i.T] = Ht  # B_iijj = Ht_ij
         for a in range(dim):
             for b in range(a + 1, dim):
                 gap, total = s[a] - s[b], s[a] + s[b]
@@ -275,11 +269,8 @@ class ITFClamped:
     # the material interface (F shaped [d, d, *rest], also a single d x d matrix)
     @staticmethod
     def _field(F):
-        F = np.asarray(F, dtype=float)
-        if F.ndim < 2 or F.shape[0] != F.shape[1] or F.shape[0] not in (2, 3):
-            raise ParameterError("F", f"F must be shaped [d, d, ...] with d = 2 or 3, got {F.shape}")
-        d = F.shape[0]
-        return F.reshape((d, d, -1)), F.shape[2:]
+        F = check_F(F)
+        return F.reshape(F.shape[:2] + (-1,)), F.shape[2:]
 
     def energy(self, F):
         F, rest = self._field(F)

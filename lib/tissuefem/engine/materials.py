@@ -16,18 +16,19 @@ d_jk)`` whatever ``d``.
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
 
-from .materials1d import LameMaterial, safe_log, taylor_log, taylor_log_prime, taylor_log_second
+from .materials1d import LameMaterial, NeoHookean1D, TaylorNeoHookean1D
 from .parameters import ParameterError, check_fiber_stiffness, check_real_array, lame_parameters
 
 __all__ = [
     "det", "cofactor", "inverse", "cofactor_derivative", "det2", "rotation_preserving_svd",
     "Material", "LinearElastic", "NeoHookean", "TaylorNeoHookean", "StableNeoHookean",
     "Corotated", "FiberFamily", "FiberReinforced", "fiber_invariant", "fiber_energy", "fiber_stress", "fiber_tangent",
-    "check_fiber_stiffness", "vector_length", "MATERIALS", "material",
+    "check_fiber_stiffness", "vector_length", "MATERIALS", "material", "check_F",
 ]
 
 #: The dimensions a field of matrices may have: triangles (2) and tetrahedra (3).
@@ -36,7 +37,8 @@ DIMENSIONS = (2, 3)
 
 # --- tensor helpers for fields of d x d matrices ---------------------------------------
 
-def _as_F(F) -> np.ndarray:
+def check_F(F) -> np.ndarray:
+    """``F`` as a float field of matrices ``[d, d, ...]``, ``d`` = 2 or 3, else a ``ParameterError``."""
     F = check_real_array("F", F)
     if F.ndim < 2 or F.shape[0] != F.shape[1] or F.shape[0] not in DIMENSIONS:
         raise ParameterError("F", f"F must be shaped [d, d, ...] with d = 2 or 3, got shape {F.shape}")
@@ -45,7 +47,7 @@ def _as_F(F) -> np.ndarray:
 
 def det2(F):
     """``J = det F = F00 F11 - F01 F10`` for ``F`` shaped ``[2, 2, ...]``; shape ``F.shape[2:]``."""
-    F = _as_F(F)
+    F = check_F(F)
     if F.shape[0] != 2:
         raise ParameterError("F", f"F must be shaped [2, 2, ...], got shape {F.shape}")
     return F[0, 0] * F[1, 1] - F[0, 1] * F[1, 0]
@@ -60,7 +62,7 @@ def _cofactor3(F) -> np.ndarray:
 
 def det(F):
     """``J = det F`` for ``F`` shaped ``[d, d, ...]``, ``d`` = 2 (:func:`det2`) or 3 (``J = F_0j (cof F)_0j``)."""
-    F = _as_F(F)
+    F = check_F(F)
     if F.shape[0] == 2:
         return det2(F)
     C = _cofactor3(F)
@@ -70,7 +72,7 @@ def det(F):
 def cofactor(F):
     """``cof F = dJ/dF = J F^-T``, shape ``F.shape``: ``[[F11, -F10], [-F01, F00]]`` in 2D, ``1/2 e_imn e_jpq F_mp
     F_nq`` in 3D. Defined for every ``F``, also singular ones: the inversion-safe models use it rather than ``F^-T``."""
-    F = _as_F(F)
+    F = check_F(F)
     return np.array([[F[1, 1], -F[1, 0]], [-F[0, 1], F[0, 0]]]) if F.shape[0] == 2 else _cofactor3(F)
 
 
@@ -89,24 +91,15 @@ def _constant4(T, rest) -> np.ndarray:
     return np.broadcast_to(T.reshape(T.shape + (1,) * len(rest)), T.shape + tuple(rest))
 
 
-def _levi_civita(d) -> np.ndarray:
-    """The permutation symbol ``e_ij`` (d = 2) or ``e_ijk`` (d = 3)."""
-    e = np.zeros((d,) * d)
-    if d == 2:
-        e[0, 1], e[1, 0] = 1.0, -1.0
-    else:
-        for i, j, k in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
-            e[i, j, k], e[i, k, j] = 1.0, -1.0
-    return e
-
-
 def _tensors(d) -> dict:
     """The constant tensors of dimension ``d``: ``delta``; ``I4 = d_ik d_jl = dF/dF``; ``I4T = d_il d_jk = dF^T/dF``;
-    ``IXI = d_ij d_kl``; ``perm``, the permutation symbol."""
-    delta = np.eye(d)
+    ``IXI = d_ij d_kl``; ``perm``, the permutation symbol ``e_ij`` (d = 2) or ``e_ijk`` (d = 3): the sign of each
+    permutation of the indices (-1 to the number of inversions), 0 for a repeated index."""
+    delta, perm = np.eye(d), np.zeros((d,) * d)
+    for p in itertools.permutations(range(d)):
+        perm[p] = (-1.0) ** sum(a > b for a, b in itertools.combinations(p, 2))
     return {"delta": delta, "I4": np.einsum("ik,jl->ijkl", delta, delta),
-            "I4T": np.einsum("il,jk->ijkl", delta, delta), "IXI": np.einsum("ij,kl->ijkl", delta, delta),
-            "perm": _levi_civita(d)}
+            "I4T": np.einsum("il,jk->ijkl", delta, delta), "IXI": np.einsum("ij,kl->ijkl", delta, delta), "perm": perm}
 
 
 _TENSORS = {d: _tensors(d) for d in DIMENSIONS}
@@ -116,19 +109,11 @@ _HCOF2 = np.einsum("ik,jl->ijkl", _TENSORS[2]["perm"], _TENSORS[2]["perm"])  # 2
 def cofactor_derivative(F):
     """``H_ijkl = d(cof F)_ij / dF_kl``, shape ``(d, d, d, d) + rest``: the constant ``e_ik e_jl`` broadcast (2D) or
     ``e_ikm e_jln F_mn`` (3D)."""
-    F = _as_F(F)
+    F = check_F(F)
     if F.shape[0] == 2:
         return _constant4(_HCOF2, F.shape[2:])
     e = _TENSORS[3]["perm"]
     return np.einsum("ikm,jln,mn...->ijkl...", e, e, F)
-
-
-def _trace(M) -> np.ndarray:
-    """``tr M`` of a field ``[d, d, ...]``, summed in index order (in 2D ``M00 + M11``)."""
-    t = M[0, 0]
-    for i in range(1, M.shape[0]):
-        t = t + M[i, i]
-    return t
 
 
 # --- the rotation-preserving SVD ------------------------------------------------------
@@ -176,7 +161,7 @@ def rotation_preserving_svd(F):
     and ``s0 >= ... >= |s_(d-1)|``: the reflection moved onto the smallest value, which carries the sign of ``J``
     (Irving, Teran, Fedkiw, "Invertible finite elements for robust simulation of large deformation", SCA 2004). 2D
     in closed form, 3D from LAPACK's SVD with the signs fixed."""
-    F = _as_F(F)
+    F = check_F(F)
     return _svd2(F) if F.shape[0] == 2 else _svd3(F)
 
 
@@ -210,18 +195,18 @@ class LinearElastic(Material):
         return 0.5 * (F + F.swapaxes(0, 1)) - _constant4(_TENSORS[F.shape[0]]["delta"], F.shape[2:])
 
     def energy(self, F):
-        eps = self._strain(_as_F(F))
-        tr = _trace(eps)
+        eps = self._strain(check_F(F))
+        tr = np.trace(eps)
         return self.mu * np.einsum("ij...,ij...->...", eps, eps) + 0.5 * self.lam * tr**2
 
     def stress(self, F):
-        F = _as_F(F)
+        F = check_F(F)
         eps = self._strain(F)
-        tr = _trace(eps)
+        tr = np.trace(eps)
         return 2.0 * self.mu * eps + self.lam * tr * _constant4(_TENSORS[F.shape[0]]["delta"], F.shape[2:])
 
     def tangent(self, F):
-        F = _as_F(F)
+        F = check_F(F)
         T = _TENSORS[F.shape[0]]
         A = self.lam * T["IXI"] + self.mu * (T["I4"] + T["I4T"])
         return np.array(_constant4(A, F.shape[2:]))
@@ -230,25 +215,23 @@ class LinearElastic(Material):
 # --- the Neo-Hookean family: mu/2 (F:F - d) + h(J) --------------------------------
 
 class _NeoHookeanFamily(Material):
-    """``Psi = mu/2 (F:F - d) + h(J)``, ``h(1) = 0`` (module docstring); subclasses give ``_h(J) = (h, h', h'')``.
-    ``h'(1) = -mu`` and ``h''(1) = lam + mu`` in every dimension, so one ``h`` serves triangles and tetrahedra."""
-
-    def _h(self, J):
-        raise NotImplementedError
+    """``Psi = mu/2 (F:F - d) + h(J)``, ``h(1) = 0`` (module docstring); a subclass gives ``volumetric(J) = (h, h',
+    h'')``. ``h'(1) = -mu`` and ``h''(1) = lam + mu`` in every dimension, so one ``h`` serves triangles and tetrahedra
+    (and the 1D bar: :class:`~tissuefem.engine.materials1d.VolumetricFamily1D`)."""
 
     def energy(self, F):
-        F = _as_F(F)
-        h, _, _ = self._h(det(F))
+        F = check_F(F)
+        h, _, _ = self.volumetric(det(F))
         return 0.5 * self.mu * (np.einsum("ij...,ij...->...", F, F) - float(F.shape[0])) + h
 
     def stress(self, F):
-        F = _as_F(F)
-        _, h1, _ = self._h(det(F))
+        F = check_F(F)
+        _, h1, _ = self.volumetric(det(F))
         return self.mu * F + h1 * cofactor(F)
 
     def tangent(self, F):
-        F = _as_F(F)
-        _, h1, h2 = self._h(det(F))
+        F = check_F(F)
+        _, h1, h2 = self.volumetric(det(F))
         C = cofactor(F)
         rest = F.shape[2:]
         return (self.mu * _constant4(_TENSORS[F.shape[0]]["I4"], rest) + h2 * _outer(C, C)
@@ -265,16 +248,7 @@ class NeoHookean(_NeoHookeanFamily):
     name = "neo-Hookean"
     inversion_safe = False
 
-    def _h(self, J):
-        J = np.asarray(J, dtype=float)
-        lnJ = safe_log(J)
-        invJ = np.full(J.shape, np.nan)
-        np.divide(1.0, J, out=invJ, where=J > 0)
-        lam, mu = self.lam, self.mu
-        h = -mu * lnJ + 0.5 * lam * lnJ**2
-        h1 = (lam * lnJ - mu) * invJ
-        h2 = (lam + mu - lam * lnJ) * invJ**2
-        return h, h1, h2
+    volumetric = NeoHookean1D.volumetric
 
 
 class TaylorNeoHookean(_NeoHookeanFamily):
@@ -286,10 +260,7 @@ class TaylorNeoHookean(_NeoHookeanFamily):
 
     name = "neo-Hookean (cubic r(J))"
 
-    def _h(self, J):
-        r, r1, r2 = taylor_log(J), taylor_log_prime(J), taylor_log_second(J)
-        lam, mu = self.lam, self.mu
-        return -mu * r + 0.5 * lam * r**2, (lam * r - mu) * r1, lam * r1**2 + (lam * r - mu) * r2
+    volumetric = TaylorNeoHookean1D.volumetric
 
 
 class StableNeoHookean(_NeoHookeanFamily):
@@ -308,7 +279,7 @@ class StableNeoHookean(_NeoHookeanFamily):
         self.lam_s = self.lam + self.mu
         self.alpha = 1.0 + self.mu / self.lam_s
 
-    def _h(self, J):
+    def volumetric(self, J):
         J = np.asarray(J, dtype=float)
         d = J - self.alpha
         h = 0.5 * self.lam_s * d**2 - 0.5 * self.mu**2 / self.lam_s
@@ -326,12 +297,11 @@ def _polar_rotation(F):
     every F, also J <= 0). Below :data:`_RHO_MIN` energy, stress and tangent all take ``R = I``."""
     x, y = F[0, 0] + F[1, 1], F[1, 0] - F[0, 1]
     rho, theta = np.hypot(x, y), np.arctan2(y, x)
-    c, s = np.cos(theta), np.sin(theta)
     collapsed = rho < _RHO_MIN
     if np.any(collapsed):
-        c = np.where(collapsed, 1.0, c)
-        s = np.where(collapsed, 0.0, s)
-    return np.array([[c, -s], [s, c]]), c, s, rho
+        theta = np.where(collapsed, 0.0, theta)
+    R = _rotation2(theta)
+    return R, R[0, 0], R[1, 0], rho
 
 
 def _rotation_derivative3(F):
@@ -369,16 +339,16 @@ class Corotated(Material):
         return _polar_rotation(F)[0] if F.shape[0] == 2 else _rotation_derivative3(F)[0]
 
     def energy(self, F):
-        F = _as_F(F)
+        F = check_F(F)
         D = F - self._rotation(F)
         return self.mu * np.einsum("ij...,ij...->...", D, D) + 0.5 * self.lam * (det(F) - 1.0) ** 2
 
     def stress(self, F):
-        F = _as_F(F)
+        F = check_F(F)
         return 2.0 * self.mu * (F - self._rotation(F)) + self.lam * (det(F) - 1.0) * cofactor(F)
 
     def tangent(self, F):
-        F = _as_F(F)
+        F = check_F(F)
         rest = F.shape[2:]
         if F.shape[0] == 2:
             _, c, s, rho = _polar_rotation(F)
@@ -407,7 +377,7 @@ def vector_length(g) -> np.ndarray:
 
 def _check_Fg(F, g):
     """``F`` shaped ``[d, d, ...]`` and unit fibres ``g`` ``(d, ...)`` broadcasting against it, both finite."""
-    F = _as_F(F)
+    F = check_F(F)
     d = F.shape[0]
     g = check_real_array(f"g (an array of {d}D unit vectors)", g)  # complex g is refused, never truncated
     if g.ndim < 1 or g.shape[0] != d:
@@ -489,11 +459,9 @@ class FiberFamily(Material):
         if g.ndim not in (1, 2, 3) or g.shape[0] not in DIMENSIONS:
             raise ParameterError("fibers", "fibers must be shaped (d,), (d, n_elements) or (d, n_elements, "
                                            f"n_points) with d = 2 or 3, got shape {g.shape}")
-        if not np.all(np.isfinite(g)):
-            raise ParameterError("fibers", "fibers contains non-finite entries")
         norm = vector_length(g)
-        if not np.all(norm > 0.0):
-            raise ParameterError("fibers", "fibers contains zero-length vectors (a fibre needs a direction)")
+        if not (np.all(np.isfinite(g)) and np.all(norm > 0.0)):
+            raise ParameterError("fibers", "fibers must be finite, none zero-length (a fibre needs a direction)")
         self.fibers = g / norm
 
     def _g(self, F) -> np.ndarray:
@@ -504,24 +472,20 @@ class FiberFamily(Material):
             raise ParameterError("fibers", f"fibers are {g.shape[0]}D vectors but F is {F.shape[0]}D "
                                            f"(shape {F.shape})")
         extra = len(rest) - (g.ndim - 1)
-        try:
-            np.broadcast_shapes(g.shape[1:] + (1,) * max(extra, 0), rest)
-        except ValueError:
-            extra = -1
-        if extra < 0:
+        if extra < 0 or any(a != b and 1 not in (a, b) for a, b in zip(g.shape[1:], rest)):
             raise ParameterError("fibers", f"fibers of shape {g.shape} do not match F with trailing shape {rest}")
         return g.reshape(g.shape + (1,) * extra)
 
     def energy(self, F):
-        F = _as_F(F)
+        F = check_F(F)
         return fiber_energy_term(F, self._g(F), self.stiffness)
 
     def stress(self, F):
-        F = _as_F(F)
+        F = check_F(F)
         return fiber_stress_term(F, self._g(F), self.stiffness)
 
     def tangent(self, F):
-        F = _as_F(F)
+        F = check_F(F)
         return fiber_tangent_term(F, self._g(F), self.stiffness)
 
 
@@ -551,15 +515,12 @@ class FiberReinforced(Material):
         return cls(base_cls.from_young(E, nu, plane), stiffness, fibers)
 
     def energy(self, F):
-        F = _as_F(F)
         return self.base.energy(F) + self.family.energy(F)
 
     def stress(self, F):
-        F = _as_F(F)
         return self.base.stress(F) + self.family.stress(F)
 
     def tangent(self, F):
-        F = _as_F(F)
         return self.base.tangent(F) + self.family.tangent(F)
 
     def __repr__(self):

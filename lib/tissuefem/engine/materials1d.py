@@ -28,12 +28,6 @@ def taylor_log_prime(J):
     return 1.0 - d + d**2
 
 
-def taylor_log_second(J):
-    """``r''(J) = -1 + 2 (J-1)``."""
-    d = np.asarray(J, dtype=float) - 1.0
-    return -1.0 + 2.0 * d
-
-
 def safe_log(F):
     """``ln F`` where ``F > 0``, NaN elsewhere without a warning: NaN, not an exception, lets a solver report it."""
     F = np.asarray(F, dtype=float)
@@ -43,7 +37,8 @@ def safe_log(F):
 
 
 class LameMaterial:
-    """The base of the 1D and the 2D materials: Lamé parameters ``lam``, ``mu`` (checked) and the three maps."""
+    """The base of the 1D, 2D and 3D materials: Lamé parameters ``lam``, ``mu`` (checked); a subclass gives the three
+    maps ``energy(F)`` ``Psi``, ``stress(F)`` ``P = dPsi/dF`` and ``tangent(F)`` ``dP/dF``."""
 
     name = "material"
     #: True when energy, stress and tangent are finite for every F, including J <= 0.
@@ -51,15 +46,6 @@ class LameMaterial:
 
     def __init__(self, lam, mu):
         self.lam, self.mu = check_lame(lam, mu)
-
-    def energy(self, F):
-        raise NotImplementedError
-
-    def stress(self, F):
-        raise NotImplementedError
-
-    def tangent(self, F):
-        raise NotImplementedError
 
     def __repr__(self):
         return f"{type(self).__name__}(lam={self.lam:g}, mu={self.mu:g})"
@@ -94,45 +80,45 @@ class Linear1D(Material1D):
         return np.full(np.shape(F), self.modulus)
 
 
-class NeoHookean1D(Material1D):
-    """The notes' Neo-Hookean model in 1D, with ``ln J``. Undefined (NaN) for ``F <= 0``."""
+class VolumetricFamily1D(Material1D):
+    """``Psi = mu/2 (F^2 - 1) + h(J)`` with ``J = F``: ``P = mu F + h'(F)``, ``dP/dF = mu + h''(F)``. A subclass gives
+    ``volumetric(J) = (h, h', h'')``, the term the 2D and 3D models add to ``mu/2 (F:F - d)`` unchanged."""
+
+    def energy(self, F):
+        F = np.asarray(F, dtype=float)
+        return 0.5 * self.mu * (F**2 - 1.0) + self.volumetric(F)[0]
+
+    def stress(self, F):
+        F = np.asarray(F, dtype=float)
+        return self.mu * F + self.volumetric(F)[1]
+
+    def tangent(self, F):
+        return self.mu + self.volumetric(np.asarray(F, dtype=float))[2]
+
+
+class NeoHookean1D(VolumetricFamily1D):
+    """The notes' Neo-Hookean model in 1D: ``h(J) = -mu ln J + lam/2 (ln J)^2``, ``h' = (lam ln J - mu)/J``, ``h'' =
+    (lam + mu - lam ln J)/J^2``. Undefined (NaN, without a warning) for ``J <= 0``, so a solver can detect inversion."""
 
     name = "neo-Hookean (ln J)"
     inversion_safe = False
 
-    def energy(self, F):
-        F = np.asarray(F, dtype=float)
-        lnF = safe_log(F)
-        return 0.5 * self.mu * (F**2 - 1.0) - self.mu * lnF + 0.5 * self.lam * lnF**2
-
-    def stress(self, F):
-        F = np.asarray(F, dtype=float)
-        lnF = safe_log(F)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            return self.mu * F + (self.lam * lnF - self.mu) / F
-
-    def tangent(self, F):
-        F = np.asarray(F, dtype=float)
-        lnF = safe_log(F)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            return self.mu + (self.mu + self.lam * (1.0 - lnF)) / F**2
+    def volumetric(self, J):
+        J = np.asarray(J, dtype=float)
+        lnJ = safe_log(J)
+        invJ = np.full(J.shape, np.nan)
+        np.divide(1.0, J, out=invJ, where=J > 0)
+        lam, mu = self.lam, self.mu
+        return -mu * lnJ + 0.5 * lam * lnJ**2, (lam * lnJ - mu) * invJ, (lam + mu - lam * lnJ) * invJ**2
 
 
-class TaylorNeoHookean1D(Material1D):
-    """Neo-Hookean with ``ln J`` replaced by its cubic Taylor polynomial ``r(J)``: finite for all F."""
+class TaylorNeoHookean1D(VolumetricFamily1D):
+    """Neo-Hookean with ``ln J`` replaced by its cubic Taylor polynomial ``r(J)``: ``h = -mu r + lam/2 r^2``, ``h' =
+    (lam r - mu) r'``, ``h'' = lam r'^2 + (lam r - mu) r''``; finite for all F."""
 
     name = "neo-Hookean (cubic r(J))"
 
-    def energy(self, F):
-        F = np.asarray(F, dtype=float)
-        r = taylor_log(F)
-        return 0.5 * self.mu * (F**2 - 1.0) - self.mu * r + 0.5 * self.lam * r**2
-
-    def stress(self, F):
-        F = np.asarray(F, dtype=float)
-        return self.mu * F + (self.lam * taylor_log(F) - self.mu) * taylor_log_prime(F)
-
-    def tangent(self, F):
-        F = np.asarray(F, dtype=float)
-        r, r1, r2 = taylor_log(F), taylor_log_prime(F), taylor_log_second(F)
-        return self.mu + self.lam * r1**2 + (self.lam * r - self.mu) * r2
+    def volumetric(self, J):
+        r, r1, r2 = taylor_log(J), taylor_log_prime(J), -1.0 + 2.0 * (np.asarray(J, dtype=float) - 1.0)  # r''(J)
+        lam, mu = self.lam, self.mu
+        return -mu * r + 0.5 * lam * r**2, (lam * r - mu) * r1, lam * r1**2 + (lam * r - mu) * r2

@@ -46,15 +46,25 @@ def _check_aspect(name: str, ratio: float) -> None:
                                    f"{MAX_ASPECT:g}]")
 
 
-def _check_grid(nx, ny, diagonal) -> tuple[int, int]:
-    """``(nx, ny)`` checked as counts whose ``2 nx ny`` triangles are allowed, and a known ``diagonal``."""
-    nx, ny = check_count("nx", nx, 1, MAX_TRIANGLES // 2), check_count("ny", ny, 1, MAX_TRIANGLES // 2)
-    if 2 * nx * ny > MAX_TRIANGLES:
-        raise ParameterError("nx", f"nx, ny: nx = {nx} and ny = {ny} give 2 nx ny = {2 * nx * ny} triangles, more "
-                                   f"than the {MAX_TRIANGLES} a generated domain may have")
+def _check_grid(counts: dict, per_cell: int = 2, diagonal="alternate") -> tuple[int, ...]:
+    """The cell counts ``{"nx": nx, ...}`` checked as counts whose ``per_cell nx ny (nz)`` elements (triangles: 2 a
+    cell, tetrahedra: 6) are allowed, and a known ``diagonal``."""
+    n = tuple(check_count(key, value, 1, MAX_TRIANGLES // per_cell) for key, value in counts.items())
+    if per_cell * math.prod(n) > MAX_TRIANGLES:
+        raise ParameterError("nx", f"{', '.join(counts)}: {' x '.join(map(str, n))} cells give "
+                                   f"{per_cell * math.prod(n)} {'triangles' if per_cell == 2 else 'tetrahedra'}, "
+                                   f"more than the {MAX_TRIANGLES} a generated domain may have")
     if not isinstance(diagonal, str) or diagonal not in _DIAGONALS:
         raise ParameterError("diagonal", f"diagonal must be one of {_DIAGONALS}, got {diagonal!r}")
-    return nx, ny
+    return n
+
+
+def _sides(sizes, names) -> dict:
+    """The boundaries of the box ``[0, sizes[0]] x [0, sizes[1]] (x [0, sizes[2]])``: ``names[2 a]`` where coordinate
+    ``a`` is 0, ``names[2 a + 1]`` where it is ``sizes[a]`` (within ``1e-9 sizes[a]``)."""
+    def side(axis, value, tol):
+        return lambda m: np.abs(m[axis] - value) < tol
+    return {names[2 * a + end]: side(a, end * size, 1e-9 * size) for a, size in enumerate(sizes) for end in (0, 1)}
 
 
 def index_list(idx, limit=10) -> str:
@@ -84,16 +94,32 @@ def mean_edge_length(mesh) -> float:
     return float(edge_lengths(mesh).mean())
 
 
+def _signed_measures(p, t) -> np.ndarray:
+    """Signed area (triangles, positive = counter-clockwise) or volume (tetrahedra, positive = vertices 1, 2, 3
+    right-handed about vertex 0) of every element: the determinant of its edge vectors from vertex 0, over ``d!``."""
+    x = p[:, t]
+    d1, d2 = x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]
+    if p.shape[0] == 2:
+        return 0.5 * (d1[0] * d2[1] - d2[0] * d1[1])
+    d3 = x[:, 3] - x[:, 0]
+    return (d1[0] * (d2[1] * d3[2] - d2[2] * d3[1]) - d1[1] * (d2[0] * d3[2] - d2[2] * d3[0])
+            + d1[2] * (d2[0] * d3[1] - d2[1] * d3[0])) / 6.0
+
+
 def signed_areas(mesh) -> np.ndarray:
     """Signed area of every triangle of ``mesh`` (positive = counter-clockwise)."""
-    p = np.asarray(mesh.p, dtype=float)
-    t = np.asarray(mesh.t)
-    a, b, c = p[:, t[0]], p[:, t[1]], p[:, t[2]]
-    return 0.5 * ((b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1]))
+    return _signed_measures(np.asarray(mesh.p, dtype=float), np.asarray(mesh.t))
+
+
+def signed_volumes(mesh) -> np.ndarray:
+    """Signed volume of every tetrahedron of ``mesh`` (positive = vertices 1, 2, 3 right-handed about vertex 0)."""
+    return _signed_measures(np.asarray(mesh.p, dtype=float), np.asarray(mesh.t))
 
 
 #: The facets of an element by local vertex: a triangle's edges, a tetrahedron's faces (face k opposite vertex k).
 _FACETS = {3: ([0, 1], [1, 2], [2, 0]), 4: ([1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2])}
+#: The words of the messages by dimension: an element, elements, a facet, a zero measure.
+_WORDS = {2: ("triangle", "triangles", "edge", "zero-area"), 3: ("tetrahedron", "tetrahedra", "face", "zero-volume")}
 
 
 def _facets(t: np.ndarray):
@@ -124,23 +150,18 @@ def _folded(p, t, copies: bool) -> np.ndarray:
     return np.stack([owner[same[bad]], owner[same[bad] + 1]])
 
 
-def _pairs(folded) -> str:
-    return ", ".join(f"({i}, {j})" for i, j in folded.T[:10]) + (" ..." if folded.shape[1] > 10 else "")
-
-
 def check_mesh(p, t, name: str = "mesh", *, unused_nodes: str = "refuse", cut: bool = False):
     """Check that ``(p, t)`` is a valid triangle mesh (or tetrahedron mesh: ``p`` ``(3, n)``, ``t`` ``(4, m)``); return
     ``(p, t)`` as float64 ``(d, n)`` and int64 ``(d + 1, m)``.
 
     Refused, with a :class:`ParameterError` naming ``name`` and the offending items: ``p`` not a real ``(2, n)``
-    array, ``t`` not an integer ``(3, m)`` array; no triangle or more than :data:`MAX_TRIANGLES`; node indices out of
+    array, ``t`` not an integer ``(3, m)`` array; no element or more than :data:`MAX_TRIANGLES`; node indices out of
     range; coordinates not finite or beyond ``+-COORDINATE_MAX``; a mesh smaller than ``SIZE_RANGE[0]``; **unused
     nodes** (every linear system would be singular; ``unused_nodes="ignore"`` lets a file reader report in its own
-    numbers first); an edge in three triangles; duplicated, degenerate and folded triangles. ``cut=True`` (the
-    assemblers) accepts what a cut through elements makes (fins, copies of a triangle) and any number of triangles.
-    Tetrahedra: the same checks on the arrays, then a face in three tetrahedra, duplicated, degenerate (zero-volume),
-    inverted (negative-volume, the vertices not right-handed) and folded (overlapping a neighbour across a face)
-    tetrahedra are refused.
+    numbers first); a facet (edge, face) in three elements; duplicated, degenerate, folded (overlapping a neighbour
+    across a facet) and, for tetrahedra, inverted (negative-volume) elements. ``cut=True`` (the assemblers) accepts
+    what a cut through elements makes (fins, copies of a triangle; folded and inverted tetrahedra) and any number of
+    elements.
     """
     def refuse(message):
         raise ParameterError(name, f"{name}: {message}")
@@ -155,7 +176,7 @@ def check_mesh(p, t, name: str = "mesh", *, unused_nodes: str = "refuse", cut: b
     if t_arr.dtype.kind not in "iu" or t_arr.ndim != 2 or t_arr.shape[0] != dim + 1:
         what = "(3, n_triangles)" if dim == 2 else "(4, n_tetrahedra) for 3D nodes"
         refuse(f"t must be an integer array shaped {what}, got dtype {t_arr.dtype} and shape {t_arr.shape}")
-    noun, nouns = ("triangle", "triangles") if dim == 2 else ("tetrahedron", "tetrahedra")
+    noun, nouns, facet, zero = _WORDS[dim]
     n, m = p_arr.shape[1], t_arr.shape[1]
     if m == 0:
         refuse(f"has no {nouns}")
@@ -185,76 +206,40 @@ def check_mesh(p, t, name: str = "mesh", *, unused_nodes: str = "refuse", cut: b
     repeated = np.flatnonzero((tri[1:] == tri[:-1]).any(axis=0))
     if repeated.size:
         refuse(f"{nouns} {index_list(repeated)} use the same node twice")
-    if dim == 3:
-        return _check_tet_shapes(p_arr, t_arr, refuse, cut)
-    if not cut:  # an edge in three or more triangles, a triangle listed twice
+    if not cut:  # a facet in three or more elements, an element listed twice
         key, owner, _ = _facets(t_arr)
-        same = (key[0, 1:] == key[0, :-1]) & (key[1, 1:] == key[1, :-1])
+        same = (key[:, 1:] == key[:, :-1]).all(axis=0)
         fins = np.flatnonzero(same[1:] & same[:-1])  # three equal keys in a row: start index fins + 0
         if fins.size:
-            a, b = int(key[0, fins[0]]), int(key[1, fins[0]])
-            sharing = owner[(key[0] == a) & (key[1] == b)]
-            count = np.unique(key[0, fins] * np.int64(n) + key[1, fins]).size
-            refuse(f"edge ({a}, {b}) is shared by {sharing.size} triangles {sorted(sharing.tolist())} (a 2D "
-                   f"mesh allows at most 2; a duplicated triangle?); {count} such edge(s) in all")
+            nodes = key[:, fins[0]]
+            sharing = owner[(key == nodes[:, None]).all(axis=0)]
+            count = np.unique(key[:, fins], axis=1).shape[1]
+            refuse(f"{facet} {tuple(int(v) for v in nodes)} is shared by {sharing.size} {nouns} "
+                   f"{sorted(sharing.tolist())} (three or more: a {dim}D mesh allows at most 2; a duplicated "
+                   f"{noun}?); {count} such {facet}(s) in all")
         order = np.lexsort(tri[::-1])
         tri_sorted = tri[:, order]
         dup = np.flatnonzero((tri_sorted[:, 1:] == tri_sorted[:, :-1]).all(axis=0))
-        if dup.size:
+        if dup.size and dim == 2:  # (a tetrahedron listed twice is folded over its copy)
             i = int(dup[0])
             refuse(f"triangles {int(order[i])} and {int(order[i + 1])} are the same triangle "
                    f"{tuple(int(v) for v in tri_sorted[:, i])}; {dup.size} duplicate(s) in all")
     x = p_arr[:, t_arr]
-    d1, d2, d3 = x[:, 1] - x[:, 0], x[:, 2] - x[:, 0], x[:, 2] - x[:, 1]
-    det = d1[0] * d2[1] - d1[1] * d2[0]
-    h2 = np.maximum(np.maximum((d1**2).sum(0), (d2**2).sum(0)), (d3**2).sum(0))
-    degenerate = np.flatnonzero(~(np.abs(det) > DEGENERATE_TOL * h2))
+    h2 = np.max([((x[:, j] - x[:, i]) ** 2).sum(0) for i in range(dim + 1) for j in range(i + 1, dim + 1)], axis=0)
+    measure = _signed_measures(p_arr, t_arr)
+    degenerate = np.flatnonzero(~(np.abs(math.factorial(dim) * measure) > DEGENERATE_TOL * h2 ** (dim / 2)))
     if degenerate.size:
-        refuse(f"zero-area (degenerate) triangles {index_list(degenerate)}")
-    folded = _folded(p_arr, t_arr, copies=True)
-    if folded.size:
-        refuse(f"inverted triangles (folded over a neighbour across a shared edge): pairs {_pairs(folded)}; a rest "
-               "mesh must not overlap itself")
-    return p_arr, t_arr
-
-
-def signed_volumes(mesh) -> np.ndarray:
-    """Signed volume of every tetrahedron of ``mesh`` (positive = vertices 1, 2, 3 right-handed about vertex 0)."""
-    return _tet_volumes(np.asarray(mesh.p, dtype=float), np.asarray(mesh.t))
-
-
-def _tet_volumes(p, t) -> np.ndarray:
-    x = p[:, t]
-    d1, d2, d3 = x[:, 1] - x[:, 0], x[:, 2] - x[:, 0], x[:, 3] - x[:, 0]
-    return (d1[0] * (d2[1] * d3[2] - d2[2] * d3[1]) - d1[1] * (d2[0] * d3[2] - d2[2] * d3[0])
-            + d1[2] * (d2[0] * d3[1] - d2[1] * d3[0])) / 6.0
-
-
-def _check_tet_shapes(p_arr, t_arr, refuse, cut):
-    """The rest of :func:`check_mesh` for tetrahedra (arrays checked): a face in three tetrahedra, degenerate and
-    inverted tetrahedra."""
-    if not cut:
-        faces = np.sort(np.concatenate([t_arr[[1, 2, 3]], t_arr[[0, 2, 3]], t_arr[[0, 1, 3]], t_arr[[0, 1, 2]]],
-                                       axis=1), axis=0)
-        _, counts = np.unique(faces, axis=1, return_counts=True)
-        if np.any(counts > 2):
-            refuse(f"{int(np.sum(counts > 2))} face(s) shared by three or more tetrahedra (a 3D mesh allows at most "
-                   "2; a duplicated tetrahedron?)")
-    x = p_arr[:, t_arr]
-    edges = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)]
-    h = np.sqrt(np.max([((x[:, j] - x[:, i]) ** 2).sum(0) for i, j in edges], axis=0))
-    vol = _tet_volumes(p_arr, t_arr)
-    degenerate = np.flatnonzero(~(np.abs(6.0 * vol) > DEGENERATE_TOL * h**3))
-    if degenerate.size:
-        refuse(f"zero-volume (degenerate) tetrahedra {index_list(degenerate)}")
-    inverted = np.flatnonzero(vol < 0)
-    if inverted.size and not cut:
+        refuse(f"{zero} (degenerate) {nouns} {index_list(degenerate)}")
+    inverted = np.flatnonzero(measure < 0) if dim == 3 and not cut else []
+    if len(inverted):
         refuse(f"inverted tetrahedra {index_list(inverted)} (negative volume: vertices 1, 2, 3 must be right-handed "
                "about vertex 0)")
-    folded = _folded(p_arr, t_arr, copies=False) if not cut else np.zeros((2, 0))
+    folded = _folded(p_arr, t_arr, copies=dim == 2) if dim == 2 or not cut else np.zeros((2, 0))
     if folded.size:
-        refuse(f"folded tetrahedra (overlapping a neighbour across a shared face): pairs {_pairs(folded)}; a rest "
-               "mesh must not overlap itself")
+        what = ("inverted triangles (folded over a neighbour across a shared edge)" if dim == 2 else
+                "folded tetrahedra (overlapping a neighbour across a shared face)")
+        pairs = ", ".join(f"({i}, {j})" for i, j in folded.T[:10]) + (" ..." if folded.shape[1] > 10 else "")
+        refuse(f"{what}: pairs {pairs}; a rest mesh must not overlap itself")
     return p_arr, t_arr
 
 
@@ -273,10 +258,7 @@ def box(lx=1.0, ly=1.0, lz=1.0, nx=4, ny=4, nz=4) -> MeshTet:
     lx, ly, lz = _size("lx", lx), _size("ly", ly), _size("lz", lz)
     for label, ratio in (("lx / ly", lx / ly), ("ly / lz", ly / lz), ("lx / lz", lx / lz)):
         _check_aspect(label, ratio)
-    nx, ny, nz = (check_count(k, v, 1, MAX_TRIANGLES // 6) for k, v in (("nx", nx), ("ny", ny), ("nz", nz)))
-    if 6 * nx * ny * nz > MAX_TRIANGLES:
-        raise ParameterError("nx", f"nx, ny, nz: {nx} x {ny} x {nz} cells give {6 * nx * ny * nz} tetrahedra, more "
-                                   f"than the {MAX_TRIANGLES} a generated domain may have")
+    nx, ny, nz = _check_grid({"nx": nx, "ny": ny, "nz": nz}, per_cell=6)
     X, Y, Z = np.meshgrid(np.linspace(0.0, lx, nx + 1), np.linspace(0.0, ly, ny + 1), np.linspace(0.0, lz, nz + 1),
                           indexing="ij")
     p = np.vstack([X.ravel(order="F"), Y.ravel(order="F"), Z.ravel(order="F")])
@@ -284,15 +266,8 @@ def box(lx=1.0, ly=1.0, lz=1.0, nx=4, ny=4, nz=4) -> MeshTet:
     corner = np.array([i + (nx + 1) * (j + (ny + 1) * k) + dx + (nx + 1) * (dy + (ny + 1) * dz)
                        for dz in (0, 1) for dy in (0, 1) for dx in (0, 1)])  # (8, cells), c = dx + 2 dy + 4 dz
     t = np.ascontiguousarray(corner[_CUBE_TETS].reshape(4, -1, order="F"))  # cell by cell, six tetrahedra each
-    tol = 1e-9
-    return MeshTet(p, t, sort_t=False).with_boundaries({
-        "left": lambda m: np.abs(m[0]) < tol * lx,
-        "right": lambda m: np.abs(m[0] - lx) < tol * lx,
-        "bottom": lambda m: np.abs(m[1]) < tol * ly,
-        "top": lambda m: np.abs(m[1] - ly) < tol * ly,
-        "back": lambda m: np.abs(m[2]) < tol * lz,
-        "front": lambda m: np.abs(m[2] - lz) < tol * lz,
-    })
+    return MeshTet(p, t, sort_t=False).with_boundaries(
+        _sides((lx, ly, lz), ("left", "right", "bottom", "top", "back", "front")))
 
 
 # --- structured rectangle --------------------------------------------------
@@ -320,15 +295,10 @@ def rectangle(width=1.0, height=1.0, nx=10, ny=10, diagonal="alternate") -> Mesh
     """
     width, height = _size("width", width), _size("height", height)
     _check_aspect("width / height", width / height)
-    nx, ny = _check_grid(nx, ny, diagonal)
+    nx, ny = _check_grid({"nx": nx, "ny": ny}, diagonal=diagonal)
     X, Y = np.meshgrid(np.linspace(0.0, width, nx + 1), np.linspace(0.0, height, ny + 1), indexing="xy")
-    tx, ty = 1e-9 * width, 1e-9 * height
-    return _structured_mesh(X, Y, nx, ny, diagonal).with_boundaries({
-        "left": lambda m: np.abs(m[0]) < tx,
-        "right": lambda m: np.abs(m[0] - width) < tx,
-        "bottom": lambda m: np.abs(m[1]) < ty,
-        "top": lambda m: np.abs(m[1] - height) < ty,
-    })
+    return _structured_mesh(X, Y, nx, ny, diagonal).with_boundaries(
+        _sides((width, height), ("left", "right", "bottom", "top")))
 
 
 def _grid_for(n_triangles: int, width: float, height: float) -> tuple[int, int]:
@@ -337,15 +307,10 @@ def _grid_for(n_triangles: int, width: float, height: float) -> tuple[int, int]:
     aspect = width / height
     half = max(1, n_triangles // 2)
     nx0 = min(half, max(1, round(math.sqrt(n_triangles / 2.0 * aspect))))
-    best = None
-    for nx in range(max(1, nx0 - 2), min(half, nx0 + 2) + 1):
-        ny = max(1, round(n_triangles / (2.0 * nx)))
-        # within the cap first, then closeness of the count, then how square the cells are
-        key = (2 * nx * ny > MAX_TRIANGLES, abs(2 * nx * ny - n_triangles),
-               abs(math.log((width / nx) / (height / ny))))
-        if best is None or key < best[0]:
-            best = (key, nx, ny)
-    nx, ny = best[1], best[2]
+    grids = [(nx, max(1, round(n_triangles / (2.0 * nx)))) for nx in range(max(1, nx0 - 2), min(half, nx0 + 2) + 1)]
+    # within the cap first, then closeness of the count, then how square the cells are (then the fewest columns)
+    _, _, _, nx, ny = min((2 * nx * ny > MAX_TRIANGLES, abs(2 * nx * ny - n_triangles),
+                           abs(math.log((width / nx) / (height / ny))), nx, ny) for nx, ny in grids)
     if 2 * nx * ny > MAX_TRIANGLES:  # rounding up overshot the cap: round down instead
         ny = max(1, n_triangles // (2 * nx))
     return nx, ny
@@ -396,19 +361,15 @@ def fusiform_muscle(length=4.0, max_width=1.0, tendon_width=0.25, nx=40, ny=8, d
     whose lines ``y = eta w(x)`` are the natural fibers (:func:`fusiform_fiber_field`). Boundaries ``"left_tendon"``,
     ``"right_tendon"``, ``"top"``, ``"bottom"``."""
     length, max_width, tendon_width = _check_fusiform(length, max_width, tendon_width)
-    nx, ny = _check_grid(nx, ny, diagonal)
+    nx, ny = _check_grid({"nx": nx, "ny": ny}, diagonal=diagonal)
     XI, ETA = np.meshgrid(np.linspace(0.0, length, nx + 1), np.linspace(-0.5, 0.5, ny + 1), indexing="xy")
     w, _ = fusiform_width(XI, length, max_width, tendon_width)
-    tx = 1e-9 * length
+    ends = _sides((length,), ("left_tendon", "right_tendon"))
 
     def at_end(m):
-        return (np.abs(m[0]) < tx) | (np.abs(m[0] - length) < tx)
+        return ends["left_tendon"](m) | ends["right_tendon"](m)
     return _structured_mesh(XI, ETA * w, nx, ny, diagonal).with_boundaries({
-        "left_tendon": lambda m: np.abs(m[0]) < tx,
-        "right_tendon": lambda m: np.abs(m[0] - length) < tx,
-        "top": lambda m: (m[1] > 0.0) & ~at_end(m),
-        "bottom": lambda m: (m[1] < 0.0) & ~at_end(m),
-    })
+        **ends, "top": lambda m: (m[1] > 0.0) & ~at_end(m), "bottom": lambda m: (m[1] < 0.0) & ~at_end(m)})
 
 
 def fusiform_fiber_direction(points, length=4.0, max_width=1.0, tendon_width=0.25) -> np.ndarray:
@@ -416,28 +377,24 @@ def fusiform_fiber_direction(points, length=4.0, max_width=1.0, tendon_width=0.2
     the point has ``eta = y / w(x)`` and tangent ``(1, eta w'(x))``."""
     length, max_width, tendon_width = _check_fusiform(length, max_width, tendon_width)
     pts = check_real_array("points", points)
-    if pts.ndim < 1 or pts.shape[0] != 2:
-        raise ParameterError("points", f"points must be shaped (2, ...), got shape {pts.shape}")
-    if not np.all(np.abs(pts) <= COORDINATE_MAX):
-        raise ParameterError("points", f"points must be finite and within the coordinate limit +-{COORDINATE_MAX:g}")
+    if pts.ndim < 1 or pts.shape[0] != 2 or not np.all(np.abs(pts) <= COORDINATE_MAX):
+        raise ParameterError("points", f"points must be shaped (2, ...), finite and within the coordinate limit "
+                                       f"+-{COORDINATE_MAX:g}, got shape {pts.shape}")
     w, dw = fusiform_width(pts[0], length, max_width, tendon_width)
     eta = pts[1] / w
     a = np.stack([np.ones_like(eta), eta * dw])
     return a / np.hypot(a[0], a[1])
 
 
-def fusiform_fiber_field(mesh, length=None, max_width=None, tendon_width=None) -> np.ndarray:
-    """Unit fiber directions (2, n_elements) of a :func:`fusiform_muscle` mesh at the centroids; the sizes left
-    ``None`` are read off the mesh (x-extent, y-extent, y-extent of the left tendon's nodes)."""
+def fusiform_fiber_field(mesh) -> np.ndarray:
+    """Unit fiber directions (2, n_elements) of a :func:`fusiform_muscle` mesh at the centroids, its sizes read off
+    the mesh (length: the x-extent, max_width: the y-extent, tendon_width: the y-extent of the left tendon's nodes)."""
     p, t = check_mesh(mesh.p, mesh.t, cut=True)  # what an assembler accepts
     if p.shape[0] != 2:
         raise ParameterError("mesh", "mesh must be a 2D triangle mesh (p shaped (2, n), t shaped (3, n))")
     x0 = p[0].min()
-    length = p[0].max() - x0 if length is None else length
-    max_width = 2.0 * np.abs(p[1]).max() if max_width is None else max_width
-    if tendon_width is None:
-        at_left = np.abs(p[0] - x0) <= 1e-9 * max(abs(float(length)), 1e-300)
-        tendon_width = 2.0 * np.abs(p[1, at_left]).max()
+    length, max_width = p[0].max() - x0, 2.0 * np.abs(p[1]).max()
+    tendon_width = 2.0 * np.abs(p[1, np.abs(p[0] - x0) <= 1e-9 * max(float(length), 1e-300)]).max()
     centroid = p[:, t].mean(axis=1)
     centroid[0] -= x0
     return fusiform_fiber_direction(centroid, length, max_width, tendon_width)

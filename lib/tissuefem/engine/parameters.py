@@ -131,17 +131,15 @@ def check_list(name: str, value, what: str) -> list:
 
 def check_vector(name, value, size: int = 2) -> np.ndarray:
     """A finite vector ``(x, y)`` (``size=3``: ``(x, y, z)``) of real numbers, or a ``ValueError`` naming ``name``."""
-    xy = "(x, y)" if size == 2 else "(x, y, z)"
     try:
         v = np.asarray(value)
-    except (TypeError, ValueError):
-        raise ParameterError(name, f"{name} must be a finite vector {xy}, got {value!r}") from None
-    if v.dtype.kind not in "iuf":  # strings, booleans, objects; complex would lose its imaginary part
+    except (TypeError, ValueError):  # ragged lists
+        v = np.asarray(None)
+    # strings, booleans, objects are refused; complex would lose its imaginary part
+    if v.dtype.kind not in "iuf" or v.shape != (size,) or not np.all(np.isfinite(v)):
+        xy = "(x, y)" if size == 2 else "(x, y, z)"
         raise ParameterError(name, f"{name} must be a finite vector {xy} of real numbers, got {value!r}")
-    v = v.astype(float)
-    if v.shape != (size,) or not np.all(np.isfinite(v)):
-        raise ParameterError(name, f"{name} must be a finite vector {xy}, got {value!r}")
-    return v
+    return v.astype(float)
 
 
 def check_indices(name: str, value, count: int, what: str = "indices") -> np.ndarray:
@@ -183,14 +181,14 @@ def check_fiber_stiffness(k, name: str = "k") -> float:
     return check_real(f"{name} (fiber modulus)", k, 0.0, LAME_MAX)
 
 
-def check_time_step(dt, name: str = "dt") -> float:
+def check_time_step(dt) -> float:
     """A time step in seconds within :data:`TIME_STEP_RANGE`."""
-    return check_real(f"{name} (time step)", dt, *TIME_STEP_RANGE)
+    return check_real("dt (time step)", dt, *TIME_STEP_RANGE)
 
 
-def check_density(rho, name: str = "density") -> float:
+def check_density(rho) -> float:
     """A density (mass per unit reference area) within :data:`DENSITY_RANGE`."""
-    return check_real(name, rho, *DENSITY_RANGE)
+    return check_real("density", rho, *DENSITY_RANGE)
 
 
 def _check_stiffness(name, stiffness, hi, times, what, positive) -> float:
@@ -313,12 +311,11 @@ def show(value) -> str:
 
 def number(field, value, *, positive=False, nonnegative=False, integer=False, lo=None, hi=None):
     """``value`` as a number for ``field`` within ``[lo, hi]``; without ``lo``, ``positive`` means > 0 and
-    ``nonnegative`` >= 0; with ``integer``, a float such as ``800.0`` is refused."""
+    ``nonnegative`` >= 0; with ``integer`` (and ``lo``), a float such as ``800.0`` is refused."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise ParameterError(field, f"{field} must be a number, got {show(value)}")
     if integer:
-        low = lo if lo is not None else 1 if positive else 0 if nonnegative else -(2**63)
-        return check_count(field, value, int(low), None if hi is None else int(hi))
+        return check_count(field, value, int(lo), None if hi is None else int(hi))
     if lo is None and (positive or nonnegative):
         return check_real(field, value, 0.0, hi, lo_open=positive)
     return check_real(field, value, lo, hi)
