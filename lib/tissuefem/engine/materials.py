@@ -304,13 +304,18 @@ def _polar_rotation(F):
     return R, R[0, 0], R[1, 0], rho
 
 
+def _rotation3(U, V):
+    """3D: the polar rotation ``R = U V^T`` from the rotation-preserving SVD's ``U`` and ``V``."""
+    return np.einsum("ia...,ja...->ij...", U, V)
+
+
 def _rotation_derivative3(F):
     """3D: ``(R, dR/dF)`` of the polar rotation ``R = U V^T`` (:func:`rotation_preserving_svd`). With ``M = U^T dF V``,
     ``dR = U W V^T``, ``W`` skew with ``W_ab = (M_ab - M_ba) / (s_a + s_b)``, i.e. ``dR/dF = sum_(a<b) 2/(s_a + s_b)
     T_ab (x) T_ab``, ``T_ab = (u_a v_b^T - u_b v_a^T)/sqrt 2`` (in 2D this is ``R' (x) R' / rho``). A pair with
     ``s_a + s_b`` below :data:`_RHO_MIN` contributes nothing (the rotation is undefined there, as in 2D)."""
     U, s, V = rotation_preserving_svd(F)
-    R = np.einsum("ia...,ja...->ij...", U, V)
+    R = _rotation3(U, V)
     dR = np.zeros((3, 3) + F.shape)
     for a, b in ((0, 1), (0, 2), (1, 2)):
         T = (U[:, a][:, None] * V[:, b][None, :] - U[:, b][:, None] * V[:, a][None, :]) / math.sqrt(2.0)
@@ -336,7 +341,10 @@ class Corotated(Material):
 
     @staticmethod
     def _rotation(F):
-        return _polar_rotation(F)[0] if F.shape[0] == 2 else _rotation_derivative3(F)[0]
+        if F.shape[0] == 2:
+            return _polar_rotation(F)[0]
+        U, _, V = rotation_preserving_svd(F)
+        return _rotation3(U, V)  # the energy and the stress need R, not its derivative
 
     def energy(self, F):
         F = check_F(F)
