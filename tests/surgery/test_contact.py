@@ -404,7 +404,7 @@ def test_bad_contact_input_is_refused_by_name():
         Model(mesh, MATERIAL, contact=dict(distance=0.01))
     with pytest.raises(ValueError, match="contact: unknown"):
         Model(mesh, MATERIAL, contact=dict(distance=0.01, stiffness=1.0, stiffnes=2.0))
-    with pytest.raises(ValueError, match="contact must be a dict"):
+    with pytest.raises(ValueError, match="contact must be a table"):
         Model(mesh, MATERIAL, contact=0.01)
 
 

@@ -189,11 +189,11 @@ def _check_probe(field, e):
     return out
 
 
-def _probes(model, entries, scene, first=0):
+def _probes(model, entries, scene):
     """Rigid discs (balls on tetrahedra); default stiffness ``100 E / radius`` (penetration near 1 % of the radius at
-    moderate pressure); ``first``: the index of the first entry (in refusals)."""
+    moderate pressure)."""
     out = []
-    for i, p in enumerate(entries, first):
+    for i, p in enumerate(entries):
         p = dict(p)
         if scene is not None and p.get("stiffness") is None:
             p["stiffness"] = 100.0 * scene.material["youngs_modulus"] / p["radius"]
@@ -273,10 +273,7 @@ def _contact(model, p, scene):
     stiffness unless given. A model's ``contact`` keyword: ``distance, stiffness[, surface, skin]``, all given."""
     refuse_3d("contact", model.X)
     if scene is None:
-        if not isinstance(p, dict):
-            raise ParameterError("contact", f"contact must be a dict (distance, stiffness[, surface, skin]), got {p!r}")
-        p = table("contact", p, ("distance", "stiffness", "surface", "skin"))
-        require("contact", p, ("distance", "stiffness"))
+        p = _keys("contact", p, ("distance", "stiffness"), ("surface", "skin"))
         surface = ContactSurface.from_mesh(model.mesh) if p.get("surface") is None else p["surface"]
         check_contact_stiffness("contact.stiffness", p["stiffness"], youngs_modulus(model))
         return Contact(model.X, surface, p["distance"], p["stiffness"], p.get("skin"))
@@ -323,35 +320,32 @@ def _keys(field, spec, required, optional=()) -> dict:
 
 def keyword_terms(*, dt=None, mass="lumped", gravity=None, body_force=None, tractions=None, fibers=None, probes=(),
                   sutures=None, contact=None) -> list:
-    """The factories of a model's keywords (:class:`~tissuefem.engine.model.Model`) in build order; each checks its
-    keyword when called."""
+    """The factories of a model's keywords (:class:`~tissuefem.engine.model.Model`) in build order: the effects'
+    own, given the keywords' tables (their keys checked here, their values when the terms are made)."""
     probes = check_list("probes", probes, "dicts (center, radius, stiffness[, label])")
-
-    def fibers_term(model):
+    params = {}
+    if fibers is not None:
         try:
             stiffness, directions = fibers
         except (TypeError, ValueError):
             raise ParameterError("fibers", f"fibers must be (stiffness, directions), got {fibers!r}") from None
-        return _fibers(model, {"stiffness": stiffness, "direction": directions}, None)
-
-    out = [] if fibers is None else [fibers_term]
+        params["fibers"] = {"stiffness": stiffness, "direction": directions}
     if dt is not None:
-        out.append(factory("inertia", {"time_step": dt, "mass": mass}))
-    for i, spec in enumerate(probes):
-        out.append(lambda model, i=i, spec=spec: _probes(
-            model, [_keys(f"probes[{i}]", spec, ("center", "radius", "stiffness"), ("label", "smoothing"))], None, i))
+        params["inertia"] = {"time_step": dt, "mass": mass}
+    if probes:
+        params["probes"] = [_keys(f"probes[{i}]", spec, ("center", "radius", "stiffness"), ("label", "smoothing"))
+                            for i, spec in enumerate(probes)]
     if sutures is not None:
-        out.append(lambda model: _sutures(model, _keys("sutures", sutures, ("pairs", "stiffness", "gaps"),
-                                                       ("tightness", "coefficients")), None))
+        params["sutures"] = _keys("sutures", sutures, ("pairs", "stiffness", "gaps"), ("tightness", "coefficients"))
     if contact is not None:
-        out.append(factory("contact", contact))
+        params["contact"] = contact
     if gravity is not None:
-        out.append(factory("gravity", {"acceleration": gravity}))
+        params["gravity"] = {"acceleration": gravity}
     if body_force is not None:
-        out.append(factory("body_force", {"force": body_force}))
+        params["body_force"] = {"force": body_force}
     if tractions is not None:
-        out.append(lambda model: _tractions(model, _named_tractions(tractions), None))
-    return out
+        params["tractions"] = _named_tractions(tractions)
+    return [factory(name, p) for name, p in params.items()]
 
 
 def as_terms(made) -> list[Term]:

@@ -144,21 +144,14 @@ class Handle:
         self.region, self.name = region, name
         self.anchor = None if anchor is None else check_vector(
             "anchor", anchor, 3 if is_sequence(anchor) and len(anchor) == 3 else 2)
-        self.base = None
-        if base is not None:
-            if isinstance(region, (str, dict)) or callable(region):
-                raise ValueError("base: a handle with a base displacement must be given node indices as its region")
-            base = np.asarray(base, dtype=float)
-            if base.ndim != 2 or base.shape[0] not in (2, 3) or base.shape[1] != region.size \
-                    or not np.all(np.isfinite(base)):
-                raise ValueError(f"base must be finite and shaped (2, {region.size}) ((3, {region.size}) on "
-                                 f"tetrahedra), got shape {base.shape}")
-            self.base = base
+        if base is not None and (isinstance(region, (str, dict)) or callable(region)):
+            raise ValueError("base: a handle with a base displacement must be given node indices as its region")
+        self.base = None if base is None else np.asarray(base, dtype=float)  # its shape checked by the model
         self.nodes = None  # set when a model takes the handle
         self._points = None  # reference positions of its dofs' points (2, n), set by the model
         self._reach = None  # the largest displacement a target may prescribe, set by the model
-        self._fixed = target is None  # held where it is: zeros of the mesh's dimension when a model takes it
-        self.target = _check_target((0.0, 0.0) if target is None else target)
+        # None: held where it is (zeros of the mesh's dimension when a model takes it)
+        self.target = None if target is None else _check_target(target)
 
     def move(self, target) -> None:
         """Set a new target (a translation or a map): user input enters here, checked; a refusal keeps the old."""
@@ -186,7 +179,7 @@ class Handle:
             return None
         base = None if self.base is None else self.base[:, index[new_nodes]]
         h = Handle(new_nodes, base=base, name=self.name, anchor=self.anchor)
-        h.target, h._fixed, h._reach = self.target, self._fixed, self._reach
+        h.target, h._reach = self.target, self._reach
         h.nodes = new_nodes  # its region is these nodes: known before any model takes it
         return h
 
@@ -282,10 +275,6 @@ def _check_material_at_rest(assembler, material) -> None:
                              f"dtype {value.dtype} shape {value.shape}")
 
 
-def _overrides(term, hook) -> bool:
-    return getattr(type(term), hook) is not getattr(Term, hook)
-
-
 class Holding:
     """The handles of a :class:`Model`, resolved to nodes and dofs when taken; :meth:`prescribed` gives the
     stepper the held dofs and their displacements."""
@@ -319,10 +308,11 @@ class Holding:
             raise ValueError(f"handles must be Handle objects, got {handle!r}")
         field = f"handle {handle.name!r} region" if handle.name else "handle region"
         nodes = region_nodes(self.mesh, handle.region, field)
-        if handle.base is not None and handle.base.shape != (self.dim, nodes.size):
-            raise ValueError(f"handle {handle.name!r}: base has shape {handle.base.shape}, expected "
-                             f"({self.dim}, {nodes.size}) (the mesh's dimension, one column per node)")
-        if handle.base is not None and self.order != 1:
+        base = handle.base
+        if base is not None and (base.shape != (self.dim, nodes.size) or not np.all(np.isfinite(base))):
+            raise ValueError(f"handle {handle.name!r}: base must be finite and shaped ({self.dim}, {nodes.size}) (the "
+                             f"mesh's dimension, one column per node), got shape {base.shape}")
+        if base is not None and self.order != 1:
             raise ValueError("handles with a base displacement (grabs) need order=1")
         names = {h.name for h in self.handles}
         name = handle.name
@@ -334,9 +324,7 @@ class Holding:
         dofs, owner = self._handle_dofs(handle, nodes)
         points = self.dof_points[:, dofs]
         reach = REACH * self.size
-        target = handle.target
-        if getattr(handle, "_fixed", False) and not callable(target) and target.size != self.dim and not target.any():
-            target = np.zeros(self.dim)  # made without a target: held where it is, in the mesh's dimension
+        target = np.zeros(self.dim) if handle.target is None else handle.target
         _check_target(target, points, f"handle {name!r} target", reach)
         if handle.anchor is not None and handle.anchor.size != self.dim:
             raise ParameterError("anchor", f"handle {name!r}: anchor must have {self.dim} coordinates (the mesh's "
@@ -378,9 +366,7 @@ class Holding:
             items = list(enumerate(seq))
         checked = []
         for key, target in items:
-            if isinstance(key, bool):
-                raise ValueError(f"targets: {key!r} is not a handle name or index")
-            try:
+            try:  # (a bool is neither a name nor an index)
                 h = self.handle(key)
             except ValueError as err:
                 raise ValueError(f"targets: {err}") from None
@@ -470,14 +456,11 @@ class Model(Holding):
         elastic = Elastic(self.assembler, material)
         _check_material_at_rest(self.assembler, material)
         # the ghost penalty ties the thin pieces of a cut to their neighbours
-        self.terms = [elastic] + as_terms(GhostPenalty.of(mesh, weights, material) if order == 1 else None)
+        found = [elastic] + as_terms(GhostPenalty.of(mesh, weights, material) if order == 1 else None)
         for t in made + terms:
-            for term in as_terms(t if isinstance(t, Term) else t(self)):
-                if not isinstance(term, Term):
-                    raise ValueError(f"terms must be Term objects or factories of them, got {term!r}")
-                self.terms.append(term)
-        self.terms.sort(key=lambda t: t.rank)  # stable: the order of the sums is the order given, by rank
-        self._build()
+            found += as_terms(t if isinstance(t, Term) else t(self))
+        self.terms = []
+        self.set_terms(found)
         self.handles: list[Handle] = []
         for h in handles:
             self.add_handle(h)
@@ -504,16 +487,17 @@ class Model(Holding):
         densities = [t.density for t in self._element_terms]
         self._density = densities[0] if len(densities) == 1 else SummedDensity(densities)
         self._safe_density = SummedDensity(densities, safe=True)
-        # the terms whose class overrides a hook (contact): a model without one pays nothing per iteration
-        self._pattern_terms = [t for t in self._other_terms if _overrides(t, "covers")]
-        self._limit_terms = [t for t in self._other_terms if _overrides(t, "max_step")]
-        self._step_terms = [t for t in self._other_terms if _overrides(t, "begin_step") or _overrides(t, "end_step")]
+        # the terms with a hook (contact, see Term): a model without one pays nothing per iteration
+        self._pattern_terms = [t for t in self._other_terms if hasattr(t, "covers")]
+        self._limit_terms = [t for t in self._other_terms if hasattr(t, "max_step")]
+        self._step_terms = [t for t in self._other_terms if hasattr(t, "begin_step")]
 
     def set_terms(self, terms) -> None:
-        """Take the list ``terms`` (kept sorted by rank), or keep the old one if the pattern cannot be built."""
+        """Take the list ``terms`` (sorted by rank, stably: the sums keep the order given), or keep the old one."""
         terms = list(terms)
-        if not all(isinstance(t, Term) for t in terms):
-            raise ParameterError("terms", f"terms must be Term objects, got {terms!r:.200}")
+        bad = [t for t in terms if not isinstance(t, Term)]
+        if bad:
+            raise ParameterError("terms", f"terms must be Term objects or factories of them, got {bad[0]!r:.200}")
         old, self.terms = self.terms, sorted(terms, key=lambda t: t.rank)
         try:
             self._build()
@@ -531,12 +515,6 @@ class Model(Holding):
         if not any(t is term for t in self.terms):
             raise ValueError(f"the model holds no term {term!r}")
         self.set_terms([t for t in self.terms if t is not term])
-
-    def replace_term(self, old: Term, new: Term) -> None:
-        """Put ``new`` where ``old`` was (more stitches in one sutures term). All or nothing."""
-        if not any(t is old for t in self.terms):
-            raise ValueError(f"replace_term: the model holds no term {old!r}")
-        self.set_terms([new if t is old else t for t in self.terms])
 
     def remapped(self, meshmap, state=()) -> tuple["Model", tuple]:
         """This model on the mesh of a topology change (a :class:`~tissuefem.engine.meshes.MeshMap`: a cut or an
@@ -717,9 +695,8 @@ class Model(Holding):
         """Cauchy stress ``sigma = P F^T / J``: the force per unit *deformed* area (see chapter 3)."""
         F = self.deformation_gradient(u)
         P = np.broadcast_to(self._density.stress(F), F.shape)
-        J = det(F)
         with np.errstate(divide="ignore", invalid="ignore"):
-            return np.einsum("ik...,jk...->ij...", P, F) / J
+            return np.einsum("ik...,jk...->ij...", P, F) / det(F)
 
     def tension(self, u) -> np.ndarray:
         """The largest principal Cauchy stress of every element (positive = pulled apart)."""

@@ -48,10 +48,11 @@ class Term:
     ``add_hessian(u, data)``, which adds the Hessian into ``data``, the CSR data of the model's one sparsity
     pattern (given by ``bind``). ``couplings()``: Hessian entries the mesh's pattern lacks (sutures).
 
-    The model calls a hook only where a term overrides it: ``covers(u)`` (does the pattern still hold the
-    couplings? self-contact's pairs change), ``max_step(u, du)`` (the largest fraction of ``du`` allowed),
-    ``begin_step(u, previous)`` (returns the crossings found) and ``end_step()``. ``remap(meshmap)``: the term
-    after a topology change, ``None`` if nothing survives, or a factory ``model -> Term``.
+    Hooks, which the model calls only on the terms that define them (so a model without one pays nothing per
+    iteration): ``covers(u)`` (does the pattern still hold the couplings? self-contact's pairs change),
+    ``max_step(u, du)`` (the largest fraction of ``du`` allowed), ``begin_step(u, previous)`` (returns the crossings
+    found) with ``end_step()``. ``remap(meshmap)``: the term after a topology change, ``None`` if nothing survives,
+    or a factory ``model -> Term``.
     """
 
     name = "term"
@@ -76,18 +77,6 @@ class Term:
     def add_hessian(self, u, data, safe=False) -> None:
         """``safe=True`` asks for a positive semi-definite version (where ``has_safe_hessian``)."""
         raise NotImplementedError
-
-    def covers(self, u) -> bool:
-        return True
-
-    def max_step(self, u, du) -> float:
-        return 1.0
-
-    def begin_step(self, u, previous=None) -> int:
-        return 0
-
-    def end_step(self) -> None:
-        pass
 
     def remap(self, meshmap):
         raise NotImplementedError(f"{self.name}: this term cannot be carried across a topology change")
@@ -706,8 +695,7 @@ class Sutures(ConstantHessian):
 
     def forces(self, u) -> np.ndarray:
         """The tension ``k |x_a - x_b - g|`` in each stitch."""
-        e = self._gap(u)
-        return self.k * vector_length(e)
+        return self.k * vector_length(self._gap(u))
 
     def entries(self):
         # D maps node displacements to the gap: +w on end a's nodes, -w on end b's; the Hessian is k D^T D
