@@ -38,7 +38,6 @@ __all__ = ["Effect", "EFFECTS", "GRAVITY_DOWN", "register", "factory", "keyword_
 class Effect:
     """``listed``: a list of tables; ``placed``: by the simulation; ``check=None``: a model keyword only."""
 
-    name: str
     check: Callable | None
     build: Callable
     listed: bool = False
@@ -48,12 +47,11 @@ class Effect:
 EFFECTS: dict[str, Effect] = {}
 
 
-def register(name, check, build, *, listed=False, placed=False) -> Effect:
+def register(name, check, build, *, listed=False, placed=False) -> None:
     """Add (or replace) the effect ``name``: a scene may name it from now on."""
     if not isinstance(name, str) or not name.isidentifier():
         raise ParameterError("name", f"name must be an identifier, got {name!r}")
-    EFFECTS[name] = Effect(name, check, build, listed, placed)
-    return EFFECTS[name]
+    EFFECTS[name] = Effect(check, build, listed, placed)
 
 
 def factory(name, params, scene=None) -> Callable:
@@ -323,29 +321,23 @@ def keyword_terms(*, dt=None, mass="lumped", gravity=None, body_force=None, trac
     """The factories of a model's keywords (:class:`~tissuefem.engine.model.Model`) in build order: the effects'
     own, given the keywords' tables (their keys checked here, their values when the terms are made)."""
     probes = check_list("probes", probes, "dicts (center, radius, stiffness[, label])")
-    params = {}
     if fibers is not None:
         try:
             stiffness, directions = fibers
         except (TypeError, ValueError):
             raise ParameterError("fibers", f"fibers must be (stiffness, directions), got {fibers!r}") from None
-        params["fibers"] = {"stiffness": stiffness, "direction": directions}
-    if dt is not None:
-        params["inertia"] = {"time_step": dt, "mass": mass}
-    if probes:
-        params["probes"] = [_keys(f"probes[{i}]", spec, ("center", "radius", "stiffness"), ("label", "smoothing"))
-                            for i, spec in enumerate(probes)]
-    if sutures is not None:
-        params["sutures"] = _keys("sutures", sutures, ("pairs", "stiffness", "gaps"), ("tightness", "coefficients"))
-    if contact is not None:
-        params["contact"] = contact
-    if gravity is not None:
-        params["gravity"] = {"acceleration": gravity}
-    if body_force is not None:
-        params["body_force"] = {"force": body_force}
-    if tractions is not None:
-        params["tractions"] = _named_tractions(tractions)
-    return [factory(name, p) for name, p in params.items()]
+        fibers = {"stiffness": stiffness, "direction": directions}
+    params = {"fibers": fibers,
+              "inertia": None if dt is None else {"time_step": dt, "mass": mass},
+              "probes": [_keys(f"probes[{i}]", spec, ("center", "radius", "stiffness"), ("label", "smoothing"))
+                         for i, spec in enumerate(probes)] or None,
+              "sutures": None if sutures is None else _keys("sutures", sutures, ("pairs", "stiffness", "gaps"),
+                                                            ("tightness", "coefficients")),
+              "contact": contact,
+              "gravity": None if gravity is None else {"acceleration": gravity},
+              "body_force": None if body_force is None else {"force": body_force},
+              "tractions": None if tractions is None else _named_tractions(tractions)}
+    return [factory(name, p) for name, p in params.items() if p is not None]
 
 
 def as_terms(made) -> list[Term]:
