@@ -249,8 +249,7 @@ class SkinContact(Contact):
 
     def remap(self, meshmap):
         p = np.asarray(meshmap.mesh.p, dtype=float)
-        surface = meshmap.contact_surface()
-        surface = ContactSurface.from_mesh(meshmap.mesh) if surface is None else surface
+        surface = meshmap.contact_surface() or ContactSurface.from_mesh(meshmap.mesh)
         distance = min(self.base, 0.5 * median_segment(surface, p)) if self.default else self.base
         return SkinContact(p, surface, distance, self.stiffness, default=self.default, base=self.base)
 

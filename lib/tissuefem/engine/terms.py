@@ -425,7 +425,6 @@ def surface_lengths(meshmap) -> np.ndarray:
     surface = meshmap.contact_surface()
     if surface is None:
         return boundary_lengths(mesh) if material is None else np.where(material, boundary_lengths(mesh), 0.0)
-    # a point's share goes to its nodes with material (by its weights among them): the surface's length is kept
     weights = surface.weights if material is None else surface.weights * material[surface.nodes]
     total = weights.sum(axis=1, keepdims=True)
     weights = np.divide(weights, total, out=np.zeros_like(weights), where=total > 0)
