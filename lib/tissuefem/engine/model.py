@@ -165,9 +165,8 @@ class Handle:
         if self.nodes is None:
             raise ValueError("remap: the handle is not part of a model yet")
         parent = np.asarray(parent, dtype=np.intp)
-        where = np.full(max(int(parent.max(initial=0)), int(self.nodes.max())) + 1, -1, dtype=np.intp)
-        where[self.nodes] = np.arange(self.nodes.size)
-        index = where[parent]
+        at = np.minimum(np.searchsorted(self.nodes, parent), self.nodes.size - 1)  # (the nodes are sorted)
+        index = np.where(self.nodes[at] == parent, at, -1)  # each new node's held parent in self.nodes, or -1
         if material is not None:
             material = np.asarray(material)
             if material.dtype != bool or material.shape != parent.shape:
@@ -445,12 +444,8 @@ class Model(Holding):
         self.middle, self.size = extent(self.X)  # the domain's centre and size L (what "reach" is measured in)
         self.density = check_density(density)
         self.material = material
-        # which component each dof carries, and where it sits
-        self.component = np.empty(n, dtype=np.intp)
-        self.component[self.basis.nodal_dofs] = np.arange(dim)[:, None]
-        if order == 2:
-            mid = self.basis.facet_dofs if dim == 2 else self.basis.edge_dofs  # P2's mid-edge dofs
-            self.component[mid] = np.arange(dim)[:, None]
+        # which component each dof carries (the vector basis interleaves them, P2's mid-edge dofs too), and where
+        self.component = np.arange(n, dtype=np.intp) % dim
         self.dof_points = np.asarray(self.basis.doflocs, dtype=float)
         self._meshmap, self._boundary_lengths = _meshmap, None  # a probe's surface weights, when first asked for
         elastic = Elastic(self.assembler, material)
