@@ -299,14 +299,12 @@ def _named_tractions(tractions) -> list:
     except TypeError:
         raise bad from None
     out = []
-    for item in items:
+    for i, item in enumerate(items):
         try:
             name, t = item
         except (TypeError, ValueError):
             raise bad from None
-        if not isinstance(name, str):
-            raise ParameterError("tractions", f"tractions: a boundary is named by a string, got {name!r}")
-        out.append({"boundary": name, "traction": t})
+        out.append(_check_traction(f"tractions[{i}]", {"boundary": name, "traction": t}))  # as a scene's are
     return out
 
 
