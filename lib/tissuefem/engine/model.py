@@ -462,9 +462,8 @@ class Model(Holding):
 
     @property
     def boundary_lengths(self) -> np.ndarray:
-        """A probe's surface weights: each node's share of the boundary's length (area on tetrahedra); after a
-        topology change, of the material's surface (:func:`~tissuefem.engine.terms.surface_lengths`: no phantom part of
-        a facet of an element cut through counts)."""
+        """A probe's surface weights: each node's share of the boundary's length (area on tetrahedra), after a
+        topology change of the material's surface (:func:`~tissuefem.engine.terms.surface_lengths`)."""
         if self._boundary_lengths is None:
             m = self._meshmap
             self._boundary_lengths = boundary_lengths(self.mesh) if m is None else surface_lengths(m)
