@@ -274,13 +274,9 @@ def _contact(model, p, scene):
         surface = ContactSurface.from_mesh(model.mesh) if p.get("surface") is None else p["surface"]
         check_contact_stiffness("contact.stiffness", p["stiffness"], youngs_modulus(model))
         return Contact(model.X, surface, p["distance"], p["stiffness"], p.get("skin"))
-    surface = ContactSurface.from_mesh(model.mesh)
-    default, median = "distance" not in p, median_segment(surface, model.X)
-    distance = CONTACT_DISTANCE * median if default else p["distance"]
-    if distance > 0.5 * median:  # the contact term's own rule, refused here by the field's name
-        raise ParameterError("contact.distance", f"contact.distance = {distance:g} must be at most half the surface's "
-                                                 f"median segment length ({0.5 * median:g}): the skin is a thin layer "
-                                                 "of the surface")
+    surface, default = ContactSurface.from_mesh(model.mesh), "distance" not in p
+    # a skin deeper than half the median segment is refused by the term (named effects.contact.distance by factory)
+    distance = CONTACT_DISTANCE * median_segment(surface, model.X) if default else p["distance"]
     stiffness = p.get("stiffness", CONTACT_STIFFNESS * scene.material["youngs_modulus"])
     check_contact_stiffness("contact.stiffness", stiffness, scene.material["youngs_modulus"])
     return SkinContact(model.X, surface, distance, stiffness, default=default)
