@@ -283,11 +283,8 @@ class Holding:
         dofs = [self.basis.nodal_dofs[:, nodes].ravel()]
         owner = [np.tile(np.arange(nodes.size), self.dim)]
         if self.order == 2:  # P2: the mid-edge dofs of the held edges (the facets of triangles)
-            mesh = self.mesh
-            if self.dim == 2:
-                ends, mid_dofs = mesh.facets, self.basis.facet_dofs
-            else:
-                ends, mid_dofs = mesh.edges, self.basis.edge_dofs
+            mesh, basis = self.mesh, self.basis
+            ends, mid_dofs = (mesh.facets, basis.facet_dofs) if self.dim == 2 else (mesh.edges, basis.edge_dofs)
             if self.dim == 2 and isinstance(h.region, str):
                 edges = np.asarray(mesh.boundaries[h.region])
             elif self.dim == 2 and callable(h.region):
