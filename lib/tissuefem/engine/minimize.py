@@ -26,7 +26,8 @@ import numpy as np
 import scipy.sparse as sp
 
 from .linsolve import Deadline, LinearSolver, SuperLU
-from .parameters import ParameterError, check_count, check_indices, check_real, check_real_array, check_real_number
+from .parameters import (ParameterError, check_count, check_indices, check_positive, check_real, check_real_array,
+                         check_real_number)
 from .vectors import dot, norm
 
 __all__ = ["newton", "NewtonResult", "NewtonIteration", "STATUSES"]
@@ -127,6 +128,13 @@ def _free_mask(n, free) -> np.ndarray:
     return np.array(free, dtype=bool)
 
 
+def check_budget(budget) -> float:
+    """A time budget: seconds ``> 0``, or ``math.inf`` for none (never a bool, a string or a complex number)."""
+    if isinstance(budget, (float, np.floating)) and budget == math.inf:
+        return math.inf
+    return check_positive("budget", budget)
+
+
 def _checked(x0, callables, line_search, linear, optional_reals, max_step, max_iterations, budget, tolerances):
     """:func:`newton`'s arguments checked: ``(x, max_step, max_iterations, budget)``, ``x`` a copy.
     ``optional_reals`` may be None, NaN or infinite (they are results)."""
@@ -143,12 +151,11 @@ def _checked(x0, callables, line_search, linear, optional_reals, max_step, max_i
     if line_search == "energy" and callables["energy"] is None:
         raise ParameterError("energy", "line_search='energy' needs the energy callable")
     if max_step is not None:
-        max_step = check_real("max_step", max_step, 0.0, None, lo_open=True)
+        max_step = check_positive("max_step", max_step)
     for name, value in tolerances.items():
         check_real(name, value, 0.0, None)
     max_iterations = check_count("max_iterations", max_iterations, 0)
-    if not (isinstance(budget, (float, np.floating)) and budget == math.inf):
-        budget = check_real("budget", budget, 0.0, None, lo_open=True)
+    budget = check_budget(budget)
     for name, value in optional_reals.items():
         if value is not None:
             check_real_number(name, value)
@@ -307,11 +314,9 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
                             list(deadline.unestimated))
     if not np.isfinite(rnorm):
         return result("non-finite", 0)
-    for k in range(max_iterations + 1):
+    for k in range(max_iterations):
         if rnorm <= target:
             return result("converged", k)
-        if k == max_iterations:
-            return result("max-iterations", k)
         deadline.first = k == 0
         # the tangent's free block (unless the policy keeps a factorization), if it and the least solve fit
         least, assembles = (linear.least_work(), linear.assembles(mask)) if ours else ((), True)
@@ -360,4 +365,4 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
             E = float(energy(x_new))
         history.append(NewtonIteration(k, rnorm, step_norm, alpha, E, shift, info.iterations))
         x, g, rnorm = x_new, g_new, rn_new
-    return result("max-iterations", max_iterations)  # pragma: no cover - the loop returns
+    return result("converged" if rnorm <= target else "max-iterations", max_iterations)

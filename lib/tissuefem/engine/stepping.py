@@ -36,10 +36,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .linsolve import LinearSolver
-from .minimize import NewtonResult, newton
+from .minimize import NewtonResult, check_budget, newton
 from .model import Model
-from .parameters import (ParameterError, call_user, check_count, check_indices, check_real, check_real_array,
-                         check_time_step)
+from .parameters import (ParameterError, call_user, check_count, check_indices, check_positive, check_real,
+                         check_real_array, check_time_step)
 from .vectors import norm
 
 __all__ = ["Stepper", "StepReport", "Undone", "StaticResult", "solve", "accuracy_summary"]
@@ -71,17 +71,14 @@ class Undone:
         return self.stopped is not None or self.handles > 0.0 or not self.committed
 
     def __str__(self):
-        if not self:
-            return "nothing"
-        parts = []
-        if self.stopped is not None:
-            parts.append(f"stopped ({self.stopped}) after {self.newton_steps} Newton steps at relative residual "
-                         f"{self.relative_residual:.1e}")
-        if self.handles > 0.0:
-            parts.append(f"handles {self.handles:.0%} short")
-        if not self.committed:
-            parts.append("state kept")
-        return "; ".join(parts)
+        stopped = [] if self.stopped is None else [f"stopped ({self.stopped}) after {self.newton_steps} Newton steps "
+                                                   f"at relative residual {self.relative_residual:.1e}"]
+        return "; ".join(stopped + self.left()) or "nothing"
+
+    def left(self) -> list[str]:
+        """Besides an unfinished solve, in words: the share of the handles' motion not made, a kept state."""
+        handles = [f"handles {self.handles:.0%} short"] if self.handles > 0.0 else []
+        return handles + ([] if self.committed else ["state kept"])
 
 
 @dataclass
@@ -165,12 +162,12 @@ class StepReport:
         (or that ran) off the frame (:attr:`off_frame`)."""
         undone = self.undone
         head = "converged" if self.converged else f"{self.status} after {self.newton_iterations} Newton"
-        rest = [f"handles {undone.handles:.0%} short"] if undone.handles > 0.0 else []
-        rest += [] if self.committed else ["state kept"]
+        rest = undone.left()
         rest += [f"skipped {', '.join(undone.skipped)}"] if undone.skipped else []
         rest += [f"unestimated {', '.join(self.newton.unestimated)}"] if self.newton.unestimated else []
-        rest += [] if not self.off_frame else ["step running off the frame"] if self.off_frame == "running" else [
-            f"step ran off the frame ({self.off_frame_seconds:.2f} s: simulated time slower than real time)"]
+        if self.off_frame:
+            rest.append("step running off the frame" if self.off_frame == "running" else
+                        f"step ran off the frame ({self.off_frame_seconds:.2f} s: simulated time slower than real time)")
         return " | ".join([head, f"rel. residual {self.scaled_residual:.1e}", f"dE {-self.energy_decrease:.1e}",
                            f"min J {self.min_J:.3f}", f"{self.inverted} inverted", *rest])
 
@@ -214,13 +211,6 @@ def jacobian_extremes(model: Model, x) -> tuple[float, int]:
     if J.ndim > 1:
         bad = bad.any(axis=tuple(range(1, J.ndim)))
     return float(np.min(J)) if J.size else math.nan, int(np.count_nonzero(bad))
-
-
-def _positive(name, value, allow_inf=False) -> float:
-    """A real number ``> 0`` (``math.inf`` too with ``allow_inf``): never a bool, a string or a complex number."""
-    if allow_inf and isinstance(value, (float, np.floating)) and value == math.inf:
-        return math.inf
-    return check_real(name, value, 0.0, None, lo_open=True)
 
 
 def _finite_hessian(K):
@@ -283,8 +273,8 @@ class Stepper:
         if line_search is not None and (not isinstance(line_search, str) or line_search not in ("energy", "finite")):
             raise ValueError(f"line_search must be 'energy', 'finite' or None, got {line_search!r}")
         self.line_search = line_search
-        self.max_step = None if max_step is None else _positive("max_step", max_step)
-        self._budget = _positive("budget", budget, allow_inf=True)
+        self.max_step = None if max_step is None else check_positive("max_step", max_step)
+        self._budget = check_budget(budget)
         if not callable(clock):
             raise ValueError(f"clock must be a callable returning seconds, got {clock!r}")
         self.clock = clock
@@ -327,31 +317,27 @@ class Stepper:
 
     @budget.setter
     def budget(self, value):
-        self._budget = _positive("budget", value, allow_inf=True)
+        self._budget = check_budget(value)
 
     frames = property(lambda self: self.steps)
     linear_solver_name = property(lambda self: self.linear.name)
     costs = property(lambda self: self.linear.costs, doc="The learned seconds of each piece of a step's work "
                                                          "(:attr:`.linsolve.LinearSolver.costs`).")
 
-    def _checked_state(self, u, v) -> tuple[np.ndarray, np.ndarray]:
+    def reset(self, u=None, v=None) -> None:
+        """Set the state (default: rest), keeping the time and the step count; checked, nothing changes on a
+        refusal."""
+        self.settle()  # first: a step it commits moves the time
+        self.set_state(u, v, time_=self.time, steps=self.steps)
+
+    def set_state(self, u, v=None, *, v_previous=None, time_=0.0, steps=0) -> None:
+        """Carry a state over (after the model was rebuilt): displacement (``None``: zero), velocities, time and step
+        count (all checked before anything changes)."""
         n = self.model.n_dofs
         u = np.zeros(n) if u is None else _state_vector("u", u, n)
         v = np.zeros(n) if v is None else _state_vector("v", v, n)
         if self.dt is None and np.any(v):
             raise ValueError("a quasistatic stepper has no velocity: v must be zero or None")
-        return u, v
-
-    def reset(self, u=None, v=None) -> None:
-        """Set the state (default: rest); checked, nothing changes on a refusal."""
-        self.settle()
-        self.u, self.v = self._checked_state(u, v)
-        self.v_previous = None
-
-    def set_state(self, u, v=None, *, v_previous=None, time_=0.0, steps=0) -> None:
-        """Carry a state over (after the model was rebuilt): displacement, velocities, time and step count (all
-        checked before anything changes)."""
-        u, v = self._checked_state(u, v)
         if v_previous is not None:
             v_previous = _state_vector("v_previous", v_previous, self.model.n_dofs)
             if self.dt is None:
