@@ -128,6 +128,18 @@ def _free_mask(n, free) -> np.ndarray:
     return np.array(free, dtype=bool)
 
 
+def check_state(name, value, n=None) -> np.ndarray:
+    """A private copy of ``value`` as a finite real vector (of ``n`` entries if given), else a ``ParameterError``
+    naming ``name`` (complex numbers, strings and objects too)."""
+    a = np.array(check_real_array(name, value), dtype=float)
+    if a.ndim != 1 or (n is not None and a.size != n):
+        size = "" if n is None else f" of {n} entries"
+        raise ParameterError(name, f"{name} must be a 1D array{size}, got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ParameterError(name, f"{name} contains non-finite values")
+    return a
+
+
 def check_budget(budget) -> float:
     """A time budget: seconds ``> 0``, or ``math.inf`` for none (never a bool, a string or a complex number)."""
     if isinstance(budget, (float, np.floating)) and budget == math.inf:
@@ -138,11 +150,7 @@ def check_budget(budget) -> float:
 def _checked(x0, callables, line_search, linear, optional_reals, max_step, max_iterations, budget, tolerances):
     """:func:`newton`'s arguments checked: ``(x, max_step, max_iterations, budget)``, ``x`` a copy.
     ``optional_reals`` may be None, NaN or infinite (they are results)."""
-    x = np.array(check_real_array("x0", x0), dtype=float, copy=True)  # complex, strings, objects: refused by name
-    if x.ndim != 1:
-        raise ParameterError("x0", f"x0 must be a 1D array, got shape {np.shape(x0)}")
-    if not np.all(np.isfinite(x)):
-        raise ParameterError("x0", "x0 contains non-finite values")
+    x = check_state("x0", x0)
     for name, f in callables.items():
         if not (callable(f) or (f is None and name in ("energy", "clock", "safe_hessian"))):
             raise ParameterError(name, f"{name} must be a callable, got {f!r}")

@@ -32,7 +32,6 @@ kept for the next step; whatever changes the model or the state first waits for 
 from __future__ import annotations
 
 import math
-import time
 
 import numpy as np
 
@@ -93,21 +92,20 @@ def default_linear_solver(model) -> str:
 
 
 class RealtimeSolver(Stepper):
-    """A :class:`~tissuefem.engine.stepping.Stepper` with a frame's defaults: ``budget = 1/30`` s, ``rtol =
-    1e-6``, ``anytime = True``, the linear solver :func:`default_linear_solver` (by the model's dimension;
-    a multigrid preconditioner, ``"...cg-amg"``, is given the body's rigid motions). ``launch(work)``: how a
-    step too long for a frame starts off it, returning a job with ``is_alive`` and ``join`` (a test passes one it
-    controls; default: the linear solver's ``launch``, else :func:`.linsolve.start_thread`); ``off_frame=False``:
-    every step on the frame, however long (each frame then does at least its first Newton iteration)."""
+    """A :class:`~tissuefem.engine.stepping.Stepper` with a frame's defaults: ``budget = 1/30`` s, ``anytime = True``,
+    the linear solver :func:`default_linear_solver` (by the model's dimension; a multigrid preconditioner,
+    ``"...cg-amg"``, is given the body's rigid motions). ``launch(work)``: how a step too long for a frame starts off
+    it, returning a job with ``is_alive`` and ``join`` (a test passes one it controls; default: the linear solver's
+    ``launch``, else :func:`.linsolve.start_thread`); ``off_frame=False``: every step on the frame, however long (each
+    frame then does at least its first Newton iteration)."""
 
-    def __init__(self, model, *, budget: float = FRAME_BUDGET, rtol: float = 1e-6, linear_solver=None,
-                 clock=time.perf_counter, anytime: bool = True, launch=None, off_frame: bool = True, **options):
+    def __init__(self, model, *, budget: float = FRAME_BUDGET, linear_solver=None, anytime: bool = True, launch=None,
+                 off_frame: bool = True, **options):
         if linear_solver is None:
             linear_solver = default_linear_solver(model)
         if launch is not None and not callable(launch):
             raise ParameterError("launch", f"launch must be a callable starting a step off the frame, got {launch!r}")
-        super().__init__(model, budget=budget, rtol=rtol, linear_solver=linear_solver, clock=clock,
-                         anytime=anytime, **options)
+        super().__init__(model, budget=budget, linear_solver=linear_solver, anytime=anytime, **options)
         if hasattr(self.linear.factorizing, "near_nullspace") and model.n_dofs == model.X.size:
             self.linear.use_rigid_modes(rigid_body_modes(model.X))
         if not isinstance(off_frame, bool):
@@ -161,9 +159,8 @@ class RealtimeSolver(Stepper):
         committed off the frame. ``prescribed`` and ``load`` (load stepping) always step on the frame."""
         start = self._clock()
         if self._running is not None:
-            job, box = self._running
             self.model.set_targets(targets)  # checked, all or nothing; the next step reads them
-            if job.is_alive():
+            if self._running[0].is_alive():
                 return self._running_report(start)
             self.settle()
             seconds, report = self.last_report.elapsed, self.last_report
@@ -193,10 +190,9 @@ class RealtimeSolver(Stepper):
 
     def _running_report(self, start) -> StepReport:
         """The report of a frame that shows the last committed state while a step runs off the frame."""
-        last, u = self.last_report, self.u
+        last = self.last_report
         residual, energy = (last.residual_norm, last.energy) if last is not None else (math.nan, None)
-        result = NewtonResult(u, False, "budget", 0, residual, residual, 0.0, energy, energy)
-        scale = last.residual_scale if last is not None else 0.0
-        min_J, inverted = (last.min_J, last.inverted) if last is not None else (math.nan, 0)
+        result = NewtonResult(self.u, False, "budget", 0, residual, residual, 0.0, energy, energy)
+        measured = (last.min_J, last.inverted, last.residual_scale) if last is not None else (math.nan, 0, 0.0)
         return StepReport(result, self.steps, self.time, self._clock() - start, self._budget, 1.0, "previous",
-                          False, 0, min_J, inverted, scale, off_frame="running")
+                          False, 0, *measured, off_frame="running")

@@ -36,10 +36,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .linsolve import LinearSolver
-from .minimize import NewtonResult, check_budget, newton
+from .minimize import NewtonResult, check_budget, check_state, newton
 from .model import Model
-from .parameters import (ParameterError, call_user, check_count, check_indices, check_positive, check_real,
-                         check_real_array, check_time_step)
+from .parameters import call_user, check_count, check_indices, check_positive, check_real, check_time_step
 from .vectors import norm
 
 __all__ = ["Stepper", "StepReport", "Undone", "StaticResult", "solve", "accuracy_summary"]
@@ -184,22 +183,18 @@ def accuracy_summary(reports) -> dict:
     ``undone`` (how many left something undone), ``steps`` and ``undone_reasons`` (what they left, sorted; a
     frame showing the last state while its step runs off the frame: ``"step off the frame"``).
     ``reports``: step reports, or anything with their ``scaled_residual, converged, min_J, inverted, undone``."""
-    reports = list(reports)
-    reasons = set()
+    reports, reasons = list(reports), set()
     for r in reports:
         undone = r.undone
         reasons |= {undone.stopped} - {None}
         reasons |= {"handles short"} if undone.handles > 0.0 else set()
         running = getattr(r, "off_frame", "") == "running"
         reasons |= {"step off the frame"} if running else set() if undone.committed else {"state kept"}
-    if not reports:
-        return {"scaled_residual": math.nan, "converged": math.nan, "min_J": math.nan, "inverted": 0,
-                "undone": 0, "steps": 0, "undone_reasons": []}
-    return {"scaled_residual": float(np.median([r.scaled_residual for r in reports])),
-            "converged": float(np.mean([r.converged for r in reports])),
-            "min_J": float(min(r.min_J for r in reports)), "inverted": int(max(r.inverted for r in reports)),
-            "undone": int(sum(bool(r.undone) for r in reports)), "steps": len(reports),
-            "undone_reasons": sorted(reasons)}
+    return {"scaled_residual": float(np.median([r.scaled_residual for r in reports])) if reports else math.nan,
+            "converged": float(np.mean([r.converged for r in reports])) if reports else math.nan,
+            "min_J": float(min((r.min_J for r in reports), default=math.nan)),
+            "inverted": int(max((r.inverted for r in reports), default=0)),
+            "undone": sum(bool(r.undone) for r in reports), "steps": len(reports), "undone_reasons": sorted(reasons)}
 
 
 def jacobian_extremes(model: Model, x) -> tuple[float, int]:
@@ -218,16 +213,6 @@ def _finite_hessian(K):
     if not np.all(np.isfinite(K.data)):
         raise ValueError("the Hessian is not finite")
     return K
-
-
-def _state_vector(name, value, n) -> np.ndarray:
-    """A finite real dof vector of shape ``(n,)`` (a private copy), or a ``ValueError`` naming ``name``."""
-    a = check_real_array(name, value)
-    if a.shape != (n,):
-        raise ParameterError(name, f"{name} must have shape ({n},), got {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise ParameterError(name, f"{name} contains non-finite values")
-    return a.copy()
 
 
 def _roundoff_floors(model: Model) -> tuple[float, float]:
@@ -334,12 +319,12 @@ class Stepper:
         """Carry a state over (after the model was rebuilt): displacement (``None``: zero), velocities, time and step
         count (all checked before anything changes)."""
         n = self.model.n_dofs
-        u = np.zeros(n) if u is None else _state_vector("u", u, n)
-        v = np.zeros(n) if v is None else _state_vector("v", v, n)
+        u = np.zeros(n) if u is None else check_state("u", u, n)
+        v = np.zeros(n) if v is None else check_state("v", v, n)
         if self.dt is None and np.any(v):
             raise ValueError("a quasistatic stepper has no velocity: v must be zero or None")
         if v_previous is not None:
-            v_previous = _state_vector("v_previous", v_previous, self.model.n_dofs)
+            v_previous = check_state("v_previous", v_previous, self.model.n_dofs)
             if self.dt is None:
                 raise ValueError("a quasistatic stepper has no velocity: v_previous must be None")
         t = check_real("time_", time_)
@@ -420,14 +405,12 @@ class Stepper:
         except (TypeError, ValueError):
             raise ValueError(f"prescribed must be (dofs, values), got {prescribed!r}") from None
         fixed = check_indices("prescribed dofs", fixed, self.model.n_dofs)
-        return fixed, _state_vector("prescribed values", values, fixed.size)
+        return fixed, check_state("prescribed values", values, fixed.size)
 
     def _step(self, targets, prescribed, load, start, step_budget) -> StepReport:
         model = self.model
         model.set_targets(targets)
-        fixed, values = model.prescribed() if prescribed is None else prescribed
-        fixed = np.asarray(fixed, dtype=np.intp)
-        values = np.asarray(values, dtype=float)
+        fixed, values = model.prescribed() if prescribed is None else prescribed  # checked dof indices and floats
         if not np.all(np.isfinite(values)):
             raise ValueError("the prescribed displacements are not finite")
         free = np.ones(model.n_dofs, dtype=bool)
@@ -596,7 +579,7 @@ def solve(model: Model, load_steps: int = 1, u0=None, *, stepper: Stepper | None
         raise ValueError("solve() finds an equilibrium: give it a model without dt (use a Stepper for dynamics)")
     load_steps = check_count("load_steps", load_steps, 1, MAX_LOAD_STEPS)
     if u0 is not None:
-        u0 = _state_vector("u0", u0, model.n_dofs)
+        u0 = check_state("u0", u0, model.n_dofs)
     if stepper is None:
         options.setdefault("rtol", 1e-10)
         stepper = Stepper(model, **options)
