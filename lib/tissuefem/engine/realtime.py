@@ -1,32 +1,29 @@
 """The real-time loop: one step per drawn frame within a wall-clock budget (the notes' interactive simulator).
 
-:meth:`RealtimeSolver.frame` keeps the frame's budget (:data:`.constants.FRAME_BUDGET`) with every linear solver
-of :data:`LINEAR_SOLVERS`: before each piece of work (an assembly, a factorization, a back-substitution, a CG
-iteration) it reads the clock and starts the piece only if the piece's cost, learned from its last runs
-(``solver.costs``), says it ends in time. A factorization that does not fit runs in the background (the second
-core) while the frame goes on with the old one as CG's preconditioner, or the frame stops; then it commits the last
-accepted iterate (*anytime*, see :mod:`.stepping`) and the residual left carries into the next frame. Only the first
-step ever, with no cost learned yet, runs its work whatever it costs, on the frame if it is predicted to fit (below),
-else off it (its report's ``unestimated`` says so); the first Newton iteration's short pieces always run, so every
-frame makes progress. What a frame did not start is its report's ``skipped``. The clock is a parameter, so tests use
-a fake one.
+:meth:`RealtimeSolver.frame` keeps the frame's budget (:data:`.constants.FRAME_BUDGET`) with every linear solver of
+:data:`LINEAR_SOLVERS`: before each piece of work (an assembly, a factorization, a back-substitution, a CG iteration) it
+reads the clock and starts the piece only if the piece's cost, learned from its last runs (``solver.costs``), says it
+ends in time. A factorization that does not fit runs in the background (the second core) while the frame goes on with
+the old one as CG's preconditioner, or the frame stops; then it commits the last accepted iterate (*anytime*, see
+:mod:`.stepping`) and the residual left carries into the next frame. The first Newton iteration's short pieces always
+run, so every frame makes progress. What a frame did not start is its report's ``skipped``. The clock is a parameter, so
+tests use a fake one.
 
-**The first step is predicted.** With nothing learned yet, the first step is predicted to cost
-:data:`FIRST_STEP_COST` seconds per dof: if that fits the budget it runs on the frame and learns the costs (its
-report's ``unestimated`` says so), else it runs off the frame (below) and learns them there.
+**The first step is predicted.** With nothing learned yet, the first step ever is predicted to cost
+:data:`FIRST_STEP_COST` seconds per dof: if that fits the budget it runs on the frame, all its work whatever it costs,
+and learns the costs (its report's ``unestimated`` says so), else it runs off the frame (below) and learns them there.
 
-**A step too long for a frame runs off it.** When the learned costs say that a step's start (its warm start) and
-one Newton iteration (an assembly, the least solve, a line search and the report's check of J), which a frame always
-runs, take more than :data:`FIRST_ITERATION_SHARE` of the budget, the frame does not start the step: it hands the
-step to a worker thread (numpy and scipy leave the interpreter's lock in the heavy parts) and returns at once with
-the last committed state; its report's ``off_frame`` is ``"running"``. The step
-there has a budget of its own (:meth:`RealtimeSolver.off_frame_budget`: a few frames) and commits, like a frame,
-its last accepted iterate if it did not converge by then (its report's residual says how far it is), so that the
-next step starts. The frames after it return at once too, until one finds the step finished and commits it
-(``off_frame == "finished"``). Simulated time then advances slower than real time: one step of ``dt`` per so many
-frames (the report's ``off_frame_seconds`` says how long the step took). The handles' targets given meanwhile are
-kept for the next step; whatever changes the model or the state first waits for the running step
-(:meth:`~.stepping.Stepper.settle`).
+**A step too long for a frame runs off it.** When the learned costs say that a step's start (its warm start) and one
+Newton iteration (an assembly, the least solve, a line search and the report's check of J), which a frame always runs,
+take more than :data:`FIRST_ITERATION_SHARE` of the budget, the frame does not start the step: it hands the step to a
+worker thread (numpy and scipy leave the interpreter's lock in the heavy parts) and returns at once with the last
+committed state; its report's ``off_frame`` is ``"running"``. The step there has a budget of its own
+(:meth:`RealtimeSolver.off_frame_budget`: a few frames) and commits, like a frame, its last accepted iterate if it did
+not converge by then (its report's residual says how far it is), so that the next step starts. The frames after it
+return at once too, until one finds the step finished and commits it (``off_frame == "finished"``). Simulated time then
+advances slower than real time: one step of ``dt`` per so many frames (the report's ``off_frame_seconds`` says how long
+the step took). The handles' targets given meanwhile are kept for the next step; whatever changes the model or the state
+first waits for the running step (:meth:`~.stepping.Stepper.settle`).
 """
 
 from __future__ import annotations
@@ -135,9 +132,7 @@ class RealtimeSolver(Stepper):
 
     def off_frame_budget(self) -> float:
         """The budget of a step that runs off the frame, seconds: :data:`OFF_FRAME_FRAMES` frames' budgets, or twice
-        what one Newton iteration is learned to cost (see :meth:`too_long`) if that is more. Four frames keep
-        simulated time within about four times real time; twice an iteration leaves room for the warm start and a
-        first iteration. Like a frame's, its first Newton iteration always runs, so every step makes progress."""
+        what its start and first Newton iteration (which always runs) are learned to cost, if that is more."""
         return max(OFF_FRAME_FRAMES * self.budget, 2.0 * self._iteration_cost(self.off_costs or self.costs))
 
     def _iteration_cost(self, costs) -> float:

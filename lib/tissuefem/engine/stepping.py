@@ -84,10 +84,9 @@ class Undone:
 class StepReport:
     """What one step (or real-time frame) did: the one report type of every solve of a model.
 
-    Its accuracy, measured at the result ``x`` (the new state if committed): :attr:`converged`,
-    :attr:`scaled_residual`, :attr:`energy_decrease`, ``min_J`` (the smallest ``det F`` over the elements'
-    points) and ``inverted`` (elements with ``J <= 0`` somewhere), :attr:`undone`; :attr:`accuracy` is all of
-    them on one line.
+    Its accuracy, measured at the result ``x`` (the new state if committed): :attr:`converged`, :attr:`scaled_residual`,
+    :attr:`energy_decrease`, ``min_J`` (the smallest ``det F`` over the elements' points) and ``inverted`` (elements
+    with ``J <= 0`` somewhere), :attr:`undone`; :attr:`accuracy` is all of them on one line.
     """
 
     newton: NewtonResult
@@ -154,19 +153,17 @@ class StepReport:
 
     @property
     def accuracy(self) -> str:
-        """The step's accuracy on one line: converged (or why and after how many Newton steps it stopped), the
-        relative residual, the energy decrease ``dE = E(x) - E(x0)``, the smallest J, the inverted elements, and
-        what else was left undone (the handles' motion, a kept state), and under a budget the work not started
-        (``skipped``) or started with no cost estimate yet (``unestimated``: the first frame's), and a step running
-        (or that ran) off the frame (:attr:`off_frame`)."""
+        """The step's accuracy on one line: converged or why it stopped, the relative residual, ``dE = E(x) - E(x0)``,
+        min J, the inverted elements, what was left (:meth:`Undone.left`), the work a budget ``skipped`` or started
+        ``unestimated`` (the first frame's), a step off the frame (:attr:`off_frame`)."""
         undone = self.undone
         head = "converged" if self.converged else f"{self.status} after {self.newton_iterations} Newton"
         rest = undone.left()
         rest += [f"skipped {', '.join(undone.skipped)}"] if undone.skipped else []
         rest += [f"unestimated {', '.join(self.newton.unestimated)}"] if self.newton.unestimated else []
         if self.off_frame:
-            rest.append("step running off the frame" if self.off_frame == "running" else
-                        f"step ran off the frame ({self.off_frame_seconds:.2f} s: simulated time slower than real time)")
+            ran = f"ran off the frame ({self.off_frame_seconds:.2f} s: simulated time slower than real time)"
+            rest.append("step " + ("running off the frame" if self.off_frame == "running" else ran))
         return " | ".join([head, f"rel. residual {self.scaled_residual:.1e}", f"dE {-self.energy_decrease:.1e}",
                            f"min J {self.min_J:.3f}", f"{self.inverted} inverted", *rest])
 
@@ -229,9 +226,8 @@ def _roundoff_floors(model: Model) -> tuple[float, float]:
         A = np.asarray(model._density.tangent(F))
     modulus = float(np.nanmax(np.abs(A))) if np.any(np.isfinite(A)) else 1.0
     areas = model.element_areas()
-    per_element = modulus * np.sqrt(areas)
-    t = model.mesh.t
-    nodal = np.bincount(t.ravel(), weights=np.tile(per_element, t.shape[0]), minlength=model.mesh.nvertices)
+    t = model.mesh.t  # each element's modulus * sqrt(A_e) to each of its nodes
+    nodal = np.bincount(t.ravel(), np.tile(modulus * np.sqrt(areas), t.shape[0]), minlength=model.mesh.nvertices)
     return _ROUNDOFF * math.sqrt(float(d)) * float(np.linalg.norm(nodal)), _ROUNDOFF * modulus * float(areas.sum())
 
 
@@ -262,7 +258,6 @@ class Stepper:
         self._budget = check_budget(budget)
         if not callable(clock):
             raise ValueError(f"clock must be a callable returning seconds, got {clock!r}")
-        self.clock = clock
         # read through a check: a clock that raises or returns no finite number of seconds is refused by name
         self._clock = lambda: check_real("clock (its reading in seconds)", call_user("clock", "clock", clock))
         if not isinstance(anytime, (bool, np.bool_)):
@@ -310,8 +305,7 @@ class Stepper:
                                                          "(:attr:`.linsolve.LinearSolver.costs`).")
 
     def reset(self, u=None, v=None) -> None:
-        """Set the state (default: rest), keeping the time and the step count; checked, nothing changes on a
-        refusal."""
+        """Set the state (default: rest), keeping the time and the step count; checked, nothing changes on a refusal."""
         self.settle()  # first: a step it commits moves the time
         self.set_state(u, v, time_=self.time, steps=self.steps)
 
@@ -385,7 +379,12 @@ class Stepper:
         model = self.model
         load = check_real("load", load, 0.0, 1.0)
         if prescribed is not None:
-            prescribed = self._check_prescribed(prescribed)
+            try:
+                fixed, values = prescribed
+            except (TypeError, ValueError):
+                raise ValueError(f"prescribed must be (dofs, values), got {prescribed!r}") from None
+            fixed = check_indices("prescribed dofs", fixed, model.n_dofs)
+            prescribed = fixed, check_state("prescribed values", values, fixed.size)
         start = self._clock()
         inertia = model.inertia
         saved_targets = [] if targets is None else [(h, h.target) for h in model.handles]
@@ -398,14 +397,6 @@ class Stepper:
             if inertia is not None:
                 inertia.x_tilde = saved_x_tilde
             raise
-
-    def _check_prescribed(self, prescribed):
-        try:
-            fixed, values = prescribed
-        except (TypeError, ValueError):
-            raise ValueError(f"prescribed must be (dofs, values), got {prescribed!r}") from None
-        fixed = check_indices("prescribed dofs", fixed, self.model.n_dofs)
-        return fixed, check_state("prescribed values", values, fixed.size)
 
     def _step(self, targets, prescribed, load, start, step_budget) -> StepReport:
         model = self.model
@@ -549,9 +540,8 @@ class Stepper:
         except (RuntimeError, ValueError, np.linalg.LinAlgError, ZeroDivisionError):
             return None, 0.0, 0
         if dx_free is None or not np.all(np.isfinite(dx_free)):
-            dx = None
-        else:
-            dx[free] = dx_free
+            return None, load_norm, info.factorizations
+        dx[free] = dx_free
         return dx, load_norm, info.factorizations
 
 
