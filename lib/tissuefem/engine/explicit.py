@@ -108,7 +108,7 @@ class SymplecticEuler:
         return 0.5 * float(self.v @ (self.mass * self.v))
 
     def total_energy(self) -> float:
-        """Kinetic plus stored minus the work potential of the (constant) loads (as in BackwardEuler)."""
+        """Kinetic plus stored energy minus the constant loads' work potential, as in :class:`.stepping.Stepper`."""
         with np.errstate(all="ignore"):
             return self.kinetic_energy() + self.model.stored_energy(self.u) - float(self.external @ self.u)
 

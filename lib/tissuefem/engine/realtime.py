@@ -153,19 +153,18 @@ class RealtimeSolver(Stepper):
         """One frame (see the module docstring): a step within the budget, or one started, still running or
         committed off the frame. ``prescribed`` and ``load`` (load stepping) always step on the frame."""
         start = self._clock()
+        if self._running is None and (prescribed is not None or load != 1.0 or not self.too_long()):
+            if not self.costs:  # the first step on the frame after steps off it: their costs, slowed down
+                self.costs.update({kind: OFF_FRAME_SLOWDOWN * cost for kind, cost in self.off_costs.items()})
+            return super().step(targets, prescribed=prescribed, load=load)
+        self.model.set_targets(targets)  # checked, all or nothing; the step off the frame (the next one) reads them
         if self._running is not None:
-            self.model.set_targets(targets)  # checked, all or nothing; the next step reads them
             if self._running[0].is_alive():
                 return self._running_report(start)
             self.settle()
             seconds, report = self.last_report.elapsed, self.last_report
             report.elapsed, report.off_frame, report.off_frame_seconds = self._clock() - start, "finished", seconds
             return report
-        if prescribed is not None or load != 1.0 or not self.too_long():
-            if not self.costs:  # the first step on the frame after steps off it: their costs, slowed down
-                self.costs.update({kind: OFF_FRAME_SLOWDOWN * cost for kind, cost in self.off_costs.items()})
-            return super().step(targets, prescribed=prescribed, load=load)
-        self.model.set_targets(targets)
         box, budget = {}, self.off_frame_budget()
 
         def work():  # the whole step, on a budget of its own; committed by a later frame (settle)

@@ -318,7 +318,7 @@ class Stepper:
         if self.dt is None and np.any(v):
             raise ValueError("a quasistatic stepper has no velocity: v must be zero or None")
         if v_previous is not None:
-            v_previous = check_state("v_previous", v_previous, self.model.n_dofs)
+            v_previous = check_state("v_previous", v_previous, n)
             if self.dt is None:
                 raise ValueError("a quasistatic stepper has no velocity: v_previous must be None")
         t = check_real("time_", time_)
@@ -352,10 +352,9 @@ class Stepper:
         """Wait for a step running off the frame (:class:`~.realtime.RealtimeSolver`), if any, and commit it (its
         error, if it failed, is raised here: the state stays). Whatever changes the model or the state calls this
         first; a step started later sees the change."""
-        running, self._running = self._running, None
-        if running is None:
+        if self._running is None:
             return
-        job, box = running
+        (job, box), self._running = self._running, None
         job.join()
         if "error" in box:
             raise box["error"]
