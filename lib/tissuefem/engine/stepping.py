@@ -85,8 +85,7 @@ class StepReport:
     """What one step (or real-time frame) did: the one report type of every solve of a model.
 
     Its accuracy, measured at the result ``x`` (the new state if committed): :attr:`converged`, :attr:`scaled_residual`,
-    :attr:`energy_decrease`, ``min_J`` (the smallest ``det F`` over the elements' points) and ``inverted`` (elements
-    with ``J <= 0`` somewhere), :attr:`undone`; :attr:`accuracy` is all of them on one line.
+    :attr:`energy_decrease`, ``min_J``, ``inverted``, :attr:`undone`; :attr:`accuracy` is all of them on one line.
     """
 
     newton: NewtonResult
