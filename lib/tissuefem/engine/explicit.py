@@ -54,10 +54,6 @@ def _check_model(model):
         raise ParameterError("model", "the explicit scheme brings its own dynamics: give it a model without dt")
 
 
-def _free_dofs(n: int, fixed) -> np.ndarray:
-    return np.setdiff1d(np.arange(n), fixed)
-
-
 class SymplecticEuler:
     """Explicit symplectic Euler on a :class:`~tissuefem.engine.model.Model` without ``dt`` (handles apply every step,
     loads are constant), stable for ``dt`` below about :func:`critical_time_step`. A non-finite step leaves the state
@@ -74,7 +70,7 @@ class SymplecticEuler:
     def step(self) -> ExplicitStepReport:
         """Advance one step (kick, then drift, then the handles); on a non-finite result keep the old state."""
         fixed, values = self.model.prescribed()
-        free = _free_dofs(self.u.size, fixed)
+        free = np.setdiff1d(np.arange(self.u.size), fixed)
         with np.errstate(all="ignore"):
             force = self.external - self.model.internal_force(self.u)
             v_new = self.v.copy()
@@ -121,7 +117,7 @@ def critical_time_step(model, u=None) -> float:
     u = model.zeros() if u is None else np.asarray(u, dtype=float)
     m = _lumped_mass(model)
     fixed, _ = model.prescribed()
-    free = _free_dofs(m.size, fixed)
+    free = np.setdiff1d(np.arange(m.size), fixed)
     if free.size == 0:
         raise ParameterError("model", "the problem has no free degrees of freedom: nothing moves, no stability limit")
     K = model.hessian(u).tocsr()[free][:, free]
@@ -150,7 +146,7 @@ def wave_speed(material, density: float = 1.0) -> float:
 def _initial_perturbation(model, amplitude: float, seed: int) -> np.ndarray:
     """A seeded random displacement of the free dofs (``amplitude h`` at most), handles at their targets."""
     (fixed, values), u0 = model.prescribed(), model.zeros()
-    free = _free_dofs(u0.size, fixed)
+    free = np.setdiff1d(np.arange(u0.size), fixed)
     u0[free] = amplitude * mesh_size(model.mesh) * np.random.default_rng(seed).uniform(-1.0, 1.0, size=free.size)
     u0[fixed] = values
     return u0
