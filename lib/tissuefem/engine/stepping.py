@@ -264,13 +264,9 @@ class Stepper:
         self.anytime = bool(anytime)
         self.linear = linear_solver if isinstance(linear_solver, LinearSolver) else LinearSolver(linear_solver)
         self.floor, self.energy_floor = _roundoff_floors(model)
-        n = model.n_dofs
-        self.u, self.v = np.zeros(n), np.zeros(n)
-        self.v_previous = None
-        self.time = 0.0
-        self.steps = 0
         self.last_report: StepReport | None = None
         self._running = None  # a step running off the frame: (job, box), see settle
+        self.set_state(None)  # at rest: u = v = 0, time 0, no steps
 
     @property
     def dt(self):
