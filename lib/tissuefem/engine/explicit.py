@@ -38,10 +38,7 @@ class ExplicitStepReport:
     time: float  # the simulation time after the step (unchanged if it failed)
     max_speed: float  # largest velocity component after the step (NaN if it failed)
 
-    @property
-    def converged(self) -> bool:
-        """Same meaning as :attr:`tissuefem.engine.stepping.StepReport.converged`: the step was taken."""
-        return self.finite
+    converged = property(lambda self: self.finite, doc="As :attr:`.stepping.StepReport.converged`: the step was taken.")
 
 
 def _lumped_mass(model) -> np.ndarray:

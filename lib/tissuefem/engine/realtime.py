@@ -110,10 +110,7 @@ class RealtimeSolver(Stepper):
         self.launch, self.off_frame = launch, off_frame
         self.off_costs = {}  # the pieces' costs learned by steps off the frame (see too_long)
 
-    @property
-    def running(self) -> bool:
-        """Whether a step runs off the frame (started and not yet committed)."""
-        return self._running is not None
+    running = property(lambda self: self._running is not None, doc="Whether a step runs off the frame (not committed).")
 
     def too_long(self) -> bool:
         """Whether the next step goes off the frame: with nothing learned yet, when its predicted cost
