@@ -42,13 +42,11 @@ class ExplicitStepReport:
 
 
 def _lumped_mass(model) -> np.ndarray:
-    """The lumped (row-sum) mass, one entry per dof (refused for P2, whose vertices would get none)."""
-    return model.assembler.csr(model.assembler.mass(model.density, lumped=True)).diagonal()
-
-
-def _check_model(model):
+    """The lumped (row-sum) mass, one entry per dof, of a model without ``dt`` (the explicit scheme brings its own
+    dynamics); refused for P2, whose vertices would get none."""
     if model.inertia is not None:
         raise ParameterError("model", "the explicit scheme brings its own dynamics: give it a model without dt")
+    return model.assembler.csr(model.assembler.mass(model.density, lumped=True)).diagonal()
 
 
 class SymplecticEuler:
@@ -57,10 +55,10 @@ class SymplecticEuler:
     untouched and reports ``"non-finite"``. Attributes: ``u, v`` (assign them to set a state), ``time``, ``mass``."""
 
     def __init__(self, model, dt: float):
-        _check_model(model)
+        mass = _lumped_mass(model)
         # any finite dt > 0: the stable step of a stiff, light body lies far below an implicit step's range
         self.dt = check_real("dt", dt, 0.0, lo_open=True)
-        self.model, self.mass, self.external = model, _lumped_mass(model), model.external
+        self.model, self.mass, self.external = model, mass, model.external
         self.u, self.v = model.zeros(), model.zeros()
         self.time, self.last_report = 0.0, None
 
@@ -110,9 +108,8 @@ def critical_time_step(model, u=None) -> float:
     """The linearised stability limit ``dt_crit = 2 / omega_max`` of :class:`SymplecticEuler` at ``u`` (default:
     rest), ``omega_max^2`` the largest eigenvalue of ``M^-1/2 K M^-1/2`` on the free dofs (Lanczos from a fixed start
     vector, so that runs agree; dense when small)."""
-    _check_model(model)
-    u = model.zeros() if u is None else np.asarray(u, dtype=float)
     m = _lumped_mass(model)
+    u = model.zeros() if u is None else np.asarray(u, dtype=float)
     fixed, _ = model.prescribed()
     free = np.setdiff1d(np.arange(m.size), fixed)
     if free.size == 0:
