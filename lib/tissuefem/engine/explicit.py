@@ -38,24 +38,15 @@ class ExplicitStepReport:
     time: float  # the simulation time after the step (unchanged if it failed)
     max_speed: float  # largest velocity component after the step (NaN if it failed)
 
-    @property
-    def converged(self) -> bool:
-        """Same meaning as :attr:`tissuefem.engine.stepping.StepReport.converged`: the step was taken."""
-        return self.finite
+    converged = property(lambda self: self.finite, doc="As :attr:`.stepping.StepReport.converged`: the step was taken.")
 
 
 def _lumped_mass(model) -> np.ndarray:
-    """The lumped (row-sum) mass, one entry per dof (refused for P2, whose vertices would get none)."""
-    return model.assembler.csr(model.assembler.mass(model.density, lumped=True)).diagonal()
-
-
-def _check_model(model):
+    """The lumped (row-sum) mass, one entry per dof, of a model without ``dt`` (the explicit scheme brings its own
+    dynamics); refused for P2, whose vertices would get none."""
     if model.inertia is not None:
         raise ParameterError("model", "the explicit scheme brings its own dynamics: give it a model without dt")
-
-
-def _free_dofs(n: int, fixed) -> np.ndarray:
-    return np.setdiff1d(np.arange(n), fixed)
+    return model.assembler.csr(model.assembler.mass(model.density, lumped=True)).diagonal()
 
 
 class SymplecticEuler:
@@ -64,17 +55,17 @@ class SymplecticEuler:
     untouched and reports ``"non-finite"``. Attributes: ``u, v`` (assign them to set a state), ``time``, ``mass``."""
 
     def __init__(self, model, dt: float):
-        _check_model(model)
+        mass = _lumped_mass(model)
         # any finite dt > 0: the stable step of a stiff, light body lies far below an implicit step's range
         self.dt = check_real("dt", dt, 0.0, lo_open=True)
-        self.model, self.mass, self.external = model, _lumped_mass(model), model.external
+        self.model, self.mass, self.external = model, mass, model.external
         self.u, self.v = model.zeros(), model.zeros()
         self.time, self.last_report = 0.0, None
 
     def step(self) -> ExplicitStepReport:
         """Advance one step (kick, then drift, then the handles); on a non-finite result keep the old state."""
         fixed, values = self.model.prescribed()
-        free = _free_dofs(self.u.size, fixed)
+        free = np.setdiff1d(np.arange(self.u.size), fixed)
         with np.errstate(all="ignore"):
             force = self.external - self.model.internal_force(self.u)
             v_new = self.v.copy()
@@ -108,7 +99,7 @@ class SymplecticEuler:
         return 0.5 * float(self.v @ (self.mass * self.v))
 
     def total_energy(self) -> float:
-        """Kinetic plus stored minus the work potential of the (constant) loads (as in BackwardEuler)."""
+        """Kinetic plus stored energy minus the constant loads' work potential, as in :class:`.stepping.Stepper`."""
         with np.errstate(all="ignore"):
             return self.kinetic_energy() + self.model.stored_energy(self.u) - float(self.external @ self.u)
 
@@ -117,11 +108,10 @@ def critical_time_step(model, u=None) -> float:
     """The linearised stability limit ``dt_crit = 2 / omega_max`` of :class:`SymplecticEuler` at ``u`` (default:
     rest), ``omega_max^2`` the largest eigenvalue of ``M^-1/2 K M^-1/2`` on the free dofs (Lanczos from a fixed start
     vector, so that runs agree; dense when small)."""
-    _check_model(model)
-    u = model.zeros() if u is None else np.asarray(u, dtype=float)
     m = _lumped_mass(model)
+    u = model.zeros() if u is None else np.asarray(u, dtype=float)
     fixed, _ = model.prescribed()
-    free = _free_dofs(m.size, fixed)
+    free = np.setdiff1d(np.arange(m.size), fixed)
     if free.size == 0:
         raise ParameterError("model", "the problem has no free degrees of freedom: nothing moves, no stability limit")
     K = model.hessian(u).tocsr()[free][:, free]
@@ -150,7 +140,7 @@ def wave_speed(material, density: float = 1.0) -> float:
 def _initial_perturbation(model, amplitude: float, seed: int) -> np.ndarray:
     """A seeded random displacement of the free dofs (``amplitude h`` at most), handles at their targets."""
     (fixed, values), u0 = model.prescribed(), model.zeros()
-    free = _free_dofs(u0.size, fixed)
+    free = np.setdiff1d(np.arange(u0.size), fixed)
     u0[free] = amplitude * mesh_size(model.mesh) * np.random.default_rng(seed).uniform(-1.0, 1.0, size=free.size)
     u0[fixed] = values
     return u0

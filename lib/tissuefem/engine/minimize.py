@@ -26,7 +26,8 @@ import numpy as np
 import scipy.sparse as sp
 
 from .linsolve import Deadline, LinearSolver, SuperLU
-from .parameters import ParameterError, check_count, check_indices, check_real, check_real_array, check_real_number
+from .parameters import (ParameterError, check_count, check_indices, check_positive, check_real, check_real_array,
+                         check_real_number)
 from .vectors import dot, norm
 
 __all__ = ["newton", "NewtonResult", "NewtonIteration", "STATUSES"]
@@ -127,14 +128,29 @@ def _free_mask(n, free) -> np.ndarray:
     return np.array(free, dtype=bool)
 
 
+def check_state(name, value, n=None) -> np.ndarray:
+    """A private copy of ``value`` as a finite real vector (of ``n`` entries if given), else a ``ParameterError``
+    naming ``name`` (complex numbers, strings and objects too)."""
+    a = np.array(check_real_array(name, value), dtype=float)
+    if a.ndim != 1 or (n is not None and a.size != n):
+        size = "" if n is None else f" of {n} entries"
+        raise ParameterError(name, f"{name} must be a 1D array{size}, got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ParameterError(name, f"{name} contains non-finite values")
+    return a
+
+
+def check_budget(budget) -> float:
+    """A time budget: seconds ``> 0``, or ``math.inf`` for none (never a bool, a string or a complex number)."""
+    if isinstance(budget, (float, np.floating)) and budget == math.inf:
+        return math.inf
+    return check_positive("budget", budget)
+
+
 def _checked(x0, callables, line_search, linear, optional_reals, max_step, max_iterations, budget, tolerances):
     """:func:`newton`'s arguments checked: ``(x, max_step, max_iterations, budget)``, ``x`` a copy.
     ``optional_reals`` may be None, NaN or infinite (they are results)."""
-    x = np.array(check_real_array("x0", x0), dtype=float, copy=True)  # complex, strings, objects: refused by name
-    if x.ndim != 1:
-        raise ParameterError("x0", f"x0 must be a 1D array, got shape {np.shape(x0)}")
-    if not np.all(np.isfinite(x)):
-        raise ParameterError("x0", "x0 contains non-finite values")
+    x = check_state("x0", x0)
     for name, f in callables.items():
         if not (callable(f) or (f is None and name in ("energy", "clock", "safe_hessian"))):
             raise ParameterError(name, f"{name} must be a callable, got {f!r}")
@@ -143,12 +159,11 @@ def _checked(x0, callables, line_search, linear, optional_reals, max_step, max_i
     if line_search == "energy" and callables["energy"] is None:
         raise ParameterError("energy", "line_search='energy' needs the energy callable")
     if max_step is not None:
-        max_step = check_real("max_step", max_step, 0.0, None, lo_open=True)
+        max_step = check_positive("max_step", max_step)
     for name, value in tolerances.items():
         check_real(name, value, 0.0, None)
     max_iterations = check_count("max_iterations", max_iterations, 0)
-    if not (isinstance(budget, (float, np.floating)) and budget == math.inf):
-        budget = check_real("budget", budget, 0.0, None, lo_open=True)
+    budget = check_budget(budget)
     for name, value in optional_reals.items():
         if value is not None:
             check_real_number(name, value)
@@ -307,11 +322,9 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
                             list(deadline.unestimated))
     if not np.isfinite(rnorm):
         return result("non-finite", 0)
-    for k in range(max_iterations + 1):
+    for k in range(max_iterations):
         if rnorm <= target:
             return result("converged", k)
-        if k == max_iterations:
-            return result("max-iterations", k)
         deadline.first = k == 0
         # the tangent's free block (unless the policy keeps a factorization), if it and the least solve fit
         least, assembles = (linear.least_work(), linear.assembles(mask)) if ours else ((), True)
@@ -360,4 +373,4 @@ def newton(x0, gradient: Callable[[np.ndarray], np.ndarray], hessian: Callable[[
             E = float(energy(x_new))
         history.append(NewtonIteration(k, rnorm, step_norm, alpha, E, shift, info.iterations))
         x, g, rnorm = x_new, g_new, rn_new
-    return result("max-iterations", max_iterations)  # pragma: no cover - the loop returns
+    return result("converged" if rnorm <= target else "max-iterations", max_iterations)

@@ -1,38 +1,34 @@
 """The real-time loop: one step per drawn frame within a wall-clock budget (the notes' interactive simulator).
 
-:meth:`RealtimeSolver.frame` keeps the frame's budget (:data:`.constants.FRAME_BUDGET`) with every linear solver
-of :data:`LINEAR_SOLVERS`: before each piece of work (an assembly, a factorization, a back-substitution, a CG
-iteration) it reads the clock and starts the piece only if the piece's cost, learned from its last runs
-(``solver.costs``), says it ends in time. A factorization that does not fit runs in the background (the second
-core) while the frame goes on with the old one as CG's preconditioner, or the frame stops; then it commits the last
-accepted iterate (*anytime*, see :mod:`.stepping`) and the residual left carries into the next frame. Only the first
-step ever, with no cost learned yet, runs its work whatever it costs, on the frame if it is predicted to fit (below),
-else off it (its report's ``unestimated`` says so); the first Newton iteration's short pieces always run, so every
-frame makes progress. What a frame did not start is its report's ``skipped``. The clock is a parameter, so tests use
-a fake one.
+:meth:`RealtimeSolver.frame` keeps the frame's budget (:data:`.constants.FRAME_BUDGET`) with every linear solver of
+:data:`LINEAR_SOLVERS`: before each piece of work (an assembly, a factorization, a back-substitution, a CG iteration) it
+reads the clock and starts the piece only if the piece's cost, learned from its last runs (``solver.costs``), says it
+ends in time. A factorization that does not fit runs in the background (the second core) while the frame goes on with
+the old one as CG's preconditioner, or the frame stops; then it commits the last accepted iterate (*anytime*, see
+:mod:`.stepping`) and the residual left carries into the next frame. The first Newton iteration's short pieces always
+run, so every frame makes progress. What a frame did not start is its report's ``skipped``. The clock is a parameter, so
+tests use a fake one.
 
-**The first step is predicted.** With nothing learned yet, the first step is predicted to cost
-:data:`FIRST_STEP_COST` seconds per dof: if that fits the budget it runs on the frame and learns the costs (its
-report's ``unestimated`` says so), else it runs off the frame (below) and learns them there.
+**The first step is predicted.** With nothing learned yet, the first step ever is predicted to cost
+:data:`FIRST_STEP_COST` seconds per dof: if that fits the budget it runs on the frame, all its work whatever it costs,
+and learns the costs (its report's ``unestimated`` says so), else it runs off the frame (below) and learns them there.
 
-**A step too long for a frame runs off it.** When the learned costs say that a step's start (its warm start) and
-one Newton iteration (an assembly, the least solve, a line search and the report's check of J), which a frame always
-runs, take more than :data:`FIRST_ITERATION_SHARE` of the budget, the frame does not start the step: it hands the
-step to a worker thread (numpy and scipy leave the interpreter's lock in the heavy parts) and returns at once with
-the last committed state; its report's ``off_frame`` is ``"running"``. The step
-there has a budget of its own (:meth:`RealtimeSolver.off_frame_budget`: a few frames) and commits, like a frame,
-its last accepted iterate if it did not converge by then (its report's residual says how far it is), so that the
-next step starts. The frames after it return at once too, until one finds the step finished and commits it
-(``off_frame == "finished"``). Simulated time then advances slower than real time: one step of ``dt`` per so many
-frames (the report's ``off_frame_seconds`` says how long the step took). The handles' targets given meanwhile are
-kept for the next step; whatever changes the model or the state first waits for the running step
-(:meth:`~.stepping.Stepper.settle`).
+**A step too long for a frame runs off it.** When the learned costs say that a step's start (its warm start) and one
+Newton iteration (an assembly, the least solve, a line search and the report's check of J), which a frame always runs,
+take more than :data:`FIRST_ITERATION_SHARE` of the budget, the frame does not start the step: it hands the step to a
+worker thread (numpy and scipy leave the interpreter's lock in the heavy parts) and returns at once with the last
+committed state; its report's ``off_frame`` is ``"running"``. The step there has a budget of its own
+(:meth:`RealtimeSolver.off_frame_budget`: a few frames) and commits, like a frame, its last accepted iterate if it did
+not converge by then (its report's residual says how far it is), so that the next step starts. The frames after it
+return at once too, until one finds the step finished and commits it (``off_frame == "finished"``). Simulated time then
+advances slower than real time: one step of ``dt`` per so many frames (the report's ``off_frame_seconds`` says how long
+the step took). The handles' targets given meanwhile are kept for the next step; whatever changes the model or the state
+first waits for the running step (:meth:`~.stepping.Stepper.settle`).
 """
 
 from __future__ import annotations
 
 import math
-import time
 
 import numpy as np
 
@@ -93,21 +89,20 @@ def default_linear_solver(model) -> str:
 
 
 class RealtimeSolver(Stepper):
-    """A :class:`~tissuefem.engine.stepping.Stepper` with a frame's defaults: ``budget = 1/30`` s, ``rtol =
-    1e-6``, ``anytime = True``, the linear solver :func:`default_linear_solver` (by the model's dimension;
-    a multigrid preconditioner, ``"...cg-amg"``, is given the body's rigid motions). ``launch(work)``: how a
-    step too long for a frame starts off it, returning a job with ``is_alive`` and ``join`` (a test passes one it
-    controls; default: the linear solver's ``launch``, else :func:`.linsolve.start_thread`); ``off_frame=False``:
-    every step on the frame, however long (each frame then does at least its first Newton iteration)."""
+    """A :class:`~tissuefem.engine.stepping.Stepper` with a frame's defaults: ``budget = 1/30`` s, ``anytime = True``,
+    the linear solver :func:`default_linear_solver` (by the model's dimension; a multigrid preconditioner,
+    ``"...cg-amg"``, is given the body's rigid motions). ``launch(work)``: how a step too long for a frame starts off
+    it, returning a job with ``is_alive`` and ``join`` (a test passes one it controls; default: the linear solver's
+    ``launch``, else :func:`.linsolve.start_thread`); ``off_frame=False``: every step on the frame, however long (each
+    frame then does at least its first Newton iteration)."""
 
-    def __init__(self, model, *, budget: float = FRAME_BUDGET, rtol: float = 1e-6, linear_solver=None,
-                 clock=time.perf_counter, anytime: bool = True, launch=None, off_frame: bool = True, **options):
+    def __init__(self, model, *, budget: float = FRAME_BUDGET, linear_solver=None, anytime: bool = True, launch=None,
+                 off_frame: bool = True, **options):
         if linear_solver is None:
             linear_solver = default_linear_solver(model)
         if launch is not None and not callable(launch):
             raise ParameterError("launch", f"launch must be a callable starting a step off the frame, got {launch!r}")
-        super().__init__(model, budget=budget, rtol=rtol, linear_solver=linear_solver, clock=clock,
-                         anytime=anytime, **options)
+        super().__init__(model, budget=budget, linear_solver=linear_solver, anytime=anytime, **options)
         if hasattr(self.linear.factorizing, "near_nullspace") and model.n_dofs == model.X.size:
             self.linear.use_rigid_modes(rigid_body_modes(model.X))
         if not isinstance(off_frame, bool):
@@ -115,10 +110,7 @@ class RealtimeSolver(Stepper):
         self.launch, self.off_frame = launch, off_frame
         self.off_costs = {}  # the pieces' costs learned by steps off the frame (see too_long)
 
-    @property
-    def running(self) -> bool:
-        """Whether a step runs off the frame (started and not yet committed)."""
-        return self._running is not None
+    running = property(lambda self: self._running is not None, doc="Whether a step runs off the frame (not committed).")
 
     def too_long(self) -> bool:
         """Whether the next step goes off the frame: with nothing learned yet, when its predicted cost
@@ -137,9 +129,7 @@ class RealtimeSolver(Stepper):
 
     def off_frame_budget(self) -> float:
         """The budget of a step that runs off the frame, seconds: :data:`OFF_FRAME_FRAMES` frames' budgets, or twice
-        what one Newton iteration is learned to cost (see :meth:`too_long`) if that is more. Four frames keep
-        simulated time within about four times real time; twice an iteration leaves room for the warm start and a
-        first iteration. Like a frame's, its first Newton iteration always runs, so every step makes progress."""
+        what its start and first Newton iteration (which always runs) are learned to cost, if that is more."""
         return max(OFF_FRAME_FRAMES * self.budget, 2.0 * self._iteration_cost(self.off_costs or self.costs))
 
     def _iteration_cost(self, costs) -> float:
@@ -160,20 +150,18 @@ class RealtimeSolver(Stepper):
         """One frame (see the module docstring): a step within the budget, or one started, still running or
         committed off the frame. ``prescribed`` and ``load`` (load stepping) always step on the frame."""
         start = self._clock()
+        if self._running is None and (prescribed is not None or load != 1.0 or not self.too_long()):
+            if not self.costs:  # the first step on the frame after steps off it: their costs, slowed down
+                self.costs.update({kind: OFF_FRAME_SLOWDOWN * cost for kind, cost in self.off_costs.items()})
+            return super().step(targets, prescribed=prescribed, load=load)
+        self.model.set_targets(targets)  # checked, all or nothing; the step off the frame (the next one) reads them
         if self._running is not None:
-            job, box = self._running
-            self.model.set_targets(targets)  # checked, all or nothing; the next step reads them
-            if job.is_alive():
+            if self._running[0].is_alive():
                 return self._running_report(start)
             self.settle()
             seconds, report = self.last_report.elapsed, self.last_report
             report.elapsed, report.off_frame, report.off_frame_seconds = self._clock() - start, "finished", seconds
             return report
-        if prescribed is not None or load != 1.0 or not self.too_long():
-            if not self.costs:  # the first step on the frame after steps off it: their costs, slowed down
-                self.costs.update({kind: OFF_FRAME_SLOWDOWN * cost for kind, cost in self.off_costs.items()})
-            return super().step(targets, prescribed=prescribed, load=load)
-        self.model.set_targets(targets)
         box, budget = {}, self.off_frame_budget()
 
         def work():  # the whole step, on a budget of its own; committed by a later frame (settle)
@@ -193,10 +181,9 @@ class RealtimeSolver(Stepper):
 
     def _running_report(self, start) -> StepReport:
         """The report of a frame that shows the last committed state while a step runs off the frame."""
-        last, u = self.last_report, self.u
+        last = self.last_report
         residual, energy = (last.residual_norm, last.energy) if last is not None else (math.nan, None)
-        result = NewtonResult(u, False, "budget", 0, residual, residual, 0.0, energy, energy)
-        scale = last.residual_scale if last is not None else 0.0
-        min_J, inverted = (last.min_J, last.inverted) if last is not None else (math.nan, 0)
+        result = NewtonResult(self.u, False, "budget", 0, residual, residual, 0.0, energy, energy)
+        measured = (last.min_J, last.inverted, last.residual_scale) if last is not None else (math.nan, 0, 0.0)
         return StepReport(result, self.steps, self.time, self._clock() - start, self._budget, 1.0, "previous",
-                          False, 0, min_J, inverted, scale, off_frame="running")
+                          False, 0, *measured, off_frame="running")

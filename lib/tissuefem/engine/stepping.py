@@ -36,10 +36,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .linsolve import LinearSolver
-from .minimize import NewtonResult, newton
+from .minimize import NewtonResult, check_budget, check_state, newton
 from .model import Model
-from .parameters import (ParameterError, call_user, check_count, check_indices, check_real, check_real_array,
-                         check_time_step)
+from .parameters import call_user, check_count, check_indices, check_positive, check_real, check_time_step
 from .vectors import norm
 
 __all__ = ["Stepper", "StepReport", "Undone", "StaticResult", "solve", "accuracy_summary"]
@@ -71,27 +70,22 @@ class Undone:
         return self.stopped is not None or self.handles > 0.0 or not self.committed
 
     def __str__(self):
-        if not self:
-            return "nothing"
-        parts = []
-        if self.stopped is not None:
-            parts.append(f"stopped ({self.stopped}) after {self.newton_steps} Newton steps at relative residual "
-                         f"{self.relative_residual:.1e}")
-        if self.handles > 0.0:
-            parts.append(f"handles {self.handles:.0%} short")
-        if not self.committed:
-            parts.append("state kept")
-        return "; ".join(parts)
+        stopped = [] if self.stopped is None else [f"stopped ({self.stopped}) after {self.newton_steps} Newton steps "
+                                                   f"at relative residual {self.relative_residual:.1e}"]
+        return "; ".join(stopped + self.left()) or "nothing"
+
+    def left(self) -> list[str]:
+        """Besides an unfinished solve, in words: the share of the handles' motion not made, a kept state."""
+        handles = [f"handles {self.handles:.0%} short"] if self.handles > 0.0 else []
+        return handles + ([] if self.committed else ["state kept"])
 
 
 @dataclass
 class StepReport:
     """What one step (or real-time frame) did: the one report type of every solve of a model.
 
-    Its accuracy, measured at the result ``x`` (the new state if committed): :attr:`converged`,
-    :attr:`scaled_residual`, :attr:`energy_decrease`, ``min_J`` (the smallest ``det F`` over the elements'
-    points) and ``inverted`` (elements with ``J <= 0`` somewhere), :attr:`undone`; :attr:`accuracy` is all of
-    them on one line.
+    Its accuracy, measured at the result ``x`` (the new state if committed): :attr:`converged`, :attr:`scaled_residual`,
+    :attr:`energy_decrease`, ``min_J``, ``inverted``, :attr:`undone`; :attr:`accuracy` is all of them on one line.
     """
 
     newton: NewtonResult
@@ -158,19 +152,17 @@ class StepReport:
 
     @property
     def accuracy(self) -> str:
-        """The step's accuracy on one line: converged (or why and after how many Newton steps it stopped), the
-        relative residual, the energy decrease ``dE = E(x) - E(x0)``, the smallest J, the inverted elements, and
-        what else was left undone (the handles' motion, a kept state), and under a budget the work not started
-        (``skipped``) or started with no cost estimate yet (``unestimated``: the first frame's), and a step running
-        (or that ran) off the frame (:attr:`off_frame`)."""
+        """The step's accuracy on one line: converged or why it stopped, the relative residual, ``dE = E(x) - E(x0)``,
+        min J, the inverted elements, what was left (:meth:`Undone.left`), the work a budget ``skipped`` or started
+        ``unestimated`` (the first frame's), a step off the frame (:attr:`off_frame`)."""
         undone = self.undone
         head = "converged" if self.converged else f"{self.status} after {self.newton_iterations} Newton"
-        rest = [f"handles {undone.handles:.0%} short"] if undone.handles > 0.0 else []
-        rest += [] if self.committed else ["state kept"]
+        rest = undone.left()
         rest += [f"skipped {', '.join(undone.skipped)}"] if undone.skipped else []
         rest += [f"unestimated {', '.join(self.newton.unestimated)}"] if self.newton.unestimated else []
-        rest += [] if not self.off_frame else ["step running off the frame"] if self.off_frame == "running" else [
-            f"step ran off the frame ({self.off_frame_seconds:.2f} s: simulated time slower than real time)"]
+        if self.off_frame:
+            ran = f"ran off the frame ({self.off_frame_seconds:.2f} s: simulated time slower than real time)"
+            rest.append("step " + ("running off the frame" if self.off_frame == "running" else ran))
         return " | ".join([head, f"rel. residual {self.scaled_residual:.1e}", f"dE {-self.energy_decrease:.1e}",
                            f"min J {self.min_J:.3f}", f"{self.inverted} inverted", *rest])
 
@@ -187,22 +179,18 @@ def accuracy_summary(reports) -> dict:
     ``undone`` (how many left something undone), ``steps`` and ``undone_reasons`` (what they left, sorted; a
     frame showing the last state while its step runs off the frame: ``"step off the frame"``).
     ``reports``: step reports, or anything with their ``scaled_residual, converged, min_J, inverted, undone``."""
-    reports = list(reports)
-    reasons = set()
+    reports, reasons = list(reports), set()
     for r in reports:
         undone = r.undone
         reasons |= {undone.stopped} - {None}
         reasons |= {"handles short"} if undone.handles > 0.0 else set()
         running = getattr(r, "off_frame", "") == "running"
         reasons |= {"step off the frame"} if running else set() if undone.committed else {"state kept"}
-    if not reports:
-        return {"scaled_residual": math.nan, "converged": math.nan, "min_J": math.nan, "inverted": 0,
-                "undone": 0, "steps": 0, "undone_reasons": []}
-    return {"scaled_residual": float(np.median([r.scaled_residual for r in reports])),
-            "converged": float(np.mean([r.converged for r in reports])),
-            "min_J": float(min(r.min_J for r in reports)), "inverted": int(max(r.inverted for r in reports)),
-            "undone": int(sum(bool(r.undone) for r in reports)), "steps": len(reports),
-            "undone_reasons": sorted(reasons)}
+    return {"scaled_residual": float(np.median([r.scaled_residual for r in reports])) if reports else math.nan,
+            "converged": float(np.mean([r.converged for r in reports])) if reports else math.nan,
+            "min_J": float(min((r.min_J for r in reports), default=math.nan)),
+            "inverted": int(max((r.inverted for r in reports), default=0)),
+            "undone": sum(bool(r.undone) for r in reports), "steps": len(reports), "undone_reasons": sorted(reasons)}
 
 
 def jacobian_extremes(model: Model, x) -> tuple[float, int]:
@@ -216,28 +204,11 @@ def jacobian_extremes(model: Model, x) -> tuple[float, int]:
     return float(np.min(J)) if J.size else math.nan, int(np.count_nonzero(bad))
 
 
-def _positive(name, value, allow_inf=False) -> float:
-    """A real number ``> 0`` (``math.inf`` too with ``allow_inf``): never a bool, a string or a complex number."""
-    if allow_inf and isinstance(value, (float, np.floating)) and value == math.inf:
-        return math.inf
-    return check_real(name, value, 0.0, None, lo_open=True)
-
-
 def _finite_hessian(K):
     """``K`` if every entry is finite, else a ``ValueError`` (a linear solve must never factorize it)."""
     if not np.all(np.isfinite(K.data)):
         raise ValueError("the Hessian is not finite")
     return K
-
-
-def _state_vector(name, value, n) -> np.ndarray:
-    """A finite real dof vector of shape ``(n,)`` (a private copy), or a ``ValueError`` naming ``name``."""
-    a = check_real_array(name, value)
-    if a.shape != (n,):
-        raise ParameterError(name, f"{name} must have shape ({n},), got {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise ParameterError(name, f"{name} contains non-finite values")
-    return a.copy()
 
 
 def _roundoff_floors(model: Model) -> tuple[float, float]:
@@ -254,9 +225,8 @@ def _roundoff_floors(model: Model) -> tuple[float, float]:
         A = np.asarray(model._density.tangent(F))
     modulus = float(np.nanmax(np.abs(A))) if np.any(np.isfinite(A)) else 1.0
     areas = model.element_areas()
-    per_element = modulus * np.sqrt(areas)
-    t = model.mesh.t
-    nodal = np.bincount(t.ravel(), weights=np.tile(per_element, t.shape[0]), minlength=model.mesh.nvertices)
+    t = model.mesh.t  # each element's modulus * sqrt(A_e) to each of its nodes
+    nodal = np.bincount(t.ravel(), np.tile(modulus * np.sqrt(areas), t.shape[0]), minlength=model.mesh.nvertices)
     return _ROUNDOFF * math.sqrt(float(d)) * float(np.linalg.norm(nodal)), _ROUNDOFF * modulus * float(areas.sum())
 
 
@@ -283,11 +253,10 @@ class Stepper:
         if line_search is not None and (not isinstance(line_search, str) or line_search not in ("energy", "finite")):
             raise ValueError(f"line_search must be 'energy', 'finite' or None, got {line_search!r}")
         self.line_search = line_search
-        self.max_step = None if max_step is None else _positive("max_step", max_step)
-        self._budget = _positive("budget", budget, allow_inf=True)
+        self.max_step = None if max_step is None else check_positive("max_step", max_step)
+        self._budget = check_budget(budget)
         if not callable(clock):
             raise ValueError(f"clock must be a callable returning seconds, got {clock!r}")
-        self.clock = clock
         # read through a check: a clock that raises or returns no finite number of seconds is refused by name
         self._clock = lambda: check_real("clock (its reading in seconds)", call_user("clock", "clock", clock))
         if not isinstance(anytime, (bool, np.bool_)):
@@ -295,13 +264,9 @@ class Stepper:
         self.anytime = bool(anytime)
         self.linear = linear_solver if isinstance(linear_solver, LinearSolver) else LinearSolver(linear_solver)
         self.floor, self.energy_floor = _roundoff_floors(model)
-        n = model.n_dofs
-        self.u, self.v = np.zeros(n), np.zeros(n)
-        self.v_previous = None
-        self.time = 0.0
-        self.steps = 0
         self.last_report: StepReport | None = None
         self._running = None  # a step running off the frame: (job, box), see settle
+        self.set_state(None)  # at rest: u = v = 0, time 0, no steps
 
     @property
     def dt(self):
@@ -327,33 +292,28 @@ class Stepper:
 
     @budget.setter
     def budget(self, value):
-        self._budget = _positive("budget", value, allow_inf=True)
+        self._budget = check_budget(value)
 
     frames = property(lambda self: self.steps)
     linear_solver_name = property(lambda self: self.linear.name)
     costs = property(lambda self: self.linear.costs, doc="The learned seconds of each piece of a step's work "
                                                          "(:attr:`.linsolve.LinearSolver.costs`).")
 
-    def _checked_state(self, u, v) -> tuple[np.ndarray, np.ndarray]:
-        n = self.model.n_dofs
-        u = np.zeros(n) if u is None else _state_vector("u", u, n)
-        v = np.zeros(n) if v is None else _state_vector("v", v, n)
-        if self.dt is None and np.any(v):
-            raise ValueError("a quasistatic stepper has no velocity: v must be zero or None")
-        return u, v
-
     def reset(self, u=None, v=None) -> None:
-        """Set the state (default: rest); checked, nothing changes on a refusal."""
-        self.settle()
-        self.u, self.v = self._checked_state(u, v)
-        self.v_previous = None
+        """Set the state (default: rest), keeping the time and the step count; checked, nothing changes on a refusal."""
+        self.settle()  # first: a step it commits moves the time
+        self.set_state(u, v, time_=self.time, steps=self.steps)
 
     def set_state(self, u, v=None, *, v_previous=None, time_=0.0, steps=0) -> None:
-        """Carry a state over (after the model was rebuilt): displacement, velocities, time and step count (all
-        checked before anything changes)."""
-        u, v = self._checked_state(u, v)
+        """Carry a state over (after the model was rebuilt): displacement (``None``: zero), velocities, time and step
+        count (all checked before anything changes)."""
+        n = self.model.n_dofs
+        u = np.zeros(n) if u is None else check_state("u", u, n)
+        v = np.zeros(n) if v is None else check_state("v", v, n)
+        if self.dt is None and np.any(v):
+            raise ValueError("a quasistatic stepper has no velocity: v must be zero or None")
         if v_previous is not None:
-            v_previous = _state_vector("v_previous", v_previous, self.model.n_dofs)
+            v_previous = check_state("v_previous", v_previous, n)
             if self.dt is None:
                 raise ValueError("a quasistatic stepper has no velocity: v_previous must be None")
         t = check_real("time_", time_)
@@ -387,10 +347,9 @@ class Stepper:
         """Wait for a step running off the frame (:class:`~.realtime.RealtimeSolver`), if any, and commit it (its
         error, if it failed, is raised here: the state stays). Whatever changes the model or the state calls this
         first; a step started later sees the change."""
-        running, self._running = self._running, None
-        if running is None:
+        if self._running is None:
             return
-        job, box = running
+        (job, box), self._running = self._running, None
         job.join()
         if "error" in box:
             raise box["error"]
@@ -414,7 +373,12 @@ class Stepper:
         model = self.model
         load = check_real("load", load, 0.0, 1.0)
         if prescribed is not None:
-            prescribed = self._check_prescribed(prescribed)
+            try:
+                fixed, values = prescribed
+            except (TypeError, ValueError):
+                raise ValueError(f"prescribed must be (dofs, values), got {prescribed!r}") from None
+            fixed = check_indices("prescribed dofs", fixed, model.n_dofs)
+            prescribed = fixed, check_state("prescribed values", values, fixed.size)
         start = self._clock()
         inertia = model.inertia
         saved_targets = [] if targets is None else [(h, h.target) for h in model.handles]
@@ -428,20 +392,10 @@ class Stepper:
                 inertia.x_tilde = saved_x_tilde
             raise
 
-    def _check_prescribed(self, prescribed):
-        try:
-            fixed, values = prescribed
-        except (TypeError, ValueError):
-            raise ValueError(f"prescribed must be (dofs, values), got {prescribed!r}") from None
-        fixed = check_indices("prescribed dofs", fixed, self.model.n_dofs)
-        return fixed, _state_vector("prescribed values", values, fixed.size)
-
     def _step(self, targets, prescribed, load, start, step_budget) -> StepReport:
         model = self.model
         model.set_targets(targets)
-        fixed, values = model.prescribed() if prescribed is None else prescribed
-        fixed = np.asarray(fixed, dtype=np.intp)
-        values = np.asarray(values, dtype=float)
+        fixed, values = model.prescribed() if prescribed is None else prescribed  # checked dof indices and floats
         if not np.all(np.isfinite(values)):
             raise ValueError("the prescribed displacements are not finite")
         free = np.ones(model.n_dofs, dtype=bool)
@@ -580,9 +534,8 @@ class Stepper:
         except (RuntimeError, ValueError, np.linalg.LinAlgError, ZeroDivisionError):
             return None, 0.0, 0
         if dx_free is None or not np.all(np.isfinite(dx_free)):
-            dx = None
-        else:
-            dx[free] = dx_free
+            return None, load_norm, info.factorizations
+        dx[free] = dx_free
         return dx, load_norm, info.factorizations
 
 
@@ -610,7 +563,7 @@ def solve(model: Model, load_steps: int = 1, u0=None, *, stepper: Stepper | None
         raise ValueError("solve() finds an equilibrium: give it a model without dt (use a Stepper for dynamics)")
     load_steps = check_count("load_steps", load_steps, 1, MAX_LOAD_STEPS)
     if u0 is not None:
-        u0 = _state_vector("u0", u0, model.n_dofs)
+        u0 = check_state("u0", u0, model.n_dofs)
     if stepper is None:
         options.setdefault("rtol", 1e-10)
         stepper = Stepper(model, **options)
