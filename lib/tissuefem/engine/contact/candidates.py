@@ -127,21 +127,11 @@ class CandidatePairs:
         radius = 0.5 * np.hypot(*(yb - ya)) + reach
         from scipy.spatial import cKDTree  # deferred: only contact needs it, and it is slow to import
 
-        tree = cKDTree(Y.T)
-        mid = (0.5 * (ya + yb)).T
-        rows, k = np.arange(n_seg), min(8, Y.shape[1])
-        found_s, found_p = [], []
-        while rows.size:  # the k nearest points of each midpoint; again with more where all k are within reach
-            dist, idx = tree.query(mid[rows], k=k, distance_upper_bound=float(radius[rows].max()))
-            dist, idx = dist.reshape(rows.size, k), idx.reshape(rows.size, k)
-            within = dist <= radius[rows, None]
-            more = within[:, -1] & (k < Y.shape[1])
-            done = ~more
-            found_s.append(np.broadcast_to(rows[done, None], within[done].shape)[within[done]])
-            found_p.append(idx[done][within[done]])
-            rows, k = rows[more], min(2 * k, Y.shape[1])
-        s, p = np.concatenate(found_s).astype(np.intp), np.concatenate(found_p).astype(np.intp)
-        keep = np.all(self.excluded[s] != p[:, None], axis=1)
+        # every (midpoint, point) pair within the largest radius, then each segment's own radius
+        near = cKDTree((0.5 * (ya + yb)).T).sparse_distance_matrix(cKDTree(Y.T), float(radius.max()),
+                                                                   output_type="ndarray")
+        s, p = near["i"].astype(np.intp), near["j"].astype(np.intp)
+        keep = (near["v"] <= radius[s]) & np.all(self.excluded[s] != p[:, None], axis=1)
         p, s = p[keep], s[keep]
         order = np.argsort(p.astype(np.int64) * n_seg + s)
         return p[order], s[order]
