@@ -85,18 +85,15 @@ class CandidatePairs:
         self.surface, self.rest_length, self.skin = surface, rest_length, skin
         n_seg, (a, b) = surface.n_segments, surface.segments
         self.n_local = (6 * surface.nodes.shape[1]) ** 2  # Hessian entries of a pair: 3 points of k nodes, 2 dofs
-        self.fold = np.ones(max(n_seg, 1))
         e_s = Y[:, b] - Y[:, a]
-        e_n = e_s[:, np.maximum(surface.next, 0)]  # a folded corner opens backwards if it turned into the material
-        turns_in = cross(e_s, e_n) <= 1e-9 * np.hypot(*e_s) * np.hypot(*e_n)
-        self.fold[:n_seg] = np.where((surface.next >= 0) & turns_in, -1.0, 1.0)
+        e_n = e_s[:, np.maximum(surface.next, 0)]  # the next segment's
+        turn, size = cross(e_s, e_n), np.hypot(*e_s) * np.hypot(*e_n)
+        # a folded corner opens backwards if it turned into the material
+        self.fold = np.where((surface.next >= 0) & (turn <= 1e-9 * size), -1.0, 1.0)
         # closing a corner that turns back into the material at rest (a crack tip, a notch) is contact; closing a
         # convex corner crushes the material between
-        e_in, e_out = e_s[:, surface.hinge_corner], e_s[:, surface.next[surface.hinge_corner]]
-        size = np.hypot(*e_in) * np.hypot(*e_out)
-        armed = (cross(e_in, e_out) < -1e-9 * size) | ((np.abs(cross(e_in, e_out)) <= 1e-9 * size)
-                                                        & (dot(e_in, e_out) < 0))
-        self.hinge = np.flatnonzero(armed)
+        turn, size, inner = turn[surface.hinge_corner], size[surface.hinge_corner], dot(e_s, e_n)[surface.hinge_corner]
+        self.hinge = np.flatnonzero((turn < -1e-9 * size) | ((np.abs(turn) <= 1e-9 * size) & (inner < 0)))
         self.excluded = _arc_neighbourhood(surface, rest_length, 2.0 * distance, surface.hinge_corner[self.hinge])
         hp, hs = self.hinge_pairs(slice(None))
         self.hinge_keys = hp.astype(np.int64) * max(n_seg, 1) + hs

@@ -115,10 +115,7 @@ class ContactSurface:
             raise ParameterError("x", f"x must be node positions shaped (2, {self.n_nodes}), got shape {x.shape}")
         if self._plain:
             return x[:, self.nodes[:, 0]]
-        y = self.weights[:, 0] * x[:, self.nodes[:, 0]]
-        for k in range(1, self.nodes.shape[1]):
-            y = y + self.weights[:, k] * x[:, self.nodes[:, k]]
-        return y
+        return np.sum(self.weights.T * x[:, self.nodes.T], axis=1)  # (2, k, n_points) summed over the slots
 
     def segment_positions(self, x) -> np.ndarray:
         """The segments' ends at node positions ``x``: shape (n_segments, 2, 2) (segment, end, xy)."""
