@@ -211,18 +211,15 @@ def _block_pattern(t, n_nodes: int, dim: int):
     nnz = dim * dim * keys.size
     index_dtype = np.int32 if max(nnz, n) < np.iinfo(np.int32).max else np.int64
     row_nodes, col_nodes = keys // nn, keys % nn
+    row_start = dim * dim * nptr[:-1, None] + dim * np.arange(dim) * deg[:, None]  # (nn, d): of dof row d p + i
+    indptr = np.append(row_start.ravel(), nnz).astype(index_dtype)
     # indices: for each node row p, rows d p ... d p + d - 1 all list d q ... d q + d - 1 for its q's
-    start = dim * dim * nptr[:-1]  # first data slot of dof row d p
     local = np.arange(keys.size) - nptr[row_nodes]  # rank of q within node row p
     indices = np.empty(nnz, dtype=np.int64)
     for i in range(dim):
         for k in range(dim):
-            indices[start[row_nodes] + dim * i * deg[row_nodes] + dim * local + k] = dim * col_nodes + k
+            indices[row_start[row_nodes, i] + dim * local + k] = dim * col_nodes + k
     indices = indices.astype(index_dtype)
-    indptr = np.empty(n + 1, dtype=index_dtype)
-    for i in range(dim):
-        indptr[i:-1:dim] = start + dim * i * deg
-    indptr[-1] = nnz
     indices.setflags(write=False)
     indptr.setflags(write=False)
     p_node = t[:, None, :]  # row node of local pair (a, b)
