@@ -37,6 +37,14 @@ def _corner_normal(e_in, e_out, fold):
     return np.where(folded, fold * e_in / np.sqrt(dot(e_in, e_in)), m / np.where(folded, 1.0, size))
 
 
+def find_keys(sorted_keys, keys) -> np.ndarray:
+    """Where each of ``keys`` is in ``sorted_keys`` (-1: not there)."""
+    if sorted_keys.size == 0:
+        return np.full(np.shape(keys), -1, dtype=np.intp)
+    at = np.minimum(np.searchsorted(sorted_keys, keys), sorted_keys.size - 1)
+    return np.where(sorted_keys[at] == keys, at, -1)
+
+
 def spread(dY) -> float:
     """``max_i |dY_i - c|``, ``c`` the centre of the moves' bounding box: no distance changes by over twice this."""
     if dY.shape[1] == 0:
@@ -160,15 +168,10 @@ class CandidatePairs:
         within ``d^`` of the point (ties to the lower key). ``keys`` must be unique."""
         n_seg = max(self.surface.n_segments, 1)
         order = np.argsort(keys)
-        k = keys[order]
-        def find(target):  # the position (in sorted order) of the pair with key ``target``, or -1
-            at = np.minimum(np.searchsorted(k, target), k.size - 1)
-            return np.where(k[at] == target, at, -1)
-
-        pp, ss = p[order], s[order]
+        k, pp, ss = keys[order], p[order], s[order]
         prev, nxt = self.surface.previous[ss], self.surface.next[ss]
-        links = [np.where(prev >= 0, find(pp.astype(np.int64) * n_seg + prev), -1),
-                 np.where(nxt >= 0, find(pp.astype(np.int64) * n_seg + nxt), -1)]
+        links = [np.where(prev >= 0, find_keys(k, pp.astype(np.int64) * n_seg + prev), -1),
+                 np.where(nxt >= 0, find_keys(k, pp.astype(np.int64) * n_seg + nxt), -1)]
         best_d, best_k = distance[order].copy(), k.copy()
         for _ in range(k.size):  # spread the run's nearest along it, one segment per sweep
             changed = False
@@ -222,10 +225,9 @@ class CandidatePairs:
         self.positions = np.full((self.keys.size + self.hinge_keys.size, self.n_local), -1, dtype=np.intp)
         if old_keys is not None:
             self.positions[self.keys.size:] = old_positions[old_keys.size:]  # the hinges'
-            if old_keys.size and self.keys.size:
-                at = np.minimum(np.searchsorted(old_keys, self.keys), old_keys.size - 1)
-                same = np.flatnonzero(old_keys[at] == self.keys)
-                self.positions[same] = old_positions[at[same]]
+            at = find_keys(old_keys, self.keys)
+            same = np.flatnonzero(at >= 0)
+            self.positions[same] = old_positions[at[same]]
 
     def ensure(self, Y) -> None:
         """Refresh the list if the points moved by over ``skin / 2`` relative to each other (else no pair out of it,
