@@ -104,16 +104,15 @@ class P1Assembler(_FixedPattern):
         p, t = _mesh_arrays(mesh)
         self.mesh, self.material = mesh, material
         self.dim = dim = p.shape[0]  # 2: triangles, 3: tetrahedra
-        self.n_vertices = nv = dim + 1  # vertices per element
+        self.n_vertices = dim + 1  # vertices per element
         self.n_nodes, self.n_elements = p.shape[1], t.shape[1]
         # geometry: orientation, areas (volumes), gradients (element-last layout)
-        t, self.flipped, self.areas, G = (_triangle_geometry if dim == 2 else _tetrahedron_geometry)(p, t)
-        self.t = t
+        self.t, self.flipped, self.areas, G = (_triangle_geometry if dim == 2 else _tetrahedron_geometry)(p, t)
         self.t.setflags(write=False)
         if weights is not None:  # a part of an element integrates over that part: its area shrinks, its gradients not
-            self.areas = self.areas * check_weights(weights, t.shape[1])
+            self.areas = self.areas * check_weights(weights, self.n_elements)
         self._G, self._GA = G, G * self.areas  # and the area-weighted gradients
-        self._set_pattern(t, self.n_nodes)
+        self._set_pattern(self.t, self.n_nodes)
 
     def _material(self, material):
         m = super()._material(material)
@@ -290,11 +289,8 @@ def vector_basis(mesh, order: int = 1, intorder: int | None = None) -> Basis:
     if order not in (1, 2):
         raise ParameterError("order", f"order must be 1 or 2, got {order!r}")
     intorder = check_count("intorder", 2 * order if intorder is None else intorder, 1, 19)
-    if np.shape(mesh.p)[0] == 3:
-        element = ElementVector(ElementTetP1() if order == 1 else ElementTetP2())
-    else:
-        element = ElementVector(ElementTriP1() if order == 1 else ElementTriP2())
-    return Basis(mesh, element, intorder=intorder)
+    elements = (ElementTetP1, ElementTetP2) if np.shape(mesh.p)[0] == 3 else (ElementTriP1, ElementTriP2)
+    return Basis(mesh, ElementVector(elements[order - 1]()), intorder=intorder)
 
 
 class QuadratureAssembler(_FixedPattern):
