@@ -58,13 +58,10 @@ def _arc_neighbourhood(surface, length, reach, stops) -> np.ndarray:
     and every point less than ``reach`` from it along the surface at rest (not round the corners ending ``stops``)."""
     seg = surface.segments
     n_seg = seg.shape[1]
-    base = surface.neighbourhood
-    if n_seg == 0:
-        return base
     stop_after = np.zeros(n_seg, dtype=bool)  # no walking from this segment to its next
     stop_after[np.asarray(stops, dtype=np.intp)] = True
     stop_before = stop_after[np.maximum(surface.previous, 0)] & (surface.previous >= 0)  # ... to its previous
-    columns = [base]
+    columns = [surface.neighbourhood]
     for step, end, stop in ((surface.next, 1, stop_after), (surface.previous, 0, stop_before)):
         at = step.copy()  # the neighbour (its far end is in base already)
         arc = np.where(at >= 0, length[np.maximum(at, 0)], np.inf)
@@ -238,8 +235,6 @@ class CandidatePairs:
     def sharp_hinges(self, Y) -> np.ndarray:
         """Indices (into ``hinge``) of the hinges at corners turning by over 90 degrees at ``Y`` (the others cannot
         touch: the point projects before the segment)."""
-        if self.hinge_keys.size == 0:
-            return np.zeros(0, dtype=np.intp)
         seg, into = self.surface.segments, self.surface.hinge_corner[self.hinge]
         out = self.surface.next[into]
         return np.flatnonzero(dot(Y[:, seg[1, into]] - Y[:, seg[0, into]], Y[:, seg[1, out]] - Y[:, seg[0, out]]) < 0)

@@ -195,9 +195,7 @@ class Contact(Term):
         if through_p.size:
             _, _, sigma = self.pairs.classify(lambda i: Y[:, i], through_p, through_s)
             deep = (sigma <= -self.pairs.skins[through_p]) & (sigma > -self.rest_length[through_s])
-            n_seg = max(self.surface.n_segments, 1)
-            through_p, through_s = np.divmod(np.unique(through_p[deep].astype(np.int64) * n_seg + through_s[deep]),
-                                             n_seg)
+            through_p, through_s = np.unique(np.stack([through_p[deep], through_s[deep]]), axis=1)
         self._through = (through_p.astype(np.intp), through_s.astype(np.intp))
         return int(np.unique(self._through[0]).size)
 
