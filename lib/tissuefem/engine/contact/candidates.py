@@ -173,12 +173,8 @@ class CandidatePairs:
         for _ in range(k.size):  # spread the run's nearest along it, one segment per sweep
             changed = False
             for link in links:
-                has = link >= 0
-                if not np.any(has):
-                    continue
-                d_n = np.where(has, best_d[np.maximum(link, 0)], np.inf)
-                k_n = np.where(has, best_k[np.maximum(link, 0)], -1)
-                better = has & ((d_n < best_d) | ((d_n == best_d) & (k_n < best_k)))
+                d_n, k_n = best_d[np.maximum(link, 0)], best_k[np.maximum(link, 0)]  # (masked below where -1)
+                better = (link >= 0) & ((d_n < best_d) | ((d_n == best_d) & (k_n < best_k)))
                 if np.any(better):
                     best_d[better], best_k[better] = d_n[better], k_n[better]
                     changed = True
