@@ -103,9 +103,8 @@ class ContactSurface:
         third = t.sum(axis=0) - pairs.sum(axis=0)  # the element's vertex off the facet
         left = cross(p[:, pairs[1]] - p[:, pairs[0]], p[:, third] - p[:, pairs[0]]) > 0
         nodes, segments = np.unique(np.where(left, pairs, pairs[::-1]), return_inverse=True)  # material on the left
-        wound = None
-        if mesh.boundaries and "cut" in mesh.boundaries:
-            wound = np.isin(facets, np.asarray(mesh.boundaries["cut"]))
+        cut = (mesh.boundaries or {}).get("cut")
+        wound = None if cut is None else np.isin(facets, np.asarray(cut))
         return cls(nodes[:, None], np.ones((nodes.size, 1)), segments.reshape(2, -1), p.shape[1], wound=wound)
 
     def positions(self, x) -> np.ndarray:
