@@ -37,8 +37,19 @@ __all__ = ["P1Assembler", "QuadratureAssembler", "FormsAssembler", "make_assembl
 
 
 class _FixedPattern:
-    """What the assemblers share: a default ``material`` and a fixed CSR pattern (``indptr``, ``indices``: shared by
-    every matrix returned and read-only, so ``eliminate_zeros`` and the like raise instead of corrupting it)."""
+    """What the assemblers share: a default ``material``, the element dofs (row ``d a + i`` of ``element_dofs`` the
+    dof ``d n + i`` of the element's node ``a``) and a fixed CSR pattern (``indptr``, ``indices``: shared by every
+    matrix returned and read-only, so ``eliminate_zeros`` and the like raise instead of corrupting it)."""
+
+    def _set_pattern(self, nodes, n_nodes) -> None:
+        """The dofs and the pattern of elements with the nodes ``nodes`` (n_local, n_elements)."""
+        dim = self.dim
+        self.n_dofs = dim * n_nodes
+        self.element_dofs = (dim * nodes[:, None, :] + np.arange(dim)[None, :, None]).reshape(-1, nodes.shape[1])
+        self.element_dofs.setflags(write=False)
+        self._dofs_flat = self.element_dofs.reshape(-1).astype(np.intp)
+        self.indptr, self.indices, self._scatter = _block_pattern(nodes, n_nodes, dim)
+        self.nnz = self.indices.size
 
     def _material(self, material):
         m = self.material if material is None else material
@@ -72,6 +83,13 @@ class _FixedPattern:
             raise ValueError("the sparsity pattern lacks diagonal entries")
         return pos
 
+    def deformation_gradient(self, u) -> np.ndarray:
+        """``F = I + grad u`` of every element (at every quadrature point), shaped ``[d, d, n_elements(, nq)]``."""
+        ue = self._check_u(u)[self.element_dofs].reshape(-1, self.dim, self.n_elements)  # ue[a, i, e]
+        F = np.einsum("aie,aje...->ije...", ue, self._G)
+        F[range(self.dim), range(self.dim)] += 1.0
+        return F
+
 
 class P1Assembler(_FixedPattern):
     """Energy, internal forces and tangent of a hyperelastic material on a straight-sided P1 :class:`~skfem.MeshTri`.
@@ -86,22 +104,15 @@ class P1Assembler(_FixedPattern):
         p, t = _mesh_arrays(mesh)
         self.mesh, self.material = mesh, material
         self.dim = dim = p.shape[0]  # 2: triangles, 3: tetrahedra
-        self.n_vertices = nv = dim + 1  # vertices per element
+        self.n_vertices = dim + 1  # vertices per element
         self.n_nodes, self.n_elements = p.shape[1], t.shape[1]
-        self.n_dofs = dim * self.n_nodes
         # geometry: orientation, areas (volumes), gradients (element-last layout)
-        t, self.flipped, self.areas, G = (_triangle_geometry if dim == 2 else _tetrahedron_geometry)(p, t)
-        self.t = t
+        self.t, self.flipped, self.areas, G = (_triangle_geometry if dim == 2 else _tetrahedron_geometry)(p, t)
         self.t.setflags(write=False)
         if weights is not None:  # a part of an element integrates over that part: its area shrinks, its gradients not
-            self.areas = self.areas * check_weights(weights, t.shape[1])
+            self.areas = self.areas * check_weights(weights, self.n_elements)
         self._G, self._GA = G, G * self.areas  # and the area-weighted gradients
-        dofs = (dim * t[:, None, :] + np.arange(dim)[None, :, None]).reshape(nv * dim, -1)  # row d a + i
-        self.element_dofs = dofs
-        self.element_dofs.setflags(write=False)
-        self._dofs_flat = dofs.reshape(-1).astype(np.intp)
-        self.indptr, self.indices, self._scatter = _block_pattern(t, self.n_nodes, dim)
-        self.nnz = self.indices.size
+        self._set_pattern(self.t, self.n_nodes)
 
     def _material(self, material):
         m = super()._material(material)
@@ -132,13 +143,6 @@ class P1Assembler(_FixedPattern):
         K_loc = np.einsum("ijkle,aje,ble->aibke", A, self._GA, self._G)  # rows d a + i, cols d b + k
         data = np.bincount(self._scatter, weights=K_loc.reshape(-1), minlength=self.nnz)
         return self.csr(data)
-
-    def deformation_gradient(self, u) -> np.ndarray:
-        """``F = I + grad u`` of every element, shaped ``[d, d, n_elements]``."""
-        ue = self._check_u(u)[self.element_dofs].reshape(self.n_vertices, self.dim, self.n_elements)  # ue[a, i, e]
-        F = np.einsum("aie,aje->ije", ue, self._G)
-        F[range(self.dim), range(self.dim)] += 1.0
-        return F
 
     def energy(self, u, material=None) -> float:
         """Stored energy ``sum_e A_e Psi(F_e)`` (NaN if the material is NaN somewhere, e.g. log J at J <= 0)."""
@@ -206,18 +210,15 @@ def _block_pattern(t, n_nodes: int, dim: int):
     nnz = dim * dim * keys.size
     index_dtype = np.int32 if max(nnz, n) < np.iinfo(np.int32).max else np.int64
     row_nodes, col_nodes = keys // nn, keys % nn
+    row_start = dim * dim * nptr[:-1, None] + dim * np.arange(dim) * deg[:, None]  # (nn, d): of dof row d p + i
+    indptr = np.append(row_start.ravel(), nnz).astype(index_dtype)
     # indices: for each node row p, rows d p ... d p + d - 1 all list d q ... d q + d - 1 for its q's
-    start = dim * dim * nptr[:-1]  # first data slot of dof row d p
     local = np.arange(keys.size) - nptr[row_nodes]  # rank of q within node row p
     indices = np.empty(nnz, dtype=np.int64)
     for i in range(dim):
         for k in range(dim):
-            indices[start[row_nodes] + dim * i * deg[row_nodes] + dim * local + k] = dim * col_nodes + k
+            indices[row_start[row_nodes, i] + dim * local + k] = dim * col_nodes + k
     indices = indices.astype(index_dtype)
-    indptr = np.empty(n + 1, dtype=index_dtype)
-    for i in range(dim):
-        indptr[i:-1:dim] = start + dim * i * deg
-    indptr[-1] = nnz
     indices.setflags(write=False)
     indptr.setflags(write=False)
     p_node = t[:, None, :]  # row node of local pair (a, b)
@@ -233,14 +234,14 @@ def _triangle_geometry(p, t):
     """``(t, flipped, areas, G)`` of triangles: counter-clockwise copy of ``t``, the reoriented ones, areas and the
     gradients ``G[a, j, e] = dN_a/dX_j``."""
     x = p[:, t]  # (2, 3, nel)
-    det = (x[0, 1] - x[0, 0]) * (x[1, 2] - x[1, 0]) - (x[0, 2] - x[0, 0]) * (x[1, 1] - x[1, 0])
+    d1, d2 = x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]
+    det = d1[0] * d2[1] - d1[1] * d2[0]  # twice the signed area
     flipped = np.flatnonzero(det < 0)
-    if flipped.size:  # swap the 2nd and 3rd vertex of clockwise triangles
+    if flipped.size:  # swap the 2nd and 3rd vertex of clockwise triangles: d1 and d2 swap, det changes sign exactly
         t = t.copy()
         t[1:, flipped] = t[2:0:-1, flipped]
-        x = p[:, t]
-    d1, d2 = x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]
-    det = d1[0] * d2[1] - d1[1] * d2[0]  # twice the (now positive) area
+        d1[:, flipped], d2[:, flipped] = d2[:, flipped], d1[:, flipped]
+        det[flipped] = -det[flipped]
     # G[a, j, e] = dN_a/dX_j: rows of the inverse of the Jacobian [d1 d2]
     G = np.empty((3, 2, t.shape[1]))
     G[1, 0], G[1, 1] = d2[1] / det, -d2[0] / det
@@ -256,12 +257,11 @@ def _tetrahedron_geometry(p, t):
     J = np.stack([x[:, 1] - x[:, 0], x[:, 2] - x[:, 0], x[:, 3] - x[:, 0]], axis=1)  # J[i, c] = (d_c)_i
     det = np.einsum("ie,ie->e", J[:, 0], np.cross(J[:, 1], J[:, 2], axis=0))
     flipped = np.flatnonzero(det < 0)
-    if flipped.size:
+    if flipped.size:  # swapping the vertices swaps d2 and d3: det J changes sign, exactly
         t = t.copy()
         t[2:, flipped] = t[3:1:-1, flipped]
-        x = p[:, t]
-        J = np.stack([x[:, 1] - x[:, 0], x[:, 2] - x[:, 0], x[:, 3] - x[:, 0]], axis=1)
-        det = np.einsum("ie,ie->e", J[:, 0], np.cross(J[:, 1], J[:, 2], axis=0))
+        J[:, 1:, flipped] = J[:, :0:-1, flipped]
+        det[flipped] = -det[flipped]
     # row c of J^-1 is (d_{c+1} x d_{c+2}) / det: dN_{c+1}/dX
     G = np.empty((4, 3, t.shape[1]))
     for c in range(3):
@@ -289,11 +289,8 @@ def vector_basis(mesh, order: int = 1, intorder: int | None = None) -> Basis:
     if order not in (1, 2):
         raise ParameterError("order", f"order must be 1 or 2, got {order!r}")
     intorder = check_count("intorder", 2 * order if intorder is None else intorder, 1, 19)
-    if np.shape(mesh.p)[0] == 3:
-        element = ElementVector(ElementTetP1() if order == 1 else ElementTetP2())
-    else:
-        element = ElementVector(ElementTriP1() if order == 1 else ElementTriP2())
-    return Basis(mesh, element, intorder=intorder)
+    elements = (ElementTetP1, ElementTetP2) if np.shape(mesh.p)[0] == 3 else (ElementTriP1, ElementTriP2)
+    return Basis(mesh, ElementVector(elements[order - 1]()), intorder=intorder)
 
 
 class QuadratureAssembler(_FixedPattern):
@@ -308,7 +305,7 @@ class QuadratureAssembler(_FixedPattern):
         p, _ = _mesh_arrays(basis.mesh)
         self.basis, self.material = basis, material
         self.dim = dim = p.shape[0]
-        self.n_local = nloc = len(basis.basis) // dim
+        nloc = len(basis.basis) // dim
         self.n_elements = basis.mesh.nelements
         # grad N_a and N_a: component 0 of the vector function N_a e_0
         self._G = np.array([basis.basis[dim * a][0].grad[0] for a in range(nloc)])  # (nloc, d, nel, nq)
@@ -316,19 +313,9 @@ class QuadratureAssembler(_FixedPattern):
         self._dx = basis.dx if weights is None else basis.dx * check_weights(weights, self.n_elements)[:, None]
         self._GW = self._G * self._dx
         dofs = np.asarray(basis.element_dofs, dtype=np.int64)  # (d nloc, nel), row d a + i: d N_a + i
-        self.n_dofs, self._dofs, self._dofs_flat = basis.N, dofs, dofs.reshape(-1)
-        nodes = dofs[::dim] // dim
-        if not np.array_equal(dofs, (dim * nodes[:, None] + np.arange(dim)[:, None]).reshape(dofs.shape)):
+        self._set_pattern(dofs[::dim] // dim, basis.N // dim)
+        if not np.array_equal(dofs, self.element_dofs):
             raise ParameterError("basis", "basis must number its dofs node by node, as vector_basis does")
-        self.indptr, self.indices, self._scatter = _block_pattern(nodes, basis.N // dim, dim)
-        self.nnz = self.indices.size
-
-    def deformation_gradient(self, u) -> np.ndarray:
-        """``F = I + grad u`` at every element and quadrature point, shaped ``[d, d, nel, nq]``."""
-        ue = self._check_u(u)[self._dofs].reshape(self.n_local, self.dim, -1)
-        F = np.einsum("aie,ajeq->ijeq", ue, self._G)
-        F[range(self.dim), range(self.dim)] += 1.0
-        return F
 
     def energy(self, u, material=None) -> float:
         """``sum Psi(F) dx`` (NaN where the material is, e.g. the log model at ``J <= 0``)."""

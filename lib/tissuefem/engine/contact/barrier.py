@@ -36,51 +36,48 @@ def barrier(zeta):
     return b0, b1, b2
 
 
+def _segment_gap(x):
+    """``sigma = cross(w, e) / |e|`` (against the segment) by ``x = (w, e)`` (m, 4): gradient (m, 4), Hessian."""
+    w, e = x[:, 0:2], x[:, 2:4]
+    L2 = np.einsum("ki,ki->k", e, e)
+    L = np.sqrt(L2)
+    g = (w[:, 0] * e[:, 1] - w[:, 1] * e[:, 0]) / L
+    n = np.stack([e[:, 1], -e[:, 0]], axis=1) / L[:, None]  # dg/dw: the outward normal
+    Jw = np.stack([-w[:, 1], w[:, 0]], axis=1)  # w turned counter-clockwise
+    R = np.array([[0.0, 1.0], [-1.0, 0.0]])  # e -> (e_y, -e_x)
+    H_we = R[None] / L[:, None, None] - n[:, :, None] * e[:, None, :] / L2[:, None, None]
+    H = np.zeros((x.shape[0], 4, 4))  # (w, w) is zero: g is linear in w
+    H[:, 0:2, 2:4] = H_we
+    H[:, 2:4, 0:2] = H_we.transpose(0, 2, 1)
+    H[:, 2:4, 2:4] = (-(Jw[:, :, None] * e[:, None, :] + e[:, :, None] * Jw[:, None, :]) / (L2 * L)[:, None, None]
+                      - (g / L2)[:, None, None] * np.eye(2)[None]
+                      + 3.0 * (g / (L2 * L2))[:, None, None] * e[:, :, None] * e[:, None, :])
+    return np.concatenate([n, Jw / L[:, None] - (g / L2)[:, None] * e], axis=1), H
+
+
+def _end_gap(d):
+    """``sigma = -|d|`` (behind an end ``v``) by ``d = y_p - y_v`` (m, 2): gradient (m, 2), Hessian."""
+    r = np.hypot(d[:, 0], d[:, 1])
+    unit = d / r[:, None]
+    return -unit, -(np.eye(2)[None] - unit[:, :, None] * unit[:, None, :]) / r[:, None, None]
+
+
+_I, _O = np.eye(2), np.zeros((2, 2))
+#: each kind's local variables ``x = T y`` of the 6 coordinates ``y`` of ``(p, a, b)``, and sigma's derivatives by them
+_LOCAL = {1: (np.block([[_I, -_I, _O], [_O, -_I, _I]]), _segment_gap),  # (w, e) = (y_p - y_a, y_b - y_a)
+          2: (np.block([_I, -_I, _O]), _end_gap), 3: (np.block([_I, _O, -_I]), _end_gap)}
+
+
 def gap_derivatives(Y, p, a, b, kind):
     """``sigma``'s gradient (m, 6) and Hessian (m, 6, 6) by the points ``(p, a, b)`` of each pair at ``Y``: ``kind`` 1
-    against the segment ``a -> b``, 2 against ``a``, 3 against ``b`` (negative there: the point lies behind)."""
-    m = p.size
-    grad = np.zeros((m, 6))
-    hess = np.zeros((m, 6, 6))
-    pe = kind == 1
-    if np.any(pe):
-        # sigma = g(w, e) = cross(w, e) / |e| with w = y_p - y_a, e = y_b - y_a
-        w = (Y[:, p] - Y[:, a])[:, pe].T  # (k, 2)
-        e = (Y[:, b] - Y[:, a])[:, pe].T
-        L2 = np.einsum("ki,ki->k", e, e)
-        L = np.sqrt(L2)
-        g = (w[:, 0] * e[:, 1] - w[:, 1] * e[:, 0]) / L
-        n = np.stack([e[:, 1], -e[:, 0]], axis=1) / L[:, None]  # dg/dw: the outward normal
-        Jw = np.stack([-w[:, 1], w[:, 0]], axis=1)  # w turned counter-clockwise
-        dg_de = Jw / L[:, None] - (g / L2)[:, None] * e
-        grad[pe, 0:2] = n  # (p, a, b) from (w, e) = (p - a, b - a)
-        grad[pe, 2:4] = -n - dg_de
-        grad[pe, 4:6] = dg_de
-        R = np.array([[0.0, 1.0], [-1.0, 0.0]])  # e -> (e_y, -e_x)
-        H_we = R[None] / L[:, None, None] - n[:, :, None] * e[:, None, :] / L2[:, None, None]
-        H_ee = (-(Jw[:, :, None] * e[:, None, :] + e[:, :, None] * Jw[:, None, :]) / (L2 * L)[:, None, None]
-                - (g / L2)[:, None, None] * np.eye(2)[None]
-                + 3.0 * (g / (L2 * L2))[:, None, None] * e[:, :, None] * e[:, None, :])
-        H4 = np.zeros((w.shape[0], 4, 4))  # (w, w) is zero: g is linear in w
-        H4[:, 0:2, 2:4] = H_we
-        H4[:, 2:4, 0:2] = H_we.transpose(0, 2, 1)
-        H4[:, 2:4, 2:4] = H_ee
-        T = np.zeros((4, 6))
-        T[0:2, 0:2], T[0:2, 2:4] = np.eye(2), -np.eye(2)
-        T[2:4, 2:4], T[2:4, 4:6] = -np.eye(2), np.eye(2)
-        hess[pe] = np.einsum("ai,kab,bj->kij", T, H4, T)
-    for corner, end, slot in ((2, a, 2), (3, b, 4)):
-        pp = kind == corner
-        if not np.any(pp):
-            continue
-        # sigma = -|d| with d = y_p - y_v
-        d = (Y[:, p] - Y[:, end])[:, pp].T
-        r = np.hypot(d[:, 0], d[:, 1])
-        unit = d / r[:, None]
-        grad[pp, 0:2] = -unit
-        grad[pp, slot:slot + 2] = unit
-        H2 = -(np.eye(2)[None] - unit[:, :, None] * unit[:, None, :]) / r[:, None, None]
-        for r0, s0 in ((0, 1.0), (slot, -1.0)):
-            for r1, s1 in ((0, 1.0), (slot, -1.0)):
-                hess[pp, r0:r0 + 2, r1:r1 + 2] = s0 * s1 * H2
+    against the segment ``a -> b``, 2 against ``a``, 3 against ``b`` (negative there: the point lies behind). By the
+    chain rule through ``x = T y``: ``dsigma/dy = T^T dsigma/dx``, ``d2sigma/dy2 = T^T (d2sigma/dx2) T``."""
+    grad, hess = np.zeros((p.size, 6)), np.zeros((p.size, 6, 6))
+    y = np.concatenate([Y[:, p], Y[:, a], Y[:, b]])  # (6, m)
+    for k, (T, derivatives) in _LOCAL.items():
+        at = kind == k
+        if np.any(at):
+            local, H = derivatives((T @ y[:, at]).T)
+            grad[at] = local @ T
+            hess[at] = np.einsum("ai,kab,bj->kij", T, H, T)
     return grad, hess

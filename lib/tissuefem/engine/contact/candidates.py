@@ -37,6 +37,14 @@ def _corner_normal(e_in, e_out, fold):
     return np.where(folded, fold * e_in / np.sqrt(dot(e_in, e_in)), m / np.where(folded, 1.0, size))
 
 
+def find_keys(sorted_keys, keys) -> np.ndarray:
+    """Where each of ``keys`` is in ``sorted_keys`` (-1: not there)."""
+    if sorted_keys.size == 0:
+        return np.full(np.shape(keys), -1, dtype=np.intp)
+    at = np.minimum(np.searchsorted(sorted_keys, keys), sorted_keys.size - 1)
+    return np.where(sorted_keys[at] == keys, at, -1)
+
+
 def spread(dY) -> float:
     """``max_i |dY_i - c|``, ``c`` the centre of the moves' bounding box: no distance changes by over twice this."""
     if dY.shape[1] == 0:
@@ -50,13 +58,10 @@ def _arc_neighbourhood(surface, length, reach, stops) -> np.ndarray:
     and every point less than ``reach`` from it along the surface at rest (not round the corners ending ``stops``)."""
     seg = surface.segments
     n_seg = seg.shape[1]
-    base = surface.neighbourhood
-    if n_seg == 0:
-        return base
     stop_after = np.zeros(n_seg, dtype=bool)  # no walking from this segment to its next
     stop_after[np.asarray(stops, dtype=np.intp)] = True
     stop_before = stop_after[np.maximum(surface.previous, 0)] & (surface.previous >= 0)  # ... to its previous
-    columns = [base]
+    columns = [surface.neighbourhood]
     for step, end, stop in ((surface.next, 1, stop_after), (surface.previous, 0, stop_before)):
         at = step.copy()  # the neighbour (its far end is in base already)
         arc = np.where(at >= 0, length[np.maximum(at, 0)], np.inf)
@@ -85,18 +90,15 @@ class CandidatePairs:
         self.surface, self.rest_length, self.skin = surface, rest_length, skin
         n_seg, (a, b) = surface.n_segments, surface.segments
         self.n_local = (6 * surface.nodes.shape[1]) ** 2  # Hessian entries of a pair: 3 points of k nodes, 2 dofs
-        self.fold = np.ones(max(n_seg, 1))
         e_s = Y[:, b] - Y[:, a]
-        e_n = e_s[:, np.maximum(surface.next, 0)]  # a folded corner opens backwards if it turned into the material
-        turns_in = cross(e_s, e_n) <= 1e-9 * np.hypot(*e_s) * np.hypot(*e_n)
-        self.fold[:n_seg] = np.where((surface.next >= 0) & turns_in, -1.0, 1.0)
+        e_n = e_s[:, np.maximum(surface.next, 0)]  # the next segment's
+        turn, size = cross(e_s, e_n), np.hypot(*e_s) * np.hypot(*e_n)
+        # a folded corner opens backwards if it turned into the material
+        self.fold = np.where((surface.next >= 0) & (turn <= 1e-9 * size), -1.0, 1.0)
         # closing a corner that turns back into the material at rest (a crack tip, a notch) is contact; closing a
         # convex corner crushes the material between
-        e_in, e_out = e_s[:, surface.hinge_corner], e_s[:, surface.next[surface.hinge_corner]]
-        size = np.hypot(*e_in) * np.hypot(*e_out)
-        armed = (cross(e_in, e_out) < -1e-9 * size) | ((np.abs(cross(e_in, e_out)) <= 1e-9 * size)
-                                                        & (dot(e_in, e_out) < 0))
-        self.hinge = np.flatnonzero(armed)
+        turn, size, inner = turn[surface.hinge_corner], size[surface.hinge_corner], dot(e_s, e_n)[surface.hinge_corner]
+        self.hinge = np.flatnonzero((turn < -1e-9 * size) | ((np.abs(turn) <= 1e-9 * size) & (inner < 0)))
         self.excluded = _arc_neighbourhood(surface, rest_length, 2.0 * distance, surface.hinge_corner[self.hinge])
         hp, hs = self.hinge_pairs(slice(None))
         self.hinge_keys = hp.astype(np.int64) * max(n_seg, 1) + hs
@@ -127,21 +129,11 @@ class CandidatePairs:
         radius = 0.5 * np.hypot(*(yb - ya)) + reach
         from scipy.spatial import cKDTree  # deferred: only contact needs it, and it is slow to import
 
-        tree = cKDTree(Y.T)
-        mid = (0.5 * (ya + yb)).T
-        rows, k = np.arange(n_seg), min(8, Y.shape[1])
-        found_s, found_p = [], []
-        while rows.size:  # the k nearest points of each midpoint; again with more where all k are within reach
-            dist, idx = tree.query(mid[rows], k=k, distance_upper_bound=float(radius[rows].max()))
-            dist, idx = dist.reshape(rows.size, k), idx.reshape(rows.size, k)
-            within = dist <= radius[rows, None]
-            more = within[:, -1] & (k < Y.shape[1])
-            done = ~more
-            found_s.append(np.broadcast_to(rows[done, None], within[done].shape)[within[done]])
-            found_p.append(idx[done][within[done]])
-            rows, k = rows[more], min(2 * k, Y.shape[1])
-        s, p = np.concatenate(found_s).astype(np.intp), np.concatenate(found_p).astype(np.intp)
-        keep = np.all(self.excluded[s] != p[:, None], axis=1)
+        # every (midpoint, point) pair within the largest radius, then each segment's own radius
+        near = cKDTree((0.5 * (ya + yb)).T).sparse_distance_matrix(cKDTree(Y.T), float(radius.max()),
+                                                                   output_type="ndarray")
+        s, p = near["i"].astype(np.intp), near["j"].astype(np.intp)
+        keep = (near["v"] <= radius[s]) & np.all(self.excluded[s] != p[:, None], axis=1)
         p, s = p[keep], s[keep]
         order = np.argsort(p.astype(np.int64) * n_seg + s)
         return p[order], s[order]
@@ -173,25 +165,16 @@ class CandidatePairs:
         within ``d^`` of the point (ties to the lower key). ``keys`` must be unique."""
         n_seg = max(self.surface.n_segments, 1)
         order = np.argsort(keys)
-        k = keys[order]
-        def find(target):  # the position (in sorted order) of the pair with key ``target``, or -1
-            at = np.minimum(np.searchsorted(k, target), k.size - 1)
-            return np.where(k[at] == target, at, -1)
-
-        pp, ss = p[order], s[order]
+        k, pp, ss = keys[order], p[order], s[order]
         prev, nxt = self.surface.previous[ss], self.surface.next[ss]
-        links = [np.where(prev >= 0, find(pp.astype(np.int64) * n_seg + prev), -1),
-                 np.where(nxt >= 0, find(pp.astype(np.int64) * n_seg + nxt), -1)]
+        links = [np.where(prev >= 0, find_keys(k, pp.astype(np.int64) * n_seg + prev), -1),
+                 np.where(nxt >= 0, find_keys(k, pp.astype(np.int64) * n_seg + nxt), -1)]
         best_d, best_k = distance[order].copy(), k.copy()
         for _ in range(k.size):  # spread the run's nearest along it, one segment per sweep
             changed = False
             for link in links:
-                has = link >= 0
-                if not np.any(has):
-                    continue
-                d_n = np.where(has, best_d[np.maximum(link, 0)], np.inf)
-                k_n = np.where(has, best_k[np.maximum(link, 0)], -1)
-                better = has & ((d_n < best_d) | ((d_n == best_d) & (k_n < best_k)))
+                d_n, k_n = best_d[np.maximum(link, 0)], best_k[np.maximum(link, 0)]  # (masked below where -1)
+                better = (link >= 0) & ((d_n < best_d) | ((d_n == best_d) & (k_n < best_k)))
                 if np.any(better):
                     best_d[better], best_k[better] = d_n[better], k_n[better]
                     changed = True
@@ -235,10 +218,9 @@ class CandidatePairs:
         self.positions = np.full((self.keys.size + self.hinge_keys.size, self.n_local), -1, dtype=np.intp)
         if old_keys is not None:
             self.positions[self.keys.size:] = old_positions[old_keys.size:]  # the hinges'
-            if old_keys.size and self.keys.size:
-                at = np.minimum(np.searchsorted(old_keys, self.keys), old_keys.size - 1)
-                same = np.flatnonzero(old_keys[at] == self.keys)
-                self.positions[same] = old_positions[at[same]]
+            at = find_keys(old_keys, self.keys)
+            same = np.flatnonzero(at >= 0)
+            self.positions[same] = old_positions[at[same]]
 
     def ensure(self, Y) -> None:
         """Refresh the list if the points moved by over ``skin / 2`` relative to each other (else no pair out of it,
@@ -249,8 +231,6 @@ class CandidatePairs:
     def sharp_hinges(self, Y) -> np.ndarray:
         """Indices (into ``hinge``) of the hinges at corners turning by over 90 degrees at ``Y`` (the others cannot
         touch: the point projects before the segment)."""
-        if self.hinge_keys.size == 0:
-            return np.zeros(0, dtype=np.intp)
         seg, into = self.surface.segments, self.surface.hinge_corner[self.hinge]
         out = self.surface.next[into]
         return np.flatnonzero(dot(Y[:, seg[1, into]] - Y[:, seg[0, into]], Y[:, seg[1, out]] - Y[:, seg[0, out]]) < 0)

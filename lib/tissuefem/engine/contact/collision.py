@@ -94,8 +94,6 @@ def step_fraction(pairs, Y0, dY) -> float:
         hp, hs = pairs.hinge_pairs(hinges)
         p, s = np.concatenate([p, hp]), np.concatenate([s, hs])
         ignored = np.concatenate([ignored, pairs.hinge_ignored[hinges]])
-    if p.size == 0:
-        return 1.0
     toi = float(np.min(times_of_impact(pairs, Y0, dY, p[~ignored], s[~ignored]), initial=np.inf))
     return 1.0 if toi > 1.0 else SAFETY * toi
 

@@ -103,9 +103,8 @@ class ContactSurface:
         third = t.sum(axis=0) - pairs.sum(axis=0)  # the element's vertex off the facet
         left = cross(p[:, pairs[1]] - p[:, pairs[0]], p[:, third] - p[:, pairs[0]]) > 0
         nodes, segments = np.unique(np.where(left, pairs, pairs[::-1]), return_inverse=True)  # material on the left
-        wound = None
-        if mesh.boundaries and "cut" in mesh.boundaries:
-            wound = np.isin(facets, np.asarray(mesh.boundaries["cut"]))
+        cut = (mesh.boundaries or {}).get("cut")
+        wound = None if cut is None else np.isin(facets, np.asarray(cut))
         return cls(nodes[:, None], np.ones((nodes.size, 1)), segments.reshape(2, -1), p.shape[1], wound=wound)
 
     def positions(self, x) -> np.ndarray:
@@ -115,10 +114,7 @@ class ContactSurface:
             raise ParameterError("x", f"x must be node positions shaped (2, {self.n_nodes}), got shape {x.shape}")
         if self._plain:
             return x[:, self.nodes[:, 0]]
-        y = self.weights[:, 0] * x[:, self.nodes[:, 0]]
-        for k in range(1, self.nodes.shape[1]):
-            y = y + self.weights[:, k] * x[:, self.nodes[:, k]]
-        return y
+        return np.sum(self.weights.T * x[:, self.nodes.T], axis=1)  # (2, k, n_points) summed over the slots
 
     def segment_positions(self, x) -> np.ndarray:
         """The segments' ends at node positions ``x``: shape (n_segments, 2, 2) (segment, end, xy)."""

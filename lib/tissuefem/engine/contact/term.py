@@ -7,7 +7,7 @@ from ..parameters import (CONTACT_STIFFNESS_MAX, YOUNGS_MODULUS_RANGE, Parameter
                           check_real_array)
 from ..terms import Term
 from .barrier import barrier, gap_derivatives
-from .candidates import CandidatePairs
+from .candidates import CandidatePairs, find_keys
 from .collision import crossings, step_fraction
 from .surface import ContactSurface, segment_distance
 
@@ -181,11 +181,7 @@ class Contact(Term):
 
     def covers(self, u) -> bool:
         """Whether the bound pattern holds the couplings of every pair active at ``u`` (else the model rebuilds it)."""
-        keys = self._evaluate(u)["keys"]
-        if keys.size == 0 or self._covered.size == 0:
-            return keys.size == 0
-        at = np.minimum(np.searchsorted(self._covered, keys), self._covered.size - 1)
-        return bool(np.all(self._covered[at] == keys))
+        return bool(np.all(find_keys(self._covered, self._evaluate(u)["keys"]) >= 0))
 
     def begin_step(self, u, previous=None) -> int:
         """Start a step at ``u``; returns how many points the handles' motion from ``previous`` carried through a
@@ -199,9 +195,7 @@ class Contact(Term):
         if through_p.size:
             _, _, sigma = self.pairs.classify(lambda i: Y[:, i], through_p, through_s)
             deep = (sigma <= -self.pairs.skins[through_p]) & (sigma > -self.rest_length[through_s])
-            n_seg = max(self.surface.n_segments, 1)
-            through_p, through_s = np.divmod(np.unique(through_p[deep].astype(np.int64) * n_seg + through_s[deep]),
-                                             n_seg)
+            through_p, through_s = np.unique(np.stack([through_p[deep], through_s[deep]]), axis=1)
         self._through = (through_p.astype(np.intp), through_s.astype(np.intp))
         return int(np.unique(self._through[0]).size)
 
