@@ -338,10 +338,7 @@ class SurgeryView:
             raise ParameterError("content", "content (a message of the page) must be a dict with event 'pointer' "
                                             f"or 'key', got {content!r}")
         if content["event"] == "key":
-            key = content.get("key")
-            if not isinstance(key, str) or not key:
-                raise ParameterError("key", f"key must be a non-empty string such as 'c', got {key!r}")
-            if key == "c" and not self.closed:
+            if string("key", content.get("key"), nonempty=True) == "c" and not self.closed:
                 self.mode = "drag" if self.mode == "cut" else "cut"
             return
         kind = string("kind", content.get("kind"), POINTER_KINDS)

@@ -215,15 +215,13 @@ class Simulation:
         if self.order != 1:
             raise ValueError("grab: grabbing needs P1 elements (order=1)")
         self.solver.settle()  # a new handle changes the model: not under a running step
-        x = self.positions()
-        gap = x - point[:, None]
+        gap = self.positions() - point[:, None]
         distance = np.hypot(*gap) if gap.shape[0] == 2 else np.sqrt(np.sum(gap * gap, axis=0))
         nodes = np.flatnonzero(distance <= radius)
         if nodes.size == 0:
             raise ValueError(f"point {point.tolist()}: no tissue within radius {radius:g}")
-        names = set(self.handles)
         count = self._grab_count + 1
-        while f"grab{count}" in names:  # never replace a scene's handle of the same name
+        while f"grab{count}" in self.handles:  # never replace a scene's handle of the same name
             count += 1
         u = self.solver.u.reshape(-1, self.model.dim).T
         self.model.add_handle(Handle(nodes, base=u[:, nodes].copy(), name=f"grab{count}", anchor=point))
@@ -232,9 +230,8 @@ class Simulation:
 
     def drag(self, name, point) -> None:
         """Move the pointer of a grab to ``point``: the handle's target becomes the offset from its grab point."""
-        h = self.model.handle(name)
-        point = self._point("point", point)
-        h.move(point - (np.zeros_like(point) if h.anchor is None else h.anchor))
+        h, point = self.model.handle(name), self._point("point", point)
+        h.move(point if h.anchor is None else point - h.anchor)
 
     def move_handle(self, name, target) -> None:
         """Set a handle's target (a translation or a map), checked; takes effect at the next frame."""
@@ -606,8 +603,4 @@ _OPERATIONS = {"excisions": {"elements": element_cuts.excise_through, "edges": t
 
 def _end_key(nodes, weights):
     """A stitch end as ``{node: weight}`` (weights rounded), to tell two ends at the same point of the same nodes."""
-    out = {}
-    for q, w in zip(nodes.tolist(), weights.tolist()):
-        if w > 1e-12:
-            out[q] = out.get(q, 0.0) + round(w, 9)
-    return out
+    return {q: round(w, 9) for q, w in zip(nodes.tolist(), weights.tolist()) if w > 1e-12}
