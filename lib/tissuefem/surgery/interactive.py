@@ -292,8 +292,7 @@ class SurgeryView:
         if string("mode", value, MODES) == self.gestures.mode:
             return
         self.gestures.drop()
-        self.gestures.mode = value
-        self.widget.mode = value
+        self.gestures.mode = self.widget.mode = value
         self._changed()
 
     def _on_mode(self, change):
