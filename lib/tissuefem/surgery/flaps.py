@@ -150,8 +150,7 @@ def _close_flap(scene, *, in_flap, motion, edges, method, tighten_frames, settle
     reports += sim.run(settle_frames)
     snapshots["sutured"] = _snapshot(sim)
     tension = sim.tension()
-    areas = sim.model.element_areas()
-    flap = in_flap(_material_points(sim))
+    areas = sim.model.element_areas()  # the mesh is the cut one still: ``flap`` marks the same elements
     return FlapResult(simulation=sim, stitches=stitches, tension=tension, max_tension=float(tension.max()),
                       p95_tension=_weighted_percentile(tension, areas, 0.95),
                       mean_tension=float(np.dot(areas, np.maximum(tension, 0.0)) / areas.sum()),

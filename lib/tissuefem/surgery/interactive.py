@@ -40,7 +40,7 @@ from ..engine.meshes import mean_edge_length
 from ..engine.parameters import ParameterError, check_count, check_positive, check_vector, string
 from .widget import TissueWidget, outline
 
-__all__ = ["SurgeryView", "Gestures", "Pacing", "MODES", "REST_FRAMES", "take_over", "let_go", "one_at_a_time",
+__all__ = ["SurgeryView", "Gestures", "Pacing", "MODES", "REST_FRAMES", "take_over", "one_at_a_time",
            "synthetic_mouse", "synthetic_key", "snapshot", "shown_box", "element_j"]
 
 #: the interaction modes of a :class:`SurgeryView`
@@ -80,7 +80,7 @@ def _cell_origin():
 def take_over(view) -> None:
     """Make ``view`` the live view of its simulation and of its notebook cell: a view of the same simulation stops
     (disconnected, saying why), one that the same cell made in an earlier run closes (its output is gone).
-    :meth:`SurgeryView.disconnect` leaves the registry (:func:`let_go`)."""
+    :meth:`SurgeryView.disconnect` leaves the registry."""
     view._origin = _cell_origin()
     for old in [v for v in _VIEWS if not v.closed]:
         if old.sim is view.sim:
@@ -89,11 +89,6 @@ def take_over(view) -> None:
         elif view._origin and old._origin and old._origin[0] == view._origin[0] and old._origin != view._origin:
             old.close()  # its cell was run again: its output is gone
     _VIEWS.add(view)
-
-
-def let_go(view) -> None:
-    """``view`` is no longer live (disconnected): it leaves the registry of :func:`take_over`."""
-    _VIEWS.discard(view)
 
 
 def one_at_a_time(method):
@@ -115,7 +110,7 @@ class Gestures:
     input came from a person (the page's pointer) or from code (:func:`synthetic_mouse`): a grab made in code is
     not carried on by the real pointer, nor a real one by made-up moves. A ``ValueError`` of the simulation becomes the
     view's message. The view provides ``radius``, ``stroke_spacing``, ``message`` and the hooks ``_changed``,
-    ``_request_draw``, ``_show``, ``_refresh`` and ``_tools_changed`` (the drag target or the stroke moved:
+    ``_request_draw``, ``_show``, ``_follow`` and ``_tools_changed`` (the drag target or the stroke moved:
     ``target``, the point the grab follows, or ``None``; ``stroke``, the points drawn so far, or ``None``).
     """
 
@@ -123,10 +118,6 @@ class Gestures:
         self.view, self.sim, self._lock = view, view.sim, view._lock
         self.mode, self.handle, self.stroke, self.target = "drag", None, None, None
         self.real_press = False  # whether the grab or stroke began with a real press (a GUI event) or in code
-
-    def tools_changed(self) -> None:
-        """The drag target or the stroke changed: the view sends them."""
-        self.view._tools_changed()
 
     @one_at_a_time
     def press(self, point, real=True) -> None:
@@ -143,7 +134,7 @@ class Gestures:
             self.target = point
         else:
             self.stroke = [point]
-        self.tools_changed()
+        self.view._tools_changed()
         self.view._changed()
 
     @one_at_a_time
@@ -163,7 +154,7 @@ class Gestures:
             if np.linalg.norm(point - self.stroke[-1]) < self.view.stroke_spacing:
                 return
             self.stroke.append(point)
-        self.tools_changed()
+        self.view._tools_changed()
         self.view._request_draw()
 
     @one_at_a_time
@@ -174,11 +165,8 @@ class Gestures:
             self.end_grab()
             self.view._changed()
         elif self.stroke is not None:
-            stroke = self.stroke
-            if point is not None and np.linalg.norm(np.asarray(point, dtype=float) - stroke[-1]) > 0:
-                stroke.append(np.asarray(point, dtype=float))
+            stroke = np.array(self.stroke if point is None else self.stroke + [np.asarray(point, dtype=float)])
             self.drop()
-            stroke = np.array(stroke)
             distinct = stroke[np.r_[True, np.any(np.diff(stroke, axis=0) != 0, axis=1)]]
             if len(distinct) < 2:
                 self.view._show("cut: draw a stroke (press, move, release)")
@@ -189,13 +177,14 @@ class Gestures:
                 self.view._show(f"cut failed: {exc}")
                 return
             self.view.message = ""
-            self.view._refresh()
+            self.view._follow()  # the new triangles
+            self.view._changed()
 
     def end_grab(self) -> None:
         """Release the grabbed handle, if any."""
         if self.handle is not None:
             handle, self.handle, self.target = self.handle, None, None
-            self.tools_changed()
+            self.view._tools_changed()
             try:
                 self.sim.release(handle)
             except ValueError as exc:
@@ -205,7 +194,7 @@ class Gestures:
         """End a grab and drop a stroke in progress."""
         self.end_grab()
         self.stroke = None
-        self.tools_changed()
+        self.view._tools_changed()
 
 
 class SurgeryView:
@@ -303,8 +292,7 @@ class SurgeryView:
         if string("mode", value, MODES) == self.gestures.mode:
             return
         self.gestures.drop()
-        self.gestures.mode = value
-        self.widget.mode = value
+        self.gestures.mode = self.widget.mode = value
         self._changed()
 
     def _on_mode(self, change):
@@ -349,10 +337,7 @@ class SurgeryView:
             raise ParameterError("content", "content (a message of the page) must be a dict with event 'pointer' "
                                             f"or 'key', got {content!r}")
         if content["event"] == "key":
-            key = content.get("key")
-            if not isinstance(key, str) or not key:
-                raise ParameterError("key", f"key must be a non-empty string such as 'c', got {key!r}")
-            if key == "c" and not self.closed:
+            if string("key", content.get("key"), nonempty=True) == "c" and not self.closed:
                 self.mode = "drag" if self.mode == "cut" else "cut"
             return
         kind = string("kind", content.get("kind"), POINTER_KINDS)
@@ -387,10 +372,6 @@ class SurgeryView:
         self.message = message
         self._changed()
 
-    def _refresh(self) -> None:
-        self._follow()
-        self._changed()
-
     def _tools_changed(self) -> None:
         self._tools_stale = True
         if not self.running:
@@ -413,7 +394,7 @@ class SurgeryView:
     def _follow(self) -> None:
         """The simulation's positions into the widget: with new triangles after a topology change."""
         x = np.asarray(self.sim.positions(), dtype=float)
-        if self.sim.mesh is not self._mesh or self._x is None or x.shape != self._x.shape:
+        if self.sim.mesh is not self._mesh or x.shape != self._x.shape:
             self._mesh, self._picture = self.sim.mesh, self.sim.picture
             points, loops = self._picture.points(x), None
             if self.dim == 2:  # the boundary loops, filled when there are no colours
@@ -534,7 +515,7 @@ class SurgeryView:
         self.closed = True
         self.widget.disabled = True
         self._update_text(force=True)
-        let_go(self)
+        _VIEWS.discard(self)  # no longer live: a new view need not stop it
 
     def close(self) -> None:
         """Disconnect and close the widget."""

@@ -55,7 +55,7 @@ class Simulation:
         self.material = scene.build_material()
         self.model = _scene_model(scene, self.material, order, intorder)
         self._grab_count = self._probe_count = 0
-        #: pieces lifted out because nothing held them (quasistatic scenes only; see _drop_loose_pieces)
+        #: pieces lifted out because nothing held them (quasistatic scenes only; see _carried)
         self.removed_pieces = 0
         self._regions = {}  # where the material of each element cut through lies (its weight: model.weights)
         self.solver = None
@@ -93,16 +93,22 @@ class Simulation:
             # a constant Hessian: one factorization per held set is exact (with the named direct backend)
             base = choice.removeprefix("reuse-")
             choice = "constant" if base in ("reuse", "direct", "background", "superlu") else f"constant-{base}"
-        self.solver = RealtimeSolver(model, linear_solver=choice, budget=settings["budget"], rtol=settings["rtol"],
-                                     clock=self.clock, max_iterations=settings["max_iterations"])
-        if old is not None:
-            _carry_state(old, self.solver, state)
-            self.solver.launch = old.launch
-            self.solver.costs.update(old.costs)  # what the work cost lately: the next frame keeps its budget
-            if parent is None and old.model.n_dofs == model.n_dofs:  # the same dofs: the factorization fits
-                self.solver.linear.carry(old.linear, np.arange(model.n_dofs))
-            elif self._keep_factorization and parent is not None:
-                self.solver.linear.carry(old.linear, parent)
+        new = self.solver = RealtimeSolver(model, linear_solver=choice, budget=settings["budget"],
+                                           rtol=settings["rtol"], clock=self.clock,
+                                           max_iterations=settings["max_iterations"])
+        if old is None:
+            return
+        u, v, v_previous = state if state is not None else (old.u.copy(), old.v.copy(), old.v_previous)
+        new.set_state(u, v if model.dynamic else None, v_previous=v_previous if model.dynamic else None,
+                      time_=old.time, steps=old.steps)  # time and frames go on
+        new.budget, new.launch, new.last_report = old.budget, old.launch, old.last_report
+        if old.dt is not None:
+            new.dt = old.dt
+        new.costs.update(old.costs)  # what the work cost lately: the next frame keeps its budget
+        if parent is None and old.model.n_dofs == model.n_dofs:  # the same dofs: the factorization fits
+            new.linear.carry(old.linear, np.arange(model.n_dofs))
+        elif self._keep_factorization and parent is not None:
+            new.linear.carry(old.linear, parent)
 
     def _set_terms(self, terms) -> None:
         """The running model with ``terms`` (a probe or stitches added or removed), and a solver for it."""
@@ -209,15 +215,13 @@ class Simulation:
         if self.order != 1:
             raise ValueError("grab: grabbing needs P1 elements (order=1)")
         self.solver.settle()  # a new handle changes the model: not under a running step
-        x = self.positions()
-        gap = x - point[:, None]
+        gap = self.positions() - point[:, None]
         distance = np.hypot(*gap) if gap.shape[0] == 2 else np.sqrt(np.sum(gap * gap, axis=0))
         nodes = np.flatnonzero(distance <= radius)
         if nodes.size == 0:
             raise ValueError(f"point {point.tolist()}: no tissue within radius {radius:g}")
-        names = set(self.handles)
         count = self._grab_count + 1
-        while f"grab{count}" in names:  # never replace a scene's handle of the same name
+        while f"grab{count}" in self.handles:  # never replace a scene's handle of the same name
             count += 1
         u = self.solver.u.reshape(-1, self.model.dim).T
         self.model.add_handle(Handle(nodes, base=u[:, nodes].copy(), name=f"grab{count}", anchor=point))
@@ -226,9 +230,8 @@ class Simulation:
 
     def drag(self, name, point) -> None:
         """Move the pointer of a grab to ``point``: the handle's target becomes the offset from its grab point."""
-        h = self.model.handle(name)
-        point = self._point("point", point)
-        h.move(point - (np.zeros_like(point) if h.anchor is None else h.anchor))
+        h, point = self.model.handle(name), self._point("point", point)
+        h.move(point if h.anchor is None else point - h.anchor)
 
     def move_handle(self, name, target) -> None:
         """Set a handle's target (a translation or a map), checked; takes effect at the next frame."""
@@ -236,7 +239,7 @@ class Simulation:
 
     def release(self, name) -> None:
         """Let go of a handle. A quasistatic scene lifts out a piece nothing holds any more (it has no equilibrium,
-        see `_drop_loose_pieces`); a dynamic scene keeps it: it falls."""
+        see `_carried`); a dynamic scene keeps it: it falls."""
         handle = self.model.handle(name)
         self._check_held([h for h in self.model.handles if h is not handle])
         if self.dynamic:
@@ -443,47 +446,39 @@ def _scene_model(scene, material, order, intorder) -> Model:
                  terms=terms)
 
 
-def _carry_state(old, solver, state=None) -> None:
-    """The state of the solver ``old`` (or ``state``: ``u, v, v_previous`` on the new model) in ``solver``: time,
-    frames, budget, time step and last report too."""
-    u, v, v_prev = state if state is not None else (old.u.copy(), old.v.copy(), old.v_previous)
-    dynamic = solver.model.dynamic
-    solver.set_state(u, v if dynamic else None, v_previous=v_prev if dynamic else None, time_=old.time,
-                     steps=old.steps)
-    solver.budget = old.budget
-    if old.dt is not None:
-        solver.dt = old.dt
-    solver.last_report = old.last_report
-
-
 def _edit(operation, mesh, argument, positions, weights, regions):
-    """The edit of ``mesh`` by ``operation`` (with the material cut through so far, where it takes it)."""
-    if operation in (topology.incise, element_cuts.cut_through):  # where the user drew, on the deformed tissue
-        options = dict(weights=weights, regions=regions) if operation is element_cuts.cut_through else {}
-        return operation(mesh, argument, positions, **options)
-    if operation is element_cuts.excise_through:  # an outline in reference coordinates
-        return operation(mesh, argument, None, weights=weights, regions=regions)
-    return operation(mesh, argument)
+    """The edit of ``mesh`` by ``operation``: a cut drawn on the tissue at ``positions``, an excision's outline in
+    reference coordinates; a cut through the elements takes the material cut through so far."""
+    if operation in (topology.excise, element_cuts.excise_through):
+        positions = None
+    if operation in (element_cuts.cut_through, element_cuts.excise_through):
+        return operation(mesh, argument, positions, weights=weights, regions=regions)
+    return operation(mesh, argument, positions)
 
 
 def _carried(edit, model, regions, keep_loose):
-    """``(edit, map, pieces)``: the edit (with the pieces nothing holds lifted out unless ``keep_loose``), the map
-    the model is carried by (the material's weights and regions after it, the stages of its stitches) and how
-    many pieces were lifted out."""
+    """``(edit, map, pieces)``: the edit, the map the model is carried by (the material's weights and regions after
+    it, the stages of its stitches) and how many pieces were lifted out. Unless ``keep_loose`` (quasistatic scenes),
+    a second excision lifts out the pieces nothing holds (no handle at a node with material there, no suture to a
+    held piece): they have no equilibrium, and a surgeon lifts out what was cut free."""
     weights, regions = _material_after(edit, model.weights, regions)
     material = element_cuts.node_material(edit.mesh, regions)  # the virtual nodes hold nothing
     stages, pieces = [(edit, regions)], 0
     if not keep_loose:
         stitches = model.sutures
         ends = None if stitches is None else Stitches.carry(stitches.ends_spec(), edit, regions)
-        edit, lift, pieces = _drop_loose_pieces(edit, None if ends is None else ends["elements"], model.handles,
-                                                material)
-        if lift is not None:  # the elements that stay, of those the edit made (a kept node keeps all of them)
-            kept = lift.elements
-            weights = None if weights is None else weights[kept]
-            regions = {int(new): regions[int(old)] for new, old in enumerate(kept.tolist()) if int(old) in regions}
-            material = None if material is None else material[lift.parent]
-            stages.append((lift, regions))
+        loose, pieces = _loose_elements(edit.mesh, edit.parent, None if ends is None else ends["elements"],
+                                        model.handles, material)
+    if pieces:  # (none held at all: _check_held reports it)
+        lift = topology.excise(edit.mesh, lambda centroids: loose.copy())
+        edit = dataclasses.replace(lift, parent=edit.parent[lift.parent], elements=edit.elements[lift.elements],
+                                   cut_edges=edit.cut_edges, n_old_nodes=edit.n_old_nodes,
+                                   n_old_elements=edit.n_old_elements)
+        kept = lift.elements  # the elements that stay, of those the edit made (a kept node keeps all of them)
+        weights = None if weights is None else weights[kept]
+        regions = {new: regions[old] for new, old in enumerate(kept.tolist()) if old in regions}
+        material = None if material is None else material[lift.parent]
+        stages.append((lift, regions))
     carried = _Carried(mesh=edit.mesh, parent=edit.parent, elements=edit.elements, n_old_nodes=edit.n_old_nodes,
                        n_old_elements=edit.n_old_elements, weights=weights, material=material, regions=regions,
                        stages=tuple(stages))
@@ -529,21 +524,6 @@ def _new_stitches(mesh, x, pairs, k, field, check_point, weights, regions) -> di
     keep = ~same
     return {"elements": elements[:, keep], "barycentric": bary[:, keep], "stiffness": np.full(int(keep.sum()), k),
             "gaps": (at[0] - at[1])[:, keep], "tightness": np.zeros(int(keep.sum()))}
-
-
-def _drop_loose_pieces(edit, stitch_elements, handles, material=None):
-    """Quasistatic scenes: lift out the pieces nothing holds (no handle at a node with material there, no suture to a
-    held piece), which have no equilibrium, as a surgeon lifts out what was cut free. Returns ``(edit, lift,
-    pieces)``: the edit with them removed, the excision of its mesh that lifts them out (``None``: nothing to lift)
-    and how many pieces went."""
-    loose, pieces = _loose_elements(edit.mesh, edit.parent, stitch_elements, handles, material)
-    if not pieces:
-        return edit, None, 0  # nothing to drop (or nothing held at all: _check_held reports it)
-    second = topology.excise(edit.mesh, lambda centroids: loose.copy())
-    merged = dataclasses.replace(second, parent=edit.parent[second.parent], elements=edit.elements[second.elements],
-                                 cut_edges=edit.cut_edges, n_old_nodes=edit.n_old_nodes,
-                                 n_old_elements=edit.n_old_elements)
-    return merged, second, pieces
 
 
 def _loose_elements(mesh, parent, stitch_elements, handles, material=None, every_piece_loose=None):
@@ -623,8 +603,4 @@ _OPERATIONS = {"excisions": {"elements": element_cuts.excise_through, "edges": t
 
 def _end_key(nodes, weights):
     """A stitch end as ``{node: weight}`` (weights rounded), to tell two ends at the same point of the same nodes."""
-    out = {}
-    for q, w in zip(nodes.tolist(), weights.tolist()):
-        if w > 1e-12:
-            out[q] = out.get(q, 0.0) + round(w, 9)
-    return out
+    return {q: round(w, 9) for q, w in zip(nodes.tolist(), weights.tolist()) if w > 1e-12}
