@@ -201,8 +201,7 @@ def surface_verts(mesh, x, faces=None) -> np.ndarray:
     """The boundary triangles of a body with its nodes at ``x`` ``(3, n_nodes)`` as drawn: ``(n_faces, 3, 3)``,
     the body's y (up in the chapters) on the plot's vertical axis, its z across; rounded to what a figure shows."""
     faces = boundary_faces(mesh)[0] if faces is None else faces
-    x = shown(np.asarray(x, dtype=float)[[0, 2, 1]], digits=5)
-    return x[:, faces].transpose(2, 1, 0)
+    return polygons(shown(np.asarray(x, dtype=float)[[0, 2, 1]], digits=5), faces)
 
 
 def body_axes(ax, xlim, ylim, zlim, elev: float = 22.0, azim: float = -58.0, zoom: float = 1.0) -> None:

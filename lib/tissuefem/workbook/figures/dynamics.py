@@ -56,13 +56,13 @@ def fig_ch07_cfl(study=None) -> Figure:
                 arrowprops=dict(arrowstyle="->", color="0.3", lw=0.8))
     for hi, mi, r in zip(h, measured, study):
         ax.annotate(f"{r['nx']}x{r['nx'] // 2}", (hi, mi), xytext=(4, -11), textcoords="offset points", fontsize=7)
-    finish(ax, dict(fontsize=8, loc="lower right"), "both", xlabel="element size $h$ (shortest edge)",
+    finish(ax, legend=dict(fontsize=8, loc="lower right"), grid="both", xlabel="element size $h$ (shortest edge)",
            ylabel="largest stable $\\Delta t$ (s)", title="symplectic Euler: the step must shrink with the mesh")
     ax_c.semilogx(h, shown([r["courant"] for r in study]), "o-", color="C0", label="Courant number $c\\,\\Delta t / h$")
     ax_c.semilogx(h, shown([r["ratio"] for r in study]), "s-", color="C2", label="measured / estimate")
     ax_c.set_xticks(h, [f"{hi:g}" for hi in h])
     ax_c.xaxis.set_minor_formatter(NullFormatter())
-    finish(ax_c, dict(fontsize=8, loc="lower center"), "both", xlabel="element size $h$", ylim=(0.0, 1.2),
+    finish(ax_c, legend=dict(fontsize=8, loc="lower center"), grid="both", xlabel="element size $h$", ylim=(0.0, 1.2),
            title=f"$c = \\sqrt{{(\\lambda + 2\\mu)/\\rho_0}} = {study.wave_speed:.1f}$")
     fig.suptitle(f"Chapter 7, the CFL condition: $\\Delta t \\leq C h / c$ (stable neo-Hookean flap, "
                  f"E = {TISSUE_E:g}, ν = {TISSUE_NU:g}, $\\rho_0$ = 1; fitted exponent {study.exponent:.3f})",
@@ -87,7 +87,7 @@ def fig_ch07_energy() -> Figure:
     t = stable_dt * np.arange(e.size)
     label = f"symplectic Euler, $\\Delta t$ = 0.5 $\\Delta t_{{crit}}$ = {1000 * stable_dt:.2f} ms"
     ax.plot(t, e / e0, color="C4", lw=0.8, label=label)
-    finish(ax, dict(fontsize=7.5, loc="center right"), xlim=(0, ENERGY_T_END), ylim=(0.0, 1.15),
+    finish(ax, legend=dict(fontsize=7.5, loc="center right"), xlim=(0, ENERGY_T_END), ylim=(0.0, 1.15),
            xlabel="time $t$ (s)", ylabel="total energy $E(t) / E(0)$",
            title="backward Euler damps, symplectic Euler does not")
     ax_z.plot(t, e / e0, color="C4", lw=0.7)

@@ -86,7 +86,7 @@ def fig_ch05_along_vs_across() -> Figure:
         ax_curve.plot(stretches, result.nominal_stress, "o-", ms=3, color=color, label=label)
     top.suptitle("the strip at stretch 1.3 (dashed: rest shape; red: deformed fibers $\\mathbf{F}\\mathbf{g}$)",
                  fontsize=9)
-    finish(ax_curve, dict(fontsize=8), xlabel="stretch (pulled length / rest length)",
+    finish(ax_curve, legend=dict(fontsize=8), xlabel="stretch (pulled length / rest length)",
            ylabel=stress_label("force / rest height: mean $P_{11}$"), title="tensile test: clamped ends, free sides")
 
     theta = np.linspace(0.0, 90.0, 181)
@@ -101,7 +101,7 @@ def fig_ch05_along_vs_across() -> Figure:
     ax_mod.annotate("", xy=(2.0, iso + K_FIBER), xytext=(2.0, iso),
                     arrowprops=dict(arrowstyle="<->", color="0.2", lw=1))
     ax_mod.text(5.0, iso + 0.2 * K_FIBER, f"along − across\n= $k$ = {K_FIBER:g}", fontsize=9, va="center")
-    finish(ax_mod, dict(fontsize=8), xlabel="fiber angle $\\theta$ to the pull (degrees)",
+    finish(ax_mod, legend=dict(fontsize=8), xlabel="fiber angle $\\theta$ to the pull (degrees)",
            ylabel=stress_label("confined modulus $P_{11}/\\varepsilon$"),
            title="small strain: $\\mathbf{F} = \\mathrm{diag}(1 + \\varepsilon, 1)$ on the boundary", xticks=angles)
     fig.suptitle(f"Pulling along versus across the fibers: neo-Hookean matrix (E = 1000, ν = 0.3) "
@@ -133,7 +133,7 @@ def fig_ch05_muscle_pull() -> Figure:
     fig.colorbar(image, ax=[axes["m0"], axes["m1"]], location="left", shrink=0.8,
                  label="fiber stretch $\\sqrt{I_4} = |\\mathbf{F}\\mathbf{g}|$")
     ax = axes["curve"]
-    finish(ax, dict(fontsize=8), xlabel="muscle stretch (tendon to tendon)", ylabel="tendon force (per unit thickness)",
-           title="force needed to pull the tendon")
+    finish(ax, legend=dict(fontsize=8), xlabel="muscle stretch (tendon to tendon)",
+           ylabel="tendon force (per unit thickness)", title="force needed to pull the tendon")
     fig.suptitle("The fusiform muscle held at its left tendon and pulled by its right one", fontsize=11)
     return fig

@@ -164,8 +164,8 @@ def fig_ch03_rotation_stress() -> Figure:
               label="$2(\\lambda+\\mu)(1-\\cos\\theta)^2$")
     for ax, what, ylabel in ((ax_e, "energy", "energy density $\\Psi(\\mathbf{R}_\\theta)$"),
                              (ax_p, "stress", stress_label("$|\\mathbf{P}(\\mathbf{R}_\\theta)|$"))):
-        finish(ax, dict(fontsize=8, loc="upper left"), xlabel="rotation angle $\\theta$ [degrees]", ylabel=ylabel,
-               title=f"{what} of a rigid rotation", xticks=np.arange(0, 181, 30))
+        finish(ax, legend=dict(fontsize=8, loc="upper left"), xlabel="rotation angle $\\theta$ [degrees]",
+               ylabel=ylabel, title=f"{what} of a rigid rotation", xticks=np.arange(0, 181, 30))
 
     theta = np.radians(60.0)
     outline = _outline(1.0, 1.0)
@@ -184,8 +184,8 @@ def fig_ch03_rotation_stress() -> Figure:
     wall = np.array([[0.0, 0.0], [-0.6, 0.6]])
     w = rotation(theta) @ wall + [[0.0], [0.5]]
     ax_b.plot(w[0], w[1], color="k", lw=3.5, solid_capstyle="butt", label="clamped edge, turned by 60°")
-    finish(ax_b, dict(fontsize=7.5, loc="upper left"), grid=None, aspect="equal", xlim=(-0.7, 1.6), ylim=(-0.1, 2.6),
-           xlabel="$x_1$", ylabel="$x_2$", title="equilibrium of a block turned at its left edge")
+    finish(ax_b, legend=dict(fontsize=7.5, loc="upper left"), grid=None, aspect="equal", xlim=(-0.7, 1.6),
+           ylim=(-0.1, 2.6), xlabel="$x_1$", ylabel="$x_2$", title="equilibrium of a block turned at its left edge")
     fig.suptitle(f"Linear elasticity is not frame indifferent (E = {TISSUE_E:g}, $\\nu$ = {TISSUE_NU:g})")
     return fig
 
@@ -251,7 +251,8 @@ def fig_ch04_cost_accuracy(rows=None) -> Figure:
         lo, hi = 0.5 * min(times), 3.0 * max(times)
         ax.axvline(FRAME_BUDGET_MS, color="C3", lw=1.5, ls="--", label="33 ms: one frame at 30 Hz")
         ax.axvspan(FRAME_BUDGET_MS, hi, color="C3", alpha=0.06)
-        finish(ax, dict(fontsize=8, loc="lower left"), "both", xlabel="wall time [ms]", title=title, xlim=(lo, hi))
+        finish(ax, legend=dict(fontsize=8, loc="lower left"), grid="both", xlabel="wall time [ms]", title=title,
+               xlim=(lo, hi))
     axes[0].set_ylabel("relative $L^2$ error of the displacement")
     fig.suptitle(f"What accuracy costs: Neo-Hookean block, error against time ({source}; labels: dofs)")
     return fig

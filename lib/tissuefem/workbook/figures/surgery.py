@@ -139,7 +139,7 @@ def fig_ch08_two_pieces(path=None) -> Figure:
     ax.text(times[cut], 0.98, " cut", transform=ax.get_xaxis_transform(), va="top", fontsize=8)
     ax.plot(times[list(FILMSTRIP)], com[list(FILMSTRIP), 1], "s", color="C3", ms=5, label="frames shown above")
     err = float(np.max(np.abs(com[cut:, 1] - run["free_fall"])))
-    finish(ax, dict(fontsize=7.5, loc="lower left"), xlabel="time (s), one backward-Euler step per frame",
+    finish(ax, legend=dict(fontsize=7.5, loc="lower left"), xlabel="time (s), one backward-Euler step per frame",
            ylabel="centre of mass height $y$", xlim=(0.0, times[-1]))
     ax.set_title(f"free piece against free fall: largest difference {at_least(err, spec='.1e')}", fontsize=9)
     fig.suptitle(f"Chapter 8: a cut through the body makes two pieces (stable neo-Hookean, E = {TISSUE_E:g}, "
@@ -242,7 +242,7 @@ def fig_ch08_flap() -> Figure:
     for L in lengths:
         ax.annotate(f"{runs[L].stitches} stitches", (L, runs[L].flap_tension), xytext=(0, 8),
                     textcoords="offset points", ha="center", fontsize=7)
-    finish(ax, dict(fontsize=7.5, loc="lower left"), xlabel="flap length", ylabel=stress_label("tension"),
+    finish(ax, legend=dict(fontsize=7.5, loc="lower left"), xlabel="flap length", ylabel=stress_label("tension"),
            xticks=lengths, xlim=(lengths[0] - 0.25, lengths[-1] + 0.25),
            ylim=(0.0, 1.25 * max(runs[L].flap_tension for L in lengths)))
     ax.set_title("(c) longer flap, less tension", fontsize=9)
