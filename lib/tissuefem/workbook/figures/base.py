@@ -1,5 +1,6 @@
-"""What every lecture figure shares: the mark that lists a function as a figure, and deterministic saving (no
-pyplot state; no timestamp or version in the PNG, so a file changes only when the figure does)."""
+"""What every lecture figure shares: the mark that lists a function as a figure, deterministic saving (no pyplot
+state; no timestamp or version in the PNG, so a file changes only when the figure does) and the drawing idioms
+of several chapters."""
 
 from __future__ import annotations
 
