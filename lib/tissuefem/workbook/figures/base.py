@@ -150,7 +150,7 @@ def polygons(x, cells) -> np.ndarray:
 # --- a sheet held along its left edge x = 0, 0 <= y <= 1 (chapters 7 and 8) ------------------------------------
 
 def sheet_window(xs, margin: float = 0.08):
-    """``(xlim, ylim)`` around the held edge and every node of the states ``xs`` (each ``(2, n_nodes)``)."""
+    """``(xlim, ylim)``: ``margin`` beyond the held edge and every node of the states ``xs`` (each ``(2, n_nodes)``)."""
     x = np.hstack([*xs, [[0.0], [1.0]]])
     return (x[0].min() - margin, x[0].max() + margin), (x[1].min() - margin, x[1].max() + margin)
 
