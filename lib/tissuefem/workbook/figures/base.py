@@ -78,10 +78,9 @@ def whole_pixels(inches: float, dpi: float = DPI) -> float:
     pixels = round(inches * dpi)
     if abs(inches * dpi - pixels) > 1e-6:
         return inches  # a fraction of a pixel: truncated alike by every version
-    size = inches
-    while math.floor(size * dpi) < pixels:
-        size = math.nextafter(size, math.inf)
-    return size
+    while math.floor(inches * dpi) < pixels:
+        inches = math.nextafter(inches, math.inf)
+    return inches
 
 
 def shown(values, floor=None, digits=SHOWN_DIGITS) -> np.ndarray:
