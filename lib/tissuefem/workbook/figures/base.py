@@ -1,5 +1,6 @@
-"""What every lecture figure shares: the mark that lists a function as a figure, and deterministic saving (no
-pyplot state; no timestamp or version in the PNG, so a file changes only when the figure does)."""
+"""What every lecture figure shares: the mark that lists a function as a figure, deterministic saving (no pyplot
+state; no timestamp or version in the PNG, so a file changes only when the figure does) and the drawing idioms
+of several chapters."""
 
 from __future__ import annotations
 
@@ -12,13 +13,14 @@ from typing import Callable
 import matplotlib
 import numpy as np
 from matplotlib.animation import FuncAnimation, PillowWriter
+from matplotlib.collections import PolyCollection
 from matplotlib.figure import Figure
 
 from ...engine.constants import TISSUE_E
 
 __all__ = ["lecture_figure", "save", "shown", "at_least", "whole_pixels", "matplotlib_note", "ANIMATION_MIN_WIDTH",
-           "animation_figure", "save_animation", "frame_axes", "stress_label", "STRESS_UNITS", "boundary_faces",
-           "surface_verts", "body_axes"]
+           "save_animation", "frame_axes", "finish", "polygons", "stress_label", "STRESS_UNITS", "sheet_window",
+           "filmstrip", "write_sheet_animation", "boundary_faces", "surface_verts", "body_axes"]
 
 #: the resolution of every saved figure
 DPI = 110
@@ -76,10 +78,9 @@ def whole_pixels(inches: float, dpi: float = DPI) -> float:
     pixels = round(inches * dpi)
     if abs(inches * dpi - pixels) > 1e-6:
         return inches  # a fraction of a pixel: truncated alike by every version
-    size = inches
-    while math.floor(size * dpi) < pixels:
-        size = math.nextafter(size, math.inf)
-    return size
+    while math.floor(inches * dpi) < pixels:
+        inches = math.nextafter(inches, math.inf)
+    return inches
 
 
 def shown(values, floor=None, digits=SHOWN_DIGITS) -> np.ndarray:
@@ -115,15 +116,6 @@ def save(fig: Figure, path) -> None:
     fig.savefig(path, dpi=DPI, metadata={"Software": None})
 
 
-def animation_figure(figsize, top: float, xlim, ylim, title_y: float, fontsize: float):
-    """``(fig, ax, title)`` of an animation: fixed axes with the held left edge drawn, and an empty title."""
-    fig = Figure(figsize=figsize)
-    ax = fig.add_axes([0.02, 0.02, 0.96, top])
-    frame_axes(ax, xlim, ylim)
-    ax.plot([0.0, 0.0], [0.0, 1.0], color="k", lw=4)
-    return fig, ax, fig.text(0.5, title_y, "", ha="center", va="center", fontsize=fontsize)
-
-
 def frame_axes(ax, xlim, ylim) -> None:
     """Equal aspect, the given limits, no ticks: the axes of a drawing of the body."""
     ax.set(aspect="equal", xlim=xlim, ylim=ylim, xticks=[], yticks=[])
@@ -136,6 +128,64 @@ def save_animation(fig: Figure, update: Callable, frames: int, gif_path, dt: flo
     animation = FuncAnimation(fig, update, frames=frames, interval=1000 * dt, blit=False, repeat=False)
     animation.save(gif_path, writer=PillowWriter(fps=round(1 / dt)), dpi=dpi)
     return gif_path
+
+
+def finish(ax, legend: dict | None = None, grid: str | None = "major", **props) -> None:
+    """The end of a plot: ``ax.set(**props)``, the figures' light grid (``grid="both"``: at the minor ticks too, for
+    a log axis; ``None``: no grid) and a legend with the options ``legend`` (``None``: no legend)."""
+    ax.set(**props)
+    if grid is not None:
+        ax.grid(True, which=grid, alpha=0.3)
+    if legend is not None:
+        ax.legend(**legend)
+
+
+def polygons(x, cells) -> np.ndarray:
+    """The cells (triangles; or edges: segments) ``cells`` ``(corners, n)`` with their nodes at ``x`` ``(dim,
+    n_nodes)`` as a collection draws them: ``(n, corners, dim)``."""
+    return np.asarray(x, dtype=float)[:, cells].transpose(2, 1, 0)
+
+
+# --- a sheet held along its left edge x = 0, 0 <= y <= 1 (chapters 7 and 8) ------------------------------------
+
+def sheet_window(xs, margin: float = 0.08):
+    """``(xlim, ylim)``: ``margin`` beyond the held edge and every node of the states ``xs`` (each ``(2, n_nodes)``)."""
+    x = np.hstack([*xs, [[0.0], [1.0]]])
+    return (x[0].min() - margin, x[0].max() + margin), (x[1].min() - margin, x[1].max() + margin)
+
+
+def filmstrip(times, frames, notes: dict, width: float, height: float, height_ratios, window):
+    """``(fig, axes, below)``: one drawing's axes per frame ``k`` in ``frames`` (``width`` inches each; titled by its
+    time, and ``notes[k]`` if given), over one wide axes ``below`` for the history of the run."""
+    fig = Figure(figsize=(width * len(frames) + 0.6, height), layout="constrained")
+    grid = fig.add_gridspec(2, len(frames), height_ratios=height_ratios)
+    axes = [fig.add_subplot(grid[0, col]) for col in range(len(frames))]
+    for ax, k in zip(axes, frames):
+        frame_axes(ax, *window)
+        ax.set_title(f"t = {times[k]:.2f} s" + (f" ({notes[k]})" if k in notes else ""), fontsize=8.5)
+    return fig, axes, fig.add_subplot(grid[1, :])
+
+
+def write_sheet_animation(gif_path, frames, titles, dt: float, dpi: float, figsize, top: float, fontsize: float,
+                          **style) -> Path:
+    """Write the sheet's ``frames`` as a GIF, one per ``dt`` seconds, each ``(x, t, colors)``: its nodes, triangles and
+    their face colours (``style``: the triangles' edges), under the title ``titles[k]``, in fixed axes the height
+    ``top`` of the figure. No anti-aliasing: few colours per frame keep the GIF small (its palette has at most 256)."""
+    fig = Figure(figsize=figsize)
+    ax = fig.add_axes([0.02, 0.02, 0.96, top])
+    frame_axes(ax, *sheet_window([x for x, _, _ in frames]))
+    ax.plot([0.0, 0.0], [0.0, 1.0], color="k", lw=4)
+    title = fig.text(0.5, 0.5 * (1.02 + top), "", ha="center", va="center", fontsize=fontsize)  # above the axes
+    x, t, colors = frames[0]
+    body = ax.add_collection(PolyCollection(polygons(x, t), facecolors=colors, antialiaseds=False, **style))
+
+    def update(k):
+        x, t, colors = frames[k]
+        body.set_verts(polygons(x, t))
+        body.set_facecolors(colors)
+        title.set_text(titles[k])
+
+    return save_animation(fig, update, len(frames), gif_path, dt, dpi)
 
 
 # --- bodies of tetrahedra -------------------------------------------------------------------------------------------
@@ -151,8 +201,7 @@ def surface_verts(mesh, x, faces=None) -> np.ndarray:
     """The boundary triangles of a body with its nodes at ``x`` ``(3, n_nodes)`` as drawn: ``(n_faces, 3, 3)``,
     the body's y (up in the chapters) on the plot's vertical axis, its z across; rounded to what a figure shows."""
     faces = boundary_faces(mesh)[0] if faces is None else faces
-    x = shown(np.asarray(x, dtype=float)[[0, 2, 1]], digits=5)
-    return x[:, faces].transpose(2, 1, 0)
+    return polygons(shown(np.asarray(x, dtype=float)[[0, 2, 1]], digits=5), faces)
 
 
 def body_axes(ax, xlim, ylim, zlim, elev: float = 22.0, azim: float = -58.0, zoom: float = 1.0) -> None:

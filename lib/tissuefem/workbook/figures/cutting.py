@@ -13,7 +13,7 @@ from ...surgery.element_cuts import picture as element_picture
 from ...surgery.surfaces import contact_surface
 from ..procedures import (CRACK, CRACK_MESHES, FLAP_MESHES, VIRTUAL_NODES_STROKE, crack_opening, crack_runs,
                           flap_comparison, fold_run, overlap_area, pressed_cut_run, virtual_nodes_run)
-from .base import frame_axes, lecture_figure, shown, stress_label
+from .base import frame_axes, lecture_figure, polygons, shown, stress_label
 from .surgery import TENSION_CMAP, tension_colorbar, tension_norm
 
 __all__ = ["fig_ch10_virtual_nodes", "fig_ch10_cut_through", "fig_ch10_flaps", "fig_ch10_contact", "draw_picture",
@@ -24,16 +24,13 @@ def draw_picture(ax, sim, values=None, norm=None, *, color="0.88", lw=0.2, outli
     """Draw the tissue of ``sim`` as it is now: every element's material (``Simulation.picture``)."""
     picture = sim.picture
     x = picture.points(sim.positions())
-    verts = x[:, picture.triangles].transpose(2, 1, 0)
     if values is None:
-        coll = PolyCollection(verts, facecolors=color, edgecolors="none")
+        colors = dict(facecolors=color)
     else:
-        coll = PolyCollection(verts, array=np.asarray(values, dtype=float)[picture.element], cmap=TENSION_CMAP,
-                              norm=norm, edgecolors="none")
-    ax.add_collection(coll)
+        colors = dict(array=np.asarray(values, dtype=float)[picture.element], cmap=TENSION_CMAP, norm=norm)
+    coll = ax.add_collection(PolyCollection(polygons(x, picture.triangles), edgecolors="none", **colors))
     if outline:
-        segments = x[:, picture.edges].transpose(2, 1, 0)
-        ax.add_collection(LineCollection(segments, colors=[(0.0, 0.0, 0.0, 0.3)], linewidths=lw))
+        ax.add_collection(LineCollection(polygons(x, picture.edges), colors=[(0.0, 0.0, 0.0, 0.3)], linewidths=lw))
     return coll
 
 
@@ -56,8 +53,7 @@ def fig_ch10_virtual_nodes() -> Figure:
     ax = axes[0]
     P = edit.mesh.p[:, :n_old]
     t_old = np.unique(np.sort(edit.parent[edit.mesh.t], axis=0), axis=1)
-    ax.add_collection(PolyCollection(P[:, t_old].transpose(2, 1, 0), facecolors="0.9", edgecolors="0.4",
-                                     linewidths=0.6))
+    ax.add_collection(PolyCollection(polygons(P, t_old), facecolors="0.9", edgecolors="0.4", linewidths=0.6))
     ax.plot(*P, "o", color="k", ms=3)
     ax.plot(*stroke.T, "-", color="C3", lw=2)
     frame_axes(ax, (-0.1, 2.25), (-0.12, 1.15))
@@ -66,8 +62,8 @@ def fig_ch10_virtual_nodes() -> Figure:
     x = sim.positions()
     cut = np.array(sorted(edit.regions))
     draw_picture(ax, sim, color="0.85", lw=0.5)
-    ax.add_collection(PolyCollection(shown(x[:, sim.mesh.t[:, cut]]).transpose(2, 1, 0), facecolors="none",
-                                     edgecolors="C0", linewidths=0.8, linestyles="--"))
+    ax.add_collection(PolyCollection(polygons(shown(x), sim.mesh.t[:, cut]), facecolors="none", edgecolors="C0",
+                                     linewidths=0.8, linestyles="--"))
     real = np.arange(sim.mesh.nvertices) < n_old
     ax.plot(*shown(x[:, real]), "o", color="k", ms=3, label="nodes of the mesh")
     ax.plot(*shown(x[:, ~real]), "o", mfc="white", mec="C0", ms=6, mew=1.3,
@@ -182,13 +178,12 @@ def fig_ch10_contact() -> Figure:
             picture = element_picture(mesh, regions)
             points = shown(picture.points(x))
             ax = axes[i, j]
-            ax.add_collection(PolyCollection(points[:, picture.triangles].transpose(2, 1, 0),
-                                             facecolors=(0.27, 0.51, 0.71, 0.45), edgecolors="none"))
+            ax.add_collection(PolyCollection(polygons(points, picture.triangles), facecolors=(0.27, 0.51, 0.71, 0.45),
+                                             edgecolors="none"))
             surface = model.contact.surface if contact else (contact_surface(mesh, None, regions) if regions
                                                              else ContactSurface.from_mesh(mesh))
-            y = shown(surface.positions(x))
-            a, b = surface.segments
-            ax.add_collection(LineCollection(np.stack([y[:, a].T, y[:, b].T], axis=1), colors="k", linewidths=0.6))
+            segments = polygons(shown(surface.positions(x)), np.asarray(surface.segments))
+            ax.add_collection(LineCollection(segments, colors="k", linewidths=0.6))
             frame_axes(ax, *window)
             overlap = overlap_area(picture, x)
             what = ("a strip folded onto itself", "a crack pressed shut, sheared")[i]

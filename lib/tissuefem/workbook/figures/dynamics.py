@@ -6,7 +6,6 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from matplotlib.collections import PolyCollection
 from matplotlib.colors import to_rgba
 from matplotlib.figure import Figure
 from matplotlib.ticker import NullFormatter
@@ -15,7 +14,7 @@ from ...engine.constants import FRAME_BUDGET as FRAME_DT, TISSUE_E, TISSUE_NU  #
 from ...engine.explicit import critical_time_step
 from ..timestepping import (CAPPED_FRAMES, CAPS, backward_euler_run, capped_runs, cfl_study, released_flap,
                             symplectic_energies)
-from .base import animation_figure, frame_axes, lecture_figure, save_animation, shown
+from .base import filmstrip, finish, lecture_figure, sheet_window, shown, write_sheet_animation
 from .inversion import UPRIGHT_COLOR, draw_state
 
 #: mesh sizes (cells along the flap's length) of the CFL figure
@@ -57,18 +56,14 @@ def fig_ch07_cfl(study=None) -> Figure:
                 arrowprops=dict(arrowstyle="->", color="0.3", lw=0.8))
     for hi, mi, r in zip(h, measured, study):
         ax.annotate(f"{r['nx']}x{r['nx'] // 2}", (hi, mi), xytext=(4, -11), textcoords="offset points", fontsize=7)
-    ax.set(xlabel="element size $h$ (shortest edge)", ylabel="largest stable $\\Delta t$ (s)",
-           title="symplectic Euler: the step must shrink with the mesh")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8, loc="lower right")
+    finish(ax, legend=dict(fontsize=8, loc="lower right"), grid="both", xlabel="element size $h$ (shortest edge)",
+           ylabel="largest stable $\\Delta t$ (s)", title="symplectic Euler: the step must shrink with the mesh")
     ax_c.semilogx(h, shown([r["courant"] for r in study]), "o-", color="C0", label="Courant number $c\\,\\Delta t / h$")
     ax_c.semilogx(h, shown([r["ratio"] for r in study]), "s-", color="C2", label="measured / estimate")
     ax_c.set_xticks(h, [f"{hi:g}" for hi in h])
     ax_c.xaxis.set_minor_formatter(NullFormatter())
-    ax_c.set(xlabel="element size $h$", ylim=(0.0, 1.2),
-             title=f"$c = \\sqrt{{(\\lambda + 2\\mu)/\\rho_0}} = {study.wave_speed:.1f}$")
-    ax_c.grid(True, which="both", alpha=0.3)
-    ax_c.legend(fontsize=8, loc="lower center")
+    finish(ax_c, legend=dict(fontsize=8, loc="lower center"), grid="both", xlabel="element size $h$", ylim=(0.0, 1.2),
+           title=f"$c = \\sqrt{{(\\lambda + 2\\mu)/\\rho_0}} = {study.wave_speed:.1f}$")
     fig.suptitle(f"Chapter 7, the CFL condition: $\\Delta t \\leq C h / c$ (stable neo-Hookean flap, "
                  f"E = {TISSUE_E:g}, ν = {TISSUE_NU:g}, $\\rho_0$ = 1; fitted exponent {study.exponent:.3f})",
                  fontsize=10)
@@ -92,55 +87,38 @@ def fig_ch07_energy() -> Figure:
     t = stable_dt * np.arange(e.size)
     label = f"symplectic Euler, $\\Delta t$ = 0.5 $\\Delta t_{{crit}}$ = {1000 * stable_dt:.2f} ms"
     ax.plot(t, e / e0, color="C4", lw=0.8, label=label)
-    ax.set(xlim=(0, ENERGY_T_END), ylim=(0.0, 1.15), xlabel="time $t$ (s)", ylabel="total energy $E(t) / E(0)$",
+    finish(ax, legend=dict(fontsize=7.5, loc="center right"), xlim=(0, ENERGY_T_END), ylim=(0.0, 1.15),
+           xlabel="time $t$ (s)", ylabel="total energy $E(t) / E(0)$",
            title="backward Euler damps, symplectic Euler does not")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7.5, loc="center right")
     ax_z.plot(t, e / e0, color="C4", lw=0.7)
     ax_z.axhline(1.0, color="k", lw=0.6, ls="--")
     ax_z.text(0.03, 0.04, f"min {e.min() / e0:.3f}, max {e.max() / e0:.3f}", transform=ax_z.transAxes, fontsize=8)
-    ax_z.set(xlim=(0, ENERGY_T_END), ylim=(0.9, 1.1), xlabel="time $t$ (s)", ylabel="$E(t) / E(0)$",
-             title=f"symplectic Euler at {1000 * stable_dt:.2f} ms: bounded")
-    ax_z.grid(alpha=0.3)
+    finish(ax_z, xlim=(0, ENERGY_T_END), ylim=(0.9, 1.1), xlabel="time $t$ (s)", ylabel="$E(t) / E(0)$",
+           title=f"symplectic Euler at {1000 * stable_dt:.2f} ms: bounded")
     # just above the limit
     unstable_dt = 1.1 * dt_crit
     e = symplectic_energies(problem, u0, unstable_dt, ENERGY_T_END, energy_limit=1e6 * e0)
     steps = np.arange(e.size)
     ax_u.semilogy(steps, e / e0, "o-", color="C3", ms=4, lw=1.2)
     ax_u.axhline(1.0, color="k", lw=0.6, ls="--")
-    ax_u.set(xlabel="step", ylabel="$E / E(0)$ (log scale)",
-             title="... at 1.1 $\\Delta t_{crit}$: blow-up")
+    finish(ax_u, grid="both", xlabel="step", ylabel="$E / E(0)$ (log scale)",
+           title="... at 1.1 $\\Delta t_{crit}$: blow-up")
     ax_u.text(0.04, 0.96, f"symplectic Euler, $\\Delta t$ = {1000 * unstable_dt:.2f} ms:\n"
               f"energy x{e[-1] / e0:.0e} after {e.size - 1} steps ({1000 * unstable_dt * (e.size - 1):.0f} ms)",
               transform=ax_u.transAxes, va="top", fontsize=8, color="C3")
-    ax_u.grid(True, which="both", alpha=0.3)
     fig.suptitle(f"Chapter 7: energy of the released flap ($\\Delta t_{{crit}} = 2/\\omega_{{max}}$ = "
                  f"{1000 * dt_crit:.2f} ms at rest; 8 x 4 cells, stable neo-Hookean, E = {TISSUE_E:g}, "
                  f"ν = {TISSUE_NU:g}, $\\rho_0$ = 1)", fontsize=10)
     return fig
 
 
-def _flap_axes_limits(states, problem, margin: float = 0.08):
-    x = np.hstack([problem.deformed_positions(u) for u in states])
-    return (x[0].min() - margin, x[0].max() + margin), (x[1].min() - margin, x[1].max() + margin)
-
-
 def write_flap_animation(gif_path, problem, states, dt: float, dpi: int = 100) -> Path:
     """Write the states as a GIF at one frame per step of ``dt``: 680 x 480 pixels, large enough to
     project (:data:`~tissuefem.workbook.figures.base.ANIMATION_MIN_WIDTH`)."""
-    fig, ax, title = animation_figure((6.8, 4.8), 0.82, *_flap_axes_limits(states, problem), 0.92, 14)
-    verts = lambda u: problem.deformed_positions(u)[:, problem.mesh.t].transpose(2, 1, 0)  # noqa: E731
-    # no anti-aliasing: few colours per frame keep the GIF small (its palette has at most 256)
-    body = PolyCollection(verts(states[0]), facecolors=to_rgba(UPRIGHT_COLOR, 0.6), edgecolors="0.35",
-                          linewidths=0.5, antialiaseds=False)
-    ax.add_collection(body)
-
-    def update(k):
-        body.set_verts(verts(states[k]))
-        title.set_text(f"backward Euler, Δt = 1/{1 / dt:.0f} s:  t = {k * dt:.2f} s")
-        return body, title
-
-    return save_animation(fig, update, len(states), gif_path, dt, dpi)
+    frames = [(problem.deformed_positions(u), problem.mesh.t, to_rgba(UPRIGHT_COLOR, 0.6)) for u in states]
+    titles = [f"backward Euler, Δt = 1/{1 / dt:.0f} s:  t = {k * dt:.2f} s" for k in range(len(states))]
+    return write_sheet_animation(gif_path, frames, titles, dt, dpi, (6.8, 4.8), 0.82, 14, edgecolors="0.35",
+                                 linewidths=0.5)
 
 
 def release_history(ax, times, y, energy_ratio, marked, label, ylabel) -> None:
@@ -152,8 +130,7 @@ def release_history(ax, times, y, energy_ratio, marked, label, ylabel) -> None:
     ax2 = ax.twinx()
     ax2.plot(times, energy_ratio, color="C2", lw=1.0, ls="--", label="total energy / initial")
     ax2.set(ylim=(0.0, 1.05), ylabel="$E(t)/E(0)$")
-    ax.set(xlabel="time $t$ (s), one backward-Euler step per frame", ylabel=ylabel, xlim=(0.0, times[-1]))
-    ax.grid(alpha=0.3)
+    finish(ax, xlabel="time $t$ (s), one backward-Euler step per frame", ylabel=ylabel, xlim=(0.0, times[-1]))
     (h1, l1), (h2, l2) = ax.get_legend_handles_labels(), ax2.get_legend_handles_labels()
     ax.legend(h1 + h2, l1 + l2, fontsize=8, loc="upper right")
 
@@ -167,19 +144,14 @@ def fig_ch07_released_flap(path=None) -> Figure:
     mesh = problem.mesh
     tip = np.flatnonzero((np.abs(mesh.p[0] - 2.0) < 1e-9) & (np.abs(mesh.p[1] - 0.5) < 1e-9))[0]
     tip_dof = problem.basis.nodal_dofs[1, tip]
-    xlim, ylim = _flap_axes_limits([states[k] for k in FILMSTRIP_FRAMES], problem)
-    n = len(FILMSTRIP_FRAMES)
-    fig = Figure(figsize=(1.6 * n + 0.6, 4.6), layout="constrained")
-    grid = fig.add_gridspec(2, n, height_ratios=[1.0, 1.15])
-    for col, k in enumerate(FILMSTRIP_FRAMES):
-        ax = fig.add_subplot(grid[0, col])
+    window = sheet_window([problem.deformed_positions(states[k]) for k in FILMSTRIP_FRAMES])
+    fig, strip, below = filmstrip(times, FILMSTRIP_FRAMES, {0: "let go"}, 1.6, 4.6, [1.0, 1.15], window)
+    for ax, k in zip(strip, FILMSTRIP_FRAMES):
         ax.plot(*mesh.p[:, mesh.t[[0, 1, 2, 0]]], color="0.8", lw=0.3)  # the rest shape, faint
         draw_state(ax, mesh, problem.deformed_positions(states[k]))
-        ax.plot([0.0, 0.0], [0.0, 1.0], color="k", lw=2.0)
-        frame_axes(ax, xlim, ylim)
-        ax.set_title(f"t = {times[k]:.2f} s" + (" (let go)" if k == 0 else ""), fontsize=8.5)
+        ax.plot([0.0, 0.0], [0.0, 1.0], color="k", lw=2.0)  # the held edge
     tip_y = np.array([u[tip_dof] for u in states])
-    release_history(fig.add_subplot(grid[1, :]), times, tip_y, energies / energies[0], FILMSTRIP_FRAMES,
+    release_history(below, times, tip_y, energies / energies[0], FILMSTRIP_FRAMES,
                     "tip displacement $u_y$ (right edge, middle)", "tip $u_y$")
     fig.suptitle(f"Chapter 7: the flap let go, backward Euler at $\\Delta t$ = 1/30 s "
                  f"(stable neo-Hookean, E = {TISSUE_E:g}, ν = {TISSUE_NU:g}, $\\rho_0$ = 1, left edge held)",
@@ -211,12 +183,11 @@ def fig_ch07_budget_residual() -> Figure:
               transform=ax_e.get_yaxis_transform(), fontsize=7.5, color="0.35", va="center")
     ax_r.axhline(1e-6, color="k", ls="--", lw=1)
     ax_r.text(rows[0]["triangles"], 1.5e-6, "converged: rtol = 1e-6", fontsize=8)
-    ax_r.set(xlabel="triangles", ylabel="median of |residual| / |first residual| per frame",
-             title="Residual left at the end of a frame")
-    ax_e.set(xlabel="triangles", ylabel="max |u - u_converged| / max |u_converged|",
-             title=f"State error after {CAPPED_FRAMES} frames of the drag")
+    finish(ax_r, grid="both", xlabel="triangles", ylabel="median of |residual| / |first residual| per frame",
+           title="Residual left at the end of a frame")
+    finish(ax_e, grid="both", xlabel="triangles", ylabel="max |u - u_converged| / max |u_converged|",
+           title=f"State error after {CAPPED_FRAMES} frames of the drag")
     for ax in (ax_r, ax_e):
-        ax.grid(True, which="both", alpha=0.3)
         ax.xaxis.set_minor_formatter(NullFormatter())
     # one legend for both panels, below them: inside, it would lie over the curves
     fig.legend(*ax_r.get_legend_handles_labels(), fontsize=8, loc="outside lower center", ncols=len(CAPS))

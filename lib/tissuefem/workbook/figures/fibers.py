@@ -6,7 +6,7 @@ import numpy as np
 from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 
-from .base import frame_axes, lecture_figure, stress_label
+from .base import finish, frame_axes, lecture_figure, polygons, stress_label
 from ...engine.meshes import fusiform_fiber_field, fusiform_muscle, fusiform_width
 from ..fibers import (K_FIBER, block_pull, confined_pull, fiber_direction, muscle_pull, predicted_confined_modulus)
 
@@ -21,8 +21,7 @@ def _segments(centers, directions, lengths) -> np.ndarray:
 
 def _outline(ax, mesh, **style):
     """Draw the boundary edges of ``mesh`` (reference positions)."""
-    edges = mesh.facets[:, mesh.boundary_facets()]
-    ax.add_collection(LineCollection(mesh.p[:, edges].transpose(2, 1, 0), **style))
+    ax.add_collection(LineCollection(polygons(mesh.p, mesh.facets[:, mesh.boundary_facets()]), **style))
 
 
 def _deformed_fibers(result, fibers, scale):
@@ -87,11 +86,8 @@ def fig_ch05_along_vs_across() -> Figure:
         ax_curve.plot(stretches, result.nominal_stress, "o-", ms=3, color=color, label=label)
     top.suptitle("the strip at stretch 1.3 (dashed: rest shape; red: deformed fibers $\\mathbf{F}\\mathbf{g}$)",
                  fontsize=9)
-    ax_curve.set(xlabel="stretch (pulled length / rest length)",
-                 ylabel=stress_label("force / rest height: mean $P_{11}$"),
-                 title="tensile test: clamped ends, free sides")
-    ax_curve.grid(alpha=0.3)
-    ax_curve.legend(fontsize=8)
+    finish(ax_curve, legend=dict(fontsize=8), xlabel="stretch (pulled length / rest length)",
+           ylabel=stress_label("force / rest height: mean $P_{11}$"), title="tensile test: clamped ends, free sides")
 
     theta = np.linspace(0.0, 90.0, 181)
     eps = 1e-4
@@ -105,12 +101,9 @@ def fig_ch05_along_vs_across() -> Figure:
     ax_mod.annotate("", xy=(2.0, iso + K_FIBER), xytext=(2.0, iso),
                     arrowprops=dict(arrowstyle="<->", color="0.2", lw=1))
     ax_mod.text(5.0, iso + 0.2 * K_FIBER, f"along − across\n= $k$ = {K_FIBER:g}", fontsize=9, va="center")
-    ax_mod.set(xlabel="fiber angle $\\theta$ to the pull (degrees)",
-               ylabel=stress_label("confined modulus $P_{11}/\\varepsilon$"),
-               title="small strain: $\\mathbf{F} = \\mathrm{diag}(1 + \\varepsilon, 1)$ on the boundary",
-               xticks=angles)
-    ax_mod.grid(alpha=0.3)
-    ax_mod.legend(fontsize=8)
+    finish(ax_mod, legend=dict(fontsize=8), xlabel="fiber angle $\\theta$ to the pull (degrees)",
+           ylabel=stress_label("confined modulus $P_{11}/\\varepsilon$"),
+           title="small strain: $\\mathbf{F} = \\mathrm{diag}(1 + \\varepsilon, 1)$ on the boundary", xticks=angles)
     fig.suptitle(f"Pulling along versus across the fibers: neo-Hookean matrix (E = 1000, ν = 0.3) "
                  f"+ fiber term k/8 (I$_4$ − 1)², k = {K_FIBER:g}", fontsize=11)
     return fig
@@ -140,9 +133,7 @@ def fig_ch05_muscle_pull() -> Figure:
     fig.colorbar(image, ax=[axes["m0"], axes["m1"]], location="left", shrink=0.8,
                  label="fiber stretch $\\sqrt{I_4} = |\\mathbf{F}\\mathbf{g}|$")
     ax = axes["curve"]
-    ax.set(xlabel="muscle stretch (tendon to tendon)", ylabel="tendon force (per unit thickness)",
-           title="force needed to pull the tendon")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    finish(ax, legend=dict(fontsize=8), xlabel="muscle stretch (tendon to tendon)",
+           ylabel="tendon force (per unit thickness)", title="force needed to pull the tendon")
     fig.suptitle("The fusiform muscle held at its left tendon and pulled by its right one", fontsize=11)
     return fig

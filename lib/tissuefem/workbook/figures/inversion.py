@@ -13,7 +13,7 @@ from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 from ...engine.constants import TISSUE_E, TISSUE_NU
 from ...engine.inversion import diagonal
 from ..hardcases import block, crush_and_release_runs, element_jacobians, inversion_models
-from .base import at_least, boundary_faces, frame_axes, lecture_figure, stress_label, surface_verts
+from .base import at_least, boundary_faces, finish, frame_axes, lecture_figure, polygons, stress_label, surface_verts
 
 #: fill colours of a triangle that keeps its orientation (J > 0) and of an inverted or flat one (J <= 0)
 UPRIGHT_COLOR, INVERTED_COLOR = "#6baed6", "#d6604d"
@@ -37,7 +37,7 @@ def draw_state(ax, mesh, x, *, J=None, alpha: float = 1.0, tol: float = 1e-12) -
                                              facecolors=[to_rgba(c, alpha) for c in colors],
                                              edgecolors=to_rgba("0.25", alpha)))
         return int(bad.sum())
-    verts = np.asarray(x, dtype=float)[:, mesh.t].transpose(2, 1, 0)  # (n_elements, 3, 2)
+    verts = polygons(x, mesh.t)
     for mask, color in ((~bad, UPRIGHT_COLOR), (bad, INVERTED_COLOR)):
         if mask.any():
             ax.add_collection(PolyCollection(verts[mask], facecolors=to_rgba(color, 0.6 * alpha),
@@ -123,16 +123,14 @@ def fig_ch06_itf_energy() -> Figure:
         ax.axvspan(0.0, c, color="C1", alpha=0.08, label=f"below the threshold $c = {c:g}$")
         ax.axvline(1.0, color="k", lw=0.6, ls="--")
         ax.axhline(0.0, color="k", lw=0.6)
-        ax.set(xlim=(s1[0], s1[-1]), xlabel="signed singular value $s_2$ (with $s_1 = 1$)")
-        ax.grid(alpha=0.3)
+        finish(ax, xlim=(s1[0], s1[-1]), xlabel="signed singular value $s_2$ (with $s_1 = 1$)")
     ax_e.set(ylim=(-500, 12000), ylabel="$\\hat\\Psi(1, s_2)$", title="energy along $s_2$")
     ax_p.set(ylim=(-20000, 6000), ylabel=stress_label("$\\partial\\hat\\Psi/\\partial s_2$"),
              title="its slope: the push back")
     ax_e.legend(fontsize=7.5, loc="upper right")
     ax_t.axvspan(0.0, c, color="C1", alpha=0.08)
     ax_t.axvline(1.0, color="k", lw=0.6, ls="--")
-    ax_t.set(xlim=(t[0], t[-1]), ylim=(-200, 10000), xlabel="$t$ in $\\mathbf{F} = t\\,\\mathbf{I}$",
-             ylabel="$\\Psi(t\\,\\mathbf{I})$", title="uniform shrink to a point ($t = 0$: $\\mathbf{F} = 0$)")
-    ax_t.grid(alpha=0.3)
+    finish(ax_t, xlim=(t[0], t[-1]), ylim=(-200, 10000), xlabel="$t$ in $\\mathbf{F} = t\\,\\mathbf{I}$",
+           ylabel="$\\Psi(t\\,\\mathbf{I})$", title="uniform shrink to a point ($t = 0$: $\\mathbf{F} = 0$)")
     fig.suptitle(f"Inversion in diagonal space: E = {TISSUE_E:g}, ν = {TISSUE_NU:g} (plane strain)", fontsize=11)
     return fig

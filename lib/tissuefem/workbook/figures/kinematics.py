@@ -16,7 +16,7 @@ from ...engine.meshes import rectangle
 from ..hardcases import edge_matrices
 from ..studies import (BLOCK_HANDLE, RECORDED_COST_ACCURACY, bending_gradient, bending_map, rigid_rotation_response,
                        rotated_block, rotation, stretched_block)
-from .base import at_least, lecture_figure, shown, stress_label
+from .base import at_least, finish, frame_axes, lecture_figure, shown, stress_label
 
 #: one frame at 30 frames per second, in milliseconds
 FRAME_BUDGET_MS = 1e3 * FRAME_BUDGET
@@ -102,8 +102,7 @@ def fig02_kinematics() -> Figure:
     low = bending_map(np.array([[0.0, 1.0], [0.0, 0.0]]))  # a bottom corner and the bottom middle
     ax.text(low[0, 1], low[1, 0] - 0.08, "deformed (current) configuration $B_t = \\{\\mathbf{x}\\}$", ha="center",
             va="top", fontsize=10, color="C1")
-    ax.set_aspect("equal")
-    ax.set(xlim=(-0.25, 6.0), ylim=(-0.3, 1.9), xlabel="$X_1$, $x_1$", ylabel="$X_2$, $x_2$")
+    ax.set(aspect="equal", xlim=(-0.25, 6.0), ylim=(-0.3, 1.9), xlabel="$X_1$, $x_1$", ylabel="$X_2$, $x_2$")
     ax.set_title("Notes' Figure 2: $\\phi$ carries $\\mathbf{X}$ to $\\mathbf{x}$; "
                  "$F_{ij} = \\partial\\phi_i/\\partial X_j$ carries $d\\mathbf{X}$ "
                  "to $d\\mathbf{x} = \\mathbf{F}\\,d\\mathbf{X}$")
@@ -142,8 +141,7 @@ def _stress_half(ax, F0) -> None:
     ax.text(0.0, -a - 0.1, "a cut at $\\mathbf{X}$\nwith normal $\\mathbf{N}$", ha="center", va="top",
             fontsize=9, color="C0")
     ax.text(shift[0], -a - 0.1, "its image at $\\mathbf{x}$", ha="center", va="top", fontsize=9, color="C1")
-    ax.set_aspect("equal")
-    ax.set(xlim=(-0.55, 2.2), ylim=(-0.75, 0.85), xticks=[], yticks=[])
+    frame_axes(ax, (-0.55, 2.2), (-0.75, 0.85))
     ax.set_title("the stress half: $\\mathbf{P}$ maps the normal $\\mathbf{N}$ of a cut\n"
                  "to the force across it per unit reference area", fontsize=10)
 
@@ -164,14 +162,10 @@ def fig_ch03_rotation_stress() -> Figure:
     lam, mu = linear.lam, linear.mu
     ax_e.plot(deg[::15], 2 * (lam + mu) * (1 - np.cos(np.radians(deg[::15]))) ** 2, "k.", ms=5,
               label="$2(\\lambda+\\mu)(1-\\cos\\theta)^2$")
-    ax_e.set(xlabel="rotation angle $\\theta$ [degrees]", ylabel="energy density $\\Psi(\\mathbf{R}_\\theta)$",
-             title="energy of a rigid rotation")
-    ax_p.set(xlabel="rotation angle $\\theta$ [degrees]", ylabel=stress_label("$|\\mathbf{P}(\\mathbf{R}_\\theta)|$"),
-             title="stress of a rigid rotation")
-    for ax in (ax_e, ax_p):
-        ax.set_xticks(np.arange(0, 181, 30))
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8, loc="upper left")
+    for ax, what, ylabel in ((ax_e, "energy", "energy density $\\Psi(\\mathbf{R}_\\theta)$"),
+                             (ax_p, "stress", stress_label("$|\\mathbf{P}(\\mathbf{R}_\\theta)|$"))):
+        finish(ax, legend=dict(fontsize=8, loc="upper left"), xlabel="rotation angle $\\theta$ [degrees]",
+               ylabel=ylabel, title=f"{what} of a rigid rotation", xticks=np.arange(0, 181, 30))
 
     theta = np.radians(60.0)
     outline = _outline(1.0, 1.0)
@@ -190,10 +184,8 @@ def fig_ch03_rotation_stress() -> Figure:
     wall = np.array([[0.0, 0.0], [-0.6, 0.6]])
     w = rotation(theta) @ wall + [[0.0], [0.5]]
     ax_b.plot(w[0], w[1], color="k", lw=3.5, solid_capstyle="butt", label="clamped edge, turned by 60°")
-    ax_b.set_aspect("equal")
-    ax_b.set(xlim=(-0.7, 1.6), ylim=(-0.1, 2.6), xlabel="$x_1$", ylabel="$x_2$",
-             title="equilibrium of a block turned at its left edge")
-    ax_b.legend(fontsize=7.5, loc="upper left")
+    finish(ax_b, legend=dict(fontsize=7.5, loc="upper left"), grid=None, aspect="equal", xlim=(-0.7, 1.6),
+           ylim=(-0.1, 2.6), xlabel="$x_1$", ylabel="$x_2$", title="equilibrium of a block turned at its left edge")
     fig.suptitle(f"Linear elasticity is not frame indifferent (E = {TISSUE_E:g}, $\\nu$ = {TISSUE_NU:g})")
     return fig
 
@@ -228,8 +220,7 @@ def fig_ch04_block() -> Figure:
                     arrowprops=dict(arrowstyle="-|>", color="k", lw=1.5))
         ax.text(2.0 + 0.5 * BLOCK_HANDLE[0] + 0.05, 0.5 + 0.5 * BLOCK_HANDLE[1] - 0.05,
                 f"handle\n{tuple(BLOCK_HANDLE)}", fontsize=8, va="top", bbox=_LABEL_BOX)
-        ax.set_aspect("equal")
-        ax.set(xlim=(-0.25, 2.9), ylim=(-0.15, 1.55), xlabel="$x_1$", ylabel="$x_2$", title=label)
+        ax.set(aspect="equal", xlim=(-0.25, 2.9), ylim=(-0.15, 1.55), xlabel="$x_1$", ylabel="$x_2$", title=label)
         fig.colorbar(art, ax=ax, shrink=0.8)
     fig.suptitle(f"Neo-Hookean block (E = {TISSUE_E:g}, $\\nu$ = {TISSUE_NU:g}), {problem.mesh.t.shape[1]} P1 "
                  f"triangles, left edge fixed, right edge moved by {tuple(BLOCK_HANDLE)}")
@@ -260,9 +251,8 @@ def fig_ch04_cost_accuracy(rows=None) -> Figure:
         lo, hi = 0.5 * min(times), 3.0 * max(times)
         ax.axvline(FRAME_BUDGET_MS, color="C3", lw=1.5, ls="--", label="33 ms: one frame at 30 Hz")
         ax.axvspan(FRAME_BUDGET_MS, hi, color="C3", alpha=0.06)
-        ax.set(xlabel="wall time [ms]", title=title, xlim=(lo, hi))
-        ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=8, loc="lower left")
+        finish(ax, legend=dict(fontsize=8, loc="lower left"), grid="both", xlabel="wall time [ms]", title=title,
+               xlim=(lo, hi))
     axes[0].set_ylabel("relative $L^2$ error of the displacement")
     fig.suptitle(f"What accuracy costs: Neo-Hookean block, error against time ({source}; labels: dofs)")
     return fig

@@ -8,7 +8,7 @@ from matplotlib.figure import Figure
 from ...engine.constants import TISSUE_E, TISSUE_NU
 from ...engine.materials1d import Linear1D, NeoHookean1D, TaylorNeoHookean1D
 from ..oned import convergence_study, newton_histories
-from .base import lecture_figure, shown, stress_label
+from .base import finish, lecture_figure, shown, stress_label
 
 
 @lecture_figure
@@ -85,9 +85,8 @@ def fig_ch01_convergence() -> Figure:
         for key, ls in (("L2", "-"), ("H1", "--")):
             ax.loglog(h, np.array([r[key] for r in sel]), marker=marker, ls=ls,
                       label=f"P{order}, {key} error (rate {sel[-1][f'rate_{key}']:.2f})")
-    ax.set(xlabel="element size $h$", ylabel="error", title="1D linear bar: error against mesh size")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
+    finish(ax, legend=dict(fontsize=8), grid="both", xlabel="element size $h$", ylabel="error",
+           title="1D linear bar: error against mesh size")
     return fig
 
 
@@ -102,8 +101,6 @@ def fig_ch02_newton() -> Figure:
     ax.axhspan(round_off / 20, round_off, color="0.9", lw=0, zorder=0)
     ax.text(0.02, round_off / 5, f"round-off (drawn at {round_off:.0e})", transform=ax.get_yaxis_transform(),
             fontsize=7.5, color="0.35", va="center")
-    ax.set(xlabel="Newton iteration $k$", ylabel="$\\|q(u^k)\\|$",
+    finish(ax, legend=dict(fontsize=8), grid="both", xlabel="Newton iteration $k$", ylabel="$\\|q(u^k)\\|$",
            title="Newton on the 1D Neo-Hookean bar: quadratic convergence")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
     return fig

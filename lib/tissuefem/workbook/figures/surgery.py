@@ -15,7 +15,8 @@ from matplotlib.patches import Circle
 
 from ...engine.constants import FRAME_BUDGET as FRAME_DT, TISSUE_E, TISSUE_NU  # FRAME_DT: one frame, 1/30 s
 from ..procedures import INCISION_PULL, flap_runs, incision_run, probe_run, two_pieces_run
-from .base import animation_figure, at_least, frame_axes, lecture_figure, save_animation, stress_label
+from .base import (at_least, filmstrip, finish, frame_axes, lecture_figure, polygons, sheet_window, stress_label,
+                   write_sheet_animation)
 
 #: the colour map of the tension (largest principal Cauchy stress); centred at zero
 TENSION_CMAP = "RdBu_r"
@@ -34,35 +35,25 @@ def tension_norm(*values, percentile=98.0) -> Normalize:
 
 def draw_mesh(ax, x, t, values=None, norm=None, *, color="0.88", lw=0.25, alpha=1.0):
     """The triangles ``t`` with their nodes at ``x``; coloured by ``values`` (one per element) if given."""
-    verts = np.asarray(x, dtype=float)[:, t].transpose(2, 1, 0)
     if values is None:
-        coll = PolyCollection(verts, facecolors=to_rgba(color, alpha), edgecolors=to_rgba("0.35", alpha),
-                              linewidths=lw)
+        colors = dict(facecolors=to_rgba(color, alpha), edgecolors=to_rgba("0.35", alpha))
     else:
-        coll = PolyCollection(verts, array=np.asarray(values, dtype=float), cmap=TENSION_CMAP, norm=norm,
-                              edgecolors=(0.0, 0.0, 0.0, 0.22), linewidths=lw)
-    return ax.add_collection(coll)
+        colors = dict(array=np.asarray(values, dtype=float), cmap=TENSION_CMAP, norm=norm, edgecolors=(0, 0, 0, 0.22))
+    return ax.add_collection(PolyCollection(polygons(x, t), linewidths=lw, **colors))
 
 
-def draw_wound(ax, mesh, x, names=("cut", "defect"), **kwargs):
-    """The wound's edges (the boundary facets a cut or an excision made) as dark lines."""
-    if mesh.boundaries is None:
-        return None
-    facets = [mesh.boundaries[n] for n in names if n in mesh.boundaries and len(mesh.boundaries[n])]
-    if not facets:
-        return None
-    segments = np.asarray(x, dtype=float)[:, mesh.facets[:, np.concatenate(facets)]].transpose(2, 1, 0)
-    options = dict(colors=WOUND_COLOR, linewidths=1.4, zorder=3) | kwargs
-    return ax.add_collection(LineCollection(segments, **options))
+def draw_wound(ax, mesh, x, **style) -> None:
+    """The wound's edges (the boundary facets a cut or an excision made) as dark lines; none on an uncut mesh."""
+    wound = [mesh.boundaries[n] for n in ("cut", "defect") if n in (mesh.boundaries or {})]
+    if wound:
+        segments = polygons(x, mesh.facets[:, np.concatenate(wound)])
+        ax.add_collection(LineCollection(segments, **(dict(colors=WOUND_COLOR, linewidths=1.4, zorder=3) | style)))
 
 
-#: the tension colour bar's label, its unit on a second line
-TENSION_LABEL = stress_label("tension: largest principal Cauchy stress", sep="\n")
-
-
-def tension_colorbar(fig, norm, axes, label=TENSION_LABEL, **kwargs):
+def tension_colorbar(fig, norm, axes, **kwargs):
+    """A colour bar of the tension beside ``axes``, its unit on a line of its own."""
     bar = fig.colorbar(ScalarMappable(norm=norm, cmap=TENSION_CMAP), ax=axes, extend="both", **kwargs)
-    bar.set_label(label, fontsize=8)
+    bar.set_label(stress_label("tension: largest principal Cauchy stress", sep="\n"), fontsize=8)
     bar.ax.tick_params(labelsize=7)
     return bar
 
@@ -107,37 +98,19 @@ def fig_ch08_incision() -> Figure:
     return fig
 
 
-def _two_pieces_limits(frames, margin=0.08):
-    x = np.hstack([f[0] for f in frames])
-    return (min(x[0].min(), 0.0) - margin, x[0].max() + margin), (x[1].min() - margin, max(x[1].max(), 1.0) + margin)
-
-
 def _piece_colors(free_elements, alpha=0.75):
     return np.where(np.asarray(free_elements)[:, None], to_rgba(FREE_COLOR, alpha), to_rgba(HELD_COLOR, alpha))
 
 
 def write_two_pieces_animation(gif_path, run, dpi=120) -> Path:
     """Every frame of the run as a GIF at 30 frames per second: 648 x 864 pixels, large enough to project
-    (:data:`~tissuefem.workbook.figures.base.ANIMATION_MIN_WIDTH`)."""
+    (:data:`~tissuefem.workbook.figures.base.ANIMATION_MIN_WIDTH`); no mesh edges: at this size they would
+    cover the colours."""
     frames, times, cut = run["frames"], run["times"], run["cut_frame"]
-    fig, ax, title = animation_figure((5.4, 7.2), 0.86, *_two_pieces_limits(frames), 0.94, 13)
-    verts = lambda k: frames[k][0][:, frames[k][1]].transpose(2, 1, 0)  # noqa: E731
-    # no anti-aliasing: few colours per frame keep the GIF small (its palette has at most 256)
-    # (and no mesh edges: at this size they would cover the colours)
-    body = PolyCollection(verts(0), facecolors=_piece_colors(frames[0][2], 1.0), edgecolors="face", linewidths=0.5,
-                          antialiaseds=False)
-    ax.add_collection(body)
-
-    def update(k):
-        body.set_verts(verts(k))
-        colors = _piece_colors(frames[k][2], 1.0)
-        body.set_facecolors(colors)
-        body.set_edgecolors(colors)
-        stage = "hanging" if k < cut else ("cut!" if k == cut else "falling")
-        title.set_text(f"t = {times[k]:.2f} s  ({stage})")
-        return body, title
-
-    return save_animation(fig, update, len(frames), gif_path, FRAME_DT, dpi)
+    stages = ["hanging" if k < cut else ("cut!" if k == cut else "falling") for k in range(len(frames))]
+    return write_sheet_animation(gif_path, [(x, t, _piece_colors(free, 1.0)) for x, t, free in frames],
+                                 [f"t = {time:.2f} s  ({stage})" for time, stage in zip(times, stages)], FRAME_DT,
+                                 dpi, (5.4, 7.2), 0.86, 13, edgecolors="face", linewidths=0.5)
 
 
 @lecture_figure
@@ -146,23 +119,17 @@ def fig_ch08_two_pieces(path=None) -> Figure:
     y_c + k dt v_c - g dt^2 k (k + 1) / 2``. With a ``path``, also writes ``<path stem>.gif``."""
     run = two_pieces_run()
     frames, times, cut = run["frames"], run["times"], run["cut_frame"]
-    shown = [frames[k] for k in FILMSTRIP]
-    xlim, ylim = _two_pieces_limits(shown)
-    n = len(FILMSTRIP)
-    fig = Figure(figsize=(1.45 * n + 0.6, 5.3), layout="constrained")
-    grid = fig.add_gridspec(2, n, height_ratios=[1.55, 1.0])
-    for col, k in enumerate(FILMSTRIP):
-        ax = fig.add_subplot(grid[0, col])
+    window = sheet_window([frames[k][0] for k in FILMSTRIP])
+    fig, strip, below = filmstrip(times, FILMSTRIP, {cut: "cut"}, 1.45, 5.3, [1.55, 1.0], window)
+    for ax, k in zip(strip, FILMSTRIP):
         x, t, free = frames[k]
         ax.plot([0, 2, 2, 0, 0], [0, 0, 1, 1, 0], color="0.7", lw=0.6, ls="--")  # the sheet at rest
-        ax.add_collection(PolyCollection(x[:, t].transpose(2, 1, 0), facecolors=_piece_colors(free),
-                                         edgecolors="0.35", linewidths=0.3))
-        ax.plot([0.0, 0.0], [0.0, 1.0], color="k", lw=2.0)
+        ax.add_collection(PolyCollection(polygons(x, t), facecolors=_piece_colors(free), edgecolors="0.35",
+                                         linewidths=0.3))
+        ax.plot([0.0, 0.0], [0.0, 1.0], color="k", lw=2.0)  # the held edge
         if k == cut:
             ax.plot([1.0, 1.0], [1.25, -0.25], color="k", lw=0.9, ls=":")
-        frame_axes(ax, xlim, ylim)
-        ax.set_title(f"t = {times[k]:.2f} s" + (" (cut)" if k == cut else ""), fontsize=8.5)
-    ax = fig.add_subplot(grid[1, :])
+    ax = below
     com = run["com"]
     ax.plot(times, com[:, 0], "o-", color=HELD_COLOR, ms=3, lw=1.2, label="left part (held piece after the cut)")
     ax.plot(times, com[:, 1], "o-", color=FREE_COLOR, ms=3, lw=1.2, label="right part (free piece after the cut)")
@@ -172,11 +139,9 @@ def fig_ch08_two_pieces(path=None) -> Figure:
     ax.text(times[cut], 0.98, " cut", transform=ax.get_xaxis_transform(), va="top", fontsize=8)
     ax.plot(times[list(FILMSTRIP)], com[list(FILMSTRIP), 1], "s", color="C3", ms=5, label="frames shown above")
     err = float(np.max(np.abs(com[cut:, 1] - run["free_fall"])))
-    ax.set(xlabel="time (s), one backward-Euler step per frame", ylabel="centre of mass height $y$",
-           xlim=(0.0, times[-1]))
+    finish(ax, legend=dict(fontsize=7.5, loc="lower left"), xlabel="time (s), one backward-Euler step per frame",
+           ylabel="centre of mass height $y$", xlim=(0.0, times[-1]))
     ax.set_title(f"free piece against free fall: largest difference {at_least(err, spec='.1e')}", fontsize=9)
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7.5, loc="lower left")
     fig.suptitle(f"Chapter 8: a cut through the body makes two pieces (stable neo-Hookean, E = {TISSUE_E:g}, "
                  f"ν = {TISSUE_NU:g}, $\\rho_0$ = 1, g = 9.81, $\\Delta t$ = 1/30 s)", fontsize=10)
     if path is not None:
@@ -213,9 +178,8 @@ def fig_ch08_probe() -> Figure:
     force = np.array([-s["force"][1] for s in states])
     ax.plot(depth, force, "o-", color="C0", ms=4, label="force on the tool (vertical)")
     ax.plot(depth[sel], force[sel], "s", color="C3", ms=6, label="(a), (b)")
-    ax.set(xlabel="depth of the disc below the top edge", ylabel="force (per unit thickness)")
+    finish(ax, xlabel="depth of the disc below the top edge", ylabel="force (per unit thickness)")
     ax.set_title("the tissue pushes back", fontsize=9)
-    ax.grid(alpha=0.3)
     ax2 = ax.twinx()
     ax2.plot(depth, [s["penetration"] for s in states], "^--", color="C2", ms=4, lw=0.9, label="penetration left")
     ax2.set_ylabel("deepest node inside the disc", fontsize=8)
@@ -278,12 +242,10 @@ def fig_ch08_flap() -> Figure:
     for L in lengths:
         ax.annotate(f"{runs[L].stitches} stitches", (L, runs[L].flap_tension), xytext=(0, 8),
                     textcoords="offset points", ha="center", fontsize=7)
-    ax.set(xlabel="flap length", ylabel=stress_label("tension"), xticks=lengths,
-           xlim=(lengths[0] - 0.25, lengths[-1] + 0.25),
+    finish(ax, legend=dict(fontsize=7.5, loc="lower left"), xlabel="flap length", ylabel=stress_label("tension"),
+           xticks=lengths, xlim=(lengths[0] - 0.25, lengths[-1] + 0.25),
            ylim=(0.0, 1.25 * max(runs[L].flap_tension for L in lengths)))
     ax.set_title("(c) longer flap, less tension", fontsize=9)
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7.5, loc="lower left")
     fig.suptitle(f"Chapter 8: an advancement flap closes a 0.6 x 0.6 defect (stable neo-Hookean, E = {TISSUE_E:g}, "
                  f"ν = {TISSUE_NU:g}, patch held on its outer edges; after Sifakis et al. 2009)", fontsize=10)
     return fig
