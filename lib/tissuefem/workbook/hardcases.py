@@ -153,7 +153,7 @@ def crush_and_release(material, mesh=None, depth: float = 1.3, steps: int = 13, 
 
 def drag_through(material, mesh=None, depth: float = 1.6, steps: int = 16, **newton_options) -> dict:
     """Drag the top edge's middle (within 0.2) of a sheet held at its sides down by ``depth`` in ``steps``
-    solves, then release: ``positions``, ``drag``, ``released``, ``failed_steps``."""
+    solves, then release: ``positions``, ``drag``, ``released``, ``failed_steps``, ``grab`` (the dragged nodes)."""
     mesh = block() if mesh is None else mesh
     X = np.asarray(mesh.p, dtype=float)
     sides = np.flatnonzero((np.abs(X[0] - X[0].min()) < 1e-9) | (np.abs(X[0] - X[0].max()) < 1e-9))
@@ -171,8 +171,7 @@ def drag_through(material, mesh=None, depth: float = 1.6, steps: int = 16, **new
         u = result.u
         positions.append(model.positions(u))
     released = release(mesh, material, model.positions(u), held=sides, **newton_options)
-    return {"positions": positions, "drag": drag, "released": released, "failed_steps": failed,
-            "grab": grab, "sides": sides}
+    return {"positions": positions, "drag": drag, "released": released, "failed_steps": failed, "grab": grab}
 
 
 def crush_in_frames(material, mesh=None, depth: float = 1.3, steps: int = 13, extra_frames: int = 50,

@@ -9,7 +9,7 @@ from itertools import product
 import numpy as np
 
 from ..engine.constants import FRAME_BUDGET as FRAME_DT, TISSUE_E, TISSUE_NU  # FRAME_DT: one frame, 1/30 s
-from ..engine.materials import StableNeoHookean
+from ..engine.materials import StableNeoHookean, rotation
 from ..engine.meshes import mean_edge_length, rectangle
 from ..engine.model import Handle, Model
 from ..engine.stepping import Stepper
@@ -19,7 +19,6 @@ from ..surgery.scene import Scene
 from ..surgery.simulation import Simulation
 from ..surgery.surfaces import contact_surface
 from ..surgery.topology import connected_components
-from .studies import rotation
 
 __all__ = ["still_clock", "sheet_scene", "still_simulation", "check_frame", "pulled_sheet", "incision_run",
            "two_pieces_run", "probe_run", "probe_indentation", "flap_runs", "crack_runs", "virtual_nodes_run",

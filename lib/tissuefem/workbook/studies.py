@@ -11,7 +11,7 @@ import numpy as np
 
 from ..engine.constants import TISSUE_E, TISSUE_NU
 from ..engine.linsolve import LinearSolver
-from ..engine.materials import LinearElastic, Material, NeoHookean
+from ..engine.materials import LinearElastic, Material, NeoHookean, rotation
 from ..engine.meshes import rectangle
 from ..engine.model import Handle, Model
 from ..engine.parameters import check_count as _count, check_real
@@ -32,14 +32,6 @@ def _sizes(name, values) -> tuple[int, ...]:
     except TypeError:
         raise ValueError(f"{name} must be a sequence of positive integers, got {values!r}") from None
     return tuple(_count(name, v) for v in values)
-
-
-def rotation(theta) -> np.ndarray:
-    """The rotation ``R(theta) = [[cos, -sin], [sin, cos]]`` (radians, counter-clockwise); shape
-    ``[2, 2, *theta.shape]``."""
-    theta = np.asarray(theta, dtype=float)
-    c, s = np.cos(theta), np.sin(theta)
-    return np.array([[c, -s], [s, c]])
 
 
 # chapter 3's example deformation (:func:`bending_map`): the block [0, 2] x [0, 1] bent around C below it
