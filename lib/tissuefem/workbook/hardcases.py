@@ -124,28 +124,34 @@ def release(mesh, material, x_start, held=None, **newton_options) -> ReleaseResu
         finite=bool(np.all(np.isfinite(u))), history=newton.history)
 
 
+def _push_down(model, handle, depth, steps, options, stop):
+    """Move ``handle`` down by ``depth`` in ``steps`` solves, each from the last state: the results, the positions
+    after each and the last state; with ``stop`` up to the first solve that fails (its state dropped)."""
+    u, results, positions = model.zeros(), [], []
+    for d in np.linspace(0.0, depth, steps + 1)[1:]:
+        handle.move(_down(model.mesh, d))
+        results.append(solve(model, u0=u, **options))
+        if stop and not results[-1].converged:
+            break
+        u = results[-1].u
+        positions.append(model.positions(u))
+    return results, positions, u
+
+
 def crush_and_release(material, mesh=None, depth: float = 1.3, steps: int = 13, **newton_options) -> dict:
     """Push the top edge (face) down by ``depth`` (1 = flat) in ``steps`` solves, bottom fixed, then release:
     ``frames`` (positions, the released shape last), ``crush`` (the results), ``released``, ``crushed`` (the
     depth reached), ``iterations``, ``cuts``, ``final_energy``."""
     mesh = block() if mesh is None else mesh
-    X = np.asarray(mesh.p, dtype=float)
     top = Handle("top")
     model = Model(mesh, material, handles=[Handle("bottom"), top])
     options = {**RELEASE_OPTIONS, "rtol": 1e-8, "max_iterations": 100, **newton_options}
-    u = model.zeros()
-    frames, crush, reached = [X.copy()], [], 0.0
-    for d in np.linspace(0.0, depth, steps + 1)[1:]:
-        top.move(_down(mesh, d))
-        result = solve(model, u0=u, **options)
-        crush.append(result)
-        if not result.converged:
-            break
-        u, reached = result.u, float(d)
-        frames.append(model.positions(u))
+    crush, positions, u = _push_down(model, top, depth, steps, options, stop=True)
     released = release(mesh, material, model.positions(u), held=_bottom(mesh), **newton_options)
+    frames = [np.array(mesh.p, dtype=float)] + positions
     frames.append(model.positions(u) if not released.finite else model.positions(released.u))
-    return {"frames": frames, "crush": crush, "released": released, "crushed": reached,
+    return {"frames": frames, "crush": crush, "released": released,
+            "crushed": float(np.linspace(0.0, depth, steps + 1)[len(positions)]),
             "iterations": sum(r.newton_iterations for r in crush) + released.iterations,
             "cuts": sum(s.line_search_cuts for r in crush for s in r.steps) + released.cuts,
             "final_energy": released.final_energy}
@@ -161,17 +167,10 @@ def drag_through(material, mesh=None, depth: float = 1.6, steps: int = 16, **new
     handle = Handle(grab)
     model = Model(mesh, material, handles=[Handle(sides), handle])
     options = {**RELEASE_OPTIONS, "rtol": 1e-8, "max_iterations": 60, **newton_options}
-    u = model.zeros()
-    positions, drag, failed = [], [], 0
-    for d in np.linspace(0.0, depth, steps + 1)[1:]:
-        handle.move(_down(mesh, d))
-        result = solve(model, u0=u, **options)
-        drag.append(result)
-        failed += not result.converged
-        u = result.u
-        positions.append(model.positions(u))
+    drag, positions, u = _push_down(model, handle, depth, steps, options, stop=False)
     released = release(mesh, material, model.positions(u), held=sides, **newton_options)
-    return {"positions": positions, "drag": drag, "released": released, "failed_steps": failed, "grab": grab}
+    return {"positions": positions, "drag": drag, "released": released,
+            "failed_steps": sum(not r.converged for r in drag), "grab": grab}
 
 
 def crush_in_frames(material, mesh=None, depth: float = 1.3, steps: int = 13, extra_frames: int = 50,

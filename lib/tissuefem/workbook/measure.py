@@ -1,7 +1,7 @@
-"""Measuring, one place for each: errors (:func:`relative_l2_error`, :func:`relative_l2_error_to`), rates and
-fits (:func:`fitted_exponent`, :func:`power_law_fit`, :func:`observed_rates`), what a cost/error plot says
-(:func:`pareto_front`, :func:`best_within_budget`, :func:`cost_at_error`) and timings (:func:`median_time`: read,
-never asserted)."""
+"""Measuring, one place for each: errors (:func:`relative_l2_error`), rates and fits (:func:`fitted_exponent`,
+:func:`power_law_fit`, :func:`observed_rates`), what a cost/error plot says (:func:`pareto_front`,
+:func:`best_within_budget`, :func:`cost_at_error`) and timings (:func:`median_time`: read, never asserted).
+"""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from skfem import Basis
 
 from ..engine.parameters import check_real
 
-__all__ = ["relative_l2_error", "relative_l2_error_to", "fitted_exponent", "power_law_fit", "observed_rates", "pareto_front",
+__all__ = ["relative_l2_error", "fitted_exponent", "power_law_fit", "observed_rates", "pareto_front",
            "best_within_budget", "cost_at_error", "median_time", "evaluate"]
 
 
@@ -34,26 +34,21 @@ def evaluate(basis, u, points, chunk: int = 400) -> np.ndarray:
     return np.concatenate([f(points[:, i:i + chunk]) for i in range(0, points.shape[1], chunk)], axis=1)
 
 
-def relative_l2_error(basis, u, reference_basis, u_reference, intorder: int = 4) -> float:
-    """``||u - u_ref||_L2 / ||u_ref||_L2`` by quadrature on ``basis``'s mesh, ``u_ref`` (on another mesh)
-    located at its points. Models (anything with ``basis``) may stand for the bases."""
-    reference_basis = getattr(reference_basis, "basis", reference_basis)
-
-    def reference(x):
-        return evaluate(reference_basis, u_reference, x.reshape(len(x), -1)).reshape(x.shape)
-
-    return relative_l2_error_to(basis, u, reference, intorder)
-
-
-def relative_l2_error_to(basis, u, exact, intorder: int = 4) -> float:
-    """``||u - u_e||_L2 / ||u_e||_L2`` by quadrature of degree ``intorder`` on ``basis``'s mesh, ``u_e =
-    exact(x)`` at the quadrature points ``x`` ``(d, n_elements, n_points)``; a model may stand for the basis."""
+def relative_l2_error(basis, u, reference, u_reference=None, intorder: int = 4) -> float:
+    """``||u - u_ref||_L2 / ||u_ref||_L2`` by quadrature of degree ``intorder`` on ``basis``'s mesh: ``u_ref`` is
+    the field ``u_reference`` on the basis ``reference`` (another mesh) located at the quadrature points, or
+    without ``u_reference`` the values ``reference(x)`` there (``x``: ``(d, n_elements, n_points)``, an exact
+    solution). Models (anything with ``basis``) may stand for the bases."""
     basis = getattr(basis, "basis", basis)
     quad = Basis(basis.mesh, basis.elem, intorder=intorder)
     uh = np.asarray(quad.interpolate(u))  # (d, nel, nq)
-    ue = exact(quad.mapping.F(quad.quadrature[0]))
-    err = np.sum(np.sum((uh - ue) ** 2, axis=0) * quad.dx)
-    norm = np.sum(np.sum(ue**2, axis=0) * quad.dx)
+    x = quad.mapping.F(quad.quadrature[0])  # quadrature points (d, nel, nq)
+    if u_reference is None:
+        ur = reference(x)
+    else:
+        ur = evaluate(getattr(reference, "basis", reference), u_reference, x.reshape(len(x), -1)).reshape(x.shape)
+    err = np.sum(np.sum((uh - ur) ** 2, axis=0) * quad.dx)
+    norm = np.sum(np.sum(ur**2, axis=0) * quad.dx)
     return float(np.sqrt(err / norm))
 
 

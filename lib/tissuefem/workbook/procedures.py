@@ -137,35 +137,32 @@ def two_pieces_run(n_triangles=800, sag_frames=SAG_FRAMES, fall_frames=FALL_FRAM
             "cut_frame": sag_frames, "edit": edit, "free_fall": free_fall, "simulation": sim, "X0": X0}
 
 
-def probe_run(n_triangles=1200, radius=PROBE_RADIUS, depths=PROBE_DEPTHS, x_probe=1.0) -> dict:
+def probe_run(n_triangles=1200, radius=PROBE_RADIUS, depths=PROBE_DEPTHS, x_probe=1.0, stiffness=None) -> dict:
     """A disc pressed ever deeper into a block held on its bottom edge, one frame per depth: positions,
-    tension, nodal contact forces ``k l_a h'(R - d_a) n_a``, their total and the penetration left."""
+    tension, nodal contact forces ``k l_a h'(R - d_a) n_a``, their total, the penetration left and the Newton
+    steps. ``stiffness``: the penalty (default ``100 E / radius``)."""
     sim = still_simulation(n_triangles, [{"name": "base", "region": "bottom"}])
-    label = sim.add_probe([x_probe, 1.0 + radius - depths[0]], radius)
+    label = sim.add_probe([x_probe, 1.0 + radius - depths[0]], radius, stiffness=stiffness)
     states = []
     for depth in depths:
         sim.move_probe(label, [x_probe, 1.0 + radius - depth])
-        check_frame(sim.frame(), f"the probe at depth {depth}")
+        report = check_frame(sim.frame(), f"the probe at depth {depth}")
         probe = sim.model.probes[0]
         contact = -probe.gradient(sim.u).reshape(-1, 2).T  # force on each node
         states.append(dict(depth=depth, center=probe.center.copy(), x=sim.positions().copy(), t=sim.mesh.t.copy(),
                            tension=sim.tension(), contact=contact, force=contact.sum(axis=1),
-                           penetration=probe.penetration(sim.u), stiffness=probe.stiffness))
+                           penetration=probe.penetration(sim.u), stiffness=probe.stiffness,
+                           newton=report.newton_iterations))
     return {"states": states, "radius": radius, "simulation": sim}
 
 
 def probe_indentation(n_triangles=1200, stiffness=None, depths=(0.05, 0.1, 0.15, 0.2), radius=0.25) -> dict:
-    """The probe of :func:`probe_run` with the penalty ``stiffness`` (default ``100 E / radius``): penetration
-    left at the last depth, Newton steps per frame, triangles and stiffness."""
-    sim = still_simulation(n_triangles, [{"name": "base", "region": "bottom"}])
-    tool = sim.add_probe([1.0, 1.0 + radius], radius=radius, stiffness=stiffness)
-    newton = []
-    for depth in depths:
-        sim.move_probe(tool, [1.0, 1.0 + radius - depth])
-        newton.append(check_frame(sim.frame(), f"the indentation to {depth}").newton_iterations)
-    probe = sim.model.probes[0]
-    return {"penetration": probe.penetration(sim.u), "newton": newton, "triangles": int(sim.mesh.nelements),
-            "stiffness": float(probe.stiffness)}
+    """:func:`probe_run` summed up: the penetration left at the last depth, the Newton steps per frame, the
+    triangles and the penalty stiffness."""
+    run = probe_run(n_triangles, radius, depths, stiffness=stiffness)
+    last = run["states"][-1]
+    return {"penetration": last["penetration"], "newton": [s["newton"] for s in run["states"]],
+            "triangles": int(run["simulation"].mesh.nelements), "stiffness": float(last["stiffness"])}
 
 
 def flap_runs(lengths=FLAP_LENGTHS, n_triangles=FLAP_TRIANGLES, tighten_frames=FLAP_TIGHTEN_FRAMES) -> dict:

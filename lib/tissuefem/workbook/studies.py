@@ -14,7 +14,7 @@ from ..engine.linsolve import LinearSolver
 from ..engine.materials import LinearElastic, Material, NeoHookean, rotation
 from ..engine.meshes import rectangle
 from ..engine.model import Handle, Model
-from ..engine.parameters import check_count as _count, check_real
+from ..engine.parameters import check_count as _count, check_list, check_real
 from ..engine.stepping import StaticResult, solve
 from .measure import median_time, relative_l2_error
 from .tables import markdown_table
@@ -27,11 +27,7 @@ __all__ = [
 
 
 def _sizes(name, values) -> tuple[int, ...]:
-    try:
-        values = tuple(values)
-    except TypeError:
-        raise ValueError(f"{name} must be a sequence of positive integers, got {values!r}") from None
-    return tuple(_count(name, v) for v in values)
+    return tuple(_count(name, v) for v in check_list(name, values, "positive integers"))
 
 
 # chapter 3's example deformation (:func:`bending_map`): the block [0, 2] x [0, 1] bent around C below it
@@ -176,7 +172,6 @@ def cost_accuracy_study(p1_sizes=(2, 4, 8, 16), p2_sizes=(1, 2, 4, 8), reference
     if max(p1_sizes + p2_sizes, default=0) >= reference_size:
         raise ValueError(f"reference_size ({reference_size}) must exceed every size of the sweep "
                          f"(largest {max(p1_sizes + p2_sizes)})")
-    material = NeoHookean.from_young(TISSUE_E, TISSUE_NU) if material is None else material
 
     reference = block_model(reference_size, 2, material, handle)
     ref = solve(reference, load_steps=load_steps)
