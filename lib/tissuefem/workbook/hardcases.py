@@ -94,10 +94,6 @@ class ReleaseResult:
         return float(self.energies[-1]) if self.energies.size else self.start_energy
 
 
-def _bottom(mesh):
-    return np.flatnonzero(np.abs(mesh.p[1] - mesh.p[1].min()) < 1e-9)
-
-
 def release(mesh, material, x_start, held=None, **newton_options) -> ReleaseResult:
     """Release a body from node positions ``x_start``, the ``held`` nodes (default: the bottom edge) at rest;
     a numerical failure is in the status, never raised."""
@@ -107,7 +103,7 @@ def release(mesh, material, x_start, held=None, **newton_options) -> ReleaseResu
         raise ValueError(f"x_start must have shape {X.shape}, got {x_start.shape}")
     if not np.all(np.isfinite(x_start)):
         raise ValueError("x_start contains non-finite positions")
-    held = _bottom(mesh) if held is None else np.asarray(held)
+    held = np.flatnonzero(np.abs(X[1] - X[1].min()) < 1e-9) if held is None else np.asarray(held)
     model = Model(mesh, material, handles=[Handle(held)])
     u0 = model.zeros()
     u0[model.basis.nodal_dofs] = x_start - X
@@ -147,7 +143,7 @@ def crush_and_release(material, mesh=None, depth: float = 1.3, steps: int = 13, 
     model = Model(mesh, material, handles=[Handle("bottom"), top])
     options = {**RELEASE_OPTIONS, "rtol": 1e-8, "max_iterations": 100, **newton_options}
     crush, positions, u = _push_down(model, top, depth, steps, options, stop=True)
-    released = release(mesh, material, model.positions(u), held=_bottom(mesh), **newton_options)
+    released = release(mesh, material, model.positions(u), **newton_options)
     frames = [np.array(mesh.p, dtype=float)] + positions
     frames.append(model.positions(u) if not released.finite else model.positions(released.u))
     return {"frames": frames, "crush": crush, "released": released,
@@ -182,13 +178,10 @@ def crush_in_frames(material, mesh=None, depth: float = 1.3, steps: int = 13, ex
     X = np.asarray(mesh.p, dtype=float)
     model = Model(mesh, material, handles=[Handle("bottom", name="bottom"), Handle("top", name="top")])
     solver = RealtimeSolver(model, budget=math.inf, rtol=rtol, max_iterations=max_iterations)
-    frames = 0
     for d in np.linspace(0.0, depth, steps + 1)[1:]:
         report = solver.frame({"top": _down(mesh, d)})
-        frames += 1
-    for _ in range(extra_frames):
-        if report.converged:
-            break
+    frames = int(steps)
+    while not report.converged and frames < steps + extra_frames:
         report = solver.frame({"top": _down(mesh, depth)})
         frames += 1
     x = model.positions(solver.u)
@@ -196,7 +189,7 @@ def crush_in_frames(material, mesh=None, depth: float = 1.3, steps: int = 13, ex
     J = element_jacobians(mesh, x)
     return {"x": x, "reached": float(X[1, top].mean() - x[1, top].mean()), "converged": bool(report.converged),
             "frames": frames, "inverted": int(np.sum(J <= 1e-12)), "folded": int(np.sum(cover_counts(mesh, x) > 1)),
-            "released": release(mesh, material, x, held=_bottom(mesh))}
+            "released": release(mesh, material, x)}
 
 
 def edge_matrices(mesh, x) -> np.ndarray:
