@@ -8,14 +8,14 @@ from itertools import product
 
 import numpy as np
 
-from ..engine.constants import FRAME_BUDGET as FRAME_DT, TISSUE_E, TISSUE_NU  # FRAME_DT: one frame, 1/30 s
+from ..engine.constants import FRAME_BUDGET as FRAME_DT  # one frame, 1/30 s
 from ..engine.materials import StableNeoHookean, rotation
 from ..engine.meshes import mean_edge_length, rectangle
 from ..engine.model import Handle, Model
 from ..engine.stepping import Stepper
 from ..surgery.element_cuts import cut_through
 from ..surgery.flaps import advancement_flap, rotation_flap
-from ..surgery.scene import Scene
+from ..surgery.scene import Scene, demo_scene
 from ..surgery.simulation import Simulation
 from ..surgery.surfaces import contact_surface
 from ..surgery.topology import connected_components
@@ -47,19 +47,15 @@ def still_clock():
 
 
 def sheet_scene(n_triangles=1200, *, handles, dynamic=False, gravity=False, width=2.0, height=1.0):
-    """A ``width x height`` sheet of stable neo-Hookean tissue (E = 1000, nu = 0.3) with the given handles."""
-    effects = {"handles": handles}
-    if dynamic:
-        effects["inertia"] = {"time_step": FRAME_DT}
+    """:func:`~tissuefem.surgery.scene.demo_scene`'s sheet of stable neo-Hookean tissue (E = 1000, nu = 0.3),
+    ``width x height``, with the given handles, under gravity if asked; every frame solved to 1e-8, no budget."""
+    data = demo_scene(int(n_triangles), dynamic).to_dict()
+    data["domain"].update(width=width, height=height)
+    data["effects"]["handles"] = handles
     if gravity:
-        effects["gravity"] = {"acceleration": [0.0, -9.81]}
-    return Scene(
-        name="sheet",
-        domain={"shape": "rectangle", "width": width, "height": height, "triangles": int(n_triangles)},
-        material={"model": "stable-neo-hookean", "youngs_modulus": TISSUE_E, "poisson_ratio": TISSUE_NU},
-        effects=effects,
-        solver={"budget": 1e9, "rtol": 1e-8, "max_iterations": 100},
-    )
+        data["effects"]["gravity"] = {"acceleration": [0.0, -9.81]}
+    data["solver"] = {"budget": 1e9, "rtol": 1e-8, "max_iterations": 100}
+    return Scene.from_dict(data)
 
 
 def still_simulation(n_triangles, handles, **options) -> Simulation:
