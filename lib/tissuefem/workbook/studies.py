@@ -84,13 +84,13 @@ def rotated_block(material: Material, theta, n: int = 8, width: float = 1.0, hei
     ``theta`` (radians) about its midpoint, the rest free; rigid for a frame-indifferent model."""
     n, theta = _count("n", n), check_real("theta", theta)
     mesh = rectangle(width, height, max(1, round(n * width / height)), n)
-    R = rotation(theta)
     pivot = np.array([[0.0], [0.5 * height]])
 
-    def wall(X):
-        return pivot + R @ (X - pivot)
+    def wall(angle):  # the clamped edge's map: a turn by ``angle`` about its midpoint
+        R = rotation(angle)
+        return lambda X: pivot + R @ (X - pivot)
 
-    handle = Handle("left", wall)
+    handle = Handle("left", wall(theta))
     model = Model(mesh, material, handles=[handle])
     if isinstance(material, LinearElastic):  # linear: one Newton step, whatever the angle
         return model, solve(model)
@@ -98,14 +98,13 @@ def rotated_block(material: Material, theta, n: int = 8, width: float = 1.0, hei
     steps = max(1, math.ceil(abs(theta) / (np.pi / 12)))
     u, history = None, []
     for k in range(1, steps + 1):
-        Rk = rotation(theta * k / steps)
-        handle.move(lambda X, Rk=Rk: pivot + Rk @ (X - pivot))
+        handle.move(wall(theta * k / steps))
         result = solve(model, u0=u)
         history += result.steps
         if not result.converged:
             break
         u = result.u
-    handle.move(wall)
+    handle.move(wall(theta))
     return model, StaticResult(result.u, result.converged, history)
 
 
