@@ -119,8 +119,8 @@ def cofactor_derivative(F):
 # --- the rotation-preserving SVD ------------------------------------------------------
 
 def rotation(angle) -> np.ndarray:
-    """The 2D rotation ``R(theta) = [[cos, -sin], [sin, cos]]`` (radians, counter-clockwise); shape ``[2, 2,
-    *theta.shape]``."""
+    """The 2D rotation ``R = [[cos, -sin], [sin, cos]]`` by ``angle`` (radians, counter-clockwise); shape ``[2, 2,
+    *angle.shape]``."""
     c, s = np.cos(angle), np.sin(angle)
     return np.array([[c, -s], [s, c]])
 
