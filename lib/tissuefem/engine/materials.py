@@ -25,7 +25,7 @@ from .materials1d import LameMaterial, NeoHookean1D, TaylorNeoHookean1D
 from .parameters import ParameterError, check_fiber_stiffness, check_real_array, lame_parameters
 
 __all__ = [
-    "det", "cofactor", "inverse", "cofactor_derivative", "det2", "rotation_preserving_svd",
+    "det", "cofactor", "inverse", "cofactor_derivative", "det2", "rotation", "rotation_preserving_svd",
     "Material", "LinearElastic", "NeoHookean", "TaylorNeoHookean", "StableNeoHookean",
     "Corotated", "FiberFamily", "FiberReinforced", "fiber_invariant", "fiber_energy", "fiber_stress", "fiber_tangent",
     "check_fiber_stiffness", "vector_length", "MATERIALS", "material", "check_F",
@@ -118,7 +118,9 @@ def cofactor_derivative(F):
 
 # --- the rotation-preserving SVD ------------------------------------------------------
 
-def _rotation2(angle) -> np.ndarray:
+def rotation(angle) -> np.ndarray:
+    """The 2D rotation ``R = [[cos, -sin], [sin, cos]]`` by ``angle`` (radians, counter-clockwise); shape ``[2, 2,
+    *angle.shape]``."""
     c, s = np.cos(angle), np.sin(angle)
     return np.array([[c, -s], [s, c]])
 
@@ -132,7 +134,7 @@ def _svd2(F):
     Fa, Ga = 0.5 * (F[0, 0] - F[1, 1]), 0.5 * (F[1, 0] + F[0, 1])
     Q, R = np.hypot(E, H), np.hypot(Fa, Ga)
     a1, a2 = np.arctan2(Ga, Fa), np.arctan2(H, E)
-    return _rotation2(0.5 * (a2 + a1)), np.array([Q + R, Q - R]), _rotation2(0.5 * (a1 - a2))
+    return rotation(0.5 * (a2 + a1)), np.array([Q + R, Q - R]), rotation(0.5 * (a1 - a2))
 
 
 def _svd3(F):
@@ -300,7 +302,7 @@ def _polar_rotation(F):
     collapsed = rho < _RHO_MIN
     if np.any(collapsed):
         theta = np.where(collapsed, 0.0, theta)
-    R = _rotation2(theta)
+    R = rotation(theta)
     return R, R[0, 0], R[1, 0], rho
 
 

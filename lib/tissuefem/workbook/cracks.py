@@ -15,7 +15,6 @@ from ..engine.constants import TISSUE_E, TISSUE_NU
 from ..engine.materials import LinearElastic
 from ..engine.meshes import rectangle
 from ..engine.model import Handle, Model
-from ..engine.parameters import lame_parameters
 from ..engine.stepping import solve
 from ..surgery.element_cuts import cut_through
 
@@ -48,8 +47,7 @@ def griffith_opening(n, a=1.0, width=10.0, stress=1.0, E=TISSUE_E, nu=TISSUE_NU,
     cut = cut_through(mesh, [[c - a, y0], [c + a, y0]])
     p = cut.mesh.p
     nearest = [np.array([int(np.argmin(np.hypot(p[0] - x, p[1] - c)))]) for x in (0.0, width)]
-    lam, mu = lame_parameters(E, nu)
-    model = Model(cut.mesh, LinearElastic(lam, mu), weights=cut.weights, handles=[Handle(q) for q in nearest],
+    model = Model(cut.mesh, LinearElastic.from_young(E, nu), weights=cut.weights, handles=[Handle(q) for q in nearest],
                   tractions={"top": (0.0, stress), "bottom": (0.0, -stress)})
     result = solve(model)
     if not result.converged:

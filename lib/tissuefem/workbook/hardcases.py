@@ -94,10 +94,6 @@ class ReleaseResult:
         return float(self.energies[-1]) if self.energies.size else self.start_energy
 
 
-def _bottom(mesh):
-    return np.flatnonzero(np.abs(mesh.p[1] - mesh.p[1].min()) < 1e-9)
-
-
 def release(mesh, material, x_start, held=None, **newton_options) -> ReleaseResult:
     """Release a body from node positions ``x_start``, the ``held`` nodes (default: the bottom edge) at rest;
     a numerical failure is in the status, never raised."""
@@ -107,7 +103,7 @@ def release(mesh, material, x_start, held=None, **newton_options) -> ReleaseResu
         raise ValueError(f"x_start must have shape {X.shape}, got {x_start.shape}")
     if not np.all(np.isfinite(x_start)):
         raise ValueError("x_start contains non-finite positions")
-    held = _bottom(mesh) if held is None else np.asarray(held)
+    held = np.flatnonzero(np.abs(X[1] - X[1].min()) < 1e-9) if held is None else np.asarray(held)
     model = Model(mesh, material, handles=[Handle(held)])
     u0 = model.zeros()
     u0[model.basis.nodal_dofs] = x_start - X
@@ -124,28 +120,34 @@ def release(mesh, material, x_start, held=None, **newton_options) -> ReleaseResu
         finite=bool(np.all(np.isfinite(u))), history=newton.history)
 
 
+def _push_down(model, handle, depth, steps, options, stop):
+    """Move ``handle`` down by ``depth`` in ``steps`` solves, each from the last state: the results, the positions
+    after each and the last state; with ``stop`` up to the first solve that fails (its state dropped)."""
+    u, results, positions = model.zeros(), [], []
+    for d in np.linspace(0.0, depth, steps + 1)[1:]:
+        handle.move(_down(model.mesh, d))
+        results.append(solve(model, u0=u, **options))
+        if stop and not results[-1].converged:
+            break
+        u = results[-1].u
+        positions.append(model.positions(u))
+    return results, positions, u
+
+
 def crush_and_release(material, mesh=None, depth: float = 1.3, steps: int = 13, **newton_options) -> dict:
     """Push the top edge (face) down by ``depth`` (1 = flat) in ``steps`` solves, bottom fixed, then release:
     ``frames`` (positions, the released shape last), ``crush`` (the results), ``released``, ``crushed`` (the
     depth reached), ``iterations``, ``cuts``, ``final_energy``."""
     mesh = block() if mesh is None else mesh
-    X = np.asarray(mesh.p, dtype=float)
     top = Handle("top")
     model = Model(mesh, material, handles=[Handle("bottom"), top])
     options = {**RELEASE_OPTIONS, "rtol": 1e-8, "max_iterations": 100, **newton_options}
-    u = model.zeros()
-    frames, crush, reached = [X.copy()], [], 0.0
-    for d in np.linspace(0.0, depth, steps + 1)[1:]:
-        top.move(_down(mesh, d))
-        result = solve(model, u0=u, **options)
-        crush.append(result)
-        if not result.converged:
-            break
-        u, reached = result.u, float(d)
-        frames.append(model.positions(u))
-    released = release(mesh, material, model.positions(u), held=_bottom(mesh), **newton_options)
+    crush, positions, u = _push_down(model, top, depth, steps, options, stop=True)
+    released = release(mesh, material, model.positions(u), **newton_options)
+    frames = [np.array(mesh.p, dtype=float)] + positions
     frames.append(model.positions(u) if not released.finite else model.positions(released.u))
-    return {"frames": frames, "crush": crush, "released": released, "crushed": reached,
+    return {"frames": frames, "crush": crush, "released": released,
+            "crushed": float(np.linspace(0.0, depth, steps + 1)[len(positions)]),
             "iterations": sum(r.newton_iterations for r in crush) + released.iterations,
             "cuts": sum(s.line_search_cuts for r in crush for s in r.steps) + released.cuts,
             "final_energy": released.final_energy}
@@ -153,7 +155,7 @@ def crush_and_release(material, mesh=None, depth: float = 1.3, steps: int = 13, 
 
 def drag_through(material, mesh=None, depth: float = 1.6, steps: int = 16, **newton_options) -> dict:
     """Drag the top edge's middle (within 0.2) of a sheet held at its sides down by ``depth`` in ``steps``
-    solves, then release: ``positions``, ``drag``, ``released``, ``failed_steps``."""
+    solves, then release: ``positions``, ``drag``, ``released``, ``failed_steps``, ``grab`` (the dragged nodes)."""
     mesh = block() if mesh is None else mesh
     X = np.asarray(mesh.p, dtype=float)
     sides = np.flatnonzero((np.abs(X[0] - X[0].min()) < 1e-9) | (np.abs(X[0] - X[0].max()) < 1e-9))
@@ -161,18 +163,10 @@ def drag_through(material, mesh=None, depth: float = 1.6, steps: int = 16, **new
     handle = Handle(grab)
     model = Model(mesh, material, handles=[Handle(sides), handle])
     options = {**RELEASE_OPTIONS, "rtol": 1e-8, "max_iterations": 60, **newton_options}
-    u = model.zeros()
-    positions, drag, failed = [], [], 0
-    for d in np.linspace(0.0, depth, steps + 1)[1:]:
-        handle.move(_down(mesh, d))
-        result = solve(model, u0=u, **options)
-        drag.append(result)
-        failed += not result.converged
-        u = result.u
-        positions.append(model.positions(u))
+    drag, positions, u = _push_down(model, handle, depth, steps, options, stop=False)
     released = release(mesh, material, model.positions(u), held=sides, **newton_options)
-    return {"positions": positions, "drag": drag, "released": released, "failed_steps": failed,
-            "grab": grab, "sides": sides}
+    return {"positions": positions, "drag": drag, "released": released,
+            "failed_steps": sum(not r.converged for r in drag), "grab": grab}
 
 
 def crush_in_frames(material, mesh=None, depth: float = 1.3, steps: int = 13, extra_frames: int = 50,
@@ -184,13 +178,10 @@ def crush_in_frames(material, mesh=None, depth: float = 1.3, steps: int = 13, ex
     X = np.asarray(mesh.p, dtype=float)
     model = Model(mesh, material, handles=[Handle("bottom", name="bottom"), Handle("top", name="top")])
     solver = RealtimeSolver(model, budget=math.inf, rtol=rtol, max_iterations=max_iterations)
-    frames = 0
     for d in np.linspace(0.0, depth, steps + 1)[1:]:
         report = solver.frame({"top": _down(mesh, d)})
-        frames += 1
-    for _ in range(extra_frames):
-        if report.converged:
-            break
+    frames = int(steps)
+    while not report.converged and frames < steps + extra_frames:
         report = solver.frame({"top": _down(mesh, depth)})
         frames += 1
     x = model.positions(solver.u)
@@ -198,7 +189,7 @@ def crush_in_frames(material, mesh=None, depth: float = 1.3, steps: int = 13, ex
     J = element_jacobians(mesh, x)
     return {"x": x, "reached": float(X[1, top].mean() - x[1, top].mean()), "converged": bool(report.converged),
             "frames": frames, "inverted": int(np.sum(J <= 1e-12)), "folded": int(np.sum(cover_counts(mesh, x) > 1)),
-            "released": release(mesh, material, x, held=_bottom(mesh))}
+            "released": release(mesh, material, x)}
 
 
 def edge_matrices(mesh, x) -> np.ndarray:

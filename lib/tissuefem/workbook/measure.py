@@ -34,15 +34,19 @@ def evaluate(basis, u, points, chunk: int = 400) -> np.ndarray:
     return np.concatenate([f(points[:, i:i + chunk]) for i in range(0, points.shape[1], chunk)], axis=1)
 
 
-def relative_l2_error(basis, u, reference_basis, u_reference, intorder: int = 4) -> float:
-    """``||u - u_ref||_L2 / ||u_ref||_L2`` by quadrature on ``basis``'s mesh, ``u_ref`` (on another mesh)
-    located at its points. Models (anything with ``basis``) may stand for the bases."""
+def relative_l2_error(basis, u, reference, u_reference=None, intorder: int = 4) -> float:
+    """``||u - u_ref||_L2 / ||u_ref||_L2`` by quadrature of degree ``intorder`` on ``basis``'s mesh: ``u_ref`` is
+    the field ``u_reference`` on the basis ``reference`` (another mesh) located at the quadrature points, or
+    without ``u_reference`` the values ``reference(x)`` there (``x``: ``(d, n_elements, n_points)``, an exact
+    solution). Models (anything with ``basis``) may stand for the bases."""
     basis = getattr(basis, "basis", basis)
-    reference_basis = getattr(reference_basis, "basis", reference_basis)
     quad = Basis(basis.mesh, basis.elem, intorder=intorder)
-    uh = np.asarray(quad.interpolate(u))  # (2, nel, nq)
-    x = quad.mapping.F(quad.quadrature[0])  # quadrature points (2, nel, nq)
-    ur = evaluate(reference_basis, u_reference, x.reshape(2, -1)).reshape(uh.shape)
+    uh = np.asarray(quad.interpolate(u))  # (d, nel, nq)
+    x = quad.mapping.F(quad.quadrature[0])  # quadrature points (d, nel, nq)
+    if u_reference is None:
+        ur = reference(x)
+    else:
+        ur = evaluate(getattr(reference, "basis", reference), u_reference, x.reshape(len(x), -1)).reshape(x.shape)
     err = np.sum(np.sum((uh - ur) ** 2, axis=0) * quad.dx)
     norm = np.sum(np.sum(ur**2, axis=0) * quad.dx)
     return float(np.sqrt(err / norm))

@@ -8,18 +8,17 @@ from itertools import product
 
 import numpy as np
 
-from ..engine.constants import FRAME_BUDGET as FRAME_DT, TISSUE_E, TISSUE_NU  # FRAME_DT: one frame, 1/30 s
-from ..engine.materials import StableNeoHookean
+from ..engine.constants import FRAME_BUDGET as FRAME_DT  # one frame, 1/30 s
+from ..engine.materials import StableNeoHookean, rotation
 from ..engine.meshes import mean_edge_length, rectangle
 from ..engine.model import Handle, Model
 from ..engine.stepping import Stepper
 from ..surgery.element_cuts import cut_through
 from ..surgery.flaps import advancement_flap, rotation_flap
-from ..surgery.scene import Scene
+from ..surgery.scene import Scene, demo_scene
 from ..surgery.simulation import Simulation
 from ..surgery.surfaces import contact_surface
 from ..surgery.topology import connected_components
-from .studies import rotation
 
 __all__ = ["still_clock", "sheet_scene", "still_simulation", "check_frame", "pulled_sheet", "incision_run",
            "two_pieces_run", "probe_run", "probe_indentation", "flap_runs", "crack_runs", "virtual_nodes_run",
@@ -48,19 +47,15 @@ def still_clock():
 
 
 def sheet_scene(n_triangles=1200, *, handles, dynamic=False, gravity=False, width=2.0, height=1.0):
-    """A ``width x height`` sheet of stable neo-Hookean tissue (E = 1000, nu = 0.3) with the given handles."""
-    effects = {"handles": handles}
-    if dynamic:
-        effects["inertia"] = {"time_step": FRAME_DT}
+    """:func:`~tissuefem.surgery.scene.demo_scene`'s sheet of stable neo-Hookean tissue (E = 1000, nu = 0.3),
+    ``width x height``, with the given handles, under gravity if asked; every frame solved to 1e-8, no budget."""
+    data = demo_scene(int(n_triangles), dynamic).to_dict()
+    data["domain"].update(width=width, height=height)
+    data["effects"]["handles"] = handles
     if gravity:
-        effects["gravity"] = {"acceleration": [0.0, -9.81]}
-    return Scene(
-        name="sheet",
-        domain={"shape": "rectangle", "width": width, "height": height, "triangles": int(n_triangles)},
-        material={"model": "stable-neo-hookean", "youngs_modulus": TISSUE_E, "poisson_ratio": TISSUE_NU},
-        effects=effects,
-        solver={"budget": 1e9, "rtol": 1e-8, "max_iterations": 100},
-    )
+        data["effects"]["gravity"] = {"acceleration": [0.0, -9.81]}
+    data["solver"] = {"budget": 1e9, "rtol": 1e-8, "max_iterations": 100}
+    return Scene.from_dict(data)
 
 
 def still_simulation(n_triangles, handles, **options) -> Simulation:
@@ -138,35 +133,32 @@ def two_pieces_run(n_triangles=800, sag_frames=SAG_FRAMES, fall_frames=FALL_FRAM
             "cut_frame": sag_frames, "edit": edit, "free_fall": free_fall, "simulation": sim, "X0": X0}
 
 
-def probe_run(n_triangles=1200, radius=PROBE_RADIUS, depths=PROBE_DEPTHS, x_probe=1.0) -> dict:
+def probe_run(n_triangles=1200, radius=PROBE_RADIUS, depths=PROBE_DEPTHS, x_probe=1.0, stiffness=None) -> dict:
     """A disc pressed ever deeper into a block held on its bottom edge, one frame per depth: positions,
-    tension, nodal contact forces ``k l_a h'(R - d_a) n_a``, their total and the penetration left."""
+    tension, nodal contact forces ``k l_a h'(R - d_a) n_a``, their total, the penetration left and the Newton
+    steps. ``stiffness``: the penalty (default ``100 E / radius``)."""
     sim = still_simulation(n_triangles, [{"name": "base", "region": "bottom"}])
-    label = sim.add_probe([x_probe, 1.0 + radius - depths[0]], radius)
+    label = sim.add_probe([x_probe, 1.0 + radius - depths[0]], radius, stiffness=stiffness)
     states = []
     for depth in depths:
         sim.move_probe(label, [x_probe, 1.0 + radius - depth])
-        check_frame(sim.frame(), f"the probe at depth {depth}")
+        report = check_frame(sim.frame(), f"the probe at depth {depth}")
         probe = sim.model.probes[0]
         contact = -probe.gradient(sim.u).reshape(-1, 2).T  # force on each node
         states.append(dict(depth=depth, center=probe.center.copy(), x=sim.positions().copy(), t=sim.mesh.t.copy(),
                            tension=sim.tension(), contact=contact, force=contact.sum(axis=1),
-                           penetration=probe.penetration(sim.u), stiffness=probe.stiffness))
+                           penetration=probe.penetration(sim.u), stiffness=probe.stiffness,
+                           newton=report.newton_iterations))
     return {"states": states, "radius": radius, "simulation": sim}
 
 
 def probe_indentation(n_triangles=1200, stiffness=None, depths=(0.05, 0.1, 0.15, 0.2), radius=0.25) -> dict:
-    """The probe of :func:`probe_run` with the penalty ``stiffness`` (default ``100 E / radius``): penetration
-    left at the last depth, Newton steps per frame, triangles and stiffness."""
-    sim = still_simulation(n_triangles, [{"name": "base", "region": "bottom"}])
-    tool = sim.add_probe([1.0, 1.0 + radius], radius=radius, stiffness=stiffness)
-    newton = []
-    for depth in depths:
-        sim.move_probe(tool, [1.0, 1.0 + radius - depth])
-        newton.append(check_frame(sim.frame(), f"the indentation to {depth}").newton_iterations)
-    probe = sim.model.probes[0]
-    return {"penetration": probe.penetration(sim.u), "newton": newton, "triangles": int(sim.mesh.nelements),
-            "stiffness": float(probe.stiffness)}
+    """:func:`probe_run` summed up: the penetration left at the last depth, the Newton steps per frame, the
+    triangles and the penalty stiffness."""
+    run = probe_run(n_triangles, radius, depths, stiffness=stiffness)
+    last = run["states"][-1]
+    return {"penetration": last["penetration"], "newton": [s["newton"] for s in run["states"]],
+            "triangles": int(run["simulation"].mesh.nelements), "stiffness": float(last["stiffness"])}
 
 
 def flap_runs(lengths=FLAP_LENGTHS, n_triangles=FLAP_TRIANGLES, tighten_frames=FLAP_TIGHTEN_FRAMES) -> dict:

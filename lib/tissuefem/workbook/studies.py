@@ -11,10 +11,10 @@ import numpy as np
 
 from ..engine.constants import TISSUE_E, TISSUE_NU
 from ..engine.linsolve import LinearSolver
-from ..engine.materials import LinearElastic, Material, NeoHookean
+from ..engine.materials import LinearElastic, Material, NeoHookean, rotation
 from ..engine.meshes import rectangle
 from ..engine.model import Handle, Model
-from ..engine.parameters import check_count as _count, check_real
+from ..engine.parameters import check_count as _count, check_list, check_real
 from ..engine.stepping import StaticResult, solve
 from .measure import median_time, relative_l2_error
 from .tables import markdown_table
@@ -27,19 +27,7 @@ __all__ = [
 
 
 def _sizes(name, values) -> tuple[int, ...]:
-    try:
-        values = tuple(values)
-    except TypeError:
-        raise ValueError(f"{name} must be a sequence of positive integers, got {values!r}") from None
-    return tuple(_count(name, v) for v in values)
-
-
-def rotation(theta) -> np.ndarray:
-    """The rotation ``R(theta) = [[cos, -sin], [sin, cos]]`` (radians, counter-clockwise); shape
-    ``[2, 2, *theta.shape]``."""
-    theta = np.asarray(theta, dtype=float)
-    c, s = np.cos(theta), np.sin(theta)
-    return np.array([[c, -s], [s, c]])
+    return tuple(_count(name, v) for v in check_list(name, values, "positive integers"))
 
 
 # chapter 3's example deformation (:func:`bending_map`): the block [0, 2] x [0, 1] bent around C below it
@@ -96,13 +84,13 @@ def rotated_block(material: Material, theta, n: int = 8, width: float = 1.0, hei
     ``theta`` (radians) about its midpoint, the rest free; rigid for a frame-indifferent model."""
     n, theta = _count("n", n), check_real("theta", theta)
     mesh = rectangle(width, height, max(1, round(n * width / height)), n)
-    R = rotation(theta)
     pivot = np.array([[0.0], [0.5 * height]])
 
-    def wall(X):
-        return pivot + R @ (X - pivot)
+    def wall(angle):  # the clamped edge's map: a turn by ``angle`` about its midpoint
+        R = rotation(angle)
+        return lambda X: pivot + R @ (X - pivot)
 
-    handle = Handle("left", wall)
+    handle = Handle("left", wall(theta))
     model = Model(mesh, material, handles=[handle])
     if isinstance(material, LinearElastic):  # linear: one Newton step, whatever the angle
         return model, solve(model)
@@ -110,14 +98,13 @@ def rotated_block(material: Material, theta, n: int = 8, width: float = 1.0, hei
     steps = max(1, math.ceil(abs(theta) / (np.pi / 12)))
     u, history = None, []
     for k in range(1, steps + 1):
-        Rk = rotation(theta * k / steps)
-        handle.move(lambda X, Rk=Rk: pivot + Rk @ (X - pivot))
+        handle.move(wall(theta * k / steps))
         result = solve(model, u0=u)
         history += result.steps
         if not result.converged:
             break
         u = result.u
-    handle.move(wall)
+    handle.move(wall(theta))
     return model, StaticResult(result.u, result.converged, history)
 
 
@@ -184,7 +171,6 @@ def cost_accuracy_study(p1_sizes=(2, 4, 8, 16), p2_sizes=(1, 2, 4, 8), reference
     if max(p1_sizes + p2_sizes, default=0) >= reference_size:
         raise ValueError(f"reference_size ({reference_size}) must exceed every size of the sweep "
                          f"(largest {max(p1_sizes + p2_sizes)})")
-    material = NeoHookean.from_young(TISSUE_E, TISSUE_NU) if material is None else material
 
     reference = block_model(reference_size, 2, material, handle)
     ref = solve(reference, load_steps=load_steps)

@@ -12,7 +12,6 @@ from ..engine.explicit import SymplecticEuler, critical_time_step, largest_stabl
 from ..engine.materials import StableNeoHookean
 from ..engine.meshes import box, mesh_size, rectangle
 from ..engine.model import Handle, Model
-from ..engine.parameters import lame_parameters
 from ..engine.stepping import Stepper, solve
 from ..surgery.scene import Scene, flap_path, flap_scene
 from ..surgery.simulation import Simulation
@@ -46,7 +45,7 @@ class CFLStudy:
 def cfl_study(sizes=(4, 8, 16, 32)) -> CFLStudy:
     """:func:`largest_stable_dt` and :func:`critical_time_step` of symplectic Euler on chapter 7's ``2 x 1`` flap
     (stable neo-Hookean, E = 1000, nu = 0.3), left edge held, of square cells ``h = 2 / nx``, ``nx`` in ``sizes``."""
-    material = StableNeoHookean(*lame_parameters(TISSUE_E, TISSUE_NU, "strain"))
+    material = StableNeoHookean.from_young(TISSUE_E, TISSUE_NU)
     c = wave_speed(material, TISSUE_DENSITY)
     study = CFLStudy(wave_speed=c)
     for nx in sizes:
@@ -69,7 +68,7 @@ def released_flap(material=None, nx: int = 8, ny: int = 4, lift: float = LIFT, n
     """``(model, u0)``: chapter 7's ``2 x 1`` flap (``nx x ny`` cells) with its right edge lifted by ``lift``
     (``u0``), ``model`` holding only its left edge: stepping it from ``u0`` at rest lets it go. With ``nz`` cells
     across a ``depth``, the same flap as a slab of tetrahedra (chapter 11), its right face lifted."""
-    material = StableNeoHookean(*lame_parameters(TISSUE_E, TISSUE_NU, "strain")) if material is None else material
+    material = StableNeoHookean.from_young(TISSUE_E, TISSUE_NU) if material is None else material
     mesh = rectangle(2.0, 1.0, nx, ny) if nz is None else box(2.0, 1.0, depth, nx, ny, nz)
     pulled = Model(mesh, material, handles=[Handle("left"), Handle("right", (0.0, lift) + (0.0,) * (nz is not None))])
     result = solve(pulled, load_steps=2)

@@ -17,7 +17,7 @@ from ..engine.model import Handle, Model
 from ..engine.parameters import check_count
 from ..engine.stepping import solve
 from ..engine.terms import Load
-from .measure import fitted_exponent
+from .measure import fitted_exponent, relative_l2_error
 from .studies import bending_gradient, bending_map
 
 __all__ = ["beam_exact", "beam_problem_tip", "beam_convergence", "manufactured_map", "manufactured_gradient",
@@ -166,11 +166,7 @@ def manufactured_error(material, n: int, order: int, load_steps: int = 4, dim: i
     result = solve(model, load_steps=load_steps, rtol=1e-11)
     if not result.converged:
         raise RuntimeError(f"manufactured solution: P{order}, n = {n}, {dim}D did not converge ({result.status})")
-    quad = Basis(mesh, model.basis.elem, intorder=2 * order + 3)
-    uh = np.asarray(quad.interpolate(result.u))
-    x = quad.mapping.F(quad.quadrature[0])
-    ue = manufactured_map(x) - x
-    return float(np.sqrt(np.sum(np.sum((uh - ue) ** 2, axis=0) * quad.dx) / np.sum(np.sum(ue**2, axis=0) * quad.dx)))
+    return relative_l2_error(model, result.u, lambda x: manufactured_map(x) - x, intorder=2 * order + 3)
 
 
 #: the default mesh sizes ``n`` (``h = 1/n``) of :func:`manufactured_convergence`, by dimension and order
