@@ -563,10 +563,10 @@ class ReusedFactorization:
             return result.x, SolveInfo(result.iterations, True, result.converged, result.residual_norm, reason)
         return self._back_substitution(A, b, reason, deadline)
 
-    def _back_substitution(self, A, b, reason, deadline, factorized=True) -> tuple[np.ndarray, SolveInfo]:
+    def _back_substitution(self, A, b, reason, deadline) -> tuple[np.ndarray, SolveInfo]:
         x = deadline.timed("back-substitution", self._factor.solve, b)
-        residual = math.nan if self.constant else float(np.linalg.norm(b - A @ x))  # (constant: A may be None)
-        return x, SolveInfo(0, factorized, bool(np.all(np.isfinite(x))), residual, reason)
+        residual = math.nan if self.constant else float(np.linalg.norm(b - A @ x))  # (a constant solve checks none)
+        return x, SolveInfo(0, True, bool(np.all(np.isfinite(x))), residual, reason)
 
     @property
     def _precondition(self):
@@ -582,8 +582,9 @@ class ReusedFactorization:
         return result
 
     def _constant_solve(self, A, b, deadline) -> tuple[np.ndarray | None, SolveInfo]:
-        """The kept factorization's back-substitution (``A``: ``None`` once one is kept); none kept: made now if it
-        fits, else off the frame."""
+        """The kept factorization's back-substitution alone, every frame: ``A`` is ``None`` once one is kept, and
+        neither ``b`` nor ``x`` is checked (Newton checks the step); none kept: made now if it fits, else off the
+        frame."""
         if A is not None or self._factor is None:
             A = _square(A)
             self._adopt(A.shape)
@@ -593,7 +594,8 @@ class ReusedFactorization:
         if not deadline.fits("back-substitution"):
             deadline.skip("back-substitution")
             return None, SolveInfo(0, False, False, math.inf, "", "back-substitution")
-        return self._back_substitution(A, _rhs(b, self._shape[0]), "", deadline, factorized=False)
+        x = deadline.timed("back-substitution", self._factor.solve, np.asarray(b, dtype=float))
+        return x, SolveInfo(0, False, True, math.nan)
 
     def solve(self, A, b, *, atol: float = 0.0, rtol: float = 1e-10, refactorize: bool = False,
               deadline: Deadline | None = None) -> tuple[np.ndarray | None, SolveInfo]:
