@@ -53,8 +53,6 @@ def _rhs(b, n) -> np.ndarray:
 class _Direct:
     """Shared behaviour of the direct backends: ``backend(A, b)`` factorizes and solves once."""
 
-    name = "direct"
-
     def __call__(self, A, b) -> np.ndarray:
         return self.factorize(A).solve(_rhs(b, A.shape[0]))
 
@@ -410,7 +408,7 @@ class SolveInfo:
     iterations: int  # CG iterations (0: a direct solve with a fresh factorization)
     factorized: bool  # a new factorization was computed for this solve
     converged: bool
-    residual_norm: float  # ||b - A x||
+    residual_norm: float  # ||b - A x|| (nan: a constant solve checks none)
     reason: str = ""  # why it refactorized ("first", "shape", "stale", "cg-failed", "negative-curvature", "forced")
     skipped: str = ""  # a piece of work not started for the deadline (then no solution: x is None)
 
@@ -844,10 +842,8 @@ class LinearSolver:
                                      f"({', '.join(sorted(BACKENDS))}), got {method!r}")
             background = kind == "reuse" and base.partition("-")[0] == "background"  # "reuse-background[-<backend>]"
             base = base[len("background-"):] if background else base
-            if method in ("direct", "reuse", "constant", "reuse-background"):
-                backend = SuperLU()
-            else:
-                backend = make(base if reused else method)
+            plain = method in ("direct", "reuse", "constant", "reuse-background")  # the default backend
+            backend = SuperLU() if plain else make(base if reused else method)
             if reused:
                 backend = ReusedFactorization(backend, background=background, launch=launch,
                                               constant=kind == "constant")
