@@ -15,6 +15,7 @@ frame's deadline.
 
 import contextlib
 import sys
+from types import SimpleNamespace
 
 import numpy as np
 import scipy.linalg as sla
@@ -95,12 +96,13 @@ class UpdatedFactorization:
 @contextlib.contextmanager
 def updates(rank):
     """Within: every ReusedFactorization keeps an :class:`UpdatedFactorization` of ``rank`` (0: the library as it
-    is), updated for the matrix before each CG solve."""
-    factorize, pcg = linsolve.ReusedFactorization._factorize, linsolve.pcg
+    is), updated for the matrix before each CG solve: its public ``direct`` backend is seen wrapped."""
+    direct, pcg = linsolve.ReusedFactorization.direct, linsolve.pcg
 
-    def kept(solver):
-        direct = solver.direct
-        return lambda A: UpdatedFactorization(direct.factorize(A), A, rank)
+    def wrapped(solver):
+        backend = direct.fget(solver)
+        return SimpleNamespace(name=backend.name,
+                               factorize=lambda A: UpdatedFactorization(backend.factorize(A), A, rank))
 
     def updated_pcg(A, b, precondition, **options):
         owner = getattr(precondition, "__self__", None)
@@ -109,11 +111,11 @@ def updates(rank):
         return pcg(A, b, precondition, **options)
 
     if rank > 0:
-        linsolve.ReusedFactorization._factorize, linsolve.pcg = property(kept), updated_pcg
+        linsolve.ReusedFactorization.direct, linsolve.pcg = property(wrapped, direct.fset), updated_pcg
     try:
         yield
     finally:
-        linsolve.ReusedFactorization._factorize, linsolve.pcg = factorize, pcg
+        linsolve.ReusedFactorization.direct, linsolve.pcg = direct, pcg
 
 
 def run(data, options, rank, frames):

@@ -53,8 +53,6 @@ def _rhs(b, n) -> np.ndarray:
 class _Direct:
     """Shared behaviour of the direct backends: ``backend(A, b)`` factorizes and solves once."""
 
-    name = "direct"
-
     def __call__(self, A, b) -> np.ndarray:
         return self.factorize(A).solve(_rhs(b, A.shape[0]))
 
@@ -410,7 +408,7 @@ class SolveInfo:
     iterations: int  # CG iterations (0: a direct solve with a fresh factorization)
     factorized: bool  # a new factorization was computed for this solve
     converged: bool
-    residual_norm: float  # ||b - A x||
+    residual_norm: float  # ||b - A x|| (nan: a constant solve checks none)
     reason: str = ""  # why it refactorized ("first", "shape", "stale", "cg-failed", "negative-curvature", "forced")
     skipped: str = ""  # a piece of work not started for the deadline (then no solution: x is None)
 
@@ -423,66 +421,15 @@ def _join_all(threads) -> None:
             thread.join()
 
 
-class _OffFrame:
-    """A solver that makes one factorization at a time off the frame: :meth:`_start` hands ``factorize(A)`` to
-    ``launch(work)`` (default :func:`start_thread`; a test passes one it controls), :meth:`_take` gives a finished one
-    made for ``key``. Its unfinished work is waited for by :meth:`close` (or leaving a ``with`` block), when the solver
-    is dropped and at the interpreter's exit: a process that ends under a factorization can crash in the BLAS."""
-
-    def __init__(self, launch):
-        _OffFrame.launch.fset(self, launch)  # not a subclass's setter: a backend object given keeps its own
-        self._pending = None  # the job under way, its result's box and its key
-        self._threads = []  # background factorizations started and not yet joined (shared with the finalizer)
-        weakref.finalize(self, _join_all, self._threads)
-
-    @property
-    def launch(self):
-        """How background work starts: ``launch(work)`` returns a job with ``is_alive`` and ``join``."""
-        return self._launch
-
-    @launch.setter
-    def launch(self, value):
-        if value is not None and not callable(value):
-            raise ParameterError("launch", f"launch must be a callable starting background work, got {value!r}")
-        self._launch = value
-
-    def _start(self, factorize, A, key) -> None:
-        """Start a factorization of ``A`` off the frame, unless one is under way."""
-        if self._pending is not None:
-            return
-        A, box = A.copy(), {}
-
-        def work():  # holds no reference to the solver, which may be dropped while this runs
-            try:
-                box["factor"] = factorize(A)
-            except Exception:  # a failed factorization only means the old one stays
-                box["factor"] = None
-        job = (self._launch or start_thread)(work)
-        self._threads[:] = [t for t in self._threads if t.is_alive()] + [job]
-        self._pending = (job, box, key)
-
-    def _take(self, key):
-        """A finished factorization made for ``key`` (forgotten if made for another), or ``None``."""
-        if self._pending is None or self._pending[0].is_alive():
-            return None
-        _, box, made_for = self._pending
-        self._pending = None
-        return box.get("factor") if made_for == key else None
-
-    def close(self) -> None:
-        """Wait for any background factorization to finish (it is not adopted) and forget the kept factorization.
-        The solver stays usable: its next solve factorizes afresh."""
-        _join_all(self._threads)
-        self.invalidate()
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.close()
+def _launcher(value):
+    """``value`` checked as a way to start background work: ``launch(work)`` returns a job with ``is_alive`` and
+    ``join`` (``None``: :func:`start_thread`)."""
+    if value is not None and not callable(value):
+        raise ParameterError("launch", f"launch must be a callable starting background work, got {value!r}")
+    return value
 
 
-class ReusedFactorization(_OffFrame):
+class ReusedFactorization:
     """Conjugate gradients preconditioned by a kept factorization of the ``direct`` backend (default :class:`SuperLU`):
     the tangent changes slowly, so a few CG iterations (~1 ms each at 8k triangles) replace a factorization (~20 ms).
     Beyond ``refresh_after`` iterations the *next* solve refactorizes; at ``max_iterations`` this one does.
@@ -491,16 +438,27 @@ class ReusedFactorization(_OffFrame):
     ``background_factorizations`` and ``cg_iterations`` count. Under a ``deadline`` (:class:`Deadline`) a
     factorization that does not fit is started in the background whatever ``background`` says, and CG runs the
     iterations that fit with the old factorization (no factorization yet: the solve returns ``None``). After a cut,
-    :meth:`provide` gives a preconditioner to start from while a fresh factorization is made off the frame."""
+    :meth:`provide` gives a preconditioner to start from while a fresh factorization is made off the frame.
+    ``constant``: no CG, the kept factorization's back-substitution is the answer (exact for a constant matrix, which
+    need not be given again: ``A`` may be ``None`` once one is kept).
+
+    One factorization at a time is made off the frame, started by ``launch(work)`` (default :func:`start_thread`; a
+    test passes one it controls). Unfinished work is waited for by :meth:`close` (or leaving a ``with`` block), when
+    the solver is dropped and at the interpreter's exit: a process that ends under a factorization can crash in the
+    BLAS."""
 
     def __init__(self, direct=None, refresh_after: int = 15, max_iterations: int = 40, background: bool = False,
-                 background_after: int = 3, launch=None):
+                 background_after: int = 3, launch=None, constant: bool = False):
         self.refresh_after = check_count("refresh_after", refresh_after)
         self.max_iterations = check_count("max_iterations", max_iterations)
         self.direct = direct if direct is not None else SuperLU()
         self.background, self.background_after = bool(background), int(background_after)
-        self.name = f"cg+reused-{self.direct.name}" + ("+background" if self.background else "")
-        super().__init__(launch)
+        self.constant = bool(constant)
+        kind = "constant-" if self.constant else "cg+reused-"
+        self.name = kind + self.direct.name + ("+background" if self.background else "")
+        self.launch = launch
+        self._threads = []  # background factorizations started and not yet joined (shared with the finalizer)
+        weakref.finalize(self, _join_all, self._threads)
         self.invalidate()  # no factorization yet
         self.factorizations = self.background_factorizations = self.cg_iterations = 0
 
@@ -515,20 +473,59 @@ class ReusedFactorization(_OffFrame):
             raise ParameterError("direct", f"direct must be a backend with a factorize method, got {value!r}")
         self._direct = value
 
+    @property
+    def launch(self):
+        """How background work starts: ``launch(work)`` returns a job with ``is_alive`` and ``join``."""
+        return self._launch
+
+    @launch.setter
+    def launch(self, value):
+        self._launch = _launcher(value)
+
     def _keep(self, factor, shape, provisional: bool = False) -> None:
         self._factor, self._shape, self._stale, self._provisional = factor, shape, False, provisional
 
-    @property
-    def _factorize(self):
-        """How a kept factorization is made: a function of the matrix only (a background job holds no solver)."""
-        return self._direct.factorize
-
     def _start_fresh(self, A) -> None:
-        self._start(self._factorize, A, A.shape)
+        """Start a factorization of ``A`` off the frame, unless one is under way."""
+        if self._pending is not None:
+            return
+        A, box, factorize = A.copy(), {}, self.direct.factorize
+
+        def work():  # holds no reference to the solver, which may be dropped while this runs
+            try:
+                box["factor"] = factorize(A)
+            except Exception:  # a failed factorization only means the old one stays
+                box["factor"] = None
+        job = (self._launch or start_thread)(work)
+        self._threads[:] = [t for t in self._threads if t.is_alive()] + [job]
+        self._pending = (job, box, A.shape)
+
+    def _adopt(self, shape) -> None:
+        """Take a finished background factorization as the preconditioner (forgotten if made for another shape)."""
+        if self._pending is None or self._pending[0].is_alive():
+            return
+        _, box, made_for = self._pending
+        self._pending = None
+        if made_for == shape and box.get("factor") is not None:
+            self._keep(box["factor"], shape)
+            self.background_factorizations += 1
 
     def invalidate(self) -> None:
+        """Forget the kept factorization, and the one under way (not waited for: it will not be adopted)."""
         self._keep(None, None)
         self._pending = None
+
+    def close(self) -> None:
+        """Wait for any background factorization to finish (it is not adopted) and forget the kept factorization.
+        The solver stays usable: its next solve factorizes afresh."""
+        _join_all(self._threads)
+        self.invalidate()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
 
     def provide(self, factor, shape, fresh: bool = True) -> None:
         """Precondition with ``factor`` (an approximate inverse of matrices of ``shape``, e.g. an
@@ -541,13 +538,6 @@ class ReusedFactorization(_OffFrame):
     def provisional(self) -> bool:
         """Whether the preconditioner is a provided one (:meth:`provide`) still waiting for a fresh factorization."""
         return self._provisional
-
-    def _adopt(self, shape) -> None:
-        """Take a finished background factorization (one of ``shape``) as the preconditioner."""
-        factor = self._take(shape)
-        if factor is not None:
-            self._keep(factor, shape)
-            self.background_factorizations += 1
 
     def _wait_for_fresh(self, A, b, reason, deadline) -> tuple[np.ndarray | None, SolveInfo]:
         """A provided preconditioner that CG could not do with: wait for the fresh factorization under way (it
@@ -564,16 +554,17 @@ class ReusedFactorization(_OffFrame):
             self._start_fresh(A)  # adopted by a later solve
             deadline.skip("factorization")
             return None, SolveInfo(0, False, False, math.inf, reason, "factorization")
-        self._keep(deadline.timed("factorization", self._factorize, A), A.shape)
+        self._keep(deadline.timed("factorization", self.direct.factorize, A), A.shape)
         self.factorizations += 1
-        if getattr(self._factor, "precondition", None) is not None:  # an approximate inverse (multigrid): CG
+        if getattr(self._factor, "precondition", None) is not None and not self.constant:  # multigrid: CG
             result = self._cg(A, b, deadline, atol=atol, rtol=1e-10, max_iterations=self.max_iterations)
             return result.x, SolveInfo(result.iterations, True, result.converged, result.residual_norm, reason)
         return self._back_substitution(A, b, reason, deadline)
 
     def _back_substitution(self, A, b, reason, deadline) -> tuple[np.ndarray, SolveInfo]:
         x = deadline.timed("back-substitution", self._factor.solve, b)
-        return x, SolveInfo(0, True, bool(np.all(np.isfinite(x))), float(np.linalg.norm(b - A @ x)), reason)
+        residual = math.nan if self.constant else float(np.linalg.norm(b - A @ x))  # (a constant solve checks none)
+        return x, SolveInfo(0, True, bool(np.all(np.isfinite(x))), residual, reason)
 
     @property
     def _precondition(self):
@@ -588,10 +579,28 @@ class ReusedFactorization(_OffFrame):
         self.cg_iterations += result.iterations
         return result
 
+    def _constant_solve(self, A, b, deadline) -> tuple[np.ndarray | None, SolveInfo]:
+        """The kept factorization's back-substitution alone, every frame: ``A`` is ``None`` once one is kept, and
+        neither ``b`` nor ``x`` is checked (Newton checks the step); none kept: made now if it fits, else off the
+        frame."""
+        if A is not None or self._factor is None:
+            A = _square(A)
+            self._adopt(A.shape)
+            if self._factor is None or self._shape != A.shape:
+                reason = "first" if self._factor is None else "shape"
+                return self._refactorize(A, _rhs(b, A.shape[0]), reason, deadline)
+        if not deadline.fits("back-substitution"):
+            deadline.skip("back-substitution")
+            return None, SolveInfo(0, False, False, math.inf, "", "back-substitution")
+        x = deadline.timed("back-substitution", self._factor.solve, np.asarray(b, dtype=float))
+        return x, SolveInfo(0, False, True, math.nan)
+
     def solve(self, A, b, *, atol: float = 0.0, rtol: float = 1e-10, refactorize: bool = False,
               deadline: Deadline | None = None) -> tuple[np.ndarray | None, SolveInfo]:
-        A, b = _square(A), _rhs(b, A.shape[0])
         deadline = Deadline() if deadline is None else deadline
+        if self.constant and not refactorize:
+            return self._constant_solve(A, b, deadline)
+        A, b = _square(A), _rhs(b, A.shape[0])
         self._adopt(A.shape)
         if refactorize:
             return self._refactorize(A, b, "forced", deadline)
@@ -808,13 +817,14 @@ class LinearInfo:
     skipped: str = ""  # a piece of work not started for the deadline ("factorization", "cg-iteration", ...)
 
 
-class LinearSolver(_OffFrame):
+class LinearSolver:
     """How Newton solves ``A dx = b``: which backend, and when to factorize. ``method``: ``"direct"`` (a fresh
     :class:`SuperLU` factorization per solve: exact Newton); a backend name of :func:`make` (that backend, afresh);
     ``"reuse"``, ``"reuse-<backend>"`` (:class:`ReusedFactorization`), ``"reuse-background[-<backend>]"`` (the same,
     refreshed on the second core); ``"constant[-<backend>]"`` (a kept factorization used as it is, without
-    assembling the tangent again: exact for a constant tangent); or a backend object. A kept factorization is dropped
-    when the free dofs or the pattern change, or by :meth:`invalidate`.
+    assembling the tangent again: exact for a constant tangent; a ``constant`` :class:`ReusedFactorization`); or a
+    backend object. A kept factorization is dropped when the free dofs or the pattern change, or by
+    :meth:`invalidate`.
 
     ``costs``: what each piece of work (:data:`WORK`) took lately, in seconds, learned by every solve (see
     :meth:`deadline`). Under a :class:`Deadline` a solve starts nothing that does not fit: a kept factorization that
@@ -822,7 +832,7 @@ class LinearSolver(_OffFrame):
     solver that factorizes afresh each solve returns ``None``; :attr:`LinearInfo.skipped` says what."""
 
     def __init__(self, method="reuse", *, launch=None):
-        self.method, self.constant, backend = method, False, method
+        self.method, backend = method, method
         if isinstance(method, str):
             kind, _, base = method.partition("-")
             reused = kind in ("reuse", "constant")
@@ -832,22 +842,25 @@ class LinearSolver(_OffFrame):
                                      f"({', '.join(sorted(BACKENDS))}), got {method!r}")
             background = kind == "reuse" and base.partition("-")[0] == "background"  # "reuse-background[-<backend>]"
             base = base[len("background-"):] if background else base
-            if method in ("direct", "reuse", "constant", "reuse-background"):
-                backend = SuperLU()
-            else:
-                backend = make(base if reused else method)
-            self.constant = kind == "constant"
-            if kind == "reuse":
-                backend = ReusedFactorization(backend, background=background, launch=launch)
+            plain = method in ("direct", "reuse", "constant", "reuse-background")  # the default backend
+            backend = SuperLU() if plain else make(base if reused else method)
+            if reused:
+                backend = ReusedFactorization(backend, background=background, launch=launch,
+                                              constant=kind == "constant")
         elif not (isinstance(method, ReusedFactorization) or callable(getattr(method, "factorize", None))):
             raise ParameterError("linear_solver", f"linear_solver must be a name or a backend object, got {method!r}")
-        self.backend = backend  # a "constant..." one is made by make: it has the factorize a constant one needs
+        self.backend = backend
         self.condense = Condenser()
-        self._factor, self._key, self._carried = None, None, None
-        super().__init__(launch)  # a constant factorization is made in the background
+        self._key, self._carried = None, None
+        self._launch = _launcher(launch)  # (not passed on: a backend object given keeps its own)
         self.factorizations = 0
         self.costs = {}
         self._modes = None  # the body's rigid motions, for a multigrid preconditioner (use_rigid_modes)
+
+    @property
+    def constant(self) -> bool:
+        """Whether a kept factorization is used as it is (``"constant..."``), without CG or a new tangent."""
+        return isinstance(self.backend, ReusedFactorization) and self.backend.constant
 
     @property
     def factorizing(self):
@@ -865,9 +878,15 @@ class LinearSolver(_OffFrame):
         if self._key is not None:  # the next matrix passes them on (a kept preconditioner is made anew)
             self.invalidate()
 
-    @_OffFrame.launch.setter
+    @property
+    def launch(self):
+        """How background work starts (``launch(work)``, default :func:`start_thread`): a kept factorization's, and
+        a real-time solver's steps off the frame."""
+        return self._launch
+
+    @launch.setter
     def launch(self, value):
-        _OffFrame.launch.fset(self, value)
+        self._launch = _launcher(value)
         if isinstance(self.backend, ReusedFactorization):
             self.backend.launch = value
 
@@ -886,19 +905,25 @@ class LinearSolver(_OffFrame):
 
     @property
     def name(self) -> str:
-        name = getattr(self.backend, "name", type(self.backend).__name__)
-        return f"constant-{name}" if self.constant else name
+        return getattr(self.backend, "name", type(self.backend).__name__)
 
     def close(self) -> None:
-        """Wait for the backend's background work too, if any (see :meth:`ReusedFactorization.close`)."""
+        """Wait for the backend's background work, if any (:meth:`ReusedFactorization.close`), and forget any kept
+        factorization."""
         close = getattr(self.backend, "close", None)
         if callable(close):
             close()
-        super().close()
+        self.invalidate()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
 
     def invalidate(self) -> None:
         """Forget any kept factorization (the matrix is about to change in a way the keys do not see)."""
-        self._factor, self._key, self._pending, self._carried = None, None, None, None
+        self._key, self._carried = None, None
         if isinstance(self.backend, ReusedFactorization):
             self.backend.invalidate()
 
@@ -909,7 +934,7 @@ class LinearSolver(_OffFrame):
         was one to carry (only a ``"reuse..."`` solver keeps one, for one set of free dofs)."""
         if not isinstance(old, LinearSolver):
             raise ParameterError("old", f"old must be a LinearSolver, got {type(old).__name__}")
-        if not (isinstance(self.backend, ReusedFactorization) and isinstance(old.backend, ReusedFactorization)):
+        if not all(isinstance(s.backend, ReusedFactorization) and not s.constant for s in (self, old)):
             return False
         old.backend._adopt(old.backend._shape)  # a background factorization ended meanwhile: the fresher one
         # its unfinished work is waited for when this solver goes, not when the old one is dropped (now)
@@ -932,7 +957,7 @@ class LinearSolver(_OffFrame):
 
     def assembles(self, mask) -> bool:
         """Whether :meth:`matrix` for ``mask`` would assemble (not when a kept constant factorization fits)."""
-        kept = self.constant and self._factor is not None
+        kept = self.constant and self.backend._factor is not None
         return not (kept and self._key == (mask.size, np.packbits(mask).tobytes()))
 
     def matrix(self, assemble, mask, force=False, deadline: Deadline | None = None):
@@ -945,7 +970,7 @@ class LinearSolver(_OffFrame):
             self._key = key
             if self._modes is not None and self._modes.shape[0] == mask.size:
                 self.factorizing.near_nullspace = self._modes[mask]
-        if self.constant and self._factor is not None and not force:
+        if self.constant and self.backend._factor is not None and not force:
             return None
         K = assemble() if deadline is None else deadline.timed("assembly", assemble)
         A = self.condense(K, mask)
@@ -966,13 +991,12 @@ class LinearSolver(_OffFrame):
         info = LinearInfo()
         deadline = self.deadline() if deadline is None else deadline
         try:
-            if self.constant:
-                dx = self._constant_solve(A, b, deadline, info)
-            elif isinstance(self.backend, ReusedFactorization):
+            if isinstance(self.backend, ReusedFactorization):
                 dx, done = self.backend.solve(A, b, atol=atol, rtol=0.0, deadline=deadline)
                 info.iterations, info.factorizations, info.skipped = done.iterations, int(done.factorized), done.skipped
-                if dx is not None and not (np.all(np.isfinite(dx)) and dot(b, dx) > 0) and not done.factorized:
-                    dx, again = self.backend.solve(A, b, refactorize=True, deadline=deadline)  # no descent
+                retry = dx is not None and not (self.constant or done.factorized)
+                if retry and not (np.all(np.isfinite(dx)) and dot(b, dx) > 0):  # no descent: refactorize
+                    dx, again = self.backend.solve(A, b, refactorize=True, deadline=deadline)
                     info.factorizations += int(again.factorized)  # (skipped: no direction, Newton finds one)
             elif not deadline.fits("factorization", "back-substitution"):
                 dx, info.skipped = None, "factorization"
@@ -988,23 +1012,6 @@ class LinearSolver(_OffFrame):
             dx = None
         self.factorizations += info.factorizations
         return dx, info
-
-    def _constant_solve(self, A, b, deadline, info):
-        """A kept factorization's solve; a missing one is made now if it fits, else in the background."""
-        if self._factor is None:
-            self._factor = self._take((self._key, A.shape))
-        if self._factor is None:
-            if not deadline.fits("factorization", "back-substitution"):
-                self._start(self.backend.factorize, A, (self._key, A.shape))  # taken by a later solve
-                deadline.skip("factorization")
-                info.skipped = "factorization"
-                return None
-            self._factor, info.factorizations = deadline.timed("factorization", self.backend.factorize, A), 1
-        elif not deadline.fits("back-substitution"):
-            deadline.skip("back-substitution")
-            info.skipped = "back-substitution"
-            return None
-        return np.asarray(deadline.timed("back-substitution", self._factor.solve, b), dtype=float)
 
     def __repr__(self):
         return f"LinearSolver({self.method!r})"

@@ -532,9 +532,10 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
     faces_of = {e: arrangements[e].face_regions() for e in arrangements}
     piece_ids = {}  # element -> provisional ids of its faces
     touched = {}  # provisional id -> the parts of each local edge its material touches
+    first = m  # the next provisional id
     for e in affected.tolist():
-        first = m + sum(len(ids) - 1 for ids in piece_ids.values())
         piece_ids[e] = [e] + list(range(first, first + len(faces_of[e]) - 1))
+        first += len(faces_of[e]) - 1
         touched.update({pid: region.touch for pid, (region, _) in zip(piece_ids[e], faces_of[e])})
     for e in regions:  # elements cut before (their material touches only parts of their edges)
         touched.setdefault(e, regions[e].touch)
