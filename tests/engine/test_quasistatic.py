@@ -153,3 +153,32 @@ def test_a_term_added_and_removed_leaves_the_model_as_it_was():
     assert model.loads == [] and model.energy(u) == before
     with pytest.raises(ValueError, match="holds no term"):
         model.remove_term(push)
+
+
+def test_a_term_has_do_nothing_hooks_and_the_model_calls_only_overridden_ones():
+    from tissuefem.engine.terms import Term
+
+    class Limited(Term):  # a term that keeps steps short, and overrides nothing else
+        name = "limited"
+
+        def energy(self, u):
+            return 0.0
+
+        def gradient(self, u):
+            return np.zeros(np.size(u))
+
+        def add_hessian(self, u, data, safe=False):
+            pass
+
+        def max_step(self, u, du):
+            return 0.5
+
+    plain = Term()
+    assert plain.covers(None) is True and plain.max_step(None, None) == 1.0
+    assert plain.begin_step(None) == 0 and plain.end_step() is None
+    model = Model(rectangle(nx=2, ny=2), NeoHookean(1.0, 10.0))
+    term = Limited()
+    model.add_term(term)
+    assert model._limit_terms == [term] and model._pattern_terms == [] and model._step_terms == []
+    u = np.zeros(model.n_dofs)
+    assert model.step_limit(u, u) == 0.5 and Model(rectangle(nx=2, ny=2), NeoHookean(1.0, 10.0)).step_limit is None

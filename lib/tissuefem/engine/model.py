@@ -274,6 +274,10 @@ def _check_material_at_rest(assembler, material) -> None:
                              f"dtype {value.dtype} shape {value.shape}")
 
 
+def _overrides(term, hook) -> bool:
+    return getattr(type(term), hook) is not getattr(Term, hook)
+
+
 class Holding:
     """The handles of a :class:`Model`, resolved to nodes and dofs when taken; :meth:`prescribed` gives the
     stepper the held dofs and their displacements."""
@@ -478,10 +482,10 @@ class Model(Holding):
         densities = [t.density for t in self._element_terms]
         self._density = densities[0] if len(densities) == 1 else SummedDensity(densities)
         self._safe_density = SummedDensity(densities, safe=True)
-        # the terms with a hook (contact, see Term): a model without one pays nothing per iteration
-        self._pattern_terms = [t for t in self._other_terms if hasattr(t, "covers")]
-        self._limit_terms = [t for t in self._other_terms if hasattr(t, "max_step")]
-        self._step_terms = [t for t in self._other_terms if hasattr(t, "begin_step")]
+        # the terms whose class overrides a hook (contact, see Term): a model without one pays nothing per iteration
+        self._pattern_terms = [t for t in self._other_terms if _overrides(t, "covers")]
+        self._limit_terms = [t for t in self._other_terms if _overrides(t, "max_step")]
+        self._step_terms = [t for t in self._other_terms if _overrides(t, "begin_step") or _overrides(t, "end_step")]
 
     def set_terms(self, terms) -> None:
         """Take the list ``terms`` (sorted by rank, stably: the sums keep the order given), or keep the old one."""

@@ -48,8 +48,8 @@ class Term:
     ``add_hessian(u, data)``, which adds the Hessian into ``data``, the CSR data of the model's one sparsity
     pattern (given by ``bind``). ``couplings()``: Hessian entries the mesh's pattern lacks (sutures).
 
-    Hooks, which the model calls only on the terms that define them (so a model without one pays nothing per
-    iteration): ``covers(u)`` (does the pattern still hold the couplings? self-contact's pairs change),
+    Hooks with do-nothing defaults, which the model calls only on the terms that override them (so a model
+    without one pays nothing per iteration): ``covers(u)`` (does the pattern still hold the couplings? self-contact's pairs change),
     ``max_step(u, du)`` (the largest fraction of ``du`` allowed), ``begin_step(u, previous)`` (returns the crossings
     found) with ``end_step()``. ``remap(meshmap)``: the term after a topology change, ``None`` if nothing survives,
     or a factory ``model -> Term``.
@@ -77,6 +77,18 @@ class Term:
     def add_hessian(self, u, data, safe=False) -> None:
         """``safe=True`` asks for a positive semi-definite version (where ``has_safe_hessian``)."""
         raise NotImplementedError
+
+    def covers(self, u) -> bool:
+        return True
+
+    def max_step(self, u, du) -> float:
+        return 1.0
+
+    def begin_step(self, u, previous=None) -> int:
+        return 0
+
+    def end_step(self) -> None:
+        pass
 
     def remap(self, meshmap):
         raise NotImplementedError(f"{self.name}: this term cannot be carried across a topology change")
