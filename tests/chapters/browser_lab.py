@@ -256,7 +256,8 @@ def start_chromium(workdir):
 #: Runs ``code`` in the kernel of the current notebook; resolves to its stdout and any error.
 KERNEL_EXECUTE = r"""
 const [code, done] = [arguments[0], arguments[arguments.length - 1]];
-const panel = window.jupyterapp.shell.currentWidget;
+const panel = window.jupyterapp.shell.currentWidget ||
+  Array.from(window.jupyterapp.shell.widgets('main')).find((w) => w.sessionContext);
 const kernel = panel.sessionContext.session.kernel;
 const future = kernel.requestExecute({code: code, silent: false, store_history: false});
 let out = '', err = null;
@@ -273,7 +274,8 @@ future.done.then(() => done({out: out, err: err}), (e) => done({out: out, err: S
 NOTEBOOK_STATE = r"""
 const app = window.jupyterapp;
 if (!app || !app.shell) return null;
-const panel = app.shell.currentWidget;
+// the open notebook (JupyterLab may leave currentWidget empty while the headless page has no focus)
+const panel = app.shell.currentWidget || Array.from(app.shell.widgets('main')).find((w) => w.sessionContext);
 if (!panel || !panel.content || !panel.sessionContext) return null;
 const session = panel.sessionContext.session;
 const kernel = session ? session.kernel : null;

@@ -83,7 +83,8 @@ return {readout: root.querySelector('.tissuefem-readout').textContent,
 
 RUN_CELL = r"""
 const [needle, done] = [arguments[0], arguments[arguments.length - 1]];
-const panel = window.jupyterapp.shell.currentWidget;
+const panel = window.jupyterapp.shell.currentWidget ||
+  Array.from(window.jupyterapp.shell.widgets('main')).find((w) => w.sessionContext);
 const cells = panel.content.widgets;
 const i = cells.findIndex((c) => c.model.type === 'code' && c.model.sharedModel.getSource().includes(needle));
 const before = cells[i].model.executionCount;
@@ -92,7 +93,10 @@ window.jupyterapp.commands.execute('notebook:run-cell').then(() => done([i, befo
 """
 
 
-METADATA = "return window.jupyterapp.shell.currentWidget.context.model.toJSON().metadata;"
+#: The open notebook's panel: JupyterLab leaves ``currentWidget`` empty while the headless page has no focus.
+PANEL = "(window.jupyterapp.shell.currentWidget || Array.from(window.jupyterapp.shell.widgets('main'))" \
+        ".find((w) => w.sessionContext))"
+METADATA = f"return {PANEL}.context.model.toJSON().metadata;"
 
 
 def page_text(driver, canvas):
@@ -102,7 +106,7 @@ def page_text(driver, canvas):
 def run_cell(driver, needle, timeout=60):
     """Run the notebook's code cell whose source contains ``needle`` (as Shift+Enter would) and wait for it."""
     index, before = driver.execute_async_script(RUN_CELL, needle)
-    count = "return window.jupyterapp.shell.currentWidget.content.widgets[arguments[0]].model.executionCount;"
+    count = f"return {PANEL}.content.widgets[arguments[0]].model.executionCount;"
     wait_for(lambda: driver.execute_script(count, index) not in (None, before), timeout,
              f"the cell with {needle!r} to run")
 
