@@ -253,11 +253,15 @@ def start_chromium(workdir):
     return driver
 
 
+#: The open notebook's panel, as JavaScript: JupyterLab may leave ``currentWidget`` empty while the headless page
+#: has no focus, so the main area's notebook is taken then.
+PANEL = "(window.jupyterapp.shell.currentWidget || Array.from(window.jupyterapp.shell.widgets('main'))" \
+        ".find((w) => w.sessionContext))"
+
 #: Runs ``code`` in the kernel of the current notebook; resolves to its stdout and any error.
 KERNEL_EXECUTE = r"""
 const [code, done] = [arguments[0], arguments[arguments.length - 1]];
-const panel = window.jupyterapp.shell.currentWidget ||
-  Array.from(window.jupyterapp.shell.widgets('main')).find((w) => w.sessionContext);
+const panel = PANEL;
 const kernel = panel.sessionContext.session.kernel;
 const future = kernel.requestExecute({code: code, silent: false, store_history: false});
 let out = '', err = null;
@@ -267,15 +271,14 @@ future.onIOPub = (msg) => {
   if (t === 'error') err = msg.content.ename + ': ' + msg.content.evalue;
 };
 future.done.then(() => done({out: out, err: err}), (e) => done({out: out, err: String(e)}));
-"""
+""".replace("PANEL", PANEL)
 
 #: The state of the open notebook: is its kernel there, has it unsaved changes (``dirty``), how many code cells
 #: ran, which errors they show.
 NOTEBOOK_STATE = r"""
 const app = window.jupyterapp;
 if (!app || !app.shell) return null;
-// the open notebook (JupyterLab may leave currentWidget empty while the headless page has no focus)
-const panel = app.shell.currentWidget || Array.from(app.shell.widgets('main')).find((w) => w.sessionContext);
+const panel = PANEL;
 if (!panel || !panel.content || !panel.sessionContext) return null;
 const session = panel.sessionContext.session;
 const kernel = session ? session.kernel : null;
@@ -291,7 +294,7 @@ return {kernel: kernel ? kernel.status : null, ready: panel.sessionContext.isRea
         dirty: panel.context ? panel.context.model.dirty : null,
         cells: cells.length, executed: cells.filter((c) => c.model.executionCount !== null).length,
         errors: errors};
-"""
+""".replace("PANEL", PANEL)
 
 
 def notebook_state(driver):

@@ -41,7 +41,7 @@ from pathlib import Path
 import nbformat
 import pytest
 
-from browser_lab import JupyterLab, kernel_execute, kernel_json, notebook_state, open_notebook, run_all_cells, \
+from browser_lab import PANEL, JupyterLab, kernel_execute, kernel_json, notebook_state, open_notebook, run_all_cells, \
     start_chromium, wait_for
 from test_browser_widget import (FIND_CANVAS, POINTER_TIMES, Canvas, actions, drag, median, release, reported_failure,
                                  widget_missing)
@@ -83,19 +83,15 @@ return {readout: root.querySelector('.tissuefem-readout').textContent,
 
 RUN_CELL = r"""
 const [needle, done] = [arguments[0], arguments[arguments.length - 1]];
-const panel = window.jupyterapp.shell.currentWidget ||
-  Array.from(window.jupyterapp.shell.widgets('main')).find((w) => w.sessionContext);
+const panel = PANEL;
 const cells = panel.content.widgets;
 const i = cells.findIndex((c) => c.model.type === 'code' && c.model.sharedModel.getSource().includes(needle));
 const before = cells[i].model.executionCount;
 panel.content.activeCellIndex = i;
 window.jupyterapp.commands.execute('notebook:run-cell').then(() => done([i, before]), (e) => done([i, String(e)]));
-"""
+""".replace("PANEL", PANEL)
 
 
-#: The open notebook's panel: JupyterLab leaves ``currentWidget`` empty while the headless page has no focus.
-PANEL = "(window.jupyterapp.shell.currentWidget || Array.from(window.jupyterapp.shell.widgets('main'))" \
-        ".find((w) => w.sessionContext))"
 METADATA = f"return {PANEL}.context.model.toJSON().metadata;"
 
 
