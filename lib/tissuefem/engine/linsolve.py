@@ -456,7 +456,7 @@ class ReusedFactorization:
         self.constant = bool(constant)
         kind = "constant-" if self.constant else "cg+reused-"
         self.name = kind + self.direct.name + ("+background" if self.background else "")
-        self.launch = launch
+        self.launch = _launcher(launch)
         self._threads = []  # background factorizations started and not yet joined (shared with the finalizer)
         weakref.finalize(self, _join_all, self._threads)
         self.invalidate()  # no factorization yet
@@ -473,15 +473,6 @@ class ReusedFactorization:
             raise ParameterError("direct", f"direct must be a backend with a factorize method, got {value!r}")
         self._direct = value
 
-    @property
-    def launch(self):
-        """How background work starts: ``launch(work)`` returns a job with ``is_alive`` and ``join``."""
-        return self._launch
-
-    @launch.setter
-    def launch(self, value):
-        self._launch = _launcher(value)
-
     def _keep(self, factor, shape, provisional: bool = False) -> None:
         self._factor, self._shape, self._stale, self._provisional = factor, shape, False, provisional
 
@@ -496,7 +487,7 @@ class ReusedFactorization:
                 box["factor"] = factorize(A)
             except Exception:  # a failed factorization only means the old one stays
                 box["factor"] = None
-        job = (self._launch or start_thread)(work)
+        job = (self.launch or start_thread)(work)
         self._threads[:] = [t for t in self._threads if t.is_alive()] + [job]
         self._pending = (job, box, A.shape)
 
@@ -539,16 +530,6 @@ class ReusedFactorization:
         """Whether the preconditioner is a provided one (:meth:`provide`) still waiting for a fresh factorization."""
         return self._provisional
 
-    def _wait_for_fresh(self, A, b, reason, deadline) -> tuple[np.ndarray | None, SolveInfo]:
-        """A provided preconditioner that CG could not do with: wait for the fresh factorization under way (it
-        costs no more than one made now, which fits), else make one now; then back-substitute."""
-        if self._pending is not None:
-            self._pending[0].join()
-            self._adopt(A.shape)
-        if self._provisional:  # nothing under way, or it failed
-            return self._refactorize(A, b, reason, deadline)
-        return self._back_substitution(A, b, reason, deadline)
-
     def _refactorize(self, A, b, reason, deadline, atol=0.0) -> tuple[np.ndarray | None, SolveInfo]:
         if not deadline.fits("factorization", "back-substitution"):
             self._start_fresh(A)  # adopted by a later solve
@@ -579,35 +560,26 @@ class ReusedFactorization:
         self.cg_iterations += result.iterations
         return result
 
-    def _constant_solve(self, A, b, deadline) -> tuple[np.ndarray | None, SolveInfo]:
-        """The kept factorization's back-substitution alone, every frame: ``A`` is ``None`` once one is kept, and
-        neither ``b`` nor ``x`` is checked (Newton checks the step); none kept: made now if it fits, else off the
-        frame."""
-        if A is not None or self._factor is None:
-            A = _square(A)
-            self._adopt(A.shape)
-            if self._factor is None or self._shape != A.shape:
-                reason = "first" if self._factor is None else "shape"
-                return self._refactorize(A, _rhs(b, A.shape[0]), reason, deadline)
-        if not deadline.fits("back-substitution"):
-            deadline.skip("back-substitution")
-            return None, SolveInfo(0, False, False, math.inf, "", "back-substitution")
-        x = deadline.timed("back-substitution", self._factor.solve, np.asarray(b, dtype=float))
-        return x, SolveInfo(0, False, True, math.nan)
-
     def solve(self, A, b, *, atol: float = 0.0, rtol: float = 1e-10, refactorize: bool = False,
               deadline: Deadline | None = None) -> tuple[np.ndarray | None, SolveInfo]:
+        """``(x, SolveInfo)`` for ``A x = b`` (``x = None``: under ``deadline`` nothing fitted). A ``constant`` one
+        with a kept factorization needs no ``A`` (``None``) and checks neither ``b`` nor ``x``, every frame (Newton
+        checks the step)."""
         deadline = Deadline() if deadline is None else deadline
-        if self.constant and not refactorize:
-            return self._constant_solve(A, b, deadline)
-        A, b = _square(A), _rhs(b, A.shape[0])
-        self._adopt(A.shape)
-        if refactorize:
-            return self._refactorize(A, b, "forced", deadline)
-        if self._factor is None or self._shape != A.shape:
-            return self._refactorize(A, b, "first" if self._factor is None else "shape", deadline, atol)
-        if self._provisional and self._pending is None:
-            self._start_fresh(A)  # a fresh one off the frame; the provided one meanwhile
+        if refactorize or A is not None or self._factor is None or not self.constant:
+            A, b = _square(A), _rhs(b, A.shape[0])
+            self._adopt(A.shape)
+            if refactorize or self._factor is None or self._shape != A.shape:
+                reason = "forced" if refactorize else "first" if self._factor is None else "shape"
+                return self._refactorize(A, b, reason, deadline, atol)
+        if self.constant:  # the kept factorization's back-substitution alone
+            if not deadline.fits("back-substitution"):
+                deadline.skip("back-substitution")
+                return None, SolveInfo(0, False, False, math.inf, "", "back-substitution")
+            x = deadline.timed("back-substitution", self._factor.solve, np.asarray(b, dtype=float))
+            return x, SolveInfo(0, False, True, math.nan)
+        if self._provisional:
+            self._start_fresh(A)  # a fresh one off the frame (unless under way); the provided one meanwhile
         if self._stale and not self.background:
             if deadline.fits("factorization", "back-substitution"):
                 return self._refactorize(A, b, "stale", deadline, atol)
@@ -625,9 +597,12 @@ class ReusedFactorization:
         failed = "negative-curvature" if result.negative_curvature else (
             "cg-failed" if not result.converged and result.iterations >= self.max_iterations else "")
         if failed and deadline.fits("factorization", "back-substitution"):
-            if self._provisional:
-                return self._wait_for_fresh(A, b, failed, deadline)
-            return self._refactorize(A, b, failed, deadline, atol)
+            if self._provisional:  # wait for the fresh one under way: it costs no more than one made now, which fits
+                self._pending[0].join()
+                self._adopt(A.shape)
+                if not self._provisional:
+                    return self._back_substitution(A, b, failed, deadline)
+            return self._refactorize(A, b, failed, deadline, atol)  # (a fresh one that failed too)
         if failed:  # meanwhile CG's iterate is the answer (Newton checks it is downhill)
             self._start_fresh(A)
             if result.negative_curvature:
@@ -828,8 +803,9 @@ class LinearSolver:
 
     ``costs``: what each piece of work (:data:`WORK`) took lately, in seconds, learned by every solve (see
     :meth:`deadline`). Under a :class:`Deadline` a solve starts nothing that does not fit: a kept factorization that
-    is due is made in the background (``launch``) while the solve goes on with the old one or returns ``None``; a
-    solver that factorizes afresh each solve returns ``None``; :attr:`LinearInfo.skipped` says what."""
+    is due is made in the background (started by ``launch(work)``, default :func:`start_thread`, as a real-time
+    solver's steps off the frame are) while the solve goes on with the old one or returns ``None``; a solver that
+    factorizes afresh each solve returns ``None``; :attr:`LinearInfo.skipped` says what."""
 
     def __init__(self, method="reuse", *, launch=None):
         self.method, backend = method, method
@@ -852,7 +828,7 @@ class LinearSolver:
         self.backend = backend
         self.condense = Condenser()
         self._key, self._carried = None, None
-        self._launch = _launcher(launch)  # (not passed on: a backend object given keeps its own)
+        self.launch = _launcher(launch)  # (not passed on: a backend object given keeps its own)
         self.factorizations = 0
         self.costs = {}
         self._modes = None  # the body's rigid motions, for a multigrid preconditioner (use_rigid_modes)
@@ -878,18 +854,6 @@ class LinearSolver:
         if self._key is not None:  # the next matrix passes them on (a kept preconditioner is made anew)
             self.invalidate()
 
-    @property
-    def launch(self):
-        """How background work starts (``launch(work)``, default :func:`start_thread`): a kept factorization's, and
-        a real-time solver's steps off the frame."""
-        return self._launch
-
-    @launch.setter
-    def launch(self, value):
-        self._launch = _launcher(value)
-        if isinstance(self.backend, ReusedFactorization):
-            self.backend.launch = value
-
     def deadline(self, clock=None, end: float = math.inf, first: bool = False) -> Deadline:
         """A :class:`Deadline` at ``end`` on ``clock`` with this solver's cost estimates (learned by its solves)."""
         return Deadline(clock, end, self.costs, first)
@@ -910,9 +874,8 @@ class LinearSolver:
     def close(self) -> None:
         """Wait for the backend's background work, if any (:meth:`ReusedFactorization.close`), and forget any kept
         factorization."""
-        close = getattr(self.backend, "close", None)
-        if callable(close):
-            close()
+        if isinstance(self.backend, ReusedFactorization):
+            self.backend.close()
         self.invalidate()
 
     def __enter__(self):
