@@ -28,7 +28,7 @@ from .vectors import dot, norm
 
 __all__ = ["LinearSolver", "LinearInfo", "Condenser", "SuperLU", "Pardiso", "Cholmod", "ReusedFactorization",
            "PreconditionedCG", "rigid_body_modes", "OPTIONAL", "SolveInfo", "PCGResult", "pcg", "available", "make",
-           "BACKENDS", "Deadline", "WORK", "start_thread", "ExtendedFactorization"]
+           "BACKENDS", "Deadline", "WORK", "start_thread", "check_launch", "ExtendedFactorization"]
 
 _ORDERINGS = ("MMD_AT_PLUS_A", "COLAMD", "MMD_ATA", "NATURAL")
 
@@ -229,8 +229,6 @@ class Cholmod(_Direct):
 #: The pieces of a frame's work whose cost (seconds each) a :class:`LinearSolver` learns, in ``costs`` (``"start"``:
 #: all a step does before its first Newton iteration, its warm start's energies and the first gradient).
 WORK = ("start", "assembly", "factorization", "back-substitution", "cg-iteration", "line-search", "report")
-#: Pieces that may take many times a frame: never started in a frame without an estimate that they fit.
-_LONG = frozenset({"factorization"})
 #: The weight of the newest measurement in a cost estimate (an exponential moving average).
 _LEARNING = 0.5
 
@@ -260,8 +258,8 @@ class Deadline:
             return True
         unknown = [k for k in kinds if self.costs.get(k) is None]
         self.unestimated += [k for k in unknown if k not in self.unestimated]
-        if self.first and all(k not in _LONG or k in unknown for k in kinds):
-            return True  # the first iteration's short pieces, and long ones never measured (the first frame)
+        if self.first and all(k != "factorization" or k in unknown for k in kinds):
+            return True  # the first iteration's short pieces, and a factorization never measured (the first frame)
         now = self.clock()
         return now < self.end and now + sum(self.costs.get(k) or 0.0 for k in kinds) <= self.end
 
@@ -270,8 +268,7 @@ class Deadline:
         estimate = self.costs.get(kind)
         if not self.limited or not estimate:
             return None
-        left = self.end - self.clock()
-        return max(int(left / estimate), 0) if left > 0 else 0
+        return max(int((self.end - self.clock()) / estimate), 0)
 
     def skip(self, kind: str) -> None:
         """Note that a piece of ``kind`` was not started (it did not fit)."""
@@ -421,7 +418,7 @@ def _join_all(threads) -> None:
             thread.join()
 
 
-def _launcher(value):
+def check_launch(value):
     """``value`` checked as a way to start background work: ``launch(work)`` returns a job with ``is_alive`` and
     ``join`` (``None``: :func:`start_thread`)."""
     if value is not None and not callable(value):
@@ -456,7 +453,7 @@ class ReusedFactorization:
         self.constant = bool(constant)
         kind = "constant-" if self.constant else "cg+reused-"
         self.name = kind + self.direct.name + ("+background" if self.background else "")
-        self.launch = _launcher(launch)
+        self.launch = check_launch(launch)
         self._threads = []  # background factorizations started and not yet joined (shared with the finalizer)
         weakref.finalize(self, _join_all, self._threads)
         self.invalidate()  # no factorization yet
@@ -637,13 +634,6 @@ class _CGFactor:
         return result.x
 
 
-def _check_modes(name, B) -> np.ndarray:
-    B = check_real_array(name, B)
-    if B.ndim != 2 or not np.all(np.isfinite(B)):
-        raise ParameterError(name, f"{name} must be a finite (n, k) array, got shape {B.shape}")
-    return B
-
-
 def rigid_body_modes(X) -> np.ndarray:
     """The rigid motions of the nodes ``X`` (shape ``(d, n)``) as dof vectors, node by node (``u[d i + c]``): the
     columns of a ``(d n, 3)`` array in 2D (two translations, a rotation) or ``(d n, 6)`` in 3D (three and three),
@@ -694,7 +684,10 @@ class PreconditionedCG(_Direct):
 
     @near_nullspace.setter
     def near_nullspace(self, B):
-        self._near_nullspace = None if B is None else _check_modes("near_nullspace", B)
+        B = None if B is None else check_real_array("near_nullspace", B)
+        if B is not None and (B.ndim != 2 or not np.all(np.isfinite(B))):
+            raise ParameterError("near_nullspace", f"near_nullspace must be a finite (n, k) array, got shape {B.shape}")
+        self._near_nullspace = B
 
     def _multigrid(self, A):
         import pyamg
@@ -828,7 +821,7 @@ class LinearSolver:
         self.backend = backend
         self.condense = Condenser()
         self._key, self._carried = None, None
-        self.launch = _launcher(launch)  # (not passed on: a backend object given keeps its own)
+        self.launch = check_launch(launch)  # (not passed on: a backend object given keeps its own)
         self.factorizations = 0
         self.costs = {}
         self._modes = None  # the body's rigid motions, for a multigrid preconditioner (use_rigid_modes)
@@ -844,13 +837,13 @@ class LinearSolver:
         ``direct``, else the backend itself."""
         return self.backend.direct if isinstance(self.backend, ReusedFactorization) else self.backend
 
-    def use_rigid_modes(self, modes) -> None:
-        """Give a multigrid preconditioner (``"cg-amg"``, which has a ``near_nullspace``) the body's rigid
-        motions ``modes``, shape ``(n_dofs, k)`` (:func:`rigid_body_modes`): each set of free dofs passes on its
-        rows. Other backends need none: nothing changes."""
-        if not hasattr(self.factorizing, "near_nullspace"):
+    def use_rigid_modes(self, X) -> None:
+        """Give a multigrid preconditioner (``"cg-amg"``: :attr:`PreconditionedCG.near_nullspace`) the rigid motions
+        of the nodes ``X`` whose dofs, node by node, are the model's (:func:`rigid_body_modes`): each set of free dofs
+        passes on its rows. Other backends need none: nothing changes."""
+        if not isinstance(self.factorizing, PreconditionedCG):
             return
-        self._modes = _check_modes("modes", modes)
+        self._modes = rigid_body_modes(X)
         if self._key is not None:  # the next matrix passes them on (a kept preconditioner is made anew)
             self.invalidate()
 
@@ -966,7 +959,7 @@ class LinearSolver:
                 deadline.skip("factorization")
             else:
                 factor = deadline.timed("factorization", self.backend.factorize, A)
-                iterative = hasattr(factor, "iterations")  # an iterative backend factorizes nothing
+                iterative = isinstance(self.backend, PreconditionedCG)  # it factorizes nothing
                 dx = np.asarray(deadline.timed("cg-iteration" if iterative else "back-substitution", factor.solve, b),
                                 dtype=float)
                 info.iterations = int(factor.iterations) if iterative else 0

@@ -33,7 +33,7 @@ import math
 import numpy as np
 
 from .constants import FRAME_BUDGET
-from .linsolve import available, rigid_body_modes, start_thread
+from .linsolve import available, check_launch, start_thread
 from .minimize import NewtonResult
 from .parameters import ParameterError
 from .stepping import Stepper, StepReport
@@ -100,14 +100,12 @@ class RealtimeSolver(Stepper):
                  off_frame: bool = True, **options):
         if linear_solver is None:
             linear_solver = default_linear_solver(model)
-        if launch is not None and not callable(launch):
-            raise ParameterError("launch", f"launch must be a callable starting a step off the frame, got {launch!r}")
         super().__init__(model, budget=budget, linear_solver=linear_solver, anytime=anytime, **options)
-        if hasattr(self.linear.factorizing, "near_nullspace") and model.n_dofs == model.X.size:
-            self.linear.use_rigid_modes(rigid_body_modes(model.X))
+        if model.n_dofs == model.X.size:  # dofs node by node: a multigrid preconditioner keeps the rigid motions
+            self.linear.use_rigid_modes(model.X)
         if not isinstance(off_frame, bool):
             raise ParameterError("off_frame", f"off_frame must be True or False, got {off_frame!r}")
-        self.launch, self.off_frame = launch, off_frame
+        self.launch, self.off_frame = check_launch(launch), off_frame
         self.off_costs = {}  # the pieces' costs learned by steps off the frame (see too_long)
 
     running = property(lambda self: self._running is not None, doc="Whether a step runs off the frame (not committed).")
