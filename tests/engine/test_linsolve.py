@@ -127,7 +127,7 @@ def test_a_solve_cut_short_by_its_deadline_overruns_by_one_cg_iteration_at_most(
     now = [0.0]
     solver = linsolve.ReusedFactorization(max_iterations=40)
     solver.solve(system()[0], b)  # a factorization of the unstretched matrix: CG needs many iterations now
-    precondition = solver._precondition
+    precondition = solver._factor.solve  # SuperLU's factor: CG applies its solve
 
     def slow(r):  # each iteration takes 3 ms where 1 ms was learned
         now[0] += 0.003

@@ -435,7 +435,8 @@ class ReusedFactorization:
     ``background_factorizations`` and ``cg_iterations`` count. Under a ``deadline`` (:class:`Deadline`) a
     factorization that does not fit is started in the background whatever ``background`` says, and CG runs the
     iterations that fit with the old factorization (no factorization yet: the solve returns ``None``). After a cut,
-    :meth:`provide` gives a preconditioner to start from while a fresh factorization is made off the frame.
+    :meth:`provide` gives a preconditioner to start from while a fresh factorization is made off the frame
+    (``provisional`` until that one is adopted).
     ``constant``: no CG, the kept factorization's back-substitution is the answer (exact for a constant matrix, which
     need not be given again: ``A`` may be ``None`` once one is kept).
 
@@ -471,7 +472,7 @@ class ReusedFactorization:
         self._direct = value
 
     def _keep(self, factor, shape, provisional: bool = False) -> None:
-        self._factor, self._shape, self._stale, self._provisional = factor, shape, False, provisional
+        self._factor, self._shape, self._stale, self.provisional = factor, shape, False, provisional
 
     def _start_fresh(self, A) -> None:
         """Start a factorization of ``A`` off the frame, unless one is under way."""
@@ -522,11 +523,6 @@ class ReusedFactorization:
         self.invalidate()
         self._keep(factor, tuple(shape), bool(fresh))
 
-    @property
-    def provisional(self) -> bool:
-        """Whether the preconditioner is a provided one (:meth:`provide`) still waiting for a fresh factorization."""
-        return self._provisional
-
     def _refactorize(self, A, b, reason, deadline, atol=0.0) -> tuple[np.ndarray | None, SolveInfo]:
         if not deadline.fits("factorization", "back-substitution"):
             self._start_fresh(A)  # adopted by a later solve
@@ -544,15 +540,11 @@ class ReusedFactorization:
         residual = math.nan if self.constant else float(np.linalg.norm(b - A @ x))  # (a constant solve checks none)
         return x, SolveInfo(0, True, bool(np.all(np.isfinite(x))), residual, reason)
 
-    @property
-    def _precondition(self):
-        """What CG applies: the kept factor's ``precondition`` (an iterative backend's) if it has one, else solve."""
-        return getattr(self._factor, "precondition", None) or self._factor.solve
-
     def _cg(self, A, b, deadline, **options) -> PCGResult:
         """:func:`pcg` preconditioned by the kept factor; its iterations counted, their cost learned."""
+        precondition = getattr(self._factor, "precondition", None) or self._factor.solve  # an iterative backend's
         t0 = deadline.clock()
-        result = pcg(A, b, self._precondition, **options)
+        result = pcg(A, b, precondition, **options)
         deadline.record("cg-iteration", deadline.clock() - t0, result.iterations)
         self.cg_iterations += result.iterations
         return result
@@ -575,7 +567,7 @@ class ReusedFactorization:
                 return None, SolveInfo(0, False, False, math.inf, "", "back-substitution")
             x = deadline.timed("back-substitution", self._factor.solve, np.asarray(b, dtype=float))
             return x, SolveInfo(0, False, True, math.nan)
-        if self._provisional:
+        if self.provisional:
             self._start_fresh(A)  # a fresh one off the frame (unless under way); the provided one meanwhile
         if self._stale and not self.background:
             if deadline.fits("factorization", "back-substitution"):
@@ -594,10 +586,10 @@ class ReusedFactorization:
         failed = "negative-curvature" if result.negative_curvature else (
             "cg-failed" if not result.converged and result.iterations >= self.max_iterations else "")
         if failed and deadline.fits("factorization", "back-substitution"):
-            if self._provisional:  # wait for the fresh one under way: it costs no more than one made now, which fits
+            if self.provisional:  # wait for the fresh one under way: it costs no more than one made now, which fits
                 self._pending[0].join()
                 self._adopt(A.shape)
-                if not self._provisional:
+                if not self.provisional:
                     return self._back_substitution(A, b, failed, deadline)
             return self._refactorize(A, b, failed, deadline, atol)  # (a fresh one that failed too)
         if failed:  # meanwhile CG's iterate is the answer (Newton checks it is downhill)
@@ -607,7 +599,7 @@ class ReusedFactorization:
         elif (self.background and result.iterations > self.background_after) or (
                 (limit < self.max_iterations or result.iterations < limit) and not result.converged):  # cut short
             self._start_fresh(A)  # by the deadline: refresh too
-        elif result.iterations > self.refresh_after and not self._provisional:  # (a fresh one is under way)
+        elif result.iterations > self.refresh_after and not self.provisional:  # (a fresh one is under way)
             self._stale = True
         return result.x, SolveInfo(result.iterations, False, result.converged, result.residual_norm)
 
@@ -707,7 +699,7 @@ class PreconditionedCG(_Direct):
 
     def factorize(self, A) -> _CGFactor:
         A = sp.csr_matrix(_square(A))
-        nnz = None
+        precondition, nnz = None, None  # "none"
         if self.preconditioner == "jacobi":
             d = A.diagonal()
             if not np.all(d > 0):
@@ -719,8 +711,6 @@ class PreconditionedCG(_Direct):
             precondition, nnz = ilu.solve, int(ilu.L.nnz + ilu.U.nnz)
         elif self.preconditioner == "amg":
             precondition, nnz = self._multigrid(A)
-        else:
-            precondition = None
         limit = self.max_iterations or max(200, 2 * A.shape[0])
         return _CGFactor(A, precondition, self.rtol, limit, nnz)
 
@@ -930,13 +920,12 @@ class LinearSolver:
             return None
         K = assemble() if deadline is None else deadline.timed("assembly", assemble)
         A = self.condense(K, mask)
-        if self._carried is not None:  # the first tangent after a cut: the old factorization, extended
-            factor, parent, n_old = self._carried
-            self._carried = None
-            parent = parent[mask] if parent.size == mask.size else None
-            if parent is not None and parent.size == n_old and np.array_equal(parent, np.arange(n_old)):
+        carried, self._carried = self._carried, None
+        if carried is not None and carried[1].size == mask.size:  # the first tangent after a cut: the old factorization
+            factor, parent, n_old = carried[0], carried[1][mask], carried[2]
+            if np.array_equal(parent, np.arange(n_old)):
                 self.backend.provide(factor, A.shape, fresh=False)  # the same unknowns: kept as it is
-            elif parent is not None:
+            else:  # extended
                 self.backend.provide(ExtendedFactorization(factor, parent, n_old, A), A.shape)
         return A
 
