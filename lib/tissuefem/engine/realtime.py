@@ -35,6 +35,7 @@ import numpy as np
 from .constants import FRAME_BUDGET
 from .linsolve import available, check_launch, start_thread
 from .minimize import NewtonResult
+from .model import Model
 from .parameters import ParameterError
 from .stepping import Stepper, StepReport
 
@@ -80,10 +81,9 @@ def default_linear_solver(model) -> str:
     second core: in 3D a factorization costs many frames and CHOLMOD's fills in less than half SuperLU's) where
     the optional ``scikit-sparse`` is installed, else ``"reuse-background"`` (the same with SuperLU);
     ``docs/benchmarks.md``, *Real time in 3D*."""
-    if getattr(model, "quadratic", False):
+    if isinstance(model, Model) and model.quadratic:
         return "constant"
-    X = getattr(model, "X", None)  # not a model: the stepper refuses it by name
-    if X is None or X.shape[0] == 2:
+    if not isinstance(model, Model) or model.X.shape[0] == 2:  # (not a model: the stepper refuses it by name)
         return "reuse"
     return "reuse-background-cholmod" if available("cholmod") else "reuse-background"
 
