@@ -406,7 +406,8 @@ class SolveInfo:
     factorized: bool  # a new factorization was computed for this solve
     converged: bool
     residual_norm: float  # ||b - A x|| (nan: a constant solve checks none)
-    reason: str = ""  # why it refactorized ("first", "shape", "stale", "cg-failed", "negative-curvature", "forced")
+    reason: str = ""  # why it refactorized ("first", "shape", "stale", "forced"), or why CG failed (then it
+    # refactorized, or a fresh factorization is made off the frame): "cg-failed", "negative-curvature"
     skipped: str = ""  # a piece of work not started for the deadline (then no solution: x is None)
 
 
@@ -594,14 +595,12 @@ class ReusedFactorization:
             return self._refactorize(A, b, failed, deadline, atol)  # (a fresh one that failed too)
         if failed:  # meanwhile CG's iterate is the answer (Newton checks it is downhill)
             self._start_fresh(A)
-            if result.negative_curvature:
-                return result.x, SolveInfo(result.iterations, False, False, result.residual_norm, failed)
         elif (self.background and result.iterations > self.background_after) or (
                 (limit < self.max_iterations or result.iterations < limit) and not result.converged):  # cut short
             self._start_fresh(A)  # by the deadline: refresh too
         elif result.iterations > self.refresh_after and not self.provisional:  # (a fresh one is under way)
             self._stale = True
-        return result.x, SolveInfo(result.iterations, False, result.converged, result.residual_norm)
+        return result.x, SolveInfo(result.iterations, False, result.converged, result.residual_norm, failed)
 
     def __call__(self, A, b) -> np.ndarray:
         return self.solve(A, b)[0]
