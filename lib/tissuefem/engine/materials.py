@@ -294,30 +294,31 @@ _RHO_MIN = math.sqrt(np.finfo(float).tiny)
 
 
 def _polar_rotation(F):
-    """The 2D polar rotation of ``F = R S`` as ``(R, c, s, rho)``, ``R = [[c, -s], [s, c]]``: ``R`` maximises
-    ``tr(R^T F)``, so ``theta = atan2(F10 - F01, F00 + F11)`` and ``rho = tr S = hypot(F00 + F11, F10 - F01)`` (for
-    every F, also J <= 0). Below :data:`_RHO_MIN` energy, stress and tangent all take ``R = I``."""
+    """The 2D polar rotation of ``F = R S`` as ``(R, rho)``: ``R = [[c, -s], [s, c]]`` maximises ``tr(R^T F)``, so
+    ``theta = atan2(F10 - F01, F00 + F11)`` and ``rho = tr S = hypot(F00 + F11, F10 - F01)`` (for every F, also J <=
+    0). Below :data:`_RHO_MIN` energy, stress and tangent all take ``R = I``."""
     x, y = F[0, 0] + F[1, 1], F[1, 0] - F[0, 1]
     rho, theta = np.hypot(x, y), np.arctan2(y, x)
     collapsed = rho < _RHO_MIN
     if np.any(collapsed):
         theta = np.where(collapsed, 0.0, theta)
-    R = rotation(theta)
-    return R, R[0, 0], R[1, 0], rho
+    return rotation(theta), rho
 
 
-def _rotation3(U, V):
-    """3D: the polar rotation ``R = U V^T`` from the rotation-preserving SVD's ``U`` and ``V``."""
-    return np.einsum("ia...,ja...->ij...", U, V)
-
-
-def _rotation_derivative3(F):
-    """3D: ``(R, dR/dF)`` of the polar rotation ``R = U V^T`` (:func:`rotation_preserving_svd`). With ``M = U^T dF V``,
-    ``dR = U W V^T``, ``W`` skew with ``W_ab = (M_ab - M_ba) / (s_a + s_b)``, i.e. ``dR/dF = sum_(a<b) 2/(s_a + s_b)
-    T_ab (x) T_ab``, ``T_ab = (u_a v_b^T - u_b v_a^T)/sqrt 2`` (in 2D this is ``R' (x) R' / rho``). A pair with
-    ``s_a + s_b`` below :data:`_RHO_MIN` contributes nothing (the rotation is undefined there, as in 2D)."""
+def _rotation_derivative(F):
+    """``dR/dF`` of the polar rotation. 2D: ``dtheta/dF = R'/rho``, ``R' = dR/dtheta = [[-s, -c], [c, -s]]``, so
+    ``dR/dF = R' (x) R' / rho`` (0 below :data:`_RHO_MIN`, where ``R = I`` is constant). 3D, ``R = U V^T``
+    (:func:`rotation_preserving_svd`): with ``M = U^T dF V``, ``dR = U W V^T``, ``W`` skew with ``W_ab = (M_ab -
+    M_ba) / (s_a + s_b)``, i.e. ``dR/dF = sum_(a<b) 2/(s_a + s_b) T_ab (x) T_ab``, ``T_ab = (u_a v_b^T - u_b
+    v_a^T)/sqrt 2`` (the 2D formula for the one pair); a pair with ``s_a + s_b`` below :data:`_RHO_MIN` contributes
+    nothing (the rotation is undefined there, as in 2D)."""
+    if F.shape[0] == 2:
+        R, rho = _polar_rotation(F)
+        Rp = np.array([[-R[1, 0], -R[0, 0]], [R[0, 0], -R[1, 0]]])
+        inv_rho = np.zeros(rho.shape)
+        np.divide(1.0, rho, out=inv_rho, where=rho >= _RHO_MIN)
+        return inv_rho * _outer(Rp, Rp)
     U, s, V = rotation_preserving_svd(F)
-    R = _rotation3(U, V)
     dR = np.zeros((3, 3) + F.shape)
     for a, b in ((0, 1), (0, 2), (1, 2)):
         T = (U[:, a][:, None] * V[:, b][None, :] - U[:, b][:, None] * V[:, a][None, :]) / math.sqrt(2.0)
@@ -325,18 +326,17 @@ def _rotation_derivative3(F):
         weight = np.zeros(total.shape)
         np.divide(2.0, total, out=weight, where=total >= _RHO_MIN)
         dR = dR + weight * _outer(T, T)
-    return R, dR
+    return dR
 
 
 class Corotated(Material):
     """Fixed corotated elasticity (Stomakhin, Howes, Schroeder, Teran, "Energetically consistent invertible
     elasticity", SCA 2012): ``Psi = mu ||F - R||_F^2 + lam/2 (J - 1)^2``, ``R`` the polar rotation (2D:
     :func:`_polar_rotation`; 3D: ``U V^T`` of the rotation-preserving SVD). ``(F - R):dR = (S - I):(R^T dR) = 0``
-    (symmetric against skew), so ``P = 2 mu (F - R) + lam (J - 1) cof F`` and, in 2D with ``dtheta/dF = R'/rho``,
-    ``R' = dR/dtheta = [[-s, -c], [c, -s]]`` (3D: :func:`_rotation_derivative3`), the tangent (at ``F = I`` the
-    linear one) is
+    (symmetric against skew), so ``P = 2 mu (F - R) + lam (J - 1) cof F`` and the tangent (at ``F = I`` the linear
+    one) is
 
-        A = 2 mu (I4 - dR/dF) + lam cof F (x) cof F + lam (J - 1) H,   dR/dF = R' (x) R' / rho in 2D.
+        A = 2 mu (I4 - dR/dF) + lam cof F (x) cof F + lam (J - 1) H    (dR/dF: :func:`_rotation_derivative`).
     """
 
     name = "corotated"
@@ -346,7 +346,7 @@ class Corotated(Material):
         if F.shape[0] == 2:
             return _polar_rotation(F)[0]
         U, _, V = rotation_preserving_svd(F)
-        return _rotation3(U, V)  # the energy and the stress need R, not its derivative
+        return np.einsum("ia...,ja...->ij...", U, V)  # R = U V^T
 
     def energy(self, F):
         F = check_F(F)
@@ -359,19 +359,9 @@ class Corotated(Material):
 
     def tangent(self, F):
         F = check_F(F)
-        rest = F.shape[2:]
-        if F.shape[0] == 2:
-            _, c, s, rho = _polar_rotation(F)
-            Rp = np.array([[-s, -c], [c, -s]])
-            inv_rho = np.zeros(rho.shape)
-            np.divide(1.0, rho, out=inv_rho, where=rho >= _RHO_MIN)  # R = I (constant) below it
-            dR = inv_rho * _outer(Rp, Rp)
-        else:
-            dR = _rotation_derivative3(F)[1]
         C = cofactor(F)
-        J = det(F)
-        return (2.0 * self.mu * (_constant4(_TENSORS[F.shape[0]]["I4"], rest) - dR) + self.lam * _outer(C, C)
-                + self.lam * (J - 1.0) * cofactor_derivative(F))
+        return (2.0 * self.mu * (_constant4(_TENSORS[F.shape[0]]["I4"], F.shape[2:]) - _rotation_derivative(F))
+                + self.lam * _outer(C, C) + self.lam * (det(F) - 1.0) * cofactor_derivative(F))
 
 
 # --- anisotropy: a fibre term -------------------------------------------------------

@@ -28,14 +28,6 @@ def taylor_log_prime(J):
     return 1.0 - d + d**2
 
 
-def safe_log(F):
-    """``ln F`` where ``F > 0``, NaN elsewhere without a warning: NaN, not an exception, lets a solver report it."""
-    F = np.asarray(F, dtype=float)
-    out = np.full(F.shape, np.nan)
-    np.log(F, out=out, where=F > 0)
-    return out
-
-
 class LameMaterial:
     """The base of the 1D, 2D and 3D materials: Lamé parameters ``lam``, ``mu`` (checked); a subclass gives the three
     maps ``energy(F)`` ``Psi``, ``stress(F)`` ``P = dPsi/dF`` and ``tangent(F)`` ``dP/dF``."""
@@ -105,8 +97,8 @@ class NeoHookean1D(VolumetricFamily1D):
 
     def volumetric(self, J):
         J = np.asarray(J, dtype=float)
-        lnJ = safe_log(J)
-        invJ = np.full(J.shape, np.nan)
+        lnJ, invJ = np.full(J.shape, np.nan), np.full(J.shape, np.nan)  # NaN, not an exception: a solver reports it
+        np.log(J, out=lnJ, where=J > 0)
         np.divide(1.0, J, out=invJ, where=J > 0)
         lam, mu = self.lam, self.mu
         return -mu * lnJ + 0.5 * lam * lnJ**2, (lam * lnJ - mu) * invJ, (lam + mu - lam * lnJ) * invJ**2
