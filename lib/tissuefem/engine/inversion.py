@@ -200,9 +200,8 @@ class ITFClamped:
         s_hat = np.where(clamped, c, s)
         dd = np.where(clamped, s - c, 0.0)
         D = diagonal(s_hat)
-        P, A = np.asarray(self.base.stress(D), dtype=float), np.asarray(self.base.tangent(D), dtype=float)
-        psi = np.stack([P[i, i] for i in range(dim)])
-        H = np.stack([np.stack([A[i, i, j, j] for j in range(dim)]) for i in range(dim)])
+        psi = np.einsum("ii...->i...", self.base.stress(D))  # P_ii
+        H = np.einsum("iijj...->ij...", self.base.tangent(D))  # A_iijj
         return s, clamped, s_hat, dd, self.stiffnesses[dim], psi, H
 
     def diagonal_energy(self, s) -> np.ndarray:

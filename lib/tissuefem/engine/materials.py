@@ -241,11 +241,10 @@ class _NeoHookeanFamily(Material):
 
 
 class NeoHookean(_NeoHookeanFamily):
-    """The notes' Neo-Hookean model: ``h(J) = -mu ln J + lam/2 (ln J)^2``, ``h' = (lam ln J - mu)/J``,
-    ``h'' = (lam + mu - lam ln J)/J^2``, i.e. the notes' ``P = mu F + (lam ln J - mu) F^-T``. Erratum: the notes print
-    ``F_ij F_ji = tr(F F)`` in the energy, not frame indifferent; their stress derives from ``F:F``, used here.
-    In 3D the same ``h`` with ``mu/2 (F:F - 3)``. NaN (without a warning) for ``J <= 0``, so a solver can detect
-    inversion."""
+    """The notes' Neo-Hookean model, ``h(J) = -mu ln J + lam/2 (ln J)^2`` (:class:`NeoHookean1D`'s, in 2D and 3D),
+    i.e. the notes' ``P = mu F + (lam ln J - mu) F^-T``. Erratum: the notes print ``F_ij F_ji = tr(F F)`` in the
+    energy, not frame indifferent; their stress derives from ``F:F``, used here. NaN (without a warning) for ``J <=
+    0``, so a solver can detect inversion."""
 
     name = "neo-Hookean"
     inversion_safe = False
@@ -254,11 +253,10 @@ class NeoHookean(_NeoHookeanFamily):
 
 
 class TaylorNeoHookean(_NeoHookeanFamily):
-    """Neo-Hookean with ``ln J`` replaced by its cubic Taylor polynomial ``r(J)`` (the notes' robust variant,
-    :func:`~tissuefem.engine.materials1d.taylor_log`): ``h = -mu r + lam/2 r^2``, ``h' = (lam r - mu) r'``,
-    ``h'' = lam r'^2 + (lam r - mu) r''``, so ``P = mu F + (lam r(J) - mu) r'(J) cof F`` with
-    ``cof F = [[F22, -F21], [-F12, F11]]`` (1-based). Erratum: the notes print the adjugate ``[[F22, -F12], [-F21,
-    F11]]``, which fails the finite-difference check. Finite for every F."""
+    """Neo-Hookean with ``ln J`` replaced by its cubic Taylor polynomial ``r(J)`` (the notes' robust variant; ``h =
+    -mu r + lam/2 r^2``, :class:`TaylorNeoHookean1D`'s), so ``P = mu F + (lam r(J) - mu) r'(J) cof F`` with ``cof F =
+    [[F22, -F21], [-F12, F11]]`` (1-based). Erratum: the notes print the adjugate ``[[F22, -F12], [-F21, F11]]``,
+    which fails the finite-difference check. Finite for every F."""
 
     name = "neo-Hookean (cubic r(J))"
 
