@@ -234,8 +234,7 @@ class ITFClamped:
         dim, rest = s.shape[0], s.shape[1:]
         sub = s[-1] < self.threshold  # something clamped (the smallest value first)
         A = np.zeros((dim,) * 4 + rest)
-        if (~sub).any():
-            A[..., ~sub] = np.asarray(self.base.tangent(diagonal(s[:, ~sub])), dtype=float)
+        A[..., ~sub] = self.base.tangent(diagonal(s[:, ~sub]))
         if not sub.any():
             return A
         s, clamped, s_hat, dd, k, _, H = self._expansion(s[:, sub])

@@ -144,16 +144,14 @@ def _svd3(F):
     ``sign s2 = sign J``. Samples with a non-finite entry give NaN."""
     rest = F.shape[2:]
     M = np.moveaxis(F.reshape((3, 3, -1)), -1, 0)
-    n = M.shape[0]
-    U, s, Vt = np.full((n, 3, 3), np.nan), np.full((n, 3), np.nan), np.full((n, 3, 3), np.nan)
+    U, s, Vt = np.full_like(M, np.nan), np.full(M.shape[:2], np.nan), np.full_like(M, np.nan)
     ok = np.all(np.isfinite(M), axis=(1, 2))
-    if ok.any():
-        u, w, vt = np.linalg.svd(M[ok])
-        flip_u, flip_v = np.linalg.det(u) < 0, np.linalg.det(vt) < 0
-        u[flip_u, :, 2] *= -1.0
-        vt[flip_v, 2, :] *= -1.0
-        w[:, 2] *= np.where(flip_u != flip_v, -1.0, 1.0)
-        U[ok], s[ok], Vt[ok] = u, w, vt
+    u, w, vt = np.linalg.svd(M[ok])
+    flip_u, flip_v = np.linalg.det(u) < 0, np.linalg.det(vt) < 0
+    u[flip_u, :, 2] *= -1.0
+    vt[flip_v, 2, :] *= -1.0
+    w[:, 2] *= np.where(flip_u != flip_v, -1.0, 1.0)
+    U[ok], s[ok], Vt[ok] = u, w, vt
     return (np.moveaxis(U, 0, -1).reshape((3, 3) + rest), np.moveaxis(s, 0, -1).reshape((3,) + rest),
             np.moveaxis(Vt.swapaxes(1, 2), 0, -1).reshape((3, 3) + rest))
 
@@ -198,14 +196,12 @@ class LinearElastic(Material):
 
     def energy(self, F):
         eps = self._strain(check_F(F))
-        tr = np.trace(eps)
-        return self.mu * np.einsum("ij...,ij...->...", eps, eps) + 0.5 * self.lam * tr**2
+        return self.mu * np.einsum("ij...,ij...->...", eps, eps) + 0.5 * self.lam * np.trace(eps) ** 2
 
     def stress(self, F):
         F = check_F(F)
         eps = self._strain(F)
-        tr = np.trace(eps)
-        return 2.0 * self.mu * eps + self.lam * tr * _constant4(_TENSORS[F.shape[0]]["delta"], F.shape[2:])
+        return 2.0 * self.mu * eps + self.lam * np.trace(eps) * _constant4(_TENSORS[F.shape[0]]["delta"], F.shape[2:])
 
     def tangent(self, F):
         F = check_F(F)
@@ -462,29 +458,27 @@ class FiberFamily(Material):
             raise ParameterError("fibers", "fibers must be finite, none zero-length (a fibre needs a direction)")
         self.fibers = g / norm
 
-    def _g(self, F) -> np.ndarray:
-        """Fibres shaped to broadcast against ``F.shape[2:] = rest`` (aligned on the leading axes; one ``F`` at rest
-        ``(d, d, 1)`` takes every element's fibre)."""
-        g, rest = self.fibers, tuple(F.shape[2:])
+    def _Fg(self, F):
+        """``F`` checked and the fibres shaped to broadcast against ``F.shape[2:] = rest`` (aligned on the leading
+        axes; one ``F`` at rest ``(d, d, 1)`` takes every element's fibre)."""
+        F, g = check_F(F), self.fibers
+        rest = tuple(F.shape[2:])
         if g.shape[0] != F.shape[0]:
             raise ParameterError("fibers", f"fibers are {g.shape[0]}D vectors but F is {F.shape[0]}D "
                                            f"(shape {F.shape})")
         extra = len(rest) - (g.ndim - 1)
         if extra < 0 or any(a != b and 1 not in (a, b) for a, b in zip(g.shape[1:], rest)):
             raise ParameterError("fibers", f"fibers of shape {g.shape} do not match F with trailing shape {rest}")
-        return g.reshape(g.shape + (1,) * extra)
+        return F, g.reshape(g.shape + (1,) * extra)
 
     def energy(self, F):
-        F = check_F(F)
-        return fiber_energy_term(F, self._g(F), self.stiffness)
+        return fiber_energy_term(*self._Fg(F), self.stiffness)
 
     def stress(self, F):
-        F = check_F(F)
-        return fiber_stress_term(F, self._g(F), self.stiffness)
+        return fiber_stress_term(*self._Fg(F), self.stiffness)
 
     def tangent(self, F):
-        F = check_F(F)
-        return fiber_tangent_term(F, self._g(F), self.stiffness)
+        return fiber_tangent_term(*self._Fg(F), self.stiffness)
 
 
 class FiberReinforced(Material):
