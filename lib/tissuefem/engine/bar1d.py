@@ -16,7 +16,8 @@ from typing import Callable
 
 import numpy as np
 import scipy.sparse as sp
-from skfem import Basis, BilinearForm, ElementLineP1, ElementLineP2, Functional, LinearForm, MeshLine, asm
+from skfem import (Basis, BilinearForm, ElementLineP1, ElementLineP2, Functional, LinearForm, MeshLine, asm, condense,
+                   solve)
 
 from .materials1d import Material1D
 from .minimize import NewtonResult, newton
@@ -124,35 +125,31 @@ class Bar1D:
 
     def boundary_term(self, left=Traction(0.0), right=Traction(0.0)) -> np.ndarray:
         """``g_i = N_i(b) t_b + N_i(a) t_a``: the tractions at the end dofs (Dirichlet ends contribute 0)."""
-        left, right = _as_end(left, "left"), _as_end(right, "right")
         g = np.zeros(self.ndofs)
-        if isinstance(left, Traction):
-            g[self.dof_a] += left.value
-        if isinstance(right, Traction):
-            g[self.dof_b] += right.value
+        for dof, end, name in ((self.dof_a, left, "left"), (self.dof_b, right, "right")):
+            if isinstance(_as_end(end, name), Traction):
+                g[dof] += end.value
         return g
 
     def _loads(self, f, left, right):
-        """``(fixed dofs, their values, F_ext + g)`` of the end conditions and the body force ``f``."""
-        ends = ((self.dof_a, _as_end(left, "left")), (self.dof_b, _as_end(right, "right")))
-        fixed = [(dof, end.value) for dof, end in ends if isinstance(end, Displacement)]
-        if not fixed:
+        """``(fixed, u_D, F_ext + g)``: the mask of the Displacement ends' dofs, their values (0 elsewhere) and the
+        load vector of the body force ``f`` and the tractions."""
+        rhs = self.body_force(f) + self.boundary_term(left, right)  # checks both ends
+        fixed, u_D = np.zeros(self.ndofs, dtype=bool), np.zeros(self.ndofs)
+        for dof, end in ((self.dof_a, left), (self.dof_b, right)):
+            if isinstance(end, Displacement):
+                fixed[dof], u_D[dof] = True, end.value
+        if not fixed.any():
             raise ParameterError("left", "at least one end needs a Displacement condition: with tractions at both "
                                          "ends the bar can translate freely and the stiffness matrix is singular")
-        return (np.array([dof for dof, _ in fixed], dtype=int), np.array([v for _, v in fixed], dtype=float),
-                self.body_force(f) + self.boundary_term(left, right))
+        return fixed, u_D, rhs
 
     def solve_linear(self, modulus: float, f=0.0, left=Displacement(0.0), right=Traction(0.0)) -> np.ndarray:
-        """Solve ``A u = F_ext + g`` with the given end conditions; returns the dof vector ``u``."""
+        """Solve ``A u = F_ext + g`` with the given end conditions (``A_II u_I = (F_ext + g)_I - A_ID u_D``, ``D``
+        the fixed dofs); returns the dof vector ``u``."""
         check_real("modulus", modulus, 0.0, lo_open=True)
-        fixed, values, rhs = self._loads(f, left, right)
-        A = self.stiffness(modulus)
-        u = np.zeros(self.ndofs)
-        u[fixed] = values
-        free = np.setdiff1d(np.arange(self.ndofs), fixed)
-        rhs_free = rhs[free] - A[free][:, fixed] @ values
-        u[free] = sp.linalg.spsolve(A[free][:, free].tocsc(), rhs_free)
-        return u
+        fixed, u_D, rhs = self._loads(f, left, right)
+        return solve(*condense(self.stiffness(modulus).tocsc(), rhs, x=u_D, D=np.flatnonzero(fixed)))
 
     def internal_force(self, u, material: Material1D) -> np.ndarray:
         """``int N_i' P(F(u)) dX``."""
@@ -176,18 +173,15 @@ class Bar1D:
         returns the final displacement and each step's Newton result, stopping at the last converged state if a step
         fails."""
         load_steps = check_count("load_steps", load_steps)
-        fixed, values, external = self._loads(f, left, right)
+        fixed, u_D, external = self._loads(f, left, right)
         u = np.zeros(self.ndofs)
         newton_options.setdefault("line_search", None)  # the notes' plain iteration (chapter 2 adds safeguards)
         newton_options.setdefault("atol", 1e-12)
-        free = np.ones(self.ndofs, dtype=bool)
-        free[fixed] = False
         results = []
         for s in np.arange(1, load_steps + 1) / load_steps:
-            x0 = u.copy()
-            x0[fixed] = s * values
+            x0 = np.where(fixed, s * u_D, u)
             result = newton(x0, lambda x: self.internal_force(x, material) - s * external,
-                            lambda x: self.tangent(x, material), free=free,
+                            lambda x: self.tangent(x, material), free=~fixed,
                             energy=lambda x: self.strain_energy(x, material) - s * external @ x, **newton_options)
             results.append(result)
             if not result.converged:

@@ -14,7 +14,10 @@ own tangent (no 0/0 at ``s_a = s_b``).
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
+
 from .materials import Corotated, NeoHookean, StableNeoHookean, TaylorNeoHookean, check_F, rotation_preserving_svd
 from .parameters import ParameterError, check_real
 
@@ -53,8 +56,7 @@ def eigen_projection(A, floor: float = 0.0):
 def projected_tangent(material, F, floor: float = 0.0):
     """``material.tangent(F)`` with eigenvalues below ``floor`` raised to it (Teran et al. 2005): in diagonal space
     for the isotropic, frame-indifferent models, else by :func:`eigen_projection`."""
-    if not (type(material) in (NeoHookean, TaylorNeoHookean, StableNeoHookean, Corotated)
-            or getattr(material, "rotation_invariant", False)):
+    if type(material) not in (NeoHookean, TaylorNeoHookean, StableNeoHookean, Corotated, ITFClamped):
         return eigen_projection(material.tangent(F), floor)
     U, s, V = rotation_preserving_svd(F)
     return _rotate_back(U, V, _project_diagonal_blocks(np.asarray(material.tangent(diagonal(s)), dtype=float), floor))
@@ -62,7 +64,7 @@ def projected_tangent(material, F, floor: float = 0.0):
 
 def _blocks(d):
     """The index pairs ``(i, j)`` of the diagonal-space blocks (module docstring): stretch, then twist/flip ones."""
-    return [tuple((a, a) for a in range(d))] + [((a, b), (b, a)) for a in range(d) for b in range(a + 1, d)]
+    return [tuple((a, a) for a in range(d))] + [((a, b), (b, a)) for a, b in itertools.combinations(range(d), 2)]
 
 
 def _rotate_back(U, V, A_hat):
@@ -165,7 +167,6 @@ class ITFClamped:
     (``Psi_ij = lam/(s_i s_j)``); the default ``k`` is ``d2Psi/ds^2`` at ``s = (c, ..., c)`` of that dimension.
     """
 
-    rotation_invariant = True
     inversion_safe = True
 
     def __init__(self, material, threshold: float = 0.3, stiffness: float | None = None, project: bool = True):
@@ -176,11 +177,10 @@ class ITFClamped:
         c = check_real("threshold", threshold, 0.0, 1.0, lo_open=True, hi_open=True)
         self.base, self.threshold, self.project = material, c, bool(project)
         self.lam, self.mu = material.lam, material.mu
-        D = diagonal(np.full((2, 1), c))
-        A = np.asarray(material.tangent(D), dtype=float)
-        self._psi_cc = float(np.asarray(material.energy(D)).ravel()[0])
-        self._g_cc = float(np.asarray(material.stress(D))[0, 0, 0])
-        self._h01_cc = float(A[0, 0, 1, 1, 0])
+        D = diagonal(np.full((2, 1), c))  # the doubly clamped 2D piece's Psi, psi_i and Psi_01 at (c, c)
+        self._psi_cc = float(material.energy(D)[0])
+        self._g_cc = float(material.stress(D)[0, 0, 0])
+        self._h01_cc = float(material.tangent(D)[0, 0, 1, 1, 0])
         #: the spring stiffness by dimension: the given one, else d2Psi/ds^2 at (c, ..., c)
         self.stiffnesses = {d: check_real("stiffness", stiffness if stiffness is not None else material.tangent(
             diagonal(np.full((d, 1), c)))[d - 1, d - 1, d - 1, d - 1, 0], 0.0, lo_open=True) for d in (2, 3)}
@@ -200,9 +200,8 @@ class ITFClamped:
         s_hat = np.where(clamped, c, s)
         dd = np.where(clamped, s - c, 0.0)
         D = diagonal(s_hat)
-        P, A = np.asarray(self.base.stress(D), dtype=float), np.asarray(self.base.tangent(D), dtype=float)
-        psi = np.stack([P[i, i] for i in range(dim)])
-        H = np.stack([np.stack([A[i, i, j, j] for j in range(dim)]) for i in range(dim)])
+        psi = np.einsum("ii...->i...", self.base.stress(D))  # P_ii
+        H = np.einsum("iijj...->ij...", self.base.tangent(D))  # A_iijj
         return s, clamped, s_hat, dd, self.stiffnesses[dim], psi, H
 
     def diagonal_energy(self, s) -> np.ndarray:
@@ -210,9 +209,8 @@ class ITFClamped:
         the class docstring; in 2D the doubly clamped piece in its closed form (whose floats the chapters record)."""
         s, _, s_hat, dd, k, psi, H = self._expansion(s)
         out = np.asarray(self.base.energy(diagonal(s_hat)), dtype=float) + np.einsum("i...,i...->...", psi, dd)
-        for i in range(s.shape[0]):
-            for j in range(i + 1, s.shape[0]):
-                out = out + H[i, j] * dd[i] * dd[j]
+        for i, j in itertools.combinations(range(s.shape[0]), 2):
+            out = out + H[i, j] * dd[i] * dd[j]
         out = np.asarray(out + 0.5 * k * np.einsum("i...,i...->...", dd, dd))
         if s.shape[0] == 2:
             both = s[0] < self.threshold
@@ -236,8 +234,7 @@ class ITFClamped:
         dim, rest = s.shape[0], s.shape[1:]
         sub = s[-1] < self.threshold  # something clamped (the smallest value first)
         A = np.zeros((dim,) * 4 + rest)
-        if (~sub).any():
-            A[..., ~sub] = np.asarray(self.base.tangent(diagonal(s[:, ~sub])), dtype=float)
+        A[..., ~sub] = self.base.tangent(diagonal(s[:, ~sub]))
         if not sub.any():
             return A
         s, clamped, s_hat, dd, k, _, H = self._expansion(s[:, sub])
@@ -255,14 +252,13 @@ class ITFClamped:
         B = np.zeros((dim,) * 4 + s.shape[1:])
         i = np.arange(dim)[:, None]
         B[i, i, i.T, i.T] = Ht  # B_iijj = Ht_ij
-        for a in range(dim):
-            for b in range(a + 1, dim):
-                gap, total = s[a] - s[b], s[a] + s[b]
-                limit = 0.5 * (Ht[a, a] + Ht[b, b]) - Ht[a, b]  # (psi_a - psi_b)/(s_a - s_b) as s_a -> s_b
-                twist = np.where(gap > 1e-9, (g[a] - g[b]) / np.where(gap > 1e-9, gap, 1.0), limit)
-                flip = (g[a] + g[b]) / np.maximum(total, 1e-9)  # s_a + s_b >= 0; the energy has a kink at 0
-                B[a, b, a, b] = B[b, a, b, a] = 0.5 * (twist + flip)
-                B[a, b, b, a] = B[b, a, a, b] = 0.5 * (twist - flip)
+        for a, b in itertools.combinations(range(dim), 2):
+            gap, total = s[a] - s[b], s[a] + s[b]
+            limit = 0.5 * (Ht[a, a] + Ht[b, b]) - Ht[a, b]  # (psi_a - psi_b)/(s_a - s_b) as s_a -> s_b
+            twist = np.where(gap > 1e-9, (g[a] - g[b]) / np.where(gap > 1e-9, gap, 1.0), limit)
+            flip = (g[a] + g[b]) / np.maximum(total, 1e-9)  # s_a + s_b >= 0; the energy has a kink at 0
+            B[a, b, a, b] = B[b, a, b, a] = 0.5 * (twist + flip)
+            B[a, b, b, a] = B[b, a, a, b] = 0.5 * (twist - flip)
         A[..., sub] = B
         return A
 

@@ -144,16 +144,14 @@ def _svd3(F):
     ``sign s2 = sign J``. Samples with a non-finite entry give NaN."""
     rest = F.shape[2:]
     M = np.moveaxis(F.reshape((3, 3, -1)), -1, 0)
-    n = M.shape[0]
-    U, s, Vt = np.full((n, 3, 3), np.nan), np.full((n, 3), np.nan), np.full((n, 3, 3), np.nan)
+    U, s, Vt = np.full_like(M, np.nan), np.full(M.shape[:2], np.nan), np.full_like(M, np.nan)
     ok = np.all(np.isfinite(M), axis=(1, 2))
-    if ok.any():
-        u, w, vt = np.linalg.svd(M[ok])
-        flip_u, flip_v = np.linalg.det(u) < 0, np.linalg.det(vt) < 0
-        u[flip_u, :, 2] *= -1.0
-        vt[flip_v, 2, :] *= -1.0
-        w[:, 2] *= np.where(flip_u != flip_v, -1.0, 1.0)
-        U[ok], s[ok], Vt[ok] = u, w, vt
+    u, w, vt = np.linalg.svd(M[ok])
+    flip_u, flip_v = np.linalg.det(u) < 0, np.linalg.det(vt) < 0
+    u[flip_u, :, 2] *= -1.0
+    vt[flip_v, 2, :] *= -1.0
+    w[:, 2] *= np.where(flip_u != flip_v, -1.0, 1.0)
+    U[ok], s[ok], Vt[ok] = u, w, vt
     return (np.moveaxis(U, 0, -1).reshape((3, 3) + rest), np.moveaxis(s, 0, -1).reshape((3,) + rest),
             np.moveaxis(Vt.swapaxes(1, 2), 0, -1).reshape((3, 3) + rest))
 
@@ -198,14 +196,12 @@ class LinearElastic(Material):
 
     def energy(self, F):
         eps = self._strain(check_F(F))
-        tr = np.trace(eps)
-        return self.mu * np.einsum("ij...,ij...->...", eps, eps) + 0.5 * self.lam * tr**2
+        return self.mu * np.einsum("ij...,ij...->...", eps, eps) + 0.5 * self.lam * np.trace(eps) ** 2
 
     def stress(self, F):
         F = check_F(F)
         eps = self._strain(F)
-        tr = np.trace(eps)
-        return 2.0 * self.mu * eps + self.lam * tr * _constant4(_TENSORS[F.shape[0]]["delta"], F.shape[2:])
+        return 2.0 * self.mu * eps + self.lam * np.trace(eps) * _constant4(_TENSORS[F.shape[0]]["delta"], F.shape[2:])
 
     def tangent(self, F):
         F = check_F(F)
@@ -241,11 +237,10 @@ class _NeoHookeanFamily(Material):
 
 
 class NeoHookean(_NeoHookeanFamily):
-    """The notes' Neo-Hookean model: ``h(J) = -mu ln J + lam/2 (ln J)^2``, ``h' = (lam ln J - mu)/J``,
-    ``h'' = (lam + mu - lam ln J)/J^2``, i.e. the notes' ``P = mu F + (lam ln J - mu) F^-T``. Erratum: the notes print
-    ``F_ij F_ji = tr(F F)`` in the energy, not frame indifferent; their stress derives from ``F:F``, used here.
-    In 3D the same ``h`` with ``mu/2 (F:F - 3)``. NaN (without a warning) for ``J <= 0``, so a solver can detect
-    inversion."""
+    """The notes' Neo-Hookean model, ``h(J) = -mu ln J + lam/2 (ln J)^2`` (:class:`NeoHookean1D`'s, in 2D and 3D),
+    i.e. the notes' ``P = mu F + (lam ln J - mu) F^-T``. Erratum: the notes print ``F_ij F_ji = tr(F F)`` in the
+    energy, not frame indifferent; their stress derives from ``F:F``, used here. NaN (without a warning) for ``J <=
+    0``, so a solver can detect inversion."""
 
     name = "neo-Hookean"
     inversion_safe = False
@@ -254,11 +249,10 @@ class NeoHookean(_NeoHookeanFamily):
 
 
 class TaylorNeoHookean(_NeoHookeanFamily):
-    """Neo-Hookean with ``ln J`` replaced by its cubic Taylor polynomial ``r(J)`` (the notes' robust variant,
-    :func:`~tissuefem.engine.materials1d.taylor_log`): ``h = -mu r + lam/2 r^2``, ``h' = (lam r - mu) r'``,
-    ``h'' = lam r'^2 + (lam r - mu) r''``, so ``P = mu F + (lam r(J) - mu) r'(J) cof F`` with
-    ``cof F = [[F22, -F21], [-F12, F11]]`` (1-based). Erratum: the notes print the adjugate ``[[F22, -F12], [-F21,
-    F11]]``, which fails the finite-difference check. Finite for every F."""
+    """Neo-Hookean with ``ln J`` replaced by its cubic Taylor polynomial ``r(J)`` (the notes' robust variant; ``h =
+    -mu r + lam/2 r^2``, :class:`TaylorNeoHookean1D`'s), so ``P = mu F + (lam r(J) - mu) r'(J) cof F`` with ``cof F =
+    [[F22, -F21], [-F12, F11]]`` (1-based). Erratum: the notes print the adjugate ``[[F22, -F12], [-F21, F11]]``,
+    which fails the finite-difference check. Finite for every F."""
 
     name = "neo-Hookean (cubic r(J))"
 
@@ -294,30 +288,31 @@ _RHO_MIN = math.sqrt(np.finfo(float).tiny)
 
 
 def _polar_rotation(F):
-    """The 2D polar rotation of ``F = R S`` as ``(R, c, s, rho)``, ``R = [[c, -s], [s, c]]``: ``R`` maximises
-    ``tr(R^T F)``, so ``theta = atan2(F10 - F01, F00 + F11)`` and ``rho = tr S = hypot(F00 + F11, F10 - F01)`` (for
-    every F, also J <= 0). Below :data:`_RHO_MIN` energy, stress and tangent all take ``R = I``."""
+    """The 2D polar rotation of ``F = R S`` as ``(R, rho)``: ``R = [[c, -s], [s, c]]`` maximises ``tr(R^T F)``, so
+    ``theta = atan2(F10 - F01, F00 + F11)`` and ``rho = tr S = hypot(F00 + F11, F10 - F01)`` (for every F, also J <=
+    0). Below :data:`_RHO_MIN` energy, stress and tangent all take ``R = I``."""
     x, y = F[0, 0] + F[1, 1], F[1, 0] - F[0, 1]
     rho, theta = np.hypot(x, y), np.arctan2(y, x)
     collapsed = rho < _RHO_MIN
     if np.any(collapsed):
         theta = np.where(collapsed, 0.0, theta)
-    R = rotation(theta)
-    return R, R[0, 0], R[1, 0], rho
+    return rotation(theta), rho
 
 
-def _rotation3(U, V):
-    """3D: the polar rotation ``R = U V^T`` from the rotation-preserving SVD's ``U`` and ``V``."""
-    return np.einsum("ia...,ja...->ij...", U, V)
-
-
-def _rotation_derivative3(F):
-    """3D: ``(R, dR/dF)`` of the polar rotation ``R = U V^T`` (:func:`rotation_preserving_svd`). With ``M = U^T dF V``,
-    ``dR = U W V^T``, ``W`` skew with ``W_ab = (M_ab - M_ba) / (s_a + s_b)``, i.e. ``dR/dF = sum_(a<b) 2/(s_a + s_b)
-    T_ab (x) T_ab``, ``T_ab = (u_a v_b^T - u_b v_a^T)/sqrt 2`` (in 2D this is ``R' (x) R' / rho``). A pair with
-    ``s_a + s_b`` below :data:`_RHO_MIN` contributes nothing (the rotation is undefined there, as in 2D)."""
+def _rotation_derivative(F):
+    """``dR/dF`` of the polar rotation. 2D: ``dtheta/dF = R'/rho``, ``R' = dR/dtheta = [[-s, -c], [c, -s]]``, so
+    ``dR/dF = R' (x) R' / rho`` (0 below :data:`_RHO_MIN`, where ``R = I`` is constant). 3D, ``R = U V^T``
+    (:func:`rotation_preserving_svd`): with ``M = U^T dF V``, ``dR = U W V^T``, ``W`` skew with ``W_ab = (M_ab -
+    M_ba) / (s_a + s_b)``, i.e. ``dR/dF = sum_(a<b) 2/(s_a + s_b) T_ab (x) T_ab``, ``T_ab = (u_a v_b^T - u_b
+    v_a^T)/sqrt 2`` (the 2D formula for the one pair); a pair with ``s_a + s_b`` below :data:`_RHO_MIN` contributes
+    nothing (the rotation is undefined there, as in 2D)."""
+    if F.shape[0] == 2:
+        R, rho = _polar_rotation(F)
+        Rp = np.array([[-R[1, 0], -R[0, 0]], [R[0, 0], -R[1, 0]]])
+        inv_rho = np.zeros(rho.shape)
+        np.divide(1.0, rho, out=inv_rho, where=rho >= _RHO_MIN)
+        return inv_rho * _outer(Rp, Rp)
     U, s, V = rotation_preserving_svd(F)
-    R = _rotation3(U, V)
     dR = np.zeros((3, 3) + F.shape)
     for a, b in ((0, 1), (0, 2), (1, 2)):
         T = (U[:, a][:, None] * V[:, b][None, :] - U[:, b][:, None] * V[:, a][None, :]) / math.sqrt(2.0)
@@ -325,18 +320,17 @@ def _rotation_derivative3(F):
         weight = np.zeros(total.shape)
         np.divide(2.0, total, out=weight, where=total >= _RHO_MIN)
         dR = dR + weight * _outer(T, T)
-    return R, dR
+    return dR
 
 
 class Corotated(Material):
     """Fixed corotated elasticity (Stomakhin, Howes, Schroeder, Teran, "Energetically consistent invertible
     elasticity", SCA 2012): ``Psi = mu ||F - R||_F^2 + lam/2 (J - 1)^2``, ``R`` the polar rotation (2D:
     :func:`_polar_rotation`; 3D: ``U V^T`` of the rotation-preserving SVD). ``(F - R):dR = (S - I):(R^T dR) = 0``
-    (symmetric against skew), so ``P = 2 mu (F - R) + lam (J - 1) cof F`` and, in 2D with ``dtheta/dF = R'/rho``,
-    ``R' = dR/dtheta = [[-s, -c], [c, -s]]`` (3D: :func:`_rotation_derivative3`), the tangent (at ``F = I`` the
-    linear one) is
+    (symmetric against skew), so ``P = 2 mu (F - R) + lam (J - 1) cof F`` and the tangent (at ``F = I`` the linear
+    one) is
 
-        A = 2 mu (I4 - dR/dF) + lam cof F (x) cof F + lam (J - 1) H,   dR/dF = R' (x) R' / rho in 2D.
+        A = 2 mu (I4 - dR/dF) + lam cof F (x) cof F + lam (J - 1) H    (dR/dF: :func:`_rotation_derivative`).
     """
 
     name = "corotated"
@@ -346,7 +340,7 @@ class Corotated(Material):
         if F.shape[0] == 2:
             return _polar_rotation(F)[0]
         U, _, V = rotation_preserving_svd(F)
-        return _rotation3(U, V)  # the energy and the stress need R, not its derivative
+        return np.einsum("ia...,ja...->ij...", U, V)  # R = U V^T
 
     def energy(self, F):
         F = check_F(F)
@@ -359,19 +353,9 @@ class Corotated(Material):
 
     def tangent(self, F):
         F = check_F(F)
-        rest = F.shape[2:]
-        if F.shape[0] == 2:
-            _, c, s, rho = _polar_rotation(F)
-            Rp = np.array([[-s, -c], [c, -s]])
-            inv_rho = np.zeros(rho.shape)
-            np.divide(1.0, rho, out=inv_rho, where=rho >= _RHO_MIN)  # R = I (constant) below it
-            dR = inv_rho * _outer(Rp, Rp)
-        else:
-            dR = _rotation_derivative3(F)[1]
         C = cofactor(F)
-        J = det(F)
-        return (2.0 * self.mu * (_constant4(_TENSORS[F.shape[0]]["I4"], rest) - dR) + self.lam * _outer(C, C)
-                + self.lam * (J - 1.0) * cofactor_derivative(F))
+        return (2.0 * self.mu * (_constant4(_TENSORS[F.shape[0]]["I4"], F.shape[2:]) - _rotation_derivative(F))
+                + self.lam * _outer(C, C) + self.lam * (det(F) - 1.0) * cofactor_derivative(F))
 
 
 # --- anisotropy: a fibre term -------------------------------------------------------
@@ -474,29 +458,27 @@ class FiberFamily(Material):
             raise ParameterError("fibers", "fibers must be finite, none zero-length (a fibre needs a direction)")
         self.fibers = g / norm
 
-    def _g(self, F) -> np.ndarray:
-        """Fibres shaped to broadcast against ``F.shape[2:] = rest`` (aligned on the leading axes; one ``F`` at rest
-        ``(d, d, 1)`` takes every element's fibre)."""
-        g, rest = self.fibers, tuple(F.shape[2:])
+    def _Fg(self, F):
+        """``F`` checked and the fibres shaped to broadcast against ``F.shape[2:] = rest`` (aligned on the leading
+        axes; one ``F`` at rest ``(d, d, 1)`` takes every element's fibre)."""
+        F, g = check_F(F), self.fibers
+        rest = tuple(F.shape[2:])
         if g.shape[0] != F.shape[0]:
             raise ParameterError("fibers", f"fibers are {g.shape[0]}D vectors but F is {F.shape[0]}D "
                                            f"(shape {F.shape})")
         extra = len(rest) - (g.ndim - 1)
         if extra < 0 or any(a != b and 1 not in (a, b) for a, b in zip(g.shape[1:], rest)):
             raise ParameterError("fibers", f"fibers of shape {g.shape} do not match F with trailing shape {rest}")
-        return g.reshape(g.shape + (1,) * extra)
+        return F, g.reshape(g.shape + (1,) * extra)
 
     def energy(self, F):
-        F = check_F(F)
-        return fiber_energy_term(F, self._g(F), self.stiffness)
+        return fiber_energy_term(*self._Fg(F), self.stiffness)
 
     def stress(self, F):
-        F = check_F(F)
-        return fiber_stress_term(F, self._g(F), self.stiffness)
+        return fiber_stress_term(*self._Fg(F), self.stiffness)
 
     def tangent(self, F):
-        F = check_F(F)
-        return fiber_tangent_term(F, self._g(F), self.stiffness)
+        return fiber_tangent_term(*self._Fg(F), self.stiffness)
 
 
 class FiberReinforced(Material):

@@ -1,12 +1,5 @@
 """One-dimensional hyperelastic materials (chapters 1 and 2): ``F = J = 1 + du/dX``; ``Psi(F)``, ``P = dPsi/dF`` and
 ``dP/dF`` on arrays of any shape (checked by finite differences in the tests).
-
-* Linear: ``eps = F - 1``, the notes' ``mu eps_ij eps_ij + lam/2 eps_kk^2`` is ``(mu + lam/2) eps^2``, so
-  ``P = (2 mu + lam) eps``. Erratum: the notes print the modulus ``(2 mu - lam)`` (negative for lam > 2 mu).
-* Neo-Hookean: ``Psi = mu/2 (F^2 - 1) - mu ln F + lam/2 (ln F)^2``, ``P = mu F + (lam ln F - mu) / F`` (the notes'),
-  ``dP/dF = mu + (mu + lam (1 - ln F)) / F^2`` (``2 mu + lam`` at ``F = 1``).
-* Cubic Taylor ``r(J)`` of ``ln`` about 1 (the notes' robust variant, Figure 7): ``P = mu F + (lam r - mu) r'``,
-  ``dP/dF = mu + lam r'^2 + (lam r - mu) r''``.
 """
 
 from __future__ import annotations
@@ -26,14 +19,6 @@ def taylor_log_prime(J):
     """``r'(J) = 1 - (J-1) + (J-1)^2``, positive for every ``J`` (so ``r`` is monotone)."""
     d = np.asarray(J, dtype=float) - 1.0
     return 1.0 - d + d**2
-
-
-def safe_log(F):
-    """``ln F`` where ``F > 0``, NaN elsewhere without a warning: NaN, not an exception, lets a solver report it."""
-    F = np.asarray(F, dtype=float)
-    out = np.full(F.shape, np.nan)
-    np.log(F, out=out, where=F > 0)
-    return out
 
 
 class LameMaterial:
@@ -66,7 +51,9 @@ class Material1D(LameMaterial):
 
 
 class Linear1D(Material1D):
-    """Linear elasticity in 1D: ``Psi = (mu + lam/2)(F - 1)^2``, ``P = (lam + 2 mu)(F - 1)``."""
+    """Linear elasticity in 1D: with ``eps = F - 1`` the notes' ``mu eps_ij eps_ij + lam/2 eps_kk^2`` is ``Psi = (mu +
+    lam/2) eps^2``, so ``P = (lam + 2 mu) eps``. Erratum: the notes print the modulus ``(2 mu - lam)`` (negative for
+    lam > 2 mu)."""
 
     name = "linear"
 
@@ -97,24 +84,25 @@ class VolumetricFamily1D(Material1D):
 
 
 class NeoHookean1D(VolumetricFamily1D):
-    """The notes' Neo-Hookean model in 1D: ``h(J) = -mu ln J + lam/2 (ln J)^2``, ``h' = (lam ln J - mu)/J``, ``h'' =
-    (lam + mu - lam ln J)/J^2``. Undefined (NaN, without a warning) for ``J <= 0``, so a solver can detect inversion."""
+    """The notes' Neo-Hookean model in 1D: ``h(J) = -mu ln J + lam/2 (ln J)^2``, ``h' = (lam ln J - mu)/J`` (so the
+    notes' ``P = mu F + (lam ln F - mu)/F``), ``h'' = (lam + mu - lam ln J)/J^2``. Undefined (NaN, without a warning)
+    for ``J <= 0``, so a solver can detect inversion."""
 
     name = "neo-Hookean (ln J)"
     inversion_safe = False
 
     def volumetric(self, J):
         J = np.asarray(J, dtype=float)
-        lnJ = safe_log(J)
-        invJ = np.full(J.shape, np.nan)
+        lnJ, invJ = np.full(J.shape, np.nan), np.full(J.shape, np.nan)
+        np.log(J, out=lnJ, where=J > 0)
         np.divide(1.0, J, out=invJ, where=J > 0)
         lam, mu = self.lam, self.mu
         return -mu * lnJ + 0.5 * lam * lnJ**2, (lam * lnJ - mu) * invJ, (lam + mu - lam * lnJ) * invJ**2
 
 
 class TaylorNeoHookean1D(VolumetricFamily1D):
-    """Neo-Hookean with ``ln J`` replaced by its cubic Taylor polynomial ``r(J)``: ``h = -mu r + lam/2 r^2``, ``h' =
-    (lam r - mu) r'``, ``h'' = lam r'^2 + (lam r - mu) r''``; finite for all F."""
+    """Neo-Hookean with ``ln J`` replaced by its cubic Taylor polynomial ``r(J)`` (the notes' robust variant, Figure
+    7): ``h = -mu r + lam/2 r^2``, ``h' = (lam r - mu) r'``, ``h'' = lam r'^2 + (lam r - mu) r''``; finite for all F."""
 
     name = "neo-Hookean (cubic r(J))"
 
