@@ -17,7 +17,7 @@ import skfem
 
 from ...engine.parameters import check_count, count_list
 
-__all__ = ["machine_info", "load_average", "check_sizes", "write_json", "write_csv", "load_results",
+__all__ = ["machine_info", "load_average", "check_sizes", "write_json", "write_csv", "write_record", "load_results",
            "recorded", "median_rows"]
 
 #: the recorded runs shipped with the package (chapters and docs/benchmarks.md print from them)
@@ -77,6 +77,14 @@ def write_csv(path, rows, extra=None) -> Path:
         for row in rows:
             writer.writerow({**row, **extra})
     return path
+
+
+def write_record(out, name: str, record: dict, rows, say) -> None:
+    """Write ``<name>.json`` (the record) and ``<name>.csv`` (the rows) into the folder ``out`` and ``say`` where;
+    no folder (``None``): nothing."""
+    if out is not None:
+        written = [write_json(Path(out) / f"{name}.json", record), write_csv(Path(out) / f"{name}.csv", rows)]
+        say("wrote " + ", ".join(str(w) for w in written))
 
 
 def load_results(path) -> dict:

@@ -15,7 +15,6 @@ from __future__ import annotations
 import sys
 import threading
 import time
-from pathlib import Path
 
 import numpy as np
 
@@ -25,7 +24,7 @@ from ...engine.parameters import check_count, check_real
 from ...surgery.scene import flap_path, flap_scene
 from ...surgery.simulation import Simulation
 from ..tables import markdown_table
-from .common import check_sizes, machine_info, write_csv, write_json
+from .common import check_sizes, machine_info, write_record
 from .realtime import flap_simulation
 
 __all__ = ["haptic_benchmark", "haptic_path", "HapticLoop", "format_haptic_table"]
@@ -40,6 +39,7 @@ SWITCH_INTERVAL = 1e-4
 
 
 def _state(solver) -> dict:
+    """The solver's state as :meth:`~tissuefem.engine.stepping.Stepper.set_state` takes it back."""
     return dict(u=solver.u.copy(), v=solver.v.copy(), v_previous=solver.v_previous, time_=solver.time,
                 steps=solver.steps)
 
@@ -75,8 +75,7 @@ def haptic_path(n_triangles: int = 8000, frames: int = 30, substeps: int = 4, wa
         for s in range(1, substeps + 1):
             t = (k + s / substeps) * FRAME_BUDGET
             p = flap_path(t)
-            reference.solver.set_state(start["u"], start["v"], v_previous=start["v_previous"], time_=start["time_"],
-                                       steps=start["steps"])
+            reference.solver.set_state(**start)
             report = reference.frame({TOOL: p})
             if not report.converged:
                 raise RuntimeError(f"haptic_path: the reference frame at t = {t:.3f} s did not converge")
@@ -241,10 +240,8 @@ def haptic_benchmark(n_triangles: int = 8000, frames: int = 60, rate: float = 10
            "frame_plain_median_ms": float(np.median(plain_ms)), "frame_haptic_median_ms": float(np.median(haptic_ms)),
            "build_median_ms": float(np.median(build_ms)), "paired_ratio_median": float(np.median(ratio)),
            "path_frames": path["frames"], "substeps": path["substeps"],
-           "haptic_error_median": float(np.median(path["haptic_error"])),
-           "haptic_error_max": float(np.max(path["haptic_error"])),
-           "hold_error_median": float(np.median(path["hold_error"])),
-           "hold_error_max": float(np.max(path["hold_error"])),
+           **{f"{force}_error_{name}": float(statistic(path[f"{force}_error"])) for force in ("haptic", "hold")
+              for name, statistic in (("median", np.median), ("max", np.max))},
            "jump_relative_median": float(np.median(path["jump_relative"])) if path["jump"].size else float("nan"),
            "frame_plain_ms": plain_ms.tolist(), "frame_haptic_ms": haptic_ms.tolist(), "build_ms": build_ms.tolist()}
     say(f"  {row['updates_per_second']:.0f} updates/s, median {row['update_median_us']:.1f} µs per update; ticks "
@@ -260,7 +257,5 @@ def haptic_benchmark(n_triangles: int = 8000, frames: int = 60, rate: float = 10
                            "substeps": substeps, "linear_solver": linear_solver, "switch_interval": SWITCH_INTERVAL},
               "machine": machine_info(), "rows": [row],
               "path": {k: v for k, v in path.items() if isinstance(v, np.ndarray)}}
-    if out is not None:
-        written = [write_json(Path(out) / "haptic.json", record), write_csv(Path(out) / "haptic.csv", [row])]
-        say("wrote " + ", ".join(str(w) for w in written))
+    write_record(out, "haptic", record, [row], say)
     return record
