@@ -165,15 +165,12 @@ def cmd_bench(args) -> int:
     matplotlib.use("Agg")
     out = Path(args.out or "bench-results")  # a folder; the assembly benchmark writes one file, if asked
     if args.which == "assembly":
-        sizes = tuple(args.sizes) if args.sizes else (2000, 8000, 32000)
-        assembly_benchmark(sizes=sizes, repeats=args.repeats, out=args.out)
+        assembly_benchmark(sizes=args.sizes or (2000, 8000, 32000), repeats=args.repeats, out=args.out)
+    elif args.which == "realtime" and args.compare:
+        solver_comparison(n=args.sizes[0] if args.sizes else 19000, frames=args.frames, dim=args.dim, out=out)
     elif args.which == "realtime":
-        if args.compare:
-            solver_comparison(n=args.sizes[0] if args.sizes else 19000, frames=args.frames, dim=args.dim, out=out)
-            return 0
-        rows = realtime_benchmark(sizes=tuple(args.sizes) if args.sizes else None, frames=args.frames,
-                                  baseline_frames=args.baseline_frames, linear_solver=args.linear, out=out,
-                                  dim=args.dim)
+        rows = realtime_benchmark(sizes=args.sizes, frames=args.frames, baseline_frames=args.baseline_frames,
+                                  linear_solver=args.linear, out=out, dim=args.dim)
         if args.dim == 2:
             plot_realtime(rows, out / "realtime.png")
             print(f"wrote {out / 'realtime.png'}")
@@ -220,7 +217,6 @@ def _one_line(path, err) -> str:
 def cmd_scene(args) -> int:
     """Check a scene file and run it: one line per frame (``--verbose``), then a summary. A scene that cannot
     be read or built is answered with one line on stderr and exit status 2, never a traceback."""
-    frames = args.frames
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
@@ -242,13 +238,13 @@ def cmd_scene(args) -> int:
     if args.check:
         return 0
     ms = []
-    for _ in range(frames):
+    for _ in range(args.frames):
         r = sim.frame()
         ms.append(1e3 * r.elapsed)
         if args.verbose:
             print(f"  frame {r.frame:4d}  {ms[-1]:7.1f} ms  {r.status:18s} Newton {r.newton_iterations}")
     finite = bool(np.all(np.isfinite(sim.u)))
-    print(f"{frames} frames: median {np.median(ms):.1f} ms/frame (budget {1e3 * sim.solver.budget:.0f} ms), "
+    print(f"{args.frames} frames: median {np.median(ms):.1f} ms/frame (budget {1e3 * sim.solver.budget:.0f} ms), "
           f"max {max(ms):.1f} ms; {sim.pieces()} piece(s); state finite: {finite}")
     return 0 if finite else 1
 
@@ -270,20 +266,17 @@ def main(argv=None) -> int:
     p = sub.add_parser("figures", help="regenerate every lecture figure into figures/")
     p.add_argument("--only", nargs="+", metavar="NAME", type=_figure, help="only these figures (see `list`)")
     p.add_argument("--out", help="output folder (default: figures/)")
-    p.set_defaults(func=cmd_figures)
 
     p = sub.add_parser("build", help="regenerate figures and execute every chapter headless")
     p.add_argument("--chapters", nargs="+", metavar="NAME", help="only chapters whose file name contains NAME")
     p.add_argument("--skip-figures", action="store_true", help="do not regenerate figures/")
     p.add_argument("--out", help="folder for executed notebooks (default: build/chapters/)")
     p.add_argument("--no-book", action="store_true", help="do not write the website build/book/")
-    p.set_defaults(func=cmd_build)
 
     p = sub.add_parser("book", help="write the workbook's website from the executed chapters")
     p.add_argument("--executed", type=_folder("executed"),
                    help="folder of executed notebooks (default: build/chapters/)")
     p.add_argument("--out", help="folder for the website (default: build/book/)")
-    p.set_defaults(func=cmd_book)
 
     p = sub.add_parser("bench", help="run a benchmark and print its table")
     p.add_argument("which", choices=["assembly", "realtime", "scenes", "accuracy", "haptic"])
@@ -309,7 +302,6 @@ def main(argv=None) -> int:
                    help="accuracy: the sweep (full: several minutes; reduced: chapter 9's; tiny: seconds)")
     p.add_argument("--out", help="assembly: a JSON file; realtime, scenes, accuracy, haptic: a folder "
                                  "(default bench-results/)")
-    p.set_defaults(func=cmd_bench)
 
     p = sub.add_parser("scene", help="check a scene file (TOML or JSON) and run it for some frames")
     p.add_argument("path", help="the scene file, e.g. scenes/incision.toml")
@@ -317,7 +309,6 @@ def main(argv=None) -> int:
                    help="frames to run (default 30, at most 1000000)")
     p.add_argument("--check", action="store_true", help="only check and build the scene")
     p.add_argument("--verbose", "-v", action="store_true", help="one line per frame")
-    p.set_defaults(func=cmd_scene)
 
     p = sub.add_parser("grade", help="grade your answers in chapters/exercises with pytest")
     p.add_argument("chapter", nargs="?", help="only this chapter, e.g. ch02")
@@ -326,14 +317,14 @@ def main(argv=None) -> int:
     p.add_argument("--exercises", metavar="DIR",
                    type=_folder("exercises", " (it should hold ch01.py ... ch11.py)"),
                    help="grade the chNN.py files in DIR (e.g. a student's submission) instead of chapters/exercises")
-    p.set_defaults(func=cmd_grade)
 
-    p = sub.add_parser("list", help="list figures and chapters")
-    p.set_defaults(func=cmd_list)
+    sub.add_parser("list", help="list figures and chapters")
 
     args = parser.parse_args(argv)
+    commands = {"figures": cmd_figures, "build": cmd_build, "book": cmd_book, "bench": cmd_bench, "scene": cmd_scene,
+                "grade": cmd_grade, "list": cmd_list}
     try:
-        return int(args.func(args) or 0)
+        return int(commands[args.command](args) or 0)
     except ParameterError as err:  # a refused option value: name the option, as argparse does for its own checks
         if hasattr(args, err.field):
             sub.choices[args.command].error(f"argument --{err.field.replace('_', '-')}: {err}")
