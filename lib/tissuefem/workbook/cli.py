@@ -1,16 +1,7 @@
 """Command line: ``python -m tissuefem {figures,build,book,bench,scene,grade,list}``.
 
-* ``figures``  regenerate every lecture figure into ``figures/``;
-* ``build``    regenerate the figures, execute every chapter headless (copies in ``build/chapters/``;
-  the sources stay clean) and write the workbook's website into ``build/book/``;
-* ``book``     write the website from the executed copies already in ``build/chapters/``;
-* ``bench``    a benchmark: ``assembly``, ``realtime`` (``--dim 3``: the 3D block, ``--compare``: the linear
-  solvers side by side), ``scenes``, ``accuracy`` (chapter 9's study), ``haptic`` (the tool's force at 1 kHz);
-* ``scene``    check a scene file and run it (``scene scenes/incision.toml``);
-* ``grade``    grade your own exercise answers (chapters/exercises) with pytest;
-* ``list``     list the figures and chapters.
-
-A refused argument is answered with one line on stderr naming it, and exit status 2, before any work starts.
+Each subcommand's ``--help`` (the parser in :func:`main`) and the README say what it does. A refused argument is
+answered with one line on stderr naming it, and exit status 2, before any work starts.
 """
 
 from __future__ import annotations
@@ -267,7 +258,7 @@ def main(argv=None) -> int:
     p.add_argument("--only", nargs="+", metavar="NAME", type=_figure, help="only these figures (see `list`)")
     p.add_argument("--out", help="output folder (default: figures/)")
 
-    p = sub.add_parser("build", help="regenerate figures and execute every chapter headless")
+    p = sub.add_parser("build", help="regenerate figures, execute every chapter headless and write the website")
     p.add_argument("--chapters", nargs="+", metavar="NAME", help="only chapters whose file name contains NAME")
     p.add_argument("--skip-figures", action="store_true", help="do not regenerate figures/")
     p.add_argument("--out", help="folder for executed notebooks (default: build/chapters/)")
@@ -279,7 +270,9 @@ def main(argv=None) -> int:
     p.add_argument("--out", help="folder for the website (default: build/book/)")
 
     p = sub.add_parser("bench", help="run a benchmark and print its table")
-    p.add_argument("which", choices=["assembly", "realtime", "scenes", "accuracy", "haptic"])
+    p.add_argument("which", choices=["assembly", "realtime", "scenes", "accuracy", "haptic"],
+                   help="assembly, realtime (--dim 3: the 3D block, --compare: the linear solvers side by side), "
+                        "scenes (each effect's cost), accuracy (chapter 9's study), haptic (the tool's force at 1 kHz)")
     p.add_argument("--sizes", type=_count("sizes", 1, MAX_TRIANGLES), nargs="+",
                    help=f"approximate triangle counts, with --dim 3 tetrahedra (at most {MAX_TRIANGLES})")
     p.add_argument("--repeats", type=_count("repeats", 1, 1000), default=5,
