@@ -205,11 +205,10 @@ _TABLE = [
     ("update_median_us", "update median [µs]", "{:.1f}"), ("update_p95_us", "update p95 [µs]", "{:.1f}"),
     ("late_median_us", "tick late median [µs]", "{:.0f}"), ("late_p95_us", "tick late p95 [µs]", "{:.0f}"),
     ("missed_ticks", "ticks late by a period or more", "{:d}"), ("frame_plain_median_ms", "frame alone [ms]", "{:.1f}"),
-    ("frame_haptic_median_ms", "frame beside the loop [ms]", "{:.1f}"), ("build_median_ms", "reduced model [ms]",
-                                                                          "{:.1f}"),
-    ("haptic_error_median", "force error median", "{:.1e}"), ("haptic_error_max", "force error max", "{:.1e}"),
-    ("hold_error_median", "held force error median", "{:.1e}"), ("hold_error_max", "held force error max", "{:.1e}"),
-]
+    ("frame_haptic_median_ms", "frame beside the loop [ms]", "{:.1f}"),
+    ("build_median_ms", "reduced model [ms]", "{:.1f}"), ("haptic_error_median", "force error median", "{:.1e}"),
+    ("haptic_error_max", "force error max", "{:.1e}"), ("hold_error_median", "held force error median", "{:.1e}"),
+    ("hold_error_max", "held force error max", "{:.1e}")]
 
 
 def format_haptic_table(rows) -> str:

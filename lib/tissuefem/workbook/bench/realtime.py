@@ -265,13 +265,14 @@ def recorded_realtime_table() -> str:
     return markdown_table(recorded_realtime()[0], _RECORDED)
 
 
-def _frames_row(sim, reports) -> dict:
+def _frames_row(scene: BenchScene, sim, reports) -> dict:
     """The columns of a run of unbudgeted frames (``fast_...``) with the floor at its end state."""
     ms = np.array([1e3 * r.elapsed for r in reports])
     floor = frame_floor(sim)
-    return {"dofs": int(sim.model.n_dofs), "frames": len(reports), "linear_solver": sim.solver.linear_solver_name,
-            "fast_median_ms": float(np.median(ms)), "fast_p95_ms": float(np.percentile(ms, 95)),
-            "fast_p99_ms": float(np.percentile(ms, 99)), "fast_fps": float(1e3 / np.median(ms)),
+    return {scene.elements: int(sim.mesh.t.shape[1]), "dofs": int(sim.model.n_dofs), "frames": len(reports),
+            "linear_solver": sim.solver.linear_solver_name, "fast_median_ms": float(np.median(ms)),
+            "fast_p95_ms": float(np.percentile(ms, 95)), "fast_p99_ms": float(np.percentile(ms, 99)),
+            "fast_fps": float(1e3 / np.median(ms)),
             "fast_newton": float(np.mean([r.newton_iterations for r in reports])),
             "fast_cg": float(np.mean([r.linear_iterations for r in reports])),
             "fast_factorizations": int(sum(r.factorizations for r in reports)),
@@ -300,10 +301,8 @@ def realtime_benchmark(sizes=None, frames: int = 90, baseline_frames: int | None
 
     rows = []
     for n in sizes:
-        sim, reports = _fast_frames(scene, n, frames, linear_solver=linear_solver)
-        nel = sim.mesh.t.shape[1]
-        say(f"realtime benchmark: {nel} {scene.elements}, {sim.model.n_dofs} dofs ...")
-        row = {scene.elements: int(nel), **_frames_row(sim, reports)}
+        row = _frames_row(scene, *_fast_frames(scene, n, frames, linear_solver=linear_solver))
+        say(f"realtime benchmark: {row[scene.elements]} {scene.elements}, {row['dofs']} dofs ...")
         ms = np.asarray(row["fast_ms"])
         if baseline_frames:
             base_ms, base_its, u_base = ex43_frames(scene.build(n).model, min(baseline_frames, frames),
@@ -396,7 +395,7 @@ def solver_comparison(n: int = 19000, approaches=APPROACHES, frames: int = 60, r
         for a in names:
             loads.append(load_average())
             sim, reports = _fast_frames(scene, n, frames, linear_solver=a)
-            row = {"approach": a, scene.elements: int(sim.mesh.t.shape[1]), **_frames_row(sim, reports)}
+            row = {"approach": a, **_frames_row(scene, sim, reports)}
             sim.solver.linear.close()
             runs[r].append(row)
             say(f"round {r + 1}, {a}: median {row['fast_median_ms']:.1f} ms, p95 {row['fast_p95_ms']:.1f} ms, "
