@@ -21,8 +21,7 @@ import numpy as np
 from ...engine.constants import FRAME_BUDGET
 from ...engine.haptics import tool_model
 from ...engine.parameters import check_count, check_real
-from ...surgery.scene import flap_path, flap_scene
-from ...surgery.simulation import Simulation
+from ...surgery.scene import flap_path
 from ..tables import markdown_table
 from .common import check_sizes, machine_info, write_record
 from .realtime import flap_simulation
@@ -59,7 +58,7 @@ def haptic_path(n_triangles: int = 8000, frames: int = 30, substeps: int = 4, wa
     substeps = check_count("substeps", substeps, 1)
     warmup = check_count("warmup", warmup, 0)
     sim = flap_simulation(n_triangles, linear_solver)
-    reference = Simulation(flap_scene(n_triangles, rtol=REFERENCE_RTOL, linear_solver=linear_solver))
+    reference = flap_simulation(n_triangles, linear_solver, REFERENCE_RTOL)
     for k in range(1, warmup + 1):
         sim.frame({TOOL: flap_path(k * FRAME_BUDGET)})
     times, positions, haptic, converged, hold, jumps, frame_forces = [], [], [], [], [], [], []

@@ -45,9 +45,9 @@ RTOL_FLAP = 1e-6
 BLOCK = (2.0, 1.0, 1.0)
 
 
-def flap_simulation(n_triangles: int, linear_solver: str = "reuse") -> Simulation:
-    """The standard flap scene, built and ready to run (no budget: every frame converges)."""
-    return Simulation(flap_scene(n_triangles, rtol=RTOL_FLAP, linear_solver=linear_solver))
+def flap_simulation(n_triangles: int, linear_solver: str = "reuse", rtol: float = RTOL_FLAP) -> Simulation:
+    """The standard flap scene, built and ready to run (no budget: every frame converges to ``rtol``)."""
+    return Simulation(flap_scene(n_triangles, rtol=rtol, linear_solver=linear_solver))
 
 
 def block_path(t) -> np.ndarray:
