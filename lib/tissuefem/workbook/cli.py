@@ -87,21 +87,20 @@ def _linear_solver(name):
     return name
 
 
-def _check_out(path, folder=True) -> None:
-    """Refuse an output path below a regular file, or a file where a folder goes (and the other way round); none
-    given (the default place) passes."""
+def _check_out(path) -> None:
+    """Refuse an output folder that is a file or lies below one; none given (the default place) passes."""
     if not path:
         return
     path = Path(path)
     try:
         below = next((p for p in path.parents if p.exists() and not p.is_dir()), None)
-        clash = path.exists() and path.is_dir() != folder
+        clash = path.exists() and not path.is_dir()
     except (OSError, ValueError) as err:  # ValueError: a NUL character, which no file name can hold
         raise ParameterError("out", f"{path} cannot be used: {getattr(err, 'strerror', None) or err}") from None
     if below is not None:
         raise ParameterError("out", f"{path} lies below {below}, which is not a folder")
     if clash:
-        raise ParameterError("out", f"{path} is {'not a folder' if folder else 'a folder, not a file'}")
+        raise ParameterError("out", f"{path} is not a folder")
 
 
 def _figures(names, out, note: bool) -> None:
@@ -152,11 +151,11 @@ def cmd_bench(args) -> int:
             which = "realtime --compare" if args.which == "realtime" else args.which
             raise ParameterError("sizes", f"bench {which} takes one size, got {len(args.sizes)}")
         check_count("sizes", args.sizes[0], 50, MAX_TRIANGLES)  # the scenes' variants need 50 triangles
-    _check_out(args.out, folder=args.which != "assembly")
+    _check_out(args.out)
     matplotlib.use("Agg")
-    out = Path(args.out or "bench-results")  # a folder; the assembly benchmark writes one file, if asked
+    out = Path(args.out or "bench-results")
     if args.which == "assembly":
-        assembly_benchmark(sizes=args.sizes or (2000, 8000, 32000), repeats=args.repeats, out=args.out)
+        assembly_benchmark(sizes=args.sizes or (2000, 8000, 32000), repeats=args.repeats, out=out)
     elif args.which == "realtime" and args.compare:
         solver_comparison(n=args.sizes[0] if args.sizes else 19000, frames=args.frames, dim=args.dim, out=out)
     elif args.which == "realtime":
@@ -293,8 +292,7 @@ def main(argv=None) -> int:
                         "factorization, back-substitution, fill-in, assembly and the frames")
     p.add_argument("--plan", default="full", choices=["full", "reduced", "tiny"],
                    help="accuracy: the sweep (full: several minutes; reduced: chapter 9's; tiny: seconds)")
-    p.add_argument("--out", help="assembly: a JSON file; realtime, scenes, accuracy, haptic: a folder "
-                                 "(default bench-results/)")
+    p.add_argument("--out", help="folder for the results, JSON and CSV (default bench-results/)")
 
     p = sub.add_parser("scene", help="check a scene file (TOML or JSON) and run it for some frames")
     p.add_argument("path", help="the scene file, e.g. scenes/incision.toml")
