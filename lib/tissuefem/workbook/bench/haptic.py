@@ -37,12 +37,6 @@ REFERENCE_RTOL = 1e-10
 SWITCH_INTERVAL = 1e-4
 
 
-def _state(solver) -> dict:
-    """The solver's state as :meth:`~tissuefem.engine.stepping.Stepper.set_state` takes it back."""
-    return dict(u=solver.u.copy(), v=solver.v.copy(), v_previous=solver.v_previous, time_=solver.time,
-                steps=solver.steps)
-
-
 def _norms(a) -> np.ndarray:
     return np.linalg.norm(np.asarray(a, dtype=float), axis=-1)
 
@@ -61,10 +55,11 @@ def haptic_path(n_triangles: int = 8000, frames: int = 30, substeps: int = 4, wa
     reference = flap_simulation(n_triangles, linear_solver, REFERENCE_RTOL)
     for k in range(1, warmup + 1):
         sim.frame({TOOL: flap_path(k * FRAME_BUDGET)})
-    times, positions, haptic, converged, hold, jumps, frame_forces = [], [], [], [], [], [], []
-    model = None
+    times, positions, haptic, converged, jumps, frame_forces = [], [], [], [], [], []
+    model, solver = None, sim.solver
     for k in range(warmup + 1, warmup + frames + 1):
-        start = _state(sim.solver)
+        start = dict(u=solver.u.copy(), v=solver.v.copy(), v_previous=solver.v_previous, time_=solver.time,
+                     steps=solver.steps)  # to take frame k again from its start (set_state)
         sim.frame({TOOL: flap_path(k * FRAME_BUDGET)})
         frame_force = sim.model.reaction(sim.u, TOOL)
         if model is not None:  # the previous model at this frame's position, against this frame's force
@@ -82,8 +77,8 @@ def haptic_path(n_triangles: int = 8000, frames: int = 30, substeps: int = 4, wa
             positions.append(p)
             haptic.append(model.force(p))
             converged.append(reference.model.reaction(reference.u, TOOL))
-            hold.append(frame_force)
-    haptic, converged, hold = np.array(haptic), np.array(converged), np.array(hold)
+    haptic, converged = np.array(haptic), np.array(converged)
+    hold = np.repeat(frame_forces, substeps, axis=0)  # each frame's force, held over its substeps
     size = np.maximum(_norms(converged), np.finfo(float).tiny)
     return {"triangles": int(sim.mesh.nelements), "dofs": int(sim.model.n_dofs), "frames": frames,
             "substeps": substeps, "warmup": warmup, "time": np.array(times), "position": np.array(positions),
