@@ -56,9 +56,7 @@ def write_json(path, record) -> Path:
     """Write a benchmark record as JSON (NaN and infinities as null); returns the path."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    with open(path, "w", encoding="utf-8") as fh:
-        json.dump(_json_ready(record), fh, indent=2)
-        fh.write("\n")
+    path.write_text(json.dumps(_json_ready(record), indent=2) + "\n", encoding="utf-8")
     return path
 
 
@@ -74,8 +72,7 @@ def write_csv(path, rows, extra=None) -> Path:
     with open(path, "w", encoding="utf-8", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=keys, extrasaction="ignore")
         writer.writeheader()
-        for row in rows:
-            writer.writerow({**row, **extra})
+        writer.writerows({**row, **extra} for row in rows)
     return path
 
 
@@ -93,8 +90,7 @@ def load_results(path) -> dict:
     if not path.is_file():
         raise ValueError(f"no benchmark results at {path.name!r}")
     try:
-        with open(path, encoding="utf-8") as fh:
-            return json.load(fh)
+        return json.loads(path.read_text(encoding="utf-8"))
     except json.JSONDecodeError as err:
         raise ValueError(f"{path.name}: not a benchmark record ({err})") from None
 
