@@ -87,10 +87,11 @@ def _linear_solver(name):
     return name
 
 
-def _check_out(path) -> None:
-    """Refuse an output folder that is a file or lies below one; none given (the default place) passes."""
+def _check_out(path) -> Path | None:
+    """The output folder ``path`` as a Path, refused if it is a file or lies below one; none given: ``None`` (the
+    caller's default place)."""
     if not path:
-        return
+        return None
     path = Path(path)
     try:
         below = next((p for p in path.parents if p.exists() and not p.is_dir()), None)
@@ -101,6 +102,7 @@ def _check_out(path) -> None:
         raise ParameterError("out", f"{path} lies below {below}, which is not a folder")
     if clash:
         raise ParameterError("out", f"{path} is not a folder")
+    return path
 
 
 def _figures(names, out, note: bool) -> None:
@@ -112,8 +114,7 @@ def _figures(names, out, note: bool) -> None:
 
 
 def cmd_figures(args) -> int:
-    _check_out(args.out)
-    _figures(args.only or None, Path(args.out) if args.out else project_root() / "figures", not args.out)
+    _figures(args.only or None, _check_out(args.out) or project_root() / "figures", not args.out)
     return 0
 
 
@@ -124,10 +125,9 @@ def cmd_build(args) -> int:
     for wanted in args.chapters or []:
         if not any(wanted in name for name in names):
             raise ParameterError("chapters", f"no chapter file name contains {wanted!r} (see `list`)")
-    _check_out(args.out)
+    executed = _check_out(args.out) or root / "build" / "chapters"
     if not args.skip_figures:
         _figures(None, root / "figures", True)
-    executed = Path(args.out) if args.out else root / "build" / "chapters"
     build_chapters(root / "chapters", executed, args.chapters)
     if not args.no_book:
         build_book(root / "chapters", executed, root / "build" / "book")
@@ -138,8 +138,7 @@ def cmd_build(args) -> int:
 
 def cmd_book(args) -> int:
     root = project_root()
-    out = Path(args.out) if args.out else root / "build" / "book"
-    _check_out(out)
+    out = _check_out(args.out or root / "build" / "book")
     build_book(root / "chapters", Path(args.executed) if args.executed else root / "build" / "chapters", out)
     print(f"the workbook's website: {out / 'index.html'} (copy the folder to any web server)")
     return 0
@@ -151,9 +150,8 @@ def cmd_bench(args) -> int:
             which = "realtime --compare" if args.which == "realtime" else args.which
             raise ParameterError("sizes", f"bench {which} takes one size, got {len(args.sizes)}")
         check_count("sizes", args.sizes[0], 50, MAX_TRIANGLES)  # the scenes' variants need 50 triangles
-    _check_out(args.out)
+    out = _check_out(args.out or "bench-results")
     matplotlib.use("Agg")
-    out = Path(args.out or "bench-results")
     if args.which == "assembly":
         assembly_benchmark(sizes=args.sizes or (2000, 8000, 32000), repeats=args.repeats, out=out)
     elif args.which == "realtime" and args.compare:
