@@ -97,7 +97,6 @@ class BenchScene:
     (``drag(sim, frames)``), its handle's path (``path(t)``, for the ex43 way), what its size counts
     (``elements``), its default sizes, linear solver and ex43 frames, and the record's name and description."""
 
-    dim: int
     elements: str
     build: object
     drag: object
@@ -110,12 +109,10 @@ class BenchScene:
 
 
 SCENES = {
-    2: BenchScene(2, "triangles", flap_simulation, flap_drag, flap_path, (2000, 8000, 16000, 32000),
-                  "reuse-background", 10, "realtime",
-                  "[0, 2] x [0, 1], left edge fixed, right edge on flap_path"),
-    3: BenchScene(3, "tetrahedra", block_simulation, block_drag, block_path, (5000, 19000, 40000, 100000),
-                  None, 0, "realtime3d",
-                  "[0, 2] x [0, 1] x [0, 1], x = 0 face fixed, x = 2 face on block_path"),
+    2: BenchScene("triangles", flap_simulation, flap_drag, flap_path, (2000, 8000, 16000, 32000), "reuse-background",
+                  10, "realtime", "[0, 2] x [0, 1], left edge fixed, right edge on flap_path"),
+    3: BenchScene("tetrahedra", block_simulation, block_drag, block_path, (5000, 19000, 40000, 100000), None, 0,
+                  "realtime3d", "[0, 2] x [0, 1] x [0, 1], x = 0 face fixed, x = 2 face on block_path"),
 }
 
 
