@@ -513,12 +513,10 @@ def accuracy_study(plan="full", benchmarks=BENCHMARKS, scaling: bool = True, bud
         results["pareto"][b] = [int(offset + i) for i in front]
     if scaling and "scaling" in plan:
         say("flap: time per frame against mesh size, per linear solver")
-        sc = plan["scaling"]
-        results["scaling"] = solver_scaling(sc["sizes"], sc["solvers"], sc["frames"], sc.get("largest"), progress=say)
+        results["scaling"] = solver_scaling(**plan["scaling"], progress=say)  # sizes, solvers, frames, largest
     if budget and "budget" in plan:
         say(f"flap: the budgeted solver ({1e3 * FRAME_BUDGET:.0f} ms per frame, real clock)")
-        bp = plan["budget"]
-        results["budget"] = budget_residual(bp["sizes"], bp["frames"], bp.get("solvers", ("reuse",)), progress=say)
+        results["budget"] = budget_residual(**plan["budget"], progress=say)  # sizes, frames, solvers
     if verification:
         computed, exact = beam_problem_tip(32, 8, 2)
         results["verification"] = {
