@@ -315,6 +315,6 @@ def main(argv=None) -> int:
     try:
         return int(commands[args.command](args) or 0)
     except ParameterError as err:  # a refused option value: name the option, as argparse does for its own checks
-        if hasattr(args, err.field):
+        if err.field in vars(args):
             sub.choices[args.command].error(f"argument --{err.field.replace('_', '-')}: {err}")
         sub.choices[args.command].error(str(err))  # refused further in: still one line, and no traceback
