@@ -312,11 +312,12 @@ def test_benchmark_smoke(tmp_path):
     from tissuefem.workbook.bench.assembly import assembly_benchmark, format_table
 
     lines = []
-    rows = assembly_benchmark(sizes=(60,), repeats=1, out=tmp_path / "bench.json", progress=lines.append)
+    rows = assembly_benchmark(sizes=(60,), repeats=1, out=tmp_path, progress=lines.append)
     assert len(rows) == 1 and rows[0]["triangles"] > 0 and rows[0]["dofs"] > 0
     assert rows[0]["rel_diff_tangent"] < 1e-12 and rows[0]["rel_diff_residual"] < 1e-12
-    assert lines[-1] == format_table(rows) and lines[-1].startswith("| triangles")
-    record = json.loads((tmp_path / "bench.json").read_text())
+    assert lines[-2] == format_table(rows) and lines[-2].startswith("| triangles")
+    assert lines[-1].startswith("wrote ") and (tmp_path / "assembly.csv").is_file()
+    record = json.loads((tmp_path / "assembly.json").read_text())
     assert record["rows"][0]["triangles"] == rows[0]["triangles"]
     assert {"platform", "python", "numpy", "scipy", "scikit-fem", "cpu_count"} <= set(record["machine"])
     with pytest.raises(ValueError, match="sizes"):

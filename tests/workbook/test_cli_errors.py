@@ -25,7 +25,7 @@ def _cases(tmp_path):
         (["bench", "assembly", "--sizes", "many"], "--sizes"),
         (["bench", "assembly", "--sizes", "9" * 5000], "--sizes"),
         (["bench", "assembly", "--repeats", "0"], "--repeats"),
-        (["bench", "assembly", "--out", str(a_file / "table.json")], "--out"),
+        (["bench", "assembly", "--out", str(a_file / "results")], "--out"),
         (["bench", "realtime", "--frames", "0"], "--frames"),
         (["bench", "realtime", "--frames", "-3"], "--frames"),
         (["bench", "realtime", "--linear", "nope"], "--linear"),

@@ -124,7 +124,7 @@ def test_the_alphabet_reaches_every_subcommand():
 
 @pytest.mark.parametrize("arguments", [
     ["scene", "@good.toml", "--check"], ["bench", "realtime", "--sizes", "50", "--frames", "3"],
-    ["bench", "assembly", "--out", "@a_folder/table.json"], ["bench", "scenes", "--sizes", "800"],
+    ["bench", "assembly", "--out", "@a_folder/assembly"], ["bench", "scenes", "--sizes", "800"],
     ["bench", "accuracy", "--plan", "tiny", "--out", "@a_folder/accuracy"], ["figures", "--out", "@a_folder"],
     ["build", "--skip-figures", "--no-book"], ["book", "--executed", "@a_folder", "--out", "@a_folder/site"],
     ["grade", "ch01"], ["list"]])

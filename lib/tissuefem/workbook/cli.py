@@ -1,16 +1,7 @@
 """Command line: ``python -m tissuefem {figures,build,book,bench,scene,grade,list}``.
 
-* ``figures``  regenerate every lecture figure into ``figures/``;
-* ``build``    regenerate the figures, execute every chapter headless (copies in ``build/chapters/``;
-  the sources stay clean) and write the workbook's website into ``build/book/``;
-* ``book``     write the website from the executed copies already in ``build/chapters/``;
-* ``bench``    a benchmark: ``assembly``, ``realtime`` (``--dim 3``: the 3D block, ``--compare``: the linear
-  solvers side by side), ``scenes``, ``accuracy`` (chapter 9's study), ``haptic`` (the tool's force at 1 kHz);
-* ``scene``    check a scene file and run it (``scene scenes/incision.toml``);
-* ``grade``    grade your own exercise answers (chapters/exercises) with pytest;
-* ``list``     list the figures and chapters.
-
-A refused argument is answered with one line on stderr naming it, and exit status 2, before any work starts.
+Each subcommand's ``--help`` (the parser in :func:`main`) and the README say what it does. A refused argument is
+answered with one line on stderr naming it, and exit status 2, before any work starts.
 """
 
 from __future__ import annotations
@@ -96,21 +87,22 @@ def _linear_solver(name):
     return name
 
 
-def _check_out(path, folder=True) -> None:
-    """Refuse an output path below a regular file, or a file where a folder goes (and the other way round); none
-    given (the default place) passes."""
+def _check_out(path) -> Path | None:
+    """The output folder ``path`` as a Path, refused if it is a file or lies below one; none given: ``None`` (the
+    caller's default place)."""
     if not path:
-        return
+        return None
     path = Path(path)
     try:
         below = next((p for p in path.parents if p.exists() and not p.is_dir()), None)
-        clash = path.exists() and path.is_dir() != folder
+        clash = path.exists() and not path.is_dir()
     except (OSError, ValueError) as err:  # ValueError: a NUL character, which no file name can hold
         raise ParameterError("out", f"{path} cannot be used: {getattr(err, 'strerror', None) or err}") from None
     if below is not None:
         raise ParameterError("out", f"{path} lies below {below}, which is not a folder")
     if clash:
-        raise ParameterError("out", f"{path} is {'not a folder' if folder else 'a folder, not a file'}")
+        raise ParameterError("out", f"{path} is not a folder")
+    return path
 
 
 def _figures(names, out, note: bool) -> None:
@@ -122,8 +114,7 @@ def _figures(names, out, note: bool) -> None:
 
 
 def cmd_figures(args) -> int:
-    _check_out(args.out)
-    _figures(args.only or None, Path(args.out) if args.out else project_root() / "figures", not args.out)
+    _figures(args.only or None, _check_out(args.out) or project_root() / "figures", not args.out)
     return 0
 
 
@@ -134,10 +125,9 @@ def cmd_build(args) -> int:
     for wanted in args.chapters or []:
         if not any(wanted in name for name in names):
             raise ParameterError("chapters", f"no chapter file name contains {wanted!r} (see `list`)")
-    _check_out(args.out)
+    executed = _check_out(args.out) or root / "build" / "chapters"
     if not args.skip_figures:
         _figures(None, root / "figures", True)
-    executed = Path(args.out) if args.out else root / "build" / "chapters"
     build_chapters(root / "chapters", executed, args.chapters)
     if not args.no_book:
         build_book(root / "chapters", executed, root / "build" / "book")
@@ -148,8 +138,7 @@ def cmd_build(args) -> int:
 
 def cmd_book(args) -> int:
     root = project_root()
-    out = Path(args.out) if args.out else root / "build" / "book"
-    _check_out(out)
+    out = _check_out(args.out or root / "build" / "book")
     build_book(root / "chapters", Path(args.executed) if args.executed else root / "build" / "chapters", out)
     print(f"the workbook's website: {out / 'index.html'} (copy the folder to any web server)")
     return 0
@@ -161,19 +150,15 @@ def cmd_bench(args) -> int:
             which = "realtime --compare" if args.which == "realtime" else args.which
             raise ParameterError("sizes", f"bench {which} takes one size, got {len(args.sizes)}")
         check_count("sizes", args.sizes[0], 50, MAX_TRIANGLES)  # the scenes' variants need 50 triangles
-    _check_out(args.out, folder=args.which != "assembly")
+    out = _check_out(args.out or "bench-results")
     matplotlib.use("Agg")
-    out = Path(args.out or "bench-results")  # a folder; the assembly benchmark writes one file, if asked
     if args.which == "assembly":
-        sizes = tuple(args.sizes) if args.sizes else (2000, 8000, 32000)
-        assembly_benchmark(sizes=sizes, repeats=args.repeats, out=args.out)
+        assembly_benchmark(sizes=args.sizes or (2000, 8000, 32000), repeats=args.repeats, out=out)
+    elif args.which == "realtime" and args.compare:
+        solver_comparison(n=args.sizes[0] if args.sizes else 19000, frames=args.frames, dim=args.dim, out=out)
     elif args.which == "realtime":
-        if args.compare:
-            solver_comparison(n=args.sizes[0] if args.sizes else 19000, frames=args.frames, dim=args.dim, out=out)
-            return 0
-        rows = realtime_benchmark(sizes=tuple(args.sizes) if args.sizes else None, frames=args.frames,
-                                  baseline_frames=args.baseline_frames, linear_solver=args.linear, out=out,
-                                  dim=args.dim)
+        rows = realtime_benchmark(sizes=args.sizes, frames=args.frames, baseline_frames=args.baseline_frames,
+                                  linear_solver=args.linear, out=out, dim=args.dim)
         if args.dim == 2:
             plot_realtime(rows, out / "realtime.png")
             print(f"wrote {out / 'realtime.png'}")
@@ -220,7 +205,6 @@ def _one_line(path, err) -> str:
 def cmd_scene(args) -> int:
     """Check a scene file and run it: one line per frame (``--verbose``), then a summary. A scene that cannot
     be read or built is answered with one line on stderr and exit status 2, never a traceback."""
-    frames = args.frames
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
@@ -242,13 +226,13 @@ def cmd_scene(args) -> int:
     if args.check:
         return 0
     ms = []
-    for _ in range(frames):
+    for _ in range(args.frames):
         r = sim.frame()
         ms.append(1e3 * r.elapsed)
         if args.verbose:
             print(f"  frame {r.frame:4d}  {ms[-1]:7.1f} ms  {r.status:18s} Newton {r.newton_iterations}")
     finite = bool(np.all(np.isfinite(sim.u)))
-    print(f"{frames} frames: median {np.median(ms):.1f} ms/frame (budget {1e3 * sim.solver.budget:.0f} ms), "
+    print(f"{args.frames} frames: median {np.median(ms):.1f} ms/frame (budget {1e3 * sim.solver.budget:.0f} ms), "
           f"max {max(ms):.1f} ms; {sim.pieces()} piece(s); state finite: {finite}")
     return 0 if finite else 1
 
@@ -270,23 +254,22 @@ def main(argv=None) -> int:
     p = sub.add_parser("figures", help="regenerate every lecture figure into figures/")
     p.add_argument("--only", nargs="+", metavar="NAME", type=_figure, help="only these figures (see `list`)")
     p.add_argument("--out", help="output folder (default: figures/)")
-    p.set_defaults(func=cmd_figures)
 
-    p = sub.add_parser("build", help="regenerate figures and execute every chapter headless")
+    p = sub.add_parser("build", help="regenerate figures, execute every chapter headless and write the website")
     p.add_argument("--chapters", nargs="+", metavar="NAME", help="only chapters whose file name contains NAME")
     p.add_argument("--skip-figures", action="store_true", help="do not regenerate figures/")
     p.add_argument("--out", help="folder for executed notebooks (default: build/chapters/)")
     p.add_argument("--no-book", action="store_true", help="do not write the website build/book/")
-    p.set_defaults(func=cmd_build)
 
     p = sub.add_parser("book", help="write the workbook's website from the executed chapters")
     p.add_argument("--executed", type=_folder("executed"),
                    help="folder of executed notebooks (default: build/chapters/)")
     p.add_argument("--out", help="folder for the website (default: build/book/)")
-    p.set_defaults(func=cmd_book)
 
     p = sub.add_parser("bench", help="run a benchmark and print its table")
-    p.add_argument("which", choices=["assembly", "realtime", "scenes", "accuracy", "haptic"])
+    p.add_argument("which", choices=["assembly", "realtime", "scenes", "accuracy", "haptic"],
+                   help="assembly, realtime (--dim 3: the 3D block, --compare: the linear solvers side by side), "
+                        "scenes (each effect's cost), accuracy (chapter 9's study), haptic (the tool's force at 1 kHz)")
     p.add_argument("--sizes", type=_count("sizes", 1, MAX_TRIANGLES), nargs="+",
                    help=f"approximate triangle counts, with --dim 3 tetrahedra (at most {MAX_TRIANGLES})")
     p.add_argument("--repeats", type=_count("repeats", 1, 1000), default=5,
@@ -307,9 +290,7 @@ def main(argv=None) -> int:
                         "factorization, back-substitution, fill-in, assembly and the frames")
     p.add_argument("--plan", default="full", choices=["full", "reduced", "tiny"],
                    help="accuracy: the sweep (full: several minutes; reduced: chapter 9's; tiny: seconds)")
-    p.add_argument("--out", help="assembly: a JSON file; realtime, scenes, accuracy, haptic: a folder "
-                                 "(default bench-results/)")
-    p.set_defaults(func=cmd_bench)
+    p.add_argument("--out", help="folder for the results, JSON and CSV (default bench-results/)")
 
     p = sub.add_parser("scene", help="check a scene file (TOML or JSON) and run it for some frames")
     p.add_argument("path", help="the scene file, e.g. scenes/incision.toml")
@@ -317,7 +298,6 @@ def main(argv=None) -> int:
                    help="frames to run (default 30, at most 1000000)")
     p.add_argument("--check", action="store_true", help="only check and build the scene")
     p.add_argument("--verbose", "-v", action="store_true", help="one line per frame")
-    p.set_defaults(func=cmd_scene)
 
     p = sub.add_parser("grade", help="grade your answers in chapters/exercises with pytest")
     p.add_argument("chapter", nargs="?", help="only this chapter, e.g. ch02")
@@ -326,15 +306,15 @@ def main(argv=None) -> int:
     p.add_argument("--exercises", metavar="DIR",
                    type=_folder("exercises", " (it should hold ch01.py ... ch11.py)"),
                    help="grade the chNN.py files in DIR (e.g. a student's submission) instead of chapters/exercises")
-    p.set_defaults(func=cmd_grade)
 
-    p = sub.add_parser("list", help="list figures and chapters")
-    p.set_defaults(func=cmd_list)
+    sub.add_parser("list", help="list figures and chapters")
 
     args = parser.parse_args(argv)
+    commands = {"figures": cmd_figures, "build": cmd_build, "book": cmd_book, "bench": cmd_bench, "scene": cmd_scene,
+                "grade": cmd_grade, "list": cmd_list}
     try:
-        return int(args.func(args) or 0)
+        return int(commands[args.command](args) or 0)
     except ParameterError as err:  # a refused option value: name the option, as argparse does for its own checks
-        if hasattr(args, err.field):
+        if err.field in vars(args):
             sub.choices[args.command].error(f"argument --{err.field.replace('_', '-')}: {err}")
         sub.choices[args.command].error(str(err))  # refused further in: still one line, and no traceback

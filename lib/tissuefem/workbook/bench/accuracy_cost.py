@@ -12,6 +12,7 @@ medians: compare within a run, never assert them; the errors are deterministic (
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from dataclasses import asdict, dataclass, replace
@@ -272,18 +273,14 @@ def _reference_states(benchmark: str, triangles: int, grading: float, frames: in
     return model, states
 
 
-def _extrapolated(benchmark, triangles, grading, frames, checkpoints, substeps, cache):
-    """Richardson in time: ``2 u(dt / 2s) - u(dt / s)`` at the checkpoints (the block: its one solution)."""
-    def run(s):
-        if (triangles, s) not in cache:
-            cache[triangles, s] = _reference_states(benchmark, triangles, grading, frames, checkpoints, s)
-        return cache[triangles, s]
-
-    if benchmark == "block":
-        return run(None)
-    model, coarse = run(substeps)
-    _, fine = run(2 * substeps)
-    return model, {f: 2.0 * fine[f] - coarse[f] for f in checkpoints}
+def _extrapolated(run, triangles, substeps):
+    """Richardson in time: ``2 u(dt / 2s) - u(dt / s)`` at the checkpoints, from ``run(triangles, s)``'s ``(model,
+    states)`` with ``s`` substeps per frame (the block, ``substeps = None``: its one solution)."""
+    if substeps is None:
+        return run(triangles, None)
+    model, coarse = run(triangles, substeps)
+    _, fine = run(triangles, 2 * substeps)
+    return model, {f: 2.0 * fine[f] - coarse[f] for f in fine}
 
 
 def _estimate(d_coarse, d_fine, ratio: float = 2.0):
@@ -308,8 +305,9 @@ def reference_run(benchmark: str, plan: dict, progress=None, check: bool = True)
     n = int(ref.get("block_triangles", ref["triangles"])) if benchmark == "block" else int(ref["triangles"])
     s = int(ref["substeps"]) if benchmark == "flap" else None
     t0 = time.perf_counter()
-    cache = {}
-    problem, states = _extrapolated(benchmark, n, grading, frames, checkpoints, s, cache)
+    # each (triangles, substeps) reference run once: the estimates below reuse them
+    run = functools.cache(lambda m, k: _reference_states(benchmark, m, grading, frames, checkpoints, k))
+    problem, states = _extrapolated(run, n, s)
     info = {"triangles": int(problem.mesh.t.shape[1]), "dofs": int(problem.basis.N), "order": 2,
             "grading": grading, "substeps": None if s is None else [s, 2 * s]}
     if check:
@@ -320,17 +318,15 @@ def reference_run(benchmark: str, plan: dict, progress=None, check: bool = True)
             return (d_fine, *_estimate(d_coarse, d_fine))
 
         # space: the same reference on coarser meshes (each a quarter of the triangles: h doubles)
-        siblings = [_extrapolated(benchmark, m, grading, frames, checkpoints, s, cache)
-                    for m in (n // 4, n // 16) if m >= 50]
+        siblings = [_extrapolated(run, m, s) for m in (n // 4, n // 16) if m >= 50]
         d_fine, rate, space = from_coarser(siblings)
         info.update({"space_distance": d_fine, "space_rate": rate, "space_error_estimate": space,
                      "coarser_sibling_triangles": [int(sib[0].mesh.t.shape[1]) for sib in siblings]})
         time_estimate = 0.0
         if benchmark == "flap":
             # time: the extrapolations from steps 2 and 4 times larger, on the reference's mesh
-            t_fine, t_rate, time_estimate = from_coarser([
-                _extrapolated(benchmark, n, grading, frames, checkpoints, s // k, cache)
-                for k in (2, 4) if s // k >= 1 and s % k == 0])
+            t_fine, t_rate, time_estimate = from_coarser([_extrapolated(run, n, s // k) for k in (2, 4)
+                                                          if s // k >= 1 and s % k == 0])
             info.update({"time_distance": t_fine, "time_rate": t_rate, "time_error_estimate": time_estimate})
         info["error_estimate"] = space + time_estimate
     info["seconds"] = time.perf_counter() - t0
@@ -517,12 +513,10 @@ def accuracy_study(plan="full", benchmarks=BENCHMARKS, scaling: bool = True, bud
         results["pareto"][b] = [int(offset + i) for i in front]
     if scaling and "scaling" in plan:
         say("flap: time per frame against mesh size, per linear solver")
-        sc = plan["scaling"]
-        results["scaling"] = solver_scaling(sc["sizes"], sc["solvers"], sc["frames"], sc.get("largest"), progress=say)
+        results["scaling"] = solver_scaling(**plan["scaling"], progress=say)  # sizes, solvers, frames, largest
     if budget and "budget" in plan:
         say(f"flap: the budgeted solver ({1e3 * FRAME_BUDGET:.0f} ms per frame, real clock)")
-        bp = plan["budget"]
-        results["budget"] = budget_residual(bp["sizes"], bp["frames"], bp.get("solvers", ("reuse",)), progress=say)
+        results["budget"] = budget_residual(**plan["budget"], progress=say)  # sizes, frames, solvers
     if verification:
         computed, exact = beam_problem_tip(32, 8, 2)
         results["verification"] = {

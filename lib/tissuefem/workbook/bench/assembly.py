@@ -19,7 +19,7 @@ from ...engine.materials import NeoHookean
 from ...engine.meshes import mesh_with_about
 from ..measure import median_time
 from ..tables import markdown_table
-from .common import check_sizes, machine_info, median_rows, recorded, write_json
+from .common import check_sizes, machine_info, median_rows, recorded, write_record
 
 __all__ = ["assembly_benchmark", "format_table", "recorded_assembly_table"]
 
@@ -52,7 +52,7 @@ def format_table(rows) -> str:
 def assembly_benchmark(sizes=(2000, 8000, 32000), repeats=5, out=None, progress=print) -> list[dict]:
     """Time the reference against the fast assembly on unit squares of about ``sizes`` triangles; one dict per
     size: median ms of each path (``ref_*``, ``fast_*``), ``speedup``, the fast path's ``setup_ms``, SuperLU
-    times and ``rel_diff_*`` (the paths' relative difference). ``out``: a JSON path."""
+    times and ``rel_diff_*`` (the paths' relative difference); JSON and CSV into the folder ``out``."""
     sizes = check_sizes(sizes)
     repeats = check_count("repeats", repeats)
     material = NeoHookean.from_young(TISSUE_E, TISSUE_NU)
@@ -107,13 +107,11 @@ def assembly_benchmark(sizes=(2000, 8000, 32000), repeats=5, out=None, progress=
             f"MMD_AT_PLUS_A {row['splu_mmd_ms']:.1f} ms")
 
     say(format_table(rows))
-    if out is not None:
-        write_json(out, {
-            "benchmark": "assembly",
-            "description": "Per Newton iteration, 2D P1 plane-strain hyperelasticity on the unit square: scikit-fem "
-                           "forms (tissuefem.engine.forms) versus tissuefem.engine.assembly.P1Assembler; SuperLU "
-                           "factorization of the tangent with the left edge fixed. Times in ms, medians after one "
-                           "warm-up.",
-            "settings": {"sizes": sizes, "repeats": repeats, "material": repr(material)},
-            "machine": machine, "rows": rows})
+    write_record(out, "assembly", {
+        "benchmark": "assembly",
+        "description": "Per Newton iteration, 2D P1 plane-strain hyperelasticity on the unit square: scikit-fem forms "
+                       "(tissuefem.engine.forms) versus tissuefem.engine.assembly.P1Assembler; SuperLU factorization "
+                       "of the tangent with the left edge fixed. Times in ms, medians after one warm-up.",
+        "settings": {"sizes": sizes, "repeats": repeats, "material": repr(material)},
+        "machine": machine, "rows": rows}, rows, say)
     return rows

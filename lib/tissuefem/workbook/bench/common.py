@@ -17,7 +17,7 @@ import skfem
 
 from ...engine.parameters import check_count, count_list
 
-__all__ = ["machine_info", "load_average", "check_sizes", "write_json", "write_csv", "load_results",
+__all__ = ["machine_info", "load_average", "check_sizes", "write_json", "write_csv", "write_record", "load_results",
            "recorded", "median_rows"]
 
 #: the recorded runs shipped with the package (chapters and docs/benchmarks.md print from them)
@@ -56,9 +56,7 @@ def write_json(path, record) -> Path:
     """Write a benchmark record as JSON (NaN and infinities as null); returns the path."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    with open(path, "w", encoding="utf-8") as fh:
-        json.dump(_json_ready(record), fh, indent=2)
-        fh.write("\n")
+    path.write_text(json.dumps(_json_ready(record), indent=2) + "\n", encoding="utf-8")
     return path
 
 
@@ -74,9 +72,16 @@ def write_csv(path, rows, extra=None) -> Path:
     with open(path, "w", encoding="utf-8", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=keys, extrasaction="ignore")
         writer.writeheader()
-        for row in rows:
-            writer.writerow({**row, **extra})
+        writer.writerows({**row, **extra} for row in rows)
     return path
+
+
+def write_record(out, name: str, record: dict, rows, say) -> None:
+    """Write ``<name>.json`` (the record) and ``<name>.csv`` (the rows) into the folder ``out`` and ``say`` where;
+    no folder (``None``): nothing."""
+    if out is not None:
+        written = [write_json(Path(out) / f"{name}.json", record), write_csv(Path(out) / f"{name}.csv", rows)]
+        say("wrote " + ", ".join(str(w) for w in written))
 
 
 def load_results(path) -> dict:
@@ -85,8 +90,7 @@ def load_results(path) -> dict:
     if not path.is_file():
         raise ValueError(f"no benchmark results at {path.name!r}")
     try:
-        with open(path, encoding="utf-8") as fh:
-            return json.load(fh)
+        return json.loads(path.read_text(encoding="utf-8"))
     except json.JSONDecodeError as err:
         raise ValueError(f"{path.name}: not a benchmark record ({err})") from None
 

@@ -15,17 +15,15 @@ from __future__ import annotations
 import sys
 import threading
 import time
-from pathlib import Path
 
 import numpy as np
 
 from ...engine.constants import FRAME_BUDGET
 from ...engine.haptics import tool_model
 from ...engine.parameters import check_count, check_real
-from ...surgery.scene import flap_path, flap_scene
-from ...surgery.simulation import Simulation
+from ...surgery.scene import flap_path
 from ..tables import markdown_table
-from .common import check_sizes, machine_info, write_csv, write_json
+from .common import check_sizes, machine_info, write_record
 from .realtime import flap_simulation
 
 __all__ = ["haptic_benchmark", "haptic_path", "HapticLoop", "format_haptic_table"]
@@ -37,11 +35,6 @@ REFERENCE_RTOL = 1e-10
 #: the interpreter's thread switch interval while the loop runs (its default, 5 ms, would let the frames' Python
 #: code hold the haptic thread off for several of its 1 ms periods)
 SWITCH_INTERVAL = 1e-4
-
-
-def _state(solver) -> dict:
-    return dict(u=solver.u.copy(), v=solver.v.copy(), v_previous=solver.v_previous, time_=solver.time,
-                steps=solver.steps)
 
 
 def _norms(a) -> np.ndarray:
@@ -59,13 +52,14 @@ def haptic_path(n_triangles: int = 8000, frames: int = 30, substeps: int = 4, wa
     substeps = check_count("substeps", substeps, 1)
     warmup = check_count("warmup", warmup, 0)
     sim = flap_simulation(n_triangles, linear_solver)
-    reference = Simulation(flap_scene(n_triangles, rtol=REFERENCE_RTOL, linear_solver=linear_solver))
+    reference = flap_simulation(n_triangles, linear_solver, REFERENCE_RTOL)
     for k in range(1, warmup + 1):
         sim.frame({TOOL: flap_path(k * FRAME_BUDGET)})
-    times, positions, haptic, converged, hold, jumps, frame_forces = [], [], [], [], [], [], []
-    model = None
+    times, positions, haptic, converged, jumps, frame_forces = [], [], [], [], [], []
+    model, solver = None, sim.solver
     for k in range(warmup + 1, warmup + frames + 1):
-        start = _state(sim.solver)
+        start = dict(u=solver.u.copy(), v=solver.v.copy(), v_previous=solver.v_previous, time_=solver.time,
+                     steps=solver.steps)  # to take frame k again from its start (set_state)
         sim.frame({TOOL: flap_path(k * FRAME_BUDGET)})
         frame_force = sim.model.reaction(sim.u, TOOL)
         if model is not None:  # the previous model at this frame's position, against this frame's force
@@ -75,8 +69,7 @@ def haptic_path(n_triangles: int = 8000, frames: int = 30, substeps: int = 4, wa
         for s in range(1, substeps + 1):
             t = (k + s / substeps) * FRAME_BUDGET
             p = flap_path(t)
-            reference.solver.set_state(start["u"], start["v"], v_previous=start["v_previous"], time_=start["time_"],
-                                       steps=start["steps"])
+            reference.solver.set_state(**start)
             report = reference.frame({TOOL: p})
             if not report.converged:
                 raise RuntimeError(f"haptic_path: the reference frame at t = {t:.3f} s did not converge")
@@ -84,8 +77,8 @@ def haptic_path(n_triangles: int = 8000, frames: int = 30, substeps: int = 4, wa
             positions.append(p)
             haptic.append(model.force(p))
             converged.append(reference.model.reaction(reference.u, TOOL))
-            hold.append(frame_force)
-    haptic, converged, hold = np.array(haptic), np.array(converged), np.array(hold)
+    haptic, converged = np.array(haptic), np.array(converged)
+    hold = np.repeat(frame_forces, substeps, axis=0)  # each frame's force, held over its substeps
     size = np.maximum(_norms(converged), np.finfo(float).tiny)
     return {"triangles": int(sim.mesh.nelements), "dofs": int(sim.model.n_dofs), "frames": frames,
             "substeps": substeps, "warmup": warmup, "time": np.array(times), "position": np.array(positions),
@@ -206,11 +199,10 @@ _TABLE = [
     ("update_median_us", "update median [µs]", "{:.1f}"), ("update_p95_us", "update p95 [µs]", "{:.1f}"),
     ("late_median_us", "tick late median [µs]", "{:.0f}"), ("late_p95_us", "tick late p95 [µs]", "{:.0f}"),
     ("missed_ticks", "ticks late by a period or more", "{:d}"), ("frame_plain_median_ms", "frame alone [ms]", "{:.1f}"),
-    ("frame_haptic_median_ms", "frame beside the loop [ms]", "{:.1f}"), ("build_median_ms", "reduced model [ms]",
-                                                                          "{:.1f}"),
-    ("haptic_error_median", "force error median", "{:.1e}"), ("haptic_error_max", "force error max", "{:.1e}"),
-    ("hold_error_median", "held force error median", "{:.1e}"), ("hold_error_max", "held force error max", "{:.1e}"),
-]
+    ("frame_haptic_median_ms", "frame beside the loop [ms]", "{:.1f}"),
+    ("build_median_ms", "reduced model [ms]", "{:.1f}"), ("haptic_error_median", "force error median", "{:.1e}"),
+    ("haptic_error_max", "force error max", "{:.1e}"), ("hold_error_median", "held force error median", "{:.1e}"),
+    ("hold_error_max", "held force error max", "{:.1e}")]
 
 
 def format_haptic_table(rows) -> str:
@@ -241,10 +233,8 @@ def haptic_benchmark(n_triangles: int = 8000, frames: int = 60, rate: float = 10
            "frame_plain_median_ms": float(np.median(plain_ms)), "frame_haptic_median_ms": float(np.median(haptic_ms)),
            "build_median_ms": float(np.median(build_ms)), "paired_ratio_median": float(np.median(ratio)),
            "path_frames": path["frames"], "substeps": path["substeps"],
-           "haptic_error_median": float(np.median(path["haptic_error"])),
-           "haptic_error_max": float(np.max(path["haptic_error"])),
-           "hold_error_median": float(np.median(path["hold_error"])),
-           "hold_error_max": float(np.max(path["hold_error"])),
+           **{f"{force}_error_{name}": float(statistic(path[f"{force}_error"])) for force in ("haptic", "hold")
+              for name, statistic in (("median", np.median), ("max", np.max))},
            "jump_relative_median": float(np.median(path["jump_relative"])) if path["jump"].size else float("nan"),
            "frame_plain_ms": plain_ms.tolist(), "frame_haptic_ms": haptic_ms.tolist(), "build_ms": build_ms.tolist()}
     say(f"  {row['updates_per_second']:.0f} updates/s, median {row['update_median_us']:.1f} µs per update; ticks "
@@ -260,7 +250,5 @@ def haptic_benchmark(n_triangles: int = 8000, frames: int = 60, rate: float = 10
                            "substeps": substeps, "linear_solver": linear_solver, "switch_interval": SWITCH_INTERVAL},
               "machine": machine_info(), "rows": [row],
               "path": {k: v for k, v in path.items() if isinstance(v, np.ndarray)}}
-    if out is not None:
-        written = [write_json(Path(out) / "haptic.json", record), write_csv(Path(out) / "haptic.csv", [row])]
-        say("wrote " + ", ".join(str(w) for w in written))
+    write_record(out, "haptic", record, [row], say)
     return record

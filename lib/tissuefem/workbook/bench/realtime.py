@@ -14,7 +14,6 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 import scipy.sparse as sp
@@ -23,7 +22,7 @@ from skfem.helpers import dot
 
 from ...engine.constants import FRAME_BUDGET, TISSUE_DENSITY, TISSUE_E, TISSUE_NU
 from ...engine.forms import residual_form, tangent_form
-from ...engine.linsolve import LinearSolver
+from ...engine.linsolve import LinearSolver, PreconditionedCG
 from ...engine.materials import NeoHookean
 from ...engine.meshes import box
 from ...engine.model import Handle, Model
@@ -35,7 +34,7 @@ from ...surgery.simulation import Simulation
 from ..measure import median_time
 from ..tables import markdown_table
 from ..timestepping import flap_drag
-from .common import check_sizes, load_average, machine_info, median_rows, recorded, write_csv, write_json
+from .common import check_sizes, load_average, machine_info, median_rows, recorded, write_record
 
 __all__ = ["realtime_benchmark", "ex43_frames", "format_realtime_table", "flap_simulation", "frame_floor",
            "block_simulation", "block_path", "block_drag", "BlockSimulation", "SCENES", "solver_comparison",
@@ -46,9 +45,9 @@ RTOL_FLAP = 1e-6
 BLOCK = (2.0, 1.0, 1.0)
 
 
-def flap_simulation(n_triangles: int, linear_solver: str = "reuse") -> Simulation:
-    """The standard flap scene, built and ready to run (no budget: every frame converges)."""
-    return Simulation(flap_scene(n_triangles, rtol=RTOL_FLAP, linear_solver=linear_solver))
+def flap_simulation(n_triangles: int, linear_solver: str = "reuse", rtol: float = RTOL_FLAP) -> Simulation:
+    """The standard flap scene, built and ready to run (no budget: every frame converges to ``rtol``)."""
+    return Simulation(flap_scene(n_triangles, rtol=rtol, linear_solver=linear_solver))
 
 
 def block_path(t) -> np.ndarray:
@@ -98,7 +97,6 @@ class BenchScene:
     (``drag(sim, frames)``), its handle's path (``path(t)``, for the ex43 way), what its size counts
     (``elements``), its default sizes, linear solver and ex43 frames, and the record's name and description."""
 
-    dim: int
     elements: str
     build: object
     drag: object
@@ -111,12 +109,10 @@ class BenchScene:
 
 
 SCENES = {
-    2: BenchScene(2, "triangles", flap_simulation, flap_drag, flap_path, (2000, 8000, 16000, 32000),
-                  "reuse-background", 10, "realtime",
-                  "[0, 2] x [0, 1], left edge fixed, right edge on flap_path"),
-    3: BenchScene(3, "tetrahedra", block_simulation, block_drag, block_path, (5000, 19000, 40000, 100000),
-                  None, 0, "realtime3d",
-                  "[0, 2] x [0, 1] x [0, 1], x = 0 face fixed, x = 2 face on block_path"),
+    2: BenchScene("triangles", flap_simulation, flap_drag, flap_path, (2000, 8000, 16000, 32000), "reuse-background",
+                  10, "realtime", "[0, 2] x [0, 1], left edge fixed, right edge on flap_path"),
+    3: BenchScene("tetrahedra", block_simulation, block_drag, block_path, (5000, 19000, 40000, 100000), None, 0,
+                  "realtime3d", "[0, 2] x [0, 1] x [0, 1], x = 0 face fixed, x = 2 face on block_path"),
 }
 
 
@@ -186,23 +182,22 @@ def _paced_frames(scene: BenchScene, n, n_frames, linear_solver):
 
 def frame_floor(sim, repeats: int = 9) -> dict:
     """Median ms of a tangent assembly and of one back-substitution (by the backend the simulation's solver keeps;
-    multigrid: one application) at the simulation's state: their sum ``floor_ms`` is the least a frame costs. Also
-    one factorization's ms (``factorization_ms``), the stored entries of the factors (``factor_nnz``; multigrid:
-    every level's matrix) and of the tangent's free block (``matrix_nnz``)."""
+    CG: one application of its preconditioner) at the simulation's state: their sum ``floor_ms`` is the least a
+    frame costs. Also one factorization's ms (``factorization_ms``), the stored entries of the factors
+    (``factor_nnz``; multigrid: every level's matrix) and of the tangent's free block (``matrix_nnz``)."""
     model, u = sim.model, sim.u
     free = np.isin(np.arange(model.n_dofs), model.prescribed()[0], invert=True)
     rhs = -model.gradient(u)[free]
-    A = sim.solver.linear.condense(model.hessian(u), free)
+    A, factorizing = sim.solver.linear.condense(model.hessian(u), free), sim.solver.linear.factorizing
     t0 = time.perf_counter()
-    factor = sim.solver.linear.factorizing.factorize(A)
+    factor = factorizing.factorize(A)
     factorization = 1e3 * (time.perf_counter() - t0)
-    apply = getattr(factor, "precondition", None) or factor.solve
+    apply = factor.precondition if isinstance(factorizing, PreconditionedCG) else factor.solve
     apply(rhs)  # a first solve may check its residual: untimed
     a = median_time(lambda: model.hessian(u), repeats)
     b = median_time(lambda: apply(rhs), repeats)
-    nnz = getattr(factor, "nnz", None)
     return {"assembly_ms": a, "back_substitution_ms": b, "floor_ms": a + b, "factorization_ms": factorization,
-            "factor_nnz": None if nnz is None else int(nnz), "matrix_nnz": int(A.nnz)}
+            "factor_nnz": factor.nnz, "matrix_nnz": int(A.nnz)}
 
 
 _COLUMNS = [("dofs", "dofs", "{:d}"), ("fast_median_ms", "median [ms]", "{:.1f}"),
@@ -267,13 +262,14 @@ def recorded_realtime_table() -> str:
     return markdown_table(recorded_realtime()[0], _RECORDED)
 
 
-def _frames_row(sim, reports) -> dict:
+def _frames_row(scene: BenchScene, sim, reports) -> dict:
     """The columns of a run of unbudgeted frames (``fast_...``) with the floor at its end state."""
     ms = np.array([1e3 * r.elapsed for r in reports])
     floor = frame_floor(sim)
-    return {"dofs": int(sim.model.n_dofs), "frames": len(reports), "linear_solver": sim.solver.linear_solver_name,
-            "fast_median_ms": float(np.median(ms)), "fast_p95_ms": float(np.percentile(ms, 95)),
-            "fast_p99_ms": float(np.percentile(ms, 99)), "fast_fps": float(1e3 / np.median(ms)),
+    return {scene.elements: int(sim.mesh.t.shape[1]), "dofs": int(sim.model.n_dofs), "frames": len(reports),
+            "linear_solver": sim.solver.linear_solver_name, "fast_median_ms": float(np.median(ms)),
+            "fast_p95_ms": float(np.percentile(ms, 95)), "fast_p99_ms": float(np.percentile(ms, 99)),
+            "fast_fps": float(1e3 / np.median(ms)),
             "fast_newton": float(np.mean([r.newton_iterations for r in reports])),
             "fast_cg": float(np.mean([r.linear_iterations for r in reports])),
             "fast_factorizations": int(sum(r.factorizations for r in reports)),
@@ -302,15 +298,12 @@ def realtime_benchmark(sizes=None, frames: int = 90, baseline_frames: int | None
 
     rows = []
     for n in sizes:
-        sim, reports = _fast_frames(scene, n, frames, linear_solver=linear_solver)
-        nel = sim.mesh.t.shape[1]
-        say(f"realtime benchmark: {nel} {scene.elements}, {sim.model.n_dofs} dofs ...")
-        row = {scene.elements: int(nel), **_frames_row(sim, reports)}
-        ms = np.asarray(row["fast_ms"])
+        row = _frames_row(scene, *_fast_frames(scene, n, frames, linear_solver=linear_solver))
+        say(f"realtime benchmark: {row[scene.elements]} {scene.elements}, {row['dofs']} dofs ...")
         if baseline_frames:
             base_ms, base_its, u_base = ex43_frames(scene.build(n).model, min(baseline_frames, frames),
                                                     path=scene.path)
-            same = ms[: base_ms.size]
+            same = np.asarray(row["fast_ms"][: base_ms.size])  # the fast way's frames the ex43 way also ran
             fast_u = _fast_frames(scene, n, base_ms.size, linear_solver=linear_solver)[0].u
             row.update({"ex43_frames": int(base_ms.size), "ex43_median_ms": float(np.median(base_ms)),
                         "ex43_newton": float(np.mean(base_its)), "fast_median_same_frames_ms": float(np.median(same)),
@@ -337,16 +330,13 @@ def realtime_benchmark(sizes=None, frames: int = 90, baseline_frames: int | None
             + (f"; ex43 way {row['ex43_median_ms']:.0f} ms ({row['speedup']:.1f}x)" if baseline_frames else ""))
 
     say(format_realtime_table(rows))
-    if out is not None:
-        record = {"benchmark": scene.name, "description": __doc__.strip().splitlines()[0],
-                  "scene": {"dim": dim, "E": TISSUE_E, "nu": TISSUE_NU, "rho0": TISSUE_DENSITY, "dt": FRAME_BUDGET,
-                            "rtol": RTOL_FLAP, "domain": scene.domain},
-                  "settings": {"sizes": sizes, "frames": frames, "baseline_frames": baseline_frames,
-                               "budget_frames": budget_frames, "linear_solver": rows[0]["linear_solver"]},
-                  "machine": machine, "rows": rows}
-        written = [write_json(Path(out) / f"{scene.name}.json", record),
-                   write_csv(Path(out) / f"{scene.name}.csv", rows)]
-        say("wrote " + ", ".join(str(w) for w in written))
+    write_record(out, scene.name, {
+        "benchmark": scene.name, "description": __doc__.strip().splitlines()[0],
+        "scene": {"dim": dim, "E": TISSUE_E, "nu": TISSUE_NU, "rho0": TISSUE_DENSITY, "dt": FRAME_BUDGET,
+                  "rtol": RTOL_FLAP, "domain": scene.domain},
+        "settings": {"sizes": sizes, "frames": frames, "baseline_frames": baseline_frames,
+                     "budget_frames": budget_frames, "linear_solver": rows[0]["linear_solver"]},
+        "machine": machine, "rows": rows}, rows, say)
     return rows
 
 
@@ -371,7 +361,7 @@ def _usable(name: str) -> bool:
 
 _COMPARISON = [("linear_solver", "linear solver", "{}"), ("fast_median_ms", "median [ms]", "{:.1f}"),
                ("fast_p95_ms", "p95 [ms]", "{:.1f}"), ("fast_newton", "Newton/frame", "{:.2f}"),
-               ("fast_cg", "CG/frame", "{:.1f}"), ("fast_factorizations", "factorizations", "{:d}"),
+               ("fast_cg", "CG/frame", "{:.1f}"), ("fast_factorizations", "factorizations", "{:g}"),
                ("factorization_ms", "factorization [ms]", "{:.0f}"),
                ("back_substitution_ms", "back-substitution [ms]", "{:.1f}"), ("assembly_ms", "assembly [ms]", "{:.1f}"),
                ("fill", "nnz(factors) / nnz(K)", "{:.1f}"), ("floor_ms", "floor [ms]", "{:.1f}"),
@@ -396,32 +386,25 @@ def solver_comparison(n: int = 19000, approaches=APPROACHES, frames: int = 60, r
         raise ParameterError("approaches", f"approaches: none of {list(approaches)} runs here (unknown, or their "
                                            "optional packages are missing)")
     say = progress if progress is not None else (lambda *_: None)
-    runs = {a: [] for a in names}
-    loads = []
+    runs, loads = [[] for _ in range(rounds)], []
     for r in range(rounds):
         for a in names:
             loads.append(load_average())
             sim, reports = _fast_frames(scene, n, frames, linear_solver=a)
-            row = {scene.elements: int(sim.mesh.t.shape[1]), **_frames_row(sim, reports)}
+            row = {"approach": a, **_frames_row(scene, sim, reports)}
             sim.solver.linear.close()
-            runs[a].append(row)
+            runs[r].append(row)
             say(f"round {r + 1}, {a}: median {row['fast_median_ms']:.1f} ms, p95 {row['fast_p95_ms']:.1f} ms, "
                 f"{row['fast_newton']:.2f} Newton and {row['fast_cg']:.1f} CG a frame, factorization "
                 f"{row['factorization_ms']:.0f} ms, back-substitution {row['back_substitution_ms']:.1f} ms")
-    rows = []
-    for a, each in runs.items():
-        row = {**each[0], **{k: type(v)(np.median([run[k] for run in each if run.get(k) is not None]))
-                             for k, v in each[0].items() if isinstance(v, (int, float)) and not isinstance(v, bool)}}
-        rows.append({**row, "approach": a, "fill": row["factor_nnz"] / row["matrix_nnz"] if row["factor_nnz"] else None,
-                     "round_medians_ms": [run["fast_median_ms"] for run in each],
-                     "round_p95_ms": [run["fast_p95_ms"] for run in each]})
+    rows = [{**row, "fill": row["factor_nnz"] / row["matrix_nnz"] if row["factor_nnz"] else None,
+             "round_medians_ms": [run[i]["fast_median_ms"] for run in runs],
+             "round_p95_ms": [run[i]["fast_p95_ms"] for run in runs]}
+            for i, row in enumerate(median_rows(runs, "approach"))]
     say(format_comparison_table(rows))
-    if out is not None:
-        record = {"benchmark": f"{scene.name}-solvers", "description": solver_comparison.__doc__.split(".")[0],
-                  "scene": {"dim": dim, "domain": scene.domain, "rtol": RTOL_FLAP, "dt": FRAME_BUDGET},
-                  "settings": {"n": n, "frames": frames, "rounds": rounds, "approaches": names},
-                  "load_before_each_run": loads, "machine": machine_info(), "rows": rows}
-        written = [write_json(Path(out) / f"{scene.name}_solvers.json", record),
-                   write_csv(Path(out) / f"{scene.name}_solvers.csv", rows)]
-        say("wrote " + ", ".join(str(w) for w in written))
+    write_record(out, f"{scene.name}_solvers", {
+        "benchmark": f"{scene.name}-solvers", "description": solver_comparison.__doc__.split(".")[0],
+        "scene": {"dim": dim, "domain": scene.domain, "rtol": RTOL_FLAP, "dt": FRAME_BUDGET},
+        "settings": {"n": n, "frames": frames, "rounds": rounds, "approaches": names},
+        "load_before_each_run": loads, "machine": machine_info(), "rows": rows}, rows, say)
     return rows

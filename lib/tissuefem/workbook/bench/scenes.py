@@ -7,7 +7,6 @@ term alone, :func:`cut_costs` one cut during the drag. Compare rows of one run, 
 from __future__ import annotations
 
 import time
-from pathlib import Path
 
 import numpy as np
 
@@ -18,7 +17,7 @@ from ...surgery.simulation import Simulation
 from ..measure import median_time
 from ..tables import markdown_table
 from ..timestepping import flap_drag
-from .common import machine_info, median_rows, recorded, write_csv, write_json
+from .common import machine_info, median_rows, recorded, write_record
 
 __all__ = ["effects_benchmark", "variants", "format_effects_table", "term_costs", "cut_costs", "cut_frame_costs",
            "recorded_effects", "recorded_effects_table"]
@@ -186,8 +185,5 @@ def effects_benchmark(n_triangles=8000, frames=30, repeats=5, out=None, progress
               "settings": {"n_triangles": int(n_triangles), "frames": int(frames), "repeats": int(repeats),
                            "scene": "flap_scene (stable neo-Hookean), handle on flap_path"},
               "machine": machine, "rows": rows, "term_ms": terms, "cut_ms": cuts}
-    if out is not None:
-        written = [write_json(Path(out) / "scenes.json", record),
-                   write_csv(Path(out) / "scenes.csv", [{**r, "terms": " + ".join(r["terms"])} for r in rows])]
-        say("wrote " + ", ".join(str(w) for w in written))
+    write_record(out, "scenes", record, [{**r, "terms": " + ".join(r["terms"])} for r in rows], say)
     return record
