@@ -343,14 +343,10 @@ def syllabus_cells(chapters: list[Chapter], intro: str) -> list[str]:
         parts.append(f"### {c.label}. [{c.title}]({c.page})\n\n*About {c.minutes} min"
                      + (f", and {c.exercises} exercise{'s' if c.exercises != 1 else ''}*" if c.exercises else "*")
                      + f"\n\nBy the end of this chapter you can\n\n{goals}{status}")
-    if _has_appendix(chapters):
+    if any(c.source.stem == APPENDIX_CHAPTER for c in chapters):
         parts.append(f"## Appendix\n\n[{APPENDIX_TITLE}]({APPENDIX_PAGE}): every setting of chapter 9's recorded "
                      "study, one table per benchmark and knob, for reference after the chapter.")
     return parts
-
-
-def _has_appendix(chapters: list[Chapter]) -> bool:
-    return any(c.source.stem == APPENDIX_CHAPTER for c in chapters)
 
 
 def appendix_cells() -> list[str]:
@@ -429,8 +425,7 @@ def build_book(chapters_dir, executed_dir, outdir, progress=print) -> list[Path]
         written.append(outdir / page)
         written[-1].write_text(links(exporter.from_notebook_node(nb, resources=resources)[0], page, source_dir),
                                encoding="utf-8")
-        if progress:
-            progress(f"[book] {written[-1]}")
+        progress(f"[book] {written[-1]}")
 
     for c in chapters:
         for line in missing_figures(c.notebook) if c.executed else []:
@@ -442,9 +437,8 @@ def build_book(chapters_dir, executed_dir, outdir, progress=print) -> list[Path]
                                            + syllabus_cells(chapters, readme_intro(readme_text))))
     write("errata.html", _markdown_notebook(ERRATA_HEADING, [f"# {ERRATA_HEADING}\n\n"
                                                              + readme_section(readme_text, ERRATA_HEADING)]))
-    if _has_appendix(chapters):
+    if APPENDIX_PAGE in links.site_pages:
         write(APPENDIX_PAGE, _markdown_notebook(APPENDIX_TITLE, appendix_cells()))
-    if progress:
-        for warning in links.warnings:
-            progress(f"[book] warning: {warning}")
+    for warning in links.warnings:
+        progress(f"[book] warning: {warning}")
     return written

@@ -23,7 +23,7 @@ from ..verification import manufactured_convergence
 from .base import (at_least, body_axes, boundary_faces, filmstrip, lecture_figure, save_animation, shown,
                    stress_label, surface_verts)
 from .dynamics import release_history
-from .inversion import CRUSH_COLUMNS, INVERTED_COLOR, UPRIGHT_COLOR, draw_state, frame_depths
+from .inversion import CRUSH_COLUMNS, CRUSH_TITLES, INVERTED_COLOR, UPRIGHT_COLOR, draw_state, frame_depths
 from .tradeoffs import plot_convergence
 
 #: cells along each side of the crushed cube (``6 n^3`` tetrahedra)
@@ -111,9 +111,8 @@ def fig_ch11_crush_release(runs=None) -> Figure:
             ax = fig.add_subplot(len(runs), ncol, r * ncol + c + 1, projection="3d")
             body_axes(ax, *limits, elev=14.0, azim=-60.0)
             if c == len(CRUSH_COLUMNS):
-                inverted = draw_state(ax, mesh, frames[-1])
-                released = run["released"]
-                note = f"{released.status},\nrest error {at_least(released.rest_error)}"
+                draw_state(ax, mesh, frames[-1])
+                note = f"{run['released'].status},\nrest error {at_least(run['released'].rest_error)}"
             else:
                 hit = np.flatnonzero(np.abs(depths - CRUSH_COLUMNS[c]) < 1e-6)
                 if hit.size:
@@ -125,10 +124,7 @@ def fig_ch11_crush_release(runs=None) -> Figure:
                     note = f"stopped at {run['crushed']:.1f}\n(next: {failed})"
             ax.text2D(0.5, 0.0, note, transform=ax.transAxes, ha="center", va="bottom", fontsize=7)
             if r == 0:
-                target = CRUSH_COLUMNS[c] if c < len(CRUSH_COLUMNS) else None
-                label = ("released" if target is None else "rest" if target == 0 else
-                         "flat" if target == 1 else f"pushed {target:g}")
-                ax.set_title(label, fontsize=9)
+                ax.set_title(CRUSH_TITLES[c], fontsize=9)
             if c == 0:
                 ax.text2D(-0.05, 0.5, name, transform=ax.transAxes, rotation=90, ha="center", va="center", fontsize=8)
     fig.legend(handles=[Patch(fc=UPRIGHT_COLOR, ec="0.25", label="boundary face, $J > 0$"),
