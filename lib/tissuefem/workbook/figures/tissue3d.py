@@ -140,8 +140,7 @@ def slab_run():
     :data:`SLAB_FRAMES` frames of backward Euler at 1/30 s."""
     nx, ny, nz = SLAB_CELLS
     model, u0 = released_flap(nx=nx, ny=ny, nz=nz)
-    times, energies, states = backward_euler_run(model, u0, FRAME_DT, SLAB_FRAMES - 1, frames=True)
-    return model, times, energies, states
+    return (model, *backward_euler_run(model, u0, FRAME_DT, SLAB_FRAMES - 1, frames=True))
 
 
 def write_slab_animation(gif_path, model, states, dt: float, norm, dpi: int = 100) -> Path:
