@@ -350,9 +350,9 @@ def syllabus_cells(chapters: list[Chapter], intro: str) -> list[str]:
 
 
 def appendix_cells() -> list[str]:
-    """The appendix page's Markdown cells below its title: every setting of the study chapter 9 reads (the recorded run the
-    package ships, :func:`~tissuefem.workbook.bench.accuracy_cost.recorded_results`), one table per benchmark
-    and knob, the baseline marked."""
+    """The appendix page's Markdown cells below its title: every setting of the study chapter 9 reads (the
+    recorded run the package ships, :func:`~tissuefem.workbook.bench.accuracy_cost.recorded_results`), one table
+    per benchmark and knob, the baseline marked."""
     results = recorded_results()
     machine = results["machine"]
     chapter = f"chapters/{APPENDIX_CHAPTER}.html"
