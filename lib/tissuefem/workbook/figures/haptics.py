@@ -24,8 +24,7 @@ def fig_ch08_haptic_force(run=None) -> Figure:
     segments = t.reshape(-1, substeps)
     starts = np.asarray(run["frame_time"])
     for i, (component, colour) in enumerate((("x", "C0"), ("y", "C1"))):
-        converged = shown(np.asarray(run["converged"])[:, i])
-        ax_force.plot(t, converged, color="k", lw=0.8, marker=".", ms=3,
+        ax_force.plot(t, shown(np.asarray(run["converged"])[:, i]), color="k", lw=0.8, marker=".", ms=3,
                       label="converged frame at the edge's position" if i == 0 else None)
         haptic = np.asarray(run["haptic"])[:, i].reshape(-1, substeps)
         frame_force = np.asarray(run["frame_force"])[:, i]
