@@ -35,6 +35,7 @@ __all__ = [
     "backward_euler_residual", "budgeted_newton",
     "duplicate_cut_nodes", "scene_file_text",
     "pareto_front", "observed_rates", "best_within_budget",
+    "clip_stroke", "piece_shares", "signed_gap", "skin_energy",
     "deformation_gradient_tet", "neo_hookean_stress_3d",
 ]
 
@@ -66,10 +67,9 @@ def newton_step_1d(nodes, u, lam, mu, traction) -> np.ndarray:
     material = NeoHookean1D(lam, mu)
     u0 = _shaped("u", u, (bar.ndofs,)).copy()
     u0[0] = 0.0
-    free = np.arange(1, bar.ndofs)
     return newton(u0, lambda x: bar.residual(x, material, right=Traction(traction)),
-                  lambda x: bar.tangent(x, material), free=free, line_search=None, max_iterations=1,
-                  rtol=0.0).x
+                  lambda x: bar.tangent(x, material), free=np.arange(1, bar.ndofs), line_search=None,
+                  max_iterations=1, rtol=0.0).x
 
 
 def _shaped(name, value, shape) -> np.ndarray:

@@ -300,7 +300,7 @@ def _markdown_notebook(title: str, cells: list[str]) -> nbformat.NotebookNode:
 
     nb = nbformat.v4.new_notebook()
     nb.metadata["title"] = title
-    nb.cells = [nbformat.v4.new_markdown_cell(text) for text in cells]
+    nb.cells = [nbformat.v4.new_markdown_cell(text) for text in [f"# {title}", *cells]]
     return nb
 
 
@@ -343,25 +343,20 @@ def syllabus_cells(chapters: list[Chapter], intro: str) -> list[str]:
         parts.append(f"### {c.label}. [{c.title}]({c.page})\n\n*About {c.minutes} min"
                      + (f", and {c.exercises} exercise{'s' if c.exercises != 1 else ''}*" if c.exercises else "*")
                      + f"\n\nBy the end of this chapter you can\n\n{goals}{status}")
-    if _has_appendix(chapters):
+    if any(c.source.stem == APPENDIX_CHAPTER for c in chapters):
         parts.append(f"## Appendix\n\n[{APPENDIX_TITLE}]({APPENDIX_PAGE}): every setting of chapter 9's recorded "
                      "study, one table per benchmark and knob, for reference after the chapter.")
     return parts
 
 
-def _has_appendix(chapters: list[Chapter]) -> bool:
-    return any(c.source.stem == APPENDIX_CHAPTER for c in chapters)
-
-
 def appendix_cells() -> list[str]:
-    """The appendix page's Markdown cells: every setting of the study chapter 9 reads (the recorded run the
-    package ships, :func:`~tissuefem.workbook.bench.accuracy_cost.recorded_results`), one table per benchmark
-    and knob, the baseline marked."""
+    """The appendix page's Markdown cells below its title: every setting of the study chapter 9 reads (the
+    recorded run the package ships, :func:`~tissuefem.workbook.bench.accuracy_cost.recorded_results`), one table
+    per benchmark and knob, the baseline marked."""
     results = recorded_results()
     machine = results["machine"]
     chapter = f"chapters/{APPENDIX_CHAPTER}.html"
-    cells = [f"# {APPENDIX_TITLE}",
-             f"The tables behind [chapter 9]({chapter})'s Pareto plots: the recorded study (plan "
+    cells = [f"The tables behind [chapter 9]({chapter})'s Pareto plots: the recorded study (plan "
              f"'{results['plan_name']}', {len(results['knobs'])} settings, {results['seconds'] / 60:.0f} minutes "
              f"on {machine['cpu_count']} cores; python {machine['python']}, numpy {machine['numpy']}, scipy "
              f"{machine['scipy']}, scikit-fem {machine['scikit-fem']}). Each row is the baseline with one knob "
@@ -403,14 +398,13 @@ def build_book(chapters_dir, executed_dir, outdir, progress=print) -> list[Path]
     for source in sources:
         executed = executed_dir / source.name
         nb = nbformat.read(executed if executed.exists() else source, as_version=4)
-        number = source.stem[2:4]
         listed = chapter_exercises(nb)
         chapters.append(Chapter(source=source, notebook=nb, executed=executed.exists(),
                                 title=chapter_title(nb, source.stem), goals=chapter_goals(nb),
                                 minutes=stated_minutes(nb) or estimate_minutes(nb),
                                 # a chapter split into parts shares one exercise file: count what each part lists
                                 exercises=len(listed) if listed is not None else
-                                count_exercises(exercises_dir / f"ch{number}.py"),
+                                count_exercises(exercises_dir / f"{source.stem[:4]}.py"),
                                 label=chapter_label(source)))
 
     if outdir.exists():
@@ -429,8 +423,7 @@ def build_book(chapters_dir, executed_dir, outdir, progress=print) -> list[Path]
         written.append(outdir / page)
         written[-1].write_text(links(exporter.from_notebook_node(nb, resources=resources)[0], page, source_dir),
                                encoding="utf-8")
-        if progress:
-            progress(f"[book] {written[-1]}")
+        progress(f"[book] {written[-1]}")
 
     for c in chapters:
         for line in missing_figures(c.notebook) if c.executed else []:
@@ -438,13 +431,11 @@ def build_book(chapters_dir, executed_dir, outdir, progress=print) -> list[Path]
         write(c.page, c.notebook, chapters_dir.resolve(), "" if c.executed else (
             '<div class="book-note">This chapter has not been executed, so its outputs are missing: '
             "run <code>python -m tissuefem build</code>.</div>"))
-    write("index.html", _markdown_notebook("tissuefem: the workbook", ["# tissuefem: the workbook"]
-                                           + syllabus_cells(chapters, readme_intro(readme_text))))
-    write("errata.html", _markdown_notebook(ERRATA_HEADING, [f"# {ERRATA_HEADING}\n\n"
-                                                             + readme_section(readme_text, ERRATA_HEADING)]))
-    if _has_appendix(chapters):
+    write("index.html", _markdown_notebook("tissuefem: the workbook",
+                                           syllabus_cells(chapters, readme_intro(readme_text))))
+    write("errata.html", _markdown_notebook(ERRATA_HEADING, [readme_section(readme_text, ERRATA_HEADING)]))
+    if APPENDIX_PAGE in links.site_pages:
         write(APPENDIX_PAGE, _markdown_notebook(APPENDIX_TITLE, appendix_cells()))
-    if progress:
-        for warning in links.warnings:
-            progress(f"[book] warning: {warning}")
+    for warning in links.warnings:
+        progress(f"[book] warning: {warning}")
     return written

@@ -86,12 +86,10 @@ def figure_calls(cell) -> list[tuple[str, bool]]:
     returned and dropped: the executed chapter and the book never show it."""
     tree = ast.parse(_code(cell))
     last = tree.body[-1] if tree.body else None
-    displayed = {id(arg) for node in ast.walk(tree)
-                 if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "display"
-                 for arg in node.args}
+    calls = [node for node in ast.walk(tree) if isinstance(node, ast.Call) and isinstance(node.func, ast.Name)]
+    displayed = {id(arg) for node in calls if node.func.id == "display" for arg in node.args}
     return [(node.func.id, (isinstance(last, ast.Expr) and last.value is node) or id(node) in displayed)
-            for node in ast.walk(tree)
-            if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id.startswith("fig_")]
+            for node in calls if node.func.id.startswith("fig_")]
 
 
 def missing_figures(nb) -> list[str]:

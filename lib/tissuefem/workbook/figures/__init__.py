@@ -7,8 +7,7 @@ import time
 from pathlib import Path
 from typing import Callable
 
-from . import (cutting, dynamics, fibers, haptics, inversion, kinematics, oned, surgery, tissue3d, tradeoffs,
-               verification3d)
+from . import cutting, dynamics, fibers, haptics, inversion, kinematics, oned, surgery, tissue3d, tradeoffs
 from .base import lecture_figure, matplotlib_note, save
 
 __all__ = ["FIGURES", "generate", "lecture_figure", "matplotlib_note", "save"]
@@ -16,8 +15,7 @@ __all__ = ["FIGURES", "generate", "lecture_figure", "matplotlib_note", "save"]
 #: every lecture figure by name, chapter by chapter
 FIGURES: dict[str, Callable] = {
     name: func
-    for module in (oned, kinematics, fibers, inversion, dynamics, surgery, haptics, tradeoffs, cutting, tissue3d,
-                   verification3d)
+    for module in (oned, kinematics, fibers, inversion, dynamics, surgery, haptics, tradeoffs, cutting, tissue3d)
     for name, func in vars(module).items()
     if getattr(func, "lecture_figure", False) and getattr(func, "__module__", None) == module.__name__
 }

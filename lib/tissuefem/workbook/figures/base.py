@@ -154,14 +154,17 @@ def sheet_window(xs, margin: float = 0.08):
     return (x[0].min() - margin, x[0].max() + margin), (x[1].min() - margin, x[1].max() + margin)
 
 
-def filmstrip(times, frames, notes: dict, width: float, height: float, height_ratios, window):
-    """``(fig, axes, below)``: one drawing's axes per frame ``k`` in ``frames`` (``width`` inches each; titled by its
-    time, and ``notes[k]`` if given), over one wide axes ``below`` for the history of the run."""
-    fig = Figure(figsize=(width * len(frames) + 0.6, height), layout="constrained")
+def filmstrip(times, frames, notes: dict, width: float, height: float, height_ratios, window=None,
+              margin: float = 0.6, projection=None):
+    """``(fig, axes, below)``: one drawing's axes per frame ``k`` in ``frames`` (``width`` inches each, ``margin``
+    more in all; titled by its time, and ``notes[k]`` if given; framed by :func:`frame_axes` to the 2D ``window``
+    if given), over one wide axes ``below`` for the history of the run. ``projection="3d"``: axes for a body."""
+    fig = Figure(figsize=(width * len(frames) + margin, height), layout="constrained")
     grid = fig.add_gridspec(2, len(frames), height_ratios=height_ratios)
-    axes = [fig.add_subplot(grid[0, col]) for col in range(len(frames))]
+    axes = [fig.add_subplot(grid[0, col], projection=projection) for col in range(len(frames))]
     for ax, k in zip(axes, frames):
-        frame_axes(ax, *window)
+        if window is not None:
+            frame_axes(ax, *window)
         ax.set_title(f"t = {times[k]:.2f} s" + (f" ({notes[k]})" if k in notes else ""), fontsize=8.5)
     return fig, axes, fig.add_subplot(grid[1, :])
 

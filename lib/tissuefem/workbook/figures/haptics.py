@@ -7,7 +7,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from ..bench.haptic import haptic_path
-from .base import lecture_figure, shown
+from .base import finish, lecture_figure, shown
 
 #: the run drawn: a reduced size of the standard flap, frames 6 to 25 of its drag, eight positions per frame
 HAPTIC_RUN = dict(n_triangles=2000, frames=20, substeps=8, warmup=5)
@@ -24,8 +24,7 @@ def fig_ch08_haptic_force(run=None) -> Figure:
     segments = t.reshape(-1, substeps)
     starts = np.asarray(run["frame_time"])
     for i, (component, colour) in enumerate((("x", "C0"), ("y", "C1"))):
-        converged = shown(np.asarray(run["converged"])[:, i])
-        ax_force.plot(t, converged, color="k", lw=0.8, marker=".", ms=3,
+        ax_force.plot(t, shown(np.asarray(run["converged"])[:, i]), color="k", lw=0.8, marker=".", ms=3,
                       label="converged frame at the edge's position" if i == 0 else None)
         haptic = np.asarray(run["haptic"])[:, i].reshape(-1, substeps)
         frame_force = np.asarray(run["frame_force"])[:, i]
@@ -34,9 +33,7 @@ def fig_ch08_haptic_force(run=None) -> Figure:
                           label=f"reduced model, $f_{component}$" if k == 0 else None)
             ax_force.plot([starts[k], ts[-1]], shown([frame_force[k]] * 2), color=colour, lw=0.8, ls=":",
                           label=f"frame's force held, $f_{component}$" if k == 0 else None)
-    ax_force.set_ylabel("force of the edge on the body")
-    ax_force.legend(fontsize=7.5, ncols=3, loc="best")
-    ax_force.grid(alpha=0.3)
+    finish(ax_force, legend=dict(fontsize=7.5, ncols=3, loc="best"), ylabel="force of the edge on the body")
     ax_force.set_title(f"the pulled edge of the standard flap, {run['triangles']} triangles: {substeps} positions "
                        "between frames (1/30 s apart)\nthe reduced model is rebuilt at each frame, and steps back "
                        "there: the body moved on during the frame, which the frame before cannot know", fontsize=9)

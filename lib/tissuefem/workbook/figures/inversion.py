@@ -19,6 +19,8 @@ from .base import at_least, boundary_faces, finish, frame_axes, lecture_figure, 
 UPRIGHT_COLOR, INVERTED_COLOR = "#6baed6", "#d6604d"
 #: the crush depths shown as columns of the crush-and-release figure (1 = flat); the released shape follows
 CRUSH_COLUMNS = (0.0, 0.5, 0.9, 1.0, 1.3)
+#: the titles of those columns and of the released shape's
+CRUSH_TITLES = (*("rest" if d == 0 else "flat" if d == 1 else f"pushed {d:g}" for d in CRUSH_COLUMNS), "released")
 #: line colour of each model (same order as :func:`tissuefem.workbook.hardcases.inversion_models`)
 MODEL_COLORS = ("C0", "C2", "C1", "C3")
 
@@ -88,10 +90,8 @@ def fig06_crush_release(runs=None) -> Figure:
             ax.plot(xlim, [bottom, bottom], color="k", lw=1.6)  # the held bottom edge
             frame_axes(ax, xlim, ylim)
         row[0].set_ylabel(name, fontsize=8.5)
-    for ax, target in zip(axes[0], CRUSH_COLUMNS):
-        label = "rest" if target == 0 else ("flat" if target == 1 else f"pushed {target:g}")
-        ax.set_title(label, fontsize=9)
-    axes[0, -1].set_title("released", fontsize=9)
+    for ax, title in zip(axes[0], CRUSH_TITLES):
+        ax.set_title(title, fontsize=9)
     fig.legend(handles=[Patch(fc=to_rgba(UPRIGHT_COLOR, 0.6), ec="0.25",
                               label="$J > 0$ (darker where the mesh lies over itself)"),
                         Patch(fc=to_rgba(INVERTED_COLOR, 0.6), ec="0.25", label="$J \\leq 0$ (inverted or flat)")],

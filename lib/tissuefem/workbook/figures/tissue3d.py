@@ -1,6 +1,7 @@
 """Figures of chapter 11 (tissue in 3D): bodies of tetrahedra drawn by their boundary faces, coloured by ``J`` or
-by a stress (:func:`draw_body`): the twisted bar, the cube crushed and released with chapter 6's four models, and
-the slab let go under backward Euler (a filmstrip, and an animation written beside it)."""
+by a stress (:func:`draw_body`): the twisted bar, the cube crushed and released with chapter 6's four models, the
+slab let go under backward Euler (a filmstrip, and an animation written beside it), and the reference verified on
+tetrahedra, drawn like chapter 9's verification (:func:`~tissuefem.workbook.figures.tradeoffs.plot_convergence`)."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib import colormaps
 from matplotlib.cm import ScalarMappable
-from matplotlib.colors import Normalize, TwoSlopeNorm, to_rgba
+from matplotlib.colors import Normalize, TwoSlopeNorm
 from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection
@@ -18,10 +19,12 @@ from ...engine.constants import FRAME_BUDGET as FRAME_DT, TISSUE_E, TISSUE_NU
 from ..hardcases import block, crush_and_release_runs
 from ..timestepping import backward_euler_run, released_flap
 from ..tissue3d import twisted_bar
-from .base import (at_least, body_axes, boundary_faces, lecture_figure, save_animation, shown, stress_label,
-                   surface_verts)
+from ..verification import manufactured_convergence
+from .base import (at_least, body_axes, boundary_faces, filmstrip, lecture_figure, save_animation, shown,
+                   stress_label, surface_verts)
 from .dynamics import release_history
-from .inversion import CRUSH_COLUMNS, INVERTED_COLOR, UPRIGHT_COLOR, draw_state, frame_depths
+from .inversion import CRUSH_COLUMNS, CRUSH_TITLES, INVERTED_COLOR, UPRIGHT_COLOR, draw_state, frame_depths
+from .tradeoffs import plot_convergence
 
 #: cells along each side of the crushed cube (``6 n^3`` tetrahedra)
 CUBE_CELLS = 3
@@ -39,12 +42,17 @@ def cube():
     return block(CUBE_CELLS, dim=3)
 
 
-def draw_body(ax, mesh, x, values, cmap, norm, linewidth: float = 0.25):
-    """Draw the boundary faces of a body of tetrahedra with nodes at ``x``, each coloured by its tetrahedron's value
-    in ``values`` (per element) through ``cmap`` and ``norm``; returns the collection."""
-    faces, elements = boundary_faces(mesh)
-    colors = colormaps[cmap](norm(shown(np.asarray(values, dtype=float)[elements])))
-    body = Poly3DCollection(surface_verts(mesh, x, faces), facecolors=colors, edgecolors="0.2", linewidths=linewidth)
+def face_colors(mesh, values, cmap, norm) -> np.ndarray:
+    """The colours of a body's boundary faces: each its tetrahedron's value in ``values`` (per element) through
+    ``cmap`` and ``norm``."""
+    return colormaps[cmap](norm(shown(np.asarray(values, dtype=float)[boundary_faces(mesh)[1]])))
+
+
+def draw_body(ax, mesh, x, values, cmap, norm, linewidth: float = 0.25, **style):
+    """Draw the boundary faces of a body of tetrahedra with nodes at ``x``, coloured by :func:`face_colors`
+    (``style``: more options of the collection); returns the collection."""
+    body = Poly3DCollection(surface_verts(mesh, x), facecolors=face_colors(mesh, values, cmap, norm),
+                            edgecolors="0.2", linewidths=linewidth, **style)
     ax.add_collection3d(body)
     return body
 
@@ -103,9 +111,8 @@ def fig_ch11_crush_release(runs=None) -> Figure:
             ax = fig.add_subplot(len(runs), ncol, r * ncol + c + 1, projection="3d")
             body_axes(ax, *limits, elev=14.0, azim=-60.0)
             if c == len(CRUSH_COLUMNS):
-                inverted = draw_state(ax, mesh, frames[-1])
-                released = run["released"]
-                note = f"{released.status},\nrest error {at_least(released.rest_error)}"
+                draw_state(ax, mesh, frames[-1])
+                note = f"{run['released'].status},\nrest error {at_least(run['released'].rest_error)}"
             else:
                 hit = np.flatnonzero(np.abs(depths - CRUSH_COLUMNS[c]) < 1e-6)
                 if hit.size:
@@ -117,10 +124,7 @@ def fig_ch11_crush_release(runs=None) -> Figure:
                     note = f"stopped at {run['crushed']:.1f}\n(next: {failed})"
             ax.text2D(0.5, 0.0, note, transform=ax.transAxes, ha="center", va="bottom", fontsize=7)
             if r == 0:
-                target = CRUSH_COLUMNS[c] if c < len(CRUSH_COLUMNS) else None
-                label = ("released" if target is None else "rest" if target == 0 else
-                         "flat" if target == 1 else f"pushed {target:g}")
-                ax.set_title(label, fontsize=9)
+                ax.set_title(CRUSH_TITLES[c], fontsize=9)
             if c == 0:
                 ax.text2D(-0.05, 0.5, name, transform=ax.transAxes, rotation=90, ha="center", va="center", fontsize=8)
     fig.legend(handles=[Patch(fc=UPRIGHT_COLOR, ec="0.25", label="boundary face, $J > 0$"),
@@ -136,13 +140,7 @@ def slab_run():
     :data:`SLAB_FRAMES` frames of backward Euler at 1/30 s."""
     nx, ny, nz = SLAB_CELLS
     model, u0 = released_flap(nx=nx, ny=ny, nz=nz)
-    times, energies, states = backward_euler_run(model, u0, FRAME_DT, SLAB_FRAMES - 1, frames=True)
-    return model, times, energies, states
-
-
-def _J_colors(model, u, norm):
-    _, elements = boundary_faces(model.mesh)
-    return colormaps[J_CMAP](norm(shown(model.jacobian(u))[elements]))
+    return (model, *backward_euler_run(model, u0, FRAME_DT, SLAB_FRAMES - 1, frames=True))
 
 
 def write_slab_animation(gif_path, model, states, dt: float, norm, dpi: int = 100) -> Path:
@@ -150,20 +148,15 @@ def write_slab_animation(gif_path, model, states, dt: float, norm, dpi: int = 10
     large enough to project (:data:`~tissuefem.workbook.figures.base.ANIMATION_MIN_WIDTH`)."""
     fig = Figure(figsize=(6.8, 4.8))
     ax = fig.add_axes([0.0, 0.0, 1.0, 0.9], projection="3d")
-    limits = _limits([model.positions(u) for u in states])
-    body_axes(ax, *limits, elev=18.0, azim=-64.0, zoom=1.2)
-    faces, _ = boundary_faces(model.mesh)
-    body = Poly3DCollection(surface_verts(model.mesh, model.positions(states[0]), faces),
-                            facecolors=_J_colors(model, states[0], norm), edgecolors="0.2", linewidths=0.3,
-                            antialiaseds=False)  # few colours per frame keep the GIF small
-    ax.add_collection3d(body)
+    body_axes(ax, *_limits([model.positions(u) for u in states]), elev=18.0, azim=-64.0, zoom=1.2)
+    body = draw_body(ax, model.mesh, model.positions(states[0]), model.jacobian(states[0]), J_CMAP, norm,
+                     linewidth=0.3, antialiaseds=False)  # few colours per frame keep the GIF small
     title = fig.text(0.5, 0.94, "", ha="center", va="center", fontsize=13)
 
     def update(k):
-        body.set_verts(surface_verts(model.mesh, model.positions(states[k]), faces))
-        body.set_facecolor(_J_colors(model, states[k], norm))
+        body.set_verts(surface_verts(model.mesh, model.positions(states[k])))
+        body.set_facecolor(face_colors(model.mesh, model.jacobian(states[k]), J_CMAP, norm))
         title.set_text(f"backward Euler, Δt = 1/{1 / dt:.0f} s:  t = {k * dt:.2f} s  (colour: J)")
-        return body, title
 
     return save_animation(fig, update, len(states), gif_path, dt, dpi)
 
@@ -181,20 +174,25 @@ def fig_ch11_released_slab(path=None, run=None) -> Figure:
     spread = max(float(np.max(np.abs(J_all - 1.0))), 1e-3)
     norm = TwoSlopeNorm(vcenter=1.0, vmin=1.0 - spread, vmax=1.0 + spread)
     limits = _limits([model.positions(states[k]) for k in SLAB_FILMSTRIP])
-    n = len(SLAB_FILMSTRIP)
-    fig = Figure(figsize=(1.75 * n + 1.0, 5.0), layout="constrained")
-    grid = fig.add_gridspec(2, n, height_ratios=[1.0, 1.1])
-    for col, k in enumerate(SLAB_FILMSTRIP):
-        ax = fig.add_subplot(grid[0, col], projection="3d")
+    fig, strip, below = filmstrip(times, SLAB_FILMSTRIP, {0: "let go"}, 1.75, 5.0, [1.0, 1.1], margin=1.0,
+                                  projection="3d")
+    for ax, k in zip(strip, SLAB_FILMSTRIP):
         draw_body(ax, mesh, model.positions(states[k]), model.jacobian(states[k]), J_CMAP, norm, linewidth=0.2)
         body_axes(ax, *limits, elev=18.0, azim=-64.0, zoom=1.3)
-        ax.set_title(f"t = {times[k]:.2f} s" + (" (let go)" if k == 0 else ""), fontsize=8.5)
-    release_history(fig.add_subplot(grid[1, :]), times, shown(tip_y), shown(energies / energies[0]), SLAB_FILMSTRIP,
+    release_history(below, times, shown(tip_y), shown(energies / energies[0]), SLAB_FILMSTRIP,
                     "right face's mean displacement $u_y$", "right face $u_y$")
-    fig.colorbar(ScalarMappable(norm=norm, cmap=J_CMAP), ax=fig.axes[:n], shrink=0.8, label="$J$")
+    fig.colorbar(ScalarMappable(norm=norm, cmap=J_CMAP), ax=strip, shrink=0.8, label="$J$")
     fig.suptitle(f"Chapter 11: the slab let go, backward Euler at $\\Delta t$ = 1/30 s ({mesh.t.shape[1]} "
                  f"tetrahedra, stable neo-Hookean, E = {TISSUE_E:g}, ν = {TISSUE_NU:g}, $\\rho_0$ = 1, left face "
                  "held)", fontsize=10)
     if path is not None:
         write_slab_animation(Path(path).with_suffix(".gif"), model, states, FRAME_DT, norm)
     return fig
+
+
+@lecture_figure
+def fig_ch11_convergence(rows=None) -> Figure:
+    """Chapter 11: the 3D reference verified -- nonlinear mesh convergence on tetrahedra at rates 2 (P1) and 3
+    (P2), three models (:func:`~tissuefem.workbook.verification.manufactured_convergence` with ``dim=3``)."""
+    return plot_convergence(manufactured_convergence(dim=3) if rows is None else rows,
+                            "Manufactured solution on tetrahedra (twisted arch + its body force)")
