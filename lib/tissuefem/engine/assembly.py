@@ -33,7 +33,8 @@ from .meshes import check_mesh
 from .parameters import ParameterError, check_count, check_density, check_vector, check_weights
 from .vectors import dot
 
-__all__ = ["P1Assembler", "QuadratureAssembler", "FormsAssembler", "make_assembler", "vector_basis", "check_weights"]
+__all__ = ["P1Assembler", "QuadratureAssembler", "FormsAssembler", "make_assembler", "vector_basis", "check_weights",
+           "element_geometry"]
 
 
 class _FixedPattern:
@@ -107,7 +108,7 @@ class P1Assembler(_FixedPattern):
         self.n_vertices = dim + 1  # vertices per element
         self.n_nodes, self.n_elements = p.shape[1], t.shape[1]
         # geometry: orientation, areas (volumes), gradients (element-last layout)
-        self.t, self.flipped, self.areas, G = (_triangle_geometry if dim == 2 else _tetrahedron_geometry)(p, t)
+        self.t, self.flipped, self.areas, G = element_geometry(p, t)
         self.t.setflags(write=False)
         if weights is not None:  # a part of an element integrates over that part: its area shrinks, its gradients not
             self.areas = self.areas * check_weights(weights, self.n_elements)
@@ -230,44 +231,32 @@ def _block_pattern(t, n_nodes: int, dim: int):
     return indptr, indices, np.ascontiguousarray(scatter).reshape(-1).astype(np.intp)
 
 
-def _triangle_geometry(p, t):
-    """``(t, flipped, areas, G)`` of triangles: counter-clockwise copy of ``t``, the reoriented ones, areas and the
-    gradients ``G[a, j, e] = dN_a/dX_j``."""
-    x = p[:, t]  # (2, 3, nel)
-    d1, d2 = x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]
-    det = d1[0] * d2[1] - d1[1] * d2[0]  # twice the signed area
+def element_geometry(p, t):
+    """``(t, flipped, measures, G)`` of P1 triangles or tetrahedra (``p`` ``(d, n)``, ``t`` ``(d + 1, m)``): ``t``
+    positively oriented (a copy with the last two vertices of the elements ``flipped`` swapped), the areas (volumes)
+    ``|det J| / d!`` and the shape-function gradients ``G[a, j, e] = dN_a/dX_j``: rows ``1 .. d`` of ``G`` are the rows
+    of ``J^-1``, ``J = [d1 .. dd]`` the edges from vertex 0 (row ``c`` is the cofactor ``perp(d2), -perp(d1)`` in 2D,
+    ``d_c+1 x d_c+2`` in 3D, over ``det J``), and ``G[0] = -(G[1] + .. + G[d])``, as the ``N_a`` sum to one. Swapping
+    two vertices swaps their rows and changes the sign of ``det J``, exactly."""
+    dim = p.shape[0]
+    x = p[:, t]  # (d, d + 1, m)
+    d = x[:, 1:] - x[:, :1]  # d[i, c]: component i of the edge from vertex 0 to vertex c + 1
+    if dim == 2:
+        cofactors = np.stack([np.stack([d[1, 1], -d[0, 1]]), np.stack([-d[1, 0], d[0, 0]])])
+    else:
+        cofactors = np.stack([np.cross(d[:, (c + 1) % 3], d[:, (c + 2) % 3], axis=0) for c in range(3)])
+    det = np.einsum("ie,ie->e", d[:, 0], cofactors[0])
+    G = np.empty((dim + 1, dim, t.shape[1]))
+    G[1:] = cofactors / det
     flipped = np.flatnonzero(det < 0)
-    if flipped.size:  # swap the 2nd and 3rd vertex of clockwise triangles: d1 and d2 swap, det changes sign exactly
+    if flipped.size:
         t = t.copy()
-        t[1:, flipped] = t[2:0:-1, flipped]
-        d1[:, flipped], d2[:, flipped] = d2[:, flipped], d1[:, flipped]
-        det[flipped] = -det[flipped]
-    # G[a, j, e] = dN_a/dX_j: rows of the inverse of the Jacobian [d1 d2]
-    G = np.empty((3, 2, t.shape[1]))
-    G[1, 0], G[1, 1] = d2[1] / det, -d2[0] / det
-    G[2, 0], G[2, 1] = -d1[1] / det, d1[0] / det
-    G[0] = -G[1] - G[2]
-    return t, flipped, 0.5 * det, G
-
-
-def _tetrahedron_geometry(p, t):
-    """:func:`_triangle_geometry` for tetrahedra: negatively oriented ones get their 3rd and 4th vertex swapped, the
-    volumes ``det J / 6`` and ``G`` the rows of ``J^-1``, ``J = [d1 d2 d3]`` (edges from vertex 0)."""
-    x = p[:, t]  # (3, 4, nel)
-    J = np.stack([x[:, 1] - x[:, 0], x[:, 2] - x[:, 0], x[:, 3] - x[:, 0]], axis=1)  # J[i, c] = (d_c)_i
-    det = np.einsum("ie,ie->e", J[:, 0], np.cross(J[:, 1], J[:, 2], axis=0))
-    flipped = np.flatnonzero(det < 0)
-    if flipped.size:  # swapping the vertices swaps d2 and d3: det J changes sign, exactly
-        t = t.copy()
-        t[2:, flipped] = t[3:1:-1, flipped]
-        J[:, 1:, flipped] = J[:, :0:-1, flipped]
-        det[flipped] = -det[flipped]
-    # row c of J^-1 is (d_{c+1} x d_{c+2}) / det: dN_{c+1}/dX
-    G = np.empty((4, 3, t.shape[1]))
-    for c in range(3):
-        G[c + 1] = np.cross(J[:, (c + 1) % 3], J[:, (c + 2) % 3], axis=0) / det
-    G[0] = -G[1] - G[2] - G[3]
-    return t, flipped, det / 6.0, G
+        t[-2:, flipped] = t[:-3:-1, flipped]
+        G[-2:, :, flipped] = G[:-3:-1, :, flipped]
+    G[0] = -G[1]
+    for row in G[2:]:
+        G[0] -= row
+    return t, flipped, np.abs(det) / (2.0 if dim == 2 else 6.0), G
 
 
 def _mesh_arrays(mesh):
