@@ -202,33 +202,24 @@ def _block_pattern(t, n_nodes: int, dim: int):
     ``d^2 nptr[p] + d i deg(p)``, and node column ``r`` of row ``p`` holds dof columns ``d r ... d r + d - 1``."""
     nv, nel = t.shape
     nn, n = n_nodes, dim * n_nodes
-    node_rows = np.broadcast_to(t[:, None, :], (nv, nv, nel))
-    node_cols = np.broadcast_to(t[None, :, :], (nv, nv, nel))
-    keys, slot = np.unique((node_rows * nn + node_cols).ravel(), return_inverse=True)
-    slot = slot.reshape(nv, nv, nel)
+    keys, slot = np.unique((t[:, None, :] * nn + t[None, :, :]).ravel(), return_inverse=True)  # node pairs (a, b, e)
     deg = np.bincount(keys // nn, minlength=nn)
     nptr = np.concatenate([[0], np.cumsum(deg)])
     nnz = dim * dim * keys.size
     index_dtype = np.int32 if max(nnz, n) < np.iinfo(np.int32).max else np.int64
-    row_nodes, col_nodes = keys // nn, keys % nn
     row_start = dim * dim * nptr[:-1, None] + dim * np.arange(dim) * deg[:, None]  # (nn, d): of dof row d p + i
+    r = np.arange(dim)
+
+    def position(pair, p, i, k):  # in the CSR data of the entry (d p + i, d q + k), (p, q) = the pair of keys[pair]
+        return row_start[p, i] + dim * (pair - nptr[p]) + k
     indptr = np.append(row_start.ravel(), nnz).astype(index_dtype)
-    # indices: for each node row p, rows d p ... d p + d - 1 all list d q ... d q + d - 1 for its q's
-    local = np.arange(keys.size) - nptr[row_nodes]  # rank of q within node row p
-    indices = np.empty(nnz, dtype=np.int64)
-    for i in range(dim):
-        for k in range(dim):
-            indices[row_start[row_nodes, i] + dim * local + k] = dim * col_nodes + k
-    indices = indices.astype(index_dtype)
+    indices = np.empty(nnz, dtype=index_dtype)
+    pair = np.arange(keys.size)[:, None, None]
+    indices[position(pair, keys[pair] // nn, r[:, None], r)] = dim * (keys[pair] % nn) + r
     indices.setflags(write=False)
     indptr.setflags(write=False)
-    p_node = t[:, None, :]  # row node of local pair (a, b)
-    base = dim * dim * nptr[p_node] + dim * (slot - nptr[p_node])  # (nv, nv, nel): dof row d p, column d q
-    d = deg[p_node]
-    i = np.arange(dim)[None, :, None, None, None]
-    k = np.arange(dim)[None, None, None, :, None]
-    scatter = base[:, None, :, None, :] + dim * i * d[:, None, :, None, :] + k  # (nv, d, nv, d, nel)
-    return indptr, indices, np.ascontiguousarray(scatter).reshape(-1).astype(np.intp)
+    scatter = position(slot.reshape(nv, 1, nv, 1, nel), t[:, None, None, None, :], r[:, None, None, None], r[:, None])
+    return indptr, indices, scatter.reshape(-1).astype(np.intp)
 
 
 def element_geometry(p, t):

@@ -278,13 +278,11 @@ def _structured_mesh(x: np.ndarray, y: np.ndarray, nx: int, ny: int, diagonal: s
     is even, se-nw elsewhere (``"alternate"``)."""
     i, j = (a.ravel() for a in np.meshgrid(np.arange(nx), np.arange(ny), indexing="xy"))  # cells row by row
     sw = j * (nx + 1) + i
-    se, nw, ne = sw + 1, sw + nx + 1, sw + nx + 2
+    corner = np.stack([sw, sw + 1, sw + nx + 1, sw + nx + 2])  # sw, se, nw, ne
     cut_sw_ne = (i + j) % 2 == 0 if diagonal == "alternate" else np.full(i.shape, diagonal == "right")
     # sw-ne diagonal: (sw, se, ne) and (sw, ne, nw); se-nw: (sw, se, nw) and (se, ne, nw)
-    first = np.where(cut_sw_ne, np.stack([sw, se, ne]), np.stack([sw, se, nw]))
-    second = np.where(cut_sw_ne, np.stack([sw, ne, nw]), np.stack([se, ne, nw]))
-    t = np.empty((3, 2 * i.size), dtype=np.int64)
-    t[:, 0::2], t[:, 1::2] = first, second
+    t = np.where(cut_sw_ne, corner[np.array([[0, 1, 3], [0, 3, 2]]).T], corner[np.array([[0, 1, 2], [1, 3, 2]]).T])
+    t = np.ascontiguousarray(t.reshape(3, -1, order="F"))  # (3, 2, cells) to cell by cell, two triangles each
     return MeshTri(np.vstack([x.ravel(), y.ravel()]), t, sort_t=False)
 
 
