@@ -91,6 +91,10 @@ class _FixedPattern:
         F[range(self.dim), range(self.dim)] += 1.0
         return F
 
+    def __repr__(self):
+        return (f"{type(self).__name__}({self.n_elements} {'triangles' if self.dim == 2 else 'tetrahedra'}, "
+                f"{self.n_dofs} dofs, nnz={self.nnz}, material={self.material!r})")
+
 
 class P1Assembler(_FixedPattern):
     """Energy, internal forces and tangent of a hyperelastic material on a straight-sided P1 :class:`~skfem.MeshTri`.
@@ -185,13 +189,6 @@ class P1Assembler(_FixedPattern):
         nv = self.n_vertices
         share = np.bincount(self.t.ravel(), weights=np.tile(self.areas / float(nv), nv), minlength=self.n_nodes)
         return (share[:, None] * b[None, :]).ravel()
-
-    def __repr__(self):
-        return (f"P1Assembler({self.n_elements} {_ELEMENT_NAMES[self.dim]}, {self.n_nodes} nodes, {self.n_dofs} dofs, "
-                f"nnz={self.nnz}, material={self.material!r})")
-
-
-_ELEMENT_NAMES = {2: "triangles", 3: "tetrahedra"}
 
 
 def _block_pattern(t, n_nodes: int, dim: int):
@@ -337,10 +334,6 @@ class QuadratureAssembler(_FixedPattern):
         share = np.einsum("aeq,eq->ae", self._N, self._dx)  # (nloc, nel)
         f = np.einsum("ae,i->aie", share, b)
         return np.bincount(self._dofs_flat, weights=f.reshape(-1), minlength=self.n_dofs)
-
-    def __repr__(self):
-        return (f"{type(self).__name__}({self.n_elements} {_ELEMENT_NAMES[self.dim]}, {self.n_dofs} dofs, "
-                f"nnz={self.nnz})")
 
 
 class FormsAssembler(QuadratureAssembler):
