@@ -56,6 +56,8 @@ class _FixedPattern:
         m = self.material if material is None else material
         if m is None:
             raise ParameterError("material", "material must be given (to the constructor or to this call), got None")
+        if not all(callable(getattr(m, name, None)) for name in ("energy", "stress", "tangent")):
+            raise ParameterError("material", f"material must have energy, stress and tangent methods, got {m!r}")
         return m
 
     def _check_u(self, u) -> np.ndarray:
@@ -118,25 +120,6 @@ class P1Assembler(_FixedPattern):
             self.areas = self.areas * check_weights(weights, self.n_elements)
         self._G, self._GA = G, G * self.areas  # and the area-weighted gradients
         self._set_pattern(self.t, self.n_nodes)
-
-    def _material(self, material):
-        m = super()._material(material)
-        for name in ("energy", "stress", "tangent"):
-            if not callable(getattr(m, name, None)):
-                raise ParameterError("material", f"material must have energy, stress and tangent methods, got {m!r}")
-        level = m
-        while level is not None:  # fibers, possibly nested (FiberReinforced of FiberReinforced ...)
-            shape = np.shape(getattr(level, "fibers", None))
-            if len(shape) == 3:
-                raise ParameterError("material", "material has per-quadrature-point fibers of shape "
-                                     f"{shape}; the P1 path has one point per element: give fibers shaped "
-                                     f"({self.dim}, n_elements) (e.g. the normalised average over the points) or "
-                                     f"({self.dim},)")
-            if len(shape) == 2 and shape[1] != self.n_elements:
-                raise ParameterError("material", f"material has per-element fibers of shape {shape}, but the "
-                                     f"mesh has {self.n_elements} elements: expected ({self.dim}, {self.n_elements})")
-            level = getattr(level, "base", None)
-        return m
 
     def _residual_from_F(self, m, F) -> np.ndarray:
         P = np.broadcast_to(m.stress(F), (self.dim, self.dim, self.n_elements))
