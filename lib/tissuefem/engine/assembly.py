@@ -110,8 +110,7 @@ class P1Assembler(_FixedPattern):
     def __init__(self, mesh, material=None, weights=None):
         p, t = _mesh_arrays(mesh)
         self.mesh, self.material = mesh, material
-        self.dim = dim = p.shape[0]  # 2: triangles, 3: tetrahedra
-        self.n_vertices = dim + 1  # vertices per element
+        self.dim = p.shape[0]  # 2: triangles, 3: tetrahedra
         self.n_nodes, self.n_elements = p.shape[1], t.shape[1]
         # geometry: orientation, areas (volumes), gradients (element-last layout)
         self.t, self.flipped, self.areas, G = element_geometry(p, t)
@@ -156,7 +155,7 @@ class P1Assembler(_FixedPattern):
         tetrahedra ``rho0 V_e (1 + d_ab) / 20`` and ``rho0 V_e / 4``."""
         rho = check_density(density)
         data = np.zeros(self.nnz)
-        nv, dim = self.n_vertices, self.dim
+        nv, dim = self.dim + 1, self.dim  # vertices per element, dimension
         if lumped:
             node_mass = np.bincount(self.t.ravel(), weights=np.tile(rho * self.areas / float(nv), nv),
                                     minlength=self.n_nodes)
@@ -169,7 +168,7 @@ class P1Assembler(_FixedPattern):
     def body_force(self, b) -> np.ndarray:
         """``f_(a,i) = int N_a b_i dX`` for a constant body force ``b`` (force per unit reference area or volume)."""
         b = check_vector("body_force", b, self.dim)
-        nv = self.n_vertices
+        nv = self.dim + 1
         share = np.bincount(self.t.ravel(), weights=np.tile(self.areas / float(nv), nv), minlength=self.n_nodes)
         return (share[:, None] * b[None, :]).ravel()
 
