@@ -203,11 +203,11 @@ def _block_pattern(t, n_nodes: int, dim: int):
 
 def element_geometry(p, t):
     """``(t, flipped, measures, G)`` of P1 triangles or tetrahedra (``p`` ``(d, n)``, ``t`` ``(d + 1, m)``): ``t``
-    positively oriented (a copy with the last two vertices of the elements ``flipped`` swapped), the areas (volumes)
-    ``|det J| / d!`` and the shape-function gradients ``G[a, j, e] = dN_a/dX_j``: rows ``1 .. d`` of ``G`` are the rows
-    of ``J^-1``, ``J = [d1 .. dd]`` the edges from vertex 0 (row ``c`` is the cofactor ``perp(d2), -perp(d1)`` in 2D,
-    ``d_c+1 x d_c+2`` in 3D, over ``det J``), and ``G[0] = -(G[1] + .. + G[d])``, as the ``N_a`` sum to one. Swapping
-    two vertices swaps their rows and changes the sign of ``det J``, exactly."""
+    positively oriented (a copy, the last two vertices of the elements ``flipped`` swapped), the areas (volumes)
+    ``|det J| / d!`` and the shape-function gradients ``G[a, j, e] = dN_a/dX_j``. With ``J = [d1 .. dd]``, the edges
+    from vertex 0, rows ``1 .. d`` of ``G`` are the rows of ``J^-1``: cofactors over ``det J``, ``(d2_y, -d2_x)`` and
+    ``(-d1_y, d1_x)`` in 2D, ``d_c+1 x d_c+2`` (indices mod 3) in 3D; ``G[0] = -(G[1] + .. + G[d])``, as the ``N_a``
+    sum to one. Swapping two vertices swaps their rows and changes the sign of ``det J``, exactly."""
     dim = p.shape[0]
     x = p[:, t]  # (d, d + 1, m)
     d = x[:, 1:] - x[:, :1]  # d[i, c]: component i of the edge from vertex 0 to vertex c + 1
@@ -219,7 +219,7 @@ def element_geometry(p, t):
     G = np.empty((dim + 1, dim, t.shape[1]))
     G[1:] = cofactors / det
     flipped = np.flatnonzero(det < 0)
-    if flipped.size:
+    if flipped.size:  # swap the last two vertices, and their rows of G
         t = t.copy()
         t[-2:, flipped] = t[:-3:-1, flipped]
         G[-2:, :, flipped] = G[:-3:-1, :, flipped]
