@@ -33,7 +33,8 @@ from .meshes import check_mesh
 from .parameters import ParameterError, check_count, check_density, check_vector, check_weights
 from .vectors import dot
 
-__all__ = ["P1Assembler", "QuadratureAssembler", "FormsAssembler", "make_assembler", "vector_basis", "check_weights"]
+__all__ = ["P1Assembler", "QuadratureAssembler", "FormsAssembler", "make_assembler", "vector_basis", "check_weights",
+           "element_geometry"]
 
 
 class _FixedPattern:
@@ -55,6 +56,8 @@ class _FixedPattern:
         m = self.material if material is None else material
         if m is None:
             raise ParameterError("material", "material must be given (to the constructor or to this call), got None")
+        if not all(callable(getattr(m, name, None)) for name in ("energy", "stress", "tangent")):
+            raise ParameterError("material", f"material must have energy, stress and tangent methods, got {m!r}")
         return m
 
     def _check_u(self, u) -> np.ndarray:
@@ -76,12 +79,9 @@ class _FixedPattern:
 
     @property
     def diagonal(self) -> np.ndarray:
-        """Positions of the diagonal entries in the CSR data array, row by row."""
-        rows = np.repeat(np.arange(self.n_dofs), np.diff(self.indptr))
-        pos = np.flatnonzero(rows == self.indices)
-        if pos.size != self.n_dofs:
-            raise ValueError("the sparsity pattern lacks diagonal entries")
-        return pos
+        """Positions of the diagonal entries in the CSR data array, row by row (every node is in an element, so every
+        dof's row holds its diagonal)."""
+        return np.flatnonzero(np.repeat(np.arange(self.n_dofs), np.diff(self.indptr)) == self.indices)
 
     def deformation_gradient(self, u) -> np.ndarray:
         """``F = I + grad u`` of every element (at every quadrature point), shaped ``[d, d, n_elements(, nq)]``."""
@@ -89,6 +89,10 @@ class _FixedPattern:
         F = np.einsum("aie,aje...->ije...", ue, self._G)
         F[range(self.dim), range(self.dim)] += 1.0
         return F
+
+    def __repr__(self):
+        return (f"{type(self).__name__}({self.n_elements} {'triangles' if self.dim == 2 else 'tetrahedra'}, "
+                f"{self.n_dofs} dofs, nnz={self.nnz}, material={self.material!r})")
 
 
 class P1Assembler(_FixedPattern):
@@ -103,35 +107,15 @@ class P1Assembler(_FixedPattern):
     def __init__(self, mesh, material=None, weights=None):
         p, t = _mesh_arrays(mesh)
         self.mesh, self.material = mesh, material
-        self.dim = dim = p.shape[0]  # 2: triangles, 3: tetrahedra
-        self.n_vertices = dim + 1  # vertices per element
+        self.dim = p.shape[0]  # 2: triangles, 3: tetrahedra
         self.n_nodes, self.n_elements = p.shape[1], t.shape[1]
         # geometry: orientation, areas (volumes), gradients (element-last layout)
-        self.t, self.flipped, self.areas, G = (_triangle_geometry if dim == 2 else _tetrahedron_geometry)(p, t)
+        self.t, self.flipped, self.areas, G = element_geometry(p, t)
         self.t.setflags(write=False)
         if weights is not None:  # a part of an element integrates over that part: its area shrinks, its gradients not
             self.areas = self.areas * check_weights(weights, self.n_elements)
         self._G, self._GA = G, G * self.areas  # and the area-weighted gradients
         self._set_pattern(self.t, self.n_nodes)
-
-    def _material(self, material):
-        m = super()._material(material)
-        for name in ("energy", "stress", "tangent"):
-            if not callable(getattr(m, name, None)):
-                raise ParameterError("material", f"material must have energy, stress and tangent methods, got {m!r}")
-        level = m
-        while level is not None:  # fibers, possibly nested (FiberReinforced of FiberReinforced ...)
-            shape = np.shape(getattr(level, "fibers", None))
-            if len(shape) == 3:
-                raise ParameterError("material", "material has per-quadrature-point fibers of shape "
-                                     f"{shape}; the P1 path has one point per element: give fibers shaped "
-                                     f"({self.dim}, n_elements) (e.g. the normalised average over the points) or "
-                                     f"({self.dim},)")
-            if len(shape) == 2 and shape[1] != self.n_elements:
-                raise ParameterError("material", f"material has per-element fibers of shape {shape}, but the "
-                                     f"mesh has {self.n_elements} elements: expected ({self.dim}, {self.n_elements})")
-            level = getattr(level, "base", None)
-        return m
 
     def _residual_from_F(self, m, F) -> np.ndarray:
         P = np.broadcast_to(m.stress(F), (self.dim, self.dim, self.n_elements))
@@ -168,7 +152,7 @@ class P1Assembler(_FixedPattern):
         tetrahedra ``rho0 V_e (1 + d_ab) / 20`` and ``rho0 V_e / 4``."""
         rho = check_density(density)
         data = np.zeros(self.nnz)
-        nv, dim = self.n_vertices, self.dim
+        nv, dim = self.dim + 1, self.dim  # vertices per element, dimension
         if lumped:
             node_mass = np.bincount(self.t.ravel(), weights=np.tile(rho * self.areas / float(nv), nv),
                                     minlength=self.n_nodes)
@@ -181,16 +165,9 @@ class P1Assembler(_FixedPattern):
     def body_force(self, b) -> np.ndarray:
         """``f_(a,i) = int N_a b_i dX`` for a constant body force ``b`` (force per unit reference area or volume)."""
         b = check_vector("body_force", b, self.dim)
-        nv = self.n_vertices
+        nv = self.dim + 1
         share = np.bincount(self.t.ravel(), weights=np.tile(self.areas / float(nv), nv), minlength=self.n_nodes)
         return (share[:, None] * b[None, :]).ravel()
-
-    def __repr__(self):
-        return (f"P1Assembler({self.n_elements} {_ELEMENT_NAMES[self.dim]}, {self.n_nodes} nodes, {self.n_dofs} dofs, "
-                f"nnz={self.nnz}, material={self.material!r})")
-
-
-_ELEMENT_NAMES = {2: "triangles", 3: "tetrahedra"}
 
 
 def _block_pattern(t, n_nodes: int, dim: int):
@@ -201,73 +178,52 @@ def _block_pattern(t, n_nodes: int, dim: int):
     ``d^2 nptr[p] + d i deg(p)``, and node column ``r`` of row ``p`` holds dof columns ``d r ... d r + d - 1``."""
     nv, nel = t.shape
     nn, n = n_nodes, dim * n_nodes
-    node_rows = np.broadcast_to(t[:, None, :], (nv, nv, nel))
-    node_cols = np.broadcast_to(t[None, :, :], (nv, nv, nel))
-    keys, slot = np.unique((node_rows * nn + node_cols).ravel(), return_inverse=True)
-    slot = slot.reshape(nv, nv, nel)
+    keys, slot = np.unique((t[:, None, :] * nn + t[None, :, :]).ravel(), return_inverse=True)  # node pairs (a, b, e)
     deg = np.bincount(keys // nn, minlength=nn)
     nptr = np.concatenate([[0], np.cumsum(deg)])
     nnz = dim * dim * keys.size
     index_dtype = np.int32 if max(nnz, n) < np.iinfo(np.int32).max else np.int64
-    row_nodes, col_nodes = keys // nn, keys % nn
     row_start = dim * dim * nptr[:-1, None] + dim * np.arange(dim) * deg[:, None]  # (nn, d): of dof row d p + i
+    r = np.arange(dim)
+
+    def position(pair, p, i, k):  # in the CSR data of the entry (d p + i, d q + k), (p, q) = the pair of keys[pair]
+        return row_start[p, i] + dim * (pair - nptr[p]) + k
     indptr = np.append(row_start.ravel(), nnz).astype(index_dtype)
-    # indices: for each node row p, rows d p ... d p + d - 1 all list d q ... d q + d - 1 for its q's
-    local = np.arange(keys.size) - nptr[row_nodes]  # rank of q within node row p
-    indices = np.empty(nnz, dtype=np.int64)
-    for i in range(dim):
-        for k in range(dim):
-            indices[row_start[row_nodes, i] + dim * local + k] = dim * col_nodes + k
-    indices = indices.astype(index_dtype)
+    indices = np.empty(nnz, dtype=index_dtype)
+    pair = np.arange(keys.size)[:, None, None]
+    indices[position(pair, keys[pair] // nn, r[:, None], r)] = dim * (keys[pair] % nn) + r
     indices.setflags(write=False)
     indptr.setflags(write=False)
-    p_node = t[:, None, :]  # row node of local pair (a, b)
-    base = dim * dim * nptr[p_node] + dim * (slot - nptr[p_node])  # (nv, nv, nel): dof row d p, column d q
-    d = deg[p_node]
-    i = np.arange(dim)[None, :, None, None, None]
-    k = np.arange(dim)[None, None, None, :, None]
-    scatter = base[:, None, :, None, :] + dim * i * d[:, None, :, None, :] + k  # (nv, d, nv, d, nel)
-    return indptr, indices, np.ascontiguousarray(scatter).reshape(-1).astype(np.intp)
+    scatter = position(slot.reshape(nv, 1, nv, 1, nel), t[:, None, None, None, :], r[:, None, None, None], r[:, None])
+    return indptr, indices, scatter.reshape(-1).astype(np.intp)
 
 
-def _triangle_geometry(p, t):
-    """``(t, flipped, areas, G)`` of triangles: counter-clockwise copy of ``t``, the reoriented ones, areas and the
-    gradients ``G[a, j, e] = dN_a/dX_j``."""
-    x = p[:, t]  # (2, 3, nel)
-    d1, d2 = x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]
-    det = d1[0] * d2[1] - d1[1] * d2[0]  # twice the signed area
+def element_geometry(p, t):
+    """``(t, flipped, measures, G)`` of P1 triangles or tetrahedra (``p`` ``(d, n)``, ``t`` ``(d + 1, m)``): ``t``
+    positively oriented (a copy, the last two vertices of the elements ``flipped`` swapped), the areas (volumes)
+    ``|det J| / d!`` and the shape-function gradients ``G[a, j, e] = dN_a/dX_j``. With ``J = [d1 .. dd]``, the edges
+    from vertex 0, rows ``1 .. d`` of ``G`` are the rows of ``J^-1``: cofactors over ``det J``, ``(d2_y, -d2_x)`` and
+    ``(-d1_y, d1_x)`` in 2D, ``d_c+1 x d_c+2`` (indices mod 3) in 3D; ``G[0] = -(G[1] + .. + G[d])``, as the ``N_a``
+    sum to one. Swapping two vertices swaps their rows and changes the sign of ``det J``, exactly."""
+    dim = p.shape[0]
+    x = p[:, t]  # (d, d + 1, m)
+    d = x[:, 1:] - x[:, :1]  # d[i, c]: component i of the edge from vertex 0 to vertex c + 1
+    if dim == 2:
+        cofactors = np.stack([np.stack([d[1, 1], -d[0, 1]]), np.stack([-d[1, 0], d[0, 0]])])
+    else:
+        cofactors = np.stack([np.cross(d[:, (c + 1) % 3], d[:, (c + 2) % 3], axis=0) for c in range(3)])
+    det = np.einsum("ie,ie->e", d[:, 0], cofactors[0])
+    G = np.empty((dim + 1, dim, t.shape[1]))
+    G[1:] = cofactors / det
     flipped = np.flatnonzero(det < 0)
-    if flipped.size:  # swap the 2nd and 3rd vertex of clockwise triangles: d1 and d2 swap, det changes sign exactly
+    if flipped.size:  # swap the last two vertices, and their rows of G
         t = t.copy()
-        t[1:, flipped] = t[2:0:-1, flipped]
-        d1[:, flipped], d2[:, flipped] = d2[:, flipped], d1[:, flipped]
-        det[flipped] = -det[flipped]
-    # G[a, j, e] = dN_a/dX_j: rows of the inverse of the Jacobian [d1 d2]
-    G = np.empty((3, 2, t.shape[1]))
-    G[1, 0], G[1, 1] = d2[1] / det, -d2[0] / det
-    G[2, 0], G[2, 1] = -d1[1] / det, d1[0] / det
-    G[0] = -G[1] - G[2]
-    return t, flipped, 0.5 * det, G
-
-
-def _tetrahedron_geometry(p, t):
-    """:func:`_triangle_geometry` for tetrahedra: negatively oriented ones get their 3rd and 4th vertex swapped, the
-    volumes ``det J / 6`` and ``G`` the rows of ``J^-1``, ``J = [d1 d2 d3]`` (edges from vertex 0)."""
-    x = p[:, t]  # (3, 4, nel)
-    J = np.stack([x[:, 1] - x[:, 0], x[:, 2] - x[:, 0], x[:, 3] - x[:, 0]], axis=1)  # J[i, c] = (d_c)_i
-    det = np.einsum("ie,ie->e", J[:, 0], np.cross(J[:, 1], J[:, 2], axis=0))
-    flipped = np.flatnonzero(det < 0)
-    if flipped.size:  # swapping the vertices swaps d2 and d3: det J changes sign, exactly
-        t = t.copy()
-        t[2:, flipped] = t[3:1:-1, flipped]
-        J[:, 1:, flipped] = J[:, :0:-1, flipped]
-        det[flipped] = -det[flipped]
-    # row c of J^-1 is (d_{c+1} x d_{c+2}) / det: dN_{c+1}/dX
-    G = np.empty((4, 3, t.shape[1]))
-    for c in range(3):
-        G[c + 1] = np.cross(J[:, (c + 1) % 3], J[:, (c + 2) % 3], axis=0) / det
-    G[0] = -G[1] - G[2] - G[3]
-    return t, flipped, det / 6.0, G
+        t[-2:, flipped] = t[:-3:-1, flipped]
+        G[-2:, :, flipped] = G[:-3:-1, :, flipped]
+    G[0] = -G[1]
+    for row in G[2:]:
+        G[0] -= row
+    return t, flipped, np.abs(det) / (2.0 if dim == 2 else 6.0), G
 
 
 def _mesh_arrays(mesh):
@@ -357,10 +313,6 @@ class QuadratureAssembler(_FixedPattern):
         share = np.einsum("aeq,eq->ae", self._N, self._dx)  # (nloc, nel)
         f = np.einsum("ae,i->aie", share, b)
         return np.bincount(self._dofs_flat, weights=f.reshape(-1), minlength=self.n_dofs)
-
-    def __repr__(self):
-        return (f"{type(self).__name__}({self.n_elements} {_ELEMENT_NAMES[self.dim]}, {self.n_dofs} dofs, "
-                f"nnz={self.nnz})")
 
 
 class FormsAssembler(QuadratureAssembler):

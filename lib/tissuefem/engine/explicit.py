@@ -180,21 +180,16 @@ def largest_stable_dt(model, *, steps: int = 400, growth: float = 10.0,
 
     def stable(dt):
         return is_stable(model, dt, steps=steps, growth=growth, u0=u0)
-    lo = hi = dt_guess
-    for _ in range(60):
-        if stable(lo):
+    guess_stable, lo = stable(dt_guess), dt_guess
+    for _ in range(60):  # double a stable guess, halve an unstable one, until its stability changes
+        dt = 2.0 * lo if guess_stable else lo / 2.0
+        if stable(dt) != guess_stable:
+            lo, hi = (lo, dt) if guess_stable else (dt, lo)
             break
-        hi, lo = lo, lo / 2.0
+        lo = dt
     else:
-        raise RuntimeError("largest_stable_dt: no stable time step found (is the problem at rest?)")
-    if hi == lo:
-        for _ in range(60):
-            hi = 2.0 * hi
-            if not stable(hi):
-                break
-            lo = hi
-        else:
-            raise RuntimeError("largest_stable_dt: no unstable time step found")
+        raise RuntimeError("largest_stable_dt: no " + ("unstable time step found" if guess_stable else
+                                                       "stable time step found (is the problem at rest?)"))
     while hi / lo > 1.0 + rtol:
         mid = np.sqrt(lo * hi)
         lo, hi = (mid, hi) if stable(mid) else (lo, mid)

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from skfem import MeshTet, MeshTri
 
-from .parameters import ParameterError, check_count, check_real, check_real_array
+from .parameters import ParameterError, check_count, check_real, check_real_array, string
 
 __all__ = [
     "edge_lengths", "mesh_size", "mean_edge_length", "rectangle", "mesh_with_about", "fusiform_muscle",
@@ -54,8 +54,7 @@ def _check_grid(counts: dict, per_cell: int = 2, diagonal="alternate") -> tuple[
         raise ParameterError("nx", f"{', '.join(counts)}: {' x '.join(map(str, n))} cells give "
                                    f"{per_cell * math.prod(n)} {'triangles' if per_cell == 2 else 'tetrahedra'}, "
                                    f"more than the {MAX_TRIANGLES} a generated domain may have")
-    if not isinstance(diagonal, str) or diagonal not in _DIAGONALS:
-        raise ParameterError("diagonal", f"diagonal must be one of {_DIAGONALS}, got {diagonal!r}")
+    string("diagonal", diagonal, _DIAGONALS)
     return n
 
 
@@ -107,13 +106,12 @@ def _signed_measures(p, t) -> np.ndarray:
 
 
 def signed_areas(mesh) -> np.ndarray:
-    """Signed area of every triangle of ``mesh`` (positive = counter-clockwise)."""
+    """Signed area of every triangle of ``mesh`` (positive = counter-clockwise), or volume of every tetrahedron
+    (positive = vertices 1, 2, 3 right-handed about vertex 0): :func:`signed_volumes` is this function."""
     return _signed_measures(np.asarray(mesh.p, dtype=float), np.asarray(mesh.t))
 
 
-def signed_volumes(mesh) -> np.ndarray:
-    """Signed volume of every tetrahedron of ``mesh`` (positive = vertices 1, 2, 3 right-handed about vertex 0)."""
-    return _signed_measures(np.asarray(mesh.p, dtype=float), np.asarray(mesh.t))
+signed_volumes = signed_areas
 
 
 #: The facets of an element by local vertex: a triangle's edges, a tetrahedron's faces (face k opposite vertex k).
@@ -192,8 +190,7 @@ def check_mesh(p, t, name: str = "mesh", *, unused_nodes: str = "refuse", cut: b
     bad = np.flatnonzero((np.abs(p_arr) > COORDINATE_MAX).any(axis=0))
     if bad.size:
         refuse(f"nodes {index_list(bad)} lie beyond the coordinate limit +-{COORDINATE_MAX:g}")
-    if unused_nodes not in ("refuse", "ignore"):
-        raise ParameterError("unused_nodes", f"unused_nodes must be 'refuse' or 'ignore', got {unused_nodes!r}")
+    string("unused_nodes", unused_nodes, ("refuse", "ignore"))
     used = np.zeros(n, dtype=bool)
     used[t_arr.ravel()] = True
     if unused_nodes == "refuse" and not used.all():
@@ -278,13 +275,11 @@ def _structured_mesh(x: np.ndarray, y: np.ndarray, nx: int, ny: int, diagonal: s
     is even, se-nw elsewhere (``"alternate"``)."""
     i, j = (a.ravel() for a in np.meshgrid(np.arange(nx), np.arange(ny), indexing="xy"))  # cells row by row
     sw = j * (nx + 1) + i
-    se, nw, ne = sw + 1, sw + nx + 1, sw + nx + 2
+    corner = np.stack([sw, sw + 1, sw + nx + 1, sw + nx + 2])  # sw, se, nw, ne
     cut_sw_ne = (i + j) % 2 == 0 if diagonal == "alternate" else np.full(i.shape, diagonal == "right")
     # sw-ne diagonal: (sw, se, ne) and (sw, ne, nw); se-nw: (sw, se, nw) and (se, ne, nw)
-    first = np.where(cut_sw_ne, np.stack([sw, se, ne]), np.stack([sw, se, nw]))
-    second = np.where(cut_sw_ne, np.stack([sw, ne, nw]), np.stack([se, ne, nw]))
-    t = np.empty((3, 2 * i.size), dtype=np.int64)
-    t[:, 0::2], t[:, 1::2] = first, second
+    t = np.where(cut_sw_ne, corner[np.array([[0, 1, 3], [0, 3, 2]]).T], corner[np.array([[0, 1, 2], [1, 3, 2]]).T])
+    t = np.ascontiguousarray(t.reshape(3, -1, order="F"))  # (3, 2, cells) to cell by cell, two triangles each
     return MeshTri(np.vstack([x.ravel(), y.ravel()]), t, sort_t=False)
 
 

@@ -32,6 +32,7 @@ import numpy as np
 import scipy.sparse as sp
 from skfem import FacetBasis, LinearForm, asm
 
+from .assembly import element_geometry
 from .materials import FiberFamily, check_fiber_stiffness, vector_length
 from .parameters import (FORCE_MAX, RADIUS_RANGE, REACH, YOUNGS_MODULUS_RANGE, ParameterError, check_bounded_vector,
                          check_density, check_indices, check_penalty_stiffness, check_reach, check_real,
@@ -198,14 +199,8 @@ class GhostPenalty(ConstantHessian):
         p, t = np.asarray(mesh.p, dtype=float), np.asarray(mesh.t, dtype=np.intp)
         self.n_nodes, m = p.shape[1], t.shape[1]
         w = check_weights(weights, m)
-        x = p[:, t]  # (2, 3, m)
-        d1, d2 = x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]
-        det = d1[0] * d2[1] - d1[1] * d2[0]
-        G = np.empty((3, 2, m))  # dN_a/dX_j of each element (whole triangle: a piece keeps its shape functions)
-        G[1, 0], G[1, 1] = d2[1] / det, -d2[0] / det
-        G[2, 0], G[2, 1] = -d1[1] / det, d1[0] / det
-        G[0] = -G[1] - G[2]
-        area, centre = 0.5 * np.abs(det), x.mean(axis=1)
+        centre = p[:, t].mean(axis=1)
+        t, _, area, G = element_geometry(p, t)  # of the whole triangles: a piece keeps its shape functions
         # the elements on each edge (its two nodes): those sharing an edge with a light one
         keys = np.sort(np.stack([t, np.roll(t, -1, axis=0)]), axis=0)
         keys = (keys[0] * self.n_nodes + keys[1]).ravel()  # (3 m,): local edge k of element e at k * m + e
