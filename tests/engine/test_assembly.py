@@ -7,7 +7,8 @@ import scipy.sparse.linalg as spla
 from skfem import Basis, ElementTriP1, ElementVector, MeshTri, asm
 
 from tissuefem.engine import forms
-from tissuefem.engine.assembly import P1Assembler
+from tissuefem.engine.assembly import P1Assembler, make_assembler
+from tissuefem.engine.parameters import ParameterError
 from tissuefem.engine.materials import Corotated, FiberReinforced, NeoHookean, StableNeoHookean
 from tissuefem.engine.meshes import fusiform_fiber_field, fusiform_muscle, rectangle
 
@@ -325,3 +326,13 @@ def test_benchmark_smoke(tmp_path):
     assert {"platform", "python", "numpy", "scipy", "scikit-fem", "cpu_count"} <= set(record["machine"])
     with pytest.raises(ValueError, match="sizes"):
         assembly_benchmark(sizes=(0,), progress=None)
+
+
+def test_forms_path_refuses_element_weights():
+    """The readable forms integrate whole elements: weights (a cut's partial elements) are refused by name, not
+    silently ignored in the energy, residual and tangent."""
+    mesh = MeshTri().refined(2)
+    with pytest.raises(ParameterError, match="weights"):
+        make_assembler(mesh, assembly="forms", weights=np.full(mesh.t.shape[1], 0.5))
+    _, fast = make_assembler(mesh, weights=np.full(mesh.t.shape[1], 0.5))
+    assert np.isclose(fast.areas.sum(), 0.5)

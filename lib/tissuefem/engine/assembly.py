@@ -317,7 +317,14 @@ class QuadratureAssembler(_FixedPattern):
 
 class FormsAssembler(QuadratureAssembler):
     """Energy, residual and tangent by the readable forms of :mod:`tissuefem.engine.forms`, on
-    :class:`QuadratureAssembler`'s pattern: the reference the fast assemblers are tested against."""
+    :class:`QuadratureAssembler`'s pattern: the reference the fast assemblers are tested against. The forms
+    integrate whole elements, so element ``weights`` (a cut's partial elements) are refused."""
+
+    def __init__(self, basis, material=None, weights=None):
+        if weights is not None:
+            raise ParameterError("weights", "weights: the forms path integrates whole elements; weighted (cut) "
+                                            "elements need assembly='fast'")
+        super().__init__(basis, material)
 
     def energy(self, u, material=None) -> float:
         return float(asm(energy_form(self._material(material)), self.basis, u=self.basis.interpolate(u)))
