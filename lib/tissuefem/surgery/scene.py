@@ -35,8 +35,8 @@ from ..engine.inversion import ITFClamped, ProjectedTangent
 from ..engine.linsolve import LinearSolver
 from ..engine.materials import MATERIALS, material as make_material
 from ..engine.parameters import (DENSITY_RANGE, FAR, RADIUS_RANGE, REACH, YOUNGS_MODULUS_RANGE,
-                                 ParameterError, check_poisson_ratio, count_list, is_sequence, number, points,
-                                 require, show, string, table, vector)
+                                 ParameterError, check_poisson_ratio, check_radius, check_reach, count_list,
+                                 is_sequence, number, points, require, show, string, table, vector)
 
 __all__ = ["Scene", "EFFECTS", "SHAPES", "TWO_D_ONLY", "EXAMPLE_TOML", "demo_scene", "flap_scene", "flap_path",
            "read_mesh"]
@@ -77,8 +77,6 @@ THRESHOLD_RANGE = (0.01, 0.99)
 BUDGET_RANGE = (1e-6, 1e9)
 RTOL_RANGE = (1e-14, 0.5)
 MAX_ITERATIONS = 1000
-#: points and displacements lie within REACH domain sizes of the centre; radii within MIN_RADIUS and REACH sizes
-MIN_RADIUS = RADIUS_RANGE[0]
 #: entries of one list-valued effect (handles, and an effect registered later); each limit is one that a test builds
 #: at its maximum within a stated time (docs/scenes.md): what is accepted can also be computed
 MAX_ENTRIES = 1000
@@ -221,7 +219,7 @@ def _check_region(field, r):
     if "near" in r:
         table(field, r, ("near", "radius"))
         return {"near": vector(f"{field}.near", r["near"]),
-                "radius": _within(f"{field}.radius", r.get("radius", 0.05), (MIN_RADIUS * SIZE_RANGE[0], FAR))}
+                "radius": _within(f"{field}.radius", r.get("radius", 0.05), (RADIUS_RANGE[0] * SIZE_RANGE[0], FAR))}
     if "nodes" in r:
         nodes = count_list(f"{field}.nodes", table(field, r, ("nodes",))["nodes"], "node indices", MAX_NODES)
         return {"nodes": [number(f"{field}.nodes[{i}]", n, integer=True, lo=0, hi=MAX_NODES - 1)
@@ -323,65 +321,54 @@ def _check_2d_only(effects, dim, where=""):
                                                     f"is 3D (tetrahedra{where}); leave effects.{kind} out")
 
 
+def _placed(effects):
+    """``(field, kind, value)`` of each point (a handle's ``"box"``: two corners), ``"radius"``, ``"displacement"``
+    (a handle's target) and other ``"vector"`` of checked effects, in the order they are checked."""
+    for i, h in enumerate(effects.get("handles", [])):
+        region = h["region"] if isinstance(h["region"], dict) else {}
+        for key, kind in (("box", "box"), ("near", "point"), ("radius", "radius")):
+            if key in region:
+                yield f"effects.handles[{i}].region.{key}", kind, region[key]
+        if "target" in h:
+            yield f"effects.handles[{i}].target", "displacement", h["target"]
+    for kind, key in (("gravity", "acceleration"), ("fibers", "direction")):
+        if isinstance(effects.get(kind, {}).get(key), list):  # a file's default gravity, fibres "fusiform": none
+            yield f"effects.{kind}.{key}", "vector", effects[kind][key]
+    for i, t in enumerate(effects.get("tractions", [])):
+        yield f"effects.tractions[{i}].traction", "vector", t["traction"]
+    for i, p in enumerate(effects.get("probes", [])):
+        yield f"effects.probes[{i}].center", "point", p["center"]
+        yield f"effects.probes[{i}].radius", "radius", p["radius"]
+    for kind, key in (("excisions", "polygon"), ("incisions", "path")):
+        for i, e in enumerate(effects.get(kind, [])):
+            yield from ((f"effects.{kind}[{i}].{key}[{j}]", "point", q) for j, q in enumerate(e[key]))
+    for i, e in enumerate(effects.get("sutures", [])):
+        for j, pair in enumerate(e["pairs"]):
+            yield from ((f"effects.sutures[{i}].pairs[{j}][{k}]", "point", q) for k, q in enumerate(pair))
+
+
 def _check_reach(effects, lo, hi, where=""):
     """Points and vectors against the domain, the box ``lo``-``hi`` of size ``L`` (its longest side): each has the
-    domain's dimension; points and displacements lie within ``REACH L`` of its centre, radii ``>= MIN_RADIUS L``."""
+    domain's dimension; points and displacements lie within ``REACH L`` of its centre, radii within
+    ``RADIUS_RANGE L``."""
     lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
-    dim = lo.size
-    size = float(np.max(hi - lo))
-    centre = 0.5 * (lo + hi)
-    far = REACH * size
-
-    def sized(field, v, n=dim):
+    dim, size, centre = lo.size, float(np.max(hi - lo)), 0.5 * (lo + hi)
+    for field, kind, v in _placed(effects):
+        if kind == "radius":
+            check_radius(field, v, size, where)
+            continue
+        n = 2 * dim if kind == "box" else dim
         if len(v) != n:
             raise ParameterError(field, f"{field} = {v} has {len(v)} components, but the domain is {dim}D{where}: "
                                         f"it needs {n}")
-
-    def point(field, p):
-        sized(field, p)
-        if np.any(np.abs(np.asarray(p) - centre) > far):
-            raise ParameterError(field,
-                                 f"{field} = {p} lies farther than {REACH:g} domain sizes ({far:g}) from the domain's "
-                                 f"centre ({', '.join(f'{c:g}' for c in centre)}){where}")
-
-    def radius(field, r):
-        if not MIN_RADIUS * size <= r <= far:
-            raise ParameterError(field,
-                                 f"{field} = {r:g} must lie within [{MIN_RADIUS:g}, {REACH:g}] domain sizes, i.e. "
-                                 f"[{MIN_RADIUS * size:g}, {far:g}]{where}")
-
-    for i, h in enumerate(effects.get("handles", [])):
-        field, region = f"effects.handles[{i}]", h["region"]
-        if isinstance(region, dict) and "box" in region:
-            sized(f"{field}.region.box", region["box"], 2 * dim)
-            point(f"{field}.region.box[0:{dim}]", region["box"][:dim])
-            point(f"{field}.region.box[{dim}:{2 * dim}]", region["box"][dim:])
-        elif isinstance(region, dict) and "near" in region:
-            point(f"{field}.region.near", region["near"])
-            radius(f"{field}.region.radius", region["radius"])
-        if "target" in h:
-            sized(f"{field}.target", h["target"])
-            if max(abs(c) for c in h["target"]) > far:
-                raise ParameterError(f"{field}.target",
-                                     f"{field}.target = {h['target']}: a displacement larger than {REACH:g} domain "
-                                     f"sizes ({far:g}){where}")
-    if "acceleration" in effects.get("gravity", {}):
-        sized("effects.gravity.acceleration", effects["gravity"]["acceleration"])
-    if isinstance(effects.get("fibers", {}).get("direction"), list):
-        sized("effects.fibers.direction", effects["fibers"]["direction"])
-    for i, t in enumerate(effects.get("tractions", [])):
-        sized(f"effects.tractions[{i}].traction", t["traction"])
-    for i, p in enumerate(effects.get("probes", [])):
-        point(f"effects.probes[{i}].center", p["center"])
-        radius(f"effects.probes[{i}].radius", p["radius"])
-    for kind, key in (("excisions", "polygon"), ("incisions", "path")):
-        for i, e in enumerate(effects.get(kind, [])):
-            for j, q in enumerate(e[key]):
-                point(f"effects.{kind}[{i}].{key}[{j}]", q)
-    for i, e in enumerate(effects.get("sutures", [])):
-        for j, pair in enumerate(e["pairs"]):
-            for k, q in enumerate(pair):
-                point(f"effects.sutures[{i}].pairs[{j}][{k}]", q)
+        if kind == "box":
+            check_reach(f"{field}[0:{dim}]", v[:dim], centre, size, where)
+            check_reach(f"{field}[{dim}:{2 * dim}]", v[dim:], centre, size, where)
+        elif kind == "point":
+            check_reach(field, v, centre, size, where)
+        elif kind == "displacement" and max(abs(c) for c in v) > REACH * size:
+            raise ParameterError(field, f"{field} = {v}: a displacement larger than {REACH:g} domain sizes "
+                                        f"({REACH * size:g}){where}")
 
 
 def _check_nesting(data, limit=MAX_NESTING):
