@@ -391,31 +391,25 @@ def _check_nesting(data, limit=MAX_NESTING):
 _SKIP_TOML = re.compile(r'"""(?:[^"\\]|\\.|"(?!""))*"""|\'\'\'.*?\'\'\'|"(?:[^"\\\n]|\\.)*"|\'[^\'\n]*\'|#[^\n]*',
                         re.S)
 _SKIP_JSON = re.compile(r'"(?:[^"\\]|\\.)*"', re.S)
-#: what ends a TOML key path (a number or a date between them has at most one dot)
-_KEY_ENDS = [ord(c) for c in "=\n,[]{}"]
+#: what opens and closes a table or an array; what ends a TOML key path (a number or a date between has one dot)
+_OPENS, _CLOSES, _KEY_ENDS = [ord("["), ord("{")], [ord("]"), ord("}")], [ord(c) for c in "=\n,[]{}"]
 
 
 def _check_text_nesting(text, kind):
     """Refuse a text whose brackets nest deeper than :data:`MAX_NESTING`, or (TOML) a dotted key path of more
     parts (JSON's key paths are its brackets), naming the line; a linear scan before any parsing."""
     codes = np.frombuffer(text.encode("utf-32-le", "surrogatepass"), dtype="<u4")
-    step = np.zeros(codes.size, dtype=np.int8)
-    step[(codes == ord("[")) | (codes == ord("{"))] = 1
-    step[(codes == ord("]")) | (codes == ord("}"))] = -1
-    dots = codes == ord(".") if kind == "TOML" else np.zeros(codes.size, dtype=bool)
-    if not step.any() and not dots.any():
-        return
     outside = np.ones(codes.size, dtype=bool)
     for m in (_SKIP_TOML if kind == "TOML" else _SKIP_JSON).finditer(text):
         outside[m.start():m.end()] = False
-    step[~outside] = 0
-    depth = np.cumsum(step, dtype=np.int64)
+    step = np.isin(codes, _OPENS).astype(np.int64) - np.isin(codes, _CLOSES)  # +1 where a bracket opens, -1 closes
+    depth = np.cumsum(np.where(outside, step, 0))
     too_deep = np.flatnonzero(depth > MAX_NESTING)
     if too_deep.size:
         line = text.count("\n", 0, int(too_deep[0])) + 1
         raise ParameterError("scene", f"scene: its {kind} nests deeper than {MAX_NESTING} levels "
                                       f"(line {line}); a scene needs at most 7")
-    at = np.flatnonzero(dots & outside)
+    at = np.flatnonzero((codes == ord(".")) & outside) if kind == "TOML" else np.zeros(0, dtype=np.intp)
     if at.size:
         key = np.searchsorted(np.flatnonzero(np.isin(codes, _KEY_ENDS) & outside), at)  # each dot's key path
         parts = np.bincount(key) + 1
@@ -617,11 +611,11 @@ class Scene:
             return _MESHERS[d["shape"]](**{("n_triangles" if k == "triangles" else k): v
                                            for k, v in d.items() if k != "shape"})
         path = Path(d["path"]) if self.base_dir is None else self.base_dir / d["path"]
-        mesh, dropped, flipped = _read_mesh(path, d["scale"])
+        mesh, notes, dropped = _read_mesh(path, d["scale"], d["path"])
         where = f", the mesh read from {d['path']!r}"
         _check_2d_only(self.effects, mesh.p.shape[0], where)
         _check_reach(self.effects, mesh.p.min(axis=1), mesh.p.max(axis=1), f" ({where[2:]})")
-        if dropped.size:
+        if dropped:
             noun = _ELEMENT_NOUN[mesh.p.shape[0]]
             for i, h in enumerate(self.effects.get("handles", [])):
                 if isinstance(h["region"], dict) and "nodes" in h["region"]:
@@ -629,7 +623,7 @@ class Scene:
                                          f"effects.handles[{i}].region.nodes: the mesh file has nodes in no {noun}, "
                                          "which are dropped and the rest renumbered, so node indices would point at "
                                          "other nodes; select the nodes with a box or near a point instead")
-        self.notes.extend(_file_notes(d["path"], mesh, dropped, flipped))
+        self.notes = notes
         return mesh
 
     def build_material(self):
@@ -650,20 +644,13 @@ class Scene:
 #: the cells a mesh file may hold: 3-node triangles or 4-node tetrahedra, and cells of lower dimension (groups: a
 #: tetrahedron mesh's triangles, lines, vertices)
 _CELLS_ALLOWED = ("tetra", "triangle", "line", "vertex")
+#: what a mesh of each dimension is made of, in notes and refusals
+_ELEMENT_NOUN = {2: "triangle", 3: "tetrahedron"}
 
 
 def _mesh_error(message) -> ParameterError:
     """The refusal of a mesh file: a ``ParameterError`` naming ``domain.path`` (the file a scene names)."""
     return ParameterError("domain.path", f"domain.path: {message}")
-
-
-def _check_file_mesh(p, t, name, unused_nodes="refuse"):
-    """:func:`~tissuefem.engine.meshes.check_mesh` of a file's mesh; a refusal names ``domain.path`` as its field
-    (check_mesh's field is the whole ``name``, which says which file and how its nodes are numbered)."""
-    try:
-        return meshes.check_mesh(p, t, name=name, unused_nodes=unused_nodes)
-    except ParameterError as err:
-        raise ParameterError("domain.path", str(err)) from None
 
 
 def _quietly(path, read, *args):
@@ -684,9 +671,9 @@ def _quietly(path, read, *args):
         logging.disable(previous)
 
 
-def _read_mesh(path, scale):
-    """``(mesh, dropped, flipped)``: the mesh of a file, the file's node indices that no element used (dropped) and
-    the indices of its tetrahedra listed left-handed (reoriented)."""
+def _read_mesh(path, scale, label):
+    """``(mesh, notes, dropped)``: the mesh of a file, what reading it changed (its tetrahedra listed left-handed,
+    reoriented; its nodes in no element, dropped), said of ``label``, and whether nodes were dropped."""
     path = Path(path)
     name = path.name
     try:
@@ -743,23 +730,30 @@ def _read_mesh(path, scale):
         flipped = np.flatnonzero(meshes.signed_volumes(types.SimpleNamespace(p=p, t=written)) < 0)
         t = written.copy()
         t[1, flipped], t[2, flipped] = written[2, flipped], written[1, flipped]
-    what = f"domain.path: {name!r} (0-based node numbers, after scaling)"
-    p, t = _check_file_mesh(p, t, what, "ignore")
-    named = _quietly(path, from_meshio, m)  # boundaries from physical groups or cell sets
-    kept = np.unique(t)  # the nodes in no element dropped, the rest renumbered in their order
-    new_index = np.full(p.shape[1], -1, dtype=np.int64)
-    new_index[kept] = np.arange(kept.size)
-    # as checked above (scaled, a 2D file's z dropped; triangles sorted as scikit-fem does)
-    mesh = _new_mesh(np.ascontiguousarray(p[:, kept]), new_index[t])
-    try:
-        boundaries = {label: _facet_index(mesh, new_index[np.asarray(named.facets)[:, np.asarray(facets)]])
-                      for label, facets in (named.boundaries or {}).items()}
-        boundaries.update(_skfem_boundaries(m, kind, new_index[written], mesh))
-    except ParameterError as err:  # said of the file: named here
-        raise _mesh_error(f"{name!r}: {str(err).removeprefix('domain.path: ')}") from None
-    mesh = _new_mesh(mesh.p, mesh.t, _boundaries=boundaries or None, _subdomains=named.subdomains)
-    _check_file_mesh(mesh.p, mesh.t, f"domain.path: {name!r}")
-    return mesh, np.flatnonzero(new_index < 0), flipped
+    try:  # check_mesh's refusal names the file and how its nodes are numbered; its field is domain.path
+        p, t = meshes.check_mesh(p, t, f"domain.path: {name!r} (0-based node numbers, after scaling)",
+                                 unused_nodes="ignore")
+        named = _quietly(path, from_meshio, m)  # boundaries from physical groups or cell sets
+        kept = np.unique(t)  # the nodes in no element dropped, the rest renumbered in their order
+        new_index = np.full(p.shape[1], -1, dtype=np.int64)
+        new_index[kept] = np.arange(kept.size)
+        # as checked above (scaled, a 2D file's z dropped; triangles sorted as scikit-fem does)
+        mesh = _new_mesh(np.ascontiguousarray(p[:, kept]), new_index[t])
+        boundaries = {group: _facet_index(mesh, new_index[np.asarray(named.facets)[:, np.asarray(facets)]], name)
+                      for group, facets in (named.boundaries or {}).items()}
+        boundaries.update(_skfem_boundaries(m, kind, new_index[written], mesh, name))
+        mesh = _new_mesh(mesh.p, mesh.t, _boundaries=boundaries or None, _subdomains=named.subdomains)
+        meshes.check_mesh(mesh.p, mesh.t, f"domain.path: {name!r}")
+    except ParameterError as err:
+        raise ParameterError("domain.path", str(err)) from None
+    dropped, notes = np.flatnonzero(new_index < 0), []
+    if flipped.size:
+        notes.append(f"domain.path: {label!r}: {flipped.size} tetrahedra listed with left-handed vertices (0-based "
+                     f"{meshes.index_list(flipped)}) were reoriented by swapping two vertices (the same tetrahedra)")
+    if dropped.size:
+        notes.append(f"domain.path: {label!r}: dropped {dropped.size} node(s) that belong to no {_ELEMENT_NOUN[dim]} "
+                     f"(0-based {meshes.index_list(dropped)}); the other nodes were renumbered in their order")
+    return mesh, notes, dropped.size > 0
 
 
 def _new_mesh(p, t, **options):
@@ -770,9 +764,9 @@ def _new_mesh(p, t, **options):
     return skfem.MeshTri(p, t, **options)
 
 
-def _facet_index(mesh, nodes) -> np.ndarray:
+def _facet_index(mesh, nodes, name) -> np.ndarray:
     """Indices of the facets of ``mesh`` with the nodes ``nodes`` (``(2, k)`` edges, ``(3, k)`` triangles), in that
-    order."""
+    order (``name``: the file's)."""
     facets = np.sort(np.asarray(mesh.facets, dtype=np.int64), axis=0)
     rows = facets.shape[0]
     wanted = np.sort(np.asarray(nodes, dtype=np.int64).reshape(rows, -1), axis=0)
@@ -782,12 +776,12 @@ def _facet_index(mesh, nodes) -> np.ndarray:
     owner[label[:facets.shape[1]]] = np.arange(facets.shape[1])
     found = owner[label[facets.shape[1]:]]
     if np.any(found < 0):
-        raise _mesh_error("a named boundary of the file lies on no facet of its elements (an edge of its triangles, "
-                          "a face of its tetrahedra)")
+        raise _mesh_error(f"{name!r}: a named boundary of the file lies on no facet of its elements (an edge of its "
+                          "triangles, a face of its tetrahedra)")
     return found
 
 
-def _skfem_boundaries(m, kind, t, mesh):
+def _skfem_boundaries(m, kind, t, mesh, name):
     """Boundaries scikit-fem wrote into the file (``skfem:b:NAME`` cell data), as facet indices of ``mesh``: bit
     flags of each element's local facets in the node order ``t`` *as written*, decoded here in that order
     (scikit-fem's reader sorts the nodes first, which picks other facets of elements not written sorted)."""
@@ -800,27 +794,10 @@ def _skfem_boundaries(m, kind, t, mesh):
             continue
         flags = np.concatenate([np.asarray(data[i]).ravel() for i in blocks]).astype(np.int64)
         if flags.size != t.shape[1]:
-            raise _mesh_error(f"the boundary {parts[2]!r} of the file does not match its elements")
+            raise _mesh_error(f"{name!r}: the boundary {parts[2]!r} of the file does not match its elements")
         nodes = [t[local[k]][:, (flags >> k) & 1 == 1] for k in range(local.shape[0])]
-        out[parts[2]] = np.sort(_facet_index(mesh, np.concatenate(nodes, axis=1)))
+        out[parts[2]] = np.sort(_facet_index(mesh, np.concatenate(nodes, axis=1), name))
     return out
-
-
-#: what a mesh of each dimension is made of, in notes and refusals
-_ELEMENT_NOUN = {2: "triangle", 3: "tetrahedron"}
-
-
-def _file_notes(path, mesh, dropped, flipped) -> list:
-    """What reading a mesh file changed: its reoriented tetrahedra, its dropped nodes."""
-    notes = []
-    if flipped.size:
-        notes.append(f"domain.path: {path!r}: {flipped.size} tetrahedra listed with left-handed vertices (0-based "
-                     f"{meshes.index_list(flipped)}) were reoriented by swapping two vertices (the same tetrahedra)")
-    if dropped.size:
-        notes.append(f"domain.path: {path!r}: dropped {dropped.size} node(s) that belong to no "
-                     f"{_ELEMENT_NOUN[mesh.p.shape[0]]} (0-based {meshes.index_list(dropped)}); the other nodes "
-                     "were renumbered in their order")
-    return notes
 
 
 def read_mesh(path, scale=1.0, notes=None):
@@ -836,9 +813,9 @@ def read_mesh(path, scale=1.0, notes=None):
     scale = _within("scale", scale, SIZE_RANGE)
     if notes is not None and not isinstance(notes, list):
         raise ParameterError("notes", f"notes must be a list (the notes are appended to it) or None, got {show(notes)}")
-    mesh, dropped, flipped = _read_mesh(path, scale)
+    mesh, said, _ = _read_mesh(path, scale, path.name)
     if notes is not None:
-        notes.extend(_file_notes(path.name, mesh, dropped, flipped))
+        notes.extend(said)
     return mesh
 
 
