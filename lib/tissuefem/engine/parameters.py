@@ -388,7 +388,7 @@ def string(field, value, choices=None, *, nonempty=False) -> str:
 
 
 def count_list(field, value, what, maximum) -> list:
-    if not is_sequence(value) or not value:
+    if not is_sequence(value) or len(value) == 0:  # (an array has no truth value)
         raise ParameterError(field, f"{field} must be a non-empty list of {what}, got {show(value)}")
     if len(value) > maximum:
         raise ParameterError(field, f"{field}: at most {maximum} {what}, got {len(value)}")
