@@ -423,15 +423,17 @@ def _check_text_nesting(text, kind):
 
 # --- TOML output (the subset scenes use: tables, arrays of tables, numbers, strings, arrays) ---------------------
 
-def _toml_key(k) -> str:
-    return k if re.fullmatch(r"[A-Za-z0-9_-]+", k) else _toml_value(k)
+def _toml_pairs(values) -> list:
+    """The ``key = value`` lines of a table (a key that is not bare is quoted as a string is)."""
+    return [f"{k if re.fullmatch(r'[A-Za-z0-9_-]+', k) else _toml_value(k)} = {_toml_value(v)}"
+            for k, v in values.items()]
 
 
 def _toml_value(v) -> str:
     """``v`` as a TOML value: a table inline, an array, or a number, boolean or string, which JSON writes as TOML
     does (shortest round-tripping floats; strings escaped alike but for DEL, which TOML escapes too)."""
     if isinstance(v, dict):
-        return "{ " + ", ".join(f"{_toml_key(k)} = {_toml_value(x)}" for k, x in v.items()) + " }"
+        return "{ " + ", ".join(_toml_pairs(v)) + " }"
     if isinstance(v, (list, tuple)):
         return "[" + ", ".join(_toml_value(x) for x in v) + "]"
     if not isinstance(v, (bool, int, float, str, np.integer, np.floating)):
@@ -441,16 +443,12 @@ def _toml_value(v) -> str:
 
 
 def _toml(data) -> str:
-    lines = [f"{key} = {_toml_value(data[key])}" for key in ("name", "description") if key in data]
-
-    def add(header, values):
-        lines.extend(["", header] + [f"{_toml_key(k)} = {_toml_value(v)}" for k, v in values.items()])
-
+    lines = _toml_pairs({key: data[key] for key in ("name", "description") if key in data})
     for section in ("domain", "material", "solver"):
-        add(f"[{section}]", data[section])
+        lines += ["", f"[{section}]", *_toml_pairs(data[section])]
     for kind, value in data["effects"].items():
         for entry in value if _listed(kind) else [value]:
-            add(f"[[effects.{kind}]]" if _listed(kind) else f"[effects.{kind}]", entry)
+            lines += ["", f"[[effects.{kind}]]" if _listed(kind) else f"[effects.{kind}]", *_toml_pairs(entry)]
     return "\n".join(lines) + "\n"
 
 
