@@ -313,10 +313,8 @@ def _check_solver(s):
 
 def _check_2d_only(effects, dim, where=""):
     """Refuse, naming the effect, what a 3D scene cannot have yet (:data:`TWO_D_ONLY`)."""
-    if dim != 3:
-        return
     for kind, what in TWO_D_ONLY.items():
-        if kind in effects:
+        if dim == 3 and kind in effects:
             raise ParameterError(f"effects.{kind}", f"effects.{kind}: {what} are 2D only for now, and this scene "
                                                     f"is 3D (tetrahedra{where}); leave effects.{kind} out")
 
