@@ -71,12 +71,6 @@ def check_real_number(name: str, value) -> float:
             from None
 
 
-def _interval(lo, hi, lo_open, hi_open) -> str:
-    lo_text = "-inf" if lo is None else f"{lo:g}"
-    hi_text = "inf" if hi is None else f"{hi:g}"
-    return f"{'(' if lo_open else '['}{lo_text}, {hi_text}{')' if hi_open else ']'}"
-
-
 def check_real(name: str, value, lo=None, hi=None, *, lo_open: bool = False, hi_open: bool = False) -> float:
     """``value`` as a finite float within ``[lo, hi]`` (ends open on request; ``None``: unbounded), else a
     ``ParameterError`` naming ``name`` (also for bools, strings, complex numbers and integers too large)."""
@@ -89,7 +83,8 @@ def check_real(name: str, value, lo=None, hi=None, *, lo_open: bool = False, hi_
     elif hi is not None and (v >= hi if hi_open else v > hi):
         violated = f"{'<' if hi_open else '<='} {hi:g}"
     if violated is not None:
-        allowed = _interval(lo, hi, lo_open, hi_open)
+        lo_text, hi_text = "-inf" if lo is None else f"{lo:g}", "inf" if hi is None else f"{hi:g}"
+        allowed = f"{'(' if lo_open else '['}{lo_text}, {hi_text}{')' if hi_open else ']'}"
         raise ParameterError(name, f"{name} must be {violated} (allowed range {allowed}), got {show(value)}")
     return v
 
@@ -321,8 +316,8 @@ def show(value) -> str:
 
 
 def number(field, value, *, positive=False, integer=False, lo=None, hi=None):
-    """``value`` as a number for ``field`` within ``[lo, hi]`` (``positive``: within ``(0, hi]``); with ``integer``
-    (and ``lo``), a float such as ``800.0`` is refused."""
+    """``value`` as a number for ``field`` within ``[lo, hi]`` (``positive``: within ``(0, hi]``, ``lo`` unused);
+    with ``integer`` (and ``lo``), a float such as ``800.0`` is refused."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise ParameterError(field, f"{field} must be a number, got {show(value)}")
     if integer:

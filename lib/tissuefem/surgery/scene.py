@@ -22,6 +22,7 @@ import logging
 import math
 import os
 import re
+import tomllib
 import types
 from pathlib import Path
 
@@ -512,8 +513,6 @@ class Scene:
 
     @classmethod
     def from_toml(cls, text, base_dir=None) -> "Scene":
-        import tomllib  # deferred: only scene text needs it
-
         return cls._parse(tomllib.loads, "TOML", text, base_dir)
 
     @classmethod
