@@ -321,8 +321,8 @@ def _check_2d_only(effects, dim, where=""):
 
 
 def _placed(effects):
-    """``(field, kind, value)`` of each point (a handle's ``"box"``: two corners), ``"radius"``, ``"displacement"``
-    (a handle's target) and other ``"vector"`` of checked effects, in the order they are checked."""
+    """``(field, kind, value)`` of each ``"point"`` (a handle's ``"box"``: its two corners), ``"radius"``,
+    ``"displacement"`` (a handle's target) and other ``"vector"`` of checked effects, in the order they are checked."""
     for i, h in enumerate(effects.get("handles", [])):
         region = h["region"] if isinstance(h["region"], dict) else {}
         for key, kind in (("box", "box"), ("near", "point"), ("radius", "radius")):
