@@ -22,7 +22,6 @@ import logging
 import math
 import os
 import re
-import tomllib
 import types
 from pathlib import Path
 
@@ -513,6 +512,8 @@ class Scene:
 
     @classmethod
     def from_toml(cls, text, base_dir=None) -> "Scene":
+        import tomllib  # deferred: only scene text needs it (a test keeps `import tissuefem` from loading it)
+
         return cls._parse(tomllib.loads, "TOML", text, base_dir)
 
     @classmethod
