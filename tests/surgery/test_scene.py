@@ -296,3 +296,14 @@ def test_a_long_dotted_key_is_refused_before_parsing(key, monkeypatch):
     dotted = EXAMPLE_TOML.replace("[effects.inertia]\ntime_step", "[effects]\ninertia . 'time_step'")
     # dots in numbers, strings and short keys pass
     assert Scene.from_toml(dotted) == Scene.from_toml(EXAMPLE_TOML)
+
+
+def test_a_list_field_may_be_a_numpy_array():
+    """count_list asks a list's length, never its truth (a numpy array of two or more has none): node indices given
+    as an array are checked like a list, and an empty array is refused naming the field."""
+    data = sheet(handles=[{"name": "held", "region": {"nodes": np.array([0, 1, 2])}}])
+    assert Scene.from_dict(data).effects["handles"][0]["region"]["nodes"] == [0, 1, 2]
+    data["effects"]["handles"][0]["region"]["nodes"] = np.array([], dtype=int)
+    with pytest.raises(ValueError, match="non-empty list") as refused:
+        Scene.from_dict(data)
+    assert refused.value.field == "effects.handles[0].region.nodes"

@@ -149,7 +149,7 @@ def _check_fibers(field, e):
         direction = vector(f"{field}.direction", direction)
         if not any(direction):
             raise ParameterError(f"{field}.direction", f"{field}.direction must not be zero")
-    return {"stiffness": number(f"{field}.stiffness", e["stiffness"], nonnegative=True, hi=FIBER_STIFFNESS_RANGE[1]),
+    return {"stiffness": number(f"{field}.stiffness", e["stiffness"], lo=0.0, hi=FIBER_STIFFNESS_RANGE[1]),
             "direction": direction}
 
 
@@ -205,8 +205,7 @@ def _check_suture(field, e):
     e = table(field, e, ("pairs", "stiffness", "tightness"))
     pairs = count_list(f"{field}.pairs", e.get("pairs"), "point pairs [[x1, y1], [x2, y2]]", MAX_POINTS)
     checked = [points(f"{field}.pairs[{j}]", pair, 2, 2) for j, pair in enumerate(pairs)]
-    out = {"pairs": checked, "tightness": number(f"{field}.tightness", e.get("tightness", 1.0), nonnegative=True,
-                                                 hi=1.0)}
+    out = {"pairs": checked, "tightness": number(f"{field}.tightness", e.get("tightness", 1.0), lo=0.0, hi=1.0)}
     if "stiffness" in e:
         out["stiffness"] = penalty(f"{field}.stiffness", e["stiffness"], positive=True)
     return out

@@ -19,8 +19,8 @@ import numpy as np
 __all__ = [
     "ParameterError", "lame_parameters", "check_poisson_ratio", "check_lame", "check_real", "check_real_number",
     "check_count", "check_positive", "call_user", "check_list", "check_vector", "check_bounded_vector",
-    "check_real_array", "check_indices", "check_reach", "check_weights", "check_fiber_stiffness", "check_time_step",
-    "check_density", "check_contact_stiffness", "check_penalty_stiffness", "YOUNGS_MODULUS_RANGE",
+    "check_real_array", "check_indices", "check_reach", "check_radius", "check_weights", "check_fiber_stiffness",
+    "check_time_step", "check_density", "check_contact_stiffness", "check_penalty_stiffness", "YOUNGS_MODULUS_RANGE",
     "POISSON_RATIO_RANGE", "LAME_MAX", "SHEAR_MODULUS_MIN", "TIME_STEP_RANGE", "DENSITY_RANGE", "ACCELERATION_MAX",
     "FORCE_MAX", "PENALTY_MAX", "PENALTY_STIFFNESS_MAX", "CONTACT_STIFFNESS_MAX", "REACH", "RADIUS_RANGE",
     # a scene's tables: each refusal names the field (``effects.probes[0].radius``)
@@ -71,12 +71,6 @@ def check_real_number(name: str, value) -> float:
             from None
 
 
-def _interval(lo, hi, lo_open, hi_open) -> str:
-    lo_text = "-inf" if lo is None else f"{lo:g}"
-    hi_text = "inf" if hi is None else f"{hi:g}"
-    return f"{'(' if lo_open else '['}{lo_text}, {hi_text}{')' if hi_open else ']'}"
-
-
 def check_real(name: str, value, lo=None, hi=None, *, lo_open: bool = False, hi_open: bool = False) -> float:
     """``value`` as a finite float within ``[lo, hi]`` (ends open on request; ``None``: unbounded), else a
     ``ParameterError`` naming ``name`` (also for bools, strings, complex numbers and integers too large)."""
@@ -89,7 +83,8 @@ def check_real(name: str, value, lo=None, hi=None, *, lo_open: bool = False, hi_
     elif hi is not None and (v >= hi if hi_open else v > hi):
         violated = f"{'<' if hi_open else '<='} {hi:g}"
     if violated is not None:
-        allowed = _interval(lo, hi, lo_open, hi_open)
+        lo_text, hi_text = "-inf" if lo is None else f"{lo:g}", "inf" if hi is None else f"{hi:g}"
+        allowed = f"{'(' if lo_open else '['}{lo_text}, {hi_text}{')' if hi_open else ']'}"
         raise ParameterError(name, f"{name} must be {violated} (allowed range {allowed}), got {show(value)}")
     return v
 
@@ -158,13 +153,24 @@ def check_indices(name: str, value, count: int, what: str = "indices") -> np.nda
     return idx.astype(np.intp)
 
 
-def check_reach(name, point, middle, size) -> np.ndarray:
-    """``point`` if it lies within ``REACH`` domain sizes of the domain's centre ``middle``, else ``ValueError``."""
+def check_reach(name, point, middle, size, where="") -> np.ndarray:
+    """``point`` if it lies within ``REACH`` domain sizes of the domain's centre ``middle``, else ``ValueError``
+    (``where``, said of the domain, ends the message)."""
     far = REACH * size
     if np.any(np.abs(np.asarray(point) - middle) > far):
         raise ParameterError(name, f"{name} = {np.asarray(point).tolist()} lies farther than {REACH:g} domain sizes "
-                                   f"({far:g}) from the domain's centre ({', '.join(f'{c:g}' for c in middle)})")
+                                   f"({far:g}) from the domain's centre ({', '.join(f'{c:g}' for c in middle)}){where}")
     return point
+
+
+def check_radius(name, radius: float, size, where="") -> float:
+    """A radius (a positive number) within :data:`RADIUS_RANGE` domain sizes ``size``: a tool's default stiffness
+    (``~ E / r``), its penalty and its depths stay finite (``where``, said of the domain, ends the message)."""
+    lo, hi = RADIUS_RANGE[0] * size, RADIUS_RANGE[1] * size
+    if not lo <= radius <= hi:
+        raise ParameterError(name, f"{name} = {radius:g} must lie within [{RADIUS_RANGE[0]:g}, {RADIUS_RANGE[1]:g}] "
+                                   f"domain sizes, i.e. [{lo:g}, {hi:g}]{where}")
+    return radius
 
 
 def check_weights(weights, m) -> np.ndarray:
@@ -309,16 +315,14 @@ def show(value) -> str:
         return f"a {type(value).__name__}"
 
 
-def number(field, value, *, positive=False, nonnegative=False, integer=False, lo=None, hi=None):
-    """``value`` as a number for ``field`` within ``[lo, hi]``; without ``lo``, ``positive`` means > 0 and
-    ``nonnegative`` >= 0; with ``integer`` (and ``lo``), a float such as ``800.0`` is refused."""
+def number(field, value, *, positive=False, integer=False, lo=None, hi=None):
+    """``value`` as a number for ``field`` within ``[lo, hi]`` (``positive``: within ``(0, hi]``, ``lo`` unused);
+    with ``integer`` (and ``lo``), a float such as ``800.0`` is refused."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise ParameterError(field, f"{field} must be a number, got {show(value)}")
     if integer:
         return check_count(field, value, int(lo), None if hi is None else int(hi))
-    if lo is None and (positive or nonnegative):
-        return check_real(field, value, 0.0, hi, lo_open=positive)
-    return check_real(field, value, lo, hi)
+    return check_real(field, value, 0.0 if positive else lo, hi, lo_open=positive)
 
 
 def is_sequence(value) -> bool:
@@ -379,7 +383,7 @@ def string(field, value, choices=None, *, nonempty=False) -> str:
 
 
 def count_list(field, value, what, maximum) -> list:
-    if not is_sequence(value) or not value:
+    if not is_sequence(value) or len(value) == 0:  # (an array has no truth value)
         raise ParameterError(field, f"{field} must be a non-empty list of {what}, got {show(value)}")
     if len(value) > maximum:
         raise ParameterError(field, f"{field}: at most {maximum} {what}, got {len(value)}")
@@ -387,4 +391,4 @@ def count_list(field, value, what, maximum) -> list:
 
 
 def penalty(field, value, positive=False) -> float:
-    return number(field, value, positive=positive, nonnegative=not positive, hi=PENALTY_MAX)
+    return number(field, value, positive=positive, lo=0.0, hi=PENALTY_MAX)

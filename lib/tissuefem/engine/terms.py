@@ -34,8 +34,8 @@ from skfem import FacetBasis, LinearForm, asm
 
 from .assembly import element_geometry
 from .materials import FiberFamily, check_fiber_stiffness, vector_length
-from .parameters import (FORCE_MAX, RADIUS_RANGE, REACH, YOUNGS_MODULUS_RANGE, ParameterError, check_bounded_vector,
-                         check_density, check_indices, check_penalty_stiffness, check_reach, check_real,
+from .parameters import (FORCE_MAX, REACH, YOUNGS_MODULUS_RANGE, ParameterError, check_bounded_vector, check_density,
+                         check_indices, check_penalty_stiffness, check_radius, check_reach, check_real,
                          check_real_array, check_time_step, check_vector, check_weights, string)
 from .vectors import dot
 
@@ -494,15 +494,9 @@ class Probe(Term):
         self.surface = np.flatnonzero(self.length > 0)
         self._middle, self._size = extent(X)
         self.move(center)
-        # a radius in domain sizes: the default stiffness of a tool (~ E / r) and its depths stay finite
-        r = check_real("probe.radius", radius, 0.0, None, lo_open=True)
-        lo, hi = RADIUS_RANGE[0] * self._size, RADIUS_RANGE[1] * self._size
-        if not lo <= r <= hi:
-            raise ValueError(f"probe.radius = {r:g} must lie within [{RADIUS_RANGE[0]:g}, {RADIUS_RANGE[1]:g}] "
-                             f"domain sizes, i.e. [{lo:g}, {hi:g}]")
-        self.radius = r
+        self.radius = check_radius("probe.radius", check_real("probe.radius", radius, 0.0, lo_open=True), self._size)
         # against the stiffest material: the model checks it against its own (effects.youngs_modulus)
-        self.stiffness = check_penalty_stiffness("probe.stiffness", stiffness, YOUNGS_MODULUS_RANGE[1], r)
+        self.stiffness = check_penalty_stiffness("probe.stiffness", stiffness, YOUNGS_MODULUS_RANGE[1], self.radius)
         # g^3 / (6 delta): a smoothing length far below the radius would overflow the energy
         self.smoothing = check_real("probe.smoothing", smoothing, 1e-6, 1.0)
         self.delta = self.smoothing * self.radius

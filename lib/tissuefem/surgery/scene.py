@@ -35,8 +35,8 @@ from ..engine.inversion import ITFClamped, ProjectedTangent
 from ..engine.linsolve import LinearSolver
 from ..engine.materials import MATERIALS, material as make_material
 from ..engine.parameters import (DENSITY_RANGE, FAR, RADIUS_RANGE, REACH, YOUNGS_MODULUS_RANGE,
-                                 ParameterError, check_poisson_ratio, count_list, is_sequence, number, points,
-                                 require, show, string, table, vector)
+                                 ParameterError, check_poisson_ratio, check_radius, check_reach, count_list,
+                                 is_sequence, number, points, require, show, string, table, vector)
 
 __all__ = ["Scene", "EFFECTS", "SHAPES", "TWO_D_ONLY", "EXAMPLE_TOML", "demo_scene", "flap_scene", "flap_path",
            "read_mesh"]
@@ -77,8 +77,6 @@ THRESHOLD_RANGE = (0.01, 0.99)
 BUDGET_RANGE = (1e-6, 1e9)
 RTOL_RANGE = (1e-14, 0.5)
 MAX_ITERATIONS = 1000
-#: points and displacements lie within REACH domain sizes of the centre; radii within MIN_RADIUS and REACH sizes
-MIN_RADIUS = RADIUS_RANGE[0]
 #: entries of one list-valued effect (handles, and an effect registered later); each limit is one that a test builds
 #: at its maximum within a stated time (docs/scenes.md): what is accepted can also be computed
 MAX_ENTRIES = 1000
@@ -221,7 +219,7 @@ def _check_region(field, r):
     if "near" in r:
         table(field, r, ("near", "radius"))
         return {"near": vector(f"{field}.near", r["near"]),
-                "radius": _within(f"{field}.radius", r.get("radius", 0.05), (MIN_RADIUS * SIZE_RANGE[0], FAR))}
+                "radius": _within(f"{field}.radius", r.get("radius", 0.05), (RADIUS_RANGE[0] * SIZE_RANGE[0], FAR))}
     if "nodes" in r:
         nodes = count_list(f"{field}.nodes", table(field, r, ("nodes",))["nodes"], "node indices", MAX_NODES)
         return {"nodes": [number(f"{field}.nodes[{i}]", n, integer=True, lo=0, hi=MAX_NODES - 1)
@@ -315,73 +313,60 @@ def _check_solver(s):
 
 def _check_2d_only(effects, dim, where=""):
     """Refuse, naming the effect, what a 3D scene cannot have yet (:data:`TWO_D_ONLY`)."""
-    if dim != 3:
-        return
     for kind, what in TWO_D_ONLY.items():
-        if kind in effects:
+        if dim == 3 and kind in effects:
             raise ParameterError(f"effects.{kind}", f"effects.{kind}: {what} are 2D only for now, and this scene "
                                                     f"is 3D (tetrahedra{where}); leave effects.{kind} out")
 
 
+def _placed(effects):
+    """``(field, kind, value)`` of each ``"point"`` (a handle's ``"box"``: its two corners), ``"radius"``,
+    ``"displacement"`` (a handle's target) and other ``"vector"`` of checked effects, in the order they are checked."""
+    for i, h in enumerate(effects.get("handles", [])):
+        region = h["region"] if isinstance(h["region"], dict) else {}
+        for key, kind in (("box", "box"), ("near", "point"), ("radius", "radius")):
+            if key in region:
+                yield f"effects.handles[{i}].region.{key}", kind, region[key]
+        if "target" in h:
+            yield f"effects.handles[{i}].target", "displacement", h["target"]
+    for kind, key in (("gravity", "acceleration"), ("fibers", "direction")):
+        if isinstance(effects.get(kind, {}).get(key), list):  # a file's default gravity, fibres "fusiform": none
+            yield f"effects.{kind}.{key}", "vector", effects[kind][key]
+    for i, t in enumerate(effects.get("tractions", [])):
+        yield f"effects.tractions[{i}].traction", "vector", t["traction"]
+    for i, p in enumerate(effects.get("probes", [])):
+        yield f"effects.probes[{i}].center", "point", p["center"]
+        yield f"effects.probes[{i}].radius", "radius", p["radius"]
+    for kind, key in (("excisions", "polygon"), ("incisions", "path")):
+        for i, e in enumerate(effects.get(kind, [])):
+            yield from ((f"effects.{kind}[{i}].{key}[{j}]", "point", q) for j, q in enumerate(e[key]))
+    for i, e in enumerate(effects.get("sutures", [])):
+        for j, pair in enumerate(e["pairs"]):
+            yield from ((f"effects.sutures[{i}].pairs[{j}][{k}]", "point", q) for k, q in enumerate(pair))
+
+
 def _check_reach(effects, lo, hi, where=""):
     """Points and vectors against the domain, the box ``lo``-``hi`` of size ``L`` (its longest side): each has the
-    domain's dimension; points and displacements lie within ``REACH L`` of its centre, radii ``>= MIN_RADIUS L``."""
+    domain's dimension; points and displacements lie within ``REACH L`` of its centre, radii within
+    ``RADIUS_RANGE L``."""
     lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
-    dim = lo.size
-    size = float(np.max(hi - lo))
-    centre = 0.5 * (lo + hi)
-    far = REACH * size
-
-    def sized(field, v, n=dim):
+    dim, size, centre = lo.size, float(np.max(hi - lo)), 0.5 * (lo + hi)
+    for field, kind, v in _placed(effects):
+        if kind == "radius":
+            check_radius(field, v, size, where)
+            continue
+        n = 2 * dim if kind == "box" else dim
         if len(v) != n:
             raise ParameterError(field, f"{field} = {v} has {len(v)} components, but the domain is {dim}D{where}: "
                                         f"it needs {n}")
-
-    def point(field, p):
-        sized(field, p)
-        if np.any(np.abs(np.asarray(p) - centre) > far):
-            raise ParameterError(field,
-                                 f"{field} = {p} lies farther than {REACH:g} domain sizes ({far:g}) from the domain's "
-                                 f"centre ({', '.join(f'{c:g}' for c in centre)}){where}")
-
-    def radius(field, r):
-        if not MIN_RADIUS * size <= r <= far:
-            raise ParameterError(field,
-                                 f"{field} = {r:g} must lie within [{MIN_RADIUS:g}, {REACH:g}] domain sizes, i.e. "
-                                 f"[{MIN_RADIUS * size:g}, {far:g}]{where}")
-
-    for i, h in enumerate(effects.get("handles", [])):
-        field, region = f"effects.handles[{i}]", h["region"]
-        if isinstance(region, dict) and "box" in region:
-            sized(f"{field}.region.box", region["box"], 2 * dim)
-            point(f"{field}.region.box[0:{dim}]", region["box"][:dim])
-            point(f"{field}.region.box[{dim}:{2 * dim}]", region["box"][dim:])
-        elif isinstance(region, dict) and "near" in region:
-            point(f"{field}.region.near", region["near"])
-            radius(f"{field}.region.radius", region["radius"])
-        if "target" in h:
-            sized(f"{field}.target", h["target"])
-            if max(abs(c) for c in h["target"]) > far:
-                raise ParameterError(f"{field}.target",
-                                     f"{field}.target = {h['target']}: a displacement larger than {REACH:g} domain "
-                                     f"sizes ({far:g}){where}")
-    if "acceleration" in effects.get("gravity", {}):
-        sized("effects.gravity.acceleration", effects["gravity"]["acceleration"])
-    if isinstance(effects.get("fibers", {}).get("direction"), list):
-        sized("effects.fibers.direction", effects["fibers"]["direction"])
-    for i, t in enumerate(effects.get("tractions", [])):
-        sized(f"effects.tractions[{i}].traction", t["traction"])
-    for i, p in enumerate(effects.get("probes", [])):
-        point(f"effects.probes[{i}].center", p["center"])
-        radius(f"effects.probes[{i}].radius", p["radius"])
-    for kind, key in (("excisions", "polygon"), ("incisions", "path")):
-        for i, e in enumerate(effects.get(kind, [])):
-            for j, q in enumerate(e[key]):
-                point(f"effects.{kind}[{i}].{key}[{j}]", q)
-    for i, e in enumerate(effects.get("sutures", [])):
-        for j, pair in enumerate(e["pairs"]):
-            for k, q in enumerate(pair):
-                point(f"effects.sutures[{i}].pairs[{j}][{k}]", q)
+        if kind == "box":
+            check_reach(f"{field}[0:{dim}]", v[:dim], centre, size, where)
+            check_reach(f"{field}[{dim}:{2 * dim}]", v[dim:], centre, size, where)
+        elif kind == "point":
+            check_reach(field, v, centre, size, where)
+        elif kind == "displacement" and max(abs(c) for c in v) > REACH * size:
+            raise ParameterError(field, f"{field} = {v}: a displacement larger than {REACH:g} domain sizes "
+                                        f"({REACH * size:g}){where}")
 
 
 def _check_nesting(data, limit=MAX_NESTING):
@@ -404,31 +389,25 @@ def _check_nesting(data, limit=MAX_NESTING):
 _SKIP_TOML = re.compile(r'"""(?:[^"\\]|\\.|"(?!""))*"""|\'\'\'.*?\'\'\'|"(?:[^"\\\n]|\\.)*"|\'[^\'\n]*\'|#[^\n]*',
                         re.S)
 _SKIP_JSON = re.compile(r'"(?:[^"\\]|\\.)*"', re.S)
-#: what ends a TOML key path (a number or a date between them has at most one dot)
-_KEY_ENDS = [ord(c) for c in "=\n,[]{}"]
+#: what opens and closes a table or an array; what ends a TOML key path (a number or a date between has one dot)
+_OPENS, _CLOSES, _KEY_ENDS = [ord("["), ord("{")], [ord("]"), ord("}")], [ord(c) for c in "=\n,[]{}"]
 
 
 def _check_text_nesting(text, kind):
     """Refuse a text whose brackets nest deeper than :data:`MAX_NESTING`, or (TOML) a dotted key path of more
     parts (JSON's key paths are its brackets), naming the line; a linear scan before any parsing."""
     codes = np.frombuffer(text.encode("utf-32-le", "surrogatepass"), dtype="<u4")
-    step = np.zeros(codes.size, dtype=np.int8)
-    step[(codes == ord("[")) | (codes == ord("{"))] = 1
-    step[(codes == ord("]")) | (codes == ord("}"))] = -1
-    dots = codes == ord(".") if kind == "TOML" else np.zeros(codes.size, dtype=bool)
-    if not step.any() and not dots.any():
-        return
     outside = np.ones(codes.size, dtype=bool)
     for m in (_SKIP_TOML if kind == "TOML" else _SKIP_JSON).finditer(text):
         outside[m.start():m.end()] = False
-    step[~outside] = 0
-    depth = np.cumsum(step, dtype=np.int64)
+    step = np.isin(codes, _OPENS).astype(np.int64) - np.isin(codes, _CLOSES)  # +1 where a bracket opens, -1 closes
+    depth = np.cumsum(np.where(outside, step, 0))
     too_deep = np.flatnonzero(depth > MAX_NESTING)
     if too_deep.size:
         line = text.count("\n", 0, int(too_deep[0])) + 1
         raise ParameterError("scene", f"scene: its {kind} nests deeper than {MAX_NESTING} levels "
                                       f"(line {line}); a scene needs at most 7")
-    at = np.flatnonzero(dots & outside)
+    at = np.flatnonzero((codes == ord(".")) & outside) if kind == "TOML" else np.zeros(0, dtype=np.intp)
     if at.size:
         key = np.searchsorted(np.flatnonzero(np.isin(codes, _KEY_ENDS) & outside), at)  # each dot's key path
         parts = np.bincount(key) + 1
@@ -442,15 +421,17 @@ def _check_text_nesting(text, kind):
 
 # --- TOML output (the subset scenes use: tables, arrays of tables, numbers, strings, arrays) ---------------------
 
-def _toml_key(k) -> str:
-    return k if re.fullmatch(r"[A-Za-z0-9_-]+", k) else _toml_value(k)
+def _toml_pairs(values) -> list:
+    """The ``key = value`` lines of a table (a key that is not bare is quoted as a string is)."""
+    return [f"{k if re.fullmatch(r'[A-Za-z0-9_-]+', k) else _toml_value(k)} = {_toml_value(v)}"
+            for k, v in values.items()]
 
 
 def _toml_value(v) -> str:
     """``v`` as a TOML value: a table inline, an array, or a number, boolean or string, which JSON writes as TOML
     does (shortest round-tripping floats; strings escaped alike but for DEL, which TOML escapes too)."""
     if isinstance(v, dict):
-        return "{ " + ", ".join(f"{_toml_key(k)} = {_toml_value(x)}" for k, x in v.items()) + " }"
+        return "{ " + ", ".join(_toml_pairs(v)) + " }"
     if isinstance(v, (list, tuple)):
         return "[" + ", ".join(_toml_value(x) for x in v) + "]"
     if not isinstance(v, (bool, int, float, str, np.integer, np.floating)):
@@ -460,16 +441,12 @@ def _toml_value(v) -> str:
 
 
 def _toml(data) -> str:
-    lines = [f"{key} = {_toml_value(data[key])}" for key in ("name", "description") if key in data]
-
-    def add(header, values):
-        lines.extend(["", header] + [f"{_toml_key(k)} = {_toml_value(v)}" for k, v in values.items()])
-
+    lines = _toml_pairs({key: data[key] for key in ("name", "description") if key in data})
     for section in ("domain", "material", "solver"):
-        add(f"[{section}]", data[section])
+        lines += ["", f"[{section}]", *_toml_pairs(data[section])]
     for kind, value in data["effects"].items():
         for entry in value if _listed(kind) else [value]:
-            add(f"[[effects.{kind}]]" if _listed(kind) else f"[effects.{kind}]", entry)
+            lines += ["", f"[[effects.{kind}]]" if _listed(kind) else f"[effects.{kind}]", *_toml_pairs(entry)]
     return "\n".join(lines) + "\n"
 
 
@@ -535,7 +512,7 @@ class Scene:
 
     @classmethod
     def from_toml(cls, text, base_dir=None) -> "Scene":
-        import tomllib  # deferred: only scene text needs it
+        import tomllib  # deferred: only scene text needs it (a test keeps `import tissuefem` from loading it)
 
         return cls._parse(tomllib.loads, "TOML", text, base_dir)
 
@@ -630,11 +607,11 @@ class Scene:
             return _MESHERS[d["shape"]](**{("n_triangles" if k == "triangles" else k): v
                                            for k, v in d.items() if k != "shape"})
         path = Path(d["path"]) if self.base_dir is None else self.base_dir / d["path"]
-        mesh, dropped, flipped = _read_mesh(path, d["scale"])
+        mesh, notes, dropped = _read_mesh(path, d["scale"], d["path"])
         where = f", the mesh read from {d['path']!r}"
         _check_2d_only(self.effects, mesh.p.shape[0], where)
         _check_reach(self.effects, mesh.p.min(axis=1), mesh.p.max(axis=1), f" ({where[2:]})")
-        if dropped.size:
+        if dropped:
             noun = _ELEMENT_NOUN[mesh.p.shape[0]]
             for i, h in enumerate(self.effects.get("handles", [])):
                 if isinstance(h["region"], dict) and "nodes" in h["region"]:
@@ -642,7 +619,7 @@ class Scene:
                                          f"effects.handles[{i}].region.nodes: the mesh file has nodes in no {noun}, "
                                          "which are dropped and the rest renumbered, so node indices would point at "
                                          "other nodes; select the nodes with a box or near a point instead")
-        self.notes.extend(_file_notes(d["path"], mesh, dropped, flipped))
+        self.notes = notes
         return mesh
 
     def build_material(self):
@@ -663,20 +640,13 @@ class Scene:
 #: the cells a mesh file may hold: 3-node triangles or 4-node tetrahedra, and cells of lower dimension (groups: a
 #: tetrahedron mesh's triangles, lines, vertices)
 _CELLS_ALLOWED = ("tetra", "triangle", "line", "vertex")
+#: what a mesh of each dimension is made of, in notes and refusals
+_ELEMENT_NOUN = {2: "triangle", 3: "tetrahedron"}
 
 
 def _mesh_error(message) -> ParameterError:
     """The refusal of a mesh file: a ``ParameterError`` naming ``domain.path`` (the file a scene names)."""
     return ParameterError("domain.path", f"domain.path: {message}")
-
-
-def _check_file_mesh(p, t, name, unused_nodes="refuse"):
-    """:func:`~tissuefem.engine.meshes.check_mesh` of a file's mesh; a refusal names ``domain.path`` as its field
-    (check_mesh's field is the whole ``name``, which says which file and how its nodes are numbered)."""
-    try:
-        return meshes.check_mesh(p, t, name=name, unused_nodes=unused_nodes)
-    except ParameterError as err:
-        raise ParameterError("domain.path", str(err)) from None
 
 
 def _quietly(path, read, *args):
@@ -697,9 +667,9 @@ def _quietly(path, read, *args):
         logging.disable(previous)
 
 
-def _read_mesh(path, scale):
-    """``(mesh, dropped, flipped)``: the mesh of a file, the file's node indices that no element used (dropped) and
-    the indices of its tetrahedra listed left-handed (reoriented)."""
+def _read_mesh(path, scale, label):
+    """``(mesh, notes, dropped)``: the mesh of a file, what reading it changed (its tetrahedra listed left-handed,
+    reoriented; its nodes in no element, dropped), said of ``label``, and whether nodes were dropped."""
     path = Path(path)
     name = path.name
     try:
@@ -756,23 +726,30 @@ def _read_mesh(path, scale):
         flipped = np.flatnonzero(meshes.signed_volumes(types.SimpleNamespace(p=p, t=written)) < 0)
         t = written.copy()
         t[1, flipped], t[2, flipped] = written[2, flipped], written[1, flipped]
-    what = f"domain.path: {name!r} (0-based node numbers, after scaling)"
-    p, t = _check_file_mesh(p, t, what, "ignore")
-    named = _quietly(path, from_meshio, m)  # boundaries from physical groups or cell sets
-    kept = np.unique(t)  # the nodes in no element dropped, the rest renumbered in their order
-    new_index = np.full(p.shape[1], -1, dtype=np.int64)
-    new_index[kept] = np.arange(kept.size)
-    # as checked above (scaled, a 2D file's z dropped; triangles sorted as scikit-fem does)
-    mesh = _new_mesh(np.ascontiguousarray(p[:, kept]), new_index[t])
-    try:
-        boundaries = {label: _facet_index(mesh, new_index[np.asarray(named.facets)[:, np.asarray(facets)]])
-                      for label, facets in (named.boundaries or {}).items()}
-        boundaries.update(_skfem_boundaries(m, kind, new_index[written], mesh))
-    except ParameterError as err:  # said of the file: named here
-        raise _mesh_error(f"{name!r}: {str(err).removeprefix('domain.path: ')}") from None
-    mesh = _new_mesh(mesh.p, mesh.t, _boundaries=boundaries or None, _subdomains=named.subdomains)
-    _check_file_mesh(mesh.p, mesh.t, f"domain.path: {name!r}")
-    return mesh, np.flatnonzero(new_index < 0), flipped
+    try:  # check_mesh's refusal names the file and how its nodes are numbered; its field is domain.path
+        p, t = meshes.check_mesh(p, t, f"domain.path: {name!r} (0-based node numbers, after scaling)",
+                                 unused_nodes="ignore")
+        named = _quietly(path, from_meshio, m)  # boundaries from physical groups or cell sets
+        kept = np.unique(t)  # the nodes in no element dropped, the rest renumbered in their order
+        new_index = np.full(p.shape[1], -1, dtype=np.int64)
+        new_index[kept] = np.arange(kept.size)
+        # as checked above (scaled, a 2D file's z dropped; triangles sorted as scikit-fem does)
+        mesh = _new_mesh(np.ascontiguousarray(p[:, kept]), new_index[t])
+        boundaries = {group: _facet_index(mesh, new_index[np.asarray(named.facets)[:, np.asarray(facets)]], name)
+                      for group, facets in (named.boundaries or {}).items()}
+        boundaries.update(_skfem_boundaries(m, kind, new_index[written], mesh, name))
+        mesh = _new_mesh(mesh.p, mesh.t, _boundaries=boundaries or None, _subdomains=named.subdomains)
+        meshes.check_mesh(mesh.p, mesh.t, f"domain.path: {name!r}")
+    except ParameterError as err:
+        raise ParameterError("domain.path", str(err)) from None
+    dropped, notes = np.flatnonzero(new_index < 0), []
+    if flipped.size:
+        notes.append(f"domain.path: {label!r}: {flipped.size} tetrahedra listed with left-handed vertices (0-based "
+                     f"{meshes.index_list(flipped)}) were reoriented by swapping two vertices (the same tetrahedra)")
+    if dropped.size:
+        notes.append(f"domain.path: {label!r}: dropped {dropped.size} node(s) that belong to no {_ELEMENT_NOUN[dim]} "
+                     f"(0-based {meshes.index_list(dropped)}); the other nodes were renumbered in their order")
+    return mesh, notes, dropped.size > 0
 
 
 def _new_mesh(p, t, **options):
@@ -783,9 +760,9 @@ def _new_mesh(p, t, **options):
     return skfem.MeshTri(p, t, **options)
 
 
-def _facet_index(mesh, nodes) -> np.ndarray:
+def _facet_index(mesh, nodes, name) -> np.ndarray:
     """Indices of the facets of ``mesh`` with the nodes ``nodes`` (``(2, k)`` edges, ``(3, k)`` triangles), in that
-    order."""
+    order (``name``: the file's)."""
     facets = np.sort(np.asarray(mesh.facets, dtype=np.int64), axis=0)
     rows = facets.shape[0]
     wanted = np.sort(np.asarray(nodes, dtype=np.int64).reshape(rows, -1), axis=0)
@@ -795,12 +772,12 @@ def _facet_index(mesh, nodes) -> np.ndarray:
     owner[label[:facets.shape[1]]] = np.arange(facets.shape[1])
     found = owner[label[facets.shape[1]:]]
     if np.any(found < 0):
-        raise _mesh_error("a named boundary of the file lies on no facet of its elements (an edge of its triangles, "
-                          "a face of its tetrahedra)")
+        raise _mesh_error(f"{name!r}: a named boundary of the file lies on no facet of its elements (an edge of its "
+                          "triangles, a face of its tetrahedra)")
     return found
 
 
-def _skfem_boundaries(m, kind, t, mesh):
+def _skfem_boundaries(m, kind, t, mesh, name):
     """Boundaries scikit-fem wrote into the file (``skfem:b:NAME`` cell data), as facet indices of ``mesh``: bit
     flags of each element's local facets in the node order ``t`` *as written*, decoded here in that order
     (scikit-fem's reader sorts the nodes first, which picks other facets of elements not written sorted)."""
@@ -813,27 +790,10 @@ def _skfem_boundaries(m, kind, t, mesh):
             continue
         flags = np.concatenate([np.asarray(data[i]).ravel() for i in blocks]).astype(np.int64)
         if flags.size != t.shape[1]:
-            raise _mesh_error(f"the boundary {parts[2]!r} of the file does not match its elements")
+            raise _mesh_error(f"{name!r}: the boundary {parts[2]!r} of the file does not match its elements")
         nodes = [t[local[k]][:, (flags >> k) & 1 == 1] for k in range(local.shape[0])]
-        out[parts[2]] = np.sort(_facet_index(mesh, np.concatenate(nodes, axis=1)))
+        out[parts[2]] = np.sort(_facet_index(mesh, np.concatenate(nodes, axis=1), name))
     return out
-
-
-#: what a mesh of each dimension is made of, in notes and refusals
-_ELEMENT_NOUN = {2: "triangle", 3: "tetrahedron"}
-
-
-def _file_notes(path, mesh, dropped, flipped) -> list:
-    """What reading a mesh file changed: its reoriented tetrahedra, its dropped nodes."""
-    notes = []
-    if flipped.size:
-        notes.append(f"domain.path: {path!r}: {flipped.size} tetrahedra listed with left-handed vertices (0-based "
-                     f"{meshes.index_list(flipped)}) were reoriented by swapping two vertices (the same tetrahedra)")
-    if dropped.size:
-        notes.append(f"domain.path: {path!r}: dropped {dropped.size} node(s) that belong to no "
-                     f"{_ELEMENT_NOUN[mesh.p.shape[0]]} (0-based {meshes.index_list(dropped)}); the other nodes "
-                     "were renumbered in their order")
-    return notes
 
 
 def read_mesh(path, scale=1.0, notes=None):
@@ -849,9 +809,9 @@ def read_mesh(path, scale=1.0, notes=None):
     scale = _within("scale", scale, SIZE_RANGE)
     if notes is not None and not isinstance(notes, list):
         raise ParameterError("notes", f"notes must be a list (the notes are appended to it) or None, got {show(notes)}")
-    mesh, dropped, flipped = _read_mesh(path, scale)
+    mesh, said, _ = _read_mesh(path, scale, path.name)
     if notes is not None:
-        notes.extend(_file_notes(path.name, mesh, dropped, flipped))
+        notes.extend(said)
     return mesh
 
 

@@ -19,7 +19,7 @@ from ..engine import meshes
 from ..engine.effects import EFFECTS, factory
 from ..engine.meshes import MeshMap
 from ..engine.model import Handle, Model, region_nodes
-from ..engine.parameters import (PENALTY_MAX, RADIUS_RANGE, ParameterError, check_count, check_penalty_stiffness,
+from ..engine.parameters import (PENALTY_MAX, ParameterError, check_count, check_penalty_stiffness, check_radius,
                                  check_reach, check_vector, number, string)
 from ..engine.realtime import RealtimeSolver
 from ..engine.terms import Sutures, refuse_3d
@@ -174,12 +174,7 @@ class Simulation:
 
     def _radius(self, field, radius) -> float:
         """A radius within ``RADIUS_RANGE`` domain sizes: what a penalty ``~ 1 / r^2`` can be computed for."""
-        r = number(field, radius, positive=True)
-        lo, hi = RADIUS_RANGE[0] * self.model.size, RADIUS_RANGE[1] * self.model.size
-        if not lo <= r <= hi:
-            raise ParameterError(field, f"{field} = {r:g} must lie within [{RADIUS_RANGE[0]:g}, "
-                                        f"{RADIUS_RANGE[1]:g}] domain sizes, i.e. [{lo:g}, {hi:g}]")
-        return r
+        return check_radius(field, number(field, radius, positive=True), self.model.size)
 
     @property
     def picture(self):
