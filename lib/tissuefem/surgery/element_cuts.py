@@ -52,7 +52,7 @@ from .geometry import (EPS, WHOLE, Region, carry_names, check_points, check_regi
                        new_mesh, node_positions, overlaps, polygon_area, polygon_contains, reversed_intervals, snap,
                        subtract_intervals, winding)
 from .surfaces import contact_surface
-from .topology import MeshEdit, excise
+from .topology import MeshEdit, excise, split_nodes
 
 __all__ = ["Region", "Wound", "ElementCut", "cut_through", "excise_through", "Picture", "picture", "locate",
            "firm_anchor", "carry_points", "lumped_mass", "material_areas", "node_material"]
@@ -570,7 +570,7 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
             new_w[E] = w[e] * area / total
             if not whole:
                 new_regions[E] = region
-    parent = np.concatenate([np.arange(n, dtype=np.int64), np.asarray(new_parent, dtype=np.int64)])
+    parent = np.concatenate([np.arange(n, dtype=np.int64), new_parent])
     wound, cut_edges = _wound(p, t, arrangements, element_of_face, orientation, new_t)
     touches = np.ones((3, elements.size), dtype=bool)  # which local edges each element's material touches
     for e, region in new_regions.items():
@@ -583,10 +583,9 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
 
 def _number_nodes(t, n, key, side, affected, piece_ids, touched):
     """The node of every corner at the nodes of the cut elements (step 4): ``(node_of {(provisional id, local vertex):
-    node}, new_parent (the old node of each appended node), fan (the elements with a corner there))``. Of the classes
-    of joined corners at an old node, the one holding the lowest element keeps its index."""
-    hub = np.unique(t[:, affected])
-    at_hub = np.isin(np.arange(n), hub)
+    node}, new_parent (the old node of each appended node), fan (the elements with a corner there))``: the classes of
+    joined corners at each old node, numbered by :func:`~.topology.split_nodes` (the lowest piece keeps the node)."""
+    at_hub = np.isin(np.arange(n), t[:, affected])  # the hub: the nodes of the cut elements
     fan = np.flatnonzero(at_hub[t].any(axis=0))
     sel_k, sel_e = np.nonzero(at_hub[t[:, fan]] | at_hub[np.roll(t, -1, axis=0)[:, fan]])
     sel_e = fan[sel_e]
@@ -596,46 +595,31 @@ def _number_nodes(t, n, key, side, affected, piece_ids, touched):
         corners = (k, (k + 1) % 3) if forward else ((k + 1) % 3, k)  # the local vertices at the lower, higher node
         sides.setdefault(kk, ([], []))[0 if s > 0 else 1].append((e, k, forward, corners))
 
-    uf = {}  # union-find of the joined corners; a root is the least corner of its class
-
-    def find(c):
-        while uf.get(c, c) != c:
-            c = uf[c]
-        return c
+    corner, node = {}, []  # (provisional id, local vertex) -> index among the corners at the hub; their nodes
+    for e in fan.tolist():
+        for lv in range(3):
+            if at_hub[t[lv, e]]:
+                for pid in piece_ids.get(e, (e,)):
+                    corner[pid, lv] = len(node)
+                    node.append(int(t[lv, e]))
 
     def along(pid, k, forward):  # touched intervals, run from the edge's lower node to its higher
         iv = touched.get(pid, WHOLE.touch)[k]
         return iv if forward else reversed_intervals(iv)
 
+    links = []  # the joined corners
     for kk, (plus, minus) in sides.items():
         for e, k, e_fwd, e_corners in plus:
             for f, l, f_fwd, f_corners in minus:
                 for pe in piece_ids.get(e, (e,)):
                     te = along(pe, k, e_fwd)
                     for pf in piece_ids.get(f, (f,)):
-                        if not overlaps(te, along(pf, l, f_fwd)):
-                            continue
-                        for node, ce, cf in zip(divmod(kk, n), e_corners, f_corners):
-                            if at_hub[node]:
-                                r1, r2 = find((pe, ce)), find((pf, cf))
-                                if r1 != r2:
-                                    uf[max(r1, r2)] = min(r1, r2)
-
-    classes = {}  # node -> {root: corners}
-    for e in fan.tolist():
-        for lv in range(3):
-            v = int(t[lv, e])
-            if at_hub[v]:
-                for pid in piece_ids.get(e, (e,)):
-                    classes.setdefault(v, {}).setdefault(find((pid, lv)), []).append((pid, lv))
-    node_of, new_parent = {}, []
-    for v in hub.tolist():
-        for i, cs in enumerate(sorted(classes[v].values(), key=min)):
-            index = v if i == 0 else n + len(new_parent)
-            if i:
-                new_parent.append(v)
-            node_of.update({c: index for c in cs})
-    return node_of, new_parent, fan
+                        if overlaps(te, along(pf, l, f_fwd)):
+                            links += [(corner[pe, ce], corner[pf, cf])
+                                      for v, ce, cf in zip(divmod(kk, n), e_corners, f_corners) if at_hub[v]]
+    new, new_parent = split_nodes(np.array(node, dtype=np.int64), np.array([pid for pid, _ in corner]),
+                                  np.array(links, dtype=np.int64).reshape(-1, 2).T, n)
+    return dict(zip(corner, new.tolist())), new_parent, fan
 
 
 def _wound(p, t, arrangements, element_of_face, orientation, new_t):

@@ -21,7 +21,7 @@ from ..engine.parameters import ParameterError, call_user, check_count, check_in
 from .geometry import (carry_names, check_points, clip_to_body, mesh_arrays, new_mesh, node_positions, pair_keys,
                        polygon_area, polygon_contains)
 
-__all__ = ["MeshEdit", "duplicate_along_edges", "cut_path", "incise", "excise", "connected_components"]
+__all__ = ["MeshEdit", "duplicate_along_edges", "split_nodes", "cut_path", "incise", "excise", "connected_components"]
 
 #: The 10 in an edge's cost in :func:`cut_path`: a detour of one edge length away costs more than several edges along it
 _HUG = 10.0
@@ -100,29 +100,32 @@ def duplicate_along_edges(t, n_nodes, edges):
         links.append(np.stack([c1[on_cut], c2[on_cut]]))
     links = np.concatenate(links, axis=1)
 
-    # the graph of the corners of cut nodes only (a few per cut node)
+    # the corners of cut nodes only (a few per cut node), each fan of them a node
     corners = np.flatnonzero(is_cut_node[flat])
     local = np.full(flat.size, -1, dtype=np.int64)
     local[corners] = np.arange(corners.size)
-    graph = sp.coo_matrix((np.ones(links.shape[1]), (local[links[0]], local[links[1]])),
-                          shape=(corners.size, corners.size))
-    n_fans, fan = csgraph.connected_components(graph, directed=False)
-
-    # each fan holds corners of a single node (links only join corners of the same node)
-    fan_node = np.empty(n_fans, dtype=np.int64)
-    fan_node[fan] = flat[corners]
-    fan_first = np.full(n_fans, m, dtype=np.int64)
-    np.minimum.at(fan_first, fan, corners % m)  # lowest triangle of each fan
-    by_node = np.lexsort((fan_first, fan_node))
-    sorted_node = fan_node[by_node]
-    extra = np.r_[False, sorted_node[1:] == sorted_node[:-1]]  # the first fan of each node keeps it
-    new_index = np.empty(n_fans, dtype=np.int64)
-    new_index[by_node] = np.where(extra, n_nodes + np.cumsum(extra) - 1, sorted_node)
-
     new_flat = flat.copy()
-    new_flat[corners] = new_index[fan]
-    parent = np.concatenate([parent, sorted_node[extra]])
-    return new_flat.reshape(3, m), parent
+    new_flat[corners], extra = split_nodes(flat[corners], corners % m, local[links], n_nodes)
+    return new_flat.reshape(3, m), np.concatenate([parent, extra])
+
+
+def split_nodes(node, owner, links, n_nodes):
+    """The nodes of corners (element, vertex) at the old nodes ``node`` (c,), joined by ``links`` (2, k) (pairs of
+    indices into the corners, each of one node) into classes: ``(new node of every corner (c,), old node of every
+    new node)``. Of the classes at a node, the one with the lowest ``owner`` (c,) (the element or piece of a corner)
+    keeps it; the others get nodes ``n_nodes, n_nodes + 1, ...`` in the order (node, lowest owner)."""
+    graph = sp.coo_matrix((np.ones(links.shape[1]), (links[0], links[1])), shape=(node.size, node.size))
+    n_classes, label = csgraph.connected_components(graph, directed=False)
+    class_node = np.empty(n_classes, dtype=np.int64)  # links only join corners of one node
+    class_node[label] = node
+    first = np.full(n_classes, np.iinfo(np.int64).max)
+    np.minimum.at(first, label, owner)
+    by_node = np.lexsort((first, class_node))
+    sorted_node = class_node[by_node]
+    extra = np.r_[False, sorted_node[1:] == sorted_node[:-1]]  # the first class of each node keeps it
+    new_index = np.empty(n_classes, dtype=np.int64)
+    new_index[by_node] = np.where(extra, n_nodes + np.cumsum(extra) - 1, sorted_node)
+    return new_index[label], sorted_node[extra]
 
 
 # --- pieces, picking nodes ---
