@@ -47,10 +47,10 @@ import numpy as np
 
 from ..engine.meshes import signed_areas
 from ..engine.parameters import check_real
-from .geometry import (EPS, WHOLE, Region, carry_names, check_points, check_regions, clip_to_body, cross,
-                       crossings, edge_intervals, edge_point, edges_of, element_edges, element_weights, mesh_arrays,
-                       new_mesh, node_positions, overlaps, polygon_area, polygon_contains, reversed_intervals, snap,
-                       subtract_intervals, winding)
+from .geometry import (EPS, WHOLE, Region, carry_names, check_regions, cross, crossings, edge_intervals, edge_point,
+                       edges_of, element_edges, element_weights, mesh_arrays, new_mesh, node_positions, overlaps,
+                       polygon_area, polygon_contains, reversed_intervals, snap, stroke_in_body, subtract_intervals,
+                       winding)
 from .surfaces import contact_surface
 from .topology import MeshEdit, excise, split_nodes
 
@@ -504,13 +504,10 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
     p, t = mesh_arrays(mesh)
     n, m = p.shape[1], t.shape[1]
     x = node_positions(mesh, positions)
-    pts = check_points("polyline", polyline, 2)
+    pts, clipped = stroke_in_body("polyline", polyline, x, t)
     min_weight = check_real("min_weight", min_weight, 0.0, 0.5, hi_open=True)
     regions, w = check_regions(regions, weights, m)
     # the stroke in each triangle (stroke parameters back on the drawn polyline) and what it does to the material
-    pts, clipped = clip_to_body(pts, x, t)
-    if pts.shape[0] < 2:
-        raise ValueError("polyline changes nothing: it meets no material (it passes outside the body)")
     snapped, drawn = _through_nearby_nodes(x, t, pts)
     drawn = np.interp(drawn, np.arange(clipped.size), clipped)
     pieces, orientation = _stroke_pieces(x, t, snapped, drawn)
@@ -650,14 +647,8 @@ def excise_through(mesh, polygon, positions=None, weights=None, regions=None, mi
     that the rim follows the drawn outline (not the centroids, as :func:`~tissuefem.surgery.topology.excise` does); a
     far-reaching polygon is first clipped to the body (what it encloses there is kept).
     Returns an :class:`ElementCut` that maps to ``mesh`` as it was; its ``wound`` holds the rim's records."""
-    pts = check_points("polygon", polygon, 3)
-    closed = np.vstack([pts, pts[:1]]) if np.any(pts[0] != pts[-1]) else pts
-    if closed.shape[0] < 4:
-        raise ValueError("polygon must have at least 3 distinct points")
     # what it encloses in the body, outlined within reach of the body (a far corner costs the rim no precision)
-    closed = clip_to_body(closed, node_positions(mesh, positions), mesh_arrays(mesh)[1], closed=True)[0]
-    if closed.shape[0] < 4:
-        raise ValueError("polygon encloses no material: it lies outside the body")
+    closed = stroke_in_body("polygon", polygon, node_positions(mesh, positions), mesh_arrays(mesh)[1], True)[0]
     first = cut_through(mesh, closed, positions, weights=weights, regions=regions, min_weight=min_weight)
     m = first.mesh.t.shape[1]
     # where each element's material is now (the stroke was drawn there): a point inside its material, carried by the

@@ -171,6 +171,27 @@ def clip_to_body(points, x, t, closed=False):
     return a[:, :2].copy(), a[:, 2].copy()
 
 
+def _has_area(poly) -> bool:
+    """Whether the polygon ``poly`` (k, 2) encloses an area beyond round-off of its size."""
+    return abs(polygon_area(poly.tolist())) > 1e-12 * np.ptp(poly, axis=0).max() ** 2
+
+
+def stroke_in_body(name: str, value, x, t, closed=False):
+    """The drawn polyline ``value`` (a polygon if ``closed``), checked and clipped to the body (:func:`clip_to_body`):
+    ``(points, parameter)``. Refused, naming ``name``: fewer than 2 finite points (a polygon: 3, enclosing an area),
+    or nothing left in the body."""
+    drawn = check_points(name, value, 3 if closed else 2)
+    # clipped: in the body's units, far corners neither overflow nor make a thin polygon look flat
+    pts, parameter = clip_to_body(drawn, x, t, closed)
+    if closed and (pts.shape[0] < 4 or not _has_area(pts)):  # the ring closes on its first point
+        if not _has_area(drawn / max(float(np.abs(drawn).max()), 1e-300)):  # scaled: no overflow
+            raise ParameterError(name, f"{name} must be a polygon with non-zero area, got {show(drawn.tolist())}")
+        raise ParameterError(name, f"{name} selects no element: it encloses no material (it lies outside the body)")
+    if pts.shape[0] < 2:
+        raise ParameterError(name, f"{name} changes nothing: it meets no material (it passes outside the body)")
+    return pts, parameter
+
+
 # --- a triangle's local coordinates ---
 def cross(ax, ay, bx, by):
     """The cross product ``a x b`` of two plane vectors."""

@@ -18,8 +18,8 @@ from scipy.sparse import csgraph
 from ..engine.contact.surface import cross, segment_distance
 from ..engine.meshes import MeshMap
 from ..engine.parameters import ParameterError, call_user, check_count, check_indices, show
-from .geometry import (carry_names, check_points, clip_to_body, mesh_arrays, new_mesh, node_positions, pair_keys,
-                       polygon_area, polygon_contains)
+from .geometry import (carry_names, mesh_arrays, new_mesh, node_positions, pair_keys, polygon_contains,
+                       stroke_in_body)
 
 __all__ = ["MeshEdit", "duplicate_along_edges", "split_nodes", "cut_path", "incise", "excise", "connected_components"]
 
@@ -188,12 +188,9 @@ def cut_path(mesh, polyline, positions=None) -> np.ndarray:
     median edge length): it hugs the line within about one element. ``ValueError`` for a bad polyline, one that misses
     the body, collapses to a single node, or joins two unconnected pieces.
     """
-    pts = check_points("polyline", polyline, 2)
     p, t = mesh_arrays(mesh)
     x = node_positions(mesh, positions)
-    pts = clip_to_body(pts, x, t)[0]
-    if pts.shape[0] < 2:
-        raise ParameterError("polyline", "polyline meets no material: it passes outside the body")
+    pts = stroke_in_body("polyline", polyline, x, t)[0]
     n = p.shape[1]
     facets = np.asarray(mesh.facets, dtype=np.int64)
     bfacets = facets[:, np.asarray(mesh.boundary_facets(), dtype=np.int64)]
@@ -275,11 +272,6 @@ def incise(mesh, polyline, positions=None) -> MeshEdit:
                     n_old_elements=t.shape[1])
 
 
-def _has_area(poly) -> bool:
-    """Whether the polygon ``poly`` (k, 2) encloses an area beyond round-off of its size."""
-    return abs(polygon_area(poly.tolist())) > 1e-12 * np.ptp(poly, axis=0).max() ** 2
-
-
 def excise(mesh, region, positions=None) -> MeshEdit:
     """Remove the triangles of ``mesh`` (not modified) whose centroid (at ``positions``) lies in ``region``: a polygon
     (k, 2), k >= 3 (even-odd rule; first clipped to the body, :func:`~.geometry.clip_to_body`), or a function
@@ -296,15 +288,7 @@ def excise(mesh, region, positions=None) -> MeshEdit:
             raise ValueError(f"region, as a function of the centroids (2, m), must return a bool array shaped "
                              f"({m},), got dtype {remove.dtype} shape {remove.shape}")
     else:
-        drawn = check_points("region", region, 3)
-        # clipped to the body: in the body's units, far corners neither overflow nor make a thin polygon look flat
-        poly = clip_to_body(drawn, x, t, closed=True)[0]
-        if poly.shape[0] < 4 or not _has_area(poly):  # the ring closes on its first point
-            if not _has_area(drawn / max(float(np.abs(drawn).max()), 1e-300)):  # scaled: no overflow
-                raise ParameterError("region", f"region must be a polygon with non-zero area, got "
-                                               f"{show(drawn.tolist())}")
-            raise ParameterError("region", "region selects no element: the polygon lies outside the body")
-        remove = polygon_contains(poly, centroids.T)
+        remove = polygon_contains(stroke_in_body("region", region, x, t, closed=True)[0], centroids.T)
     if not remove.any():
         raise ValueError("region selects no element (no triangle centroid lies inside it)")
     if remove.all():
