@@ -512,9 +512,8 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
     drawn = np.interp(drawn, np.arange(clipped.size), clipped)
     pieces, orientation = _stroke_pieces(x, t, snapped, drawn)
     key, side = element_edges(p, t)
-    flat_key, flat_side = key.ravel(), side.ravel()
     # an element edge has an element across when some element has the same node pair on the other side
-    has_across = np.isin(flat_key * 2 + (flat_side > 0), flat_key * 2 + (flat_side < 0)).reshape(3, m)
+    has_across = np.isin(key * 2 + (side > 0), key * 2 + (side < 0))
     arrangements = {}
     for e in sorted(pieces):
         arr = _Arrangement(regions.get(e, WHOLE), pieces[e], has_across[:, e], min_weight)
