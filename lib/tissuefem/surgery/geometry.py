@@ -29,7 +29,7 @@ def mesh_arrays(mesh):
     try:
         p, t = check_real_array("mesh.p", mesh.p), np.asarray(mesh.t)
     except AttributeError:
-        raise ParameterError("mesh", f"mesh must be a skfem.MeshTri, got {type(mesh).__name__}") from None
+        raise ParameterError("mesh", f"mesh must be a triangle mesh (a MeshTri), got {type(mesh).__name__}") from None
     except ParameterError as err:
         raise ParameterError("mesh", f"mesh must be a triangle mesh of real coordinates: {err}") from None
     if t.dtype.kind not in "iu":
