@@ -59,8 +59,7 @@ def duplicate_along_edges(t, n_nodes, edges):
     The triangles round a node on a cut fall into *fans*, the connected components of its corners (triangle, vertex)
     linked across uncut edges, one per side of the wound: where ``j`` cut edges meet, an interior node's ring breaks
     into ``j`` fans, a boundary node's into ``j + 1`` (a crack's tip stays closed; a single interior edge opens
-    nothing). The fan with the lowest triangle keeps the node, the others get new nodes in the order (node, lowest
-    triangle).
+    nothing); :func:`split_nodes` numbers them (the fan with the lowest triangle keeps the node).
     """
     n_nodes = check_count("n_nodes", n_nodes, 0)
     t, edges = _node_indices("t", t, 3, n_nodes), _node_indices("edges", edges, 2, n_nodes)
