@@ -844,11 +844,10 @@ def firm_anchor(mesh, element, barycentric, positions=None, weights=None, region
     point = x[:, t[:, element]] @ best[1]
     regions = {} if regions is None else regions
     for e in np.flatnonzero(np.isin(t, t[:, element]).any(axis=0) & (w >= FIRM_WEIGHT)).tolist():  # the firm neighbours
-        a, b, c = x[:, t[0, e]], x[:, t[1, e]], x[:, t[2, e]]
-        J = np.column_stack([b - a, c - a])
+        J = x[:, t[1:, e]] - x[:, t[:1, e]]  # the edge vectors from vertex 0, as columns
         if abs(np.linalg.det(J)) <= 0:
             continue
-        xi = np.linalg.solve(J, point - a)
+        xi = np.linalg.solve(J, point - x[:, t[0, e]])
         d = _region_distance(regions[e], xi) if e in regions else max(0.0, -xi[0], -xi[1], xi.sum() - 1.0)
         if d < best_d:
             best, best_d = (e, np.array([1.0 - xi.sum(), xi[0], xi[1]])), d
