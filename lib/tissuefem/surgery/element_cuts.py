@@ -48,7 +48,7 @@ import numpy as np
 from ..engine.meshes import signed_areas
 from ..engine.parameters import check_real
 from .geometry import (EPS, WHOLE, Region, carry_names, check_regions, cross, crossings, edge_intervals, edge_point,
-                       edges_of, element_edges, element_weights, mesh_arrays, new_mesh, node_positions, overlaps,
+                       edges_of, element_edges, element_weights, mesh_arrays, mesh_at, new_mesh, overlaps,
                        polygon_area, polygon_contains, reversed_intervals, snap, stroke_in_body, subtract_intervals,
                        winding)
 from .surfaces import contact_surface
@@ -501,9 +501,8 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
     ``weights`` and ``regions``. No piece carries less than ``min_weight`` in [0, 0.5) of its triangle (step 6). Named
     boundaries go to the facets whose material touched them, subdomains to every copy. ``ValueError`` for bad
     arguments, or a stroke that changes nothing (it meets no material, or runs only along the boundary or a wound)."""
-    p, t = mesh_arrays(mesh)
+    p, t, x = mesh_at(mesh, positions)
     n, m = p.shape[1], t.shape[1]
-    x = node_positions(mesh, positions)
     pts, clipped = stroke_in_body("polyline", polyline, x, t)
     min_weight = check_real("min_weight", min_weight, 0.0, 0.5, hi_open=True)
     regions, w = check_regions(regions, weights, m)
@@ -647,7 +646,8 @@ def excise_through(mesh, polygon, positions=None, weights=None, regions=None, mi
     far-reaching polygon is first clipped to the body (what it encloses there is kept).
     Returns an :class:`ElementCut` that maps to ``mesh`` as it was; its ``wound`` holds the rim's records."""
     # what it encloses in the body, outlined within reach of the body (a far corner costs the rim no precision)
-    closed = stroke_in_body("polygon", polygon, node_positions(mesh, positions), mesh_arrays(mesh)[1], True)[0]
+    _, t, x = mesh_at(mesh, positions)
+    closed = stroke_in_body("polygon", polygon, x, t, closed=True)[0]
     first = cut_through(mesh, closed, positions, weights=weights, regions=regions, min_weight=min_weight)
     m = first.mesh.t.shape[1]
     # where each element's material is now (the stroke was drawn there): a point inside its material, carried by the
@@ -659,7 +659,7 @@ def excise_through(mesh, polygon, positions=None, weights=None, regions=None, mi
         a, b, c = max(tris, key=lambda abc: abs(cross(*(abc[1] - abc[0]), *(abc[2] - abc[0]))))
         g = (a + b + c) / 3.0
         centre[e] = [1.0 - g[0] - g[1], g[0], g[1]]
-    x = node_positions(first.mesh, None if positions is None else first.transfer(np.asarray(positions, float)))
+    x = mesh_at(first.mesh, None if positions is None else first.transfer(np.asarray(positions, float)))[2]
     remove = polygon_contains(closed, np.einsum("ea,iae->ie", centre, x[:, first.mesh.t]).T)
     if not remove.any():
         raise ValueError("polygon encloses no material")
@@ -802,8 +802,7 @@ def locate(mesh, point, positions=None, regions=None, reach=1e-3):
     """``(element, barycentric (3,))`` of the material holding ``point`` (deformed coordinates) or nearest to it, or
     ``None`` if none is within ``reach`` (in local coordinates: a fraction of a triangle's size); a point just off the
     material (in an open wound) extends the element's P1 map."""
-    p, t = mesh_arrays(mesh)
-    x = node_positions(mesh, positions)
+    _, t, x = mesh_at(mesh, positions)
     q = np.asarray(point, dtype=float)
     a, b, c = (x[:, t[k]] for k in range(3))
     d1, d2 = b - a, c - a
@@ -835,12 +834,11 @@ def firm_anchor(mesh, element, barycentric, positions=None, weights=None, region
     """``(element, barycentric)`` of a point of the material, moved to a neighbour (sharing a node) carrying at least
     :data:`FIRM_WEIGHT` of its triangle whose material lies nearest, by its P1 map extended (barycentric coordinates
     may be slightly negative): a stitch pulling at a sliver would stretch it (its virtual nodes hold almost nothing)."""
-    p, t = mesh_arrays(mesh)
+    _, t, x = mesh_at(mesh, positions)
     w = element_weights(weights, t.shape[1])
     best, best_d = (element, np.asarray(barycentric, dtype=float)), math.inf
     if w[element] >= FIRM_WEIGHT:
         return best
-    x = node_positions(mesh, positions)
     point = x[:, t[:, element]] @ best[1]
     regions = {} if regions is None else regions
     for e in np.flatnonzero(np.isin(t, t[:, element]).any(axis=0) & (w >= FIRM_WEIGHT)).tolist():  # the firm neighbours

@@ -41,16 +41,17 @@ def mesh_arrays(mesh):
     return p, t
 
 
-def node_positions(mesh, positions) -> np.ndarray:
-    """Where the nodes of ``mesh`` are now: ``positions`` checked as a finite ``(2, n_nodes)`` array, or ``mesh.p``."""
-    p, _ = mesh_arrays(mesh)
+def mesh_at(mesh, positions):
+    """``(p, t, x)``: the checked arrays of ``mesh`` (:func:`mesh_arrays`) and where its nodes are now, ``positions``
+    checked as a finite ``(2, n_nodes)`` array, or ``p``."""
+    p, t = mesh_arrays(mesh)
     if positions is None:
-        return p
+        return p, t, p
     x = check_real_array("positions", positions)
     if x.shape != p.shape or not np.all(np.isfinite(x)):
         raise ParameterError("positions", f"positions must be finite and shaped (2, n_nodes) = {p.shape}, "
                                           f"got shape {x.shape}")
-    return x
+    return p, t, x
 
 
 def check_points(name: str, value, min_points: int) -> np.ndarray:

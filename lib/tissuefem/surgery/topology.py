@@ -18,8 +18,7 @@ from scipy.sparse import csgraph
 from ..engine.contact.surface import cross, segment_distance
 from ..engine.meshes import MeshMap
 from ..engine.parameters import ParameterError, call_user, check_count, check_indices, show
-from .geometry import (carry_names, mesh_arrays, new_mesh, node_positions, pair_keys, polygon_contains,
-                       stroke_in_body)
+from .geometry import carry_names, mesh_arrays, mesh_at, new_mesh, pair_keys, polygon_contains, stroke_in_body
 
 __all__ = ["MeshEdit", "duplicate_along_edges", "split_nodes", "cut_path", "incise", "excise", "connected_components"]
 
@@ -187,8 +186,7 @@ def cut_path(mesh, polyline, positions=None) -> np.ndarray:
     median edge length): it hugs the line within about one element. ``ValueError`` for a bad polyline, one that misses
     the body, collapses to a single node, or joins two unconnected pieces.
     """
-    p, t = mesh_arrays(mesh)
-    x = node_positions(mesh, positions)
+    p, t, x = mesh_at(mesh, positions)
     pts = stroke_in_body("polyline", polyline, x, t)[0]
     n = p.shape[1]
     facets = np.asarray(mesh.facets, dtype=np.int64)
@@ -277,8 +275,7 @@ def excise(mesh, region, positions=None) -> MeshEdit:
     ``centroids (2, m) -> bool (m,)``. Returns a :class:`MeshEdit`: unused nodes dropped, the rest and the triangles
     kept in order, the rim named ``"defect"``. ``ValueError`` for a bad polygon or mask, or one that selects no element
     or every element."""
-    p, t = mesh_arrays(mesh)
-    x = node_positions(mesh, positions)
+    p, t, x = mesh_at(mesh, positions)
     m = t.shape[1]
     centroids = x[:, t].mean(axis=1)
     if callable(region):
