@@ -752,8 +752,7 @@ def surface(mesh) -> Picture:
     a, b, c, d = (p[:, k] for k in (faces[0], faces[1], faces[2], opposite))
     inward = np.einsum("ik,ik->k", np.cross(b - a, c - a, axis=0), d - a) > 0
     faces[1:, inward] = faces[2:0:-1, inward]
-    pairs = np.vstack([faces.ravel(), np.roll(faces, -1, axis=0).ravel()])
-    edges = np.unique(np.sort(pairs, axis=0), axis=1)
+    edges = np.unique(np.sort([faces.ravel(), np.roll(faces, -1, axis=0).ravel()], axis=0), axis=1)
     nodes = np.vstack([np.arange(n), np.zeros(n, np.int64), np.zeros(n, np.int64)])
     coefficients = np.vstack([np.ones(n), np.zeros(n), np.zeros(n)])
     return Picture(nodes, coefficients, faces, element, edges, True)
