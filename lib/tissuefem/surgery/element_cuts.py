@@ -226,8 +226,7 @@ class _Arrangement:
             for u, v in self.faces[f]["edges"]:
                 g = self.face_of[(v, u)]
                 if self.graph[_key(u, v)] != _P and g >= 0 and g != f:
-                    (ax, ay), (bx, by) = self.verts[u], self.verts[v]
-                    shared[g] = shared.get(g, 0.0) + math.hypot(bx - ax, by - ay)
+                    shared[g] = shared.get(g, 0.0) + math.dist(self.verts[u], self.verts[v])
             if not shared:
                 return
             g = max(shared, key=lambda h: (shared[h], -h))
@@ -388,7 +387,7 @@ def _stroke_pieces(x, t, pts, drawn):
         keep = (s_hi > s_lo) & (np.hypot(*(pb - pa)) > EPS)
         for c in np.flatnonzero(keep):
             pa_c, pb_c = snap(float(pa[0, c]), float(pa[1, c])), snap(float(pb[0, c]), float(pb[1, c]))
-            if math.hypot(pb_c[0] - pa_c[0], pb_c[1] - pa_c[1]) <= EPS:
+            if math.dist(pa_c, pb_c) <= EPS:
                 continue
             s0, s1 = np.interp([j + float(s_lo[c]), j + float(s_hi[c])], np.arange(drawn.size), drawn)
             pieces.setdefault(int(cand[c]), []).append((float(s0), float(s1), pa_c, pb_c))
