@@ -47,12 +47,12 @@ import numpy as np
 
 from ..engine.meshes import signed_areas
 from ..engine.parameters import check_real
-from .geometry import (EPS, WHOLE, Region, carry_names, check_points, check_regions, clip_to_body, cross,
-                       crossings, edge_intervals, edge_point, edges_of, element_edges, element_weights, mesh_arrays,
-                       new_mesh, node_positions, overlaps, polygon_area, polygon_contains, reversed_intervals, snap,
-                       subtract_intervals, winding)
+from .geometry import (EPS, WHOLE, Region, carry_names, check_regions, cross, crossings, edge_intervals, edge_point,
+                       edges_of, element_edges, element_weights, mesh_arrays, mesh_at, new_mesh, overlaps,
+                       polygon_area, polygon_contains, reversed_intervals, snap, stroke_in_body, subtract_intervals,
+                       winding)
 from .surfaces import contact_surface
-from .topology import MeshEdit, excise
+from .topology import MeshEdit, excise, split_nodes
 
 __all__ = ["Region", "Wound", "ElementCut", "cut_through", "excise_through", "Picture", "picture", "locate",
            "firm_anchor", "carry_points", "lumped_mass", "material_areas", "node_material"]
@@ -226,8 +226,7 @@ class _Arrangement:
             for u, v in self.faces[f]["edges"]:
                 g = self.face_of[(v, u)]
                 if self.graph[_key(u, v)] != _P and g >= 0 and g != f:
-                    (ax, ay), (bx, by) = self.verts[u], self.verts[v]
-                    shared[g] = shared.get(g, 0.0) + math.hypot(bx - ax, by - ay)
+                    shared[g] = shared.get(g, 0.0) + math.dist(self.verts[u], self.verts[v])
             if not shared:
                 return
             g = max(shared, key=lambda h: (shared[h], -h))
@@ -388,7 +387,7 @@ def _stroke_pieces(x, t, pts, drawn):
         keep = (s_hi > s_lo) & (np.hypot(*(pb - pa)) > EPS)
         for c in np.flatnonzero(keep):
             pa_c, pb_c = snap(float(pa[0, c]), float(pa[1, c])), snap(float(pb[0, c]), float(pb[1, c]))
-            if math.hypot(pb_c[0] - pa_c[0], pb_c[1] - pa_c[1]) <= EPS:
+            if math.dist(pa_c, pb_c) <= EPS:
                 continue
             s0, s1 = np.interp([j + float(s_lo[c]), j + float(s_hi[c])], np.arange(drawn.size), drawn)
             pieces.setdefault(int(cand[c]), []).append((float(s0), float(s1), pa_c, pb_c))
@@ -501,23 +500,18 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
     ``weights`` and ``regions``. No piece carries less than ``min_weight`` in [0, 0.5) of its triangle (step 6). Named
     boundaries go to the facets whose material touched them, subdomains to every copy. ``ValueError`` for bad
     arguments, or a stroke that changes nothing (it meets no material, or runs only along the boundary or a wound)."""
-    p, t = mesh_arrays(mesh)
+    p, t, x = mesh_at(mesh, positions)
     n, m = p.shape[1], t.shape[1]
-    x = node_positions(mesh, positions)
-    pts = check_points("polyline", polyline, 2)
+    pts, clipped = stroke_in_body("polyline", polyline, x, t)
     min_weight = check_real("min_weight", min_weight, 0.0, 0.5, hi_open=True)
     regions, w = check_regions(regions, weights, m)
     # the stroke in each triangle (stroke parameters back on the drawn polyline) and what it does to the material
-    pts, clipped = clip_to_body(pts, x, t)
-    if pts.shape[0] < 2:
-        raise ValueError("polyline changes nothing: it meets no material (it passes outside the body)")
     snapped, drawn = _through_nearby_nodes(x, t, pts)
     drawn = np.interp(drawn, np.arange(clipped.size), clipped)
     pieces, orientation = _stroke_pieces(x, t, snapped, drawn)
     key, side = element_edges(p, t)
-    flat_key, flat_side = key.ravel(), side.ravel()
     # an element edge has an element across when some element has the same node pair on the other side
-    has_across = np.isin(flat_key * 2 + (flat_side > 0), flat_key * 2 + (flat_side < 0)).reshape(3, m)
+    has_across = np.isin(key * 2 + (side > 0), key * 2 + (side < 0))
     arrangements = {}
     for e in sorted(pieces):
         arr = _Arrangement(regions.get(e, WHOLE), pieces[e], has_across[:, e], min_weight)
@@ -570,7 +564,7 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
             new_w[E] = w[e] * area / total
             if not whole:
                 new_regions[E] = region
-    parent = np.concatenate([np.arange(n, dtype=np.int64), np.asarray(new_parent, dtype=np.int64)])
+    parent = np.concatenate([np.arange(n, dtype=np.int64), new_parent])
     wound, cut_edges = _wound(p, t, arrangements, element_of_face, orientation, new_t)
     touches = np.ones((3, elements.size), dtype=bool)  # which local edges each element's material touches
     for e, region in new_regions.items():
@@ -583,10 +577,9 @@ def cut_through(mesh, polyline, positions=None, weights=None, regions=None, min_
 
 def _number_nodes(t, n, key, side, affected, piece_ids, touched):
     """The node of every corner at the nodes of the cut elements (step 4): ``(node_of {(provisional id, local vertex):
-    node}, new_parent (the old node of each appended node), fan (the elements with a corner there))``. Of the classes
-    of joined corners at an old node, the one holding the lowest element keeps its index."""
-    hub = np.unique(t[:, affected])
-    at_hub = np.isin(np.arange(n), hub)
+    node}, new_parent (the old node of each appended node), fan (the elements with a corner there))``: the classes of
+    joined corners at each old node, numbered by :func:`~.topology.split_nodes` (the lowest piece keeps the node)."""
+    at_hub = np.isin(np.arange(n), t[:, affected])  # the hub: the nodes of the cut elements
     fan = np.flatnonzero(at_hub[t].any(axis=0))
     sel_k, sel_e = np.nonzero(at_hub[t[:, fan]] | at_hub[np.roll(t, -1, axis=0)[:, fan]])
     sel_e = fan[sel_e]
@@ -596,46 +589,31 @@ def _number_nodes(t, n, key, side, affected, piece_ids, touched):
         corners = (k, (k + 1) % 3) if forward else ((k + 1) % 3, k)  # the local vertices at the lower, higher node
         sides.setdefault(kk, ([], []))[0 if s > 0 else 1].append((e, k, forward, corners))
 
-    uf = {}  # union-find of the joined corners; a root is the least corner of its class
-
-    def find(c):
-        while uf.get(c, c) != c:
-            c = uf[c]
-        return c
+    corner, node = {}, []  # (provisional id, local vertex) -> index among the corners at the hub; their nodes
+    for e in fan.tolist():
+        for lv in range(3):
+            if at_hub[t[lv, e]]:
+                for pid in piece_ids.get(e, (e,)):
+                    corner[pid, lv] = len(node)
+                    node.append(int(t[lv, e]))
 
     def along(pid, k, forward):  # touched intervals, run from the edge's lower node to its higher
         iv = touched.get(pid, WHOLE.touch)[k]
         return iv if forward else reversed_intervals(iv)
 
+    links = []  # the joined corners
     for kk, (plus, minus) in sides.items():
         for e, k, e_fwd, e_corners in plus:
             for f, l, f_fwd, f_corners in minus:
                 for pe in piece_ids.get(e, (e,)):
                     te = along(pe, k, e_fwd)
                     for pf in piece_ids.get(f, (f,)):
-                        if not overlaps(te, along(pf, l, f_fwd)):
-                            continue
-                        for node, ce, cf in zip(divmod(kk, n), e_corners, f_corners):
-                            if at_hub[node]:
-                                r1, r2 = find((pe, ce)), find((pf, cf))
-                                if r1 != r2:
-                                    uf[max(r1, r2)] = min(r1, r2)
-
-    classes = {}  # node -> {root: corners}
-    for e in fan.tolist():
-        for lv in range(3):
-            v = int(t[lv, e])
-            if at_hub[v]:
-                for pid in piece_ids.get(e, (e,)):
-                    classes.setdefault(v, {}).setdefault(find((pid, lv)), []).append((pid, lv))
-    node_of, new_parent = {}, []
-    for v in hub.tolist():
-        for i, cs in enumerate(sorted(classes[v].values(), key=min)):
-            index = v if i == 0 else n + len(new_parent)
-            if i:
-                new_parent.append(v)
-            node_of.update({c: index for c in cs})
-    return node_of, new_parent, fan
+                        if overlaps(te, along(pf, l, f_fwd)):
+                            links += [(corner[pe, ce], corner[pf, cf])
+                                      for v, ce, cf in zip(divmod(kk, n), e_corners, f_corners) if at_hub[v]]
+    new, new_parent = split_nodes(np.array(node, dtype=np.int64), np.array([pid for pid, _ in corner]),
+                                  np.array(links, dtype=np.int64).reshape(-1, 2).T, n)
+    return dict(zip(corner, new.tolist())), new_parent, fan
 
 
 def _wound(p, t, arrangements, element_of_face, orientation, new_t):
@@ -666,14 +644,9 @@ def excise_through(mesh, polygon, positions=None, weights=None, regions=None, mi
     that the rim follows the drawn outline (not the centroids, as :func:`~tissuefem.surgery.topology.excise` does); a
     far-reaching polygon is first clipped to the body (what it encloses there is kept).
     Returns an :class:`ElementCut` that maps to ``mesh`` as it was; its ``wound`` holds the rim's records."""
-    pts = check_points("polygon", polygon, 3)
-    closed = np.vstack([pts, pts[:1]]) if np.any(pts[0] != pts[-1]) else pts
-    if closed.shape[0] < 4:
-        raise ValueError("polygon must have at least 3 distinct points")
     # what it encloses in the body, outlined within reach of the body (a far corner costs the rim no precision)
-    closed = clip_to_body(closed, node_positions(mesh, positions), mesh_arrays(mesh)[1], closed=True)[0]
-    if closed.shape[0] < 4:
-        raise ValueError("polygon encloses no material: it lies outside the body")
+    _, t, x = mesh_at(mesh, positions)
+    closed = stroke_in_body("polygon", polygon, x, t, closed=True)[0]
     first = cut_through(mesh, closed, positions, weights=weights, regions=regions, min_weight=min_weight)
     m = first.mesh.t.shape[1]
     # where each element's material is now (the stroke was drawn there): a point inside its material, carried by the
@@ -685,7 +658,7 @@ def excise_through(mesh, polygon, positions=None, weights=None, regions=None, mi
         a, b, c = max(tris, key=lambda abc: abs(cross(*(abc[1] - abc[0]), *(abc[2] - abc[0]))))
         g = (a + b + c) / 3.0
         centre[e] = [1.0 - g[0] - g[1], g[0], g[1]]
-    x = node_positions(first.mesh, None if positions is None else first.transfer(np.asarray(positions, float)))
+    x = mesh_at(first.mesh, None if positions is None else first.transfer(np.asarray(positions, float)))[2]
     remove = polygon_contains(closed, np.einsum("ea,iae->ie", centre, x[:, first.mesh.t]).T)
     if not remove.any():
         raise ValueError("polygon encloses no material")
@@ -778,8 +751,7 @@ def surface(mesh) -> Picture:
     a, b, c, d = (p[:, k] for k in (faces[0], faces[1], faces[2], opposite))
     inward = np.einsum("ik,ik->k", np.cross(b - a, c - a, axis=0), d - a) > 0
     faces[1:, inward] = faces[2:0:-1, inward]
-    pairs = np.vstack([faces.ravel(), np.roll(faces, -1, axis=0).ravel()])
-    edges = np.unique(np.sort(pairs, axis=0), axis=1)
+    edges = np.unique(np.sort([faces.ravel(), np.roll(faces, -1, axis=0).ravel()], axis=0), axis=1)
     nodes = np.vstack([np.arange(n), np.zeros(n, np.int64), np.zeros(n, np.int64)])
     coefficients = np.vstack([np.ones(n), np.zeros(n), np.zeros(n)])
     return Picture(nodes, coefficients, faces, element, edges, True)
@@ -828,8 +800,7 @@ def locate(mesh, point, positions=None, regions=None, reach=1e-3):
     """``(element, barycentric (3,))`` of the material holding ``point`` (deformed coordinates) or nearest to it, or
     ``None`` if none is within ``reach`` (in local coordinates: a fraction of a triangle's size); a point just off the
     material (in an open wound) extends the element's P1 map."""
-    p, t = mesh_arrays(mesh)
-    x = node_positions(mesh, positions)
+    _, t, x = mesh_at(mesh, positions)
     q = np.asarray(point, dtype=float)
     a, b, c = (x[:, t[k]] for k in range(3))
     d1, d2 = b - a, c - a
@@ -861,20 +832,18 @@ def firm_anchor(mesh, element, barycentric, positions=None, weights=None, region
     """``(element, barycentric)`` of a point of the material, moved to a neighbour (sharing a node) carrying at least
     :data:`FIRM_WEIGHT` of its triangle whose material lies nearest, by its P1 map extended (barycentric coordinates
     may be slightly negative): a stitch pulling at a sliver would stretch it (its virtual nodes hold almost nothing)."""
-    p, t = mesh_arrays(mesh)
+    _, t, x = mesh_at(mesh, positions)
     w = element_weights(weights, t.shape[1])
     best, best_d = (element, np.asarray(barycentric, dtype=float)), math.inf
     if w[element] >= FIRM_WEIGHT:
         return best
-    x = node_positions(mesh, positions)
     point = x[:, t[:, element]] @ best[1]
     regions = {} if regions is None else regions
     for e in np.flatnonzero(np.isin(t, t[:, element]).any(axis=0) & (w >= FIRM_WEIGHT)).tolist():  # the firm neighbours
-        a, b, c = x[:, t[0, e]], x[:, t[1, e]], x[:, t[2, e]]
-        J = np.column_stack([b - a, c - a])
+        J = x[:, t[1:, e]] - x[:, t[:1, e]]  # the edge vectors from vertex 0, as columns
         if abs(np.linalg.det(J)) <= 0:
             continue
-        xi = np.linalg.solve(J, point - a)
+        xi = np.linalg.solve(J, point - x[:, t[0, e]])
         d = _region_distance(regions[e], xi) if e in regions else max(0.0, -xi[0], -xi[1], xi.sum() - 1.0)
         if d < best_d:
             best, best_d = (e, np.array([1.0 - xi.sum(), xi[0], xi[1]])), d

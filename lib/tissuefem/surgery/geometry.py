@@ -29,7 +29,7 @@ def mesh_arrays(mesh):
     try:
         p, t = check_real_array("mesh.p", mesh.p), np.asarray(mesh.t)
     except AttributeError:
-        raise ParameterError("mesh", f"mesh must be a skfem.MeshTri, got {type(mesh).__name__}") from None
+        raise ParameterError("mesh", f"mesh must be a triangle mesh (a MeshTri), got {type(mesh).__name__}") from None
     except ParameterError as err:
         raise ParameterError("mesh", f"mesh must be a triangle mesh of real coordinates: {err}") from None
     if t.dtype.kind not in "iu":
@@ -41,16 +41,17 @@ def mesh_arrays(mesh):
     return p, t
 
 
-def node_positions(mesh, positions) -> np.ndarray:
-    """Where the nodes of ``mesh`` are now: ``positions`` checked as a finite ``(2, n_nodes)`` array, or ``mesh.p``."""
-    p, _ = mesh_arrays(mesh)
+def mesh_at(mesh, positions):
+    """``(p, t, x)``: the checked arrays of ``mesh`` (:func:`mesh_arrays`) and where its nodes are now, ``positions``
+    checked as a finite ``(2, n_nodes)`` array, or ``p``."""
+    p, t = mesh_arrays(mesh)
     if positions is None:
-        return p
+        return p, t, p
     x = check_real_array("positions", positions)
     if x.shape != p.shape or not np.all(np.isfinite(x)):
         raise ParameterError("positions", f"positions must be finite and shaped (2, n_nodes) = {p.shape}, "
                                           f"got shape {x.shape}")
-    return x
+    return p, t, x
 
 
 def check_points(name: str, value, min_points: int) -> np.ndarray:
@@ -169,6 +170,27 @@ def clip_to_body(points, x, t, closed=False):
         pts.append(pts[0])
     a = np.array(pts, dtype=float).reshape(-1, 3)
     return a[:, :2].copy(), a[:, 2].copy()
+
+
+def _has_area(poly) -> bool:
+    """Whether the polygon ``poly`` (k, 2) encloses an area beyond round-off of its size."""
+    return abs(polygon_area(poly.tolist())) > 1e-12 * np.ptp(poly, axis=0).max() ** 2
+
+
+def stroke_in_body(name: str, value, x, t, closed=False):
+    """The drawn polyline ``value`` (a polygon if ``closed``), checked and clipped to the body (:func:`clip_to_body`):
+    ``(points, parameter)``. Refused, naming ``name``: fewer than 2 finite points (a polygon: 3, enclosing an area),
+    or nothing left in the body."""
+    drawn = check_points(name, value, 3 if closed else 2)
+    # clipped: in the body's units, far corners neither overflow nor make a thin polygon look flat
+    pts, parameter = clip_to_body(drawn, x, t, closed)
+    if closed and (pts.shape[0] < 4 or not _has_area(pts)):  # the ring closes on its first point
+        if not _has_area(drawn / max(float(np.abs(drawn).max()), 1e-300)):  # scaled: no overflow
+            raise ParameterError(name, f"{name} must be a polygon with non-zero area, got {show(drawn.tolist())}")
+        raise ParameterError(name, f"{name} selects no element: it encloses no material (it lies outside the body)")
+    if pts.shape[0] < 2:
+        raise ParameterError(name, f"{name} changes nothing: it meets no material (it passes outside the body)")
+    return pts, parameter
 
 
 # --- a triangle's local coordinates ---

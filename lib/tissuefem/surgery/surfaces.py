@@ -10,11 +10,9 @@ of an element's nodes; the same combination seen from two elements is one point,
 from __future__ import annotations
 
 import numpy as np
-from skfem import MeshTri
 
 from ..engine.contact import ContactSurface
 from ..engine.meshes import signed_areas
-from ..engine.parameters import ParameterError
 from .geometry import (EPS, WHOLE, check_regions, edge_intervals, edge_point, edges_of, element_edges,
                        intersect_intervals, mesh_arrays, merge_intervals, pair_keys, reversed_intervals,
                        subtract_intervals)
@@ -26,9 +24,7 @@ def contact_surface(mesh, weights=None, regions=None) -> ContactSurface:
     """The surface of the material of ``mesh`` with the ``weights`` and ``regions`` of a cut through elements (without
     them: the mesh's boundary), material on the left of each segment; the wound's lips are flagged (sides inside a
     triangle, severed parts of edges, facets named ``"cut"``)."""
-    if not isinstance(mesh, MeshTri):
-        raise ParameterError("mesh", f"mesh must be a triangle mesh (skfem.MeshTri), got {type(mesh).__name__}")
-    p, t = mesh_arrays(mesh)
+    p, t = mesh_arrays(mesh)  # refuses what is not a triangle mesh
     n, m = p.shape[1], t.shape[1]
     regions, _ = check_regions(regions, weights, m)
     if not regions:
@@ -43,25 +39,23 @@ def contact_surface(mesh, weights=None, regions=None) -> ContactSurface:
     cut = np.asarray((mesh.boundaries or {}).get("cut", []), dtype=np.intp)
     cut_facets = set(pair_keys(np.asarray(mesh.facets)[:, cut], n).tolist())
 
-    def touch(e):  # (touched by the material, touched and joinable: not severed) per local edge
-        r = regions.get(e)
-        return (WHOLE.touch, WHOLE.touch) if r is None else (edge_intervals(r.sides()), r.touch)
+    def joinable(e):  # the parts of each local edge the material of e touches, less what is severed
+        return regions[e].touch if e in regions else WHOLE.touch
 
     pieces = []  # (element, local point a, local point b, wound?) with the material on the left in local coordinates
     for e in range(m):
+        touched = edge_intervals(regions[e].sides()) if e in regions else WHOLE.touch  # severed or not
         for k in range(3):
             kk = key[k][e]
             across = by_edge.get(there[k * m + e], ())  # the same node pair, the other side
             if across and e not in regions and all(i % m not in regions for i in across):
                 continue  # two whole elements share this edge: inside the material
-            touched, joinable = (iv[k] for iv in touch(e))
             reach = []
-            for l, f in (divmod(i, m) for i in across):
-                f_iv = touch(f)[1][l]
-                reach += f_iv if int(t[l, f]) == int(t[k, e]) else reversed_intervals(f_iv)  # f runs it the other way
-            joined = intersect_intervals(joinable, merge_intervals(reach))
-            for lo, hi in subtract_intervals(touched, joined):  # a lip where it is on a wound or severed
-                severed = bool(subtract_intervals([(lo, hi)], joinable))
+            for l, f in (divmod(i, m) for i in across):  # f may run the edge the other way
+                reach += joinable(f)[l] if int(t[l, f]) == int(t[k, e]) else reversed_intervals(joinable(f)[l])
+            joined = intersect_intervals(joinable(e)[k], merge_intervals(reach))
+            for lo, hi in subtract_intervals(touched[k], joined):  # a lip where it is on a wound or severed
+                severed = bool(subtract_intervals([(lo, hi)], joinable(e)[k]))
                 pieces.append((e, edge_point(k, lo), edge_point(k, hi), kk in cut_facets or severed))
     for e, r in regions.items():
         for a, b in r.sides():

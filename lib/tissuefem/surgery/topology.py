@@ -18,10 +18,9 @@ from scipy.sparse import csgraph
 from ..engine.contact.surface import cross, segment_distance
 from ..engine.meshes import MeshMap
 from ..engine.parameters import ParameterError, call_user, check_count, check_indices, show
-from .geometry import (carry_names, check_points, clip_to_body, mesh_arrays, new_mesh, node_positions, pair_keys,
-                       polygon_area, polygon_contains)
+from .geometry import carry_names, mesh_arrays, mesh_at, new_mesh, pair_keys, polygon_contains, stroke_in_body
 
-__all__ = ["MeshEdit", "duplicate_along_edges", "cut_path", "incise", "excise", "connected_components"]
+__all__ = ["MeshEdit", "duplicate_along_edges", "split_nodes", "cut_path", "incise", "excise", "connected_components"]
 
 #: The 10 in an edge's cost in :func:`cut_path`: a detour of one edge length away costs more than several edges along it
 _HUG = 10.0
@@ -59,8 +58,7 @@ def duplicate_along_edges(t, n_nodes, edges):
     The triangles round a node on a cut fall into *fans*, the connected components of its corners (triangle, vertex)
     linked across uncut edges, one per side of the wound: where ``j`` cut edges meet, an interior node's ring breaks
     into ``j`` fans, a boundary node's into ``j + 1`` (a crack's tip stays closed; a single interior edge opens
-    nothing). The fan with the lowest triangle keeps the node, the others get new nodes in the order (node, lowest
-    triangle).
+    nothing); :func:`split_nodes` numbers them (the fan with the lowest triangle keeps the node).
     """
     n_nodes = check_count("n_nodes", n_nodes, 0)
     t, edges = _node_indices("t", t, 3, n_nodes), _node_indices("edges", edges, 2, n_nodes)
@@ -100,29 +98,32 @@ def duplicate_along_edges(t, n_nodes, edges):
         links.append(np.stack([c1[on_cut], c2[on_cut]]))
     links = np.concatenate(links, axis=1)
 
-    # the graph of the corners of cut nodes only (a few per cut node)
+    # the corners of cut nodes only (a few per cut node), each fan of them a node
     corners = np.flatnonzero(is_cut_node[flat])
     local = np.full(flat.size, -1, dtype=np.int64)
     local[corners] = np.arange(corners.size)
-    graph = sp.coo_matrix((np.ones(links.shape[1]), (local[links[0]], local[links[1]])),
-                          shape=(corners.size, corners.size))
-    n_fans, fan = csgraph.connected_components(graph, directed=False)
-
-    # each fan holds corners of a single node (links only join corners of the same node)
-    fan_node = np.empty(n_fans, dtype=np.int64)
-    fan_node[fan] = flat[corners]
-    fan_first = np.full(n_fans, m, dtype=np.int64)
-    np.minimum.at(fan_first, fan, corners % m)  # lowest triangle of each fan
-    by_node = np.lexsort((fan_first, fan_node))
-    sorted_node = fan_node[by_node]
-    extra = np.r_[False, sorted_node[1:] == sorted_node[:-1]]  # the first fan of each node keeps it
-    new_index = np.empty(n_fans, dtype=np.int64)
-    new_index[by_node] = np.where(extra, n_nodes + np.cumsum(extra) - 1, sorted_node)
-
     new_flat = flat.copy()
-    new_flat[corners] = new_index[fan]
-    parent = np.concatenate([parent, sorted_node[extra]])
-    return new_flat.reshape(3, m), parent
+    new_flat[corners], extra = split_nodes(flat[corners], corners % m, local[links], n_nodes)
+    return new_flat.reshape(3, m), np.concatenate([parent, extra])
+
+
+def split_nodes(node, owner, links, n_nodes):
+    """The nodes of corners (element, vertex) at the old nodes ``node`` (c,), joined by ``links`` (2, k) (pairs of
+    indices into the corners, each of one node) into classes: ``(new node of every corner (c,), old node of every
+    new node)``. Of the classes at a node, the one with the lowest ``owner`` (c,) (the element or piece of a corner)
+    keeps it; the others get nodes ``n_nodes, n_nodes + 1, ...`` in the order (node, lowest owner)."""
+    graph = sp.coo_matrix((np.ones(links.shape[1]), (links[0], links[1])), shape=(node.size, node.size))
+    n_classes, label = csgraph.connected_components(graph, directed=False)
+    class_node = np.empty(n_classes, dtype=np.int64)  # links only join corners of one node
+    class_node[label] = node
+    first = np.full(n_classes, np.iinfo(np.int64).max)
+    np.minimum.at(first, label, owner)
+    by_node = np.lexsort((first, class_node))
+    sorted_node = class_node[by_node]
+    extra = np.r_[False, sorted_node[1:] == sorted_node[:-1]]  # the first class of each node keeps it
+    new_index = np.empty(n_classes, dtype=np.int64)
+    new_index[by_node] = np.where(extra, n_nodes + np.cumsum(extra) - 1, sorted_node)
+    return new_index[label], sorted_node[extra]
 
 
 # --- pieces, picking nodes ---
@@ -185,12 +186,8 @@ def cut_path(mesh, polyline, positions=None) -> np.ndarray:
     median edge length): it hugs the line within about one element. ``ValueError`` for a bad polyline, one that misses
     the body, collapses to a single node, or joins two unconnected pieces.
     """
-    pts = check_points("polyline", polyline, 2)
-    p, t = mesh_arrays(mesh)
-    x = node_positions(mesh, positions)
-    pts = clip_to_body(pts, x, t)[0]
-    if pts.shape[0] < 2:
-        raise ParameterError("polyline", "polyline meets no material: it passes outside the body")
+    p, t, x = mesh_at(mesh, positions)
+    pts = stroke_in_body("polyline", polyline, x, t)[0]
     n = p.shape[1]
     facets = np.asarray(mesh.facets, dtype=np.int64)
     bfacets = facets[:, np.asarray(mesh.boundary_facets(), dtype=np.int64)]
@@ -272,19 +269,13 @@ def incise(mesh, polyline, positions=None) -> MeshEdit:
                     n_old_elements=t.shape[1])
 
 
-def _has_area(poly) -> bool:
-    """Whether the polygon ``poly`` (k, 2) encloses an area beyond round-off of its size."""
-    return abs(polygon_area(poly.tolist())) > 1e-12 * np.ptp(poly, axis=0).max() ** 2
-
-
 def excise(mesh, region, positions=None) -> MeshEdit:
     """Remove the triangles of ``mesh`` (not modified) whose centroid (at ``positions``) lies in ``region``: a polygon
     (k, 2), k >= 3 (even-odd rule; first clipped to the body, :func:`~.geometry.clip_to_body`), or a function
     ``centroids (2, m) -> bool (m,)``. Returns a :class:`MeshEdit`: unused nodes dropped, the rest and the triangles
     kept in order, the rim named ``"defect"``. ``ValueError`` for a bad polygon or mask, or one that selects no element
     or every element."""
-    p, t = mesh_arrays(mesh)
-    x = node_positions(mesh, positions)
+    p, t, x = mesh_at(mesh, positions)
     m = t.shape[1]
     centroids = x[:, t].mean(axis=1)
     if callable(region):
@@ -293,15 +284,7 @@ def excise(mesh, region, positions=None) -> MeshEdit:
             raise ValueError(f"region, as a function of the centroids (2, m), must return a bool array shaped "
                              f"({m},), got dtype {remove.dtype} shape {remove.shape}")
     else:
-        drawn = check_points("region", region, 3)
-        # clipped to the body: in the body's units, far corners neither overflow nor make a thin polygon look flat
-        poly = clip_to_body(drawn, x, t, closed=True)[0]
-        if poly.shape[0] < 4 or not _has_area(poly):  # the ring closes on its first point
-            if not _has_area(drawn / max(float(np.abs(drawn).max()), 1e-300)):  # scaled: no overflow
-                raise ParameterError("region", f"region must be a polygon with non-zero area, got "
-                                               f"{show(drawn.tolist())}")
-            raise ParameterError("region", "region selects no element: the polygon lies outside the body")
-        remove = polygon_contains(poly, centroids.T)
+        remove = polygon_contains(stroke_in_body("region", region, x, t, closed=True)[0], centroids.T)
     if not remove.any():
         raise ValueError("region selects no element (no triangle centroid lies inside it)")
     if remove.all():
