@@ -498,3 +498,13 @@ def test_an_advancement_flap_cut_through_elements_slides_its_lips_and_converges_
     assert contact.overlap(result.simulation.u) < contact.distance
     assert all(report.crossed == 0 for report in result.reports)
     assert statuses == ["converged"] * len(statuses), statuses
+
+
+def test_contact_surface_refuses_a_mesh_without_facets_by_name():
+    """Something with ``p`` and ``t`` but no facets or boundaries is not a triangle mesh: refused naming ``mesh``."""
+    from types import SimpleNamespace
+
+    fake = SimpleNamespace(p=np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]), t=np.array([[0], [1], [2]]))
+    with pytest.raises(ParameterError, match="mesh must be a triangle mesh") as err:
+        contact_surface(fake)
+    assert err.value.field == "mesh"

@@ -70,3 +70,13 @@ def test_cli_runs_the_realtime_benchmark(tmp_path, capsys):
     assert (tmp_path / "realtime.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     out = capsys.readouterr().out
     assert "median [ms]" in out and "min J" in out and "in budget: left undone" in out
+
+
+@pytest.mark.parametrize("linear", ["superlu", "cg", "cg-jacobi"])
+def test_the_frame_floor_is_measured_for_every_kind_of_solver(linear):
+    """The floor applies what a frame applies: a factorization's back-substitution, a preconditioner, or (plain
+    CG, no preconditioner) the iterative solve itself."""
+    from tissuefem.workbook.bench.realtime import frame_floor
+
+    floor = frame_floor(flap_simulation(200, linear), repeats=1)
+    assert floor["floor_ms"] > 0 and floor["matrix_nnz"] > 0

@@ -29,6 +29,7 @@ import scipy.sparse as sp
 from skfem import Basis, ElementTetP1, ElementTetP2, ElementTriP1, ElementTriP2, ElementVector, asm
 
 from .forms import energy_form, residual_form, tangent_form
+from .materials import FiberFamily, FiberReinforced
 from .meshes import check_mesh
 from .parameters import ParameterError, check_count, check_density, check_vector, check_weights
 from .vectors import dot
@@ -116,6 +117,22 @@ class P1Assembler(_FixedPattern):
             self.areas = self.areas * check_weights(weights, self.n_elements)
         self._G, self._GA = G, G * self.areas  # and the area-weighted gradients
         self._set_pattern(self.t, self.n_nodes)
+
+    def _material(self, material):
+        m = super()._material(material)
+        level = m
+        while isinstance(level, (FiberReinforced, FiberFamily)):  # fibers, possibly nested (FiberReinforced of ...)
+            shape = np.shape(level.fibers)
+            if len(shape) == 3:
+                raise ParameterError("material", "material has per-quadrature-point fibers of shape "
+                                     f"{shape}; the P1 path has one point per element: give fibers shaped "
+                                     f"({self.dim}, n_elements) (e.g. the normalised average over the points) or "
+                                     f"({self.dim},)")
+            if len(shape) == 2 and shape[1] != self.n_elements:
+                raise ParameterError("material", f"material has per-element fibers of shape {shape}, but the "
+                                     f"mesh has {self.n_elements} elements: expected ({self.dim}, {self.n_elements})")
+            level = level.base if isinstance(level, FiberReinforced) else None
+        return m
 
     def _residual_from_F(self, m, F) -> np.ndarray:
         P = np.broadcast_to(m.stress(F), (self.dim, self.dim, self.n_elements))
@@ -207,7 +224,7 @@ def element_geometry(p, t):
     sum to one. Swapping two vertices swaps their rows and changes the sign of ``det J``, exactly."""
     dim = p.shape[0]
     x = p[:, t]  # (d, d + 1, m)
-    d = x[:, 1:] - x[:, :1]  # d[i, c]: component i of the edge from vertex 0 to vertex c + 1
+    d = np.stack([x[:, c] - x[:, 0] for c in range(1, dim + 1)], axis=1)  # d[i, c]: the edge from vertex 0 to c + 1
     if dim == 2:
         cofactors = np.stack([np.stack([d[1, 1], -d[0, 1]]), np.stack([-d[1, 0], d[0, 0]])])
     else:

@@ -98,6 +98,7 @@ class RealtimeSolver(Stepper):
 
     def __init__(self, model, *, budget: float = FRAME_BUDGET, linear_solver=None, anytime: bool = True, launch=None,
                  off_frame: bool = True, **options):
+        launch = check_launch(launch)  # refused before anything is built
         if linear_solver is None:
             linear_solver = default_linear_solver(model)
         super().__init__(model, budget=budget, linear_solver=linear_solver, anytime=anytime, **options)
@@ -105,7 +106,7 @@ class RealtimeSolver(Stepper):
             self.linear.use_rigid_modes(model.X)
         if not isinstance(off_frame, bool):
             raise ParameterError("off_frame", f"off_frame must be True or False, got {off_frame!r}")
-        self.launch, self.off_frame = check_launch(launch), off_frame
+        self.launch, self.off_frame = launch, off_frame
         self.off_costs = {}  # the pieces' costs learned by steps off the frame (see too_long)
 
     running = property(lambda self: self._running is not None, doc="Whether a step runs off the frame (not committed).")

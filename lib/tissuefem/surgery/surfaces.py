@@ -10,9 +10,11 @@ of an element's nodes; the same combination seen from two elements is one point,
 from __future__ import annotations
 
 import numpy as np
+from skfem import MeshTri
 
 from ..engine.contact import ContactSurface
 from ..engine.meshes import signed_areas
+from ..engine.parameters import ParameterError
 from .geometry import (EPS, WHOLE, check_regions, edge_intervals, edge_point, edges_of, element_edges,
                        intersect_intervals, mesh_arrays, merge_intervals, pair_keys, reversed_intervals,
                        subtract_intervals)
@@ -24,7 +26,9 @@ def contact_surface(mesh, weights=None, regions=None) -> ContactSurface:
     """The surface of the material of ``mesh`` with the ``weights`` and ``regions`` of a cut through elements (without
     them: the mesh's boundary), material on the left of each segment; the wound's lips are flagged (sides inside a
     triangle, severed parts of edges, facets named ``"cut"``)."""
-    p, t = mesh_arrays(mesh)  # refuses what is not a triangle mesh
+    if not isinstance(mesh, MeshTri):  # its facets and boundaries are read below
+        raise ParameterError("mesh", f"mesh must be a triangle mesh (a MeshTri), got {type(mesh).__name__}")
+    p, t = mesh_arrays(mesh)
     n, m = p.shape[1], t.shape[1]
     regions, _ = check_regions(regions, weights, m)
     if not regions:
