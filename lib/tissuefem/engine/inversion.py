@@ -69,8 +69,8 @@ def _blocks(d):
 
 def _rotate_back(U, V, A_hat):
     """``A_ijkl = U_ia V_jb U_kc V_ld A_hat_abcd`` for the block form above, as ``sum A_hat[ab, cd] E_ab (x) E_cd``
-    over the blocks, with ``E_ab = u_a v_b^T``: outer products of d x d fields, about 25x faster (2D) than the
-    five-operand contraction."""
+    over the blocks, with ``E_ab = u_a v_b^T``: outer products of d x d fields. (numpy's optimised ``einsum`` of
+    the five operands is faster here, but it sums in another order, and chapter 6's crush figure would change.)"""
     d = U.shape[0]
     E = {(a, b): U[:, a][:, None] * V[:, b][None, :] for a in range(d) for b in range(d)}
     out = 0.0
