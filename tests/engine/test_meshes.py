@@ -243,3 +243,13 @@ def test_fusiform_fiber_validation():
 def test_public_names():
     for name in meshes.__all__:
         assert callable(getattr(meshes, name))
+
+
+@pytest.mark.parametrize("value", [None, 3, "up"])
+def test_a_choice_refused_lists_the_choices_whatever_its_type(value):
+    """A field with a fixed set of choices (``diagonal``, ``unused_nodes``) names them, given a non-string too."""
+    with pytest.raises(meshes.ParameterError, match=r"diagonal must be one of \['alternate', 'right', 'left'\]"):
+        rectangle(nx=3, ny=3, diagonal=value)
+    m = rectangle(nx=2, ny=2)
+    with pytest.raises(meshes.ParameterError, match=r"unused_nodes must be one of \['refuse', 'ignore'\]"):
+        meshes.check_mesh(m.p, m.t, unused_nodes=value)

@@ -364,12 +364,12 @@ def require(field, value, keys) -> dict:
 
 def string(field, value, choices=None, *, nonempty=False) -> str:
     """A string (one of ``choices`` if given) that a UTF-8 scene file can hold, at most ``MAX_STRING`` long."""
-    if not isinstance(value, str):
-        raise ParameterError(field, f"{field} must be a string, got {show(value)}")
     if choices is not None:
-        if value not in choices:
+        if not isinstance(value, str) or value not in choices:
             raise ParameterError(field, f"{field} must be one of {list(choices)}, got {show(value)}")
         return value
+    if not isinstance(value, str):
+        raise ParameterError(field, f"{field} must be a string, got {show(value)}")
     if len(value) > MAX_STRING:
         raise ParameterError(field, f"{field} must be at most {MAX_STRING} characters long, got {len(value)}")
     if nonempty and not value:
