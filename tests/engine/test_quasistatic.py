@@ -182,3 +182,17 @@ def test_a_term_has_do_nothing_hooks_and_the_model_calls_only_overridden_ones():
     assert model._limit_terms == [term] and model._pattern_terms == [] and model._step_terms == []
     u = np.zeros(model.n_dofs)
     assert model.step_limit(u, u) == 0.5 and Model(rectangle(nx=2, ny=2), NeoHookean(1.0, 10.0)).step_limit is None
+
+
+@pytest.mark.parametrize("bad", ["x", 3])
+def test_a_bad_term_is_refused_by_name_by_the_constructor_and_by_add_term(bad):
+    """Neither a Term nor a factory: a ParameterError naming ``terms``, not a TypeError from calling it."""
+    from tissuefem.engine.parameters import ParameterError
+
+    with pytest.raises(ParameterError, match="terms must be Term objects") as err:
+        Model(rectangle(1.0, 1.0, 3, 3), NeoHookean(1.0, 1.0), terms=[bad])
+    assert err.value.field == "terms"
+    model = Model(rectangle(1.0, 1.0, 3, 3), NeoHookean(1.0, 1.0))
+    with pytest.raises(ParameterError, match="terms must be Term objects"):
+        model.add_term(bad)
+    assert model.term_names == ["elastic"]

@@ -454,7 +454,7 @@ class Model(Holding):
         # the ghost penalty ties the thin pieces of a cut to their neighbours
         found = [elastic] + as_terms(GhostPenalty.of(mesh, weights, material) if order == 1 else None)
         for t in made + terms:
-            found += as_terms(t if isinstance(t, Term) else t(self))
+            found += as_terms(t(self) if callable(t) and not isinstance(t, Term) else t)  # (set_terms refuses the rest)
         self.terms = []
         self.set_terms(found)
         self.handles: list[Handle] = []
@@ -492,7 +492,8 @@ class Model(Holding):
         terms = list(terms)
         bad = [t for t in terms if not isinstance(t, Term)]
         if bad:
-            raise ParameterError("terms", f"terms must be Term objects or factories of them, got {bad[0]!r:.200}")
+            raise ParameterError("terms", "terms must be Term objects (the constructor also takes factories "
+                                          f"model -> Term), got {bad[0]!r:.200}")
         old, self.terms = self.terms, sorted(terms, key=lambda t: t.rank)
         try:
             self._build()

@@ -50,10 +50,10 @@ class Term:
     pattern (given by ``bind``). ``couplings()``: Hessian entries the mesh's pattern lacks (sutures).
 
     Hooks with do-nothing defaults, which the model calls only on the terms that override them (so a model
-    without one pays nothing per iteration): ``covers(u)`` (does the pattern still hold the couplings? self-contact's pairs change),
-    ``max_step(u, du)`` (the largest fraction of ``du`` allowed), ``begin_step(u, previous)`` (returns the crossings
-    found) with ``end_step()``. ``remap(meshmap)``: the term after a topology change, ``None`` if nothing survives,
-    or a factory ``model -> Term``.
+    without one pays nothing per iteration): ``covers(u)`` (does the pattern still hold the couplings?
+    self-contact's pairs change), ``max_step(u, du)`` (the largest fraction of ``du`` allowed),
+    ``begin_step(u, previous)`` (returns the crossings found) with ``end_step()``. ``remap(meshmap)``: the term
+    after a topology change, ``None`` if nothing survives, or a factory ``model -> Term``.
     """
 
     name = "term"

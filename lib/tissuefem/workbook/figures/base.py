@@ -169,7 +169,7 @@ def filmstrip(times, frames, notes: dict, width: float, height: float, height_ra
     return fig, axes, fig.add_subplot(grid[1, :])
 
 
-def write_sheet_animation(gif_path, frames, titles, dt: float, dpi: float, figsize, top: float, fontsize: float,
+def write_sheet_animation(gif_path, frames, titles, dt: float, dpi: float, *, figsize, top: float, fontsize: float,
                           **style) -> Path:
     """Write the sheet's ``frames`` as a GIF, one per ``dt`` seconds, each ``(x, t, colors)``: its nodes, triangles and
     their face colours (``style``: the triangles' edges), under the title ``titles[k]``, in fixed axes the height

@@ -117,8 +117,8 @@ def write_flap_animation(gif_path, problem, states, dt: float, dpi: int = 100) -
     project (:data:`~tissuefem.workbook.figures.base.ANIMATION_MIN_WIDTH`)."""
     frames = [(problem.deformed_positions(u), problem.mesh.t, to_rgba(UPRIGHT_COLOR, 0.6)) for u in states]
     titles = [f"backward Euler, Δt = 1/{1 / dt:.0f} s:  t = {k * dt:.2f} s" for k in range(len(states))]
-    return write_sheet_animation(gif_path, frames, titles, dt, dpi, (6.8, 4.8), 0.82, 14, edgecolors="0.35",
-                                 linewidths=0.5)
+    return write_sheet_animation(gif_path, frames, titles, dt, dpi, figsize=(6.8, 4.8), top=0.82, fontsize=14,
+                                 edgecolors="0.35", linewidths=0.5)
 
 
 def release_history(ax, times, y, energy_ratio, marked, label, ylabel) -> None:

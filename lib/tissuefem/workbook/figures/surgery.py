@@ -110,7 +110,7 @@ def write_two_pieces_animation(gif_path, run, dpi=120) -> Path:
     stages = ["hanging" if k < cut else ("cut!" if k == cut else "falling") for k in range(len(frames))]
     return write_sheet_animation(gif_path, [(x, t, _piece_colors(free, 1.0)) for x, t, free in frames],
                                  [f"t = {time:.2f} s  ({stage})" for time, stage in zip(times, stages)], FRAME_DT,
-                                 dpi, (5.4, 7.2), 0.86, 13, edgecolors="face", linewidths=0.5)
+                                 dpi, figsize=(5.4, 7.2), top=0.86, fontsize=13, edgecolors="face", linewidths=0.5)
 
 
 @lecture_figure
