@@ -517,6 +517,8 @@ class ReusedFactorization:
     def __exit__(self, *exc) -> None:
         self.close()
 
+    kept = property(lambda self: self._factor is not None, doc="Whether a factorization is kept (to reuse).")
+
     def provide(self, factor, shape, fresh: bool = True) -> None:
         """Precondition with ``factor`` (an approximate inverse of matrices of ``shape``, e.g. an
         :class:`ExtendedFactorization` after a cut). ``fresh``: until a fresh factorization, started off the frame
@@ -902,7 +904,7 @@ class LinearSolver:
 
     def assembles(self, mask) -> bool:
         """Whether :meth:`matrix` for ``mask`` would assemble (not when a kept constant factorization fits)."""
-        kept = self.constant and self.backend._factor is not None
+        kept = self.constant and self.backend.kept
         return not (kept and self._key == (mask.size, np.packbits(mask).tobytes()))
 
     def matrix(self, assemble, mask, force=False, deadline: Deadline | None = None):
@@ -915,7 +917,7 @@ class LinearSolver:
             self._key = key
             if self._modes is not None and self._modes.shape[0] == mask.size:
                 self.factorizing.near_nullspace = self._modes[mask]
-        if self.constant and self.backend._factor is not None and not force:
+        if self.constant and self.backend.kept and not force:
             return None
         K = assemble() if deadline is None else deadline.timed("assembly", assemble)
         A = self.condense(K, mask)
